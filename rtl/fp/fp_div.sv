@@ -1,0 +1,149 @@
+// fp_div: fully pipelined, correctly rounded floating-point divider (y = a / b).
+//
+// Algorithm: restoring radix-2 digit recurrence on the significands, one quotient bit per pipeline
+// stage. With ma, mb the P = MAN_BITS+1 bit significands, the recurrence produces the P+2 bit
+// quotient q = floor(ma * 2^(P+1) / mb) and its remainder; q lies in [2^P, 2^(P+2)), so after a
+// 1-bit normalization there are P significant bits, a round bit, and the sticky bit
+// (lower quotient bit | remainder != 0) for round to nearest, ties to even.
+// Arithmetic contract (models/number_format.py): subnormal inputs read as signed zero; the exact
+// quotient is rounded at P bits with an unbounded exponent; a rounded result below the smallest
+// normal flushes to a zero with the sign of the quotient; overflow gives +-inf. The result sign is
+// always sign(a) XOR sign(b).
+// Exceptions handled:
+//   * NaN operand, 0 / 0, inf / inf           -> canonical quiet NaN
+//   * inf / finite, non-zero finite / 0       -> +-inf (division by zero; subnormal divisors are 0)
+//   * 0 / non-zero, finite / inf              -> +-0
+//   * overflow -> +-inf, result below min normal after rounding -> +-0
+// Latency: LATENCY = MAN_BITS + 5 cycles (binary32: 28, binary16: 15, bfloat16: 12), II = 1.
+//   stage 1            : unpack, classify, sign and exponent difference
+//   stages 2 .. P+3    : one quotient bit each (P+2 = MAN_BITS+3 stages)
+//   stage  P+4         : normalization, round to nearest even, exceptions, pack (output register)
+// Only the valid bits are reset; data registers are free-running.
+`default_nettype none
+
+module fp_div #(
+    parameter  int EXP_BITS = 8,
+    parameter  int MAN_BITS = 23,
+    localparam int W        = 1 + EXP_BITS + MAN_BITS,
+    localparam int LATENCY  = MAN_BITS + 5
+) (
+    input  wire logic         clk,
+    input  wire logic         rst,        // synchronous, active high; clears the valid pipeline
+    input  wire logic         in_valid,
+    input  wire logic [W-1:0] a,
+    input  wire logic [W-1:0] b,
+    output logic              out_valid,
+    output logic [W-1:0]      y
+);
+    localparam int P    = MAN_BITS + 1;
+    localparam int NQ   = P + 2;             // quotient bits = recurrence stages
+    localparam int EW   = EXP_BITS + 2;      // holds ea - eb + bias (signed)
+    localparam int BIAS = (1 << (EXP_BITS - 1)) - 1;
+
+    // ---------------- stage 1: unpack ----------------
+    logic                a_sign, b_sign, a_zero, b_zero, a_inf, b_inf, a_nan, b_nan;
+    logic [EXP_BITS-1:0] a_exp, b_exp;
+    logic [P-1:0]        a_sig, b_sig;
+
+    fp_unpack #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_unpack_a (
+        .x(a), .sign(a_sign), .exp(a_exp), .sig(a_sig), .is_zero(a_zero), .is_inf(a_inf), .is_nan(a_nan)
+    );
+    fp_unpack #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_unpack_b (
+        .x(b), .sign(b_sign), .exp(b_exp), .sig(b_sig), .is_zero(b_zero), .is_inf(b_inf), .is_nan(b_nan)
+    );
+
+    // Per-stage registers; index 0 is stage 1 (unpack), index k holds the state after k quotient
+    // bits. The side-band (exceptions, sign, exponent, divisor) travels along with the operation.
+    logic                 st_nan  [NQ+1];
+    logic                 st_inf  [NQ+1];
+    logic                 st_zero [NQ+1];
+    logic                 st_sign [NQ+1];
+    logic signed [EW-1:0] st_exp  [NQ+1];
+    logic [P-1:0]         st_den  [NQ+1];   // divisor significand
+    logic [P:0]           st_rem  [NQ+1];   // partial remainder (< 2 * divisor), already shifted
+    logic [NQ-1:0]        st_quo  [NQ+1];   // quotient bits so far (LSB = newest)
+
+    always_ff @(posedge clk) begin
+        st_nan[0]  <= a_nan || b_nan || (a_zero && b_zero) || (a_inf && b_inf);
+        st_inf[0]  <= a_inf || (b_zero && !a_zero);
+        st_zero[0] <= a_zero || b_inf;
+        st_sign[0] <= a_sign ^ b_sign;
+        st_exp[0]  <= $signed({2'b00, a_exp}) - $signed({2'b00, b_exp}) + EW'(BIAS);
+        st_den[0]  <= b_sig;
+        st_rem[0]  <= {1'b0, a_sig};
+        st_quo[0]  <= '0;
+    end
+
+    // ---------------- stages 2 .. NQ+1: restoring recurrence ----------------
+    logic [P:0] trial [NQ];
+    logic       qbit  [NQ];
+    logic [P:0] rem_n [NQ];
+
+    always_comb begin
+        for (int k = 0; k < NQ; k++) begin
+            trial[k] = st_rem[k] - {1'b0, st_den[k]};
+            qbit[k]  = (st_rem[k] >= {1'b0, st_den[k]});
+            // The remainder after the subtraction is below the divisor (< 2^P): shift it left.
+            rem_n[k] = qbit[k] ? {trial[k][P-1:0], 1'b0} : {st_rem[k][P-1:0], 1'b0};
+        end
+    end
+
+    always_ff @(posedge clk) begin
+        for (int k = 0; k < NQ; k++) begin
+            st_nan[k+1]  <= st_nan[k];
+            st_inf[k+1]  <= st_inf[k];
+            st_zero[k+1] <= st_zero[k];
+            st_sign[k+1] <= st_sign[k];
+            st_exp[k+1]  <= st_exp[k];
+            st_den[k+1]  <= st_den[k];
+            st_rem[k+1]  <= rem_n[k];
+            st_quo[k+1]  <= {st_quo[k][NQ-2:0], qbit[k]};
+        end
+    end
+
+    // ---------------- last stage: normalize, round, pack ----------------
+    logic [NQ-1:0]        q;
+    logic                 hi, rem_nz;
+    logic [P-1:0]         sig_n;
+    logic                 rnd_n, sticky_n;
+    logic signed [EW-1:0] exp_n;
+    logic [W-1:0]         packed_y;
+
+    always_comb begin
+        q      = st_quo[NQ];
+        rem_nz = (st_rem[NQ] != '0);
+        hi     = q[NQ-1];             // ma >= mb: quotient in [1, 2)
+        if (hi) begin
+            sig_n    = q[NQ-1:2];
+            rnd_n    = q[1];
+            sticky_n = q[0] || rem_nz;
+        end else begin
+            sig_n    = q[NQ-2:1];
+            rnd_n    = q[0];
+            sticky_n = rem_nz;
+        end
+        exp_n = st_exp[NQ] - {{(EW-1){1'b0}}, !hi};
+    end
+
+    fp_round_pack #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW)) u_round (
+        .sign       (st_sign[NQ]),
+        .exp_in     (exp_n),
+        .sig_in     (sig_n),
+        .round_bit  (rnd_n),
+        .sticky     (sticky_n),
+        .force_nan  (st_nan[NQ]),
+        .force_inf  (st_inf[NQ]),
+        .force_zero (st_zero[NQ]),
+        .y          (packed_y)
+    );
+
+    always_ff @(posedge clk) begin
+        y <= packed_y;
+    end
+
+    fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
+        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
+    );
+endmodule
+
+`default_nettype wire

