@@ -21,14 +21,12 @@ import numpy as np
 from models import scenes
 from models.constraints import BodyTable, body_table, setup_constraints
 from models.contact_solver import SolverParams, solve
+from models.dma_model import PRESETS, get_preset
 from models.frame import FrameError
 from models.integrator import IntegrationParams, integrate
 from models.number_format import FLOAT64, parse_format
 from models.schedule import make_schedule, stats
 from sim.report import print_summary, write_report
-
-DMA_PRESETS = ("zcu102",)
-
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="python -m sim.run", description=__doc__,
@@ -36,7 +34,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--scene", default="pile", help=f"scene name ({', '.join(sorted(scenes.SCENES))})")
     ap.add_argument("--iters", type=int, default=4, help="PGS iterations per pass type (Bullet GPU: 4)")
     ap.add_argument("--format", default="fp32", help="number format: fp32, fp16, bf16 or eXmY")
-    ap.add_argument("--dma", default="zcu102", help=f"DMA preset ({', '.join(DMA_PRESETS)})")
+    ap.add_argument("--dma", default="zcu102", help=f"DMA preset ({', '.join(PRESETS)})")
     ap.add_argument("--seed", type=int, default=1, help="scene seed (jitter)")
     ap.add_argument("--schedule", default="hazard", help="manifold order: hazard or pybullet")
     ap.add_argument("--window", type=int, default=64, help="hazard window W in issue slots")
@@ -53,8 +51,7 @@ def velocity_error(ours: BodyTable, ref_lin: np.ndarray, ref_ang: np.ndarray, dy
 
 
 def run(args: argparse.Namespace) -> dict[str, dict[str, Any]]:
-    if args.dma not in DMA_PRESETS:
-        raise ValueError(f"unknown DMA preset {args.dma!r} (expected one of {', '.join(DMA_PRESETS)})")
+    get_preset(args.dma)
     if args.iters < 1:
         raise ValueError(f"ITERS must be >= 1, got {args.iters}")
     fmt = parse_format(args.format)
