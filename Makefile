@@ -18,12 +18,13 @@ SEED ?= 1
 WAVES ?= 0
 export WAVES SEED
 
-.PHONY: help venv sysdeps test sim lint clean distclean
+.PHONY: help venv sysdeps test sim lint rtl clean distclean
 
 help:
 	@echo "make test      run the whole test suite (what CI runs)"
 	@echo "make sim       run a scene end to end (SCENE=pile|thesis|stack|... ITERS= FORMAT= DMA= SEED= WAVES=1)"
 	@echo "make lint      verilator --lint-only -Wall on every RTL top"
+	@echo "make rtl       regenerate the kernel datapaths (rtl/pgs_*_pipe.sv) from rtl/gen"
 	@echo "make clean     remove build outputs (keeps .venv and cached frames)"
 
 venv: $(STAMP)
@@ -54,6 +55,9 @@ sim: $(STAMP)
 
 lint: $(STAMP)
 	$(VPY) -m sim.lint
+
+rtl: $(STAMP)
+	$(VPY) -m rtl.gen
 
 clean:
 	rm -rf build sim_build .pytest_cache

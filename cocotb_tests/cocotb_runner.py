@@ -10,13 +10,15 @@ from __future__ import annotations
 import os
 import random
 import re
+import shutil
 from pathlib import Path
 from typing import Mapping, Sequence
 
-from sim.verilator_build import REPO_ROOT, ensure_verilator_env
+from sim.verilator_build import QUICK_COMPILE_MAKE_VARS, REPO_ROOT, ensure_verilator_env
 
 BUILD_ROOT = REPO_ROOT / "build" / "cocotb"
-_MAKEFLAGS = ["-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include CFG_LDLIBS_THREADS=-pthread"]
+# the wheel's verilated.mk leaves these empty (the precompiled-header include, the thread library)
+_MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include CFG_LDLIBS_THREADS=-pthread"
 
 
 def test_seed() -> int:
@@ -32,10 +34,11 @@ def waves_enabled() -> bool:
 
 def run_cocotb(top: str, sources: Sequence[Path], test_module: str, parameters: Mapping[str, int] | None = None,
                name: str | None = None, seed: int | None = None, extra_env: Mapping[str, str] | None = None,
-               testcase: Sequence[str] | None = None) -> Path:
+               testcase: Sequence[str] | None = None, public_vlt: Path | None = None) -> Path:
     """Build ``top`` (one build directory per parameter set) and run the cocotb tests of ``test_module``.
 
-    Returns the results.xml path; raises if any cocotb test failed.
+    ``public_vlt``: a Verilator control file listing the signals cocotb may access; everything else stays
+    private, which speeds up large designs. Returns the results.xml path; raises if any cocotb test failed.
     """
     ensure_verilator_env()
     from cocotb_tools.runner import get_runner
@@ -45,7 +48,12 @@ def run_cocotb(top: str, sources: Sequence[Path], test_module: str, parameters: 
     waves = waves_enabled()
     build_dir = BUILD_ROOT / (tag + ("_waves" if waves else ""))
     runner = get_runner("verilator")
-    build_args = list(_MAKEFLAGS) + ["-Wno-fatal"]
+    # the runner calls make itself: variable overrides reach it through MAKEFLAGS
+    make_vars = [_MAKE_VARS, QUICK_COMPILE_MAKE_VARS] + (["OBJCACHE=ccache"] if shutil.which("ccache") else [])
+    os.environ["MAKEFLAGS"] = " ".join(make_vars)
+    build_args = ["-Wno-fatal"]
+    if public_vlt is not None:  # expose only what the testbench touches (the runner makes every net public)
+        build_args += ["--no-public-flat-rw", str(public_vlt)]
     if waves:
         build_args += ["--trace-fst", "--trace-structs"]
     runner.build(sources=[str(s) for s in sources], hdl_toplevel=top, parameters=params, build_dir=str(build_dir),

@@ -1,7 +1,8 @@
 """Lint every RTL top under ``rtl/`` with ``verilator --lint-only -Wall`` (``make lint``).
 
 Each ``.sv`` file under ``rtl/`` holds one module named after the file; every one of them is linted
-as a top, with all ``.sv`` files under ``rtl/`` as sources (packages first). A module with the
+as a top from its own file plus the packages, the modules it instantiates being found by file name in the
+``rtl/`` folders (``-y``), two runs at a time. A module with the
 ``EXP_BITS`` / ``MAN_BITS`` parameters is linted with its default parameters and again with the
 binary16 and bfloat16 parameter sets. Any warning or error makes the exit status non-zero.
 
@@ -17,6 +18,7 @@ import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from sim.verilator_build import REPO_ROOT, ensure_verilator_env, param_args
@@ -67,9 +69,11 @@ def runs_for(module_file: Path) -> list[LintRun]:
 
 
 def lint_one(run: LintRun, sources: Sequence[Path], include_dirs: Sequence[Path]) -> LintResult:
+    """One lint run: the packages and the top's file; other modules are found by name in the -y folders."""
     verilator = ensure_verilator_env()
     cmd = [str(verilator), "--lint-only", "-Wall", "--top-module", run.top]
-    cmd += [f"-I{d}" for d in include_dirs]
+    for d in include_dirs:
+        cmd += ["-y", str(d)]
     cmd += param_args(run.params)
     cmd += [str(s) for s in sources]
     t0 = time.monotonic()
@@ -95,12 +99,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"lint: unknown top(s): {', '.join(sorted(unknown))}", file=sys.stderr)
             return 1
         modules = [m for m in modules if m.stem in args.tops]
-    sources = packages + [
-        f for f in sorted(RTL_ROOT.rglob("*.sv")) if f not in packages
-    ]
     include_dirs = sorted({f.parent for f in RTL_ROOT.rglob("*.sv*")})
-
-    results = [lint_one(r, sources, include_dirs) for m in modules for r in runs_for(m)]
+    runs = [(r, packages + [m]) for m in modules for r in runs_for(m)]
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        results = list(pool.map(lambda job: lint_one(job[0], job[1], include_dirs), runs))
     failed = [r for r in results if not r.ok]
     for r in results:
         if args.verbose or not r.ok:

@@ -30,6 +30,13 @@ BUILD_ROOT = REPO_ROOT / "build" / "verilator"
 # thread library are missing and the build fails.
 _MAKEFLAGS = "CFG_CXXFLAGS_PCH_I=-include CFG_LDLIBS_THREADS=-pthread"
 
+# Compile-time against run-time for test builds of the large generated datapaths (kernel, fp32, cold, 2 cores):
+# the default -Os takes ~10 minutes and simulates ~15-20 kcycles/s; -O1 takes ~2.5 minutes and ~9 kcycles/s;
+# -O0 without inlining ~45 s and ~1.1 kcycles/s. Kernel tests use -O1, the short per-pipe tests -O0.
+QUICK_COMPILE_MAKE_VARS = "OPT_FAST=-O1 OPT_SLOW=-O0 OPT_GLOBAL=-O1"
+QUICK_COMPILE_ARGS = ["-MAKEFLAGS", QUICK_COMPILE_MAKE_VARS]
+DEBUG_COMPILE_ARGS = ["-fno-inline", "-MAKEFLAGS", "OPT_FAST=-O0 OPT_SLOW=-O0 OPT_GLOBAL=-O0"]
+
 ParamValue = int | str
 
 

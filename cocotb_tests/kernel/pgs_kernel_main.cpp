@@ -1,0 +1,263 @@
+// pgs_kernel_main.cpp: compiled Verilator harness of rtl/pgs_kernel.sv (one step of the kernel).
+//
+// Usage: pgs_kernel_sim DIR SEED GAP_PERMILLE BP_PERMILLE MAX_CYCLES
+//   DIR/regs.bin        uint32 LE pairs {addr, value}: AXI4-Lite writes done before ap_start
+//   DIR/body_in.bin     body-in beats (BODY_IN_BYTES each), DIR/body_in_last.bin one TLAST byte per beat
+//   DIR/cons.bin        constraint beats (CONS_BYTES each),  DIR/cons_last.bin   one TLAST byte per beat
+// Writes DIR/trace.bin (per retired manifold-pass: uint64 cycle, then TRACE_BYTES of trace_data),
+// DIR/body_out.bin + DIR/body_out_last.bin (the m_axis_body beats and their TLAST) and DIR/result.txt
+// (key value lines: the kernel's status/counter registers read over AXI4-Lite after the interrupt,
+// the harness's own cycle count and wall time).
+// Stimulus: after reset the harness writes the registers, GIE = 1, IER = 1 (ap_done) and AP_CTRL = 1;
+// it then offers stream beats with a random gap before each new beat (probability GAP_PERMILLE/1000
+// per cycle; TVALID stays up until the handshake, as AXI4-Stream demands) and deasserts
+// m_axis_body_TREADY with probability BP_PERMILLE/1000 per cycle, until `interrupt` rises. Exceeding
+// MAX_CYCLES is a failure (exit 3) with a message naming what was still pending.
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "Vpgs_kernel.h"
+#include "verilated.h"
+
+#ifndef BODY_IN_BYTES
+#error "define BODY_IN_BYTES, CONS_BYTES, BODY_OUT_BYTES, TRACE_BYTES"
+#endif
+
+namespace {
+
+struct Rng {  // xorshift64*
+    uint64_t s;
+    explicit Rng(uint64_t seed) : s(seed ? seed : 0x9E3779B97F4A7C15ULL) {}
+    uint64_t next() {
+        s ^= s >> 12;
+        s ^= s << 25;
+        s ^= s >> 27;
+        return s * 0x2545F4914F6CDD1DULL;
+    }
+    bool chance(unsigned permille) { return (next() >> 11) % 1000 < permille; }
+};
+
+[[noreturn]] void fail(const std::string& msg, int code = 2) {
+    std::fprintf(stderr, "pgs_kernel_sim: %s\n", msg.c_str());
+    std::exit(code);
+}
+
+std::vector<uint8_t> read_file(const std::string& path) {
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) fail("cannot open " + path);
+    std::vector<uint8_t> data;
+    uint8_t buf[65536];
+    size_t got;
+    while ((got = std::fread(buf, 1, sizeof buf, f)) > 0) data.insert(data.end(), buf, buf + got);
+    std::fclose(f);
+    return data;
+}
+
+template <std::size_t N>
+void set_wide(VlWide<N>& w, const uint8_t* src, size_t nbytes) {
+    for (size_t i = 0; i < N; i++) {
+        uint32_t v = 0;
+        for (size_t b = 0; b < 4 && 4 * i + b < nbytes; b++) v |= uint32_t(src[4 * i + b]) << (8 * b);
+        w[i] = v;
+    }
+}
+template <std::size_t N>
+void get_wide(const VlWide<N>& w, uint8_t* dst, size_t nbytes) {
+    for (size_t i = 0; i < nbytes; i++) dst[i] = uint8_t(w[i / 4] >> (8 * (i % 4)));
+}
+
+struct Sim {
+    std::unique_ptr<VerilatedContext> ctx;
+    std::unique_ptr<Vpgs_kernel> top;
+    uint64_t cycle = 0;
+    Sim() : ctx(std::make_unique<VerilatedContext>()) {}
+    // one clock cycle: inputs must be set before; `pre` sees the settled pre-edge outputs
+    template <typename F>
+    void tick(F pre) {
+        top->ap_clk = 0;
+        top->eval();
+        pre();
+        top->ap_clk = 1;
+        top->eval();
+        cycle++;
+    }
+    void tick() { tick([] {}); }
+};
+
+void axil_write(Sim& s, uint32_t addr, uint32_t data) {
+    auto* t = s.top.get();
+    t->s_axi_control_AWADDR = addr;
+    t->s_axi_control_AWVALID = 1;
+    t->s_axi_control_WDATA = data;
+    t->s_axi_control_WSTRB = 0xF;
+    t->s_axi_control_WVALID = 1;
+    t->s_axi_control_BREADY = 1;
+    bool aw = false, w = false, b = false;
+    for (int n = 0; n < 100 && !b; n++) {
+        s.tick([&] {
+            if (!aw && t->s_axi_control_AWREADY) aw = true;
+            else if (aw && !w && t->s_axi_control_WREADY) w = true;
+            else if (w && t->s_axi_control_BVALID) b = true;
+        });
+        if (aw) t->s_axi_control_AWVALID = 0;
+        if (w) t->s_axi_control_WVALID = 0;
+    }
+    t->s_axi_control_BREADY = 0;
+    if (!b) fail("AXI4-Lite write timed out");
+}
+
+uint32_t axil_read(Sim& s, uint32_t addr) {
+    auto* t = s.top.get();
+    t->s_axi_control_ARADDR = addr;
+    t->s_axi_control_ARVALID = 1;
+    t->s_axi_control_RREADY = 1;
+    bool ar = false, r = false;
+    uint32_t data = 0;
+    for (int n = 0; n < 100 && !r; n++) {
+        s.tick([&] {
+            if (!ar && t->s_axi_control_ARREADY) ar = true;
+            else if (ar && t->s_axi_control_RVALID) {
+                r = true;
+                data = t->s_axi_control_RDATA;
+            }
+        });
+        if (ar) t->s_axi_control_ARVALID = 0;
+    }
+    t->s_axi_control_RREADY = 0;
+    if (!r) fail("AXI4-Lite read timed out");
+    return data;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc < 6) {
+        std::fprintf(stderr, "usage: %s DIR SEED GAP_PERMILLE BP_PERMILLE MAX_CYCLES\n", argv[0]);
+        return 1;
+    }
+    const std::string dir = argv[1];
+    const uint64_t seed = std::strtoull(argv[2], nullptr, 0);
+    const unsigned gap = unsigned(std::strtoul(argv[3], nullptr, 0));
+    const unsigned bp = unsigned(std::strtoul(argv[4], nullptr, 0));
+    const uint64_t max_cycles = std::strtoull(argv[5], nullptr, 0);
+
+    const std::vector<uint8_t> regs = read_file(dir + "/regs.bin");
+    const std::vector<uint8_t> body_in = read_file(dir + "/body_in.bin");
+    const std::vector<uint8_t> body_in_last = read_file(dir + "/body_in_last.bin");
+    const std::vector<uint8_t> cons = read_file(dir + "/cons.bin");
+    const std::vector<uint8_t> cons_last = read_file(dir + "/cons_last.bin");
+    const size_t n_body = body_in.size() / BODY_IN_BYTES, n_cons = cons.size() / CONS_BYTES;
+    if (n_body != body_in_last.size() || n_cons != cons_last.size()) fail("beat / TLAST files disagree");
+
+    Sim s;
+    s.ctx->randReset(2);
+    s.ctx->randSeed(int(seed & 0x7fffffff));
+    s.top = std::make_unique<Vpgs_kernel>(s.ctx.get(), "pgs_kernel");
+    Rng rng(seed);
+    auto* t = s.top.get();
+    t->ap_rst_n = 0;
+    t->s_axi_control_AWVALID = t->s_axi_control_WVALID = t->s_axi_control_ARVALID = 0;
+    t->s_axi_control_BREADY = t->s_axi_control_RREADY = 0;
+    t->s_axis_body_TVALID = t->s_axis_cons_TVALID = 0;
+    t->m_axis_body_TREADY = 0;
+    for (int i = 0; i < 8; i++) s.tick();
+    t->ap_rst_n = 1;
+    s.tick();
+
+    for (size_t i = 0; i + 8 <= regs.size(); i += 8) {
+        uint32_t a, v;
+        std::memcpy(&a, &regs[i], 4);
+        std::memcpy(&v, &regs[i + 4], 4);
+        axil_write(s, a, v);
+    }
+    axil_write(s, 0x04, 1);  // GIE
+    axil_write(s, 0x08, 1);  // IER: ap_done
+    axil_write(s, 0x00, 1);  // ap_start
+    const uint64_t start_cycle = s.cycle;
+
+    std::FILE* ftrace = std::fopen((dir + "/trace.bin").c_str(), "wb");
+    std::FILE* fout = std::fopen((dir + "/body_out.bin").c_str(), "wb");
+    std::FILE* fout_last = std::fopen((dir + "/body_out_last.bin").c_str(), "wb");
+    if (!ftrace || !fout || !fout_last) fail("cannot create output files");
+
+    size_t bi = 0, ci = 0, n_out = 0, n_trace = 0;
+    uint8_t buf[BODY_OUT_BYTES > TRACE_BYTES ? BODY_OUT_BYTES : TRACE_BYTES];
+    const auto t0 = std::chrono::steady_clock::now();
+    bool finished = false;
+    while (!finished) {
+        if (s.cycle - start_cycle > max_cycles) {
+            char msg[512];
+            std::snprintf(msg, sizeof msg,
+                          "TIMEOUT after %llu cycles: body-in beats %zu/%zu, constraint beats %zu/%zu, body-out beats "
+                          "%zu, trace records %zu, ap_idle pending (interrupt never rose)",
+                          (unsigned long long)max_cycles, bi, n_body, ci, n_cons, n_out, n_trace);
+            fail(msg, 3);
+        }
+        // offer beats (a new beat may wait a random gap; a valid beat stays until taken)
+        if (!t->s_axis_body_TVALID && bi < n_body && !rng.chance(gap)) {
+            set_wide(t->s_axis_body_TDATA, &body_in[bi * BODY_IN_BYTES], BODY_IN_BYTES);
+            t->s_axis_body_TLAST = body_in_last[bi];
+            t->s_axis_body_TVALID = 1;
+        }
+        if (!t->s_axis_cons_TVALID && ci < n_cons && !rng.chance(gap)) {
+            set_wide(t->s_axis_cons_TDATA, &cons[ci * CONS_BYTES], CONS_BYTES);
+            t->s_axis_cons_TLAST = cons_last[ci];
+            t->s_axis_cons_TVALID = 1;
+        }
+        t->m_axis_body_TREADY = !rng.chance(bp);
+        bool body_hs = false, cons_hs = false;
+        s.tick([&] {
+            body_hs = t->s_axis_body_TVALID && t->s_axis_body_TREADY;
+            cons_hs = t->s_axis_cons_TVALID && t->s_axis_cons_TREADY;
+            if (t->m_axis_body_TVALID && t->m_axis_body_TREADY) {
+                get_wide(t->m_axis_body_TDATA, buf, BODY_OUT_BYTES);
+                std::fwrite(buf, 1, BODY_OUT_BYTES, fout);
+                uint8_t l = t->m_axis_body_TLAST;
+                std::fwrite(&l, 1, 1, fout_last);
+                n_out++;
+            }
+            if (t->trace_valid) {
+                uint64_t c = s.cycle - start_cycle;
+                std::fwrite(&c, 8, 1, ftrace);
+                get_wide(t->trace_data, buf, TRACE_BYTES);
+                std::fwrite(buf, 1, TRACE_BYTES, ftrace);
+                n_trace++;
+            }
+            finished = t->__SYM__interrupt;  // Verilator renames the port `interrupt`
+        });
+        if (body_hs) {
+            t->s_axis_body_TVALID = 0;
+            bi++;
+        }
+        if (cons_hs) {
+            t->s_axis_cons_TVALID = 0;
+            ci++;
+        }
+    }
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const uint64_t run_cycles = s.cycle - start_cycle;
+    std::fclose(ftrace);
+    std::fclose(fout);
+    std::fclose(fout_last);
+
+    const uint32_t ap_ctrl = axil_read(s, 0x00);
+    const uint32_t isr = axil_read(s, 0x0C);
+    std::FILE* fr = std::fopen((dir + "/result.txt").c_str(), "w");
+    if (!fr) fail("cannot create result.txt");
+    std::fprintf(fr, "ap_ctrl %u\nisr %u\nstatus %u\n", ap_ctrl, isr, axil_read(s, 0x58));
+    const uint64_t cyc = uint64_t(axil_read(s, 0x60)) | (uint64_t(axil_read(s, 0x64)) << 32);
+    std::fprintf(fr, "cycles %llu\n", (unsigned long long)cyc);
+    std::fprintf(fr, "stalls %u\nbubbles %u\nissued %u\n", axil_read(s, 0x68), axil_read(s, 0x70), axil_read(s, 0x78));
+    std::fprintf(fr, "harness_cycles %llu\nwall_s %.6f\nbody_in_beats_taken %zu\ncons_beats_taken %zu\n",
+                 (unsigned long long)run_cycles, wall, bi, ci);
+    std::fprintf(fr, "body_out_beats %zu\ntrace_records %zu\n", n_out, n_trace);
+    std::fclose(fr);
+    t->final();
+    return 0;
+}

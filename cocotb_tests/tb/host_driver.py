@@ -1,0 +1,155 @@
+"""Host side of a co-simulated step: DDR, AXI DMAs and the kernel's AXI4-Lite control, as a PYNQ driver does it.
+
+:class:`KernelHost` owns the DDR model (cocotbext-axi ``SparseMemoryRegion``), the DMA engines
+(``tb.axi_dma``) that feed ``s_axis_cons`` (the preset's channels), ``s_axis_body`` and drain ``m_axis_body``
+(one 128-bit engine), and an ``AxiLiteMaster`` on ``s_axi_control``. :meth:`run_step` writes exactly the
+packed streams of ``models/stream_format.py`` into DDR, arms S2MM, programs the kernel's arguments, starts it,
+issues one MM2S transfer per pass on the constraint engines (each pass ends with TLAST), waits for ap_done
+with a cycle timeout, and returns the body-out bytes read back from DDR.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import random
+from dataclasses import dataclass
+from typing import Any
+
+import cocotb
+from cocotb.clock import Clock
+from cocotb.triggers import ClockCycles, RisingEdge
+from cocotbext.axi import AxiLiteBus, AxiLiteMaster, SparseMemoryRegion
+
+from models.dma_model import DmaPreset
+from models.number_format import NumberFormat
+
+from .axi_dma import AxiDmaEngine, DdrBandwidth, DmaStreamPort, split_lanes
+
+AP_CTRL, GIE, IER, ISR = 0x00, 0x04, 0x08, 0x0C
+ARGS = {"num_bodies": 0x10, "num_manifolds": 0x18, "iterations": 0x20, "dt": 0x28, "gravity_x": 0x30,
+        "gravity_y": 0x38, "gravity_z": 0x40, "damping": 0x48, "options": 0x50}
+STATUS, CYCLES_LO, CYCLES_HI, STALLS, BUBBLES, ISSUED = 0x58, 0x60, 0x64, 0x68, 0x70, 0x78
+
+BODY_IN_ADDR = 0x1000_0000
+BODY_OUT_ADDR = 0x2000_0000
+CONS_ADDR = 0x4000_0000
+LANE_STRIDE = 0x0400_0000  # per constraint engine
+POLL_CYCLES = 16
+
+
+@dataclass
+class StepResult:
+    cycles: int  # the kernel's own cycle counter (ap_start to ap_done)
+    wall_cycles: int  # testbench cycles from the ap_start write to seeing ap_done
+    stalls: int
+    bubbles: int
+    issued: int
+    status: int
+    body_out: bytes
+    bytes_in: int
+    bytes_out: int
+
+
+class KernelHost:
+    def __init__(self, dut: Any, preset: DmaPreset, seed: int, idle_prob: float = 0.0,
+                 backpressure_prob: float = 0.0, body_bits: int = 128):
+        self.dut = dut
+        self.clock = dut.ap_clk
+        cocotb.start_soon(Clock(dut.ap_clk, 2, unit="ns").start())
+        self.axil = AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axi_control"), dut.ap_clk, dut.ap_rst_n,
+                                  reset_active_level=False)
+        self.memory = SparseMemoryRegion(size=1 << 32)
+        self.preset = preset
+        self.ddr = DdrBandwidth(dut.ap_clk, preset)
+        rng = random.Random(seed)
+        self.cons_engines = [AxiDmaEngine(f"dma_cons{e}", 1 << 32) for e in range(preset.channels)]
+        self.body_engine = AxiDmaEngine("dma_body", 1 << 32)
+        body_preset = dataclasses.replace(preset, channels=1, channel_bits=body_bits)
+        self.cons_port = DmaStreamPort(dut, "s_axis_cons", dut.ap_clk, self.cons_engines, self.memory, preset,
+                                       self.ddr, "mm2s", random.Random(rng.random()), idle_prob)
+        self.body_in_port = DmaStreamPort(dut, "s_axis_body", dut.ap_clk, [self.body_engine], self.memory,
+                                          body_preset, self.ddr, "mm2s", random.Random(rng.random()), idle_prob)
+        self.body_out_port = DmaStreamPort(dut, "m_axis_body", dut.ap_clk, [self.body_engine], self.memory,
+                                           body_preset, self.ddr, "s2mm", random.Random(rng.random()),
+                                           backpressure_prob)
+
+    async def reset(self) -> None:
+        self.dut.ap_rst_n.value = 0
+        await ClockCycles(self.clock, 4)
+        self.dut.ap_rst_n.value = 1
+        await ClockCycles(self.clock, 2)
+        for eng in self.cons_engines + [self.body_engine]:
+            await eng.write_dword(0x00, 0x1001)
+            await eng.write_dword(0x30, 0x1001)
+
+    async def read_reg(self, offset: int) -> int:
+        return await self.axil.read_dword(offset)
+
+    async def write_reg(self, offset: int, value: int) -> None:
+        await self.axil.write_dword(offset, value & 0xFFFFFFFF)
+
+    async def program(self, fmt: NumberFormat, num_bodies: int, num_manifolds: int, iterations: int, dt: float,
+                      gravity: tuple[float, float, float], damping: float, options: int = 0) -> None:
+        bits = lambda x: int(fmt.encode(float(x)))  # noqa: E731
+        values = {"num_bodies": num_bodies, "num_manifolds": num_manifolds, "iterations": iterations,
+                  "dt": bits(dt), "gravity_x": bits(gravity[0]), "gravity_y": bits(gravity[1]),
+                  "gravity_z": bits(gravity[2]), "damping": bits(damping), "options": options}
+        for name, value in values.items():
+            await self.write_reg(ARGS[name], value)
+
+    async def _mm2s(self, engines: list[AxiDmaEngine], lanes: list[bytes], addr: int) -> None:
+        for e, (eng, lane) in enumerate(zip(engines, lanes)):
+            await self.memory.write(addr + e * LANE_STRIDE, lane)
+        for e, (eng, lane) in enumerate(zip(engines, lanes)):
+            await eng.write_dword(0x18, addr + e * LANE_STRIDE)
+            await eng.write_dword(0x28, len(lane))
+
+    async def _wait_mm2s_idle(self, engines: list[AxiDmaEngine], timeout: int) -> None:
+        waited = 0
+        while not all([bool(await eng.read_dword(0x04) & 0x2) for eng in engines]):
+            await ClockCycles(self.clock, POLL_CYCLES)
+            waited += POLL_CYCLES
+            if waited > timeout:
+                raise TimeoutError(f"MM2S transfer not finished after {timeout} cycles (kernel not consuming?)")
+
+    async def _feed_constraints(self, passes: list[bytes], timeout: int) -> None:
+        lane_bytes = self.preset.channel_bits // 8
+        for data in passes:
+            await self._mm2s(self.cons_engines, split_lanes(data, self.preset.channels, lane_bytes), CONS_ADDR)
+            await self._wait_mm2s_idle(self.cons_engines, timeout)
+
+    async def run_step(self, body_in: bytes, passes: list[bytes], body_out_bytes: int,
+                       timeout_cycles: int) -> StepResult:
+        """One kernel run; raises TimeoutError (a hang is a failure, never a stuck test) past the timeout."""
+        await self.body_engine.write_dword(0x48, BODY_OUT_ADDR)
+        await self.body_engine.write_dword(0x58, body_out_bytes)
+        await self._mm2s([self.body_engine], [body_in], BODY_IN_ADDR)
+        feeder = cocotb.start_soon(self._feed_constraints(passes, timeout_cycles))
+        await self.write_reg(AP_CTRL, 0x1)
+        waited = 0
+        while True:
+            ctrl = await self.read_reg(AP_CTRL)
+            if ctrl & 0x2:  # ap_done (clear on read: seen once)
+                break
+            await ClockCycles(self.clock, POLL_CYCLES)
+            waited += POLL_CYCLES
+            if waited > timeout_cycles:
+                feeder.cancel()
+                status = await self.read_reg(STATUS)
+                raise TimeoutError(f"kernel did not assert ap_done within {timeout_cycles} cycles "
+                                   f"(AP_CTRL={ctrl:#x}, status={status:#x}, issued={await self.read_reg(ISSUED)})")
+        s2mm_wait = 0
+        while not (await self.body_engine.read_dword(0x34) & 0x2):
+            await RisingEdge(self.clock)
+            s2mm_wait += 1
+            if s2mm_wait > timeout_cycles:
+                raise TimeoutError("body-out S2MM transfer did not complete after ap_done")
+        if not feeder.done():
+            feeder.cancel()
+        cycles = await self.read_reg(CYCLES_LO) | (await self.read_reg(CYCLES_HI) << 32)
+        out_len = await self.body_engine.read_dword(0x58)
+        body_out = await self.memory.read(BODY_OUT_ADDR, out_len)
+        return StepResult(cycles=cycles, wall_cycles=waited, stalls=await self.read_reg(STALLS),
+                          bubbles=await self.read_reg(BUBBLES), issued=await self.read_reg(ISSUED),
+                          status=await self.read_reg(STATUS), body_out=bytes(body_out),
+                          bytes_in=len(body_in) + sum(len(p) for p in passes), bytes_out=out_len)

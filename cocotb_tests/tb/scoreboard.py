@@ -1,0 +1,103 @@
+"""Lock-step scoreboard: every retired manifold-pass on the kernel's trace port against the golden model.
+
+The golden model runs the same step (same schedule, passes and number format) and yields one expected record
+per manifold-pass in retire order. The monitor samples ``trace_valid``/``trace_data`` every cycle and compares
+each record as it appears, bit for bit; the first mismatch raises with the cycle, slot, manifold, pass,
+iteration, body, field and both values in hex and decimal.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from cocotb.triggers import RisingEdge
+
+from models.contact_solver import CONTACT_PASS, PassRecord
+from models.number_format import NumberFormat
+
+FIELDS = ["impulse0", "impulse1", "impulse2", "impulse3", "vA.x", "vA.y", "vA.z", "wA.x", "wA.y", "wA.z",
+          "vB.x", "vB.y", "vB.z", "wB.x", "wB.y", "wB.z"]
+
+
+@dataclass
+class ExpectedTrace:
+    kind: np.ndarray  # (R,) 0 contact, 1 friction
+    iteration: np.ndarray  # (R,)
+    slot: np.ndarray  # (R,) record index within the pass
+    manifold: np.ndarray  # (R,)
+    body_a: np.ndarray
+    body_b: np.ndarray
+    words: np.ndarray  # (R, 16) uint64 bit patterns
+
+
+def expected_trace(fmt: NumberFormat, records: list[PassRecord], body_a: np.ndarray,
+                   body_b: np.ndarray) -> ExpectedTrace:
+    """Flatten the golden PassRecords (one per pass, in schedule order) into per-retire expectations."""
+    kinds, its, slots, mans, words = [], [], [], [], []
+    for rec in records:
+        k = rec.manifold.shape[0]
+        imp = rec.impulses if rec.impulses.shape[1] == 4 else np.concatenate([rec.impulses, np.zeros((k, 2))], 1)
+        vals = np.concatenate([imp, rec.lin_a, rec.ang_a, rec.lin_b, rec.ang_b], axis=1)
+        words.append(fmt.encode(vals))
+        kinds.append(np.full(k, 0 if rec.kind == CONTACT_PASS else 1))
+        its.append(np.full(k, rec.iteration))
+        slots.append(np.arange(k))
+        mans.append(rec.manifold)
+    man = np.concatenate(mans)
+    return ExpectedTrace(np.concatenate(kinds), np.concatenate(its), np.concatenate(slots), man, body_a[man],
+                         body_b[man], np.concatenate(words))
+
+
+class TraceScoreboard:
+    def __init__(self, dut: Any, fmt: NumberFormat, expected: ExpectedTrace):
+        self.dut = dut
+        self.fmt = fmt
+        self.exp = expected
+        self.w = fmt.width
+        self.compared = 0
+        self.cycle = 0
+
+    def _decode(self, value: int) -> tuple[list[int], int, int, int]:
+        mask = (1 << self.w) - 1
+        words = [(value >> (i * self.w)) & mask for i in range(16)]
+        base = 16 * self.w
+        return words, (value >> base) & 0xFFFFFFFF, (value >> (base + 32)) & 0xFFFF, (value >> (base + 48)) & 1
+
+    def _describe(self, k: int) -> str:
+        e = self.exp
+        kind = "contact" if e.kind[k] == 0 else "friction"
+        return (f"cycle {self.cycle}: retire #{k}: {kind} pass, iteration {e.iteration[k]}, slot {e.slot[k]}, "
+                f"manifold {e.manifold[k]} (bodies A={e.body_a[k]}, B={e.body_b[k]})")
+
+    def check(self, value: int) -> None:
+        k = self.compared
+        if k >= self.exp.words.shape[0]:
+            raise AssertionError(f"cycle {self.cycle}: unexpected extra trace record #{k}")
+        words, slot, iteration, kind = self._decode(value)
+        e = self.exp
+        for name, got, want in (("pass kind", kind, e.kind[k]), ("iteration", iteration, e.iteration[k]),
+                                ("slot", slot, e.slot[k])):
+            if got != want:
+                raise AssertionError(f"{self._describe(k)}: {name} is {got}, expected {want}")
+        for i, (got, want) in enumerate(zip(words, e.words[k].tolist())):
+            if got != want:
+                g = float(self.fmt.decode(np.array([got], dtype=np.uint64))[0])
+                x = float(self.fmt.decode(np.array([want], dtype=np.uint64))[0])
+                body = "A" if FIELDS[i][1] == "A" else ("B" if FIELDS[i][1] == "B" else "-")
+                raise AssertionError(f"{self._describe(k)}: body {body} field {FIELDS[i]}: got {got:#x} ({g!r}), "
+                                     f"expected {want:#x} ({x!r})")
+        self.compared += 1
+
+    async def monitor(self) -> None:
+        valid, data = self.dut.trace_valid, self.dut.trace_data
+        while True:
+            await RisingEdge(self.dut.ap_clk)
+            self.cycle += 1
+            if int(valid.value):
+                self.check(int(data.value))
+
+    @property
+    def complete(self) -> bool:
+        return self.compared == self.exp.words.shape[0]

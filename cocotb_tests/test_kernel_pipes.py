@@ -1,0 +1,314 @@
+"""Bit-exact tests of the generated kernel datapaths (rtl/pgs_{contact,friction,integrate}_pipe.sv).
+
+For each module and each format (fp32, fp16, bf16) the module is compiled once with Verilator into a
+C++ executable (``cocotb_tests/pipes/pipe_main.cpp``: one input record per cycle, ~5 % random idle
+cycles with junk inputs, checks of LATENCY, order, tag pass-through and reset). Every output word
+must equal, bit for bit, the golden model (``contact_solve`` / ``friction_solve`` / ``integrate``
+through ``models/kernel_vectors.py``) evaluated on the same input words.
+
+Inputs: the real inputs of every manifold-pass (and of the integration of every dynamic body) of a
+4-iteration golden solve of the pile (4x3x4), stack and incline scenes, in the format, plus seeded
+perturbations of them: scaled and noisy velocities and impulses, unused (zero-jac) points, skipped
+friction rows (f_jac_inv[0] = 0), spin damping on and off, static bodies, large angular velocities
+(angle clamp) and tiny ones (small-angle branch). ``SEED=<int>`` overrides the base seed.
+
+Also: the generated files are up to date with ``python -m rtl.gen``, and the graphs' software twin
+(``Graph.evaluate``) matches the golden model.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))
+
+from models import kernel_vectors as kv  # noqa: E402
+from models import scenes  # noqa: E402
+from models.constraints import body_table, setup_constraints  # noqa: E402
+from models.number_format import BF16, FP16, FP32, NumberFormat  # noqa: E402
+from rtl.gen import generate  # noqa: E402
+from rtl.gen.kernel_graphs import (CONTACT_IN, CONTACT_OUT, FRICTION_IN, FRICTION_OUT, GRAPHS,  # noqa: E402
+                                   INTEGRATE_IN, INTEGRATE_OUT, MAN_BITS_OF)
+from sim.verilator_build import DEBUG_COMPILE_ARGS, build  # noqa: E402
+
+HERE = Path(__file__).resolve().parent / "pipes"
+RTL = REPO / "rtl"
+DEFAULT_SEED = 20240615
+FORMATS = {"fp32": FP32, "fp16": FP16, "bf16": BF16}
+SCENES = (("pile", {"nx": 4, "ny": 3, "nz": 4}), ("stack", {}), ("incline", {}))
+# Verilator: keep every operator instance a separate function (-fno-inline) and compile without C++
+# optimization: the designs are large and the runs short, so this is the fastest overall.
+BUILD_ARGS = DEBUG_COMPILE_ARGS
+
+
+@dataclass(frozen=True)
+class PipeSpec:
+    module: str
+    in_names: list[str]
+    out_names: list[str]
+    spin: bool
+
+
+PIPES = {
+    "contact": PipeSpec("pgs_contact_pipe", CONTACT_IN, CONTACT_OUT, False),
+    "friction": PipeSpec("pgs_friction_pipe", FRICTION_IN, FRICTION_OUT, True),
+    "integrate": PipeSpec("pgs_integrate_pipe", INTEGRATE_IN, INTEGRATE_OUT, False),
+}
+
+
+def seed_for(fmt_name: str, pipe: str) -> int:
+    base = int(os.environ.get("SEED", DEFAULT_SEED))
+    return base + 10 * list(FORMATS).index(fmt_name) + list(PIPES).index(pipe)
+
+
+# ------------------------------------------------------------------------------------------------
+# Vectors
+# ------------------------------------------------------------------------------------------------
+_FRAMES: dict[str, tuple] = {}
+_SCENE_VECTORS: dict[str, list[kv.SceneVectors]] = {}
+
+
+def scene_data(fmt: NumberFormat) -> list[kv.SceneVectors]:
+    if fmt.name in _SCENE_VECTORS:
+        return _SCENE_VECTORS[fmt.name]
+    out = []
+    for name, params in SCENES:
+        if name not in _FRAMES:
+            frame = scenes.load_or_capture(name, **params)
+            bodies = body_table(frame)
+            _FRAMES[name] = (frame, bodies, setup_constraints(frame, bodies))
+        frame, bodies, cons = _FRAMES[name]
+        out.append(kv.scene_vectors(bodies.rounded(fmt), cons.rounded(fmt), fmt, dt=frame.dt,
+                                    gravity=tuple(frame.gravity)))
+    _SCENE_VECTORS[fmt.name] = out
+    return out
+
+
+def _log_uniform(rng: np.random.Generator, lo: float, hi: float, shape) -> np.ndarray:
+    return np.exp(rng.uniform(np.log(lo), np.log(hi), shape))
+
+
+def _scale_rows(rng: np.random.Generator, w: np.ndarray, cols: slice, lo: float, hi: float) -> None:
+    """Scale the vector in ``cols`` of each row by a random factor and add relative noise."""
+    k = w.shape[0]
+    f = _log_uniform(rng, lo, hi, (k, 1)) * rng.choice([-1.0, 1.0], (k, 1), p=[0.2, 0.8])
+    w[:, cols] = w[:, cols] * f + rng.normal(0, 0.05, (k, cols.stop - cols.start)) * np.abs(w[:, cols]).max(
+        axis=1, keepdims=True)
+
+
+def contact_vectors(fmt: NumberFormat, sv: list[kv.SceneVectors], rng: np.random.Generator) -> tuple[np.ndarray, dict]:
+    base = np.concatenate([s.contact for s in sv])
+    sets = {"scene": base}
+    p = base[rng.integers(0, len(base), 2500)].copy()
+    k = len(p)
+    for c0 in (33, 36, 39, 42):                                  # vA, wA, vB, wB
+        _scale_rows(rng, p, slice(c0, c0 + 3), 0.01, 30.0)
+    p[:, 23:27] *= _log_uniform(rng, 0.01, 100.0, (k, 4)) * (rng.random((k, 4)) < 0.8)   # lam (some 0)
+    p[:, 19:23] += rng.normal(0, 0.5, (k, 4)) * (p[:, 15:19] != 0)                     # bias
+    unused = rng.random((k, 4)) < 0.25                                                  # zero-jac points
+    p[:, 15:19] = np.where(unused, 0.0, p[:, 15:19])
+    p[rng.random(k) < 0.05, 15:19] = 0.0                                                # all points unused
+    static_b = rng.random(k) < 0.2
+    p[static_b, 46] = 0.0
+    p[static_b, 50:53] = 0.0
+    static_a = rng.random(k) < 0.05
+    p[static_a, 45] = 0.0
+    p[static_a, 47:50] = 0.0
+    sets["perturbed"] = p
+    return np.concatenate(list(sets.values())), {n: len(v) for n, v in sets.items()}
+
+
+def friction_vectors(fmt: NumberFormat, sv: list[kv.SceneVectors],
+                     rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, dict]:
+    base = np.concatenate([s.friction for s in sv])
+    spin = np.concatenate([s.spin_damp for s in sv])
+    sets = {"scene": (base, spin)}
+    sel = rng.integers(0, len(base), 2500)
+    p, ps = base[sel].copy(), spin[sel].copy()
+    k = len(p)
+    for c0 in (26, 29, 32, 35):                                  # vA, wA, vB, wB
+        _scale_rows(rng, p, slice(c0, c0 + 3), 0.01, 30.0)
+    p[:, 14:18] *= _log_uniform(rng, 0.01, 100.0, (k, 4)) * (rng.random((k, 4)) < 0.9)  # lam_n
+    limit = 0.7 * p[:, 14:18].sum(axis=1, keepdims=True)
+    p[:, 18:20] = rng.uniform(-1.5, 1.5, (k, 2)) * limit * (rng.random((k, 2)) < 0.8)     # lamT
+    ps = np.where(rng.random(k) < 0.5, ~ps, ps)                                          # spin on / off
+    p[rng.random(k) < 0.1, 12] = 0.0                                                     # skipped rows
+    static_b = rng.random(k) < 0.2
+    p[static_b, 39] = 0.0
+    p[static_b, 43:46] = 0.0
+    static_a = rng.random(k) < 0.05
+    p[static_a, 38] = 0.0
+    p[static_a, 40:43] = 0.0
+    sets["perturbed"] = (p, ps)
+    words = np.concatenate([v[0] for v in sets.values()])
+    flags = np.concatenate([v[1] for v in sets.values()])
+    return words, flags, {n: len(v[0]) for n, v in sets.items()}
+
+
+def integrate_vectors(fmt: NumberFormat, sv: list[kv.SceneVectors], rng: np.random.Generator) -> tuple[np.ndarray, dict]:
+    base = np.concatenate([s.integrate for s in sv])
+    sets = {"scene": base}
+    n = 2500
+    w = np.empty((n, 18))
+    w[:, 0:3] = rng.uniform(-50, 50, (n, 3))
+    q = rng.normal(size=(n, 4))
+    w[:, 3:7] = q / np.linalg.norm(q, axis=1, keepdims=True)
+    w[:, 7:10] = rng.normal(0, 5, (n, 3))
+    dirs = rng.normal(size=(n, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    dt = rng.choice([1 / 60, 1 / 120, 1 / 240, 1 / 30], n)
+    kind = rng.integers(0, 5, n)
+    mag = np.select([kind == 0, kind == 1, kind == 2, kind == 3],
+                    [_log_uniform(rng, 1e-6, 1e-3, n),                    # small-angle branch
+                     _log_uniform(rng, 1e-3, 40.0, n),                    # ordinary
+                     _log_uniform(rng, 40.0, 400.0, n),                   # angle clamp
+                     (0.25 * 3.14159254 / dt) * rng.uniform(0.999, 1.011, n)],   # around the clamp
+                    np.zeros(n))                                          # zero
+    w[:, 10:13] = dirs * mag[:, None]
+    w[:, 13] = dt
+    w[:, 14] = rng.choice([0.99, 1.0, 0.95], n, p=[0.8, 0.1, 0.1])
+    gravities = np.array([[0.0, -9.8, 0.0], [0.0, 0.0, -9.81], [1.5, -9.7, 0.3], [0.0, 0.0, 0.0]])
+    w[:, 15:18] = gravities[rng.choice(len(gravities), n, p=[0.7, 0.1, 0.1, 0.1])]
+    sets["random"] = w
+    return np.concatenate(list(sets.values())), {n_: len(v) for n_, v in sets.items()}
+
+
+def make_vectors(pipe: str, fmt: NumberFormat, seed: int) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(input bit patterns (K, N_IN), spin flags (K,), set sizes)."""
+    rng = np.random.default_rng(seed)
+    sv = scene_data(fmt)
+    if pipe == "contact":
+        words, counts = contact_vectors(fmt, sv, rng)
+        flags = np.zeros(len(words), dtype=bool)
+    elif pipe == "friction":
+        words, flags, counts = friction_vectors(fmt, sv, rng)
+    else:
+        words, counts = integrate_vectors(fmt, sv, rng)
+        flags = np.zeros(len(words), dtype=bool)
+    with np.errstate(all="ignore"):
+        bits = fmt.encode(words).astype(np.uint32)
+    return bits, flags.astype(bool), counts
+
+
+def golden_bits(pipe: str, fmt: NumberFormat, bits: np.ndarray, flags: np.ndarray) -> np.ndarray:
+    x = fmt.decode(bits.astype(np.uint64))
+    with np.errstate(all="ignore"):
+        if pipe == "contact":
+            y = kv.contact_golden(fmt, x)
+        elif pipe == "friction":
+            y = kv.friction_golden(fmt, x, flags)
+        else:
+            y = kv.integrate_golden(fmt, x)
+        return fmt.encode(y).astype(np.uint32)
+
+
+# ------------------------------------------------------------------------------------------------
+# Harness
+# ------------------------------------------------------------------------------------------------
+@dataclass
+class Harness:
+    pipe: str
+    fmt_name: str
+    exe: Path
+    latency: int
+    build_s: float
+
+
+PARAMS = [(p, f) for f in FORMATS for p in PIPES]
+
+
+@pytest.fixture(scope="module", params=PARAMS, ids=[f"{p}-{f}" for p, f in PARAMS])
+def harness(request: pytest.FixtureRequest) -> Harness:
+    pipe, fmt_name = request.param
+    spec = PIPES[pipe]
+    fmt = FORMATS[fmt_name]
+    t0 = time.monotonic()
+    exe = build(
+        sources=[RTL / "pgs_fp_pkg.sv", RTL / "pgs_delay.sv"] + sorted((RTL / "fp").glob("*.sv"))
+        + [RTL / f"{spec.module}.sv"],
+        top=spec.module,
+        parameters={"EXP_BITS": fmt.exp_bits, "MAN_BITS": fmt.man_bits},
+        cpp_files=[HERE / "pipe_main.cpp"],
+        name=f"{spec.module}_{fmt_name}",
+        cflags=[f"-DPIPE_CLASS=V{spec.module}", f"-DN_IN={len(spec.in_names)}", f"-DN_OUT={len(spec.out_names)}",
+                f"-DFMT_W={fmt.width}", f"-DHAS_SPIN_DAMP={int(spec.spin)}"],
+        extra_args=BUILD_ARGS,
+    )
+    latency = GRAPHS[spec.module]().schedule().latency_for(MAN_BITS_OF[fmt_name])
+    return Harness(pipe, fmt_name, exe, latency, time.monotonic() - t0)
+
+
+def run_harness(h: Harness, bits: np.ndarray, flags: np.ndarray, tmp: Path, seed: int) -> tuple[np.ndarray, str]:
+    spec = PIPES[h.pipe]
+    rec = np.concatenate([bits, flags.astype(np.uint32)[:, None]], axis=1).astype("<u4")
+    inp, outp = tmp / "in.bin", tmp / "out.bin"
+    rec.tofile(inp)
+    proc = subprocess.run([str(h.exe), str(inp), str(outp), str(h.latency), str(seed), "50"],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, f"harness failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}"
+    res = np.fromfile(outp, dtype="<u4")
+    assert res.size == len(bits) * len(spec.out_names), f"{res.size} output words for {len(bits)} vectors"
+    return res.reshape(len(bits), len(spec.out_names)), proc.stdout
+
+
+def test_kernel_pipe_bit_exact(harness: Harness, tmp_path: Path) -> None:
+    fmt = FORMATS[harness.fmt_name]
+    spec = PIPES[harness.pipe]
+    seed = seed_for(harness.fmt_name, harness.pipe)
+    t0 = time.monotonic()
+    bits, flags, counts = make_vectors(harness.pipe, fmt, seed)
+    t1 = time.monotonic()
+    res, log = run_harness(harness, bits, flags, tmp_path, seed)
+    t2 = time.monotonic()
+    exp = golden_bits(harness.pipe, fmt, bits, flags)
+    t3 = time.monotonic()
+    print(f"\n[{spec.module} {harness.fmt_name}] LATENCY {harness.latency}; SEED={seed}; build {harness.build_s:.1f} s; "
+          f"vectors {len(bits)} {counts}; gen {t1 - t0:.1f} s, sim {t2 - t1:.1f} s, golden {t3 - t2:.1f} s\n"
+          f"  {log.strip()}")
+
+    # Not vacuous: one output record per vector.
+    assert res.shape == exp.shape == (len(bits), len(spec.out_names))
+    assert f"vectors={len(bits)} outputs={len(bits)} " in log
+    assert f"latency={harness.latency}" in log
+
+    bad = np.argwhere(res != exp)
+    if len(bad):
+        w = (fmt.width + 3) // 4
+        lines = []
+        for i, k in bad[:12]:
+            got = fmt.decode(np.uint64(res[i, k]))
+            want = fmt.decode(np.uint64(exp[i, k]))
+            lines.append(f"  {spec.module} vector {i} word {k} ({spec.out_names[k]}): got 0x{res[i, k]:0{w}x} ({got!r}) "
+                         f"expected 0x{exp[i, k]:0{w}x} ({want!r})")
+        rows = sorted({int(i) for i, _ in bad})
+        pytest.fail(f"[{spec.module} {harness.fmt_name}] {len(bad)} word mismatches in {len(rows)} of {len(bits)} "
+                    f"vectors (seed {seed}):\n" + "\n".join(lines))
+
+
+def test_generated_rtl_up_to_date() -> None:
+    stale = generate(check=True)
+    assert not stale, f"regenerate with `python -m rtl.gen`: {[str(p) for p in stale]}"
+
+
+@pytest.mark.parametrize("fmt_name", list(FORMATS))
+def test_graph_twin_matches_golden(fmt_name: str) -> None:
+    """The graphs interpreted in Python equal the golden model on the scene inputs (no RTL needed)."""
+    fmt = FORMATS[fmt_name]
+    for pipe, spec in PIPES.items():
+        bits, flags, _ = make_vectors(pipe, fmt, seed_for(fmt_name, pipe))
+        x = fmt.decode(bits.astype(np.uint64))
+        with np.errstate(all="ignore"):
+            twin = fmt.encode(GRAPHS[spec.module]().evaluate(fmt, x, flags[:, None])).astype(np.uint32)
+        exp = golden_bits(pipe, fmt, bits, flags)
+        bad = np.argwhere(twin != exp)
+        assert not len(bad), f"{spec.module} {fmt_name}: graph twin differs at {bad[:8].tolist()}"

@@ -1,0 +1,197 @@
+"""cocotb test of rtl/pgs_control_s_axi.sv (the kernel's AXI4-Lite register file), Verilator.
+
+pytest entry point :func:`test_pgs_control_s_axi` builds the register file with cocotb_tools.runner
+(one build directory) and runs the cocotb test below, which drives the AXI4-Lite slave with
+cocotbext-axi's AxiLiteMaster and plays the kernel side (ap_done/ap_idle/ap_ready pulses, error
+flags, counters) itself. Checked: reset values of every register, R/W of the argument registers (with
+byte strobes), ap_start set / clear-on-handshake / auto_restart, ap_done and ap_ready clear-on-read,
+ap_idle, ISR toggle-on-write, interrupt = GIE && |ISR, status W1C with the first error code,
+read-only counters, unmapped addresses reading 0 with OKAY.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import cocotb
+from cocotb.clock import Clock
+from cocotb.triggers import ClockCycles, RisingEdge
+
+REPO = Path(__file__).resolve().parents[1]
+
+ARGS = {"num_bodies": 0x10, "num_manifolds": 0x18, "iterations": 0x20, "dt": 0x28, "gravity_x": 0x30,
+        "gravity_y": 0x38, "gravity_z": 0x40, "damping": 0x48, "options": 0x50}
+STATUS, CYC_LO, CYC_HI, STALL, BUBBLE, ISSUED = 0x58, 0x60, 0x64, 0x68, 0x70, 0x78
+
+
+async def _setup(dut):
+    from cocotbext.axi import AxiLiteBus, AxiLiteMaster
+
+    cocotb.start_soon(Clock(dut.ap_clk, 10, unit="ns").start())
+    for name in ("ap_done", "ap_ready"):
+        getattr(dut, name).value = 0
+    dut.ap_idle.value = 1
+    dut.err_set.value = 0
+    dut.err_code.value = 0
+    dut.stat_cycles.value = 0x1122334455667788
+    dut.stat_stalls.value = 0xA5A5
+    dut.stat_bubbles.value = 0x5A5A
+    dut.stat_issued.value = 1234
+    master = AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axi_control"), dut.ap_clk, dut.ap_rst_n,
+                           reset_active_level=False)
+    dut.ap_rst_n.value = 0
+    await ClockCycles(dut.ap_clk, 5)
+    dut.ap_rst_n.value = 1
+    await ClockCycles(dut.ap_clk, 2)
+    return master
+
+
+async def rd(master, addr: int) -> int:
+    resp = await master.read(addr, 4)
+    assert int(resp.resp) == 0, f"read 0x{addr:02x}: resp {resp.resp}"
+    return int.from_bytes(resp.data, "little")
+
+
+async def wr(master, addr: int, value: int, strb: int | None = None) -> None:
+    data = value.to_bytes(4, "little")
+    if strb is None:
+        resp = await master.write(addr, data)
+    else:
+        # byte-lane write: only the strobed bytes
+        lanes = [i for i in range(4) if strb >> i & 1]
+        lo, hi = min(lanes), max(lanes)
+        resp = await master.write(addr + lo, data[lo:hi + 1])
+    assert int(resp.resp) == 0, f"write 0x{addr:02x}: resp {resp.resp}"
+
+
+async def pulse(dut, *names: str) -> None:
+    await RisingEdge(dut.ap_clk)
+    for n in names:
+        getattr(dut, n).value = 1
+    await RisingEdge(dut.ap_clk)
+    for n in names:
+        getattr(dut, n).value = 0
+
+
+@cocotb.test()
+async def register_file(dut) -> None:
+    m = await _setup(dut)
+    # reset values
+    assert await rd(m, 0x00) == 0x4  # ap_idle only
+    for addr in (0x04, 0x08, 0x0C, STATUS):
+        assert await rd(m, addr) == 0, f"0x{addr:02x} not 0 after reset"
+    for name, addr in ARGS.items():
+        assert await rd(m, addr) == 0, f"{name} not 0 after reset"
+    assert dut.interrupt.value == 0 and dut.ap_start.value == 0
+    # read-only counters
+    assert await rd(m, CYC_LO) == 0x55667788 and await rd(m, CYC_HI) == 0x11223344
+    assert await rd(m, STALL) == 0xA5A5 and await rd(m, BUBBLE) == 0x5A5A and await rd(m, ISSUED) == 1234
+    await wr(m, CYC_LO, 0xFFFFFFFF)
+    assert await rd(m, CYC_LO) == 0x55667788
+    # argument registers: R/W, byte strobes, output ports
+    for i, (name, addr) in enumerate(ARGS.items()):
+        await wr(m, addr, 0x01020304 * (i + 1) & 0xFFFFFFFF)
+    for i, (name, addr) in enumerate(ARGS.items()):
+        v = 0x01020304 * (i + 1) & 0xFFFFFFFF
+        assert await rd(m, addr) == v, name
+        assert int(getattr(dut, name).value) == v, name
+    await wr(m, ARGS["dt"], 0xAABBCCDD, strb=0b0100)
+    assert await rd(m, ARGS["dt"]) == (0x01020304 * 4 & 0xFF00FFFF) | 0x00BB0000
+    # reserved words between arguments and unmapped addresses read 0 (OKAY)
+    for addr in (0x14, 0x1C, 0x54, 0x5C, 0x6C, 0x74, 0x7C, 0x80, 0xFC):
+        assert await rd(m, addr) == 0, f"0x{addr:02x}"
+    await wr(m, 0x14, 0xFFFFFFFF)
+    assert await rd(m, 0x14) == 0
+
+    # ap_start: set by writing 1, stays until ap_ready, cleared then (no auto_restart)
+    await wr(m, 0x00, 0x0)
+    assert dut.ap_start.value == 0
+    await wr(m, 0x00, 0x1)
+    assert dut.ap_start.value == 1 and (await rd(m, 0x00)) & 1
+    dut.ap_idle.value = 0
+    await ClockCycles(dut.ap_clk, 3)
+    assert (await rd(m, 0x00)) & 0x5 == 0x1  # started, not idle
+    await pulse(dut, "ap_done", "ap_ready")
+    dut.ap_idle.value = 1
+    await RisingEdge(dut.ap_clk)
+    assert dut.ap_start.value == 0
+    v = await rd(m, 0x00)
+    assert v & 0xF == 0b1110, hex(v)  # done, idle, ready; start cleared
+    v = await rd(m, 0x00)
+    assert v & 0xF == 0b0100, hex(v)  # done and ready cleared on read
+    # auto_restart keeps ap_start
+    await wr(m, 0x00, 0x81)
+    assert (await rd(m, 0x00)) & 0x81 == 0x81
+    await pulse(dut, "ap_done", "ap_ready")
+    await RisingEdge(dut.ap_clk)
+    assert dut.ap_start.value == 1
+    await wr(m, 0x00, 0x00)  # clear auto_restart (ap_start stays until the next handshake)
+    await pulse(dut, "ap_ready")
+    await RisingEdge(dut.ap_clk)
+    assert dut.ap_start.value == 0
+    await rd(m, 0x00)
+
+    # interrupts: IER gates ISR; GIE gates the output; ISR toggles on write
+    await pulse(dut, "ap_done")
+    assert await rd(m, 0x0C) == 0 and dut.interrupt.value == 0
+    await wr(m, 0x08, 0x3)
+    assert await rd(m, 0x08) == 0x3
+    await pulse(dut, "ap_done")
+    await RisingEdge(dut.ap_clk)
+    assert await rd(m, 0x0C) == 0x1
+    assert dut.interrupt.value == 0  # GIE off
+    await wr(m, 0x04, 0x1)
+    assert await rd(m, 0x04) == 1
+    await RisingEdge(dut.ap_clk)
+    assert dut.interrupt.value == 1
+    assert (await rd(m, 0x00)) >> 9 & 1 == 1  # interrupt mirrored in AP_CTRL bit 9
+    await pulse(dut, "ap_ready")
+    await RisingEdge(dut.ap_clk)
+    assert await rd(m, 0x0C) == 0x3
+    await wr(m, 0x0C, 0x1)  # toggle bit 0 off
+    assert await rd(m, 0x0C) == 0x2 and dut.interrupt.value == 1
+    await wr(m, 0x0C, 0x2)
+    await RisingEdge(dut.ap_clk)
+    assert await rd(m, 0x0C) == 0x0 and dut.interrupt.value == 0
+    await wr(m, 0x0C, 0x1)  # toggle on write also sets
+    assert await rd(m, 0x0C) == 0x1
+    await wr(m, 0x0C, 0x1)
+    await wr(m, 0x04, 0x0)
+
+    # status: sticky flags, first error code, write 1 to clear
+    dut.err_code.value = 7
+    await pulse(dut, "err_set")  # sets flag bit 0 (err_set = 1)
+    dut.err_code.value = 9
+    dut.err_set.value = 0x4
+    await RisingEdge(dut.ap_clk)
+    dut.err_set.value = 0
+    assert await rd(m, STATUS) == 0x0705  # flags 0b101, code of the first error
+    await wr(m, STATUS, 0x1)
+    assert await rd(m, STATUS) == 0x0704
+    await wr(m, STATUS, 0x4)
+    assert await rd(m, STATUS) == 0
+    dut.err_code.value = 3
+    dut.err_set.value = 0x2
+    await RisingEdge(dut.ap_clk)
+    dut.err_set.value = 0
+    assert await rd(m, STATUS) == 0x0302
+    await wr(m, STATUS, 0xFF)
+    assert await rd(m, STATUS) == 0
+
+
+def test_pgs_control_s_axi() -> None:
+    from cocotb_tools.runner import get_runner
+
+    from sim.verilator_build import ensure_verilator_env
+
+    ensure_verilator_env()
+    runner = get_runner("verilator")
+    build_dir = REPO / "build" / "cocotb" / "pgs_control_s_axi"
+    runner.build(sources=[REPO / "rtl" / "pgs_control_s_axi.sv"], hdl_toplevel="pgs_control_s_axi",
+                 build_dir=build_dir, always=False,
+                 build_args=["-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include CFG_LDLIBS_THREADS=-pthread",
+                             "-Wno-fatal"])
+    runner.test(hdl_toplevel="pgs_control_s_axi", test_module="test_pgs_control_s_axi",
+                hdl_toplevel_lang="verilog", build_dir=build_dir, test_dir=Path(__file__).parent,
+                extra_env={"PYTHONPATH": os.pathsep.join([str(REPO), str(Path(__file__).parent)])})

@@ -1,0 +1,323 @@
+"""Bit-level packing of everything that crosses the kernel's AXI4-Stream ports (host side).
+
+All records are packed **little-endian from bit 0**: the first field sits in the lowest bits, each
+W-bit word ``k`` of a record's word list at bits ``[base + k*W, base + (k+1)*W)``. A record is padded
+with zero bits to a whole number of stream beats (``beat_bits`` wide, e.g. 512 for the constraint
+stream = 4 DMA channels of 128 bits, 128 for the body streams); beat ``j`` of a record holds record bits
+``[j*beat_bits, (j+1)*beat_bits)``, and a beat's bytes are little-endian (byte 0 = bits 7:0), which is
+the byte order of the AXI4-Stream TDATA lanes and of the binary files the Verilator harness streams.
+W = ``fmt.width`` (1 + exp_bits + man_bits); a word is the format's bit pattern
+(``NumberFormat.encode`` of an already ``.rounded`` value), so any format packs the same way.
+
+Records (word counts; offsets in bits from the record's bit 0):
+
+=================  ======================================================================================
+record             layout
+=================  ======================================================================================
+contact            64-bit header, then 23 words: n(3), p[0..3] xyz (12), jac_inv(4), b(4)
+(contact passes)   -> 64 + 23 W bits
+friction           64-bit header, then 14 words: n(3), c(3), t0(3), t1(3), f_jac_inv(2)
+(friction passes)  -> 64 + 14 W bits
+header             bits 31:0 body_a, bits 62:32 body_b, bit 63 spin_damp (both record kinds)
+body-in            17 words: pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass(1), inv_inertia(3)
+body-out           13 words: pos(3), q(4), v(3), w(3)
+=================  ======================================================================================
+
+The constraint stream of one step holds, pass after pass in :func:`models.contact_solver.pass_sequence`
+order, one record per manifold in schedule order (``-1`` bubbles are skipped: they are issue-timing
+only); a contact pass carries contact records, a friction pass friction records. The kernel's slot index
+of a manifold is its record index within the pass. TLAST is set on the last beat of every pass (the
+kernel flags a mismatch as a stream error). The body-in stream holds ``num_bodies`` body-in records
+in index order (TLAST on the last beat), the body-out stream ``num_bodies`` body-out records in index
+order (TLAST on the last beat).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .constraints import BodyTable, ConstraintSet
+from .contact_solver import CONTACT_PASS, SolverParams, pass_sequence
+from .number_format import NumberFormat
+
+HEADER_BITS = 64
+CONTACT_WORDS = 23
+FRICTION_WORDS = 14
+BODY_IN_WORDS = 17
+BODY_OUT_WORDS = 13
+
+DEFAULT_CONS_BEAT_BITS = 512
+DEFAULT_BODY_BEAT_BITS = 128
+
+_BODY_B_BITS = 31
+
+
+# --- generic bit packing ------------------------------------------------------------------------------
+def _field_bits(values: np.ndarray, width: int) -> np.ndarray:
+    """(R, F) uint64 values -> (R, F*width) uint8 bits, value f's bit i at column f*width + i."""
+    v = np.asarray(values, dtype=np.uint64)
+    shifts = np.arange(width, dtype=np.uint64)
+    bits = ((v[:, :, None] >> shifts[None, None, :]) & np.uint64(1)).astype(np.uint8)
+    return bits.reshape(v.shape[0], v.shape[1] * width)
+
+
+def beats_per_record(record_bits: int, beat_bits: int) -> int:
+    if beat_bits <= 0 or beat_bits % 8:
+        raise ValueError(f"beat width must be a positive multiple of 8 bits, got {beat_bits}")
+    return -(-record_bits // beat_bits)
+
+
+def pack_records(header: np.ndarray | None, words: np.ndarray, word_bits: int, beat_bits: int) -> np.ndarray:
+    """Pack R records into beats: returns (R * beats_per_record, beat_bits // 8) uint8, little-endian.
+
+    ``header``: (R,) uint64 placed at bits 63:0 (or None: no header); ``words``: (R, K) uint64 bit
+    patterns (only the low ``word_bits`` bits are used) placed from bit 64 (or 0) on.
+    """
+    words = np.asarray(words, dtype=np.uint64)
+    r = words.shape[0]
+    parts = []
+    if header is not None:
+        parts.append(_field_bits(np.asarray(header, dtype=np.uint64).reshape(r, 1), HEADER_BITS))
+    parts.append(_field_bits(words, word_bits))
+    bits = np.concatenate(parts, axis=1)
+    nbeats = beats_per_record(bits.shape[1], beat_bits)
+    padded = np.zeros((r, nbeats * beat_bits), dtype=np.uint8)
+    padded[:, :bits.shape[1]] = bits
+    return np.packbits(padded, axis=1, bitorder="little").reshape(r * nbeats, beat_bits // 8)
+
+
+def unpack_records(beats: np.ndarray, num_words: int, word_bits: int, beat_bits: int,
+                   header: bool = False) -> tuple[np.ndarray | None, np.ndarray]:
+    """Inverse of :func:`pack_records`: (headers or None, (R, num_words) uint64 words)."""
+    rec_bits = (HEADER_BITS if header else 0) + num_words * word_bits
+    nbeats = beats_per_record(rec_bits, beat_bits)
+    data = np.asarray(beats, dtype=np.uint8).reshape(-1, nbeats * beat_bits // 8)
+    bits = np.unpackbits(data, axis=1, bitorder="little").astype(np.uint64)
+    weights = np.uint64(1) << np.arange(64, dtype=np.uint64)
+    base = 0
+    hdr = None
+    if header:
+        hdr = (bits[:, :HEADER_BITS] * weights[None, :]).sum(axis=1, dtype=np.uint64)
+        base = HEADER_BITS
+    w = bits[:, base:base + num_words * word_bits].reshape(-1, num_words, word_bits)
+    words = (w * weights[None, None, :word_bits]).sum(axis=2, dtype=np.uint64)
+    return hdr, words
+
+
+# --- record contents ----------------------------------------------------------------------------------
+def constraint_header(cons: ConstraintSet, idx: np.ndarray) -> np.ndarray:
+    """{bit 63 spin_damp, bits 62:32 body_b, bits 31:0 body_a} per manifold of ``idx``."""
+    a = cons.body_a[idx].astype(np.uint64)
+    b = cons.body_b[idx].astype(np.uint64)
+    if np.any(a >= (1 << 32)) or np.any(b >= (1 << _BODY_B_BITS)):
+        raise ValueError("body index does not fit the record header")
+    sd = cons.spin_damp[idx].astype(np.uint64)
+    return a | (b << np.uint64(32)) | (sd << np.uint64(63))
+
+
+def contact_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np.ndarray:
+    """(K, 23) bit patterns: n(3), p[0..3] xyz (12), jac_inv(4), b(4)."""
+    k = len(idx)
+    vals = np.concatenate([cons.normal[idx], cons.points[idx].reshape(k, 12), cons.jac_inv[idx],
+                           cons.bias[idx]], axis=1)
+    return fmt.encode(vals)
+
+
+def friction_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np.ndarray:
+    """(K, 14) bit patterns: n(3), c(3), t0(3), t1(3), f_jac_inv(2)."""
+    vals = np.concatenate([cons.normal[idx], cons.center[idx], cons.tangent[idx, 0], cons.tangent[idx, 1],
+                           cons.f_jac_inv[idx]], axis=1)
+    return fmt.encode(vals)
+
+
+def body_in_words(fmt: NumberFormat, bodies: BodyTable) -> np.ndarray:
+    """(N, 17) bit patterns: pos(3), q(4), v(3), w(3), inv_mass(1), inv_inertia(3)."""
+    vals = np.concatenate([bodies.position, bodies.orientation, bodies.linear_velocity, bodies.angular_velocity,
+                           bodies.inv_mass[:, None], bodies.inv_inertia], axis=1)
+    return fmt.encode(vals)
+
+
+def body_out_words(fmt: NumberFormat, bodies: BodyTable) -> np.ndarray:
+    """(N, 13) bit patterns: pos(3), q(4), v(3), w(3)."""
+    vals = np.concatenate([bodies.position, bodies.orientation, bodies.linear_velocity, bodies.angular_velocity],
+                          axis=1)
+    return fmt.encode(vals)
+
+
+# --- sizes --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class StreamLayout:
+    """Record sizes of one format and beat widths."""
+
+    fmt: NumberFormat
+    cons_beat_bits: int = DEFAULT_CONS_BEAT_BITS
+    body_beat_bits: int = DEFAULT_BODY_BEAT_BITS
+
+    @property
+    def word_bits(self) -> int:
+        return self.fmt.width
+
+    @property
+    def contact_bits(self) -> int:
+        return HEADER_BITS + CONTACT_WORDS * self.word_bits
+
+    @property
+    def friction_bits(self) -> int:
+        return HEADER_BITS + FRICTION_WORDS * self.word_bits
+
+    @property
+    def contact_beats(self) -> int:
+        return beats_per_record(self.contact_bits, self.cons_beat_bits)
+
+    @property
+    def friction_beats(self) -> int:
+        return beats_per_record(self.friction_bits, self.cons_beat_bits)
+
+    @property
+    def body_in_beats(self) -> int:
+        return beats_per_record(BODY_IN_WORDS * self.word_bits, self.body_beat_bits)
+
+    @property
+    def body_out_beats(self) -> int:
+        return beats_per_record(BODY_OUT_WORDS * self.word_bits, self.body_beat_bits)
+
+    # bytes per record as streamed (padding included)
+    @property
+    def contact_bytes(self) -> int:
+        return self.contact_beats * self.cons_beat_bits // 8
+
+    @property
+    def friction_bytes(self) -> int:
+        return self.friction_beats * self.cons_beat_bits // 8
+
+    @property
+    def body_in_bytes(self) -> int:
+        return self.body_in_beats * self.body_beat_bits // 8
+
+    @property
+    def body_out_bytes(self) -> int:
+        return self.body_out_beats * self.body_beat_bits // 8
+
+    def bytes_per_manifold(self, params: SolverParams) -> int:
+        """Constraint-stream bytes one manifold costs over all passes of a step."""
+        return sum(self.contact_bytes if kind == CONTACT_PASS else self.friction_bytes
+                   for kind, _ in pass_sequence(params))
+
+    def bytes_per_step(self, num_bodies: int, num_manifolds: int, params: SolverParams) -> dict[str, int]:
+        """Bytes on each stream for one step."""
+        return {
+            "constraints": num_manifolds * self.bytes_per_manifold(params),
+            "body_in": num_bodies * self.body_in_bytes,
+            "body_out": num_bodies * self.body_out_bytes,
+        }
+
+
+# --- whole streams ------------------------------------------------------------------------------------
+@dataclass
+class Stream:
+    """Beats of one stream: ``data`` (B, beat_bytes) uint8 little-endian, ``last`` (B,) bool (TLAST)."""
+
+    data: np.ndarray
+    last: np.ndarray
+
+    @property
+    def num_beats(self) -> int:
+        return int(self.data.shape[0])
+
+    def to_bytes(self) -> bytes:
+        return self.data.tobytes()
+
+
+def schedule_manifolds(schedule: np.ndarray) -> np.ndarray:
+    """The schedule without bubbles: slot k of a pass holds manifold ``schedule_manifolds(s)[k]``."""
+    s = np.asarray(schedule, dtype=np.int64)
+    return s[s >= 0]
+
+
+def pack_constraint_stream(fmt: NumberFormat, cons: ConstraintSet, schedule: np.ndarray, params: SolverParams,
+                           beat_bits: int = DEFAULT_CONS_BEAT_BITS) -> Stream:
+    """The constraint stream of one step: every pass of ``pass_sequence(params)``, records in schedule order."""
+    idx = schedule_manifolds(schedule)
+    header = constraint_header(cons, idx)
+    contact = pack_records(header, contact_words(fmt, cons, idx), fmt.width, beat_bits)
+    friction = pack_records(header, friction_words(fmt, cons, idx), fmt.width, beat_bits)
+    data, last = [], []
+    for kind, _ in pass_sequence(params):
+        beats = contact if kind == CONTACT_PASS else friction
+        data.append(beats)
+        flags = np.zeros(beats.shape[0], dtype=bool)
+        if flags.size:
+            flags[-1] = True
+        last.append(flags)
+    if not data:
+        return Stream(np.zeros((0, beat_bits // 8), np.uint8), np.zeros(0, bool))
+    return Stream(np.concatenate(data), np.concatenate(last))
+
+
+def unpack_constraint_records(fmt: NumberFormat, beats: np.ndarray, kind: int,
+                              beat_bits: int = DEFAULT_CONS_BEAT_BITS) -> dict[str, np.ndarray]:
+    """Decode one pass's beats (all of one kind) into header fields and float64 values."""
+    nwords = CONTACT_WORDS if kind == CONTACT_PASS else FRICTION_WORDS
+    hdr, words = unpack_records(beats, nwords, fmt.width, beat_bits, header=True)
+    assert hdr is not None
+    out: dict[str, np.ndarray] = {
+        "body_a": (hdr & np.uint64(0xFFFFFFFF)).astype(np.int64),
+        "body_b": ((hdr >> np.uint64(32)) & np.uint64((1 << _BODY_B_BITS) - 1)).astype(np.int64),
+        "spin_damp": ((hdr >> np.uint64(63)) & np.uint64(1)).astype(bool),
+    }
+    v = fmt.decode(words)
+    out["normal"] = v[:, 0:3]
+    if kind == CONTACT_PASS:
+        out["points"] = v[:, 3:15].reshape(-1, 4, 3)
+        out["jac_inv"] = v[:, 15:19]
+        out["bias"] = v[:, 19:23]
+    else:
+        out["center"] = v[:, 3:6]
+        out["tangent"] = np.stack([v[:, 6:9], v[:, 9:12]], axis=1)
+        out["f_jac_inv"] = v[:, 12:14]
+    return out
+
+
+def _last_flags(nrec: int, beats_per: int) -> np.ndarray:
+    last = np.zeros(nrec * beats_per, dtype=bool)
+    if last.size:
+        last[-1] = True
+    return last
+
+
+def pack_body_table(fmt: NumberFormat, bodies: BodyTable, beat_bits: int = DEFAULT_BODY_BEAT_BITS) -> Stream:
+    """The body-in stream: one body-in record per body in index order, TLAST on the last beat."""
+    data = pack_records(None, body_in_words(fmt, bodies), fmt.width, beat_bits)
+    return Stream(data, _last_flags(bodies.num_bodies, beats_per_record(BODY_IN_WORDS * fmt.width, beat_bits)))
+
+
+def unpack_body_table(fmt: NumberFormat, beats: np.ndarray, beat_bits: int = DEFAULT_BODY_BEAT_BITS) -> BodyTable:
+    """Inverse of :func:`pack_body_table` (values decoded to float64)."""
+    _, words = unpack_records(beats, BODY_IN_WORDS, fmt.width, beat_bits)
+    v = fmt.decode(words)
+    return BodyTable(position=v[:, 0:3], orientation=v[:, 3:7], linear_velocity=v[:, 7:10],
+                     angular_velocity=v[:, 10:13], inv_mass=v[:, 13].copy(), inv_inertia=v[:, 14:17])
+
+
+def pack_body_out(fmt: NumberFormat, bodies: BodyTable, beat_bits: int = DEFAULT_BODY_BEAT_BITS) -> Stream:
+    """The body-out stream the kernel produces for ``bodies`` (the expected output, for tests)."""
+    data = pack_records(None, body_out_words(fmt, bodies), fmt.width, beat_bits)
+    return Stream(data, _last_flags(bodies.num_bodies, beats_per_record(BODY_OUT_WORDS * fmt.width, beat_bits)))
+
+
+def unpack_body_out(fmt: NumberFormat, beats: np.ndarray, beat_bits: int = DEFAULT_BODY_BEAT_BITS) -> np.ndarray:
+    """Body-out beats -> (N, 13) uint64 bit patterns (pos(3), q(4), v(3), w(3))."""
+    _, words = unpack_records(beats, BODY_OUT_WORDS, fmt.width, beat_bits)
+    return words
+
+
+def apply_body_out(fmt: NumberFormat, bodies: BodyTable, beats: np.ndarray,
+                   beat_bits: int = DEFAULT_BODY_BEAT_BITS) -> BodyTable:
+    """A copy of ``bodies`` with pos, q, v, w replaced by the decoded body-out stream."""
+    v = fmt.decode(unpack_body_out(fmt, beats, beat_bits))
+    out = bodies.copy()
+    out.position, out.orientation = v[:, 0:3], v[:, 3:7]
+    out.linear_velocity, out.angular_velocity = v[:, 7:10], v[:, 10:13]
+    return out

@@ -1,0 +1,118 @@
+"""Stream format: pack/unpack round trips, bit positions and sizes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from models import stream_format as sf
+from models.constraints import BodyTable, ConstraintSet
+from models.contact_solver import CONTACT_PASS, FRICTION_PASS, SolverParams
+from models.number_format import BF16, FP16, FP32, NumberFormat
+
+FORMATS = [FP32, FP16, BF16, NumberFormat("e6m9", 6, 9)]
+
+
+def _bodies(rng: np.random.Generator, n: int) -> BodyTable:
+    inv_mass = rng.uniform(0.1, 2.0, n)
+    inv_mass[0] = 0.0
+    return BodyTable(position=rng.normal(size=(n, 3)), orientation=rng.normal(size=(n, 4)),
+                     linear_velocity=rng.normal(size=(n, 3)), angular_velocity=rng.normal(size=(n, 3)),
+                     inv_mass=inv_mass, inv_inertia=rng.uniform(0, 3, (n, 3)))
+
+
+def _cons(rng: np.random.Generator, m: int, n: int) -> ConstraintSet:
+    return ConstraintSet(
+        body_a=rng.integers(0, n, m), body_b=rng.integers(0, n, m), num_points=rng.integers(1, 5, m),
+        normal=rng.normal(size=(m, 3)), points=rng.normal(size=(m, 4, 3)), jac_inv=-rng.uniform(0, 2, (m, 4)),
+        bias=rng.normal(size=(m, 4)), center=rng.normal(size=(m, 3)), tangent=rng.normal(size=(m, 2, 3)),
+        f_jac_inv=-rng.uniform(0, 2, (m, 2)), spin_damp=rng.integers(0, 2, m).astype(bool))
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    return np.array_equal(a, b, equal_nan=True)
+
+
+@pytest.mark.parametrize("fmt", FORMATS, ids=lambda f: f.name)
+@pytest.mark.parametrize("beat", [128, 512, 64])
+def test_body_round_trip(fmt: NumberFormat, beat: int) -> None:
+    rng = np.random.default_rng(1)
+    bodies = _bodies(rng, 37).rounded(fmt)
+    stream = sf.pack_body_table(fmt, bodies, beat)
+    layout = sf.StreamLayout(fmt, body_beat_bits=beat)
+    assert stream.data.shape == (37 * layout.body_in_beats, beat // 8)
+    assert stream.last.sum() == 1 and stream.last[-1]
+    back = sf.unpack_body_table(fmt, stream.data, beat)
+    for name in ("position", "orientation", "linear_velocity", "angular_velocity", "inv_mass", "inv_inertia"):
+        assert _same(getattr(back, name), getattr(bodies, name)), name
+    out = sf.pack_body_out(fmt, bodies, beat)
+    assert out.data.shape[0] == 37 * layout.body_out_beats
+    applied = sf.apply_body_out(fmt, bodies, out.data, beat)
+    assert _same(applied.position, bodies.position) and _same(applied.angular_velocity, bodies.angular_velocity)
+
+
+@pytest.mark.parametrize("fmt", FORMATS, ids=lambda f: f.name)
+@pytest.mark.parametrize("interleaved", [False, True])
+def test_constraint_stream_round_trip(fmt: NumberFormat, interleaved: bool) -> None:
+    rng = np.random.default_rng(2)
+    cons = _cons(rng, 29, 50).rounded(fmt)
+    schedule = np.concatenate([rng.permutation(29), [-1, -1]])
+    rng.shuffle(schedule)
+    params = SolverParams(iterations=3, interleaved=interleaved)
+    layout = sf.StreamLayout(fmt)
+    stream = sf.pack_constraint_stream(fmt, cons, schedule, params)
+    idx = sf.schedule_manifolds(schedule)
+    kinds = [CONTACT_PASS] * 3 + [FRICTION_PASS] * 3 if not interleaved else [CONTACT_PASS, FRICTION_PASS] * 3
+    pos = 0
+    for kind in kinds:
+        nb = layout.contact_beats if kind == CONTACT_PASS else layout.friction_beats
+        beats = stream.data[pos:pos + 29 * nb]
+        assert stream.last[pos + 29 * nb - 1] and not stream.last[pos:pos + 29 * nb - 1].any()
+        pos += 29 * nb
+        rec = sf.unpack_constraint_records(fmt, beats, kind)
+        assert np.array_equal(rec["body_a"], cons.body_a[idx])
+        assert np.array_equal(rec["body_b"], cons.body_b[idx])
+        assert np.array_equal(rec["spin_damp"], cons.spin_damp[idx])
+        assert _same(rec["normal"], cons.normal[idx])
+        if kind == CONTACT_PASS:
+            assert _same(rec["points"], cons.points[idx]) and _same(rec["jac_inv"], cons.jac_inv[idx])
+            assert _same(rec["bias"], cons.bias[idx])
+        else:
+            assert _same(rec["center"], cons.center[idx]) and _same(rec["tangent"], cons.tangent[idx])
+            assert _same(rec["f_jac_inv"], cons.f_jac_inv[idx])
+    assert pos == stream.num_beats
+    assert stream.data.nbytes == 29 * layout.bytes_per_manifold(params)
+
+
+def test_bit_positions_fp32() -> None:
+    """Header in bits 63:0, word k at bits 64 + 32k: check raw bytes."""
+    cons = _cons(np.random.default_rng(3), 1, 10)
+    cons.body_a[:] = 0x1234
+    cons.body_b[:] = 0x5678
+    cons.spin_damp[:] = True
+    cons.normal[:] = [1.0, -2.0, 0.5]
+    stream = sf.pack_constraint_stream(FP32, cons, np.array([0]), SolverParams(iterations=1))
+    raw = stream.data[:2].tobytes()  # the contact record: 2 beats of 64 bytes
+    assert int.from_bytes(raw[0:8], "little") == 0x1234 | (0x5678 << 32) | (1 << 63)
+    assert int.from_bytes(raw[8:12], "little") == 0x3F800000
+    assert int.from_bytes(raw[12:16], "little") == 0xC0000000
+    assert int.from_bytes(raw[16:20], "little") == 0x3F000000
+    assert raw[8 + 23 * 4:].count(0) == len(raw) - 8 - 23 * 4  # padding is zero
+
+
+def test_sizes() -> None:
+    l32, l16 = sf.StreamLayout(FP32), sf.StreamLayout(FP16)
+    assert (l32.contact_bits, l32.friction_bits) == (800, 512)
+    assert (l32.contact_bytes, l32.friction_bytes, l32.body_in_bytes, l32.body_out_bytes) == (128, 64, 80, 64)
+    assert (l16.contact_bits, l16.friction_bits) == (432, 288)
+    assert (l16.contact_bytes, l16.friction_bytes, l16.body_in_bytes, l16.body_out_bytes) == (64, 64, 48, 32)
+    p = SolverParams(iterations=4)
+    assert l32.bytes_per_manifold(p) == 4 * 128 + 4 * 64
+    assert l32.bytes_per_step(10, 3, p) == {"constraints": 3 * 768, "body_in": 800, "body_out": 640}
+
+
+def test_header_range() -> None:
+    cons = _cons(np.random.default_rng(4), 2, 10)
+    cons.body_b[0] = 1 << 31
+    with pytest.raises(ValueError):
+        sf.constraint_header(cons, np.arange(2))

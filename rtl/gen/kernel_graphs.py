@@ -1,0 +1,265 @@
+"""The kernel's three datapaths as dataflow graphs, in the operation order of models/OPERATION_ORDER.md.
+
+Each function mirrors the golden Python line by line (``models/contact_solver.py``:
+``contact_solve``, ``friction_solve``, ``dot3``, ``cross3``, ``scale3``, ``_apply``;
+``models/integrator.py``: ``integrate``, ``sin_poly``, ``cos_poly``, ``quat_mul``): the same
+operations with the same association order, so the generated RTL is bit-identical to it. The
+golden's masked updates (``np.where(active, new, old)``) become selects.
+
+Word layouts (``in_data`` / ``out_data``) are the port contract of the generated modules; the test
+harness packs them with ``models/kernel_vectors.py``.
+"""
+
+from __future__ import annotations
+
+from .dataflow import Graph, Value
+
+MAN_BITS_OF = {"fp32": 23, "fp16": 10, "bf16": 7}
+
+# Constants of the golden model (float64 values; rounded to the format in the RTL).
+FRICTION_COEFF = 0.7          # models.constraints.FRICTION_COEFF
+SPIN_DAMP_FACTOR = 0.1        # models.contact_solver.SPIN_DAMP_FACTOR
+MAX_ANGLE = 0.25 * 3.14159254  # models.integrator.MAX_ANGLE
+SMALL_ANGLE = 0.001
+TAYLOR_SINC = 0.020833333333
+SIN_COEFFS = (-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0)
+COS_COEFFS = (-1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0, 1.0 / 40320.0)
+
+Vec = list[Value]
+
+
+# --- helpers: the golden's vector operation order -------------------------------------------------
+def dot3(a: Vec, b: Vec) -> Value:
+    """(a.x*b.x + a.y*b.y) + a.z*b.z"""
+    return (a[0] * b[0] + a[1] * b[1]) + a[2] * b[2]
+
+
+def cross3(a: Vec, b: Vec) -> Vec:
+    """(a.y*b.z - a.z*b.y, a.z*b.x - a.x*b.z, a.x*b.y - a.y*b.x)"""
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def scale3(v: Vec, s: Value) -> Vec:
+    """v * s per component (v.k * s)."""
+    return [v[k] * s for k in range(3)]
+
+
+def vmul(a: Vec, b: Vec) -> Vec:
+    return [a[k] * b[k] for k in range(3)]
+
+
+def vadd(a: Vec, b: Vec) -> Vec:
+    return [a[k] + b[k] for k in range(3)]
+
+
+def vsub(a: Vec, b: Vec) -> Vec:
+    return [a[k] - b[k] for k in range(3)]
+
+
+def vselect(g: Graph, p: Value, a: Vec, b: Vec) -> Vec:
+    return [g.select(p, a[k], b[k]) for k in range(3)]
+
+
+def named(vs: Vec, name: str) -> Vec:
+    return [v.named(f"{name}_{'xyzw'[k]}") for k, v in enumerate(vs)]
+
+
+# --- contact pass ------------------------------------------------------------------------------------
+CONTACT_IN = (["n_x", "n_y", "n_z"] + [f"p{i}_{c}" for i in range(4) for c in "xyz"]
+              + [f"jac_inv{i}" for i in range(4)] + [f"b{i}" for i in range(4)] + [f"lam{i}" for i in range(4)]
+              + [f"{v}_{c}" for v in ("xA", "xB", "vA", "wA", "vB", "wB") for c in "xyz"]
+              + ["mInvA", "mInvB"] + [f"IInv{s}_{c}" for s in "AB" for c in "xyz"])
+CONTACT_OUT = ([f"lam{i}" for i in range(4)] + [f"{v}_{c}" for v in ("vA", "wA", "vB", "wB") for c in "xyz"])
+
+
+def contact_graph() -> Graph:
+    g = Graph("pgs_contact_pipe", doc="""\
+pgs_contact_pipe: one contact pass of one manifold (models/contact_solver.py contact_solve for a
+single manifold; models/OPERATION_ORDER.md "Contact pass"). The four points are solved in order,
+point i+1 seeing point i's velocity update; a point with jac_inv == 0 is skipped (its lam and the
+velocities keep their previous values: selects). The velocities of a static body are computed the
+same way; the caller must not write them back.""")
+    n = g.inputs_vec("n")
+    p = [g.inputs_vec(f"p{i}") for i in range(4)]
+    jac = [g.input(f"jac_inv{i}") for i in range(4)]
+    bias = [g.input(f"b{i}") for i in range(4)]
+    lam = [g.input(f"lam{i}") for i in range(4)]
+    xa, xb = g.inputs_vec("xA"), g.inputs_vec("xB")
+    va, wa = g.inputs_vec("vA"), g.inputs_vec("wA")
+    vb, wb = g.inputs_vec("vB"), g.inputs_vec("wB")
+    ma, mb = g.input("mInvA"), g.input("mInvB")
+    ia, ib = g.inputs_vec("IInvA"), g.inputs_vec("IInvB")
+    assert [v.name.removeprefix("in_") for v in g.inputs] == CONTACT_IN
+
+    lin_a = named(scale3(n, ma), "linA")
+    lin_b = named(scale3(n, mb), "linB")
+    zero = g.const(0.0, "zero")
+    for i in range(4):
+        with g.scope(f"pt{i}"):
+            skip = g.is_zero(jac[i], name="skip")
+            ca = named(cross3(named(vsub(p[i], xa), "rA"), n), "cA")
+            cb = named(cross3(named(vsub(p[i], xb), "rB"), n), "cB")
+            vrel = ((dot3(n, va) - dot3(n, vb)) + (dot3(ca, wa) - dot3(cb, wb))).named("vrel")
+            delta = ((vrel + bias[i]) * jac[i]).named("delta0")
+            new = g.max(lam[i] + delta, zero, name="lam_new")
+            delta = (new - lam[i]).named("delta")
+            lam[i] = g.select(skip, lam[i], new, name="lam")
+            ang_a = named(vmul(ia, ca), "angA")
+            ang_b = named(vmul(ib, cb), "angB")
+            va = named(vselect(g, skip, va, vadd(va, scale3(lin_a, delta))), "vA")
+            wa = named(vselect(g, skip, wa, vadd(wa, scale3(ang_a, delta))), "wA")
+            vb = named(vselect(g, skip, vb, vsub(vb, scale3(lin_b, delta))), "vB")
+            wb = named(vselect(g, skip, wb, vsub(wb, scale3(ang_b, delta))), "wB")
+    for i in range(4):
+        g.output(f"lam{i}", lam[i])
+    for name, v in (("vA", va), ("wA", wa), ("vB", vb), ("wB", wb)):
+        for k in range(3):
+            g.output(f"{name}_{'xyz'[k]}", v[k])
+    assert [o.name for o in g.outputs] == CONTACT_OUT
+    return g
+
+
+# --- friction pass -----------------------------------------------------------------------------------
+FRICTION_IN = (["n_x", "n_y", "n_z", "c_x", "c_y", "c_z", "t0_x", "t0_y", "t0_z", "t1_x", "t1_y", "t1_z",
+                "f_jac_inv0", "f_jac_inv1"] + [f"lam_n{i}" for i in range(4)] + ["lamT0", "lamT1"]
+               + [f"{v}_{c}" for v in ("xA", "xB", "vA", "wA", "vB", "wB") for c in "xyz"]
+               + ["mInvA", "mInvB"] + [f"IInv{s}_{c}" for s in "AB" for c in "xyz"])
+FRICTION_OUT = ["lamT0", "lamT1"] + [f"{v}_{c}" for v in ("vA", "wA", "vB", "wB") for c in "xyz"]
+
+
+def friction_graph() -> Graph:
+    g = Graph("pgs_friction_pipe", doc="""\
+pgs_friction_pipe: one friction pass of one manifold (models/contact_solver.py friction_solve for
+a single manifold; models/OPERATION_ORDER.md "Friction pass"), mu = 0.7. A manifold with
+f_jac_inv[0] == 0 is skipped (lamT and the velocities pass through unchanged: selects); otherwise
+spin damping (factor 0.1) is applied when in_spin_damp is set. The velocities of a static body are
+computed the same way; the caller must not write them back.""")
+    n = g.inputs_vec("n")
+    c = g.inputs_vec("c")
+    t = [g.inputs_vec("t0"), g.inputs_vec("t1")]
+    fji = [g.input("f_jac_inv0"), g.input("f_jac_inv1")]
+    ln = [g.input(f"lam_n{i}") for i in range(4)]
+    lam_t = [g.input("lamT0"), g.input("lamT1")]
+    xa, xb = g.inputs_vec("xA"), g.inputs_vec("xB")
+    va, wa = g.inputs_vec("vA"), g.inputs_vec("wA")
+    vb, wb = g.inputs_vec("vB"), g.inputs_vec("wB")
+    ma, mb = g.input("mInvA"), g.input("mInvB")
+    ia, ib = g.inputs_vec("IInvA"), g.inputs_vec("IInvB")
+    spin = g.bool_input("spin_damp")
+    assert [v.name.removeprefix("in_") for v in g.inputs] == FRICTION_IN
+
+    skip = g.is_zero(fji[0], name="skip")
+    limit = (g.const(FRICTION_COEFF, "mu") * ((ln[0] + ln[1]) + (ln[2] + ln[3]))).named("limit")
+    neg_limit = (-limit).named("neg_limit")
+    ra = named(vsub(c, xa), "rA")
+    rb = named(vsub(c, xb), "rB")
+    for j in range(2):
+        with g.scope(f"t{j}"):
+            tj = t[j]
+            ca = named(cross3(ra, tj), "cA")
+            cb = named(cross3(rb, tj), "cB")
+            u = ((dot3(tj, va) - dot3(tj, vb)) + (dot3(ca, wa) - dot3(cb, wb))).named("u")
+            delta = ((-u) * fji[j]).named("delta0")
+            new = g.min(g.max(lam_t[j] + delta, neg_limit), limit, name="lam_new")
+            delta = (new - lam_t[j]).named("delta")
+            lam_t[j] = g.select(skip, lam_t[j], new, name="lamT")
+            e = (-delta).named("e")
+            va = named(vselect(g, skip, va, vadd(va, scale3(named(scale3(tj, ma), "linA"), e))), "vA")
+            wa = named(vselect(g, skip, wa, vadd(wa, scale3(named(vmul(ia, ca), "angA"), e))), "wA")
+            vb = named(vselect(g, skip, vb, vsub(vb, scale3(named(scale3(tj, mb), "linB"), e))), "vB")
+            wb = named(vselect(g, skip, wb, vsub(wb, scale3(named(vmul(ib, cb), "angB"), e))), "wB")
+    with g.scope("spin"):
+        k = g.const(SPIN_DAMP_FACTOR, "spin_damp")
+        wa_d = named(vsub(wa, scale3(n, (dot3(n, wa) * k).named("sA"))), "wA_damped")
+        wb_d = named(vsub(wb, scale3(n, (dot3(n, wb) * k).named("sB"))), "wB_damped")
+        # damp = active & spin_damp; when skipped, wa / wb already hold the inputs
+        wa = named(vselect(g, skip, wa, vselect(g, spin, wa_d, wa)), "wA")
+        wb = named(vselect(g, skip, wb, vselect(g, spin, wb_d, wb)), "wB")
+    g.output("lamT0", lam_t[0])
+    g.output("lamT1", lam_t[1])
+    for name, v in (("vA", va), ("wA", wa), ("vB", vb), ("wB", wb)):
+        for kk in range(3):
+            g.output(f"{name}_{'xyz'[kk]}", v[kk])
+    assert [o.name for o in g.outputs] == FRICTION_OUT
+    return g
+
+
+# --- integration -------------------------------------------------------------------------------------
+INTEGRATE_IN = ["pos_x", "pos_y", "pos_z", "q_x", "q_y", "q_z", "q_w", "v_x", "v_y", "v_z", "w_x", "w_y", "w_z",
+                "dt", "damping", "g_x", "g_y", "g_z"]
+INTEGRATE_OUT = ["pos_x", "pos_y", "pos_z", "q_x", "q_y", "q_z", "q_w", "v_x", "v_y", "v_z", "w_x", "w_y", "w_z"]
+
+
+def _horner(g: Graph, x2: Value, coeffs: tuple[float, ...], name: str) -> Value:
+    """c0 + x2*(c1 + x2*(c2 + ...)) (models.integrator._horner)."""
+    acc = g.const(coeffs[-1], f"{name}{len(coeffs) - 1}")
+    for i in range(len(coeffs) - 2, -1, -1):
+        acc = g.const(coeffs[i], f"{name}{i}") + x2 * acc
+    return acc
+
+
+def integrate_graph() -> Graph:
+    g = Graph("pgs_integrate_pipe", doc="""\
+pgs_integrate_pipe: integration of one body (models/integrator.py integrate for a single dynamic
+body; models/OPERATION_ORDER.md "Integration"). The run constants half_dt = 0.5*dt,
+dt3c = ((dt*dt)*dt)*0.020833333333 and g_dt = g*dt are computed here from the dt / g inputs, as the
+golden computes them. sin / cos are the golden's Taylor polynomials; the angle is clamped to
+MAX_ANGLE / dt when theta*dt > MAX_ANGLE, and theta < 0.001 selects the small-angle sinc.""")
+    pos = g.inputs_vec("pos")
+    q = g.inputs_vec("q", 4)
+    v = g.inputs_vec("v")
+    w_in = g.inputs_vec("w")
+    dt = g.input("dt")
+    damping = g.input("damping")
+    grav = g.inputs_vec("g")
+    assert [x.name.removeprefix("in_") for x in g.inputs] == INTEGRATE_IN
+
+    half_dt = (g.const(0.5, "half") * dt).named("half_dt")
+    dt3c = (((dt * dt) * dt) * g.const(TAYLOR_SINC, "taylor_sinc")).named("dt3c")
+    g_dt = named([grav[k] * dt for k in range(3)], "g_dt")
+    max_angle = g.const(MAX_ANGLE, "max_angle")
+
+    w = named([w_in[k] * damping for k in range(3)], "w")
+    theta0 = g.sqrt((w[0] * w[0] + w[1] * w[1]) + w[2] * w[2], name="theta0")
+    clamp = g.lt(max_angle, theta0 * dt, name="clamp")              # theta*dt > MAX_ANGLE
+    theta = g.select(clamp, (max_angle / dt).named("theta_max"), theta0, name="theta")
+    x = (theta * half_dt).named("x")
+    small = g.lt(theta, g.const(SMALL_ANGLE, "small_angle"), name="small")
+    s_small = (half_dt - (dt3c * theta) * theta).named("s_small")
+    x2 = (x * x).named("x2")
+    sin_x = (x + x * (x2 * _horner(g, x2, SIN_COEFFS, "sin_c"))).named("sin_x")
+    s_large = (sin_x / theta).named("s_large")
+    s = g.select(small, s_small, s_large, name="s")
+    cos_x = (g.const(1.0, "one") + x2 * _horner(g, x2, COS_COEFFS, "cos_c")).named("cos_x")
+    dq = named([w[k] * s for k in range(3)], "dq") + [cos_x]
+    # quat_mul(dq, q): a = dq, b = q
+    ax, ay, az, aw = dq
+    bx, by, bz, bw = q
+    qn = [
+        ((aw * bx + ax * bw) + (ay * bz - az * by)).named("qn_x"),
+        ((aw * by + ay * bw) + (az * bx - ax * bz)).named("qn_y"),
+        ((aw * bz + az * bw) + (ax * by - ay * bx)).named("qn_z"),
+        ((aw * bw - ax * bx) - (ay * by + az * bz)).named("qn_w"),
+    ]
+    norm2 = ((qn[0] * qn[0] + qn[1] * qn[1]) + (qn[2] * qn[2] + qn[3] * qn[3])).named("norm2")
+    inv_norm = (g.const(1.0, "one") / g.sqrt(norm2, name="norm")).named("inv_norm")
+    q_out = [(qn[k] * inv_norm).named(f"q_{'xyzw'[k]}") for k in range(4)]
+    pos_out = named(vadd(pos, [v[k] * dt for k in range(3)]), "pos")
+    v_out = named(vadd(v, g_dt), "v")
+    for k in range(3):
+        g.output(f"pos_{'xyz'[k]}", pos_out[k])
+    for k in range(4):
+        g.output(f"q_{'xyzw'[k]}", q_out[k])
+    for k in range(3):
+        g.output(f"v_{'xyz'[k]}", v_out[k])
+    for k in range(3):
+        g.output(f"w_{'xyz'[k]}", w[k])
+    assert [o.name for o in g.outputs] == INTEGRATE_OUT
+    return g
+
+
+GRAPHS = {
+    "pgs_contact_pipe": contact_graph,
+    "pgs_friction_pipe": friction_graph,
+    "pgs_integrate_pipe": integrate_graph,
+}

@@ -1,0 +1,123 @@
+// pgs_kernel: top level of the PGS contact-solver kernel, with the ports a Vitis HLS export
+// (ap_ctrl_hs in an s_axilite `control` bundle, AXI4-Stream arguments with TLAST) would have.
+//
+//   ap_clk, ap_rst_n (synchronous, active low)
+//   s_axi_control_*   AXI4-Lite slave: the register file (pgs_control_s_axi, map in rtl/README.md)
+//   interrupt         GIE && (ISR != 0)
+//   s_axis_body_*     body-in records (models/stream_format.py), num_bodies of them, TLAST on the last beat
+//   s_axis_cons_*     constraint records, every pass of the step, TLAST on the last beat of each pass
+//   m_axis_body_*     body-out records in index order, TLAST on the last beat
+//   trace_valid, trace_data (TRACE = 1; tied to 0 otherwise): one record per retired manifold-pass,
+//     little-endian from bit 0: words 0..15 (W bits each) = impulses[0..3] (contact: lam[0..3];
+//     friction: lamT[0..1], then two zero words), vA(3), wA(3), vB(3), wB(3) (the pipe's outputs,
+//     static bodies included, as the golden PassRecord); then bits 16W+31:16W the manifold slot (record
+//     index within the pass), 16W+47:16W+32 the iteration, bit 16W+48 the pass kind (0 contact,
+//     1 friction), 15 zero bits: TRACE_W = 16W + 64 bits.
+// Real-valued arguments (dt, gravity, damping) are the format's bit patterns in the low W bits of their
+// 32-bit registers (W <= 32).
+`default_nettype none
+
+module pgs_kernel #(
+    parameter int EXP_BITS       = 8,
+    parameter int MAN_BITS       = 23,
+    parameter int MAX_BODIES     = 65536,
+    parameter int MAX_MANIFOLDS  = 262144,
+    parameter int BODY_IN_W      = 128,
+    parameter int CONS_W         = 512,
+    parameter int BODY_OUT_W     = 128,
+    parameter bit TRACE          = 1'b1,
+    parameter int HAZARD_DEPTH   = 256,
+    parameter int OUT_FIFO_DEPTH = 64,
+    parameter int C_S_AXI_CONTROL_ADDR_WIDTH = 8,
+    parameter int C_S_AXI_CONTROL_DATA_WIDTH = 32,
+    localparam int W             = 1 + EXP_BITS + MAN_BITS,
+    localparam int TRACE_W       = 16 * W + 64,
+    localparam int AW            = C_S_AXI_CONTROL_ADDR_WIDTH,
+    localparam int DW            = C_S_AXI_CONTROL_DATA_WIDTH
+) (
+    input  wire                   ap_clk,
+    input  wire                   ap_rst_n,
+    input  wire                   s_axi_control_AWVALID,
+    output logic                  s_axi_control_AWREADY,
+    input  wire  [AW-1:0]         s_axi_control_AWADDR,
+    input  wire                   s_axi_control_WVALID,
+    output logic                  s_axi_control_WREADY,
+    input  wire  [DW-1:0]         s_axi_control_WDATA,
+    input  wire  [DW/8-1:0]       s_axi_control_WSTRB,
+    output logic                  s_axi_control_BVALID,
+    input  wire                   s_axi_control_BREADY,
+    output logic [1:0]            s_axi_control_BRESP,
+    input  wire                   s_axi_control_ARVALID,
+    output logic                  s_axi_control_ARREADY,
+    input  wire  [AW-1:0]         s_axi_control_ARADDR,
+    output logic                  s_axi_control_RVALID,
+    input  wire                   s_axi_control_RREADY,
+    output logic [DW-1:0]         s_axi_control_RDATA,
+    output logic [1:0]            s_axi_control_RRESP,
+    // `interrupt` is the Vitis HLS port name (it merely matches a C++ word)
+    /* verilator lint_off SYMRSVDWORD */
+    output logic                  interrupt,
+    /* verilator lint_on SYMRSVDWORD */
+    input  wire  [BODY_IN_W-1:0]  s_axis_body_TDATA,
+    input  wire                   s_axis_body_TVALID,
+    output logic                  s_axis_body_TREADY,
+    input  wire                   s_axis_body_TLAST,
+    input  wire  [CONS_W-1:0]     s_axis_cons_TDATA,
+    input  wire                   s_axis_cons_TVALID,
+    output logic                  s_axis_cons_TREADY,
+    input  wire                   s_axis_cons_TLAST,
+    output logic [BODY_OUT_W-1:0] m_axis_body_TDATA,
+    output logic                  m_axis_body_TVALID,
+    input  wire                   m_axis_body_TREADY,
+    output logic                  m_axis_body_TLAST,
+    output logic                  trace_valid,
+    output logic [TRACE_W-1:0]    trace_data
+);
+    logic ap_rst_n_inv;
+    assign ap_rst_n_inv = !ap_rst_n;
+
+    logic        ap_start, ap_done, ap_idle;
+    logic [31:0] num_bodies, num_manifolds, iterations, dt, gx, gy, gz, damping, options;
+    logic [7:0]  err_set, err_code;
+    logic [63:0] stat_cycles;
+    logic [31:0] stat_stalls, stat_bubbles, stat_issued;
+
+    pgs_control_s_axi #(.ADDR_W(AW), .DATA_W(DW)) u_control (
+        .ap_clk, .ap_rst_n,
+        .s_axi_control_AWVALID, .s_axi_control_AWREADY, .s_axi_control_AWADDR, .s_axi_control_WVALID,
+        .s_axi_control_WREADY, .s_axi_control_WDATA, .s_axi_control_WSTRB, .s_axi_control_BVALID,
+        .s_axi_control_BREADY, .s_axi_control_BRESP, .s_axi_control_ARVALID, .s_axi_control_ARREADY,
+        .s_axi_control_ARADDR, .s_axi_control_RVALID, .s_axi_control_RREADY, .s_axi_control_RDATA,
+        .s_axi_control_RRESP, .interrupt,
+        .ap_start, .ap_done, .ap_idle, .ap_ready(ap_done),
+        .num_bodies, .num_manifolds, .iterations, .dt, .gravity_x(gx), .gravity_y(gy), .gravity_z(gz),
+        .damping, .options, .err_set, .err_code, .stat_cycles, .stat_stalls, .stat_bubbles, .stat_issued);
+
+    pgs_sequencer #(
+        .EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .MAX_MANIFOLDS(MAX_MANIFOLDS),
+        .BODY_IN_W(BODY_IN_W), .CONS_W(CONS_W), .BODY_OUT_W(BODY_OUT_W), .TRACE(TRACE),
+        .HAZARD_DEPTH(HAZARD_DEPTH), .OUT_FIFO_DEPTH(OUT_FIFO_DEPTH)
+    ) u_seq (
+        .clk(ap_clk), .rst(ap_rst_n_inv), .start(ap_start), .idle(ap_idle), .done(ap_done),
+        .arg_num_bodies(num_bodies), .arg_num_manifolds(num_manifolds), .arg_iterations(iterations),
+        .arg_dt(dt[W-1:0]), .arg_gx(gx[W-1:0]), .arg_gy(gy[W-1:0]), .arg_gz(gz[W-1:0]),
+        .arg_damping(damping[W-1:0]), .opt_interleaved(options[0]),
+        .s_body_tdata(s_axis_body_TDATA), .s_body_tvalid(s_axis_body_TVALID), .s_body_tready(s_axis_body_TREADY),
+        .s_body_tlast(s_axis_body_TLAST),
+        .s_cons_tdata(s_axis_cons_TDATA), .s_cons_tvalid(s_axis_cons_TVALID), .s_cons_tready(s_axis_cons_TREADY),
+        .s_cons_tlast(s_axis_cons_TLAST),
+        .m_body_tdata(m_axis_body_TDATA), .m_body_tvalid(m_axis_body_TVALID), .m_body_tready(m_axis_body_TREADY),
+        .m_body_tlast(m_axis_body_TLAST),
+        .err_set, .err_code, .stat_cycles, .stat_stalls, .stat_bubbles, .stat_issued, .trace_valid, .trace_data);
+
+    // Not needed (Verilator's *unused* naming convention): the register bits above the format's width
+    // and the reserved option bits.
+    generate
+        if (W < 32) begin : g_unused_hi
+            wire unused_hi = ^{dt[31:W], gx[31:W], gy[31:W], gz[31:W], damping[31:W]};
+        end
+    endgenerate
+    wire unused_opt = ^options[31:1];
+endmodule
+
+`default_nettype wire
