@@ -28,17 +28,25 @@ def _sig(dut: Any, prefix: str, name: str) -> Any:
     return None
 
 
-class AxisWordSource:
-    """Drives ``<prefix>_TDATA/TVALID/TLAST`` and reads ``TREADY``; ``send`` returns when all beats are taken."""
+class _AxisPort:
+    """The handles of one AXI4-Stream port; ``required`` names the signals that must exist."""
 
-    def __init__(self, dut: Any, prefix: str, clock: Any):
+    def __init__(self, dut: Any, prefix: str, clock: Any, required: Sequence[str]):
         self.clock = clock
         self.tdata = _sig(dut, prefix, "tdata")
         self.tvalid = _sig(dut, prefix, "tvalid")
         self.tready = _sig(dut, prefix, "tready")
         self.tlast = _sig(dut, prefix, "tlast")
-        if self.tdata is None or self.tvalid is None:
-            raise AttributeError(f"no AXI4-Stream {prefix}_TDATA/TVALID on the DUT")
+        missing = [name for name in required if getattr(self, name) is None]
+        if missing:
+            raise AttributeError(f"no AXI4-Stream {', '.join(f'{prefix}_{m.upper()}' for m in missing)} on the DUT")
+
+
+class AxisWordSource(_AxisPort):
+    """Drives ``<prefix>_TDATA/TVALID/TLAST`` and reads ``TREADY``; ``send`` returns when all beats are taken."""
+
+    def __init__(self, dut: Any, prefix: str, clock: Any):
+        super().__init__(dut, prefix, clock, ("tdata", "tvalid"))
         self.tvalid.value = 0
         self.beats_sent = 0
         self.first_beat_cycle: Optional[int] = None
@@ -68,17 +76,11 @@ class AxisWordSource:
         self.tvalid.value = 0
 
 
-class AxisWordSink:
+class AxisWordSink(_AxisPort):
     """Reads ``<prefix>_TDATA/TVALID/TLAST`` and drives ``TREADY`` from the gate; collects beats."""
 
     def __init__(self, dut: Any, prefix: str, clock: Any):
-        self.clock = clock
-        self.tdata = _sig(dut, prefix, "tdata")
-        self.tvalid = _sig(dut, prefix, "tvalid")
-        self.tready = _sig(dut, prefix, "tready")
-        self.tlast = _sig(dut, prefix, "tlast")
-        if self.tdata is None or self.tvalid is None or self.tready is None:
-            raise AttributeError(f"no AXI4-Stream {prefix}_TDATA/TVALID/TREADY on the DUT")
+        super().__init__(dut, prefix, clock, ("tdata", "tvalid", "tready"))
         self.tready.value = 0
 
     async def recv_packet(self, max_beats: int, gate: Gate = _always,
