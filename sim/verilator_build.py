@@ -63,8 +63,7 @@ def verilator_root() -> Path:
 def ensure_verilator_env() -> Path:
     """Set VERILATOR_ROOT and put its bin/ first on PATH in os.environ; return the binary path."""
     root = verilator_root()
-    os.environ.setdefault("VERILATOR_ROOT", str(root))
-    root = Path(os.environ["VERILATOR_ROOT"])
+    os.environ["VERILATOR_ROOT"] = str(root)
     bindir = str(root / "bin")
     path = os.environ.get("PATH", "")
     if path.split(os.pathsep)[0] != bindir:
