@@ -21,23 +21,13 @@
 
 #include "Vfp_ops_tb.h"
 #include "verilated.h"
+#include "../harness_rng.h"
 
 namespace {
 
 constexpr int kOps = 6;          // channels: add, sub, mul, div, sqrt, minmax
 constexpr int kRecord = 8;       // uint32 words per output record
 const char* const kNames[kOps] = {"add", "sub", "mul", "div", "sqrt", "minmax"};
-
-struct Rng {  // xorshift64*
-    uint64_t s;
-    explicit Rng(uint64_t seed) : s(seed ? seed : 0x9E3779B97F4A7C15ULL) {}
-    uint64_t next() {
-        s ^= s >> 12;
-        s ^= s << 25;
-        s ^= s >> 27;
-        return s * 0x2545F4914F6CDD1DULL;
-    }
-};
 
 [[noreturn]] void fail(const char* msg) {
     std::fprintf(stderr, "fp_ops_sim: %s\n", msg);

@@ -24,24 +24,13 @@
 
 #include "Vpgs_kernel.h"
 #include "verilated.h"
+#include "../harness_rng.h"
 
 #ifndef BODY_IN_BYTES
 #error "define BODY_IN_BYTES, CONS_BYTES, BODY_OUT_BYTES, TRACE_BYTES"
 #endif
 
 namespace {
-
-struct Rng {  // xorshift64*
-    uint64_t s;
-    explicit Rng(uint64_t seed) : s(seed ? seed : 0x9E3779B97F4A7C15ULL) {}
-    uint64_t next() {
-        s ^= s >> 12;
-        s ^= s << 25;
-        s ^= s >> 27;
-        return s * 0x2545F4914F6CDD1DULL;
-    }
-    bool chance(unsigned permille) { return (next() >> 11) % 1000 < permille; }
-};
 
 [[noreturn]] void fail(const std::string& msg, int code = 2) {
     std::fprintf(stderr, "pgs_kernel_sim: %s\n", msg.c_str());

@@ -24,21 +24,11 @@
 #define PIPE_STR(x) PIPE_STR2(x)
 #include PIPE_STR(PIPE_CLASS.h)
 #include "verilated.h"
+#include "../harness_rng.h"
 
 namespace {
 
 constexpr int kInRec = N_IN + 1;
-
-struct Rng {  // xorshift64*
-    uint64_t s;
-    explicit Rng(uint64_t seed) : s(seed ? seed : 0x9E3779B97F4A7C15ULL) {}
-    uint64_t next() {
-        s ^= s >> 12;
-        s ^= s << 25;
-        s ^= s >> 27;
-        return s * 0x2545F4914F6CDD1DULL;
-    }
-};
 
 [[noreturn]] void fail(const char* msg) {
     std::fprintf(stderr, "pipe_sim: %s\n", msg);
