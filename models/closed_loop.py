@@ -6,7 +6,7 @@ chosen schedule, integrates, and keeps the result. The metrics per step are the 
 reports: penetration, drift of the bodies from where the loop started, speed, kinetic energy and NaN/Inf.
 
 pybullet's state is moved to the GPU convention when the loop starts (g*dt added to dynamic linear
-velocities, see ``constraints.body_table``): at rest the stored velocity is then -g*dt, as on the GPU.
+velocities, see ``constraints.body_table_from_state``): at rest the stored velocity is then -g*dt, as on the GPU.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from . import scenes
-from .constraints import BodyTable, gpu_inverse_inertia, setup_constraints
+from .constraints import BodyTable, body_table_from_state, setup_constraints
 from .contact_solver import SolverParams, solve
 from .frame import Frame
 from .integrator import IntegrationParams, integrate
@@ -53,16 +53,6 @@ class LoopResult:
             "final kinetic energy (J)": float(self.kinetic_energy[-1]) if self.steps else 0.0,
             "NaN/Inf values": int(np.sum(self.nonfinite)),
         }
-
-
-def _state_table(state: dict[str, np.ndarray], gravity: np.ndarray, dt: float) -> BodyTable:
-    lin = state["linear_velocity"].copy()
-    dynamic = state["inv_mass"] != 0.0
-    lin[dynamic] += gravity * dt
-    return BodyTable(position=state["position"].copy(), orientation=state["orientation"].copy(),
-                     linear_velocity=lin, angular_velocity=state["angular_velocity"].copy(),
-                     inv_mass=state["inv_mass"].copy(),
-                     inv_inertia=gpu_inverse_inertia(state["half_extents"], state["inv_mass"]))
 
 
 def _kinetic_energy(bodies: BodyTable, inertia_local: np.ndarray) -> float:
@@ -105,7 +95,7 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
         state = world.body_state()
         gravity = np.asarray(scenes.GRAVITY, dtype=np.float64)
         ip = IntegrationParams(dt=world.dt, gravity=tuple(gravity))
-        bodies = _state_table(state, gravity, world.dt).rounded(ar)
+        bodies = body_table_from_state(state, gravity, world.dt).rounded(ar)
         dyn = bodies.dynamic
         rows: dict[str, list[float]] = {k: [] for k in ("pen", "vmax", "vmed", "ke", "bad", "man")}
         start = bodies.position.copy()

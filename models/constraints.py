@@ -34,6 +34,7 @@ Deliberate deviations from Bullet's GPU code (each documented in the README):
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
+from typing import Mapping
 
 import numpy as np
 
@@ -114,23 +115,33 @@ def gpu_inverse_inertia(half_extents: np.ndarray, inv_mass: np.ndarray) -> np.nd
 
 
 def body_table(frame: Frame, gravity_preapplied: bool = True) -> BodyTable:
-    """The kernel's body table from a pybullet frame.
+    """The kernel's body table from a pybullet frame (see :func:`body_table_from_state`)."""
+    return body_table_from_state(
+        {"position": frame.position, "orientation": frame.orientation, "linear_velocity": frame.linear_velocity,
+         "angular_velocity": frame.angular_velocity, "inv_mass": frame.inv_mass, "half_extents": frame.half_extents},
+        frame.gravity, frame.dt, gravity_preapplied)
+
+
+def body_table_from_state(state: Mapping[str, np.ndarray], gravity: np.ndarray, dt: float,
+                          gravity_preapplied: bool = True) -> BodyTable:
+    """The kernel's body table from pybullet body state (arrays named as in :class:`~models.frame.Frame`).
 
     Bullet's GPU integrator adds g*dt to the velocity *after* the position update, so the velocity it
     stores (and solves with) already holds the next step's gravity, whereas pybullet applies g*dt inside
-    its solve. With ``gravity_preapplied`` the frame's velocities are moved to the GPU convention by adding
+    its solve. With ``gravity_preapplied`` pybullet's velocities are moved to the GPU convention by adding
     g*dt to every dynamic body, so one GPU-style step sees the same free-flight velocity as pybullet's.
     """
-    lin = frame.linear_velocity.copy()
+    inv_mass = np.asarray(state["inv_mass"], dtype=np.float64)
+    lin = np.array(state["linear_velocity"], dtype=np.float64)
     if gravity_preapplied:
-        lin[frame.inv_mass != 0.0] += frame.gravity * frame.dt
+        lin[inv_mass != 0.0] += np.asarray(gravity, dtype=np.float64) * dt
     return BodyTable(
-        position=frame.position.copy(),
-        orientation=frame.orientation.copy(),
+        position=np.array(state["position"], dtype=np.float64),
+        orientation=np.array(state["orientation"], dtype=np.float64),
         linear_velocity=lin,
-        angular_velocity=frame.angular_velocity.copy(),
-        inv_mass=frame.inv_mass.copy(),
-        inv_inertia=gpu_inverse_inertia(frame.half_extents, frame.inv_mass),
+        angular_velocity=np.array(state["angular_velocity"], dtype=np.float64),
+        inv_mass=inv_mass.copy(),
+        inv_inertia=gpu_inverse_inertia(state["half_extents"], inv_mass),
     )
 
 
