@@ -258,23 +258,72 @@ def solve(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arit
     if levels is None:
         levels = schedule_levels(schedule, cons, bodies.dynamic)
     for kind, it in pass_sequence(params):
-        pass_records: list[PassRecord] = []
-        for idx in levels:
-            a, b = cons.body_a[idx], cons.body_b[idx]
-            g = _Gathered(out, a, b)
-            if kind == CONTACT_PASS:
-                imp.normal[idx] = contact_solve(ar, g, cons, idx, imp.normal[idx])
-                new_imp = imp.normal[idx]
-            else:
-                imp.friction[idx] = friction_solve(ar, g, cons, idx, imp.normal, imp.friction[idx],
-                                                   params.friction_coeff)
-                new_imp = imp.friction[idx]
-            g.scatter(out, a, b)
-            if trace is not None:
-                pass_records.append(PassRecord(idx, kind, it, new_imp, g.va, g.wa, g.vb, g.wb))
-        if trace is not None and pass_records:
-            trace(_in_schedule_order(pass_records, schedule))
+        run_pass(out, imp, cons, levels, ar, kind, it, params, schedule, trace)
     return SolveResult(bodies=out, impulses=imp, levels=len(levels))
+
+
+def run_pass(out: BodyTable, imp: Impulses, cons: ConstraintSet, levels: list[np.ndarray], ar: Arithmetic, kind: int,
+             iteration: int, params: SolverParams, schedule: np.ndarray, trace: Optional[TraceSink] = None) -> None:
+    """One pass of ``kind`` over all manifolds, updating ``out``'s velocities and ``imp`` in place."""
+    pass_records: list[PassRecord] = []
+    for idx in levels:
+        a, b = cons.body_a[idx], cons.body_b[idx]
+        g = _Gathered(out, a, b)
+        if kind == CONTACT_PASS:
+            imp.normal[idx] = contact_solve(ar, g, cons, idx, imp.normal[idx])
+            new_imp = imp.normal[idx]
+        else:
+            imp.friction[idx] = friction_solve(ar, g, cons, idx, imp.normal, imp.friction[idx],
+                                               params.friction_coeff)
+            new_imp = imp.friction[idx]
+        g.scatter(out, a, b)
+        if trace is not None:
+            pass_records.append(PassRecord(idx, kind, iteration, new_imp, g.va, g.wa, g.vb, g.wb))
+    if trace is not None and pass_records:
+        trace(_in_schedule_order(pass_records, schedule))
+
+
+@dataclass
+class ConvergedResult:
+    """A solve run until a pass no longer changes the velocities (see :func:`solve_converged`)."""
+
+    result: SolveResult
+    contact_passes: int
+    friction_passes: int
+    last_change: float  # max |dv|, |dw| of the last pass (m/s, rad/s)
+    converged: bool
+
+
+def solve_converged(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arithmetic,
+                    tolerance: float = 1e-9, max_passes: int = 1000, time_budget_s: float | None = None,
+                    params: SolverParams = SolverParams()) -> ConvergedResult:
+    """The limit of the GPU scheme (contact passes, then friction passes) as the iteration count grows.
+
+    Contact passes run until one changes no velocity by more than ``tolerance`` (or ``max_passes``, or the
+    time budget, spent evenly between the two kinds), then friction passes likewise. ``converged`` is False
+    when a limit stopped either loop first.
+    """
+    import time
+
+    t0 = time.monotonic()
+    out = bodies.copy()
+    imp = Impulses.zeros(cons.num_manifolds)
+    levels = schedule_levels(schedule, cons, bodies.dynamic)
+    counts = []
+    change = 0.0
+    converged = True
+    for k, kind in enumerate((CONTACT_PASS, FRICTION_PASS)):
+        n, change = 0, np.inf
+        deadline = None if time_budget_s is None else t0 + time_budget_s * (k + 1) / 2
+        while change > tolerance and n < max_passes and (deadline is None or time.monotonic() < deadline):
+            v0, w0 = out.linear_velocity.copy(), out.angular_velocity.copy()
+            run_pass(out, imp, cons, levels, ar, kind, n, params, schedule)
+            change = float(max(np.abs(out.linear_velocity - v0).max(initial=0.0),
+                               np.abs(out.angular_velocity - w0).max(initial=0.0)))
+            n += 1
+        converged = converged and change <= tolerance
+        counts.append(n)
+    return ConvergedResult(SolveResult(out, imp, len(levels)), counts[0], counts[1], change, converged)
 
 
 def _in_schedule_order(records: list[PassRecord], schedule: np.ndarray) -> PassRecord:

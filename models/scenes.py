@@ -34,6 +34,7 @@ from typing import Any, Callable
 import numpy as np
 import pybullet as p
 
+from models.bullet_profile import profiled_step
 from models.frame import FRAME_VERSION, Frame, FrameError, load, save, validate
 
 GRAVITY = (0.0, -9.8, 0.0)
@@ -527,9 +528,10 @@ class SceneWorld:
         """Record the state, run one pybullet step, and return it as a frame (state before, manifolds used,
         pybullet's post-step velocities)."""
         state = self.body_state()
-        self.step()
+        timing = profiled_step(self.client, self.step)  # pybullet's own timers (seconds) of this very step
         mf = self.manifolds(progress=progress)
-        return _frame_from(self, state, mf, self.body_state(), self.steps_done, extra_meta or {})
+        meta = {"pybullet_timing_s": timing, **(extra_meta or {})}
+        return _frame_from(self, state, mf, self.body_state(), self.steps_done, meta)
 
     def solver_settings(self) -> dict[str, Any]:
         eng = p.getPhysicsEngineParameters(physicsClientId=self.client)

@@ -52,6 +52,7 @@ DEFAULT_CONS_BEAT_BITS = 512
 DEFAULT_BODY_BEAT_BITS = 128
 
 _BODY_B_BITS = 31
+_CHUNK_RECORDS = 8192  # records packed or unpacked at a time
 
 
 # --- generic bit packing ------------------------------------------------------------------------------
@@ -77,6 +78,10 @@ def pack_records(header: np.ndarray | None, words: np.ndarray, word_bits: int, b
     """
     words = np.asarray(words, dtype=np.uint64)
     r = words.shape[0]
+    if r > _CHUNK_RECORDS:  # bounded memory: the bit matrices take 8 bytes per bit
+        hdr = (lambda lo: None) if header is None else (lambda lo: header[lo:lo + _CHUNK_RECORDS])
+        return np.concatenate([pack_records(hdr(lo), words[lo:lo + _CHUNK_RECORDS], word_bits, beat_bits)
+                               for lo in range(0, r, _CHUNK_RECORDS)])
     parts = []
     if header is not None:
         parts.append(_field_bits(np.asarray(header, dtype=np.uint64).reshape(r, 1), HEADER_BITS))
@@ -94,6 +99,11 @@ def unpack_records(beats: np.ndarray, num_words: int, word_bits: int, beat_bits:
     rec_bits = (HEADER_BITS if header else 0) + num_words * word_bits
     nbeats = beats_per_record(rec_bits, beat_bits)
     data = np.asarray(beats, dtype=np.uint8).reshape(-1, nbeats * beat_bits // 8)
+    if data.shape[0] > _CHUNK_RECORDS:
+        parts = [unpack_records(data[lo:lo + _CHUNK_RECORDS], num_words, word_bits, beat_bits, header)
+                 for lo in range(0, data.shape[0], _CHUNK_RECORDS)]
+        hdrs = None if not header else np.concatenate([h for h, _ in parts])  # type: ignore[misc]
+        return hdrs, np.concatenate([w for _, w in parts])
     bits = np.unpackbits(data, axis=1, bitorder="little").astype(np.uint64)
     weights = np.uint64(1) << np.arange(64, dtype=np.uint64)
     base = 0

@@ -1,16 +1,24 @@
-"""``make sim``: a scene in, the PGS step solved, figures out.
+"""``make sim``: a scene in, one step through the RTL kernel, cycles and error out.
 
-Until the RTL kernel is wired in, the run solves the frame with the reference model: float64 and the
-bit-accurate golden model of the chosen number format, with the chosen schedule, and reports the scene,
-the schedule, the solve times and the error of the format against float64 and of our GPU-style step
-against pybullet's own step.
+The run captures (or loads from ``build/frames/``) the scene's busiest frame with pybullet, turns its contacts
+into constraints, orders them (hazard schedule by default), and runs the step three ways:
 
-    python -m sim.run --scene pile --iters 4 --format fp32 --seed 1
+* the RTL kernel (``rtl/pgs_kernel.sv``) in the compiled Verilator harness behind the DMA preset's bandwidth
+  model (``sim/kernel_run.py``), its trace and body-out stream compared bit for bit with
+* the golden model in the same number format (``models/contact_solver.py``), and
+* float64 references: the same schedule and iterations, and a converged solve.
+
+It prints a summary and writes ``report.md``/``report.json`` (and, with ``--waves``, ``waves.fst`` plus a
+GTKWave save file) into ``build/sim/<scene>-<format>-it<iters>-s<seed>-<dma>/``.
+
+    python -m sim.run --scene pile --iters 4 --format fp32 --dma zcu102 --seed 1
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import math
 import sys
 import time
 from pathlib import Path
@@ -19,14 +27,20 @@ from typing import Any, Sequence
 import numpy as np
 
 from models import scenes
-from models.constraints import BodyTable, body_table, setup_constraints
-from models.contact_solver import SolverParams, solve
-from models.dma_model import PRESETS, get_preset
-from models.frame import FrameError
+from models import stream_format as sf
+from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
+from models.contact_solver import SolverParams, solve, solve_converged
+from models.dma_model import PRESETS, DmaPreset, get_preset
+from models.frame import Frame, FrameError
 from models.integrator import IntegrationParams, integrate
-from models.number_format import FLOAT64, parse_format
+from models.number_format import FLOAT64, NumberFormat, parse_format
+from models.residual import contact_residual
 from models.schedule import make_schedule, stats
+from sim import baselines
+from sim.kernel_run import KernelBuild, KernelJob, KernelResult, KernelRunError, golden_step, kernel_bodies, \
+    run_kernel_step, text_progress
 from sim.report import print_summary, write_report
+
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="python -m sim.run", description=__doc__,
@@ -35,11 +49,29 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--iters", type=int, default=4, help="PGS iterations per pass type (Bullet GPU: 4)")
     ap.add_argument("--format", default="fp32", help="number format: fp32, fp16, bf16 or eXmY")
     ap.add_argument("--dma", default="zcu102", help=f"DMA preset ({', '.join(PRESETS)})")
-    ap.add_argument("--seed", type=int, default=1, help="scene seed (jitter)")
+    ap.add_argument("--seed", type=int, default=1, help="scene seed (jitter) and seed of the random stalls")
     ap.add_argument("--schedule", default="hazard", help="manifold order: hazard or pybullet")
-    ap.add_argument("--window", type=int, default=64, help="hazard window W in issue slots")
+    ap.add_argument("--window", type=int, default=0,
+                    help="hazard window W in issue slots (0: the kernel's pipeline depth in records)")
+    ap.add_argument("--stall-permille", type=int, default=0,
+                    help="random idle cycles on the input streams and backpressure on the output (per mille)")
+    ap.add_argument("--converged-budget", type=float, default=300.0,
+                    help="seconds allowed for the converged float64 solve (it stops earlier when converged)")
+    ap.add_argument("--no-kernel", action="store_true", help="reference models only (no Verilator)")
+    ap.add_argument("--waves", action="store_true", help="write waves.fst (first --wave-cycles cycles) + .gtkw")
+    ap.add_argument("--wave-cycles", type=int, default=20000, help="cycles of waveform to keep (0: all)")
     ap.add_argument("--out", default="build/sim", help="parent directory of the run directory")
     return ap.parse_args(argv)
+
+
+def default_window(fmt: NumberFormat, cons_bits: int) -> int:
+    """Issue slots a manifold must wait before its bodies come back: the deeper pipe's latency in records."""
+    from rtl.gen.kernel_graphs import GRAPHS
+
+    layout = sf.StreamLayout(fmt, cons_beat_bits=cons_bits)
+    contact = GRAPHS["pgs_contact_pipe"]().schedule().latency_for(fmt.man_bits)
+    friction = GRAPHS["pgs_friction_pipe"]().schedule().latency_for(fmt.man_bits)
+    return max(math.ceil(contact / layout.contact_beats), math.ceil(friction / layout.friction_beats)) + 2
 
 
 def velocity_error(ours: BodyTable, ref_lin: np.ndarray, ref_ang: np.ndarray, dynamic: np.ndarray) -> dict[str, float]:
@@ -50,66 +82,202 @@ def velocity_error(ours: BodyTable, ref_lin: np.ndarray, ref_ang: np.ndarray, dy
             "max |dv| / max |v|": float(dv.max(initial=0.0)) / scale}
 
 
-def run(args: argparse.Namespace) -> dict[str, dict[str, Any]]:
-    get_preset(args.dma)
+def _errors(label: str, ours: BodyTable, ref: BodyTable, dyn: np.ndarray) -> dict[str, float]:
+    return {f"{label}: {k}": v for k, v in velocity_error(ours, ref.linear_velocity, ref.angular_velocity, dyn).items()}
+
+
+class Timer:
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+
+    def run(self, name: str, fn: Any, *args: Any, **kw: Any) -> Any:
+        t0 = time.perf_counter()
+        out = fn(*args, **kw)
+        self.seconds[name] = time.perf_counter() - t0
+        print(f"{name}: {self.seconds[name]:.2f} s", flush=True)
+        return out
+
+
+def kernel_sections(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_bubbles: int) -> dict[str, dict]:
+    """Speed, roofline and thesis comparison of a kernel run."""
+    r = res.registers
+    mp = job.manifold_passes
+    cycles = res.cycles
+    total_bytes = sum(res.stream_bytes.values())
+    cons_beats = res.stream_bytes["constraints"] // (preset.stream_bits // 8)
+    ddr_floor = total_bytes / preset.ddr_bytes_per_cycle if math.isfinite(preset.ddr_bytes_per_cycle) else 0.0
+    port_floor = float(cons_beats)
+    compute_floor = float(mp + 2 * job.bodies.num_bodies)
+    floors = {"DDR bandwidth": ddr_floor, "constraint stream port": port_floor, "compute (II=1)": compute_floor}
+    bound = max(floors, key=floors.__getitem__)
+    speed = {
+        "format": job.fmt.name, "DMA preset": preset.describe(),
+        "kernel cycles (ap_start to ap_done)": cycles, "cycles per manifold-pass": cycles / mp,
+        "stall cycles (hazard and stream waits)": int(r["stalls"]), "bubble cycles (no record to issue)": int(r["bubbles"]),
+        "schedule bubbles per pass": sched_bubbles,
+        **{f"latency at {f / 1e6:g} MHz (ms)": cycles / f * 1e3 for f in baselines.REPORT_CLOCKS_HZ},
+        "bytes streamed in (bodies + constraints)": res.stream_bytes["body_in"] + res.stream_bytes["constraints"],
+        "bytes streamed out (bodies)": res.stream_bytes["body_out"],
+        "constraint bytes per manifold per step": res.stream_bytes["constraints"] // max(len(job.slots), 1),
+        "DDR bandwidth utilisation": (total_bytes / (cycles * preset.ddr_bytes_per_cycle)
+                                      if math.isfinite(preset.ddr_bytes_per_cycle) else "uncapped"),
+        "co-simulation speed (simulated cycles per wall second)": res.sim_cycles_per_s,
+        "kernel run wall time (s)": r["wall_s"], "Verilator build time this run (s)": res.build_seconds,
+    }
+    roofline = {f"{k} floor (cycles)": v for k, v in floors.items()}
+    roofline["measured cycles"] = cycles
+    roofline["bound by"] = bound
+    roofline["measured / highest floor"] = cycles / max(floors[bound], 1.0)
+    return {"kernel speed (RTL in Verilator)": speed, "roofline (lower bounds for this configuration)": roofline}
+
+
+def thesis_section(res: KernelResult | None, job: KernelJob, frame: Frame, seconds: dict[str, float]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for fig in baselines.THESIS_FPGA.values():
+        out[f"{fig.label} ({baselines.THESIS_MANIFOLDS:,} manifolds, {fig.clock_hz / 1e6:g} MHz)"] = (
+            f"{fig.cycles:,} cycles, {fig.ms} ms, {fig.cycles_per_manifold_pass:.2f} cycles/manifold-pass")
+    out["thesis GTX 980 (Bullet3 OpenCL)"] = f"{baselines.THESIS_GPU_MS} ms"
+    out["thesis i7-3770 (Bullet3)"] = f"{baselines.THESIS_CPU_MS} ms"
+    if res is not None:
+        cpmp = res.cycles / job.manifold_passes
+        out[f"this run: RTL {job.fmt.name}, {len(job.slots):,} manifolds, {job.params.iterations} iterations"] = (
+            f"{res.cycles:,} cycles, {res.cycles / 275e6 * 1e3:.2f} ms at 275 MHz, {cpmp:.2f} cycles/manifold-pass")
+        scaled = cpmp * baselines.THESIS_MANIFOLDS * 2 * job.params.iterations
+        out[f"this run scaled to {baselines.THESIS_MANIFOLDS:,} manifolds"] = (
+            f"{scaled:,.0f} cycles, {scaled / 275e6 * 1e3:.2f} ms at 275 MHz")
+    timing = frame.meta.get("pybullet_timing_s")
+    iters = frame.meta.get("solver", {}).get("numSolverIterations", "?")
+    if timing:
+        out[f"pybullet's own solver on this frame (this machine, {iters} iterations, solveGroup)"] = (
+            f"{timing.get('solveGroup', float('nan')) * 1e3:.2f} ms (whole step "
+            f"{timing.get('internalSingleStepSimulation', float('nan')) * 1e3:.2f} ms)")
+    else:
+        out["pybullet's own solver on this frame"] = "not recorded (frame cached before timings were kept)"
+    for name, sec in seconds.items():
+        out[f"{name} (this machine)"] = f"{sec * 1e3:.1f} ms"
+    return out
+
+
+def run(args: argparse.Namespace) -> tuple[dict[str, dict[str, Any]], Path]:
+    preset = get_preset(args.dma)
     if args.iters < 1:
         raise ValueError(f"ITERS must be >= 1, got {args.iters}")
     fmt = parse_format(args.format)
-    t0 = time.perf_counter()
-    frame = scenes.load_or_capture(args.scene, seed=args.seed)
-    t_frame = time.perf_counter() - t0
-    print(frame.summary(), f"(frame ready in {t_frame:.1f} s)", flush=True)
+    if args.schedule not in ("hazard", "pybullet"):
+        raise ValueError(f"unknown schedule {args.schedule!r} (expected hazard or pybullet)")
+    run_dir = Path(args.out) / f"{args.scene}-{fmt.name}-it{args.iters}-s{args.seed}-{args.dma}"
+    timer = Timer()
+    frame = timer.run("frame load/capture", scenes.load_or_capture, args.scene, seed=args.seed)
+    print(frame.summary(), flush=True)
 
     bodies = body_table(frame)
     cons = setup_constraints(frame, bodies)
-    schedule = make_schedule(args.schedule, cons, bodies.dynamic, args.window)
-    sched_stats = stats(args.schedule, schedule, cons, bodies.dynamic, args.window)
+    window = args.window or default_window(fmt, preset.stream_bits)
+    schedule = make_schedule(args.schedule, cons, bodies.dynamic, window)
+    sched_stats = stats(args.schedule, schedule, cons, bodies.dynamic, window)
     print(sched_stats.describe(), flush=True)
     params = SolverParams(iterations=args.iters)
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
+    job = KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip)
 
-    t = time.perf_counter()
-    ref = solve(bodies, cons, schedule, FLOAT64, params)
-    ref_bodies = integrate(ref.bodies, FLOAT64, ip)
-    t_ref = time.perf_counter() - t
-    print(f"float64 reference: {t_ref:.2f} s ({ref.levels} levels per pass)", flush=True)
+    ref = timer.run("float64 reference solve + integrate", _solve_and_integrate, bodies, cons, schedule, params, ip)
+    golden = timer.run(f"{fmt.name} golden model solve + integrate", golden_step, job)
+    conv = timer.run("converged float64 solve", solve_converged, bodies, cons, schedule, FLOAT64,
+                     time_budget_s=args.converged_budget)
+    conv_final = integrate(conv.result.bodies, FLOAT64, ip)
 
-    t = time.perf_counter()
-    gold = solve(bodies.rounded(fmt), cons.rounded(fmt), schedule, fmt, params)
-    gold_bodies = integrate(gold.bodies, fmt, ip)
-    t_gold = time.perf_counter() - t
-    print(f"{fmt.name} golden model: {t_gold:.2f} s", flush=True)
+    res: KernelResult | None = None
+    if not args.no_kernel:
+        kb = KernelBuild(fmt, cons_bits=preset.stream_bits)
+        print(f"kernel: {kb.name} ({'building, first time a few minutes' if not _built(kb) else 'built'})", flush=True)
+        progress = text_progress(job.manifold_passes)
+        waves = run_dir / "waves.fst" if args.waves else None
+        res = run_kernel_step(job, preset, run_dir, args.seed, args.stall_permille, args.stall_permille, progress,
+                              golden=golden, waves=waves, wave_cycles=args.wave_cycles)
+        print(file=sys.stderr)
+        if waves is not None:
+            _write_gtkw(waves)
 
+    ours = golden.final
+    if res is not None:
+        if res.bit_exact:  # the kernel's own numbers (identical to the golden model's)
+            ours = kernel_bodies(run_dir, job)
     dyn = bodies.dynamic
-    passes = 2 * args.iters
-    return {
+    sections: dict[str, dict[str, Any]] = {
         "scene": {"scene": args.scene, "bodies": frame.num_bodies, "dynamic bodies": int(dyn.sum()),
                   "manifolds": frame.num_manifolds, "contact points": frame.num_points_total,
                   "step": frame.meta.get("step", "?"), "seed": args.seed},
-        "schedule": {"kind": args.schedule, "window W": args.window, "slots per pass": sched_stats.slots,
+        "schedule": {"kind": args.schedule, "window W (issue slots)": window, "slots per pass": sched_stats.slots,
                      "bubbles per pass": sched_stats.bubbles, "wrap hazards": sched_stats.wrap_conflicts,
-                     "levels per pass": ref.levels, "manifold-passes": frame.num_manifolds * passes},
-        "solve time (this machine)": {"frame load/capture (s)": t_frame, "float64 reference (s)": t_ref,
-                                      f"{fmt.name} golden model (s)": t_gold},
-        f"error of {fmt.name} against float64 (same schedule and iterations, post-solve velocities)":
-            velocity_error(gold.bodies, ref.bodies.linear_velocity, ref.bodies.angular_velocity, dyn),
-        "difference of our float64 GPU-style step from pybullet's own step (different solver)":
-            velocity_error(ref_bodies, frame.post_linear_velocity, frame.post_angular_velocity, dyn),
+                     "levels per pass": golden.solved.levels, "manifold-passes": job.manifold_passes},
     }
+    if res is not None:
+        cmp = res.comparison
+        sections["bit-exactness (RTL kernel against the golden model, same format)"] = {
+            "bits differing from the golden model (must be 0)": cmp.differing_bits,
+            "words differing": cmp.differing_words, "trace records compared": cmp.records,
+            "body-out records compared": cmp.bodies, "first mismatch": cmp.first_mismatch or "none",
+            "random stall seed": res.seed}
+        sections.update(kernel_sections(res, job, preset, sched_stats.bubbles))
+    source = "RTL kernel" if res is not None and res.bit_exact else f"{fmt.name} golden model"
+    err = {}
+    err.update(_errors(f"{source} vs float64, same schedule and iterations (rounding error)", ours, ref, dyn))
+    err.update(_errors(f"{source} vs converged float64 (rounding + iteration error)", ours, conv_final, dyn))
+    err.update(_errors("float64 with these iterations vs converged (iteration error alone)", ref, conv_final, dyn))
+    err["converged solve: contact passes, friction passes"] = f"{conv.contact_passes}, {conv.friction_passes}"
+    err["converged solve: last pass max velocity change"] = conv.last_change
+    err["converged solve: converged within budget (1e-9)"] = str(conv.converged)
+    for k, v in contact_residual(golden.solved.bodies, cons, golden.solved.impulses.normal).items():
+        err[f"residual after the {source}'s solve: {k}"] = v
+    for k, v in contact_residual(conv.result.bodies, cons, conv.result.impulses.normal).items():
+        err[f"residual after the converged solve: {k}"] = v
+    pb = dataclasses.replace(ours, linear_velocity=frame.post_linear_velocity,
+                             angular_velocity=frame.post_angular_velocity)
+    err.update(_errors(f"{source} vs pybullet's own step (a different solver: Bullet 2 sequential impulse)",
+                       ours, pb, dyn))
+    sections["error (velocities after the step; dynamic bodies)"] = err
+    sections["comparison with the thesis and with software solvers"] = thesis_section(res, job, frame, {
+        "float64 reference (numpy)": timer.seconds["float64 reference solve + integrate"],
+        f"{fmt.name} golden model (numpy)": timer.seconds[f"{fmt.name} golden model solve + integrate"]})
+    sections["wall time of this run (s)"] = dict(timer.seconds)
+    return sections, run_dir
+
+
+def _solve_and_integrate(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, params: SolverParams,
+                         ip: IntegrationParams) -> BodyTable:
+    return integrate(solve(bodies, cons, schedule, FLOAT64, params).bodies, FLOAT64, ip)
+
+
+def _built(kb: KernelBuild) -> bool:
+    from sim.verilator_build import BUILD_ROOT
+
+    return (BUILD_ROOT / kb.name / kb.name).exists()
+
+
+def _write_gtkw(fst: Path) -> None:
+    try:
+        from cocotb_tests.tb.gtkwave_save import write_kernel_save_file  # type: ignore[import-not-found]
+    except ImportError:
+        print(f"waveform: {fst}")
+        return
+    save = write_kernel_save_file(fst, top="TOP.pgs_kernel")
+    print(f"waveform: {fst} (gtkwave {save})")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     try:
-        sections = run(args)
-    except (ValueError, FrameError) as exc:
+        sections, run_dir = run(args)
+    except (ValueError, FrameError, scenes.SceneError, KernelRunError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    run_dir = Path(args.out) / f"{args.scene}-{args.format}-it{args.iters}-s{args.seed}"
-    print_summary(f"pgs-cosim: {args.scene}, {args.format}, {args.iters} iterations (reference model)", sections)
+    title = f"pgs-cosim: {args.scene}, {args.format}, {args.iters} iterations, {args.dma}"
+    print_summary(title, sections)
     json_path, md_path = write_report(run_dir, f"pgs-cosim run: {args.scene}", sections)
     print(f"\nreport: {md_path} and {json_path}")
-    return 0
+    bits = sections.get("bit-exactness (RTL kernel against the golden model, same format)", {})
+    return 1 if bits and bits["bits differing from the golden model (must be 0)"] != 0 or \
+        (bits and bits["first mismatch"] != "none") else 0
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 // pgs_kernel_main.cpp: compiled Verilator harness of rtl/pgs_kernel.sv (one step of the kernel).
 //
-// Usage: pgs_kernel_sim DIR SEED GAP_PERMILLE BP_PERMILLE MAX_CYCLES
+// Usage: pgs_kernel_sim DIR SEED GAP_PERMILLE BP_PERMILLE MAX_CYCLES [DDR_MILLIBYTES STARTUP PROGRESS]
 //   DIR/regs.bin        uint32 LE pairs {addr, value}: AXI4-Lite writes done before ap_start
 //   DIR/body_in.bin     body-in beats (BODY_IN_BYTES each), DIR/body_in_last.bin one TLAST byte per beat
 //   DIR/cons.bin        constraint beats (CONS_BYTES each),  DIR/cons_last.bin   one TLAST byte per beat
@@ -13,6 +13,14 @@
 // per cycle; TVALID stays up until the handshake, as AXI4-Stream demands) and deasserts
 // m_axis_body_TREADY with probability BP_PERMILLE/1000 per cycle, until `interrupt` rises. Exceeding
 // MAX_CYCLES is a failure (exit 3) with a message naming what was still pending.
+// DMA model (models/dma_model.py presets): DDR_MILLIBYTES is the DDR bandwidth in 1/1000 bytes per kernel
+// cycle (0: uncapped), a token bucket shared by all three streams (refilled every cycle, capped at two
+// constraint beats, spent when a beat is offered or accepted), the same model as the cocotb DdrBandwidth;
+// STARTUP is the start-up latency of each MM2S transfer: the body-in transfer and each pass's constraint
+// transfer (one per pass, as the host issues them) wait STARTUP cycles before their first beat. With
+// PROGRESS > 0 a line "progress CYCLE TRACE_RECORDS" goes to stdout every PROGRESS cycles.
+// Waveforms: built with --trace-fst (VM_TRACE), the harness writes an FST to $PGS_WAVES (when set) for the first
+// $PGS_WAVE_CYCLES cycles (default 20000; 0 = the whole run).
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -24,6 +32,9 @@
 
 #include "Vpgs_kernel.h"
 #include "verilated.h"
+#if VM_TRACE
+#include "verilated_fst_c.h"
+#endif
 #include "../harness_rng.h"
 
 #ifndef BODY_IN_BYTES
@@ -61,19 +72,64 @@ void get_wide(const VlWide<N>& w, uint8_t* dst, size_t nbytes) {
     for (size_t i = 0; i < nbytes; i++) dst[i] = uint8_t(w[i / 4] >> (8 * (i % 4)));
 }
 
+// DDR bandwidth shared by the streams: a token bucket of bytes (rate 0 = uncapped)
+struct DdrBucket {
+    double rate, cap, credit = 0.0;
+    DdrBucket(double r, double c) : rate(r), cap(c) {}
+    void refill() {
+        if (rate > 0.0) credit = credit + rate < cap ? credit + rate : cap;
+    }
+    bool available(size_t nbytes) const { return rate <= 0.0 || credit >= double(nbytes); }
+    void spend(size_t nbytes) {
+        if (rate > 0.0) credit -= double(nbytes);
+    }
+};
+
 struct Sim {
     std::unique_ptr<VerilatedContext> ctx;
     std::unique_ptr<Vpgs_kernel> top;
     uint64_t cycle = 0;
+#if VM_TRACE
+    std::unique_ptr<VerilatedFstC> fst;
+    uint64_t wave_cycles = 0;  // 0: all
+    void open_waves() {
+        const char* path = std::getenv("PGS_WAVES");
+        if (!path || !*path) return;
+        const char* n = std::getenv("PGS_WAVE_CYCLES");
+        wave_cycles = n ? std::strtoull(n, nullptr, 0) : 20000;
+        ctx->traceEverOn(true);
+        fst = std::make_unique<VerilatedFstC>();
+        top->trace(fst.get(), 99);
+        fst->open(path);
+    }
+    void dump(uint64_t t) {
+        if (!fst) return;
+        if (wave_cycles && cycle >= wave_cycles) {
+            fst->close();
+            fst.reset();
+            return;
+        }
+        fst->dump(t);
+    }
+    void close_waves() {
+        if (fst) fst->close();
+    }
+#else
+    void open_waves() {}
+    void dump(uint64_t) {}
+    void close_waves() {}
+#endif
     Sim() : ctx(std::make_unique<VerilatedContext>()) {}
     // one clock cycle: inputs must be set before; `pre` sees the settled pre-edge outputs
     template <typename F>
     void tick(F pre) {
         top->ap_clk = 0;
         top->eval();
+        dump(2 * cycle);
         pre();
         top->ap_clk = 1;
         top->eval();
+        dump(2 * cycle + 1);
         cycle++;
     }
     void tick() { tick([] {}); }
@@ -127,7 +183,8 @@ uint32_t axil_read(Sim& s, uint32_t addr) {
 
 int main(int argc, char** argv) {
     if (argc < 6) {
-        std::fprintf(stderr, "usage: %s DIR SEED GAP_PERMILLE BP_PERMILLE MAX_CYCLES\n", argv[0]);
+        std::fprintf(stderr, "usage: %s DIR SEED GAP_PERMILLE BP_PERMILLE MAX_CYCLES [DDR_MILLIBYTES STARTUP "
+                     "PROGRESS]\n", argv[0]);
         return 1;
     }
     const std::string dir = argv[1];
@@ -135,6 +192,9 @@ int main(int argc, char** argv) {
     const unsigned gap = unsigned(std::strtoul(argv[3], nullptr, 0));
     const unsigned bp = unsigned(std::strtoul(argv[4], nullptr, 0));
     const uint64_t max_cycles = std::strtoull(argv[5], nullptr, 0);
+    const double ddr_rate = argc > 6 ? double(std::strtoull(argv[6], nullptr, 0)) / 1000.0 : 0.0;
+    const unsigned startup = argc > 7 ? unsigned(std::strtoul(argv[7], nullptr, 0)) : 0;
+    const uint64_t progress = argc > 8 ? std::strtoull(argv[8], nullptr, 0) : 0;
 
     const std::vector<uint8_t> regs = read_file(dir + "/regs.bin");
     const std::vector<uint8_t> body_in = read_file(dir + "/body_in.bin");
@@ -148,6 +208,7 @@ int main(int argc, char** argv) {
     s.ctx->randReset(2);
     s.ctx->randSeed(int(seed & 0x7fffffff));
     s.top = std::make_unique<Vpgs_kernel>(s.ctx.get(), "pgs_kernel");
+    s.open_waves();
     Rng rng(seed);
     auto* t = s.top.get();
     t->ap_rst_n = 0;
@@ -176,6 +237,8 @@ int main(int argc, char** argv) {
     if (!ftrace || !fout || !fout_last) fail("cannot create output files");
 
     size_t bi = 0, ci = 0, n_out = 0, n_trace = 0;
+    DdrBucket ddr(ddr_rate, 2.0 * CONS_BYTES);
+    unsigned body_wait = startup, cons_wait = startup;  // start-up latency of the transfer in progress
     uint8_t buf[BODY_OUT_BYTES > TRACE_BYTES ? BODY_OUT_BYTES : TRACE_BYTES];
     const auto t0 = std::chrono::steady_clock::now();
     bool finished = false;
@@ -188,18 +251,28 @@ int main(int argc, char** argv) {
                           (unsigned long long)max_cycles, bi, n_body, ci, n_cons, n_out, n_trace);
             fail(msg, 3);
         }
-        // offer beats (a new beat may wait a random gap; a valid beat stays until taken)
-        if (!t->s_axis_body_TVALID && bi < n_body && !rng.chance(gap)) {
+        if (progress && (s.cycle - start_cycle) % progress == 0) {
+            std::printf("progress %llu %zu\n", (unsigned long long)(s.cycle - start_cycle), n_trace);
+            std::fflush(stdout);
+        }
+        // offer beats (a new beat may wait a start-up latency, DDR credit and a random gap; a valid beat stays
+        // until taken)
+        ddr.refill();
+        if (body_wait) body_wait--;
+        if (cons_wait) cons_wait--;
+        if (!t->s_axis_body_TVALID && bi < n_body && !body_wait && ddr.available(BODY_IN_BYTES) && !rng.chance(gap)) {
             set_wide(t->s_axis_body_TDATA, &body_in[bi * BODY_IN_BYTES], BODY_IN_BYTES);
             t->s_axis_body_TLAST = body_in_last[bi];
             t->s_axis_body_TVALID = 1;
+            ddr.spend(BODY_IN_BYTES);
         }
-        if (!t->s_axis_cons_TVALID && ci < n_cons && !rng.chance(gap)) {
+        if (!t->s_axis_cons_TVALID && ci < n_cons && !cons_wait && ddr.available(CONS_BYTES) && !rng.chance(gap)) {
             set_wide(t->s_axis_cons_TDATA, &cons[ci * CONS_BYTES], CONS_BYTES);
             t->s_axis_cons_TLAST = cons_last[ci];
             t->s_axis_cons_TVALID = 1;
+            ddr.spend(CONS_BYTES);
         }
-        t->m_axis_body_TREADY = !rng.chance(bp);
+        t->m_axis_body_TREADY = ddr.available(BODY_OUT_BYTES) && !rng.chance(bp);
         bool body_hs = false, cons_hs = false;
         s.tick([&] {
             body_hs = t->s_axis_body_TVALID && t->s_axis_body_TREADY;
@@ -210,6 +283,7 @@ int main(int argc, char** argv) {
                 uint8_t l = t->m_axis_body_TLAST;
                 std::fwrite(&l, 1, 1, fout_last);
                 n_out++;
+                ddr.spend(BODY_OUT_BYTES);
             }
             if (t->trace_valid) {
                 uint64_t c = s.cycle - start_cycle;
@@ -225,6 +299,7 @@ int main(int argc, char** argv) {
             bi++;
         }
         if (cons_hs) {
+            if (t->s_axis_cons_TLAST) cons_wait = startup;  // the host starts the next pass's transfer
             t->s_axis_cons_TVALID = 0;
             ci++;
         }
@@ -248,5 +323,6 @@ int main(int argc, char** argv) {
     std::fprintf(fr, "body_out_beats %zu\ntrace_records %zu\n", n_out, n_trace);
     std::fclose(fr);
     t->final();
+    s.close_waves();
     return 0;
 }

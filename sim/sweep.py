@@ -1,0 +1,160 @@
+"""``make sweep``: kernel time against error, over iteration counts and number formats, on one scene.
+
+For every format and iteration count the RTL kernel runs the step in Verilator (``sim.kernel_run``, DMA preset
+bandwidth model, trace and body-out compared bit for bit with the golden model) and the kernel's result is
+compared with a converged float64 solve of the same frame and schedule (``models.contact_solver.solve_converged``).
+Writes ``sweep.csv`` and ``sweep.png`` into ``build/sweep/<scene>-<dma>/``: time per manifold-pass (ns at the
+preset's clock, so that scenes of any size and the thesis's figures share one axis) against the maximum velocity
+error, with the thesis's ZCU102 fp32/fp16 designs and its GPU and CPU figures marked as vertical lines (their error
+on our frame is unknown: the thesis did not measure it).
+
+    python -m sim.sweep --scene pile --formats fp32,fp16,bf16 --iters 1,2,4,8,16,32
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+from pathlib import Path
+from typing import Any, Sequence
+
+from models import scenes
+from models.constraints import body_table, setup_constraints
+from models.contact_solver import SolverParams, solve_converged
+from models.dma_model import PRESETS, get_preset
+from models.frame import FrameError
+from models.integrator import IntegrationParams, integrate
+from models.number_format import FLOAT64, parse_format
+from models.schedule import make_schedule
+from sim import baselines
+from sim.kernel_run import KernelJob, KernelRunError, golden_step, kernel_bodies, run_kernel_step
+from sim.run import default_window, velocity_error
+
+COLUMNS = ["format", "iterations", "manifolds", "manifold_passes", "cycles", "cycles_per_manifold_pass",
+           "ms_at_clock", "ns_per_manifold_pass", "stalls", "bubbles", "bytes_streamed", "differing_bits",
+           "max_dv_vs_converged", "max_dw_vs_converged", "max_dv_vs_float64_same_iters"]
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    ap = argparse.ArgumentParser(prog="python -m sim.sweep", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scene", default="pile", help=f"scene name ({', '.join(sorted(scenes.SCENES))})")
+    ap.add_argument("--formats", default="fp32,fp16,bf16", help="comma-separated number formats")
+    ap.add_argument("--iters", default="1,2,4,8,16,32", help="comma-separated iteration counts")
+    ap.add_argument("--dma", default="zcu102", help=f"DMA preset ({', '.join(PRESETS)})")
+    ap.add_argument("--seed", type=int, default=1, help="scene seed")
+    ap.add_argument("--converged-budget", type=float, default=300.0, help="seconds for the converged solve")
+    ap.add_argument("--out", default="build/sweep", help="parent directory of the sweep directory")
+    return ap.parse_args(argv)
+
+
+def _int_list(text: str, name: str) -> list[int]:
+    try:
+        values = [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise ValueError(f"{name} must be comma-separated integers, got {text!r}") from None
+    if not values or min(values) < 1:
+        raise ValueError(f"{name} must be positive integers, got {text!r}")
+    return values
+
+
+def sweep(args: argparse.Namespace) -> tuple[list[dict[str, Any]], Path]:
+    preset = get_preset(args.dma)
+    formats = [parse_format(f.strip()) for f in args.formats.split(",") if f.strip()]
+    iter_list = _int_list(args.iters, "ITERS")
+    frame = scenes.load_or_capture(args.scene, seed=args.seed)
+    print(frame.summary(), flush=True)
+    out_dir = Path(args.out) / f"{args.scene}-{args.dma}"
+    bodies = body_table(frame)
+    cons = setup_constraints(frame, bodies)
+    ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
+    dyn = bodies.dynamic
+    rows: list[dict[str, Any]] = []
+    for fmt in formats:
+        schedule = make_schedule("hazard", cons, dyn, default_window(fmt, preset.stream_bits))
+        conv = solve_converged(bodies, cons, schedule, FLOAT64, time_budget_s=args.converged_budget)
+        conv_final = integrate(conv.result.bodies, FLOAT64, ip)
+        for iters in iter_list:
+            params = SolverParams(iterations=iters)
+            job = KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip)
+            res = run_kernel_step(job, preset, out_dir / f"{fmt.name}-it{iters}", args.seed)
+            ref_final = golden_step(KernelJob(FLOAT64, bodies, cons, schedule, params, ip)).final
+            ours = kernel_bodies(out_dir / f"{fmt.name}-it{iters}", job)
+            e_conv = velocity_error(ours, conv_final.linear_velocity, conv_final.angular_velocity, dyn)
+            e_same = velocity_error(ours, ref_final.linear_velocity, ref_final.angular_velocity, dyn)
+            mp = job.manifold_passes
+            row = {"format": fmt.name, "iterations": iters, "manifolds": len(job.slots), "manifold_passes": mp,
+                   "cycles": res.cycles, "cycles_per_manifold_pass": res.cycles / mp,
+                   "ms_at_clock": res.cycles / preset.clock_hz * 1e3,
+                   "ns_per_manifold_pass": res.cycles / mp / preset.clock_hz * 1e9,
+                   "stalls": int(res.registers["stalls"]), "bubbles": int(res.registers["bubbles"]),
+                   "bytes_streamed": sum(res.stream_bytes.values()), "differing_bits": res.comparison.differing_bits,
+                   "max_dv_vs_converged": e_conv["max |dv| (m/s)"], "max_dw_vs_converged": e_conv["max |dw| (rad/s)"],
+                   "max_dv_vs_float64_same_iters": e_same["max |dv| (m/s)"]}
+            rows.append(row)
+            print(f"{fmt.name:>6} {iters:>3} it: {res.cycles:>9,} cycles ({row['cycles_per_manifold_pass']:.2f}/mp), "
+                  f"max |dv| vs converged {row['max_dv_vs_converged']:.3e} m/s, vs float64 same iterations "
+                  f"{row['max_dv_vs_float64_same_iters']:.3e}, differing bits {row['differing_bits']}", flush=True)
+            if not res.bit_exact:
+                print(f"  NOT bit-exact: {res.comparison.first_mismatch}", flush=True)
+    return rows, out_dir
+
+
+def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w.writeheader()
+        w.writerows(rows)
+
+
+def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for fmt in dict.fromkeys(r["format"] for r in rows):
+        pts = [r for r in rows if r["format"] == fmt]
+        x = [r["ns_per_manifold_pass"] for r in pts]
+        y = [max(r["max_dv_vs_converged"], 1e-12) for r in pts]
+        ax.plot(x, y, "o-", label=f"RTL kernel {fmt}")
+        for r, xi, yi in zip(pts, x, y):
+            ax.annotate(str(r["iterations"]), (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=7)
+    per_mp = baselines.THESIS_MANIFOLDS * baselines.THESIS_PASSES
+    marks = [(f"{f.label} ({f.cycles_per_manifold_pass:.2f} cyc/mp)", f.ms * 1e6 / per_mp)
+             for f in baselines.THESIS_FPGA.values()]
+    marks += [("thesis GTX 980", baselines.THESIS_GPU_MS * 1e6 / per_mp),
+              ("thesis i7-3770", baselines.THESIS_CPU_MS * 1e6 / per_mp)]
+    for (label, x), style in zip(marks, ("--", "-.", ":", ":")):
+        ax.axvline(x, linestyle=style, color="grey")
+        ax.text(x, 1.02, label, rotation=90, transform=ax.get_xaxis_transform(), fontsize=7, va="bottom")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("kernel time per manifold-pass (ns; thesis marks: 4 iterations of their 127,000-manifold frame)")
+    ax.set_ylabel("max |v - v_converged| after the step (m/s)")
+    ax.set_title(title, fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = parse_args(argv)
+    try:
+        rows, out_dir = sweep(args)
+    except (ValueError, FrameError, KernelRunError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    write_csv(rows, out_dir / "sweep.csv")
+    plot(rows, out_dir / "sweep.png", f"{args.scene}, {args.dma}: kernel time against error (iterations annotated)")
+    print(f"\nsweep: {out_dir / 'sweep.csv'} and {out_dir / 'sweep.png'}")
+    return 0 if all(r["differing_bits"] == 0 for r in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
