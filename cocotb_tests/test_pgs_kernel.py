@@ -12,7 +12,7 @@ output backpressure on top (seeded: the seed is printed, ``SEED=<int>`` override
 * the body-out stream against ``integrate(solve(...).bodies)`` (every body, pos, q, v, w).
 
 It prints cycles, cycles per manifold-pass, stall and bubble cycles, the build time and the simulated
-cycles per second. Schedules: ``hazard`` (window = contact pipe depth, few stalls) and ``pybullet``
+cycles per second. Schedules: ``hazard`` (window = pipeline depth in records, few stalls) and ``pybullet``
 (frame order: many hazards; the CAM's stalls must keep it exact).
 """
 
@@ -27,10 +27,9 @@ import pytest
 from models import scenes
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
-from models.number_format import FP32, NumberFormat
-from sim.kernel_run import KernelJob, run_kernel_step
+from models.number_format import BF16, FP16, FP32, NumberFormat
+from sim.kernel_run import KernelJob, default_window, run_kernel_step
 
-CONTACT_LATENCY = 179  # pgs_contact_pipe LATENCY (fp32); the hazard schedule's window
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 ITERATIONS = 4
 
@@ -54,7 +53,7 @@ def _seed() -> int:
 
 def run_case(case: Case, tmp: Path) -> None:
     frame = scenes.load_or_capture(case.scene, **SCENES[case.scene])
-    window = CONTACT_LATENCY + 2
+    window = default_window(case.fmt, 512)
     job = KernelJob.from_frame(frame, case.fmt, SolverParams(ITERATIONS), case.schedule_kind, window)
     seed = _seed()
     print(f"\n[{case.scene}/{case.fmt.name}/{case.schedule_kind}] seed {seed} (SEED= overrides); "
@@ -71,7 +70,10 @@ def run_case(case: Case, tmp: Path) -> None:
           f"{res.comparison.records} trace records, {res.comparison.bodies} bodies")
 
 
-CASES = [Case(s, FP32, k) for s in SCENES for k in ("hazard", "pybullet")]
+# fp32 on every scene and schedule; fp16 (the thesis's fastest design) and bfloat16 on the pile in hazard order
+# and the stack in frame order (every manifold a hazard): one more build each
+CASES = [Case(s, FP32, k) for s in SCENES for k in ("hazard", "pybullet")] + [
+    Case(s, f, k) for f in (FP16, BF16) for s, k in (("pile", "hazard"), ("stack", "pybullet"))]
 
 
 @pytest.mark.parametrize("case", CASES, ids=lambda c: f"{c.scene}-{c.fmt.name}-{c.schedule_kind}")

@@ -15,6 +15,7 @@ retire order: the result is the same as the cocotb scoreboard's lock-step check,
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 import time
@@ -89,6 +90,16 @@ def build_kernel(kb: KernelBuild) -> tuple[Path, float]:
                     extra_args=extra)
         _built[kb] = (exe, time.monotonic() - t0)
     return _built[kb]
+
+
+def default_window(fmt: NumberFormat, cons_bits: int) -> int:
+    """Issue slots a manifold must wait before its bodies come back: the deeper pipe's latency in records."""
+    from rtl.gen.kernel_graphs import GRAPHS
+
+    layout = sf.StreamLayout(fmt, cons_beat_bits=cons_bits)
+    contact = GRAPHS["pgs_contact_pipe"]().schedule().latency_for(fmt.man_bits)
+    friction = GRAPHS["pgs_friction_pipe"]().schedule().latency_for(fmt.man_bits)
+    return max(math.ceil(contact / layout.contact_beats), math.ceil(friction / layout.friction_beats)) + 2
 
 
 @dataclass

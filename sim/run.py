@@ -27,18 +27,17 @@ from typing import Any, Sequence
 import numpy as np
 
 from models import scenes
-from models import stream_format as sf
 from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.contact_solver import SolverParams, solve, solve_converged
 from models.dma_model import PRESETS, DmaPreset, get_preset
 from models.frame import Frame, FrameError
 from models.integrator import IntegrationParams, integrate
-from models.number_format import FLOAT64, NumberFormat, parse_format
+from models.number_format import FLOAT64, parse_format
 from models.residual import contact_residual
 from models.schedule import make_schedule, stats
 from sim import baselines
-from sim.kernel_run import KernelBuild, KernelJob, KernelResult, KernelRunError, golden_step, kernel_bodies, \
-    run_kernel_step, text_progress
+from sim.kernel_run import KernelBuild, KernelJob, KernelResult, KernelRunError, default_window, golden_step, \
+    kernel_bodies, run_kernel_step, text_progress
 from sim.report import print_summary, write_report
 
 
@@ -62,16 +61,6 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--wave-cycles", type=int, default=20000, help="cycles of waveform to keep (0: all)")
     ap.add_argument("--out", default="build/sim", help="parent directory of the run directory")
     return ap.parse_args(argv)
-
-
-def default_window(fmt: NumberFormat, cons_bits: int) -> int:
-    """Issue slots a manifold must wait before its bodies come back: the deeper pipe's latency in records."""
-    from rtl.gen.kernel_graphs import GRAPHS
-
-    layout = sf.StreamLayout(fmt, cons_beat_bits=cons_bits)
-    contact = GRAPHS["pgs_contact_pipe"]().schedule().latency_for(fmt.man_bits)
-    friction = GRAPHS["pgs_friction_pipe"]().schedule().latency_for(fmt.man_bits)
-    return max(math.ceil(contact / layout.contact_beats), math.ceil(friction / layout.friction_beats)) + 2
 
 
 def velocity_error(ours: BodyTable, ref_lin: np.ndarray, ref_ang: np.ndarray, dynamic: np.ndarray) -> dict[str, float]:
@@ -192,8 +181,9 @@ def run(args: argparse.Namespace) -> tuple[dict[str, dict[str, Any]], Path]:
         print(f"kernel: {kb.name} ({'building, first time a few minutes' if not _built(kb) else 'built'})", flush=True)
         progress = text_progress(job.manifold_passes)
         waves = run_dir / "waves.fst" if args.waves else None
-        res = run_kernel_step(job, preset, run_dir, args.seed, args.stall_permille, args.stall_permille, progress,
-                              golden=golden, waves=waves, wave_cycles=args.wave_cycles)
+        res = timer.run("RTL kernel in Verilator (build, run, compare)", run_kernel_step, job, preset, run_dir,
+                        args.seed, args.stall_permille, args.stall_permille, progress, golden=golden, waves=waves,
+                        wave_cycles=args.wave_cycles)
         print(file=sys.stderr)
         if waves is not None:
             _write_gtkw(waves)
