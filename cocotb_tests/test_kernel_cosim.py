@@ -7,53 +7,91 @@ DDR, programs the DMAs and the kernel over AXI4-Lite (``tb.host_driver``), start
 S2MM is compared too. Random idle cycles on every MM2S stream and random backpressure on S2MM are seeded
 (the seed is printed; ``SEED=<n>`` reproduces a run); results must be bit-identical whatever the stalls.
 
+``test_scoreboard_catches_friction_sign_bug`` checks the checker: the kernel built with the test-only
+``TEST_FRICTION_SIGN_BUG`` must be stopped by the scoreboard at the first friction-pass record (the cocotb test
+``run_step_expect_mismatch`` catches the scoreboard's AssertionError and reports it to pytest).
+
+``WAVES=1`` writes ``build/cocotb/<build>_waves/<case>.fst`` and a GTKWave save file beside it,
+``<case>.gtkw`` (control, DMA streams and pipeline signals grouped); both paths are printed.
+
     .venv/bin/python -m pytest cocotb_tests/test_kernel_cosim.py -k stack      # one case
-    WAVES=1 .venv/bin/python -m pytest cocotb_tests/test_kernel_cosim.py -k stack   # + FST waveform
+    WAVES=1 .venv/bin/python -m pytest cocotb_tests/test_kernel_cosim.py -k stack -s   # + FST waveform
+    gtkwave build/cocotb/pgs_kernel_e8m23_c512_waves/stack-fp32-hazard-zcu102.gtkw
 """
 
 from __future__ import annotations
 
 import json
 import os
+import re
 import time
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import cocotb
 import numpy as np
 import pytest
 
 from models.number_format import parse_format
+from sim.verilator_build import DEBUG_COMPILE_ARGS, QUICK_COMPILE_ARGS
 
 HERE = Path(__file__).resolve().parent
 TIMEOUT_CYCLES = 2_000_000
 
 
-@cocotb.test()
-async def run_step(dut) -> None:
+@dataclass
+class _Step:
+    """One step set up in the simulator: the case (``.npz``), the host (DMA, DDR, AXI4-Lite) and the scoreboard."""
+
+    case: Any
+    meta: dict
+    host: Any
+    sb: Any
+
+    async def run(self):
+        """Run the step with the scoreboard watching the trace; the first mismatch raises its AssertionError."""
+        from cocotb.triggers import select
+
+        passes = [self.case[f"pass{p}"].tobytes() for p in range(self.meta["passes"])]
+        run = self.host.run_step(self.case["body_in"].tobytes(), passes, int(self.case["body_out"].size),
+                                 TIMEOUT_CYCLES)
+        _, res = await select(self.sb.monitor(), run)  # the monitor only ever ends by raising
+        return res
+
+
+async def _start_step(dut) -> _Step:
+    """Load the case of ``CASE_FILE``, reset the kernel and program its arguments."""
     from tb.host_driver import KernelHost
     from tb.scoreboard import ExpectedTrace, TraceScoreboard
 
     from models.dma_model import get_preset
 
-    case = np.load(os.environ["CASE_FILE"], allow_pickle=False)
+    with np.load(os.environ["CASE_FILE"], allow_pickle=False) as npz:
+        case = dict(npz)
     meta = json.loads(str(case["meta"]))
     fmt = parse_format(meta["format"])
-    preset = get_preset(meta["dma"])
-    host = KernelHost(dut, preset, meta["seed"], idle_prob=meta["idle"], backpressure_prob=meta["backpressure"])
+    host = KernelHost(dut, get_preset(meta["dma"]), meta["seed"], idle_prob=meta["idle"],
+                      backpressure_prob=meta["backpressure"])
     expected = ExpectedTrace(case["kind"], case["iteration"], case["slot"], case["manifold"], case["body_a"],
                              case["body_b"], case["words"])
-    sb = TraceScoreboard(dut, fmt, expected)
+    step = _Step(case, meta, host, TraceScoreboard(dut, fmt, expected))
     await host.reset()
-    monitor = cocotb.start_soon(sb.monitor())
     await host.program(fmt, meta["num_bodies"], meta["num_manifolds"], meta["iterations"], meta["dt"],
                        tuple(meta["gravity"]), meta["damping"], meta["options"])
-    passes = [case[f"pass{p}"].tobytes() for p in range(meta["passes"])]
+    return step
+
+
+@cocotb.test()
+async def run_step(dut) -> None:
+    st = await _start_step(dut)
+    case, meta, sb = st.case, st.meta, st.sb
     t0 = time.perf_counter()
-    res = await host.run_step(case["body_in"].tobytes(), passes, int(case["body_out"].size), TIMEOUT_CYCLES)
+    res = await st.run()
     wall = time.perf_counter() - t0
-    monitor.cancel()
     assert res.status == 0, f"kernel status register {res.status:#x} (sticky error flags) after a good frame"
-    assert sb.complete, f"trace: {sb.compared} records compared, {expected.words.shape[0]} expected"
+    assert sb.complete, f"trace: {sb.compared} records compared, {sb.exp.words.shape[0]} expected"
     want = case["body_out"].tobytes()
     if res.body_out != want:
         got_w = np.frombuffer(res.body_out.ljust(len(want), b"\0"), np.uint8)
@@ -68,6 +106,24 @@ async def run_step(dut) -> None:
                "sim_cycles_per_s": sb.cycle / wall if wall > 0 else 0.0}
     dut._log.info("cosim %s", json.dumps(summary))
     Path(os.environ["CASE_FILE"]).with_suffix(".result.json").write_text(json.dumps(summary, indent=1))
+
+
+@cocotb.test()
+async def run_step_expect_mismatch(dut) -> None:
+    """For a kernel built with an injected bug: run until the scoreboard's first mismatch and write what it
+    reported (message, record index and that record's pass kind, iteration, slot) to ``<case>.mismatch.json``;
+    the pytest side judges it. A step that ends without a mismatch writes ``caught: false``."""
+    st = await _start_step(dut)
+    e = st.sb.exp
+    try:
+        await st.run()
+        report: dict = {"caught": False, "records_compared": st.sb.compared}
+    except AssertionError as err:
+        k = st.sb.compared  # the record being compared when the scoreboard stopped
+        report = {"caught": True, "message": str(err), "record": k, "cycle": st.sb.cycle, "kind": int(e.kind[k]),
+                  "iteration": int(e.iteration[k]), "slot": int(e.slot[k])}
+    dut._log.info("scoreboard: %s", json.dumps(report))
+    Path(os.environ["CASE_FILE"]).with_suffix(".mismatch.json").write_text(json.dumps(report, indent=1))
 
 
 def _prepare_case(path: Path, scene: str, params: dict, fmt_name: str, schedule_kind: str, dma: str,
@@ -116,26 +172,130 @@ CASES = [
 ]
 
 
-@pytest.mark.parametrize("scene,params,fmt_name,schedule_kind,dma,idle,bp", CASES,
-                         ids=[f"{c[0]}-{c[2]}-{c[3]}-{c[4]}" for c in CASES])
-def test_kernel_cosim(scene, params, fmt_name, schedule_kind, dma, idle, bp) -> None:
-    from cocotb_runner import BUILD_ROOT, run_cocotb, test_seed
+# A short run: C++ at -O0 (DEBUG_COMPILE_ARGS without its -fno-inline, which would split the kernel into ~330
+# C++ files and take longer to build than -O1).
+O0_COMPILE_ARGS = [a for a in DEBUG_COMPILE_ARGS if a != "-fno-inline"]
 
-    from models.dma_model import get_preset
+
+def _cosim(testcase: str, scene: str, params: dict, fmt_name: str, schedule_kind: str, dma: str, idle: float,
+           bp: float, bug: str | None = None, compile_args: Sequence[str] = QUICK_COMPILE_ARGS) -> Path:
+    """Prepare the case, build the kernel for it (``bug``: a test-only parameter set to 1, in a build of its
+    own) and run the cocotb test ``testcase``; returns the case file. With ``WAVES=1`` the FST and its GTKWave
+    save file are ``build/cocotb/<build>_waves/<case>.fst`` / ``.gtkw`` (printed)."""
+    from cocotb_runner import BUILD_ROOT, run_cocotb, test_seed, waves_enabled
+    from tb.gtkwave_save import kernel_groups
+
     from sim.lint import rtl_files
 
-    fmt = parse_format(fmt_name)
-    preset = get_preset(dma)
     seed = test_seed()
-    tag = f"pgs_kernel_e{fmt.exp_bits}m{fmt.man_bits}_c{preset.stream_bits}"
+    rtl_params = _kernel_params(fmt_name, dma)
+    tag = "pgs_kernel_e{EXP_BITS}m{MAN_BITS}_c{CONS_W}".format(**rtl_params)
+    case_name = f"{scene}-{fmt_name}-{schedule_kind}-{dma}"
+    if bug:
+        rtl_params[bug] = 1
+        tag += "_" + bug.removeprefix("TEST_").lower()
+        case_name += "-" + bug.removeprefix("TEST_").lower()
     case_dir = BUILD_ROOT / "cases"
     case_dir.mkdir(parents=True, exist_ok=True)
-    case_file = case_dir / f"{scene}-{fmt_name}-{schedule_kind}-{dma}.npz"
+    case_file = case_dir / f"{case_name}.npz"
+    for suffix in (".result.json", ".mismatch.json"):  # never judge a stale report
+        case_file.with_suffix(suffix).unlink(missing_ok=True)
     meta = _prepare_case(case_file, scene, params, fmt_name, schedule_kind, dma, seed, idle, bp)
     print(f"{scene}: {meta['num_bodies']} bodies, {meta['num_manifolds']} manifolds, {meta['passes']} passes")
     packages, modules = rtl_files()
-    run_cocotb("pgs_kernel", packages + modules, "test_kernel_cosim", name=tag, seed=seed,
-               parameters={"EXP_BITS": fmt.exp_bits, "MAN_BITS": fmt.man_bits, "CONS_W": preset.stream_bits},
-               extra_env={"CASE_FILE": str(case_file)}, testcase=["run_step"],
-               public_vlt=HERE / "kernel" / "pgs_kernel_public.vlt")
+    run_cocotb("pgs_kernel", packages + modules, "test_kernel_cosim", name=tag, seed=seed, parameters=rtl_params,
+               extra_env={"CASE_FILE": str(case_file)}, testcase=[testcase],
+               public_vlt=HERE / "kernel" / "pgs_kernel_public.vlt", compile_args=compile_args,
+               waves_name=case_name, waves_groups=kernel_groups(rtl_params) if waves_enabled() else None)
+    return case_file
+
+
+@pytest.mark.parametrize("scene,params,fmt_name,schedule_kind,dma,idle,bp", CASES,
+                         ids=[f"{c[0]}-{c[2]}-{c[3]}-{c[4]}" for c in CASES])
+def test_kernel_cosim(scene, params, fmt_name, schedule_kind, dma, idle, bp) -> None:
+    case_file = _cosim("run_step", scene, params, fmt_name, schedule_kind, dma, idle, bp)
     print(case_file.with_suffix(".result.json").read_text())
+
+
+def test_scoreboard_catches_friction_sign_bug() -> None:
+    """The kernel built with TEST_FRICTION_SIGN_BUG (each friction row's velocity update applied with the wrong
+    sign): the scoreboard must stop at the first update the bug affects, the first friction-pass record
+    (iteration 0, slot 0), and name the field with both values; every contact-pass record before it matches.
+    In the stack that record (manifold 0: the ground as body A, the bottom cube as B) has non-zero friction
+    impulses, so the bug shows there, on body B and on the second tangent row's impulse (computed after the
+    first row's wrong update). Built at -O0: a short run (it stops at the mismatch, ~1,700 cycles in)."""
+    from tb.scoreboard import FIELDS
+
+    case_file = _cosim("run_step_expect_mismatch", "stack", {"n": 10}, "fp32", "hazard", "zcu102", 0.2, 0.2,
+                       bug="TEST_FRICTION_SIGN_BUG", compile_args=O0_COMPILE_ARGS)
+    report = json.loads(case_file.with_suffix(".mismatch.json").read_text())
+    print(json.dumps(report, indent=1))
+    assert report["caught"], f"the injected friction sign bug went undetected ({report['records_compared']} " \
+                             "records compared, all equal to the golden model)"
+    with np.load(case_file, allow_pickle=False) as case:
+        first_friction = int(np.flatnonzero(case["kind"] == 1)[0])
+        golden = case["words"][first_friction]
+    where = (report["record"], report["kind"], report["iteration"], report["slot"])
+    assert where == (first_friction, 1, 0, 0), \
+        f"caught at retire #{report['record']} (kind {report['kind']}, iteration {report['iteration']}, slot " \
+        f"{report['slot']}), not at the first friction-pass record #{first_friction}: {report['message']}"
+    msg = report["message"]
+    m = re.search(r"friction pass, iteration 0, slot 0, .*: body [AB-] field (\S+): got (0x[0-9a-f]+) \(.+\), "
+                  r"expected (0x[0-9a-f]+) \(.+\)$", msg)
+    assert m, f"scoreboard message does not name the record, field and both values: {msg}"
+    field, got, want = m.group(1), int(m.group(2), 16), int(m.group(3), 16)
+    assert field in FIELDS and got != want
+    assert want == int(golden[FIELDS.index(field)]), "the expected value is not the golden model's"
+
+
+def _kernel_params(fmt_name: str, dma: str) -> dict[str, int]:
+    from models.dma_model import get_preset
+
+    fmt = parse_format(fmt_name)
+    return {"EXP_BITS": fmt.exp_bits, "MAN_BITS": fmt.man_bits, "CONS_W": get_preset(dma).stream_bits}
+
+
+@pytest.mark.parametrize("fmt_name,dma", [("fp32", "zcu102"), ("bf16", "ideal")])
+def test_gtkwave_save_file_names_design_signals(tmp_path, fmt_name, dma) -> None:
+    """Every trace of the kernel's ``.gtkw`` is a signal the RTL declares in that scope, with the range it has
+    in that build (e.g. s_axis_cons_TDATA follows CONS_W), and the file reads back trace for trace."""
+    from tb import gtkwave_save as gs
+
+    params = _kernel_params(fmt_name, dma)
+    groups = gs.kernel_groups(params)
+    save = gs.write_kernel_save_file(tmp_path / "k.fst", parameters=params)
+    assert save == tmp_path / "k.gtkw"
+    text = save.read_text()
+    assert f'[dumpfile] "{tmp_path / "k.fst"}"' in text and f'[savefile] "{save}"' in text
+    traces = gs.save_file_traces(text)
+    assert traces == [t.path for g in groups for t in g.traces]
+    assert [g.name for g in groups] == ["Control", "DMA streams", "Pipeline"]
+    top = gs.KERNEL_TOP
+    declared = {top: gs.rtl_signals(gs.RTL_DIR / "pgs_kernel.sv", params),
+                f"{top}.u_seq": gs.rtl_signals(gs.RTL_DIR / "pgs_sequencer.sv", params)}
+    for path in traces:
+        scope, leaf = path.split("[")[0].rsplit(".", 1)
+        rng = declared[scope].range(leaf)
+        assert path == f"{scope}.{leaf}" + (f"[{rng[0]}:{rng[1]}]" if rng else ""), path
+    cons_w = params["CONS_W"]
+    assert f"{top}.s_axis_cons_TDATA[{cons_w - 1}:0]" in traces
+    for name in ("ap_clk", "ap_start", "ap_done", "ap_idle", "interrupt", "s_axi_control_AWVALID", "trace_valid",
+                 "s_axis_body_TVALID", "m_axis_body_TREADY", "u_seq.issue", "u_seq.retire", "u_seq.hazard"):
+        assert f"{top}.{name}" in traces, name
+
+
+def test_gtkwave_save_file_matches_fst() -> None:
+    """Against a real dump, when there is one (a ``WAVES=1`` run of the fp32 kernel) and ``fst2vcd`` (gtkwave
+    package) is installed: every trace of the save file is in the FST's hierarchy."""
+    from cocotb_runner import BUILD_ROOT
+    from tb import gtkwave_save as gs
+
+    fsts = sorted((BUILD_ROOT / "pgs_kernel_e8m23_c512_waves").glob("*.fst"), key=lambda f: f.stat().st_mtime)
+    if not fsts:
+        pytest.skip("no FST (run WAVES=1 .venv/bin/python -m pytest cocotb_tests/test_kernel_cosim.py -k stack)")
+    names = gs.fst_signal_names(fsts[-1])
+    if names is None:
+        pytest.skip("fst2vcd (gtkwave package) not installed")
+    traces = [t.path for g in gs.kernel_groups(_kernel_params("fp32", "zcu102")) for t in g.traces]
+    missing = [t for t in traces if t not in names]
+    assert not missing, f"not in {fsts[-1]}: {missing}"

@@ -16,12 +16,16 @@
 // IInvA_x, 41 IInvA_y, 42 IInvA_z, 43 IInvB_x, 44 IInvB_y, 45 IInvB_z
 // Outputs: 0 lamT0, 1 lamT1, 2 vA_x, 3 vA_y, 4 vA_z, 5 wA_x, 6 wA_y, 7 wA_z, 8 vB_x, 9 vB_y, 10
 // vB_z, 11 wB_x, 12 wB_y, 13 wB_z
+// TEST_FRICTION_SIGN_BUG (test only, default 0 = the golden datapath): the velocity updates of both
+// tangent rows apply +delta instead of -delta (a wrong sign in the friction pass, for the
+// co-simulation test that expects the scoreboard to catch it).
 `default_nettype none
 
 module pgs_friction_pipe #(
     parameter  int EXP_BITS = 8,
     parameter  int MAN_BITS = 23,
     parameter  int TAG_W    = 64,
+    parameter  bit TEST_FRICTION_SIGN_BUG = 1'b0,   // test only: an injected bug when 1
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 46,
     localparam int N_OUT    = 14,
@@ -839,6 +843,12 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_e;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_e (.clk(clk), .d(t0_e), .q(dl_t0_e));
+    // t0_e_applied = TEST_FRICTION_SIGN_BUG ? -t0_e : t0_e   (ready @43/43/43)
+    logic [W-1:0] t0_e_applied;
+    assign t0_e_applied = TEST_FRICTION_SIGN_BUG ? {~dl_t0_e[W-1], dl_t0_e[W-2:0]} : dl_t0_e;
+    logic [W-1:0] dl_t0_e_applied;
+    pgs_delay #(.WIDTH(W), .DEPTH(0))
+        u_dl_t0_e_applied (.clk(clk), .d(t0_e_applied), .q(dl_t0_e_applied));
     // t0_linA_x = t0_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_x (
@@ -866,28 +876,28 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
         u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .q(dl_t0_linA_z));
-    // t0_mul112 = t0_linA_x * t0_e   (ready @46/46/46)
+    // t0_mul112 = t0_linA_x * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul112;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul112 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_x), .b(dl_t0_e_applied),
         .out_valid(op_valid_nc[59]), .y(t0_mul112)
     );
     logic [W-1:0] dl_t0_mul112;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul112 (.clk(clk), .d(t0_mul112), .q(dl_t0_mul112));
-    // t0_mul113 = t0_linA_y * t0_e   (ready @46/46/46)
+    // t0_mul113 = t0_linA_y * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul113;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul113 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_y), .b(dl_t0_e_applied),
         .out_valid(op_valid_nc[60]), .y(t0_mul113)
     );
     logic [W-1:0] dl_t0_mul113;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul113 (.clk(clk), .d(t0_mul113), .q(dl_t0_mul113));
-    // t0_mul114 = t0_linA_z * t0_e   (ready @46/46/46)
+    // t0_mul114 = t0_linA_z * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul114;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul114 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_z), .b(dl_t0_e_applied),
         .out_valid(op_valid_nc[61]), .y(t0_mul114)
     );
     logic [W-1:0] dl_t0_mul114;
@@ -965,28 +975,28 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
         u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .q(dl_t0_angA_z));
-    // t0_mul124 = t0_angA_x * t0_e   (ready @46/46/46)
+    // t0_mul124 = t0_angA_x * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul124;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul124 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_x), .b(dl_t0_e_applied),
         .out_valid(op_valid_nc[68]), .y(t0_mul124)
     );
     logic [W-1:0] dl_t0_mul124;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul124 (.clk(clk), .d(t0_mul124), .q(dl_t0_mul124));
-    // t0_mul125 = t0_angA_y * t0_e   (ready @46/46/46)
+    // t0_mul125 = t0_angA_y * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul125;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul125 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_y), .b(dl_t0_e_applied),
         .out_valid(op_valid_nc[69]), .y(t0_mul125)
     );
     logic [W-1:0] dl_t0_mul125;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul125 (.clk(clk), .d(t0_mul125), .q(dl_t0_mul125));
-    // t0_mul126 = t0_angA_z * t0_e   (ready @46/46/46)
+    // t0_mul126 = t0_angA_z * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul126;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul126 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_z), .b(dl_t0_e_applied),
         .out_valid(op_valid_nc[70]), .y(t0_mul126)
     );
     logic [W-1:0] dl_t0_mul126;
@@ -1064,28 +1074,28 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
         u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .q(dl_t0_linB_z));
-    // t0_mul136 = t0_linB_x * t0_e   (ready @46/46/46)
+    // t0_mul136 = t0_linB_x * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul136;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul136 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_x), .b(dl_t0_e_applied),
         .out_valid(op_valid_nc[77]), .y(t0_mul136)
     );
     logic [W-1:0] dl_t0_mul136;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul136 (.clk(clk), .d(t0_mul136), .q(dl_t0_mul136));
-    // t0_mul137 = t0_linB_y * t0_e   (ready @46/46/46)
+    // t0_mul137 = t0_linB_y * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul137;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul137 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_y), .b(dl_t0_e_applied),
         .out_valid(op_valid_nc[78]), .y(t0_mul137)
     );
     logic [W-1:0] dl_t0_mul137;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul137 (.clk(clk), .d(t0_mul137), .q(dl_t0_mul137));
-    // t0_mul138 = t0_linB_z * t0_e   (ready @46/46/46)
+    // t0_mul138 = t0_linB_z * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul138;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul138 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_z), .b(dl_t0_e_applied),
         .out_valid(op_valid_nc[79]), .y(t0_mul138)
     );
     logic [W-1:0] dl_t0_mul138;
@@ -1163,28 +1173,28 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
         u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .q(dl_t0_angB_z));
-    // t0_mul148 = t0_angB_x * t0_e   (ready @46/46/46)
+    // t0_mul148 = t0_angB_x * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul148;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul148 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_x), .b(dl_t0_e_applied),
         .out_valid(op_valid_nc[86]), .y(t0_mul148)
     );
     logic [W-1:0] dl_t0_mul148;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul148 (.clk(clk), .d(t0_mul148), .q(dl_t0_mul148));
-    // t0_mul149 = t0_angB_y * t0_e   (ready @46/46/46)
+    // t0_mul149 = t0_angB_y * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul149;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul149 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_y), .b(dl_t0_e_applied),
         .out_valid(op_valid_nc[87]), .y(t0_mul149)
     );
     logic [W-1:0] dl_t0_mul149;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul149 (.clk(clk), .d(t0_mul149), .q(dl_t0_mul149));
-    // t0_mul150 = t0_angB_z * t0_e   (ready @46/46/46)
+    // t0_mul150 = t0_angB_z * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul150;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul150 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_z), .b(dl_t0_e_applied),
         .out_valid(op_valid_nc[88]), .y(t0_mul150)
     );
     logic [W-1:0] dl_t0_mul150;
@@ -1669,6 +1679,12 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_e;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_e (.clk(clk), .d(t1_e), .q(dl_t1_e));
+    // t1_e_applied = TEST_FRICTION_SIGN_BUG ? -t1_e : t1_e   (ready @82/82/82)
+    logic [W-1:0] t1_e_applied;
+    assign t1_e_applied = TEST_FRICTION_SIGN_BUG ? {~dl_t1_e[W-1], dl_t1_e[W-2:0]} : dl_t1_e;
+    logic [W-1:0] dl_t1_e_applied;
+    pgs_delay #(.WIDTH(W), .DEPTH(0))
+        u_dl_t1_e_applied (.clk(clk), .d(t1_e_applied), .q(dl_t1_e_applied));
     // t1_linA_x = t1_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_x (
@@ -1696,28 +1712,28 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
         u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .q(dl_t1_linA_z));
-    // t1_mul209 = t1_linA_x * t1_e   (ready @85/85/85)
+    // t1_mul209 = t1_linA_x * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul209;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul209 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_x), .b(dl_t1_e_applied),
         .out_valid(op_valid_nc[141]), .y(t1_mul209)
     );
     logic [W-1:0] dl_t1_mul209;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul209 (.clk(clk), .d(t1_mul209), .q(dl_t1_mul209));
-    // t1_mul210 = t1_linA_y * t1_e   (ready @85/85/85)
+    // t1_mul210 = t1_linA_y * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul210;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul210 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_y), .b(dl_t1_e_applied),
         .out_valid(op_valid_nc[142]), .y(t1_mul210)
     );
     logic [W-1:0] dl_t1_mul210;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul210 (.clk(clk), .d(t1_mul210), .q(dl_t1_mul210));
-    // t1_mul211 = t1_linA_z * t1_e   (ready @85/85/85)
+    // t1_mul211 = t1_linA_z * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul211;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul211 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_z), .b(dl_t1_e_applied),
         .out_valid(op_valid_nc[143]), .y(t1_mul211)
     );
     logic [W-1:0] dl_t1_mul211;
@@ -1795,28 +1811,28 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
         u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .q(dl_t1_angA_z));
-    // t1_mul221 = t1_angA_x * t1_e   (ready @85/85/85)
+    // t1_mul221 = t1_angA_x * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul221;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul221 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_x), .b(dl_t1_e_applied),
         .out_valid(op_valid_nc[150]), .y(t1_mul221)
     );
     logic [W-1:0] dl_t1_mul221;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul221 (.clk(clk), .d(t1_mul221), .q(dl_t1_mul221));
-    // t1_mul222 = t1_angA_y * t1_e   (ready @85/85/85)
+    // t1_mul222 = t1_angA_y * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul222;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul222 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_y), .b(dl_t1_e_applied),
         .out_valid(op_valid_nc[151]), .y(t1_mul222)
     );
     logic [W-1:0] dl_t1_mul222;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul222 (.clk(clk), .d(t1_mul222), .q(dl_t1_mul222));
-    // t1_mul223 = t1_angA_z * t1_e   (ready @85/85/85)
+    // t1_mul223 = t1_angA_z * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul223;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul223 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_z), .b(dl_t1_e_applied),
         .out_valid(op_valid_nc[152]), .y(t1_mul223)
     );
     logic [W-1:0] dl_t1_mul223;
@@ -1894,28 +1910,28 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
         u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .q(dl_t1_linB_z));
-    // t1_mul233 = t1_linB_x * t1_e   (ready @85/85/85)
+    // t1_mul233 = t1_linB_x * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul233;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul233 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_x), .b(dl_t1_e_applied),
         .out_valid(op_valid_nc[159]), .y(t1_mul233)
     );
     logic [W-1:0] dl_t1_mul233;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul233 (.clk(clk), .d(t1_mul233), .q(dl_t1_mul233));
-    // t1_mul234 = t1_linB_y * t1_e   (ready @85/85/85)
+    // t1_mul234 = t1_linB_y * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul234;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul234 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_y), .b(dl_t1_e_applied),
         .out_valid(op_valid_nc[160]), .y(t1_mul234)
     );
     logic [W-1:0] dl_t1_mul234;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul234 (.clk(clk), .d(t1_mul234), .q(dl_t1_mul234));
-    // t1_mul235 = t1_linB_z * t1_e   (ready @85/85/85)
+    // t1_mul235 = t1_linB_z * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul235;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul235 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_z), .b(dl_t1_e_applied),
         .out_valid(op_valid_nc[161]), .y(t1_mul235)
     );
     logic [W-1:0] dl_t1_mul235;
@@ -1993,28 +2009,28 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
         u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .q(dl_t1_angB_z));
-    // t1_mul245 = t1_angB_x * t1_e   (ready @85/85/85)
+    // t1_mul245 = t1_angB_x * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul245;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul245 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_x), .b(dl_t1_e_applied),
         .out_valid(op_valid_nc[168]), .y(t1_mul245)
     );
     logic [W-1:0] dl_t1_mul245;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul245 (.clk(clk), .d(t1_mul245), .q(dl_t1_mul245));
-    // t1_mul246 = t1_angB_y * t1_e   (ready @85/85/85)
+    // t1_mul246 = t1_angB_y * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul246;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul246 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_y), .b(dl_t1_e_applied),
         .out_valid(op_valid_nc[169]), .y(t1_mul246)
     );
     logic [W-1:0] dl_t1_mul246;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul246 (.clk(clk), .d(t1_mul246), .q(dl_t1_mul246));
-    // t1_mul247 = t1_angB_z * t1_e   (ready @85/85/85)
+    // t1_mul247 = t1_angB_z * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul247;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul247 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_z), .b(dl_t1_e_applied),
         .out_valid(op_valid_nc[170]), .y(t1_mul247)
     );
     logic [W-1:0] dl_t1_mul247;

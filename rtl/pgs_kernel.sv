@@ -15,6 +15,9 @@
 //     1 friction), 15 zero bits: TRACE_W = 16W + 64 bits.
 // Real-valued arguments (dt, gravity, damping) are the format's bit patterns in the low W bits of their
 // 32-bit registers (W <= 32).
+// TEST_FRICTION_SIGN_BUG is for tests only and must stay 0: when 1, the friction pipe applies each
+// tangent row's impulse change to the velocities with the wrong sign (+delta instead of -delta), a bug
+// the co-simulation scoreboard must catch (cocotb_tests/test_kernel_cosim.py).
 `default_nettype none
 
 module pgs_kernel #(
@@ -30,6 +33,7 @@ module pgs_kernel #(
     parameter int OUT_FIFO_DEPTH = 64,
     parameter int C_S_AXI_CONTROL_ADDR_WIDTH = 8,
     parameter int C_S_AXI_CONTROL_DATA_WIDTH = 32,
+    parameter bit TEST_FRICTION_SIGN_BUG = 1'b0,
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64,
     localparam int AW            = C_S_AXI_CONTROL_ADDR_WIDTH,
@@ -96,7 +100,8 @@ module pgs_kernel #(
     pgs_sequencer #(
         .EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .MAX_MANIFOLDS(MAX_MANIFOLDS),
         .BODY_IN_W(BODY_IN_W), .CONS_W(CONS_W), .BODY_OUT_W(BODY_OUT_W), .TRACE(TRACE),
-        .HAZARD_DEPTH(HAZARD_DEPTH), .OUT_FIFO_DEPTH(OUT_FIFO_DEPTH)
+        .HAZARD_DEPTH(HAZARD_DEPTH), .OUT_FIFO_DEPTH(OUT_FIFO_DEPTH),
+        .TEST_FRICTION_SIGN_BUG(TEST_FRICTION_SIGN_BUG)
     ) u_seq (
         .clk(ap_clk), .rst(ap_rst_n_inv), .start(ap_start), .idle(ap_idle), .done(ap_done),
         .arg_num_bodies(num_bodies), .arg_num_manifolds(num_manifolds), .arg_iterations(iterations),

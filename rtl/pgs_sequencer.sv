@@ -39,6 +39,7 @@ module pgs_sequencer #(
     parameter bit TRACE          = 1'b1,
     parameter int HAZARD_DEPTH   = 256,
     parameter int OUT_FIFO_DEPTH = 64,
+    parameter bit TEST_FRICTION_SIGN_BUG = 1'b0,  // test only (pgs_kernel): an injected friction-pass bug
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64
 ) (
@@ -247,7 +248,8 @@ module pgs_sequencer #(
     pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
         .clk, .rst, .in_valid(s1_valid && s1_kind == CONTACT), .in_tag(s1_tag), .in_data(c_in),
         .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out));
-    pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+    pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
+                        .TEST_FRICTION_SIGN_BUG(TEST_FRICTION_SIGN_BUG)) u_friction (
         .clk, .rst, .in_valid(s1_valid && s1_kind == FRICTION), .in_tag(s1_tag), .in_data(f_in),
         .in_spin_damp(s1_sd), .out_valid(f_out_valid), .out_tag(f_out_tag), .out_data(f_out));
 

@@ -17,7 +17,12 @@ DSL                meaning                     RTL              latency
 ``g.select(p,a,b)`` p ? a : b                  mux              0 (combinational)
 ``-a``             sign flip (exact)           wire             0
 ``g.const(x)``     x rounded to the format     localparam       --
+``g.test_neg(a,P)`` a, or -a when parameter P  mux on a param   0 (combinational)
 =================  ==========================  ===============  =====================================
+
+``g.test_neg`` exists to inject a known bug in test builds: it declares a test-only module parameter
+``P`` (``bit``, default 0). With the default the mux is constant and the module computes the golden
+operation order; with ``P = 1`` the value's sign is flipped.
 
 The latencies are read from the operators' sources (``rtl/fp/*.sv``, ``localparam int LATENCY``) by
 :func:`operator_latencies`, so the schedule follows the RTL. ``div`` and ``sqrt`` depend on
@@ -152,6 +157,7 @@ _SIGS: dict[str, tuple[tuple[str, ...], str, Optional[str]]] = {
     "is_zero": ((FLOAT,), BOOL, None),
     "select": ((BOOL, FLOAT, FLOAT), FLOAT, None),
     "neg": ((FLOAT,), FLOAT, None),
+    "test_neg": ((FLOAT,), FLOAT, None),
 }
 _SV_KEYWORDS = set("""
 always and assign automatic begin bit buf byte case cell chandle class clk config const default defparam
@@ -171,10 +177,11 @@ class Value:
     """A node of a :class:`Graph` (the result of an input, constant or operation)."""
 
     def __init__(self, graph: "Graph", nid: int, op: str, args: tuple["Value", ...], typ: str, name: str,
-                 const: Optional[float] = None, index: Optional[int] = None):
+                 const: Optional[float] = None, index: Optional[int] = None, param: Optional[str] = None):
         self.graph, self.id, self.op, self.args, self.type, self.name = graph, nid, op, args, typ, name
         self.const = const
         self.index = index  # input word index (FLOAT inputs) or None
+        self.param = param  # test_neg: the module parameter that flips the sign
         self.auto_named = False
 
     # arithmetic sugar ---------------------------------------------------------------------------
@@ -225,6 +232,8 @@ class Graph:
         self._cse: dict[tuple, Value] = {}
         self._consts: dict[int, Value] = {}
         self._scope: list[str] = []
+        self.test_params: dict[str, str] = {}  # test-only bit parameters (default 0) -> what they do
+        self._n_test_nodes = 0
 
     # naming ----------------------------------------------------------------------------------------
     def _unique(self, name: str) -> str:
@@ -237,6 +246,11 @@ class Graph:
             i += 1
         self._names.add(cand)
         return cand
+
+    def _auto_id(self) -> int:
+        """The number in an automatic node name: test_neg nodes are not counted, so adding an injected bug
+        leaves the other names of the generated RTL as they were (a readable diff)."""
+        return len(self.nodes) - self._n_test_nodes
 
     def _scoped(self, name: str) -> str:
         return "_".join(self._scope + [name])
@@ -299,7 +313,7 @@ class Graph:
         if key in self._cse:
             v = self._cse[key]
         else:
-            v = self._new(op, tuple(args), rtype, self._unique(self._scoped(f"{op}{len(self.nodes)}")))
+            v = self._new(op, tuple(args), rtype, self._unique(self._scoped(f"{op}{self._auto_id()}")))
             v.auto_named = True
             self._cse[key] = v
         if name:
@@ -325,6 +339,22 @@ class Graph:
         """p ? a : b"""
         return self.op("select", p, a, b, name=name)
 
+    def test_neg(self, a: Value, param: str, doc: str, name: Optional[str] = None) -> Value:
+        """``a``, or ``-a`` when the module's test-only ``parameter bit <param>`` (default 0) is set.
+
+        For a deliberately injected bug in a test build (``doc`` says what it breaks; it is written to the
+        module header). Never merged with another node, so each call is one place the bug acts.
+        """
+        if not isinstance(a, Value) or a.graph is not self or a.type != FLOAT:
+            raise TypeError(f"test_neg: operand is not a FLOAT value of this graph: {a!r}")
+        if not re.fullmatch(r"[A-Z][A-Z0-9_]*", param):
+            raise ValueError(f"test_neg: parameter name {param!r} is not an upper-case identifier")
+        if self.test_params.setdefault(param, doc) != doc:
+            raise ValueError(f"test_neg: parameter {param} declared with two different descriptions")
+        self._n_test_nodes += 1
+        return self._new("test_neg", (a,), FLOAT, self._unique(self._scoped(name or f"test_neg{self._auto_id()}")),
+                         param=param)
+
     def output(self, name: str, v: Value) -> None:
         if v.type != FLOAT:
             raise TypeError(f"output {name} must be FLOAT")
@@ -347,8 +377,13 @@ class Graph:
         return Schedule(self, lat or operator_latencies())
 
     # software twin -----------------------------------------------------------------------------------
-    def evaluate(self, ar, inputs: np.ndarray, bool_inputs: Optional[np.ndarray] = None) -> np.ndarray:
-        """Interpret the graph with arithmetic ``ar``; inputs (K, N_IN) float64 -> outputs (K, N_OUT)."""
+    def evaluate(self, ar, inputs: np.ndarray, bool_inputs: Optional[np.ndarray] = None,
+                 params: Optional[dict[str, int]] = None) -> np.ndarray:
+        """Interpret the graph with arithmetic ``ar``; inputs (K, N_IN) float64 -> outputs (K, N_OUT).
+
+        ``params``: values of the test-only parameters (``test_neg``); absent ones are 0, the golden datapath.
+        """
+        params = params or {}
         inputs = np.asarray(inputs, dtype=np.float64)
         val: dict[int, np.ndarray] = {}
         for v in self.live_nodes():
@@ -372,6 +407,8 @@ class Graph:
                     r = np.where(a[0], a[1], a[2])
                 elif v.op == "neg":
                     r = -a[0]
+                elif v.op == "test_neg":
+                    r = -a[0] if params.get(v.param, 0) else a[0]
                 else:  # pragma: no cover
                     raise AssertionError(v.op)
             val[v.id] = np.asarray(r)
@@ -521,6 +558,8 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
             return f"{names[0]} {_SYMBOL[v.op]} {names[1]}"
         if v.op == "neg":
             return f"-{names[0]}"
+        if v.op == "test_neg":
+            return f"{v.param} ? -{names[0]} : {names[0]}"
         if v.op == "select":
             return f"{names[0]} ? {names[1]} : {names[2]}"
         if v.op == "lt":
@@ -541,10 +580,15 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
     ]
     L += _wrap("Inputs: " + ", ".join(f"{v.index} {v.name.removeprefix('in_')}" for v in graph.inputs))
     L += _wrap("Outputs: " + ", ".join(f"{k} {o.name}" for k, o in enumerate(graph.outputs)))
+    # test-only parameters that act on the datapath (a parameter of dead nodes only would be unused)
+    test_params = {v.param: graph.test_params[v.param] for v in nodes if v.op == "test_neg"}
+    for p, doc in test_params.items():
+        L += _wrap(f"{p} (test only, default 0 = the golden datapath): {doc}")
     L += ["`default_nettype none", "", f"module {graph.name} #(",
           "    parameter  int EXP_BITS = 8,",
           "    parameter  int MAN_BITS = 23,",
           "    parameter  int TAG_W    = 64,",
+          *[f"    parameter  bit {p} = 1'b0,   // test only: an injected bug when 1" for p in test_params],
           "    localparam int W        = 1 + EXP_BITS + MAN_BITS,",
           f"    localparam int N_IN     = {n_in},",
           f"    localparam int N_OUT    = {n_out},",
@@ -644,6 +688,8 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
         mod = _SIGS[v.op][2]
         if v.op == "neg":
             L.append(f"    assign {v.name} = {{~{ops[0]}[W-1], {ops[0]}[W-2:0]}};")
+        elif v.op == "test_neg":
+            L.append(f"    assign {v.name} = {v.param} ? {{~{ops[0]}[W-1], {ops[0]}[W-2:0]}} : {ops[0]};")
         elif v.op == "select":
             L.append(f"    assign {v.name} = {ops[0]} ? {ops[1]} : {ops[2]};")
         elif v.op == "is_zero":

@@ -124,6 +124,10 @@ FRICTION_IN = (["n_x", "n_y", "n_z", "c_x", "c_y", "c_z", "t0_x", "t0_y", "t0_z"
                 "f_jac_inv0", "f_jac_inv1"] + [f"lam_n{i}" for i in range(4)] + ["lamT0", "lamT1"]
                + [f"{v}_{c}" for v in ("xA", "xB", "vA", "wA", "vB", "wB") for c in "xyz"]
                + ["mInvA", "mInvB"] + [f"IInv{s}_{c}" for s in "AB" for c in "xyz"])
+FRICTION_SIGN_BUG = "TEST_FRICTION_SIGN_BUG"
+FRICTION_SIGN_BUG_DOC = ("the velocity updates of both tangent rows apply +delta instead of -delta (a wrong "
+                         "sign in the friction pass, for the co-simulation test that expects the scoreboard "
+                         "to catch it).")
 FRICTION_OUT = ["lamT0", "lamT1"] + [f"{v}_{c}" for v in ("vA", "wA", "vB", "wB") for c in "xyz"]
 
 
@@ -163,7 +167,9 @@ computed the same way; the caller must not write them back.""")
             new = g.min(g.max(lam_t[j] + delta, neg_limit), limit, name="lam_new")
             delta = (new - lam_t[j]).named("delta")
             lam_t[j] = g.select(skip, lam_t[j], new, name="lamT")
-            e = (-delta).named("e")
+            # e = -delta is the impulse change applied to both bodies' velocities; the test-only
+            # TEST_FRICTION_SIGN_BUG applies +delta instead (a wrong sign the scoreboard must catch)
+            e = g.test_neg((-delta).named("e"), FRICTION_SIGN_BUG, FRICTION_SIGN_BUG_DOC, name="e_applied")
             va = named(vselect(g, skip, va, vadd(va, scale3(named(scale3(tj, ma), "linA"), e))), "vA")
             wa = named(vselect(g, skip, wa, vadd(wa, scale3(named(vmul(ia, ca), "angA"), e))), "wA")
             vb = named(vselect(g, skip, vb, vsub(vb, scale3(named(scale3(tj, mb), "linB"), e))), "vB")
