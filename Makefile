@@ -18,15 +18,17 @@ SEED ?= 1
 WAVES ?= 0
 FORMATS ?= fp32,fp16,bf16
 SWEEP_ITERS ?= 1,2,4,8,16,32
+BUDGET ?= 0.01
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test sim sweep lint rtl clean distclean
+.PHONY: help venv sysdeps test sim sweep analyze lint rtl clean distclean
 
 help:
 	@echo "make test      run the whole test suite (what CI runs)"
 	@echo "make sim       run a scene end to end (SCENE=pile|thesis|stack|... ITERS= FORMAT= DMA= SEED= WAVES=1)"
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=)"
+	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= ITERS= BUDGET=0.01)"
 	@echo "make lint      verilator --lint-only -Wall on every RTL top"
 	@echo "make rtl       regenerate the kernel datapaths (rtl/pgs_*_pipe.sv) from rtl/gen"
 	@echo "make clean     remove build outputs (keeps .venv and cached frames)"
@@ -56,6 +58,9 @@ test: $(STAMP)
 
 sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES)
+
+analyze: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
 
 sweep: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.sweep --scene $(SCENE) --formats $(FORMATS) --iters $(SWEEP_ITERS) --dma $(DMA) --seed $(SEED)
