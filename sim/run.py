@@ -266,7 +266,8 @@ def _built(kb: KernelBuild) -> bool:
 def _write_gtkw(fst: Path, kb: KernelBuild) -> None:
     from cocotb_tests.tb.gtkwave_save import write_kernel_save_file
 
-    save = write_kernel_save_file(fst, parameters=kb.parameters)
+    # the compiled harness names its model "pgs_kernel": the design sits one scope below it
+    save = write_kernel_save_file(fst, top="pgs_kernel.pgs_kernel", parameters=kb.parameters)
     print(f"waveform: {fst} (open with: gtkwave {save})")
 
 
