@@ -12,7 +12,7 @@ velocities, see ``constraints.body_table_from_state``): at rest the stored veloc
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -23,6 +23,16 @@ from .frame import Frame
 from .integrator import IntegrationParams, integrate
 from .number_format import FLOAT64, Arithmetic
 from .schedule import make_schedule
+
+
+# one step of the dynamics: (bodies, constraints, schedule) -> bodies after solve and integration; values in the
+# loop's format. ``golden_stepper`` is the reference model; ``sim.kernel_run.rtl_stepper`` runs the RTL kernel.
+Stepper = Callable[[BodyTable, Any, np.ndarray], BodyTable]
+StepperFactory = Callable[[Arithmetic, SolverParams, IntegrationParams], Stepper]
+
+
+def golden_stepper(ar: Arithmetic, solver: SolverParams, ip: IntegrationParams) -> Stepper:
+    return lambda bodies, cons, order: integrate(solve(bodies, cons, order, ar, solver).bodies, ar, ip)
 
 
 @dataclass
@@ -79,12 +89,12 @@ def _contact_frame(world: scenes.SceneWorld, bodies: BodyTable, mf: scenes.Manif
 
 def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations: int = 4,
                     schedule: str = "pybullet", window: int = 64, settle_steps: int = 0, warmup_steps: int = 0,
-                    seed: int = 0, **params: Any) -> LoopResult:
+                    seed: int = 0, stepper: StepperFactory = golden_stepper, **params: Any) -> LoopResult:
     """Run ``steps`` closed-loop steps of a scene and measure them.
 
     ``settle_steps`` of pybullet's own solver come first; then ``warmup_steps`` of our own loop, which are
     not measured (a stack sinks to the GPU solver's 5 mm resting penetration per contact); drift is
-    measured from the end of the warm-up.
+    measured from the end of the warm-up. ``stepper`` makes the function that solves and integrates each step.
     """
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
@@ -96,6 +106,7 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
         gravity = np.asarray(scenes.GRAVITY, dtype=np.float64)
         ip = IntegrationParams(dt=world.dt, gravity=tuple(gravity))
         bodies = body_table_from_state(state, gravity, world.dt).rounded(ar)
+        advance = stepper(ar, solver, ip)
         dyn = bodies.dynamic
         rows: dict[str, list[float]] = {k: [] for k in ("pen", "vmax", "vmed", "ke", "bad", "man")}
         start = bodies.position.copy()
@@ -108,7 +119,7 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
             frame = _contact_frame(world, bodies, mf, state, gravity)
             cons = setup_constraints(frame, bodies).rounded(ar)
             order = make_schedule(schedule, cons, dyn, window)
-            bodies = integrate(solve(bodies, cons, order, ar, solver).bodies, ar, ip)
+            bodies = advance(bodies, cons, order)
             valid = np.arange(4)[None, :] < mf.num_points[:, None]
             speed = np.linalg.norm(bodies.linear_velocity[dyn], axis=1)
             rows["pen"].append(float(np.max(-mf.distance[valid], initial=0.0)))

@@ -63,6 +63,7 @@ class BoxSpec:
     position: tuple[float, float, float]
     orientation: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)  # (x, y, z, w)
     linear_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 @dataclass
@@ -270,6 +271,70 @@ def impact_scene(rng: np.random.Generator, speed: float = 20.0, base: int = 3, h
                                                       gap=gap, drop_gap=drop_gap, friction=friction))
 
 
+def spin_scene(rng: np.random.Generator, spin: float = 15.0, height: float = 0.3, half_extent: float = 0.5,
+               mass: float = 1.0, friction: float = DEFAULT_FRICTION) -> SceneSpec:
+    """A cube spinning at ``spin`` rad/s about a tilted axis, released ``height`` above the ground (it lands on an
+    edge or a corner while turning)."""
+    friction = _friction(friction)
+    spin = _float_param("spin", spin, 0.0, 1000.0)
+    height = _float_param("height", height, 0.0, 100.0)
+    h = _float_param("half_extent", half_extent, 0.01, 10.0)
+    mass = _float_param("mass", mass, 0.0, 1e6, lo_open=True)
+    axis = np.array([0.3, 1.0, 0.5]) / np.linalg.norm([0.3, 1.0, 0.5])
+    box = BoxSpec((h, h, h), mass, (0.0, h * math.sqrt(3.0) + height, 0.0), _quat_about_z(0.4),
+                  angular_velocity=tuple(float(x) for x in spin * axis))
+    return SceneSpec([_ground(), box], friction, dict(spin=spin, height=height, half_extent=h, mass=mass,
+                                                      friction=friction))
+
+
+def plank_scene(rng: np.random.Generator, n: int = 5, plank_half_extents: tuple[float, ...] = (3.0, 0.1, 3.0),
+                half_extent: float = 0.25, mass: float = 1.0, plank_mass: float = 10.0,
+                friction: float = DEFAULT_FRICTION) -> SceneSpec:
+    """A dynamic plank on the ground carrying an n x n grid of cubes: one body with n*n + 1 manifolds."""
+    friction = _friction(friction)
+    n = _int_param("n", n, 1, 20)
+    _check(len(plank_half_extents) == 3 and all(0.01 <= float(x) <= 100 for x in plank_half_extents),
+           f"parameter plank_half_extents must be 3 numbers in [0.01, 100], got {plank_half_extents!r}")
+    hp = tuple(float(x) for x in plank_half_extents)
+    h = _float_param("half_extent", half_extent, 0.01, 10.0)
+    mass = _float_param("mass", mass, 0.0, 1e6, lo_open=True)
+    plank_mass = _float_param("plank_mass", plank_mass, 0.0, 1e6, lo_open=True)
+    pitch = 2 * min(hp[0], hp[2]) / n
+    _check(pitch > 2 * h, f"{n} x {n} cubes of half extent {h} do not fit on the plank")
+    bodies = [_ground(), BoxSpec(hp, plank_mass, (0.0, hp[1], 0.0))]
+    for i in range(n):
+        for k in range(n):
+            bodies.append(BoxSpec((h, h, h), mass, ((i - (n - 1) / 2) * pitch, 2 * hp[1] + h,
+                                                    (k - (n - 1) / 2) * pitch)))
+    return SceneSpec(bodies, friction, dict(n=n, plank_half_extents=list(hp), half_extent=h, mass=mass,
+                                            plank_mass=plank_mass, friction=friction))
+
+
+def degenerate_scene(rng: np.random.Generator, tilt: float = 1e-4, half_extent: float = 0.5, mass: float = 1.0,
+                     friction: float = DEFAULT_FRICTION) -> SceneSpec:
+    """Contacts that break solvers: a cube balanced on an edge (2 points), one on a corner (1 point), one tilted by
+    ``tilt`` rad (a near-parallel face: 4 points at nearly the same depth), and one resting exactly on another
+    (coincident corners)."""
+    friction = _friction(friction)
+    tilt = _float_param("tilt", tilt, 0.0, 0.1)
+    h = _float_param("half_extent", half_extent, 0.01, 10.0)
+    mass = _float_param("mass", mass, 0.0, 1e6, lo_open=True)
+    edge = _quat_about_z(math.pi / 4)
+    # corner down: rotate the cube's (1,1,1) diagonal onto the vertical
+    axis = np.cross([1.0, 1.0, 1.0], [0.0, 1.0, 0.0])
+    axis /= np.linalg.norm(axis)
+    ang = math.acos(1.0 / math.sqrt(3.0))
+    corner = (*(float(x) * math.sin(ang / 2) for x in axis), math.cos(ang / 2))
+    tilted = (math.sin(tilt / 2), 0.0, 0.0, math.cos(tilt / 2))
+    bodies = [_ground(),
+              BoxSpec((h, h, h), mass, (-3.0, h * math.sqrt(2.0), 0.0), edge),
+              BoxSpec((h, h, h), mass, (0.0, h * math.sqrt(3.0), 0.0), corner),
+              BoxSpec((h, h, h), mass, (3.0, h, 0.0), tilted),
+              BoxSpec((h, h, h), mass, (6.0, h, 0.0)),
+              BoxSpec((h, h, h), mass, (6.0, 3 * h, 0.0))]
+    return SceneSpec(bodies, friction, dict(tilt=tilt, half_extent=h, mass=mass, friction=friction))
+
+
 SCENES: dict[str, Builder] = {
     "thesis": thesis_scene,
     "pile": pile_scene,
@@ -278,11 +343,15 @@ SCENES: dict[str, Builder] = {
     "incline": incline_scene,
     "mass_ratio": mass_ratio_scene,
     "impact": impact_scene,
+    "spin": spin_scene,
+    "plank": plank_scene,
+    "degenerate": degenerate_scene,
 }
 
 # the step captured when neither step nor busiest_within is given (1-based: step s is the s-th stepSimulation)
 DEFAULT_CAPTURE_STEP: dict[str, int] = {
-    "thesis": 3, "pile": 40, "stack": 10, "pyramid": 10, "incline": 10, "mass_ratio": 10, "impact": 2,
+    "thesis": 3, "pile": 40, "stack": 10, "pyramid": 10, "incline": 10, "mass_ratio": 10, "impact": 2, "spin": 20,
+    "plank": 10, "degenerate": 2,
 }
 
 
@@ -369,8 +438,8 @@ class SceneWorld:
             p.changeDynamics(bid, -1, lateralFriction=body_friction, restitution=0.0, physicsClientId=c)
             if b.mass > 0:
                 p.changeDynamics(bid, -1, activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=c)
-                if any(b.linear_velocity):
-                    p.resetBaseVelocity(bid, b.linear_velocity, (0.0, 0.0, 0.0), physicsClientId=c)
+                if any(b.linear_velocity) or any(b.angular_velocity):
+                    p.resetBaseVelocity(bid, b.linear_velocity, b.angular_velocity, physicsClientId=c)
             ids.append(bid)
         self.body_ids = np.asarray(ids, dtype=np.int64)
         self.shape_index = np.asarray([shapes[tuple(float(x) for x in b.half_extents)] for b in self.spec.bodies],

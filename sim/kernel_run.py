@@ -406,3 +406,24 @@ def text_progress(total: int, label: str = "kernel", stream=sys.stderr) -> Progr
         stream.flush()
 
     return show
+
+
+def rtl_stepper(preset: DmaPreset, work_dir: Path, seed: int = 1) -> Callable[..., Callable[..., BodyTable]]:
+    """A closed-loop stepper factory (``models.closed_loop.StepperFactory``) that runs every step on the RTL kernel
+    and fails on the first step whose trace or body table differs from the golden model."""
+
+    def factory(fmt: NumberFormat, params: SolverParams, ip: IntegrationParams) -> Callable[..., BodyTable]:
+        count = [0]
+
+        def step(bodies: BodyTable, cons: ConstraintSet, order: np.ndarray) -> BodyTable:
+            job = KernelJob(fmt, bodies, cons, order, params, ip)
+            run_dir = work_dir / f"step{count[0]:05d}"
+            res = run_kernel_step(job, preset, run_dir, seed)
+            if not res.bit_exact:
+                raise KernelRunError(f"closed-loop step {count[0]}: {res.comparison.first_mismatch}")
+            count[0] += 1
+            return kernel_bodies(run_dir, job)
+
+        return step
+
+    return factory
