@@ -22,13 +22,14 @@ BUDGET ?= 0.01
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test sim sweep analyze lint rtl clean distclean
+.PHONY: help venv sysdeps test sim sweep analyze stability lint rtl clean distclean
 
 help:
 	@echo "make test      run the whole test suite (what CI runs)"
 	@echo "make sim       run a scene end to end (SCENE=pile|thesis|stack|... ITERS= FORMAT= DMA= SEED= WAVES=1)"
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=)"
 	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= ITERS= BUDGET=0.01)"
+	@echo "make stability the hard-case suite closed loop: cases x formats x iterations (CASES= FORMATS= JOBS=2)"
 	@echo "make lint      verilator --lint-only -Wall on every RTL top"
 	@echo "make rtl       regenerate the kernel datapaths (rtl/pgs_*_pipe.sv) from rtl/gen"
 	@echo "make clean     remove build outputs (keeps .venv and cached frames)"
@@ -61,6 +62,11 @@ sim: $(STAMP)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
+
+CASES ?= stack20,pyramid10,mass_ratio,incline20,incline40,impact,spin,plank,degenerate
+JOBS ?= 2
+stability: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.stability --cases $(CASES) --formats $(FORMATS) --jobs $(JOBS)
 
 sweep: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.sweep --scene $(SCENE) --formats $(FORMATS) --iters $(SWEEP_ITERS) --dma $(DMA) --seed $(SEED)

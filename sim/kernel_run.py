@@ -387,17 +387,19 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
 
 def text_progress(total: int, label: str = "kernel", stream=sys.stderr) -> ProgressSink:
     """A progress bar over retired manifold-passes (redrawn in place on a terminal, every 10% otherwise)."""
-    t0 = time.monotonic()
+    t0 = [0.0]  # set at the first report (cycle 0), after the build
     tty = stream.isatty()
     shown = [-1]
 
     def show(cycle: int, records: int) -> None:
+        if not t0[0]:
+            t0[0] = time.monotonic()
         frac = min(1.0, records / max(total, 1))
         pct = int(frac * 100)
         if not tty and pct // 10 == shown[0] // 10:
             return
         shown[0] = pct
-        el = time.monotonic() - t0
+        el = time.monotonic() - t0[0]
         bar = "#" * int(frac * 30)
         eta = f", ~{el / frac - el:.0f} s left" if frac > 0.02 else ""
         line = (f"{label} [{bar:<30}] {pct:3d}% {records:,}/{total:,} manifold-passes, cycle {cycle:,}, "
