@@ -22,6 +22,9 @@ SMALL: dict[str, dict] = {
     "incline": dict(),
     "mass_ratio": dict(),
     "impact": dict(base=2, height=1),
+    "spin": dict(),
+    "plank": dict(n=2),
+    "degenerate": dict(),
 }
 ARRAYS = [f.name for f in fields(Frame) if f.name != "meta"]
 
@@ -151,7 +154,10 @@ def test_save_load_round_trip(frames: dict[str, Frame], tmp_path: Path) -> None:
 def test_determinism() -> None:
     a = scenes.capture_frame("pile", nx=3, ny=3, nz=3, step=25, seed=7)
     b = scenes.capture_frame("pile", nx=3, ny=3, nz=3, step=25, seed=7)
-    assert _same(a, b) and a.meta == b.meta
+    # everything but pybullet's own wall-clock timings of the step is reproducible
+    timeless = lambda f: {k: v for k, v in f.meta.items() if k != "pybullet_timing_s"}  # noqa: E731
+    assert _same(a, b) and timeless(a) == timeless(b)
+    assert set(a.meta["pybullet_timing_s"]) >= {"internalSingleStepSimulation", "solveGroup"}
     c = scenes.capture_frame("pile", nx=3, ny=3, nz=3, step=25, seed=8)
     assert not np.array_equal(a.position, c.position)
 
