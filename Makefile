@@ -22,7 +22,7 @@ BUDGET ?= 0.01
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test sim sweep analyze stability lint rtl clean distclean
+.PHONY: help venv sysdeps test sim sweep analyze stability csim hls resources lint rtl clean distclean
 
 help:
 	@echo "make test      run the whole test suite (what CI runs)"
@@ -30,6 +30,9 @@ help:
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=)"
 	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= ITERS= BUDGET=0.01)"
 	@echo "make stability the hard-case suite closed loop: cases x formats x iterations (CASES= FORMATS= JOBS=2)"
+	@echo "make csim      the HLS kernel (hls_export/) in C simulation, bit for bit against the golden model"
+	@echo "make hls       Vitis HLS synthesis + Verilog export into hls_export/verilog/ (needs vitis_hls)"
+	@echo "make resources LUT/FF/DSP/BRAM of the RTL kernel per format (Yosys estimate; FORMATS=)"
 	@echo "make lint      verilator --lint-only -Wall on every RTL top"
 	@echo "make rtl       regenerate the kernel datapaths (rtl/pgs_*_pipe.sv) from rtl/gen"
 	@echo "make clean     remove build outputs (keeps .venv and cached frames)"
@@ -70,6 +73,17 @@ stability: $(STAMP)
 
 sweep: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.sweep --scene $(SCENE) --formats $(FORMATS) --iters $(SWEEP_ITERS) --dma $(DMA) --seed $(SEED)
+
+csim: $(STAMP)
+	$(TOOLENV) $(VPY) -m hls_export.csim
+
+# Vitis HLS is not installable here: without vitis_hls on PATH this says so and succeeds (hls_export/README.md)
+hls:
+	@if command -v vitis_hls >/dev/null 2>&1; then vitis_hls -f hls_export/run_hls.tcl; \
+	else echo "make hls: vitis_hls is not installed (not on PATH); nothing synthesized (see hls_export/README.md)"; fi
+
+resources: $(STAMP)
+	$(TOOLENV) $(VPY) -m hls_export.resources --formats $(FORMATS)
 
 lint: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.lint

@@ -1,0 +1,212 @@
+// pgs_csim_main.cpp: C simulation testbench of the HLS kernel, a drop-in for the Verilator harness of the RTL
+// kernel (cocotb_tests/kernel/pgs_kernel_main.cpp): the same command line and the same files, so that
+// sim/kernel_run.py (write_inputs, run_harness, read_trace, compare_trace, compare_body_out) checks it against
+// the golden model unchanged.
+//
+// Usage: pgs_csim DIR SEED GAP_PERMILLE BP_PERMILLE MAX_CYCLES [DDR_MILLIBYTES STARTUP PROGRESS]
+//   reads  DIR/regs.bin (uint32 LE {addr, value} pairs: the AXI4-Lite writes before ap_start),
+//          DIR/body_in.bin + body_in_last.bin, DIR/cons.bin + cons_last.bin (beats and one TLAST byte each)
+//   writes DIR/trace.bin (per retired manifold-pass: uint64 record index where the harness has the cycle, then
+//          the trace record, 16 W + 64 bits), DIR/body_out.bin + body_out_last.bin, DIR/result.txt
+// C simulation is untimed: SEED, GAP_PERMILLE, BP_PERMILLE, MAX_CYCLES and the DMA arguments are accepted and
+// ignored, and result.txt has no cycle counters. Its keys: status, issued (the kernel's outputs at 0x58 and
+// 0x78), trace_records, body_out_beats, body_in_beats_taken, cons_beats_taken, body_in_beats_left,
+// cons_beats_left, empty_reads (reads of an empty input stream; shims only), wall_s, hazard_window,
+// window_hazards.
+// window_hazards: records that name a dynamic body also named by one of the hazard_window records before them
+// in the same pass (hazard_window from $PGS_HAZARD_WINDOW, default 128). The synthesized kernel declares the
+// velocity dependence false (pgs_kernel.cpp), so it matches this sequential C simulation only when that count
+// is 0 for a window of at least the records its pipeline holds.
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "pgs_kernel.h"
+
+using namespace pgs;
+
+namespace {
+
+[[noreturn]] void fail(const std::string& msg) {
+    std::fprintf(stderr, "pgs_csim: %s\n", msg.c_str());
+    std::exit(2);
+}
+
+// The harness's input files of DIR, by name (regs, body_in, body_in_last, cons, cons_last).
+std::map<std::string, std::vector<uint8_t> > read_inputs(const std::string& dir) {
+    std::map<std::string, std::vector<uint8_t> > files;
+    for (const char* name : {"regs", "body_in", "body_in_last", "cons", "cons_last"}) {
+        std::ifstream f(dir + "/" + name + ".bin", std::ios::binary);
+        if (!f) fail("cannot open " + dir + "/" + name + ".bin");
+        files[name].assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+    }
+    return files;
+}
+
+std::FILE* create(const std::string& path) {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    if (!f) fail("cannot create " + path);
+    return f;
+}
+
+// little-endian bytes <-> ap_uint<D> (D a multiple of 32)
+template <int D>
+ap_uint<D> from_bytes(const uint8_t* src) {
+    static_assert(D % 32 == 0, "beat width must be a multiple of 32 bits");
+    ap_uint<D> v;
+    for (int i = 0; i < D / 32; i++) {
+        uint32_t w;
+        std::memcpy(&w, src + 4 * i, 4);
+        v.range(32 * i + 31, 32 * i) = w;
+    }
+    return v;
+}
+
+template <int D>
+void to_bytes(const ap_uint<D>& v, uint8_t* dst) {
+    static_assert(D % 32 == 0, "beat width must be a multiple of 32 bits");
+    for (int i = 0; i < D / 32; i++) {
+        const uint32_t w = v.range(32 * i + 31, 32 * i).to_uint();
+        std::memcpy(dst + 4 * i, &w, 4);
+    }
+}
+
+template <int D>
+void feed(hls::stream<ap_axiu<D, 0, 0, 0> >& s, const std::vector<uint8_t>& data, const std::vector<uint8_t>& last) {
+    for (size_t i = 0; i < last.size(); i++) {
+        ap_axiu<D, 0, 0, 0> beat;
+        beat.data = from_bytes<D>(&data[i * (D / 8)]);
+        beat.keep = all_ones<D / 8>();
+        beat.strb = all_ones<D / 8>();
+        beat.last = last[i] ? 1 : 0;
+        s.write(beat);
+    }
+}
+
+// Records of a pass that would read a velocity still in flight in a pipeline holding `window` records.
+uint64_t count_window_hazards(const std::vector<uint8_t>& body_in, const std::vector<uint8_t>& cons, uint32_t nb,
+                              uint32_t nm, uint32_t iterations, bool interleaved, uint32_t window) {
+    const size_t body_bytes = kBodyInBeats * kBodyInW / 8;
+    std::vector<bool> dynamic(nb, false);
+    for (uint32_t i = 0; i < nb && (i + 1) * body_bytes <= body_in.size(); i++)
+        dynamic[i] = decode_body_in(from_bytes<kBodyInBeats * kBodyInW>(&body_in[i * body_bytes])).inv_mass != 0.0f;
+    std::vector<int64_t> seen_pass(nb, -1), seen_slot(nb, 0);
+    uint64_t hazards = 0;
+    size_t offset = 0;
+    for (uint32_t p = 0; p < 2 * iterations; p++) {
+        const bool friction = pass_is_friction(p, iterations, interleaved);
+        const size_t rec_bytes = (friction ? kFrictionBeats : kContactBeats) * kConsW / 8;
+        for (uint32_t k = 0; k < nm && offset + rec_bytes <= cons.size(); k++, offset += rec_bytes) {
+            // the header is in the first beat of either record kind
+            const Header h = header_at(from_bytes<kConsW>(&cons[offset]));
+            const uint32_t bodies[2] = {h.body_a, h.body_b};
+            bool hazard = false;
+            for (uint32_t body : bodies)
+                if (body < nb && dynamic[body] && seen_pass[body] == int64_t(p) && int64_t(k) - seen_slot[body] < window)
+                    hazard = true;
+            for (uint32_t body : bodies)
+                if (body < nb && dynamic[body]) {
+                    seen_pass[body] = p;
+                    seen_slot[body] = k;
+                }
+            hazards += hazard;
+        }
+    }
+    return hazards;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc < 6) {  // the harness's arguments; only DIR matters to an untimed simulation
+        std::fprintf(stderr, "usage: %s DIR SEED GAP_PERMILLE BP_PERMILLE MAX_CYCLES [...]\n", argv[0]);
+        return 1;
+    }
+    const std::string dir = argv[1];
+    const char* window_env = std::getenv("PGS_HAZARD_WINDOW");
+    const uint32_t window = window_env ? uint32_t(std::strtoul(window_env, nullptr, 0)) : 128;
+
+    std::map<std::string, std::vector<uint8_t> > in = read_inputs(dir);
+    const std::vector<uint8_t>& regs = in["regs"];
+    const std::vector<uint8_t>& body_in = in["body_in"];
+    const std::vector<uint8_t>& body_in_last = in["body_in_last"];
+    const std::vector<uint8_t>& cons = in["cons"];
+    const std::vector<uint8_t>& cons_last = in["cons_last"];
+    if (body_in.size() != body_in_last.size() * (kBodyInW / 8) || cons.size() != cons_last.size() * (kConsW / 8))
+        fail("beat / TLAST files disagree");
+
+    std::map<uint32_t, uint32_t> reg;
+    for (size_t i = 0; i + 8 <= regs.size(); i += 8) {
+        uint32_t a, v;
+        std::memcpy(&a, &regs[i], 4);
+        std::memcpy(&v, &regs[i + 4], 4);
+        reg[a] = v;
+    }
+    const uint32_t nb = reg[kRegNumBodies], nm = reg[kRegNumManifolds], iters = reg[kRegIterations];
+
+    hls::stream<body_in_beat_t> s_body("s_axis_body");
+    hls::stream<cons_beat_t> s_cons("s_axis_cons");
+    hls::stream<body_out_beat_t> m_body("m_axis_body");
+    hls::stream<trace_t> trace("trace");
+    feed(s_body, body_in, body_in_last);
+    feed(s_cons, cons, cons_last);
+
+    uint32_t status = 0, issued = 0;
+    const auto t0 = std::chrono::steady_clock::now();
+    pgs_kernel(s_body, s_cons, m_body, trace, nb, nm, iters, reg[kRegDt], reg[kRegGravityX], reg[kRegGravityY],
+               reg[kRegGravityZ], reg[kRegDamping], reg[kRegOptions], &status, &issued);
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+    std::FILE* ftrace = create(dir + "/trace.bin");
+    uint64_t n_trace = 0;
+    uint8_t tbuf[kTraceBits / 8];
+    while (!trace.empty()) {
+        std::fwrite(&n_trace, 8, 1, ftrace);  // the record index stands where the RTL harness has the cycle
+        to_bytes<kTraceBits>(trace.read(), tbuf);
+        std::fwrite(tbuf, 1, sizeof tbuf, ftrace);
+        n_trace++;
+    }
+    std::fclose(ftrace);
+
+    std::FILE* fout = create(dir + "/body_out.bin");
+    std::FILE* fout_last = create(dir + "/body_out_last.bin");
+    uint64_t n_out = 0;
+    uint8_t obuf[kBodyOutW / 8];
+    while (!m_body.empty()) {
+        const body_out_beat_t beat = m_body.read();
+        to_bytes<kBodyOutW>(beat.data, obuf);
+        std::fwrite(obuf, 1, sizeof obuf, fout);
+        const uint8_t l = beat.last.to_uint() ? 1 : 0;
+        std::fwrite(&l, 1, 1, fout_last);
+        n_out++;
+    }
+    std::fclose(fout);
+    std::fclose(fout_last);
+
+#if PGS_USING_SHIMS
+    const unsigned long long empty_reads = s_body.empty_reads() + s_cons.empty_reads();
+#else
+    const unsigned long long empty_reads = 0;
+#endif
+    const uint64_t hazards = count_window_hazards(body_in, cons, nb, nm, iters, (reg[kRegOptions] & kOptInterleaved) != 0,
+                                                  window);
+    std::FILE* fr = create(dir + "/result.txt");
+    std::fprintf(fr, "status %u\nissued %u\n", status, issued);
+    std::fprintf(fr, "trace_records %llu\nbody_out_beats %llu\n", (unsigned long long)n_trace,
+                 (unsigned long long)n_out);
+    std::fprintf(fr, "body_in_beats_taken %zu\ncons_beats_taken %zu\n", body_in_last.size() - s_body.size(),
+                 cons_last.size() - s_cons.size());
+    std::fprintf(fr, "body_in_beats_left %zu\ncons_beats_left %zu\nempty_reads %llu\n", s_body.size(), s_cons.size(),
+                 empty_reads);
+    std::fprintf(fr, "wall_s %.6f\nhazard_window %u\nwindow_hazards %llu\n", wall, window,
+                 (unsigned long long)hazards);
+    std::fclose(fr);
+    return 0;
+}

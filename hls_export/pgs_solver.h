@@ -1,0 +1,192 @@
+// pgs_solver.h: the arithmetic of one manifold-pass and of one body's integration, operation for operation in
+// the golden order of models/OPERATION_ORDER.md (models/contact_solver.py contact_solve / friction_solve,
+// models/integrator.py integrate). Every operation goes through pgs_fp.h (rounded once, flush to zero).
+// Branches on data are selects (the thesis's "branchless" form): every point and tangent row is computed,
+// and an inactive one keeps the previous impulse and velocities.
+#ifndef PGS_SOLVER_H
+#define PGS_SOLVER_H
+
+#include "pgs_fp.h"
+#include "pgs_stream.h"
+
+namespace pgs {
+
+// constants of the datapath (rounded once to binary32 from these double values, as the golden's ar.const)
+constexpr double kFrictionCoeff = 0.7;   // models.constraints.FRICTION_COEFF (Bullet's hard-coded mu)
+constexpr double kSpinDampFactor = 0.1;  // models.contact_solver.SPIN_DAMP_FACTOR
+constexpr double kMaxAngle = 0.25 * 3.14159254;  // models.integrator.MAX_ANGLE (Bullet's value, sic)
+constexpr double kSmallAngle = 0.001;
+constexpr double kTaylorSinc = 0.020833333333;
+constexpr double kSinCoeffs[3] = {-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0};
+constexpr double kCosCoeffs[4] = {-1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0, 1.0 / 40320.0};
+
+// Per body, read-only during the passes.
+struct BodyRef {
+    Vec3 x;
+    float m_inv;
+    Vec3 i_inv;
+};
+
+// Per body, read and written by the passes.
+struct Velocity {
+    Vec3 v, w;
+};
+
+// --- vectors --------------------------------------------------------------------------------------------
+inline Vec3 vec3(float x, float y, float z) {
+    Vec3 v = {x, y, z};
+    return v;
+}
+inline Vec3 v_add(const Vec3& a, const Vec3& b) { return vec3(add(a.x, b.x), add(a.y, b.y), add(a.z, b.z)); }
+inline Vec3 v_sub(const Vec3& a, const Vec3& b) { return vec3(sub(a.x, b.x), sub(a.y, b.y), sub(a.z, b.z)); }
+inline Vec3 v_mul(const Vec3& a, const Vec3& b) { return vec3(mul(a.x, b.x), mul(a.y, b.y), mul(a.z, b.z)); }
+inline Vec3 v_scale(const Vec3& v, float s) { return vec3(mul(v.x, s), mul(v.y, s), mul(v.z, s)); }
+
+// (a.x*b.x + a.y*b.y) + a.z*b.z
+inline float dot3(const Vec3& a, const Vec3& b) { return add(add(mul(a.x, b.x), mul(a.y, b.y)), mul(a.z, b.z)); }
+
+// (a.y*b.z - a.z*b.y, a.z*b.x - a.x*b.z, a.x*b.y - a.y*b.x)
+inline Vec3 cross3(const Vec3& a, const Vec3& b) {
+    return vec3(sub(mul(a.y, b.z), mul(a.z, b.y)), sub(mul(a.z, b.x), mul(a.x, b.z)), sub(mul(a.x, b.y), mul(a.y, b.x)));
+}
+
+// vA += lin_a*d, wA += ang_a*d, vB -= lin_b*d, wB -= ang_b*d; kept only when `active`
+inline void apply_impulse(Velocity& a, Velocity& b, const Vec3& lin_a, const Vec3& ang_a, const Vec3& lin_b,
+                          const Vec3& ang_b, float d, bool active) {
+    const Velocity na = {v_add(a.v, v_scale(lin_a, d)), v_add(a.w, v_scale(ang_a, d))};
+    const Velocity nb = {v_sub(b.v, v_scale(lin_b, d)), v_sub(b.w, v_scale(ang_b, d))};
+    if (active) {
+        a = na;
+        b = nb;
+    }
+}
+
+// --- contact pass of one manifold: lam[0..3] in/out ---------------------------------------------------------
+inline void solve_contact(const ContactRec& r, const BodyRef& A, const BodyRef& B, Velocity& va, Velocity& vb,
+                          float lam[4]) {
+    const Vec3 lin_a = v_scale(r.n, A.m_inv);
+    const Vec3 lin_b = v_scale(r.n, B.m_inv);
+POINTS:
+    for (int i = 0; i < 4; i++) {  // sequential: point i+1 sees point i's velocities
+#pragma HLS UNROLL
+        const bool active = r.jac_inv[i] != 0.0f;
+        const Vec3 ca = cross3(v_sub(r.p[i], A.x), r.n);
+        const Vec3 cb = cross3(v_sub(r.p[i], B.x), r.n);
+        const float vrel = add(sub(dot3(r.n, va.v), dot3(r.n, vb.v)), sub(dot3(ca, va.w), dot3(cb, vb.w)));
+        const float d0 = mul(add(vrel, r.bias[i]), r.jac_inv[i]);
+        const float lam_new = maximum(add(lam[i], d0), 0.0f);
+        const float d = sub(lam_new, lam[i]);
+        if (active) lam[i] = lam_new;
+        apply_impulse(va, vb, lin_a, v_mul(A.i_inv, ca), lin_b, v_mul(B.i_inv, cb), d, active);
+    }
+}
+
+// --- friction pass of one manifold: lam_t[0..1] in/out, lam_n the manifold's normal impulses ----------------
+inline void solve_friction(const FrictionRec& r, const BodyRef& A, const BodyRef& B, Velocity& va, Velocity& vb,
+                           const float lam_n[4], float lam_t[2]) {
+    const bool active = r.f_jac_inv[0] != 0.0f;  // Bullet's early return
+    const float limit = mul(constant(kFrictionCoeff), add(add(lam_n[0], lam_n[1]), add(lam_n[2], lam_n[3])));
+    const float neg_limit = -limit;
+    const Vec3 ra = v_sub(r.c, A.x);
+    const Vec3 rb = v_sub(r.c, B.x);
+ROWS:
+    for (int j = 0; j < 2; j++) {
+#pragma HLS UNROLL
+        const Vec3& t = r.t[j];
+        const Vec3 ca = cross3(ra, t);
+        const Vec3 cb = cross3(rb, t);
+        const float u = add(sub(dot3(t, va.v), dot3(t, vb.v)), sub(dot3(ca, va.w), dot3(cb, vb.w)));
+        const float d0 = mul(-u, r.f_jac_inv[j]);
+        const float lam_new = minimum(maximum(add(lam_t[j], d0), neg_limit), limit);
+        const float d = sub(lam_new, lam_t[j]);
+        if (active) lam_t[j] = lam_new;
+        // the friction impulse acts along -t on A and +t on B
+        apply_impulse(va, vb, v_scale(t, A.m_inv), v_mul(A.i_inv, ca), v_scale(t, B.m_inv), v_mul(B.i_inv, cb), -d,
+                      active);
+    }
+    const float k = constant(kSpinDampFactor);
+    const Vec3 wa = v_sub(va.w, v_scale(r.n, mul(dot3(r.n, va.w), k)));
+    const Vec3 wb = v_sub(vb.w, v_scale(r.n, mul(dot3(r.n, vb.w), k)));
+    if (active && r.h.spin_damp) {
+        va.w = wa;
+        vb.w = wb;
+    }
+}
+
+// --- integration ------------------------------------------------------------------------------------------
+// Run constants, computed once per step in the format.
+struct IntegConsts {
+    float dt, half_dt, dt3c, damping, max_angle;
+    Vec3 g_dt;
+};
+
+inline IntegConsts integ_consts(float dt, const Vec3& gravity, float damping) {
+    IntegConsts k;
+    k.dt = dt;
+    k.half_dt = mul(constant(0.5), dt);
+    k.dt3c = mul(mul(mul(dt, dt), dt), constant(kTaylorSinc));
+    k.g_dt = v_scale(gravity, dt);
+    k.damping = damping;
+    k.max_angle = constant(kMaxAngle);
+    return k;
+}
+
+// c0 + x2*(c1 + x2*(c2 + ...)), the coefficients rounded to the format
+template <int N>
+float horner(float x2, const double (&coeffs)[N]) {
+    float acc = constant(coeffs[N - 1]);
+    for (int i = N - 2; i >= 0; i--) {
+#pragma HLS UNROLL
+        acc = add(constant(coeffs[i]), mul(x2, acc));
+    }
+    return acc;
+}
+
+inline float sin_poly(float x) {
+    const float x2 = mul(x, x);
+    return add(x, mul(x, mul(x2, horner(x2, kSinCoeffs))));
+}
+
+inline float cos_poly(float x) {
+    const float x2 = mul(x, x);
+    return add(constant(1.0), mul(x2, horner(x2, kCosCoeffs)));
+}
+
+// Hamilton product a (x) b of quaternions (x, y, z, w): Bullet's b3QuatMul
+inline void quat_mul(const float a[4], const float b[4], float out[4]) {
+    const float ax = a[0], ay = a[1], az = a[2], aw = a[3];
+    const float bx = b[0], by = b[1], bz = b[2], bw = b[3];
+    out[0] = add(add(mul(aw, bx), mul(ax, bw)), sub(mul(ay, bz), mul(az, by)));
+    out[1] = add(add(mul(aw, by), mul(ay, bw)), sub(mul(az, bx), mul(ax, bz)));
+    out[2] = add(add(mul(aw, bz), mul(az, bw)), sub(mul(ax, by), mul(ay, bx)));
+    out[3] = sub(sub(mul(aw, bw), mul(ax, bx)), add(mul(ay, by), mul(az, bz)));
+}
+
+// One dynamic body after the passes: damping, orientation update, position and gravity.
+inline BodyState integrate_body(const BodyState& b, const IntegConsts& k) {
+    BodyState o = b;
+    const Vec3 w = v_scale(b.w, k.damping);
+    float theta = sqrt(add(add(mul(w.x, w.x), mul(w.y, w.y)), mul(w.z, w.z)));
+    if (mul(theta, k.dt) > k.max_angle) theta = div(k.max_angle, k.dt);
+    const float x = mul(theta, k.half_dt);
+    const float s_small = sub(k.half_dt, mul(mul(k.dt3c, theta), theta));
+    const float s_large = div(sin_poly(x), theta);
+    const float s = theta < constant(kSmallAngle) ? s_small : s_large;
+    const float dq[4] = {mul(w.x, s), mul(w.y, s), mul(w.z, s), cos_poly(x)};
+    float q[4];
+    quat_mul(dq, b.q, q);
+    const float norm2 = add(add(mul(q[0], q[0]), mul(q[1], q[1])), add(mul(q[2], q[2]), mul(q[3], q[3])));
+    const float inv_norm = div(constant(1.0), sqrt(norm2));
+    for (int i = 0; i < 4; i++) {
+#pragma HLS UNROLL
+        o.q[i] = mul(q[i], inv_norm);
+    }
+    o.w = w;
+    o.pos = v_add(b.pos, v_scale(b.v, k.dt));
+    o.v = v_add(b.v, k.g_dt);
+    return o;
+}
+
+}  // namespace pgs
+
+#endif  // PGS_SOLVER_H

