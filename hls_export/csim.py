@@ -9,7 +9,8 @@ index (C simulation is untimed).
 
 The executable is built with g++ (``-ffp-contract=off``, no ``-ffast-math``) against the Vitis HLS headers
 when they are on the include path, else against the shims in ``hls_export/shims/``, into
-``build/hls_csim/<name>/pgs_csim``; it is rebuilt when a source under ``hls_export/`` is newer.
+``build/hls_csim/<name>/pgs_csim``; it is rebuilt when a source under ``hls_export/`` is newer or the command
+changed.
 
 ``make csim`` (``python -m hls_export.csim``) runs the stack, the incline and a 4x3x4 pile in the hazard and the
 pybullet schedules and prints a table; it exits 1 on any difference.
@@ -37,7 +38,7 @@ from sim.verilator_build import REPO_ROOT
 HLS_DIR = Path(__file__).resolve().parent
 BUILD_ROOT = REPO_ROOT / "build" / "hls_csim"
 SOURCES = [HLS_DIR / "pgs_kernel.cpp", HLS_DIR / "pgs_csim_main.cpp"]
-CXXFLAGS = ["-std=c++17", "-O2", "-ffp-contract=off", "-fno-fast-math", "-Wall", "-Wextra", "-Werror",
+CXXFLAGS = ["-std=c++14", "-O2", "-ffp-contract=off", "-fno-fast-math", "-Wall", "-Wextra", "-Werror",
             "-Wno-unknown-pragmas", "-Wno-unused-label"]
 
 # scenes of make csim and of the test (the RTL kernel test's set: cocotb_tests/test_pgs_kernel.py)
@@ -54,16 +55,19 @@ def csim_name(kb: KernelBuild) -> str:
 
 
 def compile_cpp(sources: Sequence[Path], exe: Path, defines: Sequence[str] = (), cxx: str = "g++") -> Path:
-    """Compile ``sources`` (with the kernel's flags and include path) into ``exe`` unless it is newer than every
-    source and header under ``hls_export/``."""
+    """Compile ``sources`` (with the kernel's flags and include path) into ``exe`` unless it was built by the same
+    command and is newer than every source and header under ``hls_export/``."""
+    cmd = [cxx, *CXXFLAGS, *defines, f"-I{HLS_DIR}", *map(str, sources), "-o", str(exe)]
+    stamp = exe.with_suffix(".cmd")
     deps = [*sources, *HLS_DIR.glob("*.h"), *(HLS_DIR / "shims").glob("*.h")]
-    if exe.is_file() and exe.stat().st_mtime >= max(p.stat().st_mtime for p in deps):
+    if (exe.is_file() and stamp.is_file() and stamp.read_text() == " ".join(cmd)
+            and exe.stat().st_mtime >= max(p.stat().st_mtime for p in deps)):
         return exe
     exe.parent.mkdir(parents=True, exist_ok=True)
-    cmd = [cxx, *CXXFLAGS, *defines, f"-I{HLS_DIR}", *map(str, sources), "-o", str(exe)]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         raise CsimError(f"{' '.join(cmd)}\n{proc.stdout}{proc.stderr}")
+    stamp.write_text(" ".join(cmd))
     return exe
 
 

@@ -59,7 +59,7 @@ inline uint32_t to_bits(float x) { return is_nan(x) ? kCanonicalNaN : raw_bits(x
 // rounds to at least the smallest normal number iff its magnitude is at least 2^-126 (1 - 2^-25); below
 // that it becomes a signed zero.
 inline float round_ftz(double x) {
-    const double flush_below = 0x1p-126 * (1.0 - 0x1p-25);
+    static const double flush_below = std::ldexp(1.0 - std::ldexp(1.0, -25), -126);  // C++14: no hex floats
     if (std::isnan(x)) return raw_float(kCanonicalNaN);
     if (std::fabs(x) < flush_below) return std::signbit(x) ? -0.0f : 0.0f;
     return static_cast<float>(x);
