@@ -6,6 +6,9 @@ random seed. ``WAVES=1`` in the environment builds with FST tracing (into ``buil
 writes the waveform to ``build/cocotb/<build>_waves/<waves_name>.fst`` (``waves_name`` defaults to the top),
 next to a GTKWave save file ``<waves_name>.gtkw`` when the caller gives the signal groups
 (``tb.gtkwave_save``); both paths are printed at the end of the run.
+
+:func:`run_kernel_cocotb` runs a cocotb test module on the RTL kernel: one build per number format and constraint
+beat width (``build/cocotb/pgs_kernel_e<E>m<M>_c<bits>/``), shared by every kernel test module.
 """
 
 from __future__ import annotations
@@ -18,9 +21,10 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 from sim.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT, ensure_verilator_env
-from tb.gtkwave_save import Group, write_save_file
+from tb.gtkwave_save import Group, kernel_groups, write_save_file
 
 BUILD_ROOT = REPO_ROOT / "build" / "cocotb"
+KERNEL_PUBLIC_VLT = Path(__file__).resolve().parent / "kernel" / "pgs_kernel_public.vlt"
 # the wheel's verilated.mk leaves these empty (the precompiled-header include, the thread library)
 _MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include CFG_LDLIBS_THREADS=-pthread"
 
@@ -99,3 +103,31 @@ def run_cocotb(top: str, sources: Sequence[Path], test_module: str, parameters: 
             if save_file is not None:
                 print(f"view it:  gtkwave {save_file.relative_to(REPO_ROOT)}", flush=True)
     return Path(results)
+
+
+def kernel_parameters(fmt_name: str, dma: str) -> dict[str, int]:
+    """The kernel's parameters for a number format and a DMA preset (its constraint stream width)."""
+    from models.dma_model import get_preset
+    from models.number_format import parse_format
+
+    fmt = parse_format(fmt_name)
+    return {"EXP_BITS": fmt.exp_bits, "MAN_BITS": fmt.man_bits, "CONS_W": get_preset(dma).stream_bits}
+
+
+def run_kernel_cocotb(test_module: str, fmt_name: str, dma: str, seed: int, extra_env: Mapping[str, str],
+                      testcase: Sequence[str] | None = None, bug: str | None = None,
+                      compile_args: Sequence[str] = QUICK_COMPILE_ARGS, waves_name: str | None = None) -> Path:
+    """Build the kernel for ``fmt_name`` / ``dma`` (``bug``: a test-only parameter set to 1, in a build of its own)
+    and run the cocotb tests of ``test_module`` on it; see :func:`run_cocotb`."""
+    from sim.lint import rtl_files
+
+    params = kernel_parameters(fmt_name, dma)
+    tag = "pgs_kernel_e{EXP_BITS}m{MAN_BITS}_c{CONS_W}".format(**params)
+    if bug:
+        params[bug] = 1
+        tag += "_" + bug.removeprefix("TEST_").lower()
+    packages, modules = rtl_files()
+    return run_cocotb("pgs_kernel", packages + modules, test_module, name=tag, seed=seed, parameters=params,
+                      extra_env=extra_env, testcase=testcase, public_vlt=KERNEL_PUBLIC_VLT,
+                      compile_args=compile_args, waves_name=waves_name,
+                      waves_groups=kernel_groups(params) if waves_enabled() else None)

@@ -5,8 +5,10 @@ for that format) is compiled once with Verilator into a C++ executable
 (``cocotb_tests/fp/fp_ops_main.cpp`` drives it, one operand pair per cycle with random idle
 cycles); numpy generates the vectors and the golden results, and every result of every operator
 must match ``encode(golden_op(decode(a), decode(b)))`` bit for bit:
-a + b, a - b, a * b, a / b, sqrt(a), minimum, maximum, and the compare flags lt / eq / unordered
-(IEEE quiet comparisons of the decoded, flushed values).
+a + b, a - b, a * b, a / b, sqrt(a), minimum, maximum, the compare flags lt / eq / unordered
+(IEEE quiet comparisons of the decoded, flushed values), and the event flags (overflow, underflow,
+invalid) of add, sub, mul, div and sqrt against ``NumberFormat.op_with_events`` (every flag that can
+occur must occur in the vectors).
 
 Vectors per format: random bit patterns (2^20 pairs; all classes appear), every pair of a list of
 special values (zeros, subnormals, min normal, max finite, infinities, NaNs, ones, tie makers,
@@ -32,7 +34,7 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from models.number_format import BF16, FP16, FP32, NumberFormat  # noqa: E402
+from models.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat  # noqa: E402
 from sim.verilator_build import build, rtl_sources  # noqa: E402
 
 HERE = Path(__file__).resolve().parent / "fp"
@@ -246,13 +248,30 @@ def make_vectors(fmt_name: str, seed: int) -> tuple[np.ndarray, dict[str, int]]:
     return vec, {k: len(v) for k, v in sets.items()}
 
 
+# bit position of each arithmetic operator's event flags {invalid, underflow, overflow} in the flags word
+EVENT_SHIFT = {"add": 3, "sub": 6, "mul": 9, "div": 12, "sqrt": 15}
+
+
+def event_bits(fmt: NumberFormat, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, dict[tuple[str, str], int]]:
+    """The event-flag bits of the flags word, and how often each (operator, event) occurs."""
+    word = np.zeros(a.shape, dtype=np.uint32)
+    seen = {}
+    for op, shift in EVENT_SHIFT.items():
+        _, fl = fmt.op_with_events(op, a, None if op == "sqrt" else b)
+        for k, name in enumerate(EVENT_NAMES):
+            bit = getattr(fl, name)
+            word |= bit.astype(np.uint32) << np.uint32(shift + k)
+            seen[(op, name)] = int(np.count_nonzero(bit))
+    return word, seen
+
+
 def golden(fmt: NumberFormat, a_bits: np.ndarray, b_bits: np.ndarray) -> dict[str, np.ndarray]:
     a = fmt.decode(a_bits.astype(np.uint64))
     b = fmt.decode(b_bits.astype(np.uint64))
     with np.errstate(all="ignore"):
         enc = lambda x: fmt.encode(x).astype(np.uint32)  # noqa: E731
         flags = ((a < b).astype(np.uint32) | ((a == b).astype(np.uint32) << 1)
-                 | ((np.isnan(a) | np.isnan(b)).astype(np.uint32) << 2))
+                 | ((np.isnan(a) | np.isnan(b)).astype(np.uint32) << 2)) | event_bits(fmt, a, b)[0]
         return {
             "add": enc(fmt.add(a, b)), "sub": enc(fmt.sub(a, b)), "mul": enc(fmt.mul(a, b)),
             "div": enc(fmt.div(a, b)), "sqrt": enc(fmt.sqrt(a)), "min": enc(fmt.min(a, b)),
@@ -329,4 +348,8 @@ def test_fp_operators_bit_exact(harness: Harness, tmp_path: Path) -> None:
                      f"expected=0x{want[j]:0{w}x}" for j in bad[:8]]
             failures.append(f"{op}: {len(bad)} mismatches of {len(vec)}\n" + "\n".join(lines))
     assert compared == len(vec) * len(OPS)
+    # not vacuous: every event an operator can raise occurs (sqrt can neither overflow nor underflow)
+    _, seen = event_bits(fmt, fmt.decode(vec[:, 0].astype(np.uint64)), fmt.decode(vec[:, 1].astype(np.uint64)))
+    print(f"[{harness.fmt_name}] events in the vectors: " + ", ".join(f"{op} {ev} {n}" for (op, ev), n in seen.items()))
+    assert all(n > 0 for (op, ev), n in seen.items() if not (op == "sqrt" and ev != "invalid")), seen
     assert not failures, f"[{harness.fmt_name}] bit mismatches (seed {seed}):\n" + "\n".join(failures)

@@ -6,6 +6,11 @@ DDR, programs the DMAs and the kernel over AXI4-Lite (``tb.host_driver``), start
 (``tb.scoreboard``) compares every retired manifold-pass as it appears; the final body table read back over
 S2MM is compared too. Random idle cycles on every MM2S stream and random backpressure on S2MM are seeded
 (the seed is printed; ``SEED=<n>`` reproduces a run); results must be bit-identical whatever the stalls.
+The status register must read 0, no manifold-pass may be rejected, and the floating-point event counters must
+equal the golden model's prediction (``tb.fp_events``; zero for these fp32 scenes).
+
+The kernel's cycles must not beat the cycle model's lower bound (``models/cycle_model.py``, with the first body and
+constraint transfers armed before ap_start, as this host arms them).
 
 ``test_scoreboard_catches_friction_sign_bug`` checks the checker: the kernel built with the test-only
 ``TEST_FRICTION_SIGN_BUG`` must be stopped by the scoreboard at the first friction-pass record (the cocotb test
@@ -34,10 +39,9 @@ import cocotb
 import numpy as np
 import pytest
 
-from models.number_format import parse_format
+from models.number_format import EVENT_NAMES, parse_format
 from sim.verilator_build import DEBUG_COMPILE_ARGS, QUICK_COMPILE_ARGS
 
-HERE = Path(__file__).resolve().parent
 TIMEOUT_CYCLES = 2_000_000
 
 
@@ -91,7 +95,12 @@ async def run_step(dut) -> None:
     res = await st.run()
     wall = time.perf_counter() - t0
     assert res.status == 0, f"kernel status register {res.status:#x} (sticky error flags) after a good frame"
+    assert res.rejected == 0, f"{res.rejected} manifold-passes rejected in a good frame"
+    events = dict(zip(EVENT_NAMES, res.fp_events))
+    assert events == meta["fp_events"], f"floating-point events {events}, the golden model predicts {meta['fp_events']}"
     assert sb.complete, f"trace: {sb.compared} records compared, {sb.exp.words.shape[0]} expected"
+    assert res.cycles >= meta["cycle_lower_bound"], \
+        f"{res.cycles:,} kernel cycles beat the cycle model's lower bound of {meta['cycle_lower_bound']:,}"
     want = case["body_out"].tobytes()
     if res.body_out != want:
         got_w = np.frombuffer(res.body_out.ljust(len(want), b"\0"), np.uint8)
@@ -102,8 +111,9 @@ async def run_step(dut) -> None:
     summary = {"scene": meta["scene"], "format": meta["format"], "dma": meta["dma"], "schedule": meta["schedule"],
                "cycles": res.cycles, "cycles_per_manifold_pass": res.cycles / mp, "stall_cycles": res.stalls,
                "bubble_cycles": res.bubbles, "bytes_in": res.bytes_in, "bytes_out": res.bytes_out,
-               "bytes_per_manifold": meta["bytes_per_manifold"], "records_compared": sb.compared,
+               "bytes_per_manifold": meta["bytes_per_manifold"], "records_compared": sb.compared, "fp_events": events,
                "sim_cycles_per_s": sb.cycle / wall if wall > 0 else 0.0}
+    summary["cycle_lower_bound"] = meta["cycle_lower_bound"]
     dut._log.info("cosim %s", json.dumps(summary))
     Path(os.environ["CASE_FILE"]).with_suffix(".result.json").write_text(json.dumps(summary, indent=1))
 
@@ -128,6 +138,7 @@ async def run_step_expect_mismatch(dut) -> None:
 
 def _prepare_case(path: Path, scene: str, params: dict, fmt_name: str, schedule_kind: str, dma: str,
                   seed: int, idle: float, backpressure: float, iterations: int = 4) -> dict:
+    from tb.fp_events import predicted_events
     from tb.scoreboard import expected_trace
 
     from models import scenes
@@ -137,6 +148,7 @@ def _prepare_case(path: Path, scene: str, params: dict, fmt_name: str, schedule_
     from models.dma_model import get_preset
     from models.integrator import IntegrationParams, integrate
     from models.schedule import make_schedule
+    from sim.kernel_run import KernelJob
 
     fmt = parse_format(fmt_name)
     preset = get_preset(dma)
@@ -147,7 +159,9 @@ def _prepare_case(path: Path, scene: str, params: dict, fmt_name: str, schedule_
     sp = SolverParams(iterations=iterations)
     records: list = []
     result = solve(bodies, cons, schedule, fmt, sp, trace=records.append)
-    final = integrate(result.bodies, fmt, IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity)))
+    ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
+    final = integrate(result.bodies, fmt, ip)
+    events = predicted_events(KernelJob(fmt, bodies, cons, schedule, sp, ip)).as_dict()
     exp = expected_trace(fmt, records, cons.body_a, cons.body_b)
     layout = sf.StreamLayout(fmt, cons_beat_bits=preset.stream_bits)
     cons_stream = sf.pack_constraint_stream(fmt, cons, schedule, sp, beat_bits=preset.stream_bits)
@@ -158,7 +172,9 @@ def _prepare_case(path: Path, scene: str, params: dict, fmt_name: str, schedule_
             "backpressure": backpressure, "num_bodies": frame.num_bodies, "num_manifolds": frame.num_manifolds,
             "iterations": iterations, "passes": len(pass_sequence(sp)), "dt": frame.dt,
             "gravity": list(frame.gravity), "damping": 0.99, "options": 0,
-            "body_out_record_bytes": layout.body_out_bytes, "bytes_per_manifold": layout.bytes_per_manifold(sp)}
+            "body_out_record_bytes": layout.body_out_bytes, "bytes_per_manifold": layout.bytes_per_manifold(sp),
+            "fp_events": events}
+    meta["cycle_lower_bound"] = _cycle_lower_bound(fmt, bodies, cons, schedule, sp, frame, preset)
     np.savez(path, meta=np.array(json.dumps(meta)), kind=exp.kind, iteration=exp.iteration, slot=exp.slot,
              manifold=exp.manifold, body_a=exp.body_a, body_b=exp.body_b, words=exp.words, body_in=body_in,
              body_out=body_out, **{f"pass{p}": d for p, d in enumerate(per_pass)})
@@ -182,18 +198,11 @@ def _cosim(testcase: str, scene: str, params: dict, fmt_name: str, schedule_kind
     """Prepare the case, build the kernel for it (``bug``: a test-only parameter set to 1, in a build of its
     own) and run the cocotb test ``testcase``; returns the case file. With ``WAVES=1`` the FST and its GTKWave
     save file are ``build/cocotb/<build>_waves/<case>.fst`` / ``.gtkw`` (printed)."""
-    from cocotb_runner import BUILD_ROOT, run_cocotb, test_seed, waves_enabled
-    from tb.gtkwave_save import kernel_groups
-
-    from sim.lint import rtl_files
+    from cocotb_runner import BUILD_ROOT, run_kernel_cocotb, test_seed
 
     seed = test_seed()
-    rtl_params = _kernel_params(fmt_name, dma)
-    tag = "pgs_kernel_e{EXP_BITS}m{MAN_BITS}_c{CONS_W}".format(**rtl_params)
     case_name = f"{scene}-{fmt_name}-{schedule_kind}-{dma}"
     if bug:
-        rtl_params[bug] = 1
-        tag += "_" + bug.removeprefix("TEST_").lower()
         case_name += "-" + bug.removeprefix("TEST_").lower()
     case_dir = BUILD_ROOT / "cases"
     case_dir.mkdir(parents=True, exist_ok=True)
@@ -202,11 +211,8 @@ def _cosim(testcase: str, scene: str, params: dict, fmt_name: str, schedule_kind
         case_file.with_suffix(suffix).unlink(missing_ok=True)
     meta = _prepare_case(case_file, scene, params, fmt_name, schedule_kind, dma, seed, idle, bp)
     print(f"{scene}: {meta['num_bodies']} bodies, {meta['num_manifolds']} manifolds, {meta['passes']} passes")
-    packages, modules = rtl_files()
-    run_cocotb("pgs_kernel", packages + modules, "test_kernel_cosim", name=tag, seed=seed, parameters=rtl_params,
-               extra_env={"CASE_FILE": str(case_file)}, testcase=[testcase],
-               public_vlt=HERE / "kernel" / "pgs_kernel_public.vlt", compile_args=compile_args,
-               waves_name=case_name, waves_groups=kernel_groups(rtl_params) if waves_enabled() else None)
+    run_kernel_cocotb("test_kernel_cosim", fmt_name, dma, seed, {"CASE_FILE": str(case_file)}, testcase=[testcase],
+                      bug=bug, compile_args=compile_args, waves_name=case_name)
     return case_file
 
 
@@ -248,20 +254,15 @@ def test_scoreboard_catches_friction_sign_bug() -> None:
     assert want == int(golden[FIELDS.index(field)]), "the expected value is not the golden model's"
 
 
-def _kernel_params(fmt_name: str, dma: str) -> dict[str, int]:
-    from models.dma_model import get_preset
-
-    fmt = parse_format(fmt_name)
-    return {"EXP_BITS": fmt.exp_bits, "MAN_BITS": fmt.man_bits, "CONS_W": get_preset(dma).stream_bits}
-
-
 @pytest.mark.parametrize("fmt_name,dma", [("fp32", "zcu102"), ("bf16", "ideal")])
 def test_gtkwave_save_file_names_design_signals(tmp_path, fmt_name, dma) -> None:
     """Every trace of the kernel's ``.gtkw`` is a signal the RTL declares in that scope, with the range it has
     in that build (e.g. s_axis_cons_TDATA follows CONS_W), and the file reads back trace for trace."""
     from tb import gtkwave_save as gs
 
-    params = _kernel_params(fmt_name, dma)
+    from cocotb_runner import kernel_parameters
+
+    params = kernel_parameters(fmt_name, dma)
     groups = gs.kernel_groups(params)
     save = gs.write_kernel_save_file(tmp_path / "k.fst", parameters=params)
     assert save == tmp_path / "k.gtkw"
@@ -287,7 +288,7 @@ def test_gtkwave_save_file_names_design_signals(tmp_path, fmt_name, dma) -> None
 def test_gtkwave_save_file_matches_fst() -> None:
     """Against a real dump, when there is one (a ``WAVES=1`` run of the fp32 kernel) and ``fst2vcd`` (gtkwave
     package) is installed: every trace of the save file is in the FST's hierarchy."""
-    from cocotb_runner import BUILD_ROOT
+    from cocotb_runner import BUILD_ROOT, kernel_parameters
     from tb import gtkwave_save as gs
 
     fsts = sorted((BUILD_ROOT / "pgs_kernel_e8m23_c512_waves").glob("*.fst"), key=lambda f: f.stat().st_mtime)
@@ -296,6 +297,17 @@ def test_gtkwave_save_file_matches_fst() -> None:
     names = gs.fst_signal_names(fsts[-1])
     if names is None:
         pytest.skip("fst2vcd (gtkwave package) not installed")
-    traces = [t.path for g in gs.kernel_groups(_kernel_params("fp32", "zcu102")) for t in g.traces]
+    traces = [t.path for g in gs.kernel_groups(kernel_parameters("fp32", "zcu102")) for t in g.traces]
     missing = [t for t in traces if t not in names]
     assert not missing, f"not in {fsts[-1]}: {missing}"
+
+
+def _cycle_lower_bound(fmt: Any, bodies: Any, cons: Any, schedule: np.ndarray, sp: Any, frame: Any,
+                       preset: Any) -> int:
+    """Cycles the case cannot beat: the cycle model with the first transfers under way at ap_start."""
+    from models.cycle_model import lower_bound
+    from models.integrator import IntegrationParams
+    from sim.kernel_run import KernelJob
+
+    ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
+    return lower_bound(KernelJob(fmt, bodies, cons, schedule, sp, ip), preset, prefetched=True)

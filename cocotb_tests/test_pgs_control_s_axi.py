@@ -5,8 +5,10 @@ pytest entry point :func:`test_pgs_control_s_axi` builds the register file with 
 cocotbext-axi's AxiLiteMaster and plays the kernel side (ap_done/ap_idle/ap_ready pulses, error
 flags, counters) itself. Checked: reset values of every register, R/W of the argument registers (with
 byte strobes), ap_start set / clear-on-handshake / auto_restart, ap_done and ap_ready clear-on-read,
-ap_idle, ISR toggle-on-write, interrupt = GIE && |ISR, status W1C with the first error code,
-read-only counters, unmapped addresses reading 0 with OKAY.
+ap_idle, ISR toggle-on-write, interrupt = GIE && |ISR, status W1C with the first error code (codes 1..8 in
+bits 7:0, 9.. in bits 31:24), read-only counters (cycles, stalls, bubbles, issued, rejected, floating-point
+events), fp_status W1C, reserved argument words reading 0 with OKAY, unmapped addresses reading 0 with
+SLVERR and raising error code 9, ap_start written while busy raising error code 8.
 """
 
 from __future__ import annotations
@@ -23,6 +25,8 @@ REPO = Path(__file__).resolve().parents[1]
 ARGS = {"num_bodies": 0x10, "num_manifolds": 0x18, "iterations": 0x20, "dt": 0x28, "gravity_x": 0x30,
         "gravity_y": 0x38, "gravity_z": 0x40, "damping": 0x48, "options": 0x50}
 STATUS, CYC_LO, CYC_HI, STALL, BUBBLE, ISSUED = 0x58, 0x60, 0x64, 0x68, 0x70, 0x78
+REJECTED, FP_OVF, FP_UNF, FP_INV, FP_STATUS = 0x7C, 0x80, 0x84, 0x88, 0x8C
+OKAY, SLVERR = 0, 2
 
 
 async def _setup(dut):
@@ -34,10 +38,15 @@ async def _setup(dut):
     dut.ap_idle.value = 1
     dut.err_set.value = 0
     dut.err_code.value = 0
+    dut.fp_set.value = 0
     dut.stat_cycles.value = 0x1122334455667788
     dut.stat_stalls.value = 0xA5A5
     dut.stat_bubbles.value = 0x5A5A
     dut.stat_issued.value = 1234
+    dut.stat_rejected.value = 77
+    dut.stat_fp_overflow.value = 0x10001
+    dut.stat_fp_underflow.value = 0x20002
+    dut.stat_fp_invalid.value = 0x30003
     master = AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axi_control"), dut.ap_clk, dut.ap_rst_n,
                            reset_active_level=False)
     dut.ap_rst_n.value = 0
@@ -47,13 +56,13 @@ async def _setup(dut):
     return master
 
 
-async def rd(master, addr: int) -> int:
+async def rd(master, addr: int, resp_code: int = OKAY) -> int:
     resp = await master.read(addr, 4)
-    assert int(resp.resp) == 0, f"read 0x{addr:02x}: resp {resp.resp}"
+    assert int(resp.resp) == resp_code, f"read 0x{addr:02x}: resp {resp.resp}, expected {resp_code}"
     return int.from_bytes(resp.data, "little")
 
 
-async def wr(master, addr: int, value: int, strb: int | None = None) -> None:
+async def wr(master, addr: int, value: int, strb: int | None = None, resp_code: int = OKAY) -> None:
     data = value.to_bytes(4, "little")
     if strb is None:
         resp = await master.write(addr, data)
@@ -62,7 +71,7 @@ async def wr(master, addr: int, value: int, strb: int | None = None) -> None:
         lanes = [i for i in range(4) if strb >> i & 1]
         lo, hi = min(lanes), max(lanes)
         resp = await master.write(addr + lo, data[lo:hi + 1])
-    assert int(resp.resp) == 0, f"write 0x{addr:02x}: resp {resp.resp}"
+    assert int(resp.resp) == resp_code, f"write 0x{addr:02x}: resp {resp.resp}, expected {resp_code}"
 
 
 async def pulse(dut, *names: str) -> None:
@@ -79,7 +88,7 @@ async def register_file(dut) -> None:
     m = await _setup(dut)
     # reset values
     assert await rd(m, 0x00) == 0x4  # ap_idle only
-    for addr in (0x04, 0x08, 0x0C, STATUS):
+    for addr in (0x04, 0x08, 0x0C, STATUS, FP_STATUS):
         assert await rd(m, addr) == 0, f"0x{addr:02x} not 0 after reset"
     for name, addr in ARGS.items():
         assert await rd(m, addr) == 0, f"{name} not 0 after reset"
@@ -87,8 +96,12 @@ async def register_file(dut) -> None:
     # read-only counters
     assert await rd(m, CYC_LO) == 0x55667788 and await rd(m, CYC_HI) == 0x11223344
     assert await rd(m, STALL) == 0xA5A5 and await rd(m, BUBBLE) == 0x5A5A and await rd(m, ISSUED) == 1234
+    assert await rd(m, REJECTED) == 77
+    assert [await rd(m, a) for a in (FP_OVF, FP_UNF, FP_INV)] == [0x10001, 0x20002, 0x30003]
     await wr(m, CYC_LO, 0xFFFFFFFF)
     assert await rd(m, CYC_LO) == 0x55667788
+    await wr(m, FP_INV, 0)
+    assert await rd(m, FP_INV) == 0x30003
     # argument registers: R/W, byte strobes, output ports
     for i, (name, addr) in enumerate(ARGS.items()):
         await wr(m, addr, 0x01020304 * (i + 1) & 0xFFFFFFFF)
@@ -98,11 +111,25 @@ async def register_file(dut) -> None:
         assert int(getattr(dut, name).value) == v, name
     await wr(m, ARGS["dt"], 0xAABBCCDD, strb=0b0100)
     assert await rd(m, ARGS["dt"]) == (0x01020304 * 4 & 0xFF00FFFF) | 0x00BB0000
-    # reserved words between arguments and unmapped addresses read 0 (OKAY)
-    for addr in (0x14, 0x1C, 0x54, 0x5C, 0x6C, 0x74, 0x7C, 0x80, 0xFC):
+    # reserved upper words of the argument slots read 0, ignore writes, answer OKAY, raise nothing
+    for addr in range(0x14, 0x58, 8):
         assert await rd(m, addr) == 0, f"0x{addr:02x}"
     await wr(m, 0x14, 0xFFFFFFFF)
     assert await rd(m, 0x14) == 0
+    assert await rd(m, STATUS) == 0
+    # unmapped addresses read 0 with SLVERR, ignore writes (SLVERR) and raise error code 9 (status bit 24)
+    for addr in (0x5C, 0x6C, 0x74, 0x90, 0xA0, 0xFC):
+        assert await rd(m, addr, resp_code=SLVERR) == 0, f"0x{addr:02x}"
+    assert await rd(m, STATUS) == 0x0100_0900
+    await wr(m, STATUS, 0x0100_0000)
+    assert await rd(m, STATUS) == 0
+    await wr(m, 0xF0, 0x1234, resp_code=SLVERR)
+    assert await rd(m, 0xF0, resp_code=SLVERR) == 0
+    assert await rd(m, STATUS) == 0x0100_0900
+    await wr(m, STATUS, 0x0000_00FF)  # clears flags 7:0 only: bit 24 stays
+    assert await rd(m, STATUS) == 0x0100_0900
+    await wr(m, STATUS, 0xFF00_0000)
+    assert await rd(m, STATUS) == 0
 
     # ap_start: set by writing 1, stays until ap_ready, cleared then (no auto_restart)
     await wr(m, 0x00, 0x0)
@@ -112,6 +139,11 @@ async def register_file(dut) -> None:
     dut.ap_idle.value = 0
     await ClockCycles(dut.ap_clk, 3)
     assert (await rd(m, 0x00)) & 0x5 == 0x1  # started, not idle
+    # writing ap_start again while busy changes nothing but raises error code 8 (status bit 7)
+    await wr(m, 0x00, 0x1)
+    assert (await rd(m, 0x00)) & 0x5 == 0x1 and await rd(m, STATUS) == 0x0880
+    await wr(m, STATUS, 0x80)
+    assert await rd(m, STATUS) == 0
     await pulse(dut, "ap_done", "ap_ready")
     dut.ap_idle.value = 1
     await RisingEdge(dut.ap_clk)
@@ -178,6 +210,18 @@ async def register_file(dut) -> None:
     assert await rd(m, STATUS) == 0x0302
     await wr(m, STATUS, 0xFF)
     assert await rd(m, STATUS) == 0
+
+    # fp_status: sticky event flags (fp_set pulses), write 1 to clear; not errors (status stays 0)
+    dut.fp_set.value = 0b101
+    await RisingEdge(dut.ap_clk)
+    dut.fp_set.value = 0b010
+    await RisingEdge(dut.ap_clk)
+    dut.fp_set.value = 0
+    assert await rd(m, FP_STATUS) == 0b111 and await rd(m, STATUS) == 0
+    await wr(m, FP_STATUS, 0b001)
+    assert await rd(m, FP_STATUS) == 0b110
+    await wr(m, FP_STATUS, 0b110)
+    assert await rd(m, FP_STATUS) == 0
 
 
 def test_pgs_control_s_axi() -> None:

@@ -153,7 +153,16 @@ def load(path: str | os.PathLike[str]) -> Frame:
     try:
         with np.load(path, allow_pickle=False) as data:
             contents = {k: data[k] for k in data.files}
-    except (ValueError, OSError, EOFError) as exc:
+    except ValueError as exc:
+        # numpy refuses what only unpickling could read (which could run code): say which case it is
+        if "Object arrays" in str(exc):
+            raise FrameError(f"frame file {path} holds a pickled Python object (refused: frames are read without "
+                             "unpickling)") from None
+        if "pickle" in str(exc):
+            raise FrameError(f"frame file {path} is corrupt or not an .npz file (numpy would unpickle it: "
+                             "refused)") from None
+        raise FrameError(f"frame file {path} is corrupt or truncated ({exc.__class__.__name__}: {exc})") from None
+    except (OSError, EOFError) as exc:
         raise FrameError(f"frame file {path} is corrupt or truncated ({exc.__class__.__name__}: {exc})") from None
     except Exception as exc:  # zipfile.BadZipFile and friends
         raise FrameError(f"frame file {path} is corrupt or truncated ({exc.__class__.__name__}: {exc})") from None
@@ -174,5 +183,8 @@ def load(path: str | os.PathLike[str]) -> Frame:
         arr = contents[name]
         kwargs[name] = arr.astype(np.int32) if name in _INT_FIELDS else arr.astype(np.float64)
     frame = Frame(**kwargs, meta=meta)
-    validate(frame)
+    try:
+        validate(frame)
+    except FrameError as exc:
+        raise FrameError(f"frame file {path}: {exc}") from None
     return frame

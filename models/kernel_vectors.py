@@ -159,16 +159,16 @@ class SceneVectors:
 
 def scene_vectors(bodies: BodyTable, cons: ConstraintSet, ar: Arithmetic, params: SolverParams = SolverParams(),
                   dt: float = 1.0 / 60.0, gravity: tuple[float, float, float] = (0.0, -9.8, 0.0),
-                  damping: float = ANGULAR_DAMPING) -> SceneVectors:
-    """The inputs of every manifold-pass of a golden solve (manifolds in index order; evaluated level by
-    level exactly like :func:`models.contact_solver.solve`, which is bit-identical to the sequential
-    loop), and of the integration of every dynamic body afterwards. ``bodies``/``cons`` must be in the
-    format."""
+                  damping: float = ANGULAR_DAMPING, schedule: np.ndarray | None = None) -> SceneVectors:
+    """The inputs of every manifold-pass of a golden solve (manifolds in ``schedule`` order, default index
+    order; evaluated level by level exactly like :func:`models.contact_solver.solve`, which is bit-identical
+    to the sequential loop), and of the integration of every dynamic body afterwards. ``bodies``/``cons``
+    must be in the format."""
     out = bodies.copy()
     m = cons.num_manifolds
     lam_n, lam_t = np.zeros((m, 4)), np.zeros((m, 2))
     cw, fw, fs = [], [], []
-    levels = schedule_levels(np.arange(m), cons, bodies.dynamic)
+    levels = schedule_levels(np.arange(m) if schedule is None else schedule, cons, bodies.dynamic)
     for kind, _ in pass_sequence(params):
         for idx in levels:
             a, b = cons.body_a[idx], cons.body_b[idx]

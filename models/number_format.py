@@ -23,12 +23,25 @@ Every +, -, x, /, sqrt is computed in float64 and rounded once to the format. Fo
 25 bits (53 >= 2p + 2) and exponents up to 10 bits (exact results stay normal float64 values) this
 double rounding is innocuous, so the result is the correctly rounded one.
 Float64 mode (``FLOAT64``) performs the same operations without any rounding.
+
+Events (the exception flags of ``rtl/fp``, counted by the kernel): each +, -, x, /, sqrt result may raise
+
+* **overflow**: the exact result is finite and the rounded one is an infinity (IEEE overflow; a division
+  of a non-zero number by zero and infinite operands do not count);
+* **underflow**: the exact result is non-zero and finite and the rounded one is a zero (flushed: tininess
+  after rounding, as above; an exact zero and subnormal inputs read as zero do not count);
+* **invalid**: the result is NaN and no operand is (inf - inf, 0 * inf, 0 / 0, inf / inf, sqrt of a
+  negative number); a NaN propagated from an operand does not count.
+
+min, max and the comparisons raise none. :meth:`NumberFormat.op_with_events` returns a result with its
+per-element flags; :class:`CountingFormat` (``fmt.counting()``) is a format whose +, -, x, /, sqrt add
+their flags to a running :class:`FpEvents` total, so any model run with it counts its events.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Union
+from dataclasses import dataclass, field
+from typing import Optional, Union
 
 import numpy as np
 
@@ -40,6 +53,45 @@ _SIGN64 = np.uint64(1 << 63)
 _MAG64 = np.uint64((1 << 63) - 1)
 _EXP64 = np.uint64(0x7FF << 52)
 _NUMPY_CASTS = {(8, 23): np.float32, (5, 10): np.float16}
+
+
+EVENT_NAMES = ("overflow", "underflow", "invalid")
+
+
+@dataclass
+class FpEvents:
+    """Event totals over operation results (see the module docstring)."""
+
+    overflow: int = 0
+    underflow: int = 0
+    invalid: int = 0
+
+    def add(self, flags: "EventFlags | FpEvents") -> None:
+        """Add an operation's flags (counted) or another total."""
+        for name in EVENT_NAMES:
+            v = getattr(flags, name)
+            setattr(self, name, getattr(self, name) + (v if isinstance(v, int) else int(np.count_nonzero(v))))
+
+    def as_dict(self) -> dict[str, int]:
+        return {name: getattr(self, name) for name in EVENT_NAMES}
+
+
+@dataclass
+class EventFlags:
+    """Per-element event flags of one operation (boolean arrays of the result's shape)."""
+
+    overflow: np.ndarray
+    underflow: np.ndarray
+    invalid: np.ndarray
+
+
+def _exact(op: str, a: ArrayLike, b: Optional[ArrayLike]) -> np.ndarray:
+    """The float64 result of ``op`` (exact in finiteness and sign for the formats' operands)."""
+    with np.errstate(all="ignore"):
+        if op == "sqrt":
+            return np.sqrt(np.asarray(a, dtype=np.float64))
+        fn = {"add": np.add, "sub": np.subtract, "mul": np.multiply, "div": np.divide}[op]
+        return fn(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
 
 
 @dataclass(frozen=True)
@@ -192,6 +244,50 @@ class NumberFormat:
     def const(self, x: ArrayLike) -> np.ndarray:
         """A constant of the datapath (rounded once to the format)."""
         return self.round(x)
+
+    # --- events -------------------------------------------------------------------------------------
+    def op_with_events(self, op: str, a: ArrayLike, b: Optional[ArrayLike] = None) -> tuple[np.ndarray, EventFlags]:
+        """``op`` ('add', 'sub', 'mul', 'div' or 'sqrt') of format values, and its per-element event flags."""
+        exact = _exact(op, a, b)
+        r = self.round(exact)
+        operands = [np.asarray(a, dtype=np.float64)] + ([] if b is None else [np.asarray(b, dtype=np.float64)])
+        nan_in = np.zeros(r.shape, dtype=bool)
+        for x in operands:
+            nan_in = nan_in | np.isnan(x)
+        finite = np.isfinite(exact)
+        return r, EventFlags(overflow=finite & np.isinf(r), underflow=finite & (exact != 0.0) & (r == 0.0),
+                             invalid=np.isnan(r) & ~nan_in)
+
+    def counting(self) -> "CountingFormat":
+        """This format, counting the events of every +, -, x, /, sqrt into a fresh ``events`` total."""
+        return CountingFormat(self.name, self.exp_bits, self.man_bits)
+
+
+@dataclass(frozen=True)
+class CountingFormat(NumberFormat):
+    """A :class:`NumberFormat` whose arithmetic adds its event flags to ``events`` (results are identical)."""
+
+    events: FpEvents = field(default_factory=FpEvents, compare=False, repr=False)
+
+    def _counted(self, op: str, a: ArrayLike, b: Optional[ArrayLike] = None) -> np.ndarray:
+        r, flags = self.op_with_events(op, a, b)
+        self.events.add(flags)
+        return r
+
+    def add(self, a: ArrayLike, b: ArrayLike) -> np.ndarray:
+        return self._counted("add", a, b)
+
+    def sub(self, a: ArrayLike, b: ArrayLike) -> np.ndarray:
+        return self._counted("sub", a, b)
+
+    def mul(self, a: ArrayLike, b: ArrayLike) -> np.ndarray:
+        return self._counted("mul", a, b)
+
+    def div(self, a: ArrayLike, b: ArrayLike) -> np.ndarray:
+        return self._counted("div", a, b)
+
+    def sqrt(self, a: ArrayLike) -> np.ndarray:
+        return self._counted("sqrt", a)
 
 
 class Float64Arithmetic:

@@ -17,6 +17,9 @@
 // IInvB_y, 52 IInvB_z
 // Outputs: 0 lam0, 1 lam1, 2 lam2, 3 lam3, 4 vA_x, 5 vA_y, 6 vA_z, 7 wA_x, 8 wA_y, 9 wA_z, 10 vB_x,
 // 11 vB_y, 12 vB_z, 13 wB_x, 14 wB_y, 15 wB_z
+// Events: the flags of the 330 add / sub / mul / div / sqrt operators, for inputs taken with
+// in_valid && in_count; ev_overflow / ev_underflow / ev_invalid = how many were raised in the
+// previous cycle (models/number_format.py defines them).
 `default_nettype none
 
 module pgs_contact_pipe #(
@@ -26,16 +29,22 @@ module pgs_contact_pipe #(
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 53,
     localparam int N_OUT    = 16,
-    localparam int LATENCY  = 179
+    localparam int LATENCY  = 179,
+    localparam int N_FP_OPS = 330,
+    localparam int EV_W     = 16   // width of the event counts (the same in every module)
 ) (
     input  wire logic               clk,
     input  wire logic               rst,        // synchronous, active high; clears the valid pipeline
     input  wire logic               in_valid,
     input  wire logic [TAG_W-1:0]   in_tag,
     input  wire logic [N_IN*W-1:0]  in_data,
+    input  wire logic               in_count,   // count this input's floating-point events
     output logic                    out_valid,
     output logic      [TAG_W-1:0]   out_tag,
-    output logic      [N_OUT*W-1:0] out_data
+    output logic      [N_OUT*W-1:0] out_data,
+    output logic      [EV_W-1:0]    ev_overflow,    // events raised in the previous cycle
+    output logic      [EV_W-1:0]    ev_underflow,
+    output logic      [EV_W-1:0]    ev_invalid
 );
     // The schedule assumes the operator latencies declared in rtl/fp (read by the generator):
     // fp_add 4, fp_mul 3, fp_div MAN_BITS + 5, fp_sqrt MAN_BITS + 4, fp_minmax LAT_MINMAX.
@@ -64,6 +73,24 @@ module pgs_contact_pipe #(
         .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
     );
     pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (.clk(clk), .d(in_tag), .q(out_tag));
+
+    // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);
+    // an operator's flags belong to the input taken at its ready cycle minus that many cycles.
+    localparam int EV_DEPTH = 179;
+    logic [EV_DEPTH:0] ev_q;
+    assign ev_q[0] = in_valid && in_count;
+    for (genvar i = 1; i <= EV_DEPTH; i++) begin : g_ev
+        always_ff @(posedge clk) begin
+            if (rst) ev_q[i] <= 1'b0;
+            else     ev_q[i] <= ev_q[i-1];
+        end
+    end
+    logic [N_FP_OPS-1:0] ev_ovf, ev_unf, ev_inv;   // flags of counted inputs, one bit per operator
+    always_ff @(posedge clk) begin
+        ev_overflow  <= EV_W'($countones(ev_ovf));
+        ev_underflow <= EV_W'($countones(ev_unf));
+        ev_invalid   <= EV_W'($countones(ev_inv));
+    end
 
     // Input words and their delay lines.
     logic [W-1:0] in_n_x;
@@ -336,55 +363,79 @@ module pgs_contact_pipe #(
     // fp16 / bf16; its delay line feeds every consumer at the consumer's issue cycle.
     // linA_x = n_x * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_x;
+    logic [2:0] fl_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvA),
-        .out_valid(op_valid_nc[0]), .y(linA_x)
+        .out_valid(op_valid_nc[0]), .y(linA_x), .flags(fl_linA_x)
     );
+    assign ev_ovf[0] = fl_linA_x[0] && ev_q[3];
+    assign ev_unf[0] = fl_linA_x[1] && ev_q[3];
+    assign ev_inv[0] = fl_linA_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
         u_dl_linA_x (.clk(clk), .d(linA_x), .q(dl_linA_x));
     // linA_y = n_y * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_y;
+    logic [2:0] fl_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvA),
-        .out_valid(op_valid_nc[1]), .y(linA_y)
+        .out_valid(op_valid_nc[1]), .y(linA_y), .flags(fl_linA_y)
     );
+    assign ev_ovf[1] = fl_linA_y[0] && ev_q[3];
+    assign ev_unf[1] = fl_linA_y[1] && ev_q[3];
+    assign ev_inv[1] = fl_linA_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
         u_dl_linA_y (.clk(clk), .d(linA_y), .q(dl_linA_y));
     // linA_z = n_z * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_z;
+    logic [2:0] fl_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvA),
-        .out_valid(op_valid_nc[2]), .y(linA_z)
+        .out_valid(op_valid_nc[2]), .y(linA_z), .flags(fl_linA_z)
     );
+    assign ev_ovf[2] = fl_linA_z[0] && ev_q[3];
+    assign ev_unf[2] = fl_linA_z[1] && ev_q[3];
+    assign ev_inv[2] = fl_linA_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
         u_dl_linA_z (.clk(clk), .d(linA_z), .q(dl_linA_z));
     // linB_x = n_x * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_x;
+    logic [2:0] fl_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvB),
-        .out_valid(op_valid_nc[3]), .y(linB_x)
+        .out_valid(op_valid_nc[3]), .y(linB_x), .flags(fl_linB_x)
     );
+    assign ev_ovf[3] = fl_linB_x[0] && ev_q[3];
+    assign ev_unf[3] = fl_linB_x[1] && ev_q[3];
+    assign ev_inv[3] = fl_linB_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
         u_dl_linB_x (.clk(clk), .d(linB_x), .q(dl_linB_x));
     // linB_y = n_y * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_y;
+    logic [2:0] fl_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvB),
-        .out_valid(op_valid_nc[4]), .y(linB_y)
+        .out_valid(op_valid_nc[4]), .y(linB_y), .flags(fl_linB_y)
     );
+    assign ev_ovf[4] = fl_linB_y[0] && ev_q[3];
+    assign ev_unf[4] = fl_linB_y[1] && ev_q[3];
+    assign ev_inv[4] = fl_linB_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
         u_dl_linB_y (.clk(clk), .d(linB_y), .q(dl_linB_y));
     // linB_z = n_z * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_z;
+    logic [2:0] fl_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvB),
-        .out_valid(op_valid_nc[5]), .y(linB_z)
+        .out_valid(op_valid_nc[5]), .y(linB_z), .flags(fl_linB_z)
     );
+    assign ev_ovf[5] = fl_linB_z[0] && ev_q[3];
+    assign ev_unf[5] = fl_linB_z[1] && ev_q[3];
+    assign ev_inv[5] = fl_linB_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
         u_dl_linB_z (.clk(clk), .d(linB_z), .q(dl_linB_z));
@@ -396,451 +447,651 @@ module pgs_contact_pipe #(
         u_dl_pt0_skip (.clk(clk), .d(pt0_skip), .q(dl_pt0_skip));
     // pt0_rA_x = p0_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt0_rA_x;
+    logic [2:0] fl_pt0_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_x), .b(dl_in_xA_x), .sub(1'b1),
-        .out_valid(op_valid_nc[6]), .y(pt0_rA_x)
+        .out_valid(op_valid_nc[6]), .y(pt0_rA_x), .flags(fl_pt0_rA_x)
     );
+    assign ev_ovf[6] = fl_pt0_rA_x[0] && ev_q[4];
+    assign ev_unf[6] = fl_pt0_rA_x[1] && ev_q[4];
+    assign ev_inv[6] = fl_pt0_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_rA_x (.clk(clk), .d(pt0_rA_x), .q(dl_pt0_rA_x));
     // pt0_rA_y = p0_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt0_rA_y;
+    logic [2:0] fl_pt0_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_y), .b(dl_in_xA_y), .sub(1'b1),
-        .out_valid(op_valid_nc[7]), .y(pt0_rA_y)
+        .out_valid(op_valid_nc[7]), .y(pt0_rA_y), .flags(fl_pt0_rA_y)
     );
+    assign ev_ovf[7] = fl_pt0_rA_y[0] && ev_q[4];
+    assign ev_unf[7] = fl_pt0_rA_y[1] && ev_q[4];
+    assign ev_inv[7] = fl_pt0_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_rA_y (.clk(clk), .d(pt0_rA_y), .q(dl_pt0_rA_y));
     // pt0_rA_z = p0_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt0_rA_z;
+    logic [2:0] fl_pt0_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_z), .b(dl_in_xA_z), .sub(1'b1),
-        .out_valid(op_valid_nc[8]), .y(pt0_rA_z)
+        .out_valid(op_valid_nc[8]), .y(pt0_rA_z), .flags(fl_pt0_rA_z)
     );
+    assign ev_ovf[8] = fl_pt0_rA_z[0] && ev_q[4];
+    assign ev_unf[8] = fl_pt0_rA_z[1] && ev_q[4];
+    assign ev_inv[8] = fl_pt0_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_rA_z (.clk(clk), .d(pt0_rA_z), .q(dl_pt0_rA_z));
     // pt0_mul64 = pt0_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul64;
+    logic [2:0] fl_pt0_mul64;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul64 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_y), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[9]), .y(pt0_mul64)
+        .out_valid(op_valid_nc[9]), .y(pt0_mul64), .flags(fl_pt0_mul64)
     );
+    assign ev_ovf[9] = fl_pt0_mul64[0] && ev_q[7];
+    assign ev_unf[9] = fl_pt0_mul64[1] && ev_q[7];
+    assign ev_inv[9] = fl_pt0_mul64[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul64;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul64 (.clk(clk), .d(pt0_mul64), .q(dl_pt0_mul64));
     // pt0_mul65 = pt0_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul65;
+    logic [2:0] fl_pt0_mul65;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul65 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_z), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[10]), .y(pt0_mul65)
+        .out_valid(op_valid_nc[10]), .y(pt0_mul65), .flags(fl_pt0_mul65)
     );
+    assign ev_ovf[10] = fl_pt0_mul65[0] && ev_q[7];
+    assign ev_unf[10] = fl_pt0_mul65[1] && ev_q[7];
+    assign ev_inv[10] = fl_pt0_mul65[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul65;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul65 (.clk(clk), .d(pt0_mul65), .q(dl_pt0_mul65));
     // pt0_cA_x = pt0_mul64 - pt0_mul65   (ready @11/11/11)
     logic [W-1:0] pt0_cA_x;
+    logic [2:0] fl_pt0_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul64), .b(dl_pt0_mul65), .sub(1'b1),
-        .out_valid(op_valid_nc[11]), .y(pt0_cA_x)
+        .out_valid(op_valid_nc[11]), .y(pt0_cA_x), .flags(fl_pt0_cA_x)
     );
+    assign ev_ovf[11] = fl_pt0_cA_x[0] && ev_q[11];
+    assign ev_unf[11] = fl_pt0_cA_x[1] && ev_q[11];
+    assign ev_inv[11] = fl_pt0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_cA_x (.clk(clk), .d(pt0_cA_x), .q(dl_pt0_cA_x));
     // pt0_mul67 = pt0_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul67;
+    logic [2:0] fl_pt0_mul67;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul67 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_z), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[12]), .y(pt0_mul67)
+        .out_valid(op_valid_nc[12]), .y(pt0_mul67), .flags(fl_pt0_mul67)
     );
+    assign ev_ovf[12] = fl_pt0_mul67[0] && ev_q[7];
+    assign ev_unf[12] = fl_pt0_mul67[1] && ev_q[7];
+    assign ev_inv[12] = fl_pt0_mul67[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul67;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul67 (.clk(clk), .d(pt0_mul67), .q(dl_pt0_mul67));
     // pt0_mul68 = pt0_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul68;
+    logic [2:0] fl_pt0_mul68;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul68 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_x), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[13]), .y(pt0_mul68)
+        .out_valid(op_valid_nc[13]), .y(pt0_mul68), .flags(fl_pt0_mul68)
     );
+    assign ev_ovf[13] = fl_pt0_mul68[0] && ev_q[7];
+    assign ev_unf[13] = fl_pt0_mul68[1] && ev_q[7];
+    assign ev_inv[13] = fl_pt0_mul68[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul68;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul68 (.clk(clk), .d(pt0_mul68), .q(dl_pt0_mul68));
     // pt0_cA_y = pt0_mul67 - pt0_mul68   (ready @11/11/11)
     logic [W-1:0] pt0_cA_y;
+    logic [2:0] fl_pt0_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul67), .b(dl_pt0_mul68), .sub(1'b1),
-        .out_valid(op_valid_nc[14]), .y(pt0_cA_y)
+        .out_valid(op_valid_nc[14]), .y(pt0_cA_y), .flags(fl_pt0_cA_y)
     );
+    assign ev_ovf[14] = fl_pt0_cA_y[0] && ev_q[11];
+    assign ev_unf[14] = fl_pt0_cA_y[1] && ev_q[11];
+    assign ev_inv[14] = fl_pt0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_cA_y (.clk(clk), .d(pt0_cA_y), .q(dl_pt0_cA_y));
     // pt0_mul70 = pt0_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul70;
+    logic [2:0] fl_pt0_mul70;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul70 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_x), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[15]), .y(pt0_mul70)
+        .out_valid(op_valid_nc[15]), .y(pt0_mul70), .flags(fl_pt0_mul70)
     );
+    assign ev_ovf[15] = fl_pt0_mul70[0] && ev_q[7];
+    assign ev_unf[15] = fl_pt0_mul70[1] && ev_q[7];
+    assign ev_inv[15] = fl_pt0_mul70[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul70;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul70 (.clk(clk), .d(pt0_mul70), .q(dl_pt0_mul70));
     // pt0_mul71 = pt0_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul71;
+    logic [2:0] fl_pt0_mul71;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul71 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_y), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[16]), .y(pt0_mul71)
+        .out_valid(op_valid_nc[16]), .y(pt0_mul71), .flags(fl_pt0_mul71)
     );
+    assign ev_ovf[16] = fl_pt0_mul71[0] && ev_q[7];
+    assign ev_unf[16] = fl_pt0_mul71[1] && ev_q[7];
+    assign ev_inv[16] = fl_pt0_mul71[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul71;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul71 (.clk(clk), .d(pt0_mul71), .q(dl_pt0_mul71));
     // pt0_cA_z = pt0_mul70 - pt0_mul71   (ready @11/11/11)
     logic [W-1:0] pt0_cA_z;
+    logic [2:0] fl_pt0_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul70), .b(dl_pt0_mul71), .sub(1'b1),
-        .out_valid(op_valid_nc[17]), .y(pt0_cA_z)
+        .out_valid(op_valid_nc[17]), .y(pt0_cA_z), .flags(fl_pt0_cA_z)
     );
+    assign ev_ovf[17] = fl_pt0_cA_z[0] && ev_q[11];
+    assign ev_unf[17] = fl_pt0_cA_z[1] && ev_q[11];
+    assign ev_inv[17] = fl_pt0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_cA_z (.clk(clk), .d(pt0_cA_z), .q(dl_pt0_cA_z));
     // pt0_rB_x = p0_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt0_rB_x;
+    logic [2:0] fl_pt0_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_x), .b(dl_in_xB_x), .sub(1'b1),
-        .out_valid(op_valid_nc[18]), .y(pt0_rB_x)
+        .out_valid(op_valid_nc[18]), .y(pt0_rB_x), .flags(fl_pt0_rB_x)
     );
+    assign ev_ovf[18] = fl_pt0_rB_x[0] && ev_q[4];
+    assign ev_unf[18] = fl_pt0_rB_x[1] && ev_q[4];
+    assign ev_inv[18] = fl_pt0_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_rB_x (.clk(clk), .d(pt0_rB_x), .q(dl_pt0_rB_x));
     // pt0_rB_y = p0_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt0_rB_y;
+    logic [2:0] fl_pt0_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_y), .b(dl_in_xB_y), .sub(1'b1),
-        .out_valid(op_valid_nc[19]), .y(pt0_rB_y)
+        .out_valid(op_valid_nc[19]), .y(pt0_rB_y), .flags(fl_pt0_rB_y)
     );
+    assign ev_ovf[19] = fl_pt0_rB_y[0] && ev_q[4];
+    assign ev_unf[19] = fl_pt0_rB_y[1] && ev_q[4];
+    assign ev_inv[19] = fl_pt0_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_rB_y (.clk(clk), .d(pt0_rB_y), .q(dl_pt0_rB_y));
     // pt0_rB_z = p0_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt0_rB_z;
+    logic [2:0] fl_pt0_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_z), .b(dl_in_xB_z), .sub(1'b1),
-        .out_valid(op_valid_nc[20]), .y(pt0_rB_z)
+        .out_valid(op_valid_nc[20]), .y(pt0_rB_z), .flags(fl_pt0_rB_z)
     );
+    assign ev_ovf[20] = fl_pt0_rB_z[0] && ev_q[4];
+    assign ev_unf[20] = fl_pt0_rB_z[1] && ev_q[4];
+    assign ev_inv[20] = fl_pt0_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_rB_z (.clk(clk), .d(pt0_rB_z), .q(dl_pt0_rB_z));
     // pt0_mul76 = pt0_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul76;
+    logic [2:0] fl_pt0_mul76;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul76 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_y), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[21]), .y(pt0_mul76)
+        .out_valid(op_valid_nc[21]), .y(pt0_mul76), .flags(fl_pt0_mul76)
     );
+    assign ev_ovf[21] = fl_pt0_mul76[0] && ev_q[7];
+    assign ev_unf[21] = fl_pt0_mul76[1] && ev_q[7];
+    assign ev_inv[21] = fl_pt0_mul76[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul76;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul76 (.clk(clk), .d(pt0_mul76), .q(dl_pt0_mul76));
     // pt0_mul77 = pt0_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul77;
+    logic [2:0] fl_pt0_mul77;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul77 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_z), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[22]), .y(pt0_mul77)
+        .out_valid(op_valid_nc[22]), .y(pt0_mul77), .flags(fl_pt0_mul77)
     );
+    assign ev_ovf[22] = fl_pt0_mul77[0] && ev_q[7];
+    assign ev_unf[22] = fl_pt0_mul77[1] && ev_q[7];
+    assign ev_inv[22] = fl_pt0_mul77[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul77;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul77 (.clk(clk), .d(pt0_mul77), .q(dl_pt0_mul77));
     // pt0_cB_x = pt0_mul76 - pt0_mul77   (ready @11/11/11)
     logic [W-1:0] pt0_cB_x;
+    logic [2:0] fl_pt0_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul76), .b(dl_pt0_mul77), .sub(1'b1),
-        .out_valid(op_valid_nc[23]), .y(pt0_cB_x)
+        .out_valid(op_valid_nc[23]), .y(pt0_cB_x), .flags(fl_pt0_cB_x)
     );
+    assign ev_ovf[23] = fl_pt0_cB_x[0] && ev_q[11];
+    assign ev_unf[23] = fl_pt0_cB_x[1] && ev_q[11];
+    assign ev_inv[23] = fl_pt0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_cB_x (.clk(clk), .d(pt0_cB_x), .q(dl_pt0_cB_x));
     // pt0_mul79 = pt0_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul79;
+    logic [2:0] fl_pt0_mul79;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul79 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_z), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[24]), .y(pt0_mul79)
+        .out_valid(op_valid_nc[24]), .y(pt0_mul79), .flags(fl_pt0_mul79)
     );
+    assign ev_ovf[24] = fl_pt0_mul79[0] && ev_q[7];
+    assign ev_unf[24] = fl_pt0_mul79[1] && ev_q[7];
+    assign ev_inv[24] = fl_pt0_mul79[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul79;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul79 (.clk(clk), .d(pt0_mul79), .q(dl_pt0_mul79));
     // pt0_mul80 = pt0_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul80;
+    logic [2:0] fl_pt0_mul80;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul80 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_x), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[25]), .y(pt0_mul80)
+        .out_valid(op_valid_nc[25]), .y(pt0_mul80), .flags(fl_pt0_mul80)
     );
+    assign ev_ovf[25] = fl_pt0_mul80[0] && ev_q[7];
+    assign ev_unf[25] = fl_pt0_mul80[1] && ev_q[7];
+    assign ev_inv[25] = fl_pt0_mul80[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul80;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul80 (.clk(clk), .d(pt0_mul80), .q(dl_pt0_mul80));
     // pt0_cB_y = pt0_mul79 - pt0_mul80   (ready @11/11/11)
     logic [W-1:0] pt0_cB_y;
+    logic [2:0] fl_pt0_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul79), .b(dl_pt0_mul80), .sub(1'b1),
-        .out_valid(op_valid_nc[26]), .y(pt0_cB_y)
+        .out_valid(op_valid_nc[26]), .y(pt0_cB_y), .flags(fl_pt0_cB_y)
     );
+    assign ev_ovf[26] = fl_pt0_cB_y[0] && ev_q[11];
+    assign ev_unf[26] = fl_pt0_cB_y[1] && ev_q[11];
+    assign ev_inv[26] = fl_pt0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_cB_y (.clk(clk), .d(pt0_cB_y), .q(dl_pt0_cB_y));
     // pt0_mul82 = pt0_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul82;
+    logic [2:0] fl_pt0_mul82;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul82 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_x), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[27]), .y(pt0_mul82)
+        .out_valid(op_valid_nc[27]), .y(pt0_mul82), .flags(fl_pt0_mul82)
     );
+    assign ev_ovf[27] = fl_pt0_mul82[0] && ev_q[7];
+    assign ev_unf[27] = fl_pt0_mul82[1] && ev_q[7];
+    assign ev_inv[27] = fl_pt0_mul82[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul82;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul82 (.clk(clk), .d(pt0_mul82), .q(dl_pt0_mul82));
     // pt0_mul83 = pt0_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul83;
+    logic [2:0] fl_pt0_mul83;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul83 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_y), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[28]), .y(pt0_mul83)
+        .out_valid(op_valid_nc[28]), .y(pt0_mul83), .flags(fl_pt0_mul83)
     );
+    assign ev_ovf[28] = fl_pt0_mul83[0] && ev_q[7];
+    assign ev_unf[28] = fl_pt0_mul83[1] && ev_q[7];
+    assign ev_inv[28] = fl_pt0_mul83[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul83;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul83 (.clk(clk), .d(pt0_mul83), .q(dl_pt0_mul83));
     // pt0_cB_z = pt0_mul82 - pt0_mul83   (ready @11/11/11)
     logic [W-1:0] pt0_cB_z;
+    logic [2:0] fl_pt0_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul82), .b(dl_pt0_mul83), .sub(1'b1),
-        .out_valid(op_valid_nc[29]), .y(pt0_cB_z)
+        .out_valid(op_valid_nc[29]), .y(pt0_cB_z), .flags(fl_pt0_cB_z)
     );
+    assign ev_ovf[29] = fl_pt0_cB_z[0] && ev_q[11];
+    assign ev_unf[29] = fl_pt0_cB_z[1] && ev_q[11];
+    assign ev_inv[29] = fl_pt0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_cB_z (.clk(clk), .d(pt0_cB_z), .q(dl_pt0_cB_z));
     // pt0_mul85 = n_x * vA_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul85;
+    logic [2:0] fl_pt0_mul85;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul85 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vA_x[0*W +: W]),
-        .out_valid(op_valid_nc[30]), .y(pt0_mul85)
+        .out_valid(op_valid_nc[30]), .y(pt0_mul85), .flags(fl_pt0_mul85)
     );
+    assign ev_ovf[30] = fl_pt0_mul85[0] && ev_q[3];
+    assign ev_unf[30] = fl_pt0_mul85[1] && ev_q[3];
+    assign ev_inv[30] = fl_pt0_mul85[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul85;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul85 (.clk(clk), .d(pt0_mul85), .q(dl_pt0_mul85));
     // pt0_mul86 = n_y * vA_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul86;
+    logic [2:0] fl_pt0_mul86;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul86 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vA_y[0*W +: W]),
-        .out_valid(op_valid_nc[31]), .y(pt0_mul86)
+        .out_valid(op_valid_nc[31]), .y(pt0_mul86), .flags(fl_pt0_mul86)
     );
+    assign ev_ovf[31] = fl_pt0_mul86[0] && ev_q[3];
+    assign ev_unf[31] = fl_pt0_mul86[1] && ev_q[3];
+    assign ev_inv[31] = fl_pt0_mul86[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul86;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul86 (.clk(clk), .d(pt0_mul86), .q(dl_pt0_mul86));
     // pt0_add87 = pt0_mul85 + pt0_mul86   (ready @7/7/7)
     logic [W-1:0] pt0_add87;
+    logic [2:0] fl_pt0_add87;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add87 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul85), .b(dl_pt0_mul86), .sub(1'b0),
-        .out_valid(op_valid_nc[32]), .y(pt0_add87)
+        .out_valid(op_valid_nc[32]), .y(pt0_add87), .flags(fl_pt0_add87)
     );
+    assign ev_ovf[32] = fl_pt0_add87[0] && ev_q[7];
+    assign ev_unf[32] = fl_pt0_add87[1] && ev_q[7];
+    assign ev_inv[32] = fl_pt0_add87[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add87;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add87 (.clk(clk), .d(pt0_add87), .q(dl_pt0_add87));
     // pt0_mul88 = n_z * vA_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul88;
+    logic [2:0] fl_pt0_mul88;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul88 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vA_z[0*W +: W]),
-        .out_valid(op_valid_nc[33]), .y(pt0_mul88)
+        .out_valid(op_valid_nc[33]), .y(pt0_mul88), .flags(fl_pt0_mul88)
     );
+    assign ev_ovf[33] = fl_pt0_mul88[0] && ev_q[3];
+    assign ev_unf[33] = fl_pt0_mul88[1] && ev_q[3];
+    assign ev_inv[33] = fl_pt0_mul88[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul88;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt0_mul88 (.clk(clk), .d(pt0_mul88), .q(dl_pt0_mul88));
     // pt0_add89 = pt0_add87 + pt0_mul88   (ready @11/11/11)
     logic [W-1:0] pt0_add89;
+    logic [2:0] fl_pt0_add89;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add89 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add87), .b(dl_pt0_mul88), .sub(1'b0),
-        .out_valid(op_valid_nc[34]), .y(pt0_add89)
+        .out_valid(op_valid_nc[34]), .y(pt0_add89), .flags(fl_pt0_add89)
     );
+    assign ev_ovf[34] = fl_pt0_add89[0] && ev_q[11];
+    assign ev_unf[34] = fl_pt0_add89[1] && ev_q[11];
+    assign ev_inv[34] = fl_pt0_add89[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add89;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add89 (.clk(clk), .d(pt0_add89), .q(dl_pt0_add89));
     // pt0_mul90 = n_x * vB_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul90;
+    logic [2:0] fl_pt0_mul90;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul90 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vB_x[0*W +: W]),
-        .out_valid(op_valid_nc[35]), .y(pt0_mul90)
+        .out_valid(op_valid_nc[35]), .y(pt0_mul90), .flags(fl_pt0_mul90)
     );
+    assign ev_ovf[35] = fl_pt0_mul90[0] && ev_q[3];
+    assign ev_unf[35] = fl_pt0_mul90[1] && ev_q[3];
+    assign ev_inv[35] = fl_pt0_mul90[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul90;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul90 (.clk(clk), .d(pt0_mul90), .q(dl_pt0_mul90));
     // pt0_mul91 = n_y * vB_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul91;
+    logic [2:0] fl_pt0_mul91;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul91 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vB_y[0*W +: W]),
-        .out_valid(op_valid_nc[36]), .y(pt0_mul91)
+        .out_valid(op_valid_nc[36]), .y(pt0_mul91), .flags(fl_pt0_mul91)
     );
+    assign ev_ovf[36] = fl_pt0_mul91[0] && ev_q[3];
+    assign ev_unf[36] = fl_pt0_mul91[1] && ev_q[3];
+    assign ev_inv[36] = fl_pt0_mul91[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul91;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul91 (.clk(clk), .d(pt0_mul91), .q(dl_pt0_mul91));
     // pt0_add92 = pt0_mul90 + pt0_mul91   (ready @7/7/7)
     logic [W-1:0] pt0_add92;
+    logic [2:0] fl_pt0_add92;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add92 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul90), .b(dl_pt0_mul91), .sub(1'b0),
-        .out_valid(op_valid_nc[37]), .y(pt0_add92)
+        .out_valid(op_valid_nc[37]), .y(pt0_add92), .flags(fl_pt0_add92)
     );
+    assign ev_ovf[37] = fl_pt0_add92[0] && ev_q[7];
+    assign ev_unf[37] = fl_pt0_add92[1] && ev_q[7];
+    assign ev_inv[37] = fl_pt0_add92[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add92;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add92 (.clk(clk), .d(pt0_add92), .q(dl_pt0_add92));
     // pt0_mul93 = n_z * vB_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul93;
+    logic [2:0] fl_pt0_mul93;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul93 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vB_z[0*W +: W]),
-        .out_valid(op_valid_nc[38]), .y(pt0_mul93)
+        .out_valid(op_valid_nc[38]), .y(pt0_mul93), .flags(fl_pt0_mul93)
     );
+    assign ev_ovf[38] = fl_pt0_mul93[0] && ev_q[3];
+    assign ev_unf[38] = fl_pt0_mul93[1] && ev_q[3];
+    assign ev_inv[38] = fl_pt0_mul93[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul93;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt0_mul93 (.clk(clk), .d(pt0_mul93), .q(dl_pt0_mul93));
     // pt0_add94 = pt0_add92 + pt0_mul93   (ready @11/11/11)
     logic [W-1:0] pt0_add94;
+    logic [2:0] fl_pt0_add94;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add94 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add92), .b(dl_pt0_mul93), .sub(1'b0),
-        .out_valid(op_valid_nc[39]), .y(pt0_add94)
+        .out_valid(op_valid_nc[39]), .y(pt0_add94), .flags(fl_pt0_add94)
     );
+    assign ev_ovf[39] = fl_pt0_add94[0] && ev_q[11];
+    assign ev_unf[39] = fl_pt0_add94[1] && ev_q[11];
+    assign ev_inv[39] = fl_pt0_add94[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add94;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add94 (.clk(clk), .d(pt0_add94), .q(dl_pt0_add94));
     // pt0_sub95 = pt0_add89 - pt0_add94   (ready @15/15/15)
     logic [W-1:0] pt0_sub95;
+    logic [2:0] fl_pt0_sub95;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub95 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add89), .b(dl_pt0_add94), .sub(1'b1),
-        .out_valid(op_valid_nc[40]), .y(pt0_sub95)
+        .out_valid(op_valid_nc[40]), .y(pt0_sub95), .flags(fl_pt0_sub95)
     );
+    assign ev_ovf[40] = fl_pt0_sub95[0] && ev_q[15];
+    assign ev_unf[40] = fl_pt0_sub95[1] && ev_q[15];
+    assign ev_inv[40] = fl_pt0_sub95[2] && ev_q[15];
     logic [W-1:0] dl_pt0_sub95;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
         u_dl_pt0_sub95 (.clk(clk), .d(pt0_sub95), .q(dl_pt0_sub95));
     // pt0_mul96 = pt0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul96;
+    logic [2:0] fl_pt0_mul96;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul96 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_x), .b(dl_in_wA_x[0*W +: W]),
-        .out_valid(op_valid_nc[41]), .y(pt0_mul96)
+        .out_valid(op_valid_nc[41]), .y(pt0_mul96), .flags(fl_pt0_mul96)
     );
+    assign ev_ovf[41] = fl_pt0_mul96[0] && ev_q[14];
+    assign ev_unf[41] = fl_pt0_mul96[1] && ev_q[14];
+    assign ev_inv[41] = fl_pt0_mul96[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul96;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul96 (.clk(clk), .d(pt0_mul96), .q(dl_pt0_mul96));
     // pt0_mul97 = pt0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul97;
+    logic [2:0] fl_pt0_mul97;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul97 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_y), .b(dl_in_wA_y[0*W +: W]),
-        .out_valid(op_valid_nc[42]), .y(pt0_mul97)
+        .out_valid(op_valid_nc[42]), .y(pt0_mul97), .flags(fl_pt0_mul97)
     );
+    assign ev_ovf[42] = fl_pt0_mul97[0] && ev_q[14];
+    assign ev_unf[42] = fl_pt0_mul97[1] && ev_q[14];
+    assign ev_inv[42] = fl_pt0_mul97[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul97;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul97 (.clk(clk), .d(pt0_mul97), .q(dl_pt0_mul97));
     // pt0_add98 = pt0_mul96 + pt0_mul97   (ready @18/18/18)
     logic [W-1:0] pt0_add98;
+    logic [2:0] fl_pt0_add98;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add98 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul96), .b(dl_pt0_mul97), .sub(1'b0),
-        .out_valid(op_valid_nc[43]), .y(pt0_add98)
+        .out_valid(op_valid_nc[43]), .y(pt0_add98), .flags(fl_pt0_add98)
     );
+    assign ev_ovf[43] = fl_pt0_add98[0] && ev_q[18];
+    assign ev_unf[43] = fl_pt0_add98[1] && ev_q[18];
+    assign ev_inv[43] = fl_pt0_add98[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add98;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add98 (.clk(clk), .d(pt0_add98), .q(dl_pt0_add98));
     // pt0_mul99 = pt0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul99;
+    logic [2:0] fl_pt0_mul99;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul99 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_z), .b(dl_in_wA_z[0*W +: W]),
-        .out_valid(op_valid_nc[44]), .y(pt0_mul99)
+        .out_valid(op_valid_nc[44]), .y(pt0_mul99), .flags(fl_pt0_mul99)
     );
+    assign ev_ovf[44] = fl_pt0_mul99[0] && ev_q[14];
+    assign ev_unf[44] = fl_pt0_mul99[1] && ev_q[14];
+    assign ev_inv[44] = fl_pt0_mul99[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul99;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt0_mul99 (.clk(clk), .d(pt0_mul99), .q(dl_pt0_mul99));
     // pt0_add100 = pt0_add98 + pt0_mul99   (ready @22/22/22)
     logic [W-1:0] pt0_add100;
+    logic [2:0] fl_pt0_add100;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add100 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add98), .b(dl_pt0_mul99), .sub(1'b0),
-        .out_valid(op_valid_nc[45]), .y(pt0_add100)
+        .out_valid(op_valid_nc[45]), .y(pt0_add100), .flags(fl_pt0_add100)
     );
+    assign ev_ovf[45] = fl_pt0_add100[0] && ev_q[22];
+    assign ev_unf[45] = fl_pt0_add100[1] && ev_q[22];
+    assign ev_inv[45] = fl_pt0_add100[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add100;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add100 (.clk(clk), .d(pt0_add100), .q(dl_pt0_add100));
     // pt0_mul101 = pt0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul101;
+    logic [2:0] fl_pt0_mul101;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul101 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_x), .b(dl_in_wB_x[0*W +: W]),
-        .out_valid(op_valid_nc[46]), .y(pt0_mul101)
+        .out_valid(op_valid_nc[46]), .y(pt0_mul101), .flags(fl_pt0_mul101)
     );
+    assign ev_ovf[46] = fl_pt0_mul101[0] && ev_q[14];
+    assign ev_unf[46] = fl_pt0_mul101[1] && ev_q[14];
+    assign ev_inv[46] = fl_pt0_mul101[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul101;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul101 (.clk(clk), .d(pt0_mul101), .q(dl_pt0_mul101));
     // pt0_mul102 = pt0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul102;
+    logic [2:0] fl_pt0_mul102;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul102 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_y), .b(dl_in_wB_y[0*W +: W]),
-        .out_valid(op_valid_nc[47]), .y(pt0_mul102)
+        .out_valid(op_valid_nc[47]), .y(pt0_mul102), .flags(fl_pt0_mul102)
     );
+    assign ev_ovf[47] = fl_pt0_mul102[0] && ev_q[14];
+    assign ev_unf[47] = fl_pt0_mul102[1] && ev_q[14];
+    assign ev_inv[47] = fl_pt0_mul102[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul102;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul102 (.clk(clk), .d(pt0_mul102), .q(dl_pt0_mul102));
     // pt0_add103 = pt0_mul101 + pt0_mul102   (ready @18/18/18)
     logic [W-1:0] pt0_add103;
+    logic [2:0] fl_pt0_add103;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add103 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul101), .b(dl_pt0_mul102), .sub(1'b0),
-        .out_valid(op_valid_nc[48]), .y(pt0_add103)
+        .out_valid(op_valid_nc[48]), .y(pt0_add103), .flags(fl_pt0_add103)
     );
+    assign ev_ovf[48] = fl_pt0_add103[0] && ev_q[18];
+    assign ev_unf[48] = fl_pt0_add103[1] && ev_q[18];
+    assign ev_inv[48] = fl_pt0_add103[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add103;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add103 (.clk(clk), .d(pt0_add103), .q(dl_pt0_add103));
     // pt0_mul104 = pt0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul104;
+    logic [2:0] fl_pt0_mul104;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul104 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_z), .b(dl_in_wB_z[0*W +: W]),
-        .out_valid(op_valid_nc[49]), .y(pt0_mul104)
+        .out_valid(op_valid_nc[49]), .y(pt0_mul104), .flags(fl_pt0_mul104)
     );
+    assign ev_ovf[49] = fl_pt0_mul104[0] && ev_q[14];
+    assign ev_unf[49] = fl_pt0_mul104[1] && ev_q[14];
+    assign ev_inv[49] = fl_pt0_mul104[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul104;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt0_mul104 (.clk(clk), .d(pt0_mul104), .q(dl_pt0_mul104));
     // pt0_add105 = pt0_add103 + pt0_mul104   (ready @22/22/22)
     logic [W-1:0] pt0_add105;
+    logic [2:0] fl_pt0_add105;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add105 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add103), .b(dl_pt0_mul104), .sub(1'b0),
-        .out_valid(op_valid_nc[50]), .y(pt0_add105)
+        .out_valid(op_valid_nc[50]), .y(pt0_add105), .flags(fl_pt0_add105)
     );
+    assign ev_ovf[50] = fl_pt0_add105[0] && ev_q[22];
+    assign ev_unf[50] = fl_pt0_add105[1] && ev_q[22];
+    assign ev_inv[50] = fl_pt0_add105[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add105;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add105 (.clk(clk), .d(pt0_add105), .q(dl_pt0_add105));
     // pt0_sub106 = pt0_add100 - pt0_add105   (ready @26/26/26)
     logic [W-1:0] pt0_sub106;
+    logic [2:0] fl_pt0_sub106;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub106 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add100), .b(dl_pt0_add105), .sub(1'b1),
-        .out_valid(op_valid_nc[51]), .y(pt0_sub106)
+        .out_valid(op_valid_nc[51]), .y(pt0_sub106), .flags(fl_pt0_sub106)
     );
+    assign ev_ovf[51] = fl_pt0_sub106[0] && ev_q[26];
+    assign ev_unf[51] = fl_pt0_sub106[1] && ev_q[26];
+    assign ev_inv[51] = fl_pt0_sub106[2] && ev_q[26];
     logic [W-1:0] dl_pt0_sub106;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_sub106 (.clk(clk), .d(pt0_sub106), .q(dl_pt0_sub106));
     // pt0_vrel = pt0_sub95 + pt0_sub106   (ready @30/30/30)
     logic [W-1:0] pt0_vrel;
+    logic [2:0] fl_pt0_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_vrel (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_sub95), .b(dl_pt0_sub106), .sub(1'b0),
-        .out_valid(op_valid_nc[52]), .y(pt0_vrel)
+        .out_valid(op_valid_nc[52]), .y(pt0_vrel), .flags(fl_pt0_vrel)
     );
+    assign ev_ovf[52] = fl_pt0_vrel[0] && ev_q[30];
+    assign ev_unf[52] = fl_pt0_vrel[1] && ev_q[30];
+    assign ev_inv[52] = fl_pt0_vrel[2] && ev_q[30];
     logic [W-1:0] dl_pt0_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_vrel (.clk(clk), .d(pt0_vrel), .q(dl_pt0_vrel));
     // pt0_add108 = pt0_vrel + b0   (ready @34/34/34)
     logic [W-1:0] pt0_add108;
+    logic [2:0] fl_pt0_add108;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add108 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
-        .out_valid(op_valid_nc[53]), .y(pt0_add108)
+        .out_valid(op_valid_nc[53]), .y(pt0_add108), .flags(fl_pt0_add108)
     );
+    assign ev_ovf[53] = fl_pt0_add108[0] && ev_q[34];
+    assign ev_unf[53] = fl_pt0_add108[1] && ev_q[34];
+    assign ev_inv[53] = fl_pt0_add108[2] && ev_q[34];
     logic [W-1:0] dl_pt0_add108;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add108 (.clk(clk), .d(pt0_add108), .q(dl_pt0_add108));
     // pt0_delta0 = pt0_add108 * jac_inv0   (ready @37/37/37)
     logic [W-1:0] pt0_delta0;
+    logic [2:0] fl_pt0_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta0 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add108), .b(dl_in_jac_inv0[1*W +: W]),
-        .out_valid(op_valid_nc[54]), .y(pt0_delta0)
+        .out_valid(op_valid_nc[54]), .y(pt0_delta0), .flags(fl_pt0_delta0)
     );
+    assign ev_ovf[54] = fl_pt0_delta0[0] && ev_q[37];
+    assign ev_unf[54] = fl_pt0_delta0[1] && ev_q[37];
+    assign ev_inv[54] = fl_pt0_delta0[2] && ev_q[37];
     logic [W-1:0] dl_pt0_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_delta0 (.clk(clk), .d(pt0_delta0), .q(dl_pt0_delta0));
     // pt0_add110 = lam0 + pt0_delta0   (ready @41/41/41)
     logic [W-1:0] pt0_add110;
+    logic [2:0] fl_pt0_add110;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add110 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam0[0*W +: W]), .b(dl_pt0_delta0), .sub(1'b0),
-        .out_valid(op_valid_nc[55]), .y(pt0_add110)
+        .out_valid(op_valid_nc[55]), .y(pt0_add110), .flags(fl_pt0_add110)
     );
+    assign ev_ovf[55] = fl_pt0_add110[0] && ev_q[41];
+    assign ev_unf[55] = fl_pt0_add110[1] && ev_q[41];
+    assign ev_inv[55] = fl_pt0_add110[2] && ev_q[41];
     logic [W-1:0] dl_pt0_add110;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add110 (.clk(clk), .d(pt0_add110), .q(dl_pt0_add110));
@@ -856,10 +1107,14 @@ module pgs_contact_pipe #(
         u_dl_pt0_lam_new (.clk(clk), .d(pt0_lam_new), .q(dl_pt0_lam_new));
     // pt0_delta = pt0_lam_new - lam0   (ready @46/46/46)
     logic [W-1:0] pt0_delta;
+    logic [2:0] fl_pt0_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_lam_new), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
-        .out_valid(op_valid_nc[57]), .y(pt0_delta)
+        .out_valid(op_valid_nc[57]), .y(pt0_delta), .flags(fl_pt0_delta)
     );
+    assign ev_ovf[56] = fl_pt0_delta[0] && ev_q[46];
+    assign ev_unf[56] = fl_pt0_delta[1] && ev_q[46];
+    assign ev_inv[56] = fl_pt0_delta[2] && ev_q[46];
     logic [W-1:0] dl_pt0_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_delta (.clk(clk), .d(pt0_delta), .q(dl_pt0_delta));
@@ -871,109 +1126,157 @@ module pgs_contact_pipe #(
         u_dl_pt0_lam (.clk(clk), .d(pt0_lam), .q(dl_pt0_lam));
     // pt0_angA_x = IInvA_x * pt0_cA_x   (ready @14/14/14)
     logic [W-1:0] pt0_angA_x;
+    logic [2:0] fl_pt0_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_pt0_cA_x),
-        .out_valid(op_valid_nc[58]), .y(pt0_angA_x)
+        .out_valid(op_valid_nc[58]), .y(pt0_angA_x), .flags(fl_pt0_angA_x)
     );
+    assign ev_ovf[57] = fl_pt0_angA_x[0] && ev_q[14];
+    assign ev_unf[57] = fl_pt0_angA_x[1] && ev_q[14];
+    assign ev_inv[57] = fl_pt0_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
         u_dl_pt0_angA_x (.clk(clk), .d(pt0_angA_x), .q(dl_pt0_angA_x));
     // pt0_angA_y = IInvA_y * pt0_cA_y   (ready @14/14/14)
     logic [W-1:0] pt0_angA_y;
+    logic [2:0] fl_pt0_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_pt0_cA_y),
-        .out_valid(op_valid_nc[59]), .y(pt0_angA_y)
+        .out_valid(op_valid_nc[59]), .y(pt0_angA_y), .flags(fl_pt0_angA_y)
     );
+    assign ev_ovf[58] = fl_pt0_angA_y[0] && ev_q[14];
+    assign ev_unf[58] = fl_pt0_angA_y[1] && ev_q[14];
+    assign ev_inv[58] = fl_pt0_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
         u_dl_pt0_angA_y (.clk(clk), .d(pt0_angA_y), .q(dl_pt0_angA_y));
     // pt0_angA_z = IInvA_z * pt0_cA_z   (ready @14/14/14)
     logic [W-1:0] pt0_angA_z;
+    logic [2:0] fl_pt0_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_pt0_cA_z),
-        .out_valid(op_valid_nc[60]), .y(pt0_angA_z)
+        .out_valid(op_valid_nc[60]), .y(pt0_angA_z), .flags(fl_pt0_angA_z)
     );
+    assign ev_ovf[59] = fl_pt0_angA_z[0] && ev_q[14];
+    assign ev_unf[59] = fl_pt0_angA_z[1] && ev_q[14];
+    assign ev_inv[59] = fl_pt0_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
         u_dl_pt0_angA_z (.clk(clk), .d(pt0_angA_z), .q(dl_pt0_angA_z));
     // pt0_angB_x = IInvB_x * pt0_cB_x   (ready @14/14/14)
     logic [W-1:0] pt0_angB_x;
+    logic [2:0] fl_pt0_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_pt0_cB_x),
-        .out_valid(op_valid_nc[61]), .y(pt0_angB_x)
+        .out_valid(op_valid_nc[61]), .y(pt0_angB_x), .flags(fl_pt0_angB_x)
     );
+    assign ev_ovf[60] = fl_pt0_angB_x[0] && ev_q[14];
+    assign ev_unf[60] = fl_pt0_angB_x[1] && ev_q[14];
+    assign ev_inv[60] = fl_pt0_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
         u_dl_pt0_angB_x (.clk(clk), .d(pt0_angB_x), .q(dl_pt0_angB_x));
     // pt0_angB_y = IInvB_y * pt0_cB_y   (ready @14/14/14)
     logic [W-1:0] pt0_angB_y;
+    logic [2:0] fl_pt0_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_pt0_cB_y),
-        .out_valid(op_valid_nc[62]), .y(pt0_angB_y)
+        .out_valid(op_valid_nc[62]), .y(pt0_angB_y), .flags(fl_pt0_angB_y)
     );
+    assign ev_ovf[61] = fl_pt0_angB_y[0] && ev_q[14];
+    assign ev_unf[61] = fl_pt0_angB_y[1] && ev_q[14];
+    assign ev_inv[61] = fl_pt0_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
         u_dl_pt0_angB_y (.clk(clk), .d(pt0_angB_y), .q(dl_pt0_angB_y));
     // pt0_angB_z = IInvB_z * pt0_cB_z   (ready @14/14/14)
     logic [W-1:0] pt0_angB_z;
+    logic [2:0] fl_pt0_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_pt0_cB_z),
-        .out_valid(op_valid_nc[63]), .y(pt0_angB_z)
+        .out_valid(op_valid_nc[63]), .y(pt0_angB_z), .flags(fl_pt0_angB_z)
     );
+    assign ev_ovf[62] = fl_pt0_angB_z[0] && ev_q[14];
+    assign ev_unf[62] = fl_pt0_angB_z[1] && ev_q[14];
+    assign ev_inv[62] = fl_pt0_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
         u_dl_pt0_angB_z (.clk(clk), .d(pt0_angB_z), .q(dl_pt0_angB_z));
     // pt0_mul120 = linA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul120;
+    logic [2:0] fl_pt0_mul120;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul120 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[0*W +: W]), .b(dl_pt0_delta),
-        .out_valid(op_valid_nc[64]), .y(pt0_mul120)
+        .out_valid(op_valid_nc[64]), .y(pt0_mul120), .flags(fl_pt0_mul120)
     );
+    assign ev_ovf[63] = fl_pt0_mul120[0] && ev_q[49];
+    assign ev_unf[63] = fl_pt0_mul120[1] && ev_q[49];
+    assign ev_inv[63] = fl_pt0_mul120[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul120;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul120 (.clk(clk), .d(pt0_mul120), .q(dl_pt0_mul120));
     // pt0_mul121 = linA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul121;
+    logic [2:0] fl_pt0_mul121;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul121 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[0*W +: W]), .b(dl_pt0_delta),
-        .out_valid(op_valid_nc[65]), .y(pt0_mul121)
+        .out_valid(op_valid_nc[65]), .y(pt0_mul121), .flags(fl_pt0_mul121)
     );
+    assign ev_ovf[64] = fl_pt0_mul121[0] && ev_q[49];
+    assign ev_unf[64] = fl_pt0_mul121[1] && ev_q[49];
+    assign ev_inv[64] = fl_pt0_mul121[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul121;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul121 (.clk(clk), .d(pt0_mul121), .q(dl_pt0_mul121));
     // pt0_mul122 = linA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul122;
+    logic [2:0] fl_pt0_mul122;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul122 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[0*W +: W]), .b(dl_pt0_delta),
-        .out_valid(op_valid_nc[66]), .y(pt0_mul122)
+        .out_valid(op_valid_nc[66]), .y(pt0_mul122), .flags(fl_pt0_mul122)
     );
+    assign ev_ovf[65] = fl_pt0_mul122[0] && ev_q[49];
+    assign ev_unf[65] = fl_pt0_mul122[1] && ev_q[49];
+    assign ev_inv[65] = fl_pt0_mul122[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul122;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul122 (.clk(clk), .d(pt0_mul122), .q(dl_pt0_mul122));
     // pt0_add123 = vA_x + pt0_mul120   (ready @53/53/53)
     logic [W-1:0] pt0_add123;
+    logic [2:0] fl_pt0_add123;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add123 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_x[1*W +: W]), .b(dl_pt0_mul120), .sub(1'b0),
-        .out_valid(op_valid_nc[67]), .y(pt0_add123)
+        .out_valid(op_valid_nc[67]), .y(pt0_add123), .flags(fl_pt0_add123)
     );
+    assign ev_ovf[66] = fl_pt0_add123[0] && ev_q[53];
+    assign ev_unf[66] = fl_pt0_add123[1] && ev_q[53];
+    assign ev_inv[66] = fl_pt0_add123[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add123;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add123 (.clk(clk), .d(pt0_add123), .q(dl_pt0_add123));
     // pt0_add124 = vA_y + pt0_mul121   (ready @53/53/53)
     logic [W-1:0] pt0_add124;
+    logic [2:0] fl_pt0_add124;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add124 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_y[1*W +: W]), .b(dl_pt0_mul121), .sub(1'b0),
-        .out_valid(op_valid_nc[68]), .y(pt0_add124)
+        .out_valid(op_valid_nc[68]), .y(pt0_add124), .flags(fl_pt0_add124)
     );
+    assign ev_ovf[67] = fl_pt0_add124[0] && ev_q[53];
+    assign ev_unf[67] = fl_pt0_add124[1] && ev_q[53];
+    assign ev_inv[67] = fl_pt0_add124[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add124;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add124 (.clk(clk), .d(pt0_add124), .q(dl_pt0_add124));
     // pt0_add125 = vA_z + pt0_mul122   (ready @53/53/53)
     logic [W-1:0] pt0_add125;
+    logic [2:0] fl_pt0_add125;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add125 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_z[1*W +: W]), .b(dl_pt0_mul122), .sub(1'b0),
-        .out_valid(op_valid_nc[69]), .y(pt0_add125)
+        .out_valid(op_valid_nc[69]), .y(pt0_add125), .flags(fl_pt0_add125)
     );
+    assign ev_ovf[68] = fl_pt0_add125[0] && ev_q[53];
+    assign ev_unf[68] = fl_pt0_add125[1] && ev_q[53];
+    assign ev_inv[68] = fl_pt0_add125[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add125;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add125 (.clk(clk), .d(pt0_add125), .q(dl_pt0_add125));
@@ -997,55 +1300,79 @@ module pgs_contact_pipe #(
         u_dl_pt0_vA_z (.clk(clk), .d(pt0_vA_z), .q(dl_pt0_vA_z));
     // pt0_mul129 = pt0_angA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul129;
+    logic [2:0] fl_pt0_mul129;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul129 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_x), .b(dl_pt0_delta),
-        .out_valid(op_valid_nc[70]), .y(pt0_mul129)
+        .out_valid(op_valid_nc[70]), .y(pt0_mul129), .flags(fl_pt0_mul129)
     );
+    assign ev_ovf[69] = fl_pt0_mul129[0] && ev_q[49];
+    assign ev_unf[69] = fl_pt0_mul129[1] && ev_q[49];
+    assign ev_inv[69] = fl_pt0_mul129[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul129;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul129 (.clk(clk), .d(pt0_mul129), .q(dl_pt0_mul129));
     // pt0_mul130 = pt0_angA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul130;
+    logic [2:0] fl_pt0_mul130;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul130 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_y), .b(dl_pt0_delta),
-        .out_valid(op_valid_nc[71]), .y(pt0_mul130)
+        .out_valid(op_valid_nc[71]), .y(pt0_mul130), .flags(fl_pt0_mul130)
     );
+    assign ev_ovf[70] = fl_pt0_mul130[0] && ev_q[49];
+    assign ev_unf[70] = fl_pt0_mul130[1] && ev_q[49];
+    assign ev_inv[70] = fl_pt0_mul130[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul130;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul130 (.clk(clk), .d(pt0_mul130), .q(dl_pt0_mul130));
     // pt0_mul131 = pt0_angA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul131;
+    logic [2:0] fl_pt0_mul131;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul131 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_z), .b(dl_pt0_delta),
-        .out_valid(op_valid_nc[72]), .y(pt0_mul131)
+        .out_valid(op_valid_nc[72]), .y(pt0_mul131), .flags(fl_pt0_mul131)
     );
+    assign ev_ovf[71] = fl_pt0_mul131[0] && ev_q[49];
+    assign ev_unf[71] = fl_pt0_mul131[1] && ev_q[49];
+    assign ev_inv[71] = fl_pt0_mul131[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul131;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul131 (.clk(clk), .d(pt0_mul131), .q(dl_pt0_mul131));
     // pt0_add132 = wA_x + pt0_mul129   (ready @53/53/53)
     logic [W-1:0] pt0_add132;
+    logic [2:0] fl_pt0_add132;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add132 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_x[1*W +: W]), .b(dl_pt0_mul129), .sub(1'b0),
-        .out_valid(op_valid_nc[73]), .y(pt0_add132)
+        .out_valid(op_valid_nc[73]), .y(pt0_add132), .flags(fl_pt0_add132)
     );
+    assign ev_ovf[72] = fl_pt0_add132[0] && ev_q[53];
+    assign ev_unf[72] = fl_pt0_add132[1] && ev_q[53];
+    assign ev_inv[72] = fl_pt0_add132[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add132;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add132 (.clk(clk), .d(pt0_add132), .q(dl_pt0_add132));
     // pt0_add133 = wA_y + pt0_mul130   (ready @53/53/53)
     logic [W-1:0] pt0_add133;
+    logic [2:0] fl_pt0_add133;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add133 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_y[1*W +: W]), .b(dl_pt0_mul130), .sub(1'b0),
-        .out_valid(op_valid_nc[74]), .y(pt0_add133)
+        .out_valid(op_valid_nc[74]), .y(pt0_add133), .flags(fl_pt0_add133)
     );
+    assign ev_ovf[73] = fl_pt0_add133[0] && ev_q[53];
+    assign ev_unf[73] = fl_pt0_add133[1] && ev_q[53];
+    assign ev_inv[73] = fl_pt0_add133[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add133;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add133 (.clk(clk), .d(pt0_add133), .q(dl_pt0_add133));
     // pt0_add134 = wA_z + pt0_mul131   (ready @53/53/53)
     logic [W-1:0] pt0_add134;
+    logic [2:0] fl_pt0_add134;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add134 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_z[1*W +: W]), .b(dl_pt0_mul131), .sub(1'b0),
-        .out_valid(op_valid_nc[75]), .y(pt0_add134)
+        .out_valid(op_valid_nc[75]), .y(pt0_add134), .flags(fl_pt0_add134)
     );
+    assign ev_ovf[74] = fl_pt0_add134[0] && ev_q[53];
+    assign ev_unf[74] = fl_pt0_add134[1] && ev_q[53];
+    assign ev_inv[74] = fl_pt0_add134[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add134;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_add134 (.clk(clk), .d(pt0_add134), .q(dl_pt0_add134));
@@ -1069,55 +1396,79 @@ module pgs_contact_pipe #(
         u_dl_pt0_wA_z (.clk(clk), .d(pt0_wA_z), .q(dl_pt0_wA_z));
     // pt0_mul138 = linB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul138;
+    logic [2:0] fl_pt0_mul138;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul138 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[0*W +: W]), .b(dl_pt0_delta),
-        .out_valid(op_valid_nc[76]), .y(pt0_mul138)
+        .out_valid(op_valid_nc[76]), .y(pt0_mul138), .flags(fl_pt0_mul138)
     );
+    assign ev_ovf[75] = fl_pt0_mul138[0] && ev_q[49];
+    assign ev_unf[75] = fl_pt0_mul138[1] && ev_q[49];
+    assign ev_inv[75] = fl_pt0_mul138[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul138;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul138 (.clk(clk), .d(pt0_mul138), .q(dl_pt0_mul138));
     // pt0_mul139 = linB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul139;
+    logic [2:0] fl_pt0_mul139;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul139 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[0*W +: W]), .b(dl_pt0_delta),
-        .out_valid(op_valid_nc[77]), .y(pt0_mul139)
+        .out_valid(op_valid_nc[77]), .y(pt0_mul139), .flags(fl_pt0_mul139)
     );
+    assign ev_ovf[76] = fl_pt0_mul139[0] && ev_q[49];
+    assign ev_unf[76] = fl_pt0_mul139[1] && ev_q[49];
+    assign ev_inv[76] = fl_pt0_mul139[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul139;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul139 (.clk(clk), .d(pt0_mul139), .q(dl_pt0_mul139));
     // pt0_mul140 = linB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul140;
+    logic [2:0] fl_pt0_mul140;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul140 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[0*W +: W]), .b(dl_pt0_delta),
-        .out_valid(op_valid_nc[78]), .y(pt0_mul140)
+        .out_valid(op_valid_nc[78]), .y(pt0_mul140), .flags(fl_pt0_mul140)
     );
+    assign ev_ovf[77] = fl_pt0_mul140[0] && ev_q[49];
+    assign ev_unf[77] = fl_pt0_mul140[1] && ev_q[49];
+    assign ev_inv[77] = fl_pt0_mul140[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul140;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul140 (.clk(clk), .d(pt0_mul140), .q(dl_pt0_mul140));
     // pt0_sub141 = vB_x - pt0_mul138   (ready @53/53/53)
     logic [W-1:0] pt0_sub141;
+    logic [2:0] fl_pt0_sub141;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub141 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_x[1*W +: W]), .b(dl_pt0_mul138), .sub(1'b1),
-        .out_valid(op_valid_nc[79]), .y(pt0_sub141)
+        .out_valid(op_valid_nc[79]), .y(pt0_sub141), .flags(fl_pt0_sub141)
     );
+    assign ev_ovf[78] = fl_pt0_sub141[0] && ev_q[53];
+    assign ev_unf[78] = fl_pt0_sub141[1] && ev_q[53];
+    assign ev_inv[78] = fl_pt0_sub141[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub141;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_sub141 (.clk(clk), .d(pt0_sub141), .q(dl_pt0_sub141));
     // pt0_sub142 = vB_y - pt0_mul139   (ready @53/53/53)
     logic [W-1:0] pt0_sub142;
+    logic [2:0] fl_pt0_sub142;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub142 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_y[1*W +: W]), .b(dl_pt0_mul139), .sub(1'b1),
-        .out_valid(op_valid_nc[80]), .y(pt0_sub142)
+        .out_valid(op_valid_nc[80]), .y(pt0_sub142), .flags(fl_pt0_sub142)
     );
+    assign ev_ovf[79] = fl_pt0_sub142[0] && ev_q[53];
+    assign ev_unf[79] = fl_pt0_sub142[1] && ev_q[53];
+    assign ev_inv[79] = fl_pt0_sub142[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub142;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_sub142 (.clk(clk), .d(pt0_sub142), .q(dl_pt0_sub142));
     // pt0_sub143 = vB_z - pt0_mul140   (ready @53/53/53)
     logic [W-1:0] pt0_sub143;
+    logic [2:0] fl_pt0_sub143;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub143 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_z[1*W +: W]), .b(dl_pt0_mul140), .sub(1'b1),
-        .out_valid(op_valid_nc[81]), .y(pt0_sub143)
+        .out_valid(op_valid_nc[81]), .y(pt0_sub143), .flags(fl_pt0_sub143)
     );
+    assign ev_ovf[80] = fl_pt0_sub143[0] && ev_q[53];
+    assign ev_unf[80] = fl_pt0_sub143[1] && ev_q[53];
+    assign ev_inv[80] = fl_pt0_sub143[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub143;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_sub143 (.clk(clk), .d(pt0_sub143), .q(dl_pt0_sub143));
@@ -1141,55 +1492,79 @@ module pgs_contact_pipe #(
         u_dl_pt0_vB_z (.clk(clk), .d(pt0_vB_z), .q(dl_pt0_vB_z));
     // pt0_mul147 = pt0_angB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul147;
+    logic [2:0] fl_pt0_mul147;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul147 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_x), .b(dl_pt0_delta),
-        .out_valid(op_valid_nc[82]), .y(pt0_mul147)
+        .out_valid(op_valid_nc[82]), .y(pt0_mul147), .flags(fl_pt0_mul147)
     );
+    assign ev_ovf[81] = fl_pt0_mul147[0] && ev_q[49];
+    assign ev_unf[81] = fl_pt0_mul147[1] && ev_q[49];
+    assign ev_inv[81] = fl_pt0_mul147[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul147;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul147 (.clk(clk), .d(pt0_mul147), .q(dl_pt0_mul147));
     // pt0_mul148 = pt0_angB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul148;
+    logic [2:0] fl_pt0_mul148;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul148 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_y), .b(dl_pt0_delta),
-        .out_valid(op_valid_nc[83]), .y(pt0_mul148)
+        .out_valid(op_valid_nc[83]), .y(pt0_mul148), .flags(fl_pt0_mul148)
     );
+    assign ev_ovf[82] = fl_pt0_mul148[0] && ev_q[49];
+    assign ev_unf[82] = fl_pt0_mul148[1] && ev_q[49];
+    assign ev_inv[82] = fl_pt0_mul148[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul148;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul148 (.clk(clk), .d(pt0_mul148), .q(dl_pt0_mul148));
     // pt0_mul149 = pt0_angB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul149;
+    logic [2:0] fl_pt0_mul149;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul149 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_z), .b(dl_pt0_delta),
-        .out_valid(op_valid_nc[84]), .y(pt0_mul149)
+        .out_valid(op_valid_nc[84]), .y(pt0_mul149), .flags(fl_pt0_mul149)
     );
+    assign ev_ovf[83] = fl_pt0_mul149[0] && ev_q[49];
+    assign ev_unf[83] = fl_pt0_mul149[1] && ev_q[49];
+    assign ev_inv[83] = fl_pt0_mul149[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul149;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_mul149 (.clk(clk), .d(pt0_mul149), .q(dl_pt0_mul149));
     // pt0_sub150 = wB_x - pt0_mul147   (ready @53/53/53)
     logic [W-1:0] pt0_sub150;
+    logic [2:0] fl_pt0_sub150;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub150 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_x[1*W +: W]), .b(dl_pt0_mul147), .sub(1'b1),
-        .out_valid(op_valid_nc[85]), .y(pt0_sub150)
+        .out_valid(op_valid_nc[85]), .y(pt0_sub150), .flags(fl_pt0_sub150)
     );
+    assign ev_ovf[84] = fl_pt0_sub150[0] && ev_q[53];
+    assign ev_unf[84] = fl_pt0_sub150[1] && ev_q[53];
+    assign ev_inv[84] = fl_pt0_sub150[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub150;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_sub150 (.clk(clk), .d(pt0_sub150), .q(dl_pt0_sub150));
     // pt0_sub151 = wB_y - pt0_mul148   (ready @53/53/53)
     logic [W-1:0] pt0_sub151;
+    logic [2:0] fl_pt0_sub151;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub151 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_y[1*W +: W]), .b(dl_pt0_mul148), .sub(1'b1),
-        .out_valid(op_valid_nc[86]), .y(pt0_sub151)
+        .out_valid(op_valid_nc[86]), .y(pt0_sub151), .flags(fl_pt0_sub151)
     );
+    assign ev_ovf[85] = fl_pt0_sub151[0] && ev_q[53];
+    assign ev_unf[85] = fl_pt0_sub151[1] && ev_q[53];
+    assign ev_inv[85] = fl_pt0_sub151[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub151;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_sub151 (.clk(clk), .d(pt0_sub151), .q(dl_pt0_sub151));
     // pt0_sub152 = wB_z - pt0_mul149   (ready @53/53/53)
     logic [W-1:0] pt0_sub152;
+    logic [2:0] fl_pt0_sub152;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub152 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_z[1*W +: W]), .b(dl_pt0_mul149), .sub(1'b1),
-        .out_valid(op_valid_nc[87]), .y(pt0_sub152)
+        .out_valid(op_valid_nc[87]), .y(pt0_sub152), .flags(fl_pt0_sub152)
     );
+    assign ev_ovf[86] = fl_pt0_sub152[0] && ev_q[53];
+    assign ev_unf[86] = fl_pt0_sub152[1] && ev_q[53];
+    assign ev_inv[86] = fl_pt0_sub152[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub152;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt0_sub152 (.clk(clk), .d(pt0_sub152), .q(dl_pt0_sub152));
@@ -1219,451 +1594,651 @@ module pgs_contact_pipe #(
         u_dl_pt1_skip (.clk(clk), .d(pt1_skip), .q(dl_pt1_skip));
     // pt1_rA_x = p1_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt1_rA_x;
+    logic [2:0] fl_pt1_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_x), .b(dl_in_xA_x), .sub(1'b1),
-        .out_valid(op_valid_nc[88]), .y(pt1_rA_x)
+        .out_valid(op_valid_nc[88]), .y(pt1_rA_x), .flags(fl_pt1_rA_x)
     );
+    assign ev_ovf[87] = fl_pt1_rA_x[0] && ev_q[4];
+    assign ev_unf[87] = fl_pt1_rA_x[1] && ev_q[4];
+    assign ev_inv[87] = fl_pt1_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_rA_x (.clk(clk), .d(pt1_rA_x), .q(dl_pt1_rA_x));
     // pt1_rA_y = p1_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt1_rA_y;
+    logic [2:0] fl_pt1_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_y), .b(dl_in_xA_y), .sub(1'b1),
-        .out_valid(op_valid_nc[89]), .y(pt1_rA_y)
+        .out_valid(op_valid_nc[89]), .y(pt1_rA_y), .flags(fl_pt1_rA_y)
     );
+    assign ev_ovf[88] = fl_pt1_rA_y[0] && ev_q[4];
+    assign ev_unf[88] = fl_pt1_rA_y[1] && ev_q[4];
+    assign ev_inv[88] = fl_pt1_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_rA_y (.clk(clk), .d(pt1_rA_y), .q(dl_pt1_rA_y));
     // pt1_rA_z = p1_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt1_rA_z;
+    logic [2:0] fl_pt1_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
-        .out_valid(op_valid_nc[90]), .y(pt1_rA_z)
+        .out_valid(op_valid_nc[90]), .y(pt1_rA_z), .flags(fl_pt1_rA_z)
     );
+    assign ev_ovf[89] = fl_pt1_rA_z[0] && ev_q[4];
+    assign ev_unf[89] = fl_pt1_rA_z[1] && ev_q[4];
+    assign ev_inv[89] = fl_pt1_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_rA_z (.clk(clk), .d(pt1_rA_z), .q(dl_pt1_rA_z));
     // pt1_mul160 = pt1_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul160;
+    logic [2:0] fl_pt1_mul160;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul160 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_y), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[91]), .y(pt1_mul160)
+        .out_valid(op_valid_nc[91]), .y(pt1_mul160), .flags(fl_pt1_mul160)
     );
+    assign ev_ovf[90] = fl_pt1_mul160[0] && ev_q[7];
+    assign ev_unf[90] = fl_pt1_mul160[1] && ev_q[7];
+    assign ev_inv[90] = fl_pt1_mul160[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul160;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul160 (.clk(clk), .d(pt1_mul160), .q(dl_pt1_mul160));
     // pt1_mul161 = pt1_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul161;
+    logic [2:0] fl_pt1_mul161;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul161 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_z), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[92]), .y(pt1_mul161)
+        .out_valid(op_valid_nc[92]), .y(pt1_mul161), .flags(fl_pt1_mul161)
     );
+    assign ev_ovf[91] = fl_pt1_mul161[0] && ev_q[7];
+    assign ev_unf[91] = fl_pt1_mul161[1] && ev_q[7];
+    assign ev_inv[91] = fl_pt1_mul161[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul161;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul161 (.clk(clk), .d(pt1_mul161), .q(dl_pt1_mul161));
     // pt1_cA_x = pt1_mul160 - pt1_mul161   (ready @11/11/11)
     logic [W-1:0] pt1_cA_x;
+    logic [2:0] fl_pt1_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul160), .b(dl_pt1_mul161), .sub(1'b1),
-        .out_valid(op_valid_nc[93]), .y(pt1_cA_x)
+        .out_valid(op_valid_nc[93]), .y(pt1_cA_x), .flags(fl_pt1_cA_x)
     );
+    assign ev_ovf[92] = fl_pt1_cA_x[0] && ev_q[11];
+    assign ev_unf[92] = fl_pt1_cA_x[1] && ev_q[11];
+    assign ev_inv[92] = fl_pt1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
         u_dl_pt1_cA_x (.clk(clk), .d(pt1_cA_x), .q(dl_pt1_cA_x));
     // pt1_mul163 = pt1_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul163;
+    logic [2:0] fl_pt1_mul163;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul163 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_z), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[94]), .y(pt1_mul163)
+        .out_valid(op_valid_nc[94]), .y(pt1_mul163), .flags(fl_pt1_mul163)
     );
+    assign ev_ovf[93] = fl_pt1_mul163[0] && ev_q[7];
+    assign ev_unf[93] = fl_pt1_mul163[1] && ev_q[7];
+    assign ev_inv[93] = fl_pt1_mul163[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul163;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul163 (.clk(clk), .d(pt1_mul163), .q(dl_pt1_mul163));
     // pt1_mul164 = pt1_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul164;
+    logic [2:0] fl_pt1_mul164;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul164 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_x), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[95]), .y(pt1_mul164)
+        .out_valid(op_valid_nc[95]), .y(pt1_mul164), .flags(fl_pt1_mul164)
     );
+    assign ev_ovf[94] = fl_pt1_mul164[0] && ev_q[7];
+    assign ev_unf[94] = fl_pt1_mul164[1] && ev_q[7];
+    assign ev_inv[94] = fl_pt1_mul164[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul164;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul164 (.clk(clk), .d(pt1_mul164), .q(dl_pt1_mul164));
     // pt1_cA_y = pt1_mul163 - pt1_mul164   (ready @11/11/11)
     logic [W-1:0] pt1_cA_y;
+    logic [2:0] fl_pt1_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul163), .b(dl_pt1_mul164), .sub(1'b1),
-        .out_valid(op_valid_nc[96]), .y(pt1_cA_y)
+        .out_valid(op_valid_nc[96]), .y(pt1_cA_y), .flags(fl_pt1_cA_y)
     );
+    assign ev_ovf[95] = fl_pt1_cA_y[0] && ev_q[11];
+    assign ev_unf[95] = fl_pt1_cA_y[1] && ev_q[11];
+    assign ev_inv[95] = fl_pt1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
         u_dl_pt1_cA_y (.clk(clk), .d(pt1_cA_y), .q(dl_pt1_cA_y));
     // pt1_mul166 = pt1_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul166;
+    logic [2:0] fl_pt1_mul166;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul166 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_x), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[97]), .y(pt1_mul166)
+        .out_valid(op_valid_nc[97]), .y(pt1_mul166), .flags(fl_pt1_mul166)
     );
+    assign ev_ovf[96] = fl_pt1_mul166[0] && ev_q[7];
+    assign ev_unf[96] = fl_pt1_mul166[1] && ev_q[7];
+    assign ev_inv[96] = fl_pt1_mul166[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul166;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul166 (.clk(clk), .d(pt1_mul166), .q(dl_pt1_mul166));
     // pt1_mul167 = pt1_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul167;
+    logic [2:0] fl_pt1_mul167;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul167 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_y), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[98]), .y(pt1_mul167)
+        .out_valid(op_valid_nc[98]), .y(pt1_mul167), .flags(fl_pt1_mul167)
     );
+    assign ev_ovf[97] = fl_pt1_mul167[0] && ev_q[7];
+    assign ev_unf[97] = fl_pt1_mul167[1] && ev_q[7];
+    assign ev_inv[97] = fl_pt1_mul167[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul167;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul167 (.clk(clk), .d(pt1_mul167), .q(dl_pt1_mul167));
     // pt1_cA_z = pt1_mul166 - pt1_mul167   (ready @11/11/11)
     logic [W-1:0] pt1_cA_z;
+    logic [2:0] fl_pt1_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul166), .b(dl_pt1_mul167), .sub(1'b1),
-        .out_valid(op_valid_nc[99]), .y(pt1_cA_z)
+        .out_valid(op_valid_nc[99]), .y(pt1_cA_z), .flags(fl_pt1_cA_z)
     );
+    assign ev_ovf[98] = fl_pt1_cA_z[0] && ev_q[11];
+    assign ev_unf[98] = fl_pt1_cA_z[1] && ev_q[11];
+    assign ev_inv[98] = fl_pt1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
         u_dl_pt1_cA_z (.clk(clk), .d(pt1_cA_z), .q(dl_pt1_cA_z));
     // pt1_rB_x = p1_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt1_rB_x;
+    logic [2:0] fl_pt1_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_x), .b(dl_in_xB_x), .sub(1'b1),
-        .out_valid(op_valid_nc[100]), .y(pt1_rB_x)
+        .out_valid(op_valid_nc[100]), .y(pt1_rB_x), .flags(fl_pt1_rB_x)
     );
+    assign ev_ovf[99] = fl_pt1_rB_x[0] && ev_q[4];
+    assign ev_unf[99] = fl_pt1_rB_x[1] && ev_q[4];
+    assign ev_inv[99] = fl_pt1_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_rB_x (.clk(clk), .d(pt1_rB_x), .q(dl_pt1_rB_x));
     // pt1_rB_y = p1_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt1_rB_y;
+    logic [2:0] fl_pt1_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_y), .b(dl_in_xB_y), .sub(1'b1),
-        .out_valid(op_valid_nc[101]), .y(pt1_rB_y)
+        .out_valid(op_valid_nc[101]), .y(pt1_rB_y), .flags(fl_pt1_rB_y)
     );
+    assign ev_ovf[100] = fl_pt1_rB_y[0] && ev_q[4];
+    assign ev_unf[100] = fl_pt1_rB_y[1] && ev_q[4];
+    assign ev_inv[100] = fl_pt1_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_rB_y (.clk(clk), .d(pt1_rB_y), .q(dl_pt1_rB_y));
     // pt1_rB_z = p1_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt1_rB_z;
+    logic [2:0] fl_pt1_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
-        .out_valid(op_valid_nc[102]), .y(pt1_rB_z)
+        .out_valid(op_valid_nc[102]), .y(pt1_rB_z), .flags(fl_pt1_rB_z)
     );
+    assign ev_ovf[101] = fl_pt1_rB_z[0] && ev_q[4];
+    assign ev_unf[101] = fl_pt1_rB_z[1] && ev_q[4];
+    assign ev_inv[101] = fl_pt1_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_rB_z (.clk(clk), .d(pt1_rB_z), .q(dl_pt1_rB_z));
     // pt1_mul172 = pt1_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul172;
+    logic [2:0] fl_pt1_mul172;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul172 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_y), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[103]), .y(pt1_mul172)
+        .out_valid(op_valid_nc[103]), .y(pt1_mul172), .flags(fl_pt1_mul172)
     );
+    assign ev_ovf[102] = fl_pt1_mul172[0] && ev_q[7];
+    assign ev_unf[102] = fl_pt1_mul172[1] && ev_q[7];
+    assign ev_inv[102] = fl_pt1_mul172[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul172;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul172 (.clk(clk), .d(pt1_mul172), .q(dl_pt1_mul172));
     // pt1_mul173 = pt1_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul173;
+    logic [2:0] fl_pt1_mul173;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul173 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_z), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[104]), .y(pt1_mul173)
+        .out_valid(op_valid_nc[104]), .y(pt1_mul173), .flags(fl_pt1_mul173)
     );
+    assign ev_ovf[103] = fl_pt1_mul173[0] && ev_q[7];
+    assign ev_unf[103] = fl_pt1_mul173[1] && ev_q[7];
+    assign ev_inv[103] = fl_pt1_mul173[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul173;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul173 (.clk(clk), .d(pt1_mul173), .q(dl_pt1_mul173));
     // pt1_cB_x = pt1_mul172 - pt1_mul173   (ready @11/11/11)
     logic [W-1:0] pt1_cB_x;
+    logic [2:0] fl_pt1_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul172), .b(dl_pt1_mul173), .sub(1'b1),
-        .out_valid(op_valid_nc[105]), .y(pt1_cB_x)
+        .out_valid(op_valid_nc[105]), .y(pt1_cB_x), .flags(fl_pt1_cB_x)
     );
+    assign ev_ovf[104] = fl_pt1_cB_x[0] && ev_q[11];
+    assign ev_unf[104] = fl_pt1_cB_x[1] && ev_q[11];
+    assign ev_inv[104] = fl_pt1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
         u_dl_pt1_cB_x (.clk(clk), .d(pt1_cB_x), .q(dl_pt1_cB_x));
     // pt1_mul175 = pt1_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul175;
+    logic [2:0] fl_pt1_mul175;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul175 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_z), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[106]), .y(pt1_mul175)
+        .out_valid(op_valid_nc[106]), .y(pt1_mul175), .flags(fl_pt1_mul175)
     );
+    assign ev_ovf[105] = fl_pt1_mul175[0] && ev_q[7];
+    assign ev_unf[105] = fl_pt1_mul175[1] && ev_q[7];
+    assign ev_inv[105] = fl_pt1_mul175[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul175;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul175 (.clk(clk), .d(pt1_mul175), .q(dl_pt1_mul175));
     // pt1_mul176 = pt1_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul176;
+    logic [2:0] fl_pt1_mul176;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul176 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_x), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[107]), .y(pt1_mul176)
+        .out_valid(op_valid_nc[107]), .y(pt1_mul176), .flags(fl_pt1_mul176)
     );
+    assign ev_ovf[106] = fl_pt1_mul176[0] && ev_q[7];
+    assign ev_unf[106] = fl_pt1_mul176[1] && ev_q[7];
+    assign ev_inv[106] = fl_pt1_mul176[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul176;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul176 (.clk(clk), .d(pt1_mul176), .q(dl_pt1_mul176));
     // pt1_cB_y = pt1_mul175 - pt1_mul176   (ready @11/11/11)
     logic [W-1:0] pt1_cB_y;
+    logic [2:0] fl_pt1_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul175), .b(dl_pt1_mul176), .sub(1'b1),
-        .out_valid(op_valid_nc[108]), .y(pt1_cB_y)
+        .out_valid(op_valid_nc[108]), .y(pt1_cB_y), .flags(fl_pt1_cB_y)
     );
+    assign ev_ovf[107] = fl_pt1_cB_y[0] && ev_q[11];
+    assign ev_unf[107] = fl_pt1_cB_y[1] && ev_q[11];
+    assign ev_inv[107] = fl_pt1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
         u_dl_pt1_cB_y (.clk(clk), .d(pt1_cB_y), .q(dl_pt1_cB_y));
     // pt1_mul178 = pt1_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul178;
+    logic [2:0] fl_pt1_mul178;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul178 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_x), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[109]), .y(pt1_mul178)
+        .out_valid(op_valid_nc[109]), .y(pt1_mul178), .flags(fl_pt1_mul178)
     );
+    assign ev_ovf[108] = fl_pt1_mul178[0] && ev_q[7];
+    assign ev_unf[108] = fl_pt1_mul178[1] && ev_q[7];
+    assign ev_inv[108] = fl_pt1_mul178[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul178;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul178 (.clk(clk), .d(pt1_mul178), .q(dl_pt1_mul178));
     // pt1_mul179 = pt1_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul179;
+    logic [2:0] fl_pt1_mul179;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul179 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_y), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[110]), .y(pt1_mul179)
+        .out_valid(op_valid_nc[110]), .y(pt1_mul179), .flags(fl_pt1_mul179)
     );
+    assign ev_ovf[109] = fl_pt1_mul179[0] && ev_q[7];
+    assign ev_unf[109] = fl_pt1_mul179[1] && ev_q[7];
+    assign ev_inv[109] = fl_pt1_mul179[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul179;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul179 (.clk(clk), .d(pt1_mul179), .q(dl_pt1_mul179));
     // pt1_cB_z = pt1_mul178 - pt1_mul179   (ready @11/11/11)
     logic [W-1:0] pt1_cB_z;
+    logic [2:0] fl_pt1_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul178), .b(dl_pt1_mul179), .sub(1'b1),
-        .out_valid(op_valid_nc[111]), .y(pt1_cB_z)
+        .out_valid(op_valid_nc[111]), .y(pt1_cB_z), .flags(fl_pt1_cB_z)
     );
+    assign ev_ovf[110] = fl_pt1_cB_z[0] && ev_q[11];
+    assign ev_unf[110] = fl_pt1_cB_z[1] && ev_q[11];
+    assign ev_inv[110] = fl_pt1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
         u_dl_pt1_cB_z (.clk(clk), .d(pt1_cB_z), .q(dl_pt1_cB_z));
     // pt1_mul181 = n_x * pt0_vA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul181;
+    logic [2:0] fl_pt1_mul181;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul181 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vA_x[0*W +: W]),
-        .out_valid(op_valid_nc[112]), .y(pt1_mul181)
+        .out_valid(op_valid_nc[112]), .y(pt1_mul181), .flags(fl_pt1_mul181)
     );
+    assign ev_ovf[111] = fl_pt1_mul181[0] && ev_q[56];
+    assign ev_unf[111] = fl_pt1_mul181[1] && ev_q[56];
+    assign ev_inv[111] = fl_pt1_mul181[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul181;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul181 (.clk(clk), .d(pt1_mul181), .q(dl_pt1_mul181));
     // pt1_mul182 = n_y * pt0_vA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul182;
+    logic [2:0] fl_pt1_mul182;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul182 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vA_y[0*W +: W]),
-        .out_valid(op_valid_nc[113]), .y(pt1_mul182)
+        .out_valid(op_valid_nc[113]), .y(pt1_mul182), .flags(fl_pt1_mul182)
     );
+    assign ev_ovf[112] = fl_pt1_mul182[0] && ev_q[56];
+    assign ev_unf[112] = fl_pt1_mul182[1] && ev_q[56];
+    assign ev_inv[112] = fl_pt1_mul182[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul182;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul182 (.clk(clk), .d(pt1_mul182), .q(dl_pt1_mul182));
     // pt1_add183 = pt1_mul181 + pt1_mul182   (ready @60/60/60)
     logic [W-1:0] pt1_add183;
+    logic [2:0] fl_pt1_add183;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add183 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul181), .b(dl_pt1_mul182), .sub(1'b0),
-        .out_valid(op_valid_nc[114]), .y(pt1_add183)
+        .out_valid(op_valid_nc[114]), .y(pt1_add183), .flags(fl_pt1_add183)
     );
+    assign ev_ovf[113] = fl_pt1_add183[0] && ev_q[60];
+    assign ev_unf[113] = fl_pt1_add183[1] && ev_q[60];
+    assign ev_inv[113] = fl_pt1_add183[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add183;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add183 (.clk(clk), .d(pt1_add183), .q(dl_pt1_add183));
     // pt1_mul184 = n_z * pt0_vA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul184;
+    logic [2:0] fl_pt1_mul184;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul184 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vA_z[0*W +: W]),
-        .out_valid(op_valid_nc[115]), .y(pt1_mul184)
+        .out_valid(op_valid_nc[115]), .y(pt1_mul184), .flags(fl_pt1_mul184)
     );
+    assign ev_ovf[114] = fl_pt1_mul184[0] && ev_q[56];
+    assign ev_unf[114] = fl_pt1_mul184[1] && ev_q[56];
+    assign ev_inv[114] = fl_pt1_mul184[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul184;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt1_mul184 (.clk(clk), .d(pt1_mul184), .q(dl_pt1_mul184));
     // pt1_add185 = pt1_add183 + pt1_mul184   (ready @64/64/64)
     logic [W-1:0] pt1_add185;
+    logic [2:0] fl_pt1_add185;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add185 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add183), .b(dl_pt1_mul184), .sub(1'b0),
-        .out_valid(op_valid_nc[116]), .y(pt1_add185)
+        .out_valid(op_valid_nc[116]), .y(pt1_add185), .flags(fl_pt1_add185)
     );
+    assign ev_ovf[115] = fl_pt1_add185[0] && ev_q[64];
+    assign ev_unf[115] = fl_pt1_add185[1] && ev_q[64];
+    assign ev_inv[115] = fl_pt1_add185[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add185;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add185 (.clk(clk), .d(pt1_add185), .q(dl_pt1_add185));
     // pt1_mul186 = n_x * pt0_vB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul186;
+    logic [2:0] fl_pt1_mul186;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul186 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vB_x[0*W +: W]),
-        .out_valid(op_valid_nc[117]), .y(pt1_mul186)
+        .out_valid(op_valid_nc[117]), .y(pt1_mul186), .flags(fl_pt1_mul186)
     );
+    assign ev_ovf[116] = fl_pt1_mul186[0] && ev_q[56];
+    assign ev_unf[116] = fl_pt1_mul186[1] && ev_q[56];
+    assign ev_inv[116] = fl_pt1_mul186[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul186;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul186 (.clk(clk), .d(pt1_mul186), .q(dl_pt1_mul186));
     // pt1_mul187 = n_y * pt0_vB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul187;
+    logic [2:0] fl_pt1_mul187;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul187 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vB_y[0*W +: W]),
-        .out_valid(op_valid_nc[118]), .y(pt1_mul187)
+        .out_valid(op_valid_nc[118]), .y(pt1_mul187), .flags(fl_pt1_mul187)
     );
+    assign ev_ovf[117] = fl_pt1_mul187[0] && ev_q[56];
+    assign ev_unf[117] = fl_pt1_mul187[1] && ev_q[56];
+    assign ev_inv[117] = fl_pt1_mul187[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul187;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul187 (.clk(clk), .d(pt1_mul187), .q(dl_pt1_mul187));
     // pt1_add188 = pt1_mul186 + pt1_mul187   (ready @60/60/60)
     logic [W-1:0] pt1_add188;
+    logic [2:0] fl_pt1_add188;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add188 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul186), .b(dl_pt1_mul187), .sub(1'b0),
-        .out_valid(op_valid_nc[119]), .y(pt1_add188)
+        .out_valid(op_valid_nc[119]), .y(pt1_add188), .flags(fl_pt1_add188)
     );
+    assign ev_ovf[118] = fl_pt1_add188[0] && ev_q[60];
+    assign ev_unf[118] = fl_pt1_add188[1] && ev_q[60];
+    assign ev_inv[118] = fl_pt1_add188[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add188;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add188 (.clk(clk), .d(pt1_add188), .q(dl_pt1_add188));
     // pt1_mul189 = n_z * pt0_vB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul189;
+    logic [2:0] fl_pt1_mul189;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul189 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vB_z[0*W +: W]),
-        .out_valid(op_valid_nc[120]), .y(pt1_mul189)
+        .out_valid(op_valid_nc[120]), .y(pt1_mul189), .flags(fl_pt1_mul189)
     );
+    assign ev_ovf[119] = fl_pt1_mul189[0] && ev_q[56];
+    assign ev_unf[119] = fl_pt1_mul189[1] && ev_q[56];
+    assign ev_inv[119] = fl_pt1_mul189[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul189;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt1_mul189 (.clk(clk), .d(pt1_mul189), .q(dl_pt1_mul189));
     // pt1_add190 = pt1_add188 + pt1_mul189   (ready @64/64/64)
     logic [W-1:0] pt1_add190;
+    logic [2:0] fl_pt1_add190;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add190 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add188), .b(dl_pt1_mul189), .sub(1'b0),
-        .out_valid(op_valid_nc[121]), .y(pt1_add190)
+        .out_valid(op_valid_nc[121]), .y(pt1_add190), .flags(fl_pt1_add190)
     );
+    assign ev_ovf[120] = fl_pt1_add190[0] && ev_q[64];
+    assign ev_unf[120] = fl_pt1_add190[1] && ev_q[64];
+    assign ev_inv[120] = fl_pt1_add190[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add190;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add190 (.clk(clk), .d(pt1_add190), .q(dl_pt1_add190));
     // pt1_sub191 = pt1_add185 - pt1_add190   (ready @68/68/68)
     logic [W-1:0] pt1_sub191;
+    logic [2:0] fl_pt1_sub191;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub191 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add185), .b(dl_pt1_add190), .sub(1'b1),
-        .out_valid(op_valid_nc[122]), .y(pt1_sub191)
+        .out_valid(op_valid_nc[122]), .y(pt1_sub191), .flags(fl_pt1_sub191)
     );
+    assign ev_ovf[121] = fl_pt1_sub191[0] && ev_q[68];
+    assign ev_unf[121] = fl_pt1_sub191[1] && ev_q[68];
+    assign ev_inv[121] = fl_pt1_sub191[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub191;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_sub191 (.clk(clk), .d(pt1_sub191), .q(dl_pt1_sub191));
     // pt1_mul192 = pt1_cA_x * pt0_wA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul192;
+    logic [2:0] fl_pt1_mul192;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul192 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_x[0*W +: W]), .b(dl_pt0_wA_x[0*W +: W]),
-        .out_valid(op_valid_nc[123]), .y(pt1_mul192)
+        .out_valid(op_valid_nc[123]), .y(pt1_mul192), .flags(fl_pt1_mul192)
     );
+    assign ev_ovf[122] = fl_pt1_mul192[0] && ev_q[56];
+    assign ev_unf[122] = fl_pt1_mul192[1] && ev_q[56];
+    assign ev_inv[122] = fl_pt1_mul192[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul192;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul192 (.clk(clk), .d(pt1_mul192), .q(dl_pt1_mul192));
     // pt1_mul193 = pt1_cA_y * pt0_wA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul193;
+    logic [2:0] fl_pt1_mul193;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul193 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_y[0*W +: W]), .b(dl_pt0_wA_y[0*W +: W]),
-        .out_valid(op_valid_nc[124]), .y(pt1_mul193)
+        .out_valid(op_valid_nc[124]), .y(pt1_mul193), .flags(fl_pt1_mul193)
     );
+    assign ev_ovf[123] = fl_pt1_mul193[0] && ev_q[56];
+    assign ev_unf[123] = fl_pt1_mul193[1] && ev_q[56];
+    assign ev_inv[123] = fl_pt1_mul193[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul193;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul193 (.clk(clk), .d(pt1_mul193), .q(dl_pt1_mul193));
     // pt1_add194 = pt1_mul192 + pt1_mul193   (ready @60/60/60)
     logic [W-1:0] pt1_add194;
+    logic [2:0] fl_pt1_add194;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add194 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul192), .b(dl_pt1_mul193), .sub(1'b0),
-        .out_valid(op_valid_nc[125]), .y(pt1_add194)
+        .out_valid(op_valid_nc[125]), .y(pt1_add194), .flags(fl_pt1_add194)
     );
+    assign ev_ovf[124] = fl_pt1_add194[0] && ev_q[60];
+    assign ev_unf[124] = fl_pt1_add194[1] && ev_q[60];
+    assign ev_inv[124] = fl_pt1_add194[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add194;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add194 (.clk(clk), .d(pt1_add194), .q(dl_pt1_add194));
     // pt1_mul195 = pt1_cA_z * pt0_wA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul195;
+    logic [2:0] fl_pt1_mul195;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul195 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_z[0*W +: W]), .b(dl_pt0_wA_z[0*W +: W]),
-        .out_valid(op_valid_nc[126]), .y(pt1_mul195)
+        .out_valid(op_valid_nc[126]), .y(pt1_mul195), .flags(fl_pt1_mul195)
     );
+    assign ev_ovf[125] = fl_pt1_mul195[0] && ev_q[56];
+    assign ev_unf[125] = fl_pt1_mul195[1] && ev_q[56];
+    assign ev_inv[125] = fl_pt1_mul195[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul195;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt1_mul195 (.clk(clk), .d(pt1_mul195), .q(dl_pt1_mul195));
     // pt1_add196 = pt1_add194 + pt1_mul195   (ready @64/64/64)
     logic [W-1:0] pt1_add196;
+    logic [2:0] fl_pt1_add196;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add196 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add194), .b(dl_pt1_mul195), .sub(1'b0),
-        .out_valid(op_valid_nc[127]), .y(pt1_add196)
+        .out_valid(op_valid_nc[127]), .y(pt1_add196), .flags(fl_pt1_add196)
     );
+    assign ev_ovf[126] = fl_pt1_add196[0] && ev_q[64];
+    assign ev_unf[126] = fl_pt1_add196[1] && ev_q[64];
+    assign ev_inv[126] = fl_pt1_add196[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add196;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add196 (.clk(clk), .d(pt1_add196), .q(dl_pt1_add196));
     // pt1_mul197 = pt1_cB_x * pt0_wB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul197;
+    logic [2:0] fl_pt1_mul197;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul197 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_x[0*W +: W]), .b(dl_pt0_wB_x[0*W +: W]),
-        .out_valid(op_valid_nc[128]), .y(pt1_mul197)
+        .out_valid(op_valid_nc[128]), .y(pt1_mul197), .flags(fl_pt1_mul197)
     );
+    assign ev_ovf[127] = fl_pt1_mul197[0] && ev_q[56];
+    assign ev_unf[127] = fl_pt1_mul197[1] && ev_q[56];
+    assign ev_inv[127] = fl_pt1_mul197[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul197;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul197 (.clk(clk), .d(pt1_mul197), .q(dl_pt1_mul197));
     // pt1_mul198 = pt1_cB_y * pt0_wB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul198;
+    logic [2:0] fl_pt1_mul198;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul198 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_y[0*W +: W]), .b(dl_pt0_wB_y[0*W +: W]),
-        .out_valid(op_valid_nc[129]), .y(pt1_mul198)
+        .out_valid(op_valid_nc[129]), .y(pt1_mul198), .flags(fl_pt1_mul198)
     );
+    assign ev_ovf[128] = fl_pt1_mul198[0] && ev_q[56];
+    assign ev_unf[128] = fl_pt1_mul198[1] && ev_q[56];
+    assign ev_inv[128] = fl_pt1_mul198[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul198;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul198 (.clk(clk), .d(pt1_mul198), .q(dl_pt1_mul198));
     // pt1_add199 = pt1_mul197 + pt1_mul198   (ready @60/60/60)
     logic [W-1:0] pt1_add199;
+    logic [2:0] fl_pt1_add199;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add199 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul197), .b(dl_pt1_mul198), .sub(1'b0),
-        .out_valid(op_valid_nc[130]), .y(pt1_add199)
+        .out_valid(op_valid_nc[130]), .y(pt1_add199), .flags(fl_pt1_add199)
     );
+    assign ev_ovf[129] = fl_pt1_add199[0] && ev_q[60];
+    assign ev_unf[129] = fl_pt1_add199[1] && ev_q[60];
+    assign ev_inv[129] = fl_pt1_add199[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add199;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add199 (.clk(clk), .d(pt1_add199), .q(dl_pt1_add199));
     // pt1_mul200 = pt1_cB_z * pt0_wB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul200;
+    logic [2:0] fl_pt1_mul200;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul200 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_z[0*W +: W]), .b(dl_pt0_wB_z[0*W +: W]),
-        .out_valid(op_valid_nc[131]), .y(pt1_mul200)
+        .out_valid(op_valid_nc[131]), .y(pt1_mul200), .flags(fl_pt1_mul200)
     );
+    assign ev_ovf[130] = fl_pt1_mul200[0] && ev_q[56];
+    assign ev_unf[130] = fl_pt1_mul200[1] && ev_q[56];
+    assign ev_inv[130] = fl_pt1_mul200[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul200;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt1_mul200 (.clk(clk), .d(pt1_mul200), .q(dl_pt1_mul200));
     // pt1_add201 = pt1_add199 + pt1_mul200   (ready @64/64/64)
     logic [W-1:0] pt1_add201;
+    logic [2:0] fl_pt1_add201;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add201 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add199), .b(dl_pt1_mul200), .sub(1'b0),
-        .out_valid(op_valid_nc[132]), .y(pt1_add201)
+        .out_valid(op_valid_nc[132]), .y(pt1_add201), .flags(fl_pt1_add201)
     );
+    assign ev_ovf[131] = fl_pt1_add201[0] && ev_q[64];
+    assign ev_unf[131] = fl_pt1_add201[1] && ev_q[64];
+    assign ev_inv[131] = fl_pt1_add201[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add201;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add201 (.clk(clk), .d(pt1_add201), .q(dl_pt1_add201));
     // pt1_sub202 = pt1_add196 - pt1_add201   (ready @68/68/68)
     logic [W-1:0] pt1_sub202;
+    logic [2:0] fl_pt1_sub202;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub202 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add196), .b(dl_pt1_add201), .sub(1'b1),
-        .out_valid(op_valid_nc[133]), .y(pt1_sub202)
+        .out_valid(op_valid_nc[133]), .y(pt1_sub202), .flags(fl_pt1_sub202)
     );
+    assign ev_ovf[132] = fl_pt1_sub202[0] && ev_q[68];
+    assign ev_unf[132] = fl_pt1_sub202[1] && ev_q[68];
+    assign ev_inv[132] = fl_pt1_sub202[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub202;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_sub202 (.clk(clk), .d(pt1_sub202), .q(dl_pt1_sub202));
     // pt1_vrel = pt1_sub191 + pt1_sub202   (ready @72/72/72)
     logic [W-1:0] pt1_vrel;
+    logic [2:0] fl_pt1_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_vrel (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_sub191), .b(dl_pt1_sub202), .sub(1'b0),
-        .out_valid(op_valid_nc[134]), .y(pt1_vrel)
+        .out_valid(op_valid_nc[134]), .y(pt1_vrel), .flags(fl_pt1_vrel)
     );
+    assign ev_ovf[133] = fl_pt1_vrel[0] && ev_q[72];
+    assign ev_unf[133] = fl_pt1_vrel[1] && ev_q[72];
+    assign ev_inv[133] = fl_pt1_vrel[2] && ev_q[72];
     logic [W-1:0] dl_pt1_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_vrel (.clk(clk), .d(pt1_vrel), .q(dl_pt1_vrel));
     // pt1_add204 = pt1_vrel + b1   (ready @76/76/76)
     logic [W-1:0] pt1_add204;
+    logic [2:0] fl_pt1_add204;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add204 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vrel), .b(dl_in_b1), .sub(1'b0),
-        .out_valid(op_valid_nc[135]), .y(pt1_add204)
+        .out_valid(op_valid_nc[135]), .y(pt1_add204), .flags(fl_pt1_add204)
     );
+    assign ev_ovf[134] = fl_pt1_add204[0] && ev_q[76];
+    assign ev_unf[134] = fl_pt1_add204[1] && ev_q[76];
+    assign ev_inv[134] = fl_pt1_add204[2] && ev_q[76];
     logic [W-1:0] dl_pt1_add204;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add204 (.clk(clk), .d(pt1_add204), .q(dl_pt1_add204));
     // pt1_delta0 = pt1_add204 * jac_inv1   (ready @79/79/79)
     logic [W-1:0] pt1_delta0;
+    logic [2:0] fl_pt1_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta0 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add204), .b(dl_in_jac_inv1[1*W +: W]),
-        .out_valid(op_valid_nc[136]), .y(pt1_delta0)
+        .out_valid(op_valid_nc[136]), .y(pt1_delta0), .flags(fl_pt1_delta0)
     );
+    assign ev_ovf[135] = fl_pt1_delta0[0] && ev_q[79];
+    assign ev_unf[135] = fl_pt1_delta0[1] && ev_q[79];
+    assign ev_inv[135] = fl_pt1_delta0[2] && ev_q[79];
     logic [W-1:0] dl_pt1_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_delta0 (.clk(clk), .d(pt1_delta0), .q(dl_pt1_delta0));
     // pt1_add206 = lam1 + pt1_delta0   (ready @83/83/83)
     logic [W-1:0] pt1_add206;
+    logic [2:0] fl_pt1_add206;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add206 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam1[0*W +: W]), .b(dl_pt1_delta0), .sub(1'b0),
-        .out_valid(op_valid_nc[137]), .y(pt1_add206)
+        .out_valid(op_valid_nc[137]), .y(pt1_add206), .flags(fl_pt1_add206)
     );
+    assign ev_ovf[136] = fl_pt1_add206[0] && ev_q[83];
+    assign ev_unf[136] = fl_pt1_add206[1] && ev_q[83];
+    assign ev_inv[136] = fl_pt1_add206[2] && ev_q[83];
     logic [W-1:0] dl_pt1_add206;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add206 (.clk(clk), .d(pt1_add206), .q(dl_pt1_add206));
@@ -1679,10 +2254,14 @@ module pgs_contact_pipe #(
         u_dl_pt1_lam_new (.clk(clk), .d(pt1_lam_new), .q(dl_pt1_lam_new));
     // pt1_delta = pt1_lam_new - lam1   (ready @88/88/88)
     logic [W-1:0] pt1_delta;
+    logic [2:0] fl_pt1_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_lam_new), .b(dl_in_lam1[1*W +: W]), .sub(1'b1),
-        .out_valid(op_valid_nc[139]), .y(pt1_delta)
+        .out_valid(op_valid_nc[139]), .y(pt1_delta), .flags(fl_pt1_delta)
     );
+    assign ev_ovf[137] = fl_pt1_delta[0] && ev_q[88];
+    assign ev_unf[137] = fl_pt1_delta[1] && ev_q[88];
+    assign ev_inv[137] = fl_pt1_delta[2] && ev_q[88];
     logic [W-1:0] dl_pt1_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_delta (.clk(clk), .d(pt1_delta), .q(dl_pt1_delta));
@@ -1694,109 +2273,157 @@ module pgs_contact_pipe #(
         u_dl_pt1_lam (.clk(clk), .d(pt1_lam), .q(dl_pt1_lam));
     // pt1_angA_x = IInvA_x * pt1_cA_x   (ready @14/14/14)
     logic [W-1:0] pt1_angA_x;
+    logic [2:0] fl_pt1_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_pt1_cA_x[1*W +: W]),
-        .out_valid(op_valid_nc[140]), .y(pt1_angA_x)
+        .out_valid(op_valid_nc[140]), .y(pt1_angA_x), .flags(fl_pt1_angA_x)
     );
+    assign ev_ovf[138] = fl_pt1_angA_x[0] && ev_q[14];
+    assign ev_unf[138] = fl_pt1_angA_x[1] && ev_q[14];
+    assign ev_inv[138] = fl_pt1_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
         u_dl_pt1_angA_x (.clk(clk), .d(pt1_angA_x), .q(dl_pt1_angA_x));
     // pt1_angA_y = IInvA_y * pt1_cA_y   (ready @14/14/14)
     logic [W-1:0] pt1_angA_y;
+    logic [2:0] fl_pt1_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_pt1_cA_y[1*W +: W]),
-        .out_valid(op_valid_nc[141]), .y(pt1_angA_y)
+        .out_valid(op_valid_nc[141]), .y(pt1_angA_y), .flags(fl_pt1_angA_y)
     );
+    assign ev_ovf[139] = fl_pt1_angA_y[0] && ev_q[14];
+    assign ev_unf[139] = fl_pt1_angA_y[1] && ev_q[14];
+    assign ev_inv[139] = fl_pt1_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
         u_dl_pt1_angA_y (.clk(clk), .d(pt1_angA_y), .q(dl_pt1_angA_y));
     // pt1_angA_z = IInvA_z * pt1_cA_z   (ready @14/14/14)
     logic [W-1:0] pt1_angA_z;
+    logic [2:0] fl_pt1_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_pt1_cA_z[1*W +: W]),
-        .out_valid(op_valid_nc[142]), .y(pt1_angA_z)
+        .out_valid(op_valid_nc[142]), .y(pt1_angA_z), .flags(fl_pt1_angA_z)
     );
+    assign ev_ovf[140] = fl_pt1_angA_z[0] && ev_q[14];
+    assign ev_unf[140] = fl_pt1_angA_z[1] && ev_q[14];
+    assign ev_inv[140] = fl_pt1_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
         u_dl_pt1_angA_z (.clk(clk), .d(pt1_angA_z), .q(dl_pt1_angA_z));
     // pt1_angB_x = IInvB_x * pt1_cB_x   (ready @14/14/14)
     logic [W-1:0] pt1_angB_x;
+    logic [2:0] fl_pt1_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_pt1_cB_x[1*W +: W]),
-        .out_valid(op_valid_nc[143]), .y(pt1_angB_x)
+        .out_valid(op_valid_nc[143]), .y(pt1_angB_x), .flags(fl_pt1_angB_x)
     );
+    assign ev_ovf[141] = fl_pt1_angB_x[0] && ev_q[14];
+    assign ev_unf[141] = fl_pt1_angB_x[1] && ev_q[14];
+    assign ev_inv[141] = fl_pt1_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
         u_dl_pt1_angB_x (.clk(clk), .d(pt1_angB_x), .q(dl_pt1_angB_x));
     // pt1_angB_y = IInvB_y * pt1_cB_y   (ready @14/14/14)
     logic [W-1:0] pt1_angB_y;
+    logic [2:0] fl_pt1_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_pt1_cB_y[1*W +: W]),
-        .out_valid(op_valid_nc[144]), .y(pt1_angB_y)
+        .out_valid(op_valid_nc[144]), .y(pt1_angB_y), .flags(fl_pt1_angB_y)
     );
+    assign ev_ovf[142] = fl_pt1_angB_y[0] && ev_q[14];
+    assign ev_unf[142] = fl_pt1_angB_y[1] && ev_q[14];
+    assign ev_inv[142] = fl_pt1_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
         u_dl_pt1_angB_y (.clk(clk), .d(pt1_angB_y), .q(dl_pt1_angB_y));
     // pt1_angB_z = IInvB_z * pt1_cB_z   (ready @14/14/14)
     logic [W-1:0] pt1_angB_z;
+    logic [2:0] fl_pt1_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_pt1_cB_z[1*W +: W]),
-        .out_valid(op_valid_nc[145]), .y(pt1_angB_z)
+        .out_valid(op_valid_nc[145]), .y(pt1_angB_z), .flags(fl_pt1_angB_z)
     );
+    assign ev_ovf[143] = fl_pt1_angB_z[0] && ev_q[14];
+    assign ev_unf[143] = fl_pt1_angB_z[1] && ev_q[14];
+    assign ev_inv[143] = fl_pt1_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
         u_dl_pt1_angB_z (.clk(clk), .d(pt1_angB_z), .q(dl_pt1_angB_z));
     // pt1_mul216 = linA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul216;
+    logic [2:0] fl_pt1_mul216;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul216 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[1*W +: W]), .b(dl_pt1_delta),
-        .out_valid(op_valid_nc[146]), .y(pt1_mul216)
+        .out_valid(op_valid_nc[146]), .y(pt1_mul216), .flags(fl_pt1_mul216)
     );
+    assign ev_ovf[144] = fl_pt1_mul216[0] && ev_q[91];
+    assign ev_unf[144] = fl_pt1_mul216[1] && ev_q[91];
+    assign ev_inv[144] = fl_pt1_mul216[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul216;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul216 (.clk(clk), .d(pt1_mul216), .q(dl_pt1_mul216));
     // pt1_mul217 = linA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul217;
+    logic [2:0] fl_pt1_mul217;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul217 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[1*W +: W]), .b(dl_pt1_delta),
-        .out_valid(op_valid_nc[147]), .y(pt1_mul217)
+        .out_valid(op_valid_nc[147]), .y(pt1_mul217), .flags(fl_pt1_mul217)
     );
+    assign ev_ovf[145] = fl_pt1_mul217[0] && ev_q[91];
+    assign ev_unf[145] = fl_pt1_mul217[1] && ev_q[91];
+    assign ev_inv[145] = fl_pt1_mul217[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul217;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul217 (.clk(clk), .d(pt1_mul217), .q(dl_pt1_mul217));
     // pt1_mul218 = linA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul218;
+    logic [2:0] fl_pt1_mul218;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul218 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[1*W +: W]), .b(dl_pt1_delta),
-        .out_valid(op_valid_nc[148]), .y(pt1_mul218)
+        .out_valid(op_valid_nc[148]), .y(pt1_mul218), .flags(fl_pt1_mul218)
     );
+    assign ev_ovf[146] = fl_pt1_mul218[0] && ev_q[91];
+    assign ev_unf[146] = fl_pt1_mul218[1] && ev_q[91];
+    assign ev_inv[146] = fl_pt1_mul218[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul218;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul218 (.clk(clk), .d(pt1_mul218), .q(dl_pt1_mul218));
     // pt1_add219 = pt0_vA_x + pt1_mul216   (ready @95/95/95)
     logic [W-1:0] pt1_add219;
+    logic [2:0] fl_pt1_add219;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add219 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_x[1*W +: W]), .b(dl_pt1_mul216), .sub(1'b0),
-        .out_valid(op_valid_nc[149]), .y(pt1_add219)
+        .out_valid(op_valid_nc[149]), .y(pt1_add219), .flags(fl_pt1_add219)
     );
+    assign ev_ovf[147] = fl_pt1_add219[0] && ev_q[95];
+    assign ev_unf[147] = fl_pt1_add219[1] && ev_q[95];
+    assign ev_inv[147] = fl_pt1_add219[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add219;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add219 (.clk(clk), .d(pt1_add219), .q(dl_pt1_add219));
     // pt1_add220 = pt0_vA_y + pt1_mul217   (ready @95/95/95)
     logic [W-1:0] pt1_add220;
+    logic [2:0] fl_pt1_add220;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add220 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_y[1*W +: W]), .b(dl_pt1_mul217), .sub(1'b0),
-        .out_valid(op_valid_nc[150]), .y(pt1_add220)
+        .out_valid(op_valid_nc[150]), .y(pt1_add220), .flags(fl_pt1_add220)
     );
+    assign ev_ovf[148] = fl_pt1_add220[0] && ev_q[95];
+    assign ev_unf[148] = fl_pt1_add220[1] && ev_q[95];
+    assign ev_inv[148] = fl_pt1_add220[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add220;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add220 (.clk(clk), .d(pt1_add220), .q(dl_pt1_add220));
     // pt1_add221 = pt0_vA_z + pt1_mul218   (ready @95/95/95)
     logic [W-1:0] pt1_add221;
+    logic [2:0] fl_pt1_add221;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add221 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_z[1*W +: W]), .b(dl_pt1_mul218), .sub(1'b0),
-        .out_valid(op_valid_nc[151]), .y(pt1_add221)
+        .out_valid(op_valid_nc[151]), .y(pt1_add221), .flags(fl_pt1_add221)
     );
+    assign ev_ovf[149] = fl_pt1_add221[0] && ev_q[95];
+    assign ev_unf[149] = fl_pt1_add221[1] && ev_q[95];
+    assign ev_inv[149] = fl_pt1_add221[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add221;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add221 (.clk(clk), .d(pt1_add221), .q(dl_pt1_add221));
@@ -1820,55 +2447,79 @@ module pgs_contact_pipe #(
         u_dl_pt1_vA_z (.clk(clk), .d(pt1_vA_z), .q(dl_pt1_vA_z));
     // pt1_mul225 = pt1_angA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul225;
+    logic [2:0] fl_pt1_mul225;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul225 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_x), .b(dl_pt1_delta),
-        .out_valid(op_valid_nc[152]), .y(pt1_mul225)
+        .out_valid(op_valid_nc[152]), .y(pt1_mul225), .flags(fl_pt1_mul225)
     );
+    assign ev_ovf[150] = fl_pt1_mul225[0] && ev_q[91];
+    assign ev_unf[150] = fl_pt1_mul225[1] && ev_q[91];
+    assign ev_inv[150] = fl_pt1_mul225[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul225;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul225 (.clk(clk), .d(pt1_mul225), .q(dl_pt1_mul225));
     // pt1_mul226 = pt1_angA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul226;
+    logic [2:0] fl_pt1_mul226;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul226 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_y), .b(dl_pt1_delta),
-        .out_valid(op_valid_nc[153]), .y(pt1_mul226)
+        .out_valid(op_valid_nc[153]), .y(pt1_mul226), .flags(fl_pt1_mul226)
     );
+    assign ev_ovf[151] = fl_pt1_mul226[0] && ev_q[91];
+    assign ev_unf[151] = fl_pt1_mul226[1] && ev_q[91];
+    assign ev_inv[151] = fl_pt1_mul226[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul226;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul226 (.clk(clk), .d(pt1_mul226), .q(dl_pt1_mul226));
     // pt1_mul227 = pt1_angA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul227;
+    logic [2:0] fl_pt1_mul227;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul227 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_z), .b(dl_pt1_delta),
-        .out_valid(op_valid_nc[154]), .y(pt1_mul227)
+        .out_valid(op_valid_nc[154]), .y(pt1_mul227), .flags(fl_pt1_mul227)
     );
+    assign ev_ovf[152] = fl_pt1_mul227[0] && ev_q[91];
+    assign ev_unf[152] = fl_pt1_mul227[1] && ev_q[91];
+    assign ev_inv[152] = fl_pt1_mul227[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul227;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul227 (.clk(clk), .d(pt1_mul227), .q(dl_pt1_mul227));
     // pt1_add228 = pt0_wA_x + pt1_mul225   (ready @95/95/95)
     logic [W-1:0] pt1_add228;
+    logic [2:0] fl_pt1_add228;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add228 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_x[1*W +: W]), .b(dl_pt1_mul225), .sub(1'b0),
-        .out_valid(op_valid_nc[155]), .y(pt1_add228)
+        .out_valid(op_valid_nc[155]), .y(pt1_add228), .flags(fl_pt1_add228)
     );
+    assign ev_ovf[153] = fl_pt1_add228[0] && ev_q[95];
+    assign ev_unf[153] = fl_pt1_add228[1] && ev_q[95];
+    assign ev_inv[153] = fl_pt1_add228[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add228;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add228 (.clk(clk), .d(pt1_add228), .q(dl_pt1_add228));
     // pt1_add229 = pt0_wA_y + pt1_mul226   (ready @95/95/95)
     logic [W-1:0] pt1_add229;
+    logic [2:0] fl_pt1_add229;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add229 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_y[1*W +: W]), .b(dl_pt1_mul226), .sub(1'b0),
-        .out_valid(op_valid_nc[156]), .y(pt1_add229)
+        .out_valid(op_valid_nc[156]), .y(pt1_add229), .flags(fl_pt1_add229)
     );
+    assign ev_ovf[154] = fl_pt1_add229[0] && ev_q[95];
+    assign ev_unf[154] = fl_pt1_add229[1] && ev_q[95];
+    assign ev_inv[154] = fl_pt1_add229[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add229;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add229 (.clk(clk), .d(pt1_add229), .q(dl_pt1_add229));
     // pt1_add230 = pt0_wA_z + pt1_mul227   (ready @95/95/95)
     logic [W-1:0] pt1_add230;
+    logic [2:0] fl_pt1_add230;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add230 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_z[1*W +: W]), .b(dl_pt1_mul227), .sub(1'b0),
-        .out_valid(op_valid_nc[157]), .y(pt1_add230)
+        .out_valid(op_valid_nc[157]), .y(pt1_add230), .flags(fl_pt1_add230)
     );
+    assign ev_ovf[155] = fl_pt1_add230[0] && ev_q[95];
+    assign ev_unf[155] = fl_pt1_add230[1] && ev_q[95];
+    assign ev_inv[155] = fl_pt1_add230[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add230;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_add230 (.clk(clk), .d(pt1_add230), .q(dl_pt1_add230));
@@ -1892,55 +2543,79 @@ module pgs_contact_pipe #(
         u_dl_pt1_wA_z (.clk(clk), .d(pt1_wA_z), .q(dl_pt1_wA_z));
     // pt1_mul234 = linB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul234;
+    logic [2:0] fl_pt1_mul234;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul234 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[1*W +: W]), .b(dl_pt1_delta),
-        .out_valid(op_valid_nc[158]), .y(pt1_mul234)
+        .out_valid(op_valid_nc[158]), .y(pt1_mul234), .flags(fl_pt1_mul234)
     );
+    assign ev_ovf[156] = fl_pt1_mul234[0] && ev_q[91];
+    assign ev_unf[156] = fl_pt1_mul234[1] && ev_q[91];
+    assign ev_inv[156] = fl_pt1_mul234[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul234;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul234 (.clk(clk), .d(pt1_mul234), .q(dl_pt1_mul234));
     // pt1_mul235 = linB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul235;
+    logic [2:0] fl_pt1_mul235;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul235 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[1*W +: W]), .b(dl_pt1_delta),
-        .out_valid(op_valid_nc[159]), .y(pt1_mul235)
+        .out_valid(op_valid_nc[159]), .y(pt1_mul235), .flags(fl_pt1_mul235)
     );
+    assign ev_ovf[157] = fl_pt1_mul235[0] && ev_q[91];
+    assign ev_unf[157] = fl_pt1_mul235[1] && ev_q[91];
+    assign ev_inv[157] = fl_pt1_mul235[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul235;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul235 (.clk(clk), .d(pt1_mul235), .q(dl_pt1_mul235));
     // pt1_mul236 = linB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul236;
+    logic [2:0] fl_pt1_mul236;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul236 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[1*W +: W]), .b(dl_pt1_delta),
-        .out_valid(op_valid_nc[160]), .y(pt1_mul236)
+        .out_valid(op_valid_nc[160]), .y(pt1_mul236), .flags(fl_pt1_mul236)
     );
+    assign ev_ovf[158] = fl_pt1_mul236[0] && ev_q[91];
+    assign ev_unf[158] = fl_pt1_mul236[1] && ev_q[91];
+    assign ev_inv[158] = fl_pt1_mul236[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul236;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul236 (.clk(clk), .d(pt1_mul236), .q(dl_pt1_mul236));
     // pt1_sub237 = pt0_vB_x - pt1_mul234   (ready @95/95/95)
     logic [W-1:0] pt1_sub237;
+    logic [2:0] fl_pt1_sub237;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub237 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_x[1*W +: W]), .b(dl_pt1_mul234), .sub(1'b1),
-        .out_valid(op_valid_nc[161]), .y(pt1_sub237)
+        .out_valid(op_valid_nc[161]), .y(pt1_sub237), .flags(fl_pt1_sub237)
     );
+    assign ev_ovf[159] = fl_pt1_sub237[0] && ev_q[95];
+    assign ev_unf[159] = fl_pt1_sub237[1] && ev_q[95];
+    assign ev_inv[159] = fl_pt1_sub237[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub237;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_sub237 (.clk(clk), .d(pt1_sub237), .q(dl_pt1_sub237));
     // pt1_sub238 = pt0_vB_y - pt1_mul235   (ready @95/95/95)
     logic [W-1:0] pt1_sub238;
+    logic [2:0] fl_pt1_sub238;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub238 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_y[1*W +: W]), .b(dl_pt1_mul235), .sub(1'b1),
-        .out_valid(op_valid_nc[162]), .y(pt1_sub238)
+        .out_valid(op_valid_nc[162]), .y(pt1_sub238), .flags(fl_pt1_sub238)
     );
+    assign ev_ovf[160] = fl_pt1_sub238[0] && ev_q[95];
+    assign ev_unf[160] = fl_pt1_sub238[1] && ev_q[95];
+    assign ev_inv[160] = fl_pt1_sub238[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub238;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_sub238 (.clk(clk), .d(pt1_sub238), .q(dl_pt1_sub238));
     // pt1_sub239 = pt0_vB_z - pt1_mul236   (ready @95/95/95)
     logic [W-1:0] pt1_sub239;
+    logic [2:0] fl_pt1_sub239;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub239 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_z[1*W +: W]), .b(dl_pt1_mul236), .sub(1'b1),
-        .out_valid(op_valid_nc[163]), .y(pt1_sub239)
+        .out_valid(op_valid_nc[163]), .y(pt1_sub239), .flags(fl_pt1_sub239)
     );
+    assign ev_ovf[161] = fl_pt1_sub239[0] && ev_q[95];
+    assign ev_unf[161] = fl_pt1_sub239[1] && ev_q[95];
+    assign ev_inv[161] = fl_pt1_sub239[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub239;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_sub239 (.clk(clk), .d(pt1_sub239), .q(dl_pt1_sub239));
@@ -1964,55 +2639,79 @@ module pgs_contact_pipe #(
         u_dl_pt1_vB_z (.clk(clk), .d(pt1_vB_z), .q(dl_pt1_vB_z));
     // pt1_mul243 = pt1_angB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul243;
+    logic [2:0] fl_pt1_mul243;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul243 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_x), .b(dl_pt1_delta),
-        .out_valid(op_valid_nc[164]), .y(pt1_mul243)
+        .out_valid(op_valid_nc[164]), .y(pt1_mul243), .flags(fl_pt1_mul243)
     );
+    assign ev_ovf[162] = fl_pt1_mul243[0] && ev_q[91];
+    assign ev_unf[162] = fl_pt1_mul243[1] && ev_q[91];
+    assign ev_inv[162] = fl_pt1_mul243[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul243;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul243 (.clk(clk), .d(pt1_mul243), .q(dl_pt1_mul243));
     // pt1_mul244 = pt1_angB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul244;
+    logic [2:0] fl_pt1_mul244;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul244 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_y), .b(dl_pt1_delta),
-        .out_valid(op_valid_nc[165]), .y(pt1_mul244)
+        .out_valid(op_valid_nc[165]), .y(pt1_mul244), .flags(fl_pt1_mul244)
     );
+    assign ev_ovf[163] = fl_pt1_mul244[0] && ev_q[91];
+    assign ev_unf[163] = fl_pt1_mul244[1] && ev_q[91];
+    assign ev_inv[163] = fl_pt1_mul244[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul244;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul244 (.clk(clk), .d(pt1_mul244), .q(dl_pt1_mul244));
     // pt1_mul245 = pt1_angB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul245;
+    logic [2:0] fl_pt1_mul245;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul245 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_z), .b(dl_pt1_delta),
-        .out_valid(op_valid_nc[166]), .y(pt1_mul245)
+        .out_valid(op_valid_nc[166]), .y(pt1_mul245), .flags(fl_pt1_mul245)
     );
+    assign ev_ovf[164] = fl_pt1_mul245[0] && ev_q[91];
+    assign ev_unf[164] = fl_pt1_mul245[1] && ev_q[91];
+    assign ev_inv[164] = fl_pt1_mul245[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul245;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_mul245 (.clk(clk), .d(pt1_mul245), .q(dl_pt1_mul245));
     // pt1_sub246 = pt0_wB_x - pt1_mul243   (ready @95/95/95)
     logic [W-1:0] pt1_sub246;
+    logic [2:0] fl_pt1_sub246;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub246 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_x[1*W +: W]), .b(dl_pt1_mul243), .sub(1'b1),
-        .out_valid(op_valid_nc[167]), .y(pt1_sub246)
+        .out_valid(op_valid_nc[167]), .y(pt1_sub246), .flags(fl_pt1_sub246)
     );
+    assign ev_ovf[165] = fl_pt1_sub246[0] && ev_q[95];
+    assign ev_unf[165] = fl_pt1_sub246[1] && ev_q[95];
+    assign ev_inv[165] = fl_pt1_sub246[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub246;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_sub246 (.clk(clk), .d(pt1_sub246), .q(dl_pt1_sub246));
     // pt1_sub247 = pt0_wB_y - pt1_mul244   (ready @95/95/95)
     logic [W-1:0] pt1_sub247;
+    logic [2:0] fl_pt1_sub247;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub247 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_y[1*W +: W]), .b(dl_pt1_mul244), .sub(1'b1),
-        .out_valid(op_valid_nc[168]), .y(pt1_sub247)
+        .out_valid(op_valid_nc[168]), .y(pt1_sub247), .flags(fl_pt1_sub247)
     );
+    assign ev_ovf[166] = fl_pt1_sub247[0] && ev_q[95];
+    assign ev_unf[166] = fl_pt1_sub247[1] && ev_q[95];
+    assign ev_inv[166] = fl_pt1_sub247[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub247;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_sub247 (.clk(clk), .d(pt1_sub247), .q(dl_pt1_sub247));
     // pt1_sub248 = pt0_wB_z - pt1_mul245   (ready @95/95/95)
     logic [W-1:0] pt1_sub248;
+    logic [2:0] fl_pt1_sub248;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub248 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_z[1*W +: W]), .b(dl_pt1_mul245), .sub(1'b1),
-        .out_valid(op_valid_nc[169]), .y(pt1_sub248)
+        .out_valid(op_valid_nc[169]), .y(pt1_sub248), .flags(fl_pt1_sub248)
     );
+    assign ev_ovf[167] = fl_pt1_sub248[0] && ev_q[95];
+    assign ev_unf[167] = fl_pt1_sub248[1] && ev_q[95];
+    assign ev_inv[167] = fl_pt1_sub248[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub248;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt1_sub248 (.clk(clk), .d(pt1_sub248), .q(dl_pt1_sub248));
@@ -2042,451 +2741,651 @@ module pgs_contact_pipe #(
         u_dl_pt2_skip (.clk(clk), .d(pt2_skip), .q(dl_pt2_skip));
     // pt2_rA_x = p2_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt2_rA_x;
+    logic [2:0] fl_pt2_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
-        .out_valid(op_valid_nc[170]), .y(pt2_rA_x)
+        .out_valid(op_valid_nc[170]), .y(pt2_rA_x), .flags(fl_pt2_rA_x)
     );
+    assign ev_ovf[168] = fl_pt2_rA_x[0] && ev_q[4];
+    assign ev_unf[168] = fl_pt2_rA_x[1] && ev_q[4];
+    assign ev_inv[168] = fl_pt2_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_rA_x (.clk(clk), .d(pt2_rA_x), .q(dl_pt2_rA_x));
     // pt2_rA_y = p2_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt2_rA_y;
+    logic [2:0] fl_pt2_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
-        .out_valid(op_valid_nc[171]), .y(pt2_rA_y)
+        .out_valid(op_valid_nc[171]), .y(pt2_rA_y), .flags(fl_pt2_rA_y)
     );
+    assign ev_ovf[169] = fl_pt2_rA_y[0] && ev_q[4];
+    assign ev_unf[169] = fl_pt2_rA_y[1] && ev_q[4];
+    assign ev_inv[169] = fl_pt2_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_rA_y (.clk(clk), .d(pt2_rA_y), .q(dl_pt2_rA_y));
     // pt2_rA_z = p2_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt2_rA_z;
+    logic [2:0] fl_pt2_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
-        .out_valid(op_valid_nc[172]), .y(pt2_rA_z)
+        .out_valid(op_valid_nc[172]), .y(pt2_rA_z), .flags(fl_pt2_rA_z)
     );
+    assign ev_ovf[170] = fl_pt2_rA_z[0] && ev_q[4];
+    assign ev_unf[170] = fl_pt2_rA_z[1] && ev_q[4];
+    assign ev_inv[170] = fl_pt2_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_rA_z (.clk(clk), .d(pt2_rA_z), .q(dl_pt2_rA_z));
     // pt2_mul256 = pt2_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul256;
+    logic [2:0] fl_pt2_mul256;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul256 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_y), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[173]), .y(pt2_mul256)
+        .out_valid(op_valid_nc[173]), .y(pt2_mul256), .flags(fl_pt2_mul256)
     );
+    assign ev_ovf[171] = fl_pt2_mul256[0] && ev_q[7];
+    assign ev_unf[171] = fl_pt2_mul256[1] && ev_q[7];
+    assign ev_inv[171] = fl_pt2_mul256[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul256;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul256 (.clk(clk), .d(pt2_mul256), .q(dl_pt2_mul256));
     // pt2_mul257 = pt2_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul257;
+    logic [2:0] fl_pt2_mul257;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul257 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_z), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[174]), .y(pt2_mul257)
+        .out_valid(op_valid_nc[174]), .y(pt2_mul257), .flags(fl_pt2_mul257)
     );
+    assign ev_ovf[172] = fl_pt2_mul257[0] && ev_q[7];
+    assign ev_unf[172] = fl_pt2_mul257[1] && ev_q[7];
+    assign ev_inv[172] = fl_pt2_mul257[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul257;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul257 (.clk(clk), .d(pt2_mul257), .q(dl_pt2_mul257));
     // pt2_cA_x = pt2_mul256 - pt2_mul257   (ready @11/11/11)
     logic [W-1:0] pt2_cA_x;
+    logic [2:0] fl_pt2_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul256), .b(dl_pt2_mul257), .sub(1'b1),
-        .out_valid(op_valid_nc[175]), .y(pt2_cA_x)
+        .out_valid(op_valid_nc[175]), .y(pt2_cA_x), .flags(fl_pt2_cA_x)
     );
+    assign ev_ovf[173] = fl_pt2_cA_x[0] && ev_q[11];
+    assign ev_unf[173] = fl_pt2_cA_x[1] && ev_q[11];
+    assign ev_inv[173] = fl_pt2_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
         u_dl_pt2_cA_x (.clk(clk), .d(pt2_cA_x), .q(dl_pt2_cA_x));
     // pt2_mul259 = pt2_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul259;
+    logic [2:0] fl_pt2_mul259;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul259 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_z), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[176]), .y(pt2_mul259)
+        .out_valid(op_valid_nc[176]), .y(pt2_mul259), .flags(fl_pt2_mul259)
     );
+    assign ev_ovf[174] = fl_pt2_mul259[0] && ev_q[7];
+    assign ev_unf[174] = fl_pt2_mul259[1] && ev_q[7];
+    assign ev_inv[174] = fl_pt2_mul259[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul259;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul259 (.clk(clk), .d(pt2_mul259), .q(dl_pt2_mul259));
     // pt2_mul260 = pt2_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul260;
+    logic [2:0] fl_pt2_mul260;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul260 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_x), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[177]), .y(pt2_mul260)
+        .out_valid(op_valid_nc[177]), .y(pt2_mul260), .flags(fl_pt2_mul260)
     );
+    assign ev_ovf[175] = fl_pt2_mul260[0] && ev_q[7];
+    assign ev_unf[175] = fl_pt2_mul260[1] && ev_q[7];
+    assign ev_inv[175] = fl_pt2_mul260[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul260;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul260 (.clk(clk), .d(pt2_mul260), .q(dl_pt2_mul260));
     // pt2_cA_y = pt2_mul259 - pt2_mul260   (ready @11/11/11)
     logic [W-1:0] pt2_cA_y;
+    logic [2:0] fl_pt2_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul259), .b(dl_pt2_mul260), .sub(1'b1),
-        .out_valid(op_valid_nc[178]), .y(pt2_cA_y)
+        .out_valid(op_valid_nc[178]), .y(pt2_cA_y), .flags(fl_pt2_cA_y)
     );
+    assign ev_ovf[176] = fl_pt2_cA_y[0] && ev_q[11];
+    assign ev_unf[176] = fl_pt2_cA_y[1] && ev_q[11];
+    assign ev_inv[176] = fl_pt2_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
         u_dl_pt2_cA_y (.clk(clk), .d(pt2_cA_y), .q(dl_pt2_cA_y));
     // pt2_mul262 = pt2_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul262;
+    logic [2:0] fl_pt2_mul262;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul262 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_x), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[179]), .y(pt2_mul262)
+        .out_valid(op_valid_nc[179]), .y(pt2_mul262), .flags(fl_pt2_mul262)
     );
+    assign ev_ovf[177] = fl_pt2_mul262[0] && ev_q[7];
+    assign ev_unf[177] = fl_pt2_mul262[1] && ev_q[7];
+    assign ev_inv[177] = fl_pt2_mul262[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul262;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul262 (.clk(clk), .d(pt2_mul262), .q(dl_pt2_mul262));
     // pt2_mul263 = pt2_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul263;
+    logic [2:0] fl_pt2_mul263;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul263 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_y), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[180]), .y(pt2_mul263)
+        .out_valid(op_valid_nc[180]), .y(pt2_mul263), .flags(fl_pt2_mul263)
     );
+    assign ev_ovf[178] = fl_pt2_mul263[0] && ev_q[7];
+    assign ev_unf[178] = fl_pt2_mul263[1] && ev_q[7];
+    assign ev_inv[178] = fl_pt2_mul263[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul263;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul263 (.clk(clk), .d(pt2_mul263), .q(dl_pt2_mul263));
     // pt2_cA_z = pt2_mul262 - pt2_mul263   (ready @11/11/11)
     logic [W-1:0] pt2_cA_z;
+    logic [2:0] fl_pt2_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul262), .b(dl_pt2_mul263), .sub(1'b1),
-        .out_valid(op_valid_nc[181]), .y(pt2_cA_z)
+        .out_valid(op_valid_nc[181]), .y(pt2_cA_z), .flags(fl_pt2_cA_z)
     );
+    assign ev_ovf[179] = fl_pt2_cA_z[0] && ev_q[11];
+    assign ev_unf[179] = fl_pt2_cA_z[1] && ev_q[11];
+    assign ev_inv[179] = fl_pt2_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
         u_dl_pt2_cA_z (.clk(clk), .d(pt2_cA_z), .q(dl_pt2_cA_z));
     // pt2_rB_x = p2_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt2_rB_x;
+    logic [2:0] fl_pt2_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
-        .out_valid(op_valid_nc[182]), .y(pt2_rB_x)
+        .out_valid(op_valid_nc[182]), .y(pt2_rB_x), .flags(fl_pt2_rB_x)
     );
+    assign ev_ovf[180] = fl_pt2_rB_x[0] && ev_q[4];
+    assign ev_unf[180] = fl_pt2_rB_x[1] && ev_q[4];
+    assign ev_inv[180] = fl_pt2_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_rB_x (.clk(clk), .d(pt2_rB_x), .q(dl_pt2_rB_x));
     // pt2_rB_y = p2_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt2_rB_y;
+    logic [2:0] fl_pt2_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
-        .out_valid(op_valid_nc[183]), .y(pt2_rB_y)
+        .out_valid(op_valid_nc[183]), .y(pt2_rB_y), .flags(fl_pt2_rB_y)
     );
+    assign ev_ovf[181] = fl_pt2_rB_y[0] && ev_q[4];
+    assign ev_unf[181] = fl_pt2_rB_y[1] && ev_q[4];
+    assign ev_inv[181] = fl_pt2_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_rB_y (.clk(clk), .d(pt2_rB_y), .q(dl_pt2_rB_y));
     // pt2_rB_z = p2_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt2_rB_z;
+    logic [2:0] fl_pt2_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
-        .out_valid(op_valid_nc[184]), .y(pt2_rB_z)
+        .out_valid(op_valid_nc[184]), .y(pt2_rB_z), .flags(fl_pt2_rB_z)
     );
+    assign ev_ovf[182] = fl_pt2_rB_z[0] && ev_q[4];
+    assign ev_unf[182] = fl_pt2_rB_z[1] && ev_q[4];
+    assign ev_inv[182] = fl_pt2_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_rB_z (.clk(clk), .d(pt2_rB_z), .q(dl_pt2_rB_z));
     // pt2_mul268 = pt2_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul268;
+    logic [2:0] fl_pt2_mul268;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul268 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_y), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[185]), .y(pt2_mul268)
+        .out_valid(op_valid_nc[185]), .y(pt2_mul268), .flags(fl_pt2_mul268)
     );
+    assign ev_ovf[183] = fl_pt2_mul268[0] && ev_q[7];
+    assign ev_unf[183] = fl_pt2_mul268[1] && ev_q[7];
+    assign ev_inv[183] = fl_pt2_mul268[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul268;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul268 (.clk(clk), .d(pt2_mul268), .q(dl_pt2_mul268));
     // pt2_mul269 = pt2_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul269;
+    logic [2:0] fl_pt2_mul269;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul269 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_z), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[186]), .y(pt2_mul269)
+        .out_valid(op_valid_nc[186]), .y(pt2_mul269), .flags(fl_pt2_mul269)
     );
+    assign ev_ovf[184] = fl_pt2_mul269[0] && ev_q[7];
+    assign ev_unf[184] = fl_pt2_mul269[1] && ev_q[7];
+    assign ev_inv[184] = fl_pt2_mul269[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul269;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul269 (.clk(clk), .d(pt2_mul269), .q(dl_pt2_mul269));
     // pt2_cB_x = pt2_mul268 - pt2_mul269   (ready @11/11/11)
     logic [W-1:0] pt2_cB_x;
+    logic [2:0] fl_pt2_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul268), .b(dl_pt2_mul269), .sub(1'b1),
-        .out_valid(op_valid_nc[187]), .y(pt2_cB_x)
+        .out_valid(op_valid_nc[187]), .y(pt2_cB_x), .flags(fl_pt2_cB_x)
     );
+    assign ev_ovf[185] = fl_pt2_cB_x[0] && ev_q[11];
+    assign ev_unf[185] = fl_pt2_cB_x[1] && ev_q[11];
+    assign ev_inv[185] = fl_pt2_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
         u_dl_pt2_cB_x (.clk(clk), .d(pt2_cB_x), .q(dl_pt2_cB_x));
     // pt2_mul271 = pt2_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul271;
+    logic [2:0] fl_pt2_mul271;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul271 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_z), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[188]), .y(pt2_mul271)
+        .out_valid(op_valid_nc[188]), .y(pt2_mul271), .flags(fl_pt2_mul271)
     );
+    assign ev_ovf[186] = fl_pt2_mul271[0] && ev_q[7];
+    assign ev_unf[186] = fl_pt2_mul271[1] && ev_q[7];
+    assign ev_inv[186] = fl_pt2_mul271[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul271;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul271 (.clk(clk), .d(pt2_mul271), .q(dl_pt2_mul271));
     // pt2_mul272 = pt2_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul272;
+    logic [2:0] fl_pt2_mul272;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul272 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_x), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[189]), .y(pt2_mul272)
+        .out_valid(op_valid_nc[189]), .y(pt2_mul272), .flags(fl_pt2_mul272)
     );
+    assign ev_ovf[187] = fl_pt2_mul272[0] && ev_q[7];
+    assign ev_unf[187] = fl_pt2_mul272[1] && ev_q[7];
+    assign ev_inv[187] = fl_pt2_mul272[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul272;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul272 (.clk(clk), .d(pt2_mul272), .q(dl_pt2_mul272));
     // pt2_cB_y = pt2_mul271 - pt2_mul272   (ready @11/11/11)
     logic [W-1:0] pt2_cB_y;
+    logic [2:0] fl_pt2_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul271), .b(dl_pt2_mul272), .sub(1'b1),
-        .out_valid(op_valid_nc[190]), .y(pt2_cB_y)
+        .out_valid(op_valid_nc[190]), .y(pt2_cB_y), .flags(fl_pt2_cB_y)
     );
+    assign ev_ovf[188] = fl_pt2_cB_y[0] && ev_q[11];
+    assign ev_unf[188] = fl_pt2_cB_y[1] && ev_q[11];
+    assign ev_inv[188] = fl_pt2_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
         u_dl_pt2_cB_y (.clk(clk), .d(pt2_cB_y), .q(dl_pt2_cB_y));
     // pt2_mul274 = pt2_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul274;
+    logic [2:0] fl_pt2_mul274;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul274 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_x), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[191]), .y(pt2_mul274)
+        .out_valid(op_valid_nc[191]), .y(pt2_mul274), .flags(fl_pt2_mul274)
     );
+    assign ev_ovf[189] = fl_pt2_mul274[0] && ev_q[7];
+    assign ev_unf[189] = fl_pt2_mul274[1] && ev_q[7];
+    assign ev_inv[189] = fl_pt2_mul274[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul274;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul274 (.clk(clk), .d(pt2_mul274), .q(dl_pt2_mul274));
     // pt2_mul275 = pt2_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul275;
+    logic [2:0] fl_pt2_mul275;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul275 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_y), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[192]), .y(pt2_mul275)
+        .out_valid(op_valid_nc[192]), .y(pt2_mul275), .flags(fl_pt2_mul275)
     );
+    assign ev_ovf[190] = fl_pt2_mul275[0] && ev_q[7];
+    assign ev_unf[190] = fl_pt2_mul275[1] && ev_q[7];
+    assign ev_inv[190] = fl_pt2_mul275[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul275;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul275 (.clk(clk), .d(pt2_mul275), .q(dl_pt2_mul275));
     // pt2_cB_z = pt2_mul274 - pt2_mul275   (ready @11/11/11)
     logic [W-1:0] pt2_cB_z;
+    logic [2:0] fl_pt2_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul274), .b(dl_pt2_mul275), .sub(1'b1),
-        .out_valid(op_valid_nc[193]), .y(pt2_cB_z)
+        .out_valid(op_valid_nc[193]), .y(pt2_cB_z), .flags(fl_pt2_cB_z)
     );
+    assign ev_ovf[191] = fl_pt2_cB_z[0] && ev_q[11];
+    assign ev_unf[191] = fl_pt2_cB_z[1] && ev_q[11];
+    assign ev_inv[191] = fl_pt2_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
         u_dl_pt2_cB_z (.clk(clk), .d(pt2_cB_z), .q(dl_pt2_cB_z));
     // pt2_mul277 = n_x * pt1_vA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul277;
+    logic [2:0] fl_pt2_mul277;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul277 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vA_x[0*W +: W]),
-        .out_valid(op_valid_nc[194]), .y(pt2_mul277)
+        .out_valid(op_valid_nc[194]), .y(pt2_mul277), .flags(fl_pt2_mul277)
     );
+    assign ev_ovf[192] = fl_pt2_mul277[0] && ev_q[98];
+    assign ev_unf[192] = fl_pt2_mul277[1] && ev_q[98];
+    assign ev_inv[192] = fl_pt2_mul277[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul277;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul277 (.clk(clk), .d(pt2_mul277), .q(dl_pt2_mul277));
     // pt2_mul278 = n_y * pt1_vA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul278;
+    logic [2:0] fl_pt2_mul278;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul278 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vA_y[0*W +: W]),
-        .out_valid(op_valid_nc[195]), .y(pt2_mul278)
+        .out_valid(op_valid_nc[195]), .y(pt2_mul278), .flags(fl_pt2_mul278)
     );
+    assign ev_ovf[193] = fl_pt2_mul278[0] && ev_q[98];
+    assign ev_unf[193] = fl_pt2_mul278[1] && ev_q[98];
+    assign ev_inv[193] = fl_pt2_mul278[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul278;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul278 (.clk(clk), .d(pt2_mul278), .q(dl_pt2_mul278));
     // pt2_add279 = pt2_mul277 + pt2_mul278   (ready @102/102/102)
     logic [W-1:0] pt2_add279;
+    logic [2:0] fl_pt2_add279;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add279 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul277), .b(dl_pt2_mul278), .sub(1'b0),
-        .out_valid(op_valid_nc[196]), .y(pt2_add279)
+        .out_valid(op_valid_nc[196]), .y(pt2_add279), .flags(fl_pt2_add279)
     );
+    assign ev_ovf[194] = fl_pt2_add279[0] && ev_q[102];
+    assign ev_unf[194] = fl_pt2_add279[1] && ev_q[102];
+    assign ev_inv[194] = fl_pt2_add279[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add279;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add279 (.clk(clk), .d(pt2_add279), .q(dl_pt2_add279));
     // pt2_mul280 = n_z * pt1_vA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul280;
+    logic [2:0] fl_pt2_mul280;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul280 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vA_z[0*W +: W]),
-        .out_valid(op_valid_nc[197]), .y(pt2_mul280)
+        .out_valid(op_valid_nc[197]), .y(pt2_mul280), .flags(fl_pt2_mul280)
     );
+    assign ev_ovf[195] = fl_pt2_mul280[0] && ev_q[98];
+    assign ev_unf[195] = fl_pt2_mul280[1] && ev_q[98];
+    assign ev_inv[195] = fl_pt2_mul280[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul280;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt2_mul280 (.clk(clk), .d(pt2_mul280), .q(dl_pt2_mul280));
     // pt2_add281 = pt2_add279 + pt2_mul280   (ready @106/106/106)
     logic [W-1:0] pt2_add281;
+    logic [2:0] fl_pt2_add281;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add281 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add279), .b(dl_pt2_mul280), .sub(1'b0),
-        .out_valid(op_valid_nc[198]), .y(pt2_add281)
+        .out_valid(op_valid_nc[198]), .y(pt2_add281), .flags(fl_pt2_add281)
     );
+    assign ev_ovf[196] = fl_pt2_add281[0] && ev_q[106];
+    assign ev_unf[196] = fl_pt2_add281[1] && ev_q[106];
+    assign ev_inv[196] = fl_pt2_add281[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add281;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add281 (.clk(clk), .d(pt2_add281), .q(dl_pt2_add281));
     // pt2_mul282 = n_x * pt1_vB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul282;
+    logic [2:0] fl_pt2_mul282;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul282 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vB_x[0*W +: W]),
-        .out_valid(op_valid_nc[199]), .y(pt2_mul282)
+        .out_valid(op_valid_nc[199]), .y(pt2_mul282), .flags(fl_pt2_mul282)
     );
+    assign ev_ovf[197] = fl_pt2_mul282[0] && ev_q[98];
+    assign ev_unf[197] = fl_pt2_mul282[1] && ev_q[98];
+    assign ev_inv[197] = fl_pt2_mul282[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul282;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul282 (.clk(clk), .d(pt2_mul282), .q(dl_pt2_mul282));
     // pt2_mul283 = n_y * pt1_vB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul283;
+    logic [2:0] fl_pt2_mul283;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul283 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vB_y[0*W +: W]),
-        .out_valid(op_valid_nc[200]), .y(pt2_mul283)
+        .out_valid(op_valid_nc[200]), .y(pt2_mul283), .flags(fl_pt2_mul283)
     );
+    assign ev_ovf[198] = fl_pt2_mul283[0] && ev_q[98];
+    assign ev_unf[198] = fl_pt2_mul283[1] && ev_q[98];
+    assign ev_inv[198] = fl_pt2_mul283[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul283;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul283 (.clk(clk), .d(pt2_mul283), .q(dl_pt2_mul283));
     // pt2_add284 = pt2_mul282 + pt2_mul283   (ready @102/102/102)
     logic [W-1:0] pt2_add284;
+    logic [2:0] fl_pt2_add284;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add284 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul282), .b(dl_pt2_mul283), .sub(1'b0),
-        .out_valid(op_valid_nc[201]), .y(pt2_add284)
+        .out_valid(op_valid_nc[201]), .y(pt2_add284), .flags(fl_pt2_add284)
     );
+    assign ev_ovf[199] = fl_pt2_add284[0] && ev_q[102];
+    assign ev_unf[199] = fl_pt2_add284[1] && ev_q[102];
+    assign ev_inv[199] = fl_pt2_add284[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add284;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add284 (.clk(clk), .d(pt2_add284), .q(dl_pt2_add284));
     // pt2_mul285 = n_z * pt1_vB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul285;
+    logic [2:0] fl_pt2_mul285;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul285 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vB_z[0*W +: W]),
-        .out_valid(op_valid_nc[202]), .y(pt2_mul285)
+        .out_valid(op_valid_nc[202]), .y(pt2_mul285), .flags(fl_pt2_mul285)
     );
+    assign ev_ovf[200] = fl_pt2_mul285[0] && ev_q[98];
+    assign ev_unf[200] = fl_pt2_mul285[1] && ev_q[98];
+    assign ev_inv[200] = fl_pt2_mul285[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul285;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt2_mul285 (.clk(clk), .d(pt2_mul285), .q(dl_pt2_mul285));
     // pt2_add286 = pt2_add284 + pt2_mul285   (ready @106/106/106)
     logic [W-1:0] pt2_add286;
+    logic [2:0] fl_pt2_add286;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add286 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add284), .b(dl_pt2_mul285), .sub(1'b0),
-        .out_valid(op_valid_nc[203]), .y(pt2_add286)
+        .out_valid(op_valid_nc[203]), .y(pt2_add286), .flags(fl_pt2_add286)
     );
+    assign ev_ovf[201] = fl_pt2_add286[0] && ev_q[106];
+    assign ev_unf[201] = fl_pt2_add286[1] && ev_q[106];
+    assign ev_inv[201] = fl_pt2_add286[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add286;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add286 (.clk(clk), .d(pt2_add286), .q(dl_pt2_add286));
     // pt2_sub287 = pt2_add281 - pt2_add286   (ready @110/110/110)
     logic [W-1:0] pt2_sub287;
+    logic [2:0] fl_pt2_sub287;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub287 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add281), .b(dl_pt2_add286), .sub(1'b1),
-        .out_valid(op_valid_nc[204]), .y(pt2_sub287)
+        .out_valid(op_valid_nc[204]), .y(pt2_sub287), .flags(fl_pt2_sub287)
     );
+    assign ev_ovf[202] = fl_pt2_sub287[0] && ev_q[110];
+    assign ev_unf[202] = fl_pt2_sub287[1] && ev_q[110];
+    assign ev_inv[202] = fl_pt2_sub287[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub287;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_sub287 (.clk(clk), .d(pt2_sub287), .q(dl_pt2_sub287));
     // pt2_mul288 = pt2_cA_x * pt1_wA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul288;
+    logic [2:0] fl_pt2_mul288;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul288 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_x[0*W +: W]), .b(dl_pt1_wA_x[0*W +: W]),
-        .out_valid(op_valid_nc[205]), .y(pt2_mul288)
+        .out_valid(op_valid_nc[205]), .y(pt2_mul288), .flags(fl_pt2_mul288)
     );
+    assign ev_ovf[203] = fl_pt2_mul288[0] && ev_q[98];
+    assign ev_unf[203] = fl_pt2_mul288[1] && ev_q[98];
+    assign ev_inv[203] = fl_pt2_mul288[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul288;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul288 (.clk(clk), .d(pt2_mul288), .q(dl_pt2_mul288));
     // pt2_mul289 = pt2_cA_y * pt1_wA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul289;
+    logic [2:0] fl_pt2_mul289;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul289 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_y[0*W +: W]), .b(dl_pt1_wA_y[0*W +: W]),
-        .out_valid(op_valid_nc[206]), .y(pt2_mul289)
+        .out_valid(op_valid_nc[206]), .y(pt2_mul289), .flags(fl_pt2_mul289)
     );
+    assign ev_ovf[204] = fl_pt2_mul289[0] && ev_q[98];
+    assign ev_unf[204] = fl_pt2_mul289[1] && ev_q[98];
+    assign ev_inv[204] = fl_pt2_mul289[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul289;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul289 (.clk(clk), .d(pt2_mul289), .q(dl_pt2_mul289));
     // pt2_add290 = pt2_mul288 + pt2_mul289   (ready @102/102/102)
     logic [W-1:0] pt2_add290;
+    logic [2:0] fl_pt2_add290;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add290 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul288), .b(dl_pt2_mul289), .sub(1'b0),
-        .out_valid(op_valid_nc[207]), .y(pt2_add290)
+        .out_valid(op_valid_nc[207]), .y(pt2_add290), .flags(fl_pt2_add290)
     );
+    assign ev_ovf[205] = fl_pt2_add290[0] && ev_q[102];
+    assign ev_unf[205] = fl_pt2_add290[1] && ev_q[102];
+    assign ev_inv[205] = fl_pt2_add290[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add290;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add290 (.clk(clk), .d(pt2_add290), .q(dl_pt2_add290));
     // pt2_mul291 = pt2_cA_z * pt1_wA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul291;
+    logic [2:0] fl_pt2_mul291;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul291 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_z[0*W +: W]), .b(dl_pt1_wA_z[0*W +: W]),
-        .out_valid(op_valid_nc[208]), .y(pt2_mul291)
+        .out_valid(op_valid_nc[208]), .y(pt2_mul291), .flags(fl_pt2_mul291)
     );
+    assign ev_ovf[206] = fl_pt2_mul291[0] && ev_q[98];
+    assign ev_unf[206] = fl_pt2_mul291[1] && ev_q[98];
+    assign ev_inv[206] = fl_pt2_mul291[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul291;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt2_mul291 (.clk(clk), .d(pt2_mul291), .q(dl_pt2_mul291));
     // pt2_add292 = pt2_add290 + pt2_mul291   (ready @106/106/106)
     logic [W-1:0] pt2_add292;
+    logic [2:0] fl_pt2_add292;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add292 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add290), .b(dl_pt2_mul291), .sub(1'b0),
-        .out_valid(op_valid_nc[209]), .y(pt2_add292)
+        .out_valid(op_valid_nc[209]), .y(pt2_add292), .flags(fl_pt2_add292)
     );
+    assign ev_ovf[207] = fl_pt2_add292[0] && ev_q[106];
+    assign ev_unf[207] = fl_pt2_add292[1] && ev_q[106];
+    assign ev_inv[207] = fl_pt2_add292[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add292;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add292 (.clk(clk), .d(pt2_add292), .q(dl_pt2_add292));
     // pt2_mul293 = pt2_cB_x * pt1_wB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul293;
+    logic [2:0] fl_pt2_mul293;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul293 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_x[0*W +: W]), .b(dl_pt1_wB_x[0*W +: W]),
-        .out_valid(op_valid_nc[210]), .y(pt2_mul293)
+        .out_valid(op_valid_nc[210]), .y(pt2_mul293), .flags(fl_pt2_mul293)
     );
+    assign ev_ovf[208] = fl_pt2_mul293[0] && ev_q[98];
+    assign ev_unf[208] = fl_pt2_mul293[1] && ev_q[98];
+    assign ev_inv[208] = fl_pt2_mul293[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul293;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul293 (.clk(clk), .d(pt2_mul293), .q(dl_pt2_mul293));
     // pt2_mul294 = pt2_cB_y * pt1_wB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul294;
+    logic [2:0] fl_pt2_mul294;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul294 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_y[0*W +: W]), .b(dl_pt1_wB_y[0*W +: W]),
-        .out_valid(op_valid_nc[211]), .y(pt2_mul294)
+        .out_valid(op_valid_nc[211]), .y(pt2_mul294), .flags(fl_pt2_mul294)
     );
+    assign ev_ovf[209] = fl_pt2_mul294[0] && ev_q[98];
+    assign ev_unf[209] = fl_pt2_mul294[1] && ev_q[98];
+    assign ev_inv[209] = fl_pt2_mul294[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul294;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul294 (.clk(clk), .d(pt2_mul294), .q(dl_pt2_mul294));
     // pt2_add295 = pt2_mul293 + pt2_mul294   (ready @102/102/102)
     logic [W-1:0] pt2_add295;
+    logic [2:0] fl_pt2_add295;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add295 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul293), .b(dl_pt2_mul294), .sub(1'b0),
-        .out_valid(op_valid_nc[212]), .y(pt2_add295)
+        .out_valid(op_valid_nc[212]), .y(pt2_add295), .flags(fl_pt2_add295)
     );
+    assign ev_ovf[210] = fl_pt2_add295[0] && ev_q[102];
+    assign ev_unf[210] = fl_pt2_add295[1] && ev_q[102];
+    assign ev_inv[210] = fl_pt2_add295[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add295;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add295 (.clk(clk), .d(pt2_add295), .q(dl_pt2_add295));
     // pt2_mul296 = pt2_cB_z * pt1_wB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul296;
+    logic [2:0] fl_pt2_mul296;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul296 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_z[0*W +: W]), .b(dl_pt1_wB_z[0*W +: W]),
-        .out_valid(op_valid_nc[213]), .y(pt2_mul296)
+        .out_valid(op_valid_nc[213]), .y(pt2_mul296), .flags(fl_pt2_mul296)
     );
+    assign ev_ovf[211] = fl_pt2_mul296[0] && ev_q[98];
+    assign ev_unf[211] = fl_pt2_mul296[1] && ev_q[98];
+    assign ev_inv[211] = fl_pt2_mul296[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul296;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt2_mul296 (.clk(clk), .d(pt2_mul296), .q(dl_pt2_mul296));
     // pt2_add297 = pt2_add295 + pt2_mul296   (ready @106/106/106)
     logic [W-1:0] pt2_add297;
+    logic [2:0] fl_pt2_add297;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add297 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add295), .b(dl_pt2_mul296), .sub(1'b0),
-        .out_valid(op_valid_nc[214]), .y(pt2_add297)
+        .out_valid(op_valid_nc[214]), .y(pt2_add297), .flags(fl_pt2_add297)
     );
+    assign ev_ovf[212] = fl_pt2_add297[0] && ev_q[106];
+    assign ev_unf[212] = fl_pt2_add297[1] && ev_q[106];
+    assign ev_inv[212] = fl_pt2_add297[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add297;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add297 (.clk(clk), .d(pt2_add297), .q(dl_pt2_add297));
     // pt2_sub298 = pt2_add292 - pt2_add297   (ready @110/110/110)
     logic [W-1:0] pt2_sub298;
+    logic [2:0] fl_pt2_sub298;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub298 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add292), .b(dl_pt2_add297), .sub(1'b1),
-        .out_valid(op_valid_nc[215]), .y(pt2_sub298)
+        .out_valid(op_valid_nc[215]), .y(pt2_sub298), .flags(fl_pt2_sub298)
     );
+    assign ev_ovf[213] = fl_pt2_sub298[0] && ev_q[110];
+    assign ev_unf[213] = fl_pt2_sub298[1] && ev_q[110];
+    assign ev_inv[213] = fl_pt2_sub298[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub298;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_sub298 (.clk(clk), .d(pt2_sub298), .q(dl_pt2_sub298));
     // pt2_vrel = pt2_sub287 + pt2_sub298   (ready @114/114/114)
     logic [W-1:0] pt2_vrel;
+    logic [2:0] fl_pt2_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_vrel (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_sub287), .b(dl_pt2_sub298), .sub(1'b0),
-        .out_valid(op_valid_nc[216]), .y(pt2_vrel)
+        .out_valid(op_valid_nc[216]), .y(pt2_vrel), .flags(fl_pt2_vrel)
     );
+    assign ev_ovf[214] = fl_pt2_vrel[0] && ev_q[114];
+    assign ev_unf[214] = fl_pt2_vrel[1] && ev_q[114];
+    assign ev_inv[214] = fl_pt2_vrel[2] && ev_q[114];
     logic [W-1:0] dl_pt2_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_vrel (.clk(clk), .d(pt2_vrel), .q(dl_pt2_vrel));
     // pt2_add300 = pt2_vrel + b2   (ready @118/118/118)
     logic [W-1:0] pt2_add300;
+    logic [2:0] fl_pt2_add300;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add300 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
-        .out_valid(op_valid_nc[217]), .y(pt2_add300)
+        .out_valid(op_valid_nc[217]), .y(pt2_add300), .flags(fl_pt2_add300)
     );
+    assign ev_ovf[215] = fl_pt2_add300[0] && ev_q[118];
+    assign ev_unf[215] = fl_pt2_add300[1] && ev_q[118];
+    assign ev_inv[215] = fl_pt2_add300[2] && ev_q[118];
     logic [W-1:0] dl_pt2_add300;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add300 (.clk(clk), .d(pt2_add300), .q(dl_pt2_add300));
     // pt2_delta0 = pt2_add300 * jac_inv2   (ready @121/121/121)
     logic [W-1:0] pt2_delta0;
+    logic [2:0] fl_pt2_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta0 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add300), .b(dl_in_jac_inv2[1*W +: W]),
-        .out_valid(op_valid_nc[218]), .y(pt2_delta0)
+        .out_valid(op_valid_nc[218]), .y(pt2_delta0), .flags(fl_pt2_delta0)
     );
+    assign ev_ovf[216] = fl_pt2_delta0[0] && ev_q[121];
+    assign ev_unf[216] = fl_pt2_delta0[1] && ev_q[121];
+    assign ev_inv[216] = fl_pt2_delta0[2] && ev_q[121];
     logic [W-1:0] dl_pt2_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_delta0 (.clk(clk), .d(pt2_delta0), .q(dl_pt2_delta0));
     // pt2_add302 = lam2 + pt2_delta0   (ready @125/125/125)
     logic [W-1:0] pt2_add302;
+    logic [2:0] fl_pt2_add302;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add302 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam2[0*W +: W]), .b(dl_pt2_delta0), .sub(1'b0),
-        .out_valid(op_valid_nc[219]), .y(pt2_add302)
+        .out_valid(op_valid_nc[219]), .y(pt2_add302), .flags(fl_pt2_add302)
     );
+    assign ev_ovf[217] = fl_pt2_add302[0] && ev_q[125];
+    assign ev_unf[217] = fl_pt2_add302[1] && ev_q[125];
+    assign ev_inv[217] = fl_pt2_add302[2] && ev_q[125];
     logic [W-1:0] dl_pt2_add302;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add302 (.clk(clk), .d(pt2_add302), .q(dl_pt2_add302));
@@ -2502,10 +3401,14 @@ module pgs_contact_pipe #(
         u_dl_pt2_lam_new (.clk(clk), .d(pt2_lam_new), .q(dl_pt2_lam_new));
     // pt2_delta = pt2_lam_new - lam2   (ready @130/130/130)
     logic [W-1:0] pt2_delta;
+    logic [2:0] fl_pt2_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_lam_new), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
-        .out_valid(op_valid_nc[221]), .y(pt2_delta)
+        .out_valid(op_valid_nc[221]), .y(pt2_delta), .flags(fl_pt2_delta)
     );
+    assign ev_ovf[218] = fl_pt2_delta[0] && ev_q[130];
+    assign ev_unf[218] = fl_pt2_delta[1] && ev_q[130];
+    assign ev_inv[218] = fl_pt2_delta[2] && ev_q[130];
     logic [W-1:0] dl_pt2_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_delta (.clk(clk), .d(pt2_delta), .q(dl_pt2_delta));
@@ -2517,109 +3420,157 @@ module pgs_contact_pipe #(
         u_dl_pt2_lam (.clk(clk), .d(pt2_lam), .q(dl_pt2_lam));
     // pt2_angA_x = IInvA_x * pt2_cA_x   (ready @14/14/14)
     logic [W-1:0] pt2_angA_x;
+    logic [2:0] fl_pt2_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_pt2_cA_x[1*W +: W]),
-        .out_valid(op_valid_nc[222]), .y(pt2_angA_x)
+        .out_valid(op_valid_nc[222]), .y(pt2_angA_x), .flags(fl_pt2_angA_x)
     );
+    assign ev_ovf[219] = fl_pt2_angA_x[0] && ev_q[14];
+    assign ev_unf[219] = fl_pt2_angA_x[1] && ev_q[14];
+    assign ev_inv[219] = fl_pt2_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
         u_dl_pt2_angA_x (.clk(clk), .d(pt2_angA_x), .q(dl_pt2_angA_x));
     // pt2_angA_y = IInvA_y * pt2_cA_y   (ready @14/14/14)
     logic [W-1:0] pt2_angA_y;
+    logic [2:0] fl_pt2_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_pt2_cA_y[1*W +: W]),
-        .out_valid(op_valid_nc[223]), .y(pt2_angA_y)
+        .out_valid(op_valid_nc[223]), .y(pt2_angA_y), .flags(fl_pt2_angA_y)
     );
+    assign ev_ovf[220] = fl_pt2_angA_y[0] && ev_q[14];
+    assign ev_unf[220] = fl_pt2_angA_y[1] && ev_q[14];
+    assign ev_inv[220] = fl_pt2_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
         u_dl_pt2_angA_y (.clk(clk), .d(pt2_angA_y), .q(dl_pt2_angA_y));
     // pt2_angA_z = IInvA_z * pt2_cA_z   (ready @14/14/14)
     logic [W-1:0] pt2_angA_z;
+    logic [2:0] fl_pt2_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_pt2_cA_z[1*W +: W]),
-        .out_valid(op_valid_nc[224]), .y(pt2_angA_z)
+        .out_valid(op_valid_nc[224]), .y(pt2_angA_z), .flags(fl_pt2_angA_z)
     );
+    assign ev_ovf[221] = fl_pt2_angA_z[0] && ev_q[14];
+    assign ev_unf[221] = fl_pt2_angA_z[1] && ev_q[14];
+    assign ev_inv[221] = fl_pt2_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
         u_dl_pt2_angA_z (.clk(clk), .d(pt2_angA_z), .q(dl_pt2_angA_z));
     // pt2_angB_x = IInvB_x * pt2_cB_x   (ready @14/14/14)
     logic [W-1:0] pt2_angB_x;
+    logic [2:0] fl_pt2_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_pt2_cB_x[1*W +: W]),
-        .out_valid(op_valid_nc[225]), .y(pt2_angB_x)
+        .out_valid(op_valid_nc[225]), .y(pt2_angB_x), .flags(fl_pt2_angB_x)
     );
+    assign ev_ovf[222] = fl_pt2_angB_x[0] && ev_q[14];
+    assign ev_unf[222] = fl_pt2_angB_x[1] && ev_q[14];
+    assign ev_inv[222] = fl_pt2_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
         u_dl_pt2_angB_x (.clk(clk), .d(pt2_angB_x), .q(dl_pt2_angB_x));
     // pt2_angB_y = IInvB_y * pt2_cB_y   (ready @14/14/14)
     logic [W-1:0] pt2_angB_y;
+    logic [2:0] fl_pt2_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_pt2_cB_y[1*W +: W]),
-        .out_valid(op_valid_nc[226]), .y(pt2_angB_y)
+        .out_valid(op_valid_nc[226]), .y(pt2_angB_y), .flags(fl_pt2_angB_y)
     );
+    assign ev_ovf[223] = fl_pt2_angB_y[0] && ev_q[14];
+    assign ev_unf[223] = fl_pt2_angB_y[1] && ev_q[14];
+    assign ev_inv[223] = fl_pt2_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
         u_dl_pt2_angB_y (.clk(clk), .d(pt2_angB_y), .q(dl_pt2_angB_y));
     // pt2_angB_z = IInvB_z * pt2_cB_z   (ready @14/14/14)
     logic [W-1:0] pt2_angB_z;
+    logic [2:0] fl_pt2_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_pt2_cB_z[1*W +: W]),
-        .out_valid(op_valid_nc[227]), .y(pt2_angB_z)
+        .out_valid(op_valid_nc[227]), .y(pt2_angB_z), .flags(fl_pt2_angB_z)
     );
+    assign ev_ovf[224] = fl_pt2_angB_z[0] && ev_q[14];
+    assign ev_unf[224] = fl_pt2_angB_z[1] && ev_q[14];
+    assign ev_inv[224] = fl_pt2_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
         u_dl_pt2_angB_z (.clk(clk), .d(pt2_angB_z), .q(dl_pt2_angB_z));
     // pt2_mul312 = linA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul312;
+    logic [2:0] fl_pt2_mul312;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul312 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[2*W +: W]), .b(dl_pt2_delta),
-        .out_valid(op_valid_nc[228]), .y(pt2_mul312)
+        .out_valid(op_valid_nc[228]), .y(pt2_mul312), .flags(fl_pt2_mul312)
     );
+    assign ev_ovf[225] = fl_pt2_mul312[0] && ev_q[133];
+    assign ev_unf[225] = fl_pt2_mul312[1] && ev_q[133];
+    assign ev_inv[225] = fl_pt2_mul312[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul312;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul312 (.clk(clk), .d(pt2_mul312), .q(dl_pt2_mul312));
     // pt2_mul313 = linA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul313;
+    logic [2:0] fl_pt2_mul313;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul313 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[2*W +: W]), .b(dl_pt2_delta),
-        .out_valid(op_valid_nc[229]), .y(pt2_mul313)
+        .out_valid(op_valid_nc[229]), .y(pt2_mul313), .flags(fl_pt2_mul313)
     );
+    assign ev_ovf[226] = fl_pt2_mul313[0] && ev_q[133];
+    assign ev_unf[226] = fl_pt2_mul313[1] && ev_q[133];
+    assign ev_inv[226] = fl_pt2_mul313[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul313;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul313 (.clk(clk), .d(pt2_mul313), .q(dl_pt2_mul313));
     // pt2_mul314 = linA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul314;
+    logic [2:0] fl_pt2_mul314;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul314 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[2*W +: W]), .b(dl_pt2_delta),
-        .out_valid(op_valid_nc[230]), .y(pt2_mul314)
+        .out_valid(op_valid_nc[230]), .y(pt2_mul314), .flags(fl_pt2_mul314)
     );
+    assign ev_ovf[227] = fl_pt2_mul314[0] && ev_q[133];
+    assign ev_unf[227] = fl_pt2_mul314[1] && ev_q[133];
+    assign ev_inv[227] = fl_pt2_mul314[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul314;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul314 (.clk(clk), .d(pt2_mul314), .q(dl_pt2_mul314));
     // pt2_add315 = pt1_vA_x + pt2_mul312   (ready @137/137/137)
     logic [W-1:0] pt2_add315;
+    logic [2:0] fl_pt2_add315;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add315 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_x[1*W +: W]), .b(dl_pt2_mul312), .sub(1'b0),
-        .out_valid(op_valid_nc[231]), .y(pt2_add315)
+        .out_valid(op_valid_nc[231]), .y(pt2_add315), .flags(fl_pt2_add315)
     );
+    assign ev_ovf[228] = fl_pt2_add315[0] && ev_q[137];
+    assign ev_unf[228] = fl_pt2_add315[1] && ev_q[137];
+    assign ev_inv[228] = fl_pt2_add315[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add315;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add315 (.clk(clk), .d(pt2_add315), .q(dl_pt2_add315));
     // pt2_add316 = pt1_vA_y + pt2_mul313   (ready @137/137/137)
     logic [W-1:0] pt2_add316;
+    logic [2:0] fl_pt2_add316;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add316 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_y[1*W +: W]), .b(dl_pt2_mul313), .sub(1'b0),
-        .out_valid(op_valid_nc[232]), .y(pt2_add316)
+        .out_valid(op_valid_nc[232]), .y(pt2_add316), .flags(fl_pt2_add316)
     );
+    assign ev_ovf[229] = fl_pt2_add316[0] && ev_q[137];
+    assign ev_unf[229] = fl_pt2_add316[1] && ev_q[137];
+    assign ev_inv[229] = fl_pt2_add316[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add316;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add316 (.clk(clk), .d(pt2_add316), .q(dl_pt2_add316));
     // pt2_add317 = pt1_vA_z + pt2_mul314   (ready @137/137/137)
     logic [W-1:0] pt2_add317;
+    logic [2:0] fl_pt2_add317;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add317 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_z[1*W +: W]), .b(dl_pt2_mul314), .sub(1'b0),
-        .out_valid(op_valid_nc[233]), .y(pt2_add317)
+        .out_valid(op_valid_nc[233]), .y(pt2_add317), .flags(fl_pt2_add317)
     );
+    assign ev_ovf[230] = fl_pt2_add317[0] && ev_q[137];
+    assign ev_unf[230] = fl_pt2_add317[1] && ev_q[137];
+    assign ev_inv[230] = fl_pt2_add317[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add317;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add317 (.clk(clk), .d(pt2_add317), .q(dl_pt2_add317));
@@ -2643,55 +3594,79 @@ module pgs_contact_pipe #(
         u_dl_pt2_vA_z (.clk(clk), .d(pt2_vA_z), .q(dl_pt2_vA_z));
     // pt2_mul321 = pt2_angA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul321;
+    logic [2:0] fl_pt2_mul321;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul321 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_x), .b(dl_pt2_delta),
-        .out_valid(op_valid_nc[234]), .y(pt2_mul321)
+        .out_valid(op_valid_nc[234]), .y(pt2_mul321), .flags(fl_pt2_mul321)
     );
+    assign ev_ovf[231] = fl_pt2_mul321[0] && ev_q[133];
+    assign ev_unf[231] = fl_pt2_mul321[1] && ev_q[133];
+    assign ev_inv[231] = fl_pt2_mul321[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul321;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul321 (.clk(clk), .d(pt2_mul321), .q(dl_pt2_mul321));
     // pt2_mul322 = pt2_angA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul322;
+    logic [2:0] fl_pt2_mul322;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul322 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_y), .b(dl_pt2_delta),
-        .out_valid(op_valid_nc[235]), .y(pt2_mul322)
+        .out_valid(op_valid_nc[235]), .y(pt2_mul322), .flags(fl_pt2_mul322)
     );
+    assign ev_ovf[232] = fl_pt2_mul322[0] && ev_q[133];
+    assign ev_unf[232] = fl_pt2_mul322[1] && ev_q[133];
+    assign ev_inv[232] = fl_pt2_mul322[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul322;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul322 (.clk(clk), .d(pt2_mul322), .q(dl_pt2_mul322));
     // pt2_mul323 = pt2_angA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul323;
+    logic [2:0] fl_pt2_mul323;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul323 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_z), .b(dl_pt2_delta),
-        .out_valid(op_valid_nc[236]), .y(pt2_mul323)
+        .out_valid(op_valid_nc[236]), .y(pt2_mul323), .flags(fl_pt2_mul323)
     );
+    assign ev_ovf[233] = fl_pt2_mul323[0] && ev_q[133];
+    assign ev_unf[233] = fl_pt2_mul323[1] && ev_q[133];
+    assign ev_inv[233] = fl_pt2_mul323[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul323;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul323 (.clk(clk), .d(pt2_mul323), .q(dl_pt2_mul323));
     // pt2_add324 = pt1_wA_x + pt2_mul321   (ready @137/137/137)
     logic [W-1:0] pt2_add324;
+    logic [2:0] fl_pt2_add324;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add324 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_x[1*W +: W]), .b(dl_pt2_mul321), .sub(1'b0),
-        .out_valid(op_valid_nc[237]), .y(pt2_add324)
+        .out_valid(op_valid_nc[237]), .y(pt2_add324), .flags(fl_pt2_add324)
     );
+    assign ev_ovf[234] = fl_pt2_add324[0] && ev_q[137];
+    assign ev_unf[234] = fl_pt2_add324[1] && ev_q[137];
+    assign ev_inv[234] = fl_pt2_add324[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add324;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add324 (.clk(clk), .d(pt2_add324), .q(dl_pt2_add324));
     // pt2_add325 = pt1_wA_y + pt2_mul322   (ready @137/137/137)
     logic [W-1:0] pt2_add325;
+    logic [2:0] fl_pt2_add325;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add325 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_y[1*W +: W]), .b(dl_pt2_mul322), .sub(1'b0),
-        .out_valid(op_valid_nc[238]), .y(pt2_add325)
+        .out_valid(op_valid_nc[238]), .y(pt2_add325), .flags(fl_pt2_add325)
     );
+    assign ev_ovf[235] = fl_pt2_add325[0] && ev_q[137];
+    assign ev_unf[235] = fl_pt2_add325[1] && ev_q[137];
+    assign ev_inv[235] = fl_pt2_add325[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add325;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add325 (.clk(clk), .d(pt2_add325), .q(dl_pt2_add325));
     // pt2_add326 = pt1_wA_z + pt2_mul323   (ready @137/137/137)
     logic [W-1:0] pt2_add326;
+    logic [2:0] fl_pt2_add326;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add326 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_z[1*W +: W]), .b(dl_pt2_mul323), .sub(1'b0),
-        .out_valid(op_valid_nc[239]), .y(pt2_add326)
+        .out_valid(op_valid_nc[239]), .y(pt2_add326), .flags(fl_pt2_add326)
     );
+    assign ev_ovf[236] = fl_pt2_add326[0] && ev_q[137];
+    assign ev_unf[236] = fl_pt2_add326[1] && ev_q[137];
+    assign ev_inv[236] = fl_pt2_add326[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add326;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_add326 (.clk(clk), .d(pt2_add326), .q(dl_pt2_add326));
@@ -2715,55 +3690,79 @@ module pgs_contact_pipe #(
         u_dl_pt2_wA_z (.clk(clk), .d(pt2_wA_z), .q(dl_pt2_wA_z));
     // pt2_mul330 = linB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul330;
+    logic [2:0] fl_pt2_mul330;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul330 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[2*W +: W]), .b(dl_pt2_delta),
-        .out_valid(op_valid_nc[240]), .y(pt2_mul330)
+        .out_valid(op_valid_nc[240]), .y(pt2_mul330), .flags(fl_pt2_mul330)
     );
+    assign ev_ovf[237] = fl_pt2_mul330[0] && ev_q[133];
+    assign ev_unf[237] = fl_pt2_mul330[1] && ev_q[133];
+    assign ev_inv[237] = fl_pt2_mul330[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul330;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul330 (.clk(clk), .d(pt2_mul330), .q(dl_pt2_mul330));
     // pt2_mul331 = linB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul331;
+    logic [2:0] fl_pt2_mul331;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul331 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[2*W +: W]), .b(dl_pt2_delta),
-        .out_valid(op_valid_nc[241]), .y(pt2_mul331)
+        .out_valid(op_valid_nc[241]), .y(pt2_mul331), .flags(fl_pt2_mul331)
     );
+    assign ev_ovf[238] = fl_pt2_mul331[0] && ev_q[133];
+    assign ev_unf[238] = fl_pt2_mul331[1] && ev_q[133];
+    assign ev_inv[238] = fl_pt2_mul331[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul331;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul331 (.clk(clk), .d(pt2_mul331), .q(dl_pt2_mul331));
     // pt2_mul332 = linB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul332;
+    logic [2:0] fl_pt2_mul332;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul332 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[2*W +: W]), .b(dl_pt2_delta),
-        .out_valid(op_valid_nc[242]), .y(pt2_mul332)
+        .out_valid(op_valid_nc[242]), .y(pt2_mul332), .flags(fl_pt2_mul332)
     );
+    assign ev_ovf[239] = fl_pt2_mul332[0] && ev_q[133];
+    assign ev_unf[239] = fl_pt2_mul332[1] && ev_q[133];
+    assign ev_inv[239] = fl_pt2_mul332[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul332;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul332 (.clk(clk), .d(pt2_mul332), .q(dl_pt2_mul332));
     // pt2_sub333 = pt1_vB_x - pt2_mul330   (ready @137/137/137)
     logic [W-1:0] pt2_sub333;
+    logic [2:0] fl_pt2_sub333;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub333 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_x[1*W +: W]), .b(dl_pt2_mul330), .sub(1'b1),
-        .out_valid(op_valid_nc[243]), .y(pt2_sub333)
+        .out_valid(op_valid_nc[243]), .y(pt2_sub333), .flags(fl_pt2_sub333)
     );
+    assign ev_ovf[240] = fl_pt2_sub333[0] && ev_q[137];
+    assign ev_unf[240] = fl_pt2_sub333[1] && ev_q[137];
+    assign ev_inv[240] = fl_pt2_sub333[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub333;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_sub333 (.clk(clk), .d(pt2_sub333), .q(dl_pt2_sub333));
     // pt2_sub334 = pt1_vB_y - pt2_mul331   (ready @137/137/137)
     logic [W-1:0] pt2_sub334;
+    logic [2:0] fl_pt2_sub334;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub334 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_y[1*W +: W]), .b(dl_pt2_mul331), .sub(1'b1),
-        .out_valid(op_valid_nc[244]), .y(pt2_sub334)
+        .out_valid(op_valid_nc[244]), .y(pt2_sub334), .flags(fl_pt2_sub334)
     );
+    assign ev_ovf[241] = fl_pt2_sub334[0] && ev_q[137];
+    assign ev_unf[241] = fl_pt2_sub334[1] && ev_q[137];
+    assign ev_inv[241] = fl_pt2_sub334[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub334;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_sub334 (.clk(clk), .d(pt2_sub334), .q(dl_pt2_sub334));
     // pt2_sub335 = pt1_vB_z - pt2_mul332   (ready @137/137/137)
     logic [W-1:0] pt2_sub335;
+    logic [2:0] fl_pt2_sub335;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub335 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_z[1*W +: W]), .b(dl_pt2_mul332), .sub(1'b1),
-        .out_valid(op_valid_nc[245]), .y(pt2_sub335)
+        .out_valid(op_valid_nc[245]), .y(pt2_sub335), .flags(fl_pt2_sub335)
     );
+    assign ev_ovf[242] = fl_pt2_sub335[0] && ev_q[137];
+    assign ev_unf[242] = fl_pt2_sub335[1] && ev_q[137];
+    assign ev_inv[242] = fl_pt2_sub335[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub335;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_sub335 (.clk(clk), .d(pt2_sub335), .q(dl_pt2_sub335));
@@ -2787,55 +3786,79 @@ module pgs_contact_pipe #(
         u_dl_pt2_vB_z (.clk(clk), .d(pt2_vB_z), .q(dl_pt2_vB_z));
     // pt2_mul339 = pt2_angB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul339;
+    logic [2:0] fl_pt2_mul339;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul339 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_x), .b(dl_pt2_delta),
-        .out_valid(op_valid_nc[246]), .y(pt2_mul339)
+        .out_valid(op_valid_nc[246]), .y(pt2_mul339), .flags(fl_pt2_mul339)
     );
+    assign ev_ovf[243] = fl_pt2_mul339[0] && ev_q[133];
+    assign ev_unf[243] = fl_pt2_mul339[1] && ev_q[133];
+    assign ev_inv[243] = fl_pt2_mul339[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul339;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul339 (.clk(clk), .d(pt2_mul339), .q(dl_pt2_mul339));
     // pt2_mul340 = pt2_angB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul340;
+    logic [2:0] fl_pt2_mul340;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul340 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_y), .b(dl_pt2_delta),
-        .out_valid(op_valid_nc[247]), .y(pt2_mul340)
+        .out_valid(op_valid_nc[247]), .y(pt2_mul340), .flags(fl_pt2_mul340)
     );
+    assign ev_ovf[244] = fl_pt2_mul340[0] && ev_q[133];
+    assign ev_unf[244] = fl_pt2_mul340[1] && ev_q[133];
+    assign ev_inv[244] = fl_pt2_mul340[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul340;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul340 (.clk(clk), .d(pt2_mul340), .q(dl_pt2_mul340));
     // pt2_mul341 = pt2_angB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul341;
+    logic [2:0] fl_pt2_mul341;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul341 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_z), .b(dl_pt2_delta),
-        .out_valid(op_valid_nc[248]), .y(pt2_mul341)
+        .out_valid(op_valid_nc[248]), .y(pt2_mul341), .flags(fl_pt2_mul341)
     );
+    assign ev_ovf[245] = fl_pt2_mul341[0] && ev_q[133];
+    assign ev_unf[245] = fl_pt2_mul341[1] && ev_q[133];
+    assign ev_inv[245] = fl_pt2_mul341[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul341;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_mul341 (.clk(clk), .d(pt2_mul341), .q(dl_pt2_mul341));
     // pt2_sub342 = pt1_wB_x - pt2_mul339   (ready @137/137/137)
     logic [W-1:0] pt2_sub342;
+    logic [2:0] fl_pt2_sub342;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub342 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_x[1*W +: W]), .b(dl_pt2_mul339), .sub(1'b1),
-        .out_valid(op_valid_nc[249]), .y(pt2_sub342)
+        .out_valid(op_valid_nc[249]), .y(pt2_sub342), .flags(fl_pt2_sub342)
     );
+    assign ev_ovf[246] = fl_pt2_sub342[0] && ev_q[137];
+    assign ev_unf[246] = fl_pt2_sub342[1] && ev_q[137];
+    assign ev_inv[246] = fl_pt2_sub342[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub342;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_sub342 (.clk(clk), .d(pt2_sub342), .q(dl_pt2_sub342));
     // pt2_sub343 = pt1_wB_y - pt2_mul340   (ready @137/137/137)
     logic [W-1:0] pt2_sub343;
+    logic [2:0] fl_pt2_sub343;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub343 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_y[1*W +: W]), .b(dl_pt2_mul340), .sub(1'b1),
-        .out_valid(op_valid_nc[250]), .y(pt2_sub343)
+        .out_valid(op_valid_nc[250]), .y(pt2_sub343), .flags(fl_pt2_sub343)
     );
+    assign ev_ovf[247] = fl_pt2_sub343[0] && ev_q[137];
+    assign ev_unf[247] = fl_pt2_sub343[1] && ev_q[137];
+    assign ev_inv[247] = fl_pt2_sub343[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub343;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_sub343 (.clk(clk), .d(pt2_sub343), .q(dl_pt2_sub343));
     // pt2_sub344 = pt1_wB_z - pt2_mul341   (ready @137/137/137)
     logic [W-1:0] pt2_sub344;
+    logic [2:0] fl_pt2_sub344;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub344 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_z[1*W +: W]), .b(dl_pt2_mul341), .sub(1'b1),
-        .out_valid(op_valid_nc[251]), .y(pt2_sub344)
+        .out_valid(op_valid_nc[251]), .y(pt2_sub344), .flags(fl_pt2_sub344)
     );
+    assign ev_ovf[248] = fl_pt2_sub344[0] && ev_q[137];
+    assign ev_unf[248] = fl_pt2_sub344[1] && ev_q[137];
+    assign ev_inv[248] = fl_pt2_sub344[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub344;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt2_sub344 (.clk(clk), .d(pt2_sub344), .q(dl_pt2_sub344));
@@ -2865,451 +3888,651 @@ module pgs_contact_pipe #(
         u_dl_pt3_skip (.clk(clk), .d(pt3_skip), .q(dl_pt3_skip));
     // pt3_rA_x = p3_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt3_rA_x;
+    logic [2:0] fl_pt3_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
-        .out_valid(op_valid_nc[252]), .y(pt3_rA_x)
+        .out_valid(op_valid_nc[252]), .y(pt3_rA_x), .flags(fl_pt3_rA_x)
     );
+    assign ev_ovf[249] = fl_pt3_rA_x[0] && ev_q[4];
+    assign ev_unf[249] = fl_pt3_rA_x[1] && ev_q[4];
+    assign ev_inv[249] = fl_pt3_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_rA_x (.clk(clk), .d(pt3_rA_x), .q(dl_pt3_rA_x));
     // pt3_rA_y = p3_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt3_rA_y;
+    logic [2:0] fl_pt3_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
-        .out_valid(op_valid_nc[253]), .y(pt3_rA_y)
+        .out_valid(op_valid_nc[253]), .y(pt3_rA_y), .flags(fl_pt3_rA_y)
     );
+    assign ev_ovf[250] = fl_pt3_rA_y[0] && ev_q[4];
+    assign ev_unf[250] = fl_pt3_rA_y[1] && ev_q[4];
+    assign ev_inv[250] = fl_pt3_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_rA_y (.clk(clk), .d(pt3_rA_y), .q(dl_pt3_rA_y));
     // pt3_rA_z = p3_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt3_rA_z;
+    logic [2:0] fl_pt3_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
-        .out_valid(op_valid_nc[254]), .y(pt3_rA_z)
+        .out_valid(op_valid_nc[254]), .y(pt3_rA_z), .flags(fl_pt3_rA_z)
     );
+    assign ev_ovf[251] = fl_pt3_rA_z[0] && ev_q[4];
+    assign ev_unf[251] = fl_pt3_rA_z[1] && ev_q[4];
+    assign ev_inv[251] = fl_pt3_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_rA_z (.clk(clk), .d(pt3_rA_z), .q(dl_pt3_rA_z));
     // pt3_mul352 = pt3_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul352;
+    logic [2:0] fl_pt3_mul352;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul352 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_y), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[255]), .y(pt3_mul352)
+        .out_valid(op_valid_nc[255]), .y(pt3_mul352), .flags(fl_pt3_mul352)
     );
+    assign ev_ovf[252] = fl_pt3_mul352[0] && ev_q[7];
+    assign ev_unf[252] = fl_pt3_mul352[1] && ev_q[7];
+    assign ev_inv[252] = fl_pt3_mul352[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul352;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul352 (.clk(clk), .d(pt3_mul352), .q(dl_pt3_mul352));
     // pt3_mul353 = pt3_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul353;
+    logic [2:0] fl_pt3_mul353;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul353 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_z), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[256]), .y(pt3_mul353)
+        .out_valid(op_valid_nc[256]), .y(pt3_mul353), .flags(fl_pt3_mul353)
     );
+    assign ev_ovf[253] = fl_pt3_mul353[0] && ev_q[7];
+    assign ev_unf[253] = fl_pt3_mul353[1] && ev_q[7];
+    assign ev_inv[253] = fl_pt3_mul353[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul353;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul353 (.clk(clk), .d(pt3_mul353), .q(dl_pt3_mul353));
     // pt3_cA_x = pt3_mul352 - pt3_mul353   (ready @11/11/11)
     logic [W-1:0] pt3_cA_x;
+    logic [2:0] fl_pt3_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul352), .b(dl_pt3_mul353), .sub(1'b1),
-        .out_valid(op_valid_nc[257]), .y(pt3_cA_x)
+        .out_valid(op_valid_nc[257]), .y(pt3_cA_x), .flags(fl_pt3_cA_x)
     );
+    assign ev_ovf[254] = fl_pt3_cA_x[0] && ev_q[11];
+    assign ev_unf[254] = fl_pt3_cA_x[1] && ev_q[11];
+    assign ev_inv[254] = fl_pt3_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
         u_dl_pt3_cA_x (.clk(clk), .d(pt3_cA_x), .q(dl_pt3_cA_x));
     // pt3_mul355 = pt3_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul355;
+    logic [2:0] fl_pt3_mul355;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul355 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_z), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[258]), .y(pt3_mul355)
+        .out_valid(op_valid_nc[258]), .y(pt3_mul355), .flags(fl_pt3_mul355)
     );
+    assign ev_ovf[255] = fl_pt3_mul355[0] && ev_q[7];
+    assign ev_unf[255] = fl_pt3_mul355[1] && ev_q[7];
+    assign ev_inv[255] = fl_pt3_mul355[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul355;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul355 (.clk(clk), .d(pt3_mul355), .q(dl_pt3_mul355));
     // pt3_mul356 = pt3_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul356;
+    logic [2:0] fl_pt3_mul356;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul356 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_x), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[259]), .y(pt3_mul356)
+        .out_valid(op_valid_nc[259]), .y(pt3_mul356), .flags(fl_pt3_mul356)
     );
+    assign ev_ovf[256] = fl_pt3_mul356[0] && ev_q[7];
+    assign ev_unf[256] = fl_pt3_mul356[1] && ev_q[7];
+    assign ev_inv[256] = fl_pt3_mul356[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul356;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul356 (.clk(clk), .d(pt3_mul356), .q(dl_pt3_mul356));
     // pt3_cA_y = pt3_mul355 - pt3_mul356   (ready @11/11/11)
     logic [W-1:0] pt3_cA_y;
+    logic [2:0] fl_pt3_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul355), .b(dl_pt3_mul356), .sub(1'b1),
-        .out_valid(op_valid_nc[260]), .y(pt3_cA_y)
+        .out_valid(op_valid_nc[260]), .y(pt3_cA_y), .flags(fl_pt3_cA_y)
     );
+    assign ev_ovf[257] = fl_pt3_cA_y[0] && ev_q[11];
+    assign ev_unf[257] = fl_pt3_cA_y[1] && ev_q[11];
+    assign ev_inv[257] = fl_pt3_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
         u_dl_pt3_cA_y (.clk(clk), .d(pt3_cA_y), .q(dl_pt3_cA_y));
     // pt3_mul358 = pt3_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul358;
+    logic [2:0] fl_pt3_mul358;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul358 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_x), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[261]), .y(pt3_mul358)
+        .out_valid(op_valid_nc[261]), .y(pt3_mul358), .flags(fl_pt3_mul358)
     );
+    assign ev_ovf[258] = fl_pt3_mul358[0] && ev_q[7];
+    assign ev_unf[258] = fl_pt3_mul358[1] && ev_q[7];
+    assign ev_inv[258] = fl_pt3_mul358[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul358;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul358 (.clk(clk), .d(pt3_mul358), .q(dl_pt3_mul358));
     // pt3_mul359 = pt3_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul359;
+    logic [2:0] fl_pt3_mul359;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul359 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_y), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[262]), .y(pt3_mul359)
+        .out_valid(op_valid_nc[262]), .y(pt3_mul359), .flags(fl_pt3_mul359)
     );
+    assign ev_ovf[259] = fl_pt3_mul359[0] && ev_q[7];
+    assign ev_unf[259] = fl_pt3_mul359[1] && ev_q[7];
+    assign ev_inv[259] = fl_pt3_mul359[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul359;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul359 (.clk(clk), .d(pt3_mul359), .q(dl_pt3_mul359));
     // pt3_cA_z = pt3_mul358 - pt3_mul359   (ready @11/11/11)
     logic [W-1:0] pt3_cA_z;
+    logic [2:0] fl_pt3_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul358), .b(dl_pt3_mul359), .sub(1'b1),
-        .out_valid(op_valid_nc[263]), .y(pt3_cA_z)
+        .out_valid(op_valid_nc[263]), .y(pt3_cA_z), .flags(fl_pt3_cA_z)
     );
+    assign ev_ovf[260] = fl_pt3_cA_z[0] && ev_q[11];
+    assign ev_unf[260] = fl_pt3_cA_z[1] && ev_q[11];
+    assign ev_inv[260] = fl_pt3_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
         u_dl_pt3_cA_z (.clk(clk), .d(pt3_cA_z), .q(dl_pt3_cA_z));
     // pt3_rB_x = p3_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt3_rB_x;
+    logic [2:0] fl_pt3_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
-        .out_valid(op_valid_nc[264]), .y(pt3_rB_x)
+        .out_valid(op_valid_nc[264]), .y(pt3_rB_x), .flags(fl_pt3_rB_x)
     );
+    assign ev_ovf[261] = fl_pt3_rB_x[0] && ev_q[4];
+    assign ev_unf[261] = fl_pt3_rB_x[1] && ev_q[4];
+    assign ev_inv[261] = fl_pt3_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_rB_x (.clk(clk), .d(pt3_rB_x), .q(dl_pt3_rB_x));
     // pt3_rB_y = p3_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt3_rB_y;
+    logic [2:0] fl_pt3_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
-        .out_valid(op_valid_nc[265]), .y(pt3_rB_y)
+        .out_valid(op_valid_nc[265]), .y(pt3_rB_y), .flags(fl_pt3_rB_y)
     );
+    assign ev_ovf[262] = fl_pt3_rB_y[0] && ev_q[4];
+    assign ev_unf[262] = fl_pt3_rB_y[1] && ev_q[4];
+    assign ev_inv[262] = fl_pt3_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_rB_y (.clk(clk), .d(pt3_rB_y), .q(dl_pt3_rB_y));
     // pt3_rB_z = p3_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt3_rB_z;
+    logic [2:0] fl_pt3_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
-        .out_valid(op_valid_nc[266]), .y(pt3_rB_z)
+        .out_valid(op_valid_nc[266]), .y(pt3_rB_z), .flags(fl_pt3_rB_z)
     );
+    assign ev_ovf[263] = fl_pt3_rB_z[0] && ev_q[4];
+    assign ev_unf[263] = fl_pt3_rB_z[1] && ev_q[4];
+    assign ev_inv[263] = fl_pt3_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_rB_z (.clk(clk), .d(pt3_rB_z), .q(dl_pt3_rB_z));
     // pt3_mul364 = pt3_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul364;
+    logic [2:0] fl_pt3_mul364;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul364 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_y), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[267]), .y(pt3_mul364)
+        .out_valid(op_valid_nc[267]), .y(pt3_mul364), .flags(fl_pt3_mul364)
     );
+    assign ev_ovf[264] = fl_pt3_mul364[0] && ev_q[7];
+    assign ev_unf[264] = fl_pt3_mul364[1] && ev_q[7];
+    assign ev_inv[264] = fl_pt3_mul364[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul364;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul364 (.clk(clk), .d(pt3_mul364), .q(dl_pt3_mul364));
     // pt3_mul365 = pt3_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul365;
+    logic [2:0] fl_pt3_mul365;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul365 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_z), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[268]), .y(pt3_mul365)
+        .out_valid(op_valid_nc[268]), .y(pt3_mul365), .flags(fl_pt3_mul365)
     );
+    assign ev_ovf[265] = fl_pt3_mul365[0] && ev_q[7];
+    assign ev_unf[265] = fl_pt3_mul365[1] && ev_q[7];
+    assign ev_inv[265] = fl_pt3_mul365[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul365;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul365 (.clk(clk), .d(pt3_mul365), .q(dl_pt3_mul365));
     // pt3_cB_x = pt3_mul364 - pt3_mul365   (ready @11/11/11)
     logic [W-1:0] pt3_cB_x;
+    logic [2:0] fl_pt3_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul364), .b(dl_pt3_mul365), .sub(1'b1),
-        .out_valid(op_valid_nc[269]), .y(pt3_cB_x)
+        .out_valid(op_valid_nc[269]), .y(pt3_cB_x), .flags(fl_pt3_cB_x)
     );
+    assign ev_ovf[266] = fl_pt3_cB_x[0] && ev_q[11];
+    assign ev_unf[266] = fl_pt3_cB_x[1] && ev_q[11];
+    assign ev_inv[266] = fl_pt3_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
         u_dl_pt3_cB_x (.clk(clk), .d(pt3_cB_x), .q(dl_pt3_cB_x));
     // pt3_mul367 = pt3_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul367;
+    logic [2:0] fl_pt3_mul367;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul367 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_z), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[270]), .y(pt3_mul367)
+        .out_valid(op_valid_nc[270]), .y(pt3_mul367), .flags(fl_pt3_mul367)
     );
+    assign ev_ovf[267] = fl_pt3_mul367[0] && ev_q[7];
+    assign ev_unf[267] = fl_pt3_mul367[1] && ev_q[7];
+    assign ev_inv[267] = fl_pt3_mul367[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul367;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul367 (.clk(clk), .d(pt3_mul367), .q(dl_pt3_mul367));
     // pt3_mul368 = pt3_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul368;
+    logic [2:0] fl_pt3_mul368;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul368 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_x), .b(dl_in_n_z[1*W +: W]),
-        .out_valid(op_valid_nc[271]), .y(pt3_mul368)
+        .out_valid(op_valid_nc[271]), .y(pt3_mul368), .flags(fl_pt3_mul368)
     );
+    assign ev_ovf[268] = fl_pt3_mul368[0] && ev_q[7];
+    assign ev_unf[268] = fl_pt3_mul368[1] && ev_q[7];
+    assign ev_inv[268] = fl_pt3_mul368[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul368;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul368 (.clk(clk), .d(pt3_mul368), .q(dl_pt3_mul368));
     // pt3_cB_y = pt3_mul367 - pt3_mul368   (ready @11/11/11)
     logic [W-1:0] pt3_cB_y;
+    logic [2:0] fl_pt3_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul367), .b(dl_pt3_mul368), .sub(1'b1),
-        .out_valid(op_valid_nc[272]), .y(pt3_cB_y)
+        .out_valid(op_valid_nc[272]), .y(pt3_cB_y), .flags(fl_pt3_cB_y)
     );
+    assign ev_ovf[269] = fl_pt3_cB_y[0] && ev_q[11];
+    assign ev_unf[269] = fl_pt3_cB_y[1] && ev_q[11];
+    assign ev_inv[269] = fl_pt3_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
         u_dl_pt3_cB_y (.clk(clk), .d(pt3_cB_y), .q(dl_pt3_cB_y));
     // pt3_mul370 = pt3_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul370;
+    logic [2:0] fl_pt3_mul370;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul370 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_x), .b(dl_in_n_y[1*W +: W]),
-        .out_valid(op_valid_nc[273]), .y(pt3_mul370)
+        .out_valid(op_valid_nc[273]), .y(pt3_mul370), .flags(fl_pt3_mul370)
     );
+    assign ev_ovf[270] = fl_pt3_mul370[0] && ev_q[7];
+    assign ev_unf[270] = fl_pt3_mul370[1] && ev_q[7];
+    assign ev_inv[270] = fl_pt3_mul370[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul370;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul370 (.clk(clk), .d(pt3_mul370), .q(dl_pt3_mul370));
     // pt3_mul371 = pt3_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul371;
+    logic [2:0] fl_pt3_mul371;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul371 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_y), .b(dl_in_n_x[1*W +: W]),
-        .out_valid(op_valid_nc[274]), .y(pt3_mul371)
+        .out_valid(op_valid_nc[274]), .y(pt3_mul371), .flags(fl_pt3_mul371)
     );
+    assign ev_ovf[271] = fl_pt3_mul371[0] && ev_q[7];
+    assign ev_unf[271] = fl_pt3_mul371[1] && ev_q[7];
+    assign ev_inv[271] = fl_pt3_mul371[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul371;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul371 (.clk(clk), .d(pt3_mul371), .q(dl_pt3_mul371));
     // pt3_cB_z = pt3_mul370 - pt3_mul371   (ready @11/11/11)
     logic [W-1:0] pt3_cB_z;
+    logic [2:0] fl_pt3_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul370), .b(dl_pt3_mul371), .sub(1'b1),
-        .out_valid(op_valid_nc[275]), .y(pt3_cB_z)
+        .out_valid(op_valid_nc[275]), .y(pt3_cB_z), .flags(fl_pt3_cB_z)
     );
+    assign ev_ovf[272] = fl_pt3_cB_z[0] && ev_q[11];
+    assign ev_unf[272] = fl_pt3_cB_z[1] && ev_q[11];
+    assign ev_inv[272] = fl_pt3_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
         u_dl_pt3_cB_z (.clk(clk), .d(pt3_cB_z), .q(dl_pt3_cB_z));
     // pt3_mul373 = n_x * pt2_vA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul373;
+    logic [2:0] fl_pt3_mul373;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul373 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vA_x[0*W +: W]),
-        .out_valid(op_valid_nc[276]), .y(pt3_mul373)
+        .out_valid(op_valid_nc[276]), .y(pt3_mul373), .flags(fl_pt3_mul373)
     );
+    assign ev_ovf[273] = fl_pt3_mul373[0] && ev_q[140];
+    assign ev_unf[273] = fl_pt3_mul373[1] && ev_q[140];
+    assign ev_inv[273] = fl_pt3_mul373[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul373;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul373 (.clk(clk), .d(pt3_mul373), .q(dl_pt3_mul373));
     // pt3_mul374 = n_y * pt2_vA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul374;
+    logic [2:0] fl_pt3_mul374;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul374 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vA_y[0*W +: W]),
-        .out_valid(op_valid_nc[277]), .y(pt3_mul374)
+        .out_valid(op_valid_nc[277]), .y(pt3_mul374), .flags(fl_pt3_mul374)
     );
+    assign ev_ovf[274] = fl_pt3_mul374[0] && ev_q[140];
+    assign ev_unf[274] = fl_pt3_mul374[1] && ev_q[140];
+    assign ev_inv[274] = fl_pt3_mul374[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul374;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul374 (.clk(clk), .d(pt3_mul374), .q(dl_pt3_mul374));
     // pt3_add375 = pt3_mul373 + pt3_mul374   (ready @144/144/144)
     logic [W-1:0] pt3_add375;
+    logic [2:0] fl_pt3_add375;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add375 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul373), .b(dl_pt3_mul374), .sub(1'b0),
-        .out_valid(op_valid_nc[278]), .y(pt3_add375)
+        .out_valid(op_valid_nc[278]), .y(pt3_add375), .flags(fl_pt3_add375)
     );
+    assign ev_ovf[275] = fl_pt3_add375[0] && ev_q[144];
+    assign ev_unf[275] = fl_pt3_add375[1] && ev_q[144];
+    assign ev_inv[275] = fl_pt3_add375[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add375;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add375 (.clk(clk), .d(pt3_add375), .q(dl_pt3_add375));
     // pt3_mul376 = n_z * pt2_vA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul376;
+    logic [2:0] fl_pt3_mul376;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul376 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vA_z[0*W +: W]),
-        .out_valid(op_valid_nc[279]), .y(pt3_mul376)
+        .out_valid(op_valid_nc[279]), .y(pt3_mul376), .flags(fl_pt3_mul376)
     );
+    assign ev_ovf[276] = fl_pt3_mul376[0] && ev_q[140];
+    assign ev_unf[276] = fl_pt3_mul376[1] && ev_q[140];
+    assign ev_inv[276] = fl_pt3_mul376[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul376;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt3_mul376 (.clk(clk), .d(pt3_mul376), .q(dl_pt3_mul376));
     // pt3_add377 = pt3_add375 + pt3_mul376   (ready @148/148/148)
     logic [W-1:0] pt3_add377;
+    logic [2:0] fl_pt3_add377;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add377 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add375), .b(dl_pt3_mul376), .sub(1'b0),
-        .out_valid(op_valid_nc[280]), .y(pt3_add377)
+        .out_valid(op_valid_nc[280]), .y(pt3_add377), .flags(fl_pt3_add377)
     );
+    assign ev_ovf[277] = fl_pt3_add377[0] && ev_q[148];
+    assign ev_unf[277] = fl_pt3_add377[1] && ev_q[148];
+    assign ev_inv[277] = fl_pt3_add377[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add377;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add377 (.clk(clk), .d(pt3_add377), .q(dl_pt3_add377));
     // pt3_mul378 = n_x * pt2_vB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul378;
+    logic [2:0] fl_pt3_mul378;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul378 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vB_x[0*W +: W]),
-        .out_valid(op_valid_nc[281]), .y(pt3_mul378)
+        .out_valid(op_valid_nc[281]), .y(pt3_mul378), .flags(fl_pt3_mul378)
     );
+    assign ev_ovf[278] = fl_pt3_mul378[0] && ev_q[140];
+    assign ev_unf[278] = fl_pt3_mul378[1] && ev_q[140];
+    assign ev_inv[278] = fl_pt3_mul378[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul378;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul378 (.clk(clk), .d(pt3_mul378), .q(dl_pt3_mul378));
     // pt3_mul379 = n_y * pt2_vB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul379;
+    logic [2:0] fl_pt3_mul379;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul379 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vB_y[0*W +: W]),
-        .out_valid(op_valid_nc[282]), .y(pt3_mul379)
+        .out_valid(op_valid_nc[282]), .y(pt3_mul379), .flags(fl_pt3_mul379)
     );
+    assign ev_ovf[279] = fl_pt3_mul379[0] && ev_q[140];
+    assign ev_unf[279] = fl_pt3_mul379[1] && ev_q[140];
+    assign ev_inv[279] = fl_pt3_mul379[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul379;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul379 (.clk(clk), .d(pt3_mul379), .q(dl_pt3_mul379));
     // pt3_add380 = pt3_mul378 + pt3_mul379   (ready @144/144/144)
     logic [W-1:0] pt3_add380;
+    logic [2:0] fl_pt3_add380;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add380 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul378), .b(dl_pt3_mul379), .sub(1'b0),
-        .out_valid(op_valid_nc[283]), .y(pt3_add380)
+        .out_valid(op_valid_nc[283]), .y(pt3_add380), .flags(fl_pt3_add380)
     );
+    assign ev_ovf[280] = fl_pt3_add380[0] && ev_q[144];
+    assign ev_unf[280] = fl_pt3_add380[1] && ev_q[144];
+    assign ev_inv[280] = fl_pt3_add380[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add380;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add380 (.clk(clk), .d(pt3_add380), .q(dl_pt3_add380));
     // pt3_mul381 = n_z * pt2_vB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul381;
+    logic [2:0] fl_pt3_mul381;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul381 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vB_z[0*W +: W]),
-        .out_valid(op_valid_nc[284]), .y(pt3_mul381)
+        .out_valid(op_valid_nc[284]), .y(pt3_mul381), .flags(fl_pt3_mul381)
     );
+    assign ev_ovf[281] = fl_pt3_mul381[0] && ev_q[140];
+    assign ev_unf[281] = fl_pt3_mul381[1] && ev_q[140];
+    assign ev_inv[281] = fl_pt3_mul381[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul381;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt3_mul381 (.clk(clk), .d(pt3_mul381), .q(dl_pt3_mul381));
     // pt3_add382 = pt3_add380 + pt3_mul381   (ready @148/148/148)
     logic [W-1:0] pt3_add382;
+    logic [2:0] fl_pt3_add382;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add382 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add380), .b(dl_pt3_mul381), .sub(1'b0),
-        .out_valid(op_valid_nc[285]), .y(pt3_add382)
+        .out_valid(op_valid_nc[285]), .y(pt3_add382), .flags(fl_pt3_add382)
     );
+    assign ev_ovf[282] = fl_pt3_add382[0] && ev_q[148];
+    assign ev_unf[282] = fl_pt3_add382[1] && ev_q[148];
+    assign ev_inv[282] = fl_pt3_add382[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add382;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add382 (.clk(clk), .d(pt3_add382), .q(dl_pt3_add382));
     // pt3_sub383 = pt3_add377 - pt3_add382   (ready @152/152/152)
     logic [W-1:0] pt3_sub383;
+    logic [2:0] fl_pt3_sub383;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub383 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add377), .b(dl_pt3_add382), .sub(1'b1),
-        .out_valid(op_valid_nc[286]), .y(pt3_sub383)
+        .out_valid(op_valid_nc[286]), .y(pt3_sub383), .flags(fl_pt3_sub383)
     );
+    assign ev_ovf[283] = fl_pt3_sub383[0] && ev_q[152];
+    assign ev_unf[283] = fl_pt3_sub383[1] && ev_q[152];
+    assign ev_inv[283] = fl_pt3_sub383[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub383;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_sub383 (.clk(clk), .d(pt3_sub383), .q(dl_pt3_sub383));
     // pt3_mul384 = pt3_cA_x * pt2_wA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul384;
+    logic [2:0] fl_pt3_mul384;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul384 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_x[0*W +: W]), .b(dl_pt2_wA_x[0*W +: W]),
-        .out_valid(op_valid_nc[287]), .y(pt3_mul384)
+        .out_valid(op_valid_nc[287]), .y(pt3_mul384), .flags(fl_pt3_mul384)
     );
+    assign ev_ovf[284] = fl_pt3_mul384[0] && ev_q[140];
+    assign ev_unf[284] = fl_pt3_mul384[1] && ev_q[140];
+    assign ev_inv[284] = fl_pt3_mul384[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul384;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul384 (.clk(clk), .d(pt3_mul384), .q(dl_pt3_mul384));
     // pt3_mul385 = pt3_cA_y * pt2_wA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul385;
+    logic [2:0] fl_pt3_mul385;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul385 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_y[0*W +: W]), .b(dl_pt2_wA_y[0*W +: W]),
-        .out_valid(op_valid_nc[288]), .y(pt3_mul385)
+        .out_valid(op_valid_nc[288]), .y(pt3_mul385), .flags(fl_pt3_mul385)
     );
+    assign ev_ovf[285] = fl_pt3_mul385[0] && ev_q[140];
+    assign ev_unf[285] = fl_pt3_mul385[1] && ev_q[140];
+    assign ev_inv[285] = fl_pt3_mul385[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul385;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul385 (.clk(clk), .d(pt3_mul385), .q(dl_pt3_mul385));
     // pt3_add386 = pt3_mul384 + pt3_mul385   (ready @144/144/144)
     logic [W-1:0] pt3_add386;
+    logic [2:0] fl_pt3_add386;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add386 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul384), .b(dl_pt3_mul385), .sub(1'b0),
-        .out_valid(op_valid_nc[289]), .y(pt3_add386)
+        .out_valid(op_valid_nc[289]), .y(pt3_add386), .flags(fl_pt3_add386)
     );
+    assign ev_ovf[286] = fl_pt3_add386[0] && ev_q[144];
+    assign ev_unf[286] = fl_pt3_add386[1] && ev_q[144];
+    assign ev_inv[286] = fl_pt3_add386[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add386;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add386 (.clk(clk), .d(pt3_add386), .q(dl_pt3_add386));
     // pt3_mul387 = pt3_cA_z * pt2_wA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul387;
+    logic [2:0] fl_pt3_mul387;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul387 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_z[0*W +: W]), .b(dl_pt2_wA_z[0*W +: W]),
-        .out_valid(op_valid_nc[290]), .y(pt3_mul387)
+        .out_valid(op_valid_nc[290]), .y(pt3_mul387), .flags(fl_pt3_mul387)
     );
+    assign ev_ovf[287] = fl_pt3_mul387[0] && ev_q[140];
+    assign ev_unf[287] = fl_pt3_mul387[1] && ev_q[140];
+    assign ev_inv[287] = fl_pt3_mul387[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul387;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt3_mul387 (.clk(clk), .d(pt3_mul387), .q(dl_pt3_mul387));
     // pt3_add388 = pt3_add386 + pt3_mul387   (ready @148/148/148)
     logic [W-1:0] pt3_add388;
+    logic [2:0] fl_pt3_add388;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add388 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add386), .b(dl_pt3_mul387), .sub(1'b0),
-        .out_valid(op_valid_nc[291]), .y(pt3_add388)
+        .out_valid(op_valid_nc[291]), .y(pt3_add388), .flags(fl_pt3_add388)
     );
+    assign ev_ovf[288] = fl_pt3_add388[0] && ev_q[148];
+    assign ev_unf[288] = fl_pt3_add388[1] && ev_q[148];
+    assign ev_inv[288] = fl_pt3_add388[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add388;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add388 (.clk(clk), .d(pt3_add388), .q(dl_pt3_add388));
     // pt3_mul389 = pt3_cB_x * pt2_wB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul389;
+    logic [2:0] fl_pt3_mul389;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul389 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_x[0*W +: W]), .b(dl_pt2_wB_x[0*W +: W]),
-        .out_valid(op_valid_nc[292]), .y(pt3_mul389)
+        .out_valid(op_valid_nc[292]), .y(pt3_mul389), .flags(fl_pt3_mul389)
     );
+    assign ev_ovf[289] = fl_pt3_mul389[0] && ev_q[140];
+    assign ev_unf[289] = fl_pt3_mul389[1] && ev_q[140];
+    assign ev_inv[289] = fl_pt3_mul389[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul389;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul389 (.clk(clk), .d(pt3_mul389), .q(dl_pt3_mul389));
     // pt3_mul390 = pt3_cB_y * pt2_wB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul390;
+    logic [2:0] fl_pt3_mul390;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul390 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_y[0*W +: W]), .b(dl_pt2_wB_y[0*W +: W]),
-        .out_valid(op_valid_nc[293]), .y(pt3_mul390)
+        .out_valid(op_valid_nc[293]), .y(pt3_mul390), .flags(fl_pt3_mul390)
     );
+    assign ev_ovf[290] = fl_pt3_mul390[0] && ev_q[140];
+    assign ev_unf[290] = fl_pt3_mul390[1] && ev_q[140];
+    assign ev_inv[290] = fl_pt3_mul390[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul390;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul390 (.clk(clk), .d(pt3_mul390), .q(dl_pt3_mul390));
     // pt3_add391 = pt3_mul389 + pt3_mul390   (ready @144/144/144)
     logic [W-1:0] pt3_add391;
+    logic [2:0] fl_pt3_add391;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add391 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul389), .b(dl_pt3_mul390), .sub(1'b0),
-        .out_valid(op_valid_nc[294]), .y(pt3_add391)
+        .out_valid(op_valid_nc[294]), .y(pt3_add391), .flags(fl_pt3_add391)
     );
+    assign ev_ovf[291] = fl_pt3_add391[0] && ev_q[144];
+    assign ev_unf[291] = fl_pt3_add391[1] && ev_q[144];
+    assign ev_inv[291] = fl_pt3_add391[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add391;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add391 (.clk(clk), .d(pt3_add391), .q(dl_pt3_add391));
     // pt3_mul392 = pt3_cB_z * pt2_wB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul392;
+    logic [2:0] fl_pt3_mul392;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul392 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_z[0*W +: W]), .b(dl_pt2_wB_z[0*W +: W]),
-        .out_valid(op_valid_nc[295]), .y(pt3_mul392)
+        .out_valid(op_valid_nc[295]), .y(pt3_mul392), .flags(fl_pt3_mul392)
     );
+    assign ev_ovf[292] = fl_pt3_mul392[0] && ev_q[140];
+    assign ev_unf[292] = fl_pt3_mul392[1] && ev_q[140];
+    assign ev_inv[292] = fl_pt3_mul392[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul392;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_pt3_mul392 (.clk(clk), .d(pt3_mul392), .q(dl_pt3_mul392));
     // pt3_add393 = pt3_add391 + pt3_mul392   (ready @148/148/148)
     logic [W-1:0] pt3_add393;
+    logic [2:0] fl_pt3_add393;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add393 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add391), .b(dl_pt3_mul392), .sub(1'b0),
-        .out_valid(op_valid_nc[296]), .y(pt3_add393)
+        .out_valid(op_valid_nc[296]), .y(pt3_add393), .flags(fl_pt3_add393)
     );
+    assign ev_ovf[293] = fl_pt3_add393[0] && ev_q[148];
+    assign ev_unf[293] = fl_pt3_add393[1] && ev_q[148];
+    assign ev_inv[293] = fl_pt3_add393[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add393;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add393 (.clk(clk), .d(pt3_add393), .q(dl_pt3_add393));
     // pt3_sub394 = pt3_add388 - pt3_add393   (ready @152/152/152)
     logic [W-1:0] pt3_sub394;
+    logic [2:0] fl_pt3_sub394;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub394 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add388), .b(dl_pt3_add393), .sub(1'b1),
-        .out_valid(op_valid_nc[297]), .y(pt3_sub394)
+        .out_valid(op_valid_nc[297]), .y(pt3_sub394), .flags(fl_pt3_sub394)
     );
+    assign ev_ovf[294] = fl_pt3_sub394[0] && ev_q[152];
+    assign ev_unf[294] = fl_pt3_sub394[1] && ev_q[152];
+    assign ev_inv[294] = fl_pt3_sub394[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub394;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_sub394 (.clk(clk), .d(pt3_sub394), .q(dl_pt3_sub394));
     // pt3_vrel = pt3_sub383 + pt3_sub394   (ready @156/156/156)
     logic [W-1:0] pt3_vrel;
+    logic [2:0] fl_pt3_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_vrel (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_sub383), .b(dl_pt3_sub394), .sub(1'b0),
-        .out_valid(op_valid_nc[298]), .y(pt3_vrel)
+        .out_valid(op_valid_nc[298]), .y(pt3_vrel), .flags(fl_pt3_vrel)
     );
+    assign ev_ovf[295] = fl_pt3_vrel[0] && ev_q[156];
+    assign ev_unf[295] = fl_pt3_vrel[1] && ev_q[156];
+    assign ev_inv[295] = fl_pt3_vrel[2] && ev_q[156];
     logic [W-1:0] dl_pt3_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_vrel (.clk(clk), .d(pt3_vrel), .q(dl_pt3_vrel));
     // pt3_add396 = pt3_vrel + b3   (ready @160/160/160)
     logic [W-1:0] pt3_add396;
+    logic [2:0] fl_pt3_add396;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add396 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_vrel), .b(dl_in_b3), .sub(1'b0),
-        .out_valid(op_valid_nc[299]), .y(pt3_add396)
+        .out_valid(op_valid_nc[299]), .y(pt3_add396), .flags(fl_pt3_add396)
     );
+    assign ev_ovf[296] = fl_pt3_add396[0] && ev_q[160];
+    assign ev_unf[296] = fl_pt3_add396[1] && ev_q[160];
+    assign ev_inv[296] = fl_pt3_add396[2] && ev_q[160];
     logic [W-1:0] dl_pt3_add396;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add396 (.clk(clk), .d(pt3_add396), .q(dl_pt3_add396));
     // pt3_delta0 = pt3_add396 * jac_inv3   (ready @163/163/163)
     logic [W-1:0] pt3_delta0;
+    logic [2:0] fl_pt3_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta0 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add396), .b(dl_in_jac_inv3[1*W +: W]),
-        .out_valid(op_valid_nc[300]), .y(pt3_delta0)
+        .out_valid(op_valid_nc[300]), .y(pt3_delta0), .flags(fl_pt3_delta0)
     );
+    assign ev_ovf[297] = fl_pt3_delta0[0] && ev_q[163];
+    assign ev_unf[297] = fl_pt3_delta0[1] && ev_q[163];
+    assign ev_inv[297] = fl_pt3_delta0[2] && ev_q[163];
     logic [W-1:0] dl_pt3_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_delta0 (.clk(clk), .d(pt3_delta0), .q(dl_pt3_delta0));
     // pt3_add398 = lam3 + pt3_delta0   (ready @167/167/167)
     logic [W-1:0] pt3_add398;
+    logic [2:0] fl_pt3_add398;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add398 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam3[0*W +: W]), .b(dl_pt3_delta0), .sub(1'b0),
-        .out_valid(op_valid_nc[301]), .y(pt3_add398)
+        .out_valid(op_valid_nc[301]), .y(pt3_add398), .flags(fl_pt3_add398)
     );
+    assign ev_ovf[298] = fl_pt3_add398[0] && ev_q[167];
+    assign ev_unf[298] = fl_pt3_add398[1] && ev_q[167];
+    assign ev_inv[298] = fl_pt3_add398[2] && ev_q[167];
     logic [W-1:0] dl_pt3_add398;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add398 (.clk(clk), .d(pt3_add398), .q(dl_pt3_add398));
@@ -3325,10 +4548,14 @@ module pgs_contact_pipe #(
         u_dl_pt3_lam_new (.clk(clk), .d(pt3_lam_new), .q(dl_pt3_lam_new));
     // pt3_delta = pt3_lam_new - lam3   (ready @172/172/172)
     logic [W-1:0] pt3_delta;
+    logic [2:0] fl_pt3_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_lam_new), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
-        .out_valid(op_valid_nc[303]), .y(pt3_delta)
+        .out_valid(op_valid_nc[303]), .y(pt3_delta), .flags(fl_pt3_delta)
     );
+    assign ev_ovf[299] = fl_pt3_delta[0] && ev_q[172];
+    assign ev_unf[299] = fl_pt3_delta[1] && ev_q[172];
+    assign ev_inv[299] = fl_pt3_delta[2] && ev_q[172];
     logic [W-1:0] dl_pt3_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_delta (.clk(clk), .d(pt3_delta), .q(dl_pt3_delta));
@@ -3340,109 +4567,157 @@ module pgs_contact_pipe #(
         u_dl_pt3_lam (.clk(clk), .d(pt3_lam), .q(dl_pt3_lam));
     // pt3_angA_x = IInvA_x * pt3_cA_x   (ready @14/14/14)
     logic [W-1:0] pt3_angA_x;
+    logic [2:0] fl_pt3_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_pt3_cA_x[1*W +: W]),
-        .out_valid(op_valid_nc[304]), .y(pt3_angA_x)
+        .out_valid(op_valid_nc[304]), .y(pt3_angA_x), .flags(fl_pt3_angA_x)
     );
+    assign ev_ovf[300] = fl_pt3_angA_x[0] && ev_q[14];
+    assign ev_unf[300] = fl_pt3_angA_x[1] && ev_q[14];
+    assign ev_inv[300] = fl_pt3_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
         u_dl_pt3_angA_x (.clk(clk), .d(pt3_angA_x), .q(dl_pt3_angA_x));
     // pt3_angA_y = IInvA_y * pt3_cA_y   (ready @14/14/14)
     logic [W-1:0] pt3_angA_y;
+    logic [2:0] fl_pt3_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_pt3_cA_y[1*W +: W]),
-        .out_valid(op_valid_nc[305]), .y(pt3_angA_y)
+        .out_valid(op_valid_nc[305]), .y(pt3_angA_y), .flags(fl_pt3_angA_y)
     );
+    assign ev_ovf[301] = fl_pt3_angA_y[0] && ev_q[14];
+    assign ev_unf[301] = fl_pt3_angA_y[1] && ev_q[14];
+    assign ev_inv[301] = fl_pt3_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
         u_dl_pt3_angA_y (.clk(clk), .d(pt3_angA_y), .q(dl_pt3_angA_y));
     // pt3_angA_z = IInvA_z * pt3_cA_z   (ready @14/14/14)
     logic [W-1:0] pt3_angA_z;
+    logic [2:0] fl_pt3_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_pt3_cA_z[1*W +: W]),
-        .out_valid(op_valid_nc[306]), .y(pt3_angA_z)
+        .out_valid(op_valid_nc[306]), .y(pt3_angA_z), .flags(fl_pt3_angA_z)
     );
+    assign ev_ovf[302] = fl_pt3_angA_z[0] && ev_q[14];
+    assign ev_unf[302] = fl_pt3_angA_z[1] && ev_q[14];
+    assign ev_inv[302] = fl_pt3_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
         u_dl_pt3_angA_z (.clk(clk), .d(pt3_angA_z), .q(dl_pt3_angA_z));
     // pt3_angB_x = IInvB_x * pt3_cB_x   (ready @14/14/14)
     logic [W-1:0] pt3_angB_x;
+    logic [2:0] fl_pt3_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_pt3_cB_x[1*W +: W]),
-        .out_valid(op_valid_nc[307]), .y(pt3_angB_x)
+        .out_valid(op_valid_nc[307]), .y(pt3_angB_x), .flags(fl_pt3_angB_x)
     );
+    assign ev_ovf[303] = fl_pt3_angB_x[0] && ev_q[14];
+    assign ev_unf[303] = fl_pt3_angB_x[1] && ev_q[14];
+    assign ev_inv[303] = fl_pt3_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
         u_dl_pt3_angB_x (.clk(clk), .d(pt3_angB_x), .q(dl_pt3_angB_x));
     // pt3_angB_y = IInvB_y * pt3_cB_y   (ready @14/14/14)
     logic [W-1:0] pt3_angB_y;
+    logic [2:0] fl_pt3_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_pt3_cB_y[1*W +: W]),
-        .out_valid(op_valid_nc[308]), .y(pt3_angB_y)
+        .out_valid(op_valid_nc[308]), .y(pt3_angB_y), .flags(fl_pt3_angB_y)
     );
+    assign ev_ovf[304] = fl_pt3_angB_y[0] && ev_q[14];
+    assign ev_unf[304] = fl_pt3_angB_y[1] && ev_q[14];
+    assign ev_inv[304] = fl_pt3_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
         u_dl_pt3_angB_y (.clk(clk), .d(pt3_angB_y), .q(dl_pt3_angB_y));
     // pt3_angB_z = IInvB_z * pt3_cB_z   (ready @14/14/14)
     logic [W-1:0] pt3_angB_z;
+    logic [2:0] fl_pt3_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_pt3_cB_z[1*W +: W]),
-        .out_valid(op_valid_nc[309]), .y(pt3_angB_z)
+        .out_valid(op_valid_nc[309]), .y(pt3_angB_z), .flags(fl_pt3_angB_z)
     );
+    assign ev_ovf[305] = fl_pt3_angB_z[0] && ev_q[14];
+    assign ev_unf[305] = fl_pt3_angB_z[1] && ev_q[14];
+    assign ev_inv[305] = fl_pt3_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
         u_dl_pt3_angB_z (.clk(clk), .d(pt3_angB_z), .q(dl_pt3_angB_z));
     // pt3_mul408 = linA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul408;
+    logic [2:0] fl_pt3_mul408;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul408 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[3*W +: W]), .b(dl_pt3_delta),
-        .out_valid(op_valid_nc[310]), .y(pt3_mul408)
+        .out_valid(op_valid_nc[310]), .y(pt3_mul408), .flags(fl_pt3_mul408)
     );
+    assign ev_ovf[306] = fl_pt3_mul408[0] && ev_q[175];
+    assign ev_unf[306] = fl_pt3_mul408[1] && ev_q[175];
+    assign ev_inv[306] = fl_pt3_mul408[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul408;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul408 (.clk(clk), .d(pt3_mul408), .q(dl_pt3_mul408));
     // pt3_mul409 = linA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul409;
+    logic [2:0] fl_pt3_mul409;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul409 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[3*W +: W]), .b(dl_pt3_delta),
-        .out_valid(op_valid_nc[311]), .y(pt3_mul409)
+        .out_valid(op_valid_nc[311]), .y(pt3_mul409), .flags(fl_pt3_mul409)
     );
+    assign ev_ovf[307] = fl_pt3_mul409[0] && ev_q[175];
+    assign ev_unf[307] = fl_pt3_mul409[1] && ev_q[175];
+    assign ev_inv[307] = fl_pt3_mul409[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul409;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul409 (.clk(clk), .d(pt3_mul409), .q(dl_pt3_mul409));
     // pt3_mul410 = linA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul410;
+    logic [2:0] fl_pt3_mul410;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul410 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[3*W +: W]), .b(dl_pt3_delta),
-        .out_valid(op_valid_nc[312]), .y(pt3_mul410)
+        .out_valid(op_valid_nc[312]), .y(pt3_mul410), .flags(fl_pt3_mul410)
     );
+    assign ev_ovf[308] = fl_pt3_mul410[0] && ev_q[175];
+    assign ev_unf[308] = fl_pt3_mul410[1] && ev_q[175];
+    assign ev_inv[308] = fl_pt3_mul410[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul410;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul410 (.clk(clk), .d(pt3_mul410), .q(dl_pt3_mul410));
     // pt3_add411 = pt2_vA_x + pt3_mul408   (ready @179/179/179)
     logic [W-1:0] pt3_add411;
+    logic [2:0] fl_pt3_add411;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add411 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_x[1*W +: W]), .b(dl_pt3_mul408), .sub(1'b0),
-        .out_valid(op_valid_nc[313]), .y(pt3_add411)
+        .out_valid(op_valid_nc[313]), .y(pt3_add411), .flags(fl_pt3_add411)
     );
+    assign ev_ovf[309] = fl_pt3_add411[0] && ev_q[179];
+    assign ev_unf[309] = fl_pt3_add411[1] && ev_q[179];
+    assign ev_inv[309] = fl_pt3_add411[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add411;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add411 (.clk(clk), .d(pt3_add411), .q(dl_pt3_add411));
     // pt3_add412 = pt2_vA_y + pt3_mul409   (ready @179/179/179)
     logic [W-1:0] pt3_add412;
+    logic [2:0] fl_pt3_add412;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add412 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_y[1*W +: W]), .b(dl_pt3_mul409), .sub(1'b0),
-        .out_valid(op_valid_nc[314]), .y(pt3_add412)
+        .out_valid(op_valid_nc[314]), .y(pt3_add412), .flags(fl_pt3_add412)
     );
+    assign ev_ovf[310] = fl_pt3_add412[0] && ev_q[179];
+    assign ev_unf[310] = fl_pt3_add412[1] && ev_q[179];
+    assign ev_inv[310] = fl_pt3_add412[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add412;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add412 (.clk(clk), .d(pt3_add412), .q(dl_pt3_add412));
     // pt3_add413 = pt2_vA_z + pt3_mul410   (ready @179/179/179)
     logic [W-1:0] pt3_add413;
+    logic [2:0] fl_pt3_add413;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add413 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_z[1*W +: W]), .b(dl_pt3_mul410), .sub(1'b0),
-        .out_valid(op_valid_nc[315]), .y(pt3_add413)
+        .out_valid(op_valid_nc[315]), .y(pt3_add413), .flags(fl_pt3_add413)
     );
+    assign ev_ovf[311] = fl_pt3_add413[0] && ev_q[179];
+    assign ev_unf[311] = fl_pt3_add413[1] && ev_q[179];
+    assign ev_inv[311] = fl_pt3_add413[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add413;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add413 (.clk(clk), .d(pt3_add413), .q(dl_pt3_add413));
@@ -3466,55 +4741,79 @@ module pgs_contact_pipe #(
         u_dl_pt3_vA_z (.clk(clk), .d(pt3_vA_z), .q(dl_pt3_vA_z));
     // pt3_mul417 = pt3_angA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul417;
+    logic [2:0] fl_pt3_mul417;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul417 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_x), .b(dl_pt3_delta),
-        .out_valid(op_valid_nc[316]), .y(pt3_mul417)
+        .out_valid(op_valid_nc[316]), .y(pt3_mul417), .flags(fl_pt3_mul417)
     );
+    assign ev_ovf[312] = fl_pt3_mul417[0] && ev_q[175];
+    assign ev_unf[312] = fl_pt3_mul417[1] && ev_q[175];
+    assign ev_inv[312] = fl_pt3_mul417[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul417;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul417 (.clk(clk), .d(pt3_mul417), .q(dl_pt3_mul417));
     // pt3_mul418 = pt3_angA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul418;
+    logic [2:0] fl_pt3_mul418;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul418 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_y), .b(dl_pt3_delta),
-        .out_valid(op_valid_nc[317]), .y(pt3_mul418)
+        .out_valid(op_valid_nc[317]), .y(pt3_mul418), .flags(fl_pt3_mul418)
     );
+    assign ev_ovf[313] = fl_pt3_mul418[0] && ev_q[175];
+    assign ev_unf[313] = fl_pt3_mul418[1] && ev_q[175];
+    assign ev_inv[313] = fl_pt3_mul418[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul418;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul418 (.clk(clk), .d(pt3_mul418), .q(dl_pt3_mul418));
     // pt3_mul419 = pt3_angA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul419;
+    logic [2:0] fl_pt3_mul419;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul419 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_z), .b(dl_pt3_delta),
-        .out_valid(op_valid_nc[318]), .y(pt3_mul419)
+        .out_valid(op_valid_nc[318]), .y(pt3_mul419), .flags(fl_pt3_mul419)
     );
+    assign ev_ovf[314] = fl_pt3_mul419[0] && ev_q[175];
+    assign ev_unf[314] = fl_pt3_mul419[1] && ev_q[175];
+    assign ev_inv[314] = fl_pt3_mul419[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul419;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul419 (.clk(clk), .d(pt3_mul419), .q(dl_pt3_mul419));
     // pt3_add420 = pt2_wA_x + pt3_mul417   (ready @179/179/179)
     logic [W-1:0] pt3_add420;
+    logic [2:0] fl_pt3_add420;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add420 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_x[1*W +: W]), .b(dl_pt3_mul417), .sub(1'b0),
-        .out_valid(op_valid_nc[319]), .y(pt3_add420)
+        .out_valid(op_valid_nc[319]), .y(pt3_add420), .flags(fl_pt3_add420)
     );
+    assign ev_ovf[315] = fl_pt3_add420[0] && ev_q[179];
+    assign ev_unf[315] = fl_pt3_add420[1] && ev_q[179];
+    assign ev_inv[315] = fl_pt3_add420[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add420;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add420 (.clk(clk), .d(pt3_add420), .q(dl_pt3_add420));
     // pt3_add421 = pt2_wA_y + pt3_mul418   (ready @179/179/179)
     logic [W-1:0] pt3_add421;
+    logic [2:0] fl_pt3_add421;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add421 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_y[1*W +: W]), .b(dl_pt3_mul418), .sub(1'b0),
-        .out_valid(op_valid_nc[320]), .y(pt3_add421)
+        .out_valid(op_valid_nc[320]), .y(pt3_add421), .flags(fl_pt3_add421)
     );
+    assign ev_ovf[316] = fl_pt3_add421[0] && ev_q[179];
+    assign ev_unf[316] = fl_pt3_add421[1] && ev_q[179];
+    assign ev_inv[316] = fl_pt3_add421[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add421;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add421 (.clk(clk), .d(pt3_add421), .q(dl_pt3_add421));
     // pt3_add422 = pt2_wA_z + pt3_mul419   (ready @179/179/179)
     logic [W-1:0] pt3_add422;
+    logic [2:0] fl_pt3_add422;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add422 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_z[1*W +: W]), .b(dl_pt3_mul419), .sub(1'b0),
-        .out_valid(op_valid_nc[321]), .y(pt3_add422)
+        .out_valid(op_valid_nc[321]), .y(pt3_add422), .flags(fl_pt3_add422)
     );
+    assign ev_ovf[317] = fl_pt3_add422[0] && ev_q[179];
+    assign ev_unf[317] = fl_pt3_add422[1] && ev_q[179];
+    assign ev_inv[317] = fl_pt3_add422[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add422;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_add422 (.clk(clk), .d(pt3_add422), .q(dl_pt3_add422));
@@ -3538,55 +4837,79 @@ module pgs_contact_pipe #(
         u_dl_pt3_wA_z (.clk(clk), .d(pt3_wA_z), .q(dl_pt3_wA_z));
     // pt3_mul426 = linB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul426;
+    logic [2:0] fl_pt3_mul426;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul426 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[3*W +: W]), .b(dl_pt3_delta),
-        .out_valid(op_valid_nc[322]), .y(pt3_mul426)
+        .out_valid(op_valid_nc[322]), .y(pt3_mul426), .flags(fl_pt3_mul426)
     );
+    assign ev_ovf[318] = fl_pt3_mul426[0] && ev_q[175];
+    assign ev_unf[318] = fl_pt3_mul426[1] && ev_q[175];
+    assign ev_inv[318] = fl_pt3_mul426[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul426;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul426 (.clk(clk), .d(pt3_mul426), .q(dl_pt3_mul426));
     // pt3_mul427 = linB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul427;
+    logic [2:0] fl_pt3_mul427;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul427 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[3*W +: W]), .b(dl_pt3_delta),
-        .out_valid(op_valid_nc[323]), .y(pt3_mul427)
+        .out_valid(op_valid_nc[323]), .y(pt3_mul427), .flags(fl_pt3_mul427)
     );
+    assign ev_ovf[319] = fl_pt3_mul427[0] && ev_q[175];
+    assign ev_unf[319] = fl_pt3_mul427[1] && ev_q[175];
+    assign ev_inv[319] = fl_pt3_mul427[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul427;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul427 (.clk(clk), .d(pt3_mul427), .q(dl_pt3_mul427));
     // pt3_mul428 = linB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul428;
+    logic [2:0] fl_pt3_mul428;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul428 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[3*W +: W]), .b(dl_pt3_delta),
-        .out_valid(op_valid_nc[324]), .y(pt3_mul428)
+        .out_valid(op_valid_nc[324]), .y(pt3_mul428), .flags(fl_pt3_mul428)
     );
+    assign ev_ovf[320] = fl_pt3_mul428[0] && ev_q[175];
+    assign ev_unf[320] = fl_pt3_mul428[1] && ev_q[175];
+    assign ev_inv[320] = fl_pt3_mul428[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul428;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul428 (.clk(clk), .d(pt3_mul428), .q(dl_pt3_mul428));
     // pt3_sub429 = pt2_vB_x - pt3_mul426   (ready @179/179/179)
     logic [W-1:0] pt3_sub429;
+    logic [2:0] fl_pt3_sub429;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub429 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_x[1*W +: W]), .b(dl_pt3_mul426), .sub(1'b1),
-        .out_valid(op_valid_nc[325]), .y(pt3_sub429)
+        .out_valid(op_valid_nc[325]), .y(pt3_sub429), .flags(fl_pt3_sub429)
     );
+    assign ev_ovf[321] = fl_pt3_sub429[0] && ev_q[179];
+    assign ev_unf[321] = fl_pt3_sub429[1] && ev_q[179];
+    assign ev_inv[321] = fl_pt3_sub429[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub429;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_sub429 (.clk(clk), .d(pt3_sub429), .q(dl_pt3_sub429));
     // pt3_sub430 = pt2_vB_y - pt3_mul427   (ready @179/179/179)
     logic [W-1:0] pt3_sub430;
+    logic [2:0] fl_pt3_sub430;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub430 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_y[1*W +: W]), .b(dl_pt3_mul427), .sub(1'b1),
-        .out_valid(op_valid_nc[326]), .y(pt3_sub430)
+        .out_valid(op_valid_nc[326]), .y(pt3_sub430), .flags(fl_pt3_sub430)
     );
+    assign ev_ovf[322] = fl_pt3_sub430[0] && ev_q[179];
+    assign ev_unf[322] = fl_pt3_sub430[1] && ev_q[179];
+    assign ev_inv[322] = fl_pt3_sub430[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub430;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_sub430 (.clk(clk), .d(pt3_sub430), .q(dl_pt3_sub430));
     // pt3_sub431 = pt2_vB_z - pt3_mul428   (ready @179/179/179)
     logic [W-1:0] pt3_sub431;
+    logic [2:0] fl_pt3_sub431;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub431 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_z[1*W +: W]), .b(dl_pt3_mul428), .sub(1'b1),
-        .out_valid(op_valid_nc[327]), .y(pt3_sub431)
+        .out_valid(op_valid_nc[327]), .y(pt3_sub431), .flags(fl_pt3_sub431)
     );
+    assign ev_ovf[323] = fl_pt3_sub431[0] && ev_q[179];
+    assign ev_unf[323] = fl_pt3_sub431[1] && ev_q[179];
+    assign ev_inv[323] = fl_pt3_sub431[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub431;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_sub431 (.clk(clk), .d(pt3_sub431), .q(dl_pt3_sub431));
@@ -3610,55 +4933,79 @@ module pgs_contact_pipe #(
         u_dl_pt3_vB_z (.clk(clk), .d(pt3_vB_z), .q(dl_pt3_vB_z));
     // pt3_mul435 = pt3_angB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul435;
+    logic [2:0] fl_pt3_mul435;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul435 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_x), .b(dl_pt3_delta),
-        .out_valid(op_valid_nc[328]), .y(pt3_mul435)
+        .out_valid(op_valid_nc[328]), .y(pt3_mul435), .flags(fl_pt3_mul435)
     );
+    assign ev_ovf[324] = fl_pt3_mul435[0] && ev_q[175];
+    assign ev_unf[324] = fl_pt3_mul435[1] && ev_q[175];
+    assign ev_inv[324] = fl_pt3_mul435[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul435;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul435 (.clk(clk), .d(pt3_mul435), .q(dl_pt3_mul435));
     // pt3_mul436 = pt3_angB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul436;
+    logic [2:0] fl_pt3_mul436;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul436 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_y), .b(dl_pt3_delta),
-        .out_valid(op_valid_nc[329]), .y(pt3_mul436)
+        .out_valid(op_valid_nc[329]), .y(pt3_mul436), .flags(fl_pt3_mul436)
     );
+    assign ev_ovf[325] = fl_pt3_mul436[0] && ev_q[175];
+    assign ev_unf[325] = fl_pt3_mul436[1] && ev_q[175];
+    assign ev_inv[325] = fl_pt3_mul436[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul436;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul436 (.clk(clk), .d(pt3_mul436), .q(dl_pt3_mul436));
     // pt3_mul437 = pt3_angB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul437;
+    logic [2:0] fl_pt3_mul437;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul437 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_z), .b(dl_pt3_delta),
-        .out_valid(op_valid_nc[330]), .y(pt3_mul437)
+        .out_valid(op_valid_nc[330]), .y(pt3_mul437), .flags(fl_pt3_mul437)
     );
+    assign ev_ovf[326] = fl_pt3_mul437[0] && ev_q[175];
+    assign ev_unf[326] = fl_pt3_mul437[1] && ev_q[175];
+    assign ev_inv[326] = fl_pt3_mul437[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul437;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_mul437 (.clk(clk), .d(pt3_mul437), .q(dl_pt3_mul437));
     // pt3_sub438 = pt2_wB_x - pt3_mul435   (ready @179/179/179)
     logic [W-1:0] pt3_sub438;
+    logic [2:0] fl_pt3_sub438;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub438 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_x[1*W +: W]), .b(dl_pt3_mul435), .sub(1'b1),
-        .out_valid(op_valid_nc[331]), .y(pt3_sub438)
+        .out_valid(op_valid_nc[331]), .y(pt3_sub438), .flags(fl_pt3_sub438)
     );
+    assign ev_ovf[327] = fl_pt3_sub438[0] && ev_q[179];
+    assign ev_unf[327] = fl_pt3_sub438[1] && ev_q[179];
+    assign ev_inv[327] = fl_pt3_sub438[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub438;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_sub438 (.clk(clk), .d(pt3_sub438), .q(dl_pt3_sub438));
     // pt3_sub439 = pt2_wB_y - pt3_mul436   (ready @179/179/179)
     logic [W-1:0] pt3_sub439;
+    logic [2:0] fl_pt3_sub439;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub439 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_y[1*W +: W]), .b(dl_pt3_mul436), .sub(1'b1),
-        .out_valid(op_valid_nc[332]), .y(pt3_sub439)
+        .out_valid(op_valid_nc[332]), .y(pt3_sub439), .flags(fl_pt3_sub439)
     );
+    assign ev_ovf[328] = fl_pt3_sub439[0] && ev_q[179];
+    assign ev_unf[328] = fl_pt3_sub439[1] && ev_q[179];
+    assign ev_inv[328] = fl_pt3_sub439[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub439;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_sub439 (.clk(clk), .d(pt3_sub439), .q(dl_pt3_sub439));
     // pt3_sub440 = pt2_wB_z - pt3_mul437   (ready @179/179/179)
     logic [W-1:0] pt3_sub440;
+    logic [2:0] fl_pt3_sub440;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub440 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_z[1*W +: W]), .b(dl_pt3_mul437), .sub(1'b1),
-        .out_valid(op_valid_nc[333]), .y(pt3_sub440)
+        .out_valid(op_valid_nc[333]), .y(pt3_sub440), .flags(fl_pt3_sub440)
     );
+    assign ev_ovf[329] = fl_pt3_sub440[0] && ev_q[179];
+    assign ev_unf[329] = fl_pt3_sub440[1] && ev_q[179];
+    assign ev_inv[329] = fl_pt3_sub440[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub440;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_pt3_sub440 (.clk(clk), .d(pt3_sub440), .q(dl_pt3_sub440));

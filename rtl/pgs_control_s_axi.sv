@@ -11,11 +11,18 @@
 //   0x10 num_bodies      0x18 num_manifolds  0x20 iterations  0x28 dt         (R/W, 8-byte stride)
 //   0x30 gravity_x       0x38 gravity_y      0x40 gravity_z   0x48 damping
 //   0x50 options         bit0 interleaved pass order
-//   0x58 status   (R/W1C) bits 7:0 sticky error flags (write 1 to clear), bits 15:8 code of the first
-//                 error since the flags were last all clear (0 = none; cleared with the last flag)
+//   0x58 status   (R/W1C) sticky error flags (write 1 to clear): bits 7:0 codes 1..8 (bit k-1 for code
+//                 k), bits 31:24 codes 9..16 (bit 24+k-9); bits 15:8 code of the first error since the
+//                 flags were last all clear (0 = none; cleared with the last flag); bits 23:16 read 0
 //   0x60 cycles[31:0]  0x64 cycles[63:32]   (R) ap_start to ap_done of the last/current run
-//   0x68 stall cycles  0x70 bubble cycles   0x78 issued manifold-passes   (R)
-// Unmapped addresses read 0 and every access answers OKAY (RRESP/BRESP = 0).
+//   0x68 stall cycles  0x70 bubble cycles   0x78 issued manifold-passes   0x7C rejected manifold-passes (R)
+//   0x80 / 0x84 / 0x88 floating-point overflow / underflow / invalid (NaN) events of the run (R)
+//   0x8C fp_status (R/W1C) sticky event flags: bit 0 overflow, bit 1 underflow, bit 2 invalid
+// Errors raised here: code 8 = AP_CTRL written with ap_start = 1 while a run is pending or busy (the
+// write does nothing else); code 9 = an access to an unmapped address. The upper words of the 8-byte
+// argument slots (0x14, 0x1C, ... 0x54) are reserved: they read 0, ignore writes and answer OKAY (a host
+// may write 64-bit arguments); every other address without a register reads 0, ignores writes and
+// answers SLVERR (RRESP/BRESP = 2'b10).
 // Ports s_axi_control_* (the HLS bundle name `control`). Handshake: one outstanding read and one outstanding write, like the HLS-generated slave (AWREADY
 // in the idle write state, then WREADY, then BVALID; ARREADY in the idle read state, then RVALID).
 // Reset: ap_rst_n, synchronous, active low.
@@ -68,12 +75,17 @@ module pgs_control_s_axi #(
     output logic [31:0]         gravity_z,
     output logic [31:0]         damping,
     output logic [31:0]         options,
-    input  wire  [7:0]          err_set,      // pulse: set these sticky error flags
+    input  wire  [7:0]          err_set,      // pulse: set these sticky error flags (codes 1..8)
     input  wire  [7:0]          err_code,     // code recorded with the first error
+    input  wire  [2:0]          fp_set,       // pulse: set these sticky event flags
     input  wire  [63:0]         stat_cycles,
     input  wire  [31:0]         stat_stalls,
     input  wire  [31:0]         stat_bubbles,
-    input  wire  [31:0]         stat_issued
+    input  wire  [31:0]         stat_issued,
+    input  wire  [31:0]         stat_rejected,
+    input  wire  [31:0]         stat_fp_overflow,
+    input  wire  [31:0]         stat_fp_underflow,
+    input  wire  [31:0]         stat_fp_invalid
 );
     localparam logic [ADDR_W-1:0] A_AP_CTRL = ADDR_W'(8'h00);
     localparam logic [ADDR_W-1:0] A_GIE     = ADDR_W'(8'h04);
@@ -94,6 +106,23 @@ module pgs_control_s_axi #(
     localparam logic [ADDR_W-1:0] A_STALL   = ADDR_W'(8'h68);
     localparam logic [ADDR_W-1:0] A_BUBBLE  = ADDR_W'(8'h70);
     localparam logic [ADDR_W-1:0] A_ISSUED  = ADDR_W'(8'h78);
+    localparam logic [ADDR_W-1:0] A_REJECT  = ADDR_W'(8'h7C);
+    localparam logic [ADDR_W-1:0] A_FP_OVF  = ADDR_W'(8'h80);
+    localparam logic [ADDR_W-1:0] A_FP_UNF  = ADDR_W'(8'h84);
+    localparam logic [ADDR_W-1:0] A_FP_INV  = ADDR_W'(8'h88);
+    localparam logic [ADDR_W-1:0] A_FP_STAT = ADDR_W'(8'h8C);
+    localparam logic [1:0]        OKAY      = 2'b00;
+    localparam logic [1:0]        SLVERR    = 2'b10;
+
+    // a register (or the reserved upper word of an argument slot) answers at this word address
+    function automatic logic mapped(input logic [ADDR_W-1:0] a);
+        unique case (a)
+            A_AP_CTRL, A_GIE, A_IER, A_ISR, A_NBODY, A_NMANI, A_ITERS, A_DT, A_GX, A_GY, A_GZ, A_DAMP, A_OPT,
+            A_STATUS, A_CYC_LO, A_CYC_HI, A_STALL, A_BUBBLE, A_ISSUED, A_REJECT, A_FP_OVF, A_FP_UNF, A_FP_INV,
+            A_FP_STAT: return 1'b1;
+            default:   return a >= A_NBODY + ADDR_W'(4) && a <= A_OPT + ADDR_W'(4) && a[2:0] == 3'd4;
+        endcase
+    endfunction
 
     wire rst = !ap_rst_n;
 
@@ -119,10 +148,14 @@ module pgs_control_s_axi #(
     always_ff @(posedge ap_clk) begin
         if (aw_hs) waddr <= {s_axi_control_AWADDR[ADDR_W-1:2], 2'b00};
     end
+    logic w_unmapped;   // the write being answered went to an unmapped address
+    always_ff @(posedge ap_clk) begin
+        if (w_hs) w_unmapped <= !mapped(waddr);
+    end
     assign s_axi_control_AWREADY = (wstate == WR_IDLE);
     assign s_axi_control_WREADY  = (wstate == WR_DATA);
     assign s_axi_control_BVALID  = (wstate == WR_RESP);
-    assign s_axi_control_BRESP   = 2'b00;
+    assign s_axi_control_BRESP   = w_unmapped ? SLVERR : OKAY;
 
     // byte-lane merge of a write into a 32-bit register
     function automatic logic [31:0] merge(input logic [31:0] old, input logic [31:0] data, input logic [3:0] strb);
@@ -153,15 +186,21 @@ module pgs_control_s_axi #(
     end
     assign s_axi_control_ARREADY = (rstate == RD_IDLE);
     assign s_axi_control_RVALID  = (rstate == RD_DATA);
-    assign s_axi_control_RRESP   = 2'b00;
 
     // ---------------- control / interrupt registers ----------------
-    logic       int_ap_start, int_auto_restart, int_ap_done, int_ap_ready, int_gie;
-    logic [1:0] int_ier, int_isr;
-    logic [7:0] int_err_flags, int_err_code;
+    logic        int_ap_start, int_auto_restart, int_ap_done, int_ap_ready, int_gie;
+    logic [1:0]  int_ier, int_isr;
+    logic [15:0] int_err_flags;   // codes 1..16 (bit k-1)
+    logic [7:0]  int_err_code;
+    logic [2:0]  int_fp_flags;
 
     wire wr_ctrl   = w_hs && (waddr == A_AP_CTRL);
     wire rd_ctrl   = ar_hs && (raddr == A_AP_CTRL);
+    // errors of this module: code 8 ap_start while a run is pending or busy, code 9 unmapped address
+    wire start_busy = wr_ctrl && wstrb4[0] && wdata32[0] && (int_ap_start || !ap_idle);
+    wire unmapped   = (w_hs && !mapped(waddr)) || (ar_hs && !mapped(raddr));
+    wire [15:0] flags_set = {7'd0, unmapped, start_busy || err_set[7], err_set[6:0]};
+    wire [7:0]  code_set  = unmapped ? 8'd9 : (start_busy ? 8'd8 : err_code);
 
     always_ff @(posedge ap_clk) begin
         if (rst) begin
@@ -172,8 +211,9 @@ module pgs_control_s_axi #(
             int_gie          <= 1'b0;
             int_ier          <= 2'b00;
             int_isr          <= 2'b00;
-            int_err_flags    <= 8'h00;
+            int_err_flags    <= 16'h0000;
             int_err_code     <= 8'h00;
+            int_fp_flags     <= 3'b000;
         end else begin
             // ap_start: set by a write of 1, cleared on the ap_ready handshake unless auto_restart
             if (wr_ctrl && wstrb4[0] && wdata32[0]) int_ap_start <= 1'b1;
@@ -193,13 +233,17 @@ module pgs_control_s_axi #(
             end
             // status: sticky flags, write 1 to clear (a new error in the same cycle wins)
             begin
-                logic [7:0] flags;
+                logic [15:0] flags;
                 flags = int_err_flags;
-                if (w_hs && waddr == A_STATUS && wstrb4[0]) flags = flags & ~wdata32[7:0];
-                if (flags == 8'h00) int_err_code <= 8'h00;
-                if (err_set != 8'h00 && (flags == 8'h00)) int_err_code <= err_code;
-                int_err_flags <= flags | err_set;
+                if (w_hs && waddr == A_STATUS && wstrb4[0]) flags[7:0]  = flags[7:0] & ~wdata32[7:0];
+                if (w_hs && waddr == A_STATUS && wstrb4[3]) flags[15:8] = flags[15:8] & ~wdata32[31:24];
+                if (flags == 16'h0000) int_err_code <= 8'h00;
+                if (flags_set != 16'h0000 && (flags == 16'h0000)) int_err_code <= code_set;
+                int_err_flags <= flags | flags_set;
             end
+            // fp_status: sticky event flags, write 1 to clear (a new event in the same cycle wins)
+            if (w_hs && waddr == A_FP_STAT && wstrb4[0]) int_fp_flags <= (int_fp_flags & ~wdata32[2:0]) | fp_set;
+            else int_fp_flags <= int_fp_flags | fp_set;
         end
     end
     assign ap_start  = int_ap_start;
@@ -262,17 +306,25 @@ module pgs_control_s_axi #(
             A_GZ:      rmux = r_gz;
             A_DAMP:    rmux = r_damping;
             A_OPT:     rmux = r_options;
-            A_STATUS:  rmux = {16'd0, int_err_code, int_err_flags};
+            A_STATUS:  rmux = {int_err_flags[15:8], 8'd0, int_err_code, int_err_flags[7:0]};
             A_CYC_LO:  rmux = stat_cycles[31:0];
             A_CYC_HI:  rmux = stat_cycles[63:32];
             A_STALL:   rmux = stat_stalls;
             A_BUBBLE:  rmux = stat_bubbles;
             A_ISSUED:  rmux = stat_issued;
+            A_REJECT:  rmux = stat_rejected;
+            A_FP_OVF:  rmux = stat_fp_overflow;
+            A_FP_UNF:  rmux = stat_fp_underflow;
+            A_FP_INV:  rmux = stat_fp_invalid;
+            A_FP_STAT: rmux = {29'd0, int_fp_flags};
             default:   rmux = 32'd0;
         endcase
     end
     always_ff @(posedge ap_clk) begin
-        if (ar_hs) s_axi_control_RDATA <= DATA_W'(rmux);
+        if (ar_hs) begin
+            s_axi_control_RDATA <= DATA_W'(rmux);
+            s_axi_control_RRESP <= mapped(raddr) ? OKAY : SLVERR;
+        end
     end
 endmodule
 

@@ -16,6 +16,9 @@
 // IInvA_x, 41 IInvA_y, 42 IInvA_z, 43 IInvB_x, 44 IInvB_y, 45 IInvB_z
 // Outputs: 0 lamT0, 1 lamT1, 2 vA_x, 3 vA_y, 4 vA_z, 5 wA_x, 6 wA_y, 7 wA_z, 8 vB_x, 9 vB_y, 10
 // vB_z, 11 wB_x, 12 wB_y, 13 wB_z
+// Events: the flags of the 194 add / sub / mul / div / sqrt operators, for inputs taken with
+// in_valid && in_count; ev_overflow / ev_underflow / ev_invalid = how many were raised in the
+// previous cycle (models/number_format.py defines them).
 // TEST_FRICTION_SIGN_BUG (test only, default 0 = the golden datapath): the velocity updates of both
 // tangent rows apply +delta instead of -delta (a wrong sign in the friction pass, for the
 // co-simulation test that expects the scoreboard to catch it).
@@ -29,7 +32,9 @@ module pgs_friction_pipe #(
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 46,
     localparam int N_OUT    = 14,
-    localparam int LATENCY  = 110
+    localparam int LATENCY  = 110,
+    localparam int N_FP_OPS = 194,
+    localparam int EV_W     = 16   // width of the event counts (the same in every module)
 ) (
     input  wire logic               clk,
     input  wire logic               rst,        // synchronous, active high; clears the valid pipeline
@@ -37,9 +42,13 @@ module pgs_friction_pipe #(
     input  wire logic [TAG_W-1:0]   in_tag,
     input  wire logic [N_IN*W-1:0]  in_data,
     input  wire logic               in_spin_damp,
+    input  wire logic               in_count,   // count this input's floating-point events
     output logic                    out_valid,
     output logic      [TAG_W-1:0]   out_tag,
-    output logic      [N_OUT*W-1:0] out_data
+    output logic      [N_OUT*W-1:0] out_data,
+    output logic      [EV_W-1:0]    ev_overflow,    // events raised in the previous cycle
+    output logic      [EV_W-1:0]    ev_underflow,
+    output logic      [EV_W-1:0]    ev_invalid
 );
     // The schedule assumes the operator latencies declared in rtl/fp (read by the generator):
     // fp_add 4, fp_mul 3, fp_div MAN_BITS + 5, fp_sqrt MAN_BITS + 4, fp_minmax LAT_MINMAX.
@@ -69,6 +78,24 @@ module pgs_friction_pipe #(
         .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
     );
     pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (.clk(clk), .d(in_tag), .q(out_tag));
+
+    // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);
+    // an operator's flags belong to the input taken at its ready cycle minus that many cycles.
+    localparam int EV_DEPTH = 110;
+    logic [EV_DEPTH:0] ev_q;
+    assign ev_q[0] = in_valid && in_count;
+    for (genvar i = 1; i <= EV_DEPTH; i++) begin : g_ev
+        always_ff @(posedge clk) begin
+            if (rst) ev_q[i] <= 1'b0;
+            else     ev_q[i] <= ev_q[i-1];
+        end
+    end
+    logic [N_FP_OPS-1:0] ev_ovf, ev_unf, ev_inv;   // flags of counted inputs, one bit per operator
+    always_ff @(posedge clk) begin
+        ev_overflow  <= EV_W'($countones(ev_ovf));
+        ev_underflow <= EV_W'($countones(ev_unf));
+        ev_invalid   <= EV_W'($countones(ev_inv));
+    end
 
     // Input words and their delay lines.
     logic [W-1:0] in_n_x;
@@ -315,37 +342,53 @@ module pgs_friction_pipe #(
         u_dl_skip (.clk(clk), .d(skip), .q(dl_skip));
     // add49 = lam_n0 + lam_n1   (ready @4/4/4)
     logic [W-1:0] add49;
+    logic [2:0] fl_add49;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add49 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam_n0), .b(dl_in_lam_n1), .sub(1'b0),
-        .out_valid(op_valid_nc[0]), .y(add49)
+        .out_valid(op_valid_nc[0]), .y(add49), .flags(fl_add49)
     );
+    assign ev_ovf[0] = fl_add49[0] && ev_q[4];
+    assign ev_unf[0] = fl_add49[1] && ev_q[4];
+    assign ev_inv[0] = fl_add49[2] && ev_q[4];
     logic [W-1:0] dl_add49;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_add49 (.clk(clk), .d(add49), .q(dl_add49));
     // add50 = lam_n2 + lam_n3   (ready @4/4/4)
     logic [W-1:0] add50;
+    logic [2:0] fl_add50;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add50 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam_n2), .b(dl_in_lam_n3), .sub(1'b0),
-        .out_valid(op_valid_nc[1]), .y(add50)
+        .out_valid(op_valid_nc[1]), .y(add50), .flags(fl_add50)
     );
+    assign ev_ovf[1] = fl_add50[0] && ev_q[4];
+    assign ev_unf[1] = fl_add50[1] && ev_q[4];
+    assign ev_inv[1] = fl_add50[2] && ev_q[4];
     logic [W-1:0] dl_add50;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_add50 (.clk(clk), .d(add50), .q(dl_add50));
     // add51 = add49 + add50   (ready @8/8/8)
     logic [W-1:0] add51;
+    logic [2:0] fl_add51;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add51 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_add49), .b(dl_add50), .sub(1'b0),
-        .out_valid(op_valid_nc[2]), .y(add51)
+        .out_valid(op_valid_nc[2]), .y(add51), .flags(fl_add51)
     );
+    assign ev_ovf[2] = fl_add51[0] && ev_q[8];
+    assign ev_unf[2] = fl_add51[1] && ev_q[8];
+    assign ev_inv[2] = fl_add51[2] && ev_q[8];
     logic [W-1:0] dl_add51;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_add51 (.clk(clk), .d(add51), .q(dl_add51));
     // limit = 0.7 * add51   (ready @11/11/11)
     logic [W-1:0] limit;
+    logic [2:0] fl_limit;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_limit (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_MU), .b(dl_add51),
-        .out_valid(op_valid_nc[3]), .y(limit)
+        .out_valid(op_valid_nc[3]), .y(limit), .flags(fl_limit)
     );
+    assign ev_ovf[3] = fl_limit[0] && ev_q[11];
+    assign ev_unf[3] = fl_limit[1] && ev_q[11];
+    assign ev_inv[3] = fl_limit[2] && ev_q[11];
     logic [3*W-1:0] dl_limit;
     pgs_delay #(.WIDTH(W), .DEPTH(66), .N_TAPS(3), .TAPS({32'(66), 32'(27), 32'(0)}))
         u_dl_limit (.clk(clk), .d(limit), .q(dl_limit));
@@ -357,424 +400,612 @@ module pgs_friction_pipe #(
         u_dl_neg_limit (.clk(clk), .d(neg_limit), .q(dl_neg_limit));
     // rA_x = c_x - xA_x   (ready @4/4/4)
     logic [W-1:0] rA_x;
+    logic [2:0] fl_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_x), .b(dl_in_xA_x), .sub(1'b1),
-        .out_valid(op_valid_nc[4]), .y(rA_x)
+        .out_valid(op_valid_nc[4]), .y(rA_x), .flags(fl_rA_x)
     );
+    assign ev_ovf[4] = fl_rA_x[0] && ev_q[4];
+    assign ev_unf[4] = fl_rA_x[1] && ev_q[4];
+    assign ev_inv[4] = fl_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_rA_x (.clk(clk), .d(rA_x), .q(dl_rA_x));
     // rA_y = c_y - xA_y   (ready @4/4/4)
     logic [W-1:0] rA_y;
+    logic [2:0] fl_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_y), .b(dl_in_xA_y), .sub(1'b1),
-        .out_valid(op_valid_nc[5]), .y(rA_y)
+        .out_valid(op_valid_nc[5]), .y(rA_y), .flags(fl_rA_y)
     );
+    assign ev_ovf[5] = fl_rA_y[0] && ev_q[4];
+    assign ev_unf[5] = fl_rA_y[1] && ev_q[4];
+    assign ev_inv[5] = fl_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_rA_y (.clk(clk), .d(rA_y), .q(dl_rA_y));
     // rA_z = c_z - xA_z   (ready @4/4/4)
     logic [W-1:0] rA_z;
+    logic [2:0] fl_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_z), .b(dl_in_xA_z), .sub(1'b1),
-        .out_valid(op_valid_nc[6]), .y(rA_z)
+        .out_valid(op_valid_nc[6]), .y(rA_z), .flags(fl_rA_z)
     );
+    assign ev_ovf[6] = fl_rA_z[0] && ev_q[4];
+    assign ev_unf[6] = fl_rA_z[1] && ev_q[4];
+    assign ev_inv[6] = fl_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_rA_z (.clk(clk), .d(rA_z), .q(dl_rA_z));
     // rB_x = c_x - xB_x   (ready @4/4/4)
     logic [W-1:0] rB_x;
+    logic [2:0] fl_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_x), .b(dl_in_xB_x), .sub(1'b1),
-        .out_valid(op_valid_nc[7]), .y(rB_x)
+        .out_valid(op_valid_nc[7]), .y(rB_x), .flags(fl_rB_x)
     );
+    assign ev_ovf[7] = fl_rB_x[0] && ev_q[4];
+    assign ev_unf[7] = fl_rB_x[1] && ev_q[4];
+    assign ev_inv[7] = fl_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_rB_x (.clk(clk), .d(rB_x), .q(dl_rB_x));
     // rB_y = c_y - xB_y   (ready @4/4/4)
     logic [W-1:0] rB_y;
+    logic [2:0] fl_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_y), .b(dl_in_xB_y), .sub(1'b1),
-        .out_valid(op_valid_nc[8]), .y(rB_y)
+        .out_valid(op_valid_nc[8]), .y(rB_y), .flags(fl_rB_y)
     );
+    assign ev_ovf[8] = fl_rB_y[0] && ev_q[4];
+    assign ev_unf[8] = fl_rB_y[1] && ev_q[4];
+    assign ev_inv[8] = fl_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_rB_y (.clk(clk), .d(rB_y), .q(dl_rB_y));
     // rB_z = c_z - xB_z   (ready @4/4/4)
     logic [W-1:0] rB_z;
+    logic [2:0] fl_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_z), .b(dl_in_xB_z), .sub(1'b1),
-        .out_valid(op_valid_nc[9]), .y(rB_z)
+        .out_valid(op_valid_nc[9]), .y(rB_z), .flags(fl_rB_z)
     );
+    assign ev_ovf[9] = fl_rB_z[0] && ev_q[4];
+    assign ev_unf[9] = fl_rB_z[1] && ev_q[4];
+    assign ev_inv[9] = fl_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_rB_z (.clk(clk), .d(rB_z), .q(dl_rB_z));
     // t0_mul60 = rA_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul60;
+    logic [2:0] fl_t0_mul60;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul60 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t0_z[0*W +: W]),
-        .out_valid(op_valid_nc[10]), .y(t0_mul60)
+        .out_valid(op_valid_nc[10]), .y(t0_mul60), .flags(fl_t0_mul60)
     );
+    assign ev_ovf[10] = fl_t0_mul60[0] && ev_q[7];
+    assign ev_unf[10] = fl_t0_mul60[1] && ev_q[7];
+    assign ev_inv[10] = fl_t0_mul60[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul60;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul60 (.clk(clk), .d(t0_mul60), .q(dl_t0_mul60));
     // t0_mul61 = rA_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul61;
+    logic [2:0] fl_t0_mul61;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul61 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t0_y[0*W +: W]),
-        .out_valid(op_valid_nc[11]), .y(t0_mul61)
+        .out_valid(op_valid_nc[11]), .y(t0_mul61), .flags(fl_t0_mul61)
     );
+    assign ev_ovf[11] = fl_t0_mul61[0] && ev_q[7];
+    assign ev_unf[11] = fl_t0_mul61[1] && ev_q[7];
+    assign ev_inv[11] = fl_t0_mul61[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul61;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul61 (.clk(clk), .d(t0_mul61), .q(dl_t0_mul61));
     // t0_cA_x = t0_mul60 - t0_mul61   (ready @11/11/11)
     logic [W-1:0] t0_cA_x;
+    logic [2:0] fl_t0_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul60), .b(dl_t0_mul61), .sub(1'b1),
-        .out_valid(op_valid_nc[12]), .y(t0_cA_x)
+        .out_valid(op_valid_nc[12]), .y(t0_cA_x), .flags(fl_t0_cA_x)
     );
+    assign ev_ovf[12] = fl_t0_cA_x[0] && ev_q[11];
+    assign ev_unf[12] = fl_t0_cA_x[1] && ev_q[11];
+    assign ev_inv[12] = fl_t0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_cA_x (.clk(clk), .d(t0_cA_x), .q(dl_t0_cA_x));
     // t0_mul63 = rA_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul63;
+    logic [2:0] fl_t0_mul63;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul63 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t0_x[0*W +: W]),
-        .out_valid(op_valid_nc[13]), .y(t0_mul63)
+        .out_valid(op_valid_nc[13]), .y(t0_mul63), .flags(fl_t0_mul63)
     );
+    assign ev_ovf[13] = fl_t0_mul63[0] && ev_q[7];
+    assign ev_unf[13] = fl_t0_mul63[1] && ev_q[7];
+    assign ev_inv[13] = fl_t0_mul63[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul63;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul63 (.clk(clk), .d(t0_mul63), .q(dl_t0_mul63));
     // t0_mul64 = rA_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul64;
+    logic [2:0] fl_t0_mul64;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul64 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t0_z[0*W +: W]),
-        .out_valid(op_valid_nc[14]), .y(t0_mul64)
+        .out_valid(op_valid_nc[14]), .y(t0_mul64), .flags(fl_t0_mul64)
     );
+    assign ev_ovf[14] = fl_t0_mul64[0] && ev_q[7];
+    assign ev_unf[14] = fl_t0_mul64[1] && ev_q[7];
+    assign ev_inv[14] = fl_t0_mul64[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul64;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul64 (.clk(clk), .d(t0_mul64), .q(dl_t0_mul64));
     // t0_cA_y = t0_mul63 - t0_mul64   (ready @11/11/11)
     logic [W-1:0] t0_cA_y;
+    logic [2:0] fl_t0_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul63), .b(dl_t0_mul64), .sub(1'b1),
-        .out_valid(op_valid_nc[15]), .y(t0_cA_y)
+        .out_valid(op_valid_nc[15]), .y(t0_cA_y), .flags(fl_t0_cA_y)
     );
+    assign ev_ovf[15] = fl_t0_cA_y[0] && ev_q[11];
+    assign ev_unf[15] = fl_t0_cA_y[1] && ev_q[11];
+    assign ev_inv[15] = fl_t0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_cA_y (.clk(clk), .d(t0_cA_y), .q(dl_t0_cA_y));
     // t0_mul66 = rA_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul66;
+    logic [2:0] fl_t0_mul66;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul66 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t0_y[0*W +: W]),
-        .out_valid(op_valid_nc[16]), .y(t0_mul66)
+        .out_valid(op_valid_nc[16]), .y(t0_mul66), .flags(fl_t0_mul66)
     );
+    assign ev_ovf[16] = fl_t0_mul66[0] && ev_q[7];
+    assign ev_unf[16] = fl_t0_mul66[1] && ev_q[7];
+    assign ev_inv[16] = fl_t0_mul66[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul66;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul66 (.clk(clk), .d(t0_mul66), .q(dl_t0_mul66));
     // t0_mul67 = rA_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul67;
+    logic [2:0] fl_t0_mul67;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul67 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t0_x[0*W +: W]),
-        .out_valid(op_valid_nc[17]), .y(t0_mul67)
+        .out_valid(op_valid_nc[17]), .y(t0_mul67), .flags(fl_t0_mul67)
     );
+    assign ev_ovf[17] = fl_t0_mul67[0] && ev_q[7];
+    assign ev_unf[17] = fl_t0_mul67[1] && ev_q[7];
+    assign ev_inv[17] = fl_t0_mul67[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul67;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul67 (.clk(clk), .d(t0_mul67), .q(dl_t0_mul67));
     // t0_cA_z = t0_mul66 - t0_mul67   (ready @11/11/11)
     logic [W-1:0] t0_cA_z;
+    logic [2:0] fl_t0_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul66), .b(dl_t0_mul67), .sub(1'b1),
-        .out_valid(op_valid_nc[18]), .y(t0_cA_z)
+        .out_valid(op_valid_nc[18]), .y(t0_cA_z), .flags(fl_t0_cA_z)
     );
+    assign ev_ovf[18] = fl_t0_cA_z[0] && ev_q[11];
+    assign ev_unf[18] = fl_t0_cA_z[1] && ev_q[11];
+    assign ev_inv[18] = fl_t0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_cA_z (.clk(clk), .d(t0_cA_z), .q(dl_t0_cA_z));
     // t0_mul69 = rB_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul69;
+    logic [2:0] fl_t0_mul69;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul69 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t0_z[0*W +: W]),
-        .out_valid(op_valid_nc[19]), .y(t0_mul69)
+        .out_valid(op_valid_nc[19]), .y(t0_mul69), .flags(fl_t0_mul69)
     );
+    assign ev_ovf[19] = fl_t0_mul69[0] && ev_q[7];
+    assign ev_unf[19] = fl_t0_mul69[1] && ev_q[7];
+    assign ev_inv[19] = fl_t0_mul69[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul69;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul69 (.clk(clk), .d(t0_mul69), .q(dl_t0_mul69));
     // t0_mul70 = rB_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul70;
+    logic [2:0] fl_t0_mul70;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul70 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t0_y[0*W +: W]),
-        .out_valid(op_valid_nc[20]), .y(t0_mul70)
+        .out_valid(op_valid_nc[20]), .y(t0_mul70), .flags(fl_t0_mul70)
     );
+    assign ev_ovf[20] = fl_t0_mul70[0] && ev_q[7];
+    assign ev_unf[20] = fl_t0_mul70[1] && ev_q[7];
+    assign ev_inv[20] = fl_t0_mul70[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul70;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul70 (.clk(clk), .d(t0_mul70), .q(dl_t0_mul70));
     // t0_cB_x = t0_mul69 - t0_mul70   (ready @11/11/11)
     logic [W-1:0] t0_cB_x;
+    logic [2:0] fl_t0_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul69), .b(dl_t0_mul70), .sub(1'b1),
-        .out_valid(op_valid_nc[21]), .y(t0_cB_x)
+        .out_valid(op_valid_nc[21]), .y(t0_cB_x), .flags(fl_t0_cB_x)
     );
+    assign ev_ovf[21] = fl_t0_cB_x[0] && ev_q[11];
+    assign ev_unf[21] = fl_t0_cB_x[1] && ev_q[11];
+    assign ev_inv[21] = fl_t0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_cB_x (.clk(clk), .d(t0_cB_x), .q(dl_t0_cB_x));
     // t0_mul72 = rB_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul72;
+    logic [2:0] fl_t0_mul72;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul72 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t0_x[0*W +: W]),
-        .out_valid(op_valid_nc[22]), .y(t0_mul72)
+        .out_valid(op_valid_nc[22]), .y(t0_mul72), .flags(fl_t0_mul72)
     );
+    assign ev_ovf[22] = fl_t0_mul72[0] && ev_q[7];
+    assign ev_unf[22] = fl_t0_mul72[1] && ev_q[7];
+    assign ev_inv[22] = fl_t0_mul72[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul72;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul72 (.clk(clk), .d(t0_mul72), .q(dl_t0_mul72));
     // t0_mul73 = rB_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul73;
+    logic [2:0] fl_t0_mul73;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul73 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t0_z[0*W +: W]),
-        .out_valid(op_valid_nc[23]), .y(t0_mul73)
+        .out_valid(op_valid_nc[23]), .y(t0_mul73), .flags(fl_t0_mul73)
     );
+    assign ev_ovf[23] = fl_t0_mul73[0] && ev_q[7];
+    assign ev_unf[23] = fl_t0_mul73[1] && ev_q[7];
+    assign ev_inv[23] = fl_t0_mul73[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul73;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul73 (.clk(clk), .d(t0_mul73), .q(dl_t0_mul73));
     // t0_cB_y = t0_mul72 - t0_mul73   (ready @11/11/11)
     logic [W-1:0] t0_cB_y;
+    logic [2:0] fl_t0_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul72), .b(dl_t0_mul73), .sub(1'b1),
-        .out_valid(op_valid_nc[24]), .y(t0_cB_y)
+        .out_valid(op_valid_nc[24]), .y(t0_cB_y), .flags(fl_t0_cB_y)
     );
+    assign ev_ovf[24] = fl_t0_cB_y[0] && ev_q[11];
+    assign ev_unf[24] = fl_t0_cB_y[1] && ev_q[11];
+    assign ev_inv[24] = fl_t0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_cB_y (.clk(clk), .d(t0_cB_y), .q(dl_t0_cB_y));
     // t0_mul75 = rB_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul75;
+    logic [2:0] fl_t0_mul75;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul75 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t0_y[0*W +: W]),
-        .out_valid(op_valid_nc[25]), .y(t0_mul75)
+        .out_valid(op_valid_nc[25]), .y(t0_mul75), .flags(fl_t0_mul75)
     );
+    assign ev_ovf[25] = fl_t0_mul75[0] && ev_q[7];
+    assign ev_unf[25] = fl_t0_mul75[1] && ev_q[7];
+    assign ev_inv[25] = fl_t0_mul75[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul75;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul75 (.clk(clk), .d(t0_mul75), .q(dl_t0_mul75));
     // t0_mul76 = rB_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul76;
+    logic [2:0] fl_t0_mul76;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul76 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t0_x[0*W +: W]),
-        .out_valid(op_valid_nc[26]), .y(t0_mul76)
+        .out_valid(op_valid_nc[26]), .y(t0_mul76), .flags(fl_t0_mul76)
     );
+    assign ev_ovf[26] = fl_t0_mul76[0] && ev_q[7];
+    assign ev_unf[26] = fl_t0_mul76[1] && ev_q[7];
+    assign ev_inv[26] = fl_t0_mul76[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul76;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul76 (.clk(clk), .d(t0_mul76), .q(dl_t0_mul76));
     // t0_cB_z = t0_mul75 - t0_mul76   (ready @11/11/11)
     logic [W-1:0] t0_cB_z;
+    logic [2:0] fl_t0_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul75), .b(dl_t0_mul76), .sub(1'b1),
-        .out_valid(op_valid_nc[27]), .y(t0_cB_z)
+        .out_valid(op_valid_nc[27]), .y(t0_cB_z), .flags(fl_t0_cB_z)
     );
+    assign ev_ovf[27] = fl_t0_cB_z[0] && ev_q[11];
+    assign ev_unf[27] = fl_t0_cB_z[1] && ev_q[11];
+    assign ev_inv[27] = fl_t0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_cB_z (.clk(clk), .d(t0_cB_z), .q(dl_t0_cB_z));
     // t0_mul78 = t0_x * vA_x   (ready @3/3/3)
     logic [W-1:0] t0_mul78;
+    logic [2:0] fl_t0_mul78;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul78 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vA_x[0*W +: W]),
-        .out_valid(op_valid_nc[28]), .y(t0_mul78)
+        .out_valid(op_valid_nc[28]), .y(t0_mul78), .flags(fl_t0_mul78)
     );
+    assign ev_ovf[28] = fl_t0_mul78[0] && ev_q[3];
+    assign ev_unf[28] = fl_t0_mul78[1] && ev_q[3];
+    assign ev_inv[28] = fl_t0_mul78[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul78;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul78 (.clk(clk), .d(t0_mul78), .q(dl_t0_mul78));
     // t0_mul79 = t0_y * vA_y   (ready @3/3/3)
     logic [W-1:0] t0_mul79;
+    logic [2:0] fl_t0_mul79;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul79 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vA_y[0*W +: W]),
-        .out_valid(op_valid_nc[29]), .y(t0_mul79)
+        .out_valid(op_valid_nc[29]), .y(t0_mul79), .flags(fl_t0_mul79)
     );
+    assign ev_ovf[29] = fl_t0_mul79[0] && ev_q[3];
+    assign ev_unf[29] = fl_t0_mul79[1] && ev_q[3];
+    assign ev_inv[29] = fl_t0_mul79[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul79;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul79 (.clk(clk), .d(t0_mul79), .q(dl_t0_mul79));
     // t0_add80 = t0_mul78 + t0_mul79   (ready @7/7/7)
     logic [W-1:0] t0_add80;
+    logic [2:0] fl_t0_add80;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add80 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul78), .b(dl_t0_mul79), .sub(1'b0),
-        .out_valid(op_valid_nc[30]), .y(t0_add80)
+        .out_valid(op_valid_nc[30]), .y(t0_add80), .flags(fl_t0_add80)
     );
+    assign ev_ovf[30] = fl_t0_add80[0] && ev_q[7];
+    assign ev_unf[30] = fl_t0_add80[1] && ev_q[7];
+    assign ev_inv[30] = fl_t0_add80[2] && ev_q[7];
     logic [W-1:0] dl_t0_add80;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add80 (.clk(clk), .d(t0_add80), .q(dl_t0_add80));
     // t0_mul81 = t0_z * vA_z   (ready @3/3/3)
     logic [W-1:0] t0_mul81;
+    logic [2:0] fl_t0_mul81;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul81 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vA_z[0*W +: W]),
-        .out_valid(op_valid_nc[31]), .y(t0_mul81)
+        .out_valid(op_valid_nc[31]), .y(t0_mul81), .flags(fl_t0_mul81)
     );
+    assign ev_ovf[31] = fl_t0_mul81[0] && ev_q[3];
+    assign ev_unf[31] = fl_t0_mul81[1] && ev_q[3];
+    assign ev_inv[31] = fl_t0_mul81[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul81;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_t0_mul81 (.clk(clk), .d(t0_mul81), .q(dl_t0_mul81));
     // t0_add82 = t0_add80 + t0_mul81   (ready @11/11/11)
     logic [W-1:0] t0_add82;
+    logic [2:0] fl_t0_add82;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add82 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add80), .b(dl_t0_mul81), .sub(1'b0),
-        .out_valid(op_valid_nc[32]), .y(t0_add82)
+        .out_valid(op_valid_nc[32]), .y(t0_add82), .flags(fl_t0_add82)
     );
+    assign ev_ovf[32] = fl_t0_add82[0] && ev_q[11];
+    assign ev_unf[32] = fl_t0_add82[1] && ev_q[11];
+    assign ev_inv[32] = fl_t0_add82[2] && ev_q[11];
     logic [W-1:0] dl_t0_add82;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add82 (.clk(clk), .d(t0_add82), .q(dl_t0_add82));
     // t0_mul83 = t0_x * vB_x   (ready @3/3/3)
     logic [W-1:0] t0_mul83;
+    logic [2:0] fl_t0_mul83;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul83 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vB_x[0*W +: W]),
-        .out_valid(op_valid_nc[33]), .y(t0_mul83)
+        .out_valid(op_valid_nc[33]), .y(t0_mul83), .flags(fl_t0_mul83)
     );
+    assign ev_ovf[33] = fl_t0_mul83[0] && ev_q[3];
+    assign ev_unf[33] = fl_t0_mul83[1] && ev_q[3];
+    assign ev_inv[33] = fl_t0_mul83[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul83;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul83 (.clk(clk), .d(t0_mul83), .q(dl_t0_mul83));
     // t0_mul84 = t0_y * vB_y   (ready @3/3/3)
     logic [W-1:0] t0_mul84;
+    logic [2:0] fl_t0_mul84;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul84 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vB_y[0*W +: W]),
-        .out_valid(op_valid_nc[34]), .y(t0_mul84)
+        .out_valid(op_valid_nc[34]), .y(t0_mul84), .flags(fl_t0_mul84)
     );
+    assign ev_ovf[34] = fl_t0_mul84[0] && ev_q[3];
+    assign ev_unf[34] = fl_t0_mul84[1] && ev_q[3];
+    assign ev_inv[34] = fl_t0_mul84[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul84;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul84 (.clk(clk), .d(t0_mul84), .q(dl_t0_mul84));
     // t0_add85 = t0_mul83 + t0_mul84   (ready @7/7/7)
     logic [W-1:0] t0_add85;
+    logic [2:0] fl_t0_add85;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add85 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul83), .b(dl_t0_mul84), .sub(1'b0),
-        .out_valid(op_valid_nc[35]), .y(t0_add85)
+        .out_valid(op_valid_nc[35]), .y(t0_add85), .flags(fl_t0_add85)
     );
+    assign ev_ovf[35] = fl_t0_add85[0] && ev_q[7];
+    assign ev_unf[35] = fl_t0_add85[1] && ev_q[7];
+    assign ev_inv[35] = fl_t0_add85[2] && ev_q[7];
     logic [W-1:0] dl_t0_add85;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add85 (.clk(clk), .d(t0_add85), .q(dl_t0_add85));
     // t0_mul86 = t0_z * vB_z   (ready @3/3/3)
     logic [W-1:0] t0_mul86;
+    logic [2:0] fl_t0_mul86;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul86 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vB_z[0*W +: W]),
-        .out_valid(op_valid_nc[36]), .y(t0_mul86)
+        .out_valid(op_valid_nc[36]), .y(t0_mul86), .flags(fl_t0_mul86)
     );
+    assign ev_ovf[36] = fl_t0_mul86[0] && ev_q[3];
+    assign ev_unf[36] = fl_t0_mul86[1] && ev_q[3];
+    assign ev_inv[36] = fl_t0_mul86[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul86;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_t0_mul86 (.clk(clk), .d(t0_mul86), .q(dl_t0_mul86));
     // t0_add87 = t0_add85 + t0_mul86   (ready @11/11/11)
     logic [W-1:0] t0_add87;
+    logic [2:0] fl_t0_add87;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add87 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add85), .b(dl_t0_mul86), .sub(1'b0),
-        .out_valid(op_valid_nc[37]), .y(t0_add87)
+        .out_valid(op_valid_nc[37]), .y(t0_add87), .flags(fl_t0_add87)
     );
+    assign ev_ovf[37] = fl_t0_add87[0] && ev_q[11];
+    assign ev_unf[37] = fl_t0_add87[1] && ev_q[11];
+    assign ev_inv[37] = fl_t0_add87[2] && ev_q[11];
     logic [W-1:0] dl_t0_add87;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add87 (.clk(clk), .d(t0_add87), .q(dl_t0_add87));
     // t0_sub88 = t0_add82 - t0_add87   (ready @15/15/15)
     logic [W-1:0] t0_sub88;
+    logic [2:0] fl_t0_sub88;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub88 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add82), .b(dl_t0_add87), .sub(1'b1),
-        .out_valid(op_valid_nc[38]), .y(t0_sub88)
+        .out_valid(op_valid_nc[38]), .y(t0_sub88), .flags(fl_t0_sub88)
     );
+    assign ev_ovf[38] = fl_t0_sub88[0] && ev_q[15];
+    assign ev_unf[38] = fl_t0_sub88[1] && ev_q[15];
+    assign ev_inv[38] = fl_t0_sub88[2] && ev_q[15];
     logic [W-1:0] dl_t0_sub88;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
         u_dl_t0_sub88 (.clk(clk), .d(t0_sub88), .q(dl_t0_sub88));
     // t0_mul89 = t0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] t0_mul89;
+    logic [2:0] fl_t0_mul89;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul89 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_x), .b(dl_in_wA_x[0*W +: W]),
-        .out_valid(op_valid_nc[39]), .y(t0_mul89)
+        .out_valid(op_valid_nc[39]), .y(t0_mul89), .flags(fl_t0_mul89)
     );
+    assign ev_ovf[39] = fl_t0_mul89[0] && ev_q[14];
+    assign ev_unf[39] = fl_t0_mul89[1] && ev_q[14];
+    assign ev_inv[39] = fl_t0_mul89[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul89;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul89 (.clk(clk), .d(t0_mul89), .q(dl_t0_mul89));
     // t0_mul90 = t0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] t0_mul90;
+    logic [2:0] fl_t0_mul90;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul90 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_y), .b(dl_in_wA_y[0*W +: W]),
-        .out_valid(op_valid_nc[40]), .y(t0_mul90)
+        .out_valid(op_valid_nc[40]), .y(t0_mul90), .flags(fl_t0_mul90)
     );
+    assign ev_ovf[40] = fl_t0_mul90[0] && ev_q[14];
+    assign ev_unf[40] = fl_t0_mul90[1] && ev_q[14];
+    assign ev_inv[40] = fl_t0_mul90[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul90;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul90 (.clk(clk), .d(t0_mul90), .q(dl_t0_mul90));
     // t0_add91 = t0_mul89 + t0_mul90   (ready @18/18/18)
     logic [W-1:0] t0_add91;
+    logic [2:0] fl_t0_add91;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add91 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul89), .b(dl_t0_mul90), .sub(1'b0),
-        .out_valid(op_valid_nc[41]), .y(t0_add91)
+        .out_valid(op_valid_nc[41]), .y(t0_add91), .flags(fl_t0_add91)
     );
+    assign ev_ovf[41] = fl_t0_add91[0] && ev_q[18];
+    assign ev_unf[41] = fl_t0_add91[1] && ev_q[18];
+    assign ev_inv[41] = fl_t0_add91[2] && ev_q[18];
     logic [W-1:0] dl_t0_add91;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add91 (.clk(clk), .d(t0_add91), .q(dl_t0_add91));
     // t0_mul92 = t0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] t0_mul92;
+    logic [2:0] fl_t0_mul92;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul92 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_z), .b(dl_in_wA_z[0*W +: W]),
-        .out_valid(op_valid_nc[42]), .y(t0_mul92)
+        .out_valid(op_valid_nc[42]), .y(t0_mul92), .flags(fl_t0_mul92)
     );
+    assign ev_ovf[42] = fl_t0_mul92[0] && ev_q[14];
+    assign ev_unf[42] = fl_t0_mul92[1] && ev_q[14];
+    assign ev_inv[42] = fl_t0_mul92[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul92;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_t0_mul92 (.clk(clk), .d(t0_mul92), .q(dl_t0_mul92));
     // t0_add93 = t0_add91 + t0_mul92   (ready @22/22/22)
     logic [W-1:0] t0_add93;
+    logic [2:0] fl_t0_add93;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add93 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add91), .b(dl_t0_mul92), .sub(1'b0),
-        .out_valid(op_valid_nc[43]), .y(t0_add93)
+        .out_valid(op_valid_nc[43]), .y(t0_add93), .flags(fl_t0_add93)
     );
+    assign ev_ovf[43] = fl_t0_add93[0] && ev_q[22];
+    assign ev_unf[43] = fl_t0_add93[1] && ev_q[22];
+    assign ev_inv[43] = fl_t0_add93[2] && ev_q[22];
     logic [W-1:0] dl_t0_add93;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add93 (.clk(clk), .d(t0_add93), .q(dl_t0_add93));
     // t0_mul94 = t0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] t0_mul94;
+    logic [2:0] fl_t0_mul94;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul94 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_x), .b(dl_in_wB_x[0*W +: W]),
-        .out_valid(op_valid_nc[44]), .y(t0_mul94)
+        .out_valid(op_valid_nc[44]), .y(t0_mul94), .flags(fl_t0_mul94)
     );
+    assign ev_ovf[44] = fl_t0_mul94[0] && ev_q[14];
+    assign ev_unf[44] = fl_t0_mul94[1] && ev_q[14];
+    assign ev_inv[44] = fl_t0_mul94[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul94;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul94 (.clk(clk), .d(t0_mul94), .q(dl_t0_mul94));
     // t0_mul95 = t0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] t0_mul95;
+    logic [2:0] fl_t0_mul95;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul95 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_y), .b(dl_in_wB_y[0*W +: W]),
-        .out_valid(op_valid_nc[45]), .y(t0_mul95)
+        .out_valid(op_valid_nc[45]), .y(t0_mul95), .flags(fl_t0_mul95)
     );
+    assign ev_ovf[45] = fl_t0_mul95[0] && ev_q[14];
+    assign ev_unf[45] = fl_t0_mul95[1] && ev_q[14];
+    assign ev_inv[45] = fl_t0_mul95[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul95;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul95 (.clk(clk), .d(t0_mul95), .q(dl_t0_mul95));
     // t0_add96 = t0_mul94 + t0_mul95   (ready @18/18/18)
     logic [W-1:0] t0_add96;
+    logic [2:0] fl_t0_add96;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add96 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul94), .b(dl_t0_mul95), .sub(1'b0),
-        .out_valid(op_valid_nc[46]), .y(t0_add96)
+        .out_valid(op_valid_nc[46]), .y(t0_add96), .flags(fl_t0_add96)
     );
+    assign ev_ovf[46] = fl_t0_add96[0] && ev_q[18];
+    assign ev_unf[46] = fl_t0_add96[1] && ev_q[18];
+    assign ev_inv[46] = fl_t0_add96[2] && ev_q[18];
     logic [W-1:0] dl_t0_add96;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add96 (.clk(clk), .d(t0_add96), .q(dl_t0_add96));
     // t0_mul97 = t0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] t0_mul97;
+    logic [2:0] fl_t0_mul97;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul97 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_z), .b(dl_in_wB_z[0*W +: W]),
-        .out_valid(op_valid_nc[47]), .y(t0_mul97)
+        .out_valid(op_valid_nc[47]), .y(t0_mul97), .flags(fl_t0_mul97)
     );
+    assign ev_ovf[47] = fl_t0_mul97[0] && ev_q[14];
+    assign ev_unf[47] = fl_t0_mul97[1] && ev_q[14];
+    assign ev_inv[47] = fl_t0_mul97[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul97;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_t0_mul97 (.clk(clk), .d(t0_mul97), .q(dl_t0_mul97));
     // t0_add98 = t0_add96 + t0_mul97   (ready @22/22/22)
     logic [W-1:0] t0_add98;
+    logic [2:0] fl_t0_add98;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add98 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add96), .b(dl_t0_mul97), .sub(1'b0),
-        .out_valid(op_valid_nc[48]), .y(t0_add98)
+        .out_valid(op_valid_nc[48]), .y(t0_add98), .flags(fl_t0_add98)
     );
+    assign ev_ovf[48] = fl_t0_add98[0] && ev_q[22];
+    assign ev_unf[48] = fl_t0_add98[1] && ev_q[22];
+    assign ev_inv[48] = fl_t0_add98[2] && ev_q[22];
     logic [W-1:0] dl_t0_add98;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add98 (.clk(clk), .d(t0_add98), .q(dl_t0_add98));
     // t0_sub99 = t0_add93 - t0_add98   (ready @26/26/26)
     logic [W-1:0] t0_sub99;
+    logic [2:0] fl_t0_sub99;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub99 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add93), .b(dl_t0_add98), .sub(1'b1),
-        .out_valid(op_valid_nc[49]), .y(t0_sub99)
+        .out_valid(op_valid_nc[49]), .y(t0_sub99), .flags(fl_t0_sub99)
     );
+    assign ev_ovf[49] = fl_t0_sub99[0] && ev_q[26];
+    assign ev_unf[49] = fl_t0_sub99[1] && ev_q[26];
+    assign ev_inv[49] = fl_t0_sub99[2] && ev_q[26];
     logic [W-1:0] dl_t0_sub99;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_sub99 (.clk(clk), .d(t0_sub99), .q(dl_t0_sub99));
     // t0_u = t0_sub88 + t0_sub99   (ready @30/30/30)
     logic [W-1:0] t0_u;
+    logic [2:0] fl_t0_u;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_u (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_sub88), .b(dl_t0_sub99), .sub(1'b0),
-        .out_valid(op_valid_nc[50]), .y(t0_u)
+        .out_valid(op_valid_nc[50]), .y(t0_u), .flags(fl_t0_u)
     );
+    assign ev_ovf[50] = fl_t0_u[0] && ev_q[30];
+    assign ev_unf[50] = fl_t0_u[1] && ev_q[30];
+    assign ev_inv[50] = fl_t0_u[2] && ev_q[30];
     logic [W-1:0] dl_t0_u;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_u (.clk(clk), .d(t0_u), .q(dl_t0_u));
@@ -786,19 +1017,27 @@ module pgs_friction_pipe #(
         u_dl_t0_neg101 (.clk(clk), .d(t0_neg101), .q(dl_t0_neg101));
     // t0_delta0 = t0_neg101 * f_jac_inv0   (ready @33/33/33)
     logic [W-1:0] t0_delta0;
+    logic [2:0] fl_t0_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta0 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_neg101), .b(dl_in_f_jac_inv0[1*W +: W]),
-        .out_valid(op_valid_nc[51]), .y(t0_delta0)
+        .out_valid(op_valid_nc[51]), .y(t0_delta0), .flags(fl_t0_delta0)
     );
+    assign ev_ovf[51] = fl_t0_delta0[0] && ev_q[33];
+    assign ev_unf[51] = fl_t0_delta0[1] && ev_q[33];
+    assign ev_inv[51] = fl_t0_delta0[2] && ev_q[33];
     logic [W-1:0] dl_t0_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_delta0 (.clk(clk), .d(t0_delta0), .q(dl_t0_delta0));
     // t0_add103 = lamT0 + t0_delta0   (ready @37/37/37)
     logic [W-1:0] t0_add103;
+    logic [2:0] fl_t0_add103;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add103 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lamT0[0*W +: W]), .b(dl_t0_delta0), .sub(1'b0),
-        .out_valid(op_valid_nc[52]), .y(t0_add103)
+        .out_valid(op_valid_nc[52]), .y(t0_add103), .flags(fl_t0_add103)
     );
+    assign ev_ovf[52] = fl_t0_add103[0] && ev_q[37];
+    assign ev_unf[52] = fl_t0_add103[1] && ev_q[37];
+    assign ev_inv[52] = fl_t0_add103[2] && ev_q[37];
     logic [W-1:0] dl_t0_add103;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add103 (.clk(clk), .d(t0_add103), .q(dl_t0_add103));
@@ -824,10 +1063,14 @@ module pgs_friction_pipe #(
         u_dl_t0_lam_new (.clk(clk), .d(t0_lam_new), .q(dl_t0_lam_new));
     // t0_delta = t0_lam_new - lamT0   (ready @43/43/43)
     logic [W-1:0] t0_delta;
+    logic [2:0] fl_t0_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_lam_new), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
-        .out_valid(op_valid_nc[55]), .y(t0_delta)
+        .out_valid(op_valid_nc[55]), .y(t0_delta), .flags(fl_t0_delta)
     );
+    assign ev_ovf[53] = fl_t0_delta[0] && ev_q[43];
+    assign ev_unf[53] = fl_t0_delta[1] && ev_q[43];
+    assign ev_inv[53] = fl_t0_delta[2] && ev_q[43];
     logic [W-1:0] dl_t0_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_delta (.clk(clk), .d(t0_delta), .q(dl_t0_delta));
@@ -851,82 +1094,118 @@ module pgs_friction_pipe #(
         u_dl_t0_e_applied (.clk(clk), .d(t0_e_applied), .q(dl_t0_e_applied));
     // t0_linA_x = t0_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_x;
+    logic [2:0] fl_t0_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvA),
-        .out_valid(op_valid_nc[56]), .y(t0_linA_x)
+        .out_valid(op_valid_nc[56]), .y(t0_linA_x), .flags(fl_t0_linA_x)
     );
+    assign ev_ovf[54] = fl_t0_linA_x[0] && ev_q[3];
+    assign ev_unf[54] = fl_t0_linA_x[1] && ev_q[3];
+    assign ev_inv[54] = fl_t0_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
         u_dl_t0_linA_x (.clk(clk), .d(t0_linA_x), .q(dl_t0_linA_x));
     // t0_linA_y = t0_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_y;
+    logic [2:0] fl_t0_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvA),
-        .out_valid(op_valid_nc[57]), .y(t0_linA_y)
+        .out_valid(op_valid_nc[57]), .y(t0_linA_y), .flags(fl_t0_linA_y)
     );
+    assign ev_ovf[55] = fl_t0_linA_y[0] && ev_q[3];
+    assign ev_unf[55] = fl_t0_linA_y[1] && ev_q[3];
+    assign ev_inv[55] = fl_t0_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
         u_dl_t0_linA_y (.clk(clk), .d(t0_linA_y), .q(dl_t0_linA_y));
     // t0_linA_z = t0_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_z;
+    logic [2:0] fl_t0_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvA),
-        .out_valid(op_valid_nc[58]), .y(t0_linA_z)
+        .out_valid(op_valid_nc[58]), .y(t0_linA_z), .flags(fl_t0_linA_z)
     );
+    assign ev_ovf[56] = fl_t0_linA_z[0] && ev_q[3];
+    assign ev_unf[56] = fl_t0_linA_z[1] && ev_q[3];
+    assign ev_inv[56] = fl_t0_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
         u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .q(dl_t0_linA_z));
     // t0_mul112 = t0_linA_x * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul112;
+    logic [2:0] fl_t0_mul112;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul112 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_x), .b(dl_t0_e_applied),
-        .out_valid(op_valid_nc[59]), .y(t0_mul112)
+        .out_valid(op_valid_nc[59]), .y(t0_mul112), .flags(fl_t0_mul112)
     );
+    assign ev_ovf[57] = fl_t0_mul112[0] && ev_q[46];
+    assign ev_unf[57] = fl_t0_mul112[1] && ev_q[46];
+    assign ev_inv[57] = fl_t0_mul112[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul112;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul112 (.clk(clk), .d(t0_mul112), .q(dl_t0_mul112));
     // t0_mul113 = t0_linA_y * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul113;
+    logic [2:0] fl_t0_mul113;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul113 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_y), .b(dl_t0_e_applied),
-        .out_valid(op_valid_nc[60]), .y(t0_mul113)
+        .out_valid(op_valid_nc[60]), .y(t0_mul113), .flags(fl_t0_mul113)
     );
+    assign ev_ovf[58] = fl_t0_mul113[0] && ev_q[46];
+    assign ev_unf[58] = fl_t0_mul113[1] && ev_q[46];
+    assign ev_inv[58] = fl_t0_mul113[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul113;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul113 (.clk(clk), .d(t0_mul113), .q(dl_t0_mul113));
     // t0_mul114 = t0_linA_z * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul114;
+    logic [2:0] fl_t0_mul114;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul114 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_z), .b(dl_t0_e_applied),
-        .out_valid(op_valid_nc[61]), .y(t0_mul114)
+        .out_valid(op_valid_nc[61]), .y(t0_mul114), .flags(fl_t0_mul114)
     );
+    assign ev_ovf[59] = fl_t0_mul114[0] && ev_q[46];
+    assign ev_unf[59] = fl_t0_mul114[1] && ev_q[46];
+    assign ev_inv[59] = fl_t0_mul114[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul114;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul114 (.clk(clk), .d(t0_mul114), .q(dl_t0_mul114));
     // t0_add115 = vA_x + t0_mul112   (ready @50/50/50)
     logic [W-1:0] t0_add115;
+    logic [2:0] fl_t0_add115;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add115 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_x[1*W +: W]), .b(dl_t0_mul112), .sub(1'b0),
-        .out_valid(op_valid_nc[62]), .y(t0_add115)
+        .out_valid(op_valid_nc[62]), .y(t0_add115), .flags(fl_t0_add115)
     );
+    assign ev_ovf[60] = fl_t0_add115[0] && ev_q[50];
+    assign ev_unf[60] = fl_t0_add115[1] && ev_q[50];
+    assign ev_inv[60] = fl_t0_add115[2] && ev_q[50];
     logic [W-1:0] dl_t0_add115;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add115 (.clk(clk), .d(t0_add115), .q(dl_t0_add115));
     // t0_add116 = vA_y + t0_mul113   (ready @50/50/50)
     logic [W-1:0] t0_add116;
+    logic [2:0] fl_t0_add116;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add116 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_y[1*W +: W]), .b(dl_t0_mul113), .sub(1'b0),
-        .out_valid(op_valid_nc[63]), .y(t0_add116)
+        .out_valid(op_valid_nc[63]), .y(t0_add116), .flags(fl_t0_add116)
     );
+    assign ev_ovf[61] = fl_t0_add116[0] && ev_q[50];
+    assign ev_unf[61] = fl_t0_add116[1] && ev_q[50];
+    assign ev_inv[61] = fl_t0_add116[2] && ev_q[50];
     logic [W-1:0] dl_t0_add116;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add116 (.clk(clk), .d(t0_add116), .q(dl_t0_add116));
     // t0_add117 = vA_z + t0_mul114   (ready @50/50/50)
     logic [W-1:0] t0_add117;
+    logic [2:0] fl_t0_add117;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add117 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_z[1*W +: W]), .b(dl_t0_mul114), .sub(1'b0),
-        .out_valid(op_valid_nc[64]), .y(t0_add117)
+        .out_valid(op_valid_nc[64]), .y(t0_add117), .flags(fl_t0_add117)
     );
+    assign ev_ovf[62] = fl_t0_add117[0] && ev_q[50];
+    assign ev_unf[62] = fl_t0_add117[1] && ev_q[50];
+    assign ev_inv[62] = fl_t0_add117[2] && ev_q[50];
     logic [W-1:0] dl_t0_add117;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add117 (.clk(clk), .d(t0_add117), .q(dl_t0_add117));
@@ -950,82 +1229,118 @@ module pgs_friction_pipe #(
         u_dl_t0_vA_z (.clk(clk), .d(t0_vA_z), .q(dl_t0_vA_z));
     // t0_angA_x = IInvA_x * t0_cA_x   (ready @14/14/14)
     logic [W-1:0] t0_angA_x;
+    logic [2:0] fl_t0_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_t0_cA_x),
-        .out_valid(op_valid_nc[65]), .y(t0_angA_x)
+        .out_valid(op_valid_nc[65]), .y(t0_angA_x), .flags(fl_t0_angA_x)
     );
+    assign ev_ovf[63] = fl_t0_angA_x[0] && ev_q[14];
+    assign ev_unf[63] = fl_t0_angA_x[1] && ev_q[14];
+    assign ev_inv[63] = fl_t0_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
         u_dl_t0_angA_x (.clk(clk), .d(t0_angA_x), .q(dl_t0_angA_x));
     // t0_angA_y = IInvA_y * t0_cA_y   (ready @14/14/14)
     logic [W-1:0] t0_angA_y;
+    logic [2:0] fl_t0_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_t0_cA_y),
-        .out_valid(op_valid_nc[66]), .y(t0_angA_y)
+        .out_valid(op_valid_nc[66]), .y(t0_angA_y), .flags(fl_t0_angA_y)
     );
+    assign ev_ovf[64] = fl_t0_angA_y[0] && ev_q[14];
+    assign ev_unf[64] = fl_t0_angA_y[1] && ev_q[14];
+    assign ev_inv[64] = fl_t0_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
         u_dl_t0_angA_y (.clk(clk), .d(t0_angA_y), .q(dl_t0_angA_y));
     // t0_angA_z = IInvA_z * t0_cA_z   (ready @14/14/14)
     logic [W-1:0] t0_angA_z;
+    logic [2:0] fl_t0_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_t0_cA_z),
-        .out_valid(op_valid_nc[67]), .y(t0_angA_z)
+        .out_valid(op_valid_nc[67]), .y(t0_angA_z), .flags(fl_t0_angA_z)
     );
+    assign ev_ovf[65] = fl_t0_angA_z[0] && ev_q[14];
+    assign ev_unf[65] = fl_t0_angA_z[1] && ev_q[14];
+    assign ev_inv[65] = fl_t0_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
         u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .q(dl_t0_angA_z));
     // t0_mul124 = t0_angA_x * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul124;
+    logic [2:0] fl_t0_mul124;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul124 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_x), .b(dl_t0_e_applied),
-        .out_valid(op_valid_nc[68]), .y(t0_mul124)
+        .out_valid(op_valid_nc[68]), .y(t0_mul124), .flags(fl_t0_mul124)
     );
+    assign ev_ovf[66] = fl_t0_mul124[0] && ev_q[46];
+    assign ev_unf[66] = fl_t0_mul124[1] && ev_q[46];
+    assign ev_inv[66] = fl_t0_mul124[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul124;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul124 (.clk(clk), .d(t0_mul124), .q(dl_t0_mul124));
     // t0_mul125 = t0_angA_y * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul125;
+    logic [2:0] fl_t0_mul125;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul125 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_y), .b(dl_t0_e_applied),
-        .out_valid(op_valid_nc[69]), .y(t0_mul125)
+        .out_valid(op_valid_nc[69]), .y(t0_mul125), .flags(fl_t0_mul125)
     );
+    assign ev_ovf[67] = fl_t0_mul125[0] && ev_q[46];
+    assign ev_unf[67] = fl_t0_mul125[1] && ev_q[46];
+    assign ev_inv[67] = fl_t0_mul125[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul125;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul125 (.clk(clk), .d(t0_mul125), .q(dl_t0_mul125));
     // t0_mul126 = t0_angA_z * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul126;
+    logic [2:0] fl_t0_mul126;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul126 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_z), .b(dl_t0_e_applied),
-        .out_valid(op_valid_nc[70]), .y(t0_mul126)
+        .out_valid(op_valid_nc[70]), .y(t0_mul126), .flags(fl_t0_mul126)
     );
+    assign ev_ovf[68] = fl_t0_mul126[0] && ev_q[46];
+    assign ev_unf[68] = fl_t0_mul126[1] && ev_q[46];
+    assign ev_inv[68] = fl_t0_mul126[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul126;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul126 (.clk(clk), .d(t0_mul126), .q(dl_t0_mul126));
     // t0_add127 = wA_x + t0_mul124   (ready @50/50/50)
     logic [W-1:0] t0_add127;
+    logic [2:0] fl_t0_add127;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add127 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_x[1*W +: W]), .b(dl_t0_mul124), .sub(1'b0),
-        .out_valid(op_valid_nc[71]), .y(t0_add127)
+        .out_valid(op_valid_nc[71]), .y(t0_add127), .flags(fl_t0_add127)
     );
+    assign ev_ovf[69] = fl_t0_add127[0] && ev_q[50];
+    assign ev_unf[69] = fl_t0_add127[1] && ev_q[50];
+    assign ev_inv[69] = fl_t0_add127[2] && ev_q[50];
     logic [W-1:0] dl_t0_add127;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add127 (.clk(clk), .d(t0_add127), .q(dl_t0_add127));
     // t0_add128 = wA_y + t0_mul125   (ready @50/50/50)
     logic [W-1:0] t0_add128;
+    logic [2:0] fl_t0_add128;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add128 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_y[1*W +: W]), .b(dl_t0_mul125), .sub(1'b0),
-        .out_valid(op_valid_nc[72]), .y(t0_add128)
+        .out_valid(op_valid_nc[72]), .y(t0_add128), .flags(fl_t0_add128)
     );
+    assign ev_ovf[70] = fl_t0_add128[0] && ev_q[50];
+    assign ev_unf[70] = fl_t0_add128[1] && ev_q[50];
+    assign ev_inv[70] = fl_t0_add128[2] && ev_q[50];
     logic [W-1:0] dl_t0_add128;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add128 (.clk(clk), .d(t0_add128), .q(dl_t0_add128));
     // t0_add129 = wA_z + t0_mul126   (ready @50/50/50)
     logic [W-1:0] t0_add129;
+    logic [2:0] fl_t0_add129;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add129 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_z[1*W +: W]), .b(dl_t0_mul126), .sub(1'b0),
-        .out_valid(op_valid_nc[73]), .y(t0_add129)
+        .out_valid(op_valid_nc[73]), .y(t0_add129), .flags(fl_t0_add129)
     );
+    assign ev_ovf[71] = fl_t0_add129[0] && ev_q[50];
+    assign ev_unf[71] = fl_t0_add129[1] && ev_q[50];
+    assign ev_inv[71] = fl_t0_add129[2] && ev_q[50];
     logic [W-1:0] dl_t0_add129;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_add129 (.clk(clk), .d(t0_add129), .q(dl_t0_add129));
@@ -1049,82 +1364,118 @@ module pgs_friction_pipe #(
         u_dl_t0_wA_z (.clk(clk), .d(t0_wA_z), .q(dl_t0_wA_z));
     // t0_linB_x = t0_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_x;
+    logic [2:0] fl_t0_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvB),
-        .out_valid(op_valid_nc[74]), .y(t0_linB_x)
+        .out_valid(op_valid_nc[74]), .y(t0_linB_x), .flags(fl_t0_linB_x)
     );
+    assign ev_ovf[72] = fl_t0_linB_x[0] && ev_q[3];
+    assign ev_unf[72] = fl_t0_linB_x[1] && ev_q[3];
+    assign ev_inv[72] = fl_t0_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
         u_dl_t0_linB_x (.clk(clk), .d(t0_linB_x), .q(dl_t0_linB_x));
     // t0_linB_y = t0_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_y;
+    logic [2:0] fl_t0_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvB),
-        .out_valid(op_valid_nc[75]), .y(t0_linB_y)
+        .out_valid(op_valid_nc[75]), .y(t0_linB_y), .flags(fl_t0_linB_y)
     );
+    assign ev_ovf[73] = fl_t0_linB_y[0] && ev_q[3];
+    assign ev_unf[73] = fl_t0_linB_y[1] && ev_q[3];
+    assign ev_inv[73] = fl_t0_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
         u_dl_t0_linB_y (.clk(clk), .d(t0_linB_y), .q(dl_t0_linB_y));
     // t0_linB_z = t0_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_z;
+    logic [2:0] fl_t0_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvB),
-        .out_valid(op_valid_nc[76]), .y(t0_linB_z)
+        .out_valid(op_valid_nc[76]), .y(t0_linB_z), .flags(fl_t0_linB_z)
     );
+    assign ev_ovf[74] = fl_t0_linB_z[0] && ev_q[3];
+    assign ev_unf[74] = fl_t0_linB_z[1] && ev_q[3];
+    assign ev_inv[74] = fl_t0_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
         u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .q(dl_t0_linB_z));
     // t0_mul136 = t0_linB_x * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul136;
+    logic [2:0] fl_t0_mul136;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul136 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_x), .b(dl_t0_e_applied),
-        .out_valid(op_valid_nc[77]), .y(t0_mul136)
+        .out_valid(op_valid_nc[77]), .y(t0_mul136), .flags(fl_t0_mul136)
     );
+    assign ev_ovf[75] = fl_t0_mul136[0] && ev_q[46];
+    assign ev_unf[75] = fl_t0_mul136[1] && ev_q[46];
+    assign ev_inv[75] = fl_t0_mul136[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul136;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul136 (.clk(clk), .d(t0_mul136), .q(dl_t0_mul136));
     // t0_mul137 = t0_linB_y * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul137;
+    logic [2:0] fl_t0_mul137;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul137 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_y), .b(dl_t0_e_applied),
-        .out_valid(op_valid_nc[78]), .y(t0_mul137)
+        .out_valid(op_valid_nc[78]), .y(t0_mul137), .flags(fl_t0_mul137)
     );
+    assign ev_ovf[76] = fl_t0_mul137[0] && ev_q[46];
+    assign ev_unf[76] = fl_t0_mul137[1] && ev_q[46];
+    assign ev_inv[76] = fl_t0_mul137[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul137;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul137 (.clk(clk), .d(t0_mul137), .q(dl_t0_mul137));
     // t0_mul138 = t0_linB_z * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul138;
+    logic [2:0] fl_t0_mul138;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul138 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_z), .b(dl_t0_e_applied),
-        .out_valid(op_valid_nc[79]), .y(t0_mul138)
+        .out_valid(op_valid_nc[79]), .y(t0_mul138), .flags(fl_t0_mul138)
     );
+    assign ev_ovf[77] = fl_t0_mul138[0] && ev_q[46];
+    assign ev_unf[77] = fl_t0_mul138[1] && ev_q[46];
+    assign ev_inv[77] = fl_t0_mul138[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul138;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul138 (.clk(clk), .d(t0_mul138), .q(dl_t0_mul138));
     // t0_sub139 = vB_x - t0_mul136   (ready @50/50/50)
     logic [W-1:0] t0_sub139;
+    logic [2:0] fl_t0_sub139;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub139 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_x[1*W +: W]), .b(dl_t0_mul136), .sub(1'b1),
-        .out_valid(op_valid_nc[80]), .y(t0_sub139)
+        .out_valid(op_valid_nc[80]), .y(t0_sub139), .flags(fl_t0_sub139)
     );
+    assign ev_ovf[78] = fl_t0_sub139[0] && ev_q[50];
+    assign ev_unf[78] = fl_t0_sub139[1] && ev_q[50];
+    assign ev_inv[78] = fl_t0_sub139[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub139;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_sub139 (.clk(clk), .d(t0_sub139), .q(dl_t0_sub139));
     // t0_sub140 = vB_y - t0_mul137   (ready @50/50/50)
     logic [W-1:0] t0_sub140;
+    logic [2:0] fl_t0_sub140;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub140 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_y[1*W +: W]), .b(dl_t0_mul137), .sub(1'b1),
-        .out_valid(op_valid_nc[81]), .y(t0_sub140)
+        .out_valid(op_valid_nc[81]), .y(t0_sub140), .flags(fl_t0_sub140)
     );
+    assign ev_ovf[79] = fl_t0_sub140[0] && ev_q[50];
+    assign ev_unf[79] = fl_t0_sub140[1] && ev_q[50];
+    assign ev_inv[79] = fl_t0_sub140[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub140;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_sub140 (.clk(clk), .d(t0_sub140), .q(dl_t0_sub140));
     // t0_sub141 = vB_z - t0_mul138   (ready @50/50/50)
     logic [W-1:0] t0_sub141;
+    logic [2:0] fl_t0_sub141;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub141 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_z[1*W +: W]), .b(dl_t0_mul138), .sub(1'b1),
-        .out_valid(op_valid_nc[82]), .y(t0_sub141)
+        .out_valid(op_valid_nc[82]), .y(t0_sub141), .flags(fl_t0_sub141)
     );
+    assign ev_ovf[80] = fl_t0_sub141[0] && ev_q[50];
+    assign ev_unf[80] = fl_t0_sub141[1] && ev_q[50];
+    assign ev_inv[80] = fl_t0_sub141[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub141;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_sub141 (.clk(clk), .d(t0_sub141), .q(dl_t0_sub141));
@@ -1148,82 +1499,118 @@ module pgs_friction_pipe #(
         u_dl_t0_vB_z (.clk(clk), .d(t0_vB_z), .q(dl_t0_vB_z));
     // t0_angB_x = IInvB_x * t0_cB_x   (ready @14/14/14)
     logic [W-1:0] t0_angB_x;
+    logic [2:0] fl_t0_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_t0_cB_x),
-        .out_valid(op_valid_nc[83]), .y(t0_angB_x)
+        .out_valid(op_valid_nc[83]), .y(t0_angB_x), .flags(fl_t0_angB_x)
     );
+    assign ev_ovf[81] = fl_t0_angB_x[0] && ev_q[14];
+    assign ev_unf[81] = fl_t0_angB_x[1] && ev_q[14];
+    assign ev_inv[81] = fl_t0_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
         u_dl_t0_angB_x (.clk(clk), .d(t0_angB_x), .q(dl_t0_angB_x));
     // t0_angB_y = IInvB_y * t0_cB_y   (ready @14/14/14)
     logic [W-1:0] t0_angB_y;
+    logic [2:0] fl_t0_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_t0_cB_y),
-        .out_valid(op_valid_nc[84]), .y(t0_angB_y)
+        .out_valid(op_valid_nc[84]), .y(t0_angB_y), .flags(fl_t0_angB_y)
     );
+    assign ev_ovf[82] = fl_t0_angB_y[0] && ev_q[14];
+    assign ev_unf[82] = fl_t0_angB_y[1] && ev_q[14];
+    assign ev_inv[82] = fl_t0_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
         u_dl_t0_angB_y (.clk(clk), .d(t0_angB_y), .q(dl_t0_angB_y));
     // t0_angB_z = IInvB_z * t0_cB_z   (ready @14/14/14)
     logic [W-1:0] t0_angB_z;
+    logic [2:0] fl_t0_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_t0_cB_z),
-        .out_valid(op_valid_nc[85]), .y(t0_angB_z)
+        .out_valid(op_valid_nc[85]), .y(t0_angB_z), .flags(fl_t0_angB_z)
     );
+    assign ev_ovf[83] = fl_t0_angB_z[0] && ev_q[14];
+    assign ev_unf[83] = fl_t0_angB_z[1] && ev_q[14];
+    assign ev_inv[83] = fl_t0_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
         u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .q(dl_t0_angB_z));
     // t0_mul148 = t0_angB_x * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul148;
+    logic [2:0] fl_t0_mul148;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul148 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_x), .b(dl_t0_e_applied),
-        .out_valid(op_valid_nc[86]), .y(t0_mul148)
+        .out_valid(op_valid_nc[86]), .y(t0_mul148), .flags(fl_t0_mul148)
     );
+    assign ev_ovf[84] = fl_t0_mul148[0] && ev_q[46];
+    assign ev_unf[84] = fl_t0_mul148[1] && ev_q[46];
+    assign ev_inv[84] = fl_t0_mul148[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul148;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul148 (.clk(clk), .d(t0_mul148), .q(dl_t0_mul148));
     // t0_mul149 = t0_angB_y * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul149;
+    logic [2:0] fl_t0_mul149;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul149 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_y), .b(dl_t0_e_applied),
-        .out_valid(op_valid_nc[87]), .y(t0_mul149)
+        .out_valid(op_valid_nc[87]), .y(t0_mul149), .flags(fl_t0_mul149)
     );
+    assign ev_ovf[85] = fl_t0_mul149[0] && ev_q[46];
+    assign ev_unf[85] = fl_t0_mul149[1] && ev_q[46];
+    assign ev_inv[85] = fl_t0_mul149[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul149;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul149 (.clk(clk), .d(t0_mul149), .q(dl_t0_mul149));
     // t0_mul150 = t0_angB_z * t0_e_applied   (ready @46/46/46)
     logic [W-1:0] t0_mul150;
+    logic [2:0] fl_t0_mul150;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul150 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_z), .b(dl_t0_e_applied),
-        .out_valid(op_valid_nc[88]), .y(t0_mul150)
+        .out_valid(op_valid_nc[88]), .y(t0_mul150), .flags(fl_t0_mul150)
     );
+    assign ev_ovf[86] = fl_t0_mul150[0] && ev_q[46];
+    assign ev_unf[86] = fl_t0_mul150[1] && ev_q[46];
+    assign ev_inv[86] = fl_t0_mul150[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul150;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul150 (.clk(clk), .d(t0_mul150), .q(dl_t0_mul150));
     // t0_sub151 = wB_x - t0_mul148   (ready @50/50/50)
     logic [W-1:0] t0_sub151;
+    logic [2:0] fl_t0_sub151;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub151 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_x[1*W +: W]), .b(dl_t0_mul148), .sub(1'b1),
-        .out_valid(op_valid_nc[89]), .y(t0_sub151)
+        .out_valid(op_valid_nc[89]), .y(t0_sub151), .flags(fl_t0_sub151)
     );
+    assign ev_ovf[87] = fl_t0_sub151[0] && ev_q[50];
+    assign ev_unf[87] = fl_t0_sub151[1] && ev_q[50];
+    assign ev_inv[87] = fl_t0_sub151[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub151;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_sub151 (.clk(clk), .d(t0_sub151), .q(dl_t0_sub151));
     // t0_sub152 = wB_y - t0_mul149   (ready @50/50/50)
     logic [W-1:0] t0_sub152;
+    logic [2:0] fl_t0_sub152;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub152 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_y[1*W +: W]), .b(dl_t0_mul149), .sub(1'b1),
-        .out_valid(op_valid_nc[90]), .y(t0_sub152)
+        .out_valid(op_valid_nc[90]), .y(t0_sub152), .flags(fl_t0_sub152)
     );
+    assign ev_ovf[88] = fl_t0_sub152[0] && ev_q[50];
+    assign ev_unf[88] = fl_t0_sub152[1] && ev_q[50];
+    assign ev_inv[88] = fl_t0_sub152[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub152;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_sub152 (.clk(clk), .d(t0_sub152), .q(dl_t0_sub152));
     // t0_sub153 = wB_z - t0_mul150   (ready @50/50/50)
     logic [W-1:0] t0_sub153;
+    logic [2:0] fl_t0_sub153;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub153 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_z[1*W +: W]), .b(dl_t0_mul150), .sub(1'b1),
-        .out_valid(op_valid_nc[91]), .y(t0_sub153)
+        .out_valid(op_valid_nc[91]), .y(t0_sub153), .flags(fl_t0_sub153)
     );
+    assign ev_ovf[89] = fl_t0_sub153[0] && ev_q[50];
+    assign ev_unf[89] = fl_t0_sub153[1] && ev_q[50];
+    assign ev_inv[89] = fl_t0_sub153[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub153;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_sub153 (.clk(clk), .d(t0_sub153), .q(dl_t0_sub153));
@@ -1247,370 +1634,534 @@ module pgs_friction_pipe #(
         u_dl_t0_wB_z (.clk(clk), .d(t0_wB_z), .q(dl_t0_wB_z));
     // t1_mul157 = rA_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul157;
+    logic [2:0] fl_t1_mul157;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul157 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t1_z[0*W +: W]),
-        .out_valid(op_valid_nc[92]), .y(t1_mul157)
+        .out_valid(op_valid_nc[92]), .y(t1_mul157), .flags(fl_t1_mul157)
     );
+    assign ev_ovf[90] = fl_t1_mul157[0] && ev_q[7];
+    assign ev_unf[90] = fl_t1_mul157[1] && ev_q[7];
+    assign ev_inv[90] = fl_t1_mul157[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul157;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul157 (.clk(clk), .d(t1_mul157), .q(dl_t1_mul157));
     // t1_mul158 = rA_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul158;
+    logic [2:0] fl_t1_mul158;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul158 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t1_y[0*W +: W]),
-        .out_valid(op_valid_nc[93]), .y(t1_mul158)
+        .out_valid(op_valid_nc[93]), .y(t1_mul158), .flags(fl_t1_mul158)
     );
+    assign ev_ovf[91] = fl_t1_mul158[0] && ev_q[7];
+    assign ev_unf[91] = fl_t1_mul158[1] && ev_q[7];
+    assign ev_inv[91] = fl_t1_mul158[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul158;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul158 (.clk(clk), .d(t1_mul158), .q(dl_t1_mul158));
     // t1_cA_x = t1_mul157 - t1_mul158   (ready @11/11/11)
     logic [W-1:0] t1_cA_x;
+    logic [2:0] fl_t1_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul157), .b(dl_t1_mul158), .sub(1'b1),
-        .out_valid(op_valid_nc[94]), .y(t1_cA_x)
+        .out_valid(op_valid_nc[94]), .y(t1_cA_x), .flags(fl_t1_cA_x)
     );
+    assign ev_ovf[92] = fl_t1_cA_x[0] && ev_q[11];
+    assign ev_unf[92] = fl_t1_cA_x[1] && ev_q[11];
+    assign ev_inv[92] = fl_t1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
         u_dl_t1_cA_x (.clk(clk), .d(t1_cA_x), .q(dl_t1_cA_x));
     // t1_mul160 = rA_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul160;
+    logic [2:0] fl_t1_mul160;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul160 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t1_x[0*W +: W]),
-        .out_valid(op_valid_nc[95]), .y(t1_mul160)
+        .out_valid(op_valid_nc[95]), .y(t1_mul160), .flags(fl_t1_mul160)
     );
+    assign ev_ovf[93] = fl_t1_mul160[0] && ev_q[7];
+    assign ev_unf[93] = fl_t1_mul160[1] && ev_q[7];
+    assign ev_inv[93] = fl_t1_mul160[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul160;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul160 (.clk(clk), .d(t1_mul160), .q(dl_t1_mul160));
     // t1_mul161 = rA_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul161;
+    logic [2:0] fl_t1_mul161;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul161 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t1_z[0*W +: W]),
-        .out_valid(op_valid_nc[96]), .y(t1_mul161)
+        .out_valid(op_valid_nc[96]), .y(t1_mul161), .flags(fl_t1_mul161)
     );
+    assign ev_ovf[94] = fl_t1_mul161[0] && ev_q[7];
+    assign ev_unf[94] = fl_t1_mul161[1] && ev_q[7];
+    assign ev_inv[94] = fl_t1_mul161[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul161;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul161 (.clk(clk), .d(t1_mul161), .q(dl_t1_mul161));
     // t1_cA_y = t1_mul160 - t1_mul161   (ready @11/11/11)
     logic [W-1:0] t1_cA_y;
+    logic [2:0] fl_t1_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul160), .b(dl_t1_mul161), .sub(1'b1),
-        .out_valid(op_valid_nc[97]), .y(t1_cA_y)
+        .out_valid(op_valid_nc[97]), .y(t1_cA_y), .flags(fl_t1_cA_y)
     );
+    assign ev_ovf[95] = fl_t1_cA_y[0] && ev_q[11];
+    assign ev_unf[95] = fl_t1_cA_y[1] && ev_q[11];
+    assign ev_inv[95] = fl_t1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
         u_dl_t1_cA_y (.clk(clk), .d(t1_cA_y), .q(dl_t1_cA_y));
     // t1_mul163 = rA_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul163;
+    logic [2:0] fl_t1_mul163;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul163 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t1_y[0*W +: W]),
-        .out_valid(op_valid_nc[98]), .y(t1_mul163)
+        .out_valid(op_valid_nc[98]), .y(t1_mul163), .flags(fl_t1_mul163)
     );
+    assign ev_ovf[96] = fl_t1_mul163[0] && ev_q[7];
+    assign ev_unf[96] = fl_t1_mul163[1] && ev_q[7];
+    assign ev_inv[96] = fl_t1_mul163[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul163;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul163 (.clk(clk), .d(t1_mul163), .q(dl_t1_mul163));
     // t1_mul164 = rA_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul164;
+    logic [2:0] fl_t1_mul164;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul164 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t1_x[0*W +: W]),
-        .out_valid(op_valid_nc[99]), .y(t1_mul164)
+        .out_valid(op_valid_nc[99]), .y(t1_mul164), .flags(fl_t1_mul164)
     );
+    assign ev_ovf[97] = fl_t1_mul164[0] && ev_q[7];
+    assign ev_unf[97] = fl_t1_mul164[1] && ev_q[7];
+    assign ev_inv[97] = fl_t1_mul164[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul164;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul164 (.clk(clk), .d(t1_mul164), .q(dl_t1_mul164));
     // t1_cA_z = t1_mul163 - t1_mul164   (ready @11/11/11)
     logic [W-1:0] t1_cA_z;
+    logic [2:0] fl_t1_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul163), .b(dl_t1_mul164), .sub(1'b1),
-        .out_valid(op_valid_nc[100]), .y(t1_cA_z)
+        .out_valid(op_valid_nc[100]), .y(t1_cA_z), .flags(fl_t1_cA_z)
     );
+    assign ev_ovf[98] = fl_t1_cA_z[0] && ev_q[11];
+    assign ev_unf[98] = fl_t1_cA_z[1] && ev_q[11];
+    assign ev_inv[98] = fl_t1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
         u_dl_t1_cA_z (.clk(clk), .d(t1_cA_z), .q(dl_t1_cA_z));
     // t1_mul166 = rB_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul166;
+    logic [2:0] fl_t1_mul166;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul166 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t1_z[0*W +: W]),
-        .out_valid(op_valid_nc[101]), .y(t1_mul166)
+        .out_valid(op_valid_nc[101]), .y(t1_mul166), .flags(fl_t1_mul166)
     );
+    assign ev_ovf[99] = fl_t1_mul166[0] && ev_q[7];
+    assign ev_unf[99] = fl_t1_mul166[1] && ev_q[7];
+    assign ev_inv[99] = fl_t1_mul166[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul166;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul166 (.clk(clk), .d(t1_mul166), .q(dl_t1_mul166));
     // t1_mul167 = rB_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul167;
+    logic [2:0] fl_t1_mul167;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul167 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t1_y[0*W +: W]),
-        .out_valid(op_valid_nc[102]), .y(t1_mul167)
+        .out_valid(op_valid_nc[102]), .y(t1_mul167), .flags(fl_t1_mul167)
     );
+    assign ev_ovf[100] = fl_t1_mul167[0] && ev_q[7];
+    assign ev_unf[100] = fl_t1_mul167[1] && ev_q[7];
+    assign ev_inv[100] = fl_t1_mul167[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul167;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul167 (.clk(clk), .d(t1_mul167), .q(dl_t1_mul167));
     // t1_cB_x = t1_mul166 - t1_mul167   (ready @11/11/11)
     logic [W-1:0] t1_cB_x;
+    logic [2:0] fl_t1_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul166), .b(dl_t1_mul167), .sub(1'b1),
-        .out_valid(op_valid_nc[103]), .y(t1_cB_x)
+        .out_valid(op_valid_nc[103]), .y(t1_cB_x), .flags(fl_t1_cB_x)
     );
+    assign ev_ovf[101] = fl_t1_cB_x[0] && ev_q[11];
+    assign ev_unf[101] = fl_t1_cB_x[1] && ev_q[11];
+    assign ev_inv[101] = fl_t1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
         u_dl_t1_cB_x (.clk(clk), .d(t1_cB_x), .q(dl_t1_cB_x));
     // t1_mul169 = rB_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul169;
+    logic [2:0] fl_t1_mul169;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul169 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t1_x[0*W +: W]),
-        .out_valid(op_valid_nc[104]), .y(t1_mul169)
+        .out_valid(op_valid_nc[104]), .y(t1_mul169), .flags(fl_t1_mul169)
     );
+    assign ev_ovf[102] = fl_t1_mul169[0] && ev_q[7];
+    assign ev_unf[102] = fl_t1_mul169[1] && ev_q[7];
+    assign ev_inv[102] = fl_t1_mul169[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul169;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul169 (.clk(clk), .d(t1_mul169), .q(dl_t1_mul169));
     // t1_mul170 = rB_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul170;
+    logic [2:0] fl_t1_mul170;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul170 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t1_z[0*W +: W]),
-        .out_valid(op_valid_nc[105]), .y(t1_mul170)
+        .out_valid(op_valid_nc[105]), .y(t1_mul170), .flags(fl_t1_mul170)
     );
+    assign ev_ovf[103] = fl_t1_mul170[0] && ev_q[7];
+    assign ev_unf[103] = fl_t1_mul170[1] && ev_q[7];
+    assign ev_inv[103] = fl_t1_mul170[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul170;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul170 (.clk(clk), .d(t1_mul170), .q(dl_t1_mul170));
     // t1_cB_y = t1_mul169 - t1_mul170   (ready @11/11/11)
     logic [W-1:0] t1_cB_y;
+    logic [2:0] fl_t1_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul169), .b(dl_t1_mul170), .sub(1'b1),
-        .out_valid(op_valid_nc[106]), .y(t1_cB_y)
+        .out_valid(op_valid_nc[106]), .y(t1_cB_y), .flags(fl_t1_cB_y)
     );
+    assign ev_ovf[104] = fl_t1_cB_y[0] && ev_q[11];
+    assign ev_unf[104] = fl_t1_cB_y[1] && ev_q[11];
+    assign ev_inv[104] = fl_t1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
         u_dl_t1_cB_y (.clk(clk), .d(t1_cB_y), .q(dl_t1_cB_y));
     // t1_mul172 = rB_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul172;
+    logic [2:0] fl_t1_mul172;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul172 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t1_y[0*W +: W]),
-        .out_valid(op_valid_nc[107]), .y(t1_mul172)
+        .out_valid(op_valid_nc[107]), .y(t1_mul172), .flags(fl_t1_mul172)
     );
+    assign ev_ovf[105] = fl_t1_mul172[0] && ev_q[7];
+    assign ev_unf[105] = fl_t1_mul172[1] && ev_q[7];
+    assign ev_inv[105] = fl_t1_mul172[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul172;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul172 (.clk(clk), .d(t1_mul172), .q(dl_t1_mul172));
     // t1_mul173 = rB_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul173;
+    logic [2:0] fl_t1_mul173;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul173 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t1_x[0*W +: W]),
-        .out_valid(op_valid_nc[108]), .y(t1_mul173)
+        .out_valid(op_valid_nc[108]), .y(t1_mul173), .flags(fl_t1_mul173)
     );
+    assign ev_ovf[106] = fl_t1_mul173[0] && ev_q[7];
+    assign ev_unf[106] = fl_t1_mul173[1] && ev_q[7];
+    assign ev_inv[106] = fl_t1_mul173[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul173;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul173 (.clk(clk), .d(t1_mul173), .q(dl_t1_mul173));
     // t1_cB_z = t1_mul172 - t1_mul173   (ready @11/11/11)
     logic [W-1:0] t1_cB_z;
+    logic [2:0] fl_t1_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul172), .b(dl_t1_mul173), .sub(1'b1),
-        .out_valid(op_valid_nc[109]), .y(t1_cB_z)
+        .out_valid(op_valid_nc[109]), .y(t1_cB_z), .flags(fl_t1_cB_z)
     );
+    assign ev_ovf[107] = fl_t1_cB_z[0] && ev_q[11];
+    assign ev_unf[107] = fl_t1_cB_z[1] && ev_q[11];
+    assign ev_inv[107] = fl_t1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
         u_dl_t1_cB_z (.clk(clk), .d(t1_cB_z), .q(dl_t1_cB_z));
     // t1_mul175 = t1_x * t0_vA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul175;
+    logic [2:0] fl_t1_mul175;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul175 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vA_x[0*W +: W]),
-        .out_valid(op_valid_nc[110]), .y(t1_mul175)
+        .out_valid(op_valid_nc[110]), .y(t1_mul175), .flags(fl_t1_mul175)
     );
+    assign ev_ovf[108] = fl_t1_mul175[0] && ev_q[53];
+    assign ev_unf[108] = fl_t1_mul175[1] && ev_q[53];
+    assign ev_inv[108] = fl_t1_mul175[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul175;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul175 (.clk(clk), .d(t1_mul175), .q(dl_t1_mul175));
     // t1_mul176 = t1_y * t0_vA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul176;
+    logic [2:0] fl_t1_mul176;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul176 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vA_y[0*W +: W]),
-        .out_valid(op_valid_nc[111]), .y(t1_mul176)
+        .out_valid(op_valid_nc[111]), .y(t1_mul176), .flags(fl_t1_mul176)
     );
+    assign ev_ovf[109] = fl_t1_mul176[0] && ev_q[53];
+    assign ev_unf[109] = fl_t1_mul176[1] && ev_q[53];
+    assign ev_inv[109] = fl_t1_mul176[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul176;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul176 (.clk(clk), .d(t1_mul176), .q(dl_t1_mul176));
     // t1_add177 = t1_mul175 + t1_mul176   (ready @57/57/57)
     logic [W-1:0] t1_add177;
+    logic [2:0] fl_t1_add177;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add177 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul175), .b(dl_t1_mul176), .sub(1'b0),
-        .out_valid(op_valid_nc[112]), .y(t1_add177)
+        .out_valid(op_valid_nc[112]), .y(t1_add177), .flags(fl_t1_add177)
     );
+    assign ev_ovf[110] = fl_t1_add177[0] && ev_q[57];
+    assign ev_unf[110] = fl_t1_add177[1] && ev_q[57];
+    assign ev_inv[110] = fl_t1_add177[2] && ev_q[57];
     logic [W-1:0] dl_t1_add177;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add177 (.clk(clk), .d(t1_add177), .q(dl_t1_add177));
     // t1_mul178 = t1_z * t0_vA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul178;
+    logic [2:0] fl_t1_mul178;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul178 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vA_z[0*W +: W]),
-        .out_valid(op_valid_nc[113]), .y(t1_mul178)
+        .out_valid(op_valid_nc[113]), .y(t1_mul178), .flags(fl_t1_mul178)
     );
+    assign ev_ovf[111] = fl_t1_mul178[0] && ev_q[53];
+    assign ev_unf[111] = fl_t1_mul178[1] && ev_q[53];
+    assign ev_inv[111] = fl_t1_mul178[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul178;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_t1_mul178 (.clk(clk), .d(t1_mul178), .q(dl_t1_mul178));
     // t1_add179 = t1_add177 + t1_mul178   (ready @61/61/61)
     logic [W-1:0] t1_add179;
+    logic [2:0] fl_t1_add179;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add179 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add177), .b(dl_t1_mul178), .sub(1'b0),
-        .out_valid(op_valid_nc[114]), .y(t1_add179)
+        .out_valid(op_valid_nc[114]), .y(t1_add179), .flags(fl_t1_add179)
     );
+    assign ev_ovf[112] = fl_t1_add179[0] && ev_q[61];
+    assign ev_unf[112] = fl_t1_add179[1] && ev_q[61];
+    assign ev_inv[112] = fl_t1_add179[2] && ev_q[61];
     logic [W-1:0] dl_t1_add179;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add179 (.clk(clk), .d(t1_add179), .q(dl_t1_add179));
     // t1_mul180 = t1_x * t0_vB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul180;
+    logic [2:0] fl_t1_mul180;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul180 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vB_x[0*W +: W]),
-        .out_valid(op_valid_nc[115]), .y(t1_mul180)
+        .out_valid(op_valid_nc[115]), .y(t1_mul180), .flags(fl_t1_mul180)
     );
+    assign ev_ovf[113] = fl_t1_mul180[0] && ev_q[53];
+    assign ev_unf[113] = fl_t1_mul180[1] && ev_q[53];
+    assign ev_inv[113] = fl_t1_mul180[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul180;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul180 (.clk(clk), .d(t1_mul180), .q(dl_t1_mul180));
     // t1_mul181 = t1_y * t0_vB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul181;
+    logic [2:0] fl_t1_mul181;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul181 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vB_y[0*W +: W]),
-        .out_valid(op_valid_nc[116]), .y(t1_mul181)
+        .out_valid(op_valid_nc[116]), .y(t1_mul181), .flags(fl_t1_mul181)
     );
+    assign ev_ovf[114] = fl_t1_mul181[0] && ev_q[53];
+    assign ev_unf[114] = fl_t1_mul181[1] && ev_q[53];
+    assign ev_inv[114] = fl_t1_mul181[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul181;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul181 (.clk(clk), .d(t1_mul181), .q(dl_t1_mul181));
     // t1_add182 = t1_mul180 + t1_mul181   (ready @57/57/57)
     logic [W-1:0] t1_add182;
+    logic [2:0] fl_t1_add182;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add182 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul180), .b(dl_t1_mul181), .sub(1'b0),
-        .out_valid(op_valid_nc[117]), .y(t1_add182)
+        .out_valid(op_valid_nc[117]), .y(t1_add182), .flags(fl_t1_add182)
     );
+    assign ev_ovf[115] = fl_t1_add182[0] && ev_q[57];
+    assign ev_unf[115] = fl_t1_add182[1] && ev_q[57];
+    assign ev_inv[115] = fl_t1_add182[2] && ev_q[57];
     logic [W-1:0] dl_t1_add182;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add182 (.clk(clk), .d(t1_add182), .q(dl_t1_add182));
     // t1_mul183 = t1_z * t0_vB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul183;
+    logic [2:0] fl_t1_mul183;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul183 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vB_z[0*W +: W]),
-        .out_valid(op_valid_nc[118]), .y(t1_mul183)
+        .out_valid(op_valid_nc[118]), .y(t1_mul183), .flags(fl_t1_mul183)
     );
+    assign ev_ovf[116] = fl_t1_mul183[0] && ev_q[53];
+    assign ev_unf[116] = fl_t1_mul183[1] && ev_q[53];
+    assign ev_inv[116] = fl_t1_mul183[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul183;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_t1_mul183 (.clk(clk), .d(t1_mul183), .q(dl_t1_mul183));
     // t1_add184 = t1_add182 + t1_mul183   (ready @61/61/61)
     logic [W-1:0] t1_add184;
+    logic [2:0] fl_t1_add184;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add184 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add182), .b(dl_t1_mul183), .sub(1'b0),
-        .out_valid(op_valid_nc[119]), .y(t1_add184)
+        .out_valid(op_valid_nc[119]), .y(t1_add184), .flags(fl_t1_add184)
     );
+    assign ev_ovf[117] = fl_t1_add184[0] && ev_q[61];
+    assign ev_unf[117] = fl_t1_add184[1] && ev_q[61];
+    assign ev_inv[117] = fl_t1_add184[2] && ev_q[61];
     logic [W-1:0] dl_t1_add184;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add184 (.clk(clk), .d(t1_add184), .q(dl_t1_add184));
     // t1_sub185 = t1_add179 - t1_add184   (ready @65/65/65)
     logic [W-1:0] t1_sub185;
+    logic [2:0] fl_t1_sub185;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub185 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add179), .b(dl_t1_add184), .sub(1'b1),
-        .out_valid(op_valid_nc[120]), .y(t1_sub185)
+        .out_valid(op_valid_nc[120]), .y(t1_sub185), .flags(fl_t1_sub185)
     );
+    assign ev_ovf[118] = fl_t1_sub185[0] && ev_q[65];
+    assign ev_unf[118] = fl_t1_sub185[1] && ev_q[65];
+    assign ev_inv[118] = fl_t1_sub185[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub185;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_sub185 (.clk(clk), .d(t1_sub185), .q(dl_t1_sub185));
     // t1_mul186 = t1_cA_x * t0_wA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul186;
+    logic [2:0] fl_t1_mul186;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul186 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_x[0*W +: W]), .b(dl_t0_wA_x[0*W +: W]),
-        .out_valid(op_valid_nc[121]), .y(t1_mul186)
+        .out_valid(op_valid_nc[121]), .y(t1_mul186), .flags(fl_t1_mul186)
     );
+    assign ev_ovf[119] = fl_t1_mul186[0] && ev_q[53];
+    assign ev_unf[119] = fl_t1_mul186[1] && ev_q[53];
+    assign ev_inv[119] = fl_t1_mul186[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul186;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul186 (.clk(clk), .d(t1_mul186), .q(dl_t1_mul186));
     // t1_mul187 = t1_cA_y * t0_wA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul187;
+    logic [2:0] fl_t1_mul187;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul187 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_y[0*W +: W]), .b(dl_t0_wA_y[0*W +: W]),
-        .out_valid(op_valid_nc[122]), .y(t1_mul187)
+        .out_valid(op_valid_nc[122]), .y(t1_mul187), .flags(fl_t1_mul187)
     );
+    assign ev_ovf[120] = fl_t1_mul187[0] && ev_q[53];
+    assign ev_unf[120] = fl_t1_mul187[1] && ev_q[53];
+    assign ev_inv[120] = fl_t1_mul187[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul187;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul187 (.clk(clk), .d(t1_mul187), .q(dl_t1_mul187));
     // t1_add188 = t1_mul186 + t1_mul187   (ready @57/57/57)
     logic [W-1:0] t1_add188;
+    logic [2:0] fl_t1_add188;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add188 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul186), .b(dl_t1_mul187), .sub(1'b0),
-        .out_valid(op_valid_nc[123]), .y(t1_add188)
+        .out_valid(op_valid_nc[123]), .y(t1_add188), .flags(fl_t1_add188)
     );
+    assign ev_ovf[121] = fl_t1_add188[0] && ev_q[57];
+    assign ev_unf[121] = fl_t1_add188[1] && ev_q[57];
+    assign ev_inv[121] = fl_t1_add188[2] && ev_q[57];
     logic [W-1:0] dl_t1_add188;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add188 (.clk(clk), .d(t1_add188), .q(dl_t1_add188));
     // t1_mul189 = t1_cA_z * t0_wA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul189;
+    logic [2:0] fl_t1_mul189;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul189 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_z[0*W +: W]), .b(dl_t0_wA_z[0*W +: W]),
-        .out_valid(op_valid_nc[124]), .y(t1_mul189)
+        .out_valid(op_valid_nc[124]), .y(t1_mul189), .flags(fl_t1_mul189)
     );
+    assign ev_ovf[122] = fl_t1_mul189[0] && ev_q[53];
+    assign ev_unf[122] = fl_t1_mul189[1] && ev_q[53];
+    assign ev_inv[122] = fl_t1_mul189[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul189;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_t1_mul189 (.clk(clk), .d(t1_mul189), .q(dl_t1_mul189));
     // t1_add190 = t1_add188 + t1_mul189   (ready @61/61/61)
     logic [W-1:0] t1_add190;
+    logic [2:0] fl_t1_add190;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add190 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add188), .b(dl_t1_mul189), .sub(1'b0),
-        .out_valid(op_valid_nc[125]), .y(t1_add190)
+        .out_valid(op_valid_nc[125]), .y(t1_add190), .flags(fl_t1_add190)
     );
+    assign ev_ovf[123] = fl_t1_add190[0] && ev_q[61];
+    assign ev_unf[123] = fl_t1_add190[1] && ev_q[61];
+    assign ev_inv[123] = fl_t1_add190[2] && ev_q[61];
     logic [W-1:0] dl_t1_add190;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add190 (.clk(clk), .d(t1_add190), .q(dl_t1_add190));
     // t1_mul191 = t1_cB_x * t0_wB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul191;
+    logic [2:0] fl_t1_mul191;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul191 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_x[0*W +: W]), .b(dl_t0_wB_x[0*W +: W]),
-        .out_valid(op_valid_nc[126]), .y(t1_mul191)
+        .out_valid(op_valid_nc[126]), .y(t1_mul191), .flags(fl_t1_mul191)
     );
+    assign ev_ovf[124] = fl_t1_mul191[0] && ev_q[53];
+    assign ev_unf[124] = fl_t1_mul191[1] && ev_q[53];
+    assign ev_inv[124] = fl_t1_mul191[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul191;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul191 (.clk(clk), .d(t1_mul191), .q(dl_t1_mul191));
     // t1_mul192 = t1_cB_y * t0_wB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul192;
+    logic [2:0] fl_t1_mul192;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul192 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_y[0*W +: W]), .b(dl_t0_wB_y[0*W +: W]),
-        .out_valid(op_valid_nc[127]), .y(t1_mul192)
+        .out_valid(op_valid_nc[127]), .y(t1_mul192), .flags(fl_t1_mul192)
     );
+    assign ev_ovf[125] = fl_t1_mul192[0] && ev_q[53];
+    assign ev_unf[125] = fl_t1_mul192[1] && ev_q[53];
+    assign ev_inv[125] = fl_t1_mul192[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul192;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul192 (.clk(clk), .d(t1_mul192), .q(dl_t1_mul192));
     // t1_add193 = t1_mul191 + t1_mul192   (ready @57/57/57)
     logic [W-1:0] t1_add193;
+    logic [2:0] fl_t1_add193;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add193 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul191), .b(dl_t1_mul192), .sub(1'b0),
-        .out_valid(op_valid_nc[128]), .y(t1_add193)
+        .out_valid(op_valid_nc[128]), .y(t1_add193), .flags(fl_t1_add193)
     );
+    assign ev_ovf[126] = fl_t1_add193[0] && ev_q[57];
+    assign ev_unf[126] = fl_t1_add193[1] && ev_q[57];
+    assign ev_inv[126] = fl_t1_add193[2] && ev_q[57];
     logic [W-1:0] dl_t1_add193;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add193 (.clk(clk), .d(t1_add193), .q(dl_t1_add193));
     // t1_mul194 = t1_cB_z * t0_wB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul194;
+    logic [2:0] fl_t1_mul194;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul194 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_z[0*W +: W]), .b(dl_t0_wB_z[0*W +: W]),
-        .out_valid(op_valid_nc[129]), .y(t1_mul194)
+        .out_valid(op_valid_nc[129]), .y(t1_mul194), .flags(fl_t1_mul194)
     );
+    assign ev_ovf[127] = fl_t1_mul194[0] && ev_q[53];
+    assign ev_unf[127] = fl_t1_mul194[1] && ev_q[53];
+    assign ev_inv[127] = fl_t1_mul194[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul194;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_t1_mul194 (.clk(clk), .d(t1_mul194), .q(dl_t1_mul194));
     // t1_add195 = t1_add193 + t1_mul194   (ready @61/61/61)
     logic [W-1:0] t1_add195;
+    logic [2:0] fl_t1_add195;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add195 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add193), .b(dl_t1_mul194), .sub(1'b0),
-        .out_valid(op_valid_nc[130]), .y(t1_add195)
+        .out_valid(op_valid_nc[130]), .y(t1_add195), .flags(fl_t1_add195)
     );
+    assign ev_ovf[128] = fl_t1_add195[0] && ev_q[61];
+    assign ev_unf[128] = fl_t1_add195[1] && ev_q[61];
+    assign ev_inv[128] = fl_t1_add195[2] && ev_q[61];
     logic [W-1:0] dl_t1_add195;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add195 (.clk(clk), .d(t1_add195), .q(dl_t1_add195));
     // t1_sub196 = t1_add190 - t1_add195   (ready @65/65/65)
     logic [W-1:0] t1_sub196;
+    logic [2:0] fl_t1_sub196;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub196 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add190), .b(dl_t1_add195), .sub(1'b1),
-        .out_valid(op_valid_nc[131]), .y(t1_sub196)
+        .out_valid(op_valid_nc[131]), .y(t1_sub196), .flags(fl_t1_sub196)
     );
+    assign ev_ovf[129] = fl_t1_sub196[0] && ev_q[65];
+    assign ev_unf[129] = fl_t1_sub196[1] && ev_q[65];
+    assign ev_inv[129] = fl_t1_sub196[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub196;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_sub196 (.clk(clk), .d(t1_sub196), .q(dl_t1_sub196));
     // t1_u = t1_sub185 + t1_sub196   (ready @69/69/69)
     logic [W-1:0] t1_u;
+    logic [2:0] fl_t1_u;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_u (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_sub185), .b(dl_t1_sub196), .sub(1'b0),
-        .out_valid(op_valid_nc[132]), .y(t1_u)
+        .out_valid(op_valid_nc[132]), .y(t1_u), .flags(fl_t1_u)
     );
+    assign ev_ovf[130] = fl_t1_u[0] && ev_q[69];
+    assign ev_unf[130] = fl_t1_u[1] && ev_q[69];
+    assign ev_inv[130] = fl_t1_u[2] && ev_q[69];
     logic [W-1:0] dl_t1_u;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_u (.clk(clk), .d(t1_u), .q(dl_t1_u));
@@ -1622,19 +2173,27 @@ module pgs_friction_pipe #(
         u_dl_t1_neg198 (.clk(clk), .d(t1_neg198), .q(dl_t1_neg198));
     // t1_delta0 = t1_neg198 * f_jac_inv1   (ready @72/72/72)
     logic [W-1:0] t1_delta0;
+    logic [2:0] fl_t1_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta0 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_neg198), .b(dl_in_f_jac_inv1),
-        .out_valid(op_valid_nc[133]), .y(t1_delta0)
+        .out_valid(op_valid_nc[133]), .y(t1_delta0), .flags(fl_t1_delta0)
     );
+    assign ev_ovf[131] = fl_t1_delta0[0] && ev_q[72];
+    assign ev_unf[131] = fl_t1_delta0[1] && ev_q[72];
+    assign ev_inv[131] = fl_t1_delta0[2] && ev_q[72];
     logic [W-1:0] dl_t1_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_delta0 (.clk(clk), .d(t1_delta0), .q(dl_t1_delta0));
     // t1_add200 = lamT1 + t1_delta0   (ready @76/76/76)
     logic [W-1:0] t1_add200;
+    logic [2:0] fl_t1_add200;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add200 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lamT1[0*W +: W]), .b(dl_t1_delta0), .sub(1'b0),
-        .out_valid(op_valid_nc[134]), .y(t1_add200)
+        .out_valid(op_valid_nc[134]), .y(t1_add200), .flags(fl_t1_add200)
     );
+    assign ev_ovf[132] = fl_t1_add200[0] && ev_q[76];
+    assign ev_unf[132] = fl_t1_add200[1] && ev_q[76];
+    assign ev_inv[132] = fl_t1_add200[2] && ev_q[76];
     logic [W-1:0] dl_t1_add200;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add200 (.clk(clk), .d(t1_add200), .q(dl_t1_add200));
@@ -1660,10 +2219,14 @@ module pgs_friction_pipe #(
         u_dl_t1_lam_new (.clk(clk), .d(t1_lam_new), .q(dl_t1_lam_new));
     // t1_delta = t1_lam_new - lamT1   (ready @82/82/82)
     logic [W-1:0] t1_delta;
+    logic [2:0] fl_t1_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_lam_new), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
-        .out_valid(op_valid_nc[137]), .y(t1_delta)
+        .out_valid(op_valid_nc[137]), .y(t1_delta), .flags(fl_t1_delta)
     );
+    assign ev_ovf[133] = fl_t1_delta[0] && ev_q[82];
+    assign ev_unf[133] = fl_t1_delta[1] && ev_q[82];
+    assign ev_inv[133] = fl_t1_delta[2] && ev_q[82];
     logic [W-1:0] dl_t1_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_delta (.clk(clk), .d(t1_delta), .q(dl_t1_delta));
@@ -1687,82 +2250,118 @@ module pgs_friction_pipe #(
         u_dl_t1_e_applied (.clk(clk), .d(t1_e_applied), .q(dl_t1_e_applied));
     // t1_linA_x = t1_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_x;
+    logic [2:0] fl_t1_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvA),
-        .out_valid(op_valid_nc[138]), .y(t1_linA_x)
+        .out_valid(op_valid_nc[138]), .y(t1_linA_x), .flags(fl_t1_linA_x)
     );
+    assign ev_ovf[134] = fl_t1_linA_x[0] && ev_q[3];
+    assign ev_unf[134] = fl_t1_linA_x[1] && ev_q[3];
+    assign ev_inv[134] = fl_t1_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
         u_dl_t1_linA_x (.clk(clk), .d(t1_linA_x), .q(dl_t1_linA_x));
     // t1_linA_y = t1_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_y;
+    logic [2:0] fl_t1_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvA),
-        .out_valid(op_valid_nc[139]), .y(t1_linA_y)
+        .out_valid(op_valid_nc[139]), .y(t1_linA_y), .flags(fl_t1_linA_y)
     );
+    assign ev_ovf[135] = fl_t1_linA_y[0] && ev_q[3];
+    assign ev_unf[135] = fl_t1_linA_y[1] && ev_q[3];
+    assign ev_inv[135] = fl_t1_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
         u_dl_t1_linA_y (.clk(clk), .d(t1_linA_y), .q(dl_t1_linA_y));
     // t1_linA_z = t1_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_z;
+    logic [2:0] fl_t1_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvA),
-        .out_valid(op_valid_nc[140]), .y(t1_linA_z)
+        .out_valid(op_valid_nc[140]), .y(t1_linA_z), .flags(fl_t1_linA_z)
     );
+    assign ev_ovf[136] = fl_t1_linA_z[0] && ev_q[3];
+    assign ev_unf[136] = fl_t1_linA_z[1] && ev_q[3];
+    assign ev_inv[136] = fl_t1_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
         u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .q(dl_t1_linA_z));
     // t1_mul209 = t1_linA_x * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul209;
+    logic [2:0] fl_t1_mul209;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul209 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_x), .b(dl_t1_e_applied),
-        .out_valid(op_valid_nc[141]), .y(t1_mul209)
+        .out_valid(op_valid_nc[141]), .y(t1_mul209), .flags(fl_t1_mul209)
     );
+    assign ev_ovf[137] = fl_t1_mul209[0] && ev_q[85];
+    assign ev_unf[137] = fl_t1_mul209[1] && ev_q[85];
+    assign ev_inv[137] = fl_t1_mul209[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul209;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul209 (.clk(clk), .d(t1_mul209), .q(dl_t1_mul209));
     // t1_mul210 = t1_linA_y * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul210;
+    logic [2:0] fl_t1_mul210;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul210 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_y), .b(dl_t1_e_applied),
-        .out_valid(op_valid_nc[142]), .y(t1_mul210)
+        .out_valid(op_valid_nc[142]), .y(t1_mul210), .flags(fl_t1_mul210)
     );
+    assign ev_ovf[138] = fl_t1_mul210[0] && ev_q[85];
+    assign ev_unf[138] = fl_t1_mul210[1] && ev_q[85];
+    assign ev_inv[138] = fl_t1_mul210[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul210;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul210 (.clk(clk), .d(t1_mul210), .q(dl_t1_mul210));
     // t1_mul211 = t1_linA_z * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul211;
+    logic [2:0] fl_t1_mul211;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul211 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_z), .b(dl_t1_e_applied),
-        .out_valid(op_valid_nc[143]), .y(t1_mul211)
+        .out_valid(op_valid_nc[143]), .y(t1_mul211), .flags(fl_t1_mul211)
     );
+    assign ev_ovf[139] = fl_t1_mul211[0] && ev_q[85];
+    assign ev_unf[139] = fl_t1_mul211[1] && ev_q[85];
+    assign ev_inv[139] = fl_t1_mul211[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul211;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul211 (.clk(clk), .d(t1_mul211), .q(dl_t1_mul211));
     // t1_add212 = t0_vA_x + t1_mul209   (ready @89/89/89)
     logic [W-1:0] t1_add212;
+    logic [2:0] fl_t1_add212;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add212 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_x[1*W +: W]), .b(dl_t1_mul209), .sub(1'b0),
-        .out_valid(op_valid_nc[144]), .y(t1_add212)
+        .out_valid(op_valid_nc[144]), .y(t1_add212), .flags(fl_t1_add212)
     );
+    assign ev_ovf[140] = fl_t1_add212[0] && ev_q[89];
+    assign ev_unf[140] = fl_t1_add212[1] && ev_q[89];
+    assign ev_inv[140] = fl_t1_add212[2] && ev_q[89];
     logic [W-1:0] dl_t1_add212;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add212 (.clk(clk), .d(t1_add212), .q(dl_t1_add212));
     // t1_add213 = t0_vA_y + t1_mul210   (ready @89/89/89)
     logic [W-1:0] t1_add213;
+    logic [2:0] fl_t1_add213;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add213 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_y[1*W +: W]), .b(dl_t1_mul210), .sub(1'b0),
-        .out_valid(op_valid_nc[145]), .y(t1_add213)
+        .out_valid(op_valid_nc[145]), .y(t1_add213), .flags(fl_t1_add213)
     );
+    assign ev_ovf[141] = fl_t1_add213[0] && ev_q[89];
+    assign ev_unf[141] = fl_t1_add213[1] && ev_q[89];
+    assign ev_inv[141] = fl_t1_add213[2] && ev_q[89];
     logic [W-1:0] dl_t1_add213;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add213 (.clk(clk), .d(t1_add213), .q(dl_t1_add213));
     // t1_add214 = t0_vA_z + t1_mul211   (ready @89/89/89)
     logic [W-1:0] t1_add214;
+    logic [2:0] fl_t1_add214;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add214 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_z[1*W +: W]), .b(dl_t1_mul211), .sub(1'b0),
-        .out_valid(op_valid_nc[146]), .y(t1_add214)
+        .out_valid(op_valid_nc[146]), .y(t1_add214), .flags(fl_t1_add214)
     );
+    assign ev_ovf[142] = fl_t1_add214[0] && ev_q[89];
+    assign ev_unf[142] = fl_t1_add214[1] && ev_q[89];
+    assign ev_inv[142] = fl_t1_add214[2] && ev_q[89];
     logic [W-1:0] dl_t1_add214;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add214 (.clk(clk), .d(t1_add214), .q(dl_t1_add214));
@@ -1786,82 +2385,118 @@ module pgs_friction_pipe #(
         u_dl_t1_vA_z (.clk(clk), .d(t1_vA_z), .q(dl_t1_vA_z));
     // t1_angA_x = IInvA_x * t1_cA_x   (ready @14/14/14)
     logic [W-1:0] t1_angA_x;
+    logic [2:0] fl_t1_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_t1_cA_x[1*W +: W]),
-        .out_valid(op_valid_nc[147]), .y(t1_angA_x)
+        .out_valid(op_valid_nc[147]), .y(t1_angA_x), .flags(fl_t1_angA_x)
     );
+    assign ev_ovf[143] = fl_t1_angA_x[0] && ev_q[14];
+    assign ev_unf[143] = fl_t1_angA_x[1] && ev_q[14];
+    assign ev_inv[143] = fl_t1_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
         u_dl_t1_angA_x (.clk(clk), .d(t1_angA_x), .q(dl_t1_angA_x));
     // t1_angA_y = IInvA_y * t1_cA_y   (ready @14/14/14)
     logic [W-1:0] t1_angA_y;
+    logic [2:0] fl_t1_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_t1_cA_y[1*W +: W]),
-        .out_valid(op_valid_nc[148]), .y(t1_angA_y)
+        .out_valid(op_valid_nc[148]), .y(t1_angA_y), .flags(fl_t1_angA_y)
     );
+    assign ev_ovf[144] = fl_t1_angA_y[0] && ev_q[14];
+    assign ev_unf[144] = fl_t1_angA_y[1] && ev_q[14];
+    assign ev_inv[144] = fl_t1_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
         u_dl_t1_angA_y (.clk(clk), .d(t1_angA_y), .q(dl_t1_angA_y));
     // t1_angA_z = IInvA_z * t1_cA_z   (ready @14/14/14)
     logic [W-1:0] t1_angA_z;
+    logic [2:0] fl_t1_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_t1_cA_z[1*W +: W]),
-        .out_valid(op_valid_nc[149]), .y(t1_angA_z)
+        .out_valid(op_valid_nc[149]), .y(t1_angA_z), .flags(fl_t1_angA_z)
     );
+    assign ev_ovf[145] = fl_t1_angA_z[0] && ev_q[14];
+    assign ev_unf[145] = fl_t1_angA_z[1] && ev_q[14];
+    assign ev_inv[145] = fl_t1_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
         u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .q(dl_t1_angA_z));
     // t1_mul221 = t1_angA_x * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul221;
+    logic [2:0] fl_t1_mul221;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul221 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_x), .b(dl_t1_e_applied),
-        .out_valid(op_valid_nc[150]), .y(t1_mul221)
+        .out_valid(op_valid_nc[150]), .y(t1_mul221), .flags(fl_t1_mul221)
     );
+    assign ev_ovf[146] = fl_t1_mul221[0] && ev_q[85];
+    assign ev_unf[146] = fl_t1_mul221[1] && ev_q[85];
+    assign ev_inv[146] = fl_t1_mul221[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul221;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul221 (.clk(clk), .d(t1_mul221), .q(dl_t1_mul221));
     // t1_mul222 = t1_angA_y * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul222;
+    logic [2:0] fl_t1_mul222;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul222 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_y), .b(dl_t1_e_applied),
-        .out_valid(op_valid_nc[151]), .y(t1_mul222)
+        .out_valid(op_valid_nc[151]), .y(t1_mul222), .flags(fl_t1_mul222)
     );
+    assign ev_ovf[147] = fl_t1_mul222[0] && ev_q[85];
+    assign ev_unf[147] = fl_t1_mul222[1] && ev_q[85];
+    assign ev_inv[147] = fl_t1_mul222[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul222;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul222 (.clk(clk), .d(t1_mul222), .q(dl_t1_mul222));
     // t1_mul223 = t1_angA_z * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul223;
+    logic [2:0] fl_t1_mul223;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul223 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_z), .b(dl_t1_e_applied),
-        .out_valid(op_valid_nc[152]), .y(t1_mul223)
+        .out_valid(op_valid_nc[152]), .y(t1_mul223), .flags(fl_t1_mul223)
     );
+    assign ev_ovf[148] = fl_t1_mul223[0] && ev_q[85];
+    assign ev_unf[148] = fl_t1_mul223[1] && ev_q[85];
+    assign ev_inv[148] = fl_t1_mul223[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul223;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul223 (.clk(clk), .d(t1_mul223), .q(dl_t1_mul223));
     // t1_add224 = t0_wA_x + t1_mul221   (ready @89/89/89)
     logic [W-1:0] t1_add224;
+    logic [2:0] fl_t1_add224;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add224 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_x[1*W +: W]), .b(dl_t1_mul221), .sub(1'b0),
-        .out_valid(op_valid_nc[153]), .y(t1_add224)
+        .out_valid(op_valid_nc[153]), .y(t1_add224), .flags(fl_t1_add224)
     );
+    assign ev_ovf[149] = fl_t1_add224[0] && ev_q[89];
+    assign ev_unf[149] = fl_t1_add224[1] && ev_q[89];
+    assign ev_inv[149] = fl_t1_add224[2] && ev_q[89];
     logic [W-1:0] dl_t1_add224;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add224 (.clk(clk), .d(t1_add224), .q(dl_t1_add224));
     // t1_add225 = t0_wA_y + t1_mul222   (ready @89/89/89)
     logic [W-1:0] t1_add225;
+    logic [2:0] fl_t1_add225;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add225 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_y[1*W +: W]), .b(dl_t1_mul222), .sub(1'b0),
-        .out_valid(op_valid_nc[154]), .y(t1_add225)
+        .out_valid(op_valid_nc[154]), .y(t1_add225), .flags(fl_t1_add225)
     );
+    assign ev_ovf[150] = fl_t1_add225[0] && ev_q[89];
+    assign ev_unf[150] = fl_t1_add225[1] && ev_q[89];
+    assign ev_inv[150] = fl_t1_add225[2] && ev_q[89];
     logic [W-1:0] dl_t1_add225;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add225 (.clk(clk), .d(t1_add225), .q(dl_t1_add225));
     // t1_add226 = t0_wA_z + t1_mul223   (ready @89/89/89)
     logic [W-1:0] t1_add226;
+    logic [2:0] fl_t1_add226;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add226 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_z[1*W +: W]), .b(dl_t1_mul223), .sub(1'b0),
-        .out_valid(op_valid_nc[155]), .y(t1_add226)
+        .out_valid(op_valid_nc[155]), .y(t1_add226), .flags(fl_t1_add226)
     );
+    assign ev_ovf[151] = fl_t1_add226[0] && ev_q[89];
+    assign ev_unf[151] = fl_t1_add226[1] && ev_q[89];
+    assign ev_inv[151] = fl_t1_add226[2] && ev_q[89];
     logic [W-1:0] dl_t1_add226;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_add226 (.clk(clk), .d(t1_add226), .q(dl_t1_add226));
@@ -1885,82 +2520,118 @@ module pgs_friction_pipe #(
         u_dl_t1_wA_z (.clk(clk), .d(t1_wA_z), .q(dl_t1_wA_z));
     // t1_linB_x = t1_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_x;
+    logic [2:0] fl_t1_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvB),
-        .out_valid(op_valid_nc[156]), .y(t1_linB_x)
+        .out_valid(op_valid_nc[156]), .y(t1_linB_x), .flags(fl_t1_linB_x)
     );
+    assign ev_ovf[152] = fl_t1_linB_x[0] && ev_q[3];
+    assign ev_unf[152] = fl_t1_linB_x[1] && ev_q[3];
+    assign ev_inv[152] = fl_t1_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
         u_dl_t1_linB_x (.clk(clk), .d(t1_linB_x), .q(dl_t1_linB_x));
     // t1_linB_y = t1_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_y;
+    logic [2:0] fl_t1_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvB),
-        .out_valid(op_valid_nc[157]), .y(t1_linB_y)
+        .out_valid(op_valid_nc[157]), .y(t1_linB_y), .flags(fl_t1_linB_y)
     );
+    assign ev_ovf[153] = fl_t1_linB_y[0] && ev_q[3];
+    assign ev_unf[153] = fl_t1_linB_y[1] && ev_q[3];
+    assign ev_inv[153] = fl_t1_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
         u_dl_t1_linB_y (.clk(clk), .d(t1_linB_y), .q(dl_t1_linB_y));
     // t1_linB_z = t1_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_z;
+    logic [2:0] fl_t1_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvB),
-        .out_valid(op_valid_nc[158]), .y(t1_linB_z)
+        .out_valid(op_valid_nc[158]), .y(t1_linB_z), .flags(fl_t1_linB_z)
     );
+    assign ev_ovf[154] = fl_t1_linB_z[0] && ev_q[3];
+    assign ev_unf[154] = fl_t1_linB_z[1] && ev_q[3];
+    assign ev_inv[154] = fl_t1_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
         u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .q(dl_t1_linB_z));
     // t1_mul233 = t1_linB_x * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul233;
+    logic [2:0] fl_t1_mul233;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul233 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_x), .b(dl_t1_e_applied),
-        .out_valid(op_valid_nc[159]), .y(t1_mul233)
+        .out_valid(op_valid_nc[159]), .y(t1_mul233), .flags(fl_t1_mul233)
     );
+    assign ev_ovf[155] = fl_t1_mul233[0] && ev_q[85];
+    assign ev_unf[155] = fl_t1_mul233[1] && ev_q[85];
+    assign ev_inv[155] = fl_t1_mul233[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul233;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul233 (.clk(clk), .d(t1_mul233), .q(dl_t1_mul233));
     // t1_mul234 = t1_linB_y * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul234;
+    logic [2:0] fl_t1_mul234;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul234 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_y), .b(dl_t1_e_applied),
-        .out_valid(op_valid_nc[160]), .y(t1_mul234)
+        .out_valid(op_valid_nc[160]), .y(t1_mul234), .flags(fl_t1_mul234)
     );
+    assign ev_ovf[156] = fl_t1_mul234[0] && ev_q[85];
+    assign ev_unf[156] = fl_t1_mul234[1] && ev_q[85];
+    assign ev_inv[156] = fl_t1_mul234[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul234;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul234 (.clk(clk), .d(t1_mul234), .q(dl_t1_mul234));
     // t1_mul235 = t1_linB_z * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul235;
+    logic [2:0] fl_t1_mul235;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul235 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_z), .b(dl_t1_e_applied),
-        .out_valid(op_valid_nc[161]), .y(t1_mul235)
+        .out_valid(op_valid_nc[161]), .y(t1_mul235), .flags(fl_t1_mul235)
     );
+    assign ev_ovf[157] = fl_t1_mul235[0] && ev_q[85];
+    assign ev_unf[157] = fl_t1_mul235[1] && ev_q[85];
+    assign ev_inv[157] = fl_t1_mul235[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul235;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul235 (.clk(clk), .d(t1_mul235), .q(dl_t1_mul235));
     // t1_sub236 = t0_vB_x - t1_mul233   (ready @89/89/89)
     logic [W-1:0] t1_sub236;
+    logic [2:0] fl_t1_sub236;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub236 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_x[1*W +: W]), .b(dl_t1_mul233), .sub(1'b1),
-        .out_valid(op_valid_nc[162]), .y(t1_sub236)
+        .out_valid(op_valid_nc[162]), .y(t1_sub236), .flags(fl_t1_sub236)
     );
+    assign ev_ovf[158] = fl_t1_sub236[0] && ev_q[89];
+    assign ev_unf[158] = fl_t1_sub236[1] && ev_q[89];
+    assign ev_inv[158] = fl_t1_sub236[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub236;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_sub236 (.clk(clk), .d(t1_sub236), .q(dl_t1_sub236));
     // t1_sub237 = t0_vB_y - t1_mul234   (ready @89/89/89)
     logic [W-1:0] t1_sub237;
+    logic [2:0] fl_t1_sub237;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub237 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_y[1*W +: W]), .b(dl_t1_mul234), .sub(1'b1),
-        .out_valid(op_valid_nc[163]), .y(t1_sub237)
+        .out_valid(op_valid_nc[163]), .y(t1_sub237), .flags(fl_t1_sub237)
     );
+    assign ev_ovf[159] = fl_t1_sub237[0] && ev_q[89];
+    assign ev_unf[159] = fl_t1_sub237[1] && ev_q[89];
+    assign ev_inv[159] = fl_t1_sub237[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub237;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_sub237 (.clk(clk), .d(t1_sub237), .q(dl_t1_sub237));
     // t1_sub238 = t0_vB_z - t1_mul235   (ready @89/89/89)
     logic [W-1:0] t1_sub238;
+    logic [2:0] fl_t1_sub238;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub238 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_z[1*W +: W]), .b(dl_t1_mul235), .sub(1'b1),
-        .out_valid(op_valid_nc[164]), .y(t1_sub238)
+        .out_valid(op_valid_nc[164]), .y(t1_sub238), .flags(fl_t1_sub238)
     );
+    assign ev_ovf[160] = fl_t1_sub238[0] && ev_q[89];
+    assign ev_unf[160] = fl_t1_sub238[1] && ev_q[89];
+    assign ev_inv[160] = fl_t1_sub238[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub238;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_sub238 (.clk(clk), .d(t1_sub238), .q(dl_t1_sub238));
@@ -1984,82 +2655,118 @@ module pgs_friction_pipe #(
         u_dl_t1_vB_z (.clk(clk), .d(t1_vB_z), .q(dl_t1_vB_z));
     // t1_angB_x = IInvB_x * t1_cB_x   (ready @14/14/14)
     logic [W-1:0] t1_angB_x;
+    logic [2:0] fl_t1_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_t1_cB_x[1*W +: W]),
-        .out_valid(op_valid_nc[165]), .y(t1_angB_x)
+        .out_valid(op_valid_nc[165]), .y(t1_angB_x), .flags(fl_t1_angB_x)
     );
+    assign ev_ovf[161] = fl_t1_angB_x[0] && ev_q[14];
+    assign ev_unf[161] = fl_t1_angB_x[1] && ev_q[14];
+    assign ev_inv[161] = fl_t1_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
         u_dl_t1_angB_x (.clk(clk), .d(t1_angB_x), .q(dl_t1_angB_x));
     // t1_angB_y = IInvB_y * t1_cB_y   (ready @14/14/14)
     logic [W-1:0] t1_angB_y;
+    logic [2:0] fl_t1_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_t1_cB_y[1*W +: W]),
-        .out_valid(op_valid_nc[166]), .y(t1_angB_y)
+        .out_valid(op_valid_nc[166]), .y(t1_angB_y), .flags(fl_t1_angB_y)
     );
+    assign ev_ovf[162] = fl_t1_angB_y[0] && ev_q[14];
+    assign ev_unf[162] = fl_t1_angB_y[1] && ev_q[14];
+    assign ev_inv[162] = fl_t1_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
         u_dl_t1_angB_y (.clk(clk), .d(t1_angB_y), .q(dl_t1_angB_y));
     // t1_angB_z = IInvB_z * t1_cB_z   (ready @14/14/14)
     logic [W-1:0] t1_angB_z;
+    logic [2:0] fl_t1_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_t1_cB_z[1*W +: W]),
-        .out_valid(op_valid_nc[167]), .y(t1_angB_z)
+        .out_valid(op_valid_nc[167]), .y(t1_angB_z), .flags(fl_t1_angB_z)
     );
+    assign ev_ovf[163] = fl_t1_angB_z[0] && ev_q[14];
+    assign ev_unf[163] = fl_t1_angB_z[1] && ev_q[14];
+    assign ev_inv[163] = fl_t1_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
         u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .q(dl_t1_angB_z));
     // t1_mul245 = t1_angB_x * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul245;
+    logic [2:0] fl_t1_mul245;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul245 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_x), .b(dl_t1_e_applied),
-        .out_valid(op_valid_nc[168]), .y(t1_mul245)
+        .out_valid(op_valid_nc[168]), .y(t1_mul245), .flags(fl_t1_mul245)
     );
+    assign ev_ovf[164] = fl_t1_mul245[0] && ev_q[85];
+    assign ev_unf[164] = fl_t1_mul245[1] && ev_q[85];
+    assign ev_inv[164] = fl_t1_mul245[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul245;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul245 (.clk(clk), .d(t1_mul245), .q(dl_t1_mul245));
     // t1_mul246 = t1_angB_y * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul246;
+    logic [2:0] fl_t1_mul246;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul246 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_y), .b(dl_t1_e_applied),
-        .out_valid(op_valid_nc[169]), .y(t1_mul246)
+        .out_valid(op_valid_nc[169]), .y(t1_mul246), .flags(fl_t1_mul246)
     );
+    assign ev_ovf[165] = fl_t1_mul246[0] && ev_q[85];
+    assign ev_unf[165] = fl_t1_mul246[1] && ev_q[85];
+    assign ev_inv[165] = fl_t1_mul246[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul246;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul246 (.clk(clk), .d(t1_mul246), .q(dl_t1_mul246));
     // t1_mul247 = t1_angB_z * t1_e_applied   (ready @85/85/85)
     logic [W-1:0] t1_mul247;
+    logic [2:0] fl_t1_mul247;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul247 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_z), .b(dl_t1_e_applied),
-        .out_valid(op_valid_nc[170]), .y(t1_mul247)
+        .out_valid(op_valid_nc[170]), .y(t1_mul247), .flags(fl_t1_mul247)
     );
+    assign ev_ovf[166] = fl_t1_mul247[0] && ev_q[85];
+    assign ev_unf[166] = fl_t1_mul247[1] && ev_q[85];
+    assign ev_inv[166] = fl_t1_mul247[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul247;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul247 (.clk(clk), .d(t1_mul247), .q(dl_t1_mul247));
     // t1_sub248 = t0_wB_x - t1_mul245   (ready @89/89/89)
     logic [W-1:0] t1_sub248;
+    logic [2:0] fl_t1_sub248;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub248 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_x[1*W +: W]), .b(dl_t1_mul245), .sub(1'b1),
-        .out_valid(op_valid_nc[171]), .y(t1_sub248)
+        .out_valid(op_valid_nc[171]), .y(t1_sub248), .flags(fl_t1_sub248)
     );
+    assign ev_ovf[167] = fl_t1_sub248[0] && ev_q[89];
+    assign ev_unf[167] = fl_t1_sub248[1] && ev_q[89];
+    assign ev_inv[167] = fl_t1_sub248[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub248;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_sub248 (.clk(clk), .d(t1_sub248), .q(dl_t1_sub248));
     // t1_sub249 = t0_wB_y - t1_mul246   (ready @89/89/89)
     logic [W-1:0] t1_sub249;
+    logic [2:0] fl_t1_sub249;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub249 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_y[1*W +: W]), .b(dl_t1_mul246), .sub(1'b1),
-        .out_valid(op_valid_nc[172]), .y(t1_sub249)
+        .out_valid(op_valid_nc[172]), .y(t1_sub249), .flags(fl_t1_sub249)
     );
+    assign ev_ovf[168] = fl_t1_sub249[0] && ev_q[89];
+    assign ev_unf[168] = fl_t1_sub249[1] && ev_q[89];
+    assign ev_inv[168] = fl_t1_sub249[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub249;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_sub249 (.clk(clk), .d(t1_sub249), .q(dl_t1_sub249));
     // t1_sub250 = t0_wB_z - t1_mul247   (ready @89/89/89)
     logic [W-1:0] t1_sub250;
+    logic [2:0] fl_t1_sub250;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub250 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_z[1*W +: W]), .b(dl_t1_mul247), .sub(1'b1),
-        .out_valid(op_valid_nc[173]), .y(t1_sub250)
+        .out_valid(op_valid_nc[173]), .y(t1_sub250), .flags(fl_t1_sub250)
     );
+    assign ev_ovf[169] = fl_t1_sub250[0] && ev_q[89];
+    assign ev_unf[169] = fl_t1_sub250[1] && ev_q[89];
+    assign ev_inv[169] = fl_t1_sub250[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub250;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_sub250 (.clk(clk), .d(t1_sub250), .q(dl_t1_sub250));
@@ -2083,217 +2790,313 @@ module pgs_friction_pipe #(
         u_dl_t1_wB_z (.clk(clk), .d(t1_wB_z), .q(dl_t1_wB_z));
     // spin_mul255 = n_x * t1_wA_x   (ready @92/92/92)
     logic [W-1:0] spin_mul255;
+    logic [2:0] fl_spin_mul255;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul255 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wA_x[0*W +: W]),
-        .out_valid(op_valid_nc[174]), .y(spin_mul255)
+        .out_valid(op_valid_nc[174]), .y(spin_mul255), .flags(fl_spin_mul255)
     );
+    assign ev_ovf[170] = fl_spin_mul255[0] && ev_q[92];
+    assign ev_unf[170] = fl_spin_mul255[1] && ev_q[92];
+    assign ev_inv[170] = fl_spin_mul255[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul255;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_mul255 (.clk(clk), .d(spin_mul255), .q(dl_spin_mul255));
     // spin_mul256 = n_y * t1_wA_y   (ready @92/92/92)
     logic [W-1:0] spin_mul256;
+    logic [2:0] fl_spin_mul256;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul256 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wA_y[0*W +: W]),
-        .out_valid(op_valid_nc[175]), .y(spin_mul256)
+        .out_valid(op_valid_nc[175]), .y(spin_mul256), .flags(fl_spin_mul256)
     );
+    assign ev_ovf[171] = fl_spin_mul256[0] && ev_q[92];
+    assign ev_unf[171] = fl_spin_mul256[1] && ev_q[92];
+    assign ev_inv[171] = fl_spin_mul256[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul256;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_mul256 (.clk(clk), .d(spin_mul256), .q(dl_spin_mul256));
     // spin_add257 = spin_mul255 + spin_mul256   (ready @96/96/96)
     logic [W-1:0] spin_add257;
+    logic [2:0] fl_spin_add257;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add257 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_mul255), .b(dl_spin_mul256), .sub(1'b0),
-        .out_valid(op_valid_nc[176]), .y(spin_add257)
+        .out_valid(op_valid_nc[176]), .y(spin_add257), .flags(fl_spin_add257)
     );
+    assign ev_ovf[172] = fl_spin_add257[0] && ev_q[96];
+    assign ev_unf[172] = fl_spin_add257[1] && ev_q[96];
+    assign ev_inv[172] = fl_spin_add257[2] && ev_q[96];
     logic [W-1:0] dl_spin_add257;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_add257 (.clk(clk), .d(spin_add257), .q(dl_spin_add257));
     // spin_mul258 = n_z * t1_wA_z   (ready @92/92/92)
     logic [W-1:0] spin_mul258;
+    logic [2:0] fl_spin_mul258;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul258 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wA_z[0*W +: W]),
-        .out_valid(op_valid_nc[177]), .y(spin_mul258)
+        .out_valid(op_valid_nc[177]), .y(spin_mul258), .flags(fl_spin_mul258)
     );
+    assign ev_ovf[173] = fl_spin_mul258[0] && ev_q[92];
+    assign ev_unf[173] = fl_spin_mul258[1] && ev_q[92];
+    assign ev_inv[173] = fl_spin_mul258[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul258;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_spin_mul258 (.clk(clk), .d(spin_mul258), .q(dl_spin_mul258));
     // spin_add259 = spin_add257 + spin_mul258   (ready @100/100/100)
     logic [W-1:0] spin_add259;
+    logic [2:0] fl_spin_add259;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add259 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add257), .b(dl_spin_mul258), .sub(1'b0),
-        .out_valid(op_valid_nc[178]), .y(spin_add259)
+        .out_valid(op_valid_nc[178]), .y(spin_add259), .flags(fl_spin_add259)
     );
+    assign ev_ovf[174] = fl_spin_add259[0] && ev_q[100];
+    assign ev_unf[174] = fl_spin_add259[1] && ev_q[100];
+    assign ev_inv[174] = fl_spin_add259[2] && ev_q[100];
     logic [W-1:0] dl_spin_add259;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_add259 (.clk(clk), .d(spin_add259), .q(dl_spin_add259));
     // spin_sA = spin_add259 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sA;
+    logic [2:0] fl_spin_sA;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_sA (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add259), .b(K_SPIN_DAMP),
-        .out_valid(op_valid_nc[179]), .y(spin_sA)
+        .out_valid(op_valid_nc[179]), .y(spin_sA), .flags(fl_spin_sA)
     );
+    assign ev_ovf[175] = fl_spin_sA[0] && ev_q[103];
+    assign ev_unf[175] = fl_spin_sA[1] && ev_q[103];
+    assign ev_inv[175] = fl_spin_sA[2] && ev_q[103];
     logic [W-1:0] dl_spin_sA;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_sA (.clk(clk), .d(spin_sA), .q(dl_spin_sA));
     // spin_mul261 = n_x * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul261;
+    logic [2:0] fl_spin_mul261;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul261 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sA),
-        .out_valid(op_valid_nc[180]), .y(spin_mul261)
+        .out_valid(op_valid_nc[180]), .y(spin_mul261), .flags(fl_spin_mul261)
     );
+    assign ev_ovf[176] = fl_spin_mul261[0] && ev_q[106];
+    assign ev_unf[176] = fl_spin_mul261[1] && ev_q[106];
+    assign ev_inv[176] = fl_spin_mul261[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul261;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_mul261 (.clk(clk), .d(spin_mul261), .q(dl_spin_mul261));
     // spin_mul262 = n_y * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul262;
+    logic [2:0] fl_spin_mul262;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul262 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sA),
-        .out_valid(op_valid_nc[181]), .y(spin_mul262)
+        .out_valid(op_valid_nc[181]), .y(spin_mul262), .flags(fl_spin_mul262)
     );
+    assign ev_ovf[177] = fl_spin_mul262[0] && ev_q[106];
+    assign ev_unf[177] = fl_spin_mul262[1] && ev_q[106];
+    assign ev_inv[177] = fl_spin_mul262[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul262;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_mul262 (.clk(clk), .d(spin_mul262), .q(dl_spin_mul262));
     // spin_mul263 = n_z * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul263;
+    logic [2:0] fl_spin_mul263;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul263 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sA),
-        .out_valid(op_valid_nc[182]), .y(spin_mul263)
+        .out_valid(op_valid_nc[182]), .y(spin_mul263), .flags(fl_spin_mul263)
     );
+    assign ev_ovf[178] = fl_spin_mul263[0] && ev_q[106];
+    assign ev_unf[178] = fl_spin_mul263[1] && ev_q[106];
+    assign ev_inv[178] = fl_spin_mul263[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul263;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_mul263 (.clk(clk), .d(spin_mul263), .q(dl_spin_mul263));
     // spin_wA_damped_x = t1_wA_x - spin_mul261   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_x;
+    logic [2:0] fl_spin_wA_damped_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_x[1*W +: W]), .b(dl_spin_mul261), .sub(1'b1),
-        .out_valid(op_valid_nc[183]), .y(spin_wA_damped_x)
+        .out_valid(op_valid_nc[183]), .y(spin_wA_damped_x), .flags(fl_spin_wA_damped_x)
     );
+    assign ev_ovf[179] = fl_spin_wA_damped_x[0] && ev_q[110];
+    assign ev_unf[179] = fl_spin_wA_damped_x[1] && ev_q[110];
+    assign ev_inv[179] = fl_spin_wA_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_wA_damped_x (.clk(clk), .d(spin_wA_damped_x), .q(dl_spin_wA_damped_x));
     // spin_wA_damped_y = t1_wA_y - spin_mul262   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_y;
+    logic [2:0] fl_spin_wA_damped_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_y[1*W +: W]), .b(dl_spin_mul262), .sub(1'b1),
-        .out_valid(op_valid_nc[184]), .y(spin_wA_damped_y)
+        .out_valid(op_valid_nc[184]), .y(spin_wA_damped_y), .flags(fl_spin_wA_damped_y)
     );
+    assign ev_ovf[180] = fl_spin_wA_damped_y[0] && ev_q[110];
+    assign ev_unf[180] = fl_spin_wA_damped_y[1] && ev_q[110];
+    assign ev_inv[180] = fl_spin_wA_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_wA_damped_y (.clk(clk), .d(spin_wA_damped_y), .q(dl_spin_wA_damped_y));
     // spin_wA_damped_z = t1_wA_z - spin_mul263   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_z;
+    logic [2:0] fl_spin_wA_damped_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_z[1*W +: W]), .b(dl_spin_mul263), .sub(1'b1),
-        .out_valid(op_valid_nc[185]), .y(spin_wA_damped_z)
+        .out_valid(op_valid_nc[185]), .y(spin_wA_damped_z), .flags(fl_spin_wA_damped_z)
     );
+    assign ev_ovf[181] = fl_spin_wA_damped_z[0] && ev_q[110];
+    assign ev_unf[181] = fl_spin_wA_damped_z[1] && ev_q[110];
+    assign ev_inv[181] = fl_spin_wA_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_wA_damped_z (.clk(clk), .d(spin_wA_damped_z), .q(dl_spin_wA_damped_z));
     // spin_mul267 = n_x * t1_wB_x   (ready @92/92/92)
     logic [W-1:0] spin_mul267;
+    logic [2:0] fl_spin_mul267;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul267 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wB_x[0*W +: W]),
-        .out_valid(op_valid_nc[186]), .y(spin_mul267)
+        .out_valid(op_valid_nc[186]), .y(spin_mul267), .flags(fl_spin_mul267)
     );
+    assign ev_ovf[182] = fl_spin_mul267[0] && ev_q[92];
+    assign ev_unf[182] = fl_spin_mul267[1] && ev_q[92];
+    assign ev_inv[182] = fl_spin_mul267[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul267;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_mul267 (.clk(clk), .d(spin_mul267), .q(dl_spin_mul267));
     // spin_mul268 = n_y * t1_wB_y   (ready @92/92/92)
     logic [W-1:0] spin_mul268;
+    logic [2:0] fl_spin_mul268;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul268 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wB_y[0*W +: W]),
-        .out_valid(op_valid_nc[187]), .y(spin_mul268)
+        .out_valid(op_valid_nc[187]), .y(spin_mul268), .flags(fl_spin_mul268)
     );
+    assign ev_ovf[183] = fl_spin_mul268[0] && ev_q[92];
+    assign ev_unf[183] = fl_spin_mul268[1] && ev_q[92];
+    assign ev_inv[183] = fl_spin_mul268[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul268;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_mul268 (.clk(clk), .d(spin_mul268), .q(dl_spin_mul268));
     // spin_add269 = spin_mul267 + spin_mul268   (ready @96/96/96)
     logic [W-1:0] spin_add269;
+    logic [2:0] fl_spin_add269;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add269 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_mul267), .b(dl_spin_mul268), .sub(1'b0),
-        .out_valid(op_valid_nc[188]), .y(spin_add269)
+        .out_valid(op_valid_nc[188]), .y(spin_add269), .flags(fl_spin_add269)
     );
+    assign ev_ovf[184] = fl_spin_add269[0] && ev_q[96];
+    assign ev_unf[184] = fl_spin_add269[1] && ev_q[96];
+    assign ev_inv[184] = fl_spin_add269[2] && ev_q[96];
     logic [W-1:0] dl_spin_add269;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_add269 (.clk(clk), .d(spin_add269), .q(dl_spin_add269));
     // spin_mul270 = n_z * t1_wB_z   (ready @92/92/92)
     logic [W-1:0] spin_mul270;
+    logic [2:0] fl_spin_mul270;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul270 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wB_z[0*W +: W]),
-        .out_valid(op_valid_nc[189]), .y(spin_mul270)
+        .out_valid(op_valid_nc[189]), .y(spin_mul270), .flags(fl_spin_mul270)
     );
+    assign ev_ovf[185] = fl_spin_mul270[0] && ev_q[92];
+    assign ev_unf[185] = fl_spin_mul270[1] && ev_q[92];
+    assign ev_inv[185] = fl_spin_mul270[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul270;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
         u_dl_spin_mul270 (.clk(clk), .d(spin_mul270), .q(dl_spin_mul270));
     // spin_add271 = spin_add269 + spin_mul270   (ready @100/100/100)
     logic [W-1:0] spin_add271;
+    logic [2:0] fl_spin_add271;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add271 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add269), .b(dl_spin_mul270), .sub(1'b0),
-        .out_valid(op_valid_nc[190]), .y(spin_add271)
+        .out_valid(op_valid_nc[190]), .y(spin_add271), .flags(fl_spin_add271)
     );
+    assign ev_ovf[186] = fl_spin_add271[0] && ev_q[100];
+    assign ev_unf[186] = fl_spin_add271[1] && ev_q[100];
+    assign ev_inv[186] = fl_spin_add271[2] && ev_q[100];
     logic [W-1:0] dl_spin_add271;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_add271 (.clk(clk), .d(spin_add271), .q(dl_spin_add271));
     // spin_sB = spin_add271 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sB;
+    logic [2:0] fl_spin_sB;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_sB (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add271), .b(K_SPIN_DAMP),
-        .out_valid(op_valid_nc[191]), .y(spin_sB)
+        .out_valid(op_valid_nc[191]), .y(spin_sB), .flags(fl_spin_sB)
     );
+    assign ev_ovf[187] = fl_spin_sB[0] && ev_q[103];
+    assign ev_unf[187] = fl_spin_sB[1] && ev_q[103];
+    assign ev_inv[187] = fl_spin_sB[2] && ev_q[103];
     logic [W-1:0] dl_spin_sB;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_sB (.clk(clk), .d(spin_sB), .q(dl_spin_sB));
     // spin_mul273 = n_x * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul273;
+    logic [2:0] fl_spin_mul273;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul273 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sB),
-        .out_valid(op_valid_nc[192]), .y(spin_mul273)
+        .out_valid(op_valid_nc[192]), .y(spin_mul273), .flags(fl_spin_mul273)
     );
+    assign ev_ovf[188] = fl_spin_mul273[0] && ev_q[106];
+    assign ev_unf[188] = fl_spin_mul273[1] && ev_q[106];
+    assign ev_inv[188] = fl_spin_mul273[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul273;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_mul273 (.clk(clk), .d(spin_mul273), .q(dl_spin_mul273));
     // spin_mul274 = n_y * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul274;
+    logic [2:0] fl_spin_mul274;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul274 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sB),
-        .out_valid(op_valid_nc[193]), .y(spin_mul274)
+        .out_valid(op_valid_nc[193]), .y(spin_mul274), .flags(fl_spin_mul274)
     );
+    assign ev_ovf[189] = fl_spin_mul274[0] && ev_q[106];
+    assign ev_unf[189] = fl_spin_mul274[1] && ev_q[106];
+    assign ev_inv[189] = fl_spin_mul274[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul274;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_mul274 (.clk(clk), .d(spin_mul274), .q(dl_spin_mul274));
     // spin_mul275 = n_z * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul275;
+    logic [2:0] fl_spin_mul275;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul275 (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sB),
-        .out_valid(op_valid_nc[194]), .y(spin_mul275)
+        .out_valid(op_valid_nc[194]), .y(spin_mul275), .flags(fl_spin_mul275)
     );
+    assign ev_ovf[190] = fl_spin_mul275[0] && ev_q[106];
+    assign ev_unf[190] = fl_spin_mul275[1] && ev_q[106];
+    assign ev_inv[190] = fl_spin_mul275[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul275;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_mul275 (.clk(clk), .d(spin_mul275), .q(dl_spin_mul275));
     // spin_wB_damped_x = t1_wB_x - spin_mul273   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_x;
+    logic [2:0] fl_spin_wB_damped_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_x (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_x[1*W +: W]), .b(dl_spin_mul273), .sub(1'b1),
-        .out_valid(op_valid_nc[195]), .y(spin_wB_damped_x)
+        .out_valid(op_valid_nc[195]), .y(spin_wB_damped_x), .flags(fl_spin_wB_damped_x)
     );
+    assign ev_ovf[191] = fl_spin_wB_damped_x[0] && ev_q[110];
+    assign ev_unf[191] = fl_spin_wB_damped_x[1] && ev_q[110];
+    assign ev_inv[191] = fl_spin_wB_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_wB_damped_x (.clk(clk), .d(spin_wB_damped_x), .q(dl_spin_wB_damped_x));
     // spin_wB_damped_y = t1_wB_y - spin_mul274   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_y;
+    logic [2:0] fl_spin_wB_damped_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_y (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_y[1*W +: W]), .b(dl_spin_mul274), .sub(1'b1),
-        .out_valid(op_valid_nc[196]), .y(spin_wB_damped_y)
+        .out_valid(op_valid_nc[196]), .y(spin_wB_damped_y), .flags(fl_spin_wB_damped_y)
     );
+    assign ev_ovf[192] = fl_spin_wB_damped_y[0] && ev_q[110];
+    assign ev_unf[192] = fl_spin_wB_damped_y[1] && ev_q[110];
+    assign ev_inv[192] = fl_spin_wB_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_wB_damped_y (.clk(clk), .d(spin_wB_damped_y), .q(dl_spin_wB_damped_y));
     // spin_wB_damped_z = t1_wB_z - spin_mul275   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_z;
+    logic [2:0] fl_spin_wB_damped_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_z (
         .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_z[1*W +: W]), .b(dl_spin_mul275), .sub(1'b1),
-        .out_valid(op_valid_nc[197]), .y(spin_wB_damped_z)
+        .out_valid(op_valid_nc[197]), .y(spin_wB_damped_z), .flags(fl_spin_wB_damped_z)
     );
+    assign ev_ovf[193] = fl_spin_wB_damped_z[0] && ev_q[110];
+    assign ev_unf[193] = fl_spin_wB_damped_z[1] && ev_q[110];
+    assign ev_inv[193] = fl_spin_wB_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_spin_wB_damped_z (.clk(clk), .d(spin_wB_damped_z), .q(dl_spin_wB_damped_z));

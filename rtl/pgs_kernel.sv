@@ -83,8 +83,10 @@ module pgs_kernel #(
     logic        ap_start, ap_done, ap_idle;
     logic [31:0] num_bodies, num_manifolds, iterations, dt, gx, gy, gz, damping, options;
     logic [7:0]  err_set, err_code;
+    logic [2:0]  fp_set;
     logic [63:0] stat_cycles;
-    logic [31:0] stat_stalls, stat_bubbles, stat_issued;
+    logic [31:0] stat_stalls, stat_bubbles, stat_issued, stat_rejected, stat_fp_overflow, stat_fp_underflow,
+                 stat_fp_invalid;
 
     pgs_control_s_axi #(.ADDR_W(AW), .DATA_W(DW)) u_control (
         .ap_clk, .ap_rst_n,
@@ -95,7 +97,8 @@ module pgs_kernel #(
         .s_axi_control_RRESP, .interrupt,
         .ap_start, .ap_done, .ap_idle, .ap_ready(ap_done),
         .num_bodies, .num_manifolds, .iterations, .dt, .gravity_x(gx), .gravity_y(gy), .gravity_z(gz),
-        .damping, .options, .err_set, .err_code, .stat_cycles, .stat_stalls, .stat_bubbles, .stat_issued);
+        .damping, .options, .err_set, .err_code, .fp_set, .stat_cycles, .stat_stalls, .stat_bubbles, .stat_issued,
+        .stat_rejected, .stat_fp_overflow, .stat_fp_underflow, .stat_fp_invalid);
 
     pgs_sequencer #(
         .EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .MAX_MANIFOLDS(MAX_MANIFOLDS),
@@ -113,7 +116,8 @@ module pgs_kernel #(
         .s_cons_tlast(s_axis_cons_TLAST),
         .m_body_tdata(m_axis_body_TDATA), .m_body_tvalid(m_axis_body_TVALID), .m_body_tready(m_axis_body_TREADY),
         .m_body_tlast(m_axis_body_TLAST),
-        .err_set, .err_code, .stat_cycles, .stat_stalls, .stat_bubbles, .stat_issued, .trace_valid, .trace_data);
+        .err_set, .err_code, .fp_set, .stat_cycles, .stat_stalls, .stat_bubbles, .stat_issued, .stat_rejected,
+        .stat_fp_overflow, .stat_fp_underflow, .stat_fp_invalid, .trace_valid, .trace_data);
 
     // Not needed (Verilator's *unused* naming convention): the register bits above the format's width
     // and the reserved option bits.

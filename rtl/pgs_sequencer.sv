@@ -20,12 +20,28 @@
 //   DONE   one cycle: done (= ap_done and ap_ready).
 // Counters (cleared at start, frozen after done): cycles (start .. done inclusive), stall cycles
 // (SOLVE, a record is assembled but may not issue: hazard, CAM full or pipe switch drain), bubble
-// cycles (SOLVE, no record assembled), issued manifold-passes.
-// Errors (err_set pulses, err_code): 0x01 constraint TLAST not on exactly the last beat of each
-// pass; 0x02 body-in TLAST not on exactly the last beat of the last body; 0x03 bad argument
-// (num_bodies > MAX_BODIES, num_manifolds > MAX_MANIFOLDS or iterations >= 2^16: the step ends at once,
-// streams untouched); 0x04 a record names a body index >= num_bodies (the index is used modulo
-// MAX_BODIES). Flags: bit k-1 for code k.
+// cycles (SOLVE, no record assembled), issued manifold-passes, rejected manifold-passes (issued +
+// rejected = num_manifolds * 2 * iterations), and the floating-point events of the three datapaths
+// (overflow, underflow, invalid: every operator result of an issued manifold-pass or of a dynamic body's
+// integration; saturating at 2^32 - 1; fp_set pulses with the events of a cycle).
+//
+// Bad input (rtl/README.md "Bad input"; err_set pulses a flag, err_code its code; flag bit k-1 for code k):
+//   * body-in records are checked at load: a non-finite word (0x05), a negative inverse mass or inverse
+//     inertia (0x06), or a record cut short by TLAST (0x02) makes a *bad body*: stored frozen (not
+//     dynamic), every manifold naming it is rejected, integration passes its record through unchanged.
+//     An early TLAST (fewer bodies than num_bodies, 0x02) loads the missing bodies as zero records, bad;
+//     a late one (more) discards the extra beats up to TLAST (0x02). The step goes on.
+//   * constraint records are checked at issue. A record is *rejected* (consumed, never issued: no pipe,
+//     no trace, no write) when it names a body >= num_bodies or the same body twice (0x04), holds a
+//     non-finite word (0x05), joins two static bodies (0x07), names a bad body (no new flag), was cut
+//     short by TLAST (0x01), or its manifold slot was rejected in an earlier pass of the step: a slot
+//     once rejected stays rejected for the rest of the step (a one-bit-per-slot memory written for every
+//     slot in the first pass), so the bodies it names see the manifold as absent from then on, exactly.
+//     TLAST before the last record of a pass (0x01) ends the pass there: its missing slots are rejected
+//     (one per cycle); TLAST missing on the last record (0x01) discards the extra beats up to the next
+//     TLAST. Every pass stays in step with the host's transfers, so the step always ends.
+//   * 0x03 bad argument (num_bodies > MAX_BODIES, num_manifolds > MAX_MANIFOLDS or iterations >= 2^16):
+//     the step ends at once, streams untouched.
 `default_nettype none
 
 module pgs_sequencer #(
@@ -71,10 +87,15 @@ module pgs_sequencer #(
     output logic                  m_body_tlast,
     output logic [7:0]            err_set,
     output logic [7:0]            err_code,
+    output logic [2:0]            fp_set,       // {invalid, underflow, overflow} events this cycle
     output logic [63:0]           stat_cycles,
     output logic [31:0]           stat_stalls,
     output logic [31:0]           stat_bubbles,
     output logic [31:0]           stat_issued,
+    output logic [31:0]           stat_rejected,
+    output logic [31:0]           stat_fp_overflow,
+    output logic [31:0]           stat_fp_underflow,
+    output logic [31:0]           stat_fp_invalid,
     output logic                  trace_valid,
     output logic [TRACE_W-1:0]    trace_data
 );
@@ -94,6 +115,7 @@ module pgs_sequencer #(
     localparam int STAG_W    = SLOT_W + ITER_W + 2 * IDX_W + 2;        // solver pipes' tag
     localparam int ITAG_W    = 1 + OREC_W;                              // integrate pipe's tag
     localparam int OBEAT_W   = $clog2(O_BEATS + 1);
+    localparam int EV_W      = 16;                                      // the datapaths' event counts
 
     localparam bit CONTACT  = 1'b0;
     localparam bit FRICTION = 1'b1;
@@ -131,22 +153,44 @@ module pgs_sequencer #(
     // ---------------- body RAM ----------------
     logic [IDX_W-1:0]  rd0_addr, rd1_addr, wr0_addr, wr1_addr, dyn0_addr, dyn1_addr;
     logic [BREC_W-1:0] rd0_data, rd1_data, wr0_data, wr1_data;
-    logic              wr0_en, wr0_full, wr1_en, dyn0, dyn1;
+    logic              wr0_en, wr0_full, wr0_bad, wr1_en, dyn0, dyn1, bad0, bad1, rd0_bad;
 
     pgs_body_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES)) u_body_ram (
-        .clk, .rd0_addr, .rd0_data, .rd1_addr, .rd1_data,
-        .wr0_en, .wr0_full, .wr0_addr, .wr0_data, .wr1_en, .wr1_full(1'b0), .wr1_addr, .wr1_data,
-        .dyn0_addr, .dyn0, .dyn1_addr, .dyn1);
+        .clk, .rd0_addr, .rd0_data, .rd0_bad, .rd1_addr, .rd1_data,
+        .wr0_en, .wr0_full, .wr0_bad, .wr0_addr, .wr0_data, .wr1_en, .wr1_full(1'b0), .wr1_bad(1'b0), .wr1_addr,
+        .wr1_data, .dyn0_addr, .dyn0, .bad0, .dyn1_addr, .dyn1, .bad1);
 
     // ---------------- body-in stream ----------------
+    // b_end: a TLAST was taken (no more body beats this step); b_fill: after an early TLAST, the missing
+    // bodies are written as zero records, bad, one per cycle; b_flush: after the last body without TLAST,
+    // beats are discarded up to TLAST.
     logic [B_BEATS*BODY_IN_W-1:0] brec;
-    logic        brec_valid, brec_last, b_done, b_unused_tag;
+    logic        brec_valid, brec_last, brec_trunc, b_done, b_done_trunc, b_unused_tag, b_asm_ready;
+    logic        b_end, b_fill, b_flush;
     logic [31:0] b_asm_cnt, load_idx;
     pgs_record_asm #(.BEAT_W(BODY_IN_W), .MAX_BEATS(B_BEATS), .TAG_W(1)) u_body_asm (
-        .clk, .rst, .enable(phase == S_LOAD && b_asm_cnt < nb), .need(BNEED_W'(B_BEATS)), .in_tag(1'b0),
-        .s_tdata(s_body_tdata), .s_tvalid(s_body_tvalid), .s_tlast(s_body_tlast), .s_tready(s_body_tready),
-        .done(b_done), .rec_data(brec), .rec_tag(b_unused_tag), .rec_last(brec_last), .rec_valid(brec_valid),
-        .rec_ready(1'b1));
+        .clk, .rst, .enable(phase == S_LOAD && b_asm_cnt < nb && !b_end), .need(BNEED_W'(B_BEATS)),
+        .in_tag(1'b0), .s_tdata(s_body_tdata), .s_tvalid(s_body_tvalid), .s_tlast(s_body_tlast),
+        .s_tready(b_asm_ready), .done(b_done), .done_trunc(b_done_trunc), .rec_data(brec), .rec_tag(b_unused_tag),
+        .rec_last(brec_last), .rec_trunc(brec_trunc), .rec_valid(brec_valid), .rec_ready(1'b1));
+    assign s_body_tready = b_asm_ready || b_flush;
+
+    // checks of a body-in record (words: pos 0-2, q 3-6, v 7-9, w 10-12, mInv 13, IInv 14-16): a word
+    // is non-finite when its exponent is all ones, negative when its sign is set and its exponent is not
+    // zero (a negative zero or subnormal reads as zero)
+    logic brec_nonfinite, brec_bad_mass;
+    always_comb begin
+        brec_nonfinite = 1'b0;
+        brec_bad_mass  = 1'b0;
+        for (int k = 0; k < 17; k++) begin
+            brec_nonfinite = brec_nonfinite || brec[k*W + MAN_BITS +: EXP_BITS] == '1;
+            if (k >= 13) brec_bad_mass = brec_bad_mass || (brec[k*W + W - 1] && brec[k*W + MAN_BITS +: EXP_BITS] != '0);
+        end
+    end
+    wire load_step  = phase == S_LOAD && (brec_valid || b_fill);   // body load_idx is written
+    wire load_last  = load_step && load_idx == nb - 1;
+    wire b_early    = phase == S_LOAD && brec_valid && brec_last && load_idx != nb - 1;
+    wire b_late     = phase == S_LOAD && brec_valid && !brec_last && load_idx == nb - 1;
 
     // ---------------- constraint stream ----------------
     logic [ITER_W:0] a_pass;   // pass of the record being assembled
@@ -154,14 +198,17 @@ module pgs_sequencer #(
     wire             a_kind = kind_of(a_pass, ilv, iters);
     wire             a_last = a_slot == nm - 1;
     logic [CREC_W-1:0] crec;
-    logic [1:0]      crec_tag;  // {last record of its pass, kind}
-    logic            crec_valid, crec_last, c_done, issue;
-    pgs_record_asm #(.BEAT_W(CONS_W), .MAX_BEATS(CM_BEATS), .TAG_W(2)) u_cons_asm (
-        .clk, .rst, .enable((phase == S_LOAD || phase == S_SOLVE) && a_pass < passes),
-        .need(a_kind ? CNEED_W'(F_BEATS) : CNEED_W'(C_BEATS)), .in_tag({a_last, a_kind}),
-        .s_tdata(s_cons_tdata), .s_tvalid(s_cons_tvalid), .s_tlast(s_cons_tlast), .s_tready(s_cons_tready),
-        .done(c_done), .rec_data(crec), .rec_tag(crec_tag), .rec_last(crec_last), .rec_valid(crec_valid),
-        .rec_ready(issue));
+    logic            crec_tag;  // the record's pass kind
+    logic            crec_valid, crec_last, crec_trunc, c_done, c_done_trunc, c_asm_ready, take;
+    logic            c_flush;   // after the last record of a pass without TLAST: discard beats up to TLAST
+    pgs_record_asm #(.BEAT_W(CONS_W), .MAX_BEATS(CM_BEATS), .TAG_W(1)) u_cons_asm (
+        .clk, .rst, .enable((phase == S_LOAD || phase == S_SOLVE) && a_pass < passes && nm != 0 && !c_flush),
+        .need(a_kind ? CNEED_W'(F_BEATS) : CNEED_W'(C_BEATS)), .in_tag(a_kind),
+        .s_tdata(s_cons_tdata), .s_tvalid(s_cons_tvalid), .s_tlast(s_cons_tlast), .s_tready(c_asm_ready),
+        .done(c_done), .done_trunc(c_done_trunc), .rec_data(crec), .rec_tag(crec_tag), .rec_last(crec_last),
+        .rec_trunc(crec_trunc), .rec_valid(crec_valid), .rec_ready(take));
+    assign s_cons_tready = c_asm_ready || c_flush;
+    wire c_pass_end = c_done && (a_last || s_cons_tlast);   // the assembler moves on to the next pass
 
     // ---------------- issue ----------------
     wire [63:0]      hdr    = crec[63:0];
@@ -169,7 +216,7 @@ module pgs_sequencer #(
     wire [31:0]      hdr_b  = {1'b0, hdr[62:32]};
     wire [IDX_W-1:0] cand_a = hdr_a[IDX_W-1:0];
     wire [IDX_W-1:0] cand_b = hdr_b[IDX_W-1:0];
-    wire             rkind  = crec_tag[0];
+    wire             rkind  = crec_tag;
     logic hazard, cam_full, cam_empty, retire, last_kind;
     logic [ITER_W:0] i_pass;
     logic [31:0]     i_slot;
@@ -177,7 +224,31 @@ module pgs_sequencer #(
     wire  [ITER_W-1:0] i_iter = i_iter_full[ITER_W-1:0];
     wire  in_solve = phase == S_SOLVE;
     wire  kind_ok  = rkind == last_kind || cam_empty;
-    assign issue = in_solve && crec_valid && !hazard && !cam_full && kind_ok;
+
+    // checks of the assembled record (contact: 23 words, friction: 14 words after the 64-bit header)
+    logic crec_nonfinite;
+    always_comb begin
+        crec_nonfinite = 1'b0;
+        for (int k = 0; k < 23; k++) begin
+            if (k < 14 || rkind == CONTACT) crec_nonfinite = crec_nonfinite || crec[64 + k*W + MAN_BITS +: EXP_BITS] == '1;
+        end
+    end
+    // slots rejected earlier in the step (written for every slot in pass 0, set by later rejections)
+    logic slot_rej [MAX_MANIFOLDS];
+    logic i_fill;   // rejecting the slots a pass is missing after an early TLAST, one per cycle
+    wire  rej_prev   = i_pass != '0 && slot_rej[i_slot[SLOT_W-1:0]];
+    wire  rej_index  = hdr_a >= nb || hdr_b >= nb || hdr_a == hdr_b;
+    wire  rej_bad    = !rej_index && (bad0 || bad1);
+    wire  rej_static = !rej_index && !rej_bad && !dyn0 && !dyn1;
+    wire  rej        = rej_prev || rej_index || rej_bad || rej_static || crec_nonfinite || crec_trunc;
+    assign take      = in_solve && crec_valid && !i_fill && (rej || (!hazard && !cam_full && kind_ok));
+    wire  issue      = take && !rej;
+    wire  reject     = take && rej;
+    wire  fill       = in_solve && i_fill;
+    wire  slot_step  = take || fill;                       // slot i_slot of pass i_pass is done
+    always_ff @(posedge clk) begin
+        if (slot_step && (i_pass == '0 || reject || fill)) slot_rej[i_slot[SLOT_W-1:0]] <= reject || fill;
+    end
 
     pgs_hazard_cam #(.IDX_W(IDX_W), .DEPTH(HAZARD_DEPTH)) u_cam (
         .clk, .rst, .cand_a, .cand_a_dyn(dyn0), .cand_b, .cand_b_dyn(dyn1), .hazard, .push(issue), .pop(retire),
@@ -245,13 +316,16 @@ module pgs_sequencer #(
     logic [STAG_W-1:0] c_out_tag, f_out_tag;
     logic [16*W-1:0]   c_out;
     logic [14*W-1:0]   f_out;
+    logic [EV_W-1:0] c_ev_ovf, c_ev_unf, c_ev_inv, f_ev_ovf, f_ev_unf, f_ev_inv, i_ev_ovf, i_ev_unf, i_ev_inv;
     pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
-        .clk, .rst, .in_valid(s1_valid && s1_kind == CONTACT), .in_tag(s1_tag), .in_data(c_in),
-        .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out));
+        .clk, .rst, .in_valid(s1_valid && s1_kind == CONTACT), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
+        .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
+        .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
     pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
                         .TEST_FRICTION_SIGN_BUG(TEST_FRICTION_SIGN_BUG)) u_friction (
         .clk, .rst, .in_valid(s1_valid && s1_kind == FRICTION), .in_tag(s1_tag), .in_data(f_in),
-        .in_spin_damp(s1_sd), .out_valid(f_out_valid), .out_tag(f_out_tag), .out_data(f_out));
+        .in_spin_damp(s1_sd), .in_count(1'b1), .out_valid(f_out_valid), .out_tag(f_out_tag), .out_data(f_out),
+        .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
 
     // ---------------- retire ----------------
     assign retire = c_out_valid || f_out_valid;
@@ -276,14 +350,16 @@ module pgs_sequencer #(
     always_comb begin
         wr0_en   = 1'b0;
         wr0_full = 1'b0;
+        wr0_bad  = 1'b0;
         wr0_addr = r_a;
         wr0_data = '0;
         wr0_data[7*W +: 6*W] = r_vel[0 +: 6*W];
         if (phase == S_LOAD) begin
-            wr0_en   = brec_valid;
+            wr0_en   = load_step;
             wr0_full = 1'b1;
+            wr0_bad  = b_fill || brec_nonfinite || brec_bad_mass || brec_trunc;
             wr0_addr = load_idx[IDX_W-1:0];
-            wr0_data = brec[0 +: BREC_W];
+            wr0_data = b_fill ? '0 : brec[0 +: BREC_W];
         end else if (retire && r_dyn_a) begin
             wr0_en = 1'b1;
         end
@@ -324,14 +400,16 @@ module pgs_sequencer #(
         if (rst) i1_valid <= 1'b0;
         else     i1_valid <= int_issue;
     end
-    wire i1_static = rd0_data[13*W + MAN_BITS +: EXP_BITS] == '0;
+    // static (mInv == 0 after flush) and bad bodies pass through unchanged; their events are not counted
+    wire i1_static = rd0_data[13*W + MAN_BITS +: EXP_BITS] == '0 || rd0_bad;
     wire [18*W-1:0] i_in = {r_gz, r_gy, r_gx, r_damp, r_dt, rd0_data[0 +: OREC_W]};
     logic              io_valid;
     logic [ITAG_W-1:0] io_tag;
     logic [OREC_W-1:0] io_data;
     pgs_integrate_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(ITAG_W)) u_integrate (
         .clk, .rst, .in_valid(i1_valid), .in_tag({i1_static, rd0_data[0 +: OREC_W]}), .in_data(i_in),
-        .out_valid(io_valid), .out_tag(io_tag), .out_data(io_data));
+        .in_count(!i1_static), .out_valid(io_valid), .out_tag(io_tag), .out_data(io_data), .ev_overflow(i_ev_ovf),
+        .ev_underflow(i_ev_unf), .ev_invalid(i_ev_inv));
 
     logic [OREC_W-1:0] ofifo_head;
     logic ofifo_empty, ofifo_full;
@@ -346,8 +424,8 @@ module pgs_sequencer #(
     assign m_body_tlast  = out_beat == OBEAT_W'(O_BEATS - 1) && out_cnt == nb - 1;
 
     // ---------------- phase machine and counters ----------------
-    wire load_last  = brec_valid && load_idx == nb - 1;
-    wire issue_last = issue && i_pass == passes - 1 && i_slot == nm - 1;
+    wire slot_last  = i_slot == nm - 1;
+    wire solve_last = slot_step && i_pass == passes - 1 && slot_last;
     wire solve_work = nm != 0 && passes != 0;
 
     always_ff @(posedge clk) begin
@@ -356,9 +434,11 @@ module pgs_sequencer #(
         end else begin
             unique case (phase)
                 S_IDLE:  if (start) phase <= bad_args ? S_DONE : (arg_num_bodies != 0 ? S_LOAD : S_INTEG);
-                S_LOAD:  if (load_last) phase <= solve_work ? S_SOLVE : S_INTEG;
-                S_SOLVE: if (issue_last) phase <= S_DRAIN;
-                S_DRAIN: if (cam_empty) phase <= S_INTEG;
+                // LOAD ends with the last body written and no extra body beats left to discard
+                S_LOAD:  if ((load_last || load_idx == nb) && !b_flush && !b_late)
+                             phase <= solve_work ? S_SOLVE : S_INTEG;
+                S_SOLVE: if (solve_last) phase <= S_DRAIN;
+                S_DRAIN: if (cam_empty && !c_flush) phase <= S_INTEG;
                 S_INTEG: if ((out_pop && out_cnt == nb - 1) || nb == 0) phase <= S_DONE;
                 S_DONE:  phase <= S_IDLE;
                 default: phase <= S_IDLE;
@@ -370,22 +450,50 @@ module pgs_sequencer #(
 
     always_ff @(posedge clk) begin
         if (rst) begin
-            stat_cycles  <= '0;
-            stat_stalls  <= '0;
-            stat_bubbles <= '0;
-            stat_issued  <= '0;
+            stat_cycles   <= '0;
+            stat_stalls   <= '0;
+            stat_bubbles  <= '0;
+            stat_issued   <= '0;
+            stat_rejected <= '0;
         end else if (phase == S_IDLE) begin
             if (start) begin
-                stat_cycles  <= 64'd1;
-                stat_stalls  <= '0;
-                stat_bubbles <= '0;
-                stat_issued  <= '0;
+                stat_cycles   <= 64'd1;
+                stat_stalls   <= '0;
+                stat_bubbles  <= '0;
+                stat_issued   <= '0;
+                stat_rejected <= '0;
             end
         end else begin
             stat_cycles <= stat_cycles + 1'b1;
-            if (in_solve && crec_valid && !issue) stat_stalls <= stat_stalls + 1'b1;
-            if (in_solve && !crec_valid) stat_bubbles <= stat_bubbles + 1'b1;
+            if (in_solve && crec_valid && !i_fill && !take) stat_stalls <= stat_stalls + 1'b1;
+            if (in_solve && !crec_valid && !i_fill) stat_bubbles <= stat_bubbles + 1'b1;
             if (issue) stat_issued <= stat_issued + 1'b1;
+            if (reject || fill) stat_rejected <= stat_rejected + 1'b1;
+        end
+    end
+
+    // floating-point events of the datapaths (each pipe reports the previous cycle's; they arrive at most
+    // LATENCY + 1 cycles after an input, before the step's last body-out beat)
+    wire [EV_W+1:0] ev_ovf = (EV_W+2)'(c_ev_ovf) + (EV_W+2)'(f_ev_ovf) + (EV_W+2)'(i_ev_ovf);
+    wire [EV_W+1:0] ev_unf = (EV_W+2)'(c_ev_unf) + (EV_W+2)'(f_ev_unf) + (EV_W+2)'(i_ev_unf);
+    wire [EV_W+1:0] ev_inv = (EV_W+2)'(c_ev_inv) + (EV_W+2)'(f_ev_inv) + (EV_W+2)'(i_ev_inv);
+    assign fp_set = {ev_inv != '0, ev_unf != '0, ev_ovf != '0};
+
+    function automatic logic [31:0] sat_add(input logic [31:0] acc, input logic [EV_W+1:0] inc);
+        logic [32:0] sum;
+        sum = {1'b0, acc} + 33'(inc);
+        return sum[32] ? '1 : sum[31:0];
+    endfunction
+
+    always_ff @(posedge clk) begin
+        if (rst || (phase == S_IDLE && start)) begin
+            stat_fp_overflow  <= '0;
+            stat_fp_underflow <= '0;
+            stat_fp_invalid   <= '0;
+        end else begin
+            stat_fp_overflow  <= sat_add(stat_fp_overflow, ev_ovf);
+            stat_fp_underflow <= sat_add(stat_fp_underflow, ev_unf);
+            stat_fp_invalid   <= sat_add(stat_fp_invalid, ev_inv);
         end
     end
 
@@ -394,10 +502,15 @@ module pgs_sequencer #(
         if (phase == S_IDLE) begin
             b_asm_cnt <= '0;
             load_idx  <= '0;
+            b_end     <= 1'b0;
+            b_fill    <= 1'b0;
+            b_flush   <= 1'b0;
             a_pass    <= '0;
             a_slot    <= '0;
+            c_flush   <= 1'b0;
             i_pass    <= '0;
             i_slot    <= '0;
+            i_fill    <= 1'b0;
             last_kind <= CONTACT;
             int_idx   <= '0;
             credits   <= '0;
@@ -405,22 +518,31 @@ module pgs_sequencer #(
             out_beat  <= '0;
         end else begin
             if (b_done) b_asm_cnt <= b_asm_cnt + 1;
-            if (phase == S_LOAD && brec_valid) load_idx <= load_idx + 1;
+            if (b_done && s_body_tlast) b_end <= 1'b1;
+            if (load_step) load_idx <= load_idx + 1;
+            if (b_early) b_fill <= 1'b1;
+            else if (load_last) b_fill <= 1'b0;
+            if (b_late) b_flush <= 1'b1;
+            else if (b_flush && s_body_tvalid && s_body_tlast) b_flush <= 1'b0;
             if (c_done) begin
-                if (a_last) begin
+                if (c_pass_end) begin
                     a_slot <= '0;
                     a_pass <= a_pass + 1'b1;
                 end else begin
                     a_slot <= a_slot + 1;
                 end
             end
-            if (issue) begin
-                last_kind <= rkind;
-                if (i_slot == nm - 1) begin
+            if (c_done && a_last && !s_cons_tlast) c_flush <= 1'b1;
+            else if (c_flush && s_cons_tvalid && s_cons_tlast) c_flush <= 1'b0;
+            if (issue) last_kind <= rkind;
+            if (slot_step) begin
+                if (slot_last) begin
                     i_slot <= '0;
                     i_pass <= i_pass + 1'b1;
+                    i_fill <= 1'b0;
                 end else begin
                     i_slot <= i_slot + 1;
+                    if (take && crec_last) i_fill <= 1'b1;   // TLAST before the pass's last slot
                 end
             end
             if (int_issue) int_idx <= int_idx + 1;
@@ -431,24 +553,23 @@ module pgs_sequencer #(
     end
 
     // ---------------- errors ----------------
+    // the conditions of codes 1..7 (flag bit k-1 of code k); err_code names the lowest one raised this cycle.
+    // A record cut short by TLAST (code 1 / 2) holds stale words: its other checks raise nothing.
+    wire cons_check    = take && !crec_trunc;
+    wire body_in_check = phase == S_LOAD && brec_valid && !brec_trunc;
+    logic [6:0] err_hit;
     always_comb begin
-        err_set  = 8'h00;
+        err_hit[0] = c_done && (s_cons_tlast != a_last || c_done_trunc);                   // 1 constraint TLAST
+        err_hit[1] = b_done && (s_body_tlast != (b_asm_cnt == nb - 1) || b_done_trunc);   // 2 body-in TLAST
+        err_hit[2] = phase == S_IDLE && start && bad_args;                                // 3 bad argument
+        err_hit[3] = cons_check && rej_index;                                             // 4 body index
+        err_hit[4] = (cons_check && crec_nonfinite) || (body_in_check && brec_nonfinite); // 5 non-finite word
+        err_hit[5] = body_in_check && brec_bad_mass;                                      // 6 negative mass
+        err_hit[6] = cons_check && !rej_index && !rej_bad && rej_static;                  // 7 two static bodies
+        err_set  = {1'b0, err_hit};
         err_code = 8'h00;
-        if (issue && (hdr_a >= nb || hdr_b >= nb)) begin
-            err_set[3] = 1'b1;
-            err_code   = 8'h04;
-        end
-        if (phase == S_IDLE && start && bad_args) begin
-            err_set[2] = 1'b1;
-            err_code   = 8'h03;
-        end
-        if (phase == S_LOAD && brec_valid && brec_last != (load_idx == nb - 1)) begin
-            err_set[1] = 1'b1;
-            err_code   = 8'h02;
-        end
-        if (crec_valid && issue && crec_last != crec_tag[1]) begin
-            err_set[0] = 1'b1;
-            err_code   = 8'h01;
+        for (int k = 6; k >= 0; k--) begin
+            if (err_hit[k]) err_code = 8'(k + 1);
         end
     end
 

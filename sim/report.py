@@ -1,10 +1,57 @@
-"""Run reports: a terminal summary plus ``report.json`` and ``report.md`` in the run directory."""
+"""Run reports: a terminal summary plus ``report.json`` and ``report.md`` in the run directory, and
+:class:`StagedDirectory`, which makes an output directory appear only once it is complete."""
 
 from __future__ import annotations
 
 import json
+import os
+import shutil
+import tempfile
 from pathlib import Path
-from typing import Any
+from types import TracebackType
+from typing import Any, Optional
+
+
+class StagedDirectory:
+    """An output directory written under a temporary name in ``parent`` (``path``) and renamed into place by
+    :meth:`commit` (replacing an older directory of that name). Leaving the ``with`` block without a commit --
+    an error, Ctrl-C -- removes it, and ``parent`` too when this created it and it is empty: a failed run
+    leaves no half-written directory behind."""
+
+    def __init__(self, parent: Path):
+        self.parent = Path(parent)
+        self.created_parent = False
+        self.path = self.parent
+        self.final: Optional[Path] = None
+
+    def __enter__(self) -> "StagedDirectory":
+        self.created_parent = not self.parent.exists()
+        self.parent.mkdir(parents=True, exist_ok=True)
+        self.path = Path(tempfile.mkdtemp(prefix=".partial-", dir=self.parent))
+        umask = os.umask(0)
+        os.umask(umask)
+        self.path.chmod(0o777 & ~umask)  # mkdtemp makes it private; the finished directory is an ordinary one
+        return self
+
+    def commit(self, name: str) -> Path:
+        """Move the finished directory to ``parent/name`` and return that path."""
+        final = self.parent / name
+        old = None
+        if final.exists():
+            old = Path(tempfile.mkdtemp(prefix=".old-", dir=self.parent))
+            final.rename(old / "dir")
+        self.path.rename(final)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+        self.final = final
+        return final
+
+    def __exit__(self, exc_type: Optional[type[BaseException]], exc: Optional[BaseException],
+                 tb: Optional[TracebackType]) -> None:
+        if self.final is None:
+            shutil.rmtree(self.path, ignore_errors=True)
+            if self.created_parent and not any(self.parent.iterdir()):
+                self.parent.rmdir()
 
 
 def write_report(run_dir: Path, title: str, sections: dict[str, dict[str, Any]]) -> tuple[Path, Path]:

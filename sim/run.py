@@ -9,7 +9,13 @@ into constraints, orders them (hazard schedule by default), and runs the step th
 * float64 references: the same schedule and iterations, and a converged solve.
 
 It prints a summary and writes ``report.md``/``report.json`` (and, with ``--waves``, ``waves.fst`` plus a
-GTKWave save file) into ``build/sim/<scene>-<format>-it<iters>-s<seed>-<dma>/``.
+GTKWave save file) into ``build/sim/<scene>-<format>-it<iters>-s<seed>-<dma>/``. ``--frame FILE`` runs a saved
+frame (``models.frame.save``) instead of the scene's (the run directory is named after the file).
+
+Bad input (an unknown scene, format or DMA preset, bad parameters, a corrupt, truncated or other-version frame
+file) ends the run with one line ``error: ...`` naming the problem and exit status 2; the run directory is
+written under a temporary name and appears only once complete (``sim.report.StagedDirectory``), so a failed
+run leaves nothing behind.
 
     python -m sim.run --scene pile --iters 4 --format fp32 --dma zcu102 --seed 1
 """
@@ -30,22 +36,23 @@ from models import scenes
 from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.contact_solver import SolverParams, solve, solve_converged
 from models.dma_model import PRESETS, DmaPreset, get_preset
-from models.frame import Frame, FrameError
+from models.frame import Frame, FrameError, load
 from models.integrator import IntegrationParams, integrate
-from models.number_format import FLOAT64, FP32, parse_format
+from models.number_format import FLOAT64, FP32, NumberFormat, parse_format
 from models.residual import contact_residual
 from models.schedule import make_schedule, stats
 from sim import baselines
 from sim.kernel_run import KernelBuild, KernelJob, KernelResult, KernelRunError, default_window, golden_step, \
     kernel_bodies, run_kernel_step, text_progress
 from sim.analyze import DEFAULT_BUDGET, kernel_format, problem_of
-from sim.report import print_summary, write_report
+from sim.report import StagedDirectory, print_summary, write_report
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="python -m sim.run", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="pile", help=f"scene name ({', '.join(sorted(scenes.SCENES))})")
+    ap.add_argument("--frame", default="", help="a frame file (.npz, models.frame.save) to run instead of --scene")
     ap.add_argument("--iters", type=int, default=4, help="PGS iterations per pass type (Bullet GPU: 4)")
     ap.add_argument("--format", default="fp32",
                     help="number format: fp32, fp16, bf16, eXmY, or auto (the narrowest within 1%% error, sim.analyze)")
@@ -63,6 +70,39 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--wave-cycles", type=int, default=20000, help="cycles of waveform to keep (0: all)")
     ap.add_argument("--out", default="build/sim", help="parent directory of the run directory")
     return ap.parse_args(argv)
+
+
+def hardware_format(name: str) -> NumberFormat:
+    """A number format the kernel can be built for (``parse_format`` also knows float64, the reference)."""
+    fmt = parse_format(name)
+    if not isinstance(fmt, NumberFormat):
+        raise ValueError(f"number format {name!r} is the float64 reference, not a kernel format (fp32, fp16, bf16 "
+                         "or eXmY)")
+    return fmt
+
+
+def check_args(args: argparse.Namespace) -> None:
+    """The arguments that need no frame: raise ValueError naming the first bad one."""
+    get_preset(args.dma)
+    if args.format.strip().lower() != "auto":
+        hardware_format(args.format)
+    if args.iters < 1:
+        raise ValueError(f"ITERS must be >= 1, got {args.iters}")
+    if args.schedule not in ("hazard", "pybullet"):
+        raise ValueError(f"unknown schedule {args.schedule!r} (expected hazard or pybullet)")
+    for name, value, lo, hi in (("--window", args.window, 0, None), ("--stall-permille", args.stall_permille, 0, 1000),
+                                ("--converged-budget", args.converged_budget, 0, None),
+                                ("--wave-cycles", args.wave_cycles, 0, None)):
+        if not (value >= lo and (hi is None or value <= hi)) or not math.isfinite(value):
+            raise ValueError(f"{name} must be {'in ' + str(lo) + '..' + str(hi) if hi else '>= ' + str(lo)}, "
+                             f"got {value}")
+
+
+def load_frame(args: argparse.Namespace) -> tuple[Frame, str]:
+    """The frame to run (``--frame`` or the scene's, captured or cached) and the name of the runs made of it."""
+    if args.frame:
+        return load(args.frame), Path(args.frame).stem
+    return scenes.load_or_capture(args.scene, seed=args.seed), args.scene
 
 
 def velocity_error(ours: BodyTable, ref_lin: np.ndarray, ref_ang: np.ndarray, dynamic: np.ndarray) -> dict[str, float]:
@@ -149,22 +189,21 @@ def thesis_section(res: KernelResult | None, job: KernelJob, frame: Frame, secon
     return out
 
 
-def run(args: argparse.Namespace) -> tuple[dict[str, dict[str, Any]], Path]:
+def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, Any]], str, KernelBuild | None]:
+    """The run's sections, with every file written into ``run_dir``; returns them, the run directory's name and
+    the kernel build (None with --no-kernel)."""
+    check_args(args)
     preset = get_preset(args.dma)
-    if args.iters < 1:
-        raise ValueError(f"ITERS must be >= 1, got {args.iters}")
     auto = args.format.strip().lower() == "auto"
-    fmt = None if auto else parse_format(args.format)
-    if args.schedule not in ("hazard", "pybullet"):
-        raise ValueError(f"unknown schedule {args.schedule!r} (expected hazard or pybullet)")
+    fmt = None if auto else hardware_format(args.format)
     timer = Timer()
-    frame = timer.run("frame load/capture", scenes.load_or_capture, args.scene, seed=args.seed)
+    frame, label = timer.run("frame load/capture", load_frame, args)
     print(frame.summary(), flush=True)
     if fmt is None:  # FORMAT=auto: the narrowest single format within the analyzer's error budget
         fmt, auto_err, _ = timer.run("format analysis (FORMAT=auto)", kernel_format, problem_of(frame, args.iters),
                                      DEFAULT_BUDGET)
         print(f"FORMAT=auto: {fmt.name} (step error {auto_err:.3g} against float64, budget {DEFAULT_BUDGET})")
-    run_dir = Path(args.out) / f"{args.scene}-{'auto-' if auto else ''}{fmt.name}-it{args.iters}-s{args.seed}-{args.dma}"
+    name = f"{label}-{'auto-' if auto else ''}{fmt.name}-it{args.iters}-s{args.seed}-{args.dma}"
 
     bodies = body_table(frame)
     cons = setup_constraints(frame, bodies)
@@ -183,6 +222,7 @@ def run(args: argparse.Namespace) -> tuple[dict[str, dict[str, Any]], Path]:
     conv_final = integrate(conv.result.bodies, FLOAT64, ip)
 
     res: KernelResult | None = None
+    kb: KernelBuild | None = None
     if not args.no_kernel:
         kb = KernelBuild(fmt, cons_bits=preset.stream_bits, waves=args.waves)
         print(f"kernel: {kb.name} ({'building, first time a few minutes' if not _built(kb) else 'built'})", flush=True)
@@ -192,8 +232,6 @@ def run(args: argparse.Namespace) -> tuple[dict[str, dict[str, Any]], Path]:
                         args.seed, args.stall_permille, args.stall_permille, progress, golden=golden, waves=waves,
                         wave_cycles=args.wave_cycles)
         print(file=sys.stderr)
-        if waves is not None:
-            _write_gtkw(waves, kb)
 
     ours = golden.final
     if res is not None:
@@ -201,7 +239,7 @@ def run(args: argparse.Namespace) -> tuple[dict[str, dict[str, Any]], Path]:
             ours = kernel_bodies(run_dir, job)
     dyn = bodies.dynamic
     sections: dict[str, dict[str, Any]] = {
-        "scene": {"scene": args.scene, "bodies": frame.num_bodies, "dynamic bodies": int(dyn.sum()),
+        "scene": {"scene": label, "bodies": frame.num_bodies, "dynamic bodies": int(dyn.sum()),
                   "manifolds": frame.num_manifolds, "contact points": frame.num_points_total,
                   "step": frame.meta.get("step", "?"), "seed": args.seed},
         "schedule": {"kind": args.schedule, "window W (issue slots)": window, "slots per pass": sched_stats.slots,
@@ -240,7 +278,7 @@ def run(args: argparse.Namespace) -> tuple[dict[str, dict[str, Any]], Path]:
         "float64 reference (numpy)": timer.seconds["float64 reference solve + integrate"],
         f"{fmt.name} golden model (numpy)": timer.seconds[f"{fmt.name} golden model solve + integrate"]})
     sections["wall time of this run (s)"] = dict(timer.seconds)
-    return sections, run_dir
+    return sections, name, kb
 
 
 def thesis_position_statistic(ours: BodyTable, fp32: BodyTable, dyn: np.ndarray) -> dict[str, float]:
@@ -274,14 +312,18 @@ def _write_gtkw(fst: Path, kb: KernelBuild) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     try:
-        sections, run_dir = run(args)
+        with StagedDirectory(Path(args.out)) as out:
+            sections, name, kb = run(args, out.path)
+            label = sections["scene"]["scene"]
+            print_summary(f"pgs-cosim: {label}, {args.format}, {args.iters} iterations, {args.dma}", sections)
+            write_report(out.path, f"pgs-cosim run: {label}", sections)
+            run_dir = out.commit(name)
     except (ValueError, FrameError, scenes.SceneError, KernelRunError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    title = f"pgs-cosim: {args.scene}, {args.format}, {args.iters} iterations, {args.dma}"
-    print_summary(title, sections)
-    json_path, md_path = write_report(run_dir, f"pgs-cosim run: {args.scene}", sections)
-    print(f"\nreport: {md_path} and {json_path}")
+    if kb is not None and args.waves:
+        _write_gtkw(run_dir / "waves.fst", kb)
+    print(f"\nreport: {run_dir / 'report.md'} and {run_dir / 'report.json'}")
     bits = sections.get("bit-exactness (RTL kernel against the golden model, same format)", {})
     return 1 if bits and bits["bits differing from the golden model (must be 0)"] != 0 or \
         (bits and bits["first mismatch"] != "none") else 0

@@ -8,6 +8,11 @@ preset's clock, so that scenes of any size and the thesis's figures share one ax
 error, with the thesis's ZCU102 fp32/fp16 designs and its GPU and CPU figures marked as vertical lines (their error
 on our frame is unknown: the thesis did not measure it).
 
+``--frame FILE`` sweeps a saved frame (``models.frame.save``) instead of the scene's. Bad input (an unknown scene,
+format or DMA preset, bad iteration counts, a corrupt, truncated or other-version frame file) ends the sweep with
+one line ``error: ...`` and exit status 2, and the sweep directory appears only once complete
+(``sim.report.StagedDirectory``): a failed sweep leaves nothing behind.
+
     python -m sim.sweep --scene pile --formats fp32,fp16,bf16 --iters 1,2,4,8,16,32
 """
 
@@ -25,11 +30,12 @@ from models.contact_solver import SolverParams, solve_converged
 from models.dma_model import PRESETS, get_preset
 from models.frame import FrameError
 from models.integrator import IntegrationParams, integrate
-from models.number_format import FLOAT64, parse_format
+from models.number_format import FLOAT64
 from models.schedule import make_schedule
 from sim import baselines
 from sim.kernel_run import KernelJob, KernelRunError, default_window, golden_step, kernel_bodies, run_kernel_step
-from sim.run import velocity_error
+from sim.report import StagedDirectory
+from sim.run import hardware_format, load_frame, velocity_error
 
 COLUMNS = ["format", "iterations", "manifolds", "manifold_passes", "cycles", "cycles_per_manifold_pass",
            "ms_at_clock", "ns_per_manifold_pass", "stalls", "bubbles", "bytes_streamed", "differing_bits",
@@ -40,6 +46,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="python -m sim.sweep", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="pile", help=f"scene name ({', '.join(sorted(scenes.SCENES))})")
+    ap.add_argument("--frame", default="", help="a frame file (.npz, models.frame.save) to sweep instead of --scene")
     ap.add_argument("--formats", default="fp32,fp16,bf16", help="comma-separated number formats")
     ap.add_argument("--iters", default="1,2,4,8,16,32", help="comma-separated iteration counts")
     ap.add_argument("--dma", default="zcu102", help=f"DMA preset ({', '.join(PRESETS)})")
@@ -59,13 +66,17 @@ def _int_list(text: str, name: str) -> list[int]:
     return values
 
 
-def sweep(args: argparse.Namespace) -> tuple[list[dict[str, Any]], Path]:
+def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]], str]:
+    """The sweep's rows, every run's files written under ``out_dir``; returns them and the sweep's name."""
     preset = get_preset(args.dma)
-    formats = [parse_format(f.strip()) for f in args.formats.split(",") if f.strip()]
+    formats = [hardware_format(f.strip()) for f in args.formats.split(",") if f.strip()]
+    if not formats:
+        raise ValueError(f"FORMATS names no number format: {args.formats!r}")
     iter_list = _int_list(args.iters, "ITERS")
-    frame = scenes.load_or_capture(args.scene, seed=args.seed)
+    if not args.converged_budget >= 0:
+        raise ValueError(f"--converged-budget must be >= 0, got {args.converged_budget}")
+    frame, label = load_frame(args)
     print(frame.summary(), flush=True)
-    out_dir = Path(args.out) / f"{args.scene}-{args.dma}"
     bodies = body_table(frame)
     cons = setup_constraints(frame, bodies)
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
@@ -98,7 +109,7 @@ def sweep(args: argparse.Namespace) -> tuple[list[dict[str, Any]], Path]:
                   f"{row['max_dv_vs_float64_same_iters']:.3e}, differing bits {row['differing_bits']}", flush=True)
             if not res.bit_exact:
                 print(f"  NOT bit-exact: {res.comparison.first_mismatch}", flush=True)
-    return rows, out_dir
+    return rows, f"{label}-{args.dma}"
 
 
 def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
@@ -147,12 +158,14 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     try:
-        rows, out_dir = sweep(args)
+        with StagedDirectory(Path(args.out)) as out:
+            rows, name = sweep(args, out.path)
+            write_csv(rows, out.path / "sweep.csv")
+            plot(rows, out.path / "sweep.png", f"{name}: kernel time against error (iterations annotated)")
+            out_dir = out.commit(name)
     except (ValueError, FrameError, KernelRunError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    write_csv(rows, out_dir / "sweep.csv")
-    plot(rows, out_dir / "sweep.png", f"{args.scene}, {args.dma}: kernel time against error (iterations annotated)")
     print(f"\nsweep: {out_dir / 'sweep.csv'} and {out_dir / 'sweep.png'}")
     return 0 if all(r["differing_bits"] == 0 for r in rows) else 1
 

@@ -5,7 +5,8 @@
 //            "-" reads them from stdin.
 //   OUT.bin: N records of 8 little-endian uint32:
 //            {a+b, a-b, a*b, a/b, sqrt(a), minimum(a,b), maximum(a,b), flags}
-//            with flags = {unordered, eq, lt} in bits 2..0.
+//            with flags = {unordered, eq, lt} in bits 2..0 and the event flags {invalid, underflow,
+//            overflow} of add, sub, mul, div, sqrt in bits 5..3, 8..6, 11..9, 14..12, 17..15.
 // One pair is offered per cycle; with probability IDLE_PERMILLE/1000 (default 30) a cycle is
 // left idle instead (in_valid = 0, random junk on the operand inputs), so valid-in/valid-out is
 // exercised. Each operator's results are collected in order from its valid output, and every
@@ -109,15 +110,15 @@ int main(int argc, char** argv) {
             }
             uint32_t* rec = &out[idx * kRecord];
             switch (k) {
-                case 0: rec[0] = top->add_y; break;
-                case 1: rec[1] = top->sub_y; break;
-                case 2: rec[2] = top->mul_y; break;
-                case 3: rec[3] = top->div_y; break;
-                case 4: rec[4] = top->sqrt_y; break;
+                case 0: rec[0] = top->add_y; rec[7] |= uint32_t(top->add_flags) << 3; break;
+                case 1: rec[1] = top->sub_y; rec[7] |= uint32_t(top->sub_flags) << 6; break;
+                case 2: rec[2] = top->mul_y; rec[7] |= uint32_t(top->mul_flags) << 9; break;
+                case 3: rec[3] = top->div_y; rec[7] |= uint32_t(top->div_flags) << 12; break;
+                case 4: rec[4] = top->sqrt_y; rec[7] |= uint32_t(top->sqrt_flags) << 15; break;
                 default:
                     rec[5] = top->min_y;
                     rec[6] = top->max_y;
-                    rec[7] = top->cmp_flags;
+                    rec[7] |= top->cmp_flags;
                     break;
             }
         }

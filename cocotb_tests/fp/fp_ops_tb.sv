@@ -3,7 +3,8 @@
 // One operand pair (a, b) per cycle goes to all operators at once: a + b, a - b (the `sub` input
 // of a second fp_add), a * b, a / b, sqrt(a), and minimum / maximum / compare flags of (a, b).
 // The lat_* outputs are the operators' LATENCY parameters, so the C++ driver can check that each
-// result comes out exactly LATENCY cycles after its operands. Driven by fp_ops_main.cpp.
+// result comes out exactly LATENCY cycles after its operands; *_flags are the operators' event flags
+// ({invalid, underflow, overflow}). Driven by fp_ops_main.cpp.
 `default_nettype none
 
 module fp_ops_tb #(
@@ -20,14 +21,19 @@ module fp_ops_tb #(
 
     output logic              add_valid,
     output logic [W-1:0]      add_y,
+    output logic [2:0]        add_flags,
     output logic              sub_valid,
     output logic [W-1:0]      sub_y,
+    output logic [2:0]        sub_flags,
     output logic              mul_valid,
     output logic [W-1:0]      mul_y,
+    output logic [2:0]        mul_flags,
     output logic              div_valid,
     output logic [W-1:0]      div_y,
+    output logic [2:0]        div_flags,
     output logic              sqrt_valid,
     output logic [W-1:0]      sqrt_y,
+    output logic [2:0]        sqrt_flags,
     output logic              mm_valid,
     output logic [W-1:0]      min_y,
     output logic [W-1:0]      max_y,
@@ -41,19 +47,19 @@ module fp_ops_tb #(
     output logic [7:0]        lat_minmax
 );
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add (
-        .clk, .rst, .in_valid, .a, .b, .sub(1'b0), .out_valid(add_valid), .y(add_y)
+        .clk, .rst, .in_valid, .a, .b, .sub(1'b0), .out_valid(add_valid), .y(add_y), .flags(add_flags)
     );
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_sub (
-        .clk, .rst, .in_valid, .a, .b, .sub(1'b1), .out_valid(sub_valid), .y(sub_y)
+        .clk, .rst, .in_valid, .a, .b, .sub(1'b1), .out_valid(sub_valid), .y(sub_y), .flags(sub_flags)
     );
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul (
-        .clk, .rst, .in_valid, .a, .b, .out_valid(mul_valid), .y(mul_y)
+        .clk, .rst, .in_valid, .a, .b, .out_valid(mul_valid), .y(mul_y), .flags(mul_flags)
     );
     fp_div #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_div (
-        .clk, .rst, .in_valid, .a, .b, .out_valid(div_valid), .y(div_y)
+        .clk, .rst, .in_valid, .a, .b, .out_valid(div_valid), .y(div_y), .flags(div_flags)
     );
     fp_sqrt #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_sqrt (
-        .clk, .rst, .in_valid, .a, .out_valid(sqrt_valid), .y(sqrt_y)
+        .clk, .rst, .in_valid, .a, .out_valid(sqrt_valid), .y(sqrt_y), .flags(sqrt_flags)
     );
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(MINMAX_LATENCY)) u_minmax (
         .clk, .rst, .in_valid, .a, .b, .out_valid(mm_valid), .y_min(min_y), .y_max(max_y),

@@ -6,8 +6,9 @@
 //   DIR/cons.bin        constraint beats (CONS_BYTES each),  DIR/cons_last.bin   one TLAST byte per beat
 // Writes DIR/trace.bin (per retired manifold-pass: uint64 cycle, then TRACE_BYTES of trace_data),
 // DIR/body_out.bin + DIR/body_out_last.bin (the m_axis_body beats and their TLAST) and DIR/result.txt
-// (key value lines: the kernel's status/counter registers read over AXI4-Lite after the interrupt,
-// the harness's own cycle count and wall time).
+// (key value lines: the kernel's status/counter registers read over AXI4-Lite after the interrupt --
+// ap_ctrl, isr, status, cycles, stalls, bubbles, issued, rejected, fp_overflow, fp_underflow, fp_invalid,
+// fp_status (rtl/README.md) -- then the harness's own cycle count and wall time).
 // Stimulus: after reset the harness writes the registers, GIE = 1, IER = 1 (ap_done) and AP_CTRL = 1;
 // it then offers stream beats with a random gap before each new beat (probability GAP_PERMILLE/1000
 // per cycle; TVALID stays up until the handshake, as AXI4-Stream demands) and deasserts
@@ -318,6 +319,8 @@ int main(int argc, char** argv) {
     const uint64_t cyc = uint64_t(axil_read(s, 0x60)) | (uint64_t(axil_read(s, 0x64)) << 32);
     std::fprintf(fr, "cycles %llu\n", (unsigned long long)cyc);
     std::fprintf(fr, "stalls %u\nbubbles %u\nissued %u\n", axil_read(s, 0x68), axil_read(s, 0x70), axil_read(s, 0x78));
+    std::fprintf(fr, "rejected %u\nfp_overflow %u\nfp_underflow %u\nfp_invalid %u\nfp_status %u\n", axil_read(s, 0x7C),
+                 axil_read(s, 0x80), axil_read(s, 0x84), axil_read(s, 0x88), axil_read(s, 0x8C));
     std::fprintf(fr, "harness_cycles %llu\nwall_s %.6f\nbody_in_beats_taken %zu\ncons_beats_taken %zu\n",
                  (unsigned long long)run_cycles, wall, bi, ci);
     std::fprintf(fr, "body_out_beats %zu\ntrace_records %zu\n", n_out, n_trace);

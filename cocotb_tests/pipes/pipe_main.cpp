@@ -6,13 +6,14 @@
 //
 // Usage: pipe_sim IN.bin OUT.bin LATENCY [SEED [IDLE_PERMILLE]]
 //   IN.bin : N records of N_IN + 1 little-endian uint32: the N_IN words (bit patterns in the low
-//            FMT_W bits) and a flags word (bit 0: in_spin_damp).
+//            FMT_W bits) and a flags word (bit 0: in_spin_damp, bit 1: in_count).
 //   OUT.bin: N records of N_OUT little-endian uint32 (out_data words).
 // One record is offered per cycle; with probability IDLE_PERMILLE/1000 (default 50) a cycle is
 // left idle instead (in_valid = 0, random junk on every input). The tag of record i is i (with a
 // random upper half); every output must carry the tag of the next expected record and appear
 // exactly LATENCY cycles after it went in. Any violation, a missing or extra output, or a valid
-// output during / right after reset is an error (exit status 2). Prints counts on stdout.
+// output during / right after reset is an error (exit status 2). Prints counts on stdout, with the
+// floating-point events summed over every cycle: "events=OVERFLOW,UNDERFLOW,INVALID".
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -95,6 +96,7 @@ int main(int argc, char** argv) {
     auto junk = [&]() {
         for (int k = 0; k < N_IN; ++k) put_bits(in_words, k * FMT_W, FMT_W, static_cast<uint32_t>(rng.next()) & mask);
         top->in_tag = rng.next();
+        top->in_count = rng.next() & 1u;
 #if HAS_SPIN_DAMP
         top->in_spin_damp = rng.next() & 1u;
 #endif
@@ -106,7 +108,11 @@ int main(int argc, char** argv) {
         top->eval();
         ++cycle;
     };
+    uint64_t events[3] = {0, 0, 0};
     auto collect = [&]() {
+        events[0] += top->ev_overflow;
+        events[1] += top->ev_underflow;
+        events[2] += top->ev_invalid;
         if (!top->out_valid) return;
         const size_t idx = count++;
         if (idx >= n) {
@@ -142,6 +148,7 @@ int main(int argc, char** argv) {
     top->in_valid = 0;
     top->eval();
     if (top->out_valid) fail("valid output right after reset");
+    if (top->ev_overflow || top->ev_underflow || top->ev_invalid) fail("events right after reset");
     cycle = 0;
 
     size_t next = 0;
@@ -153,6 +160,7 @@ int main(int argc, char** argv) {
             top->in_valid = 1;
             for (int k = 0; k < N_IN; ++k) put_bits(in_words, k * FMT_W, FMT_W, rec[k] & mask);
             top->in_tag = tag_hi | next;
+            top->in_count = (rec[N_IN] >> 1) & 1u;
 #if HAS_SPIN_DAMP
             top->in_spin_damp = rec[N_IN] & 1u;
 #endif
@@ -181,8 +189,9 @@ int main(int argc, char** argv) {
     if (n && std::fwrite(out.data(), sizeof(uint32_t), out.size(), f) != out.size()) fail("short write");
     std::fclose(f);
     top->final();
-    std::printf("vectors=%zu outputs=%zu cycles=%llu idle=%llu latency=%llu\n", n, count,
+    std::printf("vectors=%zu outputs=%zu cycles=%llu idle=%llu latency=%llu events=%llu,%llu,%llu\n", n, count,
                 static_cast<unsigned long long>(cycle), static_cast<unsigned long long>(idle),
-                static_cast<unsigned long long>(latency));
+                static_cast<unsigned long long>(latency), static_cast<unsigned long long>(events[0]),
+                static_cast<unsigned long long>(events[1]), static_cast<unsigned long long>(events[2]));
     return 0;
 }

@@ -18,6 +18,9 @@ offset  register        modeled bits
                         actually written. A packet longer than the buffer sets DMAIntErr and halts.
 ======  ==============  ==========================================================================
 
+A soft reset (DMACR.Reset) of an engine also ends the transfers of its ports that are in progress (the stream
+stops where it is; nothing is written or completed), as the IP's reset does.
+
 A :class:`DmaStreamPort` joins ``channels`` engines to one kernel AXI4-Stream port of
 ``channels * channel_bits``: lane e of every beat comes from (or goes to) engine e's buffer, so the host
 splits a record stream into per-engine lane buffers (``split_lanes``/``join_lanes``). A transfer starts once
@@ -38,7 +41,7 @@ from cocotbext.axi import Region
 
 from models.dma_model import DmaPreset
 
-from .axis_words import AxisWordSink, AxisWordSource
+from .axis_words import AxisWordSink, AxisWordSource, Gate
 
 MM2S, S2MM = 0x00, 0x30
 DMACR, DMASR, ADDR, ADDR_MSB, LENGTH = 0x00, 0x04, 0x18, 0x1C, 0x28
@@ -57,10 +60,12 @@ class _Channel:
     length: int = 0
     pending: bool = False  # a transfer was started by a LENGTH write and has not completed
     wake: Event = field(default_factory=Event)  # set on every arm and reset
+    resets: int = 0  # soft resets so far (a transfer in progress ends when this changes)
 
     def reset(self) -> None:
         self.dmacr, self.dmasr, self.addr, self.length = 0, SR_HALTED, 0, 0
         self.pending = False
+        self.resets += 1
         self.wake.set()
 
     def arm(self) -> None:
@@ -226,6 +231,12 @@ class DmaStreamPort:
         """S2MM: assert TREADY when not backpressuring and the DDR can take a beat (spent on the beat)."""
         return not self._stalled() and self.ddr.available(self.beat_bytes)
 
+    @staticmethod
+    def _aborted_by_reset(chans: list[_Channel]) -> Gate:
+        """A check that is True once any of the channels was reset after this call."""
+        counts = [ch.resets for ch in chans]
+        return lambda: any(ch.resets != n for ch, n in zip(chans, counts))
+
     async def _wait_armed(self, which: str) -> list[_Channel]:
         """Wait until every engine of the port has a pending transfer on this channel."""
         while True:
@@ -239,6 +250,7 @@ class DmaStreamPort:
     async def _run_mm2s(self) -> None:
         while True:
             chans = await self._wait_armed("mm2s")
+            aborted = self._aborted_by_reset(chans)
             length = chans[0].length
             if any(ch.length != length for ch in chans) or length % self.lane_bytes:
                 for ch in chans:
@@ -246,11 +258,15 @@ class DmaStreamPort:
                 continue
             if self.preset.startup_cycles:
                 await ClockCycles(self.clock, self.preset.startup_cycles)
+            if aborted():
+                continue
             lanes = [await self.memory.read(ch.addr, length) for ch in chans]
             beats = [int.from_bytes(b, "little") for b in _beats(join_lanes(lanes, self.lane_bytes), self.beat_bytes)]
             start = self.source.cycle
-            await self.source.send(beats, gate=self._source_gate)
+            sent = await self.source.send(beats, gate=self._source_gate, abort=aborted)
             self.busy_cycles += self.source.cycle - start
+            if not sent:
+                continue
             self.transfers += 1
             for ch in chans:
                 ch.complete()
@@ -258,10 +274,14 @@ class DmaStreamPort:
     async def _run_s2mm(self) -> None:
         while True:
             chans = await self._wait_armed("s2mm")
+            aborted = self._aborted_by_reset(chans)
             length = min(ch.length for ch in chans)
             max_beats = length // self.lane_bytes
             beats, ended = await self.sink.recv_packet(max_beats + 1, gate=self._sink_gate,
-                                                       on_beat=lambda _b, _l: self.ddr.spend(self.beat_bytes))
+                                                       on_beat=lambda _b, _l: self.ddr.spend(self.beat_bytes),
+                                                       abort=aborted)
+            if aborted():
+                continue
             data = b"".join(b.to_bytes(self.beat_bytes, "little") for b in beats)
             lanes = split_lanes(data, len(chans), self.lane_bytes)
             overflow = len(beats) > max_beats or not ended

@@ -5,7 +5,8 @@ pre-packed integer per beat, which is 3-25x faster, and keep cocotbext-axi's sam
 rising edge the handshake of the cycle that just ended is read from TVALID and TREADY.
 
 Pacing (DMA bandwidth, random idles) and backpressure come from a ``gate`` callable called once per cycle:
-it returns True when the source may present (or the sink may accept) a beat in the coming cycle.
+it returns True when the source may present (or the sink may accept) a beat in the coming cycle. An ``abort``
+callable, checked every cycle, ends a transfer early (a DMA reset): the source drops TVALID, the sink TREADY.
 """
 
 from __future__ import annotations
@@ -52,13 +53,18 @@ class AxisWordSource(_AxisPort):
         self.first_beat_cycle: Optional[int] = None
         self.cycle = 0
 
-    async def send(self, beats: Sequence[int], last: Optional[Sequence[bool]] = None, gate: Gate = _always) -> None:
+    async def send(self, beats: Sequence[int], last: Optional[Sequence[bool]] = None, gate: Gate = _always,
+                   abort: Optional[Gate] = None) -> bool:
+        """Send the beats; returns False when ``abort`` ended the transfer first."""
         n = len(beats)
         i = 0
         presented = False
         while i < n or presented:
             await RisingEdge(self.clock)
             self.cycle += 1
+            if abort is not None and abort():
+                self.tvalid.value = 0
+                return False
             if presented and (self.tready is None or int(self.tready.value)):
                 i += 1
                 self.beats_sent += 1
@@ -74,6 +80,7 @@ class AxisWordSource(_AxisPort):
             elif not presented:
                 self.tvalid.value = 0
         self.tvalid.value = 0
+        return True
 
 
 class AxisWordSink(_AxisPort):
@@ -84,12 +91,16 @@ class AxisWordSink(_AxisPort):
         self.tready.value = 0
 
     async def recv_packet(self, max_beats: int, gate: Gate = _always,
-                          on_beat: Optional[Callable[[int, bool], None]] = None) -> tuple[list[int], bool]:
-        """Collect beats until TLAST or ``max_beats``; returns (beats, ended_with_tlast)."""
+                          on_beat: Optional[Callable[[int, bool], None]] = None,
+                          abort: Optional[Gate] = None) -> tuple[list[int], bool]:
+        """Collect beats until TLAST or ``max_beats`` (or ``abort``); returns (beats, ended_with_tlast)."""
         beats: list[int] = []
         ready = False
         while True:
             await RisingEdge(self.clock)
+            if abort is not None and abort():
+                self.tready.value = 0
+                return beats, False
             if ready and int(self.tvalid.value):
                 beat = int(self.tdata.value)
                 last = bool(int(self.tlast.value)) if self.tlast is not None else False

@@ -5,7 +5,9 @@
 (one 128-bit engine), and an ``AxiLiteMaster`` on ``s_axi_control``. :meth:`run_step` writes exactly the
 packed streams of ``models/stream_format.py`` into DDR, arms S2MM, programs the kernel's arguments, starts it,
 issues one MM2S transfer per pass on the constraint engines (each pass ends with TLAST), waits for ap_done
-with a cycle timeout, and returns the body-out bytes read back from DDR.
+with a cycle timeout, and returns the body-out bytes read back from DDR with the kernel's status and counter
+registers. :meth:`begin_step` / :meth:`finish_step` are its two halves (something can happen in between, e.g.
+a reset: :meth:`reset` with ``dma=True`` also soft-resets the DMA engines, ending their transfers).
 """
 
 from __future__ import annotations
@@ -29,6 +31,8 @@ AP_CTRL, GIE, IER, ISR = 0x00, 0x04, 0x08, 0x0C
 ARGS = {"num_bodies": 0x10, "num_manifolds": 0x18, "iterations": 0x20, "dt": 0x28, "gravity_x": 0x30,
         "gravity_y": 0x38, "gravity_z": 0x40, "damping": 0x48, "options": 0x50}
 STATUS, CYCLES_LO, CYCLES_HI, STALLS, BUBBLES, ISSUED = 0x58, 0x60, 0x64, 0x68, 0x70, 0x78
+REJECTED, FP_OVERFLOW, FP_UNDERFLOW, FP_INVALID, FP_STATUS = 0x7C, 0x80, 0x84, 0x88, 0x8C
+DMACR_RUN, DMACR_RESET = 0x1001, 0x4  # RS | IOC_IrqEn; soft reset
 
 BODY_IN_ADDR = 0x1000_0000
 BODY_OUT_ADDR = 0x2000_0000
@@ -48,6 +52,9 @@ class StepResult:
     body_out: bytes
     bytes_in: int
     bytes_out: int
+    rejected: int = 0
+    fp_events: tuple[int, int, int] = (0, 0, 0)  # overflow, underflow, invalid
+    fp_status: int = 0
 
 
 class KernelHost:
@@ -73,14 +80,18 @@ class KernelHost:
                                            body_preset, self.ddr, "s2mm", random.Random(rng.random()),
                                            backpressure_prob)
 
-    async def reset(self) -> None:
+    async def reset(self, dma: bool = False) -> None:
+        """Reset the kernel (ap_rst_n low for 4 cycles) and start the DMA engines; with ``dma`` soft-reset the
+        engines first (ending any transfer in progress)."""
         self.dut.ap_rst_n.value = 0
         await ClockCycles(self.clock, 4)
         self.dut.ap_rst_n.value = 1
         await ClockCycles(self.clock, 2)
         for eng in self.cons_engines + [self.body_engine]:
-            await eng.write_dword(0x00, 0x1001)
-            await eng.write_dword(0x30, 0x1001)
+            if dma:
+                await eng.write_dword(0x00, DMACR_RESET)
+            await eng.write_dword(0x00, DMACR_RUN)
+            await eng.write_dword(0x30, DMACR_RUN)
 
     async def read_reg(self, offset: int) -> int:
         return await self.axil.read_dword(offset)
@@ -120,12 +131,24 @@ class KernelHost:
 
     async def run_step(self, body_in: bytes, passes: list[bytes], body_out_bytes: int,
                        timeout_cycles: int) -> StepResult:
-        """One kernel run; raises TimeoutError (a hang is a failure, never a stuck test) past the timeout."""
-        await self.body_engine.write_dword(0x48, BODY_OUT_ADDR)
-        await self.body_engine.write_dword(0x58, body_out_bytes)
+        """One kernel run; raises TimeoutError (a hang is a failure, never a stuck test) past the timeout.
+        ``body_out_bytes`` = 0: no body-out transfer is armed or awaited."""
+        feeder = await self.begin_step(body_in, passes, body_out_bytes, timeout_cycles)
+        return await self.finish_step(feeder, body_in, passes, body_out_bytes, timeout_cycles)
+
+    async def begin_step(self, body_in: bytes, passes: list[bytes], body_out_bytes: int, timeout_cycles: int) -> Any:
+        """Arm body-out, start body-in, start the kernel and the constraint feeder (returned)."""
+        if body_out_bytes:
+            await self.body_engine.write_dword(0x48, BODY_OUT_ADDR)
+            await self.body_engine.write_dword(0x58, body_out_bytes)
         await self._mm2s([self.body_engine], [body_in], BODY_IN_ADDR)
         feeder = cocotb.start_soon(self._feed_constraints(passes, timeout_cycles))
         await self.write_reg(AP_CTRL, 0x1)
+        return feeder
+
+    async def finish_step(self, feeder: Any, body_in: bytes, passes: list[bytes], body_out_bytes: int,
+                          timeout_cycles: int) -> StepResult:
+        """Wait for ap_done (and the body-out transfer), then read the registers."""
         waited = 0
         while True:
             ctrl = await self.read_reg(AP_CTRL)
@@ -139,7 +162,7 @@ class KernelHost:
                 raise TimeoutError(f"kernel did not assert ap_done within {timeout_cycles} cycles "
                                    f"(AP_CTRL={ctrl:#x}, status={status:#x}, issued={await self.read_reg(ISSUED)})")
         s2mm_wait = 0
-        while not (await self.body_engine.read_dword(0x34) & 0x2):
+        while body_out_bytes and not (await self.body_engine.read_dword(0x34) & 0x2):
             await RisingEdge(self.clock)
             s2mm_wait += 1
             if s2mm_wait > timeout_cycles:
@@ -147,9 +170,12 @@ class KernelHost:
         if not feeder.done():
             feeder.cancel()
         cycles = await self.read_reg(CYCLES_LO) | (await self.read_reg(CYCLES_HI) << 32)
-        out_len = await self.body_engine.read_dword(0x58)
-        body_out = await self.memory.read(BODY_OUT_ADDR, out_len)
+        out_len = await self.body_engine.read_dword(0x58) if body_out_bytes else 0
+        body_out = await self.memory.read(BODY_OUT_ADDR, out_len) if out_len else b""
+        events = (await self.read_reg(FP_OVERFLOW), await self.read_reg(FP_UNDERFLOW), await self.read_reg(FP_INVALID))
         return StepResult(cycles=cycles, wall_cycles=waited, stalls=await self.read_reg(STALLS),
                           bubbles=await self.read_reg(BUBBLES), issued=await self.read_reg(ISSUED),
                           status=await self.read_reg(STATUS), body_out=bytes(body_out),
-                          bytes_in=len(body_in) + sum(len(p) for p in passes), bytes_out=out_len)
+                          bytes_in=len(body_in) + sum(len(p) for p in passes), bytes_out=out_len,
+                          rejected=await self.read_reg(REJECTED), fp_events=events,
+                          fp_status=await self.read_reg(FP_STATUS))

@@ -35,7 +35,9 @@ class ExpectedTrace:
 def expected_trace(fmt: NumberFormat, records: list[PassRecord], body_a: np.ndarray,
                    body_b: np.ndarray) -> ExpectedTrace:
     """Flatten the golden PassRecords (one per pass, in schedule order) into per-retire expectations."""
-    kinds, its, slots, mans, words = [], [], [], [], []
+    kinds: list[np.ndarray] = [np.zeros(0, np.int64)]
+    its, slots, mans = list(kinds), list(kinds), list(kinds)
+    words: list[np.ndarray] = [np.zeros((0, 16), np.uint64)]
     for rec in records:
         k = rec.manifold.shape[0]
         imp = rec.impulses if rec.impulses.shape[1] == 4 else np.concatenate([rec.impulses, np.zeros((k, 2))], 1)

@@ -1,9 +1,9 @@
-"""The golden rounding: casts against the bit-level rule, special values, IEEE min/max."""
+"""The golden rounding: casts against the bit-level rule, special values, IEEE min/max; the event flags."""
 
 import numpy as np
 import pytest
 
-from models.number_format import BF16, FP16, FP32, NumberFormat, ieee_maximum, ieee_minimum, parse_format
+from models.number_format import BF16, FP16, FP32, FpEvents, NumberFormat, ieee_maximum, ieee_minimum, parse_format
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -71,3 +71,53 @@ def test_parse_format() -> None:
         parse_format("fp33")
     with pytest.raises(ValueError):
         parse_format("e1m5")
+
+
+def test_op_events() -> None:
+    """The event flags of models/number_format.py's docstring, one operation at a time (fp16: max 65504,
+    min normal 2^-14)."""
+    f = FP16
+    cases = [  # op, a, b, (overflow, underflow, invalid)
+        ("mul", 300.0, 300.0, (1, 0, 0)),        # 90000 rounds to inf
+        ("add", 65504.0, 15.0, (0, 0, 0)),        # rounds back to max finite: no overflow
+        ("add", 65504.0, 16.0, (1, 0, 0)),        # half an ulp above: the tie rounds to even, up: inf
+        ("div", 1.0, 0.0, (0, 0, 0)),             # division by zero is not an overflow
+        ("mul", np.inf, 2.0, (0, 0, 0)),          # an infinite operand: no overflow
+        ("mul", 1e-3, 1e-3, (0, 1, 0)),           # 1e-6 flushes to zero
+        ("sub", 2.0 ** -14, 2.0 ** -14, (0, 0, 0)),  # an exact zero is no underflow
+        ("div", 2.0 ** -14, 4.0, (0, 1, 0)),
+        ("mul", 0.0, 5.0, (0, 0, 0)),
+        ("sub", np.inf, np.inf, (0, 0, 1)),       # inf - inf
+        ("mul", 0.0, np.inf, (0, 0, 1)),
+        ("div", 0.0, 0.0, (0, 0, 1)),
+        ("div", np.inf, -np.inf, (0, 0, 1)),
+        ("sqrt", -1.0, None, (0, 0, 1)),
+        ("sqrt", -0.0, None, (0, 0, 0)),          # sqrt(-0) = -0
+        ("add", np.nan, 1.0, (0, 0, 0)),          # a propagated NaN is not invalid
+    ]
+    for op, a, b, want in cases:
+        x, y = np.array([a]), None if b is None else np.array([b])
+        r, fl = f.op_with_events(op, x, y)
+        got = (int(fl.overflow[0]), int(fl.underflow[0]), int(fl.invalid[0]))
+        assert got == want, f"{op}({a}, {b}) = {r[0]}: flags {got}, expected {want}"
+        with np.errstate(all="ignore"):
+            assert np.array_equal(r, getattr(f, op)(x) if y is None else getattr(f, op)(x, y), equal_nan=True)
+
+
+def test_counting_format() -> None:
+    """A counting format computes exactly what the format computes and adds up the events of every +, -, x, /,
+    sqrt (min, max and constants raise none); it stays a NumberFormat of the same parameters."""
+    c = FP16.counting()
+    assert isinstance(c, NumberFormat) and (c.exp_bits, c.man_bits, c.width) == (5, 10, 16)
+    a = np.array([300.0, 1e-3, 0.0, -1.0, 2.0])
+    b = np.array([300.0, 1e-3, np.inf, 4.0, 0.5])
+    with np.errstate(all="ignore"):
+        assert np.array_equal(c.mul(a, b), FP16.mul(a, b), equal_nan=True)  # inf, 0, nan, -4, 1
+        assert np.array_equal(c.sqrt(a), FP16.sqrt(a), equal_nan=True)  # sqrt(-1): invalid
+    c.max(a, b), c.min(a, b), c.const(1e9)
+    assert c.events.as_dict() == {"overflow": 1, "underflow": 1, "invalid": 2}
+    total = FpEvents()
+    total.add(c.events)
+    total.add(c.events)
+    assert total.as_dict() == {"overflow": 2, "underflow": 2, "invalid": 4}
+    assert FP16.counting().events.as_dict() == {"overflow": 0, "underflow": 0, "invalid": 0}  # a fresh total

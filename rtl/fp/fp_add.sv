@@ -9,6 +9,9 @@
 //   * +-inf operand (otherwise)                                            -> that infinity
 //   * exact zero result: x + (-x) = +0, (-0) + (-0) = -0, (+0) + (-0) = +0
 //   * overflow -> +-inf, result below min normal after rounding -> +-0
+// Event flags (models/number_format.py, registered with y): flags = {invalid, underflow, overflow};
+//   overflow / underflow: the rounding overflowed to +-inf / flushed a non-zero result to +-0 (from
+//   fp_round_pack), invalid: a NaN made from non-NaN operands (inf - inf).
 // Latency: LATENCY = 4 cycles, one operation accepted per cycle (II = 1).
 //   stage 1: unpack, classify, order operands by magnitude, exponent difference
 //   stage 2: align the smaller significand (guard, round, sticky bits) and add / subtract
@@ -30,7 +33,8 @@ module fp_add #(
     input  wire logic [W-1:0] b,
     input  wire logic         sub,        // 1: y = a - b (flips b's sign)
     output logic              out_valid,
-    output logic [W-1:0]      y
+    output logic [W-1:0]      y,
+    output logic [2:0]        flags       // {invalid, underflow, overflow}, with y
 );
     localparam int P    = MAN_BITS + 1;          // significand bits
     localparam int SW   = P + 3;                 // significand + guard, round, sticky
@@ -61,7 +65,7 @@ module fp_add #(
     logic [DW-1:0]       diff_c;
 
     // stage-1 registers
-    logic                s1_nan, s1_inf, s1_inf_sign, s1_zero_sign, s1_sign, s1_eff_sub;
+    logic                s1_nan, s1_inv, s1_inf, s1_inf_sign, s1_zero_sign, s1_sign, s1_eff_sub;
     logic [EXP_BITS-1:0] s1_exp;
     logic [P-1:0]        s1_big, s1_small;
     logic [DW-1:0]       s1_shift;
@@ -77,6 +81,7 @@ module fp_add #(
 
     always_ff @(posedge clk) begin
         s1_nan       <= a_nan || b_nan || (a_inf && b_inf && (a_sign != bs_eff));
+        s1_inv       <= a_inf && b_inf && (a_sign != bs_eff);
         s1_inf       <= a_inf || b_inf;
         s1_inf_sign  <= a_inf ? a_sign : bs_eff;
         s1_zero_sign <= a_sign && bs_eff;           // sign of an exact zero sum
@@ -101,12 +106,13 @@ module fp_add #(
         else            sum = {1'b0, s1_big, 3'b000} + {1'b0, small_al};
     end
 
-    logic                s2_nan, s2_inf, s2_inf_sign, s2_zero_sign, s2_sign;
+    logic                s2_nan, s2_inv, s2_inf, s2_inf_sign, s2_zero_sign, s2_sign;
     logic [EXP_BITS-1:0] s2_exp;
     logic [NW-1:0]       s2_sum;
 
     always_ff @(posedge clk) begin
         s2_nan       <= s1_nan;
+        s2_inv       <= s1_inv;
         s2_inf       <= s1_inf;
         s2_inf_sign  <= s1_inf_sign;
         s2_zero_sign <= s1_zero_sign;
@@ -120,12 +126,13 @@ module fp_add #(
 
     fp_lzc #(.WIDTH(NW)) u_lzc (.x(s2_sum), .count(lz));
 
-    logic                s3_nan, s3_inf, s3_inf_sign, s3_zero, s3_sign;
+    logic                s3_nan, s3_inv, s3_inf, s3_inf_sign, s3_zero, s3_sign;
     logic signed [EW-1:0] s3_exp;
     logic [NW-1:0]       s3_norm;
 
     always_ff @(posedge clk) begin
         s3_nan      <= s2_nan;
+        s3_inv      <= s2_inv;
         s3_inf      <= s2_inf;
         s3_zero     <= (s2_sum == '0);
         s3_sign     <= (s2_sum == '0) ? s2_zero_sign : s2_sign;
@@ -138,6 +145,7 @@ module fp_add #(
 
     // ---------------- stage 4: round and pack ----------------
     logic [W-1:0] packed_y;
+    logic         ovf, unf;
 
     fp_round_pack #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW)) u_round (
         .sign       (s3_inf ? s3_inf_sign : s3_sign),
@@ -148,11 +156,14 @@ module fp_add #(
         .force_nan  (s3_nan),
         .force_inf  (s3_inf),
         .force_zero (s3_zero),
-        .y          (packed_y)
+        .y          (packed_y),
+        .overflow   (ovf),
+        .underflow  (unf)
     );
 
     always_ff @(posedge clk) begin
-        y <= packed_y;
+        y     <= packed_y;
+        flags <= {s3_inv, unf, ovf};
     end
 
     // ---------------- valid pipeline (the only reset registers) ----------------

@@ -14,6 +14,9 @@
 //   * inf / finite, non-zero finite / 0       -> +-inf (division by zero; subnormal divisors are 0)
 //   * 0 / non-zero, finite / inf              -> +-0
 //   * overflow -> +-inf, result below min normal after rounding -> +-0
+// Event flags (models/number_format.py, registered with y): flags = {invalid, underflow, overflow};
+//   overflow / underflow: the rounding overflowed to +-inf / flushed a non-zero result to +-0 (from
+//   fp_round_pack), invalid: a NaN made from non-NaN operands (0 / 0, inf / inf).
 // Latency: LATENCY = MAN_BITS + 5 cycles (binary32: 28, binary16: 15, bfloat16: 12), II = 1.
 //   stage 1            : unpack, classify, sign and exponent difference
 //   stages 2 .. P+3    : one quotient bit each (P+2 = MAN_BITS+3 stages)
@@ -33,7 +36,8 @@ module fp_div #(
     input  wire logic [W-1:0] a,
     input  wire logic [W-1:0] b,
     output logic              out_valid,
-    output logic [W-1:0]      y
+    output logic [W-1:0]      y,
+    output logic [2:0]        flags       // {invalid, underflow, overflow}, with y
 );
     localparam int P    = MAN_BITS + 1;
     localparam int NQ   = P + 2;             // quotient bits = recurrence stages
@@ -55,6 +59,7 @@ module fp_div #(
     // Per-stage registers; index 0 is stage 1 (unpack), index k holds the state after k quotient
     // bits. The side-band (exceptions, sign, exponent, divisor) travels along with the operation.
     logic                 st_nan  [NQ+1];
+    logic                 st_inv  [NQ+1];
     logic                 st_inf  [NQ+1];
     logic                 st_zero [NQ+1];
     logic                 st_sign [NQ+1];
@@ -65,6 +70,7 @@ module fp_div #(
 
     always_ff @(posedge clk) begin
         st_nan[0]  <= a_nan || b_nan || (a_zero && b_zero) || (a_inf && b_inf);
+        st_inv[0]  <= (a_zero && b_zero) || (a_inf && b_inf);
         st_inf[0]  <= a_inf || (b_zero && !a_zero);
         st_zero[0] <= a_zero || b_inf;
         st_sign[0] <= a_sign ^ b_sign;
@@ -91,6 +97,7 @@ module fp_div #(
     always_ff @(posedge clk) begin
         for (int k = 0; k < NQ; k++) begin
             st_nan[k+1]  <= st_nan[k];
+            st_inv[k+1]  <= st_inv[k];
             st_inf[k+1]  <= st_inf[k];
             st_zero[k+1] <= st_zero[k];
             st_sign[k+1] <= st_sign[k];
@@ -108,6 +115,7 @@ module fp_div #(
     logic                 rnd_n, sticky_n;
     logic signed [EW-1:0] exp_n;
     logic [W-1:0]         packed_y;
+    logic                 ovf, unf;
 
     always_comb begin
         q      = st_quo[NQ];
@@ -134,11 +142,14 @@ module fp_div #(
         .force_nan  (st_nan[NQ]),
         .force_inf  (st_inf[NQ]),
         .force_zero (st_zero[NQ]),
-        .y          (packed_y)
+        .y          (packed_y),
+        .overflow   (ovf),
+        .underflow  (unf)
     );
 
     always_ff @(posedge clk) begin
-        y <= packed_y;
+        y     <= packed_y;
+        flags <= {st_inv[NQ], unf, ovf};
     end
 
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (

@@ -9,6 +9,9 @@
 //   * inf * non-zero                     -> +-inf
 //   * 0 * finite (incl. flushed subnormals) -> +-0
 //   * overflow -> +-inf, result below min normal after rounding -> +-0
+// Event flags (models/number_format.py, registered with y): flags = {invalid, underflow, overflow};
+//   overflow / underflow: the rounding overflowed to +-inf / flushed a non-zero result to +-0 (from
+//   fp_round_pack), invalid: a NaN made from non-NaN operands (0 * inf).
 // Latency: LATENCY = 3 cycles, one operation accepted per cycle (II = 1).
 //   stage 1: unpack, classify, sign and exponent sum
 //   stage 2: significand product (maps to a pipelined DSP multiplier)
@@ -28,7 +31,8 @@ module fp_mul #(
     input  wire logic [W-1:0] a,
     input  wire logic [W-1:0] b,
     output logic              out_valid,
-    output logic [W-1:0]      y
+    output logic [W-1:0]      y,
+    output logic [2:0]        flags       // {invalid, underflow, overflow}, with y
 );
     localparam int P    = MAN_BITS + 1;
     localparam int EW   = EXP_BITS + 2;      // holds ea + eb - bias + 1 (signed)
@@ -46,12 +50,13 @@ module fp_mul #(
         .x(b), .sign(b_sign), .exp(b_exp), .sig(b_sig), .is_zero(b_zero), .is_inf(b_inf), .is_nan(b_nan)
     );
 
-    logic                 s1_nan, s1_inf, s1_zero, s1_sign;
+    logic                 s1_nan, s1_inv, s1_inf, s1_zero, s1_sign;
     logic signed [EW-1:0] s1_exp;
     logic [P-1:0]         s1_a_sig, s1_b_sig;
 
     always_ff @(posedge clk) begin
         s1_nan   <= a_nan || b_nan || (a_inf && b_zero) || (a_zero && b_inf);
+        s1_inv   <= (a_inf && b_zero) || (a_zero && b_inf);
         s1_inf   <= a_inf || b_inf;
         s1_zero  <= a_zero || b_zero;
         s1_sign  <= a_sign ^ b_sign;
@@ -61,12 +66,13 @@ module fp_mul #(
     end
 
     // ---------------- stage 2: multiply ----------------
-    logic                 s2_nan, s2_inf, s2_zero, s2_sign;
+    logic                 s2_nan, s2_inv, s2_inf, s2_zero, s2_sign;
     logic signed [EW-1:0] s2_exp;
     logic [2*P-1:0]       s2_prod;
 
     always_ff @(posedge clk) begin
         s2_nan  <= s1_nan;
+        s2_inv  <= s1_inv;
         s2_inf  <= s1_inf;
         s2_zero <= s1_zero;
         s2_sign <= s1_sign;
@@ -81,6 +87,7 @@ module fp_mul #(
     logic                 rnd_n, sticky_n;
     logic signed [EW-1:0] exp_n;
     logic [W-1:0]         packed_y;
+    logic                 ovf, unf;
 
     always_comb begin
         hi = s2_prod[2*P-1];
@@ -105,11 +112,14 @@ module fp_mul #(
         .force_nan  (s2_nan),
         .force_inf  (s2_inf),
         .force_zero (s2_zero),
-        .y          (packed_y)
+        .y          (packed_y),
+        .overflow   (ovf),
+        .underflow  (unf)
     );
 
     always_ff @(posedge clk) begin
-        y <= packed_y;
+        y     <= packed_y;
+        flags <= {s2_inv, unf, ovf};
     end
 
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (

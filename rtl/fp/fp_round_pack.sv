@@ -9,6 +9,9 @@
 //   * exponent <= 0         -> +-0 with the given sign (tininess after rounding, flush to zero),
 // Overrides, highest priority first: force_nan -> canonical quiet NaN (sign 0, exponent all ones,
 // mantissa MSB set); force_inf -> +-inf; force_zero -> +-0 (sign taken from `sign`).
+// Event flags (models/number_format.py): `overflow` when the rounded value took the +-inf branch and
+// `underflow` when it took the flush-to-zero branch, both only without an override (the exact result was
+// finite and non-zero); the operators add `invalid` themselves.
 // Latency: 0 (combinational).
 `default_nettype none
 
@@ -25,7 +28,9 @@ module fp_round_pack #(
     input  wire logic                          force_nan,
     input  wire logic                          force_inf,
     input  wire logic                          force_zero,
-    output logic [EXP_BITS+MAN_BITS:0]         y
+    output logic [EXP_BITS+MAN_BITS:0]         y,
+    output logic                               overflow,
+    output logic                               underflow
 );
     localparam logic signed [EW-1:0] EXP_ONES = EW'((1 << EXP_BITS) - 1);
     localparam logic [EXP_BITS+MAN_BITS:0] QNAN = {1'b0, {EXP_BITS{1'b1}}, 1'b1, {(MAN_BITS-1){1'b0}}};
@@ -45,6 +50,8 @@ module fp_round_pack #(
         else if (exp_r >= EXP_ONES)  y = {sign, {EXP_BITS{1'b1}}, {MAN_BITS{1'b0}}};
         else if (exp_r <= 0)         y = {sign, {(EXP_BITS+MAN_BITS){1'b0}}};
         else                         y = {sign, exp_r[EXP_BITS-1:0], sum[MAN_BITS-1:0]};
+        overflow  = !force_nan && !force_inf && !force_zero && exp_r >= EXP_ONES;
+        underflow = !force_nan && !force_inf && !force_zero && exp_r <= 0;
     end
 endmodule
 

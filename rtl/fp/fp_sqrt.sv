@@ -12,6 +12,10 @@
 //   * NaN, -inf, any negative non-zero number -> canonical quiet NaN
 //   * +-0 (and +-subnormal, flushed)           -> +-0 (sqrt(-0) = -0)
 //   * +inf                                     -> +inf
+// Event flags (models/number_format.py, registered with y): flags = {invalid, underflow, overflow};
+//   overflow / underflow: the rounding overflowed to +-inf / flushed a non-zero result to +-0 (from
+//   fp_round_pack), invalid: a NaN made from non-NaN operands (a negative non-zero operand, -inf included; overflow and underflow
+//   cannot happen).
 // Latency: LATENCY = MAN_BITS + 4 cycles (binary32: 27, binary16: 14, bfloat16: 11), II = 1.
 //   stage 1           : unpack, classify, exponent halving, radicand alignment
 //   stages 2 .. P+2   : one root bit each (P+1 = MAN_BITS+2 stages)
@@ -30,7 +34,8 @@ module fp_sqrt #(
     input  wire logic         in_valid,
     input  wire logic [W-1:0] a,
     output logic              out_valid,
-    output logic [W-1:0]      y
+    output logic [W-1:0]      y,
+    output logic [2:0]        flags       // {invalid, underflow, overflow}, with y
 );
     localparam int P    = MAN_BITS + 1;
     localparam int NR   = P + 1;             // root bits = recurrence stages
@@ -60,6 +65,7 @@ module fp_sqrt #(
 
     // Per-stage registers; index 0 is stage 1, index k holds the state after k root bits.
     logic                 st_nan  [NR+1];
+    logic                 st_inv  [NR+1];
     logic                 st_inf  [NR+1];
     logic                 st_zero [NR+1];
     logic                 st_sign [NR+1];
@@ -70,6 +76,7 @@ module fp_sqrt #(
 
     always_ff @(posedge clk) begin
         st_nan[0]  <= a_nan || (a_sign && !a_zero);
+        st_inv[0]  <= a_sign && !a_zero && !a_nan;
         st_inf[0]  <= a_inf;
         st_zero[0] <= a_zero;
         st_sign[0] <= a_sign;
@@ -97,6 +104,7 @@ module fp_sqrt #(
     always_ff @(posedge clk) begin
         for (int k = 0; k < NR; k++) begin
             st_nan[k+1]  <= st_nan[k];
+            st_inv[k+1]  <= st_inv[k];
             st_inf[k+1]  <= st_inf[k];
             st_zero[k+1] <= st_zero[k];
             st_sign[k+1] <= st_sign[k];
@@ -109,6 +117,7 @@ module fp_sqrt #(
 
     // ---------------- last stage: round, pack ----------------
     logic [W-1:0] packed_y;
+    logic         ovf, unf;
 
     fp_round_pack #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW)) u_round (
         .sign       (st_sign[NR]),
@@ -119,11 +128,14 @@ module fp_sqrt #(
         .force_nan  (st_nan[NR]),
         .force_inf  (st_inf[NR]),
         .force_zero (st_zero[NR]),
-        .y          (packed_y)
+        .y          (packed_y),
+        .overflow   (ovf),
+        .underflow  (unf)
     );
 
     always_ff @(posedge clk) begin
-        y <= packed_y;
+        y     <= packed_y;
+        flags <= {st_inv[NR], unf, ovf};
     end
 
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (

@@ -35,6 +35,13 @@ is delayed to that cycle by a tapped delay line (``rtl/pgs_delay.sv``; one line 
 per distinct consumer delay). All outputs are delayed to the common ``LATENCY``. The pipeline
 carries one valid bit (``fp_valid_pipe``, reset) and a pass-through tag (``pgs_delay``).
 
+Floating-point events: every ``fp_add``/``fp_mul``/``fp_div``/``fp_sqrt`` instance reports its event flags
+(overflow, underflow, invalid: ``models/number_format.py``) with its result. The module counts the flags
+of the inputs taken with ``in_valid && in_count`` (a second reset shift register, tapped at each operator's
+ready cycle) and outputs, every cycle, how many of each were raised in the previous cycle
+(``ev_overflow``, ``ev_underflow``, ``ev_invalid``: a registered population count). Summed over a run, they
+equal :meth:`Graph.evaluate` with a counting format (``NumberFormat.counting()``) over the counted inputs.
+
 :meth:`Graph.evaluate` interprets the graph with a :class:`models.number_format.Arithmetic`
 (vectorized over numpy arrays), the software twin of the emitted RTL.
 """
@@ -49,6 +56,8 @@ from pathlib import Path
 from typing import Iterator, Optional, Sequence
 
 import numpy as np
+
+from models.number_format import FpEvents, NumberFormat
 
 FLOAT = "float"
 BOOL = "bool"
@@ -170,6 +179,7 @@ task time tran tri type union unique unsigned use var vectored void wait wand we
 wor xnor xor q d
 """.split())
 _COMMUTATIVE = {"add", "mul", "max", "min"}
+_FLAGGED = ("fp_add", "fp_mul", "fp_div", "fp_sqrt")  # operators with event flags
 _SYMBOL = {"add": "+", "sub": "-", "mul": "*", "div": "/"}
 
 
@@ -415,6 +425,14 @@ class Graph:
         return np.stack([val[o.value.id] for o in self.outputs], axis=1) if self.outputs else np.zeros((0, 0))
 
 
+    def count_events(self, fmt: NumberFormat, inputs: np.ndarray, bool_inputs: Optional[np.ndarray] = None) -> FpEvents:
+        """The floating-point events (``models/number_format.py``) of the RTL's operators over these inputs:
+        what the module's ``ev_*`` outputs add up to for them (taken with ``in_count``)."""
+        ar = fmt.counting()
+        self.evaluate(ar, inputs, bool_inputs)
+        return ar.events
+
+
 # --------------------------------------------------------------------------------------------------
 # Schedule
 # --------------------------------------------------------------------------------------------------
@@ -582,6 +600,12 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
     L += _wrap("Outputs: " + ", ".join(f"{k} {o.name}" for k, o in enumerate(graph.outputs)))
     # test-only parameters that act on the datapath (a parameter of dead nodes only would be unused)
     test_params = {v.param: graph.test_params[v.param] for v in nodes if v.op == "test_neg"}
+    fp_nodes = [v for v in nodes if v.op in _SIGS and _SIGS[v.op][2] in _FLAGGED]
+    if not 0 < len(fp_nodes) < 1 << 16:
+        raise ValueError(f"{graph.name}: {len(fp_nodes)} arithmetic operators (the event counts are 16 bits)")
+    L += _wrap(f"Events: the flags of the {len(fp_nodes)} add / sub / mul / div / sqrt operators, for inputs "
+               "taken with in_valid && in_count; ev_overflow / ev_underflow / ev_invalid = how many were "
+               "raised in the previous cycle (models/number_format.py defines them).")
     for p, doc in test_params.items():
         L += _wrap(f"{p} (test only, default 0 = the golden datapath): {doc}")
     L += ["`default_nettype none", "", f"module {graph.name} #(",
@@ -592,7 +616,9 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
           "    localparam int W        = 1 + EXP_BITS + MAN_BITS,",
           f"    localparam int N_IN     = {n_in},",
           f"    localparam int N_OUT    = {n_out},",
-          f"    localparam int LATENCY  = {sch.latency.sv()}",
+          f"    localparam int LATENCY  = {sch.latency.sv()},",
+          f"    localparam int N_FP_OPS = {len(fp_nodes)},",
+          "    localparam int EV_W     = 16   // width of the event counts (the same in every module)",
           ") ("]
     ports = [
         "    input  wire logic               clk,",
@@ -604,9 +630,13 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
     for v in graph.bool_inputs:
         ports.append(f"    input  wire logic               {v.name},")
     ports += [
+        "    input  wire logic               in_count,   // count this input's floating-point events",
         "    output logic                    out_valid,",
         "    output logic      [TAG_W-1:0]   out_tag,",
-        "    output logic      [N_OUT*W-1:0] out_data",
+        "    output logic      [N_OUT*W-1:0] out_data,",
+        "    output logic      [EV_W-1:0]    ev_overflow,    // events raised in the previous cycle",
+        "    output logic      [EV_W-1:0]    ev_underflow,",
+        "    output logic      [EV_W-1:0]    ev_invalid",
         ");",
     ]
     L += ports
@@ -644,6 +674,31 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
           "    fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (",
           "        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)", "    );",
           "    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (.clk(clk), .d(in_tag), .q(out_tag));", ""]
+    ev_depth = Time.max([sch.ready[v.id] for v in fp_nodes])
+    L += ["    // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);",
+          "    // an operator's flags belong to the input taken at its ready cycle minus that many cycles.",
+          f"    localparam int EV_DEPTH = {ev_depth.sv()};",
+          "    logic [EV_DEPTH:0] ev_q;",
+          "    assign ev_q[0] = in_valid && in_count;",
+          "    for (genvar i = 1; i <= EV_DEPTH; i++) begin : g_ev",
+          "        always_ff @(posedge clk) begin",
+          "            if (rst) ev_q[i] <= 1'b0;",
+          "            else     ev_q[i] <= ev_q[i-1];",
+          "        end",
+          "    end",
+          "    logic [N_FP_OPS-1:0] ev_ovf, ev_unf, ev_inv;   // flags of counted inputs, one bit per operator",
+          "    always_ff @(posedge clk) begin",
+          "        ev_overflow  <= EV_W'($countones(ev_ovf));",
+          "        ev_underflow <= EV_W'($countones(ev_unf));",
+          "        ev_invalid   <= EV_W'($countones(ev_inv));",
+          "    end", ""]
+    ev_index = {v.id: k for k, v in enumerate(fp_nodes)}
+
+    def emit_flags(v: Value) -> list[str]:
+        k, at = ev_index[v.id], sch.ready[v.id].sv()
+        return [f"    assign ev_ovf[{k}] = fl_{v.name}[0] && ev_q[{at}];",
+                f"    assign ev_unf[{k}] = fl_{v.name}[1] && ev_q[{at}];",
+                f"    assign ev_inv[{k}] = fl_{v.name}[2] && ev_q[{at}];"]
 
     def emit_line(v: Value) -> list[str]:
         line = sch.lines.get(v.id)
@@ -694,18 +749,15 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
             L.append(f"    assign {v.name} = {ops[0]} ? {ops[1]} : {ops[2]};")
         elif v.op == "is_zero":
             L.append(f"    assign {v.name} = ({ops[0]}[W-2:MAN_BITS] == '0);   // subnormals read as zero")
-        elif mod in ("fp_add", "fp_mul", "fp_div"):
+        elif mod in _FLAGGED:
+            operands = f".a({ops[0]})" + (f", .b({ops[1]})" if mod != "fp_sqrt" else "")
             extra = f", .sub(1'b{1 if v.op == 'sub' else 0})" if mod == "fp_add" else ""
+            L.append(f"    logic [2:0] fl_{v.name};")
             L.append(f"    {mod} #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_{v.name} (")
-            L.append(f"        .clk(clk), .rst(rst), .in_valid(1'b1), .a({ops[0]}), .b({ops[1]}){extra},")
-            L.append(f"        .out_valid(op_valid_nc[{k_op}]), .y({v.name})")
+            L.append(f"        .clk(clk), .rst(rst), .in_valid(1'b1), {operands}{extra},")
+            L.append(f"        .out_valid(op_valid_nc[{k_op}]), .y({v.name}), .flags(fl_{v.name})")
             L.append("    );")
-            k_op += 1
-        elif mod == "fp_sqrt":
-            L.append(f"    fp_sqrt #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_{v.name} (")
-            L.append(f"        .clk(clk), .rst(rst), .in_valid(1'b1), .a({ops[0]}),")
-            L.append(f"        .out_valid(op_valid_nc[{k_op}]), .y({v.name})")
-            L.append("    );")
+            L += emit_flags(v)
             k_op += 1
         elif mod == "fp_minmax":
             conn = {"min": f"nc_{v.name}_min", "max": f"nc_{v.name}_max", "lt": f"nc_{v.name}_lt"}

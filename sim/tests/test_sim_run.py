@@ -1,4 +1,6 @@
-"""`make sim` on a tiny scene: the run finishes and the report carries the expected fields."""
+"""`make sim` on a tiny scene: the run finishes and the report carries the expected fields; bad input to
+`python -m sim.run` and `python -m sim.sweep` (issue 7) ends them with one error line, exit status 2 and no output
+left behind."""
 
 from __future__ import annotations
 
@@ -6,6 +8,16 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+import pytest
+
+from models import scenes
+from models.frame import load, save
+from sim import run as sim_run
+from sim import sweep as sim_sweep
+from sim.kernel_run import KernelRunError
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -35,6 +47,7 @@ def test_sim_run_reports(tmp_path: Path) -> None:
     assert any("residual after the converged solve" in k for k in err)
     assert "thesis ZCU102 fp32 (127,000 manifolds, 275 MHz)" in report["comparison with the thesis and with software solvers"]
     assert (next(out.glob("*/report.md"))).read_text().startswith("# pgs-cosim run")
+    assert [p.name for p in out.iterdir()] == [next(out.glob("*/report.json")).parent.name]  # nothing staged left
 
 
 def test_sim_run_rejects_bad_input(tmp_path: Path) -> None:
@@ -47,3 +60,121 @@ def test_sim_run_rejects_bad_input(tmp_path: Path) -> None:
         lines = [ln for ln in proc.stderr.splitlines() if not ln.startswith("pybullet build time")]
         assert len(lines) == 1 and lines[0].startswith("error:") and word in lines[0], proc.stderr
         assert not any(tmp_path.iterdir())
+
+
+# --- bad input, in process (the same main() as the command line; one subprocess case above) -------------------
+def _frame_file(tmp: Path, damage: Callable[[Path], None] | None = None) -> Path:
+    """The 2-cube stack's frame saved to a file, then damaged."""
+    path = save(scenes.load_or_capture("stack", n=2), tmp / "frames" / "stack2.npz")
+    if damage is not None:
+        damage(path)
+    return path
+
+
+def _older_version(path: Path) -> None:
+    with np.load(path, allow_pickle=False) as data:
+        arrays = {k: data[k] for k in data.files}
+    meta = json.loads(str(arrays["meta_json"]))
+    arrays["meta_json"] = np.array(json.dumps(dict(meta, frame_version=0)))
+    np.savez(path, **arrays)
+
+
+FRAME_DAMAGE: dict[str, tuple[Callable[[Path], None], str]] = {
+    "corrupt": (lambda p: p.write_bytes(b"\x00garbage" * 64), "is corrupt"),
+    "truncated": (lambda p: p.write_bytes(p.read_bytes()[:300]), "is corrupt or truncated"),
+    "older version": (_older_version, "has version 0, this tool reads version"),
+}
+RUN_CASES = [
+    (["--format", "float64"], "not a kernel format"),
+    (["--format", "e11m52"], "exponent width 11"),
+    (["--iters", "0"], "ITERS must be >= 1"),
+    (["--schedule", "random"], "unknown schedule"),
+    (["--stall-permille", "1500"], "--stall-permille must be in 0..1000"),
+    (["--converged-budget", "nan"], "--converged-budget must be >= 0"),
+    (["--seed", "-1"], "seed must be a non-negative integer"),
+    (["--window", "-3"], "--window must be >= 0"),
+    (["--dma", "zcu999"], "unknown DMA preset 'zcu999'"),
+    (["--frame", "/nonexistent/frame.npz"], "does not exist"),
+]
+SWEEP_CASES = [
+    (["--formats", "fp32,fp33"], "unknown number format 'fp33'"),
+    (["--formats", "bf16,float64"], "not a kernel format"),
+    (["--iters", "1,0"], "ITERS must be positive integers"),
+    (["--iters", "2,x"], "ITERS must be comma-separated integers"),
+    (["--dma", "u999"], "unknown DMA preset 'u999'"),
+    (["--scene", "stack", "--seed", "-4"], "seed must be a non-negative integer"),
+    (["--scene", "teapot"], "unknown scene 'teapot'"),
+    (["--converged-budget", "-1"], "--converged-budget must be >= 0"),
+]
+TOOLS: dict[str, Callable[[list[str]], int]] = {"sim.run": sim_run.main, "sim.sweep": sim_sweep.main}
+
+
+def _expect_error(tool: str, argv: list[str], out: Path, words: str, capsys: pytest.CaptureFixture[str]) -> None:
+    rc = TOOLS[tool]([*argv, "--out", str(out)])
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip() and not ln.startswith("pybullet build")]
+    assert rc == 2, f"{tool} {argv}: exit status {rc}"
+    assert len(err) == 1 and err[0].startswith("error: ") and words in err[0], f"{tool} {argv}: {err}"
+    assert not out.exists(), f"{tool} {argv} left {sorted(p.name for p in out.rglob('*'))}"
+
+
+BAD_ARGUMENTS = [("sim.run", ["--scene", "stack", "--no-kernel", *argv], words) for argv, words in RUN_CASES] + [
+    ("sim.sweep", argv, words) for argv, words in SWEEP_CASES]
+
+
+@pytest.mark.parametrize("tool,argv,words", BAD_ARGUMENTS, ids=[f"{t} {' '.join(a[-2:])}" for t, a, _ in BAD_ARGUMENTS])
+def test_tools_reject_bad_arguments(tmp_path: Path, capsys: pytest.CaptureFixture[str], tool: str, argv: list[str],
+                                    words: str) -> None:
+    _expect_error(tool, argv, tmp_path / "out", words, capsys)
+
+
+@pytest.mark.parametrize("tool", list(TOOLS))
+@pytest.mark.parametrize("damage", list(FRAME_DAMAGE))
+def test_tools_reject_bad_frame_files(tmp_path: Path, capsys: pytest.CaptureFixture[str], tool: str,
+                                      damage: str) -> None:
+    """A corrupt, truncated or older-version frame file given with --frame: one line naming the file and the
+    problem, exit status 2, no output directory; the frame file itself is left as it was."""
+    fn, words = FRAME_DAMAGE[damage]
+    path = _frame_file(tmp_path, fn)
+    before = path.read_bytes()
+    extra = ["--no-kernel"] if tool == "sim.run" else ["--iters", "1"]
+    _expect_error(tool, ["--frame", str(path), *extra], tmp_path / "out", f"frame file {path} {words}", capsys)
+    assert path.read_bytes() == before
+
+
+def test_failed_runs_leave_no_partial_output(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    """The kernel step fails after writing its input files into the run (sweep) directory: the error is one
+    line, the exit status 2, and no directory is left -- neither a new one nor a half-written one over an older
+    complete run, which stays as it was."""
+    def failing_step(job: Any, preset: Any, run_dir: Path, *args: Any, **kw: Any) -> Any:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        (run_dir / "regs.bin").write_bytes(b"\0" * 16)
+        raise KernelRunError("kernel harness failed (exit 3): TIMEOUT after 1000 cycles")
+
+    monkeypatch.setattr(sim_run, "run_kernel_step", failing_step)
+    monkeypatch.setattr(sim_sweep, "run_kernel_step", failing_step)
+    frame = _frame_file(tmp_path)
+    out = tmp_path / "out"
+    argv = ["--frame", str(frame), "--iters", "1", "--converged-budget", "1", "--out", str(out)]
+    assert sim_run.main([*argv, "--no-kernel"]) == 0  # an older, complete run of the same name
+    (run_dir,) = out.iterdir()
+    old = {p.name: p.read_bytes() for p in run_dir.iterdir()}
+    capsys.readouterr()
+    for tool, extra in (("sim.run", []), ("sim.sweep", ["--formats", "fp16"])):
+        assert TOOLS[tool]([*argv, *extra]) == 2
+        err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+        assert err == ["error: kernel harness failed (exit 3): TIMEOUT after 1000 cycles"], (tool, err)
+        assert [p.name for p in out.iterdir()] == [run_dir.name], (tool, sorted(p.name for p in out.rglob("*")))
+        assert {p.name: p.read_bytes() for p in run_dir.iterdir()} == old
+
+
+def test_sim_run_frame_file(tmp_path: Path) -> None:
+    """--frame runs a saved frame: the run directory is named after the file and reports its bodies."""
+    frame = _frame_file(tmp_path)
+    out = tmp_path / "out"
+    assert sim_run.main(["--frame", str(frame), "--no-kernel", "--iters", "1", "--converged-budget", "1",
+                         "--out", str(out)]) == 0
+    (run_dir,) = out.iterdir()
+    assert run_dir.name == "stack2-fp32-it1-s1-zcu102"
+    report = json.loads((run_dir / "report.json").read_text())
+    assert report["scene"]["scene"] == "stack2" and report["scene"]["bodies"] == load(frame).num_bodies
