@@ -19,17 +19,23 @@ WAVES ?= 0
 FORMATS ?= fp32,fp16,bf16
 SWEEP_ITERS ?= 1,2,4,8,16,32
 BUDGET ?= 0.01
+MODE ?= rtl
+SEEDS ?= 4
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test sim sweep analyze stability csim hls resources lint rtl clean distclean
+.PHONY: help venv sysdeps test sim sweep analyze stability coverage regress csim hls resources lint rtl clean distclean
 
 help:
 	@echo "make test      run the whole test suite (what CI runs)"
-	@echo "make sim       run a scene end to end (SCENE=pile|thesis|stack|... ITERS= FORMAT= DMA= SEED= WAVES=1)"
+	@echo "make sim       run a scene end to end (SCENE=pile|thesis|stack|... ITERS= FORMAT= DMA= SEED= WAVES=1);"
+	@echo "               MODE=model: the cycle model's estimate alone (no Verilator)"
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=)"
 	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= ITERS= BUDGET=0.01)"
 	@echo "make stability the hard-case suite closed loop: cases x formats x iterations (CASES= FORMATS= JOBS=2)"
+	@echo "make coverage  line/branch/toggle coverage of rtl/ from a harness regression (build/coverage/coverage.md)"
+	@echo "make regress   the co-simulation over SEEDS=4 seeds and more scenes on JOBS=2 workers; failing seeds"
+	@echo "               with the command that reproduces each"
 	@echo "make csim      the HLS kernel (hls_export/) in C simulation, bit for bit against the golden model"
 	@echo "make hls       Vitis HLS synthesis + Verilog export into hls_export/verilog/ (needs vitis_hls)"
 	@echo "make resources LUT/FF/DSP/BRAM of the RTL kernel per format (Yosys estimate; FORMATS=)"
@@ -61,7 +67,8 @@ test: $(STAMP)
 	$(TOOLENV) $(VPY) -m pytest
 
 sim: $(STAMP)
-	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES)
+	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
+		--mode $(MODE)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
@@ -73,6 +80,12 @@ stability: $(STAMP)
 
 sweep: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.sweep --scene $(SCENE) --formats $(FORMATS) --iters $(SWEEP_ITERS) --dma $(DMA) --seed $(SEED)
+
+coverage: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.coverage --jobs $(JOBS)
+
+regress: $(STAMP)
+	$(TOOLENV) $(VPY) cocotb_tests/test_regress.py --seeds $(SEEDS) --jobs $(JOBS)
 
 csim: $(STAMP)
 	$(TOOLENV) $(VPY) -m hls_export.csim

@@ -102,6 +102,21 @@ async def register_file(dut) -> None:
     assert await rd(m, CYC_LO) == 0x55667788
     await wr(m, FP_INV, 0)
     assert await rd(m, FP_INV) == 0x30003
+    # every bit of every counter read path and argument register both ways: all ones, then all zeros
+    counters = {"stat_cycles": ((CYC_LO, CYC_HI), 64), "stat_stalls": ((STALL,), 32), "stat_bubbles": ((BUBBLE,), 32),
+                "stat_issued": ((ISSUED,), 32), "stat_rejected": ((REJECTED,), 32),
+                "stat_fp_overflow": ((FP_OVF,), 32), "stat_fp_underflow": ((FP_UNF,), 32),
+                "stat_fp_invalid": ((FP_INV,), 32)}
+    for fill in (0xFFFFFFFF, 0):
+        for name, (addrs, bits) in counters.items():
+            saved = int(getattr(dut, name).value)
+            getattr(dut, name).value = (1 << bits) - 1 if fill else 0
+            await RisingEdge(dut.ap_clk)
+            assert [await rd(m, a) for a in addrs] == [fill] * len(addrs), name
+            getattr(dut, name).value = saved
+        for name, addr in ARGS.items():
+            await wr(m, addr, fill)
+            assert await rd(m, addr) == fill and int(getattr(dut, name).value) == fill, name
     # argument registers: R/W, byte strobes, output ports
     for i, (name, addr) in enumerate(ARGS.items()):
         await wr(m, addr, 0x01020304 * (i + 1) & 0xFFFFFFFF)

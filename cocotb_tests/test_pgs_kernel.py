@@ -15,6 +15,10 @@ It prints cycles, cycles per manifold-pass, stall and bubble cycles, the build t
 cycles per second. Schedules: ``hazard`` (window = pipeline depth in records, few stalls) and ``pybullet``
 (frame order: many hazards; the CAM's stalls must keep it exact).
 
+Cycles (``models/cycle_model.py``): the random runs must not beat the cycle model's deterministic prediction (a
+lower bound); ``test_kernel_cycles_match_model`` runs each case with deterministic streams (no gap, no
+backpressure) and requires every retire cycle, the total and the stall and bubble counters to equal the model's.
+
 Floating-point events (``rtl/README.md``): the overflow / underflow / invalid counters the harness reads
 (result.txt) must equal the golden model's prediction (``tb.fp_events``) and the fp_status flags must be set
 exactly for the non-zero ones; every fp32 and bf16 scene leaves them at zero (fp16 flushes tiny velocity terms to
@@ -24,16 +28,18 @@ its squared angular velocity overflows in the integration (and the step stays bi
 
 from __future__ import annotations
 
+import dataclasses
 import os
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from models import scenes
+from models import cycle_model, scenes
 from models.contact_solver import SolverParams
-from models.dma_model import get_preset
+from models.dma_model import DmaPreset, get_preset
 from models.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat
 from sim.kernel_run import KernelJob, KernelResult, default_window, run_kernel_step
 from tb.fp_events import predicted_events
@@ -74,6 +80,7 @@ def run_case(case: Case, tmp: Path, spin: tuple[int, float] | None = None) -> Ke
     if res.comparison.first_mismatch is not None:
         pytest.fail(res.comparison.first_mismatch)
     assert res.bit_exact
+    check_cycle_bound(job, get_preset("zcu102"), res.cycles)
     r = res.registers
     print(f"  cycles {res.cycles}, {res.cycles / job.manifold_passes:.2f} cycles per manifold-pass, stalls "
           f"{int(r['stalls'])}, bubbles {int(r['bubbles'])}; build {res.build_seconds:.1f} s; simulated "
@@ -107,3 +114,79 @@ def test_pgs_kernel_fp16_overflow(tmp_path: Path) -> None:
     res = run_case(Case("stack", FP16, "pybullet"), tmp_path, spin=(10, 2000.0))
     assert int(res.registers["fp_overflow"]) > 0 and int(res.registers["fp_underflow"]) > 0
 
+
+def check_cycle_bound(job: KernelJob, preset: DmaPreset, cycles: int) -> None:
+    """Random stream gaps and backpressure only add cycles: the kernel never beats the cycle model's
+    deterministic prediction (models/cycle_model.py)."""
+    bound = cycle_model.lower_bound(job, preset)
+    print(f"  cycle model lower bound {bound:,} cycles (measured {cycles / bound - 1:+.1%} above it)")
+    assert cycles >= bound, f"{cycles:,} kernel cycles beat the cycle model's lower bound of {bound:,}"
+
+
+# Deterministic streams (gap 0, backpressure 0): every case above, both DMA models the c512 build serves (zcu102:
+# DDR token bucket + start-up latency; ideal: neither) and the interleaved pass order (a pipe switch every pass).
+CYCLE_CASES = [(c, "zcu102", False) for c in CASES] + [
+    (Case("pile", FP32, "hazard"), "ideal", False), (Case("stack", FP32, "pybullet"), "ideal", False),
+    (Case("stack", FP32, "pybullet"), "zcu102", True), (Case("pile", FP16, "hazard"), "zcu102", True)]
+
+
+@pytest.mark.parametrize("case,dma,interleaved", CYCLE_CASES,
+                         ids=lambda v: f"{v.scene}-{v.fmt.name}-{v.schedule_kind}" if isinstance(v, Case) else
+                         ({True: "interleaved", False: "sequential"}[v] if isinstance(v, bool) else v))
+def test_kernel_cycles_match_model(case: Case, dma: str, interleaved: bool, tmp_path: Path) -> None:
+    """Every retire cycle of the trace equals the cycle model's prediction, exactly, and so do the kernel's cycle,
+    stall and bubble counters. A difference fails with the manifold, both cycles and what the model expected
+    (e.g. ``manifold 812 (...) retired at cycle 10,431, model 10,430: unexpected 1-cycle stall or bubble; the
+    model: ... no stall: no hazard, no pipe switch``)."""
+    frame = scenes.load_or_capture(case.scene, **SCENES[case.scene])
+    params = SolverParams(ITERATIONS, interleaved=interleaved)
+    job = KernelJob.from_frame(frame, case.fmt, params, case.schedule_kind, default_window(case.fmt, 512))
+    t0 = time.process_time()
+    pred = cycle_model.predict_job(job, get_preset(dma))
+    model_s = time.process_time() - t0
+    agree = run_deterministic(job, get_preset(dma), pred, tmp_path)
+    order = "interleaved" if interleaved else "sequential"
+    print(f"\n[{case.scene}/{case.fmt.name}/{case.schedule_kind}/{dma}/{order}] {agree.describe()}; stalls "
+          f"{pred.stalls:,} ({pred.stall_cycles_by_cause()}), bubbles {pred.bubbles:,}; model {model_s * 1e3:.0f} ms")
+    assert agree.ok, agree.first_mismatch
+
+
+def run_deterministic(job: KernelJob, preset: DmaPreset, pred: cycle_model.Prediction,
+                      tmp: Path) -> cycle_model.Agreement:
+    """Run ``job`` with deterministic streams (no gap, no backpressure): bit-exact, and its trace, cycles and
+    counters against the cycle model's prediction ``pred``."""
+    res = run_kernel_step(job, preset, tmp, seed=1, keep_trace=True)
+    assert res.bit_exact, res.comparison.first_mismatch
+    return cycle_model.compare_run(pred, res, job.slots)
+
+
+# Every kind of hazard-CAM match, on the stack's 10 manifolds re-pointed at these body pairs (ground = 0, static)
+# and issued in this order: (slot, its bodies, the earlier slot it must wait for or None, what matches).
+HAZARD_CASES = [(0, (1, 2), None, "first"), (1, (1, 3), 0, "candidate A = in-flight A"),
+                (2, (4, 3), 1, "candidate B = in-flight B"), (3, (5, 4), 2, "candidate B = in-flight A"),
+                (4, (6, 7), None, "independent"), (5, (7, 8), 4, "candidate A = in-flight B"),
+                (6, (0, 9), None, "static A"), (7, (0, 10), None, "only the static ground shared: no hazard"),
+                (8, (9, 0), 6, "candidate A = in-flight B, static B"), (9, (2, 0), None, "slot 0 has retired")]
+
+
+def test_kernel_hazard_cases(tmp_path: Path) -> None:
+    """The four CAM matches (candidate A or B against an in-flight A or B), static bodies never matching, and a
+    hazard across the wrap from one pass to the next: the model predicts each stall (the waiting slot, the slot it
+    waits for), and the kernel retires every manifold-pass in exactly the model's cycle, bit-exact."""
+    frame = scenes.load_or_capture("stack", **SCENES["stack"])
+    base = KernelJob.from_frame(frame, FP32, SolverParams(2), "pybullet")
+    pairs = np.array([p for _, p, _, _ in HAZARD_CASES], dtype=np.int64)
+    cons = dataclasses.replace(base.cons, body_a=pairs[:, 0].copy(), body_b=pairs[:, 1].copy())
+    job = dataclasses.replace(base, cons=cons, schedule=np.arange(len(pairs), dtype=np.int64))
+    preset = get_preset("ideal")
+    pred = cycle_model.predict_job(job, preset)
+    first = (pred.kind == 0) & (pred.iteration == 0)
+    for slot, _, waits_for, what in HAZARD_CASES:
+        k = int(np.flatnonzero(first & (pred.slot == slot))[0])
+        got = (int(pred.blocker[k]) if pred.cause[k] == cycle_model.HAZARD else None)
+        assert got == waits_for, f"slot {slot} ({what}): the model waits for {got}, expected {waits_for}"
+    k = int(np.flatnonzero((pred.kind == 0) & (pred.iteration == 1) & (pred.slot == 0))[0])
+    assert pred.cause[k] == cycle_model.HAZARD and pred.iteration[pred.blocker[k]] == 0  # across the pass wrap
+    agree = run_deterministic(job, preset, pred, tmp_path)
+    print(f"\n[hazard cases] {agree.describe()}; stalls {pred.stall_cycles_by_cause()}")
+    assert agree.ok, agree.first_mismatch

@@ -161,6 +161,10 @@ class Unit:
     top: str
     blackboxes: tuple[str, ...] = ()
     params: tuple[tuple[str, int], ...] = ()
+    # LUT mapping with classic ``abc`` instead of synth_xilinx's ``abc9``: on the control unit the WebAssembly
+    # Yosys's abc9 (XAIGER2 backend) recurses through the long combinational cones of the 256-entry hazard CAM
+    # and runs out of call stack; ``abc -luts`` maps the same LUT cost table without the recursion
+    classic_abc: bool = False
 
 
 UNITS = {
@@ -168,7 +172,7 @@ UNITS = {
     "friction": Unit("friction", "pgs_friction_pipe"),
     "integrate": Unit("integrate", "pgs_integrate_pipe"),
     "control": Unit("control", "pgs_kernel", ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe",
-                                              "pgs_body_ram", "pgs_impulse_ram")),
+                                              "pgs_body_ram", "pgs_impulse_ram"), classic_abc=True),
 }
 # the memory formula against Yosys on a RAM it can map (not part of the totals)
 CHECK_SLOTS = 4096
@@ -201,12 +205,30 @@ def prepare_sources(dest: Path) -> list[Path]:
     return out
 
 
+_PARAMETER = re.compile(r"\b(?:local)?param(?:eter)?\b[^=;,()]*?(\w+)\s*=")
+_GENVAR = re.compile(r"\bgenvar\s+(\w+)")  # slang keeps generate loop variables as cell parameters too
+
+
 def yosys_script(unit: Unit, fmt: NumberFormat, sources: list[Path]) -> str:
     params = [("EXP_BITS", fmt.exp_bits), ("MAN_BITS", fmt.man_bits), *unit.params]
     read = ["read_slang", "-j", "1", "--top", unit.top, *(f"-G {k}={v}" for k, v in params),
             *(f"--blackboxed-module {b}" for b in unit.blackboxes), *(p.name for p in sources)]
-    return "\n".join([" ".join(read), f"synth_xilinx -family xcup -noiopad -noclkbuf -top {unit.top}",
-                      "tee -q -o stat.txt stat", ""])
+    lines = [" ".join(read)]
+    by_name = {p.stem: p for p in sources}
+    for box in unit.blackboxes:  # a black box is not parametric: drop the instances' parameters
+        text = by_name[box].read_text()
+        names = sorted(set(_PARAMETER.findall(text)) | set(_GENVAR.findall(text)))
+        lines.append("setparam " + " ".join(f"-unset {n}" for n in names) + f" t:{box}")
+    synth = f"synth_xilinx -family xcup -noiopad -noclkbuf -top {unit.top}"
+    if unit.classic_abc:  # synth_xilinx's own steps around map_luts, with abc in place of abc9
+        lines += [f"{synth} -run :map_luts", "opt_expr -mux_undef -noclkinv", "abc -luts 2:2,3,6:5,10,20", "clean",
+                  "xilinx_srl -fixed -minlen 3",
+                  "techmap -map +/xilinx/lut_map.v -map +/xilinx/cells_map.v -D LUT_WIDTH=6", "xilinx_dffopt",
+                  "opt_lut_ins -tech xilinx", f"{synth} -run finalize:"]
+    else:
+        lines.append(synth)
+    lines += ["tee -q -o stat.txt stat", ""]
+    return "\n".join(lines)
 
 
 @dataclass

@@ -32,7 +32,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from models import scenes
+from models import cycle_model, scenes
 from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.contact_solver import SolverParams, solve, solve_converged
 from models.dma_model import PRESETS, DmaPreset, get_preset
@@ -66,6 +66,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--converged-budget", type=float, default=300.0,
                     help="seconds allowed for the converged float64 solve (it stops earlier when converged)")
     ap.add_argument("--no-kernel", action="store_true", help="reference models only (no Verilator)")
+    ap.add_argument("--mode", choices=("rtl", "model"), default="rtl",
+                    help="rtl: the whole run, the cycle model beside the RTL; model: the cycle model's estimate alone "
+                         "(models/cycle_model.py: no Verilator, no reference solves)")
     ap.add_argument("--waves", action="store_true", help="write waves.fst (first --wave-cycles cycles) + .gtkw")
     ap.add_argument("--wave-cycles", type=int, default=20000, help="cycles of waveform to keep (0: all)")
     ap.add_argument("--out", default="build/sim", help="parent directory of the run directory")
@@ -214,6 +217,10 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
     params = SolverParams(iterations=args.iters)
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
     job = KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip)
+    if args.mode == "model":  # MODE=model: the cycle model's estimate alone
+        return {"scene": {"scene": label, "bodies": frame.num_bodies, "manifolds": frame.num_manifolds,
+                          "schedule": sched_stats.describe(), "DMA preset": preset.describe()},
+                "cycle model (models/cycle_model.py)": model_section(job, preset)}, name, None
 
     ref = timer.run("float64 reference solve + integrate", _solve_and_integrate, bodies, cons, schedule, params, ip)
     golden = timer.run(f"{fmt.name} golden model solve + integrate", golden_step, job)
@@ -230,7 +237,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
         waves = run_dir / "waves.fst" if args.waves else None
         res = timer.run("RTL kernel in Verilator (build, run, compare)", run_kernel_step, job, preset, run_dir,
                         args.seed, args.stall_permille, args.stall_permille, progress, golden=golden, waves=waves,
-                        wave_cycles=args.wave_cycles)
+                        wave_cycles=args.wave_cycles, keep_trace=True)
         print(file=sys.stderr)
 
     ours = golden.final
@@ -254,6 +261,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
             "body-out records compared": cmp.bodies, "first mismatch": cmp.first_mismatch or "none",
             "random stall seed": res.seed}
         sections.update(kernel_sections(res, job, preset, sched_stats.bubbles))
+        sections["cycle model (models/cycle_model.py) vs RTL"] = model_section(job, preset, res, args.stall_permille)
     source = "RTL kernel" if res is not None and res.bit_exact else f"{fmt.name} golden model"
     err = {}
     err.update(_errors(f"{source} vs float64, same schedule and iterations (rounding error)", ours, ref, dyn))
@@ -279,6 +287,18 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
         f"{fmt.name} golden model (numpy)": timer.seconds[f"{fmt.name} golden model solve + integrate"]})
     sections["wall time of this run (s)"] = dict(timer.seconds)
     return sections, name, kb
+
+
+def model_section(job: KernelJob, preset: DmaPreset, res: KernelResult | None = None,
+                  stall_permille: int = 0) -> dict[str, Any]:
+    """The cycle model's estimate; beside an RTL run, every retire cycle compared (deterministic streams) or the
+    model as a lower bound (random stalls)."""
+    t0 = time.process_time()
+    pred = cycle_model.predict_job(job, preset)
+    seconds = time.process_time() - t0
+    if res is None or res.trace is None or stall_permille:
+        return cycle_model.report_section(pred, preset, seconds, None if res is None else res.cycles)
+    return cycle_model.report_section(pred, preset, seconds, agreement=cycle_model.compare_run(pred, res, job.slots))
 
 
 def thesis_position_statistic(ours: BodyTable, fp32: BodyTable, dyn: np.ndarray) -> dict[str, float]:

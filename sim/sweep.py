@@ -28,11 +28,12 @@ from models import scenes
 from models.constraints import body_table, setup_constraints
 from models.contact_solver import SolverParams, solve_converged
 from models.dma_model import PRESETS, get_preset
-from models.frame import FrameError
+from models.frame import Frame, FrameError
 from models.integrator import IntegrationParams, integrate
-from models.number_format import FLOAT64
+from models.number_format import FLOAT64, NumberFormat
 from models.schedule import make_schedule
 from sim import baselines
+from sim.analyze import DEFAULT_BUDGET, kernel_format, problem_of
 from sim.kernel_run import KernelJob, KernelRunError, default_window, golden_step, kernel_bodies, run_kernel_step
 from sim.report import StagedDirectory
 from sim.run import hardware_format, load_frame, velocity_error
@@ -47,7 +48,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="pile", help=f"scene name ({', '.join(sorted(scenes.SCENES))})")
     ap.add_argument("--frame", default="", help="a frame file (.npz, models.frame.save) to sweep instead of --scene")
-    ap.add_argument("--formats", default="fp32,fp16,bf16", help="comma-separated number formats")
+    ap.add_argument("--formats", default="fp32,fp16,bf16",
+                    help="comma-separated number formats (fp32, fp16, bf16, eXmY, auto: the analyzer's choice)")
     ap.add_argument("--iters", default="1,2,4,8,16,32", help="comma-separated iteration counts")
     ap.add_argument("--dma", default="zcu102", help=f"DMA preset ({', '.join(PRESETS)})")
     ap.add_argument("--seed", type=int, default=1, help="scene seed")
@@ -69,9 +71,12 @@ def _int_list(text: str, name: str) -> list[int]:
 def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]], str]:
     """The sweep's rows, every run's files written under ``out_dir``; returns them and the sweep's name."""
     preset = get_preset(args.dma)
-    formats = [hardware_format(f.strip()) for f in args.formats.split(",") if f.strip()]
-    if not formats:
+    names = [f.strip() for f in args.formats.split(",") if f.strip()]
+    if not names:
         raise ValueError(f"FORMATS names no number format: {args.formats!r}")
+    for name in names:  # checked before any work; auto is resolved once the frame is loaded
+        if name.lower() != "auto":
+            hardware_format(name)
     iter_list = _int_list(args.iters, "ITERS")
     if not args.converged_budget >= 0:
         raise ValueError(f"--converged-budget must be >= 0, got {args.converged_budget}")
@@ -81,8 +86,9 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
     cons = setup_constraints(frame, bodies)
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
     dyn = bodies.dynamic
+    formats = [(auto_format(frame), "auto") if n.lower() == "auto" else (hardware_format(n), "") for n in names]
     rows: list[dict[str, Any]] = []
-    for fmt in formats:
+    for fmt, how in formats:
         schedule = make_schedule("hazard", cons, dyn, default_window(fmt, preset.stream_bits))
         conv = solve_converged(bodies, cons, schedule, FLOAT64, time_budget_s=args.converged_budget)
         conv_final = integrate(conv.result.bodies, FLOAT64, ip)
@@ -95,7 +101,7 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
             e_conv = velocity_error(ours, conv_final.linear_velocity, conv_final.angular_velocity, dyn)
             e_same = velocity_error(ours, ref_final.linear_velocity, ref_final.angular_velocity, dyn)
             mp = job.manifold_passes
-            row = {"format": fmt.name, "iterations": iters, "manifolds": len(job.slots), "manifold_passes": mp,
+            row = {"format": f"{fmt.name} ({how})" if how else fmt.name, "iterations": iters, "manifolds": len(job.slots), "manifold_passes": mp,
                    "cycles": res.cycles, "cycles_per_manifold_pass": res.cycles / mp,
                    "ms_at_clock": res.cycles / preset.clock_hz * 1e3,
                    "ns_per_manifold_pass": res.cycles / mp / preset.clock_hz * 1e9,
@@ -104,12 +110,20 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
                    "max_dv_vs_converged": e_conv["max |dv| (m/s)"], "max_dw_vs_converged": e_conv["max |dw| (rad/s)"],
                    "max_dv_vs_float64_same_iters": e_same["max |dv| (m/s)"]}
             rows.append(row)
-            print(f"{fmt.name:>6} {iters:>3} it: {res.cycles:>9,} cycles ({row['cycles_per_manifold_pass']:.2f}/mp), "
+            print(f"{row['format']:>6} {iters:>3} it: {res.cycles:>9,} cycles ({row['cycles_per_manifold_pass']:.2f}/mp), "
                   f"max |dv| vs converged {row['max_dv_vs_converged']:.3e} m/s, vs float64 same iterations "
                   f"{row['max_dv_vs_float64_same_iters']:.3e}, differing bits {row['differing_bits']}", flush=True)
             if not res.bit_exact:
                 print(f"  NOT bit-exact: {res.comparison.first_mismatch}", flush=True)
     return rows, f"{label}-{args.dma}"
+
+
+def auto_format(frame: Frame) -> NumberFormat:
+    """FORMAT=auto for the sweep: the narrowest single format whose 4-iteration step stays within the analyzer's
+    error budget (the format ``make sim FORMAT=auto`` runs; ``sim.analyze``)."""
+    fmt, err, _ = kernel_format(problem_of(frame, 4), DEFAULT_BUDGET)
+    print(f"FORMAT=auto: {fmt.name} (step error {err:.3g} against float64, budget {DEFAULT_BUDGET})", flush=True)
+    return fmt
 
 
 def write_csv(rows: list[dict[str, Any]], path: Path) -> None:

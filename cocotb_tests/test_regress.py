@@ -1,0 +1,199 @@
+"""``make regress SEEDS=N``: the kernel co-simulation over N seeds and more scenes, in parallel (pytest-xdist).
+
+Every case (scene x format x schedule x DMA model, :data:`CASES`) and seed runs the compiled harness
+(``sim.kernel_run``) twice:
+
+* with the seed's random stream gaps and output backpressure (rates drawn from the seed): every trace record
+  and the body table bit-exact with the golden model, status 0, and the cycles no fewer than the cycle model's
+  lower bound (``models/cycle_model.py``);
+* with deterministic streams: every retire cycle, the total and the stall / bubble counters equal to the cycle
+  model's (once per frame: the pile's jitter follows the seed, the other scenes are the same for every seed).
+
+The tests are skipped unless ``REGRESS_SEEDS`` (a count: seeds 1..N) or ``REGRESS_SEED`` (one seed) is set, so
+``make test`` only collects them (and runs ``test_failure_report``, the summary's parser). ``make regress`` runs
+this file as a script: it builds the kernels and captures the frames first (the xdist workers share them), runs
+the tests on ``JOBS`` workers, and prints every failing seed with the command that reproduces it alone::
+
+    make regress SEEDS=8 JOBS=2
+    REGRESS_SEED=3 .venv/bin/python -m pytest "cocotb_tests/test_regress.py::test_regress[s3-pile-fp32-hazard-zcu102]"
+"""
+
+from __future__ import annotations
+
+import argparse
+import fcntl
+import os
+import random
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:  # run as a script (make regress)
+    sys.path.insert(0, str(REPO))
+
+from models import cycle_model, scenes  # noqa: E402
+from models.contact_solver import SolverParams  # noqa: E402
+from models.dma_model import get_preset  # noqa: E402
+from models.frame import Frame  # noqa: E402
+from models.number_format import BF16, FP16, FP32, NumberFormat  # noqa: E402
+from sim.kernel_run import KernelBuild, KernelJob, build_kernel, default_window, run_kernel_step  # noqa: E402
+
+ITERATIONS = 4
+OUT = REPO / "build" / "regress"
+# scene -> capture parameters; the pile's jitter seed is the regression seed
+SCENES: dict[str, dict[str, int]] = {"pile": {"nx": 4, "ny": 3, "nz": 4}, "stack": {}, "incline": {}, "pyramid": {},
+                                     "mass_ratio": {}, "impact": {}, "spin": {}, "plank": {}, "degenerate": {}}
+SEEDED = {"pile"}
+
+
+@dataclass(frozen=True)
+class Case:
+    scene: str
+    fmt: NumberFormat
+    schedule: str
+    dma: str
+
+    @property
+    def name(self) -> str:
+        return f"{self.scene}-{self.fmt.name}-{self.schedule}-{self.dma}"
+
+
+CASES = ([Case(s, FP32, k, "zcu102") for s in SCENES for k in ("hazard", "pybullet")]
+         + [Case(s, f, k, "zcu102") for f in (FP16, BF16) for s in ("pile", "stack", "pyramid", "plank")
+            for k in ("hazard", "pybullet")]
+         + [Case(s, FP32, "hazard", "ideal") for s in ("pile", "stack", "impact", "plank")])
+
+
+def seeds() -> list[int]:
+    if os.environ.get("REGRESS_SEED"):
+        return [int(os.environ["REGRESS_SEED"])]
+    return list(range(1, int(os.environ.get("REGRESS_SEEDS", "0")) + 1))
+
+
+def stall_rates(seed: int) -> tuple[int, int]:
+    """(gap, backpressure) per mille of ``seed``'s random run."""
+    rng = random.Random(seed)
+    return rng.randrange(0, 400), rng.randrange(0, 600)
+
+
+def frame_of(case: Case, seed: int) -> Frame:
+    params = dict(SCENES[case.scene], **({"seed": seed} if case.scene in SEEDED else {}))
+    return scenes.load_or_capture(case.scene, **params)
+
+
+def reproduce(case: Case, seed: int) -> str:
+    return (f'REGRESS_SEED={seed} .venv/bin/python -m pytest '
+            f'"cocotb_tests/test_regress.py::test_regress[s{seed}-{case.name}]"')
+
+
+def _build(kb: KernelBuild) -> None:
+    """Build (or find up to date) under a lock: xdist workers share the build directories."""
+    OUT.mkdir(parents=True, exist_ok=True)
+    with open(OUT / f"{kb.name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        build_kernel(kb)
+
+
+PARAMS = [pytest.param(s, c, id=f"s{s}-{c.name}") for s in seeds() for c in CASES]
+
+
+@pytest.mark.skipif(not PARAMS, reason="make regress SEEDS=N (REGRESS_SEEDS / REGRESS_SEED) runs these")
+@pytest.mark.parametrize("seed,case", PARAMS or [pytest.param(0, CASES[0], id="unset")])
+def test_regress(seed: int, case: Case, tmp_path: Path) -> None:
+    preset = get_preset(case.dma)
+    job = KernelJob.from_frame(frame_of(case, seed), case.fmt, SolverParams(ITERATIONS), case.schedule,
+                               default_window(case.fmt, preset.stream_bits))
+    _build(KernelBuild(case.fmt, cons_bits=preset.stream_bits))
+    gap, bp = stall_rates(seed)
+    where = f"seed {seed}, {case.name} (gap {gap}, backpressure {bp} per mille); reproduce: {reproduce(case, seed)}"
+    res = run_kernel_step(job, preset, tmp_path / "random", seed, gap, bp)
+    assert res.bit_exact, f"{where}: {res.comparison.first_mismatch}"
+    assert int(res.registers["status"]) == 0, f"{where}: status {int(res.registers['status']):#x}"
+    pred = cycle_model.predict_job(job, preset)
+    assert res.cycles >= pred.cycles, f"{where}: {res.cycles:,} cycles beat the model's lower bound {pred.cycles:,}"
+    print(f"\n{where}\n  random: {res.cycles:,} cycles, model bound {pred.cycles:,} "
+          f"({res.cycles / pred.cycles - 1:+.1%})")
+    if case.scene in SEEDED or seed == seeds()[0]:
+        det = run_kernel_step(job, preset, tmp_path / "deterministic", seed, keep_trace=True)
+        assert det.bit_exact, f"{where}: {det.comparison.first_mismatch}"
+        agree = cycle_model.compare_run(pred, det, job.slots)
+        print(f"  deterministic: {agree.describe()}")
+        assert agree.ok, f"{where}: {agree.first_mismatch}"
+
+
+def test_failure_report(tmp_path: Path) -> None:
+    """make regress's summary: the failed tests of a junit report, each with the command that reruns it alone."""
+    junit = tmp_path / "junit.xml"
+    junit.write_text('<testsuites><testsuite name="pytest">'
+                     '<testcase classname="cocotb_tests.test_regress" name="test_regress[s3-pile-fp32-hazard-zcu102]">'
+                     '<failure message="seed 3, pile-fp32-hazard-zcu102: 10,431 cycles beat the bound&#10;more">x'
+                     '</failure></testcase>'
+                     '<testcase classname="cocotb_tests.test_regress" '
+                     'name="test_regress[s1-stack-fp16-pybullet-zcu102]"/>'
+                     '</testsuite></testsuites>')
+    assert failures(junit) == [("s3-pile-fp32-hazard-zcu102", "seed 3, pile-fp32-hazard-zcu102: 10,431 cycles beat "
+                                                              "the bound")]
+    assert reproduce(Case("pile", FP32, "hazard", "zcu102"), 3) == (
+        'REGRESS_SEED=3 .venv/bin/python -m pytest "cocotb_tests/test_regress.py::test_regress[s3-pile-fp32-hazard-'
+        'zcu102]"')
+
+
+# --- make regress ----------------------------------------------------------------------------------------------
+def prepare(seed_list: list[int]) -> None:
+    """Build every kernel and capture every frame before the workers start (they share both)."""
+    for kb in sorted({KernelBuild(c.fmt, cons_bits=get_preset(c.dma).stream_bits) for c in CASES},
+                     key=lambda k: k.name):
+        t0 = time.monotonic()
+        _build(kb)
+        print(f"kernel {kb.name}: ready ({time.monotonic() - t0:.0f} s)", flush=True)
+    for case in CASES:
+        for seed in seed_list if case.scene in SEEDED else seed_list[:1]:
+            frame_of(case, seed)
+
+
+def failures(junit: Path) -> list[tuple[str, str]]:
+    """(test id, first line of the failure) of every failed or erroring test in a junit XML report."""
+    out = []
+    for tc in ET.parse(junit).getroot().iter("testcase"):
+        for bad in list(tc.findall("failure")) + list(tc.findall("error")):
+            name = tc.get("name", "")
+            out.append((name[name.find("[") + 1:-1] if "[" in name else name,
+                        (bad.get("message") or "").splitlines()[0] if bad.get("message") else ""))
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="make regress", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--seeds", type=int, default=4, help="seeds 1..N")
+    ap.add_argument("--jobs", type=int, default=2, help="pytest-xdist workers")
+    args = ap.parse_args(argv)
+    seed_list = list(range(1, args.seeds + 1))
+    t0 = time.monotonic()
+    prepare(seed_list)
+    OUT.mkdir(parents=True, exist_ok=True)
+    junit = OUT / "junit.xml"
+    env = dict(os.environ, REGRESS_SEEDS=str(args.seeds))
+    env.pop("REGRESS_SEED", None)
+    cmd = [sys.executable, "-m", "pytest", str(Path(__file__).relative_to(REPO)), "-q", "-n", str(args.jobs),
+           "-p", "no:cacheprovider", f"--junitxml={junit}"]
+    print(f"{len(CASES)} cases x {args.seeds} seeds on {args.jobs} workers: {' '.join(cmd)}", flush=True)
+    rc = subprocess.run(cmd, cwd=REPO, env=env).returncode
+    failed = failures(junit) if junit.exists() else []
+    print(f"\nmake regress: {len(CASES) * args.seeds - len(failed)} of {len(CASES) * args.seeds} passed in "
+          f"{time.monotonic() - t0:.0f} s")
+    by_id = {f"s{s}-{c.name}": (s, c) for s in seed_list for c in CASES}
+    for test_id, message in failed:
+        seed, case = by_id.get(test_id, (0, CASES[0]))
+        print(f"FAILED seed {seed}: {test_id}: {message[:300]}\n  reproduce: {reproduce(case, seed)}")
+    return rc if rc else (1 if failed else 0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,58 @@
+"""The coverage.dat parser and summary of `make coverage` (sim/coverage.py) on a small canned file (Verilator's
+SystemC::Coverage-3 format: two instances of one module, a second file, a point outside rtl/); the coverage
+run itself is `make coverage` (not in `make test`: two instrumented kernel builds)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from sim import coverage as cv
+from sim.kernel_run import KernelBuild
+from models.number_format import FP32
+
+CANNED = Path(__file__).resolve().parent / "data" / "coverage_canned.dat"
+
+
+def test_parse_fields() -> None:
+    points = cv.parse(CANNED.read_text())
+    assert len(points) == 12
+    p = points[0]
+    assert (p.file, p.line, p.column, p.kind, p.comment, p.module, p.hier, p.count) == \
+        ("/repo/rtl/a.sv", 5, 3, "line", "block", "a", "TOP.k.u0", 40)
+    assert points[2].is_branch and not points[0].is_branch
+    assert points[10].kind == "toggle"  # no t field: the type comes from the page (v_toggle/b)
+
+
+def test_summary_merges_instances_and_lists_uncovered() -> None:
+    """A point is covered when any instance hit it (the `if` at a.sv:6); only rtl/ files are counted."""
+    summary = cv.summarize(cv.merge(cv.parse(CANNED.read_text())), root=Path("/repo"))
+    rows = {r.file: r for r in summary.rows}
+    assert list(rows) == ["rtl/a.sv", "rtl/sub/b.sv"]
+    a, b = rows["rtl/a.sv"], rows["rtl/sub/b.sv"]
+    assert (a.line, a.branch, a.toggle) == ([2, 3], [1, 2], [1, 2])
+    assert (b.line, b.branch, b.toggle) == ([1, 2], [1, 1], [1, 1])
+    assert (summary.total.line, summary.total.branch, summary.total.toggle) == ([3, 5], [2, 3], [2, 3])
+    assert summary.uncovered == [("rtl/a.sv", 7, "else"), ("rtl/sub/b.sv", 4, "block")]
+    assert summary.toggles == {("rtl/a.sv", "q"): 1}
+    js = summary.to_json()
+    assert js["total"]["line"] == {"covered": 3, "total": 5, "percent": 60.0}
+    assert js["uncovered_lines"] == ["rtl/a.sv:7: else", "rtl/sub/b.sv:4: block"]
+    md = cv.report_markdown(summary, [], root=Path("/repo"))
+    assert "| rtl/a.sv | 66.7% (2/3) | 50.0% (1/2) | 50.0% (1/2) |" in md and "`rtl/sub/b.sv:4` (block)" in md
+
+
+def test_counts_merge_across_runs() -> None:
+    once = cv.parse(CANNED.read_text())
+    merged = cv.merge(once + once)
+    assert merged[("/repo/rtl/a.sv", 5, 3, "line", "block")] == 84
+
+
+def test_bit_editing_of_harness_records(tmp_path: Path) -> None:
+    """The bad-input edits write fields at their bit offsets of a record spread over beats."""
+    rows = np.zeros((2, 4), np.uint8)  # one record of two 32-bit beats
+    cv._set_bits(rows, 28, 8, 0xAB)  # straddles the beats
+    assert int.from_bytes(rows.tobytes(), "little") == 0xAB << 28
+    kb = KernelBuild(FP32)
+    assert cv._nonfinite(kb) == 0x7F800001 and cv._nonfinite(kb, sign=1, payload=0) == 0xFF800000

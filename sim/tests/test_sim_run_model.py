@@ -1,0 +1,40 @@
+"""`make sim MODE=model` (the cycle model's estimate without Verilator) and the cycle model's section beside an
+RTL run of `make sim` (models/cycle_model.py against the kernel, every retire cycle)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+SECTION = "cycle model (models/cycle_model.py)"
+
+
+def _run(tmp: Path, *extra: str) -> dict:
+    cmd = [sys.executable, "-m", "sim.run", "--scene", "stack", "--iters", "1", "--out", str(tmp),
+           "--converged-budget", "5", *extra]
+    proc = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=1200)
+    print(proc.stdout[-3000:])
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    return json.loads(next(tmp.glob("*/report.json")).read_text())
+
+
+def test_mode_model_reports_the_estimate_alone(tmp_path: Path) -> None:
+    report = _run(tmp_path, "--mode", "model")
+    model = report[SECTION]
+    assert model["model: kernel cycles"] > model["model: manifold-passes"] == 2 * 10
+    assert model["model: DONE starts at cycle"] + 2 == model["model: kernel cycles"]
+    assert not any(k.startswith("bit-exactness") or k.startswith("kernel speed") for k in report)
+
+
+def test_rtl_run_reports_model_against_rtl(tmp_path: Path) -> None:
+    """Deterministic streams (make sim's default): every retire cycle equals the model's."""
+    report = _run(tmp_path)
+    section = report[f"{SECTION} vs RTL"]
+    rtl = report["kernel speed (RTL in Verilator)"]["kernel cycles (ap_start to ap_done)"]
+    assert section["model: kernel cycles"] == rtl
+    assert section["model vs RTL cycles"].startswith(f"model {rtl:,} vs RTL {rtl:,} cycles (+0, +0.000%); retire "
+                                                     "cycles: 20 of 20 exact")
+    assert section["model vs RTL: first difference"] == "none"
