@@ -22,13 +22,14 @@ BUDGET ?= 0.01
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test sim sweep analyze stability csim hls resources lint rtl clean distclean
+.PHONY: help venv sysdeps test sim sweep analyze band stability csim hls resources lint rtl clean distclean
 
 help:
 	@echo "make test      run the whole test suite (what CI runs)"
 	@echo "make sim       run a scene end to end (SCENE=pile|thesis|stack|... ITERS= FORMAT= DMA= SEED= WAVES=1)"
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=)"
 	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= ITERS= BUDGET=0.01)"
+	@echo "make band      band width D of every schedule on every scene, on-chip budget of the thesis frame (SEED= ITERS=)"
 	@echo "make stability the hard-case suite closed loop: cases x formats x iterations (CASES= FORMATS= JOBS=2)"
 	@echo "make csim      the HLS kernel (hls_export/) in C simulation, bit for bit against the golden model"
 	@echo "make hls       Vitis HLS synthesis + Verilog export into hls_export/verilog/ (needs vitis_hls)"
@@ -65,6 +66,9 @@ sim: $(STAMP)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
+
+band: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.band --seed $(SEED) --iters $(ITERS)
 
 CASES ?= stack20,pyramid10,mass_ratio,incline20,incline40,impact,spin,plank,degenerate
 JOBS ?= 2
