@@ -19,7 +19,7 @@ BRAM36 (the 4 Kib of parity per block hold no data at these widths; raw 36 Kib) 
 platform   block RAM             UltraRAM               data (raw)             source
 =========  ====================  =====================  =====================  ==========================================
 zcu102     912 BRAM36            none                   3.5625 MiB (4.01 MiB)  XCZU9EG, DS891 (research note section 4.1)
-u280       4,032 BRAM18          960 x 288 Kib          37.9 MiB (42.5 MiB)    Vitis HLS report (research note section 4.2)
+u280       4,032 BRAM18          960 x 288 Kib          37.9 MiB (42.6 MiB)    Vitis HLS report (research note section 4.2)
 =========  ====================  =====================  =====================  ==========================================
 
 Each platform names its DMA preset (``models/dma_model.py``) for the off-chip side.
