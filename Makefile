@@ -24,7 +24,7 @@ SEEDS ?= 4
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test sim sweep analyze stability coverage regress csim hls resources lint rtl clean distclean
+.PHONY: help venv sysdeps test sim sweep analyze band stability coverage regress csim hls resources lint rtl clean distclean
 
 help:
 	@echo "make test      run the whole test suite (what CI runs)"
@@ -32,6 +32,7 @@ help:
 	@echo "               MODE=model: the cycle model's estimate alone (no Verilator)"
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=)"
 	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= ITERS= BUDGET=0.01)"
+	@echo "make band      band width D of every schedule on every scene, on-chip budget of the thesis frame (SEED= ITERS=)"
 	@echo "make stability the hard-case suite closed loop: cases x formats x iterations (CASES= FORMATS= JOBS=2)"
 	@echo "make coverage  line/branch/toggle coverage of rtl/ from a harness regression (build/coverage/coverage.md)"
 	@echo "make regress   the co-simulation over SEEDS=4 seeds and more scenes on JOBS=2 workers; failing seeds"
@@ -72,6 +73,9 @@ sim: $(STAMP)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
+
+band: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.band --seed $(SEED) --iters $(ITERS)
 
 CASES ?= stack20,pyramid10,mass_ratio,incline20,incline40,impact,spin,plank,degenerate
 JOBS ?= 2

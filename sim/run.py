@@ -40,7 +40,7 @@ from models.frame import Frame, FrameError, load
 from models.integrator import IntegrationParams, integrate
 from models.number_format import FLOAT64, FP32, NumberFormat, parse_format
 from models.residual import contact_residual
-from models.schedule import make_schedule, stats
+from models.schedule import SCHEDULE_KINDS, make_schedule, stats
 from sim import baselines
 from sim.kernel_run import KernelBuild, KernelJob, KernelResult, KernelRunError, default_window, golden_step, \
     kernel_bodies, run_kernel_step, text_progress
@@ -58,7 +58,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help="number format: fp32, fp16, bf16, eXmY, or auto (the narrowest within 1%% error, sim.analyze)")
     ap.add_argument("--dma", default="zcu102", help=f"DMA preset ({', '.join(PRESETS)})")
     ap.add_argument("--seed", type=int, default=1, help="scene seed (jitter) and seed of the random stalls")
-    ap.add_argument("--schedule", default="hazard", help="manifold order: hazard or pybullet")
+    ap.add_argument("--schedule", default="hazard", help=f"manifold order ({', '.join(SCHEDULE_KINDS)})")
     ap.add_argument("--window", type=int, default=0,
                     help="hazard window W in issue slots (0: the kernel's pipeline depth in records)")
     ap.add_argument("--stall-permille", type=int, default=0,
@@ -91,8 +91,8 @@ def check_args(args: argparse.Namespace) -> None:
         hardware_format(args.format)
     if args.iters < 1:
         raise ValueError(f"ITERS must be >= 1, got {args.iters}")
-    if args.schedule not in ("hazard", "pybullet"):
-        raise ValueError(f"unknown schedule {args.schedule!r} (expected hazard or pybullet)")
+    if args.schedule not in SCHEDULE_KINDS:
+        raise ValueError(f"unknown schedule {args.schedule!r} (expected one of {', '.join(SCHEDULE_KINDS)})")
     for name, value, lo, hi in (("--window", args.window, 0, None), ("--stall-permille", args.stall_permille, 0, 1000),
                                 ("--converged-budget", args.converged_budget, 0, None),
                                 ("--wave-cycles", args.wave_cycles, 0, None)):

@@ -1,0 +1,120 @@
+"""On-chip memory budget of a banded kernel (issue 10): what must stay on chip, against what a device has.
+
+A banded kernel (``models/schedule.py``, band width D) reads each manifold record from DDR once and runs the
+passes that trail it over an on-chip window of the last D records per trailing pass. What it keeps on chip:
+
+* body state: the body-in record of every body (``BODY_IN_WORDS`` words: pos, q, v, w, 1/m, I^-1), what
+  ``rtl/pgs_body_ram.sv`` holds, counted once (a board build replicates it per read/write port; not counted);
+* accumulated impulses: 4 normal + 2 friction words per manifold (``rtl/pgs_impulse_ram.sv``), either
+  resident for every manifold of the frame, or travelling with the records (then only the window holds them);
+* the record window: ``trailing`` x D records, each a contact record plus a friction record (the two kinds of
+  ``models/stream_format.py``, headers included) in their unpadded bits: on chip a record takes its bits,
+  not the stream beats it was padded to.
+
+Capacity counts the data bits of a block at the word widths the kernel uses (16 and 32 bits): 32 Kib per
+BRAM36 (the 4 Kib of parity per block hold no data at these widths; raw 36 Kib) and 256 Kib per UltraRAM
+(4K x 72 bits, of which a 64-bit pair of words uses 64; raw 288 Kib).
+
+=========  ====================  =====================  =====================  ==========================================
+platform   block RAM             UltraRAM               data (raw)             source
+=========  ====================  =====================  =====================  ==========================================
+zcu102     912 BRAM36            none                   3.5625 MiB (4.01 MiB)  XCZU9EG, DS891 (research note section 4.1)
+u280       4,032 BRAM18          960 x 288 Kib          37.9 MiB (42.6 MiB)    Vitis HLS report (research note section 4.2)
+=========  ====================  =====================  =====================  ==========================================
+
+Each platform names its DMA preset (``models/dma_model.py``) for the off-chip side.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .dma_model import DmaPreset, get_preset
+from .number_format import NumberFormat
+from .stream_format import BODY_IN_WORDS, StreamLayout
+
+IMPULSE_WORDS = 6  # lam[0..3] and lamT[0..1] per manifold (rtl/pgs_impulse_ram.sv)
+KIB = 1024 // 8  # bytes per Kib
+BRAM36_DATA_KIB = 32
+BRAM36_RAW_KIB = 36
+URAM_DATA_KIB = 256
+URAM_RAW_KIB = 288
+
+
+@dataclass(frozen=True)
+class OnChipMemory:
+    """The on-chip RAM of a platform: BRAM36 blocks (a BRAM18 pair counts as one) and UltraRAM blocks."""
+
+    name: str
+    dma: str  # DMA preset name (models.dma_model.PRESETS)
+    bram36: int
+    uram: int
+
+    @property
+    def data_bytes(self) -> int:
+        """Bytes of data the blocks hold at 16/32-bit word widths (the figure budgets are checked against)."""
+        return (self.bram36 * BRAM36_DATA_KIB + self.uram * URAM_DATA_KIB) * KIB
+
+    @property
+    def raw_bytes(self) -> int:
+        """Bytes including the parity / 72-bit-word bits that such words leave unused."""
+        return (self.bram36 * BRAM36_RAW_KIB + self.uram * URAM_RAW_KIB) * KIB
+
+    @property
+    def preset(self) -> DmaPreset:
+        return get_preset(self.dma)
+
+
+PLATFORMS: dict[str, OnChipMemory] = {
+    "zcu102": OnChipMemory("zcu102", "zcu102", bram36=912, uram=0),
+    "u280": OnChipMemory("u280", "u280", bram36=4032 // 2, uram=960),
+}
+
+
+def get_platform(name: str) -> OnChipMemory:
+    try:
+        return PLATFORMS[name]
+    except KeyError:
+        raise ValueError(f"unknown platform {name!r} (expected one of {', '.join(PLATFORMS)})") from None
+
+
+def record_bytes(fmt: NumberFormat) -> int:
+    """On-chip bytes of one manifold's records: contact + friction record bits (headers included), in bytes."""
+    layout = StreamLayout(fmt)
+    return -(-(layout.contact_bits + layout.friction_bits) // 8)
+
+
+@dataclass(frozen=True)
+class Budget:
+    """The on-chip bytes of one configuration and whether they fit the platform's data capacity."""
+
+    platform: OnChipMemory
+    fmt: NumberFormat
+    band: int  # D
+    trailing: int  # passes trailing the streaming pass, each over its own window of D records
+    impulses_resident: bool  # True: every manifold's impulses on chip; False: they travel with the records
+    body_bytes: int
+    impulse_bytes: int
+    window_bytes: int
+
+    @property
+    def total_bytes(self) -> int:
+        return self.body_bytes + self.impulse_bytes + self.window_bytes
+
+    @property
+    def fits(self) -> bool:
+        return self.total_bytes <= self.platform.data_bytes
+
+
+def budget(platform: OnChipMemory, fmt: NumberFormat, num_bodies: int, num_manifolds: int, band: int,
+           trailing: int = 1, impulses_resident: bool = True) -> Budget:
+    """The budget of a frame (``num_bodies``, ``num_manifolds``) scheduled with band width ``band``."""
+    if min(num_bodies, num_manifolds, band) < 0 or trailing < 1:
+        raise ValueError("budget needs non-negative counts and at least one trailing pass")
+    word = fmt.width
+    window_records = trailing * band
+    impulse_manifolds = num_manifolds if impulses_resident else window_records
+    return Budget(platform, fmt, band, trailing, impulses_resident,
+                  body_bytes=-(-num_bodies * BODY_IN_WORDS * word // 8),
+                  impulse_bytes=-(-impulse_manifolds * IMPULSE_WORDS * word // 8),
+                  window_bytes=window_records * record_bytes(fmt))

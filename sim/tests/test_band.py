@@ -1,0 +1,33 @@
+"""`make band` on the small scenes: the figures file carries D of every order and a budget per configuration;
+bad input ends it with one error line and exit status 2."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from models.onchip_budget import PLATFORMS
+from models.schedule import BANDED_ORDERS
+from sim import band
+
+
+def test_band_figures(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert band.main(["--scenes", "stack,pyramid", "--budget-scene", "pyramid", "--iters", "2",
+                      "--out", str(tmp_path)]) == 0
+    figures = json.loads((tmp_path / "band-s1.json").read_text())
+    rows = {r["scene"]: r for r in figures["scenes"]}
+    assert set(rows) == {"stack", "pyramid"}
+    for r in rows.values():
+        assert set(r["bands"]) == {"pybullet", *BANDED_ORDERS} and r["best"] in BANDED_ORDERS
+        assert r["bands"][r["best"]]["D"] == min(r["bands"][n]["D"] for n in BANDED_ORDERS)
+    # platforms x 3 formats x fetch periods {1, 2} x impulse placements
+    assert len(figures["budget"]) == len(PLATFORMS) * 3 * 2 * 2 and all(b["fits"] for b in figures["budget"])
+    assert "does not fit" not in capsys.readouterr().out
+
+
+def test_band_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert band.main(["--scenes", "nope", "--out", str(tmp_path)]) == 2
+    assert "unknown scene 'nope'" in capsys.readouterr().err
+    assert not (tmp_path / "band-s1.json").exists()
