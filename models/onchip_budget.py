@@ -118,3 +118,51 @@ def budget(platform: OnChipMemory, fmt: NumberFormat, num_bodies: int, num_manif
                   body_bytes=-(-num_bodies * BODY_IN_WORDS * word // 8),
                   impulse_bytes=-(-impulse_manifolds * IMPULSE_WORDS * word // 8),
                   window_bytes=window_records * record_bytes(fmt))
+
+
+@dataclass(frozen=True)
+class Floors:
+    """Lower bounds, in cycles of one step, of a kernel that fetches each manifold's records once per
+    ``fetch_every`` iterations (0: once per pass, the streaming kernel of ``rtl/``) and issues ``lanes``
+    manifold-passes per cycle."""
+
+    fetch_every: int
+    lanes: int
+    impulses_resident: bool
+    bytes_per_step: int
+    ddr_cycles: float  # bytes over the DDR bandwidth of the platform's DMA preset
+    compute_cycles: float  # manifold-passes / lanes, plus a cycle per body to load and one to integrate
+    manifold_passes: int
+
+    @property
+    def bound(self) -> str:
+        return "DDR" if self.ddr_cycles >= self.compute_cycles else "compute"
+
+    @property
+    def cycles_per_manifold_pass(self) -> float:
+        return max(self.ddr_cycles, self.compute_cycles) / self.manifold_passes
+
+
+def floors(platform: OnChipMemory, fmt: NumberFormat, num_bodies: int, num_manifolds: int, iterations: int,
+           fetch_every: int, lanes: int = 1, impulses_resident: bool = True) -> Floors:
+    """DDR and compute floors of one step (``iterations`` of a contact and a friction pass).
+
+    ``fetch_every`` = 0 is today's kernel: every pass streams its records as the DMA beats carry them (padding
+    included, ``StreamLayout``). ``fetch_every`` = k >= 1 streams a manifold's contact and friction record together
+    once per k iterations, packed back to back (:func:`record_bytes`); when the impulses are not resident they
+    are read and written back with each fetch. Body records go in and out once per step, in stream beats."""
+    if iterations < 1 or fetch_every < 0 or lanes < 1 or min(num_bodies, num_manifolds) < 0:
+        raise ValueError("floors need iterations >= 1, fetch_every >= 0, lanes >= 1 and non-negative counts")
+    layout = StreamLayout(fmt)
+    if fetch_every == 0:
+        records = num_manifolds * iterations * (layout.contact_bytes + layout.friction_bytes)
+        impulses = 0
+    else:
+        fetches = num_manifolds * -(-iterations // fetch_every)
+        records = fetches * record_bytes(fmt)
+        impulses = 0 if impulses_resident else 2 * fetches * -(-IMPULSE_WORDS * fmt.width // 8)
+    bodies = num_bodies * (layout.body_in_bytes + layout.body_out_bytes)
+    total = records + impulses + bodies
+    passes = 2 * iterations * num_manifolds
+    return Floors(fetch_every, lanes, impulses_resident, total, total / platform.preset.ddr_bytes_per_cycle,
+                  passes / lanes + 2 * num_bodies, passes)

@@ -8,7 +8,9 @@ each format on the ZCU102 preset (``sim.kernel_run.default_window``). Then, for 
 frame unless ``--budget-scene``), the on-chip bytes (``models.onchip_budget``) of body state, accumulated impulses
 and the record window of the best banded schedule after hazard reordering, per platform, format, number of passes
 trailing the streaming pass (fetch once per 1, 2 or ITERS iterations) and impulse placement, and whether they fit.
-Writes the figures to ``build/band/band-s<seed>.json``.
+Last, the DDR and compute floors per manifold-pass of the budget scene (``models.onchip_budget.floors``): records
+streamed every pass as today, or fetched once per 1, 2 or ITERS iterations, with 1, 2 or 4 lanes; which floor
+binds, and whether that fetch period's window fits. Writes the figures to ``build/band/band-s<seed>.json``.
 
     python -m sim.band --seed 1 --iters 4
 """
@@ -109,6 +111,38 @@ def budget_table(budgets: Sequence[ob.Budget]) -> list[str]:
     return lines
 
 
+def floor_rows(row: dict[str, Any], platforms: Sequence[ob.OnChipMemory], windows: dict[tuple[str, str], int],
+               iters: int) -> list[tuple[ob.Floors, ob.Budget | None, ob.OnChipMemory, NumberFormat]]:
+    """DDR and compute floors of the scene per platform, format, fetch period (0: every pass, today's kernel)
+    and lanes, each with the on-chip budget of its window (impulses travelling with the records)."""
+    out = []
+    for p in platforms:
+        for f in FORMATS:
+            band = row["bands"][row["best"]][f"W={windows[p.name, f.name]}"]
+            for period in sorted({0, 1, min(2, iters), iters}):
+                bud = None if period == 0 else ob.budget(p, f, row["bodies"], row["manifolds"], band,
+                                                         trailing=2 * period - 1, impulses_resident=False)
+                for lanes in (1, 2, 4):
+                    fl = ob.floors(p, f, row["bodies"], row["manifolds"], iters, period, lanes,
+                                   impulses_resident=False)
+                    out.append((fl, bud, p, f))
+    return out
+
+
+def floor_table(rows: Sequence[tuple[ob.Floors, ob.Budget | None, ob.OnChipMemory, NumberFormat]]) -> list[str]:
+    head = (f"{'platform':<9}{'format':<7}{'fetch':>14}{'lanes':>6}{'MB/step':>9}{'DDR c/mp':>9}{'compute c/mp':>13}"
+            f"{'floor c/mp':>11}  {'bound':<8}window")
+    lines = [head, "-" * len(head)]
+    for fl, bud, p, f in rows:
+        fetch = "every pass" if fl.fetch_every == 0 else f"per {fl.fetch_every} iter"
+        window = "-" if bud is None else ("fits" if bud.fits else "does not fit") + \
+            f" ({bud.total_bytes / (1 << 20):.2f} MiB)"
+        lines.append(f"{p.name:<9}{f.name:<7}{fetch:>14}{fl.lanes:>6}{fl.bytes_per_step / 1e6:>9.1f}"
+                     f"{fl.ddr_cycles / fl.manifold_passes:>9.3f}{fl.compute_cycles / fl.manifold_passes:>13.3f}"
+                     f"{fl.cycles_per_manifold_pass:>11.3f}  {fl.bound:<8}{window}")
+    return lines
+
+
 def run(args: argparse.Namespace) -> dict[str, Any]:
     names = [s.strip() for s in args.scenes.split(",") if s.strip()]
     unknown = [s for s in names + [args.budget_scene] if s not in scenes.SCENES]
@@ -136,6 +170,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
           f"the window (fetch once per {', '.join(str((t + 1) // 2) for t in sorted({b.trailing for b in budgets}))}"
           f" iterations); capacity = data bits of BRAM (+ UltraRAM)")
     print("\n".join(budget_table(budgets)))
+    fl_rows = floor_rows(budget_row, platforms, windows, args.iters)
+    print(f"\nfloors of {args.budget_scene} per manifold-pass (c/mp; {args.iters} iterations): records fetched every "
+          "pass as streamed today, or a manifold's contact + friction record once per k iterations (packed, the "
+          "impulses read and written with them), 1-4 manifold-passes issued per cycle; window = the budget of that "
+          "fetch period's trailing window")
+    print("\n".join(floor_table(fl_rows)))
     seconds = time.perf_counter() - t0
     print(f"\nmeasured in {seconds:.1f} s")
     return {"seed": args.seed, "windows": {f"{p}/{f}": w for (p, f), w in windows.items()}, "scenes": rows,
@@ -143,6 +183,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                         "impulses_resident": b.impulses_resident, "body_bytes": b.body_bytes,
                         "impulse_bytes": b.impulse_bytes, "window_bytes": b.window_bytes,
                         "capacity_bytes": b.platform.data_bytes, "fits": b.fits} for b in budgets],
+            "floors": [{"platform": p.name, "format": f.name, "fetch_every": fl.fetch_every, "lanes": fl.lanes,
+                        "bytes_per_step": fl.bytes_per_step, "ddr_cycles": fl.ddr_cycles,
+                        "compute_cycles": fl.compute_cycles, "bound": fl.bound,
+                        "cycles_per_manifold_pass": fl.cycles_per_manifold_pass,
+                        "window_fits": None if bud is None else bud.fits} for fl, bud, p, f in fl_rows],
             "seconds": round(seconds, 1)}
 
 

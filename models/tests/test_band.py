@@ -152,3 +152,25 @@ def test_budget_by_hand() -> None:
         ob.get_platform("zcu999")
     with pytest.raises(ValueError, match="trailing"):
         ob.budget(zcu, FP32, 1, 1, 1, trailing=0)
+
+
+def test_floors_by_hand() -> None:
+    """zcu102 (16 GB/s DDR at 275 MHz: 58.18 B/cycle), fp32, 1,000 manifolds, 10 bodies, 4 iterations."""
+    from models.stream_format import StreamLayout
+
+    p = ob.get_platform("zcu102")
+    lay = StreamLayout(FP32)
+    per_cycle = 16e9 / 275e6
+    bodies = 10 * (lay.body_in_bytes + lay.body_out_bytes)
+    today = ob.floors(p, FP32, 10, 1000, 4, fetch_every=0)
+    assert today.bytes_per_step == 1000 * 4 * (lay.contact_bytes + lay.friction_bytes) + bodies
+    assert today.ddr_cycles == pytest.approx(today.bytes_per_step / per_cycle)
+    assert today.compute_cycles == 8000 + 20 and today.manifold_passes == 8000 and today.bound == "DDR"
+    # once per 2 iterations, impulses (6 words = 24 B) read and written with each of the 2 fetches
+    two = ob.floors(p, FP32, 10, 1000, 4, fetch_every=2, lanes=2, impulses_resident=False)
+    assert two.bytes_per_step == 1000 * 2 * (ob.record_bytes(FP32) + 2 * 24) + bodies
+    assert two.compute_cycles == 4000 + 20
+    assert two.cycles_per_manifold_pass == pytest.approx(max(two.ddr_cycles, 4020) / 8000)
+    assert ob.floors(p, FP32, 10, 1000, 4, fetch_every=4).bytes_per_step == 1000 * ob.record_bytes(FP32) + bodies
+    with pytest.raises(ValueError):
+        ob.floors(p, FP32, 10, 1000, 4, fetch_every=1, lanes=0)
