@@ -15,6 +15,7 @@ calling :func:`build` again is cheap. Example::
 
 from __future__ import annotations
 
+import fcntl
 import os
 import re
 import shutil
@@ -141,7 +142,11 @@ def build(
     cmd += [str(Path(c).resolve()) for c in cpp_files]
 
     t0 = time.monotonic()
-    proc = subprocess.run(cmd, cwd=REPO_ROOT, capture_output=True, text=True)
+    # one build per directory at a time: processes that share a build (pytest-xdist workers, make sim beside
+    # make test) wait for each other instead of writing the same objects; the second finds it up to date
+    with (mdir.parent / f".{mdir.name}.lock").open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        proc = subprocess.run(cmd, cwd=REPO_ROOT, capture_output=True, text=True)
     elapsed = time.monotonic() - t0
     if proc.returncode != 0:
         raise VerilatorError(
