@@ -20,6 +20,7 @@ FORMATS ?= fp32,fp16,bf16
 SWEEP_ITERS ?= 1,2,4,8,16,32
 BUDGET ?= 0.01
 MODE ?= rtl
+SCHEDULE ?= hazard
 SEEDS ?= 4
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
@@ -29,7 +30,7 @@ SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 help:
 	@echo "make test      run the whole test suite (what CI runs)"
 	@echo "make sim       run a scene end to end (SCENE=pile|thesis|stack|... ITERS= FORMAT= DMA= SEED= WAVES=1);"
-	@echo "               MODE=model: the cycle model's estimate alone (no Verilator)"
+	@echo "               MODE=model: the cycle model's estimate alone (no Verilator); SCHEDULE=hazard|banded|..."
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=)"
 	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= ITERS= BUDGET=0.01)"
 	@echo "make band      band width D of every schedule on every scene, on-chip budget of the thesis frame (SEED= ITERS=)"
@@ -69,7 +70,7 @@ test: $(STAMP)
 
 sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
-		--mode $(MODE)
+		--mode $(MODE) --schedule $(SCHEDULE)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)

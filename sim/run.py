@@ -206,7 +206,8 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
         fmt, auto_err, _ = timer.run("format analysis (FORMAT=auto)", kernel_format, problem_of(frame, args.iters),
                                      DEFAULT_BUDGET)
         print(f"FORMAT=auto: {fmt.name} (step error {auto_err:.3g} against float64, budget {DEFAULT_BUDGET})")
-    name = f"{label}-{'auto-' if auto else ''}{fmt.name}-it{args.iters}-s{args.seed}-{args.dma}"
+    order = "" if args.schedule == "hazard" else f"-{args.schedule}"
+    name = f"{label}-{'auto-' if auto else ''}{fmt.name}-it{args.iters}-s{args.seed}-{args.dma}{order}"
 
     bodies = body_table(frame)
     cons = setup_constraints(frame, bodies)
