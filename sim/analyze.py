@@ -61,6 +61,14 @@ def kernel_format(problem: fa.StepProblem, budget: float) -> tuple[NumberFormat,
     return fmt, err, ranges
 
 
+def auto_format(frame: Frame, iters: int) -> NumberFormat:
+    """FORMAT=auto: the narrowest single kernel format whose ``iters``-iteration step of ``frame`` stays within
+    the default error budget; prints the choice."""
+    fmt, err, _ = kernel_format(problem_of(frame, iters), DEFAULT_BUDGET)
+    print(f"FORMAT=auto: {fmt.name} (step error {err:.3g} against float64, budget {DEFAULT_BUDGET})", flush=True)
+    return fmt
+
+
 def analyze(args: argparse.Namespace) -> dict[str, Any]:
     if not 0 < args.budget < 1:
         raise ValueError(f"BUDGET must be in (0, 1), got {args.budget}")

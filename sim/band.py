@@ -83,6 +83,11 @@ def band_table(rows: Sequence[dict[str, Any]], windows: Sequence[int]) -> list[s
     return lines
 
 
+def best_band(row: dict[str, Any], window: int) -> int:
+    """D of the scene's best banded order after the hazard reordering with window ``window``."""
+    return row["bands"][row["best"]][f"W={window}"]
+
+
 def budget_rows(row: dict[str, Any], platforms: Sequence[ob.OnChipMemory], windows: dict[tuple[str, str], int],
                 iters: int) -> list[ob.Budget]:
     """Budgets of the best banded schedule (after hazard reordering with the platform's W) of one scene."""
@@ -90,7 +95,7 @@ def budget_rows(row: dict[str, Any], platforms: Sequence[ob.OnChipMemory], windo
     out = []
     for p in platforms:
         for f in FORMATS:
-            band = row["bands"][row["best"]][f"W={windows[p.name, f.name]}"]
+            band = best_band(row, windows[p.name, f.name])
             for period in periods:
                 for resident in (True, False):
                     out.append(ob.budget(p, f, row["bodies"], row["manifolds"], band, trailing=2 * period - 1,
@@ -118,7 +123,7 @@ def floor_rows(row: dict[str, Any], platforms: Sequence[ob.OnChipMemory], window
     out = []
     for p in platforms:
         for f in FORMATS:
-            band = row["bands"][row["best"]][f"W={windows[p.name, f.name]}"]
+            band = best_band(row, windows[p.name, f.name])
             for period in sorted({0, 1, min(2, iters), iters}):
                 bud = None if period == 0 else ob.budget(p, f, row["bodies"], row["manifolds"], band,
                                                          trailing=2 * period - 1, impulses_resident=False)

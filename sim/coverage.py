@@ -23,6 +23,7 @@ points.
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import os
 import subprocess
@@ -85,14 +86,17 @@ def build_coverage_fp_ops(fmt: NumberFormat, root: Path = COVERAGE_ROOT) -> Path
                  extra_args=["-Wno-fatal", *COVERAGE_ARGS, *QUICK_COMPILE_ARGS])
 
 
-def _fp_operator_test() -> Any:
-    """``cocotb_tests/test_fp_operators.py`` as a module (its vectors and harness files)."""
+def _cocotb_tests_module(name: str) -> Any:
+    """A module of ``cocotb_tests/`` (imported the way pytest sees it: that folder on the path)."""
     tests = REPO_ROOT / "cocotb_tests"
     if str(tests) not in sys.path:
         sys.path.insert(0, str(tests))
-    import test_fp_operators
+    return importlib.import_module(name)
 
-    return test_fp_operators
+
+def _fp_operator_test() -> Any:
+    """``cocotb_tests/test_fp_operators.py`` as a module (its vectors and harness files)."""
+    return _cocotb_tests_module("test_fp_operators")
 
 
 
@@ -434,12 +438,7 @@ def run_fp_operator_case(case: Case, out: Path) -> CaseResult:
 
 def register_coverage_file() -> Path:
     """Where the register test's coverage build (``cocotb_tests/cocotb_runner.py``) leaves coverage.dat."""
-    tests = REPO_ROOT / "cocotb_tests"
-    if str(tests) not in sys.path:
-        sys.path.insert(0, str(tests))
-    from cocotb_runner import BUILD_ROOT
-
-    return BUILD_ROOT / "pgs_control_s_axi_coverage" / "coverage.dat"
+    return _cocotb_tests_module("cocotb_runner").BUILD_ROOT / "pgs_control_s_axi_coverage" / "coverage.dat"
 
 
 # --- coverage.dat ------------------------------------------------------------------------------------------

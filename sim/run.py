@@ -44,7 +44,7 @@ from models.schedule import SCHEDULE_KINDS, make_schedule, stats
 from sim import baselines
 from sim.kernel_run import KernelBuild, KernelJob, KernelResult, KernelRunError, default_window, golden_step, \
     kernel_bodies, run_kernel_step, text_progress
-from sim.analyze import DEFAULT_BUDGET, kernel_format, problem_of
+from sim.analyze import auto_format
 from sim.report import StagedDirectory, print_summary, write_report
 
 
@@ -203,9 +203,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
     frame, label = timer.run("frame load/capture", load_frame, args)
     print(frame.summary(), flush=True)
     if fmt is None:  # FORMAT=auto: the narrowest single format within the analyzer's error budget
-        fmt, auto_err, _ = timer.run("format analysis (FORMAT=auto)", kernel_format, problem_of(frame, args.iters),
-                                     DEFAULT_BUDGET)
-        print(f"FORMAT=auto: {fmt.name} (step error {auto_err:.3g} against float64, budget {DEFAULT_BUDGET})")
+        fmt = timer.run("format analysis (FORMAT=auto)", auto_format, frame, args.iters)
     order = "" if args.schedule == "hazard" else f"-{args.schedule}"
     name = f"{label}-{'auto-' if auto else ''}{fmt.name}-it{args.iters}-s{args.seed}-{args.dma}{order}"
 

@@ -28,12 +28,12 @@ from models import scenes
 from models.constraints import body_table, setup_constraints
 from models.contact_solver import SolverParams, solve_converged
 from models.dma_model import PRESETS, get_preset
-from models.frame import Frame, FrameError
+from models.frame import FrameError
 from models.integrator import IntegrationParams, integrate
-from models.number_format import FLOAT64, NumberFormat
+from models.number_format import FLOAT64
 from models.schedule import make_schedule
 from sim import baselines
-from sim.analyze import DEFAULT_BUDGET, kernel_format, problem_of
+from sim.analyze import auto_format
 from sim.kernel_run import KernelJob, KernelRunError, default_window, golden_step, kernel_bodies, run_kernel_step
 from sim.report import StagedDirectory
 from sim.run import hardware_format, load_frame, velocity_error
@@ -86,7 +86,7 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
     cons = setup_constraints(frame, bodies)
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
     dyn = bodies.dynamic
-    formats = [(auto_format(frame), "auto") if n.lower() == "auto" else (hardware_format(n), "") for n in names]
+    formats = [(auto_format(frame, 4), "auto") if n.lower() == "auto" else (hardware_format(n), "") for n in names]
     rows: list[dict[str, Any]] = []
     for fmt, how in formats:
         schedule = make_schedule("hazard", cons, dyn, default_window(fmt, preset.stream_bits))
@@ -116,14 +116,6 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
             if not res.bit_exact:
                 print(f"  NOT bit-exact: {res.comparison.first_mismatch}", flush=True)
     return rows, f"{label}-{args.dma}"
-
-
-def auto_format(frame: Frame) -> NumberFormat:
-    """FORMAT=auto for the sweep: the narrowest single format whose 4-iteration step stays within the analyzer's
-    error budget (the format ``make sim FORMAT=auto`` runs; ``sim.analyze``)."""
-    fmt, err, _ = kernel_format(problem_of(frame, 4), DEFAULT_BUDGET)
-    print(f"FORMAT=auto: {fmt.name} (step error {err:.3g} against float64, budget {DEFAULT_BUDGET})", flush=True)
-    return fmt
 
 
 def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
