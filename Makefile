@@ -21,6 +21,8 @@ SWEEP_ITERS ?= 1,2,4,8,16,32
 BUDGET ?= 0.01
 MODE ?= rtl
 SCHEDULE ?= hazard
+RECORD_WINDOW ?= 0
+FETCH_PASSES ?= 0
 SEEDS ?= 4
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
@@ -70,7 +72,7 @@ test: $(STAMP)
 
 sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
-		--mode $(MODE) --schedule $(SCHEDULE)
+		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)

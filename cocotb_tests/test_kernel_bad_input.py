@@ -32,7 +32,7 @@ FMT, DMA, ITERATIONS = "fp32", "zcu102", 2
 TIMEOUT_CYCLES = 100_000
 IDLE, BACKPRESSURE = 0.1, 0.2
 MAX_BODIES = 65536  # the kernel's default parameter
-UNMAPPED_READ, UNMAPPED_WRITE = 0x90, 0xF4
+UNMAPPED_READ, UNMAPPED_WRITE = 0xA0, 0xF4
 
 # scenario name -> what it checks (the builders are below)
 SCENARIOS = {

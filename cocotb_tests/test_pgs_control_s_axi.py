@@ -23,7 +23,7 @@ from cocotb.triggers import ClockCycles, RisingEdge
 REPO = Path(__file__).resolve().parents[1]
 
 ARGS = {"num_bodies": 0x10, "num_manifolds": 0x18, "iterations": 0x20, "dt": 0x28, "gravity_x": 0x30,
-        "gravity_y": 0x38, "gravity_z": 0x40, "damping": 0x48, "options": 0x50}
+        "gravity_y": 0x38, "gravity_z": 0x40, "damping": 0x48, "options": 0x50, "lag": 0x90, "fetch_passes": 0x98}
 STATUS, CYC_LO, CYC_HI, STALL, BUBBLE, ISSUED = 0x58, 0x60, 0x64, 0x68, 0x70, 0x78
 REJECTED, FP_OVF, FP_UNF, FP_INV, FP_STATUS = 0x7C, 0x80, 0x84, 0x88, 0x8C
 OKAY, SLVERR = 0, 2
@@ -127,13 +127,13 @@ async def register_file(dut) -> None:
     await wr(m, ARGS["dt"], 0xAABBCCDD, strb=0b0100)
     assert await rd(m, ARGS["dt"]) == (0x01020304 * 4 & 0xFF00FFFF) | 0x00BB0000
     # reserved upper words of the argument slots read 0, ignore writes, answer OKAY, raise nothing
-    for addr in range(0x14, 0x58, 8):
+    for addr in [*range(0x14, 0x58, 8), 0x94, 0x9C]:
         assert await rd(m, addr) == 0, f"0x{addr:02x}"
     await wr(m, 0x14, 0xFFFFFFFF)
     assert await rd(m, 0x14) == 0
     assert await rd(m, STATUS) == 0
     # unmapped addresses read 0 with SLVERR, ignore writes (SLVERR) and raise error code 9 (status bit 24)
-    for addr in (0x5C, 0x6C, 0x74, 0x90, 0xA0, 0xFC):
+    for addr in (0x5C, 0x6C, 0x74, 0xA0, 0xA4, 0xFC):
         assert await rd(m, addr, resp_code=SLVERR) == 0, f"0x{addr:02x}"
     assert await rd(m, STATUS) == 0x0100_0900
     await wr(m, STATUS, 0x0100_0000)

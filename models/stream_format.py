@@ -18,7 +18,9 @@ contact            64-bit header, then 23 words: n(3), p[0..3] xyz (12), jac_inv
 (contact passes)   -> 64 + 23 W bits
 friction           64-bit header, then 14 words: n(3), c(3), t0(3), t1(3), f_jac_inv(2)
 (friction passes)  -> 64 + 14 W bits
-header             bits 31:0 body_a, bits 62:32 body_b, bit 63 spin_damp (both record kinds)
+window             64-bit header, then the 23 contact words and the 14 friction words -> 64 + 37 W bits
+(window kernel)
+header             bits 31:0 body_a, bits 62:32 body_b, bit 63 spin_damp (all record kinds)
 body-in            17 words: pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass(1), inv_inertia(3)
 body-out           13 words: pos(3), q(4), v(3), w(3)
 =================  ======================================================================================
@@ -30,6 +32,10 @@ of a manifold is its record index within the pass. TLAST is set on the last beat
 kernel flags a mismatch as a stream error). The body-in stream holds ``num_bodies`` body-in records
 in index order (TLAST on the last beat), the body-out stream ``num_bodies`` body-out records in index
 order (TLAST on the last beat).
+
+The window kernel (``rtl/pgs_window.sv``, ``models/record_window.py``) reads each manifold's record once per
+*fetch* instead: the constraint stream is ``ceil(passes / fetch_passes)`` fetches of one window record per
+manifold in schedule order, TLAST on the last beat of each fetch (:func:`pack_window_stream`).
 """
 
 from __future__ import annotations
@@ -45,6 +51,7 @@ from .number_format import NumberFormat
 HEADER_BITS = 64
 CONTACT_WORDS = 23
 FRICTION_WORDS = 14
+WINDOW_WORDS = CONTACT_WORDS + FRICTION_WORDS
 BODY_IN_WORDS = 17
 BODY_OUT_WORDS = 13
 
@@ -178,6 +185,18 @@ class StreamLayout:
         return HEADER_BITS + FRICTION_WORDS * self.word_bits
 
     @property
+    def window_bits(self) -> int:
+        return HEADER_BITS + WINDOW_WORDS * self.word_bits
+
+    @property
+    def window_beats(self) -> int:
+        return beats_per_record(self.window_bits, self.cons_beat_bits)
+
+    @property
+    def window_bytes(self) -> int:
+        return self.window_beats * self.cons_beat_bits // 8
+
+    @property
     def contact_beats(self) -> int:
         return beats_per_record(self.contact_bits, self.cons_beat_bits)
 
@@ -246,6 +265,19 @@ def schedule_manifolds(schedule: np.ndarray) -> np.ndarray:
     return s[s >= 0]
 
 
+def _transfers(blocks: list[np.ndarray], beat_bits: int) -> Stream:
+    """The beats of ``blocks`` one after the other, TLAST on the last beat of each block (one DMA transfer each)."""
+    if not blocks:
+        return Stream(np.zeros((0, beat_bits // 8), np.uint8), np.zeros(0, bool))
+    last = []
+    for beats in blocks:
+        flags = np.zeros(beats.shape[0], dtype=bool)
+        if flags.size:
+            flags[-1] = True
+        last.append(flags)
+    return Stream(np.concatenate(blocks), np.concatenate(last))
+
+
 def pack_constraint_stream(fmt: NumberFormat, cons: ConstraintSet, schedule: np.ndarray, params: SolverParams,
                            beat_bits: int = DEFAULT_CONS_BEAT_BITS) -> Stream:
     """The constraint stream of one step: every pass of ``pass_sequence(params)``, records in schedule order."""
@@ -253,17 +285,24 @@ def pack_constraint_stream(fmt: NumberFormat, cons: ConstraintSet, schedule: np.
     header = constraint_header(cons, idx)
     contact = pack_records(header, contact_words(fmt, cons, idx), fmt.width, beat_bits)
     friction = pack_records(header, friction_words(fmt, cons, idx), fmt.width, beat_bits)
-    data, last = [], []
-    for kind, _ in pass_sequence(params):
-        beats = contact if kind == CONTACT_PASS else friction
-        data.append(beats)
-        flags = np.zeros(beats.shape[0], dtype=bool)
-        if flags.size:
-            flags[-1] = True
-        last.append(flags)
-    if not data:
-        return Stream(np.zeros((0, beat_bits // 8), np.uint8), np.zeros(0, bool))
-    return Stream(np.concatenate(data), np.concatenate(last))
+    return _transfers([contact if kind == CONTACT_PASS else friction for kind, _ in pass_sequence(params)], beat_bits)
+
+
+def window_fetches(params: SolverParams, fetch_passes: int) -> int:
+    """How many times the window kernel reads the records in one step (each fetch serves ``fetch_passes``)."""
+    if fetch_passes < 1:
+        raise ValueError(f"fetch_passes must be >= 1, got {fetch_passes}")
+    return -(-len(pass_sequence(params)) // fetch_passes)
+
+
+def pack_window_stream(fmt: NumberFormat, cons: ConstraintSet, schedule: np.ndarray, params: SolverParams,
+                       fetch_passes: int, beat_bits: int = DEFAULT_CONS_BEAT_BITS) -> Stream:
+    """The window kernel's constraint stream: one window record per manifold in schedule order, once per fetch."""
+    idx = schedule_manifolds(schedule)
+    words = np.concatenate([contact_words(fmt, cons, idx), friction_words(fmt, cons, idx)], axis=1)
+    records = pack_records(constraint_header(cons, idx), words, fmt.width, beat_bits)
+    fetches = window_fetches(params, fetch_passes) if len(idx) else 0
+    return _transfers([records] * fetches, beat_bits)
 
 
 def unpack_constraint_records(fmt: NumberFormat, beats: np.ndarray, kind: int,

@@ -18,9 +18,10 @@
 //   0x68 stall cycles  0x70 bubble cycles   0x78 issued manifold-passes   0x7C rejected manifold-passes (R)
 //   0x80 / 0x84 / 0x88 floating-point overflow / underflow / invalid (NaN) events of the run (R)
 //   0x8C fp_status (R/W1C) sticky event flags: bit 0 overflow, bit 1 underflow, bit 2 invalid
+//   0x90 lag             0x98 fetch_passes  (R/W, 8-byte stride) arguments of a window kernel (WINDOW > 0)
 // Errors raised here: code 8 = AP_CTRL written with ap_start = 1 while a run is pending or busy (the
 // write does nothing else); code 9 = an access to an unmapped address. The upper words of the 8-byte
-// argument slots (0x14, 0x1C, ... 0x54) are reserved: they read 0, ignore writes and answer OKAY (a host
+// argument slots (0x14, 0x1C, ... 0x54, 0x94, 0x9C) are reserved: they read 0, ignore writes and answer OKAY (a host
 // may write 64-bit arguments); every other address without a register reads 0, ignores writes and
 // answers SLVERR (RRESP/BRESP = 2'b10).
 // Ports s_axi_control_* (the HLS bundle name `control`). Handshake: one outstanding read and one outstanding write, like the HLS-generated slave (AWREADY
@@ -75,6 +76,8 @@ module pgs_control_s_axi #(
     output logic [31:0]         gravity_z,
     output logic [31:0]         damping,
     output logic [31:0]         options,
+    output logic [31:0]         lag,
+    output logic [31:0]         fetch_passes,
     input  wire  [7:0]          err_set,      // pulse: set these sticky error flags (codes 1..8)
     input  wire  [7:0]          err_code,     // code recorded with the first error
     input  wire  [2:0]          fp_set,       // pulse: set these sticky event flags
@@ -111,6 +114,8 @@ module pgs_control_s_axi #(
     localparam logic [ADDR_W-1:0] A_FP_UNF  = ADDR_W'(8'h84);
     localparam logic [ADDR_W-1:0] A_FP_INV  = ADDR_W'(8'h88);
     localparam logic [ADDR_W-1:0] A_FP_STAT = ADDR_W'(8'h8C);
+    localparam logic [ADDR_W-1:0] A_LAG     = ADDR_W'(8'h90);
+    localparam logic [ADDR_W-1:0] A_FETCH   = ADDR_W'(8'h98);
     localparam logic [1:0]        OKAY      = 2'b00;
     localparam logic [1:0]        SLVERR    = 2'b10;
 
@@ -119,8 +124,9 @@ module pgs_control_s_axi #(
         unique case (a)
             A_AP_CTRL, A_GIE, A_IER, A_ISR, A_NBODY, A_NMANI, A_ITERS, A_DT, A_GX, A_GY, A_GZ, A_DAMP, A_OPT,
             A_STATUS, A_CYC_LO, A_CYC_HI, A_STALL, A_BUBBLE, A_ISSUED, A_REJECT, A_FP_OVF, A_FP_UNF, A_FP_INV,
-            A_FP_STAT: return 1'b1;
-            default:   return a >= A_NBODY + ADDR_W'(4) && a <= A_OPT + ADDR_W'(4) && a[2:0] == 3'd4;
+            A_FP_STAT, A_LAG, A_FETCH: return 1'b1;
+            default:   return a[2:0] == 3'd4 && ((a >= A_NBODY + ADDR_W'(4) && a <= A_OPT + ADDR_W'(4))
+                                                 || a == A_LAG + ADDR_W'(4) || a == A_FETCH + ADDR_W'(4));
         endcase
     endfunction
 
@@ -250,7 +256,8 @@ module pgs_control_s_axi #(
     assign interrupt = int_gie && (int_isr != 2'b00);
 
     // ---------------- argument registers (not reset: written by the host before ap_start) ----------
-    logic [31:0] r_num_bodies, r_num_manifolds, r_iterations, r_dt, r_gx, r_gy, r_gz, r_damping, r_options;
+    logic [31:0] r_num_bodies, r_num_manifolds, r_iterations, r_dt, r_gx, r_gy, r_gz, r_damping, r_options, r_lag,
+                 r_fetch;
     always_ff @(posedge ap_clk) begin
         if (rst) begin
             // arguments read 0 after reset, like the HLS slave's registers
@@ -263,6 +270,8 @@ module pgs_control_s_axi #(
             r_gz            <= '0;
             r_damping       <= '0;
             r_options       <= '0;
+            r_lag           <= '0;
+            r_fetch         <= '0;
         end else if (w_hs) begin
             unique case (waddr)
                 A_NBODY: r_num_bodies    <= merge(r_num_bodies, wdata32, wstrb4);
@@ -274,6 +283,8 @@ module pgs_control_s_axi #(
                 A_GZ:    r_gz            <= merge(r_gz, wdata32, wstrb4);
                 A_DAMP:  r_damping       <= merge(r_damping, wdata32, wstrb4);
                 A_OPT:   r_options       <= merge(r_options, wdata32, wstrb4);
+                A_LAG:   r_lag           <= merge(r_lag, wdata32, wstrb4);
+                A_FETCH: r_fetch         <= merge(r_fetch, wdata32, wstrb4);
                 default: ;
             endcase
         end
@@ -287,6 +298,8 @@ module pgs_control_s_axi #(
     assign gravity_z     = r_gz;
     assign damping       = r_damping;
     assign options       = r_options;
+    assign lag           = r_lag;
+    assign fetch_passes  = r_fetch;
 
     // ---------------- read data (registered at the AR handshake) ----------------
     logic [31:0] rmux;
@@ -306,6 +319,8 @@ module pgs_control_s_axi #(
             A_GZ:      rmux = r_gz;
             A_DAMP:    rmux = r_damping;
             A_OPT:     rmux = r_options;
+            A_LAG:     rmux = r_lag;
+            A_FETCH:   rmux = r_fetch;
             A_STATUS:  rmux = {int_err_flags[15:8], 8'd0, int_err_code, int_err_flags[7:0]};
             A_CYC_LO:  rmux = stat_cycles[31:0];
             A_CYC_HI:  rmux = stat_cycles[63:32];

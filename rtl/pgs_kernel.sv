@@ -6,6 +6,8 @@
 //   interrupt         GIE && (ISR != 0)
 //   s_axis_body_*     body-in records (models/stream_format.py), num_bodies of them, TLAST on the last beat
 //   s_axis_cons_*     constraint records, every pass of the step, TLAST on the last beat of each pass
+//                     (WINDOW > 0: combined contact + friction records once per fetch, TLAST on each fetch's
+//                     last beat; see pgs_window)
 //   m_axis_body_*     body-out records in index order, TLAST on the last beat
 //   trace_valid, trace_data (TRACE = 1; tied to 0 otherwise): one record per retired manifold-pass,
 //     little-endian from bit 0: words 0..15 (W bits each) = impulses[0..3] (contact: lam[0..3];
@@ -31,6 +33,8 @@ module pgs_kernel #(
     parameter bit TRACE          = 1'b1,
     parameter int HAZARD_DEPTH   = 256,
     parameter int OUT_FIFO_DEPTH = 64,
+    parameter int WINDOW         = 0,     // 0: every pass streams its records; > 0: the window kernel (pgs_window)
+    parameter int WINDOW_CTX     = 8,
     parameter int C_S_AXI_CONTROL_ADDR_WIDTH = 8,
     parameter int C_S_AXI_CONTROL_DATA_WIDTH = 32,
     parameter bit TEST_FRICTION_SIGN_BUG = 1'b0,
@@ -81,7 +85,7 @@ module pgs_kernel #(
     assign ap_rst_n_inv = !ap_rst_n;
 
     logic        ap_start, ap_done, ap_idle;
-    logic [31:0] num_bodies, num_manifolds, iterations, dt, gx, gy, gz, damping, options;
+    logic [31:0] num_bodies, num_manifolds, iterations, dt, gx, gy, gz, damping, options, lag, fetch_passes;
     logic [7:0]  err_set, err_code;
     logic [2:0]  fp_set;
     logic [63:0] stat_cycles;
@@ -97,19 +101,19 @@ module pgs_kernel #(
         .s_axi_control_RRESP, .interrupt,
         .ap_start, .ap_done, .ap_idle, .ap_ready(ap_done),
         .num_bodies, .num_manifolds, .iterations, .dt, .gravity_x(gx), .gravity_y(gy), .gravity_z(gz),
-        .damping, .options, .err_set, .err_code, .fp_set, .stat_cycles, .stat_stalls, .stat_bubbles, .stat_issued,
+        .damping, .options, .lag, .fetch_passes, .err_set, .err_code, .fp_set, .stat_cycles, .stat_stalls, .stat_bubbles, .stat_issued,
         .stat_rejected, .stat_fp_overflow, .stat_fp_underflow, .stat_fp_invalid);
 
     pgs_sequencer #(
         .EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .MAX_MANIFOLDS(MAX_MANIFOLDS),
         .BODY_IN_W(BODY_IN_W), .CONS_W(CONS_W), .BODY_OUT_W(BODY_OUT_W), .TRACE(TRACE),
-        .HAZARD_DEPTH(HAZARD_DEPTH), .OUT_FIFO_DEPTH(OUT_FIFO_DEPTH),
+        .HAZARD_DEPTH(HAZARD_DEPTH), .OUT_FIFO_DEPTH(OUT_FIFO_DEPTH), .WINDOW(WINDOW), .WINDOW_CTX(WINDOW_CTX),
         .TEST_FRICTION_SIGN_BUG(TEST_FRICTION_SIGN_BUG)
     ) u_seq (
         .clk(ap_clk), .rst(ap_rst_n_inv), .start(ap_start), .idle(ap_idle), .done(ap_done),
         .arg_num_bodies(num_bodies), .arg_num_manifolds(num_manifolds), .arg_iterations(iterations),
         .arg_dt(dt[W-1:0]), .arg_gx(gx[W-1:0]), .arg_gy(gy[W-1:0]), .arg_gz(gz[W-1:0]),
-        .arg_damping(damping[W-1:0]), .opt_interleaved(options[0]),
+        .arg_damping(damping[W-1:0]), .opt_interleaved(options[0]), .arg_lag(lag), .arg_fetch_passes(fetch_passes),
         .s_body_tdata(s_axis_body_TDATA), .s_body_tvalid(s_axis_body_TVALID), .s_body_tready(s_axis_body_TREADY),
         .s_body_tlast(s_axis_body_TLAST),
         .s_cons_tdata(s_axis_cons_TDATA), .s_cons_tvalid(s_axis_cons_TVALID), .s_cons_tready(s_axis_cons_TREADY),

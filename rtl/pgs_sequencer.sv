@@ -12,6 +12,11 @@
 //          RAMs); t+1: the contact or friction pipe takes the record; at retire (t+1+LATENCY) the
 //          impulses are written to the slot and the velocities of the dynamic bodies to the body RAM;
 //          the trace record leaves then.
+//          With WINDOW > 0 (the window kernel, issue 10) the records come from pgs_window instead: each
+//          manifold's combined record is streamed once per fetch of arg_fetch_passes passes and the passes
+//          trail each other by arg_lag slots over the on-chip ring (see pgs_window); records of several
+//          passes interleave at issue, and the friction pipe's output is delayed to the contact pipe's
+//          latency so that retire stays in issue order without draining at a kind change.
 //   DRAIN  until the last manifold has retired;
 //   INTEG  every body in index order through pgs_integrate_pipe (a static body's record rides in the
 //          tag and comes out unchanged), into an output FIFO (issue only with a free FIFO credit, so
@@ -40,8 +45,9 @@
 //     TLAST before the last record of a pass (0x01) ends the pass there: its missing slots are rejected
 //     (one per cycle); TLAST missing on the last record (0x01) discards the extra beats up to the next
 //     TLAST. Every pass stays in step with the host's transfers, so the step always ends.
-//   * 0x03 bad argument (num_bodies > MAX_BODIES, num_manifolds > MAX_MANIFOLDS or iterations >= 2^16):
-//     the step ends at once, streams untouched.
+//   * 0x03 bad argument (num_bodies > MAX_BODIES, num_manifolds > MAX_MANIFOLDS or iterations >= 2^16; with
+//     WINDOW > 0 also fetch_passes = 0, fetch_passes > WINDOW_CTX, lag = 0 or (fetch_passes - 1) * lag + 2 >
+//     WINDOW): the step ends at once, streams untouched.
 `default_nettype none
 
 module pgs_sequencer #(
@@ -55,6 +61,8 @@ module pgs_sequencer #(
     parameter bit TRACE          = 1'b1,
     parameter int HAZARD_DEPTH   = 256,
     parameter int OUT_FIFO_DEPTH = 64,
+    parameter int WINDOW         = 0,      // 0: every pass streams its records; > 0: record window of WINDOW records
+    parameter int WINDOW_CTX     = 8,      // passes active at a time in the window (a power of two >= 2)
     parameter bit TEST_FRICTION_SIGN_BUG = 1'b0,  // test only (pgs_kernel): an injected friction-pass bug
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64
@@ -73,6 +81,8 @@ module pgs_sequencer #(
     input  wire  [W-1:0]          arg_gz,
     input  wire  [W-1:0]          arg_damping,
     input  wire                   opt_interleaved,
+    input  wire  [31:0]           arg_lag,           // WINDOW > 0: slots a pass trails the pass before it
+    input  wire  [31:0]           arg_fetch_passes,  // WINDOW > 0: passes served by one fetch of the records
     input  wire  [BODY_IN_W-1:0]  s_body_tdata,
     input  wire                   s_body_tvalid,
     output logic                  s_body_tready,
@@ -109,6 +119,9 @@ module pgs_sequencer #(
     localparam int C_BEATS   = (64 + 23 * W + CONS_W - 1) / CONS_W;     // contact record
     localparam int F_BEATS   = (64 + 14 * W + CONS_W - 1) / CONS_W;     // friction record
     localparam int CM_BEATS  = C_BEATS > F_BEATS ? C_BEATS : F_BEATS;
+    localparam int WR_BEATS  = (64 + 37 * W + CONS_W - 1) / CONS_W;     // window record (contact + friction)
+    localparam int C_LAT     = pgs_pipe_latency_pkg::contact_latency(MAN_BITS);
+    localparam int F_LAT     = pgs_pipe_latency_pkg::friction_latency(MAN_BITS);
     localparam int CREC_W    = CM_BEATS * CONS_W;
     localparam int CNEED_W   = $clog2(CM_BEATS + 1);
     localparam int BNEED_W   = $clog2(B_BEATS + 1);
@@ -127,9 +140,12 @@ module pgs_sequencer #(
     logic [31:0] nb, nm;
     logic [ITER_W:0] iters, passes;   // passes = 2 * iterations
     logic        ilv;
+    logic [31:0] r_lag, r_fetch;
     logic [W-1:0] r_dt, r_gx, r_gy, r_gz, r_damp;
+    wire  bad_window = WINDOW > 0 && (arg_fetch_passes == 0 || arg_fetch_passes > 32'(WINDOW_CTX) || arg_lag == 0
+                       || 64'(arg_fetch_passes - 1) * 64'(arg_lag) + 64'd2 > 64'(WINDOW));
     wire  bad_args = arg_num_bodies > 32'(MAX_BODIES) || arg_num_manifolds > 32'(MAX_MANIFOLDS)
-                     || arg_iterations >= 32'(1 << ITER_W);
+                     || arg_iterations >= 32'(1 << ITER_W) || bad_window;
 
     always_ff @(posedge clk) begin
         if (phase == S_IDLE && start) begin
@@ -138,6 +154,8 @@ module pgs_sequencer #(
             iters  <= (ITER_W+1)'(arg_iterations[ITER_W-1:0]);
             passes <= {arg_iterations[ITER_W-1:0], 1'b0};
             ilv    <= opt_interleaved;
+            r_lag  <= arg_lag;
+            r_fetch <= arg_fetch_passes;
             r_dt   <= arg_dt;
             r_gx   <= arg_gx;
             r_gy   <= arg_gy;
@@ -192,23 +210,97 @@ module pgs_sequencer #(
     wire b_early    = phase == S_LOAD && brec_valid && brec_last && load_idx != nb - 1;
     wire b_late     = phase == S_LOAD && brec_valid && !brec_last && load_idx == nb - 1;
 
-    // ---------------- constraint stream ----------------
-    logic [ITER_W:0] a_pass;   // pass of the record being assembled
-    logic [31:0]     a_slot;
-    wire             a_kind = kind_of(a_pass, ilv, iters);
-    wire             a_last = a_slot == nm - 1;
+    // ---------------- constraint records: the stream pass by pass, or the record window ----------------
     logic [CREC_W-1:0] crec;
-    logic            crec_tag;  // the record's pass kind
-    logic            crec_valid, crec_last, crec_trunc, c_done, c_done_trunc, c_asm_ready, take;
-    logic            c_flush;   // after the last record of a pass without TLAST: discard beats up to TLAST
-    pgs_record_asm #(.BEAT_W(CONS_W), .MAX_BEATS(CM_BEATS), .TAG_W(1)) u_cons_asm (
-        .clk, .rst, .enable((phase == S_LOAD || phase == S_SOLVE) && a_pass < passes && nm != 0 && !c_flush),
-        .need(a_kind ? CNEED_W'(F_BEATS) : CNEED_W'(C_BEATS)), .in_tag(a_kind),
-        .s_tdata(s_cons_tdata), .s_tvalid(s_cons_tvalid), .s_tlast(s_cons_tlast), .s_tready(c_asm_ready),
-        .done(c_done), .done_trunc(c_done_trunc), .rec_data(crec), .rec_tag(crec_tag), .rec_last(crec_last),
-        .rec_trunc(crec_trunc), .rec_valid(crec_valid), .rec_ready(take));
-    assign s_cons_tready = c_asm_ready || c_flush;
-    wire c_pass_end = c_done && (a_last || s_cons_tlast);   // the assembler moves on to the next pass
+    logic            crec_tag;    // the record's pass kind
+    logic            crec_valid, crec_trunc, take;
+    logic            c_flush;     // discarding beats up to a TLAST
+    logic            c_tlast_err; // error code 1 this cycle
+    logic [ITER_W:0] i_pass;      // pass and slot of the record offered
+    logic [31:0]     i_slot;
+    logic            i_fill;      // rejecting the slots a pass is missing after an early TLAST, one per cycle
+    wire  in_solve = phase == S_SOLVE;
+    wire  slot_step;              // slot i_slot of pass i_pass is done
+    wire  slot_last = i_slot == nm - 1;
+
+    generate
+        if (WINDOW == 0) begin : g_stream
+            logic [ITER_W:0] a_pass;   // pass of the record being assembled
+            logic [31:0]     a_slot;
+            wire             a_kind = kind_of(a_pass, ilv, iters);
+            wire             a_last = a_slot == nm - 1;
+            logic            c_done, c_done_trunc, c_asm_ready, crec_last;
+            pgs_record_asm #(.BEAT_W(CONS_W), .MAX_BEATS(CM_BEATS), .TAG_W(1)) u_cons_asm (
+                .clk, .rst, .enable((phase == S_LOAD || phase == S_SOLVE) && a_pass < passes && nm != 0 && !c_flush),
+                .need(a_kind ? CNEED_W'(F_BEATS) : CNEED_W'(C_BEATS)), .in_tag(a_kind),
+                .s_tdata(s_cons_tdata), .s_tvalid(s_cons_tvalid), .s_tlast(s_cons_tlast), .s_tready(c_asm_ready),
+                .done(c_done), .done_trunc(c_done_trunc), .rec_data(crec), .rec_tag(crec_tag), .rec_last(crec_last),
+                .rec_trunc(crec_trunc), .rec_valid(crec_valid), .rec_ready(take));
+            assign s_cons_tready = c_asm_ready || c_flush;
+            wire c_pass_end = c_done && (a_last || s_cons_tlast);   // the assembler moves on to the next pass
+            assign c_tlast_err = c_done && (s_cons_tlast != a_last || c_done_trunc);
+            wire unused_stream = ^{r_lag, r_fetch};   // the window kernel's arguments
+
+            always_ff @(posedge clk) begin
+                if (phase == S_IDLE) begin
+                    a_pass  <= '0;
+                    a_slot  <= '0;
+                    c_flush <= 1'b0;
+                    i_pass  <= '0;
+                    i_slot  <= '0;
+                    i_fill  <= 1'b0;
+                end else begin
+                    if (c_done) begin
+                        if (c_pass_end) begin
+                            a_slot <= '0;
+                            a_pass <= a_pass + 1'b1;
+                        end else begin
+                            a_slot <= a_slot + 1;
+                        end
+                    end
+                    if (c_done && a_last && !s_cons_tlast) c_flush <= 1'b1;
+                    else if (c_flush && s_cons_tvalid && s_cons_tlast) c_flush <= 1'b0;
+                    if (slot_step) begin
+                        if (slot_last) begin
+                            i_slot <= '0;
+                            i_pass <= i_pass + 1'b1;
+                            i_fill <= 1'b0;
+                        end else begin
+                            i_slot <= i_slot + 1;
+                            if (take && crec_last) i_fill <= 1'b1;   // TLAST before the pass's last slot
+                        end
+                    end
+                end
+            end
+        end else begin : g_window
+            localparam int WREC_W = WR_BEATS * CONS_W;
+            logic [WREC_W-1:0] wrec;
+            logic [ITER_W:0]   w_pass;
+            logic              w_done, w_flush;
+            pgs_window #(.CONS_W(CONS_W), .REC_BEATS(WR_BEATS), .DEPTH(WINDOW), .CTX(WINDOW_CTX),
+                         .PASS_W(ITER_W + 1)) u_window (
+                .clk, .rst, .init(phase == S_IDLE), .nm, .passes, .fetch_passes(r_fetch[ITER_W:0]), .lag(r_lag),
+                .fetch_en(phase == S_LOAD || phase == S_SOLVE), .s_tdata(s_cons_tdata), .s_tvalid(s_cons_tvalid),
+                .s_tready(s_cons_tready), .s_tlast(s_cons_tlast), .cand_valid(crec_valid), .cand_rec(wrec),
+                .cand_trunc(crec_trunc), .cand_pass(w_pass), .cand_slot(i_slot), .take, .all_done(w_done),
+                .flushing(w_flush), .tlast_err(c_tlast_err));
+            // a contact pass reads the header and the contact words, a friction pass the header and the
+            // friction words (which follow the contact words in the window record)
+            always_comb begin
+                crec = '0;
+                crec[0 +: 64] = wrec[0 +: 64];
+                if (crec_tag == FRICTION) crec[64 +: 14*W] = wrec[64 + 23*W +: 14*W];
+                else                      crec[64 +: 23*W] = wrec[64 +: 23*W];
+            end
+            assign crec_tag  = kind_of(w_pass, ilv, iters);
+            assign i_pass    = w_pass;
+            assign i_fill    = 1'b0;
+            assign c_flush   = w_flush;
+            // the window ends the solve with the last pass's last slot (solve_last); the padding of its records
+            // and its all-done flag are not needed here
+            wire unused_window = ^{w_done, wrec[WREC_W-1:64 + 37*W], r_fetch[31:ITER_W+1]};
+        end
+    endgenerate
 
     // ---------------- issue ----------------
     wire [63:0]      hdr    = crec[63:0];
@@ -218,12 +310,11 @@ module pgs_sequencer #(
     wire [IDX_W-1:0] cand_b = hdr_b[IDX_W-1:0];
     wire             rkind  = crec_tag;
     logic hazard, cam_full, cam_empty, retire, last_kind;
-    logic [ITER_W:0] i_pass;
-    logic [31:0]     i_slot;
     wire  [ITER_W:0]   i_iter_full = ilv ? (i_pass >> 1) : (i_pass >= iters ? i_pass - iters : i_pass);
     wire  [ITER_W-1:0] i_iter = i_iter_full[ITER_W-1:0];
-    wire  in_solve = phase == S_SOLVE;
-    wire  kind_ok  = rkind == last_kind || cam_empty;
+    // the streaming kernel drains a pipe before it switches kinds (retire in issue order); the window kernel
+    // aligns the two pipes' latencies instead
+    wire  kind_ok  = WINDOW > 0 || rkind == last_kind || cam_empty;
 
     // checks of the assembled record (contact: 23 words, friction: 14 words after the 64-bit header)
     logic crec_nonfinite;
@@ -235,7 +326,6 @@ module pgs_sequencer #(
     end
     // slots rejected earlier in the step (written for every slot in pass 0, set by later rejections)
     logic slot_rej [MAX_MANIFOLDS];
-    logic i_fill;   // rejecting the slots a pass is missing after an early TLAST, one per cycle
     wire  rej_prev   = i_pass != '0 && slot_rej[i_slot[SLOT_W-1:0]];
     wire  rej_index  = hdr_a >= nb || hdr_b >= nb || hdr_a == hdr_b;
     wire  rej_bad    = !rej_index && (bad0 || bad1);
@@ -245,7 +335,7 @@ module pgs_sequencer #(
     wire  issue      = take && !rej;
     wire  reject     = take && rej;
     wire  fill       = in_solve && i_fill;
-    wire  slot_step  = take || fill;                       // slot i_slot of pass i_pass is done
+    assign slot_step = take || fill;
     always_ff @(posedge clk) begin
         if (slot_step && (i_pass == '0 || reject || fill)) slot_rej[i_slot[SLOT_W-1:0]] <= reject || fill;
     end
@@ -312,10 +402,10 @@ module pgs_sequencer #(
         f_in[43*W +: 3*W] = rd1_data[14*W +: 3*W];
     end
 
-    logic              c_out_valid, f_out_valid;
-    logic [STAG_W-1:0] c_out_tag, f_out_tag;
+    logic              c_out_valid, f_out_valid, f_pipe_valid;
+    logic [STAG_W-1:0] c_out_tag, f_out_tag, f_pipe_tag;
     logic [16*W-1:0]   c_out;
-    logic [14*W-1:0]   f_out;
+    logic [14*W-1:0]   f_out, f_pipe;
     logic [EV_W-1:0] c_ev_ovf, c_ev_unf, c_ev_inv, f_ev_ovf, f_ev_unf, f_ev_inv, i_ev_ovf, i_ev_unf, i_ev_inv;
     pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
         .clk, .rst, .in_valid(s1_valid && s1_kind == CONTACT), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
@@ -324,8 +414,24 @@ module pgs_sequencer #(
     pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
                         .TEST_FRICTION_SIGN_BUG(TEST_FRICTION_SIGN_BUG)) u_friction (
         .clk, .rst, .in_valid(s1_valid && s1_kind == FRICTION), .in_tag(s1_tag), .in_data(f_in),
-        .in_spin_damp(s1_sd), .in_count(1'b1), .out_valid(f_out_valid), .out_tag(f_out_tag), .out_data(f_out),
+        .in_spin_damp(s1_sd), .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
         .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+
+    // the window kernel issues contact and friction records back to back: the friction results wait for the
+    // contact pipe's latency, so that every manifold retires C_LAT + 1 cycles after its issue, in issue order
+    localparam int F_ALIGN = WINDOW > 0 ? C_LAT - F_LAT : 0;
+    if (F_ALIGN < 0) begin : g_bad_align
+        $error("pgs_sequencer: the window kernel needs the friction pipe no deeper than the contact pipe");
+    end
+    if (F_ALIGN > 0) begin : g_f_align
+        fp_valid_pipe #(.LATENCY(F_ALIGN)) u_f_valid (.clk, .rst, .in_valid(f_pipe_valid), .out_valid(f_out_valid));
+        pgs_delay #(.WIDTH(STAG_W + 14*W), .DEPTH(F_ALIGN)) u_f_data (.clk, .d({f_pipe_tag, f_pipe}),
+                                                                   .q({f_out_tag, f_out}));
+    end else begin : g_f_direct
+        assign f_out_valid = f_pipe_valid;
+        assign f_out_tag   = f_pipe_tag;
+        assign f_out       = f_pipe;
+    end
 
     // ---------------- retire ----------------
     assign retire = c_out_valid || f_out_valid;
@@ -424,7 +530,6 @@ module pgs_sequencer #(
     assign m_body_tlast  = out_beat == OBEAT_W'(O_BEATS - 1) && out_cnt == nb - 1;
 
     // ---------------- phase machine and counters ----------------
-    wire slot_last  = i_slot == nm - 1;
     wire solve_last = slot_step && i_pass == passes - 1 && slot_last;
     wire solve_work = nm != 0 && passes != 0;
 
@@ -505,12 +610,6 @@ module pgs_sequencer #(
             b_end     <= 1'b0;
             b_fill    <= 1'b0;
             b_flush   <= 1'b0;
-            a_pass    <= '0;
-            a_slot    <= '0;
-            c_flush   <= 1'b0;
-            i_pass    <= '0;
-            i_slot    <= '0;
-            i_fill    <= 1'b0;
             last_kind <= CONTACT;
             int_idx   <= '0;
             credits   <= '0;
@@ -524,27 +623,7 @@ module pgs_sequencer #(
             else if (load_last) b_fill <= 1'b0;
             if (b_late) b_flush <= 1'b1;
             else if (b_flush && s_body_tvalid && s_body_tlast) b_flush <= 1'b0;
-            if (c_done) begin
-                if (c_pass_end) begin
-                    a_slot <= '0;
-                    a_pass <= a_pass + 1'b1;
-                end else begin
-                    a_slot <= a_slot + 1;
-                end
-            end
-            if (c_done && a_last && !s_cons_tlast) c_flush <= 1'b1;
-            else if (c_flush && s_cons_tvalid && s_cons_tlast) c_flush <= 1'b0;
             if (issue) last_kind <= rkind;
-            if (slot_step) begin
-                if (slot_last) begin
-                    i_slot <= '0;
-                    i_pass <= i_pass + 1'b1;
-                    i_fill <= 1'b0;
-                end else begin
-                    i_slot <= i_slot + 1;
-                    if (take && crec_last) i_fill <= 1'b1;   // TLAST before the pass's last slot
-                end
-            end
             if (int_issue) int_idx <= int_idx + 1;
             credits <= credits + 32'(int_issue) - 32'(out_pop);
             if (out_hs) out_beat <= out_pop ? '0 : out_beat + 1'b1;
@@ -559,7 +638,7 @@ module pgs_sequencer #(
     wire body_in_check = phase == S_LOAD && brec_valid && !brec_trunc;
     logic [6:0] err_hit;
     always_comb begin
-        err_hit[0] = c_done && (s_cons_tlast != a_last || c_done_trunc);                   // 1 constraint TLAST
+        err_hit[0] = c_tlast_err;                                                          // 1 constraint TLAST
         err_hit[1] = b_done && (s_body_tlast != (b_asm_cnt == nb - 1) || b_done_trunc);   // 2 body-in TLAST
         err_hit[2] = phase == S_IDLE && start && bad_args;                                // 3 bad argument
         err_hit[3] = cons_check && rej_index;                                             // 4 body index

@@ -31,6 +31,7 @@ from models.contact_solver import CONTACT_PASS, PassRecord, SolverParams, SolveR
 from models.dma_model import DmaPreset
 from models.frame import Frame
 from models.integrator import IntegrationParams, integrate
+from models.record_window import WindowPlan, plan_window, sequential_order
 from models.number_format import NumberFormat
 from models.schedule import make_schedule
 from sim.lint import rtl_files
@@ -39,7 +40,8 @@ from sim.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT, build
 HARNESS = REPO_ROOT / "cocotb_tests" / "kernel" / "pgs_kernel_main.cpp"
 # kernel registers (rtl/README.md)
 ARG_REGS = {"num_bodies": 0x10, "num_manifolds": 0x18, "iterations": 0x20, "dt": 0x28, "gravity_x": 0x30,
-            "gravity_y": 0x38, "gravity_z": 0x40, "damping": 0x48, "options": 0x50}
+            "gravity_y": 0x38, "gravity_z": 0x40, "damping": 0x48, "options": 0x50, "lag": 0x90,
+            "fetch_passes": 0x98}
 TRACE_FIELDS = [f"impulse[{i}]" for i in range(4)] + [f"{f}.{c}" for f in ("vA", "wA", "vB", "wB") for c in "xyz"]
 BODY_OUT_FIELDS = [f"{f}.{c}" for f, cs in (("pos", "xyz"), ("q", "xyzw"), ("v", "xyz"), ("w", "xyz")) for c in cs]
 # cycles allowed per manifold-pass and per body before the harness declares a hang
@@ -57,11 +59,13 @@ class KernelBuild:
     max_bodies: int = 65536
     max_manifolds: int = 262144
     waves: bool = False
+    window: int = 0  # WINDOW: 0 streams every pass; > 0 the window kernel with a ring of that many records
+    window_ctx: int = 8
 
     @property
     def name(self) -> str:
         return (f"pgs_kernel_e{self.fmt.exp_bits}m{self.fmt.man_bits}_c{self.cons_bits}"
-                + ("_waves" if self.waves else ""))
+                + (f"_w{self.window}x{self.window_ctx}" if self.window else "") + ("_waves" if self.waves else ""))
 
     @property
     def trace_bytes(self) -> int:
@@ -71,7 +75,8 @@ class KernelBuild:
     def parameters(self) -> dict[str, int]:
         return {"EXP_BITS": self.fmt.exp_bits, "MAN_BITS": self.fmt.man_bits, "MAX_BODIES": self.max_bodies,
                 "MAX_MANIFOLDS": self.max_manifolds, "BODY_IN_W": self.body_in_bits, "CONS_W": self.cons_bits,
-                "BODY_OUT_W": self.body_out_bits}
+                "BODY_OUT_W": self.body_out_bits} | (
+                    {"WINDOW": self.window, "WINDOW_CTX": self.window_ctx} if self.window else {})
 
 
 _built: dict[KernelBuild, tuple[Path, float]] = {}
@@ -112,6 +117,7 @@ class KernelJob:
     schedule: np.ndarray
     params: SolverParams
     iparams: IntegrationParams
+    record_window: WindowPlan | None = None  # the window kernel's plan; None: the streaming kernel
 
     @staticmethod
     def from_frame(frame: Frame, fmt: NumberFormat, params: SolverParams, schedule: str = "hazard",
@@ -122,6 +128,11 @@ class KernelJob:
         order = make_schedule(schedule, cons, bodies.dynamic, window=window)
         return KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), order, params,
                          IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity)))
+
+    def windowed(self, depth: int, ctx: int = 8, fetch_passes: int | None = None) -> "KernelJob":
+        """This step on the window kernel with a ring of ``depth`` records (``models.record_window.plan_window``)."""
+        plan = plan_window(self.cons, self.bodies.dynamic, self.schedule, self.params, depth, ctx, fetch_passes)
+        return KernelJob(self.fmt, self.bodies, self.cons, self.schedule, self.params, self.iparams, plan)
 
     @property
     def slots(self) -> np.ndarray:
@@ -157,14 +168,20 @@ def register_writes(job: KernelJob) -> list[tuple[int, int]]:
             (ARG_REGS["iterations"], job.params.iterations), (ARG_REGS["dt"], enc(ip.dt)),
             (ARG_REGS["gravity_x"], enc(ip.gravity[0])), (ARG_REGS["gravity_y"], enc(ip.gravity[1])),
             (ARG_REGS["gravity_z"], enc(ip.gravity[2])), (ARG_REGS["damping"], enc(ip.damping)),
-            (ARG_REGS["options"], int(job.params.interleaved))]
+            (ARG_REGS["options"], int(job.params.interleaved))] + (
+        [] if job.record_window is None else [(ARG_REGS["lag"], job.record_window.lag),
+                                              (ARG_REGS["fetch_passes"], job.record_window.fetch_passes)])
 
 
 def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild) -> dict[str, int]:
     """Write the harness's input files into ``run_dir``; return the bytes of each stream."""
     run_dir.mkdir(parents=True, exist_ok=True)
     body = sf.pack_body_table(job.fmt, job.bodies, kb.body_in_bits)
-    cons = sf.pack_constraint_stream(job.fmt, job.cons, job.schedule, job.params, kb.cons_bits)
+    if job.record_window is None:
+        cons = sf.pack_constraint_stream(job.fmt, job.cons, job.schedule, job.params, kb.cons_bits)
+    else:
+        cons = sf.pack_window_stream(job.fmt, job.cons, job.schedule, job.params, job.record_window.fetch_passes,
+                                     kb.cons_bits)
     (run_dir / "regs.bin").write_bytes(np.asarray(register_writes(job), dtype="<u4").tobytes())
     (run_dir / "body_in.bin").write_bytes(body.to_bytes())
     (run_dir / "body_in_last.bin").write_bytes(body.last.astype(np.uint8).tobytes())
@@ -258,9 +275,18 @@ def expected_trace_words(fmt: NumberFormat, rec: PassRecord) -> np.ndarray:
                            fmt.encode(rec.ang_a), fmt.encode(rec.lin_b), fmt.encode(rec.ang_b)], axis=1)
 
 
+def in_sequential_order(trace: Trace, params: SolverParams) -> Trace:
+    """The window kernel's trace (passes interleaved at retire) in the sequential solve's order."""
+    order = sequential_order(params, trace.kind, trace.iteration, trace.slot)
+    return Trace(trace.cycle[order], trace.kind[order], trace.iteration[order], trace.slot[order], trace.words[order])
+
+
 def compare_trace(trace: Trace, golden: list[PassRecord], job: KernelJob, cmp: Comparison) -> None:
-    """Compare every trace record with the golden pass records, in retire order."""
+    """Compare every trace record with the golden pass records, in retire order (the window kernel's: in the
+    sequential order, :func:`in_sequential_order`)."""
     fmt = job.fmt
+    if job.record_window is not None:
+        trace = in_sequential_order(trace, job.params)
     expected = sum(len(r.manifold) for r in golden)
     if len(trace.cycle) != expected:
         cmp.fail(f"{len(trace.cycle)} trace records, expected {expected} (one per manifold-pass)")
@@ -359,7 +385,9 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
                     golden: Golden | None = None, waves: Path | None = None, wave_cycles: int = 20000,
                     keep_trace: bool = False) -> KernelResult:
     """Build (once), run and check one step of the kernel; never raises on a mismatch (see ``comparison``)."""
-    kb = KernelBuild(job.fmt, cons_bits=preset.stream_bits, waves=waves is not None)
+    plan = job.record_window
+    kb = KernelBuild(job.fmt, cons_bits=preset.stream_bits, waves=waves is not None,
+                     window=0 if plan is None else plan.depth, window_ctx=8 if plan is None else plan.ctx)
     if job.bodies.num_bodies > kb.max_bodies or job.cons.num_manifolds > kb.max_manifolds:
         raise ValueError(f"{job.bodies.num_bodies} bodies / {job.cons.num_manifolds} manifolds exceed the kernel's "
                          f"MAX_BODIES {kb.max_bodies} / MAX_MANIFOLDS {kb.max_manifolds}")

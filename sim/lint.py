@@ -4,7 +4,7 @@ Each ``.sv`` file under ``rtl/`` holds one module named after the file; every on
 as a top from its own file plus the packages, the modules it instantiates being found by file name in the
 ``rtl/`` folders (``-y``), two runs at a time. A module with the
 ``EXP_BITS`` / ``MAN_BITS`` parameters is linted with its default parameters and again with the
-binary16 and bfloat16 parameter sets. Any warning or error makes the exit status non-zero.
+binary16 and bfloat16 parameter sets; one with a ``WINDOW`` parameter also as a window kernel. Any warning or error makes the exit status non-zero.
 
 Usage: ``python -m sim.lint [-v] [TOP ...]`` (default: every top).
 """
@@ -29,6 +29,13 @@ RTL_ROOT = REPO_ROOT / "rtl"
 FORMAT_PARAM_SETS: dict[str, dict[str, int]] = {
     "fp16": {"EXP_BITS": 5, "MAN_BITS": 10},
     "bf16": {"EXP_BITS": 8, "MAN_BITS": 7},
+}
+
+# The window kernel (issue 10): modules with a WINDOW parameter are also linted with a record window, in fp32
+# and fp16 (the window record is 3 and 2 stream beats).
+WINDOW_PARAM_SETS: dict[str, dict[str, int]] = {
+    "window": {"WINDOW": 1024},
+    "window-fp16": {"WINDOW": 1024, "EXP_BITS": 5, "MAN_BITS": 10},
 }
 
 _PARAM_RE = re.compile(r"\bparameter\s+(?:(?:int|integer|logic|bit)\b[^=;,)]*?\s)?\s*(\w+)\s*=")
@@ -62,7 +69,7 @@ def runs_for(module_file: Path) -> list[LintRun]:
     top = module_file.stem
     params = set(_PARAM_RE.findall(module_file.read_text()))
     out = [LintRun(top, "default", {})]
-    for label, pset in FORMAT_PARAM_SETS.items():
+    for label, pset in (FORMAT_PARAM_SETS | WINDOW_PARAM_SETS).items():
         if set(pset) <= params:
             out.append(LintRun(top, label, dict(pset)))
     return out

@@ -61,6 +61,11 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--schedule", default="hazard", help=f"manifold order ({', '.join(SCHEDULE_KINDS)})")
     ap.add_argument("--window", type=int, default=0,
                     help="hazard window W in issue slots (0: the kernel's pipeline depth in records)")
+    ap.add_argument("--record-window", type=int, default=0,
+                    help="0: the streaming kernel; N (a power of two): the window kernel with a ring of N records "
+                         "(rtl/pgs_window.sv, issue 10)")
+    ap.add_argument("--fetch-passes", type=int, default=0,
+                    help="window kernel: passes per fetch of the records (0: as many as the ring holds)")
     ap.add_argument("--stall-permille", type=int, default=0,
                     help="random idle cycles on the input streams and backpressure on the output (per mille)")
     ap.add_argument("--converged-budget", type=float, default=300.0,
@@ -93,7 +98,10 @@ def check_args(args: argparse.Namespace) -> None:
         raise ValueError(f"ITERS must be >= 1, got {args.iters}")
     if args.schedule not in SCHEDULE_KINDS:
         raise ValueError(f"unknown schedule {args.schedule!r} (expected one of {', '.join(SCHEDULE_KINDS)})")
-    for name, value, lo, hi in (("--window", args.window, 0, None), ("--stall-permille", args.stall_permille, 0, 1000),
+    if args.record_window and (args.record_window < 2 or args.record_window & (args.record_window - 1)):
+        raise ValueError(f"--record-window must be 0 or a power of two >= 2, got {args.record_window}")
+    for name, value, lo, hi in (("--window", args.window, 0, None), ("--fetch-passes", args.fetch_passes, 0, 8),
+                                ("--stall-permille", args.stall_permille, 0, 1000),
                                 ("--converged-budget", args.converged_budget, 0, None),
                                 ("--wave-cycles", args.wave_cycles, 0, None)):
         if not (value >= lo and (hi is None or value <= hi)) or not math.isfinite(value):
@@ -205,6 +213,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
     if fmt is None:  # FORMAT=auto: the narrowest single format within the analyzer's error budget
         fmt = timer.run("format analysis (FORMAT=auto)", auto_format, frame, args.iters)
     order = "" if args.schedule == "hazard" else f"-{args.schedule}"
+    order += f"-ring{args.record_window}" if args.record_window else ""
     name = f"{label}-{'auto-' if auto else ''}{fmt.name}-it{args.iters}-s{args.seed}-{args.dma}{order}"
 
     bodies = body_table(frame)
@@ -216,6 +225,10 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
     params = SolverParams(iterations=args.iters)
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
     job = KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip)
+    if args.record_window:
+        job = job.windowed(args.record_window, fetch_passes=args.fetch_passes or None)
+        if args.mode == "model":
+            raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
     if args.mode == "model":  # MODE=model: the cycle model's estimate alone
         return {"scene": {"scene": label, "bodies": frame.num_bodies, "manifolds": frame.num_manifolds,
                           "schedule": sched_stats.describe(), "DMA preset": preset.describe()},
@@ -230,7 +243,9 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
     res: KernelResult | None = None
     kb: KernelBuild | None = None
     if not args.no_kernel:
-        kb = KernelBuild(fmt, cons_bits=preset.stream_bits, waves=args.waves)
+        plan = job.record_window
+        kb = KernelBuild(fmt, cons_bits=preset.stream_bits, waves=args.waves, window=plan.depth if plan else 0,
+                         window_ctx=plan.ctx if plan else 8)
         print(f"kernel: {kb.name} ({'building, first time a few minutes' if not _built(kb) else 'built'})", flush=True)
         progress = text_progress(job.manifold_passes)
         waves = run_dir / "waves.fst" if args.waves else None
@@ -260,7 +275,11 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
             "body-out records compared": cmp.bodies, "first mismatch": cmp.first_mismatch or "none",
             "random stall seed": res.seed}
         sections.update(kernel_sections(res, job, preset, sched_stats.bubbles))
-        sections["cycle model (models/cycle_model.py) vs RTL"] = model_section(job, preset, res, args.stall_permille)
+        if job.record_window is None:
+            sections["cycle model (models/cycle_model.py) vs RTL"] = model_section(job, preset, res,
+                                                                                 args.stall_permille)
+        else:
+            sections["record window (rtl/pgs_window.sv)"] = window_section(job, preset)
     source = "RTL kernel" if res is not None and res.bit_exact else f"{fmt.name} golden model"
     err = {}
     err.update(_errors(f"{source} vs float64, same schedule and iterations (rounding error)", ours, ref, dyn))
@@ -298,6 +317,27 @@ def model_section(job: KernelJob, preset: DmaPreset, res: KernelResult | None = 
     if res is None or res.trace is None or stall_permille:
         return cycle_model.report_section(pred, preset, seconds, None if res is None else res.cycles)
     return cycle_model.report_section(pred, preset, seconds, agreement=cycle_model.compare_run(pred, res, job.slots))
+
+
+def window_section(job: KernelJob, preset: DmaPreset) -> dict[str, Any]:
+    """The window kernel's plan and its on-chip bytes against the platform of the DMA preset (if there is one)."""
+    from models import onchip_budget as ob
+
+    plan = job.record_window
+    assert plan is not None
+    out: dict[str, Any] = {
+        "ring (records, build parameter WINDOW)": plan.depth, "pass contexts (WINDOW_CTX)": plan.ctx,
+        "band width D of the slot order": plan.band, "lag (slots a pass trails the one before)": plan.lag,
+        "passes per fetch": plan.fetch_passes, "fetches of the records per step": plan.fetches(job.params),
+        "ring records in use at most": plan.ring_records,
+        "cycle model": "streaming kernel only (no prediction for the window kernel)"}
+    if preset.name in ob.PLATFORMS:
+        bud = ob.budget(ob.get_platform(preset.name), job.fmt, job.bodies.num_bodies, len(job.slots), plan.lag,
+                        trailing=max(plan.fetch_passes - 1, 1))
+        out[f"on-chip bytes on {preset.name}: body state + impulses + window"] = (
+            f"{bud.body_bytes:,} + {bud.impulse_bytes:,} + {bud.window_bytes:,} = {bud.total_bytes:,} of "
+            f"{bud.platform.data_bytes:,} ({'fits' if bud.fits else 'does not fit'})")
+    return out
 
 
 def thesis_position_statistic(ours: BodyTable, fp32: BodyTable, dyn: np.ndarray) -> dict[str, float]:

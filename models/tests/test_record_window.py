@@ -1,0 +1,65 @@
+"""The window kernel's plan (models/record_window.py): lag, passes per fetch, the kernel's argument check, and the
+trace order."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from models.constraints import ConstraintSet
+from models.contact_solver import CONTACT_PASS, FRICTION_PASS, SolverParams, pass_sequence
+from models.record_window import fits, plan_window, sequential_order
+from models.schedule import band_width
+
+
+def _chain(m: int) -> tuple[ConstraintSet, np.ndarray]:
+    """Manifold k joins bodies k and k+1 (body 0 static): in order, every body's manifolds are adjacent (D = 2)."""
+    z = np.zeros
+    cons = ConstraintSet(body_a=np.arange(m), body_b=np.arange(1, m + 1), num_points=np.ones(m, int),
+                         normal=z((m, 3)), points=z((m, 4, 3)), jac_inv=z((m, 4)), bias=z((m, 4)), center=z((m, 3)),
+                         tangent=z((m, 2, 3)), f_jac_inv=z((m, 2)), spin_damp=z(m, bool))
+    dyn = np.ones(m + 1, bool)
+    dyn[0] = False
+    return cons, dyn
+
+
+def test_plan_lag_is_the_band_of_the_slots() -> None:
+    cons, dyn = _chain(50)
+    order = np.arange(50)
+    plan = plan_window(cons, dyn, order, SolverParams(4), depth=64)
+    assert plan.band == plan.lag == band_width(order, cons, dyn) == 2
+    assert plan.fetch_passes == 8 and plan.fetches(SolverParams(4)) == 1
+    # bubbles are not slots of the kernel: the same manifolds with bubbles between them have the same lag
+    with_bubbles = np.array([0, -1, 1, -1, -1, *range(2, 50)])
+    assert plan_window(cons, dyn, with_bubbles, SolverParams(4), depth=64).lag == 2
+    # a shuffled order widens the band; a small ring then serves fewer passes per fetch, evenly split
+    shuffled = np.random.default_rng(1).permutation(50)
+    wide = plan_window(cons, dyn, shuffled, SolverParams(4), depth=64)
+    assert wide.lag == band_width(shuffled, cons, dyn) > 2
+    most = max(f for f in range(1, 9) if fits(64, 8, wide.lag, f))
+    assert fits(64, 8, wide.lag, wide.fetch_passes) and wide.fetches(SolverParams(4)) == -(-8 // most)
+    with pytest.raises(ValueError):
+        plan_window(cons, dyn, order, SolverParams(4), depth=48)  # not a power of two
+    with pytest.raises(ValueError):
+        plan_window(cons, dyn, shuffled, SolverParams(4), depth=64, fetch_passes=8)
+
+
+def test_fits_is_the_kernels_check() -> None:
+    assert fits(1024, 8, 146, 8) and not fits(1024, 8, 147, 8)  # 7 * 146 + 2 = 1024
+    assert not fits(1024, 8, 10, 0) and not fits(1024, 8, 10, 9) and not fits(1024, 8, 0, 2)
+    assert fits(4, 8, 1_000_000, 1)
+
+
+@pytest.mark.parametrize("interleaved", [False, True])
+def test_sequential_order(interleaved: bool) -> None:
+    params = SolverParams(3, interleaved=interleaved)
+    seq = pass_sequence(params)
+    rng = np.random.default_rng(4)
+    kind = np.array([k for k, _ in seq for _ in range(5)])
+    it = np.array([i for _, i in seq for _ in range(5)])
+    slot = np.tile(np.arange(5), len(seq))
+    perm = rng.permutation(len(kind))
+    order = sequential_order(params, kind[perm], it[perm], slot[perm])
+    assert np.array_equal(kind[perm][order], kind) and np.array_equal(it[perm][order], it)
+    assert np.array_equal(slot[perm][order], slot)
+    assert {CONTACT_PASS, FRICTION_PASS} == set(kind.tolist())

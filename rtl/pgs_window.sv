@@ -1,0 +1,218 @@
+// pgs_window: the record window of a kernel built with WINDOW > 0 (issue 10): each manifold's combined
+// record (contact and friction words) is read from the constraint stream once per *fetch* and serves the
+// `fetch_passes` passes of that fetch from an on-chip ring of DEPTH records, the passes trailing each other.
+//
+// Stream: ceil(passes / fetch_passes) fetches of nm combined records each (models/stream_format.py
+// pack_window_stream: 64-bit header, 23 contact words, 14 friction words, padded to REC_BEATS beats),
+// TLAST on the last beat of each fetch. Fetch f serves passes f*fetch_passes .. (f+1)*fetch_passes - 1 of
+// models.contact_solver.pass_sequence. Record k of a fetch is manifold slot k.
+//
+// Passes: pass j steps its slots in order 0 .. nm-1, one slot per `take`. Up to CTX passes are active at a
+// time (pass contexts, pass j in context j mod CTX). A slot s of pass j is a candidate when its record is in
+// the ring and pass j-1 is done or has stepped at least s + lag slots. With lag >= the schedule's band width D
+// (every dynamic body's manifolds lie within D consecutive slots) pass j-1 has issued every update of the bodies
+// of slot s before pass j reads them, and pass j's updates of a body all come before pass j+1's: every body sees
+// its updates in the order of the sequential solve, so the result is bit for bit the golden model's
+// (the sequencer's hazard CAM keeps an update that is still in flight from being read early).
+// Each cycle one candidate is offered: the oldest pass with a candidate, skipping contexts whose candidate was
+// offered and not taken since the last take (a hazard stall), so that another pass can fill the cycle.
+//
+// Ring: a fetched record is written in arrival order (global record index = fetch * nm + slot); it is freed
+// when the last pass of its fetch steps its slot. Beats are accepted only while the ring has room. The
+// host's argument check (sequencer) guarantees progress: 1 <= fetch_passes <= CTX, lag >= 1 and
+// (fetch_passes - 1) * lag + 2 <= DEPTH.
+//
+// Stream errors (code 1, tlast_err): a fetch whose TLAST comes early -- the record cut short is kept with its
+// trunc bit, the slots the fetch lacks enter the ring as truncated records (one per cycle), and the sequencer
+// rejects them in every pass; one whose TLAST is late -- the beats after its last record are discarded up to
+// TLAST (`flushing`).
+`default_nettype none
+
+module pgs_window #(
+    parameter int CONS_W    = 512,
+    parameter int REC_BEATS = 3,
+    parameter int DEPTH     = 16384,   // records in the ring, a power of two
+    parameter int CTX       = 8,       // pass contexts, a power of two
+    parameter int PASS_W    = 17,
+    localparam int REC_W    = REC_BEATS * CONS_W,
+    localparam int AW       = $clog2(DEPTH),
+    localparam int CW       = $clog2(CTX),
+    localparam int GI_W     = 52       // global record index (fetch * nm + slot)
+) (
+    input  wire                clk,
+    input  wire                rst,
+    input  wire                init,          // start of a step: clear the state
+    input  wire  [31:0]        nm,
+    input  wire  [PASS_W-1:0]  passes,
+    input  wire  [PASS_W-1:0]  fetch_passes,
+    input  wire  [31:0]        lag,
+    input  wire                fetch_en,      // the sequencer's LOAD and SOLVE phases
+    input  wire  [CONS_W-1:0]  s_tdata,
+    input  wire                s_tvalid,
+    output logic               s_tready,
+    input  wire                s_tlast,
+    output logic               cand_valid,
+    output logic [REC_W-1:0]   cand_rec,
+    output logic               cand_trunc,
+    output logic [PASS_W-1:0]  cand_pass,
+    output logic [31:0]        cand_slot,
+    input  wire                take,          // the candidate is consumed (issued or rejected)
+    output logic               all_done,      // every pass has stepped every slot
+    output logic               flushing,
+    output logic               tlast_err
+);
+    localparam int NEED_W = $clog2(REC_BEATS + 1);
+
+    // ---------------- fetch into the ring ----------------
+    logic [REC_W-1:0] ring [DEPTH];
+    logic             ring_trunc [DEPTH];
+    logic [GI_W-1:0]  wr_cnt, res_cnt, free_cnt;   // records written / reserved (assembling) / freed
+    logic [PASS_W:0]  f_base;                      // first pass of the fetch being assembled
+    logic [31:0]      f_slot;
+    logic             fill;                        // writing the truncated slots after an early TLAST
+
+    wire f_active = f_base < (PASS_W+1)'(passes) && nm != 0;
+    wire room     = res_cnt - free_cnt < GI_W'(DEPTH);
+    wire f_last   = f_slot == nm - 1;
+
+    logic [REC_W-1:0] arec;
+    logic             a_ready;
+    logic             arec_valid, arec_trunc, a_done, a_done_trunc, a_unused_tag, a_unused_last;
+    pgs_record_asm #(.BEAT_W(CONS_W), .MAX_BEATS(REC_BEATS), .TAG_W(1)) u_asm (
+        .clk, .rst, .enable(fetch_en && f_active && !flushing && !fill && room), .need(NEED_W'(REC_BEATS)),
+        .in_tag(1'b0), .s_tdata, .s_tvalid, .s_tlast, .s_tready(a_ready), .done(a_done), .done_trunc(a_done_trunc),
+        .rec_data(arec), .rec_tag(a_unused_tag), .rec_last(a_unused_last), .rec_trunc(arec_trunc),
+        .rec_valid(arec_valid), .rec_ready(1'b1));
+    assign s_tready = a_ready || flushing;
+
+    wire fill_step = fill && !arec_valid && room;   // the assembled (truncated) record goes in first
+    wire wr_step   = arec_valid || fill_step;
+    assign tlast_err = a_done && (s_tlast != f_last || a_done_trunc);
+
+    always_ff @(posedge clk) begin
+        if (wr_step) begin
+            ring[wr_cnt[AW-1:0]]       <= arec_valid ? arec : '0;
+            ring_trunc[wr_cnt[AW-1:0]] <= arec_valid ? arec_trunc : 1'b1;
+        end
+    end
+
+    // ---------------- pass contexts ----------------
+    logic [PASS_W-1:0] c_pass  [CTX];
+    logic [31:0]       c_slot  [CTX];
+    logic [GI_W-1:0]   c_gidx  [CTX];
+    logic [CTX-1:0]    c_active, c_lastg, skip;
+    logic [PASS_W:0]   st_pass, jlo;      // next pass to start; oldest pass not done
+    logic [PASS_W-1:0] st_k;              // st_pass's place in its fetch
+    logic [GI_W-1:0]   st_base;           // global index of slot 0 of st_pass's fetch
+
+    wire [CW-1:0] jlo_ctx = jlo[CW-1:0];
+    wire start_pass = st_pass < (PASS_W+1)'(passes) && st_pass - jlo < (PASS_W+1)'(CTX) && nm != 0;
+    wire st_lastg   = st_k == fetch_passes - 1'b1 || st_pass == (PASS_W+1)'(passes) - 1'b1;
+
+    // a context's slot is a candidate: its record is in the ring, and the pass before it is done or far enough
+    logic [CTX-1:0] elig;
+    always_comb begin
+        for (int k = 0; k < CTX; k++) begin
+            automatic logic [CW-1:0] p = CW'(k - 1);
+            automatic logic lag_ok = (PASS_W+1)'(c_pass[k]) == jlo || !c_active[p]
+                                     || {1'b0, c_slot[p]} >= {1'b0, c_slot[k]} + {1'b0, lag};
+            elig[k] = c_active[k] && c_gidx[k] < wr_cnt && lag_ok;
+        end
+    end
+
+    // the oldest eligible context not skipped; else the oldest eligible one
+    logic [CW-1:0] sel;
+    logic          any_fresh, any_elig, sel_fresh;
+    always_comb begin
+        sel       = '0;
+        any_fresh = 1'b0;
+        any_elig  = 1'b0;
+        for (int off = CTX - 1; off >= 0; off--) begin
+            automatic logic [CW-1:0] k = jlo_ctx + CW'(off);
+            if (elig[k]) begin
+                any_elig = 1'b1;
+                if (!any_fresh) sel = k;
+            end
+        end
+        for (int off = CTX - 1; off >= 0; off--) begin
+            automatic logic [CW-1:0] k = jlo_ctx + CW'(off);
+            if (elig[k] && !skip[k]) begin
+                any_fresh = 1'b1;
+                sel = k;
+            end
+        end
+        sel_fresh = any_fresh;
+    end
+
+    assign cand_valid = any_elig;
+    assign cand_rec   = ring[c_gidx[sel][AW-1:0]];
+    assign cand_trunc = ring_trunc[c_gidx[sel][AW-1:0]];
+    assign cand_pass  = c_pass[sel];
+    assign cand_slot  = c_slot[sel];
+    assign all_done   = jlo == (PASS_W+1)'(passes);
+    wire   step_last  = c_slot[sel] == nm - 1;
+
+    always_ff @(posedge clk) begin
+        if (rst || init) begin
+            wr_cnt   <= '0;
+            res_cnt  <= '0;
+            free_cnt <= '0;
+            f_base   <= '0;
+            f_slot   <= '0;
+            fill     <= 1'b0;
+            flushing <= 1'b0;
+            c_active <= '0;
+            skip     <= '0;
+            st_pass  <= '0;
+            jlo      <= '0;
+            st_k     <= '0;
+            st_base  <= '0;
+        end else begin
+            // fetch
+            if (wr_step) wr_cnt <= wr_cnt + 1'b1;
+            if (a_done || fill_step) res_cnt <= res_cnt + 1'b1;
+            if (a_done || fill_step) begin
+                if (f_last) begin
+                    f_slot <= '0;
+                    f_base <= f_base + (PASS_W+1)'(fetch_passes);
+                    fill   <= 1'b0;
+                    if (a_done && !s_tlast) flushing <= 1'b1;   // TLAST late: discard up to it
+                end else begin
+                    f_slot <= f_slot + 1;
+                    if (a_done && s_tlast) fill <= 1'b1;       // TLAST early: the fetch's other slots are truncated
+                end
+            end
+            if (flushing && s_tvalid && s_tlast) flushing <= 1'b0;
+            // start a pass
+            if (start_pass) begin
+                c_pass[st_pass[CW-1:0]]   <= st_pass[PASS_W-1:0];
+                c_slot[st_pass[CW-1:0]]   <= '0;
+                c_gidx[st_pass[CW-1:0]]   <= st_base;
+                c_lastg[st_pass[CW-1:0]]  <= st_lastg;
+                st_pass <= st_pass + 1'b1;
+                st_k    <= st_lastg ? '0 : st_k + 1'b1;
+                if (st_lastg) st_base <= st_base + GI_W'(nm);
+            end
+            // step the candidate's pass
+            if (take) begin
+                c_slot[sel] <= c_slot[sel] + 1;
+                c_gidx[sel] <= c_gidx[sel] + 1'b1;
+                if (c_lastg[sel]) free_cnt <= free_cnt + 1'b1;
+                skip <= '0;
+            end else if (cand_valid) begin
+                skip <= sel_fresh ? skip | (CTX'(1) << sel) : '0;
+            end
+            // context activity (a start and a finish never hit the same context: st_pass - jlo < CTX)
+            for (int k = 0; k < CTX; k++) begin
+                if (start_pass && CW'(k) == st_pass[CW-1:0]) c_active[k] <= 1'b1;
+                else if (take && CW'(k) == sel && step_last) c_active[k] <= 1'b0;
+            end
+            if (jlo < st_pass && !c_active[jlo_ctx]) jlo <= jlo + 1'b1;
+        end
+    end
+
+    // Not needed: the assembler's tag and TLAST of a record (the fetch counters track the slots).
+    wire unused_win = ^{a_unused_tag, a_unused_last};
+endmodule
+
+`default_nettype wire
