@@ -23,6 +23,8 @@ MODE ?= rtl
 SCHEDULE ?= hazard
 RECORD_WINDOW ?= 0
 FETCH_PASSES ?= 0
+LANES ?= 1
+BODY_BITS ?= 128
 SEEDS ?= 4
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
@@ -33,7 +35,9 @@ help:
 	@echo "make test      run the whole test suite (what CI runs)"
 	@echo "make sim       run a scene end to end (SCENE=pile|thesis|stack|... ITERS= FORMAT= DMA= SEED= WAVES=1);"
 	@echo "               MODE=model: the cycle model's estimate alone (no Verilator); SCHEDULE=hazard|banded|..."
-	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=)"
+	@echo "               the window kernel: RECORD_WINDOW=16384 LANES=1|2 FETCH_PASSES=0 BODY_BITS=128|512"
+	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=,"
+	@echo "               and the window kernel's RECORD_WINDOW= LANES= FETCH_PASSES= BODY_BITS=)"
 	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= ITERS= BUDGET=0.01)"
 	@echo "make band      band width D of every schedule on every scene, on-chip budget of the thesis frame (SEED= ITERS=)"
 	@echo "make stability the hard-case suite closed loop: cases x formats x iterations (CASES= FORMATS= JOBS=2)"
@@ -72,7 +76,8 @@ test: $(STAMP)
 
 sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
-		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES)
+		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
+		--lanes $(LANES) --body-bits $(BODY_BITS)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
@@ -86,7 +91,8 @@ stability: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.stability --cases $(CASES) --formats $(FORMATS) --jobs $(JOBS)
 
 sweep: $(STAMP)
-	$(TOOLENV) $(VPY) -m sim.sweep --scene $(SCENE) --formats $(FORMATS) --iters $(SWEEP_ITERS) --dma $(DMA) --seed $(SEED)
+	$(TOOLENV) $(VPY) -m sim.sweep --scene $(SCENE) --formats $(FORMATS) --iters $(SWEEP_ITERS) --dma $(DMA) --seed $(SEED) \
+		--record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) --lanes $(LANES) --body-bits $(BODY_BITS)
 
 coverage: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.coverage --jobs $(JOBS)

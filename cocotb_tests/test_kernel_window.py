@@ -4,22 +4,29 @@ The window kernel reads each manifold's combined record once per fetch and lets 
 other over an on-chip ring; records of several passes interleave at issue and retire. With the lag at least the
 slot order's band width D (``models.record_window``), every body sees its updates in the sequential solve's order,
 so the trace (put back into pass order) and the body-out stream must equal the golden model's bit for bit. Built
-once (fp32, a ring of 1,024 records, ``build/verilator/pgs_kernel_e8m23_c512_w1024x8/``) and run in the compiled
-harness (``sim.kernel_run``) through the zcu102 DMA model with random stream gaps and output backpressure
-(seeded: the seed is printed, ``SEED=<int>`` overrides it).
+once (fp32, a ring of 1,024 records of two issue lanes, ``build/verilator/pgs_kernel_e8m23_c512_w1024x8_l2/``:
+every manifold-pass of a record issues in the same cycle into its lane's pipes) and run in the compiled harness
+(``sim.kernel_run``) through the zcu102 DMA model with random stream gaps and output backpressure (seeded: the
+seed is printed, ``SEED=<int>`` overrides it). The one-lane window kernel is the same RTL with ``LANES`` = 1
+(linted by ``make lint``; ``make sim RECORD_WINDOW=...`` runs it); CI builds the two-lane one, which exercises
+the lane logic as well.
 
 * bit-exact: a 4x3x4 pile (108 manifolds) and the stack, Bullet's pass order and the interleaved one, one fetch
-  per step (all 8 passes trailing each other: the sweep order, D = 24, and the hazard order, D = 94) and several
-  fetches (2 passes per fetch: 4 fetches; 3 passes per fetch: fetches of 3, 3 and 2);
+  per step (all 8 passes trailing each other: the sweep order and the hazard order) and several fetches (2 passes
+  per fetch: 4 fetches; 3 passes per fetch: fetches of 3, 3 and 2), records padded with empty lanes where the
+  next manifold shares a body (``models.record_window.lane_slots``);
 * a lag below D must break the order (the comparison sees it: the check is not vacuous);
-* the argument check (error code 3: fetch_passes 0 or above the contexts, lag 0, a trailing the ring cannot hold):
-  the step ends at once without reading a stream;
-* an early TLAST in a fetch (error code 1): the missing slot is rejected in every pass of the fetch, the step
-  ends.
+* the argument check (error code 3: fetch_passes 0 or above the contexts, lag 0, a trailing the ring cannot hold,
+  num_manifolds not a multiple of the lanes): the step ends at once without reading a stream;
+* an early TLAST in a fetch (error code 1): the missing record's slots are rejected in every pass, the step ends;
+* lanes that collide (the host groups manifolds sharing a dynamic body into one record, error code 4): the later
+  lane is rejected in every pass, and the step equals the golden model's with that manifold left out, bit for
+  bit.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
 
@@ -30,15 +37,19 @@ from models import scenes
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from models.number_format import FP32
+from models.stream_format import StreamLayout
 from models.record_window import fits
 from models.schedule import band_width
-from sim.kernel_run import (KernelBuild, KernelJob, KernelResult, build_kernel, register_writes, run_harness,
-                            run_kernel_step, write_inputs)
+from sim.kernel_run import (Comparison, KernelJob, KernelResult, build_kernel, compare_body_out, compare_trace,
+                            golden_step, kernel_build, read_trace, register_writes, run_harness, run_kernel_step,
+                            write_inputs)
 
 DEPTH = 1024
+LANES = 2
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 SCENES = {"pile": dict(nx=4, ny=3, nz=4, seed=2), "stack": dict()}
 PRESET = get_preset("zcu102")
+RECORD_BYTES = StreamLayout(FP32).window_bytes  # one lane's combined record (3 beats of 512 bits)
 
 
 def _seed() -> int:
@@ -49,14 +60,15 @@ def window_job(scene: str, schedule: str, hazard_window: int, interleaved: bool 
                fetch_passes: int | None = None) -> KernelJob:
     frame = scenes.load_or_capture(scene, **SCENES[scene])
     job = KernelJob.from_frame(frame, FP32, SolverParams(4, interleaved=interleaved), schedule, hazard_window)
-    return job.windowed(DEPTH, fetch_passes=fetch_passes)
+    return job.windowed(DEPTH, fetch_passes=fetch_passes, lanes=LANES)
 
 
 def run_window(job: KernelJob, tmp: Path, label: str) -> KernelResult:
     seed = _seed()
     plan = job.record_window
     assert plan is not None
-    print(f"\n[{label}] seed {seed} (SEED= overrides); {len(job.slots)} manifolds, D={plan.band}, lag={plan.lag}, "
+    print(f"\n[{label}] seed {seed} (SEED= overrides); {len(job.slots)} slots ({plan.empty_lanes} empty lanes), "
+          f"D={plan.band} records, lag={plan.lag}, "
           f"{plan.fetch_passes} passes per fetch, {plan.fetches(job.params)} fetches")
     res = run_kernel_step(job, PRESET, tmp, seed, GAP_PERMILLE, BP_PERMILLE)
     r = res.registers
@@ -87,16 +99,15 @@ def test_window_kernel_bit_exact(scene: str, schedule: str, w: int, interleaved:
     # the window streams each record once per fetch: the bytes on the constraint stream say so
     plan = job.record_window
     assert plan is not None
-    assert res.stream_bytes["constraints"] == plan.fetches(job.params) * len(job.slots) * 192
+    assert res.stream_bytes["constraints"] == plan.fetches(job.params) * len(job.slots) * RECORD_BYTES
 
 
 def test_window_lag_below_band_breaks_the_order(tmp_path: Path) -> None:
-    """lag 1 on a D = 24 order: passes overtake updates of the pass before, the results differ."""
+    """lag 1 on an order whose band D is several records: passes overtake updates of the pass before, the results
+    differ."""
     job = window_job("pile", "sweep", 1, fetch_passes=8)
     plan = job.record_window
     assert plan is not None and plan.band > 1
-    import dataclasses
-
     short = dataclasses.replace(job, record_window=dataclasses.replace(plan, lag=1))
     res = run_window(short, tmp_path, "pile/sweep lag 1")
     assert not res.bit_exact and res.comparison.differing_bits > 0
@@ -107,7 +118,7 @@ def _run_raw(job: KernelJob, tmp: Path, regs: list[tuple[int, int]],
              cons_edit=None) -> dict[str, float]:  # type: ignore[no-untyped-def]
     plan = job.record_window
     assert plan is not None
-    kb = KernelBuild(FP32, window=plan.depth, window_ctx=plan.ctx)
+    kb = kernel_build(job, PRESET)
     write_inputs(tmp, job, kb)
     (tmp / "regs.bin").write_bytes(np.asarray(regs, dtype="<u4").tobytes())
     if cons_edit is not None:
@@ -116,23 +127,25 @@ def _run_raw(job: KernelJob, tmp: Path, regs: list[tuple[int, int]],
     return run_harness(exe, tmp, _seed(), PRESET, max_cycles=400 * (job.manifold_passes + job.bodies.num_bodies) + 20000)
 
 
-@pytest.mark.parametrize("lag,fetch", [(75, 0), (75, 9), (0, 2), (342, 4)],
-                         ids=["fetch0", "fetch-over-contexts", "lag0", "ring-too-small"])
-def test_window_bad_arguments(lag: int, fetch: int, tmp_path: Path) -> None:
+@pytest.mark.parametrize("lag,fetch,odd", [(75, 0, 0), (75, 9, 0), (0, 2, 0), (342, 4, 0), (10, 2, 1)],
+                         ids=["fetch0", "fetch-over-contexts", "lag0", "ring-too-small", "slots-not-whole-records"])
+def test_window_bad_arguments(lag: int, fetch: int, odd: int, tmp_path: Path) -> None:
     job = window_job("pile", "sweep", 1)
-    assert not fits(DEPTH, 8, lag, fetch)
-    regs = [(a, v) for a, v in register_writes(job) if a not in (0x90, 0x98)] + [(0x90, lag), (0x98, fetch)]
+    assert not fits(DEPTH, 8, lag, fetch) or odd
+    regs = [(a, v - odd if a == 0x18 else v) for a, v in register_writes(job) if a not in (0x90, 0x98)]
+    regs += [(0x90, lag), (0x98, fetch)]
     r = _run_raw(job, tmp_path, regs)
     assert int(r["status"]) & 0xFF == 1 << 2, f"status 0x{int(r['status']):x}: expected error code 3 alone"
     assert int(r["issued"]) == 0 and int(r["cycles"]) < 100
 
 
 def test_window_early_tlast(tmp_path: Path) -> None:
-    """The first fetch loses its last record (TLAST moves to the record before): error code 1, that slot is
-    rejected in the fetch's passes, the second fetch is whole and the step ends."""
+    """The first fetch loses its last record (TLAST moves to the record before): error code 1, the record's slots
+    are rejected in the fetch's passes, the second fetch is whole and the step ends."""
     job = window_job("pile", "sweep", 1, fetch_passes=4)
-    beats_per = 3
-    nm = len(job.slots)
+    beats_per = 3 * LANES
+    nm = len(job.slots) // LANES  # records per fetch
+    lost = int(np.count_nonzero(job.slots[-LANES:] >= 0))
 
     def cut_first_fetch(run: Path) -> None:
         data = np.frombuffer((run / "cons.bin").read_bytes(), np.uint8).reshape(-1, 64)
@@ -145,14 +158,69 @@ def test_window_early_tlast(tmp_path: Path) -> None:
 
     r = _run_raw(job, tmp_path, register_writes(job), cut_first_fetch)
     assert int(r["status"]) & 0xFF == 1 << 0, f"status 0x{int(r['status']):x}: expected error code 1"
-    # the slot is rejected in all 4 passes of the first fetch, and stays rejected in the second fetch's passes
-    assert int(r["rejected"]) == 8 and int(r["issued"]) == job.manifold_passes - 8
+    # every lane of the missing record is rejected in the 4 passes of the first fetch (a truncated record has no
+    # empty lanes); its manifolds stay rejected in the second fetch's passes, where an empty lane is just empty
+    assert lost >= 1 and int(r["rejected"]) == 4 * LANES + 4 * lost
+    assert int(r["issued"]) == job.manifold_passes - 8 * lost
+    # the step is the golden model's without those manifolds, every other record under its own slot
+    kept = job.slots.copy()
+    kept[-LANES:] = -1
+    _assert_golden_without(job, kept, tmp_path)
 
 
 def test_window_plan_band_matches_schedule() -> None:
     job = window_job("pile", "sweep", 1)
     plan = job.record_window
     assert plan is not None
-    assert plan.lag == plan.band == band_width(job.slots, job.cons, job.bodies.dynamic) >= 2
+    assert plan.lag == plan.band == band_width(job.slots, job.cons, job.bodies.dynamic, LANES) >= 2
     assert (plan.fetch_passes - 1) * plan.lag + 2 <= DEPTH  # all 8 passes trail each other in the ring
     assert plan.fetch_passes == 8 and plan.fetches(job.params) == 1
+
+
+def test_window_lanes_collide(tmp_path: Path) -> None:
+    """The host pairs manifolds into records without the lane plan (some records' two manifolds share a dynamic
+    body): the kernel rejects the later lane of each such record in every pass (error code 4), so that no two lanes
+    write one body; the step then equals the golden model's with those manifolds left out, bit for bit."""
+    job = window_job("pile", "sweep", 1)
+    plan = job.record_window
+    assert plan is not None
+    order = job.slots[job.slots >= 0]
+    naive = np.concatenate([order, np.full(-len(order) % LANES, -1)])   # consecutive manifolds, no padding
+    dyn = job.bodies.dynamic
+    cons = job.cons
+    kept = naive.copy()
+    for r in range(0, len(naive), LANES):   # what the kernel does: a lane sharing a body with an earlier one goes
+        seen: set[int] = set()
+        for k in range(r, r + LANES):
+            m = int(naive[k])
+            if m < 0:
+                continue
+            mine = {int(x) for x in (cons.body_a[m], cons.body_b[m]) if dyn[x]}
+            if mine & seen:
+                kept[k] = -1
+            else:
+                seen |= mine
+    collisions = int(np.count_nonzero(kept != naive))
+    assert collisions >= 1
+    lag = band_width(naive, cons, dyn, LANES)
+    sent = dataclasses.replace(job, record_window=dataclasses.replace(plan, slots=naive, lag=lag, band=lag))
+    r = _run_raw(sent, tmp_path, register_writes(sent))
+    print(f"\n[lanes collide] seed {_seed()}: {collisions} of {len(naive) // LANES} records collide; "
+          f"status 0x{int(r['status']):x}, rejected {int(r['rejected'])}")
+    assert int(r["status"]) & 0xFF == 1 << 3, f"status 0x{int(r['status']):x}: expected error code 4 alone"
+    assert int(r["rejected"]) == collisions * 8 and int(r["issued"]) == 8 * int(np.count_nonzero(kept >= 0))
+    _assert_golden_without(sent, kept, tmp_path)
+
+
+def _assert_golden_without(sent: KernelJob, kept: np.ndarray, run: Path) -> None:
+    """The run of ``sent`` in ``run`` equals, bit for bit, the golden model's step over the slots ``kept`` (the
+    manifolds the kernel rejected set to -1)."""
+    plan = sent.record_window
+    assert plan is not None
+    expected = dataclasses.replace(sent, schedule=kept, record_window=dataclasses.replace(plan, slots=kept))
+    golden = golden_step(expected)
+    kb = kernel_build(sent, PRESET)
+    cmp = Comparison()
+    compare_trace(read_trace(run / "trace.bin", FP32, kb.trace_bytes), golden.records, expected, cmp)
+    compare_body_out(run, expected, kb, golden.final, cmp)
+    assert cmp.first_mismatch is None and cmp.differing_bits == 0, cmp.first_mismatch

@@ -9,13 +9,18 @@ manifolds within D consecutive slots), every body sees its updates in the order 
 kernel's result is the golden model's bit for bit while the passes overlap. The kernel checks at ap_start that the
 plan can always progress: ``1 <= fetch_passes <= ctx``, ``lag >= 1`` and ``(fetch_passes - 1) * lag + 2 <= depth``.
 
+With ``lanes`` > 1 (a kernel built with ``LANES``) each ring record holds the combined records of ``lanes``
+consecutive slots, issued together into ``lanes`` copies of the pipes. The lanes of a record must not share a
+dynamic body: :func:`lane_slots` keeps the sequential order and pads a record with empty lanes (-1) where the
+next manifold would share one; ``lag`` and ``depth`` then count records of ``lanes`` slots.
+
 Records of several passes interleave at retire: :func:`sequential_order` puts a trace back into the golden
 model's order (pass by pass, slots in order) for the comparison.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -28,15 +33,22 @@ DEFAULT_DEPTH = 16384  # records in the ring of the window builds make sim uses
 DEFAULT_CTX = 8  # passes active at a time (pgs_window CTX)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class WindowPlan:
-    """A window kernel build (``depth``, ``ctx``) and the arguments of one step (``lag``, ``fetch_passes``)."""
+    """A window kernel build (``depth``, ``ctx``, ``lanes``) and the arguments of one step (``lag``,
+    ``fetch_passes``); ``slots``: the kernel's slots (manifold indices, -1 an empty lane)."""
 
     depth: int
     ctx: int
     lag: int
     fetch_passes: int
-    band: int  # D of the slot order (lag >= band makes the run bit-exact)
+    band: int  # D of the record order (lag >= band makes the run bit-exact)
+    lanes: int = 1
+    slots: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64), repr=False)
+
+    @property
+    def empty_lanes(self) -> int:
+        return int(np.count_nonzero(self.slots < 0))
 
     def fetches(self, params: SolverParams) -> int:
         return -(-len(pass_sequence(params)) // self.fetch_passes)
@@ -52,14 +64,42 @@ def fits(depth: int, ctx: int, lag: int, fetch_passes: int) -> bool:
     return 1 <= fetch_passes <= ctx and lag >= 1 and (fetch_passes - 1) * lag + 2 <= depth
 
 
+def lane_slots(slots: np.ndarray, cons: ConstraintSet, dynamic: np.ndarray, lanes: int) -> np.ndarray:
+    """``slots`` (manifold indices in the sequential order) grouped into records of ``lanes`` slots whose
+    manifolds share no dynamic body: the order is kept, and a record is closed with empty lanes (-1) where the
+    next manifold shares a dynamic body with one already in it. The result has a multiple of ``lanes``
+    entries."""
+    if lanes == 1:
+        return np.asarray(slots, dtype=np.int64)
+    slots = np.asarray(slots, dtype=np.int64)
+    a = np.where(dynamic[cons.body_a[slots]], cons.body_a[slots], -1).tolist()
+    b = np.where(dynamic[cons.body_b[slots]], cons.body_b[slots], -1).tolist()
+    out: list[int] = []
+    used: set[int] = set()  # dynamic bodies of the record being filled
+    for m, ma, mb in zip(slots.tolist(), a, b):
+        mine = {x for x in (ma, mb) if x >= 0}
+        if len(out) % lanes and mine & used:
+            out.extend([-1] * (lanes - len(out) % lanes))
+        if len(out) % lanes == 0:
+            used = set()
+        out.append(m)
+        used |= mine
+    out.extend([-1] * (-len(out) % lanes))
+    return np.asarray(out, dtype=np.int64)
+
+
 def plan_window(cons: ConstraintSet, dynamic: np.ndarray, schedule: np.ndarray, params: SolverParams,
-                depth: int = DEFAULT_DEPTH, ctx: int = DEFAULT_CTX, fetch_passes: int | None = None) -> WindowPlan:
-    """The plan of one step: lag = D of the kernel's slots (bubbles dropped), and ``fetch_passes`` as given or
-    the most passes (every pass of the step at best) whose trailing fits the ring."""
+                depth: int = DEFAULT_DEPTH, ctx: int = DEFAULT_CTX, fetch_passes: int | None = None,
+                lanes: int = 1) -> WindowPlan:
+    """The plan of one step: the kernel's slots (bubbles dropped, :func:`lane_slots`), lag = D of its records,
+    and ``fetch_passes`` as given or the most passes (every pass of the step at best) whose trailing fits the
+    ring."""
     if depth < 2 or depth & (depth - 1) or ctx < 2 or ctx & (ctx - 1):
         raise ValueError(f"window depth and contexts must be powers of two >= 2, got {depth}, {ctx}")
-    slots = schedule_manifolds(schedule)
-    band = band_width(slots, cons, dynamic)
+    if lanes < 1 or lanes & (lanes - 1):
+        raise ValueError(f"lanes must be a power of two, got {lanes}")
+    slots = lane_slots(schedule_manifolds(schedule), cons, dynamic, lanes)
+    band = band_width(slots, cons, dynamic, lanes)
     lag = max(1, band)
     passes = len(pass_sequence(params))
     if fetch_passes is None:  # the fewest fetches, each serving as few passes as that allows
@@ -68,7 +108,7 @@ def plan_window(cons: ConstraintSet, dynamic: np.ndarray, schedule: np.ndarray, 
     if not fits(depth, ctx, lag, fetch_passes):
         raise ValueError(f"a window of {depth} records cannot hold {fetch_passes} passes trailing by {lag} slots "
                          f"(needs (fetch_passes - 1) * lag + 2 <= depth and 1 <= fetch_passes <= {ctx})")
-    return WindowPlan(depth, ctx, lag, fetch_passes, band)
+    return WindowPlan(depth, ctx, lag, fetch_passes, band, lanes, slots)
 
 
 def sequential_order(params: SolverParams, kind: np.ndarray, iteration: np.ndarray, slot: np.ndarray) -> np.ndarray:

@@ -156,14 +156,15 @@ def stats(name: str, schedule: np.ndarray, cons: ConstraintSet, dynamic: np.ndar
 
 
 # --- band width -----------------------------------------------------------------------------------------
-def body_spans(schedule: np.ndarray, cons: ConstraintSet, dynamic: np.ndarray) -> np.ndarray:
-    """Per body, last slot - first slot + 1 over the slots of ``schedule`` holding its manifolds.
+def body_spans(schedule: np.ndarray, cons: ConstraintSet, dynamic: np.ndarray, per_record: int = 1) -> np.ndarray:
+    """Per body, last slot - first slot + 1 over the slots of ``schedule`` holding its manifolds; with
+    ``per_record`` > 1, over the records of ``per_record`` consecutive slots (the window kernel's lanes).
 
     0 for static bodies and for bodies in no manifold. Bubbles (-1) occupy slots like manifolds do."""
     s = np.asarray(schedule, dtype=np.int64)
     slots = np.nonzero(s >= 0)[0]
     body = np.concatenate([cons.body_a[s[slots]], cons.body_b[s[slots]]])
-    slot = np.concatenate([slots, slots])
+    slot = np.concatenate([slots, slots]) // per_record
     keep = dynamic[body]
     first = np.full(dynamic.shape[0], np.iinfo(np.int64).max, dtype=np.int64)
     last = np.full(dynamic.shape[0], -1, dtype=np.int64)
@@ -172,9 +173,10 @@ def body_spans(schedule: np.ndarray, cons: ConstraintSet, dynamic: np.ndarray) -
     return np.where(last >= 0, last - first + 1, 0)
 
 
-def band_width(schedule: np.ndarray, cons: ConstraintSet, dynamic: np.ndarray) -> int:
-    """D: the largest span of slots (:func:`body_spans`) over the dynamic bodies; 0 when none is in a manifold."""
-    return int(body_spans(schedule, cons, dynamic).max(initial=0))
+def band_width(schedule: np.ndarray, cons: ConstraintSet, dynamic: np.ndarray, per_record: int = 1) -> int:
+    """D: the largest span of slots (of records of ``per_record`` slots; :func:`body_spans`) over the dynamic
+    bodies; 0 when none is in a manifold."""
+    return int(body_spans(schedule, cons, dynamic, per_record).max(initial=0))
 
 
 # --- banded orders --------------------------------------------------------------------------------------

@@ -295,13 +295,23 @@ def window_fetches(params: SolverParams, fetch_passes: int) -> int:
     return -(-len(pass_sequence(params)) // fetch_passes)
 
 
-def pack_window_stream(fmt: NumberFormat, cons: ConstraintSet, schedule: np.ndarray, params: SolverParams,
+EMPTY_HEADER = np.uint64(0xFFFF_FFFF_FFFF_FFFF)  # an empty lane of the window kernel (padding; zero words)
+
+
+def pack_window_stream(fmt: NumberFormat, cons: ConstraintSet, slots: np.ndarray, params: SolverParams,
                        fetch_passes: int, beat_bits: int = DEFAULT_CONS_BEAT_BITS) -> Stream:
-    """The window kernel's constraint stream: one window record per manifold in schedule order, once per fetch."""
-    idx = schedule_manifolds(schedule)
+    """The window kernel's constraint stream: one combined record per slot of ``slots`` (manifold indices; -1 an
+    empty lane: all-ones header, zero words), once per fetch. With LANES lanes, window record k is the
+    combined records of slots k * LANES .. k * LANES + LANES - 1 one after the other, so the beats are the
+    same: ``slots`` (``models.record_window.lane_slots``) only needs a multiple of LANES entries."""
+    slots = np.asarray(slots, dtype=np.int64)
+    real = slots >= 0
+    idx = np.where(real, slots, 0)
     words = np.concatenate([contact_words(fmt, cons, idx), friction_words(fmt, cons, idx)], axis=1)
-    records = pack_records(constraint_header(cons, idx), words, fmt.width, beat_bits)
-    fetches = window_fetches(params, fetch_passes) if len(idx) else 0
+    words[~real] = 0
+    header = np.where(real, constraint_header(cons, idx), EMPTY_HEADER)
+    records = pack_records(header, words, fmt.width, beat_bits)
+    fetches = window_fetches(params, fetch_passes) if len(slots) else 0
     return _transfers([records] * fetches, beat_bits)
 
 

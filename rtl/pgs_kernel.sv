@@ -14,7 +14,8 @@
 //     friction: lamT[0..1], then two zero words), vA(3), wA(3), vB(3), wB(3) (the pipe's outputs,
 //     static bodies included, as the golden PassRecord); then bits 16W+31:16W the manifold slot (record
 //     index within the pass), 16W+47:16W+32 the iteration, bit 16W+48 the pass kind (0 contact,
-//     1 friction), 15 zero bits: TRACE_W = 16W + 64 bits.
+//     1 friction), 15 zero bits: TRACE_W = 16W + 64 bits. With LANES > 1, lane l's record is at bits
+//     [l*TRACE_W +: TRACE_W] with its own trace_valid bit l (the lanes of an issue retire together).
 // Real-valued arguments (dt, gravity, damping) are the format's bit patterns in the low W bits of their
 // 32-bit registers (W <= 32).
 // TEST_FRICTION_SIGN_BUG is for tests only and must stay 0: when 1, the friction pipe applies each
@@ -35,6 +36,7 @@ module pgs_kernel #(
     parameter int OUT_FIFO_DEPTH = 64,
     parameter int WINDOW         = 0,     // 0: every pass streams its records; > 0: the window kernel (pgs_window)
     parameter int WINDOW_CTX     = 8,
+    parameter int LANES          = 1,     // manifolds issued per cycle (LANES > 1: window kernel only)
     parameter int C_S_AXI_CONTROL_ADDR_WIDTH = 8,
     parameter int C_S_AXI_CONTROL_DATA_WIDTH = 32,
     parameter bit TEST_FRICTION_SIGN_BUG = 1'b0,
@@ -78,8 +80,8 @@ module pgs_kernel #(
     output logic                  m_axis_body_TVALID,
     input  wire                   m_axis_body_TREADY,
     output logic                  m_axis_body_TLAST,
-    output logic                  trace_valid,
-    output logic [TRACE_W-1:0]    trace_data
+    output logic [LANES-1:0]      trace_valid,
+    output logic [LANES*TRACE_W-1:0] trace_data
 );
     logic ap_rst_n_inv;
     assign ap_rst_n_inv = !ap_rst_n;
@@ -108,7 +110,7 @@ module pgs_kernel #(
         .EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .MAX_MANIFOLDS(MAX_MANIFOLDS),
         .BODY_IN_W(BODY_IN_W), .CONS_W(CONS_W), .BODY_OUT_W(BODY_OUT_W), .TRACE(TRACE),
         .HAZARD_DEPTH(HAZARD_DEPTH), .OUT_FIFO_DEPTH(OUT_FIFO_DEPTH), .WINDOW(WINDOW), .WINDOW_CTX(WINDOW_CTX),
-        .TEST_FRICTION_SIGN_BUG(TEST_FRICTION_SIGN_BUG)
+        .LANES(LANES), .TEST_FRICTION_SIGN_BUG(TEST_FRICTION_SIGN_BUG)
     ) u_seq (
         .clk(ap_clk), .rst(ap_rst_n_inv), .start(ap_start), .idle(ap_idle), .done(ap_done),
         .arg_num_bodies(num_bodies), .arg_num_manifolds(num_manifolds), .arg_iterations(iterations),

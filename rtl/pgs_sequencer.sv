@@ -17,6 +17,11 @@
 //          trail each other by arg_lag slots over the on-chip ring (see pgs_window); records of several
 //          passes interleave at issue, and the friction pipe's output is delayed to the contact pipe's
 //          latency so that retire stays in issue order without draining at a kind change.
+//          With LANES > 1 (window kernel only) each window record holds LANES manifolds' combined records
+//          (slots k * LANES .. k * LANES + LANES - 1, the host's lane plan: body-disjoint, an all-ones
+//          header pads an empty lane); they issue together into LANES copies of the pipes, with 2 x LANES
+//          body RAM ports, one impulse RAM bank per lane (lane l holds slots = l mod LANES) and one CAM
+//          entry per issue; num_manifolds counts the slots (a multiple of LANES, else error 3).
 //   DRAIN  until the last manifold has retired;
 //   INTEG  every body in index order through pgs_integrate_pipe (a static body's record rides in the
 //          tag and comes out unchanged), into an output FIFO (issue only with a free FIFO credit, so
@@ -26,7 +31,7 @@
 // Counters (cleared at start, frozen after done): cycles (start .. done inclusive), stall cycles
 // (SOLVE, a record is assembled but may not issue: hazard, CAM full or pipe switch drain), bubble
 // cycles (SOLVE, no record assembled), issued manifold-passes, rejected manifold-passes (issued +
-// rejected = num_manifolds * 2 * iterations), and the floating-point events of the three datapaths
+// rejected + empty lanes = num_manifolds * 2 * iterations), and the floating-point events of the three datapaths
 // (overflow, underflow, invalid: every operator result of an issued manifold-pass or of a dynamic body's
 // integration; saturating at 2^32 - 1; fp_set pulses with the events of a cycle).
 //
@@ -38,7 +43,8 @@
 //     a late one (more) discards the extra beats up to TLAST (0x02). The step goes on.
 //   * constraint records are checked at issue. A record is *rejected* (consumed, never issued: no pipe,
 //     no trace, no write) when it names a body >= num_bodies or the same body twice (0x04), holds a
-//     non-finite word (0x05), joins two static bodies (0x07), names a bad body (no new flag), was cut
+//     non-finite word (0x05), joins two static bodies (0x07), shares a dynamic body with an earlier issuing
+//     lane of its window record (0x04; LANES > 1), names a bad body (no new flag), was cut
 //     short by TLAST (0x01), or its manifold slot was rejected in an earlier pass of the step: a slot
 //     once rejected stays rejected for the rest of the step (a one-bit-per-slot memory written for every
 //     slot in the first pass), so the bodies it names see the manifold as absent from then on, exactly.
@@ -63,6 +69,7 @@ module pgs_sequencer #(
     parameter int OUT_FIFO_DEPTH = 64,
     parameter int WINDOW         = 0,      // 0: every pass streams its records; > 0: record window of WINDOW records
     parameter int WINDOW_CTX     = 8,      // passes active at a time in the window (a power of two >= 2)
+    parameter int LANES          = 1,      // manifolds issued per cycle (a power of two; > 1 needs WINDOW > 0)
     parameter bit TEST_FRICTION_SIGN_BUG = 1'b0,  // test only (pgs_kernel): an injected friction-pass bug
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64
@@ -106,8 +113,8 @@ module pgs_sequencer #(
     output logic [31:0]           stat_fp_overflow,
     output logic [31:0]           stat_fp_underflow,
     output logic [31:0]           stat_fp_invalid,
-    output logic                  trace_valid,
-    output logic [TRACE_W-1:0]    trace_data
+    output logic [LANES-1:0]      trace_valid,
+    output logic [LANES*TRACE_W-1:0] trace_data
 );
     localparam int IDX_W     = $clog2(MAX_BODIES);
     localparam int SLOT_W    = $clog2(MAX_MANIFOLDS);
@@ -129,9 +136,15 @@ module pgs_sequencer #(
     localparam int ITAG_W    = 1 + OREC_W;                              // integrate pipe's tag
     localparam int OBEAT_W   = $clog2(O_BEATS + 1);
     localparam int EV_W      = 16;                                      // the datapaths' event counts
+    localparam int EV_SUM_W  = EV_W + $clog2(2 * LANES + 2);            // their sum over the lanes and integration
+    localparam int LG_L      = $clog2(LANES);
 
     localparam bit CONTACT  = 1'b0;
     localparam bit FRICTION = 1'b1;
+
+    if (LANES < 1 || (LANES & (LANES - 1)) != 0 || (LANES > 1 && WINDOW == 0)) begin : g_bad_lanes
+        $error("pgs_sequencer: LANES must be a power of two, and LANES > 1 needs the window kernel (WINDOW > 0)");
+    end
 
     typedef enum logic [2:0] {S_IDLE, S_LOAD, S_SOLVE, S_DRAIN, S_INTEG, S_DONE} phase_t;
     phase_t phase;
@@ -145,7 +158,8 @@ module pgs_sequencer #(
     wire  bad_window = WINDOW > 0 && (arg_fetch_passes == 0 || arg_fetch_passes > 32'(WINDOW_CTX) || arg_lag == 0
                        || 64'(arg_fetch_passes - 1) * 64'(arg_lag) + 64'd2 > 64'(WINDOW));
     wire  bad_args = arg_num_bodies > 32'(MAX_BODIES) || arg_num_manifolds > 32'(MAX_MANIFOLDS)
-                     || arg_iterations >= 32'(1 << ITER_W) || bad_window;
+                     || arg_iterations >= 32'(1 << ITER_W) || bad_window
+                     || (arg_num_manifolds & 32'(LANES - 1)) != 0;
 
     always_ff @(posedge clk) begin
         if (phase == S_IDLE && start) begin
@@ -169,14 +183,15 @@ module pgs_sequencer #(
     endfunction
 
     // ---------------- body RAM ----------------
-    logic [IDX_W-1:0]  rd0_addr, rd1_addr, wr0_addr, wr1_addr, dyn0_addr, dyn1_addr;
-    logic [BREC_W-1:0] rd0_data, rd1_data, wr0_data, wr1_data;
-    logic              wr0_en, wr0_full, wr0_bad, wr1_en, dyn0, dyn1, bad0, bad1, rd0_bad;
+    // port 2l: body A of lane l, port 2l + 1: body B (flat vectors, port k at [k*width +: width])
+    localparam int PORTS = 2 * LANES;
+    logic [PORTS*IDX_W-1:0]  rd_addr, wr_addr, dyn_addr;
+    logic [PORTS*BREC_W-1:0] rd_data, wr_data;
+    logic [PORTS-1:0]        wr_en, dyn, bad;
+    logic                    wr0_full, wr0_bad, rd0_bad;
 
-    pgs_body_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES)) u_body_ram (
-        .clk, .rd0_addr, .rd0_data, .rd0_bad, .rd1_addr, .rd1_data,
-        .wr0_en, .wr0_full, .wr0_bad, .wr0_addr, .wr0_data, .wr1_en, .wr1_full(1'b0), .wr1_bad(1'b0), .wr1_addr,
-        .wr1_data, .dyn0_addr, .dyn0, .bad0, .dyn1_addr, .dyn1, .bad1);
+    pgs_body_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .PORTS(PORTS)) u_body_ram (
+        .clk, .rd_addr, .rd_data, .rd0_bad, .wr_en, .wr0_full, .wr0_bad, .wr_addr, .wr_data, .dyn_addr, .dyn, .bad);
 
     // ---------------- body-in stream ----------------
     // b_end: a TLAST was taken (no more body beats this step); b_fill: after an early TLAST, the missing
@@ -211,20 +226,24 @@ module pgs_sequencer #(
     wire b_late     = phase == S_LOAD && brec_valid && !brec_last && load_idx == nb - 1;
 
     // ---------------- constraint records: the stream pass by pass, or the record window ----------------
-    logic [CREC_W-1:0] crec;
+    // The record offered holds LANES manifold records of one pass (lane l: slot i_slot * LANES + l; the
+    // streaming kernel has one lane). lrec[l]: the 64-bit header, then the pass kind's words.
+    logic [CREC_W-1:0] lrec [LANES];
     logic            crec_tag;    // the record's pass kind
     logic            crec_valid, crec_trunc, take;
     logic            c_flush;     // discarding beats up to a TLAST
     logic            c_tlast_err; // error code 1 this cycle
-    logic [ITER_W:0] i_pass;      // pass and slot of the record offered
+    logic [ITER_W:0] i_pass;      // pass and record index of the record offered
     logic [31:0]     i_slot;
     logic            i_fill;      // rejecting the slots a pass is missing after an early TLAST, one per cycle
     wire  in_solve = phase == S_SOLVE;
-    wire  slot_step;              // slot i_slot of pass i_pass is done
-    wire  slot_last = i_slot == nm - 1;
+    wire  slot_step;              // record i_slot of pass i_pass is done
+    wire  [31:0] nm_rec = nm >> LG_L;  // records per pass
+    wire  slot_last = i_slot == nm_rec - 1;
 
     generate
         if (WINDOW == 0) begin : g_stream
+            logic [CREC_W-1:0] crec;
             logic [ITER_W:0] a_pass;   // pass of the record being assembled
             logic [31:0]     a_slot;
             wire             a_kind = kind_of(a_pass, ilv, iters);
@@ -236,6 +255,7 @@ module pgs_sequencer #(
                 .s_tdata(s_cons_tdata), .s_tvalid(s_cons_tvalid), .s_tlast(s_cons_tlast), .s_tready(c_asm_ready),
                 .done(c_done), .done_trunc(c_done_trunc), .rec_data(crec), .rec_tag(crec_tag), .rec_last(crec_last),
                 .rec_trunc(crec_trunc), .rec_valid(crec_valid), .rec_ready(take));
+            assign lrec[0] = crec;
             assign s_cons_tready = c_asm_ready || c_flush;
             wire c_pass_end = c_done && (a_last || s_cons_tlast);   // the assembler moves on to the next pass
             assign c_tlast_err = c_done && (s_cons_tlast != a_last || c_done_trunc);
@@ -273,41 +293,47 @@ module pgs_sequencer #(
                 end
             end
         end else begin : g_window
-            localparam int WREC_W = WR_BEATS * CONS_W;
-            logic [WREC_W-1:0] wrec;
+            localparam int LREC_W = WR_BEATS * CONS_W;   // one lane's combined record
+            logic [LANES*LREC_W-1:0] wrec;
             logic [ITER_W:0]   w_pass;
             logic              w_done, w_flush;
-            pgs_window #(.CONS_W(CONS_W), .REC_BEATS(WR_BEATS), .DEPTH(WINDOW), .CTX(WINDOW_CTX),
+            pgs_window #(.CONS_W(CONS_W), .REC_BEATS(LANES * WR_BEATS), .DEPTH(WINDOW), .CTX(WINDOW_CTX),
                          .PASS_W(ITER_W + 1)) u_window (
-                .clk, .rst, .init(phase == S_IDLE), .nm, .passes, .fetch_passes(r_fetch[ITER_W:0]), .lag(r_lag),
-                .fetch_en(phase == S_LOAD || phase == S_SOLVE), .s_tdata(s_cons_tdata), .s_tvalid(s_cons_tvalid),
-                .s_tready(s_cons_tready), .s_tlast(s_cons_tlast), .cand_valid(crec_valid), .cand_rec(wrec),
-                .cand_trunc(crec_trunc), .cand_pass(w_pass), .cand_slot(i_slot), .take, .all_done(w_done),
-                .flushing(w_flush), .tlast_err(c_tlast_err));
+                .clk, .rst, .init(phase == S_IDLE), .nm(nm_rec), .passes, .fetch_passes(r_fetch[ITER_W:0]),
+                .lag(r_lag), .fetch_en(phase == S_LOAD || phase == S_SOLVE), .s_tdata(s_cons_tdata),
+                .s_tvalid(s_cons_tvalid), .s_tready(s_cons_tready), .s_tlast(s_cons_tlast), .cand_valid(crec_valid),
+                .cand_rec(wrec), .cand_trunc(crec_trunc), .cand_pass(w_pass), .cand_slot(i_slot), .take,
+                .all_done(w_done), .flushing(w_flush), .tlast_err(c_tlast_err));
             // a contact pass reads the header and the contact words, a friction pass the header and the
-            // friction words (which follow the contact words in the window record)
+            // friction words (which follow the contact words in the lane's combined record)
             always_comb begin
-                crec = '0;
-                crec[0 +: 64] = wrec[0 +: 64];
-                if (crec_tag == FRICTION) crec[64 +: 14*W] = wrec[64 + 23*W +: 14*W];
-                else                      crec[64 +: 23*W] = wrec[64 +: 23*W];
+                for (int l = 0; l < LANES; l++) begin
+                    lrec[l] = '0;
+                    lrec[l][0 +: 64] = wrec[l*LREC_W +: 64];
+                    if (crec_tag == FRICTION) lrec[l][64 +: 14*W] = wrec[l*LREC_W + 64 + 23*W +: 14*W];
+                    else                      lrec[l][64 +: 23*W] = wrec[l*LREC_W + 64 +: 23*W];
+                end
             end
             assign crec_tag  = kind_of(w_pass, ilv, iters);
             assign i_pass    = w_pass;
             assign i_fill    = 1'b0;
             assign c_flush   = w_flush;
-            // the window ends the solve with the last pass's last slot (solve_last); the padding of its records
-            // and its all-done flag are not needed here
-            wire unused_window = ^{w_done, wrec[WREC_W-1:64 + 37*W], r_fetch[31:ITER_W+1]};
+            // the window ends the solve with the last pass's last record (solve_last); the padding of the lanes'
+            // records and its all-done flag are not needed here
+            logic unused_window;
+            always_comb begin
+                unused_window = ^{w_done, r_fetch[31:ITER_W+1]};
+                for (int l = 0; l < LANES; l++) unused_window ^= ^wrec[l*LREC_W + 64 + 37*W +: LREC_W - 64 - 37*W];
+            end
         end
     endgenerate
 
     // ---------------- issue ----------------
-    wire [63:0]      hdr    = crec[63:0];
-    wire [31:0]      hdr_a  = hdr[31:0];
-    wire [31:0]      hdr_b  = {1'b0, hdr[62:32]};
-    wire [IDX_W-1:0] cand_a = hdr_a[IDX_W-1:0];
-    wire [IDX_W-1:0] cand_b = hdr_b[IDX_W-1:0];
+    // Every lane of the record offered issues in the same cycle, or none does: the record is taken when no
+    // lane has to issue (all rejected or empty) or when no issuing lane's dynamic body is in flight
+    // (pgs_hazard_cam). The lanes' manifolds must not share a dynamic body (the host's lane plan,
+    // models/record_window.py, guarantees it); a lane that shares one with an earlier issuing lane is
+    // rejected (error 4), so that no two lanes ever write one body.
     wire             rkind  = crec_tag;
     logic hazard, cam_full, cam_empty, retire, last_kind;
     wire  [ITER_W:0]   i_iter_full = ilv ? (i_pass >> 1) : (i_pass >= iters ? i_pass - iters : i_pass);
@@ -316,183 +342,246 @@ module pgs_sequencer #(
     // aligns the two pipes' latencies instead
     wire  kind_ok  = WINDOW > 0 || rkind == last_kind || cam_empty;
 
-    // checks of the assembled record (contact: 23 words, friction: 14 words after the 64-bit header)
-    logic crec_nonfinite;
+    logic [IDX_W-1:0]  la [LANES], lb [LANES];   // bodies A, B of each lane
+    logic [63:0]       lhdr [LANES];
+    logic [31:0]       lslot [LANES];            // manifold slot of each lane
     always_comb begin
-        crec_nonfinite = 1'b0;
-        for (int k = 0; k < 23; k++) begin
-            if (k < 14 || rkind == CONTACT) crec_nonfinite = crec_nonfinite || crec[64 + k*W + MAN_BITS +: EXP_BITS] == '1;
+        for (int l = 0; l < LANES; l++) begin
+            lhdr[l]  = lrec[l][63:0];
+            la[l]    = lhdr[l][IDX_W-1:0];
+            lb[l]    = lhdr[l][32 +: IDX_W];
+            lslot[l] = i_slot * LANES + 32'(l);
         end
     end
-    // slots rejected earlier in the step (written for every slot in pass 0, set by later rejections)
-    logic slot_rej [MAX_MANIFOLDS];
-    wire  rej_prev   = i_pass != '0 && slot_rej[i_slot[SLOT_W-1:0]];
-    wire  rej_index  = hdr_a >= nb || hdr_b >= nb || hdr_a == hdr_b;
-    wire  rej_bad    = !rej_index && (bad0 || bad1);
-    wire  rej_static = !rej_index && !rej_bad && !dyn0 && !dyn1;
-    wire  rej        = rej_prev || rej_index || rej_bad || rej_static || crec_nonfinite || crec_trunc;
-    assign take      = in_solve && crec_valid && !i_fill && (rej || (!hazard && !cam_full && kind_ok));
-    wire  issue      = take && !rej;
-    wire  reject     = take && rej;
+
+    // checks of each lane's record (contact: 23 words, friction: 14 words after the 64-bit header). An
+    // all-ones header in the window kernel is an empty lane (the host's padding): never issued, never
+    // rejected, no error.
+    logic slot_rej [MAX_MANIFOLDS];   // slots rejected earlier in the step (written for every slot in pass 0)
+    logic [LANES-1:0] l_empty, l_index, l_nonfinite, l_static, l_collide, l_rej, l_go;
+    always_comb begin
+        automatic logic [LANES-1:0] go = '0;   // the lanes so far that issue
+        for (int l = 0; l < LANES; l++) begin
+            automatic logic [31:0] ha = lhdr[l][31:0];
+            automatic logic [31:0] hb = {1'b0, lhdr[l][62:32]};
+            automatic logic rej_prev = i_pass != '0 && slot_rej[lslot[l][SLOT_W-1:0]];
+            automatic logic rej_bad;
+            l_nonfinite[l] = 1'b0;
+            for (int k = 0; k < 23; k++) begin
+                if (k < 14 || rkind == CONTACT)
+                    l_nonfinite[l] = l_nonfinite[l] || lrec[l][64 + k*W + MAN_BITS +: EXP_BITS] == '1;
+            end
+            l_empty[l]  = WINDOW > 0 && !crec_trunc && lhdr[l] == '1;
+            l_index[l]  = ha >= nb || hb >= nb || ha == hb;
+            rej_bad     = !l_index[l] && (bad[2*l] || bad[2*l+1]);
+            l_static[l] = !l_index[l] && !rej_bad && !dyn[2*l] && !dyn[2*l+1];
+            l_collide[l] = 1'b0;
+            for (int k = 0; k < l; k++) begin
+                if (go[k] && ((dyn[2*l] && (la[l] == la[k] || la[l] == lb[k]))
+                              || (dyn[2*l+1] && (lb[l] == la[k] || lb[l] == lb[k])))) l_collide[l] = 1'b1;
+            end
+            l_rej[l] = rej_prev || l_index[l] || rej_bad || l_static[l] || l_nonfinite[l] || crec_trunc
+                       || l_collide[l];
+            go[l]    = !l_empty[l] && !l_rej[l];
+        end
+        l_go = go;
+    end
+    assign take = in_solve && crec_valid && !i_fill && (l_go == '0 || (!hazard && !cam_full && kind_ok));
+    wire  [LANES-1:0] l_issue  = {LANES{take}} & l_go;
+    wire  [LANES-1:0] l_reject = {LANES{take}} & ~l_empty & l_rej;
+    wire  issue      = l_issue != '0;
     wire  fill       = in_solve && i_fill;
     assign slot_step = take || fill;
     always_ff @(posedge clk) begin
-        if (slot_step && (i_pass == '0 || reject || fill)) slot_rej[i_slot[SLOT_W-1:0]] <= reject || fill;
-    end
-
-    pgs_hazard_cam #(.IDX_W(IDX_W), .DEPTH(HAZARD_DEPTH)) u_cam (
-        .clk, .rst, .cand_a, .cand_a_dyn(dyn0), .cand_b, .cand_b_dyn(dyn1), .hazard, .push(issue), .pop(retire),
-        .full(cam_full), .empty(cam_empty));
-    assign dyn0_addr = cand_a;
-    assign dyn1_addr = cand_b;
-
-    // impulse RAM
-    logic [SLOT_W-1:0] imp_wr_addr;
-    logic [4*W-1:0]    rd_lam, wr_lam;
-    logic [2*W-1:0]    rd_lamT, wr_lamT;
-    logic              wr_lam_en, wr_lamT_en;
-    pgs_impulse_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_MANIFOLDS(MAX_MANIFOLDS)) u_imp_ram (
-        .clk, .rd_addr(i_slot[SLOT_W-1:0]), .rd_zero_lam(rkind == CONTACT && i_iter == '0),
-        .rd_zero_lamT(rkind == FRICTION && i_iter == '0), .rd_lam, .rd_lamT, .wr_addr(imp_wr_addr), .wr_lam_en,
-        .wr_lam, .wr_lamT_en, .wr_lamT);
-
-    // stage 1: the record and tag of the manifold issued in the previous cycle
-    logic              s1_valid, s1_kind, s1_sd;
-    logic [23*W-1:0]   s1_words;
-    logic [STAG_W-1:0] s1_tag;
-    always_ff @(posedge clk) begin
-        if (rst) s1_valid <= 1'b0;
-        else     s1_valid <= issue;
-    end
-    always_ff @(posedge clk) begin
-        if (issue) begin
-            s1_kind  <= rkind;
-            s1_sd    <= hdr[63];
-            s1_words <= crec[64 +: 23*W];
-            s1_tag   <= {i_slot[SLOT_W-1:0], i_iter, cand_a, cand_b, dyn0, dyn1};
+        for (int l = 0; l < LANES; l++) begin
+            if (slot_step && (i_pass == '0 || l_reject[l] || fill)) slot_rej[lslot[l][SLOT_W-1:0]] <= l_reject[l] || fill;
         end
     end
 
-    // body fields of the stage-1 reads (A on port 0, B on port 1)
-    logic [53*W-1:0] c_in;
-    logic [46*W-1:0] f_in;
+    logic [2*LANES*IDX_W-1:0] cand;
+    logic [2*LANES-1:0]       cand_dyn;
     always_comb begin
-        c_in = '0;
-        c_in[0 +: 23*W] = s1_words;
-        c_in[23*W +: 4*W] = rd_lam;
-        c_in[27*W +: 3*W] = rd0_data[0 +: 3*W];      // xA
-        c_in[30*W +: 3*W] = rd1_data[0 +: 3*W];      // xB
-        c_in[33*W +: 6*W] = rd0_data[7*W +: 6*W];    // vA, wA
-        c_in[39*W +: 6*W] = rd1_data[7*W +: 6*W];    // vB, wB
-        c_in[45*W +: W]   = rd0_data[13*W +: W];        // mInvA
-        c_in[46*W +: W]   = rd1_data[13*W +: W];        // mInvB
-        c_in[47*W +: 3*W] = rd0_data[14*W +: 3*W];   // IInvA
-        c_in[50*W +: 3*W] = rd1_data[14*W +: 3*W];   // IInvB
-        f_in = '0;
-        f_in[0 +: 14*W]   = s1_words[0 +: 14*W];
-        f_in[14*W +: 4*W] = rd_lam;
-        f_in[18*W +: 2*W] = rd_lamT;
-        f_in[20*W +: 3*W] = rd0_data[0 +: 3*W];
-        f_in[23*W +: 3*W] = rd1_data[0 +: 3*W];
-        f_in[26*W +: 6*W] = rd0_data[7*W +: 6*W];
-        f_in[32*W +: 6*W] = rd1_data[7*W +: 6*W];
-        f_in[38*W +: W]   = rd0_data[13*W +: W];
-        f_in[39*W +: W]   = rd1_data[13*W +: W];
-        f_in[40*W +: 3*W] = rd0_data[14*W +: 3*W];
-        f_in[43*W +: 3*W] = rd1_data[14*W +: 3*W];
+        for (int l = 0; l < LANES; l++) begin
+            cand[2*l*IDX_W +: IDX_W]     = la[l];
+            cand[(2*l+1)*IDX_W +: IDX_W] = lb[l];
+            cand_dyn[2*l]   = dyn[2*l] && l_go[l];
+            cand_dyn[2*l+1] = dyn[2*l+1] && l_go[l];
+        end
     end
+    pgs_hazard_cam #(.IDX_W(IDX_W), .DEPTH(HAZARD_DEPTH), .NB(2*LANES)) u_cam (
+        .clk, .rst, .cand, .cand_dyn, .hazard, .push(issue), .pop(retire), .full(cam_full), .empty(cam_empty));
+    assign dyn_addr = cand;
 
-    logic              c_out_valid, f_out_valid, f_pipe_valid;
-    logic [STAG_W-1:0] c_out_tag, f_out_tag, f_pipe_tag;
-    logic [16*W-1:0]   c_out;
-    logic [14*W-1:0]   f_out, f_pipe;
-    logic [EV_W-1:0] c_ev_ovf, c_ev_unf, c_ev_inv, f_ev_ovf, f_ev_unf, f_ev_inv, i_ev_ovf, i_ev_unf, i_ev_inv;
-    pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
-        .clk, .rst, .in_valid(s1_valid && s1_kind == CONTACT), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
-        .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
-        .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
-    pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
-                        .TEST_FRICTION_SIGN_BUG(TEST_FRICTION_SIGN_BUG)) u_friction (
-        .clk, .rst, .in_valid(s1_valid && s1_kind == FRICTION), .in_tag(s1_tag), .in_data(f_in),
-        .in_spin_damp(s1_sd), .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-        .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
-
-    // the window kernel issues contact and friction records back to back: the friction results wait for the
-    // contact pipe's latency, so that every manifold retires C_LAT + 1 cycles after its issue, in issue order
+    // ---------------- the lanes: impulse RAM bank, stage 1, contact and friction pipes, retire ----------------
+    // Lane l holds the slots l, l + LANES, ...: its impulse RAM bank is indexed by the record index.
+    // Every manifold retires C_LAT + 1 cycles after its issue in the window kernel (below), so the lanes of
+    // an issue retire together and one CAM entry leaves.
     localparam int F_ALIGN = WINDOW > 0 ? C_LAT - F_LAT : 0;
     if (F_ALIGN < 0) begin : g_bad_align
         $error("pgs_sequencer: the window kernel needs the friction pipe no deeper than the contact pipe");
     end
-    if (F_ALIGN > 0) begin : g_f_align
-        fp_valid_pipe #(.LATENCY(F_ALIGN)) u_f_valid (.clk, .rst, .in_valid(f_pipe_valid), .out_valid(f_out_valid));
-        pgs_delay #(.WIDTH(STAG_W + 14*W), .DEPTH(F_ALIGN)) u_f_data (.clk, .d({f_pipe_tag, f_pipe}),
-                                                                   .q({f_out_tag, f_out}));
-    end else begin : g_f_direct
-        assign f_out_valid = f_pipe_valid;
-        assign f_out_tag   = f_pipe_tag;
-        assign f_out       = f_pipe;
+    localparam int BSLOT_W = $clog2(MAX_MANIFOLDS / LANES);
+    logic [LANES-1:0]       l_retire, l_fret, l_dyn_a, l_dyn_b;
+    logic [IDX_W-1:0]       l_ra [LANES], l_rb [LANES];
+    logic [12*W-1:0]        l_vel [LANES];             // vA wA vB wB
+    logic [4*W-1:0]         l_imp [LANES];
+    logic [SLOT_W-1:0]      l_rslot [LANES];
+    logic [ITER_W-1:0]      l_riter [LANES];
+    logic [3*EV_W-1:0]      l_ev [LANES];              // {invalid, underflow, overflow} of the lane's two pipes
+    for (genvar l = 0; l < LANES; l++) begin : g_lane
+        logic [4*W-1:0] rd_lam;
+        logic [2*W-1:0] rd_lamT;
+        logic [BSLOT_W-1:0] wr_rec;
+        logic              c_out_valid, f_out_valid, f_pipe_valid;
+        logic [STAG_W-1:0] c_out_tag, f_out_tag, f_pipe_tag;
+        logic [16*W-1:0]   c_out;
+        logic [14*W-1:0]   f_out, f_pipe;
+        pgs_impulse_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_MANIFOLDS(MAX_MANIFOLDS / LANES)) u_imp_ram (
+            .clk, .rd_addr(i_slot[BSLOT_W-1:0]), .rd_zero_lam(rkind == CONTACT && i_iter == '0),
+            .rd_zero_lamT(rkind == FRICTION && i_iter == '0), .rd_lam, .rd_lamT, .wr_addr(wr_rec),
+            .wr_lam_en(c_out_valid), .wr_lam(c_out[0 +: 4*W]), .wr_lamT_en(f_out_valid), .wr_lamT(f_out[0 +: 2*W]));
+
+        // stage 1: the record and tag of the manifold issued in the previous cycle
+        logic              s1_valid, s1_kind, s1_sd;
+        logic [23*W-1:0]   s1_words;
+        logic [STAG_W-1:0] s1_tag;
+        always_ff @(posedge clk) begin
+            if (rst) s1_valid <= 1'b0;
+            else     s1_valid <= l_issue[l];
+        end
+        always_ff @(posedge clk) begin
+            if (l_issue[l]) begin
+                s1_kind  <= rkind;
+                s1_sd    <= lhdr[l][63];
+                s1_words <= lrec[l][64 +: 23*W];
+                s1_tag   <= {lslot[l][SLOT_W-1:0], i_iter, la[l], lb[l], dyn[2*l], dyn[2*l+1]};
+            end
+        end
+
+        // body fields of the stage-1 reads (A on port 2l, B on port 2l + 1)
+        wire [BREC_W-1:0] ra = rd_data[2*l*BREC_W +: BREC_W];
+        wire [BREC_W-1:0] rb = rd_data[(2*l+1)*BREC_W +: BREC_W];
+        logic [53*W-1:0] c_in;
+        logic [46*W-1:0] f_in;
+        always_comb begin
+            c_in = '0;
+            c_in[0 +: 23*W] = s1_words;
+            c_in[23*W +: 4*W] = rd_lam;
+            c_in[27*W +: 3*W] = ra[0 +: 3*W];      // xA
+            c_in[30*W +: 3*W] = rb[0 +: 3*W];      // xB
+            c_in[33*W +: 6*W] = ra[7*W +: 6*W];    // vA, wA
+            c_in[39*W +: 6*W] = rb[7*W +: 6*W];    // vB, wB
+            c_in[45*W +: W]   = ra[13*W +: W];     // mInvA
+            c_in[46*W +: W]   = rb[13*W +: W];     // mInvB
+            c_in[47*W +: 3*W] = ra[14*W +: 3*W];   // IInvA
+            c_in[50*W +: 3*W] = rb[14*W +: 3*W];   // IInvB
+            f_in = '0;
+            f_in[0 +: 14*W]   = s1_words[0 +: 14*W];
+            f_in[14*W +: 4*W] = rd_lam;
+            f_in[18*W +: 2*W] = rd_lamT;
+            f_in[20*W +: 3*W] = ra[0 +: 3*W];
+            f_in[23*W +: 3*W] = rb[0 +: 3*W];
+            f_in[26*W +: 6*W] = ra[7*W +: 6*W];
+            f_in[32*W +: 6*W] = rb[7*W +: 6*W];
+            f_in[38*W +: W]   = ra[13*W +: W];
+            f_in[39*W +: W]   = rb[13*W +: W];
+            f_in[40*W +: 3*W] = ra[14*W +: 3*W];
+            f_in[43*W +: 3*W] = rb[14*W +: 3*W];
+        end
+
+        logic [EV_W-1:0]   c_ev_ovf, c_ev_unf, c_ev_inv, f_ev_ovf, f_ev_unf, f_ev_inv;
+        pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
+            .clk, .rst, .in_valid(s1_valid && s1_kind == CONTACT), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
+            .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
+            .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
+        pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
+                            .TEST_FRICTION_SIGN_BUG(TEST_FRICTION_SIGN_BUG)) u_friction (
+            .clk, .rst, .in_valid(s1_valid && s1_kind == FRICTION), .in_tag(s1_tag), .in_data(f_in),
+            .in_spin_damp(s1_sd), .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+            .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+
+        // the window kernel issues contact and friction records back to back: the friction results wait for
+        // the contact pipe's latency, so that every manifold retires C_LAT + 1 cycles after its issue, in
+        // issue order
+        if (F_ALIGN > 0) begin : g_f_align
+            fp_valid_pipe #(.LATENCY(F_ALIGN)) u_f_valid (.clk, .rst, .in_valid(f_pipe_valid), .out_valid(f_out_valid));
+            pgs_delay #(.WIDTH(STAG_W + 14*W), .DEPTH(F_ALIGN)) u_f_data (.clk, .d({f_pipe_tag, f_pipe}),
+                                                                       .q({f_out_tag, f_out}));
+        end else begin : g_f_direct
+            assign f_out_valid = f_pipe_valid;
+            assign f_out_tag   = f_pipe_tag;
+            assign f_out       = f_pipe;
+        end
+
+        // retire
+        wire [STAG_W-1:0] r_tag = c_out_valid ? c_out_tag : f_out_tag;
+        assign l_retire[l] = c_out_valid || f_out_valid;
+        assign l_fret[l]   = f_out_valid;
+        assign l_vel[l]    = c_out_valid ? c_out[4*W +: 12*W] : f_out[2*W +: 12*W];
+        assign l_imp[l]    = c_out_valid ? c_out[0 +: 4*W] : {(2*W)'(0), f_out[0 +: 2*W]};
+        assign l_dyn_b[l]  = r_tag[0];
+        assign l_dyn_a[l]  = r_tag[1];
+        assign l_rb[l]     = r_tag[2 +: IDX_W];
+        assign l_ra[l]     = r_tag[2 + IDX_W +: IDX_W];
+        assign l_riter[l]  = r_tag[2 + 2*IDX_W +: ITER_W];
+        assign l_rslot[l]  = r_tag[2 + 2*IDX_W + ITER_W +: SLOT_W];
+        assign wr_rec      = BSLOT_W'(l_rslot[l] >> LG_L);
+        assign l_ev[l]     = {c_ev_inv + f_ev_inv, c_ev_unf + f_ev_unf, c_ev_ovf + f_ev_ovf};
+        // the lane's slot bits of the record index, body B's orientation and the padding are not needed here
+        wire unused_lane = ^{l_rslot[l], ra[7*W-1:3*W], rb[7*W-1:3*W]};
     end
+    assign retire = l_retire != '0;
 
-    // ---------------- retire ----------------
-    assign retire = c_out_valid || f_out_valid;
-    wire [STAG_W-1:0] r_tag   = c_out_valid ? c_out_tag : f_out_tag;
-    wire [12*W-1:0]   r_vel   = c_out_valid ? c_out[4*W +: 12*W] : f_out[2*W +: 12*W];  // vA wA vB wB
-    wire [4*W-1:0]    r_imp   = c_out_valid ? c_out[0 +: 4*W] : {(2*W)'(0), f_out[0 +: 2*W]};
-    wire              r_dyn_b = r_tag[0];
-    wire              r_dyn_a = r_tag[1];
-    wire [IDX_W-1:0]  r_b     = r_tag[2 +: IDX_W];
-    wire [IDX_W-1:0]  r_a     = r_tag[2 + IDX_W +: IDX_W];
-    wire [ITER_W-1:0] r_iter  = r_tag[2 + 2*IDX_W +: ITER_W];
-    wire [SLOT_W-1:0] r_slot  = r_tag[2 + 2*IDX_W + ITER_W +: SLOT_W];
-
-    assign imp_wr_addr = r_slot;
-    assign wr_lam_en   = c_out_valid;
-    assign wr_lam      = c_out[0 +: 4*W];
-    assign wr_lamT_en  = f_out_valid;
-    assign wr_lamT     = f_out[0 +: 2*W];
-
-    // body RAM ports: LOAD writes whole records on port 0; SOLVE retire writes v/w of A (port 0), B (port 1)
+    // body RAM ports: LOAD writes whole records on port 0; SOLVE retire writes v/w of lane l's A (port 2l)
+    // and B (port 2l + 1); INTEG reads on port 0
     logic [31:0] int_idx;
     always_comb begin
-        wr0_en   = 1'b0;
+        wr_en    = '0;
         wr0_full = 1'b0;
         wr0_bad  = 1'b0;
-        wr0_addr = r_a;
-        wr0_data = '0;
-        wr0_data[7*W +: 6*W] = r_vel[0 +: 6*W];
-        if (phase == S_LOAD) begin
-            wr0_en   = load_step;
-            wr0_full = 1'b1;
-            wr0_bad  = b_fill || brec_nonfinite || brec_bad_mass || brec_trunc;
-            wr0_addr = load_idx[IDX_W-1:0];
-            wr0_data = b_fill ? '0 : brec[0 +: BREC_W];
-        end else if (retire && r_dyn_a) begin
-            wr0_en = 1'b1;
+        wr_data  = '0;
+        rd_addr  = cand;
+        for (int l = 0; l < LANES; l++) begin
+            wr_en[2*l]   = l_retire[l] && l_dyn_a[l];
+            wr_en[2*l+1] = l_retire[l] && l_dyn_b[l];
+            wr_addr[2*l*IDX_W +: IDX_W]     = l_ra[l];
+            wr_addr[(2*l+1)*IDX_W +: IDX_W] = l_rb[l];
+            wr_data[2*l*BREC_W + 7*W +: 6*W]     = l_vel[l][0 +: 6*W];
+            wr_data[(2*l+1)*BREC_W + 7*W +: 6*W] = l_vel[l][6*W +: 6*W];
         end
-        wr1_en   = retire && r_dyn_b;
-        wr1_addr = r_b;
-        wr1_data = '0;
-        wr1_data[7*W +: 6*W] = r_vel[6*W +: 6*W];
-        rd0_addr = phase == S_INTEG ? int_idx[IDX_W-1:0] : cand_a;
-        rd1_addr = cand_b;
+        if (phase == S_LOAD) begin
+            wr_en[0]  = load_step;
+            wr0_full  = 1'b1;
+            wr0_bad   = b_fill || brec_nonfinite || brec_bad_mass || brec_trunc;
+            wr_addr[0 +: IDX_W] = load_idx[IDX_W-1:0];
+            wr_data[0 +: BREC_W] = b_fill ? '0 : brec[0 +: BREC_W];
+        end
+        if (phase == S_INTEG) rd_addr[0 +: IDX_W] = int_idx[IDX_W-1:0];
     end
+    wire [BREC_W-1:0] rd0_data = rd_data[0 +: BREC_W];
 
     generate
         if (TRACE) begin : g_trace
             always_comb begin
-                trace_valid = retire;
+                trace_valid = l_retire;
                 trace_data  = '0;
-                trace_data[0 +: 4*W]        = r_imp;
-                trace_data[4*W +: 12*W]     = r_vel;
-                trace_data[16*W +: 32]      = 32'(r_slot);
-                trace_data[16*W + 32 +: 16] = r_iter;
-                trace_data[16*W + 48]       = f_out_valid;
+                for (int l = 0; l < LANES; l++) begin
+                    trace_data[l*TRACE_W +: 4*W]             = l_imp[l];
+                    trace_data[l*TRACE_W + 4*W +: 12*W]      = l_vel[l];
+                    trace_data[l*TRACE_W + 16*W +: 32]       = 32'(l_rslot[l]);
+                    trace_data[l*TRACE_W + 16*W + 32 +: 16]  = l_riter[l];
+                    trace_data[l*TRACE_W + 16*W + 48]        = l_fret[l];
+                end
             end
         end else begin : g_no_trace
-            assign trace_valid = 1'b0;
+            assign trace_valid = '0;
             assign trace_data  = '0;
-            // the iteration field only feeds the trace
-            wire unused_trace = ^{r_iter};
+            // the retire fields only feed the trace
+            logic unused_trace;
+            always_comb begin
+                unused_trace = ^l_fret;
+                for (int l = 0; l < LANES; l++) unused_trace ^= ^{l_riter[l], l_imp[l]};
+            end
         end
     endgenerate
 
@@ -511,6 +600,7 @@ module pgs_sequencer #(
     wire [18*W-1:0] i_in = {r_gz, r_gy, r_gx, r_damp, r_dt, rd0_data[0 +: OREC_W]};
     logic              io_valid;
     logic [ITAG_W-1:0] io_tag;
+    logic [EV_W-1:0]   i_ev_ovf, i_ev_unf, i_ev_inv;
     logic [OREC_W-1:0] io_data;
     pgs_integrate_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(ITAG_W)) u_integrate (
         .clk, .rst, .in_valid(i1_valid), .in_tag({i1_static, rd0_data[0 +: OREC_W]}), .in_data(i_in),
@@ -572,19 +662,28 @@ module pgs_sequencer #(
             stat_cycles <= stat_cycles + 1'b1;
             if (in_solve && crec_valid && !i_fill && !take) stat_stalls <= stat_stalls + 1'b1;
             if (in_solve && !crec_valid && !i_fill) stat_bubbles <= stat_bubbles + 1'b1;
-            if (issue) stat_issued <= stat_issued + 1'b1;
-            if (reject || fill) stat_rejected <= stat_rejected + 1'b1;
+            stat_issued   <= stat_issued + 32'($countones(l_issue));
+            stat_rejected <= stat_rejected + 32'($countones(l_reject)) + 32'(fill);
         end
     end
 
     // floating-point events of the datapaths (each pipe reports the previous cycle's; they arrive at most
     // LATENCY + 1 cycles after an input, before the step's last body-out beat)
-    wire [EV_W+1:0] ev_ovf = (EV_W+2)'(c_ev_ovf) + (EV_W+2)'(f_ev_ovf) + (EV_W+2)'(i_ev_ovf);
-    wire [EV_W+1:0] ev_unf = (EV_W+2)'(c_ev_unf) + (EV_W+2)'(f_ev_unf) + (EV_W+2)'(i_ev_unf);
-    wire [EV_W+1:0] ev_inv = (EV_W+2)'(c_ev_inv) + (EV_W+2)'(f_ev_inv) + (EV_W+2)'(i_ev_inv);
+    // (a lane's sum of its two pipes' counts can wrap only beyond 2^16 events in one cycle: never)
+    logic [EV_SUM_W-1:0] ev_ovf, ev_unf, ev_inv;
+    always_comb begin
+        ev_ovf = EV_SUM_W'(i_ev_ovf);
+        ev_unf = EV_SUM_W'(i_ev_unf);
+        ev_inv = EV_SUM_W'(i_ev_inv);
+        for (int l = 0; l < LANES; l++) begin
+            ev_ovf += EV_SUM_W'(l_ev[l][0 +: EV_W]);
+            ev_unf += EV_SUM_W'(l_ev[l][EV_W +: EV_W]);
+            ev_inv += EV_SUM_W'(l_ev[l][2*EV_W +: EV_W]);
+        end
+    end
     assign fp_set = {ev_inv != '0, ev_unf != '0, ev_ovf != '0};
 
-    function automatic logic [31:0] sat_add(input logic [31:0] acc, input logic [EV_W+1:0] inc);
+    function automatic logic [31:0] sat_add(input logic [31:0] acc, input logic [EV_SUM_W-1:0] inc);
         logic [32:0] sum;
         sum = {1'b0, acc} + 33'(inc);
         return sum[32] ? '1 : sum[31:0];
@@ -634,17 +733,17 @@ module pgs_sequencer #(
     // ---------------- errors ----------------
     // the conditions of codes 1..7 (flag bit k-1 of code k); err_code names the lowest one raised this cycle.
     // A record cut short by TLAST (code 1 / 2) holds stale words: its other checks raise nothing.
-    wire cons_check    = take && !crec_trunc;
+    wire [LANES-1:0] cons_check = {LANES{take && !crec_trunc}} & ~l_empty;
     wire body_in_check = phase == S_LOAD && brec_valid && !brec_trunc;
     logic [6:0] err_hit;
     always_comb begin
         err_hit[0] = c_tlast_err;                                                          // 1 constraint TLAST
         err_hit[1] = b_done && (s_body_tlast != (b_asm_cnt == nb - 1) || b_done_trunc);   // 2 body-in TLAST
         err_hit[2] = phase == S_IDLE && start && bad_args;                                // 3 bad argument
-        err_hit[3] = cons_check && rej_index;                                             // 4 body index
-        err_hit[4] = (cons_check && crec_nonfinite) || (body_in_check && brec_nonfinite); // 5 non-finite word
-        err_hit[5] = body_in_check && brec_bad_mass;                                      // 6 negative mass
-        err_hit[6] = cons_check && !rej_index && !rej_bad && rej_static;                  // 7 two static bodies
+        err_hit[3] = (cons_check & (l_index | l_collide)) != '0;                           // 4 body index
+        err_hit[4] = (cons_check & l_nonfinite) != '0 || (body_in_check && brec_nonfinite); // 5 non-finite word
+        err_hit[5] = body_in_check && brec_bad_mass;                                       // 6 negative mass
+        err_hit[6] = (cons_check & l_static) != '0;                                        // 7 two static bodies
         err_set  = {1'b0, err_hit};
         err_code = 8'h00;
         for (int k = 6; k >= 0; k--) begin
@@ -655,7 +754,11 @@ module pgs_sequencer #(
     // Not needed (Verilator's *unused* naming convention): the FIFO never fills (an integration issues
     // only with a free credit); the body-in assembler carries no tag; the padding bits of the records;
     // body B's orientation.
-    wire unused_seq = ^{i_iter_full[ITER_W], ofifo_full, b_unused_tag, crec[CREC_W-1:64 + 23*W], brec, rd1_data};
+    logic unused_seq;
+    always_comb begin
+        unused_seq = ^{i_iter_full[ITER_W], ofifo_full, b_unused_tag, brec, rd0_data, bad};
+        for (int l = 0; l < LANES; l++) unused_seq ^= ^{lrec[l][CREC_W-1:64 + 23*W], lslot[l][31:SLOT_W]};
+    end
 endmodule
 
 `default_nettype wire

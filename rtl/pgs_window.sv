@@ -70,6 +70,7 @@ module pgs_window #(
     logic [PASS_W:0]  f_base;                      // first pass of the fetch being assembled
     logic [31:0]      f_slot;
     logic             fill;                        // writing the truncated slots after an early TLAST
+    logic             a_pending;                   // a record is done in the assembler, not yet written
 
     wire f_active = f_base < (PASS_W+1)'(passes) && nm != 0;
     wire room     = res_cnt - free_cnt < GI_W'(DEPTH);
@@ -85,7 +86,7 @@ module pgs_window #(
         .rec_valid(arec_valid), .rec_ready(1'b1));
     assign s_tready = a_ready || flushing;
 
-    wire fill_step = fill && !arec_valid && room;   // the assembled (truncated) record goes in first
+    wire fill_step = fill && !a_pending && room;    // the record that carried TLAST goes in first
     wire wr_step   = arec_valid || fill_step;
     assign tlast_err = a_done && (s_tlast != f_last || a_done_trunc);
 
@@ -160,6 +161,7 @@ module pgs_window #(
             f_base   <= '0;
             f_slot   <= '0;
             fill     <= 1'b0;
+            a_pending <= 1'b0;
             flushing <= 1'b0;
             c_active <= '0;
             skip     <= '0;
@@ -170,6 +172,8 @@ module pgs_window #(
         end else begin
             // fetch
             if (wr_step) wr_cnt <= wr_cnt + 1'b1;
+            if (a_done) a_pending <= 1'b1;
+            else if (arec_valid) a_pending <= 1'b0;
             if (a_done || fill_step) res_cnt <= res_cnt + 1'b1;
             if (a_done || fill_step) begin
                 if (f_last) begin

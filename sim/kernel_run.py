@@ -61,11 +61,15 @@ class KernelBuild:
     waves: bool = False
     window: int = 0  # WINDOW: 0 streams every pass; > 0 the window kernel with a ring of that many records
     window_ctx: int = 8
+    lanes: int = 1  # LANES: manifolds issued per cycle (> 1: window kernel only)
 
     @property
     def name(self) -> str:
         return (f"pgs_kernel_e{self.fmt.exp_bits}m{self.fmt.man_bits}_c{self.cons_bits}"
-                + (f"_w{self.window}x{self.window_ctx}" if self.window else "") + ("_waves" if self.waves else ""))
+                + (f"_b{self.body_in_bits}x{self.body_out_bits}" if (self.body_in_bits, self.body_out_bits) != (128, 128)
+                   else "")
+                + (f"_w{self.window}x{self.window_ctx}" if self.window else "")
+                + (f"_l{self.lanes}" if self.lanes > 1 else "") + ("_waves" if self.waves else ""))
 
     @property
     def trace_bytes(self) -> int:
@@ -76,7 +80,8 @@ class KernelBuild:
         return {"EXP_BITS": self.fmt.exp_bits, "MAN_BITS": self.fmt.man_bits, "MAX_BODIES": self.max_bodies,
                 "MAX_MANIFOLDS": self.max_manifolds, "BODY_IN_W": self.body_in_bits, "CONS_W": self.cons_bits,
                 "BODY_OUT_W": self.body_out_bits} | (
-                    {"WINDOW": self.window, "WINDOW_CTX": self.window_ctx} if self.window else {})
+                    {"WINDOW": self.window, "WINDOW_CTX": self.window_ctx} if self.window else {}) | (
+                    {"LANES": self.lanes} if self.lanes > 1 else {})
 
 
 _built: dict[KernelBuild, tuple[Path, float]] = {}
@@ -91,7 +96,8 @@ def build_kernel(kb: KernelBuild) -> tuple[Path, float]:
         extra = ["-Wno-fatal", *QUICK_COMPILE_ARGS] + (["--trace-fst", "--trace-structs"] if kb.waves else [])
         exe = build(packages + modules, "pgs_kernel", parameters=kb.parameters, cpp_files=[HARNESS], name=kb.name,
                     cflags=[f"-DBODY_IN_BYTES={kb.body_in_bits // 8}", f"-DCONS_BYTES={kb.cons_bits // 8}",
-                            f"-DBODY_OUT_BYTES={kb.body_out_bits // 8}", f"-DTRACE_BYTES={kb.trace_bytes}"],
+                            f"-DBODY_OUT_BYTES={kb.body_out_bits // 8}", f"-DTRACE_BYTES={kb.trace_bytes}",
+                            f"-DLANES={kb.lanes}"],
                     extra_args=extra)
         _built[kb] = (exe, time.monotonic() - t0)
     return _built[kb]
@@ -129,18 +135,23 @@ class KernelJob:
         return KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), order, params,
                          IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity)))
 
-    def windowed(self, depth: int, ctx: int = 8, fetch_passes: int | None = None) -> "KernelJob":
-        """This step on the window kernel with a ring of ``depth`` records (``models.record_window.plan_window``)."""
-        plan = plan_window(self.cons, self.bodies.dynamic, self.schedule, self.params, depth, ctx, fetch_passes)
+    def windowed(self, depth: int, ctx: int = 8, fetch_passes: int | None = None, lanes: int = 1) -> "KernelJob":
+        """This step on the window kernel with a ring of ``depth`` records of ``lanes`` slots
+        (``models.record_window.plan_window``)."""
+        plan = plan_window(self.cons, self.bodies.dynamic, self.schedule, self.params, depth, ctx, fetch_passes,
+                           lanes)
         return KernelJob(self.fmt, self.bodies, self.cons, self.schedule, self.params, self.iparams, plan)
 
     @property
     def slots(self) -> np.ndarray:
+        """The kernel's manifold slots in order (-1: an empty lane of the window kernel)."""
+        if self.record_window is not None:
+            return self.record_window.slots
         return sf.schedule_manifolds(self.schedule)
 
     @property
     def manifold_passes(self) -> int:
-        return len(self.slots) * len(pass_sequence(self.params))
+        return int(np.count_nonzero(self.slots >= 0)) * len(pass_sequence(self.params))
 
 
 @dataclass
@@ -180,7 +191,7 @@ def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild) -> dict[str, in
     if job.record_window is None:
         cons = sf.pack_constraint_stream(job.fmt, job.cons, job.schedule, job.params, kb.cons_bits)
     else:
-        cons = sf.pack_window_stream(job.fmt, job.cons, job.schedule, job.params, job.record_window.fetch_passes,
+        cons = sf.pack_window_stream(job.fmt, job.cons, job.slots, job.params, job.record_window.fetch_passes,
                                      kb.cons_bits)
     (run_dir / "regs.bin").write_bytes(np.asarray(register_writes(job), dtype="<u4").tobytes())
     (run_dir / "body_in.bin").write_bytes(body.to_bytes())
@@ -291,7 +302,8 @@ def compare_trace(trace: Trace, golden: list[PassRecord], job: KernelJob, cmp: C
     if len(trace.cycle) != expected:
         cmp.fail(f"{len(trace.cycle)} trace records, expected {expected} (one per manifold-pass)")
     slot_of = np.empty(job.cons.num_manifolds, dtype=np.int64)
-    slot_of[job.slots] = np.arange(len(job.slots))
+    real = job.slots >= 0
+    slot_of[job.slots[real]] = np.flatnonzero(real)
     pos = 0
     for rec in golden:
         n = min(len(rec.manifold), len(trace.cycle) - pos)
@@ -380,14 +392,21 @@ class KernelResult:
         return self.comparison.first_mismatch is None and self.comparison.differing_bits == 0
 
 
+def kernel_build(job: KernelJob, preset: DmaPreset, waves: bool = False, body_bits: int = 128) -> KernelBuild:
+    """The build that runs ``job``: the preset's constraint beat, the window plan's ring, contexts and lanes, body
+    streams of ``body_bits``."""
+    plan = job.record_window
+    return KernelBuild(job.fmt, cons_bits=preset.stream_bits, body_in_bits=body_bits, body_out_bits=body_bits,
+                       waves=waves, window=0 if plan is None else plan.depth, window_ctx=8 if plan is None else plan.ctx,
+                       lanes=1 if plan is None else plan.lanes)
+
+
 def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int, gap_permille: int = 0,
                     backpressure_permille: int = 0, progress: ProgressSink | None = None,
                     golden: Golden | None = None, waves: Path | None = None, wave_cycles: int = 20000,
-                    keep_trace: bool = False) -> KernelResult:
+                    keep_trace: bool = False, body_bits: int = 128) -> KernelResult:
     """Build (once), run and check one step of the kernel; never raises on a mismatch (see ``comparison``)."""
-    plan = job.record_window
-    kb = KernelBuild(job.fmt, cons_bits=preset.stream_bits, waves=waves is not None,
-                     window=0 if plan is None else plan.depth, window_ctx=8 if plan is None else plan.ctx)
+    kb = kernel_build(job, preset, waves is not None, body_bits)
     if job.bodies.num_bodies > kb.max_bodies or job.cons.num_manifolds > kb.max_manifolds:
         raise ValueError(f"{job.bodies.num_bodies} bodies / {job.cons.num_manifolds} manifolds exceed the kernel's "
                          f"MAX_BODIES {kb.max_bodies} / MAX_MANIFOLDS {kb.max_manifolds}")

@@ -32,10 +32,12 @@ FORMAT_PARAM_SETS: dict[str, dict[str, int]] = {
 }
 
 # The window kernel (issue 10): modules with a WINDOW parameter are also linted with a record window, in fp32
-# and fp16 (the window record is 3 and 2 stream beats).
+# and fp16 (the window record is 3 and 2 stream beats), and with two and four issue lanes.
 WINDOW_PARAM_SETS: dict[str, dict[str, int]] = {
     "window": {"WINDOW": 1024},
     "window-fp16": {"WINDOW": 1024, "EXP_BITS": 5, "MAN_BITS": 10},
+    "window-2lanes": {"WINDOW": 1024, "LANES": 2},
+    "window-4lanes-fp16": {"WINDOW": 1024, "LANES": 4, "EXP_BITS": 5, "MAN_BITS": 10},
 }
 
 _PARAM_RE = re.compile(r"\bparameter\s+(?:(?:int|integer|logic|bit)\b[^=;,)]*?\s)?\s*(\w+)\s*=")

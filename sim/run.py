@@ -43,7 +43,7 @@ from models.residual import contact_residual
 from models.schedule import SCHEDULE_KINDS, make_schedule, stats
 from sim import baselines
 from sim.kernel_run import KernelBuild, KernelJob, KernelResult, KernelRunError, default_window, golden_step, \
-    kernel_bodies, run_kernel_step, text_progress
+    kernel_bodies, kernel_build, run_kernel_step, text_progress
 from sim.analyze import auto_format
 from sim.report import StagedDirectory, print_summary, write_report
 
@@ -66,6 +66,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                          "(rtl/pgs_window.sv, issue 10)")
     ap.add_argument("--fetch-passes", type=int, default=0,
                     help="window kernel: passes per fetch of the records (0: as many as the ring holds)")
+    ap.add_argument("--lanes", type=int, default=1,
+                    help="window kernel: manifolds issued per cycle (a power of two; LANES build parameter)")
+    ap.add_argument("--body-bits", type=int, default=128,
+                    help="beat width of the body-in and body-out streams (128, 256 or 512)")
     ap.add_argument("--stall-permille", type=int, default=0,
                     help="random idle cycles on the input streams and backpressure on the output (per mille)")
     ap.add_argument("--converged-budget", type=float, default=300.0,
@@ -98,15 +102,26 @@ def check_args(args: argparse.Namespace) -> None:
         raise ValueError(f"ITERS must be >= 1, got {args.iters}")
     if args.schedule not in SCHEDULE_KINDS:
         raise ValueError(f"unknown schedule {args.schedule!r} (expected one of {', '.join(SCHEDULE_KINDS)})")
-    if args.record_window and (args.record_window < 2 or args.record_window & (args.record_window - 1)):
-        raise ValueError(f"--record-window must be 0 or a power of two >= 2, got {args.record_window}")
-    for name, value, lo, hi in (("--window", args.window, 0, None), ("--fetch-passes", args.fetch_passes, 0, 8),
+    check_kernel_args(args)
+    for name, value, lo, hi in (("--window", args.window, 0, None),
                                 ("--stall-permille", args.stall_permille, 0, 1000),
                                 ("--converged-budget", args.converged_budget, 0, None),
                                 ("--wave-cycles", args.wave_cycles, 0, None)):
         if not (value >= lo and (hi is None or value <= hi)) or not math.isfinite(value):
             raise ValueError(f"{name} must be {'in ' + str(lo) + '..' + str(hi) if hi else '>= ' + str(lo)}, "
                              f"got {value}")
+
+
+def check_kernel_args(args: argparse.Namespace) -> None:
+    """The kernel options shared by ``make sim`` and ``make sweep``: ring, lanes, passes per fetch, body beats."""
+    if args.record_window and (args.record_window < 2 or args.record_window & (args.record_window - 1)):
+        raise ValueError(f"--record-window must be 0 or a power of two >= 2, got {args.record_window}")
+    if args.lanes < 1 or args.lanes & (args.lanes - 1) or (args.lanes > 1 and not args.record_window):
+        raise ValueError(f"--lanes must be a power of two, and above 1 only with --record-window, got {args.lanes}")
+    if args.body_bits not in (128, 256, 512):
+        raise ValueError(f"--body-bits must be 128, 256 or 512, got {args.body_bits}")
+    if not 0 <= args.fetch_passes <= 8:
+        raise ValueError(f"--fetch-passes must be in 0..8, got {args.fetch_passes}")
 
 
 def load_frame(args: argparse.Namespace) -> tuple[Frame, str]:
@@ -214,6 +229,8 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
         fmt = timer.run("format analysis (FORMAT=auto)", auto_format, frame, args.iters)
     order = "" if args.schedule == "hazard" else f"-{args.schedule}"
     order += f"-ring{args.record_window}" if args.record_window else ""
+    order += f"-lanes{args.lanes}" if args.lanes > 1 else ""
+    order += f"-body{args.body_bits}" if args.body_bits != 128 else ""
     name = f"{label}-{'auto-' if auto else ''}{fmt.name}-it{args.iters}-s{args.seed}-{args.dma}{order}"
 
     bodies = body_table(frame)
@@ -226,7 +243,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
     job = KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip)
     if args.record_window:
-        job = job.windowed(args.record_window, fetch_passes=args.fetch_passes or None)
+        job = job.windowed(args.record_window, fetch_passes=args.fetch_passes or None, lanes=args.lanes)
         if args.mode == "model":
             raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
     if args.mode == "model":  # MODE=model: the cycle model's estimate alone
@@ -243,21 +260,19 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
     res: KernelResult | None = None
     kb: KernelBuild | None = None
     if not args.no_kernel:
-        plan = job.record_window
-        kb = KernelBuild(fmt, cons_bits=preset.stream_bits, waves=args.waves, window=plan.depth if plan else 0,
-                         window_ctx=plan.ctx if plan else 8)
+        kb = kernel_build(job, preset, args.waves, args.body_bits)
         print(f"kernel: {kb.name} ({'building, first time a few minutes' if not _built(kb) else 'built'})", flush=True)
         progress = text_progress(job.manifold_passes)
         waves = run_dir / "waves.fst" if args.waves else None
         res = timer.run("RTL kernel in Verilator (build, run, compare)", run_kernel_step, job, preset, run_dir,
                         args.seed, args.stall_permille, args.stall_permille, progress, golden=golden, waves=waves,
-                        wave_cycles=args.wave_cycles, keep_trace=True)
+                        wave_cycles=args.wave_cycles, keep_trace=True, body_bits=args.body_bits)
         print(file=sys.stderr)
 
     ours = golden.final
     if res is not None:
         if res.bit_exact:  # the kernel's own numbers (identical to the golden model's)
-            ours = kernel_bodies(run_dir, job)
+            ours = kernel_bodies(run_dir, job, kb)
     dyn = bodies.dynamic
     sections: dict[str, dict[str, Any]] = {
         "scene": {"scene": label, "bodies": frame.num_bodies, "dynamic bodies": int(dyn.sum()),
@@ -327,12 +342,14 @@ def window_section(job: KernelJob, preset: DmaPreset) -> dict[str, Any]:
     assert plan is not None
     out: dict[str, Any] = {
         "ring (records, build parameter WINDOW)": plan.depth, "pass contexts (WINDOW_CTX)": plan.ctx,
-        "band width D of the slot order": plan.band, "lag (slots a pass trails the one before)": plan.lag,
+        "issue lanes (LANES)": plan.lanes, "empty lanes (padding)": plan.empty_lanes,
+        "band width D of the record order": plan.band, "lag (records a pass trails the one before)": plan.lag,
         "passes per fetch": plan.fetch_passes, "fetches of the records per step": plan.fetches(job.params),
         "ring records in use at most": plan.ring_records,
         "cycle model": "streaming kernel only (no prediction for the window kernel)"}
     if preset.name in ob.PLATFORMS:
-        bud = ob.budget(ob.get_platform(preset.name), job.fmt, job.bodies.num_bodies, len(job.slots), plan.lag,
+        bud = ob.budget(ob.get_platform(preset.name), job.fmt, job.bodies.num_bodies, len(job.slots),
+                        plan.lag * plan.lanes,
                         trailing=max(plan.fetch_passes - 1, 1))
         out[f"on-chip bytes on {preset.name}: body state + impulses + window"] = (
             f"{bud.body_bytes:,} + {bud.impulse_bytes:,} + {bud.window_bytes:,} = {bud.total_bytes:,} of "

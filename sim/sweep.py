@@ -8,6 +8,9 @@ preset's clock, so that scenes of any size and the thesis's figures share one ax
 error, with the thesis's ZCU102 fp32/fp16 designs and its GPU and CPU figures marked as vertical lines (their error
 on our frame is unknown: the thesis did not measure it).
 
+``--record-window N`` (with ``--lanes L``, ``--fetch-passes``, ``--body-bits``) sweeps the window kernel
+(``rtl/pgs_window.sv``) instead of the streaming one; its points are labelled ``<format> window xL``.
+
 ``--frame FILE`` sweeps a saved frame (``models.frame.save``) instead of the scene's. Bad input (an unknown scene,
 format or DMA preset, bad iteration counts, a corrupt, truncated or other-version frame file) ends the sweep with
 one line ``error: ...`` and exit status 2, and the sweep directory appears only once complete
@@ -34,9 +37,10 @@ from models.number_format import FLOAT64
 from models.schedule import make_schedule
 from sim import baselines
 from sim.analyze import auto_format
-from sim.kernel_run import KernelJob, KernelRunError, default_window, golden_step, kernel_bodies, run_kernel_step
+from sim.kernel_run import (KernelJob, KernelRunError, default_window, golden_step, kernel_bodies, kernel_build,
+                            run_kernel_step)
 from sim.report import StagedDirectory
-from sim.run import hardware_format, load_frame, velocity_error
+from sim.run import check_kernel_args, hardware_format, load_frame, velocity_error
 
 COLUMNS = ["format", "iterations", "manifolds", "manifold_passes", "cycles", "cycles_per_manifold_pass",
            "ms_at_clock", "ns_per_manifold_pass", "stalls", "bubbles", "bytes_streamed", "differing_bits",
@@ -54,6 +58,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--dma", default="zcu102", help=f"DMA preset ({', '.join(PRESETS)})")
     ap.add_argument("--seed", type=int, default=1, help="scene seed")
     ap.add_argument("--converged-budget", type=float, default=60.0, help="seconds for each converged solve")
+    ap.add_argument("--record-window", type=int, default=0, help="0: the streaming kernel; N: the window kernel")
+    ap.add_argument("--fetch-passes", type=int, default=0, help="window kernel: passes per fetch (0: the plan's)")
+    ap.add_argument("--lanes", type=int, default=1, help="window kernel: manifolds issued per cycle")
+    ap.add_argument("--body-bits", type=int, default=128, help="beat width of the body streams")
     ap.add_argument("--out", default="build/sweep", help="parent directory of the sweep directory")
     return ap.parse_args(argv)
 
@@ -80,6 +88,7 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
     iter_list = _int_list(args.iters, "ITERS")
     if not args.converged_budget >= 0:
         raise ValueError(f"--converged-budget must be >= 0, got {args.converged_budget}")
+    check_kernel_args(args)
     frame, label = load_frame(args)
     print(frame.summary(), flush=True)
     bodies = body_table(frame)
@@ -95,13 +104,18 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
         for iters in iter_list:
             params = SolverParams(iterations=iters)
             job = KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip)
-            res = run_kernel_step(job, preset, out_dir / f"{fmt.name}-it{iters}", args.seed)
+            if args.record_window:
+                job = job.windowed(args.record_window, fetch_passes=args.fetch_passes or None, lanes=args.lanes)
+            kb = kernel_build(job, preset, body_bits=args.body_bits)
+            res = run_kernel_step(job, preset, out_dir / f"{fmt.name}-it{iters}", args.seed, body_bits=args.body_bits)
             ref_final = golden_step(KernelJob(FLOAT64, bodies, cons, schedule, params, ip)).final
-            ours = kernel_bodies(out_dir / f"{fmt.name}-it{iters}", job)
+            ours = kernel_bodies(out_dir / f"{fmt.name}-it{iters}", job, kb)
             e_conv = velocity_error(ours, conv_final.linear_velocity, conv_final.angular_velocity, dyn)
             e_same = velocity_error(ours, ref_final.linear_velocity, ref_final.angular_velocity, dyn)
             mp = job.manifold_passes
-            row = {"format": f"{fmt.name} ({how})" if how else fmt.name, "iterations": iters, "manifolds": len(job.slots), "manifold_passes": mp,
+            kernel = f" window x{args.lanes}" if args.record_window else ""
+            row = {"format": (f"{fmt.name} ({how})" if how else fmt.name) + kernel, "iterations": iters,
+                   "manifolds": int(mp // (2 * iters)), "manifold_passes": mp,
                    "cycles": res.cycles, "cycles_per_manifold_pass": res.cycles / mp,
                    "ms_at_clock": res.cycles / preset.clock_hz * 1e3,
                    "ns_per_manifold_pass": res.cycles / mp / preset.clock_hz * 1e9,

@@ -4,7 +4,8 @@
 //   DIR/regs.bin        uint32 LE pairs {addr, value}: AXI4-Lite writes done before ap_start
 //   DIR/body_in.bin     body-in beats (BODY_IN_BYTES each), DIR/body_in_last.bin one TLAST byte per beat
 //   DIR/cons.bin        constraint beats (CONS_BYTES each),  DIR/cons_last.bin   one TLAST byte per beat
-// Writes DIR/trace.bin (per retired manifold-pass: uint64 cycle, then TRACE_BYTES of trace_data),
+// Writes DIR/trace.bin (per retired manifold-pass: uint64 cycle, then TRACE_BYTES of trace_data; a kernel
+// built with LANES > 1 retires up to LANES records a cycle, written lane by lane),
 // DIR/body_out.bin + DIR/body_out_last.bin (the m_axis_body beats and their TLAST) and DIR/result.txt
 // (key value lines: the kernel's status/counter registers read over AXI4-Lite after the interrupt --
 // ap_ctrl, isr, status, cycles, stalls, bubbles, issued, rejected, fp_overflow, fp_underflow, fp_invalid,
@@ -38,6 +39,9 @@
 #endif
 #include "../harness_rng.h"
 
+#ifndef LANES
+#define LANES 1
+#endif
 #ifndef BODY_IN_BYTES
 #error "define BODY_IN_BYTES, CONS_BYTES, BODY_OUT_BYTES, TRACE_BYTES"
 #endif
@@ -240,7 +244,7 @@ int main(int argc, char** argv) {
     size_t bi = 0, ci = 0, n_out = 0, n_trace = 0;
     DdrBucket ddr(ddr_rate, 2.0 * CONS_BYTES);
     unsigned body_wait = startup, cons_wait = startup;  // start-up latency of the transfer in progress
-    uint8_t buf[BODY_OUT_BYTES > TRACE_BYTES ? BODY_OUT_BYTES : TRACE_BYTES];
+    uint8_t buf[BODY_OUT_BYTES > LANES * TRACE_BYTES ? BODY_OUT_BYTES : LANES * TRACE_BYTES];
     const auto t0 = std::chrono::steady_clock::now();
     bool finished = false;
     while (!finished) {
@@ -288,10 +292,13 @@ int main(int argc, char** argv) {
             }
             if (t->trace_valid) {
                 uint64_t c = s.cycle - start_cycle;
-                std::fwrite(&c, 8, 1, ftrace);
-                get_wide(t->trace_data, buf, TRACE_BYTES);
-                std::fwrite(buf, 1, TRACE_BYTES, ftrace);
-                n_trace++;
+                get_wide(t->trace_data, buf, LANES * TRACE_BYTES);
+                for (unsigned l = 0; l < LANES; l++) {
+                    if (!((t->trace_valid >> l) & 1u)) continue;
+                    std::fwrite(&c, 8, 1, ftrace);
+                    std::fwrite(buf + l * TRACE_BYTES, 1, TRACE_BYTES, ftrace);
+                    n_trace++;
+                }
             }
             finished = t->__SYM__interrupt;  // Verilator renames the port `interrupt`
         });

@@ -8,7 +8,7 @@ import pytest
 
 from models.constraints import ConstraintSet
 from models.contact_solver import CONTACT_PASS, FRICTION_PASS, SolverParams, pass_sequence
-from models.record_window import fits, plan_window, sequential_order
+from models.record_window import fits, lane_slots, plan_window, sequential_order
 from models.schedule import band_width
 
 
@@ -42,6 +42,39 @@ def test_plan_lag_is_the_band_of_the_slots() -> None:
         plan_window(cons, dyn, order, SolverParams(4), depth=48)  # not a power of two
     with pytest.raises(ValueError):
         plan_window(cons, dyn, shuffled, SolverParams(4), depth=64, fetch_passes=8)
+
+
+@pytest.mark.parametrize("lanes", [2, 4])
+def test_lane_slots(lanes: int) -> None:
+    """Records of ``lanes`` slots: the sequential order kept, no dynamic body twice in a record, and a record padded
+    with empty lanes (-1) only where the next manifold shares a dynamic body with it (or at the end)."""
+    rng = np.random.default_rng(lanes)
+    m, nb = 400, 120
+    cons, _ = _chain(m)
+    cons.body_a[:] = rng.integers(0, nb, m)
+    cons.body_b[:] = (cons.body_a + rng.integers(1, nb, m)) % nb
+    dyn = rng.random(nb) > 0.1
+    order = rng.permutation(m)
+    slots = lane_slots(order, cons, dyn, lanes)
+    assert len(slots) % lanes == 0 and np.array_equal(slots[slots >= 0], order)
+    records = slots.reshape(-1, lanes)
+    for r, rec in enumerate(records):
+        real = rec[rec >= 0]
+        bodies = np.concatenate([cons.body_a[real], cons.body_b[real]])
+        bodies = bodies[dyn[bodies]]
+        assert len(np.unique(bodies)) == len(bodies), f"record {r} names a dynamic body twice"
+        assert np.all(rec[:len(real)] >= 0), "empty lanes only close a record"
+        if len(real) < lanes and r + 1 < len(records):  # padded: the next record's first manifold collides
+            nxt = records[r + 1][0]
+            assert set(bodies) & {x for x in (cons.body_a[nxt], cons.body_b[nxt]) if dyn[x]}
+    assert np.array_equal(lane_slots(order, cons, dyn, 1), order)
+    # the plan: lag = D of the records, on the lane slots
+    plan = plan_window(cons, dyn, order, SolverParams(4), depth=1024, lanes=lanes)
+    assert np.array_equal(plan.slots, slots) and plan.lanes == lanes
+    assert plan.lag == plan.band == band_width(slots, cons, dyn, lanes) <= -(-band_width(slots, cons, dyn) // lanes) + 1
+    assert plan.empty_lanes == int(np.count_nonzero(slots < 0))
+    with pytest.raises(ValueError):
+        plan_window(cons, dyn, order, SolverParams(4), depth=1024, lanes=3)
 
 
 def test_fits_is_the_kernels_check() -> None:

@@ -136,23 +136,25 @@ def test_large_streams_pack_in_chunks() -> None:
 @pytest.mark.parametrize("fetch_passes", [1, 3, 6, 8])
 def test_window_stream(fmt: NumberFormat, fetch_passes: int) -> None:
     """The window kernel's stream: ceil(6 / fetch_passes) fetches, each the contact then the friction words of every
-    manifold in slot order behind the header, TLAST on each fetch's last beat."""
+    slot's manifold behind the header (an empty lane, -1: all-ones header and zero words), TLAST on each fetch's
+    last beat."""
     rng = np.random.default_rng(3)
     cons = _cons(rng, 17, 30).rounded(fmt)
-    schedule = np.concatenate([rng.permutation(17), [-1]])
+    slots = np.insert(rng.permutation(17), 5, -1)
     params = SolverParams(iterations=3)
     layout = sf.StreamLayout(fmt)
-    stream = sf.pack_window_stream(fmt, cons, schedule, params, fetch_passes)
+    stream = sf.pack_window_stream(fmt, cons, slots, params, fetch_passes)
     fetches = -(-6 // fetch_passes)
     assert sf.window_fetches(params, fetch_passes) == fetches
-    per_fetch = 17 * layout.window_beats
-    assert stream.num_beats == fetches * per_fetch and stream.data.nbytes == fetches * 17 * layout.window_bytes
+    per_fetch = 18 * layout.window_beats
+    assert stream.num_beats == fetches * per_fetch and stream.data.nbytes == fetches * 18 * layout.window_bytes
     assert np.flatnonzero(stream.last).tolist() == [(f + 1) * per_fetch - 1 for f in range(fetches)]
-    idx = sf.schedule_manifolds(schedule)
+    real = slots >= 0
     hdr, words = sf.unpack_records(stream.data[:per_fetch], sf.WINDOW_WORDS, fmt.width, 512, header=True)
-    assert np.array_equal(hdr, sf.constraint_header(cons, idx))
-    assert np.array_equal(words[:, :sf.CONTACT_WORDS], sf.contact_words(fmt, cons, idx))
-    assert np.array_equal(words[:, sf.CONTACT_WORDS:], sf.friction_words(fmt, cons, idx))
+    assert np.array_equal(hdr[real], sf.constraint_header(cons, slots[real])) and hdr[5] == sf.EMPTY_HEADER
+    assert np.array_equal(words[real, :sf.CONTACT_WORDS], sf.contact_words(fmt, cons, slots[real]))
+    assert np.array_equal(words[real, sf.CONTACT_WORDS:], sf.friction_words(fmt, cons, slots[real]))
+    assert not words[5].any()
     assert np.array_equal(stream.data[per_fetch:], np.tile(stream.data[:per_fetch], (fetches - 1, 1)))
     with pytest.raises(ValueError):
         sf.window_fetches(params, 0)

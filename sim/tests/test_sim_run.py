@@ -93,6 +93,9 @@ RUN_CASES = [
     (["--converged-budget", "nan"], "--converged-budget must be >= 0"),
     (["--seed", "-1"], "seed must be a non-negative integer"),
     (["--window", "-3"], "--window must be >= 0"),
+    (["--lanes", "2"], "above 1 only with --record-window"),
+    (["--record-window", "1024", "--lanes", "3"], "--lanes must be a power of two"),
+    (["--body-bits", "64"], "--body-bits must be 128, 256 or 512"),
     (["--dma", "zcu999"], "unknown DMA preset 'zcu999'"),
     (["--frame", "/nonexistent/frame.npz"], "does not exist"),
 ]
@@ -105,6 +108,8 @@ SWEEP_CASES = [
     (["--scene", "stack", "--seed", "-4"], "seed must be a non-negative integer"),
     (["--scene", "teapot"], "unknown scene 'teapot'"),
     (["--converged-budget", "-1"], "--converged-budget must be >= 0"),
+    (["--record-window", "1000"], "--record-window must be 0 or a power of two"),
+    (["--fetch-passes", "9"], "--fetch-passes must be in 0..8"),
 ]
 TOOLS: dict[str, Callable[[list[str]], int]] = {"sim.run": sim_run.main, "sim.sweep": sim_sweep.main}
 
