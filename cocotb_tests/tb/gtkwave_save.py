@@ -190,12 +190,11 @@ KERNEL_LAYOUT: list[tuple[str, list[tuple[str, str, list[str]]]]] = [
     ("DMA streams", [("", "pgs_kernel.sv", ["s_axis_body_*", "s_axis_cons_*", "m_axis_body_*"])]),
     ("Pipeline", [("u_seq", "pgs_sequencer.sv",
                    ["phase", "crec_valid", "rkind", "hazard", "cam_full", "kind_ok", "issue", "i_pass", "i_slot",
-                    "s1_valid", "c_out_valid", "f_out_valid", "retire", "r_slot", "r_iter", "int_issue", "io_valid",
-                    "credits"]),
+                    "l_go", "l_issue", "l_reject", "retire", "l_retire", "int_issue", "io_valid", "credits"]),
                   ("", "pgs_kernel.sv",
                    ["trace_valid", "stat_cycles", "stat_stalls", "stat_bubbles", "stat_issued", "err_set"])]),
 ]
-_DECIMAL = {"i_pass", "i_slot", "r_slot", "r_iter", "credits", "stat_cycles", "stat_stalls", "stat_bubbles",
+_DECIMAL = {"i_pass", "i_slot", "credits", "stat_cycles", "stat_stalls", "stat_bubbles",
             "stat_issued"}
 
 
