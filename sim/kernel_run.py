@@ -150,8 +150,13 @@ class KernelJob:
         return sf.schedule_manifolds(self.schedule)
 
     @property
+    def manifolds(self) -> int:
+        """The manifolds the kernel solves (its slots less the window kernel's empty lanes)."""
+        return int(np.count_nonzero(self.slots >= 0))
+
+    @property
     def manifold_passes(self) -> int:
-        return int(np.count_nonzero(self.slots >= 0)) * len(pass_sequence(self.params))
+        return self.manifolds * len(pass_sequence(self.params))
 
 
 @dataclass

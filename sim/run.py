@@ -175,7 +175,7 @@ def kernel_sections(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_
         **{f"latency at {f / 1e6:g} MHz (ms)": cycles / f * 1e3 for f in baselines.REPORT_CLOCKS_HZ},
         "bytes streamed in (bodies + constraints)": res.stream_bytes["body_in"] + res.stream_bytes["constraints"],
         "bytes streamed out (bodies)": res.stream_bytes["body_out"],
-        "constraint bytes per manifold per step": res.stream_bytes["constraints"] // max(len(job.slots), 1),
+        "constraint bytes per manifold per step": res.stream_bytes["constraints"] // max(job.manifolds, 1),
         "DDR bandwidth utilisation": (total_bytes / (cycles * preset.ddr_bytes_per_cycle)
                                       if math.isfinite(preset.ddr_bytes_per_cycle) else "uncapped"),
         "co-simulation speed (simulated cycles per wall second)": res.sim_cycles_per_s,
@@ -197,7 +197,7 @@ def thesis_section(res: KernelResult | None, job: KernelJob, frame: Frame, secon
     out["thesis i7-3770 (Bullet3)"] = f"{baselines.THESIS_CPU_MS} ms"
     if res is not None:
         cpmp = res.cycles / job.manifold_passes
-        out[f"this run: RTL {job.fmt.name}, {len(job.slots):,} manifolds, {job.params.iterations} iterations"] = (
+        out[f"this run: RTL {job.fmt.name}, {job.manifolds:,} manifolds, {job.params.iterations} iterations"] = (
             f"{res.cycles:,} cycles, {res.cycles / 275e6 * 1e3:.2f} ms at 275 MHz, {cpmp:.2f} cycles/manifold-pass")
         scaled = cpmp * baselines.THESIS_MANIFOLDS * 2 * job.params.iterations
         out[f"this run scaled to {baselines.THESIS_MANIFOLDS:,} manifolds"] = (

@@ -9,7 +9,8 @@ error, with the thesis's ZCU102 fp32/fp16 designs and its GPU and CPU figures ma
 on our frame is unknown: the thesis did not measure it).
 
 ``--record-window N`` (with ``--lanes L``, ``--fetch-passes``, ``--body-bits``) sweeps the window kernel
-(``rtl/pgs_window.sv``) instead of the streaming one; its points are labelled ``<format> window xL``.
+(``rtl/pgs_window.sv``) instead of the streaming one; its points are labelled ``<format> window xL`` and go to
+``build/sweep/<scene>-<dma>-ring<N>-lanes<L>/``.
 
 ``--frame FILE`` sweeps a saved frame (``models.frame.save``) instead of the scene's. Bad input (an unknown scene,
 format or DMA preset, bad iteration counts, a corrupt, truncated or other-version frame file) ends the sweep with
@@ -115,7 +116,7 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
             mp = job.manifold_passes
             kernel = f" window x{args.lanes}" if args.record_window else ""
             row = {"format": (f"{fmt.name} ({how})" if how else fmt.name) + kernel, "iterations": iters,
-                   "manifolds": int(mp // (2 * iters)), "manifold_passes": mp,
+                   "manifolds": job.manifolds, "manifold_passes": mp,
                    "cycles": res.cycles, "cycles_per_manifold_pass": res.cycles / mp,
                    "ms_at_clock": res.cycles / preset.clock_hz * 1e3,
                    "ns_per_manifold_pass": res.cycles / mp / preset.clock_hz * 1e9,
@@ -129,7 +130,8 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
                   f"{row['max_dv_vs_float64_same_iters']:.3e}, differing bits {row['differing_bits']}", flush=True)
             if not res.bit_exact:
                 print(f"  NOT bit-exact: {res.comparison.first_mismatch}", flush=True)
-    return rows, f"{label}-{args.dma}"
+    kernel = f"-ring{args.record_window}-lanes{args.lanes}" if args.record_window else ""
+    return rows, f"{label}-{args.dma}{kernel}"
 
 
 def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
