@@ -123,7 +123,7 @@ module pgs_window #(
 
     // the oldest eligible context not skipped; else the oldest eligible one
     logic [CW-1:0] sel;
-    logic          any_fresh, any_elig, sel_fresh;
+    logic          any_fresh, any_elig;
     always_comb begin
         sel       = '0;
         any_fresh = 1'b0;
@@ -132,7 +132,7 @@ module pgs_window #(
             automatic logic [CW-1:0] k = jlo_ctx + CW'(off);
             if (elig[k]) begin
                 any_elig = 1'b1;
-                if (!any_fresh) sel = k;
+                sel = k;
             end
         end
         for (int off = CTX - 1; off >= 0; off--) begin
@@ -142,7 +142,6 @@ module pgs_window #(
                 sel = k;
             end
         end
-        sel_fresh = any_fresh;
     end
 
     assign cand_valid = any_elig;
@@ -204,7 +203,7 @@ module pgs_window #(
                 if (c_lastg[sel]) free_cnt <= free_cnt + 1'b1;
                 skip <= '0;
             end else if (cand_valid) begin
-                skip <= sel_fresh ? skip | (CTX'(1) << sel) : '0;
+                skip <= any_fresh ? skip | (CTX'(1) << sel) : '0;
             end
             // context activity (a start and a finish never hit the same context: st_pass - jlo < CTX)
             for (int k = 0; k < CTX; k++) begin
