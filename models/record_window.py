@@ -27,7 +27,7 @@ import numpy as np
 from .constraints import ConstraintSet
 from .contact_solver import SolverParams, pass_sequence
 from .schedule import band_width
-from .stream_format import schedule_manifolds
+from .stream_format import schedule_manifolds, window_fetches
 
 DEFAULT_DEPTH = 16384  # records in the ring of the window builds make sim uses
 DEFAULT_CTX = 8  # passes active at a time (pgs_window CTX)
@@ -51,7 +51,7 @@ class WindowPlan:
         return int(np.count_nonzero(self.slots < 0))
 
     def fetches(self, params: SolverParams) -> int:
-        return -(-len(pass_sequence(params)) // self.fetch_passes)
+        return window_fetches(params, self.fetch_passes)
 
     @property
     def ring_records(self) -> int:

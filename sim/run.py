@@ -61,15 +61,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--schedule", default="hazard", help=f"manifold order ({', '.join(SCHEDULE_KINDS)})")
     ap.add_argument("--window", type=int, default=0,
                     help="hazard window W in issue slots (0: the kernel's pipeline depth in records)")
-    ap.add_argument("--record-window", type=int, default=0,
-                    help="0: the streaming kernel; N (a power of two): the window kernel with a ring of N records "
-                         "(rtl/pgs_window.sv, issue 10)")
-    ap.add_argument("--fetch-passes", type=int, default=0,
-                    help="window kernel: passes per fetch of the records (0: as many as the ring holds)")
-    ap.add_argument("--lanes", type=int, default=1,
-                    help="window kernel: manifolds issued per cycle (a power of two; LANES build parameter)")
-    ap.add_argument("--body-bits", type=int, default=128,
-                    help="beat width of the body-in and body-out streams (128, 256 or 512)")
+    add_kernel_args(ap)
     ap.add_argument("--stall-permille", type=int, default=0,
                     help="random idle cycles on the input streams and backpressure on the output (per mille)")
     ap.add_argument("--converged-budget", type=float, default=300.0,
@@ -110,6 +102,33 @@ def check_args(args: argparse.Namespace) -> None:
         if not (value >= lo and (hi is None or value <= hi)) or not math.isfinite(value):
             raise ValueError(f"{name} must be {'in ' + str(lo) + '..' + str(hi) if hi else '>= ' + str(lo)}, "
                              f"got {value}")
+
+
+def add_kernel_args(ap: argparse.ArgumentParser) -> None:
+    """The kernel options shared by ``make sim`` and ``make sweep``: ring, passes per fetch, lanes, body beats."""
+    ap.add_argument("--record-window", type=int, default=0,
+                    help="0: the streaming kernel; N (a power of two): the window kernel with a ring of N records "
+                         "(rtl/pgs_window.sv, issue 10)")
+    ap.add_argument("--fetch-passes", type=int, default=0,
+                    help="window kernel: passes per fetch of the records (0: as many as the ring holds)")
+    ap.add_argument("--lanes", type=int, default=1,
+                    help="window kernel: manifolds issued per cycle (a power of two; LANES build parameter)")
+    ap.add_argument("--body-bits", type=int, default=128,
+                    help="beat width of the body-in and body-out streams (128, 256 or 512)")
+
+
+def kernel_label(args: argparse.Namespace) -> str:
+    """The kernel options in a run's name: empty for the streaming kernel with 128-bit body streams."""
+    return ((f"-ring{args.record_window}" if args.record_window else "")
+            + (f"-lanes{args.lanes}" if args.lanes > 1 else "")
+            + (f"-body{args.body_bits}" if args.body_bits != 128 else ""))
+
+
+def kernel_job(job: KernelJob, args: argparse.Namespace) -> KernelJob:
+    """``job`` on the kernel the options name: the window kernel's plan with ``--record-window``."""
+    if not args.record_window:
+        return job
+    return job.windowed(args.record_window, fetch_passes=args.fetch_passes or None, lanes=args.lanes)
 
 
 def check_kernel_args(args: argparse.Namespace) -> None:
@@ -228,9 +247,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
     if fmt is None:  # FORMAT=auto: the narrowest single format within the analyzer's error budget
         fmt = timer.run("format analysis (FORMAT=auto)", auto_format, frame, args.iters)
     order = "" if args.schedule == "hazard" else f"-{args.schedule}"
-    order += f"-ring{args.record_window}" if args.record_window else ""
-    order += f"-lanes{args.lanes}" if args.lanes > 1 else ""
-    order += f"-body{args.body_bits}" if args.body_bits != 128 else ""
+    order += kernel_label(args)
     name = f"{label}-{'auto-' if auto else ''}{fmt.name}-it{args.iters}-s{args.seed}-{args.dma}{order}"
 
     bodies = body_table(frame)
@@ -242,10 +259,9 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
     params = SolverParams(iterations=args.iters)
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
     job = KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip)
-    if args.record_window:
-        job = job.windowed(args.record_window, fetch_passes=args.fetch_passes or None, lanes=args.lanes)
-        if args.mode == "model":
-            raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
+    job = kernel_job(job, args)
+    if args.record_window and args.mode == "model":
+        raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
     if args.mode == "model":  # MODE=model: the cycle model's estimate alone
         return {"scene": {"scene": label, "bodies": frame.num_bodies, "manifolds": frame.num_manifolds,
                           "schedule": sched_stats.describe(), "DMA preset": preset.describe()},
@@ -349,8 +365,7 @@ def window_section(job: KernelJob, preset: DmaPreset) -> dict[str, Any]:
         "cycle model": "streaming kernel only (no prediction for the window kernel)"}
     if preset.name in ob.PLATFORMS:
         bud = ob.budget(ob.get_platform(preset.name), job.fmt, job.bodies.num_bodies, len(job.slots),
-                        plan.lag * plan.lanes,
-                        trailing=max(plan.fetch_passes - 1, 1))
+                        plan.lag * plan.lanes, trailing=max(plan.fetch_passes - 1, 1))
         out[f"on-chip bytes on {preset.name}: body state + impulses + window"] = (
             f"{bud.body_bytes:,} + {bud.impulse_bytes:,} + {bud.window_bytes:,} = {bud.total_bytes:,} of "
             f"{bud.platform.data_bytes:,} ({'fits' if bud.fits else 'does not fit'})")

@@ -10,7 +10,7 @@ on our frame is unknown: the thesis did not measure it).
 
 ``--record-window N`` (with ``--lanes L``, ``--fetch-passes``, ``--body-bits``) sweeps the window kernel
 (``rtl/pgs_window.sv``) instead of the streaming one; its points are labelled ``<format> window xL`` and go to
-``build/sweep/<scene>-<dma>-ring<N>-lanes<L>/``.
+``build/sweep/<scene>-<dma>-ring<N>[-lanes<L>][-body<B>]/`` (the options ``make sim`` names its runs by).
 
 ``--frame FILE`` sweeps a saved frame (``models.frame.save``) instead of the scene's. Bad input (an unknown scene,
 format or DMA preset, bad iteration counts, a corrupt, truncated or other-version frame file) ends the sweep with
@@ -41,7 +41,8 @@ from sim.analyze import auto_format
 from sim.kernel_run import (KernelJob, KernelRunError, default_window, golden_step, kernel_bodies, kernel_build,
                             run_kernel_step)
 from sim.report import StagedDirectory
-from sim.run import check_kernel_args, hardware_format, load_frame, velocity_error
+from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label, load_frame, \
+    velocity_error
 
 COLUMNS = ["format", "iterations", "manifolds", "manifold_passes", "cycles", "cycles_per_manifold_pass",
            "ms_at_clock", "ns_per_manifold_pass", "stalls", "bubbles", "bytes_streamed", "differing_bits",
@@ -59,10 +60,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--dma", default="zcu102", help=f"DMA preset ({', '.join(PRESETS)})")
     ap.add_argument("--seed", type=int, default=1, help="scene seed")
     ap.add_argument("--converged-budget", type=float, default=60.0, help="seconds for each converged solve")
-    ap.add_argument("--record-window", type=int, default=0, help="0: the streaming kernel; N: the window kernel")
-    ap.add_argument("--fetch-passes", type=int, default=0, help="window kernel: passes per fetch (0: the plan's)")
-    ap.add_argument("--lanes", type=int, default=1, help="window kernel: manifolds issued per cycle")
-    ap.add_argument("--body-bits", type=int, default=128, help="beat width of the body streams")
+    add_kernel_args(ap)
     ap.add_argument("--out", default="build/sweep", help="parent directory of the sweep directory")
     return ap.parse_args(argv)
 
@@ -104,9 +102,7 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
         conv_final = integrate(conv.result.bodies, FLOAT64, ip)
         for iters in iter_list:
             params = SolverParams(iterations=iters)
-            job = KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip)
-            if args.record_window:
-                job = job.windowed(args.record_window, fetch_passes=args.fetch_passes or None, lanes=args.lanes)
+            job = kernel_job(KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip), args)
             kb = kernel_build(job, preset, body_bits=args.body_bits)
             res = run_kernel_step(job, preset, out_dir / f"{fmt.name}-it{iters}", args.seed, body_bits=args.body_bits)
             ref_final = golden_step(KernelJob(FLOAT64, bodies, cons, schedule, params, ip)).final
@@ -130,8 +126,7 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
                   f"{row['max_dv_vs_float64_same_iters']:.3e}, differing bits {row['differing_bits']}", flush=True)
             if not res.bit_exact:
                 print(f"  NOT bit-exact: {res.comparison.first_mismatch}", flush=True)
-    kernel = f"-ring{args.record_window}-lanes{args.lanes}" if args.record_window else ""
-    return rows, f"{label}-{args.dma}{kernel}"
+    return rows, f"{label}-{args.dma}{kernel_label(args)}"
 
 
 def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
