@@ -247,7 +247,7 @@ def harness(request: pytest.FixtureRequest) -> Harness:
     t0 = time.monotonic()
     exe = build(
         sources=[RTL / "pgs_fp_pkg.sv", RTL / "pgs_delay.sv"] + sorted((RTL / "fp").glob("*.sv"))
-        + [RTL / f"{spec.module}.sv"],
+        + [RTL / "generated" / f"{spec.module}.sv"],
         top=spec.module,
         parameters={"EXP_BITS": fmt.exp_bits, "MAN_BITS": fmt.man_bits},
         cpp_files=[HERE / "pipe_main.cpp"],

@@ -82,7 +82,7 @@ _LATENCY_RE = re.compile(r"localparam\s+int\s+LATENCY\s*=\s*([^,;\n]+)")
 def rtl_latency(module: str, fmt: NumberFormat, rtl_dir: Path = RTL_DIR) -> int:
     """The ``LATENCY`` localparam of a generated datapath (``rtl/<module>.sv``) for ``fmt``: an integer
     expression in ``MAN_BITS`` and ``EXP_BITS``, e.g. ``4*MAN_BITS + 94``."""
-    text = (rtl_dir / f"{module}.sv").read_text()
+    text = (rtl_dir / "generated" / f"{module}.sv").read_text()
     m = _LATENCY_RE.search(text)
     if m is None:
         raise ValueError(f"rtl/{module}.sv declares no LATENCY localparam")

@@ -2,8 +2,8 @@
 
 ``rtl/gen/dataflow.py`` is the dataflow DSL, ASAP scheduler and SystemVerilog emitter;
 ``rtl/gen/kernel_graphs.py`` holds the contact, friction and integration graphs. :func:`generate`
-writes ``rtl/pgs_contact_pipe.sv``, ``rtl/pgs_friction_pipe.sv`` and ``rtl/pgs_integrate_pipe.sv``
-and ``rtl/pgs_pipe_latency_pkg.sv`` (each module's LATENCY as a function of MAN_BITS, for the sequencer)
+writes ``rtl/generated/pgs_contact_pipe.sv``, ``pgs_friction_pipe.sv`` and ``pgs_integrate_pipe.sv``
+and ``rtl/generated/pgs_pipe_latency_pkg.sv`` (each module's LATENCY as a function of MAN_BITS, for the sequencer)
 (committed; ``python -m rtl.gen --check`` and the test suite check they are up to date).
 """
 
@@ -15,6 +15,7 @@ from .dataflow import REPO_ROOT, emit_sv
 from .kernel_graphs import GRAPHS, MAN_BITS_OF
 
 RTL_DIR = REPO_ROOT / "rtl"
+GENERATED_DIR = RTL_DIR / "generated"
 
 
 LATENCY_PKG = "pgs_pipe_latency_pkg"
@@ -46,8 +47,8 @@ def emit_latency_pkg() -> str:
 
 def render() -> dict[Path, str]:
     """The text of every generated file, by path."""
-    files = {RTL_DIR / f"{name}.sv": emit_sv(make()) for name, make in GRAPHS.items()}
-    files[RTL_DIR / f"{LATENCY_PKG}.sv"] = emit_latency_pkg()
+    files = {GENERATED_DIR / f"{name}.sv": emit_sv(make()) for name, make in GRAPHS.items()}
+    files[GENERATED_DIR / f"{LATENCY_PKG}.sv"] = emit_latency_pkg()
     return files
 
 
