@@ -52,17 +52,15 @@ from array import array
 from itertools import chain
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol, Sequence
+from typing import Any, Protocol, Sequence
 
 import numpy as np
 
 from .contact_solver import CONTACT_PASS, FRICTION_PASS, SolverParams, pass_sequence
 from .dma_model import DmaPreset
+from .kernel_job import KernelJob
 from .number_format import NumberFormat
 from .stream_format import StreamLayout
-
-if TYPE_CHECKING:  # sim.kernel_run imports the RTL toolchain helpers; only its job type is needed here
-    from sim.kernel_run import KernelJob
 
 RTL_DIR = Path(__file__).resolve().parents[1] / "rtl"
 HAZARD_DEPTH = 256  # pgs_kernel defaults
@@ -123,7 +121,7 @@ class KernelShape:
 
 
 def harness_ddr_millibytes(preset: DmaPreset) -> int:
-    """The DDR rate argument of the harness (1/1000 bytes per cycle; 0 = uncapped), as sim.kernel_run passes it."""
+    """The DDR rate argument of the harness (1/1000 bytes per cycle; 0 = uncapped), as sim.harness_run passes it."""
     rate = preset.ddr_bytes_per_cycle
     return 0 if rate == math.inf else max(1, round(rate * 1000))
 
@@ -290,7 +288,7 @@ def predict(shape: KernelShape, dma: DmaTiming, step: StepShape) -> Prediction:
 
 
 def predict_job(job: "KernelJob", preset: DmaPreset, prefetched: bool = False) -> Prediction:
-    """The model of ``job`` run by ``sim.kernel_run.run_kernel_step`` with ``preset`` (gap and backpressure 0)."""
+    """The model of ``job`` run by ``sim.kernel_step.run_kernel_step`` with ``preset`` (gap and backpressure 0)."""
     return predict(KernelShape.of(job.fmt, preset.stream_bits), DmaTiming.of(preset, prefetched),
                    StepShape.of_job(job))
 
@@ -555,7 +553,7 @@ def compare_trace(pred: Prediction, cycle: np.ndarray, kind: np.ndarray, iterati
 
 
 class KernelRun(Protocol):
-    """What :func:`compare_run` needs of a kernel run (``sim.kernel_run.KernelResult`` with ``keep_trace``)."""
+    """What :func:`compare_run` needs of a kernel run (``sim.kernel_step.KernelResult`` with ``keep_trace``)."""
 
     trace: Any  # cycle, kind, iteration, slot arrays, or None
     registers: dict[str, float]

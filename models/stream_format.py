@@ -23,6 +23,8 @@ window             64-bit header, then the 23 contact words and the 14 friction 
 header             bits 31:0 body_a, bits 62:32 body_b, bit 63 spin_damp (all record kinds)
 body-in            17 words: pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass(1), inv_inertia(3)
 body-out           13 words: pos(3), q(4), v(3), w(3)
+trace              16 words: impulse[0..3] (friction: lamT, 0, 0), vA, wA, vB, wB (xyz each), then 64 bits:
+(trace port)       bits 31:0 slot, bits 47:32 iteration, bit 48 pass kind -> 16 W + 64 bits
 =================  ======================================================================================
 
 The constraint stream of one step holds, pass after pass in :func:`models.contact_solver.pass_sequence`
@@ -54,6 +56,12 @@ FRICTION_WORDS = 14
 WINDOW_WORDS = CONTACT_WORDS + FRICTION_WORDS
 BODY_IN_WORDS = 17
 BODY_OUT_WORDS = 13
+TRACE_WORDS = 16
+TRACE_TAIL_BITS = 64
+
+# names of the words of a trace record and of a body-out record (as the comparisons report a differing field)
+TRACE_FIELDS = [f"impulse[{i}]" for i in range(4)] + [f"{f}.{c}" for f in ("vA", "wA", "vB", "wB") for c in "xyz"]
+BODY_OUT_FIELDS = [f"{f}.{c}" for f, cs in (("pos", "xyz"), ("q", "xyzw"), ("v", "xyz"), ("w", "xyz")) for c in cs]
 
 DEFAULT_CONS_BEAT_BITS = 512
 DEFAULT_BODY_BEAT_BITS = 128
@@ -161,6 +169,11 @@ def body_out_words(fmt: NumberFormat, bodies: BodyTable) -> np.ndarray:
     vals = np.concatenate([bodies.position, bodies.orientation, bodies.linear_velocity, bodies.angular_velocity],
                           axis=1)
     return fmt.encode(vals)
+
+
+def trace_record_bytes(fmt: NumberFormat) -> int:
+    """Bytes of one trace record: 16 words of W bits (2 W bytes), then the 64-bit slot / iteration / kind."""
+    return TRACE_WORDS * fmt.width // 8 + TRACE_TAIL_BITS // 8
 
 
 # --- sizes --------------------------------------------------------------------------------------------

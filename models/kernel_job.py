@@ -1,0 +1,70 @@
+"""One step for the kernel: the body table and constraints rounded to the kernel's format, the manifold schedule,
+the solver and integration parameters, and (for the window kernel) the record-window plan.
+
+Every consumer of a step builds one: the RTL harness run (``sim.kernel_step``), the cycle model
+(``models.cycle_model``), the cocotb benches and the HLS C simulation.
+
+    job = KernelJob.from_frame(frame, FP32, SolverParams(4), schedule="hazard", window=181)
+    job.windowed(16384, lanes=2)  # the same step on the window kernel
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from models import stream_format as sf
+from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
+from models.contact_solver import SolverParams, pass_sequence
+from models.frame import Frame
+from models.integrator import IntegrationParams
+from models.number_format import NumberFormat
+from models.record_window import WindowPlan, plan_window
+from models.schedule import make_schedule
+
+
+@dataclass
+class KernelJob:
+    """One step for the kernel: body table and constraints already rounded to ``fmt``, schedule, parameters."""
+
+    fmt: NumberFormat
+    bodies: BodyTable
+    cons: ConstraintSet
+    schedule: np.ndarray
+    params: SolverParams
+    iparams: IntegrationParams
+    record_window: WindowPlan | None = None  # the window kernel's plan; None: the streaming kernel
+
+    @staticmethod
+    def from_frame(frame: Frame, fmt: NumberFormat, params: SolverParams, schedule: str = "hazard",
+                   window: int = 64) -> "KernelJob":
+        """The step of ``frame`` in ``fmt``, its manifolds ordered by ``make_schedule(schedule, ..., window)``."""
+        bodies = body_table(frame)
+        cons = setup_constraints(frame, bodies)
+        order = make_schedule(schedule, cons, bodies.dynamic, window=window)
+        return KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), order, params,
+                         IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity)))
+
+    def windowed(self, depth: int, ctx: int = 8, fetch_passes: int | None = None, lanes: int = 1) -> "KernelJob":
+        """This step on the window kernel with a ring of ``depth`` records of ``lanes`` slots
+        (``models.record_window.plan_window``)."""
+        plan = plan_window(self.cons, self.bodies.dynamic, self.schedule, self.params, depth, ctx, fetch_passes,
+                           lanes)
+        return KernelJob(self.fmt, self.bodies, self.cons, self.schedule, self.params, self.iparams, plan)
+
+    @property
+    def slots(self) -> np.ndarray:
+        """The kernel's manifold slots in order (-1: an empty lane of the window kernel)."""
+        if self.record_window is not None:
+            return self.record_window.slots
+        return sf.schedule_manifolds(self.schedule)
+
+    @property
+    def manifolds(self) -> int:
+        """The manifolds the kernel solves (its slots less the window kernel's empty lanes)."""
+        return int(np.count_nonzero(self.slots >= 0))
+
+    @property
+    def manifold_passes(self) -> int:
+        return self.manifolds * len(pass_sequence(self.params))
