@@ -12,6 +12,7 @@ import pytest
 
 from models import frame as frame_mod
 from models import scenes
+from models.scenes import frame_cache
 from models.frame import Frame, load, save, validate
 
 SMALL: dict[str, dict] = {
@@ -183,7 +184,7 @@ def test_cache(cache_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     def boom(*args: object, **kw: object) -> Frame:
         raise AssertionError("cache miss")
 
-    monkeypatch.setattr(scenes, "capture_frame", boom)
+    monkeypatch.setattr(frame_cache, "capture_frame", boom)  # the cache's capture
     b = scenes.load_or_capture("stack", n=3, cache_dir=cache_dir)
     assert _same(a, b) and a.meta == b.meta
     assert sorted(cache_dir.glob("stack_*.npz")) == files
@@ -218,3 +219,15 @@ def test_bad_parameters_raise_value_error(call) -> None:  # type: ignore[no-unty
     with pytest.raises(ValueError) as info:
         call()
     assert "\n" not in str(info.value)
+
+
+def test_kernel_scene_lists() -> None:
+    """The shared scene lists name catalogue scenes with valid parameters; the regression's seeded pile at the
+    kernel tests' seed is their pile, and its other scenes do not follow the seed."""
+    from models.scenes import kernel_scenes as ks
+
+    for params in [*ks.KERNEL_TEST_SCENES.items(), *ks.REGRESS_SCENES.items(), ("pile", ks.MAKE_SIM_PILE)]:
+        scenes.make_spec(params[0], **params[1])
+    assert list(ks.REGRESS_SCENES)[:len(ks.KERNEL_TEST_SCENES)] == list(ks.KERNEL_TEST_SCENES)
+    assert ks.regress_params("pile", 2) == ks.KERNEL_TEST_SCENES["pile"]
+    assert ks.regress_params("pile", 5)["seed"] == 5 and ks.regress_params("stack", 5) == {}
