@@ -38,6 +38,7 @@ if str(REPO) not in sys.path:  # run as a script (make regress)
     sys.path.insert(0, str(REPO))
 
 from models import cycle_model, scenes  # noqa: E402
+from models.scenes.kernel_scenes import REGRESS_SCENES, SEEDED, regress_params  # noqa: E402
 from models.contact_solver import SolverParams  # noqa: E402
 from models.dma_model import get_preset  # noqa: E402
 from models.frame import Frame  # noqa: E402
@@ -46,10 +47,6 @@ from sim.kernel_run import KernelBuild, KernelJob, build_kernel, default_window,
 
 ITERATIONS = 4
 OUT = REPO / "build" / "regress"
-# scene -> capture parameters; the pile's jitter seed is the regression seed
-SCENES: dict[str, dict[str, int]] = {"pile": {"nx": 4, "ny": 3, "nz": 4}, "stack": {}, "incline": {}, "pyramid": {},
-                                     "mass_ratio": {}, "impact": {}, "spin": {}, "plank": {}, "degenerate": {}}
-SEEDED = {"pile"}
 
 
 @dataclass(frozen=True)
@@ -64,7 +61,7 @@ class Case:
         return f"{self.scene}-{self.fmt.name}-{self.schedule}-{self.dma}"
 
 
-CASES = ([Case(s, FP32, k, "zcu102") for s in SCENES for k in ("hazard", "pybullet")]
+CASES = ([Case(s, FP32, k, "zcu102") for s in REGRESS_SCENES for k in ("hazard", "pybullet")]
          + [Case(s, f, k, "zcu102") for f in (FP16, BF16) for s in ("pile", "stack", "pyramid", "plank")
             for k in ("hazard", "pybullet")]
          + [Case(s, FP32, "hazard", "ideal") for s in ("pile", "stack", "impact", "plank")])
@@ -83,8 +80,7 @@ def stall_rates(seed: int) -> tuple[int, int]:
 
 
 def frame_of(case: Case, seed: int) -> Frame:
-    params = dict(SCENES[case.scene], **({"seed": seed} if case.scene in SEEDED else {}))
-    return scenes.load_or_capture(case.scene, **params)
+    return scenes.load_or_capture(case.scene, **regress_params(case.scene, seed))
 
 
 def reproduce(case: Case, seed: int) -> str:
