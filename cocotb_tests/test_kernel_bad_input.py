@@ -1,12 +1,13 @@
-"""Bad input to the RTL kernel (issue 7), in cocotb through the host driver and the AXI DMA model.
+"""Bad input to the RTL kernel, in cocotb through the host driver and the AXI DMA model.
 
-Each scenario is a list of steps run one after the other on one kernel *without a reset in between* (after a
+One scenario per case of the bad-input catalogue (``models/bad_input.py``) that a co-simulation can make. Each
+scenario is a list of steps run one after the other on one kernel *without a reset in between* (after a
 step the host only clears the sticky status flags it has read, W1C): one or more bad steps, then a good one.
 Every step must end (ap_done within a cycle budget, else the host raises), and its trace (lock-step
-scoreboard), body-out stream, status register, issued and rejected counts must equal the kernel's documented
-response (``rtl/README.md``, "Bad input") as the golden model predicts it (``tb.bad_input``): the rejected
-manifold-passes left out, frozen bodies passed through, every other body bit-exact; the good step after the
-error bit-exact with the plain golden model. The scenes are the 10-cube stack (11 bodies, 10 manifolds) in
+scoreboard), body-out stream, status register (the case's error code), issued and rejected counts must equal
+the kernel's documented response (``rtl/README.md``, "Bad input") as the golden model predicts it
+(``tb.bad_input``): the rejected manifold-passes left out, frozen bodies passed through, every other body
+bit-exact; the good step after the error bit-exact with the plain golden model. The scenes are the 10-cube stack (11 bodies, 10 manifolds) in
 fp32, hazard order, 2 iterations.
 
 The scenarios run in one simulator process (one cocotb test each, ``bad_input_scenario``, parametrized) on the
@@ -28,32 +29,20 @@ import cocotb
 import numpy as np
 import pytest
 
+from models.bad_input import CATALOGUE, BadInputCase
+
 FMT, DMA, ITERATIONS = "fp32", "zcu102", 2
 TIMEOUT_CYCLES = 100_000
 IDLE, BACKPRESSURE = 0.1, 0.2
 MAX_BODIES = 65536  # the kernel's default parameter
 UNMAPPED_READ, UNMAPPED_WRITE = 0xA0, 0xF4
 
-# scenario name -> what it checks (the builders are below)
-SCENARIOS = {
-    "nonfinite_constraint": "NaN in a normal (both record kinds), +inf in a contact bias: records rejected (5)",
-    "nonfinite_body": "NaN in a position, -inf in an angular velocity: bodies frozen, their manifolds rejected (5)",
-    "body_index": "a body index >= num_bodies and a manifold naming one body twice: rejected (4)",
-    "zero_inverse_mass": "inverse mass 0 makes a body static: the manifold to the ground is static-static (7)",
-    "negative_inverse_mass": "negative inverse mass / inertia: bodies frozen, their manifolds rejected (6)",
-    "tlast_early": "a pass shorter than num_manifolds, a record cut short: missing slots rejected (1)",
-    "tlast_late": "passes longer than num_manifolds (also the last pass): extra beats discarded (1)",
-    "body_tlast": "body stream short by two bodies (frozen zero records), long by a record, cut in a record (2)",
-    "zero_manifolds": "num_manifolds = 0: the bodies are integrated, no constraint stream read (no error)",
-    "bad_argument": "num_bodies > MAX_BODIES: the step ends at once, streams untouched (3)",
-    "start_busy": "ap_start written during a run: ignored (8); no second run",
-    "reset_mid_run": "ap_rst_n (and a DMA reset) in the middle of a run: idle at once, status 0",
-    "unmapped_axi": "AXI4-Lite read / write of unmapped addresses: SLVERR, read 0 (9)",
-}
+# the catalogue's cases this co-simulation makes (each scenario's builder is below)
+SCENARIOS: dict[str, BadInputCase] = {c.name: c for c in CATALOGUE if c.cosim}
 
 
 def _case_dir() -> Path:
-    from cocotb_runner import BUILD_ROOT
+    from sim.cocotb_run import BUILD_ROOT
 
     return BUILD_ROOT / "cases"
 
@@ -162,8 +151,9 @@ def _manifold(job: Any, a: int, b: int) -> int:
     return int(hit[0])
 
 
-def _scenario_steps(name: str, job: Any, sb: Any) -> list[Any]:
-    """The steps of scenario ``name`` (bad ones, then the good step) from the stack job and its StepBuilder."""
+def _scenario_steps(case: BadInputCase, job: Any, sb: Any) -> list[Any]:
+    """The steps of ``case``'s scenario (bad ones, then the good step) from the stack job and its StepBuilder;
+    each bad step's status is the case's error alone."""
     from tb import bad_input as bi
     from tb.scoreboard import expected_trace
 
@@ -173,70 +163,71 @@ def _scenario_steps(name: str, job: Any, sb: Any) -> list[Any]:
     nb = job.bodies.num_bodies
     cons, bodies = _copy(job.cons), job.bodies.copy()
     nm = len(sb.slots)
+    name = case.name
     steps: list[Any]
     if name == "nonfinite_constraint":
         cons.normal[_manifold(job, 4, 5), 0] = np.nan
         cons.bias[_manifold(job, 7, 8), 2] = np.inf
-        steps = [sb.step("NaN and inf in constraint records", bi.status_word(bi.CODE_NONFINITE), cons=cons)]
+        steps = [sb.step("NaN and inf in constraint records", case.status, cons=cons)]
     elif name == "nonfinite_body":
         bodies.position[3, 1] = np.nan
         bodies.angular_velocity[7, 2] = -np.inf
-        steps = [sb.step("NaN and -inf in body records", bi.status_word(bi.CODE_NONFINITE), bodies=bodies)]
+        steps = [sb.step("NaN and -inf in body records", case.status, bodies=bodies)]
     elif name == "body_index":
         cons.body_b[_manifold(job, 2, 3)] = nb + 5
         m = _manifold(job, 6, 7)
         cons.body_a[m] = cons.body_b[m]
-        steps = [sb.step("body index out of range, same body twice", bi.status_word(bi.CODE_BODY_INDEX),
-                         cons=cons)]
+        steps = [sb.step("body index out of range, same body twice", case.status, cons=cons)]
     elif name == "zero_inverse_mass":
         bodies.inv_mass[1] = 0.0
-        steps = [sb.step("inverse mass 0", bi.status_word(bi.CODE_STATIC_PAIR), bodies=bodies)]
+        steps = [sb.step("inverse mass 0", case.status, bodies=bodies)]
     elif name == "negative_inverse_mass":
         bodies.inv_mass[4] = -1.0
         bodies.inv_inertia[8, 1] = -2.0
-        steps = [sb.step("negative inverse mass and inertia", bi.status_word(bi.CODE_BAD_MASS), bodies=bodies)]
+        steps = [sb.step("negative inverse mass and inertia", case.status, bodies=bodies)]
     elif name == "tlast_early":
         short = [p.copy() for p in good.passes]
         short[1] = short[1][:4 * sb.record_bytes(1)]
         cut = [p.copy() for p in good.passes]
         cut[0] = cut[0][:-sb.beat_bits // 8]  # the last record of pass 0 loses its last beat
-        steps = [sb.step("pass 1 has 4 of 10 records", bi.status_word(bi.CODE_CONS_TLAST), passes=short,
+        steps = [sb.step("pass 1 has 4 of 10 records", case.status, passes=short,
                          extra_drops={k: 1 for k in range(4, nm)}),
-                 sb.step("pass 0's last record cut short", bi.status_word(bi.CODE_CONS_TLAST), passes=cut,
-                         extra_drops={nm - 1: 0})]
+                 sb.step("pass 0's last record cut short", case.status, passes=cut, extra_drops={nm - 1: 0})]
     elif name == "tlast_late":
         long = [p.copy() for p in good.passes]
         long[0] = np.concatenate([long[0], long[0][:2 * sb.record_bytes(0)]])
         long[-1] = np.concatenate([long[-1], long[-1][-sb.record_bytes(len(long) - 1):]])
-        steps = [sb.step("passes 0 and last too long", bi.status_word(bi.CODE_CONS_TLAST), passes=long)]
-    elif name == "body_tlast":
+        steps = [sb.step("passes 0 and last too long", case.status, passes=long)]
+    elif name == "body_tlast_early":
         rec = sb.layout.body_in_bytes
-        steps = [sb.step("body stream 2 bodies short", bi.status_word(bi.CODE_BODY_TLAST),
-                         body_in=good.body_in[:-2 * rec], missing_bodies=2),
-                 sb.step("body stream a body long", bi.status_word(bi.CODE_BODY_TLAST),
-                         body_in=np.concatenate([good.body_in, good.body_in[:rec]])),
-                 sb.step("last body record cut short", bi.status_word(bi.CODE_BODY_TLAST),
-                         body_in=good.body_in[:-16], cut_bodies=(nb - 1,))]
+        steps = [sb.step("body stream 2 bodies short", case.status, body_in=good.body_in[:-2 * rec],
+                         missing_bodies=2),
+                 sb.step("last body record cut short", case.status, body_in=good.body_in[:-16],
+                         cut_bodies=(nb - 1,))]
+    elif name == "body_tlast_late":
+        rec = sb.layout.body_in_bytes
+        steps = [sb.step("body stream a body long", case.status,
+                         body_in=np.concatenate([good.body_in, good.body_in[:rec]]))]
     elif name == "zero_manifolds":
         none = ConstraintSet(**{f.name: getattr(job.cons, f.name)[:0] for f in dataclasses.fields(ConstraintSet)})
         free = dataclasses.replace(job, cons=none, schedule=np.zeros(0, dtype=np.int64))
         step = bi.StepBuilder(free, sb.beat_bits).step("num_manifolds 0", passes=[])
         steps = [step]
+        assert case.status == 0
     elif name == "bad_argument":
         args = dict(good.args, num_bodies=MAX_BODIES + 1)
         empty = np.zeros(0, dtype=np.uint8)
         steps = [dataclasses.replace(good, label="num_bodies > MAX_BODIES", args=args, body_in=empty, passes=[],
                                      body_out=empty, trace=expected_trace(job.fmt, [], empty, empty),
-                                     status=bi.status_word(bi.CODE_BAD_ARG), issued=0, rejected=0)]
+                                     status=case.status, issued=0, rejected=0)]
     elif name == "start_busy":
-        steps = [dataclasses.replace(good, label="ap_start during the run",
-                                     status=bi.status_word(bi.CODE_START_BUSY), action="start_busy",
-                                     action_cycle=300)]
+        steps = [dataclasses.replace(good, label="ap_start during the run", status=case.status,
+                                     action="start_busy", action_cycle=300)]
     elif name == "reset_mid_run":
         steps = [dataclasses.replace(good, label="reset during the solve", action="reset", action_cycle=900)]
     elif name == "unmapped_axi":
-        steps = [dataclasses.replace(good, label="unmapped accesses before the run",
-                                     status=bi.status_word(bi.CODE_UNMAPPED), action="unmapped")]
+        steps = [dataclasses.replace(good, label="unmapped accesses before the run", status=case.status,
+                                     action="unmapped")]
     else:  # pragma: no cover
         raise KeyError(name)
     return steps + [good]
@@ -255,7 +246,8 @@ def _prepare(seed: int) -> dict[str, Path]:
     from models.contact_solver import SolverParams
     from models.dma_model import get_preset
     from models.number_format import parse_format
-    from sim.kernel_run import KernelJob, default_window
+    from models.kernel_job import KernelJob
+    from sim.kernel_build import default_window
 
     fmt, preset = parse_format(FMT), get_preset(DMA)
     frame = scenes.load_or_capture("stack", n=10)
@@ -265,10 +257,10 @@ def _prepare(seed: int) -> dict[str, Path]:
     meta = {"format": FMT, "dma": DMA, "seed": seed,
             "body_out_record_bytes": sf.StreamLayout(fmt, preset.stream_bits).body_out_bytes}
     files = {}
-    for name in SCENARIOS:
+    for name, case in SCENARIOS.items():
         path = _case_file(name)
         path.with_suffix(".result.json").unlink(missing_ok=True)  # never judge a stale report
-        bi.save_steps(path, _scenario_steps(name, job, builder), meta)
+        bi.save_steps(path, _scenario_steps(case, job, builder), meta)
         files[name] = path
     return files
 
@@ -276,7 +268,7 @@ def _prepare(seed: int) -> dict[str, Path]:
 @pytest.fixture(scope="module")
 def scenario_results() -> dict[str, dict | None]:
     """Prepare every scenario and run them all in one simulator process; each one's result JSON (None: none)."""
-    from cocotb_runner import run_kernel_cocotb, test_seed
+    from sim.cocotb_run import run_kernel_cocotb, test_seed
 
     seed = test_seed()
     t0 = time.monotonic()
@@ -298,6 +290,6 @@ def scenario_results() -> dict[str, dict | None]:
 def test_kernel_bad_input(scenario_results: dict[str, dict | None], scenario: str) -> None:
     res = scenario_results[scenario]
     assert res is not None, f"{scenario}: the cocotb test left no result (see the simulator log above)"
-    assert res["ok"], f"{scenario} ({SCENARIOS[scenario]}): {res['error']}"
-    print(f"\n{scenario}: {SCENARIOS[scenario]}\n" + "\n".join(json.dumps(s) for s in res["steps"]))
+    assert res["ok"], f"{scenario} ({SCENARIOS[scenario].describe()}): {res['error']}"
+    print(f"\n{scenario}: {SCENARIOS[scenario].describe()}\n" + "\n".join(json.dumps(s) for s in res["steps"]))
 

@@ -1,6 +1,7 @@
-"""Bad input to the kernel (issue 7): steps whose streams break the rules, and what the kernel must do with them.
+"""Bad input to the kernel: steps whose streams break the rules, and what the kernel must do with them.
 
-The kernel's documented response (``rtl/README.md``, "Bad input") is modelled here on top of the golden model:
+The cases are catalogued in ``models/bad_input.py`` (name, error code, response); the kernel's documented
+response (``rtl/README.md``, "Bad input") is modelled here on top of the golden model:
 
 * a body-in record with a non-finite word or a negative inverse mass / inertia, or cut short, makes a *frozen*
   body: integration passes its record through unchanged and every manifold naming it is rejected; bodies
@@ -31,23 +32,11 @@ from models import stream_format as sf
 from models.constraints import BodyTable, ConstraintSet
 from models.contact_solver import CONTACT_PASS, Impulses, PassRecord, pass_sequence, run_pass, schedule_levels
 from models.integrator import integrate
-from sim.kernel_run import KernelJob
+from models.kernel_job import KernelJob
 
 from .scoreboard import ExpectedTrace, expected_trace
 
 NEVER = 1 << 30  # "rejected from pass NEVER": accepted in every pass
-
-# status register (rtl/README.md): flag bit k-1 of error code k (codes 1..8), the first error's code in 15:8
-CODE_CONS_TLAST, CODE_BODY_TLAST, CODE_BAD_ARG, CODE_BODY_INDEX = 1, 2, 3, 4
-CODE_NONFINITE, CODE_BAD_MASS, CODE_STATIC_PAIR, CODE_START_BUSY, CODE_UNMAPPED = 5, 6, 7, 8, 9
-
-
-def status_word(first: int, *codes: int) -> int:
-    """The status register after errors ``codes`` (``first`` the earliest): flags and the first code."""
-    flags = 0
-    for c in (first, *codes):
-        flags |= 1 << (c - 1) if c <= 8 else 1 << (24 + c - 9)
-    return flags | (first << 8)
 
 
 @dataclass
