@@ -155,7 +155,7 @@ async def run_register_errors(dut) -> None:
 
 @pytest.mark.parametrize("preset_name,idle", [("zcu102", 0.0), ("zcu102", 0.3), ("zcu102_1", 0.0), ("ideal", 0.0)])
 def test_axi_dma(preset_name: str, idle: float) -> None:
-    from cocotb_runner import run_cocotb, test_seed
+    from sim.cocotb_run import run_cocotb, test_seed
 
     preset = get_preset(preset_name)
     seed = test_seed()

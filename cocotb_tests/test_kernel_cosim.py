@@ -2,19 +2,21 @@
 
 pytest prepares a case (scene frame, constraints, schedule, the packed streams of ``models/stream_format.py``
 and the golden model's expected trace and body table) into an ``.npz``; the cocotb test ``run_step`` loads
-DDR, programs the DMAs and the kernel over AXI4-Lite (``tb.host_driver``), starts it, and the scoreboard
-(``tb.scoreboard``) compares every retired manifold-pass as it appears; the final body table read back over
-S2MM is compared too. Random idle cycles on every MM2S stream and random backpressure on S2MM are seeded
-(the seed is printed; ``SEED=<n>`` reproduces a run); results must be bit-identical whatever the stalls.
+DDR, programs the DMAs and the kernel over AXI4-Lite (``cocotb_tests/tb/host_driver.py``), starts it, and the
+scoreboard (``cocotb_tests/tb/scoreboard.py``) compares every retired manifold-pass as it appears; the final body
+table read back over S2MM is compared too. Random idle cycles on every MM2S stream and random backpressure on
+S2MM are seeded (the seed is printed; ``SEED=<n>`` reproduces a run); results must be bit-identical whatever the
+stalls.
 The status register must read 0, no manifold-pass may be rejected, and the floating-point event counters must
-equal the golden model's prediction (``tb.fp_events``; zero for these fp32 scenes).
+equal the golden model's prediction (``cocotb_tests/tb/fp_events.py``; zero for these fp32 scenes).
 
 The kernel's cycles must not beat the cycle model's lower bound (``models/cycle_model.py``, with the first body and
 constraint transfers armed before ap_start, as this host arms them).
 
-``test_scoreboard_catches_friction_sign_bug`` checks the checker: the kernel built with the test-only
-``TEST_FRICTION_SIGN_BUG`` must be stopped by the scoreboard at the first friction-pass record (the cocotb test
-``run_step_expect_mismatch`` catches the scoreboard's AssertionError and reports it to pytest).
+``test_scoreboard_catches_friction_sign_bug`` checks the checker: the kernel built with the friction-sign bug
+(``KernelBuild(friction_sign_bug=True)``, a build of its own) must be stopped by the scoreboard at the first
+friction-pass record (the cocotb test ``run_step_expect_mismatch`` catches the scoreboard's AssertionError and
+reports it to pytest).
 
 ``WAVES=1`` writes ``build/cocotb/<build>_waves/<case>.fst`` and a GTKWave save file beside it,
 ``<case>.gtkw`` (control, DMA streams and pipeline signals grouped); both paths are printed.
@@ -30,7 +32,6 @@ import json
 import os
 import re
 import time
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -40,7 +41,6 @@ import numpy as np
 import pytest
 
 from models.number_format import EVENT_NAMES, parse_format
-from sim.verilator_build import DEBUG_COMPILE_ARGS, QUICK_COMPILE_ARGS
 
 TIMEOUT_CYCLES = 2_000_000
 
@@ -67,8 +67,8 @@ class _Step:
 
 async def _start_step(dut) -> _Step:
     """Load the case of ``CASE_FILE``, reset the kernel and program its arguments."""
-    from tb.host_driver import KernelHost
-    from tb.scoreboard import ExpectedTrace, TraceScoreboard
+    from cocotb_tests.tb.host_driver import KernelHost
+    from cocotb_tests.tb.scoreboard import ExpectedTrace, TraceScoreboard
 
     from models.dma_model import get_preset
 
@@ -138,8 +138,8 @@ async def run_step_expect_mismatch(dut) -> None:
 
 def _prepare_case(path: Path, scene: str, params: dict, fmt_name: str, schedule_kind: str, dma: str,
                   seed: int, idle: float, backpressure: float, iterations: int = 4) -> dict:
-    from tb.fp_events import predicted_events
-    from tb.scoreboard import expected_trace
+    from cocotb_tests.tb.fp_events import predicted_events
+    from cocotb_tests.tb.scoreboard import expected_trace
 
     from models import scenes
     from models import stream_format as sf
@@ -148,7 +148,7 @@ def _prepare_case(path: Path, scene: str, params: dict, fmt_name: str, schedule_
     from models.dma_model import get_preset
     from models.integrator import IntegrationParams, integrate
     from models.schedule import make_schedule
-    from sim.kernel_run import KernelJob
+    from models.kernel_job import KernelJob
 
     fmt = parse_format(fmt_name)
     preset = get_preset(dma)
@@ -188,22 +188,18 @@ CASES = [
 ]
 
 
-# A short run: C++ at -O0 (DEBUG_COMPILE_ARGS without its -fno-inline, which would split the kernel into ~330
-# C++ files and take longer to build than -O1).
-O0_COMPILE_ARGS = [a for a in DEBUG_COMPILE_ARGS if a != "-fno-inline"]
-
-
 def _cosim(testcase: str, scene: str, params: dict, fmt_name: str, schedule_kind: str, dma: str, idle: float,
-           bp: float, bug: str | None = None, compile_args: Sequence[str] = QUICK_COMPILE_ARGS) -> Path:
-    """Prepare the case, build the kernel for it (``bug``: a test-only parameter set to 1, in a build of its
-    own) and run the cocotb test ``testcase``; returns the case file. With ``WAVES=1`` the FST and its GTKWave
+           bp: float, friction_sign_bug: bool = False, compile_profile: str = "quick") -> Path:
+    """Prepare the case, build the kernel for it (``friction_sign_bug``: the friction pipe with the wrong sign,
+    in a build of its own; ``compile_profile``: a key of ``sim.kernel_build.COMPILE_PROFILES``, "o0" for a short
+    run) and run the cocotb test ``testcase``; returns the case file. With ``WAVES=1`` the FST and its GTKWave
     save file are ``build/cocotb/<build>_waves/<case>.fst`` / ``.gtkw`` (printed)."""
-    from cocotb_runner import BUILD_ROOT, run_kernel_cocotb, test_seed
+    from sim.cocotb_run import BUILD_ROOT, run_kernel_cocotb, test_seed
 
     seed = test_seed()
     case_name = f"{scene}-{fmt_name}-{schedule_kind}-{dma}"
-    if bug:
-        case_name += "-" + bug.removeprefix("TEST_").lower()
+    if friction_sign_bug:
+        case_name += "-friction_sign_bug"
     case_dir = BUILD_ROOT / "cases"
     case_dir.mkdir(parents=True, exist_ok=True)
     case_file = case_dir / f"{case_name}.npz"
@@ -212,7 +208,7 @@ def _cosim(testcase: str, scene: str, params: dict, fmt_name: str, schedule_kind
     meta = _prepare_case(case_file, scene, params, fmt_name, schedule_kind, dma, seed, idle, bp)
     print(f"{scene}: {meta['num_bodies']} bodies, {meta['num_manifolds']} manifolds, {meta['passes']} passes")
     run_kernel_cocotb("test_kernel_cosim", fmt_name, dma, seed, {"CASE_FILE": str(case_file)}, testcase=[testcase],
-                      bug=bug, compile_args=compile_args, waves_name=case_name)
+                      friction_sign_bug=friction_sign_bug, compile_profile=compile_profile, waves_name=case_name)
     return case_file
 
 
@@ -224,16 +220,16 @@ def test_kernel_cosim(scene, params, fmt_name, schedule_kind, dma, idle, bp) -> 
 
 
 def test_scoreboard_catches_friction_sign_bug() -> None:
-    """The kernel built with TEST_FRICTION_SIGN_BUG (each friction row's velocity update applied with the wrong
+    """The kernel built with the friction-sign bug (each friction row's velocity update applied with the wrong
     sign): the scoreboard must stop at the first update the bug affects, the first friction-pass record
     (iteration 0, slot 0), and name the field with both values; every contact-pass record before it matches.
     In the stack that record (manifold 0: the ground as body A, the bottom cube as B) has non-zero friction
     impulses, so the bug shows there, on body B and on the second tangent row's impulse (computed after the
     first row's wrong update). Built at -O0: a short run (it stops at the mismatch, ~1,700 cycles in)."""
-    from tb.scoreboard import FIELDS
+    from cocotb_tests.tb.scoreboard import FIELDS
 
     case_file = _cosim("run_step_expect_mismatch", "stack", {"n": 10}, "fp32", "hazard", "zcu102", 0.2, 0.2,
-                       bug="TEST_FRICTION_SIGN_BUG", compile_args=O0_COMPILE_ARGS)
+                       friction_sign_bug=True, compile_profile="o0")
     report = json.loads(case_file.with_suffix(".mismatch.json").read_text())
     print(json.dumps(report, indent=1))
     assert report["caught"], f"the injected friction sign bug went undetected ({report['records_compared']} " \
@@ -258,11 +254,11 @@ def test_scoreboard_catches_friction_sign_bug() -> None:
 def test_gtkwave_save_file_names_design_signals(tmp_path, fmt_name, dma) -> None:
     """Every trace of the kernel's ``.gtkw`` is a signal the RTL declares in that scope, with the range it has
     in that build (e.g. s_axis_cons_TDATA follows CONS_W), and the file reads back trace for trace."""
-    from tb import gtkwave_save as gs
+    from sim import gtkwave_save as gs
 
-    from cocotb_runner import kernel_parameters
+    from sim.cocotb_run import kernel_cocotb_build
 
-    params = kernel_parameters(fmt_name, dma)
+    params = kernel_cocotb_build(fmt_name, dma).parameters
     groups = gs.kernel_groups(params)
     save = gs.write_kernel_save_file(tmp_path / "k.fst", parameters=params)
     assert save == tmp_path / "k.gtkw"
@@ -290,8 +286,8 @@ def test_gtkwave_save_file_names_design_signals(tmp_path, fmt_name, dma) -> None
 def test_gtkwave_save_file_matches_fst() -> None:
     """Against a real dump, when there is one (a ``WAVES=1`` run of the fp32 kernel) and ``fst2vcd`` (gtkwave
     package) is installed: every trace of the save file is in the FST's hierarchy."""
-    from cocotb_runner import BUILD_ROOT, kernel_parameters
-    from tb import gtkwave_save as gs
+    from sim import gtkwave_save as gs
+    from sim.cocotb_run import BUILD_ROOT, kernel_cocotb_build
 
     fsts = sorted((BUILD_ROOT / "pgs_kernel_e8m23_c512_waves").glob("*.fst"), key=lambda f: f.stat().st_mtime)
     if not fsts:
@@ -299,7 +295,7 @@ def test_gtkwave_save_file_matches_fst() -> None:
     names = gs.fst_signal_names(fsts[-1])
     if names is None:
         pytest.skip("fst2vcd (gtkwave package) not installed")
-    traces = [t.path for g in gs.kernel_groups(kernel_parameters("fp32", "zcu102")) for t in g.traces]
+    traces = [t.path for g in gs.kernel_groups(kernel_cocotb_build("fp32", "zcu102").parameters) for t in g.traces]
     missing = [t for t in traces if t not in names]
     assert not missing, f"not in {fsts[-1]}: {missing}"
 
@@ -309,7 +305,7 @@ def _cycle_lower_bound(fmt: Any, bodies: Any, cons: Any, schedule: np.ndarray, s
     """Cycles the case cannot beat: the cycle model with the first transfers under way at ap_start."""
     from models.cycle_model import lower_bound
     from models.integrator import IntegrationParams
-    from sim.kernel_run import KernelJob
+    from models.kernel_job import KernelJob
 
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
     return lower_bound(KernelJob(fmt, bodies, cons, schedule, sp, ip), preset, prefetched=True)

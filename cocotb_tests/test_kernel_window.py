@@ -6,7 +6,7 @@ slot order's band width D (``models.record_window``), every body sees its update
 so the trace (put back into pass order) and the body-out stream must equal the golden model's bit for bit. Built
 once (fp32, a ring of 1,024 records of two issue lanes, ``build/verilator/pgs_kernel_e8m23_c512_w1024x8_l2/``:
 every manifold-pass of a record issues in the same cycle into its lane's pipes) and run in the compiled harness
-(``sim.kernel_run``) through the zcu102 DMA model with random stream gaps and output backpressure (seeded: the
+(``sim.kernel_step``) through the zcu102 DMA model with random stream gaps and output backpressure (seeded: the
 seed is printed, ``SEED=<int>`` overrides it). The one-lane window kernel is the same RTL with ``LANES`` = 1
 (linted by ``make lint``; ``make sim RECORD_WINDOW=...`` runs it); CI builds the two-lane one, which exercises
 the lane logic as well.
@@ -40,9 +40,11 @@ from models.number_format import FP32
 from models.stream_format import StreamLayout
 from models.record_window import fits
 from models.schedule import band_width
-from sim.kernel_run import (Comparison, KernelJob, KernelResult, build_kernel, compare_body_out, compare_trace,
-                            golden_step, kernel_build, read_trace, register_writes, run_harness, run_kernel_step,
-                            write_inputs)
+from models.kernel_job import KernelJob
+from sim.harness_run import register_writes, run_harness, write_inputs
+from sim.kernel_build import KernelBuild, build_kernel
+from sim.kernel_step import KernelResult, golden_step, run_kernel_step
+from sim.trace_compare import Comparison, compare_body_out, compare_trace, read_trace
 
 DEPTH = 1024
 LANES = 2
@@ -118,7 +120,7 @@ def _run_raw(job: KernelJob, tmp: Path, regs: list[tuple[int, int]],
              cons_edit=None) -> dict[str, float]:  # type: ignore[no-untyped-def]
     plan = job.record_window
     assert plan is not None
-    kb = kernel_build(job, PRESET)
+    kb = KernelBuild.for_job(job, PRESET)
     write_inputs(tmp, job, kb)
     (tmp / "regs.bin").write_bytes(np.asarray(regs, dtype="<u4").tobytes())
     if cons_edit is not None:
@@ -219,7 +221,7 @@ def _assert_golden_without(sent: KernelJob, kept: np.ndarray, run: Path) -> None
     assert plan is not None
     expected = dataclasses.replace(sent, schedule=kept, record_window=dataclasses.replace(plan, slots=kept))
     golden = golden_step(expected)
-    kb = kernel_build(sent, PRESET)
+    kb = KernelBuild.for_job(sent, PRESET)
     cmp = Comparison()
     compare_trace(read_trace(run / "trace.bin", FP32, kb.trace_bytes), golden.records, expected, cmp)
     compare_body_out(run, expected, kb, golden.final, cmp)

@@ -1,8 +1,8 @@
 """Kernel-level bit-exact test of rtl/pgs_kernel.sv against the golden model (the ``make sim`` fast path).
 
 The kernel is built once per parameter set with Verilator into the compiled C++ harness
-(``cocotb_tests/kernel/pgs_kernel_main.cpp``, ``build/verilator/pgs_kernel_e8m23_c512/``, the same build
-``make sim`` uses). Per case (scene, format, schedule) ``sim.kernel_run`` packs the body table and the
+(``sim/harness/pgs_kernel_main.cpp``, ``build/verilator/pgs_kernel_e8m23_c512/``, the same build
+``make sim`` uses). Per case (scene, format, schedule) ``sim.kernel_step`` packs the body table and the
 constraint stream of one step, runs the harness through the zcu102 DMA model with random stream gaps and
 output backpressure on top (seeded: the seed is printed, ``SEED=<int>`` overrides it), and compares bit for bit:
 
@@ -37,12 +37,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cocotb_tests.tb.fp_events import predicted_events
 from models import cycle_model, scenes
 from models.contact_solver import SolverParams
 from models.dma_model import DmaPreset, get_preset
 from models.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat
-from sim.kernel_run import KernelJob, KernelResult, default_window, run_kernel_step
-from tb.fp_events import predicted_events
+from models.kernel_job import KernelJob
+from sim.kernel_build import default_window
+from sim.kernel_step import KernelResult, run_kernel_step
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 ITERATIONS = 4

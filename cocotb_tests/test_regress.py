@@ -1,7 +1,7 @@
 """``make regress SEEDS=N``: the kernel co-simulation over N seeds and more scenes, in parallel (pytest-xdist).
 
 Every case (scene x format x schedule x DMA model, :data:`CASES`) and seed runs the compiled harness
-(``sim.kernel_run``) twice:
+(``sim.kernel_step``) twice:
 
 * with the seed's random stream gaps and output backpressure (rates drawn from the seed): every trace record
   and the body table bit-exact with the golden model, status 0, and the cycles no fewer than the cycle model's
@@ -43,7 +43,9 @@ from models.contact_solver import SolverParams  # noqa: E402
 from models.dma_model import get_preset  # noqa: E402
 from models.frame import Frame  # noqa: E402
 from models.number_format import BF16, FP16, FP32, NumberFormat  # noqa: E402
-from sim.kernel_run import KernelBuild, KernelJob, build_kernel, default_window, run_kernel_step  # noqa: E402
+from models.kernel_job import KernelJob  # noqa: E402
+from sim.kernel_build import KernelBuild, build_kernel, default_window  # noqa: E402
+from sim.kernel_step import run_kernel_step  # noqa: E402
 
 ITERATIONS = 4
 OUT = REPO / "build" / "regress"

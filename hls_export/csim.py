@@ -1,8 +1,8 @@
 """C simulation of the HLS kernel (``hls_export/pgs_kernel.cpp``), checked bit for bit against the golden model.
 
 The testbench ``hls_export/pgs_csim_main.cpp`` is a drop-in for the RTL kernel's Verilator harness: the same
-command line and the same files. So one step runs exactly as ``sim.kernel_run.run_kernel_step`` runs the RTL,
-with that module's own pieces: ``write_inputs`` packs the streams (``models/stream_format.py``),
+command line and the same files. So one step runs exactly as ``sim.kernel_step.run_kernel_step`` runs the RTL,
+with the same pieces (``sim.harness_run``, ``sim.trace_compare``): ``write_inputs`` packs the streams (``models/stream_format.py``),
 ``run_harness`` runs the executable, ``read_trace`` / ``compare_trace`` / ``compare_body_out`` compare every
 retired manifold-pass and the body-out stream with ``golden_step``. The trace's cycle field holds the record
 index (C simulation is untimed).
@@ -31,8 +31,11 @@ from models import scenes
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from models.number_format import FP32
-from sim.kernel_run import (Comparison, KernelBuild, KernelJob, compare_body_out, compare_trace, default_window,
-                            golden_step, read_trace, run_harness, write_inputs)
+from models.kernel_job import KernelJob
+from sim.harness_run import run_harness, write_inputs
+from sim.kernel_build import KernelBuild, default_window
+from sim.kernel_step import golden_step
+from sim.trace_compare import Comparison, compare_body_out, compare_trace, read_trace
 from sim.verilator_build import REPO_ROOT
 
 HLS_DIR = Path(__file__).resolve().parent

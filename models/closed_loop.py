@@ -26,7 +26,7 @@ from .schedule import make_schedule
 
 
 # one step of the dynamics: (bodies, constraints, schedule) -> bodies after solve and integration; values in the
-# loop's format. ``golden_stepper`` is the reference model; ``sim.kernel_run.rtl_stepper`` runs the RTL kernel.
+# loop's format. ``golden_stepper`` is the reference model; ``sim.rtl_stepper.rtl_stepper`` runs the RTL kernel.
 Stepper = Callable[[BodyTable, Any, np.ndarray], BodyTable]
 StepperFactory = Callable[[Arithmetic, SolverParams, IntegrationParams], Stepper]
 

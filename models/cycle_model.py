@@ -1,7 +1,7 @@
 """Cycle model of the PGS kernel (``rtl/pgs_kernel.sv``) behind the compiled harness's DMA model.
 
 It predicts, without running Verilator, the cycle at which every manifold-pass retires (the ``trace.bin`` cycle
-of ``cocotb_tests/kernel/pgs_kernel_main.cpp``), the kernel's stall and bubble counters and its total cycles
+of ``sim/harness/pgs_kernel_main.cpp``), the kernel's stall and bubble counters and its total cycles
 (register 0x60). Everything below is read off the RTL and the harness; cycles count from 0 = the first cycle in
 LOAD (the harness's ``s.cycle - start_cycle``), the cycle in which a value is visible before the clock edge.
 

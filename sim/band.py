@@ -4,7 +4,7 @@ For every scene (``models.scenes.SCENES``, the frame ``make sim`` uses: cached i
 prints the manifold count and D (``models.schedule.band_width``: the longest run of slots over which one dynamic
 body's manifolds spread) for pybullet's order, the hazard order, and every banded order
 (``models.schedule.BANDED_ORDERS``) before and after the hazard reordering with the kernel's hazard window W of
-each format on the ZCU102 preset (``sim.kernel_run.default_window``). Then, for the budget scene (the thesis
+each format on the ZCU102 preset (``sim.kernel_build.default_window``). Then, for the budget scene (the thesis
 frame unless ``--budget-scene``), the on-chip bytes (``models.onchip_budget``) of body state, accumulated impulses
 and the record window of the best banded schedule after hazard reordering, per platform, format, number of passes
 trailing the streaming pass (fetch once per 1, 2 or ITERS iterations) and impulse placement, and whether they fit.
@@ -32,7 +32,7 @@ from models.constraints import body_table, setup_constraints
 from models.frame import FrameError
 from models.number_format import BF16, FP16, FP32, NumberFormat
 from models.schedule import BANDED_ORDERS, band_width, hazard_order, pybullet_order
-from sim.kernel_run import default_window
+from sim.kernel_build import default_window
 
 FORMATS: tuple[NumberFormat, ...] = (FP32, FP16, BF16)
 

@@ -5,10 +5,13 @@ gets its own build directory under ``build/cocotb/``; a build is reused when not
 random seed. ``WAVES=1`` in the environment builds with FST tracing (into ``build/cocotb/<build>_waves/``) and
 writes the waveform to ``build/cocotb/<build>_waves/<waves_name>.fst`` (``waves_name`` defaults to the top),
 next to a GTKWave save file ``<waves_name>.gtkw`` when the caller gives the signal groups
-(``tb.gtkwave_save``); both paths are printed at the end of the run.
+(``sim.gtkwave_save``); both paths are printed at the end of the run.
 
-:func:`run_kernel_cocotb` runs a cocotb test module on the RTL kernel: one build per number format and constraint
-beat width (``build/cocotb/pgs_kernel_e<E>m<M>_c<bits>/``), shared by every kernel test module.
+:func:`run_kernel_cocotb` runs a cocotb test module of ``cocotb_tests/`` on the RTL kernel, built from the same
+description as the compiled harness (``sim.kernel_build.KernelBuild``: parameters, sources, compile profile), one
+build per description in ``build/cocotb/<KernelBuild.name>/`` (e.g. ``pgs_kernel_e8m23_c512``), shared by every
+kernel test module. The test modules run inside the simulator with the repository and ``cocotb_tests/`` on its
+``PYTHONPATH``.
 """
 
 from __future__ import annotations
@@ -20,11 +23,14 @@ import shutil
 from pathlib import Path
 from typing import Mapping, Sequence
 
+from models.dma_model import get_preset
+from models.number_format import parse_format
+from sim.gtkwave_save import Group, kernel_groups, write_save_file
+from sim.kernel_build import PUBLIC_VLT, TOP, WAVE_ARGS, KernelBuild
 from sim.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT, ensure_verilator_env
-from tb.gtkwave_save import Group, kernel_groups, write_save_file
 
 BUILD_ROOT = REPO_ROOT / "build" / "cocotb"
-KERNEL_PUBLIC_VLT = Path(__file__).resolve().parent / "kernel" / "pgs_kernel_public.vlt"
+TESTS_DIR = REPO_ROOT / "cocotb_tests"
 # the wheel's verilated.mk leaves these empty (the precompiled-header include, the thread library)
 _MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include CFG_LDLIBS_THREADS=-pthread"
 
@@ -67,13 +73,23 @@ def run_cocotb(top: str, sources: Sequence[Path], test_module: str, parameters: 
     ``waves_name`` names the FST (and the save file) in the build directory, ``waves_groups`` are the traces
     the GTKWave save file shows. Returns the results.xml path; raises if any cocotb test failed.
     """
-    ensure_verilator_env()
-    from cocotb_tools.runner import get_runner
-
     params = dict(parameters or {})
     tag = name or re.sub(r"[^A-Za-z0-9_.-]", "_", top + "".join(f"_{k}{v}" for k, v in sorted(params.items())))
     waves = waves_enabled()
-    build_dir = BUILD_ROOT / (tag + ("_waves" if waves else ""))
+    return _build_and_test(top, sources, test_module, params, BUILD_ROOT / (tag + ("_waves" if waves else "")),
+                           [*compile_args, *(WAVE_ARGS if waves else ())], waves, seed=seed, extra_env=extra_env,
+                           testcase=testcase, public_vlt=public_vlt, waves_name=waves_name, waves_groups=waves_groups)
+
+
+def _build_and_test(top: str, sources: Sequence[Path], test_module: str, parameters: Mapping[str, int],
+                    build_dir: Path, compile_args: Sequence[str], waves: bool, seed: int | None,
+                    extra_env: Mapping[str, str] | None, testcase: Sequence[str] | None, public_vlt: Path | None,
+                    waves_name: str | None, waves_groups: Sequence[Group] | None) -> Path:
+    """Build ``top`` into ``build_dir`` with ``compile_args`` (Verilator options and ``-MAKEFLAGS``; the FST
+    options included when ``waves``) and run the cocotb tests of ``test_module``."""
+    ensure_verilator_env()
+    from cocotb_tools.runner import get_runner
+
     runner = get_runner("verilator")
     # the runner calls make itself: variable overrides reach it through MAKEFLAGS
     compile_opts, compile_make_vars = split_compile_args(compile_args)
@@ -82,11 +98,9 @@ def run_cocotb(top: str, sources: Sequence[Path], test_module: str, parameters: 
     build_args = ["-Wno-fatal", *compile_opts]
     if public_vlt is not None:  # expose only what the testbench touches (the runner makes every net public)
         build_args += ["--no-public-flat-rw", str(public_vlt)]
-    if waves:
-        build_args += ["--trace-fst", "--trace-structs"]
-    runner.build(sources=[str(s) for s in sources], hdl_toplevel=top, parameters=params, build_dir=str(build_dir),
-                 build_args=build_args, waves=waves, timescale=("1ns", "1ps"))
-    env = {"PYTHONPATH": os.pathsep.join([str(REPO_ROOT), str(REPO_ROOT / "cocotb_tests")])}
+    runner.build(sources=[str(s) for s in sources], hdl_toplevel=top, parameters=dict(parameters),
+                 build_dir=str(build_dir), build_args=build_args, waves=waves, timescale=("1ns", "1ps"))
+    env = {"PYTHONPATH": os.pathsep.join([str(REPO_ROOT), str(TESTS_DIR)])}
     env.update(extra_env or {})
     fst = build_dir / f"{waves_name or top}.fst"
     save_file = fst.with_suffix(".gtkw") if waves and waves_groups else None
@@ -105,29 +119,20 @@ def run_cocotb(top: str, sources: Sequence[Path], test_module: str, parameters: 
     return Path(results)
 
 
-def kernel_parameters(fmt_name: str, dma: str) -> dict[str, int]:
-    """The kernel's parameters for a number format and a DMA preset (its constraint stream width)."""
-    from models.dma_model import get_preset
-    from models.number_format import parse_format
-
-    fmt = parse_format(fmt_name)
-    return {"EXP_BITS": fmt.exp_bits, "MAN_BITS": fmt.man_bits, "CONS_W": get_preset(dma).stream_bits}
+def kernel_cocotb_build(fmt_name: str, dma: str, friction_sign_bug: bool = False,
+                        compile_profile: str = "quick") -> KernelBuild:
+    """The kernel build of the cocotb benches for a number format and a DMA preset (its constraint stream width),
+    with FST tracing when ``WAVES=1``."""
+    return KernelBuild(parse_format(fmt_name), cons_bits=get_preset(dma).stream_bits, waves=waves_enabled(),
+                       friction_sign_bug=friction_sign_bug, compile_profile=compile_profile)
 
 
 def run_kernel_cocotb(test_module: str, fmt_name: str, dma: str, seed: int, extra_env: Mapping[str, str],
-                      testcase: Sequence[str] | None = None, bug: str | None = None,
-                      compile_args: Sequence[str] = QUICK_COMPILE_ARGS, waves_name: str | None = None) -> Path:
-    """Build the kernel for ``fmt_name`` / ``dma`` (``bug``: a test-only parameter set to 1, in a build of its own)
-    and run the cocotb tests of ``test_module`` on it; see :func:`run_cocotb`."""
-    from sim.lint import rtl_files
-
-    params = kernel_parameters(fmt_name, dma)
-    tag = "pgs_kernel_e{EXP_BITS}m{MAN_BITS}_c{CONS_W}".format(**params)
-    if bug:
-        params[bug] = 1
-        tag += "_" + bug.removeprefix("TEST_").lower()
-    packages, modules = rtl_files()
-    return run_cocotb("pgs_kernel", packages + modules, test_module, name=tag, seed=seed, parameters=params,
-                      extra_env=extra_env, testcase=testcase, public_vlt=KERNEL_PUBLIC_VLT,
-                      compile_args=compile_args, waves_name=waves_name,
-                      waves_groups=kernel_groups(params) if waves_enabled() else None)
+                      testcase: Sequence[str] | None = None, friction_sign_bug: bool = False,
+                      compile_profile: str = "quick", waves_name: str | None = None) -> Path:
+    """Build the kernel of :func:`kernel_cocotb_build` and run the cocotb tests of ``test_module`` on it; see
+    :func:`run_cocotb`."""
+    kb = kernel_cocotb_build(fmt_name, dma, friction_sign_bug, compile_profile)
+    return _build_and_test(TOP, kb.sources(), test_module, kb.parameters, BUILD_ROOT / kb.name, kb.compile_args,
+                           kb.waves, seed=seed, extra_env=extra_env, testcase=testcase, public_vlt=PUBLIC_VLT,
+                           waves_name=waves_name, waves_groups=kernel_groups(kb.parameters) if kb.waves else None)

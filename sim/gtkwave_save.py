@@ -24,7 +24,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-RTL_DIR = Path(__file__).resolve().parents[2] / "rtl"
+RTL_DIR = Path(__file__).resolve().parents[1] / "rtl"
 
 BIN, HEX, DEC = "28", "22", "24"  # GTKWave display flags (right-justified binary / hexadecimal / decimal)
 GROUP_BEGIN, GROUP_END = "800200", "1000200"
@@ -45,7 +45,7 @@ class Group:
 def save_file_text(dumpfile: Path, savefile: Path, groups: Sequence[Group]) -> str:
     """The text of a save file showing ``groups`` of ``dumpfile`` (the hierarchy tree opened down to the scopes
     of the traces)."""
-    lines = ["[*] GTKWave save file written by cocotb_tests/tb/gtkwave_save.py",
+    lines = ["[*] GTKWave save file written by sim/gtkwave_save.py",
              f'[dumpfile] "{Path(dumpfile).resolve()}"', f'[savefile] "{Path(savefile).resolve()}"',
              "[timestart] 0", "[sst_expanded] 1", "[signals_width] 320", "[sst_width] 260"]
     scopes = {t.path.split("[")[0].rsplit(".", 1)[0] for g in groups for t in g.traces}

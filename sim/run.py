@@ -4,7 +4,7 @@ The run captures (or loads from ``build/frames/``) the scene's busiest frame wit
 into constraints, orders them (hazard schedule by default), and runs the step three ways:
 
 * the RTL kernel (``rtl/pgs_kernel.sv``) in the compiled Verilator harness behind the DMA preset's bandwidth
-  model (``sim/kernel_run.py``), its trace and body-out stream compared bit for bit with
+  model (``sim/kernel_step.py``), its trace and body-out stream compared bit for bit with
 * the golden model in the same number format (``models/contact_solver.py``), and
 * float64 references: the same schedule and iterations, and a converged solve.
 
@@ -42,8 +42,11 @@ from models.number_format import FLOAT64, FP32, NumberFormat, parse_format
 from models.residual import contact_residual
 from models.schedule import SCHEDULE_KINDS, make_schedule, stats
 from sim import baselines
-from sim.kernel_run import KernelBuild, KernelJob, KernelResult, KernelRunError, default_window, golden_step, \
-    kernel_bodies, kernel_build, run_kernel_step, text_progress
+from models.kernel_job import KernelJob
+from sim.harness_run import KernelRunError, text_progress
+from sim.kernel_build import KernelBuild, default_window
+from sim.kernel_step import KernelResult, golden_step, run_kernel_step
+from sim.trace_compare import kernel_bodies
 from sim.analyze import auto_format
 from sim.report import StagedDirectory, print_summary, write_report
 
@@ -276,7 +279,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
     res: KernelResult | None = None
     kb: KernelBuild | None = None
     if not args.no_kernel:
-        kb = kernel_build(job, preset, args.waves, args.body_bits)
+        kb = KernelBuild.for_job(job, preset, args.waves, args.body_bits)
         print(f"kernel: {kb.name} ({'building, first time a few minutes' if not _built(kb) else 'built'})", flush=True)
         progress = text_progress(job.manifold_passes)
         waves = run_dir / "waves.fst" if args.waves else None
@@ -393,7 +396,7 @@ def _built(kb: KernelBuild) -> bool:
 
 
 def _write_gtkw(fst: Path, kb: KernelBuild) -> None:
-    from cocotb_tests.tb.gtkwave_save import write_kernel_save_file
+    from sim.gtkwave_save import write_kernel_save_file
 
     # the compiled harness names its model "pgs_kernel": the design sits one scope below it
     save = write_kernel_save_file(fst, top="pgs_kernel.pgs_kernel", parameters=kb.parameters)

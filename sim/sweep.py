@@ -1,6 +1,6 @@
 """``make sweep``: kernel time against error, over iteration counts and number formats, on one scene.
 
-For every format and iteration count the RTL kernel runs the step in Verilator (``sim.kernel_run``, DMA preset
+For every format and iteration count the RTL kernel runs the step in Verilator (``sim.kernel_step``, DMA preset
 bandwidth model, trace and body-out compared bit for bit with the golden model) and the kernel's result is
 compared with a converged float64 solve of the same frame and schedule (``models.contact_solver.solve_converged``).
 Writes ``sweep.csv`` and ``sweep.png`` into ``build/sweep/<scene>-<dma>/``: time per manifold-pass (ns at the
@@ -38,8 +38,11 @@ from models.number_format import FLOAT64
 from models.schedule import make_schedule
 from sim import baselines
 from sim.analyze import auto_format
-from sim.kernel_run import (KernelJob, KernelRunError, default_window, golden_step, kernel_bodies, kernel_build,
-                            run_kernel_step)
+from models.kernel_job import KernelJob
+from sim.harness_run import KernelRunError
+from sim.kernel_build import KernelBuild, default_window
+from sim.kernel_step import golden_step, run_kernel_step
+from sim.trace_compare import kernel_bodies
 from sim.report import StagedDirectory
 from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label, load_frame, \
     velocity_error
@@ -103,7 +106,7 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
         for iters in iter_list:
             params = SolverParams(iterations=iters)
             job = kernel_job(KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip), args)
-            kb = kernel_build(job, preset, body_bits=args.body_bits)
+            kb = KernelBuild.for_job(job, preset, body_bits=args.body_bits)
             res = run_kernel_step(job, preset, out_dir / f"{fmt.name}-it{iters}", args.seed, body_bits=args.body_bits)
             ref_final = golden_step(KernelJob(FLOAT64, bodies, cons, schedule, params, ip)).final
             ours = kernel_bodies(out_dir / f"{fmt.name}-it{iters}", job, kb)

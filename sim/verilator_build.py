@@ -10,7 +10,7 @@ the executable. Verilator's own dependency check and make skip all work when no 
 calling :func:`build` again is cheap. Example::
 
     exe = build(sources=[...], top="fp_ops_tb", parameters={"EXP_BITS": 5, "MAN_BITS": 10},
-                cpp_files=[Path("cocotb_tests/fp/fp_ops_main.cpp")], name="fp_ops_tb_e5m10")
+                cpp_files=[Path("sim/harness/fp_ops_main.cpp")], name="fp_ops_tb_e5m10")
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@
 #define PIPE_STR(x) PIPE_STR2(x)
 #include PIPE_STR(PIPE_CLASS.h)
 #include "verilated.h"
-#include "../harness_rng.h"
+#include "../../sim/harness/harness_rng.h"
 
 namespace {
 

@@ -14,7 +14,7 @@ import numpy as np
 from models.kernel_vectors import scene_vectors
 from models.number_format import FpEvents
 from rtl.gen.kernel_graphs import GRAPHS
-from sim.kernel_run import KernelJob
+from models.kernel_job import KernelJob
 
 
 def predicted_events(job: KernelJob) -> FpEvents:

@@ -28,7 +28,7 @@
 
 #include "Vfp_ip_standins_tb.h"
 #include "verilated.h"
-#include "../../cocotb_tests/harness_rng.h"
+#include "../../sim/harness/harness_rng.h"
 
 namespace {
 

@@ -1,6 +1,7 @@
 """C simulation of the HLS kernel (hls_export/pgs_kernel.cpp, g++ with the local shims) against the golden model,
-bit for bit, through the RTL harness's own file interface and comparison code (sim/kernel_run.py): every trace
-record (one per retired manifold-pass, in retire order) and the body-out stream, binary32, 4 iterations, on the
+bit for bit, through the RTL harness's own file interface and comparison code (sim/harness_run.py,
+sim/trace_compare.py): every trace record (one per retired manifold-pass, in retire order) and the body-out
+stream, binary32, 4 iterations, on the
 stack, the incline and a 4x3x4 pile, in the hazard and the pybullet schedules; plus the status and issued
 outputs and the stream accounting (no beat left over, none read from an empty stream); the interleaved pass
 order; and the status register's error codes 3 (bad argument) and 1 (constraint TLAST).
@@ -19,7 +20,9 @@ import pytest
 from hls_export.csim import SCENES, SCHEDULES, build_csim, run_csim_step, scene_job
 from models.dma_model import get_preset
 from models.number_format import FP32
-from sim.kernel_run import ARG_REGS, KernelBuild, default_window, run_harness, write_inputs
+from models.register_map import OFFSET
+from sim.harness_run import run_harness, write_inputs
+from sim.kernel_build import KernelBuild, default_window
 
 KB = KernelBuild(FP32)
 
@@ -58,7 +61,7 @@ def _status_after(edit: str, csim_exe: Path, tmp_path: Path) -> dict[str, float]
     write_inputs(tmp_path, job, KB)
     if edit == "bad_args":  # num_bodies above PGS_MAX_BODIES
         regs = np.frombuffer((tmp_path / "regs.bin").read_bytes(), dtype="<u4").reshape(-1, 2).copy()
-        regs[regs[:, 0] == ARG_REGS["num_bodies"], 1] = KB.max_bodies + 1
+        regs[regs[:, 0] == OFFSET["num_bodies"], 1] = KB.max_bodies + 1
         (tmp_path / "regs.bin").write_bytes(regs.tobytes())
     else:  # TLAST on the first constraint beat instead of the last beat of the first pass
         last = bytearray((tmp_path / "cons_last.bin").read_bytes())

@@ -3,11 +3,11 @@
 ``test_standins_simulated`` builds ``fp_ip_standins_tb.sv`` (one stand-in per operation behind an HLS
 wrapper's input buffer, C_LATENCY above the rtl/fp latencies, and equal to it on one channel) with Verilator
 for binary32 and binary16 and drives it from ``fp_ip_standins_main.cpp``: every special pair of
-``cocotb_tests/test_fp_operators.special_values``, its ``directed_pairs`` and random bit patterns, one vector
+``sim.fp_operator_vectors.special_values``, its ``directed_pairs`` and random bit patterns, one vector
 per enabled cycle (3 % idle), ``aclken`` = 0 on 30 % of the cycles (seeded: ``SEED=<int>`` overrides, printed).
 The driver checks that each result leaves exactly C_LATENCY enabled cycles after its operands, that nothing
 moves on a disabled cycle, and that no stray tvalid appears; this test checks every result bit for bit
-against ``test_fp_operators.golden`` (models/number_format.py), the compare for all 8 predicate codes.
+against ``sim.fp_operator_vectors.golden`` (models/number_format.py), the compare for all 8 predicate codes.
 ``test_too_short_latency_fails*`` check the elaboration error (and, built with -Wno-fatal, the same message
 from the simulation at time 0); ``test_generator_*`` run
 ``hls_export/fp_ip/standins.py`` on a small hand-written fake export (no real export exists here) and lint the
@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import os
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -27,6 +26,7 @@ import pytest
 
 from hls_export.fp_ip.standins import StandinError, find_ip_cores, standin_sources, write_standins
 from models.number_format import FP16, FP32, NumberFormat
+from sim import fp_operator_vectors as fpv
 from sim.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT, build, ensure_verilator_env, rtl_sources
 
 HERE = Path(__file__).resolve().parent
@@ -40,23 +40,12 @@ OP_LATENCY = {"add": lambda m: 4, "sub": lambda m: 4, "mul": lambda m: 3, "div":
               "sqrt": lambda m: m + 4, "cmp": lambda m: 1}   # rtl/fp/README.md; cmp: fp_minmax LATENCY 1
 
 
-def _fp_operator_test():
-    """``cocotb_tests/test_fp_operators.py`` as a module (its vector sets and golden function)."""
-    tests = str(REPO_ROOT / "cocotb_tests")
-    if tests not in sys.path:
-        sys.path.insert(0, tests)
-    import test_fp_operators
-
-    return test_fp_operators
-
-
 def make_vectors(fmt: NumberFormat, rng: np.random.Generator) -> tuple[np.ndarray, dict[str, int]]:
     """Records {a, b, predicate}: special pairs, directed pairs, random patterns; random compare predicates."""
-    fpt = _fp_operator_test()
-    sp = fpt.special_values(fmt)
+    sp = fpv.special_values(fmt)
     ga, gb = np.meshgrid(sp, sp, indexing="ij")
     sets = {"special_pairs": np.stack([ga.ravel(), gb.ravel()], axis=1),
-            "directed": fpt.directed_pairs(fmt, rng, 1024),
+            "directed": fpv.directed_pairs(fmt, rng, 1024),
             "random": rng.integers(0, 1 << fmt.width, size=(1 << 16, 2), dtype=np.uint64).astype(np.uint32)}
     ab = np.concatenate(list(sets.values())).astype(np.uint32)
     # s_axis_operation_tdata: predicate code in bits [5:3], 3'b100 (compare) below, as the HLS fcmp wrappers send
@@ -65,7 +54,7 @@ def make_vectors(fmt: NumberFormat, rng: np.random.Generator) -> tuple[np.ndarra
 
 
 def golden_cmp(flags: np.ndarray, pred: np.ndarray) -> np.ndarray:
-    """m_axis_result_tdata of the compare, from test_fp_operators' flags ({unordered, eq, lt} in bits 2..0)."""
+    """m_axis_result_tdata of the compare, from the golden flags ({unordered, eq, lt} in bits 2..0)."""
     lt, eq, un = flags & 1, (flags >> 1) & 1, (flags >> 2) & 1
     gt = 1 - (lt | eq | un)
     code = (pred >> 3) & 7
@@ -107,7 +96,7 @@ def test_standins_simulated(fmt_name: str, tmp_path: Path) -> None:
     assert 0.25 < int(stats["disabled"]) / int(stats["cycles"]) < 0.35
     assert int(stats["held_valid_checks"]) > len(vec)
 
-    exp = _fp_operator_test().golden(fmt, vec[:, 0], vec[:, 1])
+    exp = fpv.golden(fmt, vec[:, 0], vec[:, 1])
     exp["cmp"] = golden_cmp(exp["flags"], vec[:, 2])
     failures = []
     for i, ch in enumerate(CHANNELS):

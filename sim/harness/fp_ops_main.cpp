@@ -22,7 +22,7 @@
 
 #include "Vfp_ops_tb.h"
 #include "verilated.h"
-#include "../harness_rng.h"
+#include "harness_rng.h"
 
 namespace {
 

@@ -37,7 +37,7 @@
 #if VM_TRACE
 #include "verilated_fst_c.h"
 #endif
-#include "../harness_rng.h"
+#include "harness_rng.h"
 
 #ifndef LANES
 #define LANES 1

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from sim import coverage as cv
-from sim.kernel_run import KernelBuild
+from sim.kernel_build import KernelBuild
 from models.number_format import FP32
 
 CANNED = Path(__file__).resolve().parent / "data" / "coverage_canned.dat"

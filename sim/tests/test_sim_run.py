@@ -17,7 +17,7 @@ from models import scenes
 from models.frame import load, save
 from sim import run as sim_run
 from sim import sweep as sim_sweep
-from sim.kernel_run import KernelRunError
+from sim.harness_run import KernelRunError
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -11,7 +11,7 @@ from models.closed_loop import run_closed_loop
 from models.dma_model import get_preset
 from models.number_format import FP16, FP32
 from models.stability import CASES, judge
-from sim.kernel_run import rtl_stepper
+from sim.rtl_stepper import rtl_stepper
 from sim.stability import main as stability_main
 
 

@@ -1,0 +1,121 @@
+"""Running the compiled Verilator harness (``sim/harness/pgs_kernel_main.cpp``) on one step's input files.
+
+The harness streams the packed body table and constraint stream of ``models/stream_format.py`` into
+``rtl/pgs_kernel.sv`` through a model of the DMA preset (DDR token bucket shared by the streams, start-up latency
+per MM2S transfer, optional random gaps and backpressure), after programming the kernel with the register writes
+of ``regs.bin`` (offsets from ``models/register_map.py``). It logs every retired manifold-pass from the trace port
+and the body-out stream to files, and writes the kernel's status and counter registers to ``result.txt``.
+
+    sizes = write_inputs(run_dir, job, kb)
+    regs = run_harness(exe, run_dir, seed=1, preset=get_preset("zcu102"), max_cycles=harness_cycle_limit(job))
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from models import stream_format as sf
+from models.dma_model import DmaPreset
+from models.kernel_job import KernelJob
+from models.register_map import OFFSET
+from sim.kernel_build import KernelBuild
+
+# cycles allowed per manifold-pass and per body before the harness declares a hang
+TIMEOUT_PER_ITEM, TIMEOUT_SLACK = 400, 20000
+
+
+class KernelRunError(RuntimeError):
+    """The harness did not finish (timeout, missing files)."""
+
+
+def harness_cycle_limit(job: KernelJob) -> int:
+    """The cycles after which the harness gives ``job`` up as hung."""
+    return TIMEOUT_PER_ITEM * (job.manifold_passes + job.bodies.num_bodies) + TIMEOUT_SLACK
+
+
+def register_writes(job: KernelJob) -> list[tuple[int, int]]:
+    """The AXI4-Lite writes (offset, value) that program ``job`` (before ap_start)."""
+    enc = lambda x: int(job.fmt.encode(np.float64(x)))  # noqa: E731
+    ip = job.iparams
+    values = {"num_bodies": job.bodies.num_bodies, "num_manifolds": len(job.slots),
+              "iterations": job.params.iterations, "dt": enc(ip.dt), "gravity_x": enc(ip.gravity[0]),
+              "gravity_y": enc(ip.gravity[1]), "gravity_z": enc(ip.gravity[2]), "damping": enc(ip.damping),
+              "options": int(job.params.interleaved)}
+    if job.record_window is not None:
+        values |= {"lag": job.record_window.lag, "fetch_passes": job.record_window.fetch_passes}
+    return [(OFFSET[name], value) for name, value in values.items()]
+
+
+def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild) -> dict[str, int]:
+    """Write the harness's input files into ``run_dir``; return the bytes of each stream."""
+    run_dir.mkdir(parents=True, exist_ok=True)
+    body = sf.pack_body_table(job.fmt, job.bodies, kb.body_in_bits)
+    if job.record_window is None:
+        cons = sf.pack_constraint_stream(job.fmt, job.cons, job.schedule, job.params, kb.cons_bits)
+    else:
+        cons = sf.pack_window_stream(job.fmt, job.cons, job.slots, job.params, job.record_window.fetch_passes,
+                                     kb.cons_bits)
+    (run_dir / "regs.bin").write_bytes(np.asarray(register_writes(job), dtype="<u4").tobytes())
+    (run_dir / "body_in.bin").write_bytes(body.to_bytes())
+    (run_dir / "body_in_last.bin").write_bytes(body.last.astype(np.uint8).tobytes())
+    (run_dir / "cons.bin").write_bytes(cons.to_bytes())
+    (run_dir / "cons_last.bin").write_bytes(cons.last.astype(np.uint8).tobytes())
+    out_bytes = job.bodies.num_bodies * sf.StreamLayout(job.fmt, kb.cons_bits, kb.body_out_bits).body_out_bytes
+    return {"body_in": body.data.size, "constraints": cons.data.size, "body_out": out_bytes}
+
+
+ProgressSink = Callable[[int, int], None]  # (cycle, trace records so far)
+
+
+def run_harness(exe: Path, run_dir: Path, seed: int, preset: DmaPreset, max_cycles: int, gap_permille: int = 0,
+                backpressure_permille: int = 0, progress: ProgressSink | None = None, progress_every: int = 65536,
+                env: dict[str, str] | None = None) -> dict[str, float]:
+    """Run the harness on the inputs in ``run_dir``; return the key/value lines of its ``result.txt``."""
+    rate = preset.ddr_bytes_per_cycle
+    millibytes = 0 if rate == float("inf") else max(1, round(rate * 1000))
+    cmd = [str(exe), str(run_dir), str(seed), str(gap_permille), str(backpressure_permille), str(max_cycles),
+           str(millibytes), str(preset.startup_cycles), str(progress_every if progress else 0)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    assert proc.stdout is not None and proc.stderr is not None
+    other: list[str] = []
+    for line in proc.stdout:
+        parts = line.split()
+        if progress is not None and len(parts) == 3 and parts[0] == "progress":
+            progress(int(parts[1]), int(parts[2]))
+        else:
+            other.append(line)
+    err = proc.stderr.read()
+    if proc.wait() != 0:
+        raise KernelRunError(f"kernel harness failed (exit {proc.returncode}): {''.join(other)}{err}".strip())
+    return {k: float(v) for k, v in (line.split() for line in (run_dir / "result.txt").read_text().splitlines())}
+
+
+def text_progress(total: int, label: str = "kernel", stream=sys.stderr) -> ProgressSink:
+    """A progress bar over retired manifold-passes (redrawn in place on a terminal, every 10% otherwise)."""
+    t0 = [0.0]  # set at the first report (cycle 0), after the build
+    tty = stream.isatty()
+    shown = [-1]
+
+    def show(cycle: int, records: int) -> None:
+        if not t0[0]:
+            t0[0] = time.monotonic()
+        frac = min(1.0, records / max(total, 1))
+        pct = int(frac * 100)
+        if not tty and pct // 10 == shown[0] // 10:
+            return
+        shown[0] = pct
+        el = time.monotonic() - t0[0]
+        bar = "#" * int(frac * 30)
+        eta = f", ~{el / frac - el:.0f} s left" if frac > 0.02 else ""
+        line = (f"{label} [{bar:<30}] {pct:3d}% {records:,}/{total:,} manifold-passes, cycle {cycle:,}, "
+                f"{cycle / max(el, 1e-9) / 1e3:.1f} kcycles/s{eta}")
+        stream.write(("\r" + line) if tty else (line + "\n"))
+        stream.flush()
+
+    return show

@@ -1,0 +1,148 @@
+"""The one description of a kernel build, and the build of the compiled Verilator harness from it.
+
+Every build of ``rtl/pgs_kernel.sv`` takes its Verilator parameters, RTL sources, harness defines and compile
+arguments from a :class:`KernelBuild`: the harness of ``make sim``, ``make sweep`` and the harness tests
+(:func:`build_kernel`), the coverage builds (:func:`verilate_kernel` with the coverage hooks added) and the
+cocotb benches (``sim.cocotb_run.run_kernel_cocotb``). A description is frozen and hashable; its
+:attr:`KernelBuild.name` names its build directory, so two descriptions that differ build apart.
+
+    kb = KernelBuild.for_job(job, get_preset("zcu102"))
+    exe, seconds = build_kernel(kb)  # build/verilator/pgs_kernel_e8m23_c512/pgs_kernel_e8m23_c512
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from models import stream_format as sf
+from models.dma_model import DmaPreset
+from models.kernel_job import KernelJob
+from models.number_format import NumberFormat
+from sim.lint import rtl_files
+from sim.verilator_build import DEBUG_COMPILE_ARGS, QUICK_COMPILE_ARGS, REPO_ROOT, build
+
+TOP = "pgs_kernel"
+HARNESS_DIR = REPO_ROOT / "sim" / "harness"
+HARNESS = HARNESS_DIR / "pgs_kernel_main.cpp"
+# the signals the cocotb benches touch (everything else stays private: faster models of the large design)
+PUBLIC_VLT = HARNESS_DIR / "pgs_kernel_public.vlt"
+
+# C++ optimization profiles (sim.verilator_build): "quick" -O1 for kernel runs; "o0" for short runs (-O0 without
+# -fno-inline, which would split the kernel into ~330 C++ files and take longer to build than -O1)
+COMPILE_PROFILES: dict[str, tuple[str, ...]] = {
+    "quick": tuple(QUICK_COMPILE_ARGS),
+    "o0": tuple(a for a in DEBUG_COMPILE_ARGS if a != "-fno-inline"),
+}
+WAVE_ARGS = ("--trace-fst", "--trace-structs")
+
+
+@dataclass(frozen=True)
+class KernelBuild:
+    """One parameter set of the kernel (each gets its own build directory, :attr:`name`)."""
+
+    fmt: NumberFormat
+    cons_bits: int = 512
+    body_in_bits: int = 128
+    body_out_bits: int = 128
+    max_bodies: int = 65536
+    max_manifolds: int = 262144
+    waves: bool = False
+    window: int = 0  # WINDOW: 0 streams every pass; > 0 the window kernel with a ring of that many records
+    window_ctx: int = 8
+    lanes: int = 1  # LANES: manifolds issued per cycle (> 1: window kernel only)
+    friction_sign_bug: bool = False  # the friction pipe with the wrong sign (the scoreboard must catch it)
+    compile_profile: str = "quick"  # a key of COMPILE_PROFILES
+
+    def __post_init__(self) -> None:
+        if self.compile_profile not in COMPILE_PROFILES:
+            raise ValueError(f"compile profile {self.compile_profile!r}: expected one of {sorted(COMPILE_PROFILES)}")
+
+    @staticmethod
+    def for_job(job: KernelJob, preset: DmaPreset, waves: bool = False, body_bits: int = 128) -> "KernelBuild":
+        """The build that runs ``job``: the preset's constraint beat, the window plan's ring, contexts and lanes,
+        body streams of ``body_bits``."""
+        plan = job.record_window
+        return KernelBuild(job.fmt, cons_bits=preset.stream_bits, body_in_bits=body_bits, body_out_bits=body_bits,
+                           waves=waves, window=0 if plan is None else plan.depth,
+                           window_ctx=8 if plan is None else plan.ctx, lanes=1 if plan is None else plan.lanes)
+
+    @property
+    def name(self) -> str:
+        wide_bodies = (self.body_in_bits, self.body_out_bits) != (128, 128)
+        return (f"{TOP}_e{self.fmt.exp_bits}m{self.fmt.man_bits}_c{self.cons_bits}"
+                + (f"_b{self.body_in_bits}x{self.body_out_bits}" if wide_bodies else "")
+                + (f"_w{self.window}x{self.window_ctx}" if self.window else "")
+                + (f"_l{self.lanes}" if self.lanes > 1 else "")
+                + ("_friction_sign_bug" if self.friction_sign_bug else "")
+                + (f"_{self.compile_profile}" if self.compile_profile != "quick" else "")
+                + ("_waves" if self.waves else ""))
+
+    @property
+    def trace_bytes(self) -> int:
+        return sf.trace_record_bytes(self.fmt)
+
+    @property
+    def parameters(self) -> dict[str, int]:
+        """The Verilator ``-G`` parameters of ``pgs_kernel``."""
+        return {"EXP_BITS": self.fmt.exp_bits, "MAN_BITS": self.fmt.man_bits, "MAX_BODIES": self.max_bodies,
+                "MAX_MANIFOLDS": self.max_manifolds, "BODY_IN_W": self.body_in_bits, "CONS_W": self.cons_bits,
+                "BODY_OUT_W": self.body_out_bits} | (
+                    {"WINDOW": self.window, "WINDOW_CTX": self.window_ctx} if self.window else {}) | (
+                    {"LANES": self.lanes} if self.lanes > 1 else {}) | (
+                    {"TEST_FRICTION_SIGN_BUG": 1} if self.friction_sign_bug else {})
+
+    @property
+    def defines(self) -> dict[str, int]:
+        """The C++ defines of the compiled harness (its stream and trace byte widths, its lanes)."""
+        return {"BODY_IN_BYTES": self.body_in_bits // 8, "CONS_BYTES": self.cons_bits // 8,
+                "BODY_OUT_BYTES": self.body_out_bits // 8, "TRACE_BYTES": self.trace_bytes, "LANES": self.lanes}
+
+    @property
+    def cflags(self) -> list[str]:
+        return [f"-D{k}={v}" for k, v in self.defines.items()]
+
+    @property
+    def compile_args(self) -> list[str]:
+        """Verilator options and ``-MAKEFLAGS`` of the compile profile, with FST tracing when ``waves``."""
+        return [*COMPILE_PROFILES[self.compile_profile], *(WAVE_ARGS if self.waves else ())]
+
+    def sources(self) -> list[Path]:
+        """The SystemVerilog files of the kernel, packages first."""
+        packages, modules = rtl_files()
+        return packages + modules
+
+
+def verilate_kernel(kb: KernelBuild, build_dir: Path | None = None, extra_sources: Sequence[Path] = (),
+                    extra_cpp_files: Sequence[Path] = (), extra_args: Sequence[str] = ()) -> Path:
+    """Build the compiled harness of ``kb`` (plus ``extra_*``, e.g. coverage hooks) into ``build_dir`` (default
+    ``build/verilator/<kb.name>``); return the executable. Verilator skips an unchanged build."""
+    return build([*kb.sources(), *extra_sources], TOP, parameters=kb.parameters, cpp_files=[HARNESS, *extra_cpp_files],
+                 build_dir=build_dir, name=kb.name, cflags=kb.cflags,
+                 extra_args=["-Wno-fatal", *kb.compile_args, *extra_args])
+
+
+_built: dict[KernelBuild, tuple[Path, float]] = {}
+
+
+def build_kernel(kb: KernelBuild) -> tuple[Path, float]:
+    """The harness executable of ``kb`` (built once per process; Verilator skips unchanged builds) and the
+    seconds the build took."""
+    if kb not in _built:
+        t0 = time.monotonic()
+        exe = verilate_kernel(kb)
+        _built[kb] = (exe, time.monotonic() - t0)
+    return _built[kb]
+
+
+def default_window(fmt: NumberFormat, cons_bits: int) -> int:
+    """Issue slots a manifold must wait before its bodies come back: the deeper pipe's latency in records."""
+    from rtl.gen.kernel_graphs import GRAPHS
+
+    layout = sf.StreamLayout(fmt, cons_beat_bits=cons_bits)
+    contact = GRAPHS["pgs_contact_pipe"]().schedule().latency_for(fmt.man_bits)
+    friction = GRAPHS["pgs_friction_pipe"]().schedule().latency_for(fmt.man_bits)
+    return max(math.ceil(contact / layout.contact_beats), math.ceil(friction / layout.friction_beats)) + 2
