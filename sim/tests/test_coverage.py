@@ -1,6 +1,7 @@
-"""The coverage.dat parser and summary of `make coverage` (sim/coverage.py) on a small canned file (Verilator's
-SystemC::Coverage-3 format: two instances of one module, a second file, a point outside rtl/); the coverage
-run itself is `make coverage` (not in `make test`: two instrumented kernel builds)."""
+"""The coverage.dat parser and summary of `make coverage` (sim/coverage/) on a small canned file (Verilator's
+SystemC::Coverage-3 format: two instances of one module, a second file, a point outside rtl/), the bit editing
+of the harness's input files and the bad-input edits against the catalogue; the coverage run itself is
+`make coverage` (not in `make test`: two instrumented kernel builds)."""
 
 from __future__ import annotations
 
@@ -8,15 +9,16 @@ from pathlib import Path
 
 import numpy as np
 
-from sim import coverage as cv
-from sim.kernel_build import KernelBuild
+from models.bad_input import CATALOGUE
 from models.number_format import FP32
+from sim.coverage import cases, data, input_edits, report
+from sim.kernel_build import KernelBuild
 
 CANNED = Path(__file__).resolve().parent / "data" / "coverage_canned.dat"
 
 
 def test_parse_fields() -> None:
-    points = cv.parse(CANNED.read_text())
+    points = data.parse(CANNED.read_text())
     assert len(points) == 12
     p = points[0]
     assert (p.file, p.line, p.column, p.kind, p.comment, p.module, p.hier, p.count) == \
@@ -27,7 +29,7 @@ def test_parse_fields() -> None:
 
 def test_summary_merges_instances_and_lists_uncovered() -> None:
     """A point is covered when any instance hit it (the `if` at a.sv:6); only rtl/ files are counted."""
-    summary = cv.summarize(cv.merge(cv.parse(CANNED.read_text())), root=Path("/repo"))
+    summary = report.summarize(data.merge(data.parse(CANNED.read_text())), root=Path("/repo"))
     rows = {r.file: r for r in summary.rows}
     assert list(rows) == ["rtl/a.sv", "rtl/sub/b.sv"]
     a, b = rows["rtl/a.sv"], rows["rtl/sub/b.sv"]
@@ -39,20 +41,29 @@ def test_summary_merges_instances_and_lists_uncovered() -> None:
     js = summary.to_json()
     assert js["total"]["line"] == {"covered": 3, "total": 5, "percent": 60.0}
     assert js["uncovered_lines"] == ["rtl/a.sv:7: else", "rtl/sub/b.sv:4: block"]
-    md = cv.report_markdown(summary, [], root=Path("/repo"))
+    md = report.report_markdown(summary, [], root=Path("/repo"))
     assert "| rtl/a.sv | 66.7% (2/3) | 50.0% (1/2) | 50.0% (1/2) |" in md and "`rtl/sub/b.sv:4` (block)" in md
 
 
 def test_counts_merge_across_runs() -> None:
-    once = cv.parse(CANNED.read_text())
-    merged = cv.merge(once + once)
+    once = data.parse(CANNED.read_text())
+    merged = data.merge(once + once)
     assert merged[("/repo/rtl/a.sv", 5, 3, "line", "block")] == 84
 
 
 def test_bit_editing_of_harness_records(tmp_path: Path) -> None:
     """The bad-input edits write fields at their bit offsets of a record spread over beats."""
     rows = np.zeros((2, 4), np.uint8)  # one record of two 32-bit beats
-    cv._set_bits(rows, 28, 8, 0xAB)  # straddles the beats
+    input_edits.set_bits(rows, 28, 8, 0xAB)  # straddles the beats
     assert int.from_bytes(rows.tobytes(), "little") == 0xAB << 28
     kb = KernelBuild(FP32)
-    assert cv._nonfinite(kb) == 0x7F800001 and cv._nonfinite(kb, sign=1, payload=0) == 0xFF800000
+    assert input_edits.nonfinite_bits(kb) == 0x7F800001
+    assert input_edits.nonfinite_bits(kb, sign=1, payload=0) == 0xFF800000
+
+
+def test_bad_input_edits_make_the_catalogue() -> None:
+    """Every catalogue case the harness can make is made by exactly one edit, each a run of the regression."""
+    made = [name for e in input_edits.BAD_INPUT_EDITS for name in e.cases]
+    assert sorted(made) == sorted(c.name for c in CATALOGUE if c.harness)
+    labels = {c.label for c in cases.CASES}
+    assert all(f"stack-fp32-bad-{e.name}" in labels for e in input_edits.BAD_INPUT_EDITS)

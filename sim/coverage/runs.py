@@ -1,0 +1,151 @@
+"""Running the coverage cases (``sim.coverage.cases``): inputs prepared (and edited), the instrumented harness or
+test run, its ``coverage.dat`` kept; a failing run is reported in its :class:`CaseResult`, the rest go on."""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from models import scenes
+from models.contact_solver import SolverParams
+from models.dma_model import get_preset
+from models.kernel_job import KernelJob
+from sim.cocotb_run import BUILD_ROOT as COCOTB_BUILD_ROOT
+from sim.coverage.build import COVERAGE_ARGS, build_coverage_fp_ops, build_coverage_kernel
+from sim.coverage.cases import CASES, FP_OPERATOR_CASES, REGISTER_CASE, SCENES, Case
+from sim.coverage.input_edits import HarnessFiles
+from sim.fp_operator_harness import run_fp_operator_harness
+from sim.fp_operator_vectors import make_vectors, seed_for
+from sim.harness_run import TIMEOUT_PER_ITEM, KernelRunError, harness_cycle_limit, run_harness, write_inputs
+from sim.kernel_build import KernelBuild, default_window
+from sim.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT
+
+
+@dataclass
+class CaseResult:
+    case: Case
+    coverage: Path | None  # coverage.dat (None: the run failed)
+    seconds: float
+    registers: dict[str, float] = field(default_factory=dict)
+    error: str = ""
+
+    @property
+    def status_line(self) -> str:
+        return f"  {self.case.label}: {self.seconds:.1f} s {self.error or 'ok'}"
+
+
+def case_build(case: Case) -> KernelBuild:
+    """The kernel build a harness case runs on (its format, the DMA preset's constraint beat)."""
+    return KernelBuild(case.fmt, cons_bits=get_preset(case.dma).stream_bits)
+
+
+def run_case(case: Case, exe: Path, run_dir: Path, seed: int = 1) -> CaseResult:
+    """Prepare the case's inputs (edited for bad input), run the coverage harness, keep its coverage.dat."""
+    t0 = time.monotonic()
+    scene, params = SCENES[case.scene]
+    preset = get_preset(case.dma)
+    kb = case_build(case)
+    job = KernelJob.from_frame(scenes.load_or_capture(scene, **params), case.fmt,
+                               SolverParams(4, interleaved=case.interleaved), case.schedule,
+                               default_window(case.fmt, preset.stream_bits))
+    write_inputs(run_dir, job, kb)
+    extra_bodies = 0  # bodies an edit adds to the step (the cycle limit grows with them)
+    if case.edit is not None:
+        files = HarnessFiles(run_dir, kb)
+        case.edit(files, kb)
+        files.save()
+        extra_bodies = max(0, files.reg("num_bodies") - job.bodies.num_bodies)
+    cov = run_dir / "coverage.dat"
+    cov.unlink(missing_ok=True)
+    max_cycles = harness_cycle_limit(job) + TIMEOUT_PER_ITEM * extra_bodies
+    try:
+        regs = run_harness(exe, run_dir, seed, preset, max_cycles, case.stalls, case.stalls,
+                           env=dict(os.environ, PGS_COVERAGE_FILE=str(cov)))
+    except KernelRunError as exc:
+        return CaseResult(case, None, time.monotonic() - t0, error=str(exc))
+    return CaseResult(case, cov if cov.exists() else None, time.monotonic() - t0, regs,
+                      "" if cov.exists() else "no coverage.dat written")
+
+
+def register_coverage_file() -> Path:
+    """Where the register test's coverage build (``sim.cocotb_run``) leaves coverage.dat."""
+    return COCOTB_BUILD_ROOT / "pgs_control_s_axi_coverage" / "coverage.dat"
+
+
+def run_register_test() -> CaseResult:
+    """The register file's own cocotb test (``cocotb_tests/test_pgs_control_s_axi.py``) on a coverage build of
+    ``pgs_control_s_axi`` (``build/cocotb/pgs_control_s_axi_coverage/``): the register paths the harness never
+    takes (reads of every register, byte strobes, auto_restart, the ap_ready interrupt). cocotb's Verilator main
+    writes ``coverage.dat`` into the build directory when the simulation ends."""
+    from sim.cocotb_run import run_cocotb
+
+    t0 = time.monotonic()
+    cov = register_coverage_file()
+    cov.unlink(missing_ok=True)
+    try:
+        run_cocotb("pgs_control_s_axi", [REPO_ROOT / "rtl" / "pgs_control_s_axi.sv"], "test_pgs_control_s_axi",
+                   name=cov.parent.name, compile_args=[*COVERAGE_ARGS, *QUICK_COMPILE_ARGS])
+    except Exception as exc:  # a failing cocotb test or build: reported, the rest of the summary stands
+        return CaseResult(REGISTER_CASE, None, time.monotonic() - t0, error=f"{type(exc).__name__}: {exc}")
+    return CaseResult(REGISTER_CASE, cov if cov.exists() else None, time.monotonic() - t0,
+                      error="" if cov.exists() else "no coverage.dat written")
+
+
+def run_fp_operator_case(case: Case, out: Path) -> CaseResult:
+    """The fp-operator vectors (``sim.fp_operator_vectors``) through a coverage build of their harness."""
+    t0 = time.monotonic()
+    run_dir = out / "runs" / case.label
+    run_dir.mkdir(parents=True, exist_ok=True)
+    cov = run_dir / "coverage.dat"
+    cov.unlink(missing_ok=True)
+    try:
+        exe = build_coverage_fp_ops(case.fmt, out)
+        seed = seed_for(case.fmt.name)
+        vec, _ = make_vectors(case.fmt.name, seed)
+        _, proc = run_fp_operator_harness(exe, vec, run_dir, seed, env=dict(os.environ, PGS_COVERAGE_FILE=str(cov)))
+        (run_dir / "in.bin").unlink()
+        (run_dir / "out.bin").unlink(missing_ok=True)
+    except Exception as exc:  # a failing build: reported, the rest of the summary stands
+        return CaseResult(case, None, time.monotonic() - t0, error=f"{type(exc).__name__}: {exc}")
+    error = f"harness exit {proc.returncode}: {proc.stderr[-500:]}" if proc.returncode else \
+        ("" if cov.exists() else "no coverage.dat written")
+    return CaseResult(case, cov if cov.exists() and not proc.returncode else None, time.monotonic() - t0,
+                      error=error)
+
+
+def previous_results(out: Path) -> list[CaseResult]:
+    """The coverage files of the runs in ``out`` (and of the register test) from an earlier ``make coverage``."""
+    runs = [CaseResult(c, out / "runs" / c.label / "coverage.dat", 0.0) for c in CASES + FP_OPERATOR_CASES]
+    runs.append(CaseResult(REGISTER_CASE, register_coverage_file(), 0.0))
+    return [r if r.coverage and r.coverage.exists() else CaseResult(r.case, None, 0.0, error="no coverage.dat")
+            for r in runs]
+
+
+def run_all(out: Path, jobs: int, labels: Sequence[str] = ()) -> list[CaseResult]:
+    """Build what the cases named by ``labels`` (all when empty) need, run them (``jobs`` at a time); with all of
+    them, then the fp-operator vectors and the register test."""
+    wanted = [c for c in CASES if not labels or c.label in labels]
+    builds: dict[KernelBuild, Path] = {}
+    for case in wanted:
+        kb = case_build(case)
+        if kb not in builds:
+            t0 = time.monotonic()
+            builds[kb] = build_coverage_kernel(kb, out)
+            print(f"coverage build {kb.name}: {time.monotonic() - t0:.0f} s", flush=True)
+
+    def one(case: Case) -> CaseResult:
+        res = run_case(case, builds[case_build(case)], out / "runs" / case.label)
+        print(res.status_line, flush=True)
+        return res
+
+    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+        results = list(pool.map(one, wanted))
+    if not labels:
+        for run in [*(lambda c=c: run_fp_operator_case(c, out) for c in FP_OPERATOR_CASES), run_register_test]:
+            results.append(run())
+            print(results[-1].status_line, flush=True)
+    return results
