@@ -39,6 +39,7 @@ import pytest
 
 from cocotb_tests.tb.fp_events import predicted_events
 from models import cycle_model, scenes
+from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from models.contact_solver import SolverParams
 from models.dma_model import DmaPreset, get_preset
 from models.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat
@@ -49,11 +50,7 @@ from sim.kernel_step import KernelResult, run_kernel_step
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 ITERATIONS = 4
 
-SCENES = {
-    "pile": dict(nx=4, ny=3, nz=4, seed=2),
-    "stack": dict(),
-    "incline": dict(),
-}
+SCENES = KERNEL_TEST_SCENES  # the kernel test scenes, shared with coverage and regress
 
 
 @dataclass
