@@ -1,0 +1,82 @@
+"""The kernel build description (sim/kernel_build.py) and the harness's register writes (sim/harness_run.py),
+without building anything."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from models import register_map
+from models.contact_solver import SolverParams
+from models.dma_model import get_preset
+from models.integrator import IntegrationParams
+from models.kernel_job import KernelJob
+from models.number_format import FP16, FP32
+from sim.cocotb_run import kernel_cocotb_build
+from sim.harness_run import register_writes
+from sim.kernel_build import HARNESS, PUBLIC_VLT, KernelBuild
+
+
+def test_names_are_distinct_per_description() -> None:
+    """Every field that changes the build changes the directory name; the default keeps its historic name."""
+    base = KernelBuild(FP32)
+    assert base.name == "pgs_kernel_e8m23_c512"
+    variants = [KernelBuild(FP16), KernelBuild(FP32, cons_bits=256),
+                KernelBuild(FP32, body_in_bits=512, body_out_bits=512), KernelBuild(FP32, window=1024),
+                KernelBuild(FP32, window=1024, window_ctx=4), KernelBuild(FP32, window=1024, lanes=2),
+                KernelBuild(FP32, waves=True), KernelBuild(FP32, friction_sign_bug=True),
+                KernelBuild(FP32, compile_profile="o0")]
+    names = [base.name] + [v.name for v in variants]
+    assert len(set(names)) == len(names), names
+    assert len({base, *variants}) == len(names)  # hashable, distinct
+    assert KernelBuild(FP32, window=1024, lanes=2).name == "pgs_kernel_e8m23_c512_w1024x8_l2"
+    assert KernelBuild(FP32, waves=True).name == "pgs_kernel_e8m23_c512_waves"
+    with pytest.raises(ValueError, match="compile profile"):
+        KernelBuild(FP32, compile_profile="fast")
+
+
+def test_parameters_defines_and_args() -> None:
+    kb = KernelBuild(FP16, cons_bits=256, window=1024, lanes=2, waves=True)
+    assert kb.parameters == {"EXP_BITS": 5, "MAN_BITS": 10, "MAX_BODIES": 65536, "MAX_MANIFOLDS": 262144,
+                             "BODY_IN_W": 128, "CONS_W": 256, "BODY_OUT_W": 128, "WINDOW": 1024, "WINDOW_CTX": 8,
+                             "LANES": 2}
+    assert kb.defines == {"BODY_IN_BYTES": 16, "CONS_BYTES": 32, "BODY_OUT_BYTES": 16, "TRACE_BYTES": 2 * 16 + 8,
+                          "LANES": 2}
+    assert "--trace-fst" in kb.compile_args and "--trace-fst" not in KernelBuild(FP16).compile_args
+    assert "OPT_FAST=-O0 OPT_SLOW=-O0 OPT_GLOBAL=-O0" in KernelBuild(FP32, compile_profile="o0").compile_args
+    assert KernelBuild(FP32, friction_sign_bug=True).parameters["TEST_FRICTION_SIGN_BUG"] == 1
+    sources = kb.sources()
+    assert any(s.name == "pgs_kernel.sv" for s in sources) and all(s.suffix == ".sv" for s in sources)
+    assert HARNESS.is_file() and PUBLIC_VLT.is_file()
+
+
+def test_cocotb_build_is_the_harness_build(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The cocotb benches build the kernel from the same description as the compiled harness."""
+    monkeypatch.setenv("WAVES", "0")
+    kb = kernel_cocotb_build("fp32", "zcu102")
+    assert kb == KernelBuild(FP32, cons_bits=get_preset("zcu102").stream_bits)
+    assert kernel_cocotb_build("fp16", "ideal", friction_sign_bug=True).friction_sign_bug
+
+
+def test_register_writes_use_the_register_map() -> None:
+    """The harness programs every scalar argument at its offset of models/register_map.py, in argument order;
+    the window kernel's two registers only for a window job."""
+    from types import SimpleNamespace
+
+    ip = IntegrationParams(dt=1 / 60, gravity=(0.0, 0.0, -9.81))
+    job = KernelJob(FP32, SimpleNamespace(num_bodies=5), None, np.array([0, 2, -1, 1]),  # type: ignore[arg-type]
+                    SolverParams(4, interleaved=True), ip)
+    writes = dict(register_writes(job))
+    off = register_map.OFFSET
+    assert [o for o, _ in register_writes(job)] == [off[n] for n in register_map.ARG_NAMES[:-2]]
+    assert writes[off["num_bodies"]] == 5 and writes[off["num_manifolds"]] == 3
+    assert writes[off["iterations"]] == 4 and writes[off["options"]] == register_map.OPT_INTERLEAVED
+    assert writes[off["dt"]] == int(FP32.encode(np.float64(1 / 60)))
+    assert writes[off["gravity_z"]] == int(FP32.encode(np.float64(-9.81)))
+    assert writes[off["damping"]] == int(FP32.encode(np.float64(ip.damping)))
+    plan = SimpleNamespace(lag=7, fetch_passes=2, slots=np.array([0, 2, 1, -1]))
+    windowed = dataclasses.replace(job, record_window=plan)
+    wwrites = dict(register_writes(windowed))
+    assert wwrites[off["lag"]] == 7 and wwrites[off["fetch_passes"]] == 2 and wwrites[off["num_manifolds"]] == 4
