@@ -24,7 +24,7 @@ Kernel
       flight (a manifold is in the hazard CAM from its issue to its retire cycle inclusive: a conflicting
       record issues at ``retire + 1`` at the earliest), at a contact/friction switch the other pipe drained
       (``retire of the last issued + 1``), fewer than ``HAZARD_DEPTH`` in flight. It retires at
-      ``issue + 1 + LATENCY`` of its pipe (``LATENCY`` read from the generated ``rtl/pgs_*_pipe.sv``).
+      ``issue + 1 + LATENCY`` of its pipe (``LATENCY`` from ``rtl/generated/pipe_latency.json``).
       Records the kernel rejects (a body index >= num_bodies, the same body twice, two static bodies; such a
       slot stays rejected for the whole step) are consumed at their valid cycle without issuing.
     * DRAIN until the last retire ``R``; INTEG from ``R + 2``: body ``k`` issues one per cycle while fewer than
@@ -46,8 +46,9 @@ is its lower bound.
 
 from __future__ import annotations
 
+import functools
+import json
 import math
-import re
 from array import array
 from itertools import chain
 from dataclasses import dataclass, field
@@ -74,20 +75,29 @@ _KIND = {CONTACT_PASS: "contact", FRICTION_PASS: "friction"}
 
 
 # --- structure: what the RTL and the harness fix -------------------------------------------------------
-_LATENCY_RE = re.compile(r"localparam\s+int\s+LATENCY\s*=\s*([^,;\n]+)")
+# written by `python -m rtl.gen` with the datapaths (rtl/gen/pipe_latency.py)
+PIPE_LATENCY_FILE = RTL_DIR / "generated" / "pipe_latency.json"
 
 
-def rtl_latency(module: str, fmt: NumberFormat, rtl_dir: Path = RTL_DIR) -> int:
-    """The ``LATENCY`` localparam of a generated datapath (``rtl/<module>.sv``) for ``fmt``: an integer
-    expression in ``MAN_BITS`` and ``EXP_BITS``, e.g. ``4*MAN_BITS + 94``."""
-    text = (rtl_dir / "generated" / f"{module}.sv").read_text()
-    m = _LATENCY_RE.search(text)
-    if m is None:
-        raise ValueError(f"rtl/{module}.sv declares no LATENCY localparam")
-    expr = m.group(1).strip().replace("MAN_BITS", str(fmt.man_bits)).replace("EXP_BITS", str(fmt.exp_bits))
-    if not re.fullmatch(r"[0-9*+\-() ]+", expr):
-        raise ValueError(f"rtl/{module}.sv: LATENCY {m.group(1)!r} is not an expression in MAN_BITS/EXP_BITS")
-    return int(eval(expr, {"__builtins__": {}}))  # digits and + - * ( ) only (checked above)
+@functools.lru_cache(maxsize=None)
+def _latency_terms(latency_file: Path) -> dict[str, tuple[tuple[int, int], ...]]:
+    """Each module's latency terms ``(cycles, per_man_bit)`` from the generator's JSON."""
+    try:
+        pipes = json.loads(latency_file.read_text())["pipes"]
+        return {module: tuple((int(t["cycles"]), int(t["per_man_bit"])) for t in entry["terms"])
+                for module, entry in pipes.items()}
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"{latency_file}: not a pipe latency file of rtl/gen ({exc}); run `python -m rtl.gen`") from exc
+
+
+def rtl_latency(module: str, fmt: NumberFormat, latency_file: Path = PIPE_LATENCY_FILE) -> int:
+    """The ``LATENCY`` of a generated datapath (``rtl/generated/<module>.sv``) for ``fmt``, from
+    ``rtl/generated/pipe_latency.json``: the maximum over its terms of ``cycles + per_man_bit * MAN_BITS``
+    (e.g. ``4*MAN_BITS + 94``)."""
+    terms = _latency_terms(latency_file)
+    if module not in terms or not terms[module]:
+        raise ValueError(f"{latency_file} has no latency of {module} (modules: {', '.join(sorted(terms))})")
+    return max(cycles + per_man_bit * fmt.man_bits for cycles, per_man_bit in terms[module])
 
 
 @dataclass(frozen=True)

@@ -360,7 +360,12 @@ FP16 = NumberFormat("fp16", 5, 10)
 BF16 = NumberFormat("bf16", 8, 7)
 FLOAT64 = Float64Arithmetic()
 
-NAMED_FORMATS: dict[str, Arithmetic] = {"fp32": FP32, "fp16": FP16, "bf16": BF16, "float64": FLOAT64}
+# The formats the kernel is generated, linted and tested in, by name (add new formats here). The first one is the
+# RTL modules' default parameter set (EXP_BITS = 8, MAN_BITS = 23); every other format is a parameter set of the
+# same sources (rtl/gen emits one source for every MAN_BITS).
+KERNEL_FORMATS: dict[str, NumberFormat] = {fmt.name: fmt for fmt in (FP32, FP16, BF16)}
+
+NAMED_FORMATS: dict[str, Arithmetic] = {**KERNEL_FORMATS, "float64": FLOAT64}
 
 
 def parse_format(name: str) -> Arithmetic:

@@ -39,7 +39,8 @@ ARGUMENTS: tuple[Register, ...] = (
 
 # Control, status and counters.
 CONTROL: tuple[Register, ...] = (
-    Register("ap_ctrl", 0x00, "RW", "bit0 ap_start, bit1 ap_done, bit2 ap_idle, bit3 ap_ready, bit7 auto_restart"),
+    Register("ap_ctrl", 0x00, "RW", "bit0 ap_start, bit1 ap_done, bit2 ap_idle, bit3 ap_ready, bit7 auto_restart, "
+                                   "bit9 interrupt"),
     Register("gie", 0x04, "RW", "bit0 global interrupt enable"),
     Register("ier", 0x08, "RW", "bit0 ap_done, bit1 ap_ready interrupt enable"),
     Register("isr", 0x0C, "TOW", "bit0 ap_done, bit1 ap_ready interrupt status"),
@@ -62,6 +63,7 @@ ARG_NAMES: tuple[str, ...] = tuple(r.name for r in ARGUMENTS)
 
 # AP_CTRL bits
 AP_START, AP_DONE, AP_IDLE, AP_READY, AUTO_RESTART = 1 << 0, 1 << 1, 1 << 2, 1 << 3, 1 << 7
+AP_INTERRUPT = 1 << 9  # read only: the interrupt output (GIE && ISR != 0)
 # options bits
 OPT_INTERLEAVED = 1 << 0
 # fp_status bits

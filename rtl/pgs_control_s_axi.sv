@@ -1,7 +1,8 @@
 // pgs_control_s_axi: the kernel's AXI4-Lite register file, in the style of a Vitis HLS
 // `s_axilite port=return bundle=control` export (ap_ctrl_hs in register 0x00).
 //
-// Register map (byte addresses; every register 32 bits; the full table is in rtl/README.md):
+// Register map (byte addresses; every register 32 bits; the full table is in rtl/README.md). The offsets, bit
+// positions and error codes come from pgs_regs_pkg (generated from models/register_map.py, the one definition):
 //   0x00 AP_CTRL  bit0 ap_start (R/W/COH: set by writing 1, cleared when the kernel asserts ap_ready,
 //                 unless auto_restart), bit1 ap_done (R/COR), bit2 ap_idle (R), bit3 ap_ready (R/COR),
 //                 bit7 auto_restart (R/W), bit9 interrupt (R)
@@ -29,7 +30,9 @@
 // Reset: ap_rst_n, synchronous, active low.
 `default_nettype none
 
-module pgs_control_s_axi #(
+module pgs_control_s_axi
+    import pgs_regs_pkg::*;
+#(
     parameter int ADDR_W = 8,
     parameter int DATA_W = 32
 ) (
@@ -90,32 +93,32 @@ module pgs_control_s_axi #(
     input  wire  [31:0]         stat_fp_underflow,
     input  wire  [31:0]         stat_fp_invalid
 );
-    localparam logic [ADDR_W-1:0] A_AP_CTRL = ADDR_W'(8'h00);
-    localparam logic [ADDR_W-1:0] A_GIE     = ADDR_W'(8'h04);
-    localparam logic [ADDR_W-1:0] A_IER     = ADDR_W'(8'h08);
-    localparam logic [ADDR_W-1:0] A_ISR     = ADDR_W'(8'h0C);
-    localparam logic [ADDR_W-1:0] A_NBODY   = ADDR_W'(8'h10);
-    localparam logic [ADDR_W-1:0] A_NMANI   = ADDR_W'(8'h18);
-    localparam logic [ADDR_W-1:0] A_ITERS   = ADDR_W'(8'h20);
-    localparam logic [ADDR_W-1:0] A_DT      = ADDR_W'(8'h28);
-    localparam logic [ADDR_W-1:0] A_GX      = ADDR_W'(8'h30);
-    localparam logic [ADDR_W-1:0] A_GY      = ADDR_W'(8'h38);
-    localparam logic [ADDR_W-1:0] A_GZ      = ADDR_W'(8'h40);
-    localparam logic [ADDR_W-1:0] A_DAMP    = ADDR_W'(8'h48);
-    localparam logic [ADDR_W-1:0] A_OPT     = ADDR_W'(8'h50);
-    localparam logic [ADDR_W-1:0] A_STATUS  = ADDR_W'(8'h58);
-    localparam logic [ADDR_W-1:0] A_CYC_LO  = ADDR_W'(8'h60);
-    localparam logic [ADDR_W-1:0] A_CYC_HI  = ADDR_W'(8'h64);
-    localparam logic [ADDR_W-1:0] A_STALL   = ADDR_W'(8'h68);
-    localparam logic [ADDR_W-1:0] A_BUBBLE  = ADDR_W'(8'h70);
-    localparam logic [ADDR_W-1:0] A_ISSUED  = ADDR_W'(8'h78);
-    localparam logic [ADDR_W-1:0] A_REJECT  = ADDR_W'(8'h7C);
-    localparam logic [ADDR_W-1:0] A_FP_OVF  = ADDR_W'(8'h80);
-    localparam logic [ADDR_W-1:0] A_FP_UNF  = ADDR_W'(8'h84);
-    localparam logic [ADDR_W-1:0] A_FP_INV  = ADDR_W'(8'h88);
-    localparam logic [ADDR_W-1:0] A_FP_STAT = ADDR_W'(8'h8C);
-    localparam logic [ADDR_W-1:0] A_LAG     = ADDR_W'(8'h90);
-    localparam logic [ADDR_W-1:0] A_FETCH   = ADDR_W'(8'h98);
+    localparam logic [ADDR_W-1:0] A_AP_CTRL = ADDR_W'(REG_AP_CTRL);
+    localparam logic [ADDR_W-1:0] A_GIE     = ADDR_W'(REG_GIE);
+    localparam logic [ADDR_W-1:0] A_IER     = ADDR_W'(REG_IER);
+    localparam logic [ADDR_W-1:0] A_ISR     = ADDR_W'(REG_ISR);
+    localparam logic [ADDR_W-1:0] A_NBODY   = ADDR_W'(REG_NUM_BODIES);
+    localparam logic [ADDR_W-1:0] A_NMANI   = ADDR_W'(REG_NUM_MANIFOLDS);
+    localparam logic [ADDR_W-1:0] A_ITERS   = ADDR_W'(REG_ITERATIONS);
+    localparam logic [ADDR_W-1:0] A_DT      = ADDR_W'(REG_DT);
+    localparam logic [ADDR_W-1:0] A_GX      = ADDR_W'(REG_GRAVITY_X);
+    localparam logic [ADDR_W-1:0] A_GY      = ADDR_W'(REG_GRAVITY_Y);
+    localparam logic [ADDR_W-1:0] A_GZ      = ADDR_W'(REG_GRAVITY_Z);
+    localparam logic [ADDR_W-1:0] A_DAMP    = ADDR_W'(REG_DAMPING);
+    localparam logic [ADDR_W-1:0] A_OPT     = ADDR_W'(REG_OPTIONS);
+    localparam logic [ADDR_W-1:0] A_STATUS  = ADDR_W'(REG_STATUS);
+    localparam logic [ADDR_W-1:0] A_CYC_LO  = ADDR_W'(REG_CYCLES_LO);
+    localparam logic [ADDR_W-1:0] A_CYC_HI  = ADDR_W'(REG_CYCLES_HI);
+    localparam logic [ADDR_W-1:0] A_STALL   = ADDR_W'(REG_STALLS);
+    localparam logic [ADDR_W-1:0] A_BUBBLE  = ADDR_W'(REG_BUBBLES);
+    localparam logic [ADDR_W-1:0] A_ISSUED  = ADDR_W'(REG_ISSUED);
+    localparam logic [ADDR_W-1:0] A_REJECT  = ADDR_W'(REG_REJECTED);
+    localparam logic [ADDR_W-1:0] A_FP_OVF  = ADDR_W'(REG_FP_OVERFLOW);
+    localparam logic [ADDR_W-1:0] A_FP_UNF  = ADDR_W'(REG_FP_UNDERFLOW);
+    localparam logic [ADDR_W-1:0] A_FP_INV  = ADDR_W'(REG_FP_INVALID);
+    localparam logic [ADDR_W-1:0] A_FP_STAT = ADDR_W'(REG_FP_STATUS);
+    localparam logic [ADDR_W-1:0] A_LAG     = ADDR_W'(REG_LAG);
+    localparam logic [ADDR_W-1:0] A_FETCH   = ADDR_W'(REG_FETCH_PASSES);
     localparam logic [1:0]        OKAY      = 2'b00;
     localparam logic [1:0]        SLVERR    = 2'b10;
 
@@ -163,6 +166,11 @@ module pgs_control_s_axi #(
     assign s_axi_control_BVALID  = (wstate == WR_RESP);
     assign s_axi_control_BRESP   = w_unmapped ? SLVERR : OKAY;
 
+    // the fp_status bits of a word, in the order of fp_set / int_fp_flags: {invalid, underflow, overflow}
+    function automatic logic [2:0] fp_bits(input logic [31:0] word);
+        return {word[FP_INVALID_FLAG_BIT], word[FP_UNDERFLOW_FLAG_BIT], word[FP_OVERFLOW_FLAG_BIT]};
+    endfunction
+
     // byte-lane merge of a write into a 32-bit register
     function automatic logic [31:0] merge(input logic [31:0] old, input logic [31:0] data, input logic [3:0] strb);
         logic [31:0] r;
@@ -203,10 +211,10 @@ module pgs_control_s_axi #(
     wire wr_ctrl   = w_hs && (waddr == A_AP_CTRL);
     wire rd_ctrl   = ar_hs && (raddr == A_AP_CTRL);
     // errors of this module: code 8 ap_start while a run is pending or busy, code 9 unmapped address
-    wire start_busy = wr_ctrl && wstrb4[0] && wdata32[0] && (int_ap_start || !ap_idle);
+    wire start_busy = wr_ctrl && wstrb4[0] && wdata32[AP_START_BIT] && (int_ap_start || !ap_idle);
     wire unmapped   = (w_hs && !mapped(waddr)) || (ar_hs && !mapped(raddr));
     wire [15:0] flags_set = {7'd0, unmapped, start_busy || err_set[7], err_set[6:0]};
-    wire [7:0]  code_set  = unmapped ? 8'd9 : (start_busy ? 8'd8 : err_code);
+    wire [7:0]  code_set  = unmapped ? 8'(ERR_UNMAPPED) : (start_busy ? 8'(ERR_START_WHILE_BUSY) : err_code);
 
     always_ff @(posedge ap_clk) begin
         if (rst) begin
@@ -222,9 +230,9 @@ module pgs_control_s_axi #(
             int_fp_flags     <= 3'b000;
         end else begin
             // ap_start: set by a write of 1, cleared on the ap_ready handshake unless auto_restart
-            if (wr_ctrl && wstrb4[0] && wdata32[0]) int_ap_start <= 1'b1;
+            if (wr_ctrl && wstrb4[0] && wdata32[AP_START_BIT]) int_ap_start <= 1'b1;
             else if (ap_ready) int_ap_start <= int_auto_restart;
-            if (wr_ctrl && wstrb4[0]) int_auto_restart <= wdata32[7];
+            if (wr_ctrl && wstrb4[0]) int_auto_restart <= wdata32[AUTO_RESTART_BIT];
             // ap_done / ap_ready: set by the kernel, cleared on read (the kernel event wins)
             if (ap_done) int_ap_done <= 1'b1;
             else if (rd_ctrl) int_ap_done <= 1'b0;
@@ -248,7 +256,7 @@ module pgs_control_s_axi #(
                 int_err_flags <= flags | flags_set;
             end
             // fp_status: sticky event flags, write 1 to clear (a new event in the same cycle wins)
-            if (w_hs && waddr == A_FP_STAT && wstrb4[0]) int_fp_flags <= (int_fp_flags & ~wdata32[2:0]) | fp_set;
+            if (w_hs && waddr == A_FP_STAT && wstrb4[0]) int_fp_flags <= (int_fp_flags & ~fp_bits(wdata32)) | fp_set;
             else int_fp_flags <= int_fp_flags | fp_set;
         end
     end
@@ -305,8 +313,15 @@ module pgs_control_s_axi #(
     logic [31:0] rmux;
     always_comb begin
         unique case (raddr)
-            A_AP_CTRL: rmux = {22'd0, interrupt, 1'b0, int_auto_restart, 3'd0, int_ap_ready, ap_idle,
-                               int_ap_done, int_ap_start};
+            A_AP_CTRL: begin
+                rmux = 32'd0;
+                rmux[AP_START_BIT]     = int_ap_start;
+                rmux[AP_DONE_BIT]      = int_ap_done;
+                rmux[AP_IDLE_BIT]      = ap_idle;
+                rmux[AP_READY_BIT]     = int_ap_ready;
+                rmux[AUTO_RESTART_BIT] = int_auto_restart;
+                rmux[AP_INTERRUPT_BIT] = interrupt;
+            end
             A_GIE:     rmux = {31'd0, int_gie};
             A_IER:     rmux = {30'd0, int_ier};
             A_ISR:     rmux = {30'd0, int_isr};
@@ -331,7 +346,12 @@ module pgs_control_s_axi #(
             A_FP_OVF:  rmux = stat_fp_overflow;
             A_FP_UNF:  rmux = stat_fp_underflow;
             A_FP_INV:  rmux = stat_fp_invalid;
-            A_FP_STAT: rmux = {29'd0, int_fp_flags};
+            A_FP_STAT: begin
+                rmux = 32'd0;
+                rmux[FP_OVERFLOW_FLAG_BIT]  = int_fp_flags[0];
+                rmux[FP_UNDERFLOW_FLAG_BIT] = int_fp_flags[1];
+                rmux[FP_INVALID_FLAG_BIT]   = int_fp_flags[2];
+            end
             default:   rmux = 32'd0;
         endcase
     end

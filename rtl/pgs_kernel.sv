@@ -18,9 +18,6 @@
 //     [l*TRACE_W +: TRACE_W] with its own trace_valid bit l (the lanes of an issue retire together).
 // Real-valued arguments (dt, gravity, damping) are the format's bit patterns in the low W bits of their
 // 32-bit registers (W <= 32).
-// TEST_FRICTION_SIGN_BUG is for tests only and must stay 0: when 1, the friction pipe applies each
-// tangent row's impulse change to the velocities with the wrong sign (+delta instead of -delta), a bug
-// the co-simulation scoreboard must catch (cocotb_tests/test_kernel_cosim.py).
 `default_nettype none
 
 module pgs_kernel #(
@@ -39,7 +36,6 @@ module pgs_kernel #(
     parameter int LANES          = 1,     // manifolds issued per cycle (LANES > 1: window kernel only)
     parameter int C_S_AXI_CONTROL_ADDR_WIDTH = 8,
     parameter int C_S_AXI_CONTROL_DATA_WIDTH = 32,
-    parameter bit TEST_FRICTION_SIGN_BUG = 1'b0,
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64,
     localparam int AW            = C_S_AXI_CONTROL_ADDR_WIDTH,
@@ -110,12 +106,12 @@ module pgs_kernel #(
         .EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .MAX_MANIFOLDS(MAX_MANIFOLDS),
         .BODY_IN_W(BODY_IN_W), .CONS_W(CONS_W), .BODY_OUT_W(BODY_OUT_W), .TRACE(TRACE),
         .HAZARD_DEPTH(HAZARD_DEPTH), .OUT_FIFO_DEPTH(OUT_FIFO_DEPTH), .WINDOW(WINDOW), .WINDOW_CTX(WINDOW_CTX),
-        .LANES(LANES), .TEST_FRICTION_SIGN_BUG(TEST_FRICTION_SIGN_BUG)
+        .LANES(LANES)
     ) u_seq (
         .clk(ap_clk), .rst(ap_rst_n_inv), .start(ap_start), .idle(ap_idle), .done(ap_done),
         .arg_num_bodies(num_bodies), .arg_num_manifolds(num_manifolds), .arg_iterations(iterations),
         .arg_dt(dt[W-1:0]), .arg_gx(gx[W-1:0]), .arg_gy(gy[W-1:0]), .arg_gz(gz[W-1:0]),
-        .arg_damping(damping[W-1:0]), .opt_interleaved(options[0]), .arg_lag(lag), .arg_fetch_passes(fetch_passes),
+        .arg_damping(damping[W-1:0]), .opt_interleaved(options[pgs_regs_pkg::OPT_INTERLEAVED_BIT]), .arg_lag(lag), .arg_fetch_passes(fetch_passes),
         .s_body_tdata(s_axis_body_TDATA), .s_body_tvalid(s_axis_body_TVALID), .s_body_tready(s_axis_body_TREADY),
         .s_body_tlast(s_axis_body_TLAST),
         .s_cons_tdata(s_axis_cons_TDATA), .s_cons_tvalid(s_axis_cons_TVALID), .s_cons_tready(s_axis_cons_TREADY),
@@ -132,7 +128,7 @@ module pgs_kernel #(
             wire unused_hi = ^{dt[31:W], gx[31:W], gy[31:W], gz[31:W], damping[31:W]};
         end
     endgenerate
-    wire unused_opt = ^options[31:1];
+    wire unused_opt = ^(options & ~(32'd1 << pgs_regs_pkg::OPT_INTERLEAVED_BIT));   // the other options bits
 endmodule
 
 `default_nettype wire

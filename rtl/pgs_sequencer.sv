@@ -70,7 +70,6 @@ module pgs_sequencer #(
     parameter int WINDOW         = 0,      // 0: every pass streams its records; > 0: record window of WINDOW records
     parameter int WINDOW_CTX     = 8,      // passes active at a time in the window (a power of two >= 2)
     parameter int LANES          = 1,      // manifolds issued per cycle (a power of two; > 1 needs WINDOW > 0)
-    parameter bit TEST_FRICTION_SIGN_BUG = 1'b0,  // test only (pgs_kernel): an injected friction-pass bug
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64
 ) (
@@ -494,8 +493,7 @@ module pgs_sequencer #(
             .clk, .rst, .in_valid(s1_valid && s1_kind == CONTACT), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
             .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
             .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
-        pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
-                            .TEST_FRICTION_SIGN_BUG(TEST_FRICTION_SIGN_BUG)) u_friction (
+        pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
             .clk, .rst, .in_valid(s1_valid && s1_kind == FRICTION), .in_tag(s1_tag), .in_data(f_in),
             .in_spin_damp(s1_sd), .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
             .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
@@ -731,19 +729,21 @@ module pgs_sequencer #(
     end
 
     // ---------------- errors ----------------
-    // the conditions of codes 1..7 (flag bit k-1 of code k); err_code names the lowest one raised this cycle.
+    // the conditions of codes 1..7 (pgs_regs_pkg; flag bit k-1 of code k); err_code names the lowest one raised
+    // this cycle.
     // A record cut short by TLAST (code 1 / 2) holds stale words: its other checks raise nothing.
     wire [LANES-1:0] cons_check = {LANES{take && !crec_trunc}} & ~l_empty;
     wire body_in_check = phase == S_LOAD && brec_valid && !brec_trunc;
     logic [6:0] err_hit;
     always_comb begin
-        err_hit[0] = c_tlast_err;                                                          // 1 constraint TLAST
-        err_hit[1] = b_done && (s_body_tlast != (b_asm_cnt == nb - 1) || b_done_trunc);   // 2 body-in TLAST
-        err_hit[2] = phase == S_IDLE && start && bad_args;                                // 3 bad argument
-        err_hit[3] = (cons_check & (l_index | l_collide)) != '0;                           // 4 body index
-        err_hit[4] = (cons_check & l_nonfinite) != '0 || (body_in_check && brec_nonfinite); // 5 non-finite word
-        err_hit[5] = body_in_check && brec_bad_mass;                                       // 6 negative mass
-        err_hit[6] = (cons_check & l_static) != '0;                                        // 7 two static bodies
+        err_hit[pgs_regs_pkg::ERR_CONS_TLAST - 1]    = c_tlast_err;
+        err_hit[pgs_regs_pkg::ERR_BODY_TLAST - 1]    = b_done && (s_body_tlast != (b_asm_cnt == nb - 1) || b_done_trunc);
+        err_hit[pgs_regs_pkg::ERR_BAD_ARGS - 1]      = phase == S_IDLE && start && bad_args;
+        err_hit[pgs_regs_pkg::ERR_BODY_INDEX - 1]    = (cons_check & (l_index | l_collide)) != '0;
+        err_hit[pgs_regs_pkg::ERR_NON_FINITE - 1]    = (cons_check & l_nonfinite) != '0
+                                                       || (body_in_check && brec_nonfinite);
+        err_hit[pgs_regs_pkg::ERR_NEGATIVE_MASS - 1] = body_in_check && brec_bad_mass;
+        err_hit[pgs_regs_pkg::ERR_STATIC_PAIR - 1]   = (cons_check & l_static) != '0;
         err_set  = {1'b0, err_hit};
         err_code = 8'h00;
         for (int k = 6; k >= 0; k--) begin

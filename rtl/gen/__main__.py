@@ -1,4 +1,4 @@
-"""python -m rtl.gen [--check]: regenerate (or check) the generated kernel datapath modules."""
+"""python -m rtl.gen [--check]: regenerate (or check) the generated files (rtl/generated/, hls_export/generated/)."""
 
 import argparse
 import sys

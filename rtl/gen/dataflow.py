@@ -17,12 +17,10 @@ DSL                meaning                     RTL              latency
 ``g.select(p,a,b)`` p ? a : b                  mux              0 (combinational)
 ``-a``             sign flip (exact)           wire             0
 ``g.const(x)``     x rounded to the format     localparam       --
-``g.test_neg(a,P)`` a, or -a when parameter P  mux on a param   0 (combinational)
 =================  ==========================  ===============  =====================================
 
-``g.test_neg`` exists to inject a known bug in test builds: it declares a test-only module parameter
-``P`` (``bit``, default 0). With the default the mux is constant and the module computes the golden
-operation order; with ``P = 1`` the value's sign is flipped.
+A graph has no test-only switches: a variant with an injected bug is a graph of its own (e.g.
+``kernel_graphs.friction_graph(sign_bug=True)``), generated into a build directory only.
 
 The latencies are read from the operators' sources (``rtl/fp/*.sv``, ``localparam int LATENCY``) by
 :func:`operator_latencies`, so the schedule follows the RTL. ``div`` and ``sqrt`` depend on
@@ -57,7 +55,7 @@ from typing import Iterator, Optional, Sequence
 
 import numpy as np
 
-from models.number_format import FpEvents, NumberFormat
+from models.number_format import KERNEL_FORMATS, FpEvents, NumberFormat
 
 FLOAT = "float"
 BOOL = "bool"
@@ -166,7 +164,6 @@ _SIGS: dict[str, tuple[tuple[str, ...], str, Optional[str]]] = {
     "is_zero": ((FLOAT,), BOOL, None),
     "select": ((BOOL, FLOAT, FLOAT), FLOAT, None),
     "neg": ((FLOAT,), FLOAT, None),
-    "test_neg": ((FLOAT,), FLOAT, None),
 }
 _SV_KEYWORDS = set("""
 always and assign automatic begin bit buf byte case cell chandle class clk config const default defparam
@@ -187,11 +184,10 @@ class Value:
     """A node of a :class:`Graph` (the result of an input, constant or operation)."""
 
     def __init__(self, graph: "Graph", nid: int, op: str, args: tuple["Value", ...], typ: str, name: str,
-                 const: Optional[float] = None, index: Optional[int] = None, param: Optional[str] = None):
+                 const: Optional[float] = None, index: Optional[int] = None):
         self.graph, self.id, self.op, self.args, self.type, self.name = graph, nid, op, args, typ, name
         self.const = const
         self.index = index  # input word index (FLOAT inputs) or None
-        self.param = param  # test_neg: the module parameter that flips the sign
         self.auto_named = False
 
     # arithmetic sugar ---------------------------------------------------------------------------
@@ -242,8 +238,6 @@ class Graph:
         self._cse: dict[tuple, Value] = {}
         self._consts: dict[int, Value] = {}
         self._scope: list[str] = []
-        self.test_params: dict[str, str] = {}  # test-only bit parameters (default 0) -> what they do
-        self._n_test_nodes = 0
 
     # naming ----------------------------------------------------------------------------------------
     def _unique(self, name: str) -> str:
@@ -258,9 +252,8 @@ class Graph:
         return cand
 
     def _auto_id(self) -> int:
-        """The number in an automatic node name: test_neg nodes are not counted, so adding an injected bug
-        leaves the other names of the generated RTL as they were (a readable diff)."""
-        return len(self.nodes) - self._n_test_nodes
+        """The number in an automatic node name."""
+        return len(self.nodes)
 
     def _scoped(self, name: str) -> str:
         return "_".join(self._scope + [name])
@@ -349,22 +342,6 @@ class Graph:
         """p ? a : b"""
         return self.op("select", p, a, b, name=name)
 
-    def test_neg(self, a: Value, param: str, doc: str, name: Optional[str] = None) -> Value:
-        """``a``, or ``-a`` when the module's test-only ``parameter bit <param>`` (default 0) is set.
-
-        For a deliberately injected bug in a test build (``doc`` says what it breaks; it is written to the
-        module header). Never merged with another node, so each call is one place the bug acts.
-        """
-        if not isinstance(a, Value) or a.graph is not self or a.type != FLOAT:
-            raise TypeError(f"test_neg: operand is not a FLOAT value of this graph: {a!r}")
-        if not re.fullmatch(r"[A-Z][A-Z0-9_]*", param):
-            raise ValueError(f"test_neg: parameter name {param!r} is not an upper-case identifier")
-        if self.test_params.setdefault(param, doc) != doc:
-            raise ValueError(f"test_neg: parameter {param} declared with two different descriptions")
-        self._n_test_nodes += 1
-        return self._new("test_neg", (a,), FLOAT, self._unique(self._scoped(name or f"test_neg{self._auto_id()}")),
-                         param=param)
-
     def output(self, name: str, v: Value) -> None:
         if v.type != FLOAT:
             raise TypeError(f"output {name} must be FLOAT")
@@ -387,13 +364,8 @@ class Graph:
         return Schedule(self, lat or operator_latencies())
 
     # software twin -----------------------------------------------------------------------------------
-    def evaluate(self, ar, inputs: np.ndarray, bool_inputs: Optional[np.ndarray] = None,
-                 params: Optional[dict[str, int]] = None) -> np.ndarray:
-        """Interpret the graph with arithmetic ``ar``; inputs (K, N_IN) float64 -> outputs (K, N_OUT).
-
-        ``params``: values of the test-only parameters (``test_neg``); absent ones are 0, the golden datapath.
-        """
-        params = params or {}
+    def evaluate(self, ar, inputs: np.ndarray, bool_inputs: Optional[np.ndarray] = None) -> np.ndarray:
+        """Interpret the graph with arithmetic ``ar``; inputs (K, N_IN) float64 -> outputs (K, N_OUT)."""
         inputs = np.asarray(inputs, dtype=np.float64)
         val: dict[int, np.ndarray] = {}
         for v in self.live_nodes():
@@ -417,8 +389,6 @@ class Graph:
                     r = np.where(a[0], a[1], a[2])
                 elif v.op == "neg":
                     r = -a[0]
-                elif v.op == "test_neg":
-                    r = -a[0] if params.get(v.param, 0) else a[0]
                 else:  # pragma: no cover
                     raise AssertionError(v.op)
             val[v.id] = np.asarray(r)
@@ -576,8 +546,6 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
             return f"{names[0]} {_SYMBOL[v.op]} {names[1]}"
         if v.op == "neg":
             return f"-{names[0]}"
-        if v.op == "test_neg":
-            return f"{v.param} ? -{names[0]} : {names[0]}"
         if v.op == "select":
             return f"{names[0]} ? {names[1]} : {names[2]}"
         if v.op == "lt":
@@ -594,25 +562,20 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
         "// cycle (no back-pressure), results exactly LATENCY cycles later, in order; in_tag travels",
         "// with the data. rst (synchronous, active high) clears only the valid pipeline.",
         "// Latencies for the default operators: " + ", ".join(
-            f"{f} {sch.latency_for(m)}" for f, m in (("fp32", 23), ("fp16", 10), ("bf16", 7))) + ".",
+            f"{name} {sch.latency_for(fmt.man_bits)}" for name, fmt in KERNEL_FORMATS.items()) + ".",
     ]
     L += _wrap("Inputs: " + ", ".join(f"{v.index} {v.name.removeprefix('in_')}" for v in graph.inputs))
     L += _wrap("Outputs: " + ", ".join(f"{k} {o.name}" for k, o in enumerate(graph.outputs)))
-    # test-only parameters that act on the datapath (a parameter of dead nodes only would be unused)
-    test_params = {v.param: graph.test_params[v.param] for v in nodes if v.op == "test_neg"}
     fp_nodes = [v for v in nodes if v.op in _SIGS and _SIGS[v.op][2] in _FLAGGED]
     if not 0 < len(fp_nodes) < 1 << 16:
         raise ValueError(f"{graph.name}: {len(fp_nodes)} arithmetic operators (the event counts are 16 bits)")
     L += _wrap(f"Events: the flags of the {len(fp_nodes)} add / sub / mul / div / sqrt operators, for inputs "
                "taken with in_valid && in_count; ev_overflow / ev_underflow / ev_invalid = how many were "
                "raised in the previous cycle (models/number_format.py defines them).")
-    for p, doc in test_params.items():
-        L += _wrap(f"{p} (test only, default 0 = the golden datapath): {doc}")
     L += ["`default_nettype none", "", f"module {graph.name} #(",
           "    parameter  int EXP_BITS = 8,",
           "    parameter  int MAN_BITS = 23,",
           "    parameter  int TAG_W    = 64,",
-          *[f"    parameter  bit {p} = 1'b0,   // test only: an injected bug when 1" for p in test_params],
           "    localparam int W        = 1 + EXP_BITS + MAN_BITS,",
           f"    localparam int N_IN     = {n_in},",
           f"    localparam int N_OUT    = {n_out},",
@@ -728,23 +691,22 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
         L += emit_line(v)
     L.append("")
 
-    L.append("    // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 /")
-    L.append("    // fp16 / bf16; its delay line feeds every consumer at the consumer's issue cycle.")
+    fmt_names = " / ".join(KERNEL_FORMATS)
+    L += _wrap(f"Datapath in schedule order. Each value: cycle it is ready (after the input) for {fmt_names}; its "
+               "delay line feeds every consumer at the consumer's issue cycle.", prefix="    // ")
     k_op = 0
     for v in nodes:
         if v.op in ("input", "bool_input", "const"):
             continue
         w = width(v)
         r = sch.ready[v.id]
-        cyc = "/".join(str(r.eval(m)) for m in (23, 10, 7))
+        cyc = "/".join(str(r.eval(fmt.man_bits)) for fmt in KERNEL_FORMATS.values())
         L.append(f"    // {v.name} = {expr_text(v)}   (ready @{cyc})")
         L.append(f"    logic [{w}-1:0] {v.name};" if w != "1" else f"    logic {v.name};")
         ops = [operand(v, i) for i in range(len(v.args))]
         mod = _SIGS[v.op][2]
         if v.op == "neg":
             L.append(f"    assign {v.name} = {{~{ops[0]}[W-1], {ops[0]}[W-2:0]}};")
-        elif v.op == "test_neg":
-            L.append(f"    assign {v.name} = {v.param} ? {{~{ops[0]}[W-1], {ops[0]}[W-2:0]}} : {ops[0]};")
         elif v.op == "select":
             L.append(f"    assign {v.name} = {ops[0]} ? {ops[1]} : {ops[2]};")
         elif v.op == "is_zero":

@@ -12,18 +12,15 @@ harness packs them with ``models/kernel_vectors.py``.
 
 from __future__ import annotations
 
+from models.contact_solver import FRICTION_COEFF, SPIN_DAMP_FACTOR
+from models.integrator import COS_COEFFS, MAX_ANGLE, SIN_COEFFS, SMALL_ANGLE, TAYLOR_SINC
+from models.number_format import KERNEL_FORMATS
+
 from .dataflow import Graph, Value
 
-MAN_BITS_OF = {"fp32": 23, "fp16": 10, "bf16": 7}
-
-# Constants of the golden model (float64 values; rounded to the format in the RTL).
-FRICTION_COEFF = 0.7          # models.constraints.FRICTION_COEFF
-SPIN_DAMP_FACTOR = 0.1        # models.contact_solver.SPIN_DAMP_FACTOR
-MAX_ANGLE = 0.25 * 3.14159254  # models.integrator.MAX_ANGLE
-SMALL_ANGLE = 0.001
-TAYLOR_SINC = 0.020833333333
-SIN_COEFFS = (-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0)
-COS_COEFFS = (-1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0, 1.0 / 40320.0)
+# The mantissa width of each kernel format (models.number_format.KERNEL_FORMATS). The golden model's constants
+# above (float64 values) are rounded to the format in the RTL.
+MAN_BITS_OF = {name: fmt.man_bits for name, fmt in KERNEL_FORMATS.items()}
 
 Vec = list[Value]
 
@@ -124,20 +121,22 @@ FRICTION_IN = (["n_x", "n_y", "n_z", "c_x", "c_y", "c_z", "t0_x", "t0_y", "t0_z"
                 "f_jac_inv0", "f_jac_inv1"] + [f"lam_n{i}" for i in range(4)] + ["lamT0", "lamT1"]
                + [f"{v}_{c}" for v in ("xA", "xB", "vA", "wA", "vB", "wB") for c in "xyz"]
                + ["mInvA", "mInvB"] + [f"IInv{s}_{c}" for s in "AB" for c in "xyz"])
-FRICTION_SIGN_BUG = "TEST_FRICTION_SIGN_BUG"
-FRICTION_SIGN_BUG_DOC = ("the velocity updates of both tangent rows apply +delta instead of -delta (a wrong "
-                         "sign in the friction pass, for the co-simulation test that expects the scoreboard "
-                         "to catch it).")
+FRICTION_SIGN_BUG_DOC = """\
+INJECTED BUG, for a test build only (generated into build/, never into rtl/): the velocity updates of both
+tangent rows apply +delta instead of -delta (a wrong sign in the friction pass, for the co-simulation test that
+expects the scoreboard to catch it)."""
 FRICTION_OUT = ["lamT0", "lamT1"] + [f"{v}_{c}" for v in ("vA", "wA", "vB", "wB") for c in "xyz"]
 
 
-def friction_graph() -> Graph:
-    g = Graph("pgs_friction_pipe", doc="""\
+def friction_graph(sign_bug: bool = False) -> Graph:
+    """The friction pass; ``sign_bug``: the injected-bug variant of the co-simulation test (``+delta`` applied to
+    the velocities in place of ``-delta``), the same module name and ports, for a test build only."""
+    g = Graph("pgs_friction_pipe", doc=f"""\
 pgs_friction_pipe: one friction pass of one manifold (models/contact_solver.py friction_solve for
-a single manifold; models/OPERATION_ORDER.md "Friction pass"), mu = 0.7. A manifold with
+a single manifold; models/OPERATION_ORDER.md "Friction pass"), mu = {FRICTION_COEFF}. A manifold with
 f_jac_inv[0] == 0 is skipped (lamT and the velocities pass through unchanged: selects); otherwise
-spin damping (factor 0.1) is applied when in_spin_damp is set. The velocities of a static body are
-computed the same way; the caller must not write them back.""")
+spin damping (factor {SPIN_DAMP_FACTOR}) is applied when in_spin_damp is set. The velocities of a static body are
+computed the same way; the caller must not write them back.""" + ("\n\n" + FRICTION_SIGN_BUG_DOC if sign_bug else ""))
     n = g.inputs_vec("n")
     c = g.inputs_vec("c")
     t = [g.inputs_vec("t0"), g.inputs_vec("t1")]
@@ -167,9 +166,8 @@ computed the same way; the caller must not write them back.""")
             new = g.min(g.max(lam_t[j] + delta, neg_limit), limit, name="lam_new")
             delta = (new - lam_t[j]).named("delta")
             lam_t[j] = g.select(skip, lam_t[j], new, name="lamT")
-            # e = -delta is the impulse change applied to both bodies' velocities; the test-only
-            # TEST_FRICTION_SIGN_BUG applies +delta instead (a wrong sign the scoreboard must catch)
-            e = g.test_neg((-delta).named("e"), FRICTION_SIGN_BUG, FRICTION_SIGN_BUG_DOC, name="e_applied")
+            # e = -delta is the impulse change applied to both bodies' velocities (the injected bug: +delta)
+            e = delta if sign_bug else (-delta).named("e")
             va = named(vselect(g, skip, va, vadd(va, scale3(named(scale3(tj, ma), "linA"), e))), "vA")
             wa = named(vselect(g, skip, wa, vadd(wa, scale3(named(vmul(ia, ca), "angA"), e))), "wA")
             vb = named(vselect(g, skip, vb, vsub(vb, scale3(named(scale3(tj, mb), "linB"), e))), "vB")
@@ -205,12 +203,12 @@ def _horner(g: Graph, x2: Value, coeffs: tuple[float, ...], name: str) -> Value:
 
 
 def integrate_graph() -> Graph:
-    g = Graph("pgs_integrate_pipe", doc="""\
+    g = Graph("pgs_integrate_pipe", doc=f"""\
 pgs_integrate_pipe: integration of one body (models/integrator.py integrate for a single dynamic
 body; models/OPERATION_ORDER.md "Integration"). The run constants half_dt = 0.5*dt,
-dt3c = ((dt*dt)*dt)*0.020833333333 and g_dt = g*dt are computed here from the dt / g inputs, as the
+dt3c = ((dt*dt)*dt)*{TAYLOR_SINC} and g_dt = g*dt are computed here from the dt / g inputs, as the
 golden computes them. sin / cos are the golden's Taylor polynomials; the angle is clamped to
-MAX_ANGLE / dt when theta*dt > MAX_ANGLE, and theta < 0.001 selects the small-angle sinc.""")
+MAX_ANGLE / dt when theta*dt > MAX_ANGLE, and theta < {SMALL_ANGLE} selects the small-angle sinc.""")
     pos = g.inputs_vec("pos")
     q = g.inputs_vec("q", 4)
     v = g.inputs_vec("v")

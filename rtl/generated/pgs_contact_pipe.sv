@@ -359,8 +359,8 @@ module pgs_contact_pipe #(
     pgs_delay #(.WIDTH(W), .DEPTH(11))
         u_dl_in_IInvB_z (.clk(clk), .d(in_IInvB_z), .q(dl_in_IInvB_z));
 
-    // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 /
-    // fp16 / bf16; its delay line feeds every consumer at the consumer's issue cycle.
+    // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
+    // bf16; its delay line feeds every consumer at the consumer's issue cycle.
     // linA_x = n_x * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_x;
     logic [2:0] fl_linA_x;

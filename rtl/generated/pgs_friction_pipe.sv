@@ -19,16 +19,12 @@
 // Events: the flags of the 194 add / sub / mul / div / sqrt operators, for inputs taken with
 // in_valid && in_count; ev_overflow / ev_underflow / ev_invalid = how many were raised in the
 // previous cycle (models/number_format.py defines them).
-// TEST_FRICTION_SIGN_BUG (test only, default 0 = the golden datapath): the velocity updates of both
-// tangent rows apply +delta instead of -delta (a wrong sign in the friction pass, for the
-// co-simulation test that expects the scoreboard to catch it).
 `default_nettype none
 
 module pgs_friction_pipe #(
     parameter  int EXP_BITS = 8,
     parameter  int MAN_BITS = 23,
     parameter  int TAG_W    = 64,
-    parameter  bit TEST_FRICTION_SIGN_BUG = 1'b0,   // test only: an injected bug when 1
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 46,
     localparam int N_OUT    = 14,
@@ -332,8 +328,8 @@ module pgs_friction_pipe #(
     pgs_delay #(.WIDTH(1), .DEPTH(110))
         u_dl_in_spin_damp (.clk(clk), .d(in_spin_damp), .q(dl_in_spin_damp));
 
-    // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 /
-    // fp16 / bf16; its delay line feeds every consumer at the consumer's issue cycle.
+    // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
+    // bf16; its delay line feeds every consumer at the consumer's issue cycle.
     // skip = f_jac_inv0 == 0   (ready @0/0/0)
     logic skip;
     assign skip = (dl_in_f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
@@ -1086,12 +1082,6 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_e;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_e (.clk(clk), .d(t0_e), .q(dl_t0_e));
-    // t0_e_applied = TEST_FRICTION_SIGN_BUG ? -t0_e : t0_e   (ready @43/43/43)
-    logic [W-1:0] t0_e_applied;
-    assign t0_e_applied = TEST_FRICTION_SIGN_BUG ? {~dl_t0_e[W-1], dl_t0_e[W-2:0]} : dl_t0_e;
-    logic [W-1:0] dl_t0_e_applied;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_e_applied (.clk(clk), .d(t0_e_applied), .q(dl_t0_e_applied));
     // t0_linA_x = t0_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_x;
     logic [2:0] fl_t0_linA_x;
@@ -1131,11 +1121,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
         u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .q(dl_t0_linA_z));
-    // t0_mul112 = t0_linA_x * t0_e_applied   (ready @46/46/46)
+    // t0_mul112 = t0_linA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul112;
     logic [2:0] fl_t0_mul112;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul112 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_x), .b(dl_t0_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[59]), .y(t0_mul112), .flags(fl_t0_mul112)
     );
     assign ev_ovf[57] = fl_t0_mul112[0] && ev_q[46];
@@ -1144,11 +1134,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_mul112;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul112 (.clk(clk), .d(t0_mul112), .q(dl_t0_mul112));
-    // t0_mul113 = t0_linA_y * t0_e_applied   (ready @46/46/46)
+    // t0_mul113 = t0_linA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul113;
     logic [2:0] fl_t0_mul113;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul113 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_y), .b(dl_t0_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[60]), .y(t0_mul113), .flags(fl_t0_mul113)
     );
     assign ev_ovf[58] = fl_t0_mul113[0] && ev_q[46];
@@ -1157,11 +1147,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_mul113;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul113 (.clk(clk), .d(t0_mul113), .q(dl_t0_mul113));
-    // t0_mul114 = t0_linA_z * t0_e_applied   (ready @46/46/46)
+    // t0_mul114 = t0_linA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul114;
     logic [2:0] fl_t0_mul114;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul114 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_z), .b(dl_t0_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[61]), .y(t0_mul114), .flags(fl_t0_mul114)
     );
     assign ev_ovf[59] = fl_t0_mul114[0] && ev_q[46];
@@ -1266,11 +1256,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
         u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .q(dl_t0_angA_z));
-    // t0_mul124 = t0_angA_x * t0_e_applied   (ready @46/46/46)
+    // t0_mul124 = t0_angA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul124;
     logic [2:0] fl_t0_mul124;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul124 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_x), .b(dl_t0_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[68]), .y(t0_mul124), .flags(fl_t0_mul124)
     );
     assign ev_ovf[66] = fl_t0_mul124[0] && ev_q[46];
@@ -1279,11 +1269,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_mul124;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul124 (.clk(clk), .d(t0_mul124), .q(dl_t0_mul124));
-    // t0_mul125 = t0_angA_y * t0_e_applied   (ready @46/46/46)
+    // t0_mul125 = t0_angA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul125;
     logic [2:0] fl_t0_mul125;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul125 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_y), .b(dl_t0_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[69]), .y(t0_mul125), .flags(fl_t0_mul125)
     );
     assign ev_ovf[67] = fl_t0_mul125[0] && ev_q[46];
@@ -1292,11 +1282,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_mul125;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul125 (.clk(clk), .d(t0_mul125), .q(dl_t0_mul125));
-    // t0_mul126 = t0_angA_z * t0_e_applied   (ready @46/46/46)
+    // t0_mul126 = t0_angA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul126;
     logic [2:0] fl_t0_mul126;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul126 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_z), .b(dl_t0_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[70]), .y(t0_mul126), .flags(fl_t0_mul126)
     );
     assign ev_ovf[68] = fl_t0_mul126[0] && ev_q[46];
@@ -1401,11 +1391,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
         u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .q(dl_t0_linB_z));
-    // t0_mul136 = t0_linB_x * t0_e_applied   (ready @46/46/46)
+    // t0_mul136 = t0_linB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul136;
     logic [2:0] fl_t0_mul136;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul136 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_x), .b(dl_t0_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[77]), .y(t0_mul136), .flags(fl_t0_mul136)
     );
     assign ev_ovf[75] = fl_t0_mul136[0] && ev_q[46];
@@ -1414,11 +1404,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_mul136;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul136 (.clk(clk), .d(t0_mul136), .q(dl_t0_mul136));
-    // t0_mul137 = t0_linB_y * t0_e_applied   (ready @46/46/46)
+    // t0_mul137 = t0_linB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul137;
     logic [2:0] fl_t0_mul137;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul137 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_y), .b(dl_t0_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[78]), .y(t0_mul137), .flags(fl_t0_mul137)
     );
     assign ev_ovf[76] = fl_t0_mul137[0] && ev_q[46];
@@ -1427,11 +1417,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_mul137;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul137 (.clk(clk), .d(t0_mul137), .q(dl_t0_mul137));
-    // t0_mul138 = t0_linB_z * t0_e_applied   (ready @46/46/46)
+    // t0_mul138 = t0_linB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul138;
     logic [2:0] fl_t0_mul138;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul138 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_z), .b(dl_t0_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[79]), .y(t0_mul138), .flags(fl_t0_mul138)
     );
     assign ev_ovf[77] = fl_t0_mul138[0] && ev_q[46];
@@ -1536,11 +1526,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
         u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .q(dl_t0_angB_z));
-    // t0_mul148 = t0_angB_x * t0_e_applied   (ready @46/46/46)
+    // t0_mul148 = t0_angB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul148;
     logic [2:0] fl_t0_mul148;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul148 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_x), .b(dl_t0_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[86]), .y(t0_mul148), .flags(fl_t0_mul148)
     );
     assign ev_ovf[84] = fl_t0_mul148[0] && ev_q[46];
@@ -1549,11 +1539,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_mul148;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul148 (.clk(clk), .d(t0_mul148), .q(dl_t0_mul148));
-    // t0_mul149 = t0_angB_y * t0_e_applied   (ready @46/46/46)
+    // t0_mul149 = t0_angB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul149;
     logic [2:0] fl_t0_mul149;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul149 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_y), .b(dl_t0_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[87]), .y(t0_mul149), .flags(fl_t0_mul149)
     );
     assign ev_ovf[85] = fl_t0_mul149[0] && ev_q[46];
@@ -1562,11 +1552,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t0_mul149;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t0_mul149 (.clk(clk), .d(t0_mul149), .q(dl_t0_mul149));
-    // t0_mul150 = t0_angB_z * t0_e_applied   (ready @46/46/46)
+    // t0_mul150 = t0_angB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul150;
     logic [2:0] fl_t0_mul150;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul150 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_z), .b(dl_t0_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[88]), .y(t0_mul150), .flags(fl_t0_mul150)
     );
     assign ev_ovf[86] = fl_t0_mul150[0] && ev_q[46];
@@ -2242,12 +2232,6 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_e;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_e (.clk(clk), .d(t1_e), .q(dl_t1_e));
-    // t1_e_applied = TEST_FRICTION_SIGN_BUG ? -t1_e : t1_e   (ready @82/82/82)
-    logic [W-1:0] t1_e_applied;
-    assign t1_e_applied = TEST_FRICTION_SIGN_BUG ? {~dl_t1_e[W-1], dl_t1_e[W-2:0]} : dl_t1_e;
-    logic [W-1:0] dl_t1_e_applied;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_e_applied (.clk(clk), .d(t1_e_applied), .q(dl_t1_e_applied));
     // t1_linA_x = t1_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_x;
     logic [2:0] fl_t1_linA_x;
@@ -2287,11 +2271,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
         u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .q(dl_t1_linA_z));
-    // t1_mul209 = t1_linA_x * t1_e_applied   (ready @85/85/85)
+    // t1_mul209 = t1_linA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul209;
     logic [2:0] fl_t1_mul209;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul209 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_x), .b(dl_t1_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[141]), .y(t1_mul209), .flags(fl_t1_mul209)
     );
     assign ev_ovf[137] = fl_t1_mul209[0] && ev_q[85];
@@ -2300,11 +2284,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_mul209;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul209 (.clk(clk), .d(t1_mul209), .q(dl_t1_mul209));
-    // t1_mul210 = t1_linA_y * t1_e_applied   (ready @85/85/85)
+    // t1_mul210 = t1_linA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul210;
     logic [2:0] fl_t1_mul210;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul210 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_y), .b(dl_t1_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[142]), .y(t1_mul210), .flags(fl_t1_mul210)
     );
     assign ev_ovf[138] = fl_t1_mul210[0] && ev_q[85];
@@ -2313,11 +2297,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_mul210;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul210 (.clk(clk), .d(t1_mul210), .q(dl_t1_mul210));
-    // t1_mul211 = t1_linA_z * t1_e_applied   (ready @85/85/85)
+    // t1_mul211 = t1_linA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul211;
     logic [2:0] fl_t1_mul211;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul211 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_z), .b(dl_t1_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[143]), .y(t1_mul211), .flags(fl_t1_mul211)
     );
     assign ev_ovf[139] = fl_t1_mul211[0] && ev_q[85];
@@ -2422,11 +2406,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
         u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .q(dl_t1_angA_z));
-    // t1_mul221 = t1_angA_x * t1_e_applied   (ready @85/85/85)
+    // t1_mul221 = t1_angA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul221;
     logic [2:0] fl_t1_mul221;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul221 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_x), .b(dl_t1_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[150]), .y(t1_mul221), .flags(fl_t1_mul221)
     );
     assign ev_ovf[146] = fl_t1_mul221[0] && ev_q[85];
@@ -2435,11 +2419,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_mul221;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul221 (.clk(clk), .d(t1_mul221), .q(dl_t1_mul221));
-    // t1_mul222 = t1_angA_y * t1_e_applied   (ready @85/85/85)
+    // t1_mul222 = t1_angA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul222;
     logic [2:0] fl_t1_mul222;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul222 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_y), .b(dl_t1_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[151]), .y(t1_mul222), .flags(fl_t1_mul222)
     );
     assign ev_ovf[147] = fl_t1_mul222[0] && ev_q[85];
@@ -2448,11 +2432,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_mul222;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul222 (.clk(clk), .d(t1_mul222), .q(dl_t1_mul222));
-    // t1_mul223 = t1_angA_z * t1_e_applied   (ready @85/85/85)
+    // t1_mul223 = t1_angA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul223;
     logic [2:0] fl_t1_mul223;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul223 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_z), .b(dl_t1_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[152]), .y(t1_mul223), .flags(fl_t1_mul223)
     );
     assign ev_ovf[148] = fl_t1_mul223[0] && ev_q[85];
@@ -2557,11 +2541,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
         u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .q(dl_t1_linB_z));
-    // t1_mul233 = t1_linB_x * t1_e_applied   (ready @85/85/85)
+    // t1_mul233 = t1_linB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul233;
     logic [2:0] fl_t1_mul233;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul233 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_x), .b(dl_t1_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[159]), .y(t1_mul233), .flags(fl_t1_mul233)
     );
     assign ev_ovf[155] = fl_t1_mul233[0] && ev_q[85];
@@ -2570,11 +2554,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_mul233;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul233 (.clk(clk), .d(t1_mul233), .q(dl_t1_mul233));
-    // t1_mul234 = t1_linB_y * t1_e_applied   (ready @85/85/85)
+    // t1_mul234 = t1_linB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul234;
     logic [2:0] fl_t1_mul234;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul234 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_y), .b(dl_t1_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[160]), .y(t1_mul234), .flags(fl_t1_mul234)
     );
     assign ev_ovf[156] = fl_t1_mul234[0] && ev_q[85];
@@ -2583,11 +2567,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_mul234;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul234 (.clk(clk), .d(t1_mul234), .q(dl_t1_mul234));
-    // t1_mul235 = t1_linB_z * t1_e_applied   (ready @85/85/85)
+    // t1_mul235 = t1_linB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul235;
     logic [2:0] fl_t1_mul235;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul235 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_z), .b(dl_t1_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[161]), .y(t1_mul235), .flags(fl_t1_mul235)
     );
     assign ev_ovf[157] = fl_t1_mul235[0] && ev_q[85];
@@ -2692,11 +2676,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
         u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .q(dl_t1_angB_z));
-    // t1_mul245 = t1_angB_x * t1_e_applied   (ready @85/85/85)
+    // t1_mul245 = t1_angB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul245;
     logic [2:0] fl_t1_mul245;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul245 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_x), .b(dl_t1_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[168]), .y(t1_mul245), .flags(fl_t1_mul245)
     );
     assign ev_ovf[164] = fl_t1_mul245[0] && ev_q[85];
@@ -2705,11 +2689,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_mul245;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul245 (.clk(clk), .d(t1_mul245), .q(dl_t1_mul245));
-    // t1_mul246 = t1_angB_y * t1_e_applied   (ready @85/85/85)
+    // t1_mul246 = t1_angB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul246;
     logic [2:0] fl_t1_mul246;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul246 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_y), .b(dl_t1_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[169]), .y(t1_mul246), .flags(fl_t1_mul246)
     );
     assign ev_ovf[165] = fl_t1_mul246[0] && ev_q[85];
@@ -2718,11 +2702,11 @@ module pgs_friction_pipe #(
     logic [W-1:0] dl_t1_mul246;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_t1_mul246 (.clk(clk), .d(t1_mul246), .q(dl_t1_mul246));
-    // t1_mul247 = t1_angB_z * t1_e_applied   (ready @85/85/85)
+    // t1_mul247 = t1_angB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul247;
     logic [2:0] fl_t1_mul247;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul247 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_z), .b(dl_t1_e_applied),
+        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[170]), .y(t1_mul247), .flags(fl_t1_mul247)
     );
     assign ev_ovf[166] = fl_t1_mul247[0] && ev_q[85];

@@ -187,8 +187,8 @@ module pgs_integrate_pipe #(
     pgs_delay #(.WIDTH(W), .DEPTH(0))
         u_dl_in_g_z (.clk(clk), .d(in_g_z), .q(dl_in_g_z));
 
-    // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 /
-    // fp16 / bf16; its delay line feeds every consumer at the consumer's issue cycle.
+    // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
+    // bf16; its delay line feeds every consumer at the consumer's issue cycle.
     // half_dt = 0.5 * dt   (ready @3/3/3)
     logic [W-1:0] half_dt;
     logic [2:0] fl_half_dt;

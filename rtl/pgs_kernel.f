@@ -1,0 +1,37 @@
+// pgs_kernel.f: every source of the kernel (pgs_kernel), in compile order: packages first, then each module
+// after the modules it instantiates. Paths relative to this folder (verilator -F rtl/pgs_kernel.f); read by
+// make lint, every Verilator build of the kernel and the Yosys estimate (rtl/gen/file_list.py). A new .sv file
+// under rtl/ goes here (a test checks that every one is listed). generated/: written by `make rtl`.
+
+// packages
+pgs_fp_pkg.sv
+generated/pgs_regs_pkg.sv
+generated/pgs_pipe_latency_pkg.sv
+
+// floating-point operators
+fp/fp_lzc.sv
+fp/fp_unpack.sv
+fp/fp_round_pack.sv
+fp/fp_valid_pipe.sv
+fp/fp_add.sv
+fp/fp_mul.sv
+fp/fp_div.sv
+fp/fp_sqrt.sv
+fp/fp_minmax.sv
+
+// datapaths (generated) and their delay lines
+pgs_delay.sv
+generated/pgs_contact_pipe.sv
+generated/pgs_friction_pipe.sv
+generated/pgs_integrate_pipe.sv
+
+// memories, queues and control
+pgs_fifo.sv
+pgs_body_ram.sv
+pgs_impulse_ram.sv
+pgs_hazard_cam.sv
+pgs_record_asm.sv
+pgs_window.sv
+pgs_sequencer.sv
+pgs_control_s_axi.sv
+pgs_kernel.sv
