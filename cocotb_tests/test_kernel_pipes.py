@@ -18,8 +18,9 @@ graph's software twin with a counting format (``Graph.count_events``) over the c
 pipe flushes results to zero and the integration also overflows (large angular velocities squared) and
 computes 0/0 (sin(x)/theta at theta = 0, discarded by the small-angle select); in fp32 and bf16 only that 0/0.
 
-Also: the generated files are up to date with ``python -m rtl.gen``, and the graphs' software twin
-(``Graph.evaluate``) matches the golden model.
+Also: the generated files are up to date with ``python -m rtl.gen``, rtl/pgs_kernel.f lists every RTL source,
+the injected-bug friction pipe is generated apart and is wrong, and the graphs' software twin (``Graph.evaluate``)
+matches the golden model.
 """
 
 from __future__ import annotations
@@ -41,16 +42,20 @@ if str(REPO) not in sys.path:
 from models import kernel_vectors as kv  # noqa: E402
 from models import scenes  # noqa: E402
 from models.constraints import body_table, setup_constraints  # noqa: E402
-from models.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat  # noqa: E402
-from rtl.gen import generate  # noqa: E402
+from models.contact_solver import FRICTION_COEFF  # noqa: E402
+from models.integrator import MAX_ANGLE  # noqa: E402
+from models.number_format import EVENT_NAMES, KERNEL_FORMATS, NumberFormat  # noqa: E402
+from rtl.gen import friction_sign_bug_sources, generate, generate_friction_sign_bug, render  # noqa: E402
+from rtl.gen.file_list import FileListError, kernel_sources, read_file_list, swap_sources  # noqa: E402
 from rtl.gen.kernel_graphs import (CONTACT_IN, CONTACT_OUT, FRICTION_IN, FRICTION_OUT, GRAPHS,  # noqa: E402
-                                   INTEGRATE_IN, INTEGRATE_OUT, MAN_BITS_OF)
+                                   INTEGRATE_IN, INTEGRATE_OUT, MAN_BITS_OF, friction_graph)
+from sim.lint import rtl_files  # noqa: E402
 from sim.verilator_build import DEBUG_COMPILE_ARGS, build  # noqa: E402
 
 HERE = Path(__file__).resolve().parent / "pipes"
 RTL = REPO / "rtl"
 DEFAULT_SEED = 20240615
-FORMATS = {"fp32": FP32, "fp16": FP16, "bf16": BF16}
+FORMATS = KERNEL_FORMATS
 SCENES = (("pile", {"nx": 4, "ny": 3, "nz": 4}), ("stack", {}), ("incline", {}))
 # Verilator: keep every operator instance a separate function (-fno-inline) and compile without C++
 # optimization: the designs are large and the runs short, so this is the fastest overall.
@@ -145,7 +150,7 @@ def friction_vectors(fmt: NumberFormat, sv: list[kv.SceneVectors],
     for c0 in (26, 29, 32, 35):                                  # vA, wA, vB, wB
         _scale_rows(rng, p, slice(c0, c0 + 3), 0.01, 30.0)
     p[:, 14:18] *= _log_uniform(rng, 0.01, 100.0, (k, 4)) * (rng.random((k, 4)) < 0.9)  # lam_n
-    limit = 0.7 * p[:, 14:18].sum(axis=1, keepdims=True)
+    limit = FRICTION_COEFF * p[:, 14:18].sum(axis=1, keepdims=True)
     p[:, 18:20] = rng.uniform(-1.5, 1.5, (k, 2)) * limit * (rng.random((k, 2)) < 0.8)     # lamT
     ps = np.where(rng.random(k) < 0.5, ~ps, ps)                                          # spin on / off
     p[rng.random(k) < 0.1, 12] = 0.0                                                     # skipped rows
@@ -178,7 +183,7 @@ def integrate_vectors(fmt: NumberFormat, sv: list[kv.SceneVectors], rng: np.rand
                     [_log_uniform(rng, 1e-6, 1e-3, n),                    # small-angle branch
                      _log_uniform(rng, 1e-3, 40.0, n),                    # ordinary
                      _log_uniform(rng, 40.0, 400.0, n),                   # angle clamp
-                     (0.25 * 3.14159254 / dt) * rng.uniform(0.999, 1.011, n)],   # around the clamp
+                     (MAX_ANGLE / dt) * rng.uniform(0.999, 1.011, n)],   # around the clamp
                     np.zeros(n))                                          # zero
     w[:, 10:13] = dirs * mag[:, None]
     w[:, 13] = dt
@@ -319,8 +324,71 @@ def test_kernel_pipe_bit_exact(harness: Harness, tmp_path: Path) -> None:
 
 
 def test_generated_rtl_up_to_date() -> None:
+    """Every generated copy (the datapaths, the latency package and JSON, the register package and the HLS header)
+    equals what the generator writes now."""
+    rendered = {p.relative_to(REPO).as_posix() for p in render()}
+    assert rendered == {"rtl/generated/pgs_contact_pipe.sv", "rtl/generated/pgs_friction_pipe.sv",
+                        "rtl/generated/pgs_integrate_pipe.sv", "rtl/generated/pgs_pipe_latency_pkg.sv",
+                        "rtl/generated/pipe_latency.json", "rtl/generated/pgs_regs_pkg.sv",
+                        "hls_export/generated/pgs_regs.h"}
     stale = generate(check=True)
     assert not stale, f"regenerate with `python -m rtl.gen`: {[str(p) for p in stale]}"
+    written = {p.relative_to(REPO).as_posix() for p in (RTL / "generated").iterdir()}
+    assert written <= rendered, f"files in rtl/generated/ the generator does not write: {sorted(written - rendered)}"
+    for path in render():  # the first line says the file is generated (JSON: its "about" key)
+        head = path.read_text().splitlines()[0 if path.suffix != ".json" else 1]
+        assert "generated by rtl/gen (python -m rtl.gen), do not edit" in head, path
+
+
+def test_kernel_file_list_names_every_rtl_source() -> None:
+    """rtl/pgs_kernel.f lists every SystemVerilog file under rtl/ once, packages first, pgs_kernel last; no file of
+    the product RTL has a test-only parameter."""
+    sources = kernel_sources()
+    assert set(sources) == set(RTL.resolve().rglob("*.sv")), "a file under rtl/ is missing from rtl/pgs_kernel.f"
+    packages, modules = rtl_files()
+    assert sources[:len(packages)] == packages and sources[-1].name == "pgs_kernel.sv"
+    assert [p.name for p in packages] == ["pgs_fp_pkg.sv", "pgs_regs_pkg.sv", "pgs_pipe_latency_pkg.sv"]
+    assert not [p.name for p in sources if "TEST_" in p.read_text()]
+
+
+def test_file_list_errors(tmp_path: Path) -> None:
+    (tmp_path / "a.sv").write_text("module a; endmodule\n")
+    bad = {"missing.sv": "does not exist", "a.sv\na.sv": "listed twice", "-y .": "not a single source path",
+           "// only a comment": "lists no source"}
+    for text, message in bad.items():
+        f = tmp_path / "list.f"
+        f.write_text(text + "\n")
+        with pytest.raises(FileListError, match=message):
+            read_file_list(f)
+    f.write_text("// the one file\na.sv  // trailing comment\n")
+    assert read_file_list(f) == [(tmp_path / "a.sv").resolve()]
+    with pytest.raises(FileListError, match="no source to replace"):
+        swap_sources(read_file_list(f), [tmp_path / "b.sv"])
+
+
+def test_friction_sign_bug_variant(tmp_path: Path) -> None:
+    """The injected-bug friction pipe: written only where asked (never into rtl/), the product module's name and
+    ports, no parameter; swapped into the kernel's source list in place of the product pipe; and wrong: its
+    software twin differs from the golden model on the scene vectors, in the velocity words only."""
+    path = generate_friction_sign_bug(tmp_path / "bug")
+    product = (RTL / "generated" / "pgs_friction_pipe.sv").read_text()
+    text = path.read_text()
+    assert path.name == "pgs_friction_pipe.sv" and text != product and "INJECTED BUG" in text
+    assert "TEST_" not in text and "module pgs_friction_pipe #(" in text
+    ports = [line for line in text.splitlines() if line.startswith("    input ") or line.startswith("    output ")]
+    assert ports == [line for line in product.splitlines() if line.startswith("    input ") or line.startswith("    output ")]
+    sources = friction_sign_bug_sources(tmp_path / "bug")
+    assert path.resolve() in sources and len(sources) == len(kernel_sources())
+    assert [s for s in sources if s.name == "pgs_friction_pipe.sv"] == [path.resolve()]
+    with pytest.raises(ValueError, match="build directory"):
+        generate_friction_sign_bug(RTL / "generated")
+    fmt = FORMATS["fp32"]
+    bits, flags, _ = make_vectors("friction", fmt, seed_for("fp32", "friction"))
+    x = fmt.decode(bits.astype(np.uint64))
+    with np.errstate(all="ignore"):
+        twin = fmt.encode(friction_graph(sign_bug=True).evaluate(fmt, x, flags[:, None])).astype(np.uint32)
+    differs = (twin != golden_bits("friction", fmt, bits, flags)).any(axis=0)
+    assert differs[2:].any(), "the injected bug changes no velocity"
 
 
 @pytest.mark.parametrize("fmt_name", list(FORMATS))

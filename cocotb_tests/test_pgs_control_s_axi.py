@@ -20,13 +20,25 @@ import cocotb
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, RisingEdge
 
+from models import register_map as rm
+
 REPO = Path(__file__).resolve().parents[1]
 
-ARGS = {"num_bodies": 0x10, "num_manifolds": 0x18, "iterations": 0x20, "dt": 0x28, "gravity_x": 0x30,
-        "gravity_y": 0x38, "gravity_z": 0x40, "damping": 0x48, "options": 0x50, "lag": 0x90, "fetch_passes": 0x98}
-STATUS, CYC_LO, CYC_HI, STALL, BUBBLE, ISSUED = 0x58, 0x60, 0x64, 0x68, 0x70, 0x78
-REJECTED, FP_OVF, FP_UNF, FP_INV, FP_STATUS = 0x7C, 0x80, 0x84, 0x88, 0x8C
+ARGS = {name: rm.OFFSET[name] for name in rm.ARG_NAMES}
+AP_CTRL, GIE, IER, ISR = (rm.OFFSET[n] for n in ("ap_ctrl", "gie", "ier", "isr"))
+STATUS, CYC_LO, CYC_HI, STALL, BUBBLE, ISSUED = (rm.OFFSET[n] for n in ("status", "cycles_lo", "cycles_hi", "stalls",
+                                                                        "bubbles", "issued"))
+REJECTED, FP_OVF, FP_UNF, FP_INV, FP_STATUS = (rm.OFFSET[n] for n in ("rejected", "fp_overflow", "fp_underflow",
+                                                                      "fp_invalid", "fp_status"))
+RESERVED = [addr + 4 for addr in ARGS.values()]  # the upper words of the 8-byte argument slots
+UNMAPPED, UNMAPPED_WRITE = (0x5C, 0x6C, 0x74, 0xA0, 0xA4, 0xFC), 0xF0  # addresses of no register
 OKAY, SLVERR = 0, 2
+ERR = rm.ErrorCode
+
+
+def status_word(first: int, *codes: int) -> int:
+    """The status register with the flags of ``codes`` set and ``first`` as the first error's code."""
+    return sum(rm.status_flag(c) for c in codes) | first << 8
 
 
 async def _setup(dut):
@@ -87,8 +99,9 @@ async def pulse(dut, *names: str) -> None:
 async def register_file(dut) -> None:
     m = await _setup(dut)
     # reset values
-    assert await rd(m, 0x00) == 0x4  # ap_idle only
-    for addr in (0x04, 0x08, 0x0C, STATUS, FP_STATUS):
+    assert not {*UNMAPPED, UNMAPPED_WRITE} & (set(rm.OFFSET.values()) | set(RESERVED))
+    assert await rd(m, AP_CTRL) == rm.AP_IDLE  # ap_idle only
+    for addr in (GIE, IER, ISR, STATUS, FP_STATUS):
         assert await rd(m, addr) == 0, f"0x{addr:02x} not 0 after reset"
     for name, addr in ARGS.items():
         assert await rd(m, addr) == 0, f"{name} not 0 after reset"
@@ -127,84 +140,91 @@ async def register_file(dut) -> None:
     await wr(m, ARGS["dt"], 0xAABBCCDD, strb=0b0100)
     assert await rd(m, ARGS["dt"]) == (0x01020304 * 4 & 0xFF00FFFF) | 0x00BB0000
     # reserved upper words of the argument slots read 0, ignore writes, answer OKAY, raise nothing
-    for addr in [*range(0x14, 0x58, 8), 0x94, 0x9C]:
+    assert RESERVED == [*range(0x14, 0x58, 8), 0x94, 0x9C]
+    for addr in RESERVED:
         assert await rd(m, addr) == 0, f"0x{addr:02x}"
-    await wr(m, 0x14, 0xFFFFFFFF)
-    assert await rd(m, 0x14) == 0
+    await wr(m, RESERVED[0], 0xFFFFFFFF)
+    assert await rd(m, RESERVED[0]) == 0
     assert await rd(m, STATUS) == 0
     # unmapped addresses read 0 with SLVERR, ignore writes (SLVERR) and raise error code 9 (status bit 24)
-    for addr in (0x5C, 0x6C, 0x74, 0xA0, 0xA4, 0xFC):
+    assert status_word(ERR.UNMAPPED, ERR.UNMAPPED) == 0x0100_0900
+    for addr in UNMAPPED:
         assert await rd(m, addr, resp_code=SLVERR) == 0, f"0x{addr:02x}"
-    assert await rd(m, STATUS) == 0x0100_0900
-    await wr(m, STATUS, 0x0100_0000)
+    assert await rd(m, STATUS) == status_word(ERR.UNMAPPED, ERR.UNMAPPED)
+    await wr(m, STATUS, rm.status_flag(ERR.UNMAPPED))
     assert await rd(m, STATUS) == 0
-    await wr(m, 0xF0, 0x1234, resp_code=SLVERR)
-    assert await rd(m, 0xF0, resp_code=SLVERR) == 0
-    assert await rd(m, STATUS) == 0x0100_0900
+    await wr(m, UNMAPPED_WRITE, 0x1234, resp_code=SLVERR)
+    assert await rd(m, UNMAPPED_WRITE, resp_code=SLVERR) == 0
+    assert await rd(m, STATUS) == status_word(ERR.UNMAPPED, ERR.UNMAPPED)
     await wr(m, STATUS, 0x0000_00FF)  # clears flags 7:0 only: bit 24 stays
-    assert await rd(m, STATUS) == 0x0100_0900
+    assert await rd(m, STATUS) == status_word(ERR.UNMAPPED, ERR.UNMAPPED)
     await wr(m, STATUS, 0xFF00_0000)
     assert await rd(m, STATUS) == 0
 
     # ap_start: set by writing 1, stays until ap_ready, cleared then (no auto_restart)
-    await wr(m, 0x00, 0x0)
+    handshake = rm.AP_START | rm.AP_DONE | rm.AP_IDLE | rm.AP_READY
+    assert (rm.AP_START, rm.AP_DONE, rm.AP_IDLE, rm.AP_READY, rm.AUTO_RESTART, rm.AP_INTERRUPT) == \
+        (0x1, 0x2, 0x4, 0x8, 0x80, 0x200)  # the Vitis HLS ap_ctrl_hs layout
+    await wr(m, AP_CTRL, 0x0)
     assert dut.ap_start.value == 0
-    await wr(m, 0x00, 0x1)
-    assert dut.ap_start.value == 1 and (await rd(m, 0x00)) & 1
+    await wr(m, AP_CTRL, rm.AP_START)
+    assert dut.ap_start.value == 1 and (await rd(m, AP_CTRL)) & rm.AP_START
     dut.ap_idle.value = 0
     await ClockCycles(dut.ap_clk, 3)
-    assert (await rd(m, 0x00)) & 0x5 == 0x1  # started, not idle
+    assert (await rd(m, AP_CTRL)) & (rm.AP_START | rm.AP_IDLE) == rm.AP_START  # started, not idle
     # writing ap_start again while busy changes nothing but raises error code 8 (status bit 7)
-    await wr(m, 0x00, 0x1)
-    assert (await rd(m, 0x00)) & 0x5 == 0x1 and await rd(m, STATUS) == 0x0880
-    await wr(m, STATUS, 0x80)
+    await wr(m, AP_CTRL, rm.AP_START)
+    assert status_word(ERR.START_WHILE_BUSY, ERR.START_WHILE_BUSY) == 0x0880
+    assert (await rd(m, AP_CTRL)) & (rm.AP_START | rm.AP_IDLE) == rm.AP_START
+    assert await rd(m, STATUS) == status_word(ERR.START_WHILE_BUSY, ERR.START_WHILE_BUSY)
+    await wr(m, STATUS, rm.status_flag(ERR.START_WHILE_BUSY))
     assert await rd(m, STATUS) == 0
     await pulse(dut, "ap_done", "ap_ready")
     dut.ap_idle.value = 1
     await RisingEdge(dut.ap_clk)
     assert dut.ap_start.value == 0
-    v = await rd(m, 0x00)
-    assert v & 0xF == 0b1110, hex(v)  # done, idle, ready; start cleared
-    v = await rd(m, 0x00)
-    assert v & 0xF == 0b0100, hex(v)  # done and ready cleared on read
+    v = await rd(m, AP_CTRL)
+    assert v & handshake == rm.AP_DONE | rm.AP_IDLE | rm.AP_READY, hex(v)  # start cleared
+    v = await rd(m, AP_CTRL)
+    assert v & handshake == rm.AP_IDLE, hex(v)  # done and ready cleared on read
     # auto_restart keeps ap_start
-    await wr(m, 0x00, 0x81)
-    assert (await rd(m, 0x00)) & 0x81 == 0x81
+    await wr(m, AP_CTRL, rm.AUTO_RESTART | rm.AP_START)
+    assert (await rd(m, AP_CTRL)) & (rm.AUTO_RESTART | rm.AP_START) == rm.AUTO_RESTART | rm.AP_START
     await pulse(dut, "ap_done", "ap_ready")
     await RisingEdge(dut.ap_clk)
     assert dut.ap_start.value == 1
-    await wr(m, 0x00, 0x00)  # clear auto_restart (ap_start stays until the next handshake)
+    await wr(m, AP_CTRL, 0x00)  # clear auto_restart (ap_start stays until the next handshake)
     await pulse(dut, "ap_ready")
     await RisingEdge(dut.ap_clk)
     assert dut.ap_start.value == 0
-    await rd(m, 0x00)
+    await rd(m, AP_CTRL)
 
     # interrupts: IER gates ISR; GIE gates the output; ISR toggles on write
     await pulse(dut, "ap_done")
-    assert await rd(m, 0x0C) == 0 and dut.interrupt.value == 0
-    await wr(m, 0x08, 0x3)
-    assert await rd(m, 0x08) == 0x3
+    assert await rd(m, ISR) == 0 and dut.interrupt.value == 0
+    await wr(m, IER, 0x3)
+    assert await rd(m, IER) == 0x3
     await pulse(dut, "ap_done")
     await RisingEdge(dut.ap_clk)
-    assert await rd(m, 0x0C) == 0x1
+    assert await rd(m, ISR) == 0x1
     assert dut.interrupt.value == 0  # GIE off
-    await wr(m, 0x04, 0x1)
-    assert await rd(m, 0x04) == 1
+    await wr(m, GIE, 0x1)
+    assert await rd(m, GIE) == 1
     await RisingEdge(dut.ap_clk)
     assert dut.interrupt.value == 1
-    assert (await rd(m, 0x00)) >> 9 & 1 == 1  # interrupt mirrored in AP_CTRL bit 9
+    assert (await rd(m, AP_CTRL)) & rm.AP_INTERRUPT  # interrupt mirrored in AP_CTRL bit 9
     await pulse(dut, "ap_ready")
     await RisingEdge(dut.ap_clk)
-    assert await rd(m, 0x0C) == 0x3
-    await wr(m, 0x0C, 0x1)  # toggle bit 0 off
-    assert await rd(m, 0x0C) == 0x2 and dut.interrupt.value == 1
-    await wr(m, 0x0C, 0x2)
+    assert await rd(m, ISR) == 0x3
+    await wr(m, ISR, 0x1)  # toggle bit 0 off
+    assert await rd(m, ISR) == 0x2 and dut.interrupt.value == 1
+    await wr(m, ISR, 0x2)
     await RisingEdge(dut.ap_clk)
-    assert await rd(m, 0x0C) == 0x0 and dut.interrupt.value == 0
-    await wr(m, 0x0C, 0x1)  # toggle on write also sets
-    assert await rd(m, 0x0C) == 0x1
-    await wr(m, 0x0C, 0x1)
-    await wr(m, 0x04, 0x0)
+    assert await rd(m, ISR) == 0x0 and dut.interrupt.value == 0
+    await wr(m, ISR, 0x1)  # toggle on write also sets
+    assert await rd(m, ISR) == 0x1
+    await wr(m, ISR, 0x1)
+    await wr(m, GIE, 0x0)
 
     # status: sticky flags, first error code, write 1 to clear
     dut.err_code.value = 7
@@ -213,16 +233,17 @@ async def register_file(dut) -> None:
     dut.err_set.value = 0x4
     await RisingEdge(dut.ap_clk)
     dut.err_set.value = 0
-    assert await rd(m, STATUS) == 0x0705  # flags 0b101, code of the first error
-    await wr(m, STATUS, 0x1)
-    assert await rd(m, STATUS) == 0x0704
-    await wr(m, STATUS, 0x4)
+    assert status_word(7, 1, 3) == 0x0705
+    assert await rd(m, STATUS) == status_word(7, 1, 3)  # flags 0b101, code of the first error
+    await wr(m, STATUS, rm.status_flag(1))
+    assert await rd(m, STATUS) == status_word(7, 3)
+    await wr(m, STATUS, rm.status_flag(3))
     assert await rd(m, STATUS) == 0
     dut.err_code.value = 3
     dut.err_set.value = 0x2
     await RisingEdge(dut.ap_clk)
     dut.err_set.value = 0
-    assert await rd(m, STATUS) == 0x0302
+    assert await rd(m, STATUS) == status_word(3, 2)
     await wr(m, STATUS, 0xFF)
     assert await rd(m, STATUS) == 0
 
@@ -232,10 +253,11 @@ async def register_file(dut) -> None:
     dut.fp_set.value = 0b010
     await RisingEdge(dut.ap_clk)
     dut.fp_set.value = 0
-    assert await rd(m, FP_STATUS) == 0b111 and await rd(m, STATUS) == 0
-    await wr(m, FP_STATUS, 0b001)
-    assert await rd(m, FP_STATUS) == 0b110
-    await wr(m, FP_STATUS, 0b110)
+    fp_flags = rm.FP_OVERFLOW_FLAG | rm.FP_UNDERFLOW_FLAG | rm.FP_INVALID_FLAG
+    assert await rd(m, FP_STATUS) == fp_flags == 0b111 and await rd(m, STATUS) == 0
+    await wr(m, FP_STATUS, rm.FP_OVERFLOW_FLAG)
+    assert await rd(m, FP_STATUS) == rm.FP_UNDERFLOW_FLAG | rm.FP_INVALID_FLAG
+    await wr(m, FP_STATUS, rm.FP_UNDERFLOW_FLAG | rm.FP_INVALID_FLAG)
     assert await rd(m, FP_STATUS) == 0
 
 
@@ -247,7 +269,8 @@ def test_pgs_control_s_axi() -> None:
     ensure_verilator_env()
     runner = get_runner("verilator")
     build_dir = REPO / "build" / "cocotb" / "pgs_control_s_axi"
-    runner.build(sources=[REPO / "rtl" / "pgs_control_s_axi.sv"], hdl_toplevel="pgs_control_s_axi",
+    runner.build(sources=[REPO / "rtl" / "generated" / "pgs_regs_pkg.sv", REPO / "rtl" / "pgs_control_s_axi.sv"],
+                 hdl_toplevel="pgs_control_s_axi",
                  build_dir=build_dir, always=False,
                  build_args=["-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include CFG_LDLIBS_THREADS=-pthread",
                              "-Wno-fatal"])

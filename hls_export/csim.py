@@ -62,7 +62,7 @@ def compile_cpp(sources: Sequence[Path], exe: Path, defines: Sequence[str] = (),
     command and is newer than every source and header under ``hls_export/``."""
     cmd = [cxx, *CXXFLAGS, *defines, f"-I{HLS_DIR}", *map(str, sources), "-o", str(exe)]
     stamp = exe.with_suffix(".cmd")
-    deps = [*sources, *HLS_DIR.glob("*.h"), *(HLS_DIR / "shims").glob("*.h")]
+    deps = [*sources, *HLS_DIR.glob("*.h"), *(HLS_DIR / "generated").glob("*.h"), *(HLS_DIR / "shims").glob("*.h")]
     if (exe.is_file() and stamp.is_file() and stamp.read_text() == " ".join(cmd)
             and exe.stat().st_mtime >= max(p.stat().st_mtime for p in deps)):
         return exe

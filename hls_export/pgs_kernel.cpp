@@ -204,17 +204,18 @@ void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_
 #pragma HLS INTERFACE mode=axis port=s_axis_cons
 #pragma HLS INTERFACE mode=axis port=m_axis_body
 #pragma HLS INTERFACE mode=axis port=trace
-#pragma HLS INTERFACE mode=s_axilite port=num_bodies bundle=control offset=0x10
-#pragma HLS INTERFACE mode=s_axilite port=num_manifolds bundle=control offset=0x18
-#pragma HLS INTERFACE mode=s_axilite port=iterations bundle=control offset=0x20
-#pragma HLS INTERFACE mode=s_axilite port=dt bundle=control offset=0x28
-#pragma HLS INTERFACE mode=s_axilite port=gravity_x bundle=control offset=0x30
-#pragma HLS INTERFACE mode=s_axilite port=gravity_y bundle=control offset=0x38
-#pragma HLS INTERFACE mode=s_axilite port=gravity_z bundle=control offset=0x40
-#pragma HLS INTERFACE mode=s_axilite port=damping bundle=control offset=0x48
-#pragma HLS INTERFACE mode=s_axilite port=options bundle=control offset=0x50
-#pragma HLS INTERFACE mode=s_axilite port=status bundle=control offset=0x58
-#pragma HLS INTERFACE mode=s_axilite port=issued bundle=control offset=0x78
+    // the argument offsets of models/register_map.py (generated/pgs_regs.h: PGS_PRAGMA expands PGS_REG_*)
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=num_bodies bundle=control offset=PGS_REG_NUM_BODIES)
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=num_manifolds bundle=control offset=PGS_REG_NUM_MANIFOLDS)
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=iterations bundle=control offset=PGS_REG_ITERATIONS)
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=dt bundle=control offset=PGS_REG_DT)
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=gravity_x bundle=control offset=PGS_REG_GRAVITY_X)
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=gravity_y bundle=control offset=PGS_REG_GRAVITY_Y)
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=gravity_z bundle=control offset=PGS_REG_GRAVITY_Z)
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=damping bundle=control offset=PGS_REG_DAMPING)
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=options bundle=control offset=PGS_REG_OPTIONS)
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=status bundle=control offset=PGS_REG_STATUS)
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=issued bundle=control offset=PGS_REG_ISSUED)
 #pragma HLS INTERFACE mode=s_axilite port=return bundle=control
 
     // On-chip memories (BRAM). Each per-body / per-slot word is its own array (ARRAY_PARTITION of dim 2), so a

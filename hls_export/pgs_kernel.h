@@ -9,6 +9,7 @@
 
 #include <cstdint>
 
+#include "generated/pgs_regs.h"
 #include "pgs_stream.h"
 
 #ifndef PGS_MAX_BODIES
@@ -22,20 +23,11 @@ namespace pgs {
 
 constexpr uint32_t kMaxBodies = PGS_MAX_BODIES;
 constexpr uint32_t kMaxManifolds = PGS_MAX_MANIFOLDS;
-constexpr uint32_t kMaxIterations = 65535;
 static_assert((kMaxBodies & (kMaxBodies - 1)) == 0, "PGS_MAX_BODIES must be a power of two");
 
-// s_axi_control offsets of the arguments (rtl/README.md register map; the Vitis HLS defaults for this
-// argument order, pinned with offset= in the INTERFACE pragmas)
-constexpr uint32_t kRegNumBodies = 0x10, kRegNumManifolds = 0x18, kRegIterations = 0x20, kRegDt = 0x28,
-                   kRegGravityX = 0x30, kRegGravityY = 0x38, kRegGravityZ = 0x40, kRegDamping = 0x48,
-                   kRegOptions = 0x50, kRegStatus = 0x58, kRegIssued = 0x78;
-
-// error codes of the status register (flag bit = code - 1; bits 15:8 = the first code of the run)
-constexpr uint32_t kErrConsTlast = 1, kErrBodyTlast = 2, kErrBadArgs = 3, kErrBodyIndex = 4;
-
-// options bit 0: interleaved pass order (contact, friction per iteration)
-constexpr uint32_t kOptInterleaved = 1;
+// The s_axi_control offsets (kReg*, pinned with offset= in the INTERFACE pragmas: the Vitis HLS defaults for
+// this argument order), kMaxIterations, the options bits (kOptInterleaved: interleaved pass order) and the
+// error codes (kErr*) are in generated/pgs_regs.h, from models/register_map.py.
 
 // Pass p of a step: friction or contact, and its iteration (models.contact_solver.pass_sequence).
 inline bool pass_is_friction(uint32_t p, uint32_t iterations, bool interleaved) {

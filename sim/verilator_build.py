@@ -24,6 +24,8 @@ import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from rtl.gen.file_list import kernel_sources
+
 REPO_ROOT = Path(__file__).resolve().parents[1]
 BUILD_ROOT = REPO_ROOT / "build" / "verilator"
 
@@ -163,9 +165,11 @@ def build(
 
 
 def rtl_sources(*folders: str) -> list[Path]:
-    """All ``.sv`` files under the given repository folders (default ``rtl``), sorted."""
-    roots = folders or ("rtl",)
+    """All ``.sv`` files under the given repository folders, sorted; with none, the kernel's sources in compile order
+    (``rtl/pgs_kernel.f``)."""
+    if not folders:
+        return kernel_sources()
     files: list[Path] = []
-    for folder in roots:
+    for folder in folders:
         files += sorted((REPO_ROOT / folder).rglob("*.sv"))
     return files

@@ -22,16 +22,19 @@ from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, RisingEdge
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster, SparseMemoryRegion
 
+from models import register_map as rm
 from models.dma_model import DmaPreset
 from models.number_format import NumberFormat
 
 from .axi_dma import AxiDmaEngine, DdrBandwidth, DmaStreamPort, split_lanes
 
-AP_CTRL, GIE, IER, ISR = 0x00, 0x04, 0x08, 0x0C
-ARGS = {"num_bodies": 0x10, "num_manifolds": 0x18, "iterations": 0x20, "dt": 0x28, "gravity_x": 0x30,
-        "gravity_y": 0x38, "gravity_z": 0x40, "damping": 0x48, "options": 0x50}
-STATUS, CYCLES_LO, CYCLES_HI, STALLS, BUBBLES, ISSUED = 0x58, 0x60, 0x64, 0x68, 0x70, 0x78
-REJECTED, FP_OVERFLOW, FP_UNDERFLOW, FP_INVALID, FP_STATUS = 0x7C, 0x80, 0x84, 0x88, 0x8C
+# the kernel's registers (models/register_map.py)
+AP_CTRL, GIE, IER, ISR = (rm.OFFSET[n] for n in ("ap_ctrl", "gie", "ier", "isr"))
+ARGS = {name: rm.OFFSET[name] for name in rm.ARG_NAMES}
+STATUS, CYCLES_LO, CYCLES_HI, STALLS, BUBBLES, ISSUED = (rm.OFFSET[n] for n in ("status", "cycles_lo", "cycles_hi",
+                                                                                "stalls", "bubbles", "issued"))
+REJECTED, FP_OVERFLOW, FP_UNDERFLOW, FP_INVALID, FP_STATUS = (
+    rm.OFFSET[n] for n in ("rejected", "fp_overflow", "fp_underflow", "fp_invalid", "fp_status"))
 DMACR_RUN, DMACR_RESET = 0x1001, 0x4  # RS | IOC_IrqEn; soft reset
 
 BODY_IN_ADDR = 0x1000_0000
@@ -143,7 +146,7 @@ class KernelHost:
             await self.body_engine.write_dword(0x58, body_out_bytes)
         await self._mm2s([self.body_engine], [body_in], BODY_IN_ADDR)
         feeder = cocotb.start_soon(self._feed_constraints(passes, timeout_cycles))
-        await self.write_reg(AP_CTRL, 0x1)
+        await self.write_reg(AP_CTRL, rm.AP_START)
         return feeder
 
     async def finish_step(self, feeder: Any, body_in: bytes, passes: list[bytes], body_out_bytes: int,
@@ -152,7 +155,7 @@ class KernelHost:
         waited = 0
         while True:
             ctrl = await self.read_reg(AP_CTRL)
-            if ctrl & 0x2:  # ap_done (clear on read: seen once)
+            if ctrl & rm.AP_DONE:  # clear on read: seen once
                 break
             await ClockCycles(self.clock, POLL_CYCLES)
             waited += POLL_CYCLES

@@ -87,7 +87,8 @@ def run_register_test() -> CaseResult:
     cov = register_coverage_file()
     cov.unlink(missing_ok=True)
     try:
-        run_cocotb("pgs_control_s_axi", [REPO_ROOT / "rtl" / "pgs_control_s_axi.sv"], "test_pgs_control_s_axi",
+        run_cocotb("pgs_control_s_axi", [REPO_ROOT / "rtl" / "generated" / "pgs_regs_pkg.sv",
+                                         REPO_ROOT / "rtl" / "pgs_control_s_axi.sv"], "test_pgs_control_s_axi",
                    name=cov.parent.name, compile_args=[*COVERAGE_ARGS, *QUICK_COMPILE_ARGS])
     except Exception as exc:  # a failing cocotb test or build: reported, the rest of the summary stands
         return CaseResult(REGISTER_CASE, None, time.monotonic() - t0, error=f"{type(exc).__name__}: {exc}")
