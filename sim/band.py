@@ -1,4 +1,4 @@
-"""``make band``: band width D of every schedule on every scene, and the on-chip budget it implies (issue 10).
+"""``make band``: band width D of every schedule on every scene, and the on-chip budget it implies.
 
 For every scene (``models.scenes.SCENES``, the frame ``make sim`` uses: cached in ``build/frames/`` or captured)
 prints the manifold count and D (``models.schedule.band_width``: the longest run of slots over which one dynamic

@@ -8,7 +8,8 @@ into constraints, orders them (hazard schedule by default), and runs the step th
 * the golden model in the same number format (``models/contact_solver.py``), and
 * float64 references: the same schedule and iterations, and a converged solve.
 
-It prints a summary and writes ``report.md``/``report.json`` (and, with ``--waves``, ``waves.fst`` plus a
+The run's findings are typed (``sim.run_result.RunResult``) and rendered once (``sim.run_result.sections``):
+it prints a summary and writes ``report.md``/``report.json`` (and, with ``--waves``, ``waves.fst`` plus a
 GTKWave save file) into ``build/sim/<scene>-<format>-it<iters>-s<seed>-<dma>/``. ``--frame FILE`` runs a saved
 frame (``models.frame.save``) instead of the scene's (the run directory is named after the file).
 
@@ -38,17 +39,18 @@ from models.contact_solver import SolverParams, solve, solve_converged
 from models.dma_model import PRESETS, DmaPreset, get_preset
 from models.frame import Frame, FrameError, load
 from models.integrator import IntegrationParams, integrate
+from models.kernel_job import KernelJob
 from models.number_format import FLOAT64, FP32, NumberFormat, parse_format
 from models.residual import contact_residual
 from models.schedule import SCHEDULE_KINDS, make_schedule, stats
-from sim import baselines
-from models.kernel_job import KernelJob
+from sim.analyze import auto_format
 from sim.harness_run import KernelRunError, text_progress
 from sim.kernel_build import KernelBuild, default_window
-from sim.kernel_step import KernelResult, golden_step, run_kernel_step
-from sim.trace_compare import kernel_bodies
-from sim.analyze import auto_format
+from sim.kernel_step import Golden, KernelResult, golden_step, run_kernel_step
 from sim.report import StagedDirectory, print_summary, write_report
+from sim.run_result import AnyRunResult, BitExactness, KernelSpeed, ModelRunResult, RunResult, SceneFacts, \
+    ScheduleFacts, StepErrors, ThesisComparison, VelocityError, WindowFacts, sections
+from sim.trace_compare import kernel_bodies
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -111,7 +113,7 @@ def add_kernel_args(ap: argparse.ArgumentParser) -> None:
     """The kernel options shared by ``make sim`` and ``make sweep``: ring, passes per fetch, lanes, body beats."""
     ap.add_argument("--record-window", type=int, default=0,
                     help="0: the streaming kernel; N (a power of two): the window kernel with a ring of N records "
-                         "(rtl/pgs_window.sv, issue 10)")
+                         "(rtl/pgs_window.sv)")
     ap.add_argument("--fetch-passes", type=int, default=0,
                     help="window kernel: passes per fetch of the records (0: as many as the ring holds)")
     ap.add_argument("--lanes", type=int, default=1,
@@ -153,16 +155,15 @@ def load_frame(args: argparse.Namespace) -> tuple[Frame, str]:
     return scenes.load_or_capture(args.scene, seed=args.seed), args.scene
 
 
-def velocity_error(ours: BodyTable, ref_lin: np.ndarray, ref_ang: np.ndarray, dynamic: np.ndarray) -> dict[str, float]:
+def velocity_error(ours: BodyTable, ref_lin: np.ndarray, ref_ang: np.ndarray, dynamic: np.ndarray) -> VelocityError:
     dv = np.abs(ours.linear_velocity[dynamic] - ref_lin[dynamic])
     dw = np.abs(ours.angular_velocity[dynamic] - ref_ang[dynamic])
     scale = max(float(np.max(np.abs(ref_lin[dynamic]), initial=0.0)), 1e-12)
-    return {"max |dv| (m/s)": float(dv.max(initial=0.0)), "max |dw| (rad/s)": float(dw.max(initial=0.0)),
-            "max |dv| / max |v|": float(dv.max(initial=0.0)) / scale}
+    return VelocityError(float(dv.max(initial=0.0)), float(dw.max(initial=0.0)), float(dv.max(initial=0.0)) / scale)
 
 
-def _errors(label: str, ours: BodyTable, ref: BodyTable, dyn: np.ndarray) -> dict[str, float]:
-    return {f"{label}: {k}": v for k, v in velocity_error(ours, ref.linear_velocity, ref.angular_velocity, dyn).items()}
+def _error(ours: BodyTable, ref: BodyTable, dyn: np.ndarray) -> VelocityError:
+    return velocity_error(ours, ref.linear_velocity, ref.angular_velocity, dyn)
 
 
 class Timer:
@@ -177,69 +178,33 @@ class Timer:
         return out
 
 
-def kernel_sections(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_bubbles: int) -> dict[str, dict]:
-    """Speed, roofline and thesis comparison of a kernel run."""
+def kernel_speed(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_bubbles: int) -> KernelSpeed:
+    """Speed, stream traffic and the roofline's floors of a kernel run."""
     r = res.registers
     mp = job.manifold_passes
-    cycles = res.cycles
     total_bytes = sum(res.stream_bytes.values())
+    capped = math.isfinite(preset.ddr_bytes_per_cycle)
     cons_beats = res.stream_bytes["constraints"] // (preset.stream_bits // 8)
-    ddr_floor = total_bytes / preset.ddr_bytes_per_cycle if math.isfinite(preset.ddr_bytes_per_cycle) else 0.0
-    port_floor = float(cons_beats)
-    compute_floor = float(mp + 2 * job.bodies.num_bodies)
-    floors = {"DDR bandwidth": ddr_floor, "constraint stream port": port_floor, "compute (II=1)": compute_floor}
-    bound = max(floors, key=floors.__getitem__)
-    speed = {
-        "format": job.fmt.name, "DMA preset": preset.describe(),
-        "kernel cycles (ap_start to ap_done)": cycles, "cycles per manifold-pass": cycles / mp,
-        "stall cycles (hazard and stream waits)": int(r["stalls"]), "bubble cycles (no record to issue)": int(r["bubbles"]),
-        "schedule bubbles per pass": sched_bubbles,
-        **{f"latency at {f / 1e6:g} MHz (ms)": cycles / f * 1e3 for f in baselines.REPORT_CLOCKS_HZ},
-        "bytes streamed in (bodies + constraints)": res.stream_bytes["body_in"] + res.stream_bytes["constraints"],
-        "bytes streamed out (bodies)": res.stream_bytes["body_out"],
-        "constraint bytes per manifold per step": res.stream_bytes["constraints"] // max(job.manifolds, 1),
-        "DDR bandwidth utilisation": (total_bytes / (cycles * preset.ddr_bytes_per_cycle)
-                                      if math.isfinite(preset.ddr_bytes_per_cycle) else "uncapped"),
-        "co-simulation speed (simulated cycles per wall second)": res.sim_cycles_per_s,
-        "kernel run wall time (s)": r["wall_s"], "Verilator build time this run (s)": res.build_seconds,
-    }
-    roofline = {f"{k} floor (cycles)": v for k, v in floors.items()}
-    roofline["measured cycles"] = cycles
-    roofline["bound by"] = bound
-    roofline["measured / highest floor"] = cycles / max(floors[bound], 1.0)
-    return {"kernel speed (RTL in Verilator)": speed, "roofline (lower bounds for this configuration)": roofline}
+    floors = {"DDR bandwidth": total_bytes / preset.ddr_bytes_per_cycle if capped else 0.0,
+              "constraint stream port": float(cons_beats), "compute (II=1)": float(mp + 2 * job.bodies.num_bodies)}
+    return KernelSpeed(
+        job.fmt.name, preset.describe(), res.cycles, mp, int(r["stalls"]), int(r["bubbles"]), sched_bubbles,
+        res.stream_bytes["body_in"] + res.stream_bytes["constraints"], res.stream_bytes["body_out"],
+        res.stream_bytes["constraints"] // max(job.manifolds, 1),
+        total_bytes / (res.cycles * preset.ddr_bytes_per_cycle) if capped else None, res.sim_cycles_per_s,
+        r["wall_s"], res.build_seconds, floors)
 
 
-def thesis_section(res: KernelResult | None, job: KernelJob, frame: Frame, seconds: dict[str, float]) -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for fig in baselines.THESIS_FPGA.values():
-        out[f"{fig.label} ({baselines.THESIS_MANIFOLDS:,} manifolds, {fig.clock_hz / 1e6:g} MHz)"] = (
-            f"{fig.cycles:,} cycles, {fig.ms} ms, {fig.cycles_per_manifold_pass:.2f} cycles/manifold-pass")
-    out["thesis GTX 980 (Bullet3 OpenCL)"] = f"{baselines.THESIS_GPU_MS} ms"
-    out["thesis i7-3770 (Bullet3)"] = f"{baselines.THESIS_CPU_MS} ms"
-    if res is not None:
-        cpmp = res.cycles / job.manifold_passes
-        out[f"this run: RTL {job.fmt.name}, {job.manifolds:,} manifolds, {job.params.iterations} iterations"] = (
-            f"{res.cycles:,} cycles, {res.cycles / 275e6 * 1e3:.2f} ms at 275 MHz, {cpmp:.2f} cycles/manifold-pass")
-        scaled = cpmp * baselines.THESIS_MANIFOLDS * 2 * job.params.iterations
-        out[f"this run scaled to {baselines.THESIS_MANIFOLDS:,} manifolds"] = (
-            f"{scaled:,.0f} cycles, {scaled / 275e6 * 1e3:.2f} ms at 275 MHz")
-    timing = frame.meta.get("pybullet_timing_s")
-    iters = frame.meta.get("solver", {}).get("numSolverIterations", "?")
-    if timing:
-        out[f"pybullet's own solver on this frame (this machine, {iters} iterations, solveGroup)"] = (
-            f"{timing.get('solveGroup', float('nan')) * 1e3:.2f} ms (whole step "
-            f"{timing.get('internalSingleStepSimulation', float('nan')) * 1e3:.2f} ms)")
-    else:
-        out["pybullet's own solver on this frame"] = "not recorded (frame cached before timings were kept)"
-    for name, sec in seconds.items():
-        out[f"{name} (this machine)"] = f"{sec * 1e3:.1f} ms"
-    return out
+def thesis_comparison(res: KernelResult | None, job: KernelJob, frame: Frame,
+                      seconds: dict[str, float]) -> ThesisComparison:
+    return ThesisComparison(job.fmt.name, job.manifolds, job.params.iterations, job.manifold_passes,
+                            None if res is None else res.cycles, dict(frame.meta.get("pybullet_timing_s") or {}),
+                            frame.meta.get("solver", {}).get("numSolverIterations", "?"), seconds)
 
 
-def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, Any]], str, KernelBuild | None]:
-    """The run's sections, with every file written into ``run_dir``; returns them, the run directory's name and
-    the kernel build (None with --no-kernel)."""
+def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBuild | None]:
+    """The run's result, with every file written into ``run_dir``; returns it and the kernel build (None with
+    --no-kernel or MODE=model)."""
     check_args(args)
     preset = get_preset(args.dma)
     auto = args.format.strip().lower() == "auto"
@@ -261,20 +226,17 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
     print(sched_stats.describe(), flush=True)
     params = SolverParams(iterations=args.iters)
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
-    job = KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip)
-    job = kernel_job(job, args)
+    job = kernel_job(KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip), args)
     if args.record_window and args.mode == "model":
         raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
     if args.mode == "model":  # MODE=model: the cycle model's estimate alone
-        return {"scene": {"scene": label, "bodies": frame.num_bodies, "manifolds": frame.num_manifolds,
-                          "schedule": sched_stats.describe(), "DMA preset": preset.describe()},
-                "cycle model (models/cycle_model.py)": model_section(job, preset)}, name, None
+        return ModelRunResult(name, label, frame.num_bodies, frame.num_manifolds, sched_stats.describe(),
+                              preset.describe(), model_section(job, preset)), None
 
     ref = timer.run("float64 reference solve + integrate", _solve_and_integrate, bodies, cons, schedule, params, ip)
     golden = timer.run(f"{fmt.name} golden model solve + integrate", golden_step, job)
     conv = timer.run("converged float64 solve", solve_converged, bodies, cons, schedule, FLOAT64,
                      time_budget_s=args.converged_budget)
-    conv_final = integrate(conv.result.bodies, FLOAT64, ip)
 
     res: KernelResult | None = None
     kb: KernelBuild | None = None
@@ -288,57 +250,64 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[dict[str, dict[str, An
                         wave_cycles=args.wave_cycles, keep_trace=True, body_bits=args.body_bits)
         print(file=sys.stderr)
 
-    ours = golden.final
-    if res is not None:
-        if res.bit_exact:  # the kernel's own numbers (identical to the golden model's)
-            ours = kernel_bodies(run_dir, job, kb)
-    dyn = bodies.dynamic
-    sections: dict[str, dict[str, Any]] = {
-        "scene": {"scene": label, "bodies": frame.num_bodies, "dynamic bodies": int(dyn.sum()),
-                  "manifolds": frame.num_manifolds, "contact points": frame.num_points_total,
-                  "step": frame.meta.get("step", "?"), "seed": args.seed},
-        "schedule": {"kind": args.schedule, "window W (issue slots)": window, "slots per pass": sched_stats.slots,
-                     "bubbles per pass": sched_stats.bubbles, "wrap hazards": sched_stats.wrap_conflicts,
-                     "levels per pass": golden.solved.levels, "manifold-passes": job.manifold_passes},
-    }
+    rtl_ours = res is not None and res.bit_exact  # the kernel's own numbers (identical to the golden model's)
+    ours = kernel_bodies(run_dir, job, kb) if rtl_ours else golden.final
+    source = "RTL kernel" if rtl_ours else f"{fmt.name} golden model"
+    errors = step_errors(source, ours, StepInputs(frame, bodies, cons, schedule, params, ip), fmt, golden, ref, conv)
+    result = RunResult(
+        name,
+        SceneFacts(label, frame.num_bodies, int(bodies.dynamic.sum()), frame.num_manifolds, frame.num_points_total,
+                   frame.meta.get("step", "?"), args.seed),
+        ScheduleFacts(args.schedule, window, sched_stats.slots, sched_stats.bubbles, sched_stats.wrap_conflicts,
+                      golden.solved.levels, job.manifold_passes),
+        errors,
+        thesis_comparison(res, job, frame, {
+            "float64 reference (numpy)": timer.seconds["float64 reference solve + integrate"],
+            f"{fmt.name} golden model (numpy)": timer.seconds[f"{fmt.name} golden model solve + integrate"]}),
+        timer.seconds)
     if res is not None:
         cmp = res.comparison
-        sections["bit-exactness (RTL kernel against the golden model, same format)"] = {
-            "bits differing from the golden model (must be 0)": cmp.differing_bits,
-            "words differing": cmp.differing_words, "trace records compared": cmp.records,
-            "body-out records compared": cmp.bodies, "first mismatch": cmp.first_mismatch or "none",
-            "random stall seed": res.seed}
-        sections.update(kernel_sections(res, job, preset, sched_stats.bubbles))
+        result.bits = BitExactness(cmp.differing_bits, cmp.differing_words, cmp.records, cmp.bodies,
+                                   cmp.first_mismatch or "", res.seed)
+        result.speed = kernel_speed(res, job, preset, sched_stats.bubbles)
         if job.record_window is None:
-            sections["cycle model (models/cycle_model.py) vs RTL"] = model_section(job, preset, res,
-                                                                                 args.stall_permille)
+            result.cycle_model = model_section(job, preset, res, args.stall_permille)
         else:
-            sections["record window (rtl/pgs_window.sv)"] = window_section(job, preset)
-    source = "RTL kernel" if res is not None and res.bit_exact else f"{fmt.name} golden model"
-    err = {}
-    err.update(_errors(f"{source} vs float64, same schedule and iterations (rounding error)", ours, ref, dyn))
-    err.update(_errors(f"{source} vs converged float64 (rounding + iteration error)", ours, conv_final, dyn))
-    err.update(_errors("float64 with these iterations vs converged (iteration error alone)", ref, conv_final, dyn))
-    err["converged solve: contact passes, friction passes"] = f"{conv.contact_passes}, {conv.friction_passes}"
-    err["converged solve: last pass max velocity change"] = conv.last_change
-    err["converged solve: converged within budget (1e-9)"] = str(conv.converged)
-    for k, v in contact_residual(golden.solved.bodies, cons, golden.solved.impulses.normal).items():
-        err[f"residual after the {source}'s solve: {k}"] = v
-    for k, v in contact_residual(conv.result.bodies, cons, conv.result.impulses.normal).items():
-        err[f"residual after the converged solve: {k}"] = v
+            result.window = window_facts(job, preset)
+    return result, kb
+
+
+@dataclasses.dataclass(frozen=True)
+class StepInputs:
+    """The step as captured (float64): the frame, its bodies and constraints, the order, the parameters."""
+
+    frame: Frame
+    bodies: BodyTable
+    cons: ConstraintSet
+    schedule: np.ndarray
+    params: SolverParams
+    ip: IntegrationParams
+
+
+def step_errors(source: str, ours: BodyTable, step: StepInputs, fmt: NumberFormat, golden: Golden, ref: BodyTable,
+                conv: Any) -> StepErrors:
+    """The step's velocities (``ours``, from ``source``) against float64 with the same iterations (``ref``), the
+    converged solve ``conv`` and pybullet's own step; the residuals; the thesis's statistic for formats other than
+    fp32."""
+    dyn = step.bodies.dynamic
+    conv_final = integrate(conv.result.bodies, FLOAT64, step.ip)
+    stat: tuple[float | None, float | None] = (None, None)
     if fmt != FP32:  # the thesis's statistic for its fp16 design
-        fp32_final = golden_step(KernelJob(FP32, bodies.rounded(FP32), cons.rounded(FP32), schedule, params, ip)).final
-        err.update(thesis_position_statistic(ours, fp32_final, dyn))
-    pb = dataclasses.replace(ours, linear_velocity=frame.post_linear_velocity,
-                             angular_velocity=frame.post_angular_velocity)
-    err.update(_errors(f"{source} vs pybullet's own step (a different solver: Bullet 2 sequential impulse)",
-                       ours, pb, dyn))
-    sections["error (velocities after the step; dynamic bodies)"] = err
-    sections["comparison with the thesis and with software solvers"] = thesis_section(res, job, frame, {
-        "float64 reference (numpy)": timer.seconds["float64 reference solve + integrate"],
-        f"{fmt.name} golden model (numpy)": timer.seconds[f"{fmt.name} golden model solve + integrate"]})
-    sections["wall time of this run (s)"] = dict(timer.seconds)
-    return sections, name, kb
+        fp32 = golden_step(KernelJob(FP32, step.bodies.rounded(FP32), step.cons.rounded(FP32), step.schedule,
+                                     step.params, step.ip))
+        stat = thesis_position_statistic(ours, fp32.final, dyn)
+    pb = dataclasses.replace(ours, linear_velocity=step.frame.post_linear_velocity,
+                             angular_velocity=step.frame.post_angular_velocity)
+    return StepErrors(
+        source, _error(ours, ref, dyn), _error(ours, conv_final, dyn), _error(ref, conv_final, dyn),
+        (conv.contact_passes, conv.friction_passes), conv.last_change, bool(conv.converged),
+        contact_residual(golden.solved.bodies, step.cons, golden.solved.impulses.normal),
+        contact_residual(conv.result.bodies, step.cons, conv.result.impulses.normal), _error(ours, pb, dyn), *stat)
 
 
 def model_section(job: KernelJob, preset: DmaPreset, res: KernelResult | None = None,
@@ -353,35 +322,29 @@ def model_section(job: KernelJob, preset: DmaPreset, res: KernelResult | None = 
     return cycle_model.report_section(pred, preset, seconds, agreement=cycle_model.compare_run(pred, res, job.slots))
 
 
-def window_section(job: KernelJob, preset: DmaPreset) -> dict[str, Any]:
+def window_facts(job: KernelJob, preset: DmaPreset) -> WindowFacts:
     """The window kernel's plan and its on-chip bytes against the platform of the DMA preset (if there is one)."""
     from models import onchip_budget as ob
 
     plan = job.record_window
     assert plan is not None
-    out: dict[str, Any] = {
-        "ring (records, build parameter WINDOW)": plan.depth, "pass contexts (WINDOW_CTX)": plan.ctx,
-        "issue lanes (LANES)": plan.lanes, "empty lanes (padding)": plan.empty_lanes,
-        "band width D of the record order": plan.band, "lag (records a pass trails the one before)": plan.lag,
-        "passes per fetch": plan.fetch_passes, "fetches of the records per step": plan.fetches(job.params),
-        "ring records in use at most": plan.ring_records,
-        "cycle model": "streaming kernel only (no prediction for the window kernel)"}
-    if preset.name in ob.PLATFORMS:
-        bud = ob.budget(ob.get_platform(preset.name), job.fmt, job.bodies.num_bodies, len(job.slots),
-                        plan.lag * plan.lanes, trailing=max(plan.fetch_passes - 1, 1))
-        out[f"on-chip bytes on {preset.name}: body state + impulses + window"] = (
-            f"{bud.body_bytes:,} + {bud.impulse_bytes:,} + {bud.window_bytes:,} = {bud.total_bytes:,} of "
-            f"{bud.platform.data_bytes:,} ({'fits' if bud.fits else 'does not fit'})")
-    return out
+    facts = WindowFacts(plan.depth, plan.ctx, plan.lanes, plan.empty_lanes, plan.band, plan.lag, plan.fetch_passes,
+                        plan.fetches(job.params), plan.ring_records)
+    if preset.name not in ob.PLATFORMS:
+        return facts
+    bud = ob.budget(ob.get_platform(preset.name), job.fmt, job.bodies.num_bodies, len(job.slots),
+                    plan.lag * plan.lanes, trailing=max(plan.fetch_passes - 1, 1))
+    return dataclasses.replace(facts, platform=preset.name, body_bytes=bud.body_bytes, impulse_bytes=bud.impulse_bytes,
+                               window_bytes=bud.window_bytes, total_bytes=bud.total_bytes,
+                               platform_bytes=bud.platform.data_bytes, fits=bud.fits)
 
 
-def thesis_position_statistic(ours: BodyTable, fp32: BodyTable, dyn: np.ndarray) -> dict[str, float]:
+def thesis_position_statistic(ours: BodyTable, fp32: BodyTable, dyn: np.ndarray) -> tuple[float, float]:
     """The thesis's accuracy figure: the share of position values within 1% of the fp32 result, and the
     average relative difference (it reported 99.64% and 0.06% for its fp16 design)."""
     x, ref = ours.position[dyn].ravel(), fp32.position[dyn].ravel()
     rel = np.abs(x - ref) / np.maximum(np.abs(ref), 1e-30)
-    return {"thesis statistic: share of position values within 1% of the fp32 result": float(np.mean(rel <= 0.01)),
-            "thesis statistic: average relative position difference from fp32": float(np.mean(rel))}
+    return float(np.mean(rel <= 0.01)), float(np.mean(rel))
 
 
 def _solve_and_integrate(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, params: SolverParams,
@@ -407,20 +370,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     try:
         with StagedDirectory(Path(args.out)) as out:
-            sections, name, kb = run(args, out.path)
-            label = sections["scene"]["scene"]
-            print_summary(f"pgs-cosim: {label}, {args.format}, {args.iters} iterations, {args.dma}", sections)
-            write_report(out.path, f"pgs-cosim run: {label}", sections)
-            run_dir = out.commit(name)
+            result, kb = run(args, out.path)
+            report = sections(result)
+            print_summary(f"pgs-cosim: {result.label}, {args.format}, {args.iters} iterations, {args.dma}", report)
+            write_report(out.path, f"pgs-cosim run: {result.label}", report)
+            run_dir = out.commit(result.name)
     except (ValueError, FrameError, scenes.SceneError, KernelRunError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     if kb is not None and args.waves:
         _write_gtkw(run_dir / "waves.fst", kb)
     print(f"\nreport: {run_dir / 'report.md'} and {run_dir / 'report.json'}")
-    bits = sections.get("bit-exactness (RTL kernel against the golden model, same format)", {})
-    return 1 if bits and bits["bits differing from the golden model (must be 0)"] != 0 or \
-        (bits and bits["first mismatch"] != "none") else 0
+    return 0 if result.ok else 1
 
 
 if __name__ == "__main__":

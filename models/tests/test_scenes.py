@@ -93,7 +93,7 @@ def test_thesis_geometry() -> None:
 
 
 def test_thesis_initial_manifold_count(frames: dict[str, Frame]) -> None:
-    # research note: (Y-1)(2X-1)(2Z-1) + X Z manifolds while the layers still touch
+    # expected count: (Y-1)(2X-1)(2Z-1) + X Z manifolds while the layers still touch
     x = y = z = 3
     assert frames["thesis"].num_manifolds == (y - 1) * (2 * x - 1) * (2 * z - 1) + x * z
     assert np.all(frames["thesis"].num_points == 4)

@@ -1,5 +1,5 @@
 """`make sim` on a tiny scene: the run finishes and the report carries the expected fields; bad input to
-`python -m sim.run` and `python -m sim.sweep` (issue 7) ends them with one error line, exit status 2 and no output
+`python -m sim.run` and `python -m sim.sweep` ends them with one error line, exit status 2 and no output
 left behind."""
 
 from __future__ import annotations

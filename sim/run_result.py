@@ -1,0 +1,305 @@
+"""What one ``make sim`` run found, typed (:class:`RunResult`, :class:`ModelRunResult`), and its rendering:
+:func:`sections` turns a result into the report's sections (title -> quantity -> value), the one form the
+console summary and ``report.md`` / ``report.json`` are written from (``sim.report``)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Optional, Union
+
+from sim import baselines
+
+BITS_SECTION = "bit-exactness (RTL kernel against the golden model, same format)"
+MODEL_SECTION = "cycle model (models/cycle_model.py)"
+Sections = dict[str, dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class VelocityError:
+    """Velocities of a step against a reference (dynamic bodies)."""
+
+    max_dv: float  # m/s
+    max_dw: float  # rad/s
+    relative: float  # max |dv| / max |v| of the reference
+
+
+@dataclass(frozen=True)
+class SceneFacts:
+    label: str
+    bodies: int
+    dynamic_bodies: int
+    manifolds: int
+    contact_points: int
+    step: Any  # the captured step (from the frame's metadata; "?" when not recorded)
+    seed: int
+
+
+@dataclass(frozen=True)
+class ScheduleFacts:
+    kind: str
+    window: int  # hazard window W in issue slots
+    slots: int  # per pass
+    bubbles: int  # per pass
+    wrap_hazards: int
+    levels: Any  # dependency levels per pass (the golden solve's)
+    manifold_passes: int
+
+
+@dataclass(frozen=True)
+class BitExactness:
+    differing_bits: int
+    differing_words: int
+    records: int  # trace records compared
+    bodies: int  # body-out records compared
+    first_mismatch: str  # "" when none
+    stall_seed: int
+
+    @property
+    def ok(self) -> bool:
+        return self.differing_bits == 0 and not self.first_mismatch
+
+
+@dataclass(frozen=True)
+class KernelSpeed:
+    """The RTL kernel's speed, the stream traffic, and the roofline's lower bounds."""
+
+    fmt: str
+    dma: str  # the preset, described
+    cycles: int
+    manifold_passes: int
+    stalls: int
+    bubbles: int
+    schedule_bubbles: int  # per pass
+    bytes_in: int  # bodies + constraints
+    bytes_out: int
+    cons_bytes_per_manifold: int
+    ddr_utilisation: Optional[float]  # None: uncapped DDR
+    sim_cycles_per_s: float
+    wall_s: float
+    build_s: float
+    floors: dict[str, float]  # lower bound (cycles) by what bounds it
+
+    @property
+    def bound(self) -> str:
+        return max(self.floors, key=self.floors.__getitem__)
+
+
+@dataclass(frozen=True)
+class WindowFacts:
+    """The window kernel's plan, and its on-chip bytes on the DMA preset's platform (when there is one)."""
+
+    depth: int
+    ctx: int
+    lanes: int
+    empty_lanes: int
+    band: int
+    lag: int
+    fetch_passes: int
+    fetches: int
+    ring_records: int
+    platform: str = ""
+    body_bytes: int = 0
+    impulse_bytes: int = 0
+    window_bytes: int = 0
+    total_bytes: int = 0
+    platform_bytes: int = 0
+    fits: bool = False
+
+
+@dataclass(frozen=True)
+class StepErrors:
+    """The step's velocities against the references, the converged solve, the residuals."""
+
+    source: str  # what the errors are of: the RTL kernel, or the golden model when the kernel did not run
+    vs_same_iterations: VelocityError  # against float64 with the same schedule and iterations
+    vs_converged: VelocityError
+    iteration_only: VelocityError  # float64 with these iterations against converged
+    converged_passes: tuple[int, int]  # contact, friction
+    converged_last_change: float
+    converged: bool
+    residual_after_solve: dict[str, float]  # models.residual.contact_residual
+    residual_converged: dict[str, float]
+    vs_pybullet: VelocityError
+    thesis_within_1pct: Optional[float] = None  # the thesis's fp16 statistic (formats other than fp32)
+    thesis_mean_relative: Optional[float] = None
+
+
+@dataclass(frozen=True)
+class ThesisComparison:
+    fmt: str
+    manifolds: int
+    iterations: int
+    manifold_passes: int
+    rtl_cycles: Optional[int]  # None: no kernel run
+    pybullet_timing_s: dict[str, float]  # pybullet's own timers of the captured step (empty: not recorded)
+    pybullet_iterations: Any
+    software_seconds: dict[str, float]  # the numpy solves of this run
+
+
+@dataclass
+class RunResult:
+    """A whole ``make sim`` run (``MODE=rtl``)."""
+
+    name: str  # the run directory's name
+    scene: SceneFacts
+    schedule: ScheduleFacts
+    errors: StepErrors
+    thesis: ThesisComparison
+    seconds: dict[str, float]  # wall time of each part of the run
+    bits: Optional[BitExactness] = None  # None: no kernel run
+    speed: Optional[KernelSpeed] = None
+    cycle_model: Optional[dict[str, Any]] = None  # models.cycle_model.report_section beside the RTL
+    window: Optional[WindowFacts] = None
+
+    @property
+    def label(self) -> str:
+        return self.scene.label
+
+    @property
+    def ok(self) -> bool:
+        """The kernel agreed with the golden model bit for bit (or did not run)."""
+        return self.bits is None or self.bits.ok
+
+
+@dataclass
+class ModelRunResult:
+    """``make sim MODE=model``: the cycle model's estimate alone."""
+
+    name: str
+    label: str
+    bodies: int
+    manifolds: int
+    schedule: str  # described
+    dma: str  # described
+    cycle_model: dict[str, Any] = field(default_factory=dict)  # models.cycle_model.report_section
+
+    @property
+    def ok(self) -> bool:
+        return True  # nothing compared
+
+
+AnyRunResult = Union[RunResult, ModelRunResult]
+
+
+def sections(result: AnyRunResult) -> Sections:
+    """The report's sections of a run, in order."""
+    if isinstance(result, ModelRunResult):
+        return {"scene": {"scene": result.label, "bodies": result.bodies, "manifolds": result.manifolds,
+                          "schedule": result.schedule, "DMA preset": result.dma},
+                MODEL_SECTION: result.cycle_model}
+    s, k = result.scene, result.schedule
+    out: Sections = {
+        "scene": {"scene": s.label, "bodies": s.bodies, "dynamic bodies": s.dynamic_bodies, "manifolds": s.manifolds,
+                  "contact points": s.contact_points, "step": s.step, "seed": s.seed},
+        "schedule": {"kind": k.kind, "window W (issue slots)": k.window, "slots per pass": k.slots,
+                     "bubbles per pass": k.bubbles, "wrap hazards": k.wrap_hazards, "levels per pass": k.levels,
+                     "manifold-passes": k.manifold_passes},
+    }
+    if result.bits is not None:
+        out[BITS_SECTION] = _bits(result.bits)
+    if result.speed is not None:
+        out["kernel speed (RTL in Verilator)"] = _speed(result.speed)
+        out["roofline (lower bounds for this configuration)"] = _roofline(result.speed)
+    if result.cycle_model is not None:
+        out[f"{MODEL_SECTION} vs RTL"] = result.cycle_model
+    if result.window is not None:
+        out["record window (rtl/pgs_window.sv)"] = _window(result.window)
+    out["error (velocities after the step; dynamic bodies)"] = _errors(result.errors)
+    out["comparison with the thesis and with software solvers"] = _thesis(result.thesis)
+    out["wall time of this run (s)"] = dict(result.seconds)
+    return out
+
+
+def _bits(b: BitExactness) -> dict[str, Any]:
+    return {"bits differing from the golden model (must be 0)": b.differing_bits, "words differing": b.differing_words,
+            "trace records compared": b.records, "body-out records compared": b.bodies,
+            "first mismatch": b.first_mismatch or "none", "random stall seed": b.stall_seed}
+
+
+def _speed(v: KernelSpeed) -> dict[str, Any]:
+    return {
+        "format": v.fmt, "DMA preset": v.dma,
+        "kernel cycles (ap_start to ap_done)": v.cycles, "cycles per manifold-pass": v.cycles / v.manifold_passes,
+        "stall cycles (hazard and stream waits)": v.stalls, "bubble cycles (no record to issue)": v.bubbles,
+        "schedule bubbles per pass": v.schedule_bubbles,
+        **{f"latency at {f / 1e6:g} MHz (ms)": v.cycles / f * 1e3 for f in baselines.REPORT_CLOCKS_HZ},
+        "bytes streamed in (bodies + constraints)": v.bytes_in, "bytes streamed out (bodies)": v.bytes_out,
+        "constraint bytes per manifold per step": v.cons_bytes_per_manifold,
+        "DDR bandwidth utilisation": "uncapped" if v.ddr_utilisation is None else v.ddr_utilisation,
+        "co-simulation speed (simulated cycles per wall second)": v.sim_cycles_per_s,
+        "kernel run wall time (s)": v.wall_s, "Verilator build time this run (s)": v.build_s,
+    }
+
+
+def _roofline(v: KernelSpeed) -> dict[str, Any]:
+    out: dict[str, Any] = {f"{k} floor (cycles)": f for k, f in v.floors.items()}
+    out["measured cycles"] = v.cycles
+    out["bound by"] = v.bound
+    out["measured / highest floor"] = v.cycles / max(v.floors[v.bound], 1.0)
+    return out
+
+
+def _window(w: WindowFacts) -> dict[str, Any]:
+    out: dict[str, Any] = {
+        "ring (records, build parameter WINDOW)": w.depth, "pass contexts (WINDOW_CTX)": w.ctx,
+        "issue lanes (LANES)": w.lanes, "empty lanes (padding)": w.empty_lanes,
+        "band width D of the record order": w.band, "lag (records a pass trails the one before)": w.lag,
+        "passes per fetch": w.fetch_passes, "fetches of the records per step": w.fetches,
+        "ring records in use at most": w.ring_records,
+        "cycle model": "streaming kernel only (no prediction for the window kernel)"}
+    if w.platform:
+        out[f"on-chip bytes on {w.platform}: body state + impulses + window"] = (
+            f"{w.body_bytes:,} + {w.impulse_bytes:,} + {w.window_bytes:,} = {w.total_bytes:,} of "
+            f"{w.platform_bytes:,} ({'fits' if w.fits else 'does not fit'})")
+    return out
+
+
+def _velocity_rows(label: str, e: VelocityError) -> dict[str, float]:
+    return {f"{label}: max |dv| (m/s)": e.max_dv, f"{label}: max |dw| (rad/s)": e.max_dw,
+            f"{label}: max |dv| / max |v|": e.relative}
+
+
+def _errors(e: StepErrors) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    out.update(_velocity_rows(f"{e.source} vs float64, same schedule and iterations (rounding error)",
+                              e.vs_same_iterations))
+    out.update(_velocity_rows(f"{e.source} vs converged float64 (rounding + iteration error)", e.vs_converged))
+    out.update(_velocity_rows("float64 with these iterations vs converged (iteration error alone)", e.iteration_only))
+    out["converged solve: contact passes, friction passes"] = f"{e.converged_passes[0]}, {e.converged_passes[1]}"
+    out["converged solve: last pass max velocity change"] = e.converged_last_change
+    out["converged solve: converged within budget (1e-9)"] = str(e.converged)
+    out.update({f"residual after the {e.source}'s solve: {k}": v for k, v in e.residual_after_solve.items()})
+    out.update({f"residual after the converged solve: {k}": v for k, v in e.residual_converged.items()})
+    if e.thesis_within_1pct is not None:
+        out["thesis statistic: share of position values within 1% of the fp32 result"] = e.thesis_within_1pct
+        out["thesis statistic: average relative position difference from fp32"] = e.thesis_mean_relative
+    out.update(_velocity_rows(f"{e.source} vs pybullet's own step (a different solver: Bullet 2 sequential impulse)",
+                              e.vs_pybullet))
+    return out
+
+
+def _thesis(t: ThesisComparison) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for fig in baselines.THESIS_FPGA.values():
+        out[f"{fig.label} ({baselines.THESIS_MANIFOLDS:,} manifolds, {fig.clock_hz / 1e6:g} MHz)"] = (
+            f"{fig.cycles:,} cycles, {fig.ms} ms, {fig.cycles_per_manifold_pass:.2f} cycles/manifold-pass")
+    out["thesis GTX 980 (Bullet3 OpenCL)"] = f"{baselines.THESIS_GPU_MS} ms"
+    out["thesis i7-3770 (Bullet3)"] = f"{baselines.THESIS_CPU_MS} ms"
+    if t.rtl_cycles is not None:
+        cpmp = t.rtl_cycles / t.manifold_passes
+        out[f"this run: RTL {t.fmt}, {t.manifolds:,} manifolds, {t.iterations} iterations"] = (
+            f"{t.rtl_cycles:,} cycles, {t.rtl_cycles / 275e6 * 1e3:.2f} ms at 275 MHz, {cpmp:.2f} cycles/manifold-pass")
+        scaled = cpmp * baselines.THESIS_MANIFOLDS * 2 * t.iterations
+        out[f"this run scaled to {baselines.THESIS_MANIFOLDS:,} manifolds"] = (
+            f"{scaled:,.0f} cycles, {scaled / 275e6 * 1e3:.2f} ms at 275 MHz")
+    timing = t.pybullet_timing_s
+    if timing:
+        out[f"pybullet's own solver on this frame (this machine, {t.pybullet_iterations} iterations, solveGroup)"] = (
+            f"{timing.get('solveGroup', math.nan) * 1e3:.2f} ms (whole step "
+            f"{timing.get('internalSingleStepSimulation', math.nan) * 1e3:.2f} ms)")
+    else:
+        out["pybullet's own solver on this frame"] = "not recorded (frame cached before timings were kept)"
+    for name, sec in t.software_seconds.items():
+        out[f"{name} (this machine)"] = f"{sec * 1e3:.1f} ms"
+    return out
