@@ -328,15 +328,11 @@ def window_facts(job: KernelJob, preset: DmaPreset) -> WindowFacts:
 
     plan = job.record_window
     assert plan is not None
-    facts = WindowFacts(plan.depth, plan.ctx, plan.lanes, plan.empty_lanes, plan.band, plan.lag, plan.fetch_passes,
-                        plan.fetches(job.params), plan.ring_records)
-    if preset.name not in ob.PLATFORMS:
-        return facts
-    bud = ob.budget(ob.get_platform(preset.name), job.fmt, job.bodies.num_bodies, len(job.slots),
-                    plan.lag * plan.lanes, trailing=max(plan.fetch_passes - 1, 1))
-    return dataclasses.replace(facts, platform=preset.name, body_bytes=bud.body_bytes, impulse_bytes=bud.impulse_bytes,
-                               window_bytes=bud.window_bytes, total_bytes=bud.total_bytes,
-                               platform_bytes=bud.platform.data_bytes, fits=bud.fits)
+    bud = None
+    if preset.name in ob.PLATFORMS:
+        bud = ob.budget(ob.get_platform(preset.name), job.fmt, job.bodies.num_bodies, len(job.slots),
+                        plan.lag * plan.lanes, trailing=max(plan.fetch_passes - 1, 1))
+    return WindowFacts(plan, plan.fetches(job.params), bud)
 
 
 def thesis_position_statistic(ours: BodyTable, fp32: BodyTable, dyn: np.ndarray) -> tuple[float, float]:

@@ -8,6 +8,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Optional, Union
 
+from models.onchip_budget import Budget
+from models.record_window import WindowPlan
 from sim import baselines
 
 BITS_SECTION = "bit-exactness (RTL kernel against the golden model, same format)"
@@ -87,24 +89,11 @@ class KernelSpeed:
 
 @dataclass(frozen=True)
 class WindowFacts:
-    """The window kernel's plan, and its on-chip bytes on the DMA preset's platform (when there is one)."""
+    """The window kernel's plan, and its on-chip bytes on the DMA preset's platform (None: no platform)."""
 
-    depth: int
-    ctx: int
-    lanes: int
-    empty_lanes: int
-    band: int
-    lag: int
-    fetch_passes: int
-    fetches: int
-    ring_records: int
-    platform: str = ""
-    body_bytes: int = 0
-    impulse_bytes: int = 0
-    window_bytes: int = 0
-    total_bytes: int = 0
-    platform_bytes: int = 0
-    fits: bool = False
+    plan: WindowPlan
+    fetches: int  # fetches of the records per step
+    budget: Optional[Budget] = None
 
 
 @dataclass(frozen=True)
@@ -241,17 +230,19 @@ def _roofline(v: KernelSpeed) -> dict[str, Any]:
 
 
 def _window(w: WindowFacts) -> dict[str, Any]:
+    p = w.plan
     out: dict[str, Any] = {
-        "ring (records, build parameter WINDOW)": w.depth, "pass contexts (WINDOW_CTX)": w.ctx,
-        "issue lanes (LANES)": w.lanes, "empty lanes (padding)": w.empty_lanes,
-        "band width D of the record order": w.band, "lag (records a pass trails the one before)": w.lag,
-        "passes per fetch": w.fetch_passes, "fetches of the records per step": w.fetches,
-        "ring records in use at most": w.ring_records,
+        "ring (records, build parameter WINDOW)": p.depth, "pass contexts (WINDOW_CTX)": p.ctx,
+        "issue lanes (LANES)": p.lanes, "empty lanes (padding)": p.empty_lanes,
+        "band width D of the record order": p.band, "lag (records a pass trails the one before)": p.lag,
+        "passes per fetch": p.fetch_passes, "fetches of the records per step": w.fetches,
+        "ring records in use at most": p.ring_records,
         "cycle model": "streaming kernel only (no prediction for the window kernel)"}
-    if w.platform:
-        out[f"on-chip bytes on {w.platform}: body state + impulses + window"] = (
-            f"{w.body_bytes:,} + {w.impulse_bytes:,} + {w.window_bytes:,} = {w.total_bytes:,} of "
-            f"{w.platform_bytes:,} ({'fits' if w.fits else 'does not fit'})")
+    b = w.budget
+    if b is not None:
+        out[f"on-chip bytes on {b.platform.name}: body state + impulses + window"] = (
+            f"{b.body_bytes:,} + {b.impulse_bytes:,} + {b.window_bytes:,} = {b.total_bytes:,} of "
+            f"{b.platform.data_bytes:,} ({'fits' if b.fits else 'does not fit'})")
     return out
 
 
