@@ -22,6 +22,7 @@ from models import stream_format as sf
 from models.dma_model import DmaPreset
 from models.kernel_job import KernelJob
 from models.number_format import NumberFormat
+from rtl.gen import friction_sign_bug_sources
 from sim.lint import rtl_files
 from sim.verilator_build import DEBUG_COMPILE_ARGS, QUICK_COMPILE_ARGS, REPO_ROOT, build
 
@@ -30,6 +31,8 @@ HARNESS_DIR = REPO_ROOT / "sim" / "harness"
 HARNESS = HARNESS_DIR / "pgs_kernel_main.cpp"
 # the signals the cocotb benches touch (everything else stays private: faster models of the large design)
 PUBLIC_VLT = HARNESS_DIR / "pgs_kernel_public.vlt"
+# generated RTL variants for test builds (never under rtl/): the friction pipe with the injected sign bug
+VARIANT_ROOT = REPO_ROOT / "build" / "rtl_variants"
 
 # C++ optimization profiles (sim.verilator_build): "quick" -O1 for kernel runs; "o0" for short runs (-O0 without
 # -fno-inline, which would split the kernel into ~330 C++ files and take longer to build than -O1)
@@ -92,8 +95,7 @@ class KernelBuild:
                 "MAX_MANIFOLDS": self.max_manifolds, "BODY_IN_W": self.body_in_bits, "CONS_W": self.cons_bits,
                 "BODY_OUT_W": self.body_out_bits} | (
                     {"WINDOW": self.window, "WINDOW_CTX": self.window_ctx} if self.window else {}) | (
-                    {"LANES": self.lanes} if self.lanes > 1 else {}) | (
-                    {"TEST_FRICTION_SIGN_BUG": 1} if self.friction_sign_bug else {})
+                    {"LANES": self.lanes} if self.lanes > 1 else {})
 
     @property
     def defines(self) -> dict[str, int]:
@@ -111,8 +113,10 @@ class KernelBuild:
         return [*COMPILE_PROFILES[self.compile_profile], *(WAVE_ARGS if self.waves else ())]
 
     def sources(self) -> list[Path]:
-        """The SystemVerilog files of the kernel, packages first."""
-        packages, modules = rtl_files()
+        """The SystemVerilog files of the kernel (``rtl/pgs_kernel.f``), packages first; with ``friction_sign_bug``
+        the friction pipe is the variant ``rtl.gen`` generates into ``build/rtl_variants/friction_sign_bug/``."""
+        packages, modules = rtl_files(friction_sign_bug_sources(VARIANT_ROOT / "friction_sign_bug")
+                                      if self.friction_sign_bug else None)
         return packages + modules
 
 

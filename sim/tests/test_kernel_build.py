@@ -16,7 +16,7 @@ from models.kernel_job import KernelJob
 from models.number_format import FP16, FP32
 from sim.cocotb_run import kernel_cocotb_build
 from sim.harness_run import register_writes
-from sim.kernel_build import HARNESS, PUBLIC_VLT, KernelBuild
+from sim.kernel_build import HARNESS, PUBLIC_VLT, VARIANT_ROOT, KernelBuild
 
 
 def test_names_are_distinct_per_description() -> None:
@@ -46,10 +46,20 @@ def test_parameters_defines_and_args() -> None:
                           "LANES": 2}
     assert "--trace-fst" in kb.compile_args and "--trace-fst" not in KernelBuild(FP16).compile_args
     assert "OPT_FAST=-O0 OPT_SLOW=-O0 OPT_GLOBAL=-O0" in KernelBuild(FP32, compile_profile="o0").compile_args
-    assert KernelBuild(FP32, friction_sign_bug=True).parameters["TEST_FRICTION_SIGN_BUG"] == 1
     sources = kb.sources()
     assert any(s.name == "pgs_kernel.sv" for s in sources) and all(s.suffix == ".sv" for s in sources)
     assert HARNESS.is_file() and PUBLIC_VLT.is_file()
+
+
+def test_friction_sign_bug_swaps_the_friction_pipe() -> None:
+    """The bug build has the product parameters and sources except the friction pipe, a variant generated outside
+    rtl/."""
+    good, bad = KernelBuild(FP32), KernelBuild(FP32, friction_sign_bug=True)
+    assert bad.parameters == good.parameters
+    swapped = [(g, b) for g, b in zip(good.sources(), bad.sources(), strict=True) if g != b]
+    assert len(swapped) == 1 and swapped[0][0].name == swapped[0][1].name == "pgs_friction_pipe.sv"
+    assert swapped[0][0].parent.name == "generated" and VARIANT_ROOT in swapped[0][1].parents
+    assert swapped[0][0].read_text() != swapped[0][1].read_text()
 
 
 def test_cocotb_build_is_the_harness_build(monkeypatch: pytest.MonkeyPatch) -> None:
