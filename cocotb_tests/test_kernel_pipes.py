@@ -1,4 +1,4 @@
-"""Bit-exact tests of the generated kernel datapaths (rtl/pgs_{contact,friction,integrate}_pipe.sv).
+"""Bit-exact tests of the generated kernel datapaths (rtl/generated/pgs_{contact,friction,integrate}_pipe.sv).
 
 For each module and each format (fp32, fp16, bf16) the module is compiled once with Verilator into a
 C++ executable (``cocotb_tests/pipes/pipe_main.cpp``: one input record per cycle, ~5 % random idle
