@@ -1,4 +1,4 @@
-"""The window kernel (``pgs_kernel`` with ``WINDOW`` > 0, ``rtl/pgs_window.sv``, issue 10) against the golden model.
+"""The window kernel (``pgs_kernel`` with ``WINDOW`` > 0, ``rtl/pgs_window.sv``) against the golden model.
 
 The window kernel reads each manifold's combined record once per fetch and lets the passes of a fetch trail each
 other over an on-chip ring; records of several passes interleave at issue and retire. With the lag at least the

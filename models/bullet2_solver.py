@@ -3,7 +3,7 @@
 Reproduces one ``stepSimulation`` of a captured frame (``models.scenes.capture_frame``): the same rows in the
 same order with the same floating-point operation order as Bullet's scalar reference row solvers (pybullet is
 built with BT_USE_DOUBLE_PRECISION, no SSE), so the post-step velocities match pybullet to round-off.
-See research note ``bullet_gpu_pgs.md`` section 7 (recipe 7.7 / 10.2). Requirements on the frame (as
+The row set-up follows Bullet's ``btSequentialImpulseConstraintSolver.cpp``. Requirements on the frame (as
 ``models.scenes`` sets up): maximal-coordinate bodies, warmStartingFactor 0, deterministicOverlappingPairs 1,
 manifolds sorted by (body_a, body_b), no damping, restitution 0, no rolling friction or friction anchors.
 

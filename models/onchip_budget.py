@@ -1,4 +1,4 @@
-"""On-chip memory budget of a banded kernel (issue 10): what must stay on chip, against what a device has.
+"""On-chip memory budget of a banded kernel: what must stay on chip, against what a device has.
 
 A banded kernel (``models/schedule.py``, band width D) reads each manifold record from DDR once and runs the
 passes that trail it over an on-chip window of the last D records per trailing pass. What it keeps on chip:
@@ -18,8 +18,8 @@ BRAM36 (the 4 Kib of parity per block hold no data at these widths; raw 36 Kib) 
 =========  ====================  =====================  =====================  ==========================================
 platform   block RAM             UltraRAM               data (raw)             source
 =========  ====================  =====================  =====================  ==========================================
-zcu102     912 BRAM36            none                   3.5625 MiB (4.01 MiB)  XCZU9EG, DS891 (research note section 4.1)
-u280       4,032 BRAM18          960 x 288 Kib          37.9 MiB (42.6 MiB)    Vitis HLS report (research note section 4.2)
+zcu102     912 BRAM36            none                   3.5625 MiB (4.01 MiB)  XCZU9EG, AMD DS891
+u280       4,032 BRAM18          960 x 288 Kib          37.9 MiB (42.6 MiB)    Alveo U280, a public Vitis HLS report
 =========  ====================  =====================  =====================  ==========================================
 
 Each platform names its DMA preset (``models/dma_model.py``) for the off-chip side.

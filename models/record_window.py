@@ -1,4 +1,4 @@
-"""The window kernel's host-side plan (issue 10): how far each pass trails the one before it, and how many passes
+"""The window kernel's host-side plan: how far each pass trails the one before it, and how many passes
 one fetch of the records serves.
 
 The window kernel (``rtl/pgs_window.sv``, a ``pgs_kernel`` built with ``WINDOW`` > 0) reads each manifold's window

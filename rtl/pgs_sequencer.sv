@@ -12,7 +12,7 @@
 //          RAMs); t+1: the contact or friction pipe takes the record; at retire (t+1+LATENCY) the
 //          impulses are written to the slot and the velocities of the dynamic bodies to the body RAM;
 //          the trace record leaves then.
-//          With WINDOW > 0 (the window kernel, issue 10) the records come from pgs_window instead: each
+//          With WINDOW > 0 (the window kernel) the records come from pgs_window instead: each
 //          manifold's combined record is streamed once per fetch of arg_fetch_passes passes and the passes
 //          trail each other by arg_lag slots over the on-chip ring (see pgs_window); records of several
 //          passes interleave at issue, and the friction pipe's output is delayed to the contact pipe's

@@ -1,4 +1,4 @@
-// pgs_window: the record window of a kernel built with WINDOW > 0 (issue 10): each manifold's combined
+// pgs_window: the record window of a kernel built with WINDOW > 0: each manifold's combined
 // record (contact and friction words) is read from the constraint stream once per *fetch* and serves the
 // `fetch_passes` passes of that fetch from an on-chip ring of DEPTH records, the passes trailing each other.
 //

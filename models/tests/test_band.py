@@ -1,4 +1,4 @@
-"""Banded schedules (issue 10): band width D on hand-made cases, reverse Cuthill-McKee on a chain and a ring,
+"""Banded schedules: band width D on hand-made cases, reverse Cuthill-McKee on a chain and a ring,
 every banded order a permutation, hazard-free after the hazard reordering; the on-chip budget arithmetic."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Frame files that are not good frames (issue 7) and frame files that carry pickles (issue 9).
+"""Frame files that are not good frames and frame files that carry pickles.
 
 ``models.frame.load`` must refuse each with a ``FrameError`` of one line naming the problem; a crafted ``.npz``
 holding a pickled object whose unpickling would run code is refused without running it (a positive control
