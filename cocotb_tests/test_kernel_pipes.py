@@ -117,6 +117,14 @@ def _scale_rows(rng: np.random.Generator, w: np.ndarray, cols: slice, lo: float,
         axis=1, keepdims=True)
 
 
+def _make_static(rng: np.random.Generator, w: np.ndarray, inv_mass_col: int, inv_inertia: slice,
+                 share: float) -> None:
+    """Make one body of a random ``share`` of the rows static: its inverse mass and inverse inertia 0."""
+    static = rng.random(w.shape[0]) < share
+    w[static, inv_mass_col] = 0.0
+    w[static, inv_inertia] = 0.0
+
+
 def contact_vectors(fmt: NumberFormat, sv: list[kv.SceneVectors], rng: np.random.Generator) -> tuple[np.ndarray, dict]:
     base = np.concatenate([s.contact for s in sv])
     sets = {"scene": base}
@@ -129,12 +137,8 @@ def contact_vectors(fmt: NumberFormat, sv: list[kv.SceneVectors], rng: np.random
     unused = rng.random((k, 4)) < 0.25                                                  # zero-jac points
     p[:, 15:19] = np.where(unused, 0.0, p[:, 15:19])
     p[rng.random(k) < 0.05, 15:19] = 0.0                                                # all points unused
-    static_b = rng.random(k) < 0.2
-    p[static_b, 46] = 0.0
-    p[static_b, 50:53] = 0.0
-    static_a = rng.random(k) < 0.05
-    p[static_a, 45] = 0.0
-    p[static_a, 47:50] = 0.0
+    _make_static(rng, p, 46, slice(50, 53), 0.2)  # body B static
+    _make_static(rng, p, 45, slice(47, 50), 0.05)  # body A static
     sets["perturbed"] = p
     return np.concatenate(list(sets.values())), {n: len(v) for n, v in sets.items()}
 
@@ -154,12 +158,8 @@ def friction_vectors(fmt: NumberFormat, sv: list[kv.SceneVectors],
     p[:, 18:20] = rng.uniform(-1.5, 1.5, (k, 2)) * limit * (rng.random((k, 2)) < 0.8)     # lamT
     ps = np.where(rng.random(k) < 0.5, ~ps, ps)                                          # spin on / off
     p[rng.random(k) < 0.1, 12] = 0.0                                                     # skipped rows
-    static_b = rng.random(k) < 0.2
-    p[static_b, 39] = 0.0
-    p[static_b, 43:46] = 0.0
-    static_a = rng.random(k) < 0.05
-    p[static_a, 38] = 0.0
-    p[static_a, 40:43] = 0.0
+    _make_static(rng, p, 39, slice(43, 46), 0.2)  # body B static
+    _make_static(rng, p, 38, slice(40, 43), 0.05)  # body A static
     sets["perturbed"] = (p, ps)
     words = np.concatenate([v[0] for v in sets.values()])
     flags = np.concatenate([v[1] for v in sets.values()])

@@ -41,24 +41,20 @@ def status_word(first: int, *codes: int) -> int:
     return sum(rm.status_flag(c) for c in codes) | first << 8
 
 
+# The kernel-side inputs of the register file before a test drives them: idle, no errors, distinct counter values.
+_INPUTS_AT_SETUP: dict[str, int] = {
+    "ap_done": 0, "ap_ready": 0, "ap_idle": 1, "err_set": 0, "err_code": 0, "fp_set": 0,
+    "stat_cycles": 0x1122334455667788, "stat_stalls": 0xA5A5, "stat_bubbles": 0x5A5A, "stat_issued": 1234,
+    "stat_rejected": 77, "stat_fp_overflow": 0x10001, "stat_fp_underflow": 0x20002, "stat_fp_invalid": 0x30003,
+}
+
+
 async def _setup(dut):
     from cocotbext.axi import AxiLiteBus, AxiLiteMaster
 
     cocotb.start_soon(Clock(dut.ap_clk, 10, unit="ns").start())
-    for name in ("ap_done", "ap_ready"):
-        getattr(dut, name).value = 0
-    dut.ap_idle.value = 1
-    dut.err_set.value = 0
-    dut.err_code.value = 0
-    dut.fp_set.value = 0
-    dut.stat_cycles.value = 0x1122334455667788
-    dut.stat_stalls.value = 0xA5A5
-    dut.stat_bubbles.value = 0x5A5A
-    dut.stat_issued.value = 1234
-    dut.stat_rejected.value = 77
-    dut.stat_fp_overflow.value = 0x10001
-    dut.stat_fp_underflow.value = 0x20002
-    dut.stat_fp_invalid.value = 0x30003
+    for name, value in _INPUTS_AT_SETUP.items():
+        getattr(dut, name).value = value
     master = AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axi_control"), dut.ap_clk, dut.ap_rst_n,
                            reset_active_level=False)
     dut.ap_rst_n.value = 0

@@ -430,20 +430,16 @@ def _resolve(d: list[float], row: tuple, applied: float, lo: float, hi: float | 
     else:
         applied = total
     if oa >= 0:
-        d[oa] += lax * delta
-        d[oa + 1] += lay * delta
-        d[oa + 2] += laz * delta
-        d[oa + 3] += aax * delta
-        d[oa + 4] += aay * delta
-        d[oa + 5] += aaz * delta
+        _apply_delta(d, oa, (lax, lay, laz, aax, aay, aaz), delta)
     if ob >= 0:
-        d[ob] += lbx * delta
-        d[ob + 1] += lby * delta
-        d[ob + 2] += lbz * delta
-        d[ob + 3] += abx * delta
-        d[ob + 4] += aby * delta
-        d[ob + 5] += abz * delta
+        _apply_delta(d, ob, (lbx, lby, lbz, abx, aby, abz), delta)
     return applied, delta * (1.0 / jac)
+
+
+def _apply_delta(d: list[float], offset: int, lin_ang: tuple[float, ...], delta: float) -> None:
+    """Add ``lin_ang * delta`` to one body's six (linear, angular) velocities starting at ``d[offset]``."""
+    for i, weight in enumerate(lin_ang):
+        d[offset + i] += weight * delta
 
 
 def compare_with_pybullet(frame: Frame, result: Bullet2Result | None = None) -> dict[str, float]:

@@ -25,16 +25,16 @@
 #define PIPE_STR(x) PIPE_STR2(x)
 #include PIPE_STR(PIPE_CLASS.h)
 #include "verilated.h"
+#include "../../sim/harness/harness_driver.h"
 #include "../../sim/harness/harness_rng.h"
 
 namespace {
 
 constexpr int kInRec = N_IN + 1;
 
-[[noreturn]] void fail(const char* msg) {
-    std::fprintf(stderr, "pipe_sim: %s\n", msg);
-    std::exit(2);
-}
+constexpr const char* kProgram = "pipe_sim";
+
+[[noreturn]] void fail(const char* msg) { harness::fail(kProgram, msg); }
 
 // Write / read `width` (<= 32) bits at bit position `pos` of a little-endian word array.
 void put_bits(uint32_t* words, unsigned pos, unsigned width, uint32_t value) {
@@ -54,35 +54,20 @@ uint32_t get_bits(const uint32_t* words, unsigned pos, unsigned width) {
     return v;
 }
 
-std::vector<uint32_t> read_input(const char* path) {
-    std::FILE* f = std::fopen(path, "rb");
-    if (!f) fail("cannot open input");
-    std::vector<uint32_t> data;
-    uint32_t buf[8192];
-    size_t got;
-    while ((got = std::fread(buf, sizeof(uint32_t), 8192, f)) > 0) data.insert(data.end(), buf, buf + got);
-    std::fclose(f);
-    if (data.size() % kInRec != 0) fail("input is not a whole number of records");
-    return data;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc < 4) {
-        std::fprintf(stderr, "usage: %s IN.bin OUT.bin LATENCY [SEED [IDLE_PERMILLE]]\n", argv[0]);
-        return 1;
-    }
+    if (argc < 4) return harness::usage(argv[0], "IN.bin OUT.bin LATENCY [SEED [IDLE_PERMILLE]]");
     const uint64_t latency = std::strtoull(argv[3], nullptr, 0);
-    const uint64_t seed = argc > 4 ? std::strtoull(argv[4], nullptr, 0) : 1;
-    const unsigned idle_permille = argc > 5 ? static_cast<unsigned>(std::strtoul(argv[5], nullptr, 0)) : 50;
-    const std::vector<uint32_t> in = read_input(argv[1]);
+    const uint64_t seed = harness::arg_or(argc, argv, 4, 1);
+    const unsigned idle_permille = static_cast<unsigned>(harness::arg_or(argc, argv, 5, 50));
+    const std::vector<uint32_t> in =
+        harness::read_records(kProgram, argv[1], kInRec, "input is not a whole number of records");
     const size_t n = in.size() / kInRec;
     const uint32_t mask = FMT_W >= 32 ? 0xFFFFFFFFu : ((1u << FMT_W) - 1u);
     const uint64_t tag_hi = (seed * 0x9E3779B97F4A7C15ULL) & 0xFFFFFFFF00000000ULL;
 
-    auto ctx = std::make_unique<VerilatedContext>();
-    ctx->randSeed(static_cast<int>(seed & 0x7fffffff));
+    auto ctx = harness::seeded_context(seed);
     auto top = std::make_unique<PIPE_CLASS>(ctx.get(), "pipe");
     Rng rng(seed);
     uint32_t* in_words = top->in_data.data();
@@ -102,10 +87,7 @@ int main(int argc, char** argv) {
 #endif
     };
     auto tick = [&]() {
-        top->clk = 1;
-        top->eval();
-        top->clk = 0;
-        top->eval();
+        harness::clock_cycle(*top);
         ++cycle;
     };
     uint64_t events[3] = {0, 0, 0};
@@ -184,10 +166,7 @@ int main(int argc, char** argv) {
         tick();
     }
 
-    std::FILE* f = std::fopen(argv[2], "wb");
-    if (!f) fail("cannot open output");
-    if (n && std::fwrite(out.data(), sizeof(uint32_t), out.size(), f) != out.size()) fail("short write");
-    std::fclose(f);
+    harness::write_words(kProgram, argv[2], out);
     top->final();
     std::printf("vectors=%zu outputs=%zu cycles=%llu idle=%llu latency=%llu events=%llu,%llu,%llu\n", n, count,
                 static_cast<unsigned long long>(cycle), static_cast<unsigned long long>(idle),

@@ -28,6 +28,7 @@
 
 #include "Vfp_ip_standins_tb.h"
 #include "verilated.h"
+#include "../../sim/harness/harness_driver.h"
 #include "../../sim/harness/harness_rng.h"
 
 namespace {
@@ -35,10 +36,9 @@ namespace {
 constexpr int kCh = 6;  // add, sub, mul, div, sqrt, cmp
 const char* const kNames[kCh] = {"add", "sub", "mul", "div", "sqrt", "cmp"};
 
-[[noreturn]] void fail(const char* msg) {
-    std::fprintf(stderr, "fp_ip_standins: %s\n", msg);
-    std::exit(2);
-}
+constexpr const char* kProgram = "fp_ip_standins";
+
+[[noreturn]] void fail(const char* msg) { harness::fail(kProgram, msg); }
 
 struct Snapshot {
     uint32_t valid[kCh];
@@ -56,28 +56,16 @@ Snapshot snap(const Vfp_ip_standins_tb& t) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc < 4) {
-        std::fprintf(stderr, "usage: %s IN.bin OUT.bin SEED [DISABLE_PERMILLE [IDLE_PERMILLE]]\n", argv[0]);
-        return 1;
-    }
+    if (argc < 4) return harness::usage(argv[0], "IN.bin OUT.bin SEED [DISABLE_PERMILLE [IDLE_PERMILLE]]");
     const uint64_t seed = std::strtoull(argv[3], nullptr, 0);
-    const unsigned disable_permille = argc > 4 ? static_cast<unsigned>(std::strtoul(argv[4], nullptr, 0)) : 300;
-    const unsigned idle_permille = argc > 5 ? static_cast<unsigned>(std::strtoul(argv[5], nullptr, 0)) : 30;
+    const unsigned disable_permille = static_cast<unsigned>(harness::arg_or(argc, argv, 4, 300));
+    const unsigned idle_permille = static_cast<unsigned>(harness::arg_or(argc, argv, 5, 30));
 
-    std::vector<uint32_t> in;
-    {
-        std::FILE* f = std::fopen(argv[1], "rb");
-        if (!f) fail("cannot open input");
-        uint32_t buf[3 * 4096];
-        size_t got;
-        while ((got = std::fread(buf, sizeof(uint32_t), 3 * 4096, f)) > 0) in.insert(in.end(), buf, buf + got);
-        std::fclose(f);
-    }
-    if (in.size() % 3 != 0) fail("input is not a whole number of {a, b, predicate} records");
+    const std::vector<uint32_t> in = harness::read_records(kProgram, argv[1], 3,
+                                                           "input is not a whole number of {a, b, predicate} records");
     const size_t n = in.size() / 3;
 
-    auto ctx = std::make_unique<VerilatedContext>();
-    ctx->randSeed(static_cast<int>(seed & 0x7fffffff));
+    auto ctx = harness::seeded_context(seed);
     auto top = std::make_unique<Vfp_ip_standins_tb>(ctx.get(), "fp_ip_standins_tb");
     Rng rng(seed);
 
@@ -174,10 +162,7 @@ int main(int argc, char** argv) {
 
     for (int k = 0; k < kCh; ++k)
         if (results[k] != n) fail("a channel returned fewer results than vectors");
-    std::FILE* f = std::fopen(argv[2], "wb");
-    if (!f) fail("cannot open output");
-    std::fwrite(out.data(), sizeof(uint32_t), out.size(), f);
-    std::fclose(f);
+    harness::write_words(kProgram, argv[2], out);
 
     std::printf("latencies");
     for (int k = 0; k < kCh; ++k) std::printf(" %s=%u", kNames[k], lat[k]);

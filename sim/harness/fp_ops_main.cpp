@@ -22,6 +22,7 @@
 
 #include "Vfp_ops_tb.h"
 #include "verilated.h"
+#include "harness_driver.h"
 #include "harness_rng.h"
 
 namespace {
@@ -30,37 +31,21 @@ constexpr int kOps = 6;          // channels: add, sub, mul, div, sqrt, minmax
 constexpr int kRecord = 8;       // uint32 words per output record
 const char* const kNames[kOps] = {"add", "sub", "mul", "div", "sqrt", "minmax"};
 
-[[noreturn]] void fail(const char* msg) {
-    std::fprintf(stderr, "fp_ops_sim: %s\n", msg);
-    std::exit(2);
-}
+constexpr const char* kProgram = "fp_ops_sim";
 
-std::vector<uint32_t> read_input(const char* path) {
-    std::FILE* f = std::strcmp(path, "-") == 0 ? stdin : std::fopen(path, "rb");
-    if (!f) fail("cannot open input");
-    std::vector<uint32_t> data;
-    uint32_t buf[8192];
-    size_t got;
-    while ((got = std::fread(buf, sizeof(uint32_t), 8192, f)) > 0) data.insert(data.end(), buf, buf + got);
-    if (f != stdin) std::fclose(f);
-    if (data.size() % 2 != 0) fail("input holds an odd number of words");
-    return data;
-}
+[[noreturn]] void fail(const char* msg) { harness::fail(kProgram, msg); }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc < 3) {
-        std::fprintf(stderr, "usage: %s IN.bin|- OUT.bin [SEED [IDLE_PERMILLE]]\n", argv[0]);
-        return 1;
-    }
-    const uint64_t seed = argc > 3 ? std::strtoull(argv[3], nullptr, 0) : 1;
-    const unsigned idle_permille = argc > 4 ? static_cast<unsigned>(std::strtoul(argv[4], nullptr, 0)) : 30;
-    const std::vector<uint32_t> in = read_input(argv[1]);
+    if (argc < 3) return harness::usage(argv[0], "IN.bin|- OUT.bin [SEED [IDLE_PERMILLE]]");
+    const uint64_t seed = harness::arg_or(argc, argv, 3, 1);
+    const unsigned idle_permille = static_cast<unsigned>(harness::arg_or(argc, argv, 4, 30));
+    const std::vector<uint32_t> in =
+        harness::read_records(kProgram, argv[1], 2, "input holds an odd number of words", /*dash_is_stdin=*/true);
     const size_t n = in.size() / 2;
 
-    auto ctx = std::make_unique<VerilatedContext>();
-    ctx->randSeed(static_cast<int>(seed & 0x7fffffff));
+    auto ctx = harness::seeded_context(seed);
     auto top = std::make_unique<Vfp_ops_tb>(ctx.get(), "fp_ops_tb");
     Rng rng(seed);
     top->clk = 0;
@@ -81,10 +66,7 @@ int main(int argc, char** argv) {
     uint64_t cycle = 0;
 
     auto tick = [&]() {
-        top->clk = 1;
-        top->eval();
-        top->clk = 0;
-        top->eval();
+        harness::clock_cycle(*top);
         ++cycle;
     };
     auto any_valid = [&]() {
@@ -171,10 +153,7 @@ int main(int argc, char** argv) {
         tick();
     }
 
-    std::FILE* f = std::fopen(argv[2], "wb");
-    if (!f) fail("cannot open output");
-    if (n && std::fwrite(out.data(), sizeof(uint32_t), out.size(), f) != out.size()) fail("short write");
-    std::fclose(f);
+    harness::write_words(kProgram, argv[2], out);
     top->final();
 
     std::printf("latency add=%u sub=%u mul=%u div=%u sqrt=%u minmax=%u\n", lat[0], lat[1], lat[2], lat[3],
