@@ -1,5 +1,5 @@
-"""The kernel's cycle model (models/cycle_model.py) on hand-derived timelines; the RTL comparison is in
-cocotb_tests/test_pgs_kernel.py (test_kernel_cycles_match_model)."""
+"""The kernel's cycle model (models/cycle_model.py, its timing structure models/kernel_shape.py) on hand-derived
+timelines; the RTL comparison is in cocotb_tests/test_pgs_kernel.py (test_kernel_cycles_match_model)."""
 
 from __future__ import annotations
 
@@ -9,20 +9,21 @@ import numpy as np
 import pytest
 
 from models import cycle_model as cm
+from models import kernel_shape as ks
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from models.number_format import BF16, FP16, FP32, NumberFormat
 
-FP32_C512 = cm.KernelShape.of(FP32, 512)
-IDEAL, ZCU102 = cm.DmaTiming.of(get_preset("ideal")), cm.DmaTiming.of(get_preset("zcu102"))
+FP32_C512 = ks.KernelShape.of(FP32, 512)
+IDEAL, ZCU102 = ks.DmaTiming.of(get_preset("ideal")), ks.DmaTiming.of(get_preset("zcu102"))
 
 
 def step_of(pairs: list[tuple[int, int]], num_bodies: int, static: tuple[int, ...] = (0,), iterations: int = 1,
-            interleaved: bool = False, fmt: NumberFormat = FP32) -> cm.StepShape:
+            interleaved: bool = False, fmt: NumberFormat = FP32) -> ks.StepShape:
     inv_mass = np.ones(num_bodies)
     inv_mass[list(static)] = 0.0
     a, b = (np.array(x, dtype=np.int64) for x in zip(*pairs)) if pairs else (np.zeros(0, np.int64),) * 2
-    return cm.StepShape.of(fmt, inv_mass, a, b, SolverParams(iterations, interleaved=interleaved))
+    return ks.StepShape.of(fmt, inv_mass, a, b, SolverParams(iterations, interleaved=interleaved))
 
 
 @pytest.mark.parametrize("fmt,latencies", [(FP32, (179, 110, 186)), (FP16, (179, 110, 134)),
@@ -31,7 +32,7 @@ def test_latencies_read_from_rtl(fmt: NumberFormat, latencies: tuple[int, int, i
     """The LATENCY localparams of the generated datapaths (rtl/README.md's table), as the generator schedules them."""
     from rtl.gen.kernel_graphs import GRAPHS
 
-    got = tuple(cm.rtl_latency(m, fmt) for m in ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe"))
+    got = tuple(ks.rtl_latency(m, fmt) for m in ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe"))
     assert got == latencies
     gen = tuple(GRAPHS[m]().schedule().latency_for(fmt.man_bits)
                 for m in ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe"))
@@ -39,14 +40,14 @@ def test_latencies_read_from_rtl(fmt: NumberFormat, latencies: tuple[int, int, i
 
 
 def test_shape_of_formats_and_presets() -> None:
-    s = cm.KernelShape.of(FP32, 512)
+    s = ks.KernelShape.of(FP32, 512)
     assert (s.contact_beats, s.friction_beats, s.body_in_beats, s.body_out_beats) == (2, 1, 5, 4)
-    s = cm.KernelShape.of(FP16, 512)
+    s = ks.KernelShape.of(FP16, 512)
     assert (s.contact_beats, s.friction_beats, s.body_in_beats, s.body_out_beats) == (1, 1, 3, 2)
-    s = cm.KernelShape.of(FP32, 128)  # zcu102_1: one 128-bit channel
+    s = ks.KernelShape.of(FP32, 128)  # zcu102_1: one 128-bit channel
     assert (s.contact_beats, s.friction_beats, s.cons_beat_bytes) == (7, 4, 16)
-    assert cm.DmaTiming.of(get_preset("zcu102")).rate == 58.182  # the harness's 1/1000-byte rounding
-    assert cm.DmaTiming.of(get_preset("ideal")) == cm.DmaTiming(0.0, 0)
+    assert ks.DmaTiming.of(get_preset("zcu102")).rate == 58.182  # the harness's 1/1000-byte rounding
+    assert ks.DmaTiming.of(get_preset("ideal")) == ks.DmaTiming(0.0, 0)
 
 
 def test_one_manifold_ideal_timeline() -> None:
@@ -98,7 +99,7 @@ def test_static_bodies_never_conflict_and_rejected_slots() -> None:
 
 def test_cam_full_throttles_issue() -> None:
     """With HAZARD_DEPTH = 4 the fifth independent manifold waits for the first to retire."""
-    shape = cm.KernelShape(**{**FP32_C512.__dict__, "hazard_depth": 4})
+    shape = ks.KernelShape(**{**FP32_C512.__dict__, "hazard_depth": 4})
     p = cm.predict(shape, IDEAL, step_of([(0, k) for k in range(1, 7)], 7))
     assert p.issue[4] == p.retire[0] + 1 and p.cause[4] == cm.CAM_FULL and p.blocker[4] == 0
     assert "hazard CAM full (4 in flight)" in p.explain(4)
@@ -126,7 +127,7 @@ def test_ddr_bound_streaming_rate() -> None:
 def test_prefetched_is_a_lower_bound() -> None:
     step = step_of([(k % 7 + 1, (k * 3) % 7 + 1) for k in range(60) if k % 7 != (k * 3) % 7], 8, iterations=2)
     normal = cm.predict(FP32_C512, ZCU102, step)
-    early = cm.predict(FP32_C512, cm.DmaTiming.of(get_preset("zcu102"), prefetched=True), step)
+    early = cm.predict(FP32_C512, ks.DmaTiming.of(get_preset("zcu102"), prefetched=True), step)
     assert early.cycles < normal.cycles and np.all(early.retire <= normal.retire)
 
 

@@ -1,6 +1,7 @@
 """Generator of the kernel's pipelined datapath modules and of the contracts' generated copies (``python -m rtl.gen``).
 
-``rtl/gen/dataflow.py`` is the dataflow DSL, ASAP scheduler and SystemVerilog emitter;
+``rtl/gen/dataflow.py`` is the dataflow DSL, ``rtl/gen/schedule.py`` its ASAP scheduler (operator latencies:
+``rtl/gen/operator_timing.py``), ``rtl/gen/sv_emit.py`` the SystemVerilog emitter;
 ``rtl/gen/kernel_graphs.py`` holds the contact, friction and integration graphs. :func:`generate` writes, into
 ``rtl/generated/`` (never edited by hand; ``python -m rtl.gen --check`` and the test suite check that the committed
 copies are current):
@@ -20,13 +21,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from models.cycle_model import PIPE_LATENCY_FILE
+from models.kernel_shape import PIPE_LATENCY_FILE
 
-from .dataflow import REPO_ROOT, emit_sv
 from .file_list import RTL_DIR, kernel_sources, swap_sources
 from .kernel_graphs import GRAPHS, MAN_BITS_OF, friction_graph
 from .pipe_latency import LATENCY_PKG, emit_latency_json, emit_latency_pkg
 from .register_map_emit import REGS_HEADER, REGS_PKG, emit_regs_header, emit_regs_pkg
+from .repo_paths import REPO_ROOT
+from .sv_emit import emit_sv
 
 GENERATED_DIR = RTL_DIR / "generated"
 HLS_GENERATED_DIR = REPO_ROOT / "hls_export" / "generated"

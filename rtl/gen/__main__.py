@@ -4,7 +4,7 @@ import argparse
 import sys
 
 from . import generate, latencies
-from .dataflow import REPO_ROOT
+from .repo_paths import REPO_ROOT
 
 
 def main() -> int:
