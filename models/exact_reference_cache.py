@@ -5,7 +5,9 @@ The reference (``models/exact_reference.py``) depends only on the step's float64
 pass order), plus the solver and its tolerance; not on the number format, the schedule or the iteration count.
 The cache file ``<dir>/exact_<key>.npz`` is keyed by a SHA-256 over exactly those; it is written under a
 temporary name and renamed into place, so a reader never sees half a file. A file that cannot be read (corrupt,
-truncated, another version) is recomputed and replaced.
+truncated, another version) is recomputed and replaced. A failed attempt (``ExactReferenceError``) is recorded in
+``exact_<key>.failed.json`` with its budget, so that later runs with no larger budget report the reason at once
+instead of spending the budget again (delete the file to retry).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import numpy as np
 
 from .constraints import BodyTable, ConstraintSet
 from .contact_solver import Impulses, SolverParams
-from .exact_reference import SOLVER_TOLERANCE, Budget, ExactReference, exact_reference
+from .exact_reference import SOLVER_TOLERANCE, Budget, ExactReference, ExactReferenceError, exact_reference
 
 CACHE_VERSION = 2  # bump whenever the reference computation changes
 _VELOCITIES = ("contact_linear", "contact_angular", "linear", "angular", "normal", "friction")
@@ -107,8 +109,40 @@ def cached_exact_reference(bodies: BodyTable, cons: ConstraintSet, cache_dir: st
     ref = load_reference(path, bodies)
     if ref is not None and ref.impulses.normal.shape[0] == cons.num_manifolds:
         return ref, path, True
+    failed = path.with_suffix(".failed.json")
+    earlier = _recorded_failure(failed)
+    if earlier is not None and earlier["time_s"] >= budget.time_s and earlier["memory_bytes"] >= budget.memory_bytes:
+        raise ExactReferenceError(f"{earlier['reason']} (recorded by an earlier attempt with a budget of "
+                                  f"{earlier['time_s']:.0f} s; delete {failed} to try again)")
     t0 = time.perf_counter()
-    ref = exact_reference(bodies, cons, params, budget)
+    try:
+        ref = exact_reference(bodies, cons, params, budget)
+    except ExactReferenceError as exc:
+        _write_atomically(failed, json.dumps({"reason": str(exc), "time_s": budget.time_s,
+                                              "memory_bytes": budget.memory_bytes}).encode())
+        raise
     ref.seconds["total"] = time.perf_counter() - t0
     save_reference(ref, path)
+    if failed.exists():
+        failed.unlink()
     return ref, path, False
+
+
+def _recorded_failure(path: Path) -> dict | None:
+    try:
+        rec = json.loads(path.read_text())
+        return rec if {"reason", "time_s", "memory_bytes"} <= set(rec) else None
+    except (OSError, ValueError):
+        return None
+
+
+def _write_atomically(path: Path, data: bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)

@@ -11,7 +11,7 @@ exact reference (solver failure, infeasible or degenerate problem, time or memor
 from __future__ import annotations
 
 import argparse
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +19,7 @@ import numpy as np
 
 from models.constraints import BodyTable, ConstraintSet
 from models.contact_solver import SolverParams
+from models.exact_bound import contact_phase_bound
 from models.exact_reference import Budget, ExactReference, ExactReferenceError
 from models.exact_reference_cache import cached_exact_reference
 from models.integrator import IntegrationParams, integrate
@@ -38,6 +39,7 @@ class ExactStep:
     reason: str
     cache_file: str
     from_cache: bool
+    bound: dict[str, Any] = field(default_factory=dict)  # models/exact_bound.py on the contact phase
 
 
 def add_exact_args(ap: argparse.ArgumentParser) -> None:
@@ -57,7 +59,11 @@ def exact_step(bodies: BodyTable, cons: ConstraintSet, ip: IntegrationParams, ca
     except ExactReferenceError as exc:
         print(f"{NO_REFERENCE}: {exc}", flush=True)
         return ExactStep(None, None, str(exc), "", False)
-    return ExactStep(ref, integrate(ref.bodies, FLOAT64, ip), "", str(path), hit)
+    try:
+        bound = contact_phase_bound(bodies, cons, ref.impulses.normal)
+    except ExactReferenceError as exc:
+        bound = {"certified bound": str(exc)}
+    return ExactStep(ref, integrate(ref.bodies, FLOAT64, ip), "", str(path), hit, bound)
 
 
 def error_rows(label: str, ours: BodyTable, exact: ExactStep, dynamic: np.ndarray) -> dict[str, Any]:
@@ -76,5 +82,6 @@ def reference_rows(exact: ExactStep) -> dict[str, Any]:
     rows.update({f"exact reference: {k} solve time (s)": v for k, v in ref.seconds.items()})
     rows.update({f"exact reference: {k}": v for k, v in ref.details.items()})
     rows.update({f"exact reference residual, {k}": v for k, v in ref.residuals.items()})
+    rows.update({f"exact reference, contact phase, {k}": v for k, v in exact.bound.items()})
     rows["exact reference: cache file"] = exact.cache_file + (" (read from the cache)" if exact.from_cache else "")
     return rows

@@ -114,12 +114,17 @@ def test_cache_round_trip_and_nothing_half_written(pile, tmp_path: Path) -> None
     path.write_bytes(path.read_bytes()[:100])
     third, _, hit3 = cached_exact_reference(bodies, cons, tmp_path)
     assert not hit3 and np.array_equal(third.bodies.linear_velocity, first.bodies.linear_velocity)
-    # a failed solve writes nothing
-    empty = tmp_path / "failed"
-    with pytest.raises(ExactReferenceError):
-        cached_exact_reference(bodies, cons, empty, budget=Budget(time_s=0.0))
-    assert not empty.exists() or not any(empty.iterdir())
     assert [p.name for p in tmp_path.iterdir() if p.is_file()] == [path.name]  # no temporary file left
+    # a failed solve writes no reference, only the record of the failure, which a later run with no larger
+    # budget reports at once and a larger budget retries (and removes once it succeeds)
+    failed = tmp_path / "failed"
+    with pytest.raises(ExactReferenceError, match="time budget"):
+        cached_exact_reference(bodies, cons, failed, budget=Budget(time_s=0.0))
+    assert [p.name for p in failed.iterdir()] == [path.name.replace(".npz", ".failed.json")]
+    with pytest.raises(ExactReferenceError, match="earlier attempt"):
+        cached_exact_reference(bodies, cons, failed, budget=Budget(time_s=0.0))
+    _, retried, hit4 = cached_exact_reference(bodies, cons, failed)
+    assert not hit4 and [p.name for p in failed.iterdir()] == [retried.name]
 
 
 def test_solution_error_metrics(pile) -> None:
@@ -135,3 +140,22 @@ def test_solution_error_metrics(pile) -> None:
     assert 0 < err["p99 |dv| (m/s)"] <= 5.0
     v_scale = np.linalg.norm(bodies.linear_velocity[dyn], axis=1).max()
     assert err["max |dv| / max |v_ref|"] == pytest.approx(5.0 / v_scale)
+
+
+def test_contact_phase_bound_holds_and_vanishes_at_the_limit(pile) -> None:
+    """The certificate bounds the true distance of a PGS iterate and is small at the exact contact state."""
+    from models.exact_bound import contact_phase_bound
+
+    bodies, cons, schedule, ref = pile
+    at_limit = contact_phase_bound(bodies, cons, ref.impulses.normal)
+    assert at_limit["certified max |dv| (m/s)"] < 1e-4
+    out, imp = bodies.copy(), Impulses.zeros(cons.num_manifolds)
+    levels = schedule_levels(schedule, cons, bodies.dynamic)
+    for it in range(20):
+        run_pass(out, imp, cons, levels, FLOAT64, CONTACT_PASS, it, SolverParams(), schedule)
+    bound = contact_phase_bound(bodies, cons, imp.normal)
+    dv = np.linalg.norm(out.linear_velocity - ref.contact_bodies.linear_velocity, axis=1).max()
+    dw = np.linalg.norm(out.angular_velocity - ref.contact_bodies.angular_velocity, axis=1).max()
+    assert 1e-3 < dv <= bound["certified max |dv| (m/s)"] and dw <= bound["certified max |dw| (rad/s)"]
+    with pytest.raises(ExactReferenceError, match="negative"):
+        contact_phase_bound(bodies, cons, -np.ones_like(imp.normal))
