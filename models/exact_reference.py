@@ -57,7 +57,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -544,3 +544,53 @@ def _clarabel_version() -> str:
     import importlib.metadata
 
     return importlib.metadata.version("clarabel")
+
+
+# --- the budget, enforced from outside the solver -------------------------------------------------------------
+BUDGET_GRACE_S = 5.0  # seconds the parent waits past the time budget before it stops the solving process
+
+
+def exact_reference_bounded(bodies: BodyTable, cons: ConstraintSet, params: SolverParams = SolverParams(),
+                            budget: Budget = Budget(), solver: QpSolver = clarabel_solve) -> ExactReference:
+    """:func:`exact_reference` in a child process that cannot exceed the budget: its address space is capped at
+    ``budget.memory_bytes`` and it is stopped when ``budget.time_s`` has passed (Clarabel checks its own time limit
+    only between iterations, and one factorisation of a large island can outlast the whole budget)."""
+    import multiprocessing as mp
+
+    ctx = mp.get_context("fork")
+    recv, send = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=_bounded_child, args=(send, bodies, cons, params, budget, solver),
+                        daemon=True)
+    child.start()
+    send.close()
+    try:
+        if not recv.poll(budget.time_s + BUDGET_GRACE_S):
+            raise ExactReferenceError(f"time budget of {budget.time_s:.0f} s spent (the solve was stopped)")
+        kind, value = recv.recv()
+    except EOFError:
+        child.join(1.0)
+        raise ExactReferenceError(f"the solving process died (exit {child.exitcode}; memory budget "
+                                  f"{budget.memory_bytes / 2 ** 30:.1f} GiB)") from None
+    finally:
+        if child.is_alive():
+            child.kill()
+        child.join(5.0)
+        recv.close()
+    if kind == "error":
+        raise ExactReferenceError(value)
+    return value
+
+
+def _bounded_child(send: Any, bodies: BodyTable, cons: ConstraintSet, params: SolverParams, budget: Budget,
+                   solver: QpSolver) -> None:
+    import resource
+
+    try:
+        resource.setrlimit(resource.RLIMIT_AS, (budget.memory_bytes, budget.memory_bytes))
+        send.send(("ok", exact_reference(bodies, cons, params, budget, solver)))
+    except ExactReferenceError as exc:
+        send.send(("error", str(exc)))
+    except MemoryError:
+        send.send(("error", f"memory budget of {budget.memory_bytes / 2 ** 30:.1f} GiB exceeded"))
+    finally:
+        send.close()

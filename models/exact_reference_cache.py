@@ -24,7 +24,7 @@ import numpy as np
 
 from .constraints import BodyTable, ConstraintSet
 from .contact_solver import Impulses, SolverParams
-from .exact_reference import SOLVER_TOLERANCE, Budget, ExactReference, ExactReferenceError, exact_reference
+from .exact_reference import SOLVER_TOLERANCE, Budget, ExactReference, ExactReferenceError, exact_reference_bounded
 
 CACHE_VERSION = 2  # bump whenever the reference computation changes
 _VELOCITIES = ("contact_linear", "contact_angular", "linear", "angular", "normal", "friction")
@@ -116,7 +116,7 @@ def cached_exact_reference(bodies: BodyTable, cons: ConstraintSet, cache_dir: st
                                   f"{earlier['time_s']:.0f} s; delete {failed} to try again)")
     t0 = time.perf_counter()
     try:
-        ref = exact_reference(bodies, cons, params, budget)
+        ref = exact_reference_bounded(bodies, cons, params, budget)
     except ExactReferenceError as exc:
         _write_atomically(failed, json.dumps({"reason": str(exc), "time_s": budget.time_s,
                                               "memory_bytes": budget.memory_bytes}).encode())

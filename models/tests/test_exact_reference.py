@@ -159,3 +159,23 @@ def test_contact_phase_bound_holds_and_vanishes_at_the_limit(pile) -> None:
     assert 1e-3 < dv <= bound["certified max |dv| (m/s)"] and dw <= bound["certified max |dw| (rad/s)"]
     with pytest.raises(ExactReferenceError, match="negative"):
         contact_phase_bound(bodies, cons, -np.ones_like(imp.normal))
+
+
+def test_bounded_solve_enforces_the_budget_from_outside(pile, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The bounded solve returns the same reference, and stops a solve that outlasts its time or memory budget."""
+    from models import exact_reference as er
+
+    bodies, cons, _, ref = pile
+    got = er.exact_reference_bounded(bodies, cons)
+    assert np.array_equal(got.bodies.linear_velocity, ref.bodies.linear_velocity)
+    with pytest.raises(ExactReferenceError, match="memory"):  # the estimate refuses before solving
+        er.exact_reference_bounded(bodies, cons, budget=Budget(memory_bytes=1000))
+
+    def hang(prob: er.QpProblem, limit: float) -> er.QpSolution:  # a solver that never checks its time limit
+        import time
+        time.sleep(60)
+        return er.clarabel_solve(prob, limit)
+
+    monkeypatch.setattr(er, "BUDGET_GRACE_S", 0.0)
+    with pytest.raises(ExactReferenceError, match="was stopped"):
+        er.exact_reference_bounded(bodies, cons, budget=Budget(time_s=0.5), solver=hang)
