@@ -135,11 +135,11 @@ def test_solution_error_metrics(pile) -> None:
     ours.linear_velocity[idx[0]] += [3.0, 4.0, 0.0]  # |dv| = 5 on one body
     ours.angular_velocity[idx[:2]] += [0.0, 0.0, 2.0]
     err = solution_error(ours, bodies, dyn)
-    assert err["max |dv| (m/s)"] == pytest.approx(5.0) and err["median |dv| (m/s)"] == 0.0
-    assert err["max |dw| (rad/s)"] == pytest.approx(2.0)
-    assert 0 < err["p99 |dv| (m/s)"] <= 5.0
+    assert err.max_dv == pytest.approx(5.0) and err.median_dv == 0.0
+    assert err.max_dw == pytest.approx(2.0)
+    assert 0 < err.p99_dv <= 5.0
     v_scale = np.linalg.norm(bodies.linear_velocity[dyn], axis=1).max()
-    assert err["max |dv| / max |v_ref|"] == pytest.approx(5.0 / v_scale)
+    assert err.relative_dv == pytest.approx(5.0 / v_scale)
 
 
 def test_contact_phase_bound_holds_and_vanishes_at_the_limit(pile) -> None:
