@@ -6,7 +6,9 @@ into constraints, orders them (hazard schedule by default), and runs the step th
 * the RTL kernel (``rtl/pgs_kernel.sv``) in the compiled Verilator harness behind the DMA preset's bandwidth
   model (``sim/kernel_step.py``), its trace and body-out stream compared bit for bit with
 * the golden model in the same number format (``models/contact_solver.py``), and
-* float64 references: the same schedule and iterations, and a converged solve.
+* float64 references: the same schedule and iterations, PGS run until a pass changes little (labelled "float64
+  PGS after N contact and N friction passes"), and the exact limit of the scheme (``models/exact_reference.py``,
+  cached beside the frame), against which the errors are measured (``sim/exact_error.py``).
 
 The run's findings are typed (``sim.run_result.RunResult``) and rendered once (``sim.run_result.sections``):
 it prints a summary and writes ``report.md``/``report.json`` (and, with ``--waves``, ``waves.fst`` plus a
@@ -43,6 +45,7 @@ from models.kernel_job import KernelJob
 from models.number_format import FLOAT64, FP32, NumberFormat, parse_format
 from models.residual import contact_residual
 from models.schedule import SCHEDULE_KINDS, make_schedule, stats
+from sim import exact_error
 from sim.analyze import auto_format
 from sim.harness_run import KernelRunError, text_progress
 from sim.kernel_build import KernelBuild, default_window
@@ -71,6 +74,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help="random idle cycles on the input streams and backpressure on the output (per mille)")
     ap.add_argument("--converged-budget", type=float, default=300.0,
                     help="seconds allowed for the converged float64 solve (it stops earlier when converged)")
+    exact_error.add_exact_args(ap)
     ap.add_argument("--no-kernel", action="store_true", help="reference models only (no Verilator)")
     ap.add_argument("--mode", choices=("rtl", "model"), default="rtl",
                     help="rtl: the whole run, the cycle model beside the RTL; model: the cycle model's estimate alone "
@@ -103,6 +107,7 @@ def check_args(args: argparse.Namespace) -> None:
     for name, value, lo, hi in (("--window", args.window, 0, None),
                                 ("--stall-permille", args.stall_permille, 0, 1000),
                                 ("--converged-budget", args.converged_budget, 0, None),
+                                ("--exact-budget", args.exact_budget, 0, None),
                                 ("--wave-cycles", args.wave_cycles, 0, None)):
         if not (value >= lo and (hi is None or value <= hi)) or not math.isfinite(value):
             raise ValueError(f"{name} must be {'in ' + str(lo) + '..' + str(hi) if hi else '>= ' + str(lo)}, "
@@ -237,6 +242,8 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     golden = timer.run(f"{fmt.name} golden model solve + integrate", golden_step, job)
     conv = timer.run("converged float64 solve", solve_converged, bodies, cons, schedule, FLOAT64,
                      time_budget_s=args.converged_budget)
+    exact = timer.run("exact reference (solve or cache)", exact_error.exact_step, bodies, cons, ip,
+                      exact_error.reference_dir(args), args.exact_budget)
 
     res: KernelResult | None = None
     kb: KernelBuild | None = None
@@ -253,7 +260,8 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     rtl_ours = res is not None and res.bit_exact  # the kernel's own numbers (identical to the golden model's)
     ours = kernel_bodies(run_dir, job, kb) if rtl_ours else golden.final
     source = "RTL kernel" if rtl_ours else f"{fmt.name} golden model"
-    errors = step_errors(source, ours, StepInputs(frame, bodies, cons, schedule, params, ip), fmt, golden, ref, conv)
+    errors = step_errors(source, ours, StepInputs(frame, bodies, cons, schedule, params, ip), fmt, golden, ref, conv,
+                         exact)
     result = RunResult(
         name,
         SceneFacts(label, frame.num_bodies, int(bodies.dynamic.sum()), frame.num_manifolds, frame.num_points_total,
@@ -290,10 +298,10 @@ class StepInputs:
 
 
 def step_errors(source: str, ours: BodyTable, step: StepInputs, fmt: NumberFormat, golden: Golden, ref: BodyTable,
-                conv: Any) -> StepErrors:
+                conv: Any, exact: exact_error.AnyExactStep) -> StepErrors:
     """The step's velocities (``ours``, from ``source``) against float64 with the same iterations (``ref``), the
-    converged solve ``conv`` and pybullet's own step; the residuals; the thesis's statistic for formats other than
-    fp32."""
+    converged solve ``conv``, the exact reference ``exact`` and pybullet's own step; the residuals; the thesis's
+    statistic for formats other than fp32."""
     dyn = step.bodies.dynamic
     conv_final = integrate(conv.result.bodies, FLOAT64, step.ip)
     stat: tuple[float | None, float | None] = (None, None)
@@ -304,7 +312,8 @@ def step_errors(source: str, ours: BodyTable, step: StepInputs, fmt: NumberForma
     pb = dataclasses.replace(ours, linear_velocity=step.frame.post_linear_velocity,
                              angular_velocity=step.frame.post_angular_velocity)
     return StepErrors(
-        source, _error(ours, ref, dyn), _error(ours, conv_final, dyn), _error(ref, conv_final, dyn),
+        source, _error(ours, ref, dyn), _error(ours, conv_final, dyn),
+        exact_error.exact_errors(exact, ours, ref, conv_final, dyn),
         (conv.contact_passes, conv.friction_passes), conv.last_change, bool(conv.converged),
         contact_residual(golden.solved.bodies, step.cons, golden.solved.impulses.normal),
         contact_residual(conv.result.bodies, step.cons, conv.result.impulses.normal), _error(ours, pb, dyn), *stat)

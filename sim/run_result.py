@@ -10,10 +10,13 @@ from typing import Any, Optional, Union
 
 from models.onchip_budget import Budget
 from models.record_window import WindowPlan
+from models.solution_error import SolutionError
 from sim import baselines
 
 BITS_SECTION = "bit-exactness (RTL kernel against the golden model, same format)"
 MODEL_SECTION = "cycle model (models/cycle_model.py)"
+ERROR_SECTION = "error (velocities after the step; dynamic bodies)"
+NO_REFERENCE = "no exact reference"
 Sections = dict[str, dict[str, Any]]
 
 
@@ -97,13 +100,49 @@ class WindowFacts:
 
 
 @dataclass(frozen=True)
+class NoExactReference:
+    """The exact reference could not be computed (solver failure, infeasible or degenerate problem, time or memory
+    budget): every error against it is this, with the reason."""
+
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{NO_REFERENCE} ({self.reason})"
+
+
+@dataclass(frozen=True)
+class ExactReferenceFacts:
+    """The exact reference's own figures (``models/exact_reference.py``) and where it is cached."""
+
+    solver: str
+    islands: int
+    seconds: dict[str, float]  # solve time by phase
+    details: dict[str, float]
+    residuals: dict[str, float]  # its natural residuals
+    contact_bound: dict[str, Any]  # models.exact_bound.contact_phase_bound, or why there is no certificate
+    cache_file: str
+    from_cache: bool
+
+
+@dataclass(frozen=True)
+class ExactErrors:
+    """Velocities after the step against the exact limit of the scheme (``models.solution_error``)."""
+
+    reference: ExactReferenceFacts
+    ours: SolutionError  # the step's source: rounding + iteration error
+    iteration_only: SolutionError  # float64 with these iterations
+    converged: SolutionError  # float64 PGS after the converged solve's passes
+
+
+@dataclass(frozen=True)
 class StepErrors:
-    """The step's velocities against the references, the converged solve, the residuals."""
+    """The step's velocities against the references (float64 with the same iterations, the exact reference, float64
+    PGS run until a pass changes little), the residuals."""
 
     source: str  # what the errors are of: the RTL kernel, or the golden model when the kernel did not run
     vs_same_iterations: VelocityError  # against float64 with the same schedule and iterations
-    vs_converged: VelocityError
-    iteration_only: VelocityError  # float64 with these iterations against converged
+    vs_converged: VelocityError  # against float64 PGS after the converged solve's passes
+    vs_exact: Union[ExactErrors, NoExactReference]
     converged_passes: tuple[int, int]  # contact, friction
     converged_last_change: float
     converged: bool
@@ -194,7 +233,7 @@ def sections(result: AnyRunResult) -> Sections:
         out[f"{MODEL_SECTION} vs RTL"] = result.cycle_model
     if result.window is not None:
         out["record window (rtl/pgs_window.sv)"] = _window(result.window)
-    out["error (velocities after the step; dynamic bodies)"] = _errors(result.errors)
+    out[ERROR_SECTION] = _errors(result.errors)
     out["comparison with the thesis and with software solvers"] = _thesis(result.thesis)
     out["wall time of this run (s)"] = dict(result.seconds)
     return out
@@ -251,17 +290,51 @@ def _velocity_rows(label: str, e: VelocityError) -> dict[str, float]:
             f"{label}: max |dv| / max |v|": e.relative}
 
 
+def _solution_rows(label: str, e: SolutionError) -> dict[str, float]:
+    return {f"{label}: max |dv| (m/s)": e.max_dv, f"{label}: median |dv| (m/s)": e.median_dv,
+            f"{label}: p99 |dv| (m/s)": e.p99_dv, f"{label}: max |dv| / max |v_ref|": e.relative_dv,
+            f"{label}: max |dw| (rad/s)": e.max_dw, f"{label}: median |dw| (rad/s)": e.median_dw,
+            f"{label}: p99 |dw| (rad/s)": e.p99_dw, f"{label}: max |dw| / max |w_ref|": e.relative_dw}
+
+
+def _exact_rows(labels: tuple[str, str, str], x: Union[ExactErrors, NoExactReference]) -> dict[str, Any]:
+    """The three errors against the exact reference (or, without one, why not) under ``labels``."""
+    if isinstance(x, NoExactReference):
+        return {label: str(x) for label in labels}
+    out: dict[str, Any] = {}
+    for label, err in zip(labels, (x.ours, x.iteration_only, x.converged)):
+        out.update(_solution_rows(label, err))
+    return out
+
+
+def _reference_rows(x: Union[ExactErrors, NoExactReference]) -> dict[str, Any]:
+    """The exact reference's solver, islands, solve times, natural residuals, contact-phase bound, cache file."""
+    if isinstance(x, NoExactReference):
+        return {"exact reference": str(x)}
+    r = x.reference
+    out: dict[str, Any] = {"exact reference: solver": r.solver, "exact reference: islands": r.islands}
+    out.update({f"exact reference: {k} solve time (s)": v for k, v in r.seconds.items()})
+    out.update({f"exact reference: {k}": v for k, v in r.details.items()})
+    out.update({f"exact reference residual, {k}": v for k, v in r.residuals.items()})
+    out.update({f"exact reference, contact phase, {k}": v for k, v in r.contact_bound.items()})
+    out["exact reference: cache file"] = r.cache_file + (" (read from the cache)" if r.from_cache else "")
+    return out
+
+
 def _errors(e: StepErrors) -> dict[str, Any]:
+    pgs = f"float64 PGS after {e.converged_passes[0]} contact and {e.converged_passes[1]} friction passes"
     out: dict[str, Any] = {}
     out.update(_velocity_rows(f"{e.source} vs float64, same schedule and iterations (rounding error)",
                               e.vs_same_iterations))
-    out.update(_velocity_rows(f"{e.source} vs converged float64 (rounding + iteration error)", e.vs_converged))
-    out.update(_velocity_rows("float64 with these iterations vs converged (iteration error alone)", e.iteration_only))
-    out["converged solve: contact passes, friction passes"] = f"{e.converged_passes[0]}, {e.converged_passes[1]}"
-    out["converged solve: last pass max velocity change"] = e.converged_last_change
-    out["converged solve: converged within budget (1e-9)"] = str(e.converged)
+    out.update(_exact_rows((f"{e.source} vs exact reference (rounding + iteration error)",
+                            "float64 with these iterations vs exact reference (iteration error alone)",
+                            f"{pgs} vs exact reference"), e.vs_exact))
+    out.update(_velocity_rows(f"{e.source} vs {pgs}", e.vs_converged))
+    out[f"{pgs}: last pass max velocity change"] = e.converged_last_change
+    out[f"{pgs}: per-pass change below 1e-9 within budget"] = str(e.converged)
+    out.update(_reference_rows(e.vs_exact))
     out.update({f"residual after the {e.source}'s solve: {k}": v for k, v in e.residual_after_solve.items()})
-    out.update({f"residual after the converged solve: {k}": v for k, v in e.residual_converged.items()})
+    out.update({f"residual after the converged solve ({pgs}): {k}": v for k, v in e.residual_converged.items()})
     if e.thesis_within_1pct is not None:
         out["thesis statistic: share of position values within 1% of the fp32 result"] = e.thesis_within_1pct
         out["thesis statistic: average relative position difference from fp32"] = e.thesis_mean_relative

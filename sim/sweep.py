@@ -2,7 +2,9 @@
 
 For every format and iteration count the RTL kernel runs the step in Verilator (``sim.kernel_step``, DMA preset
 bandwidth model, trace and body-out compared bit for bit with the golden model) and the kernel's result is
-compared with a converged float64 solve of the same frame and schedule (``models.contact_solver.solve_converged``).
+compared with the exact limit of the scheme on the same frame (``models/exact_reference.py``, cached beside the
+frame; it depends on no format or schedule; ``sim/exact_error.py``: per-body |dv| and |dw|, max, median and p99;
+without an exact reference those columns say ``no exact reference`` and why, and the plot has no points).
 Writes ``sweep.csv`` and ``sweep.png`` into ``build/sweep/<scene>-<dma>/``: time per manifold-pass (ns at the
 preset's clock, so that scenes of any size and the thesis's figures share one axis) against the maximum velocity
 error, with the thesis's ZCU102 fp32/fp16 designs and its GPU and CPU figures marked as vertical lines (their error
@@ -30,13 +32,14 @@ from typing import Any, Sequence
 
 from models import scenes
 from models.constraints import body_table, setup_constraints
-from models.contact_solver import SolverParams, solve_converged
+from models.contact_solver import SolverParams
 from models.dma_model import PRESETS, get_preset
 from models.frame import FrameError
-from models.integrator import IntegrationParams, integrate
+from models.integrator import IntegrationParams
+from models.solution_error import SolutionError
 from models.number_format import FLOAT64
 from models.schedule import make_schedule
-from sim import baselines
+from sim import baselines, exact_error
 from sim.analyze import auto_format
 from models.kernel_job import KernelJob
 from sim.harness_run import KernelRunError
@@ -44,12 +47,14 @@ from sim.kernel_build import KernelBuild, default_window
 from sim.kernel_step import golden_step, run_kernel_step
 from sim.trace_compare import kernel_bodies
 from sim.report import StagedDirectory
+from sim.run_result import NoExactReference
 from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label, load_frame, \
     velocity_error
 
 COLUMNS = ["format", "iterations", "manifolds", "manifold_passes", "cycles", "cycles_per_manifold_pass",
            "ms_at_clock", "ns_per_manifold_pass", "stalls", "bubbles", "bytes_streamed", "differing_bits",
-           "max_dv_vs_converged", "max_dw_vs_converged", "max_dv_vs_float64_same_iters"]
+           "max_dv_vs_exact", "max_dw_vs_exact", "median_dv_vs_exact", "p99_dv_vs_exact", "median_dw_vs_exact",
+           "p99_dw_vs_exact", "max_dv_vs_float64_same_iters"]
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -62,7 +67,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--iters", default="1,2,4,8,16,32", help="comma-separated iteration counts")
     ap.add_argument("--dma", default="zcu102", help=f"DMA preset ({', '.join(PRESETS)})")
     ap.add_argument("--seed", type=int, default=1, help="scene seed")
-    ap.add_argument("--converged-budget", type=float, default=60.0, help="seconds for each converged solve")
+    exact_error.add_exact_args(ap)
     add_kernel_args(ap)
     ap.add_argument("--out", default="build/sweep", help="parent directory of the sweep directory")
     return ap.parse_args(argv)
@@ -88,8 +93,8 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
         if name.lower() != "auto":
             hardware_format(name)
     iter_list = _int_list(args.iters, "ITERS")
-    if not args.converged_budget >= 0:
-        raise ValueError(f"--converged-budget must be >= 0, got {args.converged_budget}")
+    if not args.exact_budget >= 0:
+        raise ValueError(f"--exact-budget must be >= 0, got {args.exact_budget}")
     check_kernel_args(args)
     frame, label = load_frame(args)
     print(frame.summary(), flush=True)
@@ -98,11 +103,10 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
     dyn = bodies.dynamic
     formats = [(auto_format(frame, 4), "auto") if n.lower() == "auto" else (hardware_format(n), "") for n in names]
+    exact = exact_error.exact_step(bodies, cons, ip, exact_error.reference_dir(args), args.exact_budget)
     rows: list[dict[str, Any]] = []
     for fmt, how in formats:
         schedule = make_schedule("hazard", cons, dyn, default_window(fmt, preset.stream_bits))
-        conv = solve_converged(bodies, cons, schedule, FLOAT64, time_budget_s=args.converged_budget)
-        conv_final = integrate(conv.result.bodies, FLOAT64, ip)
         for iters in iter_list:
             params = SolverParams(iterations=iters)
             job = kernel_job(KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip), args)
@@ -110,7 +114,7 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
             res = run_kernel_step(job, preset, out_dir / f"{fmt.name}-it{iters}", args.seed, body_bits=args.body_bits)
             ref_final = golden_step(KernelJob(FLOAT64, bodies, cons, schedule, params, ip)).final
             ours = kernel_bodies(out_dir / f"{fmt.name}-it{iters}", job, kb)
-            e_conv = velocity_error(ours, conv_final.linear_velocity, conv_final.angular_velocity, dyn)
+            e_exact = exact_error.error_vs_exact(ours, exact, dyn)
             e_same = velocity_error(ours, ref_final.linear_velocity, ref_final.angular_velocity, dyn)
             mp = job.manifold_passes
             kernel = f" window x{args.lanes}" if args.record_window else ""
@@ -121,15 +125,26 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
                    "ns_per_manifold_pass": res.cycles / mp / preset.clock_hz * 1e9,
                    "stalls": int(res.registers["stalls"]), "bubbles": int(res.registers["bubbles"]),
                    "bytes_streamed": sum(res.stream_bytes.values()), "differing_bits": res.comparison.differing_bits,
-                   "max_dv_vs_converged": e_conv.max_dv, "max_dw_vs_converged": e_conv.max_dw,
-                   "max_dv_vs_float64_same_iters": e_same.max_dv}
+                   **exact_columns(e_exact), "max_dv_vs_float64_same_iters": e_same.max_dv}
             rows.append(row)
             print(f"{row['format']:>6} {iters:>3} it: {res.cycles:>9,} cycles ({row['cycles_per_manifold_pass']:.2f}/mp), "
-                  f"max |dv| vs converged {row['max_dv_vs_converged']:.3e} m/s, vs float64 same iterations "
+                  f"max |dv| vs exact reference {_number(row['max_dv_vs_exact'])} m/s, vs float64 same iterations "
                   f"{row['max_dv_vs_float64_same_iters']:.3e}, differing bits {row['differing_bits']}", flush=True)
             if not res.bit_exact:
                 print(f"  NOT bit-exact: {res.comparison.first_mismatch}", flush=True)
     return rows, f"{label}-{args.dma}{kernel_label(args)}"
+
+
+def exact_columns(e: SolutionError | NoExactReference) -> dict[str, Any]:
+    """The csv's columns of the error against the exact reference (``no exact reference (reason)`` without one)."""
+    if isinstance(e, NoExactReference):
+        return {col: str(e) for col in COLUMNS if col.endswith("_vs_exact")}
+    return {"max_dv_vs_exact": e.max_dv, "max_dw_vs_exact": e.max_dw, "median_dv_vs_exact": e.median_dv,
+            "p99_dv_vs_exact": e.p99_dv, "median_dw_vs_exact": e.median_dw, "p99_dw_vs_exact": e.p99_dw}
+
+
+def _number(value: Any) -> str:
+    return f"{value:.3e}" if isinstance(value, float) else str(value)
 
 
 def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
@@ -148,9 +163,11 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
 
     fig, ax = plt.subplots(figsize=(8, 5))
     for fmt in dict.fromkeys(r["format"] for r in rows):
-        pts = [r for r in rows if r["format"] == fmt]
+        pts = [r for r in rows if r["format"] == fmt and isinstance(r["max_dv_vs_exact"], float)]
+        if not pts:
+            continue
         x = [r["ns_per_manifold_pass"] for r in pts]
-        y = [max(r["max_dv_vs_converged"], 1e-12) for r in pts]
+        y = [max(r["max_dv_vs_exact"], 1e-12) for r in pts]
         ax.plot(x, y, "o-", label=f"RTL kernel {fmt}")
         for r, xi, yi in zip(pts, x, y):
             ax.annotate(str(r["iterations"]), (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=7)
@@ -164,12 +181,17 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
         ax.text(x, 0.03, label, rotation=90, transform=ax.get_xaxis_transform(), fontsize=7, va="bottom",
                 ha="right")
     ax.set_xscale("log")
-    ax.set_yscale("log")
+    missing = [r["max_dv_vs_exact"] for r in rows if not isinstance(r["max_dv_vs_exact"], float)]
+    if len(missing) < len(rows):  # a log axis needs one point at least
+        ax.set_yscale("log")
     ax.set_xlabel("kernel time per manifold-pass (ns; thesis marks: 4 iterations of their 127,000-manifold frame)")
-    ax.set_ylabel("max |v - v_converged| after the step (m/s)")
+    ax.set_ylabel("max over bodies of |v - v_exact| after the step (m/s)")
+    if missing:
+        ax.text(0.5, 0.5, missing[0], transform=ax.transAxes, ha="center", wrap=True)
     ax.set_title(title, fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

@@ -3,14 +3,23 @@
 
 from __future__ import annotations
 
-from sim.run_result import BITS_SECTION, MODEL_SECTION, BitExactness, KernelSpeed, ModelRunResult, RunResult, \
-    SceneFacts, ScheduleFacts, StepErrors, ThesisComparison, VelocityError, sections
+from typing import Union
+
+from models.solution_error import SolutionError
+from sim.run_result import BITS_SECTION, ERROR_SECTION, MODEL_SECTION, BitExactness, ExactErrors, \
+    ExactReferenceFacts, KernelSpeed, ModelRunResult, NoExactReference, RunResult, SceneFacts, ScheduleFacts, \
+    StepErrors, ThesisComparison, VelocityError, sections
 
 ERR = VelocityError(1e-3, 2e-3, 0.5)
+FACTS = ExactReferenceFacts("clarabel 0.11.1", 3, {"contact": 0.2, "friction": 0.3}, {}, {"max |dv| (m/s)": 1e-9},
+                            {"certified max |dv| (m/s)": 1e-6}, "build/frames/stack.exact.npz", True)
+EXACT = ExactErrors(FACTS, SolutionError(4e-3, 1e-3, 3e-3, 5e-3, 2e-3, 4e-3, 0.4, 0.6),
+                    SolutionError(6e-3, 1e-3, 3e-3, 7e-3, 2e-3, 4e-3, 0.4, 0.6),
+                    SolutionError(8e-3, 1e-3, 3e-3, 9e-3, 2e-3, 4e-3, 0.4, 0.6))
 
 
-def _result(bits: BitExactness | None) -> RunResult:
-    errors = StepErrors("RTL kernel", ERR, ERR, ERR, (10, 4), 1e-10, True, {"max": 0.1}, {"max": 0.2}, ERR)
+def _result(bits: BitExactness | None, exact: Union[ExactErrors, NoExactReference] = EXACT) -> RunResult:
+    errors = StepErrors("RTL kernel", ERR, ERR, exact, (10, 4), 1e-10, True, {"max": 0.1}, {"max": 0.2}, ERR)
     thesis = ThesisComparison("fp32", 10, 2, 40, None if bits is None else 400, {}, 10, {"golden (numpy)": 0.01})
     result = RunResult("stack-fp32-it2-s1-zcu102", SceneFacts("stack", 11, 10, 10, 40, 10, 1),
                        ScheduleFacts("hazard", 20, 10, 2, 0, 5, 40), errors, thesis, {"frame load/capture": 0.1})
@@ -38,10 +47,29 @@ def test_sections_in_order() -> None:
                          "comparison with the thesis and with software solvers", "wall time of this run (s)"]
     assert rtl[BITS_SECTION]["first mismatch"] == "none"
     assert rtl["roofline (lower bounds for this configuration)"]["bound by"] == "constraint stream port"
-    err = rtl["error (velocities after the step; dynamic bodies)"]
-    assert err["RTL kernel vs converged float64 (rounding + iteration error): max |dw| (rad/s)"] == 2e-3
+    err = rtl[ERROR_SECTION]
+    assert err["RTL kernel vs float64 PGS after 10 contact and 4 friction passes: max |dw| (rad/s)"] == 2e-3
     assert "thesis statistic: average relative position difference from fp32" not in err
     plain = sections(_result(None))
     assert BITS_SECTION not in plain and "kernel speed (RTL in Verilator)" not in plain
     model = sections(ModelRunResult("p", "pile", 217, 900, "hazard", "zcu102", {"model: kernel cycles": 5}))
     assert list(model) == ["scene", MODEL_SECTION] and model["scene"]["bodies"] == 217
+
+
+def test_errors_against_the_exact_reference() -> None:
+    """The step, float64 with the same iterations and the old iterate each against the exact reference, the old
+    iterate labelled with its passes; without a reference every one of those lines says why."""
+    err = sections(_result(None))[ERROR_SECTION]
+    assert err["RTL kernel vs exact reference (rounding + iteration error): max |dv| (m/s)"] == 4e-3
+    assert err["float64 with these iterations vs exact reference (iteration error alone): max |dw| (rad/s)"] == 7e-3
+    assert err["float64 PGS after 10 contact and 4 friction passes vs exact reference: max |dv| (m/s)"] == 8e-3
+    assert err["RTL kernel vs exact reference (rounding + iteration error): p99 |dw| (rad/s)"] == 4e-3
+    assert err["exact reference, contact phase, certified max |dv| (m/s)"] == 1e-6
+    assert err["exact reference: cache file"] == "build/frames/stack.exact.npz (read from the cache)"
+    missing = sections(_result(None, NoExactReference("QP solver hit the time budget")))[ERROR_SECTION]
+    why = "no exact reference (QP solver hit the time budget)"
+    assert missing["RTL kernel vs exact reference (rounding + iteration error)"] == why
+    assert missing["float64 PGS after 10 contact and 4 friction passes vs exact reference"] == why
+    assert missing["exact reference"] == why
+    assert not any(k.startswith("exact reference:") or "vs exact reference:" in k for k in missing)
+    assert missing["RTL kernel vs float64, same schedule and iterations (rounding error): max |dv| (m/s)"] == 1e-3

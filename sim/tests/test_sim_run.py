@@ -45,6 +45,7 @@ def test_sim_run_reports(tmp_path: Path) -> None:
     err = report["error (velocities after the step; dynamic bodies)"]
     assert any(k.startswith("RTL kernel vs float64") for k in err)
     assert any("residual after the converged solve" in k for k in err)
+    assert any(k.startswith("RTL kernel vs exact reference") for k in err)
     assert "thesis ZCU102 fp32 (127,000 manifolds, 275 MHz)" in report["comparison with the thesis and with software solvers"]
     assert (next(out.glob("*/report.md"))).read_text().startswith("# pgs-cosim run")
     assert [p.name for p in out.iterdir()] == [next(out.glob("*/report.json")).parent.name]  # nothing staged left
@@ -91,6 +92,7 @@ RUN_CASES = [
     (["--schedule", "random"], "unknown schedule"),
     (["--stall-permille", "1500"], "--stall-permille must be in 0..1000"),
     (["--converged-budget", "nan"], "--converged-budget must be >= 0"),
+    (["--exact-budget", "nan"], "--exact-budget must be >= 0"),
     (["--seed", "-1"], "seed must be a non-negative integer"),
     (["--window", "-3"], "--window must be >= 0"),
     (["--lanes", "2"], "above 1 only with --record-window"),
@@ -107,7 +109,7 @@ SWEEP_CASES = [
     (["--dma", "u999"], "unknown DMA preset 'u999'"),
     (["--scene", "stack", "--seed", "-4"], "seed must be a non-negative integer"),
     (["--scene", "teapot"], "unknown scene 'teapot'"),
-    (["--converged-budget", "-1"], "--converged-budget must be >= 0"),
+    (["--exact-budget", "-1"], "--exact-budget must be >= 0"),
     (["--record-window", "1000"], "--record-window must be 0 or a power of two"),
     (["--fetch-passes", "9"], "--fetch-passes must be in 0..8"),
 ]
@@ -160,12 +162,13 @@ def test_failed_runs_leave_no_partial_output(tmp_path: Path, capsys: pytest.Capt
     monkeypatch.setattr(sim_sweep, "run_kernel_step", failing_step)
     frame = _frame_file(tmp_path)
     out = tmp_path / "out"
-    argv = ["--frame", str(frame), "--iters", "1", "--converged-budget", "1", "--out", str(out)]
-    assert sim_run.main([*argv, "--no-kernel"]) == 0  # an older, complete run of the same name
+    argv = ["--frame", str(frame), "--iters", "1", "--out", str(out)]
+    run_only = ["--converged-budget", "1"]
+    assert sim_run.main([*argv, *run_only, "--no-kernel"]) == 0  # an older, complete run of the same name
     (run_dir,) = out.iterdir()
     old = {p.name: p.read_bytes() for p in run_dir.iterdir()}
     capsys.readouterr()
-    for tool, extra in (("sim.run", []), ("sim.sweep", ["--formats", "fp16"])):
+    for tool, extra in (("sim.run", run_only), ("sim.sweep", ["--formats", "fp16"])):
         assert TOOLS[tool]([*argv, *extra]) == 2
         err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
         assert err == ["error: kernel harness failed (exit 3): TIMEOUT after 1000 cycles"], (tool, err)
@@ -183,3 +186,25 @@ def test_sim_run_frame_file(tmp_path: Path) -> None:
     assert run_dir.name == "stack2-fp32-it1-s1-zcu102"
     report = json.loads((run_dir / "report.json").read_text())
     assert report["scene"]["scene"] == "stack2" and report["scene"]["bodies"] == load(frame).num_bodies
+
+
+def test_sweep_columns_and_plot_without_an_exact_reference(tmp_path: Path) -> None:
+    """make sweep's error columns against the exact reference, and its csv and plot when there is none: every such
+    column says why, and the plot is still written."""
+    from models.solution_error import SolutionError
+    from sim.run_result import NoExactReference
+
+    base: dict[str, Any] = {col: 1.0 for col in sim_sweep.COLUMNS}
+    base.update(format="fp32", iterations=1, differing_bits=0)
+    measured = sim_sweep.exact_columns(SolutionError(1e-2, 1e-3, 5e-3, 2e-2, 3e-3, 4e-3, 0.1, 0.2))
+    assert measured["max_dv_vs_exact"] == 1e-2 and measured["p99_dw_vs_exact"] == 4e-3
+    missing = sim_sweep.exact_columns(NoExactReference("QP solver hit the time budget"))
+    exact_cols = [c for c in sim_sweep.COLUMNS if c.endswith("_vs_exact")]
+    assert sorted(measured) == sorted(missing) == sorted(exact_cols)
+    assert set(missing.values()) == {"no exact reference (QP solver hit the time budget)"}
+    for rows in ([dict(base, **measured), dict(base, **missing)], [dict(base, **missing)]):
+        sim_sweep.write_csv(rows, tmp_path / "sweep.csv")
+        sim_sweep.plot(rows, tmp_path / "sweep.png", "pile-zcu102")
+        assert (tmp_path / "sweep.png").stat().st_size > 0
+        (tmp_path / "sweep.png").unlink()
+    assert "no exact reference (QP solver hit the time budget)" in (tmp_path / "sweep.csv").read_text()

@@ -1,0 +1,596 @@
+"""The exact limit of the scheme the kernel iterates (float64): ground truth for the solver's error.
+
+The kernel's default pass order (``SolverParams(interleaved=False)``, Bullet GPU) is all contact passes, then all
+friction passes with the normal impulses fixed. As the iteration count grows, each phase tends to the solution
+of a convex program, which this module solves directly with an interior-point QP solver (Clarabel, pinned in
+``requirements.txt``) instead of iterating:
+
+* **contact phase**: per active contact point r (``jac_inv != 0``) the pass drives ``e_r = J_r u + c_r`` (normal
+  relative velocity plus bias, ``models/residual.py``) towards the LCP ``lam >= 0, e >= 0, lam e = 0`` with
+  impulses along ``M^-1 J^T``. Its solution is the primal QP over the dynamic bodies' velocities u (6 per body)
+
+      minimise 1/2 (u - u0)^T M (u - u0)   subject to   J u + c >= 0,
+
+  whose multipliers are the normal impulses. M is block diagonal, so the matrices are as sparse as the contact
+  graph; the velocities u are unique (M is positive definite) even where the impulses are not.
+* **friction phase** (normal impulses fixed at the contact phase's): per friction row (manifold m, tangent j) the
+  pass projects ``lam_t`` onto the box ``|lam_t| <= mu * sum(lam_n[m])`` with impulses along ``-M^-1 J_t^T``; the
+  spin-damping update ``w -= 0.1 (n.w) n`` of a damped manifold is stationary exactly when ``n.w = 0`` for its
+  dynamic bodies. The joint fixed point solves the box QP over the friction impulses and free spin multipliers s
+
+      minimise 1/2 y^T G M^-1 G^T y - y^T (G u1 + c_t)   subject to   |lam_t| <= L,   y = (lam_t, s),
+
+  with G the friction rows J_t stacked on the spin rows (n on the w columns) and ``u = u1 - M^-1 G^T y``. Its
+  stationarity condition moves w along ``I^-1 n``, the damping along n: the two agree only where n is an
+  eigenvector of the body's (diagonal, world) inverse inertia, true for cubes and for axis-aligned normals. A
+  damped contact where it is not gives :class:`ExactReferenceError` (no convex program has that fixed point).
+  (The primal form, minimise 1/2 |u - u1|_M^2 + sum L |J_t u + c_t| with n.w = 0, is sparser but Clarabel
+  reached only 2e-5 m/s of box residual on the pile against 1e-6 for this dual form.)
+
+Bodies that share no manifold through a dynamic body (islands) are independent problems; they are solved
+separately, small ones gathered into one solve (a block-diagonal problem is the same problem).
+
+The interleaved order (``interleaved=True``: contact, friction, contact, ...) has no limit computed here: its
+fixed points are the solutions of the coupled problem in which the friction box ``mu * sum(lam_n)`` depends on the
+normal impulses and the normal rows see the friction impulses: a non-symmetric complementarity problem (the
+box-friction LCP) that is no convex program, may have several solutions and need not be reached by the passes at
+all. :func:`exact_reference` refuses it with :class:`ExactReferenceError`.
+
+Where the normal impulses are not unique (A = J M^-1 J^T singular: four coplanar points, statically indeterminate
+supports), the friction boxes depend on which normal solution is taken; the interior-point solver returns one
+(the central one), the passes may tend to another. The reference is then one exact fixed point of the scheme,
+verified as such (``models/tests/test_exact_reference.py``), not necessarily the one the passes approach.
+
+Natural residuals (what each phase leaves unsatisfied, all in m/s except the spin row):
+
+* normal LCP: ``|min(lam K, e)|`` per active point (K the point's effective inverse mass, ``-1/jac_inv``);
+* friction box: ``Kt |lam_t - clip(lam_t + u_t / Kt, -L, L)|`` per row (``u_t`` the tangent velocity the pass
+  reads, Kt the row's effective inverse mass): the velocity one friction update would remove;
+* spin damping: ``|n.w|`` per damped manifold and dynamic body (rad/s).
+
+Failures (the solver stops without an optimal solution, an infeasible or unbounded problem, a non-finite input, the
+time budget, an estimated memory need above the budget) raise :class:`ExactReferenceError`; callers print
+"no exact reference" instead of a number.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from .constraints import BodyTable, ConstraintSet
+from .contact_solver import Impulses, SolverParams
+
+DEFAULT_TIME_BUDGET_S = 600.0
+DEFAULT_MEMORY_BUDGET_BYTES = 8 * 1024 ** 3
+ISLAND_BATCH_ROWS = 4096  # small islands are gathered into one solve of about this many rows
+SOLVER_TOLERANCE = 1e-10  # Clarabel's gap and feasibility tolerances (1e-12 ends AlmostSolved on the pile)
+KKT_BYTES_PER_NONZERO = 400  # pre-solve memory estimate per KKT non-zero: a bound on the inputs, blind to fill-in
+EIGEN_TOLERANCE = 1e-9  # relative: n is an eigenvector of the inverse inertia
+SPAN_TOLERANCE = 1e-6  # relative singular value below which a body's damped normals add no spin row
+ALMOST_SOLVED_ACCEPT = 1e-6  # m/s: an "almost solved" QP is kept when its polished natural residual is below this
+
+
+class ExactReferenceError(RuntimeError):
+    """No exact reference for this problem: the reason is the message."""
+
+
+@dataclass(frozen=True)
+class Budget:
+    time_s: float = DEFAULT_TIME_BUDGET_S
+    memory_bytes: int = DEFAULT_MEMORY_BUDGET_BYTES
+
+
+@dataclass
+class ExactReference:
+    """The exact limit of both phases (velocities before integration) and what it took."""
+
+    contact_bodies: BodyTable  # after the contact phase
+    bodies: BodyTable  # after the friction phase: the scheme's limit
+    impulses: Impulses  # normal (contact phase) and friction impulses, N*s
+    residuals: dict[str, float]
+    seconds: dict[str, float]
+    islands: int
+    solver: str
+    details: dict[str, float] = field(default_factory=dict)
+
+
+# --- QP problems and the solver -------------------------------------------------------------------------------
+@dataclass
+class QpProblem:
+    """minimise 1/2 x^T P x + q^T x subject to A x + s = b, s in (zero cone)^n_eq x (nonnegative cone)^n_ineq."""
+
+    P: sp.csc_matrix
+    q: np.ndarray
+    A: sp.csc_matrix
+    b: np.ndarray
+    n_eq: int
+    n_ineq: int
+
+
+@dataclass
+class QpSolution:
+    x: np.ndarray
+    z: np.ndarray  # multipliers of the rows of A (>= 0 on the inequality rows)
+    iterations: int
+    seconds: float
+    almost: bool = False  # the solver reached only its reduced tolerances: kept if the polish certifies it
+
+
+QpSolver = Callable[[QpProblem, float], QpSolution]
+
+
+def clarabel_solve(prob: QpProblem, time_limit_s: float) -> QpSolution:
+    """Solve with Clarabel (interior point, direct sparse LDL); raise ExactReferenceError unless Solved."""
+    import clarabel
+
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = SOLVER_TOLERANCE
+    settings.tol_ktratio = 1e-8
+    settings.time_limit = max(time_limit_s, 1e-3)
+    settings.max_iter = 200
+    cones = ([clarabel.ZeroConeT(prob.n_eq)] if prob.n_eq else []) + (
+        [clarabel.NonnegativeConeT(prob.n_ineq)] if prob.n_ineq else [])
+    P = sp.triu(prob.P, format="csc")
+    t0 = time.perf_counter()
+    sol = clarabel.DefaultSolver(P, prob.q, prob.A.tocsc(), prob.b, cones, settings).solve()
+    seconds = time.perf_counter() - t0
+    status = str(sol.status)
+    if "MaxTime" in status:
+        raise ExactReferenceError(f"QP solver hit the time budget ({time_limit_s:.0f} s left) after "
+                                  f"{sol.iterations} iterations")
+    almost = status in ("AlmostSolved", "SolverStatus.AlmostSolved")
+    if status not in ("Solved", "SolverStatus.Solved") and not almost:
+        raise ExactReferenceError(f"QP solver stopped with status {status} after {sol.iterations} iterations "
+                                  f"({prob.A.shape[0]} rows, {prob.P.shape[0]} unknowns)")
+    return QpSolution(np.asarray(sol.x), np.asarray(sol.z), int(sol.iterations), seconds, almost)
+
+
+# --- assembly -------------------------------------------------------------------------------------------------
+@dataclass
+class _Rows:
+    """Sparse rows J (over the dynamic bodies' 6 velocity columns each) and the constant c: value = J u + c."""
+
+    J: sp.csr_matrix
+    c: np.ndarray
+    body_a: np.ndarray  # (R,) frame body index of each row's A and B (island assignment)
+    body_b: np.ndarray
+
+
+class _Layout:
+    """Column layout: dynamic body k owns columns 6k..6k+2 (v) and 6k+3..6k+5 (w)."""
+
+    def __init__(self, bodies: BodyTable):
+        self.bodies = bodies
+        self.dynamic = bodies.dynamic
+        self.index = np.full(bodies.num_bodies, -1, dtype=np.int64)
+        self.index[self.dynamic] = np.arange(int(self.dynamic.sum()))
+        self.n = int(self.dynamic.sum())
+        inv = np.concatenate([np.repeat(bodies.inv_mass[self.dynamic, None], 3, axis=1),
+                              bodies.inv_inertia[self.dynamic]], axis=1)
+        if np.any(~(inv > 0)) or not np.all(np.isfinite(inv)):
+            raise ExactReferenceError("a dynamic body has a non-positive or non-finite inverse mass or inertia")
+        self.inv_m = inv.ravel()  # diag(M^-1), (6n,)
+
+    def velocity(self, bodies: BodyTable) -> np.ndarray:
+        return np.concatenate([bodies.linear_velocity[self.dynamic], bodies.angular_velocity[self.dynamic]],
+                              axis=1).ravel()
+
+    def with_velocity(self, bodies: BodyTable, u: np.ndarray) -> BodyTable:
+        out = bodies.copy()
+        uu = u.reshape(-1, 6)
+        out.linear_velocity[self.dynamic] = uu[:, :3]
+        out.angular_velocity[self.dynamic] = uu[:, 3:]
+        return out
+
+
+def _rows(layout: _Layout, a: np.ndarray, b: np.ndarray, lin: np.ndarray, ang_a: np.ndarray, ang_b: np.ndarray,
+          const: np.ndarray) -> _Rows:
+    """Rows ``(lin.vA - lin.vB) + (ang_a.wA - ang_b.wB) + const``; static bodies' terms go into the constant."""
+    bodies = layout.bodies
+    r = a.shape[0]
+    c = const.astype(np.float64).copy()
+    rows, cols, vals = [], [], []
+    for body, sign, ang in ((a, 1.0, ang_a), (b, -1.0, ang_b)):
+        dyn = layout.dynamic[body]
+        stat = ~dyn
+        c[stat] += sign * (np.sum(lin[stat] * bodies.linear_velocity[body[stat]], axis=1)
+                           + np.sum(ang[stat] * bodies.angular_velocity[body[stat]], axis=1))
+        idx = np.flatnonzero(dyn)
+        base = 6 * layout.index[body[idx]]
+        coef = sign * np.concatenate([lin[idx], ang[idx]], axis=1)  # (k,6)
+        rows.append(np.repeat(idx, 6))
+        cols.append((base[:, None] + np.arange(6)[None, :]).ravel())
+        vals.append(coef.ravel())
+    J = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(r, 6 * layout.n))
+    return _Rows(J, c, a, b)
+
+
+def _contact_rows(layout: _Layout, cons: ConstraintSet) -> tuple[_Rows, np.ndarray]:
+    """One row per active contact point (manifold-major, point order); returns the rows and their (m, i) mask."""
+    active = cons.jac_inv != 0.0
+    m, _ = np.nonzero(active)
+    n = cons.normal[m]
+    p = cons.points[active]
+    pos = layout.bodies.position
+    ca = np.cross(p - pos[cons.body_a[m]], n)
+    cb = np.cross(p - pos[cons.body_b[m]], n)
+    return _rows(layout, cons.body_a[m], cons.body_b[m], n, ca, cb, cons.bias[active]), active
+
+
+def _friction_rows(layout: _Layout, cons: ConstraintSet, manifolds: np.ndarray) -> _Rows:
+    """Rows (m, j) for j = 0, 1 of the given manifolds, manifold-major: the tangent velocity the pass reads."""
+    m = np.repeat(manifolds, 2)
+    j = np.tile([0, 1], manifolds.shape[0])
+    t = cons.tangent[m, j]
+    pos = layout.bodies.position
+    ca = np.cross(cons.center[m] - pos[cons.body_a[m]], t)
+    cb = np.cross(cons.center[m] - pos[cons.body_b[m]], t)
+    return _rows(layout, cons.body_a[m], cons.body_b[m], t, ca, cb, np.zeros(m.shape[0]))
+
+
+def _spin_rows(layout: _Layout, cons: ConstraintSet, damped: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
+    """Rows n.w_k = 0 for each damped manifold's dynamic bodies (duplicates removed); also their body indices."""
+    pairs = []
+    for side in (cons.body_a, cons.body_b):
+        body = side[damped]
+        keep = layout.dynamic[body]
+        pairs.append((body[keep], cons.normal[damped][keep]))
+    body = np.concatenate([p[0] for p in pairs])
+    n = np.concatenate([p[1] for p in pairs])
+    _check_spin_rows_are_a_qp(layout.bodies, body, n)
+    body, n = _span_basis(body, n)
+    cols = 6 * layout.index[body][:, None] + 3 + np.arange(3)[None, :]
+    rows = np.repeat(np.arange(body.shape[0]), 3)
+    N = sp.csr_matrix((n.ravel(), (rows, cols.ravel())), shape=(body.shape[0], 6 * layout.n))
+    return N, body
+
+
+def _span_basis(body: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per body, an orthonormal basis of the span of its damped normals (w orthogonal to every n_k is w
+    orthogonal to their span); directions below SPAN_TOLERANCE of the largest singular value are dropped, so
+    normals equal up to rounding give one row instead of a singular set."""
+    if not body.size:
+        return body, n
+    order = np.argsort(body, kind="stable")
+    body, n = body[order], n[order]
+    starts = np.flatnonzero(np.r_[True, body[1:] != body[:-1]])
+    out_b, out_n = [], []
+    for lo, hi in zip(starts, np.r_[starts[1:], body.size]):
+        _, sv, vt = np.linalg.svd(n[lo:hi], full_matrices=False)
+        keep = sv > SPAN_TOLERANCE * sv[0]
+        out_n.append(vt[keep])
+        out_b.append(np.full(int(keep.sum()), body[lo]))
+    return np.concatenate(out_b), np.concatenate(out_n)
+
+
+def _check_spin_rows_are_a_qp(bodies: BodyTable, body: np.ndarray, n: np.ndarray) -> None:
+    if not body.size:
+        return
+    iin = bodies.inv_inertia[body] * n
+    along = np.sum(iin * n, axis=1)[:, None] * n
+    off = np.linalg.norm(iin - along, axis=1) / np.maximum(np.linalg.norm(iin, axis=1), 1e-300)
+    worst = int(np.argmax(off))
+    if off[worst] > EIGEN_TOLERANCE:
+        raise ExactReferenceError(
+            f"spin damping on body {int(body[worst])}: the normal {n[worst].round(6).tolist()} is not an "
+            f"eigenvector of its inverse inertia {bodies.inv_inertia[body[worst]].tolist()} (relative "
+            f"{off[worst]:.1e}): the damped friction phase is no convex program there")
+
+
+# --- islands --------------------------------------------------------------------------------------------------
+def _islands(layout: _Layout, cons: ConstraintSet) -> tuple[int, np.ndarray]:
+    """(count, island label per dynamic body) of the graph whose edges are manifolds between dynamic bodies."""
+    a = layout.index[cons.body_a]
+    b = layout.index[cons.body_b]
+    both = (a >= 0) & (b >= 0)
+    g = sp.coo_matrix((np.ones(int(both.sum())), (a[both], b[both])), shape=(layout.n, layout.n))
+    return connected_components(g, directed=False)
+
+
+def _batches(labels: np.ndarray, row_island: np.ndarray, count: int) -> list[np.ndarray]:
+    """Groups of island labels, each with about ISLAND_BATCH_ROWS rows or one island alone."""
+    rows = np.bincount(row_island, minlength=count)
+    groups: list[list[int]] = [[]]
+    size = 0
+    for island in np.argsort(-rows, kind="stable"):
+        if rows[island] == 0:
+            continue
+        if size and size + rows[island] > ISLAND_BATCH_ROWS:
+            groups.append([])
+            size = 0
+        groups[-1].append(int(island))
+        size += int(rows[island])
+    return [np.array(g) for g in groups if g]
+
+
+def _row_island(layout: _Layout, labels: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    ia, ib = layout.index[a], layout.index[b]
+    return labels[np.where(ia >= 0, ia, ib)]
+
+
+class _Clock:
+    def __init__(self, budget: Budget):
+        self.budget = budget
+        self.t0 = time.monotonic()
+
+    def left(self) -> float:
+        left = self.budget.time_s - (time.monotonic() - self.t0)
+        if left <= 0:
+            raise ExactReferenceError(f"time budget of {self.budget.time_s:.0f} s spent")
+        return left
+
+    def check_memory(self, prob: QpProblem) -> None:
+        nnz = prob.P.nnz + prob.A.nnz + prob.A.shape[0] + prob.P.shape[0]
+        need = nnz * KKT_BYTES_PER_NONZERO
+        if need > self.budget.memory_bytes:
+            raise ExactReferenceError(
+                f"estimated memory {need / 2 ** 30:.1f} GiB for a QP of {prob.A.shape[0]:,} rows and "
+                f"{prob.P.shape[0]:,} unknowns exceeds the budget of {self.budget.memory_bytes / 2 ** 30:.1f} GiB")
+
+
+def _sub(rows: _Rows, sel: np.ndarray, cols: np.ndarray) -> tuple[sp.csc_matrix, np.ndarray]:
+    return rows.J[sel][:, cols].tocsc(), rows.c[sel]
+
+
+# --- active-set polish --------------------------------------------------------------------------------------
+POLISH_ROUNDS = 3
+POLISH_REFINEMENTS = 8
+POLISH_REGULARIZATION = 1e-11  # relative to the largest diagonal entry of the reduced system
+
+
+def box_residual(H: sp.csc_matrix, g: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Natural residual of minimise 1/2 y^T H y + g^T y, lo <= y <= hi, per row and scaled by the row's diagonal
+    K (so in the rows' velocity units): ``K |y - clip(y - (H y + g) / K, lo, hi)|``, the change one projected
+    Gauss-Seidel update of that row alone would make to its velocity."""
+    k = H.diagonal()
+    return k * np.abs(y - np.clip(y - (H @ y + g) / k, lo, hi))
+
+
+def polish_box_qp(H: sp.csc_matrix, g: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Sharpen an interior-point solution of the box QP by active-set steps (kept only when the largest natural
+    residual falls): rows whose projected update lands on a bound are fixed there, the others solve
+    ``H_FF y_F = -(g_F + H_FB y_B)`` (a regularised sparse LU plus refinement, for singular H)."""
+    from scipy.sparse.linalg import splu
+
+    best = np.clip(y, lo, hi)
+    best_res = float(box_residual(H, g, best, lo, hi).max(initial=0.0))
+    k = H.diagonal()
+    for _ in range(POLISH_ROUNDS):
+        step = best - (H @ best + g) / k
+        at_lo, at_hi = step <= lo, step >= hi
+        free = ~(at_lo | at_hi)
+        cand = np.where(at_lo, lo, np.where(at_hi, hi, best))
+        f = np.flatnonzero(free)
+        if f.size:
+            Hff = H[f][:, f].tocsc()
+            rhs = -(g[f] + H[f] @ np.where(free, 0.0, cand))
+            reg = POLISH_REGULARIZATION * float(np.abs(Hff.diagonal()).max(initial=1.0))
+            lu = splu((Hff + reg * sp.identity(f.size, format="csc")).tocsc())
+            yf = cand[f].copy()
+            for _ in range(POLISH_REFINEMENTS):
+                yf = yf + lu.solve(rhs - Hff @ yf)
+            cand[f] = yf
+        cand = np.clip(cand, lo, hi)
+        res = float(box_residual(H, g, cand, lo, hi).max(initial=0.0))
+        if not res < best_res:
+            break
+        best, best_res = cand, res
+    return best
+
+
+def _check_almost(sol: QpSolution, residual: np.ndarray, phase: str) -> None:
+    worst = float(residual.max(initial=0.0))
+    if sol.almost and not worst <= ALMOST_SOLVED_ACCEPT:
+        raise ExactReferenceError(f"{phase} QP only almost solved and its natural residual {worst:.1e} m/s stays "
+                                  f"above {ALMOST_SOLVED_ACCEPT:g} m/s after polishing")
+
+
+# --- the two phases -------------------------------------------------------------------------------------------
+def _contact_phase(layout: _Layout, cons: ConstraintSet, u0: np.ndarray, labels: np.ndarray, count: int,
+                   solver: QpSolver, clock: _Clock, info: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The contact phase's limit: velocities u and normal impulses (M, 4)."""
+    rows, active = _contact_rows(layout, cons)
+    lam = np.zeros(rows.c.shape[0])
+    row_island = _row_island(layout, labels, rows.body_a, rows.body_b)
+    body_island = np.repeat(labels, 6)
+    for group in _batches(labels, row_island, count):
+        sel = np.flatnonzero(np.isin(row_island, group))
+        cols = np.flatnonzero(np.isin(body_island, group))
+        J, c = _sub(rows, sel, cols)
+        m = 1.0 / layout.inv_m[cols]
+        prob = QpProblem(sp.diags(m).tocsc(), -m * u0[cols], -J, c, 0, sel.shape[0])
+        clock.check_memory(prob)
+        sol = solver(prob, clock.left())
+        H = (J @ sp.diags(layout.inv_m[cols]) @ J.T).tocsc()
+        inf = np.full(sel.shape[0], np.inf)
+        lam[sel] = polish_box_qp(H, J @ u0[cols] + c, np.maximum(sol.z, 0.0), np.zeros(sel.shape[0]), inf)
+        _check_almost(sol, box_residual(H, J @ u0[cols] + c, lam[sel], np.zeros(sel.shape[0]), inf), "contact")
+        info["contact QP iterations (largest island)"] = max(info.get("contact QP iterations (largest island)", 0),
+                                                             sol.iterations)
+    u = u0 + layout.inv_m * (rows.J.T @ lam)
+    normal = np.zeros(cons.jac_inv.shape)
+    normal[active] = lam
+    return u, normal
+
+
+def _friction_phase(layout: _Layout, cons: ConstraintSet, u1: np.ndarray, normal: np.ndarray, mu: float,
+                    labels: np.ndarray, count: int, solver: QpSolver, clock: _Clock,
+                    info: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The friction phase's limit (normal impulses fixed): velocities u and friction impulses (M, 2)."""
+    active = cons.f_jac_inv[:, 0] != 0.0
+    limit = mu * ((normal[:, 0] + normal[:, 1]) + (normal[:, 2] + normal[:, 3]))
+    boxed = np.flatnonzero(active & (limit > 0.0))
+    rows = _friction_rows(layout, cons, boxed)
+    L = np.repeat(limit[boxed], 2)
+    N, spin_body = _spin_rows(layout, cons, np.flatnonzero(active & cons.spin_damp))
+    lam_rows = np.zeros(L.shape[0])
+    spin = np.zeros(N.shape[0])
+    row_island = _row_island(layout, labels, rows.body_a, rows.body_b)
+    spin_island = labels[layout.index[spin_body]]
+    body_island = np.repeat(labels, 6)
+    for group in _batches(labels, np.concatenate([row_island, spin_island]), count):
+        sel = np.flatnonzero(np.isin(row_island, group))
+        ssel = np.flatnonzero(np.isin(spin_island, group))
+        cols = np.flatnonzero(np.isin(body_island, group))
+        J, c = _sub(rows, sel, cols)
+        Ns = N[ssel][:, cols].tocsc()
+        nr, ns = sel.shape[0], Ns.shape[0]
+        G = sp.vstack([J, Ns], format="csc")
+        P = (G @ sp.diags(layout.inv_m[cols]) @ G.T).tocsc()
+        q = -(G @ u1[cols] + np.concatenate([c, np.zeros(ns)]))
+        eye = sp.identity(nr, format="csc")
+        A = sp.vstack([sp.hstack([eye, sp.csc_matrix((nr, ns))]), sp.hstack([-eye, sp.csc_matrix((nr, ns))])],
+                      format="csc")
+        prob = QpProblem(P, q, A, np.concatenate([L[sel], L[sel]]), 0, 2 * nr)
+        clock.check_memory(prob)
+        sol = solver(prob, clock.left())
+        inf = np.full(ns, np.inf)
+        lo, hi = np.concatenate([-L[sel], -inf]), np.concatenate([L[sel], inf])
+        y = polish_box_qp(P, q, sol.x, lo, hi)
+        _check_almost(sol, box_residual(P, q, y, lo, hi), "friction")
+        lam_rows[sel] = y[:nr]
+        spin[ssel] = y[nr:]
+        info["friction QP iterations (largest island)"] = max(
+            info.get("friction QP iterations (largest island)", 0), sol.iterations)
+    u = u1 - layout.inv_m * (rows.J.T @ lam_rows + N.T @ spin)
+    friction = np.zeros(cons.f_jac_inv.shape)
+    friction[boxed] = lam_rows.reshape(-1, 2)
+    return u, friction
+
+
+# --- natural residuals ----------------------------------------------------------------------------------------
+def natural_residuals(contact_bodies: BodyTable, bodies: BodyTable, cons: ConstraintSet, imp: Impulses,
+                      mu: float) -> dict[str, float]:
+    """The natural residuals at the end of each phase (see the module docstring), maxima over rows."""
+    layout = _Layout(bodies)
+    rows, active = _contact_rows(layout, cons)
+    e = rows.J @ layout.velocity(contact_bodies) + rows.c
+    k = -1.0 / cons.jac_inv[active]
+    normal = np.abs(np.minimum(imp.normal[active] * k, e))
+    fa = cons.f_jac_inv[:, 0] != 0.0
+    manifolds = np.flatnonzero(fa)
+    frows = _friction_rows(layout, cons, manifolds)
+    ut = frows.J @ layout.velocity(bodies) + frows.c
+    kt = -1.0 / cons.f_jac_inv[manifolds].ravel()
+    limit = np.repeat(mu * ((imp.normal[manifolds, 0] + imp.normal[manifolds, 1])
+                            + (imp.normal[manifolds, 2] + imp.normal[manifolds, 3])), 2)
+    lt = imp.friction[manifolds].ravel()
+    box = kt * np.abs(lt - np.clip(lt + ut / kt, -limit, limit))
+    damped = fa & cons.spin_damp
+    spin = []
+    for side in (cons.body_a, cons.body_b):
+        body = side[damped]
+        keep = bodies.dynamic[body]
+        spin.append(np.abs(np.sum(cons.normal[damped][keep] * bodies.angular_velocity[body[keep]], axis=1)))
+    spin_all = np.concatenate(spin)
+    return {"contact phase: normal LCP |min(lam K, e)| max (m/s)": float(normal.max(initial=0.0)),
+            "contact phase: normal velocity violation max (m/s)": float(np.maximum(-e, 0).max(initial=0.0)),
+            "friction phase: box residual max (m/s)": float(box.max(initial=0.0)),
+            "friction phase: spin |n.w| max (rad/s)": float(spin_all.max(initial=0.0)),
+            "friction phase: normal velocity violation max (m/s), not a residual of the scheme": float(
+                np.maximum(-(rows.J @ layout.velocity(bodies) + rows.c), 0).max(initial=0.0))}
+
+
+# --- entry point ----------------------------------------------------------------------------------------------
+def exact_reference(bodies: BodyTable, cons: ConstraintSet, params: SolverParams = SolverParams(),
+                    budget: Budget = Budget(), solver: QpSolver = clarabel_solve,
+                    solver_name: str = "") -> ExactReference:
+    """The exact limit of ``params``'s pass order on this step (float64 inputs: ``bodies``, ``cons`` unrounded)."""
+    if params.interleaved:
+        raise ExactReferenceError("the interleaved pass order has no well-defined limit to compute: its fixed "
+                                  "points solve a non-symmetric box-friction complementarity problem, not a QP "
+                                  "(models/exact_reference.py)")
+    _check_finite(bodies, cons)
+    clock = _Clock(budget)
+    layout = _Layout(bodies)
+    count, labels = _islands(layout, cons)
+    info: dict[str, float] = {}
+    seconds: dict[str, float] = {}
+    u0 = layout.velocity(bodies)
+    t0 = time.perf_counter()
+    u1, normal = _contact_phase(layout, cons, u0, labels, count, solver, clock, info)
+    seconds["contact phase"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    u2, friction = _friction_phase(layout, cons, u1, normal, params.friction_coeff, labels, count, solver, clock,
+                                   info)
+    seconds["friction phase"] = time.perf_counter() - t0
+    contact_bodies = layout.with_velocity(bodies, u1)
+    final = layout.with_velocity(bodies, u2)
+    imp = Impulses(normal=normal, friction=friction)
+    residuals = natural_residuals(contact_bodies, final, cons, imp, params.friction_coeff)
+    if not all(np.isfinite(v) for v in residuals.values()):
+        raise ExactReferenceError("the solver returned non-finite values")
+    return ExactReference(contact_bodies, final, imp, residuals, seconds, count,
+                          solver_name or f"clarabel {_clarabel_version()}", info)
+
+
+def _check_finite(bodies: BodyTable, cons: ConstraintSet) -> None:
+    for name in ("position", "linear_velocity", "angular_velocity", "inv_mass", "inv_inertia"):
+        if not np.all(np.isfinite(getattr(bodies, name))):
+            raise ExactReferenceError(f"body {name} holds NaN or Inf")
+    for name in ConstraintSet._REAL_FIELDS:
+        if not np.all(np.isfinite(getattr(cons, name))):
+            raise ExactReferenceError(f"constraint {name} holds NaN or Inf")
+
+
+def _clarabel_version() -> str:
+    import importlib.metadata
+
+    return importlib.metadata.version("clarabel")
+
+
+# --- the budget, enforced from outside the solver -------------------------------------------------------------
+BUDGET_GRACE_S = 5.0  # seconds the parent waits past the time budget before it stops the solving process
+
+
+def exact_reference_bounded(bodies: BodyTable, cons: ConstraintSet, params: SolverParams = SolverParams(),
+                            budget: Budget = Budget(), solver: QpSolver = clarabel_solve) -> ExactReference:
+    """:func:`exact_reference` in a child process that cannot exceed the budget: its address space is capped at
+    ``budget.memory_bytes`` and it is stopped when ``budget.time_s`` has passed (Clarabel checks its own time limit
+    only between iterations, and one factorisation of a large island can outlast the whole budget)."""
+    import multiprocessing as mp
+
+    ctx = mp.get_context("fork")
+    recv, send = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=_bounded_child, args=(send, bodies, cons, params, budget, solver),
+                        daemon=True)
+    child.start()
+    send.close()
+    try:
+        if not recv.poll(budget.time_s + BUDGET_GRACE_S):
+            raise ExactReferenceError(f"time budget of {budget.time_s:.0f} s spent (the solve was stopped)")
+        kind, value = recv.recv()
+    except EOFError:
+        child.join(1.0)
+        raise ExactReferenceError(f"the solving process died (exit {child.exitcode}; memory budget "
+                                  f"{budget.memory_bytes / 2 ** 30:.1f} GiB)") from None
+    finally:
+        if child.is_alive():
+            child.kill()
+        child.join(5.0)
+        recv.close()
+    if kind == "error":
+        raise ExactReferenceError(value)
+    return value
+
+
+def _bounded_child(send: Any, bodies: BodyTable, cons: ConstraintSet, params: SolverParams, budget: Budget,
+                   solver: QpSolver) -> None:
+    import resource
+
+    try:
+        resource.setrlimit(resource.RLIMIT_AS, (budget.memory_bytes, budget.memory_bytes))
+        send.send(("ok", exact_reference(bodies, cons, params, budget, solver)))
+    except ExactReferenceError as exc:
+        send.send(("error", str(exc)))
+    except MemoryError:
+        send.send(("error", f"memory budget of {budget.memory_bytes / 2 ** 30:.1f} GiB exceeded"))
+    finally:
+        send.close()

@@ -1,0 +1,181 @@
+"""The exact reference is a fixed point of the project's own passes; bad input gives ExactReferenceError; the cache
+round-trips and never leaves half a file; the error metrics."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from models import scenes
+from models.constraints import body_table, setup_constraints
+from models.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, run_pass, schedule_levels, solve
+from models.exact_reference import Budget, ExactReferenceError, exact_reference
+from models.exact_reference_cache import cache_key, cached_exact_reference
+from models.number_format import FLOAT64
+from models.schedule import make_schedule
+from models.solution_error import solution_error
+
+# one pass from the exact state moves no velocity by more than this (m/s, rad/s); measured: 1e-14 on the pile
+FIXED_POINT_TOLERANCE = 1e-9
+RESIDUAL_TOLERANCE = 1e-9  # m/s (rad/s for the spin row)
+
+
+@pytest.fixture(scope="module")
+def pile():
+    frame = scenes.capture_frame("pile", nx=4, ny=3, nz=4, seed=2)
+    bodies = body_table(frame)
+    cons = setup_constraints(frame, bodies)
+    schedule = make_schedule("hazard", cons, bodies.dynamic, window=8)
+    return bodies, cons, schedule, exact_reference(bodies, cons)
+
+
+def _moved(state, imp: Impulses, cons, schedule, kind: int) -> float:
+    out = state.copy()
+    imp = Impulses(imp.normal.copy(), imp.friction.copy())
+    run_pass(out, imp, cons, schedule_levels(schedule, cons, state.dynamic), FLOAT64, kind, 0, SolverParams(),
+             schedule)
+    return float(max(np.abs(out.linear_velocity - state.linear_velocity).max(),
+                     np.abs(out.angular_velocity - state.angular_velocity).max()))
+
+
+def test_exact_state_is_a_fixed_point_of_one_contact_and_one_friction_pass(pile) -> None:
+    bodies, cons, schedule, ref = pile
+    no_friction = Impulses(ref.impulses.normal, np.zeros_like(ref.impulses.friction))
+    assert _moved(ref.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
+    assert _moved(ref.bodies, ref.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
+    # the check can fail: from the 4-iteration state both passes still move velocities by far more
+    four = solve(bodies, cons, schedule, FLOAT64, SolverParams(iterations=4))
+    assert _moved(four.bodies, four.impulses, cons, schedule, FRICTION_PASS) > 100 * FIXED_POINT_TOLERANCE
+    assert np.abs(four.bodies.linear_velocity - ref.bodies.linear_velocity).max() > 1e-3
+    # and the exact state really differs from the start
+    assert np.abs(ref.bodies.linear_velocity - bodies.linear_velocity).max() > 0.1
+
+
+def test_natural_residuals_are_small(pile) -> None:
+    _, _, _, ref = pile
+    for key in ("contact phase: normal LCP |min(lam K, e)| max (m/s)", "friction phase: box residual max (m/s)",
+                "friction phase: spin |n.w| max (rad/s)"):
+        assert ref.residuals[key] <= RESIDUAL_TOLERANCE, (key, ref.residuals[key])
+    assert np.all(ref.impulses.normal >= 0)
+    limit = 0.7 * ref.impulses.normal.sum(axis=1)
+    assert np.all(np.abs(ref.impulses.friction) <= limit[:, None] + 1e-12)
+
+
+def test_bad_input_gives_a_clear_error(pile) -> None:
+    bodies, cons, _, _ = pile
+    with pytest.raises(ExactReferenceError, match="interleaved"):
+        exact_reference(bodies, cons, SolverParams(interleaved=True))
+    nan = bodies.copy()
+    nan.linear_velocity[1, 0] = np.nan
+    with pytest.raises(ExactReferenceError, match="NaN or Inf"):
+        exact_reference(nan, cons)
+    with pytest.raises(ExactReferenceError, match="time budget"):
+        exact_reference(bodies, cons, budget=Budget(time_s=0.0))
+    with pytest.raises(ExactReferenceError, match="memory"):
+        exact_reference(bodies, cons, budget=Budget(memory_bytes=1000))
+    # infeasible: a manifold doubled with its normal reversed, both rows demanding separation
+    m = 0
+    pick = np.array([m, m])
+    twin = dataclasses.replace(cons, **{f.name: getattr(cons, f.name)[pick].copy()
+                                        for f in dataclasses.fields(cons)})
+    twin.normal[1] *= -1.0
+    twin.bias[:] = np.where(twin.jac_inv != 0, -10.0, 0.0)
+    with pytest.raises(ExactReferenceError, match="Infeasible"):
+        exact_reference(bodies, twin)
+    # a damped contact whose normal is no eigenvector of the inverse inertia: no convex program
+    skew = bodies.copy()
+    damped = cons.spin_damp & (cons.f_jac_inv[:, 0] != 0)
+    body = int(cons.body_a[np.flatnonzero(damped & bodies.dynamic[cons.body_a])[0]])
+    skew.inv_inertia[body] = [1.0, 2.0, 3.0]
+    tilted = dataclasses.replace(cons, normal=cons.normal.copy())
+    tilted.normal[cons.body_a == body] = np.array([0.6, 0.8, 0.0])
+    with pytest.raises(ExactReferenceError, match="eigenvector"):
+        exact_reference(skew, tilted)
+
+
+def test_cache_round_trip_and_nothing_half_written(pile, tmp_path: Path) -> None:
+    bodies, cons, _, ref = pile
+    first, path, hit = cached_exact_reference(bodies, cons, tmp_path)
+    assert not hit and path.is_file() and path.name == f"exact_{cache_key(bodies, cons, SolverParams())}.npz"
+    again, path2, hit2 = cached_exact_reference(bodies, cons, tmp_path)
+    assert hit2 and path2 == path
+    for a, b in ((again.bodies.linear_velocity, first.bodies.linear_velocity),
+                 (again.contact_bodies.angular_velocity, first.contact_bodies.angular_velocity),
+                 (again.impulses.normal, first.impulses.normal), (again.impulses.friction, first.impulses.friction)):
+        assert np.array_equal(a, b)
+    assert again.residuals == first.residuals
+    np.testing.assert_allclose(first.bodies.linear_velocity, ref.bodies.linear_velocity, atol=1e-8)
+    # another scheme setting is another key
+    assert cache_key(bodies, cons, SolverParams(friction_coeff=0.5)) != cache_key(bodies, cons, SolverParams())
+    # a truncated file is recomputed and replaced
+    path.write_bytes(path.read_bytes()[:100])
+    third, _, hit3 = cached_exact_reference(bodies, cons, tmp_path)
+    assert not hit3 and np.array_equal(third.bodies.linear_velocity, first.bodies.linear_velocity)
+    assert [p.name for p in tmp_path.iterdir() if p.is_file()] == [path.name]  # no temporary file left
+    # a failed solve writes no reference, only the record of the failure, which a later run with no larger
+    # budget reports at once and a larger budget retries (and removes once it succeeds)
+    failed = tmp_path / "failed"
+    with pytest.raises(ExactReferenceError, match="time budget"):
+        cached_exact_reference(bodies, cons, failed, budget=Budget(time_s=0.0))
+    assert [p.name for p in failed.iterdir()] == [path.name.replace(".npz", ".failed.json")]
+    with pytest.raises(ExactReferenceError, match="earlier attempt"):
+        cached_exact_reference(bodies, cons, failed, budget=Budget(time_s=0.0))
+    _, retried, hit4 = cached_exact_reference(bodies, cons, failed)
+    assert not hit4 and [p.name for p in failed.iterdir()] == [retried.name]
+
+
+def test_solution_error_metrics(pile) -> None:
+    bodies, _, _, _ = pile
+    ours = bodies.copy()
+    dyn = bodies.dynamic
+    idx = np.flatnonzero(dyn)
+    ours.linear_velocity[idx[0]] += [3.0, 4.0, 0.0]  # |dv| = 5 on one body
+    ours.angular_velocity[idx[:2]] += [0.0, 0.0, 2.0]
+    err = solution_error(ours, bodies, dyn)
+    assert err.max_dv == pytest.approx(5.0) and err.median_dv == 0.0
+    assert err.max_dw == pytest.approx(2.0)
+    assert 0 < err.p99_dv <= 5.0
+    v_scale = np.linalg.norm(bodies.linear_velocity[dyn], axis=1).max()
+    assert err.relative_dv == pytest.approx(5.0 / v_scale)
+
+
+def test_contact_phase_bound_holds_and_vanishes_at_the_limit(pile) -> None:
+    """The certificate bounds the true distance of a PGS iterate and is small at the exact contact state."""
+    from models.exact_bound import contact_phase_bound
+
+    bodies, cons, schedule, ref = pile
+    at_limit = contact_phase_bound(bodies, cons, ref.impulses.normal)
+    assert at_limit["certified max |dv| (m/s)"] < 1e-4
+    out, imp = bodies.copy(), Impulses.zeros(cons.num_manifolds)
+    levels = schedule_levels(schedule, cons, bodies.dynamic)
+    for it in range(20):
+        run_pass(out, imp, cons, levels, FLOAT64, CONTACT_PASS, it, SolverParams(), schedule)
+    bound = contact_phase_bound(bodies, cons, imp.normal)
+    dv = np.linalg.norm(out.linear_velocity - ref.contact_bodies.linear_velocity, axis=1).max()
+    dw = np.linalg.norm(out.angular_velocity - ref.contact_bodies.angular_velocity, axis=1).max()
+    assert 1e-3 < dv <= bound["certified max |dv| (m/s)"] and dw <= bound["certified max |dw| (rad/s)"]
+    with pytest.raises(ExactReferenceError, match="negative"):
+        contact_phase_bound(bodies, cons, -np.ones_like(imp.normal))
+
+
+def test_bounded_solve_enforces_the_budget_from_outside(pile, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The bounded solve returns the same reference, and stops a solve that outlasts its time or memory budget."""
+    from models import exact_reference as er
+
+    bodies, cons, _, ref = pile
+    got = er.exact_reference_bounded(bodies, cons)
+    assert np.array_equal(got.bodies.linear_velocity, ref.bodies.linear_velocity)
+    with pytest.raises(ExactReferenceError, match="memory"):  # the estimate refuses before solving
+        er.exact_reference_bounded(bodies, cons, budget=Budget(memory_bytes=1000))
+
+    def hang(prob: er.QpProblem, limit: float) -> er.QpSolution:  # a solver that never checks its time limit
+        import time
+        time.sleep(60)
+        return er.clarabel_solve(prob, limit)
+
+    monkeypatch.setattr(er, "BUDGET_GRACE_S", 0.0)
+    with pytest.raises(ExactReferenceError, match="was stopped"):
+        er.exact_reference_bounded(bodies, cons, budget=Budget(time_s=0.5), solver=hang)
