@@ -324,13 +324,13 @@ def test_kernel_pipe_bit_exact(harness: Harness, tmp_path: Path) -> None:
 
 
 def test_generated_rtl_up_to_date() -> None:
-    """Every generated copy (the datapaths, the latency package and JSON, the register package and the HLS header)
-    equals what the generator writes now."""
+    """Every generated copy (the datapaths, the latency package and JSON, the register package and the HLS headers
+    of the register map and the stream layout) equals what the generator writes now."""
     rendered = {p.relative_to(REPO).as_posix() for p in render()}
     assert rendered == {"rtl/generated/pgs_contact_pipe.sv", "rtl/generated/pgs_friction_pipe.sv",
                         "rtl/generated/pgs_integrate_pipe.sv", "rtl/generated/pgs_pipe_latency_pkg.sv",
                         "rtl/generated/pipe_latency.json", "rtl/generated/pgs_regs_pkg.sv",
-                        "hls_export/generated/pgs_regs.h"}
+                        "hls_export/generated/pgs_regs.h", "hls_export/generated/pgs_stream_layout.h"}
     stale = generate(check=True)
     assert not stale, f"regenerate with `python -m rtl.gen`: {[str(p) for p in stale]}"
     written = {p.relative_to(REPO).as_posix() for p in (RTL / "generated").iterdir()}
