@@ -45,6 +45,7 @@ from models.constraints import body_table, setup_constraints  # noqa: E402
 from models.contact_solver import FRICTION_COEFF  # noqa: E402
 from models.integrator import MAX_ANGLE  # noqa: E402
 from models.number_format import EVENT_NAMES, KERNEL_FORMATS, NumberFormat  # noqa: E402
+from models.scenes.kernel_scenes import PIPE_VECTOR_SCENES  # noqa: E402
 from rtl.gen import friction_sign_bug_sources, generate, generate_friction_sign_bug, render  # noqa: E402
 from rtl.gen.file_list import FileListError, kernel_sources, read_file_list, swap_sources  # noqa: E402
 from rtl.gen.kernel_graphs import (CONTACT_IN, CONTACT_OUT, FRICTION_IN, FRICTION_OUT, GRAPHS,  # noqa: E402
@@ -56,7 +57,6 @@ HERE = Path(__file__).resolve().parent / "pipes"
 RTL = REPO / "rtl"
 DEFAULT_SEED = 20240615
 FORMATS = KERNEL_FORMATS
-SCENES = (("pile", {"nx": 4, "ny": 3, "nz": 4}), ("stack", {}), ("incline", {}))
 # Verilator: keep every operator instance a separate function (-fno-inline) and compile without C++
 # optimization: the designs are large and the runs short, so this is the fastest overall.
 BUILD_ARGS = DEBUG_COMPILE_ARGS
@@ -93,7 +93,7 @@ def scene_data(fmt: NumberFormat) -> list[kv.SceneVectors]:
     if fmt.name in _SCENE_VECTORS:
         return _SCENE_VECTORS[fmt.name]
     out = []
-    for name, params in SCENES:
+    for name, params in PIPE_VECTOR_SCENES.items():
         if name not in _FRAMES:
             frame = scenes.load_or_capture(name, **params)
             bodies = body_table(frame)
@@ -324,13 +324,13 @@ def test_kernel_pipe_bit_exact(harness: Harness, tmp_path: Path) -> None:
 
 
 def test_generated_rtl_up_to_date() -> None:
-    """Every generated copy (the datapaths, the latency package and JSON, the register package and the HLS header)
-    equals what the generator writes now."""
+    """Every generated copy (the datapaths, the latency package and JSON, the register package and the HLS headers
+    of the register map and the stream layout) equals what the generator writes now."""
     rendered = {p.relative_to(REPO).as_posix() for p in render()}
     assert rendered == {"rtl/generated/pgs_contact_pipe.sv", "rtl/generated/pgs_friction_pipe.sv",
                         "rtl/generated/pgs_integrate_pipe.sv", "rtl/generated/pgs_pipe_latency_pkg.sv",
                         "rtl/generated/pipe_latency.json", "rtl/generated/pgs_regs_pkg.sv",
-                        "hls_export/generated/pgs_regs.h"}
+                        "hls_export/generated/pgs_regs.h", "hls_export/generated/pgs_stream_layout.h"}
     stale = generate(check=True)
     assert not stale, f"regenerate with `python -m rtl.gen`: {[str(p) for p in stale]}"
     written = {p.relative_to(REPO).as_posix() for p in (RTL / "generated").iterdir()}

@@ -41,6 +41,7 @@ from models.stream_format import StreamLayout
 from models.record_window import fits
 from models.schedule import band_width
 from models.kernel_job import KernelJob
+from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from sim.harness_run import register_writes, run_harness, write_inputs
 from sim.kernel_build import KernelBuild, build_kernel
 from sim.kernel_step import KernelResult, golden_step, run_kernel_step
@@ -49,7 +50,6 @@ from sim.trace_compare import Comparison, compare_body_out, compare_trace, read_
 DEPTH = 1024
 LANES = 2
 GAP_PERMILLE, BP_PERMILLE = 100, 200
-SCENES = {"pile": dict(nx=4, ny=3, nz=4, seed=2), "stack": dict()}
 PRESET = get_preset("zcu102")
 RECORD_BYTES = StreamLayout(FP32).window_bytes  # one lane's combined record (3 beats of 512 bits)
 
@@ -60,7 +60,7 @@ def _seed() -> int:
 
 def window_job(scene: str, schedule: str, hazard_window: int, interleaved: bool = False,
                fetch_passes: int | None = None) -> KernelJob:
-    frame = scenes.load_or_capture(scene, **SCENES[scene])
+    frame = scenes.load_or_capture(scene, **KERNEL_TEST_SCENES[scene])
     job = KernelJob.from_frame(frame, FP32, SolverParams(4, interleaved=interleaved), schedule, hazard_window)
     return job.windowed(DEPTH, fetch_passes=fetch_passes, lanes=LANES)
 

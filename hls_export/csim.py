@@ -26,12 +26,14 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from models import scenes
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from models.number_format import FP32
 from models.kernel_job import KernelJob
+from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from sim.harness_run import run_harness, write_inputs
 from sim.kernel_build import KernelBuild, default_window
 from sim.kernel_step import golden_step
@@ -44,8 +46,8 @@ SOURCES = [HLS_DIR / "pgs_kernel.cpp", HLS_DIR / "pgs_csim_main.cpp"]
 CXXFLAGS = ["-std=c++14", "-O2", "-ffp-contract=off", "-fno-fast-math", "-Wall", "-Wextra", "-Werror",
             "-Wno-unknown-pragmas", "-Wno-unused-label"]
 
-# scenes of make csim and of the test (the RTL kernel test's set: cocotb_tests/test_pgs_kernel.py)
-SCENES: dict[str, dict[str, int]] = {"stack": {}, "incline": {}, "pile": dict(nx=4, ny=3, nz=4, seed=2)}
+# scenes of make csim and of the test: the RTL kernel tests' frames (models/scenes/kernel_scenes.py), in this order
+SCENES: dict[str, dict[str, Any]] = {name: KERNEL_TEST_SCENES[name] for name in ("stack", "incline", "pile")}
 SCHEDULES = ("hazard", "pybullet")
 
 

@@ -18,6 +18,7 @@
 
 #include <cstdint>
 
+#include "generated/pgs_stream_layout.h"
 #include "pgs_fp.h"
 #include "pgs_hls.h"
 
@@ -33,14 +34,10 @@
 
 namespace pgs {
 
+// the record sizes (kHeaderBits, k*Words, kTraceTailBits) are generated/pgs_stream_layout.h, from
+// models/stream_format.py; the words are binary32 here
 constexpr int kWordBits = 32;
-constexpr int kHeaderBits = 64;
-constexpr int kContactWords = 23;
-constexpr int kFrictionWords = 14;
-constexpr int kBodyInWords = 17;
-constexpr int kBodyOutWords = 13;
-constexpr int kTraceWords = 16;
-constexpr int kTraceBits = kTraceWords * kWordBits + 64;
+constexpr int kTraceBits = kTraceWords * kWordBits + kTraceTailBits;
 
 constexpr int beats_for(int record_bits, int beat_bits) { return (record_bits + beat_bits - 1) / beat_bits; }
 

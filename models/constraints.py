@@ -21,7 +21,7 @@ spin_damp           flag         the friction kernel's spin damping applies: a b
                                  centroid lies on the line of centres (normalized dot > 0.95)
 ==================  ===========  =========================================================================
 
-Deliberate deviations from Bullet's GPU code (each documented in the README):
+Deliberate deviations from Bullet's GPU code (each documented in docs/architecture.md, "Deliberate deviations"):
 
 * the bias uses the frame's dt (Bullet hard-codes 1/60 here; every scene defaults to 1/60);
 * the manifold normal is the normal of its first point (pybullet reports one per point; for box-box

@@ -56,6 +56,13 @@ FRICTION_WORDS = 14
 WINDOW_WORDS = CONTACT_WORDS + FRICTION_WORDS
 BODY_IN_WORDS = 17
 BODY_OUT_WORDS = 13
+# word offsets of a body-in record's fields (a body-out record is its first BODY_OUT_WORDS words)
+BODY_POSITION = 0          # pos(3)
+BODY_ORIENTATION = 3       # q(4): x, y, z, w
+BODY_LINEAR_VELOCITY = 7   # v(3)
+BODY_ANGULAR_VELOCITY = 10  # w(3)
+BODY_INV_MASS = 13         # inv_mass(1)
+BODY_INV_INERTIA = 14      # inv_inertia(3)
 TRACE_WORDS = 16
 TRACE_TAIL_BITS = 64
 
@@ -369,8 +376,11 @@ def unpack_body_table(fmt: NumberFormat, beats: np.ndarray, beat_bits: int = DEF
     """Inverse of :func:`pack_body_table` (values decoded to float64)."""
     _, words = unpack_records(beats, BODY_IN_WORDS, fmt.width, beat_bits)
     v = fmt.decode(words)
-    return BodyTable(position=v[:, 0:3], orientation=v[:, 3:7], linear_velocity=v[:, 7:10],
-                     angular_velocity=v[:, 10:13], inv_mass=v[:, 13].copy(), inv_inertia=v[:, 14:17])
+    return BodyTable(position=v[:, BODY_POSITION:BODY_POSITION + 3],
+                     orientation=v[:, BODY_ORIENTATION:BODY_ORIENTATION + 4],
+                     linear_velocity=v[:, BODY_LINEAR_VELOCITY:BODY_LINEAR_VELOCITY + 3],
+                     angular_velocity=v[:, BODY_ANGULAR_VELOCITY:BODY_ANGULAR_VELOCITY + 3],
+                     inv_mass=v[:, BODY_INV_MASS].copy(), inv_inertia=v[:, BODY_INV_INERTIA:BODY_INV_INERTIA + 3])
 
 
 def pack_body_out(fmt: NumberFormat, bodies: BodyTable, beat_bits: int = DEFAULT_BODY_BEAT_BITS) -> Stream:

@@ -13,6 +13,8 @@ fp/fp_lzc.sv
 fp/fp_unpack.sv
 fp/fp_round_pack.sv
 fp/fp_valid_pipe.sv
+fp/fp_data_pipe.sv
+fp/fp_result_stage.sv
 fp/fp_add.sv
 fp/fp_mul.sv
 fp/fp_div.sv

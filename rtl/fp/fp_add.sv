@@ -60,15 +60,12 @@ module fp_add #(
         .x(b), .sign(b_sign), .exp(b_exp), .sig(b_sig), .is_zero(b_zero), .is_inf(b_inf), .is_nan(b_nan)
     );
 
-    logic                bs_eff, swap;
+    logic                bs_eff, swap, invalid;
     logic [EXP_BITS-1:0] diff_full;
     logic [DW-1:0]       diff_c;
-
-    // stage-1 registers
-    logic                s1_nan, s1_inv, s1_inf, s1_inf_sign, s1_zero_sign, s1_sign, s1_eff_sub;
-    logic [EXP_BITS-1:0] s1_exp;
-    logic [P-1:0]        s1_big, s1_small;
-    logic [DW-1:0]       s1_shift;
+    // Carried unchanged to stage 3: NaN operand, invalid, infinity and its sign, sign of an exact
+    // zero sum, sign and exponent of the bigger operand.
+    logic [5:0]          side;
 
     always_comb begin
         bs_eff    = b_sign ^ sub;
@@ -77,20 +74,29 @@ module fp_add #(
         swap      = {b_exp, b_sig} > {a_exp, a_sig};
         diff_full = swap ? (b_exp - a_exp) : (a_exp - b_exp);
         diff_c    = (diff_full > EXP_BITS'(SW)) ? DW'(SW) : diff_full[DW-1:0];
+        invalid   = a_inf && b_inf && (a_sign != bs_eff);
+        side      = {a_nan || b_nan, invalid, a_inf || b_inf, a_inf ? a_sign : bs_eff,
+                     a_sign && bs_eff, swap ? bs_eff : a_sign};
     end
 
+    logic                s2_nan_op, s2_inv, s2_inf, s2_inf_sign, s2_zero_sign, s2_sign;
+    logic [EXP_BITS-1:0] s2_exp;
+
+    fp_data_pipe #(.WIDTH(6 + EXP_BITS), .DEPTH(2)) u_side (
+        .clk(clk), .d({side, swap ? b_exp : a_exp}),
+        .q({s2_nan_op, s2_inv, s2_inf, s2_inf_sign, s2_zero_sign, s2_sign, s2_exp})
+    );
+
+    // stage-1 registers of the datapath
+    logic                s1_eff_sub;
+    logic [P-1:0]        s1_big, s1_small;
+    logic [DW-1:0]       s1_shift;
+
     always_ff @(posedge clk) begin
-        s1_nan       <= a_nan || b_nan || (a_inf && b_inf && (a_sign != bs_eff));
-        s1_inv       <= a_inf && b_inf && (a_sign != bs_eff);
-        s1_inf       <= a_inf || b_inf;
-        s1_inf_sign  <= a_inf ? a_sign : bs_eff;
-        s1_zero_sign <= a_sign && bs_eff;           // sign of an exact zero sum
-        s1_sign      <= swap ? bs_eff : a_sign;
-        s1_eff_sub   <= a_sign ^ bs_eff;
-        s1_exp       <= swap ? b_exp : a_exp;
-        s1_big       <= swap ? b_sig : a_sig;
-        s1_small     <= swap ? a_sig : b_sig;
-        s1_shift     <= diff_c;
+        s1_eff_sub <= a_sign ^ bs_eff;
+        s1_big     <= swap ? b_sig : a_sig;
+        s1_small   <= swap ? a_sig : b_sig;
+        s1_shift   <= diff_c;
     end
 
     // ---------------- stage 2: align and add ----------------
@@ -106,70 +112,39 @@ module fp_add #(
         else            sum = {1'b0, s1_big, 3'b000} + {1'b0, small_al};
     end
 
-    logic                s2_nan, s2_inv, s2_inf, s2_inf_sign, s2_zero_sign, s2_sign;
-    logic [EXP_BITS-1:0] s2_exp;
-    logic [NW-1:0]       s2_sum;
+    logic [NW-1:0] s2_sum;
 
     always_ff @(posedge clk) begin
-        s2_nan       <= s1_nan;
-        s2_inv       <= s1_inv;
-        s2_inf       <= s1_inf;
-        s2_inf_sign  <= s1_inf_sign;
-        s2_zero_sign <= s1_zero_sign;
-        s2_sign      <= s1_sign;
-        s2_exp       <= s1_exp;
-        s2_sum       <= sum;
+        s2_sum <= sum;
     end
 
     // ---------------- stage 3: normalize ----------------
     logic [LZW-1:0] lz;
+    logic           sum_zero;
 
     fp_lzc #(.WIDTH(NW)) u_lzc (.x(s2_sum), .count(lz));
 
-    logic                s3_nan, s3_inv, s3_inf, s3_inf_sign, s3_zero, s3_sign;
+    assign sum_zero = (s2_sum == '0);
+
+    logic [4:0]           s3_special;
     logic signed [EW-1:0] s3_exp;
-    logic [NW-1:0]       s3_norm;
+    logic [NW-1:0]        s3_norm;
 
     always_ff @(posedge clk) begin
-        s3_nan      <= s2_nan;
-        s3_inv      <= s2_inv;
-        s3_inf      <= s2_inf;
-        s3_zero     <= (s2_sum == '0);
-        s3_sign     <= (s2_sum == '0) ? s2_zero_sign : s2_sign;
-        s3_inf_sign <= s2_inf_sign;
+        // An infinity takes its own sign, an exact zero sum the sign of a zero sum.
+        s3_special <= {s2_nan_op, s2_inv, s2_inf, sum_zero,
+                       s2_inf ? s2_inf_sign : (sum_zero ? s2_zero_sign : s2_sign)};
         // The big operand's hidden bit sits at sum bit NW-2, so the leading one at NW-1-lz has
         // weight 2^(exp + 1 - lz - bias).
-        s3_exp      <= $signed({{(EW-EXP_BITS){1'b0}}, s2_exp}) + EW'(1) - $signed({{(EW-LZW){1'b0}}, lz});
-        s3_norm     <= s2_sum << lz;
+        s3_exp     <= $signed({{(EW-EXP_BITS){1'b0}}, s2_exp}) + EW'(1) - $signed({{(EW-LZW){1'b0}}, lz});
+        s3_norm    <= s2_sum << lz;
     end
 
     // ---------------- stage 4: round and pack ----------------
-    logic [W-1:0] packed_y;
-    logic         ovf, unf;
-
-    fp_round_pack #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW)) u_round (
-        .sign       (s3_inf ? s3_inf_sign : s3_sign),
-        .exp_in     (s3_exp),
-        .sig_in     (s3_norm[NW-1:NW-P]),
-        .round_bit  (s3_norm[NW-P-1]),
-        .sticky     (|s3_norm[NW-P-2:0]),
-        .force_nan  (s3_nan),
-        .force_inf  (s3_inf),
-        .force_zero (s3_zero),
-        .y          (packed_y),
-        .overflow   (ovf),
-        .underflow  (unf)
-    );
-
-    always_ff @(posedge clk) begin
-        y     <= packed_y;
-        flags <= {s3_inv, unf, ovf};
-    end
-
-    // ---------------- valid pipeline (the only reset registers) ----------------
-    fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
-    );
+    fp_result_stage #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW), .LATENCY(LATENCY)) u_result (
+        .clk(clk), .rst(rst), .in_valid(in_valid), .special(s3_special),
+        .exp_in(s3_exp), .sig_in(s3_norm[NW-1:NW-P]), .round_bit(s3_norm[NW-P-1]),
+        .sticky(|s3_norm[NW-P-2:0]), .out_valid(out_valid), .y(y), .flags(flags));
 endmodule
 
 `default_nettype wire

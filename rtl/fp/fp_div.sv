@@ -56,28 +56,35 @@ module fp_div #(
         .x(b), .sign(b_sign), .exp(b_exp), .sig(b_sig), .is_zero(b_zero), .is_inf(b_inf), .is_nan(b_nan)
     );
 
-    // Per-stage registers; index 0 is stage 1 (unpack), index k holds the state after k quotient
-    // bits. The side-band (exceptions, sign, exponent, divisor) travels along with the operation.
-    logic                 st_nan  [NQ+1];
-    logic                 st_inv  [NQ+1];
-    logic                 st_inf  [NQ+1];
-    logic                 st_zero [NQ+1];
-    logic                 st_sign [NQ+1];
-    logic signed [EW-1:0] st_exp  [NQ+1];
-    logic [P-1:0]         st_den  [NQ+1];   // divisor significand
-    logic [P:0]           st_rem  [NQ+1];   // partial remainder (< 2 * divisor), already shifted
-    logic [NQ-1:0]        st_quo  [NQ+1];   // quotient bits so far (LSB = newest)
+    // The exception side band (fp_result_stage's `special`) and the exponent difference travel to the
+    // last stage.
+    logic                 invalid;
+    logic [4:0]           special;
+    logic signed [EW-1:0] exp_diff;
+
+    always_comb begin
+        invalid  = (a_zero && b_zero) || (a_inf && b_inf);
+        special  = {a_nan || b_nan, invalid, a_inf || (b_zero && !a_zero), a_zero || b_inf, a_sign ^ b_sign};
+        exp_diff = $signed({2'b00, a_exp}) - $signed({2'b00, b_exp}) + EW'(BIAS);
+    end
+
+    logic [4:0]           last_special;
+    logic signed [EW-1:0] last_exp;
+
+    fp_data_pipe #(.WIDTH(5 + EW), .DEPTH(NQ + 1)) u_side (
+        .clk(clk), .d({special, exp_diff}), .q({last_special, last_exp})
+    );
+
+    // Per-stage registers of the recurrence; index 0 is stage 1 (unpack), index k holds the state
+    // after k quotient bits. The divisor travels along with the operation.
+    logic [P-1:0]  st_den [NQ+1];   // divisor significand
+    logic [P:0]    st_rem [NQ+1];   // partial remainder (< 2 * divisor), already shifted
+    logic [NQ-1:0] st_quo [NQ+1];   // quotient bits so far (LSB = newest)
 
     always_ff @(posedge clk) begin
-        st_nan[0]  <= a_nan || b_nan || (a_zero && b_zero) || (a_inf && b_inf);
-        st_inv[0]  <= (a_zero && b_zero) || (a_inf && b_inf);
-        st_inf[0]  <= a_inf || (b_zero && !a_zero);
-        st_zero[0] <= a_zero || b_inf;
-        st_sign[0] <= a_sign ^ b_sign;
-        st_exp[0]  <= $signed({2'b00, a_exp}) - $signed({2'b00, b_exp}) + EW'(BIAS);
-        st_den[0]  <= b_sig;
-        st_rem[0]  <= {1'b0, a_sig};
-        st_quo[0]  <= '0;
+        st_den[0] <= b_sig;
+        st_rem[0] <= {1'b0, a_sig};
+        st_quo[0] <= '0;
     end
 
     // ---------------- stages 2 .. NQ+1: restoring recurrence ----------------
@@ -96,15 +103,9 @@ module fp_div #(
 
     always_ff @(posedge clk) begin
         for (int k = 0; k < NQ; k++) begin
-            st_nan[k+1]  <= st_nan[k];
-            st_inv[k+1]  <= st_inv[k];
-            st_inf[k+1]  <= st_inf[k];
-            st_zero[k+1] <= st_zero[k];
-            st_sign[k+1] <= st_sign[k];
-            st_exp[k+1]  <= st_exp[k];
-            st_den[k+1]  <= st_den[k];
-            st_rem[k+1]  <= rem_n[k];
-            st_quo[k+1]  <= {st_quo[k][NQ-2:0], qbit[k]};
+            st_den[k+1] <= st_den[k];
+            st_rem[k+1] <= rem_n[k];
+            st_quo[k+1] <= {st_quo[k][NQ-2:0], qbit[k]};
         end
     end
 
@@ -114,8 +115,6 @@ module fp_div #(
     logic [P-1:0]         sig_n;
     logic                 rnd_n, sticky_n;
     logic signed [EW-1:0] exp_n;
-    logic [W-1:0]         packed_y;
-    logic                 ovf, unf;
 
     always_comb begin
         q      = st_quo[NQ];
@@ -130,31 +129,13 @@ module fp_div #(
             rnd_n    = q[0];
             sticky_n = rem_nz;
         end
-        exp_n = st_exp[NQ] - {{(EW-1){1'b0}}, !hi};
+        exp_n = last_exp - {{(EW-1){1'b0}}, !hi};
     end
 
-    fp_round_pack #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW)) u_round (
-        .sign       (st_sign[NQ]),
-        .exp_in     (exp_n),
-        .sig_in     (sig_n),
-        .round_bit  (rnd_n),
-        .sticky     (sticky_n),
-        .force_nan  (st_nan[NQ]),
-        .force_inf  (st_inf[NQ]),
-        .force_zero (st_zero[NQ]),
-        .y          (packed_y),
-        .overflow   (ovf),
-        .underflow  (unf)
-    );
-
-    always_ff @(posedge clk) begin
-        y     <= packed_y;
-        flags <= {st_inv[NQ], unf, ovf};
-    end
-
-    fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
-    );
+    fp_result_stage #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW), .LATENCY(LATENCY)) u_result (
+        .clk(clk), .rst(rst), .in_valid(in_valid), .special(last_special),
+        .exp_in(exp_n), .sig_in(sig_n), .round_bit(rnd_n), .sticky(sticky_n),
+        .out_valid(out_valid), .y(y), .flags(flags));
 endmodule
 
 `default_nettype wire

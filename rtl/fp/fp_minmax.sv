@@ -80,14 +80,9 @@ module fp_minmax #(
     /* verilator lint_on UNUSEDSIGNAL */
 
     // ---------------- LATENCY register stages ----------------
-    logic [DW-1:0] pipe_q [LATENCY];
-
-    always_ff @(posedge clk) begin
-        pipe_q[0] <= {c_min, c_max, c_lt, c_eq, nan_any};
-        for (int i = 1; i < LATENCY; i++) pipe_q[i] <= pipe_q[i-1];
-    end
-
-    assign {y_min, y_max, lt, eq, unordered} = pipe_q[LATENCY-1];
+    fp_data_pipe #(.WIDTH(DW), .DEPTH(LATENCY)) u_out (
+        .clk(clk), .d({c_min, c_max, c_lt, c_eq, nan_any}), .q({y_min, y_max, lt, eq, unordered})
+    );
 
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
         .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)

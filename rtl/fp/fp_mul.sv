@@ -50,33 +50,33 @@ module fp_mul #(
         .x(b), .sign(b_sign), .exp(b_exp), .sig(b_sig), .is_zero(b_zero), .is_inf(b_inf), .is_nan(b_nan)
     );
 
-    logic                 s1_nan, s1_inv, s1_inf, s1_zero, s1_sign;
-    logic signed [EW-1:0] s1_exp;
-    logic [P-1:0]         s1_a_sig, s1_b_sig;
+    // The exception side band (fp_result_stage's `special`) and the exponent sum travel to stage 3.
+    logic                 invalid;
+    logic [4:0]           special;
+    logic signed [EW-1:0] exp_sum;
+
+    always_comb begin
+        invalid = (a_inf && b_zero) || (a_zero && b_inf);
+        special = {a_nan || b_nan, invalid, a_inf || b_inf, a_zero || b_zero, a_sign ^ b_sign};
+        exp_sum = $signed({2'b00, a_exp}) + $signed({2'b00, b_exp}) - EW'(BIAS);
+    end
+
+    logic [4:0]           s2_special;
+    logic signed [EW-1:0] s2_exp;
+
+    fp_data_pipe #(.WIDTH(5 + EW), .DEPTH(2)) u_side (.clk(clk), .d({special, exp_sum}), .q({s2_special, s2_exp}));
+
+    logic [P-1:0] s1_a_sig, s1_b_sig;
 
     always_ff @(posedge clk) begin
-        s1_nan   <= a_nan || b_nan || (a_inf && b_zero) || (a_zero && b_inf);
-        s1_inv   <= (a_inf && b_zero) || (a_zero && b_inf);
-        s1_inf   <= a_inf || b_inf;
-        s1_zero  <= a_zero || b_zero;
-        s1_sign  <= a_sign ^ b_sign;
-        s1_exp   <= $signed({2'b00, a_exp}) + $signed({2'b00, b_exp}) - EW'(BIAS);
         s1_a_sig <= a_sig;
         s1_b_sig <= b_sig;
     end
 
     // ---------------- stage 2: multiply ----------------
-    logic                 s2_nan, s2_inv, s2_inf, s2_zero, s2_sign;
-    logic signed [EW-1:0] s2_exp;
-    logic [2*P-1:0]       s2_prod;
+    logic [2*P-1:0] s2_prod;
 
     always_ff @(posedge clk) begin
-        s2_nan  <= s1_nan;
-        s2_inv  <= s1_inv;
-        s2_inf  <= s1_inf;
-        s2_zero <= s1_zero;
-        s2_sign <= s1_sign;
-        s2_exp  <= s1_exp;
         s2_prod <= {{P{1'b0}}, s1_a_sig} * {{P{1'b0}}, s1_b_sig};
     end
 
@@ -86,8 +86,6 @@ module fp_mul #(
     logic [P-1:0]         sig_n;
     logic                 rnd_n, sticky_n;
     logic signed [EW-1:0] exp_n;
-    logic [W-1:0]         packed_y;
-    logic                 ovf, unf;
 
     always_comb begin
         hi = s2_prod[2*P-1];
@@ -103,28 +101,10 @@ module fp_mul #(
         exp_n = s2_exp + {{(EW-1){1'b0}}, hi};
     end
 
-    fp_round_pack #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW)) u_round (
-        .sign       (s2_sign),
-        .exp_in     (exp_n),
-        .sig_in     (sig_n),
-        .round_bit  (rnd_n),
-        .sticky     (sticky_n),
-        .force_nan  (s2_nan),
-        .force_inf  (s2_inf),
-        .force_zero (s2_zero),
-        .y          (packed_y),
-        .overflow   (ovf),
-        .underflow  (unf)
-    );
-
-    always_ff @(posedge clk) begin
-        y     <= packed_y;
-        flags <= {s2_inv, unf, ovf};
-    end
-
-    fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
-    );
+    fp_result_stage #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW), .LATENCY(LATENCY)) u_result (
+        .clk(clk), .rst(rst), .in_valid(in_valid), .special(s2_special),
+        .exp_in(exp_n), .sig_in(sig_n), .round_bit(rnd_n), .sticky(sticky_n),
+        .out_valid(out_valid), .y(y), .flags(flags));
 endmodule
 
 `default_nettype wire

@@ -63,24 +63,29 @@ module fp_sqrt #(
         m_scaled = odd ? {a_sig, 1'b0} : {1'b0, a_sig};
     end
 
-    // Per-stage registers; index 0 is stage 1, index k holds the state after k root bits.
-    logic                 st_nan  [NR+1];
-    logic                 st_inv  [NR+1];
-    logic                 st_inf  [NR+1];
-    logic                 st_zero [NR+1];
-    logic                 st_sign [NR+1];
-    logic [EXP_BITS-1:0]  st_exp  [NR+1];
-    logic [P:0]           st_rad  [NR+1];   // radicand bits still to bring down (MSB first)
-    logic [RW-1:0]        st_rem  [NR+1];   // partial remainder
-    logic [NR-1:0]        st_root [NR+1];   // root bits so far (LSB = newest)
+    // The exception side band (fp_result_stage's `special`) and the halved exponent travel to the
+    // last stage.
+    logic                invalid;
+    logic [4:0]          special;
+    logic [4:0]          last_special;
+    logic [EXP_BITS-1:0] last_exp;
+
+    always_comb begin
+        invalid = a_sign && !a_zero && !a_nan;
+        special = {a_nan, invalid, a_inf, a_zero, a_sign};
+    end
+
+    fp_data_pipe #(.WIDTH(5 + EXP_BITS), .DEPTH(NR + 1)) u_side (
+        .clk(clk), .d({special, exp_half}), .q({last_special, last_exp})
+    );
+
+    // Per-stage registers of the recurrence; index 0 is stage 1, index k holds the state after k
+    // root bits.
+    logic [P:0]    st_rad  [NR+1];   // radicand bits still to bring down (MSB first)
+    logic [RW-1:0] st_rem  [NR+1];   // partial remainder
+    logic [NR-1:0] st_root [NR+1];   // root bits so far (LSB = newest)
 
     always_ff @(posedge clk) begin
-        st_nan[0]  <= a_nan || (a_sign && !a_zero);
-        st_inv[0]  <= a_sign && !a_zero && !a_nan;
-        st_inf[0]  <= a_inf;
-        st_zero[0] <= a_zero;
-        st_sign[0] <= a_sign;
-        st_exp[0]  <= exp_half;
         st_rad[0]  <= m_scaled;
         st_rem[0]  <= '0;
         st_root[0] <= '0;
@@ -103,12 +108,6 @@ module fp_sqrt #(
 
     always_ff @(posedge clk) begin
         for (int k = 0; k < NR; k++) begin
-            st_nan[k+1]  <= st_nan[k];
-            st_inv[k+1]  <= st_inv[k];
-            st_inf[k+1]  <= st_inf[k];
-            st_zero[k+1] <= st_zero[k];
-            st_sign[k+1] <= st_sign[k];
-            st_exp[k+1]  <= st_exp[k];
             st_rad[k+1]  <= {st_rad[k][P-2:0], 2'b00};
             st_rem[k+1]  <= rbit[k] ? (cur[k] - trial[k]) : cur[k];
             st_root[k+1] <= {st_root[k][NR-2:0], rbit[k]};
@@ -116,31 +115,10 @@ module fp_sqrt #(
     end
 
     // ---------------- last stage: round, pack ----------------
-    logic [W-1:0] packed_y;
-    logic         ovf, unf;
-
-    fp_round_pack #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW)) u_round (
-        .sign       (st_sign[NR]),
-        .exp_in     ($signed({2'b00, st_exp[NR]})),
-        .sig_in     (st_root[NR][NR-1:1]),
-        .round_bit  (st_root[NR][0]),
-        .sticky     (st_rem[NR] != '0),
-        .force_nan  (st_nan[NR]),
-        .force_inf  (st_inf[NR]),
-        .force_zero (st_zero[NR]),
-        .y          (packed_y),
-        .overflow   (ovf),
-        .underflow  (unf)
-    );
-
-    always_ff @(posedge clk) begin
-        y     <= packed_y;
-        flags <= {st_inv[NR], unf, ovf};
-    end
-
-    fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
-    );
+    fp_result_stage #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW), .LATENCY(LATENCY)) u_result (
+        .clk(clk), .rst(rst), .in_valid(in_valid), .special(last_special),
+        .exp_in($signed({2'b00, last_exp})), .sig_in(st_root[NR][NR-1:1]), .round_bit(st_root[NR][0]),
+        .sticky(st_rem[NR] != '0), .out_valid(out_valid), .y(y), .flags(flags));
 endmodule
 
 `default_nettype wire

@@ -11,7 +11,9 @@ copies are current):
   sequencer and for the cycle model (``rtl/gen/pipe_latency.py``);
 * ``pgs_regs_pkg.sv``: the register map of ``models/register_map.py`` (``rtl/gen/register_map_emit.py``),
 
-and ``hls_export/generated/pgs_regs.h``, the same register map for the HLS kernel.
+and ``hls_export/generated/pgs_regs.h``, the same register map for the HLS kernel, and
+``hls_export/generated/pgs_stream_layout.h``, the record sizes of ``models/stream_format.py``
+(``rtl/gen/stream_layout_emit.py``).
 
 The co-simulation test's injected bug is a variant of the friction pipe that only :func:`generate_friction_sign_bug`
 writes, into a build directory; :func:`friction_sign_bug_sources` is the kernel's source list with it swapped in.
@@ -28,6 +30,7 @@ from .kernel_graphs import GRAPHS, MAN_BITS_OF, friction_graph
 from .pipe_latency import LATENCY_PKG, emit_latency_json, emit_latency_pkg
 from .register_map_emit import REGS_HEADER, REGS_PKG, emit_regs_header, emit_regs_pkg
 from .repo_paths import REPO_ROOT
+from .stream_layout_emit import STREAM_LAYOUT_HEADER, emit_stream_layout_header
 from .sv_emit import emit_sv
 
 GENERATED_DIR = RTL_DIR / "generated"
@@ -44,6 +47,7 @@ def render() -> dict[Path, str]:
     files[PIPE_LATENCY_FILE] = emit_latency_json(GRAPHS)
     files[GENERATED_DIR / f"{REGS_PKG}.sv"] = emit_regs_pkg()
     files[HLS_GENERATED_DIR / REGS_HEADER] = emit_regs_header()
+    files[HLS_GENERATED_DIR / STREAM_LAYOUT_HEADER] = emit_stream_layout_header()
     return files
 
 

@@ -53,7 +53,7 @@ def _wrap(text: str, prefix: str = "// ", width: int = 100) -> list[str]:
 
 
 def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
-    """The SystemVerilog module of a graph (see the module docstring for the structure)."""
+    """The SystemVerilog module of a graph (its structure: this module's and rtl/gen/schedule.py's docstrings)."""
     sch = graph.schedule(lat)
     lat = sch.lat
     nodes = sch.nodes

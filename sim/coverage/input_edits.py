@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from models.register_map import AP_START, AUTO_RESTART, OFFSET
+from models.stream_format import BODY_ANGULAR_VELOCITY, BODY_INV_INERTIA, BODY_INV_MASS, BODY_POSITION
 from sim.kernel_build import KernelBuild
 
 UNMAPPED_ADDRESS = 0xF4  # no register there (rtl/README.md: reads 0, ignores writes, SLVERR, error 9)
@@ -103,17 +104,18 @@ def edit_nonfinite(f: HarnessFiles, kb: KernelBuild) -> None:
     and a -inf angular velocity (body 3): frozen bodies."""
     f.set_word("cons", 0, 2, 64, kb.fmt.width, nonfinite_bits(kb))
     f.set_word("cons", f.passes - 1, 3, 64, kb.fmt.width, nonfinite_bits(kb))
-    f.set_word("body", 0, 1, 0, kb.fmt.width, nonfinite_bits(kb))
-    f.set_word("body", 0, 3, 10 * kb.fmt.width, kb.fmt.width, nonfinite_bits(kb, sign=1, payload=0))
+    w = kb.fmt.width
+    f.set_word("body", 0, 1, BODY_POSITION * w, w, nonfinite_bits(kb))  # position x
+    f.set_word("body", 0, 3, BODY_ANGULAR_VELOCITY * w, w, nonfinite_bits(kb, sign=1, payload=0))  # angular x
 
 
 def edit_mass(f: HarnessFiles, kb: KernelBuild) -> None:
     """[6] a negative inverse mass (body 2) and inertia (body 4): frozen; [7] inverse mass 0 (body 1): the
     manifold between the ground and body 1 joins two static bodies."""
     w = kb.fmt.width
-    f.set_word("body", 0, 2, 13 * w, w, int(kb.fmt.encode(-1.0)))
-    f.set_word("body", 0, 4, 15 * w, w, int(kb.fmt.encode(-2.0)))
-    f.set_word("body", 0, 1, 13 * w, w, 0)
+    f.set_word("body", 0, 2, BODY_INV_MASS * w, w, int(kb.fmt.encode(-1.0)))
+    f.set_word("body", 0, 4, (BODY_INV_INERTIA + 1) * w, w, int(kb.fmt.encode(-2.0)))  # inverse inertia y
+    f.set_word("body", 0, 1, BODY_INV_MASS * w, w, 0)
 
 
 def edit_tlast_early(f: HarnessFiles, kb: KernelBuild) -> None:
@@ -217,7 +219,9 @@ def edit_wide_index(f: HarnessFiles, kb: KernelBuild) -> None:
 def edit_spin(f: HarnessFiles, kb: KernelBuild) -> None:
     """The top cube of the stack spinning at 2000 rad/s about y: in fp16 its squared angular velocity overflows
     in the integration (floating-point event counters)."""
-    f.set_word("body", 0, f.reg("num_bodies") - 1, 11 * kb.fmt.width, kb.fmt.width, int(kb.fmt.encode(2000.0)))
+    w = kb.fmt.width
+    f.set_word("body", 0, f.reg("num_bodies") - 1, (BODY_ANGULAR_VELOCITY + 1) * w, w,  # angular velocity y
+               int(kb.fmt.encode(2000.0)))
 
 
 @dataclass(frozen=True)

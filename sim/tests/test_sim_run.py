@@ -24,7 +24,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 def test_sim_run_reports(tmp_path: Path) -> None:
     """`make sim` on the stack: the RTL kernel runs (the build is shared with test_pgs_kernel), 0 differing bits,
-    and the report carries every section the README describes."""
+    and the report carries every section docs/architecture.md ("The report") describes."""
     out = tmp_path / "sim"
     cmd = [sys.executable, "-m", "sim.run", "--scene", "stack", "--iters", "2", "--format", "fp32",
            "--out", str(out), "--converged-budget", "20"]
