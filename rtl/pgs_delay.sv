@@ -53,8 +53,9 @@ module pgs_delay #(
         localparam int AW = $clog2(DEPTH);
 
         logic [WIDTH-1:0] mem [0:DEPTH-1];   // mem[(wr_ptr - i) mod DEPTH]: d delayed by i cycles, 1 <= i <= DEPTH
-        logic [AW-1:0]    wr_ptr;            // free-running, not reset: any start value wraps into 0..DEPTH-1
+        logic [AW-1:0]    wr_ptr;            // free-running; no reset port: a power-up value (FPGA register init)
 
+        initial wr_ptr = '0;   // 4-state simulators would otherwise keep an X pointer for ever
         always_ff @(posedge clk) begin
             mem[wr_ptr] <= d;
             wr_ptr      <= wr_ptr >= AW'(DEPTH - 1) ? '0 : wr_ptr + AW'(1);
