@@ -29,7 +29,7 @@ SEEDS ?= 4
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test sim sweep analyze band stability coverage regress csim hls resources lint rtl clean distclean
+.PHONY: help venv sysdeps test sim sweep analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
 
 help:
 	@echo "make test      run the whole test suite (what CI runs)"
@@ -48,6 +48,8 @@ help:
 	@echo "make hls       Vitis HLS synthesis + Verilog export into hls_export/verilog/ (needs vitis_hls)"
 	@echo "make resources LUT/FF/DSP/BRAM of the RTL kernel per format (Yosys estimate; FORMATS=)"
 	@echo "make lint      verilator --lint-only -Wall on every RTL top"
+	@echo "make bench     simulated cycles per second of the kernel harness, compile profiles side by side"
+	@echo "               (SCENE= FORMAT= DMA= PROFILES=quick,o2 RUNS=3; a new profile builds first, minutes)"
 	@echo "make rtl       regenerate the kernel datapaths (rtl/pgs_*_pipe.sv) from rtl/gen"
 	@echo "make clean     remove build outputs (keeps .venv and cached frames)"
 
@@ -113,6 +115,12 @@ resources: $(STAMP)
 
 lint: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.lint
+
+PROFILES ?= quick,o2
+RUNS ?= 3
+bench: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.bench_sim_speed --scene $(SCENE) --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) \
+		--profiles $(PROFILES) --runs $(RUNS)
 
 rtl: $(STAMP)
 	$(TOOLENV) $(VPY) -m rtl.gen

@@ -1,17 +1,26 @@
-// pgs_delay: a tapped delay line (shift register) for the generated datapaths (rtl/gen).
+// pgs_delay: a tapped delay line for the generated datapaths (rtl/gen).
 //
-// d is delayed through DEPTH register stages (DEPTH >= 0; 0 is a plain wire). N_TAPS outputs read
-// the line at any stage: tap k (q[k*WIDTH +: WIDTH]) is d delayed by TAPS[k*32 +: 32] cycles,
+// d is delayed by up to DEPTH clock cycles (DEPTH >= 0; 0 is a plain wire). N_TAPS outputs read
+// the line at any delay: tap k (q[k*WIDTH +: WIDTH]) is d delayed by TAPS[k*32 +: 32] cycles,
 // 0 <= TAPS[k] <= DEPTH. One line serves every consumer of a value, so a value used at several
-// pipeline stages costs max(delay) registers, not the sum. Data registers are not reset (no valid
-// is carried here). Exceptions: none. Latency: per tap, TAPS[k] cycles.
+// pipeline stages costs max(delay) storage, not the sum. Data storage is not reset (no valid is
+// carried here). Exceptions: none. Latency: per tap, TAPS[k] cycles.
+//
+// Storage: a line with DEPTH < RAM_MIN_DEPTH is a shift register. A longer line is a circular
+// buffer: a RAM of DEPTH words written at a free-running pointer every cycle, and per tap of delay
+// D >= 2 a registered read of the word written D - 1 cycles before (the read address never equals
+// the write address, so any simple dual-port RAM holds it; a tap of delay 1 is a register, of
+// delay 0 a wire). Per cycle this writes one word and one register per tap instead of moving every
+// stage, and it is how a board build keeps long delays in block or distributed RAM. Both forms
+// give the same q in every cycle after the first DEPTH cycles (before that the words are unset).
 `default_nettype none
 
 module pgs_delay #(
-    parameter int                   WIDTH  = 1,
-    parameter int                   DEPTH  = 1,
-    parameter int                   N_TAPS = 1,
-    parameter logic [N_TAPS*32-1:0] TAPS   = (N_TAPS * 32)'(DEPTH)
+    parameter int                   WIDTH         = 1,
+    parameter int                   DEPTH         = 1,
+    parameter int                   N_TAPS        = 1,
+    parameter logic [N_TAPS*32-1:0] TAPS          = (N_TAPS * 32)'(DEPTH),
+    parameter int                   RAM_MIN_DEPTH = 4   // lines at least this deep are circular buffers
 ) (
     // clk has no load when DEPTH == 0 (the line is a wire).
     /* verilator lint_off UNUSEDSIGNAL */
@@ -20,20 +29,56 @@ module pgs_delay #(
     input  wire logic [WIDTH-1:0]        d,
     output logic      [N_TAPS*WIDTH-1:0] q
 );
-    logic [WIDTH-1:0] stage [0:DEPTH];   // stage[i]: d delayed by i cycles
-
-    assign stage[0] = d;
-
-    for (genvar i = 1; i <= DEPTH; i++) begin : g_stage
-        always_ff @(posedge clk) stage[i] <= stage[i-1];
-    end
-
-    for (genvar k = 0; k < N_TAPS; k++) begin : g_tap
+    for (genvar k = 0; k < N_TAPS; k++) begin : g_check
         localparam int D = int'(TAPS[k*32 +: 32]);
         if (D < 0 || D > DEPTH) begin : g_bad_tap
             $error("pgs_delay: tap %0d = %0d outside 0..DEPTH (%0d)", k, D, DEPTH);
         end
-        assign q[k*WIDTH +: WIDTH] = stage[D];
+    end
+    if (RAM_MIN_DEPTH < 2) begin : g_bad_min_depth
+        $error("pgs_delay: RAM_MIN_DEPTH = %0d, must be >= 2", RAM_MIN_DEPTH);
+    end
+
+    if (DEPTH < RAM_MIN_DEPTH) begin : g_shift
+        logic [WIDTH-1:0] stage [0:DEPTH];   // stage[i]: d delayed by i cycles
+
+        assign stage[0] = d;
+        for (genvar i = 1; i <= DEPTH; i++) begin : g_stage
+            always_ff @(posedge clk) stage[i] <= stage[i-1];
+        end
+        for (genvar k = 0; k < N_TAPS; k++) begin : g_tap
+            assign q[k*WIDTH +: WIDTH] = stage[int'(TAPS[k*32 +: 32])];
+        end
+    end else begin : g_ram
+        localparam int AW = $clog2(DEPTH);
+
+        logic [WIDTH-1:0] mem [0:DEPTH-1];   // mem[(wr_ptr - i) mod DEPTH]: d delayed by i cycles, 1 <= i <= DEPTH
+        logic [AW-1:0]    wr_ptr;            // free-running; no reset port: a power-up value (FPGA register init)
+
+        initial wr_ptr = '0;   // 4-state simulators would otherwise keep an X pointer for ever
+        always_ff @(posedge clk) begin
+            mem[wr_ptr] <= d;
+            wr_ptr      <= wr_ptr >= AW'(DEPTH - 1) ? '0 : wr_ptr + AW'(1);
+        end
+
+        for (genvar k = 0; k < N_TAPS; k++) begin : g_tap
+            localparam int D = int'(TAPS[k*32 +: 32]);
+            if (D == 0) begin : g_wire
+                assign q[k*WIDTH +: WIDTH] = d;
+            end else if (D == 1) begin : g_reg
+                logic [WIDTH-1:0] r;
+                always_ff @(posedge clk) r <= d;
+                assign q[k*WIDTH +: WIDTH] = r;
+            end else begin : g_read
+                // the word written D - 1 cycles ago, read at this edge: D cycles old after it
+                localparam int BACK = D - 1;   // 1 .. DEPTH - 1
+                logic [AW-1:0]    rd_ptr;
+                logic [WIDTH-1:0] r;
+                assign rd_ptr = wr_ptr >= AW'(BACK) ? wr_ptr - AW'(BACK) : wr_ptr + AW'(DEPTH - BACK);
+                always_ff @(posedge clk) r <= mem[rd_ptr];
+                assign q[k*WIDTH +: WIDTH] = r;
+            end
+        end
     end
 endmodule
 

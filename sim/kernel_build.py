@@ -35,10 +35,15 @@ PUBLIC_VLT = HARNESS_DIR / "pgs_kernel_public.vlt"
 VARIANT_ROOT = REPO_ROOT / "build" / "rtl_variants"
 
 # C++ optimization profiles (sim.verilator_build): "quick" -O1 for kernel runs; "o0" for short runs (-O0 without
-# -fno-inline, which would split the kernel into ~330 C++ files and take longer to build than -O1)
+# -fno-inline, which would split the kernel into ~330 C++ files and take longer to build than -O1); "o2" (-O2 for
+# the model's hot code) and "os" (-Os, Verilator's own default: smaller code for a model limited by the
+# instruction cache) to be measured against "quick" with `make bench` (sim/bench_sim_speed.py) on an idle machine
+# (their two unity-built translation units compile several times longer than at -O1)
 COMPILE_PROFILES: dict[str, tuple[str, ...]] = {
     "quick": tuple(QUICK_COMPILE_ARGS),
     "o0": tuple(a for a in DEBUG_COMPILE_ARGS if a != "-fno-inline"),
+    "o2": ("-MAKEFLAGS", "OPT_FAST=-O2 OPT_SLOW=-O0 OPT_GLOBAL=-O1"),
+    "os": ("-MAKEFLAGS", "OPT_FAST=-Os OPT_SLOW=-O0 OPT_GLOBAL=-O1"),
 }
 WAVE_ARGS = ("--trace-fst", "--trace-structs")
 

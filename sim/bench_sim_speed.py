@@ -1,0 +1,157 @@
+"""``make bench``: simulated kernel cycles per second of the compiled harness, compile profiles side by side.
+
+One scene's step (the same inputs as ``make sim``: hazard schedule, the DMA preset's bandwidth model) runs on the
+kernel harness built with each compile profile of ``sim.kernel_build.COMPILE_PROFILES`` (the build description's
+``compile_profile``, so each builds in a directory of its own; the first build of a profile takes minutes and its
+time is printed). The runs alternate between the profiles, ``--runs`` times each, so a load change on a shared
+machine hits all of them alike; each run's trace and body-out stream must be identical, byte for byte, to the
+first profile's (the profiles change how the C++ is compiled, never what the kernel computes). Printed per
+profile: build seconds, simulated cycles, the median of cycles per wall second and per CPU second of the harness
+process (the CPU figure holds on a loaded machine), and the ratio of the CPU figure to the first profile's.
+
+    python -m sim.bench_sim_speed --scene pile --profiles quick,o2 --runs 3
+"""
+
+from __future__ import annotations
+
+import argparse
+import filecmp
+import resource
+import shutil
+import statistics
+import sys
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Sequence
+
+from models import scenes
+from models.contact_solver import SolverParams
+from models.dma_model import DmaPreset, get_preset
+from models.kernel_job import KernelJob
+from models.number_format import NumberFormat, parse_format
+from sim.harness_run import harness_cycle_limit, run_harness, write_inputs
+from sim.kernel_build import COMPILE_PROFILES, KernelBuild, build_kernel, default_window
+from sim.verilator_build import REPO_ROOT
+
+OUTPUTS = ("trace.bin", "body_out.bin", "body_out_last.bin")
+
+
+@dataclass
+class ProfileRuns:
+    """One compile profile's build and runs."""
+
+    profile: str
+    exe: Path
+    build_s: float
+    cycles: int = 0
+    wall_s: list[float] = field(default_factory=list)
+    cpu_s: list[float] = field(default_factory=list)
+
+    def cycles_per_s(self, seconds: list[float]) -> float:
+        return self.cycles / max(statistics.median(seconds), 1e-9)
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scene", default="pile")
+    ap.add_argument("--iters", type=int, default=4)
+    ap.add_argument("--format", default="fp32")
+    ap.add_argument("--dma", default="zcu102")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--profiles", default="quick,o2",
+                    help=f"compile profiles, the first is the reference (of {', '.join(COMPILE_PROFILES)})")
+    ap.add_argument("--runs", type=int, default=3, help="runs of each profile")
+    ap.add_argument("--out", default="build/bench", help="parent directory of the run directories")
+    return ap.parse_args(argv)
+
+
+def check_args(args: argparse.Namespace) -> list[str]:
+    """The profile names, after checking every option."""
+    profiles = [p.strip() for p in args.profiles.split(",") if p.strip()]
+    unknown = [p for p in profiles if p not in COMPILE_PROFILES]
+    if unknown or not profiles:
+        raise ValueError(f"--profiles: unknown {unknown or 'none given'}; known: {', '.join(COMPILE_PROFILES)}")
+    if len(set(profiles)) != len(profiles):
+        raise ValueError(f"--profiles names a profile twice: {args.profiles}")
+    if not 1 <= args.runs <= 100:
+        raise ValueError(f"--runs must be in 1..100, got {args.runs}")
+    if args.iters < 1:
+        raise ValueError(f"--iters must be >= 1, got {args.iters}")
+    if not isinstance(parse_format(args.format), NumberFormat):
+        raise ValueError(f"--format {args.format!r} is not a kernel format")
+    get_preset(args.dma)
+    return profiles
+
+
+def scene_job(args: argparse.Namespace, preset: DmaPreset) -> KernelJob:
+    """The step ``make sim`` runs for these options (streaming kernel, hazard schedule)."""
+    fmt = parse_format(args.format)
+    assert isinstance(fmt, NumberFormat)
+    frame = scenes.load_or_capture(args.scene, seed=args.seed)
+    return KernelJob.from_frame(frame, fmt, SolverParams(iterations=args.iters), "hazard",
+                                default_window(fmt, preset.stream_bits))
+
+
+def child_cpu_s() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def run_once(pr: ProfileRuns, run_dir: Path, reference: Path | None, args: argparse.Namespace, preset: DmaPreset,
+             max_cycles: int) -> None:
+    """One harness run of ``pr`` in ``run_dir``; its outputs must equal those in ``reference`` (when given)."""
+    cpu0, t0 = child_cpu_s(), time.perf_counter()
+    regs = run_harness(pr.exe, run_dir, args.seed, preset, max_cycles)
+    pr.wall_s.append(time.perf_counter() - t0)
+    pr.cpu_s.append(child_cpu_s() - cpu0)
+    pr.cycles = int(regs["harness_cycles"])
+    if reference is not None:
+        for name in OUTPUTS:
+            if not filecmp.cmp(reference / name, run_dir / name, shallow=False):
+                raise RuntimeError(f"profile {pr.profile}: {name} differs from {reference / name}")
+
+
+def report(results: list[ProfileRuns], label: str) -> str:
+    ref = results[0]
+    lines = [f"{label}: {ref.cycles:,} simulated cycles per run, medians of {len(ref.cpu_s)} runs each",
+             f"{'profile':<8} {'build s':>8} {'kcyc/s wall':>12} {'kcyc/s CPU':>11} {'CPU ratio':>10}  flags"]
+    for pr in results:
+        ratio = pr.cycles_per_s(pr.cpu_s) / ref.cycles_per_s(ref.cpu_s)
+        flags = " ".join(a for a in COMPILE_PROFILES[pr.profile] if a != "-MAKEFLAGS")
+        lines.append(f"{pr.profile:<8} {pr.build_s:8.1f} {pr.cycles_per_s(pr.wall_s) / 1e3:12.1f} "
+                     f"{pr.cycles_per_s(pr.cpu_s) / 1e3:11.1f} {ratio:9.2f}x  {flags}")
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = parse_args(argv)
+    try:
+        profiles = check_args(args)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    preset = get_preset(args.dma)
+    job = scene_job(args, preset)
+    kb = KernelBuild.for_job(job, preset)
+    label = f"{args.scene}-{job.fmt.name}-it{args.iters}-s{args.seed}-{args.dma}"
+    base = REPO_ROOT / args.out / label
+    results = []
+    for profile in profiles:
+        profile_kb = replace(kb, compile_profile=profile)
+        exe, build_s = build_kernel(profile_kb)
+        run_dir = base / profile
+        shutil.rmtree(run_dir, ignore_errors=True)
+        write_inputs(run_dir, job, profile_kb)
+        results.append(ProfileRuns(profile, exe, build_s))
+    max_cycles = harness_cycle_limit(job)
+    for _ in range(args.runs):
+        for pr in results:
+            run_once(pr, base / pr.profile, None if pr is results[0] else base / results[0].profile, args, preset,
+                     max_cycles)
+    print(report(results, label))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
