@@ -24,10 +24,10 @@ from models.exact_reference import Budget, ExactReferenceError
 from models.exact_reference_cache import cached_exact_reference
 from models.integrator import IntegrationParams, integrate
 from models.number_format import FLOAT64
+from models.scenes.frame_cache import FRAME_CACHE_DIR
 from models.solution_error import SolutionError, solution_error
 from sim.run_result import ExactErrors, ExactReferenceFacts, NoExactReference
 
-FRAME_CACHE_DIR = Path("build/frames")  # models.scenes.load_or_capture's default
 
 
 @dataclass(frozen=True)

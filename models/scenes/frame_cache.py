@@ -13,6 +13,8 @@ from models.frame import FRAME_VERSION, Frame, FrameError, load, save
 from models.scenes.specs import DEFAULT_CAPTURE_STEP, make_spec
 from models.scenes.world import DEFAULT_DT, capture_frame
 
+FRAME_CACHE_DIR = Path("build/frames")  # where frames (and their exact references) are cached
+
 
 def cache_key(scene: str, step: int | None, busiest_within: int | None, seed: int, pybullet_iterations: int,
               dt: float, params: dict[str, Any]) -> str:
@@ -26,7 +28,7 @@ def cache_key(scene: str, step: int | None, busiest_within: int | None, seed: in
 
 
 def load_or_capture(scene: str, step: int | None = None, busiest_within: int | None = None, seed: int = 0,
-                    pybullet_iterations: int = 10, dt: float = DEFAULT_DT, cache_dir: str | Path = "build/frames",
+                    pybullet_iterations: int = 10, dt: float = DEFAULT_DT, cache_dir: str | Path = FRAME_CACHE_DIR,
                     progress: bool | None = None, **params: Any) -> Frame:
     """capture_frame with an on-disk cache keyed by a hash of all the inputs (and FRAME_VERSION)."""
     key = cache_key(scene, step, busiest_within, seed, pybullet_iterations, dt, params)
