@@ -95,6 +95,24 @@ def build_name(top: str, parameters: Mapping[str, ParamValue]) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]", "_", f"{top}__{parts}")
 
 
+def drop_stale_dependencies(mdir: Path) -> list[Path]:
+    """Delete the make dependency files (and their objects) in ``mdir`` that name a file which no longer exists.
+
+    A build folder made before a source moved (a harness or an RTL file renamed) still holds ``.d`` files naming
+    the old path, and make then stops with "No rule to make target"; without them the object is rebuilt.
+    Returns the dependency files removed.
+    """
+    removed: list[Path] = []
+    for dep in mdir.glob("*.d"):
+        words = dep.read_text(errors="replace").replace("\\\n", " ").split()
+        prerequisites = [w for w in words if not w.endswith(":") and w.startswith("/")]
+        if any(not Path(w).exists() for w in prerequisites):
+            dep.unlink()
+            dep.with_suffix(".o").unlink(missing_ok=True)
+            removed.append(dep)
+    return removed
+
+
 def build(
     sources: Sequence[Path | str],
     top: str,
@@ -122,6 +140,7 @@ def build(
     mdir = Path(build_dir) if build_dir is not None else BUILD_ROOT / name
     mdir = mdir if mdir.is_absolute() else REPO_ROOT / mdir
     mdir.mkdir(parents=True, exist_ok=True)
+    drop_stale_dependencies(mdir)
     verilator = ensure_verilator_env()
 
     cmd: list[str] = [

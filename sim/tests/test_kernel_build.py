@@ -90,3 +90,16 @@ def test_register_writes_use_the_register_map() -> None:
     windowed = dataclasses.replace(job, record_window=plan)
     wwrites = dict(register_writes(windowed))
     assert wwrites[off["lag"]] == 7 and wwrites[off["fetch_passes"]] == 2 and wwrites[off["num_manifolds"]] == 4
+
+
+def test_stale_dependency_files_are_dropped(tmp_path) -> None:
+    """A build folder whose .d files name a moved source loses those .d files and their objects, nothing else."""
+    from sim.verilator_build import drop_stale_dependencies
+    source = tmp_path / "main.cpp"
+    source.write_text("int main() {}\n")
+    (tmp_path / "kept.d").write_text(f"kept.o: {source} \\\n {source}\n")
+    (tmp_path / "kept.o").write_bytes(b"\0")
+    (tmp_path / "moved.d").write_text(f"moved.o: {source} \\\n {tmp_path / 'old' / 'main.cpp'}\n")
+    (tmp_path / "moved.o").write_bytes(b"\0")
+    assert drop_stale_dependencies(tmp_path) == [tmp_path / "moved.d"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["kept.d", "kept.o", "main.cpp"]
