@@ -24,12 +24,20 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
+import hashlib
+import json
 import sys
+import tempfile
+from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, Sequence
 
-from models import scenes
-from models.constraints import body_table, setup_constraints
+import numpy as np
+
+from models import cycle_model, scenes
+from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.contact_solver import SolverParams, solve_converged
 from models.dma_model import PRESETS, get_preset
 from models.frame import FrameError
@@ -39,15 +47,18 @@ from models.schedule import make_schedule
 from sim import baselines
 from sim.analyze import auto_format
 from models.kernel_job import KernelJob
-from sim.harness_run import KernelRunError
-from sim.kernel_build import KernelBuild, default_window
+from sim.artefacts import FrameStore, KernelStore, frame_bytes, kernel_store_root, source_digest
+from sim.executor import PointsFailed, parse_executor, run_points
+from sim.harness_run import KernelRunError, write_inputs
+from sim.kernel_build import KernelBuild, default_window, use_kernel_store
 from sim.kernel_step import golden_step, run_kernel_step
+from sim.point_results import PointLog
 from sim.trace_compare import kernel_bodies
 from sim.report import StagedDirectory
 from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label, load_frame, \
     velocity_error
 
-COLUMNS = ["format", "iterations", "manifolds", "manifold_passes", "cycles", "cycles_per_manifold_pass",
+COLUMNS = ["format", "iterations", "mode", "manifolds", "manifold_passes", "cycles", "cycles_per_manifold_pass",
            "ms_at_clock", "ns_per_manifold_pass", "stalls", "bubbles", "bytes_streamed", "differing_bits",
            "max_dv_vs_converged", "max_dw_vs_converged", "max_dv_vs_float64_same_iters"]
 
@@ -63,6 +74,12 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--dma", default="zcu102", help=f"DMA preset ({', '.join(PRESETS)})")
     ap.add_argument("--seed", type=int, default=1, help="scene seed")
     ap.add_argument("--converged-budget", type=float, default=60.0, help="seconds for each converged solve")
+    ap.add_argument("--mode", choices=("rtl", "model"), default="rtl",
+                    help="rtl: every point on the RTL kernel in Verilator; model: the cycle model's cycles and the "
+                         "golden model's numbers (no Verilator)")
+    ap.add_argument("--executor", default="local:1",
+                    help="where the points run: local:N (N processes), dask:local:N (a Dask LocalCluster), "
+                         "dask:tcp://host:port (a Dask scheduler); sim/executor.py")
     add_kernel_args(ap)
     ap.add_argument("--out", default="build/sweep", help="parent directory of the sweep directory")
     return ap.parse_args(argv)
@@ -78,9 +95,101 @@ def _int_list(text: str, name: str) -> list[int]:
     return values
 
 
-def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]], str]:
-    """The sweep's rows, every run's files written under ``out_dir``; returns them and the sweep's name."""
-    preset = get_preset(args.dma)
+@dataclass(frozen=True)
+class SweepPoint:
+    """One point of the sweep (a format, an iteration count, rtl or the cycle model), run by ``sim.executor``:
+    the frame travels by its hash (``sim.artefacts.FrameStore``), the row comes back."""
+
+    frame: str  # the frame file's sha256
+    source: tuple[str, ...]  # the options that name the frame: --scene/--seed or --frame
+    fmt: str
+    how: str  # "auto": chosen by the analyzer
+    iterations: int
+    mode: str  # "rtl" or "model"
+    dma: str
+    seed: int
+    converged_budget: float
+    record_window: int
+    fetch_passes: int
+    lanes: int
+    body_bits: int
+    sources: str  # sim.artefacts.source_digest() when planned
+
+    @property
+    def key(self) -> str:
+        digest = hashlib.sha256(json.dumps(dataclasses.asdict(self), sort_keys=True).encode()).hexdigest()[:12]
+        return f"{self.fmt}-it{self.iterations}-{self.mode}-{digest}"
+
+    @property
+    def command(self) -> str:
+        return (f".venv/bin/python -m sim.sweep {' '.join(self.source)} --formats {self.fmt} --iters {self.iterations}"
+                f" --mode {self.mode} --dma {self.dma} --converged-budget {self.converged_budget:g}"
+                f" --record-window {self.record_window} --fetch-passes {self.fetch_passes} --lanes {self.lanes}"
+                f" --body-bits {self.body_bits}")
+
+    def run(self) -> dict[str, Any]:
+        use_kernel_store(KernelStore(kernel_store_root()))
+        with tempfile.TemporaryDirectory(prefix="pgs-sweep-point-") as tmp:
+            return sweep_row(self, Path(tmp))
+
+
+@lru_cache(maxsize=4)
+def _frame_setup(digest: str) -> tuple[BodyTable, ConstraintSet, IntegrationParams]:
+    frame = FrameStore().get(digest)
+    bodies = body_table(frame)
+    return bodies, setup_constraints(frame, bodies), IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
+
+
+@lru_cache(maxsize=8)
+def _converged(digest: str, fmt_name: str, dma: str, budget: float) -> tuple[np.ndarray, BodyTable]:
+    """The schedule of ``fmt`` and the converged float64 step (once per worker process and format)."""
+    bodies, cons, ip = _frame_setup(digest)
+    schedule = make_schedule("hazard", cons, bodies.dynamic, default_window(hardware_format(fmt_name),
+                                                                              get_preset(dma).stream_bits))
+    conv = solve_converged(bodies, cons, schedule, FLOAT64, time_budget_s=budget)
+    return schedule, integrate(conv.result.bodies, FLOAT64, ip)
+
+
+def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
+    """The sweep's row of ``point``, the kernel run's files written into ``run_dir`` (and left there)."""
+    preset = get_preset(point.dma)
+    fmt = hardware_format(point.fmt)
+    bodies, cons, ip = _frame_setup(point.frame)
+    schedule, conv_final = _converged(point.frame, point.fmt, point.dma, point.converged_budget)
+    dyn = bodies.dynamic
+    params = SolverParams(iterations=point.iterations)
+    job = kernel_job(KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip), point)
+    kb = KernelBuild.for_job(job, preset, body_bits=point.body_bits)
+    if point.mode == "model":  # the cycle model's cycles; the golden model's numbers (the kernel's, bit for bit)
+        pred = cycle_model.predict_job(job, preset)
+        cycles, stalls, bubbles, differing = pred.cycles, pred.stalls, pred.bubbles, ""
+        streamed = sum(write_inputs(run_dir, job, kb).values())
+        ours = golden_step(job).final
+    else:
+        res = run_kernel_step(job, preset, run_dir, point.seed, body_bits=point.body_bits)
+        cycles, stalls, bubbles = res.cycles, int(res.registers["stalls"]), int(res.registers["bubbles"])
+        streamed, differing = sum(res.stream_bytes.values()), res.comparison.differing_bits
+        if not res.bit_exact:
+            print(f"  NOT bit-exact: {res.comparison.first_mismatch}", flush=True)
+        ours = kernel_bodies(run_dir, job, kb)
+    ref_final = golden_step(KernelJob(FLOAT64, bodies, cons, schedule, params, ip)).final
+    e_conv = velocity_error(ours, conv_final.linear_velocity, conv_final.angular_velocity, dyn)
+    e_same = velocity_error(ours, ref_final.linear_velocity, ref_final.angular_velocity, dyn)
+    mp = job.manifold_passes
+    kernel = f" window x{point.lanes}" if point.record_window else ""
+    return {"format": (f"{fmt.name} ({point.how})" if point.how else fmt.name) + kernel,
+            "iterations": point.iterations, "mode": point.mode, "manifolds": job.manifolds, "manifold_passes": mp,
+            "cycles": cycles, "cycles_per_manifold_pass": cycles / mp, "ms_at_clock": cycles / preset.clock_hz * 1e3,
+            "ns_per_manifold_pass": cycles / mp / preset.clock_hz * 1e9, "stalls": stalls, "bubbles": bubbles,
+            "bytes_streamed": streamed, "differing_bits": differing,
+            "max_dv_vs_converged": e_conv.max_dv, "max_dw_vs_converged": e_conv.max_dw,
+            "max_dv_vs_float64_same_iters": e_same.max_dv}
+
+
+def plan(args: argparse.Namespace) -> tuple[list[SweepPoint], str, dict[str, bytes]]:
+    """The sweep's points (formats x iteration counts), its name and the frame they need (hash -> bytes, also put
+    into this process's frame store)."""
+    get_preset(args.dma)
     names = [f.strip() for f in args.formats.split(",") if f.strip()]
     if not names:
         raise ValueError(f"FORMATS names no number format: {args.formats!r}")
@@ -91,45 +200,36 @@ def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]]
     if not args.converged_budget >= 0:
         raise ValueError(f"--converged-budget must be >= 0, got {args.converged_budget}")
     check_kernel_args(args)
+    if args.record_window and args.mode == "model":
+        raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
     frame, label = load_frame(args)
     print(frame.summary(), flush=True)
-    bodies = body_table(frame)
-    cons = setup_constraints(frame, bodies)
-    ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
-    dyn = bodies.dynamic
+    data = frame_bytes(frame)
+    digest = FrameStore().put(data)
+    source = ("--frame", str(args.frame)) if args.frame else ("--scene", args.scene, "--seed", str(args.seed))
     formats = [(auto_format(frame, 4), "auto") if n.lower() == "auto" else (hardware_format(n), "") for n in names]
-    rows: list[dict[str, Any]] = []
-    for fmt, how in formats:
-        schedule = make_schedule("hazard", cons, dyn, default_window(fmt, preset.stream_bits))
-        conv = solve_converged(bodies, cons, schedule, FLOAT64, time_budget_s=args.converged_budget)
-        conv_final = integrate(conv.result.bodies, FLOAT64, ip)
-        for iters in iter_list:
-            params = SolverParams(iterations=iters)
-            job = kernel_job(KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip), args)
-            kb = KernelBuild.for_job(job, preset, body_bits=args.body_bits)
-            res = run_kernel_step(job, preset, out_dir / f"{fmt.name}-it{iters}", args.seed, body_bits=args.body_bits)
-            ref_final = golden_step(KernelJob(FLOAT64, bodies, cons, schedule, params, ip)).final
-            ours = kernel_bodies(out_dir / f"{fmt.name}-it{iters}", job, kb)
-            e_conv = velocity_error(ours, conv_final.linear_velocity, conv_final.angular_velocity, dyn)
-            e_same = velocity_error(ours, ref_final.linear_velocity, ref_final.angular_velocity, dyn)
-            mp = job.manifold_passes
-            kernel = f" window x{args.lanes}" if args.record_window else ""
-            row = {"format": (f"{fmt.name} ({how})" if how else fmt.name) + kernel, "iterations": iters,
-                   "manifolds": job.manifolds, "manifold_passes": mp,
-                   "cycles": res.cycles, "cycles_per_manifold_pass": res.cycles / mp,
-                   "ms_at_clock": res.cycles / preset.clock_hz * 1e3,
-                   "ns_per_manifold_pass": res.cycles / mp / preset.clock_hz * 1e9,
-                   "stalls": int(res.registers["stalls"]), "bubbles": int(res.registers["bubbles"]),
-                   "bytes_streamed": sum(res.stream_bytes.values()), "differing_bits": res.comparison.differing_bits,
-                   "max_dv_vs_converged": e_conv.max_dv, "max_dw_vs_converged": e_conv.max_dw,
-                   "max_dv_vs_float64_same_iters": e_same.max_dv}
-            rows.append(row)
-            print(f"{row['format']:>6} {iters:>3} it: {res.cycles:>9,} cycles ({row['cycles_per_manifold_pass']:.2f}/mp), "
-                  f"max |dv| vs converged {row['max_dv_vs_converged']:.3e} m/s, vs float64 same iterations "
-                  f"{row['max_dv_vs_float64_same_iters']:.3e}, differing bits {row['differing_bits']}", flush=True)
-            if not res.bit_exact:
-                print(f"  NOT bit-exact: {res.comparison.first_mismatch}", flush=True)
-    return rows, f"{label}-{args.dma}{kernel_label(args)}"
+    points = [SweepPoint(digest, source, fmt.name, how, iters, args.mode, args.dma, args.seed, args.converged_budget,
+                         args.record_window, args.fetch_passes, args.lanes, args.body_bits, source_digest())
+              for fmt, how in formats for iters in iter_list]
+    mode = "-model" if args.mode == "model" else ""
+    return points, f"{label}-{args.dma}{kernel_label(args)}{mode}", {digest: data}
+
+
+def sweep(args: argparse.Namespace, log_dir: Path) -> tuple[list[dict[str, Any]], str]:
+    """The sweep's rows, its points run on ``args.executor`` and recorded in ``log_dir/<name>.jsonl`` (a rerun
+    resumes from it); returns them and the sweep's name, or raises PointsFailed."""
+    spec = parse_executor(args.executor)
+    points, name, frames = plan(args)
+    log = PointLog(log_dir / f"{name}.jsonl")
+    result = run_points(points, spec, log, frames, label=f"sweep {name}", stream=sys.stdout)
+    result.raise_on_failure()
+    rows = result.ordered(points)
+    for row in rows:
+        print(f"{row['format']:>6} {row['iterations']:>3} it ({row['mode']}): {row['cycles']:>9,} cycles "
+              f"({row['cycles_per_manifold_pass']:.2f}/mp), max |dv| vs converged {row['max_dv_vs_converged']:.3e} "
+              f"m/s, vs float64 same iterations {row['max_dv_vs_float64_same_iters']:.3e}, differing bits "
+              f"{row['differing_bits'] if row['mode'] == 'rtl' else 'n/a (model)'}", flush=True)
+    return rows, name
 
 
 def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
@@ -177,17 +277,27 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
+    log_dir = Path(args.out) / ".points"
     try:
         with StagedDirectory(Path(args.out)) as out:
-            rows, name = sweep(args, out.path)
+            rows, name = sweep(args, log_dir)
             write_csv(rows, out.path / "sweep.csv")
             plot(rows, out.path / "sweep.png", f"{name}: kernel time against error (iterations annotated)")
             out_dir = out.commit(name)
+    except PointsFailed as exc:
+        first = exc.failures[0]
+        more = (f" (and {len(exc.failures) - 1} more point(s); each with the command that reproduces it above)"
+                if len(exc.failures) > 1 else "")
+        print(f"error: {first.error.splitlines()[0] if first.error else first.key}{more}", file=sys.stderr)
+        return 2
     except (ValueError, FrameError, KernelRunError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    PointLog(log_dir / f"{name}.jsonl").remove()
+    if log_dir.is_dir() and not any(log_dir.iterdir()):
+        log_dir.rmdir()
     print(f"\nsweep: {out_dir / 'sweep.csv'} and {out_dir / 'sweep.png'}")
-    return 0 if all(r["differing_bits"] == 0 for r in rows) else 1
+    return 0 if all(r["differing_bits"] == 0 for r in rows if r["mode"] == "rtl") else 1
 
 
 if __name__ == "__main__":

@@ -1,0 +1,160 @@
+"""sim.executor: a sweep on two Dask worker processes (each in its own working directory) gives the serial run's rows,
+row for row; a failing point and a dying worker are reported with their commands while the other points finish;
+a rerun resumes from the results file."""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import os
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterator
+
+import pytest
+
+from models import scenes
+from models.frame import save
+from sim import sweep as sim_sweep
+from sim.artefacts import FRAME_DIR, FrameStore
+from sim.executor import parse_executor, run_points
+from sim.point_results import PointLog
+
+distributed = pytest.importorskip("distributed")
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Any, list[Path]]]:
+    """A LocalCluster of two worker processes, one thread each, each worker in its own working directory; a
+    point that kills its worker fails at once (no retries on other workers)."""
+    import dask
+
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        cl = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                      silence_logs=logging.ERROR)
+        client = distributed.Client(cl)
+        dirs = []
+        for i, worker in enumerate(sorted(client.scheduler_info()["workers"])):
+            d = tmp_path_factory.mktemp(f"worker{i}")
+            client.run(os.chdir, str(d), workers=[worker])
+            dirs.append(d)
+        assert sorted(client.run(os.getcwd).values()) == sorted(map(str, dirs))
+        try:
+            yield cl, dirs
+        finally:
+            client.close()
+            cl.close()
+
+
+def test_sweep_on_two_dask_workers_matches_serial(tmp_path: Path, cluster: tuple[Any, list[Path]]) -> None:
+    cl, worker_dirs = cluster
+    frame = save(scenes.load_or_capture("stack", n=2), tmp_path / "stack2.npz")
+    args = sim_sweep.parse_args(["--frame", str(frame), "--formats", "fp32,fp16", "--iters", "1,2,4", "--mode",
+                                 "model", "--converged-budget", "600"])
+    points, name, frames = sim_sweep.plan(args)
+    points.append(dataclasses.replace(points[1], mode="rtl"))  # fp32, 2 iterations on the RTL kernel
+    serial = [p.run() for p in points]
+    assert [r["mode"] for r in serial] == ["model"] * 6 + ["rtl"] and serial[-1]["differing_bits"] == 0
+    assert serial[-1]["max_dv_vs_converged"] == serial[1]["max_dv_vs_converged"]  # the kernel's numbers: golden's
+
+    log = PointLog(tmp_path / "points.jsonl")
+    result = run_points(points, parse_executor(f"dask:{cl.scheduler_address}"), log, frames, label="sweep")
+    assert not result.failures, [f.describe() for f in result.failures]
+    rows = result.ordered(points)
+    assert rows == serial
+    sim_sweep.write_csv(serial, tmp_path / "serial.csv")
+    sim_sweep.write_csv(rows, tmp_path / "dask.csv")
+    assert (tmp_path / "dask.csv").read_bytes() == (tmp_path / "serial.csv").read_bytes()
+    assert set(log.load()) == {p.key for p in points}
+    (digest,) = frames
+    shipped = [d for d in worker_dirs if (d / FRAME_DIR / f"{digest}.npz").is_file()]
+    assert shipped, "no worker received the frame (each has its own working directory, without the driver's)"
+    assert FrameStore(shipped[0] / FRAME_DIR).get(digest).num_bodies == scenes.load_or_capture("stack", n=2).num_bodies
+
+
+@dataclass(frozen=True)
+class FlakyPoint:
+    """A point that raises while ``fail_marker`` exists and kills its worker process while ``die_marker`` exists;
+    each run appends a line to ``<counts>/<name>``."""
+
+    name: str
+    counts: str
+    fail_marker: str = ""
+    die_marker: str = ""
+
+    @property
+    def key(self) -> str:
+        return self.name
+
+    @property
+    def command(self) -> str:
+        return f"flaky-point {self.name}"
+
+    def run(self) -> dict[str, Any]:
+        with open(Path(self.counts) / self.name, "a") as f:
+            f.write("run\n")
+        if self.fail_marker and Path(self.fail_marker).exists():
+            raise RuntimeError(f"{self.name}: injected failure")
+        if self.die_marker and Path(self.die_marker).exists():
+            os._exit(3)
+        return {"name": self.name, "value": len(self.name) * 1.5}
+
+
+def _runs(counts: Path) -> dict[str, int]:
+    return {p.name: len(p.read_text().splitlines()) for p in counts.iterdir()}
+
+
+@pytest.mark.parametrize("where", ["local:2", "dask"])
+def test_failing_point_and_dying_worker(tmp_path: Path, where: str, cluster: tuple[Any, list[Path]]) -> None:
+    if where == "dask":
+        import cloudpickle
+
+        cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers cannot import a test module
+    spec = parse_executor(where if where != "dask" else f"dask:{cluster[0].scheduler_address}")
+    counts, fail, die = tmp_path / "counts", tmp_path / "fail", tmp_path / "die"
+    counts.mkdir()
+    fail.touch()
+    die.touch()
+    points = [FlakyPoint(f"p{i}", str(counts), str(fail) if i == 1 else "", str(die) if i == 3 else "")
+              for i in range(5)]
+    log = PointLog(tmp_path / "points.jsonl")
+    first = run_points(points, spec, log, label="flaky")
+    by_key = {f.key: f for f in first.failures}
+    assert sorted(by_key) == ["p1", "p3"]
+    assert by_key["p1"].error == "p1: injected failure" and by_key["p1"].command == "flaky-point p1"
+    assert "died" in by_key["p3"].error and by_key["p3"].command == "flaky-point p3"
+    assert "reproduce: flaky-point p3" in by_key["p3"].describe()
+    assert sorted(first.rows) == ["p0", "p2", "p4"] and sorted(log.load()) == ["p0", "p2", "p4"]
+    before = _runs(counts)
+
+    fail.unlink()
+    die.unlink()
+    second = run_points(points, spec, log, label="flaky")
+    assert not second.failures and second.resumed == 3
+    assert second.ordered(points) == [{"name": f"p{i}", "value": 3.0} for i in range(5)]
+    after = _runs(counts)
+    assert {k: after[k] - before[k] for k in after} == {"p0": 0, "p1": 1, "p2": 0, "p3": 1, "p4": 0}
+
+
+@pytest.mark.parametrize("text", ["local:0", "local:x", "dask:", "dask:local:", "dask:http://h:1", "dask:host",
+                                  "ray:4", ""])
+def test_bad_executor_spec(text: str) -> None:
+    with pytest.raises(ValueError, match="EXECUTOR must be local:N, dask:local:N or dask:tcp://host:port"):
+        parse_executor(text)
+
+
+def test_executor_specs() -> None:
+    assert parse_executor("local:3").describe() == "local:3"
+    assert parse_executor("dask:local:2").describe() == "dask:local:2"
+    assert parse_executor("dask:tcp://10.0.0.1:8786").address == "tcp://10.0.0.1:8786"
+    assert parse_executor("dask:sched:8786").address == "tcp://sched:8786"
+
+
+def test_results_file_skips_a_torn_line(tmp_path: Path) -> None:
+    log = PointLog(tmp_path / "p.jsonl")
+    log.append("a", {"x": 1})
+    with open(log.path, "a") as f:
+        f.write('{"key": "b", "row": {"x"')  # an interrupted run
+    log.append("c", {"x": 3})
+    assert log.load() == {"a": {"x": 1}, "c": {"x": 3}}
