@@ -3,6 +3,15 @@
 For every format and iteration count the RTL kernel runs the step in Verilator (``sim.kernel_step``, DMA preset
 bandwidth model, trace and body-out compared bit for bit with the golden model) and the kernel's result is
 compared with a converged float64 solve of the same frame and schedule (``models.contact_solver.solve_converged``).
+``--mode model`` replaces the RTL run by the cycle model's cycles (``models/cycle_model.py``) and the golden model's
+numbers (bit-identical to the kernel's): no Verilator, directory ``build/sweep/<scene>-<dma>-model/``.
+
+Every (format, iteration count) is a point (:class:`SweepPoint`) run on ``--executor`` (``sim/executor.py``:
+``local:1`` by default, ``local:N``, ``dask:local:N``, ``dask:tcp://host:port``; ``docs/cluster.md``): the workers
+get the frame by its hash and return rows, not the kernel runs' files (those stay in a temporary directory). Each
+finished point is appended to ``build/sweep/.points/<sweep>.jsonl``; after a failed point (reported with the command
+that reruns it alone) the same command resumes from the finished ones.
+
 Writes ``sweep.csv`` and ``sweep.png`` into ``build/sweep/<scene>-<dma>/``: time per manifold-pass (ns at the
 preset's clock, so that scenes of any size and the thesis's figures share one axis) against the maximum velocity
 error, with the thesis's ZCU102 fp32/fp16 designs and its GPU and CPU figures marked as vertical lines (their error
@@ -48,7 +57,7 @@ from sim import baselines
 from sim.analyze import auto_format
 from models.kernel_job import KernelJob
 from sim.artefacts import FrameStore, KernelStore, frame_bytes, kernel_store_root, source_digest
-from sim.executor import PointsFailed, parse_executor, run_points
+from sim.executor import ExecutorSpec, PointsFailed, parse_executor, run_points
 from sim.harness_run import KernelRunError, write_inputs
 from sim.kernel_build import KernelBuild, default_window, use_kernel_store
 from sim.kernel_step import golden_step, run_kernel_step
@@ -114,10 +123,13 @@ class SweepPoint:
     lanes: int
     body_bits: int
     sources: str  # sim.artefacts.source_digest() when planned
+    # the converged float64 step's velocities (ConvergedPoint's row), computed once per format; empty: on the worker
+    converged: dict[str, list[list[float]]] | None = dataclasses.field(default=None, compare=False)
 
     @property
     def key(self) -> str:
-        digest = hashlib.sha256(json.dumps(dataclasses.asdict(self), sort_keys=True).encode()).hexdigest()[:12]
+        desc = {k: v for k, v in dataclasses.asdict(self).items() if k != "converged"}
+        digest = hashlib.sha256(json.dumps(desc, sort_keys=True).encode()).hexdigest()[:12]
         return f"{self.fmt}-it{self.iterations}-{self.mode}-{digest}"
 
     @property
@@ -133,6 +145,28 @@ class SweepPoint:
             return sweep_row(self, Path(tmp))
 
 
+@dataclass(frozen=True)
+class ConvergedPoint:
+    """The converged float64 step of a sweep's format (its first stage): the velocities every point of the format
+    is compared with."""
+
+    point: SweepPoint  # any point of the format
+
+    @property
+    def key(self) -> str:
+        return f"converged-{self.point.key}"
+
+    @property
+    def command(self) -> str:
+        return self.point.command
+
+    def run(self) -> dict[str, Any]:
+        p = self.point
+        _, conv_final = _converged(p.frame, p.fmt, p.dma, p.converged_budget)
+        return {"linear_velocity": conv_final.linear_velocity.tolist(),
+                "angular_velocity": conv_final.angular_velocity.tolist()}
+
+
 @lru_cache(maxsize=4)
 def _frame_setup(digest: str) -> tuple[BodyTable, ConstraintSet, IntegrationParams]:
     frame = FrameStore().get(digest)
@@ -141,11 +175,17 @@ def _frame_setup(digest: str) -> tuple[BodyTable, ConstraintSet, IntegrationPara
 
 
 @lru_cache(maxsize=8)
+def _schedule(digest: str, fmt_name: str, dma: str) -> np.ndarray:
+    bodies, cons, _ = _frame_setup(digest)
+    return make_schedule("hazard", cons, bodies.dynamic, default_window(hardware_format(fmt_name),
+                                                                        get_preset(dma).stream_bits))
+
+
+@lru_cache(maxsize=8)
 def _converged(digest: str, fmt_name: str, dma: str, budget: float) -> tuple[np.ndarray, BodyTable]:
     """The schedule of ``fmt`` and the converged float64 step (once per worker process and format)."""
     bodies, cons, ip = _frame_setup(digest)
-    schedule = make_schedule("hazard", cons, bodies.dynamic, default_window(hardware_format(fmt_name),
-                                                                              get_preset(dma).stream_bits))
+    schedule = _schedule(digest, fmt_name, dma)
     conv = solve_converged(bodies, cons, schedule, FLOAT64, time_budget_s=budget)
     return schedule, integrate(conv.result.bodies, FLOAT64, ip)
 
@@ -155,7 +195,12 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
     preset = get_preset(point.dma)
     fmt = hardware_format(point.fmt)
     bodies, cons, ip = _frame_setup(point.frame)
-    schedule, conv_final = _converged(point.frame, point.fmt, point.dma, point.converged_budget)
+    if point.converged is None:
+        schedule, conv_final = _converged(point.frame, point.fmt, point.dma, point.converged_budget)
+        conv_lin, conv_ang = conv_final.linear_velocity, conv_final.angular_velocity
+    else:
+        schedule = _schedule(point.frame, point.fmt, point.dma)
+        conv_lin, conv_ang = (np.asarray(point.converged[k]) for k in ("linear_velocity", "angular_velocity"))
     dyn = bodies.dynamic
     params = SolverParams(iterations=point.iterations)
     job = kernel_job(KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip), point)
@@ -173,7 +218,7 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
             print(f"  NOT bit-exact: {res.comparison.first_mismatch}", flush=True)
         ours = kernel_bodies(run_dir, job, kb)
     ref_final = golden_step(KernelJob(FLOAT64, bodies, cons, schedule, params, ip)).final
-    e_conv = velocity_error(ours, conv_final.linear_velocity, conv_final.angular_velocity, dyn)
+    e_conv = velocity_error(ours, conv_lin, conv_ang, dyn)
     e_same = velocity_error(ours, ref_final.linear_velocity, ref_final.angular_velocity, dyn)
     mp = job.manifold_passes
     kernel = f" window x{point.lanes}" if point.record_window else ""
@@ -215,15 +260,27 @@ def plan(args: argparse.Namespace) -> tuple[list[SweepPoint], str, dict[str, byt
     return points, f"{label}-{args.dma}{kernel_label(args)}{mode}", {digest: data}
 
 
+def run_sweep(points: list[SweepPoint], spec: ExecutorSpec, log: PointLog | None, frames: dict[str, bytes],
+              label: str) -> list[dict[str, Any]]:
+    """The rows of ``points`` in order: first the converged reference of each format (one point per format, not
+    recorded in ``log``: a failed sweep whose points all failed leaves no file), then every point with its format's
+    reference; raises PointsFailed."""
+    firsts = {p.fmt: p for p in points}
+    stage = [ConvergedPoint(p) for p in firsts.values()]
+    conv = run_points(stage, spec, None, frames, label=f"{label}: converged references", stream=sys.stdout)
+    conv.raise_on_failure()
+    points = [dataclasses.replace(p, converged=conv.rows[ConvergedPoint(firsts[p.fmt]).key]) for p in points]
+    result = run_points(points, spec, log, frames, label=label, stream=sys.stdout)
+    result.raise_on_failure()
+    return result.ordered(points)
+
+
 def sweep(args: argparse.Namespace, log_dir: Path) -> tuple[list[dict[str, Any]], str]:
     """The sweep's rows, its points run on ``args.executor`` and recorded in ``log_dir/<name>.jsonl`` (a rerun
     resumes from it); returns them and the sweep's name, or raises PointsFailed."""
     spec = parse_executor(args.executor)
     points, name, frames = plan(args)
-    log = PointLog(log_dir / f"{name}.jsonl")
-    result = run_points(points, spec, log, frames, label=f"sweep {name}", stream=sys.stdout)
-    result.raise_on_failure()
-    rows = result.ordered(points)
+    rows = run_sweep(points, spec, PointLog(log_dir / f"{name}.jsonl"), frames, f"sweep {name}")
     for row in rows:
         print(f"{row['format']:>6} {row['iterations']:>3} it ({row['mode']}): {row['cycles']:>9,} cycles "
               f"({row['cycles_per_manifold_pass']:.2f}/mp), max |dv| vs converged {row['max_dv_vs_converged']:.3e} "

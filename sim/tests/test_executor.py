@@ -59,9 +59,7 @@ def test_sweep_on_two_dask_workers_matches_serial(tmp_path: Path, cluster: tuple
     assert serial[-1]["max_dv_vs_converged"] == serial[1]["max_dv_vs_converged"]  # the kernel's numbers: golden's
 
     log = PointLog(tmp_path / "points.jsonl")
-    result = run_points(points, parse_executor(f"dask:{cl.scheduler_address}"), log, frames, label="sweep")
-    assert not result.failures, [f.describe() for f in result.failures]
-    rows = result.ordered(points)
+    rows = sim_sweep.run_sweep(points, parse_executor(f"dask:{cl.scheduler_address}"), log, frames, "sweep")
     assert rows == serial
     sim_sweep.write_csv(serial, tmp_path / "serial.csv")
     sim_sweep.write_csv(rows, tmp_path / "dask.csv")
