@@ -229,5 +229,7 @@ def main(argv: list[str] | None = None) -> int:
     return 1 if result.failures else 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # run the imported module: its points then pickle by reference (remote workers import it)
+    from cocotb_tests import test_regress as regress_module
+
+    sys.exit(regress_module.main())

@@ -381,5 +381,7 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # run the imported module: its points then pickle by reference (remote workers import it)
+    from hls_export import resources as resources_module
+
+    sys.exit(resources_module.main())

@@ -212,6 +212,7 @@ class DaskPool:
                                           alone=len(futures) == 1)))
             except Exception as exc:  # noqa: BLE001 (reported with the point's command)
                 out.append((f, TaskFailed(f"{type(exc).__name__}: {exc}")))
+            f.release()  # the row is here: Dask must not recompute it when the worker holding it dies
         return out
 
     def running(self, in_flight: int) -> int:

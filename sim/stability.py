@@ -181,5 +181,7 @@ def _thresholds(t: Any) -> str:
     return ", ".join(parts) + ", no NaN/Inf"
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # run the imported module: its points then pickle by reference (remote workers import it)
+    from sim import stability as stability_module
+
+    sys.exit(stability_module.main())

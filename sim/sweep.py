@@ -357,5 +357,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0 if all(r["differing_bits"] == 0 for r in rows if r["mode"] == "rtl") else 1
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # run the imported module: its points then pickle by reference (remote workers import it)
+    from sim import sweep as sweep_module
+
+    sys.exit(sweep_module.main())
