@@ -140,27 +140,39 @@ class LocalPool:
         self.pool = ProcessPoolExecutor(max_workers=workers)
 
     def submit(self, task: Task) -> Future:
-        return self.pool.submit(run_task, task)
+        try:
+            return self.pool.submit(run_task, task)
+        except (BrokenProcessPool, RuntimeError) as exc:
+            # a worker died since the last wait and the pool refuses work ("broken", or shut down by its manager
+            # thread): the point fails with the pool's other points, and the next wait reruns them one by one
+            refused: Future = Future()
+            refused.set_exception(BrokenProcessPool(str(exc)))
+            return refused
 
     def wait(self, futures: Iterable[Future]) -> list[tuple[Future, Outcome | WorkerDied | TaskFailed]]:
-        done, _ = wait(list(futures), return_when=FIRST_COMPLETED)
-        broken = [f for f in done if isinstance(f.exception(), BrokenProcessPool)]
-        if broken:  # every point in flight fails with it: wait for all of them, then start a new pool
-            done, _ = wait(list(futures))
-            broken = [f for f in done if isinstance(f.exception(), BrokenProcessPool)]
+        futures = list(futures)
+        done, _ = wait(futures, return_when=FIRST_COMPLETED)
+        if any(isinstance(f.exception(), BrokenProcessPool) for f in done):
+            # the pool is broken: its manager thread reads no more results, so a point not done by now cannot
+            # finish (its future fails now or, submitted as the pool broke, never completes): all of them died
+            # with the pool, without waiting on them
+            finished = {f: self._outcome(f) for f in futures if f.done()}
+            broken = [f for f in futures if f not in finished or isinstance(finished[f], WorkerDied)]
             self.pool.shutdown(wait=False, cancel_futures=True)
             self.pool = ProcessPoolExecutor(max_workers=self.slots)
-        out: list[tuple[Future, Outcome | WorkerDied | TaskFailed]] = []
-        for f in done:
-            exc = f.exception()
-            if exc is None:
-                out.append((f, f.result()))
-            elif isinstance(exc, BrokenProcessPool):
-                out.append((f, WorkerDied("the worker process died (killed or crashed) while running this point",
-                                          alone=len(broken) == 1)))
-            else:
-                out.append((f, TaskFailed(f"{type(exc).__name__}: {exc}")))
-        return out
+            died = WorkerDied("the worker process died (killed or crashed) while running this point",
+                              alone=len(broken) == 1)
+            return [(f, died) for f in broken] + [(f, o) for f, o in finished.items() if f not in broken]
+        return [(f, self._outcome(f)) for f in done]
+
+    @staticmethod
+    def _outcome(f: Future) -> Outcome | WorkerDied | TaskFailed:
+        exc = f.exception()
+        if exc is None:
+            return f.result()
+        if isinstance(exc, BrokenProcessPool):
+            return WorkerDied("the worker process died (killed or crashed) while running this point", alone=False)
+        return TaskFailed(f"{type(exc).__name__}: {exc}")
 
     def running(self, in_flight: int) -> int:
         return min(in_flight, self.slots)

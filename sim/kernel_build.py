@@ -4,7 +4,9 @@ Every build of ``rtl/pgs_kernel.sv`` takes its Verilator parameters, RTL sources
 arguments from a :class:`KernelBuild`: the harness of ``make sim``, ``make sweep`` and the harness tests
 (:func:`build_kernel`), the coverage builds (:func:`verilate_kernel` with the coverage hooks added) and the
 cocotb benches (``sim.cocotb_run.run_kernel_cocotb``). A description is frozen and hashable; its
-:attr:`KernelBuild.name` names its build directory, so two descriptions that differ build apart.
+:attr:`KernelBuild.name` names its build directory, so two descriptions that differ build apart. A process that
+calls :func:`use_kernel_store` (the executor's points: ``sim/executor.py``) takes :func:`build_kernel`'s executables
+from a store keyed by the hash of the description instead (``sim.artefacts.KernelStore``).
 
     kb = KernelBuild.for_job(job, get_preset("zcu102"))
     exe, seconds = build_kernel(kb)  # build/verilator/pgs_kernel_e8m23_c512/pgs_kernel_e8m23_c512

@@ -1,6 +1,7 @@
 """sim.executor: a sweep on two Dask worker processes (each in its own working directory) gives the serial run's rows,
-row for row; a failing point and a dying worker are reported with their commands while the other points finish;
-a rerun resumes from the results file."""
+row for row; a failing point and a dying worker are reported with their commands while the other points finish
+(also a point the local pool takes after a worker died unseen); a rerun resumes from the results file; the kernel
+store's key is the hash of the kernel build description."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import dataclasses
 import logging
 import os
 import sys
+from concurrent import futures
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator
@@ -16,9 +18,12 @@ import pytest
 
 from models import scenes
 from models.frame import save
+from models.number_format import FP16, FP32
+from sim import kernel_build
 from sim import sweep as sim_sweep
-from sim.artefacts import FRAME_DIR, FrameStore
-from sim.executor import parse_executor, run_points
+from sim.artefacts import FRAME_DIR, FrameStore, build_key
+from sim.executor import LocalPool, Outcome, Task, WorkerDied, parse_executor, run_points
+from sim.kernel_build import KernelBuild
 from sim.point_results import PointLog
 
 distributed = pytest.importorskip("distributed")
@@ -104,12 +109,13 @@ def _runs(counts: Path) -> dict[str, int]:
 
 
 @pytest.mark.parametrize("where", ["local:2", "dask"])
-def test_failing_point_and_dying_worker(tmp_path: Path, where: str, cluster: tuple[Any, list[Path]]) -> None:
+def test_failing_point_and_dying_worker(tmp_path: Path, where: str, request: pytest.FixtureRequest) -> None:
     if where == "dask":
         import cloudpickle
 
         cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers cannot import a test module
-    spec = parse_executor(where if where != "dask" else f"dask:{cluster[0].scheduler_address}")
+        where = f"dask:{request.getfixturevalue('cluster')[0].scheduler_address}"
+    spec = parse_executor(where)
     counts, fail, die = tmp_path / "counts", tmp_path / "fail", tmp_path / "die"
     counts.mkdir()
     fail.touch()
@@ -133,6 +139,42 @@ def test_failing_point_and_dying_worker(tmp_path: Path, where: str, cluster: tup
     assert second.ordered(points) == [{"name": f"p{i}", "value": 3.0} for i in range(5)]
     after = _runs(counts)
     assert {k: after[k] - before[k] for k in after} == {"p0": 0, "p1": 1, "p2": 0, "p3": 1, "p4": 0}
+
+
+def test_local_pool_takes_points_while_a_dead_worker_goes_unseen(tmp_path: Path) -> None:
+    """A point submitted after a worker died, before the driver's next wait sees it, is neither refused with an
+    exception nor lost: it died with the pool (not alone), and the replaced pool runs the next point."""
+    counts, die = tmp_path / "counts", tmp_path / "die"
+    counts.mkdir()
+    die.touch()
+    pool = LocalPool(2)
+    try:
+        dying = pool.submit(Task(FlakyPoint("p0", str(counts), die_marker=str(die))))
+        futures.wait([dying])  # the pool is broken now (its manager marks it before failing the futures)
+        late = pool.submit(Task(FlakyPoint("p1", str(counts))))
+        outcomes = dict(pool.wait([dying, late]))
+        assert set(outcomes) == {dying, late}
+        assert all(isinstance(o, WorkerDied) and not o.alone for o in outcomes.values())
+        after = pool.submit(Task(FlakyPoint("p2", str(counts))))
+        ((_, outcome),) = pool.wait([after])
+        assert isinstance(outcome, Outcome) and outcome.row == {"name": "p2", "value": 3.0} and not outcome.error
+    finally:
+        pool.close()
+
+
+def test_kernel_store_key_is_the_build_description(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The store's key is a hash of the one kernel build description: equal descriptions share it, every field that
+    changes the build changes it, and what is hashed is what every kernel build passes to Verilator."""
+    base = KernelBuild(FP32)
+    assert build_key(base) == build_key(KernelBuild(FP32))
+    variants = [base, KernelBuild(FP16), KernelBuild(FP32, cons_bits=256), KernelBuild(FP32, body_in_bits=512),
+                KernelBuild(FP32, window=64), KernelBuild(FP32, compile_profile="o0"), KernelBuild(FP32, waves=True),
+                KernelBuild(FP32, friction_sign_bug=True)]
+    assert len({build_key(kb) for kb in variants}) == len(variants)
+    calls: list[dict[str, Any]] = []
+    monkeypatch.setattr(kernel_build, "build", lambda **kw: calls.append(kw) or Path("exe"))
+    kernel_build.verilate_kernel(base, build_dir=Path("d"), lock=False)
+    assert calls == [{**kernel_build.kernel_build_args(base, Path("d")), "lock": False}]
 
 
 @pytest.mark.parametrize("text", ["local:0", "local:x", "dask:", "dask:local:", "dask:http://h:1", "dask:host",
