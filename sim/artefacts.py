@@ -22,6 +22,7 @@ import fcntl
 import hashlib
 import json
 import os
+import re
 import shutil
 import tempfile
 import time
@@ -110,10 +111,22 @@ def _file_digest(path: Path) -> str:
     return sha256_bytes(Path(path).read_bytes())
 
 
+_QUOTED_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.MULTILINE)
+
+
 def _harness_files(cpp_files: list[Path]) -> list[Path]:
-    """The C++ files and the headers beside them (the harness includes its own headers)."""
-    headers = sorted({h for cpp in cpp_files for h in Path(cpp).parent.glob("*.h")})
-    return [Path(p) for p in cpp_files] + headers
+    """The C++ files and the headers of the repository they include (``#include "..."`` beside the including file,
+    followed through the headers); Verilator's own headers are covered by the Verilator binary's hash."""
+    seen: list[Path] = []
+    todo = [Path(p) for p in cpp_files]
+    while todo:
+        path = todo.pop(0)
+        if path in seen:
+            continue
+        seen.append(path)
+        todo += [path.parent / name for name in _QUOTED_INCLUDE.findall(path.read_text())
+                 if (path.parent / name).is_file()]
+    return seen
 
 
 def build_key(kb: KernelBuild) -> str:
