@@ -26,6 +26,9 @@ FETCH_PASSES ?= 0
 LANES ?= 1
 BODY_BITS ?= 128
 SEEDS ?= 4
+# where independent points run (sim/executor.py): local:N processes, dask:local:N, dask:tcp://host:port;
+# empty: make sweep runs its points one at a time (local:1), the others on local:$(JOBS)
+EXECUTOR ?=
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
@@ -37,7 +40,9 @@ help:
 	@echo "               MODE=model: the cycle model's estimate alone (no Verilator); SCHEDULE=hazard|banded|..."
 	@echo "               the window kernel: RECORD_WINDOW=16384 LANES=1|2|4 FETCH_PASSES=0 BODY_BITS=128|512"
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=,"
-	@echo "               and the window kernel's RECORD_WINDOW= LANES= FETCH_PASSES= BODY_BITS=)"
+	@echo "               and the window kernel's RECORD_WINDOW= LANES= FETCH_PASSES= BODY_BITS=; MODE=model)"
+	@echo "               EXECUTOR=local:N|dask:local:N|dask:tcp://host:port spreads the points of sweep,"
+	@echo "               stability, resources and regress (docs/cluster.md); a rerun resumes a failed sweep"
 	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= ITERS= BUDGET=0.01)"
 	@echo "make band      band width D of every schedule on every scene, on-chip budget of the thesis frame (SEED= ITERS=)"
 	@echo "make stability the hard-case suite closed loop: cases x formats x iterations (CASES= FORMATS= JOBS=2)"
@@ -90,17 +95,18 @@ band: $(STAMP)
 CASES ?= stack20,pyramid10,mass_ratio,incline20,incline40,impact,spin,plank,degenerate
 JOBS ?= 2
 stability: $(STAMP)
-	$(TOOLENV) $(VPY) -m sim.stability --cases $(CASES) --formats $(FORMATS) --jobs $(JOBS)
+	$(TOOLENV) $(VPY) -m sim.stability --cases $(CASES) --formats $(FORMATS) --jobs $(JOBS) --executor "$(EXECUTOR)"
 
 sweep: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.sweep --scene $(SCENE) --formats $(FORMATS) --iters $(SWEEP_ITERS) --dma $(DMA) --seed $(SEED) \
-		--record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) --lanes $(LANES) --body-bits $(BODY_BITS)
+		--record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) --lanes $(LANES) --body-bits $(BODY_BITS) \
+		--mode $(MODE) --executor $(or $(EXECUTOR),local:1)
 
 coverage: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.coverage --jobs $(JOBS)
 
 regress: $(STAMP)
-	$(TOOLENV) $(VPY) cocotb_tests/test_regress.py --seeds $(SEEDS) --jobs $(JOBS)
+	$(TOOLENV) $(VPY) cocotb_tests/test_regress.py --seeds $(SEEDS) --jobs $(JOBS) --executor "$(EXECUTOR)"
 
 csim: $(STAMP)
 	$(TOOLENV) $(VPY) -m hls_export.csim
@@ -111,7 +117,7 @@ hls:
 	else echo "make hls: vitis_hls is not installed (not on PATH); nothing synthesized (see hls_export/README.md)"; fi
 
 resources: $(STAMP)
-	$(TOOLENV) $(VPY) -m hls_export.resources --formats $(FORMATS)
+	$(TOOLENV) $(VPY) -m hls_export.resources --formats $(FORMATS) --executor "$(EXECUTOR)"
 
 lint: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.lint

@@ -1,4 +1,4 @@
-"""``make regress SEEDS=N``: the kernel co-simulation over N seeds and more scenes, in parallel (pytest-xdist).
+"""``make regress SEEDS=N``: the kernel co-simulation over N seeds and more scenes, in parallel (``sim.executor``).
 
 Every case (scene x format x schedule x DMA model, :data:`CASES`) and seed runs the compiled harness
 (``sim.kernel_step``) twice:
@@ -10,11 +10,14 @@ Every case (scene x format x schedule x DMA model, :data:`CASES`) and seed runs 
   model's (once per frame: the pile's jitter follows the seed, the other scenes are the same for every seed).
 
 The tests are skipped unless ``REGRESS_SEEDS`` (a count: seeds 1..N) or ``REGRESS_SEED`` (one seed) is set, so
-``make test`` only collects them (and runs ``test_failure_report``, the summary's parser). ``make regress`` runs
-this file as a script: it builds the kernels and captures the frames first (the xdist workers share them), runs
-the tests on ``JOBS`` workers, and prints every failing seed with the command that reproduces it alone::
+``make test`` only collects them (and runs ``test_failure_report``, the summary's parser of a pytest-xdist junit
+report). ``make regress`` runs this file as a script: it builds the kernels and captures the frames first, runs
+every (seed, case) point on ``EXECUTOR`` (``sim/executor.py``: ``local:JOBS`` by default, ``dask:local:N``,
+``dask:tcp://host:port``; kernels from the hash-keyed store ``sim.artefacts.KernelStore``), and prints every failing
+seed with the command that reproduces it alone::
 
     make regress SEEDS=8 JOBS=2
+    make regress SEEDS=8 EXECUTOR=dask:tcp://scheduler:8786
     REGRESS_SEED=3 .venv/bin/python -m pytest "cocotb_tests/test_regress.py::test_regress[s3-pile-fp32-hazard-zcu102]"
 """
 
@@ -24,12 +27,13 @@ import argparse
 import fcntl
 import os
 import random
-import subprocess
 import sys
+import tempfile
 import time
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -44,7 +48,9 @@ from models.dma_model import get_preset  # noqa: E402
 from models.frame import Frame  # noqa: E402
 from models.number_format import BF16, FP16, FP32, NumberFormat  # noqa: E402
 from models.kernel_job import KernelJob  # noqa: E402
-from sim.kernel_build import KernelBuild, build_kernel, default_window  # noqa: E402
+from sim.artefacts import KernelStore, kernel_store_root  # noqa: E402
+from sim.executor import parse_executor, run_points  # noqa: E402
+from sim.kernel_build import KernelBuild, build_kernel, default_window, use_kernel_store  # noqa: E402
 from sim.kernel_step import run_kernel_step  # noqa: E402
 
 ITERATIONS = 4
@@ -104,10 +110,16 @@ PARAMS = [pytest.param(s, c, id=f"s{s}-{c.name}") for s in seeds() for c in CASE
 @pytest.mark.skipif(not PARAMS, reason="make regress SEEDS=N (REGRESS_SEEDS / REGRESS_SEED) runs these")
 @pytest.mark.parametrize("seed,case", PARAMS or [pytest.param(0, CASES[0], id="unset")])
 def test_regress(seed: int, case: Case, tmp_path: Path) -> None:
+    _build(KernelBuild(case.fmt, cons_bits=get_preset(case.dma).stream_bits))
+    print(check(seed, case, tmp_path, case.scene in SEEDED or seed == seeds()[0]))
+
+
+def check(seed: int, case: Case, tmp_path: Path, deterministic: bool) -> str:
+    """Run ``case`` with ``seed`` with random streams and (``deterministic``) without; AssertionError naming what
+    differs, else the report."""
     preset = get_preset(case.dma)
     job = KernelJob.from_frame(frame_of(case, seed), case.fmt, SolverParams(ITERATIONS), case.schedule,
                                default_window(case.fmt, preset.stream_bits))
-    _build(KernelBuild(case.fmt, cons_bits=preset.stream_bits))
     gap, bp = stall_rates(seed)
     where = f"seed {seed}, {case.name} (gap {gap}, backpressure {bp} per mille); reproduce: {reproduce(case, seed)}"
     res = run_kernel_step(job, preset, tmp_path / "random", seed, gap, bp)
@@ -115,14 +127,15 @@ def test_regress(seed: int, case: Case, tmp_path: Path) -> None:
     assert int(res.registers["status"]) == 0, f"{where}: status {int(res.registers['status']):#x}"
     pred = cycle_model.predict_job(job, preset)
     assert res.cycles >= pred.cycles, f"{where}: {res.cycles:,} cycles beat the model's lower bound {pred.cycles:,}"
-    print(f"\n{where}\n  random: {res.cycles:,} cycles, model bound {pred.cycles:,} "
-          f"({res.cycles / pred.cycles - 1:+.1%})")
-    if case.scene in SEEDED or seed == seeds()[0]:
+    report = (f"\n{where}\n  random: {res.cycles:,} cycles, model bound {pred.cycles:,} "
+              f"({res.cycles / pred.cycles - 1:+.1%})")
+    if deterministic:
         det = run_kernel_step(job, preset, tmp_path / "deterministic", seed, keep_trace=True)
         assert det.bit_exact, f"{where}: {det.comparison.first_mismatch}"
         agree = cycle_model.compare_run(pred, det, job.slots)
-        print(f"  deterministic: {agree.describe()}")
+        report += f"\n  deterministic: {agree.describe()}"
         assert agree.ok, f"{where}: {agree.first_mismatch}"
+    return report
 
 
 def test_failure_report(tmp_path: Path) -> None:
@@ -143,12 +156,36 @@ def test_failure_report(tmp_path: Path) -> None:
 
 
 # --- make regress ----------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class RegressPoint:
+    """One (seed, case) of the regression as a ``sim.executor`` point: the report comes back, not the traces."""
+
+    seed: int
+    case: Case
+    first_seed: int  # the deterministic run of an unseeded scene happens at this seed only
+
+    @property
+    def key(self) -> str:
+        return f"s{self.seed}-{self.case.name}"
+
+    @property
+    def command(self) -> str:
+        return reproduce(self.case, self.seed)
+
+    def run(self) -> dict[str, Any]:
+        use_kernel_store(KernelStore(kernel_store_root()))
+        deterministic = self.case.scene in SEEDED or self.seed == self.first_seed
+        with tempfile.TemporaryDirectory(prefix="pgs-regress-") as tmp:
+            return {"report": check(self.seed, self.case, Path(tmp), deterministic)}
+
+
 def prepare(seed_list: list[int]) -> None:
-    """Build every kernel and capture every frame before the workers start (they share both)."""
+    """Build every kernel (into the kernel store) and capture every frame before the workers start."""
+    use_kernel_store(KernelStore(kernel_store_root()))
     for kb in sorted({KernelBuild(c.fmt, cons_bits=get_preset(c.dma).stream_bits) for c in CASES},
                      key=lambda k: k.name):
         t0 = time.monotonic()
-        _build(kb)
+        build_kernel(kb)
         print(f"kernel {kb.name}: ready ({time.monotonic() - t0:.0f} s)", flush=True)
     for case in CASES:
         for seed in seed_list if case.scene in SEEDED else seed_list[:1]:
@@ -170,28 +207,29 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="make regress", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, default=4, help="seeds 1..N")
-    ap.add_argument("--jobs", type=int, default=2, help="pytest-xdist workers")
+    ap.add_argument("--jobs", type=int, default=2, help="worker processes of the default executor local:<jobs>")
+    ap.add_argument("--executor", default="", help="local:N, dask:local:N or dask:tcp://host:port (sim/executor.py)")
     args = ap.parse_args(argv)
+    try:
+        spec = parse_executor(args.executor or f"local:{args.jobs}")
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     seed_list = list(range(1, args.seeds + 1))
     t0 = time.monotonic()
     prepare(seed_list)
-    OUT.mkdir(parents=True, exist_ok=True)
-    junit = OUT / "junit.xml"
-    env = dict(os.environ, REGRESS_SEEDS=str(args.seeds))
-    env.pop("REGRESS_SEED", None)
-    cmd = [sys.executable, "-m", "pytest", str(Path(__file__).relative_to(REPO)), "-q", "-n", str(args.jobs),
-           "-p", "no:cacheprovider", f"--junitxml={junit}"]
-    print(f"{len(CASES)} cases x {args.seeds} seeds on {args.jobs} workers: {' '.join(cmd)}", flush=True)
-    rc = subprocess.run(cmd, cwd=REPO, env=env).returncode
-    failed = failures(junit) if junit.exists() else []
-    print(f"\nmake regress: {len(CASES) * args.seeds - len(failed)} of {len(CASES) * args.seeds} passed in "
-          f"{time.monotonic() - t0:.0f} s")
-    by_id = {f"s{s}-{c.name}": (s, c) for s in seed_list for c in CASES}
-    for test_id, message in failed:
-        seed, case = by_id.get(test_id, (0, CASES[0]))
-        print(f"FAILED seed {seed}: {test_id}: {message[:300]}\n  reproduce: {reproduce(case, seed)}")
-    return rc if rc else (1 if failed else 0)
+    points = [RegressPoint(s, c, seed_list[0]) for s in seed_list for c in CASES]
+    print(f"{len(CASES)} cases x {args.seeds} seeds on {spec.describe()}", flush=True)
+    result = run_points(points, spec, label="regress", stream=sys.stdout)
+    for row in result.ordered(points):
+        print(row["report"])
+    print(f"\nmake regress: {len(result.rows)} of {len(points)} passed in {time.monotonic() - t0:.0f} s")
+    for failure in result.failures:
+        print(failure.describe())
+    return 1 if result.failures else 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # run the imported module: its points then pickle by reference (remote workers import it)
+    from cocotb_tests import test_regress as regress_module
+
+    sys.exit(regress_module.main())

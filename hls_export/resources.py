@@ -26,8 +26,11 @@ What is synthesized, and what is computed:
   127,000 manifolds).
 
 Module runs are cached in ``build/resources/<format>/<unit>/`` by a hash of the sources and the script, so a
-second ``make resources`` only prints. Usage: ``python -m hls_export.resources [--formats fp32,fp16,bf16]
-[--units contact,friction,integrate,control] [--jobs 1]``.
+second ``make resources`` only prints. The Yosys runs (unit x format) are independent points on ``--executor``
+(``sim/executor.py``: ``local:N``, by default ``local:<jobs>``, ``dask:local:N`` or ``dask:tcp://host:port``); each
+worker synthesizes from its own checkout's sources and sends back the cell counts. Usage: ``python -m
+hls_export.resources [--formats fp32,fp16,bf16] [--units contact,friction,integrate,control] [--jobs 1]
+[--executor local:2]``.
 """
 
 from __future__ import annotations
@@ -39,12 +42,13 @@ import re
 import subprocess
 import sys
 import time
-from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
+from typing import Any
 from pathlib import Path
 
 from models.number_format import NumberFormat, parse_format
 from rtl.gen.file_list import kernel_sources
+from sim.executor import parse_executor, run_points
 from sim.verilator_build import REPO_ROOT
 
 BUILD = REPO_ROOT / "build" / "resources"
@@ -272,6 +276,38 @@ def run_unit(unit: Unit, fmt: NumberFormat, sources: list[Path]) -> UnitResult:
     return UnitResult(unit, fmt, summarize(cells), seconds, cached, cells)
 
 
+@dataclass(frozen=True)
+class ResourcePoint:
+    """One Yosys run (``sim.executor`` point): a unit in a format; its resources and cell counts come back."""
+
+    unit: str  # a key of UNITS, or IMPULSE_CHECK's name
+    fmt: str
+
+    @property
+    def key(self) -> str:
+        return f"{self.unit}-{self.fmt}"
+
+    @property
+    def command(self) -> str:
+        if self.unit == IMPULSE_CHECK.name:
+            return f".venv/bin/python -m hls_export.resources --formats {self.fmt} --units contact"
+        return f".venv/bin/python -m hls_export.resources --formats {self.fmt} --units {self.unit} --no-check"
+
+    def run(self) -> dict[str, Any]:
+        unit = IMPULSE_CHECK if self.unit == IMPULSE_CHECK.name else UNITS[self.unit]
+        fmt = parse_format(self.fmt)
+        assert isinstance(fmt, NumberFormat)
+        r = run_unit(unit, fmt, prepare_sources(BUILD / "src"))
+        return {"resources": asdict(r.resources), "seconds": r.seconds, "cached": r.cached, "cells": r.cells}
+
+
+def unit_result(point: ResourcePoint, row: dict[str, Any]) -> UnitResult:
+    unit = IMPULSE_CHECK if point.unit == IMPULSE_CHECK.name else UNITS[point.unit]
+    fmt = parse_format(point.fmt)
+    assert isinstance(fmt, NumberFormat)
+    return UnitResult(unit, fmt, Resources(**row["resources"]), row["seconds"], row["cached"], row["cells"])
+
+
 # --- report -------------------------------------------------------------------------------------------------------
 def _cell(value: float, key: str) -> str:
     count = f"{value:,.1f}" if value != int(value) else f"{int(value):,}"
@@ -307,6 +343,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--formats", default="fp32,fp16,bf16")
     ap.add_argument("--units", default=",".join(UNITS))
     ap.add_argument("--jobs", type=int, default=1, help="Yosys runs at a time (each uses one core)")
+    ap.add_argument("--executor", default="", help="local:N (default local:<jobs>), dask:local:N or "
+                                                     "dask:tcp://host:port (sim/executor.py)")
     ap.add_argument("--no-check", action="store_true", help="skip the memory-formula check synthesis")
     args = ap.parse_args(argv)
     fmts = [parse_format(f) for f in args.formats.split(",")]
@@ -314,12 +352,18 @@ def main(argv: list[str] | None = None) -> int:
     for fmt in fmts:
         if not isinstance(fmt, NumberFormat):
             raise SystemExit(f"{fmt.name}: a rounded format is needed (fp32, fp16, bf16, eXmY)")
+    spec = parse_executor(args.executor or f"local:{max(1, args.jobs)}")
     t0 = time.monotonic()
-    sources = prepare_sources(BUILD / "src")
-    jobs = [(u, f) for f in fmts for u in units]
-    checks = [(IMPULSE_CHECK, f) for f in fmts] if not args.no_check else []
-    with ThreadPoolExecutor(max(1, args.jobs)) as pool:
-        done = list(pool.map(lambda job: run_unit(job[0], job[1], sources), jobs + checks))  # type: ignore[arg-type]
+    prepare_sources(BUILD / "src")  # once here: workers of this checkout then find them up to date
+    points = [ResourcePoint(u.name, f.name) for f in fmts for u in units]
+    points += [ResourcePoint(IMPULSE_CHECK.name, f.name) for f in fmts] if not args.no_check else []
+    result = run_points(points, spec, label="resources")
+    if result.failures:
+        for failure in result.failures:
+            print(failure.describe(), file=sys.stderr)
+        print(f"error: {len(result.failures)} of {len(points)} Yosys runs failed", file=sys.stderr)
+        return 1
+    done = [unit_result(p, result.rows[p.key]) for p in points]
     print("| format | part | LUT | FF | DSP48E2 | BRAM36 | URAM |")
     print("|---|---|---|---|---|---|---|")
     for fmt in fmts:
@@ -337,5 +381,7 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # run the imported module: its points then pickle by reference (remote workers import it)
+    from hls_export import resources as resources_module
+
+    sys.exit(resources_module.main())

@@ -29,7 +29,6 @@ from models.solution_error import SolutionError, solution_error
 from sim.run_result import ExactErrors, ExactReferenceFacts, NoExactReference
 
 
-
 @dataclass(frozen=True)
 class ExactStep:
     """The exact reference of one step, integrated (``final``), and what the report says of it."""

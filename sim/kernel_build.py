@@ -4,7 +4,9 @@ Every build of ``rtl/pgs_kernel.sv`` takes its Verilator parameters, RTL sources
 arguments from a :class:`KernelBuild`: the harness of ``make sim``, ``make sweep`` and the harness tests
 (:func:`build_kernel`), the coverage builds (:func:`verilate_kernel` with the coverage hooks added) and the
 cocotb benches (``sim.cocotb_run.run_kernel_cocotb``). A description is frozen and hashable; its
-:attr:`KernelBuild.name` names its build directory, so two descriptions that differ build apart.
+:attr:`KernelBuild.name` names its build directory, so two descriptions that differ build apart. A process that
+calls :func:`use_kernel_store` (the executor's points: ``sim/executor.py``) takes :func:`build_kernel`'s executables
+from a store keyed by the hash of the description instead (``sim.artefacts.KernelStore``).
 
     kb = KernelBuild.for_job(job, get_preset("zcu102"))
     exe, seconds = build_kernel(kb)  # build/verilator/pgs_kernel_e8m23_c512/pgs_kernel_e8m23_c512
@@ -17,6 +19,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Protocol
 
 from models import stream_format as sf
 from models.dma_model import DmaPreset
@@ -125,24 +128,46 @@ class KernelBuild:
         return packages + modules
 
 
+def kernel_build_args(kb: KernelBuild, build_dir: Path | None = None, extra_sources: Sequence[Path] = (),
+                      extra_cpp_files: Sequence[Path] = (), extra_args: Sequence[str] = ()) -> dict[str, Any]:
+    """The ``sim.verilator_build.build`` keywords of ``kb``'s compiled harness (plus ``extra_*``): what every kernel
+    build runs, and what ``sim.artefacts.build_key`` hashes."""
+    return {"sources": [*kb.sources(), *extra_sources], "top": TOP, "parameters": kb.parameters,
+            "cpp_files": [HARNESS, *extra_cpp_files], "build_dir": build_dir, "name": kb.name, "cflags": kb.cflags,
+            "extra_args": ["-Wno-fatal", *kb.compile_args, *extra_args]}
+
+
 def verilate_kernel(kb: KernelBuild, build_dir: Path | None = None, extra_sources: Sequence[Path] = (),
-                    extra_cpp_files: Sequence[Path] = (), extra_args: Sequence[str] = ()) -> Path:
+                    extra_cpp_files: Sequence[Path] = (), extra_args: Sequence[str] = (), lock: bool = True) -> Path:
     """Build the compiled harness of ``kb`` (plus ``extra_*``, e.g. coverage hooks) into ``build_dir`` (default
-    ``build/verilator/<kb.name>``); return the executable. Verilator skips an unchanged build."""
-    return build([*kb.sources(), *extra_sources], TOP, parameters=kb.parameters, cpp_files=[HARNESS, *extra_cpp_files],
-                 build_dir=build_dir, name=kb.name, cflags=kb.cflags,
-                 extra_args=["-Wno-fatal", *kb.compile_args, *extra_args])
+    ``build/verilator/<kb.name>``); return the executable. Verilator skips an unchanged build. ``lock=False``: no
+    lock file beside ``build_dir`` (a directory no other process uses)."""
+    return build(**kernel_build_args(kb, build_dir, extra_sources, extra_cpp_files, extra_args), lock=lock)
+
+
+class KernelExecutables(Protocol):
+    """Where :func:`build_kernel` takes executables from instead of ``build/verilator`` (``sim.artefacts.KernelStore``:
+    keyed by the hash of the build description)."""
+
+    def executable(self, kb: KernelBuild) -> tuple[Path, float]: ...
 
 
 _built: dict[KernelBuild, tuple[Path, float]] = {}
+_store: KernelExecutables | None = None
+
+
+def use_kernel_store(store: KernelExecutables | None) -> None:
+    """Take this process's kernel builds from ``store`` (``None``: build into ``build/verilator`` again)."""
+    global _store
+    _store = store
 
 
 def build_kernel(kb: KernelBuild) -> tuple[Path, float]:
-    """The harness executable of ``kb`` (built once per process; Verilator skips unchanged builds) and the
-    seconds the build took."""
+    """The harness executable of ``kb`` (built once per process; Verilator skips unchanged builds, or from the
+    store set by :func:`use_kernel_store`) and the seconds the build took."""
     if kb not in _built:
         t0 = time.monotonic()
-        exe = verilate_kernel(kb)
+        exe = verilate_kernel(kb) if _store is None else _store.executable(kb)[0]
         _built[kb] = (exe, time.monotonic() - t0)
     return _built[kb]
 

@@ -6,6 +6,10 @@ writes ``build/stability/stability.md`` (the table), ``stability.csv`` and one p
 penetration over the steps, ``<case>.png``). Failing rows are findings, reported, not errors: the command exits
 non-zero only when a run crashes.
 
+The runs are independent points on ``--executor`` (``sim/executor.py``: ``local:N``, the default ``local:<jobs>``,
+``dask:local:N`` or ``dask:tcp://host:port``); each finished run is recorded in ``<out>/.points/stability.jsonl``
+and a rerun after a failure resumes from them (the file is removed once the table is written).
+
     python -m sim.stability --cases stack20,incline40 --formats fp32,fp16 --iters 4,30 --jobs 2
 """
 
@@ -15,7 +19,7 @@ import argparse
 import csv
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -24,6 +28,9 @@ import numpy as np
 from models.closed_loop import LoopResult
 from models.number_format import parse_format
 from models.stability import CASES, ITERATIONS, Verdict, judge
+from sim.artefacts import source_digest
+from sim.executor import parse_executor, run_points
+from sim.point_results import PointLog
 from sim.report import format_value
 
 FIGURES = ["max penetration (m)", "max drift (m)", "max speed (m/s)", "final max speed (m/s)",
@@ -37,20 +44,41 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--formats", default="fp32,fp16,bf16", help="comma-separated number formats")
     ap.add_argument("--iters", default=",".join(map(str, ITERATIONS)), help="comma-separated iteration counts")
     ap.add_argument("--steps", type=int, default=0, help="override every case's step count (0: the case's own)")
-    ap.add_argument("--jobs", type=int, default=2, help="parallel runs")
+    ap.add_argument("--jobs", type=int, default=2, help="parallel runs (the default executor local:<jobs>)")
+    ap.add_argument("--executor", default="", help="local:N, dask:local:N or dask:tcp://host:port (sim/executor.py)")
     ap.add_argument("--out", default="build/stability", help="output directory")
     return ap.parse_args(argv)
 
 
-def _run_one(case_name: str, fmt_name: str, iterations: int, steps: int) -> tuple[Verdict, dict[str, list[float]], float]:
-    t0 = time.perf_counter()
-    case = CASES[case_name]
-    result: LoopResult = case.run(parse_format(fmt_name), iterations, steps or None)
-    series = {"kinetic energy (J)": result.kinetic_energy.tolist(), "max penetration (m)": result.max_penetration.tolist()}
-    return judge(case, result), series, time.perf_counter() - t0
+@dataclass(frozen=True)
+class StabilityPoint:
+    """One closed-loop run of a hard case (``sim.executor`` point): the verdict and the plotted series come back."""
+
+    case: str
+    fmt: str
+    iterations: int
+    steps: int
+    sources: str  # sim.artefacts.source_digest() when planned
+
+    @property
+    def key(self) -> str:
+        return f"{self.case}-{self.fmt}-it{self.iterations}-steps{self.steps}-{self.sources}"
+
+    @property
+    def command(self) -> str:
+        return (f".venv/bin/python -m sim.stability --cases {self.case} --formats {self.fmt} --iters {self.iterations}"
+                f" --steps {self.steps} --jobs 1")
+
+    def run(self) -> dict[str, Any]:
+        t0 = time.perf_counter()
+        case = CASES[self.case]
+        result: LoopResult = case.run(parse_format(self.fmt), self.iterations, self.steps or None)
+        series = {"kinetic energy (J)": result.kinetic_energy.tolist(),
+                  "max penetration (m)": result.max_penetration.tolist()}
+        return {"verdict": asdict(judge(case, result)), "series": series, "seconds": time.perf_counter() - t0}
 
 
-def plan(args: argparse.Namespace) -> list[tuple[str, str, int]]:
+def plan(args: argparse.Namespace) -> list[StabilityPoint]:
     cases = [c.strip() for c in args.cases.split(",") if c.strip()]
     unknown = [c for c in cases if c not in CASES]
     if unknown:
@@ -62,7 +90,9 @@ def plan(args: argparse.Namespace) -> list[tuple[str, str, int]]:
         raise ValueError(f"ITERS must be comma-separated integers, got {args.iters!r}") from None
     if not iters or min(iters) < 1 or args.steps < 0 or args.jobs < 1:
         raise ValueError("iterations and jobs must be >= 1, steps >= 0")
-    return [(c, f, i) for c in cases for f in formats for i in iters]
+    parse_executor(args.executor or f"local:{args.jobs}")
+    digest = source_digest()
+    return [StabilityPoint(c, f, i, args.steps, digest) for c in cases for f in formats for i in iters]
 
 
 def table(verdicts: list[Verdict]) -> list[str]:
@@ -106,16 +136,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     out = Path(args.out)
-    results: list[tuple[Verdict, dict[str, list[float]]]] = []
     t0 = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-        futures = [pool.submit(_run_one, c, f, i, args.steps) for c, f, i in runs]
-        for n, fut in enumerate(futures, 1):
-            verdict, series, sec = fut.result()
-            results.append((verdict, series))
-            status = "pass" if verdict.passed else "FAIL " + "; ".join(verdict.failures)
-            print(f"[{n}/{len(runs)}] {verdict.case} {verdict.format} {verdict.iterations} it: {status} ({sec:.1f} s)",
-                  flush=True)
+    log = PointLog(out / ".points" / "stability.jsonl")
+    done = run_points(runs, parse_executor(args.executor or f"local:{args.jobs}"), log, label="stability")
+    if done.failures:
+        for failure in done.failures:
+            print(failure.describe(), file=sys.stderr)
+        print(f"error: {len(done.failures)} of {len(runs)} runs crashed (each with the command that reproduces it "
+              f"above); a rerun resumes from the {len(done.rows)} finished ({log.path})", file=sys.stderr)
+        return 1
+    results: list[tuple[Verdict, dict[str, list[float]]]] = []
+    for n, row in enumerate(done.ordered(runs), 1):
+        verdict, series = Verdict(**row["verdict"]), row["series"]
+        results.append((verdict, series))
+        status = "pass" if verdict.passed else "FAIL " + "; ".join(verdict.failures)
+        print(f"[{n}/{len(runs)}] {verdict.case} {verdict.format} {verdict.iterations} it: {status} "
+              f"({row['seconds']:.1f} s)", flush=True)
     out.mkdir(parents=True, exist_ok=True)
     verdicts = [v for v, _ in results]
     lines = ["# Hard cases: closed loop, golden model (bit-identical to the RTL kernel)", ""]
@@ -131,6 +167,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                         "; ".join(v.failures)])
     for case in dict.fromkeys(v.case for v in verdicts):
         plot_case(case, [(v, s) for v, s in results if v.case == case], out / f"{case}.png")
+    log.remove()
+    if (out / ".points").is_dir() and not any((out / ".points").iterdir()):
+        (out / ".points").rmdir()
     print("\n".join(table(verdicts)))
     print(f"\n{sum(v.passed for v in verdicts)}/{len(verdicts)} runs pass their thresholds "
           f"({time.perf_counter() - t0:.0f} s); table: {out / 'stability.md'}, plots: {out}/<case>.png")
@@ -142,5 +181,7 @@ def _thresholds(t: Any) -> str:
     return ", ".join(parts) + ", no NaN/Inf"
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # run the imported module: its points then pickle by reference (remote workers import it)
+    from sim import stability as stability_module
+
+    sys.exit(stability_module.main())

@@ -3,8 +3,18 @@
 For every format and iteration count the RTL kernel runs the step in Verilator (``sim.kernel_step``, DMA preset
 bandwidth model, trace and body-out compared bit for bit with the golden model) and the kernel's result is
 compared with the exact limit of the scheme on the same frame (``models/exact_reference.py``, cached beside the
-frame; it depends on no format or schedule; ``sim/exact_error.py``: per-body |dv| and |dw|, max, median and p99;
-without an exact reference those columns say ``no exact reference`` and why, and the plot has no points).
+frame; it depends on no format or schedule, so the driver computes it once and sends it with the points;
+``sim/exact_error.py``: per-body |dv| and |dw|, max, median and p99; without an exact reference those columns say
+``no exact reference`` and why, and the plot has no points).
+``--mode model`` replaces the RTL run by the cycle model's cycles (``models/cycle_model.py``) and the golden model's
+numbers (bit-identical to the kernel's): no Verilator, directory ``build/sweep/<scene>-<dma>-model/``.
+
+Every (format, iteration count) is a point (:class:`SweepPoint`) run on ``--executor`` (``sim/executor.py``:
+``local:1`` by default, ``local:N``, ``dask:local:N``, ``dask:tcp://host:port``; ``docs/cluster.md``): the workers
+get the frame by its hash and return rows, not the kernel runs' files (those stay in a temporary directory). Each
+finished point is appended to ``build/sweep/.points/<sweep>.jsonl``; after a failed point (reported with the command
+that reruns it alone) the same command resumes from the finished ones.
+
 Writes ``sweep.csv`` and ``sweep.png`` into ``build/sweep/<scene>-<dma>/``: time per manifold-pass (ns at the
 preset's clock, so that scenes of any size and the thesis's figures share one axis) against the maximum velocity
 error, with the thesis's ZCU102 fp32/fp16 designs and its GPU and CPU figures marked as vertical lines (their error
@@ -26,32 +36,44 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
+import hashlib
+import json
 import sys
+import tempfile
+from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, Sequence
 
-from models import scenes
-from models.constraints import body_table, setup_constraints
+import numpy as np
+
+from models import cycle_model, scenes
+from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.contact_solver import SolverParams
 from models.dma_model import PRESETS, get_preset
 from models.frame import FrameError
 from models.integrator import IntegrationParams
-from models.solution_error import SolutionError
 from models.number_format import FLOAT64
+from models.kernel_job import KernelJob
+from models.scenes.frame_cache import FRAME_CACHE_DIR
 from models.schedule import make_schedule
+from models.solution_error import SolutionError
 from sim import baselines, exact_error
 from sim.analyze import auto_format
-from models.kernel_job import KernelJob
-from sim.harness_run import KernelRunError
-from sim.kernel_build import KernelBuild, default_window
+from sim.artefacts import FrameStore, KernelStore, frame_bytes, kernel_store_root, source_digest
+from sim.executor import ExecutorSpec, PointsFailed, parse_executor, run_points
+from sim.harness_run import KernelRunError, write_inputs
+from sim.kernel_build import KernelBuild, default_window, use_kernel_store
 from sim.kernel_step import golden_step, run_kernel_step
+from sim.point_results import PointLog
 from sim.trace_compare import kernel_bodies
 from sim.report import StagedDirectory
 from sim.run_result import NoExactReference
 from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label, load_frame, \
     velocity_error
 
-COLUMNS = ["format", "iterations", "manifolds", "manifold_passes", "cycles", "cycles_per_manifold_pass",
+COLUMNS = ["format", "iterations", "mode", "manifolds", "manifold_passes", "cycles", "cycles_per_manifold_pass",
            "ms_at_clock", "ns_per_manifold_pass", "stalls", "bubbles", "bytes_streamed", "differing_bits",
            "max_dv_vs_exact", "max_dw_vs_exact", "median_dv_vs_exact", "p99_dv_vs_exact", "median_dw_vs_exact",
            "p99_dw_vs_exact", "max_dv_vs_float64_same_iters"]
@@ -68,6 +90,12 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--dma", default="zcu102", help=f"DMA preset ({', '.join(PRESETS)})")
     ap.add_argument("--seed", type=int, default=1, help="scene seed")
     exact_error.add_exact_args(ap)
+    ap.add_argument("--mode", choices=("rtl", "model"), default="rtl",
+                    help="rtl: every point on the RTL kernel in Verilator; model: the cycle model's cycles and the "
+                         "golden model's numbers (no Verilator)")
+    ap.add_argument("--executor", default="local:1",
+                    help="where the points run: local:N (N processes), dask:local:N (a Dask LocalCluster), "
+                         "dask:tcp://host:port (a Dask scheduler); sim/executor.py")
     add_kernel_args(ap)
     ap.add_argument("--out", default="build/sweep", help="parent directory of the sweep directory")
     return ap.parse_args(argv)
@@ -83,56 +111,103 @@ def _int_list(text: str, name: str) -> list[int]:
     return values
 
 
-def sweep(args: argparse.Namespace, out_dir: Path) -> tuple[list[dict[str, Any]], str]:
-    """The sweep's rows, every run's files written under ``out_dir``; returns them and the sweep's name."""
-    preset = get_preset(args.dma)
-    names = [f.strip() for f in args.formats.split(",") if f.strip()]
-    if not names:
-        raise ValueError(f"FORMATS names no number format: {args.formats!r}")
-    for name in names:  # checked before any work; auto is resolved once the frame is loaded
-        if name.lower() != "auto":
-            hardware_format(name)
-    iter_list = _int_list(args.iters, "ITERS")
-    if not args.exact_budget >= 0:
-        raise ValueError(f"--exact-budget must be >= 0, got {args.exact_budget}")
-    check_kernel_args(args)
-    frame, label = load_frame(args)
-    print(frame.summary(), flush=True)
+@dataclass(frozen=True)
+class SweepPoint:
+    """One point of the sweep (a format, an iteration count, rtl or the cycle model), run by ``sim.executor``:
+    the frame travels by its hash (``sim.artefacts.FrameStore``), the row comes back."""
+
+    frame: str  # the frame file's sha256
+    source: tuple[str, ...]  # the options that name the frame: --scene/--seed or --frame
+    fmt: str
+    how: str  # "auto": chosen by the analyzer
+    iterations: int
+    mode: str  # "rtl" or "model"
+    dma: str
+    seed: int
+    exact_budget: float
+    record_window: int
+    fetch_passes: int
+    lanes: int
+    body_bits: int
+    sources: str  # sim.artefacts.source_digest() when planned
+    # the frame's exact reference, computed once by the driver (None: the worker computes it)
+    exact: exact_error.AnyExactStep | None = dataclasses.field(default=None, compare=False)
+
+    @property
+    def key(self) -> str:
+        desc = {k: v for k, v in dataclasses.asdict(self).items() if k != "exact"}
+        digest = hashlib.sha256(json.dumps(desc, sort_keys=True).encode()).hexdigest()[:12]
+        return f"{self.fmt}-it{self.iterations}-{self.mode}-{digest}"
+
+    @property
+    def command(self) -> str:
+        return (f".venv/bin/python -m sim.sweep {' '.join(self.source)} --formats {self.fmt} --iters {self.iterations}"
+                f" --mode {self.mode} --dma {self.dma} --exact-budget {self.exact_budget:g}"
+                f" --record-window {self.record_window} --fetch-passes {self.fetch_passes} --lanes {self.lanes}"
+                f" --body-bits {self.body_bits}")
+
+    def run(self) -> dict[str, Any]:
+        use_kernel_store(KernelStore(kernel_store_root()))
+        with tempfile.TemporaryDirectory(prefix="pgs-sweep-point-") as tmp:
+            return sweep_row(self, Path(tmp))
+
+
+@lru_cache(maxsize=4)
+def _frame_setup(digest: str) -> tuple[BodyTable, ConstraintSet, IntegrationParams]:
+    frame = FrameStore().get(digest)
     bodies = body_table(frame)
-    cons = setup_constraints(frame, bodies)
-    ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
+    return bodies, setup_constraints(frame, bodies), IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
+
+
+@lru_cache(maxsize=8)
+def _schedule(digest: str, fmt_name: str, dma: str) -> np.ndarray:
+    bodies, cons, _ = _frame_setup(digest)
+    return make_schedule("hazard", cons, bodies.dynamic, default_window(hardware_format(fmt_name),
+                                                                        get_preset(dma).stream_bits))
+
+
+@lru_cache(maxsize=2)
+def frame_exact(digest: str, cache_dir: Path, budget: float) -> exact_error.AnyExactStep:
+    """The exact reference of the frame ``digest`` (cached in ``cache_dir``), or why there is none: the driver's
+    once per sweep, or a worker's that was sent none."""
+    bodies, cons, ip = _frame_setup(digest)
+    return exact_error.exact_step(bodies, cons, ip, cache_dir, budget)
+
+
+def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
+    """The sweep's row of ``point``, the kernel run's files written into ``run_dir`` (and left there)."""
+    preset = get_preset(point.dma)
+    fmt = hardware_format(point.fmt)
+    bodies, cons, ip = _frame_setup(point.frame)
+    schedule = _schedule(point.frame, point.fmt, point.dma)
+    exact = point.exact if point.exact is not None else frame_exact(point.frame, FRAME_CACHE_DIR, point.exact_budget)
     dyn = bodies.dynamic
-    formats = [(auto_format(frame, 4), "auto") if n.lower() == "auto" else (hardware_format(n), "") for n in names]
-    exact = exact_error.exact_step(bodies, cons, ip, exact_error.reference_dir(args), args.exact_budget)
-    rows: list[dict[str, Any]] = []
-    for fmt, how in formats:
-        schedule = make_schedule("hazard", cons, dyn, default_window(fmt, preset.stream_bits))
-        for iters in iter_list:
-            params = SolverParams(iterations=iters)
-            job = kernel_job(KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip), args)
-            kb = KernelBuild.for_job(job, preset, body_bits=args.body_bits)
-            res = run_kernel_step(job, preset, out_dir / f"{fmt.name}-it{iters}", args.seed, body_bits=args.body_bits)
-            ref_final = golden_step(KernelJob(FLOAT64, bodies, cons, schedule, params, ip)).final
-            ours = kernel_bodies(out_dir / f"{fmt.name}-it{iters}", job, kb)
-            e_exact = exact_error.error_vs_exact(ours, exact, dyn)
-            e_same = velocity_error(ours, ref_final.linear_velocity, ref_final.angular_velocity, dyn)
-            mp = job.manifold_passes
-            kernel = f" window x{args.lanes}" if args.record_window else ""
-            row = {"format": (f"{fmt.name} ({how})" if how else fmt.name) + kernel, "iterations": iters,
-                   "manifolds": job.manifolds, "manifold_passes": mp,
-                   "cycles": res.cycles, "cycles_per_manifold_pass": res.cycles / mp,
-                   "ms_at_clock": res.cycles / preset.clock_hz * 1e3,
-                   "ns_per_manifold_pass": res.cycles / mp / preset.clock_hz * 1e9,
-                   "stalls": int(res.registers["stalls"]), "bubbles": int(res.registers["bubbles"]),
-                   "bytes_streamed": sum(res.stream_bytes.values()), "differing_bits": res.comparison.differing_bits,
-                   **exact_columns(e_exact), "max_dv_vs_float64_same_iters": e_same.max_dv}
-            rows.append(row)
-            print(f"{row['format']:>6} {iters:>3} it: {res.cycles:>9,} cycles ({row['cycles_per_manifold_pass']:.2f}/mp), "
-                  f"max |dv| vs exact reference {_number(row['max_dv_vs_exact'])} m/s, vs float64 same iterations "
-                  f"{row['max_dv_vs_float64_same_iters']:.3e}, differing bits {row['differing_bits']}", flush=True)
-            if not res.bit_exact:
-                print(f"  NOT bit-exact: {res.comparison.first_mismatch}", flush=True)
-    return rows, f"{label}-{args.dma}{kernel_label(args)}"
+    params = SolverParams(iterations=point.iterations)
+    job = kernel_job(KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip), point)
+    kb = KernelBuild.for_job(job, preset, body_bits=point.body_bits)
+    if point.mode == "model":  # the cycle model's cycles; the golden model's numbers (the kernel's, bit for bit)
+        pred = cycle_model.predict_job(job, preset)
+        cycles, stalls, bubbles, differing = pred.cycles, pred.stalls, pred.bubbles, ""
+        streamed = sum(write_inputs(run_dir, job, kb).values())
+        ours = golden_step(job).final
+    else:
+        res = run_kernel_step(job, preset, run_dir, point.seed, body_bits=point.body_bits)
+        cycles, stalls, bubbles = res.cycles, int(res.registers["stalls"]), int(res.registers["bubbles"])
+        streamed, differing = sum(res.stream_bytes.values()), res.comparison.differing_bits
+        if not res.bit_exact:
+            print(f"  NOT bit-exact: {res.comparison.first_mismatch}", flush=True)
+        ours = kernel_bodies(run_dir, job, kb)
+    ref_final = golden_step(KernelJob(FLOAT64, bodies, cons, schedule, params, ip)).final
+    e_exact = exact_error.error_vs_exact(ours, exact, dyn)
+    e_same = velocity_error(ours, ref_final.linear_velocity, ref_final.angular_velocity, dyn)
+    mp = job.manifold_passes
+    kernel = f" window x{point.lanes}" if point.record_window else ""
+    return {"format": (f"{fmt.name} ({point.how})" if point.how else fmt.name) + kernel,
+            "iterations": point.iterations, "mode": point.mode, "manifolds": job.manifolds, "manifold_passes": mp,
+            "cycles": cycles, "cycles_per_manifold_pass": cycles / mp, "ms_at_clock": cycles / preset.clock_hz * 1e3,
+            "ns_per_manifold_pass": cycles / mp / preset.clock_hz * 1e9, "stalls": stalls, "bubbles": bubbles,
+            "bytes_streamed": streamed, "differing_bits": differing,
+            **exact_columns(e_exact), "max_dv_vs_float64_same_iters": e_same.max_dv}
 
 
 def exact_columns(e: SolutionError | NoExactReference) -> dict[str, Any]:
@@ -145,6 +220,60 @@ def exact_columns(e: SolutionError | NoExactReference) -> dict[str, Any]:
 
 def _number(value: Any) -> str:
     return f"{value:.3e}" if isinstance(value, float) else str(value)
+
+
+def plan(args: argparse.Namespace) -> tuple[list[SweepPoint], str, dict[str, bytes]]:
+    """The sweep's points (formats x iteration counts), its name and the frame they need (hash -> bytes, also put
+    into this process's frame store)."""
+    get_preset(args.dma)
+    names = [f.strip() for f in args.formats.split(",") if f.strip()]
+    if not names:
+        raise ValueError(f"FORMATS names no number format: {args.formats!r}")
+    for name in names:  # checked before any work; auto is resolved once the frame is loaded
+        if name.lower() != "auto":
+            hardware_format(name)
+    iter_list = _int_list(args.iters, "ITERS")
+    if not args.exact_budget >= 0:
+        raise ValueError(f"--exact-budget must be >= 0, got {args.exact_budget}")
+    check_kernel_args(args)
+    if args.record_window and args.mode == "model":
+        raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
+    frame, label = load_frame(args)
+    print(frame.summary(), flush=True)
+    data = frame_bytes(frame)
+    digest = FrameStore().put(data)
+    source = ("--frame", str(args.frame)) if args.frame else ("--scene", args.scene, "--seed", str(args.seed))
+    formats = [(auto_format(frame, 4), "auto") if n.lower() == "auto" else (hardware_format(n), "") for n in names]
+    points = [SweepPoint(digest, source, fmt.name, how, iters, args.mode, args.dma, args.seed, args.exact_budget,
+                         args.record_window, args.fetch_passes, args.lanes, args.body_bits, source_digest())
+              for fmt, how in formats for iters in iter_list]
+    mode = "-model" if args.mode == "model" else ""
+    return points, f"{label}-{args.dma}{kernel_label(args)}{mode}", {digest: data}
+
+
+def run_sweep(points: list[SweepPoint], exact: exact_error.AnyExactStep, spec: ExecutorSpec, log: PointLog | None,
+              frames: dict[str, bytes], label: str) -> list[dict[str, Any]]:
+    """The rows of ``points`` in order, each point sent with ``exact`` (the frame's exact reference, computed once
+    by the driver); raises PointsFailed."""
+    points = [dataclasses.replace(p, exact=exact) for p in points]
+    result = run_points(points, spec, log, frames, label=label, stream=sys.stdout)
+    result.raise_on_failure()
+    return result.ordered(points)
+
+
+def sweep(args: argparse.Namespace, log_dir: Path) -> tuple[list[dict[str, Any]], str]:
+    """The sweep's rows, its points run on ``args.executor`` and recorded in ``log_dir/<name>.jsonl`` (a rerun
+    resumes from it); returns them and the sweep's name, or raises PointsFailed."""
+    spec = parse_executor(args.executor)
+    points, name, frames = plan(args)
+    exact = frame_exact(points[0].frame, exact_error.reference_dir(args), args.exact_budget)
+    rows = run_sweep(points, exact, spec, PointLog(log_dir / f"{name}.jsonl"), frames, f"sweep {name}")
+    for row in rows:
+        print(f"{row['format']:>6} {row['iterations']:>3} it ({row['mode']}): {row['cycles']:>9,} cycles "
+              f"({row['cycles_per_manifold_pass']:.2f}/mp), max |dv| vs exact reference "
+              f"{_number(row['max_dv_vs_exact'])} m/s, vs float64 same iterations {row['max_dv_vs_float64_same_iters']:.3e}, differing bits "
+              f"{row['differing_bits'] if row['mode'] == 'rtl' else 'n/a (model)'}", flush=True)
+    return rows, name
 
 
 def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
@@ -199,18 +328,30 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
+    log_dir = Path(args.out) / ".points"
     try:
         with StagedDirectory(Path(args.out)) as out:
-            rows, name = sweep(args, out.path)
+            rows, name = sweep(args, log_dir)
             write_csv(rows, out.path / "sweep.csv")
             plot(rows, out.path / "sweep.png", f"{name}: kernel time against error (iterations annotated)")
             out_dir = out.commit(name)
+    except PointsFailed as exc:
+        first = exc.failures[0]
+        more = (f" (and {len(exc.failures) - 1} more point(s); each with the command that reproduces it above)"
+                if len(exc.failures) > 1 else "")
+        print(f"error: {first.error.splitlines()[0] if first.error else first.key}{more}", file=sys.stderr)
+        return 2
     except (ValueError, FrameError, KernelRunError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    PointLog(log_dir / f"{name}.jsonl").remove()
+    if log_dir.is_dir() and not any(log_dir.iterdir()):
+        log_dir.rmdir()
     print(f"\nsweep: {out_dir / 'sweep.csv'} and {out_dir / 'sweep.png'}")
-    return 0 if all(r["differing_bits"] == 0 for r in rows) else 1
+    return 0 if all(r["differing_bits"] == 0 for r in rows if r["mode"] == "rtl") else 1
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # run the imported module: its points then pickle by reference (remote workers import it)
+    from sim import sweep as sweep_module
+
+    sys.exit(sweep_module.main())

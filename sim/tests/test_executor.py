@@ -1,0 +1,203 @@
+"""sim.executor: a sweep on two Dask worker processes (each in its own working directory) gives the serial run's rows,
+row for row; a failing point and a dying worker are reported with their commands while the other points finish
+(also a point the local pool takes after a worker died unseen); a rerun resumes from the results file; the kernel
+store's key is the hash of the kernel build description."""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import os
+import sys
+from concurrent import futures
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterator
+
+import pytest
+
+from models import scenes
+from models.frame import save
+from models.number_format import FP16, FP32
+from sim import kernel_build
+from sim import sweep as sim_sweep
+from sim.artefacts import FRAME_DIR, FrameStore, build_key
+from sim.executor import LocalPool, Outcome, Task, WorkerDied, parse_executor, run_points
+from sim.kernel_build import KernelBuild
+from sim.point_results import PointLog
+
+distributed = pytest.importorskip("distributed")
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Any, list[Path]]]:
+    """A LocalCluster of two worker processes, one thread each, each worker in its own working directory; a
+    point that kills its worker fails at once (no retries on other workers)."""
+    import dask
+
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        cl = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                      silence_logs=logging.ERROR)
+        client = distributed.Client(cl)
+        dirs = []
+        for i, worker in enumerate(sorted(client.scheduler_info()["workers"])):
+            d = tmp_path_factory.mktemp(f"worker{i}")
+            client.run(os.chdir, str(d), workers=[worker])
+            dirs.append(d)
+        assert sorted(client.run(os.getcwd).values()) == sorted(map(str, dirs))
+        try:
+            yield cl, dirs
+        finally:
+            client.close()
+            cl.close()
+
+
+def test_sweep_on_two_dask_workers_matches_serial(tmp_path: Path, cluster: tuple[Any, list[Path]]) -> None:
+    cl, worker_dirs = cluster
+    frame = save(scenes.load_or_capture("stack", n=2), tmp_path / "stack2.npz")
+    args = sim_sweep.parse_args(["--frame", str(frame), "--formats", "fp32,fp16", "--iters", "1,2,4", "--mode",
+                                 "model"])
+    points, name, frames = sim_sweep.plan(args)
+    points.append(dataclasses.replace(points[1], mode="rtl"))  # fp32, 2 iterations on the RTL kernel
+    exact = sim_sweep.frame_exact(points[0].frame, tmp_path, 600.0)
+    points = [dataclasses.replace(p, exact=exact) for p in points]
+    serial = [p.run() for p in points]
+    assert [r["mode"] for r in serial] == ["model"] * 6 + ["rtl"] and serial[-1]["differing_bits"] == 0
+    assert isinstance(serial[1]["max_dv_vs_exact"], float)  # the stack has an exact reference
+    assert serial[-1]["max_dv_vs_exact"] == serial[1]["max_dv_vs_exact"]  # the kernel's numbers: golden's
+
+    log = PointLog(tmp_path / "points.jsonl")
+    rows = sim_sweep.run_sweep(points, exact, parse_executor(f"dask:{cl.scheduler_address}"), log, frames, "sweep")
+    assert rows == serial
+    sim_sweep.write_csv(serial, tmp_path / "serial.csv")
+    sim_sweep.write_csv(rows, tmp_path / "dask.csv")
+    assert (tmp_path / "dask.csv").read_bytes() == (tmp_path / "serial.csv").read_bytes()
+    assert set(log.load()) == {p.key for p in points}
+    (digest,) = frames
+    shipped = [d for d in worker_dirs if (d / FRAME_DIR / f"{digest}.npz").is_file()]
+    assert shipped, "no worker received the frame (each has its own working directory, without the driver's)"
+    assert FrameStore(shipped[0] / FRAME_DIR).get(digest).num_bodies == scenes.load_or_capture("stack", n=2).num_bodies
+
+
+@dataclass(frozen=True)
+class FlakyPoint:
+    """A point that raises while ``fail_marker`` exists and kills its worker process while ``die_marker`` exists;
+    each run appends a line to ``<counts>/<name>``."""
+
+    name: str
+    counts: str
+    fail_marker: str = ""
+    die_marker: str = ""
+
+    @property
+    def key(self) -> str:
+        return self.name
+
+    @property
+    def command(self) -> str:
+        return f"flaky-point {self.name}"
+
+    def run(self) -> dict[str, Any]:
+        with open(Path(self.counts) / self.name, "a") as f:
+            f.write("run\n")
+        if self.fail_marker and Path(self.fail_marker).exists():
+            raise RuntimeError(f"{self.name}: injected failure")
+        if self.die_marker and Path(self.die_marker).exists():
+            os._exit(3)
+        return {"name": self.name, "value": len(self.name) * 1.5}
+
+
+def _runs(counts: Path) -> dict[str, int]:
+    return {p.name: len(p.read_text().splitlines()) for p in counts.iterdir()}
+
+
+@pytest.mark.parametrize("where", ["local:2", "dask"])
+def test_failing_point_and_dying_worker(tmp_path: Path, where: str, request: pytest.FixtureRequest) -> None:
+    if where == "dask":
+        import cloudpickle
+
+        cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers cannot import a test module
+        where = f"dask:{request.getfixturevalue('cluster')[0].scheduler_address}"
+    spec = parse_executor(where)
+    counts, fail, die = tmp_path / "counts", tmp_path / "fail", tmp_path / "die"
+    counts.mkdir()
+    fail.touch()
+    die.touch()
+    points = [FlakyPoint(f"p{i}", str(counts), str(fail) if i == 1 else "", str(die) if i == 3 else "")
+              for i in range(5)]
+    log = PointLog(tmp_path / "points.jsonl")
+    first = run_points(points, spec, log, label="flaky")
+    by_key = {f.key: f for f in first.failures}
+    assert sorted(by_key) == ["p1", "p3"]
+    assert by_key["p1"].error == "p1: injected failure" and by_key["p1"].command == "flaky-point p1"
+    assert "died" in by_key["p3"].error and by_key["p3"].command == "flaky-point p3"
+    assert "reproduce: flaky-point p3" in by_key["p3"].describe()
+    assert sorted(first.rows) == ["p0", "p2", "p4"] and sorted(log.load()) == ["p0", "p2", "p4"]
+    before = _runs(counts)
+
+    fail.unlink()
+    die.unlink()
+    second = run_points(points, spec, log, label="flaky")
+    assert not second.failures and second.resumed == 3
+    assert second.ordered(points) == [{"name": f"p{i}", "value": 3.0} for i in range(5)]
+    after = _runs(counts)
+    assert {k: after[k] - before[k] for k in after} == {"p0": 0, "p1": 1, "p2": 0, "p3": 1, "p4": 0}
+
+
+def test_local_pool_takes_points_while_a_dead_worker_goes_unseen(tmp_path: Path) -> None:
+    """A point submitted after a worker died, before the driver's next wait sees it, is neither refused with an
+    exception nor lost: it died with the pool (not alone), and the replaced pool runs the next point."""
+    counts, die = tmp_path / "counts", tmp_path / "die"
+    counts.mkdir()
+    die.touch()
+    pool = LocalPool(2)
+    try:
+        dying = pool.submit(Task(FlakyPoint("p0", str(counts), die_marker=str(die))))
+        futures.wait([dying])  # the pool is broken now (its manager marks it before failing the futures)
+        late = pool.submit(Task(FlakyPoint("p1", str(counts))))
+        outcomes = dict(pool.wait([dying, late]))
+        assert set(outcomes) == {dying, late}
+        assert all(isinstance(o, WorkerDied) and not o.alone for o in outcomes.values())
+        after = pool.submit(Task(FlakyPoint("p2", str(counts))))
+        ((_, outcome),) = pool.wait([after])
+        assert isinstance(outcome, Outcome) and outcome.row == {"name": "p2", "value": 3.0} and not outcome.error
+    finally:
+        pool.close()
+
+
+def test_kernel_store_key_is_the_build_description(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The store's key is a hash of the one kernel build description: equal descriptions share it, every field that
+    changes the build changes it, and what is hashed is what every kernel build passes to Verilator."""
+    base = KernelBuild(FP32)
+    assert build_key(base) == build_key(KernelBuild(FP32))
+    variants = [base, KernelBuild(FP16), KernelBuild(FP32, cons_bits=256), KernelBuild(FP32, body_in_bits=512),
+                KernelBuild(FP32, window=64), KernelBuild(FP32, compile_profile="o0"), KernelBuild(FP32, waves=True),
+                KernelBuild(FP32, friction_sign_bug=True)]
+    assert len({build_key(kb) for kb in variants}) == len(variants)
+    calls: list[dict[str, Any]] = []
+    monkeypatch.setattr(kernel_build, "build", lambda **kw: calls.append(kw) or Path("exe"))
+    kernel_build.verilate_kernel(base, build_dir=Path("d"), lock=False)
+    assert calls == [{**kernel_build.kernel_build_args(base, Path("d")), "lock": False}]
+
+
+@pytest.mark.parametrize("text", ["local:0", "local:x", "dask:", "dask:local:", "dask:http://h:1", "dask:host",
+                                  "ray:4", ""])
+def test_bad_executor_spec(text: str) -> None:
+    with pytest.raises(ValueError, match="EXECUTOR must be local:N, dask:local:N or dask:tcp://host:port"):
+        parse_executor(text)
+
+
+def test_executor_specs() -> None:
+    assert parse_executor("local:3").describe() == "local:3"
+    assert parse_executor("dask:local:2").describe() == "dask:local:2"
+    assert parse_executor("dask:tcp://10.0.0.1:8786").address == "tcp://10.0.0.1:8786"
+    assert parse_executor("dask:sched:8786").address == "tcp://sched:8786"
+
+
+def test_results_file_skips_a_torn_line(tmp_path: Path) -> None:
+    log = PointLog(tmp_path / "p.jsonl")
+    log.append("a", {"x": 1})
+    with open(log.path, "a") as f:
+        f.write('{"key": "b", "row": {"x"')  # an interrupted run
+    log.append("c", {"x": 3})
+    assert log.load() == {"a": {"x": 1}, "c": {"x": 3}}
