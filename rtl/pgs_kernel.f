@@ -34,6 +34,8 @@ pgs_impulse_ram.sv
 pgs_hazard_cam.sv
 pgs_record_asm.sv
 pgs_window.sv
+pgs_run_counters.sv
+pgs_error_flags.sv
 pgs_sequencer.sv
 pgs_control_s_axi.sv
 pgs_kernel.sv

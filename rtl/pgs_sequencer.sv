@@ -28,14 +28,14 @@
 //          the no-backpressure pipe never overflows), serialized to m_body beats, TLAST on the last
 //          beat of the last body;
 //   DONE   one cycle: done (= ap_done and ap_ready).
-// Counters (cleared at start, frozen after done): cycles (start .. done inclusive), stall cycles
+// Counters (pgs_run_counters; cleared at start, frozen after done): cycles (start .. done inclusive), stall cycles
 // (SOLVE, a record is assembled but may not issue: hazard, CAM full or pipe switch drain), bubble
 // cycles (SOLVE, no record assembled), issued manifold-passes, rejected manifold-passes (issued +
 // rejected + empty lanes = num_manifolds * 2 * iterations), and the floating-point events of the three datapaths
 // (overflow, underflow, invalid: every operator result of an issued manifold-pass or of a dynamic body's
 // integration; saturating at 2^32 - 1; fp_set pulses with the events of a cycle).
 //
-// Bad input (rtl/README.md "Bad input"; err_set pulses a flag, err_code its code; flag bit k-1 for code k):
+// Bad input (rtl/README.md "Bad input"; pgs_error_flags: err_set pulses a flag, err_code its code):
 //   * body-in records are checked at load: a non-finite word (0x05), a negative inverse mass or inverse
 //     inertia (0x06), or a record cut short by TLAST (0x02) makes a *bad body*: stored frozen (not
 //     dynamic), every manifold naming it is rejected, integration passes its record through unchanged.
@@ -135,7 +135,6 @@ module pgs_sequencer #(
     localparam int ITAG_W    = 1 + OREC_W;                              // integrate pipe's tag
     localparam int OBEAT_W   = $clog2(O_BEATS + 1);
     localparam int EV_W      = 16;                                      // the datapaths' event counts
-    localparam int EV_SUM_W  = EV_W + $clog2(2 * LANES + 2);            // their sum over the lanes and integration
     localparam int LG_L      = $clog2(LANES);
 
     localparam bit CONTACT  = 1'b0;
@@ -641,63 +640,19 @@ module pgs_sequencer #(
     assign idle = phase == S_IDLE;
     assign done = phase == S_DONE;
 
-    always_ff @(posedge clk) begin
-        if (rst) begin
-            stat_cycles   <= '0;
-            stat_stalls   <= '0;
-            stat_bubbles  <= '0;
-            stat_issued   <= '0;
-            stat_rejected <= '0;
-        end else if (phase == S_IDLE) begin
-            if (start) begin
-                stat_cycles   <= 64'd1;
-                stat_stalls   <= '0;
-                stat_bubbles  <= '0;
-                stat_issued   <= '0;
-                stat_rejected <= '0;
-            end
-        end else begin
-            stat_cycles <= stat_cycles + 1'b1;
-            if (in_solve && crec_valid && !i_fill && !take) stat_stalls <= stat_stalls + 1'b1;
-            if (in_solve && !crec_valid && !i_fill) stat_bubbles <= stat_bubbles + 1'b1;
-            stat_issued   <= stat_issued + 32'($countones(l_issue));
-            stat_rejected <= stat_rejected + 32'($countones(l_reject)) + 32'(fill);
-        end
-    end
-
-    // floating-point events of the datapaths (each pipe reports the previous cycle's; they arrive at most
-    // LATENCY + 1 cycles after an input, before the step's last body-out beat)
-    // (a lane's sum of its two pipes' counts can wrap only beyond 2^16 events in one cycle: never)
-    logic [EV_SUM_W-1:0] ev_ovf, ev_unf, ev_inv;
+    logic [LANES*3*EV_W-1:0] lane_ev;
     always_comb begin
-        ev_ovf = EV_SUM_W'(i_ev_ovf);
-        ev_unf = EV_SUM_W'(i_ev_unf);
-        ev_inv = EV_SUM_W'(i_ev_inv);
-        for (int l = 0; l < LANES; l++) begin
-            ev_ovf += EV_SUM_W'(l_ev[l][0 +: EV_W]);
-            ev_unf += EV_SUM_W'(l_ev[l][EV_W +: EV_W]);
-            ev_inv += EV_SUM_W'(l_ev[l][2*EV_W +: EV_W]);
-        end
+        for (int l = 0; l < LANES; l++) lane_ev[3*EV_W*l +: 3*EV_W] = l_ev[l];
     end
-    assign fp_set = {ev_inv != '0, ev_unf != '0, ev_ovf != '0};
 
-    function automatic logic [31:0] sat_add(input logic [31:0] acc, input logic [EV_SUM_W-1:0] inc);
-        logic [32:0] sum;
-        sum = {1'b0, acc} + 33'(inc);
-        return sum[32] ? '1 : sum[31:0];
-    endfunction
-
-    always_ff @(posedge clk) begin
-        if (rst || (phase == S_IDLE && start)) begin
-            stat_fp_overflow  <= '0;
-            stat_fp_underflow <= '0;
-            stat_fp_invalid   <= '0;
-        end else begin
-            stat_fp_overflow  <= sat_add(stat_fp_overflow, ev_ovf);
-            stat_fp_underflow <= sat_add(stat_fp_underflow, ev_unf);
-            stat_fp_invalid   <= sat_add(stat_fp_invalid, ev_inv);
-        end
-    end
+    // run statistics and the datapaths' floating-point events (each pipe reports the previous cycle's; they
+    // arrive at most LATENCY + 1 cycles after an input, before the step's last body-out beat)
+    pgs_run_counters #(.LANES(LANES), .EV_W(EV_W)) u_counters (
+        .clk, .rst, .idle, .start, .stall(in_solve && crec_valid && !i_fill && !take),
+        .bubble(in_solve && !crec_valid && !i_fill), .issued(l_issue), .rejected(l_reject), .fill_rejected(fill),
+        .lane_ev, .int_ev_ovf(i_ev_ovf), .int_ev_unf(i_ev_unf), .int_ev_inv(i_ev_inv), .fp_set, .stat_cycles,
+        .stat_stalls, .stat_bubbles, .stat_issued, .stat_rejected, .stat_fp_overflow, .stat_fp_underflow,
+        .stat_fp_invalid);
 
     // counters of the phases (no reset needed beyond the start of a run)
     always_ff @(posedge clk) begin
@@ -729,27 +684,19 @@ module pgs_sequencer #(
     end
 
     // ---------------- errors ----------------
-    // the conditions of codes 1..7 (pgs_regs_pkg; flag bit k-1 of code k); err_code names the lowest one raised
-    // this cycle.
+    // the conditions of codes 1..7 this cycle, encoded into err_set / err_code by pgs_error_flags.
     // A record cut short by TLAST (code 1 / 2) holds stale words: its other checks raise nothing.
     wire [LANES-1:0] cons_check = {LANES{take && !crec_trunc}} & ~l_empty;
     wire body_in_check = phase == S_LOAD && brec_valid && !brec_trunc;
-    logic [6:0] err_hit;
-    always_comb begin
-        err_hit[pgs_regs_pkg::ERR_CONS_TLAST - 1]    = c_tlast_err;
-        err_hit[pgs_regs_pkg::ERR_BODY_TLAST - 1]    = b_done && (s_body_tlast != (b_asm_cnt == nb - 1) || b_done_trunc);
-        err_hit[pgs_regs_pkg::ERR_BAD_ARGS - 1]      = phase == S_IDLE && start && bad_args;
-        err_hit[pgs_regs_pkg::ERR_BODY_INDEX - 1]    = (cons_check & (l_index | l_collide)) != '0;
-        err_hit[pgs_regs_pkg::ERR_NON_FINITE - 1]    = (cons_check & l_nonfinite) != '0
-                                                       || (body_in_check && brec_nonfinite);
-        err_hit[pgs_regs_pkg::ERR_NEGATIVE_MASS - 1] = body_in_check && brec_bad_mass;
-        err_hit[pgs_regs_pkg::ERR_STATIC_PAIR - 1]   = (cons_check & l_static) != '0;
-        err_set  = {1'b0, err_hit};
-        err_code = 8'h00;
-        for (int k = 6; k >= 0; k--) begin
-            if (err_hit[k]) err_code = 8'(k + 1);
-        end
-    end
+    pgs_error_flags u_errors (
+        .cons_tlast(c_tlast_err),
+        .body_tlast(b_done && (s_body_tlast != (b_asm_cnt == nb - 1) || b_done_trunc)),
+        .bad_args(phase == S_IDLE && start && bad_args),
+        .body_index((cons_check & (l_index | l_collide)) != '0),
+        .non_finite((cons_check & l_nonfinite) != '0 || (body_in_check && brec_nonfinite)),
+        .negative_mass(body_in_check && brec_bad_mass),
+        .static_pair((cons_check & l_static) != '0),
+        .err_set, .err_code);
 
     // Not needed (Verilator's *unused* naming convention): the FIFO never fills (an integration issues
     // only with a free credit); the body-in assembler carries no tag; the padding bits of the records;
