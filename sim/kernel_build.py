@@ -24,6 +24,7 @@ from typing import Any, Protocol
 from models import stream_format as sf
 from models.dma_model import DmaPreset
 from models.kernel_job import KernelJob
+from models.kernel_shape import KernelShape
 from models.number_format import NumberFormat
 from rtl.gen import friction_sign_bug_sources
 from sim.lint import rtl_files
@@ -173,10 +174,8 @@ def build_kernel(kb: KernelBuild) -> tuple[Path, float]:
 
 
 def default_window(fmt: NumberFormat, cons_bits: int) -> int:
-    """Issue slots a manifold must wait before its bodies come back: the deeper pipe's latency in records."""
-    from rtl.gen.kernel_graphs import GRAPHS
-
-    layout = sf.StreamLayout(fmt, cons_beat_bits=cons_bits)
-    contact = GRAPHS["pgs_contact_pipe"]().schedule().latency_for(fmt.man_bits)
-    friction = GRAPHS["pgs_friction_pipe"]().schedule().latency_for(fmt.man_bits)
-    return max(math.ceil(contact / layout.contact_beats), math.ceil(friction / layout.friction_beats)) + 2
+    """Issue slots a manifold must wait before its bodies come back: the deeper pipe's latency in records
+    (latencies from the generated ``rtl/generated/pipe_latency.json``, through ``models.kernel_shape``)."""
+    shape = KernelShape.of(fmt, cons_bits)
+    return max(math.ceil(shape.contact_latency / shape.contact_beats),
+               math.ceil(shape.friction_latency / shape.friction_beats)) + 2
