@@ -23,6 +23,7 @@ normal pointing against the centres, a static body above a dynamic one), there i
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from .constraints import BodyTable, ConstraintSet
 from .exact_reference import ExactReferenceError, _contact_rows, _Layout
@@ -73,3 +74,31 @@ def contact_phase_bound(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarr
             "certified max |dv| (m/s)": bound * float(np.sqrt(bodies.inv_mass[bodies.dynamic].max(initial=0.0))),
             "certified max |dw| (rad/s)": bound * float(np.sqrt(bodies.inv_inertia[bodies.dynamic].max(initial=0.0))),
             "expansion rate k (1/s)": k, "lam.e (N s m/s)": float(lam @ e)}
+
+
+def friction_phase_bound(G: sp.csr_matrix, N: sp.csr_matrix, inv_m: np.ndarray, u1: np.ndarray, y: np.ndarray,
+                         c: np.ndarray, limit: np.ndarray) -> float:
+    """The certified M-norm distance ``|u(y) - u*|_M`` of the friction-phase state ``u(y) = u1 - M^-1 G^T y`` from
+    the phase's exact limit with the same friction boxes (``models/exact_reference.py``: G is the friction rows
+    stacked on the spin rows N, y = (lam_t, s), ``|lam_t| <= limit``, c the friction rows' constant).
+
+    The box QP in y is the dual of the primal P(u) = 1/2 |u - u1|_M^2 + sum_r limit_r |J_r u + c_r| subject to
+    N u = 0, which is 1-strongly convex in the M-norm; with D(y) the dual objective and u_f the projection of u(y)
+    onto N u = 0 (N has orthonormal rows on disjoint columns: ``u_f = u(y) - N^T N u(y)``, feasible),
+    ``1/2 |u_f - u*|_M^2 <= P(u_f) - P(u*) <= P(u_f) - D(y)``, so
+
+        |u(y) - u*|_M <= |u(y) - u_f|_M + sqrt(2 max(0, P(u_f) - D(y))).
+
+    Zero at the limit (then N u = 0 and the duality gap closes)."""
+    nr = limit.shape[0]
+    if np.any(np.abs(y[:nr]) > limit * (1.0 + 1e-12) + 1e-300):
+        raise ExactReferenceError("friction impulses outside their boxes: not a friction-phase iterate")
+    m = 1.0 / inv_m
+    gty = G.T @ y
+    u = u1 - inv_m * gty
+    u_f = u - N.T @ (N @ u)
+    jt = G[:nr]
+    primal = 0.5 * float(np.sum(m * (u_f - u1) ** 2)) + float(limit @ np.abs(jt @ u_f + c))
+    dual = -0.5 * float(gty @ (inv_m * gty)) + float(y @ (G @ u1)) + float(y[:nr] @ c)
+    gap = primal - dual
+    return float(np.sqrt(np.sum(m * (u - u_f) ** 2))) + float(np.sqrt(2.0 * max(gap, 0.0)))

@@ -74,6 +74,14 @@ KKT_BYTES_PER_NONZERO = 400  # pre-solve memory estimate per KKT non-zero: a bou
 EIGEN_TOLERANCE = 1e-9  # relative: n is an eigenvector of the inverse inertia
 SPAN_TOLERANCE = 1e-6  # relative singular value below which a body's damped normals add no spin row
 ALMOST_SOLVED_ACCEPT = 1e-6  # m/s: an "almost solved" QP is kept when its polished natural residual is below this
+# A batch with more rows than this is solved iteratively (MPRGP, models/mprgp.py) and certified by weak duality
+# (models/exact_bound.py): an interior point's sparse factorisations of the thesis frame's single island (589,940
+# rows) take minutes each (docs/exact_reference.md).
+DIRECT_ROWS_LIMIT = 50_000
+ITERATIVE_TOLERANCE = 1e-11  # MPRGP's projected-gradient tolerance (Jacobi-scaled rows)
+CONTACT_TIME_SHARE = 0.5  # of the time left, the most the iterative contact phase may take
+ITERATIVE_MARGIN_S = 20.0  # kept back from the iterative friction phase for the residuals and the certificates
+CERTIFIED_ACCEPT = 1e-3  # m/s and rad/s: an iterative reference is kept when its certified distance is below this
 
 
 class ExactReferenceError(RuntimeError):
@@ -392,6 +400,57 @@ def _check_almost(sol: QpSolution, residual: np.ndarray, phase: str) -> None:
                                   f"above {ALMOST_SOLVED_ACCEPT:g} m/s after polishing")
 
 
+# --- the iterative path for islands too large to factorise ------------------------------------------------------
+def _iterative(G: sp.csc_matrix, inv_m: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray, time_s: float,
+               info: dict[str, float], phase: str) -> np.ndarray:
+    """minimise 1/2 y^T G M^-1 G^T y + g^T y over lo <= y <= hi by MPRGP (products with G and G^T only)."""
+    from .mprgp import mprgp
+
+    Gr = G.tocsr()
+    Gr.eliminate_zeros()
+    GT = Gr.T.tocsr()
+    diag = np.asarray(Gr.multiply(Gr) @ inv_m).ravel()
+    if np.any(~(diag > 0)):
+        raise ExactReferenceError(f"{phase} phase: a row without a dynamic body's velocity in it")
+    res = mprgp(lambda v: Gr @ (inv_m * (GT @ v)), diag, g, lo, hi, np.clip(np.zeros_like(g), lo, hi),
+                ITERATIVE_TOLERANCE, 10 ** 7, max(time_s, 0.0))
+    info[f"{phase} phase: iterative (MPRGP) iterations"] = res.iterations
+    info[f"{phase} phase: iterative (MPRGP) seconds"] = res.seconds
+    info[f"{phase} phase: iterative (MPRGP) projected gradient at the end"] = res.projected_gradient
+    info[f"{phase} phase: iterative (MPRGP) converged to {ITERATIVE_TOLERANCE:g}"] = float(res.converged)
+    return res.x
+
+
+def _certify_friction(G: sp.csc_matrix, N: sp.csc_matrix, inv_m: np.ndarray, u1: np.ndarray, y: np.ndarray,
+                      c: np.ndarray, limit: np.ndarray, info: dict[str, float]) -> None:
+    from .exact_bound import friction_phase_bound
+
+    key = "certified |u - u*|_M of the friction phase, given its boxes (sqrt(kg) m/s)"
+    bound = friction_phase_bound(G.tocsr(), N.tocsr(), inv_m, u1, y, c, limit)
+    info[key] = float(np.hypot(info.get(key, 0.0), bound))  # islands are independent: the squares add
+
+
+def _certify(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarray, info: dict[str, float]) -> None:
+    """The certified distance of an iteratively solved reference from the exact limit (models/exact_bound.py):
+    contact phase by weak duality; the friction phase's map u1 -> u2 is the M-proximal map of a convex function
+    (boxes fixed), hence non-expansive, so the final state's distance is at most the sum of both phases' bounds.
+    Raises ExactReferenceError when it exceeds CERTIFIED_ACCEPT."""
+    from .exact_bound import contact_phase_bound
+
+    contact = contact_phase_bound(bodies, cons, normal)["certified |u - u*|_M (sqrt(kg) m/s)"]
+    friction = info.get("certified |u - u*|_M of the friction phase, given its boxes (sqrt(kg) m/s)", 0.0)
+    total = contact + friction
+    dyn = bodies.dynamic
+    dv = total * float(np.sqrt(bodies.inv_mass[dyn].max(initial=0.0)))
+    dw = total * float(np.sqrt(bodies.inv_inertia[dyn].max(initial=0.0)))
+    info["certified |u - u*|_M of the contact phase (sqrt(kg) m/s)"] = contact
+    info["certified max |dv| of the final state (m/s)"] = dv
+    info["certified max |dw| of the final state (rad/s)"] = dw
+    if not max(dv, dw) <= CERTIFIED_ACCEPT:
+        raise ExactReferenceError(f"the iterative solve stopped {dv:.1e} m/s and {dw:.1e} rad/s (certified) from "
+                                  f"the exact limit, above the {CERTIFIED_ACCEPT:g} accepted")
+
+
 # --- the two phases -------------------------------------------------------------------------------------------
 def _contact_phase(layout: _Layout, cons: ConstraintSet, u0: np.ndarray, labels: np.ndarray, count: int,
                    solver: QpSolver, clock: _Clock, info: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
@@ -404,12 +463,16 @@ def _contact_phase(layout: _Layout, cons: ConstraintSet, u0: np.ndarray, labels:
         sel = np.flatnonzero(np.isin(row_island, group))
         cols = np.flatnonzero(np.isin(body_island, group))
         J, c = _sub(rows, sel, cols)
+        inf = np.full(sel.shape[0], np.inf)
+        if sel.shape[0] > DIRECT_ROWS_LIMIT:
+            lam[sel] = _iterative(J, layout.inv_m[cols], J @ u0[cols] + c, np.zeros(sel.shape[0]), inf,
+                                  clock.left() * CONTACT_TIME_SHARE, info, "contact")
+            continue
         m = 1.0 / layout.inv_m[cols]
         prob = QpProblem(sp.diags(m).tocsc(), -m * u0[cols], -J, c, 0, sel.shape[0])
         clock.check_memory(prob)
         sol = solver(prob, clock.left())
         H = (J @ sp.diags(layout.inv_m[cols]) @ J.T).tocsc()
-        inf = np.full(sel.shape[0], np.inf)
         lam[sel] = polish_box_qp(H, J @ u0[cols] + c, np.maximum(sol.z, 0.0), np.zeros(sel.shape[0]), inf)
         _check_almost(sol, box_residual(H, J @ u0[cols] + c, lam[sel], np.zeros(sel.shape[0]), inf), "contact")
         info["contact QP iterations (largest island)"] = max(info.get("contact QP iterations (largest island)", 0),
@@ -443,16 +506,22 @@ def _friction_phase(layout: _Layout, cons: ConstraintSet, u1: np.ndarray, normal
         Ns = N[ssel][:, cols].tocsc()
         nr, ns = sel.shape[0], Ns.shape[0]
         G = sp.vstack([J, Ns], format="csc")
-        P = (G @ sp.diags(layout.inv_m[cols]) @ G.T).tocsc()
         q = -(G @ u1[cols] + np.concatenate([c, np.zeros(ns)]))
+        inf = np.full(ns, np.inf)
+        lo, hi = np.concatenate([-L[sel], -inf]), np.concatenate([L[sel], inf])
+        if nr + ns > DIRECT_ROWS_LIMIT:
+            y = _iterative(G, layout.inv_m[cols], q, lo, hi, clock.left() - ITERATIVE_MARGIN_S, info, "friction")
+            _certify_friction(G, Ns, layout.inv_m[cols], u1[cols], y, c, L[sel], info)
+            lam_rows[sel] = y[:nr]
+            spin[ssel] = y[nr:]
+            continue
+        P = (G @ sp.diags(layout.inv_m[cols]) @ G.T).tocsc()
         eye = sp.identity(nr, format="csc")
         A = sp.vstack([sp.hstack([eye, sp.csc_matrix((nr, ns))]), sp.hstack([-eye, sp.csc_matrix((nr, ns))])],
                       format="csc")
         prob = QpProblem(P, q, A, np.concatenate([L[sel], L[sel]]), 0, 2 * nr)
         clock.check_memory(prob)
         sol = solver(prob, clock.left())
-        inf = np.full(ns, np.inf)
-        lo, hi = np.concatenate([-L[sel], -inf]), np.concatenate([L[sel], inf])
         y = polish_box_qp(P, q, sol.x, lo, hi)
         _check_almost(sol, box_residual(P, q, y, lo, hi), "friction")
         lam_rows[sel] = y[:nr]
@@ -521,6 +590,8 @@ def exact_reference(bodies: BodyTable, cons: ConstraintSet, params: SolverParams
     u2, friction = _friction_phase(layout, cons, u1, normal, params.friction_coeff, labels, count, solver, clock,
                                    info)
     seconds["friction phase"] = time.perf_counter() - t0
+    if any(k.endswith("iterative (MPRGP) iterations") for k in info):
+        _certify(bodies, cons, normal, info)
     contact_bodies = layout.with_velocity(bodies, u1)
     final = layout.with_velocity(bodies, u2)
     imp = Impulses(normal=normal, friction=friction)

@@ -179,3 +179,48 @@ def test_bounded_solve_enforces_the_budget_from_outside(pile, monkeypatch: pytes
     monkeypatch.setattr(er, "BUDGET_GRACE_S", 0.0)
     with pytest.raises(ExactReferenceError, match="was stopped"):
         er.exact_reference_bounded(bodies, cons, budget=Budget(time_s=0.5), solver=hang)
+
+
+def test_iterative_path_reaches_the_direct_reference_and_certifies_it(pile, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Islands above DIRECT_ROWS_LIMIT are solved by MPRGP and certified: on the pile (forced onto that path) it
+    agrees with the interior point, is a fixed point of both passes, its certificate bounds the true distance, and
+    a solve stopped early is refused (its certificate exceeds what is accepted)."""
+    from models import exact_reference as er
+
+    bodies, cons, schedule, ref = pile
+    monkeypatch.setattr(er, "DIRECT_ROWS_LIMIT", 0)
+    it = exact_reference(bodies, cons)
+    assert it.details["contact phase: iterative (MPRGP) iterations"] > 0
+    assert it.details["friction phase: iterative (MPRGP) iterations"] > 0
+    dv = np.linalg.norm(it.bodies.linear_velocity - ref.bodies.linear_velocity, axis=1).max()
+    dw = np.linalg.norm(it.bodies.angular_velocity - ref.bodies.angular_velocity, axis=1).max()
+    assert dv <= 1e-8 and dw <= 1e-8
+    assert dv <= it.details["certified max |dv| of the final state (m/s)"] <= er.CERTIFIED_ACCEPT
+    assert dw <= it.details["certified max |dw| of the final state (rad/s)"] <= er.CERTIFIED_ACCEPT
+    no_friction = Impulses(it.impulses.normal, np.zeros_like(it.impulses.friction))
+    assert _moved(it.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
+    assert _moved(it.bodies, it.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
+    for key in ("contact phase: normal LCP |min(lam K, e)| max (m/s)", "friction phase: box residual max (m/s)",
+                "friction phase: spin |n.w| max (rad/s)"):
+        assert it.residuals[key] <= RESIDUAL_TOLERANCE, (key, it.residuals[key])
+    monkeypatch.setattr(er, "ITERATIVE_TOLERANCE", 1e-2)  # stops far from the limit
+    with pytest.raises(ExactReferenceError, match="certified"):
+        exact_reference(bodies, cons)
+
+
+def test_mprgp_solves_a_small_box_qp() -> None:
+    """MPRGP against the optimality conditions of a random box QP with a singular Hessian."""
+    from models.mprgp import mprgp
+
+    rng = np.random.default_rng(3)
+    B = rng.standard_normal((12, 20))
+    H = B.T @ B  # rank 12 of 20
+    g = B.T @ rng.standard_normal(12)  # in H's range: bounded below with free rows
+    lo = np.where(np.arange(20) % 3 == 0, -np.inf, -0.5)
+    hi = np.where(np.arange(20) % 4 == 0, np.inf, 0.3)
+    res = mprgp(lambda v: H @ v, np.diag(H).copy(), g, lo, hi, np.zeros(20), 1e-12, 100000, 30.0)
+    assert res.converged and np.all(res.x >= lo) and np.all(res.x <= hi)
+    grad = H @ res.x + g
+    natural = res.x - np.clip(res.x - grad, lo, hi)
+    assert np.abs(natural).max() < 1e-9
+    assert np.sum((res.x == lo) | (res.x == hi)) > 0  # some bounds are active: the test exercises them
