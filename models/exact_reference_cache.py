@@ -24,9 +24,9 @@ import numpy as np
 
 from .constraints import BodyTable, ConstraintSet
 from .contact_solver import Impulses, SolverParams
-from .exact_reference import SOLVER_TOLERANCE, Budget, ExactReference, ExactReferenceError, exact_reference_bounded
+from .exact_reference import DIRECT_ROWS_LIMIT, ITERATIVE_TOLERANCE, SOLVER_TOLERANCE, Budget, ExactReference, ExactReferenceError, exact_reference_bounded
 
-CACHE_VERSION = 2  # bump whenever the reference computation changes
+CACHE_VERSION = 3  # bump whenever the reference computation changes
 _VELOCITIES = ("contact_linear", "contact_angular", "linear", "angular", "normal", "friction")
 
 
@@ -42,7 +42,8 @@ def cache_key(bodies: BodyTable, cons: ConstraintSet, params: SolverParams) -> s
 
     h.update(json.dumps({"friction_coeff": params.friction_coeff, "interleaved": params.interleaved,
                          "solver": "clarabel " + importlib.metadata.version("clarabel"),
-                         "tolerance": SOLVER_TOLERANCE, "version": CACHE_VERSION}, sort_keys=True).encode())
+                         "tolerance": SOLVER_TOLERANCE, "version": CACHE_VERSION,
+                         "iterative": [DIRECT_ROWS_LIMIT, ITERATIVE_TOLERANCE]}, sort_keys=True).encode())
     return h.hexdigest()[:16]
 
 
