@@ -24,7 +24,8 @@ import numpy as np
 
 from .constraints import BodyTable, ConstraintSet
 from .contact_solver import Impulses, SolverParams
-from .exact_reference import DIRECT_ROWS_LIMIT, ITERATIVE_TOLERANCE, SOLVER_TOLERANCE, Budget, ExactReference, ExactReferenceError, exact_reference_bounded
+from .exact_reference import (DIRECT_ROWS_LIMIT, ITERATIVE_TOLERANCE, SOLVER_TOLERANCE, Budget, ExactReference,
+                              ExactReferenceError, exact_reference_bounded)
 
 CACHE_VERSION = 3  # bump whenever the reference computation changes
 _VELOCITIES = ("contact_linear", "contact_angular", "linear", "angular", "normal", "friction")
