@@ -668,6 +668,7 @@ def _bounded_child(send: Any, bodies: BodyTable, cons: ConstraintSet, params: So
                    solver: QpSolver) -> None:
     import resource
 
+    _die_with_parent()
     try:
         resource.setrlimit(resource.RLIMIT_AS, (budget.memory_bytes, budget.memory_bytes))
         send.send(("ok", exact_reference(bodies, cons, params, budget, solver)))
@@ -677,3 +678,17 @@ def _bounded_child(send: Any, bodies: BodyTable, cons: ConstraintSet, params: So
         send.send(("error", f"memory budget of {budget.memory_bytes / 2 ** 30:.1f} GiB exceeded"))
     finally:
         send.close()
+
+
+PR_SET_PDEATHSIG = 1  # Linux prctl option: the signal this process gets when its parent dies
+
+
+def _die_with_parent() -> None:
+    """On Linux, have the kernel kill this solving process when its parent dies (a parent killed by a signal
+    never reaches the daemon clean-up, and the solve would run on to the end of its budget unobserved)."""
+    import ctypes
+    import signal
+    import sys
+
+    if sys.platform.startswith("linux"):
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL))
