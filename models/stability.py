@@ -72,8 +72,8 @@ def impact_penetration(speed: float) -> Limit:
     """The deepest contact allowed when a body arrives at ``speed``: no continuous collision detection, so its
     first contact can be one step's travel deep."""
     return Limit(LIMITS["rest penetration"].value + speed * DEFAULT_DT, "m",
-                 f"rest penetration + one step of travel at {speed:g} m/s (no continuous collision detection: the "
-                 "first contact appears up to v*dt deep)")
+                 f"rest penetration plus one step of travel at {speed:g} m/s: without continuous collision "
+                 "detection the first contact appears up to v*dt deep")
 
 
 def impact_speed(speed: float, steps: int) -> Limit:
