@@ -21,7 +21,9 @@ from sim.stability import main as stability_main
     # past twice Bullet's slop: a finding of the stricter judge, asserted so that a change shows
     ("incline40", FP32, 4, ("max_penetration",)),
     ("incline40", FP16, 4, ("max_penetration",)),
-    ("degenerate", FP32, 1, ()),  # 1- and 2-point manifolds, near-parallel faces: no NaN, settles
+    # 1- and 2-point manifolds, near-parallel faces: no NaN, settles (final speed 0.010 m/s net of g dt), but one
+    # iteration lets a contact sink 2.0 cm, past twice the slop (4 iterations: 5.6 mm, passes)
+    ("degenerate", FP32, 1, ("max_penetration",)),
 ])
 def test_hard_case_quick_subset(case: str, fmt, iters: int, failing: tuple[str, ...]) -> None:
     v = judge(CASES[case], *CASES[case].run(fmt, iters))
