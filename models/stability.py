@@ -1,18 +1,21 @@
-"""The hard-case suite: scenes that break PGS solvers, run closed loop and judged against stated thresholds.
+"""The hard-case suite: scenes that break PGS solvers, run closed loop and judged on physical quantities.
 
 Every case runs ``models.closed_loop.run_closed_loop`` (pybullet collision detection, our solver and integrator)
-for a stated number of steps, in a number format and an iteration count, and is judged on
+for a stated number of steps, in a number format and an iteration count, with a
+``models.trajectory.TrajectoryRecorder`` on its stepper, and is judged on
 
-* max penetration (deepest contact seen by collision detection over the measured steps),
-* drift of the dynamic bodies over the measured steps (for cases whose bodies must rest: an upper bound; for
-  a box that must slide: a lower bound),
-* max speed over the measured steps, and the largest speed at the last step (bodies that must come to rest),
+* max penetration: the deepest contact collision detection saw over the measured steps,
+* per body the largest excursion from where the measured steps began, and its path length (the sum of its
+  per-step moves: a body that jitters and comes back has no net displacement but a long path),
+* speed net of ``g*dt``: a body at rest stores a velocity of g*dt = 0.163 m/s (the GPU convention: gravity is
+  added after the position update), which is not motion; the judge subtracts it,
 * NaN/Inf values in the body state (always 0 to pass),
 
-with kinetic energy over time kept for the plots. A body at rest keeps a stored speed of g*dt = 0.163 m/s (the GPU
-convention: gravity is added after the position update), which the speed thresholds allow for. Thresholds are per case (:data:`CASES`); a format or iteration
-count that fails a case is a finding to report, not a test failure: ``make stability`` prints the table and
-``make test`` runs a quick subset whose expected outcomes are asserted.
+with kinetic energy over time kept for the plots. The limits are defined once (:data:`LIMITS`), each from
+Bullet's own contact constants (``models.constraints``: the slop ``POSITION_DRIFT`` = 5 mm at which the bias holds
+a resting contact, the bias factor ``POSITION_COEFF``) or the case's physics, with the reason stated. A format or
+iteration count that fails a case is a finding to report, not a test failure: ``make stability`` prints the
+table and ``make test`` runs a quick subset whose expected outcomes are asserted.
 """
 
 from __future__ import annotations
@@ -20,21 +23,94 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
-from .closed_loop import LoopResult, run_closed_loop
+import numpy as np
+
+from .closed_loop import LoopResult, StepperFactory, golden_stepper, run_closed_loop
+from .constraints import POSITION_COEFF, POSITION_DRIFT
 from .number_format import Arithmetic
+from .scenes import GRAVITY
+from .scenes.world import DEFAULT_DT
+from .trajectory import Trajectory, TrajectoryRecorder
 
-INF = math.inf
+G = float(np.linalg.norm(GRAVITY))  # m/s^2
+
+
+@dataclass(frozen=True)
+class Limit:
+    """One threshold: its value, unit and why it has that value."""
+
+    value: float
+    unit: str
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{self.value:.3g} {self.unit}"
+
+
+LIMITS: dict[str, Limit] = {
+    "rest penetration": Limit(
+        2 * POSITION_DRIFT, "m",
+        "twice Bullet's slop: the bias holds a resting contact at the slop depth (positionDrift, 5 mm) and removes "
+        "a fifth of any further depth per step, so a contact one more slop deep has sunk past what the bias allows"),
+    "rest speed": Limit(
+        POSITION_COEFF * POSITION_DRIFT / DEFAULT_DT, "m/s",
+        "the separating speed the bias gives a contact one slop deeper than its rest depth (0.2 x 5 mm / dt): "
+        "slower than that, net of g*dt, a body is settling under the bias, not moving"),
+    "rest excursion": Limit(
+        POSITION_DRIFT, "m",
+        "one slop: after the warm-up a resting body's contacts are at their rest depth, so it may sink by the slop "
+        "at most"),
+    "rest path": Limit(
+        2 * POSITION_DRIFT, "m",
+        "two slops: sink by the slop and come back once; a longer path over the measured steps is jitter"),
+}
+
+
+def impact_penetration(speed: float) -> Limit:
+    """The deepest contact allowed when a body arrives at ``speed``: no continuous collision detection, so its
+    first contact can be one step's travel deep."""
+    return Limit(LIMITS["rest penetration"].value + speed * DEFAULT_DT, "m",
+                 f"rest penetration plus one step of travel at {speed:g} m/s: without continuous collision "
+                 "detection the first contact appears up to v*dt deep")
+
+
+def impact_speed(speed: float, steps: int) -> Limit:
+    """The fastest any body may move after a hit at ``speed``: restitution 0, so contacts add no energy."""
+    return Limit(speed + G * steps * DEFAULT_DT, "m/s",
+                 f"the projectile's {speed:g} m/s plus free fall over the run: contacts (restitution 0) add no "
+                 "energy, an explosion does")
+
+
+def slide_distance(angle_deg: float, friction: float, steps: int) -> Limit:
+    """Half the distance Coulomb friction lets a box slide down the slope in ``steps`` steps."""
+    a = math.radians(angle_deg)
+    accel = G * (math.sin(a) - friction * math.cos(a))
+    t = steps * DEFAULT_DT
+    return Limit(0.25 * accel * t * t, "m",
+                 f"half of a t^2/2 with a = g (sin {angle_deg:g} deg - {friction:g} cos {angle_deg:g} deg) = "
+                 f"{accel:.3g} m/s^2 over {t:.3g} s: the box slides, not creeps")
 
 
 @dataclass(frozen=True)
 class Thresholds:
-    max_penetration: float = 0.05  # m
-    max_drift: float = INF  # m, bodies that must rest
-    min_drift: float = 0.0  # m, a body that must move
-    max_speed: float = INF  # m/s over the measured steps
-    max_final_speed: float = INF  # m/s at the last step
+    """A case's limits; ``None``: not judged."""
+
+    max_penetration: Limit = LIMITS["rest penetration"]
+    max_excursion: Limit | None = None  # bodies that must rest
+    max_path: Limit | None = None  # bodies that must rest
+    min_excursion: Limit | None = None  # a body that must move
+    max_speed: Limit | None = None  # net of g*dt, over the measured steps
+    max_final_speed: Limit | None = None  # net of g*dt, at the last step
+
+    def items(self) -> list[tuple[str, Limit]]:
+        return [(f.name, getattr(self, f.name)) for f in dataclasses.fields(self) if getattr(self, f.name)]
+
+
+AT_REST = Thresholds(max_excursion=LIMITS["rest excursion"], max_path=LIMITS["rest path"],
+                     max_speed=LIMITS["rest speed"])
+COMES_TO_REST = Thresholds(max_final_speed=LIMITS["rest speed"])
 
 
 @dataclass(frozen=True)
@@ -43,40 +119,71 @@ class HardCase:
     scene: str
     params: dict[str, Any]
     steps: int
-    thresholds: Thresholds
+    limits: Callable[[int], Thresholds]  # the thresholds of a run of that many measured steps
     description: str
     warmup_steps: int = 0  # our loop, not measured (stacks sink to the GPU solver's resting penetration)
     settle_steps: int = 0  # pybullet's own solver first
 
-    def run(self, ar: Arithmetic, iterations: int, steps: int | None = None) -> LoopResult:
-        return run_closed_loop(self.scene, steps or self.steps, ar, iterations, schedule="pybullet",
-                               warmup_steps=self.warmup_steps, settle_steps=self.settle_steps, **self.params)
+    def thresholds(self, steps: int | None = None) -> Thresholds:
+        return self.limits(steps or self.steps)
+
+    def run(self, ar: Arithmetic, iterations: int, steps: int | None = None,
+            stepper: StepperFactory = golden_stepper) -> tuple[LoopResult, Trajectory]:
+        recorder = TrajectoryRecorder()
+        result = run_closed_loop(self.scene, steps or self.steps, ar, iterations, schedule="pybullet",
+                                 warmup_steps=self.warmup_steps, settle_steps=self.settle_steps,
+                                 stepper=recorder.wrap(stepper), **self.params)
+        return result, recorder.trajectory(result)
+
+
+def _always(thresholds: Thresholds) -> Callable[[int], Thresholds]:
+    return lambda steps: thresholds
+
+
+def _sliding(angle_deg: float, friction: float) -> Callable[[int], Thresholds]:
+    return lambda steps: Thresholds(min_excursion=slide_distance(angle_deg, friction, steps))
+
+
+def _impact(speed: float) -> Callable[[int], Thresholds]:
+    return lambda steps: Thresholds(max_penetration=impact_penetration(speed), max_speed=impact_speed(speed, steps),
+                                    max_final_speed=LIMITS["rest speed"])
 
 
 CASES: dict[str, HardCase] = {c.name: c for c in (
-    HardCase("stack20", "stack", {"n": 20}, 120, Thresholds(max_penetration=0.05, max_drift=0.05),
-             "20 cubes in a tower; must stand", warmup_steps=30),
-    HardCase("pyramid10", "pyramid", {"n": 10}, 120, Thresholds(max_penetration=0.05, max_drift=0.05),
+    HardCase("stack20", "stack", {"n": 20}, 120, _always(AT_REST), "20 cubes in a tower; must stand",
+             warmup_steps=30),
+    HardCase("pyramid10", "pyramid", {"n": 10}, 120, _always(AT_REST),
              "2-D pyramid, base of 10 (55 cubes); must stand", warmup_steps=30),
-    HardCase("mass_ratio", "mass_ratio", {"ratio": 1000.0}, 120, Thresholds(max_penetration=0.05, max_drift=0.05),
+    HardCase("mass_ratio", "mass_ratio", {"ratio": 1000.0}, 120, _always(AT_REST),
              "a 1000 kg cube on four 1 kg cubes; must stand", warmup_steps=30),
-    HardCase("incline20", "incline", {"angle_deg": 20.0, "friction": 0.7}, 120,
-             Thresholds(max_penetration=0.02, max_drift=0.01),
+    HardCase("incline20", "incline", {"angle_deg": 20.0, "friction": 0.7}, 120, _always(AT_REST),
              "box on a 20 deg slope, friction 0.7 (tan 20 deg = 0.36): must stay put", warmup_steps=10),
-    HardCase("incline40", "incline", {"angle_deg": 40.0, "friction": 0.7}, 120,
-             Thresholds(max_penetration=0.02, min_drift=1.0),
-             "box on a 40 deg slope, friction 0.7 (tan 40 deg = 0.84): must slide (2.1 m in 2 s without drag)",
+    HardCase("incline40", "incline", {"angle_deg": 40.0, "friction": 0.7}, 120, _sliding(40.0, 0.7),
+             "box on a 40 deg slope, friction 0.7 (tan 40 deg = 0.84): must slide (2.1 m in 2 s by Coulomb)",
              warmup_steps=10),
-    HardCase("impact", "impact", {"speed": 20.0}, 60, Thresholds(max_penetration=0.5, max_final_speed=3.0),
-             "a cube hitting a 3x2x3 block at 20 m/s; no explosion, the block settles", ),
-    HardCase("spin", "spin", {"spin": 15.0}, 240, Thresholds(max_penetration=0.05, max_final_speed=0.5),
+    HardCase("impact", "impact", {"speed": 20.0}, 60, _impact(20.0),
+             "a cube hitting a 3x2x3 block at 20 m/s; no explosion, the block settles"),
+    HardCase("spin", "spin", {"spin": 15.0}, 240, _always(COMES_TO_REST),
              "a cube spinning at 15 rad/s lands on a corner; comes to rest within 4 s"),
-    HardCase("plank", "plank", {"n": 5}, 120, Thresholds(max_penetration=0.05, max_drift=0.05),
+    HardCase("plank", "plank", {"n": 5}, 120, _always(AT_REST),
              "a plank carrying 5x5 cubes: one body with 26 manifolds; must rest", warmup_steps=30),
-    HardCase("degenerate", "degenerate", {}, 120, Thresholds(max_penetration=0.05, max_final_speed=0.5),
+    HardCase("degenerate", "degenerate", {}, 120, _always(COMES_TO_REST),
              "cubes on an edge (2 points), a corner (1 point), tilted 1e-4 rad, stacked exactly; settle, no NaN"),
 )}
 ITERATIONS = (1, 4, 10, 30)
+
+FIGURES = ["max penetration (m)", "max excursion (m)", "max path length (m)", "max net displacement (m)",
+           "max speed net of g dt (m/s)", "final max speed net of g dt (m/s)", "final kinetic energy (J)",
+           "NaN/Inf values"]
+# threshold field -> (figure it bounds, True: an upper bound, what a failure says)
+CHECKS: dict[str, tuple[str, bool, str]] = {
+    "max_penetration": ("max penetration (m)", True, "penetration"),
+    "max_excursion": ("max excursion (m)", True, "excursion"),
+    "max_path": ("max path length (m)", True, "path"),
+    "min_excursion": ("max excursion (m)", False, "moved only"),
+    "max_speed": ("max speed net of g dt (m/s)", True, "speed"),
+    "max_final_speed": ("final max speed net of g dt (m/s)", True, "final speed"),
+}
 
 
 @dataclass
@@ -85,31 +192,36 @@ class Verdict:
     format: str
     iterations: int
     figures: dict[str, float]
-    failures: list[str] = field(default_factory=list)
+    failures: list[str] = field(default_factory=list)  # what each failed check says
+    failed_checks: list[str] = field(default_factory=list)  # their Thresholds fields ("nonfinite" for NaN/Inf)
 
     @property
     def passed(self) -> bool:
         return not self.failures
 
 
-def judge(case: HardCase, result: LoopResult) -> Verdict:
-    """Judge a run; a run shorter than the case's own step count scales the slide distance it must cover
-    (constant acceleration: distance grows with the square of the time)."""
-    s = result.summary()
-    t = case.thresholds
-    if result.steps != case.steps:
-        t = dataclasses.replace(t, min_drift=t.min_drift * (result.steps / case.steps) ** 2)
-    final_max_speed = float(result.max_speed[-1]) if result.steps else 0.0
-    figures = {"max penetration (m)": s["max penetration (m)"], "max drift (m)": s["max drift (m)"],
-               "max speed (m/s)": s["max speed (m/s)"], "final max speed (m/s)": final_max_speed,
-               "final kinetic energy (J)": s["final kinetic energy (J)"], "NaN/Inf values": s["NaN/Inf values"]}
-    checks = [
-        (figures["NaN/Inf values"] == 0, f"{figures['NaN/Inf values']} NaN/Inf values"),
-        (figures["max penetration (m)"] <= t.max_penetration,
-         f"penetration {figures['max penetration (m)']:.3g} m > {t.max_penetration:g}"),
-        (figures["max drift (m)"] <= t.max_drift, f"drift {figures['max drift (m)']:.3g} m > {t.max_drift:g}"),
-        (figures["max drift (m)"] >= t.min_drift, f"moved {figures['max drift (m)']:.3g} m < {t.min_drift:g}"),
-        (figures["max speed (m/s)"] <= t.max_speed, f"speed {figures['max speed (m/s)']:.3g} m/s > {t.max_speed:g}"),
-        (final_max_speed <= t.max_final_speed, f"final speed {final_max_speed:.3g} m/s > {t.max_final_speed:g}"),
-    ]
-    return Verdict(case.name, result.format, result.iterations, figures, [msg for ok, msg in checks if not ok])
+def figures(result: LoopResult, path: Trajectory) -> dict[str, float]:
+    """The judged figures of a run: maxima over the dynamic bodies (speeds net of g*dt)."""
+    speed = path.speed()
+    return {"max penetration (m)": float(np.max(result.max_penetration, initial=0.0)),
+            "max excursion (m)": float(np.max(path.excursion(), initial=0.0)),
+            "max path length (m)": float(np.max(path.path_length(), initial=0.0)),
+            "max net displacement (m)": float(np.max(result.drift, initial=0.0)),
+            "max speed net of g dt (m/s)": float(np.max(speed, initial=0.0)),
+            "final max speed net of g dt (m/s)": float(np.max(speed[-1], initial=0.0)) if path.steps else 0.0,
+            "final kinetic energy (J)": float(result.kinetic_energy[-1]) if result.steps else 0.0,
+            "NaN/Inf values": int(np.sum(result.nonfinite))}
+
+
+def judge(case: HardCase, result: LoopResult, path: Trajectory) -> Verdict:
+    """Judge a run against the case's thresholds for the run's length (a NaN figure fails every bound)."""
+    fig = figures(result, path)
+    failures, failed = ([f"{fig['NaN/Inf values']} NaN/Inf values"], ["nonfinite"]) if fig["NaN/Inf values"] \
+        else ([], [])
+    for name, limit in case.thresholds(result.steps).items():
+        key, upper, word = CHECKS[name]
+        ok = fig[key] <= limit.value if upper else fig[key] >= limit.value
+        if not ok:
+            failures.append(f"{word} {fig[key]:.3g} {limit.unit} {'>' if upper else '<'} {limit}")
+            failed.append(name)
+    return Verdict(case.name, result.format, result.iterations, fig, failures, failed)

@@ -1,9 +1,11 @@
 """``make stability``: the hard-case suite (``models/stability.py``) over number formats and iteration counts.
 
 Runs every case closed loop (pybullet collision detection, the bit-accurate golden model of each format, which
-the RTL kernel matches bit for bit) at 1, 4, 10 and 30 iterations, judges it against the case's thresholds and
-writes ``build/stability/stability.md`` (the table), ``stability.csv`` and one plot per case (kinetic energy and
-penetration over the steps, ``<case>.png``). Failing rows are findings, reported, not errors: the command exits
+the RTL kernel matches bit for bit) at 1, 4, 10 and 30 iterations, judges it on physical quantities against the
+case's thresholds (``models/stability.py``: penetration against Bullet's slop, each body's largest excursion and
+path length, speeds net of the stored g*dt; every limit with its reason) and writes ``build/stability/stability.md``
+(the limits and the table), ``stability.csv`` and one plot per case (kinetic energy and penetration over the
+steps, ``<case>.png``). Failing rows are findings, reported, not errors: the command exits
 non-zero only when a run crashes.
 
 The runs are independent points on ``--executor`` (``sim/executor.py``: ``local:N``, the default ``local:<jobs>``,
@@ -25,17 +27,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from models.closed_loop import LoopResult
 from models.number_format import parse_format
-from models.stability import CASES, ITERATIONS, Verdict, judge
+from models.stability import CASES, FIGURES, ITERATIONS, LIMITS, Thresholds, Verdict, judge
 from sim.artefacts import source_digest
 from sim.executor import parse_executor, run_points
 from sim.point_results import PointLog
 from sim.report import format_value
-
-FIGURES = ["max penetration (m)", "max drift (m)", "max speed (m/s)", "final max speed (m/s)",
-           "final kinetic energy (J)", "NaN/Inf values"]
-
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="python -m sim.stability", description=__doc__,
@@ -72,10 +69,10 @@ class StabilityPoint:
     def run(self) -> dict[str, Any]:
         t0 = time.perf_counter()
         case = CASES[self.case]
-        result: LoopResult = case.run(parse_format(self.fmt), self.iterations, self.steps or None)
+        result, path = case.run(parse_format(self.fmt), self.iterations, self.steps or None)
         series = {"kinetic energy (J)": result.kinetic_energy.tolist(),
                   "max penetration (m)": result.max_penetration.tolist()}
-        return {"verdict": asdict(judge(case, result)), "series": series, "seconds": time.perf_counter() - t0}
+        return {"verdict": asdict(judge(case, result, path)), "series": series, "seconds": time.perf_counter() - t0}
 
 
 def plan(args: argparse.Namespace) -> list[StabilityPoint]:
@@ -155,9 +152,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     verdicts = [v for v, _ in results]
     lines = ["# Hard cases: closed loop, golden model (bit-identical to the RTL kernel)", ""]
-    lines += [f"- **{c.name}** ({c.steps} steps after {c.warmup_steps} unmeasured): {c.description}; thresholds "
-              f"{_thresholds(c.thresholds)}" for c in CASES.values() if any(v.case == c.name for v in verdicts)]
-    lines += ["", *table(verdicts), ""]
+    steps = args.steps or None
+    lines += [f"- **{c.name}** ({steps or c.steps} steps after {c.warmup_steps} unmeasured): {c.description}; "
+              f"thresholds {_thresholds(c.thresholds(steps))}" for c in CASES.values()
+              if any(v.case == c.name for v in verdicts)]
+    lines += ["", *limits_table(), "", *table(verdicts), ""]
     (out / "stability.md").write_text("\n".join(lines))
     with (out / "stability.csv").open("w", newline="") as f:
         w = csv.writer(f)
@@ -176,9 +175,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def _thresholds(t: Any) -> str:
-    parts = [f"{k.replace('_', ' ')} {v:g}" for k, v in vars(t).items() if v not in (0.0, float("inf"))]
-    return ", ".join(parts) + ", no NaN/Inf"
+def limits_table() -> list[str]:
+    """The limits every case is judged with, each with its reason (``models.stability.LIMITS``)."""
+    return ["| limit | value | reason |", "|---|---|---|",
+            *(f"| {name} | {limit} | {limit.reason} |" for name, limit in LIMITS.items())]
+
+
+def _thresholds(t: Thresholds) -> str:
+    shared = list(LIMITS.values())
+    return ", ".join(f"{name.replace('_', ' ')} {limit}" + ("" if limit in shared else f" ({limit.reason})")
+                     for name, limit in t.items()) + ", no NaN/Inf"
 
 
 if __name__ == "__main__":  # run the imported module: its points then pickle by reference (remote workers import it)

@@ -29,7 +29,14 @@ format or DMA preset, bad iteration counts, a corrupt, truncated or other-versio
 one line ``error: ...`` and exit status 2, and the sweep directory appears only once complete
 (``sim.report.StagedDirectory``): a failed sweep leaves nothing behind.
 
-    python -m sim.sweep --scene pile --formats fp32,fp16,bf16 --iters 1,2,4,8,16,32
+The csv's error columns (per dynamic body, |dv| the norm of the linear velocity difference in m/s, |dw| that of the
+angular one in rad/s, absolute, not normalised): ``*_vs_exact`` the kernel's step against the exact limit;
+``max_dv_rounding`` / ``max_dw_rounding`` the kernel's step against float64 with the same schedule and passes (the
+format's rounding alone); ``max_d*_iteration`` that float64 step against the exact limit (the iteration
+error alone). The plot draws the three per format, so each format's curve shows where its rounding floor meets
+the iteration error (marked with a star where the rounding error first reaches it).
+
+    python -m sim.sweep --scene pile --formats fp32,fp16,bf16,auto --iters 1,2,4,8,16,32,64,128
 """
 
 from __future__ import annotations
@@ -58,7 +65,7 @@ from models.number_format import FLOAT64
 from models.kernel_job import KernelJob
 from models.scenes.frame_cache import FRAME_CACHE_DIR
 from models.schedule import make_schedule
-from models.solution_error import SolutionError
+from models.solution_error import SolutionError, solution_error
 from sim import baselines, exact_error
 from sim.analyze import auto_format
 from sim.artefacts import FrameStore, KernelStore, frame_bytes, kernel_store_root, source_digest
@@ -73,10 +80,12 @@ from sim.run_result import NoExactReference
 from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label, load_frame, \
     velocity_error
 
+ITERATIONS = (1, 2, 4, 8, 16, 32, 64, 128)  # to 128: the pile's iteration error has stopped falling by 32
 COLUMNS = ["format", "iterations", "mode", "manifolds", "manifold_passes", "cycles", "cycles_per_manifold_pass",
            "ms_at_clock", "ns_per_manifold_pass", "stalls", "bubbles", "bytes_streamed", "differing_bits",
            "max_dv_vs_exact", "max_dw_vs_exact", "median_dv_vs_exact", "p99_dv_vs_exact", "median_dw_vs_exact",
-           "p99_dw_vs_exact", "max_dv_vs_float64_same_iters"]
+           "p99_dw_vs_exact", "max_dv_vs_float64_same_iters", "max_dv_rounding", "max_dw_rounding",
+           "max_dv_iteration", "max_dw_iteration"]
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -86,7 +95,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--frame", default="", help="a frame file (.npz, models.frame.save) to sweep instead of --scene")
     ap.add_argument("--formats", default="fp32,fp16,bf16",
                     help="comma-separated number formats (fp32, fp16, bf16, eXmY, auto: the analyzer's choice)")
-    ap.add_argument("--iters", default="1,2,4,8,16,32", help="comma-separated iteration counts")
+    ap.add_argument("--iters", default=",".join(map(str, ITERATIONS)), help="comma-separated iteration counts")
     ap.add_argument("--dma", default="zcu102", help=f"DMA preset ({', '.join(PRESETS)})")
     ap.add_argument("--seed", type=int, default=1, help="scene seed")
     exact_error.add_exact_args(ap)
@@ -200,6 +209,8 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
     ref_final = golden_step(KernelJob(FLOAT64, bodies, cons, schedule, params, ip)).final
     e_exact = exact_error.error_vs_exact(ours, exact, dyn)
     e_same = velocity_error(ours, ref_final.linear_velocity, ref_final.angular_velocity, dyn)
+    e_rounding = solution_error(ours, ref_final, dyn)
+    e_iteration = exact_error.error_vs_exact(ref_final, exact, dyn)
     mp = job.manifold_passes
     kernel = f" window x{point.lanes}" if point.record_window else ""
     return {"format": (f"{fmt.name} ({point.how})" if point.how else fmt.name) + kernel,
@@ -207,7 +218,9 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
             "cycles": cycles, "cycles_per_manifold_pass": cycles / mp, "ms_at_clock": cycles / preset.clock_hz * 1e3,
             "ns_per_manifold_pass": cycles / mp / preset.clock_hz * 1e9, "stalls": stalls, "bubbles": bubbles,
             "bytes_streamed": streamed, "differing_bits": differing,
-            **exact_columns(e_exact), "max_dv_vs_float64_same_iters": e_same.max_dv}
+            **exact_columns(e_exact), "max_dv_vs_float64_same_iters": e_same.max_dv,
+            "max_dv_rounding": e_rounding.max_dv, "max_dw_rounding": e_rounding.max_dw,
+            **float64_columns(e_iteration)}
 
 
 def exact_columns(e: SolutionError | NoExactReference) -> dict[str, Any]:
@@ -216,6 +229,13 @@ def exact_columns(e: SolutionError | NoExactReference) -> dict[str, Any]:
         return {col: str(e) for col in COLUMNS if col.endswith("_vs_exact")}
     return {"max_dv_vs_exact": e.max_dv, "max_dw_vs_exact": e.max_dw, "median_dv_vs_exact": e.median_dv,
             "p99_dv_vs_exact": e.p99_dv, "median_dw_vs_exact": e.median_dw, "p99_dw_vs_exact": e.p99_dw}
+
+
+def float64_columns(e: SolutionError | NoExactReference) -> dict[str, Any]:
+    """The csv's columns of float64's error against the exact reference (the iteration error alone)."""
+    if isinstance(e, NoExactReference):
+        return {"max_dv_iteration": str(e), "max_dw_iteration": str(e)}
+    return {"max_dv_iteration": e.max_dv, "max_dw_iteration": e.max_dw}
 
 
 def _number(value: Any) -> str:
@@ -284,22 +304,67 @@ def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
         w.writerows(rows)
 
 
-def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
-    import matplotlib
+# the plot's two panels: (the csv's error columns against the exact limit, rounding alone, iteration error alone;
+# the axis label)
+PANELS = (
+    (("max_dv_vs_exact", "max_dv_rounding", "max_dv_iteration"),
+     "max over dynamic bodies of |v - v_exact| (m/s, absolute, not normalised)"),
+    (("max_dw_vs_exact", "max_dw_rounding", "max_dw_iteration"),
+     "max over dynamic bodies of |w - w_exact| (rad/s, absolute, not normalised)"),
+)
+ERROR_FLOOR = 1e-12  # where an error of exactly 0 is drawn on the log axis
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 5))
-    for fmt in dict.fromkeys(r["format"] for r in rows):
-        pts = [r for r in rows if r["format"] == fmt and isinstance(r["max_dv_vs_exact"], float)]
+def floor_meets_iteration(pts: list[dict[str, Any]], rounding: str, iteration: str) -> dict[str, Any] | None:
+    """The first row (fewest iterations) where the format's rounding error reaches float64's iteration error."""
+    for r in sorted(pts, key=lambda r: r["iterations"]):
+        if isinstance(r[iteration], float) and r[rounding] >= r[iteration]:
+            return r
+    return None
+
+
+def _plot_panel(ax: Any, rows: list[dict[str, Any]], columns: tuple[str, str, str], ylabel: str,
+                against_time: bool) -> None:
+    """One panel: against kernel time (each format's error against the exact limit, a star where its rounding
+    reaches the iteration error) or against iterations (also each format's rounding alone and float64's
+    iteration error alone, on the shared axis)."""
+    exact_col, rounding_col, iteration_col = columns
+    iteration_drawn = False
+    for c, fmt in enumerate(dict.fromkeys(r["format"] for r in rows)):
+        pts = sorted((r for r in rows if r["format"] == fmt and isinstance(r[exact_col], float)),
+                     key=lambda r: r["iterations"])
         if not pts:
             continue
-        x = [r["ns_per_manifold_pass"] for r in pts]
-        y = [max(r["max_dv_vs_exact"], 1e-12) for r in pts]
-        ax.plot(x, y, "o-", label=f"RTL kernel {fmt}")
-        for r, xi, yi in zip(pts, x, y):
-            ax.annotate(str(r["iterations"]), (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=7)
+        colour = f"C{c % 10}"
+        x = [r["ns_per_manifold_pass"] if against_time else r["iterations"] for r in pts]
+        ax.plot(x, [max(r[exact_col], ERROR_FLOOR) for r in pts], "o-", color=colour, label=f"{fmt}: against exact")
+        meet = floor_meets_iteration(pts, rounding_col, iteration_col)
+        if meet is not None:
+            ax.plot(meet["ns_per_manifold_pass"] if against_time else meet["iterations"],
+                    max(meet[exact_col], ERROR_FLOOR), "*", color=colour, markersize=16, markerfacecolor="none")
+        if against_time:
+            for r, xi in zip(pts, x):
+                ax.annotate(str(r["iterations"]), (xi, max(r[exact_col], ERROR_FLOOR)), textcoords="offset points",
+                            xytext=(4, 4), fontsize=7)
+            continue
+        ax.plot(x, [max(r[rounding_col], ERROR_FLOOR) for r in pts], "x--", color=colour, alpha=0.8,
+                label=f"{fmt}: rounding alone (vs float64, same passes)")
+        if not iteration_drawn:
+            ax.plot(x, [max(r[iteration_col], ERROR_FLOOR) for r in pts], "k:", linewidth=2,
+                    label="float64 against exact: iteration error alone")
+            iteration_drawn = True
+    ax.set_xscale("log", base=10 if against_time else 2)
+    if not against_time:
+        ticks = sorted({r["iterations"] for r in rows})
+        ax.set_xticks(ticks, [str(t) for t in ticks])
+    ax.set_yscale("log")
+    ax.set_xlabel("kernel time per manifold-pass (ns at the preset's clock; iterations annotated)" if against_time
+                  else "iterations (contact passes, then as many friction passes)")
+    ax.set_ylabel(ylabel, fontsize=8)
+    ax.grid(True, which="both", alpha=0.3)
+
+
+def _thesis_marks(ax: Any) -> None:
     per_mp = baselines.THESIS_MANIFOLDS * baselines.THESIS_PASSES
     marks = [(f"{f.label} ({f.cycles_per_manifold_pass:.2f} cyc/mp)", f.ms * 1e6 / per_mp)
              for f in baselines.THESIS_FPGA.values()]
@@ -309,20 +374,39 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
         ax.axvline(x, linestyle=style, color="grey")
         ax.text(x, 0.03, label, rotation=90, transform=ax.get_xaxis_transform(), fontsize=7, va="bottom",
                 ha="right")
-    ax.set_xscale("log")
+
+
+def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
+    """Kernel time against error: |dv| and |dw| against the exact limit, with each format's rounding alone and
+    float64's iteration error alone; a star where a format's rounding first reaches the iteration error. Without
+    an exact reference the panels say why and have no points."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(14, 10))
     missing = [r["max_dv_vs_exact"] for r in rows if not isinstance(r["max_dv_vs_exact"], float)]
-    if len(missing) < len(rows):  # a log axis needs one point at least
-        ax.set_yscale("log")
-    ax.set_xlabel("kernel time per manifold-pass (ns; thesis marks: 4 iterations of their 127,000-manifold frame)")
-    ax.set_ylabel("max over bodies of |v - v_exact| after the step (m/s)")
-    if missing:
-        ax.text(0.5, 0.5, missing[0], transform=ax.transAxes, ha="center", wrap=True)
-    ax.set_title(title, fontsize=9)
-    ax.grid(True, which="both", alpha=0.3)
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=8)
+    for row_axes, against_time in zip(axes, (True, False)):
+        for ax, (columns, ylabel) in zip(row_axes, PANELS):
+            if len(missing) < len(rows):
+                _plot_panel(ax, rows, columns, ylabel, against_time)
+            else:
+                ax.set_ylabel(ylabel, fontsize=8)
+            if missing:
+                ax.text(0.5, 0.5, missing[0], transform=ax.transAxes, ha="center", wrap=True)
+            if against_time:
+                _thesis_marks(ax)
+    for ax in axes[:, 0]:
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7, loc="lower left")
+    modes = sorted({r["mode"] for r in rows})
+    how = {"model": "MODE=model: cycle model's cycles, golden model's numbers (bit-exact with the RTL kernel)",
+           "rtl": "MODE=rtl: the RTL kernel in Verilator"}
+    fig.suptitle(f"{title}\n{'; '.join(str(how.get(m, m)) for m in modes)}; thesis marks: 4 iterations of their "
+                 f"127,000-manifold frame; star: rounding alone reaches the iteration error", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 

@@ -15,17 +15,21 @@ from sim.rtl_stepper import rtl_stepper
 from sim.stability import main as stability_main
 
 
-@pytest.mark.parametrize("case,fmt,iters,passes", [
-    ("incline20", FP32, 4, True),   # static friction holds the box
-    ("incline40", FP32, 4, True),   # and lets it slide past tan(angle) = mu
-    ("incline40", FP16, 4, True),
-    ("degenerate", FP32, 1, True),  # 1- and 2-point manifolds, near-parallel faces: no NaN, settles
+@pytest.mark.parametrize("case,fmt,iters,failing", [
+    ("incline20", FP32, 4, ()),  # static friction holds the box: no excursion past the slop, at rest net of g dt
+    # it slides past tan(angle) = mu (the slide check passes), but its contact is 1.04 cm deep (fp16: 1.17 cm),
+    # past twice Bullet's slop: a finding of the stricter judge, asserted so that a change shows
+    ("incline40", FP32, 4, ("max_penetration",)),
+    ("incline40", FP16, 4, ("max_penetration",)),
+    # 1- and 2-point manifolds, near-parallel faces: no NaN, settles (final speed 0.010 m/s net of g dt), but one
+    # iteration lets a contact sink 2.0 cm, past twice the slop (4 iterations: 5.6 mm, passes)
+    ("degenerate", FP32, 1, ("max_penetration",)),
 ])
-def test_hard_case_quick_subset(case: str, fmt, iters: int, passes: bool) -> None:
-    v = judge(CASES[case], CASES[case].run(fmt, iters))
+def test_hard_case_quick_subset(case: str, fmt, iters: int, failing: tuple[str, ...]) -> None:
+    v = judge(CASES[case], *CASES[case].run(fmt, iters))
     print(case, fmt.name, iters, v.figures, v.failures)
     assert v.figures["NaN/Inf values"] == 0
-    assert v.passed == passes, v.failures
+    assert v.failed_checks == list(failing), v.failures
 
 
 def test_closed_loop_on_the_rtl_kernel(tmp_path: Path) -> None:
