@@ -62,7 +62,7 @@ from models.solution_error import SolutionError
 from sim import baselines, exact_error
 from sim.analyze import auto_format
 from sim.artefacts import FrameStore, KernelStore, frame_bytes, kernel_store_root, source_digest
-from sim.executor import ExecutorSpec, PointsFailed, parse_executor, run_points
+from sim.executor import ExecutorSpec, PointsFailed, Workers, parse_executor, run_points
 from sim.harness_run import KernelRunError, write_inputs
 from sim.kernel_build import KernelBuild, default_window, use_kernel_store
 from sim.kernel_step import golden_step, run_kernel_step
@@ -138,6 +138,11 @@ class SweepPoint:
         desc = {k: v for k, v in dataclasses.asdict(self).items() if k != "exact"}
         digest = hashlib.sha256(json.dumps(desc, sort_keys=True).encode()).hexdigest()[:12]
         return f"{self.fmt}-it{self.iterations}-{self.mode}-{digest}"
+
+    @property
+    def cost(self) -> float:
+        """Relative run time (``sim.executor`` starts the costliest first): the solver passes, plus a start."""
+        return self.iterations + 1.0
 
     @property
     def command(self) -> str:
@@ -251,8 +256,8 @@ def plan(args: argparse.Namespace) -> tuple[list[SweepPoint], str, dict[str, byt
     return points, f"{label}-{args.dma}{kernel_label(args)}{mode}", {digest: data}
 
 
-def run_sweep(points: list[SweepPoint], exact: exact_error.AnyExactStep, spec: ExecutorSpec, log: PointLog | None,
-              frames: dict[str, bytes], label: str) -> list[dict[str, Any]]:
+def run_sweep(points: list[SweepPoint], exact: exact_error.AnyExactStep, spec: ExecutorSpec | Workers,
+              log: PointLog | None, frames: dict[str, bytes], label: str) -> list[dict[str, Any]]:
     """The rows of ``points`` in order, each point sent with ``exact`` (the frame's exact reference, computed once
     by the driver); raises PointsFailed."""
     points = [dataclasses.replace(p, exact=exact) for p in points]
@@ -265,9 +270,13 @@ def sweep(args: argparse.Namespace, log_dir: Path) -> tuple[list[dict[str, Any]]
     """The sweep's rows, its points run on ``args.executor`` and recorded in ``log_dir/<name>.jsonl`` (a rerun
     resumes from it); returns them and the sweep's name, or raises PointsFailed."""
     spec = parse_executor(args.executor)
-    points, name, frames = plan(args)
-    exact = frame_exact(points[0].frame, exact_error.reference_dir(args), args.exact_budget)
-    rows = run_sweep(points, exact, spec, PointLog(log_dir / f"{name}.jsonl"), frames, f"sweep {name}")
+    points, name, frames = plan(args)  # bad input ends the sweep here, before any worker starts
+    workers = Workers(spec)  # they start while the frame's exact reference is read or solved
+    try:
+        exact = frame_exact(points[0].frame, exact_error.reference_dir(args), args.exact_budget)
+        rows = run_sweep(points, exact, workers, PointLog(log_dir / f"{name}.jsonl"), frames, f"sweep {name}")
+    finally:
+        workers.close(wait=False)  # a LocalCluster closes while the csv and the plot are written
     for row in rows:
         print(f"{row['format']:>6} {row['iterations']:>3} it ({row['mode']}): {row['cycles']:>9,} cycles "
               f"({row['cycles_per_manifold_pass']:.2f}/mp), max |dv| vs exact reference "
