@@ -20,15 +20,14 @@ it. Progress (done, running, failed) goes to stderr, with the Dask dashboard's a
     result = run_points(points, parse_executor("dask:local:2"), log=PointLog(Path("build/sweep/points.jsonl")))
     result.raise_on_failure()  # or inspect result.failures
 
-A caller with work of its own before the points (loading a frame, its reference) starts the workers first, so that
-a LocalCluster's processes start meanwhile, and closes them without waiting while it writes its outputs:
+A caller with work of its own after the points (writing a csv, a plot) holds the workers itself and closes them
+without waiting:
 
-    workers = Workers(parse_executor("dask:local:2"))  # starting in the background
+    workers = Workers(parse_executor("dask:local:2"))
     try:
-        points = prepare()
         result = run_points(points, workers)
     finally:
-        workers.close(wait=False)  # finishes in the background; the interpreter waits for it at exit
+        workers.close(wait=False)  # finishes in a thread while the caller goes on; the interpreter waits for it
 """
 
 from __future__ import annotations
@@ -197,11 +196,14 @@ class LocalPool:
         self.pool.shutdown(wait=True, cancel_futures=True)
 
 
-# A LocalCluster on the driver's machine shares its cores with the points: its servers' periodic work (event-loop
-# health ticks every 20 ms, system and memory monitors, the workers' statistical profiler every 10 ms) is made rare,
-# and the profiler is off. The dashboard and the status pages still work. A cluster started elsewhere keeps its own
-# settings (docs/cluster.md).
+# A LocalCluster on the driver's machine shares its cores with the points. Its worker processes are forked from the
+# driver, which has imported everything the points need (spawned, each would start a fresh interpreter and import
+# it all again: seconds of CPU per worker); the cluster starts before the driver's own threads do anything. Its
+# servers' periodic work (event-loop health ticks every 20 ms, system and memory monitors, the workers' statistical
+# profiler every 10 ms) is made rare and the profiler is off; the dashboard and the status pages still work. A
+# cluster started elsewhere keeps its own settings (docs/cluster.md).
 LOCAL_CLUSTER_CONFIG: dict[str, Any] = {
+    "distributed.worker.multiprocessing-method": "fork",
     "distributed.admin.tick.interval": "1s",
     "distributed.admin.tick.cycle": "5s",
     "distributed.admin.system-monitor.interval": "5s",
@@ -279,31 +281,25 @@ def open_backend(spec: ExecutorSpec) -> LocalPool | DaskPool:
 
 
 class Workers:
-    """The workers of ``spec``, started in a background thread as soon as this is made (a LocalCluster's processes
-    start and import while the caller prepares its points; a scheduler's address is reached meanwhile); given to
-    :func:`run_points`, which leaves them open. :meth:`close` once done: with ``wait=False`` the closing (a
-    LocalCluster's takes seconds) goes on while the caller writes its outputs, and the interpreter waits for it at
-    exit. Also a context manager (closing with waiting)."""
+    """The started workers of ``spec`` (ValueError when a scheduler cannot be reached), given to :func:`run_points`,
+    which leaves them open: several runs share them. :meth:`close` once done: with ``wait=False`` the closing (a
+    LocalCluster's takes seconds: each worker process exits) goes on in a thread while the caller writes its
+    outputs, and the interpreter waits for it at exit. Also a context manager (closing with waiting)."""
 
     def __init__(self, spec: ExecutorSpec):
         self.spec = spec
-        self._thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="executor-workers")
-        self._opening: Future = self._thread.submit(open_backend, spec)
+        self._backend = open_backend(spec)
+        self._closer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="executor-close")
         self._closing = False
 
     def backend(self) -> LocalPool | DaskPool:
-        """The started backend; raises what starting it raised (e.g. ValueError: no Dask scheduler at ...)."""
-        return self._opening.result()
+        return self._backend
 
     def close(self, wait: bool = True) -> None:
         if not self._closing:
             self._closing = True
-            self._thread.submit(self._close_backend)
-        self._thread.shutdown(wait=wait)
-
-    def _close_backend(self) -> None:
-        if self._opening.exception() is None:
-            self._opening.result().close()
+            self._closer.submit(self._backend.close)
+        self._closer.shutdown(wait=wait)
 
     def __enter__(self) -> Workers:
         return self
@@ -352,7 +348,7 @@ def run_points(points: Sequence[Point], executor: ExecutorSpec | Workers, log: P
                artefacts: dict[str, bytes] | None = None, label: str = "points",
                stream: TextIO = sys.stderr) -> RunResult:
     """Run every point not already in ``log`` on the workers of ``executor`` (a spec: started and closed here;
-    :class:`Workers`: started by the caller, left open), the costliest first (:func:`point_cost`); ``artefacts``
+    :class:`Workers`: the caller's, left open), the costliest first (:func:`point_cost`); ``artefacts``
     (hash -> bytes) are sent to a worker that lacks them. Returns the rows by key and the failures (each with its
     command)."""
     keys = [p.key for p in points]

@@ -111,6 +111,10 @@ def _int_list(text: str, name: str) -> list[int]:
     return values
 
 
+# where a point's command (run alone) writes: beside the sweep's own directory and results file, never over them
+ALONE_DIR = "build/sweep/alone"
+
+
 @dataclass(frozen=True)
 class SweepPoint:
     """One point of the sweep (a format, an iteration count, rtl or the cycle model), run by ``sim.executor``:
@@ -149,7 +153,7 @@ class SweepPoint:
         return (f".venv/bin/python -m sim.sweep {' '.join(self.source)} --formats {self.fmt} --iters {self.iterations}"
                 f" --mode {self.mode} --dma {self.dma} --exact-budget {self.exact_budget:g}"
                 f" --record-window {self.record_window} --fetch-passes {self.fetch_passes} --lanes {self.lanes}"
-                f" --body-bits {self.body_bits}")
+                f" --body-bits {self.body_bits} --out {ALONE_DIR}")
 
     def run(self) -> dict[str, Any]:
         use_kernel_store(KernelStore(kernel_store_root()))
@@ -271,9 +275,9 @@ def sweep(args: argparse.Namespace, log_dir: Path) -> tuple[list[dict[str, Any]]
     resumes from it); returns them and the sweep's name, or raises PointsFailed."""
     spec = parse_executor(args.executor)
     points, name, frames = plan(args)  # bad input ends the sweep here, before any worker starts
-    workers = Workers(spec)  # they start while the frame's exact reference is read or solved
+    exact = frame_exact(points[0].frame, exact_error.reference_dir(args), args.exact_budget)
+    workers = Workers(spec)
     try:
-        exact = frame_exact(points[0].frame, exact_error.reference_dir(args), args.exact_budget)
         rows = run_sweep(points, exact, workers, PointLog(log_dir / f"{name}.jsonl"), frames, f"sweep {name}")
     finally:
         workers.close(wait=False)  # a LocalCluster closes while the csv and the plot are written

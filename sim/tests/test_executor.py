@@ -6,17 +6,18 @@ store's key is the hash of the kernel build description."""
 from __future__ import annotations
 
 import dataclasses
-import logging
 import io
+import logging
 import os
 import re
+import shlex
 import signal
 import sys
 import time
 from concurrent import futures
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, ClassVar, Iterator
 
 import pytest
 
@@ -26,7 +27,8 @@ from models.number_format import FP16, FP32
 from sim import artefacts, kernel_build
 from sim import sweep as sim_sweep
 from sim.artefacts import FRAME_DIR, FrameStore, build_key
-from sim.executor import LocalPool, Outcome, Task, WorkerDied, Workers, parse_executor, run_points
+from sim.executor import LOCAL_CLUSTER_CONFIG, LocalPool, Outcome, Task, WorkerDied, Workers, parse_executor, \
+    run_points
 from sim.kernel_build import KernelBuild
 from sim.point_results import PointLog
 
@@ -83,15 +85,27 @@ def test_sweep_on_two_dask_workers_matches_serial(tmp_path: Path, cluster: tuple
     assert FrameStore(shipped[0] / FRAME_DIR).get(digest).num_bodies == scenes.load_or_capture("stack", n=2).num_bodies
 
 
+def test_sweep_point_command_reruns_that_point_alone(tmp_path: Path) -> None:
+    """A sweep point's command plans exactly that point again, and writes elsewhere than the sweep (whose results
+    file a rerun resumes from)."""
+    frame = save(scenes.load_or_capture("stack", n=2), tmp_path / "stack2.npz")
+    args = sim_sweep.parse_args(["--frame", str(frame), "--formats", "fp32,fp16", "--iters", "2,8", "--mode", "model"])
+    points, name, _ = sim_sweep.plan(args)
+    for point in points:
+        words = shlex.split(point.command)
+        assert words[:3] == [".venv/bin/python", "-m", "sim.sweep"]
+        alone = sim_sweep.parse_args(words[3:])
+        again, again_name, _ = sim_sweep.plan(alone)
+        assert [p.key for p in again] == [point.key] and again_name == name
+        assert Path(alone.out) != Path(args.out)
+
+
 @dataclass(frozen=True)
-class FlakyPoint:
-    """A point that raises while ``fail_marker`` exists and kills (SIGKILL) its worker process while ``die_marker`` exists;
-    each run appends a line to ``<counts>/<name>``."""
+class NamedPoint:
+    """A test point keyed by its name, with a command that names it."""
 
     name: str
-    counts: str
-    fail_marker: str = ""
-    die_marker: str = ""
+    kind: ClassVar[str] = "point"
 
     @property
     def key(self) -> str:
@@ -99,7 +113,18 @@ class FlakyPoint:
 
     @property
     def command(self) -> str:
-        return f"flaky-point {self.name}"
+        return f"{self.kind} {self.name}"
+
+
+@dataclass(frozen=True)
+class FlakyPoint(NamedPoint):
+    """A point that raises while ``fail_marker`` exists and kills (SIGKILL) its worker process while ``die_marker``
+    exists; each run appends a line to ``<counts>/<name>``."""
+
+    kind: ClassVar[str] = "flaky-point"
+    counts: str = ""
+    fail_marker: str = ""
+    die_marker: str = ""
 
     def run(self) -> dict[str, Any]:
         with open(Path(self.counts) / self.name, "a") as f:
@@ -161,20 +186,12 @@ def test_failing_point_and_dying_worker(tmp_path: Path, where: str, request: pyt
 
 
 @dataclass(frozen=True)
-class TimedPoint:
+class TimedPoint(NamedPoint):
     """A point of a given ``cost`` that records when it started in ``<starts>/<name>``."""
 
-    name: str
-    cost: float
-    starts: str
-
-    @property
-    def key(self) -> str:
-        return self.name
-
-    @property
-    def command(self) -> str:
-        return f"timed-point {self.name}"
+    kind: ClassVar[str] = "timed-point"
+    cost: float = 0.0
+    starts: str = ""
 
     def run(self) -> dict[str, Any]:
         (Path(self.starts) / self.name).write_text(repr(time.time()))
@@ -186,6 +203,8 @@ class TimedPoint:
 def test_costliest_points_start_first(tmp_path: Path, where: str) -> None:
     """Points start in the order of their cost (a large point left for the end runs alone while the other workers
     idle); a ``Workers`` handle started before the points serves two runs and stays open between them."""
+    import dask
+
     if where.startswith("dask"):
         import cloudpickle
 
@@ -200,6 +219,9 @@ def test_costliest_points_start_first(tmp_path: Path, where: str) -> None:
     try:
         result = run_points(points, workers, label="timed", stream=progress)
         again = run_points([TimedPoint("q", 1.0, str(second))], workers, label="timed", stream=progress)
+        if where.startswith("dask"):  # the LocalCluster's workers run with its quiet settings
+            seen = workers.backend().client.run(lambda: {k: dask.config.get(k) for k in LOCAL_CLUSTER_CONFIG})
+            assert list(seen.values()) == [LOCAL_CLUSTER_CONFIG] * 2
     finally:
         workers.close()
     assert not result.failures and again.ordered([TimedPoint("q", 1.0, "")])[0]["name"] == "q"
