@@ -1,7 +1,9 @@
 """sim.executor: a sweep on two Dask worker processes (each in its own working directory) gives the serial run's rows,
-row for row; a failing point and a dying worker are reported with their commands while the other points finish
-(also a point the local pool takes after a worker died unseen); a rerun resumes from the results file; the kernel
-store's key is the hash of the kernel build description."""
+row for row; a failing point and a killed worker (local pool, a LocalCluster without retries, and dask:local:2
+with them) are reported with their commands while the other points finish, with progress lines (done, running,
+failed) and the dashboard's address (also a point the local pool takes after a worker died unseen); a rerun resumes
+from the results file; a sweep point's command plans that point alone; the costliest points start first; the
+kernel store's key is the hash of the kernel build description, its file hashes follow the files."""
 
 from __future__ import annotations
 
@@ -140,12 +142,13 @@ def _runs(counts: Path) -> dict[str, int]:
     return {p.name: len(p.read_text().splitlines()) for p in counts.iterdir()}
 
 
-@pytest.mark.parametrize("where", ["local:2", "dask"])
+@pytest.mark.parametrize("where", ["local:2", "dask", "dask:local:2"])
 def test_failing_point_and_dying_worker(tmp_path: Path, where: str, request: pytest.FixtureRequest) -> None:
-    if where == "dask":
+    if where.startswith("dask"):
         import cloudpickle
 
         cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers cannot import a test module
+    if where == "dask":  # no retries: the point that kills its worker fails at once
         where = f"dask:{request.getfixturevalue('cluster')[0].scheduler_address}"
     spec = parse_executor(where)
     counts, fail, die = tmp_path / "counts", tmp_path / "fail", tmp_path / "die"
