@@ -13,7 +13,8 @@ Every (format, iteration count) is a point (:class:`SweepPoint`) run on ``--exec
 ``local:1`` by default, ``local:N``, ``dask:local:N``, ``dask:tcp://host:port``; ``docs/cluster.md``): the workers
 get the frame by its hash and return rows, not the kernel runs' files (those stay in a temporary directory). Each
 finished point is appended to ``build/sweep/.points/<sweep>.jsonl``; after a failed point (reported with the command
-that reruns it alone) the same command resumes from the finished ones.
+that reruns it alone, into ``build/sweep/alone/``) the same command resumes from the finished ones. The costliest
+points (the most iterations) start first, so that no large point is left to run alone at the end.
 
 Writes ``sweep.csv`` and ``sweep.png`` into ``build/sweep/<scene>-<dma>/``: time per manifold-pass (ns at the
 preset's clock, so that scenes of any size and the thesis's figures share one axis) against the maximum velocity
