@@ -107,8 +107,17 @@ def kernel_store_root() -> Path:
     return Path(env) if env else REPO_ROOT / "build" / "kernels"
 
 
+_FILE_DIGESTS: dict[tuple[str, int, int, int], str] = {}  # (path, inode, size, mtime) -> sha256 of the bytes
+
+
 def _file_digest(path: Path) -> str:
-    return sha256_bytes(Path(path).read_bytes())
+    """The sha256 of a file's bytes, hashed again only when its inode, size or modification time changed (every
+    point of a sweep asks for its build's key: the Verilator binary alone is some 16 MB)."""
+    st = os.stat(path)
+    stamp = (str(path), st.st_ino, st.st_size, st.st_mtime_ns)
+    if stamp not in _FILE_DIGESTS:
+        _FILE_DIGESTS[stamp] = sha256_bytes(Path(path).read_bytes())
+    return _FILE_DIGESTS[stamp]
 
 
 _QUOTED_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.MULTILINE)

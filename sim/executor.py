@@ -8,8 +8,9 @@
   ``dask worker`` by hand, or dask-jobqueue on a batch system: ``docs/cluster.md``).
 
 A point is a small picklable description (:class:`Point`: a ``key`` that names everything its result depends on, the
-shell ``command`` that reproduces it alone, and ``run()`` returning its row: a JSON-serialisable dict). Workers
-return rows and small reports, never trace files. What a point needs travels by hash (``sim.artefacts``): a worker
+shell ``command`` that reproduces it alone, ``run()`` returning its row: a JSON-serialisable dict, and optionally
+``cost``, a relative estimate of its run time: the costliest points start first, so that no large point is left to
+run alone at the end while the other workers idle). Workers return rows and small reports, never trace files. What a point needs travels by hash (``sim.artefacts``): a worker
 that lacks a frame answers with its hash and the driver sends the bytes with the point again.
 
 Faults: a point that raises, or whose worker dies, is reported with its command; the other points finish. With a
@@ -18,6 +19,15 @@ it. Progress (done, running, failed) goes to stderr, with the Dask dashboard's a
 
     result = run_points(points, parse_executor("dask:local:2"), log=PointLog(Path("build/sweep/points.jsonl")))
     result.raise_on_failure()  # or inspect result.failures
+
+A caller with work of its own after the points (writing a csv, a plot) holds the workers itself and closes them
+without waiting:
+
+    workers = Workers(parse_executor("dask:local:2"))
+    try:
+        result = run_points(points, workers)
+    finally:
+        workers.close(wait=False)  # finishes in a thread while the caller goes on; the interpreter waits for it
 """
 
 from __future__ import annotations
@@ -27,7 +37,7 @@ import sys
 import time
 import traceback
 from collections import deque
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, ThreadPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Protocol, Sequence, TextIO
@@ -46,6 +56,11 @@ class Point(Protocol):
     def command(self) -> str: ...
 
     def run(self) -> Row: ...
+
+
+def point_cost(point: Point) -> float:
+    """The point's relative run-time estimate (its optional ``cost``; 0 without one)."""
+    return float(getattr(point, "cost", 0.0))
 
 
 @dataclass(frozen=True)
@@ -181,20 +196,41 @@ class LocalPool:
         self.pool.shutdown(wait=True, cancel_futures=True)
 
 
+# A LocalCluster on the driver's machine shares its cores with the points. Its worker processes are forked from the
+# driver, which has imported everything the points need (spawned, each would start a fresh interpreter and import
+# it all again: seconds of CPU per worker); the cluster starts before the driver's own threads do anything. Its
+# servers' periodic work (event-loop health ticks every 20 ms, system and memory monitors, the workers' statistical
+# profiler every 10 ms) is made rare and the profiler is off; the dashboard and the status pages still work. A
+# cluster started elsewhere keeps its own settings (docs/cluster.md).
+LOCAL_CLUSTER_CONFIG: dict[str, Any] = {
+    "distributed.worker.multiprocessing-method": "fork",
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.tick.cycle": "5s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.worker.profile.enabled": False,
+}
+
+
 class DaskPool:
-    """The workers of a Dask scheduler (an existing one, or a LocalCluster started and stopped here). A point that
-    Dask gives up on (``KilledWorker``: its workers died, ``distributed.scheduler.allowed-failures`` times) while
-    other points were in flight is rerun alone, like the local pool's."""
+    """The workers of a Dask scheduler (an existing one, or a LocalCluster started and stopped here). As many
+    points are in flight as the workers have threads (counted again as workers come and go): the driver hands out
+    the costliest point next as one finishes, where Dask's own queue would place every point on a worker when
+    submitted, before their run times show. A point that Dask gives up on (``KilledWorker``: its workers died,
+    ``distributed.scheduler.allowed-failures`` times) while other points were in flight is rerun alone, like the
+    local pool's."""
 
     def __init__(self, spec: ExecutorSpec):
         import logging
 
+        import dask
         from distributed import Client, LocalCluster
 
         self.cluster = None
         if spec.kind == "dask-local":
-            self.cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1, processes=True,
-                                        dashboard_address=":0", silence_logs=logging.ERROR)
+            with dask.config.set(LOCAL_CLUSTER_CONFIG):  # the nannies hand it on to their worker processes
+                self.cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1, processes=True,
+                                            dashboard_address=":0", silence_logs=logging.ERROR)
             self.client = Client(self.cluster)
         else:
             try:
@@ -202,8 +238,12 @@ class DaskPool:
             except OSError as exc:
                 raise ValueError(f"no Dask scheduler at {spec.address} ({exc})") from None
         self.dashboard = self.client.dashboard_link or ""
-        self.slots = 1 << 30  # Dask queues every point; its workers run as many as they have threads
         self._attempt = 0
+
+    @property
+    def slots(self) -> int:
+        """The workers' threads now (at least 1: with none yet, a point waits in Dask for the first)."""
+        return max(sum(self.client.nthreads().values()), 1)
 
     def submit(self, task: Task) -> Any:
         self._attempt += 1
@@ -228,8 +268,7 @@ class DaskPool:
         return out
 
     def running(self, in_flight: int) -> int:
-        threads = sum(w.get("nthreads", 1) for w in self.client.scheduler_info().get("workers", {}).values())
-        return min(in_flight, max(threads, 1))
+        return min(in_flight, self.slots)
 
     def close(self) -> None:
         self.client.close()
@@ -239,6 +278,34 @@ class DaskPool:
 
 def open_backend(spec: ExecutorSpec) -> LocalPool | DaskPool:
     return LocalPool(spec.workers) if spec.kind == "local" else DaskPool(spec)
+
+
+class Workers:
+    """The started workers of ``spec`` (ValueError when a scheduler cannot be reached), given to :func:`run_points`,
+    which leaves them open: several runs share them. :meth:`close` once done: with ``wait=False`` the closing (a
+    LocalCluster's takes seconds: each worker process exits) goes on in a thread while the caller writes its
+    outputs, and the interpreter waits for it at exit. Also a context manager (closing with waiting)."""
+
+    def __init__(self, spec: ExecutorSpec):
+        self.spec = spec
+        self._backend = open_backend(spec)
+        self._closer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="executor-close")
+        self._closing = False
+
+    def backend(self) -> LocalPool | DaskPool:
+        return self._backend
+
+    def close(self, wait: bool = True) -> None:
+        if not self._closing:
+            self._closing = True
+            self._closer.submit(self._backend.close)
+        self._closer.shutdown(wait=wait)
+
+    def __enter__(self) -> Workers:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 # --- the driver ---------------------------------------------------------------------------------------------------
@@ -277,11 +344,13 @@ class PointsFailed(RuntimeError):
         self.failures = failures
 
 
-def run_points(points: Sequence[Point], spec: ExecutorSpec, log: PointLog | None = None,
+def run_points(points: Sequence[Point], executor: ExecutorSpec | Workers, log: PointLog | None = None,
                artefacts: dict[str, bytes] | None = None, label: str = "points",
                stream: TextIO = sys.stderr) -> RunResult:
-    """Run every point not already in ``log`` on ``spec``'s workers; ``artefacts`` (hash -> bytes) are sent to a
-    worker that lacks them. Returns the rows by key and the failures (each with its command)."""
+    """Run every point not already in ``log`` on the workers of ``executor`` (a spec: started and closed here;
+    :class:`Workers`: the caller's, left open), the costliest first (:func:`point_cost`); ``artefacts``
+    (hash -> bytes) are sent to a worker that lacks them. Returns the rows by key and the failures (each with its
+    command)."""
     keys = [p.key for p in points]
     if len(set(keys)) != len(keys):
         raise ValueError(f"{label}: two points share a key")
@@ -289,38 +358,43 @@ def run_points(points: Sequence[Point], spec: ExecutorSpec, log: PointLog | None
     earlier = log.load() if log is not None else {}
     result.rows = {p.key: earlier[p.key] for p in points if p.key in earlier}
     result.resumed = len(result.rows)
-    todo = deque(Task(p) for p in points if p.key not in earlier)
+    todo = deque(Task(p) for p in sorted(points, key=point_cost, reverse=True) if p.key not in earlier)
     if not todo:
         _say(stream, f"{label}: all {len(points)} points finished earlier ({log.path if log else ''})")
         return result
-    backend = open_backend(spec)
+    if isinstance(executor, Workers):
+        return _run_tasks(todo, executor.backend(), executor.spec, artefacts or {}, result, log, len(points), label,
+                          stream)
+    with Workers(executor) as workers:
+        return _run_tasks(todo, workers.backend(), executor, artefacts or {}, result, log, len(points), label, stream)
+
+
+def _run_tasks(todo: deque[Task], backend: LocalPool | DaskPool, spec: ExecutorSpec, artefacts: dict[str, bytes],
+               result: RunResult, log: PointLog | None, total: int, label: str, stream: TextIO) -> RunResult:
     where = f" from {log.path}" if log is not None and result.resumed else ""
-    _say(stream, f"{label}: {len(todo)} of {len(points)} points to run ({result.resumed} finished earlier{where}) "
+    _say(stream, f"{label}: {len(todo)} of {total} points to run ({result.resumed} finished earlier{where}) "
                  f"on {spec.describe()}" + (f"; Dask dashboard: {backend.dashboard}" if backend.dashboard else ""))
     suspects: deque[Task] = deque()  # in flight when a local worker died: rerun alone to find the one that kills
     in_flight: dict[Any, Task] = {}
-    total = len(points)
-    try:
-        while todo or suspects or in_flight:
-            if suspects:
-                if not in_flight:
-                    task = suspects.popleft()
-                    in_flight[backend.submit(task)] = task
-            else:
-                while todo and len(in_flight) < backend.slots:
-                    task = todo.popleft()
-                    in_flight[backend.submit(task)] = task
-            for fut, outcome in backend.wait(in_flight):
-                task = in_flight.pop(fut)
-                failure = _settle(task, outcome, artefacts or {}, todo, suspects, result, log)
-                done = len(result.rows)
-                status = f"{done}/{total} done, {backend.running(len(in_flight))} running, {len(result.failures)} failed"
-                if failure is not None:
-                    _say(stream, f"[{label}] {status}: {failure.describe()}")
-                elif isinstance(outcome, Outcome) and outcome.row is not None:
-                    _say(stream, f"[{label}] {status}: {outcome.key} ({outcome.seconds:.1f} s on {outcome.host})")
-    finally:
-        backend.close()
+    while todo or suspects or in_flight:
+        if suspects:
+            if not in_flight:
+                task = suspects.popleft()
+                in_flight[backend.submit(task)] = task
+        else:
+            slots = backend.slots
+            while todo and len(in_flight) < slots:
+                task = todo.popleft()
+                in_flight[backend.submit(task)] = task
+        for fut, outcome in backend.wait(in_flight):
+            task = in_flight.pop(fut)
+            failure = _settle(task, outcome, artefacts, todo, suspects, result, log)
+            status = (f"{len(result.rows)}/{total} done, {backend.running(len(in_flight))} running, "
+                      f"{len(result.failures)} failed")
+            if failure is not None:
+                _say(stream, f"[{label}] {status}: {failure.describe()}")
+            elif isinstance(outcome, Outcome) and outcome.row is not None:
+                _say(stream, f"[{label}] {status}: {outcome.key} ({outcome.seconds:.1f} s on {outcome.host})")
     return result
 
 

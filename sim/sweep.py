@@ -13,7 +13,8 @@ Every (format, iteration count) is a point (:class:`SweepPoint`) run on ``--exec
 ``local:1`` by default, ``local:N``, ``dask:local:N``, ``dask:tcp://host:port``; ``docs/cluster.md``): the workers
 get the frame by its hash and return rows, not the kernel runs' files (those stay in a temporary directory). Each
 finished point is appended to ``build/sweep/.points/<sweep>.jsonl``; after a failed point (reported with the command
-that reruns it alone) the same command resumes from the finished ones.
+that reruns it alone, into ``build/sweep/alone/``) the same command resumes from the finished ones. The costliest
+points (the most iterations) start first, so that no large point is left to run alone at the end.
 
 Writes ``sweep.csv`` and ``sweep.png`` into ``build/sweep/<scene>-<dma>/``: time per manifold-pass (ns at the
 preset's clock, so that scenes of any size and the thesis's figures share one axis) against the maximum velocity
@@ -69,7 +70,7 @@ from models.solution_error import SolutionError, solution_error
 from sim import baselines, exact_error
 from sim.analyze import auto_format
 from sim.artefacts import FrameStore, KernelStore, frame_bytes, kernel_store_root, source_digest
-from sim.executor import ExecutorSpec, PointsFailed, parse_executor, run_points
+from sim.executor import ExecutorSpec, PointsFailed, Workers, parse_executor, run_points
 from sim.harness_run import KernelRunError, write_inputs
 from sim.kernel_build import KernelBuild, default_window, use_kernel_store
 from sim.kernel_step import golden_step, run_kernel_step
@@ -120,6 +121,10 @@ def _int_list(text: str, name: str) -> list[int]:
     return values
 
 
+# where a point's command (run alone) writes: beside the sweep's own directory and results file, never over them
+ALONE_DIR = "build/sweep/alone"
+
+
 @dataclass(frozen=True)
 class SweepPoint:
     """One point of the sweep (a format, an iteration count, rtl or the cycle model), run by ``sim.executor``:
@@ -149,11 +154,16 @@ class SweepPoint:
         return f"{self.fmt}-it{self.iterations}-{self.mode}-{digest}"
 
     @property
+    def cost(self) -> float:
+        """Relative run time (``sim.executor`` starts the costliest first): the solver passes, plus a start."""
+        return self.iterations + 1.0
+
+    @property
     def command(self) -> str:
         return (f".venv/bin/python -m sim.sweep {' '.join(self.source)} --formats {self.fmt} --iters {self.iterations}"
                 f" --mode {self.mode} --dma {self.dma} --exact-budget {self.exact_budget:g}"
                 f" --record-window {self.record_window} --fetch-passes {self.fetch_passes} --lanes {self.lanes}"
-                f" --body-bits {self.body_bits}")
+                f" --body-bits {self.body_bits} --out {ALONE_DIR}")
 
     def run(self) -> dict[str, Any]:
         use_kernel_store(KernelStore(kernel_store_root()))
@@ -271,8 +281,8 @@ def plan(args: argparse.Namespace) -> tuple[list[SweepPoint], str, dict[str, byt
     return points, f"{label}-{args.dma}{kernel_label(args)}{mode}", {digest: data}
 
 
-def run_sweep(points: list[SweepPoint], exact: exact_error.AnyExactStep, spec: ExecutorSpec, log: PointLog | None,
-              frames: dict[str, bytes], label: str) -> list[dict[str, Any]]:
+def run_sweep(points: list[SweepPoint], exact: exact_error.AnyExactStep, spec: ExecutorSpec | Workers,
+              log: PointLog | None, frames: dict[str, bytes], label: str) -> list[dict[str, Any]]:
     """The rows of ``points`` in order, each point sent with ``exact`` (the frame's exact reference, computed once
     by the driver); raises PointsFailed."""
     points = [dataclasses.replace(p, exact=exact) for p in points]
@@ -285,9 +295,13 @@ def sweep(args: argparse.Namespace, log_dir: Path) -> tuple[list[dict[str, Any]]
     """The sweep's rows, its points run on ``args.executor`` and recorded in ``log_dir/<name>.jsonl`` (a rerun
     resumes from it); returns them and the sweep's name, or raises PointsFailed."""
     spec = parse_executor(args.executor)
-    points, name, frames = plan(args)
+    points, name, frames = plan(args)  # bad input ends the sweep here, before any worker starts
     exact = frame_exact(points[0].frame, exact_error.reference_dir(args), args.exact_budget)
-    rows = run_sweep(points, exact, spec, PointLog(log_dir / f"{name}.jsonl"), frames, f"sweep {name}")
+    workers = Workers(spec)
+    try:
+        rows = run_sweep(points, exact, workers, PointLog(log_dir / f"{name}.jsonl"), frames, f"sweep {name}")
+    finally:
+        workers.close(wait=False)  # a LocalCluster closes while the csv and the plot are written
     for row in rows:
         print(f"{row['format']:>6} {row['iterations']:>3} it ({row['mode']}): {row['cycles']:>9,} cycles "
               f"({row['cycles_per_manifold_pass']:.2f}/mp), max |dv| vs exact reference "

@@ -1,28 +1,36 @@
 """sim.executor: a sweep on two Dask worker processes (each in its own working directory) gives the serial run's rows,
-row for row; a failing point and a dying worker are reported with their commands while the other points finish
-(also a point the local pool takes after a worker died unseen); a rerun resumes from the results file; the kernel
-store's key is the hash of the kernel build description."""
+row for row; a failing point and a killed worker (local pool, a LocalCluster without retries, and dask:local:2
+with them) are reported with their commands while the other points finish, with progress lines (done, running,
+failed) and the dashboard's address (also a point the local pool takes after a worker died unseen); a rerun resumes
+from the results file; a sweep point's command plans that point alone; the costliest points start first; the
+kernel store's key is the hash of the kernel build description, its file hashes follow the files."""
 
 from __future__ import annotations
 
 import dataclasses
+import io
 import logging
 import os
+import re
+import shlex
+import signal
 import sys
+import time
 from concurrent import futures
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, ClassVar, Iterator
 
 import pytest
 
 from models import scenes
 from models.frame import save
 from models.number_format import FP16, FP32
-from sim import kernel_build
+from sim import artefacts, kernel_build
 from sim import sweep as sim_sweep
 from sim.artefacts import FRAME_DIR, FrameStore, build_key
-from sim.executor import LocalPool, Outcome, Task, WorkerDied, parse_executor, run_points
+from sim.executor import LOCAL_CLUSTER_CONFIG, LocalPool, Outcome, Task, WorkerDied, Workers, parse_executor, \
+    run_points
 from sim.kernel_build import KernelBuild
 from sim.point_results import PointLog
 
@@ -79,15 +87,27 @@ def test_sweep_on_two_dask_workers_matches_serial(tmp_path: Path, cluster: tuple
     assert FrameStore(shipped[0] / FRAME_DIR).get(digest).num_bodies == scenes.load_or_capture("stack", n=2).num_bodies
 
 
+def test_sweep_point_command_reruns_that_point_alone(tmp_path: Path) -> None:
+    """A sweep point's command plans exactly that point again, and writes elsewhere than the sweep (whose results
+    file a rerun resumes from)."""
+    frame = save(scenes.load_or_capture("stack", n=2), tmp_path / "stack2.npz")
+    args = sim_sweep.parse_args(["--frame", str(frame), "--formats", "fp32,fp16", "--iters", "2,8", "--mode", "model"])
+    points, name, _ = sim_sweep.plan(args)
+    for point in points:
+        words = shlex.split(point.command)
+        assert words[:3] == [".venv/bin/python", "-m", "sim.sweep"]
+        alone = sim_sweep.parse_args(words[3:])
+        again, again_name, _ = sim_sweep.plan(alone)
+        assert [p.key for p in again] == [point.key] and again_name == name
+        assert Path(alone.out) != Path(args.out)
+
+
 @dataclass(frozen=True)
-class FlakyPoint:
-    """A point that raises while ``fail_marker`` exists and kills its worker process while ``die_marker`` exists;
-    each run appends a line to ``<counts>/<name>``."""
+class NamedPoint:
+    """A test point keyed by its name, with a command that names it."""
 
     name: str
-    counts: str
-    fail_marker: str = ""
-    die_marker: str = ""
+    kind: ClassVar[str] = "point"
 
     @property
     def key(self) -> str:
@@ -95,7 +115,18 @@ class FlakyPoint:
 
     @property
     def command(self) -> str:
-        return f"flaky-point {self.name}"
+        return f"{self.kind} {self.name}"
+
+
+@dataclass(frozen=True)
+class FlakyPoint(NamedPoint):
+    """A point that raises while ``fail_marker`` exists and kills (SIGKILL) its worker process while ``die_marker``
+    exists; each run appends a line to ``<counts>/<name>``."""
+
+    kind: ClassVar[str] = "flaky-point"
+    counts: str = ""
+    fail_marker: str = ""
+    die_marker: str = ""
 
     def run(self) -> dict[str, Any]:
         with open(Path(self.counts) / self.name, "a") as f:
@@ -103,7 +134,7 @@ class FlakyPoint:
         if self.fail_marker and Path(self.fail_marker).exists():
             raise RuntimeError(f"{self.name}: injected failure")
         if self.die_marker and Path(self.die_marker).exists():
-            os._exit(3)
+            os.kill(os.getpid(), signal.SIGKILL)  # the worker process is killed
         return {"name": self.name, "value": len(self.name) * 1.5}
 
 
@@ -111,12 +142,13 @@ def _runs(counts: Path) -> dict[str, int]:
     return {p.name: len(p.read_text().splitlines()) for p in counts.iterdir()}
 
 
-@pytest.mark.parametrize("where", ["local:2", "dask"])
+@pytest.mark.parametrize("where", ["local:2", "dask", "dask:local:2"])
 def test_failing_point_and_dying_worker(tmp_path: Path, where: str, request: pytest.FixtureRequest) -> None:
-    if where == "dask":
+    if where.startswith("dask"):
         import cloudpickle
 
         cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers cannot import a test module
+    if where == "dask":  # no retries: the point that kills its worker fails at once
         where = f"dask:{request.getfixturevalue('cluster')[0].scheduler_address}"
     spec = parse_executor(where)
     counts, fail, die = tmp_path / "counts", tmp_path / "fail", tmp_path / "die"
@@ -126,7 +158,19 @@ def test_failing_point_and_dying_worker(tmp_path: Path, where: str, request: pyt
     points = [FlakyPoint(f"p{i}", str(counts), str(fail) if i == 1 else "", str(die) if i == 3 else "")
               for i in range(5)]
     log = PointLog(tmp_path / "points.jsonl")
-    first = run_points(points, spec, log, label="flaky")
+    progress = io.StringIO()
+    first = run_points(points, spec, log, label="flaky", stream=progress)
+    lines = progress.getvalue().splitlines()
+    assert lines[0].startswith(f"flaky: 5 of 5 points to run (0 finished earlier) on {spec.describe()}")
+    assert ("; Dask dashboard: http://" in lines[0]) == (spec.kind != "local")
+    status = [line for line in lines if line.startswith("[flaky] ")]  # a line per finished or failed point
+    counts_seen = [tuple(map(int, m.groups())) for m in
+                   (re.match(r"\[flaky\] (\d)/5 done, (\d) running, (\d) failed: ", line) for line in status) if m]
+    assert len(counts_seen) == len(status) == 5 and counts_seen[-1] == (3, 0, 2)
+    assert all(running <= 2 for _, running, _ in counts_seen) and any(running for _, running, _ in counts_seen)
+    assert [d + f for d, _, f in counts_seen] == sorted(d + f for d, _, f in counts_seen)
+    assert any("FAILED p1: p1: injected failure" in line for line in lines)
+    assert any("reproduce: flaky-point p1" in line for line in lines)  # the describe() lines follow the FAILED one
     by_key = {f.key: f for f in first.failures}
     assert sorted(by_key) == ["p1", "p3"]
     assert by_key["p1"].error == "p1: injected failure" and by_key["p1"].command == "flaky-point p1"
@@ -142,6 +186,56 @@ def test_failing_point_and_dying_worker(tmp_path: Path, where: str, request: pyt
     assert second.ordered(points) == [{"name": f"p{i}", "value": 3.0} for i in range(5)]
     after = _runs(counts)
     assert {k: after[k] - before[k] for k in after} == {"p0": 0, "p1": 1, "p2": 0, "p3": 1, "p4": 0}
+
+
+@dataclass(frozen=True)
+class TimedPoint(NamedPoint):
+    """A point of a given ``cost`` that records when it started in ``<starts>/<name>``."""
+
+    kind: ClassVar[str] = "timed-point"
+    cost: float = 0.0
+    starts: str = ""
+
+    def run(self) -> dict[str, Any]:
+        (Path(self.starts) / self.name).write_text(repr(time.time()))
+        time.sleep(0.3)
+        return {"name": self.name, "pid": os.getpid()}
+
+
+@pytest.mark.parametrize("where", ["local:1", "dask:local:2"])
+def test_costliest_points_start_first(tmp_path: Path, where: str) -> None:
+    """Points start in the order of their cost (a large point left for the end runs alone while the other workers
+    idle); a ``Workers`` handle started before the points serves two runs and stays open between them."""
+    import dask
+
+    if where.startswith("dask"):
+        import cloudpickle
+
+        cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    costs = [1.0, 5.0, 2.0, 33.0, 3.0, 17.0]
+    points = [TimedPoint(f"p{i}", c, str(tmp_path)) for i, c in enumerate(costs)]
+    by_cost = [p.name for p in sorted(points, key=lambda p: -p.cost)]
+    second = tmp_path / "second"
+    second.mkdir()
+    progress = io.StringIO()
+    workers = Workers(parse_executor(where))
+    try:
+        result = run_points(points, workers, label="timed", stream=progress)
+        again = run_points([TimedPoint("q", 1.0, str(second))], workers, label="timed", stream=progress)
+        if where.startswith("dask"):  # the LocalCluster's workers run with its quiet settings
+            seen = workers.backend().client.run(lambda: {k: dask.config.get(k) for k in LOCAL_CLUSTER_CONFIG})
+            assert list(seen.values()) == [LOCAL_CLUSTER_CONFIG] * 2
+    finally:
+        workers.close()
+    assert not result.failures and again.ordered([TimedPoint("q", 1.0, "")])[0]["name"] == "q"
+    assert [r["name"] for r in result.ordered(points)] == [p.name for p in points]
+    started = [p.name for p in sorted(points, key=lambda p: float((tmp_path / p.name).read_text()))]
+    if where == "local:1":
+        assert started == by_cost
+    else:
+        assert set(started[:2]) == set(by_cost[:2])  # one on each worker
+        assert "Dask dashboard: http://" in progress.getvalue().splitlines()[0]
+        assert len({r["pid"] for r in result.rows.values()}) == 2  # two worker processes shared the points
 
 
 def test_local_pool_takes_points_while_a_dead_worker_goes_unseen(tmp_path: Path) -> None:
@@ -178,6 +272,17 @@ def test_kernel_store_key_is_the_build_description(monkeypatch: pytest.MonkeyPat
     monkeypatch.setattr(kernel_build, "build", lambda **kw: calls.append(kw) or Path("exe"))
     kernel_build.verilate_kernel(base, build_dir=Path("d"), lock=False)
     assert calls == [{**kernel_build.kernel_build_args(base, Path("d")), "lock": False}]
+
+
+def test_file_digest_follows_the_file(tmp_path: Path) -> None:
+    """The kernel store's file hashes are kept between points, and hashed again once a file changes."""
+    path = tmp_path / "source.sv"
+    path.write_text("module a; endmodule\n")
+    first = artefacts._file_digest(path)
+    assert artefacts._file_digest(path) == first == artefacts.sha256_bytes(path.read_bytes())
+    path.write_text("module b; endmodule\n")
+    os.utime(path, ns=(time.time_ns(), time.time_ns() + 1_000_000))
+    assert artefacts._file_digest(path) == artefacts.sha256_bytes(path.read_bytes()) != first
 
 
 @pytest.mark.parametrize("text", ["local:0", "local:x", "dask:", "dask:local:", "dask:http://h:1", "dask:host",
