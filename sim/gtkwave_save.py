@@ -7,6 +7,13 @@ path as Verilator (5.48) writes it into the FST: ``<top>.<instance>...<signal>``
 ports again). Groups are ``@800200`` / ``-<name>`` ... ``@1000200`` / ``-<name>``. ``gtkwave <file>.gtkw``
 opens the dump with those traces shown.
 
+A :class:`View` opens the window at a size, on a span of time (``[timestart]`` and the zoom of the ``*`` line,
+whose zoom ``z`` shows ``2**-z`` time units per pixel), with the primary marker and up to 26 named markers
+(``A``..``Z``, each named by a ``[markername]`` line). The compiled harness's dump of the kernel
+(:func:`write_kernel_save_file`) opens on the first cycles of the solve phase with a marker at each phase start,
+read from the ``.phases`` file the harness writes beside the FST; :func:`fst_times` reads an FST's time range and
+time unit from its header block.
+
 The signal names and ranges are taken from the RTL source (:func:`rtl_signals`: the ports and nets a module
 file declares, their widths evaluated with the module's parameters), so a save file names only signals the
 design has; :func:`fst_signal_names` reads the names back from an FST (with ``fst2vcd`` from the gtkwave
@@ -19,6 +26,8 @@ import fnmatch
 import math
 import re
 import shutil
+import string
+import struct
 import subprocess
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -42,12 +51,51 @@ class Group:
     traces: tuple[Trace, ...]
 
 
-def save_file_text(dumpfile: Path, savefile: Path, groups: Sequence[Group]) -> str:
+SIGNALS_WIDTH, SST_WIDTH = 320, 260  # pixels of the signal-name pane and of the hierarchy pane
+WINDOW_SIZE = (1600, 1000)  # pixels of the GTKWave window
+NAMED_MARKERS = 26  # GTKWave's named markers A..Z
+
+
+@dataclass(frozen=True)
+class View:
+    """Where GTKWave opens: ``span`` time units from ``start`` across the wave pane of a ``size`` window, the
+    primary marker at ``marker`` (-1: none), named markers ``(name, time)`` in order (at most 26)."""
+
+    start: int
+    span: int
+    marker: int = -1
+    named: tuple[tuple[str, int], ...] = ()
+    size: tuple[int, int] = WINDOW_SIZE
+
+    def __post_init__(self) -> None:
+        if self.start < 0 or self.span <= 0:
+            raise ValueError(f"view: start {self.start} must be >= 0 and span {self.span} > 0")
+        if len(self.named) > NAMED_MARKERS:
+            raise ValueError(f"view: {len(self.named)} named markers, GTKWave has {NAMED_MARKERS}")
+
+    @property
+    def wave_pixels(self) -> int:
+        return max(self.size[0] - SIGNALS_WIDTH - SST_WIDTH, 100)
+
+    @property
+    def zoom(self) -> float:
+        """GTKWave's zoom: ``2**-zoom`` time units per pixel of the wave pane."""
+        return -math.log2(self.span / self.wave_pixels)
+
+    def lines(self) -> list[str]:
+        named = [t for _, t in self.named] + [-1] * (NAMED_MARKERS - len(self.named))
+        return ([f"[size] {self.size[0]} {self.size[1]}", "[pos] -1 -1",
+                 f"*{self.zoom:.6f} {self.marker} " + " ".join(str(t) for t in named)]
+                + [f"[markername] {string.ascii_uppercase[i]}{name}" for i, (name, _) in enumerate(self.named)])
+
+
+def save_file_text(dumpfile: Path, savefile: Path, groups: Sequence[Group], view: View | None = None) -> str:
     """The text of a save file showing ``groups`` of ``dumpfile`` (the hierarchy tree opened down to the scopes
-    of the traces)."""
+    of the traces), opening on ``view`` (default: from time 0 at GTKWave's own zoom)."""
     lines = ["[*] GTKWave save file written by sim/gtkwave_save.py",
              f'[dumpfile] "{Path(dumpfile).resolve()}"', f'[savefile] "{Path(savefile).resolve()}"',
-             "[timestart] 0", "[sst_expanded] 1", "[signals_width] 320", "[sst_width] 260"]
+             *(view.lines() if view else []), f"[timestart] {view.start if view else 0}", "[sst_expanded] 1",
+             f"[signals_width] {SIGNALS_WIDTH}", f"[sst_width] {SST_WIDTH}"]
     scopes = {t.path.split("[")[0].rsplit(".", 1)[0] for g in groups for t in g.traces}
     opened = sorted({".".join(s.split(".")[:k]) for s in scopes for k in range(1, s.count(".") + 2)})
     lines += [f"[treeopen] {scope}." for scope in opened]
@@ -60,10 +108,25 @@ def save_file_text(dumpfile: Path, savefile: Path, groups: Sequence[Group]) -> s
     return "\n".join(lines) + "\n"
 
 
-def write_save_file(savefile: Path, dumpfile: Path, groups: Sequence[Group]) -> Path:
+def write_save_file(savefile: Path, dumpfile: Path, groups: Sequence[Group], view: View | None = None) -> Path:
     savefile = Path(savefile)
-    savefile.write_text(save_file_text(dumpfile, savefile, groups))
+    savefile.write_text(save_file_text(dumpfile, savefile, groups, view))
     return savefile
+
+
+def save_file_view(text: str) -> tuple[int, float, list[tuple[str, int]]]:
+    """``[timestart]``, the zoom and the named markers ``(name, time)`` of a save file's text."""
+    start, zoom, times, names = 0, 0.0, [], {}
+    for line in text.splitlines():
+        if line.startswith("[timestart] "):
+            start = int(line.split()[1])
+        elif line.startswith("*"):
+            words = line[1:].split()
+            zoom, times = float(words[0]), [int(w) for w in words[2:]]
+        elif line.startswith("[markername] "):
+            tag = line.split(" ", 1)[1]
+            names[string.ascii_uppercase.index(tag[0])] = tag[1:]
+    return start, zoom, [(names.get(i, ""), t) for i, t in enumerate(times) if t >= 0]
 
 
 def save_file_traces(text: str) -> list[str]:
@@ -213,14 +276,72 @@ def kernel_groups(parameters: Mapping[str, int] | None = None, top: str = KERNEL
     return groups
 
 
+VIEW_LEAD_CYCLES, VIEW_CYCLES = 8, 160  # the kernel's view: cycles shown before the solve phase starts, and in all
+
+
+def read_phases(path: Path) -> tuple[int, list[tuple[str, int]]]:
+    """The clock period (ps) and the ``(name, cycle)`` lines of a harness's ``.phases`` file."""
+    clock_ps, marks = 0, []
+    for line in Path(path).read_text().splitlines():
+        name, value = line.split()
+        if name == "clock_ps":
+            clock_ps = int(value)
+        else:
+            marks.append((name, int(value)))
+    if clock_ps <= 0:
+        raise ValueError(f"{path}: no clock_ps line")
+    return clock_ps, marks
+
+
+def kernel_view(clock_ps: int, marks: Sequence[tuple[str, int]], end_time: int) -> View:
+    """The view of a kernel dump that ends at ``end_time``: ``VIEW_CYCLES`` clock periods from ``VIEW_LEAD_CYCLES``
+    before the solve phase starts (the first phase when there is no solve), the primary marker at that start, a
+    named marker at each phase start from ``start`` (the ap_start write) on that the dump holds."""
+    names = [name for name, _ in marks]
+    first = names.index("start") if "start" in names else 0  # the phase of the reset cycles is no phase start
+    named = tuple((name, cycle * clock_ps) for name, cycle in marks[first:] if cycle * clock_ps <= end_time)
+    named = named[:NAMED_MARKERS]
+    solve = next((t for name, t in named if name == "SOLVE"), named[0][1] if named else 0)
+    start = max(0, min(solve - VIEW_LEAD_CYCLES * clock_ps, end_time - VIEW_CYCLES * clock_ps))
+    return View(start, VIEW_CYCLES * clock_ps, solve, named)
+
+
 def write_kernel_save_file(fst: Path, top: str = KERNEL_TOP, parameters: Mapping[str, int] | None = None) -> Path:
-    """``<fst without suffix>.gtkw`` for a dump of ``pgs_kernel`` (scope ``top``) built with ``parameters``."""
-    return write_save_file(Path(fst).with_suffix(".gtkw"), fst, kernel_groups(parameters, top))
+    """``<fst without suffix>.gtkw`` for a dump of ``pgs_kernel`` (scope ``top``) built with ``parameters``; when the
+    harness wrote ``<fst without suffix>.phases`` beside it, the view of :func:`kernel_view`."""
+    fst = Path(fst)
+    phases = fst.with_suffix(".phases")
+    view = None
+    if phases.exists():
+        clock_ps, marks = read_phases(phases)
+        view = kernel_view(clock_ps, marks, fst_times(fst).end)
+    return write_save_file(fst.with_suffix(".gtkw"), fst, kernel_groups(parameters, top), view)
 
 
 # --------------------------------------------------------------------------------------------------
 # Names in a real dump
 # --------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class FstTimes:
+    start: int
+    end: int
+    timescale: int  # the time unit as a power of ten of seconds (-12: ps)
+
+
+FST_HEADER_BLOCK = 0  # FST_BL_HDR: the first block of a file
+
+
+def fst_times(fst: Path) -> FstTimes:
+    """The first and last time and the time unit of an FST, from its header block (block type, section length,
+    start and end time as big-endian u64, an endianness double, memory used, scope / hierarchy-var / var /
+    value-change-section counts as u64, the timescale exponent as i8)."""
+    head = Path(fst).read_bytes()[:1 + 8 * 9 + 1]
+    if len(head) < 1 + 8 * 9 + 1 or head[0] != FST_HEADER_BLOCK:
+        raise ValueError(f"{fst}: not an FST file (no header block)")
+    start, end = struct.unpack(">QQ", head[9:25])
+    return FstTimes(start, end, struct.unpack(">b", head[-1:])[0])
+
 
 def fst_signal_names(fst: Path) -> set[str] | None:
     """The full names (vectors with their range, as GTKWave shows them) in an FST's hierarchy, read with

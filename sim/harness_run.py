@@ -34,6 +34,11 @@ class KernelRunError(RuntimeError):
     """The harness did not finish (timeout, missing files)."""
 
 
+def clock_period_ps(preset: DmaPreset) -> int:
+    """The platform's clock period in whole ps (the time step of the harness's waveforms)."""
+    return round(1e12 / preset.clock_hz)
+
+
 def harness_cycle_limit(job: KernelJob) -> int:
     """The cycles after which the harness gives ``job`` up as hung."""
     return TIMEOUT_PER_ITEM * (job.manifold_passes + job.bodies.num_bodies) + TIMEOUT_SLACK
@@ -80,7 +85,8 @@ def run_harness(exe: Path, run_dir: Path, seed: int, preset: DmaPreset, max_cycl
     rate = preset.ddr_bytes_per_cycle
     millibytes = 0 if rate == float("inf") else max(1, round(rate * 1000))
     cmd = [str(exe), str(run_dir), str(seed), str(gap_permille), str(backpressure_permille), str(max_cycles),
-           str(millibytes), str(preset.startup_cycles), str(progress_every if progress else 0)]
+           str(millibytes), str(preset.startup_cycles), str(progress_every if progress else 0),
+           str(clock_period_ps(preset))]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     assert proc.stdout is not None and proc.stderr is not None
     other: list[str] = []

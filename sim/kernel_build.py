@@ -35,19 +35,25 @@ HARNESS_DIR = REPO_ROOT / "sim" / "harness"
 HARNESS = HARNESS_DIR / "pgs_kernel_main.cpp"
 # the signals the cocotb benches touch (everything else stays private: faster models of the large design)
 PUBLIC_VLT = HARNESS_DIR / "pgs_kernel_public.vlt"
+# waves builds of the compiled harness: the sequencer's phase readable (the harness notes each phase start)
+WAVES_VLT = HARNESS_DIR / "pgs_kernel_waves.vlt"
 # generated RTL variants for test builds (never under rtl/): the friction pipe with the injected sign bug
 VARIANT_ROOT = REPO_ROOT / "build" / "rtl_variants"
 
 # C++ optimization profiles (sim.verilator_build): "quick" -O1 for kernel runs; "o0" for short runs (-O0 without
 # -fno-inline, which would split the kernel into ~330 C++ files and take longer to build than -O1); "o2" (-O2 for
 # the model's hot code) and "os" (-Os, Verilator's own default: smaller code for a model limited by the
-# instruction cache) to be measured against "quick" with `make bench` (sim/bench_sim_speed.py) on an idle machine
-# (their two unity-built translation units compile several times longer than at -O1)
+# instruction cache; faster than "quick" on the thesis frame for several times its C++ compile time, measured in
+# docs/results.md section 14), "o2native" (-O2 -march=native on every file: an
+# executable for this CPU only, never for a shared kernel store) to be measured against "quick" with `make bench`
+# (sim/bench_sim_speed.py) on an idle machine (their two unity-built translation units compile several times
+# longer than at -O1)
 COMPILE_PROFILES: dict[str, tuple[str, ...]] = {
     "quick": tuple(QUICK_COMPILE_ARGS),
     "o0": tuple(a for a in DEBUG_COMPILE_ARGS if a != "-fno-inline"),
     "o2": ("-MAKEFLAGS", "OPT_FAST=-O2 OPT_SLOW=-O0 OPT_GLOBAL=-O1"),
     "os": ("-MAKEFLAGS", "OPT_FAST=-Os OPT_SLOW=-O0 OPT_GLOBAL=-O1"),
+    "o2native": ("-CFLAGS", "-march=native", "-MAKEFLAGS", "OPT_FAST=-O2 OPT_SLOW=-O0 OPT_GLOBAL=-O1"),
 }
 WAVE_ARGS = ("--trace-fst", "--trace-structs")
 
@@ -133,7 +139,7 @@ def kernel_build_args(kb: KernelBuild, build_dir: Path | None = None, extra_sour
                       extra_cpp_files: Sequence[Path] = (), extra_args: Sequence[str] = ()) -> dict[str, Any]:
     """The ``sim.verilator_build.build`` keywords of ``kb``'s compiled harness (plus ``extra_*``): what every kernel
     build runs, and what ``sim.artefacts.build_key`` hashes."""
-    return {"sources": [*kb.sources(), *extra_sources], "top": TOP, "parameters": kb.parameters,
+    return {"sources": [*([WAVES_VLT] if kb.waves else []), *kb.sources(), *extra_sources], "top": TOP, "parameters": kb.parameters,
             "cpp_files": [HARNESS, *extra_cpp_files], "build_dir": build_dir, "name": kb.name, "cflags": kb.cflags,
             "extra_args": ["-Wno-fatal", *kb.compile_args, *extra_args]}
 

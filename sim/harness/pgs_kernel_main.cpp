@@ -1,6 +1,6 @@
 // pgs_kernel_main.cpp: compiled Verilator harness of rtl/pgs_kernel.sv (one step of the kernel).
 //
-// Usage: pgs_kernel_sim DIR SEED GAP_PERMILLE BP_PERMILLE MAX_CYCLES [DDR_MILLIBYTES STARTUP PROGRESS]
+// Usage: pgs_kernel_sim DIR SEED GAP_PERMILLE BP_PERMILLE MAX_CYCLES [DDR_MILLIBYTES STARTUP PROGRESS CLOCK_PS]
 //   DIR/regs.bin        uint32 LE pairs {addr, value}: AXI4-Lite writes done before ap_start
 //   DIR/body_in.bin     body-in beats (BODY_IN_BYTES each), DIR/body_in_last.bin one TLAST byte per beat
 //   DIR/cons.bin        constraint beats (CONS_BYTES each),  DIR/cons_last.bin   one TLAST byte per beat
@@ -22,7 +22,11 @@
 // transfer (one per pass, as the host issues them) wait STARTUP cycles before their first beat. With
 // PROGRESS > 0 a line "progress CYCLE TRACE_RECORDS" goes to stdout every PROGRESS cycles.
 // Waveforms: built with --trace-fst (VM_TRACE), the harness writes an FST to $PGS_WAVES (when set) for the first
-// $PGS_WAVE_CYCLES cycles (default 20000; 0 = the whole run).
+// $PGS_WAVE_CYCLES cycles (default 20000; 0 = the whole run). Its time is in ps (the model's time precision, checked):
+// cycle N's falling edge at N * CLOCK_PS, its rising edge CLOCK_PS / 2 later (CLOCK_PS: the platform's clock period,
+// default 1000). Beside it, <$PGS_WAVES without .fst>.phases lists "clock_ps P", "start C" (the cycle ap_start is
+// written) and "NAME C" for each cycle C at which the sequencer enters phase NAME (LOAD SOLVE DRAIN INTEG DONE IDLE;
+// the waves build makes pgs_sequencer.phase readable, sim/harness/pgs_kernel_waves.vlt).
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -33,6 +37,9 @@
 #include <vector>
 
 #include "Vpgs_kernel.h"
+#if VM_TRACE
+#include "Vpgs_kernel___024root.h"
+#endif
 #include "verilated.h"
 #if VM_TRACE
 #include "verilated_fst_c.h"
@@ -94,18 +101,27 @@ struct Sim {
     std::unique_ptr<VerilatedContext> ctx;
     std::unique_ptr<Vpgs_kernel> top;
     uint64_t cycle = 0;
+    uint64_t clock_ps = 1000;  // clock period: the FST's time step per cycle
 #if VM_TRACE
     std::unique_ptr<VerilatedFstC> fst;
     uint64_t wave_cycles = 0;  // 0: all
+    std::FILE* phases = nullptr;  // phase changes of the sequencer, beside the FST
+    unsigned phase = ~0u;
     void open_waves() {
         const char* path = std::getenv("PGS_WAVES");
         if (!path || !*path) return;
+        if (ctx->timeprecision() != -12) fail("the model's time precision is not 1 ps");
         const char* n = std::getenv("PGS_WAVE_CYCLES");
         wave_cycles = n ? std::strtoull(n, nullptr, 0) : 20000;
         ctx->traceEverOn(true);
         fst = std::make_unique<VerilatedFstC>();
         top->trace(fst.get(), 99);
         fst->open(path);
+        std::string base(path);
+        if (base.size() > 4 && base.compare(base.size() - 4, 4, ".fst") == 0) base.resize(base.size() - 4);
+        phases = std::fopen((base + ".phases").c_str(), "w");
+        if (!phases) fail("cannot create " + base + ".phases");
+        std::fprintf(phases, "clock_ps %llu\n", (unsigned long long)clock_ps);
     }
     void dump(uint64_t t) {
         if (!fst) return;
@@ -116,12 +132,24 @@ struct Sim {
         }
         fst->dump(t);
     }
+    void mark(const char* name) {
+        if (phases) std::fprintf(phases, "%s %llu\n", name, (unsigned long long)cycle);
+    }
+    void watch_phase() {
+        static const char* const names[] = {"IDLE", "LOAD", "SOLVE", "DRAIN", "INTEG", "DONE"};
+        const unsigned now = top->rootp->pgs_kernel__DOT__u_seq__DOT__phase;
+        if (phases && now != phase && now < sizeof names / sizeof names[0]) mark(names[now]);
+        phase = now;
+    }
     void close_waves() {
         if (fst) fst->close();
+        if (phases) std::fclose(phases);
     }
 #else
     void open_waves() {}
     void dump(uint64_t) {}
+    void mark(const char*) {}
+    void watch_phase() {}
     void close_waves() {}
 #endif
     Sim() : ctx(std::make_unique<VerilatedContext>()) {}
@@ -130,12 +158,13 @@ struct Sim {
     void tick(F pre) {
         top->ap_clk = 0;
         top->eval();
-        dump(2 * cycle);
+        dump(cycle * clock_ps);
         pre();
         top->ap_clk = 1;
         top->eval();
-        dump(2 * cycle + 1);
+        dump(cycle * clock_ps + clock_ps / 2);
         cycle++;
+        watch_phase();
     }
     void tick() { tick([] {}); }
 };
@@ -189,7 +218,7 @@ uint32_t axil_read(Sim& s, uint32_t addr) {
 int main(int argc, char** argv) {
     if (argc < 6) {
         std::fprintf(stderr, "usage: %s DIR SEED GAP_PERMILLE BP_PERMILLE MAX_CYCLES [DDR_MILLIBYTES STARTUP "
-                     "PROGRESS]\n", argv[0]);
+                     "PROGRESS CLOCK_PS]\n", argv[0]);
         return 1;
     }
     const std::string dir = argv[1];
@@ -200,6 +229,8 @@ int main(int argc, char** argv) {
     const double ddr_rate = argc > 6 ? double(std::strtoull(argv[6], nullptr, 0)) / 1000.0 : 0.0;
     const unsigned startup = argc > 7 ? unsigned(std::strtoul(argv[7], nullptr, 0)) : 0;
     const uint64_t progress = argc > 8 ? std::strtoull(argv[8], nullptr, 0) : 0;
+    const uint64_t clock_ps = argc > 9 ? std::strtoull(argv[9], nullptr, 0) : 1000;
+    if (clock_ps < 2) fail("CLOCK_PS must be at least 2 (ps per clock period)");
 
     const std::vector<uint8_t> regs = read_file(dir + "/regs.bin");
     const std::vector<uint8_t> body_in = read_file(dir + "/body_in.bin");
@@ -210,6 +241,7 @@ int main(int argc, char** argv) {
     if (n_body != body_in_last.size() || n_cons != cons_last.size()) fail("beat / TLAST files disagree");
 
     Sim s;
+    s.clock_ps = clock_ps;
     s.ctx->randReset(2);
     s.ctx->randSeed(int(seed & 0x7fffffff));
     s.top = std::make_unique<Vpgs_kernel>(s.ctx.get(), "pgs_kernel");
@@ -233,6 +265,7 @@ int main(int argc, char** argv) {
     }
     axil_write(s, 0x04, 1);  // GIE
     axil_write(s, 0x08, 1);  // IER: ap_done
+    s.mark("start");
     axil_write(s, 0x00, 1);  // ap_start
     const uint64_t start_cycle = s.cycle;
 
