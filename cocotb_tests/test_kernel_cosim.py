@@ -70,8 +70,9 @@ class _Step:
         from cocotb.triggers import select
 
         passes = [self.case[f"pass{p}"].tobytes() for p in range(self.meta["passes"])]
-        run = self.host.run_step(self.case["body_in"].tobytes(), passes, int(self.case["body_out"].size),
-                                 TIMEOUT_CYCLES)
+        # a hang fails the test; a large frame (the thesis scene: 2.3 M cycles) gets four times its lower bound
+        timeout = max(TIMEOUT_CYCLES, 4 * int(self.meta.get("cycle_lower_bound") or 0))
+        run = self.host.run_step(self.case["body_in"].tobytes(), passes, int(self.case["body_out"].size), timeout)
         monitor = self.sb.monitor() if self.batches is None else self.batches.monitor()
         try:
             _, res = await select(monitor, run)  # the monitor only ever ends by raising
@@ -300,7 +301,8 @@ def test_kernel_cosim_bursts(scene, params, fmt_name, schedule_kind, dma) -> Non
     result = json.loads(case_file.with_suffix(".result.json").read_text())
     print(json.dumps(result, indent=1))
     assert result["transaction_level"]
-    trace = read_trace(case_file.with_suffix(".trace.bin"), parse_format(fmt_name), trace_record_bytes(parse_format(fmt_name)))
+    fmt = parse_format(fmt_name)
+    trace = read_trace(case_file.with_suffix(".trace.bin"), fmt, trace_record_bytes(fmt))
     with np.load(case_file, allow_pickle=False) as case:
         assert np.array_equal(trace.words, case["words"]) and np.array_equal(trace.slot, case["slot"])
     assert np.all(np.diff(trace.cycle.astype(np.int64)) >= 1), "two trace records stamped with the same cycle"

@@ -34,7 +34,8 @@ from sim.kernel_build import KernelBuild
 from sim.kernel_step import Golden, KernelResult
 from sim.trace_compare import Comparison, compare_body_out, compare_trace, expected_trace_words, read_trace
 
-COCOTB_TEST_MODULE = "test_kernel_cosim"
+# by its package path: cocotb's runner hands the simulator this process's sys.path, which has the repository
+COCOTB_TEST_MODULE = "cocotb_tests.test_kernel_cosim"
 COCOTB_TEST = "run_step_bursts"
 CASE_NAME = "cocotb_case.npz"
 

@@ -292,7 +292,8 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         cmp = res.comparison
         result.bits = BitExactness(cmp.differing_bits, cmp.differing_words, cmp.records, cmp.bodies,
                                    cmp.first_mismatch or "", res.seed)
-        result.speed = kernel_speed(res, job, preset, sched_stats.bubbles, args.driver)
+        if res.cycles:  # a run that failed before ap_done has no speed to report
+            result.speed = kernel_speed(res, job, preset, sched_stats.bubbles, args.driver)
         if job.record_window is None:
             result.cycle_model = model_section(job, preset, res, args.stall_permille)
         else:
