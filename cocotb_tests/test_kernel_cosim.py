@@ -459,3 +459,16 @@ def test_gtkwave_save_file_matches_fst() -> None:
     traces = [t.path for g in gs.kernel_groups(kernel_cocotb_build("fp32", "zcu102").parameters) for t in g.traces]
     missing = [t for t in traces if t not in names]
     assert not missing, f"not in {fsts[-1]}: {missing}"
+
+
+@pytest.mark.parametrize("argv", [["--waves"], ["--stall-permille", "10"], ["--record-window", "1024"],
+                                  ["--body-bits", "256"]])
+def test_cocotb_driver_rejects_what_it_does_not_model(tmp_path, capsys, argv) -> None:
+    """``make sim DRIVER=cocotb`` runs the streaming kernel without stalls or waveforms: other options end the run
+    with one error line and exit status 2, before any frame is captured or anything written."""
+    from sim import run
+
+    assert run.main(["--scene", "stack", "--driver", "cocotb", "--out", str(tmp_path), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err and err[-1].startswith("error: DRIVER=cocotb runs the streaming kernel"), err
+    assert not any(tmp_path.iterdir())
