@@ -26,6 +26,8 @@ FETCH_PASSES ?= 0
 LANES ?= 1
 BODY_BITS ?= 128
 SEEDS ?= 4
+# what drives the kernel in make sim: harness (compiled Verilator harness) or cocotb (DMA models, batch scoreboard)
+DRIVER ?= harness
 # where independent points run (sim/executor.py): local:N processes, dask:local:N, dask:tcp://host:port;
 # empty: make sweep runs its points one at a time (local:1), the others on local:$(JOBS)
 EXECUTOR ?=
@@ -38,6 +40,7 @@ help:
 	@echo "make test      run the whole test suite (what CI runs)"
 	@echo "make sim       run a scene end to end (SCENE=pile|thesis|stack|... ITERS= FORMAT= DMA= SEED= WAVES=1);"
 	@echo "               MODE=model: the cycle model's estimate alone (no Verilator); SCHEDULE=hazard|banded|..."
+	@echo "               DRIVER=cocotb: through cocotb (host driver, AXI DMA models, batch scoreboard)"
 	@echo "               the window kernel: RECORD_WINDOW=16384 LANES=1|2|4 FETCH_PASSES=0 BODY_BITS=128|512"
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=,"
 	@echo "               and the window kernel's RECORD_WINDOW= LANES= FETCH_PASSES= BODY_BITS=; MODE=model)"
@@ -84,7 +87,7 @@ test: $(STAMP)
 sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
-		--lanes $(LANES) --body-bits $(BODY_BITS)
+		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)

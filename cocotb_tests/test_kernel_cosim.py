@@ -18,10 +18,19 @@ constraint transfers armed before ap_start, as this host arms them).
 friction-pass record (the cocotb test ``run_step_expect_mismatch`` catches the scoreboard's AssertionError and
 reports it to pytest).
 
+Transaction-level mode (``test_kernel_cosim_bursts``; ``make sim DRIVER=cocotb`` runs it on any scene): the kernel
+inside ``cocotb_tests/tb/pgs_kernel_burst_tb.sv``, whose burst buffers feed and drain its AXI4-Streams and collect
+its trace in batches; the same host driver and DMA engines move each transfer a burst at a time
+(``BurstDmaStreamPort``), and the batch scoreboard (``BatchTraceScoreboard``) checks every record, a chunk at a
+time, naming the first differing record, its field and the cycle it retired in
+(``test_batch_scoreboard_names_record_field_and_cycle`` injects one). No Python runs per cycle there, so it is
+several times faster; the cycle-level handshake (random idles and backpressure) is what the tests above check.
+
 ``WAVES=1`` writes ``build/cocotb/<build>_waves/<case>.fst`` and a GTKWave save file beside it,
 ``<case>.gtkw`` (control, DMA streams and pipeline signals grouped); both paths are printed.
 
     .venv/bin/python -m pytest cocotb_tests/test_kernel_cosim.py -k stack      # one case
+    .venv/bin/python -m pytest cocotb_tests/test_kernel_cosim.py -k bursts     # transaction level
     WAVES=1 .venv/bin/python -m pytest cocotb_tests/test_kernel_cosim.py -k stack -s   # + FST waveform
     gtkwave build/cocotb/pgs_kernel_e8m23_c512_waves/stack-fp32-hazard-zcu102.gtkw
 """
@@ -53,34 +62,56 @@ class _Step:
     meta: dict
     host: Any
     sb: Any
+    batches: Any = None  # transaction level: the bench's trace batches (tb.burst_streams.TraceBatches)
+    trace_out: Any = None  # transaction level: the open TRACE_FILE, if any
 
     async def run(self):
         """Run the step with the scoreboard watching the trace; the first mismatch raises its AssertionError."""
         from cocotb.triggers import select
 
         passes = [self.case[f"pass{p}"].tobytes() for p in range(self.meta["passes"])]
-        run = self.host.run_step(self.case["body_in"].tobytes(), passes, int(self.case["body_out"].size),
-                                 TIMEOUT_CYCLES)
-        _, res = await select(self.sb.monitor(), run)  # the monitor only ever ends by raising
+        # a hang fails the test; a large frame (the thesis scene: 2.3 M cycles) gets four times its lower bound
+        timeout = max(TIMEOUT_CYCLES, 4 * int(self.meta.get("cycle_lower_bound") or 0))
+        run = self.host.run_step(self.case["body_in"].tobytes(), passes, int(self.case["body_out"].size), timeout)
+        monitor = self.sb.monitor() if self.batches is None else self.batches.monitor()
+        try:
+            _, res = await select(monitor, run)  # the monitor only ever ends by raising
+            if self.batches is not None:  # the records of the last, partial batch and chunk
+                self.batches.flush()
+                self.sb.flush()
+        finally:
+            if self.trace_out is not None:
+                self.trace_out.close()
         return res
 
 
-async def _start_step(dut) -> _Step:
-    """Load the case of ``CASE_FILE``, reset the kernel and program its arguments."""
+async def _start_step(dut, transaction_level: bool = False) -> _Step:
+    """Load the case of ``CASE_FILE``, reset the kernel and program its arguments. ``transaction_level``: ``dut``
+    is the transaction-level bench (bursts, batched trace, the batch scoreboard); with ``TRACE_FILE`` set, every
+    trace record is also written there (the compiled harness's ``trace.bin`` layout)."""
+    from cocotb_tests.tb.burst_streams import TraceBatches
     from cocotb_tests.tb.host_driver import KernelHost
-    from cocotb_tests.tb.scoreboard import ExpectedTrace, TraceScoreboard
+    from cocotb_tests.tb.scoreboard import BatchTraceScoreboard, ExpectedTrace, TraceScoreboard
 
     from models.dma_model import get_preset
+    from models.stream_format import trace_record_bytes
+    from sim.cocotb_run import BURST_BEATS, TRACE_BATCH
 
     with np.load(os.environ["CASE_FILE"], allow_pickle=False) as npz:
         case = dict(npz)
     meta = json.loads(str(case["meta"]))
     fmt = parse_format(meta["format"])
     host = KernelHost(dut, get_preset(meta["dma"]), meta["seed"], idle_prob=meta["idle"],
-                      backpressure_prob=meta["backpressure"])
+                      backpressure_prob=meta["backpressure"], transaction_level=transaction_level, burst=BURST_BEATS)
     expected = ExpectedTrace(case["kind"], case["iteration"], case["slot"], case["manifold"], case["body_a"],
                              case["body_b"], case["words"])
-    step = _Step(case, meta, host, TraceScoreboard(dut, fmt, expected))
+    if not transaction_level:
+        step = _Step(case, meta, host, TraceScoreboard(dut, fmt, expected))
+    else:
+        trace_file = open(os.environ["TRACE_FILE"], "wb") if os.environ.get("TRACE_FILE") else None  # noqa: SIM115
+        sb = BatchTraceScoreboard(fmt, expected, sink=None if trace_file is None else trace_file.write)
+        step = _Step(case, meta, host, sb, TraceBatches(dut, trace_record_bytes(fmt) + 8, TRACE_BATCH, sb.take),
+                     trace_file)
     await host.reset()
     await host.program(fmt, meta["num_bodies"], meta["num_manifolds"], meta["iterations"], meta["dt"],
                        tuple(meta["gravity"]), meta["damping"], meta["options"])
@@ -90,17 +121,38 @@ async def _start_step(dut) -> _Step:
 @cocotb.test()
 async def run_step(dut) -> None:
     st = await _start_step(dut)
+    await _run_and_check(dut, st)
+
+
+@cocotb.test()
+async def run_step_bursts(dut) -> None:
+    """The step on the transaction-level bench: bursts through the DMA models, the trace checked in batches; the
+    same checks as ``run_step``."""
+    st = await _start_step(dut, transaction_level=True)
+    try:
+        await _run_and_check(dut, st)
+    except (AssertionError, TimeoutError) as err:  # for make sim's report (sim/cocotb_step.py)
+        Path(os.environ["CASE_FILE"]).with_suffix(".failure.txt").write_text(str(err))
+        raise
+
+
+async def _run_and_check(dut, st: _Step) -> None:
+    """Run the step, check the kernel's registers, the trace and the body-out stream, write ``<case>.result.json``."""
     case, meta, sb = st.case, st.meta, st.sb
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
+    cycle0 = sb.cycle if st.batches is None else int(dut.tb_cycle.value)
     res = await st.run()
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     assert res.status == 0, f"kernel status register {res.status:#x} (sticky error flags) after a good frame"
     assert res.rejected == 0, f"{res.rejected} manifold-passes rejected in a good frame"
     events = dict(zip(EVENT_NAMES, res.fp_events))
-    assert events == meta["fp_events"], f"floating-point events {events}, the golden model predicts {meta['fp_events']}"
+    if meta.get("fp_events") is not None:
+        assert events == meta["fp_events"], \
+            f"floating-point events {events}, the golden model predicts {meta['fp_events']}"
     assert sb.complete, f"trace: {sb.compared} records compared, {sb.exp.words.shape[0]} expected"
-    assert res.cycles >= meta["cycle_lower_bound"], \
-        f"{res.cycles:,} kernel cycles beat the cycle model's lower bound of {meta['cycle_lower_bound']:,}"
+    if meta.get("cycle_lower_bound") is not None:
+        assert res.cycles >= meta["cycle_lower_bound"], \
+            f"{res.cycles:,} kernel cycles beat the cycle model's lower bound of {meta['cycle_lower_bound']:,}"
     want = case["body_out"].tobytes()
     if res.body_out != want:
         got_w = np.frombuffer(res.body_out.ljust(len(want), b"\0"), np.uint8)
@@ -108,14 +160,20 @@ async def run_step(dut) -> None:
         raise AssertionError(f"body-out stream differs from the golden model at byte {first} "
                              f"(record {first // meta['body_out_record_bytes']}); got {len(res.body_out)} bytes")
     mp = meta["num_manifolds"] * meta["passes"]
+    sim_cycles = (sb.cycle if st.batches is None else int(dut.tb_cycle.value)) - cycle0
     summary = {"scene": meta["scene"], "format": meta["format"], "dma": meta["dma"], "schedule": meta["schedule"],
                "cycles": res.cycles, "cycles_per_manifold_pass": res.cycles / mp, "stall_cycles": res.stalls,
-               "bubble_cycles": res.bubbles, "bytes_in": res.bytes_in, "bytes_out": res.bytes_out,
-               "bytes_per_manifold": meta["bytes_per_manifold"], "records_compared": sb.compared, "fp_events": events,
-               "sim_cycles_per_s": sb.cycle / wall if wall > 0 else 0.0}
-    summary["cycle_lower_bound"] = meta["cycle_lower_bound"]
+               "bubble_cycles": res.bubbles, "issued": res.issued, "status": res.status, "rejected": res.rejected,
+               "bytes_in": res.bytes_in, "bytes_out": res.bytes_out, "bytes_per_manifold": meta["bytes_per_manifold"],
+               "records_compared": sb.compared, "fp_events": events,
+               "sim_cycles": sim_cycles, "wall_s": wall, "cpu_s": cpu,
+               "sim_cycles_per_s": sim_cycles / wall if wall > 0 else 0.0,
+               "transaction_level": st.batches is not None}
+    summary["cycle_lower_bound"] = meta.get("cycle_lower_bound")
     dut._log.info("cosim %s", json.dumps(summary))
     Path(os.environ["CASE_FILE"]).with_suffix(".result.json").write_text(json.dumps(summary, indent=1))
+    if os.environ.get("BODY_OUT_FILE"):
+        Path(os.environ["BODY_OUT_FILE"]).write_bytes(res.body_out)
 
 
 @cocotb.test()
@@ -123,7 +181,16 @@ async def run_step_expect_mismatch(dut) -> None:
     """For a kernel built with an injected bug: run until the scoreboard's first mismatch and write what it
     reported (message, record index and that record's pass kind, iteration, slot) to ``<case>.mismatch.json``;
     the pytest side judges it. A step that ends without a mismatch writes ``caught: false``."""
-    st = await _start_step(dut)
+    await _expect_mismatch(dut, await _start_step(dut))
+
+
+@cocotb.test()
+async def run_step_bursts_expect_mismatch(dut) -> None:
+    """``run_step_expect_mismatch`` on the transaction-level bench (the batch scoreboard)."""
+    await _expect_mismatch(dut, await _start_step(dut, transaction_level=True))
+
+
+async def _expect_mismatch(dut, st: _Step) -> None:
     e = st.sb.exp
     try:
         await st.run()
@@ -138,47 +205,29 @@ async def run_step_expect_mismatch(dut) -> None:
 
 def _prepare_case(path: Path, scene: str, params: dict, fmt_name: str, schedule_kind: str, dma: str,
                   seed: int, idle: float, backpressure: float, iterations: int = 4) -> dict:
+    """Capture the scene, run the golden model and write the case (``sim.cocotb_step.write_case``) with the
+    stall probabilities and the floating-point events the golden model predicts."""
     from cocotb_tests.tb.fp_events import predicted_events
-    from cocotb_tests.tb.scoreboard import expected_trace
 
     from models import scenes
-    from models import stream_format as sf
     from models.constraints import body_table, setup_constraints
-    from models.contact_solver import SolverParams, pass_sequence, solve
     from models.dma_model import get_preset
-    from models.integrator import IntegrationParams, integrate
-    from models.schedule import make_schedule
+    from models.integrator import IntegrationParams
     from models.kernel_job import KernelJob
+    from models.contact_solver import SolverParams
+    from models.schedule import make_schedule
+    from sim.cocotb_step import write_case
+    from sim.kernel_step import golden_step
 
     fmt = parse_format(fmt_name)
-    preset = get_preset(dma)
     frame = scenes.capture_frame(scene, **params)
     bodies = body_table(frame).rounded(fmt)
     cons = setup_constraints(frame, body_table(frame)).rounded(fmt)
     schedule = make_schedule(schedule_kind, cons, bodies.dynamic, window=64)
-    sp = SolverParams(iterations=iterations)
-    records: list = []
-    result = solve(bodies, cons, schedule, fmt, sp, trace=records.append)
-    ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
-    final = integrate(result.bodies, fmt, ip)
-    events = predicted_events(KernelJob(fmt, bodies, cons, schedule, sp, ip)).as_dict()
-    exp = expected_trace(fmt, records, cons.body_a, cons.body_b)
-    layout = sf.StreamLayout(fmt, cons_beat_bits=preset.stream_bits)
-    cons_stream = sf.pack_constraint_stream(fmt, cons, schedule, sp, beat_bits=preset.stream_bits)
-    per_pass = np.split(cons_stream.data, np.flatnonzero(cons_stream.last)[:-1] + 1)
-    body_in = sf.pack_body_table(fmt, bodies).data
-    body_out = sf.pack_body_out(fmt, final).data
-    meta = {"scene": scene, "format": fmt_name, "dma": dma, "schedule": schedule_kind, "seed": seed, "idle": idle,
-            "backpressure": backpressure, "num_bodies": frame.num_bodies, "num_manifolds": frame.num_manifolds,
-            "iterations": iterations, "passes": len(pass_sequence(sp)), "dt": frame.dt,
-            "gravity": list(frame.gravity), "damping": 0.99, "options": 0,
-            "body_out_record_bytes": layout.body_out_bytes, "bytes_per_manifold": layout.bytes_per_manifold(sp),
-            "fp_events": events}
-    meta["cycle_lower_bound"] = _cycle_lower_bound(fmt, bodies, cons, schedule, sp, frame, preset)
-    np.savez(path, meta=np.array(json.dumps(meta)), kind=exp.kind, iteration=exp.iteration, slot=exp.slot,
-             manifold=exp.manifold, body_a=exp.body_a, body_b=exp.body_b, words=exp.words, body_in=body_in,
-             body_out=body_out, **{f"pass{p}": d for p, d in enumerate(per_pass)})
-    return meta
+    job = KernelJob(fmt, bodies, cons, schedule, SolverParams(iterations=iterations),
+                    IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity)))
+    return write_case(path, job, golden_step(job), get_preset(dma), scene, seed, schedule_kind,
+                      {"idle": idle, "backpressure": backpressure, "fp_events": predicted_events(job).as_dict()})
 
 
 CASES = [
@@ -189,26 +238,40 @@ CASES = [
 
 
 def _cosim(testcase: str, scene: str, params: dict, fmt_name: str, schedule_kind: str, dma: str, idle: float,
-           bp: float, friction_sign_bug: bool = False, compile_profile: str = "quick") -> Path:
+           bp: float, friction_sign_bug: bool = False, compile_profile: str = "quick", bursts: bool = False,
+           corrupt: tuple[int, int] | None = None) -> Path:
     """Prepare the case, build the kernel for it (``friction_sign_bug``: the friction pipe with the wrong sign,
     in a build of its own; ``compile_profile``: a key of ``sim.kernel_build.COMPILE_PROFILES``, "o0" for a short
     run) and run the cocotb test ``testcase``; returns the case file. With ``WAVES=1`` the FST and its GTKWave
     save file are ``build/cocotb/<build>_waves/<case>.fst`` / ``.gtkw`` (printed)."""
-    from sim.cocotb_run import BUILD_ROOT, run_kernel_cocotb, test_seed
+    from sim.cocotb_run import BUILD_ROOT, run_kernel_cocotb, run_kernel_cocotb_bursts, test_seed
 
     seed = test_seed()
-    case_name = f"{scene}-{fmt_name}-{schedule_kind}-{dma}"
+    case_name = f"{scene}-{fmt_name}-{schedule_kind}-{dma}" + ("-bursts" if bursts else "")
     if friction_sign_bug:
         case_name += "-friction_sign_bug"
+    if corrupt is not None:
+        case_name += "-corrupt"
     case_dir = BUILD_ROOT / "cases"
     case_dir.mkdir(parents=True, exist_ok=True)
     case_file = case_dir / f"{case_name}.npz"
     for suffix in (".result.json", ".mismatch.json"):  # never judge a stale report
         case_file.with_suffix(suffix).unlink(missing_ok=True)
     meta = _prepare_case(case_file, scene, params, fmt_name, schedule_kind, dma, seed, idle, bp)
+    if corrupt is not None:  # flip the lowest bit of one expected word: the scoreboard must name that record
+        with np.load(case_file, allow_pickle=False) as npz:
+            arrays = dict(npz)
+        arrays["words"][corrupt] ^= np.uint64(1)
+        np.savez(case_file, **arrays)
     print(f"{scene}: {meta['num_bodies']} bodies, {meta['num_manifolds']} manifolds, {meta['passes']} passes")
-    run_kernel_cocotb("test_kernel_cosim", fmt_name, dma, seed, {"CASE_FILE": str(case_file)}, testcase=[testcase],
-                      friction_sign_bug=friction_sign_bug, compile_profile=compile_profile, waves_name=case_name)
+    env = {"CASE_FILE": str(case_file)}
+    if bursts:
+        env["TRACE_FILE"] = str(case_file.with_suffix(".trace.bin"))
+        run_kernel_cocotb_bursts("test_kernel_cosim", fmt_name, dma, seed, env, testcase=[testcase],
+                                 waves_name=case_name)
+    else:
+        run_kernel_cocotb("test_kernel_cosim", fmt_name, dma, seed, env, testcase=[testcase],
+                          friction_sign_bug=friction_sign_bug, compile_profile=compile_profile, waves_name=case_name)
     return case_file
 
 
@@ -217,6 +280,104 @@ def _cosim(testcase: str, scene: str, params: dict, fmt_name: str, schedule_kind
 def test_kernel_cosim(scene, params, fmt_name, schedule_kind, dma, idle, bp) -> None:
     case_file = _cosim("run_step", scene, params, fmt_name, schedule_kind, dma, idle, bp)
     print(case_file.with_suffix(".result.json").read_text())
+
+
+BURST_CASES = [
+    ("pile", {"nx": 6, "ny": 6, "nz": 6}, "fp32", "hazard", "zcu102"),
+    ("incline", {}, "fp32", "pybullet", "ideal"),
+]
+
+
+@pytest.mark.parametrize("scene,params,fmt_name,schedule_kind,dma", BURST_CASES,
+                         ids=[f"{c[0]}-{c[2]}-{c[3]}-{c[4]}" for c in BURST_CASES])
+def test_kernel_cosim_bursts(scene, params, fmt_name, schedule_kind, dma) -> None:
+    """The transaction-level bench (bursts through the DMA models, the trace checked in batches): the same checks
+    as the cycle-level test, every record against the golden model, and every record retired once."""
+    from sim.trace_compare import read_trace
+
+    from models.stream_format import trace_record_bytes
+
+    case_file = _cosim("run_step_bursts", scene, params, fmt_name, schedule_kind, dma, 0.0, 0.0, bursts=True)
+    result = json.loads(case_file.with_suffix(".result.json").read_text())
+    print(json.dumps(result, indent=1))
+    assert result["transaction_level"]
+    fmt = parse_format(fmt_name)
+    trace = read_trace(case_file.with_suffix(".trace.bin"), fmt, trace_record_bytes(fmt))
+    with np.load(case_file, allow_pickle=False) as case:
+        assert np.array_equal(trace.words, case["words"]) and np.array_equal(trace.slot, case["slot"])
+    assert np.all(np.diff(trace.cycle.astype(np.int64)) >= 1), "two trace records stamped with the same cycle"
+
+
+def test_batch_scoreboard_names_record_field_and_cycle() -> None:
+    """A mismatch injected into the expected trace (one bit of one word of a record in the middle of the run): the
+    batch scoreboard must stop there and name the record, its field and the cycle it retired in (the cycle stamped
+    beside that record in the bench's trace, written to the trace file)."""
+    from sim.trace_compare import read_trace
+
+    from cocotb_tests.tb.scoreboard import FIELDS
+    from models.stream_format import trace_record_bytes
+
+    record, field = 2345, FIELDS.index("wB.y")
+    case_file = _cosim("run_step_bursts_expect_mismatch", "pile", {"nx": 6, "ny": 6, "nz": 6}, "fp32", "hazard",
+                       "zcu102", 0.0, 0.0, bursts=True, corrupt=(record, field))
+    report = json.loads(case_file.with_suffix(".mismatch.json").read_text())
+    print(json.dumps(report, indent=1))
+    assert report["caught"], f"the injected mismatch went undetected ({report['records_compared']} records compared)"
+    fmt = parse_format("fp32")
+    trace = read_trace(case_file.with_suffix(".trace.bin"), fmt, trace_record_bytes(fmt))
+    cycle = int(trace.cycle[record])
+    assert report["record"] == record and report["cycle"] == cycle, report
+    msg = report["message"]
+    assert re.match(rf"cycle {cycle}: retire #{record}: .*: body B field wB\.y: got (0x[0-9a-f]+) .*, "
+                    r"expected (0x[0-9a-f]+) ", msg), msg
+    got, want = (int(v, 16) for v in re.findall(r"(0x[0-9a-f]+) \(", msg))
+    assert got ^ want == 1 and got == int(trace.words[record, field])
+
+
+def test_batch_scoreboard_checks_every_record() -> None:
+    """Without a simulator: records fed in bench batches (16, then a partial one) and checked in chunks of 64; a
+    difference in any field of any record (here a word, then the slot of the last record, then one record too many)
+    raises with that record, field and its retire cycle; identical records pass and are all counted."""
+    from cocotb_tests.tb.scoreboard import FIELDS, BatchTraceScoreboard, ExpectedTrace
+
+    from models.number_format import FP32
+
+    rng = np.random.default_rng(7)
+    n = 200
+    exp = ExpectedTrace(kind=np.repeat([0, 1], n // 2), iteration=np.zeros(n, np.int64), slot=np.arange(n),
+                        manifold=np.arange(n), body_a=np.zeros(n, np.int64), body_b=np.ones(n, np.int64),
+                        words=rng.integers(0, 1 << 32, (n, 16), dtype=np.uint64))
+    cycles = 1000 + 3 * np.arange(n + 1)
+
+    def bench_records(words: np.ndarray, slot: np.ndarray, kind: np.ndarray, cyc: np.ndarray) -> bytes:
+        out = bytearray()
+        for w, s_, k, c in zip(words, slot, kind, cyc):
+            value = sum(int(x) << (32 * i) for i, x in enumerate(w)) | (int(s_) << 512) | (int(k) << 560)
+            out += value.to_bytes(72, "little") + int(c).to_bytes(8, "little")
+        return bytes(out)
+
+    def run(words, slot, kind, count=n) -> BatchTraceScoreboard:
+        sb = BatchTraceScoreboard(FP32, exp, chunk=64)
+        raw = bench_records(words[:count], slot[:count], kind[:count], cycles[:count])
+        for start in range(0, count, 16):
+            m = min(16, count - start)
+            sb.take(raw[start * 80:(start + m) * 80], m)
+        sb.flush()
+        return sb
+
+    assert run(exp.words, exp.slot, exp.kind).complete
+    bad = exp.words.copy()
+    bad[137, 9] ^= np.uint64(1 << 31)
+    with pytest.raises(AssertionError, match=rf"^cycle {cycles[137]}: retire #137: friction pass, .*body A field "
+                                             rf"{re.escape(FIELDS[9])}: got"):
+        run(bad, exp.slot, exp.kind)
+    slot = exp.slot.copy()
+    slot[n - 1] = 5
+    with pytest.raises(AssertionError, match=rf"^cycle {cycles[n - 1]}: retire #{n - 1}: .*: slot is 5, expected"):
+        run(exp.words, slot, exp.kind)
+    extra = np.concatenate([exp.words, exp.words[:1]])
+    with pytest.raises(AssertionError, match=rf"^cycle {cycles[n]}: unexpected extra trace record #{n}"):
+        run(extra, np.append(exp.slot, 0), np.append(exp.kind, 0), count=n + 1)
 
 
 def test_scoreboard_catches_friction_sign_bug() -> None:
@@ -300,12 +461,14 @@ def test_gtkwave_save_file_matches_fst() -> None:
     assert not missing, f"not in {fsts[-1]}: {missing}"
 
 
-def _cycle_lower_bound(fmt: Any, bodies: Any, cons: Any, schedule: np.ndarray, sp: Any, frame: Any,
-                       preset: Any) -> int:
-    """Cycles the case cannot beat: the cycle model with the first transfers under way at ap_start."""
-    from models.cycle_model import lower_bound
-    from models.integrator import IntegrationParams
-    from models.kernel_job import KernelJob
+@pytest.mark.parametrize("argv", [["--waves"], ["--stall-permille", "10"], ["--record-window", "1024"],
+                                  ["--body-bits", "256"]])
+def test_cocotb_driver_rejects_what_it_does_not_model(tmp_path, capsys, argv) -> None:
+    """``make sim DRIVER=cocotb`` runs the streaming kernel without stalls or waveforms: other options end the run
+    with one error line and exit status 2, before any frame is captured or anything written."""
+    from sim import run
 
-    ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
-    return lower_bound(KernelJob(fmt, bodies, cons, schedule, sp, ip), preset, prefetched=True)
+    assert run.main(["--scene", "stack", "--driver", "cocotb", "--out", str(tmp_path), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err and err[-1].startswith("error: DRIVER=cocotb runs the streaming kernel"), err
+    assert not any(tmp_path.iterdir())

@@ -20,6 +20,8 @@ import os
 import random
 import re
 import shutil
+import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping, Sequence
 
@@ -87,6 +89,13 @@ def _build_and_test(top: str, sources: Sequence[Path], test_module: str, paramet
                     waves_name: str | None, waves_groups: Sequence[Group] | None) -> Path:
     """Build ``top`` into ``build_dir`` with ``compile_args`` (Verilator options and ``-MAKEFLAGS``; the FST
     options included when ``waves``) and run the cocotb tests of ``test_module``."""
+    _build(top, sources, parameters, build_dir, compile_args, waves, public_vlt)
+    return _test(top, test_module, build_dir, waves, seed, extra_env, testcase, waves_name, waves_groups)
+
+
+def _build(top: str, sources: Sequence[Path], parameters: Mapping[str, int], build_dir: Path,
+           compile_args: Sequence[str], waves: bool, public_vlt: Path | None) -> float:
+    """Build ``top`` into ``build_dir`` (skipped by Verilator when nothing changed); returns the seconds it took."""
     ensure_verilator_env()
     from cocotb_tools.runner import get_runner
 
@@ -98,8 +107,19 @@ def _build_and_test(top: str, sources: Sequence[Path], test_module: str, paramet
     build_args = ["-Wno-fatal", *compile_opts]
     if public_vlt is not None:  # expose only what the testbench touches (the runner makes every net public)
         build_args += ["--no-public-flat-rw", str(public_vlt)]
+    t0 = time.perf_counter()
     runner.build(sources=[str(s) for s in sources], hdl_toplevel=top, parameters=dict(parameters),
                  build_dir=str(build_dir), build_args=build_args, waves=waves, timescale=("1ns", "1ps"))
+    return time.perf_counter() - t0
+
+
+def _test(top: str, test_module: str, build_dir: Path, waves: bool, seed: int | None,
+          extra_env: Mapping[str, str] | None, testcase: Sequence[str] | None, waves_name: str | None,
+          waves_groups: Sequence[Group] | None) -> Path:
+    """Run the cocotb tests of ``test_module`` on the build in ``build_dir``; returns the results.xml path."""
+    from cocotb_tools.runner import get_runner
+
+    runner = get_runner("verilator")
     env = {"PYTHONPATH": os.pathsep.join([str(REPO_ROOT), str(TESTS_DIR)])}
     env.update(extra_env or {})
     fst = build_dir / f"{waves_name or top}.fst"
@@ -136,3 +156,57 @@ def run_kernel_cocotb(test_module: str, fmt_name: str, dma: str, seed: int, extr
     return _build_and_test(TOP, kb.sources(), test_module, kb.parameters, BUILD_ROOT / kb.name, kb.compile_args,
                            kb.waves, seed=seed, extra_env=extra_env, testcase=testcase, public_vlt=PUBLIC_VLT,
                            waves_name=waves_name, waves_groups=kernel_groups(kb.parameters) if kb.waves else None)
+
+
+# the transaction-level bench (cocotb_tests/tb/pgs_kernel_burst_tb.sv): the kernel with its streams served by burst
+# buffers and its trace collected in batches, so that cocotb acts once per burst or batch rather than every cycle
+BURST_TB_TOP = "pgs_kernel_burst_tb"
+BURST_TB_DIR = TESTS_DIR / "tb"
+BURST_TB_SOURCES = tuple(BURST_TB_DIR / f for f in ("axis_burst_source.sv", "axis_burst_sink.sv", "trace_batcher.sv",
+                                                     "pgs_kernel_burst_tb.sv"))
+BURST_TB_VLT = BURST_TB_DIR / "pgs_kernel_burst_tb.vlt"
+BURST_BEATS = 16  # beats per burst buffer (BURST)
+TRACE_BATCH = 16  # trace records per batch (TRACE_BATCH)
+
+
+@dataclass(frozen=True)
+class BurstBench:
+    """The transaction-level bench around one kernel build: its parameters and build directory."""
+
+    kernel: KernelBuild
+
+    def __post_init__(self) -> None:
+        if self.kernel.window or self.kernel.lanes != 1:
+            raise ValueError("the transaction-level bench drives the streaming kernel (no record window, one lane)")
+
+    @property
+    def parameters(self) -> dict[str, int]:
+        return self.kernel.parameters | {"BURST": BURST_BEATS, "TRACE_BATCH": TRACE_BATCH}
+
+    @property
+    def build_dir(self) -> Path:
+        return BUILD_ROOT / f"{self.kernel.name}_bursts"
+
+    def sources(self) -> list[Path]:
+        return [*self.kernel.sources(), *BURST_TB_SOURCES]
+
+    def build(self) -> float:
+        """Build the bench (once; Verilator skips an unchanged build); returns the seconds it took."""
+        kb = self.kernel
+        return _build(BURST_TB_TOP, self.sources(), self.parameters, self.build_dir, kb.compile_args, kb.waves,
+                      BURST_TB_VLT)
+
+    def test(self, test_module: str, seed: int, extra_env: Mapping[str, str],
+             testcase: Sequence[str] | None = None, waves_name: str | None = None) -> Path:
+        """Run the cocotb tests of ``test_module`` on the built bench (see :func:`run_cocotb`)."""
+        return _test(BURST_TB_TOP, test_module, self.build_dir, self.kernel.waves, seed, extra_env, testcase,
+                     waves_name, None)
+
+
+def run_kernel_cocotb_bursts(test_module: str, fmt_name: str, dma: str, seed: int, extra_env: Mapping[str, str],
+                             testcase: Sequence[str] | None = None, waves_name: str | None = None) -> Path:
+    """Build the transaction-level bench of :func:`kernel_cocotb_build`'s kernel and run the cocotb tests of
+    ``test_module`` on it."""
+    bench = BurstBench(kernel_cocotb_build(fmt_name, dma))
+    bench.build()
+    return bench.test(test_module, seed, extra_env, testcase, waves_name)

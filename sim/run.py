@@ -76,6 +76,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help="seconds allowed for the converged float64 solve (it stops earlier when converged)")
     exact_error.add_exact_args(ap)
     ap.add_argument("--no-kernel", action="store_true", help="reference models only (no Verilator)")
+    ap.add_argument("--driver", choices=("harness", "cocotb"), default="harness",
+                    help="harness: the compiled Verilator harness; cocotb: the host driver, AXI DMA models and batch "
+                         "scoreboard in cocotb on the transaction-level bench (sim/cocotb_step.py)")
     ap.add_argument("--mode", choices=("rtl", "model"), default="rtl",
                     help="rtl: the whole run, the cycle model beside the RTL; model: the cycle model's estimate alone "
                          "(models/cycle_model.py: no Verilator, no reference solves)")
@@ -104,6 +107,10 @@ def check_args(args: argparse.Namespace) -> None:
     if args.schedule not in SCHEDULE_KINDS:
         raise ValueError(f"unknown schedule {args.schedule!r} (expected one of {', '.join(SCHEDULE_KINDS)})")
     check_kernel_args(args)
+    if args.driver == "cocotb" and (args.record_window or args.body_bits != 128 or args.waves or args.stall_permille):
+        raise ValueError("DRIVER=cocotb runs the streaming kernel with 128-bit body streams, without waveforms or "
+                         "random stalls (RECORD_WINDOW=0 BODY_BITS=128 WAVES=0; the cycle-level cocotb tests cover "
+                         "stalls)")
     for name, value, lo, hi in (("--window", args.window, 0, None),
                                 ("--stall-permille", args.stall_permille, 0, 1000),
                                 ("--converged-budget", args.converged_budget, 0, None),
@@ -183,7 +190,8 @@ class Timer:
         return out
 
 
-def kernel_speed(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_bubbles: int) -> KernelSpeed:
+def kernel_speed(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_bubbles: int,
+                 driver: str = "harness") -> KernelSpeed:
     """Speed, stream traffic and the roofline's floors of a kernel run."""
     r = res.registers
     mp = job.manifold_passes
@@ -197,7 +205,8 @@ def kernel_speed(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_bub
         res.stream_bytes["body_in"] + res.stream_bytes["constraints"], res.stream_bytes["body_out"],
         res.stream_bytes["constraints"] // max(job.manifolds, 1),
         total_bytes / (res.cycles * preset.ddr_bytes_per_cycle) if capped else None, res.sim_cycles_per_s,
-        r["wall_s"], res.build_seconds, floors)
+        r["wall_s"], res.build_seconds, floors,
+        "cocotb (transaction-level bench)" if driver == "cocotb" else "compiled harness", r.get("cpu_s"))
 
 
 def thesis_comparison(res: KernelResult | None, job: KernelJob, frame: Frame,
@@ -252,9 +261,15 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         print(f"kernel: {kb.name} ({'building, first time a few minutes' if not _built(kb) else 'built'})", flush=True)
         progress = text_progress(job.manifold_passes)
         waves = run_dir / "waves.fst" if args.waves else None
-        res = timer.run("RTL kernel in Verilator (build, run, compare)", run_kernel_step, job, preset, run_dir,
-                        args.seed, args.stall_permille, args.stall_permille, progress, golden=golden, waves=waves,
-                        wave_cycles=args.wave_cycles, keep_trace=True, body_bits=args.body_bits)
+        if args.driver == "cocotb":
+            from sim.cocotb_step import run_cocotb_step
+
+            res, kb = timer.run("RTL kernel through cocotb (build, run, compare)", run_cocotb_step, job, preset,
+                                run_dir, args.seed, golden, label, args.schedule)
+        else:
+            res = timer.run("RTL kernel in Verilator (build, run, compare)", run_kernel_step, job, preset, run_dir,
+                            args.seed, args.stall_permille, args.stall_permille, progress, golden=golden,
+                            waves=waves, wave_cycles=args.wave_cycles, keep_trace=True, body_bits=args.body_bits)
         print(file=sys.stderr)
 
     rtl_ours = res is not None and res.bit_exact  # the kernel's own numbers (identical to the golden model's)
@@ -277,7 +292,8 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         cmp = res.comparison
         result.bits = BitExactness(cmp.differing_bits, cmp.differing_words, cmp.records, cmp.bodies,
                                    cmp.first_mismatch or "", res.seed)
-        result.speed = kernel_speed(res, job, preset, sched_stats.bubbles)
+        if res.cycles:  # a run that failed before ap_done has no speed to report
+            result.speed = kernel_speed(res, job, preset, sched_stats.bubbles, args.driver)
         if job.record_window is None:
             result.cycle_model = model_section(job, preset, res, args.stall_permille)
         else:

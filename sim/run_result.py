@@ -84,6 +84,8 @@ class KernelSpeed:
     wall_s: float
     build_s: float
     floors: dict[str, float]  # lower bound (cycles) by what bounds it
+    driver: str = "compiled harness"  # what drove the kernel: the compiled harness or cocotb (make sim DRIVER=)
+    cpu_s: Optional[float] = None  # CPU seconds of the kernel run, where the driver measures them
 
     @property
     def bound(self) -> str:
@@ -247,7 +249,7 @@ def _bits(b: BitExactness) -> dict[str, Any]:
 
 def _speed(v: KernelSpeed) -> dict[str, Any]:
     return {
-        "format": v.fmt, "DMA preset": v.dma,
+        "driver": v.driver, "format": v.fmt, "DMA preset": v.dma,
         "kernel cycles (ap_start to ap_done)": v.cycles, "cycles per manifold-pass": v.cycles / v.manifold_passes,
         "stall cycles (hazard and stream waits)": v.stalls, "bubble cycles (no record to issue)": v.bubbles,
         "schedule bubbles per pass": v.schedule_bubbles,
@@ -257,6 +259,7 @@ def _speed(v: KernelSpeed) -> dict[str, Any]:
         "DDR bandwidth utilisation": "uncapped" if v.ddr_utilisation is None else v.ddr_utilisation,
         "co-simulation speed (simulated cycles per wall second)": v.sim_cycles_per_s,
         "kernel run wall time (s)": v.wall_s, "Verilator build time this run (s)": v.build_s,
+        **({} if v.cpu_s is None else {"kernel run CPU time (s)": v.cpu_s}),
     }
 
 

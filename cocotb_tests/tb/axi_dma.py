@@ -27,6 +27,10 @@ splits a record stream into per-engine lane buffers (``split_lanes``/``join_lane
 every engine of the port is armed with the same length, after the preset's start-up latency; beats then flow
 at most at the DDR rate, a token bucket shared by all ports (:class:`DdrBandwidth`), and optionally through a
 seeded random gate (idle cycles on MM2S, backpressure on S2MM).
+
+:class:`BurstDmaStreamPort` is the same port on the transaction-level bench (``pgs_kernel_burst_tb.sv``): same
+engines, registers and transfers, but the beats move a burst at a time through the bench's buffers and DDR
+token bucket, without Python per beat (no random gates there: the cycle-level handshake is not what it checks).
 """
 
 from __future__ import annotations
@@ -36,12 +40,14 @@ from dataclasses import dataclass, field
 from typing import Any, Optional
 
 import cocotb
+import numpy as np
 from cocotb.triggers import ClockCycles, Event, RisingEdge
 from cocotbext.axi import Region
 
 from models.dma_model import DmaPreset
 
 from .axis_words import AxisWordSink, AxisWordSource, Gate
+from .burst_streams import BurstSink, BurstSource
 
 MM2S, S2MM = 0x00, 0x30
 DMACR, DMASR, ADDR, ADDR_MSB, LENGTH = 0x00, 0x04, 0x18, 0x1C, 0x28
@@ -61,6 +67,7 @@ class _Channel:
     pending: bool = False  # a transfer was started by a LENGTH write and has not completed
     wake: Event = field(default_factory=Event)  # set on every arm and reset
     resets: int = 0  # soft resets so far (a transfer in progress ends when this changes)
+    done: Event = field(default_factory=Event)  # set on every completion (the IOC / error interrupt)
 
     def reset(self) -> None:
         self.dmacr, self.dmasr, self.addr, self.length = 0, SR_HALTED, 0, 0
@@ -85,6 +92,7 @@ class _Channel:
             self.dmasr |= SR_IOC_IRQ
         self.dmasr |= SR_IDLE
         self.pending = False
+        self.done.set()
 
 
 class AxiDmaEngine(Region):
@@ -189,20 +197,20 @@ def split_lanes(data: bytes, channels: int, lane_bytes: int) -> list[bytes]:
     beat = channels * lane_bytes
     if len(data) % beat:
         raise ValueError(f"stream of {len(data)} bytes is not a whole number of {beat}-byte beats")
-    return [b"".join(data[i + e * lane_bytes:i + (e + 1) * lane_bytes] for i in range(0, len(data), beat))
-            for e in range(channels)]
+    beats = np.frombuffer(data, np.uint8).reshape(-1, channels, lane_bytes)
+    return [beats[:, e].tobytes() for e in range(channels)]
 
 
 def join_lanes(lanes: list[bytes], lane_bytes: int) -> bytes:
-    n = len(lanes[0]) // lane_bytes
-    return b"".join(lanes[e][k * lane_bytes:(k + 1) * lane_bytes] for k in range(n) for e in range(len(lanes)))
+    per_lane = [np.frombuffer(lane, np.uint8).reshape(-1, lane_bytes) for lane in lanes]
+    return np.stack(per_lane, axis=1).tobytes()
 
 
 class DmaStreamPort:
     """``channels`` engines feeding (MM2S) or draining (S2MM) one kernel AXI4-Stream port."""
 
     def __init__(self, dut: Any, prefix: str, clock: Any, engines: list[AxiDmaEngine], memory: Region,
-                 preset: DmaPreset, ddr: DdrBandwidth, direction: str, rng: Optional[random.Random] = None,
+                 preset: DmaPreset, ddr: Optional[DdrBandwidth], direction: str, rng: Optional[random.Random] = None,
                  idle_prob: float = 0.0):
         self.engines, self.memory, self.preset, self.ddr = engines, memory, preset, ddr
         self.lane_bytes = preset.channel_bits // 8
@@ -211,14 +219,32 @@ class DmaStreamPort:
         self.clock = clock
         self.transfers = 0
         self.busy_cycles = 0
-        if direction == "mm2s":
-            self.source: Optional[AxisWordSource] = AxisWordSource(dut, prefix, clock)
-            cocotb.start_soon(self._run_mm2s())
-        elif direction == "s2mm":
-            self.sink: Optional[AxisWordSink] = AxisWordSink(dut, prefix, clock)
-            cocotb.start_soon(self._run_s2mm())
-        else:
+        if direction not in ("mm2s", "s2mm"):
             raise ValueError(f"direction must be mm2s or s2mm, got {direction!r}")
+        self._attach(dut, prefix, direction)
+        cocotb.start_soon(self._run_mm2s() if direction == "mm2s" else self._run_s2mm())
+
+    def _attach(self, dut: Any, prefix: str, direction: str) -> None:
+        """The stream models of the port: one beat per cycle, paced by the gates."""
+        if direction == "mm2s":
+            self.source = AxisWordSource(dut, prefix, self.clock)
+        else:
+            self.sink = AxisWordSink(dut, prefix, self.clock)
+
+    async def _send(self, data: bytes, aborted: Gate) -> bool:
+        """Move ``data`` onto the stream (TLAST on its last beat); False when ``aborted`` ended it first."""
+        beats = [int.from_bytes(b, "little") for b in _beats(data, self.beat_bytes)]
+        start = self.source.cycle
+        sent = await self.source.send(beats, gate=self._source_gate, abort=aborted)
+        self.busy_cycles += self.source.cycle - start
+        return sent
+
+    async def _receive(self, max_beats: int, aborted: Gate) -> tuple[bytes, int, bool]:
+        """Take a packet of at most ``max_beats`` beats; returns (bytes, beats, ended_with_tlast)."""
+        beats, ended = await self.sink.recv_packet(max_beats, gate=self._sink_gate,
+                                                   on_beat=lambda _b, _l: self.ddr.spend(self.beat_bytes),
+                                                   abort=aborted)
+        return b"".join(b.to_bytes(self.beat_bytes, "little") for b in beats), len(beats), ended
 
     def _stalled(self) -> bool:
         return self.rng is not None and bool(self.idle_prob) and self.rng.random() < self.idle_prob
@@ -261,11 +287,7 @@ class DmaStreamPort:
             if aborted():
                 continue
             lanes = [await self.memory.read(ch.addr, length) for ch in chans]
-            beats = [int.from_bytes(b, "little") for b in _beats(join_lanes(lanes, self.lane_bytes), self.beat_bytes)]
-            start = self.source.cycle
-            sent = await self.source.send(beats, gate=self._source_gate, abort=aborted)
-            self.busy_cycles += self.source.cycle - start
-            if not sent:
+            if not await self._send(join_lanes(lanes, self.lane_bytes), aborted):
                 continue
             self.transfers += 1
             for ch in chans:
@@ -277,14 +299,11 @@ class DmaStreamPort:
             aborted = self._aborted_by_reset(chans)
             length = min(ch.length for ch in chans)
             max_beats = length // self.lane_bytes
-            beats, ended = await self.sink.recv_packet(max_beats + 1, gate=self._sink_gate,
-                                                       on_beat=lambda _b, _l: self.ddr.spend(self.beat_bytes),
-                                                       abort=aborted)
+            data, beats, ended = await self._receive(max_beats + 1, aborted)
             if aborted():
                 continue
-            data = b"".join(b.to_bytes(self.beat_bytes, "little") for b in beats)
             lanes = split_lanes(data, len(chans), self.lane_bytes)
-            overflow = len(beats) > max_beats or not ended
+            overflow = beats > max_beats or not ended
             for ch, lane in zip(chans, lanes):
                 lane = lane[:ch.length]
                 await self.memory.write(ch.addr, lane)
@@ -295,3 +314,27 @@ class DmaStreamPort:
 
 def _beats(data: bytes, beat_bytes: int) -> list[bytes]:
     return [data[i:i + beat_bytes] for i in range(0, len(data), beat_bytes)]
+
+
+class BurstDmaStreamPort(DmaStreamPort):
+    """A :class:`DmaStreamPort` on the transaction-level bench (``pgs_kernel_burst_tb.sv``): the same engines,
+    registers and transfers, but the beats move a burst at a time through the bench's burst buffers
+    (``tb.burst_streams``), paced by the bench's own DDR token bucket; no Python runs per beat or per cycle.
+    A soft reset lets the bursts already handed to the bench finish, then ends the transfer."""
+
+    def __init__(self, dut: Any, prefix: str, engines: list[AxiDmaEngine], memory: Region, preset: DmaPreset,
+                 direction: str, burst: int):
+        self.burst = burst
+        super().__init__(dut, prefix, dut.ap_clk, engines, memory, preset, None, direction)
+
+    def _attach(self, dut: Any, prefix: str, direction: str) -> None:
+        if direction == "mm2s":
+            self.burst_source = BurstSource(dut, prefix, self.beat_bytes, self.burst)
+        else:
+            self.burst_sink = BurstSink(dut, prefix, self.beat_bytes, self.burst)
+
+    async def _send(self, data: bytes, aborted: Gate) -> bool:
+        return await self.burst_source.send(data, aborted)
+
+    async def _receive(self, max_beats: int, aborted: Gate) -> tuple[bytes, int, bool]:
+        return await self.burst_sink.recv_packet(max_beats, aborted)

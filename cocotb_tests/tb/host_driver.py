@@ -8,6 +8,11 @@ issues one MM2S transfer per pass on the constraint engines (each pass ends with
 with a cycle timeout, and returns the body-out bytes read back from DDR with the kernel's status and counter
 registers. :meth:`begin_step` / :meth:`finish_step` are its two halves (something can happen in between, e.g.
 a reset: :meth:`reset` with ``dma=True`` also soft-resets the DMA engines, ending their transfers).
+
+With ``transaction_level=True`` the host drives the transaction-level bench (``pgs_kernel_burst_tb.sv``) instead:
+the same DDR, engines, registers and driver steps, with the DMA ports moving bursts (``BurstDmaStreamPort``), the
+DDR bandwidth modeled by the bench, and the host waiting on interrupts (the DMA engines' completion, the kernel's
+ap_done interrupt, enabled through GIE/IER) instead of polling registers every few cycles.
 """
 
 from __future__ import annotations
@@ -19,14 +24,14 @@ from typing import Any
 
 import cocotb
 from cocotb.clock import Clock
-from cocotb.triggers import ClockCycles, RisingEdge
+from cocotb.triggers import ClockCycles, First, RisingEdge, Timer
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster, SparseMemoryRegion
 
 from models import register_map as rm
 from models.dma_model import DmaPreset
 from models.number_format import NumberFormat
 
-from .axi_dma import AxiDmaEngine, DdrBandwidth, DmaStreamPort, split_lanes
+from .axi_dma import AxiDmaEngine, BurstDmaStreamPort, DdrBandwidth, DmaStreamPort, split_lanes
 
 # the kernel's registers (models/register_map.py)
 AP_CTRL, GIE, IER, ISR = (rm.OFFSET[n] for n in ("ap_ctrl", "gie", "ier", "isr"))
@@ -42,6 +47,13 @@ BODY_OUT_ADDR = 0x2000_0000
 CONS_ADDR = 0x4000_0000
 LANE_STRIDE = 0x0400_0000  # per constraint engine
 POLL_CYCLES = 16
+AP_DONE_IRQ = 1  # IER / ISR bit of ap_done
+CLOCK_PERIOD_NS = 2
+
+
+def _timeout(cycles: int) -> Timer:
+    """A timeout of ``cycles`` clock periods as one timer (``ClockCycles`` would wake Python every cycle)."""
+    return Timer(cycles * CLOCK_PERIOD_NS, unit="ns")
 
 
 @dataclass
@@ -62,19 +74,35 @@ class StepResult:
 
 class KernelHost:
     def __init__(self, dut: Any, preset: DmaPreset, seed: int, idle_prob: float = 0.0,
-                 backpressure_prob: float = 0.0, body_bits: int = 128):
+                 backpressure_prob: float = 0.0, body_bits: int = 128, transaction_level: bool = False,
+                 burst: int = 16):
         self.dut = dut
         self.clock = dut.ap_clk
-        cocotb.start_soon(Clock(dut.ap_clk, 2, unit="ns").start())
+        self.transaction_level = transaction_level
+        cocotb.start_soon(Clock(dut.ap_clk, CLOCK_PERIOD_NS, unit="ns").start())
         self.axil = AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axi_control"), dut.ap_clk, dut.ap_rst_n,
                                   reset_active_level=False)
         self.memory = SparseMemoryRegion(size=1 << 32)
         self.preset = preset
-        self.ddr = DdrBandwidth(dut.ap_clk, preset)
-        rng = random.Random(seed)
         self.cons_engines = [AxiDmaEngine(f"dma_cons{e}", 1 << 32) for e in range(preset.channels)]
         self.body_engine = AxiDmaEngine("dma_body", 1 << 32)
         body_preset = dataclasses.replace(preset, channels=1, channel_bits=body_bits)
+        if transaction_level:
+            if idle_prob or backpressure_prob:
+                raise ValueError("the transaction-level bench has no random idles or backpressure (the cycle-level "
+                                 "benches test those)")
+            rate = preset.ddr_bytes_per_cycle
+            dut.ddr_unlimited.value = int(rate == float("inf"))
+            dut.ddr_rate_q16.value = 0 if rate == float("inf") else int(rate * 65536)  # rounded down: never faster
+            self.cons_port: DmaStreamPort = BurstDmaStreamPort(dut, "cons", self.cons_engines, self.memory, preset,
+                                                               "mm2s", burst)
+            self.body_in_port: DmaStreamPort = BurstDmaStreamPort(dut, "body_in", [self.body_engine], self.memory,
+                                                                  body_preset, "mm2s", burst)
+            self.body_out_port: DmaStreamPort = BurstDmaStreamPort(dut, "body_out", [self.body_engine], self.memory,
+                                                                   body_preset, "s2mm", burst)
+            return
+        self.ddr = DdrBandwidth(dut.ap_clk, preset)
+        rng = random.Random(seed)
         self.cons_port = DmaStreamPort(dut, "s_axis_cons", dut.ap_clk, self.cons_engines, self.memory, preset,
                                        self.ddr, "mm2s", random.Random(rng.random()), idle_prob)
         self.body_in_port = DmaStreamPort(dut, "s_axis_body", dut.ap_clk, [self.body_engine], self.memory,
@@ -119,6 +147,14 @@ class KernelHost:
             await eng.write_dword(0x28, len(lane))
 
     async def _wait_mm2s_idle(self, engines: list[AxiDmaEngine], timeout: int) -> None:
+        if self.transaction_level:  # the engines' completion interrupt
+            for eng in engines:
+                while not eng.mm2s.dmasr & 0x2:
+                    eng.mm2s.done.clear()
+                    if isinstance(await First(eng.mm2s.done.wait(), _timeout(timeout)), Timer):
+                        raise TimeoutError(f"MM2S transfer not finished after {timeout} cycles (kernel not "
+                                           "consuming?)")
+            return
         waited = 0
         while not all([bool(await eng.read_dword(0x04) & 0x2) for eng in engines]):
             await ClockCycles(self.clock, POLL_CYCLES)
@@ -146,6 +182,9 @@ class KernelHost:
             await self.body_engine.write_dword(0x58, body_out_bytes)
         await self._mm2s([self.body_engine], [body_in], BODY_IN_ADDR)
         feeder = cocotb.start_soon(self._feed_constraints(passes, timeout_cycles))
+        if self.transaction_level:  # wait on the ap_done interrupt instead of polling AP_CTRL
+            await self.write_reg(GIE, 1)
+            await self.write_reg(IER, AP_DONE_IRQ)
         await self.write_reg(AP_CTRL, rm.AP_START)
         return feeder
 
@@ -153,6 +192,12 @@ class KernelHost:
                           timeout_cycles: int) -> StepResult:
         """Wait for ap_done (and the body-out transfer), then read the registers."""
         waited = 0
+        if self.transaction_level and not int(self.dut.interrupt.value):
+            t0 = self.dut.tb_cycle.value.to_unsigned()
+            await First(RisingEdge(self.dut.interrupt), _timeout(timeout_cycles))
+            waited = self.dut.tb_cycle.value.to_unsigned() - t0
+        if self.transaction_level and int(self.dut.interrupt.value):
+            await self.write_reg(ISR, AP_DONE_IRQ)  # toggle-on-write: clears the ap_done interrupt
         while True:
             ctrl = await self.read_reg(AP_CTRL)
             if ctrl & rm.AP_DONE:  # clear on read: seen once

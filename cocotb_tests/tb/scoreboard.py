@@ -4,18 +4,25 @@ The golden model runs the same step (same schedule, passes and number format) an
 per manifold-pass in retire order. The monitor samples ``trace_valid``/``trace_data`` every cycle and compares
 each record as it appears, bit for bit; the first mismatch raises with the cycle, slot, manifold, pass,
 iteration, body, field and both values in hex and decimal.
+
+:class:`BatchTraceScoreboard` is its transaction-level form: the records come from the bench's trace batches
+(``tb.burst_streams.TraceBatches``, each record stamped with the cycle it retired in) and are compared a chunk at a
+time, vectorised, every record and every field still; the first differing record raises the same message, with
+the cycle it retired in. ``sink`` receives every record in the compiled harness's ``trace.bin`` layout.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable, Optional
 
 import numpy as np
 from cocotb.triggers import RisingEdge
 
 from models.contact_solver import CONTACT_PASS, PassRecord
 from models.number_format import NumberFormat
+from models.stream_format import trace_record_bytes
+from sim.trace_compare import read_trace
 
 FIELDS = ["impulse0", "impulse1", "impulse2", "impulse3", "vA.x", "vA.y", "vA.z", "wA.x", "wA.y", "wA.z",
           "vB.x", "vB.y", "vB.z", "wB.x", "wB.y", "wB.z"]
@@ -103,3 +110,55 @@ class TraceScoreboard:
     @property
     def complete(self) -> bool:
         return self.compared == self.exp.words.shape[0]
+
+
+class _RawTrace:
+    """Trace records already in memory, read by ``sim.trace_compare.read_trace`` as if from a ``trace.bin``."""
+
+    def __init__(self, raw: bytes):
+        self.raw = raw
+
+    def read_bytes(self) -> bytes:
+        return self.raw
+
+
+class BatchTraceScoreboard(TraceScoreboard):
+    """Checks the trace a chunk of ``chunk`` records at a time (see the module's docstring); :meth:`take` receives
+    the bench's raw records (trace record, then the 64-bit retire cycle), :meth:`flush` checks the rest."""
+
+    def __init__(self, fmt: NumberFormat, expected: ExpectedTrace, chunk: int = 4096,
+                 sink: Optional[Callable[[bytes], None]] = None):
+        super().__init__(None, fmt, expected)
+        self.chunk, self.sink = chunk, sink
+        self.trace_bytes = trace_record_bytes(fmt)
+        self._pending: list[np.ndarray] = []
+        self._pending_records = 0
+
+    def take(self, raw: bytes, records: int) -> None:
+        bench = np.frombuffer(raw, np.uint8).reshape(records, self.trace_bytes + 8)
+        rec = np.concatenate([bench[:, self.trace_bytes:], bench[:, :self.trace_bytes]], axis=1)  # cycle first
+        if self.sink is not None:
+            self.sink(rec.tobytes())
+        self._pending.append(rec)
+        self._pending_records += records
+        if self._pending_records >= self.chunk:
+            self.flush()
+
+    def flush(self) -> None:
+        """Compare every record received and not yet compared; the first mismatch raises (see ``check``)."""
+        if not self._pending:
+            return
+        raw = np.concatenate(self._pending)
+        self._pending, self._pending_records = [], 0
+        got = read_trace(_RawTrace(raw.tobytes()), self.fmt, self.trace_bytes)  # type: ignore[arg-type]
+        e, k0 = self.exp, self.compared
+        n = raw.shape[0]
+        m = max(0, min(n, e.words.shape[0] - k0))  # records that have an expectation
+        sl = slice(k0, k0 + m)
+        bad = ((got.kind[:m] != e.kind[sl]) | (got.iteration[:m] != e.iteration[sl]) | (got.slot[:m] != e.slot[sl])
+               | np.any(got.words[:m] != e.words[sl], axis=1))
+        first = int(np.argmax(bad)) if bad.any() else m
+        if first < n:  # a differing record, or one past the expected trace: check() names it and raises
+            self.compared, self.cycle = k0 + first, int(got.cycle[first])
+            self.check(int.from_bytes(raw[first, 8:].tobytes(), "little"))
+        self.compared, self.cycle = k0 + n, int(got.cycle[-1])
