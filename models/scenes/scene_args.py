@@ -63,6 +63,7 @@ def _convert(key: str, text: str, default: Any, scene: str) -> Any:
             return kind(float(x) for x in text.split(","))
     except ValueError:
         name = "a bool" if isinstance(default, bool) else (
-            "numbers separated by commas" if isinstance(default, (tuple, list)) else f"a(n) {kind.__name__}")
+            "numbers separated by commas" if isinstance(default, (tuple, list)) else
+            {"int": "an integer", "float": "a number"}.get(kind.__name__, kind.__name__))
         raise SceneError(f"parameter {key} of scene {scene!r} must be {name}, got {text!r}") from None
     return text

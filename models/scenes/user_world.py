@@ -10,10 +10,10 @@ A **world file** is a Python file defining::
 ``pb`` is the pybullet module bound to the capture's DIRECT client: every call gets ``physicsClientId``, and
 ``loadURDF``, ``loadSDF`` and ``createMultiBody`` get ``useMaximalCoordinates=True`` (a btRigidBody, as the
 kernel and the Bullet 2 reference assume; passing False is refused). ``data_path`` is ``pybullet_data``'s folder
-(also on pybullet's search path, with the world file's own folder). ``params`` are ``SCENE_ARGS``, typed by the
+(pybullet's search path; a relative file name found beside the world file is used from there). ``params`` are ``SCENE_ARGS``, typed by the
 defaults of ``build``'s keyword parameters. The world is y-up with gravity (0, -9.8, 0) unless ``build`` sets
 another; the capture's solver settings (time step, iterations, ...) are applied after ``build``. Bodies become
-frame bodies in creation order (link by link for a static multi-link body).
+frame bodies in creation order (frame body 0 is the first body created: the ground, in the shipped worlds).
 
 A **URDF file** ``SCENE=obj.urdf`` is the world: a static ground box (half extent 50, top at y = 0, friction 1)
 and ``count`` copies of the object (default 4) in a row along x, ``pitch`` times the object's size apart
@@ -22,10 +22,12 @@ and ``count`` copies of the object (default 4) in a row along x, ``pitch`` times
 
 Checks (each a :class:`SceneError`, before anything is written): a missing file, a file without ``build``, an
 import or build that fails (pybullet's load errors: a missing or unloadable mesh), a body with a non-fixed joint
-(the kernel solves contacts only), a dynamic body joined by fixed joints (load it with
-``flags=pb.URDF_MERGE_FIXED_LINKS``), a negative mass, a static (zero-mass) body given a velocity, a dynamic body
-with a non-positive inertia, NaN or Inf in a pose or velocity, a world without a dynamic body, and a capture
-step without contact (``models.scenes.world``).
+(the kernel solves contacts only) and a body of links joined by fixed joints (load it as one rigid body with
+``flags=pb.URDF_MERGE_FIXED_LINKS``): pybullet reports no joints in maximal coordinates, so each URDF/SDF is first
+loaded in a scratch client in reduced coordinates and its joints read there; a negative mass, a static
+(zero-mass) body given a velocity, a dynamic body with a non-positive inertia, NaN or Inf in a pose or velocity, a
+body without a collision shape, a world without a dynamic body, and a capture step without contact
+(``models.scenes.world``). The catalogue of these cases is ``models.bad_input.WORLD_CATALOGUE``.
 
 The frame cache key of a file world covers the content of the world file and of every file it loads (URDF, SDF,
 MJCF, meshes named in them or given to ``createCollisionShape``).
@@ -60,6 +62,7 @@ ASSET_SCENES: dict[str, Path] = {
     "duck_lego_pile": WORLDS_DIR / "duck_lego_pile.py",
     "jenga_tower": WORLDS_DIR / "jenga_tower.py",
 }
+WORLD_PARTS_FILE = Path(__file__).parent / "world_parts.py"  # what the shipped world files share (in their key)
 URDF_DROP_FILE = WORLDS_DIR / "urdf_drop.py"  # the world of SCENE=obj.urdf (its build takes the URDF as a parameter)
 _MAXIMAL = {"loadURDF", "loadSDF", "createMultiBody"}
 _REFUSED = {"connect", "disconnect", "resetSimulation", "stepSimulation"}
@@ -81,8 +84,15 @@ def scene_label(scene: str) -> str:
 class BoundClient:
     """The pybullet module with ``physicsClientId`` filled in, recording the files it is asked to load."""
 
-    def __init__(self, client: int, loaded: list[str]) -> None:
-        self._client, self._loaded = client, loaded
+    def __init__(self, client: int, loaded: list[str], folder: Path, data_path: str) -> None:
+        self._client, self._loaded, self._folder, self._data_path = client, loaded, folder, data_path
+        self._scratch = -1  # a second client, loading files in reduced coordinates to see their joints
+        self._inspected: set[tuple[str, int]] = set()
+
+    def close(self) -> None:
+        if self._scratch >= 0:
+            p.disconnect(physicsClientId=self._scratch)
+            self._scratch = -1
 
     @property
     def client(self) -> int:
@@ -96,7 +106,9 @@ class BoundClient:
             raise SceneError(f"a world file may not call {name} (the capture owns the client and its steps)")
 
         def call(*args: Any, **kw: Any) -> Any:
+            args, kw = self._local_files(name, args, kw)
             self._record(name, args, kw)
+            self._refuse_joints(name, args, kw)
             if name in _MAXIMAL:
                 if not kw.setdefault("useMaximalCoordinates", True):
                     raise SceneError(f"{name}(useMaximalCoordinates=False) refused: the kernel and the Bullet 2 "
@@ -107,6 +119,50 @@ class BoundClient:
                 return attr(*args, **kw)  # a helper without a client (quaternion maths)
 
         return call
+
+    def _local_files(self, name: str, args: tuple[Any, ...], kw: dict[str, Any]) -> tuple[tuple[Any, ...], dict]:
+        """A relative file name that exists beside the world file made absolute (pybullet keeps one additional
+        search path: pybullet_data's)."""
+        if name not in _FILE_ARGS:
+            return args, kw
+        key, pos = _FILE_ARGS[name]
+
+        def local(v: Any) -> Any:
+            if not isinstance(v, str) or Path(v).is_absolute() or Path(v).is_file():
+                return v
+            found = _resolve(v, [self._folder])
+            return str(found) if found is not None else v
+
+        if key in kw:
+            kw = {**kw, key: [local(v) for v in kw[key]] if isinstance(kw[key], (list, tuple)) else local(kw[key])}
+        elif pos is not None and len(args) > pos:
+            args = (*args[:pos], local(args[pos]), *args[pos + 1:])
+        return args, kw
+
+    def _refuse_joints(self, name: str, args: tuple[Any, ...], kw: dict[str, Any]) -> None:
+        """Refuse a body with joints before it is created: in maximal coordinates pybullet reports no joints, so a
+        file is first loaded in a scratch client in reduced coordinates and its joints read there."""
+        if name == "createMultiBody":
+            err = joint_refusal(list(kw.get("linkJointTypes") or ()), "", "createMultiBody: a body with links")
+            if err is not None:
+                raise err
+            return
+        if name not in ("loadURDF", "loadSDF"):
+            return
+        key, pos = _FILE_ARGS[name]
+        file = str(kw.get(key, args[pos] if len(args) > pos else ""))
+        flags = int(kw.get("flags", 0)) if name == "loadURDF" else 0
+        if (file, flags) in self._inspected:
+            return
+        if self._scratch < 0:
+            self._scratch = p.connect(p.DIRECT)
+            p.setAdditionalSearchPath(self._data_path, physicsClientId=self._scratch)
+        loader = getattr(p, name)
+        uids = loader(file, flags=flags, physicsClientId=self._scratch) if name == "loadURDF" \
+            else loader(file, physicsClientId=self._scratch)
+        for uid in (uids if isinstance(uids, (tuple, list)) else (uids,)):
+            _check_joints(self._scratch, uid, f"{file}: body '{_body_name(self._scratch, uid)}'")
+        self._inspected.add((file, flags))
 
     def _record(self, name: str, args: tuple[Any, ...], kw: dict[str, Any]) -> None:
         if name not in _FILE_ARGS:
@@ -150,11 +206,11 @@ class WorldFileSource:
 
     def populate(self, client: int) -> Population:
         data = pybullet_data.getDataPath()
-        p.setAdditionalSearchPath(str(self.path.parent.resolve()), physicsClientId=client)
         p.setAdditionalSearchPath(data, physicsClientId=client)
         self.loaded.clear()
+        pb = BoundClient(client, self.loaded, self.path.parent.resolve(), data)
         try:
-            self.build(BoundClient(client, self.loaded), data, **self.params)
+            self.build(pb, data, **self.params)
         except SceneError:
             raise
         except p.error as exc:
@@ -162,12 +218,15 @@ class WorldFileSource:
                              "file or a mesh pybullet cannot load; pybullet's own messages above say which)") from None
         except Exception as exc:
             raise SceneError(f"world {self.path.name}: {WORLD_FUNCTION} failed: {exc.__class__.__name__}: {exc}") from None
+        finally:
+            pb.close()
         return Population(check_bodies(client, self.path.name))
 
     def content_digest(self) -> str:
         """A hash of the world file and of every file it loaded (and the files those name)."""
         h = hashlib.sha256(self.path.read_bytes())
-        for f in self._content_files():
+        shipped = [WORLD_PARTS_FILE] if self.path.parent.resolve() == WORLDS_DIR.resolve() else []
+        for f in [*shipped, *self._content_files()]:
             h.update(str(f.name).encode())
             h.update(f.read_bytes())
         return h.hexdigest()
@@ -204,13 +263,11 @@ def check_bodies(client: int, world: str) -> FrameBodies:
     links: list[int] = []
     for k in range(p.getNumBodies(physicsClientId=client)):
         uid = p.getBodyUniqueId(k, physicsClientId=client)
-        name = p.getBodyInfo(uid, physicsClientId=client)[1].decode(errors="replace")
-        label = f"world {world}: body {uid} ({name})"
-        body_links = _check_joints(client, uid, label)
-        for link in body_links:
-            _check_link(client, uid, link, label)
-        ids.extend([uid] * len(body_links))
-        links.extend(body_links)
+        label = f"world {world}: body {uid} ({_body_name(client, uid)})"
+        _check_joints(client, uid, label)
+        _check_link(client, uid, -1, label)
+        ids.append(uid)
+        links.append(-1)
     if not ids:
         raise SceneError(f"world {world} has no bodies")
     masses = [p.getDynamicsInfo(b, l, physicsClientId=client)[0] for b, l in zip(ids, links)]
@@ -219,34 +276,47 @@ def check_bodies(client: int, world: str) -> FrameBodies:
     return FrameBodies(np.asarray(ids, dtype=np.int64), np.asarray(links, dtype=np.int64))
 
 
-def _check_joints(client: int, uid: int, label: str) -> list[int]:
+_JOINT_KINDS = {p.JOINT_REVOLUTE: "revolute", p.JOINT_PRISMATIC: "prismatic", p.JOINT_SPHERICAL: "spherical",
+                p.JOINT_PLANAR: "planar", p.JOINT_POINT2POINT: "point-to-point", p.JOINT_GEAR: "gear",
+                p.JOINT_FIXED: "fixed"}
+
+
+def joint_refusal(kinds: list[int], joint: str, what: str) -> SceneError | None:
+    """The error for a body with joints of these kinds (None: no joints)."""
+    moving = [k for k in kinds if k != p.JOINT_FIXED]
+    if moving:
+        return SceneError(f"{what} has a {_JOINT_KINDS.get(moving[0], str(moving[0]))} joint{joint}: the kernel "
+                          "solves contacts only (no joints); refused")
+    if kinds:
+        return SceneError(f"{what} has {len(kinds)} fixed joint(s): the kernel solves contacts between single "
+                          "rigid bodies; load it as one (flags=pb.URDF_MERGE_FIXED_LINKS)")
+    return None
+
+
+def _body_name(client: int, uid: int) -> str:
+    return p.getBodyInfo(uid, physicsClientId=client)[1].decode(errors="replace")
+
+
+def _check_joints(client: int, uid: int, label: str) -> None:
     n = p.getNumJoints(uid, physicsClientId=client)
-    kinds = {p.JOINT_REVOLUTE: "revolute", p.JOINT_PRISMATIC: "prismatic", p.JOINT_SPHERICAL: "spherical",
-             p.JOINT_PLANAR: "planar", p.JOINT_POINT2POINT: "point-to-point", p.JOINT_GEAR: "gear"}
-    for j in range(n):
-        info = p.getJointInfo(uid, j, physicsClientId=client)
-        if info[2] != p.JOINT_FIXED:
-            raise SceneError(f"{label} has a {kinds.get(info[2], str(info[2]))} joint "
-                             f"'{info[1].decode(errors='replace')}': the kernel solves contacts only (no joints); "
-                             "refused")
-    links = [-1] + list(range(n))
-    if n and any(p.getDynamicsInfo(uid, l, physicsClientId=client)[0] != 0 for l in links):
-        raise SceneError(f"{label} is dynamic and has {n} fixed joint(s): the kernel solves contacts only; load it "
-                         "as one rigid body (flags=pb.URDF_MERGE_FIXED_LINKS)")
-    return links
+    infos = [p.getJointInfo(uid, j, physicsClientId=client) for j in range(n)]
+    moving = [i for i in infos if i[2] != p.JOINT_FIXED]
+    name = f" '{(moving or infos)[0][1].decode(errors='replace')}'" if infos else ""
+    err = joint_refusal([i[2] for i in infos], name, label)
+    if err is not None:
+        raise err
 
 
 def _check_link(client: int, uid: int, link: int, label: str) -> None:
     info = p.getDynamicsInfo(uid, link, physicsClientId=client)
     mass, inertia = float(info[0]), np.asarray(info[2], dtype=np.float64)
-    if link == -1:
-        pos, orn = p.getBasePositionAndOrientation(uid, physicsClientId=client)
-        lin, ang = p.getBaseVelocity(uid, physicsClientId=client)
-    else:
-        pos, orn = p.getLinkState(uid, link, physicsClientId=client)[:2]
-        lin, ang = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    pos, orn = p.getBasePositionAndOrientation(uid, physicsClientId=client)
+    lin, ang = p.getBaseVelocity(uid, physicsClientId=client)
     if not all(math.isfinite(x) for x in (*pos, *orn)):
         raise SceneError(f"{label}: NaN or Inf in its pose {pos}, {orn}")
+    lo, hi = p.getAABB(uid, link, physicsClientId=client)
+    if not (all(math.isfinite(x) for x in (*lo, *hi)) and all(a < b for a, b in zip(lo, hi))):
+        raise SceneError(f"{label}: no collision shape (its AABB is {lo}, {hi})")
     if not all(math.isfinite(x) for x in (*lin, *ang)):
         raise SceneError(f"{label}: NaN or Inf in its velocity")
     if not math.isfinite(mass) or mass < 0:
@@ -254,11 +324,8 @@ def _check_link(client: int, uid: int, link: int, label: str) -> None:
     if mass == 0 and any(x != 0 for x in (*lin, *ang)):
         raise SceneError(f"{label}: zero mass (static) but moving: a dynamic body needs a mass > 0")
     if mass > 0 and not (np.all(np.isfinite(inertia)) and np.all(inertia > 0)):
-        raise SceneError(f"{label}: mass {mass} with inertia {tuple(inertia)} (a dynamic body needs a positive "
+        raise SceneError(f"{label}: mass {mass} with inertia {tuple(float(x) for x in inertia)} (a dynamic body needs a positive "
                          "inertia)")
-    lo, hi = p.getAABB(uid, link, physicsClientId=client)
-    if not (all(math.isfinite(x) for x in (*lo, *hi)) and all(a <= b for a, b in zip(lo, hi))):
-        raise SceneError(f"{label}: no collision shape (its AABB is {lo}, {hi})")
 
 
 def world_source(scene: str, **params: Any) -> WorldFileSource:

@@ -1,19 +1,24 @@
 """A scene in pybullet (a DIRECT client), stepped, and its contacts captured as a frame.
 
-Every body is created with ``useMaximalCoordinates=True`` (a btRigidBody, so that pybullet runs Bullet 2's
-``btSequentialImpulseConstraintSolver`` rows, see ``models/bullet2_solver.py``), in the order of the scene's
-spec: frame body index i is the i-th body created and ``SceneWorld.body_ids[i]`` its pybullet unique id.
-Gravity is (0, -9.8, 0).
+A world comes from a source (``models.scenes.world_source``): a built-in box scene (:class:`SpecSource`,
+``models.scenes.specs``) or a file world (``models.scenes.user_world``: a Python world file, a URDF, an asset
+scene). Every body is created with ``useMaximalCoordinates=True`` (a btRigidBody, so that pybullet runs Bullet
+2's ``btSequentialImpulseConstraintSolver`` rows, see ``models/bullet2_solver.py``): frame body index i is the
+i-th body created and ``SceneWorld.body_ids[i]`` its pybullet unique id. Gravity is (0, -9.8, 0) unless a world
+file sets another. Mass, inertia diagonal and lateral friction come from ``getDynamicsInfo``
+(``models.frame``'s body contract).
 
-Friction: pybullet combines the two bodies' lateral friction as the product muA*muB, so every body is given
-``sqrt(friction)`` (``Frame.friction``) and a pair gets ``sqrt(f)*sqrt(f)`` (= f to one rounding).
+Friction: pybullet combines the two bodies' lateral friction as the product muA*muB, so in a built-in scene every
+body is given ``sqrt(friction)`` (``Frame.friction``) and a pair gets ``sqrt(f)*sqrt(f)`` (= f to one rounding);
+a file world's bodies keep their own.
 
 Conventions of ``getContactPoints(bodyA=b)`` (checked against the global query in the tests): the queried
 body is always reported as A; the manifold's own orientation (body0 = the body created first, i.e. the
 smaller frame index) is reported unchanged when the queried body is body0; from the other side pybullet
-swaps the points and negates the normal. We keep the side queried from the smaller frame index, so
-``normal_on_b`` points from B to A, ``distance < 0`` is penetration and the points are in the manifold's
-own order -- exactly the rows the solver built.
+swaps the points and negates the normal. We keep the manifold's own side (queried from the smaller frame index,
+or read from the other side and turned back exactly: ``models.scenes.contact_capture``), so ``normal_on_b``
+points from B to A, ``distance < 0`` is penetration and the points are in the manifold's own order -- exactly
+the rows the solver built.
 """
 
 from __future__ import annotations
@@ -125,7 +130,6 @@ class SceneWorld:
         self.bodies = pop.bodies
         self.body_ids = pop.bodies.ids
         self.body_links = pop.bodies.links
-        self._is_base = self.body_links == -1
         info = [p.getDynamicsInfo(int(b), int(l), physicsClientId=c) for b, l in zip(self.body_ids, self.body_links)]
         mass = np.asarray([i[0] for i in info], dtype=np.float64)
         self.dynamic = mass > 0
@@ -192,13 +196,9 @@ class SceneWorld:
         orn = np.empty((n, 4))
         lin = np.empty((n, 3))
         ang = np.empty((n, 3))
-        for i, (bid, link) in enumerate(zip(self.body_ids.tolist(), self.body_links.tolist())):
-            if link == -1:
-                pos[i], orn[i] = p.getBasePositionAndOrientation(bid, physicsClientId=c)
-                lin[i], ang[i] = p.getBaseVelocity(bid, physicsClientId=c)
-            else:  # a link of a static body (populate refuses dynamic links): its centre-of-mass frame, at rest
-                pos[i], orn[i] = p.getLinkState(bid, link, physicsClientId=c)[:2]
-                lin[i], ang[i] = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        for i, bid in enumerate(self.body_ids.tolist()):  # every frame body is a base (jointed bodies are refused)
+            pos[i], orn[i] = p.getBasePositionAndOrientation(bid, physicsClientId=c)
+            lin[i], ang[i] = p.getBaseVelocity(bid, physicsClientId=c)
         return dict(position=pos, orientation=orn, linear_velocity=lin, angular_velocity=ang,
                     inv_mass=self.inv_mass.copy(), inertia_local=self.inertia_local.copy(),
                     half_extents=self.half_extents.copy(), shape_index=self.shape_index.copy(),
@@ -238,7 +238,7 @@ class SceneWorld:
         """How far a body may have moved in the last step, plus the contact breaking threshold (m): the AABB growth
         that finds every pair the step's broadphase had."""
         c = self.client
-        dyn = np.flatnonzero(self.dynamic & self._is_base).tolist()
+        dyn = np.flatnonzero(self.dynamic).tolist()
         if not dyn:
             return CONTACT_BREAKING_THRESHOLD
         vel = [p.getBaseVelocity(int(self.body_ids[i]), physicsClientId=c) for i in dyn]

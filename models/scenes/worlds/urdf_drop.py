@@ -1,5 +1,5 @@
 """The world of ``SCENE=object.urdf``: ``count`` copies of the object in a row along x, ``pitch`` times its size
-apart, turned z-up -> y-up and dropped from ``drop`` m onto the ground box (``models.scenes.user_world``)."""
+apart, its link turned z-up -> y-up and dropped from ``drop`` m onto the ground box (``models.scenes.user_world``)."""
 
 from __future__ import annotations
 
@@ -20,5 +20,6 @@ def build(pb: Any, data_path: str, urdf: str = "", count: int = 4, pitch: float 
     y = drop + bottom_offset(pb, first)
     for k in range(count):
         uid = first if k == 0 else pb.loadURDF(urdf, [0.0, 0.0, 0.0], Z_UP_TO_Y_UP)
-        pb.resetBasePositionAndOrientation(uid, [(k - (count - 1) / 2) * pitch * size, y, 0.0], Z_UP_TO_Y_UP)
+        turn = pb.getBasePositionAndOrientation(uid)[1]  # the principal frame's (the link's, with the URDF's rpy)
+        pb.resetBasePositionAndOrientation(uid, [(k - (count - 1) / 2) * pitch * size, y, 0.0], turn)
         prepare_dynamic(pb, uid)
