@@ -46,7 +46,7 @@ def profile(nx: int, ny: int, nz: int, workers: int) -> dict[str, float]:
         cover = read_manifolds(w.client, w.bodies, plan, 1)
         out["cover_s"] = time.perf_counter() - t0
         t0 = time.perf_counter()
-        forked = read_manifolds(w.client, w.bodies, plan, workers)
+        forked = read_manifolds(w.client, w.bodies, plan, workers, parallel_min=1)
         out["cover_forked_s"] = time.perf_counter() - t0
         out.update(bodies=w.num_bodies, queries=len(plan), manifolds=len(full), workers=workers,
                    identical=float(_same(full, cover) and _same(full, forked)))

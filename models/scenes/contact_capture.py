@@ -10,8 +10,10 @@ the scan per query is pybullet's floor. What can be cut is the number of queries
 * **a vertex cover of the broadphase**: a query of body b reports every manifold of b, so only a set of bodies that
   touches every overlapping pair needs a query (:func:`query_plan`, greedy by degree over
   ``getOverlappingObjects``): the ground and every other layer of a stack, about half the bodies;
-* **forked readers**: after the step the process forks ``workers`` times; each copy of the (single-threaded,
-  in-process) DIRECT world answers a share of the queries and the rows are merged in query order.
+* **forked readers** (``workers`` > 1, for a machine with idle cores): after the step the process forks
+  ``workers`` times; each copy of the (single-threaded, in-process) DIRECT world answers a share of the queries
+  and the rows are merged in query order. On the shared 2-core machine under load (load average 19) two readers
+  gained nothing (``docs/results.md``), so the default is one, in-process.
 
 A manifold is kept from the side of its smaller frame index when that body is queried (the rows exactly as
 before); otherwise from the other side, turned back exactly as pybullet turned it: the points swapped, the normal
@@ -196,16 +198,18 @@ def _read_forked(client: int, bodies: FrameBodies, in_plan: np.ndarray, queried:
 
 
 def read_manifolds(client: int, bodies: FrameBodies, queried: np.ndarray, workers: int = 1,
-                   progress: bool = False) -> Manifolds:
+                   progress: bool = False, parallel_min: int | None = None) -> Manifolds:
     """The manifolds reported to the queries of ``queried`` (frame indices, ascending; every body for the old
     behaviour), read by ``workers`` forked readers, sorted by (body_a, body_b) and, within a pair, in report
-    order, runs of more than 4 points split into manifolds of at most 4."""
+    order, runs of more than 4 points split into manifolds of at most 4. Forked readers only from
+    ``parallel_min`` queries on (default :data:`PARALLEL_MIN_QUERIES`)."""
     t0 = time.monotonic()
     first = np.asarray(queried, dtype=np.int64)
     uids = bodies.ids[first]
     uids = uids[np.sort(np.unique(uids, return_index=True)[1])]  # each pybullet body once, in frame order
     in_plan = np.isin(bodies.ids, uids)
-    if workers > 1 and uids.shape[0] >= PARALLEL_MIN_QUERIES and hasattr(os, "fork"):
+    least = PARALLEL_MIN_QUERIES if parallel_min is None else parallel_min
+    if workers > 1 and uids.shape[0] >= least and hasattr(os, "fork"):
         g, data = _read_forked(client, bodies, in_plan, uids, min(workers, uids.shape[0]))
     else:
         g, data = _read_rows(client, bodies, in_plan, uids)

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import importlib.metadata
 import math
-import os
 import sys
 import time
 from dataclasses import dataclass
@@ -101,7 +100,7 @@ class SceneWorld:
                  workers: int | None = None) -> None:
         self.source, self.scene, self.seed, self.dt = source, scene, seed, dt
         self.pybullet_iterations = pybullet_iterations
-        self.workers = max(1, os.cpu_count() or 1) if workers is None else workers
+        self.workers = 1 if workers is None else int_param("workers", workers, 1, 256)
         self.client = p.connect(p.DIRECT)
         if self.client < 0:
             raise RuntimeError("could not connect to pybullet")
@@ -297,8 +296,8 @@ class SceneWorld:
 def build_world(scene: str, seed: int = 0, pybullet_iterations: int = 10, dt: float = DEFAULT_DT,
                 workers: int | None = None, **params: Any) -> SceneWorld:
     """A built-in scene (``models.scenes.specs``), an asset scene or a world file (``.py``/``.urdf``,
-    ``models.scenes.user_world``) built in a fresh DIRECT client. ``workers``: forked contact readers (default:
-    one per CPU; the result does not depend on it)."""
+    ``models.scenes.user_world``) built in a fresh DIRECT client. ``workers``: forked contact readers (default 1:
+    in-process; the result does not depend on it)."""
     int_param("pybullet_iterations", pybullet_iterations, 1, 10000)
     dt = float_param("dt", dt, 0.0, 1.0, lo_open=True)
     source: WorldSource
