@@ -161,7 +161,8 @@ def load_frame(args: argparse.Namespace) -> tuple[Frame, str]:
     if args.frame:
         return load(args.frame), Path(args.frame).stem
     params = scenes.split_scene_args(args.scene_args)
-    return scenes.load_or_capture(args.scene, seed=args.seed, **params), scenes.scene_label(args.scene)
+    label = "-".join([scenes.scene_label(args.scene), *(f"{k}{v}".replace("/", "_") for k, v in params.items())])
+    return scenes.load_or_capture(args.scene, seed=args.seed, **params), label
 
 
 def velocity_error(ours: BodyTable, ref_lin: np.ndarray, ref_ang: np.ndarray, dynamic: np.ndarray) -> VelocityError:
