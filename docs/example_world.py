@@ -4,10 +4,12 @@ A static slab, and on it a teddy (``teddy_vhacd.urdf``: a compound of convex hul
 cylinder standing, a sphere and a long box turned about the vertical, each of its own mass and friction.
 ``SCENE_ARGS="teddy_scale=2 friction=0.3"`` changes the teddy's size and the others' friction."""
 
+from typing import Any
+
 CAPTURE_STEP = 15
 
 
-def build(pb, data_path, teddy_scale=1.0, friction=0.6):
+def build(pb: Any, data_path: str, teddy_scale: float = 1.0, friction: float = 0.6) -> None:
     slab = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[3.0, 0.25, 3.0])
     ground = pb.createMultiBody(0.0, slab, basePosition=[0.0, -0.25, 0.0])
     pb.changeDynamics(ground, -1, lateralFriction=0.9)
