@@ -121,8 +121,9 @@ def _greedy_cover(n: int, edges: np.ndarray) -> np.ndarray:
 
 
 def _read_rows(client: int, bodies: FrameBodies, in_plan: np.ndarray, share: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The kept points of the queries of the pybullet bodies ``share``, in query order: (groups (G,5): frame index
-    a < b, number of points, flipped, run order; points (P,19)), each group one run of one pair. ``in_plan`` marks
+    """The kept points of the queries of the pybullet bodies ``share``, in query order: (groups (G,4): frame index
+    a < b, number of points, 1 where read from b's side and turned back; points (P,19)), each group one run of one
+    pair. ``in_plan`` marks
     the frame bodies whose pybullet body is queried (all its links)."""
     index_of = bodies.index_of()
     groups: list[list[int]] = []
@@ -142,7 +143,7 @@ def _read_rows(client: int, bodies: FrameBodies, in_plan: np.ndarray, share: np.
                 continue
             if (me, j) != cur:
                 cur = (me, j)
-                groups.append([min(me, j), max(me, j), 0, int(j < me), len(groups)])
+                groups.append([min(me, j), max(me, j), 0, int(j < me)])
             groups[-1][2] += 1
             if j > me:
                 kept.append((*pt[5], *pt[6], *pt[7], pt[8], pt[9], pt[10], *pt[11], pt[12], *pt[13]))
@@ -150,7 +151,7 @@ def _read_rows(client: int, bodies: FrameBodies, in_plan: np.ndarray, share: np.
                 nx, ny, nz = pt[7]
                 kept.append((*pt[6], *pt[5], -nx, -ny, -nz, pt[8], pt[9], pt[10], *pt[11], pt[12], *pt[13]))
     data = np.asarray(kept, dtype=np.float64).reshape(-1, POINT_COLUMNS)
-    return np.asarray(groups, dtype=np.int64).reshape(-1, 5), data
+    return np.asarray(groups, dtype=np.int64).reshape(-1, 4), data
 
 
 def _read_forked(client: int, bodies: FrameBodies, in_plan: np.ndarray, queried: np.ndarray,
@@ -187,14 +188,8 @@ def _read_forked(client: int, bodies: FrameBodies, in_plan: np.ndarray, queried:
         parts.append(got)
     if failure is not None:
         raise failure
-    offset = 0
-    groups = []
-    for g, _ in parts:
-        g = g.copy()
-        g[:, 4] += offset
-        offset += g.shape[0]
-        groups.append(g)
-    return np.concatenate(groups).reshape(-1, 5), np.concatenate([d for _, d in parts]).reshape(-1, POINT_COLUMNS)
+    return (np.concatenate([g for g, _ in parts]).reshape(-1, 4),
+            np.concatenate([d for _, d in parts]).reshape(-1, POINT_COLUMNS))
 
 
 def read_manifolds(client: int, bodies: FrameBodies, queried: np.ndarray, workers: int = 1,
@@ -220,7 +215,7 @@ def read_manifolds(client: int, bodies: FrameBodies, queried: np.ndarray, worker
 
 
 def _assemble(g: np.ndarray, data: np.ndarray) -> Manifolds:
-    """Runs (G,5) of points (P,19) into manifolds of at most 4 points, sorted (stable) by (body_a, body_b)."""
+    """Runs (G,4) of points (P,19) into manifolds of at most 4 points, sorted (stable) by (body_a, body_b)."""
     counts = g[:, 2]
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64) if g.shape[0] else np.zeros(0, np.int64)
     pieces = (counts + MAX_POINTS - 1) // MAX_POINTS  # manifolds per run

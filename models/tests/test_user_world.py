@@ -193,7 +193,7 @@ def test_cover_and_forked_readers_match_every_body(scene: str, params: dict, sha
 
 def test_runs_longer_than_four_points_are_split() -> None:
     # pair (0, 2): a run of 6 points, then a run of 2; pair (0, 1): 3 points
-    g = np.array([[0, 2, 6, 0, 0], [0, 1, 3, 0, 1], [0, 2, 2, 0, 2]])
+    g = np.array([[0, 2, 6, 0], [0, 1, 3, 0], [0, 2, 2, 0]])
     data = np.arange(11 * 19, dtype=np.float64).reshape(11, 19)
     m = contact_capture._assemble(g, data)
     assert m.body_a.tolist() == [0, 0, 0, 0] and m.body_b.tolist() == [1, 2, 2, 2]
