@@ -1,10 +1,10 @@
 """Where a contact capture's time goes, on a thesis-like scene (default a fraction of the thesis's cubes):
 ``python -m models.scenes.capture_profile --nx 12 --ny 30 --nz 12``.
 
-Builds the scene, runs its steps, then reads the manifolds three ways in the same world: a query of every body
-(the old capture), a query of a vertex cover of the broadphase, and the cover read by forked readers; prints the
-seconds of each, the queries, the manifold count M and the cost of one query, and checks that the three agree
-byte for byte. Extrapolation to the thesis frame: a query costs about (M / measured M) times the measured
+Builds the scene, runs its steps, then reads the manifolds four ways in the same world: a query of every body
+(the old capture), a query of a vertex cover of the broadphase, the cover read by forked readers, and by one
+consuming reader; prints the seconds of each, the queries, the manifold count M and the cost of one query, and
+checks that all agree byte for byte. Extrapolation to the thesis frame: a query costs about (M / measured M) times the measured
 query (the server scans every manifold per query), times the number of queries."""
 
 from __future__ import annotations
@@ -48,8 +48,11 @@ def profile(nx: int, ny: int, nz: int, workers: int) -> dict[str, float]:
         t0 = time.perf_counter()
         forked = read_manifolds(w.client, w.bodies, plan, workers, parallel_min=1)
         out["cover_forked_s"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        consumed = read_manifolds(w.client, w.bodies, plan, 1, parallel_min=1, consume=True)
+        out["cover_consumed_s"] = time.perf_counter() - t0
         out.update(bodies=w.num_bodies, queries=len(plan), manifolds=len(full), workers=workers,
-                   identical=float(_same(full, cover) and _same(full, forked)))
+                   identical=float(_same(full, cover) and _same(full, forked) and _same(full, consumed)))
     out["query_us"] = out["full_s"] / out["bodies"] * 1e6
     per_thesis_query = out["query_us"] * THESIS_MANIFOLDS / out["manifolds"] * 1e-6
     out["thesis_full_s_est"] = per_thesis_query * THESIS_BODIES

@@ -13,7 +13,11 @@ the scan per query is pybullet's floor. What can be cut is the number of queries
 * **forked readers** (``workers`` > 1, for a machine with idle cores): after the step the process forks
   ``workers`` times; each copy of the (single-threaded, in-process) DIRECT world answers a share of the queries
   and the rows are merged in query order. On the shared 2-core machine under load (load average 19) two readers
-  gained nothing (``docs/results.md``), so the default is one, in-process.
+  gained nothing (``docs/results.md``), so the default is one;
+* **consuming readers** (worlds whose pairs have one manifold each, as boxes do: the built-in scenes): a forked
+  reader removes each body from its copy of the world once queried, so the manifolds already read leave the
+  scan and later queries get cheaper (the parent's world is untouched). Where a pair has several manifolds
+  (compound shapes) the removals reorder the survivors, so file worlds are read in-process, in place.
 
 A manifold is kept from the side of its smaller frame index when that body is queried (the rows exactly as
 before); otherwise from the other side, turned back exactly as pybullet turned it: the points swapped, the normal
@@ -120,7 +124,8 @@ def _greedy_cover(n: int, edges: np.ndarray) -> np.ndarray:
     return np.flatnonzero(covered)
 
 
-def _read_rows(client: int, bodies: FrameBodies, in_plan: np.ndarray, share: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _read_rows(client: int, bodies: FrameBodies, in_plan: np.ndarray, share: np.ndarray,
+               consume: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The kept points of the queries of the pybullet bodies ``share``, in query order: (groups (G,4): frame index
     a < b, number of points, 1 where read from b's side and turned back; points (P,19)), each group one run of one
     pair. ``in_plan`` marks
@@ -130,6 +135,8 @@ def _read_rows(client: int, bodies: FrameBodies, in_plan: np.ndarray, share: np.
     kept: list[tuple[float, ...]] = []
     for bid in share.tolist():
         pts = p.getContactPoints(bodyA=bid, physicsClientId=client) or ()
+        if consume:  # a forked reader's own copy: its manifolds are read, so later scans skip them
+            p.removeBody(bid, physicsClientId=client)
         cur: tuple[int, int] | None = None
         for pt in pts:
             if pt[1] != bid:
@@ -155,7 +162,7 @@ def _read_rows(client: int, bodies: FrameBodies, in_plan: np.ndarray, share: np.
 
 
 def _read_forked(client: int, bodies: FrameBodies, in_plan: np.ndarray, queried: np.ndarray,
-                 workers: int) -> tuple[np.ndarray, np.ndarray]:
+                 workers: int, consume: bool) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_read_rows` over the pybullet bodies ``queried`` split into ``workers`` contiguous shares, each read by a forked copy of
     this process (the DIRECT world is in-process memory, copied on write), merged in query order."""
     shares = np.array_split(queried, workers)
@@ -167,7 +174,7 @@ def _read_forked(client: int, bodies: FrameBodies, in_plan: np.ndarray, queried:
             os.close(r)
             code = 0
             try:
-                blob = pickle.dumps(_read_rows(client, bodies, in_plan, share), protocol=pickle.HIGHEST_PROTOCOL)
+                blob = pickle.dumps(_read_rows(client, bodies, in_plan, share, consume), protocol=pickle.HIGHEST_PROTOCOL)
             except BaseException as exc:  # report it to the parent, which raises
                 blob, code = pickle.dumps(RuntimeError(f"contact reader failed: {exc}")), 1
             with os.fdopen(w, "wb") as out:
@@ -193,19 +200,21 @@ def _read_forked(client: int, bodies: FrameBodies, in_plan: np.ndarray, queried:
 
 
 def read_manifolds(client: int, bodies: FrameBodies, queried: np.ndarray, workers: int = 1,
-                   progress: bool = False, parallel_min: int | None = None) -> Manifolds:
+                   progress: bool = False, parallel_min: int | None = None, consume: bool = False) -> Manifolds:
     """The manifolds reported to the queries of ``queried`` (frame indices, ascending; every body for the old
     behaviour), read by ``workers`` forked readers, sorted by (body_a, body_b) and, within a pair, in report
     order, runs of more than 4 points split into manifolds of at most 4. Forked readers only from
-    ``parallel_min`` queries on (default :data:`PARALLEL_MIN_QUERIES`)."""
+    ``parallel_min`` queries on (default :data:`PARALLEL_MIN_QUERIES`). With ``consume`` (only for worlds whose
+    pairs have one manifold each, as boxes do) the readers, always forked then, remove each body from their copy
+    of the world after its query."""
     t0 = time.monotonic()
     first = np.asarray(queried, dtype=np.int64)
     uids = bodies.ids[first]
     uids = uids[np.sort(np.unique(uids, return_index=True)[1])]  # each pybullet body once, in frame order
     in_plan = np.isin(bodies.ids, uids)
     least = PARALLEL_MIN_QUERIES if parallel_min is None else parallel_min
-    if workers > 1 and uids.shape[0] >= least and hasattr(os, "fork"):
-        g, data = _read_forked(client, bodies, in_plan, uids, min(workers, uids.shape[0]))
+    if (workers > 1 or consume) and uids.shape[0] >= least and hasattr(os, "fork"):
+        g, data = _read_forked(client, bodies, in_plan, uids, min(workers, uids.shape[0]), consume)
     else:
         g, data = _read_rows(client, bodies, in_plan, uids)
     if progress:

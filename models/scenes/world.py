@@ -229,7 +229,9 @@ class SceneWorld:
             queried = np.arange(self.num_bodies)
         else:
             queried = query_plan(self.client, self.bodies, self.dynamic, self._plan_margin())
-        out = read_manifolds(self.client, self.bodies, queried, self.workers, progress)
+        # boxes make one manifold per pair: the readers may consume their copies of the world
+        out = read_manifolds(self.client, self.bodies, queried, self.workers, progress,
+                             consume=isinstance(self.source, SpecSource))
         self._check_manifolds(out)
         return out
 

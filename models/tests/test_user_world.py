@@ -187,8 +187,12 @@ def test_cover_and_forked_readers_match_every_body(scene: str, params: dict, sha
             assert groups[:, 3].any()
         assert _same(full, w.manifolds(), list(full.__dataclass_fields__))
         monkeypatch.setattr(contact_capture, "PARALLEL_MIN_QUERIES", 1)
-        w.workers = 3
+        w.workers = 3  # forked readers; consuming ones in the box scenes
         assert _same(full, w.manifolds(), list(full.__dataclass_fields__))
+        if scene != "shapes":  # boxes: one manifold per pair, so a consuming reader is exact
+            consumed = contact_capture.read_manifolds(w.client, w.bodies, plan, 1, consume=True)
+            assert _same(full, consumed, list(full.__dataclass_fields__))
+        assert _same(full, w.manifolds(full=True), list(full.__dataclass_fields__))  # the world itself untouched
 
 
 def test_runs_longer_than_four_points_are_split() -> None:
