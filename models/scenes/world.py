@@ -1,19 +1,24 @@
 """A scene in pybullet (a DIRECT client), stepped, and its contacts captured as a frame.
 
-Every body is created with ``useMaximalCoordinates=True`` (a btRigidBody, so that pybullet runs Bullet 2's
-``btSequentialImpulseConstraintSolver`` rows, see ``models/bullet2_solver.py``), in the order of the scene's
-spec: frame body index i is the i-th body created and ``SceneWorld.body_ids[i]`` its pybullet unique id.
-Gravity is (0, -9.8, 0).
+A world comes from a source (``models.scenes.world_source``): a built-in box scene (:class:`SpecSource`,
+``models.scenes.specs``) or a file world (``models.scenes.user_world``: a Python world file, a URDF, an asset
+scene). Every body is created with ``useMaximalCoordinates=True`` (a btRigidBody, so that pybullet runs Bullet
+2's ``btSequentialImpulseConstraintSolver`` rows, see ``models/bullet2_solver.py``): frame body index i is the
+i-th body created and ``SceneWorld.body_ids[i]`` its pybullet unique id. Gravity is (0, -9.8, 0) unless a world
+file sets another. Mass, inertia diagonal and lateral friction come from ``getDynamicsInfo``
+(``models.frame``'s body contract).
 
-Friction: pybullet combines the two bodies' lateral friction as the product muA*muB, so every body is given
-``sqrt(friction)`` (``Frame.friction``) and a pair gets ``sqrt(f)*sqrt(f)`` (= f to one rounding).
+Friction: pybullet combines the two bodies' lateral friction as the product muA*muB, so in a built-in scene every
+body is given ``sqrt(friction)`` (``Frame.friction``) and a pair gets ``sqrt(f)*sqrt(f)`` (= f to one rounding);
+a file world's bodies keep their own.
 
 Conventions of ``getContactPoints(bodyA=b)`` (checked against the global query in the tests): the queried
 body is always reported as A; the manifold's own orientation (body0 = the body created first, i.e. the
 smaller frame index) is reported unchanged when the queried body is body0; from the other side pybullet
-swaps the points and negates the normal. We keep the side queried from the smaller frame index, so
-``normal_on_b`` points from B to A, ``distance < 0`` is penetration and the points are in the manifold's
-own order -- exactly the rows the solver built.
+swaps the points and negates the normal. We keep the manifold's own side (queried from the smaller frame index,
+or read from the other side and turned back exactly: ``models.scenes.contact_capture``), so ``normal_on_b``
+points from B to A, ``distance < 0`` is penetration and the points are in the manifold's own order -- exactly
+the rows the solver built.
 """
 
 from __future__ import annotations
@@ -30,7 +35,10 @@ import pybullet as p
 
 from models.bullet_profile import profiled_step
 from models.frame import Frame, validate
+from models.scenes.contact_capture import FrameBodies, Manifolds, query_plan, read_manifolds
+from models.scenes.world_source import Population, WorldSource
 from models.scenes.specs import DEFAULT_CAPTURE_STEP, SceneError, SceneSpec, float_param, int_param, make_spec
+from models.scenes.user_world import is_world_scene, scene_label, world_source
 
 GRAVITY = (0.0, -9.8, 0.0)
 DEFAULT_DT = 1.0 / 60.0
@@ -43,64 +51,30 @@ CONTACT_BREAKING_THRESHOLD = 0.02
 
 
 @dataclass
-class Manifolds:
-    """Contact manifolds in frame indices (the manifold fields of Frame)."""
+class SpecSource:
+    """A built-in scene of boxes (``models.scenes.specs``): every body a box, given ``sqrt(friction)``."""
 
-    body_a: np.ndarray
-    body_b: np.ndarray
-    num_points: np.ndarray
-    point_on_a: np.ndarray
-    point_on_b: np.ndarray
-    normal_on_b: np.ndarray
-    distance: np.ndarray
-    normal_force: np.ndarray
-    lateral_friction1: np.ndarray
-    lateral_dir1: np.ndarray
-    lateral_friction2: np.ndarray
-    lateral_dir2: np.ndarray
+    spec: SceneSpec
+    capture_step: int | None = None
 
-    def __len__(self) -> int:
-        return int(self.body_a.shape[0])
+    @property
+    def params(self) -> dict[str, Any]:
+        return self.spec.params
 
-    def as_dict(self) -> dict[str, np.ndarray]:
-        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+    @property
+    def friction_pair(self) -> float | None:
+        return self.spec.friction
 
-
-class SceneWorld:
-    """A pybullet DIRECT client holding one scene; use as a context manager (or call close())."""
-
-    def __init__(self, spec: SceneSpec, scene: str, seed: int, dt: float, pybullet_iterations: int) -> None:
-        self.spec, self.scene, self.seed, self.dt = spec, scene, seed, dt
-        if len(spec.bodies) > 5000:
-            print(f"[{scene}] creating {len(spec.bodies)} bodies in pybullet", file=sys.stderr, flush=True)
-        self.pybullet_iterations = pybullet_iterations
-        self.client = p.connect(p.DIRECT)
-        if self.client < 0:
-            raise RuntimeError("could not connect to pybullet")
-        try:
-            self._build()
-        except BaseException:
-            self.close()
-            raise
-
-    # -- construction
-    def _build(self) -> None:
-        c = self.client
-        p.resetSimulation(physicsClientId=c)
-        p.setPhysicsEngineParameter(fixedTimeStep=self.dt, numSolverIterations=self.pybullet_iterations,
-                                    warmStartingFactor=0, deterministicOverlappingPairs=1, solverResidualThreshold=0,
-                                    numSubSteps=0, physicsClientId=c)
-        p.setGravity(*GRAVITY, physicsClientId=c)
+    def populate(self, client: int) -> Population:
+        c = client
         shapes: dict[tuple[float, float, float], int] = {}
         shape_ids: list[int] = []
-        self.shape_half_extents: list[tuple[float, float, float]] = []
         body_friction = math.sqrt(self.spec.friction)
         ids = []
         for b in self.spec.bodies:
             key = tuple(float(x) for x in b.half_extents)
             if key not in shapes:
                 shapes[key] = len(shapes)
-                self.shape_half_extents.append(key)
                 shape_ids.append(p.createCollisionShape(p.GEOM_BOX, halfExtents=key, physicsClientId=c))
             bid = p.createMultiBody(baseMass=b.mass, baseCollisionShapeIndex=shape_ids[shapes[key]],
                                     basePosition=b.position, baseOrientation=b.orientation,
@@ -113,19 +87,84 @@ class SceneWorld:
                 if any(b.linear_velocity) or any(b.angular_velocity):
                     p.resetBaseVelocity(bid, b.linear_velocity, b.angular_velocity, physicsClientId=c)
             ids.append(bid)
-        self.body_ids = np.asarray(ids, dtype=np.int64)
-        self.shape_index = np.asarray([shapes[tuple(float(x) for x in b.half_extents)] for b in self.spec.bodies],
-                                      dtype=np.int32)
-        self.half_extents = np.asarray([b.half_extents for b in self.spec.bodies], dtype=np.float64)
-        self.dynamic = np.asarray([b.mass > 0 for b in self.spec.bodies])
-        self._index_of = {int(bid): i for i, bid in enumerate(ids)}
+        return Population(
+            FrameBodies(np.asarray(ids, dtype=np.int64), np.full(len(ids), -1, dtype=np.int64)),
+            np.asarray([b.half_extents for b in self.spec.bodies], dtype=np.float64),
+            np.asarray([shapes[tuple(float(x) for x in b.half_extents)] for b in self.spec.bodies], dtype=np.int32))
+
+
+class SceneWorld:
+    """A pybullet DIRECT client holding one scene; use as a context manager (or call close())."""
+
+    def __init__(self, source: WorldSource, scene: str, seed: int, dt: float, pybullet_iterations: int,
+                 workers: int | None = None) -> None:
+        self.source, self.scene, self.seed, self.dt = source, scene, seed, dt
+        self.pybullet_iterations = pybullet_iterations
+        self.workers = 1 if workers is None else int_param("workers", workers, 1, 256)
+        self.client = p.connect(p.DIRECT)
+        if self.client < 0:
+            raise RuntimeError("could not connect to pybullet")
+        try:
+            self._build()
+        except BaseException:
+            self.close()
+            raise
+
+    # -- construction
+    def _settings(self) -> None:
+        c = self.client
+        p.setPhysicsEngineParameter(fixedTimeStep=self.dt, numSolverIterations=self.pybullet_iterations,
+                                    warmStartingFactor=0, deterministicOverlappingPairs=1, solverResidualThreshold=0,
+                                    numSubSteps=0, physicsClientId=c)
+
+    def _build(self) -> None:
+        c = self.client
+        p.resetSimulation(physicsClientId=c)
+        self._settings()
+        p.setGravity(*GRAVITY, physicsClientId=c)
+        pop = self.source.populate(c)
+        self._settings()  # a world file may have changed them
+        eng = p.getPhysicsEngineParameters(physicsClientId=c)
+        self.gravity = [float(eng[f"gravityAcceleration{a}"]) for a in "XYZ"]
+        self.bodies = pop.bodies
+        self.body_ids = pop.bodies.ids
+        self.body_links = pop.bodies.links
+        info = [p.getDynamicsInfo(int(b), int(l), physicsClientId=c) for b, l in zip(self.body_ids, self.body_links)]
+        mass = np.asarray([i[0] for i in info], dtype=np.float64)
+        self.dynamic = mass > 0
+        self.inv_mass = np.where(self.dynamic, 1.0 / np.where(self.dynamic, mass, 1.0), 0.0)
+        self.inertia_local = np.asarray([i[2] if i[0] > 0 else (0.0, 0.0, 0.0) for i in info], dtype=np.float64)
+        self.friction = np.asarray([i[1] for i in info], dtype=np.float64)
         self.steps_done = 0
+        self.measured_extents = pop.half_extents is None
+        self.half_extents = self._world_half_extents() if pop.half_extents is None else pop.half_extents
+        self.shape_index = distinct_shapes(self.half_extents, self.inv_mass, self.inertia_local) \
+            if pop.shape_index is None else pop.shape_index
         dyn = self.half_extents[self.dynamic]
         self._max_depth = 2.0 * float(dyn.max()) if dyn.size else 1.0
-        static_info = [p.getDynamicsInfo(int(b), -1, physicsClientId=c) for b in self.body_ids]
-        self.inv_mass = np.asarray([1.0 / i[0] if i[0] > 0 else 0.0 for i in static_info])
-        self.inertia_local = np.asarray([i[2] if i[0] > 0 else (0.0, 0.0, 0.0) for i in static_info], dtype=np.float64)
-        self.friction = np.asarray([i[1] for i in static_info], dtype=np.float64)
+
+    def _world_half_extents(self) -> np.ndarray:
+        """Half extents of each body's current world AABB (pybullet's getAABB)."""
+        c = self.client
+        out = np.empty((self.num_bodies, 3))
+        for i, (b, l) in enumerate(zip(self.body_ids.tolist(), self.body_links.tolist())):
+            lo, hi = p.getAABB(b, l, physicsClientId=c)
+            out[i] = 0.5 * (np.asarray(hi) - np.asarray(lo))
+        return out
+
+    def measure_local_half_extents(self) -> np.ndarray:
+        """Half extents of each dynamic body's AABB in its own (centre-of-mass) frame: every dynamic body is turned
+        to the identity orientation and its getAABB read (this changes the world: only once a capture is done).
+        Static bodies keep their world AABB's half extents."""
+        c = self.client
+        out = self._world_half_extents()
+        for i in np.flatnonzero(self.dynamic).tolist():
+            b = int(self.body_ids[i])
+            pos, _ = p.getBasePositionAndOrientation(b, physicsClientId=c)
+            p.resetBasePositionAndOrientation(b, pos, (0.0, 0.0, 0.0, 1.0), physicsClientId=c)
+            lo, hi = p.getAABB(b, -1, physicsClientId=c)
+            out[i] = 0.5 * (np.asarray(hi) - np.asarray(lo))
+        return out
 
     def close(self) -> None:
         if getattr(self, "client", -1) >= 0:
@@ -156,7 +195,7 @@ class SceneWorld:
         orn = np.empty((n, 4))
         lin = np.empty((n, 3))
         ang = np.empty((n, 3))
-        for i, bid in enumerate(self.body_ids.tolist()):
+        for i, bid in enumerate(self.body_ids.tolist()):  # every frame body is a base (jointed bodies are refused)
             pos[i], orn[i] = p.getBasePositionAndOrientation(bid, physicsClientId=c)
             lin[i], ang[i] = p.getBaseVelocity(bid, physicsClientId=c)
         return dict(position=pos, orientation=orn, linear_velocity=lin, angular_velocity=ang,
@@ -182,71 +221,32 @@ class SceneWorld:
         p.performCollisionDetection(physicsClientId=self.client)
         return self.manifolds(progress=progress)
 
-    def manifolds(self, progress: bool = False) -> Manifolds:
-        """The current contact manifolds, from per-body queries (the global query is corrupt at scale)."""
-        c = self.client
-        index_of = self._index_of
-        n = self.num_bodies
-        groups: list[list[int]] = []  # [i, j, number of points], in query order
-        chunks: list[np.ndarray] = []  # the kept points, 19 floats each (see _COLUMNS)
-        t0 = time.monotonic()
-        last = t0
-        for i, bid in enumerate(self.body_ids.tolist()):
-            pts = p.getContactPoints(bodyA=bid, physicsClientId=c)
-            cur = -1
-            seen: set[int] = set()
-            kept: list[tuple[float, ...]] = []
-            for pt in pts:
-                if pt[1] != bid:
-                    raise RuntimeError(f"getContactPoints(bodyA={bid}) reported body {pt[1]} as A")
-                j = index_of.get(pt[2])
-                if j is None:
-                    raise RuntimeError(f"contact with unknown pybullet body id {pt[2]}")
-                if j <= i:  # the other side's query keeps this pair
-                    continue
-                if j != cur:
-                    if j in seen:
-                        raise RuntimeError(f"the points of pair ({i}, {j}) are not consecutive")
-                    seen.add(j)
-                    cur = j
-                    groups.append([i, j, 0])
-                groups[-1][2] += 1
-                kept.append((*pt[5], *pt[6], *pt[7], pt[8], pt[9], pt[10], *pt[11], pt[12], *pt[13]))
-            if kept:
-                chunks.append(np.asarray(kept, dtype=np.float64))
-            if progress and time.monotonic() - last > 10.0:
-                last = time.monotonic()
-                print(f"  contact query: {i + 1}/{n} bodies, {len(groups)} manifolds, {last - t0:.0f} s",
-                      file=sys.stderr, flush=True)
-        data = np.concatenate(chunks) if chunks else np.zeros((0, 19))
-        g = np.asarray(groups, dtype=np.int64).reshape(-1, 3)
-        bad = np.flatnonzero(g[:, 2] > 4)
-        if bad.size:
-            i, j, k = g[bad[0]]
-            raise RuntimeError(f"pair ({i}, {j}) has {k} contact points (> 4): corrupt contact report")
-        m = g.shape[0]
-        starts = np.concatenate([[0], np.cumsum(g[:, 2])[:-1]]) if m else np.zeros(0, np.int64)
-        gid = np.repeat(np.arange(m), g[:, 2])
-        slot = np.arange(data.shape[0]) - np.repeat(starts, g[:, 2])
-        rank = np.empty(m, np.int64)  # manifolds sorted by (body_a, body_b); stable
-        rank[np.lexsort((g[:, 1], g[:, 0]))] = np.arange(m)
-        row = rank[gid]
-
-        def per_point(cols: slice | int) -> np.ndarray:
-            width = () if isinstance(cols, int) else (3,)
-            arr = np.zeros((m, 4) + width)
-            arr[row, slot] = data[:, cols]
-            return arr
-
-        order = np.argsort(rank)
-        out = Manifolds(
-            body_a=g[order, 0].astype(np.int32), body_b=g[order, 1].astype(np.int32),
-            num_points=g[order, 2].astype(np.int32),
-            point_on_a=per_point(slice(0, 3)), point_on_b=per_point(slice(3, 6)), normal_on_b=per_point(slice(6, 9)),
-            distance=per_point(9), normal_force=per_point(10), lateral_friction1=per_point(11),
-            lateral_dir1=per_point(slice(12, 15)), lateral_friction2=per_point(15), lateral_dir2=per_point(slice(16, 19)))
+    def manifolds(self, progress: bool = False, full: bool = False) -> Manifolds:
+        """The current contact manifolds, from per-body queries (the global query is corrupt at scale): those of
+        a vertex cover of the broadphase (``models.scenes.contact_capture``), or of every body with ``full``;
+        the same manifolds either way."""
+        if full:
+            queried = np.arange(self.num_bodies)
+        else:
+            queried = query_plan(self.client, self.bodies, self.dynamic, self._plan_margin())
+        # boxes make one manifold per pair: the readers may consume their copies of the world
+        out = read_manifolds(self.client, self.bodies, queried, self.workers, progress,
+                             consume=isinstance(self.source, SpecSource))
         self._check_manifolds(out)
         return out
+
+    def _plan_margin(self) -> float:
+        """How far a body may have moved in the last step, plus the contact breaking threshold (m): the AABB growth
+        that finds every pair the step's broadphase had."""
+        c = self.client
+        dyn = np.flatnonzero(self.dynamic).tolist()
+        if not dyn:
+            return CONTACT_BREAKING_THRESHOLD
+        vel = [p.getBaseVelocity(int(self.body_ids[i]), physicsClientId=c) for i in dyn]
+        v = max(float(np.linalg.norm(lin)) for lin, _ in vel)
+        w = max(float(np.linalg.norm(ang)) for _, ang in vel)
+        reach = float(np.linalg.norm(self.half_extents[dyn], axis=1).max())
+        return CONTACT_BREAKING_THRESHOLD + 2.0 * self.dt * (v + w * reach) + 0.01
 
     def _check_manifolds(self, m: Manifolds) -> None:
         if len(m) == 0:
@@ -296,23 +296,43 @@ class SceneWorld:
 
 
 def build_world(scene: str, seed: int = 0, pybullet_iterations: int = 10, dt: float = DEFAULT_DT,
-                **params: Any) -> SceneWorld:
+                workers: int | None = None, **params: Any) -> SceneWorld:
+    """A built-in scene (``models.scenes.specs``), an asset scene or a world file (``.py``/``.urdf``,
+    ``models.scenes.user_world``) built in a fresh DIRECT client. ``workers``: forked contact readers (default 1:
+    in-process; the result does not depend on it)."""
     int_param("pybullet_iterations", pybullet_iterations, 1, 10000)
     dt = float_param("dt", dt, 0.0, 1.0, lo_open=True)
-    spec = make_spec(scene, seed, **params)
-    return SceneWorld(spec, scene, int(seed), dt, int(pybullet_iterations))
+    source: WorldSource
+    if is_world_scene(scene):
+        source = world_source(scene, **params)
+    else:
+        source = SpecSource(make_spec(scene, seed, **params))
+        if len(source.spec.bodies) > 5000:
+            print(f"[{scene}] creating {len(source.spec.bodies)} bodies in pybullet", file=sys.stderr, flush=True)
+    return SceneWorld(source, scene_label(scene), int(seed), dt, int(pybullet_iterations), workers)
+
+
+def distinct_shapes(half_extents: np.ndarray, inv_mass: np.ndarray, inertia_local: np.ndarray) -> np.ndarray:
+    """One shape index per distinct (half extents, inverse mass, inertia), to 9 significant digits (a measured
+    AABB varies in its last bits with the body's turn), numbered in order of first appearance."""
+    rows = np.column_stack([half_extents, inv_mass[:, None], inertia_local])
+    scale = np.where(rows == 0, 1.0, 10.0 ** np.floor(np.log10(np.abs(np.where(rows == 0, 1.0, rows)))))
+    _, first, inverse = np.unique(np.round(rows / scale, 8) * scale, axis=0, return_index=True, return_inverse=True)
+    rank = np.empty(first.shape[0], dtype=np.int64)
+    rank[np.argsort(first)] = np.arange(first.shape[0])
+    return rank[inverse.ravel()].astype(np.int32)
 
 
 def _frame_from(world: SceneWorld, state: dict[str, np.ndarray], mf: Manifolds, post: dict[str, np.ndarray],
                 step: int, extra_meta: dict[str, Any]) -> Frame:
     meta = {
         "scene": world.scene,
-        "params": world.spec.params,
+        "params": world.source.params,
         "seed": world.seed,
         "step": step,
         "dt": world.dt,
-        "gravity": list(GRAVITY),
-        "friction_pair": world.spec.friction,
+        "gravity": world.gravity,
+        "friction_pair": world.source.friction_pair,
         "pybullet_api_version": int(p.getAPIVersion(physicsClientId=world.client)),
         "pybullet_version": importlib.metadata.version("pybullet"),
         "solver": world.solver_settings(),
@@ -326,37 +346,56 @@ def _frame_from(world: SceneWorld, state: dict[str, np.ndarray], mf: Manifolds, 
 
 def capture_frame(scene: str, step: int | None = None, busiest_within: int | None = None, seed: int = 0,
                   pybullet_iterations: int = 10, dt: float = DEFAULT_DT, progress: bool | None = None,
-                  **params: Any) -> Frame:
+                  workers: int | None = None, **params: Any) -> Frame:
     """Run the scene with pybullet's own solver and capture one step (1-based: the step-th stepSimulation).
 
     The frame holds the body state before that step, the manifolds pybullet's solver used in it (read right
     after stepSimulation) and pybullet's post-step velocities. With ``busiest_within=K`` the step with the
-    most manifolds among steps 1..K is captured (per-body queries after every step: cheap only for small
-    scenes). With neither, DEFAULT_CAPTURE_STEP[scene] is used."""
+    most manifolds among steps 1..K is captured (contact queries after every step: cheap only for small
+    scenes). With neither, the scene's default step (DEFAULT_CAPTURE_STEP, or a world file's CAPTURE_STEP)."""
+    _check_steps(step, busiest_within)
+    with build_world(scene, seed=seed, pybullet_iterations=pybullet_iterations, dt=dt, workers=workers,
+                     **params) as world:
+        return capture_in(world, step, busiest_within, progress)
+
+
+def _check_steps(step: int | None, busiest_within: int | None) -> None:
     if step is not None and busiest_within is not None:
         raise SceneError("give either step or busiest_within, not both")
+
+
+def capture_in(world: SceneWorld, step: int | None = None, busiest_within: int | None = None,
+               progress: bool | None = None) -> Frame:
+    """:func:`capture_frame` in a world just built (no step taken yet)."""
+    _check_steps(step, busiest_within)
+    scene = world.scene
     if busiest_within is not None:
         busiest_within = int_param("busiest_within", busiest_within, 1, 100000)
     else:
-        step = DEFAULT_CAPTURE_STEP.get(scene, 1) if step is None else step
-        step = int_param("step", step, 1, 1000000)
-    with build_world(scene, seed=seed, pybullet_iterations=pybullet_iterations, dt=dt, **params) as world:
-        if progress is None:
-            progress = world.num_bodies > 5000
-        t0 = time.monotonic()
-        last_step = step if busiest_within is None else busiest_within
-        best: Frame | None = None
-        extra = {"busiest_within": busiest_within} if busiest_within is not None else {}
-        for s in range(1, last_step + 1):
-            if busiest_within is None and s != step:
-                world.step()
-            else:
-                frame = world.capture_step(progress=progress, extra_meta=extra)
-                if best is None or frame.num_manifolds > best.num_manifolds:
-                    best = frame
-            if progress:
-                print(f"[{scene}] step {s}/{last_step} done ({time.monotonic() - t0:.1f} s)", file=sys.stderr, flush=True)
-        assert best is not None
+        default = world.source.capture_step or DEFAULT_CAPTURE_STEP.get(scene, 1)
+        step = int_param("step", default if step is None else step, 1, 1000000)
+    if progress is None:
+        progress = world.num_bodies > 5000
+    t0 = time.monotonic()
+    last_step = step if busiest_within is None else busiest_within
+    best: Frame | None = None
+    extra = {"busiest_within": busiest_within} if busiest_within is not None else {}
+    for s in range(1, last_step + 1):
+        if busiest_within is None and s != step:
+            world.step()
+        else:
+            frame = world.capture_step(progress=progress, extra_meta=extra)
+            if best is None or frame.num_manifolds > best.num_manifolds:
+                best = frame
         if progress:
-            print(f"[{scene}] captured {best.summary()} in {time.monotonic() - t0:.1f} s", file=sys.stderr, flush=True)
-        return best
+            print(f"[{scene}] step {s}/{last_step} done ({time.monotonic() - t0:.1f} s)", file=sys.stderr, flush=True)
+    assert best is not None
+    if world.measured_extents:  # a file world: each body's own AABB (turns the bodies: the capture is done)
+        best.half_extents = world.measure_local_half_extents()
+        best.shape_index = distinct_shapes(best.half_extents, world.inv_mass, world.inertia_local)
+        if best.num_manifolds == 0:
+            raise SceneError(f"world {scene} has no contact at step {best.meta['step']}: nothing for the kernel to "
+                             "solve (drop the bodies onto something, or capture a later step)")
+    if progress:
+        print(f"[{scene}] captured {best.summary()} in {time.monotonic() - t0:.1f} s", file=sys.stderr, flush=True)
+    return best
