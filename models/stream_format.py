@@ -159,6 +159,9 @@ def contact_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np
 
 def friction_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np.ndarray:
     """(K, 14) bit patterns: n(3), c(3), t0(3), t1(3), f_jac_inv(2)."""
+    if cons.per_manifold_friction:
+        raise ValueError("the constraints carry a friction coefficient per manifold (the scene's friction varies); "
+                         "the kernel's friction record has no friction word: it uses its one coefficient")
     vals = np.concatenate([cons.normal[idx], cons.center[idx], cons.tangent[idx, 0], cons.tangent[idx, 1],
                            cons.f_jac_inv[idx]], axis=1)
     return fmt.encode(vals)
@@ -166,6 +169,10 @@ def friction_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> n
 
 def body_in_words(fmt: NumberFormat, bodies: BodyTable) -> np.ndarray:
     """(N, 17) bit patterns: pos(3), q(4), v(3), w(3), inv_mass(1), inv_inertia(3)."""
+    if bodies.inv_inertia.shape[1] != 3:
+        raise ValueError(f"the body table holds a {bodies.inv_inertia.shape[1]}-word inverse inertia (a full "
+                         "symmetric 3x3: rotated non-isotropic bodies); the kernel's body record carries a "
+                         "diagonal (3 words)")
     vals = np.concatenate([bodies.position, bodies.orientation, bodies.linear_velocity, bodies.angular_velocity,
                            bodies.inv_mass[:, None], bodies.inv_inertia], axis=1)
     return fmt.encode(vals)
