@@ -156,7 +156,7 @@ def body_table_from_state(state: Mapping[str, np.ndarray], gravity: np.ndarray, 
         angular_velocity=np.array(state["angular_velocity"], dtype=np.float64),
         inv_mass=inv_mass.copy(),
         inv_inertia=convention_inverse_inertia(convention, np.asarray(state["orientation"], dtype=np.float64),
-                                               inv_mass, state.get("inertia_local", np.zeros_like(lin)),
+                                               inv_mass, state["inertia_local"] if "inertia_local" in state else np.zeros_like(lin),
                                                state["half_extents"]),
     )
 

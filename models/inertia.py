@@ -35,6 +35,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from .number_format import Arithmetic
+
 AABB_MARGIN = 0.01  # m, added to each side of the local AABB before Bullet GPU's inertia computation
 FULL_ORDER = ("xx", "yy", "zz", "xy", "xz", "yz")
 CONVENTION_KEY = "bullet_convention"
@@ -161,6 +163,9 @@ def convention_inverse_inertia(convention: BulletConvention, orientation: np.nda
     """The body table's ``inv_inertia`` of ``convention`` at ``orientation`` (the current one for ``bullet2``,
     the registration orientation for ``bullet_gpu``), compacted to its mode; static bodies get 0."""
     dynamic = np.asarray(inv_mass) != 0.0
+    if convention is BulletConvention.BULLET2 and np.any(np.asarray(inertia_local)[dynamic] <= 0.0):
+        raise ValueError("the bullet2 convention needs each dynamic body's local inertia (pybullet's getDynamicsInfo), "
+                         "and a component is zero, negative or missing")
     if convention is BulletConvention.WORLD_AXES:
         return gpu_inverse_inertia(half_extents, inv_mass)
     if convention is BulletConvention.BULLET_GPU:
@@ -172,8 +177,8 @@ def convention_inverse_inertia(convention: BulletConvention, orientation: np.nda
     return compact(world, dynamic)
 
 
-def inertia_product(ar: Any, inv_inertia: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """``I^-1 c`` in the format of ``ar`` (an :class:`~models.number_format.Arithmetic`), per row.
+def inertia_product(ar: Arithmetic, inv_inertia: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """``I^-1 c`` in the format of ``ar``, per row.
 
     Diagonal (3 words): ``(Ixx cx, Iyy cy, Izz cz)``, one multiply per component. Full (6 words):
     ``((Ixx cx + Ixy cy) + Ixz cz, (Ixy cx + Iyy cy) + Iyz cz, (Ixz cx + Iyz cy) + Izz cz)``."""

@@ -150,6 +150,8 @@ def test_conventions_differ_as_documented() -> None:
     assert same.shape == (2, 3) and np.array_equal(same, axes)
     with pytest.raises(ValueError, match="unknown Bullet convention"):
         convention_of({"bullet_convention": "bullet4"})
+    with pytest.raises(ValueError, match="local inertia"):
+        convention_inverse_inertia(BulletConvention.BULLET2, q, inv_mass, np.zeros((2, 3)), half)
 
 
 def test_per_manifold_friction_where_it_varies_and_the_register_where_not() -> None:
