@@ -69,6 +69,7 @@ from sim.kernel_step import golden_step, run_kernel_step
 from sim.point_results import PointLog
 from sim.trace_compare import kernel_bodies
 from sim.report import StagedDirectory
+from sim.resource_model import FitVerdict, kernel_fit, short_verdict
 from sim.run_result import NoExactReference
 from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label, load_frame, \
     velocity_error
@@ -76,7 +77,7 @@ from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_
 COLUMNS = ["format", "iterations", "mode", "manifolds", "manifold_passes", "cycles", "cycles_per_manifold_pass",
            "ms_at_clock", "ns_per_manifold_pass", "stalls", "bubbles", "bytes_streamed", "differing_bits",
            "max_dv_vs_exact", "max_dw_vs_exact", "median_dv_vs_exact", "p99_dv_vs_exact", "median_dw_vs_exact",
-           "p99_dw_vs_exact", "max_dv_vs_float64_same_iters"]
+           "p99_dw_vs_exact", "max_dv_vs_float64_same_iters", "fits", "fit"]
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -207,7 +208,13 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
             "cycles": cycles, "cycles_per_manifold_pass": cycles / mp, "ms_at_clock": cycles / preset.clock_hz * 1e3,
             "ns_per_manifold_pass": cycles / mp / preset.clock_hz * 1e9, "stalls": stalls, "bubbles": bubbles,
             "bytes_streamed": streamed, "differing_bits": differing,
-            **exact_columns(e_exact), "max_dv_vs_float64_same_iters": e_same.max_dv}
+            **exact_columns(e_exact), "max_dv_vs_float64_same_iters": e_same.max_dv, **fit_columns(job, point.dma)}
+
+
+def fit_columns(job: KernelJob, dma: str) -> dict[str, Any]:
+    """Whether the point's kernel fits its DMA preset's platform (sim.resource_model; "" without an estimate)."""
+    v = kernel_fit(job, dma)
+    return {"fits": v.fits if isinstance(v, FitVerdict) else "", "fit": short_verdict(v)}
 
 
 def exact_columns(e: SolutionError | NoExactReference) -> dict[str, Any]:
@@ -272,7 +279,7 @@ def sweep(args: argparse.Namespace, log_dir: Path) -> tuple[list[dict[str, Any]]
         print(f"{row['format']:>6} {row['iterations']:>3} it ({row['mode']}): {row['cycles']:>9,} cycles "
               f"({row['cycles_per_manifold_pass']:.2f}/mp), max |dv| vs exact reference "
               f"{_number(row['max_dv_vs_exact'])} m/s, vs float64 same iterations {row['max_dv_vs_float64_same_iters']:.3e}, differing bits "
-              f"{row['differing_bits'] if row['mode'] == 'rtl' else 'n/a (model)'}", flush=True)
+              f"{row['differing_bits'] if row['mode'] == 'rtl' else 'n/a (model)'}, {row.get('fit', '')}", flush=True)
     return rows, name
 
 
@@ -297,7 +304,10 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
             continue
         x = [r["ns_per_manifold_pass"] for r in pts]
         y = [max(r["max_dv_vs_exact"], 1e-12) for r in pts]
-        ax.plot(x, y, "o-", label=f"RTL kernel {fmt}")
+        line, = ax.plot(x, y, "-", label=f"RTL kernel {fmt}")
+        for r, xi, yi in zip(pts, x, y):  # a design that does not fit its platform is drawn hollow
+            ax.plot(xi, yi, "o", color=line.get_color(),
+                    markerfacecolor="none" if r.get("fits") in (False, "False") else line.get_color())
         for r, xi, yi in zip(pts, x, y):
             ax.annotate(str(r["iterations"]), (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=7)
     per_mp = baselines.THESIS_MANIFOLDS * baselines.THESIS_PASSES
@@ -317,7 +327,7 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
     ax.set_ylabel("max over bodies of |v - v_exact| after the step (m/s)")
     if missing:
         ax.text(0.5, 0.5, missing[0], transform=ax.transAxes, ha="center", wrap=True)
-    ax.set_title(title, fontsize=9)
+    ax.set_title(title + "\nhollow: does not fit the platform (sim/resource_model.py)", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=8)

@@ -145,7 +145,7 @@ def test_budget_by_hand() -> None:
     assert b.total_bytes == 6524 and b.fits
     b = ob.budget(zcu, FP16, num_bodies=3, num_manifolds=100, band=7, trailing=1, impulses_resident=False)
     assert (b.body_bytes, b.impulse_bytes, b.window_bytes) == (102, 7 * 6 * 2, 7 * 90)
-    one_block = ob.OnChipMemory("one", "zcu102", bram36=1, uram=0)
+    one_block = ob.Platform("one", "zcu102", bram36=1, uram=0)
     assert ob.budget(one_block, FP32, 60, 0, 0).fits  # 4,080 B of 4,096
     assert not ob.budget(one_block, FP32, 61, 0, 0).fits  # 4,148 B
     with pytest.raises(ValueError, match="unknown platform"):
