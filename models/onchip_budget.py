@@ -173,7 +173,8 @@ def floors(platform: Platform, fmt: NumberFormat, num_bodies: int, num_manifolds
     """DDR and compute floors of one step (``iterations`` of a contact and a friction pass).
 
     ``fetch_every`` = 0 is today's kernel: every pass streams its records as the DMA beats carry them (padding
-    included, ``StreamLayout``). ``fetch_every`` = k >= 1 streams a manifold's contact and friction record together
+    included, ``StreamLayout``); when the impulses are not resident each pass also reads and writes its own
+    (the contact pass 4, the friction pass 2 words per manifold). ``fetch_every`` = k >= 1 streams a manifold's contact and friction record together
     once per k iterations, packed back to back (:func:`record_bytes`); when the impulses are not resident they
     are read and written back with each fetch. Body records go in and out once per step, in stream beats."""
     if iterations < 1 or fetch_every < 0 or lanes < 1 or min(num_bodies, num_manifolds) < 0:
@@ -181,7 +182,8 @@ def floors(platform: Platform, fmt: NumberFormat, num_bodies: int, num_manifolds
     layout = StreamLayout(fmt)
     if fetch_every == 0:
         records = num_manifolds * iterations * (layout.contact_bytes + layout.friction_bytes)
-        impulses = 0
+        # impulses travelling with the records (as the thesis's did): each pass reads and writes its own
+        impulses = 0 if impulses_resident else 2 * num_manifolds * iterations * -(-IMPULSE_WORDS * fmt.width // 8)
     else:
         fetches = num_manifolds * -(-iterations // fetch_every)
         records = fetches * record_bytes(fmt)

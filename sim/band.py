@@ -141,7 +141,7 @@ def floor_rows(row: dict[str, Any], platforms: Sequence[ob.Platform], windows: d
                                                          trailing=2 * period - 1, impulses_resident=False)
                 for lanes in (1, 2, 4):
                     fl = ob.floors(p, f, row["bodies"], row["manifolds"], iters, period, lanes,
-                                   impulses_resident=False)
+                                   impulses_resident=period == 0)  # today's streaming kernel keeps them
                     out.append((fl, bud, p, f))
     return out
 

@@ -7,7 +7,8 @@ on chip; body ports as a live-value table or banks the schedule keeps apart; ope
 published, from Vitis HLS) it prints the estimated LUT, FF, DSP, BRAM36 and URAM as shares of the platform, the
 verdict, and the DDR / compute floor in cycles per manifold-pass of the kernel's fetch schedule
 (``models.onchip_budget.floors``: the streaming kernel reads every record every pass, the window kernel once per
-iteration). Sizes default to the thesis frame (38,881 bodies, 147,485 manifolds) and the README's ring of 16,384
+step, as the README's window runs with FETCH_PASSES=0 do). Body words and ports change the resources, not the
+floor (banks the schedule keeps apart may cost issue slots the floor does not count). Sizes default to the thesis frame (38,881 bodies, 147,485 manifolds) and the README's ring of 16,384
 records.
 
     python -m sim.redesign_fit --platform zcu102 [--bodies 38881 --manifolds 147485 --ring 16384 --iters 4]
@@ -42,13 +43,11 @@ def rows(platform: ob.Platform, formats: Sequence[NumberFormat], bodies: int, ma
     kernels = [(0, 1)] + [(ring, lanes) for lanes in (1, 2, 4)]
     levers = itertools.product((True, False), ("full", "solve"), ("lvt", "banked"), ("yosys", "vendor"))
     for fmt, (window, lanes), (resident, body, ports, source) in itertools.product(formats, kernels, list(levers)):
-        if window == 0 and not resident:
-            continue  # the streaming kernel keeps the impulses resident
-        if lanes == 1 and ports == "banked":
-            continue  # one lane's two ports need no banks
+        if source == "vendor" and not any(f == fmt.name for _, f in rm.VENDOR_OPERATORS):
+            continue  # no published figure in this format: the same as Yosys's
         cfg = rm.KernelConfig(fmt, bodies, manifolds, lanes=lanes, window=window, impulses_resident=resident,
                               body_words=body, body_ports=ports, operator_source=source)
-        fl = ob.floors(platform, fmt, bodies, manifolds, iters, 1 if window else 0, lanes, resident)
+        fl = ob.floors(platform, fmt, bodies, manifolds, iters, iters if window else 0, lanes, resident)
         out.append(Row(cfg, rm.verdict(rm.estimate(cfg, platform, data), platform), fl))
     return out
 
@@ -56,7 +55,7 @@ def rows(platform: ob.Platform, formats: Sequence[NumberFormat], bodies: int, ma
 def describe(c: rm.KernelConfig) -> str:
     kernel = "streaming" if not c.window else f"window x{c.lanes}"
     return (f"{c.fmt.name} | {kernel} | {'resident' if c.impulses_resident else 'with records'} | {c.body_words} | "
-            f"{c.body_ports if c.lanes > 1 else '-'} | {c.operator_source}")
+            f"{c.body_ports} | {c.operator_source}")
 
 
 def table(found: Sequence[Row], only_fitting: bool) -> list[str]:

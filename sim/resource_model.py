@@ -42,7 +42,7 @@ from typing import Any, Optional, Union
 
 from models import onchip_budget as ob
 from models.kernel_job import KernelJob
-from models.number_format import NumberFormat
+from models.number_format import KERNEL_FORMATS, NumberFormat
 from models.stream_format import BODY_IN_WORDS, HEADER_BITS, WINDOW_WORDS
 from rtl.gen.dataflow import BOOL, OP_SIGNATURES
 from rtl.gen.kernel_graphs import GRAPHS
@@ -343,20 +343,29 @@ def pipe_resources(name: str, cfg: KernelConfig, data: dict[str, Any]) -> tuple[
 CAM_UNIT = "hazard_cam"  # the figure of pgs_hazard_cam alone (2 body ports), to scale with lanes
 
 
+def _control_figure(fmt: NumberFormat, data: dict[str, Any]) -> tuple[Resources, str]:
+    """Yosys's control of ``fmt``, else of a kernel format with the same word width (the control moves words and
+    does no arithmetic on them)."""
+    units = data["units"]
+    if "control" in units.get(fmt.name, {}):
+        return Resources.from_dict(units[fmt.name]["control"]), "Yosys"
+    for other in KERNEL_FORMATS.values():
+        if other.width == fmt.width and "control" in units.get(other.name, {}):
+            return Resources.from_dict(units[other.name]["control"]), f"Yosys of the {other.name} control (same width)"
+    raise KeyError(f"no Yosys figure of the control in {fmt.name} in {FIGURES_FILE}: `{REGENERATE}`")
+
+
 def control_resources(cfg: KernelConfig, data: dict[str, Any]) -> Part:
-    units = data["units"].get(cfg.fmt.name, {})
-    if "control" not in units:
-        raise KeyError(f"no Yosys figure of the control in {cfg.fmt.name} in {FIGURES_FILE}: `{REGENERATE}`")
-    ctrl = Resources.from_dict(units["control"])
+    ctrl, source = _control_figure(cfg.fmt, data)
     if cfg.lanes == 1:
-        return Part("control (register file, sequencer, assemblers, hazard CAM, FIFOs)", ctrl, "Yosys")
+        return Part("control (register file, sequencer, assemblers, hazard CAM, FIFOs)", ctrl, source)
     # the CAM has no format parameter: its figure from whichever format's run has it
     cam_row = next((u[CAM_UNIT] for u in data["units"].values() if CAM_UNIT in u), None)
     if cam_row is None:
         raise KeyError(f"no Yosys figure of {CAM_UNIT} in {FIGURES_FILE}: `{REGENERATE}` adds it")
     cam = Resources.from_dict(cam_row)
     return Part(f"control, hazard CAM scaled to {2 * cfg.lanes} body ports", ctrl + cam.scaled(cfg.lanes - 1),
-                "Yosys (one-lane control + the CAM's figure per extra lane)")
+                f"{source} (one lane) + Yosys of the CAM per extra lane")
 
 
 def estimate(cfg: KernelConfig, platform: Optional[ob.Platform] = None,
@@ -383,6 +392,7 @@ class FitVerdict:
     shares: dict[str, float]  # of the device, by KEYS
     limits: dict[str, float]
     config: str
+    operator_sources: str = ""  # where each operator's figure came from
 
     @property
     def overflows(self) -> list[str]:
@@ -413,7 +423,18 @@ def verdict(est: Estimate, platform: ob.Platform) -> FitVerdict:
     total = est.total.as_dict()
     shares = {k: (total[k] / platform.capacity(k) if platform.capacity(k) else (math.inf if total[k] else 0.0))
               for k in KEYS}
-    return FitVerdict(platform, est.total, shares, dict(ob.USABLE_SHARE), est.config.describe())
+    return FitVerdict(platform, est.total, shares, dict(ob.USABLE_SHARE), est.config.describe(),
+                      operator_sources(est.config))
+
+
+def operator_sources(cfg: KernelConfig) -> str:
+    """Which figure each operator's count was multiplied by: Yosys's, or a published one."""
+    by: dict[str, list[str]] = {}
+    for mod in OPERATOR_MODULES:
+        vendor = cfg.operator_source == "vendor" and (mod, cfg.fmt.name) in VENDOR_OPERATORS
+        label = VENDOR_OPERATORS[(mod, cfg.fmt.name)][0].label if vendor else "Yosys"
+        by.setdefault(label, []).append(mod)
+    return "; ".join(f"{label}: {', '.join(mods)}" for label, mods in by.items())
 
 
 def fit(cfg: KernelConfig, platform: ob.Platform) -> FitVerdict:
@@ -470,4 +491,5 @@ def fit_rows(v: Union[FitVerdict, NoEstimate]) -> dict[str, str]:
     return {"configuration": v.config, "platform": f"{v.platform.name} ({v.platform.describe()})",
             "LUT, FF, DSP, BRAM36, URAM (share of the device)": v.shares_text(),
             f"verdict (usable: {ob.describe_usable()})": v.headline(),
+            "operator figures": v.operator_sources,
             "estimate": "sim/resource_model.py: per-operator Yosys figures, memories computed (docs/resources.md)"}

@@ -214,7 +214,9 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
 def fit_columns(job: KernelJob, dma: str) -> dict[str, Any]:
     """Whether the point's kernel fits its DMA preset's platform (sim.resource_model; "" without an estimate)."""
     v = kernel_fit(job, dma)
-    return {"fits": v.fits if isinstance(v, FitVerdict) else "", "fit": short_verdict(v)}
+    if isinstance(v, FitVerdict):
+        return {"fits": v.fits, "fit": f"{v.headline()} ({v.shares_text()})"}
+    return {"fits": "", "fit": short_verdict(v)}
 
 
 def exact_columns(e: SolutionError | NoExactReference) -> dict[str, Any]:

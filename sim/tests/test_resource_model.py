@@ -105,3 +105,12 @@ def test_fit_section_of_a_run() -> None:
     assert "BRAM36" in rows["LUT, FF, DSP, BRAM36, URAM (share of the device)"]
     none = sections(ModelRunResult("r", "x", 1, 1, "hazard", "ideal", {}, fit=rm.NoEstimate("no platform")))
     assert none[FIT_SECTION] == {"verdict": "no estimate (no platform)"}
+
+
+def test_redesign_table(capsys: pytest.CaptureFixture[str]) -> None:
+    from sim import redesign_fit
+
+    assert redesign_fit.main(["--formats", "fp16", "--platform", "u280"]) == 0
+    out = capsys.readouterr().out
+    assert "fitting designs, fastest floor first" in out and "| fp16 | window x4 |" in out
+    assert redesign_fit.main(["--formats", "fp64"]) == 2
