@@ -11,7 +11,8 @@ step, as the README's window runs with FETCH_PASSES=0 do). Body words and ports 
 floor (banks the schedule keeps apart may cost issue slots the floor does not count). Sizes default to the thesis frame (38,881 bodies, 147,485 manifolds) and the README's ring of 16,384
 records.
 
-    python -m sim.redesign_fit --platform zcu102 [--bodies 38881 --manifolds 147485 --ring 16384 --iters 4]
+    python -m sim.redesign_fit --platform zcu102 [--bodies 38881 --manifolds 147485 --ring 16384 --iters 4
+                               --fetch-every 0]
 """
 
 from __future__ import annotations
@@ -37,7 +38,9 @@ class Row:
 
 
 def rows(platform: ob.Platform, formats: Sequence[NumberFormat], bodies: int, manifolds: int, ring: int,
-         iters: int, data: dict[str, Any] | None = None) -> list[Row]:
+         iters: int, fetch_every: int = 0, data: dict[str, Any] | None = None) -> list[Row]:
+    """Every lever setting; the window kernel fetches its records once per ``fetch_every`` iterations (0: once per
+    step)."""
     data = data or rm.figures()
     out = []
     kernels = [(0, 1)] + [(ring, lanes) for lanes in (1, 2, 4)]
@@ -47,7 +50,8 @@ def rows(platform: ob.Platform, formats: Sequence[NumberFormat], bodies: int, ma
             continue  # no published figure in this format: the same as Yosys's
         cfg = rm.KernelConfig(fmt, bodies, manifolds, lanes=lanes, window=window, impulses_resident=resident,
                               body_words=body, body_ports=ports, operator_source=source)
-        fl = ob.floors(platform, fmt, bodies, manifolds, iters, iters if window else 0, lanes, resident)
+        fl = ob.floors(platform, fmt, bodies, manifolds, iters, (fetch_every or iters) if window else 0, lanes,
+                       resident)
         out.append(Row(cfg, rm.verdict(rm.estimate(cfg, platform, data), platform), fl))
     return out
 
@@ -80,17 +84,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--manifolds", type=int, default=THESIS_MANIFOLDS)
     ap.add_argument("--ring", type=int, default=README_RING, help="records in the window kernel's ring")
     ap.add_argument("--iters", type=int, default=4)
+    ap.add_argument("--fetch-every", type=int, default=0,
+                    help="the window kernel fetches once per this many iterations (0: once per step); its ring must "
+                         "hold (passes per fetch - 1) x lag + 2 records")
     args = ap.parse_args(argv)
     by_name = {f.name: f for f in (FP32, FP16)}
     try:
         fmts = [by_name[f] for f in args.formats.split(",")]
         platform = ob.get_platform(args.platform)
-        found = rows(platform, fmts, args.bodies, args.manifolds, args.ring, args.iters)
+        if args.fetch_every < 0 or args.iters < 1:
+            raise ValueError("--fetch-every must be >= 0 and --iters >= 1")
+        found = rows(platform, fmts, args.bodies, args.manifolds, args.ring, args.iters, args.fetch_every)
     except (KeyError, ValueError, FileNotFoundError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     print(f"{platform.name} ({platform.describe()}); {args.bodies:,} bodies, {args.manifolds:,} manifolds, ring "
-          f"{args.ring:,} records, {args.iters} iterations; usable: {ob.describe_usable()}\n")
+          f"{args.ring:,} records fetched once per {args.fetch_every or args.iters} iteration(s), {args.iters} "
+          f"iterations; usable: {ob.describe_usable()}\n")
     print("fitting designs, fastest floor first:\n")
     print("\n".join(table(found, True)))
     print("\ndesigns that do not fit:\n")
