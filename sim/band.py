@@ -7,10 +7,12 @@ body's manifolds spread) for pybullet's order, the hazard order, and every bande
 each format on the ZCU102 preset (``sim.kernel_build.default_window``). Then, for the budget scene (the thesis
 frame unless ``--budget-scene``), the on-chip bytes (``models.onchip_budget``) of body state, accumulated impulses
 and the record window of the best banded schedule after hazard reordering, per platform, format, number of passes
-trailing the streaming pass (fetch once per 1, 2 or ITERS iterations) and impulse placement, and whether they fit.
+trailing the streaming pass (fetch once per 1, 2 or ITERS iterations) and impulse placement, whether the bytes
+are within the blocks' data bytes, and whether the whole window kernel fits (``sim.resource_model``: its logic, and
+its memories as block RAM with the copies their ports need, which bytes alone do not count).
 Last, the DDR and compute floors per manifold-pass of the budget scene (``models.onchip_budget.floors``): records
 streamed every pass as today, or fetched once per 1, 2 or ITERS iterations, with 1, 2 or 4 lanes; which floor
-binds, and whether that fetch period's window fits. Writes the figures to ``build/band/band-s<seed>.json``.
+binds, and whether that fetch period's whole kernel with that many lanes fits. Writes the figures to ``build/band/band-s<seed>.json``.
 
     python -m sim.band --seed 1 --iters 4
 """
@@ -32,6 +34,7 @@ from models.constraints import body_table, setup_constraints
 from models.frame import FrameError
 from models.number_format import BF16, FP16, FP32, NumberFormat
 from models.schedule import BANDED_ORDERS, band_width, hazard_order, pybullet_order
+from sim import resource_model as rm
 from sim.kernel_build import default_window
 
 FORMATS: tuple[NumberFormat, ...] = (FP32, FP16, BF16)
@@ -48,7 +51,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     return ap.parse_args(argv)
 
 
-def hazard_windows(platforms: Sequence[ob.OnChipMemory]) -> dict[tuple[str, str], int]:
+def hazard_windows(platforms: Sequence[ob.Platform]) -> dict[tuple[str, str], int]:
     """The kernel's hazard window W per (platform, format): its DMA preset's stream width sets the beats."""
     return {(p.name, f.name): default_window(f, p.preset.stream_bits) for p in platforms for f in FORMATS}
 
@@ -88,7 +91,7 @@ def best_band(row: dict[str, Any], window: int) -> int:
     return row["bands"][row["best"]][f"W={window}"]
 
 
-def budget_rows(row: dict[str, Any], platforms: Sequence[ob.OnChipMemory], windows: dict[tuple[str, str], int],
+def budget_rows(row: dict[str, Any], platforms: Sequence[ob.Platform], windows: dict[tuple[str, str], int],
                 iters: int) -> list[ob.Budget]:
     """Budgets of the best banded schedule (after hazard reordering with the platform's W) of one scene."""
     periods = sorted({1, min(2, iters), iters})
@@ -106,18 +109,27 @@ def budget_rows(row: dict[str, Any], platforms: Sequence[ob.OnChipMemory], windo
 def budget_table(budgets: Sequence[ob.Budget]) -> list[str]:
     mib = 1 << 20
     head = (f"{'platform':<9}{'format':<7}{'D':>7}{'trailing':>9}  {'impulses':<9}{'bodies MiB':>11}"
-            f"{'impulses MiB':>13}{'window MiB':>11}{'total MiB':>10}{'capacity MiB':>13}  result")
+            f"{'impulses MiB':>13}{'window MiB':>11}{'total MiB':>10}{'capacity MiB':>13}  {'bytes':<7}"
+            "whole kernel (resource model, 1 lane)")
     lines = [head, "-" * len(head)]
     for b in budgets:
         lines.append(f"{b.platform.name:<9}{b.fmt.name:<7}{b.band:>7,}{b.trailing:>9}  "
                      f"{'resident' if b.impulses_resident else 'in window':<9}{b.body_bytes / mib:>11.3f}"
                      f"{b.impulse_bytes / mib:>13.3f}{b.window_bytes / mib:>11.3f}{b.total_bytes / mib:>10.3f}"
-                     f"{b.platform.data_bytes / mib:>13.3f}  {'fits' if b.fits else 'does not fit'}")
+                     f"{b.platform.data_bytes / mib:>13.3f}  {'within' if b.fits else 'beyond':<7}"
+                     f"{rm.short_verdict(budget_fit(b))}")
     return lines
 
 
-def floor_rows(row: dict[str, Any], platforms: Sequence[ob.OnChipMemory], windows: dict[tuple[str, str], int],
-               iters: int) -> list[tuple[ob.Floors, ob.Budget | None, ob.OnChipMemory, NumberFormat]]:
+def budget_fit(b: ob.Budget, lanes: int = 1) -> rm.FitVerdict | rm.NoEstimate:
+    """The resource model's verdict of the window kernel a budget row describes (its ring and impulse placement)."""
+    cfg = rm.window_config(b.fmt, b.num_bodies, b.num_manifolds, b.trailing * b.band + 2, lanes,
+                           b.impulses_resident)
+    return rm.fit_or_reason(cfg, b.platform)
+
+
+def floor_rows(row: dict[str, Any], platforms: Sequence[ob.Platform], windows: dict[tuple[str, str], int],
+               iters: int) -> list[tuple[ob.Floors, ob.Budget | None, ob.Platform, NumberFormat]]:
     """DDR and compute floors of the scene per platform, format, fetch period (0: every pass, today's kernel)
     and lanes, each with the on-chip budget of its window (impulses travelling with the records)."""
     out = []
@@ -129,22 +141,33 @@ def floor_rows(row: dict[str, Any], platforms: Sequence[ob.OnChipMemory], window
                                                          trailing=2 * period - 1, impulses_resident=False)
                 for lanes in (1, 2, 4):
                     fl = ob.floors(p, f, row["bodies"], row["manifolds"], iters, period, lanes,
-                                   impulses_resident=False)
+                                   impulses_resident=period == 0)  # today's streaming kernel keeps them
                     out.append((fl, bud, p, f))
     return out
 
 
-def floor_table(rows: Sequence[tuple[ob.Floors, ob.Budget | None, ob.OnChipMemory, NumberFormat]]) -> list[str]:
+def floor_fit(fl: ob.Floors, bud: ob.Budget | None, p: ob.Platform, f: NumberFormat, bodies: int,
+              manifolds: int) -> str:
+    """The on-chip bytes of a floor row's window, and the resource model's verdict of its whole kernel."""
+    if bud is None:  # every pass streams its records: today's one-lane streaming kernel
+        if fl.lanes > 1:
+            return "- (lanes need the window kernel)"
+        return "streaming kernel: " + rm.short_verdict(rm.fit_or_reason(rm.KernelConfig(f, bodies, manifolds), p))
+    return (f"{bud.total_bytes / (1 << 20):.2f} MiB {'within' if bud.fits else 'beyond'} the data bytes; kernel: "
+            + rm.short_verdict(budget_fit(bud, fl.lanes)))
+
+
+def floor_table(rows: Sequence[tuple[ob.Floors, ob.Budget | None, ob.Platform, NumberFormat]], bodies: int,
+                manifolds: int) -> list[str]:
     head = (f"{'platform':<9}{'format':<7}{'fetch':>14}{'lanes':>6}{'MB/step':>9}{'DDR c/mp':>9}{'compute c/mp':>13}"
-            f"{'floor c/mp':>11}  {'bound':<8}window")
+            f"{'floor c/mp':>11}  {'bound':<8}window bytes and whole-kernel fit (resource model)")
     lines = [head, "-" * len(head)]
     for fl, bud, p, f in rows:
         fetch = "every pass" if fl.fetch_every == 0 else f"per {fl.fetch_every} iter"
-        window = "-" if bud is None else ("fits" if bud.fits else "does not fit") + \
-            f" ({bud.total_bytes / (1 << 20):.2f} MiB)"
         lines.append(f"{p.name:<9}{f.name:<7}{fetch:>14}{fl.lanes:>6}{fl.bytes_per_step / 1e6:>9.1f}"
                      f"{fl.ddr_cycles / fl.manifold_passes:>9.3f}{fl.compute_cycles / fl.manifold_passes:>13.3f}"
-                     f"{fl.cycles_per_manifold_pass:>11.3f}  {fl.bound:<8}{window}")
+                     f"{fl.cycles_per_manifold_pass:>11.3f}  {fl.bound:<8}"
+                     f"{floor_fit(fl, bud, p, f, bodies, manifolds)}")
     return lines
 
 
@@ -180,14 +203,15 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
           "pass as streamed today, or a manifold's contact + friction record once per k iterations (packed, the "
           "impulses read and written with them), 1-4 manifold-passes issued per cycle; window = the budget of that "
           "fetch period's trailing window")
-    print("\n".join(floor_table(fl_rows)))
+    print("\n".join(floor_table(fl_rows, budget_row["bodies"], budget_row["manifolds"])))
     seconds = time.perf_counter() - t0
     print(f"\nmeasured in {seconds:.1f} s")
     return {"seed": args.seed, "windows": {f"{p}/{f}": w for (p, f), w in windows.items()}, "scenes": rows,
             "budget": [{"platform": b.platform.name, "format": b.fmt.name, "D": b.band, "trailing": b.trailing,
                         "impulses_resident": b.impulses_resident, "body_bytes": b.body_bytes,
                         "impulse_bytes": b.impulse_bytes, "window_bytes": b.window_bytes,
-                        "capacity_bytes": b.platform.data_bytes, "fits": b.fits} for b in budgets],
+                        "capacity_bytes": b.platform.data_bytes, "fits": b.fits,
+                        "kernel_fit": rm.short_verdict(budget_fit(b))} for b in budgets],
             "floors": [{"platform": p.name, "format": f.name, "fetch_every": fl.fetch_every, "lanes": fl.lanes,
                         "bytes_per_step": fl.bytes_per_step, "ddr_cycles": fl.ddr_cycles,
                         "compute_cycles": fl.compute_cycles, "bound": fl.bound,

@@ -12,11 +12,14 @@ from models.onchip_budget import Budget
 from models.record_window import WindowPlan
 from models.solution_error import SolutionError
 from sim import baselines
+from sim.resource_model import FitVerdict, NoEstimate, fit_rows
 
 BITS_SECTION = "bit-exactness (RTL kernel against the golden model, same format)"
 MODEL_SECTION = "cycle model (models/cycle_model.py)"
 ERROR_SECTION = "error (velocities after the step; dynamic bodies)"
 NO_REFERENCE = "no exact reference"
+FIT_SECTION = "fit on the platform (resource estimate of this configuration)"
+FitReport = Union[FitVerdict, NoEstimate]
 Sections = dict[str, dict[str, Any]]
 
 
@@ -181,6 +184,7 @@ class RunResult:
     speed: Optional[KernelSpeed] = None
     cycle_model: Optional[dict[str, Any]] = None  # models.cycle_model.report_section beside the RTL
     window: Optional[WindowFacts] = None
+    fit: Optional[FitReport] = None  # sim.resource_model.kernel_fit of the configuration run
 
     @property
     def label(self) -> str:
@@ -203,6 +207,7 @@ class ModelRunResult:
     schedule: str  # described
     dma: str  # described
     cycle_model: dict[str, Any] = field(default_factory=dict)  # models.cycle_model.report_section
+    fit: Optional[FitReport] = None  # sim.resource_model.kernel_fit of the configuration predicted
 
     @property
     def ok(self) -> bool:
@@ -215,9 +220,12 @@ AnyRunResult = Union[RunResult, ModelRunResult]
 def sections(result: AnyRunResult) -> Sections:
     """The report's sections of a run, in order."""
     if isinstance(result, ModelRunResult):
-        return {"scene": {"scene": result.label, "bodies": result.bodies, "manifolds": result.manifolds,
-                          "schedule": result.schedule, "DMA preset": result.dma},
-                MODEL_SECTION: result.cycle_model}
+        model: Sections = {"scene": {"scene": result.label, "bodies": result.bodies, "manifolds": result.manifolds,
+                                     "schedule": result.schedule, "DMA preset": result.dma},
+                           MODEL_SECTION: result.cycle_model}
+        if result.fit is not None:
+            model[FIT_SECTION] = fit_rows(result.fit)
+        return model
     s, k = result.scene, result.schedule
     out: Sections = {
         "scene": {"scene": s.label, "bodies": s.bodies, "dynamic bodies": s.dynamic_bodies, "manifolds": s.manifolds,
@@ -235,6 +243,8 @@ def sections(result: AnyRunResult) -> Sections:
         out[f"{MODEL_SECTION} vs RTL"] = result.cycle_model
     if result.window is not None:
         out["record window (rtl/pgs_window.sv)"] = _window(result.window)
+    if result.fit is not None:
+        out[FIT_SECTION] = fit_rows(result.fit)
     out[ERROR_SECTION] = _errors(result.errors)
     out["comparison with the thesis and with software solvers"] = _thesis(result.thesis)
     out["wall time of this run (s)"] = dict(result.seconds)
@@ -284,7 +294,8 @@ def _window(w: WindowFacts) -> dict[str, Any]:
     if b is not None:
         out[f"on-chip bytes on {b.platform.name}: body state + impulses + window"] = (
             f"{b.body_bytes:,} + {b.impulse_bytes:,} + {b.window_bytes:,} = {b.total_bytes:,} of "
-            f"{b.platform.data_bytes:,} ({'fits' if b.fits else 'does not fit'})")
+            f"{b.platform.data_bytes:,} data bytes ({'within' if b.fits else 'beyond'} them, counted as bytes; "
+            f"blocks with their port copies: {FIT_SECTION})")
     return out
 
 

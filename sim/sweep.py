@@ -77,6 +77,7 @@ from sim.kernel_step import golden_step, run_kernel_step
 from sim.point_results import PointLog
 from sim.trace_compare import kernel_bodies
 from sim.report import StagedDirectory
+from sim.resource_model import FitVerdict, kernel_fit, short_verdict
 from sim.run_result import NoExactReference
 from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label, load_frame, \
     velocity_error
@@ -86,7 +87,7 @@ COLUMNS = ["format", "iterations", "mode", "manifolds", "manifold_passes", "cycl
            "ms_at_clock", "ns_per_manifold_pass", "stalls", "bubbles", "bytes_streamed", "differing_bits",
            "max_dv_vs_exact", "max_dw_vs_exact", "median_dv_vs_exact", "p99_dv_vs_exact", "median_dw_vs_exact",
            "p99_dw_vs_exact", "max_dv_vs_float64_same_iters", "max_dv_rounding", "max_dw_rounding",
-           "max_dv_iteration", "max_dw_iteration"]
+           "max_dv_iteration", "max_dw_iteration", "fits", "fit"]
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -230,7 +231,15 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
             "bytes_streamed": streamed, "differing_bits": differing,
             **exact_columns(e_exact), "max_dv_vs_float64_same_iters": e_same.max_dv,
             "max_dv_rounding": e_rounding.max_dv, "max_dw_rounding": e_rounding.max_dw,
-            **float64_columns(e_iteration)}
+            **float64_columns(e_iteration), **fit_columns(job, point.dma)}
+
+
+def fit_columns(job: KernelJob, dma: str) -> dict[str, Any]:
+    """Whether the point's kernel fits its DMA preset's platform (sim.resource_model; "" without an estimate)."""
+    v = kernel_fit(job, dma)
+    if isinstance(v, FitVerdict):
+        return {"fits": v.fits, "fit": f"{v.headline()} ({v.shares_text()})"}
+    return {"fits": "", "fit": short_verdict(v)}
 
 
 def exact_columns(e: SolutionError | NoExactReference) -> dict[str, Any]:
@@ -306,7 +315,7 @@ def sweep(args: argparse.Namespace, log_dir: Path) -> tuple[list[dict[str, Any]]
         print(f"{row['format']:>6} {row['iterations']:>3} it ({row['mode']}): {row['cycles']:>9,} cycles "
               f"({row['cycles_per_manifold_pass']:.2f}/mp), max |dv| vs exact reference "
               f"{_number(row['max_dv_vs_exact'])} m/s, vs float64 same iterations {row['max_dv_vs_float64_same_iters']:.3e}, differing bits "
-              f"{row['differing_bits'] if row['mode'] == 'rtl' else 'n/a (model)'}", flush=True)
+              f"{row['differing_bits'] if row['mode'] == 'rtl' else 'n/a (model)'}, {row.get('fit', '')}", flush=True)
     return rows, name
 
 
@@ -351,7 +360,10 @@ def _plot_panel(ax: Any, rows: list[dict[str, Any]], columns: tuple[str, str, st
             continue
         colour = f"C{c % 10}"
         x = [r["ns_per_manifold_pass"] if against_time else r["iterations"] for r in pts]
-        ax.plot(x, [max(r[exact_col], ERROR_FLOOR) for r in pts], "o-", color=colour, label=f"{fmt}: against exact")
+        y = [max(r[exact_col], ERROR_FLOOR) for r in pts]
+        ax.plot(x, y, "-", color=colour, label=f"{fmt}: against exact")
+        for r, xi, yi in zip(pts, x, y):  # a design that does not fit its platform is drawn hollow
+            ax.plot(xi, yi, "o", color=colour, markerfacecolor="none" if r.get("fits") in (False, "False") else colour)
         meet = floor_meets_iteration(pts, rounding_col, iteration_col)
         if meet is not None:
             ax.plot(meet["ns_per_manifold_pass"] if against_time else meet["iterations"],
@@ -418,7 +430,8 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
     how = {"model": "MODE=model: cycle model's cycles, golden model's numbers (bit-exact with the RTL kernel)",
            "rtl": "MODE=rtl: the RTL kernel in Verilator"}
     fig.suptitle(f"{title}\n{'; '.join(str(how.get(m, m)) for m in modes)}; thesis marks: 4 iterations of their "
-                 f"127,000-manifold frame; star: rounding alone reaches the iteration error", fontsize=9)
+                 f"127,000-manifold frame; star: rounding alone reaches the iteration error; hollow: does not fit the "
+                 f"platform (sim/resource_model.py)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

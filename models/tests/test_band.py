@@ -140,12 +140,14 @@ def test_budget_by_hand() -> None:
     zcu = ob.get_platform("zcu102")
     assert zcu.data_bytes == 912 * 4096 and zcu.raw_bytes == 912 * 4608 == 4104 * 1024
     assert ob.get_platform("u280").data_bytes == 2016 * 4096 + 960 * 32768
+    assert [zcu.capacity(k) for k in ob.USABLE_SHARE] == [274_080, 548_160, 2_520, 912, 0]
+    assert [ob.get_platform("u280").capacity(k) for k in ob.USABLE_SHARE] == [1_303_680, 2_607_360, 9_024, 2016, 960]
     b = ob.budget(zcu, FP32, num_bodies=10, num_manifolds=100, band=7, trailing=3)
     assert (b.body_bytes, b.impulse_bytes, b.window_bytes) == (10 * 17 * 4, 100 * 6 * 4, 21 * 164)
     assert b.total_bytes == 6524 and b.fits
     b = ob.budget(zcu, FP16, num_bodies=3, num_manifolds=100, band=7, trailing=1, impulses_resident=False)
     assert (b.body_bytes, b.impulse_bytes, b.window_bytes) == (102, 7 * 6 * 2, 7 * 90)
-    one_block = ob.OnChipMemory("one", "zcu102", bram36=1, uram=0)
+    one_block = ob.Platform("one", "zcu102", bram36=1, uram=0)
     assert ob.budget(one_block, FP32, 60, 0, 0).fits  # 4,080 B of 4,096
     assert not ob.budget(one_block, FP32, 61, 0, 0).fits  # 4,148 B
     with pytest.raises(ValueError, match="unknown platform"):
@@ -172,5 +174,8 @@ def test_floors_by_hand() -> None:
     assert two.compute_cycles == 4000 + 20
     assert two.cycles_per_manifold_pass == pytest.approx(max(two.ddr_cycles, 4020) / 8000)
     assert ob.floors(p, FP32, 10, 1000, 4, fetch_every=4).bytes_per_step == 1000 * ob.record_bytes(FP32) + bodies
+    # streaming with the impulses travelling (the thesis's way): every pass reads and writes them, 24 B each way
+    travelling = ob.floors(p, FP32, 10, 1000, 4, fetch_every=0, impulses_resident=False)
+    assert travelling.bytes_per_step == today.bytes_per_step + 1000 * 4 * 2 * 24
     with pytest.raises(ValueError):
         ob.floors(p, FP32, 10, 1000, 4, fetch_every=1, lanes=0)

@@ -24,7 +24,10 @@ def test_band_figures(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Non
         assert r["bands"][r["best"]]["D"] == min(r["bands"][n]["D"] for n in BANDED_ORDERS)
     # platforms x 3 formats x fetch periods {1, 2} x impulse placements
     assert len(figures["budget"]) == len(PLATFORMS) * 3 * 2 * 2 and all(b["fits"] for b in figures["budget"])
-    assert "does not fit" not in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "does not fit" not in out and "whole kernel (resource model, 1 lane)" in out
+    assert all(b["kernel_fit"] in ("FITS", "no estimate") or b["kernel_fit"].startswith("DOES NOT FIT (")
+               for b in figures["budget"])
 
 
 def test_band_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -1,0 +1,116 @@
+"""The resource model: memories mapped with the copies their ports need, delay lines, the per-operator sum of a
+pipe, the verdict against a platform, and the fit lines of a run."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from models import onchip_budget as ob
+from models.number_format import FP16, FP32
+from sim import resource_model as rm
+from sim.run_result import FIT_SECTION, ModelRunResult, sections
+
+ZCU102, U280 = ob.get_platform("zcu102"), ob.get_platform("u280")
+THESIS = (38_881, 147_485)
+
+
+def test_true_dual_port_serves_two_reads_and_lvt_banks_grow_with_ports() -> None:
+    one = rm.memories(rm.KernelConfig(FP32, 1024, 1024))
+    four = rm.memories(rm.KernelConfig(FP32, 1024, 1024, lanes=4, window=1024))
+    assert (one[0].copies, one[0].true_dual_port, one[1].copies) == (1, True, 4)
+    assert (four[0].copies, four[1].copies) == (4, 64)  # 8 read ports: 4 TDP copies; 8W8R: 64 banks
+    banked = rm.memories(rm.KernelConfig(FP32, 1024, 1024, lanes=4, window=1024, body_ports="banked"))
+    assert banked[1].copies == 8 and banked[1].depth == 128
+    # a true dual-port block is at most 36 bits wide: 1K x 72 takes two RAMB36, simple dual-port one
+    assert rm.bram36_for(512, 72) == 1 and rm.bram36_for(512, 72, true_dual_port=True) == 2
+    assert rm.bram36_for(1024, 72) == 2 and rm.bram36_for(1024, 72, true_dual_port=True) == 2
+    assert rm.bram36_for(1024, 36, true_dual_port=True) == 1 and rm.bram36_for(1024, 18, true_dual_port=True) == 0.5
+
+
+def test_levers_shrink_the_memories() -> None:
+    base = rm.KernelConfig(FP32, *THESIS, window=16384)
+    lean = rm.KernelConfig(FP32, *THESIS, window=16384, impulses_resident=False, body_words="solve")
+
+    def bram(cfg: rm.KernelConfig) -> float:
+        return sum(m.resources().bram36 for m in rm.memories(cfg))
+
+    names = [m.name for m in rm.memories(lean)]
+    assert not any("impulses" in n for n in names) and "43 words" in names[-1]  # the ring carries them
+    assert bram(lean) < bram(base)
+
+
+def test_uram_takes_the_deep_arrays_where_the_platform_has_it() -> None:
+    cfg = rm.KernelConfig(FP32, *THESIS)
+    on_u280, on_zcu = rm.estimate(cfg, U280).total, rm.estimate(cfg, ZCU102).total
+    assert on_zcu.uram == 0 and on_u280.uram > 0 and on_u280.bram36 < on_zcu.bram36
+    assert rm.uram_for(4096, 72) == 1 and rm.uram_for(4097, 73) == 4
+
+
+def test_delay_lines() -> None:
+    assert rm.delay_line_resources(rm.DelayLine(0, 3, (1, 3)), 32) == rm.Resources(ff=96)  # shift register
+    short = rm.delay_line_resources(rm.DelayLine(0, 20, (20,)), 16)  # 16 bit-reads: two RAM32M16
+    assert short.lut == 16 + 5 and short.ff == 16 + 5
+    deep = rm.delay_line_resources(rm.DelayLine(0, 137, (4, 53, 137)), 32)  # 3 taps of 32 bits, 3 x 64 deep
+    assert deep.lut == 8 * 3 * math.ceil(96 / 7) + 96 * 1 + 8 and deep.ff == 96 + 8
+
+
+def test_pipe_shapes_follow_the_generator() -> None:
+    contact = rm.pipe_shape("pgs_contact_pipe", FP32.man_bits)
+    assert contact.operators == {"fp_add": 152, "fp_mul": 178, "fp_minmax": 4} and contact.latency == 179
+    integ16, integ32 = (rm.pipe_shape("pgs_integrate_pipe", f.man_bits) for f in (FP16, FP32))
+    assert integ32.latency - integ16.latency == 4 * (FP32.man_bits - FP16.man_bits)
+
+
+def test_per_operator_sum_uses_the_committed_figures_and_vendor_where_published() -> None:
+    data = rm.figures()
+    cfg = rm.KernelConfig(FP32, 0, 0)
+    yosys, sources = rm.pipe_resources("pgs_contact_pipe", cfg, data)
+    add = rm.operator_figure("fp_add", FP32, data=data).resources
+    mul = rm.operator_figure("fp_mul", FP32, data=data).resources
+    assert yosys.dsp == 152 * add.dsp + 178 * mul.dsp + 4 * rm.operator_figure("fp_minmax", FP32, data=data).resources.dsp
+    assert any(s.startswith("152 fp_add (Yosys)") for s in sources)
+    vendor, vsources = rm.pipe_resources("pgs_contact_pipe", rm.KernelConfig(FP32, 0, 0, operator_source="vendor"),
+                                         data)
+    assert vendor.dsp - yosys.dsp == 152 * (2 - add.dsp) and any("fadd full_dsp" in s for s in vsources)
+    with pytest.raises(KeyError, match="e6m9"):
+        rm.operator_figure("fp_add", rm.NumberFormat("e6m9", 6, 9), data=data)
+
+
+def test_verdicts_of_the_thesis_frame() -> None:
+    stream32 = rm.fit(rm.KernelConfig(FP32, *THESIS), ZCU102)
+    assert not stream32.fits and stream32.overflows[0] == "BRAM36" and stream32.shares["BRAM36"] > 1
+    assert "DOES NOT FIT the zcu102: BRAM36" in stream32.headline()
+    tiny = rm.fit(rm.KernelConfig(FP16, 217, 635), ZCU102)
+    assert tiny.fits and tiny.headline() == "FITS the zcu102" and all(tiny.shares[k] < 0.85 for k in rm.KEYS)
+    assert rm.fit(rm.KernelConfig(FP32, *THESIS), U280).fits
+
+
+def test_bad_configurations() -> None:
+    with pytest.raises(ValueError, match="power of two"):
+        rm.KernelConfig(FP32, 1, 1, lanes=3, window=16)
+    with pytest.raises(ValueError, match="window kernel"):
+        rm.KernelConfig(FP32, 1, 1, lanes=2)
+    with pytest.raises(ValueError, match="body_words"):
+        rm.KernelConfig(FP32, 1, 1, body_words="some")
+
+
+def test_fit_section_of_a_run() -> None:
+    v = rm.fit(rm.KernelConfig(FP32, *THESIS), ZCU102)
+    result = ModelRunResult("r", "thesis", THESIS[0], THESIS[1], "hazard", "zcu102", {}, fit=v)
+    rows = sections(result)[FIT_SECTION]
+    assert rows["configuration"].startswith("fp32, streaming kernel, 38,881 bodies")
+    assert any(val.startswith("DOES NOT FIT") for val in rows.values())
+    assert "BRAM36" in rows["LUT, FF, DSP, BRAM36, URAM (share of the device)"]
+    none = sections(ModelRunResult("r", "x", 1, 1, "hazard", "ideal", {}, fit=rm.NoEstimate("no platform")))
+    assert none[FIT_SECTION] == {"verdict": "no estimate (no platform)"}
+
+
+def test_redesign_table(capsys: pytest.CaptureFixture[str]) -> None:
+    from sim import redesign_fit
+
+    assert redesign_fit.main(["--formats", "fp16", "--platform", "u280"]) == 0
+    out = capsys.readouterr().out
+    assert "fitting designs, fastest floor first" in out and "| fp16 | window x4 |" in out
+    assert redesign_fit.main(["--formats", "fp64"]) == 2
