@@ -51,6 +51,7 @@ from sim.harness_run import KernelRunError, text_progress
 from sim.kernel_build import KernelBuild, default_window
 from sim.kernel_step import Golden, KernelResult, golden_step, run_kernel_step
 from sim.report import StagedDirectory, print_summary, write_report
+from sim.resource_model import kernel_fit
 from sim.run_result import AnyRunResult, BitExactness, KernelSpeed, ModelRunResult, RunResult, SceneFacts, \
     ScheduleFacts, StepErrors, ThesisComparison, VelocityError, WindowFacts, sections
 from sim.trace_compare import kernel_bodies
@@ -250,7 +251,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
     if args.mode == "model":  # MODE=model: the cycle model's estimate alone
         return ModelRunResult(name, label, frame.num_bodies, frame.num_manifolds, sched_stats.describe(),
-                              preset.describe(), model_section(job, preset)), None
+                              preset.describe(), model_section(job, preset), fit=kernel_fit(job, args.dma)), None
 
     ref = timer.run("float64 reference solve + integrate", _solve_and_integrate, bodies, cons, schedule, params, ip)
     golden = timer.run(f"{fmt.name} golden model solve + integrate", golden_step, job)
@@ -293,6 +294,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
             "float64 reference (numpy)": timer.seconds["float64 reference solve + integrate"],
             f"{fmt.name} golden model (numpy)": timer.seconds[f"{fmt.name} golden model solve + integrate"]}),
         timer.seconds)
+    result.fit = kernel_fit(job, args.dma)
     if res is not None:
         cmp = res.comparison
         result.bits = BitExactness(cmp.differing_bits, cmp.differing_words, cmp.records, cmp.bodies,
