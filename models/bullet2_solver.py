@@ -27,7 +27,9 @@ from typing import Any
 
 import numpy as np
 
+from models.constraints import combined_friction
 from models.frame import Frame
+from models.inertia import quat_to_matrix, rotate_diagonal
 
 DBL_EPSILON = float(np.finfo(np.float64).eps)
 SIMDSQRT12 = 0.7071067811865475244008443621048490
@@ -99,22 +101,6 @@ def _matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         for j in range(3):
             out[..., i, j] = a[..., i, 0] * b[..., 0, j] + a[..., i, 1] * b[..., 1, j] + a[..., i, 2] * b[..., 2, j]
     return out
-
-
-def quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    """btMatrix3x3::setRotation."""
-    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    d = x * x + y * y + z * z + w * w
-    s = 2.0 / d
-    xs, ys, zs = x * s, y * s, z * s
-    wx, wy, wz = w * xs, w * ys, w * zs
-    xx, xy, xz = x * xs, x * ys, x * zs
-    yy, yz, zz = y * ys, y * zs, z * zs
-    m = np.empty(q.shape[:-1] + (3, 3))
-    m[..., 0, 0], m[..., 0, 1], m[..., 0, 2] = 1.0 - (yy + zz), xy - wz, xz + wy
-    m[..., 1, 0], m[..., 1, 1], m[..., 1, 2] = xy + wz, 1.0 - (xx + zz), yz - wx
-    m[..., 2, 0], m[..., 2, 1], m[..., 2, 2] = xz - wy, yz + wx, 1.0 - (xx + yy)
-    return m
 
 
 def _quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -223,9 +209,8 @@ def solve_frame(frame: Frame, settings: SolverSettings | None = None) -> Bullet2
     with np.errstate(divide="ignore"):
         inv_inertia = np.where(inertia != 0.0, 1.0 / np.where(inertia == 0.0, 1.0, inertia), 0.0)
     inv_inertia[~dyn] = 0.0
-    rot = quat_to_matrix(q)
     # m_invInertiaTensorWorld = basis.scaled(invInertiaLocal) * basis.transpose()
-    inv_iw = _matmul(rot * inv_inertia[:, None, :], np.swapaxes(rot, 1, 2))
+    inv_iw = rotate_diagonal(q, inv_inertia)
     inv_iw[~dyn] = 0.0
     # external impulses: force = gravity * (1/invMass); (force * invMass) * dt
     g = frame.gravity
@@ -250,8 +235,7 @@ def solve_frame(frame: Frame, settings: SolverSettings | None = None) -> Bullet2
     pa = frame.point_on_a[mi, pi]
     pb = frame.point_on_b[mi, pi]
     dist = frame.distance[mi, pi]
-    mu = frame.friction[ia] * frame.friction[ib]
-    mu = np.clip(mu, -10.0, 10.0)
+    mu = combined_friction(frame.friction, ia, ib)
     ra = pa - x[ia]
     rb = pb - x[ib]
     zero3 = np.zeros_like(n)

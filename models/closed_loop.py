@@ -7,6 +7,11 @@ reports: penetration, drift of the bodies from where the loop started, speed, ki
 
 pybullet's state is moved to the GPU convention when the loop starts (g*dt added to dynamic linear
 velocities, see ``constraints.body_table_from_state``): at rest the stored velocity is then -g*dt, as on the GPU.
+
+The inverse inertia follows the loop's Bullet convention (``models/inertia.py``): ``bullet2`` recomputes
+``R diag R^T`` from every step's orientation (Bullet 2's ``updateInertiaTensor``) and takes the pairs' combined
+friction (per manifold where it differs from the solver's one coefficient); ``bullet_gpu`` registers it once at
+the loop's first state and never updates it; ``world_axes`` (the default) keeps the unrotated diagonal.
 """
 
 from __future__ import annotations
@@ -17,9 +22,10 @@ from typing import Any, Callable
 import numpy as np
 
 from . import scenes
-from .constraints import BodyTable, body_table_from_state, setup_constraints
+from .constraints import BodyTable, body_table_from_state, friction_register, setup_constraints
 from .contact_solver import SolverParams, solve
 from .frame import Frame
+from .inertia import CONVENTION_KEY, DEFAULT_CONVENTION, BulletConvention, convention_inverse_inertia, quat_to_matrix
 from .integrator import IntegrationParams, integrate
 from .number_format import FLOAT64, Arithmetic
 from .schedule import make_schedule
@@ -66,17 +72,17 @@ class LoopResult:
 
 
 def _kinetic_energy(bodies: BodyTable, inertia_local: np.ndarray) -> float:
+    """Translational plus rotational energy with the true inertia (the angular velocity in the principal frame)."""
     dyn = bodies.dynamic
     mass = 1.0 / bodies.inv_mass[dyn]
     v2 = np.sum(bodies.linear_velocity[dyn] ** 2, axis=1)
-    w = bodies.angular_velocity[dyn]
-    # the cubes' true inertia is isotropic, so the world-frame rotational energy is 0.5 * I * |w|^2
-    rot = np.sum(inertia_local[dyn] * w * w, axis=1)
+    w_body = np.einsum("nji,nj->ni", quat_to_matrix(bodies.orientation[dyn]), bodies.angular_velocity[dyn])
+    rot = np.sum(inertia_local[dyn] * w_body * w_body, axis=1)
     return float(0.5 * np.sum(mass * v2) + 0.5 * np.sum(rot))
 
 
 def _contact_frame(world: scenes.SceneWorld, bodies: BodyTable, mf: scenes.Manifolds, state: dict[str, np.ndarray],
-                   gravity: np.ndarray) -> Frame:
+                   gravity: np.ndarray, convention: BulletConvention) -> Frame:
     """A Frame view of this step's contacts (only the fields the constraint setup reads are meaningful)."""
     n = bodies.num_bodies
     return Frame(position=bodies.position, orientation=bodies.orientation, linear_velocity=bodies.linear_velocity,
@@ -84,13 +90,15 @@ def _contact_frame(world: scenes.SceneWorld, bodies: BodyTable, mf: scenes.Manif
                  inertia_local=state["inertia_local"], half_extents=state["half_extents"],
                  shape_index=state["shape_index"], friction=state["friction"], **mf.as_dict(),
                  post_linear_velocity=np.zeros((n, 3)), post_angular_velocity=np.zeros((n, 3)),
-                 meta={"dt": world.dt, "gravity": gravity.tolist(), "scene": world.scene})
+                 meta={"dt": world.dt, "gravity": gravity.tolist(), "scene": world.scene,
+                       CONVENTION_KEY: convention.value})
 
 
 def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations: int = 4,
                     schedule: str = "pybullet", window: int = 64, settle_steps: int = 0, warmup_steps: int = 0,
-                    seed: int = 0, stepper: StepperFactory = golden_stepper, **params: Any) -> LoopResult:
-    """Run ``steps`` closed-loop steps of a scene and measure them.
+                    seed: int = 0, stepper: StepperFactory = golden_stepper,
+                    convention: BulletConvention = DEFAULT_CONVENTION, **params: Any) -> LoopResult:
+    """Run ``steps`` closed-loop steps of a scene and measure them, inertia and friction in ``convention``.
 
     ``settle_steps`` of pybullet's own solver come first; then ``warmup_steps`` of our own loop, which are
     not measured (a stack sinks to the GPU solver's 5 mm resting penetration per contact); drift is
@@ -98,14 +106,14 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
     """
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
-    solver = SolverParams(iterations=iterations)
     with scenes.build_world(scene, seed=seed, **params) as world:
         for _ in range(settle_steps):
             world.step()
         state = world.body_state()
         gravity = np.asarray(scenes.GRAVITY, dtype=np.float64)
         ip = IntegrationParams(dt=world.dt, gravity=tuple(gravity))
-        bodies = body_table_from_state(state, gravity, world.dt).rounded(ar)
+        solver = SolverParams(iterations=iterations, friction_coeff=friction_register(state["friction"], convention))
+        bodies = body_table_from_state(state, gravity, world.dt, convention=convention).rounded(ar)
         advance = stepper(ar, solver, ip)
         dyn = bodies.dynamic
         rows: dict[str, list[float]] = {k: [] for k in ("pen", "vmax", "vmed", "ke", "bad", "man")}
@@ -114,10 +122,13 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
             if step == warmup_steps:
                 start = bodies.position.copy()
                 rows = {k: [] for k in rows}
+            if convention is BulletConvention.BULLET2:
+                bodies.inv_inertia = ar.round(convention_inverse_inertia(
+                    convention, bodies.orientation, bodies.inv_mass, state["inertia_local"], state["half_extents"]))
             world.set_body_state(bodies.position, bodies.orientation, bodies.linear_velocity, bodies.angular_velocity)
             mf = world.detect_collisions()
-            frame = _contact_frame(world, bodies, mf, state, gravity)
-            cons = setup_constraints(frame, bodies).rounded(ar)
+            frame = _contact_frame(world, bodies, mf, state, gravity, convention)
+            cons = setup_constraints(frame, bodies, solver.friction_coeff).rounded(ar)
             order = make_schedule(schedule, cons, dyn, window)
             bodies = advance(bodies, cons, order)
             valid = np.arange(4)[None, :] < mf.num_points[:, None]

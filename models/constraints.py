@@ -28,7 +28,11 @@ Deliberate deviations from Bullet's GPU code (each documented in docs/architectu
   manifolds they are equal);
 * the tangent basis and the spin-damping test, which Bullet recomputes in every friction solve from
   the constant normal and positions, are computed once here and streamed;
-* setup arithmetic is float64 (Bullet: float32 with fast_normalize/native_divide).
+* setup arithmetic is float64 (Bullet: float32 with fast_normalize/native_divide);
+* K uses the same world inverse inertia as the solve (Bullet's setup uses the unrotated local one,
+  ``m_initInvInertia``); the inverse inertia and the friction coefficient follow the frame's Bullet convention
+  (``models/inertia.py``; ``friction`` per manifold where the pairs' combined friction differs from the solver's
+  one coefficient).
 """
 
 from __future__ import annotations
@@ -39,12 +43,18 @@ from typing import Mapping
 import numpy as np
 
 from .frame import Frame
+from .inertia import (AABB_MARGIN, BulletConvention, convention_inverse_inertia, convention_of, gpu_inverse_inertia,
+                      quadratic_form)
 from .number_format import Arithmetic
+
+__all__ = ["AABB_MARGIN", "FRICTION_COEFF", "MAX_FRICTION", "BodyTable", "ConstraintSet", "body_table",
+           "body_table_from_state", "combined_friction", "frame_friction_register", "friction_register", "gpu_inverse_inertia", "plane_space",
+           "setup_constraints"]
 
 POSITION_DRIFT = 0.005  # m, Bullet GPU b3ConstraintCfg.m_positionDrift
 POSITION_COEFF = 0.2  # Bullet GPU b3ConstraintCfg.m_positionConstraintCoeff
 FRICTION_COEFF = 0.7  # hard-coded in Bullet's solveFriction kernel
-AABB_MARGIN = 0.01  # m, added to each side of the local AABB before the inertia computation
+MAX_FRICTION = 10.0  # Bullet's clamp of a pair's combined friction (btManifoldResult::calculateCombinedFriction)
 SPIN_DAMP_ALIGNMENT = 0.95
 
 
@@ -57,7 +67,7 @@ class BodyTable:
     linear_velocity: np.ndarray  # (N,3) m/s
     angular_velocity: np.ndarray  # (N,3) rad/s
     inv_mass: np.ndarray  # (N,) 1/kg
-    inv_inertia: np.ndarray  # (N,3) diagonal inverse inertia, 1/(kg m^2)
+    inv_inertia: np.ndarray  # (N,3) world diagonal or (N,6) symmetric 3x3 inverse inertia, 1/(kg m^2) (models/inertia.py)
 
     @property
     def num_bodies(self) -> int:
@@ -87,8 +97,21 @@ class ConstraintSet:
     tangent: np.ndarray  # (M,2,3)
     f_jac_inv: np.ndarray  # (M,2)
     spin_damp: np.ndarray  # (M,) bool
+    # (M,1) the pair's friction coefficient where a scene's friction varies; (M,0) (the default): every manifold
+    # uses the solver's one coefficient (SolverParams.friction_coeff, the kernel's constant)
+    friction: np.ndarray = None  # type: ignore[assignment]
 
-    _REAL_FIELDS = ("normal", "points", "jac_inv", "bias", "center", "tangent", "f_jac_inv")
+    _REAL_FIELDS = ("normal", "points", "jac_inv", "bias", "center", "tangent", "f_jac_inv", "friction")
+
+    def __post_init__(self) -> None:
+        if self.friction is None:
+            self.friction = np.zeros((self.body_a.shape[0], 0))
+        if self.friction.shape not in ((self.body_a.shape[0], 0), (self.body_a.shape[0], 1)):
+            raise ValueError(f"friction has shape {self.friction.shape}, expected ({self.body_a.shape[0]}, 0 or 1)")
+
+    @property
+    def per_manifold_friction(self) -> bool:
+        return self.friction.shape[-1] == 1
 
     @property
     def num_manifolds(self) -> int:
@@ -98,33 +121,24 @@ class ConstraintSet:
         return replace(self, **{name: arith.round(getattr(self, name)) for name in self._REAL_FIELDS})
 
 
-def gpu_inverse_inertia(half_extents: np.ndarray, inv_mass: np.ndarray) -> np.ndarray:
-    """Bullet GPU's box inertia: from the *full* AABB extent plus margin (``b3GpuNarrowPhase``).
-
-    ``e = 2 h + 2 margin`` is used as a half extent, so the box is ~2x too large per axis (a unit-mass
-    2 m cube gets 1/I = 0.36761 instead of 1.5). Static bodies get 0.
-    """
-    e = 2.0 * np.asarray(half_extents, dtype=np.float64) + 2.0 * AABB_MARGIN
-    l2 = (2.0 * e) ** 2
-    with np.errstate(divide="ignore"):
-        mass = np.where(inv_mass > 0, 1.0 / np.where(inv_mass > 0, inv_mass, 1.0), 0.0)
-    inertia = np.stack([l2[:, 1] + l2[:, 2], l2[:, 0] + l2[:, 2], l2[:, 0] + l2[:, 1]], axis=1) * (mass / 12.0)[:, None]
-    with np.errstate(divide="ignore"):
-        inv = np.where(inertia > 0, 1.0 / np.where(inertia > 0, inertia, 1.0), 0.0)
-    return np.where((inv_mass > 0)[:, None], inv, 0.0)
-
-
-def body_table(frame: Frame, gravity_preapplied: bool = True) -> BodyTable:
-    """The kernel's body table from a pybullet frame (see :func:`body_table_from_state`)."""
+def body_table(frame: Frame, gravity_preapplied: bool = True, convention: BulletConvention | None = None) -> BodyTable:
+    """The kernel's body table from a pybullet frame (see :func:`body_table_from_state`); the inverse inertia in
+    ``convention``, by default the one the frame names (``models.inertia.convention_of``), registered at the
+    frame's orientation."""
     return body_table_from_state(
         {"position": frame.position, "orientation": frame.orientation, "linear_velocity": frame.linear_velocity,
-         "angular_velocity": frame.angular_velocity, "inv_mass": frame.inv_mass, "half_extents": frame.half_extents},
-        frame.gravity, frame.dt, gravity_preapplied)
+         "angular_velocity": frame.angular_velocity, "inv_mass": frame.inv_mass, "half_extents": frame.half_extents,
+         "inertia_local": frame.inertia_local},
+        frame.gravity, frame.dt, gravity_preapplied,
+        convention if convention is not None else convention_of(frame.meta))
 
 
 def body_table_from_state(state: Mapping[str, np.ndarray], gravity: np.ndarray, dt: float,
-                          gravity_preapplied: bool = True) -> BodyTable:
-    """The kernel's body table from pybullet body state (arrays named as in :class:`~models.frame.Frame`).
+                          gravity_preapplied: bool = True,
+                          convention: BulletConvention = BulletConvention.WORLD_AXES) -> BodyTable:
+    """The kernel's body table from pybullet body state (arrays named as in :class:`~models.frame.Frame`;
+    ``inertia_local`` is read in the ``bullet2`` convention only). The inverse inertia is that of
+    ``convention`` at the state's orientation, in the narrowest mode that holds it (``models/inertia.py``).
 
     Bullet's GPU integrator adds g*dt to the velocity *after* the position update, so the velocity it
     stores (and solves with) already holds the next step's gravity, whereas pybullet applies g*dt inside
@@ -141,7 +155,9 @@ def body_table_from_state(state: Mapping[str, np.ndarray], gravity: np.ndarray, 
         linear_velocity=lin,
         angular_velocity=np.array(state["angular_velocity"], dtype=np.float64),
         inv_mass=inv_mass.copy(),
-        inv_inertia=gpu_inverse_inertia(state["half_extents"], inv_mass),
+        inv_inertia=convention_inverse_inertia(convention, np.asarray(state["orientation"], dtype=np.float64),
+                                               inv_mass, state["inertia_local"] if "inertia_local" in state else np.zeros_like(lin),
+                                               state["half_extents"]),
     )
 
 
@@ -172,8 +188,8 @@ def _effective_mass(direction: np.ndarray, r_a: np.ndarray, r_b: np.ndarray, bod
     ib = bodies.inv_inertia[b]
     if ca.ndim == 3:
         ia, ib = ia[:, None, :], ib[:, None, :]
-    return (bodies.inv_mass[a].reshape(-1, *([1] * (ca.ndim - 2))) + np.sum(ca * ia * ca, axis=-1)
-            + bodies.inv_mass[b].reshape(-1, *([1] * (ca.ndim - 2))) + np.sum(cb * ib * cb, axis=-1))
+    return (bodies.inv_mass[a].reshape(-1, *([1] * (ca.ndim - 2))) + quadratic_form(ia, ca)
+            + bodies.inv_mass[b].reshape(-1, *([1] * (ca.ndim - 2))) + quadratic_form(ib, cb))
 
 
 def _normalize(v: np.ndarray) -> np.ndarray:
@@ -181,8 +197,35 @@ def _normalize(v: np.ndarray) -> np.ndarray:
     return v / np.where(norm > 0, norm, 1.0)
 
 
-def setup_constraints(frame: Frame, bodies: BodyTable | None = None) -> ConstraintSet:
-    """Build one Constraint4 per manifold from a frame's contacts (float64, on the host)."""
+def combined_friction(friction: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Bullet's combined friction of each pair: muA * muB clamped to [-10, 10]
+    (``btManifoldResult::calculateCombinedFriction``)."""
+    return np.clip(np.asarray(friction, dtype=np.float64)[a] * np.asarray(friction, dtype=np.float64)[b],
+                   -MAX_FRICTION, MAX_FRICTION)
+
+
+def friction_register(friction: np.ndarray, convention: BulletConvention) -> float:
+    """The solver's one friction coefficient (``SolverParams.friction_coeff``, the kernel's constant) for bodies
+    of lateral friction ``friction`` (N,): Bullet GPU's hard-coded 0.7, or in the ``bullet2`` convention the
+    combined friction of any pair where every body has the same friction."""
+    f = np.asarray(friction, dtype=np.float64)
+    if convention is not BulletConvention.BULLET2 or f.size == 0 or np.any(f != f[0]):
+        return FRICTION_COEFF
+    return float(combined_friction(f[:1], np.zeros(1, np.int64), np.zeros(1, np.int64))[0])
+
+
+def frame_friction_register(frame: Frame) -> float:
+    """:func:`friction_register` of a frame's bodies in the frame's convention."""
+    return friction_register(frame.friction, convention_of(frame.meta))
+
+
+def setup_constraints(frame: Frame, bodies: BodyTable | None = None,
+                      friction_coeff: float | None = None) -> ConstraintSet:
+    """Build one Constraint4 per manifold from a frame's contacts (float64, on the host).
+
+    ``friction_coeff`` is the solver's one coefficient (default :func:`frame_friction_register`). In the ``bullet2``
+    convention, where a pair's combined friction differs from it, every manifold carries its own
+    (``ConstraintSet.friction``)."""
     bodies = bodies if bodies is not None else body_table(frame)
     a = frame.body_a.astype(np.int64)
     b = frame.body_b.astype(np.int64)
@@ -213,10 +256,16 @@ def setup_constraints(frame: Frame, bodies: BodyTable | None = None) -> Constrai
     ac = _normalize(center - x_a)
     aligned = np.sum(ab * ac, axis=1) > SPIN_DAMP_ALIGNMENT
     spin_damp = aligned | (bodies.inv_mass[a] == 0.0) | (bodies.inv_mass[b] == 0.0)
+    register = frame_friction_register(frame) if friction_coeff is None else friction_coeff
+    friction = np.zeros((m, 0))
+    if convention_of(frame.meta) is BulletConvention.BULLET2:
+        mu = combined_friction(frame.friction, a, b)
+        if np.any(mu != register):
+            friction = mu[:, None]
     return ConstraintSet(
         body_a=a, body_b=b, num_points=frame.num_points.astype(np.int64), normal=normal, points=points,
         jac_inv=jac_inv, bias=bias, center=center, tangent=tangent, f_jac_inv=f_jac_inv,
-        spin_damp=spin_damp.astype(bool),
+        spin_damp=spin_damp.astype(bool), friction=friction,
     ) if m else _empty_constraints()
 
 

@@ -21,6 +21,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from .constraints import FRICTION_COEFF, BodyTable, ConstraintSet
+from .inertia import inertia_product
 from .number_format import Arithmetic
 
 SPIN_DAMP_FACTOR = 0.1
@@ -169,6 +170,7 @@ def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nda
         delta = (vrel + b) * jac_inv
         lam'  = max(lam + delta, 0) ; delta = lam' - lam
         vA += (mA n) delta ; wA += (IA cA) delta ; vB -= (mB n) delta ; wB -= (IB cB) delta
+    (IA cA: models.inertia.inertia_product, a per-component product for a diagonal, the symmetric 3x3 otherwise)
     """
     n = cons.normal[idx]
     lam = lam.copy()
@@ -188,7 +190,7 @@ def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nda
         new = ar.max(ar.add(lam[:, i], delta), zero)
         delta = ar.sub(new, lam[:, i])
         lam[:, i] = np.where(active, new, lam[:, i])
-        _apply(ar, g, lin_a, ar.mul(g.ia, ca), lin_b, ar.mul(g.ib, cb), delta, active)
+        _apply(ar, g, lin_a, inertia_product(ar, g.ia, ca), lin_b, inertia_product(ar, g.ib, cb), delta, active)
     return lam
 
 
@@ -196,7 +198,8 @@ def friction_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nd
                    lam_t: np.ndarray, friction_coeff: float) -> np.ndarray:
     """One friction pass over manifolds ``idx``; returns the new friction impulses (K,2).
 
-        limit = mu * ((lam0 + lam1) + (lam2 + lam3))           (mu = 0.7, Bullet's hard-coded value)
+        limit = mu * ((lam0 + lam1) + (lam2 + lam3))           (mu = friction_coeff, Bullet GPU's 0.7, or the
+                                                                 manifold's own where cons.friction holds it)
         rA = c - xA ; rB = c - xB
         for j in 0, 1 (tangent t_j = planeSpace(-n)[j]):
             cA = rA x t ; cB = rB x t
@@ -210,7 +213,8 @@ def friction_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nd
     lam_t = lam_t.copy()
     active = cons.f_jac_inv[idx, 0] != 0.0
     ln = lam_n[idx]
-    limit = ar.mul(ar.const(friction_coeff), ar.add(ar.add(ln[:, 0], ln[:, 1]), ar.add(ln[:, 2], ln[:, 3])))
+    mu = cons.friction[idx, 0] if cons.per_manifold_friction else ar.const(friction_coeff)
+    limit = ar.mul(mu, ar.add(ar.add(ln[:, 0], ln[:, 1]), ar.add(ln[:, 2], ln[:, 3])))
     neg_limit = -limit
     c = cons.center[idx]
     ra = ar.sub(c, g.xa)
@@ -225,7 +229,8 @@ def friction_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nd
         delta = ar.sub(new, lam_t[:, j])
         lam_t[:, j] = np.where(active, new, lam_t[:, j])
         # the friction impulse acts along -t on A and +t on B: negate delta and reuse _apply's signs
-        _apply(ar, g, scale3(ar, t, g.ma), ar.mul(g.ia, ca), scale3(ar, t, g.mb), ar.mul(g.ib, cb), -delta, active)
+        _apply(ar, g, scale3(ar, t, g.ma), inertia_product(ar, g.ia, ca), scale3(ar, t, g.mb),
+               inertia_product(ar, g.ib, cb), -delta, active)
     damp = active & cons.spin_damp[idx]
     if np.any(damp):
         n = cons.normal[idx]

@@ -16,7 +16,7 @@ from .contact_solver import CONTACT_PASS, SolverParams, pass_sequence
 from .dma_model import DmaPreset
 from .kernel_job import KernelJob
 from .number_format import NumberFormat
-from .stream_format import StreamLayout
+from .stream_format import KERNEL_INERTIA_WORDS, StreamLayout
 
 RTL_DIR = Path(__file__).resolve().parents[1] / "rtl"
 HAZARD_DEPTH = 256  # pgs_kernel defaults
@@ -64,8 +64,10 @@ class KernelShape:
     out_fifo_depth: int = OUT_FIFO_DEPTH
 
     @staticmethod
-    def of(fmt: NumberFormat, cons_bits: int = 512, body_bits: int = 128) -> "KernelShape":
-        lay = StreamLayout(fmt, cons_beat_bits=cons_bits, body_beat_bits=body_bits)
+    def of(fmt: NumberFormat, cons_bits: int = 512, body_bits: int = 128,
+           inertia_words: int = KERNEL_INERTIA_WORDS) -> "KernelShape":
+        """The shape of a build; ``inertia_words`` (1, 3 or 6) sets the body-in record's beats."""
+        lay = StreamLayout(fmt, cons_beat_bits=cons_bits, body_beat_bits=body_bits, inertia_words=inertia_words)
         return KernelShape(rtl_latency("pgs_contact_pipe", fmt), rtl_latency("pgs_friction_pipe", fmt),
                            rtl_latency("pgs_integrate_pipe", fmt), lay.contact_beats, lay.friction_beats,
                            lay.body_in_beats, lay.body_out_beats, cons_bits // 8, body_bits // 8)

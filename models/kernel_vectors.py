@@ -18,6 +18,11 @@ Layouts (word k of ``in_data`` / ``out_data``):
 * integrate in (18): 0-2 pos; 3-6 q (x, y, z, w); 7-9 v; 10-12 w; 13 dt; 14 damping; 15-17 g.
   Out (13): 0-2 pos; 3-6 q; 7-9 v; 10-12 w.
 
+The contact and friction layouts above are those of the kernel's build (3 inverse-inertia words per body). In the
+other inverse-inertia modes (``inertia_words`` 1 or 6, ``rtl.gen.kernel_graphs``) IInvA and IInvB take 1 or 6
+words each (6: xx, yy, zz, xy, xz, yz) and the words after them move; with ``manifold_friction`` the friction
+layout ends with the manifold's coefficient mu.
+
 Velocities of a static body (inverse mass 0) are returned as the golden computes them in its
 gathered state (the solver never writes them back), which is what the RTL computes too.
 """
@@ -31,11 +36,24 @@ import numpy as np
 from .constraints import FRICTION_COEFF, BodyTable, ConstraintSet
 from .contact_solver import (CONTACT_PASS, SolverParams, _Gathered, contact_solve, friction_solve, pass_sequence,
                              schedule_levels)
+from .inertia import inertia_mode
 from .integrator import ANGULAR_DAMPING, IntegrationParams, integrate
 from .number_format import Arithmetic
 
-CONTACT_N_IN, CONTACT_N_OUT = 53, 16
-FRICTION_N_IN, FRICTION_N_OUT = 46, 14
+CONTACT_N_OUT = 16
+FRICTION_N_OUT = 14
+
+
+def contact_n_in(inertia_words: int = 3) -> int:
+    return 47 + 2 * inertia_words
+
+
+def friction_n_in(inertia_words: int = 3, manifold_friction: bool = False) -> int:
+    return 40 + 2 * inertia_words + int(manifold_friction)
+
+
+CONTACT_N_IN = contact_n_in()
+FRICTION_N_IN = friction_n_in()
 INTEGRATE_N_IN, INTEGRATE_N_OUT = 18, 13
 
 # Body-state fields in the order of the word layouts (both pass kinds).
@@ -54,34 +72,53 @@ def _bodies_for_pairs(ba: dict[str, np.ndarray]) -> tuple[BodyTable, np.ndarray,
     bodies = BodyTable(
         position=inter(ba["xa"], ba["xb"]), orientation=np.zeros((2 * k, 4)),
         linear_velocity=inter(ba["va"], ba["vb"]), angular_velocity=inter(ba["wa"], ba["wb"]),
-        inv_mass=inter(ba["ma"], ba["mb"]), inv_inertia=inter(ba["ia"], ba["ib"]))
+        inv_mass=inter(ba["ma"], ba["mb"]), inv_inertia=inter(_as_table(ba["ia"]), _as_table(ba["ib"])))
     return bodies, np.arange(k) * 2, np.arange(k) * 2 + 1
 
 
-def _body_words(w: np.ndarray, base: int) -> dict[str, np.ndarray]:
+def _as_table(inertia: np.ndarray) -> np.ndarray:
+    """A pipe's inverse-inertia words as the body table holds them (a scalar repeated on the diagonal)."""
+    return np.repeat(inertia, 3, axis=1) if inertia.shape[1] == 1 else inertia
+
+
+def _body_words(w: np.ndarray, base: int, inertia_words: int = 3) -> dict[str, np.ndarray]:
     d = {name: w[:, base + 3 * i: base + 3 * i + 3] for i, name in enumerate(_BODY_FIELDS)}
     d["ma"], d["mb"] = w[:, base + 18], w[:, base + 19]
-    d["ia"], d["ib"] = w[:, base + 20: base + 23], w[:, base + 23: base + 26]
+    lo = base + 20
+    d["ia"], d["ib"] = w[:, lo: lo + inertia_words], w[:, lo + inertia_words: lo + 2 * inertia_words]
     return d
 
 
-def _gathered_words(g: _Gathered) -> list[np.ndarray]:
-    return [g.xa, g.xb, g.va, g.wa, g.vb, g.wb, g.ma[:, None], g.mb[:, None], g.ia, g.ib]
+def _inertia_words(inertia: np.ndarray, inertia_words: int) -> np.ndarray:
+    """A body table's (K, 3) or (K, 6) inverse inertia as ``inertia_words`` pipe words (refused where that
+    would drop a value: the rows' mode needs more words)."""
+    need = inertia_mode(inertia, np.ones(inertia.shape[0], dtype=bool)).words
+    if need > inertia_words:
+        raise ValueError(f"the inverse inertia needs {need} words per body, the pipe takes {inertia_words}")
+    if inertia_words == 6 and inertia.shape[1] == 3:
+        return np.concatenate([inertia, np.zeros((inertia.shape[0], 3))], axis=1)
+    return inertia[:, :inertia_words]
+
+
+def _gathered_words(g: _Gathered, inertia_words: int = 3) -> list[np.ndarray]:
+    return [g.xa, g.xb, g.va, g.wa, g.vb, g.wb, g.ma[:, None], g.mb[:, None], _inertia_words(g.ia, inertia_words),
+            _inertia_words(g.ib, inertia_words)]
 
 
 # --- contact -------------------------------------------------------------------------------------
-def contact_words(cons: ConstraintSet, idx: np.ndarray, lam: np.ndarray, g: _Gathered) -> np.ndarray:
+def contact_words(cons: ConstraintSet, idx: np.ndarray, lam: np.ndarray, g: _Gathered,
+                  inertia_words: int = 3) -> np.ndarray:
     """(K, 53) input words of manifolds ``idx`` with impulses ``lam`` (K,4) and gathered state ``g``."""
     k = len(idx)
     return np.concatenate([cons.normal[idx], cons.points[idx].reshape(k, 12), cons.jac_inv[idx], cons.bias[idx],
-                           lam] + _gathered_words(g), axis=1)
+                           lam] + _gathered_words(g, inertia_words), axis=1)
 
 
-def contact_golden(ar: Arithmetic, words: np.ndarray) -> np.ndarray:
+def contact_golden(ar: Arithmetic, words: np.ndarray, inertia_words: int = 3) -> np.ndarray:
     """(K, 53) input words -> (K, 16) output words of ``contact_solve`` (one manifold per row)."""
     w = np.asarray(words, dtype=np.float64)
     k = w.shape[0]
-    bodies, a, b = _bodies_for_pairs(_body_words(w, 27))
+    bodies, a, b = _bodies_for_pairs(_body_words(w, 27, inertia_words))
     cons = ConstraintSet(
         body_a=a, body_b=b, num_points=np.full(k, 4), normal=w[:, 0:3], points=w[:, 3:15].reshape(k, 4, 3),
         jac_inv=w[:, 15:19], bias=w[:, 19:23], center=np.zeros((k, 3)), tangent=np.zeros((k, 2, 3)),
@@ -93,24 +130,28 @@ def contact_golden(ar: Arithmetic, words: np.ndarray) -> np.ndarray:
 
 # --- friction ------------------------------------------------------------------------------------
 def friction_words(cons: ConstraintSet, idx: np.ndarray, lam_n: np.ndarray, lam_t: np.ndarray,
-                   g: _Gathered) -> tuple[np.ndarray, np.ndarray]:
+                   g: _Gathered, inertia_words: int = 3,
+                   manifold_friction: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """((K, 46) input words, (K,) spin_damp flags) of manifolds ``idx``."""
     k = len(idx)
+    mu = [cons.friction[idx]] if manifold_friction else []
     words = np.concatenate([cons.normal[idx], cons.center[idx], cons.tangent[idx].reshape(k, 6), cons.f_jac_inv[idx],
-                            lam_n, lam_t] + _gathered_words(g), axis=1)
+                            lam_n, lam_t] + _gathered_words(g, inertia_words) + mu, axis=1)
     return words, cons.spin_damp[idx].copy()
 
 
 def friction_golden(ar: Arithmetic, words: np.ndarray, spin_damp: np.ndarray,
-                    friction_coeff: float = FRICTION_COEFF) -> np.ndarray:
+                    friction_coeff: float = FRICTION_COEFF, inertia_words: int = 3,
+                    manifold_friction: bool = False) -> np.ndarray:
     """(K, 46) input words and (K,) flags -> (K, 14) output words of ``friction_solve``."""
     w = np.asarray(words, dtype=np.float64)
     k = w.shape[0]
-    bodies, a, b = _bodies_for_pairs(_body_words(w, 20))
+    bodies, a, b = _bodies_for_pairs(_body_words(w, 20, inertia_words))
     cons = ConstraintSet(
         body_a=a, body_b=b, num_points=np.full(k, 4), normal=w[:, 0:3], points=np.zeros((k, 4, 3)),
         jac_inv=np.zeros((k, 4)), bias=np.zeros((k, 4)), center=w[:, 3:6], tangent=w[:, 6:12].reshape(k, 2, 3),
-        f_jac_inv=w[:, 12:14], spin_damp=np.asarray(spin_damp, dtype=bool))
+        f_jac_inv=w[:, 12:14], spin_damp=np.asarray(spin_damp, dtype=bool),
+        friction=w[:, -1:] if manifold_friction else None)
     g = _Gathered(bodies, a, b)
     lam_t = friction_solve(ar, g, cons, np.arange(k), w[:, 14:18], w[:, 18:20], friction_coeff)
     return np.concatenate([lam_t, g.va, g.wa, g.vb, g.wb], axis=1)
@@ -159,11 +200,13 @@ class SceneVectors:
 
 def scene_vectors(bodies: BodyTable, cons: ConstraintSet, ar: Arithmetic, params: SolverParams = SolverParams(),
                   dt: float = 1.0 / 60.0, gravity: tuple[float, float, float] = (0.0, -9.8, 0.0),
-                  damping: float = ANGULAR_DAMPING, schedule: np.ndarray | None = None) -> SceneVectors:
+                  damping: float = ANGULAR_DAMPING, schedule: np.ndarray | None = None,
+                  inertia_words: int = 3) -> SceneVectors:
     """The inputs of every manifold-pass of a golden solve (manifolds in ``schedule`` order, default index
     order; evaluated level by level exactly like :func:`models.contact_solver.solve`, which is bit-identical
     to the sequential loop), and of the integration of every dynamic body afterwards. ``bodies``/``cons``
-    must be in the format."""
+    must be in the format; the friction words end with mu where ``cons`` carries a coefficient per manifold."""
+    mu = cons.per_manifold_friction
     out = bodies.copy()
     m = cons.num_manifolds
     lam_n, lam_t = np.zeros((m, 4)), np.zeros((m, 2))
@@ -174,10 +217,10 @@ def scene_vectors(bodies: BodyTable, cons: ConstraintSet, ar: Arithmetic, params
             a, b = cons.body_a[idx], cons.body_b[idx]
             g = _Gathered(out, a, b)
             if kind == CONTACT_PASS:
-                cw.append(contact_words(cons, idx, lam_n[idx], g))
+                cw.append(contact_words(cons, idx, lam_n[idx], g, inertia_words))
                 lam_n[idx] = contact_solve(ar, g, cons, idx, lam_n[idx])
             else:
-                words, spin = friction_words(cons, idx, lam_n[idx], lam_t[idx], g)
+                words, spin = friction_words(cons, idx, lam_n[idx], lam_t[idx], g, inertia_words, mu)
                 fw.append(words)
                 fs.append(spin)
                 lam_t[idx] = friction_solve(ar, g, cons, idx, lam_n, lam_t[idx], params.friction_coeff)
@@ -186,7 +229,7 @@ def scene_vectors(bodies: BodyTable, cons: ConstraintSet, ar: Arithmetic, params
     iw = integrate_words(out, dyn, float(ar.const(dt)), float(ar.const(damping)), ar.const(np.asarray(gravity)))
     empty = lambda n: np.zeros((0, n))  # noqa: E731
     return SceneVectors(
-        contact=np.concatenate(cw) if cw else empty(CONTACT_N_IN),
-        friction=np.concatenate(fw) if fw else empty(FRICTION_N_IN),
+        contact=np.concatenate(cw) if cw else empty(contact_n_in(inertia_words)),
+        friction=np.concatenate(fw) if fw else empty(friction_n_in(inertia_words, mu)),
         spin_damp=np.concatenate(fs) if fs else np.zeros(0, dtype=bool),
         integrate=iw)

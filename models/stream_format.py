@@ -21,7 +21,9 @@ friction           64-bit header, then 14 words: n(3), c(3), t0(3), t1(3), f_jac
 window             64-bit header, then the 23 contact words and the 14 friction words -> 64 + 37 W bits
 (window kernel)
 header             bits 31:0 body_a, bits 62:32 body_b, bit 63 spin_damp (all record kinds)
-body-in            17 words: pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass(1), inv_inertia(3)
+body-in            14 + I words: pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass(1), inv_inertia(I): I = 1
+                   (scalar), 3 (diagonal xx, yy, zz) or 6 (symmetric: xx, yy, zz, xy, xz, yz), the inverse-inertia
+                   mode (models/inertia.py); the kernel's build today: I = 3 (17 words)
 body-out           13 words: pos(3), q(4), v(3), w(3)
 trace              16 words: impulse[0..3] (friction: lamT, 0, 0), vA, wA, vB, wB (xyz each), then 64 bits:
 (trace port)       bits 31:0 slot, bits 47:32 iteration, bit 48 pass kind -> 16 W + 64 bits
@@ -48,13 +50,14 @@ import numpy as np
 
 from .constraints import BodyTable, ConstraintSet
 from .contact_solver import CONTACT_PASS, SolverParams, pass_sequence
+from .inertia import InertiaMode, inertia_mode
 from .number_format import NumberFormat
 
 HEADER_BITS = 64
 CONTACT_WORDS = 23
 FRICTION_WORDS = 14
 WINDOW_WORDS = CONTACT_WORDS + FRICTION_WORDS
-BODY_IN_WORDS = 17
+KERNEL_INERTIA_WORDS = InertiaMode.DIAGONAL.words  # the inverse-inertia words of the kernel's body-in record
 BODY_OUT_WORDS = 13
 # word offsets of a body-in record's fields (a body-out record is its first BODY_OUT_WORDS words)
 BODY_POSITION = 0          # pos(3)
@@ -62,7 +65,18 @@ BODY_ORIENTATION = 3       # q(4): x, y, z, w
 BODY_LINEAR_VELOCITY = 7   # v(3)
 BODY_ANGULAR_VELOCITY = 10  # w(3)
 BODY_INV_MASS = 13         # inv_mass(1)
-BODY_INV_INERTIA = 14      # inv_inertia(3)
+BODY_INV_INERTIA = 14      # inv_inertia(1, 3 or 6)
+INERTIA_WORDS = tuple(m.words for m in InertiaMode)
+
+
+def body_in_word_count(inertia_words: int = KERNEL_INERTIA_WORDS) -> int:
+    """Words of a body-in record carrying ``inertia_words`` (1, 3 or 6) inverse-inertia words."""
+    if inertia_words not in INERTIA_WORDS:
+        raise ValueError(f"a body-in record carries 1, 3 or 6 inverse-inertia words, got {inertia_words}")
+    return BODY_INV_INERTIA + inertia_words
+
+
+BODY_IN_WORDS = body_in_word_count()
 TRACE_WORDS = 16
 TRACE_TAIL_BITS = 64
 
@@ -159,15 +173,33 @@ def contact_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np
 
 def friction_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np.ndarray:
     """(K, 14) bit patterns: n(3), c(3), t0(3), t1(3), f_jac_inv(2)."""
+    if cons.per_manifold_friction:
+        raise ValueError("the constraints carry a friction coefficient per manifold (the scene's friction varies); "
+                         "the kernel's friction record has no friction word: it uses its one coefficient")
     vals = np.concatenate([cons.normal[idx], cons.center[idx], cons.tangent[idx, 0], cons.tangent[idx, 1],
                            cons.f_jac_inv[idx]], axis=1)
     return fmt.encode(vals)
 
 
-def body_in_words(fmt: NumberFormat, bodies: BodyTable) -> np.ndarray:
-    """(N, 17) bit patterns: pos(3), q(4), v(3), w(3), inv_mass(1), inv_inertia(3)."""
+def inertia_record_words(bodies: BodyTable, inertia_words: int = KERNEL_INERTIA_WORDS) -> np.ndarray:
+    """(N, inertia_words) values of the body-in record's inverse inertia; a table whose mode needs more words
+    than the record carries is refused (its dynamic bodies' values would be lost)."""
+    body_in_word_count(inertia_words)
+    v = np.asarray(bodies.inv_inertia, dtype=np.float64)
+    mode = inertia_mode(v, bodies.dynamic)
+    if mode.words > inertia_words:
+        raise ValueError(f"the body table's inverse inertia is in the {mode.value} mode ({mode.words} words: "
+                         f"{'rotated non-isotropic bodies' if mode is InertiaMode.FULL else 'non-isotropic bodies'}); "
+                         f"the body-in record carries {inertia_words}")
+    if inertia_words == 6 and v.shape[1] == 3:
+        return np.concatenate([v, np.zeros((v.shape[0], 3))], axis=1)
+    return v[:, :inertia_words]
+
+
+def body_in_words(fmt: NumberFormat, bodies: BodyTable, inertia_words: int = KERNEL_INERTIA_WORDS) -> np.ndarray:
+    """(N, 14 + inertia_words) bit patterns: pos(3), q(4), v(3), w(3), inv_mass(1), inv_inertia(inertia_words)."""
     vals = np.concatenate([bodies.position, bodies.orientation, bodies.linear_velocity, bodies.angular_velocity,
-                           bodies.inv_mass[:, None], bodies.inv_inertia], axis=1)
+                           bodies.inv_mass[:, None], inertia_record_words(bodies, inertia_words)], axis=1)
     return fmt.encode(vals)
 
 
@@ -191,6 +223,7 @@ class StreamLayout:
     fmt: NumberFormat
     cons_beat_bits: int = DEFAULT_CONS_BEAT_BITS
     body_beat_bits: int = DEFAULT_BODY_BEAT_BITS
+    inertia_words: int = KERNEL_INERTIA_WORDS
 
     @property
     def word_bits(self) -> int:
@@ -225,8 +258,12 @@ class StreamLayout:
         return beats_per_record(self.friction_bits, self.cons_beat_bits)
 
     @property
+    def body_in_words(self) -> int:
+        return body_in_word_count(self.inertia_words)
+
+    @property
     def body_in_beats(self) -> int:
-        return beats_per_record(BODY_IN_WORDS * self.word_bits, self.body_beat_bits)
+        return beats_per_record(self.body_in_words * self.word_bits, self.body_beat_bits)
 
     @property
     def body_out_beats(self) -> int:
@@ -366,21 +403,27 @@ def _last_flags(nrec: int, beats_per: int) -> np.ndarray:
     return last
 
 
-def pack_body_table(fmt: NumberFormat, bodies: BodyTable, beat_bits: int = DEFAULT_BODY_BEAT_BITS) -> Stream:
+def pack_body_table(fmt: NumberFormat, bodies: BodyTable, beat_bits: int = DEFAULT_BODY_BEAT_BITS,
+                    inertia_words: int = KERNEL_INERTIA_WORDS) -> Stream:
     """The body-in stream: one body-in record per body in index order, TLAST on the last beat."""
-    data = pack_records(None, body_in_words(fmt, bodies), fmt.width, beat_bits)
-    return Stream(data, _last_flags(bodies.num_bodies, beats_per_record(BODY_IN_WORDS * fmt.width, beat_bits)))
+    data = pack_records(None, body_in_words(fmt, bodies, inertia_words), fmt.width, beat_bits)
+    nbeats = beats_per_record(body_in_word_count(inertia_words) * fmt.width, beat_bits)
+    return Stream(data, _last_flags(bodies.num_bodies, nbeats))
 
 
-def unpack_body_table(fmt: NumberFormat, beats: np.ndarray, beat_bits: int = DEFAULT_BODY_BEAT_BITS) -> BodyTable:
-    """Inverse of :func:`pack_body_table` (values decoded to float64)."""
-    _, words = unpack_records(beats, BODY_IN_WORDS, fmt.width, beat_bits)
+def unpack_body_table(fmt: NumberFormat, beats: np.ndarray, beat_bits: int = DEFAULT_BODY_BEAT_BITS,
+                      inertia_words: int = KERNEL_INERTIA_WORDS) -> BodyTable:
+    """Inverse of :func:`pack_body_table` (values decoded to float64; a scalar record's inverse inertia comes
+    back as the three equal diagonal words of the body table)."""
+    _, words = unpack_records(beats, body_in_word_count(inertia_words), fmt.width, beat_bits)
     v = fmt.decode(words)
+    inertia = v[:, BODY_INV_INERTIA:BODY_INV_INERTIA + inertia_words]
     return BodyTable(position=v[:, BODY_POSITION:BODY_POSITION + 3],
                      orientation=v[:, BODY_ORIENTATION:BODY_ORIENTATION + 4],
                      linear_velocity=v[:, BODY_LINEAR_VELOCITY:BODY_LINEAR_VELOCITY + 3],
                      angular_velocity=v[:, BODY_ANGULAR_VELOCITY:BODY_ANGULAR_VELOCITY + 3],
-                     inv_mass=v[:, BODY_INV_MASS].copy(), inv_inertia=v[:, BODY_INV_INERTIA:BODY_INV_INERTIA + 3])
+                     inv_mass=v[:, BODY_INV_MASS].copy(),
+                     inv_inertia=np.repeat(inertia, 3, axis=1) if inertia_words == 1 else inertia.copy())
 
 
 def pack_body_out(fmt: NumberFormat, bodies: BodyTable, beat_bits: int = DEFAULT_BODY_BEAT_BITS) -> Stream:

@@ -2,14 +2,21 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+import pybullet as p
+
 from models import scenes
 from models.bullet2_solver import SolverSettings, compare_with_pybullet, plane_space, quat_to_matrix, solve_frame
+from models.constraints import body_table, setup_constraints
+from models.format_analyzer import friction_words_of, inertia_mode_of
 from models.frame import Frame
+from models.inertia import InertiaMode
+from models.scenes.specs import BoxSpec, SceneSpec
 
 VEL_TOL = 1e-9  # m/s, rad/s
 FORCE_TOL = 1e-6  # N (pybullet reports impulse / fixedTimeStep)
@@ -122,3 +129,68 @@ def test_parity_spinning_anisotropic_box_needs_the_gyroscopic_term() -> None:
     s = SolverSettings.from_frame(frames[0])
     s.gyroscopic = False
     assert compare_with_pybullet(frames[0], solve_frame(frames[0], s))["angular_velocity"] > 1e-3
+
+
+def _mixed_boxes_spec(seed: int) -> SceneSpec:
+    """Two layers of 3x3 boxes of random extents, masses (0.2..20 kg) and orientations, dropped on a ground box."""
+    rng = np.random.default_rng(seed)
+    bodies = [BoxSpec((20.0, 0.5, 20.0), 0.0, (0.0, -0.5, 0.0))]
+    for layer in range(2):
+        for i in range(3):
+            for k in range(3):
+                q = rng.normal(size=4)
+                q /= np.linalg.norm(q)
+                half = tuple(float(h) for h in rng.uniform(0.12, 0.45, 3))
+                pos = (0.7 * (i - 1) + 0.2 * layer, 0.5 + 0.75 * layer, 0.7 * (k - 1) - 0.15 * layer)
+                bodies.append(BoxSpec(half, float(10 ** rng.uniform(np.log10(0.2), np.log10(20.0))), pos,
+                                      tuple(float(x) for x in q)))
+    return SceneSpec(bodies, 1.0, {"seed": seed})
+
+
+@pytest.fixture(scope="module")
+def mixed_frames() -> list[Frame]:
+    """Rotated non-cube boxes of mixed masses and per-body friction (0.2..1.2), built with createMultiBody:
+    frames of the steps in which they land on the ground and on each other."""
+    world = scenes.SceneWorld(_mixed_boxes_spec(5), "mixed_boxes", 5, 1.0 / 60.0, 10)
+    with world:
+        rng = np.random.default_rng(6)
+        for i, bid in enumerate(world.body_ids.tolist()):
+            p.changeDynamics(bid, -1, lateralFriction=float(rng.uniform(0.2, 1.2)), physicsClientId=world.client)
+            world.friction[i] = p.getDynamicsInfo(bid, -1, physicsClientId=world.client)[1]
+        out = []
+        for step in range(1, 61):
+            if step % 6:
+                world.step()
+            else:
+                out.append(world.capture_step(extra_meta={"bullet_convention": "bullet2"}))
+    return out
+
+
+def test_parity_rotated_boxes_mixed_masses_and_friction(mixed_frames: list[Frame]) -> None:
+    busy = [f for f in mixed_frames if f.num_manifolds >= 5]
+    assert len(busy) >= 3
+    worst: dict[str, float] = {}
+    for f in busy:
+        err = compare_with_pybullet(f)
+        worst = {k: max(worst.get(k, 0.0), v) for k, v in err.items()}
+        assert err["linear_velocity"] <= VEL_TOL and err["angular_velocity"] <= VEL_TOL, err
+        assert err["normal_force"] <= FORCE_TOL, err
+        assert err["lateral_friction1"] <= FORCE_TOL and err["lateral_friction2"] <= FORCE_TOL, err
+    print("\nmixed boxes, %d frames (up to %d manifolds); max errors: " % (len(busy), max(f.num_manifolds for f in busy))
+          + ", ".join(f"{k} {v:.2e}" for k, v in worst.items()))
+    f = max(busy, key=lambda fr: fr.num_manifolds)
+    # the frame exercises what it claims: box-box contacts, rotated anisotropic bodies, mixed masses and friction
+    dyn = f.inv_mass > 0
+    assert np.any(dyn[f.body_a] & dyn[f.body_b])
+    assert np.ptp(f.inv_mass[dyn]) > 1.0 and np.unique(f.friction).size == f.num_bodies
+    assert np.all(np.ptp(f.inertia_local[dyn], axis=1) > 0)
+    # and the golden model takes it in the full mode with a friction coefficient per manifold
+    bodies = body_table(f)
+    assert inertia_mode_of(bodies) is InertiaMode.FULL
+    assert friction_words_of(setup_constraints(f, bodies)) == 1
+    # the inertia and the friction matter: dropping the rotation or the per-pair friction breaks the parity
+    unrotated = dataclasses.replace(f, orientation=np.tile([0.0, 0.0, 0.0, 1.0], (f.num_bodies, 1)))
+    bad = solve_frame(unrotated)
+    assert max(np.abs(bad.angular_velocity - f.post_angular_velocity)[dyn].max(), 0.0) > 1e-3
+    uniform = dataclasses.replace(f, friction=np.full(f.num_bodies, float(np.sqrt(np.mean(f.friction ** 2)))))
+    assert compare_with_pybullet(uniform)["lateral_friction1"] > 1e-3

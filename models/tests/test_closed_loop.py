@@ -37,3 +37,42 @@ def test_thesis_geometry_interior_rests() -> None:
     # the fastest body is a cube of the top layer
     top = (j == ny - 1).ravel()
     assert top[int(np.argmax(speed))]
+
+
+def _recording_stepper(seen: list[tuple[np.ndarray, np.ndarray]]):  # noqa: ANN202 (a StepperFactory)
+    from models.closed_loop import golden_stepper
+
+    def factory(ar, solver, ip):  # noqa: ANN001, ANN202
+        step = golden_stepper(ar, solver, ip)
+
+        def advance(bodies, cons, order):  # noqa: ANN001, ANN202
+            seen.append((bodies.orientation.copy(), bodies.inv_inertia.copy()))
+            return step(bodies, cons, order)
+        return advance
+    return factory
+
+
+def test_bullet2_convention_recomputes_the_inertia_every_step_and_bullet_gpu_freezes_it() -> None:
+    """A thin box spinning on a slope: in the bullet2 convention each step's inverse inertia is R diag R^T of that
+    step's orientation (the full 3x3); in the bullet_gpu convention it stays the one of the first state."""
+    from models.inertia import BulletConvention, convention_inverse_inertia
+    from models.number_format import FP32
+    from models.scenes import build_world
+
+    kw = dict(angle_deg=10.0, box_half_extents=(0.8, 0.1, 0.3))
+    with build_world("incline", **kw) as w:
+        st = w.body_state()
+    seen: list[tuple[np.ndarray, np.ndarray]] = []
+    r = run_closed_loop("incline", 6, FP32, 4, stepper=_recording_stepper(seen), convention=BulletConvention.BULLET2,
+                        **kw)
+    assert r.summary()["NaN/Inf values"] == 0 and len(seen) == 6
+    for q, inv in seen:
+        assert inv.shape == (3, 6)
+        want = FP32.round(convention_inverse_inertia(BulletConvention.BULLET2, q, st["inv_mass"], st["inertia_local"],
+                                                     st["half_extents"]))
+        assert np.array_equal(inv, want)
+    assert any(not np.array_equal(seen[0][0], q) for q, _ in seen[1:])  # the box turned, the inertia followed
+    frozen: list[tuple[np.ndarray, np.ndarray]] = []
+    run_closed_loop("incline", 3, FP32, 4, stepper=_recording_stepper(frozen), convention=BulletConvention.BULLET_GPU,
+                    **kw)
+    assert frozen[0][1].shape == (3, 6) and all(np.array_equal(frozen[0][1], inv) for _, inv in frozen)

@@ -47,6 +47,9 @@ def test_shape_of_formats_and_presets() -> None:
     s = ks.KernelShape.of(FP32, 128)  # zcu102_1: one 128-bit channel
     assert (s.contact_beats, s.friction_beats, s.cons_beat_bytes) == (7, 4, 16)
     assert ks.DmaTiming.of(get_preset("zcu102")).rate == 58.182  # the harness's 1/1000-byte rounding
+    # the body-in record's beats per inverse-inertia mode (1, 3, 6 words: 15, 17, 20 words of 32 / 16 bits)
+    assert [ks.KernelShape.of(FP32, 512, inertia_words=w).body_in_beats for w in (1, 3, 6)] == [4, 5, 5]
+    assert [ks.KernelShape.of(FP16, 512, inertia_words=w).body_in_beats for w in (1, 3, 6)] == [2, 3, 3]
     assert ks.DmaTiming.of(get_preset("ideal")) == ks.DmaTiming(0.0, 0)
 
 
@@ -63,6 +66,14 @@ def test_one_manifold_ideal_timeline() -> None:
     assert p.phases == {"LOAD": 0, "SOLVE": 12, "DRAIN": 194, "INTEG": 306, "DONE": 502} and p.cycles == 504
     assert (p.stalls, p.bubbles) == (180, 0)  # SOLVE 12..193: 2 issues, the friction record stalls from 13
     assert p.stall_cycles_by_cause() == {"hazard": 180, "contact/friction pipe switch": 0, "hazard CAM full": 0}
+
+
+def test_load_counts_the_body_record_beats() -> None:
+    """The same step with a scalar body record (4 beats at fp32): LOAD ends 2 beats earlier, everything after it
+    shifts by 2 cycles."""
+    base = cm.predict(FP32_C512, IDEAL, step_of([(0, 1)], 2))
+    scalar = cm.predict(ks.KernelShape.of(FP32, 512, inertia_words=1), IDEAL, step_of([(0, 1)], 2))
+    assert scalar.phases["SOLVE"] == base.phases["SOLVE"] - 2 and scalar.cycles == base.cycles - 2
 
 
 def test_one_manifold_zcu102_timeline() -> None:

@@ -158,3 +158,41 @@ def test_window_stream(fmt: NumberFormat, fetch_passes: int) -> None:
     assert np.array_equal(stream.data[per_fetch:], np.tile(stream.data[:per_fetch], (fetches - 1, 1)))
     with pytest.raises(ValueError):
         sf.window_fetches(params, 0)
+
+
+@pytest.mark.parametrize("fmt", [FP32, FP16], ids=lambda f: f.name)
+def test_body_record_per_inertia_mode(fmt: NumberFormat) -> None:
+    """The body-in record carries 1, 3 or 6 inverse-inertia words; each mode round-trips, a table whose mode
+    needs more words than the record carries is refused."""
+    from models.inertia import world_inverse_inertia
+
+    rng = np.random.default_rng(7)
+    n = 11
+    base = _bodies(rng, n)
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    scalar = BodyTable(**{**base.__dict__, "inv_inertia": np.repeat(rng.uniform(0.1, 3, (n, 1)), 3, axis=1)})
+    full = BodyTable(**{**base.__dict__, "inv_inertia": world_inverse_inertia(q, rng.uniform(0.1, 3, (n, 3)))})
+    assert [sf.body_in_word_count(w) for w in (1, 3, 6)] == [15, 17, 20] and sf.BODY_IN_WORDS == 17
+    for table, words in ((scalar, 1), (scalar, 3), (base, 3), (base, 6), (full, 6)):
+        t = table.rounded(fmt)
+        stream = sf.pack_body_table(fmt, t, 128, inertia_words=words)
+        layout = sf.StreamLayout(fmt, inertia_words=words)
+        assert stream.data.shape[0] == n * layout.body_in_beats
+        back = sf.unpack_body_table(fmt, stream.data, 128, inertia_words=words)
+        want = t.inv_inertia if words != 6 or t.inv_inertia.shape[1] == 6 else \
+            np.concatenate([t.inv_inertia, np.zeros((n, 3))], axis=1)
+        assert _same(back.inv_inertia, want) and _same(back.angular_velocity, t.angular_velocity)
+    # the default record is today's: 17 words, bit for bit the diagonal mode's
+    assert np.array_equal(sf.pack_body_table(fmt, base.rounded(fmt)).data,
+                          sf.pack_body_table(fmt, base.rounded(fmt), inertia_words=3).data)
+    for table, words, mode in ((base, 1, "diagonal"), (full, 3, "full"), (full, 1, "full")):
+        with pytest.raises(ValueError, match=f"in the {mode} mode"):
+            sf.pack_body_table(fmt, table.rounded(fmt), inertia_words=words)
+    with pytest.raises(ValueError, match="1, 3 or 6"):
+        sf.StreamLayout(fmt, inertia_words=4).body_in_beats
+    # a per-manifold friction coefficient has no word in the friction record
+    cons = _cons(rng, 5, n)
+    cons.friction = np.full((5, 1), 0.3)
+    with pytest.raises(ValueError, match="friction coefficient per manifold"):
+        sf.friction_words(fmt, cons, np.arange(5))

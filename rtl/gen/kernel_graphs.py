@@ -8,11 +8,19 @@ golden's masked updates (``np.where(active, new, old)``) become selects.
 
 Word layouts (``in_data`` / ``out_data``) are the port contract of the generated modules; the test
 harness packs them with ``models/kernel_vectors.py``.
+
+The contact and friction graphs come in the inverse-inertia modes of ``models/inertia.py``: ``inertia_words`` 3
+(the kernel's build, ports ``IInvA_x..z``: one multiply per component), 1 (``IInvA_s``: the body's one value
+times each component) or 6 (``IInvA_xx, _yy, _zz, _xy, _xz, _yz``: the symmetric 3x3 product,
+``models.inertia.inertia_product``); the friction graph with ``manifold_friction`` takes the manifold's
+coefficient as a word ``mu`` after the bodies' words in place of the constant. Only the 3-word builds without a
+friction word are generated into ``rtl/generated`` (:data:`GRAPHS`).
 """
 
 from __future__ import annotations
 
 from models.contact_solver import FRICTION_COEFF, SPIN_DAMP_FACTOR
+from models.inertia import FULL_ORDER, InertiaMode
 from models.integrator import COS_COEFFS, MAX_ANGLE, SIN_COEFFS, SMALL_ANGLE, TAYLOR_SINC
 from models.number_format import KERNEL_FORMATS
 
@@ -61,21 +69,62 @@ def named(vs: Vec, name: str) -> Vec:
     return [v.named(f"{name}_{'xyzw'[k]}") for k, v in enumerate(vs)]
 
 
+# --- inverse inertia: the words of each mode and the angular update I^-1 c ---------------------------------------
+INERTIA_COMPONENTS: dict[int, tuple[str, ...]] = {1: ("s",), 3: ("x", "y", "z"), 6: FULL_ORDER}
+_MODE_OF_WORDS = {m.words: m for m in InertiaMode}
+
+
+def inertia_ports(inertia_words: int) -> list[str]:
+    """The inverse-inertia input ports of both bodies (A's words, then B's)."""
+    if inertia_words not in INERTIA_COMPONENTS:
+        raise ValueError(f"a pipe takes 1, 3 or 6 inverse-inertia words per body, got {inertia_words}")
+    return [f"IInv{s}_{c}" for s in "AB" for c in INERTIA_COMPONENTS[inertia_words]]
+
+
+def inertia_inputs(g: Graph, body: str, inertia_words: int) -> list[Value]:
+    return [g.input(f"IInv{body}_{c}") for c in INERTIA_COMPONENTS[inertia_words]]
+
+
+def inertia_mul(i: list[Value], c: Vec) -> Vec:
+    """I^-1 c in models.inertia.inertia_product's order: per component for a scalar or a diagonal,
+    ((Ixx cx + Ixy cy) + Ixz cz, (Ixy cx + Iyy cy) + Iyz cz, (Ixz cx + Iyz cy) + Izz cz) for the full matrix."""
+    if len(i) == 1:
+        return [i[0] * c[k] for k in range(3)]
+    if len(i) == 3:
+        return vmul(i, c)
+    xx, yy, zz, xy, xz, yz = i
+    return [(xx * c[0] + xy * c[1]) + xz * c[2], (xy * c[0] + yy * c[1]) + yz * c[2],
+            (xz * c[0] + yz * c[1]) + zz * c[2]]
+
+
+def pipe_module(base: str, inertia_words: int, manifold_friction: bool = False) -> str:
+    """``base`` for the kernel's build (3 words, the constant coefficient), else suffixed by the mode / ``_mu``."""
+    inertia_ports(inertia_words)
+    suffix = "" if inertia_words == 3 else f"_{_MODE_OF_WORDS[inertia_words].value}"
+    return base + suffix + ("_mu" if manifold_friction else "")
+
+
 # --- contact pass ------------------------------------------------------------------------------------
-CONTACT_IN = (["n_x", "n_y", "n_z"] + [f"p{i}_{c}" for i in range(4) for c in "xyz"]
-              + [f"jac_inv{i}" for i in range(4)] + [f"b{i}" for i in range(4)] + [f"lam{i}" for i in range(4)]
-              + [f"{v}_{c}" for v in ("xA", "xB", "vA", "wA", "vB", "wB") for c in "xyz"]
-              + ["mInvA", "mInvB"] + [f"IInv{s}_{c}" for s in "AB" for c in "xyz"])
+def contact_in(inertia_words: int = 3) -> list[str]:
+    """The contact pipe's input words with ``inertia_words`` inverse-inertia words per body."""
+    return (["n_x", "n_y", "n_z"] + [f"p{i}_{c}" for i in range(4) for c in "xyz"]
+            + [f"jac_inv{i}" for i in range(4)] + [f"b{i}" for i in range(4)] + [f"lam{i}" for i in range(4)]
+            + [f"{v}_{c}" for v in ("xA", "xB", "vA", "wA", "vB", "wB") for c in "xyz"]
+            + ["mInvA", "mInvB"] + inertia_ports(inertia_words))
+
+
+CONTACT_IN = contact_in()
 CONTACT_OUT = ([f"lam{i}" for i in range(4)] + [f"{v}_{c}" for v in ("vA", "wA", "vB", "wB") for c in "xyz"])
 
 
-def contact_graph() -> Graph:
-    g = Graph("pgs_contact_pipe", doc="""\
-pgs_contact_pipe: one contact pass of one manifold (models/contact_solver.py contact_solve for a
+def contact_graph(inertia_words: int = 3) -> Graph:
+    module = pipe_module("pgs_contact_pipe", inertia_words)
+    g = Graph(module, doc=f"""\
+{module}: one contact pass of one manifold (models/contact_solver.py contact_solve for a
 single manifold; models/OPERATION_ORDER.md "Contact pass"). The four points are solved in order,
 point i+1 seeing point i's velocity update; a point with jac_inv == 0 is skipped (its lam and the
 velocities keep their previous values: selects). The velocities of a static body are computed the
-same way; the caller must not write them back.""")
+same way; the caller must not write them back.""" + _inertia_doc(inertia_words))
     n = g.inputs_vec("n")
     p = [g.inputs_vec(f"p{i}") for i in range(4)]
     jac = [g.input(f"jac_inv{i}") for i in range(4)]
@@ -85,8 +134,8 @@ same way; the caller must not write them back.""")
     va, wa = g.inputs_vec("vA"), g.inputs_vec("wA")
     vb, wb = g.inputs_vec("vB"), g.inputs_vec("wB")
     ma, mb = g.input("mInvA"), g.input("mInvB")
-    ia, ib = g.inputs_vec("IInvA"), g.inputs_vec("IInvB")
-    assert [v.name.removeprefix("in_") for v in g.inputs] == CONTACT_IN
+    ia, ib = inertia_inputs(g, "A", inertia_words), inertia_inputs(g, "B", inertia_words)
+    assert [v.name.removeprefix("in_") for v in g.inputs] == contact_in(inertia_words)
 
     lin_a = named(scale3(n, ma), "linA")
     lin_b = named(scale3(n, mb), "linB")
@@ -101,8 +150,8 @@ same way; the caller must not write them back.""")
             new = g.max(lam[i] + delta, zero, name="lam_new")
             delta = (new - lam[i]).named("delta")
             lam[i] = g.select(skip, lam[i], new, name="lam")
-            ang_a = named(vmul(ia, ca), "angA")
-            ang_b = named(vmul(ib, cb), "angB")
+            ang_a = named(inertia_mul(ia, ca), "angA")
+            ang_b = named(inertia_mul(ib, cb), "angB")
             va = named(vselect(g, skip, va, vadd(va, scale3(lin_a, delta))), "vA")
             wa = named(vselect(g, skip, wa, vadd(wa, scale3(ang_a, delta))), "wA")
             vb = named(vselect(g, skip, vb, vsub(vb, scale3(lin_b, delta))), "vB")
@@ -117,10 +166,23 @@ same way; the caller must not write them back.""")
 
 
 # --- friction pass -----------------------------------------------------------------------------------
-FRICTION_IN = (["n_x", "n_y", "n_z", "c_x", "c_y", "c_z", "t0_x", "t0_y", "t0_z", "t1_x", "t1_y", "t1_z",
-                "f_jac_inv0", "f_jac_inv1"] + [f"lam_n{i}" for i in range(4)] + ["lamT0", "lamT1"]
-               + [f"{v}_{c}" for v in ("xA", "xB", "vA", "wA", "vB", "wB") for c in "xyz"]
-               + ["mInvA", "mInvB"] + [f"IInv{s}_{c}" for s in "AB" for c in "xyz"])
+def friction_in(inertia_words: int = 3, manifold_friction: bool = False) -> list[str]:
+    """The friction pipe's input words (``mu`` last where the manifold carries its coefficient)."""
+    return (["n_x", "n_y", "n_z", "c_x", "c_y", "c_z", "t0_x", "t0_y", "t0_z", "t1_x", "t1_y", "t1_z",
+             "f_jac_inv0", "f_jac_inv1"] + [f"lam_n{i}" for i in range(4)] + ["lamT0", "lamT1"]
+            + [f"{v}_{c}" for v in ("xA", "xB", "vA", "wA", "vB", "wB") for c in "xyz"]
+            + ["mInvA", "mInvB"] + inertia_ports(inertia_words) + (["mu"] if manifold_friction else []))
+
+
+def _inertia_doc(inertia_words: int, manifold_friction: bool = False) -> str:
+    if inertia_words == 3 and not manifold_friction:
+        return ""
+    mode = _MODE_OF_WORDS[inertia_words].value
+    return (f"\n\nInverse inertia: the {mode} mode ({inertia_words} words per body, models/inertia.py)"
+            + ("; the friction coefficient is the input word mu." if manifold_friction else "."))
+
+
+FRICTION_IN = friction_in()
 FRICTION_SIGN_BUG_DOC = """\
 INJECTED BUG, for a test build only (generated into build/, never into rtl/): the velocity updates of both
 tangent rows apply +delta instead of -delta (a wrong sign in the friction pass, for the co-simulation test that
@@ -128,15 +190,18 @@ expects the scoreboard to catch it)."""
 FRICTION_OUT = ["lamT0", "lamT1"] + [f"{v}_{c}" for v in ("vA", "wA", "vB", "wB") for c in "xyz"]
 
 
-def friction_graph(sign_bug: bool = False) -> Graph:
+def friction_graph(sign_bug: bool = False, inertia_words: int = 3, manifold_friction: bool = False) -> Graph:
     """The friction pass; ``sign_bug``: the injected-bug variant of the co-simulation test (``+delta`` applied to
     the velocities in place of ``-delta``), the same module name and ports, for a test build only."""
-    g = Graph("pgs_friction_pipe", doc=f"""\
-pgs_friction_pipe: one friction pass of one manifold (models/contact_solver.py friction_solve for
-a single manifold; models/OPERATION_ORDER.md "Friction pass"), mu = {FRICTION_COEFF}. A manifold with
+    module = pipe_module("pgs_friction_pipe", inertia_words, manifold_friction)
+    mu_doc = "mu the input word" if manifold_friction else f"mu = {FRICTION_COEFF}"
+    g = Graph(module, doc=f"""\
+{module}: one friction pass of one manifold (models/contact_solver.py friction_solve for
+a single manifold; models/OPERATION_ORDER.md "Friction pass"), {mu_doc}. A manifold with
 f_jac_inv[0] == 0 is skipped (lamT and the velocities pass through unchanged: selects); otherwise
 spin damping (factor {SPIN_DAMP_FACTOR}) is applied when in_spin_damp is set. The velocities of a static body are
-computed the same way; the caller must not write them back.""" + ("\n\n" + FRICTION_SIGN_BUG_DOC if sign_bug else ""))
+computed the same way; the caller must not write them back.""" + _inertia_doc(inertia_words, manifold_friction)
+              + ("\n\n" + FRICTION_SIGN_BUG_DOC if sign_bug else ""))
     n = g.inputs_vec("n")
     c = g.inputs_vec("c")
     t = [g.inputs_vec("t0"), g.inputs_vec("t1")]
@@ -147,12 +212,13 @@ computed the same way; the caller must not write them back.""" + ("\n\n" + FRICT
     va, wa = g.inputs_vec("vA"), g.inputs_vec("wA")
     vb, wb = g.inputs_vec("vB"), g.inputs_vec("wB")
     ma, mb = g.input("mInvA"), g.input("mInvB")
-    ia, ib = g.inputs_vec("IInvA"), g.inputs_vec("IInvB")
+    ia, ib = inertia_inputs(g, "A", inertia_words), inertia_inputs(g, "B", inertia_words)
+    mu = g.input("mu") if manifold_friction else g.const(FRICTION_COEFF, "mu")
     spin = g.bool_input("spin_damp")
-    assert [v.name.removeprefix("in_") for v in g.inputs] == FRICTION_IN
+    assert [v.name.removeprefix("in_") for v in g.inputs] == friction_in(inertia_words, manifold_friction)
 
     skip = g.is_zero(fji[0], name="skip")
-    limit = (g.const(FRICTION_COEFF, "mu") * ((ln[0] + ln[1]) + (ln[2] + ln[3]))).named("limit")
+    limit = (mu * ((ln[0] + ln[1]) + (ln[2] + ln[3]))).named("limit")
     neg_limit = (-limit).named("neg_limit")
     ra = named(vsub(c, xa), "rA")
     rb = named(vsub(c, xb), "rB")
@@ -169,9 +235,9 @@ computed the same way; the caller must not write them back.""" + ("\n\n" + FRICT
             # e = -delta is the impulse change applied to both bodies' velocities (the injected bug: +delta)
             e = delta if sign_bug else (-delta).named("e")
             va = named(vselect(g, skip, va, vadd(va, scale3(named(scale3(tj, ma), "linA"), e))), "vA")
-            wa = named(vselect(g, skip, wa, vadd(wa, scale3(named(vmul(ia, ca), "angA"), e))), "wA")
+            wa = named(vselect(g, skip, wa, vadd(wa, scale3(named(inertia_mul(ia, ca), "angA"), e))), "wA")
             vb = named(vselect(g, skip, vb, vsub(vb, scale3(named(scale3(tj, mb), "linB"), e))), "vB")
-            wb = named(vselect(g, skip, wb, vsub(wb, scale3(named(vmul(ib, cb), "angB"), e))), "wB")
+            wb = named(vselect(g, skip, wb, vsub(wb, scale3(named(inertia_mul(ib, cb), "angB"), e))), "wB")
     with g.scope("spin"):
         k = g.const(SPIN_DAMP_FACTOR, "spin_damp")
         wa_d = named(vsub(wa, scale3(n, (dot3(n, wa) * k).named("sA"))), "wA_damped")
