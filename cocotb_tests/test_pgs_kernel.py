@@ -27,7 +27,8 @@ its squared angular velocity overflows in the integration (and the step stays bi
 
 Inverse inertia (``models/inertia.py``): ``test_pgs_kernel_full_inverse_inertia`` runs a user world of rotated
 non-cube boxes in Bullet 2's convention (``docs/rotated_boxes_world.py``): the symmetric 3x3 per body, the kernel
-built with the 6-word body record (``IINV_W = 6``), bit-exact, and its cycles are the cycle model's.
+built with the 6-word body record (``IINV_W = 6``), bit-exact, and its cycles are the cycle model's;
+``test_pgs_kernel_scalar_inverse_inertia`` runs the stack's cubes on the 1-word build (``IINV_W = 1``).
 """
 
 from __future__ import annotations
@@ -137,6 +138,19 @@ def test_pgs_kernel_full_inverse_inertia(tmp_path: Path) -> None:
     assert job.inertia_words == 6 and np.all(np.any(job.bodies.inv_inertia[job.bodies.dynamic, 3:] != 0.0, axis=1))
     assert np.any(job.bodies.dynamic[job.cons.body_a] & job.bodies.dynamic[job.cons.body_b])  # a box on a box
     run_case(Case(ROTATED_WORLD, FP32, "hazard"), tmp_path)
+
+
+def test_pgs_kernel_scalar_inverse_inertia(tmp_path: Path) -> None:
+    """The stack's cubes (the scalar mode: one inverse-inertia value per body) on the 1-word build (IINV_W = 1, the
+    15-word body record), with random stream gaps and backpressure: bit-exact with the golden model."""
+    frame = scenes.load_or_capture("stack", **SCENES["stack"])
+    job = KernelJob.from_frame(frame, FP32, SolverParams(ITERATIONS), "pybullet", default_window(FP32, 512))
+    assert inertia_mode_of(job.bodies) is InertiaMode.SCALAR
+    res = run_kernel_step(job, get_preset("zcu102"), tmp_path, _seed(), GAP_PERMILLE, BP_PERMILLE, inertia_words=1)
+    assert res.bit_exact, res.comparison.first_mismatch
+    assert res.comparison.records == job.manifold_passes and res.comparison.bodies == job.bodies.num_bodies
+    print(f"\n[stack/fp32/1 word] cycles {res.cycles}, bit-exact: {res.comparison.records} trace records, "
+          f"{res.comparison.bodies} bodies")
 
 
 def check_cycle_bound(job: KernelJob, preset: DmaPreset, cycles: int) -> None:
