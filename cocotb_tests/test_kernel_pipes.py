@@ -324,10 +324,12 @@ def test_kernel_pipe_bit_exact(harness: Harness, tmp_path: Path) -> None:
 
 
 def test_generated_rtl_up_to_date() -> None:
-    """Every generated copy (the datapaths, the latency package and JSON, the register package and the HLS headers
+    """Every generated copy (the datapaths, those of the other inverse-inertia modes, the latency package and JSON, the register package and the HLS headers
     of the register map and the stream layout) equals what the generator writes now."""
     rendered = {p.relative_to(REPO).as_posix() for p in render()}
     assert rendered == {"rtl/generated/pgs_contact_pipe.sv", "rtl/generated/pgs_friction_pipe.sv",
+                        "rtl/generated/pgs_contact_pipe_scalar.sv", "rtl/generated/pgs_friction_pipe_scalar.sv",
+                        "rtl/generated/pgs_contact_pipe_full.sv", "rtl/generated/pgs_friction_pipe_full.sv",
                         "rtl/generated/pgs_integrate_pipe.sv", "rtl/generated/pgs_pipe_latency_pkg.sv",
                         "rtl/generated/pipe_latency.json", "rtl/generated/pgs_regs_pkg.sv",
                         "hls_export/generated/pgs_regs.h", "hls_export/generated/pgs_stream_layout.h"}

@@ -24,6 +24,11 @@ Floating-point events (``rtl/README.md``): the overflow / underflow / invalid co
 exactly for the non-zero ones; every fp32 and bf16 scene leaves them at zero (fp16 flushes tiny velocity terms to
 zero: underflows). ``test_pgs_kernel_fp16_overflow`` spins the top cube of the stack at 2000 rad/s in fp16:
 its squared angular velocity overflows in the integration (and the step stays bit-exact).
+
+Inverse inertia (``models/inertia.py``): ``test_pgs_kernel_full_inverse_inertia`` runs a user world of rotated
+non-cube boxes in Bullet 2's convention (``docs/rotated_boxes_world.py``): the symmetric 3x3 per body, the kernel
+built with the 6-word body record (``IINV_W = 6``), bit-exact, and its cycles are the cycle model's;
+``test_pgs_kernel_scalar_inverse_inertia`` runs the stack's cubes on the 1-word build (``IINV_W = 1``).
 """
 
 from __future__ import annotations
@@ -42,6 +47,8 @@ from models import cycle_model, scenes
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from models.contact_solver import SolverParams
 from models.dma_model import DmaPreset, get_preset
+from models.format_analyzer import inertia_mode_of
+from models.inertia import InertiaMode
 from models.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat
 from models.kernel_job import KernelJob
 from sim.kernel_build import default_window
@@ -51,6 +58,9 @@ GAP_PERMILLE, BP_PERMILLE = 100, 200
 ITERATIONS = 4
 
 SCENES = KERNEL_TEST_SCENES  # the kernel test scenes, shared with coverage and regress
+# a world file of rotated non-cube boxes in Bullet 2's convention: the full inverse-inertia mode (IINV_W = 6)
+ROTATED_WORLD = str(Path(__file__).resolve().parents[1] / "docs" / "rotated_boxes_world.py")
+SCENE_PARAMS = {**SCENES, ROTATED_WORLD: {}}
 
 
 @dataclass
@@ -59,6 +69,10 @@ class Case:
     fmt: NumberFormat
     schedule_kind: str
 
+    @property
+    def label(self) -> str:
+        return Path(self.scene).stem
+
 
 def _seed() -> int:
     return int(os.environ.get("SEED", "12345"))
@@ -66,13 +80,13 @@ def _seed() -> int:
 
 def run_case(case: Case, tmp: Path, spin: tuple[int, float] | None = None) -> KernelResult:
     """Run one case; ``spin`` = (body, rad/s) sets that body's angular velocity about y."""
-    frame = scenes.load_or_capture(case.scene, **SCENES[case.scene])
+    frame = scenes.load_or_capture(case.scene, **SCENE_PARAMS[case.scene])
     window = default_window(case.fmt, 512)
     job = KernelJob.from_frame(frame, case.fmt, SolverParams(ITERATIONS), case.schedule_kind, window)
     if spin is not None:
         job.bodies.angular_velocity[spin[0]] = case.fmt.round(np.array([0.0, spin[1], 0.0]))
     seed = _seed()
-    print(f"\n[{case.scene}/{case.fmt.name}/{case.schedule_kind}] seed {seed} (SEED= overrides); "
+    print(f"\n[{case.label}/{case.fmt.name}/{case.schedule_kind}] seed {seed} (SEED= overrides); "
           f"{job.bodies.num_bodies} bodies, {len(job.slots)} manifolds, {len(job.schedule) - len(job.slots)} bubbles "
           f"in the schedule (W={window})")
     res = run_kernel_step(job, get_preset("zcu102"), tmp, seed, GAP_PERMILLE, BP_PERMILLE)
@@ -102,7 +116,7 @@ CASES = [Case(s, FP32, k) for s in SCENES for k in ("hazard", "pybullet")] + [
     Case(s, f, k) for f in (FP16, BF16) for s, k in (("pile", "hazard"), ("stack", "pybullet"))]
 
 
-@pytest.mark.parametrize("case", CASES, ids=lambda c: f"{c.scene}-{c.fmt.name}-{c.schedule_kind}")
+@pytest.mark.parametrize("case", CASES, ids=lambda c: f"{c.label}-{c.fmt.name}-{c.schedule_kind}")
 def test_pgs_kernel(case: Case, tmp_path: Path) -> None:
     run_case(case, tmp_path)
 
@@ -112,6 +126,31 @@ def test_pgs_kernel_fp16_overflow(tmp_path: Path) -> None:
     the golden model's prediction (checked in run_case), and the step is bit-exact."""
     res = run_case(Case("stack", FP16, "pybullet"), tmp_path, spin=(10, 2000.0))
     assert int(res.registers["fp_overflow"]) > 0 and int(res.registers["fp_underflow"]) > 0
+
+
+def test_pgs_kernel_full_inverse_inertia(tmp_path: Path) -> None:
+    """Rotated non-cube boxes in Bullet 2's convention: every dynamic body's R diag(1/I) R^T is a full symmetric
+    3x3 (an off-diagonal word non-zero), the job runs on the 6-word build, and the step is bit-exact with the golden
+    model's symmetric product (checked in run_case, with random stream gaps and backpressure)."""
+    frame = scenes.load_or_capture(ROTATED_WORLD)
+    job = KernelJob.from_frame(frame, FP32, SolverParams(ITERATIONS), "hazard", default_window(FP32, 512))
+    assert frame.meta["bullet_convention"] == "bullet2" and inertia_mode_of(job.bodies) is InertiaMode.FULL
+    assert job.inertia_words == 6 and np.all(np.any(job.bodies.inv_inertia[job.bodies.dynamic, 3:] != 0.0, axis=1))
+    assert np.any(job.bodies.dynamic[job.cons.body_a] & job.bodies.dynamic[job.cons.body_b])  # a box on a box
+    run_case(Case(ROTATED_WORLD, FP32, "hazard"), tmp_path)
+
+
+def test_pgs_kernel_scalar_inverse_inertia(tmp_path: Path) -> None:
+    """The stack's cubes (the scalar mode: one inverse-inertia value per body) on the 1-word build (IINV_W = 1, the
+    15-word body record), with random stream gaps and backpressure: bit-exact with the golden model."""
+    frame = scenes.load_or_capture("stack", **SCENES["stack"])
+    job = KernelJob.from_frame(frame, FP32, SolverParams(ITERATIONS), "pybullet", default_window(FP32, 512))
+    assert inertia_mode_of(job.bodies) is InertiaMode.SCALAR
+    res = run_kernel_step(job, get_preset("zcu102"), tmp_path, _seed(), GAP_PERMILLE, BP_PERMILLE, inertia_words=1)
+    assert res.bit_exact, res.comparison.first_mismatch
+    assert res.comparison.records == job.manifold_passes and res.comparison.bodies == job.bodies.num_bodies
+    print(f"\n[stack/fp32/1 word] cycles {res.cycles}, bit-exact: {res.comparison.records} trace records, "
+          f"{res.comparison.bodies} bodies")
 
 
 def check_cycle_bound(job: KernelJob, preset: DmaPreset, cycles: int) -> None:
@@ -126,18 +165,19 @@ def check_cycle_bound(job: KernelJob, preset: DmaPreset, cycles: int) -> None:
 # DDR token bucket + start-up latency; ideal: neither) and the interleaved pass order (a pipe switch every pass).
 CYCLE_CASES = [(c, "zcu102", False) for c in CASES] + [
     (Case("pile", FP32, "hazard"), "ideal", False), (Case("stack", FP32, "pybullet"), "ideal", False),
-    (Case("stack", FP32, "pybullet"), "zcu102", True), (Case("pile", FP16, "hazard"), "zcu102", True)]
+    (Case("stack", FP32, "pybullet"), "zcu102", True), (Case("pile", FP16, "hazard"), "zcu102", True),
+    (Case(ROTATED_WORLD, FP32, "pybullet"), "zcu102", False)]
 
 
 @pytest.mark.parametrize("case,dma,interleaved", CYCLE_CASES,
-                         ids=lambda v: f"{v.scene}-{v.fmt.name}-{v.schedule_kind}" if isinstance(v, Case) else
+                         ids=lambda v: f"{v.label}-{v.fmt.name}-{v.schedule_kind}" if isinstance(v, Case) else
                          ({True: "interleaved", False: "sequential"}[v] if isinstance(v, bool) else v))
 def test_kernel_cycles_match_model(case: Case, dma: str, interleaved: bool, tmp_path: Path) -> None:
     """Every retire cycle of the trace equals the cycle model's prediction, exactly, and so do the kernel's cycle,
     stall and bubble counters. A difference fails with the manifold, both cycles and what the model expected
     (e.g. ``manifold 812 (...) retired at cycle 10,431, model 10,430: unexpected 1-cycle stall or bubble; the
     model: ... no stall: no hazard, no pipe switch``)."""
-    frame = scenes.load_or_capture(case.scene, **SCENES[case.scene])
+    frame = scenes.load_or_capture(case.scene, **SCENE_PARAMS[case.scene])
     params = SolverParams(ITERATIONS, interleaved=interleaved)
     job = KernelJob.from_frame(frame, case.fmt, params, case.schedule_kind, default_window(case.fmt, 512))
     t0 = time.process_time()
@@ -145,7 +185,7 @@ def test_kernel_cycles_match_model(case: Case, dma: str, interleaved: bool, tmp_
     model_s = time.process_time() - t0
     agree = run_deterministic(job, get_preset(dma), pred, tmp_path)
     order = "interleaved" if interleaved else "sequential"
-    print(f"\n[{case.scene}/{case.fmt.name}/{case.schedule_kind}/{dma}/{order}] {agree.describe()}; stalls "
+    print(f"\n[{case.label}/{case.fmt.name}/{case.schedule_kind}/{dma}/{order}] {agree.describe()}; stalls "
           f"{pred.stalls:,} ({pred.stall_cycles_by_cause()}), bubbles {pred.bubbles:,}; model {model_s * 1e3:.0f} ms")
     assert agree.ok, agree.first_mismatch
 

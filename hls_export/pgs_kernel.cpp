@@ -39,12 +39,13 @@ struct Errors {
     uint32_t status() const { return flags | (first << 8); }
 };
 
-// body_ref[i]: x(3), m_inv, i_inv(3) (read-only while solving); body_vel[i]: v(3), w(3); body_q[i]: q(4)
-BodyRef load_ref(const float body_ref[kMaxBodies][7], uint32_t i) {
+// body_ref[i]: x(3), m_inv, i_inv(kIInvWords) (read-only while solving); body_vel[i]: v(3), w(3); body_q[i]: q(4)
+constexpr int kRefWords = 4 + kIInvWords;
+BodyRef load_ref(const float body_ref[kMaxBodies][kRefWords], uint32_t i) {
     BodyRef r;
     r.x = vec3(body_ref[i][0], body_ref[i][1], body_ref[i][2]);
     r.m_inv = body_ref[i][3];
-    r.i_inv = vec3(body_ref[i][4], body_ref[i][5], body_ref[i][6]);
+    for (int k = 0; k < kIInvWords; k++) r.i_inv.k[k] = body_ref[i][4 + k];
     return r;
 }
 
@@ -81,7 +82,7 @@ struct BodyPair {
     Velocity va, vb;
 };
 
-BodyPair gather(const Header& h, uint32_t num_bodies, const float body_ref[kMaxBodies][7],
+BodyPair gather(const Header& h, uint32_t num_bodies, const float body_ref[kMaxBodies][kRefWords],
                 const float body_vel[kMaxBodies][6], Errors& err) {
     if (h.body_a >= num_bodies || h.body_b >= num_bodies) err.raise(kErrBodyIndex);
     BodyPair p;
@@ -100,7 +101,7 @@ void retire(float body_vel[kMaxBodies][6], const BodyPair& p) {
     if (p.B.m_inv != 0.0f) store_vel(body_vel, p.b, p.vb);
 }
 
-void load_bodies(hls::stream<body_in_beat_t>& s_axis_body, uint32_t num_bodies, float body_ref[kMaxBodies][7],
+void load_bodies(hls::stream<body_in_beat_t>& s_axis_body, uint32_t num_bodies, float body_ref[kMaxBodies][kRefWords],
                  float body_vel[kMaxBodies][6], float body_q[kMaxBodies][4], Errors& err) {
 LOAD:
     for (uint32_t i = 0; i < num_bodies; i++) {
@@ -114,9 +115,7 @@ LOAD:
         body_ref[i][1] = b.pos.y;
         body_ref[i][2] = b.pos.z;
         body_ref[i][3] = b.inv_mass;
-        body_ref[i][4] = b.inv_inertia.x;
-        body_ref[i][5] = b.inv_inertia.y;
-        body_ref[i][6] = b.inv_inertia.z;
+        for (int k = 0; k < kIInvWords; k++) body_ref[i][4 + k] = b.inv_inertia.k[k];
         Velocity v;
         v.v = b.v;
         v.w = b.w;
@@ -127,7 +126,7 @@ LOAD:
 
 // One contact pass: record k of the pass is manifold slot k.
 void contact_pass(hls::stream<cons_beat_t>& s_axis_cons, hls::stream<trace_t>& trace, uint32_t num_bodies,
-                  uint32_t num_manifolds, uint32_t iteration, const float body_ref[kMaxBodies][7],
+                  uint32_t num_manifolds, uint32_t iteration, const float body_ref[kMaxBodies][kRefWords],
                   float body_vel[kMaxBodies][6], float imp_n[kMaxManifolds][4], Errors& err) {
     const bool zero_lam = iteration == 0;  // the impulses start the step at +0
 CONTACT:
@@ -149,7 +148,7 @@ CONTACT:
 
 // One friction pass (reads the manifold's normal impulses of the contact passes so far).
 void friction_pass(hls::stream<cons_beat_t>& s_axis_cons, hls::stream<trace_t>& trace, uint32_t num_bodies,
-                   uint32_t num_manifolds, uint32_t iteration, const float body_ref[kMaxBodies][7],
+                   uint32_t num_manifolds, uint32_t iteration, const float body_ref[kMaxBodies][kRefWords],
                    float body_vel[kMaxBodies][6], const float imp_n[kMaxManifolds][4], float imp_t[kMaxManifolds][2],
                    Errors& err) {
     const bool zero_lam = iteration == 0;
@@ -174,7 +173,7 @@ FRICTION:
 
 // Every body in index order: dynamic bodies integrated, static ones unchanged, out as body-out records.
 void integrate_out(hls::stream<body_out_beat_t>& m_axis_body, uint32_t num_bodies, const IntegConsts& kc,
-                   const float body_ref[kMaxBodies][7], const float body_vel[kMaxBodies][6],
+                   const float body_ref[kMaxBodies][kRefWords], const float body_vel[kMaxBodies][6],
                    const float body_q[kMaxBodies][4]) {
 INTEGRATE:
     for (uint32_t i = 0; i < num_bodies; i++) {
@@ -220,7 +219,7 @@ void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_
 
     // On-chip memories (BRAM). Each per-body / per-slot word is its own array (ARRAY_PARTITION of dim 2), so a
     // record reads or writes all words of a body in one access of each array.
-    static float body_ref[kMaxBodies][7];
+    static float body_ref[kMaxBodies][kRefWords];
     static float body_vel[kMaxBodies][6];
     static float body_q[kMaxBodies][4];
     static float imp_n[kMaxManifolds][4];

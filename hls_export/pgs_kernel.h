@@ -4,6 +4,7 @@
 //   PGS_MAX_BODIES     body table depth (65536; a power of two: a record's body index is used modulo it)
 //   PGS_MAX_MANIFOLDS  impulse table depth = manifolds per pass (262144)
 //   PGS_CONS_W, PGS_BODY_IN_W, PGS_BODY_OUT_W  stream beat widths (512, 128, 128; pgs_stream.h)
+//   PGS_IINV_W         inverse-inertia words per body (3; 1 scalar, 6 the symmetric 3x3; pgs_stream.h)
 #ifndef PGS_KERNEL_H
 #define PGS_KERNEL_H
 

@@ -24,7 +24,7 @@ constexpr double kCosCoeffs[4] = {-1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0, 1.0 / 40
 struct BodyRef {
     Vec3 x;
     float m_inv;
-    Vec3 i_inv;
+    InvInertia i_inv;
 };
 
 // Per body, read and written by the passes.
@@ -39,8 +39,27 @@ inline Vec3 vec3(float x, float y, float z) {
 }
 inline Vec3 v_add(const Vec3& a, const Vec3& b) { return vec3(add(a.x, b.x), add(a.y, b.y), add(a.z, b.z)); }
 inline Vec3 v_sub(const Vec3& a, const Vec3& b) { return vec3(sub(a.x, b.x), sub(a.y, b.y), sub(a.z, b.z)); }
-inline Vec3 v_mul(const Vec3& a, const Vec3& b) { return vec3(mul(a.x, b.x), mul(a.y, b.y), mul(a.z, b.z)); }
 inline Vec3 v_scale(const Vec3& v, float s) { return vec3(mul(v.x, s), mul(v.y, s), mul(v.z, s)); }
+
+// I^-1 c in models.inertia.inertia_product's order: one multiply per component for the scalar and the diagonal,
+// ((Ixx cx + Ixy cy) + Ixz cz, (Ixy cx + Iyy cy) + Iyz cz, (Ixz cx + Iyz cy) + Izz cz) for the symmetric 3x3
+template <int WORDS>
+inline Vec3 inertia_mul_words(const float (&i)[WORDS], const Vec3& c);
+template <>
+inline Vec3 inertia_mul_words<1>(const float (&i)[1], const Vec3& c) {
+    return vec3(mul(i[0], c.x), mul(i[0], c.y), mul(i[0], c.z));
+}
+template <>
+inline Vec3 inertia_mul_words<3>(const float (&i)[3], const Vec3& c) {
+    return vec3(mul(i[0], c.x), mul(i[1], c.y), mul(i[2], c.z));
+}
+template <>
+inline Vec3 inertia_mul_words<6>(const float (&i)[6], const Vec3& c) {
+    const float xx = i[0], yy = i[1], zz = i[2], xy = i[3], xz = i[4], yz = i[5];
+    return vec3(add(add(mul(xx, c.x), mul(xy, c.y)), mul(xz, c.z)), add(add(mul(xy, c.x), mul(yy, c.y)), mul(yz, c.z)),
+                add(add(mul(xz, c.x), mul(yz, c.y)), mul(zz, c.z)));
+}
+inline Vec3 inertia_mul(const InvInertia& i, const Vec3& c) { return inertia_mul_words<kIInvWords>(i.k, c); }
 
 // (a.x*b.x + a.y*b.y) + a.z*b.z
 inline float dot3(const Vec3& a, const Vec3& b) { return add(add(mul(a.x, b.x), mul(a.y, b.y)), mul(a.z, b.z)); }
@@ -77,7 +96,7 @@ POINTS:
         const float lam_new = maximum(add(lam[i], d0), 0.0f);
         const float d = sub(lam_new, lam[i]);
         if (active) lam[i] = lam_new;
-        apply_impulse(va, vb, lin_a, v_mul(A.i_inv, ca), lin_b, v_mul(B.i_inv, cb), d, active);
+        apply_impulse(va, vb, lin_a, inertia_mul(A.i_inv, ca), lin_b, inertia_mul(B.i_inv, cb), d, active);
     }
 }
 
@@ -101,8 +120,8 @@ ROWS:
         const float d = sub(lam_new, lam_t[j]);
         if (active) lam_t[j] = lam_new;
         // the friction impulse acts along -t on A and +t on B
-        apply_impulse(va, vb, v_scale(t, A.m_inv), v_mul(A.i_inv, ca), v_scale(t, B.m_inv), v_mul(B.i_inv, cb), -d,
-                      active);
+        apply_impulse(va, vb, v_scale(t, A.m_inv), inertia_mul(A.i_inv, ca), v_scale(t, B.m_inv),
+                      inertia_mul(B.i_inv, cb), -d, active);
     }
     const float k = constant(kSpinDampFactor);
     const Vec3 wa = v_sub(va.w, v_scale(r.n, mul(dot3(r.n, va.w), k)));

@@ -7,7 +7,7 @@
 //   contact   header, n(3), p[0..3] xyz (12), jac_inv(4), b(4)         64 + 23 W bits
 //   friction  header, n(3), c(3), t0(3), t1(3), f_jac_inv(2)           64 + 14 W bits
 //   header    bits 31:0 body_a, 62:32 body_b, 63 spin_damp
-//   body-in   pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass, inv_inertia(3)   17 W bits
+//   body-in   pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass, inv_inertia(PGS_IINV_W)   (14 + PGS_IINV_W) W bits
 //   body-out  pos(3), q(4), v(3), w(3)                                           13 W bits
 //   trace     impulses[0..3] (friction: lamT[0..1], 0, 0), vA, wA, vB, wB (16 W bits), then slot (32 bits),
 //             iteration (16 bits), kind (1 bit: 0 contact, 1 friction), 15 zero bits    16 W + 64 bits
@@ -24,6 +24,9 @@
 
 #ifndef PGS_CONS_W
 #define PGS_CONS_W 512
+#endif
+#ifndef PGS_IINV_W
+#define PGS_IINV_W 3  // inverse-inertia words per body (the RTL's IINV_W): 1 scalar, 3 diagonal, 6 xx yy zz xy xz yz
 #endif
 #ifndef PGS_BODY_IN_W
 #define PGS_BODY_IN_W 128
@@ -46,7 +49,11 @@ constexpr int kBodyInW = PGS_BODY_IN_W;
 constexpr int kBodyOutW = PGS_BODY_OUT_W;
 constexpr int kContactBeats = beats_for(kHeaderBits + kContactWords * kWordBits, kConsW);
 constexpr int kFrictionBeats = beats_for(kHeaderBits + kFrictionWords * kWordBits, kConsW);
-constexpr int kBodyInBeats = beats_for(kBodyInWords * kWordBits, kBodyInW);
+constexpr int kIInvWords = PGS_IINV_W;
+static_assert(kIInvWords == 1 || kIInvWords == 3 || kIInvWords == 6, "PGS_IINV_W must be 1, 3 or 6");
+static_assert(kBodyInInvInertia + 3 == kBodyInWords, "the default body-in record carries 3 inverse-inertia words");
+constexpr int kBodyInRecordWords = kBodyInInvInertia + kIInvWords;
+constexpr int kBodyInBeats = beats_for(kBodyInRecordWords * kWordBits, kBodyInW);
 constexpr int kBodyOutBeats = beats_for(kBodyOutWords * kWordBits, kBodyOutW);
 
 typedef ap_axiu<kConsW, 0, 0, 0> cons_beat_t;
@@ -83,12 +90,17 @@ struct FrictionRec {
     float f_jac_inv[2];
 };
 
+// A body's world inverse inertia: the scalar, the diagonal (xx, yy, zz) or the symmetric 3x3 (xx, yy, zz, xy, xz, yz).
+struct InvInertia {
+    float k[kIInvWords];
+};
+
 struct BodyState {
     Vec3 pos;
     float q[4];  // x, y, z, w
     Vec3 v, w;
     float inv_mass;
-    Vec3 inv_inertia;
+    InvInertia inv_inertia;
 };
 
 // --- beats <-> records --------------------------------------------------------------------------------
@@ -211,7 +223,10 @@ inline BodyState decode_body_in(const body_in_bits_t& r) {
     b.v = vec_at(r, 0, 7);
     b.w = vec_at(r, 0, 10);
     b.inv_mass = value_at(r, 0, 13);
-    b.inv_inertia = vec_at(r, 0, 14);
+    for (int i = 0; i < kIInvWords; i++) {
+#pragma HLS UNROLL
+        b.inv_inertia.k[i] = value_at(r, 0, kBodyInInvInertia + i);
+    }
     return b;
 }
 

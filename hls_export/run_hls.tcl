@@ -8,6 +8,7 @@
 #   PGS_MAX_BODIES, PGS_MAX_MANIFOLDS   table sizes (defaults 65536 and 262144, as the RTL; see README.md for
 #                                        what fits the device's BRAM)
 #   PGS_CONS_W, PGS_BODY_IN_W, PGS_BODY_OUT_W   stream beat widths (512, 128, 128)
+#   PGS_IINV_W                           inverse-inertia words per body (3; 1 scalar, 6 the symmetric 3x3)
 #   PGS_CSIM_DIR                         a run directory written by sim.kernel_run.write_inputs: run the C
 #                                        simulation testbench on it first (csim_design)
 #   PGS_HLS_STEPS                        "csynth export" by default; add "cosim" for Vitis's own C/RTL
@@ -25,7 +26,7 @@ proc env_or {name default} {
 }
 
 set defines [list]
-foreach {name default} {PGS_MAX_BODIES 65536 PGS_MAX_MANIFOLDS 262144 PGS_CONS_W 512 PGS_BODY_IN_W 128 PGS_BODY_OUT_W 128} {
+foreach {name default} {PGS_MAX_BODIES 65536 PGS_MAX_MANIFOLDS 262144 PGS_CONS_W 512 PGS_BODY_IN_W 128 PGS_BODY_OUT_W 128 PGS_IINV_W 3} {
     lappend defines "-D$name=[env_or $name $default]"
 }
 # the golden operation order: nothing fused, no fast-math reassociation

@@ -54,6 +54,11 @@ class KernelJob:
         return KernelJob(self.fmt, self.bodies, self.cons, self.schedule, self.params, self.iparams, plan)
 
     @property
+    def inertia_words(self) -> int:
+        """Inverse-inertia words per body of the kernel build that runs this step (``sf.kernel_inertia_words``)."""
+        return sf.kernel_inertia_words(self.bodies)
+
+    @property
     def slots(self) -> np.ndarray:
         """The kernel's manifold slots in order (-1: an empty lane of the window kernel)."""
         if self.record_window is not None:

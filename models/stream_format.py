@@ -77,6 +77,14 @@ def body_in_word_count(inertia_words: int = KERNEL_INERTIA_WORDS) -> int:
 
 
 BODY_IN_WORDS = body_in_word_count()
+
+
+def kernel_inertia_words(bodies: BodyTable) -> int:
+    """The inverse-inertia words of the kernel build that runs ``bodies`` (its ``IINV_W``): 6 where the table is in
+    the full mode (a rotated non-cube body), else the default build's 3 (a scalar body repeats its value there), so
+    that the built-in scenes and the thesis frame keep their build, their body records and their cycles."""
+    full = inertia_mode(bodies.inv_inertia, bodies.dynamic) is InertiaMode.FULL
+    return InertiaMode.FULL.words if full else KERNEL_INERTIA_WORDS
 TRACE_WORDS = 16
 TRACE_TAIL_BITS = 64
 

@@ -1,5 +1,5 @@
-// pgs_body_ram: the on-chip body table (per body: pos(3), q(4), v(3), w(3), mInv(1), IInv(3) words,
-// the body-in record's word order), with PORTS registered read ports and PORTS write ports per cycle
+// pgs_body_ram: the on-chip body table (per body: pos(3), q(4), v(3), w(3), mInv(1), IInv(IINV_W) words,
+// the body-in record's word order; IINV_W = 1, 3 or 6, the inverse-inertia mode), with PORTS registered read ports and PORTS write ports per cycle
 // (bodies A and B of each issue lane's manifold: PORTS = 2 x lanes), plus two flags per body with
 // asynchronous read for the issue-time checks: "dynamic" (hazard tracking, retire writes) and "bad" (a
 // rejected body-in record: frozen, every manifold naming it is rejected, integration passes it through).
@@ -7,7 +7,7 @@
 // Port k (flat vectors, port k at bits [k*width +: width]): rd_addr -> rd_data one cycle later
 // (read-before-write: a read of an address written in the same cycle returns the old value; the kernel's
 // hazard CAM never lets that happen for a body in flight). wr_en with, on port 0 only, wr0_full = 1 writes a
-// whole 17-word record (body load; also sets the dynamic flag = the exponent of mInv is nonzero, i.e. a
+// whole (14 + IINV_W)-word record (body load; also sets the dynamic flag = the exponent of mInv is nonzero, i.e. a
 // nonzero mInv after flush-to-zero, and not wr0_bad; and the bad flag = wr0_bad); otherwise a write
 // stores only the velocity words v, w (7..12) of wr_data (solver retire). No two write ports address the
 // same body in one cycle (a manifold's A and B differ: the kernel rejects a record naming one body twice,
@@ -31,8 +31,9 @@ module pgs_body_ram #(
     parameter int MAN_BITS   = 23,
     parameter int MAX_BODIES = 65536,
     parameter int PORTS      = 2,
+    parameter int IINV_W     = 3,
     localparam int W         = 1 + EXP_BITS + MAN_BITS,
-    localparam int REC_W     = 17 * W,
+    localparam int REC_W     = (14 + IINV_W) * W,
     localparam int IDX_W     = $clog2(MAX_BODIES)
 ) (
     input  wire                    clk,
@@ -48,8 +49,8 @@ module pgs_body_ram #(
     output logic [PORTS-1:0]       dyn,
     output logic [PORTS-1:0]       bad
 );
-    // words 0..6 (pos, q) and 13..16 (mInv, IInv): constant during a step; 7..12 (v, w): velocities
-    localparam int FIX_W = 11 * W;
+    // words 0..6 (pos, q) and 13 .. 13 + IINV_W (mInv, IInv): constant during a step; 7..12 (v, w): velocities
+    localparam int FIX_W = (8 + IINV_W) * W;
     localparam int VEL_W = 6 * W;
 
     logic [FIX_W-1:0] mem_fix [MAX_BODIES];
@@ -92,7 +93,7 @@ module pgs_body_ram #(
     logic unused_wr;
     always_comb begin
         unused_wr = 1'b0;
-        for (int k = 1; k < PORTS; k++) unused_wr ^= ^{wr_data[k*REC_W +: 7*W], wr_data[k*REC_W + 13*W +: 4*W]};
+        for (int k = 1; k < PORTS; k++) unused_wr ^= ^{wr_data[k*REC_W +: 7*W], wr_data[k*REC_W + 13*W +: (1 + IINV_W)*W]};
     end
 endmodule
 

@@ -25,6 +25,10 @@ fp/fp_minmax.sv
 pgs_delay.sv
 generated/pgs_contact_pipe.sv
 generated/pgs_friction_pipe.sv
+generated/pgs_contact_pipe_scalar.sv
+generated/pgs_friction_pipe_scalar.sv
+generated/pgs_contact_pipe_full.sv
+generated/pgs_friction_pipe_full.sv
 generated/pgs_integrate_pipe.sv
 
 // memories, queues and control

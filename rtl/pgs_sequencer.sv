@@ -70,6 +70,7 @@ module pgs_sequencer #(
     parameter int WINDOW         = 0,      // 0: every pass streams its records; > 0: record window of WINDOW records
     parameter int WINDOW_CTX     = 8,      // passes active at a time in the window (a power of two >= 2)
     parameter int LANES          = 1,      // manifolds issued per cycle (a power of two; > 1 needs WINDOW > 0)
+    parameter int IINV_W         = 3,      // inverse-inertia words per body: 1 scalar, 3 diagonal, 6 symmetric 3x3
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64
 ) (
@@ -118,7 +119,7 @@ module pgs_sequencer #(
     localparam int IDX_W     = $clog2(MAX_BODIES);
     localparam int SLOT_W    = $clog2(MAX_MANIFOLDS);
     localparam int ITER_W    = 16;
-    localparam int BREC_W    = 17 * W;                                  // body record
+    localparam int BREC_W    = (14 + IINV_W) * W;                       // body record
     localparam int OREC_W    = 13 * W;                                  // body-out record
     localparam int B_BEATS   = (BREC_W + BODY_IN_W - 1) / BODY_IN_W;
     localparam int O_BEATS   = (OREC_W + BODY_OUT_W - 1) / BODY_OUT_W;
@@ -142,6 +143,9 @@ module pgs_sequencer #(
 
     if (LANES < 1 || (LANES & (LANES - 1)) != 0 || (LANES > 1 && WINDOW == 0)) begin : g_bad_lanes
         $error("pgs_sequencer: LANES must be a power of two, and LANES > 1 needs the window kernel (WINDOW > 0)");
+    end
+    if (IINV_W != 1 && IINV_W != 3 && IINV_W != 6) begin : g_bad_iinv
+        $error("pgs_sequencer: IINV_W (inverse-inertia words per body) must be 1, 3 or 6");
     end
 
     typedef enum logic [2:0] {S_IDLE, S_LOAD, S_SOLVE, S_DRAIN, S_INTEG, S_DONE} phase_t;
@@ -188,7 +192,8 @@ module pgs_sequencer #(
     logic [PORTS-1:0]        wr_en, dyn, bad;
     logic                    wr0_full, wr0_bad, rd0_bad;
 
-    pgs_body_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .PORTS(PORTS)) u_body_ram (
+    pgs_body_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .PORTS(PORTS),
+                   .IINV_W(IINV_W)) u_body_ram (
         .clk, .rd_addr, .rd_data, .rd0_bad, .wr_en, .wr0_full, .wr0_bad, .wr_addr, .wr_data, .dyn_addr, .dyn, .bad);
 
     // ---------------- body-in stream ----------------
@@ -206,16 +211,19 @@ module pgs_sequencer #(
         .rec_last(brec_last), .rec_trunc(brec_trunc), .rec_valid(brec_valid), .rec_ready(1'b1));
     assign s_body_tready = b_asm_ready || b_flush;
 
-    // checks of a body-in record (words: pos 0-2, q 3-6, v 7-9, w 10-12, mInv 13, IInv 14-16): a word
-    // is non-finite when its exponent is all ones, negative when its sign is set and its exponent is not
-    // zero (a negative zero or subnormal reads as zero)
+    // checks of a body-in record (words: pos 0-2, q 3-6, v 7-9, w 10-12, mInv 13, IInv 14 .. 13 + IINV_W: the
+    // scalar, the diagonal xx yy zz, or xx yy zz xy xz yz): a word is non-finite when its exponent is all ones,
+    // negative when its sign is set and its exponent is not zero (a negative zero or subnormal reads as zero).
+    // mInv and the diagonal words must not be negative; the off-diagonal words of the symmetric matrix may.
+    localparam int SIGNED_FROM = 14 + (IINV_W < 3 ? IINV_W : 3);   // the first word that may be negative
     logic brec_nonfinite, brec_bad_mass;
     always_comb begin
         brec_nonfinite = 1'b0;
         brec_bad_mass  = 1'b0;
-        for (int k = 0; k < 17; k++) begin
+        for (int k = 0; k < 14 + IINV_W; k++) begin
             brec_nonfinite = brec_nonfinite || brec[k*W + MAN_BITS +: EXP_BITS] == '1;
-            if (k >= 13) brec_bad_mass = brec_bad_mass || (brec[k*W + W - 1] && brec[k*W + MAN_BITS +: EXP_BITS] != '0);
+            if (k >= 13 && k < SIGNED_FROM)
+                brec_bad_mass = brec_bad_mass || (brec[k*W + W - 1] && brec[k*W + MAN_BITS +: EXP_BITS] != '0);
         end
     end
     wire load_step  = phase == S_LOAD && (brec_valid || b_fill);   // body load_idx is written
@@ -459,8 +467,8 @@ module pgs_sequencer #(
         // body fields of the stage-1 reads (A on port 2l, B on port 2l + 1)
         wire [BREC_W-1:0] ra = rd_data[2*l*BREC_W +: BREC_W];
         wire [BREC_W-1:0] rb = rd_data[(2*l+1)*BREC_W +: BREC_W];
-        logic [53*W-1:0] c_in;
-        logic [46*W-1:0] f_in;
+        logic [(47 + 2*IINV_W)*W-1:0] c_in;
+        logic [(40 + 2*IINV_W)*W-1:0] f_in;
         always_comb begin
             c_in = '0;
             c_in[0 +: 23*W] = s1_words;
@@ -471,8 +479,8 @@ module pgs_sequencer #(
             c_in[39*W +: 6*W] = rb[7*W +: 6*W];    // vB, wB
             c_in[45*W +: W]   = ra[13*W +: W];     // mInvA
             c_in[46*W +: W]   = rb[13*W +: W];     // mInvB
-            c_in[47*W +: 3*W] = ra[14*W +: 3*W];   // IInvA
-            c_in[50*W +: 3*W] = rb[14*W +: 3*W];   // IInvB
+            c_in[47*W +: IINV_W*W] = ra[14*W +: IINV_W*W];              // IInvA
+            c_in[(47 + IINV_W)*W +: IINV_W*W] = rb[14*W +: IINV_W*W];   // IInvB
             f_in = '0;
             f_in[0 +: 14*W]   = s1_words[0 +: 14*W];
             f_in[14*W +: 4*W] = rd_lam;
@@ -483,19 +491,42 @@ module pgs_sequencer #(
             f_in[32*W +: 6*W] = rb[7*W +: 6*W];
             f_in[38*W +: W]   = ra[13*W +: W];
             f_in[39*W +: W]   = rb[13*W +: W];
-            f_in[40*W +: 3*W] = ra[14*W +: 3*W];
-            f_in[43*W +: 3*W] = rb[14*W +: 3*W];
+            f_in[40*W +: IINV_W*W] = ra[14*W +: IINV_W*W];
+            f_in[(40 + IINV_W)*W +: IINV_W*W] = rb[14*W +: IINV_W*W];
         end
 
         logic [EV_W-1:0]   c_ev_ovf, c_ev_unf, c_ev_inv, f_ev_ovf, f_ev_unf, f_ev_inv;
-        pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
-            .clk, .rst, .in_valid(s1_valid && s1_kind == CONTACT), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
-            .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
-            .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
-        pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
-            .clk, .rst, .in_valid(s1_valid && s1_kind == FRICTION), .in_tag(s1_tag), .in_data(f_in),
-            .in_spin_damp(s1_sd), .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-            .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+        // the pipes of the inverse-inertia mode (rtl/generated: one module per mode, the same ports and latency)
+        wire c_in_valid = s1_valid && s1_kind == CONTACT;
+        wire f_in_valid = s1_valid && s1_kind == FRICTION;
+        if (IINV_W == 1) begin : g_scalar
+            pgs_contact_pipe_scalar #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
+                .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
+                .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
+                .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
+            pgs_friction_pipe_scalar #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+        end else if (IINV_W == 6) begin : g_full
+            pgs_contact_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
+                .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
+                .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
+                .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
+            pgs_friction_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+        end else begin : g_diagonal
+            pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
+                .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
+                .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
+                .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
+            pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+        end
 
         // the window kernel issues contact and friction records back to back: the friction results wait for
         // the contact pipe's latency, so that every manifold retires C_LAT + 1 cycles after its issue, in

@@ -60,7 +60,7 @@ def register_writes(job: KernelJob) -> list[tuple[int, int]]:
 def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild) -> dict[str, int]:
     """Write the harness's input files into ``run_dir``; return the bytes of each stream."""
     run_dir.mkdir(parents=True, exist_ok=True)
-    body = sf.pack_body_table(job.fmt, job.bodies, kb.body_in_bits)
+    body = sf.pack_body_table(job.fmt, job.bodies, kb.body_in_bits, inertia_words=kb.inertia_words)
     if job.record_window is None:
         cons = sf.pack_constraint_stream(job.fmt, job.cons, job.schedule, job.params, kb.cons_bits)
     else:

@@ -72,21 +72,24 @@ class KernelBuild:
     window: int = 0  # WINDOW: 0 streams every pass; > 0 the window kernel with a ring of that many records
     window_ctx: int = 8
     lanes: int = 1  # LANES: manifolds issued per cycle (> 1: window kernel only)
+    inertia_words: int = sf.KERNEL_INERTIA_WORDS  # IINV_W: inverse-inertia words per body (1, 3 or 6)
     friction_sign_bug: bool = False  # the friction pipe with the wrong sign (the scoreboard must catch it)
     compile_profile: str = "quick"  # a key of COMPILE_PROFILES
 
     def __post_init__(self) -> None:
+        sf.body_in_word_count(self.inertia_words)  # 1, 3 or 6, else a ValueError
         if self.compile_profile not in COMPILE_PROFILES:
             raise ValueError(f"compile profile {self.compile_profile!r}: expected one of {sorted(COMPILE_PROFILES)}")
 
     @staticmethod
     def for_job(job: KernelJob, preset: DmaPreset, waves: bool = False, body_bits: int = 128) -> "KernelBuild":
         """The build that runs ``job``: the preset's constraint beat, the window plan's ring, contexts and lanes,
-        body streams of ``body_bits``."""
+        body streams of ``body_bits``, the job's inverse-inertia words."""
         plan = job.record_window
         return KernelBuild(job.fmt, cons_bits=preset.stream_bits, body_in_bits=body_bits, body_out_bits=body_bits,
                            waves=waves, window=0 if plan is None else plan.depth,
-                           window_ctx=8 if plan is None else plan.ctx, lanes=1 if plan is None else plan.lanes)
+                           window_ctx=8 if plan is None else plan.ctx, lanes=1 if plan is None else plan.lanes,
+                           inertia_words=job.inertia_words)
 
     @property
     def name(self) -> str:
@@ -95,6 +98,7 @@ class KernelBuild:
                 + (f"_b{self.body_in_bits}x{self.body_out_bits}" if wide_bodies else "")
                 + (f"_w{self.window}x{self.window_ctx}" if self.window else "")
                 + (f"_l{self.lanes}" if self.lanes > 1 else "")
+                + (f"_i{self.inertia_words}" if self.inertia_words != sf.KERNEL_INERTIA_WORDS else "")
                 + ("_friction_sign_bug" if self.friction_sign_bug else "")
                 + (f"_{self.compile_profile}" if self.compile_profile != "quick" else "")
                 + ("_waves" if self.waves else ""))
@@ -110,7 +114,8 @@ class KernelBuild:
                 "MAX_MANIFOLDS": self.max_manifolds, "BODY_IN_W": self.body_in_bits, "CONS_W": self.cons_bits,
                 "BODY_OUT_W": self.body_out_bits} | (
                     {"WINDOW": self.window, "WINDOW_CTX": self.window_ctx} if self.window else {}) | (
-                    {"LANES": self.lanes} if self.lanes > 1 else {})
+                    {"LANES": self.lanes} if self.lanes > 1 else {}) | (
+                    {"IINV_W": self.inertia_words} if self.inertia_words != sf.KERNEL_INERTIA_WORDS else {})
 
     @property
     def defines(self) -> dict[str, int]:

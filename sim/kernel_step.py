@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from models.constraints import BodyTable
@@ -72,9 +72,13 @@ class KernelResult:
 def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int, gap_permille: int = 0,
                     backpressure_permille: int = 0, progress: ProgressSink | None = None,
                     golden: Golden | None = None, waves: Path | None = None, wave_cycles: int = 20000,
-                    keep_trace: bool = False, body_bits: int = 128) -> KernelResult:
-    """Build (once), run and check one step of the kernel; never raises on a mismatch (see ``comparison``)."""
+                    keep_trace: bool = False, body_bits: int = 128, inertia_words: int | None = None) -> KernelResult:
+    """Build (once), run and check one step of the kernel; never raises on a mismatch (see ``comparison``).
+    ``inertia_words``: the build's inverse-inertia words per body in place of the job's (1, 3 or 6; a body table
+    whose mode needs more is refused when its record is packed)."""
     kb = KernelBuild.for_job(job, preset, waves is not None, body_bits)
+    if inertia_words is not None:
+        kb = replace(kb, inertia_words=inertia_words)
     if job.bodies.num_bodies > kb.max_bodies or job.cons.num_manifolds > kb.max_manifolds:
         raise ValueError(f"{job.bodies.num_bodies} bodies / {job.cons.num_manifolds} manifolds exceed the kernel's "
                          f"MAX_BODIES {kb.max_bodies} / MAX_MANIFOLDS {kb.max_manifolds}")

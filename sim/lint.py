@@ -4,7 +4,8 @@ Each file of the kernel's source list (``rtl/pgs_kernel.f``) that is not a packa
 the file; every one of them is linted as a top from its own file plus the packages, the modules it instantiates
 being found by file name in the list's folders (``-y``), two runs at a time. A module with the
 ``EXP_BITS`` / ``MAN_BITS`` parameters is linted with its default parameters and again with the
-binary16 and bfloat16 parameter sets; one with a ``WINDOW`` parameter also as a window kernel. Any warning or error makes the exit status non-zero.
+binary16 and bfloat16 parameter sets; one with a ``WINDOW`` parameter also as a window kernel; one with an
+``IINV_W`` parameter also with the 1- and 6-word inverse inertia. Any warning or error makes the exit status non-zero.
 
 Usage: ``python -m sim.lint [-v] [TOP ...]`` (default: every top).
 """
@@ -47,6 +48,14 @@ WINDOW_PARAM_SETS: dict[str, dict[str, int]] = {
     "window-4lanes-fp16": {"WINDOW": 1024, "LANES": 4, **format_params(FP16)},
 }
 
+# The inverse-inertia modes: modules with an IINV_W parameter are also linted with the scalar and the symmetric
+# 3x3 body record (1 and 6 words; the default is the diagonal's 3), the full one in fp16 too.
+INERTIA_PARAM_SETS: dict[str, dict[str, int]] = {
+    "iinv-scalar": {"IINV_W": 1},
+    "iinv-full": {"IINV_W": 6},
+    "iinv-full-fp16": {"IINV_W": 6, **format_params(FP16)},
+}
+
 _PARAM_RE = re.compile(r"\bparameter\s+(?:(?:int|integer|logic|bit)\b[^=;,)]*?\s)?\s*(\w+)\s*=")
 _PACKAGE_RE = re.compile(r"^\s*package\s+\w+", re.MULTILINE)
 
@@ -78,7 +87,7 @@ def runs_for(module_file: Path) -> list[LintRun]:
     top = module_file.stem
     params = set(_PARAM_RE.findall(module_file.read_text()))
     out = [LintRun(top, "default", {})]
-    for label, pset in (FORMAT_PARAM_SETS | WINDOW_PARAM_SETS).items():
+    for label, pset in (FORMAT_PARAM_SETS | WINDOW_PARAM_SETS | INERTIA_PARAM_SETS).items():
         if set(pset) <= params:
             out.append(LintRun(top, label, dict(pset)))
     return out

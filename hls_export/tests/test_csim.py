@@ -18,13 +18,20 @@ import numpy as np
 import pytest
 
 from hls_export.csim import SCENES, SCHEDULES, build_csim, run_csim_step, scene_job
+from models import scenes
+from models.contact_solver import SolverParams
 from models.dma_model import get_preset
+from models.format_analyzer import inertia_mode_of
+from models.kernel_job import KernelJob
+from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from models.number_format import FP32
 from models.register_map import OFFSET
 from sim.harness_run import run_harness, write_inputs
 from sim.kernel_build import KernelBuild, default_window
+from sim.verilator_build import REPO_ROOT
 
 KB = KernelBuild(FP32)
+ROTATED_WORLD = str(REPO_ROOT / "docs" / "rotated_boxes_world.py")  # rotated non-cube boxes, Bullet 2's convention
 
 
 @pytest.fixture(scope="module")
@@ -47,6 +54,25 @@ def test_csim_bit_exact(scene: str, schedule: str, csim_exe: Path, tmp_path: Pat
         pytest.fail(c.first_mismatch)
     assert res.bit_exact
     assert c.records == job.manifold_passes and c.bodies == job.bodies.num_bodies
+
+
+@pytest.mark.parametrize("scene,inertia_words", [(ROTATED_WORLD, 6), ("stack", 1)], ids=["rotated_boxes-full", "stack-scalar"])
+def test_csim_inverse_inertia_modes(scene: str, inertia_words: int, tmp_path: Path) -> None:
+    """The other inverse-inertia builds (PGS_IINV_W): the rotated non-cube boxes of a Bullet 2 world file (every
+    dynamic body a full symmetric 3x3: the 6-word record and product, the build ``KernelBuild.for_job`` picks) and
+    the stack's cubes on the 1-word scalar build, bit for bit with the golden model."""
+    frame = scenes.load_or_capture(scene, **KERNEL_TEST_SCENES.get(scene, {}))
+    job = KernelJob.from_frame(frame, FP32, SolverParams(4), "hazard", default_window(FP32, KB.cons_bits))
+    kb = KernelBuild(FP32, inertia_words=inertia_words)
+    assert inertia_mode_of(job.bodies).words == inertia_words
+    if inertia_words == 6:
+        assert KernelBuild.for_job(job, get_preset("zcu102")) == kb
+    res = run_csim_step(job, tmp_path, build_csim(kb), kb, default_window(FP32, kb.cons_bits))
+    c = res.comparison
+    print(f"\n[{Path(scene).stem}/{inertia_words} words] {c.records} trace records and {c.bodies} bodies compared")
+    if c.first_mismatch is not None:
+        pytest.fail(c.first_mismatch)
+    assert res.bit_exact and c.records == job.manifold_passes and c.bodies == job.bodies.num_bodies
 
 
 def test_csim_interleaved(csim_exe: Path, tmp_path: Path) -> None:

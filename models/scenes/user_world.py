@@ -4,13 +4,18 @@ shipped in ``models/scenes/worlds/``).
 A **world file** is a Python file defining::
 
     CAPTURE_STEP = 60                      # optional: the step captured (1-based), default 60
+    BULLET_CONVENTION = "bullet2"          # optional: the frames' inverse-inertia convention (models/inertia.py)
     def build(pb, data_path: str, **params) -> None:
         pb.loadURDF("duck_vhacd.urdf", [0, 0.1, 0])
 
 ``pb`` is the pybullet module bound to the capture's DIRECT client: every call gets ``physicsClientId``, and
 ``loadURDF``, ``loadSDF`` and ``createMultiBody`` get ``useMaximalCoordinates=True`` (a btRigidBody, as the
 kernel and the Bullet 2 reference assume; passing False is refused). ``data_path`` is ``pybullet_data``'s folder
-(pybullet's search path; a relative file name found beside the world file is used from there). ``params`` are ``SCENE_ARGS``, typed by the
+(pybullet's search path; a relative file name found beside the world file is used from there). ``BULLET_CONVENTION``
+names the convention of the world's frames (``meta["bullet_convention"]``: ``bullet2``, the true inertia rotated by
+the body's orientation, Bullet 2's and pybullet's; ``bullet_gpu``; default ``world_axes``, the one the kernel ran
+before it carried the symmetric 3x3: the kernel takes ``bullet2``'s full matrix, but not yet a friction coefficient
+per manifold, which ``bullet2`` needs where the bodies' friction differs). ``params`` are ``SCENE_ARGS``, typed by the
 defaults of ``build``'s keyword parameters. The world is y-up with gravity (0, -9.8, 0) unless ``build`` sets
 another; the capture's solver settings (time step, iterations, ...) are applied after ``build``. Bodies become
 frame bodies in creation order (frame body 0 is the first body created: the ground, in the shipped worlds).
@@ -48,6 +53,7 @@ import numpy as np
 import pybullet as p
 import pybullet_data
 
+from models.inertia import CONVENTION_KEY, BulletConvention
 from models.scenes.contact_capture import FrameBodies
 from models.scenes.world_source import Population
 from models.scenes.scene_args import typed_params
@@ -173,7 +179,7 @@ class BoundClient:
         self._loaded.extend(str(v) for v in names if v)
 
 
-def _load_function(path: Path) -> tuple[Callable[..., None], int]:
+def _load_function(path: Path) -> tuple[Callable[..., None], int, dict[str, Any]]:
     if not path.is_file():
         raise SceneError(f"world file {path} does not exist")
     spec = importlib.util.spec_from_file_location(f"pgs_world_{hashlib.sha1(str(path).encode()).hexdigest()[:8]}", path)
@@ -190,7 +196,14 @@ def _load_function(path: Path) -> tuple[Callable[..., None], int]:
     step = getattr(module, "CAPTURE_STEP", DEFAULT_WORLD_STEP)
     if not isinstance(step, int) or isinstance(step, bool) or step < 1:
         raise SceneError(f"world file {path}: CAPTURE_STEP must be a positive integer, got {step!r}")
-    return fn, step
+    convention = getattr(module, "BULLET_CONVENTION", None)
+    if convention is None:
+        return fn, step, {}
+    try:
+        return fn, step, {CONVENTION_KEY: BulletConvention(convention).value}
+    except ValueError:
+        known = ", ".join(c.value for c in BulletConvention)
+        raise SceneError(f"world file {path}: BULLET_CONVENTION {convention!r} is not one of {known}") from None
 
 
 @dataclass
@@ -203,6 +216,7 @@ class WorldFileSource:
     build: Callable[..., None] = field(repr=False)
     loaded: list[str] = field(default_factory=list)
     friction_pair: float | None = None
+    frame_meta: dict[str, Any] = field(default_factory=dict)
 
     def populate(self, client: int) -> Population:
         data = pybullet_data.getDataPath()
@@ -335,13 +349,13 @@ def world_source(scene: str, **params: Any) -> WorldFileSource:
         urdf = Path(scene)
         if not urdf.is_file():
             raise SceneError(f"URDF file {urdf} does not exist")
-        fn, _ = _load_function(URDF_DROP_FILE)
+        fn, _, _ = _load_function(URDF_DROP_FILE)
         typed = typed_params(fn, params, scene, skip=("urdf",))
         return WorldFileSource(URDF_DROP_FILE, {"urdf": str(urdf.resolve()), **typed}, URDF_DROP_STEP, fn,
                                loaded=[str(urdf.resolve())])
     path = ASSET_SCENES.get(scene, Path(scene))
-    fn, step = _load_function(path)
-    return WorldFileSource(path, typed_params(fn, params, scene), step, fn)
+    fn, step, meta = _load_function(path)
+    return WorldFileSource(path, typed_params(fn, params, scene), step, fn, frame_meta=meta)
 
 
 def function_parameters(fn: Callable[..., None]) -> list[str]:

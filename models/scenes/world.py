@@ -65,6 +65,10 @@ class SpecSource:
     def friction_pair(self) -> float | None:
         return self.spec.friction
 
+    @property
+    def frame_meta(self) -> dict[str, Any]:
+        return {}
+
     def populate(self, client: int) -> Population:
         c = client
         shapes: dict[tuple[float, float, float], int] = {}
@@ -379,7 +383,7 @@ def capture_in(world: SceneWorld, step: int | None = None, busiest_within: int |
     t0 = time.monotonic()
     last_step = step if busiest_within is None else busiest_within
     best: Frame | None = None
-    extra = {"busiest_within": busiest_within} if busiest_within is not None else {}
+    extra = {**world.source.frame_meta, **({"busiest_within": busiest_within} if busiest_within is not None else {})}
     for s in range(1, last_step + 1):
         if busiest_within is None and s != step:
             world.step()

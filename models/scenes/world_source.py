@@ -27,5 +27,6 @@ class WorldSource(Protocol):
     params: dict[str, Any]
     friction_pair: float | None  # one pair coefficient for the whole scene, or None (per-body friction)
     capture_step: int | None  # the step captured by default (None: the built-in scene's DEFAULT_CAPTURE_STEP)
+    frame_meta: dict[str, Any]  # what the source adds to its frames' metadata (a world file's Bullet convention)
 
     def populate(self, client: int) -> Population: ...

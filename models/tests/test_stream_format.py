@@ -191,6 +191,8 @@ def test_body_record_per_inertia_mode(fmt: NumberFormat) -> None:
             sf.pack_body_table(fmt, table.rounded(fmt), inertia_words=words)
     with pytest.raises(ValueError, match="1, 3 or 6"):
         sf.StreamLayout(fmt, inertia_words=4).body_in_beats
+    # the kernel build for each table: the 6-word build for the full mode only, the default build otherwise
+    assert [sf.kernel_inertia_words(t) for t in (scalar, base, full)] == [3, 3, 6]
     # a per-manifold friction coefficient has no word in the friction record
     cons = _cons(rng, 5, n)
     cons.friction = np.full((5, 1), 0.3)

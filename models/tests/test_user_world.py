@@ -98,6 +98,19 @@ def test_world_file_frame(shapes_world: Path, tmp_path: Path) -> None:
     assert np.all(f.num_points <= 4) and np.all(f.inertia_local[1:] > 0)
 
 
+def test_world_file_names_its_convention(shapes_world: Path, tmp_path: Path) -> None:
+    """``BULLET_CONVENTION`` puts the world's convention into its frames' metadata (none: the frame names none, the
+    world-axes default); an unknown one is refused before anything is written."""
+    named = _write(tmp_path, "shapes_bullet2.py", 'BULLET_CONVENTION = "bullet2"\n' + SHAPES_WORLD)
+    f = scenes.load_or_capture(str(named), cache_dir=tmp_path / "frames")
+    assert f.meta["bullet_convention"] == "bullet2"
+    assert "bullet_convention" not in scenes.load_or_capture(str(shapes_world), cache_dir=tmp_path / "frames").meta
+    bad = _write(tmp_path, "shapes_bad.py", 'BULLET_CONVENTION = "bullet4"\n' + SHAPES_WORLD)
+    with pytest.raises(scenes.SceneError, match="BULLET_CONVENTION 'bullet4' is not one of bullet2, bullet_gpu"):
+        scenes.load_or_capture(str(bad), cache_dir=tmp_path / "bad_frames")
+    assert not (tmp_path / "bad_frames").exists()
+
+
 def test_world_cache_follows_content(shapes_world: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     cache = tmp_path / "frames"
     a = scenes.load_or_capture(str(shapes_world), cache_dir=cache)

@@ -6,7 +6,9 @@
 ``rtl/generated/`` (never edited by hand; ``python -m rtl.gen --check`` and the test suite check that the committed
 copies are current):
 
-* ``pgs_contact_pipe.sv``, ``pgs_friction_pipe.sv``, ``pgs_integrate_pipe.sv``: the datapaths;
+* ``pgs_contact_pipe.sv``, ``pgs_friction_pipe.sv``, ``pgs_integrate_pipe.sv``: the datapaths, and the contact and
+  friction pipes of the other inverse-inertia modes (``pgs_contact_pipe_scalar.sv``, ``pgs_contact_pipe_full.sv``,
+  ``pgs_friction_pipe_scalar.sv``, ``pgs_friction_pipe_full.sv``: the kernel's ``IINV_W`` = 1 or 6);
 * ``pgs_pipe_latency_pkg.sv`` and ``pipe_latency.json``: each module's LATENCY as a function of MAN_BITS, for the
   sequencer and for the cycle model (``rtl/gen/pipe_latency.py``);
 * ``pgs_regs_pkg.sv``: the register map of ``models/register_map.py`` (``rtl/gen/register_map_emit.py``),
@@ -26,7 +28,7 @@ from pathlib import Path
 from models.kernel_shape import PIPE_LATENCY_FILE
 
 from .file_list import RTL_DIR, kernel_sources, swap_sources
-from .kernel_graphs import GRAPHS, MAN_BITS_OF, friction_graph
+from .kernel_graphs import GRAPHS, MAN_BITS_OF, MODE_GRAPHS, friction_graph
 from .pipe_latency import LATENCY_PKG, emit_latency_json, emit_latency_pkg
 from .register_map_emit import REGS_HEADER, REGS_PKG, emit_regs_header, emit_regs_pkg
 from .repo_paths import REPO_ROOT
@@ -42,7 +44,7 @@ __all__ = ["GENERATED_DIR", "HLS_GENERATED_DIR", "LATENCY_PKG", "REGS_PKG", "fri
 
 def render() -> dict[Path, str]:
     """The text of every generated file, by path."""
-    files = {GENERATED_DIR / f"{name}.sv": emit_sv(make()) for name, make in GRAPHS.items()}
+    files = {GENERATED_DIR / f"{name}.sv": emit_sv(make()) for name, make in {**GRAPHS, **MODE_GRAPHS}.items()}
     files[GENERATED_DIR / f"{LATENCY_PKG}.sv"] = emit_latency_pkg(GRAPHS)
     files[PIPE_LATENCY_FILE] = emit_latency_json(GRAPHS)
     files[GENERATED_DIR / f"{REGS_PKG}.sv"] = emit_regs_pkg()

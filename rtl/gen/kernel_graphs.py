@@ -13,11 +13,15 @@ The contact and friction graphs come in the inverse-inertia modes of ``models/in
 (the kernel's build, ports ``IInvA_x..z``: one multiply per component), 1 (``IInvA_s``: the body's one value
 times each component) or 6 (``IInvA_xx, _yy, _zz, _xy, _xz, _yz``: the symmetric 3x3 product,
 ``models.inertia.inertia_product``); the friction graph with ``manifold_friction`` takes the manifold's
-coefficient as a word ``mu`` after the bodies' words in place of the constant. Only the 3-word builds without a
-friction word are generated into ``rtl/generated`` (:data:`GRAPHS`).
+coefficient as a word ``mu`` after the bodies' words in place of the constant. The 3-word builds without a
+friction word are the kernel's default pipes (:data:`GRAPHS`); the 1- and 6-word builds (:data:`MODE_GRAPHS`), which
+the kernel instantiates for its ``IINV_W`` parameter, are generated into ``rtl/generated`` beside them.
 """
 
 from __future__ import annotations
+
+from functools import partial
+from typing import Callable
 
 from models.contact_solver import FRICTION_COEFF, SPIN_DAMP_FACTOR
 from models.inertia import FULL_ORDER, InertiaMode
@@ -332,4 +336,12 @@ GRAPHS = {
     "pgs_contact_pipe": contact_graph,
     "pgs_friction_pipe": friction_graph,
     "pgs_integrate_pipe": integrate_graph,
+}
+
+
+# the contact and friction pipes of the other inverse-inertia modes (the kernel's IINV_W = 1 or 6), by module name;
+# every mode has the default pipes' latencies (cocotb_tests/test_pipe_graph_modes.py), so they share the latency package
+MODE_GRAPHS: dict[str, Callable[[], Graph]] = {
+    **{pipe_module("pgs_contact_pipe", w): partial(contact_graph, w) for w in (1, 6)},
+    **{pipe_module("pgs_friction_pipe", w): partial(friction_graph, inertia_words=w) for w in (1, 6)},
 }

@@ -27,14 +27,18 @@ def test_names_are_distinct_per_description() -> None:
                 KernelBuild(FP32, body_in_bits=512, body_out_bits=512), KernelBuild(FP32, window=1024),
                 KernelBuild(FP32, window=1024, window_ctx=4), KernelBuild(FP32, window=1024, lanes=2),
                 KernelBuild(FP32, waves=True), KernelBuild(FP32, friction_sign_bug=True),
-                KernelBuild(FP32, compile_profile="o0")]
+                KernelBuild(FP32, compile_profile="o0"), KernelBuild(FP32, inertia_words=1),
+                KernelBuild(FP32, inertia_words=6)]
     names = [base.name] + [v.name for v in variants]
     assert len(set(names)) == len(names), names
     assert len({base, *variants}) == len(names)  # hashable, distinct
     assert KernelBuild(FP32, window=1024, lanes=2).name == "pgs_kernel_e8m23_c512_w1024x8_l2"
     assert KernelBuild(FP32, waves=True).name == "pgs_kernel_e8m23_c512_waves"
+    assert KernelBuild(FP32, inertia_words=6).name == "pgs_kernel_e8m23_c512_i6"
     with pytest.raises(ValueError, match="compile profile"):
         KernelBuild(FP32, compile_profile="fast")
+    with pytest.raises(ValueError, match="1, 3 or 6"):
+        KernelBuild(FP32, inertia_words=4)
 
 
 def test_parameters_defines_and_args() -> None:
@@ -46,6 +50,8 @@ def test_parameters_defines_and_args() -> None:
                           "LANES": 2}
     assert "--trace-fst" in kb.compile_args and "--trace-fst" not in KernelBuild(FP16).compile_args
     assert "OPT_FAST=-O0 OPT_SLOW=-O0 OPT_GLOBAL=-O0" in KernelBuild(FP32, compile_profile="o0").compile_args
+    # the inverse-inertia words only where they differ from the default build's 3 (the historic parameter sets)
+    assert "IINV_W" not in kb.parameters and KernelBuild(FP32, inertia_words=6).parameters["IINV_W"] == 6
     sources = kb.sources()
     assert any(s.name == "pgs_kernel.sv" for s in sources) and all(s.suffix == ".sv" for s in sources)
     assert HARNESS.is_file() and PUBLIC_VLT.is_file()
