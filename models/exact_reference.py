@@ -187,6 +187,11 @@ class _Layout:
         self.index = np.full(bodies.num_bodies, -1, dtype=np.int64)
         self.index[self.dynamic] = np.arange(int(self.dynamic.sum()))
         self.n = int(self.dynamic.sum())
+        if bodies.inv_inertia.shape[1] != 3:
+            raise ExactReferenceError(
+                f"the body table carries the full symmetric inverse inertia ({bodies.inv_inertia.shape[1]} words per "
+                "body, rotated non-cube bodies): the exact reference's QPs take a diagonal M only, and the damped "
+                "spin row is then no convex program (models/exact_reference.py)")
         inv = np.concatenate([np.repeat(bodies.inv_mass[self.dynamic, None], 3, axis=1),
                               bodies.inv_inertia[self.dynamic]], axis=1)
         if np.any(~(inv > 0)) or not np.all(np.isfinite(inv)):

@@ -94,6 +94,11 @@ def test_bad_input_gives_a_clear_error(pile) -> None:
     tilted.normal[cons.body_a == body] = np.array([0.6, 0.8, 0.0])
     with pytest.raises(ExactReferenceError, match="eigenvector"):
         exact_reference(skew, tilted)
+    # a full symmetric 3x3 inverse inertia (6 words) is refused by name, not as a "non-positive inertia"
+    six_words = np.concatenate([bodies.inv_inertia, np.zeros_like(bodies.inv_inertia)], axis=1)
+    full = dataclasses.replace(bodies, inv_inertia=six_words)
+    with pytest.raises(ExactReferenceError, match="full symmetric inverse inertia"):
+        exact_reference(full, cons)
 
 
 def test_cache_round_trip_and_nothing_half_written(pile, tmp_path: Path) -> None:
