@@ -105,7 +105,7 @@ stability: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.stability --cases $(CASES) --formats $(FORMATS) --jobs $(JOBS) --executor "$(EXECUTOR)"
 
 sweep: $(STAMP)
-	$(TOOLENV) $(VPY) -m sim.sweep --scene $(SCENE) --formats $(FORMATS) --iters $(SWEEP_ITERS) --dma $(DMA) --seed $(SEED) \
+	$(TOOLENV) $(VPY) -m sim.sweep --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --formats $(FORMATS) --iters $(SWEEP_ITERS) --dma $(DMA) --seed $(SEED) \
 		--record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) --lanes $(LANES) --body-bits $(BODY_BITS) \
 		--mode $(MODE) --executor $(or $(EXECUTOR),local:1)
 

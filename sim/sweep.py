@@ -47,6 +47,7 @@ import csv
 import dataclasses
 import hashlib
 import json
+import shlex
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -93,7 +94,10 @@ COLUMNS = ["format", "iterations", "mode", "manifolds", "manifold_passes", "cycl
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="python -m sim.sweep", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--scene", default="pile", help=f"scene name ({', '.join(sorted(scenes.SCENES))})")
+    ap.add_argument("--scene", default="pile",
+                    help=f"scene name ({', '.join(sorted([*scenes.SCENES, *scenes.ASSET_SCENES]))}), a world file "
+                         "(.py) or a URDF file, as for sim.run")
+    ap.add_argument("--scene-args", default="", help='scene parameters, e.g. "nx=20 ny=5 nz=20 friction=0.4"')
     ap.add_argument("--frame", default="", help="a frame file (.npz, models.frame.save) to sweep instead of --scene")
     ap.add_argument("--formats", default="fp32,fp16,bf16",
                     help="comma-separated number formats (fp32, fp16, bf16, eXmY, auto: the analyzer's choice)")
@@ -161,7 +165,7 @@ class SweepPoint:
 
     @property
     def command(self) -> str:
-        return (f".venv/bin/python -m sim.sweep {' '.join(self.source)} --formats {self.fmt} --iters {self.iterations}"
+        return (f".venv/bin/python -m sim.sweep {shlex.join(self.source)} --formats {self.fmt} --iters {self.iterations}"
                 f" --mode {self.mode} --dma {self.dma} --exact-budget {self.exact_budget:g}"
                 f" --record-window {self.record_window} --fetch-passes {self.fetch_passes} --lanes {self.lanes}"
                 f" --body-bits {self.body_bits} --out {ALONE_DIR}")
@@ -281,7 +285,9 @@ def plan(args: argparse.Namespace) -> tuple[list[SweepPoint], str, dict[str, byt
     print(frame.summary(), flush=True)
     data = frame_bytes(frame)
     digest = FrameStore().put(data)
-    source = ("--frame", str(args.frame)) if args.frame else ("--scene", args.scene, "--seed", str(args.seed))
+    scene_args = ("--scene-args", args.scene_args) if args.scene_args else ()
+    source = ("--frame", str(args.frame)) if args.frame else ("--scene", args.scene, *scene_args, "--seed",
+                                                               str(args.seed))
     formats = [(auto_format(frame, 4), "auto") if n.lower() == "auto" else (hardware_format(n), "") for n in names]
     points = [SweepPoint(digest, source, fmt.name, how, iters, args.mode, args.dma, args.seed, args.exact_budget,
                          args.record_window, args.fetch_passes, args.lanes, args.body_bits, source_digest())

@@ -17,6 +17,7 @@ from models.format_analyzer import friction_words_of, inertia_mode_of
 from models.frame import Frame
 from models.inertia import InertiaMode
 from models.scenes.specs import BoxSpec, SceneSpec
+from models.scenes.world import SpecSource
 
 VEL_TOL = 1e-9  # m/s, rad/s
 FORCE_TOL = 1e-6  # N (pybullet reports impulse / fixedTimeStep)
@@ -151,7 +152,7 @@ def _mixed_boxes_spec(seed: int) -> SceneSpec:
 def mixed_frames() -> list[Frame]:
     """Rotated non-cube boxes of mixed masses and per-body friction (0.2..1.2), built with createMultiBody:
     frames of the steps in which they land on the ground and on each other."""
-    world = scenes.SceneWorld(_mixed_boxes_spec(5), "mixed_boxes", 5, 1.0 / 60.0, 10)
+    world = scenes.SceneWorld(SpecSource(_mixed_boxes_spec(5)), "mixed_boxes", 5, 1.0 / 60.0, 10)
     with world:
         rng = np.random.default_rng(6)
         for i, bid in enumerate(world.body_ids.tolist()):
