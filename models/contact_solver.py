@@ -70,6 +70,9 @@ class Impulses:
     def zeros(m: int) -> "Impulses":
         return Impulses(normal=np.zeros((m, 4)), friction=np.zeros((m, 2)))
 
+    def copy(self) -> "Impulses":
+        return Impulses(normal=self.normal.copy(), friction=self.friction.copy())
+
 
 @dataclass
 class PassRecord:
@@ -252,14 +255,19 @@ class SolveResult:
 
 def solve(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arithmetic,
           params: SolverParams = SolverParams(), trace: Optional[TraceSink] = None,
-          levels: Optional[list[np.ndarray]] = None) -> SolveResult:
+          levels: Optional[list[np.ndarray]] = None, initial: Optional[Impulses] = None) -> SolveResult:
     """All passes of one step over ``schedule`` (level-vectorized, bit-identical to sequential order).
 
     ``bodies`` and ``cons`` must already hold values of the arithmetic's format (``.rounded(ar)``).
-    Only velocities change; positions and orientations are integrated separately.
+    Only velocities change; positions and orientations are integrated separately. ``initial`` holds the
+    accumulated impulses the first pass of each kind starts from (zeros when None, as Bullet's GPU solver
+    does; a warm start otherwise, already rounded to the format and already applied to the velocities).
     """
     out = bodies.copy()
-    imp = Impulses.zeros(cons.num_manifolds)
+    imp = Impulses.zeros(cons.num_manifolds) if initial is None else initial.copy()
+    if imp.normal.shape != (cons.num_manifolds, 4) or imp.friction.shape != (cons.num_manifolds, 2):
+        raise ValueError(f"initial impulses must be ({cons.num_manifolds},4) and ({cons.num_manifolds},2), got "
+                         f"{imp.normal.shape} and {imp.friction.shape}")
     if levels is None:
         levels = schedule_levels(schedule, cons, bodies.dynamic)
     for kind, it in pass_sequence(params):
