@@ -26,6 +26,7 @@ SCHEDULE ?= hazard
 RECORD_WINDOW ?= 0
 FETCH_PASSES ?= 0
 LANES ?= 1
+IMPULSE_STORE ?= onchip
 BODY_BITS ?= 128
 SEEDS ?= 4
 # what drives the kernel in make sim: harness (compiled Verilator harness) or cocotb (DMA models, batch scoreboard)
@@ -45,6 +46,7 @@ help:
 	@echo "               MODE=model: the cycle model's estimate alone (no Verilator); SCHEDULE=hazard|banded|..."
 	@echo "               DRIVER=cocotb: through cocotb (host driver, AXI DMA models, batch scoreboard)"
 	@echo "               the window kernel: RECORD_WINDOW=16384 LANES=1|2|4 FETCH_PASSES=0 BODY_BITS=128|512"
+	@echo "               IMPULSE_STORE=records: the streaming kernel's impulses travel with the records (no RAM)"
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=,"
 	@echo "               and the window kernel's RECORD_WINDOW= LANES= FETCH_PASSES= BODY_BITS=; MODE=model)"
 	@echo "               EXECUTOR=local:N|dask:local:N|dask:tcp://host:port spreads the points of sweep,"
@@ -91,7 +93,7 @@ test: $(STAMP)
 sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
-		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER)
+		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)

@@ -164,7 +164,8 @@ def predict(shape: KernelShape, dma: DmaTiming, step: StepShape) -> Prediction:
     solve = _solve(shape, dma, step, (load_end - nb * shape.body_in_beats + 1, load_end), solve_start)
     # DRAIN from the last take until the hazard CAM is empty (the last retire has popped), then INTEG
     integ_start = max(solve.last_retire, solve.end) + 2 if solve.takes else solve_start
-    done = _integrate(shape, nb, integ_start) + 1
+    # DONE after the last body-out beat and (impulses in the records) the last impulse-out record
+    done = max(_integrate(shape, nb, integ_start) + 1, solve.last_impulse_out + 2)
     pred = solve.prediction(shape, step, solve_start, integ_start, done)
     pred.phases = {"LOAD": 0, "SOLVE": solve_start, "DRAIN": solve.end + 1 if solve.takes else solve_start,
                    "INTEG": integ_start, "DONE": done}
@@ -173,8 +174,9 @@ def predict(shape: KernelShape, dma: DmaTiming, step: StepShape) -> Prediction:
 
 def predict_job(job: "KernelJob", preset: DmaPreset, prefetched: bool = False) -> Prediction:
     """The model of ``job`` run by ``sim.kernel_step.run_kernel_step`` with ``preset`` (gap and backpressure 0)."""
-    return predict(KernelShape.of(job.fmt, preset.stream_bits, inertia_words=job.inertia_words),
-                   DmaTiming.of(preset, prefetched),
+    return predict(KernelShape.of(job.fmt, preset.stream_bits, inertia_words=job.inertia_words,
+                                  impulses_in_records=job.impulses_in_records),
+                   DmaTiming.of(preset, prefetched, job.stream_layout(preset.stream_bits).ddr_read_share(job.params)),
                    StepShape.of_job(job))
 
 
@@ -211,6 +213,7 @@ class _Solve:
         self.takes = self.stalls = 0
         self.end = 0  # the last take
         self.last_retire = -1
+        self.last_impulse_out = -1  # impulses in the records: the cycle the last impulse-out record was taken
 
     @property
     def issued(self) -> int:
@@ -291,6 +294,12 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
     issue_prev = -1  # the take cycle of record r-2, then r-1
     prev = None  # record r-1: (stream index, kind, first offer, last beat, DDR wait)
     last_kind, last_retire, n_iss, stalls = CONTACT_PASS, -1, 0, 0
+    # impulses in the records: each take (issued or rejected) queues an impulse-out record, taken (TREADY always up)
+    # the cycle after its retire (a rejected one: after its take), in take order; record s of the next pass is
+    # offered no earlier than `turnaround` cycles after slot s's record was taken (the read-after-write rule)
+    in_records, turnaround = shape.impulses_in_records, dma.turnaround
+    out_taken = [0] * nm  # per slot: the cycle its latest impulse-out record was taken
+    out_last = -1
     stream = ((p * nm + s, kind, s) for p, (kind, _) in enumerate(step.passes) for s in range(nm))
     for rec in chain(stream, (None,)):
         if prev is not None:  # take record r-1: valid from m_prev + 1
@@ -300,6 +309,7 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
             t = ready if ready >= solve_start else solve_start
             if rej[s]:
                 rejected.append(r_idx)
+                ret = t
             else:
                 cause = READY if ready >= solve_start else SOLVE_START
                 who = -1
@@ -327,6 +337,9 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
                 n_iss += 1
             stalls += t - (ready if ready >= solve_start else solve_start)
             issue_prev = t
+            if in_records:
+                out_last = ret + 1 if ret + 1 > out_last + 1 else out_last + 1
+                out_taken[s] = out_last
         if rec is None:
             break
         r_idx, kind, s = rec
@@ -335,6 +348,9 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
         f_off = x = wait = 0
         for j in range(nbeats[kind]):
             y = offer_from
+            if j == 0 and in_records and r_idx >= nm and out_taken[s] + turnaround > y:
+                y = out_taken[s] + turnaround  # waits for the previous pass's write of the slot's impulses
+            y0 = y
             if rate:
                 while cyc < y:  # refill each iteration up to y (the body-in beat spends first)
                     cyc += 1
@@ -350,7 +366,7 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
                         credit -= body_bytes
                 credit -= beat_bytes
                 y = cyc
-                wait += y - offer_from
+                wait += y - y0
             if j == 0:
                 f_off = y
                 x = y if y > m_prev else m_prev
@@ -365,6 +381,7 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
     out.stalls = stalls
     out.end = issue_prev
     out.last_retire = last_retire
+    out.last_impulse_out = out_last
     return out
 
 

@@ -3,7 +3,9 @@
 A preset describes the data path between DDR and the kernel's streams: ``channels`` AXI DMA engines of
 ``channel_bits`` each (their streams are concatenated into one kernel stream beat of
 ``channels * channel_bits``), a start-up latency per transfer (memory-mapped requests take 30 to 50
-cycles on the ZCU102, thesis section 5.2), and a DDR bandwidth cap shared by all channels. The kernel clock
+cycles on the ZCU102, thesis section 5.2), and a DDR bandwidth cap shared by all channels (with the impulses in the records also by the impulse writes
+back: ``models.stream_format.StreamLayout.ddr_read_share``; :attr:`DmaPreset.impulse_turnaround_cycles` from a
+write to the read that depends on it). The kernel clock
 turns bytes per second into bytes per cycle. The same numbers drive the cocotb DMA model
 (``cocotb_tests/tb/axi_dma.py``) and the figures ``make sim`` reports (bandwidth floor, utilisation).
 
@@ -62,6 +64,13 @@ class DmaPreset:
     def beats_per_cycle(self) -> float:
         """Sustained kernel-stream beats per cycle (<= 1)."""
         return min(1.0, self.bytes_per_cycle / self.port_bytes_per_cycle)
+
+    @property
+    def impulse_turnaround_cycles(self) -> int:
+        """Impulses in the records: cycles from an impulse-out record leaving the kernel to the first beat of a
+        record that reads it: the S2MM write's latency to DDR and the MM2S read's, each the memory-mapped request
+        latency (``startup_cycles``); at least one cycle."""
+        return max(1, 2 * self.startup_cycles)
 
     def transfer_cycles(self, nbytes: int) -> float:
         """Cycles to move ``nbytes`` in one transfer, start-up latency included (a floor: no stalls)."""

@@ -6,6 +6,7 @@ Every consumer of a step builds one: the RTL harness run (``sim.kernel_step``), 
 
     job = KernelJob.from_frame(frame, FP32, SolverParams(4), schedule="hazard", window=181)
     job.windowed(16384, lanes=2)  # the same step on the window kernel
+    job.impulses_travelling(initial)  # the streaming kernel whose impulses travel with the records (a warm start)
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 
 from models import stream_format as sf
 from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
-from models.contact_solver import SolverParams, pass_sequence
+from models.contact_solver import Impulses, SolverParams, pass_sequence
 from models.frame import Frame
 from models.integrator import IntegrationParams
 from models.number_format import NumberFormat
@@ -35,6 +36,24 @@ class KernelJob:
     params: SolverParams
     iparams: IntegrationParams
     record_window: WindowPlan | None = None  # the window kernel's plan; None: the streaming kernel
+    impulses_in_records: bool = False  # the streaming kernel without the impulse RAM (IMPULSES_IN_RECORDS)
+    initial: Impulses | None = None  # per manifold, values of fmt: the impulses the step starts from (None: zeros)
+
+    def __post_init__(self) -> None:
+        if self.initial is None:
+            return
+        m = self.cons.num_manifolds
+        if not self.impulses_in_records:
+            raise ValueError("initial impulses need the kernel whose impulses travel with the records (the on-chip "
+                             "impulse RAM starts every step from zeros)")
+        if self.initial.normal.shape != (m, 4) or self.initial.friction.shape != (m, 2):
+            raise ValueError(f"initial impulses must be ({m},4) and ({m},2), got {self.initial.normal.shape} and "
+                             f"{self.initial.friction.shape}")
+        vals = np.concatenate([self.initial.normal, self.initial.friction], axis=1)
+        if not np.all(np.isfinite(vals)):
+            raise ValueError("initial impulses must be finite (the kernel does not check its impulse words)")
+        if not np.array_equal(self.fmt.round(vals), vals):
+            raise ValueError(f"initial impulses must already be values of {self.fmt.name} (round them first)")
 
     @staticmethod
     def from_frame(frame: Frame, fmt: NumberFormat, params: SolverParams, schedule: str = "hazard",
@@ -51,7 +70,27 @@ class KernelJob:
         (``models.record_window.plan_window``)."""
         plan = plan_window(self.cons, self.bodies.dynamic, self.schedule, self.params, depth, ctx, fetch_passes,
                            lanes)
+        if self.impulses_in_records:
+            raise ValueError("the window kernel holds its impulses on chip: no impulses in the records")
         return KernelJob(self.fmt, self.bodies, self.cons, self.schedule, self.params, self.iparams, plan)
+
+    def impulses_travelling(self, initial: Impulses | None = None) -> "KernelJob":
+        """This step on the streaming kernel whose impulses travel with the records, starting from ``initial``
+        (per manifold, rounded to the format; None: zeros, the same solve as the on-chip kernel's)."""
+        if self.record_window is not None:
+            raise ValueError("impulses in the records are a configuration of the streaming kernel, not the window's")
+        return KernelJob(self.fmt, self.bodies, self.cons, self.schedule, self.params, self.iparams, None, True,
+                         initial)
+
+    @property
+    def start_impulses(self) -> Impulses:
+        """The impulses the step starts from, per manifold (zeros unless a warm start was given)."""
+        return self.initial if self.initial is not None else Impulses.zeros(self.cons.num_manifolds)
+
+    def stream_layout(self, cons_bits: int = sf.DEFAULT_CONS_BEAT_BITS) -> sf.StreamLayout:
+        """The record sizes this step streams with constraint beats of ``cons_bits``."""
+        return sf.StreamLayout(self.fmt, cons_beat_bits=cons_bits, inertia_words=self.inertia_words,
+                               impulses_in_records=self.impulses_in_records)
 
     @property
     def inertia_words(self) -> int:

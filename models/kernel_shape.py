@@ -21,6 +21,7 @@ from .stream_format import KERNEL_INERTIA_WORDS, StreamLayout
 RTL_DIR = Path(__file__).resolve().parents[1] / "rtl"
 HAZARD_DEPTH = 256  # pgs_kernel defaults
 OUT_FIFO_DEPTH = 64
+IMPULSE_FIFO_DEPTH = 256  # IMP_FIFO_DEPTH: impulse-out records between take and handshake (impulses in the records)
 
 # written by `python -m rtl.gen` with the datapaths (rtl/gen/pipe_latency.py)
 PIPE_LATENCY_FILE = RTL_DIR / "generated" / "pipe_latency.json"
@@ -63,14 +64,19 @@ class KernelShape:
     hazard_depth: int = HAZARD_DEPTH
     out_fifo_depth: int = OUT_FIFO_DEPTH
 
+    impulses_in_records: bool = False  # IMPULSES_IN_RECORDS: the read-after-write rule across passes applies
+
     @staticmethod
     def of(fmt: NumberFormat, cons_bits: int = 512, body_bits: int = 128,
-           inertia_words: int = KERNEL_INERTIA_WORDS) -> "KernelShape":
-        """The shape of a build; ``inertia_words`` (1, 3 or 6) sets the body-in record's beats."""
-        lay = StreamLayout(fmt, cons_beat_bits=cons_bits, body_beat_bits=body_bits, inertia_words=inertia_words)
+           inertia_words: int = KERNEL_INERTIA_WORDS, impulses_in_records: bool = False) -> "KernelShape":
+        """The shape of a build; ``inertia_words`` (1, 3 or 6) sets the body-in record's beats,
+        ``impulses_in_records`` the records' (with the impulses they carry)."""
+        lay = StreamLayout(fmt, cons_beat_bits=cons_bits, body_beat_bits=body_bits, inertia_words=inertia_words,
+                           impulses_in_records=impulses_in_records)
         return KernelShape(rtl_latency("pgs_contact_pipe", fmt), rtl_latency("pgs_friction_pipe", fmt),
                            rtl_latency("pgs_integrate_pipe", fmt), lay.contact_beats, lay.friction_beats,
-                           lay.body_in_beats, lay.body_out_beats, cons_bits // 8, body_bits // 8)
+                           lay.body_in_beats, lay.body_out_beats, cons_bits // 8, body_bits // 8,
+                           impulses_in_records=impulses_in_records)
 
     def latency(self, kind: int) -> int:
         return self.contact_latency if kind == CONTACT_PASS else self.friction_latency
@@ -79,10 +85,13 @@ class KernelShape:
         return self.contact_beats if kind == CONTACT_PASS else self.friction_beats
 
 
-def harness_ddr_millibytes(preset: DmaPreset) -> int:
-    """The DDR rate argument of the harness (1/1000 bytes per cycle; 0 = uncapped), as sim.harness_run passes it."""
+def harness_ddr_millibytes(preset: DmaPreset, read_share: float = 1.0) -> int:
+    """The DDR rate argument of the harness (1/1000 bytes per cycle; 0 = uncapped), as sim.harness_run passes it:
+    the ``read_share`` of the preset's rate (``StreamLayout.ddr_read_share``: the impulse writes take the rest)."""
+    if not 0.0 < read_share <= 1.0:
+        raise ValueError(f"DDR read share must be in (0, 1], got {read_share}")
     rate = preset.ddr_bytes_per_cycle
-    return 0 if rate == math.inf else max(1, round(rate * 1000))
+    return 0 if rate == math.inf else max(1, round(rate * read_share * 1000))
 
 
 @dataclass(frozen=True)
@@ -95,10 +104,12 @@ class DmaTiming:
     rate: float
     startup: int
     prefetched: bool = False
+    turnaround: int = 1  # impulses in the records: an impulse-out record to the first beat of its reader
 
     @staticmethod
-    def of(preset: DmaPreset, prefetched: bool = False) -> "DmaTiming":
-        return DmaTiming(harness_ddr_millibytes(preset) / 1000.0, preset.startup_cycles, prefetched)
+    def of(preset: DmaPreset, prefetched: bool = False, read_share: float = 1.0) -> "DmaTiming":
+        return DmaTiming(harness_ddr_millibytes(preset, read_share) / 1000.0, preset.startup_cycles, prefetched,
+                         preset.impulse_turnaround_cycles)
 
 
 @dataclass(frozen=True)

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .contact_solver import CONTACT_PASS, FRICTION_PASS
 from .dma_model import DmaPreset, get_preset
 from .number_format import NumberFormat
 from .stream_format import BODY_IN_WORDS, StreamLayout
@@ -173,17 +174,20 @@ def floors(platform: Platform, fmt: NumberFormat, num_bodies: int, num_manifolds
     """DDR and compute floors of one step (``iterations`` of a contact and a friction pass).
 
     ``fetch_every`` = 0 is today's kernel: every pass streams its records as the DMA beats carry them (padding
-    included, ``StreamLayout``); when the impulses are not resident each pass also reads and writes its own
-    (the contact pass 4, the friction pass 2 words per manifold). ``fetch_every`` = k >= 1 streams a manifold's contact and friction record together
+    included, ``StreamLayout``); when the impulses are not resident they travel in the records (the streaming
+    kernel built with IMPULSES_IN_RECORDS: the contact record 4, the friction record 6 words longer, in whole
+    beats) and each pass writes its own back (the contact pass 4, the friction pass 2 words per manifold). ``fetch_every`` = k >= 1 streams a manifold's contact and friction record together
     once per k iterations, packed back to back (:func:`record_bytes`); when the impulses are not resident they
     are read and written back with each fetch. Body records go in and out once per step, in stream beats."""
     if iterations < 1 or fetch_every < 0 or lanes < 1 or min(num_bodies, num_manifolds) < 0:
         raise ValueError("floors need iterations >= 1, fetch_every >= 0, lanes >= 1 and non-negative counts")
     layout = StreamLayout(fmt)
     if fetch_every == 0:
-        records = num_manifolds * iterations * (layout.contact_bytes + layout.friction_bytes)
-        # impulses travelling with the records (as the thesis's did): each pass reads and writes its own
-        impulses = 0 if impulses_resident else 2 * num_manifolds * iterations * -(-IMPULSE_WORDS * fmt.width // 8)
+        # impulses travelling with the records (as the thesis's did): in the records' beats, written back per pass
+        carried = StreamLayout(fmt, impulses_in_records=not impulses_resident)
+        records = num_manifolds * iterations * (carried.contact_bytes + carried.friction_bytes)
+        impulses = num_manifolds * iterations * (carried.impulse_write_bytes(CONTACT_PASS)
+                                                 + carried.impulse_write_bytes(FRICTION_PASS))
     else:
         fetches = num_manifolds * -(-iterations // fetch_every)
         records = fetches * record_bytes(fmt)

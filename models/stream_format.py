@@ -20,6 +20,12 @@ friction           64-bit header, then 14 words: n(3), c(3), t0(3), t1(3), f_jac
 (friction passes)  -> 64 + 14 W bits
 window             64-bit header, then the 23 contact words and the 14 friction words -> 64 + 37 W bits
 (window kernel)
+contact, impulses  the contact record, then lam[0..3] (4 words at word 23) -> 64 + 27 W bits
+in the records     (the streaming kernel built with IMPULSES_IN_RECORDS: no impulse RAM on chip)
+friction, impulses the friction record, then lam[0..3] (word 14, the friction limit) and lamT[0..1] (word 18)
+in the records     -> 64 + 20 W bits
+impulse-out        4 words: contact lam[0..3]; friction lamT[0..1], then two zero words; a rejected slot all
+(m_axis_imp)       zeros -> 4 W bits rounded up to whole bytes; one per slot of every pass, TLAST on a pass's last
 header             bits 31:0 body_a, bits 62:32 body_b, bit 63 spin_damp (all record kinds)
 body-in            14 + I words: pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass(1), inv_inertia(I): I = 1
                    (scalar), 3 (diagonal xx, yy, zz) or 6 (symmetric: xx, yy, zz, xy, xz, yz), the inverse-inertia
@@ -37,6 +43,18 @@ kernel flags a mismatch as a stream error). The body-in stream holds ``num_bodie
 in index order (TLAST on the last beat), the body-out stream ``num_bodies`` body-out records in index
 order (TLAST on the last beat).
 
+Impulses in the records: the records' impulse words are those the pass starts from. The host writes the
+impulses the step starts from (zeros, or a warm start) into the DDR impulse buffer (lam[4], lamT[2] per slot); the
+DMA reads each record as its static words with the buffer's words, and writes each impulse-out record into its
+slot's field of the pass's kind (contact lam, friction lamT: only those bytes, 4 W and 2 W bits). So
+:func:`pack_constraint_stream` packs every pass's records with the host-given impulses, and the DMA model (the
+harness) replaces the fields an earlier pass of the step wrote. Read after write: record k of pass p > 0 is read
+no earlier than ``DmaPreset.impulse_turnaround_cycles`` after pass p - 1's impulse-out record of slot k left the
+kernel (every pass reads only what its predecessor wrote, or older): a pass shorter than the pipeline's depth
+plus the turnaround waits for its predecessor; a long one never does. The DDR bandwidth is shared: the reads get
+the share :meth:`StreamLayout.ddr_read_share` of it (their bytes over read plus written bytes), the writes the
+rest.
+
 The window kernel (``rtl/pgs_window.sv``, ``models/record_window.py``) reads each manifold's record once per
 *fetch* instead: the constraint stream is ``ceil(passes / fetch_passes)`` fetches of one window record per
 manifold in schedule order, TLAST on the last beat of each fetch (:func:`pack_window_stream`).
@@ -49,13 +67,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from .constraints import BodyTable, ConstraintSet
-from .contact_solver import CONTACT_PASS, SolverParams, pass_sequence
+from .contact_solver import CONTACT_PASS, Impulses, SolverParams, pass_sequence
 from .inertia import InertiaMode, inertia_mode
 from .number_format import NumberFormat
 
 HEADER_BITS = 64
 CONTACT_WORDS = 23
 FRICTION_WORDS = 14
+# impulses in the records: lam[0..3] after the contact words; lam[0..3] and lamT[0..1] after the friction words
+CONTACT_LAM_WORD = CONTACT_WORDS
+FRICTION_LAM_WORD = FRICTION_WORDS
+FRICTION_LAMT_WORD = FRICTION_WORDS + 4
+CONTACT_IMPULSE_WORDS, FRICTION_IMPULSE_WORDS = 4, 6
+IMPULSE_OUT_WORDS = 4
 WINDOW_WORDS = CONTACT_WORDS + FRICTION_WORDS
 KERNEL_INERTIA_WORDS = InertiaMode.DIAGONAL.words  # the inverse-inertia words of the kernel's body-in record
 BODY_OUT_WORDS = 13
@@ -223,6 +247,20 @@ def trace_record_bytes(fmt: NumberFormat) -> int:
     return TRACE_WORDS * fmt.width // 8 + TRACE_TAIL_BITS // 8
 
 
+def impulse_out_bytes(fmt: NumberFormat) -> int:
+    """Bytes of one impulse-out record (the m_axis_imp TDATA): 4 words rounded up to whole bytes."""
+    return -(-IMPULSE_OUT_WORDS * fmt.width // 8)
+
+
+def unpack_impulse_out(fmt: NumberFormat, data: bytes | np.ndarray) -> np.ndarray:
+    """Impulse-out records -> (R, 4) uint64 bit patterns."""
+    nbytes = impulse_out_bytes(fmt)
+    raw = np.frombuffer(bytes(data), dtype=np.uint8).reshape(-1, nbytes)
+    bits = np.unpackbits(raw, axis=1, bitorder="little").astype(np.uint64)[:, :IMPULSE_OUT_WORDS * fmt.width]
+    weights = np.uint64(1) << np.arange(fmt.width, dtype=np.uint64)
+    return (bits.reshape(-1, IMPULSE_OUT_WORDS, fmt.width) * weights).sum(axis=2, dtype=np.uint64)
+
+
 # --- sizes --------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class StreamLayout:
@@ -232,18 +270,40 @@ class StreamLayout:
     cons_beat_bits: int = DEFAULT_CONS_BEAT_BITS
     body_beat_bits: int = DEFAULT_BODY_BEAT_BITS
     inertia_words: int = KERNEL_INERTIA_WORDS
+    impulses_in_records: bool = False  # the records carry the impulses their pass starts from
 
     @property
     def word_bits(self) -> int:
         return self.fmt.width
 
     @property
+    def contact_words(self) -> int:
+        return CONTACT_WORDS + (CONTACT_IMPULSE_WORDS if self.impulses_in_records else 0)
+
+    @property
+    def friction_words(self) -> int:
+        return FRICTION_WORDS + (FRICTION_IMPULSE_WORDS if self.impulses_in_records else 0)
+
+    @property
     def contact_bits(self) -> int:
-        return HEADER_BITS + CONTACT_WORDS * self.word_bits
+        return HEADER_BITS + self.contact_words * self.word_bits
 
     @property
     def friction_bits(self) -> int:
-        return HEADER_BITS + FRICTION_WORDS * self.word_bits
+        return HEADER_BITS + self.friction_words * self.word_bits
+
+    def impulse_write_bytes(self, kind: int) -> int:
+        """DDR bytes a manifold-pass of ``kind`` writes back (its field of the impulse buffer; 0 on chip)."""
+        if not self.impulses_in_records:
+            return 0
+        return -(-(4 if kind == CONTACT_PASS else 2) * self.word_bits // 8)
+
+    def ddr_read_share(self, params: SolverParams) -> float:
+        """The share of the DDR bandwidth the constraint reads get while the impulse writes take the rest (their
+        bytes per step over all bytes per step; 1 with on-chip impulses)."""
+        reads = self.bytes_per_manifold(params)
+        writes = sum(self.impulse_write_bytes(kind) for kind, _ in pass_sequence(params))
+        return reads / (reads + writes) if reads + writes else 1.0
 
     @property
     def window_bits(self) -> int:
@@ -300,12 +360,15 @@ class StreamLayout:
                    for kind, _ in pass_sequence(params))
 
     def bytes_per_step(self, num_bodies: int, num_manifolds: int, params: SolverParams) -> dict[str, int]:
-        """Bytes on each stream for one step."""
-        return {
+        """Bytes on each stream for one step (the impulse writes with the impulses in the records)."""
+        out = {
             "constraints": num_manifolds * self.bytes_per_manifold(params),
             "body_in": num_bodies * self.body_in_bytes,
             "body_out": num_bodies * self.body_out_bytes,
         }
+        if self.impulses_in_records:
+            out["impulses_out"] = num_manifolds * sum(self.impulse_write_bytes(k) for k, _ in pass_sequence(params))
+        return out
 
 
 # --- whole streams ------------------------------------------------------------------------------------
@@ -344,12 +407,20 @@ def _transfers(blocks: list[np.ndarray], beat_bits: int) -> Stream:
 
 
 def pack_constraint_stream(fmt: NumberFormat, cons: ConstraintSet, schedule: np.ndarray, params: SolverParams,
-                           beat_bits: int = DEFAULT_CONS_BEAT_BITS) -> Stream:
-    """The constraint stream of one step: every pass of ``pass_sequence(params)``, records in schedule order."""
+                           beat_bits: int = DEFAULT_CONS_BEAT_BITS, impulses: Impulses | None = None) -> Stream:
+    """The constraint stream of one step: every pass of ``pass_sequence(params)``, records in schedule order.
+    ``impulses`` (per manifold, values of ``fmt``): the records carry them after their words, the impulses the step
+    starts from (the kernel built with IMPULSES_IN_RECORDS; the DMA replaces what earlier passes wrote); None: the
+    records of the on-chip impulse RAM."""
     idx = schedule_manifolds(schedule)
     header = constraint_header(cons, idx)
-    contact = pack_records(header, contact_words(fmt, cons, idx), fmt.width, beat_bits)
-    friction = pack_records(header, friction_words(fmt, cons, idx), fmt.width, beat_bits)
+    c_words, f_words = contact_words(fmt, cons, idx), friction_words(fmt, cons, idx)
+    if impulses is not None:
+        lam, lam_t = fmt.encode(impulses.normal[idx]), fmt.encode(impulses.friction[idx])
+        c_words = np.concatenate([c_words, lam], axis=1)
+        f_words = np.concatenate([f_words, lam, lam_t], axis=1)
+    contact = pack_records(header, c_words, fmt.width, beat_bits)
+    friction = pack_records(header, f_words, fmt.width, beat_bits)
     return _transfers([contact if kind == CONTACT_PASS else friction for kind, _ in pass_sequence(params)], beat_bits)
 
 

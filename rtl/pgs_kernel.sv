@@ -10,6 +10,11 @@
 //                     (WINDOW > 0: combined contact + friction records once per fetch, TLAST on each fetch's
 //                     last beat; see pgs_window)
 //   m_axis_body_*     body-out records in index order, TLAST on the last beat
+//   m_axis_imp_*      IMPULSES_IN_RECORDS = 1 (the impulses travel with the records; no impulse RAM): one record
+//                     per manifold slot of every pass, in slot order, TLAST on each pass's last: the updated
+//                     impulses, IMP_OUT_W = 4 W bits rounded up to bytes (contact: lam[0..3]; friction: lamT[0..1],
+//                     two zero words; a rejected slot all zeros), which the DMA writes to the DDR impulse buffer
+//                     that the next passes' records read (models/stream_format.py). Idle (TVALID 0) otherwise.
 //   trace_valid, trace_data (TRACE = 1; tied to 0 otherwise): one record per retired manifold-pass,
 //     little-endian from bit 0: words 0..15 (W bits each) = impulses[0..3] (contact: lam[0..3];
 //     friction: lamT[0..1], then two zero words), vA(3), wA(3), vB(3), wB(3) (the pipe's outputs,
@@ -36,10 +41,12 @@ module pgs_kernel #(
     parameter int WINDOW_CTX     = 8,
     parameter int LANES          = 1,     // manifolds issued per cycle (LANES > 1: window kernel only)
     parameter int IINV_W         = 3,     // inverse-inertia words of a body-in record: 1 scalar, 3 diagonal, 6 full
+    parameter bit IMPULSES_IN_RECORDS = 1'b0,  // 0: accumulated impulses in the on-chip RAM; 1: in the records
     parameter int C_S_AXI_CONTROL_ADDR_WIDTH = 8,
     parameter int C_S_AXI_CONTROL_DATA_WIDTH = 32,
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64,
+    localparam int IMP_OUT_W     = (4 * W + 7) / 8 * 8,
     localparam int AW            = C_S_AXI_CONTROL_ADDR_WIDTH,
     localparam int DW            = C_S_AXI_CONTROL_DATA_WIDTH
 ) (
@@ -78,6 +85,10 @@ module pgs_kernel #(
     output logic                  m_axis_body_TVALID,
     input  wire                   m_axis_body_TREADY,
     output logic                  m_axis_body_TLAST,
+    output logic [IMP_OUT_W-1:0]  m_axis_imp_TDATA,
+    output logic                  m_axis_imp_TVALID,
+    input  wire                   m_axis_imp_TREADY,
+    output logic                  m_axis_imp_TLAST,
     output logic [LANES-1:0]      trace_valid,
     output logic [LANES*TRACE_W-1:0] trace_data
 );
@@ -108,7 +119,7 @@ module pgs_kernel #(
         .EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .MAX_MANIFOLDS(MAX_MANIFOLDS),
         .BODY_IN_W(BODY_IN_W), .CONS_W(CONS_W), .BODY_OUT_W(BODY_OUT_W), .TRACE(TRACE),
         .HAZARD_DEPTH(HAZARD_DEPTH), .OUT_FIFO_DEPTH(OUT_FIFO_DEPTH), .WINDOW(WINDOW), .WINDOW_CTX(WINDOW_CTX),
-        .LANES(LANES), .IINV_W(IINV_W)
+        .LANES(LANES), .IINV_W(IINV_W), .IMPULSES_IN_RECORDS(IMPULSES_IN_RECORDS)
     ) u_seq (
         .clk(ap_clk), .rst(ap_rst_n_inv), .start(ap_start), .idle(ap_idle), .done(ap_done),
         .arg_num_bodies(num_bodies), .arg_num_manifolds(num_manifolds), .arg_iterations(iterations),
@@ -120,6 +131,8 @@ module pgs_kernel #(
         .s_cons_tlast(s_axis_cons_TLAST),
         .m_body_tdata(m_axis_body_TDATA), .m_body_tvalid(m_axis_body_TVALID), .m_body_tready(m_axis_body_TREADY),
         .m_body_tlast(m_axis_body_TLAST),
+        .m_imp_tdata(m_axis_imp_TDATA), .m_imp_tvalid(m_axis_imp_TVALID), .m_imp_tready(m_axis_imp_TREADY),
+        .m_imp_tlast(m_axis_imp_TLAST),
         .err_set, .err_code, .fp_set, .stat_cycles, .stat_stalls, .stat_bubbles, .stat_issued, .stat_rejected,
         .stat_fp_overflow, .stat_fp_underflow, .stat_fp_invalid, .trace_valid, .trace_data);
 

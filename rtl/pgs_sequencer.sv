@@ -71,8 +71,11 @@ module pgs_sequencer #(
     parameter int WINDOW_CTX     = 8,      // passes active at a time in the window (a power of two >= 2)
     parameter int LANES          = 1,      // manifolds issued per cycle (a power of two; > 1 needs WINDOW > 0)
     parameter int IINV_W         = 3,      // inverse-inertia words per body: 1 scalar, 3 diagonal, 6 symmetric 3x3
+    parameter bit IMPULSES_IN_RECORDS = 1'b0,  // 1: impulses travel with the records, out on m_imp (no impulse RAM)
+    parameter int IMP_FIFO_DEPTH = 256,    // IMPULSES_IN_RECORDS: impulse-out records between take and handshake
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
-    localparam int TRACE_W       = 16 * W + 64
+    localparam int TRACE_W       = 16 * W + 64,
+    localparam int IMP_OUT_W     = (4 * W + 7) / 8 * 8
 ) (
     input  wire                   clk,
     input  wire                   rst,
@@ -102,6 +105,10 @@ module pgs_sequencer #(
     output logic                  m_body_tvalid,
     input  wire                   m_body_tready,
     output logic                  m_body_tlast,
+    output logic [IMP_OUT_W-1:0]  m_imp_tdata,       // IMPULSES_IN_RECORDS: one record per slot and pass
+    output logic                  m_imp_tvalid,
+    input  wire                   m_imp_tready,
+    output logic                  m_imp_tlast,
     output logic [7:0]            err_set,
     output logic [7:0]            err_code,
     output logic [2:0]            fp_set,       // {invalid, underflow, overflow} events this cycle
@@ -123,8 +130,13 @@ module pgs_sequencer #(
     localparam int OREC_W    = 13 * W;                                  // body-out record
     localparam int B_BEATS   = (BREC_W + BODY_IN_W - 1) / BODY_IN_W;
     localparam int O_BEATS   = (OREC_W + BODY_OUT_W - 1) / BODY_OUT_W;
-    localparam int C_BEATS   = (64 + 23 * W + CONS_W - 1) / CONS_W;     // contact record
-    localparam int F_BEATS   = (64 + 14 * W + CONS_W - 1) / CONS_W;     // friction record
+    // words of a contact / friction record after the header: with IMPULSES_IN_RECORDS the contact record ends
+    // with lam[0..3], the friction record with lam[0..3] and lamT[0..1] (the impulses its pass starts from)
+    localparam int C_WORDS   = 23 + (IMPULSES_IN_RECORDS ? 4 : 0);
+    localparam int F_WORDS   = 14 + (IMPULSES_IN_RECORDS ? 6 : 0);
+    localparam int S1_WORDS  = C_WORDS > F_WORDS ? C_WORDS : F_WORDS;   // the record words stage 1 holds
+    localparam int C_BEATS   = (64 + C_WORDS * W + CONS_W - 1) / CONS_W;   // contact record
+    localparam int F_BEATS   = (64 + F_WORDS * W + CONS_W - 1) / CONS_W;   // friction record
     localparam int CM_BEATS  = C_BEATS > F_BEATS ? C_BEATS : F_BEATS;
     localparam int WR_BEATS  = (64 + 37 * W + CONS_W - 1) / CONS_W;     // window record (contact + friction)
     localparam int C_LAT     = pgs_pipe_latency_pkg::contact_latency(MAN_BITS);
@@ -143,6 +155,9 @@ module pgs_sequencer #(
 
     if (LANES < 1 || (LANES & (LANES - 1)) != 0 || (LANES > 1 && WINDOW == 0)) begin : g_bad_lanes
         $error("pgs_sequencer: LANES must be a power of two, and LANES > 1 needs the window kernel (WINDOW > 0)");
+    end
+    if (IMPULSES_IN_RECORDS && (WINDOW > 0 || LANES > 1)) begin : g_bad_iir
+        $error("pgs_sequencer: IMPULSES_IN_RECORDS is a configuration of the streaming kernel (WINDOW = 0, LANES = 1)");
     end
     if (IINV_W != 1 && IINV_W != 3 && IINV_W != 6) begin : g_bad_iinv
         $error("pgs_sequencer: IINV_W (inverse-inertia words per body) must be 1, 3 or 6");
@@ -392,11 +407,12 @@ module pgs_sequencer #(
         end
         l_go = go;
     end
-    assign take = in_solve && crec_valid && !i_fill && (l_go == '0 || (!hazard && !cam_full && kind_ok));
+    logic imp_room;   // the impulse-out stream has room for one more record (always, on-chip impulses)
+    assign take = in_solve && crec_valid && !i_fill && imp_room && (l_go == '0 || (!hazard && !cam_full && kind_ok));
     wire  [LANES-1:0] l_issue  = {LANES{take}} & l_go;
     wire  [LANES-1:0] l_reject = {LANES{take}} & ~l_empty & l_rej;
     wire  issue      = l_issue != '0;
-    wire  fill       = in_solve && i_fill;
+    wire  fill       = in_solve && i_fill && imp_room;
     assign slot_step = take || fill;
     always_ff @(posedge clk) begin
         for (int l = 0; l < LANES; l++) begin
@@ -437,19 +453,24 @@ module pgs_sequencer #(
     for (genvar l = 0; l < LANES; l++) begin : g_lane
         logic [4*W-1:0] rd_lam;
         logic [2*W-1:0] rd_lamT;
-        logic [BSLOT_W-1:0] wr_rec;
         logic              c_out_valid, f_out_valid, f_pipe_valid;
         logic [STAG_W-1:0] c_out_tag, f_out_tag, f_pipe_tag;
         logic [16*W-1:0]   c_out;
         logic [14*W-1:0]   f_out, f_pipe;
-        pgs_impulse_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_MANIFOLDS(MAX_MANIFOLDS / LANES)) u_imp_ram (
-            .clk, .rd_addr(i_slot[BSLOT_W-1:0]), .rd_zero_lam(rkind == CONTACT && i_iter == '0),
-            .rd_zero_lamT(rkind == FRICTION && i_iter == '0), .rd_lam, .rd_lamT, .wr_addr(wr_rec),
-            .wr_lam_en(c_out_valid), .wr_lam(c_out[0 +: 4*W]), .wr_lamT_en(f_out_valid), .wr_lamT(f_out[0 +: 2*W]));
-
         // stage 1: the record and tag of the manifold issued in the previous cycle
         logic              s1_valid, s1_kind, s1_sd;
-        logic [23*W-1:0]   s1_words;
+        logic [S1_WORDS*W-1:0] s1_words;
+        if (IMPULSES_IN_RECORDS) begin : g_imp_rec
+            // the impulses the pass starts from are the record's last words (host-given or last pass's)
+            assign rd_lam  = s1_kind == CONTACT ? s1_words[23*W +: 4*W] : s1_words[14*W +: 4*W];
+            assign rd_lamT = s1_words[18*W +: 2*W];
+        end else begin : g_imp_ram
+            wire [BSLOT_W-1:0] wr_rec = BSLOT_W'(l_rslot[l] >> LG_L);
+            pgs_impulse_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_MANIFOLDS(MAX_MANIFOLDS / LANES)) u_imp_ram (
+                .clk, .rd_addr(i_slot[BSLOT_W-1:0]), .rd_zero_lam(rkind == CONTACT && i_iter == '0),
+                .rd_zero_lamT(rkind == FRICTION && i_iter == '0), .rd_lam, .rd_lamT, .wr_addr(wr_rec),
+                .wr_lam_en(c_out_valid), .wr_lam(c_out[0 +: 4*W]), .wr_lamT_en(f_out_valid), .wr_lamT(f_out[0 +: 2*W]));
+        end
         logic [STAG_W-1:0] s1_tag;
         always_ff @(posedge clk) begin
             if (rst) s1_valid <= 1'b0;
@@ -459,7 +480,7 @@ module pgs_sequencer #(
             if (l_issue[l]) begin
                 s1_kind  <= rkind;
                 s1_sd    <= lhdr[l][63];
-                s1_words <= lrec[l][64 +: 23*W];
+                s1_words <= lrec[l][64 +: S1_WORDS*W];
                 s1_tag   <= {lslot[l][SLOT_W-1:0], i_iter, la[l], lb[l], dyn[2*l], dyn[2*l+1]};
             end
         end
@@ -471,7 +492,7 @@ module pgs_sequencer #(
         logic [(40 + 2*IINV_W)*W-1:0] f_in;
         always_comb begin
             c_in = '0;
-            c_in[0 +: 23*W] = s1_words;
+            c_in[0 +: 23*W] = s1_words[0 +: 23*W];
             c_in[23*W +: 4*W] = rd_lam;
             c_in[27*W +: 3*W] = ra[0 +: 3*W];      // xA
             c_in[30*W +: 3*W] = rb[0 +: 3*W];      // xB
@@ -553,12 +574,48 @@ module pgs_sequencer #(
         assign l_ra[l]     = r_tag[2 + IDX_W +: IDX_W];
         assign l_riter[l]  = r_tag[2 + 2*IDX_W +: ITER_W];
         assign l_rslot[l]  = r_tag[2 + 2*IDX_W + ITER_W +: SLOT_W];
-        assign wr_rec      = BSLOT_W'(l_rslot[l] >> LG_L);
         assign l_ev[l]     = {c_ev_inv + f_ev_inv, c_ev_unf + f_ev_unf, c_ev_ovf + f_ev_ovf};
         // the lane's slot bits of the record index, body B's orientation and the padding are not needed here
         wire unused_lane = ^{l_rslot[l], ra[7*W-1:3*W], rb[7*W-1:3*W]};
     end
     assign retire = l_retire != '0;
+
+    // ---------------- impulse-out stream (IMPULSES_IN_RECORDS) ----------------
+    // One record per slot of every pass, in slot order, TLAST on each pass's last slot: the updated impulses
+    // of a retired manifold-pass (contact: lam[0..3]; friction: lamT[0..1], then two zero words; the trace
+    // record's first four words), all zeros for a rejected slot. The order FIFO takes every slot at its take
+    // ({last, rejected}), the data FIFO every retire; a record leaves when its order entry is at the head and,
+    // unless rejected, its retire has arrived. A slot is taken only with room in the order FIFO (the pipes
+    // have no backpressure), so a stalled stream stalls the issue.
+    logic imp_idle;   // no impulse-out record pending
+    generate
+        if (IMPULSES_IN_RECORDS) begin : g_imp_out
+            logic [1:0]     ord_head;
+            logic [4*W-1:0] dat_head;
+            logic           ord_empty, ord_full, dat_empty, dat_full;
+            wire            imp_hs  = m_imp_tvalid && m_imp_tready;
+            wire            ord_rej = ord_head[0];
+            pgs_fifo #(.DATA_W(2), .DEPTH(IMP_FIFO_DEPTH)) u_imp_order (
+                .clk, .rst, .push(slot_step), .push_data({slot_last, !issue}), .pop(imp_hs), .head(ord_head),
+                .empty(ord_empty), .full(ord_full));
+            pgs_fifo #(.DATA_W(4*W), .DEPTH(IMP_FIFO_DEPTH)) u_imp_data (
+                .clk, .rst, .push(l_retire[0]), .push_data(l_imp[0]), .pop(imp_hs && !ord_rej), .head(dat_head),
+                .empty(dat_empty), .full(dat_full));
+            assign m_imp_tvalid = !ord_empty && (ord_rej || !dat_empty);
+            assign m_imp_tdata  = IMP_OUT_W'(ord_rej ? '0 : dat_head);
+            assign m_imp_tlast  = ord_head[1];
+            assign imp_room     = !ord_full;
+            assign imp_idle     = ord_empty;
+            wire unused_imp = dat_full;   // the data FIFO holds no more entries than the order FIFO
+        end else begin : g_no_imp_out
+            assign m_imp_tvalid = 1'b0;
+            assign m_imp_tdata  = '0;
+            assign m_imp_tlast  = 1'b0;
+            assign imp_room     = 1'b1;
+            assign imp_idle     = 1'b1;
+            wire unused_imp = m_imp_tready;
+        end
+    endgenerate
 
     // body RAM ports: LOAD writes whole records on port 0; SOLVE retire writes v/w of lane l's A (port 2l)
     // and B (port 2l + 1); INTEG reads on port 0
@@ -662,7 +719,8 @@ module pgs_sequencer #(
                              phase <= solve_work ? S_SOLVE : S_INTEG;
                 S_SOLVE: if (solve_last) phase <= S_DRAIN;
                 S_DRAIN: if (cam_empty && !c_flush) phase <= S_INTEG;
-                S_INTEG: if ((out_pop && out_cnt == nb - 1) || nb == 0) phase <= S_DONE;
+                // (and, with IMPULSES_IN_RECORDS, the last impulse-out record taken)
+                S_INTEG: if (((out_pop && out_cnt == nb - 1) || nb == 0 || out_cnt == nb) && imp_idle) phase <= S_DONE;
                 S_DONE:  phase <= S_IDLE;
                 default: phase <= S_IDLE;
             endcase
@@ -735,7 +793,7 @@ module pgs_sequencer #(
     logic unused_seq;
     always_comb begin
         unused_seq = ^{i_iter_full[ITER_W], ofifo_full, b_unused_tag, brec, rd0_data, bad};
-        for (int l = 0; l < LANES; l++) unused_seq ^= ^{lrec[l][CREC_W-1:64 + 23*W], lslot[l][31:SLOT_W]};
+        for (int l = 0; l < LANES; l++) unused_seq ^= ^{lrec[l][CREC_W-1:64 + S1_WORDS*W], lslot[l][31:SLOT_W]};
     end
 endmodule
 

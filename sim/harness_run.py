@@ -21,7 +21,9 @@ from typing import Callable
 import numpy as np
 
 from models import stream_format as sf
+from models.contact_solver import pass_sequence
 from models.dma_model import DmaPreset
+from models.kernel_shape import harness_ddr_millibytes
 from models.kernel_job import KernelJob
 from models.register_map import OFFSET
 from sim.kernel_build import KernelBuild
@@ -57,12 +59,22 @@ def register_writes(job: KernelJob) -> list[tuple[int, int]]:
     return [(OFFSET[name], value) for name, value in values.items()]
 
 
-def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild) -> dict[str, int]:
-    """Write the harness's input files into ``run_dir``; return the bytes of each stream."""
+def impulse_plan(job: KernelJob, turnaround: int) -> bytes:
+    """The harness's ``impulse_plan.bin``: slots per pass, the read-after-write turnaround, each pass's kind."""
+    head = np.asarray([len(job.slots), turnaround], dtype="<u4").tobytes()
+    return head + bytes(kind for kind, _ in pass_sequence(job.params))
+
+
+def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild, turnaround: int = 1) -> dict[str, int]:
+    """Write the harness's input files into ``run_dir``; return the bytes of each stream. ``turnaround``: the DMA's
+    cycles from an impulse-out record to the first beat of its reader (``DmaPreset.impulse_turnaround_cycles``)."""
     run_dir.mkdir(parents=True, exist_ok=True)
     body = sf.pack_body_table(job.fmt, job.bodies, kb.body_in_bits, inertia_words=kb.inertia_words)
+    if job.impulses_in_records != kb.impulses_in_records:
+        raise ValueError("the job's impulses in the records and the kernel build's IMPULSES_IN_RECORDS disagree")
     if job.record_window is None:
-        cons = sf.pack_constraint_stream(job.fmt, job.cons, job.schedule, job.params, kb.cons_bits)
+        cons = sf.pack_constraint_stream(job.fmt, job.cons, job.schedule, job.params, kb.cons_bits,
+                                         job.start_impulses if job.impulses_in_records else None)
     else:
         cons = sf.pack_window_stream(job.fmt, job.cons, job.slots, job.params, job.record_window.fetch_passes,
                                      kb.cons_bits)
@@ -71,8 +83,14 @@ def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild) -> dict[str, in
     (run_dir / "body_in_last.bin").write_bytes(body.last.astype(np.uint8).tobytes())
     (run_dir / "cons.bin").write_bytes(cons.to_bytes())
     (run_dir / "cons_last.bin").write_bytes(cons.last.astype(np.uint8).tobytes())
+    if job.impulses_in_records:
+        (run_dir / "impulse_plan.bin").write_bytes(impulse_plan(job, turnaround))
     out_bytes = job.bodies.num_bodies * sf.StreamLayout(job.fmt, kb.cons_bits, kb.body_out_bits).body_out_bytes
-    return {"body_in": body.data.size, "constraints": cons.data.size, "body_out": out_bytes}
+    sizes = {"body_in": body.data.size, "constraints": cons.data.size, "body_out": out_bytes}
+    if job.impulses_in_records:
+        lay = job.stream_layout(kb.cons_bits)
+        sizes["impulses_out"] = len(job.slots) * sum(lay.impulse_write_bytes(k) for k, _ in pass_sequence(job.params))
+    return sizes
 
 
 ProgressSink = Callable[[int, int], None]  # (cycle, trace records so far)
@@ -80,10 +98,10 @@ ProgressSink = Callable[[int, int], None]  # (cycle, trace records so far)
 
 def run_harness(exe: Path, run_dir: Path, seed: int, preset: DmaPreset, max_cycles: int, gap_permille: int = 0,
                 backpressure_permille: int = 0, progress: ProgressSink | None = None, progress_every: int = 65536,
-                env: dict[str, str] | None = None) -> dict[str, float]:
-    """Run the harness on the inputs in ``run_dir``; return the key/value lines of its ``result.txt``."""
-    rate = preset.ddr_bytes_per_cycle
-    millibytes = 0 if rate == float("inf") else max(1, round(rate * 1000))
+                env: dict[str, str] | None = None, read_share: float = 1.0) -> dict[str, float]:
+    """Run the harness on the inputs in ``run_dir``; return the key/value lines of its ``result.txt``.
+    ``read_share``: the share of the DDR bandwidth the constraint reads get (``StreamLayout.ddr_read_share``)."""
+    millibytes = harness_ddr_millibytes(preset, read_share)
     cmd = [str(exe), str(run_dir), str(seed), str(gap_permille), str(backpressure_permille), str(max_cycles),
            str(millibytes), str(preset.startup_cycles), str(progress_every if progress else 0),
            str(clock_period_ps(preset))]

@@ -73,6 +73,7 @@ class KernelBuild:
     window_ctx: int = 8
     lanes: int = 1  # LANES: manifolds issued per cycle (> 1: window kernel only)
     inertia_words: int = sf.KERNEL_INERTIA_WORDS  # IINV_W: inverse-inertia words per body (1, 3 or 6)
+    impulses_in_records: bool = False  # IMPULSES_IN_RECORDS: no impulse RAM, impulses in the records and m_axis_imp
     friction_sign_bug: bool = False  # the friction pipe with the wrong sign (the scoreboard must catch it)
     compile_profile: str = "quick"  # a key of COMPILE_PROFILES
 
@@ -89,7 +90,7 @@ class KernelBuild:
         return KernelBuild(job.fmt, cons_bits=preset.stream_bits, body_in_bits=body_bits, body_out_bits=body_bits,
                            waves=waves, window=0 if plan is None else plan.depth,
                            window_ctx=8 if plan is None else plan.ctx, lanes=1 if plan is None else plan.lanes,
-                           inertia_words=job.inertia_words)
+                           inertia_words=job.inertia_words, impulses_in_records=job.impulses_in_records)
 
     @property
     def name(self) -> str:
@@ -99,6 +100,7 @@ class KernelBuild:
                 + (f"_w{self.window}x{self.window_ctx}" if self.window else "")
                 + (f"_l{self.lanes}" if self.lanes > 1 else "")
                 + (f"_i{self.inertia_words}" if self.inertia_words != sf.KERNEL_INERTIA_WORDS else "")
+                + ("_ir" if self.impulses_in_records else "")
                 + ("_friction_sign_bug" if self.friction_sign_bug else "")
                 + (f"_{self.compile_profile}" if self.compile_profile != "quick" else "")
                 + ("_waves" if self.waves else ""))
@@ -115,13 +117,28 @@ class KernelBuild:
                 "BODY_OUT_W": self.body_out_bits} | (
                     {"WINDOW": self.window, "WINDOW_CTX": self.window_ctx} if self.window else {}) | (
                     {"LANES": self.lanes} if self.lanes > 1 else {}) | (
-                    {"IINV_W": self.inertia_words} if self.inertia_words != sf.KERNEL_INERTIA_WORDS else {})
+                    {"IINV_W": self.inertia_words} if self.inertia_words != sf.KERNEL_INERTIA_WORDS else {}) | (
+                    {"IMPULSES_IN_RECORDS": 1} if self.impulses_in_records else {})
+
+    @property
+    def layout(self) -> sf.StreamLayout:
+        return sf.StreamLayout(self.fmt, self.cons_bits, self.body_in_bits, self.inertia_words,
+                               self.impulses_in_records)
 
     @property
     def defines(self) -> dict[str, int]:
-        """The C++ defines of the compiled harness (its stream and trace byte widths, its lanes)."""
-        return {"BODY_IN_BYTES": self.body_in_bits // 8, "CONS_BYTES": self.cons_bits // 8,
-                "BODY_OUT_BYTES": self.body_out_bits // 8, "TRACE_BYTES": self.trace_bytes, "LANES": self.lanes}
+        """The C++ defines of the compiled harness (its stream and trace byte widths, its lanes; with the impulses
+        in the records their record layout and the impulse-out record's bytes)."""
+        out = {"BODY_IN_BYTES": self.body_in_bits // 8, "CONS_BYTES": self.cons_bits // 8,
+               "BODY_OUT_BYTES": self.body_out_bits // 8, "TRACE_BYTES": self.trace_bytes, "LANES": self.lanes}
+        if self.impulses_in_records:
+            w, lay = self.fmt.width, self.layout
+            out |= {"IMPULSES_IN_RECORDS": 1, "WORD_BITS": w, "IMP_OUT_BYTES": sf.impulse_out_bytes(self.fmt),
+                    "CONTACT_BEATS": lay.contact_beats, "FRICTION_BEATS": lay.friction_beats,
+                    "CONTACT_LAM_BIT": sf.HEADER_BITS + sf.CONTACT_LAM_WORD * w,
+                    "FRICTION_LAM_BIT": sf.HEADER_BITS + sf.FRICTION_LAM_WORD * w,
+                    "FRICTION_LAMT_BIT": sf.HEADER_BITS + sf.FRICTION_LAMT_WORD * w}
+        return out
 
     @property
     def cflags(self) -> list[str]:

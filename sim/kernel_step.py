@@ -24,7 +24,7 @@ from models.integrator import integrate
 from models.kernel_job import KernelJob
 from sim.harness_run import ProgressSink, harness_cycle_limit, run_harness, write_inputs
 from sim.kernel_build import KernelBuild, build_kernel
-from sim.trace_compare import Comparison, Trace, compare_body_out, compare_trace, read_trace
+from sim.trace_compare import Comparison, Trace, compare_body_out, compare_impulse_out, compare_trace, read_trace
 
 
 @dataclass
@@ -39,7 +39,7 @@ def golden_step(job: KernelJob) -> Golden:
     """The golden model's trace (every manifold-pass in retire order) and final body table."""
     t0 = time.perf_counter()
     records: list[PassRecord] = []
-    solved = solve(job.bodies, job.cons, job.schedule, job.fmt, job.params, trace=records.append)
+    solved = solve(job.bodies, job.cons, job.schedule, job.fmt, job.params, trace=records.append, initial=job.initial)
     final = integrate(solved.bodies, job.fmt, job.iparams)
     return Golden(records, solved, final, time.perf_counter() - t0)
 
@@ -82,16 +82,18 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
     if job.bodies.num_bodies > kb.max_bodies or job.cons.num_manifolds > kb.max_manifolds:
         raise ValueError(f"{job.bodies.num_bodies} bodies / {job.cons.num_manifolds} manifolds exceed the kernel's "
                          f"MAX_BODIES {kb.max_bodies} / MAX_MANIFOLDS {kb.max_manifolds}")
-    stream_bytes = write_inputs(run_dir, job, kb)
+    stream_bytes = write_inputs(run_dir, job, kb, preset.impulse_turnaround_cycles)
     golden = golden or golden_step(job)
     exe, build_s = build_kernel(kb)
     env = None if waves is None else dict(os.environ, PGS_WAVES=str(waves), PGS_WAVE_CYCLES=str(wave_cycles))
     regs = run_harness(exe, run_dir, seed, preset, harness_cycle_limit(job), gap_permille, backpressure_permille,
-                       progress, env=env)
+                       progress, env=env, read_share=job.stream_layout(kb.cons_bits).ddr_read_share(job.params))
     cmp = Comparison()
     trace = read_trace(run_dir / "trace.bin", job.fmt, kb.trace_bytes)
     compare_trace(trace, golden.records, job, cmp)
     compare_body_out(run_dir, job, kb, golden.final, cmp)
+    if job.impulses_in_records:
+        compare_impulse_out(run_dir, job, golden.records, cmp)
     if int(regs["status"]) != 0:
         cmp.fail(f"kernel status register 0x{int(regs['status']):x} (sticky error) after a good frame")
     if int(regs["issued"]) != job.manifold_passes:

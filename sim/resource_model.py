@@ -43,7 +43,8 @@ from typing import Any, Optional, Union
 from models import onchip_budget as ob
 from models.kernel_job import KernelJob
 from models.number_format import KERNEL_FORMATS, NumberFormat
-from models.stream_format import BODY_IN_WORDS, HEADER_BITS, WINDOW_WORDS
+from models.kernel_shape import IMPULSE_FIFO_DEPTH
+from models.stream_format import BODY_IN_WORDS, HEADER_BITS, IMPULSE_OUT_WORDS, WINDOW_WORDS
 from rtl.gen.dataflow import BOOL, OP_SIGNATURES
 from rtl.gen.kernel_graphs import GRAPHS
 from rtl.gen.operator_timing import MINMAX_LATENCY, operator_latencies
@@ -299,6 +300,9 @@ def memories(cfg: KernelConfig) -> list[MemoryArray]:
         depth = math.ceil(cfg.max_manifolds / cfg.lanes)
         out += [MemoryArray(f"normal impulses lam[4] per slot, {cfg.lanes} bank(s)", depth, 4 * w, cfg.lanes),
                 MemoryArray(f"friction impulses lamT[2] per slot, {cfg.lanes} bank(s)", depth, 2 * w, cfg.lanes)]
+    if not cfg.impulses_resident and not cfg.window:  # the streaming kernel's impulse-out stream (pgs_sequencer)
+        out.append(MemoryArray(f"impulse-out FIFO ({IMPULSE_OUT_WORDS} words per record, {IMPULSE_FIFO_DEPTH} deep)",
+                               IMPULSE_FIFO_DEPTH, IMPULSE_OUT_WORDS * w, 1))
     if cfg.window:
         rec = cfg.record_bits or w
         words = WINDOW_WORDS + (0 if cfg.impulses_resident else IMPULSE_WORDS)
@@ -452,7 +456,7 @@ def config_for_job(job: KernelJob) -> KernelConfig:
     """The configuration a run built: its format, lanes and ring, memories as deep as its scene needs."""
     plan = job.record_window
     return KernelConfig(job.fmt, job.bodies.num_bodies, len(job.slots), lanes=plan.lanes if plan else 1,
-                        window=plan.depth if plan else 0)
+                        window=plan.depth if plan else 0, impulses_resident=not job.impulses_in_records)
 
 
 def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: int, lanes: int = 1,

@@ -111,6 +111,9 @@ def check_args(args: argparse.Namespace) -> None:
     if args.schedule not in SCHEDULE_KINDS:
         raise ValueError(f"unknown schedule {args.schedule!r} (expected one of {', '.join(SCHEDULE_KINDS)})")
     check_kernel_args(args)
+    if args.driver == "cocotb" and getattr(args, "impulse_store", "onchip") == "records":
+        raise ValueError("DRIVER=cocotb has no DMA model of the impulses in the records: run IMPULSE_STORE=records "
+                         "with the compiled harness")
     if args.driver == "cocotb" and (args.record_window or args.body_bits != 128 or args.waves or args.stall_permille):
         raise ValueError("DRIVER=cocotb runs the streaming kernel with 128-bit body streams, without waveforms or "
                          "random stalls (RECORD_WINDOW=0 BODY_BITS=128 WAVES=0; the cycle-level cocotb tests cover "
@@ -136,17 +139,26 @@ def add_kernel_args(ap: argparse.ArgumentParser) -> None:
                     help="window kernel: manifolds issued per cycle (a power of two; LANES build parameter)")
     ap.add_argument("--body-bits", type=int, default=128,
                     help="beat width of the body-in and body-out streams (128, 256 or 512)")
+    ap.add_argument("--impulse-store", choices=("onchip", "records"), default="onchip",
+                    help="streaming kernel: accumulated impulses in the on-chip RAM, or travelling with the records "
+                         "through DDR (IMPULSES_IN_RECORDS build parameter)")
 
 
 def kernel_label(args: argparse.Namespace) -> str:
     """The kernel options in a run's name: empty for the streaming kernel with 128-bit body streams."""
     return ((f"-ring{args.record_window}" if args.record_window else "")
             + (f"-lanes{args.lanes}" if args.lanes > 1 else "")
-            + (f"-body{args.body_bits}" if args.body_bits != 128 else ""))
+            + (f"-body{args.body_bits}" if args.body_bits != 128 else "")
+            + ("-impulses-in-records" if getattr(args, "impulse_store", "onchip") == "records" else ""))
 
 
 def kernel_job(job: KernelJob, args: argparse.Namespace) -> KernelJob:
-    """``job`` on the kernel the options name: the window kernel's plan with ``--record-window``."""
+    """``job`` on the kernel the options name: the window kernel's plan with ``--record-window``, the impulses in
+    the records with ``--impulse-store records``."""
+    if getattr(args, "impulse_store", "onchip") == "records":
+        if args.record_window:
+            raise ValueError("--impulse-store records is a configuration of the streaming kernel (no --record-window)")
+        return job.impulses_travelling()
     if not args.record_window:
         return job
     return job.windowed(args.record_window, fetch_passes=args.fetch_passes or None, lanes=args.lanes)

@@ -20,7 +20,7 @@ import numpy as np
 
 from models import stream_format as sf
 from models.constraints import BodyTable
-from models.contact_solver import CONTACT_PASS, PassRecord, SolverParams
+from models.contact_solver import CONTACT_PASS, PassRecord, SolverParams, pass_sequence
 from models.kernel_job import KernelJob
 from models.number_format import NumberFormat
 from models.record_window import sequential_order
@@ -153,6 +153,42 @@ def compare_body_out(run_dir: Path, job: KernelJob, kb: KernelBuild, final: Body
         b, j = (int(x) for x in bad[0])
         cmp.fail(f"body-out: body {b} (dynamic={bool(job.bodies.dynamic[b])}) field {sf.BODY_OUT_FIELDS[j]}: kernel "
                  f"{_hex(int(got[b, j]), fmt)} != golden {_hex(int(want[b, j]), fmt)}")
+
+
+def expected_impulse_out(job: KernelJob, golden: list[PassRecord]) -> np.ndarray:
+    """(passes * slots, 4) bit patterns of the impulse-out stream: per pass, per slot, the golden impulses after
+    the manifold-pass (the trace record's first four words), zeros for a slot the kernel rejects."""
+    nm = len(job.slots)
+    order = {pk: p for p, pk in enumerate(pass_sequence(job.params))}
+    slot_of = np.empty(job.cons.num_manifolds, dtype=np.int64)
+    slot_of[job.slots] = np.arange(nm)
+    out = np.zeros((len(order) * nm, sf.IMPULSE_OUT_WORDS), dtype=np.uint64)
+    for rec in golden:
+        rows = order[(rec.kind, rec.iteration)] * nm + slot_of[rec.manifold]
+        out[rows] = expected_trace_words(job.fmt, rec)[:, :sf.IMPULSE_OUT_WORDS]
+    return out
+
+
+def compare_impulse_out(run_dir: Path, job: KernelJob, golden: list[PassRecord], cmp: Comparison) -> None:
+    """The impulse-out stream (impulses in the records): one record per slot and pass, TLAST on each pass's last,
+    bit for bit the golden impulses (what the DMA wrote back and the next passes read)."""
+    got = sf.unpack_impulse_out(job.fmt, (run_dir / "imp_out.bin").read_bytes())
+    last = np.frombuffer((run_dir / "imp_out_last.bin").read_bytes(), dtype=np.uint8).astype(bool)
+    want = expected_impulse_out(job, golden)
+    if got.shape[0] != want.shape[0]:
+        cmp.fail(f"{got.shape[0]} impulse-out records, expected {want.shape[0]} (one per slot and pass)")
+        return
+    nm = max(len(job.slots), 1)
+    if not np.array_equal(last, np.arange(want.shape[0]) % nm == nm - 1):
+        cmp.fail(f"impulse-out TLAST on records {np.flatnonzero(last).tolist()[:4]}, expected on each pass's last")
+    diff = got ^ want
+    cmp.differing_bits += _popcount(diff)
+    cmp.differing_words += int(np.count_nonzero(diff))
+    bad = np.argwhere(diff != 0)
+    if bad.size:
+        r, j = (int(x) for x in bad[0])
+        cmp.fail(f"impulse-out record {r} (pass {r // nm}, slot {r % nm}) word {j}: kernel "
+                 f"{_hex(int(got[r, j]), job.fmt)} != golden {_hex(int(want[r, j]), job.fmt)}")
 
 
 def kernel_bodies(run_dir: Path, job: KernelJob, kb: KernelBuild | None = None) -> BodyTable:

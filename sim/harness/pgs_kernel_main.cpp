@@ -21,6 +21,16 @@
 // STARTUP is the start-up latency of each MM2S transfer: the body-in transfer and each pass's constraint
 // transfer (one per pass, as the host issues them) wait STARTUP cycles before their first beat. With
 // PROGRESS > 0 a line "progress CYCLE TRACE_RECORDS" goes to stdout every PROGRESS cycles.
+// Impulses in the records (built with IMPULSES_IN_RECORDS=1; IMP_OUT_BYTES, WORD_BITS, CONTACT_BEATS, FRICTION_BEATS,
+// CONTACT_LAM_BIT, FRICTION_LAM_BIT, FRICTION_LAMT_BIT from models/stream_format.py): DIR/impulse_plan.bin holds
+// uint32 slots per pass, uint32 TURNAROUND, then one byte per pass (0 contact, 1 friction). The harness keeps the
+// DDR impulse buffer (lam[4], lamT[2] per slot): every m_axis_imp record (TREADY with the BP_PERMILLE backpressure)
+// writes its pass's field of its slot (contact lam, friction lamT); a record of a later pass carries the buffer's
+// words in place of those cons.bin holds (the host-given impulses the step starts from) for every field an
+// earlier pass of the step wrote. Read after write: record k of pass p > 0 is offered no earlier than TURNAROUND
+// cycles after pass p - 1's impulse-out record of slot k was taken (the write's path to DDR and the read's back;
+// every pass reads what its predecessor wrote or older). The DDR bucket's rate is the read share the host
+// reserved (sim/harness_run.py); the impulse writes do not spend from it. Writes DIR/imp_out.bin (the records).
 // Waveforms: built with --trace-fst (VM_TRACE), the harness writes an FST to $PGS_WAVES (when set) for the first
 // $PGS_WAVE_CYCLES cycles (default 20000; 0 = the whole run). Its time is in ps (the model's time precision, checked):
 // cycle N's falling edge at N * CLOCK_PS, its rising edge CLOCK_PS / 2 later (CLOCK_PS: the platform's clock period,
@@ -45,6 +55,10 @@
 #include "verilated_fst_c.h"
 #endif
 #include "harness_rng.h"
+
+#ifndef IMPULSES_IN_RECORDS
+#define IMPULSES_IN_RECORDS 0
+#endif
 
 #ifndef LANES
 #define LANES 1
@@ -83,6 +97,103 @@ template <std::size_t N>
 void get_wide(const VlWide<N>& w, uint8_t* dst, size_t nbytes) {
     for (size_t i = 0; i < nbytes; i++) dst[i] = uint8_t(w[i / 4] >> (8 * (i % 4)));
 }
+// a port Verilator keeps in a plain integer (at most 64 bits)
+template <typename T>
+void get_wide(const T& w, uint8_t* dst, size_t nbytes) {
+    for (size_t i = 0; i < nbytes; i++) dst[i] = uint8_t(uint64_t(w) >> (8 * i));
+}
+
+#if IMPULSES_IN_RECORDS
+// `nbits` (<= 64) little-endian bits at bit `pos` of a byte array
+uint64_t get_bits(const uint8_t* p, size_t pos, unsigned nbits) {
+    uint64_t v = 0;
+    for (unsigned i = 0; i < nbits; i++) v |= uint64_t((p[(pos + i) / 8] >> ((pos + i) % 8)) & 1u) << i;
+    return v;
+}
+void set_bits(uint8_t* p, size_t pos, unsigned nbits, uint64_t v) {
+    for (unsigned i = 0; i < nbits; i++) {
+        const size_t b = pos + i;
+        p[b / 8] = uint8_t((p[b / 8] & ~(1u << (b % 8))) | (((v >> i) & 1u) << (b % 8)));
+    }
+}
+
+// The DDR impulse buffer and the read-after-write rule across passes (see the header comment).
+struct ImpulseBuffer {
+    size_t slots = 0;
+    unsigned turnaround = 1;
+    std::vector<uint8_t> kinds;                 // per pass
+    std::vector<size_t> rec_first;              // per record of the stream: its first beat
+    std::vector<uint64_t> lam, lamT;            // 4 and 2 words per slot
+    std::vector<uint8_t> have_lam, have_lamT;   // written by a pass of this step
+    std::vector<int64_t> written_pass;          // per slot: the last pass whose record was taken, -1 none
+    std::vector<uint64_t> written_at;           // and the harness cycle it was taken
+    size_t n_out = 0;                           // impulse-out records taken
+    std::vector<uint8_t> rec;                   // the record being offered, patched
+    size_t rec_index = ~size_t(0);
+
+    void load(const std::vector<uint8_t>& plan, size_t n_cons) {
+        if (plan.size() < 8) fail("impulse_plan.bin: too short");
+        uint32_t s32, t32;
+        std::memcpy(&s32, &plan[0], 4);
+        std::memcpy(&t32, &plan[4], 4);
+        slots = s32;
+        turnaround = t32 ? t32 : 1;
+        kinds.assign(plan.begin() + 8, plan.end());
+        size_t beat = 0;
+        for (uint8_t k : kinds)
+            for (size_t s = 0; s < slots; s++) {
+                rec_first.push_back(beat);
+                beat += k ? FRICTION_BEATS : CONTACT_BEATS;
+            }
+        if (beat != n_cons) fail("constraint stream does not match impulse_plan.bin");
+        lam.assign(4 * slots, 0);
+        lamT.assign(2 * slots, 0);
+        have_lam.assign(slots, 0);
+        have_lamT.assign(slots, 0);
+        written_pass.assign(slots, -1);
+        written_at.assign(slots, 0);
+    }
+    // record index of constraint beat `ci` (beats in order), or ~0 when not a record's first beat
+    size_t first_of(size_t ci) const {
+        const size_t r = rec_index == ~size_t(0) ? 0 : rec_index + 1;
+        return r < rec_first.size() && rec_first[r] == ci ? r : ~size_t(0);
+    }
+    // may record r's first beat be offered in harness cycle `now`?
+    bool readable(size_t r, uint64_t now) const {
+        const size_t pass = r / slots, slot = r % slots;
+        if (pass == 0) return true;
+        return written_pass[slot] >= int64_t(pass) - 1 && now >= written_at[slot] + turnaround;
+    }
+    // the beats of record r with the buffer's impulses patched in
+    void compose(size_t r, const std::vector<uint8_t>& cons) {
+        const size_t pass = r / slots, slot = r % slots, beats = kinds[pass] ? FRICTION_BEATS : CONTACT_BEATS;
+        rec.assign(cons.begin() + rec_first[r] * CONS_BYTES, cons.begin() + (rec_first[r] + beats) * CONS_BYTES);
+        const size_t lam_bit = kinds[pass] ? FRICTION_LAM_BIT : CONTACT_LAM_BIT;
+        if (have_lam[slot])
+            for (unsigned w = 0; w < 4; w++) set_bits(rec.data(), lam_bit + w * WORD_BITS, WORD_BITS, lam[4 * slot + w]);
+        if (kinds[pass] && have_lamT[slot])
+            for (unsigned w = 0; w < 2; w++)
+                set_bits(rec.data(), FRICTION_LAMT_BIT + w * WORD_BITS, WORD_BITS, lamT[2 * slot + w]);
+        rec_index = r;
+    }
+    const uint8_t* beat(size_t ci) const { return &rec[(ci - rec_first[rec_index]) * CONS_BYTES]; }
+    // an impulse-out record taken in harness cycle `now`
+    void write(const uint8_t* data, uint64_t now) {
+        const size_t pass = n_out / slots, slot = n_out % slots;
+        if (pass >= kinds.size()) fail("more impulse-out records than the passes have slots");
+        if (kinds[pass]) {
+            for (unsigned w = 0; w < 2; w++) lamT[2 * slot + w] = get_bits(data, w * WORD_BITS, WORD_BITS);
+            have_lamT[slot] = 1;
+        } else {
+            for (unsigned w = 0; w < 4; w++) lam[4 * slot + w] = get_bits(data, w * WORD_BITS, WORD_BITS);
+            have_lam[slot] = 1;
+        }
+        written_pass[slot] = int64_t(pass);
+        written_at[slot] = now;
+        n_out++;
+    }
+};
+#endif
 
 // DDR bandwidth shared by the streams: a token bucket of bytes (rate 0 = uncapped)
 struct DdrBucket {
@@ -253,6 +364,15 @@ int main(int argc, char** argv) {
     t->s_axi_control_BREADY = t->s_axi_control_RREADY = 0;
     t->s_axis_body_TVALID = t->s_axis_cons_TVALID = 0;
     t->m_axis_body_TREADY = 0;
+    t->m_axis_imp_TREADY = 0;
+#if IMPULSES_IN_RECORDS
+    ImpulseBuffer imp;
+    imp.load(read_file(dir + "/impulse_plan.bin"), n_cons);
+    std::FILE* fimp = std::fopen((dir + "/imp_out.bin").c_str(), "wb");
+    std::FILE* fimp_last = std::fopen((dir + "/imp_out_last.bin").c_str(), "wb");
+    if (!fimp || !fimp_last) fail("cannot create impulse-out files");
+    uint8_t ibuf[IMP_OUT_BYTES];
+#endif
     for (int i = 0; i < 8; i++) s.tick();
     t->ap_rst_n = 1;
     s.tick();
@@ -304,13 +424,28 @@ int main(int argc, char** argv) {
             t->s_axis_body_TVALID = 1;
             ddr.spend(BODY_IN_BYTES);
         }
-        if (!t->s_axis_cons_TVALID && ci < n_cons && !cons_wait && ddr.available(CONS_BYTES) && !rng.chance(gap)) {
+#if IMPULSES_IN_RECORDS
+        const size_t first = ci < n_cons && !t->s_axis_cons_TVALID ? imp.first_of(ci) : ~size_t(0);
+        const bool raw_ok = first == ~size_t(0) || imp.readable(first, s.cycle - start_cycle);
+#else
+        const bool raw_ok = true;
+#endif
+        if (!t->s_axis_cons_TVALID && ci < n_cons && !cons_wait && raw_ok && ddr.available(CONS_BYTES) &&
+            !rng.chance(gap)) {
+#if IMPULSES_IN_RECORDS
+            if (first != ~size_t(0)) imp.compose(first, cons);
+            set_wide(t->s_axis_cons_TDATA, imp.beat(ci), CONS_BYTES);
+#else
             set_wide(t->s_axis_cons_TDATA, &cons[ci * CONS_BYTES], CONS_BYTES);
+#endif
             t->s_axis_cons_TLAST = cons_last[ci];
             t->s_axis_cons_TVALID = 1;
             ddr.spend(CONS_BYTES);
         }
         t->m_axis_body_TREADY = ddr.available(BODY_OUT_BYTES) && !rng.chance(bp);
+#if IMPULSES_IN_RECORDS
+        t->m_axis_imp_TREADY = !rng.chance(bp);
+#endif
         bool body_hs = false, cons_hs = false;
         s.tick([&] {
             body_hs = t->s_axis_body_TVALID && t->s_axis_body_TREADY;
@@ -323,6 +458,15 @@ int main(int argc, char** argv) {
                 n_out++;
                 ddr.spend(BODY_OUT_BYTES);
             }
+#if IMPULSES_IN_RECORDS
+            if (t->m_axis_imp_TVALID && t->m_axis_imp_TREADY) {
+                get_wide(t->m_axis_imp_TDATA, ibuf, IMP_OUT_BYTES);
+                std::fwrite(ibuf, 1, IMP_OUT_BYTES, fimp);
+                uint8_t l = t->m_axis_imp_TLAST;
+                std::fwrite(&l, 1, 1, fimp_last);
+                imp.write(ibuf, s.cycle - start_cycle);
+            }
+#endif
             if (t->trace_valid) {
                 uint64_t c = s.cycle - start_cycle;
                 get_wide(t->trace_data, buf, LANES * TRACE_BYTES);
@@ -350,6 +494,10 @@ int main(int argc, char** argv) {
     std::fclose(ftrace);
     std::fclose(fout);
     std::fclose(fout_last);
+#if IMPULSES_IN_RECORDS
+    std::fclose(fimp);
+    std::fclose(fimp_last);
+#endif
 
     const uint32_t ap_ctrl = axil_read(s, 0x00);
     const uint32_t isr = axil_read(s, 0x0C);
@@ -364,6 +512,9 @@ int main(int argc, char** argv) {
     std::fprintf(fr, "harness_cycles %llu\nwall_s %.6f\nbody_in_beats_taken %zu\ncons_beats_taken %zu\n",
                  (unsigned long long)run_cycles, wall, bi, ci);
     std::fprintf(fr, "body_out_beats %zu\ntrace_records %zu\n", n_out, n_trace);
+#if IMPULSES_IN_RECORDS
+    std::fprintf(fr, "impulse_out_records %zu\n", imp.n_out);
+#endif
     std::fclose(fr);
     t->final();
     s.close_waves();
