@@ -12,7 +12,8 @@ TLAST per pass) with the golden model of the same step:
   impulse writes: the read-after-write rule across passes): every retire cycle, the total and the stall and bubble
   counters equal the cycle model's;
 * a warm start: random non-negative initial normal impulses and friction impulses within the limit, bit-exact
-  against ``solve(..., initial=...)``, cycles exact.
+  against ``solve(..., initial=...)``, cycles exact; also with the passes interleaved (contact, friction, ...:
+  each friction pass reads the lam its contact pass just wrote).
 """
 
 from __future__ import annotations
@@ -41,9 +42,9 @@ def _seed() -> int:
     return int(os.environ.get("SEED", "12345"))
 
 
-def pile_job() -> KernelJob:
+def pile_job(interleaved: bool = False) -> KernelJob:
     frame = scenes.load_or_capture("pile", **KERNEL_TEST_SCENES["pile"])
-    return KernelJob.from_frame(frame, FP16, SolverParams(4), "hazard",
+    return KernelJob.from_frame(frame, FP16, SolverParams(4, interleaved=interleaved), "hazard",
                                 default_window(FP16, PRESET.stream_bits)).impulses_travelling()
 
 
@@ -69,13 +70,13 @@ def test_pile_bit_exact_with_random_backpressure(tmp_path: Path) -> None:
     assert res.cycles >= bound
 
 
-@pytest.mark.parametrize("which", ["pile", "independent", "warm-pile"])
+@pytest.mark.parametrize("which", ["pile", "independent", "warm-pile", "interleaved-warm-pile"])
 def test_cycles_match_model(which: str, tmp_path: Path) -> None:
     if which == "independent":
         job = independent_stack_job(FP16).impulses_travelling()
     else:
-        job = pile_job()
-        if which == "warm-pile":
+        job = pile_job(interleaved=which.startswith("interleaved"))
+        if which.endswith("warm-pile"):
             job = job.impulses_travelling(warm_start(job, _seed()))
     pred = cycle_model.predict_job(job, PRESET)
     res = run_kernel_step(job, PRESET, tmp_path, seed=1, keep_trace=True)
