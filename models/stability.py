@@ -34,7 +34,7 @@ from .cycle_model import predict_job
 from .dma_model import DmaPreset, get_preset
 from .integrator import IntegrationParams
 from .kernel_job import KernelJob
-from .number_format import Arithmetic
+from .number_format import Arithmetic, NumberFormat
 from .warm_start import WARMSTART_FACTOR
 from .scenes import GRAVITY
 from .scenes.world import DEFAULT_DT
@@ -152,7 +152,7 @@ def call_iterations(iterations: int, remedy: Remedy) -> int:
 
 class KernelPricer:
     """Wraps a stepper factory and prices every kernel call with the exact cycle model (``models/cycle_model.py``,
-    the streaming kernel on ``preset``: body streams in and out of every call included)."""
+    the streaming kernel on ``preset``: body streams in and out of every call included; a float64 loop: NaN)."""
 
     def __init__(self, preset: DmaPreset | None = None) -> None:
         self.preset = preset or get_preset("zcu102")
@@ -164,8 +164,8 @@ class KernelPricer:
 
             def step(bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,
                      initial: Impulses | None = None) -> tuple[BodyTable, Impulses]:
-                job = KernelJob(ar, bodies, cons, order, solver, ip)  # type: ignore[arg-type]
-                self.cycles.append(predict_job(job, self.preset).cycles)
+                if isinstance(ar, NumberFormat):  # float64 has no kernel to price
+                    self.cycles.append(predict_job(KernelJob(ar, bodies, cons, order, solver, ip), self.preset).cycles)
                 return advance(bodies, cons, order, initial)
 
             return step
@@ -175,7 +175,9 @@ class KernelPricer:
     def per_step(self, result: LoopResult) -> float:
         """Mean kernel cycles per measured step (all its calls)."""
         calls = result.steps * int(result.extra.get("calls per step", 1))
-        return float(np.sum(self.cycles[-calls:])) / result.steps if calls else 0.0
+        if len(self.cycles) < calls:
+            return float("nan")
+        return float(np.sum(self.cycles[len(self.cycles) - calls:])) / result.steps
 
 
 # the remedies the suite compares (models.closed_loop.Remedy): Bullet GPU's cold start, Bullet 2's warm start,
