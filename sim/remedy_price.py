@@ -8,7 +8,7 @@ and constraints (rounded once) cold (zeros) and warm (the carried impulses round
 against ``models.exact_reference`` of that step (float64 inputs, as the exact reference requires: a rounded normal is
 not an eigenvector of a rounded isotropic inertia and its spin-damping rows would be refused).
 
-    python -m sim.remedy_price --scene pile --settle 39 --steps 2 --format fp32 --iters 1,2,4,8
+    python -m sim.remedy_price --scene pile --settle 39 --steps 2 --format fp32 --iters 1,2,4,8 --schedule hazard
 """
 
 from __future__ import annotations
@@ -30,12 +30,12 @@ from models.solution_error import solution_error
 from models.warm_start import WARMSTART_FACTOR, apply_impulses
 
 
-def capture(scene: str, settle: int, steps: int, iterations: int, factor: float,
+def capture(scene: str, settle: int, steps: int, iterations: int, factor: float, schedule: str = "hazard",
             **params: object) -> tuple[StepInput, dict[str, int]]:
     """The last of ``steps`` warm-started float64 closed-loop steps after ``settle`` pybullet steps, and the
     warm-start report of the run."""
-    r = run_closed_loop(scene, steps, FLOAT64, iterations, settle_steps=settle, remedy=Remedy("warm", factor),
-                        **params)
+    r = run_closed_loop(scene, steps, FLOAT64, iterations, schedule=schedule, settle_steps=settle,
+                        remedy=Remedy("warm", factor), **params)
     return r.extra["last step"], r.extra["warm start"]
 
 
@@ -72,6 +72,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--loop-iters", type=int, default=4, help="iterations of the loop's steps before the priced one")
     ap.add_argument("--iters", default="1,2,4,8")
     ap.add_argument("--factor", type=float, default=WARMSTART_FACTOR)
+    ap.add_argument("--schedule", default="hazard", help="manifold order (models/schedule.py; make sim's default)")
     args = ap.parse_args(argv)
     try:
         iters = [int(x) for x in args.iters.split(",") if x.strip()]
@@ -82,10 +83,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     t0 = time.perf_counter()
-    last, report = capture(args.scene, args.settle, args.steps, args.loop_iters, args.factor)
+    last, report = capture(args.scene, args.settle, args.steps, args.loop_iters, args.factor, args.schedule)
     rows = price(last, fmt, iters)
     print(f"{args.scene}: {last.bodies.num_bodies} bodies, {last.cons.num_manifolds} manifolds, {fmt.name}, "
-          f"warm start factor {args.factor} ({report})")
+          f"{args.schedule} schedule, warm start factor {args.factor}; the loop's warm starts: {report}")
     keys = list(rows[0])
     print("| " + " | ".join(keys) + " |\n" + "|---" * len(keys) + "|")
     for r in rows:
