@@ -61,8 +61,11 @@ class Remedy:
     name: str
     warm_factor: float = 0.0
     substeps: int = 1
+    relax: bool = False  # the last substep without the position correction (models/substep.py)
 
     def __post_init__(self) -> None:
+        if self.relax and self.substeps < 2:
+            raise ValueError(f"remedy {self.name}: a relax substep needs substeps >= 2 (one to correct positions)")
         if self.substeps < 1 or not 0.0 <= self.warm_factor <= 1.0:
             raise ValueError(f"remedy {self.name}: substeps must be >= 1 and the warm-start factor in [0, 1], got "
                              f"{self.substeps} and {self.warm_factor}")
@@ -231,8 +234,9 @@ def _remedy_step(remedy: Remedy, advance: Stepper, bodies: BodyTable, cons: Cons
         points = ContactPoints(cons.body_a, cons.body_b, valid, mf.normal_on_b[:, 0, :], mf.point_on_a,
                                mf.point_on_b, bodies.position.astype(np.float64),
                                bodies.orientation.astype(np.float64))
-    for _ in range(remedy.substeps):
-        call = cons if points is None else substep_constraints(cons, points, bodies, call_dt, ar)
+    for k in range(remedy.substeps):
+        call = cons if points is None else substep_constraints(
+            cons, points, bodies, call_dt, ar, relax=remedy.relax and k == remedy.substeps - 1)
         if initial is not None:
             bodies = apply_impulses(bodies, call, initial, ar)
         bodies, impulses = advance(bodies, call, order, initial)

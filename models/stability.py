@@ -181,10 +181,12 @@ class KernelPricer:
 
 
 # the remedies the suite compares (models.closed_loop.Remedy): Bullet GPU's cold start, Bullet 2's warm start,
-# and the warm start with Box2D-style substeps (models/substep.py)
+# the warm start with Box2D-style substeps (models/substep.py), the last substep relaxed; warm1: Box2D's full warm
+# start (factor 1)
 REMEDIES: dict[str, Remedy] = {r.name: r for r in (
     COLD, Remedy("warm", WARMSTART_FACTOR), Remedy("warm+sub2", WARMSTART_FACTOR, 2),
-    Remedy("warm+sub4", WARMSTART_FACTOR, 4))}
+    Remedy("warm+sub4", WARMSTART_FACTOR, 4), Remedy("warm+sub2+relax", WARMSTART_FACTOR, 2, relax=True),
+    Remedy("warm1+sub2+relax", 1.0, 2, relax=True))}
 
 
 def _always(thresholds: Thresholds) -> Callable[[int], Thresholds]:

@@ -13,6 +13,12 @@ kernel's update: here the host only sets, per call, what the kernel already read
   applied on the host (``models.warm_start.apply_impulses``).
 
 Each substep runs the kernel's full pass sequence: its manifold-passes per step are ``n`` times the call's.
+
+Relax (``Remedy.relax``): the last substep runs with the position correction removed from the bias (Box2D's relax
+iterations, which run after the position update; here the last call solves and integrates, so it is a relax
+*substep*). The velocities the step ends with, and the impulses the next step is warm-started from, then hold no
+Baumgarte push: with Bullet's bias in every call, a warm start carries last step's push-apart impulse into the next
+step and the contacts overshoot.
 """
 
 from __future__ import annotations
@@ -56,9 +62,13 @@ def _moved(points: np.ndarray, idx: np.ndarray, x0: np.ndarray, q0: np.ndarray, 
 
 
 def substep_constraints(cons: ConstraintSet, contacts: ContactPoints, bodies: BodyTable, dt: float,
-                        ar: Arithmetic) -> ConstraintSet:
+                        ar: Arithmetic, relax: bool = False) -> ConstraintSet:
     """``cons`` with each valid point's bias from its separation at ``bodies``' poses for a call of ``dt``,
-    rounded to the format (every other field as set up)."""
+    rounded to the format (every other field as set up). ``relax``: the position correction removed (a negative
+    bias, which pushes a contact deeper than the slop apart, becomes 0; a positive one, which lets a contact close
+    its gap, stays), Box2D's relax iterations."""
     d = contacts.separation(bodies)
     bias = np.where(contacts.valid, (d + POSITION_DRIFT) * POSITION_COEFF / dt, 0.0)
+    if relax:
+        bias = np.maximum(bias, 0.0)
     return replace(cons, bias=ar.round(bias))

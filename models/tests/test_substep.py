@@ -51,6 +51,18 @@ def test_the_bias_follows_the_separation_since_the_collision_detection() -> None
     assert d == pytest.approx(-0.002 + 0.5 * np.sin(0.01) + 0.5 * (1 - np.cos(0.01)), abs=1e-6)
 
 
+def test_the_relax_substep_drops_the_position_correction_only() -> None:
+    bodies, cons, points = _two_boxes()
+    dt = 1.0 / 120.0
+    deep = bodies.copy()
+    deep.position[0, 1] -= 0.01  # 12 mm deep: the bias pushes apart (negative), relax removes it
+    assert substep_constraints(cons, points, deep, dt, FLOAT64).bias[0, 0] < 0.0
+    assert substep_constraints(cons, points, deep, dt, FLOAT64, relax=True).bias[0, 0] == 0.0
+    # 2 mm deep (less than the slop): the positive bias that lets the contact close stays
+    assert np.array_equal(substep_constraints(cons, points, bodies, dt, FLOAT64, relax=True).bias,
+                          substep_constraints(cons, points, bodies, dt, FLOAT64).bias)
+
+
 def test_a_step_in_substeps_makes_n_calls_and_the_judge_sees_one_state_per_step() -> None:
     remedy = Remedy("warm+sub2", 0.85, 2)
     result, path = CASES["incline20"].run(FP32, 4, steps=3, remedy=remedy)
@@ -65,3 +77,5 @@ def test_a_remedy_out_of_range_is_refused() -> None:
         Remedy("none", 0.85, 0)
     with pytest.raises(ValueError, match="factor"):
         Remedy("over", 1.5)
+    with pytest.raises(ValueError, match="relax"):
+        Remedy("relax alone", 0.85, 1, relax=True)
