@@ -12,33 +12,74 @@ The inverse inertia follows the loop's Bullet convention (``models/inertia.py``)
 ``R diag R^T`` from every step's orientation (Bullet 2's ``updateInertiaTensor``) and takes the pairs' combined
 friction (per manifold where it differs from the solver's one coefficient); ``bullet_gpu`` registers it once at
 the loop's first state and never updates it; ``world_axes`` (the default) keeps the unrotated diagonal.
+
+A :class:`Remedy` changes how a step is solved, never the contacts: ``warm_factor`` > 0 warm starts every step
+from the previous one's impulses (``models/warm_start.py``: points matched as Bullet 2 matches them, applied on the
+host at setup, the loop carrying the :class:`~models.warm_start.ContactMemory` step to step); ``substeps`` > 1 solves
+a step as that many kernel calls of dt / n (``models/substep.py``). :data:`COLD` (the default) is Bullet's GPU scheme.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, Optional
 
 import numpy as np
 
 from . import scenes
-from .constraints import BodyTable, body_table_from_state, friction_register, setup_constraints
-from .contact_solver import SolverParams, solve
+from .constraints import BodyTable, ConstraintSet, body_table_from_state, friction_register, setup_constraints
+from .contact_solver import Impulses, SolverParams, solve
 from .frame import Frame
 from .inertia import CONVENTION_KEY, DEFAULT_CONVENTION, BulletConvention, convention_inverse_inertia, quat_to_matrix
 from .integrator import IntegrationParams, integrate
 from .number_format import FLOAT64, Arithmetic
 from .schedule import make_schedule
+from .substep import ContactPoints, substep_constraints
+from .warm_start import ContactMemory, Contacts, WarmStartReport, apply_impulses, warm_start
 
 
-# one step of the dynamics: (bodies, constraints, schedule) -> bodies after solve and integration; values in the
-# loop's format. ``golden_stepper`` is the reference model; ``sim.rtl_stepper.rtl_stepper`` runs the RTL kernel.
-Stepper = Callable[[BodyTable, Any, np.ndarray], BodyTable]
+# one kernel call: (bodies, constraints, schedule, initial impulses or None: zeros) -> (bodies after solve and
+# integration, the accumulated impulses after the last pass); values in the loop's format. ``golden_stepper`` is the
+# reference model; ``sim.rtl_stepper.rtl_stepper`` runs the RTL kernel.
+Stepper = Callable[[BodyTable, ConstraintSet, np.ndarray, Optional[Impulses]], tuple[BodyTable, Impulses]]
 StepperFactory = Callable[[Arithmetic, SolverParams, IntegrationParams], Stepper]
 
 
 def golden_stepper(ar: Arithmetic, solver: SolverParams, ip: IntegrationParams) -> Stepper:
-    return lambda bodies, cons, order: integrate(solve(bodies, cons, order, ar, solver).bodies, ar, ip)
+    def step(bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,
+             initial: Optional[Impulses] = None) -> tuple[BodyTable, Impulses]:
+        res = solve(bodies, cons, order, ar, solver, initial=initial)
+        return integrate(res.bodies, ar, ip), res.impulses
+
+    return step
+
+
+@dataclass(frozen=True)
+class Remedy:
+    """How each step is solved: warm starting (factor; 0: cold) and substeps (kernel calls of dt / n per step)."""
+
+    name: str
+    warm_factor: float = 0.0
+    substeps: int = 1
+    relax: bool = False  # the last substep without the position correction (models/substep.py)
+
+    def __post_init__(self) -> None:
+        if self.relax and self.substeps < 2:
+            raise ValueError(f"remedy {self.name}: a relax substep needs substeps >= 2 (one to correct positions)")
+        if self.substeps < 1 or not 0.0 <= self.warm_factor <= 1.0:
+            raise ValueError(f"remedy {self.name}: substeps must be >= 1 and the warm-start factor in [0, 1], got "
+                             f"{self.substeps} and {self.warm_factor}")
+
+    @property
+    def warm(self) -> bool:
+        return self.warm_factor > 0.0
+
+    def passes_per_step(self, solver: SolverParams) -> int:
+        """Manifold-passes per step, all substeps included (a contact and a friction pass per iteration)."""
+        return 2 * solver.iterations * self.substeps
+
+
+COLD = Remedy("cold")
 
 
 @dataclass
@@ -97,12 +138,14 @@ def _contact_frame(world: scenes.SceneWorld, bodies: BodyTable, mf: scenes.Manif
 def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations: int = 4,
                     schedule: str = "pybullet", window: int = 64, settle_steps: int = 0, warmup_steps: int = 0,
                     seed: int = 0, stepper: StepperFactory = golden_stepper,
-                    convention: BulletConvention = DEFAULT_CONVENTION, **params: Any) -> LoopResult:
+                    convention: BulletConvention = DEFAULT_CONVENTION, remedy: Remedy = COLD,
+                    **params: Any) -> LoopResult:
     """Run ``steps`` closed-loop steps of a scene and measure them, inertia and friction in ``convention``.
 
     ``settle_steps`` of pybullet's own solver come first; then ``warmup_steps`` of our own loop, which are
     not measured (a stack sinks to the GPU solver's 5 mm resting penetration per contact); drift is
-    measured from the end of the warm-up. ``stepper`` makes the function that solves and integrates each step.
+    measured from the end of the warm-up. ``stepper`` makes the function that solves and integrates each kernel
+    call; ``remedy`` says how a step is solved (the warm-start report and the kernel calls land in ``extra``).
     """
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
@@ -111,10 +154,11 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
             world.step()
         state = world.body_state()
         gravity = np.asarray(scenes.GRAVITY, dtype=np.float64)
-        ip = IntegrationParams(dt=world.dt, gravity=tuple(gravity))
+        ip = IntegrationParams(dt=world.dt / remedy.substeps, gravity=tuple(gravity))
         solver = SolverParams(iterations=iterations, friction_coeff=friction_register(state["friction"], convention))
         bodies = body_table_from_state(state, gravity, world.dt, convention=convention).rounded(ar)
         advance = stepper(ar, solver, ip)
+        carried = _RemedyState()
         dyn = bodies.dynamic
         rows: dict[str, list[float]] = {k: [] for k in ("pen", "vmax", "vmed", "ke", "bad", "man")}
         start = bodies.position.copy()
@@ -130,7 +174,7 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
             frame = _contact_frame(world, bodies, mf, state, gravity, convention)
             cons = setup_constraints(frame, bodies, solver.friction_coeff).rounded(ar)
             order = make_schedule(schedule, cons, dyn, window)
-            bodies = advance(bodies, cons, order)
+            bodies = _remedy_step(remedy, advance, bodies, cons, order, mf, ar, solver, ip.dt, carried)
             valid = np.arange(4)[None, :] < mf.num_points[:, None]
             speed = np.linalg.norm(bodies.linear_velocity[dyn], axis=1)
             rows["pen"].append(float(np.max(-mf.distance[valid], initial=0.0)))
@@ -146,4 +190,59 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
         median_speed=np.asarray(rows["vmed"]), kinetic_energy=np.asarray(rows["ke"]),
         nonfinite=np.asarray(rows["bad"]), manifolds=np.asarray(rows["man"]),
         drift=np.linalg.norm(bodies.position[dyn] - start[dyn], axis=1), final=bodies, start_position=start,
+        extra={"remedy": remedy.name, "passes per step": remedy.passes_per_step(solver),
+               "kernel calls": carried.calls, "calls per step": remedy.substeps, "warm start": carried.report.as_dict(),
+               "last step": carried.last},
     )
+
+
+@dataclass
+class _RemedyState:
+    """What the loop carries from step to step for its remedy."""
+
+    memory: Optional[ContactMemory] = None  # the last step's contacts and impulses (warm starting)
+    report: WarmStartReport = field(default_factory=WarmStartReport)
+    calls: int = 0
+    last: Optional["StepInput"] = None
+
+
+@dataclass(frozen=True)
+class StepInput:
+    """What the loop's last step was solved from: the bodies before any warm start was applied, the constraints as
+    set up (the collision detection's bias), the schedule, and the warm start's initial impulses (None: cold)."""
+
+    bodies: BodyTable
+    cons: ConstraintSet
+    order: np.ndarray
+    initial: Optional[Impulses]
+
+
+def _remedy_step(remedy: Remedy, advance: Stepper, bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,
+                 mf: scenes.Manifolds, ar: Arithmetic, solver: SolverParams, call_dt: float,
+                 state: _RemedyState) -> BodyTable:
+    """One step: the warm start from the carried memory (if warm), then the remedy's kernel calls."""
+    initial: Optional[Impulses] = None
+    if remedy.warm:
+        contacts = Contacts.of(mf.body_a, mf.body_b, mf.num_points, mf.point_on_a, bodies)
+        ws = warm_start(state.memory, contacts, cons, solver.friction_coeff, remedy.warm_factor)
+        state.report.add(ws.report)
+        initial = Impulses(ar.round(ws.impulses.normal), ar.round(ws.impulses.friction))
+    state.last = StepInput(bodies, cons, order, initial)
+    points = None
+    if remedy.substeps > 1:
+        valid = np.arange(4)[None, :] < mf.num_points[:, None]
+        points = ContactPoints(cons.body_a, cons.body_b, valid, mf.normal_on_b[:, 0, :], mf.point_on_a,
+                               mf.point_on_b, bodies.position.astype(np.float64),
+                               bodies.orientation.astype(np.float64))
+    for k in range(remedy.substeps):
+        call = cons if points is None else substep_constraints(
+            cons, points, bodies, call_dt, ar, relax=remedy.relax and k == remedy.substeps - 1)
+        if initial is not None:
+            bodies = apply_impulses(bodies, call, initial, ar)
+        bodies, impulses = advance(bodies, call, order, initial)
+        state.calls += 1
+        if remedy.warm:
+            initial = impulses  # Box2D's warm start between substeps: the accumulated impulses in full
+    if remedy.warm:
+        state.memory = ContactMemory.of(contacts, cons, impulses)
+    return bodies

@@ -27,9 +27,15 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .closed_loop import LoopResult, StepperFactory, golden_stepper, run_closed_loop
-from .constraints import POSITION_COEFF, POSITION_DRIFT
-from .number_format import Arithmetic
+from .closed_loop import COLD, LoopResult, Remedy, Stepper, StepperFactory, golden_stepper, run_closed_loop
+from .constraints import POSITION_COEFF, POSITION_DRIFT, BodyTable, ConstraintSet
+from .contact_solver import Impulses, SolverParams
+from .cycle_model import predict_job
+from .dma_model import DmaPreset, get_preset
+from .integrator import IntegrationParams
+from .kernel_job import KernelJob
+from .number_format import Arithmetic, NumberFormat
+from .warm_start import WARMSTART_FACTOR
 from .scenes import GRAVITY
 from .scenes.world import DEFAULT_DT
 from .trajectory import Trajectory, TrajectoryRecorder
@@ -128,12 +134,59 @@ class HardCase:
         return self.limits(steps or self.steps)
 
     def run(self, ar: Arithmetic, iterations: int, steps: int | None = None,
-            stepper: StepperFactory = golden_stepper) -> tuple[LoopResult, Trajectory]:
-        recorder = TrajectoryRecorder()
-        result = run_closed_loop(self.scene, steps or self.steps, ar, iterations, schedule="pybullet",
-                                 warmup_steps=self.warmup_steps, settle_steps=self.settle_steps,
-                                 stepper=recorder.wrap(stepper), **self.params)
+            stepper: StepperFactory = golden_stepper, remedy: Remedy = COLD) -> tuple[LoopResult, Trajectory]:
+        """The case closed loop with ``iterations`` per step (a remedy of n substeps: ceil(iterations / n) per
+        kernel call); every kernel call priced by the cycle model (``extra["kernel cycles per step"]``)."""
+        recorder, pricer = TrajectoryRecorder(), KernelPricer()
+        result = run_closed_loop(self.scene, steps or self.steps, ar, call_iterations(iterations, remedy),
+                                 schedule="pybullet", warmup_steps=self.warmup_steps, settle_steps=self.settle_steps,
+                                 stepper=recorder.wrap(pricer.wrap(stepper)), remedy=remedy, **self.params)
+        result.extra["kernel cycles per step"] = pricer.per_step(result)
         return result, recorder.trajectory(result)
+
+
+def call_iterations(iterations: int, remedy: Remedy) -> int:
+    """Iterations of each kernel call when a step of ``iterations`` is split into the remedy's substeps."""
+    return -(-iterations // remedy.substeps)
+
+
+class KernelPricer:
+    """Wraps a stepper factory and prices every kernel call with the exact cycle model (``models/cycle_model.py``,
+    the streaming kernel on ``preset``: body streams in and out of every call included; a float64 loop: NaN)."""
+
+    def __init__(self, preset: DmaPreset | None = None) -> None:
+        self.preset = preset or get_preset("zcu102")
+        self.cycles: list[int] = []
+
+    def wrap(self, factory: StepperFactory) -> StepperFactory:
+        def make(ar: Arithmetic, solver: SolverParams, ip: IntegrationParams) -> Stepper:
+            advance = factory(ar, solver, ip)
+
+            def step(bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,
+                     initial: Impulses | None = None) -> tuple[BodyTable, Impulses]:
+                if isinstance(ar, NumberFormat):  # float64 has no kernel to price
+                    self.cycles.append(predict_job(KernelJob(ar, bodies, cons, order, solver, ip), self.preset).cycles)
+                return advance(bodies, cons, order, initial)
+
+            return step
+
+        return make
+
+    def per_step(self, result: LoopResult) -> float:
+        """Mean kernel cycles per measured step (all its calls)."""
+        calls = result.steps * int(result.extra.get("calls per step", 1))
+        if len(self.cycles) < calls:
+            return float("nan")
+        return float(np.sum(self.cycles[len(self.cycles) - calls:])) / result.steps
+
+
+# the remedies the suite compares (models.closed_loop.Remedy): Bullet GPU's cold start, Bullet 2's warm start,
+# the warm start with Box2D-style substeps (models/substep.py), the last substep relaxed; warm1: Box2D's full warm
+# start (factor 1)
+REMEDIES: dict[str, Remedy] = {r.name: r for r in (
+    COLD, Remedy("warm", WARMSTART_FACTOR), Remedy("warm+sub2", WARMSTART_FACTOR, 2),
+    Remedy("warm+sub4", WARMSTART_FACTOR, 4), Remedy("warm+sub2+relax", WARMSTART_FACTOR, 2, relax=True),
+    Remedy("warm1+sub2+relax", 1.0, 2, relax=True))}
 
 
 def _always(thresholds: Thresholds) -> Callable[[int], Thresholds]:
@@ -172,7 +225,7 @@ CASES: dict[str, HardCase] = {c.name: c for c in (
 )}
 ITERATIONS = (1, 4, 10, 30)
 
-FIGURES = ["max penetration (m)", "max excursion (m)", "max path length (m)", "max net displacement (m)",
+FIGURES = ["passes per step", "kernel cycles per step", "max penetration (m)", "max excursion (m)", "max path length (m)", "max net displacement (m)",
            "max speed net of g dt (m/s)", "final max speed net of g dt (m/s)", "final kinetic energy (J)",
            "NaN/Inf values"]
 # threshold field -> (figure it bounds, True: an upper bound, what a failure says)
@@ -190,10 +243,11 @@ CHECKS: dict[str, tuple[str, bool, str]] = {
 class Verdict:
     case: str
     format: str
-    iterations: int
+    iterations: int  # per step (all substeps)
     figures: dict[str, float]
     failures: list[str] = field(default_factory=list)  # what each failed check says
     failed_checks: list[str] = field(default_factory=list)  # their Thresholds fields ("nonfinite" for NaN/Inf)
+    remedy: str = COLD.name
 
     @property
     def passed(self) -> bool:
@@ -203,7 +257,9 @@ class Verdict:
 def figures(result: LoopResult, path: Trajectory) -> dict[str, float]:
     """The judged figures of a run: maxima over the dynamic bodies (speeds net of g*dt)."""
     speed = path.speed()
-    return {"max penetration (m)": float(np.max(result.max_penetration, initial=0.0)),
+    return {"passes per step": int(result.extra.get("passes per step", 2 * result.iterations)),
+            "kernel cycles per step": float(result.extra.get("kernel cycles per step", float("nan"))),
+            "max penetration (m)": float(np.max(result.max_penetration, initial=0.0)),
             "max excursion (m)": float(np.max(path.excursion(), initial=0.0)),
             "max path length (m)": float(np.max(path.path_length(), initial=0.0)),
             "max net displacement (m)": float(np.max(result.drift, initial=0.0)),
@@ -213,8 +269,9 @@ def figures(result: LoopResult, path: Trajectory) -> dict[str, float]:
             "NaN/Inf values": int(np.sum(result.nonfinite))}
 
 
-def judge(case: HardCase, result: LoopResult, path: Trajectory) -> Verdict:
-    """Judge a run against the case's thresholds for the run's length (a NaN figure fails every bound)."""
+def judge(case: HardCase, result: LoopResult, path: Trajectory, iterations: int | None = None) -> Verdict:
+    """Judge a run against the case's thresholds for the run's length (a NaN figure fails every bound);
+    ``iterations`` per step (default: the loop's per call)."""
     fig = figures(result, path)
     failures, failed = ([f"{fig['NaN/Inf values']} NaN/Inf values"], ["nonfinite"]) if fig["NaN/Inf values"] \
         else ([], [])
@@ -224,4 +281,5 @@ def judge(case: HardCase, result: LoopResult, path: Trajectory) -> Verdict:
         if not ok:
             failures.append(f"{word} {fig[key]:.3g} {limit.unit} {'>' if upper else '<'} {limit}")
             failed.append(name)
-    return Verdict(case.name, result.format, result.iterations, fig, failures, failed)
+    return Verdict(case.name, result.format, iterations or result.iterations, fig, failures, failed,
+                   str(result.extra.get("remedy", COLD.name)))

@@ -13,13 +13,13 @@ per-step moves) and the speed net of ``g*dt`` at every step.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Optional
 
 import numpy as np
 
 from .closed_loop import LoopResult, Stepper, StepperFactory, golden_stepper
 from .constraints import BodyTable
-from .contact_solver import SolverParams
+from .contact_solver import Impulses, SolverParams
 from .integrator import IntegrationParams
 from .number_format import Arithmetic
 
@@ -70,23 +70,27 @@ class TrajectoryRecorder:
             advance = factory(ar, solver, ip)
             g_dt = np.asarray(ip.gravity, dtype=np.float64) * ip.dt
 
-            def step(bodies: BodyTable, cons: Any, order: np.ndarray) -> BodyTable:
-                after = advance(bodies, cons, order)
+            def step(bodies: BodyTable, cons: Any, order: np.ndarray,
+                     initial: Optional[Impulses] = None) -> tuple[BodyTable, Impulses]:
+                after, impulses = advance(bodies, cons, order, initial)
                 dyn = after.dynamic
                 self._positions.append(np.asarray(after.position[dyn], dtype=np.float64).copy())
                 self._velocities.append(np.asarray(after.linear_velocity[dyn], dtype=np.float64) - g_dt)
-                return after
+                return after, impulses
 
             return step
 
         return make
 
     def trajectory(self, result: LoopResult) -> Trajectory:
-        """The measured steps of ``result`` (the last ``result.steps`` recorded), from its measured start."""
-        if len(self._positions) < result.steps:
-            raise ValueError(f"recorded {len(self._positions)} steps, the loop measured {result.steps}")
+        """The measured steps of ``result`` (the last ``result.steps`` recorded; of a step solved in substeps, the
+        last kernel call's state), from its measured start."""
+        per_step = int(result.extra.get("calls per step", 1))
+        calls = len(self._positions)
+        if calls < result.steps * per_step:
+            raise ValueError(f"recorded {calls} kernel calls, the loop measured {result.steps} steps of {per_step}")
         dyn = result.final.dynamic
-        keep = slice(len(self._positions) - result.steps, None)
+        keep = slice(calls - result.steps * per_step + per_step - 1, None, per_step)
         n = int(np.count_nonzero(dyn))
         positions = np.asarray(self._positions[keep]).reshape(result.steps, n, 3)
         velocities = np.asarray(self._velocities[keep]).reshape(result.steps, n, 3)

@@ -1,5 +1,7 @@
 """The RTL kernel as the stepper of a closed loop (``models.closed_loop``): every step runs in the compiled harness
-and must equal the golden model's bit for bit.
+and must equal the golden model's bit for bit. The kernel starts every step from zero impulses: a warm-started loop
+(``models.closed_loop.Remedy``) is refused on it (:class:`WarmStartUnsupported`) until the kernel reads initial
+impulses from its records.
 
     run_closed_loop("incline", 5, FP32, 4, stepper=rtl_stepper(get_preset("zcu102"), Path("build/rtl_loop")))
 """
@@ -7,36 +9,49 @@ and must equal the golden model's bit for bit.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Optional
 
 import numpy as np
 
 from models.constraints import BodyTable, ConstraintSet
-from models.contact_solver import SolverParams
+from models.contact_solver import Impulses, SolverParams
 from models.dma_model import DmaPreset
 from models.integrator import IntegrationParams
 from models.kernel_job import KernelJob
 from models.number_format import NumberFormat
 from sim.harness_run import KernelRunError
-from sim.kernel_step import run_kernel_step
+from sim.kernel_step import golden_step, run_kernel_step
 from sim.trace_compare import kernel_bodies
 
 
-def rtl_stepper(preset: DmaPreset, work_dir: Path, seed: int = 1) -> Callable[..., Callable[..., BodyTable]]:
+class WarmStartUnsupported(ValueError):
+    """A warm start asked of a kernel that starts every step from zero impulses."""
+
+
+def rtl_stepper(preset: DmaPreset, work_dir: Path, seed: int = 1) -> Callable[..., Callable[..., tuple[BodyTable, Impulses]]]:
     """A closed-loop stepper factory (``models.closed_loop.StepperFactory``) that runs every step on the RTL kernel
     and fails on the first step whose trace or body table differs from the golden model."""
 
-    def factory(fmt: NumberFormat, params: SolverParams, ip: IntegrationParams) -> Callable[..., BodyTable]:
+    def factory(fmt: NumberFormat, params: SolverParams,
+                ip: IntegrationParams) -> Callable[..., tuple[BodyTable, Impulses]]:
         count = [0]
 
-        def step(bodies: BodyTable, cons: ConstraintSet, order: np.ndarray) -> BodyTable:
+        def step(bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,
+                 initial: Optional[Impulses] = None) -> tuple[BodyTable, Impulses]:
+            if initial is not None:
+                raise WarmStartUnsupported(
+                    "the RTL kernel zeroes every impulse at its first pass (pgs_impulse_ram's read mux) and reads no "
+                    "initial impulses: warm starting runs on the golden stepper only (cold runs are unchanged)")
             job = KernelJob(fmt, bodies, cons, order, params, ip)
             run_dir = work_dir / f"step{count[0]:05d}"
-            res = run_kernel_step(job, preset, run_dir, seed)
+            golden = golden_step(job)
+            res = run_kernel_step(job, preset, run_dir, seed, golden=golden)
             if not res.bit_exact:
                 raise KernelRunError(f"closed-loop step {count[0]}: {res.comparison.first_mismatch}")
             count[0] += 1
-            return kernel_bodies(run_dir, job)
+            # the trace comparison checked every pass's accumulated impulses bit for bit: the golden ones are the
+            # kernel's (the kernel streams no impulses out)
+            return kernel_bodies(run_dir, job), golden.solved.impulses
 
         return step
 

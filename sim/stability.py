@@ -3,7 +3,9 @@
 Runs every case closed loop (pybullet collision detection, the bit-accurate golden model of each format, which
 the RTL kernel matches bit for bit) at 1, 4, 10 and 30 iterations, judges it on physical quantities against the
 case's thresholds (``models/stability.py``: penetration against Bullet's slop, each body's largest excursion and
-path length, speeds net of the stored g*dt; every limit with its reason) and writes ``build/stability/stability.md``
+path length, speeds net of the stored g*dt; every limit with its reason), under each remedy (``--remedies``:
+cold = Bullet GPU, warm = Bullet 2's warm start, warm+subN = warm start and N substeps; each priced in kernel
+cycles per step by the cycle model) and writes ``build/stability/stability.md``
 (the limits and the table), ``stability.csv`` and one plot per case (kinetic energy and penetration over the
 steps, ``<case>.png``). Failing rows are findings, reported, not errors: the command exits
 non-zero only when a run crashes.
@@ -28,7 +30,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from models.number_format import parse_format
-from models.stability import CASES, FIGURES, ITERATIONS, LIMITS, Thresholds, Verdict, judge
+from models.stability import CASES, FIGURES, ITERATIONS, LIMITS, REMEDIES, Thresholds, Verdict, judge
 from sim.artefacts import source_digest
 from sim.executor import parse_executor, run_points
 from sim.point_results import PointLog
@@ -39,7 +41,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--cases", default=",".join(CASES), help=f"comma-separated cases ({', '.join(CASES)})")
     ap.add_argument("--formats", default="fp32,fp16,bf16", help="comma-separated number formats")
-    ap.add_argument("--iters", default=",".join(map(str, ITERATIONS)), help="comma-separated iteration counts")
+    ap.add_argument("--iters", default=",".join(map(str, ITERATIONS)),
+                    help="comma-separated iteration counts per step (a remedy's substeps share them)")
+    ap.add_argument("--remedies", default="cold,warm,warm+sub2",
+                    help=f"comma-separated remedies ({', '.join(REMEDIES)}; models/stability.py REMEDIES)")
     ap.add_argument("--steps", type=int, default=0, help="override every case's step count (0: the case's own)")
     ap.add_argument("--jobs", type=int, default=2, help="parallel runs (the default executor local:<jobs>)")
     ap.add_argument("--executor", default="", help="local:N, dask:local:N or dask:tcp://host:port (sim/executor.py)")
@@ -56,23 +61,26 @@ class StabilityPoint:
     iterations: int
     steps: int
     sources: str  # sim.artefacts.source_digest() when planned
+    remedy: str = "cold"
 
     @property
     def key(self) -> str:
-        return f"{self.case}-{self.fmt}-it{self.iterations}-steps{self.steps}-{self.sources}"
+        return f"{self.case}-{self.fmt}-it{self.iterations}-steps{self.steps}-{self.remedy}-{self.sources}"
 
     @property
     def command(self) -> str:
         return (f".venv/bin/python -m sim.stability --cases {self.case} --formats {self.fmt} --iters {self.iterations}"
-                f" --steps {self.steps} --jobs 1")
+                f" --remedies {self.remedy} --steps {self.steps} --jobs 1")
 
     def run(self) -> dict[str, Any]:
         t0 = time.perf_counter()
         case = CASES[self.case]
-        result, path = case.run(parse_format(self.fmt), self.iterations, self.steps or None)
+        result, path = case.run(parse_format(self.fmt), self.iterations, self.steps or None,
+                                remedy=REMEDIES[self.remedy])
         series = {"kinetic energy (J)": result.kinetic_energy.tolist(),
                   "max penetration (m)": result.max_penetration.tolist()}
-        return {"verdict": asdict(judge(case, result, path)), "series": series, "seconds": time.perf_counter() - t0}
+        return {"verdict": asdict(judge(case, result, path, self.iterations)), "series": series,
+                "warm start": result.extra["warm start"], "seconds": time.perf_counter() - t0}
 
 
 def plan(args: argparse.Namespace) -> list[StabilityPoint]:
@@ -81,6 +89,10 @@ def plan(args: argparse.Namespace) -> list[StabilityPoint]:
     if unknown:
         raise ValueError(f"unknown case(s) {', '.join(unknown)} (known: {', '.join(CASES)})")
     formats = [parse_format(f.strip()).name for f in args.formats.split(",") if f.strip()]
+    remedies = [r.strip() for r in args.remedies.split(",") if r.strip()]
+    bad = [r for r in remedies if r not in REMEDIES]
+    if bad or not remedies:
+        raise ValueError(f"unknown remedy(ies) {', '.join(bad) or '(none given)'} (known: {', '.join(REMEDIES)})")
     try:
         iters = [int(x) for x in args.iters.split(",") if x.strip()]
     except ValueError:
@@ -89,16 +101,33 @@ def plan(args: argparse.Namespace) -> list[StabilityPoint]:
         raise ValueError("iterations and jobs must be >= 1, steps >= 0")
     parse_executor(args.executor or f"local:{args.jobs}")
     digest = source_digest()
-    return [StabilityPoint(c, f, i, args.steps, digest) for c in cases for f in formats for i in iters]
+    return [StabilityPoint(c, f, i, args.steps, digest, r) for c in cases for f in formats for i in iters
+            for r in remedies]
 
 
 def table(verdicts: list[Verdict]) -> list[str]:
-    lines = ["| case | format | iterations | " + " | ".join(FIGURES) + " | outcome |",
-             "|---" * (len(FIGURES) + 4) + "|"]
+    lines = ["| case | format | iterations | remedy | " + " | ".join(FIGURES) + " | outcome |",
+             "|---" * (len(FIGURES) + 5) + "|"]
     for v in verdicts:
         cells = [format_value(v.figures[k]) for k in FIGURES]
         outcome = "pass" if v.passed else "FAIL: " + "; ".join(v.failures)
-        lines.append(f"| {v.case} | {v.format} | {v.iterations} | " + " | ".join(cells) + f" | {outcome} |")
+        lines.append(f"| {v.case} | {v.format} | {v.iterations} | {v.remedy} | " + " | ".join(cells)
+                     + f" | {outcome} |")
+    return lines
+
+
+def remedy_table(verdicts: list[Verdict]) -> list[str]:
+    """Which remedy makes which case pass, and at what price: one row per case, format and iteration count, one
+    column per remedy (pass/FAIL, kernel cycles per step on the cycle model, manifold-passes per step)."""
+    remedies = list(dict.fromkeys(v.remedy for v in verdicts))
+    rows: dict[tuple[str, str, int], dict[str, Verdict]] = {}
+    for v in verdicts:
+        rows.setdefault((v.case, v.format, v.iterations), {})[v.remedy] = v
+    lines = ["| case | format | iterations | " + " | ".join(remedies) + " |", "|---" * (len(remedies) + 3) + "|"]
+    for (case, fmt, it), by in rows.items():
+        cells = [(f"{'pass' if by[r].passed else 'FAIL'} ({by[r].figures['kernel cycles per step']:,.0f} cycles, "
+                  f"{by[r].figures['passes per step']:.0f} passes)") if r in by else "" for r in remedies]
+        lines.append(f"| {case} | {fmt} | {it} | " + " | ".join(cells) + " |")
     return lines
 
 
@@ -111,7 +140,7 @@ def plot_case(case: str, runs: list[tuple[Verdict, dict[str, list[float]]]], pat
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for v, series in runs:
         for ax, key in zip(axes, ("kinetic energy (J)", "max penetration (m)")):
-            ax.plot(np.arange(1, len(series[key]) + 1), series[key], label=f"{v.format} {v.iterations} it",
+            ax.plot(np.arange(1, len(series[key]) + 1), series[key], label=f"{v.format} {v.iterations} it {v.remedy}",
                     linestyle="-" if v.passed else "--")
     for ax, key in zip(axes, ("kinetic energy (J)", "max penetration (m)")):
         ax.set_xlabel("step (measured)")
@@ -147,7 +176,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         verdict, series = Verdict(**row["verdict"]), row["series"]
         results.append((verdict, series))
         status = "pass" if verdict.passed else "FAIL " + "; ".join(verdict.failures)
-        print(f"[{n}/{len(runs)}] {verdict.case} {verdict.format} {verdict.iterations} it: {status} "
+        print(f"[{n}/{len(runs)}] {verdict.case} {verdict.format} {verdict.iterations} it {verdict.remedy}: {status} "
               f"({row['seconds']:.1f} s)", flush=True)
     out.mkdir(parents=True, exist_ok=True)
     verdicts = [v for v, _ in results]
@@ -156,20 +185,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     lines += [f"- **{c.name}** ({steps or c.steps} steps after {c.warmup_steps} unmeasured): {c.description}; "
               f"thresholds {_thresholds(c.thresholds(steps))}" for c in CASES.values()
               if any(v.case == c.name for v in verdicts)]
-    lines += ["", *limits_table(), "", *table(verdicts), ""]
+    lines += ["", *limits_table(), "", "Which remedy passes (kernel cycles per step: models/cycle_model.py, the "
+              "streaming kernel on zcu102, every kernel call of the step):", "", *remedy_table(verdicts), "",
+              *table(verdicts), ""]
     (out / "stability.md").write_text("\n".join(lines))
     with (out / "stability.csv").open("w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["case", "format", "iterations", *FIGURES, "passed", "failures"])
+        w.writerow(["case", "format", "iterations", "remedy", *FIGURES, "passed", "failures"])
         for v in verdicts:
-            w.writerow([v.case, v.format, v.iterations, *(v.figures[k] for k in FIGURES), v.passed,
+            w.writerow([v.case, v.format, v.iterations, v.remedy, *(v.figures[k] for k in FIGURES), v.passed,
                         "; ".join(v.failures)])
     for case in dict.fromkeys(v.case for v in verdicts):
         plot_case(case, [(v, s) for v, s in results if v.case == case], out / f"{case}.png")
     log.remove()
     if (out / ".points").is_dir() and not any((out / ".points").iterdir()):
         (out / ".points").rmdir()
-    print("\n".join(table(verdicts)))
+    print("\n".join(remedy_table(verdicts) + [""] + table(verdicts)))
     print(f"\n{sum(v.passed for v in verdicts)}/{len(verdicts)} runs pass their thresholds "
           f"({time.perf_counter() - t0:.0f} s); table: {out / 'stability.md'}, plots: {out}/<case>.png")
     return 0

@@ -45,9 +45,9 @@ def _recording_stepper(seen: list[tuple[np.ndarray, np.ndarray]]):  # noqa: ANN2
     def factory(ar, solver, ip):  # noqa: ANN001, ANN202
         step = golden_stepper(ar, solver, ip)
 
-        def advance(bodies, cons, order):  # noqa: ANN001, ANN202
+        def advance(bodies, cons, order, initial=None):  # noqa: ANN001, ANN202
             seen.append((bodies.orientation.copy(), bodies.inv_inertia.copy()))
-            return step(bodies, cons, order)
+            return step(bodies, cons, order, initial)
         return advance
     return factory
 

@@ -33,16 +33,16 @@ def _recorded_loop(positions: np.ndarray, stored_velocities: np.ndarray, start: 
     script = iter(range(steps))
 
     def scripted(ar: Arithmetic, solver: SolverParams, ip: IntegrationParams):  # noqa: ANN202
-        def step(bodies: BodyTable, cons: object, order: np.ndarray) -> BodyTable:
+        def step(bodies: BodyTable, cons: object, order: np.ndarray, initial: object = None) -> tuple:
             k = next(script)
-            return _bodies(positions[k], stored_velocities[k])
+            return _bodies(positions[k], stored_velocities[k]), None
         return step
 
     recorder = TrajectoryRecorder()
     advance = recorder.wrap(scripted)(FLOAT64, SolverParams(), IP)
     final = None
     for _ in range(steps):
-        final = advance(_bodies(start, stored_velocities[0]), None, np.zeros(0, dtype=np.int64))
+        final, _ = advance(_bodies(start, stored_velocities[0]), None, np.zeros(0, dtype=np.int64), None)
     assert final is not None
     result = LoopResult(scene="made-up", steps=steps, format="float64", iterations=4,
                         max_penetration=np.full(steps, penetration), max_speed=np.zeros(steps),

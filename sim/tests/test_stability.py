@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models.closed_loop import run_closed_loop
+from models.closed_loop import Remedy, run_closed_loop
 from models.dma_model import get_preset
 from models.number_format import FP16, FP32
 from models.stability import CASES, judge
-from sim.rtl_stepper import rtl_stepper
+from sim.rtl_stepper import WarmStartUnsupported, rtl_stepper
 from sim.stability import main as stability_main
 
 
@@ -43,9 +43,19 @@ def test_closed_loop_on_the_rtl_kernel(tmp_path: Path) -> None:
 
 
 def test_make_stability_writes_table_and_plots(tmp_path: Path) -> None:
-    assert stability_main(["--cases", "incline20", "--formats", "fp32", "--iters", "1", "--steps", "5",
-                           "--jobs", "1", "--out", str(tmp_path)]) == 0
+    assert stability_main(["--cases", "incline20", "--formats", "fp32", "--iters", "2", "--steps", "5",
+                           "--remedies", "cold,warm+sub2", "--jobs", "1", "--out", str(tmp_path)]) == 0
     md = (tmp_path / "stability.md").read_text()
-    assert "| incline20 | fp32 | 1 |" in md and (tmp_path / "incline20.png").stat().st_size > 0
+    assert "| incline20 | fp32 | 2 | cold | 4 |" in md and "| incline20 | fp32 | 2 | warm+sub2 | 4 |" in md
+    assert "| incline20 | fp32 | 2 | pass (" in md and (tmp_path / "incline20.png").stat().st_size > 0
     assert stability_main(["--cases", "nope", "--out", str(tmp_path / "bad")]) == 2
+    assert stability_main(["--cases", "incline20", "--remedies", "hot", "--out", str(tmp_path / "bad")]) == 2
     assert not (tmp_path / "bad").exists()
+
+
+def test_the_rtl_kernel_refuses_a_warm_start(tmp_path: Path) -> None:
+    """The kernel reads no initial impulses yet: a warm-started loop on it stops at its first step, by name."""
+    with pytest.raises(WarmStartUnsupported, match="no initial impulses"):
+        run_closed_loop("incline", 2, FP32, 4, stepper=rtl_stepper(get_preset("zcu102"), tmp_path),
+                        remedy=Remedy("warm", 0.85))
+    assert not any(tmp_path.iterdir())  # nothing was written for the refused step
