@@ -73,7 +73,8 @@ from .constraints import BodyTable, ConstraintSet
 from .contact_solver import Impulses, SolverParams
 from .exact_reference_assembly import (ExactReferenceError, Layout, Rows, contact_rows, friction_rows, islands,
                                       island_of_rows, spin_rows)
-from .exact_reference_large_island import certify, large_contact_phase, large_friction_phase, needs_certificate
+from .exact_reference_large_island import (certify, large_contact_phase, large_friction_phase, large_island_solver,
+                                           needs_certificate)
 
 DEFAULT_TIME_BUDGET_S = 600.0
 DEFAULT_MEMORY_BUDGET_BYTES = 8 * 1024 ** 3
@@ -398,8 +399,10 @@ def exact_reference(bodies: BodyTable, cons: ConstraintSet, params: SolverParams
         certify(bodies, cons, normal, info, residuals["contact phase: normal LCP |min(lam K, e)| max (m/s)"])
     if not all(np.isfinite(v) for v in residuals.values()):
         raise ExactReferenceError("the solver returned non-finite values")
-    return ExactReference(contact_bodies, final, imp, residuals, seconds, count,
-                          solver_name or f"clarabel {_clarabel_version()}", info)
+    name = solver_name or f"clarabel {_clarabel_version()}"
+    if needs_certificate(info):
+        name += f"; an island above {DIRECT_ROWS_LIMIT:,} rows: {large_island_solver()}"
+    return ExactReference(contact_bodies, final, imp, residuals, seconds, count, name, info)
 
 
 def _check_finite(bodies: BodyTable, cons: ConstraintSet) -> None:

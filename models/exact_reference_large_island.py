@@ -88,6 +88,15 @@ def _certify_friction(G: sp.csc_matrix, N: sp.csc_matrix, inv_m: np.ndarray, u1:
     info[FRICTION_BOUND_KEY] = float(np.hypot(info.get(FRICTION_BOUND_KEY, 0.0), bound))  # islands: squares add
 
 
+def large_island_solver() -> str:
+    """The large-island method and its pinned package, for the report."""
+    import importlib.metadata
+
+    if LARGE_ISLAND_METHOD == "ipm":
+        return f"body-space interior point, PARDISO (pypardiso {importlib.metadata.version('pypardiso')}), certified"
+    return "MPRGP, certified"
+
+
 def needs_certificate(info: dict[str, float]) -> bool:
     return any(SOLVED_KEY in k for k in info)
 
