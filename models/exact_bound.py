@@ -26,7 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .constraints import BodyTable, ConstraintSet
-from .exact_reference import ExactReferenceError, _contact_rows, _Layout
+from .exact_reference_assembly import ExactReferenceError, Layout, contact_rows
 
 SEPARATION_MARGIN = 1.0 + 1e-9  # the expansion rate just above the one that closes every violation
 
@@ -34,8 +34,8 @@ SEPARATION_MARGIN = 1.0 + 1e-9  # the expansion rate just above the one that clo
 def contact_phase_bound(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarray) -> dict[str, float]:
     """The certified distance (M-norm and per body) of the contact-phase state the impulses ``normal`` (M, 4)
     give, starting from ``bodies``' velocities."""
-    layout = _Layout(bodies)
-    rows, active = _contact_rows(layout, cons)
+    layout = Layout(bodies)
+    rows, active = contact_rows(layout, cons)
     lam = normal[active]
     if np.any(lam < 0):
         raise ExactReferenceError("negative normal impulses: not a contact-phase iterate")

@@ -68,31 +68,25 @@ from typing import Any, Callable
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 from .constraints import BodyTable, ConstraintSet
 from .contact_solver import Impulses, SolverParams
+from .exact_reference_assembly import (ExactReferenceError, Layout, Rows, contact_rows, friction_rows, islands,
+                                      island_of_rows, spin_rows)
+from .exact_reference_large_island import (certify, large_contact_phase, large_friction_phase, large_island_solver,
+                                           needs_certificate)
 
 DEFAULT_TIME_BUDGET_S = 600.0
 DEFAULT_MEMORY_BUDGET_BYTES = 8 * 1024 ** 3
 ISLAND_BATCH_ROWS = 4096  # small islands are gathered into one solve of about this many rows
 SOLVER_TOLERANCE = 1e-10  # Clarabel's gap and feasibility tolerances (1e-12 ends AlmostSolved on the pile)
 KKT_BYTES_PER_NONZERO = 400  # pre-solve memory estimate per KKT non-zero: a bound on the inputs, blind to fill-in
-EIGEN_TOLERANCE = 1e-9  # relative: n is an eigenvector of the inverse inertia
-SPAN_TOLERANCE = 1e-6  # relative singular value below which a body's damped normals add no spin row
 ALMOST_SOLVED_ACCEPT = 1e-6  # m/s: an "almost solved" QP is kept when its polished natural residual is below this
-# A batch with more rows than this is solved iteratively (MPRGP, models/mprgp.py) and certified by weak duality
-# (models/exact_bound.py): an interior point's sparse factorisations of the thesis frame's single island (589,940
-# rows) take minutes each (docs/exact_reference.md).
+# A batch with more rows than this is solved over body velocities (models/exact_reference_large_island.py) and
+# certified (models/exact_bound.py): Clarabel's factorisations of the dual-form KKT system of the thesis frame's single
+# island (589,940 rows) take minutes each (docs/exact_reference.md).
 DIRECT_ROWS_LIMIT = 50_000
-ITERATIVE_TOLERANCE = 1e-11  # MPRGP's projected-gradient tolerance (Jacobi-scaled rows)
-CONTACT_TIME_SHARE = 0.5  # of the time left, the most the iterative contact phase may take
-ITERATIVE_MARGIN_S = 20.0  # kept back from the iterative friction phase for the residuals and the certificates
-CERTIFIED_ACCEPT = 1e-3  # m/s and rad/s: an iterative reference is kept when its certified distance is below this
 
-
-class ExactReferenceError(RuntimeError):
-    """No exact reference for this problem: the reason is the message."""
 
 
 @dataclass(frozen=True)
@@ -167,153 +161,6 @@ def clarabel_solve(prob: QpProblem, time_limit_s: float) -> QpSolution:
     return QpSolution(np.asarray(sol.x), np.asarray(sol.z), int(sol.iterations), seconds, almost)
 
 
-# --- assembly -------------------------------------------------------------------------------------------------
-@dataclass
-class _Rows:
-    """Sparse rows J (over the dynamic bodies' 6 velocity columns each) and the constant c: value = J u + c."""
-
-    J: sp.csr_matrix
-    c: np.ndarray
-    body_a: np.ndarray  # (R,) frame body index of each row's A and B (island assignment)
-    body_b: np.ndarray
-
-
-class _Layout:
-    """Column layout: dynamic body k owns columns 6k..6k+2 (v) and 6k+3..6k+5 (w)."""
-
-    def __init__(self, bodies: BodyTable):
-        self.bodies = bodies
-        self.dynamic = bodies.dynamic
-        self.index = np.full(bodies.num_bodies, -1, dtype=np.int64)
-        self.index[self.dynamic] = np.arange(int(self.dynamic.sum()))
-        self.n = int(self.dynamic.sum())
-        if bodies.inv_inertia.shape[1] != 3:
-            raise ExactReferenceError(
-                f"the body table carries the full symmetric inverse inertia ({bodies.inv_inertia.shape[1]} words per "
-                "body, rotated non-cube bodies): the exact reference's QPs take a diagonal M only, and the damped "
-                "spin row is then no convex program (models/exact_reference.py)")
-        inv = np.concatenate([np.repeat(bodies.inv_mass[self.dynamic, None], 3, axis=1),
-                              bodies.inv_inertia[self.dynamic]], axis=1)
-        if np.any(~(inv > 0)) or not np.all(np.isfinite(inv)):
-            raise ExactReferenceError("a dynamic body has a non-positive or non-finite inverse mass or inertia")
-        self.inv_m = inv.ravel()  # diag(M^-1), (6n,)
-
-    def velocity(self, bodies: BodyTable) -> np.ndarray:
-        return np.concatenate([bodies.linear_velocity[self.dynamic], bodies.angular_velocity[self.dynamic]],
-                              axis=1).ravel()
-
-    def with_velocity(self, bodies: BodyTable, u: np.ndarray) -> BodyTable:
-        out = bodies.copy()
-        uu = u.reshape(-1, 6)
-        out.linear_velocity[self.dynamic] = uu[:, :3]
-        out.angular_velocity[self.dynamic] = uu[:, 3:]
-        return out
-
-
-def _rows(layout: _Layout, a: np.ndarray, b: np.ndarray, lin: np.ndarray, ang_a: np.ndarray, ang_b: np.ndarray,
-          const: np.ndarray) -> _Rows:
-    """Rows ``(lin.vA - lin.vB) + (ang_a.wA - ang_b.wB) + const``; static bodies' terms go into the constant."""
-    bodies = layout.bodies
-    r = a.shape[0]
-    c = const.astype(np.float64).copy()
-    rows, cols, vals = [], [], []
-    for body, sign, ang in ((a, 1.0, ang_a), (b, -1.0, ang_b)):
-        dyn = layout.dynamic[body]
-        stat = ~dyn
-        c[stat] += sign * (np.sum(lin[stat] * bodies.linear_velocity[body[stat]], axis=1)
-                           + np.sum(ang[stat] * bodies.angular_velocity[body[stat]], axis=1))
-        idx = np.flatnonzero(dyn)
-        base = 6 * layout.index[body[idx]]
-        coef = sign * np.concatenate([lin[idx], ang[idx]], axis=1)  # (k,6)
-        rows.append(np.repeat(idx, 6))
-        cols.append((base[:, None] + np.arange(6)[None, :]).ravel())
-        vals.append(coef.ravel())
-    J = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(r, 6 * layout.n))
-    return _Rows(J, c, a, b)
-
-
-def _contact_rows(layout: _Layout, cons: ConstraintSet) -> tuple[_Rows, np.ndarray]:
-    """One row per active contact point (manifold-major, point order); returns the rows and their (m, i) mask."""
-    active = cons.jac_inv != 0.0
-    m, _ = np.nonzero(active)
-    n = cons.normal[m]
-    p = cons.points[active]
-    pos = layout.bodies.position
-    ca = np.cross(p - pos[cons.body_a[m]], n)
-    cb = np.cross(p - pos[cons.body_b[m]], n)
-    return _rows(layout, cons.body_a[m], cons.body_b[m], n, ca, cb, cons.bias[active]), active
-
-
-def _friction_rows(layout: _Layout, cons: ConstraintSet, manifolds: np.ndarray) -> _Rows:
-    """Rows (m, j) for j = 0, 1 of the given manifolds, manifold-major: the tangent velocity the pass reads."""
-    m = np.repeat(manifolds, 2)
-    j = np.tile([0, 1], manifolds.shape[0])
-    t = cons.tangent[m, j]
-    pos = layout.bodies.position
-    ca = np.cross(cons.center[m] - pos[cons.body_a[m]], t)
-    cb = np.cross(cons.center[m] - pos[cons.body_b[m]], t)
-    return _rows(layout, cons.body_a[m], cons.body_b[m], t, ca, cb, np.zeros(m.shape[0]))
-
-
-def _spin_rows(layout: _Layout, cons: ConstraintSet, damped: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
-    """Rows n.w_k = 0 for each damped manifold's dynamic bodies (duplicates removed); also their body indices."""
-    pairs = []
-    for side in (cons.body_a, cons.body_b):
-        body = side[damped]
-        keep = layout.dynamic[body]
-        pairs.append((body[keep], cons.normal[damped][keep]))
-    body = np.concatenate([p[0] for p in pairs])
-    n = np.concatenate([p[1] for p in pairs])
-    _check_spin_rows_are_a_qp(layout.bodies, body, n)
-    body, n = _span_basis(body, n)
-    cols = 6 * layout.index[body][:, None] + 3 + np.arange(3)[None, :]
-    rows = np.repeat(np.arange(body.shape[0]), 3)
-    N = sp.csr_matrix((n.ravel(), (rows, cols.ravel())), shape=(body.shape[0], 6 * layout.n))
-    return N, body
-
-
-def _span_basis(body: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per body, an orthonormal basis of the span of its damped normals (w orthogonal to every n_k is w
-    orthogonal to their span); directions below SPAN_TOLERANCE of the largest singular value are dropped, so
-    normals equal up to rounding give one row instead of a singular set."""
-    if not body.size:
-        return body, n
-    order = np.argsort(body, kind="stable")
-    body, n = body[order], n[order]
-    starts = np.flatnonzero(np.r_[True, body[1:] != body[:-1]])
-    out_b, out_n = [], []
-    for lo, hi in zip(starts, np.r_[starts[1:], body.size]):
-        _, sv, vt = np.linalg.svd(n[lo:hi], full_matrices=False)
-        keep = sv > SPAN_TOLERANCE * sv[0]
-        out_n.append(vt[keep])
-        out_b.append(np.full(int(keep.sum()), body[lo]))
-    return np.concatenate(out_b), np.concatenate(out_n)
-
-
-def _check_spin_rows_are_a_qp(bodies: BodyTable, body: np.ndarray, n: np.ndarray) -> None:
-    if not body.size:
-        return
-    iin = bodies.inv_inertia[body] * n
-    along = np.sum(iin * n, axis=1)[:, None] * n
-    off = np.linalg.norm(iin - along, axis=1) / np.maximum(np.linalg.norm(iin, axis=1), 1e-300)
-    worst = int(np.argmax(off))
-    if off[worst] > EIGEN_TOLERANCE:
-        raise ExactReferenceError(
-            f"spin damping on body {int(body[worst])}: the normal {n[worst].round(6).tolist()} is not an "
-            f"eigenvector of its inverse inertia {bodies.inv_inertia[body[worst]].tolist()} (relative "
-            f"{off[worst]:.1e}): the damped friction phase is no convex program there")
-
-
-# --- islands --------------------------------------------------------------------------------------------------
-def _islands(layout: _Layout, cons: ConstraintSet) -> tuple[int, np.ndarray]:
-    """(count, island label per dynamic body) of the graph whose edges are manifolds between dynamic bodies."""
-    a = layout.index[cons.body_a]
-    b = layout.index[cons.body_b]
-    both = (a >= 0) & (b >= 0)
-    g = sp.coo_matrix((np.ones(int(both.sum())), (a[both], b[both])), shape=(layout.n, layout.n))
-    return connected_components(g, directed=False)
-
-
 def _batches(labels: np.ndarray, row_island: np.ndarray, count: int) -> list[np.ndarray]:
     """Groups of island labels, each with about ISLAND_BATCH_ROWS rows or one island alone."""
     rows = np.bincount(row_island, minlength=count)
@@ -328,11 +175,6 @@ def _batches(labels: np.ndarray, row_island: np.ndarray, count: int) -> list[np.
         groups[-1].append(int(island))
         size += int(rows[island])
     return [np.array(g) for g in groups if g]
-
-
-def _row_island(layout: _Layout, labels: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    ia, ib = layout.index[a], layout.index[b]
-    return labels[np.where(ia >= 0, ia, ib)]
 
 
 class _Clock:
@@ -355,7 +197,7 @@ class _Clock:
                 f"{prob.P.shape[0]:,} unknowns exceeds the budget of {self.budget.memory_bytes / 2 ** 30:.1f} GiB")
 
 
-def _sub(rows: _Rows, sel: np.ndarray, cols: np.ndarray) -> tuple[sp.csc_matrix, np.ndarray]:
+def _sub(rows: Rows, sel: np.ndarray, cols: np.ndarray) -> tuple[sp.csc_matrix, np.ndarray]:
     return rows.J[sel][:, cols].tocsc(), rows.c[sel]
 
 
@@ -412,69 +254,13 @@ def _check_almost(sol: QpSolution, residual: np.ndarray, phase: str) -> None:
                                   f"above {ALMOST_SOLVED_ACCEPT:g} m/s after polishing")
 
 
-# --- the iterative path for islands too large to factorise ------------------------------------------------------
-def _iterative(G: sp.csc_matrix, inv_m: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray, time_s: float,
-               info: dict[str, float], phase: str) -> np.ndarray:
-    """minimise 1/2 y^T G M^-1 G^T y + g^T y over lo <= y <= hi by MPRGP (products with G and G^T only)."""
-    from .mprgp import mprgp
-
-    Gr = G.tocsr()
-    Gr.eliminate_zeros()
-    GT = Gr.T.tocsr()
-    diag = np.asarray(Gr.multiply(Gr) @ inv_m).ravel()
-    if np.any(~(diag > 0)):
-        raise ExactReferenceError(f"{phase} phase: a row without a dynamic body's velocity in it")
-    res = mprgp(lambda v: Gr @ (inv_m * (GT @ v)), diag, g, lo, hi, np.clip(np.zeros_like(g), lo, hi),
-                ITERATIVE_TOLERANCE, 10 ** 7, max(time_s, 0.0))
-    info[f"{phase} phase: iterative (MPRGP) iterations"] = res.iterations
-    info[f"{phase} phase: iterative (MPRGP) seconds"] = res.seconds
-    info[f"{phase} phase: iterative (MPRGP) projected gradient at the end"] = res.projected_gradient
-    info[f"{phase} phase: iterative (MPRGP) converged to {ITERATIVE_TOLERANCE:g}"] = float(res.converged)
-    return res.x
-
-
-def _certify_friction(G: sp.csc_matrix, N: sp.csc_matrix, inv_m: np.ndarray, u1: np.ndarray, y: np.ndarray,
-                      c: np.ndarray, limit: np.ndarray, info: dict[str, float]) -> None:
-    from .exact_bound import friction_phase_bound
-
-    key = "certified |u - u*|_M of the friction phase, given its boxes (sqrt(kg) m/s)"
-    bound = friction_phase_bound(G.tocsr(), N.tocsr(), inv_m, u1, y, c, limit)
-    info[key] = float(np.hypot(info.get(key, 0.0), bound))  # islands are independent: the squares add
-
-
-def _certify(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarray, info: dict[str, float],
-             normal_residual: float) -> None:
-    """The certified distance of an iteratively solved reference from the exact limit (models/exact_bound.py):
-    contact phase by weak duality; the friction phase's map u1 -> u2 is the M-proximal map of a convex function
-    (boxes fixed), hence non-expansive, so the final state's distance is at most the sum of both phases' bounds.
-    Raises ExactReferenceError when it exceeds CERTIFIED_ACCEPT."""
-    from .exact_bound import contact_phase_bound
-
-    contact = contact_phase_bound(bodies, cons, normal)["certified |u - u*|_M (sqrt(kg) m/s)"]
-    friction = info.get("certified |u - u*|_M of the friction phase, given its boxes (sqrt(kg) m/s)", 0.0)
-    total = contact + friction
-    dyn = bodies.dynamic
-    dv = total * float(np.sqrt(bodies.inv_mass[dyn].max(initial=0.0)))
-    dw = total * float(np.sqrt(bodies.inv_inertia[dyn].max(initial=0.0)))
-    info["certified |u - u*|_M of the contact phase (sqrt(kg) m/s)"] = contact
-    info["certified max |dv| of the final state (m/s)"] = dv
-    info["certified max |dw| of the final state (rad/s)"] = dw
-    if not max(dv, dw) <= CERTIFIED_ACCEPT:
-        runs = "; ".join(f"{phase} phase {info.get(f'{phase} phase: iterative (MPRGP) iterations', 0):.0f} "
-                         f"MPRGP iterations in {info.get(f'{phase} phase: iterative (MPRGP) seconds', 0.0):.0f} s"
-                         for phase in ("contact", "friction"))
-        raise ExactReferenceError(f"the iterative solve stopped {dv:.1e} m/s and {dw:.1e} rad/s (certified) from "
-                                  f"the exact limit, above the {CERTIFIED_ACCEPT:g} accepted ({runs}; normal LCP "
-                                  f"residual {normal_residual:.1e} m/s)")
-
-
 # --- the two phases -------------------------------------------------------------------------------------------
-def _contact_phase(layout: _Layout, cons: ConstraintSet, u0: np.ndarray, labels: np.ndarray, count: int,
+def _contact_phase(layout: Layout, cons: ConstraintSet, u0: np.ndarray, labels: np.ndarray, count: int,
                    solver: QpSolver, clock: _Clock, info: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """The contact phase's limit: velocities u and normal impulses (M, 4)."""
-    rows, active = _contact_rows(layout, cons)
+    rows, active = contact_rows(layout, cons)
     lam = np.zeros(rows.c.shape[0])
-    row_island = _row_island(layout, labels, rows.body_a, rows.body_b)
+    row_island = island_of_rows(layout, labels, rows.body_a, rows.body_b)
     body_island = np.repeat(labels, 6)
     for group in _batches(labels, row_island, count):
         sel = np.flatnonzero(np.isin(row_island, group))
@@ -482,8 +268,7 @@ def _contact_phase(layout: _Layout, cons: ConstraintSet, u0: np.ndarray, labels:
         J, c = _sub(rows, sel, cols)
         inf = np.full(sel.shape[0], np.inf)
         if sel.shape[0] > DIRECT_ROWS_LIMIT:
-            lam[sel] = _iterative(J, layout.inv_m[cols], J @ u0[cols] + c, np.zeros(sel.shape[0]), inf,
-                                  clock.left() * CONTACT_TIME_SHARE, info, "contact")
+            lam[sel] = large_contact_phase(J, c, layout.inv_m[cols], u0[cols], clock.left(), info)
             continue
         m = 1.0 / layout.inv_m[cols]
         prob = QpProblem(sp.diags(m).tocsc(), -m * u0[cols], -J, c, 0, sel.shape[0])
@@ -500,19 +285,19 @@ def _contact_phase(layout: _Layout, cons: ConstraintSet, u0: np.ndarray, labels:
     return u, normal
 
 
-def _friction_phase(layout: _Layout, cons: ConstraintSet, u1: np.ndarray, normal: np.ndarray, mu: float,
+def _friction_phase(layout: Layout, cons: ConstraintSet, u1: np.ndarray, normal: np.ndarray, mu: float,
                     labels: np.ndarray, count: int, solver: QpSolver, clock: _Clock,
                     info: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """The friction phase's limit (normal impulses fixed): velocities u and friction impulses (M, 2)."""
     active = cons.f_jac_inv[:, 0] != 0.0
     limit = mu * ((normal[:, 0] + normal[:, 1]) + (normal[:, 2] + normal[:, 3]))
     boxed = np.flatnonzero(active & (limit > 0.0))
-    rows = _friction_rows(layout, cons, boxed)
+    rows = friction_rows(layout, cons, boxed)
     L = np.repeat(limit[boxed], 2)
-    N, spin_body = _spin_rows(layout, cons, np.flatnonzero(active & cons.spin_damp))
+    N, spin_body = spin_rows(layout, cons, np.flatnonzero(active & cons.spin_damp))
     lam_rows = np.zeros(L.shape[0])
     spin = np.zeros(N.shape[0])
-    row_island = _row_island(layout, labels, rows.body_a, rows.body_b)
+    row_island = island_of_rows(layout, labels, rows.body_a, rows.body_b)
     spin_island = labels[layout.index[spin_body]]
     body_island = np.repeat(labels, 6)
     for group in _batches(labels, np.concatenate([row_island, spin_island]), count):
@@ -527,8 +312,7 @@ def _friction_phase(layout: _Layout, cons: ConstraintSet, u1: np.ndarray, normal
         inf = np.full(ns, np.inf)
         lo, hi = np.concatenate([-L[sel], -inf]), np.concatenate([L[sel], inf])
         if nr + ns > DIRECT_ROWS_LIMIT:
-            y = _iterative(G, layout.inv_m[cols], q, lo, hi, clock.left() - ITERATIVE_MARGIN_S, info, "friction")
-            _certify_friction(G, Ns, layout.inv_m[cols], u1[cols], y, c, L[sel], info)
+            y = large_friction_phase(J, c, Ns, layout.inv_m[cols], u1[cols], L[sel], clock.left(), info)
             lam_rows[sel] = y[:nr]
             spin[ssel] = y[nr:]
             continue
@@ -555,14 +339,14 @@ def _friction_phase(layout: _Layout, cons: ConstraintSet, u1: np.ndarray, normal
 def natural_residuals(contact_bodies: BodyTable, bodies: BodyTable, cons: ConstraintSet, imp: Impulses,
                       mu: float) -> dict[str, float]:
     """The natural residuals at the end of each phase (see the module docstring), maxima over rows."""
-    layout = _Layout(bodies)
-    rows, active = _contact_rows(layout, cons)
+    layout = Layout(bodies)
+    rows, active = contact_rows(layout, cons)
     e = rows.J @ layout.velocity(contact_bodies) + rows.c
     k = -1.0 / cons.jac_inv[active]
     normal = np.abs(np.minimum(imp.normal[active] * k, e))
     fa = cons.f_jac_inv[:, 0] != 0.0
     manifolds = np.flatnonzero(fa)
-    frows = _friction_rows(layout, cons, manifolds)
+    frows = friction_rows(layout, cons, manifolds)
     ut = frows.J @ layout.velocity(bodies) + frows.c
     kt = -1.0 / cons.f_jac_inv[manifolds].ravel()
     limit = np.repeat(mu * ((imp.normal[manifolds, 0] + imp.normal[manifolds, 1])
@@ -595,8 +379,8 @@ def exact_reference(bodies: BodyTable, cons: ConstraintSet, params: SolverParams
                                   "(models/exact_reference.py)")
     _check_finite(bodies, cons)
     clock = _Clock(budget)
-    layout = _Layout(bodies)
-    count, labels = _islands(layout, cons)
+    layout = Layout(bodies)
+    count, labels = islands(layout, cons)
     info: dict[str, float] = {}
     seconds: dict[str, float] = {}
     u0 = layout.velocity(bodies)
@@ -611,12 +395,14 @@ def exact_reference(bodies: BodyTable, cons: ConstraintSet, params: SolverParams
     final = layout.with_velocity(bodies, u2)
     imp = Impulses(normal=normal, friction=friction)
     residuals = natural_residuals(contact_bodies, final, cons, imp, params.friction_coeff)
-    if any(k.endswith("iterative (MPRGP) iterations") for k in info):
-        _certify(bodies, cons, normal, info, residuals["contact phase: normal LCP |min(lam K, e)| max (m/s)"])
+    if needs_certificate(info):
+        certify(bodies, cons, normal, info, residuals["contact phase: normal LCP |min(lam K, e)| max (m/s)"])
     if not all(np.isfinite(v) for v in residuals.values()):
         raise ExactReferenceError("the solver returned non-finite values")
-    return ExactReference(contact_bodies, final, imp, residuals, seconds, count,
-                          solver_name or f"clarabel {_clarabel_version()}", info)
+    name = solver_name or f"clarabel {_clarabel_version()}"
+    if needs_certificate(info):
+        name += f"; an island above {DIRECT_ROWS_LIMIT:,} rows: {large_island_solver()}"
+    return ExactReference(contact_bodies, final, imp, residuals, seconds, count, name, info)
 
 
 def _check_finite(bodies: BodyTable, cons: ConstraintSet) -> None:

@@ -24,8 +24,10 @@ import numpy as np
 
 from .constraints import BodyTable, ConstraintSet
 from .contact_solver import Impulses, SolverParams
-from .exact_reference import (DIRECT_ROWS_LIMIT, ITERATIVE_TOLERANCE, SOLVER_TOLERANCE, Budget, ExactReference,
-                              ExactReferenceError, exact_reference_bounded)
+from . import exact_reference_large_island as large_island
+from .exact_reference import (DIRECT_ROWS_LIMIT, SOLVER_TOLERANCE, Budget, ExactReference, ExactReferenceError,
+                              exact_reference_bounded)
+from .exact_reference_large_island import ITERATIVE_TOLERANCE
 
 CACHE_VERSION = 3  # bump whenever the reference computation changes
 _VELOCITIES = ("contact_linear", "contact_angular", "linear", "angular", "normal", "friction")
@@ -113,7 +115,8 @@ def cached_exact_reference(bodies: BodyTable, cons: ConstraintSet, cache_dir: st
         return ref, path, True
     failed = path.with_suffix(".failed.json")
     earlier = _recorded_failure(failed)
-    if earlier is not None and earlier["time_s"] >= budget.time_s and earlier["memory_bytes"] >= budget.memory_bytes:
+    if (earlier is not None and earlier["time_s"] >= budget.time_s and earlier["memory_bytes"] >= budget.memory_bytes
+            and earlier.get("large_island_method") == large_island.LARGE_ISLAND_METHOD):
         raise ExactReferenceError(f"{earlier['reason']} (recorded by an earlier attempt with a budget of "
                                   f"{earlier['time_s']:.0f} s; delete {failed} to try again)")
     t0 = time.perf_counter()
@@ -121,7 +124,8 @@ def cached_exact_reference(bodies: BodyTable, cons: ConstraintSet, cache_dir: st
         ref = exact_reference_bounded(bodies, cons, params, budget)
     except ExactReferenceError as exc:
         _write_atomically(failed, json.dumps({"reason": str(exc), "time_s": budget.time_s,
-                                              "memory_bytes": budget.memory_bytes}).encode())
+                                              "memory_bytes": budget.memory_bytes,
+                                              "large_island_method": large_island.LARGE_ISLAND_METHOD}).encode())
         raise
     ref.seconds["total"] = time.perf_counter() - t0
     save_reference(ref, path)

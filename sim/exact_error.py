@@ -76,11 +76,12 @@ def error_vs_exact(ours: BodyTable, exact: AnyExactStep, dynamic: np.ndarray) ->
     return solution_error(ours, exact.final, dynamic)
 
 
-def exact_errors(exact: AnyExactStep, ours: BodyTable, same_iterations: BodyTable, pgs: BodyTable,
+def exact_errors(exact: AnyExactStep, ours: BodyTable, same_iterations: BodyTable, pgs: BodyTable | None,
                  dynamic: np.ndarray) -> ExactErrors | NoExactReference:
-    """The step (``ours``), float64 with the same iterations and float64 PGS after many passes, each against the
-    exact reference; or why there is none."""
+    """The step (``ours``), float64 with the same iterations and (unless None) float64 PGS after many passes,
+    each against the exact reference; or why there is none."""
     if isinstance(exact, NoExactReference):
         return exact
     return ExactErrors(exact.facts, solution_error(ours, exact.final, dynamic),
-                       solution_error(same_iterations, exact.final, dynamic), solution_error(pgs, exact.final, dynamic))
+                       solution_error(same_iterations, exact.final, dynamic),
+                       None if pgs is None else solution_error(pgs, exact.final, dynamic))

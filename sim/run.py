@@ -261,9 +261,15 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     job = kernel_job(KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip), args)
     if args.record_window and args.mode == "model":
         raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
-    if args.mode == "model":  # MODE=model: the cycle model's estimate alone
+    if args.mode == "model":  # MODE=model: the cycle model's estimate, the golden model's errors vs the exact reference
+        golden = timer.run(f"{fmt.name} golden model solve + integrate", golden_step, job)
+        ref = timer.run("float64 reference solve + integrate", _solve_and_integrate, bodies, cons, schedule, params, ip)
+        exact = timer.run("exact reference (solve or cache)", exact_error.exact_step, bodies, cons, ip,
+                          exact_error.reference_dir(args), args.exact_budget)
         return ModelRunResult(name, label, frame.num_bodies, frame.num_manifolds, sched_stats.describe(),
-                              preset.describe(), model_section(job, preset), fit=kernel_fit(job, args.dma)), None
+                              preset.describe(), model_section(job, preset), fit=kernel_fit(job, args.dma),
+                              errors=exact_error.exact_errors(exact, golden.final, ref, None, bodies.dynamic),
+                              error_source=f"{fmt.name} golden model"), None
 
     ref = timer.run("float64 reference solve + integrate", _solve_and_integrate, bodies, cons, schedule, params, ip)
     golden = timer.run(f"{fmt.name} golden model solve + integrate", golden_step, job)

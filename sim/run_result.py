@@ -136,7 +136,7 @@ class ExactErrors:
     reference: ExactReferenceFacts
     ours: SolutionError  # the step's source: rounding + iteration error
     iteration_only: SolutionError  # float64 with these iterations
-    converged: SolutionError  # float64 PGS after the converged solve's passes
+    converged: Optional[SolutionError] = None  # float64 PGS after the converged solve's passes (not in MODE=model)
 
 
 @dataclass(frozen=True)
@@ -208,6 +208,8 @@ class ModelRunResult:
     dma: str  # described
     cycle_model: dict[str, Any] = field(default_factory=dict)  # models.cycle_model.report_section
     fit: Optional[FitReport] = None  # sim.resource_model.kernel_fit of the configuration predicted
+    errors: Union[ExactErrors, NoExactReference, None] = None  # the golden model's step against the exact reference
+    error_source: str = ""  # what ``errors.ours`` is of
 
     @property
     def ok(self) -> bool:
@@ -225,6 +227,9 @@ def sections(result: AnyRunResult) -> Sections:
                            MODEL_SECTION: result.cycle_model}
         if result.fit is not None:
             model[FIT_SECTION] = fit_rows(result.fit)
+        if result.errors is not None:
+            model[ERROR_SECTION] = {**_exact_rows(_exact_labels(result.error_source, ""), result.errors),
+                                    **_reference_rows(result.errors)}
         return model
     s, k = result.scene, result.schedule
     out: Sections = {
@@ -311,14 +316,22 @@ def _solution_rows(label: str, e: SolutionError) -> dict[str, float]:
             f"{label}: p99 |dw| (rad/s)": e.p99_dw, f"{label}: max |dw| / max |w_ref|": e.relative_dw}
 
 
-def _exact_rows(labels: tuple[str, str, str], x: Union[ExactErrors, NoExactReference]) -> dict[str, Any]:
+def _exact_rows(labels: tuple[str, ...], x: Union[ExactErrors, NoExactReference]) -> dict[str, Any]:
     """The three errors against the exact reference (or, without one, why not) under ``labels``."""
     if isinstance(x, NoExactReference):
         return {label: str(x) for label in labels}
     out: dict[str, Any] = {}
     for label, err in zip(labels, (x.ours, x.iteration_only, x.converged)):
-        out.update(_solution_rows(label, err))
+        if err is not None:
+            out.update(_solution_rows(label, err))
     return out
+
+
+def _exact_labels(source: str, pgs: str) -> tuple[str, ...]:
+    """The rows' labels: ``source``, float64 with the same iterations, and (unless ``pgs`` is empty) the PGS iterate."""
+    return (f"{source} vs exact reference (rounding + iteration error)",
+            "float64 with these iterations vs exact reference (iteration error alone)") + (
+        (f"{pgs} vs exact reference",) if pgs else ())
 
 
 def _reference_rows(x: Union[ExactErrors, NoExactReference]) -> dict[str, Any]:
@@ -340,9 +353,7 @@ def _errors(e: StepErrors) -> dict[str, Any]:
     out: dict[str, Any] = {}
     out.update(_velocity_rows(f"{e.source} vs float64, same schedule and iterations (rounding error)",
                               e.vs_same_iterations))
-    out.update(_exact_rows((f"{e.source} vs exact reference (rounding + iteration error)",
-                            "float64 with these iterations vs exact reference (iteration error alone)",
-                            f"{pgs} vs exact reference"), e.vs_exact))
+    out.update(_exact_rows(_exact_labels(e.source, pgs), e.vs_exact))
     out.update(_velocity_rows(f"{e.source} vs {pgs}", e.vs_converged))
     out[f"{pgs}: last pass max velocity change"] = e.converged_last_change
     out[f"{pgs}: per-pass change below 1e-9 within budget"] = str(e.converged)

@@ -186,30 +186,76 @@ def test_bounded_solve_enforces_the_budget_from_outside(pile, monkeypatch: pytes
         er.exact_reference_bounded(bodies, cons, budget=Budget(time_s=0.5), solver=hang)
 
 
-def test_iterative_path_reaches_the_direct_reference_and_certifies_it(pile, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Islands above DIRECT_ROWS_LIMIT are solved by MPRGP and certified: on the pile (forced onto that path) it
-    agrees with the interior point, is a fixed point of both passes, its certificate bounds the true distance, and
-    a solve stopped early is refused (its certificate exceeds what is accepted)."""
+ITERATION_KEYS = {"ipm": "body-space interior point iterations", "mprgp": "iterative (MPRGP) iterations"}
+
+
+@pytest.mark.parametrize("method", ["ipm", "mprgp"])
+def test_large_island_path_reaches_the_direct_reference_and_certifies_it(pile, monkeypatch: pytest.MonkeyPatch,
+                                                                         method: str) -> None:
+    """Islands above DIRECT_ROWS_LIMIT are solved by the body-space interior point (or MPRGP) and certified: on the
+    pile (forced onto that path) it agrees with Clarabel's dual solve, is a fixed point of both passes, its
+    certificate bounds the true distance, and a solve stopped early is refused (its certificate exceeds what is
+    accepted)."""
+    from models import body_space_ipm
     from models import exact_reference as er
+    from models import exact_reference_large_island as li
 
     bodies, cons, schedule, ref = pile
     monkeypatch.setattr(er, "DIRECT_ROWS_LIMIT", 0)
+    monkeypatch.setattr(li, "LARGE_ISLAND_METHOD", method)
     it = exact_reference(bodies, cons)
-    assert it.details["contact phase: iterative (MPRGP) iterations"] > 0
-    assert it.details["friction phase: iterative (MPRGP) iterations"] > 0
+    assert it.details[f"contact phase: {ITERATION_KEYS[method]}"] > 0
+    assert it.details[f"friction phase: {ITERATION_KEYS[method]}"] > 0
     dv = np.linalg.norm(it.bodies.linear_velocity - ref.bodies.linear_velocity, axis=1).max()
     dw = np.linalg.norm(it.bodies.angular_velocity - ref.bodies.angular_velocity, axis=1).max()
     assert dv <= 1e-8 and dw <= 1e-8
-    assert dv <= it.details["certified max |dv| of the final state (m/s)"] <= er.CERTIFIED_ACCEPT
-    assert dw <= it.details["certified max |dw| of the final state (rad/s)"] <= er.CERTIFIED_ACCEPT
+    assert dv <= it.details["certified max |dv| of the final state (m/s)"] <= li.CERTIFIED_ACCEPT
+    assert dw <= it.details["certified max |dw| of the final state (rad/s)"] <= li.CERTIFIED_ACCEPT
     no_friction = Impulses(it.impulses.normal, np.zeros_like(it.impulses.friction))
     assert _moved(it.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
     assert _moved(it.bodies, it.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
     for key in ("contact phase: normal LCP |min(lam K, e)| max (m/s)", "friction phase: box residual max (m/s)",
                 "friction phase: spin |n.w| max (rad/s)"):
         assert it.residuals[key] <= RESIDUAL_TOLERANCE, (key, it.residuals[key])
-    monkeypatch.setattr(er, "ITERATIVE_TOLERANCE", 1e-2)  # stops far from the limit
+    if method == "mprgp":
+        monkeypatch.setattr(li, "ITERATIVE_TOLERANCE", 1e-2)  # stops far from the limit
+    else:
+        monkeypatch.setattr(body_space_ipm, "MAX_ITERATIONS", 4)
     with pytest.raises(ExactReferenceError, match="certified"):
+        exact_reference(bodies, cons)
+
+
+def test_body_space_path_agrees_with_clarabel_on_the_stack(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The stack (one column of cubes, every manifold spin-damped) through the body-space interior point: the same
+    exact state as Clarabel's dual QPs, a fixed point of both passes."""
+    from models import exact_reference as er
+
+    frame = scenes.capture_frame("stack")
+    bodies = body_table(frame)
+    cons = setup_constraints(frame, bodies)
+    schedule = make_schedule("hazard", cons, bodies.dynamic, window=8)
+    ref = exact_reference(bodies, cons)
+    monkeypatch.setattr(er, "DIRECT_ROWS_LIMIT", 0)
+    it = exact_reference(bodies, cons)
+    assert it.details["contact phase: large island solved by ipm"] == 1.0
+    for a, b in ((it.contact_bodies, ref.contact_bodies), (it.bodies, ref.bodies)):
+        assert np.abs(a.linear_velocity - b.linear_velocity).max() <= 1e-8
+        assert np.abs(a.angular_velocity - b.angular_velocity).max() <= 1e-8
+    no_friction = Impulses(it.impulses.normal, np.zeros_like(it.impulses.friction))
+    assert _moved(it.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
+    assert _moved(it.bodies, it.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
+
+
+def test_body_space_time_budget_gives_no_reference(pile, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A large island's interior point that runs out of time gives ExactReferenceError (rendered "no exact
+    reference (reason)"), not a number."""
+    from models import exact_reference as er
+    from models import exact_reference_large_island as li
+
+    bodies, cons, _, _ = pile
+    monkeypatch.setattr(er, "DIRECT_ROWS_LIMIT", 0)
+    monkeypatch.setattr(li, "CONTACT_TIME_SHARE", 1e-12)
+    with pytest.raises(ExactReferenceError, match="contact phase: body-space interior point hit the time budget"):
         exact_reference(bodies, cons)
 
 

@@ -73,3 +73,24 @@ def test_errors_against_the_exact_reference() -> None:
     assert missing["exact reference"] == why
     assert not any(k.startswith("exact reference:") or "vs exact reference:" in k for k in missing)
     assert missing["RTL kernel vs float64, same schedule and iterations (rounding error): max |dv| (m/s)"] == 1e-3
+
+
+def test_model_mode_reports_the_errors_against_the_exact_reference() -> None:
+    """MODE=model: the golden model's step and float64 with the same iterations against the exact reference (no
+    PGS iterate line), or, without a reference, why not."""
+    exact = ExactErrors(FACTS, EXACT.ours, EXACT.iteration_only)
+    got = sections(ModelRunResult("p", "pile", 217, 900, "hazard", "zcu102", {}, errors=exact,
+                                  error_source="fp32 golden model"))
+    assert list(got) == ["scene", MODEL_SECTION, ERROR_SECTION]
+    err = got[ERROR_SECTION]
+    assert err["fp32 golden model vs exact reference (rounding + iteration error): max |dv| (m/s)"] == 4e-3
+    assert err["float64 with these iterations vs exact reference (iteration error alone): max |dv| (m/s)"] == 6e-3
+    assert err["exact reference: solver"] == "clarabel 0.11.1"
+    assert not any("PGS" in k for k in err)
+    missing = sections(ModelRunResult("p", "thesis", 38881, 147485, "hazard", "zcu102", {},
+                                      errors=NoExactReference("time budget of 600 s spent"),
+                                      error_source="fp32 golden model"))[ERROR_SECTION]
+    why = "no exact reference (time budget of 600 s spent)"
+    assert missing == {"fp32 golden model vs exact reference (rounding + iteration error)": why,
+                       "float64 with these iterations vs exact reference (iteration error alone)": why,
+                       "exact reference": why}

@@ -21,12 +21,15 @@ def _run(tmp: Path, *extra: str) -> dict:
     return json.loads(next(tmp.glob("*/report.json")).read_text())
 
 
-def test_mode_model_reports_the_estimate_alone(tmp_path: Path) -> None:
+def test_mode_model_reports_the_estimate_and_the_errors_against_the_exact_reference(tmp_path: Path) -> None:
     report = _run(tmp_path, "--mode", "model")
     model = report[SECTION]
     assert model["model: kernel cycles"] > model["model: manifold-passes"] == 2 * 10
     assert model["model: DONE starts at cycle"] + 2 == model["model: kernel cycles"]
     assert not any(k.startswith("bit-exactness") or k.startswith("kernel speed") for k in report)
+    err = report["error (velocities after the step; dynamic bodies)"]
+    assert err["fp32 golden model vs exact reference (rounding + iteration error): max |dv| (m/s)"] > 0
+    assert err["exact reference residual, contact phase: normal LCP |min(lam K, e)| max (m/s)"] < 1e-9
 
 
 def test_rtl_run_reports_model_against_rtl(tmp_path: Path) -> None:
