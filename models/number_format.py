@@ -40,6 +40,7 @@ their flags to a running :class:`FpEvents` total, so any model run with it count
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Optional, Union
 
@@ -52,7 +53,26 @@ _F64_BIAS = 1023
 _SIGN64 = np.uint64(1 << 63)
 _MAG64 = np.uint64((1 << 63) - 1)
 _EXP64 = np.uint64(0x7FF << 52)
-_NUMPY_CASTS = {(8, 23): np.float32, (5, 10): np.float16}
+# (exp_bits, man_bits) -> the numpy float type whose cast rounds like the format, and the unsigned type of its bits
+_NUMPY_CASTS: dict[tuple[int, int], tuple[type[np.floating], type[np.unsignedinteger]]] = {
+    (8, 23): (np.float32, np.uint32), (5, 10): (np.float16, np.uint16)}
+
+
+@dataclass(frozen=True)
+class _CastRule:
+    """A format's rounding by a numpy cast: the float and bit types, 1 and min normal's bit pattern in those bits,
+    and the magnitude below which a float64 value flushes to zero."""
+
+    dtype: type[np.floating]
+    bits: type[np.unsignedinteger]
+    one: np.unsignedinteger
+    min_normal_bits: np.unsignedinteger
+    flush_below: float
+
+
+def _flush_below(x: np.ndarray, rounded: np.ndarray, flush_below: float) -> np.ndarray:
+    """``rounded`` with a zero of ``x``'s sign wherever ``|x| < flush_below``."""
+    return np.where(np.abs(x) < flush_below, np.where(np.signbit(x), -0.0, 0.0), rounded)
 
 
 EVENT_NAMES = ("overflow", "underflow", "invalid")
@@ -156,15 +176,31 @@ class NumberFormat:
         rounds to at least the smallest normal number iff its magnitude is at least
         min_normal * (1 - 2^-(man_bits+2))); other formats use the bit-level rounding, which the
         test suite checks against the casts.
+
+        The cast alone is the answer unless an element casts to a non-zero magnitude of at most min normal
+        (numpy's cast rounds those on the subnormal grid): only then is the flush threshold applied, to the
+        whole array. A value below the threshold that casts to zero already has the zero of its sign.
         """
-        x = np.asarray(x, dtype=np.float64)
-        cast = _NUMPY_CASTS.get((self.exp_bits, self.man_bits))
-        if cast is None:
+        rule = self._cast_rule
+        if rule is None:
             return self.round_bitwise(x)
+        x = np.asarray(x, dtype=np.float64)
         with np.errstate(over="ignore", invalid="ignore"):
-            r = x.astype(cast).astype(np.float64)
-        flush = np.abs(x) < self.min_normal * (1.0 - np.ldexp(1.0, -(self.man_bits + 2)))
-        return np.where(flush, np.where(np.signbit(x), -0.0, 0.0), r)
+            narrow = x.astype(rule.dtype)
+        magnitude = np.abs(narrow.reshape(-1)).view(rule.bits)  # an array even for one value: zero wraps around
+        if np.count_nonzero(magnitude - rule.one < rule.min_normal_bits):
+            return _flush_below(x, narrow.astype(np.float64), rule.flush_below)
+        return narrow.astype(np.float64)
+
+    @functools.cached_property
+    def _cast_rule(self) -> Optional["_CastRule"]:
+        """The numpy cast that rounds like this format, with its flush constants (None: no such cast)."""
+        dtypes = _NUMPY_CASTS.get((self.exp_bits, self.man_bits))
+        if dtypes is None:
+            return None
+        dtype, bits = dtypes
+        return _CastRule(dtype, bits, bits(1), bits(1 << self.man_bits),
+                         self.min_normal * (1.0 - float(np.ldexp(1.0, -(self.man_bits + 2)))))
 
     def round_bitwise(self, x: ArrayLike) -> np.ndarray:
         """The rounding rule written out on float64 bit patterns (works for every format)."""
