@@ -53,20 +53,17 @@ _F64_BIAS = 1023
 _SIGN64 = np.uint64(1 << 63)
 _MAG64 = np.uint64((1 << 63) - 1)
 _EXP64 = np.uint64(0x7FF << 52)
-# (exp_bits, man_bits) -> the numpy float type whose cast rounds like the format, and the unsigned type of its bits
-_NUMPY_CASTS: dict[tuple[int, int], tuple[type[np.floating], type[np.unsignedinteger]]] = {
-    (8, 23): (np.float32, np.uint32), (5, 10): (np.float16, np.uint16)}
+# (exp_bits, man_bits) -> the numpy float type whose cast rounds like the format
+_NUMPY_CASTS: dict[tuple[int, int], type[np.floating]] = {(8, 23): np.float32, (5, 10): np.float16}
 
 
 @dataclass(frozen=True)
 class _CastRule:
-    """A format's rounding by a numpy cast: the float and bit types, 1 and min normal's bit pattern in those bits,
-    and the magnitude below which a float64 value flushes to zero."""
+    """A format's rounding by a numpy cast: the float type, the format's min normal in it, and the magnitude below
+    which a float64 value flushes to zero."""
 
     dtype: type[np.floating]
-    bits: type[np.unsignedinteger]
-    one: np.unsignedinteger
-    min_normal_bits: np.unsignedinteger
+    min_normal: np.floating
     flush_below: float
 
 
@@ -187,19 +184,18 @@ class NumberFormat:
         x = np.asarray(x, dtype=np.float64)
         with np.errstate(over="ignore", invalid="ignore"):
             narrow = x.astype(rule.dtype)
-        magnitude = np.abs(narrow.reshape(-1)).view(rule.bits)  # an array even for one value: zero wraps around
-        if np.count_nonzero(magnitude - rule.one < rule.min_normal_bits):
+        # more magnitudes of at most min normal than zeros: some element needs the flush threshold
+        if np.count_nonzero(np.abs(narrow) <= rule.min_normal) > narrow.size - np.count_nonzero(narrow):
             return _flush_below(x, narrow.astype(np.float64), rule.flush_below)
         return narrow.astype(np.float64)
 
     @functools.cached_property
     def _cast_rule(self) -> Optional["_CastRule"]:
         """The numpy cast that rounds like this format, with its flush constants (None: no such cast)."""
-        dtypes = _NUMPY_CASTS.get((self.exp_bits, self.man_bits))
-        if dtypes is None:
+        dtype = _NUMPY_CASTS.get((self.exp_bits, self.man_bits))
+        if dtype is None:
             return None
-        dtype, bits = dtypes
-        return _CastRule(dtype, bits, bits(1), bits(1 << self.man_bits),
+        return _CastRule(dtype, dtype(self.min_normal),
                          self.min_normal * (1.0 - float(np.ldexp(1.0, -(self.man_bits + 2)))))
 
     def round_bitwise(self, x: ArrayLike) -> np.ndarray:
