@@ -40,6 +40,7 @@ their flags to a running :class:`FpEvents` total, so any model run with it count
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Optional, Union
 
@@ -52,7 +53,23 @@ _F64_BIAS = 1023
 _SIGN64 = np.uint64(1 << 63)
 _MAG64 = np.uint64((1 << 63) - 1)
 _EXP64 = np.uint64(0x7FF << 52)
-_NUMPY_CASTS = {(8, 23): np.float32, (5, 10): np.float16}
+# (exp_bits, man_bits) -> the numpy float type whose cast rounds like the format
+_NUMPY_CASTS: dict[tuple[int, int], type[np.floating]] = {(8, 23): np.float32, (5, 10): np.float16}
+
+
+@dataclass(frozen=True)
+class _CastRule:
+    """A format's rounding by a numpy cast: the float type, the format's min normal in it, and the magnitude below
+    which a float64 value flushes to zero."""
+
+    dtype: type[np.floating]
+    min_normal: np.floating
+    flush_below: float
+
+
+def _flush_below(x: np.ndarray, rounded: np.ndarray, flush_below: float) -> np.ndarray:
+    """``rounded`` with a zero of ``x``'s sign wherever ``|x| < flush_below``."""
+    return np.where(np.abs(x) < flush_below, np.where(np.signbit(x), -0.0, 0.0), rounded)
 
 
 EVENT_NAMES = ("overflow", "underflow", "invalid")
@@ -156,15 +173,30 @@ class NumberFormat:
         rounds to at least the smallest normal number iff its magnitude is at least
         min_normal * (1 - 2^-(man_bits+2))); other formats use the bit-level rounding, which the
         test suite checks against the casts.
+
+        The cast alone is the answer unless an element casts to a non-zero magnitude of at most min normal
+        (numpy's cast rounds those on the subnormal grid): only then is the flush threshold applied, to the
+        whole array. A value below the threshold that casts to zero already has the zero of its sign.
         """
-        x = np.asarray(x, dtype=np.float64)
-        cast = _NUMPY_CASTS.get((self.exp_bits, self.man_bits))
-        if cast is None:
+        rule = self._cast_rule
+        if rule is None:
             return self.round_bitwise(x)
+        x = np.asarray(x, dtype=np.float64)
         with np.errstate(over="ignore", invalid="ignore"):
-            r = x.astype(cast).astype(np.float64)
-        flush = np.abs(x) < self.min_normal * (1.0 - np.ldexp(1.0, -(self.man_bits + 2)))
-        return np.where(flush, np.where(np.signbit(x), -0.0, 0.0), r)
+            narrow = x.astype(rule.dtype)
+        # more magnitudes of at most min normal than zeros: some element needs the flush threshold
+        if np.count_nonzero(np.abs(narrow) <= rule.min_normal) > narrow.size - np.count_nonzero(narrow):
+            return _flush_below(x, narrow.astype(np.float64), rule.flush_below)
+        return narrow.astype(np.float64)
+
+    @functools.cached_property
+    def _cast_rule(self) -> Optional["_CastRule"]:
+        """The numpy cast that rounds like this format, with its flush constants (None: no such cast)."""
+        dtype = _NUMPY_CASTS.get((self.exp_bits, self.man_bits))
+        if dtype is None:
+            return None
+        return _CastRule(dtype, dtype(self.min_normal),
+                         self.min_normal * (1.0 - float(np.ldexp(1.0, -(self.man_bits + 2)))))
 
     def round_bitwise(self, x: ArrayLike) -> np.ndarray:
         """The rounding rule written out on float64 bit patterns (works for every format)."""

@@ -6,10 +6,14 @@ kernel harness built with each compile profile of ``sim.kernel_build.COMPILE_PRO
 time is printed). The runs alternate between the profiles, ``--runs`` times each, so a load change on a shared
 machine hits all of them alike; each run's trace and body-out stream must be identical, byte for byte, to the
 first profile's (the profiles change how the C++ is compiled, never what the kernel computes). Printed per
-profile: build seconds, simulated cycles, the median of cycles per wall second and per CPU second of the harness
-process (the CPU figure holds on a loaded machine), and the ratio of the CPU figure to the first profile's.
+profile: the build's wall and CPU seconds (Verilator, make and the compiler; about 0 when the build was already
+there) and its CPU ratio to the first profile's, simulated cycles, the median of cycles per wall second and per
+CPU second of the harness process (the CPU figure holds on a loaded machine), and the ratio of the CPU figure to
+the first profile's. ``--max-cycles`` stops every run at that many cycles (a prefix of a long scene's step, the
+same for every profile; the outputs compared are then the prefix's).
 
     python -m sim.bench_sim_speed --scene pile --profiles quick,o2 --runs 3
+    python -m sim.bench_sim_speed --scene thesis --profiles quick,os --runs 3 --max-cycles 300000
 """
 
 from __future__ import annotations
@@ -30,7 +34,7 @@ from models.contact_solver import SolverParams
 from models.dma_model import DmaPreset, get_preset
 from models.kernel_job import KernelJob
 from models.number_format import NumberFormat, parse_format
-from sim.harness_run import harness_cycle_limit, run_harness, write_inputs
+from sim.harness_run import KernelRunError, harness_cycle_limit, run_harness, write_inputs
 from sim.kernel_build import COMPILE_PROFILES, KernelBuild, build_kernel, default_window
 from sim.verilator_build import REPO_ROOT
 
@@ -44,6 +48,7 @@ class ProfileRuns:
     profile: str
     exe: Path
     build_s: float
+    build_cpu_s: float
     cycles: int = 0
     wall_s: list[float] = field(default_factory=list)
     cpu_s: list[float] = field(default_factory=list)
@@ -62,6 +67,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--profiles", default="quick,o2",
                     help=f"compile profiles, the first is the reference (of {', '.join(COMPILE_PROFILES)})")
     ap.add_argument("--runs", type=int, default=3, help="runs of each profile")
+    ap.add_argument("--max-cycles", type=int, default=0,
+                    help="stop each run after this many cycles (0: run the whole step)")
     ap.add_argument("--out", default="build/bench", help="parent directory of the run directories")
     return ap.parse_args(argv)
 
@@ -78,6 +85,8 @@ def check_args(args: argparse.Namespace) -> list[str]:
         raise ValueError(f"--runs must be in 1..100, got {args.runs}")
     if args.iters < 1:
         raise ValueError(f"--iters must be >= 1, got {args.iters}")
+    if args.max_cycles < 0:
+        raise ValueError(f"--max-cycles must be >= 0, got {args.max_cycles}")
     if not isinstance(parse_format(args.format), NumberFormat):
         raise ValueError(f"--format {args.format!r} is not a kernel format")
     get_preset(args.dma)
@@ -102,25 +111,32 @@ def run_once(pr: ProfileRuns, run_dir: Path, reference: Path | None, args: argpa
              max_cycles: int) -> None:
     """One harness run of ``pr`` in ``run_dir``; its outputs must equal those in ``reference`` (when given)."""
     cpu0, t0 = child_cpu_s(), time.perf_counter()
-    regs = run_harness(pr.exe, run_dir, args.seed, preset, max_cycles)
+    try:
+        pr.cycles = int(run_harness(pr.exe, run_dir, args.seed, preset, max_cycles)["harness_cycles"])
+    except KernelRunError as exc:  # --max-cycles: the harness stops there with a timeout (exit status 3)
+        if not (args.max_cycles and f"TIMEOUT after {max_cycles} cycles" in str(exc)):
+            raise
+        pr.cycles = max_cycles
     pr.wall_s.append(time.perf_counter() - t0)
     pr.cpu_s.append(child_cpu_s() - cpu0)
-    pr.cycles = int(regs["harness_cycles"])
     if reference is not None:
         for name in OUTPUTS:
-            if not filecmp.cmp(reference / name, run_dir / name, shallow=False):
+            if (reference / name).exists() and not filecmp.cmp(reference / name, run_dir / name, shallow=False):
                 raise RuntimeError(f"profile {pr.profile}: {name} differs from {reference / name}")
 
 
 def report(results: list[ProfileRuns], label: str) -> str:
     ref = results[0]
     lines = [f"{label}: {ref.cycles:,} simulated cycles per run, medians of {len(ref.cpu_s)} runs each",
-             f"{'profile':<8} {'build s':>8} {'kcyc/s wall':>12} {'kcyc/s CPU':>11} {'CPU ratio':>10}  flags"]
+             f"{'profile':<8} {'build s':>8} {'build CPU s':>12} {'build ratio':>12} {'kcyc/s wall':>12} "
+             f"{'kcyc/s CPU':>11} {'CPU ratio':>10}  flags"]
     for pr in results:
         ratio = pr.cycles_per_s(pr.cpu_s) / ref.cycles_per_s(ref.cpu_s)
+        build_ratio = f"{pr.build_cpu_s / ref.build_cpu_s:11.2f}x" if ref.build_cpu_s >= 1.0 else f"{'-':>12}"
         flags = " ".join(a for a in COMPILE_PROFILES[pr.profile] if a != "-MAKEFLAGS")
-        lines.append(f"{pr.profile:<8} {pr.build_s:8.1f} {pr.cycles_per_s(pr.wall_s) / 1e3:12.1f} "
-                     f"{pr.cycles_per_s(pr.cpu_s) / 1e3:11.1f} {ratio:9.2f}x  {flags}")
+        lines.append(f"{pr.profile:<8} {pr.build_s:8.1f} {pr.build_cpu_s:12.1f} {build_ratio} "
+                     f"{pr.cycles_per_s(pr.wall_s) / 1e3:12.1f} {pr.cycles_per_s(pr.cpu_s) / 1e3:11.1f} "
+                     f"{ratio:9.2f}x  {flags}")
     return "\n".join(lines)
 
 
@@ -139,12 +155,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     results = []
     for profile in profiles:
         profile_kb = replace(kb, compile_profile=profile)
+        cpu0 = child_cpu_s()
         exe, build_s = build_kernel(profile_kb)
+        build_cpu_s = child_cpu_s() - cpu0
         run_dir = base / profile
         shutil.rmtree(run_dir, ignore_errors=True)
         write_inputs(run_dir, job, profile_kb)
-        results.append(ProfileRuns(profile, exe, build_s))
-    max_cycles = harness_cycle_limit(job)
+        results.append(ProfileRuns(profile, exe, build_s, build_cpu_s))
+    max_cycles = args.max_cycles or harness_cycle_limit(job)
     for _ in range(args.runs):
         for pr in results:
             run_once(pr, base / pr.profile, None if pr is results[0] else base / results[0].profile, args, preset,

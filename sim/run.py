@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import resource
 import sys
 import time
 from pathlib import Path
@@ -197,15 +198,25 @@ def _error(ours: BodyTable, ref: BodyTable, dyn: np.ndarray) -> VelocityError:
 
 
 class Timer:
+    """Wall and CPU seconds of each stage of the run (CPU: this process and the child processes it waited for,
+    e.g. the kernel harness; the figure that holds on a loaded machine)."""
+
     def __init__(self) -> None:
         self.seconds: dict[str, float] = {}
+        self.cpu_seconds: dict[str, float] = {}
 
     def run(self, name: str, fn: Any, *args: Any, **kw: Any) -> Any:
-        t0 = time.perf_counter()
+        t0, cpu0 = time.perf_counter(), _cpu_s()
         out = fn(*args, **kw)
         self.seconds[name] = time.perf_counter() - t0
-        print(f"{name}: {self.seconds[name]:.2f} s", flush=True)
+        self.cpu_seconds[name] = _cpu_s() - cpu0
+        print(f"{name}: {self.seconds[name]:.2f} s ({self.cpu_seconds[name]:.2f} s CPU)", flush=True)
         return out
+
+
+def _cpu_s() -> float:
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
 def kernel_speed(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_bubbles: int,
@@ -251,10 +262,10 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     name = f"{label}-{'auto-' if auto else ''}{fmt.name}-it{args.iters}-s{args.seed}-{args.dma}{order}"
 
     bodies = body_table(frame)
-    cons = setup_constraints(frame, bodies)
+    cons = timer.run("constraint setup", setup_constraints, frame, bodies)
     window = args.window or default_window(fmt, preset.stream_bits)
-    schedule = make_schedule(args.schedule, cons, bodies.dynamic, window)
-    sched_stats = stats(args.schedule, schedule, cons, bodies.dynamic, window)
+    schedule = timer.run(f"{args.schedule} schedule", make_schedule, args.schedule, cons, bodies.dynamic, window)
+    sched_stats = timer.run("schedule statistics", stats, args.schedule, schedule, cons, bodies.dynamic, window)
     print(sched_stats.describe(), flush=True)
     params = SolverParams(iterations=args.iters)
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))

@@ -21,6 +21,61 @@ def test_cast_rounding_matches_bitwise_rule(fmt: NumberFormat) -> None:
     assert np.all(_same(fmt.round(x), fmt.round_bitwise(x)))
 
 
+def _cast_format_edges(fmt: NumberFormat) -> np.ndarray:
+    """Every value of ``fmt``'s binade edges and rounding boundaries: each power of two of the format's range
+    and beyond it, with mantissas at, just off and halfway between representable values (ties both ways)."""
+    rng = np.random.default_rng(11)
+    p = fmt.man_bits
+    exps = np.arange(fmt.emin - p - 3, fmt.emax + 3)
+    steps = np.concatenate([np.arange(-3, 4), (1 << (p + 1)) - np.arange(4), rng.integers(0, 1 << (p + 1), 24)])
+    # m / 2^(p+1) in [0, 1): even m are representable mantissas, odd m halfway between two; +-2^-52 off both
+    frac = np.array([s * 2.0 ** -(p + 1) + d for s in steps for d in (0.0, 2.0 ** -52, -(2.0 ** -52))])
+    mags = np.ldexp(1.0 + np.abs(frac)[None, :], exps[:, None]).ravel()
+    return np.concatenate([mags, -mags, [0.0, -0.0, np.inf, -np.inf, np.nan, fmt.max_finite, -fmt.min_normal]])
+
+
+def _fp16_exhaustive() -> np.ndarray:
+    """Every binary16 value, each one float64 ulp either side, and every midpoint between neighbours (+-1 ulp)."""
+    v = np.arange(1 << 16, dtype=np.uint16).view(np.float16).astype(np.float64)
+    v = np.sort(v[np.isfinite(v)])
+    mid = (v[1:] + v[:-1]) / 2
+    pts = np.concatenate([v, mid, 65504.0 * (1 + np.arange(-4, 5) * 2.0 ** -12)])
+    return np.concatenate([pts, np.nextafter(pts, np.inf), np.nextafter(pts, -np.inf)])
+
+
+@pytest.mark.parametrize("fmt", [FP32, FP16], ids=lambda f: f.name)
+@pytest.mark.parametrize("chunk", [1, 7, 64])
+def test_cast_rounding_chunks_match_bitwise_rule(fmt: NumberFormat, chunk: int) -> None:
+    """The cast path element by element and in short arrays (most without a value near min normal, so the
+    cast alone answers; some with one, so the flush applies): equal, sign and NaN included, to the rule. The
+    values are shuffled (seed 5) and cut to a few thousand calls; fp16 adds its exhaustive set."""
+    x = np.concatenate([_cast_format_edges(fmt)] + ([_fp16_exhaustive()] if fmt is FP16 else []))
+    rng = np.random.default_rng(5)
+    x = x[rng.permutation(x.shape[0])][: 6_000 * chunk]  # one call per row: a few thousand rows
+    k = np.arange(-8, 9) * 2.0 ** -(fmt.man_bits + 3)  # around the flush threshold and the overflow boundary
+    edges = np.concatenate([fmt.min_normal * (1 + k), fmt.max_finite * (1 + k), [0.0, np.inf, np.nan]])
+    x = np.concatenate([x, edges, -edges])
+    x = x[rng.permutation(x.shape[0])]
+    x = x[: x.shape[0] // chunk * chunk].reshape(-1, chunk)
+    got = np.stack([fmt.round(row) for row in x])
+    want = fmt.round_bitwise(x)
+    bad = ~_same(got, want)
+    assert not bad.any(), f"{fmt.name}: {np.count_nonzero(bad)} differ, first x={x[bad][0]!r}: " \
+        f"{got[bad][0]!r} against {want[bad][0]!r}"
+    near_min_normal = np.abs(want) == fmt.min_normal
+    assert near_min_normal.any() and (want == 0).any() and np.isinf(want).any()
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("fmt", [FP32, FP16], ids=lambda f: f.name)
+def test_cast_rounding_of_single_values(fmt: NumberFormat) -> None:
+    """A Python float (as constants are given) rounds to a 0-d array equal to the rule's, without a warning."""
+    k = np.arange(-8, 9) * 2.0 ** -(fmt.man_bits + 3)
+    for v in np.concatenate([fmt.min_normal * (1 + k), -fmt.max_finite * (1 + k), [0.0, -0.0, np.nan, 1 / 3]]):
+        got = fmt.round(float(v))
+        assert got.shape == () and _same(got, fmt.round_bitwise(v)), (v, got)
+
+
 def test_flush_rule_is_tininess_after_rounding() -> None:
     mn = FP16.min_normal
     # rounds up to min normal at 11 significant bits: kept

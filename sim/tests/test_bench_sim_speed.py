@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from models.number_format import FP32
@@ -31,6 +33,7 @@ def test_each_profile_builds_apart() -> None:
     (["--runs", "0"], "--runs must be in 1..100"),
     (["--iters", "0"], "--iters must be >= 1"),
     (["--format", "float64"], "not a kernel format"),
+    (["--max-cycles", "-1"], "--max-cycles must be >= 0"),
 ])
 def test_bad_options_are_named(argv: list[str], message: str) -> None:
     with pytest.raises(ValueError, match=message.replace("[", r"\[").replace("]", r"\]")):
@@ -40,3 +43,16 @@ def test_bad_options_are_named(argv: list[str], message: str) -> None:
 def test_main_reports_bad_options(capsys: pytest.CaptureFixture[str]) -> None:
     assert bench.main(["--profiles", "nosuch"]) == 2
     assert "error: --profiles: unknown ['nosuch']" in capsys.readouterr().err
+
+
+def test_report_gives_build_and_speed_ratios_to_the_first_profile() -> None:
+    """Build CPU and simulated cycles per CPU second, each against the first profile's; no build ratio when the
+    first profile's build was already there (no CPU spent on it)."""
+    def runs(profile: str, build_cpu_s: float, cpu_s: float) -> bench.ProfileRuns:
+        return bench.ProfileRuns(profile, Path(profile), 10.0, build_cpu_s, 1000, [2.0, 4.0, 3.0], [cpu_s] * 3)
+
+    lines = bench.report([runs("quick", 100.0, 2.0), runs("os", 250.0, 1.0)], "pile").splitlines()
+    assert lines[2].split()[:7] == ["quick", "10.0", "100.0", "1.00x", "0.3", "0.5", "1.00x"]
+    assert lines[3].split()[:7] == ["os", "10.0", "250.0", "2.50x", "0.3", "1.0", "2.00x"]
+    built = bench.report([runs("quick", 0.2, 2.0), runs("os", 0.1, 1.0)], "pile").splitlines()
+    assert built[3].split()[3] == "-"
