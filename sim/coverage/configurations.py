@@ -5,12 +5,15 @@ One row of :data:`CONFIGURATIONS` per configuration: its instrumented build (:me
 once) and the window plan of its runs (:meth:`Configuration.job`). A configuration's coverage is the merge of its
 own runs (``sim.coverage.cases``: each case names its configuration) and the runs that share its RTL parameters
 (the fp-operator vectors of its format, the register file's test). A new kernel configuration is one more row
-here and the cases that exercise it there.
+here (a field of ``KernelBuild`` this table has no column for goes in ``build_options``) and its regression
+in ``sim.coverage.cases.CASES_OF`` (e.g. ``streaming_cases(name)``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 from models import stream_format as sf
 from models.contact_solver import SolverParams
@@ -36,12 +39,14 @@ class Configuration:
     inertia_words: int = sf.KERNEL_INERTIA_WORDS  # IINV_W: 1, 3 or 6
     beat_preset: str = "zcu102"  # the DMA preset whose stream beat the constraint stream has
     readme: str = ""  # the README row (or feature) this configuration stands for
+    build_options: tuple[tuple[str, Any], ...] = ()  # other KernelBuild fields of this configuration, by name
 
     def build(self) -> KernelBuild:
-        """The kernel build of this configuration (``KernelBuild.for_job`` of one of its jobs)."""
-        return KernelBuild(self.fmt, cons_bits=get_preset(self.beat_preset).stream_bits,
-                           body_in_bits=self.body_bits, body_out_bits=self.body_bits, window=self.record_window,
-                           window_ctx=DEFAULT_CTX, lanes=self.lanes, inertia_words=self.inertia_words)
+        """The kernel build of this configuration (what ``KernelBuild.for_job`` makes of its jobs)."""
+        kb = KernelBuild(self.fmt, cons_bits=get_preset(self.beat_preset).stream_bits,
+                         body_in_bits=self.body_bits, body_out_bits=self.body_bits, window=self.record_window,
+                         window_ctx=DEFAULT_CTX, lanes=self.lanes, inertia_words=self.inertia_words)
+        return dataclasses.replace(kb, **dict(self.build_options))
 
     def job(self, frame: Frame, params: SolverParams, schedule: str, fetch_passes: int | None = None) -> KernelJob:
         """The step of ``frame`` in this configuration's format, ordered by ``schedule``, on its kernel (windowed

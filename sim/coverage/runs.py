@@ -4,6 +4,7 @@ test run, its ``coverage.dat`` kept; a failing run is reported in its :class:`Ca
 from __future__ import annotations
 
 import os
+import sys
 import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -87,19 +88,27 @@ def run_register_test() -> CaseResult:
     ``pgs_control_s_axi`` (``build/cocotb/pgs_control_s_axi_coverage/``): the register paths the harness never
     takes (reads of every register, byte strobes, auto_restart, the ap_ready interrupt). cocotb's Verilator main
     writes ``coverage.dat`` into the build directory when the simulation ends."""
-    from sim.cocotb_run import run_cocotb
+    from sim.cocotb_run import TESTS_DIR, run_cocotb
 
     t0 = time.monotonic()
     cov = register_coverage_file()
     cov.unlink(missing_ok=True)
+    # cocotb's runner hands the simulator this process's sys.path as PYTHONPATH: the test module must be on it
+    added = [p for p in (str(REPO_ROOT), str(TESTS_DIR)) if p not in sys.path]
+    sys.path.extend(added)
     try:
-        run_cocotb("pgs_control_s_axi", [REPO_ROOT / "rtl" / "generated" / "pgs_regs_pkg.sv",
-                                         REPO_ROOT / "rtl" / "pgs_control_s_axi.sv"], "test_pgs_control_s_axi",
-                   name=cov.parent.name, compile_args=[*COVERAGE_ARGS, *QUICK_COMPILE_ARGS])
+        results = run_cocotb("pgs_control_s_axi", [REPO_ROOT / "rtl" / "generated" / "pgs_regs_pkg.sv",
+                                                   REPO_ROOT / "rtl" / "pgs_control_s_axi.sv"],
+                             "test_pgs_control_s_axi", name=cov.parent.name,
+                             compile_args=[*COVERAGE_ARGS, *QUICK_COMPILE_ARGS])
+        ran = results.is_file() and "<testcase" in results.read_text()
     except Exception as exc:  # a failing cocotb test or build: reported, the rest of the summary stands
         return CaseResult(REGISTER_CASE, None, time.monotonic() - t0, error=f"{type(exc).__name__}: {exc}")
-    return CaseResult(REGISTER_CASE, cov if cov.exists() else None, time.monotonic() - t0,
-                      error="" if cov.exists() else "no coverage.dat written")
+    finally:
+        for p in added:
+            sys.path.remove(p)
+    error = "" if ran and cov.exists() else ("no cocotb test ran" if not ran else "no coverage.dat written")
+    return CaseResult(REGISTER_CASE, cov if not error else None, time.monotonic() - t0, error=error)
 
 
 def run_fp_operator_case(case: SharedCase, out: Path) -> CaseResult:
