@@ -54,7 +54,8 @@ help:
 	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= ITERS= BUDGET=0.01)"
 	@echo "make band      band width D of every schedule on every scene, on-chip budget of the thesis frame (SEED= ITERS=)"
 	@echo "make stability the hard-case suite closed loop: cases x formats x iterations (CASES= FORMATS= JOBS=2)"
-	@echo "make coverage  line/branch/toggle coverage of rtl/ from a harness regression (build/coverage/coverage.md)"
+	@echo "make coverage  line/branch/toggle coverage of rtl/ per kernel configuration from a harness regression"
+	@echo "               (build/coverage/coverage.md; COVERAGE_CONFIGS=stream-fp32,window-fp32-l2,...: some)"
 	@echo "make regress   the co-simulation over SEEDS=4 seeds and more scenes on JOBS=2 workers; failing seeds"
 	@echo "               with the command that reproduces each"
 	@echo "make csim      the HLS kernel (hls_export/) in C simulation, bit for bit against the golden model"
@@ -111,8 +112,9 @@ sweep: $(STAMP)
 		--record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) --lanes $(LANES) --body-bits $(BODY_BITS) \
 		--mode $(MODE) --executor $(or $(EXECUTOR),local:1)
 
+# every kernel configuration of sim/coverage/configurations.py, each on its own (COVERAGE_CONFIGS=a,b: some)
 coverage: $(STAMP)
-	$(TOOLENV) $(VPY) -m sim.coverage --jobs $(JOBS)
+	$(TOOLENV) $(VPY) -m sim.coverage --jobs $(JOBS) $(if $(COVERAGE_CONFIGS),--configurations $(COVERAGE_CONFIGS))
 
 regress: $(STAMP)
 	$(TOOLENV) $(VPY) cocotb_tests/test_regress.py --seeds $(SEEDS) --jobs $(JOBS) --executor "$(EXECUTOR)"

@@ -9,8 +9,9 @@ from pathlib import Path
 
 from sim import coverage
 from sim.coverage.build import COVERAGE_ROOT
-from sim.coverage.data import merge, parse
-from sim.coverage.report import write_report
+from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
+from sim.coverage.data import PointKey, add_counts, merge, parse
+from sim.coverage.report import summarize, write_report
 from sim.coverage.runs import previous_results, run_all
 
 
@@ -19,15 +20,29 @@ def main(argv: Sequence[str] | None = None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--jobs", type=int, default=2, help="harness runs in parallel")
     ap.add_argument("--out", default=str(COVERAGE_ROOT), help="build and report directory")
-    ap.add_argument("--cases", default="", help="comma-separated case labels (default: all, and the register test)")
+    ap.add_argument("--cases", default="", help="comma-separated case labels (default: all, and the shared runs)")
+    ap.add_argument("--configurations", default="",
+                    help=f"comma-separated configurations (default: all of {', '.join(BY_NAME)})")
     ap.add_argument("--report-only", action="store_true",
                     help="no build, no run: summarize the coverage.dat files the last runs left")
     args = ap.parse_args(argv)
     out = Path(args.out)
     labels = [c for c in args.cases.split(",") if c]
-    results = previous_results(out) if args.report_only else run_all(out, args.jobs, labels)
-    merged = merge(p for r in results if r.coverage for p in parse(r.coverage.read_text(errors="replace")))
-    return write_report(merged, results, out)
+    names = [c for c in args.configurations.split(",") if c]
+    unknown = sorted(set(names) - set(BY_NAME))
+    if unknown:
+        ap.error(f"unknown configurations {unknown}: expected some of {list(BY_NAME)}")
+    results = previous_results(out) if args.report_only else run_all(out, args.jobs, labels, names)
+    configs = [c for c in CONFIGURATIONS if not names or c.name in names]
+    counts: dict[Configuration, dict[PointKey, int]] = {c: {} for c in configs}
+    for r in results:  # each coverage.dat read once, added to the configurations it counts for
+        if r.coverage is None:
+            continue
+        run = merge(parse(r.coverage.read_text(errors="replace")))
+        for c in configs:
+            if r.counts_for(c):
+                add_counts(counts[c], run)
+    return write_report({c: summarize(counts[c]) for c in configs}, results, out)
 
 
 if __name__ == "__main__":

@@ -1,51 +1,133 @@
-"""The runs of ``make coverage``: the kernel harness on the kernel test scenes (``models/scenes/kernel_scenes.py``)
-in several formats, orders, DMA models and stream timings, with the edits of ``sim.coverage.input_edits``; the
-fp-operator vectors; the register file's cocotb test."""
+"""The runs of ``make coverage``: per kernel configuration (``sim.coverage.configurations``) the kernel harness on
+the kernel test scenes (``models/scenes/kernel_scenes.py``) in several orders, DMA models and stream timings, with
+the edits of ``sim.coverage.input_edits``; then the runs every configuration of a format shares (the fp-operator
+vectors) and every configuration shares (the register file's cocotb test)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from models.number_format import FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES, MAKE_SIM_PILE
-from sim.coverage.input_edits import BAD_INPUT_EDITS, Edit, edit_gravity, edit_spin, edit_wide_index
+from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
+from sim.coverage.input_edits import (BAD_INPUT_EDITS, WINDOW_BAD_INPUT_EDITS, Edit, HarnessEdit, edit_gravity,
+                                      edit_spin, edit_wide_index)
+from sim.verilator_build import REPO_ROOT
 
-# run scene -> (catalogue scene, builder parameters): the kernel tests' scenes, plus make sim's default pile (217
-# bodies: more than the 64 body-out credits of the integration)
+# a world file of rotated non-cube boxes (Bullet 2's convention): the full inverse-inertia mode, 6 words per body
+ROTATED_WORLD = REPO_ROOT / "docs" / "rotated_boxes_world.py"
+
+# run scene -> (catalogue scene or world file, builder parameters): the kernel tests' scenes, make sim's default
+# pile (217 bodies: more than the 64 body-out credits of the integration), the rotated boxes
 SCENES: dict[str, tuple[str, dict[str, Any]]] = {
-    **{name: (name, params) for name, params in KERNEL_TEST_SCENES.items()}, "pile217": ("pile", MAKE_SIM_PILE)}
+    **{name: (name, params) for name, params in KERNEL_TEST_SCENES.items()}, "pile217": ("pile", MAKE_SIM_PILE),
+    "rotated": (str(ROTATED_WORLD), {})}
 
 
 @dataclass(frozen=True)
 class Case:
-    """One harness run of the regression."""
+    """One harness run of the regression on the build of configuration ``config``."""
 
     label: str
-    fmt: NumberFormat
+    config: str  # a key of configurations.BY_NAME
     scene: str  # a key of SCENES
     schedule: str = "hazard"
-    dma: str = "zcu102"
+    dma: str = "zcu102"  # the DMA model's timing (its beat must be the configuration's)
     stalls: int = 0  # random stream gaps and backpressure, per mille
     interleaved: bool = False
     edit: Edit | None = None
+    fetch_passes: int | None = None  # window kernel: passes per fetch of this run (None: the configuration's)
+
+    @property
+    def configuration(self) -> Configuration:
+        return BY_NAME[self.config]
+
+    @property
+    def fmt(self) -> NumberFormat:
+        return self.configuration.fmt
 
 
-CASES: list[Case] = [
-    Case("pile-fp32-hazard-zcu102-stalls", FP32, "pile", stalls=150),
-    Case("pile-fp32-pybullet-zcu102", FP32, "pile", "pybullet"),
-    Case("stack-fp32-hazard-ideal-stalls", FP32, "stack", dma="ideal", stalls=300),
-    Case("stack-fp32-pybullet-zcu102-interleaved", FP32, "stack", "pybullet", interleaved=True),
-    Case("incline-fp32-hazard-zcu102", FP32, "incline"),
-    Case("pile217-fp32-hazard-zcu102", FP32, "pile217"),
-    Case("pile-fp16-hazard-zcu102-stalls", FP16, "pile", stalls=150),
-    Case("stack-fp16-pybullet-ideal", FP16, "stack", "pybullet", dma="ideal"),
-    Case("stack-fp16-spin-overflow", FP16, "stack", "pybullet", edit=edit_spin),
-    Case("stack-fp32-gravity-dt-damping", FP32, "stack", edit=edit_gravity),
-    Case("stack-fp32-wide-index", FP32, "stack", edit=edit_wide_index),
-] + [Case(f"stack-fp32-bad-{e.name}", FP32, "stack", edit=e.edit) for e in BAD_INPUT_EDITS]
+def bad_input_cases(config: str, scene: str, schedule: str, edits: tuple[HarnessEdit, ...]) -> list[Case]:
+    """One run per bad-input edit on ``scene``."""
+    return [Case(f"{config}-{scene}-bad-{e.name}", config, scene, schedule, edit=e.edit) for e in edits]
 
-REGISTER_CASE = Case("pgs_control_s_axi-register-test", FP32, "-")
+
+def streaming_cases(config: str) -> list[Case]:
+    """The regression of a streaming configuration: the test scenes, both orders, both DMA models, stalls,
+    interleaved passes, the 217-body pile, other integration registers and every bad-input edit."""
+    c = config
+    return [
+        Case(f"{c}-pile-hazard-zcu102-stalls", c, "pile", stalls=150),
+        Case(f"{c}-pile-pybullet-zcu102", c, "pile", "pybullet"),
+        Case(f"{c}-stack-hazard-ideal-stalls", c, "stack", dma="ideal", stalls=300),
+        Case(f"{c}-stack-pybullet-zcu102-interleaved", c, "stack", "pybullet", interleaved=True),
+        Case(f"{c}-incline-hazard-zcu102", c, "incline"),
+        Case(f"{c}-pile217-hazard-zcu102", c, "pile217"),
+        Case(f"{c}-stack-gravity-dt-damping", c, "stack", edit=edit_gravity),
+        Case(f"{c}-stack-spin", c, "stack", "pybullet", edit=edit_spin),
+    ] + bad_input_cases(c, "stack", "hazard", BAD_INPUT_EDITS)
+
+
+def window_cases(config: str) -> list[Case]:
+    """The regression of a window configuration: the sweep order of the README rows and the hazard order, one
+    fetch per step and several (2 and 3 passes per fetch), stalls, interleaved passes, the 217-body pile, and the
+    bad-input edits (the stream and argument errors of the window, lanes that collide)."""
+    c = config
+    return [
+        Case(f"{c}-pile-sweep-zcu102-stalls", c, "pile", "sweep", stalls=150),
+        Case(f"{c}-pile-hazard-ideal-fetch2", c, "pile", dma="ideal", fetch_passes=2),
+        Case(f"{c}-stack-sweep-zcu102-fetch3-stalls", c, "stack", "sweep", stalls=300, fetch_passes=3),
+        Case(f"{c}-stack-pybullet-zcu102-interleaved", c, "stack", "pybullet", interleaved=True),
+        Case(f"{c}-incline-sweep-zcu102", c, "incline", "sweep"),
+        Case(f"{c}-pile217-sweep-zcu102", c, "pile217", "sweep"),
+        Case(f"{c}-stack-gravity-dt-damping", c, "stack", "sweep", edit=edit_gravity),
+        Case(f"{c}-stack-spin", c, "stack", "sweep", edit=edit_spin),
+    ] + bad_input_cases(c, "pile", "sweep", BAD_INPUT_EDITS + WINDOW_BAD_INPUT_EDITS)
+
+
+def inertia_cases(config: str, scenes: tuple[str, ...]) -> list[Case]:
+    """The regression of an inverse-inertia mode: its scenes with stalls and without, and the body-stream edits."""
+    c = config
+    body_edits = tuple(e for e in BAD_INPUT_EDITS if e.name in ("mass", "nonfinite", "body_tlast_early"))
+    return [Case(f"{c}-{s}-hazard-zcu102-stalls", c, s, stalls=200) for s in scenes] + [
+        Case(f"{c}-{scenes[0]}-pybullet-zcu102", c, scenes[0], "pybullet"),
+        Case(f"{c}-{scenes[0]}-gravity-dt-damping", c, scenes[0], edit=edit_gravity)] + \
+        bad_input_cases(c, scenes[0], "hazard", body_edits)
+
+
+# configuration -> its regression (a new configuration: its row in CONFIGURATIONS and its cases here)
+CASES_OF: dict[str, list[Case]] = {
+    "stream-fp32": streaming_cases("stream-fp32") + [
+        Case("stream-fp32-stack-wide-index", "stream-fp32", "stack", edit=edit_wide_index)],
+    "stream-fp16": streaming_cases("stream-fp16"),
+    "window-fp32-l2": window_cases("window-fp32-l2"),
+    "window-fp16-l4": window_cases("window-fp16-l4"),
+    "stream-fp32-inertia1": inertia_cases("stream-fp32-inertia1", ("stack", "pile")),
+    "stream-fp32-inertia6": inertia_cases("stream-fp32-inertia6", ("rotated", "pile")),
+}
+CASES: list[Case] = [case for config in CONFIGURATIONS for case in CASES_OF[config.name]]
+
+
+@dataclass(frozen=True)
+class SharedCase:
+    """A run outside the kernel harness whose coverage counts for every configuration of ``fmt`` (None: for
+    every configuration): the same RTL with the same parameters."""
+
+    label: str
+    fmt: NumberFormat | None
+
+    def counts_for(self, config: Configuration) -> bool:
+        return self.fmt is None or self.fmt == config.fmt
+
+
+REGISTER_CASE = SharedCase("pgs_control_s_axi-register-test", None)
 # the operator vectors (random pairs, every special pair, directed ties / flush / overflow cases, every 16-bit
-# sqrt input) through every rtl/fp operator, in the formats the kernel runs are built for
-FP_OPERATOR_CASES = [Case(f"fp-operators-{fmt.name}", fmt, "-") for fmt in (FP32, FP16)]
+# sqrt input) through every rtl/fp operator, in the formats of the configurations
+FP_OPERATOR_CASES = [SharedCase(f"fp-operators-{fmt.name}", fmt) for fmt in (FP32, FP16)]
+
+
+def case_dir(out: Path, label: str) -> Path:
+    """Where a run keeps its inputs and its coverage.dat."""
+    return out / "runs" / label

@@ -57,3 +57,9 @@ def merge(points: Iterable[Point]) -> dict[PointKey, int]:
     for p in points:
         out[(p.file, p.line, p.column, p.kind, p.comment)] += p.count
     return out
+
+
+def add_counts(total: dict[PointKey, int], run: dict[PointKey, int]) -> None:
+    """Add the merged counts of one run to ``total`` (the merge over several runs, one at a time)."""
+    for key, count in run.items():
+        total[key] = total.get(key, 0) + count

@@ -64,6 +64,11 @@ class HarnessFiles:
         per = self.body_beats if stream == "body" else (hi - lo) // self.reg("num_manifolds")
         return np.arange(lo + k * per, lo + (k + 1) * per)
 
+    def word(self, stream: str, p: int, k: int, bit: int, nbits: int) -> int:
+        """Bits [bit, bit + nbits) of record ``k`` of pass (fetch) ``p``."""
+        v = int.from_bytes(self.streams[stream][0][self.record(stream, p, k)].tobytes(), "little")
+        return (v >> bit) & ((1 << nbits) - 1)
+
     def set_word(self, stream: str, p: int, k: int, bit: int, nbits: int, value: int) -> None:
         data = self.streams[stream][0]
         beats = self.record(stream, p, k)
@@ -120,13 +125,14 @@ def edit_mass(f: HarnessFiles, kb: KernelBuild) -> None:
 
 def edit_tlast_early(f: HarnessFiles, kb: KernelBuild) -> None:
     """[1] pass 0 ends two records early (its missing slots are rejected); pass 1's last record is cut short by
-    TLAST on its first beat (when records take more than one beat: fp32 contact records take two)."""
+    TLAST on its first beat (when records take more than one beat: fp32 contact records take two; the window
+    kernel's stream of one fetch per step has no second transfer)."""
     nm = f.reg("num_manifolds")
     last = f.streams["cons"][1]
     ends = set(np.flatnonzero(last).tolist())
     drop = [f.record("cons", 0, k) for k in (nm - 2, nm - 1)]
     ends = (ends - {int(drop[-1][-1])}) | {int(f.record("cons", 0, nm - 3)[-1])}
-    cut = f.record("cons", 1, nm - 1)
+    cut = f.record("cons", 1, nm - 1) if f.passes > 1 else np.zeros(0, np.int64)
     if len(cut) > 1:
         drop.append(cut[1:])
         ends = (ends - {int(cut[-1])}) | {int(cut[0])}
@@ -150,9 +156,11 @@ def edit_tlast_late(f: HarnessFiles, kb: KernelBuild) -> None:
 
 def edit_body_tlast(f: HarnessFiles, kb: KernelBuild) -> None:
     """[2] the body stream ends inside the record of body num_bodies - 3 (TLAST on its second beat): that body
-    is cut short, the two after it are missing (loaded as zero records); all three frozen."""
+    is cut short (a record of one beat, as fp16's on 512-bit body beats, is whole), the two after it are missing
+    (loaded as zero records); all three frozen."""
     nb = f.reg("num_bodies")
-    cut = int(f.record("body", 0, nb - 3)[1])
+    beats = f.record("body", 0, nb - 3)
+    cut = int(beats[min(1, len(beats) - 1)])
     f.restream("body", np.arange(cut + 1), [cut])
 
 
@@ -224,6 +232,47 @@ def edit_spin(f: HarnessFiles, kb: KernelBuild) -> None:
                int(kb.fmt.encode(2000.0)))
 
 
+def edit_window_lag(f: HarnessFiles, kb: KernelBuild) -> None:
+    """[3] window kernel: lag 0 (a pass may overtake the one before): the step ends at once."""
+    f.set_reg("lag", 0)
+
+
+def edit_window_ring(f: HarnessFiles, kb: KernelBuild) -> None:
+    """[3] window kernel: a lag the ring cannot hold ((fetch_passes - 1) * lag + 2 > WINDOW)."""
+    f.set_reg("lag", kb.window)
+
+
+def edit_window_fetch(f: HarnessFiles, kb: KernelBuild) -> None:
+    """[3] window kernel: more passes per fetch than the pass contexts."""
+    f.set_reg("fetch_passes", kb.window_ctx + 1)
+
+
+def edit_window_partial_record(f: HarnessFiles, kb: KernelBuild) -> None:
+    """[3] window kernel: num_manifolds (slots) not a multiple of the lanes."""
+    f.set_reg("num_manifolds", f.reg("num_manifolds") - 1)
+
+
+def is_dynamic(f: HarnessFiles, kb: KernelBuild, body: int) -> bool:
+    """Whether ``body``'s record in the body stream has a non-zero inverse mass."""
+    w = kb.fmt.width
+    return 0 <= body < f.reg("num_bodies") and f.word("body", 0, body, BODY_INV_MASS * w, w) != 0
+
+
+def edit_lanes_collide(f: HarnessFiles, kb: KernelBuild) -> None:
+    """[4] window kernel: in the first record whose first two lanes both hold a manifold with a dynamic body,
+    lane 1 names lane 0's dynamic body, in every fetch: the kernel rejects lane 1 in every pass."""
+    lanes, nm = kb.lanes, f.reg("num_manifolds")
+    for r in range(0, nm, lanes):
+        heads = [f.word("cons", 0, r + k, 0, 63) for k in (0, 1)]
+        ends = [(h & 0xFFFFFFFF, h >> 32) for h in heads]
+        shared = [b for b in ends[0] if is_dynamic(f, kb, b)]
+        if shared and all(b < f.reg("num_bodies") for b in ends[1]):  # lane 1 not empty
+            for p in range(f.passes):
+                f.set_word("cons", p, r + 1, 0, 32, shared[0])
+            return
+    raise ValueError("no record with two manifolds to make collide")
+
+
 @dataclass(frozen=True)
 class HarnessEdit:
     """One edit of a run's harness inputs and the bad-input catalogue cases it makes (none: not bad input)."""
@@ -246,4 +295,12 @@ BAD_INPUT_EDITS: tuple[HarnessEdit, ...] = (
     HarnessEdit("zero_iterations", edit_zero_iterations, ("zero_iterations",)),
     HarnessEdit("zero_bodies", edit_zero_bodies, ("zero_bodies",)),
     HarnessEdit("registers", edit_registers, ("unmapped_axi", "start_busy")),
+)
+# the window kernel's own bad input (its arguments, its lane plan), beside BAD_INPUT_EDITS on its builds
+WINDOW_BAD_INPUT_EDITS: tuple[HarnessEdit, ...] = (
+    HarnessEdit("window_lag", edit_window_lag),
+    HarnessEdit("window_ring", edit_window_ring),
+    HarnessEdit("window_fetch", edit_window_fetch),
+    HarnessEdit("window_partial_record", edit_window_partial_record),
+    HarnessEdit("lanes_collide", edit_lanes_collide),
 )

@@ -1,7 +1,7 @@
 """The coverage.dat parser and summary of `make coverage` (sim/coverage/) on a small canned file (Verilator's
 SystemC::Coverage-3 format: two instances of one module, a second file, a point outside rtl/), the bit editing
 of the harness's input files and the bad-input edits against the catalogue; the coverage run itself is
-`make coverage` (not in `make test`: two instrumented kernel builds)."""
+`make coverage` (not in `make test`: an instrumented kernel build per configuration)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from models.bad_input import CATALOGUE
+from models.dma_model import get_preset
 from models.number_format import FP32
-from sim.coverage import cases, data, input_edits, report
+from sim.coverage import cases, configurations, data, input_edits, report, waivers
 from sim.kernel_build import KernelBuild
 
 CANNED = Path(__file__).resolve().parent / "data" / "coverage_canned.dat"
@@ -41,8 +42,41 @@ def test_summary_merges_instances_and_lists_uncovered() -> None:
     js = summary.to_json()
     assert js["total"]["line"] == {"covered": 3, "total": 5, "percent": 60.0}
     assert js["uncovered_lines"] == ["rtl/a.sv:7: else", "rtl/sub/b.sv:4: block"]
-    md = report.report_markdown(summary, [], root=Path("/repo"))
+    md = "\n".join(report.configuration_markdown("canned", summary, root=Path("/repo")))
     assert "| rtl/a.sv | 66.7% (2/3) | 50.0% (1/2) | 50.0% (1/2) |" in md and "`rtl/sub/b.sv:4` (block)" in md
+    assert "NOT covered, not waived" in md and not summary.waived
+
+
+def test_waiver_follows_the_source_line(tmp_path: Path) -> None:
+    """A waiver names its line by text: it waives the uncovered point on that line wherever the line is, and the
+    figure with waivers counts it; the measured line figure does not change."""
+    (tmp_path / "rtl" / "sub").mkdir(parents=True)
+    (tmp_path / "rtl" / "a.sv").write_text("\n" * 6 + "    else x <= 0;  // seven\n")
+    (tmp_path / "rtl" / "sub" / "b.sv").write_text("\n\n\nfoo;\n")
+    text = CANNED.read_text().replace("/repo/", f"{tmp_path}/")
+    w = waivers.Waiver("rtl/a.sv", "else x <= 0;", "unreachable")
+    summary = report.summarize(data.merge(data.parse(text)), root=tmp_path, waivers=[w])
+    assert summary.waived == {("rtl/a.sv", 7, "else"): w}
+    assert summary.total.line == [3, 5] and summary.line_with_waivers == [4, 5]
+    (tmp_path / "rtl" / "a.sv").write_text("\n\n    else x <= 0;\n" + "\n" * 3 + "    x <= 1;\n")
+    moved = report.summarize(data.merge(data.parse(text)), root=tmp_path, waivers=[w])
+    assert not moved.waived and moved.line_with_waivers == [3, 5]  # line 7 is another statement now
+
+
+def test_each_configuration_has_a_build_and_runs() -> None:
+    """Every configuration builds apart (its own Verilator parameter set), has runs of its own, and each run's DMA
+    model streams the configuration's beat; shared runs count for the configurations of their format."""
+    builds = [c.build() for c in configurations.CONFIGURATIONS]
+    assert len(set(builds)) == len(builds) == len({b.name for b in builds})
+    by_config = {c.name: [k for k in cases.CASES if k.config == c.name] for c in configurations.CONFIGURATIONS}
+    assert all(len(runs) >= 5 for runs in by_config.values()), {k: len(v) for k, v in by_config.items()}
+    assert len({k.label for k in cases.CASES}) == len(cases.CASES)
+    for case in cases.CASES:
+        assert get_preset(case.dma).stream_bits == case.configuration.build().cons_bits, case.label
+    window = configurations.BY_NAME["window-fp16-l4"]
+    assert (window.build().window, window.build().lanes, window.build().body_in_bits) == (16384, 4, 512)
+    fp16_shared = [s.label for s in [cases.REGISTER_CASE, *cases.FP_OPERATOR_CASES] if s.counts_for(window)]
+    assert fp16_shared == ["pgs_control_s_axi-register-test", "fp-operators-fp16"]
 
 
 def test_counts_merge_across_runs() -> None:
@@ -66,4 +100,5 @@ def test_bad_input_edits_make_the_catalogue() -> None:
     made = [name for e in input_edits.BAD_INPUT_EDITS for name in e.cases]
     assert sorted(made) == sorted(c.name for c in CATALOGUE if c.harness)
     labels = {c.label for c in cases.CASES}
-    assert all(f"stack-fp32-bad-{e.name}" in labels for e in input_edits.BAD_INPUT_EDITS)
+    assert all(f"stream-fp32-stack-bad-{e.name}" in labels for e in input_edits.BAD_INPUT_EDITS)
+    assert all(f"window-fp32-l2-pile-bad-{e.name}" in labels for e in input_edits.WINDOW_BAD_INPUT_EDITS)

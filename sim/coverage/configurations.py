@@ -1,0 +1,75 @@
+"""The kernel configurations ``make coverage`` measures, each on its own: every configuration the README reports
+(the streaming kernel in fp32 and fp16, the window kernel of its headline rows, the inverse-inertia modes).
+
+One row of :data:`CONFIGURATIONS` per configuration: its instrumented build (:meth:`Configuration.build`, built
+once) and the window plan of its runs (:meth:`Configuration.job`). A configuration's coverage is the merge of its
+own runs (``sim.coverage.cases``: each case names its configuration) and the runs that share its RTL parameters
+(the fp-operator vectors of its format, the register file's test). A new kernel configuration is one more row
+here (a field of ``KernelBuild`` this table has no column for goes in ``build_options``) and its regression
+in ``sim.coverage.cases.CASES_OF`` (e.g. ``streaming_cases(name)``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+from models import stream_format as sf
+from models.contact_solver import SolverParams
+from models.dma_model import get_preset
+from models.frame import Frame
+from models.kernel_job import KernelJob
+from models.number_format import FP16, FP32, NumberFormat
+from models.record_window import DEFAULT_CTX, DEFAULT_DEPTH
+from sim.kernel_build import KernelBuild, default_window
+
+
+@dataclass(frozen=True)
+class Configuration:
+    """One kernel configuration: the ``make sim`` knobs of a README row (FORMAT, RECORD_WINDOW, LANES, FETCH_PASSES,
+    BODY_BITS) and the inverse-inertia words of its body record."""
+
+    name: str
+    fmt: NumberFormat
+    record_window: int = 0  # RECORD_WINDOW: 0 the streaming kernel, else the window kernel's ring (records)
+    lanes: int = 1  # LANES
+    fetch_passes: int = 0  # FETCH_PASSES: 0 as many passes per fetch as the ring holds
+    body_bits: int = 128  # BODY_BITS
+    inertia_words: int = sf.KERNEL_INERTIA_WORDS  # IINV_W: 1, 3 or 6
+    beat_preset: str = "zcu102"  # the DMA preset whose stream beat the constraint stream has
+    readme: str = ""  # the README row (or feature) this configuration stands for
+    build_options: tuple[tuple[str, Any], ...] = ()  # other KernelBuild fields of this configuration, by name
+
+    def build(self) -> KernelBuild:
+        """The kernel build of this configuration (what ``KernelBuild.for_job`` makes of its jobs)."""
+        kb = KernelBuild(self.fmt, cons_bits=get_preset(self.beat_preset).stream_bits,
+                         body_in_bits=self.body_bits, body_out_bits=self.body_bits, window=self.record_window,
+                         window_ctx=DEFAULT_CTX, lanes=self.lanes, inertia_words=self.inertia_words)
+        return dataclasses.replace(kb, **dict(self.build_options))
+
+    def job(self, frame: Frame, params: SolverParams, schedule: str, fetch_passes: int | None = None) -> KernelJob:
+        """The step of ``frame`` in this configuration's format, ordered by ``schedule``, on its kernel (windowed
+        as ``make sim RECORD_WINDOW=...`` does, with ``fetch_passes`` passes per fetch where given)."""
+        hazard = default_window(self.fmt, get_preset(self.beat_preset).stream_bits)
+        job = KernelJob.from_frame(frame, self.fmt, params, schedule, hazard)
+        if not self.record_window:
+            return job
+        return job.windowed(self.record_window, DEFAULT_CTX, fetch_passes or self.fetch_passes or None, self.lanes)
+
+
+CONFIGURATIONS: tuple[Configuration, ...] = (
+    Configuration("stream-fp32", FP32, readme="streaming kernel, fp32 (`make sim`)"),
+    Configuration("stream-fp16", FP16, readme="streaming kernel, fp16 (`make sim FORMAT=fp16`)"),
+    Configuration("window-fp32-l2", FP32, record_window=DEFAULT_DEPTH, lanes=2, body_bits=512,
+                  readme="window kernel, fp32, 2 lanes (`RECORD_WINDOW=16384 LANES=2 BODY_BITS=512`)"),
+    Configuration("window-fp16-l4", FP16, record_window=DEFAULT_DEPTH, lanes=4, body_bits=512,
+                  readme="window kernel, fp16, 4 lanes (`FORMAT=fp16 RECORD_WINDOW=16384 LANES=4 BODY_BITS=512`)"),
+    Configuration("stream-fp32-inertia1", FP32, inertia_words=1,
+                  readme="scalar inverse inertia, 1 word per body (IINV_W=1)"),
+    Configuration("stream-fp32-inertia6", FP32, inertia_words=6,
+                  readme="full symmetric inverse inertia, 6 words per body (IINV_W=6)"),
+)
+"""The inverse-inertia mode of 3 words (the diagonal) is the default of every other row."""
+
+BY_NAME: dict[str, Configuration] = {c.name: c for c in CONFIGURATIONS}

@@ -1,0 +1,40 @@
+"""The line points of ``rtl/`` that no run can reach or that Verilator does not count, each with its reason.
+
+A waiver names the file and the source text of its line (stripped), not the line number, so that it follows the
+line when the file changes; one the source no longer has waives nothing (``make coverage`` lists it as stale).
+The report gives each configuration's line coverage both as measured and with the waived points set aside."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Waiver:
+    file: str  # relative to the repository, e.g. rtl/pgs_sequencer.sv
+    source: str  # the line's text, stripped (a prefix of it)
+    reason: str
+
+    def matches(self, file: str, text: str) -> bool:
+        return file == self.file and text.strip().startswith(self.source)
+
+
+INLINED_FUNCTION = ("an arm of the function mapped(), which Verilator inlines into the expressions that call it "
+                    "and then never counts; both arms run (the register test reads every mapped register and "
+                    "unmapped addresses, and the bad-input run `registers` writes an unmapped address: error 9)")
+UNUSED_STATE = ("the default arm of a state machine whose state encodings are all named: unreachable; it returns "
+                "the machine to idle after an upset")
+
+WAIVERS: tuple[Waiver, ...] = (
+    Waiver("rtl/pgs_control_s_axi.sv", "A_FP_STAT, A_LAG, A_FETCH: return 1'b1;", INLINED_FUNCTION),
+    Waiver("rtl/pgs_control_s_axi.sv", "default:   return a[2:0] == 3'd4", INLINED_FUNCTION),
+    Waiver("rtl/pgs_control_s_axi.sv", "default: wstate <= WR_IDLE;", UNUSED_STATE + " (write channel, 3 states)"),
+    Waiver("rtl/pgs_control_s_axi.sv", "default: rstate <= RD_IDLE;", UNUSED_STATE + " (read channel, 3 states)"),
+    Waiver("rtl/pgs_sequencer.sv", "default: phase <= S_IDLE;", UNUSED_STATE + " (the sequencer's phases)"),
+)
+
+
+def waiver_for(file: str, text: str, waivers: Iterable[Waiver] = WAIVERS) -> Waiver | None:
+    """The waiver of the line ``text`` of ``file``, if any."""
+    return next((w for w in waivers if w.matches(file, text)), None)
