@@ -27,7 +27,10 @@ time, naming the first differing record, its field and the cycle it retired in
 several times faster; the cycle-level handshake (random idles and backpressure) is what the tests above check.
 
 ``WAVES=1`` writes ``build/cocotb/<build>_waves/<case>.fst`` and a GTKWave save file beside it,
-``<case>.gtkw`` (control, DMA streams and pipeline signals grouped); both paths are printed.
+``<case>.gtkw`` (control, DMA streams and pipeline signals grouped); both paths are printed. ``MAX_CYCLES=<n>`` in
+the simulator's environment stops a ``run_step*`` test after n cycles, every record retired until then checked, and
+writes the speed instead of the step's summary (a measurement on a prefix of a long step, as the compiled
+harness's ``MAX_CYCLES``).
 
     .venv/bin/python -m pytest cocotb_tests/test_kernel_cosim.py -k stack      # one case
     .venv/bin/python -m pytest cocotb_tests/test_kernel_cosim.py -k bursts     # transaction level
@@ -65,17 +68,24 @@ class _Step:
     batches: Any = None  # transaction level: the bench's trace batches (tb.burst_streams.TraceBatches)
     trace_out: Any = None  # transaction level: the open TRACE_FILE, if any
 
-    async def run(self):
-        """Run the step with the scoreboard watching the trace; the first mismatch raises its AssertionError."""
-        from cocotb.triggers import select
+    async def run(self, cut_cycles: int | None = None):
+        """Run the step with the scoreboard watching the trace; the first mismatch raises its AssertionError.
+        ``cut_cycles``: stop after that many cycles (a speed measurement on a prefix of a long step; every record
+        retired until then checked) and return None."""
+        from cocotb.triggers import Timer, select
+
+        from cocotb_tests.tb.host_driver import CLOCK_PERIOD_NS
 
         passes = [self.case[f"pass{p}"].tobytes() for p in range(self.meta["passes"])]
         # a hang fails the test; a large frame (the thesis scene: 2.3 M cycles) gets four times its lower bound
         timeout = max(TIMEOUT_CYCLES, 4 * int(self.meta.get("cycle_lower_bound") or 0))
         run = self.host.run_step(self.case["body_in"].tobytes(), passes, int(self.case["body_out"].size), timeout)
         monitor = self.sb.monitor() if self.batches is None else self.batches.monitor()
+        cut = [] if cut_cycles is None else [Timer(cut_cycles * CLOCK_PERIOD_NS, unit="ns")]
         try:
-            _, res = await select(monitor, run)  # the monitor only ever ends by raising
+            which, res = await select(monitor, run, *cut)  # the monitor only ever ends by raising
+            if which == 2:
+                return None
             if self.batches is not None:  # the records of the last, partial batch and chunk
                 self.batches.flush()
                 self.sb.flush()
@@ -139,10 +149,19 @@ async def run_step_bursts(dut) -> None:
 async def _run_and_check(dut, st: _Step) -> None:
     """Run the step, check the kernel's registers, the trace and the body-out stream, write ``<case>.result.json``."""
     case, meta, sb = st.case, st.meta, st.sb
+    cut = int(os.environ["MAX_CYCLES"]) if os.environ.get("MAX_CYCLES") else None
     t0, cpu0 = time.perf_counter(), time.process_time()
     cycle0 = sb.cycle if st.batches is None else int(dut.tb_cycle.value)
-    res = await st.run()
+    res = await st.run(cut)
     wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
+    if res is None:  # MAX_CYCLES: the speed on a prefix of the step (every record retired until then compared)
+        sim_cycles = (sb.cycle if st.batches is None else int(dut.tb_cycle.value)) - cycle0
+        summary = {"scene": meta["scene"], "cut_at_cycles": cut, "sim_cycles": sim_cycles, "wall_s": wall,
+                   "cpu_s": cpu, "sim_cycles_per_s": sim_cycles / wall, "records_compared": sb.compared,
+                   "transaction_level": st.batches is not None}
+        dut._log.info("cosim (cut) %s", json.dumps(summary))
+        Path(os.environ["CASE_FILE"]).with_suffix(".result.json").write_text(json.dumps(summary, indent=1))
+        return
     assert res.status == 0, f"kernel status register {res.status:#x} (sticky error flags) after a good frame"
     assert res.rejected == 0, f"{res.rejected} manifold-passes rejected in a good frame"
     events = dict(zip(EVENT_NAMES, res.fp_events))
@@ -226,7 +245,7 @@ def _prepare_case(path: Path, scene: str, params: dict, fmt_name: str, schedule_
     schedule = make_schedule(schedule_kind, cons, bodies.dynamic, window=64)
     job = KernelJob(fmt, bodies, cons, schedule, SolverParams(iterations=iterations),
                     IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity)))
-    return write_case(path, job, golden_step(job), get_preset(dma), scene, seed, schedule_kind,
+    return write_case(path, job, golden_step(job), get_preset(dma), Path(scene).stem, seed, schedule_kind,
                       {"idle": idle, "backpressure": backpressure, "fp_events": predicted_events(job).as_dict()})
 
 
@@ -247,7 +266,7 @@ def _cosim(testcase: str, scene: str, params: dict, fmt_name: str, schedule_kind
     from sim.cocotb_run import BUILD_ROOT, run_kernel_cocotb, run_kernel_cocotb_bursts, test_seed
 
     seed = test_seed()
-    case_name = f"{scene}-{fmt_name}-{schedule_kind}-{dma}" + ("-bursts" if bursts else "")
+    case_name = f"{Path(scene).stem}-{fmt_name}-{schedule_kind}-{dma}" + ("-bursts" if bursts else "")
     if friction_sign_bug:
         case_name += "-friction_sign_bug"
     if corrupt is not None:
@@ -263,15 +282,18 @@ def _cosim(testcase: str, scene: str, params: dict, fmt_name: str, schedule_kind
             arrays = dict(npz)
         arrays["words"][corrupt] ^= np.uint64(1)
         np.savez(case_file, **arrays)
-    print(f"{scene}: {meta['num_bodies']} bodies, {meta['num_manifolds']} manifolds, {meta['passes']} passes")
+    words = meta["inertia_words"]  # the kernel build that runs the case: its body-in record's inverse inertia
+    print(f"{scene}: {meta['num_bodies']} bodies, {meta['num_manifolds']} manifolds, {meta['passes']} passes, "
+          f"{words} inverse-inertia words per body")
     env = {"CASE_FILE": str(case_file)}
     if bursts:
         env["TRACE_FILE"] = str(case_file.with_suffix(".trace.bin"))
         run_kernel_cocotb_bursts("test_kernel_cosim", fmt_name, dma, seed, env, testcase=[testcase],
-                                 waves_name=case_name)
+                                 waves_name=case_name, inertia_words=words)
     else:
         run_kernel_cocotb("test_kernel_cosim", fmt_name, dma, seed, env, testcase=[testcase],
-                          friction_sign_bug=friction_sign_bug, compile_profile=compile_profile, waves_name=case_name)
+                          friction_sign_bug=friction_sign_bug, compile_profile=compile_profile, waves_name=case_name,
+                          inertia_words=words)
     return case_file
 
 
@@ -282,20 +304,25 @@ def test_kernel_cosim(scene, params, fmt_name, schedule_kind, dma, idle, bp) -> 
     print(case_file.with_suffix(".result.json").read_text())
 
 
+# a world file of rotated non-cube boxes in Bullet 2's convention: every dynamic body's R diag(1/I) R^T a full
+# symmetric 3x3, so its case runs on the 6-word build (IINV_W = 6); frame order, the ideal DMA preset (no DDR cap)
+ROTATED_WORLD = str(Path(__file__).resolve().parents[1] / "docs" / "rotated_boxes_world.py")
 BURST_CASES = [
-    ("pile", {"nx": 6, "ny": 6, "nz": 6}, "fp32", "hazard", "zcu102"),
-    ("incline", {}, "fp32", "pybullet", "ideal"),
+    ("pile", {"nx": 6, "ny": 6, "nz": 6}, "fp32", "hazard", "zcu102", 3),
+    (ROTATED_WORLD, {}, "fp32", "pybullet", "ideal", 6),
 ]
 
 
-@pytest.mark.parametrize("scene,params,fmt_name,schedule_kind,dma", BURST_CASES,
-                         ids=[f"{c[0]}-{c[2]}-{c[3]}-{c[4]}" for c in BURST_CASES])
-def test_kernel_cosim_bursts(scene, params, fmt_name, schedule_kind, dma) -> None:
+@pytest.mark.parametrize("scene,params,fmt_name,schedule_kind,dma,inertia_words", BURST_CASES,
+                         ids=[f"{Path(c[0]).stem}-{c[2]}-{c[3]}-{c[4]}" for c in BURST_CASES])
+def test_kernel_cosim_bursts(scene, params, fmt_name, schedule_kind, dma, inertia_words) -> None:
     """The transaction-level bench (bursts through the DMA models, the trace checked in batches): the same checks
-    as the cycle-level test, every record against the golden model, and every record retired once."""
+    as the cycle-level test, every record against the golden model, and every record retired once; the kernel
+    build is the case's (``inertia_words`` per body-in record: 6 for the rotated boxes, whose off-diagonal inverse
+    inertia is non-zero)."""
     from sim.trace_compare import read_trace
 
-    from models.stream_format import trace_record_bytes
+    from models.stream_format import trace_record_bytes, unpack_body_table
 
     case_file = _cosim("run_step_bursts", scene, params, fmt_name, schedule_kind, dma, 0.0, 0.0, bursts=True)
     result = json.loads(case_file.with_suffix(".result.json").read_text())
@@ -304,6 +331,11 @@ def test_kernel_cosim_bursts(scene, params, fmt_name, schedule_kind, dma) -> Non
     fmt = parse_format(fmt_name)
     trace = read_trace(case_file.with_suffix(".trace.bin"), fmt, trace_record_bytes(fmt))
     with np.load(case_file, allow_pickle=False) as case:
+        meta = json.loads(str(case["meta"]))
+        assert meta["inertia_words"] == inertia_words, meta["inertia_words"]
+        if inertia_words == 6:  # the symmetric product is exercised: an off-diagonal word of a dynamic body
+            bodies = unpack_body_table(fmt, case["body_in"], inertia_words=6)
+            assert np.any(bodies.inv_inertia[bodies.inv_mass > 0, 3:] != 0), "no off-diagonal inverse inertia"
         assert np.array_equal(trace.words, case["words"]) and np.array_equal(trace.slot, case["slot"])
     assert np.all(np.diff(trace.cycle.astype(np.int64)) >= 1), "two trace records stamped with the same cycle"
 

@@ -27,9 +27,10 @@ from typing import Mapping, Sequence
 
 from models.dma_model import get_preset
 from models.number_format import parse_format
+from models.stream_format import KERNEL_INERTIA_WORDS
 from sim.gtkwave_save import Group, kernel_groups, write_save_file
 from sim.kernel_build import PUBLIC_VLT, TOP, WAVE_ARGS, KernelBuild
-from sim.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT, ensure_verilator_env
+from sim.verilator_build import MODEL_OPT_ARGS, QUICK_COMPILE_ARGS, REPO_ROOT, ensure_verilator_env
 
 BUILD_ROOT = REPO_ROOT / "build" / "cocotb"
 TESTS_DIR = REPO_ROOT / "cocotb_tests"
@@ -140,19 +141,22 @@ def _test(top: str, test_module: str, build_dir: Path, waves: bool, seed: int | 
 
 
 def kernel_cocotb_build(fmt_name: str, dma: str, friction_sign_bug: bool = False,
-                        compile_profile: str = "quick") -> KernelBuild:
-    """The kernel build of the cocotb benches for a number format and a DMA preset (its constraint stream width),
-    with FST tracing when ``WAVES=1``."""
+                        compile_profile: str = "quick", inertia_words: int = KERNEL_INERTIA_WORDS) -> KernelBuild:
+    """The kernel build of the cocotb benches for a number format, a DMA preset (its constraint stream width) and
+    the inverse-inertia words of its body-in record (1, 3 or 6: ``KernelJob.inertia_words``), with FST tracing
+    when ``WAVES=1``."""
     return KernelBuild(parse_format(fmt_name), cons_bits=get_preset(dma).stream_bits, waves=waves_enabled(),
-                       friction_sign_bug=friction_sign_bug, compile_profile=compile_profile)
+                       friction_sign_bug=friction_sign_bug, compile_profile=compile_profile,
+                       inertia_words=inertia_words)
 
 
 def run_kernel_cocotb(test_module: str, fmt_name: str, dma: str, seed: int, extra_env: Mapping[str, str],
                       testcase: Sequence[str] | None = None, friction_sign_bug: bool = False,
-                      compile_profile: str = "quick", waves_name: str | None = None) -> Path:
+                      compile_profile: str = "quick", waves_name: str | None = None,
+                      inertia_words: int = KERNEL_INERTIA_WORDS) -> Path:
     """Build the kernel of :func:`kernel_cocotb_build` and run the cocotb tests of ``test_module`` on it; see
     :func:`run_cocotb`."""
-    kb = kernel_cocotb_build(fmt_name, dma, friction_sign_bug, compile_profile)
+    kb = kernel_cocotb_build(fmt_name, dma, friction_sign_bug, compile_profile, inertia_words)
     return _build_and_test(TOP, kb.sources(), test_module, kb.parameters, BUILD_ROOT / kb.name, kb.compile_args,
                            kb.waves, seed=seed, extra_env=extra_env, testcase=testcase, public_vlt=PUBLIC_VLT,
                            waves_name=waves_name, waves_groups=kernel_groups(kb.parameters) if kb.waves else None)
@@ -191,10 +195,11 @@ class BurstBench:
         return [*self.kernel.sources(), *BURST_TB_SOURCES]
 
     def build(self) -> float:
-        """Build the bench (once; Verilator skips an unchanged build); returns the seconds it took."""
+        """Build the bench (once; Verilator skips an unchanged build) with the compiled harness's model options
+        (``MODEL_OPT_ARGS``: the long runs of ``make sim DRIVER=cocotb``); returns the seconds it took."""
         kb = self.kernel
-        return _build(BURST_TB_TOP, self.sources(), self.parameters, self.build_dir, kb.compile_args, kb.waves,
-                      BURST_TB_VLT)
+        return _build(BURST_TB_TOP, self.sources(), self.parameters, self.build_dir,
+                      [*MODEL_OPT_ARGS, *kb.compile_args], kb.waves, BURST_TB_VLT)
 
     def test(self, test_module: str, seed: int, extra_env: Mapping[str, str],
              testcase: Sequence[str] | None = None, waves_name: str | None = None) -> Path:
@@ -204,9 +209,10 @@ class BurstBench:
 
 
 def run_kernel_cocotb_bursts(test_module: str, fmt_name: str, dma: str, seed: int, extra_env: Mapping[str, str],
-                             testcase: Sequence[str] | None = None, waves_name: str | None = None) -> Path:
+                             testcase: Sequence[str] | None = None, waves_name: str | None = None,
+                             inertia_words: int = KERNEL_INERTIA_WORDS) -> Path:
     """Build the transaction-level bench of :func:`kernel_cocotb_build`'s kernel and run the cocotb tests of
     ``test_module`` on it."""
-    bench = BurstBench(kernel_cocotb_build(fmt_name, dma))
+    bench = BurstBench(kernel_cocotb_build(fmt_name, dma, inertia_words=inertia_words))
     bench.build()
     return bench.test(test_module, seed, extra_env, testcase, waves_name)

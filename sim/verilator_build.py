@@ -39,6 +39,8 @@ _MAKEFLAGS = "CFG_CXXFLAGS_PCH_I=-include CFG_LDLIBS_THREADS=-pthread"
 QUICK_COMPILE_MAKE_VARS = "OPT_FAST=-O1 OPT_SLOW=-O0 OPT_GLOBAL=-O1"
 QUICK_COMPILE_ARGS = ["-MAKEFLAGS", QUICK_COMPILE_MAKE_VARS]
 DEBUG_COMPILE_ARGS = ["-fno-inline", "-MAKEFLAGS", "OPT_FAST=-O0 OPT_SLOW=-O0 OPT_GLOBAL=-O0"]
+# Verilator's own optimization of the model (-O3: every module inlined) and X handling, on every build
+MODEL_OPT_ARGS = ("-O3", "--x-assign", "fast", "--x-initial", "fast")
 
 ParamValue = int | str
 
@@ -148,7 +150,7 @@ def build(
     cmd: list[str] = [
         str(verilator),
         "--cc", "--exe", "--build",
-        "-O3", "--x-assign", "fast", "--x-initial", "fast",
+        *MODEL_OPT_ARGS,
         "-j", str(jobs),
         "--top-module", top,
         "--Mdir", str(mdir),

@@ -18,6 +18,7 @@ module pgs_kernel_burst_tb #(
     parameter int BODY_IN_W     = 128,
     parameter int CONS_W        = 512,
     parameter int BODY_OUT_W    = 128,
+    parameter int IINV_W        = 3,   // inverse-inertia words per body-in record (the kernel's IINV_W)
     parameter int BURST         = 16,
     parameter int TRACE_BATCH   = 16,
     localparam int W            = 1 + EXP_BITS + MAN_BITS,
@@ -91,18 +92,19 @@ module pgs_kernel_burst_tb #(
     initial tb_cycle = '0;
     always_ff @(posedge ap_clk) tb_cycle <= tb_cycle + 64'd1;
 
-    // the DDR token bucket
-    logic [47:0] credit, avail, after_out, after_cons, after_in;
-    logic        out_allow, cons_allow, in_allow, out_take, cons_take, in_take;
-    always_comb begin
-        avail      = (credit + 48'(ddr_rate_q16) > CAP_Q) ? CAP_Q : credit + 48'(ddr_rate_q16);
-        out_allow  = ddr_unlimited || avail >= BODY_OUT_Q;
-        after_out  = avail - (out_take && !ddr_unlimited ? BODY_OUT_Q : '0);
-        cons_allow = ddr_unlimited || after_out >= CONS_Q;
-        after_cons = after_out - (cons_take && !ddr_unlimited ? CONS_Q : '0);
-        in_allow   = ddr_unlimited || after_cons >= BODY_IN_Q;
-        after_in   = after_cons - (in_take && !ddr_unlimited ? BODY_IN_Q : '0);
-    end
+    // the DDR token bucket, one assign per value: in one always_comb block every output would depend on every
+    // input (a false combinational loop through the kernel's handshakes, out_take -> cons_allow -> ... ->
+    // out_allow, that the simulator warns about as UNOPTFLAT and has to order as one block)
+    logic [47:0] credit;
+    logic        out_take, cons_take, in_take;
+    wire  [47:0] gained     = credit + 48'(ddr_rate_q16);
+    wire  [47:0] avail      = gained > CAP_Q ? CAP_Q : gained;
+    wire         out_allow  = ddr_unlimited || avail >= BODY_OUT_Q;
+    wire  [47:0] after_out  = avail - (out_take && !ddr_unlimited ? BODY_OUT_Q : '0);
+    wire         cons_allow = ddr_unlimited || after_out >= CONS_Q;
+    wire  [47:0] after_cons = after_out - (cons_take && !ddr_unlimited ? CONS_Q : '0);
+    wire         in_allow   = ddr_unlimited || after_cons >= BODY_IN_Q;
+    wire  [47:0] after_in   = after_cons - (in_take && !ddr_unlimited ? BODY_IN_Q : '0);
     always_ff @(posedge ap_clk) credit <= ap_rst_n ? after_in : '0;
 
     axis_burst_source #(.W(CONS_W), .BURST(BURST)) u_cons (
@@ -129,7 +131,8 @@ module pgs_kernel_burst_tb #(
 
     pgs_kernel #(
         .EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .MAX_MANIFOLDS(MAX_MANIFOLDS),
-        .BODY_IN_W(BODY_IN_W), .CONS_W(CONS_W), .BODY_OUT_W(BODY_OUT_W)
+        .BODY_IN_W(BODY_IN_W), .CONS_W(CONS_W), .BODY_OUT_W(BODY_OUT_W),
+        .IINV_W(IINV_W)
     ) dut (
         .ap_clk, .ap_rst_n,
         .s_axi_control_AWVALID, .s_axi_control_AWREADY, .s_axi_control_AWADDR, .s_axi_control_WVALID,
