@@ -51,7 +51,7 @@ help:
 	@echo "               and the window kernel's RECORD_WINDOW= LANES= FETCH_PASSES= BODY_BITS=; MODE=model)"
 	@echo "               EXECUTOR=local:N|dask:local:N|dask:tcp://host:port spreads the points of sweep,"
 	@echo "               stability, resources and regress (docs/cluster.md); a rerun resumes a failed sweep"
-	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= ITERS= BUDGET=0.01)"
+	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= SCENE_ARGS= ITERS= BUDGET=0.01)"
 	@echo "make band      band width D of every schedule on every scene, on-chip budget of the thesis frame (SEED= ITERS=)"
 	@echo "make stability the hard-case suite closed loop: cases x formats x iterations (CASES= FORMATS= JOBS=2)"
 	@echo "make coverage  line/branch/toggle coverage of rtl/ per kernel configuration from a harness regression"
@@ -64,7 +64,7 @@ help:
 	@echo "               written to sim/generated/resource_figures.json for the resource model (docs/resources.md)"
 	@echo "make lint      verilator --lint-only -Wall on every RTL top"
 	@echo "make bench     simulated cycles per second of the kernel harness, compile profiles side by side"
-	@echo "               (SCENE= FORMAT= DMA= PROFILES=quick,o2 RUNS=3; a new profile builds first, minutes)"
+	@echo "               (SCENE= SCENE_ARGS= FORMAT= DMA= PROFILES=quick,o2 RUNS=3; a new profile builds first, minutes)"
 	@echo "make rtl       regenerate the kernel datapaths and generated contracts (rtl/generated/, hls_export/generated/) from rtl/gen"
 	@echo "make clean     remove build outputs (keeps .venv and cached frames)"
 
@@ -97,7 +97,7 @@ sim: $(STAMP)
 		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE)
 
 analyze: $(STAMP)
-	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
+	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
 
 band: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.band --seed $(SEED) --iters $(ITERS)
@@ -138,7 +138,7 @@ lint: $(STAMP)
 PROFILES ?= quick,o2
 RUNS ?= 3
 bench: $(STAMP)
-	$(TOOLENV) $(VPY) -m sim.bench_sim_speed --scene $(SCENE) --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) \
+	$(TOOLENV) $(VPY) -m sim.bench_sim_speed --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) \
 		--profiles $(PROFILES) --runs $(RUNS)
 
 rtl: $(STAMP)

@@ -1,11 +1,15 @@
-"""Bullet 2's ``btSequentialImpulseConstraintSolver`` in float64, as pybullet 3.2.7 runs it for btRigidBody boxes.
+"""Bullet 2's ``btSequentialImpulseConstraintSolver`` in float64, as pybullet 3.2.7 runs it for btRigidBody bodies
+(boxes, spheres, capsules, cylinders, convex hulls and compounds of them).
 
 Reproduces one ``stepSimulation`` of a captured frame (``models.scenes.capture_frame``): the same rows in the
 same order with the same floating-point operation order as Bullet's scalar reference row solvers (pybullet is
 built with BT_USE_DOUBLE_PRECISION, no SSE), so the post-step velocities match pybullet to round-off.
 The row set-up follows Bullet's ``btSequentialImpulseConstraintSolver.cpp``. Requirements on the frame (as
-``models.scenes`` sets up): maximal-coordinate bodies, warmStartingFactor 0, deterministicOverlappingPairs 1,
-manifolds sorted by (body_a, body_b), no damping, restitution 0, no rolling friction or friction anchors.
+``models.scenes`` sets up): maximal-coordinate bodies created in frame order, warmStartingFactor 0,
+deterministicOverlappingPairs 1, no damping, restitution 0, no rolling friction or friction anchors, and at most
+one Bullet manifold per pair (a compound resting on several of its children has several, in an order pybullet
+does not report). Each manifold is taken from the side and in the order Bullet's solver took it
+(:func:`solver_order`).
 
 Per contact point (n = normal_on_b, B -> A; rA = point_on_a - x_A, rB = point_on_b - x_B):
 
@@ -22,6 +26,7 @@ early exit with solverResidualThreshold > 0). Result: v = (v0 + dv) + g dt, w = 
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -194,17 +199,23 @@ def _islands(n_bodies: int, a: np.ndarray, b: np.ndarray, dynamic: np.ndarray) -
 # ---- the solver ---------------------------------------------------------------------------------
 
 
-def solve_frame(frame: Frame, settings: SolverSettings | None = None) -> Bullet2Result:
-    s = settings or SolverSettings.from_frame(frame)
+@dataclass
+class _BodyTerms:
+    """Each body's solver terms (``btSolverBody``): zero for static bodies (Bullet's one fixed solver body)."""
+
+    dyn: np.ndarray  # (N,) bool
+    invm: np.ndarray  # (N,)
+    inv_iw: np.ndarray  # (N,3,3) m_invInertiaTensorWorld
+    ext_f: np.ndarray  # (N,3) external (gravity) impulse, as a velocity
+    ext_t: np.ndarray  # (N,3) external torque impulse (the gyroscopic term), as an angular velocity
+
+
+def _body_terms(frame: Frame, s: SolverSettings) -> _BodyTerms:
     dt = s.dt
-    inv_dt = 1.0 / dt
     n_bodies = frame.num_bodies
     invm = frame.inv_mass.astype(np.float64)
     dyn = invm != 0.0
-    x = frame.position
     q = frame.orientation
-    v0 = frame.linear_velocity
-    w0 = frame.angular_velocity
     inertia = frame.inertia_local
     with np.errstate(divide="ignore"):
         inv_inertia = np.where(inertia != 0.0, 1.0 / np.where(inertia == 0.0, 1.0, inertia), 0.0)
@@ -221,7 +232,115 @@ def solve_frame(frame: Frame, settings: SolverSettings | None = None) -> Bullet2
     ext_f[dyn] = ((g[None, :] * mass[dyn, None]) * invm[dyn, None]) * dt
     ext_t[dyn] = _matvec(inv_iw[dyn], np.zeros((int(dyn.sum()), 3))) * dt
     if s.gyroscopic and dyn.any():
-        ext_t[dyn] = ext_t[dyn] + gyroscopic_impulse_implicit_body(q[dyn], w0[dyn], inertia[dyn], dt)
+        ext_t[dyn] = ext_t[dyn] + gyroscopic_impulse_implicit_body(q[dyn], frame.angular_velocity[dyn], inertia[dyn], dt)
+    return _BodyTerms(dyn, invm, inv_iw, ext_f, ext_t)
+
+
+def _solver_velocities(frame: Frame, bt: _BodyTerms, ia: np.ndarray, ib: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Per row: the two solver bodies' velocities and external impulses (lva, lvb, ava, avb, efa, efb, eta, etb;
+    zero for the fixed body)."""
+    da = bt.dyn[ia][:, None]
+    db = bt.dyn[ib][:, None]
+    zero3 = np.zeros((ia.shape[0], 3))
+    v0, w0 = frame.linear_velocity, frame.angular_velocity
+    return (np.where(da, v0[ia], zero3), np.where(db, v0[ib], zero3), np.where(da, w0[ia], zero3),
+            np.where(db, w0[ib], zero3), np.where(da, bt.ext_f[ia], zero3), np.where(db, bt.ext_f[ib], zero3),
+            np.where(da, bt.ext_t[ia], zero3), np.where(db, bt.ext_t[ib], zero3))
+
+
+def _friction_directions(frame: Frame, bt: _BodyTerms, mi: np.ndarray, pi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """convertContact's two friction directions of the rows (mi, pi), velocity dependent: dir1 along the
+    tangential relative velocity of A against B at the contact, dir2 = dir1 x n; btPlaneSpace1(n) where that
+    velocity is ~0."""
+    ia = frame.body_a[mi].astype(np.int64)
+    ib = frame.body_b[mi].astype(np.int64)
+    n = frame.normal_on_b[mi, pi]
+    ra = frame.point_on_a[mi, pi] - frame.position[ia]
+    rb = frame.point_on_b[mi, pi] - frame.position[ib]
+    lva, lvb, ava, avb, efa, efb, eta, etb = _solver_velocities(frame, bt, ia, ib)
+    zero3 = np.zeros_like(n)
+    vel1 = np.where(bt.dyn[ia][:, None], lva + efa + _cross(ava + eta, ra), zero3)
+    vel2 = np.where(bt.dyn[ib][:, None], lvb + efb + _cross(avb + etb, rb), zero3)
+    vel = vel1 - vel2
+    rv = _dot(n, vel)
+    lat = vel - n * rv[:, None]
+    lat2 = _dot(lat, lat)
+    use_vel = lat2 > DBL_EPSILON
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dir1v = lat * (1.0 / np.sqrt(lat2))[:, None]
+        dir2v = _cross(dir1v, n)
+        dir2v = dir2v * (1.0 / np.sqrt(_dot(dir2v, dir2v)))[:, None]
+    ps1, ps2 = plane_space(n)
+    return np.where(use_vel[:, None], dir1v, ps1), np.where(use_vel[:, None], dir2v, ps2)
+
+
+_MANIFOLD_FIELDS = ("body_a", "body_b", "num_points", "point_on_a", "point_on_b", "normal_on_b", "distance",
+                    "normal_force", "lateral_friction1", "lateral_dir1", "lateral_friction2", "lateral_dir2")
+
+
+def solver_order(frame: Frame, settings: SolverSettings | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The orientation and order in which pybullet's solver took the frame's manifolds: (flipped (M,) bool, order
+    (M,) the frame's manifold indices in solver order).
+
+    A frame holds each manifold as (a, b) with a < b (``models.scenes.contact_capture``), but Bullet's manifold has
+    its own body0: the lower broadphase id for two primitives, the compound for a compound against a primitive
+    (``btCompoundCollisionAlgorithm`` creates its child manifolds with the compound first), whatever the
+    algorithm chose otherwise. getContactPoints does not report it, but it reports the friction directions as the
+    solver computed them from body0's side (dir1 along body0's tangential velocity against body1, or
+    btPlaneSpace1 of body0's normal; turned to body1's side both change sign), so a manifold is ``flipped`` where
+    its reported dir1 points against the one computed from a's side. The solver then takes an island's manifolds
+    sorted by (body0, body1) broadphase id (``deterministicOverlappingPairs``), which is the frame index for
+    bodies created in frame order. Unknowable, and so not reproduced: the order of several Bullet manifolds of
+    one pair (a compound's child manifolds: the island sort is unstable among them)."""
+    s = settings or SolverSettings.from_frame(frame)
+    valid = np.arange(4)[None, :] < frame.num_points[:, None]
+    mi, pi = np.nonzero(valid)
+    dir1, _ = _friction_directions(frame, _body_terms(frame, s), mi, pi)
+    first = np.concatenate([[True], mi[1:] != mi[:-1]]) if mi.size else np.zeros(0, bool)
+    flipped = np.zeros(frame.num_manifolds, bool)
+    flipped[mi[first]] = _dot(dir1, frame.lateral_dir1[mi, pi])[first] < 0.0
+    body0 = np.where(flipped, frame.body_b, frame.body_a)
+    body1 = np.where(flipped, frame.body_a, frame.body_b)
+    return flipped, np.lexsort((body1, body0))
+
+
+def _in_solver_order(frame: Frame, flipped: np.ndarray, order: np.ndarray) -> Frame:
+    """The frame with its manifolds turned to Bullet's body0 (points swapped, normal negated) and in solver order."""
+    f = dataclasses.replace(frame)
+    fl = flipped[:, None]
+    turned = dict(body_a=np.where(flipped, frame.body_b, frame.body_a), body_b=np.where(flipped, frame.body_a, frame.body_b),
+                  point_on_a=np.where(fl[..., None], frame.point_on_b, frame.point_on_a),
+                  point_on_b=np.where(fl[..., None], frame.point_on_a, frame.point_on_b),
+                  normal_on_b=np.where(fl[..., None], -frame.normal_on_b, frame.normal_on_b))
+    for key in _MANIFOLD_FIELDS:
+        setattr(f, key, turned.get(key, getattr(frame, key))[order])
+    return f
+
+
+def solve_frame(frame: Frame, settings: SolverSettings | None = None) -> Bullet2Result:
+    """pybullet's step of the frame, its manifolds in the orientation and order its solver took them
+    (:func:`solver_order`); the per-point results are in the frame's manifold order, the friction impulses and
+    directions as pybullet reports them (from Bullet's body0 side)."""
+    s = settings or SolverSettings.from_frame(frame)
+    flipped, order = solver_order(frame, s)
+    r = _solve(_in_solver_order(frame, flipped, order), s)
+    back = np.argsort(order)
+    return dataclasses.replace(r, **{k: getattr(r, k)[back] for k in _PER_POINT_RESULTS})
+
+
+_PER_POINT_RESULTS = ("normal_impulse", "friction_impulse1", "friction_impulse2", "lateral_dir1", "lateral_dir2")
+
+
+def _solve(frame: Frame, s: SolverSettings) -> Bullet2Result:
+    """The step of a frame whose manifolds are in Bullet's orientation and solver order."""
+    dt = s.dt
+    inv_dt = 1.0 / dt
+    n_bodies = frame.num_bodies
+    bt = _body_terms(frame, s)
+    dyn, invm, inv_iw, ext_f, ext_t = bt.dyn, bt.invm, bt.inv_iw, bt.ext_f, bt.ext_t
+    x = frame.position
+    v0 = frame.linear_velocity
+    w0 = frame.angular_velocity
 
     # ---- rows (one normal and two friction rows per valid point, in manifold x point order)
     m_count = frame.num_manifolds
@@ -243,14 +362,7 @@ def solve_frame(frame: Frame, settings: SolverSettings | None = None) -> Bullet2
     ima = np.where(da[:, 0], invm[ia], 0.0)
     imb = np.where(db[:, 0], invm[ib], 0.0)
     # solver-body velocities (the fixed body has zero everything)
-    lva = np.where(da, v0[ia], zero3)
-    lvb = np.where(db, v0[ib], zero3)
-    ava = np.where(da, w0[ia], zero3)
-    avb = np.where(db, w0[ib], zero3)
-    efa = np.where(da, ext_f[ia], zero3)
-    efb = np.where(db, ext_f[ib], zero3)
-    eta = np.where(da, ext_t[ia], zero3)
-    etb = np.where(db, ext_t[ib], zero3)
+    lva, lvb, ava, avb, efa, efb, eta, etb = _solver_velocities(frame, bt, ia, ib)
 
     # normal rows (setupContactConstraint)
     torque0 = _cross(ra, n)
@@ -279,21 +391,7 @@ def solve_frame(frame: Frame, settings: SolverSettings | None = None) -> Bullet2
     lin_a_n = n1 * ima[:, None]
     lin_b_n = n2 * imb[:, None]
 
-    # friction directions (convertContact, velocity dependent)
-    vel1 = np.where(da, lva + efa + _cross(ava + eta, ra), zero3)
-    vel2 = np.where(db, lvb + efb + _cross(avb + etb, rb), zero3)
-    vel = vel1 - vel2
-    rv = _dot(n, vel)
-    lat = vel - n * rv[:, None]
-    lat2 = _dot(lat, lat)
-    use_vel = lat2 > DBL_EPSILON
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dir1v = lat * (1.0 / np.sqrt(lat2))[:, None]
-        dir2v = _cross(dir1v, n)
-        dir2v = dir2v * (1.0 / np.sqrt(_dot(dir2v, dir2v)))[:, None]
-    ps1, ps2 = plane_space(n)
-    dir1 = np.where(use_vel[:, None], dir1v, ps1)
-    dir2 = np.where(use_vel[:, None], dir2v, ps2)
+    dir1, dir2 = _friction_directions(frame, bt, mi, pi)
 
     def friction_rows(d: np.ndarray) -> dict[str, np.ndarray]:
         f1 = np.where(da, d, zero3)
@@ -447,6 +545,6 @@ def compare_with_pybullet(frame: Frame, result: Bullet2Result | None = None) -> 
     }
 
 
-__all__ = ["SolverSettings", "Bullet2Result", "solve_frame", "compare_with_pybullet", "quat_to_matrix", "plane_space",
+__all__ = ["SolverSettings", "Bullet2Result", "solve_frame", "solver_order", "compare_with_pybullet", "quat_to_matrix", "plane_space",
            "gyroscopic_impulse_implicit_body"]
 

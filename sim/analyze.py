@@ -33,6 +33,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="python -m sim.analyze", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="pile", help=f"scene name ({', '.join(sorted(scenes.SCENES))})")
+    ap.add_argument("--scene-args", default="", help='scene parameters, e.g. "nx=20 ny=5 nz=20 friction=0.4"')
     ap.add_argument("--iters", type=int, default=4, help="PGS iterations")
     ap.add_argument("--seed", type=int, default=1, help="scene seed")
     ap.add_argument("--budget", type=float, default=DEFAULT_BUDGET,
@@ -72,7 +73,7 @@ def auto_format(frame: Frame, iters: int) -> NumberFormat:
 def analyze(args: argparse.Namespace) -> dict[str, Any]:
     if not 0 < args.budget < 1:
         raise ValueError(f"BUDGET must be in (0, 1), got {args.budget}")
-    frame = scenes.load_or_capture(args.scene, seed=args.seed)
+    frame, label = scenes.load_scene(args.scene, args.scene_args, args.seed)
     print(frame.summary(), flush=True)
     t0 = time.perf_counter()
     problem = problem_of(frame, args.iters)
@@ -85,7 +86,7 @@ def analyze(args: argparse.Namespace) -> dict[str, Any]:
     named = {name: problem.error(problem.step(f)) for name, f in (("fp32", FP32), ("fp16", FP16))}
     widths = {g: chosen[g].width if g in chosen else fmt.width for g in fa.GROUPS}
     return {
-        "scene": {"scene": args.scene, "bodies": frame.num_bodies, "manifolds": frame.num_manifolds,
+        "scene": {"scene": label, "bodies": frame.num_bodies, "manifolds": frame.num_manifolds,
                   "iterations": args.iters, "error budget (relative, see models/format_analyzer.py)": args.budget},
         "ranges (smallest and largest non-zero magnitude; exponent bits that hold them)": {
             r.group: f"{r.min_abs:.3g} .. {r.max_abs:.3g}, {r.zeros}/{r.values} zeros -> {r.exp_bits} exponent bits"
@@ -116,7 +117,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"-- {name}")
         for k, v in rows.items():
             print(f"  {k}: {format_value(v)}")
-    out = Path(args.out) / f"{args.scene}-s{args.seed}"
+    out = Path(args.out) / f"{sections['scene']['scene']}-s{args.seed}"
     out.mkdir(parents=True, exist_ok=True)
     (out / "analysis.json").write_text(json.dumps(sections, indent=1) + "\n")
     print(f"\nanalysis: {out / 'analysis.json'}")

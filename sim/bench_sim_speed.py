@@ -60,6 +60,7 @@ class ProfileRuns:
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scene", default="pile")
+    ap.add_argument("--scene-args", default="", help='scene parameters, e.g. "nx=20 ny=5 nz=20 friction=0.4"')
     ap.add_argument("--iters", type=int, default=4)
     ap.add_argument("--format", default="fp32")
     ap.add_argument("--dma", default="zcu102")
@@ -93,13 +94,13 @@ def check_args(args: argparse.Namespace) -> list[str]:
     return profiles
 
 
-def scene_job(args: argparse.Namespace, preset: DmaPreset) -> KernelJob:
-    """The step ``make sim`` runs for these options (streaming kernel, hazard schedule)."""
+def scene_job(args: argparse.Namespace, preset: DmaPreset) -> tuple[KernelJob, str]:
+    """The step ``make sim`` runs for these options (streaming kernel, hazard schedule), and the scene's label."""
     fmt = parse_format(args.format)
     assert isinstance(fmt, NumberFormat)
-    frame = scenes.load_or_capture(args.scene, seed=args.seed)
+    frame, label = scenes.load_scene(args.scene, args.scene_args, args.seed)
     return KernelJob.from_frame(frame, fmt, SolverParams(iterations=args.iters), "hazard",
-                                default_window(fmt, preset.stream_bits))
+                                default_window(fmt, preset.stream_bits)), label
 
 
 def child_cpu_s() -> float:
@@ -144,13 +145,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     try:
         profiles = check_args(args)
-    except ValueError as exc:
+        preset = get_preset(args.dma)
+        job, scene = scene_job(args, preset)
+    except ValueError as exc:  # a SceneError too (a bad scene or SCENE_ARGS)
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    preset = get_preset(args.dma)
-    job = scene_job(args, preset)
     kb = KernelBuild.for_job(job, preset)
-    label = f"{args.scene}-{job.fmt.name}-it{args.iters}-s{args.seed}-{args.dma}"
+    label = f"{scene}-{job.fmt.name}-it{args.iters}-s{args.seed}-{args.dma}"
     base = REPO_ROOT / args.out / label
     results = []
     for profile in profiles:

@@ -181,9 +181,7 @@ def load_frame(args: argparse.Namespace) -> tuple[Frame, str]:
     """The frame to run (``--frame`` or the scene's, captured or cached) and the name of the runs made of it."""
     if args.frame:
         return load(args.frame), Path(args.frame).stem
-    params = scenes.split_scene_args(args.scene_args)
-    label = "-".join([scenes.scene_label(args.scene), *(f"{k}{v}".replace("/", "_") for k, v in params.items())])
-    return scenes.load_or_capture(args.scene, seed=args.seed, **params), label
+    return scenes.load_scene(args.scene, args.scene_args, args.seed)
 
 
 def velocity_error(ours: BodyTable, ref_lin: np.ndarray, ref_ang: np.ndarray, dynamic: np.ndarray) -> VelocityError:

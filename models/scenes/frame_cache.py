@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from models.frame import FRAME_VERSION, Frame, FrameError, load, save
+from models.scenes.scene_args import split_scene_args
 from models.scenes.specs import DEFAULT_CAPTURE_STEP, make_spec
 from models.scenes.user_world import WorldFileSource, is_world_scene, scene_label
 from models.scenes.world import DEFAULT_DT, SceneWorld, build_world, capture_frame, capture_in
@@ -86,3 +87,12 @@ def load_or_capture(scene: str, step: int | None = None, busiest_within: int | N
     frame = capture_frame(scene, step=step, busiest_within=busiest_within, seed=seed,
                           pybullet_iterations=pybullet_iterations, dt=dt, progress=progress, workers=workers, **params)
     return _store(frame, key, path)
+
+
+def load_scene(scene: str, scene_args: str = "", seed: int = 0) -> tuple[Frame, str]:
+    """The frame of a scene and its command-line parameters (``SCENE_ARGS``, :func:`split_scene_args`), captured
+    or cached (:func:`load_or_capture`), and the name of the runs made of it: the scene's label, then each
+    parameter as ``<key><value>``."""
+    params = split_scene_args(scene_args)
+    label = "-".join([scene_label(scene), *(f"{k}{v}".replace("/", "_") for k, v in params.items())])
+    return load_or_capture(scene, seed=seed, **params), label
