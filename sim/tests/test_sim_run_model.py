@@ -41,3 +41,13 @@ def test_rtl_run_reports_model_against_rtl(tmp_path: Path) -> None:
     assert section["model vs RTL cycles"].startswith(f"model {rtl:,} vs RTL {rtl:,} cycles (+0, +0.000%); retire "
                                                      "cycles: 20 of 20 exact")
     assert section["model vs RTL: first difference"] == "none"
+
+
+def test_mode_model_knows_the_impulses_in_the_records(tmp_path: Path) -> None:
+    """`IMPULSE_STORE=records` reaches the cycle model and the resource model: no impulse RAM in the fit, the run
+    named for it."""
+    report = _run(tmp_path, "--mode", "model", "--impulse-store", "records")
+    fit = report["fit on the platform (resource estimate of this configuration)"]
+    assert "impulses with the records" in fit["configuration"]
+    assert any(k.startswith("verdict") and v.startswith("FITS") for k, v in fit.items())
+    assert next(tmp_path.glob("*-impulses-in-records/report.json"))
