@@ -420,6 +420,10 @@ def _clarabel_version() -> str:
     return importlib.metadata.version("clarabel")
 
 
+class ExactReferenceInterrupted(ExactReferenceError):
+    """The solving process was killed from outside (not by its budget): no verdict on the problem, not recorded."""
+
+
 # --- the budget, enforced from outside the solver -------------------------------------------------------------
 BUDGET_GRACE_S = 5.0  # seconds the parent waits past the time budget before it stops the solving process
 
@@ -443,6 +447,10 @@ def exact_reference_bounded(bodies: BodyTable, cons: ConstraintSet, params: Solv
         kind, value = recv.recv()
     except EOFError:
         child.join(1.0)
+        if child.exitcode is not None and child.exitcode < 0:  # a signal from outside: the machine's OOM killer, ...
+            raise ExactReferenceInterrupted(f"the solving process was killed by signal {-child.exitcode} from outside "
+                                            "(the machine out of memory, or stopped by hand; its own address space "
+                                            f"is capped at {budget.memory_bytes / 2 ** 30:.1f} GiB)") from None
         raise ExactReferenceError(f"the solving process died (exit {child.exitcode}; memory budget "
                                   f"{budget.memory_bytes / 2 ** 30:.1f} GiB)") from None
     finally:

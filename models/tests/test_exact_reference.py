@@ -275,3 +275,31 @@ def test_mprgp_solves_a_small_box_qp() -> None:
     natural = res.x - np.clip(res.x - grad, lo, hi)
     assert np.abs(natural).max() < 1e-9
     assert np.sum((res.x == lo) | (res.x == hi)) > 0  # some bounds are active: the test exercises them
+
+
+def test_a_solve_killed_from_outside_is_reported_and_not_recorded(pile, tmp_path: Path,
+                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """A solving process killed by a signal (the machine's OOM killer) says so, and the cache records no failure:
+    it says nothing about the problem, so the next run tries again."""
+    import os
+    import signal
+
+    from models import exact_reference as er
+    from models import exact_reference_cache as erc
+
+    bodies, cons, _, _ = pile
+
+    def killed(prob: er.QpProblem, limit: float) -> er.QpSolution:
+        os.kill(os.getpid(), signal.SIGKILL)
+        raise AssertionError("unreachable")
+
+    with pytest.raises(er.ExactReferenceInterrupted, match="killed by signal 9"):
+        er.exact_reference_bounded(bodies, cons, solver=killed)
+
+    def interrupted(*args: object, **kw: object) -> er.ExactReference:
+        raise er.ExactReferenceInterrupted("killed by signal 9 from outside")
+
+    monkeypatch.setattr(erc, "exact_reference_bounded", interrupted)
+    with pytest.raises(ExactReferenceError, match="signal 9"):
+        cached_exact_reference(bodies, cons, tmp_path)
+    assert list(tmp_path.iterdir()) == []
