@@ -31,11 +31,13 @@ Bodies that share no manifold through a dynamic body (islands) are independent p
 separately, small ones gathered into one solve (a block-diagonal problem is the same problem).
 
 An island with more than ``DIRECT_ROWS_LIMIT`` rows (the thesis frame is one island of 589,940 contact rows) is
-too large to factorise within the budget: its QPs (the dual forms above, in the rows' impulses) are solved by
-MPRGP (``models/mprgp.py``: products with J and J^T only), and the result is kept only with a certificate
+too large for Clarabel's factorisations of these dual forms within the budget: both phases are then solved over
+body velocities by an interior point whose Newton matrices PARDISO factorises
+(``models/exact_reference_large_island.py``), and the result is kept only with a certificate
 (``models/exact_bound.py``, weak duality): the contact phase's distance from its exact limit plus the friction
 phase's from its limit with the same boxes (the friction map is the M-proximal map of a convex function, hence
 non-expansive), at most ``CERTIFIED_ACCEPT`` per body; otherwise :class:`ExactReferenceError` gives the bound.
+Problem assembly (rows, spin rows, islands): ``models/exact_reference_assembly.py``.
 
 The interleaved order (``interleaved=True``: contact, friction, contact, ...) has no limit computed here: its
 fixed points are the solutions of the coupled problem in which the friction box ``mu * sum(lam_n)`` depends on the
