@@ -303,3 +303,27 @@ def test_a_solve_killed_from_outside_is_reported_and_not_recorded(pile, tmp_path
     with pytest.raises(ExactReferenceError, match="signal 9"):
         cached_exact_reference(bodies, cons, tmp_path)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_contact_phase_bound_from_a_primal_point(pile) -> None:
+    """The bound from a primal point (the interior point's path) holds for perturbed impulses and primal points, and
+    is far tighter than the bound from u(lam) alone when the primal point is the exact one."""
+    from models.exact_bound import contact_phase_bound
+    from models.exact_reference_assembly import Layout, contact_rows
+
+    bodies, cons, _, ref = pile
+    layout = Layout(bodies)
+    rows, active = contact_rows(layout, cons)
+    exact = layout.velocity(ref.contact_bodies)
+    m = 1.0 / layout.inv_m
+    rng = np.random.default_rng(7)
+    key = "certified |u - u*|_M (sqrt(kg) m/s)"
+    for scale in (1e-6, 1e-3):
+        normal = ref.impulses.normal * (1.0 + scale * rng.uniform(-1, 1, ref.impulses.normal.shape))
+        u = layout.velocity(bodies) + layout.inv_m * (rows.J.T @ normal[active])
+        true = float(np.sqrt(np.sum(m * (u - exact) ** 2)))
+        for primal in (exact, exact + scale * rng.standard_normal(exact.shape)):
+            bound = contact_phase_bound(bodies, cons, normal, primal)[key]
+            assert true <= bound, (scale, true, bound)
+    tight = contact_phase_bound(bodies, cons, ref.impulses.normal, exact)[key]
+    assert tight <= 1e-5 and tight < contact_phase_bound(bodies, cons, ref.impulses.normal * (1 + 1e-6))[key]
