@@ -29,6 +29,8 @@ from .sparse_spd_factor import SpdFactor, SpdFactorError
 
 STEP_TO_BOUNDARY = 0.995  # fraction of the largest step that keeps every slack and multiplier > 0
 MAX_ITERATIONS = 80
+CENTRALITY_CORRECTORS = 2  # Gondzio's correctors per iteration (one solve each, no new factorisation)
+CENTRALITY_LOW, CENTRALITY_HIGH = 0.1, 10.0  # products outside [LOW, HIGH] x the target are pushed back
 FEASIBILITY_TOLERANCE = 1e-13  # relative to 1 + the largest |b|, |d| (primal) and |q|, L (dual)
 COMPLEMENTARITY_TOLERANCE = 1e-15  # max slack * multiplier, relative to (1 + max |b|, |d|) (1 + max multiplier)
 
@@ -165,20 +167,21 @@ def _step(qp: QpData, AT: sp.csr_matrix, CT: sp.csr_matrix, st: _State, res: tup
     factor.factor(K)
     mu = st.mu()
 
-    def direction(rc: tuple[np.ndarray, np.ndarray, np.ndarray]) -> _State:
+    def direction(rc: tuple[np.ndarray, ...], residuals: bool = True) -> _State:
+        rx, rp, r1, r2, rt = (r_x, r_p, r_1, r_2, r_t) if residuals else (0.0 * r for r in (r_x, r_p, r_1, r_2, r_t))
         rc_p, rc_1, rc_2 = rc
-        g1 = w1 * r_1 + rc_1 / st.s1
-        g2 = w2 * r_2 + rc_2 / st.s2
-        h = (2.0 * w1 * g2 - 2.0 * w2 * g1 + (w1 - w2) * r_t) / w12
-        rhs = -r_x - AT @ (w * r_p + rc_p / st.s) - CT @ h
+        g1 = w1 * r1 + rc_1 / st.s1
+        g2 = w2 * r2 + rc_2 / st.s2
+        h = (2.0 * w1 * g2 - 2.0 * w2 * g1 + (w1 - w2) * rt) / w12
+        rhs = -rx - AT @ (w * rp + rc_p / st.s) - CT @ h
         dx = factor.solve(rhs)
         dx = dx + factor.solve(rhs - K @ dx)  # one refinement step on the normal equations
-        ds = qp.A @ dx + r_p
+        ds = qp.A @ dx + rp
         dlam = -(rc_p + st.lam * ds) / st.s
         cdx = qp.C @ dx
-        dt = ((w1 - w2) * cdx - g1 - g2 - r_t) / w12
-        ds1 = dt - cdx + r_1
-        ds2 = dt + cdx + r_2
+        dt = ((w1 - w2) * cdx - g1 - g2 - rt) / w12
+        ds1 = dt - cdx + r1
+        ds2 = dt + cdx + r2
         da = -(rc_1 + st.a * ds1) / st.s1
         db = -(rc_2 + st.bm * ds2) / st.s2
         return _State(dx, dt, ds, dlam, ds1, da, ds2, db)
@@ -189,8 +192,21 @@ def _step(qp: QpData, AT: sp.csr_matrix, CT: sp.csr_matrix, st: _State, res: tup
     sigma = (trial.mu() / mu) ** 3
     corr = direction(tuple(v * m + dv * dm - sigma * mu  # type: ignore[arg-type]
                            for (v, m), (dv, dm) in zip(st.pairs(), aff.pairs())))
-    alpha = min(1.0, STEP_TO_BOUNDARY * _max_step(st, corr, 1.0 / STEP_TO_BOUNDARY))
-    return _advance(st, corr, alpha)
+    alpha = _max_step(st, corr, 1.0 / STEP_TO_BOUNDARY)
+    for _ in range(CENTRALITY_CORRECTORS):  # Gondzio: push outlying products towards the target, same factor
+        reach = min(1.0, 1.5 * alpha + 0.1)
+        target = sigma * mu
+        ahead = _advance(st, corr, reach)
+        push = tuple(np.clip(v * m, CENTRALITY_LOW * target, CENTRALITY_HIGH * target) - v * m
+                     for v, m in ahead.pairs())
+        push = tuple(np.maximum(p, -CENTRALITY_HIGH * target) for p in push)
+        extra = direction(tuple(-p for p in push), residuals=False)
+        better = _advance(corr, extra, 1.0)
+        alpha_better = _max_step(st, better, 1.0 / STEP_TO_BOUNDARY)
+        if alpha_better < 1.01 * alpha:
+            break
+        corr, alpha = better, alpha_better
+    return _advance(st, corr, min(1.0, STEP_TO_BOUNDARY * alpha))
 
 
 def _advance(st: _State, d: _State, alpha: float) -> _State:

@@ -31,9 +31,12 @@ from .exact_reference_assembly import ExactReferenceError, Layout, contact_rows
 SEPARATION_MARGIN = 1.0 + 1e-9  # the expansion rate just above the one that closes every violation
 
 
-def contact_phase_bound(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarray) -> dict[str, float]:
+def contact_phase_bound(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarray,
+                        primal: np.ndarray | None = None) -> dict[str, float]:
     """The certified distance (M-norm and per body) of the contact-phase state the impulses ``normal`` (M, 4)
-    give, starting from ``bodies``' velocities."""
+    give, starting from ``bodies``' velocities. With ``primal`` (a velocity vector over the dynamic bodies, 6 per
+    body, e.g. an interior point's primal iterate) the feasible point is made from it instead of from u; see
+    :func:`_primal_gap`."""
     layout = Layout(bodies)
     rows, active = contact_rows(layout, cons)
     lam = normal[active]
@@ -47,25 +50,11 @@ def contact_phase_bound(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarr
     def objective(x: np.ndarray) -> float:
         return 0.5 * float(np.sum(m * (x - u0) ** 2))
 
-    violation = np.maximum(-e, 0.0)
-    k = 0.0
+    if primal is not None:
+        return _primal_gap(bodies, layout, rows.J, rows.c, lam, u, primal)
+    k, expand = _expansion_rate(bodies, rows.J, e)
     p_f = objective(u)
-    if np.any(violation > 0):
-        pos = bodies.position[bodies.dynamic]
-        ref = pos.mean(axis=0)
-        ref[1] = min(float(bodies.position[:, 1].min()), float(pos[:, 1].min())) - 1.0
-        expand = np.concatenate([pos - ref, np.zeros_like(pos)], axis=1).ravel()
-        a = rows.J @ expand  # the rows' separation speed per unit expansion rate
-        viol = violation > 0
-        if np.any(a[viol] <= 0):
-            raise ExactReferenceError(f"no certificate: {int(np.sum(a[viol] <= 0))} violated contact rows do not "
-                                      "separate under a uniform expansion")
-        k = float(np.max(violation[viol] / a[viol])) * SEPARATION_MARGIN
-        closing = a < 0
-        k_max = float(np.min(e[closing] / -a[closing], initial=np.inf))
-        if k > k_max:
-            raise ExactReferenceError(f"no certificate: the expansion that closes the violations ({k:.2e}/s) opens "
-                                      f"a violation on rows that close under it (allowed {k_max:.2e}/s)")
+    if k > 0.0:
         u_f = u + k * expand
         p_f = objective(u_f)
     gap = float(lam @ e) + p_f - objective(u)
@@ -74,6 +63,56 @@ def contact_phase_bound(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarr
             "certified max |dv| (m/s)": bound * float(np.sqrt(bodies.inv_mass[bodies.dynamic].max(initial=0.0))),
             "certified max |dw| (rad/s)": bound * float(np.sqrt(bodies.inv_inertia[bodies.dynamic].max(initial=0.0))),
             "expansion rate k (1/s)": k, "lam.e (N s m/s)": float(lam @ e)}
+
+
+def _primal_gap(bodies: BodyTable, layout: Layout, J: sp.csr_matrix, c: np.ndarray, lam: np.ndarray,
+                u: np.ndarray, primal: np.ndarray) -> dict[str, float]:
+    """The bound from a primal point x: v = x + k d feasible (d the uniform expansion), then for the exact limit u*
+
+        1/2 |v - u*|_M^2 <= P(v) - P(u*) <= P(v) - L(u, lam) = lam.(J v + c) + 1/2 |v - u|_M^2
+
+    (strong convexity of P over the feasible set, weak duality; the right-hand side is P(v) - P(u) + lam.e
+    written without its cancelling terms, since u - u0 = M^-1 J^T lam), and ``|u - u*|_M <= |u - v|_M + that``.
+    Near an interior point's limit x is feasible to rounding (k ~ 0) while u = u(lam) carries the dual residual:
+    this bound is the dual-residual size, where the one from u alone is the square root of (violation x sum lam)."""
+    m = 1.0 / layout.inv_m
+    e = J @ primal + c
+    k, d = _expansion_rate(bodies, J, e)
+    v = primal + k * d if k > 0.0 else primal
+    gap = float(lam @ np.maximum(J @ v + c, 0.0)) + 0.5 * float(np.sum(m * (v - u) ** 2))
+    bound = float(np.sqrt(np.sum(m * (u - v) ** 2))) + float(np.sqrt(2.0 * max(gap, 0.0)))
+    return {"certified |u - u*|_M (sqrt(kg) m/s)": bound,
+            "certified max |dv| (m/s)": bound * float(np.sqrt(bodies.inv_mass[bodies.dynamic].max(initial=0.0))),
+            "certified max |dw| (rad/s)": bound * float(np.sqrt(bodies.inv_inertia[bodies.dynamic].max(initial=0.0))),
+            "expansion rate k (1/s)": k, "lam.(J v + c) (N s m/s)": float(lam @ (J @ v + c))}
+
+
+def _expansion_rate(bodies: BodyTable, J: sp.csr_matrix, e: np.ndarray) -> tuple[float, np.ndarray]:
+    """(k, d): the uniform expansion d and the smallest rate k that closes every violation of ``e`` (0 when none);
+    ExactReferenceError when no expansion does."""
+    violation = np.maximum(-e, 0.0)
+    if not np.any(violation > 0):
+        return 0.0, np.zeros(J.shape[1])
+    expand = _expansion(bodies)
+    a = J @ expand  # the rows' separation speed per unit expansion rate
+    viol = violation > 0
+    if np.any(a[viol] <= 0):
+        raise ExactReferenceError(f"no certificate: {int(np.sum(a[viol] <= 0))} violated contact rows do not "
+                                  "separate under a uniform expansion")
+    k = float(np.max(violation[viol] / a[viol])) * SEPARATION_MARGIN
+    closing = a < 0
+    k_max = float(np.min(e[closing] / -a[closing], initial=np.inf))
+    if k > k_max:
+        raise ExactReferenceError(f"no certificate: the expansion that closes the violations ({k:.2e}/s) opens "
+                                  f"a violation on rows that close under it (allowed {k_max:.2e}/s)")
+    return k, expand
+
+
+def _expansion(bodies: BodyTable) -> np.ndarray:
+    pos = bodies.position[bodies.dynamic]
+    ref = pos.mean(axis=0)
+    ref[1] = min(float(bodies.position[:, 1].min()), float(pos[:, 1].min())) - 1.0
+    return np.concatenate([pos - ref, np.zeros_like(pos)], axis=1).ravel()
 
 
 def friction_phase_bound(G: sp.csr_matrix, N: sp.csr_matrix, inv_m: np.ndarray, u1: np.ndarray, y: np.ndarray,

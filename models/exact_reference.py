@@ -31,11 +31,13 @@ Bodies that share no manifold through a dynamic body (islands) are independent p
 separately, small ones gathered into one solve (a block-diagonal problem is the same problem).
 
 An island with more than ``DIRECT_ROWS_LIMIT`` rows (the thesis frame is one island of 589,940 contact rows) is
-too large to factorise within the budget: its QPs (the dual forms above, in the rows' impulses) are solved by
-MPRGP (``models/mprgp.py``: products with J and J^T only), and the result is kept only with a certificate
+too large for Clarabel's factorisations of these dual forms within the budget: both phases are then solved over
+body velocities by an interior point whose Newton matrices PARDISO factorises
+(``models/exact_reference_large_island.py``), and the result is kept only with a certificate
 (``models/exact_bound.py``, weak duality): the contact phase's distance from its exact limit plus the friction
 phase's from its limit with the same boxes (the friction map is the M-proximal map of a convex function, hence
 non-expansive), at most ``CERTIFIED_ACCEPT`` per body; otherwise :class:`ExactReferenceError` gives the bound.
+Problem assembly (rows, spin rows, islands): ``models/exact_reference_assembly.py``.
 
 The interleaved order (``interleaved=True``: contact, friction, contact, ...) has no limit computed here: its
 fixed points are the solutions of the coupled problem in which the friction box ``mu * sum(lam_n)`` depends on the
@@ -256,10 +258,13 @@ def _check_almost(sol: QpSolution, residual: np.ndarray, phase: str) -> None:
 
 # --- the two phases -------------------------------------------------------------------------------------------
 def _contact_phase(layout: Layout, cons: ConstraintSet, u0: np.ndarray, labels: np.ndarray, count: int,
-                   solver: QpSolver, clock: _Clock, info: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
-    """The contact phase's limit: velocities u and normal impulses (M, 4)."""
+                   solver: QpSolver, clock: _Clock,
+                   info: dict[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The contact phase's limit: velocities u, normal impulses (M, 4), and a primal point for the certificate (u
+    except on large islands, where the interior point's primal iterate)."""
     rows, active = contact_rows(layout, cons)
     lam = np.zeros(rows.c.shape[0])
+    primal = np.full(u0.shape, np.nan)
     row_island = island_of_rows(layout, labels, rows.body_a, rows.body_b)
     body_island = np.repeat(labels, 6)
     for group in _batches(labels, row_island, count):
@@ -268,7 +273,7 @@ def _contact_phase(layout: Layout, cons: ConstraintSet, u0: np.ndarray, labels: 
         J, c = _sub(rows, sel, cols)
         inf = np.full(sel.shape[0], np.inf)
         if sel.shape[0] > DIRECT_ROWS_LIMIT:
-            lam[sel] = large_contact_phase(J, c, layout.inv_m[cols], u0[cols], clock.left(), info)
+            lam[sel], primal[cols] = large_contact_phase(J, c, layout.inv_m[cols], u0[cols], clock.left(), info)
             continue
         m = 1.0 / layout.inv_m[cols]
         prob = QpProblem(sp.diags(m).tocsc(), -m * u0[cols], -J, c, 0, sel.shape[0])
@@ -282,7 +287,7 @@ def _contact_phase(layout: Layout, cons: ConstraintSet, u0: np.ndarray, labels: 
     u = u0 + layout.inv_m * (rows.J.T @ lam)
     normal = np.zeros(cons.jac_inv.shape)
     normal[active] = lam
-    return u, normal
+    return u, normal, np.where(np.isnan(primal), u, primal)
 
 
 def _friction_phase(layout: Layout, cons: ConstraintSet, u1: np.ndarray, normal: np.ndarray, mu: float,
@@ -385,7 +390,7 @@ def exact_reference(bodies: BodyTable, cons: ConstraintSet, params: SolverParams
     seconds: dict[str, float] = {}
     u0 = layout.velocity(bodies)
     t0 = time.perf_counter()
-    u1, normal = _contact_phase(layout, cons, u0, labels, count, solver, clock, info)
+    u1, normal, primal = _contact_phase(layout, cons, u0, labels, count, solver, clock, info)
     seconds["contact phase"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     u2, friction = _friction_phase(layout, cons, u1, normal, params.friction_coeff, labels, count, solver, clock,
@@ -396,7 +401,8 @@ def exact_reference(bodies: BodyTable, cons: ConstraintSet, params: SolverParams
     imp = Impulses(normal=normal, friction=friction)
     residuals = natural_residuals(contact_bodies, final, cons, imp, params.friction_coeff)
     if needs_certificate(info):
-        certify(bodies, cons, normal, info, residuals["contact phase: normal LCP |min(lam K, e)| max (m/s)"])
+        certify(bodies, cons, normal, info, residuals["contact phase: normal LCP |min(lam K, e)| max (m/s)"],
+                primal)
     if not all(np.isfinite(v) for v in residuals.values()):
         raise ExactReferenceError("the solver returned non-finite values")
     name = solver_name or f"clarabel {_clarabel_version()}"
@@ -418,6 +424,10 @@ def _clarabel_version() -> str:
     import importlib.metadata
 
     return importlib.metadata.version("clarabel")
+
+
+class ExactReferenceInterrupted(ExactReferenceError):
+    """The solving process was killed from outside (not by its budget): no verdict on the problem, not recorded."""
 
 
 # --- the budget, enforced from outside the solver -------------------------------------------------------------
@@ -443,6 +453,10 @@ def exact_reference_bounded(bodies: BodyTable, cons: ConstraintSet, params: Solv
         kind, value = recv.recv()
     except EOFError:
         child.join(1.0)
+        if child.exitcode is not None and child.exitcode < 0:  # a signal from outside: the machine's OOM killer, ...
+            raise ExactReferenceInterrupted(f"the solving process was killed by signal {-child.exitcode} from outside "
+                                            "(the machine out of memory, or stopped by hand; its own address space "
+                                            f"is capped at {budget.memory_bytes / 2 ** 30:.1f} GiB)") from None
         raise ExactReferenceError(f"the solving process died (exit {child.exitcode}; memory budget "
                                   f"{budget.memory_bytes / 2 ** 30:.1f} GiB)") from None
     finally:

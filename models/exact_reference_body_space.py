@@ -30,13 +30,15 @@ SPIN_COMPLEMENT = 0.5  # eigenvalue of I - N^T N above which a direction is free
 
 
 def contact_phase_ipm(J: sp.csc_matrix, c: np.ndarray, inv_m: np.ndarray, u0: np.ndarray, time_s: float,
-                      info: dict[str, float]) -> np.ndarray:
-    """The normal impulses of the contact phase's limit (per row of J)."""
+                      info: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The normal impulses of the contact phase's limit (per row of J) and the primal velocities (for the
+    certificate, ``models.exact_bound.contact_phase_bound``)."""
     m = 1.0 / inv_m
     n = u0.shape[0]
     none = sp.csr_matrix((0, n))
     qp = QpData(sp.diags(m, format="csr"), -m * u0, sp.csr_matrix(J), c, none, np.zeros(0), np.zeros(0))
-    return _run(qp, u0, time_s, info, "contact").lam
+    res = _run(qp, u0, time_s, info, "contact")
+    return res.lam, res.x
 
 
 def friction_phase_ipm(J: sp.csc_matrix, c: np.ndarray, N: sp.csc_matrix, inv_m: np.ndarray, u1: np.ndarray,

@@ -26,7 +26,7 @@ from .constraints import BodyTable, ConstraintSet
 from .contact_solver import Impulses, SolverParams
 from . import exact_reference_large_island as large_island
 from .exact_reference import (DIRECT_ROWS_LIMIT, SOLVER_TOLERANCE, Budget, ExactReference, ExactReferenceError,
-                              exact_reference_bounded)
+                              ExactReferenceInterrupted, exact_reference_bounded)
 from .exact_reference_large_island import ITERATIVE_TOLERANCE
 
 CACHE_VERSION = 3  # bump whenever the reference computation changes
@@ -122,6 +122,8 @@ def cached_exact_reference(bodies: BodyTable, cons: ConstraintSet, cache_dir: st
     t0 = time.perf_counter()
     try:
         ref = exact_reference_bounded(bodies, cons, params, budget)
+    except ExactReferenceInterrupted:
+        raise
     except ExactReferenceError as exc:
         _write_atomically(failed, json.dumps({"reason": str(exc), "time_s": budget.time_s,
                                               "memory_bytes": budget.memory_bytes,

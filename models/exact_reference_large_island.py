@@ -25,16 +25,18 @@ SOLVED_KEY = "large island solved by"  # info key prefix: the reference must be 
 
 
 def large_contact_phase(J: sp.csc_matrix, c: np.ndarray, inv_m: np.ndarray, u0: np.ndarray, time_s: float,
-                        info: dict[str, float]) -> np.ndarray:
-    """The normal impulses (per row of J) of a large island's contact phase."""
+                        info: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The normal impulses (per row of J) of a large island's contact phase, and a primal velocity point for its
+    certificate (the interior point's primal iterate; MPRGP's u(lam) itself)."""
     info[f"contact phase: {SOLVED_KEY} {LARGE_ISLAND_METHOD}"] = 1.0
     if LARGE_ISLAND_METHOD == "ipm":
         from .exact_reference_body_space import contact_phase_ipm
 
         return contact_phase_ipm(J, c, inv_m, u0, time_s * CONTACT_TIME_SHARE, info)
     rows = J.shape[0]
-    return _mprgp(J, inv_m, J @ u0 + c, np.zeros(rows), np.full(rows, np.inf), time_s * CONTACT_TIME_SHARE, info,
-                  "contact")
+    lam = _mprgp(J, inv_m, J @ u0 + c, np.zeros(rows), np.full(rows, np.inf), time_s * CONTACT_TIME_SHARE, info,
+                 "contact")
+    return lam, u0 + inv_m * (J.T @ lam)
 
 
 def large_friction_phase(J: sp.csc_matrix, c: np.ndarray, N: sp.csc_matrix, inv_m: np.ndarray, u1: np.ndarray,
@@ -102,14 +104,16 @@ def needs_certificate(info: dict[str, float]) -> bool:
 
 
 def certify(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarray, info: dict[str, float],
-            normal_residual: float) -> None:
+            normal_residual: float, primal: np.ndarray) -> None:
     """The certified distance of a large island's reference from the exact limit (models/exact_bound.py):
-    contact phase by weak duality; the friction phase's map u1 -> u2 is the M-proximal map of a convex function
+    contact phase by weak duality (the smaller of the bounds from u(lam) and from the primal point ``primal``, both
+    valid); the friction phase's map u1 -> u2 is the M-proximal map of a convex function
     (boxes fixed), hence non-expansive, so the final state's distance is at most the sum of both phases' bounds.
     Raises ExactReferenceError when it exceeds CERTIFIED_ACCEPT."""
     from .exact_bound import contact_phase_bound
 
-    contact = contact_phase_bound(bodies, cons, normal)["certified |u - u*|_M (sqrt(kg) m/s)"]
+    key = "certified |u - u*|_M (sqrt(kg) m/s)"
+    contact = min(contact_phase_bound(bodies, cons, normal)[key], contact_phase_bound(bodies, cons, normal, primal)[key])
     total = contact + info.get(FRICTION_BOUND_KEY, 0.0)
     dyn = bodies.dynamic
     dv = total * float(np.sqrt(bodies.inv_mass[dyn].max(initial=0.0)))

@@ -275,3 +275,55 @@ def test_mprgp_solves_a_small_box_qp() -> None:
     natural = res.x - np.clip(res.x - grad, lo, hi)
     assert np.abs(natural).max() < 1e-9
     assert np.sum((res.x == lo) | (res.x == hi)) > 0  # some bounds are active: the test exercises them
+
+
+def test_a_solve_killed_from_outside_is_reported_and_not_recorded(pile, tmp_path: Path,
+                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """A solving process killed by a signal (the machine's OOM killer) says so, and the cache records no failure:
+    it says nothing about the problem, so the next run tries again."""
+    import os
+    import signal
+
+    from models import exact_reference as er
+    from models import exact_reference_cache as erc
+
+    bodies, cons, _, _ = pile
+
+    def killed(prob: er.QpProblem, limit: float) -> er.QpSolution:
+        os.kill(os.getpid(), signal.SIGKILL)
+        raise AssertionError("unreachable")
+
+    with pytest.raises(er.ExactReferenceInterrupted, match="killed by signal 9"):
+        er.exact_reference_bounded(bodies, cons, solver=killed)
+
+    def interrupted(*args: object, **kw: object) -> er.ExactReference:
+        raise er.ExactReferenceInterrupted("killed by signal 9 from outside")
+
+    monkeypatch.setattr(erc, "exact_reference_bounded", interrupted)
+    with pytest.raises(ExactReferenceError, match="signal 9"):
+        cached_exact_reference(bodies, cons, tmp_path)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_contact_phase_bound_from_a_primal_point(pile) -> None:
+    """The bound from a primal point (the interior point's path) holds for perturbed impulses and primal points, and
+    is far tighter than the bound from u(lam) alone when the primal point is the exact one."""
+    from models.exact_bound import contact_phase_bound
+    from models.exact_reference_assembly import Layout, contact_rows
+
+    bodies, cons, _, ref = pile
+    layout = Layout(bodies)
+    rows, active = contact_rows(layout, cons)
+    exact = layout.velocity(ref.contact_bodies)
+    m = 1.0 / layout.inv_m
+    rng = np.random.default_rng(7)
+    key = "certified |u - u*|_M (sqrt(kg) m/s)"
+    for scale in (1e-6, 1e-3):
+        normal = ref.impulses.normal * (1.0 + scale * rng.uniform(-1, 1, ref.impulses.normal.shape))
+        u = layout.velocity(bodies) + layout.inv_m * (rows.J.T @ normal[active])
+        true = float(np.sqrt(np.sum(m * (u - exact) ** 2)))
+        for primal in (exact, exact + scale * rng.standard_normal(exact.shape)):
+            bound = contact_phase_bound(bodies, cons, normal, primal)[key]
+            assert true <= bound, (scale, true, bound)
+    tight = contact_phase_bound(bodies, cons, ref.impulses.normal, exact)[key]
+    assert tight <= 1e-5 and tight < contact_phase_bound(bodies, cons, ref.impulses.normal * (1 + 1e-6))[key]
