@@ -59,11 +59,11 @@ _NUMPY_CASTS: dict[tuple[int, int], type[np.floating]] = {(8, 23): np.float32, (
 
 @dataclass(frozen=True)
 class _CastRule:
-    """A format's rounding by a numpy cast: the float type, the format's min normal in it, and the magnitude below
-    which a float64 value flushes to zero."""
+    """A format's rounding by a numpy cast: the float type, the format's min normal, and the magnitude below which
+    a float64 value flushes to zero."""
 
     dtype: type[np.floating]
-    min_normal: np.floating
+    min_normal: float
     flush_below: float
 
 
@@ -183,11 +183,12 @@ class NumberFormat:
             return self.round_bitwise(x)
         x = np.asarray(x, dtype=np.float64)
         with np.errstate(over="ignore", invalid="ignore"):
-            narrow = x.astype(rule.dtype)
-        # more magnitudes of at most min normal than zeros: some element needs the flush threshold
-        if np.count_nonzero(np.abs(narrow) <= rule.min_normal) > narrow.size - np.count_nonzero(narrow):
-            return _flush_below(x, narrow.astype(np.float64), rule.flush_below)
-        return narrow.astype(np.float64)
+            r = x.astype(rule.dtype).astype(np.float64)
+        # more magnitudes of at most min normal than zeros: some element needs the flush threshold (the check
+        # reads float64, which numpy computes natively; float16 arithmetic is emulated)
+        if np.count_nonzero(np.abs(r) <= rule.min_normal) > r.size - np.count_nonzero(r):
+            return _flush_below(x, r, rule.flush_below)
+        return r
 
     @functools.cached_property
     def _cast_rule(self) -> Optional["_CastRule"]:
@@ -195,7 +196,7 @@ class NumberFormat:
         dtype = _NUMPY_CASTS.get((self.exp_bits, self.man_bits))
         if dtype is None:
             return None
-        return _CastRule(dtype, dtype(self.min_normal),
+        return _CastRule(dtype, self.min_normal,
                          self.min_normal * (1.0 - float(np.ldexp(1.0, -(self.man_bits + 2)))))
 
     def round_bitwise(self, x: ArrayLike) -> np.ndarray:

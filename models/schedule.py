@@ -80,35 +80,45 @@ def hazard_order(cons: ConstraintSet, dynamic: np.ndarray, window: int,
 
 
 def _greedy_hazard_ranks(a_list: list[int], b_list: list[int], window: int) -> np.ndarray:
-    """The list scheduling of ``hazard_order`` over manifolds given by rank (their bodies, -1 = static)."""
+    """The list scheduling of ``hazard_order`` over manifolds given by rank (their bodies, -1 = static).
+
+    ``ready`` is a heap of manifolds believed ready (lowest rank first); a popped manifold whose bodies were issued
+    less than ``window`` slots ago waits in ``waiting``, a heap of ``earliest slot * m + rank`` (one int: the order
+    of (earliest slot, rank) pairs), until that slot. Static bodies share one entry of ``last_issue`` that stays
+    far in the past."""
     m = len(a_list)
-    last_issue: dict[int, int] = {}
-    ready: list[int] = list(range(m))  # heap of manifold indices believed ready
-    heapq.heapify(ready)
-    waiting: list[tuple[int, int]] = []  # heap of (earliest slot, manifold)
-    out: list[int] = []
-    slot = 0
     far = -(1 << 40)
+    static = max(a_list + b_list, default=-1) + 1
+    last_issue = [far] * (static + 1)
+    a_of = [x if x >= 0 else static for x in a_list]
+    b_of = [x if x >= 0 else static for x in b_list]
+    ready: list[int] = list(range(m))  # ascending: already a heap
+    waiting: list[int] = []
+    out: list[int] = []
+    push, pop = heapq.heappush, heapq.heappop
+    slot = 0
     while ready or waiting:
-        while waiting and waiting[0][0] <= slot:
-            heapq.heappush(ready, heapq.heappop(waiting)[1])
+        next_slot_key = (slot + 1) * m
+        while waiting and waiting[0] < next_slot_key:
+            push(ready, pop(waiting) % m)
         issued = False
         while ready:
-            k = heapq.heappop(ready)
-            earliest = max(last_issue.get(a_list[k], far), last_issue.get(b_list[k], far)) + window
+            k = pop(ready)
+            a, b = a_of[k], b_of[k]
+            la, lb = last_issue[a], last_issue[b]
+            earliest = (la if la > lb else lb) + window
             if earliest <= slot:
                 out.append(k)
-                if a_list[k] >= 0:
-                    last_issue[a_list[k]] = slot
-                if b_list[k] >= 0:
-                    last_issue[b_list[k]] = slot
+                last_issue[a] = slot
+                last_issue[b] = slot
+                last_issue[static] = far
                 issued = True
                 break
-            heapq.heappush(waiting, (earliest, k))
+            push(waiting, earliest * m + k)
         if not issued:
             if not waiting:
                 break
-            gap = waiting[0][0] - slot
+            gap = waiting[0] // m - slot
             out.extend([BUBBLE] * gap)
             slot += gap
             continue
