@@ -139,7 +139,17 @@ def configuration_markdown(title: str, summary: Summary, root: Path = REPO_ROOT)
     return lines + [""]
 
 
-def overview_markdown(summaries: dict[Configuration, Summary]) -> list[str]:
+def verdict(summary: Summary, config: Configuration, results: Sequence[CaseResult]) -> str:
+    """``met`` / ``MISSED``, or ``INCOMPLETE`` where a run of the configuration's own failed or is missing (the
+    figures are then those of the runs that did run, the shared ones included)."""
+    own = [r for r in results if r.counts_for(config)]
+    failed = [r for r in own if r.error]
+    if failed or all(r.shared for r in own):
+        return f"INCOMPLETE ({len(own) - len(failed)} of {len(own)} runs)"
+    return "met" if summary.meets_goals() else "MISSED"
+
+
+def overview_markdown(summaries: dict[Configuration, Summary], results: Sequence[CaseResult]) -> list[str]:
     """The table of every configuration: its build, its totals, whether it meets the goals."""
     lines = [f"| configuration | build | line | line with waivers | branch | toggle | goals (line {LINE_GOAL:.0f}%, "
              f"toggle {TOGGLE_GOAL:.0f}%) |", "|---|---|---|---|---|---|---|"]
@@ -147,7 +157,7 @@ def overview_markdown(summaries: dict[Configuration, Summary]) -> list[str]:
         t = s.total
         lines.append(f"| {config.name}: {config.readme} | {config.build().name} | {_cell(t.line)} | "
                      f"{_cell(s.line_with_waivers)} | {_cell(t.branch)} | {_cell(t.toggle)} | "
-                     f"{'met' if s.meets_goals() else 'MISSED'} |")
+                     f"{verdict(s, config, results)} |")
     return lines
 
 
@@ -157,7 +167,7 @@ def report_markdown(summaries: dict[Configuration, Summary], results: Sequence[C
     lines = ["# Coverage of rtl/ per kernel configuration (make coverage)", "",
              "A configuration's figures merge its own runs and the shared ones (the fp-operator vectors of its "
              "format, the register file's test); a point is covered when any instance or run hit it.", "",
-             *overview_markdown(summaries), ""]
+             *overview_markdown(summaries, results), ""]
     for config, summary in summaries.items():
         lines += configuration_markdown(f"{config.name}: {config.readme}", summary, root)
     stale = [w for w in WAIVERS if not any(w in s.waived.values() for s in summaries.values())]
@@ -176,10 +186,11 @@ def write_report(summaries: dict[Configuration, Summary], results: Sequence[Case
     (out / "coverage.json").write_text(json.dumps({c.name: s.to_json() for c, s in summaries.items()},
                                                   indent=1) + "\n")
     (out / "coverage.md").write_text(report_markdown(summaries, results))
-    print("\n".join(overview_markdown(summaries)))
+    print("\n".join(overview_markdown(summaries, results)))
     for config, s in summaries.items():
         open_points = [u for u in s.uncovered if u not in s.waived]
-        print(f"{config.name}: line {Row.pct(s.total.line):.1f}% ({Row.pct(s.line_with_waivers):.1f}% with "
+        print(f"{config.name} ({verdict(s, config, results)}): line {Row.pct(s.total.line):.1f}% "
+              f"({Row.pct(s.line_with_waivers):.1f}% with "
               f"{len(s.waived)} waived; goal {LINE_GOAL:.0f}%), branch {Row.pct(s.total.branch):.1f}%, toggle "
               f"{Row.pct(s.total.toggle):.1f}% (goal {TOGGLE_GOAL:.0f}%); {len(open_points)} line points open")
     print(f"details: {out / 'coverage.md'}")

@@ -37,6 +37,11 @@ class CaseResult:
     def status_line(self) -> str:
         return f"  {self.case.label}: {self.seconds:.1f} s {self.error or 'ok'}"
 
+    @property
+    def shared(self) -> bool:
+        """A run outside the kernel harness (its coverage counts for several configurations)."""
+        return isinstance(self.case, SharedCase)
+
     def counts_for(self, config: Configuration) -> bool:
         """Whether this run's coverage is part of ``config``'s."""
         return self.case.config == config.name if isinstance(self.case, Case) else self.case.counts_for(config)

@@ -12,7 +12,7 @@ import numpy as np
 from models.bad_input import CATALOGUE
 from models.dma_model import get_preset
 from models.number_format import FP32
-from sim.coverage import cases, configurations, data, input_edits, report, waivers
+from sim.coverage import cases, configurations, data, input_edits, report, runs, waivers
 from sim.kernel_build import KernelBuild
 
 CANNED = Path(__file__).resolve().parent / "data" / "coverage_canned.dat"
@@ -102,3 +102,21 @@ def test_bad_input_edits_make_the_catalogue() -> None:
     labels = {c.label for c in cases.CASES}
     assert all(f"stream-fp32-stack-bad-{e.name}" in labels for e in input_edits.BAD_INPUT_EDITS)
     assert all(f"window-fp32-l2-pile-bad-{e.name}" in labels for e in input_edits.WINDOW_BAD_INPUT_EDITS)
+
+
+def _own_runs(config: configurations.Configuration) -> list[runs.CaseResult]:
+    return [runs.CaseResult(c, Path("coverage.dat"), 1.0) for c in cases.CASES_OF[config.name]]
+
+
+def test_configuration_without_its_own_runs_is_incomplete() -> None:
+    """Figures from the shared runs alone (or with a failed run of its own) never read as a met goal."""
+    config = configurations.BY_NAME["window-fp32-l2"]
+    full = report.Summary([], report.Row("total", [10, 10], [1, 1], [10, 10]), [])
+    low = report.Summary([], report.Row("total", [10, 10], [1, 1], [8, 10]), [])
+    shared = runs.CaseResult(cases.REGISTER_CASE, Path("coverage.dat"), 1.0)
+    own = _own_runs(config)
+    assert report.verdict(full, config, [shared]).startswith("INCOMPLETE")
+    assert report.verdict(full, config, [shared, *own]) == "met"
+    assert report.verdict(low, config, [shared, *own]) == "MISSED"
+    own[0] = runs.CaseResult(own[0].case, None, 1.0, error="harness exit 1")
+    assert report.verdict(full, config, [shared, *own]) == f"INCOMPLETE ({len(own)} of {len(own) + 1} runs)"
