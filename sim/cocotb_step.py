@@ -92,6 +92,7 @@ def run_cocotb_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
         raise ValueError(f"{job.bodies.num_bodies} bodies / {job.manifolds} manifolds exceed the kernel's "
                          f"MAX_BODIES {kb.max_bodies} / MAX_MANIFOLDS {kb.max_manifolds}")
     run_dir.mkdir(parents=True, exist_ok=True)
+    run_dir = run_dir.resolve()  # the simulator runs in the bench's build directory: its files by absolute path
     case = run_dir / CASE_NAME
     t0 = time.perf_counter()
     meta = write_case(case, job, golden, preset, label, seed, schedule)
