@@ -173,7 +173,8 @@ def predict(shape: KernelShape, dma: DmaTiming, step: StepShape) -> Prediction:
 
 def predict_job(job: "KernelJob", preset: DmaPreset, prefetched: bool = False) -> Prediction:
     """The model of ``job`` run by ``sim.kernel_step.run_kernel_step`` with ``preset`` (gap and backpressure 0)."""
-    return predict(KernelShape.of(job.fmt, preset.stream_bits, inertia_words=job.inertia_words),
+    return predict(KernelShape.of(job.fmt, preset.stream_bits, inertia_words=job.inertia_words,
+                                  friction_words=job.friction_words),
                    DmaTiming.of(preset, prefetched),
                    StepShape.of_job(job))
 

@@ -59,6 +59,12 @@ class KernelJob:
         return sf.kernel_inertia_words(self.bodies)
 
     @property
+    def friction_words(self) -> int:
+        """Friction-coefficient words per friction record of the kernel build that runs this step
+        (``sf.kernel_friction_words``: 1 where the manifolds carry their own coefficient)."""
+        return sf.kernel_friction_words(self.cons)
+
+    @property
     def slots(self) -> np.ndarray:
         """The kernel's manifold slots in order (-1: an empty lane of the window kernel)."""
         if self.record_window is not None:

@@ -16,9 +16,10 @@ record             layout
 =================  ======================================================================================
 contact            64-bit header, then 23 words: n(3), p[0..3] xyz (12), jac_inv(4), b(4)
 (contact passes)   -> 64 + 23 W bits
-friction           64-bit header, then 14 words: n(3), c(3), t0(3), t1(3), f_jac_inv(2)
-(friction passes)  -> 64 + 14 W bits
-window             64-bit header, then the 23 contact words and the 14 friction words -> 64 + 37 W bits
+friction           64-bit header, then 14 + F words: n(3), c(3), t0(3), t1(3), f_jac_inv(2), and with F = 1 the
+(friction passes)  manifold's friction coefficient mu (a scene whose friction varies; F = 0: the kernel's one
+                   coefficient, its build without the word) -> 64 + (14 + F) W bits
+window             64-bit header, then the 23 contact words and the 14 + F friction words -> 64 + (37 + F) W bits
 (window kernel)
 header             bits 31:0 body_a, bits 62:32 body_b, bit 63 spin_damp (all record kinds)
 body-in            14 + I words: pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass(1), inv_inertia(I): I = 1
@@ -77,6 +78,12 @@ def body_in_word_count(inertia_words: int = KERNEL_INERTIA_WORDS) -> int:
 
 
 BODY_IN_WORDS = body_in_word_count()
+
+
+def kernel_friction_words(cons: ConstraintSet) -> int:
+    """The friction-coefficient words per friction record of the kernel build that runs ``cons`` (its ``MU_W``): 1
+    where the manifolds carry their own coefficient (``ConstraintSet.per_manifold_friction``), else 0."""
+    return 1 if cons.per_manifold_friction else 0
 
 
 def kernel_inertia_words(bodies: BodyTable) -> int:
@@ -180,12 +187,10 @@ def contact_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np
 
 
 def friction_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np.ndarray:
-    """(K, 14) bit patterns: n(3), c(3), t0(3), t1(3), f_jac_inv(2)."""
-    if cons.per_manifold_friction:
-        raise ValueError("the constraints carry a friction coefficient per manifold (the scene's friction varies); "
-                         "the kernel's friction record has no friction word: it uses its one coefficient")
+    """(K, 14 + F) bit patterns: n(3), c(3), t0(3), t1(3), f_jac_inv(2), then (F = :func:`kernel_friction_words`
+    = 1) the manifold's friction coefficient."""
     vals = np.concatenate([cons.normal[idx], cons.center[idx], cons.tangent[idx, 0], cons.tangent[idx, 1],
-                           cons.f_jac_inv[idx]], axis=1)
+                           cons.f_jac_inv[idx], cons.friction[idx]], axis=1)
     return fmt.encode(vals)
 
 
@@ -232,6 +237,7 @@ class StreamLayout:
     cons_beat_bits: int = DEFAULT_CONS_BEAT_BITS
     body_beat_bits: int = DEFAULT_BODY_BEAT_BITS
     inertia_words: int = KERNEL_INERTIA_WORDS
+    friction_words: int = 0  # the friction-coefficient words of a friction record (kernel_friction_words)
 
     @property
     def word_bits(self) -> int:
@@ -243,11 +249,11 @@ class StreamLayout:
 
     @property
     def friction_bits(self) -> int:
-        return HEADER_BITS + FRICTION_WORDS * self.word_bits
+        return HEADER_BITS + (FRICTION_WORDS + self.friction_words) * self.word_bits
 
     @property
     def window_bits(self) -> int:
-        return HEADER_BITS + WINDOW_WORDS * self.word_bits
+        return HEADER_BITS + (WINDOW_WORDS + self.friction_words) * self.word_bits
 
     @property
     def window_beats(self) -> int:
@@ -381,9 +387,10 @@ def pack_window_stream(fmt: NumberFormat, cons: ConstraintSet, slots: np.ndarray
 
 
 def unpack_constraint_records(fmt: NumberFormat, beats: np.ndarray, kind: int,
-                              beat_bits: int = DEFAULT_CONS_BEAT_BITS) -> dict[str, np.ndarray]:
-    """Decode one pass's beats (all of one kind) into header fields and float64 values."""
-    nwords = CONTACT_WORDS if kind == CONTACT_PASS else FRICTION_WORDS
+                              beat_bits: int = DEFAULT_CONS_BEAT_BITS, friction_words: int = 0) -> dict[str, np.ndarray]:
+    """Decode one pass's beats (all of one kind; friction records with ``friction_words`` coefficient words) into
+    header fields and float64 values."""
+    nwords = CONTACT_WORDS if kind == CONTACT_PASS else FRICTION_WORDS + friction_words
     hdr, words = unpack_records(beats, nwords, fmt.width, beat_bits, header=True)
     assert hdr is not None
     out: dict[str, np.ndarray] = {
@@ -401,6 +408,7 @@ def unpack_constraint_records(fmt: NumberFormat, beats: np.ndarray, kind: int,
         out["center"] = v[:, 3:6]
         out["tangent"] = np.stack([v[:, 6:9], v[:, 9:12]], axis=1)
         out["f_jac_inv"] = v[:, 12:14]
+        out["friction"] = v[:, 14:14 + friction_words]
     return out
 
 

@@ -71,6 +71,7 @@ module pgs_sequencer #(
     parameter int WINDOW_CTX     = 8,      // passes active at a time in the window (a power of two >= 2)
     parameter int LANES          = 1,      // manifolds issued per cycle (a power of two; > 1 needs WINDOW > 0)
     parameter int IINV_W         = 3,      // inverse-inertia words per body: 1 scalar, 3 diagonal, 6 symmetric 3x3
+    parameter int MU_W           = 0,      // friction-coefficient words per friction record: 0 the constant, 1 a word
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64
 ) (
@@ -124,9 +125,10 @@ module pgs_sequencer #(
     localparam int B_BEATS   = (BREC_W + BODY_IN_W - 1) / BODY_IN_W;
     localparam int O_BEATS   = (OREC_W + BODY_OUT_W - 1) / BODY_OUT_W;
     localparam int C_BEATS   = (64 + 23 * W + CONS_W - 1) / CONS_W;     // contact record
-    localparam int F_BEATS   = (64 + 14 * W + CONS_W - 1) / CONS_W;     // friction record
+    localparam int F_WORDS   = 14 + MU_W;                               // friction record words (mu last)
+    localparam int F_BEATS   = (64 + F_WORDS * W + CONS_W - 1) / CONS_W; // friction record
     localparam int CM_BEATS  = C_BEATS > F_BEATS ? C_BEATS : F_BEATS;
-    localparam int WR_BEATS  = (64 + 37 * W + CONS_W - 1) / CONS_W;     // window record (contact + friction)
+    localparam int WR_BEATS  = (64 + (23 + F_WORDS) * W + CONS_W - 1) / CONS_W;  // window record (contact + friction)
     localparam int C_LAT     = pgs_pipe_latency_pkg::contact_latency(MAN_BITS);
     localparam int F_LAT     = pgs_pipe_latency_pkg::friction_latency(MAN_BITS);
     localparam int CREC_W    = CM_BEATS * CONS_W;
@@ -146,6 +148,9 @@ module pgs_sequencer #(
     end
     if (IINV_W != 1 && IINV_W != 3 && IINV_W != 6) begin : g_bad_iinv
         $error("pgs_sequencer: IINV_W (inverse-inertia words per body) must be 1, 3 or 6");
+    end
+    if (MU_W != 0 && MU_W != 1) begin : g_bad_mu
+        $error("pgs_sequencer: MU_W (friction-coefficient words per friction record) must be 0 or 1");
     end
 
     typedef enum logic [2:0] {S_IDLE, S_LOAD, S_SOLVE, S_DRAIN, S_INTEG, S_DONE} phase_t;
@@ -316,7 +321,7 @@ module pgs_sequencer #(
                 for (int l = 0; l < LANES; l++) begin
                     lrec[l] = '0;
                     lrec[l][0 +: 64] = wrec[l*LREC_W +: 64];
-                    if (crec_tag == FRICTION) lrec[l][64 +: 14*W] = wrec[l*LREC_W + 64 + 23*W +: 14*W];
+                    if (crec_tag == FRICTION) lrec[l][64 +: F_WORDS*W] = wrec[l*LREC_W + 64 + 23*W +: F_WORDS*W];
                     else                      lrec[l][64 +: 23*W] = wrec[l*LREC_W + 64 +: 23*W];
                 end
             end
@@ -329,7 +334,8 @@ module pgs_sequencer #(
             logic unused_window;
             always_comb begin
                 unused_window = ^{w_done, r_fetch[31:ITER_W+1]};
-                for (int l = 0; l < LANES; l++) unused_window ^= ^wrec[l*LREC_W + 64 + 37*W +: LREC_W - 64 - 37*W];
+                for (int l = 0; l < LANES; l++)
+                    unused_window ^= ^wrec[l*LREC_W + 64 + (23 + F_WORDS)*W +: LREC_W - 64 - (23 + F_WORDS)*W];
             end
         end
     endgenerate
@@ -360,7 +366,7 @@ module pgs_sequencer #(
         end
     end
 
-    // checks of each lane's record (contact: 23 words, friction: 14 words after the 64-bit header). An
+    // checks of each lane's record (contact: 23 words, friction: F_WORDS after the 64-bit header). An
     // all-ones header in the window kernel is an empty lane (the host's padding): never issued, never
     // rejected, no error.
     logic slot_rej [MAX_MANIFOLDS];   // slots rejected earlier in the step (written for every slot in pass 0)
@@ -374,7 +380,7 @@ module pgs_sequencer #(
             automatic logic rej_bad;
             l_nonfinite[l] = 1'b0;
             for (int k = 0; k < 23; k++) begin
-                if (k < 14 || rkind == CONTACT)
+                if (k < F_WORDS || rkind == CONTACT)
                     l_nonfinite[l] = l_nonfinite[l] || lrec[l][64 + k*W + MAN_BITS +: EXP_BITS] == '1;
             end
             l_empty[l]  = WINDOW > 0 && !crec_trunc && lhdr[l] == '1;
@@ -468,7 +474,7 @@ module pgs_sequencer #(
         wire [BREC_W-1:0] ra = rd_data[2*l*BREC_W +: BREC_W];
         wire [BREC_W-1:0] rb = rd_data[(2*l+1)*BREC_W +: BREC_W];
         logic [(47 + 2*IINV_W)*W-1:0] c_in;
-        logic [(40 + 2*IINV_W)*W-1:0] f_in;
+        logic [(40 + 2*IINV_W + MU_W)*W-1:0] f_in;
         always_comb begin
             c_in = '0;
             c_in[0 +: 23*W] = s1_words;
@@ -493,10 +499,12 @@ module pgs_sequencer #(
             f_in[39*W +: W]   = rb[13*W +: W];
             f_in[40*W +: IINV_W*W] = ra[14*W +: IINV_W*W];
             f_in[(40 + IINV_W)*W +: IINV_W*W] = rb[14*W +: IINV_W*W];
+            for (int k = 0; k < MU_W; k++) f_in[(40 + 2*IINV_W + k)*W +: W] = s1_words[(14 + k)*W +: W];   // mu
         end
 
         logic [EV_W-1:0]   c_ev_ovf, c_ev_unf, c_ev_inv, f_ev_ovf, f_ev_unf, f_ev_inv;
-        // the pipes of the inverse-inertia mode (rtl/generated: one module per mode, the same ports and latency)
+        // the pipes of the inverse-inertia mode (rtl/generated: one module per mode, the same ports and latency);
+        // with MU_W = 1 the friction pipe takes the manifold's coefficient as its last word (the *_mu modules)
         wire c_in_valid = s1_valid && s1_kind == CONTACT;
         wire f_in_valid = s1_valid && s1_kind == FRICTION;
         if (IINV_W == 1) begin : g_scalar
@@ -504,28 +512,49 @@ module pgs_sequencer #(
                 .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
                 .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
                 .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
-            pgs_friction_pipe_scalar #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
-                .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
-                .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-                .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            if (MU_W == 1) begin : g_mu
+                pgs_friction_pipe_scalar_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            end else begin : g_mu_const
+                pgs_friction_pipe_scalar #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            end
         end else if (IINV_W == 6) begin : g_full
             pgs_contact_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
                 .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
                 .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
                 .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
-            pgs_friction_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
-                .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
-                .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-                .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            if (MU_W == 1) begin : g_mu
+                pgs_friction_pipe_full_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            end else begin : g_mu_const
+                pgs_friction_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            end
         end else begin : g_diagonal
             pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
                 .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
                 .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
                 .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
-            pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
-                .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
-                .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-                .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            if (MU_W == 1) begin : g_mu
+                pgs_friction_pipe_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            end else begin : g_mu_const
+                pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            end
         end
 
         // the window kernel issues contact and friction records back to back: the friction results wait for

@@ -5,7 +5,8 @@ the file; every one of them is linted as a top from its own file plus the packag
 being found by file name in the list's folders (``-y``), two runs at a time. A module with the
 ``EXP_BITS`` / ``MAN_BITS`` parameters is linted with its default parameters and again with the
 binary16 and bfloat16 parameter sets; one with a ``WINDOW`` parameter also as a window kernel; one with an
-``IINV_W`` parameter also with the 1- and 6-word inverse inertia. Any warning or error makes the exit status non-zero.
+``IINV_W`` parameter also with the 1- and 6-word inverse inertia; one with a ``MU_W`` parameter also with the
+per-manifold friction word. Any warning or error makes the exit status non-zero.
 
 Usage: ``python -m sim.lint [-v] [TOP ...]`` (default: every top).
 """
@@ -56,6 +57,16 @@ INERTIA_PARAM_SETS: dict[str, dict[str, int]] = {
     "iinv-full-fp16": {"IINV_W": 6, **format_params(FP16)},
 }
 
+# The per-manifold friction word: modules with a MU_W parameter are also linted with it, in every inverse-inertia
+# mode, in fp16 and on the window kernel.
+FRICTION_PARAM_SETS: dict[str, dict[str, int]] = {
+    "mu": {"MU_W": 1},
+    "mu-iinv-scalar": {"MU_W": 1, "IINV_W": 1},
+    "mu-iinv-full": {"MU_W": 1, "IINV_W": 6},
+    "mu-iinv-full-fp16": {"MU_W": 1, "IINV_W": 6, **format_params(FP16)},
+    "mu-window": {"MU_W": 1, "WINDOW": 1024},
+}
+
 _PARAM_RE = re.compile(r"\bparameter\s+(?:(?:int|integer|logic|bit)\b[^=;,)]*?\s)?\s*(\w+)\s*=")
 _PACKAGE_RE = re.compile(r"^\s*package\s+\w+", re.MULTILINE)
 
@@ -87,7 +98,7 @@ def runs_for(module_file: Path) -> list[LintRun]:
     top = module_file.stem
     params = set(_PARAM_RE.findall(module_file.read_text()))
     out = [LintRun(top, "default", {})]
-    for label, pset in (FORMAT_PARAM_SETS | WINDOW_PARAM_SETS | INERTIA_PARAM_SETS).items():
+    for label, pset in (FORMAT_PARAM_SETS | WINDOW_PARAM_SETS | INERTIA_PARAM_SETS | FRICTION_PARAM_SETS).items():
         if set(pset) <= params:
             out.append(LintRun(top, label, dict(pset)))
     return out

@@ -14,8 +14,8 @@ kernel and the Bullet 2 reference assume; passing False is refused). ``data_path
 (pybullet's search path; a relative file name found beside the world file is used from there). ``BULLET_CONVENTION``
 names the convention of the world's frames (``meta["bullet_convention"]``: ``bullet2``, the true inertia rotated by
 the body's orientation, Bullet 2's and pybullet's; ``bullet_gpu``; default ``world_axes``, the one the kernel ran
-before it carried the symmetric 3x3: the kernel takes ``bullet2``'s full matrix, but not yet a friction coefficient
-per manifold, which ``bullet2`` needs where the bodies' friction differs). ``params`` are ``SCENE_ARGS``, typed by the
+before it carried the symmetric 3x3; the kernel takes ``bullet2``'s full matrix and its pairs' friction, a word
+per manifold). ``params`` are ``SCENE_ARGS``, typed by the
 defaults of ``build``'s keyword parameters. The world is y-up with gravity (0, -9.8, 0) unless ``build`` sets
 another; the capture's solver settings (time step, iterations, ...) are applied after ``build``. Bodies become
 frame bodies in creation order (frame body 0 is the first body created: the ground, in the shipped worlds).
