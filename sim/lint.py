@@ -57,13 +57,10 @@ INERTIA_PARAM_SETS: dict[str, dict[str, int]] = {
     "iinv-full-fp16": {"IINV_W": 6, **format_params(FP16)},
 }
 
-# The per-manifold friction word: modules with a MU_W parameter are also linted with it, in every inverse-inertia
-# mode, in fp16 and on the window kernel.
+# The per-manifold friction word: modules with a MU_W parameter are also linted with it, in the full inverse-inertia
+# mode (the build that runs Bullet 2 worlds) and on the window kernel (the friction words of the combined record).
 FRICTION_PARAM_SETS: dict[str, dict[str, int]] = {
-    "mu": {"MU_W": 1},
-    "mu-iinv-scalar": {"MU_W": 1, "IINV_W": 1},
     "mu-iinv-full": {"MU_W": 1, "IINV_W": 6},
-    "mu-iinv-full-fp16": {"MU_W": 1, "IINV_W": 6, **format_params(FP16)},
     "mu-window": {"MU_W": 1, "WINDOW": 1024},
 }
 
