@@ -29,6 +29,9 @@ Inverse inertia (``models/inertia.py``): ``test_pgs_kernel_full_inverse_inertia`
 non-cube boxes in Bullet 2's convention (``docs/rotated_boxes_world.py``): the symmetric 3x3 per body, the kernel
 built with the 6-word body record (``IINV_W = 6``), bit-exact, and its cycles are the cycle model's;
 ``test_pgs_kernel_scalar_inverse_inertia`` runs the stack's cubes on the 1-word build (``IINV_W = 1``).
+Friction: ``test_pgs_kernel_manifold_friction`` runs a world of mixed shapes and frictions
+(``docs/mixed_shapes_world.py``) on the build whose friction records carry each manifold's coefficient
+(``MU_W = 1``), bit-exact, its cycles the cycle model's.
 """
 
 from __future__ import annotations
@@ -45,13 +48,14 @@ import pytest
 from cocotb_tests.tb.fp_events import predicted_events
 from models import cycle_model, scenes
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from models.contact_solver import SolverParams
+from models.constraints import FRICTION_COEFF
+from models.contact_solver import SolverParams, solve
 from models.dma_model import DmaPreset, get_preset
 from models.format_analyzer import inertia_mode_of
 from models.inertia import InertiaMode
 from models.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat
 from models.kernel_job import KernelJob
-from sim.kernel_build import default_window
+from sim.kernel_build import KernelBuild, default_window
 from sim.kernel_step import KernelResult, run_kernel_step
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
@@ -60,7 +64,10 @@ ITERATIONS = 4
 SCENES = KERNEL_TEST_SCENES  # the kernel test scenes, shared with coverage and regress
 # a world file of rotated non-cube boxes in Bullet 2's convention: the full inverse-inertia mode (IINV_W = 6)
 ROTATED_WORLD = str(Path(__file__).resolve().parents[1] / "docs" / "rotated_boxes_world.py")
-SCENE_PARAMS = {**SCENES, ROTATED_WORLD: {}}
+# a world file of spheres, capsules, cylinders, boxes and convex compounds of mixed friction in Bullet 2's
+# convention: the full inverse-inertia mode and a friction coefficient per manifold (IINV_W = 6, MU_W = 1)
+MIXED_FRICTION_WORLD = str(Path(__file__).resolve().parents[1] / "docs" / "mixed_shapes_world.py")
+SCENE_PARAMS = {**SCENES, ROTATED_WORLD: {}, MIXED_FRICTION_WORLD: {}}
 
 
 @dataclass
@@ -140,6 +147,23 @@ def test_pgs_kernel_full_inverse_inertia(tmp_path: Path) -> None:
     run_case(Case(ROTATED_WORLD, FP32, "hazard"), tmp_path)
 
 
+def test_pgs_kernel_manifold_friction(tmp_path: Path) -> None:
+    """Spheres, capsules, cylinders, turned boxes and convex compounds whose pairs' friction differ: every friction
+    record carries its manifold's coefficient (the build with MU_W = 1 and the 6-word body record), and the step is
+    bit-exact with the golden model's per-manifold clamp (with random stream gaps and backpressure), which the
+    kernel's one coefficient would not give."""
+    frame = scenes.load_or_capture(MIXED_FRICTION_WORLD)
+    job = KernelJob.from_frame(frame, FP32, SolverParams(ITERATIONS), "hazard", default_window(FP32, 512))
+    assert job.friction_words == 1 and job.inertia_words == 6
+    assert KernelBuild.for_job(job, get_preset("zcu102")).name == "pgs_kernel_e8m23_c512_i6_mu"
+    mu = job.cons.friction[:, 0]
+    assert np.unique(mu).size > 5 and np.all(mu != FRICTION_COEFF)
+    one = dataclasses.replace(job.cons, friction=np.zeros((job.cons.num_manifolds, 0)))
+    per, const = (solve(job.bodies, c, job.schedule, job.fmt, job.params).bodies for c in (job.cons, one))
+    assert np.any(per.linear_velocity != const.linear_velocity)  # the coefficient word matters
+    run_case(Case(MIXED_FRICTION_WORLD, FP32, "hazard"), tmp_path)
+
+
 def test_pgs_kernel_scalar_inverse_inertia(tmp_path: Path) -> None:
     """The stack's cubes (the scalar mode: one inverse-inertia value per body) on the 1-word build (IINV_W = 1, the
     15-word body record), with random stream gaps and backpressure: bit-exact with the golden model."""
@@ -166,7 +190,8 @@ def check_cycle_bound(job: KernelJob, preset: DmaPreset, cycles: int) -> None:
 CYCLE_CASES = [(c, "zcu102", False) for c in CASES] + [
     (Case("pile", FP32, "hazard"), "ideal", False), (Case("stack", FP32, "pybullet"), "ideal", False),
     (Case("stack", FP32, "pybullet"), "zcu102", True), (Case("pile", FP16, "hazard"), "zcu102", True),
-    (Case(ROTATED_WORLD, FP32, "pybullet"), "zcu102", False)]
+    (Case(ROTATED_WORLD, FP32, "pybullet"), "zcu102", False),
+    (Case(MIXED_FRICTION_WORLD, FP32, "hazard"), "zcu102", False)]
 
 
 @pytest.mark.parametrize("case,dma,interleaved", CYCLE_CASES,

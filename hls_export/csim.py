@@ -58,7 +58,8 @@ class CsimError(RuntimeError):
 
 def csim_name(kb: KernelBuild) -> str:
     return (f"pgs_csim_c{kb.cons_bits}_b{kb.max_bodies}_m{kb.max_manifolds}"
-            + (f"_i{kb.inertia_words}" if kb.inertia_words != sf.KERNEL_INERTIA_WORDS else ""))
+            + (f"_i{kb.inertia_words}" if kb.inertia_words != sf.KERNEL_INERTIA_WORDS else "")
+            + ("_mu" if kb.friction_words else ""))
 
 
 def compile_cpp(sources: Sequence[Path], exe: Path, defines: Sequence[str] = (), cxx: str = "g++") -> Path:
@@ -84,7 +85,8 @@ def build_csim(kb: KernelBuild = KernelBuild(FP32), cxx: str = "g++") -> Path:
         raise ValueError(f"the HLS kernel is binary32 only, not {kb.fmt.name}")
     defines = [f"-DPGS_MAX_BODIES={kb.max_bodies}", f"-DPGS_MAX_MANIFOLDS={kb.max_manifolds}",
                f"-DPGS_CONS_W={kb.cons_bits}", f"-DPGS_BODY_IN_W={kb.body_in_bits}",
-               f"-DPGS_BODY_OUT_W={kb.body_out_bits}", f"-DPGS_IINV_W={kb.inertia_words}"]
+               f"-DPGS_BODY_OUT_W={kb.body_out_bits}", f"-DPGS_IINV_W={kb.inertia_words}",
+               f"-DPGS_MU_W={kb.friction_words}"]
     return compile_cpp(SOURCES, BUILD_ROOT / csim_name(kb) / "pgs_csim", defines, cxx)
 
 

@@ -5,6 +5,7 @@
 //   PGS_MAX_MANIFOLDS  impulse table depth = manifolds per pass (262144)
 //   PGS_CONS_W, PGS_BODY_IN_W, PGS_BODY_OUT_W  stream beat widths (512, 128, 128; pgs_stream.h)
 //   PGS_IINV_W         inverse-inertia words per body (3; 1 scalar, 6 the symmetric 3x3; pgs_stream.h)
+//   PGS_MU_W           friction-coefficient words per friction record (0 the constant 0.7; 1 a word; pgs_stream.h)
 #ifndef PGS_KERNEL_H
 #define PGS_KERNEL_H
 

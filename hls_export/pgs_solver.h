@@ -104,7 +104,8 @@ POINTS:
 inline void solve_friction(const FrictionRec& r, const BodyRef& A, const BodyRef& B, Velocity& va, Velocity& vb,
                            const float lam_n[4], float lam_t[2]) {
     const bool active = r.f_jac_inv[0] != 0.0f;  // Bullet's early return
-    const float limit = mul(constant(kFrictionCoeff), add(add(lam_n[0], lam_n[1]), add(lam_n[2], lam_n[3])));
+    const float mu = kMuWords ? r.mu : constant(kFrictionCoeff);
+    const float limit = mul(mu, add(add(lam_n[0], lam_n[1]), add(lam_n[2], lam_n[3])));
     const float neg_limit = -limit;
     const Vec3 ra = v_sub(r.c, A.x);
     const Vec3 rb = v_sub(r.c, B.x);

@@ -5,7 +5,7 @@
 // [j*B, (j+1)*B)). Words are W = 32 bits (binary32); word k of a record with a header sits at bits
 // [64 + 32k, 64 + 32k + 32).
 //   contact   header, n(3), p[0..3] xyz (12), jac_inv(4), b(4)         64 + 23 W bits
-//   friction  header, n(3), c(3), t0(3), t1(3), f_jac_inv(2)           64 + 14 W bits
+//   friction  header, n(3), c(3), t0(3), t1(3), f_jac_inv(2), mu (PGS_MU_W = 1)   64 + (14 + PGS_MU_W) W bits
 //   header    bits 31:0 body_a, 62:32 body_b, 63 spin_damp
 //   body-in   pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass, inv_inertia(PGS_IINV_W)   (14 + PGS_IINV_W) W bits
 //   body-out  pos(3), q(4), v(3), w(3)                                           13 W bits
@@ -28,6 +28,9 @@
 #ifndef PGS_IINV_W
 #define PGS_IINV_W 3  // inverse-inertia words per body (the RTL's IINV_W): 1 scalar, 3 diagonal, 6 xx yy zz xy xz yz
 #endif
+#ifndef PGS_MU_W
+#define PGS_MU_W 0  // friction-coefficient words per friction record (the RTL's MU_W): 0 the constant, 1 a word
+#endif
 #ifndef PGS_BODY_IN_W
 #define PGS_BODY_IN_W 128
 #endif
@@ -48,7 +51,9 @@ constexpr int kConsW = PGS_CONS_W;
 constexpr int kBodyInW = PGS_BODY_IN_W;
 constexpr int kBodyOutW = PGS_BODY_OUT_W;
 constexpr int kContactBeats = beats_for(kHeaderBits + kContactWords * kWordBits, kConsW);
-constexpr int kFrictionBeats = beats_for(kHeaderBits + kFrictionWords * kWordBits, kConsW);
+constexpr int kMuWords = PGS_MU_W;
+static_assert(kMuWords == 0 || kMuWords == 1, "PGS_MU_W must be 0 or 1");
+constexpr int kFrictionBeats = beats_for(kHeaderBits + (kFrictionWords + kMuWords) * kWordBits, kConsW);
 constexpr int kIInvWords = PGS_IINV_W;
 static_assert(kIInvWords == 1 || kIInvWords == 3 || kIInvWords == 6, "PGS_IINV_W must be 1, 3 or 6");
 static_assert(kBodyInInvInertia + 3 == kBodyInWords, "the default body-in record carries 3 inverse-inertia words");
@@ -88,6 +93,7 @@ struct FrictionRec {
     Vec3 n, c;
     Vec3 t[2];
     float f_jac_inv[2];
+    float mu;  // the manifold's friction coefficient (PGS_MU_W = 1; else the constant kFrictionCoeff)
 };
 
 // A body's world inverse inertia: the scalar, the diagonal (xx, yy, zz) or the symmetric 3x3 (xx, yy, zz, xy, xz, yz).
@@ -210,6 +216,7 @@ inline FrictionRec decode_friction(const friction_bits_t& r) {
     f.t[1] = vec_at(r, kHeaderBits, 9);
     f.f_jac_inv[0] = value_at(r, kHeaderBits, 12);
     f.f_jac_inv[1] = value_at(r, kHeaderBits, 13);
+    f.mu = kMuWords ? value_at(r, kHeaderBits, 14) : 0.0f;
     return f;
 }
 

@@ -27,7 +27,7 @@ from typing import Any, Callable, Optional
 import numpy as np
 
 from . import scenes
-from .constraints import BodyTable, ConstraintSet, body_table_from_state, friction_register, setup_constraints
+from .constraints import BodyTable, ConstraintSet, body_table_from_state, setup_constraints
 from .contact_solver import Impulses, SolverParams, solve
 from .frame import Frame
 from .inertia import CONVENTION_KEY, DEFAULT_CONVENTION, BulletConvention, convention_inverse_inertia, quat_to_matrix
@@ -155,7 +155,7 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
         state = world.body_state()
         gravity = np.asarray(scenes.GRAVITY, dtype=np.float64)
         ip = IntegrationParams(dt=world.dt / remedy.substeps, gravity=tuple(gravity))
-        solver = SolverParams(iterations=iterations, friction_coeff=friction_register(state["friction"], convention))
+        solver = SolverParams(iterations=iterations)  # bullet2's pairs carry their friction per manifold
         bodies = body_table_from_state(state, gravity, world.dt, convention=convention).rounded(ar)
         advance = stepper(ar, solver, ip)
         carried = _RemedyState()

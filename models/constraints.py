@@ -48,7 +48,7 @@ from .inertia import (AABB_MARGIN, BulletConvention, convention_inverse_inertia,
 from .number_format import Arithmetic
 
 __all__ = ["AABB_MARGIN", "FRICTION_COEFF", "MAX_FRICTION", "BodyTable", "ConstraintSet", "body_table",
-           "body_table_from_state", "combined_friction", "frame_friction_register", "friction_register", "gpu_inverse_inertia", "plane_space",
+           "body_table_from_state", "combined_friction", "gpu_inverse_inertia", "plane_space",
            "setup_constraints"]
 
 POSITION_DRIFT = 0.005  # m, Bullet GPU b3ConstraintCfg.m_positionDrift
@@ -204,28 +204,14 @@ def combined_friction(friction: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.
                    -MAX_FRICTION, MAX_FRICTION)
 
 
-def friction_register(friction: np.ndarray, convention: BulletConvention) -> float:
-    """The solver's one friction coefficient (``SolverParams.friction_coeff``, the kernel's constant) for bodies
-    of lateral friction ``friction`` (N,): Bullet GPU's hard-coded 0.7, or in the ``bullet2`` convention the
-    combined friction of any pair where every body has the same friction."""
-    f = np.asarray(friction, dtype=np.float64)
-    if convention is not BulletConvention.BULLET2 or f.size == 0 or np.any(f != f[0]):
-        return FRICTION_COEFF
-    return float(combined_friction(f[:1], np.zeros(1, np.int64), np.zeros(1, np.int64))[0])
-
-
-def frame_friction_register(frame: Frame) -> float:
-    """:func:`friction_register` of a frame's bodies in the frame's convention."""
-    return friction_register(frame.friction, convention_of(frame.meta))
-
-
 def setup_constraints(frame: Frame, bodies: BodyTable | None = None,
                       friction_coeff: float | None = None) -> ConstraintSet:
     """Build one Constraint4 per manifold from a frame's contacts (float64, on the host).
 
-    ``friction_coeff`` is the solver's one coefficient (default :func:`frame_friction_register`). In the ``bullet2``
-    convention, where a pair's combined friction differs from it, every manifold carries its own
-    (``ConstraintSet.friction``)."""
+    ``friction_coeff`` is the solver's one coefficient (default ``FRICTION_COEFF``, Bullet GPU's 0.7: the
+    kernel's constant and ``SolverParams``' default). In the ``bullet2`` convention, where any pair's combined
+    friction (pybullet's muA muB) differs from it, every manifold carries its own (``ConstraintSet.friction``:
+    the kernel's friction word), a world of one friction too."""
     bodies = bodies if bodies is not None else body_table(frame)
     a = frame.body_a.astype(np.int64)
     b = frame.body_b.astype(np.int64)
@@ -256,7 +242,7 @@ def setup_constraints(frame: Frame, bodies: BodyTable | None = None,
     ac = _normalize(center - x_a)
     aligned = np.sum(ab * ac, axis=1) > SPIN_DAMP_ALIGNMENT
     spin_damp = aligned | (bodies.inv_mass[a] == 0.0) | (bodies.inv_mass[b] == 0.0)
-    register = frame_friction_register(frame) if friction_coeff is None else friction_coeff
+    register = FRICTION_COEFF if friction_coeff is None else friction_coeff
     friction = np.zeros((m, 0))
     if convention_of(frame.meta) is BulletConvention.BULLET2:
         mu = combined_friction(frame.friction, a, b)

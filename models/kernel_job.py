@@ -90,12 +90,18 @@ class KernelJob:
     def stream_layout(self, cons_bits: int = sf.DEFAULT_CONS_BEAT_BITS) -> sf.StreamLayout:
         """The record sizes this step streams with constraint beats of ``cons_bits``."""
         return sf.StreamLayout(self.fmt, cons_beat_bits=cons_bits, inertia_words=self.inertia_words,
-                               impulses_in_records=self.impulses_in_records)
+                               impulses_in_records=self.impulses_in_records, friction_words=self.friction_words)
 
     @property
     def inertia_words(self) -> int:
         """Inverse-inertia words per body of the kernel build that runs this step (``sf.kernel_inertia_words``)."""
         return sf.kernel_inertia_words(self.bodies)
+
+    @property
+    def friction_words(self) -> int:
+        """Friction-coefficient words per friction record of the kernel build that runs this step
+        (``sf.kernel_friction_words``: 1 where the manifolds carry their own coefficient)."""
+        return sf.kernel_friction_words(self.cons)
 
     @property
     def slots(self) -> np.ndarray:

@@ -68,11 +68,13 @@ class KernelShape:
 
     @staticmethod
     def of(fmt: NumberFormat, cons_bits: int = 512, body_bits: int = 128,
-           inertia_words: int = KERNEL_INERTIA_WORDS, impulses_in_records: bool = False) -> "KernelShape":
+           inertia_words: int = KERNEL_INERTIA_WORDS, impulses_in_records: bool = False,
+           friction_words: int = 0) -> "KernelShape":
         """The shape of a build; ``inertia_words`` (1, 3 or 6) sets the body-in record's beats,
-        ``impulses_in_records`` the records' (with the impulses they carry)."""
+        ``impulses_in_records`` the records' (with the impulses they carry), ``friction_words`` (0 or 1, the
+        build's MU_W) the friction record's (every friction pipe has the same latency)."""
         lay = StreamLayout(fmt, cons_beat_bits=cons_bits, body_beat_bits=body_bits, inertia_words=inertia_words,
-                           impulses_in_records=impulses_in_records)
+                           impulses_in_records=impulses_in_records, friction_words=friction_words)
         return KernelShape(rtl_latency("pgs_contact_pipe", fmt), rtl_latency("pgs_friction_pipe", fmt),
                            rtl_latency("pgs_integrate_pipe", fmt), lay.contact_beats, lay.friction_beats,
                            lay.body_in_beats, lay.body_out_beats, cons_bits // 8, body_bits // 8,

@@ -16,9 +16,10 @@ record             layout
 =================  ======================================================================================
 contact            64-bit header, then 23 words: n(3), p[0..3] xyz (12), jac_inv(4), b(4)
 (contact passes)   -> 64 + 23 W bits
-friction           64-bit header, then 14 words: n(3), c(3), t0(3), t1(3), f_jac_inv(2)
-(friction passes)  -> 64 + 14 W bits
-window             64-bit header, then the 23 contact words and the 14 friction words -> 64 + 37 W bits
+friction           64-bit header, then 14 + F words: n(3), c(3), t0(3), t1(3), f_jac_inv(2), and with F = 1 the
+(friction passes)  manifold's friction coefficient mu (a scene whose friction varies; F = 0: the kernel's one
+                   coefficient, its build without the word) -> 64 + (14 + F) W bits
+window             64-bit header, then the 23 contact words and the 14 + F friction words -> 64 + (37 + F) W bits
 (window kernel)
 contact, impulses  the contact record, then lam[0..3] (4 words at word 23) -> 64 + 27 W bits
 in the records     (the streaming kernel built with IMPULSES_IN_RECORDS: no impulse RAM on chip)
@@ -101,6 +102,12 @@ def body_in_word_count(inertia_words: int = KERNEL_INERTIA_WORDS) -> int:
 
 
 BODY_IN_WORDS = body_in_word_count()
+
+
+def kernel_friction_words(cons: ConstraintSet) -> int:
+    """The friction-coefficient words per friction record of the kernel build that runs ``cons`` (its ``MU_W``): 1
+    where the manifolds carry their own coefficient (``ConstraintSet.per_manifold_friction``), else 0."""
+    return 1 if cons.per_manifold_friction else 0
 
 
 def kernel_inertia_words(bodies: BodyTable) -> int:
@@ -204,12 +211,10 @@ def contact_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np
 
 
 def friction_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np.ndarray:
-    """(K, 14) bit patterns: n(3), c(3), t0(3), t1(3), f_jac_inv(2)."""
-    if cons.per_manifold_friction:
-        raise ValueError("the constraints carry a friction coefficient per manifold (the scene's friction varies); "
-                         "the kernel's friction record has no friction word: it uses its one coefficient")
+    """(K, 14 + F) bit patterns: n(3), c(3), t0(3), t1(3), f_jac_inv(2), then (F = :func:`kernel_friction_words`
+    = 1) the manifold's friction coefficient."""
     vals = np.concatenate([cons.normal[idx], cons.center[idx], cons.tangent[idx, 0], cons.tangent[idx, 1],
-                           cons.f_jac_inv[idx]], axis=1)
+                           cons.f_jac_inv[idx], cons.friction[idx]], axis=1)
     return fmt.encode(vals)
 
 
@@ -271,26 +276,34 @@ class StreamLayout:
     body_beat_bits: int = DEFAULT_BODY_BEAT_BITS
     inertia_words: int = KERNEL_INERTIA_WORDS
     impulses_in_records: bool = False  # the records carry the impulses their pass starts from
+    friction_words: int = 0  # the friction-coefficient words of a friction record (kernel_friction_words)
 
     @property
     def word_bits(self) -> int:
         return self.fmt.width
 
     @property
-    def contact_words(self) -> int:
+    def contact_record_words(self) -> int:
+        """Words of a contact record after its header (with the impulses it carries)."""
         return CONTACT_WORDS + (CONTACT_IMPULSE_WORDS if self.impulses_in_records else 0)
 
     @property
-    def friction_words(self) -> int:
-        return FRICTION_WORDS + (FRICTION_IMPULSE_WORDS if self.impulses_in_records else 0)
+    def friction_record_words(self) -> int:
+        """Words of a friction record after its header: the 14, the coefficient words, then the impulses."""
+        return FRICTION_WORDS + self.friction_words + (FRICTION_IMPULSE_WORDS if self.impulses_in_records else 0)
+
+    @property
+    def friction_lam_word(self) -> int:
+        """Word of a friction record (after its header) where the impulses it carries start: after the coefficient."""
+        return FRICTION_LAM_WORD + self.friction_words
 
     @property
     def contact_bits(self) -> int:
-        return HEADER_BITS + self.contact_words * self.word_bits
+        return HEADER_BITS + self.contact_record_words * self.word_bits
 
     @property
     def friction_bits(self) -> int:
-        return HEADER_BITS + self.friction_words * self.word_bits
+        return HEADER_BITS + self.friction_record_words * self.word_bits
 
     def impulse_write_bytes(self, kind: int) -> int:
         """DDR bytes a manifold-pass of ``kind`` writes back (its field of the impulse buffer; 0 on chip)."""
@@ -307,7 +320,7 @@ class StreamLayout:
 
     @property
     def window_bits(self) -> int:
-        return HEADER_BITS + WINDOW_WORDS * self.word_bits
+        return HEADER_BITS + (WINDOW_WORDS + self.friction_words) * self.word_bits
 
     @property
     def window_beats(self) -> int:
@@ -452,9 +465,10 @@ def pack_window_stream(fmt: NumberFormat, cons: ConstraintSet, slots: np.ndarray
 
 
 def unpack_constraint_records(fmt: NumberFormat, beats: np.ndarray, kind: int,
-                              beat_bits: int = DEFAULT_CONS_BEAT_BITS) -> dict[str, np.ndarray]:
-    """Decode one pass's beats (all of one kind) into header fields and float64 values."""
-    nwords = CONTACT_WORDS if kind == CONTACT_PASS else FRICTION_WORDS
+                              beat_bits: int = DEFAULT_CONS_BEAT_BITS, friction_words: int = 0) -> dict[str, np.ndarray]:
+    """Decode one pass's beats (all of one kind; friction records with ``friction_words`` coefficient words) into
+    header fields and float64 values."""
+    nwords = CONTACT_WORDS if kind == CONTACT_PASS else FRICTION_WORDS + friction_words
     hdr, words = unpack_records(beats, nwords, fmt.width, beat_bits, header=True)
     assert hdr is not None
     out: dict[str, np.ndarray] = {
@@ -472,6 +486,7 @@ def unpack_constraint_records(fmt: NumberFormat, beats: np.ndarray, kind: int,
         out["center"] = v[:, 3:6]
         out["tangent"] = np.stack([v[:, 6:9], v[:, 9:12]], axis=1)
         out["f_jac_inv"] = v[:, 12:14]
+        out["friction"] = v[:, 14:14 + friction_words]
     return out
 
 

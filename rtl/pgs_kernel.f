@@ -29,6 +29,9 @@ generated/pgs_contact_pipe_scalar.sv
 generated/pgs_friction_pipe_scalar.sv
 generated/pgs_contact_pipe_full.sv
 generated/pgs_friction_pipe_full.sv
+generated/pgs_friction_pipe_mu.sv
+generated/pgs_friction_pipe_scalar_mu.sv
+generated/pgs_friction_pipe_full_mu.sv
 generated/pgs_integrate_pipe.sv
 
 // memories, queues and control

@@ -73,6 +73,7 @@ module pgs_sequencer #(
     parameter int IINV_W         = 3,      // inverse-inertia words per body: 1 scalar, 3 diagonal, 6 symmetric 3x3
     parameter bit IMPULSES_IN_RECORDS = 1'b0,  // 1: impulses travel with the records, out on m_imp (no impulse RAM)
     parameter int IMP_FIFO_DEPTH = 256,    // IMPULSES_IN_RECORDS: impulse-out records between take and handshake
+    parameter int MU_W           = 0,      // friction-coefficient words per friction record: 0 the constant, 1 a word
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64,
     localparam int IMP_OUT_W     = (4 * W + 7) / 8 * 8
@@ -130,15 +131,17 @@ module pgs_sequencer #(
     localparam int OREC_W    = 13 * W;                                  // body-out record
     localparam int B_BEATS   = (BREC_W + BODY_IN_W - 1) / BODY_IN_W;
     localparam int O_BEATS   = (OREC_W + BODY_OUT_W - 1) / BODY_OUT_W;
-    // words of a contact / friction record after the header: with IMPULSES_IN_RECORDS the contact record ends
-    // with lam[0..3], the friction record with lam[0..3] and lamT[0..1] (the impulses its pass starts from)
+    // words of a contact / friction record after the header: the friction record's 14 words, then with MU_W = 1
+    // the manifold's coefficient; with IMPULSES_IN_RECORDS the contact record ends with lam[0..3], the friction
+    // record with lam[0..3] and lamT[0..1] (the impulses its pass starts from)
     localparam int C_WORDS   = 23 + (IMPULSES_IN_RECORDS ? 4 : 0);
-    localparam int F_WORDS   = 14 + (IMPULSES_IN_RECORDS ? 6 : 0);
+    localparam int F_COEFF   = 14 + MU_W;                               // the friction record's words up to mu
+    localparam int F_WORDS   = F_COEFF + (IMPULSES_IN_RECORDS ? 6 : 0);
     localparam int S1_WORDS  = C_WORDS > F_WORDS ? C_WORDS : F_WORDS;   // the record words stage 1 holds
     localparam int C_BEATS   = (64 + C_WORDS * W + CONS_W - 1) / CONS_W;   // contact record
     localparam int F_BEATS   = (64 + F_WORDS * W + CONS_W - 1) / CONS_W;   // friction record
     localparam int CM_BEATS  = C_BEATS > F_BEATS ? C_BEATS : F_BEATS;
-    localparam int WR_BEATS  = (64 + 37 * W + CONS_W - 1) / CONS_W;     // window record (contact + friction)
+    localparam int WR_BEATS  = (64 + (23 + F_COEFF) * W + CONS_W - 1) / CONS_W;  // window record (contact + friction)
     localparam int C_LAT     = pgs_pipe_latency_pkg::contact_latency(MAN_BITS);
     localparam int F_LAT     = pgs_pipe_latency_pkg::friction_latency(MAN_BITS);
     localparam int CREC_W    = CM_BEATS * CONS_W;
@@ -161,6 +164,9 @@ module pgs_sequencer #(
     end
     if (IINV_W != 1 && IINV_W != 3 && IINV_W != 6) begin : g_bad_iinv
         $error("pgs_sequencer: IINV_W (inverse-inertia words per body) must be 1, 3 or 6");
+    end
+    if (MU_W != 0 && MU_W != 1) begin : g_bad_mu
+        $error("pgs_sequencer: MU_W (friction-coefficient words per friction record) must be 0 or 1");
     end
 
     typedef enum logic [2:0] {S_IDLE, S_LOAD, S_SOLVE, S_DRAIN, S_INTEG, S_DONE} phase_t;
@@ -331,7 +337,7 @@ module pgs_sequencer #(
                 for (int l = 0; l < LANES; l++) begin
                     lrec[l] = '0;
                     lrec[l][0 +: 64] = wrec[l*LREC_W +: 64];
-                    if (crec_tag == FRICTION) lrec[l][64 +: 14*W] = wrec[l*LREC_W + 64 + 23*W +: 14*W];
+                    if (crec_tag == FRICTION) lrec[l][64 +: F_COEFF*W] = wrec[l*LREC_W + 64 + 23*W +: F_COEFF*W];
                     else                      lrec[l][64 +: 23*W] = wrec[l*LREC_W + 64 +: 23*W];
                 end
             end
@@ -344,7 +350,8 @@ module pgs_sequencer #(
             logic unused_window;
             always_comb begin
                 unused_window = ^{w_done, r_fetch[31:ITER_W+1]};
-                for (int l = 0; l < LANES; l++) unused_window ^= ^wrec[l*LREC_W + 64 + 37*W +: LREC_W - 64 - 37*W];
+                for (int l = 0; l < LANES; l++)
+                    unused_window ^= ^wrec[l*LREC_W + 64 + (23 + F_COEFF)*W +: LREC_W - 64 - (23 + F_COEFF)*W];
             end
         end
     endgenerate
@@ -375,7 +382,7 @@ module pgs_sequencer #(
         end
     end
 
-    // checks of each lane's record (contact: 23 words, friction: 14 words after the 64-bit header). An
+    // checks of each lane's record (contact: 23 words, friction: F_WORDS after the 64-bit header). An
     // all-ones header in the window kernel is an empty lane (the host's padding): never issued, never
     // rejected, no error.
     logic slot_rej [MAX_MANIFOLDS];   // slots rejected earlier in the step (written for every slot in pass 0)
@@ -389,7 +396,7 @@ module pgs_sequencer #(
             automatic logic rej_bad;
             l_nonfinite[l] = 1'b0;
             for (int k = 0; k < 23; k++) begin
-                if (k < 14 || rkind == CONTACT)
+                if (k < F_WORDS || rkind == CONTACT)
                     l_nonfinite[l] = l_nonfinite[l] || lrec[l][64 + k*W + MAN_BITS +: EXP_BITS] == '1;
             end
             l_empty[l]  = WINDOW > 0 && !crec_trunc && lhdr[l] == '1;
@@ -462,8 +469,8 @@ module pgs_sequencer #(
         logic [S1_WORDS*W-1:0] s1_words;
         if (IMPULSES_IN_RECORDS) begin : g_imp_rec
             // the impulses the pass starts from are the record's last words (host-given or last pass's)
-            assign rd_lam  = s1_kind == CONTACT ? s1_words[23*W +: 4*W] : s1_words[14*W +: 4*W];
-            assign rd_lamT = s1_words[18*W +: 2*W];
+            assign rd_lam  = s1_kind == CONTACT ? s1_words[23*W +: 4*W] : s1_words[F_COEFF*W +: 4*W];
+            assign rd_lamT = s1_words[(F_COEFF + 4)*W +: 2*W];
         end else begin : g_imp_ram
             wire [BSLOT_W-1:0] wr_rec = BSLOT_W'(l_rslot[l] >> LG_L);
             pgs_impulse_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_MANIFOLDS(MAX_MANIFOLDS / LANES)) u_imp_ram (
@@ -489,7 +496,7 @@ module pgs_sequencer #(
         wire [BREC_W-1:0] ra = rd_data[2*l*BREC_W +: BREC_W];
         wire [BREC_W-1:0] rb = rd_data[(2*l+1)*BREC_W +: BREC_W];
         logic [(47 + 2*IINV_W)*W-1:0] c_in;
-        logic [(40 + 2*IINV_W)*W-1:0] f_in;
+        logic [(40 + 2*IINV_W + MU_W)*W-1:0] f_in;
         always_comb begin
             c_in = '0;
             c_in[0 +: 23*W] = s1_words[0 +: 23*W];
@@ -514,10 +521,12 @@ module pgs_sequencer #(
             f_in[39*W +: W]   = rb[13*W +: W];
             f_in[40*W +: IINV_W*W] = ra[14*W +: IINV_W*W];
             f_in[(40 + IINV_W)*W +: IINV_W*W] = rb[14*W +: IINV_W*W];
+            for (int k = 0; k < MU_W; k++) f_in[(40 + 2*IINV_W + k)*W +: W] = s1_words[(14 + k)*W +: W];   // mu
         end
 
         logic [EV_W-1:0]   c_ev_ovf, c_ev_unf, c_ev_inv, f_ev_ovf, f_ev_unf, f_ev_inv;
-        // the pipes of the inverse-inertia mode (rtl/generated: one module per mode, the same ports and latency)
+        // the pipes of the inverse-inertia mode (rtl/generated: one module per mode, the same ports and latency);
+        // with MU_W = 1 the friction pipe takes the manifold's coefficient as its last word (the *_mu modules)
         wire c_in_valid = s1_valid && s1_kind == CONTACT;
         wire f_in_valid = s1_valid && s1_kind == FRICTION;
         if (IINV_W == 1) begin : g_scalar
@@ -525,28 +534,49 @@ module pgs_sequencer #(
                 .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
                 .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
                 .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
-            pgs_friction_pipe_scalar #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
-                .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
-                .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-                .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            if (MU_W == 1) begin : g_mu
+                pgs_friction_pipe_scalar_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            end else begin : g_mu_const
+                pgs_friction_pipe_scalar #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            end
         end else if (IINV_W == 6) begin : g_full
             pgs_contact_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
                 .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
                 .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
                 .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
-            pgs_friction_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
-                .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
-                .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-                .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            if (MU_W == 1) begin : g_mu
+                pgs_friction_pipe_full_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            end else begin : g_mu_const
+                pgs_friction_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            end
         end else begin : g_diagonal
             pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
                 .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
                 .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
                 .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
-            pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
-                .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
-                .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-                .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            if (MU_W == 1) begin : g_mu
+                pgs_friction_pipe_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            end else begin : g_mu_const
+                pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            end
         end
 
         // the window kernel issues contact and friction records back to back: the friction results wait for

@@ -74,23 +74,27 @@ class KernelBuild:
     lanes: int = 1  # LANES: manifolds issued per cycle (> 1: window kernel only)
     inertia_words: int = sf.KERNEL_INERTIA_WORDS  # IINV_W: inverse-inertia words per body (1, 3 or 6)
     impulses_in_records: bool = False  # IMPULSES_IN_RECORDS: no impulse RAM, impulses in the records and m_axis_imp
+    friction_words: int = 0  # MU_W: friction-coefficient words per friction record (0 the constant, 1 a word)
     friction_sign_bug: bool = False  # the friction pipe with the wrong sign (the scoreboard must catch it)
     compile_profile: str = "quick"  # a key of COMPILE_PROFILES
 
     def __post_init__(self) -> None:
         sf.body_in_word_count(self.inertia_words)  # 1, 3 or 6, else a ValueError
+        if self.friction_words not in (0, 1):
+            raise ValueError(f"a friction record carries 0 or 1 friction-coefficient words, got {self.friction_words}")
         if self.compile_profile not in COMPILE_PROFILES:
             raise ValueError(f"compile profile {self.compile_profile!r}: expected one of {sorted(COMPILE_PROFILES)}")
 
     @staticmethod
     def for_job(job: KernelJob, preset: DmaPreset, waves: bool = False, body_bits: int = 128) -> "KernelBuild":
         """The build that runs ``job``: the preset's constraint beat, the window plan's ring, contexts and lanes,
-        body streams of ``body_bits``, the job's inverse-inertia words."""
+        body streams of ``body_bits``, the job's inverse-inertia and friction-coefficient words."""
         plan = job.record_window
         return KernelBuild(job.fmt, cons_bits=preset.stream_bits, body_in_bits=body_bits, body_out_bits=body_bits,
                            waves=waves, window=0 if plan is None else plan.depth,
                            window_ctx=8 if plan is None else plan.ctx, lanes=1 if plan is None else plan.lanes,
-                           inertia_words=job.inertia_words, impulses_in_records=job.impulses_in_records)
+                           inertia_words=job.inertia_words, impulses_in_records=job.impulses_in_records,
+                           friction_words=job.friction_words)
 
     @property
     def name(self) -> str:
@@ -101,6 +105,7 @@ class KernelBuild:
                 + (f"_l{self.lanes}" if self.lanes > 1 else "")
                 + (f"_i{self.inertia_words}" if self.inertia_words != sf.KERNEL_INERTIA_WORDS else "")
                 + ("_ir" if self.impulses_in_records else "")
+                + ("_mu" if self.friction_words else "")
                 + ("_friction_sign_bug" if self.friction_sign_bug else "")
                 + (f"_{self.compile_profile}" if self.compile_profile != "quick" else "")
                 + ("_waves" if self.waves else ""))
@@ -118,12 +123,13 @@ class KernelBuild:
                     {"WINDOW": self.window, "WINDOW_CTX": self.window_ctx} if self.window else {}) | (
                     {"LANES": self.lanes} if self.lanes > 1 else {}) | (
                     {"IINV_W": self.inertia_words} if self.inertia_words != sf.KERNEL_INERTIA_WORDS else {}) | (
-                    {"IMPULSES_IN_RECORDS": 1} if self.impulses_in_records else {})
+                    {"IMPULSES_IN_RECORDS": 1} if self.impulses_in_records else {}) | (
+                    {"MU_W": self.friction_words} if self.friction_words else {})
 
     @property
     def layout(self) -> sf.StreamLayout:
         return sf.StreamLayout(self.fmt, self.cons_bits, self.body_in_bits, self.inertia_words,
-                               self.impulses_in_records)
+                               self.impulses_in_records, self.friction_words)
 
     @property
     def defines(self) -> dict[str, int]:
@@ -136,8 +142,9 @@ class KernelBuild:
             out |= {"IMPULSES_IN_RECORDS": 1, "WORD_BITS": w, "IMP_OUT_BYTES": sf.impulse_out_bytes(self.fmt),
                     "CONTACT_BEATS": lay.contact_beats, "FRICTION_BEATS": lay.friction_beats,
                     "CONTACT_LAM_BIT": sf.HEADER_BITS + sf.CONTACT_LAM_WORD * w,
-                    "FRICTION_LAM_BIT": sf.HEADER_BITS + sf.FRICTION_LAM_WORD * w,
-                    "FRICTION_LAMT_BIT": sf.HEADER_BITS + sf.FRICTION_LAMT_WORD * w}
+                    "FRICTION_LAM_BIT": sf.HEADER_BITS + lay.friction_lam_word * w,
+                    "FRICTION_LAMT_BIT": sf.HEADER_BITS + (lay.friction_lam_word + sf.FRICTION_LAMT_WORD
+                                                           - sf.FRICTION_LAM_WORD) * w}
         return out
 
     @property

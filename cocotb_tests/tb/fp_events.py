@@ -5,7 +5,8 @@ datapaths, for every issued manifold-pass and every dynamic body's integration (
 prediction evaluates the datapaths' graphs (``rtl/gen``, the software twin of the generated RTL, proven equal
 to the golden model by ``test_kernel_pipes.py``) with a counting format on the inputs each manifold-pass and
 body really sees in the golden step (``models.kernel_vectors.scene_vectors`` in the job's schedule order), the
-contact and friction graphs in the inverse-inertia mode of the job's kernel build (``KernelJob.inertia_words``).
+contact and friction graphs in the inverse-inertia mode of the job's kernel build (``KernelJob.inertia_words``),
+the friction graph with the coefficient word where the build has it (``KernelJob.friction_words``).
 """
 
 from __future__ import annotations
@@ -27,7 +28,8 @@ def predicted_events(job: KernelJob) -> FpEvents:
     total = FpEvents()
     with np.errstate(all="ignore"):
         for graph, words, flags in ((contact_graph(words_per_body), sv.contact, None),
-                                    (friction_graph(inertia_words=words_per_body), sv.friction, sv.spin_damp[:, None]),
+                                    (friction_graph(inertia_words=words_per_body, manifold_friction=job.friction_words == 1),
+                                     sv.friction, sv.spin_damp[:, None]),
                                     (GRAPHS["pgs_integrate_pipe"](), sv.integrate, None)):
             total.add(graph.count_events(job.fmt, words, flags))
     return total

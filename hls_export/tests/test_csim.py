@@ -60,10 +60,13 @@ def test_csim_bit_exact(scene: str, schedule: str, csim_exe: Path, tmp_path: Pat
 def test_csim_inverse_inertia_modes(scene: str, inertia_words: int, tmp_path: Path) -> None:
     """The other inverse-inertia builds (PGS_IINV_W): the rotated non-cube boxes of a Bullet 2 world file (every
     dynamic body a full symmetric 3x3: the 6-word record and product, the build ``KernelBuild.for_job`` picks) and
-    the stack's cubes on the 1-word scalar build, bit for bit with the golden model."""
+    the stack's cubes on the 1-word scalar build, bit for bit with the golden model. The boxes keep pybullet's
+    default friction (0.5: every pair 0.25, not the kernel's 0.7), so their friction records carry it
+    (PGS_MU_W = 1)."""
     frame = scenes.load_or_capture(scene, **KERNEL_TEST_SCENES.get(scene, {}))
     job = KernelJob.from_frame(frame, FP32, SolverParams(4), "hazard", default_window(FP32, KB.cons_bits))
-    kb = KernelBuild(FP32, inertia_words=inertia_words)
+    kb = KernelBuild(FP32, inertia_words=inertia_words, friction_words=job.friction_words)
+    assert job.friction_words == (inertia_words == 6)
     assert inertia_mode_of(job.bodies).words == inertia_words
     if inertia_words == 6:
         assert KernelBuild.for_job(job, get_preset("zcu102")) == kb

@@ -46,6 +46,7 @@ def world_cache_key(world: SceneWorld, step: int | None, busiest_within: int | N
     if step is None and busiest_within is None:
         step = source.capture_step
     return _digest({"world": source.path.name, "content": source.content_digest(), "params": source.params,
+                    "meta": source.frame_meta,
                     "step": step, "busiest_within": busiest_within, "pybullet_iterations": pybullet_iterations,
                     "dt": dt, "frame_version": FRAME_VERSION, "pybullet": importlib.metadata.version("pybullet")})
 

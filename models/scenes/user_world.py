@@ -4,7 +4,7 @@ shipped in ``models/scenes/worlds/``).
 A **world file** is a Python file defining::
 
     CAPTURE_STEP = 60                      # optional: the step captured (1-based), default 60
-    BULLET_CONVENTION = "bullet2"          # optional: the frames' inverse-inertia convention (models/inertia.py)
+    BULLET_CONVENTION = "bullet2"          # optional: the frames' convention (models/inertia.py), default bullet2
     def build(pb, data_path: str, **params) -> None:
         pb.loadURDF("duck_vhacd.urdf", [0, 0.1, 0])
 
@@ -12,10 +12,10 @@ A **world file** is a Python file defining::
 ``loadURDF``, ``loadSDF`` and ``createMultiBody`` get ``useMaximalCoordinates=True`` (a btRigidBody, as the
 kernel and the Bullet 2 reference assume; passing False is refused). ``data_path`` is ``pybullet_data``'s folder
 (pybullet's search path; a relative file name found beside the world file is used from there). ``BULLET_CONVENTION``
-names the convention of the world's frames (``meta["bullet_convention"]``: ``bullet2``, the true inertia rotated by
-the body's orientation, Bullet 2's and pybullet's; ``bullet_gpu``; default ``world_axes``, the one the kernel ran
-before it carried the symmetric 3x3: the kernel takes ``bullet2``'s full matrix, but not yet a friction coefficient
-per manifold, which ``bullet2`` needs where the bodies' friction differs). ``params`` are ``SCENE_ARGS``, typed by the
+names the convention of the world's frames (``meta["bullet_convention"]``): ``bullet2``, the default, Bullet 2's
+and pybullet's (the true inertia rotated by the body's orientation, each pair's combined friction: the kernel's
+6-word body record where a body is turned and non-isotropic, its friction word where a pair's friction is not
+0.7), ``bullet_gpu`` or ``world_axes`` (the built-in scenes': the unrotated AABB diagonal and 0.7). ``params`` are ``SCENE_ARGS``, typed by the
 defaults of ``build``'s keyword parameters. The world is y-up with gravity (0, -9.8, 0) unless ``build`` sets
 another; the capture's solver settings (time step, iterations, ...) are applied after ``build``. Bodies become
 frame bodies in creation order (frame body 0 is the first body created: the ground, in the shipped worlds).
@@ -62,6 +62,7 @@ from models.scenes.specs import SceneError
 WORLD_FUNCTION = "build"
 DEFAULT_WORLD_STEP = 60
 URDF_DROP_STEP = 30
+DEFAULT_WORLD_CONVENTION = BulletConvention.BULLET2  # a world file's (and a URDF's) frames, unless it names one
 WORLDS_DIR = Path(__file__).parent / "worlds"
 # built-in scenes made of pybullet_data's assets: scene name -> world file
 ASSET_SCENES: dict[str, Path] = {
@@ -196,9 +197,7 @@ def _load_function(path: Path) -> tuple[Callable[..., None], int, dict[str, Any]
     step = getattr(module, "CAPTURE_STEP", DEFAULT_WORLD_STEP)
     if not isinstance(step, int) or isinstance(step, bool) or step < 1:
         raise SceneError(f"world file {path}: CAPTURE_STEP must be a positive integer, got {step!r}")
-    convention = getattr(module, "BULLET_CONVENTION", None)
-    if convention is None:
-        return fn, step, {}
+    convention = getattr(module, "BULLET_CONVENTION", DEFAULT_WORLD_CONVENTION.value)
     try:
         return fn, step, {CONVENTION_KEY: BulletConvention(convention).value}
     except ValueError:
@@ -349,10 +348,10 @@ def world_source(scene: str, **params: Any) -> WorldFileSource:
         urdf = Path(scene)
         if not urdf.is_file():
             raise SceneError(f"URDF file {urdf} does not exist")
-        fn, _, _ = _load_function(URDF_DROP_FILE)
+        fn, _, meta = _load_function(URDF_DROP_FILE)
         typed = typed_params(fn, params, scene, skip=("urdf",))
         return WorldFileSource(URDF_DROP_FILE, {"urdf": str(urdf.resolve()), **typed}, URDF_DROP_STEP, fn,
-                               loaded=[str(urdf.resolve())])
+                               loaded=[str(urdf.resolve())], frame_meta=meta)
     path = ASSET_SCENES.get(scene, Path(scene))
     fn, step, meta = _load_function(path)
     return WorldFileSource(path, typed_params(fn, params, scene), step, fn, frame_meta=meta)

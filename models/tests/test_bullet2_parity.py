@@ -199,7 +199,7 @@ def test_parity_rotated_boxes_mixed_masses_and_friction(mixed_frames: list[Frame
     assert compare_with_pybullet(uniform)["lateral_friction1"] > 1e-3
 
 
-MIXED_SHAPES_WORLD = Path(__file__).parent / "worlds" / "mixed_shapes_world.py"
+MIXED_SHAPES_WORLD = Path(__file__).resolve().parents[2] / "docs" / "mixed_shapes_world.py"
 
 
 @pytest.fixture(scope="module")

@@ -64,10 +64,10 @@ def test_records_carry_the_initial_impulses() -> None:
     idx = sf.schedule_manifolds(job.schedule)
     rec_bytes = lay.contact_bytes
     contact = stream.data[:len(idx) * lay.contact_beats].reshape(len(idx), rec_bytes)
-    _, words = sf.unpack_records(contact, lay.contact_words, 32, rec_bytes * 8, header=True)
+    _, words = sf.unpack_records(contact, lay.contact_record_words, 32, rec_bytes * 8, header=True)
     assert np.array_equal(FP32.decode(words[:, sf.CONTACT_LAM_WORD:]), init.normal[idx])
     friction = stream.data[-len(idx) * lay.friction_beats:].reshape(len(idx), lay.friction_bytes)
-    _, words = sf.unpack_records(friction, lay.friction_words, 32, lay.friction_bytes * 8, header=True)
+    _, words = sf.unpack_records(friction, lay.friction_record_words, 32, lay.friction_bytes * 8, header=True)
     assert np.array_equal(FP32.decode(words[:, sf.FRICTION_LAM_WORD:sf.FRICTION_LAMT_WORD]), init.normal[idx])
     assert np.array_equal(FP32.decode(words[:, sf.FRICTION_LAMT_WORD:]), init.friction[idx])
 

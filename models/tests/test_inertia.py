@@ -162,8 +162,13 @@ def test_per_manifold_friction_where_it_varies_and_the_register_where_not() -> N
     cons = setup_constraints(frame, bodies)
     assert friction_words_of(cons) == 1
     np.testing.assert_array_equal(cons.friction[:, 0], [0.6 * 0.9, 0.6 * 0.4])
-    # uniform friction: the solver's one coefficient (the combined value), no per-manifold words
+    # one friction for every pair, but not the solver's one coefficient: still a word per manifold
     frame.friction[:] = 0.8
+    one = setup_constraints(frame, bodies)
+    assert friction_words_of(one) == 1
+    np.testing.assert_array_equal(one.friction[:, 0], [0.8 * 0.8] * 2)
+    # every pair's combined friction is the solver's coefficient (0.7): no per-manifold words
+    frame.friction[:] = (1.0, 0.7, 1.0)
     uniform = setup_constraints(frame, bodies)
     assert friction_words_of(uniform) == 0 and uniform.friction.shape == (2, 0)
     # the bullet_gpu convention ignores the bodies' friction (Bullet GPU's 0.7)
@@ -174,11 +179,11 @@ def test_per_manifold_friction_where_it_varies_and_the_register_where_not() -> N
     bodies_r = bodies.rounded(FP32)
     lam_n = np.array([[2.0, 0, 0, 0], [3.0, 0, 0, 0]])
     reg = uniform.rounded(FP32)
-    per = ConstraintSet(**{**reg.__dict__, "friction": FP32.round(np.full((2, 1), 0.64))})
+    per = ConstraintSet(**{**reg.__dict__, "friction": FP32.round(np.full((2, 1), 0.7))})
     out = []
     for c in (reg, per):
         g = _Gathered(bodies_r, c.body_a, c.body_b)
-        out.append(friction_solve(FP32, g, c, np.arange(2), lam_n, np.zeros((2, 2)), 0.64))
+        out.append(friction_solve(FP32, g, c, np.arange(2), lam_n, np.zeros((2, 2)), 0.7))
     assert np.array_equal(out[0], out[1])
     # and a different coefficient changes the clamp
     cons_r = cons.rounded(FP32)

@@ -193,8 +193,30 @@ def test_body_record_per_inertia_mode(fmt: NumberFormat) -> None:
         sf.StreamLayout(fmt, inertia_words=4).body_in_beats
     # the kernel build for each table: the 6-word build for the full mode only, the default build otherwise
     assert [sf.kernel_inertia_words(t) for t in (scalar, base, full)] == [3, 3, 6]
-    # a per-manifold friction coefficient has no word in the friction record
-    cons = _cons(rng, 5, n)
-    cons.friction = np.full((5, 1), 0.3)
-    with pytest.raises(ValueError, match="friction coefficient per manifold"):
-        sf.friction_words(fmt, cons, np.arange(5))
+
+
+
+@pytest.mark.parametrize("fmt", [FP32, FP16], ids=lambda f: f.name)
+def test_friction_record_with_the_coefficient_word(fmt: NumberFormat) -> None:
+    """A manifold's own friction coefficient is the friction record's last word (14 + 1 words); the stream's
+    friction records grow by it, the contact records do not; the kernel build takes it (MU_W = 1)."""
+    rng = np.random.default_rng(7)
+    cons = _cons(rng, 9, 12)
+    assert sf.kernel_friction_words(cons) == 0
+    cons.friction = rng.uniform(0.1, 1.2, (9, 1))
+    cons = cons.rounded(fmt)
+    assert sf.kernel_friction_words(cons) == 1
+    params = SolverParams(iterations=2)
+    layout = sf.StreamLayout(fmt, friction_words=1)
+    assert layout.friction_bits == sf.StreamLayout(fmt).friction_bits + fmt.width
+    assert layout.window_bits == sf.StreamLayout(fmt).window_bits + fmt.width
+    schedule = rng.permutation(9)
+    stream = sf.pack_constraint_stream(fmt, cons, schedule, params)
+    assert stream.data.nbytes == 9 * layout.bytes_per_manifold(params)
+    start = 2 * 9 * layout.contact_beats
+    rec = sf.unpack_constraint_records(fmt, stream.data[start:start + 9 * layout.friction_beats], FRICTION_PASS,
+                                       friction_words=1)
+    assert _same(rec["friction"], cons.friction[schedule]) and _same(rec["f_jac_inv"], cons.f_jac_inv[schedule])
+    words = sf.friction_words(fmt, cons, schedule)
+    assert words.shape == (9, sf.FRICTION_WORDS + 1)
+    assert np.array_equal(words[:, -1], fmt.encode(cons.friction[schedule, 0]))

@@ -99,12 +99,13 @@ def test_world_file_frame(shapes_world: Path, tmp_path: Path) -> None:
 
 
 def test_world_file_names_its_convention(shapes_world: Path, tmp_path: Path) -> None:
-    """``BULLET_CONVENTION`` puts the world's convention into its frames' metadata (none: the frame names none, the
-    world-axes default); an unknown one is refused before anything is written."""
-    named = _write(tmp_path, "shapes_bullet2.py", 'BULLET_CONVENTION = "bullet2"\n' + SHAPES_WORLD)
+    """``BULLET_CONVENTION`` puts the world's convention into its frames' metadata (none: Bullet 2's, the default
+    of world files); an unknown one is refused before anything is written."""
+    named = _write(tmp_path, "shapes_axes.py", 'BULLET_CONVENTION = "world_axes"\n' + SHAPES_WORLD)
     f = scenes.load_or_capture(str(named), cache_dir=tmp_path / "frames")
-    assert f.meta["bullet_convention"] == "bullet2"
-    assert "bullet_convention" not in scenes.load_or_capture(str(shapes_world), cache_dir=tmp_path / "frames").meta
+    assert f.meta["bullet_convention"] == "world_axes"
+    default = scenes.load_or_capture(str(shapes_world), cache_dir=tmp_path / "frames")
+    assert default.meta["bullet_convention"] == "bullet2"
     bad = _write(tmp_path, "shapes_bad.py", 'BULLET_CONVENTION = "bullet4"\n' + SHAPES_WORLD)
     with pytest.raises(scenes.SceneError, match="BULLET_CONVENTION 'bullet4' is not one of bullet2, bullet_gpu"):
         scenes.load_or_capture(str(bad), cache_dir=tmp_path / "bad_frames")

@@ -8,7 +8,9 @@ copies are current):
 
 * ``pgs_contact_pipe.sv``, ``pgs_friction_pipe.sv``, ``pgs_integrate_pipe.sv``: the datapaths, and the contact and
   friction pipes of the other inverse-inertia modes (``pgs_contact_pipe_scalar.sv``, ``pgs_contact_pipe_full.sv``,
-  ``pgs_friction_pipe_scalar.sv``, ``pgs_friction_pipe_full.sv``: the kernel's ``IINV_W`` = 1 or 6);
+  ``pgs_friction_pipe_scalar.sv``, ``pgs_friction_pipe_full.sv``: the kernel's ``IINV_W`` = 1 or 6), and the friction
+  pipes of every mode taking the manifold's friction coefficient as a word (``pgs_friction_pipe_mu.sv``,
+  ``pgs_friction_pipe_scalar_mu.sv``, ``pgs_friction_pipe_full_mu.sv``: the kernel's ``MU_W`` = 1);
 * ``pgs_pipe_latency_pkg.sv`` and ``pipe_latency.json``: each module's LATENCY as a function of MAN_BITS, for the
   sequencer and for the cycle model (``rtl/gen/pipe_latency.py``);
 * ``pgs_regs_pkg.sv``: the register map of ``models/register_map.py`` (``rtl/gen/register_map_emit.py``),

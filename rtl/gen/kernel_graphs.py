@@ -341,7 +341,10 @@ GRAPHS = {
 
 # the contact and friction pipes of the other inverse-inertia modes (the kernel's IINV_W = 1 or 6), by module name;
 # every mode has the default pipes' latencies (cocotb_tests/test_pipe_graph_modes.py), so they share the latency package
+# (and the friction pipes taking the manifold's coefficient as a word, the kernel's MU_W = 1, in every mode)
 MODE_GRAPHS: dict[str, Callable[[], Graph]] = {
     **{pipe_module("pgs_contact_pipe", w): partial(contact_graph, w) for w in (1, 6)},
     **{pipe_module("pgs_friction_pipe", w): partial(friction_graph, inertia_words=w) for w in (1, 6)},
+    **{pipe_module("pgs_friction_pipe", w, True): partial(friction_graph, inertia_words=w, manifold_friction=True)
+       for w in (1, 3, 6)},
 }

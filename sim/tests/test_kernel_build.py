@@ -28,7 +28,7 @@ def test_names_are_distinct_per_description() -> None:
                 KernelBuild(FP32, window=1024, window_ctx=4), KernelBuild(FP32, window=1024, lanes=2),
                 KernelBuild(FP32, waves=True), KernelBuild(FP32, friction_sign_bug=True),
                 KernelBuild(FP32, compile_profile="o0"), KernelBuild(FP32, inertia_words=1),
-                KernelBuild(FP32, inertia_words=6)]
+                KernelBuild(FP32, inertia_words=6), KernelBuild(FP32, inertia_words=6, friction_words=1)]
     names = [base.name] + [v.name for v in variants]
     assert len(set(names)) == len(names), names
     assert len({base, *variants}) == len(names)  # hashable, distinct
@@ -37,8 +37,11 @@ def test_names_are_distinct_per_description() -> None:
     assert KernelBuild(FP32, inertia_words=6).name == "pgs_kernel_e8m23_c512_i6"
     with pytest.raises(ValueError, match="compile profile"):
         KernelBuild(FP32, compile_profile="fast")
+    assert KernelBuild(FP32, inertia_words=6, friction_words=1).name == "pgs_kernel_e8m23_c512_i6_mu"
     with pytest.raises(ValueError, match="1, 3 or 6"):
         KernelBuild(FP32, inertia_words=4)
+    with pytest.raises(ValueError, match="0 or 1 friction-coefficient words"):
+        KernelBuild(FP32, friction_words=2)
 
 
 def test_parameters_defines_and_args() -> None:
@@ -52,6 +55,7 @@ def test_parameters_defines_and_args() -> None:
     assert "OPT_FAST=-O0 OPT_SLOW=-O0 OPT_GLOBAL=-O0" in KernelBuild(FP32, compile_profile="o0").compile_args
     # the inverse-inertia words only where they differ from the default build's 3 (the historic parameter sets)
     assert "IINV_W" not in kb.parameters and KernelBuild(FP32, inertia_words=6).parameters["IINV_W"] == 6
+    assert "MU_W" not in kb.parameters and KernelBuild(FP32, friction_words=1).parameters["MU_W"] == 1
     sources = kb.sources()
     assert any(s.name == "pgs_kernel.sv" for s in sources) and all(s.suffix == ".sv" for s in sources)
     assert HARNESS.is_file() and PUBLIC_VLT.is_file()

@@ -1,7 +1,10 @@
-"""A parity world (``models/tests/test_bullet2_parity.py``): spheres, capsules, cylinders, turned non-cube boxes
-and pybullet_data's ``duck_vhacd.urdf`` (a compound of convex hulls) and ``lego/lego.urdf`` (a turned box child),
-each of its own mass (0.1 to 5 kg) and friction (0.3 to 1.1), in ``layers`` jittered (``layout``: the random draw),, turned layers of ``nx`` x
-``nz`` dropped onto a static slab of friction 0.9, so that they land on the slab and on each other."""
+"""A world file (``make sim SCENE=docs/mixed_shapes_world.py``; the format: ``models/scenes/user_world.py``):
+spheres, capsules, cylinders, turned non-cube boxes and pybullet_data's ``duck_vhacd.urdf`` (a compound of convex
+hulls) and ``lego/lego.urdf`` (a turned box child), each of its own mass (0.1 to 5 kg) and friction (0.3 to 1.1),
+in ``layers`` jittered, turned layers of ``nx`` x ``nz`` (``layout``: the random draw) dropped onto a static slab
+of friction 0.9, so that they land on the slab and on each other. In Bullet 2's convention: every dynamic body a
+full symmetric 3x3 inverse inertia, every manifold its pair's friction (the kernel's 6-word body record and
+friction word). The Bullet 2 parity test and the kernel's per-manifold friction test run it."""
 
 from __future__ import annotations
 
