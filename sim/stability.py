@@ -131,6 +131,19 @@ def remedy_table(verdicts: list[Verdict]) -> list[str]:
     return lines
 
 
+def warm_start_table(runs: list[tuple[Verdict, dict[str, int]]]) -> list[str]:
+    """Per warm-started run, the points that inherited an impulse, those that started from zero, and every dropped
+    entry by its reason (``models.warm_start.WarmStartReport``), over all steps of the run."""
+    warm = [(v, r) for v, r in runs if r.get("matched points", 0) or any(k.startswith("dropped") for k in r)]
+    if not warm:
+        return []
+    keys = list(dict.fromkeys(k for _, r in warm for k in r))
+    return ["Warm-start matching over each run (points; a manifold that no longer exists counts once):", "",
+            "| case | format | iterations | remedy | " + " | ".join(keys) + " |", "|---" * (len(keys) + 4) + "|",
+            *(f"| {v.case} | {v.format} | {v.iterations} | {v.remedy} | " + " | ".join(str(r.get(k, 0)) for k in keys)
+              + " |" for v, r in warm)]
+
+
 def plot_case(case: str, runs: list[tuple[Verdict, dict[str, list[float]]]], path: Path) -> None:
     import matplotlib
 
@@ -172,9 +185,11 @@ def main(argv: Sequence[str] | None = None) -> int:
               f"above); a rerun resumes from the {len(done.rows)} finished ({log.path})", file=sys.stderr)
         return 1
     results: list[tuple[Verdict, dict[str, list[float]]]] = []
+    matching: list[tuple[Verdict, dict[str, int]]] = []
     for n, row in enumerate(done.ordered(runs), 1):
         verdict, series = Verdict(**row["verdict"]), row["series"]
         results.append((verdict, series))
+        matching.append((verdict, row.get("warm start", {})))
         status = "pass" if verdict.passed else "FAIL " + "; ".join(verdict.failures)
         print(f"[{n}/{len(runs)}] {verdict.case} {verdict.format} {verdict.iterations} it {verdict.remedy}: {status} "
               f"({row['seconds']:.1f} s)", flush=True)
@@ -187,7 +202,7 @@ def main(argv: Sequence[str] | None = None) -> int:
               if any(v.case == c.name for v in verdicts)]
     lines += ["", *limits_table(), "", "Which remedy passes (kernel cycles per step: models/cycle_model.py, the "
               "streaming kernel on zcu102, every kernel call of the step):", "", *remedy_table(verdicts), "",
-              *table(verdicts), ""]
+              *table(verdicts), "", *warm_start_table(matching), ""]
     (out / "stability.md").write_text("\n".join(lines))
     with (out / "stability.csv").open("w", newline="") as f:
         w = csv.writer(f)

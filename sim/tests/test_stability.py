@@ -48,6 +48,7 @@ def test_make_stability_writes_table_and_plots(tmp_path: Path) -> None:
     md = (tmp_path / "stability.md").read_text()
     assert "| incline20 | fp32 | 2 | cold | 4 |" in md and "| incline20 | fp32 | 2 | warm+sub2 | 4 |" in md
     assert "| incline20 | fp32 | 2 | pass (" in md and (tmp_path / "incline20.png").stat().st_size > 0
+    assert "| matched points | new points |" in md.split("Warm-start matching")[1]  # the warm run's report
     assert stability_main(["--cases", "nope", "--out", str(tmp_path / "bad")]) == 2
     assert stability_main(["--cases", "incline20", "--remedies", "hot", "--out", str(tmp_path / "bad")]) == 2
     assert not (tmp_path / "bad").exists()
