@@ -55,8 +55,22 @@ def test_make_stability_writes_table_and_plots(tmp_path: Path) -> None:
 
 
 def test_the_rtl_kernel_refuses_a_warm_start(tmp_path: Path) -> None:
-    """The kernel reads no initial impulses yet: a warm-started loop on it stops at its first step, by name."""
-    with pytest.raises(WarmStartUnsupported, match="no initial impulses"):
+    """The kernel with on-chip impulses reads no initial impulses: a warm-started loop on it stops at its first step,
+    by name."""
+    with pytest.raises(WarmStartUnsupported, match="reads no initial impulses"):
         run_closed_loop("incline", 2, FP32, 4, stepper=rtl_stepper(get_preset("zcu102"), tmp_path),
                         remedy=Remedy("warm", 0.85))
     assert not any(tmp_path.iterdir())  # nothing was written for the refused step
+
+
+def test_warm_started_closed_loop_on_the_kernel_with_impulses_in_the_records(tmp_path: Path) -> None:
+    """Warm starting through the RTL: three closed-loop steps of the sliding box in fp16 on the streaming kernel whose
+    impulses travel with the records (the build the impulses-in-records tests use), each step's first passes reading
+    the carried impulses; every step bit-exact with the golden model and the final state equal to the golden loop's."""
+    kw = dict(angle_deg=40.0, friction=0.7)
+    warm = Remedy("warm", 0.85)
+    rtl = run_closed_loop("incline", 3, FP16, 4, remedy=warm, **kw,
+                          stepper=rtl_stepper(get_preset("zcu102"), tmp_path, impulses_in_records=True))
+    gold = run_closed_loop("incline", 3, FP16, 4, remedy=warm, **kw)
+    for f in ("position", "orientation", "linear_velocity", "angular_velocity"):
+        assert np.array_equal(getattr(rtl.final, f), getattr(gold.final, f)), f
