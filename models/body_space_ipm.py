@@ -32,6 +32,11 @@ MAX_ITERATIONS = 80
 CENTRALITY_CORRECTORS = 2  # Gondzio's correctors per iteration (one solve each, no new factorisation)
 CENTRALITY_LOW, CENTRALITY_HIGH = 0.1, 10.0  # products outside [LOW, HIGH] x the target are pushed back
 FEASIBILITY_TOLERANCE = 1e-13  # relative to 1 + the largest |b|, |d| (primal) and |q|, L (dual)
+# Late in a large solve K's conditioning (weights of 1e16) keeps the dual residual near 1e-12 while complementarity
+# still falls (thesis frame: 1.4e-13 at iteration 15, 7.8e-12 at 17): after DUAL_FLOOR_AFTER iterations a dual
+# residual up to DUAL_FLOOR is accepted (the primal-point certificate, models/exact_bound.py, is insensitive to it).
+DUAL_FLOOR = 1e-10
+DUAL_FLOOR_AFTER = 15
 COMPLEMENTARITY_TOLERANCE = 1e-15  # max slack * multiplier, relative to (1 + max |b|, |d|) (1 + max multiplier)
 
 
@@ -115,7 +120,8 @@ def solve_ipm(qp: QpData, x0: np.ndarray, time_limit_s: float,
             if log is not None:
                 log(result)
             if (result.primal_residual <= FEASIBILITY_TOLERANCE * scale_p
-                    and result.dual_residual <= FEASIBILITY_TOLERANCE * scale_d
+                    and result.dual_residual <= max(FEASIBILITY_TOLERANCE, DUAL_FLOOR * (it >= DUAL_FLOOR_AFTER))
+                    * scale_d
                     and result.complementarity <= COMPLEMENTARITY_TOLERANCE * scale_p * (1.0 + worst_mult)):
                 result.converged = True
                 return result
