@@ -289,7 +289,8 @@ def _cosim(testcase: str, scene: str, params: dict, fmt_name: str, schedule_kind
     if bursts:
         env["TRACE_FILE"] = str(case_file.with_suffix(".trace.bin"))
         run_kernel_cocotb_bursts("test_kernel_cosim", fmt_name, dma, seed, env, testcase=[testcase],
-                                 waves_name=case_name, inertia_words=words)
+                                 waves_name=case_name, inertia_words=words,
+                                 friction_words=meta.get("friction_words", 0))
     else:
         run_kernel_cocotb("test_kernel_cosim", fmt_name, dma, seed, env, testcase=[testcase],
                           friction_sign_bug=friction_sign_bug, compile_profile=compile_profile, waves_name=case_name,

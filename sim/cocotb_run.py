@@ -141,13 +141,15 @@ def _test(top: str, test_module: str, build_dir: Path, waves: bool, seed: int | 
 
 
 def kernel_cocotb_build(fmt_name: str, dma: str, friction_sign_bug: bool = False,
-                        compile_profile: str = "quick", inertia_words: int = KERNEL_INERTIA_WORDS) -> KernelBuild:
-    """The kernel build of the cocotb benches for a number format, a DMA preset (its constraint stream width) and
-    the inverse-inertia words of its body-in record (1, 3 or 6: ``KernelJob.inertia_words``), with FST tracing
-    when ``WAVES=1``."""
+                        compile_profile: str = "quick", inertia_words: int = KERNEL_INERTIA_WORDS,
+                        friction_words: int = 0) -> KernelBuild:
+    """The kernel build of the cocotb benches for a number format, a DMA preset (its constraint stream width), the
+    inverse-inertia words of its body-in record (1, 3 or 6: ``KernelJob.inertia_words``) and the friction
+    coefficient words of its friction record (0 or 1: ``KernelJob.friction_words``), with FST tracing when
+    ``WAVES=1``."""
     return KernelBuild(parse_format(fmt_name), cons_bits=get_preset(dma).stream_bits, waves=waves_enabled(),
                        friction_sign_bug=friction_sign_bug, compile_profile=compile_profile,
-                       inertia_words=inertia_words)
+                       inertia_words=inertia_words, friction_words=friction_words)
 
 
 def run_kernel_cocotb(test_module: str, fmt_name: str, dma: str, seed: int, extra_env: Mapping[str, str],
@@ -210,9 +212,10 @@ class BurstBench:
 
 def run_kernel_cocotb_bursts(test_module: str, fmt_name: str, dma: str, seed: int, extra_env: Mapping[str, str],
                              testcase: Sequence[str] | None = None, waves_name: str | None = None,
-                             inertia_words: int = KERNEL_INERTIA_WORDS) -> Path:
+                             inertia_words: int = KERNEL_INERTIA_WORDS, friction_words: int = 0) -> Path:
     """Build the transaction-level bench of :func:`kernel_cocotb_build`'s kernel and run the cocotb tests of
     ``test_module`` on it."""
-    bench = BurstBench(kernel_cocotb_build(fmt_name, dma, inertia_words=inertia_words))
+    bench = BurstBench(kernel_cocotb_build(fmt_name, dma, inertia_words=inertia_words,
+                                           friction_words=friction_words))
     bench.build()
     return bench.test(test_module, seed, extra_env, testcase, waves_name)

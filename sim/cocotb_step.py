@@ -58,7 +58,7 @@ def write_case(path: Path, job: KernelJob, golden: Golden, preset: DmaPreset, la
     """Write the co-simulation case of ``job`` to ``path`` (``.npz``; read by ``cocotb_tests/test_kernel_cosim.py``);
     returns its metadata (``extra_meta`` overrides: the stall probabilities, the predicted fp events)."""
     fmt = job.fmt
-    layout = sf.StreamLayout(fmt, cons_beat_bits=preset.stream_bits, inertia_words=job.inertia_words)
+    layout = job.stream_layout(preset.stream_bits)
     cons = sf.pack_constraint_stream(fmt, job.cons, job.schedule, job.params, beat_bits=preset.stream_bits)
     per_pass = np.split(cons.data, np.flatnonzero(cons.last)[:-1] + 1)
     if len(register_writes(job)) != 9:
@@ -67,7 +67,8 @@ def write_case(path: Path, job: KernelJob, golden: Golden, preset: DmaPreset, la
     ip = job.iparams
     meta = {"scene": label, "format": fmt.name, "dma": preset.name, "schedule": schedule, "seed": seed, "idle": 0.0,
             "backpressure": 0.0, "num_bodies": job.bodies.num_bodies, "num_manifolds": len(job.slots),
-            "inertia_words": job.inertia_words, "iterations": job.params.iterations,
+            "inertia_words": job.inertia_words, "friction_words": job.friction_words,
+            "iterations": job.params.iterations,
             "passes": len(pass_sequence(job.params)), "dt": ip.dt,
             "gravity": list(ip.gravity), "damping": ip.damping, "options": int(job.params.interleaved),
             "body_out_record_bytes": layout.body_out_bytes, "bytes_per_manifold": layout.bytes_per_manifold(job.params),
@@ -86,7 +87,8 @@ def run_cocotb_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
     result's ``comparison``; a failure inside cocotb is its first mismatch)."""
     if job.record_window is not None:
         raise ValueError("DRIVER=cocotb runs the streaming kernel (no --record-window)")
-    bench = BurstBench(kernel_cocotb_build(job.fmt.name, preset.name, inertia_words=job.inertia_words))
+    bench = BurstBench(kernel_cocotb_build(job.fmt.name, preset.name, inertia_words=job.inertia_words,
+                                           friction_words=job.friction_words))
     kb = bench.kernel
     if job.bodies.num_bodies > kb.max_bodies or job.manifolds > kb.max_manifolds:
         raise ValueError(f"{job.bodies.num_bodies} bodies / {job.manifolds} manifolds exceed the kernel's "
