@@ -19,6 +19,7 @@ module pgs_kernel_burst_tb #(
     parameter int CONS_W        = 512,
     parameter int BODY_OUT_W    = 128,
     parameter int IINV_W        = 3,   // inverse-inertia words per body-in record (the kernel's IINV_W)
+    parameter int MU_W          = 0,   // friction-coefficient words per friction record (the kernel's MU_W)
     parameter int BURST         = 16,
     parameter int TRACE_BATCH   = 16,
     localparam int W            = 1 + EXP_BITS + MAN_BITS,
@@ -132,7 +133,7 @@ module pgs_kernel_burst_tb #(
     pgs_kernel #(
         .EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .MAX_MANIFOLDS(MAX_MANIFOLDS),
         .BODY_IN_W(BODY_IN_W), .CONS_W(CONS_W), .BODY_OUT_W(BODY_OUT_W),
-        .IINV_W(IINV_W)
+        .IINV_W(IINV_W), .MU_W(MU_W)
     ) dut (
         .ap_clk, .ap_rst_n,
         .s_axi_control_AWVALID, .s_axi_control_AWREADY, .s_axi_control_AWADDR, .s_axi_control_WVALID,
