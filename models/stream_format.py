@@ -298,6 +298,11 @@ class StreamLayout:
         return FRICTION_LAM_WORD + self.friction_words
 
     @property
+    def friction_lamt_word(self) -> int:
+        """Word of a friction record (after its header) where its lamT[0..1] start: after the coefficient and lam."""
+        return FRICTION_LAMT_WORD + self.friction_words
+
+    @property
     def contact_bits(self) -> int:
         return HEADER_BITS + self.contact_record_words * self.word_bits
 

@@ -143,8 +143,7 @@ class KernelBuild:
                     "CONTACT_BEATS": lay.contact_beats, "FRICTION_BEATS": lay.friction_beats,
                     "CONTACT_LAM_BIT": sf.HEADER_BITS + sf.CONTACT_LAM_WORD * w,
                     "FRICTION_LAM_BIT": sf.HEADER_BITS + lay.friction_lam_word * w,
-                    "FRICTION_LAMT_BIT": sf.HEADER_BITS + (lay.friction_lam_word + sf.FRICTION_LAMT_WORD
-                                                           - sf.FRICTION_LAM_WORD) * w}
+                    "FRICTION_LAMT_BIT": sf.HEADER_BITS + lay.friction_lamt_word * w}
         return out
 
     @property
