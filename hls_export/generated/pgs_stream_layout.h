@@ -6,14 +6,20 @@
 
 namespace pgs {
 
-constexpr int kHeaderBits       = 64;  // bits of the header in front of a constraint record's words
-constexpr int kContactWords     = 23;  // words of a contact record
-constexpr int kFrictionWords    = 14;  // words of a friction record
-constexpr int kBodyInWords      = 17;  // words of a body-in record (the default build's 3 inverse-inertia words)
-constexpr int kBodyInInvInertia = 14;  // word of a body-in record where its inverse inertia starts
-constexpr int kBodyOutWords     = 13;  // words of a body-out record
-constexpr int kTraceWords       = 16;  // words of a trace record
-constexpr int kTraceTailBits    = 64;  // bits after a trace record's words: slot, iteration, pass kind
+constexpr int kHeaderBits           = 64;  // bits of the header in front of a constraint record's words
+constexpr int kContactWords         = 23;  // words of a contact record
+constexpr int kFrictionWords        = 14;  // words of a friction record
+constexpr int kBodyInWords          = 17;  // words of a body-in record (the default build's 3 inverse-inertia words)
+constexpr int kBodyInInvInertia     = 14;  // word of a body-in record where its inverse inertia starts
+constexpr int kBodyOutWords         = 13;  // words of a body-out record
+constexpr int kContactLamWord       = 23;  // word of a contact record where the lam[0..3] it carries start
+constexpr int kFrictionLamWord      = 14;  // friction record word of its lam[0..3] (+ coefficient words)
+constexpr int kFrictionLamtWord     = 18;  // friction record word of its lamT[0..1] (+ coefficient words)
+constexpr int kContactImpulseWords  = 4;  // impulse words a contact record carries: lam[0..3]
+constexpr int kFrictionImpulseWords = 6;  // impulse words a friction record carries: lam, lamT
+constexpr int kImpulseOutWords      = 4;  // words of an impulse-out record (m_axis_imp), rounded up to bytes
+constexpr int kTraceWords           = 16;  // words of a trace record
+constexpr int kTraceTailBits        = 64;  // bits after a trace record's words: slot, iteration, pass kind
 
 }  // namespace pgs
 

@@ -20,6 +20,12 @@ _CONSTANTS: dict[str, tuple[int, str]] = {
     "kBodyInWords": (sf.BODY_IN_WORDS, "words of a body-in record (the default build's 3 inverse-inertia words)"),
     "kBodyInInvInertia": (sf.BODY_INV_INERTIA, "word of a body-in record where its inverse inertia starts"),
     "kBodyOutWords": (sf.BODY_OUT_WORDS, "words of a body-out record"),
+    "kContactLamWord": (sf.CONTACT_LAM_WORD, "word of a contact record where the lam[0..3] it carries start"),
+    "kFrictionLamWord": (sf.FRICTION_LAM_WORD, "friction record word of its lam[0..3] (+ coefficient words)"),
+    "kFrictionLamtWord": (sf.FRICTION_LAMT_WORD, "friction record word of its lamT[0..1] (+ coefficient words)"),
+    "kContactImpulseWords": (sf.CONTACT_IMPULSE_WORDS, "impulse words a contact record carries: lam[0..3]"),
+    "kFrictionImpulseWords": (sf.FRICTION_IMPULSE_WORDS, "impulse words a friction record carries: lam, lamT"),
+    "kImpulseOutWords": (sf.IMPULSE_OUT_WORDS, "words of an impulse-out record (m_axis_imp), rounded up to bytes"),
     "kTraceWords": (sf.TRACE_WORDS, "words of a trace record"),
     "kTraceTailBits": (sf.TRACE_TAIL_BITS, "bits after a trace record's words: slot, iteration, pass kind"),
 }
