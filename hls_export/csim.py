@@ -12,8 +12,15 @@ when they are on the include path, else against the shims in ``hls_export/shims/
 ``build/hls_csim/<name>/pgs_csim``; it is rebuilt when a source under ``hls_export/`` is newer or the command
 changed.
 
-``make csim`` (``python -m hls_export.csim``) runs the stack, the incline and a 4x3x4 pile in the hazard and the
-pybullet schedules and prints a table; it exits 1 on any difference.
+The records design (``PGS_IMPULSES_IN_RECORDS=1``, the RTL's ``IMPULSES_IN_RECORDS``: the impulses travel with
+the records and leave on ``m_axis_imp``) is built for a ``KernelBuild`` with ``impulses_in_records``; its testbench
+plays the DMA (``hls_export/pgs_csim_dma.h``) and writes the impulse-out records, which ``compare_impulse_out``
+checks too. Formats: ``KernelBuild.fmt``'s exponent and mantissa bits (``PGS_EXP_BITS``, ``PGS_MAN_BITS``).
+
+``make csim`` (``python -m hls_export.csim``) runs both designs: the on-chip one in binary32 on the stack, the
+incline and a 4x3x4 pile in the hazard and the pybullet schedules, and the records design in binary16 and binary32 on
+the pile and the stack, cold and warm-started (``--designs onchip`` or ``records`` runs one); it prints a table and
+exits 1 on any difference.
 """
 
 from __future__ import annotations
@@ -28,28 +35,34 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from models import scenes
 from models import stream_format as sf
-from models.contact_solver import SolverParams
+from models.contact_solver import Impulses, SolverParams
 from models.dma_model import get_preset
-from models.number_format import FP32
+from models.number_format import FP16, FP32, NumberFormat
 from models.kernel_job import KernelJob
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from sim.harness_run import run_harness, write_inputs
 from sim.kernel_build import KernelBuild, default_window
 from sim.kernel_step import golden_step
-from sim.trace_compare import Comparison, compare_body_out, compare_trace, read_trace
+from sim.trace_compare import Comparison, compare_body_out, compare_impulse_out, compare_trace, read_trace
 from sim.verilator_build import REPO_ROOT
 
 HLS_DIR = Path(__file__).resolve().parent
 BUILD_ROOT = REPO_ROOT / "build" / "hls_csim"
 SOURCES = [HLS_DIR / "pgs_kernel.cpp", HLS_DIR / "pgs_csim_main.cpp"]
 CXXFLAGS = ["-std=c++14", "-O2", "-ffp-contract=off", "-fno-fast-math", "-Wall", "-Wextra", "-Werror",
-            "-Wno-unknown-pragmas", "-Wno-unused-label"]
+            "-Wno-unknown-pragmas", "-Wno-unused-label", "-pthread"]
 
 # scenes of make csim and of the test: the RTL kernel tests' frames (models/scenes/kernel_scenes.py), in this order
 SCENES: dict[str, dict[str, Any]] = {name: KERNEL_TEST_SCENES[name] for name in ("stack", "incline", "pile")}
 SCHEDULES = ("hazard", "pybullet")
+# the records design in make csim: formats, scenes, cold / warm start
+RECORDS_FORMATS: dict[str, NumberFormat] = {"fp16": FP16, "fp32": FP32}
+RECORDS_SCENES = ("pile", "stack")
+WARM_SEED = 7  # the warm start's random impulses (make csim)
 
 
 class CsimError(RuntimeError):
@@ -58,7 +71,9 @@ class CsimError(RuntimeError):
 
 def csim_name(kb: KernelBuild) -> str:
     return (f"pgs_csim_c{kb.cons_bits}_b{kb.max_bodies}_m{kb.max_manifolds}"
+            + (f"_e{kb.fmt.exp_bits}m{kb.fmt.man_bits}" if kb.fmt != FP32 else "")
             + (f"_i{kb.inertia_words}" if kb.inertia_words != sf.KERNEL_INERTIA_WORDS else "")
+            + ("_ir" if kb.impulses_in_records else "")
             + ("_mu" if kb.friction_words else ""))
 
 
@@ -80,13 +95,17 @@ def compile_cpp(sources: Sequence[Path], exe: Path, defines: Sequence[str] = (),
 
 
 def build_csim(kb: KernelBuild = KernelBuild(FP32), cxx: str = "g++") -> Path:
-    """The testbench executable for ``kb``'s stream widths and table sizes (binary32 only), rebuilt when stale."""
-    if kb.fmt != FP32:
-        raise ValueError(f"the HLS kernel is binary32 only, not {kb.fmt.name}")
-    defines = [f"-DPGS_MAX_BODIES={kb.max_bodies}", f"-DPGS_MAX_MANIFOLDS={kb.max_manifolds}",
+    """The testbench executable for ``kb``'s format, stream widths, table sizes and impulse store (on chip, or in
+    the records), rebuilt when stale. The streaming kernel only: a window build is refused."""
+    if kb.window or kb.lanes > 1 or kb.friction_sign_bug:
+        raise ValueError("the HLS kernel is the streaming kernel: no window, lanes or pipe variants")
+    if kb.fmt.exp_bits > 8 or kb.fmt.man_bits > 23:
+        raise ValueError(f"the HLS kernel holds values in a C++ float: {kb.fmt.name} does not fit")
+    defines = [f"-DPGS_EXP_BITS={kb.fmt.exp_bits}", f"-DPGS_MAN_BITS={kb.fmt.man_bits}",
+               f"-DPGS_MAX_BODIES={kb.max_bodies}", f"-DPGS_MAX_MANIFOLDS={kb.max_manifolds}",
                f"-DPGS_CONS_W={kb.cons_bits}", f"-DPGS_BODY_IN_W={kb.body_in_bits}",
                f"-DPGS_BODY_OUT_W={kb.body_out_bits}", f"-DPGS_IINV_W={kb.inertia_words}",
-               f"-DPGS_MU_W={kb.friction_words}"]
+               f"-DPGS_MU_W={kb.friction_words}", f"-DPGS_IMPULSES_IN_RECORDS={int(kb.impulses_in_records)}"]
     return compile_cpp(SOURCES, BUILD_ROOT / csim_name(kb) / "pgs_csim", defines, cxx)
 
 
@@ -109,13 +128,17 @@ def run_csim_step(job: KernelJob, run_dir: Path, exe: Path, kb: KernelBuild = Ke
                   window: int = 128) -> CsimResult:
     """Run one step of ``job`` through the C simulation and compare it with the golden model (never raises on a
     mismatch: see ``comparison``). ``window``: records in flight assumed by the ``window_hazards`` count."""
-    write_inputs(run_dir, job, kb)
+    write_inputs(run_dir, job, kb)  # the records design: impulse_plan.bin too (the DMA's pass plan)
     golden = golden_step(job)
     env = dict(os.environ, PGS_HAZARD_WINDOW=str(window))
     regs = run_harness(exe, run_dir, seed=1, preset=get_preset("ideal"), max_cycles=0, env=env)
     cmp = Comparison()
     compare_trace(read_trace(run_dir / "trace.bin", job.fmt, kb.trace_bytes), golden.records, job, cmp)
     compare_body_out(run_dir, job, kb, golden.final, cmp)
+    if job.impulses_in_records:
+        compare_impulse_out(run_dir, job, golden.records, cmp)
+        if int(regs["impulse_out_records"]) != job.manifold_passes:
+            cmp.fail(f"{int(regs['impulse_out_records'])} impulse-out records, expected {job.manifold_passes}")
     if int(regs["status"]) != 0:
         cmp.fail(f"kernel status 0x{int(regs['status']):x} after a good frame")
     if int(regs["issued"]) != job.manifold_passes:
@@ -128,39 +151,84 @@ def run_csim_step(job: KernelJob, run_dir: Path, exe: Path, kb: KernelBuild = Ke
 
 def scene_job(scene: str, schedule: str, iterations: int = 4, kb: KernelBuild = KernelBuild(FP32),
               interleaved: bool = False) -> KernelJob:
-    """One step of a ``SCENES`` scene in binary32, ordered by ``schedule`` (hazard window = the RTL's)."""
+    """One step of a ``SCENES`` scene in ``kb``'s format, ordered by ``schedule`` (hazard window = the RTL's); with
+    ``kb.impulses_in_records`` the step of the records design, starting from zeros."""
     frame = scenes.load_or_capture(scene, **SCENES[scene])
-    return KernelJob.from_frame(frame, FP32, SolverParams(iterations, interleaved=interleaved), schedule,
-                                default_window(FP32, kb.cons_bits))
+    job = KernelJob.from_frame(frame, kb.fmt, SolverParams(iterations, interleaved=interleaved), schedule,
+                               default_window(kb.fmt, kb.cons_bits))
+    return job.impulses_travelling() if kb.impulses_in_records else job
+
+
+def warm_start(job: KernelJob, seed: int) -> Impulses:
+    """Random initial impulses for ``job`` (as ``cocotb_tests/test_kernel_impulses_in_records.py``): non-negative
+    normal impulses, friction impulses within a tenth of their sum (inside the friction limit), in the job's format."""
+    rng = np.random.default_rng(seed)
+    m = job.cons.num_manifolds
+    normal = job.fmt.round(rng.uniform(0.0, 0.5, (m, 4)))
+    friction = job.fmt.round(rng.uniform(-0.05, 0.05, (m, 2)) * normal.sum(axis=1, keepdims=True))
+    return Impulses(normal, friction)
+
+
+def records_build(fmt: NumberFormat, job: KernelJob | None = None) -> KernelBuild:
+    """The records design's build for ``fmt`` (and ``job``'s friction-coefficient and inverse-inertia words)."""
+    if job is None:
+        return KernelBuild(fmt, impulses_in_records=True)
+    return KernelBuild(fmt, impulses_in_records=True, inertia_words=job.inertia_words,
+                       friction_words=job.friction_words)
+
+
+def _print_row(case: str, res: CsimResult) -> None:
+    c = res.comparison
+    verdict = "bit-exact" if res.bit_exact else f"MISMATCH: {c.first_mismatch}"
+    imp = int(res.registers.get("impulse_out_records", 0))
+    print(f"{case:<30} {c.records:>15,} {c.bodies:>7,} {imp:>11,} {c.differing_bits:>14} {res.window_hazards:>14,} "
+          f"{res.registers['wall_s']:>7.3f} {res.golden_seconds:>8.2f}  {verdict}")
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenes", default=",".join(SCENES), help="comma-separated, from " + ", ".join(SCENES))
+    ap.add_argument("--designs", default="onchip,records", help="comma-separated: onchip (impulses on chip, "
+                    "binary32), records (impulses in the records, PGS_IMPULSES_IN_RECORDS=1)")
+    ap.add_argument("--scenes", default=",".join(SCENES),
+                    help="on-chip design, comma-separated, from " + ", ".join(SCENES))
     ap.add_argument("--schedules", default=",".join(SCHEDULES))
+    ap.add_argument("--records-scenes", default=",".join(RECORDS_SCENES))
+    ap.add_argument("--records-formats", default=",".join(RECORDS_FORMATS))
     ap.add_argument("--iters", type=int, default=4)
     ap.add_argument("--out", type=Path, default=REPO_ROOT / "build" / "hls_csim" / "runs")
     args = ap.parse_args(argv)
-    kb = KernelBuild(FP32)
-    t0 = time.monotonic()
-    exe = build_csim(kb)
-    print(f"C simulation testbench: {exe.relative_to(REPO_ROOT)} ({time.monotonic() - t0:.1f} s to build or check)")
-    window = default_window(FP32, kb.cons_bits)
-    print(f"{'case':<22} {'manifold-passes':>15} {'bodies':>7} {'differing bits':>14} {'window hazards':>14} "
-          f"{'csim s':>7} {'golden s':>8}  result")
+    designs = args.designs.split(",")
+    unknown = set(designs) - {"onchip", "records"}
+    if unknown:
+        ap.error(f"unknown design(s) {sorted(unknown)}: onchip, records")
+    print(f"{'case':<30} {'manifold-passes':>15} {'bodies':>7} {'imp-out rec':>11} {'differing bits':>14} "
+          f"{'window hazards':>14} {'csim s':>7} {'golden s':>8}  result")
     bad = 0
-    for scene in args.scenes.split(","):
-        for schedule in args.schedules.split(","):
-            job = scene_job(scene, schedule, args.iters, kb)
-            res = run_csim_step(job, args.out / f"{scene}-{schedule}", exe, kb, window)
-            c = res.comparison
-            verdict = "bit-exact" if res.bit_exact else f"MISMATCH: {c.first_mismatch}"
-            bad += not res.bit_exact
-            print(f"{scene + '/' + schedule:<22} {c.records:>15,} {c.bodies:>7,} {c.differing_bits:>14} "
-                  f"{res.window_hazards:>14,} {res.registers['wall_s']:>7.3f} {res.golden_seconds:>8.2f}  {verdict}")
-    print(f"window hazards: records naming a dynamic body that one of the {window} records before them in the pass "
-          "names too; the synthesized kernel (DEPENDENCE false on the velocities) equals this C simulation only "
-          "where that is 0 for a window of at least its pipeline's records in flight.")
+    if "onchip" in designs:
+        kb = KernelBuild(FP32)
+        exe = build_csim(kb)
+        window = default_window(FP32, kb.cons_bits)
+        for scene in args.scenes.split(","):
+            for schedule in args.schedules.split(","):
+                res = run_csim_step(scene_job(scene, schedule, args.iters, kb), args.out / f"{scene}-{schedule}",
+                                    exe, kb, window)
+                bad += not res.bit_exact
+                _print_row(f"onchip fp32 {scene}/{schedule}", res)
+    if "records" in designs:
+        for fname in args.records_formats.split(","):
+            fmt = RECORDS_FORMATS[fname]
+            for scene in args.records_scenes.split(","):
+                cold = scene_job(scene, "hazard", args.iters, records_build(fmt))
+                kb = records_build(fmt, cold)
+                exe = build_csim(kb)
+                for start, job in (("cold", cold), ("warm", cold.impulses_travelling(warm_start(cold, WARM_SEED)))):
+                    res = run_csim_step(job, args.out / f"records-{fname}-{scene}-{start}", exe, kb,
+                                        default_window(fmt, kb.cons_bits))
+                    bad += not res.bit_exact
+                    _print_row(f"records {fname} {scene}/hazard {start}", res)
+    print("window hazards: records naming a dynamic body that one of the records before them in the pass (the RTL's "
+          "hazard window for the format) names too; the synthesized kernel (DEPENDENCE false on the velocities) "
+          "equals this C simulation only where that is 0 for a window of at least its pipeline's records in flight.")
     return 1 if bad else 0
 
 

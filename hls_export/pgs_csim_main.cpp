@@ -13,6 +13,11 @@
 // 0x78), trace_records, body_out_beats, body_in_beats_taken, cons_beats_taken, body_in_beats_left,
 // cons_beats_left, empty_reads (reads of an empty input stream; shims only), wall_s, hazard_window,
 // window_hazards.
+// Built with PGS_IMPULSES_IN_RECORDS = 1 the testbench plays the DMA of the records design (pgs_csim_dma.h): it also
+// reads DIR/impulse_plan.bin, runs the kernel in a second thread, streams each record with the impulse buffer
+// applied, and writes DIR/imp_out.bin + imp_out_last.bin (the m_axis_imp records and their TLAST) and
+// impulse_out_records in result.txt. $PGS_CSIM_WAIT_S (default 60): seconds the DMA waits for an impulse-out record
+// before it stops the run (exit 2) as stuck.
 // window_hazards: records that name a dynamic body also named by one of the hazard_window records before them
 // in the same pass (hazard_window from $PGS_HAZARD_WINDOW, default 128). The synthesized kernel declares the
 // velocity dependence false (pgs_kernel.cpp), so it matches this sequential C simulation only when that count
@@ -26,9 +31,16 @@
 #include <iterator>
 #include <map>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "pgs_kernel.h"
+#if PGS_IMPULSES_IN_RECORDS
+#if !PGS_USING_SHIMS
+#error "the records design's testbench plays the DMA in a second thread: build it with -DPGS_FORCE_SHIMS"
+#endif
+#include "pgs_csim_dma.h"
+#endif
 
 using namespace pgs;
 
@@ -39,10 +51,13 @@ namespace {
     std::exit(2);
 }
 
-// The harness's input files of DIR, by name (regs, body_in, body_in_last, cons, cons_last).
+// The harness's input files of DIR, by name (regs, body_in, body_in_last, cons, cons_last; impulse_plan for the
+// records design).
 std::map<std::string, std::vector<uint8_t> > read_inputs(const std::string& dir) {
     std::map<std::string, std::vector<uint8_t> > files;
-    for (const char* name : {"regs", "body_in", "body_in_last", "cons", "cons_last"}) {
+    std::vector<const char*> names = {"regs", "body_in", "body_in_last", "cons", "cons_last"};
+    if (kImpulsesInRecords) names.push_back("impulse_plan");
+    for (const char* name : names) {
         std::ifstream f(dir + "/" + name + ".bin", std::ios::binary);
         if (!f) fail("cannot open " + dir + "/" + name + ".bin");
         files[name].assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
@@ -156,12 +171,29 @@ int main(int argc, char** argv) {
     hls::stream<body_out_beat_t> m_body("m_axis_body");
     hls::stream<trace_t> trace("trace");
     feed(s_body, body_in, body_in_last);
-    feed(s_cons, cons, cons_last);
 
     uint32_t status = 0, issued = 0;
     const auto t0 = std::chrono::steady_clock::now();
+#if PGS_IMPULSES_IN_RECORDS
+    const char* wait_env = std::getenv("PGS_CSIM_WAIT_S");
+    RecordsDma dma(in["impulse_plan"], cons, cons_last, wait_env ? std::strtod(wait_env, nullptr) : 60.0);
+    if (!dma.error().empty()) fail(dma.error());
+    hls::stream<imp_beat_t> m_imp("m_axis_imp");
+    s_cons.open_producer();  // the DMA streams the records while the kernel runs
+    m_imp.open_producer();
+    std::thread kernel([&] {
+        pgs_kernel(s_body, s_cons, m_body, trace, m_imp, nb, nm, iters, reg[kRegDt], reg[kRegGravityX],
+                   reg[kRegGravityY], reg[kRegGravityZ], reg[kRegDamping], reg[kRegOptions], &status, &issued);
+        m_imp.close_producer();
+    });
+    if (!dma.stream_records(s_cons, m_imp)) fail(dma.error());  // exits with the kernel thread still waiting
+    kernel.join();
+    dma.drain(m_imp);
+#else
+    feed(s_cons, cons, cons_last);
     pgs_kernel(s_body, s_cons, m_body, trace, nb, nm, iters, reg[kRegDt], reg[kRegGravityX], reg[kRegGravityY],
                reg[kRegGravityZ], reg[kRegDamping], reg[kRegOptions], &status, &issued);
+#endif
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
     std::FILE* ftrace = create(dir + "/trace.bin");
@@ -190,6 +222,15 @@ int main(int argc, char** argv) {
     std::fclose(fout);
     std::fclose(fout_last);
 
+#if PGS_IMPULSES_IN_RECORDS
+    std::FILE* fimp = create(dir + "/imp_out.bin");
+    std::fwrite(dma.imp_out().data(), 1, dma.imp_out().size(), fimp);
+    std::fclose(fimp);
+    std::FILE* fimp_last = create(dir + "/imp_out_last.bin");
+    std::fwrite(dma.imp_out_last().data(), 1, dma.imp_out_last().size(), fimp_last);
+    std::fclose(fimp_last);
+#endif
+
 #if PGS_USING_SHIMS
     const unsigned long long empty_reads = s_body.empty_reads() + s_cons.empty_reads();
 #else
@@ -207,6 +248,9 @@ int main(int argc, char** argv) {
                  empty_reads);
     std::fprintf(fr, "wall_s %.6f\nhazard_window %u\nwindow_hazards %llu\n", wall, window,
                  (unsigned long long)hazards);
+#if PGS_IMPULSES_IN_RECORDS
+    std::fprintf(fr, "impulse_out_records %zu\n", dma.records_out());
+#endif
     std::fclose(fr);
     return 0;
 }

@@ -6,6 +6,9 @@
 //     map of rtl/README.md;
 //   * the body table and the accumulated impulses in on-chip arrays (BRAM): the body-in records are streamed
 //     in once, each pass streams one constraint record per manifold, the integration streams the bodies out;
+//     built with PGS_IMPULSES_IN_RECORDS = 1 (the RTL's IMPULSES_IN_RECORDS, the design that fits the ZCU102) there
+//     is no impulse array: each record carries the impulses its pass starts from and the updated ones leave on
+//     m_axis_imp, one record per slot and pass (the DMA writes them to the DDR buffer the next passes read);
 //   * one pipelined loop per pass kind (PIPELINE, the fixed-size inner loops unrolled), ARRAY_PARTITION of the
 //     per-body and per-slot words so that a record reads and writes all of them at once, and DEPENDENCE
 //     inter false on the body velocities and the impulses (below).
@@ -124,49 +127,88 @@ LOAD:
     }
 }
 
+// The impulses of the passes: on chip (imp_n, imp_t: one entry per slot) or, with PGS_IMPULSES_IN_RECORDS = 1, in
+// the records (each carries the impulses its pass starts from) and out on m_axis_imp (one record per slot and pass,
+// TLAST on the pass's last), which the DMA writes to the DDR impulse buffer the next passes' records are read with.
+#if PGS_IMPULSES_IN_RECORDS
+#define PGS_IMPULSE_ARGS hls::stream<imp_beat_t>& m_axis_imp
+#define PGS_IMPULSE_CALL m_axis_imp
+void write_impulses(hls::stream<imp_beat_t>& m_axis_imp, const float impulses[4], bool last_of_pass) {
+    write_record<1, kImpOutW>(m_axis_imp, encode_impulse_out(impulses), last_of_pass);
+}
+#else
+#define PGS_IMPULSE_ARGS float imp_n[kMaxManifolds][4], float imp_t[kMaxManifolds][2]
+#define PGS_IMPULSE_CALL imp_n, imp_t
+#endif
+
 // One contact pass: record k of the pass is manifold slot k.
 void contact_pass(hls::stream<cons_beat_t>& s_axis_cons, hls::stream<trace_t>& trace, uint32_t num_bodies,
                   uint32_t num_manifolds, uint32_t iteration, const float body_ref[kMaxBodies][kRefWords],
-                  float body_vel[kMaxBodies][6], float imp_n[kMaxManifolds][4], Errors& err) {
-    const bool zero_lam = iteration == 0;  // the impulses start the step at +0
+                  float body_vel[kMaxBodies][6], PGS_IMPULSE_ARGS, Errors& err) {
+    const bool zero_lam = iteration == 0;  // on chip: the impulses start the step at +0
+    (void)zero_lam;
+#if !PGS_IMPULSES_IN_RECORDS
+    (void)imp_t;  // a contact pass touches the normal impulses only
+#endif
 CONTACT:
     for (uint32_t k = 0; k < num_manifolds; k++) {
 #pragma HLS PIPELINE II=1
 #pragma HLS LOOP_TRIPCOUNT min=1 max=262144 avg=127000
 #pragma HLS DEPENDENCE variable=body_vel type=inter dependent=false
+#if !PGS_IMPULSES_IN_RECORDS
 #pragma HLS DEPENDENCE variable=imp_n type=inter dependent=false
+#endif
         const ContactRec r = decode_contact(read_cons<kContactBeats>(s_axis_cons, k == num_manifolds - 1, err));
         BodyPair p = gather(r.h, num_bodies, body_ref, body_vel, err);
         float lam[4];
+#if PGS_IMPULSES_IN_RECORDS
+        for (int i = 0; i < 4; i++) lam[i] = r.lam[i];
+#else
         for (int i = 0; i < 4; i++) lam[i] = zero_lam ? 0.0f : imp_n[k][i];
+#endif
         solve_contact(r, p.A, p.B, p.va, p.vb, lam);
+#if PGS_IMPULSES_IN_RECORDS
+        write_impulses(m_axis_imp, lam, k == num_manifolds - 1);
+#else
         for (int i = 0; i < 4; i++) imp_n[k][i] = lam[i];
+#endif
         retire(body_vel, p);
         trace.write(encode_trace(lam, p.va.v, p.va.w, p.vb.v, p.vb.w, k, iteration, false));
     }
 }
 
-// One friction pass (reads the manifold's normal impulses of the contact passes so far).
+// One friction pass (reads the manifold's normal impulses of the contact passes so far: on chip, or in the record).
 void friction_pass(hls::stream<cons_beat_t>& s_axis_cons, hls::stream<trace_t>& trace, uint32_t num_bodies,
                    uint32_t num_manifolds, uint32_t iteration, const float body_ref[kMaxBodies][kRefWords],
-                   float body_vel[kMaxBodies][6], const float imp_n[kMaxManifolds][4], float imp_t[kMaxManifolds][2],
-                   Errors& err) {
+                   float body_vel[kMaxBodies][6], PGS_IMPULSE_ARGS, Errors& err) {
     const bool zero_lam = iteration == 0;
+    (void)zero_lam;
 FRICTION:
     for (uint32_t k = 0; k < num_manifolds; k++) {
 #pragma HLS PIPELINE II=1
 #pragma HLS LOOP_TRIPCOUNT min=1 max=262144 avg=127000
 #pragma HLS DEPENDENCE variable=body_vel type=inter dependent=false
+#if !PGS_IMPULSES_IN_RECORDS
 #pragma HLS DEPENDENCE variable=imp_t type=inter dependent=false
+#endif
         const FrictionRec r = decode_friction(read_cons<kFrictionBeats>(s_axis_cons, k == num_manifolds - 1, err));
         BodyPair p = gather(r.h, num_bodies, body_ref, body_vel, err);
         float lam_n[4], lam_t[2];
+#if PGS_IMPULSES_IN_RECORDS
+        for (int i = 0; i < 4; i++) lam_n[i] = r.lam[i];
+        for (int j = 0; j < 2; j++) lam_t[j] = r.lam_t[j];
+#else
         for (int i = 0; i < 4; i++) lam_n[i] = imp_n[k][i];
         for (int j = 0; j < 2; j++) lam_t[j] = zero_lam ? 0.0f : imp_t[k][j];
+#endif
         solve_friction(r, p.A, p.B, p.va, p.vb, lam_n, lam_t);
-        for (int j = 0; j < 2; j++) imp_t[k][j] = lam_t[j];
-        retire(body_vel, p);
         const float impulses[4] = {lam_t[0], lam_t[1], 0.0f, 0.0f};
+#if PGS_IMPULSES_IN_RECORDS
+        write_impulses(m_axis_imp, impulses, k == num_manifolds - 1);
+#else
+        for (int j = 0; j < 2; j++) imp_t[k][j] = lam_t[j];
+#endif
+        retire(body_vel, p);
         trace.write(encode_trace(impulses, p.va.v, p.va.w, p.vb.v, p.vb.w, k, iteration, true));
     }
 }
@@ -196,13 +238,17 @@ INTEGRATE:
 }  // namespace
 
 void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_t>& s_axis_cons,
-                hls::stream<body_out_beat_t>& m_axis_body, hls::stream<trace_t>& trace, uint32_t num_bodies,
-                uint32_t num_manifolds, uint32_t iterations, uint32_t dt, uint32_t gravity_x, uint32_t gravity_y,
-                uint32_t gravity_z, uint32_t damping, uint32_t options, uint32_t* status, uint32_t* issued) {
+                hls::stream<body_out_beat_t>& m_axis_body, hls::stream<trace_t>& trace, PGS_IMP_OUT_PORT
+                uint32_t num_bodies, uint32_t num_manifolds, uint32_t iterations, uint32_t dt, uint32_t gravity_x,
+                uint32_t gravity_y, uint32_t gravity_z, uint32_t damping, uint32_t options, uint32_t* status,
+                uint32_t* issued) {
 #pragma HLS INTERFACE mode=axis port=s_axis_body
 #pragma HLS INTERFACE mode=axis port=s_axis_cons
 #pragma HLS INTERFACE mode=axis port=m_axis_body
 #pragma HLS INTERFACE mode=axis port=trace
+#if PGS_IMPULSES_IN_RECORDS
+#pragma HLS INTERFACE mode=axis port=m_axis_imp
+#endif
     // the argument offsets of models/register_map.py (generated/pgs_regs.h: PGS_PRAGMA expands PGS_REG_*)
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=num_bodies bundle=control offset=PGS_REG_NUM_BODIES)
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=num_manifolds bundle=control offset=PGS_REG_NUM_MANIFOLDS)
@@ -222,13 +268,15 @@ void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_
     static float body_ref[kMaxBodies][kRefWords];
     static float body_vel[kMaxBodies][6];
     static float body_q[kMaxBodies][4];
-    static float imp_n[kMaxManifolds][4];
-    static float imp_t[kMaxManifolds][2];
 #pragma HLS ARRAY_PARTITION variable=body_ref type=complete dim=2
 #pragma HLS ARRAY_PARTITION variable=body_vel type=complete dim=2
 #pragma HLS ARRAY_PARTITION variable=body_q type=complete dim=2
+#if !PGS_IMPULSES_IN_RECORDS  // else no impulse array: the impulses travel with the records
+    static float imp_n[kMaxManifolds][4];
+    static float imp_t[kMaxManifolds][2];
 #pragma HLS ARRAY_PARTITION variable=imp_n type=complete dim=2
 #pragma HLS ARRAY_PARTITION variable=imp_t type=complete dim=2
+#endif
 #pragma HLS BIND_STORAGE variable=body_vel type=ram_t2p impl=bram
 #pragma HLS BIND_STORAGE variable=body_ref type=ram_t2p impl=bram
 
@@ -244,9 +292,11 @@ void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_
 #pragma HLS LOOP_TRIPCOUNT min=2 max=64 avg=8
             const uint32_t it = pass_iteration(p, iterations, interleaved);
             if (pass_is_friction(p, iterations, interleaved))
-                friction_pass(s_axis_cons, trace, num_bodies, num_manifolds, it, body_ref, body_vel, imp_n, imp_t, err);
+                friction_pass(s_axis_cons, trace, num_bodies, num_manifolds, it, body_ref, body_vel, PGS_IMPULSE_CALL,
+                              err);
             else
-                contact_pass(s_axis_cons, trace, num_bodies, num_manifolds, it, body_ref, body_vel, imp_n, err);
+                contact_pass(s_axis_cons, trace, num_bodies, num_manifolds, it, body_ref, body_vel, PGS_IMPULSE_CALL,
+                             err);
             count += num_manifolds;
         }
         const Vec3 gravity = vec3(from_bits(gravity_x), from_bits(gravity_y), from_bits(gravity_z));

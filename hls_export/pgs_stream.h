@@ -2,10 +2,14 @@
 // trace record of rtl/README.md.
 //
 // Every record is little-endian from bit 0 and padded to whole beats (beat j holds record bits
-// [j*B, (j+1)*B)). Words are W = 32 bits (binary32); word k of a record with a header sits at bits
-// [64 + 32k, 64 + 32k + 32).
+// [j*B, (j+1)*B)). Words are W = 1 + PGS_EXP_BITS + PGS_MAN_BITS bits (pgs_fp.h; binary32 by default); word k of
+// a record with a header sits at bits [64 + W k, 64 + W k + W).
 //   contact   header, n(3), p[0..3] xyz (12), jac_inv(4), b(4)         64 + 23 W bits
+//             PGS_IMPULSES_IN_RECORDS = 1: then lam[0..3]               64 + 27 W bits
 //   friction  header, n(3), c(3), t0(3), t1(3), f_jac_inv(2), mu (PGS_MU_W = 1)   64 + (14 + PGS_MU_W) W bits
+//             PGS_IMPULSES_IN_RECORDS = 1: then lam[0..3], lamT[0..1]  64 + (20 + PGS_MU_W) W bits
+//   impulse-out (m_axis_imp, PGS_IMPULSES_IN_RECORDS = 1)  contact lam[0..3]; friction lamT[0..1], 0, 0
+//             4 W bits rounded up to whole bytes, one per slot of every pass, TLAST on a pass's last
 //   header    bits 31:0 body_a, 62:32 body_b, 63 spin_damp
 //   body-in   pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass, inv_inertia(PGS_IINV_W)   (14 + PGS_IINV_W) W bits
 //   body-out  pos(3), q(4), v(3), w(3)                                           13 W bits
@@ -31,6 +35,9 @@
 #ifndef PGS_MU_W
 #define PGS_MU_W 0  // friction-coefficient words per friction record (the RTL's MU_W): 0 the constant, 1 a word
 #endif
+#ifndef PGS_IMPULSES_IN_RECORDS
+#define PGS_IMPULSES_IN_RECORDS 0  // 1: the impulses travel with the records and leave on m_axis_imp (no impulse RAM)
+#endif
 #ifndef PGS_BODY_IN_W
 #define PGS_BODY_IN_W 128
 #endif
@@ -40,9 +47,9 @@
 
 namespace pgs {
 
-// the record sizes (kHeaderBits, k*Words, kTraceTailBits) are generated/pgs_stream_layout.h, from
-// models/stream_format.py; the words are binary32 here
-constexpr int kWordBits = 32;
+// the record sizes and the impulse words' offsets (kHeaderBits, k*Words, k*LamWord, kTraceTailBits) are
+// generated/pgs_stream_layout.h, from models/stream_format.py; the words are those of the format (pgs_fp.h)
+constexpr int kWordBits = kFormatBits;
 constexpr int kTraceBits = kTraceWords * kWordBits + kTraceTailBits;
 
 constexpr int beats_for(int record_bits, int beat_bits) { return (record_bits + beat_bits - 1) / beat_bits; }
@@ -50,10 +57,18 @@ constexpr int beats_for(int record_bits, int beat_bits) { return (record_bits + 
 constexpr int kConsW = PGS_CONS_W;
 constexpr int kBodyInW = PGS_BODY_IN_W;
 constexpr int kBodyOutW = PGS_BODY_OUT_W;
-constexpr int kContactBeats = beats_for(kHeaderBits + kContactWords * kWordBits, kConsW);
+constexpr bool kImpulsesInRecords = PGS_IMPULSES_IN_RECORDS != 0;
+static_assert(PGS_IMPULSES_IN_RECORDS == 0 || PGS_IMPULSES_IN_RECORDS == 1, "PGS_IMPULSES_IN_RECORDS must be 0 or 1");
 constexpr int kMuWords = PGS_MU_W;
 static_assert(kMuWords == 0 || kMuWords == 1, "PGS_MU_W must be 0 or 1");
-constexpr int kFrictionBeats = beats_for(kHeaderBits + (kFrictionWords + kMuWords) * kWordBits, kConsW);
+// words after the header (models.stream_format.StreamLayout.contact_record_words / friction_record_words)
+constexpr int kContactRecordWords = kContactWords + (kImpulsesInRecords ? kContactImpulseWords : 0);
+constexpr int kFrictionRecordWords = kFrictionWords + kMuWords + (kImpulsesInRecords ? kFrictionImpulseWords : 0);
+constexpr int kFrictionLamAt = kFrictionLamWord + kMuWords;    // StreamLayout.friction_lam_word
+constexpr int kFrictionLamtAt = kFrictionLamtWord + kMuWords;  // StreamLayout.friction_lamt_word
+constexpr int kContactBeats = beats_for(kHeaderBits + kContactRecordWords * kWordBits, kConsW);
+constexpr int kFrictionBeats = beats_for(kHeaderBits + kFrictionRecordWords * kWordBits, kConsW);
+constexpr int kImpOutW = (kImpulseOutWords * kWordBits + 7) / 8 * 8;  // m_axis_imp TDATA: whole bytes
 constexpr int kIInvWords = PGS_IINV_W;
 static_assert(kIInvWords == 1 || kIInvWords == 3 || kIInvWords == 6, "PGS_IINV_W must be 1, 3 or 6");
 static_assert(kBodyInInvInertia + 3 == kBodyInWords, "the default body-in record carries 3 inverse-inertia words");
@@ -64,6 +79,7 @@ constexpr int kBodyOutBeats = beats_for(kBodyOutWords * kWordBits, kBodyOutW);
 typedef ap_axiu<kConsW, 0, 0, 0> cons_beat_t;
 typedef ap_axiu<kBodyInW, 0, 0, 0> body_in_beat_t;
 typedef ap_axiu<kBodyOutW, 0, 0, 0> body_out_beat_t;
+typedef ap_axiu<kImpOutW, 0, 0, 0> imp_beat_t;
 typedef ap_uint<kTraceBits> trace_t;
 
 typedef ap_uint<kContactBeats * kConsW> contact_bits_t;
@@ -86,6 +102,7 @@ struct ContactRec {
     Vec3 p[4];
     float jac_inv[4];
     float bias[4];
+    float lam[4];  // the impulses the pass starts from (PGS_IMPULSES_IN_RECORDS = 1; else unused)
 };
 
 struct FrictionRec {
@@ -94,6 +111,7 @@ struct FrictionRec {
     Vec3 t[2];
     float f_jac_inv[2];
     float mu;  // the manifold's friction coefficient (PGS_MU_W = 1; else the constant kFrictionCoeff)
+    float lam[4], lam_t[2];  // the manifold's normal impulses and the pass's start (PGS_IMPULSES_IN_RECORDS = 1)
 };
 
 // A body's world inverse inertia: the scalar, the diagonal (xx, yy, zz) or the symmetric 3x3 (xx, yy, zz, xy, xz, yz).
@@ -203,6 +221,7 @@ inline ContactRec decode_contact(const contact_bits_t& r) {
         c.p[i] = vec_at(r, kHeaderBits, 3 + 3 * i);
         c.jac_inv[i] = value_at(r, kHeaderBits, 15 + i);
         c.bias[i] = value_at(r, kHeaderBits, 19 + i);
+        c.lam[i] = kImpulsesInRecords ? value_at(r, kHeaderBits, kContactLamWord + i) : 0.0f;
     }
     return c;
 }
@@ -216,7 +235,15 @@ inline FrictionRec decode_friction(const friction_bits_t& r) {
     f.t[1] = vec_at(r, kHeaderBits, 9);
     f.f_jac_inv[0] = value_at(r, kHeaderBits, 12);
     f.f_jac_inv[1] = value_at(r, kHeaderBits, 13);
-    f.mu = kMuWords ? value_at(r, kHeaderBits, 14) : 0.0f;
+    f.mu = kMuWords ? value_at(r, kHeaderBits, kFrictionWords) : 0.0f;
+    for (int i = 0; i < 4; i++) {
+#pragma HLS UNROLL
+        f.lam[i] = kImpulsesInRecords ? value_at(r, kHeaderBits, kFrictionLamAt + i) : 0.0f;
+    }
+    for (int j = 0; j < 2; j++) {
+#pragma HLS UNROLL
+        f.lam_t[j] = kImpulsesInRecords ? value_at(r, kHeaderBits, kFrictionLamtAt + j) : 0.0f;
+    }
     return f;
 }
 
@@ -246,6 +273,16 @@ inline body_out_bits_t encode_body_out(const BodyState& b) {
     }
     put_vec(r, 0, 7, b.v);
     put_vec(r, 0, 10, b.w);
+    return r;
+}
+
+// The impulse-out record of one manifold-pass (m_axis_imp TDATA): impulses[0..3], padding bits zero.
+inline ap_uint<kImpOutW> encode_impulse_out(const float impulses[4]) {
+    ap_uint<kImpOutW> r = 0;
+    for (int i = 0; i < kImpulseOutWords; i++) {
+#pragma HLS UNROLL
+        put_word(r, 0, i, impulses[i]);
+    }
     return r;
 }
 
