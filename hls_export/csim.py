@@ -129,6 +129,11 @@ def run_csim_step(job: KernelJob, run_dir: Path, exe: Path, kb: KernelBuild = Ke
     """Run one step of ``job`` through the C simulation and compare it with the golden model (never raises on a
     mismatch: see ``comparison``). ``window``: records in flight assumed by the ``window_hazards`` count."""
     write_inputs(run_dir, job, kb)  # the records design: impulse_plan.bin too (the DMA's pass plan)
+    return run_written_step(job, run_dir, exe, kb, window)
+
+
+def run_written_step(job: KernelJob, run_dir: Path, exe: Path, kb: KernelBuild, window: int = 128) -> CsimResult:
+    """:func:`run_csim_step` on the input files already in ``run_dir`` (``write_inputs``; a test may edit them)."""
     golden = golden_step(job)
     env = dict(os.environ, PGS_HAZARD_WINDOW=str(window))
     regs = run_harness(exe, run_dir, seed=1, preset=get_preset("ideal"), max_cycles=0, env=env)

@@ -6,6 +6,14 @@ stack, the incline and a 4x3x4 pile, in the hazard and the pybullet schedules; p
 outputs and the stream accounting (no beat left over, none read from an empty stream); the interleaved pass
 order; and the status register's error codes 3 (bad argument) and 1 (constraint TLAST).
 
+The records design (PGS_IMPULSES_IN_RECORDS=1: the impulses travel with the records, the kernel writes them to
+m_axis_imp, the testbench's DMA writes them to the impulse buffer the next passes' records are read with): binary16 and
+binary32 on the pile and the stack, cold and warm-started (random initial impulses, seed printed, SEED= overrides),
+the interleaved pass order, and the rotated boxes (PGS_MU_W=1, PGS_IINV_W=6), bit for bit in the trace, the body-out
+stream and the impulse-out records (one per slot and pass, TLAST per pass); and that a one-bit change is seen: in a
+host-given impulse word (named in the trace), in an impulse-out record (named there), and not in a word the DMA
+replaces (a later pass's record: the buffer's value wins).
+
 Also prints, per case, the records that would read a velocity still in flight in a pipeline holding W records
 (W = the RTL's hazard window): where that is not 0, the synthesized kernel (DEPENDENCE false) would differ.
 """
@@ -17,8 +25,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hls_export.csim import SCENES, SCHEDULES, build_csim, run_csim_step, scene_job
+import os
+
+from hls_export.csim import (RECORDS_FORMATS, RECORDS_SCENES, SCENES, SCHEDULES, build_csim, records_build,
+                             run_csim_step, run_written_step, scene_job, warm_start)
 from models import scenes
+from models import stream_format as sf
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from models.format_analyzer import inertia_mode_of
@@ -28,6 +40,8 @@ from models.number_format import FP32
 from models.register_map import OFFSET
 from sim.harness_run import run_harness, write_inputs
 from sim.kernel_build import KernelBuild, default_window
+from sim.kernel_step import golden_step
+from sim.trace_compare import Comparison, compare_impulse_out
 from sim.verilator_build import REPO_ROOT
 
 KB = KernelBuild(FP32)
@@ -112,3 +126,98 @@ def test_csim_status_cons_tlast(csim_exe: Path, tmp_path: Path) -> None:
     r = _status_after("tlast", csim_exe, tmp_path)
     assert int(r["status"]) == (1 << 0) | (1 << 8)
     assert r["cons_beats_left"] == 0
+
+
+# --- the records design ---------------------------------------------------------------------------------------
+def _seed() -> int:
+    return int(os.environ.get("SEED", "12345"))
+
+
+def _records_job(scene: str, fmt_name: str, start: str, interleaved: bool = False) -> KernelJob:
+    job = scene_job(scene, "hazard", 4, records_build(RECORDS_FORMATS[fmt_name]), interleaved)
+    if start == "warm":
+        seed = _seed()
+        print(f"\nwarm start seed {seed} (SEED={seed} reproduces)")
+        job = job.impulses_travelling(warm_start(job, seed))
+    return job
+
+
+def _check_records(job: KernelJob, tmp_path: Path, label: str) -> None:
+    kb = records_build(job.fmt, job)
+    res = run_csim_step(job, tmp_path, build_csim(kb), kb, default_window(job.fmt, kb.cons_bits))
+    c = res.comparison
+    print(f"\n[records {label}] {c.records} trace records, {c.bodies} bodies, "
+          f"{int(res.registers['impulse_out_records'])} impulse-out records compared, {c.differing_bits} differing "
+          f"bits; csim {res.registers['wall_s']:.3f} s, golden {res.golden_seconds:.2f} s")
+    if c.first_mismatch is not None:
+        pytest.fail(c.first_mismatch)
+    assert res.bit_exact and c.records == job.manifold_passes and c.bodies == job.bodies.num_bodies
+    assert int(res.registers["impulse_out_records"]) == job.manifold_passes
+
+
+@pytest.mark.parametrize("start", ["cold", "warm"])
+@pytest.mark.parametrize("scene", RECORDS_SCENES)
+@pytest.mark.parametrize("fmt_name", list(RECORDS_FORMATS))
+def test_csim_records_bit_exact(fmt_name: str, scene: str, start: str, tmp_path: Path) -> None:
+    _check_records(_records_job(scene, fmt_name, start), tmp_path, f"{fmt_name} {scene} {start}")
+
+
+def test_csim_records_interleaved(tmp_path: Path) -> None:
+    """Contact and friction passes alternate: each friction pass reads the lam its contact pass just wrote."""
+    _check_records(_records_job("pile", "fp16", "warm", interleaved=True), tmp_path, "fp16 pile interleaved warm")
+
+
+@pytest.mark.parametrize("fmt_name", list(RECORDS_FORMATS))
+def test_csim_records_per_manifold_friction(fmt_name: str, tmp_path: Path) -> None:
+    """The rotated boxes: per-manifold friction (PGS_MU_W = 1: the coefficient word shifts the friction record's
+    impulse words) and the full inverse inertia (PGS_IINV_W = 6), warm-started."""
+    frame = scenes.load_or_capture(ROTATED_WORLD)
+    fmt = RECORDS_FORMATS[fmt_name]
+    job = KernelJob.from_frame(frame, fmt, SolverParams(4), "hazard", default_window(fmt, 512)).impulses_travelling()
+    job = job.impulses_travelling(warm_start(job, _seed()))
+    assert job.friction_words == 1 and job.inertia_words == 6
+    _check_records(job, tmp_path, f"{fmt_name} rotated boxes warm")
+
+
+def _flip_lam_bit(run_dir: Path, job: KernelJob, kb: KernelBuild, pass_index: int, slot: int, bit: int) -> None:
+    """Flip one bit of lam[0] in the contact record of ``slot`` in contact pass ``pass_index`` (not interleaved:
+    the contact passes come first) of cons.bin."""
+    lay = job.stream_layout(kb.cons_bits)
+    pos = (pass_index * len(job.slots) + slot) * lay.contact_bytes * 8 + sf.HEADER_BITS + sf.CONTACT_LAM_WORD * lay.word_bits
+    data = bytearray((run_dir / "cons.bin").read_bytes())
+    data[(pos + bit) // 8] ^= 1 << ((pos + bit) % 8)
+    (run_dir / "cons.bin").write_bytes(bytes(data))
+
+
+@pytest.mark.parametrize("pass_index,seen", [(0, True), (1, False)], ids=["host-given", "dma-replaced"])
+def test_csim_records_one_bit_in_an_impulse_word(pass_index: int, seen: bool, tmp_path: Path) -> None:
+    """One bit of a warm start's lam[0] flipped in the first contact pass's record (the host-given impulse the pass
+    starts from) makes the run differ, named in the trace; the same bit in the second contact pass's record does
+    not (the DMA streams that record with the impulse the first pass wrote, not with cons.bin's word)."""
+    job = _records_job("pile", "fp16", "warm")
+    kb = records_build(job.fmt, job)
+    slot = int(np.flatnonzero(job.cons.jac_inv[job.slots, 0] != 0)[0])  # a slot whose point 0 is active
+    write_inputs(tmp_path, job, kb)
+    _flip_lam_bit(tmp_path, job, kb, pass_index, slot, job.fmt.man_bits - 1)
+    res = run_written_step(job, tmp_path, build_csim(kb), kb, default_window(job.fmt, kb.cons_bits))
+    print(f"\n[pass {pass_index} slot {slot} lam[0] bit {job.fmt.man_bits - 1} flipped] {res.comparison.first_mismatch}")
+    assert res.bit_exact != seen
+    if seen:
+        assert f"slot {slot}," in str(res.comparison.first_mismatch)
+
+
+def test_csim_records_one_bit_in_an_impulse_out_record(tmp_path: Path) -> None:
+    """One bit flipped in the impulse-out file after a bit-exact run: compare_impulse_out names the record, its
+    pass and slot and the word."""
+    job = _records_job("stack", "fp16", "cold")
+    kb = records_build(job.fmt, job)
+    assert run_csim_step(job, tmp_path, build_csim(kb), kb).bit_exact
+    data = bytearray((tmp_path / "imp_out.bin").read_bytes())
+    rec = len(job.slots) + 3  # pass 1, slot 3, word 1
+    data[rec * sf.impulse_out_bytes(job.fmt) + job.fmt.width // 8] ^= 0x01
+    (tmp_path / "imp_out.bin").write_bytes(bytes(data))
+    cmp = Comparison()
+    compare_impulse_out(tmp_path, job, golden_step(job).records, cmp)
+    print(f"\n[one bit in imp_out.bin] {cmp.first_mismatch}")
+    assert cmp.differing_bits == 1
+    assert f"impulse-out record {rec} (pass 1, slot 3) word 1" in str(cmp.first_mismatch)
