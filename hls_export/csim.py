@@ -62,6 +62,7 @@ SCHEDULES = ("hazard", "pybullet")
 # the records design in make csim: formats, scenes, cold / warm start
 RECORDS_FORMATS: dict[str, NumberFormat] = {"fp16": FP16, "fp32": FP32}
 RECORDS_SCENES = ("pile", "stack")
+EXTRA_SCENES: dict[str, dict[str, Any]] = {"thesis": {"seed": 1}}  # by name only (not in make csim): the thesis frame
 WARM_SEED = 7  # the warm start's random impulses (make csim)
 
 
@@ -158,7 +159,10 @@ def scene_job(scene: str, schedule: str, iterations: int = 4, kb: KernelBuild = 
               interleaved: bool = False) -> KernelJob:
     """One step of a ``SCENES`` scene in ``kb``'s format, ordered by ``schedule`` (hazard window = the RTL's); with
     ``kb.impulses_in_records`` the step of the records design, starting from zeros."""
-    frame = scenes.load_or_capture(scene, **SCENES[scene])
+    params = SCENES.get(scene, EXTRA_SCENES.get(scene))
+    if params is None:
+        raise ValueError(f"scene {scene!r}: expected one of {', '.join([*SCENES, *EXTRA_SCENES])}")
+    frame = scenes.load_or_capture(scene, **params)
     job = KernelJob.from_frame(frame, kb.fmt, SolverParams(iterations, interleaved=interleaved), schedule,
                                default_window(kb.fmt, kb.cons_bits))
     return job.impulses_travelling() if kb.impulses_in_records else job
@@ -197,7 +201,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scenes", default=",".join(SCENES),
                     help="on-chip design, comma-separated, from " + ", ".join(SCENES))
     ap.add_argument("--schedules", default=",".join(SCHEDULES))
-    ap.add_argument("--records-scenes", default=",".join(RECORDS_SCENES))
+    ap.add_argument("--records-scenes", default=",".join(RECORDS_SCENES),
+                    help="records design, comma-separated, from " + ", ".join([*SCENES, *EXTRA_SCENES]))
     ap.add_argument("--records-formats", default=",".join(RECORDS_FORMATS))
     ap.add_argument("--iters", type=int, default=4)
     ap.add_argument("--out", type=Path, default=REPO_ROOT / "build" / "hls_csim" / "runs")

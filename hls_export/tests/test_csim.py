@@ -183,7 +183,8 @@ def _flip_lam_bit(run_dir: Path, job: KernelJob, kb: KernelBuild, pass_index: in
     """Flip one bit of lam[0] in the contact record of ``slot`` in contact pass ``pass_index`` (not interleaved:
     the contact passes come first) of cons.bin."""
     lay = job.stream_layout(kb.cons_bits)
-    pos = (pass_index * len(job.slots) + slot) * lay.contact_bytes * 8 + sf.HEADER_BITS + sf.CONTACT_LAM_WORD * lay.word_bits
+    record = pass_index * len(job.slots) + slot
+    pos = record * lay.contact_bytes * 8 + sf.HEADER_BITS + sf.CONTACT_LAM_WORD * lay.word_bits
     data = bytearray((run_dir / "cons.bin").read_bytes())
     data[(pos + bit) // 8] ^= 1 << ((pos + bit) % 8)
     (run_dir / "cons.bin").write_bytes(bytes(data))
@@ -200,7 +201,8 @@ def test_csim_records_one_bit_in_an_impulse_word(pass_index: int, seen: bool, tm
     write_inputs(tmp_path, job, kb)
     _flip_lam_bit(tmp_path, job, kb, pass_index, slot, job.fmt.man_bits - 1)
     res = run_written_step(job, tmp_path, build_csim(kb), kb, default_window(job.fmt, kb.cons_bits))
-    print(f"\n[pass {pass_index} slot {slot} lam[0] bit {job.fmt.man_bits - 1} flipped] {res.comparison.first_mismatch}")
+    print(f"\n[pass {pass_index} slot {slot} lam[0] bit {job.fmt.man_bits - 1} flipped] "
+          f"{res.comparison.first_mismatch}")
     assert res.bit_exact != seen
     if seen:
         assert f"slot {slot}," in str(res.comparison.first_mismatch)

@@ -13,7 +13,9 @@ from pathlib import Path
 import numpy as np
 
 from hls_export.csim import BUILD_ROOT, HLS_DIR, compile_cpp
-from models.number_format import FP32
+import pytest
+
+from models.number_format import BF16, FP16, FP32, NumberFormat
 
 OPS = ("add", "sub", "mul", "div", "sqrt", "min", "max")
 MIN_NORMAL = 2.0**-126
@@ -87,4 +89,48 @@ def test_fp_ops_match_golden(tmp_path: Path) -> None:
     assert np.all(_golden("mul", window_a, window_b) & 0x7FFFFFFF == 0)
     print(f"\n{vectors.shape[0]:,} vectors over {', '.join(OPS)} (seed {seed}; SEED= overrides): {mismatches} "
           f"mismatches; {len(window_a)} products in the flush window, where host float differs")
+    assert mismatches == 0
+
+
+def _specials(fmt: NumberFormat) -> np.ndarray:
+    """Zeros, the smallest normal, subnormal patterns, one, the largest finite, infinities, NaNs of ``fmt``."""
+    w, m = fmt.width, fmt.man_bits
+    sign, exp_all = 1 << (w - 1), ((1 << fmt.exp_bits) - 1) << m
+    one = fmt.bias << m
+    base = [0, 1 << m, 1, (1 << m) - 1, one, one | (1 << (m - 1)), one + (1 << m), exp_all - 1, exp_all,
+            exp_all | (1 << (m - 1)), exp_all | 1]
+    return np.array(base + [b | sign for b in base], dtype=np.uint32)
+
+
+@pytest.mark.parametrize("fmt", [FP16, BF16], ids=["fp16", "bf16"])
+def test_fp_ops_other_formats_match_golden(fmt: NumberFormat, tmp_path: Path) -> None:
+    """The C simulation's other formats (PGS_EXP_BITS / PGS_MAN_BITS: the values held in a float, every result
+    rounded to the format): every pair of special operands, random bit patterns and ordinary magnitudes, bit for bit
+    against models/number_format.py."""
+    exe = compile_cpp([HLS_DIR / "tests" / "fp_ops_main.cpp"], BUILD_ROOT / f"fp_ops_{fmt.name}" / "fp_ops",
+                      [f"-DPGS_EXP_BITS={fmt.exp_bits}", f"-DPGS_MAN_BITS={fmt.man_bits}"])
+    seed = int(os.environ.get("SEED", "8"))
+    rng = np.random.default_rng(seed)
+    sa, sb = np.meshgrid(_specials(fmt), _specials(fmt))
+    rand = rng.integers(0, 1 << fmt.width, (2, 20000), dtype=np.uint64).astype(np.uint32)
+    near = fmt.encode(rng.uniform(-4, 4, 20000)).astype(np.uint32)
+    rows = [np.stack([np.full(a.shape, k, np.uint32), a, b], axis=1) for k in range(len(OPS))
+            for a, b in ((sa.ravel(), sb.ravel()), (rand[0], rand[1]), (near, np.roll(near, 1)))]
+    vectors = np.concatenate(rows).astype("<u4")
+    (tmp_path / "in.bin").write_bytes(vectors.tobytes())
+    subprocess.run([str(exe), str(tmp_path / "in.bin"), str(tmp_path / "out.bin")], check=True)
+    got = np.frombuffer((tmp_path / "out.bin").read_bytes(), dtype="<u4")
+    mismatches = 0
+    for k, op in enumerate(OPS):
+        sel = vectors[:, 0] == k
+        a, b = fmt.decode(vectors[sel, 1]), fmt.decode(vectors[sel, 2])
+        with np.errstate(all="ignore"):
+            want = fmt.encode(fmt.sqrt(a) if op == "sqrt" else getattr(fmt, op)(a, b)).astype(np.uint32)
+        bad = np.flatnonzero(got[sel] != want)
+        mismatches += bad.size
+        if bad.size:
+            i = bad[0]
+            print(f"{op}: 0x{vectors[sel][i, 1]:04x}, 0x{vectors[sel][i, 2]:04x} -> 0x{got[sel][i]:04x}, "
+                  f"golden 0x{want[i]:04x}")
+    print(f"\n{fmt.name}: {vectors.shape[0]:,} vectors over {', '.join(OPS)} (seed {seed}): {mismatches} mismatches")
     assert mismatches == 0
