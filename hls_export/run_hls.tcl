@@ -9,6 +9,11 @@
 #                                        what fits the device's BRAM)
 #   PGS_CONS_W, PGS_BODY_IN_W, PGS_BODY_OUT_W   stream beat widths (512, 128, 128)
 #   PGS_IINV_W                           inverse-inertia words per body (3; 1 scalar, 6 the symmetric 3x3)
+#   PGS_MU_W                             friction-coefficient words per friction record (0; 1 per manifold)
+#   PGS_IMPULSES_IN_RECORDS              1 (default): the records design, the RTL's IMPULSES_IN_RECORDS (impulses
+#                                        in the records, m_axis_imp out, no impulse array); 0: impulses on chip
+#                                        (the old design). Its C simulation needs the thread-safe local
+#                                        stream shims (-DPGS_FORCE_SHIMS, added to the csim flags below).
 #   PGS_CSIM_DIR                         a run directory written by sim.kernel_run.write_inputs: run the C
 #                                        simulation testbench on it first (csim_design)
 #   PGS_HLS_STEPS                        "csynth export" by default; add "cosim" for Vitis's own C/RTL
@@ -26,19 +31,22 @@ proc env_or {name default} {
 }
 
 set defines [list]
-foreach {name default} {PGS_MAX_BODIES 65536 PGS_MAX_MANIFOLDS 262144 PGS_CONS_W 512 PGS_BODY_IN_W 128 PGS_BODY_OUT_W 128 PGS_IINV_W 3} {
+foreach {name default} {PGS_MAX_BODIES 65536 PGS_MAX_MANIFOLDS 262144 PGS_CONS_W 512 PGS_BODY_IN_W 128
+                        PGS_BODY_OUT_W 128 PGS_IINV_W 3 PGS_MU_W 0 PGS_IMPULSES_IN_RECORDS 1} {
     lappend defines "-D$name=[env_or $name $default]"
 }
 # the golden operation order: nothing fused, no fast-math reassociation
 set cflags "-I$here -ffp-contract=off [join $defines { }]"
+# the records design's testbench plays the DMA in a second thread on the blocking local streams (C simulation only)
+set csimflags [expr {[env_or PGS_IMPULSES_IN_RECORDS 1] ? "-DPGS_FORCE_SHIMS -pthread" : ""}]
 set steps [env_or PGS_HLS_STEPS "csynth export"]
 
 file mkdir [file join $root build hls]
 cd [file join $root build hls]
 open_project -reset pgs_kernel
 set_top pgs_kernel
-add_files [file join $here pgs_kernel.cpp] -cflags $cflags
-add_files -tb [file join $here pgs_csim_main.cpp] -cflags $cflags
+add_files [file join $here pgs_kernel.cpp] -cflags $cflags -csimflags $csimflags
+add_files -tb [file join $here pgs_csim_main.cpp] -cflags "$cflags $csimflags"
 open_solution -reset solution1 -flow_target vivado
 set_part $part
 create_clock -period [format %.3f [expr {1000.0 / $clock_mhz}]] -name default
