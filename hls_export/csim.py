@@ -8,7 +8,8 @@ retired manifold-pass and the body-out stream with ``golden_step``. The trace's 
 index (C simulation is untimed).
 
 The executable is built with g++ (``-ffp-contract=off``, no ``-ffast-math``) against the Vitis HLS headers
-when they are on the include path, else against the shims in ``hls_export/shims/``, into
+when they are on the include path (the records design: always the shims, whose streams block across threads), else
+against the shims in ``hls_export/shims/``, into
 ``build/hls_csim/<name>/pgs_csim``; it is rebuilt when a source under ``hls_export/`` is newer or the command
 changed.
 
@@ -107,6 +108,8 @@ def build_csim(kb: KernelBuild = KernelBuild(FP32), cxx: str = "g++") -> Path:
                f"-DPGS_CONS_W={kb.cons_bits}", f"-DPGS_BODY_IN_W={kb.body_in_bits}",
                f"-DPGS_BODY_OUT_W={kb.body_out_bits}", f"-DPGS_IINV_W={kb.inertia_words}",
                f"-DPGS_MU_W={kb.friction_words}", f"-DPGS_IMPULSES_IN_RECORDS={int(kb.impulses_in_records)}"]
+    if kb.impulses_in_records:  # the testbench's DMA thread needs the blocking, thread-safe local streams
+        defines.append("-DPGS_FORCE_SHIMS")
     return compile_cpp(SOURCES, BUILD_ROOT / csim_name(kb) / "pgs_csim", defines, cxx)
 
 
