@@ -14,8 +14,9 @@
 #                                        in the records, m_axis_imp out, no impulse array); 0: impulses on chip
 #                                        (the old design). Its C simulation needs the thread-safe local
 #                                        stream shims (-DPGS_FORCE_SHIMS, added to the csim flags below).
-#   PGS_CSIM_DIR                         a run directory written by sim.kernel_run.write_inputs: run the C
-#                                        simulation testbench on it first (csim_design)
+#   PGS_CSIM_DIR                         a run directory written by sim.harness_run.write_inputs for a job of
+#                                        the same design (the records design: with impulse_plan.bin): run the
+#                                        C simulation testbench on it first (csim_design)
 #   PGS_HLS_STEPS                        "csynth export" by default; add "cosim" for Vitis's own C/RTL
 #                                        co-simulation (needs PGS_CSIM_DIR)
 # Written without access to Vitis HLS: untested (hls_export/README.md).
