@@ -73,8 +73,10 @@ import scipy.sparse as sp
 
 from .constraints import BodyTable, ConstraintSet
 from .contact_solver import Impulses, SolverParams
-from .exact_reference_assembly import (ExactReferenceError, Layout, Rows, contact_rows, friction_rows, islands,
-                                      island_of_rows, spin_rows)
+from .exact_reference_assembly import (EIGEN_TOLERANCE, ExactReferenceError, Layout, Rows, contact_rows,
+                                      friction_limits, friction_rows, islands, island_of_rows, not_a_qp_message,
+                                      spin_rows, spin_rows_off_eigen)
+from .exact_reference_damped_friction import damped_friction_phase
 from .exact_reference_large_island import (certify, large_contact_phase, large_friction_phase, large_island_solver,
                                            needs_certificate)
 
@@ -273,18 +275,18 @@ def _contact_phase(layout: Layout, cons: ConstraintSet, u0: np.ndarray, labels: 
         J, c = _sub(rows, sel, cols)
         inf = np.full(sel.shape[0], np.inf)
         if sel.shape[0] > DIRECT_ROWS_LIMIT:
-            lam[sel], primal[cols] = large_contact_phase(J, c, layout.inv_m[cols], u0[cols], clock.left(), info)
+            lam[sel], primal[cols] = large_contact_phase(J, c, layout.mass.sub(cols), u0[cols], clock.left(), info)
             continue
-        m = 1.0 / layout.inv_m[cols]
-        prob = QpProblem(sp.diags(m).tocsc(), -m * u0[cols], -J, c, 0, sel.shape[0])
+        mass = layout.mass.sub(cols)
+        prob = QpProblem(mass.mass.tocsc(), -(mass.mass @ u0[cols]), -J, c, 0, sel.shape[0])
         clock.check_memory(prob)
         sol = solver(prob, clock.left())
-        H = (J @ sp.diags(layout.inv_m[cols]) @ J.T).tocsc()
+        H = (J @ mass.inv @ J.T).tocsc()
         lam[sel] = polish_box_qp(H, J @ u0[cols] + c, np.maximum(sol.z, 0.0), np.zeros(sel.shape[0]), inf)
         _check_almost(sol, box_residual(H, J @ u0[cols] + c, lam[sel], np.zeros(sel.shape[0]), inf), "contact")
         info["contact QP iterations (largest island)"] = max(info.get("contact QP iterations (largest island)", 0),
                                                              sol.iterations)
-    u = u0 + layout.inv_m * (rows.J.T @ lam)
+    u = u0 + layout.mass.inv @ (rows.J.T @ lam)
     normal = np.zeros(cons.jac_inv.shape)
     normal[active] = lam
     return u, normal, np.where(np.isnan(primal), u, primal)
@@ -295,13 +297,15 @@ def _friction_phase(layout: Layout, cons: ConstraintSet, u1: np.ndarray, normal:
                     info: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """The friction phase's limit (normal impulses fixed): velocities u and friction impulses (M, 2)."""
     active = cons.f_jac_inv[:, 0] != 0.0
-    limit = mu * ((normal[:, 0] + normal[:, 1]) + (normal[:, 2] + normal[:, 3]))
+    limit = friction_limits(cons, normal, mu)
     boxed = np.flatnonzero(active & (limit > 0.0))
     rows = friction_rows(layout, cons, boxed)
     L = np.repeat(limit[boxed], 2)
     N, spin_body = spin_rows(layout, cons, np.flatnonzero(active & cons.spin_damp))
+    off_eigen = spin_rows_off_eigen(layout, N)
     lam_rows = np.zeros(L.shape[0])
     spin = np.zeros(N.shape[0])
+    damped: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # batches solved as the non-symmetric box problem: their columns' velocities
     row_island = island_of_rows(layout, labels, rows.body_a, rows.body_b)
     spin_island = labels[layout.index[spin_body]]
     body_island = np.repeat(labels, 6)
@@ -316,25 +320,38 @@ def _friction_phase(layout: Layout, cons: ConstraintSet, u1: np.ndarray, normal:
         q = -(G @ u1[cols] + np.concatenate([c, np.zeros(ns)]))
         inf = np.full(ns, np.inf)
         lo, hi = np.concatenate([-L[sel], -inf]), np.concatenate([L[sel], inf])
+        qp = not np.any(off_eigen[ssel] > EIGEN_TOLERANCE)
+        mass = layout.mass.sub(cols)
         if nr + ns > DIRECT_ROWS_LIMIT:
-            y = large_friction_phase(J, c, Ns, layout.inv_m[cols], u1[cols], L[sel], clock.left(), info)
+            if not qp:
+                raise ExactReferenceError(not_a_qp_message(layout, N, off_eigen, ssel) + "; an island of "
+                                          f"{nr + ns:,} rows, above the {DIRECT_ROWS_LIMIT:,} the non-symmetric "
+                                          "problem's direct solve takes")
+            y = large_friction_phase(J, c, Ns, mass, u1[cols], L[sel], clock.left(), info)
             lam_rows[sel] = y[:nr]
             spin[ssel] = y[nr:]
             continue
-        P = (G @ sp.diags(layout.inv_m[cols]) @ G.T).tocsc()
+        P = (G @ mass.inv @ G.T).tocsc()
         eye = sp.identity(nr, format="csc")
         A = sp.vstack([sp.hstack([eye, sp.csc_matrix((nr, ns))]), sp.hstack([-eye, sp.csc_matrix((nr, ns))])],
                       format="csc")
         prob = QpProblem(P, q, A, np.concatenate([L[sel], L[sel]]), 0, 2 * nr)
         clock.check_memory(prob)
         sol = solver(prob, clock.left())
+        info["friction QP iterations (largest island)"] = max(
+            info.get("friction QP iterations (largest island)", 0), sol.iterations)
+        if not qp:  # the QP's solution starts the non-symmetric problem's Newton iteration
+            lam_rows[sel], damped_u = damped_friction_phase(J, c, Ns, mass, u1[cols], L[sel], sol.x[:nr], info,
+                                                            not_a_qp_message(layout, N, off_eigen, ssel))
+            damped[int(group[0])] = (cols, damped_u)
+            continue
         y = polish_box_qp(P, q, sol.x, lo, hi)
         _check_almost(sol, box_residual(P, q, y, lo, hi), "friction")
         lam_rows[sel] = y[:nr]
         spin[ssel] = y[nr:]
-        info["friction QP iterations (largest island)"] = max(
-            info.get("friction QP iterations (largest island)", 0), sol.iterations)
-    u = u1 - layout.inv_m * (rows.J.T @ lam_rows + N.T @ spin)
+    u = u1 - layout.mass.inv @ (rows.J.T @ lam_rows + N.T @ spin)
+    for cols, damped_u in damped.values():
+        u[cols] = damped_u
     friction = np.zeros(cons.f_jac_inv.shape)
     friction[boxed] = lam_rows.reshape(-1, 2)
     return u, friction
@@ -354,8 +371,7 @@ def natural_residuals(contact_bodies: BodyTable, bodies: BodyTable, cons: Constr
     frows = friction_rows(layout, cons, manifolds)
     ut = frows.J @ layout.velocity(bodies) + frows.c
     kt = -1.0 / cons.f_jac_inv[manifolds].ravel()
-    limit = np.repeat(mu * ((imp.normal[manifolds, 0] + imp.normal[manifolds, 1])
-                            + (imp.normal[manifolds, 2] + imp.normal[manifolds, 3])), 2)
+    limit = np.repeat(friction_limits(cons, imp.normal, mu)[manifolds], 2)
     lt = imp.friction[manifolds].ravel()
     box = kt * np.abs(lt - np.clip(lt + ut / kt, -limit, limit))
     damped = fa & cons.spin_damp
