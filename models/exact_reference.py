@@ -21,9 +21,11 @@ of a convex program, which this module solves directly with an interior-point QP
       minimise 1/2 y^T G M^-1 G^T y - y^T (G u1 + c_t)   subject to   |lam_t| <= L,   y = (lam_t, s),
 
   with G the friction rows J_t stacked on the spin rows (n on the w columns) and ``u = u1 - M^-1 G^T y``. Its
-  stationarity condition moves w along ``I^-1 n``, the damping along n: the two agree only where n is an
-  eigenvector of the body's (diagonal, world) inverse inertia, true for cubes and for axis-aligned normals. A
-  damped contact where it is not gives :class:`ExactReferenceError` (no convex program has that fixed point).
+  stationarity condition moves w along ``I^-1 n``, the damping along n: the two agree only where the damped
+  directions span a subspace the body's world inverse inertia (diagonal or full 3x3, M block diagonal) maps into
+  itself, true for cubes and for axis-aligned normals of diagonal bodies. Where they do not (rotated non-cube
+  bodies), the passes' limit solves a non-symmetric box problem instead (``models/exact_reference_damped_friction.py``,
+  started from this QP's solution).
   (The primal form, minimise 1/2 |u - u1|_M^2 + sum L |J_t u + c_t| with n.w = 0, is sparser but Clarabel
   reached only 2e-5 m/s of box residual on the pile against 1e-6 for this dual form.)
 
@@ -39,11 +41,10 @@ phase's from its limit with the same boxes (the friction map is the M-proximal m
 non-expansive), at most ``CERTIFIED_ACCEPT`` per body; otherwise :class:`ExactReferenceError` gives the bound.
 Problem assembly (rows, spin rows, islands): ``models/exact_reference_assembly.py``.
 
-The interleaved order (``interleaved=True``: contact, friction, contact, ...) has no limit computed here: its
-fixed points are the solutions of the coupled problem in which the friction box ``mu * sum(lam_n)`` depends on the
-normal impulses and the normal rows see the friction impulses: a non-symmetric complementarity problem (the
-box-friction LCP) that is no convex program, may have several solutions and need not be reached by the passes at
-all. :func:`exact_reference` refuses it with :class:`ExactReferenceError`.
+The interleaved order (``interleaved=True``: contact, friction, contact, ...) has a coupled fixed point (the friction
+box ``mu * sum(lam_n)`` depends on the normal impulses and the normal rows see the friction impulses: a non-symmetric
+complementarity problem, no convex program, possibly several solutions); ``models/exact_reference_interleaved.py``
+reaches one by alternating the two phases' problems and keeps it only when the coupled natural residuals certify it.
 
 Where the normal impulses are not unique (A = J M^-1 J^T singular: four coplanar points, statically indeterminate
 supports), the friction boxes depend on which normal solution is taken; the interior-point solver returns one
@@ -394,12 +395,16 @@ def exact_reference(bodies: BodyTable, cons: ConstraintSet, params: SolverParams
                     budget: Budget = Budget(), solver: QpSolver = clarabel_solve,
                     solver_name: str = "") -> ExactReference:
     """The exact limit of ``params``'s pass order on this step (float64 inputs: ``bodies``, ``cons`` unrounded)."""
-    if params.interleaved:
-        raise ExactReferenceError("the interleaved pass order has no well-defined limit to compute: its fixed "
-                                  "points solve a non-symmetric box-friction complementarity problem, not a QP "
-                                  "(models/exact_reference.py)")
     _check_finite(bodies, cons)
     clock = _Clock(budget)
+    if params.interleaved:
+        from .exact_reference_interleaved import interleaved_reference
+
+        t0 = time.perf_counter()
+        final, imp, residuals, info, count = interleaved_reference(bodies, cons, params, clock, solver)
+        return ExactReference(final, final, imp, residuals, {"interleaved alternation": time.perf_counter() - t0},
+                              count, (solver_name or f"clarabel {_clarabel_version()}") + "; interleaved order: "
+                              "alternation to the coupled fixed point", info)
     layout = Layout(bodies)
     count, labels = islands(layout, cons)
     info: dict[str, float] = {}
