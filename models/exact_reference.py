@@ -502,6 +502,9 @@ def _bounded_child(send: Any, bodies: BodyTable, cons: ConstraintSet, params: So
         send.send(("error", str(exc)))
     except MemoryError:
         send.send(("error", f"memory budget of {budget.memory_bytes / 2 ** 30:.1f} GiB exceeded"))
+    except Exception as exc:  # a solver library failing (under the address-space cap: a shared object not mapped)
+        send.send(("error", f"the solve failed ({type(exc).__name__}: {str(exc)[:200]}; memory budget "
+                            f"{budget.memory_bytes / 2 ** 30:.1f} GiB)"))
     finally:
         send.close()
 

@@ -372,6 +372,19 @@ def test_full_inverse_inertia_reference_is_the_passes_limit(mixed_shapes, monkey
     assert _distance(reached, qp.bodies) > 1e-3
 
 
+def test_damped_friction_that_does_not_certify_gives_no_reference(mixed_shapes,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """The non-symmetric box problem's Newton iteration stopped before its natural residual certifies: no
+    reference, with the spin row that made it no QP and the residual reached."""
+    from models import exact_reference_damped_friction as df
+
+    bodies, cons, _, _ = mixed_shapes
+    monkeypatch.setattr(df, "DAMPED_MAX_ITERATIONS", 0)
+    with pytest.raises(ExactReferenceError, match="no eigenvector.*non-symmetric box problem stopped at a natural "
+                                                  "residual"):
+        exact_reference(bodies, cons)
+
+
 def test_diagonal_tables_take_the_same_path_through_3x3_blocks(pile, monkeypatch: pytest.MonkeyPatch) -> None:
     """The block (3x3) mass matrix on a diagonal scene gives the diagonal path's reference to 1e-12."""
     from models import exact_reference_assembly as asm
