@@ -77,7 +77,7 @@ from .contact_solver import Impulses, SolverParams
 from .exact_reference_assembly import (EIGEN_TOLERANCE, ExactReferenceError, Layout, Rows, contact_rows,
                                       friction_limits, friction_rows, islands, island_of_rows, not_a_qp_message,
                                       spin_rows, spin_rows_off_eigen)
-from .exact_reference_damped_friction import damped_friction_phase
+from .exact_reference_damped_friction import damped_friction_phase, regularized_solve
 from .exact_reference_large_island import (certify, large_contact_phase, large_friction_phase, large_island_solver,
                                            needs_certificate)
 
@@ -224,8 +224,6 @@ def polish_box_qp(H: sp.csc_matrix, g: np.ndarray, y: np.ndarray, lo: np.ndarray
     """Sharpen an interior-point solution of the box QP by active-set steps (kept only when the largest natural
     residual falls): rows whose projected update lands on a bound are fixed there, the others solve
     ``H_FF y_F = -(g_F + H_FB y_B)`` (a regularised sparse LU plus refinement, for singular H)."""
-    from scipy.sparse.linalg import splu
-
     best = np.clip(y, lo, hi)
     best_res = float(box_residual(H, g, best, lo, hi).max(initial=0.0))
     k = H.diagonal()
@@ -236,14 +234,8 @@ def polish_box_qp(H: sp.csc_matrix, g: np.ndarray, y: np.ndarray, lo: np.ndarray
         cand = np.where(at_lo, lo, np.where(at_hi, hi, best))
         f = np.flatnonzero(free)
         if f.size:
-            Hff = H[f][:, f].tocsc()
-            rhs = -(g[f] + H[f] @ np.where(free, 0.0, cand))
-            reg = POLISH_REGULARIZATION * float(np.abs(Hff.diagonal()).max(initial=1.0))
-            lu = splu((Hff + reg * sp.identity(f.size, format="csc")).tocsc())
-            yf = cand[f].copy()
-            for _ in range(POLISH_REFINEMENTS):
-                yf = yf + lu.solve(rhs - Hff @ yf)
-            cand[f] = yf
+            cand[f] = regularized_solve(H[f][:, f].tocsc(), -(g[f] + H[f] @ np.where(free, 0.0, cand)), cand[f],
+                                        POLISH_REGULARIZATION, POLISH_REFINEMENTS)
         cand = np.clip(cand, lo, hi)
         res = float(box_residual(H, g, cand, lo, hi).max(initial=0.0))
         if not res < best_res:

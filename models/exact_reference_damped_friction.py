@@ -63,10 +63,22 @@ def natural(A: sp.csc_matrix, b: np.ndarray, kt: np.ndarray, limit: np.ndarray, 
     return kt * np.abs(lam - np.clip(lam + (b - A @ lam) / kt, -limit, limit))
 
 
-def _newton(A: sp.csc_matrix, b: np.ndarray, kt: np.ndarray, limit: np.ndarray,
-            lam: np.ndarray) -> tuple[np.ndarray, float, int]:
+def regularized_solve(A: sp.csc_matrix, rhs: np.ndarray, x0: np.ndarray, regularization: float,
+                      refinements: int) -> np.ndarray:
+    """x with ``A x = rhs`` for a possibly singular sparse A: LU of ``A + reg I`` (reg = ``regularization`` times the
+    largest |diagonal|), then ``refinements`` steps of iterative refinement on A itself, from ``x0``."""
     from scipy.sparse.linalg import splu
 
+    reg = regularization * float(np.abs(A.diagonal()).max(initial=1.0))
+    lu = splu((A + reg * sp.identity(A.shape[0], format="csc")).tocsc())
+    x = x0.copy()
+    for _ in range(refinements):
+        x = x + lu.solve(rhs - A @ x)
+    return x
+
+
+def _newton(A: sp.csc_matrix, b: np.ndarray, kt: np.ndarray, limit: np.ndarray,
+            lam: np.ndarray) -> tuple[np.ndarray, float, int]:
     res = natural(A, b, kt, limit, lam)
     merit = float(res @ res)
     for it in range(DAMPED_MAX_ITERATIONS):
@@ -78,14 +90,8 @@ def _newton(A: sp.csc_matrix, b: np.ndarray, kt: np.ndarray, limit: np.ndarray,
         cand = np.where(at_lo, -limit, np.where(at_hi, limit, lam))
         f = np.flatnonzero(free)
         if f.size:
-            Aff = A[f][:, f].tocsc()
-            rhs = b[f] - A[f] @ np.where(free, 0.0, cand)
-            reg = DAMPED_REGULARIZATION * float(np.abs(Aff.diagonal()).max(initial=1.0))
-            lu = splu((Aff + reg * sp.identity(f.size, format="csc")).tocsc())
-            x = cand[f].copy()
-            for _ in range(DAMPED_REFINEMENTS):
-                x = x + lu.solve(rhs - Aff @ x)
-            cand[f] = x
+            cand[f] = regularized_solve(A[f][:, f].tocsc(), b[f] - A[f] @ np.where(free, 0.0, cand), cand[f],
+                                        DAMPED_REGULARIZATION, DAMPED_REFINEMENTS)
         cand = np.clip(cand, -limit, limit)
         t = 1.0
         while t >= 1e-6:

@@ -43,6 +43,17 @@ def _moved(state, imp: Impulses, cons, schedule, kind: int) -> float:
                      np.abs(out.angular_velocity - state.angular_velocity).max()))
 
 
+def _assert_fixed_point_and_small_residuals(ref, cons, schedule) -> None:
+    """One contact pass from the contact state and one friction pass from the final state move nothing; the
+    natural residuals are small."""
+    no_friction = Impulses(ref.impulses.normal, np.zeros_like(ref.impulses.friction))
+    assert _moved(ref.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
+    assert _moved(ref.bodies, ref.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
+    for key in ("contact phase: normal LCP |min(lam K, e)| max (m/s)", "friction phase: box residual max (m/s)",
+                "friction phase: spin |n.w| max (rad/s)"):
+        assert ref.residuals[key] <= RESIDUAL_TOLERANCE, (key, ref.residuals[key])
+
+
 def test_exact_state_is_a_fixed_point_of_one_contact_and_one_friction_pass(pile) -> None:
     bodies, cons, schedule, ref = pile
     no_friction = Impulses(ref.impulses.normal, np.zeros_like(ref.impulses.friction))
@@ -202,12 +213,7 @@ def test_large_island_path_reaches_the_direct_reference_and_certifies_it(pile, m
     assert dv <= 1e-8 and dw <= 1e-8
     assert dv <= it.details["certified max |dv| of the final state (m/s)"] <= li.CERTIFIED_ACCEPT
     assert dw <= it.details["certified max |dw| of the final state (rad/s)"] <= li.CERTIFIED_ACCEPT
-    no_friction = Impulses(it.impulses.normal, np.zeros_like(it.impulses.friction))
-    assert _moved(it.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
-    assert _moved(it.bodies, it.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
-    for key in ("contact phase: normal LCP |min(lam K, e)| max (m/s)", "friction phase: box residual max (m/s)",
-                "friction phase: spin |n.w| max (rad/s)"):
-        assert it.residuals[key] <= RESIDUAL_TOLERANCE, (key, it.residuals[key])
+    _assert_fixed_point_and_small_residuals(it, cons, schedule)
     if method == "mprgp":
         monkeypatch.setattr(li, "ITERATIVE_TOLERANCE", 1e-2)  # stops far from the limit
     else:
@@ -356,12 +362,7 @@ def test_full_inverse_inertia_reference_is_the_passes_limit(mixed_shapes, monkey
     assert bodies.inv_inertia.shape[1] == 6 and cons.per_manifold_friction
     assert ref.details["friction phase: non-symmetric box problem (damping off the inertia's eigenvectors) "
                        "Newton iterations"] >= 1
-    no_friction = Impulses(ref.impulses.normal, np.zeros_like(ref.impulses.friction))
-    assert _moved(ref.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
-    assert _moved(ref.bodies, ref.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
-    for key in ("contact phase: normal LCP |min(lam K, e)| max (m/s)", "friction phase: box residual max (m/s)",
-                "friction phase: spin |n.w| max (rad/s)"):
-        assert ref.residuals[key] <= RESIDUAL_TOLERANCE, (key, ref.residuals[key])
+    _assert_fixed_point_and_small_residuals(ref, cons, schedule)
     limit = cons.friction[:, 0] * ref.impulses.normal.sum(axis=1)
     assert np.all(np.abs(ref.impulses.friction) <= limit[:, None] + 1e-12)
     reached = _friction_passes(ref, cons, schedule, 4000)
