@@ -56,10 +56,13 @@ def interleaved_reference(bodies: BodyTable, cons: ConstraintSet, params: Solver
     normal = friction = u2 = None
     for k in range(1, MAX_ALTERNATIONS + 1):
         base = u0 + shift
-        u1, normal, _ = er._contact_phase(layout, cons, base, labels, count, solver, clock, info)
-        u_n = u0 + (u1 - base)
-        u2, friction = er._friction_phase(layout, cons, u_n, normal, params.friction_coeff, labels, count, solver,
-                                          clock, info)
+        try:
+            u1, normal, _ = er._contact_phase(layout, cons, base, labels, count, solver, clock, info)
+            u_n = u0 + (u1 - base)
+            u2, friction = er._friction_phase(layout, cons, u_n, normal, params.friction_coeff, labels, count,
+                                              solver, clock, info)
+        except ExactReferenceError as exc:
+            raise ExactReferenceError(f"interleaved order, alternation {k} (last change {last:.1e}): {exc}") from None
         new_shift = u2 - u_n
         last = float(np.abs(new_shift - shift).max(initial=0.0))
         shift = shift + RELAXATION * (new_shift - shift)
