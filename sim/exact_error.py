@@ -76,6 +76,10 @@ def contact_certificate(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarr
     carries the dual residual times the stack's summed impulses: 0.088 where the primal point gives 2.3e-6 on a
     1,960-cube stack), recorded in its details; a Clarabel reference has no primal iterate, so its certificate is
     the impulse-only bound (``models/exact_bound.py``)."""
+    if any(k.startswith("interleaved:") for k in details):
+        return {"certificate": "none: the interleaved order's coupled fixed point has no distance certificate (its "
+                               "coupled natural residuals, above, certify a fixed point of the interleaved passes, "
+                               "one of possibly several; models/exact_reference_interleaved.py)"}
     try:
         impulse_only = contact_phase_bound(bodies, cons, normal)
     except ExactReferenceError as exc:

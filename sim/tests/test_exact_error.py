@@ -29,3 +29,16 @@ def test_the_certificate_line_is_the_one_used(monkeypatch: pytest.MonkeyPatch) -
     assert used["certified |u - u*|_M (sqrt(kg) m/s)"] == large.details[PRIMAL_POINT_KEY]
     assert used["certified |u - u*|_M (sqrt(kg) m/s)"] <= used["impulse-only bound from u(lam), not used (sqrt(kg) m/s)"]
     assert used["certified max |dv| (m/s)"] <= large.details["certified max |dv| of the final state (m/s)"]
+
+
+def test_the_interleaved_reference_claims_no_distance_certificate() -> None:
+    """The interleaved order's reference is certified by its coupled residuals only: the report says so instead of
+    a sequential contact-phase bound that does not apply to it."""
+    from models.contact_solver import SolverParams
+
+    frame = scenes.capture_frame("spin")
+    bodies = body_table(frame)
+    cons = setup_constraints(frame, bodies)
+    ref = exact_reference(bodies, cons, SolverParams(interleaved=True))
+    got = contact_certificate(bodies, cons, ref.impulses.normal, ref.details)
+    assert got["certificate"].startswith("none: the interleaved order") and len(got) == 1
