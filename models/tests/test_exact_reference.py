@@ -373,6 +373,22 @@ def test_full_inverse_inertia_reference_is_the_passes_limit(mixed_shapes, monkey
     assert _distance(reached, qp.bodies) > 1e-3
 
 
+def test_almost_solved_qp_that_the_polish_does_not_certify_gives_no_reference(pile,
+                                                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    """A solver that ends only "almost solved" and a polish that cannot sharpen it: no reference, with the residual."""
+    from models import exact_reference as er
+
+    bodies, cons, _, _ = pile
+
+    def almost(prob: er.QpProblem, limit: float) -> er.QpSolution:
+        sol = er.clarabel_solve(prob, limit)
+        return er.QpSolution(sol.x, sol.z * 1.01 + 1e-3, sol.iterations, sol.seconds, almost=True)
+
+    monkeypatch.setattr(er, "POLISH_ROUNDS", 0)
+    with pytest.raises(ExactReferenceError, match="contact QP only almost solved and its natural residual"):
+        exact_reference(bodies, cons, solver=almost)
+
+
 def test_damped_friction_that_does_not_certify_gives_no_reference(mixed_shapes,
                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     """The non-symmetric box problem's Newton iteration stopped before its natural residual certifies: no
