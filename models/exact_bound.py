@@ -15,7 +15,7 @@ under the expansion (``a_r < 0``) must keep ``e_r + k a_r >= 0``. Then
     |u - u*|_M <= B = sqrt(2 max(0, lam.e + P(u + k d) - P(u))),
 
 a computable bound (zero exactly at the limit: k = 0 and lam.e = 0). Per body it gives
-``|dv| <= B sqrt(1/m)`` and ``|dw| <= B sqrt(max diag I^-1)``. When no expansion separates every contact (a
+``|dv| <= B sqrt(1/m)`` and ``|dw| <= B sqrt(lambda_max(I^-1))``. When no expansion separates every contact (a
 normal pointing against the centres, a static body above a dynamic one), there is no certificate and
 :class:`~models.exact_reference.ExactReferenceError` says so.
 """
@@ -26,7 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .constraints import BodyTable, ConstraintSet
-from .exact_reference_assembly import ExactReferenceError, Layout, contact_rows
+from .exact_reference_assembly import ExactReferenceError, Layout, Mass, contact_rows
 
 SEPARATION_MARGIN = 1.0 + 1e-9  # the expansion rate just above the one that closes every violation
 
@@ -43,12 +43,11 @@ def contact_phase_bound(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarr
     if np.any(lam < 0):
         raise ExactReferenceError("negative normal impulses: not a contact-phase iterate")
     u0 = layout.velocity(bodies)
-    u = u0 + layout.inv_m * (rows.J.T @ lam)
+    u = u0 + layout.mass.inv @ (rows.J.T @ lam)
     e = rows.J @ u + rows.c
-    m = 1.0 / layout.inv_m
 
     def objective(x: np.ndarray) -> float:
-        return 0.5 * float(np.sum(m * (x - u0) ** 2))
+        return 0.5 * layout.mass.norm2(x - u0)
 
     if primal is not None:
         return _primal_gap(bodies, layout, rows.J, rows.c, lam, u, primal)
@@ -59,10 +58,17 @@ def contact_phase_bound(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarr
         p_f = objective(u_f)
     gap = float(lam @ e) + p_f - objective(u)
     bound = float(np.sqrt(2.0 * max(gap, 0.0)))
-    return {"certified |u - u*|_M (sqrt(kg) m/s)": bound,
-            "certified max |dv| (m/s)": bound * float(np.sqrt(bodies.inv_mass[bodies.dynamic].max(initial=0.0))),
-            "certified max |dw| (rad/s)": bound * float(np.sqrt(bodies.inv_inertia[bodies.dynamic].max(initial=0.0))),
-            "expansion rate k (1/s)": k, "lam.e (N s m/s)": float(lam @ e)}
+    dv, dw = per_body_bounds(bodies, bound)
+    return {"certified |u - u*|_M (sqrt(kg) m/s)": bound, "certified max |dv| (m/s)": dv,
+            "certified max |dw| (rad/s)": dw, "expansion rate k (1/s)": k, "lam.e (N s m/s)": float(lam @ e)}
+
+
+def per_body_bounds(bodies: BodyTable, bound: float) -> tuple[float, float]:
+    """(max |dv|, max |dw|) per body from an M-norm bound B: ``|dv| <= B sqrt(1/m)``, ``|dw| <= B sqrt(lambda_max(I^-1))``
+    (the largest eigenvalue of a body's world inverse inertia; its largest diagonal entry when diagonal)."""
+    layout = Layout(bodies)
+    return (bound * float(np.sqrt(bodies.inv_mass[bodies.dynamic].max(initial=0.0))),
+            bound * float(np.sqrt(layout.max_inv_inertia)))
 
 
 def _primal_gap(bodies: BodyTable, layout: Layout, J: sp.csr_matrix, c: np.ndarray, lam: np.ndarray,
@@ -75,16 +81,15 @@ def _primal_gap(bodies: BodyTable, layout: Layout, J: sp.csr_matrix, c: np.ndarr
     written without its cancelling terms, since u - u0 = M^-1 J^T lam), and ``|u - u*|_M <= |u - v|_M + that``.
     Near an interior point's limit x is feasible to rounding (k ~ 0) while u = u(lam) carries the dual residual:
     this bound is the dual-residual size, where the one from u alone is the square root of (violation x sum lam)."""
-    m = 1.0 / layout.inv_m
     e = J @ primal + c
     k, d = _expansion_rate(bodies, J, e)
     v = primal + k * d if k > 0.0 else primal
-    gap = float(lam @ np.maximum(J @ v + c, 0.0)) + 0.5 * float(np.sum(m * (v - u) ** 2))
-    bound = float(np.sqrt(np.sum(m * (u - v) ** 2))) + float(np.sqrt(2.0 * max(gap, 0.0)))
-    return {"certified |u - u*|_M (sqrt(kg) m/s)": bound,
-            "certified max |dv| (m/s)": bound * float(np.sqrt(bodies.inv_mass[bodies.dynamic].max(initial=0.0))),
-            "certified max |dw| (rad/s)": bound * float(np.sqrt(bodies.inv_inertia[bodies.dynamic].max(initial=0.0))),
-            "expansion rate k (1/s)": k, "lam.(J v + c) (N s m/s)": float(lam @ (J @ v + c))}
+    gap = float(lam @ np.maximum(J @ v + c, 0.0)) + 0.5 * layout.mass.norm2(v - u)
+    bound = float(np.sqrt(max(layout.mass.norm2(u - v), 0.0))) + float(np.sqrt(2.0 * max(gap, 0.0)))
+    dv, dw = per_body_bounds(bodies, bound)
+    return {"certified |u - u*|_M (sqrt(kg) m/s)": bound, "certified max |dv| (m/s)": dv,
+            "certified max |dw| (rad/s)": dw, "expansion rate k (1/s)": k,
+            "lam.(J v + c) (N s m/s)": float(lam @ (J @ v + c))}
 
 
 def _expansion_rate(bodies: BodyTable, J: sp.csr_matrix, e: np.ndarray) -> tuple[float, np.ndarray]:
@@ -115,7 +120,7 @@ def _expansion(bodies: BodyTable) -> np.ndarray:
     return np.concatenate([pos - ref, np.zeros_like(pos)], axis=1).ravel()
 
 
-def friction_phase_bound(G: sp.csr_matrix, N: sp.csr_matrix, inv_m: np.ndarray, u1: np.ndarray, y: np.ndarray,
+def friction_phase_bound(G: sp.csr_matrix, N: sp.csr_matrix, mass: Mass, u1: np.ndarray, y: np.ndarray,
                          c: np.ndarray, limit: np.ndarray) -> float:
     """The certified M-norm distance ``|u(y) - u*|_M`` of the friction-phase state ``u(y) = u1 - M^-1 G^T y`` from
     the phase's exact limit with the same friction boxes (``models/exact_reference.py``: G is the friction rows
@@ -132,12 +137,11 @@ def friction_phase_bound(G: sp.csr_matrix, N: sp.csr_matrix, inv_m: np.ndarray, 
     nr = limit.shape[0]
     if np.any(np.abs(y[:nr]) > limit * (1.0 + 1e-12) + 1e-300):
         raise ExactReferenceError("friction impulses outside their boxes: not a friction-phase iterate")
-    m = 1.0 / inv_m
     gty = G.T @ y
-    u = u1 - inv_m * gty
+    u = u1 - mass.inv @ gty
     u_f = u - N.T @ (N @ u)
     jt = G[:nr]
-    primal = 0.5 * float(np.sum(m * (u_f - u1) ** 2)) + float(limit @ np.abs(jt @ u_f + c))
-    dual = -0.5 * float(gty @ (inv_m * gty)) + float(y @ (G @ u1)) + float(y[:nr] @ c)
+    primal = 0.5 * mass.norm2(u_f - u1) + float(limit @ np.abs(jt @ u_f + c))
+    dual = -0.5 * float(gty @ (mass.inv @ gty)) + float(y @ (G @ u1)) + float(y[:nr] @ c)
     gap = primal - dual
-    return float(np.sqrt(np.sum(m * (u - u_f) ** 2))) + float(np.sqrt(2.0 * max(gap, 0.0)))
+    return float(np.sqrt(max(mass.norm2(u - u_f), 0.0))) + float(np.sqrt(2.0 * max(gap, 0.0)))

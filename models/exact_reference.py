@@ -21,9 +21,11 @@ of a convex program, which this module solves directly with an interior-point QP
       minimise 1/2 y^T G M^-1 G^T y - y^T (G u1 + c_t)   subject to   |lam_t| <= L,   y = (lam_t, s),
 
   with G the friction rows J_t stacked on the spin rows (n on the w columns) and ``u = u1 - M^-1 G^T y``. Its
-  stationarity condition moves w along ``I^-1 n``, the damping along n: the two agree only where n is an
-  eigenvector of the body's (diagonal, world) inverse inertia, true for cubes and for axis-aligned normals. A
-  damped contact where it is not gives :class:`ExactReferenceError` (no convex program has that fixed point).
+  stationarity condition moves w along ``I^-1 n``, the damping along n: the two agree only where the damped
+  directions span a subspace the body's world inverse inertia (diagonal or full 3x3, M block diagonal) maps into
+  itself, true for cubes and for axis-aligned normals of diagonal bodies. Where they do not (rotated non-cube
+  bodies), the passes' limit solves a non-symmetric box problem instead (``models/exact_reference_damped_friction.py``,
+  started from this QP's solution).
   (The primal form, minimise 1/2 |u - u1|_M^2 + sum L |J_t u + c_t| with n.w = 0, is sparser but Clarabel
   reached only 2e-5 m/s of box residual on the pile against 1e-6 for this dual form.)
 
@@ -39,11 +41,10 @@ phase's from its limit with the same boxes (the friction map is the M-proximal m
 non-expansive), at most ``CERTIFIED_ACCEPT`` per body; otherwise :class:`ExactReferenceError` gives the bound.
 Problem assembly (rows, spin rows, islands): ``models/exact_reference_assembly.py``.
 
-The interleaved order (``interleaved=True``: contact, friction, contact, ...) has no limit computed here: its
-fixed points are the solutions of the coupled problem in which the friction box ``mu * sum(lam_n)`` depends on the
-normal impulses and the normal rows see the friction impulses: a non-symmetric complementarity problem (the
-box-friction LCP) that is no convex program, may have several solutions and need not be reached by the passes at
-all. :func:`exact_reference` refuses it with :class:`ExactReferenceError`.
+The interleaved order (``interleaved=True``: contact, friction, contact, ...) has a coupled fixed point (the friction
+box ``mu * sum(lam_n)`` depends on the normal impulses and the normal rows see the friction impulses: a non-symmetric
+complementarity problem, no convex program, possibly several solutions); ``models/exact_reference_interleaved.py``
+reaches one by alternating the two phases' problems and keeps it only when the coupled natural residuals certify it.
 
 Where the normal impulses are not unique (A = J M^-1 J^T singular: four coplanar points, statically indeterminate
 supports), the friction boxes depend on which normal solution is taken; the interior-point solver returns one
@@ -73,8 +74,10 @@ import scipy.sparse as sp
 
 from .constraints import BodyTable, ConstraintSet
 from .contact_solver import Impulses, SolverParams
-from .exact_reference_assembly import (ExactReferenceError, Layout, Rows, contact_rows, friction_rows, islands,
-                                      island_of_rows, spin_rows)
+from .exact_reference_assembly import (EIGEN_TOLERANCE, ExactReferenceError, Layout, Rows, contact_rows,
+                                      friction_limits, friction_rows, islands, island_of_rows, not_a_qp_message,
+                                      spin_rows, spin_rows_off_eigen)
+from .exact_reference_damped_friction import damped_friction_phase, regularized_solve
 from .exact_reference_large_island import (certify, large_contact_phase, large_friction_phase, large_island_solver,
                                            needs_certificate)
 
@@ -221,8 +224,6 @@ def polish_box_qp(H: sp.csc_matrix, g: np.ndarray, y: np.ndarray, lo: np.ndarray
     """Sharpen an interior-point solution of the box QP by active-set steps (kept only when the largest natural
     residual falls): rows whose projected update lands on a bound are fixed there, the others solve
     ``H_FF y_F = -(g_F + H_FB y_B)`` (a regularised sparse LU plus refinement, for singular H)."""
-    from scipy.sparse.linalg import splu
-
     best = np.clip(y, lo, hi)
     best_res = float(box_residual(H, g, best, lo, hi).max(initial=0.0))
     k = H.diagonal()
@@ -233,14 +234,8 @@ def polish_box_qp(H: sp.csc_matrix, g: np.ndarray, y: np.ndarray, lo: np.ndarray
         cand = np.where(at_lo, lo, np.where(at_hi, hi, best))
         f = np.flatnonzero(free)
         if f.size:
-            Hff = H[f][:, f].tocsc()
-            rhs = -(g[f] + H[f] @ np.where(free, 0.0, cand))
-            reg = POLISH_REGULARIZATION * float(np.abs(Hff.diagonal()).max(initial=1.0))
-            lu = splu((Hff + reg * sp.identity(f.size, format="csc")).tocsc())
-            yf = cand[f].copy()
-            for _ in range(POLISH_REFINEMENTS):
-                yf = yf + lu.solve(rhs - Hff @ yf)
-            cand[f] = yf
+            cand[f] = regularized_solve(H[f][:, f].tocsc(), -(g[f] + H[f] @ np.where(free, 0.0, cand)), cand[f],
+                                        POLISH_REGULARIZATION, POLISH_REFINEMENTS)
         cand = np.clip(cand, lo, hi)
         res = float(box_residual(H, g, cand, lo, hi).max(initial=0.0))
         if not res < best_res:
@@ -273,18 +268,18 @@ def _contact_phase(layout: Layout, cons: ConstraintSet, u0: np.ndarray, labels: 
         J, c = _sub(rows, sel, cols)
         inf = np.full(sel.shape[0], np.inf)
         if sel.shape[0] > DIRECT_ROWS_LIMIT:
-            lam[sel], primal[cols] = large_contact_phase(J, c, layout.inv_m[cols], u0[cols], clock.left(), info)
+            lam[sel], primal[cols] = large_contact_phase(J, c, layout.mass.sub(cols), u0[cols], clock.left(), info)
             continue
-        m = 1.0 / layout.inv_m[cols]
-        prob = QpProblem(sp.diags(m).tocsc(), -m * u0[cols], -J, c, 0, sel.shape[0])
+        mass = layout.mass.sub(cols)
+        prob = QpProblem(mass.mass.tocsc(), -(mass.mass @ u0[cols]), -J, c, 0, sel.shape[0])
         clock.check_memory(prob)
         sol = solver(prob, clock.left())
-        H = (J @ sp.diags(layout.inv_m[cols]) @ J.T).tocsc()
+        H = (J @ mass.inv @ J.T).tocsc()
         lam[sel] = polish_box_qp(H, J @ u0[cols] + c, np.maximum(sol.z, 0.0), np.zeros(sel.shape[0]), inf)
         _check_almost(sol, box_residual(H, J @ u0[cols] + c, lam[sel], np.zeros(sel.shape[0]), inf), "contact")
         info["contact QP iterations (largest island)"] = max(info.get("contact QP iterations (largest island)", 0),
                                                              sol.iterations)
-    u = u0 + layout.inv_m * (rows.J.T @ lam)
+    u = u0 + layout.mass.inv @ (rows.J.T @ lam)
     normal = np.zeros(cons.jac_inv.shape)
     normal[active] = lam
     return u, normal, np.where(np.isnan(primal), u, primal)
@@ -295,13 +290,15 @@ def _friction_phase(layout: Layout, cons: ConstraintSet, u1: np.ndarray, normal:
                     info: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """The friction phase's limit (normal impulses fixed): velocities u and friction impulses (M, 2)."""
     active = cons.f_jac_inv[:, 0] != 0.0
-    limit = mu * ((normal[:, 0] + normal[:, 1]) + (normal[:, 2] + normal[:, 3]))
+    limit = friction_limits(cons, normal, mu)
     boxed = np.flatnonzero(active & (limit > 0.0))
     rows = friction_rows(layout, cons, boxed)
     L = np.repeat(limit[boxed], 2)
     N, spin_body = spin_rows(layout, cons, np.flatnonzero(active & cons.spin_damp))
+    off_eigen = spin_rows_off_eigen(layout, N)
     lam_rows = np.zeros(L.shape[0])
     spin = np.zeros(N.shape[0])
+    damped: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # batches solved as the non-symmetric box problem: their columns' velocities
     row_island = island_of_rows(layout, labels, rows.body_a, rows.body_b)
     spin_island = labels[layout.index[spin_body]]
     body_island = np.repeat(labels, 6)
@@ -316,25 +313,38 @@ def _friction_phase(layout: Layout, cons: ConstraintSet, u1: np.ndarray, normal:
         q = -(G @ u1[cols] + np.concatenate([c, np.zeros(ns)]))
         inf = np.full(ns, np.inf)
         lo, hi = np.concatenate([-L[sel], -inf]), np.concatenate([L[sel], inf])
+        qp = not np.any(off_eigen[ssel] > EIGEN_TOLERANCE)
+        mass = layout.mass.sub(cols)
         if nr + ns > DIRECT_ROWS_LIMIT:
-            y = large_friction_phase(J, c, Ns, layout.inv_m[cols], u1[cols], L[sel], clock.left(), info)
+            if not qp:
+                raise ExactReferenceError(not_a_qp_message(layout, N, off_eigen, ssel) + "; an island of "
+                                          f"{nr + ns:,} rows, above the {DIRECT_ROWS_LIMIT:,} the non-symmetric "
+                                          "problem's direct solve takes")
+            y = large_friction_phase(J, c, Ns, mass, u1[cols], L[sel], clock.left(), info)
             lam_rows[sel] = y[:nr]
             spin[ssel] = y[nr:]
             continue
-        P = (G @ sp.diags(layout.inv_m[cols]) @ G.T).tocsc()
+        P = (G @ mass.inv @ G.T).tocsc()
         eye = sp.identity(nr, format="csc")
         A = sp.vstack([sp.hstack([eye, sp.csc_matrix((nr, ns))]), sp.hstack([-eye, sp.csc_matrix((nr, ns))])],
                       format="csc")
         prob = QpProblem(P, q, A, np.concatenate([L[sel], L[sel]]), 0, 2 * nr)
         clock.check_memory(prob)
         sol = solver(prob, clock.left())
+        info["friction QP iterations (largest island)"] = max(
+            info.get("friction QP iterations (largest island)", 0), sol.iterations)
+        if not qp:  # the QP's solution starts the non-symmetric problem's Newton iteration
+            lam_rows[sel], damped_u = damped_friction_phase(J, c, Ns, mass, u1[cols], L[sel], sol.x[:nr], info,
+                                                            not_a_qp_message(layout, N, off_eigen, ssel))
+            damped[int(group[0])] = (cols, damped_u)
+            continue
         y = polish_box_qp(P, q, sol.x, lo, hi)
         _check_almost(sol, box_residual(P, q, y, lo, hi), "friction")
         lam_rows[sel] = y[:nr]
         spin[ssel] = y[nr:]
-        info["friction QP iterations (largest island)"] = max(
-            info.get("friction QP iterations (largest island)", 0), sol.iterations)
-    u = u1 - layout.inv_m * (rows.J.T @ lam_rows + N.T @ spin)
+    u = u1 - layout.mass.inv @ (rows.J.T @ lam_rows + N.T @ spin)
+    for cols, damped_u in damped.values():
+        u[cols] = damped_u
     friction = np.zeros(cons.f_jac_inv.shape)
     friction[boxed] = lam_rows.reshape(-1, 2)
     return u, friction
@@ -354,8 +364,7 @@ def natural_residuals(contact_bodies: BodyTable, bodies: BodyTable, cons: Constr
     frows = friction_rows(layout, cons, manifolds)
     ut = frows.J @ layout.velocity(bodies) + frows.c
     kt = -1.0 / cons.f_jac_inv[manifolds].ravel()
-    limit = np.repeat(mu * ((imp.normal[manifolds, 0] + imp.normal[manifolds, 1])
-                            + (imp.normal[manifolds, 2] + imp.normal[manifolds, 3])), 2)
+    limit = np.repeat(friction_limits(cons, imp.normal, mu)[manifolds], 2)
     lt = imp.friction[manifolds].ravel()
     box = kt * np.abs(lt - np.clip(lt + ut / kt, -limit, limit))
     damped = fa & cons.spin_damp
@@ -378,12 +387,16 @@ def exact_reference(bodies: BodyTable, cons: ConstraintSet, params: SolverParams
                     budget: Budget = Budget(), solver: QpSolver = clarabel_solve,
                     solver_name: str = "") -> ExactReference:
     """The exact limit of ``params``'s pass order on this step (float64 inputs: ``bodies``, ``cons`` unrounded)."""
-    if params.interleaved:
-        raise ExactReferenceError("the interleaved pass order has no well-defined limit to compute: its fixed "
-                                  "points solve a non-symmetric box-friction complementarity problem, not a QP "
-                                  "(models/exact_reference.py)")
     _check_finite(bodies, cons)
     clock = _Clock(budget)
+    if params.interleaved:
+        from .exact_reference_interleaved import interleaved_reference
+
+        t0 = time.perf_counter()
+        final, imp, residuals, info, count = interleaved_reference(bodies, cons, params, clock, solver)
+        return ExactReference(final, final, imp, residuals, {"interleaved alternation": time.perf_counter() - t0},
+                              count, (solver_name or f"clarabel {_clarabel_version()}") + "; interleaved order: "
+                              "alternation to the coupled fixed point", info)
     layout = Layout(bodies)
     count, labels = islands(layout, cons)
     info: dict[str, float] = {}
@@ -481,6 +494,9 @@ def _bounded_child(send: Any, bodies: BodyTable, cons: ConstraintSet, params: So
         send.send(("error", str(exc)))
     except MemoryError:
         send.send(("error", f"memory budget of {budget.memory_bytes / 2 ** 30:.1f} GiB exceeded"))
+    except Exception as exc:  # a solver library failing (under the address-space cap: a shared object not mapped)
+        send.send(("error", f"the solve failed ({type(exc).__name__}: {str(exc)[:200]}; memory budget "
+                            f"{budget.memory_bytes / 2 ** 30:.1f} GiB)"))
     finally:
         send.close()
 

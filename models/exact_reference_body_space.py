@@ -23,33 +23,31 @@ import numpy as np
 import scipy.sparse as sp
 
 from .body_space_ipm import IpmResult, IpmTimeout, QpData, solve_ipm
-from .exact_reference_assembly import ExactReferenceError
+from .exact_reference_assembly import ExactReferenceError, Mass
 
 PROGRESS_ROWS = 100_000  # problems with more constraint rows print a line per iteration (stderr)
 SPIN_COMPLEMENT = 0.5  # eigenvalue of I - N^T N above which a direction is free of the spin rows (exactly 0 or 1)
 
 
-def contact_phase_ipm(J: sp.csc_matrix, c: np.ndarray, inv_m: np.ndarray, u0: np.ndarray, time_s: float,
+def contact_phase_ipm(J: sp.csc_matrix, c: np.ndarray, mass: Mass, u0: np.ndarray, time_s: float,
                       info: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """The normal impulses of the contact phase's limit (per row of J) and the primal velocities (for the
     certificate, ``models.exact_bound.contact_phase_bound``)."""
-    m = 1.0 / inv_m
     n = u0.shape[0]
     none = sp.csr_matrix((0, n))
-    qp = QpData(sp.diags(m, format="csr"), -m * u0, sp.csr_matrix(J), c, none, np.zeros(0), np.zeros(0))
+    qp = QpData(mass.mass, -(mass.mass @ u0), sp.csr_matrix(J), c, none, np.zeros(0), np.zeros(0))
     res = _run(qp, u0, time_s, info, "contact")
     return res.lam, res.x
 
 
-def friction_phase_ipm(J: sp.csc_matrix, c: np.ndarray, N: sp.csc_matrix, inv_m: np.ndarray, u1: np.ndarray,
+def friction_phase_ipm(J: sp.csc_matrix, c: np.ndarray, N: sp.csc_matrix, mass: Mass, u1: np.ndarray,
                        limit: np.ndarray, time_s: float, info: dict[str, float]) -> np.ndarray:
     """y = (friction impulse per row of J, spin multiplier per row of N) of the friction phase's limit."""
     T = spin_null_space(N, u1.shape[0])
-    m = 1.0 / inv_m
-    qp = QpData((T.T @ sp.diags(m) @ T).tocsr(), -(T.T @ (m * u1)), sp.csr_matrix((0, T.shape[1])), np.zeros(0),
+    qp = QpData((T.T @ mass.mass @ T).tocsr(), -(T.T @ (mass.mass @ u1)), sp.csr_matrix((0, T.shape[1])), np.zeros(0),
                 (J @ T).tocsr(), c, limit)
     lam_t = np.clip(_run(qp, T.T @ u1, time_s, info, "friction").abs_multiplier, -limit, limit)
-    return np.concatenate([lam_t, spin_multipliers(J, N, inv_m, u1, lam_t)])
+    return np.concatenate([lam_t, spin_multipliers(J, N, mass, u1, lam_t)])
 
 
 def spin_null_space(N: sp.csc_matrix, n_cols: int) -> sp.csr_matrix:
@@ -85,15 +83,15 @@ def spin_null_space(N: sp.csc_matrix, n_cols: int) -> sp.csr_matrix:
                          shape=(n_cols, int(per_body.sum())))
 
 
-def spin_multipliers(J: sp.csc_matrix, N: sp.csc_matrix, inv_m: np.ndarray, u1: np.ndarray,
+def spin_multipliers(J: sp.csc_matrix, N: sp.csc_matrix, mass: Mass, u1: np.ndarray,
                      lam_t: np.ndarray) -> np.ndarray:
     """s with ``N (u1 - M^-1 (J^T lam_t + N^T s)) = 0`` (N M^-1 N^T is block diagonal per body)."""
     if N.shape[0] == 0:
         return np.zeros(0)
     from scipy.sparse.linalg import splu
 
-    Nm = (N @ sp.diags(inv_m) @ N.T).tocsc()
-    return splu(Nm).solve(N @ (u1 - inv_m * (J.T @ lam_t)))
+    Nm = (N @ mass.inv @ N.T).tocsc()
+    return splu(Nm).solve(N @ (u1 - mass.inv @ (J.T @ lam_t)))
 
 
 def _run(qp: QpData, x0: np.ndarray, time_s: float, info: dict[str, float], phase: str) -> IpmResult:

@@ -43,11 +43,28 @@ def cache_key(bodies: BodyTable, cons: ConstraintSet, params: SolverParams) -> s
             h.update(arr.tobytes())
     import importlib.metadata
 
-    h.update(json.dumps({"friction_coeff": params.friction_coeff, "interleaved": params.interleaved,
-                         "solver": "clarabel " + importlib.metadata.version("clarabel"),
-                         "tolerance": SOLVER_TOLERANCE, "version": CACHE_VERSION,
-                         "iterative": [DIRECT_ROWS_LIMIT, ITERATIVE_TOLERANCE]}, sort_keys=True).encode())
+    settings = {"friction_coeff": params.friction_coeff, "interleaved": params.interleaved,
+                "solver": "clarabel " + importlib.metadata.version("clarabel"),
+                "tolerance": SOLVER_TOLERANCE, "version": CACHE_VERSION,
+                "iterative": [DIRECT_ROWS_LIMIT, ITERATIVE_TOLERANCE]}
+    settings.update(_later_settings(bodies, cons, params))
+    h.update(json.dumps(settings, sort_keys=True).encode())
     return h.hexdigest()[:16]
+
+
+def _later_settings(bodies: BodyTable, cons: ConstraintSet, params: SolverParams) -> dict[str, str]:
+    """Key entries only for problems whose reference the version-3 computation got wrong or refused, so that the
+    keys (and cached references) of every other problem stay as they were: a full 3x3 inverse inertia (refused
+    before, and a failure may be recorded under the old key), per-manifold friction coefficients (solved with
+    ``params.friction_coeff`` before), the interleaved order (refused before)."""
+    out = {}
+    if bodies.inv_inertia.shape[1] == 6:
+        out["inertia"] = "full 3x3, damping off the eigenvectors as a non-symmetric box problem"
+    if cons.per_manifold_friction:
+        out["friction"] = "per manifold"
+    if params.interleaved:
+        out["interleaved"] = "coupled fixed point by alternation"
+    return out
 
 
 def cache_path(cache_dir: str | os.PathLike[str], key: str) -> Path:

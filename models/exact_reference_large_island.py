@@ -14,7 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .constraints import BodyTable, ConstraintSet
-from .exact_reference_assembly import ExactReferenceError
+from .exact_reference_assembly import ExactReferenceError, Mass
 
 LARGE_ISLAND_METHOD = "ipm"  # "ipm" or "mprgp"
 ITERATIVE_TOLERANCE = 1e-11  # MPRGP's projected-gradient tolerance (Jacobi-scaled rows)
@@ -24,7 +24,7 @@ ITERATIVE_MARGIN_S = 20.0  # kept back from the friction phase for the residuals
 SOLVED_KEY = "large island solved by"  # info key prefix: the reference must be certified
 
 
-def large_contact_phase(J: sp.csc_matrix, c: np.ndarray, inv_m: np.ndarray, u0: np.ndarray, time_s: float,
+def large_contact_phase(J: sp.csc_matrix, c: np.ndarray, mass: Mass, u0: np.ndarray, time_s: float,
                         info: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """The normal impulses (per row of J) of a large island's contact phase, and a primal velocity point for its
     certificate (the interior point's primal iterate; MPRGP's u(lam) itself)."""
@@ -32,14 +32,14 @@ def large_contact_phase(J: sp.csc_matrix, c: np.ndarray, inv_m: np.ndarray, u0: 
     if LARGE_ISLAND_METHOD == "ipm":
         from .exact_reference_body_space import contact_phase_ipm
 
-        return contact_phase_ipm(J, c, inv_m, u0, time_s * CONTACT_TIME_SHARE, info)
+        return contact_phase_ipm(J, c, mass, u0, time_s * CONTACT_TIME_SHARE, info)
     rows = J.shape[0]
-    lam = _mprgp(J, inv_m, J @ u0 + c, np.zeros(rows), np.full(rows, np.inf), time_s * CONTACT_TIME_SHARE, info,
+    lam = _mprgp(J, mass, J @ u0 + c, np.zeros(rows), np.full(rows, np.inf), time_s * CONTACT_TIME_SHARE, info,
                  "contact")
-    return lam, u0 + inv_m * (J.T @ lam)
+    return lam, u0 + mass.inv @ (J.T @ lam)
 
 
-def large_friction_phase(J: sp.csc_matrix, c: np.ndarray, N: sp.csc_matrix, inv_m: np.ndarray, u1: np.ndarray,
+def large_friction_phase(J: sp.csc_matrix, c: np.ndarray, N: sp.csc_matrix, mass: Mass, u1: np.ndarray,
                          limit: np.ndarray, time_s: float, info: dict[str, float]) -> np.ndarray:
     """y = (friction impulse per row of J, spin multiplier per row of N) of a large island's friction phase,
     certified given its boxes (the bound accumulates in ``info``)."""
@@ -48,18 +48,18 @@ def large_friction_phase(J: sp.csc_matrix, c: np.ndarray, N: sp.csc_matrix, inv_
     if LARGE_ISLAND_METHOD == "ipm":
         from .exact_reference_body_space import friction_phase_ipm
 
-        y = friction_phase_ipm(J, c, N, inv_m, u1, limit, time_s, info)
+        y = friction_phase_ipm(J, c, N, mass, u1, limit, time_s, info)
     else:
         G = sp.vstack([J, N], format="csc")
         inf = np.full(N.shape[0], np.inf)
         q = -(G @ u1 + np.concatenate([c, np.zeros(N.shape[0])]))
-        y = _mprgp(G, inv_m, q, np.concatenate([-limit, -inf]), np.concatenate([limit, inf]), time_s, info,
+        y = _mprgp(G, mass, q, np.concatenate([-limit, -inf]), np.concatenate([limit, inf]), time_s, info,
                    "friction")
-    _certify_friction(sp.vstack([J, N], format="csc"), N, inv_m, u1, y, c, limit, info)
+    _certify_friction(sp.vstack([J, N], format="csc"), N, mass, u1, y, c, limit, info)
     return y
 
 
-def _mprgp(G: sp.csc_matrix, inv_m: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray, time_s: float,
+def _mprgp(G: sp.csc_matrix, mass: Mass, g: np.ndarray, lo: np.ndarray, hi: np.ndarray, time_s: float,
            info: dict[str, float], phase: str) -> np.ndarray:
     """minimise 1/2 y^T G M^-1 G^T y + g^T y over lo <= y <= hi by MPRGP (products with G and G^T only)."""
     from .mprgp import mprgp
@@ -67,10 +67,10 @@ def _mprgp(G: sp.csc_matrix, inv_m: np.ndarray, g: np.ndarray, lo: np.ndarray, h
     Gr = G.tocsr()
     Gr.eliminate_zeros()
     GT = Gr.T.tocsr()
-    diag = np.asarray(Gr.multiply(Gr) @ inv_m).ravel()
+    diag = mass.row_norms2(Gr)
     if np.any(~(diag > 0)):
         raise ExactReferenceError(f"{phase} phase: a row without a dynamic body's velocity in it")
-    res = mprgp(lambda v: Gr @ (inv_m * (GT @ v)), diag, g, lo, hi, np.clip(np.zeros_like(g), lo, hi),
+    res = mprgp(lambda v: Gr @ (mass.inv @ (GT @ v)), diag, g, lo, hi, np.clip(np.zeros_like(g), lo, hi),
                 ITERATIVE_TOLERANCE, 10 ** 7, max(time_s, 0.0))
     info[f"{phase} phase: iterative (MPRGP) iterations"] = res.iterations
     info[f"{phase} phase: iterative (MPRGP) seconds"] = res.seconds
@@ -82,11 +82,11 @@ def _mprgp(G: sp.csc_matrix, inv_m: np.ndarray, g: np.ndarray, lo: np.ndarray, h
 FRICTION_BOUND_KEY = "certified |u - u*|_M of the friction phase, given its boxes (sqrt(kg) m/s)"
 
 
-def _certify_friction(G: sp.csc_matrix, N: sp.csc_matrix, inv_m: np.ndarray, u1: np.ndarray, y: np.ndarray,
+def _certify_friction(G: sp.csc_matrix, N: sp.csc_matrix, mass: Mass, u1: np.ndarray, y: np.ndarray,
                       c: np.ndarray, limit: np.ndarray, info: dict[str, float]) -> None:
     from .exact_bound import friction_phase_bound
 
-    bound = friction_phase_bound(G.tocsr(), N.tocsr(), inv_m, u1, y, c, limit)
+    bound = friction_phase_bound(G.tocsr(), N.tocsr(), mass, u1, y, c, limit)
     info[FRICTION_BOUND_KEY] = float(np.hypot(info.get(FRICTION_BOUND_KEY, 0.0), bound))  # islands: squares add
 
 
@@ -110,14 +110,12 @@ def certify(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarray, info: di
     valid); the friction phase's map u1 -> u2 is the M-proximal map of a convex function
     (boxes fixed), hence non-expansive, so the final state's distance is at most the sum of both phases' bounds.
     Raises ExactReferenceError when it exceeds CERTIFIED_ACCEPT."""
-    from .exact_bound import contact_phase_bound
+    from .exact_bound import contact_phase_bound, per_body_bounds
 
     key = "certified |u - u*|_M (sqrt(kg) m/s)"
     contact = min(contact_phase_bound(bodies, cons, normal)[key], contact_phase_bound(bodies, cons, normal, primal)[key])
     total = contact + info.get(FRICTION_BOUND_KEY, 0.0)
-    dyn = bodies.dynamic
-    dv = total * float(np.sqrt(bodies.inv_mass[dyn].max(initial=0.0)))
-    dw = total * float(np.sqrt(bodies.inv_inertia[dyn].max(initial=0.0)))
+    dv, dw = per_body_bounds(bodies, total)
     info["certified |u - u*|_M of the contact phase (sqrt(kg) m/s)"] = contact
     info["certified max |dv| of the final state (m/s)"] = dv
     info["certified max |dw| of the final state (rad/s)"] = dw

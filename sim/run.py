@@ -276,7 +276,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         golden = timer.run(f"{fmt.name} golden model solve + integrate", golden_step, job)
         ref = timer.run("float64 reference solve + integrate", _solve_and_integrate, bodies, cons, schedule, params, ip)
         exact = timer.run("exact reference (solve or cache)", exact_error.exact_step, bodies, cons, ip,
-                          exact_error.reference_dir(args), args.exact_budget)
+                          exact_error.reference_dir(args), args.exact_budget, params)
         return ModelRunResult(name, label, frame.num_bodies, frame.num_manifolds, sched_stats.describe(),
                               preset.describe(), model_section(job, preset), fit=kernel_fit(job, args.dma),
                               errors=exact_error.exact_errors(exact, golden.final, ref, None, bodies.dynamic),
@@ -287,7 +287,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     conv = timer.run("converged float64 solve", solve_converged, bodies, cons, schedule, FLOAT64,
                      time_budget_s=args.converged_budget)
     exact = timer.run("exact reference (solve or cache)", exact_error.exact_step, bodies, cons, ip,
-                      exact_error.reference_dir(args), args.exact_budget)
+                      exact_error.reference_dir(args), args.exact_budget, params)
 
     res: KernelResult | None = None
     kb: KernelBuild | None = None

@@ -124,7 +124,7 @@ class ExactReferenceFacts:
     seconds: dict[str, float]  # solve time by phase
     details: dict[str, float]
     residuals: dict[str, float]  # its natural residuals
-    contact_bound: dict[str, Any]  # models.exact_bound.contact_phase_bound, or why there is no certificate
+    contact_bound: dict[str, Any]  # the certificate the reference was accepted with, named (sim.exact_error)
     cache_file: str
     from_cache: bool
 
