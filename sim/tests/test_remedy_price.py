@@ -1,27 +1,92 @@
-"""The warm-start price: errors against the exact reference cold and warm on a step captured through the loop."""
+"""The warm-start price: errors against the exact reference cold and warm on a step captured through the loop, the
+records design's cycles, the speed-against-error plot, and bad warm-start input on the priced path."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
 import pytest
 
 from models.closed_loop import run_closed_loop
-from models.number_format import FLOAT64, FP32
-from sim.remedy_price import capture, main, price
+from models.contact_solver import Impulses, SolverParams
+from models.exact_reference import exact_reference
+from models.number_format import FLOAT64, FP16, FP32
+from sim.remedy_price import ERROR_KEYS, capture, main, price, verdict
+
+TINY = ["--scene", "stack", "--scene-args", "n=4", "--settle", "0", "--steps", "12", "--iters", "1,4"]
+
+
+def _stack_step():
+    last, report = capture("stack", 0, 12, 4, 0.85, n=4)
+    return last, report, exact_reference(last.bodies, last.cons, SolverParams())
 
 
 def test_price_of_a_warm_start_on_a_resting_stack() -> None:
-    last, report = capture("stack", 0, 12, 4, 0.85, n=4)
+    last, report, ref = _stack_step()
     assert report["matched points"] > 0
-    rows = price(last, FP32, [1, 4])
-    assert [r["iterations"] for r in rows] == [1, 4] and rows[0]["cycles"] < rows[1]["cycles"]
-    for r in rows:
-        print(r)
-        assert r["warm max |dv|"] < r["cold max |dv|"]
+    for fmt in (FP32, FP16):
+        rows = price(last, fmt, [1, 4], ref)
+        assert [(r["remedy"], r["iterations"]) for r in rows] == [("cold", 1), ("warm", 1), ("cold", 4), ("warm", 4)]
+        by = {(r["remedy"], r["iterations"]): r for r in rows}
+        assert by["cold", 1]["cycles"] < by["cold", 4]["cycles"]
+        for it in (1, 4):
+            print(fmt.name, by["cold", it], by["warm", it])
+            assert by["warm", it]["max |dv|"] < by["cold", it]["max |dv|"]
+            # impulses in the records: the first pass reads the host-given impulses, no extra record or beat
+            assert by["warm", it]["cycles"] == by["cold", it]["cycles"]
+            assert all(np.isfinite(by["warm", it][k]) for k in ERROR_KEYS)
+        assert "MET" in verdict(rows, 4, 4)[0] or "MISSED" in verdict(rows, 4, 4)[0]
+
+
+def test_the_verdict_compares_warm_against_more_cold_iterations() -> None:
+    row = {k: 1.0 for k in ERROR_KEYS}
+    rows = [{"format": "fp16", "remedy": "cold", "iterations": 4, **row, "cycles": 100},
+            {"format": "fp16", "remedy": "cold", "iterations": 8, **row, "max |dv|": 0.5, "cycles": 200},
+            {"format": "fp16", "remedy": "warm", "iterations": 4, **row, "max |dv|": 0.4, "cycles": 104}]
+    assert verdict(rows)[0].endswith("target MET") and "warm 4 / cold 4 1.0400" in verdict(rows)[0]
+    rows[2]["cycles"] = 106  # more than 5% extra cycles
+    assert verdict(rows)[0].endswith("target MISSED")
+    rows[2]["cycles"], rows[2]["max |dv|"] = 100, 0.6  # not lower than cold 8
+    assert verdict(rows)[0].endswith("target MISSED")
+
+
+def test_bad_warm_start_impulses_on_the_priced_path_are_refused() -> None:
+    last, _, ref = _stack_step()
+    m = last.cons.num_manifolds
+    short = replace(last, initial=Impulses(last.initial.normal[:-1], last.initial.friction[:-1]))
+    with pytest.raises(ValueError, match=rf"for {m} manifolds \(expected \({m}, 4\)"):
+        price(short, FP32, [1], ref)
+    nan = last.initial.normal.copy()
+    nan[1, 0] = np.nan
+    with pytest.raises(ValueError, match="not finite in 1 manifold"):
+        price(replace(last, initial=Impulses(nan, last.initial.friction)), FP32, [1], ref)
+
+
+def test_the_plot_the_report_and_the_step_cache(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    png = tmp_path / "price.png"
+    assert main(TINY + ["--format", "fp32,fp16", "--cache-dir", str(tmp_path), "--plot", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert png.stat().st_size > 10_000 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # the warm start's matching reaches the report, every drop reason counted (zero where none)
+    for reason in ("matched points", "new points", "dropped: point no longer exists",
+                   "dropped: manifold no longer exists", "dropped: non-finite value"):
+        assert reason in out
+    assert "step captured" in out and out.count("target M") == 0  # 1,4 iterations: no cold 8 to compare with
+    assert len(list(tmp_path.glob("remedy_step_*.npz"))) == 1 and len(list(tmp_path.glob("exact_*.npz"))) == 1
+    assert main(TINY + ["--cache-dir", str(tmp_path)]) == 0
+    assert "step from the cache" in capsys.readouterr().out
+    next(tmp_path.glob("remedy_step_*.npz")).write_bytes(b"truncated")  # unusable: captured again
+    assert main(TINY + ["--cache-dir", str(tmp_path)]) == 0
+    assert "step captured" in capsys.readouterr().out
 
 
 def test_a_cold_capture_or_bad_arguments_are_refused() -> None:
     cold = run_closed_loop("stack", 2, FLOAT64, 4, n=2).extra["last step"]
     with pytest.raises(ValueError, match="no warm-start impulses"):
-        price(cold, FP32, [1])
+        price(cold, FP32, [1], exact_reference(cold.bodies, cold.cons, SolverParams()))
     assert main(["--steps", "1"]) == 2
     assert main(["--iters", "0"]) == 2
+    assert main(["--format", "fp99"]) == 2
+    assert main(["--preset", "nope"]) == 2
