@@ -90,3 +90,15 @@ def test_a_cold_capture_or_bad_arguments_are_refused() -> None:
     assert main(["--iters", "0"]) == 2
     assert main(["--format", "fp99"]) == 2
     assert main(["--preset", "nope"]) == 2
+
+
+def test_points_that_no_longer_exist_are_counted_in_the_report(tmp_path: Path,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    """A falling box bounces: some remembered points are not in the next step's manifold; the report counts them."""
+    assert main(["--scene", "impact", "--settle", "0", "--steps", "8", "--iters", "1", "--cache-dir",
+                 str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    gone = int(out.split("dropped: point no longer exists ")[1].split()[0].rstrip(",").replace(",", ""))
+    new = int(out.split("new points ")[1].split(",")[0].replace(",", ""))
+    print(out)
+    assert gone > 0 and new > 0
