@@ -29,20 +29,27 @@ import time
 from pathlib import Path
 from typing import Any, Sequence
 
+import numpy as np
+
 from models.closed_loop import Remedy, StepInput, run_closed_loop
-from models.contact_solver import Impulses, SolverParams, solve
+from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
+from models.contact_solver import (CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, run_pass,
+                                   schedule_levels, solve)
 from models.cycle_model import predict_job
 from models.dma_model import get_preset
 from models.exact_reference import Budget, ExactReference, ExactReferenceError
 from models.exact_reference_cache import cached_exact_reference
+from models.frame import Frame
 from models.integrator import IntegrationParams
 from models.kernel_job import KernelJob
-from models.number_format import FLOAT64, NumberFormat, parse_format
-from models.scenes.frame_cache import FRAME_CACHE_DIR
+from models.number_format import FLOAT64, Arithmetic, NumberFormat, parse_format
+from models.scenes.frame_cache import FRAME_CACHE_DIR, load_or_capture
 from models.scenes.scene_args import split_scene_args
+from models.scenes.specs import DEFAULT_CAPTURE_STEP
 from models.schedule import make_schedule
 from models.solution_error import solution_error
-from models.warm_start import WARMSTART_FACTOR, apply_impulses, check_impulses
+from models.warm_start import (WARMSTART_FACTOR, ContactMemory, Contacts, apply_impulses, check_impulses,
+                               warm_start)
 from sim.kernel_build import default_window
 from sim.remedy_step_cache import load_step, save_step, step_path
 
@@ -74,11 +81,63 @@ def cached_capture(cache_dir: Path, scene: str, settle: int, steps: int, iterati
     return last, report, False
 
 
+def _frame_step(frame: Frame) -> tuple[BodyTable, ConstraintSet, Contacts]:
+    """The float64 step of a captured frame, as ``make sim`` sets it up, and its contact points' identities."""
+    bodies = body_table(frame)
+    cons = setup_constraints(frame, bodies)
+    return bodies, cons, Contacts.of(frame.body_a, frame.body_b, frame.num_points, frame.point_on_a, bodies)
+
+
+def capture_from_frames(scene: str, step: int | None, iterations: int, factor: float,
+                        cache_dir: Path = FRAME_CACHE_DIR, **params: object) -> tuple[StepInput, dict[str, int]]:
+    """The scene's captured frame at ``step`` (None: its default capture step, the one ``make sim`` prices),
+    warm-started from our float64 solve (``iterations``, hazard order) of the frame captured one step earlier:
+    that solve's accumulated impulses are the memory (``ContactMemory``), matched to the frame's points as Bullet
+    matches them. Both frames come from the frame cache (``load_or_capture``), so the priced step is the very
+    frame ``make sim`` reports on, and its exact reference is the one cached beside it."""
+    step = DEFAULT_CAPTURE_STEP.get(scene, 1) if step is None else step
+    if step < 2:
+        raise ValueError(f"step {step} has no earlier step to warm start from")
+    prev = load_or_capture(scene, step=step - 1, cache_dir=cache_dir, **params)
+    frame = load_or_capture(scene, step=step, cache_dir=cache_dir, **params)
+    p_bodies, p_cons, p_contacts = _frame_step(prev)
+    p_order = make_schedule("hazard", p_cons, p_bodies.dynamic)
+    solved = solve(p_bodies, p_cons, p_order, FLOAT64, SolverParams(iterations=iterations))
+    memory = ContactMemory.of(p_contacts, p_cons, solved.impulses)
+    bodies, cons, contacts = _frame_step(frame)
+    ws = warm_start(memory, contacts, cons, SolverParams().friction_coeff, factor)
+    order = make_schedule("hazard", cons, bodies.dynamic)
+    return StepInput(bodies, cons, order, ws.impulses), ws.report.as_dict()
+
+
+def solve_series(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arithmetic,
+                 iters: Sequence[int], initial: Impulses | None = None) -> dict[int, BodyTable]:
+    """Per iteration count, the bodies ``models.contact_solver.solve`` returns with that many iterations (the
+    thesis scheme: every contact pass, then every friction pass), bit for bit, sharing the contact passes: the
+    state after k contact passes is kept for each k in ``iters`` and its k friction passes run from it."""
+    params = SolverParams(iterations=max(iters))
+    if params.interleaved:
+        raise ValueError("solve_series shares the contact passes of the thesis scheme (not interleaved)")
+    levels = schedule_levels(schedule, cons, bodies.dynamic)
+    out = bodies.copy()
+    imp = Impulses.zeros(cons.num_manifolds) if initial is None else initial.copy()
+    after: dict[int, tuple[BodyTable, Impulses]] = {}
+    for it in range(max(iters)):
+        run_pass(out, imp, cons, levels, ar, CONTACT_PASS, it, params, schedule)
+        if it + 1 in iters:
+            after[it + 1] = (out.copy(), imp.copy())
+    for k, (state, state_imp) in after.items():
+        for it in range(k):
+            run_pass(state, state_imp, cons, levels, ar, FRICTION_PASS, it, params, schedule)
+    return {k: state for k, (state, _) in after.items()}
+
+
 def price(last: StepInput, fmt: NumberFormat, iters: Sequence[int], ref: ExactReference,
           preset: str = "zcu102") -> list[dict[str, Any]]:
     """Per remedy (cold, warm) and iteration count: max, median and p99 |dv| (m/s) and |dw| (rad/s) against the exact
     reference ``ref`` of the step, and the kernel cycles of the step on the streaming kernel with the impulses in
-    the records (per step and per manifold-pass), in ``fmt``'s hazard schedule."""
+    the records (per step and per manifold-pass), in ``fmt``'s hazard schedule. The cycle model reads no impulse
+    value (the records are the same bytes, zeros or a warm start), so one prediction prices both remedies."""
     if last.initial is None:
         raise ValueError("the captured step carries no warm-start impulses (the loop ran cold)")
     check_impulses(last.initial, last.cons)  # wrong count, NaN/Inf, negative: refused before any solve
@@ -87,16 +146,15 @@ def price(last: StepInput, fmt: NumberFormat, iters: Sequence[int], ref: ExactRe
     bodies, cons = last.bodies.rounded(fmt), last.cons.rounded(fmt)
     order = make_schedule("hazard", cons, dyn, default_window(fmt, dma.stream_bits))
     initial = Impulses(fmt.round(last.initial.normal), fmt.round(last.initial.friction))
-    starts = {"cold": (bodies, None), "warm": (apply_impulses(bodies, cons, initial, fmt), initial)}
+    solved = {"cold": solve_series(bodies, cons, order, fmt, iters),
+              "warm": solve_series(apply_impulses(bodies, cons, initial, fmt), cons, order, fmt, iters, initial)}
     rows = []
-    for it in iters:
-        params = SolverParams(iterations=it)
+    for it in sorted(set(iters)):
+        job = KernelJob(fmt, bodies, cons, order, SolverParams(iterations=it), IntegrationParams())
+        job.impulses_travelling(initial)  # the warm step is a valid job of this design (values of fmt, finite)
+        cycles = predict_job(job.impulses_travelling(None), dma).cycles
         for remedy in REMEDIES:
-            start, init = starts[remedy]
-            solved = solve(start, cons, order, fmt, params, initial=init).bodies
-            e = solution_error(solved, ref.bodies, dyn)
-            job = KernelJob(fmt, bodies, cons, order, params, IntegrationParams()).impulses_travelling(init)
-            cycles = predict_job(job, dma).cycles
+            e = solution_error(solved[remedy][it], ref.bodies, dyn)
             rows.append({"format": fmt.name, "remedy": remedy, "iterations": it,
                          **dict(zip(ERROR_KEYS, (e.max_dv, e.median_dv, e.p99_dv, e.max_dw, e.median_dw, e.p99_dw))),
                          "cycles": cycles, "cycles per manifold-pass": cycles / (2 * it * cons.num_manifolds)})
@@ -179,6 +237,10 @@ def _parse(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--exact-budget", type=float, default=600.0, help="seconds allowed for the exact reference")
     ap.add_argument("--cache-dir", default=str(FRAME_CACHE_DIR), help="where the step and its exact reference are "
                                                                       "cached")
+    ap.add_argument("--from-frames", action="store_true",
+                    help="price the scene's captured frame (--step; default its capture step), warm-started from our "
+                         "solve of the frame one step earlier (--settle and --steps unused)")
+    ap.add_argument("--step", type=int, default=None, help="with --from-frames: the captured step priced")
     ap.add_argument("--plot", default="", help="write the speed-against-error plot (PNG) here")
     return ap.parse_args(argv)
 
@@ -197,12 +259,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     t0, c0 = time.perf_counter(), os.times()
-    last, report, cached = cached_capture(Path(args.cache_dir), args.scene, args.settle, args.steps, args.loop_iters,
-                                          args.factor, args.schedule, **params)
+    if args.from_frames:
+        try:
+            last, report = capture_from_frames(args.scene, args.step, args.loop_iters, args.factor,
+                                               Path(args.cache_dir), **params)
+        except ValueError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        how = f"the captured frame of step {args.step or DEFAULT_CAPTURE_STEP.get(args.scene, 1)}, warm-started " \
+              "from our solve of the step before"
+    else:
+        last, report, cached = cached_capture(Path(args.cache_dir), args.scene, args.settle, args.steps,
+                                              args.loop_iters, args.factor, args.schedule, **params)
+        how = f"closed-loop step {'from the cache' if cached else 'captured'}"
     print(f"{args.scene}: {last.bodies.num_bodies} bodies, {last.cons.num_manifolds} manifolds, warm start factor "
-          f"{args.factor}; step {'from the cache' if cached else 'captured'} "
-          f"({time.perf_counter() - t0:.0f} s)", flush=True)
-    print("the loop's warm starts (all its steps): " + ", ".join(f"{k} {v:,}" for k, v in report.items()), flush=True)
+          f"{args.factor}; {how} ({time.perf_counter() - t0:.0f} s)", flush=True)
+    print("warm-start matching (over the loop's steps in closed-loop mode): "
+          + ", ".join(f"{k} {v:,}" for k, v in report.items()), flush=True)
     try:
         ref, ref_path, hit = cached_exact_reference(last.bodies, last.cons, args.cache_dir, SolverParams(),
                                                     Budget(time_s=args.exact_budget))

@@ -13,7 +13,11 @@ from models.closed_loop import run_closed_loop
 from models.contact_solver import Impulses, SolverParams
 from models.exact_reference import exact_reference
 from models.number_format import FLOAT64, FP16, FP32
-from sim.remedy_price import ERROR_KEYS, capture, main, price, verdict
+from models.contact_solver import solve
+from models.schedule import make_schedule
+from models.warm_start import apply_impulses
+from models.scenes.frame_cache import load_or_capture
+from sim.remedy_price import ERROR_KEYS, capture, capture_from_frames, main, price, solve_series, verdict
 
 TINY = ["--scene", "stack", "--scene-args", "n=4", "--settle", "0", "--steps", "12", "--iters", "1,4"]
 
@@ -34,10 +38,26 @@ def test_price_of_a_warm_start_on_a_resting_stack() -> None:
         for it in (1, 4):
             print(fmt.name, by["cold", it], by["warm", it])
             assert by["warm", it]["max |dv|"] < by["cold", it]["max |dv|"]
-            # impulses in the records: the first pass reads the host-given impulses, no extra record or beat
-            assert by["warm", it]["cycles"] == by["cold", it]["cycles"]
+            assert by["warm", it]["cycles"] == by["cold", it]["cycles"]  # the same records, no extra beat
             assert all(np.isfinite(by["warm", it][k]) for k in ERROR_KEYS)
         assert "MET" in verdict(rows, 4, 4)[0] or "MISSED" in verdict(rows, 4, 4)[0]
+
+
+@pytest.mark.parametrize("fmt", [FP32, FP16])
+def test_the_series_of_iteration_counts_is_the_solve_of_each_bit_for_bit(fmt) -> None:
+    last, _, _ = _stack_step()
+    bodies, cons = last.bodies.rounded(fmt), last.cons.rounded(fmt)
+    order = make_schedule("hazard", cons, bodies.dynamic, 8)
+    initial = Impulses(fmt.round(last.initial.normal), fmt.round(last.initial.friction))
+    warm = apply_impulses(bodies, cons, initial, fmt)
+    for start, init in ((bodies, None), (warm, initial)):
+        series = solve_series(start, cons, order, fmt, [1, 2, 3, 8], init)
+        assert sorted(series) == [1, 2, 3, 8]
+        for it, got in series.items():
+            want = solve(start, cons, order, fmt, SolverParams(iterations=it), initial=init).bodies
+            for f in ("linear_velocity", "angular_velocity"):
+                assert np.array_equal(getattr(got, f), getattr(want, f)), (it, f)
+        assert not np.array_equal(series[1].linear_velocity, series[8].linear_velocity)
 
 
 def test_the_verdict_compares_warm_against_more_cold_iterations() -> None:
@@ -102,3 +122,18 @@ def test_points_that_no_longer_exist_are_counted_in_the_report(tmp_path: Path,
     new = int(out.split("new points ")[1].split(",")[0].replace(",", ""))
     print(out)
     assert gone > 0 and new > 0
+
+
+def test_the_captured_frame_warm_started_from_the_step_before(tmp_path: Path) -> None:
+    """--from-frames prices the very frame the frame cache holds (what make sim reports on), its warm start matched
+    from our solve of the frame one step earlier."""
+    last, report = capture_from_frames("stack", None, 4, 0.85, tmp_path, n=4)
+    frame = load_or_capture("stack", cache_dir=tmp_path, n=4)
+    assert np.array_equal(last.bodies.position, frame.position) and last.cons.num_manifolds == frame.num_manifolds
+    assert report["matched points"] == int(frame.num_points.sum()) and report["new points"] == 0
+    assert np.all(last.initial.normal >= 0) and last.initial.normal.sum() > 0
+    assert len(list(tmp_path.glob("stack_*.npz"))) == 2  # the frame and the one before, cached
+    with pytest.raises(ValueError, match="no earlier step"):
+        capture_from_frames("stack", 1, 4, 0.85, tmp_path, n=4)
+    assert main(["--scene", "stack", "--scene-args", "n=4", "--from-frames", "--step", "1", "--cache-dir",
+                 str(tmp_path)]) == 2
