@@ -58,24 +58,25 @@ ERROR_KEYS = ("max |dv|", "median |dv|", "p99 |dv|", "max |dw|", "median |dw|", 
 
 
 def capture(scene: str, settle: int, steps: int, iterations: int, factor: float, schedule: str = "hazard",
-            **params: object) -> tuple[StepInput, dict[str, int]]:
+            seed: int = 0, **params: object) -> tuple[StepInput, dict[str, int]]:
     """The last of ``steps`` warm-started float64 closed-loop steps after ``settle`` pybullet steps, and the
     warm-start report of the run."""
-    r = run_closed_loop(scene, steps, FLOAT64, iterations, schedule=schedule, settle_steps=settle,
+    r = run_closed_loop(scene, steps, FLOAT64, iterations, schedule=schedule, settle_steps=settle, seed=seed,
                         remedy=Remedy("warm", factor), **params)
     return r.extra["last step"], r.extra["warm start"]
 
 
 def cached_capture(cache_dir: Path, scene: str, settle: int, steps: int, iterations: int, factor: float,
-                   schedule: str = "hazard", **params: object) -> tuple[StepInput, dict[str, int], bool]:
+                   schedule: str = "hazard", seed: int = 0,
+                   **params: object) -> tuple[StepInput, dict[str, int], bool]:
     """:func:`capture` once per set of settings, cached in ``cache_dir``; (step, report, whether cached)."""
     settings = {"scene": scene, "settle": settle, "steps": steps, "iterations": iterations, "factor": factor,
-                "schedule": schedule, "params": {k: str(v) for k, v in sorted(params.items())}}
+                "schedule": schedule, "seed": seed, "params": {k: str(v) for k, v in sorted(params.items())}}
     path = step_path(cache_dir, settings)
     hit = load_step(path)
     if hit is not None:
         return hit[0], hit[1], True
-    last, report = capture(scene, settle, steps, iterations, factor, schedule, **params)
+    last, report = capture(scene, settle, steps, iterations, factor, schedule, seed, **params)
     if last.initial is not None:
         save_step(last, report, path)
     return last, report, False
@@ -89,7 +90,8 @@ def _frame_step(frame: Frame) -> tuple[BodyTable, ConstraintSet, Contacts]:
 
 
 def capture_from_frames(scene: str, step: int | None, iterations: int, factor: float,
-                        cache_dir: Path = FRAME_CACHE_DIR, **params: object) -> tuple[StepInput, dict[str, int]]:
+                        cache_dir: Path = FRAME_CACHE_DIR, seed: int = 1,
+                        **params: object) -> tuple[StepInput, dict[str, int]]:
     """The scene's captured frame at ``step`` (None: its default capture step, the one ``make sim`` prices),
     warm-started from our float64 solve (``iterations``, hazard order) of the frame captured one step earlier:
     that solve's accumulated impulses are the memory (``ContactMemory``), matched to the frame's points as Bullet
@@ -98,8 +100,8 @@ def capture_from_frames(scene: str, step: int | None, iterations: int, factor: f
     step = DEFAULT_CAPTURE_STEP.get(scene, 1) if step is None else step
     if step < 2:
         raise ValueError(f"step {step} has no earlier step to warm start from")
-    prev = load_or_capture(scene, step=step - 1, cache_dir=cache_dir, **params)
-    frame = load_or_capture(scene, step=step, cache_dir=cache_dir, **params)
+    prev = load_or_capture(scene, step=step - 1, seed=seed, cache_dir=cache_dir, **params)
+    frame = load_or_capture(scene, step=step, seed=seed, cache_dir=cache_dir, **params)
     p_bodies, p_cons, p_contacts = _frame_step(prev)
     p_order = make_schedule("hazard", p_cons, p_bodies.dynamic)
     solved = solve(p_bodies, p_cons, p_order, FLOAT64, SolverParams(iterations=iterations))
@@ -226,6 +228,7 @@ def _parse(argv: Sequence[str] | None) -> argparse.Namespace:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="pile")
     ap.add_argument("--scene-args", default="", help='scene parameters, "key=value ..." (as SCENE_ARGS)')
+    ap.add_argument("--seed", type=int, default=1, help="scene seed (1: the frames make sim uses)")
     ap.add_argument("--settle", type=int, default=39, help="pybullet steps first (the pile's capture step is 40)")
     ap.add_argument("--steps", type=int, default=2, help="warm-started closed-loop steps; the last one is priced")
     ap.add_argument("--format", default="fp32", help="number formats, comma separated (fp32,fp16)")
@@ -262,7 +265,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.from_frames:
         try:
             last, report = capture_from_frames(args.scene, args.step, args.loop_iters, args.factor,
-                                               Path(args.cache_dir), **params)
+                                               Path(args.cache_dir), args.seed, **params)
         except ValueError as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
@@ -270,7 +273,7 @@ def main(argv: Sequence[str] | None = None) -> int:
               "from our solve of the step before"
     else:
         last, report, cached = cached_capture(Path(args.cache_dir), args.scene, args.settle, args.steps,
-                                              args.loop_iters, args.factor, args.schedule, **params)
+                                              args.loop_iters, args.factor, args.schedule, args.seed, **params)
         how = f"closed-loop step {'from the cache' if cached else 'captured'}"
     print(f"{args.scene}: {last.bodies.num_bodies} bodies, {last.cons.num_manifolds} manifolds, warm start factor "
           f"{args.factor}; {how} ({time.perf_counter() - t0:.0f} s)", flush=True)
