@@ -1,23 +1,25 @@
 """The price of warm starting on one step: error against the exact reference after 1, 2, 4, 8 iterations, cold (the
 thesis scheme) and warm, and the kernel cycles of each on the fitting design (``models/cycle_model.py``).
 
-A warm start needs the previous step's impulses, so the step is captured through the closed loop
-(``models.closed_loop``, warm remedy): pybullet's own solver settles the scene for ``--settle`` steps, then our loop
-runs ``--steps`` steps warm-started in float64 (the first from zeros), and its last step is solved again in each
-format from the same bodies and constraints (rounded once) cold (zeros) and warm (the carried impulses rounded and
-applied on the host), each against ``models.exact_reference`` of that step (float64 inputs, as the exact reference
-requires: a rounded normal is not an eigenvector of a rounded isotropic inertia and its spin-damping rows would be
-refused), cached beside the frames (``models/exact_reference_cache.py``). The captured step is cached there too
-(``sim/remedy_step_cache.py``).
+A warm start needs the previous step's impulses. With ``--from-frames`` the priced step is the scene's captured
+frame itself (the one ``make sim`` reports on; ``--seed 1``, the default, is ``make sim``'s), warm-started from our
+float64 solve of the frame captured one step earlier, so the exact reference cached beside that frame prices it.
+Otherwise the step is captured through the closed loop (``models.closed_loop``, warm remedy): pybullet's own solver
+settles the scene for ``--settle`` steps, then our loop runs ``--steps`` steps warm-started in float64 (the first
+from zeros), and its last step is priced (cached in ``build/frames/``, ``sim/remedy_step_cache.py``; its exact
+reference is computed once). Either way the step is solved again in each format from the same bodies and
+constraints (rounded once) cold (zeros) and warm (the carried impulses rounded and applied on the host), each
+against ``models.exact_reference`` of that step (float64 inputs, as the exact reference requires: a rounded normal
+is not an eigenvector of a rounded isotropic inertia and its spin-damping rows would be refused), cached beside the
+frames (``models/exact_reference_cache.py``).
 
 Each format is solved and priced in ``make sim``'s hazard schedule with the format's window
 (``sim.kernel_build.default_window``) on the streaming kernel whose impulses travel with the records
 (``IMPULSE_STORE=records``, ``KernelJob.impulses_travelling``): its first pass reads the host-given impulses, so the
-cold and the warm step are priced each with their own initial impulses, the same records either way.
+cold and the warm step stream the same records, one cycle prediction for both (the model reads no impulse value).
 
-    python -m sim.remedy_price --scene pile --settle 39 --steps 2 --format fp32 --iters 1,2,4,8
-    python -m sim.remedy_price --scene thesis --settle 2 --steps 2 --format fp32,fp16 --exact-budget 1800 \\
-        --plot docs/remedy_price_thesis.png
+    python -m sim.remedy_price --scene pile --settle 200 --steps 30 --format fp32,fp16 --plot docs/remedy_price_pile.png
+    python -m sim.remedy_price --scene thesis --from-frames --format fp32,fp16 --plot docs/remedy_price_thesis.png
 """
 
 from __future__ import annotations
