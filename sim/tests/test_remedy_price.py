@@ -110,6 +110,19 @@ def test_a_cold_capture_or_bad_arguments_are_refused() -> None:
     assert main(["--iters", "0"]) == 2
     assert main(["--format", "fp99"]) == 2
     assert main(["--preset", "nope"]) == 2
+    assert main(["--more-factors", "1.5"]) == 2 and main(["--factor", "0"]) == 2
+
+
+def test_further_warm_start_factors_are_their_own_remedies() -> None:
+    last, _, ref = _stack_step()
+    rows = price(last, FP32, [1, 4], ref, warm={"warm": 1.0, "warm1": 1.0 / 0.85})
+    by = {(r["remedy"], r["iterations"]): r for r in rows}
+    assert {r["remedy"] for r in rows} == {"cold", "warm", "warm1"}
+    assert by["warm", 4] == {**by["warm", 4], **price(last, FP32, [4], ref)[1]}  # the default warm, bit for bit
+    assert by["warm1", 1]["max |dv|"] != by["warm", 1]["max |dv|"]
+    assert len(verdict(rows, 1, 4)) == 2  # one line per warm remedy
+    with pytest.raises(ValueError, match="positive and finite"):
+        price(last, FP32, [1], ref, warm={"warm": float("nan")})
 
 
 def test_points_that_no_longer_exist_are_counted_in_the_report(tmp_path: Path,
