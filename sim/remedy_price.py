@@ -91,23 +91,27 @@ def _frame_step(frame: Frame) -> tuple[BodyTable, ConstraintSet, Contacts]:
 
 
 def capture_from_frames(scene: str, step: int | None, iterations: int, factor: float,
-                        cache_dir: Path = FRAME_CACHE_DIR, seed: int = 1,
+                        cache_dir: Path = FRAME_CACHE_DIR, seed: int = 1, history: int = 1,
                         **params: object) -> tuple[StepInput, dict[str, int]]:
     """The scene's captured frame at ``step`` (None: its default capture step, the one ``make sim`` prices),
-    warm-started from our float64 solve (``iterations``, hazard order) of the frame captured one step earlier:
-    that solve's accumulated impulses are the memory (``ContactMemory``), matched to the frame's points as Bullet
-    matches them. Both frames come from the frame cache (``load_or_capture``), so the priced step is the very
-    frame ``make sim`` reports on, and its exact reference is the one cached beside it."""
+    warm-started from our float64 solves (``iterations``, hazard order) of the ``history`` frames captured before
+    it, each warm-started from the one before it (the first from zeros): the last solve's accumulated impulses
+    are the memory (``ContactMemory``), matched to the frame's points as Bullet matches them. Every frame comes
+    from the frame cache (``load_or_capture``), so the priced step is the very frame ``make sim`` reports on, and
+    its exact reference is the one cached beside it. The report is the priced frame's matching."""
     step = DEFAULT_CAPTURE_STEP.get(scene, 1) if step is None else step
-    if step < 2:
-        raise ValueError(f"step {step} has no earlier step to warm start from")
-    prev = load_or_capture(scene, step=step - 1, seed=seed, cache_dir=cache_dir, **params)
-    frame = load_or_capture(scene, step=step, seed=seed, cache_dir=cache_dir, **params)
-    p_bodies, p_cons, p_contacts = _frame_step(prev)
-    p_order = make_schedule("hazard", p_cons, p_bodies.dynamic)
-    solved = solve(p_bodies, p_cons, p_order, FLOAT64, SolverParams(iterations=iterations))
-    memory = ContactMemory.of(p_contacts, p_cons, solved.impulses)
-    bodies, cons, contacts = _frame_step(frame)
+    if history < 1 or step - history < 1:
+        raise ValueError(f"step {step} has no {history} earlier step(s) to warm start from")
+    memory: ContactMemory | None = None
+    for s in range(step - history, step):
+        bodies, cons, contacts = _frame_step(load_or_capture(scene, step=s, seed=seed, cache_dir=cache_dir, **params))
+        order = make_schedule("hazard", cons, bodies.dynamic)
+        initial = None if memory is None else warm_start(memory, contacts, cons, SolverParams().friction_coeff,
+                                                         factor).impulses
+        start = bodies if initial is None else apply_impulses(bodies, cons, initial, FLOAT64)
+        solved = solve(start, cons, order, FLOAT64, SolverParams(iterations=iterations), initial=initial)
+        memory = ContactMemory.of(contacts, cons, solved.impulses)
+    bodies, cons, contacts = _frame_step(load_or_capture(scene, step=step, seed=seed, cache_dir=cache_dir, **params))
     ws = warm_start(memory, contacts, cons, SolverParams().friction_coeff, factor)
     order = make_schedule("hazard", cons, bodies.dynamic)
     return StepInput(bodies, cons, order, ws.impulses), ws.report.as_dict()
@@ -252,6 +256,8 @@ def _parse(argv: Sequence[str] | None) -> argparse.Namespace:
                     help="price the scene's captured frame (--step; default its capture step), warm-started from our "
                          "solve of the frame one step earlier (--settle and --steps unused)")
     ap.add_argument("--step", type=int, default=None, help="with --from-frames: the captured step priced")
+    ap.add_argument("--history", type=int, default=1, help="with --from-frames: frames solved before it, each "
+                                                          "warm-started from the one before")
     ap.add_argument("--plot", default="", help="write the speed-against-error plot (PNG) here")
     return ap.parse_args(argv)
 
@@ -276,12 +282,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.from_frames:
         try:
             last, report = capture_from_frames(args.scene, args.step, args.loop_iters, args.factor,
-                                               Path(args.cache_dir), args.seed, **params)
+                                               Path(args.cache_dir), args.seed, args.history, **params)
         except ValueError as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
         how = f"the captured frame of step {args.step or DEFAULT_CAPTURE_STEP.get(args.scene, 1)}, warm-started " \
-              "from our solve of the step before"
+              f"from our solves of the {args.history} step(s) before"
     else:
         last, report, cached = cached_capture(Path(args.cache_dir), args.scene, args.settle, args.steps,
                                               args.loop_iters, args.factor, args.schedule, args.seed, **params)

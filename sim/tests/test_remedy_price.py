@@ -146,7 +146,7 @@ def test_the_captured_frame_warm_started_from_the_step_before(tmp_path: Path) ->
     assert report["matched points"] == int(frame.num_points.sum()) and report["new points"] == 0
     assert np.all(last.initial.normal >= 0) and last.initial.normal.sum() > 0
     assert len(list(tmp_path.glob("stack_*.npz"))) == 2  # the frame and the one before, cached
-    with pytest.raises(ValueError, match="no earlier step"):
+    with pytest.raises(ValueError, match="no 1 earlier step"):
         capture_from_frames("stack", 1, 4, 0.85, tmp_path, n=4)
     assert main(["--scene", "stack", "--scene-args", "n=4", "--from-frames", "--step", "1", "--cache-dir",
                  str(tmp_path)]) == 2
