@@ -188,7 +188,8 @@ def verdict(rows: Sequence[dict[str, Any]], warm_iters: int = 4, cold_iters: int
                    f"{w['p99 |dv|']:.3g} / {c['p99 |dv|']:.3g}); lower in {len(lower)} of {len(ERROR_KEYS)} "
                    f"({', '.join(lower) or 'none'}); cycles {remedy} {warm_iters} / cold {warm_iters} "
                    f"{w['cycles'] / c_same['cycles']:.4f}, {remedy} {warm_iters} / cold {cold_iters} "
-                   f"{w['cycles'] / c['cycles']:.4f}: target {'MET' if met else 'MISSED'}")
+                   f"{w['cycles'] / c['cycles']:.4f}: target (max |dv|, <= 5% extra cycles) "
+                   f"{'MET' if met else 'MISSED'}")
     return out
 
 

@@ -65,11 +65,11 @@ def test_the_verdict_compares_warm_against_more_cold_iterations() -> None:
     rows = [{"format": "fp16", "remedy": "cold", "iterations": 4, **row, "cycles": 100},
             {"format": "fp16", "remedy": "cold", "iterations": 8, **row, "max |dv|": 0.5, "cycles": 200},
             {"format": "fp16", "remedy": "warm", "iterations": 4, **row, "max |dv|": 0.4, "cycles": 104}]
-    assert verdict(rows)[0].endswith("target MET") and "warm 4 / cold 4 1.0400" in verdict(rows)[0]
+    assert verdict(rows)[0].endswith("cycles) MET") and "warm 4 / cold 4 1.0400" in verdict(rows)[0]
     rows[2]["cycles"] = 106  # more than 5% extra cycles
-    assert verdict(rows)[0].endswith("target MISSED")
+    assert verdict(rows)[0].endswith("cycles) MISSED")
     rows[2]["cycles"], rows[2]["max |dv|"] = 100, 0.6  # not lower than cold 8
-    assert verdict(rows)[0].endswith("target MISSED")
+    assert verdict(rows)[0].endswith("cycles) MISSED")
 
 
 def test_bad_warm_start_impulses_on_the_priced_path_are_refused() -> None:
@@ -93,7 +93,7 @@ def test_the_plot_the_report_and_the_step_cache(tmp_path: Path, capsys: pytest.C
     for reason in ("matched points", "new points", "dropped: point no longer exists",
                    "dropped: manifold no longer exists", "dropped: non-finite value"):
         assert reason in out
-    assert "step captured" in out and out.count("target M") == 0  # 1,4 iterations: no cold 8 to compare with
+    assert "step captured" in out and out.count("cycles) M") == 0  # 1,4 iterations: no cold 8 to compare with
     assert len(list(tmp_path.glob("remedy_step_*.npz"))) == 1 and len(list(tmp_path.glob("exact_*.npz"))) == 1
     assert main(TINY + ["--cache-dir", str(tmp_path)]) == 0
     assert "step from the cache" in capsys.readouterr().out
