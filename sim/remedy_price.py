@@ -3,7 +3,8 @@ thesis scheme) and warm, and the kernel cycles of each on the fitting design (``
 
 A warm start needs the previous step's impulses. With ``--from-frames`` the priced step is the scene's captured
 frame itself (the one ``make sim`` reports on; ``--seed 1``, the default, is ``make sim``'s), warm-started from our
-float64 solve of the frame captured one step earlier, so the exact reference cached beside that frame prices it.
+float64 solve of the frame captured one step earlier (``--history K``: of a chain of the K frames before it, each
+solved warm from the one before), so the exact reference cached beside that frame prices it.
 Otherwise the step is captured through the closed loop (``models.closed_loop``, warm remedy): pybullet's own solver
 settles the scene for ``--settle`` steps, then our loop runs ``--steps`` steps warm-started in float64 (the first
 from zeros), and its last step is priced (cached in ``build/frames/``, ``sim/remedy_step_cache.py``; its exact
@@ -12,6 +13,9 @@ constraints (rounded once) cold (zeros) and warm (the carried impulses rounded a
 against ``models.exact_reference`` of that step (float64 inputs, as the exact reference requires: a rounded normal
 is not an eigenvector of a rounded isotropic inertia and its spin-damping rows would be refused), cached beside the
 frames (``models/exact_reference_cache.py``).
+
+The remedies: ``cold`` (the thesis scheme), ``warm`` (``--factor``, Bullet 2's 0.85) and, per ``--more-factors``
+value f, ``warm<f>`` (the same matched impulses at factor f; 1 is Box2D's full warm start), each its own curve.
 
 Each format is solved and priced in ``make sim``'s hazard schedule with the format's window
 (``sim.kernel_build.default_window``) on the streaming kernel whose impulses travel with the records
