@@ -302,6 +302,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     print("warm-start matching (over the loop's steps in closed-loop mode): "
           + ", ".join(f"{k} {v:,}" for k, v in report.items()), flush=True)
     try:
+        if last.initial is None:
+            raise ValueError("the captured step carries no warm-start impulses (the loop ran cold)")
+        check_impulses(last.initial, last.cons)  # before the exact reference: bad input costs no solve
         ref, ref_path, hit = cached_exact_reference(last.bodies, last.cons, args.cache_dir, SolverParams(),
                                                     Budget(time_s=args.exact_budget))
         warm = {"warm": 1.0, **{f"warm{f:g}": f / args.factor for f in more}}  # scales of the captured start
