@@ -150,3 +150,21 @@ def test_the_captured_frame_warm_started_from_the_step_before(tmp_path: Path) ->
         capture_from_frames("stack", 1, 4, 0.85, tmp_path, n=4)
     assert main(["--scene", "stack", "--scene-args", "n=4", "--from-frames", "--step", "1", "--cache-dir",
                  str(tmp_path)]) == 2
+
+
+def test_a_cached_step_with_bad_impulses_is_refused_before_the_exact_reference(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from sim.remedy_step_cache import load_step, save_step
+
+    assert main(TINY + ["--cache-dir", str(tmp_path)]) == 0
+    path = next(tmp_path.glob("remedy_step_*.npz"))
+    for exact in tmp_path.glob("exact_*.npz"):
+        exact.unlink()
+    step, report = load_step(path)
+    normal = step.initial.normal.copy()
+    normal[0, 0] = np.nan
+    save_step(replace(step, initial=Impulses(normal, step.initial.friction)), report, path)
+    capsys.readouterr()
+    assert main(TINY + ["--cache-dir", str(tmp_path)]) == 1
+    assert "not finite in 1 manifold" in capsys.readouterr().err
+    assert not list(tmp_path.glob("exact_*"))  # nothing solved, nothing written
