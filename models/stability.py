@@ -194,7 +194,9 @@ REMEDIES: dict[str, Remedy] = {r.name: r for r in (
     Remedy("soft+sub2+relax", 0.0, 2, relax=True, soft=SoftContact()),
     Remedy("warm+soft+sub2+relax", WARMSTART_FACTOR, 2, relax=True, soft=SoftContact()),
     Remedy("warm1+soft+sub2+relax", 1.0, 2, relax=True, soft=SoftContact()),
-    Remedy("warm1+soft+sub4", 1.0, 4, soft=SoftContact()))}
+    Remedy("warm1+soft+sub4", 1.0, 4, soft=SoftContact()),
+    # the tuned one (docs/stability.md): half Box2D's contact hertz, which rings at 1 iteration per call
+    Remedy("warm1+soft15+sub2+relax", 1.0, 2, relax=True, soft=SoftContact(hertz=15.0)))}
 
 
 def _always(thresholds: Thresholds) -> Callable[[int], Thresholds]:
