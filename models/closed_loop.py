@@ -16,7 +16,9 @@ the loop's first state and never updates it; ``world_axes`` (the default) keeps 
 A :class:`Remedy` changes how a step is solved, never the contacts: ``warm_factor`` > 0 warm starts every step
 from the previous one's impulses (``models/warm_start.py``: points matched as Bullet 2 matches them, applied on the
 host at setup, the loop carrying the :class:`~models.warm_start.ContactMemory` step to step); ``substeps`` > 1 solves
-a step as that many kernel calls of dt / n (``models/substep.py``). :data:`COLD` (the default) is Bullet's GPU scheme.
+a step as that many kernel calls of dt / n (``models/substep.py``); ``soft`` runs Box2D v3's soft step, each substep a
+soft solve call and (``relax``) a relax call (``models/soft_contact.py``). :data:`COLD` (the default) is Bullet's GPU
+scheme.
 """
 
 from __future__ import annotations
