@@ -1,8 +1,9 @@
 """Tune Box2D's soft contact on the hard cases: a sweep of contact hertz, damping ratio and static stiffness.
 
 Each setting runs the case closed loop (``models.stability.HardCase.run``) under a soft remedy (``--substeps`` n,
-``--relax``: a solve and a relax call per substep; the warm start in full between steps, Box2D's) and prints the
-verdict with the judged figures, so a setting that passes can be registered in ``models.stability.REMEDIES``.
+``--relax``: a solve and a relax call per substep; ``--warm-factor``: the warm start between steps, by default in
+full as Box2D's) and prints the verdict with the judged figures, so a setting that passes can be registered in
+``models.stability.REMEDIES``.
 
     python -m sim.soft_tuning --cases plank,stack20 --substeps 2 --relax --settings 30:10:2,15:10:2 --format float64
 """
@@ -44,14 +45,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--relax", action="store_true", help="a relax call after each substep's position update")
     ap.add_argument("--settings", default="30:10:2", help="hertz:damping_ratio:static_stiffness, comma-separated")
     ap.add_argument("--steps", type=int, default=0, help="measured steps (0: the case's own)")
+    ap.add_argument("--warm-factor", type=float, default=1.0, help="warm start between steps (Box2D: 1, Bullet 2: 0.85)")
     args = ap.parse_args(argv)
     try:
         cases = [c.strip() for c in args.cases.split(",") if c.strip()]
         if not cases or any(c not in CASES for c in cases):
             raise ValueError(f"unknown case in {args.cases!r} (known: {', '.join(CASES)})")
         settings, ar = parse_settings(args.settings), parse_format(args.format)
-        remedies = [Remedy(f"warm1+soft{s.hertz:g}z{s.damping_ratio:g}s{s.static_stiffness:g}+sub{args.substeps}"
-                           + ("+relax" if args.relax else ""), 1.0, args.substeps, relax=args.relax, soft=s)
+        remedies = [Remedy(f"warm{args.warm_factor:g}+soft{s.hertz:g}z{s.damping_ratio:g}s{s.static_stiffness:g}"
+                           f"+sub{args.substeps}" + ("+relax" if args.relax else ""), args.warm_factor, args.substeps,
+                           relax=args.relax, soft=s)
                     for s in settings]
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
