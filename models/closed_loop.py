@@ -16,12 +16,14 @@ the loop's first state and never updates it; ``world_axes`` (the default) keeps 
 A :class:`Remedy` changes how a step is solved, never the contacts: ``warm_factor`` > 0 warm starts every step
 from the previous one's impulses (``models/warm_start.py``: points matched as Bullet 2 matches them, applied on the
 host at setup, the loop carrying the :class:`~models.warm_start.ContactMemory` step to step); ``substeps`` > 1 solves
-a step as that many kernel calls of dt / n (``models/substep.py``). :data:`COLD` (the default) is Bullet's GPU scheme.
+a step as that many kernel calls of dt / n (``models/substep.py``); ``soft`` runs Box2D v3's soft step, each substep a
+soft solve call and (``relax``) a relax call (``models/soft_contact.py``). :data:`COLD` (the default) is Bullet's GPU
+scheme.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable, Optional
 
 import numpy as np
@@ -34,6 +36,7 @@ from .inertia import CONVENTION_KEY, DEFAULT_CONVENTION, BulletConvention, conve
 from .integrator import IntegrationParams, integrate
 from .number_format import FLOAT64, Arithmetic
 from .schedule import make_schedule
+from .soft_contact import SoftContact, add_gravity, relax_constraints, soft_constraints
 from .substep import ContactPoints, substep_constraints
 from .warm_start import ContactMemory, Contacts, WarmStartReport, apply_impulses, warm_start
 
@@ -61,10 +64,11 @@ class Remedy:
     name: str
     warm_factor: float = 0.0
     substeps: int = 1
-    relax: bool = False  # the last substep without the position correction (models/substep.py)
+    relax: bool = False  # the last substep without the position correction (models/substep.py); soft: a relax call
+    soft: Optional[SoftContact] = None  # Box2D's soft contact (models/soft_contact.py), each substep a kernel call
 
     def __post_init__(self) -> None:
-        if self.relax and self.substeps < 2:
+        if self.relax and self.substeps < 2 and self.soft is None:
             raise ValueError(f"remedy {self.name}: a relax substep needs substeps >= 2 (one to correct positions)")
         if self.substeps < 1 or not 0.0 <= self.warm_factor <= 1.0:
             raise ValueError(f"remedy {self.name}: substeps must be >= 1 and the warm-start factor in [0, 1], got "
@@ -74,9 +78,19 @@ class Remedy:
     def warm(self) -> bool:
         return self.warm_factor > 0.0
 
+    @property
+    def calls_per_substep(self) -> int:
+        """Kernel calls per substep: a soft substep with relax is a solve call and a relax call."""
+        return 2 if self.soft is not None and self.relax else 1
+
+    @property
+    def calls_per_step(self) -> int:
+        return self.substeps * self.calls_per_substep
+
     def passes_per_step(self, solver: SolverParams) -> int:
-        """Manifold-passes per step, all substeps included (a contact and a friction pass per iteration)."""
-        return 2 * solver.iterations * self.substeps
+        """Manifold-passes per step, all kernel calls included (a contact and a friction pass per iteration of
+        ``solver``, the call's)."""
+        return 2 * solver.iterations * self.calls_per_step
 
 
 COLD = Remedy("cold")
@@ -157,7 +171,7 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
         ip = IntegrationParams(dt=world.dt / remedy.substeps, gravity=tuple(gravity))
         solver = SolverParams(iterations=iterations)  # bullet2's pairs carry their friction per manifold
         bodies = body_table_from_state(state, gravity, world.dt, convention=convention).rounded(ar)
-        advance = stepper(ar, solver, ip)
+        advance = stepper(ar, solver, ip) if remedy.soft is None else _SoftCalls.of(stepper, ar, solver, ip, remedy)
         carried = _RemedyState()
         dyn = bodies.dynamic
         rows: dict[str, list[float]] = {k: [] for k in ("pen", "vmax", "vmed", "ke", "bad", "man")}
@@ -174,7 +188,9 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
             frame = _contact_frame(world, bodies, mf, state, gravity, convention)
             cons = setup_constraints(frame, bodies, solver.friction_coeff).rounded(ar)
             order = make_schedule(schedule, cons, dyn, window)
-            bodies = _remedy_step(remedy, advance, bodies, cons, order, mf, ar, solver, ip.dt, carried)
+            bodies = (_remedy_step(remedy, advance, bodies, cons, order, mf, ar, solver, ip.dt, carried)
+                      if remedy.soft is None else _soft_step(remedy, advance, bodies, cons, order, mf, ar, solver,
+                                                             carried))
             valid = np.arange(4)[None, :] < mf.num_points[:, None]
             speed = np.linalg.norm(bodies.linear_velocity[dyn], axis=1)
             rows["pen"].append(float(np.max(-mf.distance[valid], initial=0.0)))
@@ -191,7 +207,7 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
         nonfinite=np.asarray(rows["bad"]), manifolds=np.asarray(rows["man"]),
         drift=np.linalg.norm(bodies.position[dyn] - start[dyn], axis=1), final=bodies, start_position=start,
         extra={"remedy": remedy.name, "passes per step": remedy.passes_per_step(solver),
-               "kernel calls": carried.calls, "calls per step": remedy.substeps, "warm start": carried.report.as_dict(),
+               "kernel calls": carried.calls, "calls per step": remedy.calls_per_step, "warm start": carried.report.as_dict(),
                "last step": carried.last},
     )
 
@@ -243,6 +259,67 @@ def _remedy_step(remedy: Remedy, advance: Stepper, bodies: BodyTable, cons: Cons
         state.calls += 1
         if remedy.warm:
             initial = impulses  # Box2D's warm start between substeps: the accumulated impulses in full
+    if remedy.warm:
+        state.memory = ContactMemory.of(contacts, cons, impulses)
+    return bodies
+
+
+@dataclass(frozen=True)
+class _SoftCalls:
+    """The kernel calls of a soft substep: ``solve`` (the soft update, then the position update; gravity too when
+    there is no relax call) and ``relax`` (rigid, then no position update: gravity is added after it)."""
+
+    solve: Stepper
+    relax: Optional[Stepper]
+    h: float
+    gravity: tuple[float, float, float]
+
+    @staticmethod
+    def of(stepper: StepperFactory, ar: Arithmetic, solver: SolverParams, ip: IntegrationParams,
+           remedy: Remedy) -> "_SoftCalls":
+        assert remedy.soft is not None
+        soft = replace(solver, soft_keep=remedy.soft.keep(ip.dt))
+        if not remedy.relax:
+            return _SoftCalls(stepper(ar, soft, ip), None, ip.dt, ip.gravity)
+        still = (0.0, 0.0, 0.0)
+        return _SoftCalls(stepper(ar, soft, replace(ip, gravity=still)),
+                          stepper(ar, solver, IntegrationParams(dt=0.0, gravity=still, damping=1.0)), ip.dt,
+                          ip.gravity)
+
+
+def _soft_step(remedy: Remedy, calls: Any, bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,
+               mf: scenes.Manifolds, ar: Arithmetic, solver: SolverParams, state: _RemedyState) -> BodyTable:
+    """One step in Box2D v3's substeps (``models/soft_contact.py``): per substep of h = dt / n the warm start
+    (accumulated impulses applied on the host), a soft solve call with the bias from each point's separation now,
+    the position update, then (``remedy.relax``) a relax call on the separation after it, and gravity ``g h``.
+
+    In the GPU convention the stored velocity already holds the substep's gravity when a call starts (Box2D adds it
+    at the substep's start): the solve call sees what Box2D's solve sees, the relax call sees the velocities after
+    the position update without the next substep's gravity, as in Box2D."""
+    assert remedy.soft is not None
+    initial: Optional[Impulses] = None
+    if remedy.warm:
+        contacts = Contacts.of(mf.body_a, mf.body_b, mf.num_points, mf.point_on_a, bodies)
+        ws = warm_start(state.memory, contacts, cons, solver.friction_coeff, remedy.warm_factor)
+        state.report.add(ws.report)
+        initial = Impulses(ar.round(ws.impulses.normal), ar.round(ws.impulses.friction))
+    state.last = StepInput(bodies, cons, order, initial)
+    valid = np.arange(4)[None, :] < mf.num_points[:, None]
+    points = ContactPoints(cons.body_a, cons.body_b, valid, mf.normal_on_b[:, 0, :], mf.point_on_a, mf.point_on_b,
+                           bodies.position.astype(np.float64), bodies.orientation.astype(np.float64))
+    impulses = Impulses.zeros(cons.num_manifolds)
+    for _ in range(remedy.substeps):
+        call = soft_constraints(cons, points.separation(bodies), valid, bodies, calls.h, remedy.soft, ar)
+        if initial is not None:
+            bodies = apply_impulses(bodies, call, initial, ar)
+        bodies, impulses = calls.solve(bodies, call, order, initial)
+        state.calls += 1
+        if calls.relax is not None:
+            rows = relax_constraints(cons, points.separation(bodies), valid, calls.h, ar)
+            bodies, impulses = calls.relax(bodies, rows, order, impulses)  # continues the solve's impulses
+            bodies = add_gravity(bodies, ar, calls.gravity, calls.h)
+            state.calls += 1
+        initial = impulses if remedy.warm else None
     if remedy.warm:
         state.memory = ContactMemory.of(contacts, cons, impulses)
     return bodies

@@ -57,6 +57,10 @@ class SolverParams:
     iterations: int = 4
     interleaved: bool = False  # False: all contact passes, then all friction passes (Bullet GPU)
     friction_coeff: float = FRICTION_COEFF
+    # Box2D's soft contact (models/soft_contact.py), two per-call constants: the share of a contact row's
+    # accumulated impulse its soft update keeps, 1 - impulseScale, for a row between two dynamic bodies and for a
+    # row with a static body. None (the default): the rigid update, today's kernel, bit for bit.
+    soft_keep: Optional[tuple[float, float]] = None
 
 
 @dataclass
@@ -163,7 +167,16 @@ def _apply(ar: Arithmetic, g: _Gathered, lin_a: np.ndarray, ang_a: np.ndarray, l
         g.vb, g.wb = np.where(m, vb, g.vb), np.where(m, wb, g.wb)
 
 
-def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.ndarray, lam: np.ndarray) -> np.ndarray:
+def _row_keep(keep: tuple[np.ndarray, np.ndarray], bias: np.ndarray, g: _Gathered) -> np.ndarray:
+    """The soft update's keep factor of each row: 1 for a speculative row (bias > 0: the points are apart, Box2D
+    solves them rigid), else the per-call constant of a row with a static body or of one between two dynamic
+    bodies (a multiply by 1 is exact: a speculative row's update is the rigid one, bit for bit)."""
+    static = (g.ma == 0.0) | (g.mb == 0.0)
+    return np.where(bias > 0.0, np.ones_like(bias), np.where(static, keep[1], keep[0]))
+
+
+def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.ndarray, lam: np.ndarray,
+                  soft_keep: Optional[tuple[float, float]] = None) -> np.ndarray:
     """One contact pass over manifolds ``idx`` (vectorized); returns the new accumulated impulses (K,4).
 
     Per point i (skipped when jac_inv[i] == 0), in order i = 0..3, using the velocities the previous
@@ -174,7 +187,13 @@ def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nda
         lam'  = max(lam + delta, 0) ; delta = lam' - lam
         vA += (mA n) delta ; wA += (IA cA) delta ; vB -= (mB n) delta ; wB -= (IB cB) delta
     (IA cA: models.inertia.inertia_product, a per-component product for a diagonal, the symmetric 3x3 otherwise)
+
+    With ``soft_keep`` (Box2D's soft contact, models/soft_contact.py) one multiply is added, before the add:
+        lam'  = max(lam * keep + delta, 0) ; delta = lam' - lam
+    keep = 1 - impulseScale, a per-call constant (``_row_keep``: 1 where b > 0); the mass scale is in the row's
+    jac_inv and the soft bias in its b, both set by the host per call.
     """
+    keep = None if soft_keep is None else (ar.const(soft_keep[0]), ar.const(soft_keep[1]))
     n = cons.normal[idx]
     lam = lam.copy()
     lin_a = scale3(ar, n, g.ma)
@@ -190,7 +209,8 @@ def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nda
         cb = cross3(ar, ar.sub(p, g.xb), n)
         vrel = ar.add(ar.sub(dot3(ar, n, g.va), dot3(ar, n, g.vb)), ar.sub(dot3(ar, ca, g.wa), dot3(ar, cb, g.wb)))
         delta = ar.mul(ar.add(vrel, cons.bias[idx, i]), jac)
-        new = ar.max(ar.add(lam[:, i], delta), zero)
+        start = lam[:, i] if keep is None else ar.mul(lam[:, i], _row_keep(keep, cons.bias[idx, i], g))
+        new = ar.max(ar.add(start, delta), zero)
         delta = ar.sub(new, lam[:, i])
         lam[:, i] = np.where(active, new, lam[:, i])
         _apply(ar, g, lin_a, inertia_product(ar, g.ia, ca), lin_b, inertia_product(ar, g.ib, cb), delta, active)
@@ -283,7 +303,7 @@ def run_pass(out: BodyTable, imp: Impulses, cons: ConstraintSet, levels: list[np
         a, b = cons.body_a[idx], cons.body_b[idx]
         g = _Gathered(out, a, b)
         if kind == CONTACT_PASS:
-            imp.normal[idx] = contact_solve(ar, g, cons, idx, imp.normal[idx])
+            imp.normal[idx] = contact_solve(ar, g, cons, idx, imp.normal[idx], params.soft_keep)
             new_imp = imp.normal[idx]
         else:
             imp.friction[idx] = friction_solve(ar, g, cons, idx, imp.normal, imp.friction[idx],

@@ -35,6 +35,7 @@ from .dma_model import DmaPreset, get_preset
 from .integrator import IntegrationParams
 from .kernel_job import KernelJob
 from .number_format import Arithmetic, NumberFormat
+from .soft_contact import SoftContact
 from .warm_start import WARMSTART_FACTOR
 from .scenes import GRAVITY
 from .scenes.world import DEFAULT_DT
@@ -146,8 +147,9 @@ class HardCase:
 
 
 def call_iterations(iterations: int, remedy: Remedy) -> int:
-    """Iterations of each kernel call when a step of ``iterations`` is split into the remedy's substeps."""
-    return -(-iterations // remedy.substeps)
+    """Iterations of each kernel call when a step of ``iterations`` is split into the remedy's kernel calls
+    (substeps, and a soft substep's solve and relax calls)."""
+    return -(-iterations // remedy.calls_per_step)
 
 
 class KernelPricer:
@@ -186,7 +188,17 @@ class KernelPricer:
 REMEDIES: dict[str, Remedy] = {r.name: r for r in (
     COLD, Remedy("warm", WARMSTART_FACTOR), Remedy("warm+sub2", WARMSTART_FACTOR, 2),
     Remedy("warm+sub4", WARMSTART_FACTOR, 4), Remedy("warm+sub2+relax", WARMSTART_FACTOR, 2, relax=True),
-    Remedy("warm1+sub2+relax", 1.0, 2, relax=True))}
+    Remedy("warm1+sub2+relax", 1.0, 2, relax=True),
+    # Box2D v3's soft step (models/soft_contact.py): per substep a soft solve call, the position update and a relax
+    # call (2 substeps x 2 calls x 1 iteration = 8 manifold-passes at 4 iterations), or 4 soft substeps without relax
+    Remedy("soft+sub2+relax", 0.0, 2, relax=True, soft=SoftContact()),
+    Remedy("warm+soft+sub2+relax", WARMSTART_FACTOR, 2, relax=True, soft=SoftContact()),
+    Remedy("warm1+soft+sub2+relax", 1.0, 2, relax=True, soft=SoftContact()),
+    Remedy("warm1+soft+sub4", 1.0, 4, soft=SoftContact()),
+    # tuned (docs/stability.md): Box2D's 30 Hz rings on resting piles at 1 iteration per call; 15 Hz with Box2D's
+    # damping ratio 10, and 15 Hz critically damped (ratio 1), which holds the plank and the pyramid
+    Remedy("warm1+soft15+sub2+relax", 1.0, 2, relax=True, soft=SoftContact(hertz=15.0)),
+    Remedy("warm1+soft15z1+sub2+relax", 1.0, 2, relax=True, soft=SoftContact(hertz=15.0, damping_ratio=1.0)))}
 
 
 def _always(thresholds: Thresholds) -> Callable[[int], Thresholds]:

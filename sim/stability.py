@@ -4,7 +4,8 @@ Runs every case closed loop (pybullet collision detection, the bit-accurate gold
 the RTL kernel matches bit for bit) at 1, 4, 10 and 30 iterations, judges it on physical quantities against the
 case's thresholds (``models/stability.py``: penetration against Bullet's slop, each body's largest excursion and
 path length, speeds net of the stored g*dt; every limit with its reason), under each remedy (``--remedies``:
-cold = Bullet GPU, warm = Bullet 2's warm start, warm+subN = warm start and N substeps; each priced in kernel
+cold = Bullet GPU, warm = Bullet 2's warm start, warm+subN = warm start and N substeps, ...+soft... = Box2D v3's
+soft step, models/soft_contact.py, every solve and relax call counted; each priced in kernel
 cycles per step by the cycle model) and writes ``build/stability/stability.md``
 (the limits and the table), ``stability.csv`` and one plot per case (kinetic energy and penetration over the
 steps, ``<case>.png``). Failing rows are findings, reported, not errors: the command exits
@@ -43,7 +44,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--formats", default="fp32,fp16,bf16", help="comma-separated number formats")
     ap.add_argument("--iters", default=",".join(map(str, ITERATIONS)),
                     help="comma-separated iteration counts per step (a remedy's substeps share them)")
-    ap.add_argument("--remedies", default="cold,warm,warm+sub2",
+    ap.add_argument("--remedies", default="cold,warm,warm+sub2,warm1+soft15z1+sub2+relax",
                     help=f"comma-separated remedies ({', '.join(REMEDIES)}; models/stability.py REMEDIES)")
     ap.add_argument("--steps", type=int, default=0, help="override every case's step count (0: the case's own)")
     ap.add_argument("--jobs", type=int, default=2, help="parallel runs (the default executor local:<jobs>)")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import csv
+
 from pathlib import Path
 
 import numpy as np
@@ -52,6 +54,17 @@ def test_make_stability_writes_table_and_plots(tmp_path: Path) -> None:
     assert stability_main(["--cases", "nope", "--out", str(tmp_path / "bad")]) == 2
     assert stability_main(["--cases", "incline20", "--remedies", "hot", "--out", str(tmp_path / "bad")]) == 2
     assert not (tmp_path / "bad").exists()
+
+
+def test_the_soft_remedy_is_a_column_priced_per_call(tmp_path: Path) -> None:
+    """Box2D's soft step through the command: 8 manifold-passes at 4 iterations (2 substeps x a solve and a relax
+    call of 1 iteration), priced on the cycle model over its 4 kernel calls, dearer than one call of 4."""
+    assert stability_main(["--cases", "incline20", "--formats", "fp16", "--iters", "4", "--steps", "3",
+                           "--remedies", "warm,warm1+soft15z1+sub2+relax", "--jobs", "1", "--out", str(tmp_path)]) == 0
+    rows = {r["remedy"]: r for r in csv.DictReader((tmp_path / "stability.csv").open())}
+    soft, warm = rows["warm1+soft15z1+sub2+relax"], rows["warm"]
+    assert float(soft["passes per step"]) == 8 == float(warm["passes per step"])
+    assert float(soft["kernel cycles per step"]) > float(warm["kernel cycles per step"]) > 0
 
 
 def test_the_rtl_kernel_refuses_a_warm_start(tmp_path: Path) -> None:
