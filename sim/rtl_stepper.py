@@ -1,6 +1,7 @@
 """The RTL kernel as the stepper of a closed loop (``models.closed_loop``): every step runs in the compiled harness
 and must equal the golden model's bit for bit. The default kernel keeps its impulses on chip and starts every step
-from zero: a warm-started loop (``models.closed_loop.Remedy``) is refused on it (:class:`WarmStartUnsupported`). With
+from zero: a warm-started loop (``models.closed_loop.Remedy``) is refused on it (:class:`WarmStartUnsupported`); a soft
+step (Box2D's soft contact) is refused on every build (:class:`SoftContactUnsupported`). With
 ``impulses_in_records=True`` every step runs on the streaming kernel whose impulses travel with the records
 (IMPULSES_IN_RECORDS), and a warm start's impulses are the ones the records of each kind's first pass carry.
 
@@ -29,6 +30,11 @@ class WarmStartUnsupported(ValueError):
     """A warm start asked of a kernel that starts every step from zero impulses."""
 
 
+class SoftContactUnsupported(ValueError):
+    """A soft contact step (``SolverParams.soft_keep``, models/soft_contact.py) asked of the RTL kernel, whose contact
+    pipe has no ``lam * keep`` multiply yet (docs/stability.md, the soft step's RTL next step)."""
+
+
 def rtl_stepper(preset: DmaPreset, work_dir: Path, seed: int = 1,
                 impulses_in_records: bool = False) -> Callable[..., Callable[..., tuple[BodyTable, Impulses]]]:
     """A closed-loop stepper factory (``models.closed_loop.StepperFactory``) that runs every step on the RTL kernel
@@ -37,6 +43,10 @@ def rtl_stepper(preset: DmaPreset, work_dir: Path, seed: int = 1,
 
     def factory(fmt: NumberFormat, params: SolverParams,
                 ip: IntegrationParams) -> Callable[..., tuple[BodyTable, Impulses]]:
+        if params.soft_keep is not None:
+            raise SoftContactUnsupported(
+                f"the RTL kernel's contact pipe has no soft-contact multiply (lam * keep, keep = {params.soft_keep}): "
+                "run soft remedies on the golden model (docs/stability.md)")
         count = [0]
 
         def step(bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,

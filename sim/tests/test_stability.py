@@ -12,8 +12,8 @@ import pytest
 from models.closed_loop import Remedy, run_closed_loop
 from models.dma_model import get_preset
 from models.number_format import FP16, FP32
-from models.stability import CASES, judge
-from sim.rtl_stepper import WarmStartUnsupported, rtl_stepper
+from models.stability import CASES, REMEDIES, judge
+from sim.rtl_stepper import SoftContactUnsupported, WarmStartUnsupported, rtl_stepper
 from sim.stability import main as stability_main
 
 
@@ -74,6 +74,16 @@ def test_the_rtl_kernel_refuses_a_warm_start(tmp_path: Path) -> None:
         run_closed_loop("incline", 2, FP32, 4, stepper=rtl_stepper(get_preset("zcu102"), tmp_path),
                         remedy=Remedy("warm", 0.85))
     assert not any(tmp_path.iterdir())  # nothing was written for the refused step
+
+
+def test_the_rtl_kernel_refuses_a_soft_step(tmp_path: Path) -> None:
+    """The contact pipe has no soft-contact multiply: a soft remedy on the RTL stepper stops before its first kernel
+    call, by name, on either impulse store, with nothing written."""
+    for records in (False, True):
+        with pytest.raises(SoftContactUnsupported, match="no soft-contact multiply"):
+            run_closed_loop("incline", 2, FP32, 4, remedy=REMEDIES["warm1+soft15z1+sub2+relax"],
+                            stepper=rtl_stepper(get_preset("zcu102"), tmp_path, impulses_in_records=records))
+    assert not any(tmp_path.iterdir())
 
 
 def test_warm_started_closed_loop_on_the_kernel_with_impulses_in_the_records(tmp_path: Path) -> None:
