@@ -36,6 +36,7 @@ generated/pgs_integrate_pipe.sv
 
 // memories, queues and control
 pgs_fifo.sv
+pgs_body_vel_banks.sv
 pgs_body_ram.sv
 pgs_impulse_ram.sv
 pgs_hazard_cam.sv

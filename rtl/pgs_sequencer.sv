@@ -74,6 +74,7 @@ module pgs_sequencer #(
     parameter bit IMPULSES_IN_RECORDS = 1'b0,  // 1: impulses travel with the records, out on m_imp (no impulse RAM)
     parameter int IMP_FIFO_DEPTH = 256,    // IMPULSES_IN_RECORDS: impulse-out records between take and handshake
     parameter int MU_W           = 0,      // friction-coefficient words per friction record: 0 the constant, 1 a word
+    parameter int BODY_BANKS     = 0,      // > 0 (LANES = 1): body velocities in banks; a busy bank stalls the issue
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64,
     localparam int IMP_OUT_W     = (4 * W + 7) / 8 * 8
@@ -211,11 +212,12 @@ module pgs_sequencer #(
     logic [PORTS*IDX_W-1:0]  rd_addr, wr_addr, dyn_addr;
     logic [PORTS*BREC_W-1:0] rd_data, wr_data;
     logic [PORTS-1:0]        wr_en, dyn, bad;
-    logic                    wr0_full, wr0_bad, rd0_bad;
+    logic                    wr0_full, wr0_bad, rd0_bad, body_busy;
 
     pgs_body_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .PORTS(PORTS),
-                   .IINV_W(IINV_W)) u_body_ram (
-        .clk, .rd_addr, .rd_data, .rd0_bad, .wr_en, .wr0_full, .wr0_bad, .wr_addr, .wr_data, .dyn_addr, .dyn, .bad);
+                   .IINV_W(IINV_W), .BODY_BANKS(BODY_BANKS)) u_body_ram (
+        .clk, .rd_addr, .rd_data, .rd0_bad, .wr_en, .wr0_full, .wr0_bad, .wr_addr, .wr_data, .dyn_addr, .dyn, .bad,
+        .busy(body_busy));
 
     // ---------------- body-in stream ----------------
     // b_end: a TLAST was taken (no more body beats this step); b_fill: after an early TLAST, the missing
@@ -415,7 +417,10 @@ module pgs_sequencer #(
         l_go = go;
     end
     logic imp_room;   // the impulse-out stream has room for one more record (always, on-chip impulses)
-    assign take = in_solve && crec_valid && !i_fill && imp_room && (l_go == '0 || (!hazard && !cam_full && kind_ok));
+    // body_busy (BODY_BANKS > 0): a bank of the body velocities cannot serve this cycle's retire writes and the
+    // reads of bodies A and B together; the record waits (a stall)
+    assign take = in_solve && crec_valid && !i_fill && imp_room
+                  && (l_go == '0 || (!hazard && !cam_full && kind_ok && !body_busy));
     wire  [LANES-1:0] l_issue  = {LANES{take}} & l_go;
     wire  [LANES-1:0] l_reject = {LANES{take}} & ~l_empty & l_rej;
     wire  issue      = l_issue != '0;
