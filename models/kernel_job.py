@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from models import stream_format as sf
+from models.body_banks import default_body_banks
 from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.contact_solver import Impulses, SolverParams, pass_sequence
 from models.frame import Frame
@@ -96,6 +97,12 @@ class KernelJob:
     def inertia_words(self) -> int:
         """Inverse-inertia words per body of the kernel build that runs this step (``sf.kernel_inertia_words``)."""
         return sf.kernel_inertia_words(self.bodies)
+
+    @property
+    def body_banks(self) -> int:
+        """Body-velocity banks of the kernel build that runs this step (``models.body_banks``: 0 the multiport
+        memory)."""
+        return default_body_banks(self.fmt, self.impulses_in_records, self.record_window is not None)
 
     @property
     def friction_words(self) -> int:
