@@ -32,6 +32,7 @@ generated/pgs_friction_pipe_full.sv
 generated/pgs_friction_pipe_mu.sv
 generated/pgs_friction_pipe_scalar_mu.sv
 generated/pgs_friction_pipe_full_mu.sv
+generated/pgs_friction_pipe_tb.sv
 generated/pgs_integrate_pipe.sv
 
 // memories, queues and control

@@ -93,6 +93,9 @@ class KernelBuild:
     def for_job(job: KernelJob, preset: DmaPreset, waves: bool = False, body_bits: int = 128) -> "KernelBuild":
         """The build that runs ``job``: the preset's constraint beat, the window plan's ring, contexts and lanes,
         body streams of ``body_bits``, the job's inverse-inertia and friction-coefficient words."""
+        if job.tangents_on_chip:
+            raise ValueError("no RTL kernel derives the tangent basis yet (tangents_on_chip: cycle, golden and "
+                             "resource models only)")
         plan = job.record_window
         return KernelBuild(job.fmt, cons_bits=preset.stream_bits, body_in_bits=body_bits, body_out_bits=body_bits,
                            waves=waves, window=0 if plan is None else plan.depth,

@@ -266,6 +266,7 @@ class KernelConfig:
     body_banks: int = RECORDS_BANKS  # banked, one lane: the banks of rtl/pgs_body_vel_banks.sv (BODY_BANKS)
     record_bits: Optional[int] = None  # ring word width (None: the format's)
     operator_source: str = "yosys"  # "yosys" | "vendor"
+    tangents_on_chip: bool = False  # the friction pipe derives t0, t1 from n (pgs_friction_pipe_tb)
 
     def __post_init__(self) -> None:
         if self.lanes < 1 or self.lanes & (self.lanes - 1):
@@ -286,6 +287,8 @@ class KernelConfig:
                   f"body words {self.body_words}", f"body ports {self.body_ports}"
                   + (f" ({self.body_banks} true dual-port banks)" if self.body_ports == "banked" and self.lanes == 1
                      else "")]
+        if self.tangents_on_chip:
+            levers.append("tangent basis derived on chip")
         if self.record_bits:
             levers.append(f"ring words {self.record_bits} bits")
         return (f"{self.fmt.name}, {kind}, {self.max_bodies:,} bodies, {self.max_manifolds:,} manifold slots; "
@@ -401,7 +404,8 @@ def estimate(cfg: KernelConfig, platform: Optional[ob.Platform] = None,
     """The configuration's resources, part by part (memories mapped for ``platform``: UltraRAM where it has)."""
     data = data or figures()
     parts = []
-    for name, per in (("pgs_contact_pipe", cfg.lanes), ("pgs_friction_pipe", cfg.lanes), ("pgs_integrate_pipe", 1)):
+    friction = "pgs_friction_pipe_tb" if cfg.tangents_on_chip else "pgs_friction_pipe"
+    for name, per in (("pgs_contact_pipe", cfg.lanes), (friction, cfg.lanes), ("pgs_integrate_pipe", 1)):
         res, src = pipe_resources(name, cfg, data)
         parts.append(Part(f"{name} x {per}", res.scaled(per), "operators: " + ", ".join(src)
                           + "; delay lines: distributed RAM rule"))
@@ -485,7 +489,8 @@ def config_for_job(job: KernelJob) -> KernelConfig:
     plan = job.record_window
     return KernelConfig(job.fmt, job.bodies.num_bodies, len(job.slots), lanes=plan.lanes if plan else 1,
                         window=plan.depth if plan else 0, impulses_resident=not job.impulses_in_records,
-                        body_ports="banked" if job.body_banks else "lvt", body_banks=job.body_banks or RECORDS_BANKS)
+                        body_ports="banked" if job.body_banks else "lvt", body_banks=job.body_banks or RECORDS_BANKS,
+                        tangents_on_chip=job.tangents_on_chip)
 
 
 def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: int, lanes: int = 1,

@@ -131,3 +131,19 @@ def test_banked_body_velocities_of_the_records_design() -> None:
     assert fits.fits and fits.shares["BRAM36"] < 0.7 and "2 true dual-port banks" in fits.config
     with pytest.raises(ValueError, match="power of two"):
         rm.KernelConfig(FP32, 1, 1, body_ports="banked", body_banks=3)
+
+
+def test_tangent_basis_on_chip_in_the_estimate() -> None:
+    """The job with the tangents derived on chip: the friction pipe that derives them in the estimate, no RTL build."""
+    from models.dma_model import get_preset
+    from models.tests.test_body_banks import pile_job
+    from sim.kernel_build import KernelBuild
+
+    derived = pile_job().tangents_derived()
+    cfg = rm.config_for_job(derived)
+    assert cfg.tangents_on_chip and "tangent basis derived on chip" in cfg.describe()
+    parts = {p.name: p.resources for p in rm.estimate(cfg).parts}
+    base = {p.name: p.resources for p in rm.estimate(rm.config_for_job(pile_job())).parts}
+    assert parts["pgs_friction_pipe_tb x 1"].lut > base["pgs_friction_pipe x 1"].lut
+    with pytest.raises(ValueError, match="no RTL kernel derives the tangent basis"):
+        KernelBuild.for_job(derived, get_preset("zcu102"))
