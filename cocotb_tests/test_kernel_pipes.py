@@ -332,6 +332,7 @@ def test_generated_rtl_up_to_date() -> None:
                         "rtl/generated/pgs_contact_pipe_full.sv", "rtl/generated/pgs_friction_pipe_full.sv",
                         "rtl/generated/pgs_friction_pipe_mu.sv", "rtl/generated/pgs_friction_pipe_scalar_mu.sv",
                         "rtl/generated/pgs_friction_pipe_full_mu.sv", "rtl/generated/pgs_integrate_pipe.sv", "rtl/generated/pgs_pipe_latency_pkg.sv",
+                        "rtl/generated/pgs_friction_pipe_tb.sv",
                         "rtl/generated/pipe_latency.json", "rtl/generated/pgs_regs_pkg.sv",
                         "hls_export/generated/pgs_regs.h", "hls_export/generated/pgs_stream_layout.h"}
     stale = generate(check=True)

@@ -25,6 +25,8 @@ Kernel
       record issues at ``retire + 1`` at the earliest), at a contact/friction switch the other pipe drained
       (``retire of the last issued + 1``), fewer than ``HAZARD_DEPTH`` in flight. It retires at
       ``issue + 1 + LATENCY`` of its pipe (``LATENCY`` from ``rtl/generated/pipe_latency.json``).
+      With banked body velocities (``BODY_BANKS``, :mod:`models.body_banks`) it also waits while a bank cannot
+      serve the reads of its bodies A and B beside the writes of the manifold retiring in that cycle.
       Records the kernel rejects (a body index >= num_bodies, the same body twice, two static bodies; such a
       slot stays rejected for the whole step) are consumed at their valid cycle without issuing.
     * DRAIN until the last retire ``R``; INTEG from ``R + 2``: body ``k`` issues one per cycle while fewer than
@@ -47,21 +49,24 @@ is its lower bound.
 from __future__ import annotations
 
 from array import array
+from collections import deque
 from itertools import chain
 from dataclasses import dataclass, field
 from typing import Any, Protocol, Sequence
 
 import numpy as np
 
+from .body_banks import busy as bank_busy
 from .contact_solver import CONTACT_PASS, FRICTION_PASS
 from .dma_model import DmaPreset
 from .kernel_job import KernelJob
 from .kernel_shape import DmaTiming, KernelShape, StepShape
 
 # why a record issued later than it was assembled (Prediction.cause)
-READY, SOLVE_START, HAZARD, SWITCH, CAM_FULL = range(5)
+READY, SOLVE_START, HAZARD, SWITCH, CAM_FULL, BANK_BUSY = range(6)
 CAUSES = {READY: "none", SOLVE_START: "waiting for SOLVE (body load)", HAZARD: "hazard",
-          SWITCH: "contact/friction pipe switch", CAM_FULL: "hazard CAM full"}
+          SWITCH: "contact/friction pipe switch", CAM_FULL: "hazard CAM full",
+          BANK_BUSY: "body bank busy with a retire write"}
 _KIND = {CONTACT_PASS: "contact", FRICTION_PASS: "friction"}
 
 
@@ -77,7 +82,7 @@ class Prediction:
     ready: np.ndarray  # cycle the record became valid (assembled) in the record register
     issue: np.ndarray
     retire: np.ndarray  # the trace cycle
-    cause: np.ndarray  # READY, SOLVE_START, HAZARD, SWITCH or CAM_FULL: what set the issue cycle
+    cause: np.ndarray  # READY, SOLVE_START, HAZARD, SWITCH, CAM_FULL or BANK_BUSY: what set the issue cycle
     blocker: np.ndarray  # the retire index whose retire released a HAZARD / SWITCH / CAM_FULL wait, else -1
     bubble: np.ndarray  # SOLVE cycles without a valid record just before this one became valid
     first_offer: np.ndarray  # cycle the record's first beat was offered by the DMA
@@ -132,6 +137,8 @@ class Prediction:
                 shared = sorted({int(x) for x in (self.body_a[k], self.body_b[k]) if x >= 0}
                                 & {int(x) for x in (self.body_a[b], self.body_b[b]) if x >= 0})
                 parts.append(f"{stall}-cycle stall: hazard on body {', '.join(map(str, shared))} with {who}")
+            elif cause == BANK_BUSY:
+                parts.append(f"{stall}-cycle stall: a body-velocity bank busy with the writes of {who}")
             elif cause == SWITCH:
                 parts.append(f"{stall}-cycle stall: pipe switch, waits for the last {_KIND[int(self.kind[b])]} "
                              f"pass record, {who}")
@@ -142,7 +149,8 @@ class Prediction:
     def stall_cycles_by_cause(self) -> dict[str, int]:
         """Stall cycles (the kernel's counter) split by what the waiting record waited for."""
         waited = self.issue - np.maximum(self.ready, self.solve_start)
-        return {CAUSES[c]: int(waited[self.cause == c].sum()) for c in (HAZARD, SWITCH, CAM_FULL)}
+        causes = (HAZARD, SWITCH, CAM_FULL) + ((BANK_BUSY,) if self.shape.body_banks else ())
+        return {CAUSES[c]: int(waited[self.cause == c].sum()) for c in causes}
 
     def summary(self) -> dict[str, int | float]:
         mp = max(self.manifold_passes, 1)
@@ -175,7 +183,8 @@ def predict(shape: KernelShape, dma: DmaTiming, step: StepShape) -> Prediction:
 def predict_job(job: "KernelJob", preset: DmaPreset, prefetched: bool = False) -> Prediction:
     """The model of ``job`` run by ``sim.kernel_step.run_kernel_step`` with ``preset`` (gap and backpressure 0)."""
     return predict(KernelShape.of(job.fmt, preset.stream_bits, inertia_words=job.inertia_words,
-                                  impulses_in_records=job.impulses_in_records, friction_words=job.friction_words),
+                                  impulses_in_records=job.impulses_in_records, friction_words=job.friction_words,
+                                  body_banks=job.body_banks, tangents_on_chip=job.tangents_on_chip),
                    DmaTiming.of(preset, prefetched, job.stream_layout(preset.stream_bits).ddr_read_share(job.params)),
                    StepShape.of_job(job))
 
@@ -300,6 +309,12 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
     in_records, turnaround = shape.impulses_in_records, dma.turnaround
     out_taken = [0] * nm  # per slot: the cycle its latest impulse-out record was taken
     out_last = -1
+    # banked body velocities: per slot the bodies read at issue and the dynamic ones written at retire; the
+    # issued manifolds not yet retired (retire cycle, bodies written, retire index), in retire order
+    banks = shape.body_banks
+    reads = list(zip(step.body_a.tolist(), step.body_b.tolist()))
+    writes = [tuple(x for x in (a, b) if x >= 0) for a, b in zip(dyn_a.tolist(), dyn_b.tolist())]
+    pending: deque[tuple[int, tuple[int, ...], int]] = deque()
     stream = ((p * nm + s, kind, s) for p, (kind, _) in enumerate(step.passes) for s in range(nm))
     for rec in chain(stream, (None,)):
         if prev is not None:  # take record r-1: valid from m_prev + 1
@@ -321,6 +336,11 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
                     t, cause, who = last_retire + 1, SWITCH, n_iss - 1
                 if n_iss >= depth and retired[n_iss - depth] + 1 > t:
                     t, cause, who = retired[n_iss - depth] + 1, CAM_FULL, n_iss - depth
+                if banks:  # the writes retiring at t are served first (models.body_banks)
+                    while pending and pending[0][0] < t:
+                        pending.popleft()
+                    while pending and pending[0][0] == t and bank_busy(banks, reads[s], pending[0][1]):
+                        t, cause, who = t + 1, BANK_BUSY, pending.popleft()[2]
                 if cause != READY:
                     waits[n_iss] = (cause, who)
                 ret = t + 1 + lat[kind]
@@ -329,6 +349,8 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
                 last_ret[free] = last_who[free] = -1
                 last_kind, last_retire = kind, ret
                 retired.append(ret)
+                if banks:
+                    pending.append((ret, writes[s], n_iss))
                 ready_a(ready)
                 issue_a(t)
                 off_a(f_off)

@@ -11,11 +11,13 @@ Every consumer of a step builds one: the RTL harness run (``sim.kernel_step``), 
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from models import stream_format as sf
+from models.body_banks import default_body_banks
 from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.contact_solver import Impulses, SolverParams, pass_sequence
 from models.frame import Frame
@@ -23,6 +25,7 @@ from models.integrator import IntegrationParams
 from models.number_format import NumberFormat
 from models.record_window import WindowPlan, plan_window
 from models.schedule import make_schedule
+from models.tangent_basis import derive_tangents
 
 
 @dataclass
@@ -38,6 +41,7 @@ class KernelJob:
     record_window: WindowPlan | None = None  # the window kernel's plan; None: the streaming kernel
     impulses_in_records: bool = False  # the streaming kernel without the impulse RAM (IMPULSES_IN_RECORDS)
     initial: Impulses | None = None  # per manifold, values of fmt: the impulses the step starts from (None: zeros)
+    tangents_on_chip: bool = False  # the friction records omit t0, t1; cons.tangent holds the kernel's derived ones
 
     def __post_init__(self) -> None:
         if self.initial is None:
@@ -82,6 +86,14 @@ class KernelJob:
         return KernelJob(self.fmt, self.bodies, self.cons, self.schedule, self.params, self.iparams, None, True,
                          initial)
 
+    def tangents_derived(self) -> "KernelJob":
+        """This step with the friction tangents derived from the normals in the job's format
+        (``models.tangent_basis``: the record layout without t0, t1; the cycle and resource models know it, the
+        RTL kernel does not yet)."""
+        if self.record_window is not None:
+            raise ValueError("tangents derived on chip are a record layout of the streaming kernel")
+        return dataclasses.replace(self, cons=derive_tangents(self.cons, self.fmt), tangents_on_chip=True)
+
     @property
     def start_impulses(self) -> Impulses:
         """The impulses the step starts from, per manifold (zeros unless a warm start was given)."""
@@ -90,12 +102,19 @@ class KernelJob:
     def stream_layout(self, cons_bits: int = sf.DEFAULT_CONS_BEAT_BITS) -> sf.StreamLayout:
         """The record sizes this step streams with constraint beats of ``cons_bits``."""
         return sf.StreamLayout(self.fmt, cons_beat_bits=cons_bits, inertia_words=self.inertia_words,
-                               impulses_in_records=self.impulses_in_records, friction_words=self.friction_words)
+                               impulses_in_records=self.impulses_in_records, friction_words=self.friction_words,
+                               tangents_on_chip=self.tangents_on_chip)
 
     @property
     def inertia_words(self) -> int:
         """Inverse-inertia words per body of the kernel build that runs this step (``sf.kernel_inertia_words``)."""
         return sf.kernel_inertia_words(self.bodies)
+
+    @property
+    def body_banks(self) -> int:
+        """Body-velocity banks of the kernel build that runs this step (``models.body_banks``: 0 the multiport
+        memory)."""
+        return default_body_banks(self.fmt, self.impulses_in_records, self.record_window is not None)
 
     @property
     def friction_words(self) -> int:

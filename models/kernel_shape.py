@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .contact_solver import CONTACT_PASS, SolverParams, pass_sequence
+from .body_banks import check_banks
 from .dma_model import DmaPreset
 from .kernel_job import KernelJob
 from .number_format import NumberFormat
@@ -65,20 +66,25 @@ class KernelShape:
     out_fifo_depth: int = OUT_FIFO_DEPTH
 
     impulses_in_records: bool = False  # IMPULSES_IN_RECORDS: the read-after-write rule across passes applies
+    body_banks: int = 0  # BODY_BANKS: banked body velocities, a busy bank stalls the issue (models.body_banks)
 
     @staticmethod
     def of(fmt: NumberFormat, cons_bits: int = 512, body_bits: int = 128,
            inertia_words: int = KERNEL_INERTIA_WORDS, impulses_in_records: bool = False,
-           friction_words: int = 0) -> "KernelShape":
+           friction_words: int = 0, body_banks: int = 0, tangents_on_chip: bool = False) -> "KernelShape":
         """The shape of a build; ``inertia_words`` (1, 3 or 6) sets the body-in record's beats,
         ``impulses_in_records`` the records' (with the impulses they carry), ``friction_words`` (0 or 1, the
-        build's MU_W) the friction record's (every friction pipe has the same latency)."""
+        build's MU_W) the friction record's (every friction pipe has the same latency), ``body_banks`` the
+        build's BODY_BANKS, ``tangents_on_chip`` the friction record without t0, t1 and the friction pipe that
+        derives them (``pgs_friction_pipe_tb``, its own latency)."""
         lay = StreamLayout(fmt, cons_beat_bits=cons_bits, body_beat_bits=body_bits, inertia_words=inertia_words,
-                           impulses_in_records=impulses_in_records, friction_words=friction_words)
-        return KernelShape(rtl_latency("pgs_contact_pipe", fmt), rtl_latency("pgs_friction_pipe", fmt),
+                           impulses_in_records=impulses_in_records, friction_words=friction_words,
+                           tangents_on_chip=tangents_on_chip)
+        friction = "pgs_friction_pipe_tb" if tangents_on_chip else "pgs_friction_pipe"
+        return KernelShape(rtl_latency("pgs_contact_pipe", fmt), rtl_latency(friction, fmt),
                            rtl_latency("pgs_integrate_pipe", fmt), lay.contact_beats, lay.friction_beats,
                            lay.body_in_beats, lay.body_out_beats, cons_bits // 8, body_bits // 8,
-                           impulses_in_records=impulses_in_records)
+                           impulses_in_records=impulses_in_records, body_banks=check_banks(body_banks))
 
     def latency(self, kind: int) -> int:
         return self.contact_latency if kind == CONTACT_PASS else self.friction_latency

@@ -80,6 +80,7 @@ CONTACT_LAM_WORD = CONTACT_WORDS
 FRICTION_LAM_WORD = FRICTION_WORDS
 FRICTION_LAMT_WORD = FRICTION_WORDS + 4
 CONTACT_IMPULSE_WORDS, FRICTION_IMPULSE_WORDS = 4, 6
+TANGENT_WORDS = 6  # t0(3), t1(3) of a friction record: absent with tangents_on_chip (models/tangent_basis.py)
 IMPULSE_OUT_WORDS = 4
 WINDOW_WORDS = CONTACT_WORDS + FRICTION_WORDS
 KERNEL_INERTIA_WORDS = InertiaMode.DIAGONAL.words  # the inverse-inertia words of the kernel's body-in record
@@ -277,6 +278,11 @@ class StreamLayout:
     inertia_words: int = KERNEL_INERTIA_WORDS
     impulses_in_records: bool = False  # the records carry the impulses their pass starts from
     friction_words: int = 0  # the friction-coefficient words of a friction record (kernel_friction_words)
+    tangents_on_chip: bool = False  # the friction record omits t0, t1: the kernel derives them from n
+
+    @property
+    def _tangent_words(self) -> int:
+        return 0 if self.tangents_on_chip else TANGENT_WORDS
 
     @property
     def word_bits(self) -> int:
@@ -290,17 +296,18 @@ class StreamLayout:
     @property
     def friction_record_words(self) -> int:
         """Words of a friction record after its header: the 14, the coefficient words, then the impulses."""
-        return FRICTION_WORDS + self.friction_words + (FRICTION_IMPULSE_WORDS if self.impulses_in_records else 0)
+        return (FRICTION_WORDS - TANGENT_WORDS + self._tangent_words + self.friction_words
+                + (FRICTION_IMPULSE_WORDS if self.impulses_in_records else 0))
 
     @property
     def friction_lam_word(self) -> int:
         """Word of a friction record (after its header) where the impulses it carries start: after the coefficient."""
-        return FRICTION_LAM_WORD + self.friction_words
+        return FRICTION_LAM_WORD - TANGENT_WORDS + self._tangent_words + self.friction_words
 
     @property
     def friction_lamt_word(self) -> int:
         """Word of a friction record (after its header) where its lamT[0..1] start: after the coefficient and lam."""
-        return FRICTION_LAMT_WORD + self.friction_words
+        return FRICTION_LAMT_WORD - TANGENT_WORDS + self._tangent_words + self.friction_words
 
     @property
     def contact_bits(self) -> int:

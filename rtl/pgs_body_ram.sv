@@ -24,6 +24,10 @@
 //    take ~1.5 k BRAM36 / 384 URAM for the full 65536 bodies (the thesis's 38,880 bodies fit a 48 k-entry
 //    variant); PORTS = 4 needs 16 banks (URAM on an Alveo-class part);
 //  * the dynamic and bad flags in distributed RAM (2 bits x MAX_BODIES, asynchronous read).
+// BODY_BANKS > 0 (PORTS = 2 only) replaces the behavioural velocity part by pgs_body_vel_banks: one copy of the
+// velocities in BODY_BANKS true dual-port banks (body k in bank k mod BODY_BANKS); `busy` is high in a cycle in
+// which a bank is asked for more than its two ports (the writes served first, a read then goes unserved): the
+// sequencer issues no record then. BODY_BANKS = 0: `busy` is always low.
 `default_nettype none
 
 module pgs_body_ram #(
@@ -32,6 +36,7 @@ module pgs_body_ram #(
     parameter int MAX_BODIES = 65536,
     parameter int PORTS      = 2,
     parameter int IINV_W     = 3,
+    parameter int BODY_BANKS = 0,      // 0: the velocities as one multiport array; > 0: banked (PORTS = 2)
     localparam int W         = 1 + EXP_BITS + MAN_BITS,
     localparam int REC_W     = (14 + IINV_W) * W,
     localparam int IDX_W     = $clog2(MAX_BODIES)
@@ -47,14 +52,14 @@ module pgs_body_ram #(
     input  wire  [PORTS*REC_W-1:0] wr_data,
     input  wire  [PORTS*IDX_W-1:0] dyn_addr,
     output logic [PORTS-1:0]       dyn,
-    output logic [PORTS-1:0]       bad
+    output logic [PORTS-1:0]       bad,
+    output logic                   busy
 );
     // words 0..6 (pos, q) and 13 .. 13 + IINV_W (mInv, IInv): constant during a step; 7..12 (v, w): velocities
     localparam int FIX_W = (8 + IINV_W) * W;
     localparam int VEL_W = 6 * W;
 
     logic [FIX_W-1:0] mem_fix [MAX_BODIES];
-    logic [VEL_W-1:0] mem_vel [MAX_BODIES];
     logic             mem_dyn [MAX_BODIES];
     logic             mem_bad [MAX_BODIES];
 
@@ -63,9 +68,6 @@ module pgs_body_ram #(
     wire             wr0_dyn  = wr_data[13*W + MAN_BITS +: EXP_BITS] != '0 && !wr0_bad;
 
     always_ff @(posedge clk) begin
-        for (int k = 0; k < PORTS; k++) begin
-            if (wr_en[k]) mem_vel[wr_addr[k*IDX_W +: IDX_W]] <= wr_data[k*REC_W + 7*W +: VEL_W];
-        end
         if (wr_en[0] && wr0_full) begin
             mem_fix[wr0_addr] <= wr0_fix;
             mem_dyn[wr0_addr] <= wr0_dyn;
@@ -76,12 +78,37 @@ module pgs_body_ram #(
     logic [FIX_W-1:0] q_fix [PORTS];
     logic [VEL_W-1:0] q_vel [PORTS];
     always_ff @(posedge clk) begin
-        for (int k = 0; k < PORTS; k++) begin
-            q_fix[k] <= mem_fix[rd_addr[k*IDX_W +: IDX_W]];
-            q_vel[k] <= mem_vel[rd_addr[k*IDX_W +: IDX_W]];
-        end
+        for (int k = 0; k < PORTS; k++) q_fix[k] <= mem_fix[rd_addr[k*IDX_W +: IDX_W]];
         rd0_bad <= mem_bad[rd_addr[0 +: IDX_W]];
     end
+
+    // the velocity words of each port's write
+    logic [PORTS*VEL_W-1:0] wr_vel;
+    always_comb begin
+        for (int k = 0; k < PORTS; k++) wr_vel[k*VEL_W +: VEL_W] = wr_data[k*REC_W + 7*W +: VEL_W];
+    end
+    generate
+        if (BODY_BANKS > 0) begin : g_banked
+            logic [2*VEL_W-1:0] rd_vel;
+            if (PORTS != 2) begin : g_bad_ports
+                $error("pgs_body_ram: BODY_BANKS > 0 needs PORTS = 2 (one lane)");
+            end
+            pgs_body_vel_banks #(.VEL_W(VEL_W), .MAX_BODIES(MAX_BODIES), .BANKS(BODY_BANKS)) u_vel (
+                .clk, .rd_addr, .rd_data(rd_vel), .wr_en, .wr_addr, .wr_data(wr_vel), .busy);
+            always_comb begin
+                for (int k = 0; k < PORTS; k++) q_vel[k] = rd_vel[k*VEL_W +: VEL_W];
+            end
+        end else begin : g_multiport
+            logic [VEL_W-1:0] mem_vel [MAX_BODIES];
+            always_ff @(posedge clk) begin
+                for (int k = 0; k < PORTS; k++) begin
+                    if (wr_en[k]) mem_vel[wr_addr[k*IDX_W +: IDX_W]] <= wr_vel[k*VEL_W +: VEL_W];
+                    q_vel[k] <= mem_vel[rd_addr[k*IDX_W +: IDX_W]];
+                end
+            end
+            assign busy = 1'b0;
+        end
+    endgenerate
     always_comb begin
         for (int k = 0; k < PORTS; k++) begin
             rd_data[k*REC_W +: REC_W] = {q_fix[k][FIX_W-1:7*W], q_vel[k], q_fix[k][7*W-1:0]};

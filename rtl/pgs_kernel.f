@@ -32,10 +32,12 @@ generated/pgs_friction_pipe_full.sv
 generated/pgs_friction_pipe_mu.sv
 generated/pgs_friction_pipe_scalar_mu.sv
 generated/pgs_friction_pipe_full_mu.sv
+generated/pgs_friction_pipe_tb.sv
 generated/pgs_integrate_pipe.sv
 
 // memories, queues and control
 pgs_fifo.sv
+pgs_body_vel_banks.sv
 pgs_body_ram.sv
 pgs_impulse_ram.sv
 pgs_hazard_cam.sv

@@ -44,6 +44,7 @@ module pgs_kernel #(
     parameter int IINV_W         = 3,     // inverse-inertia words of a body-in record: 1 scalar, 3 diagonal, 6 full
     parameter bit IMPULSES_IN_RECORDS = 1'b0,  // 0: accumulated impulses in the on-chip RAM; 1: in the records
     parameter int MU_W           = 0,     // friction-coefficient words of a friction record: 0 the constant, 1 a word
+    parameter int BODY_BANKS     = 0,     // 0: body velocities as a multiport array; > 0: that many banks (LANES = 1)
     parameter int C_S_AXI_CONTROL_ADDR_WIDTH = 8,
     parameter int C_S_AXI_CONTROL_DATA_WIDTH = 32,
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
@@ -121,7 +122,8 @@ module pgs_kernel #(
         .EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .MAX_MANIFOLDS(MAX_MANIFOLDS),
         .BODY_IN_W(BODY_IN_W), .CONS_W(CONS_W), .BODY_OUT_W(BODY_OUT_W), .TRACE(TRACE),
         .HAZARD_DEPTH(HAZARD_DEPTH), .OUT_FIFO_DEPTH(OUT_FIFO_DEPTH), .WINDOW(WINDOW), .WINDOW_CTX(WINDOW_CTX),
-        .LANES(LANES), .IINV_W(IINV_W), .IMPULSES_IN_RECORDS(IMPULSES_IN_RECORDS), .MU_W(MU_W)
+        .LANES(LANES), .IINV_W(IINV_W), .IMPULSES_IN_RECORDS(IMPULSES_IN_RECORDS), .MU_W(MU_W),
+        .BODY_BANKS(BODY_BANKS)
     ) u_seq (
         .clk(ap_clk), .rst(ap_rst_n_inv), .start(ap_start), .idle(ap_idle), .done(ap_done),
         .arg_num_bodies(num_bodies), .arg_num_manifolds(num_manifolds), .arg_iterations(iterations),

@@ -29,7 +29,7 @@
 //          beat of the last body;
 //   DONE   one cycle: done (= ap_done and ap_ready).
 // Counters (pgs_run_counters; cleared at start, frozen after done): cycles (start .. done inclusive), stall cycles
-// (SOLVE, a record is assembled but may not issue: hazard, CAM full or pipe switch drain), bubble
+// (SOLVE, a record is assembled but may not issue: hazard, CAM full, pipe switch drain or a busy body bank), bubble
 // cycles (SOLVE, no record assembled), issued manifold-passes, rejected manifold-passes (issued +
 // rejected + empty lanes = num_manifolds * 2 * iterations), and the floating-point events of the three datapaths
 // (overflow, underflow, invalid: every operator result of an issued manifold-pass or of a dynamic body's
@@ -74,6 +74,7 @@ module pgs_sequencer #(
     parameter bit IMPULSES_IN_RECORDS = 1'b0,  // 1: impulses travel with the records, out on m_imp (no impulse RAM)
     parameter int IMP_FIFO_DEPTH = 256,    // IMPULSES_IN_RECORDS: impulse-out records between take and handshake
     parameter int MU_W           = 0,      // friction-coefficient words per friction record: 0 the constant, 1 a word
+    parameter int BODY_BANKS     = 0,      // > 0 (LANES = 1): body velocities in banks; a busy bank stalls the issue
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64,
     localparam int IMP_OUT_W     = (4 * W + 7) / 8 * 8
@@ -211,11 +212,10 @@ module pgs_sequencer #(
     logic [PORTS*IDX_W-1:0]  rd_addr, wr_addr, dyn_addr;
     logic [PORTS*BREC_W-1:0] rd_data, wr_data;
     logic [PORTS-1:0]        wr_en, dyn, bad;
-    logic                    wr0_full, wr0_bad, rd0_bad;
-
+    logic                    wr0_full, wr0_bad, rd0_bad, body_busy;
     pgs_body_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .PORTS(PORTS),
-                   .IINV_W(IINV_W)) u_body_ram (
-        .clk, .rd_addr, .rd_data, .rd0_bad, .wr_en, .wr0_full, .wr0_bad, .wr_addr, .wr_data, .dyn_addr, .dyn, .bad);
+                   .IINV_W(IINV_W), .BODY_BANKS(BODY_BANKS)) u_body_ram (.clk, .rd_addr, .rd_data, .rd0_bad, .wr_en,
+        .wr0_full, .wr0_bad, .wr_addr, .wr_data, .dyn_addr, .dyn, .bad, .busy(body_busy));
 
     // ---------------- body-in stream ----------------
     // b_end: a TLAST was taken (no more body beats this step); b_fill: after an early TLAST, the missing
@@ -366,9 +366,9 @@ module pgs_sequencer #(
     logic hazard, cam_full, cam_empty, retire, last_kind;
     wire  [ITER_W:0]   i_iter_full = ilv ? (i_pass >> 1) : (i_pass >= iters ? i_pass - iters : i_pass);
     wire  [ITER_W-1:0] i_iter = i_iter_full[ITER_W-1:0];
-    // the streaming kernel drains a pipe before it switches kinds (retire in issue order); the window kernel
-    // aligns the two pipes' latencies instead
-    wire  kind_ok  = WINDOW > 0 || rkind == last_kind || cam_empty;
+    // the streaming kernel drains a pipe before it switches kinds (retire in issue order; the window kernel aligns
+    // the pipes' latencies instead) and waits while a body-velocity bank is busy with the retire (BODY_BANKS > 0)
+    wire  issue_ok  = (WINDOW > 0 || rkind == last_kind || cam_empty) && !body_busy;
 
     logic [IDX_W-1:0]  la [LANES], lb [LANES];   // bodies A, B of each lane
     logic [63:0]       lhdr [LANES];
@@ -415,7 +415,7 @@ module pgs_sequencer #(
         l_go = go;
     end
     logic imp_room;   // the impulse-out stream has room for one more record (always, on-chip impulses)
-    assign take = in_solve && crec_valid && !i_fill && imp_room && (l_go == '0 || (!hazard && !cam_full && kind_ok));
+    assign take = in_solve && crec_valid && !i_fill && imp_room && (l_go == '0 || (!hazard && !cam_full && issue_ok));
     wire  [LANES-1:0] l_issue  = {LANES{take}} & l_go;
     wire  [LANES-1:0] l_reject = {LANES{take}} & ~l_empty & l_rej;
     wire  issue      = l_issue != '0;

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from models import stream_format as sf
+from models.body_banks import check_banks
 from models.dma_model import DmaPreset
 from models.kernel_job import KernelJob
 from models.kernel_shape import KernelShape
@@ -75,6 +76,7 @@ class KernelBuild:
     inertia_words: int = sf.KERNEL_INERTIA_WORDS  # IINV_W: inverse-inertia words per body (1, 3 or 6)
     impulses_in_records: bool = False  # IMPULSES_IN_RECORDS: no impulse RAM, impulses in the records and m_axis_imp
     friction_words: int = 0  # MU_W: friction-coefficient words per friction record (0 the constant, 1 a word)
+    body_banks: int = 0  # BODY_BANKS: body velocities in that many true dual-port banks (0: multiport; one lane only)
     friction_sign_bug: bool = False  # the friction pipe with the wrong sign (the scoreboard must catch it)
     compile_profile: str = "quick"  # a key of COMPILE_PROFILES
 
@@ -82,6 +84,8 @@ class KernelBuild:
         sf.body_in_word_count(self.inertia_words)  # 1, 3 or 6, else a ValueError
         if self.friction_words not in (0, 1):
             raise ValueError(f"a friction record carries 0 or 1 friction-coefficient words, got {self.friction_words}")
+        if check_banks(self.body_banks) and (self.window or self.lanes > 1):
+            raise ValueError("banked body velocities (body_banks > 0) are a configuration of the streaming kernel")
         if self.compile_profile not in COMPILE_PROFILES:
             raise ValueError(f"compile profile {self.compile_profile!r}: expected one of {sorted(COMPILE_PROFILES)}")
 
@@ -89,12 +93,15 @@ class KernelBuild:
     def for_job(job: KernelJob, preset: DmaPreset, waves: bool = False, body_bits: int = 128) -> "KernelBuild":
         """The build that runs ``job``: the preset's constraint beat, the window plan's ring, contexts and lanes,
         body streams of ``body_bits``, the job's inverse-inertia and friction-coefficient words."""
+        if job.tangents_on_chip:
+            raise ValueError("no RTL kernel derives the tangent basis yet (tangents_on_chip: cycle, golden and "
+                             "resource models only)")
         plan = job.record_window
         return KernelBuild(job.fmt, cons_bits=preset.stream_bits, body_in_bits=body_bits, body_out_bits=body_bits,
                            waves=waves, window=0 if plan is None else plan.depth,
                            window_ctx=8 if plan is None else plan.ctx, lanes=1 if plan is None else plan.lanes,
                            inertia_words=job.inertia_words, impulses_in_records=job.impulses_in_records,
-                           friction_words=job.friction_words)
+                           friction_words=job.friction_words, body_banks=job.body_banks)
 
     @property
     def name(self) -> str:
@@ -106,6 +113,7 @@ class KernelBuild:
                 + (f"_i{self.inertia_words}" if self.inertia_words != sf.KERNEL_INERTIA_WORDS else "")
                 + ("_ir" if self.impulses_in_records else "")
                 + ("_mu" if self.friction_words else "")
+                + (f"_bk{self.body_banks}" if self.body_banks else "")
                 + ("_friction_sign_bug" if self.friction_sign_bug else "")
                 + (f"_{self.compile_profile}" if self.compile_profile != "quick" else "")
                 + ("_waves" if self.waves else ""))
@@ -124,7 +132,8 @@ class KernelBuild:
                     {"LANES": self.lanes} if self.lanes > 1 else {}) | (
                     {"IINV_W": self.inertia_words} if self.inertia_words != sf.KERNEL_INERTIA_WORDS else {}) | (
                     {"IMPULSES_IN_RECORDS": 1} if self.impulses_in_records else {}) | (
-                    {"MU_W": self.friction_words} if self.friction_words else {})
+                    {"MU_W": self.friction_words} if self.friction_words else {}) | (
+                    {"BODY_BANKS": self.body_banks} if self.body_banks else {})
 
     @property
     def layout(self) -> sf.StreamLayout:

@@ -6,7 +6,8 @@ being found by file name in the list's folders (``-y``), two runs at a time. A m
 ``EXP_BITS`` / ``MAN_BITS`` parameters is linted with its default parameters and again with the
 binary16 and bfloat16 parameter sets; one with a ``WINDOW`` parameter also as a window kernel; one with an
 ``IINV_W`` parameter also with the 1- and 6-word inverse inertia; one with ``IMPULSES_IN_RECORDS`` also with the
-impulses in the records; one with a ``MU_W`` parameter also with the per-manifold friction word (and both together).
+impulses in the records; one with a ``MU_W`` parameter also with the per-manifold friction word (and both together); one with
+``BODY_BANKS`` also with banked body velocities.
 Any warning or error makes the exit status non-zero.
 
 Usage: ``python -m sim.lint [-v] [TOP ...]`` (default: every top).
@@ -65,6 +66,14 @@ IMPULSE_PARAM_SETS: dict[str, dict[str, int]] = {
     "impulses-in-records-fp16": {"IMPULSES_IN_RECORDS": 1, **format_params(FP16)},
 }
 
+# The banked body velocities (one copy in true dual-port banks): modules with a BODY_BANKS parameter are also linted
+# with 4 banks and with 1, and with the impulses in the records in fp32 (the design that uses them).
+BANK_PARAM_SETS: dict[str, dict[str, int]] = {
+    "body-banks": {"BODY_BANKS": 4},
+    "body-banks-1": {"BODY_BANKS": 1},
+    "body-banks-impulses-in-records": {"BODY_BANKS": 4, "IMPULSES_IN_RECORDS": 1},
+}
+
 # The per-manifold friction word: modules with a MU_W parameter are also linted with it, in the full inverse-inertia
 # mode (the build that runs Bullet 2 worlds), on the window kernel (the friction words of the combined record) and
 # with the impulses in the records (the coefficient word before the impulses).
@@ -106,7 +115,7 @@ def runs_for(module_file: Path) -> list[LintRun]:
     params = set(_PARAM_RE.findall(module_file.read_text()))
     out = [LintRun(top, "default", {})]
     for label, pset in (FORMAT_PARAM_SETS | WINDOW_PARAM_SETS | INERTIA_PARAM_SETS | IMPULSE_PARAM_SETS
-                        | FRICTION_PARAM_SETS).items():
+                        | FRICTION_PARAM_SETS | BANK_PARAM_SETS).items():
         if set(pset) <= params:
             out.append(LintRun(top, label, dict(pset)))
     return out

@@ -3,7 +3,9 @@ estimated cost (``python -m sim.redesign_fit``; the table of docs/resources.md).
 
 For every format, kernel (the streaming kernel; the window kernel with 1, 2 or 4 lanes) and lever setting
 (impulses resident or travelling with the records; the whole body record or only velocities and mass properties
-on chip; body ports as a live-value table or banks the schedule keeps apart; operator figures from Yosys or, where
+on chip; body ports as a live-value table or banks: for the streaming kernel the built ``BODY_BANKS`` memory of
+``models.body_banks`` (2 true dual-port banks, a busy bank stalls the issue: measured by the cycle model, not in
+the floor), for the window kernel's lanes banks the schedule keeps apart (not built); operator figures from Yosys or, where
 published, from Vitis HLS) it prints the estimated LUT, FF, DSP, BRAM36 and URAM as shares of the platform, the
 verdict, and the DDR / compute floor in cycles per manifold-pass of the kernel's fetch schedule
 (``models.onchip_budget.floors``: the streaming kernel reads every record every pass, the window kernel once per

@@ -23,7 +23,9 @@ Levers a redesign can pull, each a parameter of :class:`KernelConfig`: ``impulse
 accumulated impulses on chip, or travelling with the records, held only in the ring), ``body_words`` (``"full"``:
 the whole body-in record; ``"solve"``: only velocities and mass properties, positions and orientations streamed
 through at integration), ``body_ports`` (``"lvt"``: every write port a bank replicated per read port;
-``"banked"``: bodies banked so that the schedule sends each cycle's accesses to distinct banks, one copy), and
+``"banked"``: one copy of the velocities in ``body_banks`` true dual-port banks, a busy bank stalling the issue:
+``rtl/pgs_body_vel_banks.sv``, built for one lane; for more lanes an estimate of banks the schedule keeps apart),
+and
 ``record_bits`` (word width of the record fields stored in the ring: a storage format per field group).
 
 The estimate is a sum of parts: Yosys of the whole pipes (cached under ``build/resources``) is printed beside it
@@ -41,6 +43,7 @@ from pathlib import Path
 from typing import Any, Optional, Union
 
 from models import onchip_budget as ob
+from models.body_banks import RECORDS_BANKS
 from models.kernel_job import KernelJob
 from models.number_format import KERNEL_FORMATS, NumberFormat
 from models.kernel_shape import IMPULSE_FIFO_DEPTH
@@ -260,8 +263,10 @@ class KernelConfig:
     impulses_resident: bool = True
     body_words: str = "full"  # "full" | "solve"
     body_ports: str = "lvt"  # "lvt" | "banked"
+    body_banks: int = RECORDS_BANKS  # banked, one lane: the banks of rtl/pgs_body_vel_banks.sv (BODY_BANKS)
     record_bits: Optional[int] = None  # ring word width (None: the format's)
     operator_source: str = "yosys"  # "yosys" | "vendor"
+    tangents_on_chip: bool = False  # the friction pipe derives t0, t1 from n (pgs_friction_pipe_tb)
 
     def __post_init__(self) -> None:
         if self.lanes < 1 or self.lanes & (self.lanes - 1):
@@ -271,13 +276,19 @@ class KernelConfig:
         if self.body_words not in BODY_CONST_WORDS or self.body_ports not in ("lvt", "banked"):
             raise ValueError(f"body_words {self.body_words!r} / body_ports {self.body_ports!r}: expected "
                              f"{'|'.join(BODY_CONST_WORDS)} / lvt|banked")
+        if self.body_banks < 1 or self.body_banks & (self.body_banks - 1):
+            raise ValueError(f"body_banks must be a power of two, got {self.body_banks}")
         if min(self.max_bodies, self.max_manifolds, self.window) < 0:
             raise ValueError("memory depths must not be negative")
 
     def describe(self) -> str:
         kind = f"window kernel, ring {self.window:,}, {self.lanes} lane(s)" if self.window else "streaming kernel"
         levers = [f"impulses {'resident' if self.impulses_resident else 'with the records'}",
-                  f"body words {self.body_words}", f"body ports {self.body_ports}"]
+                  f"body words {self.body_words}", f"body ports {self.body_ports}"
+                  + (f" ({self.body_banks} true dual-port banks)" if self.body_ports == "banked" and self.lanes == 1
+                     else "")]
+        if self.tangents_on_chip:
+            levers.append("tangent basis derived on chip")
         if self.record_bits:
             levers.append(f"ring words {self.record_bits} bits")
         return (f"{self.fmt.name}, {kind}, {self.max_bodies:,} bodies, {self.max_manifolds:,} manifold slots; "
@@ -293,6 +304,10 @@ def memories(cfg: KernelConfig) -> list[MemoryArray]:
     if cfg.body_ports == "lvt":
         out.append(MemoryArray(f"body velocities (v, w), {ports}W{ports}R: {ports * ports} banks (live-value table)",
                                nb, BODY_VEL_WORDS * w, ports * ports))
+    elif cfg.lanes == 1:  # the built banks: one copy, body k in bank k mod banks, two ports each
+        out.append(MemoryArray(f"body velocities (v, w): one copy in {cfg.body_banks} true dual-port banks "
+                               "(BODY_BANKS)", math.ceil(nb / cfg.body_banks), BODY_VEL_WORDS * w, cfg.body_banks,
+                               True))
     else:
         out.append(MemoryArray(f"body velocities (v, w) in {ports} banks the schedule keeps apart",
                                math.ceil(nb / ports), BODY_VEL_WORDS * w, ports))
@@ -372,16 +387,33 @@ def control_resources(cfg: KernelConfig, data: dict[str, Any]) -> Part:
                 f"{source} (one lane) + Yosys of the CAM per extra lane")
 
 
+def bank_mux_resources(banks: int, width: int, bodies: int) -> Resources:
+    """The multiplexers of ``rtl/pgs_body_vel_banks.sv`` beside the control's Yosys figure (which has the body RAM
+    as a black box): per bank port, the write data from two writes (a LUT6 holds two 2:1 bits) and the row from
+    four accesses (one LUT6 per bit); per read, its word from the 2 x ``banks`` port outputs (a LUT6 per 4:1 bit)
+    and the registered bank and port; the port selection a few LUTs per bank."""
+    row = max(1, math.ceil(math.log2(max(2, math.ceil(bodies / banks)))))
+    per_port = math.ceil(width / 2) + row
+    read = 2 * width * math.ceil((2 * banks - 1) / 3)
+    sel = 2 * (math.ceil(math.log2(banks)) + 1) if banks > 1 else 2
+    return Resources(lut=2 * banks * per_port + read + 8 * banks, ff=sel)
+
+
 def estimate(cfg: KernelConfig, platform: Optional[ob.Platform] = None,
              data: Optional[dict[str, Any]] = None) -> Estimate:
     """The configuration's resources, part by part (memories mapped for ``platform``: UltraRAM where it has)."""
     data = data or figures()
     parts = []
-    for name, per in (("pgs_contact_pipe", cfg.lanes), ("pgs_friction_pipe", cfg.lanes), ("pgs_integrate_pipe", 1)):
+    friction = "pgs_friction_pipe_tb" if cfg.tangents_on_chip else "pgs_friction_pipe"
+    for name, per in (("pgs_contact_pipe", cfg.lanes), (friction, cfg.lanes), ("pgs_integrate_pipe", 1)):
         res, src = pipe_resources(name, cfg, data)
         parts.append(Part(f"{name} x {per}", res.scaled(per), "operators: " + ", ".join(src)
                           + "; delay lines: distributed RAM rule"))
     parts.append(control_resources(cfg, data))
+    if cfg.body_ports == "banked" and cfg.lanes == 1:
+        parts.append(Part(f"body bank port multiplexers ({cfg.body_banks} banks)",
+                          bank_mux_resources(cfg.body_banks, BODY_VEL_WORDS * cfg.fmt.width, cfg.max_bodies),
+                          "computed (LUT6 mux rule)"))
     uram = platform is not None and platform.uram > 0
     for m in memories(cfg):
         parts.append(Part(m.name, m.resources(uram), f"{m.depth:,} x {m.width} bits, computed"))
@@ -456,7 +488,9 @@ def config_for_job(job: KernelJob) -> KernelConfig:
     """The configuration a run built: its format, lanes and ring, memories as deep as its scene needs."""
     plan = job.record_window
     return KernelConfig(job.fmt, job.bodies.num_bodies, len(job.slots), lanes=plan.lanes if plan else 1,
-                        window=plan.depth if plan else 0, impulses_resident=not job.impulses_in_records)
+                        window=plan.depth if plan else 0, impulses_resident=not job.impulses_in_records,
+                        body_ports="banked" if job.body_banks else "lvt", body_banks=job.body_banks or RECORDS_BANKS,
+                        tangents_on_chip=job.tangents_on_chip)
 
 
 def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: int, lanes: int = 1,

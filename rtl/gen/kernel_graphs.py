@@ -27,6 +27,7 @@ from models.contact_solver import FRICTION_COEFF, SPIN_DAMP_FACTOR
 from models.inertia import FULL_ORDER, InertiaMode
 from models.integrator import COS_COEFFS, MAX_ANGLE, SIN_COEFFS, SMALL_ANGLE, TAYLOR_SINC
 from models.number_format import KERNEL_FORMATS
+from models.tangent_basis import PLANE_SPACE_SPLIT
 
 from .dataflow import Graph, Value
 
@@ -170,10 +171,11 @@ same way; the caller must not write them back.""" + _inertia_doc(inertia_words))
 
 
 # --- friction pass -----------------------------------------------------------------------------------
-def friction_in(inertia_words: int = 3, manifold_friction: bool = False) -> list[str]:
-    """The friction pipe's input words (``mu`` last where the manifold carries its coefficient)."""
-    return (["n_x", "n_y", "n_z", "c_x", "c_y", "c_z", "t0_x", "t0_y", "t0_z", "t1_x", "t1_y", "t1_z",
-             "f_jac_inv0", "f_jac_inv1"] + [f"lam_n{i}" for i in range(4)] + ["lamT0", "lamT1"]
+def friction_in(inertia_words: int = 3, manifold_friction: bool = False, tangents_on_chip: bool = False) -> list[str]:
+    """The friction pipe's input words (``mu`` last where the manifold carries its coefficient; no t0, t1 where
+    the pipe derives them from n)."""
+    tangents = [] if tangents_on_chip else ["t0_x", "t0_y", "t0_z", "t1_x", "t1_y", "t1_z"]
+    return (["n_x", "n_y", "n_z", "c_x", "c_y", "c_z"] + tangents + ["f_jac_inv0", "f_jac_inv1"] + [f"lam_n{i}" for i in range(4)] + ["lamT0", "lamT1"]
             + [f"{v}_{c}" for v in ("xA", "xB", "vA", "wA", "vB", "wB") for c in "xyz"]
             + ["mInvA", "mInvB"] + inertia_ports(inertia_words) + (["mu"] if manifold_friction else []))
 
@@ -194,10 +196,28 @@ expects the scoreboard to catch it)."""
 FRICTION_OUT = ["lamT0", "lamT1"] + [f"{v}_{c}" for v in ("vA", "wA", "vB", "wB") for c in "xyz"]
 
 
-def friction_graph(sign_bug: bool = False, inertia_words: int = 3, manifold_friction: bool = False) -> Graph:
+def plane_space(g: Graph, n: Vec) -> tuple[Vec, Vec]:
+    """The tangent basis of the normal n, ``models/tangent_basis.py`` ``plane_space_in`` operation by operation."""
+    m = [(-x).named(f"m_{'xyz'[k]}") for k, x in enumerate(n)]
+    one, zero = g.const(1.0, "one"), g.const(0.0, "zero")
+    use_z = g.lt(g.const(PLANE_SPACE_SPLIT, "split"), g.max(m[2], -m[2]), name="use_z")
+    a_z = (m[1] * m[1] + m[2] * m[2]).named("a_z")
+    k_z = (one / g.sqrt(g.select(use_z, a_z, one))).named("k_z")
+    pz = [zero, ((-m[2]) * k_z).named("pz_y"), (m[1] * k_z).named("pz_z")]
+    qz = [(a_z * k_z).named("qz_x"), ((-m[0]) * pz[2]).named("qz_y"), (m[0] * pz[1]).named("qz_z")]
+    a_x = (m[0] * m[0] + m[1] * m[1]).named("a_x")
+    k_x = (one / g.sqrt(g.select(use_z, one, a_x))).named("k_x")
+    px = [((-m[1]) * k_x).named("px_x"), (m[0] * k_x).named("px_y"), zero]
+    qx = [((-m[2]) * px[1]).named("qx_x"), (m[2] * px[0]).named("qx_y"), (a_x * k_x).named("qx_z")]
+    return named(vselect(g, use_z, pz, px), "t0"), named(vselect(g, use_z, qz, qx), "t1")
+
+
+def friction_graph(sign_bug: bool = False, inertia_words: int = 3, manifold_friction: bool = False,
+                   tangents_on_chip: bool = False) -> Graph:
     """The friction pass; ``sign_bug``: the injected-bug variant of the co-simulation test (``+delta`` applied to
-    the velocities in place of ``-delta``), the same module name and ports, for a test build only."""
-    module = pipe_module("pgs_friction_pipe", inertia_words, manifold_friction)
+    the velocities in place of ``-delta``), the same module name and ports, for a test build only;
+    ``tangents_on_chip``: t0, t1 derived from n (:func:`plane_space`, module ``pgs_friction_pipe_tb``)."""
+    module = pipe_module("pgs_friction_pipe", inertia_words, manifold_friction) + ("_tb" if tangents_on_chip else "")
     mu_doc = "mu the input word" if manifold_friction else f"mu = {FRICTION_COEFF}"
     g = Graph(module, doc=f"""\
 {module}: one friction pass of one manifold (models/contact_solver.py friction_solve for
@@ -208,7 +228,7 @@ computed the same way; the caller must not write them back.""" + _inertia_doc(in
               + ("\n\n" + FRICTION_SIGN_BUG_DOC if sign_bug else ""))
     n = g.inputs_vec("n")
     c = g.inputs_vec("c")
-    t = [g.inputs_vec("t0"), g.inputs_vec("t1")]
+    t = [] if tangents_on_chip else [g.inputs_vec("t0"), g.inputs_vec("t1")]
     fji = [g.input("f_jac_inv0"), g.input("f_jac_inv1")]
     ln = [g.input(f"lam_n{i}") for i in range(4)]
     lam_t = [g.input("lamT0"), g.input("lamT1")]
@@ -219,7 +239,11 @@ computed the same way; the caller must not write them back.""" + _inertia_doc(in
     ia, ib = inertia_inputs(g, "A", inertia_words), inertia_inputs(g, "B", inertia_words)
     mu = g.input("mu") if manifold_friction else g.const(FRICTION_COEFF, "mu")
     spin = g.bool_input("spin_damp")
-    assert [v.name.removeprefix("in_") for v in g.inputs] == friction_in(inertia_words, manifold_friction)
+    assert [v.name.removeprefix("in_") for v in g.inputs] == friction_in(inertia_words, manifold_friction,
+                                                                          tangents_on_chip)
+    if tangents_on_chip:
+        with g.scope("basis"):
+            t = list(plane_space(g, n))
 
     skip = g.is_zero(fji[0], name="skip")
     limit = (mu * ((ln[0] + ln[1]) + (ln[2] + ln[3]))).named("limit")
@@ -336,6 +360,9 @@ GRAPHS = {
     "pgs_contact_pipe": contact_graph,
     "pgs_friction_pipe": friction_graph,
     "pgs_integrate_pipe": integrate_graph,
+    # the friction pipe that derives the tangent basis from the normal (a record layout without t0, t1): its own
+    # latency, not yet instantiated by the kernel (models/tangent_basis.py)
+    "pgs_friction_pipe_tb": partial(friction_graph, tangents_on_chip=True),
 }
 
 

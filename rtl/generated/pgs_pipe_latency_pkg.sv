@@ -23,6 +23,10 @@ package pgs_pipe_latency_pkg;
         return 4*MAN_BITS + 94;
     endfunction
 
+    function automatic int friction_pipe_tb_latency(input int MAN_BITS);
+        return 2*MAN_BITS + 125;
+    endfunction
+
 endpackage
 
 `default_nettype wire

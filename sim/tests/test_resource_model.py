@@ -114,3 +114,36 @@ def test_redesign_table(capsys: pytest.CaptureFixture[str]) -> None:
     out = capsys.readouterr().out
     assert "fitting designs, fastest floor first" in out and "| fp16 | window x4 |" in out
     assert redesign_fit.main(["--formats", "fp64"]) == 2
+
+
+def test_banked_body_velocities_of_the_records_design() -> None:
+    """One lane, banked: one copy of the velocities in true dual-port banks (rtl/pgs_body_vel_banks.sv) and their
+    multiplexers; the thesis frame's fp32 records design then fits the zcu102 where the live-value table does not."""
+    banked = rm.KernelConfig(FP32, 38_881, 1, impulses_resident=False, body_ports="banked", body_banks=2)
+    vel = rm.memories(banked)[1]
+    assert (vel.copies, vel.depth, vel.width, vel.true_dual_port) == (2, 19_441, 192, True)
+    assert vel.resources().bram36 == 2 * 19 * 11 * 0.5  # per bank 19 x 11 RAMB18 of 1K x 18 (true dual-port)
+    est = rm.estimate(banked, ZCU102)
+    assert any(p.name.startswith("body bank port multiplexers") and p.resources.lut > 0 for p in est.parts)
+    lvt = rm.fit(rm.KernelConfig(FP32, *THESIS, impulses_resident=False), ZCU102)
+    fits = rm.fit(rm.KernelConfig(FP32, *THESIS, impulses_resident=False, body_ports="banked", body_banks=2), ZCU102)
+    assert not lvt.fits and lvt.overflows[0] == "BRAM36"
+    assert fits.fits and fits.shares["BRAM36"] < 0.7 and "2 true dual-port banks" in fits.config
+    with pytest.raises(ValueError, match="power of two"):
+        rm.KernelConfig(FP32, 1, 1, body_ports="banked", body_banks=3)
+
+
+def test_tangent_basis_on_chip_in_the_estimate() -> None:
+    """The job with the tangents derived on chip: the friction pipe that derives them in the estimate, no RTL build."""
+    from models.dma_model import get_preset
+    from models.tests.test_body_banks import pile_job
+    from sim.kernel_build import KernelBuild
+
+    derived = pile_job().tangents_derived()
+    cfg = rm.config_for_job(derived)
+    assert cfg.tangents_on_chip and "tangent basis derived on chip" in cfg.describe()
+    parts = {p.name: p.resources for p in rm.estimate(cfg).parts}
+    base = {p.name: p.resources for p in rm.estimate(rm.config_for_job(pile_job())).parts}
+    assert parts["pgs_friction_pipe_tb x 1"].lut > base["pgs_friction_pipe x 1"].lut
+    with pytest.raises(ValueError, match="no RTL kernel derives the tangent basis"):
+        KernelBuild.for_job(derived, get_preset("zcu102"))

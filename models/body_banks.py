@@ -1,0 +1,38 @@
+"""The banked body velocities (``BODY_BANKS`` of ``rtl/pgs_kernel.sv``, ``rtl/pgs_body_vel_banks.sv``): which builds
+use them, and the port rule the sequencer and the cycle model share.
+
+The streaming kernel reads the velocities of a record's bodies A and B in its issue cycle and writes the dynamic
+ones of the manifold retiring in that cycle (two reads and up to two writes a cycle). With ``banks > 0`` the
+velocities are one copy in ``banks`` true dual-port banks, body k in bank ``k mod banks``, two ports per bank per
+cycle. The writes are served first; a record does not issue in a cycle where a bank would be asked for more than
+two accesses (it stalls one cycle and tries again; the retire writes of that cycle are then done).
+``banks = 0``: the velocities as a multiport memory (a live-value table on a board), no such stall.
+"""
+
+from __future__ import annotations
+
+from .number_format import NumberFormat
+
+PORTS_PER_BANK = 2  # a true dual-port RAMB36E2 / URAM
+RECORDS_BANKS = 2  # the records design's banks (docs/resources.md: cycles and LUTs per bank count)
+
+
+def default_body_banks(fmt: NumberFormat, impulses_in_records: bool, window: bool) -> int:
+    """The banks of the build that runs a step: the streaming kernel with the impulses in the records in a format of
+    32 bits or more banks its velocities (its live-value table's four copies overflow the ZCU102's block RAM there:
+    134% of it on the thesis frame in fp32); every other build keeps the multiport memory (0)."""
+    return RECORDS_BANKS if impulses_in_records and not window and fmt.width >= 32 else 0
+
+
+def check_banks(banks: int) -> int:
+    """``banks``, or a ValueError unless it is 0 or a power of two."""
+    if banks < 0 or banks & (banks - 1):
+        raise ValueError(f"body banks must be 0 or a power of two, got {banks}")
+    return banks
+
+
+def busy(banks: int, reads: tuple[int, ...], writes: tuple[int, ...]) -> bool:
+    """Whether a bank is asked for more than its ports by the bodies read (``reads``) and written (``writes``) in
+    one cycle (``banks > 0``)."""
+    acc = [b % banks for b in writes + reads]
+    return any(acc.count(k) > PORTS_PER_BANK for k in set(acc))
