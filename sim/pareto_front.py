@@ -1,0 +1,179 @@
+"""The fitting designs' Pareto front of a sweep: cycles per manifold-pass against the error from the exact reference.
+
+Each sweep row is a design point (format, design, iterations): x its cycles per manifold-pass (the cycle model's or
+the RTL kernel's), y its error against the exact limit of the scheme (max over dynamic bodies of |dv|, and of
+|dw|: ``sim/exact_error.py``). The front is the fitting points (``fits`` true: ``sim/resource_model.py``) that no
+other fitting point beats on both axes. The thesis's two ZCU102 designs (``sim/baselines.py``: fp32 and fp16, 4
+iterations) go on the same axes at their published cycles per manifold-pass (their 127,000-manifold frame); their
+error is not published, so theirs is our golden model's of the same format and iteration count on the swept frame
+(the thesis's scheme: contact passes, then friction passes), labelled as such.
+
+:func:`dominance` says by how much the front beats each thesis design: the front's fewest cycles per manifold-pass
+at an error no larger than the thesis design's, and its smallest error at no more cycles per manifold-pass.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Sequence
+
+from sim import baselines
+
+X_COLUMN = "cycles_per_manifold_pass"
+ERRORS = (("max_dv_vs_exact", "max |v - v_exact| over dynamic bodies (m/s)", "m/s"),
+          ("max_dw_vs_exact", "max |w - w_exact| over dynamic bodies (rad/s)", "rad/s"))
+
+
+@dataclass(frozen=True)
+class DesignPoint:
+    label: str  # format, design
+    iterations: int
+    x: float  # cycles per manifold-pass
+    y: float  # error against the exact reference
+    fits: bool
+
+
+@dataclass(frozen=True)
+class ThesisPoint:
+    label: str
+    x: float  # the thesis's published cycles per manifold-pass
+    y: float  # our golden model's error of the same format at the thesis's iteration count
+
+
+def _fits(row: dict[str, Any]) -> bool:
+    return row.get("fits") in (True, "True")
+
+
+def _label(row: dict[str, Any]) -> str:
+    design = row.get("design") or "onchip"
+    return f"{row['format']}, impulses {'on chip' if design == 'onchip' else 'in ' + design}"
+
+
+def design_points(rows: Sequence[dict[str, Any]], error: str) -> list[DesignPoint]:
+    """The rows with an error against the exact reference (a row without one says why, and is left out)."""
+    return [DesignPoint(_label(r), int(r["iterations"]), float(r[X_COLUMN]), float(r[error]), _fits(r))
+            for r in rows if isinstance(r[error], float)]
+
+
+def front(points: Sequence[DesignPoint]) -> list[DesignPoint]:
+    """The fitting points no other fitting point beats on both axes (fewer or as many cycles and a smaller
+    error, or fewer cycles and no larger error), by increasing cycles per manifold-pass."""
+    fitting = sorted((p for p in points if p.fits), key=lambda p: (p.x, p.y))
+    out: list[DesignPoint] = []
+    for p in fitting:
+        if not out or p.y < out[-1].y:
+            out.append(p)
+    return out
+
+
+def thesis_points(rows: Sequence[dict[str, Any]], error: str) -> list[ThesisPoint]:
+    """The thesis's ZCU102 designs: their cycles per manifold-pass, our golden model's error of the same format at
+    the thesis's iterations (the on-chip design's row; both designs' numbers are the same)."""
+    out = []
+    for name, fig in baselines.THESIS_FPGA.items():
+        same = [r for r in rows if r["format"] == name and int(r["iterations"]) == baselines.THESIS_ITERATIONS
+                and isinstance(r[error], float)]
+        if same:
+            out.append(ThesisPoint(fig.label, fig.cycles_per_manifold_pass, float(same[0][error])))
+    return out
+
+
+@dataclass(frozen=True)
+class Dominance:
+    thesis: ThesisPoint
+    at_error: DesignPoint | None  # the front's fastest point with an error no larger than the thesis design's
+    at_cycles: DesignPoint | None  # the front's most accurate point with no more cycles per manifold-pass
+
+    def describe(self, unit: str) -> str:
+        t = self.thesis
+        head = f"{t.label} ({t.x:.2f} cycles/mp, our golden error at {baselines.THESIS_ITERATIONS} iterations " \
+               f"{t.y:.3e} {unit}):"
+        if self.at_error is None:
+            speed = "no fitting design reaches its error"
+        else:
+            p = self.at_error
+            speed = (f"at its error or less the front needs {p.x:.3f} cycles/mp ({t.x / p.x:.2f}x as fast; {p.label}, "
+                     f"{p.iterations} it, {p.y:.3e} {unit})")
+        if self.at_cycles is None:
+            accuracy = "no fitting design is as fast"
+        else:
+            p = self.at_cycles
+            ratio = f"the thesis design's error / {t.y / p.y:.3g}" if p.y > 0 else "exactly 0"
+            accuracy = (f"at its cycles or fewer the front's error is {p.y:.3e} {unit} ({ratio}; {p.label}, "
+                        f"{p.iterations} it, {p.x:.3f} cycles/mp)")
+        return f"{head} {speed}; {accuracy}"
+
+
+def dominance(points: Sequence[DesignPoint], thesis: Sequence[ThesisPoint]) -> list[Dominance]:
+    """By how much the fitting designs' front beats each thesis design (on the front's own points)."""
+    line = front(points)
+    out = []
+    for t in thesis:
+        within_error = [p for p in line if p.y <= t.y]
+        within_cycles = [p for p in line if p.x <= t.x]
+        out.append(Dominance(t, min(within_error, key=lambda p: p.x, default=None),
+                             min(within_cycles, key=lambda p: p.y, default=None)))
+    return out
+
+
+def report(rows: Sequence[dict[str, Any]]) -> str:
+    """The front (per error axis) and its dominance over the thesis's designs, as text."""
+    lines = []
+    for error, axis, unit in ERRORS:
+        pts = design_points(rows, error)
+        if not pts:
+            lines.append(f"{axis}: no exact reference, no front")
+            continue
+        line = front(pts)
+        lines.append(f"{axis}: fitting designs' front ({len(line)} of {sum(p.fits for p in pts)} fitting points, "
+                     f"{len(pts)} in all):")
+        lines += [f"  {p.x:8.3f} cycles/mp  {p.y:.3e} {unit}  {p.label}, {p.iterations} it" for p in line]
+        lines += [f"  {d.describe(unit)}" for d in dominance(pts, thesis_points(rows, error))]
+    return "\n".join(lines)
+
+
+def plot(rows: Sequence[dict[str, Any]], path: Path, title: str) -> None:
+    """Two panels (|dv|, |dw| against the exact reference) of every design point, fitting solid, not fitting
+    hollow, the fitting front as a line, the thesis's designs as squares."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(15, 6.5))
+    for ax, (error, axis, _unit) in zip(axes, ERRORS):
+        pts = design_points(rows, error)
+        if not pts:
+            ax.text(0.5, 0.5, "no exact reference", transform=ax.transAxes, ha="center")
+            continue
+        floor = min((p.y for p in pts if p.y > 0), default=1e-12) / 2
+        for c, label in enumerate(dict.fromkeys(p.label for p in pts)):
+            mine = sorted((p for p in pts if p.label == label), key=lambda p: p.iterations)
+            colour = f"C{c % 10}"
+            ax.plot([p.x for p in mine], [max(p.y, floor) for p in mine], "-", color=colour, alpha=0.35)
+            for p in mine:
+                ax.plot(p.x, max(p.y, floor), "o", color=colour, markerfacecolor=colour if p.fits else "none",
+                        label=None)
+                ax.annotate(str(p.iterations), (p.x, max(p.y, floor)), textcoords="offset points", xytext=(3, 3),
+                            fontsize=6, color=colour)
+            ax.plot([], [], "o", color=colour, label=label)
+        line = front(pts)
+        if line:
+            ax.step([p.x for p in line], [max(p.y, floor) for p in line], "k-", where="post", linewidth=1.8,
+                    label="fitting designs' Pareto front")
+        for t, marker in zip(thesis_points(rows, error), ("s", "D")):
+            ax.plot(t.x, max(t.y, floor), marker, color="k", markersize=9,
+                    label=f"{t.label}: published cycles/mp; error: our golden model, same format, "
+                          f"{baselines.THESIS_ITERATIONS} it")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("cycles per manifold-pass (iterations annotated)")
+        ax.set_ylabel(axis, fontsize=8)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=6.5, loc="upper right")
+    fig.suptitle(f"{title}\nsolid: fits the platform, hollow: does not (sim/resource_model.py); thesis designs fit "
+                 f"(their 127,000-manifold frame)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
