@@ -172,8 +172,8 @@ def plot(rows: Sequence[dict[str, Any]], path: Path, title: str) -> None:
         ax.set_ylabel(axis, fontsize=8)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=6.5, loc="upper right")
-    fig.suptitle(f"{title}\nsolid: fits the platform, hollow: does not (sim/resource_model.py); thesis designs fit "
-                 f"(their 127,000-manifold frame)", fontsize=9)
+    fig.suptitle(f"{title}\nsolid: fits the platform, hollow: does not, or no resource estimate (sim/resource_model.py; "
+                 f"not on the front); thesis designs: black (they fit; their 127,000-manifold frame)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -394,15 +394,20 @@ def run_sweep(points: list[SweepPoint], exact: exact_error.AnyExactStep, spec: E
     by the driver); raises PointsFailed."""
     points = [dataclasses.replace(p, exact=exact) for p in points]
     if log is not None:  # a resumed sweep's ladders solve only the counts still to do
-        done = set(log.load())
-        todo: dict[str, set[int]] = {}
-        for p in points:
-            if p.key not in done:
-                todo.setdefault(p.fmt, set()).add(p.iterations)
-        points = [dataclasses.replace(p, ladder=tuple(sorted(todo.get(p.fmt, {p.iterations})))) for p in points]
+        points = remaining_ladders(points, set(log.load()))
     result = run_points(points, spec, log, frames, label=label, stream=sys.stdout)
     result.raise_on_failure()
     return result.ordered(points)
+
+
+def remaining_ladders(points: list[SweepPoint], done: set[str]) -> list[SweepPoint]:
+    """``points`` with each format's ladder cut to the iteration counts of its points not in ``done`` (the keys
+    of finished points): a resumed sweep solves no count again that only finished points need."""
+    todo: dict[str, set[int]] = {}
+    for p in points:
+        if p.key not in done:
+            todo.setdefault(p.fmt, set()).add(p.iterations)
+    return [dataclasses.replace(p, ladder=tuple(sorted(todo.get(p.fmt, {p.iterations})))) for p in points]
 
 
 def sweep(args: argparse.Namespace, log_dir: Path) -> tuple[list[dict[str, Any]], str]:
@@ -477,8 +482,8 @@ def _plot_panel(ax: Any, rows: list[dict[str, Any]], columns: tuple[str, str, st
         x = [r["ns_per_manifold_pass"] if against_time else r["iterations"] for r in pts]
         y = [max(r[exact_col], ERROR_FLOOR) for r in pts]
         ax.plot(x, y, "-", color=colour, label=f"{fmt}: against exact")
-        for r, xi, yi in zip(pts, x, y):  # a design that does not fit its platform is drawn hollow
-            ax.plot(xi, yi, "o", color=colour, markerfacecolor="none" if r.get("fits") in (False, "False") else colour)
+        for r, xi, yi in zip(pts, x, y):  # a design that does not fit its platform (or has no estimate): hollow
+            ax.plot(xi, yi, "o", color=colour, markerfacecolor=colour if r.get("fits") in (True, "True") else "none")
         meet = floor_meets_iteration(pts, rounding_col, iteration_col)
         if meet is not None:
             ax.plot(meet["ns_per_manifold_pass"] if against_time else meet["iterations"],
@@ -546,7 +551,7 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
            "rtl": "MODE=rtl: the RTL kernel in Verilator"}
     fig.suptitle(f"{title}\n{'; '.join(str(how.get(m, m)) for m in modes)}; thesis marks: 4 iterations of their "
                  f"127,000-manifold frame; star: rounding alone reaches the iteration error; hollow: does not fit the "
-                 f"platform (sim/resource_model.py)", fontsize=9)
+                 f"platform, or no resource estimate (sim/resource_model.py)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
