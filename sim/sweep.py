@@ -135,6 +135,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help="comma-separated designs of the streaming kernel to sweep, each a point of its own: onchip "
                          "(the impulse RAM), records (impulses travelling with the records); default: --impulse-store")
     ap.add_argument("--out", default="build/sweep", help="parent directory of the sweep directory")
+    ap.add_argument("--replot", default="",
+                    help="a finished sweep's directory: draw its sweep.png, pareto.png and pareto.txt again from its "
+                         "sweep.csv (no point runs)")
     return ap.parse_args(argv)
 
 
@@ -437,6 +440,31 @@ def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
         w.writerows(rows)
 
 
+def _cell(text: str) -> Any:
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+def read_csv(path: Path) -> list[dict[str, Any]]:
+    """The rows of a sweep's csv, numbers as numbers (an error column without an exact reference stays its text)."""
+    with path.open(newline="") as f:
+        return [{k: _cell(v) for k, v in row.items()} for row in csv.DictReader(f)]
+
+
+def write_plots(rows: list[dict[str, Any]], out: Path, name: str) -> str:
+    """``sweep.png``, ``pareto.png`` and ``pareto.txt`` of ``rows`` into ``out``; returns the front's text."""
+    plot(rows, out / "sweep.png", f"{name}: kernel time against error (iterations annotated)")
+    front_text = pareto_front.report(rows)
+    (out / "pareto.txt").write_text(front_text + "\n")
+    pareto_front.plot(rows, out / "pareto.png", f"{name}: cycles per manifold-pass against the error from the exact "
+                                                "reference")
+    return front_text
+
+
 # the plot's two panels: (the csv's error columns against the exact limit, rounding alone, iteration error alone;
 # the axis label)
 PANELS = (
@@ -559,16 +587,19 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
+    if args.replot:
+        done = Path(args.replot)
+        if not (done / "sweep.csv").is_file():
+            print(f"error: --replot {done}: no sweep.csv there", file=sys.stderr)
+            return 2
+        print(write_plots(read_csv(done / "sweep.csv"), done, done.name))
+        return 0
     log_dir = Path(args.out) / ".points"
     try:
         with StagedDirectory(Path(args.out)) as out:
             rows, name = sweep(args, log_dir)
             write_csv(rows, out.path / "sweep.csv")
-            plot(rows, out.path / "sweep.png", f"{name}: kernel time against error (iterations annotated)")
-            front_text = pareto_front.report(rows)
-            (out.path / "pareto.txt").write_text(front_text + "\n")
-            pareto_front.plot(rows, out.path / "pareto.png", f"{name}: cycles per manifold-pass against the error "
-                                                             "from the exact reference")
+            front_text = write_plots(rows, out.path, name)
             out_dir = out.commit(name)
     except PointsFailed as exc:
         first = exc.failures[0]

@@ -1,7 +1,7 @@
 """make sweep with several designs: IMPULSE_STORES=onchip,records gives a row per design with the same golden
 errors (the same solve) and each design's own cycles (the cycle model's of that job) and fit; bytes streamed from
 the 1-iteration files equal the N-iteration files'; a resumed sweep's ladders solve only the counts still to do;
-bad designs are refused before any work; the Pareto front keeps exactly the non-dominated fitting points and says
+bad designs are refused before any work; --replot draws a finished sweep's csv again; the Pareto front keeps exactly the non-dominated fitting points and says
 by how much it beats the thesis's designs."""
 
 from __future__ import annotations
@@ -60,6 +60,12 @@ def test_two_designs_share_the_solve_and_differ_in_cycles(frame_file: Path, tmp_
     assert rows[("onchip", 3)]["cycles"] == cycle_model.predict_job(job, preset).cycles
     assert rows[("records", 3)]["cycles"] == cycle_model.predict_job(job.impulses_travelling(), preset).cycles
     assert rows[("records", 3)]["bytes_streamed"] > rows[("onchip", 3)]["bytes_streamed"]  # the impulse writes
+    sim_sweep.write_csv(list(rows.values()), tmp_path / "sweep.csv")  # --replot draws the csv's rows again
+    again = sim_sweep.read_csv(tmp_path / "sweep.csv")
+    assert [r["max_dv_vs_exact"] for r in again] == [r["max_dv_vs_exact"] for r in rows.values()]
+    assert pareto_front.report(again) == pareto_front.report(list(rows.values()))
+    assert sim_sweep.main(["--replot", str(tmp_path)]) == 0 and (tmp_path / "pareto.png").is_file()
+    assert sim_sweep.main(["--replot", str(tmp_path / "nothing")]) == 2
 
 
 @pytest.mark.parametrize("records", [False, True], ids=["onchip", "records"])
