@@ -171,7 +171,7 @@ def plot(rows: Sequence[dict[str, Any]], path: Path, title: str) -> None:
         ax.set_xlabel("cycles per manifold-pass (iterations annotated)")
         ax.set_ylabel(axis, fontsize=8)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=6.5, loc="upper right")
+        ax.legend(fontsize=6.5, loc="best")
     fig.suptitle(f"{title}\nsolid: fits the platform, hollow: does not, or no resource estimate (sim/resource_model.py; "
                  f"not on the front); thesis designs: black (they fit; their 127,000-manifold frame)", fontsize=9)
     fig.tight_layout()
