@@ -123,7 +123,7 @@ class Dominance:
             accuracy = "no fitting design is as fast"
         else:
             p = self.at_cycles
-            ratio = f"the thesis design's error / {t.y / p.y:.3g}" if p.y > 0 else "exactly 0"
+            ratio = f"{p.y / t.y:.3g}x the thesis design's" if t.y > 0 else "the thesis design's is 0"
             accuracy = (f"at its cycles or fewer the front's error is {p.y:.3e} {unit} ({ratio}; {p.label}, "
                         f"{p.iterations} it, {p.x:.3f} {x})")
         return f"{head} {speed}; {accuracy}"
