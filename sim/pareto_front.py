@@ -69,7 +69,7 @@ def _fits(row: dict[str, Any]) -> bool:
 
 
 def _label(row: dict[str, Any]) -> str:
-    design = row.get("design") or "onchip"
+    design = str(row.get("design") or "onchip")
     return f"{row['format']}, impulses {'on chip' if design == 'onchip' else 'in ' + design}"
 
 

@@ -478,7 +478,7 @@ ERROR_FLOOR = 1e-12  # where an error of exactly 0 is drawn on the log axis
 
 def series(row: dict[str, Any]) -> str:
     """A row's curve: its format, and its design where that is not the on-chip one (rows of an older csv have none)."""
-    design = row.get("design") or "onchip"
+    design = str(row.get("design") or "onchip")
     return row["format"] if design == "onchip" else f"{row['format']} impulses in {design}"
 
 
