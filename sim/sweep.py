@@ -578,7 +578,7 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
     how = {"model": "MODE=model: cycle model's cycles, golden model's numbers (bit-exact with the RTL kernel)",
            "rtl": "MODE=rtl: the RTL kernel in Verilator"}
     fig.suptitle(f"{title}\n{'; '.join(str(how.get(m, m)) for m in modes)}; thesis marks: 4 iterations of their "
-                 f"127,000-manifold frame; star: rounding alone reaches the iteration error; hollow: does not fit the "
+                 f"127,000-manifold frame;\nstar: rounding alone reaches the iteration error; hollow: does not fit the "
                  f"platform, or no resource estimate (sim/resource_model.py)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
