@@ -27,6 +27,8 @@ RECORD_WINDOW ?= 0
 FETCH_PASSES ?= 0
 LANES ?= 1
 IMPULSE_STORE ?= onchip
+# the designs make sweep runs side by side (comma-separated IMPULSE_STORE values), e.g. IMPULSE_STORES=onchip,records
+IMPULSE_STORES ?= $(IMPULSE_STORE)
 BODY_BITS ?= 128
 SEEDS ?= 4
 # what drives the kernel in make sim: harness (compiled Verilator harness) or cocotb (DMA models, batch scoreboard)
@@ -48,7 +50,8 @@ help:
 	@echo "               the window kernel: RECORD_WINDOW=16384 LANES=1|2|4 FETCH_PASSES=0 BODY_BITS=128|512"
 	@echo "               IMPULSE_STORE=records: the streaming kernel's impulses travel with the records (no RAM)"
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=,"
-	@echo "               and the window kernel's RECORD_WINDOW= LANES= FETCH_PASSES= BODY_BITS=; MODE=model)"
+	@echo "               and the window kernel's RECORD_WINDOW= LANES= FETCH_PASSES= BODY_BITS=; MODE=model;"
+	@echo "               IMPULSE_STORES=onchip,records: both streaming designs; also the fitting designs' Pareto front)"
 	@echo "               EXECUTOR=local:N|dask:local:N|dask:tcp://host:port spreads the points of sweep,"
 	@echo "               stability, resources and regress (docs/cluster.md); a rerun resumes a failed sweep"
 	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= SCENE_ARGS= ITERS= BUDGET=0.01)"
@@ -110,7 +113,7 @@ stability: $(STAMP)
 sweep: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.sweep --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --formats $(FORMATS) --iters $(SWEEP_ITERS) --dma $(DMA) --seed $(SEED) \
 		--record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) --lanes $(LANES) --body-bits $(BODY_BITS) \
-		--mode $(MODE) --executor $(or $(EXECUTOR),local:1)
+		--impulse-stores $(IMPULSE_STORES) --mode $(MODE) --executor $(or $(EXECUTOR),local:1)
 
 # every kernel configuration of sim/coverage/configurations.py, each on its own (COVERAGE_CONFIGS=a,b: some)
 coverage: $(STAMP)

@@ -25,6 +25,23 @@ on our frame is unknown: the thesis did not measure it).
 (``rtl/pgs_window.sv``) instead of the streaming one; its points are labelled ``<format> window xL`` and go to
 ``build/sweep/<scene>-<dma>-ring<N>[-lanes<L>][-body<B>]/`` (the options ``make sim`` names its runs by).
 
+``--impulse-stores onchip,records`` (``make sweep IMPULSE_STORES=onchip,records``) sweeps several designs of the
+streaming kernel in one run: the accumulated impulses in the on-chip RAM, or travelling with the records through
+DDR (``IMPULSE_STORE=records`` of ``make sim``); the ``design`` column names each row's, and every row says whether
+that design fits its platform (``fits``, ``fit``: the first resource that overflows; the plots draw a design that
+does not fit hollow). Both designs solve the same step (bit for bit); their cycles and resources differ.
+
+The golden model's steps are computed once per format for all iteration counts (``sim/iteration_ladder.py``: one
+contact run with a snapshot at each count, a friction phase from each, bit-identical to separate runs), and the
+float64 steps once per schedule; a worker keeps them for the next point of the same format, so that ``--executor
+local:1`` (the default) solves each format's ladder once. The cycle model runs per (design, format, iterations):
+its cycles depend on the format's record widths and the design's streams, not on the values.
+
+The sweep also writes ``pareto.png`` and ``pareto.txt`` (``sim/pareto_front.py``): cycles per manifold-pass against
+the error from the exact reference, the fitting designs' front drawn as a line, the thesis's two designs on the
+same axes (their published cycles, our golden model's error at their format and 4 iterations), and by how much
+the front dominates them; on the thesis frame (147,485 manifolds) the two frames are of the same kind.
+
 ``--frame FILE`` sweeps a saved frame (``models.frame.save``) instead of the scene's. Bad input (an unknown scene,
 format or DMA preset, bad iteration counts, a corrupt, truncated or other-version frame file) ends the sweep with
 one line ``error: ...`` and exit status 2, and the sweep directory appears only once complete
@@ -68,13 +85,14 @@ from models.kernel_job import KernelJob
 from models.scenes.frame_cache import FRAME_CACHE_DIR
 from models.schedule import make_schedule
 from models.solution_error import SolutionError, solution_error
-from sim import baselines, exact_error
+from sim import baselines, exact_error, pareto_front
 from sim.analyze import auto_format
 from sim.artefacts import FrameStore, KernelStore, frame_bytes, kernel_store_root, source_digest
 from sim.executor import ExecutorSpec, PointsFailed, Workers, parse_executor, run_points
 from sim.harness_run import KernelRunError, write_inputs
+from sim.iteration_ladder import solve_ladder
 from sim.kernel_build import KernelBuild, default_window, use_kernel_store
-from sim.kernel_step import golden_step, run_kernel_step
+from sim.kernel_step import run_kernel_step
 from sim.point_results import PointLog
 from sim.trace_compare import kernel_bodies
 from sim.report import StagedDirectory
@@ -84,7 +102,8 @@ from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_
     velocity_error
 
 ITERATIONS = (1, 2, 4, 8, 16, 32, 64, 128)  # to 128: the pile's iteration error has stopped falling by 32
-COLUMNS = ["format", "iterations", "mode", "manifolds", "manifold_passes", "cycles", "cycles_per_manifold_pass",
+IMPULSE_STORES = ("onchip", "records")  # the streaming kernel's designs (make sim's IMPULSE_STORE)
+COLUMNS = ["format", "design", "iterations", "mode", "manifolds", "manifold_passes", "cycles", "cycles_per_manifold_pass",
            "ms_at_clock", "ns_per_manifold_pass", "stalls", "bubbles", "bytes_streamed", "differing_bits",
            "max_dv_vs_exact", "max_dw_vs_exact", "median_dv_vs_exact", "p99_dv_vs_exact", "median_dw_vs_exact",
            "p99_dw_vs_exact", "max_dv_vs_float64_same_iters", "max_dv_rounding", "max_dw_rounding",
@@ -112,7 +131,13 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help="where the points run: local:N (N processes), dask:local:N (a Dask LocalCluster), "
                          "dask:tcp://host:port (a Dask scheduler); sim/executor.py")
     add_kernel_args(ap)
+    ap.add_argument("--impulse-stores", default="",
+                    help="comma-separated designs of the streaming kernel to sweep, each a point of its own: onchip "
+                         "(the impulse RAM), records (impulses travelling with the records); default: --impulse-store")
     ap.add_argument("--out", default="build/sweep", help="parent directory of the sweep directory")
+    ap.add_argument("--replot", default="",
+                    help="a finished sweep's directory: draw its sweep.png, pareto.png and pareto.txt again from its "
+                         "sweep.csv (no point runs)")
     return ap.parse_args(argv)
 
 
@@ -149,26 +174,37 @@ class SweepPoint:
     lanes: int
     body_bits: int
     sources: str  # sim.artefacts.source_digest() when planned
+    impulse_store: str = "onchip"  # the streaming kernel's design: "onchip" or "records"
+    # every iteration count of the sweep: the worker solves them in one ladder (sim/iteration_ladder.py) and keeps
+    # it for the other points of the format; the rows do not depend on it (bit-identical), so the key leaves it out
+    ladder: tuple[int, ...] = dataclasses.field(default=(), compare=False)
+    # the format's rank in the sweep (the first format highest): its points run one format after the other
+    rank: int = dataclasses.field(default=0, compare=False)
     # the frame's exact reference, computed once by the driver (None: the worker computes it)
     exact: exact_error.AnyExactStep | None = dataclasses.field(default=None, compare=False)
 
     @property
     def key(self) -> str:
-        desc = {k: v for k, v in dataclasses.asdict(self).items() if k != "exact"}
+        desc = {k: v for k, v in dataclasses.asdict(self).items() if k not in ("exact", "ladder", "rank")}
+        if self.impulse_store == "onchip":  # the key of a sweep of one design is what it was before designs
+            desc.pop("impulse_store")
         digest = hashlib.sha256(json.dumps(desc, sort_keys=True).encode()).hexdigest()[:12]
-        return f"{self.fmt}-it{self.iterations}-{self.mode}-{digest}"
+        design = "" if self.impulse_store == "onchip" else f"-{self.impulse_store}"
+        return f"{self.fmt}{design}-it{self.iterations}-{self.mode}-{digest}"
 
     @property
     def cost(self) -> float:
-        """Relative run time (``sim.executor`` starts the costliest first): the solver passes, plus a start."""
-        return self.iterations + 1.0
+        """Relative run time (``sim.executor`` starts the costliest first): the solver passes, plus a start; the
+        format's rank first, so that a worker finishes one format's points (which share its golden ladder) before
+        the next format's, and an interrupted sweep leaves whole formats done."""
+        return self.rank * 1e6 + self.iterations + 1.0
 
     @property
     def command(self) -> str:
         return (f".venv/bin/python -m sim.sweep {shlex.join(self.source)} --formats {self.fmt} --iters {self.iterations}"
                 f" --mode {self.mode} --dma {self.dma} --exact-budget {self.exact_budget:g}"
                 f" --record-window {self.record_window} --fetch-passes {self.fetch_passes} --lanes {self.lanes}"
-                f" --body-bits {self.body_bits} --out {ALONE_DIR}")
+                f" --body-bits {self.body_bits} --impulse-stores {self.impulse_store} --out {ALONE_DIR}")
 
     def run(self) -> dict[str, Any]:
         use_kernel_store(KernelStore(kernel_store_root()))
@@ -188,6 +224,27 @@ def _schedule(digest: str, fmt_name: str, dma: str) -> np.ndarray:
     bodies, cons, _ = _frame_setup(digest)
     return make_schedule("hazard", cons, bodies.dynamic, default_window(hardware_format(fmt_name),
                                                                         get_preset(dma).stream_bits))
+
+
+# the golden model's ladders this process holds: (frame, schedule, arithmetic, counts) -> final step per count
+_LADDERS: dict[tuple[str, str, str, tuple[int, ...]], dict[int, BodyTable]] = {}
+LADDERS_KEPT = 8  # each holds one body table per count (thesis frame: ~6 MB each)
+
+
+def golden_finals(point: "SweepPoint", arithmetic: str) -> BodyTable:
+    """The golden model's integrated step of ``point`` in ``arithmetic`` (the point's format, or "float64" on the
+    unrounded frame) over the point's schedule, from the ladder of all the sweep's counts (computed once, kept)."""
+    bodies, cons, ip = _frame_setup(point.frame)
+    schedule = _schedule(point.frame, point.fmt, point.dma)
+    counts = tuple(sorted({*point.ladder, point.iterations}))
+    key = (point.frame, hashlib.sha256(schedule.tobytes()).hexdigest(), arithmetic, counts)
+    if key not in _LADDERS:
+        if len(_LADDERS) >= LADDERS_KEPT:
+            del _LADDERS[next(iter(_LADDERS))]
+        fmt = FLOAT64 if arithmetic == "float64" else hardware_format(arithmetic)
+        b, c = (bodies, cons) if fmt is FLOAT64 else (bodies.rounded(fmt), cons.rounded(fmt))
+        _LADDERS[key] = solve_ladder(b, c, schedule, fmt, counts, ip)
+    return _LADDERS[key][point.iterations]
 
 
 @lru_cache(maxsize=2)
@@ -212,8 +269,8 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
     if point.mode == "model":  # the cycle model's cycles; the golden model's numbers (the kernel's, bit for bit)
         pred = cycle_model.predict_job(job, preset)
         cycles, stalls, bubbles, differing = pred.cycles, pred.stalls, pred.bubbles, ""
-        streamed = sum(write_inputs(run_dir, job, kb).values())
-        ours = golden_step(job).final
+        streamed = model_stream_bytes(job, kb, run_dir)
+        ours = golden_finals(point, point.fmt)
     else:
         res = run_kernel_step(job, preset, run_dir, point.seed, body_bits=point.body_bits)
         cycles, stalls, bubbles = res.cycles, int(res.registers["stalls"]), int(res.registers["bubbles"])
@@ -221,7 +278,7 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
         if not res.bit_exact:
             print(f"  NOT bit-exact: {res.comparison.first_mismatch}", flush=True)
         ours = kernel_bodies(run_dir, job, kb)
-    ref_final = golden_step(KernelJob(FLOAT64, bodies, cons, schedule, params, ip)).final
+    ref_final = golden_finals(point, "float64")
     e_exact = exact_error.error_vs_exact(ours, exact, dyn)
     e_same = velocity_error(ours, ref_final.linear_velocity, ref_final.angular_velocity, dyn)
     e_rounding = solution_error(ours, ref_final, dyn)
@@ -229,13 +286,27 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
     mp = job.manifold_passes
     kernel = f" window x{point.lanes}" if point.record_window else ""
     return {"format": (f"{fmt.name} ({point.how})" if point.how else fmt.name) + kernel,
-            "iterations": point.iterations, "mode": point.mode, "manifolds": job.manifolds, "manifold_passes": mp,
+            "design": point.impulse_store, "iterations": point.iterations, "mode": point.mode, "manifolds": job.manifolds, "manifold_passes": mp,
             "cycles": cycles, "cycles_per_manifold_pass": cycles / mp, "ms_at_clock": cycles / preset.clock_hz * 1e3,
             "ns_per_manifold_pass": cycles / mp / preset.clock_hz * 1e9, "stalls": stalls, "bubbles": bubbles,
             "bytes_streamed": streamed, "differing_bits": differing,
             **exact_columns(e_exact), "max_dv_vs_float64_same_iters": e_same.max_dv,
             "max_dv_rounding": e_rounding.max_dv, "max_dw_rounding": e_rounding.max_dw,
             **float64_columns(e_iteration), **fit_columns(job, point.dma)}
+
+
+PER_PASS_STREAMS = ("constraints", "impulses_out")  # the streams write_inputs sizes that each pass streams again
+
+
+def model_stream_bytes(job: KernelJob, kb: KernelBuild, run_dir: Path) -> int:
+    """The bytes the streaming kernel's step streams (MODE=model), from the input files of the same step with one
+    iteration (``write_inputs``): each iteration streams the same contact and friction records (and impulse
+    writes) once more, the body streams once per step; ~1/N of writing the N-iteration files."""
+    if job.record_window is not None:
+        raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
+    one = dataclasses.replace(job, params=dataclasses.replace(job.params, iterations=1))
+    sizes = write_inputs(run_dir, one, kb)
+    return sum(v * job.params.iterations if k in PER_PASS_STREAMS else v for k, v in sizes.items())
 
 
 def fit_columns(job: KernelJob, dma: str) -> dict[str, Any]:
@@ -279,6 +350,7 @@ def plan(args: argparse.Namespace) -> tuple[list[SweepPoint], str, dict[str, byt
     if not args.exact_budget >= 0:
         raise ValueError(f"--exact-budget must be >= 0, got {args.exact_budget}")
     check_kernel_args(args)
+    designs = impulse_stores(args)
     if args.record_window and args.mode == "model":
         raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
     frame, label = load_frame(args)
@@ -289,11 +361,34 @@ def plan(args: argparse.Namespace) -> tuple[list[SweepPoint], str, dict[str, byt
     source = ("--frame", str(args.frame)) if args.frame else ("--scene", args.scene, *scene_args, "--seed",
                                                                str(args.seed))
     formats = [(auto_format(frame, 4), "auto") if n.lower() == "auto" else (hardware_format(n), "") for n in names]
+    ladder = tuple(sorted(set(iter_list)))
     points = [SweepPoint(digest, source, fmt.name, how, iters, args.mode, args.dma, args.seed, args.exact_budget,
-                         args.record_window, args.fetch_passes, args.lanes, args.body_bits, source_digest())
-              for fmt, how in formats for iters in iter_list]
+                         args.record_window, args.fetch_passes, args.lanes, args.body_bits, source_digest(), design,
+                         ladder, len(formats) - rank)
+              for rank, (fmt, how) in enumerate(formats) for design in designs for iters in iter_list]
     mode = "-model" if args.mode == "model" else ""
-    return points, f"{label}-{args.dma}{kernel_label(args)}{mode}", {digest: data}
+    kernel = kernel_label(argparse.Namespace(**{**vars(args), "impulse_store": "onchip"}))  # designs: below
+    return points, f"{label}-{args.dma}{kernel}{designs_label(designs)}{mode}", {digest: data}
+
+
+def impulse_stores(args: argparse.Namespace) -> tuple[str, ...]:
+    """The streaming kernel's designs the sweep runs (``--impulse-stores``, else ``--impulse-store``), checked."""
+    text = args.impulse_stores or getattr(args, "impulse_store", "onchip")
+    designs = tuple(dict.fromkeys(d.strip().lower() for d in text.split(",") if d.strip()))
+    bad = [d for d in designs if d not in IMPULSE_STORES]
+    if not designs or bad:
+        raise ValueError(f"IMPULSE_STORES must be a comma-separated list of {', '.join(IMPULSE_STORES)}, got {text!r}")
+    if args.record_window and designs != ("onchip",):
+        raise ValueError("IMPULSE_STORES=records is a design of the streaming kernel (no RECORD_WINDOW): the window "
+                         "kernel holds its impulses on chip")
+    return designs
+
+
+def designs_label(designs: tuple[str, ...]) -> str:
+    """The designs in the sweep's name: none for the on-chip design alone (the name of a sweep before designs)."""
+    if designs == ("onchip",):
+        return ""
+    return "-impulses-in-records" if designs == ("records",) else "-" + "-".join(designs)
 
 
 def run_sweep(points: list[SweepPoint], exact: exact_error.AnyExactStep, spec: ExecutorSpec | Workers,
@@ -301,9 +396,21 @@ def run_sweep(points: list[SweepPoint], exact: exact_error.AnyExactStep, spec: E
     """The rows of ``points`` in order, each point sent with ``exact`` (the frame's exact reference, computed once
     by the driver); raises PointsFailed."""
     points = [dataclasses.replace(p, exact=exact) for p in points]
+    if log is not None:  # a resumed sweep's ladders solve only the counts still to do
+        points = remaining_ladders(points, set(log.load()))
     result = run_points(points, spec, log, frames, label=label, stream=sys.stdout)
     result.raise_on_failure()
     return result.ordered(points)
+
+
+def remaining_ladders(points: list[SweepPoint], done: set[str]) -> list[SweepPoint]:
+    """``points`` with each format's ladder cut to the iteration counts of its points not in ``done`` (the keys
+    of finished points): a resumed sweep solves no count again that only finished points need."""
+    todo: dict[str, set[int]] = {}
+    for p in points:
+        if p.key not in done:
+            todo.setdefault(p.fmt, set()).add(p.iterations)
+    return [dataclasses.replace(p, ladder=tuple(sorted(todo.get(p.fmt, {p.iterations})))) for p in points]
 
 
 def sweep(args: argparse.Namespace, log_dir: Path) -> tuple[list[dict[str, Any]], str]:
@@ -318,7 +425,7 @@ def sweep(args: argparse.Namespace, log_dir: Path) -> tuple[list[dict[str, Any]]
     finally:
         workers.close(wait=False)  # a LocalCluster closes while the csv and the plot are written
     for row in rows:
-        print(f"{row['format']:>6} {row['iterations']:>3} it ({row['mode']}): {row['cycles']:>9,} cycles "
+        print(f"{series(row):>6} {row['iterations']:>3} it ({row['mode']}): {row['cycles']:>9,} cycles "
               f"({row['cycles_per_manifold_pass']:.2f}/mp), max |dv| vs exact reference "
               f"{_number(row['max_dv_vs_exact'])} m/s, vs float64 same iterations {row['max_dv_vs_float64_same_iters']:.3e}, differing bits "
               f"{row['differing_bits'] if row['mode'] == 'rtl' else 'n/a (model)'}, {row.get('fit', '')}", flush=True)
@@ -333,6 +440,31 @@ def write_csv(rows: list[dict[str, Any]], path: Path) -> None:
         w.writerows(rows)
 
 
+def _cell(text: str) -> Any:
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+def read_csv(path: Path) -> list[dict[str, Any]]:
+    """The rows of a sweep's csv, numbers as numbers (an error column without an exact reference stays its text)."""
+    with path.open(newline="") as f:
+        return [{k: _cell(v) for k, v in row.items()} for row in csv.DictReader(f)]
+
+
+def write_plots(rows: list[dict[str, Any]], out: Path, name: str) -> str:
+    """``sweep.png``, ``pareto.png`` and ``pareto.txt`` of ``rows`` into ``out``; returns the front's text."""
+    plot(rows, out / "sweep.png", f"{name}: kernel time against error (iterations annotated)")
+    front_text = pareto_front.report(rows)
+    (out / "pareto.txt").write_text(front_text + "\n")
+    pareto_front.plot(rows, out / "pareto.png", f"{name}: cycles per manifold-pass against the error from the exact "
+                                                "reference")
+    return front_text
+
+
 # the plot's two panels: (the csv's error columns against the exact limit, rounding alone, iteration error alone;
 # the axis label)
 PANELS = (
@@ -342,6 +474,12 @@ PANELS = (
      "max over dynamic bodies of |w - w_exact| (rad/s, absolute, not normalised)"),
 )
 ERROR_FLOOR = 1e-12  # where an error of exactly 0 is drawn on the log axis
+
+
+def series(row: dict[str, Any]) -> str:
+    """A row's curve: its format, and its design where that is not the on-chip one (rows of an older csv have none)."""
+    design = str(row.get("design") or "onchip")
+    return row["format"] if design == "onchip" else f"{row['format']} impulses in {design}"
 
 
 def floor_meets_iteration(pts: list[dict[str, Any]], rounding: str, iteration: str) -> dict[str, Any] | None:
@@ -359,8 +497,12 @@ def _plot_panel(ax: Any, rows: list[dict[str, Any]], columns: tuple[str, str, st
     iteration error alone, on the shared axis)."""
     exact_col, rounding_col, iteration_col = columns
     iteration_drawn = False
-    for c, fmt in enumerate(dict.fromkeys(r["format"] for r in rows)):
-        pts = sorted((r for r in rows if r["format"] == fmt and isinstance(r[exact_col], float)),
+    on_chip = {r["format"] for r in rows if (r.get("design") or "onchip") == "onchip"}
+    for c, fmt in enumerate(dict.fromkeys(series(r) for r in rows)):
+        if not against_time and any(series(r) == fmt and r["format"] in on_chip and series(r) != r["format"]
+                                    for r in rows):
+            continue  # against iterations another design of a format has the on-chip design's errors, bit for bit
+        pts = sorted((r for r in rows if series(r) == fmt and isinstance(r[exact_col], float)),
                      key=lambda r: r["iterations"])
         if not pts:
             continue
@@ -368,8 +510,8 @@ def _plot_panel(ax: Any, rows: list[dict[str, Any]], columns: tuple[str, str, st
         x = [r["ns_per_manifold_pass"] if against_time else r["iterations"] for r in pts]
         y = [max(r[exact_col], ERROR_FLOOR) for r in pts]
         ax.plot(x, y, "-", color=colour, label=f"{fmt}: against exact")
-        for r, xi, yi in zip(pts, x, y):  # a design that does not fit its platform is drawn hollow
-            ax.plot(xi, yi, "o", color=colour, markerfacecolor="none" if r.get("fits") in (False, "False") else colour)
+        for r, xi, yi in zip(pts, x, y):  # a design that does not fit its platform (or has no estimate): hollow
+            ax.plot(xi, yi, "o", color=colour, markerfacecolor=colour if r.get("fits") in (True, "True") else "none")
         meet = floor_meets_iteration(pts, rounding_col, iteration_col)
         if meet is not None:
             ax.plot(meet["ns_per_manifold_pass"] if against_time else meet["iterations"],
@@ -436,8 +578,8 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
     how = {"model": "MODE=model: cycle model's cycles, golden model's numbers (bit-exact with the RTL kernel)",
            "rtl": "MODE=rtl: the RTL kernel in Verilator"}
     fig.suptitle(f"{title}\n{'; '.join(str(how.get(m, m)) for m in modes)}; thesis marks: 4 iterations of their "
-                 f"127,000-manifold frame; star: rounding alone reaches the iteration error; hollow: does not fit the "
-                 f"platform (sim/resource_model.py)", fontsize=9)
+                 f"127,000-manifold frame;\nstar: rounding alone reaches the iteration error; hollow: does not fit the "
+                 f"platform, or no resource estimate (sim/resource_model.py)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -445,12 +587,19 @@ def plot(rows: list[dict[str, Any]], path: Path, title: str) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
+    if args.replot:
+        done = Path(args.replot)
+        if not (done / "sweep.csv").is_file():
+            print(f"error: --replot {done}: no sweep.csv there", file=sys.stderr)
+            return 2
+        print(write_plots(read_csv(done / "sweep.csv"), done, done.name))
+        return 0
     log_dir = Path(args.out) / ".points"
     try:
         with StagedDirectory(Path(args.out)) as out:
             rows, name = sweep(args, log_dir)
             write_csv(rows, out.path / "sweep.csv")
-            plot(rows, out.path / "sweep.png", f"{name}: kernel time against error (iterations annotated)")
+            front_text = write_plots(rows, out.path, name)
             out_dir = out.commit(name)
     except PointsFailed as exc:
         first = exc.failures[0]
@@ -464,7 +613,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     PointLog(log_dir / f"{name}.jsonl").remove()
     if log_dir.is_dir() and not any(log_dir.iterdir()):
         log_dir.rmdir()
-    print(f"\nsweep: {out_dir / 'sweep.csv'} and {out_dir / 'sweep.png'}")
+    print(f"\n{front_text}\n\nsweep: {out_dir / 'sweep.csv'}, {out_dir / 'sweep.png'}, {out_dir / 'pareto.png'} and "
+          f"{out_dir / 'pareto.txt'}")
     return 0 if all(r["differing_bits"] == 0 for r in rows if r["mode"] == "rtl") else 1
 
 

@@ -16,6 +16,7 @@ import pytest
 from models import scenes
 from models.frame import load, save
 from sim import run as sim_run
+from sim import pareto_front
 from sim import sweep as sim_sweep
 from sim.harness_run import KernelRunError
 
@@ -112,6 +113,8 @@ SWEEP_CASES = [
     (["--exact-budget", "-1"], "--exact-budget must be >= 0"),
     (["--record-window", "1000"], "--record-window must be 0 or a power of two"),
     (["--fetch-passes", "9"], "--fetch-passes must be in 0..8"),
+    (["--impulse-stores", "onchip,flash"], "IMPULSE_STORES must be a comma-separated list"),
+    (["--record-window", "64", "--impulse-stores", "records"], "IMPULSE_STORES=records is a design of the streaming"),
 ]
 TOOLS: dict[str, Callable[[list[str]], int]] = {"sim.run": sim_run.main, "sim.sweep": sim_sweep.main}
 
@@ -207,4 +210,7 @@ def test_sweep_columns_and_plot_without_an_exact_reference(tmp_path: Path) -> No
         sim_sweep.plot(rows, tmp_path / "sweep.png", "pile-zcu102")
         assert (tmp_path / "sweep.png").stat().st_size > 0
         (tmp_path / "sweep.png").unlink()
+        pareto_front.plot(rows, tmp_path / "pareto.png", "pile-zcu102")  # the front of the rows that have errors
+        assert (tmp_path / "pareto.png").stat().st_size > 0
+    assert "no exact reference, no front" in pareto_front.report([dict(base, **missing)])
     assert "no exact reference (QP solver hit the time budget)" in (tmp_path / "sweep.csv").read_text()
