@@ -1,9 +1,15 @@
 """The instrumented builds of ``make coverage``: Verilator ``--coverage-line --coverage-toggle`` with the coverage
 hook (``coverage_hook.sv`` / ``coverage_hook.cpp`` beside this file) bound into the top, each in its own
-directory under ``build/coverage/``."""
+directory under ``build/coverage/``.
+
+The coverage runs are small scenes (at most a few thousand cycles each), so the instrumented C++ (161-306 MB per
+configuration) is compiled at ``-O0`` by default (``COVERAGE_COMPILE_PROFILE``: the kernel build's "o0" profile):
+the compile time, not the run time, is what an instrumented build costs. ccache (``OBJCACHE``, where installed)
+keeps the objects of an unchanged build."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from models.number_format import NumberFormat
@@ -16,6 +22,7 @@ COVERAGE_ROOT = REPO_ROOT / "build" / "coverage"
 HOOK_SV = Path(__file__).resolve().parent / "coverage_hook.sv"
 HOOK_CPP = Path(__file__).resolve().parent / "coverage_hook.cpp"
 COVERAGE_ARGS = ["--coverage-line", "--coverage-toggle"]
+COVERAGE_COMPILE_PROFILE = "o0"  # a key of sim.kernel_build.COMPILE_PROFILES ("quick": -O1)
 
 
 def coverage_bind(top: str, build_dir: Path) -> Path:
@@ -29,8 +36,16 @@ def coverage_bind(top: str, build_dir: Path) -> Path:
     return path
 
 
-def build_coverage_kernel(kb: KernelBuild, root: Path = COVERAGE_ROOT) -> Path:
-    """The compiled harness of ``kb`` with coverage counters, in ``root/<build name>/``."""
+def coverage_kernel_build(kb: KernelBuild, profile: str = COVERAGE_COMPILE_PROFILE) -> KernelBuild:
+    """``kb`` compiled with the C++ optimization profile of the instrumented builds."""
+    return dataclasses.replace(kb, compile_profile=profile)
+
+
+def build_coverage_kernel(kb: KernelBuild, root: Path = COVERAGE_ROOT,
+                          profile: str = COVERAGE_COMPILE_PROFILE) -> Path:
+    """The compiled harness of ``kb`` with coverage counters (compiled with ``profile``), in
+    ``root/<build name>/``."""
+    kb = coverage_kernel_build(kb, profile)
     build_dir = root / kb.name
     return verilate_kernel(kb, build_dir, extra_sources=[HOOK_SV, coverage_bind(TOP, build_dir)],
                            extra_cpp_files=[HOOK_CPP], extra_args=COVERAGE_ARGS)

@@ -47,8 +47,17 @@ class CaseResult:
         return self.case.config == config.name if isinstance(self.case, Case) else self.case.counts_for(config)
 
 
-def prepare_case(case: Case, run_dir: Path) -> int:
-    """Write the case's harness inputs into ``run_dir`` (edited for bad input); return the harness's cycle limit."""
+@dataclass(frozen=True)
+class PreparedRun:
+    """What the harness run of a prepared case needs beside its input files."""
+
+    max_cycles: int  # the harness's cycle limit
+    read_share: float  # the share of the DDR bandwidth the constraint reads get (impulses in the records: < 1)
+
+
+def prepare_case(case: Case, run_dir: Path) -> PreparedRun:
+    """Write the case's harness inputs into ``run_dir`` (edited for bad input); return its cycle limit and DDR
+    read share."""
     scene, params = SCENES[case.scene]
     config = case.configuration
     kb = config.build()
@@ -58,25 +67,31 @@ def prepare_case(case: Case, run_dir: Path) -> int:
                          f"{kb.cons_bits}")
     job = config.job(scenes.load_or_capture(scene, **params), SolverParams(4, interleaved=case.interleaved),
                      case.schedule, case.fetch_passes)
-    write_inputs(run_dir, job, kb)
+    if case.job_edit is not None:
+        job = case.job_edit(job)
+    if job.friction_words != kb.friction_words:
+        raise ValueError(f"{case.label}: the step has {job.friction_words} friction-coefficient words per record, "
+                         f"the build {kb.friction_words}")
+    write_inputs(run_dir, job, kb, preset.impulse_turnaround_cycles)
     extra_bodies = 0  # bodies an edit adds to the step (the cycle limit grows with them)
     if case.edit is not None:
         files = HarnessFiles(run_dir, kb)
         case.edit(files, kb)
         files.save()
         extra_bodies = max(0, files.reg("num_bodies") - job.bodies.num_bodies)
-    return harness_cycle_limit(job) + TIMEOUT_PER_ITEM * extra_bodies
+    return PreparedRun(harness_cycle_limit(job) + TIMEOUT_PER_ITEM * extra_bodies,
+                       job.stream_layout(kb.cons_bits).ddr_read_share(job.params))
 
 
 def run_case(case: Case, exe: Path, run_dir: Path, seed: int = 1) -> CaseResult:
     """Prepare the case's inputs, run the coverage harness, keep its coverage.dat."""
     t0 = time.monotonic()
-    max_cycles = prepare_case(case, run_dir)
+    prepared = prepare_case(case, run_dir)
     cov = run_dir / "coverage.dat"
     cov.unlink(missing_ok=True)
     try:
-        regs = run_harness(exe, run_dir, seed, get_preset(case.dma), max_cycles, case.stalls, case.stalls,
-                           env=dict(os.environ, PGS_COVERAGE_FILE=str(cov)))
+        regs = run_harness(exe, run_dir, seed, get_preset(case.dma), prepared.max_cycles, case.stalls, case.stalls,
+                           env=dict(os.environ, PGS_COVERAGE_FILE=str(cov)), read_share=prepared.read_share)
     except KernelRunError as exc:
         return CaseResult(case, None, time.monotonic() - t0, error=str(exc))
     return CaseResult(case, cov if cov.exists() else None, time.monotonic() - t0, regs,
