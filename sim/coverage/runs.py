@@ -15,7 +15,8 @@ from models import scenes
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from sim.cocotb_run import BUILD_ROOT as COCOTB_BUILD_ROOT
-from sim.coverage.build import COVERAGE_ARGS, build_coverage_fp_ops, build_coverage_kernel
+from sim.coverage.build import (COVERAGE_ARGS, COVERAGE_COMPILE_PROFILE, build_coverage_fp_ops, build_coverage_kernel,
+                                coverage_kernel_build)
 from sim.coverage.cases import CASES, FP_OPERATOR_CASES, REGISTER_CASE, SCENES, Case, SharedCase, case_dir
 from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
 from sim.coverage.input_edits import HarnessFiles
@@ -162,21 +163,27 @@ def previous_results(out: Path) -> list[CaseResult]:
             for r in runs]
 
 
-def build_configurations(configs: Sequence[Configuration], out: Path) -> dict[str, Path]:
-    """The instrumented harness of each configuration (built once; Verilator skips an unchanged build)."""
+def build_configurations(configs: Sequence[Configuration], out: Path,
+                         profile: str = COVERAGE_COMPILE_PROFILE) -> dict[str, Path]:
+    """The instrumented harness of each configuration, compiled with ``profile`` (built once; Verilator skips an
+    unchanged build)."""
     exes = {}
     for config in configs:
         t0 = time.monotonic()
-        exes[config.name] = build_coverage_kernel(config.build(), out)
-        print(f"coverage build {config.name} ({config.build().name}): {time.monotonic() - t0:.0f} s", flush=True)
+        exes[config.name] = build_coverage_kernel(config.build(), out, profile)
+        print(f"coverage build {config.name} ({coverage_kernel_build(config.build(), profile).name}): "
+              f"{time.monotonic() - t0:.0f} s", flush=True)
     return exes
 
 
-def run_all(out: Path, jobs: int, labels: Sequence[str] = (), configs: Sequence[str] = ()) -> list[CaseResult]:
-    """Build what the cases named by ``labels`` of the configurations ``configs`` (all when empty) need, run
-    them (``jobs`` at a time); with all cases, then the fp-operator vectors and the register test."""
+def run_all(out: Path, jobs: int, labels: Sequence[str] = (), configs: Sequence[str] = (),
+            profile: str = COVERAGE_COMPILE_PROFILE) -> list[CaseResult]:
+    """Build what the cases named by ``labels`` of the configurations ``configs`` (all when empty) need (compiled
+    with ``profile``), run them (``jobs`` at a time); with all cases, then the fp-operator vectors and the register
+    test."""
     wanted = [c for c in CASES if (not labels or c.label in labels) and (not configs or c.config in configs)]
-    exes = build_configurations([cfg for cfg in CONFIGURATIONS if any(c.config == cfg.name for c in wanted)], out)
+    exes = build_configurations([cfg for cfg in CONFIGURATIONS if any(c.config == cfg.name for c in wanted)], out,
+                                profile)
 
     def one(case: Case) -> CaseResult:
         res = run_case(case, exes[case.config], case_dir(out, case.label))
