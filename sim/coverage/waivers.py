@@ -2,12 +2,22 @@
 
 A waiver names the file and the source text of its line (stripped), not the line number, so that it follows the
 line when the file changes; one the source no longer has waives nothing (``make coverage`` lists it as stale).
-The report gives each configuration's line coverage both as measured and with the waived points set aside."""
+The report gives each configuration's line coverage both as measured and with the waived points set aside.
+A waiver may hold for some configurations only (``applies``: e.g. the body of a loop over the lanes after the
+first, which a one-lane build never runs); :func:`waivers_for` gives those of one configuration."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from sim.coverage.configurations import Configuration
+
+
+def every_configuration(config: Configuration) -> bool:
+    return True
 
 
 @dataclass(frozen=True)
@@ -15,9 +25,18 @@ class Waiver:
     file: str  # relative to the repository, e.g. rtl/pgs_sequencer.sv
     source: str  # the line's text, stripped (a prefix of it)
     reason: str
+    applies: Callable[[Configuration], bool] = every_configuration  # the configurations it holds for
 
     def matches(self, file: str, text: str) -> bool:
         return file == self.file and text.strip().startswith(self.source)
+
+
+def one_lane(config: Configuration) -> bool:
+    return config.lanes == 1
+
+
+def no_friction_word(config: Configuration) -> bool:
+    return config.friction_words == 0
 
 
 INLINED_FUNCTION = ("an arm of the function mapped(), which Verilator inlines into the expressions that call it "
@@ -32,7 +51,18 @@ WAIVERS: tuple[Waiver, ...] = (
     Waiver("rtl/pgs_control_s_axi.sv", "default: wstate <= WR_IDLE;", UNUSED_STATE + " (write channel, 3 states)"),
     Waiver("rtl/pgs_control_s_axi.sv", "default: rstate <= RD_IDLE;", UNUSED_STATE + " (read channel, 3 states)"),
     Waiver("rtl/pgs_sequencer.sv", "default: phase <= S_IDLE;", UNUSED_STATE + " (the sequencer's phases)"),
+    Waiver("rtl/pgs_sequencer.sv", "for (int k = 0; k < l; k++) begin",
+           "the lane-collision loop over the lanes before lane l: with one lane (LANES = 1) it has no iteration "
+           "(the window kernel's lanes run it: `lanes_collide` edit)", one_lane),
+    Waiver("rtl/pgs_sequencer.sv", "for (int k = 0; k < MU_W; k++) f_in[",
+           "the friction coefficient word's copy into the friction pipe: with MU_W = 0 the loop has no iteration "
+           "(the MU_W = 1 build, stream-fp32-mu, runs it)", no_friction_word),
 )
+
+
+def waivers_for(config: Configuration, waivers: Iterable[Waiver] = WAIVERS) -> tuple[Waiver, ...]:
+    """The waivers that hold for ``config``."""
+    return tuple(w for w in waivers if w.applies(config))
 
 
 def waiver_for(file: str, text: str, waivers: Iterable[Waiver] = WAIVERS) -> Waiver | None:

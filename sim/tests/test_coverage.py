@@ -170,3 +170,15 @@ def test_friction_coefficient_words_follow_the_build(tmp_path: Path) -> None:
     stack = scenes.load_or_capture("stack", **KERNEL_TEST_SCENES["stack"])
     with pytest.raises(ValueError, match="MU_W = 1"):
         configurations.BY_NAME["stream-fp32-mu"].job(stack, SolverParams(4), "hazard")
+
+
+def test_waivers_of_a_parameter_set_hold_only_for_it() -> None:
+    """A loop with no iteration in one parameter set (the lane-collision loop with one lane, the friction
+    coefficient's copy with MU_W = 0) is waived there only: the builds that run it must cover it."""
+    def sources(name: str) -> set[str]:
+        return {w.source for w in waivers.waivers_for(configurations.BY_NAME[name])}
+    lanes_loop, mu_loop = "for (int k = 0; k < l; k++) begin", "for (int k = 0; k < MU_W; k++) f_in["
+    assert {lanes_loop, mu_loop} <= sources("stream-fp16-records")
+    assert lanes_loop not in sources("window-fp32-l2") and mu_loop in sources("window-fp32-l2")
+    assert mu_loop not in sources("stream-fp32-mu") and lanes_loop in sources("stream-fp32-mu")
+    assert len(sources("stream-fp32")) == len(waivers.WAIVERS)
