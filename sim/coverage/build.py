@@ -2,9 +2,12 @@
 hook (``coverage_hook.sv`` / ``coverage_hook.cpp`` beside this file) bound into the top, each in its own
 directory under ``build/coverage/``.
 
-The coverage runs are small scenes (at most a few thousand cycles each), so the instrumented C++ (161-306 MB per
-configuration) is compiled at ``-O0`` by default (``COVERAGE_COMPILE_PROFILE``: the kernel build's "o0" profile):
-the compile time, not the run time, is what an instrumented build costs. ccache (``OBJCACHE``, where installed)
+The instrumented C++ (161-306 MB per configuration) is compiled with the kernel build's "quick" profile (-O1 on
+the model's fast path, -O0 on its slow path: the constructors and the coverage points' registration) by default
+(``COVERAGE_COMPILE_PROFILE``; ``python -m sim.coverage --compile-profile o0``: -O0 everywhere): an -O0 build
+takes less time, but its harness runs about ten times slower, which the regression pays back several times
+(measured in docs/results.md, section "Coverage of the headline configurations"). Verilator splits the C++ into
+two groups per path (``-j 2``), each its own compiler process; ccache (``OBJCACHE``, where installed)
 keeps the objects of an unchanged build."""
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ COVERAGE_ROOT = REPO_ROOT / "build" / "coverage"
 HOOK_SV = Path(__file__).resolve().parent / "coverage_hook.sv"
 HOOK_CPP = Path(__file__).resolve().parent / "coverage_hook.cpp"
 COVERAGE_ARGS = ["--coverage-line", "--coverage-toggle"]
-COVERAGE_COMPILE_PROFILE = "o0"  # a key of sim.kernel_build.COMPILE_PROFILES ("quick": -O1)
+COVERAGE_COMPILE_PROFILE = "quick"  # a key of sim.kernel_build.COMPILE_PROFILES ("o0": -O0 everywhere)
 
 
 def coverage_bind(top: str, build_dir: Path) -> Path:

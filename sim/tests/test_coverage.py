@@ -128,8 +128,8 @@ def test_configuration_without_its_own_runs_is_incomplete() -> None:
 
 def test_headline_configurations_build_their_parameters() -> None:
     """The fitting headline (impulses in the records, fp16 and fp32) and the Bullet 2 worlds' build (a friction
-    coefficient per manifold, 6 inverse-inertia words) are configurations with their own builds, compiled at the
-    coverage profile (-O0) apart from the normal builds."""
+    coefficient per manifold, 6 inverse-inertia words) are configurations with their own builds, each compiled
+    with the coverage profile into its own directory."""
     params = {n: configurations.BY_NAME[n].build().parameters
               for n in ("stream-fp16-records", "stream-fp32-records", "stream-fp32-mu")}
     assert params["stream-fp16-records"]["IMPULSES_IN_RECORDS"] == 1 and params["stream-fp16-records"]["MAN_BITS"] == 10
@@ -137,7 +137,8 @@ def test_headline_configurations_build_their_parameters() -> None:
     assert (params["stream-fp32-mu"]["MU_W"], params["stream-fp32-mu"]["IINV_W"]) == (1, 6)
     assert "IMPULSES_IN_RECORDS" not in configurations.BY_NAME["stream-fp32"].build().parameters
     kb = build.coverage_kernel_build(configurations.BY_NAME["stream-fp16-records"].build())
-    assert kb.compile_profile == build.COVERAGE_COMPILE_PROFILE and kb.name.endswith("_ir_o0")
+    assert kb.compile_profile == build.COVERAGE_COMPILE_PROFILE and kb.name.endswith("_ir")
+    assert build.coverage_kernel_build(kb, "o0").name.endswith("_ir_o0")
     labels = {c.label for c in cases.CASES_OF["stream-fp16-records"]}
     assert {"stream-fp16-records-pile-hazard-zcu102-warm", "stream-fp16-records-stack-independent-zcu102",
             "stream-fp16-records-pile-hazard-zcu102-interleaved-warm-stalls"} <= labels
