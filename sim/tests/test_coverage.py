@@ -142,7 +142,8 @@ def test_headline_configurations_build_their_parameters() -> None:
     labels = {c.label for c in cases.CASES_OF["stream-fp16-records"]}
     assert {"stream-fp16-records-pile-hazard-zcu102-warm", "stream-fp16-records-stack-independent-zcu102",
             "stream-fp16-records-pile-hazard-zcu102-interleaved-warm-stalls"} <= labels
-    assert all(f"stream-fp16-records-stack-bad-{e.name}" in labels for e in input_edits.BAD_INPUT_EDITS)
+    assert all(f"stream-fp16-records-stack-bad-{e.name}" in labels for e in input_edits.RECORDS_BAD_INPUT_EDITS)
+    assert "stream-fp16-records-stack-bad-tlast_late" not in labels
 
 
 def test_records_cases_write_the_impulse_plan_and_the_warm_start(tmp_path: Path) -> None:
