@@ -19,7 +19,8 @@ from models.number_format import FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES, MAKE_SIM_PILE
 from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
 from sim.coverage.input_edits import (BAD_INPUT_EDITS, RECORDS_BAD_INPUT_EDITS, WINDOW_BAD_INPUT_EDITS, Edit,
-                                      HarnessEdit, edit_gravity, edit_spin, edit_wide_index)
+                                      HarnessEdit, edit_argument_bits, edit_gravity, edit_huge_velocity, edit_spin,
+                                      edit_wide_index)
 from sim.verilator_build import REPO_ROOT
 
 # world files of Bullet 2's convention (rotated non-cube boxes; boxes, spheres, capsules, cylinders and a cone):
@@ -86,6 +87,13 @@ def bad_input_cases(config: str, scene: str, schedule: str, edits: tuple[Harness
     return [Case(f"{config}-{scene}-bad-{e.name}", config, scene, schedule, edit=e.edit) for e in edits]
 
 
+def stimulus_cases(config: str, scene: str) -> list[Case]:
+    """Inputs the scenes never make, not bad input: every argument register's bits both ways before the run's
+    own writes, and bodies at half the format's largest finite velocity (the pipes' overflow and NaN events)."""
+    return [Case(f"{config}-{scene}-argument-bits", config, scene, edit=edit_argument_bits),
+            Case(f"{config}-{scene}-huge-velocity", config, scene, edit=edit_huge_velocity)]
+
+
 def streaming_cases(config: str) -> list[Case]:
     """The regression of a streaming configuration: the test scenes, both orders, both DMA models, stalls,
     interleaved passes, the 217-body pile, other integration registers and every bad-input edit."""
@@ -99,6 +107,7 @@ def streaming_cases(config: str) -> list[Case]:
         Case(f"{c}-pile217-hazard-zcu102", c, "pile217"),
         Case(f"{c}-stack-gravity-dt-damping", c, "stack", edit=edit_gravity),
         Case(f"{c}-stack-spin", c, "stack", "pybullet", edit=edit_spin),
+        *stimulus_cases(c, "stack"),
     ] + bad_input_cases(c, "stack", "hazard", BAD_INPUT_EDITS)
 
 
@@ -151,6 +160,7 @@ def records_cases(config: str) -> list[Case]:
         Case(f"{c}-pile217-hazard-zcu102", c, "pile217"),
         Case(f"{c}-stack-gravity-dt-damping", c, "stack", edit=edit_gravity),
         Case(f"{c}-stack-spin", c, "stack", "pybullet", edit=edit_spin),
+        *stimulus_cases(c, "stack"),
     ] + bad_input_cases(c, "stack", "hazard", RECORDS_BAD_INPUT_EDITS)
 
 

@@ -16,8 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from models.register_map import AP_START, AUTO_RESTART, OFFSET
-from models.stream_format import BODY_ANGULAR_VELOCITY, BODY_INV_INERTIA, BODY_INV_MASS, BODY_POSITION
+from models.register_map import AP_START, ARG_NAMES, AUTO_RESTART, OFFSET
+from models.stream_format import (BODY_ANGULAR_VELOCITY, BODY_INV_INERTIA, BODY_INV_MASS, BODY_LINEAR_VELOCITY,
+                                  BODY_POSITION)
 from sim.kernel_build import KernelBuild
 
 UNMAPPED_ADDRESS = 0xF4  # no register there (rtl/README.md: reads 0, ignores writes, SLVERR, error 9)
@@ -214,6 +215,30 @@ def edit_gravity(f: HarnessFiles, kb: KernelBuild) -> None:
     for name, value in (("gravity_x", 3.75), ("gravity_y", -1.0e3), ("gravity_z", -0.0123), ("dt", 1.0 / 61.0),
                         ("damping", 0.5)):
         f.set_reg(name, int(kb.fmt.encode(value)))
+
+
+def edit_argument_bits(f: HarnessFiles, kb: KernelBuild) -> None:
+    """Every argument register written all-zeros, then all-ones, before the run's own writes (the registers this
+    kernel does not use written back to 0 after them): every bit of the argument wires into the kernel toggles
+    both ways, and the step runs with its own arguments."""
+    own = {int(o) for o in f.regs[:, 0]}
+    offsets = [OFFSET[n] for n in ARG_NAMES]
+    before = [(o, v) for o in offsets for v in (0, 0xFFFFFFFF)]
+    after = [(o, 0) for o in offsets if o not in own]
+    f.regs = np.concatenate([np.array(before, dtype="<u4"), f.regs, np.array(after, dtype="<u4").reshape(-1, 2)])
+
+
+def edit_huge_velocity(f: HarnessFiles, kb: KernelBuild) -> None:
+    """Every body moving and spinning at the format's largest finite value on every axis, neighbours in the body
+    table of opposite signs: finite input the kernel accepts, whose relative velocities and lever-arm products
+    overflow to infinity and whose differences of infinities give NaN (the floating-point event bits and counters
+    of every pipe)."""
+    w = kb.fmt.width
+    for b in range(f.reg("num_bodies")):
+        value = int(kb.fmt.encode((1 if b % 2 else -1) * kb.fmt.max_finite))
+        for field in (BODY_LINEAR_VELOCITY, BODY_ANGULAR_VELOCITY):
+            for axis in range(3):
+                f.set_word("body", 0, b, (field + axis) * w, w, value)
 
 
 def edit_wide_index(f: HarnessFiles, kb: KernelBuild) -> None:
