@@ -184,3 +184,16 @@ def test_waivers_of_a_parameter_set_hold_only_for_it() -> None:
     assert lanes_loop not in sources("window-fp32-l2") and mu_loop in sources("window-fp32-l2")
     assert mu_loop not in sources("stream-fp32-mu") and lanes_loop in sources("stream-fp32-mu")
     assert len(sources("stream-fp32")) == len(waivers.WAIVERS)
+
+
+def test_toggle_waiver_sets_a_signal_aside() -> None:
+    """A toggle waiver names a signal of a file: its uncovered points count in the figure with waivers (and the
+    goal), never in the measured one; a signal it does not name stays uncovered."""
+    merged = data.merge(data.parse(CANNED.read_text()))
+    plain = report.summarize(merged, root=Path("/repo"), toggle_waivers=())
+    w = waivers.ToggleWaiver("rtl/a.sv", "q", "constant")
+    waived = report.summarize(merged, root=Path("/repo"), toggle_waivers=[w])
+    assert plain.total.toggle == waived.total.toggle == [2, 3]
+    assert plain.toggle_with_waivers == [2, 3] and waived.toggle_with_waivers == [3, 3]
+    other = report.summarize(merged, root=Path("/repo"), toggle_waivers=[waivers.ToggleWaiver("rtl/a.sv", "p", "x")])
+    assert other.toggle_with_waivers == [2, 3] and not other.toggle_waived
