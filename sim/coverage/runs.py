@@ -155,9 +155,13 @@ def run_fp_operator_case(case: SharedCase, out: Path) -> CaseResult:
                       error=error)
 
 
-def previous_results(out: Path) -> list[CaseResult]:
-    """The coverage files of the runs in ``out`` (and of the register test) from an earlier ``make coverage``."""
-    runs = [CaseResult(c, case_dir(out, c.label) / "coverage.dat", 0.0) for c in [*CASES, *FP_OPERATOR_CASES]]
+def previous_results(out: Path, configs: Sequence[str] = ()) -> list[CaseResult]:
+    """The coverage files of the runs in ``out`` (and of the register test) from an earlier ``make coverage``: of
+    the configurations ``configs`` (all when empty) and the shared runs that count for them."""
+    wanted = [BY_NAME[n] for n in configs] or list(CONFIGURATIONS)
+    cases = [c for c in CASES if c.configuration in wanted]
+    shared = [c for c in FP_OPERATOR_CASES if any(c.counts_for(w) for w in wanted)]
+    runs = [CaseResult(c, case_dir(out, c.label) / "coverage.dat", 0.0) for c in [*cases, *shared]]
     runs.append(CaseResult(REGISTER_CASE, register_coverage_file(), 0.0))
     return [r if r.coverage and r.coverage.exists() else CaseResult(r.case, None, 0.0, error="no coverage.dat")
             for r in runs]
