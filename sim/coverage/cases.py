@@ -19,7 +19,8 @@ from models.number_format import FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES, MAKE_SIM_PILE
 from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
 from sim.coverage.input_edits import (BAD_INPUT_EDITS, RECORDS_BAD_INPUT_EDITS, WINDOW_BAD_INPUT_EDITS, Edit,
-                                      HarnessEdit, edit_argument_bits, edit_gravity, edit_huge_velocity, edit_spin,
+                                      HarnessEdit, edit_argument_bits, edit_gravity, edit_huge_sliding, edit_huge_velocity,
+                                      edit_spin,
                                       edit_wide_index)
 from sim.verilator_build import REPO_ROOT
 
@@ -89,9 +90,11 @@ def bad_input_cases(config: str, scene: str, schedule: str, edits: tuple[Harness
 
 def stimulus_cases(config: str, scene: str) -> list[Case]:
     """Inputs the scenes never make, not bad input: every argument register's bits both ways before the run's
-    own writes, and bodies at half the format's largest finite velocity (the pipes' overflow and NaN events)."""
+    own writes, and bodies at the format's largest finite velocity, moving and spinning or sliding along the
+    contacts (the pipes' overflow and NaN events)."""
     return [Case(f"{config}-{scene}-argument-bits", config, scene, edit=edit_argument_bits),
-            Case(f"{config}-{scene}-huge-velocity", config, scene, edit=edit_huge_velocity)]
+            Case(f"{config}-{scene}-huge-velocity", config, scene, edit=edit_huge_velocity),
+            Case(f"{config}-{scene}-huge-sliding", config, scene, edit=edit_huge_sliding)]
 
 
 def streaming_cases(config: str) -> list[Case]:

@@ -241,6 +241,19 @@ def edit_huge_velocity(f: HarnessFiles, kb: KernelBuild) -> None:
                 f.set_word("body", 0, b, (field + axis) * w, w, value)
 
 
+def edit_huge_sliding(f: HarnessFiles, kb: KernelBuild) -> None:
+    """Every body sliding at the format's largest finite value along x and z (y and the spin untouched), the sign
+    alternating in pairs of the body table: the stacked scenes' contact normals (about y) see a finite normal
+    velocity, the friction rows overflow (opposite signs) or meet infinities of one sign (NaN): the friction
+    pipe's events, which :func:`edit_huge_velocity` cannot reach on the kernel whose impulses travel with the
+    records (its NaN impulses reject the next passes' records first)."""
+    w = kb.fmt.width
+    for b in range(f.reg("num_bodies")):
+        value = int(kb.fmt.encode((1 if (b // 2) % 2 else -1) * kb.fmt.max_finite))
+        for axis in (0, 2):
+            f.set_word("body", 0, b, (BODY_LINEAR_VELOCITY + axis) * w, w, value)
+
+
 def edit_wide_index(f: HarnessFiles, kb: KernelBuild) -> None:
     """num_bodies = MAX_BODIES: the scene's bodies spread over the whole index range (the last at MAX_BODIES - 1),
     static copies of the ground record between them, every manifold's body indices rewritten: every bit of the
