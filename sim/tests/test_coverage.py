@@ -197,3 +197,26 @@ def test_toggle_waiver_sets_a_signal_aside() -> None:
     assert plain.toggle_with_waivers == [2, 3] and waived.toggle_with_waivers == [3, 3]
     other = report.summarize(merged, root=Path("/repo"), toggle_waivers=[waivers.ToggleWaiver("rtl/a.sv", "p", "x")])
     assert other.toggle_with_waivers == [2, 3] and not other.toggle_waived
+
+
+def test_records_edits_keep_the_stream_and_the_arguments(tmp_path: Path) -> None:
+    """The moved TLAST keeps every beat (the harness's impulse plan pairs records with slots and passes) and moves
+    pass 0's TLAST onto pass 1's first record; the argument-bits edit ends with the run's own argument writes."""
+    case = next(c for c in cases.CASES_OF["stream-fp16-records"] if c.label.endswith("bad-zero_bodies"))
+    runs.prepare_case(case, tmp_path)  # an edit of the registers only: the constraint stream as written
+    kb = case.configuration.build()
+    files = input_edits.HarnessFiles(tmp_path, kb)
+    data_before, last_before = (a.copy() for a in files.streams["cons"])
+    first_of_pass1 = files.record("cons", 1, 0)
+    input_edits.edit_tlast_moved(files, kb)
+    data_after, last_after = files.streams["cons"]
+    assert np.array_equal(data_after, data_before) and last_after.sum() == last_before.sum()
+    assert last_before[np.flatnonzero(last_before)[0]] and not last_after[np.flatnonzero(last_before)[0]]
+    assert last_after[first_of_pass1[-1]] and np.flatnonzero(last_after)[0] == first_of_pass1[-1]
+    own = files.regs.copy()
+    input_edits.edit_argument_bits(files, kb)
+    values = {}
+    for offset, value in files.regs:
+        values[int(offset)] = int(value)
+    assert all(values[int(o)] == int(v) for o, v in own)
+    assert values[input_edits.OFFSET["lag"]] == 0 and len(files.regs) > len(own)
