@@ -13,7 +13,7 @@ from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
 from sim.coverage.data import PointKey, add_counts, merge, parse
 from sim.coverage.report import summarize, write_report
 from sim.coverage.runs import previous_results, run_all
-from sim.coverage.waivers import waivers_for
+from sim.coverage.waivers import toggle_waivers_for, waivers_for
 from sim.kernel_build import COMPILE_PROFILES
 
 
@@ -47,7 +47,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         for c in configs:
             if r.counts_for(c):
                 add_counts(counts[c], run)
-    return write_report({c: summarize(counts[c], waivers=waivers_for(c)) for c in configs}, results, out)
+    return write_report({c: summarize(counts[c], waivers=waivers_for(c), toggle_waivers=toggle_waivers_for(c)) for c in configs}, results, out)
 
 
 if __name__ == "__main__":

@@ -73,8 +73,16 @@ class ToggleWaiver:
     file: str
     signal: str
     reason: str
+    applies: Callable[[Configuration], bool] = every_configuration  # the configurations it holds for
 
 
+def impulses_on_chip(config: Configuration) -> bool:
+    return not config.impulses_in_records
+
+
+TIED_OFF_IMPULSE_OUT = ("the impulse-out stream of a build whose impulses stay on chip (IMPULSES_IN_RECORDS = 0): "
+                        "its data, valid and last are tied to 0 and its ready is unused (the records builds, "
+                        "stream-fp16-records and stream-fp32-records, drive it)")
 COUNTER_HIGH_BITS = ("the upper bits of a run counter (64-bit cycles, 32-bit event counters): bit k first "
                      "toggles after 2^k counts, far beyond the regression's runs of thousands of cycles; their "
                      "read paths are toggled in full by the register file's test (all-ones / all-zeros)")
@@ -88,7 +96,17 @@ TOGGLE_WAIVERS: tuple[ToggleWaiver, ...] = (
       for f in ("rtl/pgs_kernel.sv", "rtl/pgs_run_counters.sv", "rtl/pgs_sequencer.sv")),
     *(ToggleWaiver("rtl/fp/fp_sqrt.sv", s, DIGIT_RECURRENCE) for s in ("st_rad", "trial", "st_rem", "cur", "st_root")),
     ToggleWaiver("rtl/fp/fp_div.sv", "st_quo", DIGIT_RECURRENCE),
+    *(ToggleWaiver("rtl/pgs_kernel.sv", f"m_axis_imp_{p}", TIED_OFF_IMPULSE_OUT, impulses_on_chip)
+      for p in ("TDATA", "TVALID", "TREADY", "TLAST")),
+    *(ToggleWaiver("rtl/pgs_sequencer.sv", f"m_imp_{p}", TIED_OFF_IMPULSE_OUT, impulses_on_chip)
+      for p in ("tdata", "tvalid", "tready", "tlast")),
 )
+
+
+def toggle_waivers_for(config: Configuration,
+                       waivers: Iterable[ToggleWaiver] = TOGGLE_WAIVERS) -> tuple[ToggleWaiver, ...]:
+    """The toggle waivers that hold for ``config``."""
+    return tuple(w for w in waivers if w.applies(config))
 
 
 def waiver_for(file: str, text: str, waivers: Iterable[Waiver] = WAIVERS) -> Waiver | None:

@@ -220,3 +220,11 @@ def test_records_edits_keep_the_stream_and_the_arguments(tmp_path: Path) -> None
         values[int(offset)] = int(value)
     assert all(values[int(o)] == int(v) for o, v in own)
     assert values[input_edits.OFFSET["lag"]] == 0 and len(files.regs) > len(own)
+
+
+def test_tied_off_impulse_stream_waived_only_where_tied_off() -> None:
+    """The impulse-out stream is waived on the on-chip builds and measured on the records builds."""
+    def signals(name: str) -> set[str]:
+        return {w.signal for w in waivers.toggle_waivers_for(configurations.BY_NAME[name])}
+    assert "m_axis_imp_TDATA" in signals("stream-fp32") and "m_axis_imp_TDATA" not in signals("stream-fp16-records")
+    assert "stat_cycles" in signals("stream-fp16-records")
