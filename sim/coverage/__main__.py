@@ -37,7 +37,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     unknown = sorted(set(names) - set(BY_NAME))
     if unknown:
         ap.error(f"unknown configurations {unknown}: expected some of {list(BY_NAME)}")
-    results = previous_results(out, names) if args.report_only else run_all(out, args.jobs, labels, names, args.compile_profile)
+    results = previous_results(out, names) if args.report_only else \
+        run_all(out, args.jobs, labels, names, args.compile_profile)
     configs = [c for c in CONFIGURATIONS if not names or c.name in names]
     counts: dict[Configuration, dict[PointKey, int]] = {c: {} for c in configs}
     for r in results:  # each coverage.dat read once, added to the configurations it counts for
@@ -47,7 +48,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         for c in configs:
             if r.counts_for(c):
                 add_counts(counts[c], run)
-    return write_report({c: summarize(counts[c], waivers=waivers_for(c), toggle_waivers=toggle_waivers_for(c)) for c in configs}, results, out)
+    summaries = {c: summarize(counts[c], waivers=waivers_for(c), toggle_waivers=toggle_waivers_for(c))
+                 for c in configs}
+    return write_report(summaries, results, out)
 
 
 if __name__ == "__main__":

@@ -63,7 +63,8 @@ class Configuration:
         job = KernelJob.from_frame(frame, self.fmt, params, schedule, hazard)
         if job.friction_words != self.friction_words:
             if self.friction_words:
-                raise ValueError(f"{self.name}: the scene has no friction coefficient per manifold (MU_W = 1 needs one)")
+                raise ValueError(f"{self.name}: the scene has no friction coefficient per manifold "
+                                 "(MU_W = 1 needs one)")
             job = dataclasses.replace(job, cons=dataclasses.replace(job.cons, friction=job.cons.friction[:, :0]))
         if self.impulses_in_records:
             return job.impulses_travelling()
