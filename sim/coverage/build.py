@@ -1,9 +1,18 @@
 """The instrumented builds of ``make coverage``: Verilator ``--coverage-line --coverage-toggle`` with the coverage
 hook (``coverage_hook.sv`` / ``coverage_hook.cpp`` beside this file) bound into the top, each in its own
-directory under ``build/coverage/``."""
+directory under ``build/coverage/``.
+
+The instrumented C++ (161-306 MB per configuration) is compiled with the kernel build's "quick" profile (-O1 on
+the model's fast path, -O0 on its slow path: the constructors and the coverage points' registration) by default
+(``COVERAGE_COMPILE_PROFILE``; ``python -m sim.coverage --compile-profile o0``: -O0 everywhere): an -O0 build
+takes less time, but its harness runs about ten times slower, which the regression pays back several times
+(measured in docs/results.md, section "Coverage of the headline configurations"). Verilator splits the C++ into
+two groups per path (``-j 2``), each its own compiler process; ccache (``OBJCACHE``, where installed)
+keeps the objects of an unchanged build."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from models.number_format import NumberFormat
@@ -16,6 +25,7 @@ COVERAGE_ROOT = REPO_ROOT / "build" / "coverage"
 HOOK_SV = Path(__file__).resolve().parent / "coverage_hook.sv"
 HOOK_CPP = Path(__file__).resolve().parent / "coverage_hook.cpp"
 COVERAGE_ARGS = ["--coverage-line", "--coverage-toggle"]
+COVERAGE_COMPILE_PROFILE = "quick"  # a key of sim.kernel_build.COMPILE_PROFILES ("o0": -O0 everywhere)
 
 
 def coverage_bind(top: str, build_dir: Path) -> Path:
@@ -29,8 +39,16 @@ def coverage_bind(top: str, build_dir: Path) -> Path:
     return path
 
 
-def build_coverage_kernel(kb: KernelBuild, root: Path = COVERAGE_ROOT) -> Path:
-    """The compiled harness of ``kb`` with coverage counters, in ``root/<build name>/``."""
+def coverage_kernel_build(kb: KernelBuild, profile: str = COVERAGE_COMPILE_PROFILE) -> KernelBuild:
+    """``kb`` compiled with the C++ optimization profile of the instrumented builds."""
+    return dataclasses.replace(kb, compile_profile=profile)
+
+
+def build_coverage_kernel(kb: KernelBuild, root: Path = COVERAGE_ROOT,
+                          profile: str = COVERAGE_COMPILE_PROFILE) -> Path:
+    """The compiled harness of ``kb`` with coverage counters (compiled with ``profile``), in
+    ``root/<build name>/``."""
+    kb = coverage_kernel_build(kb, profile)
     build_dir = root / kb.name
     return verilate_kernel(kb, build_dir, extra_sources=[HOOK_SV, coverage_bind(TOP, build_dir)],
                            extra_cpp_files=[HOOK_CPP], extra_args=COVERAGE_ARGS)

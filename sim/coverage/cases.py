@@ -5,25 +5,57 @@ vectors) and every configuration shares (the register file's cocotb test)."""
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from models.contact_solver import Impulses
+from models.kernel_job import KernelJob
 from models.number_format import FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES, MAKE_SIM_PILE
 from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
-from sim.coverage.input_edits import (BAD_INPUT_EDITS, WINDOW_BAD_INPUT_EDITS, Edit, HarnessEdit, edit_gravity,
-                                      edit_spin, edit_wide_index)
+from sim.coverage.input_edits import (BAD_INPUT_EDITS, RECORDS_BAD_INPUT_EDITS, WINDOW_BAD_INPUT_EDITS, Edit,
+                                      HarnessEdit, edit_argument_bits, edit_gravity, edit_huge_sliding,
+                                      edit_huge_velocity, edit_spin, edit_wide_index)
 from sim.verilator_build import REPO_ROOT
 
-# a world file of rotated non-cube boxes (Bullet 2's convention): the full inverse-inertia mode, 6 words per body
+# world files of Bullet 2's convention (rotated non-cube boxes; boxes, spheres, capsules, cylinders and a cone):
+# the full inverse-inertia mode, 6 words per body, and a friction coefficient per manifold
 ROTATED_WORLD = REPO_ROOT / "docs" / "rotated_boxes_world.py"
+MIXED_WORLD = REPO_ROOT / "docs" / "mixed_shapes_world.py"
 
 # run scene -> (catalogue scene or world file, builder parameters): the kernel tests' scenes, make sim's default
 # pile (217 bodies: more than the 64 body-out credits of the integration), the rotated boxes
 SCENES: dict[str, tuple[str, dict[str, Any]]] = {
     **{name: (name, params) for name, params in KERNEL_TEST_SCENES.items()}, "pile217": ("pile", MAKE_SIM_PILE),
-    "rotated": (str(ROTATED_WORLD), {})}
+    "rotated": (str(ROTATED_WORLD), {}), "mixed": (str(MIXED_WORLD), {})}
+
+JobEdit = Callable[[KernelJob], KernelJob]
+
+
+def warm_start(job: KernelJob, seed: int = 12345) -> KernelJob:
+    """``job`` (impulses in the records) warm-started: random non-negative normal impulses, friction impulses
+    within a tenth of their sum (inside the friction limit), rounded to the job's format."""
+    rng = np.random.default_rng(seed)
+    m = job.cons.num_manifolds
+    normal = job.fmt.round(rng.uniform(0.0, 0.5, (m, 4)))
+    friction = job.fmt.round(rng.uniform(-0.05, 0.05, (m, 2)) * normal.sum(axis=1, keepdims=True))
+    return job.impulses_travelling(Impulses(normal, friction))
+
+
+def independent_manifolds(job: KernelJob) -> KernelJob:
+    """The manifolds re-pointed at the ground (body 0) and one body each, in slot order: no two share a dynamic
+    body, so no hazard holds a pass back and each pass waits only for its predecessor's impulse writes (impulses
+    in the records: the read-after-write rule across passes)."""
+    m = job.cons.num_manifolds
+    if m >= job.bodies.num_bodies:
+        raise ValueError(f"{m} manifolds need more than {job.bodies.num_bodies} bodies to have one each")
+    cons = dataclasses.replace(job.cons, body_a=np.zeros(m, np.int64), body_b=np.arange(1, m + 1, dtype=np.int64))
+    return dataclasses.replace(job, cons=cons, schedule=np.arange(m, dtype=np.int64))
 
 
 @dataclass(frozen=True)
@@ -39,6 +71,7 @@ class Case:
     interleaved: bool = False
     edit: Edit | None = None
     fetch_passes: int | None = None  # window kernel: passes per fetch of this run (None: the configuration's)
+    job_edit: JobEdit | None = None  # the step changed before its inputs are written (a warm start, other bodies)
 
     @property
     def configuration(self) -> Configuration:
@@ -54,6 +87,15 @@ def bad_input_cases(config: str, scene: str, schedule: str, edits: tuple[Harness
     return [Case(f"{config}-{scene}-bad-{e.name}", config, scene, schedule, edit=e.edit) for e in edits]
 
 
+def stimulus_cases(config: str, scene: str) -> list[Case]:
+    """Inputs the scenes never make, not bad input: every argument register's bits both ways before the run's
+    own writes, and bodies at the format's largest finite velocity, moving and spinning or sliding along the
+    contacts (the pipes' overflow and NaN events)."""
+    return [Case(f"{config}-{scene}-argument-bits", config, scene, edit=edit_argument_bits),
+            Case(f"{config}-{scene}-huge-velocity", config, scene, edit=edit_huge_velocity),
+            Case(f"{config}-{scene}-huge-sliding", config, scene, edit=edit_huge_sliding)]
+
+
 def streaming_cases(config: str) -> list[Case]:
     """The regression of a streaming configuration: the test scenes, both orders, both DMA models, stalls,
     interleaved passes, the 217-body pile, other integration registers and every bad-input edit."""
@@ -67,6 +109,7 @@ def streaming_cases(config: str) -> list[Case]:
         Case(f"{c}-pile217-hazard-zcu102", c, "pile217"),
         Case(f"{c}-stack-gravity-dt-damping", c, "stack", edit=edit_gravity),
         Case(f"{c}-stack-spin", c, "stack", "pybullet", edit=edit_spin),
+        *stimulus_cases(c, "stack"),
     ] + bad_input_cases(c, "stack", "hazard", BAD_INPUT_EDITS)
 
 
@@ -97,8 +140,50 @@ def inertia_cases(config: str, scenes: tuple[str, ...]) -> list[Case]:
         bad_input_cases(c, scenes[0], "hazard", body_edits)
 
 
+def records_cases(config: str) -> list[Case]:
+    """The regression of the streaming kernel with the impulses in the records (the cases of
+    ``cocotb_tests/test_kernel_impulses_in_records.py`` as harness runs, and the streaming kernel's others): cold
+    and warm-started, interleaved (warm), random gaps and backpressure on every stream (the impulse-out stream
+    included), the 10 independent manifolds (each pass waits for its predecessor's writes), the pybullet order,
+    the 217-body pile, other integration registers, spin and the bad-input edits (the constraint stream's TLAST
+    errors as a moved TLAST: the harness pairs every record with its slot and pass)."""
+    c = config
+    return [
+        Case(f"{c}-pile-hazard-zcu102-stalls", c, "pile", stalls=150),
+        Case(f"{c}-pile-hazard-zcu102", c, "pile"),
+        Case(f"{c}-pile-hazard-zcu102-warm", c, "pile", job_edit=warm_start),
+        Case(f"{c}-pile-hazard-zcu102-interleaved-warm-stalls", c, "pile", stalls=200, interleaved=True,
+             job_edit=warm_start),
+        Case(f"{c}-stack-independent-zcu102", c, "stack", job_edit=independent_manifolds),
+        Case(f"{c}-stack-independent-ideal-stalls", c, "stack", dma="ideal", stalls=300,
+             job_edit=independent_manifolds),
+        Case(f"{c}-stack-pybullet-zcu102-interleaved", c, "stack", "pybullet", interleaved=True),
+        Case(f"{c}-incline-hazard-zcu102", c, "incline"),
+        Case(f"{c}-pile217-hazard-zcu102", c, "pile217"),
+        Case(f"{c}-stack-gravity-dt-damping", c, "stack", edit=edit_gravity),
+        Case(f"{c}-stack-spin", c, "stack", "pybullet", edit=edit_spin),
+        *stimulus_cases(c, "stack"),
+    ] + bad_input_cases(c, "stack", "hazard", RECORDS_BAD_INPUT_EDITS)
+
+
+def friction_coefficient_cases(config: str) -> list[Case]:
+    """The regression of the friction coefficient per manifold (MU_W = 1, the 6-word inverse inertia): the
+    rotated boxes and the mixed shapes world, both orders, with stalls and without, other integration registers,
+    the bad-input edits."""
+    c = config
+    return [
+        Case(f"{c}-rotated-hazard-zcu102-stalls", c, "rotated", stalls=200),
+        Case(f"{c}-rotated-pybullet-zcu102-interleaved", c, "rotated", "pybullet", interleaved=True),
+        Case(f"{c}-mixed-hazard-zcu102", c, "mixed"),
+        Case(f"{c}-mixed-pybullet-ideal-stalls", c, "mixed", "pybullet", dma="ideal", stalls=300),
+        Case(f"{c}-mixed-gravity-dt-damping", c, "mixed", edit=edit_gravity),
+    ] + bad_input_cases(c, "mixed", "hazard", BAD_INPUT_EDITS)
+
+
 # configuration -> its regression (a new configuration: its row in CONFIGURATIONS and its cases here)
 CASES_OF: dict[str, list[Case]] = {
+    "stream-fp16-records": records_cases("stream-fp16-records"),
+    "stream-fp32-records": records_cases("stream-fp32-records"),
     "stream-fp32": streaming_cases("stream-fp32") + [
         Case("stream-fp32-stack-wide-index", "stream-fp32", "stack", edit=edit_wide_index)],
     "stream-fp16": streaming_cases("stream-fp16"),
@@ -106,6 +191,7 @@ CASES_OF: dict[str, list[Case]] = {
     "window-fp16-l4": window_cases("window-fp16-l4"),
     "stream-fp32-inertia1": inertia_cases("stream-fp32-inertia1", ("stack", "pile")),
     "stream-fp32-inertia6": inertia_cases("stream-fp32-inertia6", ("rotated", "pile")),
+    "stream-fp32-mu": friction_coefficient_cases("stream-fp32-mu"),
 }
 CASES: list[Case] = [case for config in CONFIGURATIONS for case in CASES_OF[config.name]]
 

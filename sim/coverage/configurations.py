@@ -1,5 +1,6 @@
 """The kernel configurations ``make coverage`` measures, each on its own: every configuration the README reports
-(the streaming kernel in fp32 and fp16, the window kernel of its headline rows, the inverse-inertia modes).
+(the streaming kernel in fp32 and fp16, with its impulses on chip and in the records, the window kernel of its
+headline rows, the inverse-inertia modes, the friction coefficient per manifold).
 
 One row of :data:`CONFIGURATIONS` per configuration: its instrumented build (:meth:`Configuration.build`, built
 once) and the window plan of its runs (:meth:`Configuration.job`). A configuration's coverage is the merge of its
@@ -28,7 +29,8 @@ from sim.kernel_build import KernelBuild, default_window
 @dataclass(frozen=True)
 class Configuration:
     """One kernel configuration: the ``make sim`` knobs of a README row (FORMAT, RECORD_WINDOW, LANES, FETCH_PASSES,
-    BODY_BITS) and the inverse-inertia words of its body record."""
+    BODY_BITS, IMPULSE_STORE), the inverse-inertia words of its body record and the friction-coefficient words of
+    its friction record."""
 
     name: str
     fmt: NumberFormat
@@ -37,6 +39,8 @@ class Configuration:
     fetch_passes: int = 0  # FETCH_PASSES: 0 as many passes per fetch as the ring holds
     body_bits: int = 128  # BODY_BITS
     inertia_words: int = sf.KERNEL_INERTIA_WORDS  # IINV_W: 1, 3 or 6
+    impulses_in_records: bool = False  # IMPULSE_STORE=records (IMPULSES_IN_RECORDS = 1): streaming kernel only
+    friction_words: int = 0  # MU_W: 1 a friction coefficient per manifold (the Bullet 2 worlds' build)
     beat_preset: str = "zcu102"  # the DMA preset whose stream beat the constraint stream has
     readme: str = ""  # the README row (or feature) this configuration stands for
     build_options: tuple[tuple[str, Any], ...] = ()  # other KernelBuild fields of this configuration, by name
@@ -45,20 +49,36 @@ class Configuration:
         """The kernel build of this configuration (what ``KernelBuild.for_job`` makes of its jobs)."""
         kb = KernelBuild(self.fmt, cons_bits=get_preset(self.beat_preset).stream_bits,
                          body_in_bits=self.body_bits, body_out_bits=self.body_bits, window=self.record_window,
-                         window_ctx=DEFAULT_CTX, lanes=self.lanes, inertia_words=self.inertia_words)
+                         window_ctx=DEFAULT_CTX, lanes=self.lanes, inertia_words=self.inertia_words,
+                         impulses_in_records=self.impulses_in_records, friction_words=self.friction_words)
         return dataclasses.replace(kb, **dict(self.build_options))
 
     def job(self, frame: Frame, params: SolverParams, schedule: str, fetch_passes: int | None = None) -> KernelJob:
         """The step of ``frame`` in this configuration's format, ordered by ``schedule``, on its kernel (windowed
-        as ``make sim RECORD_WINDOW=...`` does, with ``fetch_passes`` passes per fetch where given)."""
+        as ``make sim RECORD_WINDOW=...`` does, with ``fetch_passes`` passes per fetch where given; with the
+        impulses in the records starting from zeros, a cold start). A scene whose manifolds carry their own
+        friction coefficient runs on a build without the coefficient word (MU_W = 0) with the kernel's one
+        coefficient; a configuration with the word takes only such scenes."""
         hazard = default_window(self.fmt, get_preset(self.beat_preset).stream_bits)
         job = KernelJob.from_frame(frame, self.fmt, params, schedule, hazard)
+        if job.friction_words != self.friction_words:
+            if self.friction_words:
+                raise ValueError(f"{self.name}: the scene has no friction coefficient per manifold "
+                                 "(MU_W = 1 needs one)")
+            job = dataclasses.replace(job, cons=dataclasses.replace(job.cons, friction=job.cons.friction[:, :0]))
+        if self.impulses_in_records:
+            return job.impulses_travelling()
         if not self.record_window:
             return job
         return job.windowed(self.record_window, DEFAULT_CTX, fetch_passes or self.fetch_passes or None, self.lanes)
 
 
 CONFIGURATIONS: tuple[Configuration, ...] = (
+    Configuration("stream-fp16-records", FP16, impulses_in_records=True,
+                  readme="streaming kernel, fp16, impulses in the records: the fitting headline "
+                         "(`make sim FORMAT=fp16 IMPULSE_STORE=records`)"),
+    Configuration("stream-fp32-records", FP32, impulses_in_records=True,
+                  readme="streaming kernel, fp32, impulses in the records (`make sim IMPULSE_STORE=records`)"),
     Configuration("stream-fp32", FP32, readme="streaming kernel, fp32 (`make sim`)"),
     Configuration("stream-fp16", FP16, readme="streaming kernel, fp16 (`make sim FORMAT=fp16`)"),
     Configuration("window-fp32-l2", FP32, record_window=DEFAULT_DEPTH, lanes=2, body_bits=512,
@@ -69,6 +89,9 @@ CONFIGURATIONS: tuple[Configuration, ...] = (
                   readme="scalar inverse inertia, 1 word per body (IINV_W=1)"),
     Configuration("stream-fp32-inertia6", FP32, inertia_words=6,
                   readme="full symmetric inverse inertia, 6 words per body (IINV_W=6)"),
+    Configuration("stream-fp32-mu", FP32, inertia_words=6, friction_words=1,
+                  readme="friction coefficient per manifold and full inverse inertia (MU_W=1, IINV_W=6): the "
+                         "Bullet 2 worlds' build (`make sim SCENE=docs/rotated_boxes_world.py`)"),
 )
 """The inverse-inertia mode of 3 words (the diagonal) is the default of every other row."""
 

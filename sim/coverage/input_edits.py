@@ -16,8 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from models.register_map import AP_START, AUTO_RESTART, OFFSET
-from models.stream_format import BODY_ANGULAR_VELOCITY, BODY_INV_INERTIA, BODY_INV_MASS, BODY_POSITION
+from models.register_map import AP_START, ARG_NAMES, AUTO_RESTART, OFFSET
+from models.stream_format import (BODY_ANGULAR_VELOCITY, BODY_INV_INERTIA, BODY_INV_MASS, BODY_LINEAR_VELOCITY,
+                                  BODY_POSITION)
 from sim.kernel_build import KernelBuild
 
 UNMAPPED_ADDRESS = 0xF4  # no register there (rtl/README.md: reads 0, ignores writes, SLVERR, error 9)
@@ -154,6 +155,17 @@ def edit_tlast_late(f: HarnessFiles, kb: KernelBuild) -> None:
     f.restream("cons", np.concatenate(parts), lasts)
 
 
+def edit_tlast_moved(f: HarnessFiles, kb: KernelBuild) -> None:
+    """[1] the stream's beats kept (impulses in the records: the harness's DMA model pairs every record with its
+    slot and pass, so none may be dropped or repeated): pass 0's TLAST moves from its last record to the end of
+    pass 1's first record: pass 0 runs long (the kernel discards that record), pass 1 short (its last slot
+    rejected)."""
+    moved_to = int(f.record("cons", 1, 0)[-1])
+    last = f.streams["cons"][1]
+    last[int(np.flatnonzero(last)[0])] = 0
+    last[moved_to] = 1
+
+
 def edit_body_tlast(f: HarnessFiles, kb: KernelBuild) -> None:
     """[2] the body stream ends inside the record of body num_bodies - 3 (TLAST on its second beat): that body
     is cut short (a record of one beat, as fp16's on 512-bit body beats, is whole), the two after it are missing
@@ -203,6 +215,43 @@ def edit_gravity(f: HarnessFiles, kb: KernelBuild) -> None:
     for name, value in (("gravity_x", 3.75), ("gravity_y", -1.0e3), ("gravity_z", -0.0123), ("dt", 1.0 / 61.0),
                         ("damping", 0.5)):
         f.set_reg(name, int(kb.fmt.encode(value)))
+
+
+def edit_argument_bits(f: HarnessFiles, kb: KernelBuild) -> None:
+    """Every argument register written all-zeros, then all-ones, before the run's own writes (the registers this
+    kernel does not use written back to 0 after them): every bit of the argument wires into the kernel toggles
+    both ways, and the step runs with its own arguments."""
+    own = {int(o) for o in f.regs[:, 0]}
+    offsets = [OFFSET[n] for n in ARG_NAMES]
+    before = [(o, v) for o in offsets for v in (0, 0xFFFFFFFF)]
+    after = [(o, 0) for o in offsets if o not in own]
+    f.regs = np.concatenate([np.array(before, dtype="<u4"), f.regs, np.array(after, dtype="<u4").reshape(-1, 2)])
+
+
+def edit_huge_velocity(f: HarnessFiles, kb: KernelBuild) -> None:
+    """Every body moving and spinning at the format's largest finite value on every axis, neighbours in the body
+    table of opposite signs: finite input the kernel accepts, whose relative velocities and lever-arm products
+    overflow to infinity and whose differences of infinities give NaN (the floating-point event bits and counters
+    of every pipe)."""
+    w = kb.fmt.width
+    for b in range(f.reg("num_bodies")):
+        value = int(kb.fmt.encode((1 if b % 2 else -1) * kb.fmt.max_finite))
+        for field in (BODY_LINEAR_VELOCITY, BODY_ANGULAR_VELOCITY):
+            for axis in range(3):
+                f.set_word("body", 0, b, (field + axis) * w, w, value)
+
+
+def edit_huge_sliding(f: HarnessFiles, kb: KernelBuild) -> None:
+    """Every body sliding at the format's largest finite value along x and z (y and the spin untouched), the sign
+    alternating in pairs of the body table: the stacked scenes' contact normals (about y) see a finite normal
+    velocity, the friction rows overflow (opposite signs) or meet infinities of one sign (NaN): the friction
+    pipe's events, which :func:`edit_huge_velocity` cannot reach on the kernel whose impulses travel with the
+    records (its NaN impulses reject the next passes' records first)."""
+    w = kb.fmt.width
+    for b in range(f.reg("num_bodies")):
+        value = int(kb.fmt.encode((1 if (b // 2) % 2 else -1) * kb.fmt.max_finite))
+        for axis in (0, 2):
+            f.set_word("body", 0, b, (BODY_LINEAR_VELOCITY + axis) * w, w, value)
 
 
 def edit_wide_index(f: HarnessFiles, kb: KernelBuild) -> None:
@@ -295,6 +344,12 @@ BAD_INPUT_EDITS: tuple[HarnessEdit, ...] = (
     HarnessEdit("zero_iterations", edit_zero_iterations, ("zero_iterations",)),
     HarnessEdit("zero_bodies", edit_zero_bodies, ("zero_bodies",)),
     HarnessEdit("registers", edit_registers, ("unmapped_axi", "start_busy")),
+)
+# the streaming kernel with the impulses in the records: the constraint stream's TLAST errors without dropped or
+# repeated records (in place of tlast_early / tlast_late, which the harness's impulse plan cannot follow)
+RECORDS_BAD_INPUT_EDITS: tuple[HarnessEdit, ...] = (
+    *(e for e in BAD_INPUT_EDITS if e.name not in ("tlast_early", "tlast_late")),
+    HarnessEdit("tlast_moved", edit_tlast_moved),
 )
 # the window kernel's own bad input (its arguments, its lane plan), beside BAD_INPUT_EDITS on its builds
 WINDOW_BAD_INPUT_EDITS: tuple[HarnessEdit, ...] = (

@@ -15,7 +15,8 @@ from models import scenes
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from sim.cocotb_run import BUILD_ROOT as COCOTB_BUILD_ROOT
-from sim.coverage.build import COVERAGE_ARGS, build_coverage_fp_ops, build_coverage_kernel
+from sim.coverage.build import (COVERAGE_ARGS, COVERAGE_COMPILE_PROFILE, build_coverage_fp_ops, build_coverage_kernel,
+                                coverage_kernel_build)
 from sim.coverage.cases import CASES, FP_OPERATOR_CASES, REGISTER_CASE, SCENES, Case, SharedCase, case_dir
 from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
 from sim.coverage.input_edits import HarnessFiles
@@ -47,8 +48,17 @@ class CaseResult:
         return self.case.config == config.name if isinstance(self.case, Case) else self.case.counts_for(config)
 
 
-def prepare_case(case: Case, run_dir: Path) -> int:
-    """Write the case's harness inputs into ``run_dir`` (edited for bad input); return the harness's cycle limit."""
+@dataclass(frozen=True)
+class PreparedRun:
+    """What the harness run of a prepared case needs beside its input files."""
+
+    max_cycles: int  # the harness's cycle limit
+    read_share: float  # the share of the DDR bandwidth the constraint reads get (impulses in the records: < 1)
+
+
+def prepare_case(case: Case, run_dir: Path) -> PreparedRun:
+    """Write the case's harness inputs into ``run_dir`` (edited for bad input); return its cycle limit and DDR
+    read share."""
     scene, params = SCENES[case.scene]
     config = case.configuration
     kb = config.build()
@@ -58,25 +68,31 @@ def prepare_case(case: Case, run_dir: Path) -> int:
                          f"{kb.cons_bits}")
     job = config.job(scenes.load_or_capture(scene, **params), SolverParams(4, interleaved=case.interleaved),
                      case.schedule, case.fetch_passes)
-    write_inputs(run_dir, job, kb)
+    if case.job_edit is not None:
+        job = case.job_edit(job)
+    if job.friction_words != kb.friction_words:
+        raise ValueError(f"{case.label}: the step has {job.friction_words} friction-coefficient words per record, "
+                         f"the build {kb.friction_words}")
+    write_inputs(run_dir, job, kb, preset.impulse_turnaround_cycles)
     extra_bodies = 0  # bodies an edit adds to the step (the cycle limit grows with them)
     if case.edit is not None:
         files = HarnessFiles(run_dir, kb)
         case.edit(files, kb)
         files.save()
         extra_bodies = max(0, files.reg("num_bodies") - job.bodies.num_bodies)
-    return harness_cycle_limit(job) + TIMEOUT_PER_ITEM * extra_bodies
+    return PreparedRun(harness_cycle_limit(job) + TIMEOUT_PER_ITEM * extra_bodies,
+                       job.stream_layout(kb.cons_bits).ddr_read_share(job.params))
 
 
 def run_case(case: Case, exe: Path, run_dir: Path, seed: int = 1) -> CaseResult:
     """Prepare the case's inputs, run the coverage harness, keep its coverage.dat."""
     t0 = time.monotonic()
-    max_cycles = prepare_case(case, run_dir)
+    prepared = prepare_case(case, run_dir)
     cov = run_dir / "coverage.dat"
     cov.unlink(missing_ok=True)
     try:
-        regs = run_harness(exe, run_dir, seed, get_preset(case.dma), max_cycles, case.stalls, case.stalls,
-                           env=dict(os.environ, PGS_COVERAGE_FILE=str(cov)))
+        regs = run_harness(exe, run_dir, seed, get_preset(case.dma), prepared.max_cycles, case.stalls, case.stalls,
+                           env=dict(os.environ, PGS_COVERAGE_FILE=str(cov)), read_share=prepared.read_share)
     except KernelRunError as exc:
         return CaseResult(case, None, time.monotonic() - t0, error=str(exc))
     return CaseResult(case, cov if cov.exists() else None, time.monotonic() - t0, regs,
@@ -139,29 +155,39 @@ def run_fp_operator_case(case: SharedCase, out: Path) -> CaseResult:
                       error=error)
 
 
-def previous_results(out: Path) -> list[CaseResult]:
-    """The coverage files of the runs in ``out`` (and of the register test) from an earlier ``make coverage``."""
-    runs = [CaseResult(c, case_dir(out, c.label) / "coverage.dat", 0.0) for c in [*CASES, *FP_OPERATOR_CASES]]
+def previous_results(out: Path, configs: Sequence[str] = ()) -> list[CaseResult]:
+    """The coverage files of the runs in ``out`` (and of the register test) from an earlier ``make coverage``: of
+    the configurations ``configs`` (all when empty) and the shared runs that count for them."""
+    wanted = [BY_NAME[n] for n in configs] or list(CONFIGURATIONS)
+    cases = [c for c in CASES if c.configuration in wanted]
+    shared = [c for c in FP_OPERATOR_CASES if any(c.counts_for(w) for w in wanted)]
+    runs = [CaseResult(c, case_dir(out, c.label) / "coverage.dat", 0.0) for c in [*cases, *shared]]
     runs.append(CaseResult(REGISTER_CASE, register_coverage_file(), 0.0))
     return [r if r.coverage and r.coverage.exists() else CaseResult(r.case, None, 0.0, error="no coverage.dat")
             for r in runs]
 
 
-def build_configurations(configs: Sequence[Configuration], out: Path) -> dict[str, Path]:
-    """The instrumented harness of each configuration (built once; Verilator skips an unchanged build)."""
+def build_configurations(configs: Sequence[Configuration], out: Path,
+                         profile: str = COVERAGE_COMPILE_PROFILE) -> dict[str, Path]:
+    """The instrumented harness of each configuration, compiled with ``profile`` (built once; Verilator skips an
+    unchanged build)."""
     exes = {}
     for config in configs:
         t0 = time.monotonic()
-        exes[config.name] = build_coverage_kernel(config.build(), out)
-        print(f"coverage build {config.name} ({config.build().name}): {time.monotonic() - t0:.0f} s", flush=True)
+        exes[config.name] = build_coverage_kernel(config.build(), out, profile)
+        print(f"coverage build {config.name} ({coverage_kernel_build(config.build(), profile).name}): "
+              f"{time.monotonic() - t0:.0f} s", flush=True)
     return exes
 
 
-def run_all(out: Path, jobs: int, labels: Sequence[str] = (), configs: Sequence[str] = ()) -> list[CaseResult]:
-    """Build what the cases named by ``labels`` of the configurations ``configs`` (all when empty) need, run
-    them (``jobs`` at a time); with all cases, then the fp-operator vectors and the register test."""
+def run_all(out: Path, jobs: int, labels: Sequence[str] = (), configs: Sequence[str] = (),
+            profile: str = COVERAGE_COMPILE_PROFILE) -> list[CaseResult]:
+    """Build what the cases named by ``labels`` of the configurations ``configs`` (all when empty) need (compiled
+    with ``profile``), run them (``jobs`` at a time); with all cases, then the fp-operator vectors and the register
+    test."""
     wanted = [c for c in CASES if (not labels or c.label in labels) and (not configs or c.config in configs)]
-    exes = build_configurations([cfg for cfg in CONFIGURATIONS if any(c.config == cfg.name for c in wanted)], out)
+    exes = build_configurations([cfg for cfg in CONFIGURATIONS if any(c.config == cfg.name for c in wanted)], out,
+                                profile)
 
     def one(case: Case) -> CaseResult:
         res = run_case(case, exes[case.config], case_dir(out, case.label))

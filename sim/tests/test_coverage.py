@@ -8,11 +8,15 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
+from models import scenes
 from models.bad_input import CATALOGUE
+from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from models.number_format import FP32
-from sim.coverage import cases, configurations, data, input_edits, report, runs, waivers
+from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
+from sim.coverage import build, cases, configurations, data, input_edits, report, runs, waivers
 from sim.kernel_build import KernelBuild
 
 CANNED = Path(__file__).resolve().parent / "data" / "coverage_canned.dat"
@@ -120,3 +124,107 @@ def test_configuration_without_its_own_runs_is_incomplete() -> None:
     assert report.verdict(low, config, [shared, *own]) == "MISSED"
     own[0] = runs.CaseResult(own[0].case, None, 1.0, error="harness exit 1")
     assert report.verdict(full, config, [shared, *own]) == f"INCOMPLETE ({len(own)} of {len(own) + 1} runs)"
+
+
+def test_headline_configurations_build_their_parameters() -> None:
+    """The fitting headline (impulses in the records, fp16 and fp32) and the Bullet 2 worlds' build (a friction
+    coefficient per manifold, 6 inverse-inertia words) are configurations with their own builds, each compiled
+    with the coverage profile into its own directory."""
+    params = {n: configurations.BY_NAME[n].build().parameters
+              for n in ("stream-fp16-records", "stream-fp32-records", "stream-fp32-mu")}
+    assert params["stream-fp16-records"]["IMPULSES_IN_RECORDS"] == 1 and params["stream-fp16-records"]["MAN_BITS"] == 10
+    assert params["stream-fp32-records"]["IMPULSES_IN_RECORDS"] == 1 and params["stream-fp32-records"]["MAN_BITS"] == 23
+    assert (params["stream-fp32-mu"]["MU_W"], params["stream-fp32-mu"]["IINV_W"]) == (1, 6)
+    assert "IMPULSES_IN_RECORDS" not in configurations.BY_NAME["stream-fp32"].build().parameters
+    kb = build.coverage_kernel_build(configurations.BY_NAME["stream-fp16-records"].build())
+    assert kb.compile_profile == build.COVERAGE_COMPILE_PROFILE and kb.name.endswith("_ir")
+    assert build.coverage_kernel_build(kb, "o0").name.endswith("_ir_o0")
+    labels = {c.label for c in cases.CASES_OF["stream-fp16-records"]}
+    assert {"stream-fp16-records-pile-hazard-zcu102-warm", "stream-fp16-records-stack-independent-zcu102",
+            "stream-fp16-records-pile-hazard-zcu102-interleaved-warm-stalls"} <= labels
+    assert all(f"stream-fp16-records-stack-bad-{e.name}" in labels for e in input_edits.RECORDS_BAD_INPUT_EDITS)
+    assert "stream-fp16-records-stack-bad-tlast_late" not in labels
+
+
+def test_records_cases_write_the_impulse_plan_and_the_warm_start(tmp_path: Path) -> None:
+    """A records case writes the impulse plan the harness's DMA model follows and reads with less than the whole
+    DDR bandwidth; the warm start puts other impulse words into the records than the cold start (zeros); the
+    independent manifolds name one body each."""
+    by_label = {c.label: c for c in cases.CASES_OF["stream-fp16-records"]}
+    cold = runs.prepare_case(by_label["stream-fp16-records-pile-hazard-zcu102"], tmp_path / "cold")
+    runs.prepare_case(by_label["stream-fp16-records-pile-hazard-zcu102-warm"], tmp_path / "warm")
+    assert (tmp_path / "cold" / "impulse_plan.bin").stat().st_size > 0 and 0.5 < cold.read_share < 1.0
+    assert (tmp_path / "cold" / "cons.bin").read_bytes() != (tmp_path / "warm" / "cons.bin").read_bytes()
+    job = configurations.BY_NAME["stream-fp16-records"].job(
+        scenes.load_or_capture("stack", **KERNEL_TEST_SCENES["stack"]), SolverParams(4), "hazard")
+    ind = cases.independent_manifolds(job)
+    assert len(set(ind.cons.body_b.tolist())) == ind.cons.num_manifolds and not ind.cons.body_a.any()
+    warm = cases.warm_start(job)
+    assert warm.initial is not None and (warm.initial.normal >= 0).all() and warm.initial.normal.any()
+
+
+def test_friction_coefficient_words_follow_the_build(tmp_path: Path) -> None:
+    """A scene with a coefficient per manifold runs on a MU_W = 0 build with the kernel's one coefficient; the
+    MU_W = 1 build refuses a scene without one (a clear error, no inputs written)."""
+    rotated = scenes.load_or_capture(*cases.SCENES["rotated"][:1], **cases.SCENES["rotated"][1])
+    assert configurations.BY_NAME["stream-fp32-mu"].job(rotated, SolverParams(4), "hazard").friction_words == 1
+    assert configurations.BY_NAME["stream-fp32-inertia6"].job(rotated, SolverParams(4), "hazard").friction_words == 0
+    stack = scenes.load_or_capture("stack", **KERNEL_TEST_SCENES["stack"])
+    with pytest.raises(ValueError, match="MU_W = 1"):
+        configurations.BY_NAME["stream-fp32-mu"].job(stack, SolverParams(4), "hazard")
+
+
+def test_waivers_of_a_parameter_set_hold_only_for_it() -> None:
+    """A loop with no iteration in one parameter set (the lane-collision loop with one lane, the friction
+    coefficient's copy with MU_W = 0) is waived there only: the builds that run it must cover it."""
+    def sources(name: str) -> set[str]:
+        return {w.source for w in waivers.waivers_for(configurations.BY_NAME[name])}
+    lanes_loop, mu_loop = "for (int k = 0; k < l; k++) begin", "for (int k = 0; k < MU_W; k++) f_in["
+    assert {lanes_loop, mu_loop} <= sources("stream-fp16-records")
+    assert lanes_loop not in sources("window-fp32-l2") and mu_loop in sources("window-fp32-l2")
+    assert mu_loop not in sources("stream-fp32-mu") and lanes_loop in sources("stream-fp32-mu")
+    assert len(sources("stream-fp32")) == len(waivers.WAIVERS)
+
+
+def test_toggle_waiver_sets_a_signal_aside() -> None:
+    """A toggle waiver names a signal of a file: its uncovered points count in the figure with waivers (and the
+    goal), never in the measured one; a signal it does not name stays uncovered."""
+    merged = data.merge(data.parse(CANNED.read_text()))
+    plain = report.summarize(merged, root=Path("/repo"), toggle_waivers=())
+    w = waivers.ToggleWaiver("rtl/a.sv", "q", "constant")
+    waived = report.summarize(merged, root=Path("/repo"), toggle_waivers=[w])
+    assert plain.total.toggle == waived.total.toggle == [2, 3]
+    assert plain.toggle_with_waivers == [2, 3] and waived.toggle_with_waivers == [3, 3]
+    other = report.summarize(merged, root=Path("/repo"), toggle_waivers=[waivers.ToggleWaiver("rtl/a.sv", "p", "x")])
+    assert other.toggle_with_waivers == [2, 3] and not other.toggle_waived
+
+
+def test_records_edits_keep_the_stream_and_the_arguments(tmp_path: Path) -> None:
+    """The moved TLAST keeps every beat (the harness's impulse plan pairs records with slots and passes) and moves
+    pass 0's TLAST onto pass 1's first record; the argument-bits edit ends with the run's own argument writes."""
+    case = next(c for c in cases.CASES_OF["stream-fp16-records"] if c.label.endswith("bad-zero_bodies"))
+    runs.prepare_case(case, tmp_path)  # an edit of the registers only: the constraint stream as written
+    kb = case.configuration.build()
+    files = input_edits.HarnessFiles(tmp_path, kb)
+    data_before, last_before = (a.copy() for a in files.streams["cons"])
+    first_of_pass1 = files.record("cons", 1, 0)
+    input_edits.edit_tlast_moved(files, kb)
+    data_after, last_after = files.streams["cons"]
+    assert np.array_equal(data_after, data_before) and last_after.sum() == last_before.sum()
+    assert last_before[np.flatnonzero(last_before)[0]] and not last_after[np.flatnonzero(last_before)[0]]
+    assert last_after[first_of_pass1[-1]] and np.flatnonzero(last_after)[0] == first_of_pass1[-1]
+    own = files.regs.copy()
+    input_edits.edit_argument_bits(files, kb)
+    values = {}
+    for offset, value in files.regs:
+        values[int(offset)] = int(value)
+    assert all(values[int(o)] == int(v) for o, v in own)
+    assert values[input_edits.OFFSET["lag"]] == 0 and len(files.regs) > len(own)
+
+
+def test_tied_off_impulse_stream_waived_only_where_tied_off() -> None:
+    """The impulse-out stream is waived on the on-chip builds and measured on the records builds."""
+    def signals(name: str) -> set[str]:
+        return {w.signal for w in waivers.toggle_waivers_for(configurations.BY_NAME[name])}
+    assert "m_axis_imp_TDATA" in signals("stream-fp32") and "m_axis_imp_TDATA" not in signals("stream-fp16-records")
+    assert "stat_cycles" in signals("stream-fp16-records")
