@@ -252,7 +252,7 @@ KERNEL_LAYOUT: list[tuple[str, list[tuple[str, str, list[str]]]]] = [
                   ["ap_clk", "ap_rst_n", "ap_start", "ap_done", "ap_idle", "interrupt", "s_axi_control_*"])]),
     ("DMA streams", [("", "pgs_kernel.sv", ["s_axis_body_*", "s_axis_cons_*", "m_axis_body_*"])]),
     ("Pipeline", [("u_seq", "pgs_sequencer.sv",
-                   ["phase", "crec_valid", "rkind", "hazard", "cam_full", "kind_ok", "issue", "i_pass", "i_slot",
+                   ["phase", "crec_valid", "rkind", "hazard", "cam_full", "issue_ok", "issue", "i_pass", "i_slot",
                     "l_go", "l_issue", "l_reject", "retire", "l_retire", "int_issue", "io_valid", "credits"]),
                   ("", "pgs_kernel.sv",
                    ["trace_valid", "stat_cycles", "stat_stalls", "stat_bubbles", "stat_issued", "err_set"])]),
