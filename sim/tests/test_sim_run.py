@@ -18,6 +18,7 @@ from models.frame import load, save
 from sim import run as sim_run
 from sim import pareto_front
 from sim import sweep as sim_sweep
+from sim import sweep_plot
 from sim.harness_run import KernelRunError
 
 REPO = Path(__file__).resolve().parents[2]
@@ -207,7 +208,7 @@ def test_sweep_columns_and_plot_without_an_exact_reference(tmp_path: Path) -> No
     assert set(missing.values()) == {"no exact reference (QP solver hit the time budget)"}
     for rows in ([dict(base, **measured), dict(base, **missing)], [dict(base, **missing)]):
         sim_sweep.write_csv(rows, tmp_path / "sweep.csv")
-        sim_sweep.plot(rows, tmp_path / "sweep.png", "pile-zcu102")
+        sweep_plot.plot(rows, tmp_path / "sweep.png", "pile-zcu102")
         assert (tmp_path / "sweep.png").stat().st_size > 0
         (tmp_path / "sweep.png").unlink()
         pareto_front.plot(rows, tmp_path / "pareto.png", "pile-zcu102")  # the front of the rows that have errors

@@ -19,7 +19,7 @@ from models.frame import save
 from models.kernel_job import KernelJob
 from models.number_format import FP16
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from sim import baselines, pareto_front
+from sim import baselines, pareto_front, sweep_plot
 from sim import sweep as sim_sweep
 from sim.executor import parse_executor
 from sim.harness_run import write_inputs
@@ -51,7 +51,7 @@ def test_two_designs_share_the_solve_and_differ_in_cycles(frame_file: Path, tmp_
             if "_vs_" in col or col.endswith(("_rounding", "_iteration")):
                 assert onchip[col] == records[col], col  # the same solve, bit for bit
         assert isinstance(onchip["max_dv_vs_exact"], float)
-        assert "impulses in records" in sim_sweep.series(records) and sim_sweep.series(onchip) == "fp16"
+        assert "impulses in records" in sweep_plot.series(records) and sweep_plot.series(onchip) == "fp16"
         for row in (onchip, records):
             assert row["fits"] in (True, False) and ("FITS" in row["fit"] or "DOES NOT FIT" in row["fit"])
     job = KernelJob.from_frame(scenes.load_or_capture("pile", **KERNEL_TEST_SCENES["pile"]), FP16, SolverParams(3),
