@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from models import stream_format as sf
+from models.body_banks import default_body_banks
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from models.frame import Frame
@@ -46,11 +47,13 @@ class Configuration:
     build_options: tuple[tuple[str, Any], ...] = ()  # other KernelBuild fields of this configuration, by name
 
     def build(self) -> KernelBuild:
-        """The kernel build of this configuration (what ``KernelBuild.for_job`` makes of its jobs)."""
+        """The kernel build of this configuration (what ``KernelBuild.for_job`` makes of its jobs: the fp32 records
+        design on its banked body velocities, as ``make sim IMPULSE_STORE=records`` builds it)."""
         kb = KernelBuild(self.fmt, cons_bits=get_preset(self.beat_preset).stream_bits,
                          body_in_bits=self.body_bits, body_out_bits=self.body_bits, window=self.record_window,
                          window_ctx=DEFAULT_CTX, lanes=self.lanes, inertia_words=self.inertia_words,
-                         impulses_in_records=self.impulses_in_records, friction_words=self.friction_words)
+                         impulses_in_records=self.impulses_in_records, friction_words=self.friction_words,
+                         body_banks=default_body_banks(self.fmt, self.impulses_in_records, bool(self.record_window)))
         return dataclasses.replace(kb, **dict(self.build_options))
 
     def job(self, frame: Frame, params: SolverParams, schedule: str, fetch_passes: int | None = None) -> KernelJob:
@@ -78,7 +81,8 @@ CONFIGURATIONS: tuple[Configuration, ...] = (
                   readme="streaming kernel, fp16, impulses in the records: the fitting headline "
                          "(`make sim FORMAT=fp16 IMPULSE_STORE=records`)"),
     Configuration("stream-fp32-records", FP32, impulses_in_records=True,
-                  readme="streaming kernel, fp32, impulses in the records (`make sim IMPULSE_STORE=records`)"),
+                  readme="streaming kernel, fp32, impulses in the records, body velocities in 2 banks "
+                         "(`make sim IMPULSE_STORE=records`)"),
     Configuration("stream-fp32", FP32, readme="streaming kernel, fp32 (`make sim`)"),
     Configuration("stream-fp16", FP16, readme="streaming kernel, fp16 (`make sim FORMAT=fp16`)"),
     Configuration("window-fp32-l2", FP32, record_window=DEFAULT_DEPTH, lanes=2, body_bits=512,

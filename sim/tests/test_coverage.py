@@ -77,6 +77,8 @@ def test_each_configuration_has_a_build_and_runs() -> None:
     assert len({k.label for k in cases.CASES}) == len(cases.CASES)
     for case in cases.CASES:
         assert get_preset(case.dma).stream_bits == case.configuration.build().cons_bits, case.label
+    banks = {c.name: c.build().body_banks for c in configurations.CONFIGURATIONS if c.impulses_in_records}
+    assert banks == {"stream-fp16-records": 0, "stream-fp32-records": 2}  # the builds make sim runs
     window = configurations.BY_NAME["window-fp16-l4"]
     assert (window.build().window, window.build().lanes, window.build().body_in_bits) == (16384, 4, 512)
     fp16_shared = [s.label for s in [cases.REGISTER_CASE, *cases.FP_OPERATOR_CASES] if s.counts_for(window)]
