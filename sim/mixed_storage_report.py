@@ -44,7 +44,7 @@ from models.solution_error import SolutionError
 from sim import resource_model as rm
 from sim.exact_error import error_vs_exact, exact_step
 from sim.kernel_build import default_window
-from sim.report import format_value
+from sim.report import print_summary
 from sim.run_result import NoExactReference
 
 TARGET = 0.7  # cycles per manifold-pass the board-fit target asks of mixed storage
@@ -267,10 +267,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, KeyError, FileNotFoundError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    for name, rows in sections.items():
-        print(f"-- {name}")
-        for k, v in rows.items():
-            print(f"  {k}: {format_value(v)}")
+    print_summary(f"mixed storage, fp32 arithmetic: {sections['scene']['checked on']}", sections)
     out = Path(args.out) / sections["scene"]["checked on"]
     out.mkdir(parents=True, exist_ok=True)
     (out / "report.json").write_text(json.dumps(sections, indent=1, default=str) + "\n")
