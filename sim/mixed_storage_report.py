@@ -57,7 +57,10 @@ def parse_storage(text: str) -> dict[str, NumberFormat]:
         group, sep, fmt = item.partition("=")
         if not sep or group.strip() not in ml.STORED_GROUPS:
             raise ValueError(f"--storage item {item!r}: expected <group>=<format>, groups: {', '.join(ml.STORED_GROUPS)}")
-        out[group.strip()] = parse_format(fmt.strip())
+        stored = parse_format(fmt.strip())
+        if not isinstance(stored, NumberFormat):
+            raise ValueError(f"--storage item {item!r}: a stored format is eXmY, fp32, fp16 or bf16")
+        out[group.strip()] = stored
     return out
 
 

@@ -137,6 +137,8 @@ def test_bad_input_is_refused(pile: ms.MixedStepProblem) -> None:
         pile.step(FP32, {"speeds": FP32})
     with pytest.raises(ValueError, match="expected <group>=<format>"):
         parse_storage("speeds=e6m18")
+    with pytest.raises(ValueError, match="a stored format is"):
+        parse_storage("velocities=float64")
     with pytest.raises(ValueError):
         sf.RecordBits(0, 1, 1, 1, 1, 1)
     with pytest.raises(ValueError, match="unknown record"):
