@@ -409,16 +409,16 @@ def converter_resources(conv: Converters, compute: NumberFormat) -> Resources:
 
     * unpack (stored eSmT -> kernel eEmM): the exponent re-biased by a constant where eS < eE (an eE-bit carry
       chain, one LUT per bit) with the zero and all-ones codes kept (their detection, a LUT per 6 bits each),
-      the mantissa zero-padded (wires);
+      the mantissa zero-padded (wires; with the kernel's exponent nothing else, and no register);
     * pack (kernel -> stored, round to nearest even): the sticky OR of the dropped mantissa bits (a LUT per 6),
       the round decision (1), an incrementer over the stored exponent and mantissa (a LUT per bit), and where
       eS < eE the range check (a LUT per 6 exponent bits, twice) and the clamp to zero or infinity (a LUT per
       stored bit)."""
     s_fmt = conv.stored
     narrower_exp = s_fmt.exp_bits < compute.exp_bits
-    if conv.direction == "unpack":
+    if conv.direction == "unpack":  # with the kernel's exponent: the mantissa zero-padded, wires only
         lut = (compute.exp_bits + 2 * math.ceil(s_fmt.exp_bits / 6)) if narrower_exp else 0
-        ff = compute.width
+        ff = compute.width if narrower_exp else 0
     elif conv.direction == "pack":
         dropped = compute.man_bits - s_fmt.man_bits
         lut = math.ceil(max(dropped - 1, 0) / 6) + 1 + s_fmt.exp_bits + s_fmt.man_bits
