@@ -146,7 +146,8 @@ def floor_rows(d: Design, preset: DmaPreset) -> dict[str, Any]:
     phases = pred.phases
     load, integ = phases["SOLVE"], phases["DONE"] - phases["INTEG"]
     return {"DDR bytes per manifold-pass, records padded to beats (reads + impulse writes)": round(padded, 2),
-            "its floor (cycles per manifold-pass at the DDR rate)": round(padded / rate, 4),
+            f"its floor (cycles per manifold-pass at {rate:.2f} B/cycle, reads and writes sharing it)":
+                round(padded / rate, 4),
             "the same with the records packed without padding (no such DMA)": f"{dense:.2f} B, {dense / rate:.4f}",
             "body load (LOAD to SOLVE) per manifold-pass": round(load / mp, 4),
             "integration (INTEG to DONE) per manifold-pass": round(integ / mp, 4),
