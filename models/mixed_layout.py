@@ -102,7 +102,8 @@ class Converters:
     count: int
 
 
-def converters(storage: Mapping[str, NumberFormat], compute: NumberFormat, shape: RecordShape) -> tuple[Converters, ...]:
+def converters(storage: Mapping[str, NumberFormat], compute: NumberFormat,
+               shape: RecordShape) -> tuple[Converters, ...]:
     """One converter per word position of every record the kernel reads or writes whose group is stored in a
     format other than the kernel's (contact and friction records have their own unpackers: they are assembled
     into different word positions)."""

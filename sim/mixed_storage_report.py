@@ -56,7 +56,8 @@ def parse_storage(text: str) -> dict[str, NumberFormat]:
     for item in filter(None, (s.strip() for s in text.split(","))):
         group, sep, fmt = item.partition("=")
         if not sep or group.strip() not in ml.STORED_GROUPS:
-            raise ValueError(f"--storage item {item!r}: expected <group>=<format>, groups: {', '.join(ml.STORED_GROUPS)}")
+            raise ValueError(f"--storage item {item!r}: expected <group>=<format>, groups: "
+                             f"{', '.join(ml.STORED_GROUPS)}")
         stored = parse_format(fmt.strip())
         if not isinstance(stored, NumberFormat):
             raise ValueError(f"--storage item {item!r}: a stored format is eXmY, fp32, fp16 or bf16")
@@ -64,8 +65,8 @@ def parse_storage(text: str) -> dict[str, NumberFormat]:
     return out
 
 
-def problem_of(scene: str, scene_args: str, seed: int, iters: int, cons_bits: int, factor: float,
-               ) -> tuple[ms.MixedStepProblem, str, BodyTable]:
+def problem_of(scene: str, scene_args: str, seed: int, iters: int, cons_bits: int,
+               factor: float) -> tuple[ms.MixedStepProblem, str, BodyTable]:
     """The scene's step on make sim's fp32 schedule, with the budget of ``factor`` times fp32's rounding error;
     its label and fp32's step."""
     frame, label = load_scene(scene, scene_args, seed)
@@ -218,7 +219,8 @@ def report(args: argparse.Namespace) -> dict[str, Any]:
     if args.iters < 1 or not args.factor > 0:
         raise ValueError(f"--iters must be >= 1 and --factor > 0, got {args.iters}, {args.factor}")
     preset = get_preset(args.dma)
-    problem, label, fp32 = problem_of(args.scene, args.scene_args, args.seed, args.iters, preset.stream_bits, args.factor)
+    problem, label, fp32 = problem_of(args.scene, args.scene_args, args.seed, args.iters, preset.stream_bits,
+                                      args.factor)
     sections: dict[str, Any] = {"scene": {"checked on": label, "bodies": problem.bodies.num_bodies,
                                           "manifolds": problem.cons.num_manifolds, "iterations": args.iters,
                                           "dma": args.dma}}
