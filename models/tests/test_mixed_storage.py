@@ -23,7 +23,8 @@ from models.kernel_job import KernelJob
 from models.number_format import FP32, NumberFormat
 from models.schedule import make_schedule
 from sim import resource_model as rm
-from sim.kernel_build import default_window
+from sim.harness_run import write_inputs
+from sim.kernel_build import KernelBuild, default_window
 from sim.kernel_step import golden_step
 from sim.mixed_storage_report import main as report_main
 from sim.mixed_storage_report import parse_storage
@@ -143,6 +144,16 @@ def test_bad_input_is_refused(pile: ms.MixedStepProblem) -> None:
         sf.RecordBits(0, 1, 1, 1, 1, 1)
     with pytest.raises(ValueError, match="unknown record"):
         ml.group_words("trace", ml.RecordShape())
+
+
+def test_no_rtl_run_takes_a_mixed_layout(pile: ms.MixedStepProblem, tmp_path: Path) -> None:
+    job = job_of(pile)
+    bits = ml.record_bits({ml.VELOCITIES: NumberFormat("e6m18", 6, 18)}, FP32, ml.RecordShape())
+    mixed = job.stored_as(bits)
+    with pytest.raises(ValueError, match="no RTL kernel"):
+        write_inputs(tmp_path, mixed, KernelBuild(FP32, impulses_in_records=True))
+    with pytest.raises(ValueError, match="streaming kernel"):
+        dataclasses.replace(job, impulses_in_records=False).windowed(64).stored_as(bits)
 
 
 def test_the_report_command(tmp_path: Path) -> None:
