@@ -184,7 +184,8 @@ def predict_job(job: "KernelJob", preset: DmaPreset, prefetched: bool = False) -
     """The model of ``job`` run by ``sim.kernel_step.run_kernel_step`` with ``preset`` (gap and backpressure 0)."""
     return predict(KernelShape.of(job.fmt, preset.stream_bits, inertia_words=job.inertia_words,
                                   impulses_in_records=job.impulses_in_records, friction_words=job.friction_words,
-                                  body_banks=job.body_banks, tangents_on_chip=job.tangents_on_chip),
+                                  body_banks=job.body_banks, tangents_on_chip=job.tangents_on_chip,
+                                  record_bits=job.record_bits),
                    DmaTiming.of(preset, prefetched, job.stream_layout(preset.stream_bits).ddr_read_share(job.params)),
                    StepShape.of_job(job))
 

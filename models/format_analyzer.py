@@ -168,7 +168,7 @@ class StepProblem:
         return out
 
 
-def _narrowest(ok: Callable[[int], bool]) -> int | None:
+def narrowest_mantissa(ok: Callable[[int], bool]) -> int | None:
     """Smallest mantissa in MAN_RANGE with ok(m) (bisection, assuming rough monotonicity; confirmed)."""
     lo, hi = MAN_RANGE
     if not ok(hi):
@@ -190,7 +190,7 @@ def narrowest_uniform(problem: StepProblem, exp_bits: int, budget: float) -> tup
         errors[m] = problem.error(problem.step(NumberFormat(f"e{exp_bits}m{m}", exp_bits, m)))
         return errors[m] <= budget
 
-    m = _narrowest(ok)
+    m = narrowest_mantissa(ok)
     if m is None:
         return None, errors[MAN_RANGE[1]]
     return NumberFormat(f"e{exp_bits}m{m}", exp_bits, m), errors[m]
@@ -209,7 +209,7 @@ def storage_formats(problem: StepProblem, ranges: list[GroupRange], budget: floa
             errors[m] = problem.error(problem.step(FLOAT64, {group: fmt}))
             return errors[m] <= budget
 
-        m = _narrowest(ok)
+        m = narrowest_mantissa(ok)
         if m is not None:
             out[group] = (NumberFormat(f"e{e}m{m}", e, m), errors[m])
     return out

@@ -42,6 +42,7 @@ class KernelJob:
     impulses_in_records: bool = False  # the streaming kernel without the impulse RAM (IMPULSES_IN_RECORDS)
     initial: Impulses | None = None  # per manifold, values of fmt: the impulses the step starts from (None: zeros)
     tangents_on_chip: bool = False  # the friction records omit t0, t1; cons.tangent holds the kernel's derived ones
+    record_bits: sf.RecordBits | None = None  # mixed storage's record sizes (models/mixed_layout.py; no RTL)
 
     def __post_init__(self) -> None:
         if self.initial is None:
@@ -94,6 +95,13 @@ class KernelJob:
             raise ValueError("tangents derived on chip are a record layout of the streaming kernel")
         return dataclasses.replace(self, cons=derive_tangents(self.cons, self.fmt), tangents_on_chip=True)
 
+    def stored_as(self, record_bits: sf.RecordBits) -> "KernelJob":
+        """This step with its records in the sizes of a mixed storage (``models/mixed_layout.py``: the cycle and
+        resource models know it, the golden model's values are ``models/mixed_storage.py``'s, no RTL)."""
+        if self.record_window is not None:
+            raise ValueError("mixed storage is a record layout of the streaming kernel")
+        return dataclasses.replace(self, record_bits=record_bits)
+
     @property
     def start_impulses(self) -> Impulses:
         """The impulses the step starts from, per manifold (zeros unless a warm start was given)."""
@@ -103,7 +111,7 @@ class KernelJob:
         """The record sizes this step streams with constraint beats of ``cons_bits``."""
         return sf.StreamLayout(self.fmt, cons_beat_bits=cons_bits, inertia_words=self.inertia_words,
                                impulses_in_records=self.impulses_in_records, friction_words=self.friction_words,
-                               tangents_on_chip=self.tangents_on_chip)
+                               tangents_on_chip=self.tangents_on_chip, record_bits=self.record_bits)
 
     @property
     def inertia_words(self) -> int:

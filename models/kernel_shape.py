@@ -17,7 +17,7 @@ from .body_banks import check_banks
 from .dma_model import DmaPreset
 from .kernel_job import KernelJob
 from .number_format import NumberFormat
-from .stream_format import KERNEL_INERTIA_WORDS, StreamLayout
+from .stream_format import KERNEL_INERTIA_WORDS, RecordBits, StreamLayout
 
 RTL_DIR = Path(__file__).resolve().parents[1] / "rtl"
 HAZARD_DEPTH = 256  # pgs_kernel defaults
@@ -71,15 +71,17 @@ class KernelShape:
     @staticmethod
     def of(fmt: NumberFormat, cons_bits: int = 512, body_bits: int = 128,
            inertia_words: int = KERNEL_INERTIA_WORDS, impulses_in_records: bool = False,
-           friction_words: int = 0, body_banks: int = 0, tangents_on_chip: bool = False) -> "KernelShape":
+           friction_words: int = 0, body_banks: int = 0, tangents_on_chip: bool = False,
+           record_bits: RecordBits | None = None) -> "KernelShape":
         """The shape of a build; ``inertia_words`` (1, 3 or 6) sets the body-in record's beats,
         ``impulses_in_records`` the records' (with the impulses they carry), ``friction_words`` (0 or 1, the
         build's MU_W) the friction record's (every friction pipe has the same latency), ``body_banks`` the
         build's BODY_BANKS, ``tangents_on_chip`` the friction record without t0, t1 and the friction pipe that
-        derives them (``pgs_friction_pipe_tb``, its own latency)."""
+        derives them (``pgs_friction_pipe_tb``, its own latency), ``record_bits`` the records' bits of mixed
+        storage (``models/mixed_layout.py``; the pipes' latencies stay the format's)."""
         lay = StreamLayout(fmt, cons_beat_bits=cons_bits, body_beat_bits=body_bits, inertia_words=inertia_words,
                            impulses_in_records=impulses_in_records, friction_words=friction_words,
-                           tangents_on_chip=tangents_on_chip)
+                           tangents_on_chip=tangents_on_chip, record_bits=record_bits)
         friction = "pgs_friction_pipe_tb" if tangents_on_chip else "pgs_friction_pipe"
         return KernelShape(rtl_latency("pgs_contact_pipe", fmt), rtl_latency(friction, fmt),
                            rtl_latency("pgs_integrate_pipe", fmt), lay.contact_beats, lay.friction_beats,

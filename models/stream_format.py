@@ -269,6 +269,24 @@ def unpack_impulse_out(fmt: NumberFormat, data: bytes | np.ndarray) -> np.ndarra
 
 # --- sizes --------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
+class RecordBits:
+    """Unpadded bits of each record where its fields are stored in formats of their own (mixed storage,
+    ``models/mixed_layout.py``): the sizes the streams then carry, each record still padded to whole beats."""
+
+    contact: int
+    friction: int
+    body_in: int
+    body_out: int
+    impulse_out_contact: int  # the bits a contact pass writes back per slot (impulses in the records)
+    impulse_out_friction: int
+
+    def __post_init__(self) -> None:
+        if min(self.contact, self.friction, self.body_in, self.body_out, self.impulse_out_contact,
+               self.impulse_out_friction) <= 0:
+            raise ValueError(f"record bits must be positive, got {self}")
+
+
+@dataclass(frozen=True)
 class StreamLayout:
     """Record sizes of one format and beat widths."""
 
@@ -279,6 +297,7 @@ class StreamLayout:
     impulses_in_records: bool = False  # the records carry the impulses their pass starts from
     friction_words: int = 0  # the friction-coefficient words of a friction record (kernel_friction_words)
     tangents_on_chip: bool = False  # the friction record omits t0, t1: the kernel derives them from n
+    record_bits: RecordBits | None = None  # mixed storage: the records' bits (None: every word fmt.width bits)
 
     @property
     def _tangent_words(self) -> int:
@@ -311,16 +330,23 @@ class StreamLayout:
 
     @property
     def contact_bits(self) -> int:
+        if self.record_bits is not None:
+            return self.record_bits.contact
         return HEADER_BITS + self.contact_record_words * self.word_bits
 
     @property
     def friction_bits(self) -> int:
+        if self.record_bits is not None:
+            return self.record_bits.friction
         return HEADER_BITS + self.friction_record_words * self.word_bits
 
     def impulse_write_bytes(self, kind: int) -> int:
         """DDR bytes a manifold-pass of ``kind`` writes back (its field of the impulse buffer; 0 on chip)."""
         if not self.impulses_in_records:
             return 0
+        if self.record_bits is not None:
+            rb = self.record_bits
+            return -(-(rb.impulse_out_contact if kind == CONTACT_PASS else rb.impulse_out_friction) // 8)
         return -(-(4 if kind == CONTACT_PASS else 2) * self.word_bits // 8)
 
     def ddr_read_share(self, params: SolverParams) -> float:
@@ -332,6 +358,8 @@ class StreamLayout:
 
     @property
     def window_bits(self) -> int:
+        if self.record_bits is not None:
+            raise ValueError("mixed storage (record_bits) is a layout of the streaming kernel, not the window's")
         return HEADER_BITS + (WINDOW_WORDS + self.friction_words) * self.word_bits
 
     @property
@@ -356,11 +384,13 @@ class StreamLayout:
 
     @property
     def body_in_beats(self) -> int:
-        return beats_per_record(self.body_in_words * self.word_bits, self.body_beat_bits)
+        bits = self.body_in_words * self.word_bits if self.record_bits is None else self.record_bits.body_in
+        return beats_per_record(bits, self.body_beat_bits)
 
     @property
     def body_out_beats(self) -> int:
-        return beats_per_record(BODY_OUT_WORDS * self.word_bits, self.body_beat_bits)
+        bits = BODY_OUT_WORDS * self.word_bits if self.record_bits is None else self.record_bits.body_out
+        return beats_per_record(bits, self.body_beat_bits)
 
     # bytes per record as streamed (padding included)
     @property

@@ -68,6 +68,8 @@ def impulse_plan(job: KernelJob, turnaround: int) -> bytes:
 def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild, turnaround: int = 1) -> dict[str, int]:
     """Write the harness's input files into ``run_dir``; return the bytes of each stream. ``turnaround``: the DMA's
     cycles from an impulse-out record to the first beat of its reader (``DmaPreset.impulse_turnaround_cycles``)."""
+    if job.record_bits is not None:
+        raise ValueError("mixed storage (KernelJob.record_bits) has no RTL kernel: the cycle and resource models only")
     run_dir.mkdir(parents=True, exist_ok=True)
     body = sf.pack_body_table(job.fmt, job.bodies, kb.body_in_bits, inertia_words=kb.inertia_words)
     if job.impulses_in_records != kb.impulses_in_records:

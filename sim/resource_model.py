@@ -45,6 +45,7 @@ from typing import Any, Optional, Union
 from models import onchip_budget as ob
 from models.body_banks import RECORDS_BANKS
 from models.kernel_job import KernelJob
+from models.mixed_layout import Converters
 from models.number_format import KERNEL_FORMATS, NumberFormat
 from models.kernel_shape import IMPULSE_FIFO_DEPTH
 from models.stream_format import BODY_IN_WORDS, HEADER_BITS, IMPULSE_OUT_WORDS, WINDOW_WORDS
@@ -267,6 +268,7 @@ class KernelConfig:
     record_bits: Optional[int] = None  # ring word width (None: the format's)
     operator_source: str = "yosys"  # "yosys" | "vendor"
     tangents_on_chip: bool = False  # the friction pipe derives t0, t1 from n (pgs_friction_pipe_tb)
+    converters: tuple[Converters, ...] = ()  # mixed storage: format converters at unpack and pack (mixed_layout)
 
     def __post_init__(self) -> None:
         if self.lanes < 1 or self.lanes & (self.lanes - 1):
@@ -291,6 +293,8 @@ class KernelConfig:
             levers.append("tangent basis derived on chip")
         if self.record_bits:
             levers.append(f"ring words {self.record_bits} bits")
+        if self.converters:
+            levers.append(f"mixed storage, {sum(c.count for c in self.converters)} format converters")
         return (f"{self.fmt.name}, {kind}, {self.max_bodies:,} bodies, {self.max_manifolds:,} manifold slots; "
                 + ", ".join(levers))
 
@@ -399,6 +403,33 @@ def bank_mux_resources(banks: int, width: int, bodies: int) -> Resources:
     return Resources(lut=2 * banks * per_port + read + 8 * banks, ff=sel)
 
 
+def converter_resources(conv: Converters, compute: NumberFormat) -> Resources:
+    """One converter's LUT6 and FF rule (computed, not synthesized; subnormals flush to zero, as every operator
+    reads them), times ``conv.count``, each with a register of its output word:
+
+    * unpack (stored eSmT -> kernel eEmM): the exponent re-biased by a constant where eS < eE (an eE-bit carry
+      chain, one LUT per bit) with the zero and all-ones codes kept (their detection, a LUT per 6 bits each),
+      the mantissa zero-padded (wires; with the kernel's exponent nothing else, and no register);
+    * pack (kernel -> stored, round to nearest even): the sticky OR of the dropped mantissa bits (a LUT per 6),
+      the round decision (1), an incrementer over the stored exponent and mantissa (a LUT per bit), and where
+      eS < eE the range check (a LUT per 6 exponent bits, twice) and the clamp to zero or infinity (a LUT per
+      stored bit)."""
+    s_fmt = conv.stored
+    narrower_exp = s_fmt.exp_bits < compute.exp_bits
+    if conv.direction == "unpack":  # with the kernel's exponent: the mantissa zero-padded, wires only
+        lut = (compute.exp_bits + 2 * math.ceil(s_fmt.exp_bits / 6)) if narrower_exp else 0
+        ff = compute.width if narrower_exp else 0
+    elif conv.direction == "pack":
+        dropped = compute.man_bits - s_fmt.man_bits
+        lut = math.ceil(max(dropped - 1, 0) / 6) + 1 + s_fmt.exp_bits + s_fmt.man_bits
+        if narrower_exp:
+            lut += 2 * math.ceil(compute.exp_bits / 6) + s_fmt.width
+        ff = s_fmt.width
+    else:
+        raise ValueError(f"converter direction must be unpack or pack, got {conv.direction!r}")
+    return Resources(lut=lut * conv.count, ff=ff * conv.count)
+
+
 def estimate(cfg: KernelConfig, platform: Optional[ob.Platform] = None,
              data: Optional[dict[str, Any]] = None) -> Estimate:
     """The configuration's resources, part by part (memories mapped for ``platform``: UltraRAM where it has)."""
@@ -414,6 +445,12 @@ def estimate(cfg: KernelConfig, platform: Optional[ob.Platform] = None,
         parts.append(Part(f"body bank port multiplexers ({cfg.body_banks} banks)",
                           bank_mux_resources(cfg.body_banks, BODY_VEL_WORDS * cfg.fmt.width, cfg.max_bodies),
                           "computed (LUT6 mux rule)"))
+    if cfg.converters:
+        conv = Resources()
+        for c in cfg.converters:
+            conv = conv + converter_resources(c, cfg.fmt)
+        parts.append(Part(f"storage format converters ({sum(c.count for c in cfg.converters)} words)", conv,
+                          "computed (converter rule, not synthesized)"))
     uram = platform is not None and platform.uram > 0
     for m in memories(cfg):
         parts.append(Part(m.name, m.resources(uram), f"{m.depth:,} x {m.width} bits, computed"))
