@@ -8,7 +8,9 @@ step, which solves with the derived tangents (``KernelJob.tangents_derived``):
 * the pile and the 10-cube stack with random stream gaps and backpressure on every stream (the seed is printed,
   ``SEED=<int>`` overrides it): bit-exact, never faster than the cycle model's lower bound;
 * deterministic streams: every retire cycle, the total and the stall and bubble counters equal the cycle model's
-  (the deeper friction pipe's latency, the one-beat friction record).
+  (the deeper friction pipe's latency, the one-beat friction record);
+* the fp16 records design with the option (its own build, ``pgs_kernel_e5m10_c512_ir_tb``): the pile bit-exact with
+  random stalls and cycle-exact with deterministic streams.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from models import cycle_model, scenes
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from models.kernel_job import KernelJob
-from models.number_format import FP32
+from models.number_format import FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from sim.kernel_build import KernelBuild, default_window
 from sim.kernel_step import run_kernel_step
@@ -36,15 +38,15 @@ def _seed() -> int:
     return int(os.environ.get("SEED", "12345"))
 
 
-def streamed_job(scene: str) -> KernelJob:
+def streamed_job(scene: str, fmt: NumberFormat = FP32) -> KernelJob:
     """The records design's step of ``scene`` with the tangents in the records (the host's float64 basis)."""
     frame = scenes.load_or_capture(scene, **KERNEL_TEST_SCENES[scene])
-    return KernelJob.from_frame(frame, FP32, SolverParams(4), "hazard",
-                                default_window(FP32, PRESET.stream_bits)).impulses_travelling()
+    return KernelJob.from_frame(frame, fmt, SolverParams(4), "hazard",
+                                default_window(fmt, PRESET.stream_bits)).impulses_travelling()
 
 
-def scene_job(scene: str) -> KernelJob:
-    return streamed_job(scene).tangents_derived()
+def scene_job(scene: str, fmt: NumberFormat = FP32) -> KernelJob:
+    return streamed_job(scene, fmt).tangents_derived()
 
 
 def test_the_build_derives_the_tangents() -> None:
@@ -84,4 +86,20 @@ def test_cycles_match_model(scene: str, tmp_path: Path) -> None:
     streamed = cycle_model.predict_job(streamed_job(scene), PRESET).cycles
     print(f"\n[{scene}/fp32/impulses in records/tangents on chip] {agree.describe()}; stalls {pred.stalls:,}, "
           f"bubbles {pred.bubbles:,}; streamed tangents {streamed:,} cycles (model)")
+    assert agree.ok, agree.first_mismatch
+
+
+def test_fp16_pile_bit_exact_and_cycle_exact(tmp_path: Path) -> None:
+    """fp16: the friction record is one beat with or without t0, t1; the option changes the pipe and the layout."""
+    job, seed = scene_job("pile", FP16), _seed()
+    assert KernelBuild.for_job(job, PRESET).name == "pgs_kernel_e5m10_c512_ir_tb"
+    print(f"\nseed {seed} (SEED={seed} reproduces)")
+    res = run_kernel_step(job, PRESET, tmp_path / "random", seed, GAP_PERMILLE, BP_PERMILLE)
+    assert res.bit_exact, res.comparison.first_mismatch
+    assert res.cycles >= cycle_model.lower_bound(job, PRESET)
+    pred = cycle_model.predict_job(job, PRESET)
+    det = run_kernel_step(job, PRESET, tmp_path / "deterministic", seed=1, keep_trace=True)
+    assert det.bit_exact, det.comparison.first_mismatch
+    agree = cycle_model.compare_run(pred, det, job.slots)
+    print(f"[pile/fp16/impulses in records/tangents on chip] random stalls {res.cycles:,} cycles; {agree.describe()}")
     assert agree.ok, agree.first_mismatch
