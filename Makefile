@@ -30,6 +30,8 @@ IMPULSE_STORE ?= onchip
 # the designs make sweep runs side by side (comma-separated IMPULSE_STORE values), e.g. IMPULSE_STORES=onchip,records
 IMPULSE_STORES ?= $(IMPULSE_STORE)
 BODY_BITS ?= 128
+# who computes the friction tangent basis in make sim: host (in the records) or chip (TANGENTS_ON_CHIP)
+TANGENTS ?= host
 SEEDS ?= 4
 # what drives the kernel in make sim: harness (compiled Verilator harness) or cocotb (DMA models, batch scoreboard)
 DRIVER ?= harness
@@ -49,6 +51,7 @@ help:
 	@echo "               DRIVER=cocotb: through cocotb (host driver, AXI DMA models, batch scoreboard)"
 	@echo "               the window kernel: RECORD_WINDOW=16384 LANES=1|2|4 FETCH_PASSES=0 BODY_BITS=128|512"
 	@echo "               IMPULSE_STORE=records: the streaming kernel's impulses travel with the records (no RAM)"
+	@echo "               TANGENTS=chip: the kernel derives the friction tangents from the normal (one-beat record)"
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=,"
 	@echo "               and the window kernel's RECORD_WINDOW= LANES= FETCH_PASSES= BODY_BITS=; MODE=model;"
 	@echo "               IMPULSE_STORES=onchip,records: both streaming designs; also the fitting designs' Pareto front)"
@@ -97,7 +100,8 @@ test: $(STAMP)
 sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
-		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE)
+		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE) \
+		--tangents $(TANGENTS)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)

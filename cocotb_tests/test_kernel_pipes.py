@@ -324,7 +324,7 @@ def test_kernel_pipe_bit_exact(harness: Harness, tmp_path: Path) -> None:
 
 
 def test_generated_rtl_up_to_date() -> None:
-    """Every generated copy (the datapaths, those of the other inverse-inertia modes, the latency package and JSON, the register package and the HLS headers
+    """Every generated copy (the datapaths, those of the other inverse-inertia modes, the latency package and JSON, the register and stream layout packages and the HLS headers
     of the register map and the stream layout) equals what the generator writes now."""
     rendered = {p.relative_to(REPO).as_posix() for p in render()}
     assert rendered == {"rtl/generated/pgs_contact_pipe.sv", "rtl/generated/pgs_friction_pipe.sv",
@@ -334,6 +334,7 @@ def test_generated_rtl_up_to_date() -> None:
                         "rtl/generated/pgs_friction_pipe_full_mu.sv", "rtl/generated/pgs_integrate_pipe.sv", "rtl/generated/pgs_pipe_latency_pkg.sv",
                         "rtl/generated/pgs_friction_pipe_tb.sv",
                         "rtl/generated/pipe_latency.json", "rtl/generated/pgs_regs_pkg.sv",
+                        "rtl/generated/pgs_stream_layout_pkg.sv",
                         "hls_export/generated/pgs_regs.h", "hls_export/generated/pgs_stream_layout.h"}
     stale = generate(check=True)
     assert not stale, f"regenerate with `python -m rtl.gen`: {[str(p) for p in stale]}"
@@ -351,7 +352,8 @@ def test_kernel_file_list_names_every_rtl_source() -> None:
     assert set(sources) == set(RTL.resolve().rglob("*.sv")), "a file under rtl/ is missing from rtl/pgs_kernel.f"
     packages, modules = rtl_files()
     assert sources[:len(packages)] == packages and sources[-1].name == "pgs_kernel.sv"
-    assert [p.name for p in packages] == ["pgs_fp_pkg.sv", "pgs_regs_pkg.sv", "pgs_pipe_latency_pkg.sv"]
+    assert [p.name for p in packages] == ["pgs_fp_pkg.sv", "pgs_regs_pkg.sv", "pgs_stream_layout_pkg.sv",
+                                           "pgs_pipe_latency_pkg.sv"]
     assert not [p.name for p in sources if "TEST_" in p.read_text()]
 
 

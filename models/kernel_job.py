@@ -77,6 +77,8 @@ class KernelJob:
                            lanes)
         if self.impulses_in_records:
             raise ValueError("the window kernel holds its impulses on chip: no impulses in the records")
+        if self.tangents_on_chip:
+            raise ValueError("the window kernel streams the friction tangents: no tangents derived on chip")
         return KernelJob(self.fmt, self.bodies, self.cons, self.schedule, self.params, self.iparams, plan)
 
     def impulses_travelling(self, initial: Impulses | None = None) -> "KernelJob":
@@ -84,13 +86,12 @@ class KernelJob:
         (per manifold, rounded to the format; None: zeros, the same solve as the on-chip kernel's)."""
         if self.record_window is not None:
             raise ValueError("impulses in the records are a configuration of the streaming kernel, not the window's")
-        return KernelJob(self.fmt, self.bodies, self.cons, self.schedule, self.params, self.iparams, None, True,
-                         initial)
+        return dataclasses.replace(self, impulses_in_records=True, initial=initial)
 
     def tangents_derived(self) -> "KernelJob":
         """This step with the friction tangents derived from the normals in the job's format
-        (``models.tangent_basis``: the record layout without t0, t1; the cycle and resource models know it, the
-        RTL kernel does not yet)."""
+        (``models.tangent_basis``: the record layout without t0, t1, the kernel built with TANGENTS_ON_CHIP; the
+        golden model then solves with the derived tangents, bit for bit the kernel's)."""
         if self.record_window is not None:
             raise ValueError("tangents derived on chip are a record layout of the streaming kernel")
         return dataclasses.replace(self, cons=derive_tangents(self.cons, self.fmt), tangents_on_chip=True)

@@ -18,7 +18,8 @@ contact            64-bit header, then 23 words: n(3), p[0..3] xyz (12), jac_inv
 (contact passes)   -> 64 + 23 W bits
 friction           64-bit header, then 14 + F words: n(3), c(3), t0(3), t1(3), f_jac_inv(2), and with F = 1 the
 (friction passes)  manifold's friction coefficient mu (a scene whose friction varies; F = 0: the kernel's one
-                   coefficient, its build without the word) -> 64 + (14 + F) W bits
+                   coefficient, its build without the word) -> 64 + (14 + F) W bits; with the tangents derived on
+                   chip (TANGENTS_ON_CHIP) without t0, t1: n(3), c(3), f_jac_inv(2), mu(F) -> 64 + (8 + F) W bits
 window             64-bit header, then the 23 contact words and the 14 + F friction words -> 64 + (37 + F) W bits
 (window kernel)
 contact, impulses  the contact record, then lam[0..3] (4 words at word 23) -> 64 + 27 W bits
@@ -211,11 +212,14 @@ def contact_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np
     return fmt.encode(vals)
 
 
-def friction_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np.ndarray:
+def friction_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray,
+                   tangents_on_chip: bool = False) -> np.ndarray:
     """(K, 14 + F) bit patterns: n(3), c(3), t0(3), t1(3), f_jac_inv(2), then (F = :func:`kernel_friction_words`
-    = 1) the manifold's friction coefficient."""
-    vals = np.concatenate([cons.normal[idx], cons.center[idx], cons.tangent[idx, 0], cons.tangent[idx, 1],
-                           cons.f_jac_inv[idx], cons.friction[idx]], axis=1)
+    = 1) the manifold's friction coefficient; ``tangents_on_chip``: without t0, t1 (K, 8 + F), the kernel derives
+    them from n (``models/tangent_basis.py``)."""
+    tangents = [] if tangents_on_chip else [cons.tangent[idx, 0], cons.tangent[idx, 1]]
+    vals = np.concatenate([cons.normal[idx], cons.center[idx], *tangents, cons.f_jac_inv[idx], cons.friction[idx]],
+                          axis=1)
     return fmt.encode(vals)
 
 
@@ -462,14 +466,16 @@ def _transfers(blocks: list[np.ndarray], beat_bits: int) -> Stream:
 
 
 def pack_constraint_stream(fmt: NumberFormat, cons: ConstraintSet, schedule: np.ndarray, params: SolverParams,
-                           beat_bits: int = DEFAULT_CONS_BEAT_BITS, impulses: Impulses | None = None) -> Stream:
+                           beat_bits: int = DEFAULT_CONS_BEAT_BITS, impulses: Impulses | None = None,
+                           tangents_on_chip: bool = False) -> Stream:
     """The constraint stream of one step: every pass of ``pass_sequence(params)``, records in schedule order.
     ``impulses`` (per manifold, values of ``fmt``): the records carry them after their words, the impulses the step
     starts from (the kernel built with IMPULSES_IN_RECORDS; the DMA replaces what earlier passes wrote); None: the
-    records of the on-chip impulse RAM."""
+    records of the on-chip impulse RAM. ``tangents_on_chip``: the friction records without t0, t1 (the kernel built
+    with TANGENTS_ON_CHIP derives them)."""
     idx = schedule_manifolds(schedule)
     header = constraint_header(cons, idx)
-    c_words, f_words = contact_words(fmt, cons, idx), friction_words(fmt, cons, idx)
+    c_words, f_words = contact_words(fmt, cons, idx), friction_words(fmt, cons, idx, tangents_on_chip)
     if impulses is not None:
         lam, lam_t = fmt.encode(impulses.normal[idx]), fmt.encode(impulses.friction[idx])
         c_words = np.concatenate([c_words, lam], axis=1)

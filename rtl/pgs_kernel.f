@@ -6,6 +6,7 @@
 // packages
 pgs_fp_pkg.sv
 generated/pgs_regs_pkg.sv
+generated/pgs_stream_layout_pkg.sv
 generated/pgs_pipe_latency_pkg.sv
 
 // floating-point operators

@@ -7,7 +7,8 @@
 //   s_axis_body_*     body-in records (models/stream_format.py), num_bodies of them, TLAST on the last beat;
 //                     14 + IINV_W words each (the inverse-inertia mode, models/inertia.py)
 //   s_axis_cons_*     constraint records, every pass of the step, TLAST on the last beat of each pass; a
-//                     friction record carries 14 + MU_W words (MU_W = 1: the manifold's friction coefficient last)
+//                     friction record carries 14 + MU_W words (MU_W = 1: the manifold's friction coefficient last;
+//                     TANGENTS_ON_CHIP = 1: 8 + MU_W, without t0, t1, which the friction pipe derives from n)
 //                     (WINDOW > 0: combined contact + friction records once per fetch, TLAST on each fetch's
 //                     last beat; see pgs_window)
 //   m_axis_body_*     body-out records in index order, TLAST on the last beat
@@ -45,6 +46,7 @@ module pgs_kernel #(
     parameter bit IMPULSES_IN_RECORDS = 1'b0,  // 0: accumulated impulses in the on-chip RAM; 1: in the records
     parameter int MU_W           = 0,     // friction-coefficient words of a friction record: 0 the constant, 1 a word
     parameter int BODY_BANKS     = 0,     // 0: body velocities as a multiport array; > 0: that many banks (LANES = 1)
+    parameter bit TANGENTS_ON_CHIP = 1'b0, // 1: friction records without t0, t1, derived from n (pgs_friction_pipe_tb)
     parameter int C_S_AXI_CONTROL_ADDR_WIDTH = 8,
     parameter int C_S_AXI_CONTROL_DATA_WIDTH = 32,
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
@@ -123,7 +125,7 @@ module pgs_kernel #(
         .BODY_IN_W(BODY_IN_W), .CONS_W(CONS_W), .BODY_OUT_W(BODY_OUT_W), .TRACE(TRACE),
         .HAZARD_DEPTH(HAZARD_DEPTH), .OUT_FIFO_DEPTH(OUT_FIFO_DEPTH), .WINDOW(WINDOW), .WINDOW_CTX(WINDOW_CTX),
         .LANES(LANES), .IINV_W(IINV_W), .IMPULSES_IN_RECORDS(IMPULSES_IN_RECORDS), .MU_W(MU_W),
-        .BODY_BANKS(BODY_BANKS)
+        .BODY_BANKS(BODY_BANKS), .TANGENTS_ON_CHIP(TANGENTS_ON_CHIP)
     ) u_seq (
         .clk(ap_clk), .rst(ap_rst_n_inv), .start(ap_start), .idle(ap_idle), .done(ap_done),
         .arg_num_bodies(num_bodies), .arg_num_manifolds(num_manifolds), .arg_iterations(iterations),

@@ -75,6 +75,7 @@ module pgs_sequencer #(
     parameter int IMP_FIFO_DEPTH = 256,    // IMPULSES_IN_RECORDS: impulse-out records between take and handshake
     parameter int MU_W           = 0,      // friction-coefficient words per friction record: 0 the constant, 1 a word
     parameter int BODY_BANKS     = 0,      // > 0 (LANES = 1): body velocities in banks; a busy bank stalls the issue
+    parameter bit TANGENTS_ON_CHIP = 1'b0, // 1: friction records without t0, t1; pgs_friction_pipe_tb derives them
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64,
     localparam int IMP_OUT_W     = (4 * W + 7) / 8 * 8
@@ -132,19 +133,23 @@ module pgs_sequencer #(
     localparam int OREC_W    = 13 * W;                                  // body-out record
     localparam int B_BEATS   = (BREC_W + BODY_IN_W - 1) / BODY_IN_W;
     localparam int O_BEATS   = (OREC_W + BODY_OUT_W - 1) / BODY_OUT_W;
-    // words of a contact / friction record after the header: the friction record's 14 words, then with MU_W = 1
-    // the manifold's coefficient; with IMPULSES_IN_RECORDS the contact record ends with lam[0..3], the friction
-    // record with lam[0..3] and lamT[0..1] (the impulses its pass starts from)
-    localparam int C_WORDS   = 23 + (IMPULSES_IN_RECORDS ? 4 : 0);
-    localparam int F_COEFF   = 14 + MU_W;                               // the friction record's words up to mu
-    localparam int F_WORDS   = F_COEFF + (IMPULSES_IN_RECORDS ? 6 : 0);
+    // words of a contact / friction record after the header (pgs_stream_layout_pkg, generated from
+    // models/stream_format.py): the friction record's 14 words (8 without t0, t1 when TANGENTS_ON_CHIP), then with
+    // MU_W = 1 the manifold's coefficient; with IMPULSES_IN_RECORDS the contact record ends with lam[0..3], the
+    // friction record with lam[0..3] and lamT[0..1] (the impulses its pass starts from)
+    localparam int C_WORDS   = pgs_stream_layout_pkg::CONTACT_WORDS
+                               + (IMPULSES_IN_RECORDS ? pgs_stream_layout_pkg::CONTACT_IMPULSE_WORDS : 0);
+    localparam int F_COEFF   = pgs_stream_layout_pkg::friction_words(MU_W, TANGENTS_ON_CHIP);  // words up to the impulses
+    localparam int F_PIPE    = pgs_stream_layout_pkg::friction_pipe_words(MU_W, TANGENTS_ON_CHIP);  // the pipe's words
+    localparam int F_WORDS   = F_COEFF + (IMPULSES_IN_RECORDS ? pgs_stream_layout_pkg::FRICTION_IMPULSE_WORDS : 0);
     localparam int S1_WORDS  = C_WORDS > F_WORDS ? C_WORDS : F_WORDS;   // the record words stage 1 holds
     localparam int C_BEATS   = (64 + C_WORDS * W + CONS_W - 1) / CONS_W;   // contact record
     localparam int F_BEATS   = (64 + F_WORDS * W + CONS_W - 1) / CONS_W;   // friction record
     localparam int CM_BEATS  = C_BEATS > F_BEATS ? C_BEATS : F_BEATS;
     localparam int WR_BEATS  = (64 + (23 + F_COEFF) * W + CONS_W - 1) / CONS_W;  // window record (contact + friction)
     localparam int C_LAT     = pgs_pipe_latency_pkg::contact_latency(MAN_BITS);
-    localparam int F_LAT     = pgs_pipe_latency_pkg::friction_latency(MAN_BITS);
+    localparam int F_LAT     = TANGENTS_ON_CHIP ? pgs_pipe_latency_pkg::friction_pipe_tb_latency(MAN_BITS)
+                                                : pgs_pipe_latency_pkg::friction_latency(MAN_BITS);
     localparam int CREC_W    = CM_BEATS * CONS_W;
     localparam int CNEED_W   = $clog2(CM_BEATS + 1);
     localparam int BNEED_W   = $clog2(B_BEATS + 1);
@@ -168,6 +173,9 @@ module pgs_sequencer #(
     end
     if (MU_W != 0 && MU_W != 1) begin : g_bad_mu
         $error("pgs_sequencer: MU_W (friction-coefficient words per friction record) must be 0 or 1");
+    end
+    if (TANGENTS_ON_CHIP && (WINDOW > 0 || IINV_W != 3 || MU_W != 0)) begin : g_bad_tangents
+        $error("pgs_sequencer: TANGENTS_ON_CHIP is a configuration of the streaming kernel (WINDOW = 0) with the diagonal inverse inertia (IINV_W = 3) and the constant friction coefficient (MU_W = 0)");
     end
 
     typedef enum logic [2:0] {S_IDLE, S_LOAD, S_SOLVE, S_DRAIN, S_INTEG, S_DONE} phase_t;
@@ -469,8 +477,9 @@ module pgs_sequencer #(
         logic [S1_WORDS*W-1:0] s1_words;
         if (IMPULSES_IN_RECORDS) begin : g_imp_rec
             // the impulses the pass starts from are the record's last words (host-given or last pass's)
-            assign rd_lam  = s1_kind == CONTACT ? s1_words[23*W +: 4*W] : s1_words[F_COEFF*W +: 4*W];
-            assign rd_lamT = s1_words[(F_COEFF + 4)*W +: 2*W];
+            assign rd_lam  = s1_kind == CONTACT ? s1_words[pgs_stream_layout_pkg::CONTACT_LAM_WORD*W +: 4*W]
+                                                : s1_words[F_COEFF*W +: 4*W];
+            assign rd_lamT = s1_words[(F_COEFF + pgs_stream_layout_pkg::FRICTION_LAMT_AFTER_LAM)*W +: 2*W];
         end else begin : g_imp_ram
             wire [BSLOT_W-1:0] wr_rec = BSLOT_W'(l_rslot[l] >> LG_L);
             pgs_impulse_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_MANIFOLDS(MAX_MANIFOLDS / LANES)) u_imp_ram (
@@ -496,7 +505,10 @@ module pgs_sequencer #(
         wire [BREC_W-1:0] ra = rd_data[2*l*BREC_W +: BREC_W];
         wire [BREC_W-1:0] rb = rd_data[(2*l+1)*BREC_W +: BREC_W];
         logic [(47 + 2*IINV_W)*W-1:0] c_in;
-        logic [(40 + 2*IINV_W + MU_W)*W-1:0] f_in;
+        // the friction pipe's inputs: its F_PIPE record words, lam[4], lamT[2], xA, xB, vA wA vB wB, mInvA/B, IInvA/B,
+        // then (MU_W = 1) the coefficient
+        localparam int FB = F_PIPE + 6;   // word of the bodies' fields
+        logic [(FB + 20 + 2*IINV_W + MU_W)*W-1:0] f_in;
         always_comb begin
             c_in = '0;
             c_in[0 +: 23*W] = s1_words[0 +: 23*W];
@@ -510,18 +522,18 @@ module pgs_sequencer #(
             c_in[47*W +: IINV_W*W] = ra[14*W +: IINV_W*W];              // IInvA
             c_in[(47 + IINV_W)*W +: IINV_W*W] = rb[14*W +: IINV_W*W];   // IInvB
             f_in = '0;
-            f_in[0 +: 14*W]   = s1_words[0 +: 14*W];
-            f_in[14*W +: 4*W] = rd_lam;
-            f_in[18*W +: 2*W] = rd_lamT;
-            f_in[20*W +: 3*W] = ra[0 +: 3*W];
-            f_in[23*W +: 3*W] = rb[0 +: 3*W];
-            f_in[26*W +: 6*W] = ra[7*W +: 6*W];
-            f_in[32*W +: 6*W] = rb[7*W +: 6*W];
-            f_in[38*W +: W]   = ra[13*W +: W];
-            f_in[39*W +: W]   = rb[13*W +: W];
-            f_in[40*W +: IINV_W*W] = ra[14*W +: IINV_W*W];
-            f_in[(40 + IINV_W)*W +: IINV_W*W] = rb[14*W +: IINV_W*W];
-            for (int k = 0; k < MU_W; k++) f_in[(40 + 2*IINV_W + k)*W +: W] = s1_words[(14 + k)*W +: W];   // mu
+            f_in[0 +: F_PIPE*W]       = s1_words[0 +: F_PIPE*W];
+            f_in[F_PIPE*W +: 4*W]     = rd_lam;
+            f_in[(F_PIPE + 4)*W +: 2*W] = rd_lamT;
+            f_in[FB*W +: 3*W]         = ra[0 +: 3*W];
+            f_in[(FB + 3)*W +: 3*W]   = rb[0 +: 3*W];
+            f_in[(FB + 6)*W +: 6*W]   = ra[7*W +: 6*W];
+            f_in[(FB + 12)*W +: 6*W]  = rb[7*W +: 6*W];
+            f_in[(FB + 18)*W +: W]    = ra[13*W +: W];
+            f_in[(FB + 19)*W +: W]    = rb[13*W +: W];
+            f_in[(FB + 20)*W +: IINV_W*W] = ra[14*W +: IINV_W*W];
+            f_in[(FB + 20 + IINV_W)*W +: IINV_W*W] = rb[14*W +: IINV_W*W];
+            for (int k = 0; k < MU_W; k++) f_in[(FB + 20 + 2*IINV_W + k)*W +: W] = s1_words[(F_PIPE + k)*W +: W];   // mu
         end
 
         logic [EV_W-1:0]   c_ev_ovf, c_ev_unf, c_ev_inv, f_ev_ovf, f_ev_unf, f_ev_inv;
@@ -568,6 +580,12 @@ module pgs_sequencer #(
                 .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
             if (MU_W == 1) begin : g_mu
                 pgs_friction_pipe_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
+                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
+                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
+            end else if (TANGENTS_ON_CHIP) begin : g_tangents
+                // the friction record carries no t0, t1: the pipe derives them from n (planeSpace of -n)
+                pgs_friction_pipe_tb #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
                     .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
                     .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
                     .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));

@@ -74,9 +74,13 @@ def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild, turnaround: int
     body = sf.pack_body_table(job.fmt, job.bodies, kb.body_in_bits, inertia_words=kb.inertia_words)
     if job.impulses_in_records != kb.impulses_in_records:
         raise ValueError("the job's impulses in the records and the kernel build's IMPULSES_IN_RECORDS disagree")
+    if job.tangents_on_chip != kb.tangents_on_chip:
+        raise ValueError("the job's friction record layout (tangents derived on chip) and the kernel build's "
+                         "TANGENTS_ON_CHIP disagree")
     if job.record_window is None:
         cons = sf.pack_constraint_stream(job.fmt, job.cons, job.schedule, job.params, kb.cons_bits,
-                                         job.start_impulses if job.impulses_in_records else None)
+                                         job.start_impulses if job.impulses_in_records else None,
+                                         job.tangents_on_chip)
     else:
         cons = sf.pack_window_stream(job.fmt, job.cons, job.slots, job.params, job.record_window.fetch_passes,
                                      kb.cons_bits)

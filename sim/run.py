@@ -75,6 +75,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--window", type=int, default=0,
                     help="hazard window W in issue slots (0: the kernel's pipeline depth in records)")
     add_kernel_args(ap)
+    ap.add_argument("--tangents", choices=TANGENT_SOURCES, default="host",
+                    help="streaming kernel: the friction records carry the tangent basis (host), or the kernel derives "
+                         "it from the normal (chip: TANGENTS_ON_CHIP build parameter, pgs_friction_pipe_tb; the "
+                         "golden model then solves with the derived tangents)")
     ap.add_argument("--stall-permille", type=int, default=0,
                     help="random idle cycles on the input streams and backpressure on the output (per mille)")
     ap.add_argument("--converged-budget", type=float, default=60.0,
@@ -93,6 +97,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--wave-cycles", type=int, default=20000, help="cycles of waveform to keep (0: all)")
     ap.add_argument("--out", default="build/sim", help="parent directory of the run directory")
     return ap.parse_args(argv)
+
+
+TANGENT_SOURCES = ("host", "chip")  # make sim's TANGENTS: who computes the friction tangent basis
 
 
 def hardware_format(name: str) -> NumberFormat:
@@ -117,6 +124,9 @@ def check_args(args: argparse.Namespace) -> None:
     if args.driver == "cocotb" and getattr(args, "impulse_store", "onchip") == "records":
         raise ValueError("DRIVER=cocotb has no DMA model of the impulses in the records: run IMPULSE_STORE=records "
                          "with the compiled harness")
+    if getattr(args, "tangents", "host") == "chip" and (args.record_window or args.driver == "cocotb"):
+        raise ValueError("TANGENTS=chip is a configuration of the streaming kernel through the compiled harness (no "
+                         "RECORD_WINDOW, DRIVER=harness)")
     if args.driver == "cocotb" and (args.record_window or args.body_bits != 128 or args.waves or args.stall_permille):
         raise ValueError("DRIVER=cocotb runs the streaming kernel with 128-bit body streams, without waveforms or "
                          "random stalls (RECORD_WINDOW=0 BODY_BITS=128 WAVES=0; the cycle-level cocotb tests cover "
@@ -152,12 +162,17 @@ def kernel_label(args: argparse.Namespace) -> str:
     return ((f"-ring{args.record_window}" if args.record_window else "")
             + (f"-lanes{args.lanes}" if args.lanes > 1 else "")
             + (f"-body{args.body_bits}" if args.body_bits != 128 else "")
-            + ("-impulses-in-records" if getattr(args, "impulse_store", "onchip") == "records" else ""))
+            + ("-impulses-in-records" if getattr(args, "impulse_store", "onchip") == "records" else "")
+            + ("-tangents-on-chip" if getattr(args, "tangents", "host") == "chip" else ""))
 
 
 def kernel_job(job: KernelJob, args: argparse.Namespace) -> KernelJob:
     """``job`` on the kernel the options name: the window kernel's plan with ``--record-window``, the impulses in
-    the records with ``--impulse-store records``."""
+    the records with ``--impulse-store records``, the tangent basis derived on chip with ``--tangents chip``."""
+    if getattr(args, "tangents", "host") == "chip":
+        if args.record_window:
+            raise ValueError("--tangents chip is a configuration of the streaming kernel (no --record-window)")
+        job = job.tangents_derived()
     if getattr(args, "impulse_store", "onchip") == "records":
         if args.record_window:
             raise ValueError("--impulse-store records is a configuration of the streaming kernel (no --record-window)")

@@ -1,6 +1,6 @@
 """The streaming kernel with the impulses in the records, with and without the tangent basis derived on chip: what
 the record layout, the cycle model, the resource model and the golden model say (``python -m
-sim.tangent_basis_report``; the RTL kernel does not derive the tangents yet, so no RTL run).
+sim.tangent_basis_report``; the RTL run of the derived layout: ``make sim IMPULSE_STORE=records TANGENTS=chip``).
 
 For each layout: the friction record's bits and beats, the kernel cycles and cycles per manifold-pass on the
 preset, the fit verdict with Yosys's and the published vendor operator figures, and the golden model's error

@@ -5,6 +5,8 @@ sim/tests/test_resource_model.py)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -67,3 +69,28 @@ def test_layout_and_cycle_model_know_the_option() -> None:
     assert derived.tangents_on_chip and derived.stream_layout(512).friction_beats == 1
     assert np.array_equal(derived.cons.tangent, derive_tangents(job.cons, FP32).tangent)
     assert not np.array_equal(derived.cons.tangent, job.cons.tangent)  # rounding differs from the host's
+
+
+def test_the_stream_omits_the_tangents() -> None:
+    """The packer writes the friction record without t0, t1 for the kernel that derives them: n, c, f_jac_inv, then
+    the impulses, one 512-bit beat in fp32; the contact records are unchanged."""
+    job = pile_job().impulses_travelling().tangents_derived()
+    lay = job.stream_layout(512)
+    slots = job.slots
+    stream = sf.pack_constraint_stream(FP32, job.cons, job.schedule, job.params, 512, job.start_impulses, True)
+    streamed = sf.pack_constraint_stream(FP32, job.cons, job.schedule, job.params, 512, job.start_impulses)
+    m, iters = len(slots), job.params.iterations  # contact passes first, then the friction passes
+    assert stream.num_beats == m * iters * (lay.contact_beats + lay.friction_beats)
+    assert streamed.num_beats == stream.num_beats + m * iters  # two beats per friction record there
+    contact_beats = m * iters * lay.contact_beats
+    assert np.array_equal(stream.data[:contact_beats], streamed.data[:contact_beats])
+    _, words = sf.unpack_records(stream.data[contact_beats:contact_beats + m], lay.friction_record_words, 32, 512,
+                                 header=True)
+    want = np.concatenate([job.cons.normal[slots], job.cons.center[slots], job.cons.f_jac_inv[slots]], axis=1)
+    assert np.array_equal(words[:, :lay.friction_lam_word], FP32.encode(want))
+    assert np.array_equal(words[:, lay.friction_lam_word:], np.zeros((m, 6), np.uint64))  # cold start: zeros
+
+
+def test_the_window_kernel_refuses_derived_tangents() -> None:
+    with pytest.raises(ValueError, match="no tangents derived on chip"):
+        dataclasses.replace(pile_job(), impulses_in_records=False).tangents_derived().windowed(1024)

@@ -14,6 +14,8 @@ copies are current):
 * ``pgs_pipe_latency_pkg.sv`` and ``pipe_latency.json``: each module's LATENCY as a function of MAN_BITS, for the
   sequencer and for the cycle model (``rtl/gen/pipe_latency.py``);
 * ``pgs_regs_pkg.sv``: the register map of ``models/register_map.py`` (``rtl/gen/register_map_emit.py``),
+* ``pgs_stream_layout_pkg.sv``: the constraint records' layout of ``models/stream_format.py`` for the sequencer
+  (``rtl/gen/stream_layout_emit.py``),
 
 and ``hls_export/generated/pgs_regs.h``, the same register map for the HLS kernel, and
 ``hls_export/generated/pgs_stream_layout.h``, the record sizes of ``models/stream_format.py``
@@ -34,7 +36,7 @@ from .kernel_graphs import GRAPHS, MAN_BITS_OF, MODE_GRAPHS, friction_graph
 from .pipe_latency import LATENCY_PKG, emit_latency_json, emit_latency_pkg
 from .register_map_emit import REGS_HEADER, REGS_PKG, emit_regs_header, emit_regs_pkg
 from .repo_paths import REPO_ROOT
-from .stream_layout_emit import STREAM_LAYOUT_HEADER, emit_stream_layout_header
+from .stream_layout_emit import STREAM_LAYOUT_HEADER, STREAM_LAYOUT_PKG, emit_stream_layout_header, emit_stream_layout_pkg
 from .sv_emit import emit_sv
 
 GENERATED_DIR = RTL_DIR / "generated"
@@ -50,6 +52,7 @@ def render() -> dict[Path, str]:
     files[GENERATED_DIR / f"{LATENCY_PKG}.sv"] = emit_latency_pkg(GRAPHS)
     files[PIPE_LATENCY_FILE] = emit_latency_json(GRAPHS)
     files[GENERATED_DIR / f"{REGS_PKG}.sv"] = emit_regs_pkg()
+    files[GENERATED_DIR / f"{STREAM_LAYOUT_PKG}.sv"] = emit_stream_layout_pkg()
     files[HLS_GENERATED_DIR / REGS_HEADER] = emit_regs_header()
     files[HLS_GENERATED_DIR / STREAM_LAYOUT_HEADER] = emit_stream_layout_header()
     return files

@@ -361,7 +361,7 @@ GRAPHS = {
     "pgs_friction_pipe": friction_graph,
     "pgs_integrate_pipe": integrate_graph,
     # the friction pipe that derives the tangent basis from the normal (a record layout without t0, t1): its own
-    # latency, not yet instantiated by the kernel (models/tangent_basis.py)
+    # latency, instantiated by the kernel built with TANGENTS_ON_CHIP (models/tangent_basis.py)
     "pgs_friction_pipe_tb": partial(friction_graph, tangents_on_chip=True),
 }
 

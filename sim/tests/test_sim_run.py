@@ -100,6 +100,7 @@ RUN_CASES = [
     (["--lanes", "2"], "above 1 only with --record-window"),
     (["--record-window", "1024", "--lanes", "3"], "--lanes must be a power of two"),
     (["--body-bits", "64"], "--body-bits must be 128, 256 or 512"),
+    (["--record-window", "1024", "--tangents", "chip"], "TANGENTS=chip is a configuration of the streaming kernel"),
     (["--dma", "zcu999"], "unknown DMA preset 'zcu999'"),
     (["--frame", "/nonexistent/frame.npz"], "does not exist"),
 ]

@@ -51,3 +51,12 @@ def test_mode_model_knows_the_impulses_in_the_records(tmp_path: Path) -> None:
     assert "impulses with the records" in fit["configuration"]
     assert any(k.startswith("verdict") and v.startswith("FITS") for k, v in fit.items())
     assert next(tmp_path.glob("*-impulses-in-records/report.json"))
+
+
+def test_mode_model_knows_the_tangents_derived_on_chip(tmp_path: Path) -> None:
+    """`TANGENTS=chip` reaches the cycle model (the one-beat friction record, the deeper pipe) and the resource model:
+    the run named for it, the fit with the derived-tangent friction pipe."""
+    report = _run(tmp_path, "--mode", "model", "--impulse-store", "records", "--tangents", "chip")
+    fit = report["fit on the platform (resource estimate of this configuration)"]
+    assert "tangent basis derived on chip" in fit["configuration"]
+    assert next(tmp_path.glob("*-impulses-in-records-tangents-on-chip/report.json"))
