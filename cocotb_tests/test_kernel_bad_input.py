@@ -35,7 +35,7 @@ FMT, DMA, ITERATIONS = "fp32", "zcu102", 2
 TIMEOUT_CYCLES = 100_000
 IDLE, BACKPRESSURE = 0.1, 0.2
 MAX_BODIES = 65536  # the kernel's default parameter
-UNMAPPED_READ, UNMAPPED_WRITE = 0xA0, 0xF4
+UNMAPPED_READ, UNMAPPED_WRITE = 0xB0, 0xF4
 
 # the catalogue's cases this co-simulation makes (each scenario's builder is below)
 SCENARIOS: dict[str, BadInputCase] = {c.name: c for c in CATALOGUE if c.cosim}

@@ -330,6 +330,7 @@ def test_generated_rtl_up_to_date() -> None:
     assert rendered == {"rtl/generated/pgs_contact_pipe.sv", "rtl/generated/pgs_friction_pipe.sv",
                         "rtl/generated/pgs_contact_pipe_scalar.sv", "rtl/generated/pgs_friction_pipe_scalar.sv",
                         "rtl/generated/pgs_contact_pipe_full.sv", "rtl/generated/pgs_friction_pipe_full.sv",
+                        "rtl/generated/pgs_contact_pipe_soft.sv",
                         "rtl/generated/pgs_friction_pipe_mu.sv", "rtl/generated/pgs_friction_pipe_scalar_mu.sv",
                         "rtl/generated/pgs_friction_pipe_full_mu.sv", "rtl/generated/pgs_integrate_pipe.sv", "rtl/generated/pgs_pipe_latency_pkg.sv",
                         "rtl/generated/pgs_friction_pipe_tb.sv",

@@ -31,7 +31,7 @@ STATUS, CYC_LO, CYC_HI, STALL, BUBBLE, ISSUED = (rm.OFFSET[n] for n in ("status"
 REJECTED, FP_OVF, FP_UNF, FP_INV, FP_STATUS = (rm.OFFSET[n] for n in ("rejected", "fp_overflow", "fp_underflow",
                                                                       "fp_invalid", "fp_status"))
 RESERVED = [addr + 4 for addr in ARGS.values()]  # the upper words of the 8-byte argument slots
-UNMAPPED, UNMAPPED_WRITE = (0x5C, 0x6C, 0x74, 0xA0, 0xA4, 0xFC), 0xF0  # addresses of no register
+UNMAPPED, UNMAPPED_WRITE = (0x5C, 0x6C, 0x74, 0xB0, 0xB4, 0xFC), 0xF0  # addresses of no register
 OKAY, SLVERR = 0, 2
 ERR = rm.ErrorCode
 
@@ -136,7 +136,7 @@ async def register_file(dut) -> None:
     await wr(m, ARGS["dt"], 0xAABBCCDD, strb=0b0100)
     assert await rd(m, ARGS["dt"]) == (0x01020304 * 4 & 0xFF00FFFF) | 0x00BB0000
     # reserved upper words of the argument slots read 0, ignore writes, answer OKAY, raise nothing
-    assert RESERVED == [*range(0x14, 0x58, 8), 0x94, 0x9C]
+    assert RESERVED == [*range(0x14, 0x58, 8), 0x94, 0x9C, 0xA4, 0xAC]
     for addr in RESERVED:
         assert await rd(m, addr) == 0, f"0x{addr:02x}"
     await wr(m, RESERVED[0], 0xFFFFFFFF)

@@ -18,10 +18,15 @@ the records and leave on ``m_axis_imp``) is built for a ``KernelBuild`` with ``i
 plays the DMA (``hls_export/pgs_csim_dma.h``) and writes the impulse-out records, which ``compare_impulse_out``
 checks too. Formats: ``KernelBuild.fmt``'s exponent and mantissa bits (``PGS_EXP_BITS``, ``PGS_MAN_BITS``).
 
+The soft contact build (``PGS_SOFT_CONTACT=1``, the RTL's ``SOFT_CONTACT``: Box2D's soft row, ``lam * keep`` before
+the add, ``models/soft_contact.py``) is built for a ``KernelBuild`` with ``soft_contact``; ``--designs soft`` runs the
+records design with it on the records scenes and formats, warm-started, each step once with the soft row (keep
+factors of :data:`SOFT_KEEP`, the options bit set) and once rigid (the bit clear), against the golden model of each.
+
 ``make csim`` (``python -m hls_export.csim``) runs both designs: the on-chip one in binary32 on the stack, the
 incline and a 4x3x4 pile in the hazard and the pybullet schedules, and the records design in binary16 and binary32 on
-the pile and the stack, cold and warm-started (``--designs onchip`` or ``records`` runs one); it prints a table and
-exits 1 on any difference.
+the pile and the stack, cold and warm-started (``--designs onchip`` or ``records`` runs one; ``soft`` is not in
+the default); it prints a table and exits 1 on any difference.
 """
 
 from __future__ import annotations
@@ -32,7 +37,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +50,7 @@ from models.dma_model import get_preset
 from models.number_format import FP16, FP32, NumberFormat
 from models.kernel_job import KernelJob
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
+from models.soft_contact import SoftContact
 from sim.harness_run import run_harness, write_inputs
 from sim.kernel_build import KernelBuild, default_window
 from sim.kernel_step import golden_step
@@ -65,6 +71,8 @@ RECORDS_FORMATS: dict[str, NumberFormat] = {"fp16": FP16, "fp32": FP32}
 RECORDS_SCENES = ("pile", "stack")
 EXTRA_SCENES: dict[str, dict[str, Any]] = {"thesis": {"seed": 1}}  # by name only (not in make csim): the thesis frame
 WARM_SEED = 7  # the warm start's random impulses (make csim)
+# the soft design's keep factors: Box2D's 15 Hz critically damped contact at substeps of 1/120 s (two values, not 1)
+SOFT_KEEP = SoftContact(hertz=15.0, damping_ratio=1.0).keep(1.0 / 120.0)
 
 
 class CsimError(RuntimeError):
@@ -76,7 +84,8 @@ def csim_name(kb: KernelBuild) -> str:
             + (f"_e{kb.fmt.exp_bits}m{kb.fmt.man_bits}" if kb.fmt != FP32 else "")
             + (f"_i{kb.inertia_words}" if kb.inertia_words != sf.KERNEL_INERTIA_WORDS else "")
             + ("_ir" if kb.impulses_in_records else "")
-            + ("_mu" if kb.friction_words else ""))
+            + ("_mu" if kb.friction_words else "")
+            + ("_soft" if kb.soft_contact else ""))
 
 
 def compile_cpp(sources: Sequence[Path], exe: Path, defines: Sequence[str] = (), cxx: str = "g++") -> Path:
@@ -107,7 +116,8 @@ def build_csim(kb: KernelBuild = KernelBuild(FP32), cxx: str = "g++") -> Path:
                f"-DPGS_MAX_BODIES={kb.max_bodies}", f"-DPGS_MAX_MANIFOLDS={kb.max_manifolds}",
                f"-DPGS_CONS_W={kb.cons_bits}", f"-DPGS_BODY_IN_W={kb.body_in_bits}",
                f"-DPGS_BODY_OUT_W={kb.body_out_bits}", f"-DPGS_IINV_W={kb.inertia_words}",
-               f"-DPGS_MU_W={kb.friction_words}", f"-DPGS_IMPULSES_IN_RECORDS={int(kb.impulses_in_records)}"]
+               f"-DPGS_MU_W={kb.friction_words}", f"-DPGS_IMPULSES_IN_RECORDS={int(kb.impulses_in_records)}",
+               f"-DPGS_SOFT_CONTACT={int(kb.soft_contact)}"]
     if kb.impulses_in_records:  # the testbench's DMA thread needs the blocking, thread-safe local streams
         defines.append("-DPGS_FORCE_SHIMS")
     return compile_cpp(SOURCES, BUILD_ROOT / csim_name(kb) / "pgs_csim", defines, cxx)
@@ -181,12 +191,20 @@ def warm_start(job: KernelJob, seed: int) -> Impulses:
     return Impulses(normal, friction)
 
 
-def records_build(fmt: NumberFormat, job: KernelJob | None = None) -> KernelBuild:
-    """The records design's build for ``fmt`` (and ``job``'s friction-coefficient and inverse-inertia words)."""
+def records_build(fmt: NumberFormat, job: KernelJob | None = None, soft_contact: bool = False) -> KernelBuild:
+    """The records design's build for ``fmt`` (and ``job``'s friction-coefficient and inverse-inertia words; with
+    the soft contact row where asked)."""
     if job is None:
-        return KernelBuild(fmt, impulses_in_records=True)
+        return KernelBuild(fmt, impulses_in_records=True, soft_contact=soft_contact)
     return KernelBuild(fmt, impulses_in_records=True, inertia_words=job.inertia_words,
-                       friction_words=job.friction_words)
+                       friction_words=job.friction_words, soft_contact=soft_contact)
+
+
+def soft_jobs(cold: KernelJob) -> dict[str, KernelJob]:
+    """The soft design's steps of a records job: warm-started (:data:`WARM_SEED`), with the soft row (keep factors
+    :data:`SOFT_KEEP`) and rigid (the same records, the options bit clear)."""
+    warm = cold.impulses_travelling(warm_start(cold, WARM_SEED))
+    return {"soft": replace(warm, params=replace(warm.params, soft_keep=SOFT_KEEP)), "rigid": warm}
 
 
 def _print_row(case: str, res: CsimResult) -> None:
@@ -200,7 +218,8 @@ def _print_row(case: str, res: CsimResult) -> None:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--designs", default="onchip,records", help="comma-separated: onchip (impulses on chip, "
-                    "binary32), records (impulses in the records, PGS_IMPULSES_IN_RECORDS=1)")
+                    "binary32), records (impulses in the records, PGS_IMPULSES_IN_RECORDS=1), soft (records with "
+                    "the soft contact row, PGS_SOFT_CONTACT=1; not in the default)")
     ap.add_argument("--scenes", default=",".join(SCENES),
                     help="on-chip design, comma-separated, from " + ", ".join(SCENES))
     ap.add_argument("--schedules", default=",".join(SCHEDULES))
@@ -211,9 +230,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=REPO_ROOT / "build" / "hls_csim" / "runs")
     args = ap.parse_args(argv)
     designs = args.designs.split(",")
-    unknown = set(designs) - {"onchip", "records"}
+    unknown = set(designs) - {"onchip", "records", "soft"}
     if unknown:
-        ap.error(f"unknown design(s) {sorted(unknown)}: onchip, records")
+        ap.error(f"unknown design(s) {sorted(unknown)}: onchip, records, soft")
     print(f"{'case':<30} {'manifold-passes':>15} {'bodies':>7} {'imp-out rec':>11} {'differing bits':>14} "
           f"{'window hazards':>14} {'csim s':>7} {'golden s':>8}  result")
     bad = 0
@@ -239,6 +258,18 @@ def main(argv: list[str] | None = None) -> int:
                                         default_window(fmt, kb.cons_bits))
                     bad += not res.bit_exact
                     _print_row(f"records {fname} {scene}/hazard {start}", res)
+    if "soft" in designs:
+        for fname in args.records_formats.split(","):
+            fmt = RECORDS_FORMATS[fname]
+            for scene in args.records_scenes.split(","):
+                cold = scene_job(scene, "hazard", args.iters, records_build(fmt))
+                kb = records_build(fmt, cold, soft_contact=True)
+                exe = build_csim(kb)
+                for row, job in soft_jobs(cold).items():
+                    res = run_csim_step(job, args.out / f"soft-{fname}-{scene}-{row}", exe, kb,
+                                        default_window(fmt, kb.cons_bits))
+                    bad += not res.bit_exact
+                    _print_row(f"soft {fname} {scene}/hazard warm {row}", res)
     print("window hazards: records naming a dynamic body that one of the records before them in the pass (the RTL's "
           "hazard window for the format) names too; the synthesized kernel (DEPENDENCE false on the velocities) "
           "equals this C simulation only where that is 0 for a window of at least its pipeline's records in flight.")

@@ -165,6 +165,12 @@ int main(int argc, char** argv) {
         reg[a] = v;
     }
     const uint32_t nb = reg[kRegNumBodies], nm = reg[kRegNumManifolds], iters = reg[kRegIterations];
+#if PGS_SOFT_CONTACT  // the soft contact build's keep factors (the harness writes them for a soft job only)
+#define PGS_SOFT_CALL reg[kRegKeepDyn], reg[kRegKeepStatic],
+#else
+#define PGS_SOFT_CALL
+    if (reg[kRegOptions] & kOptSoftContact) fail("a soft contact job needs the build with PGS_SOFT_CONTACT=1");
+#endif
 
     hls::stream<body_in_beat_t> s_body("s_axis_body");
     hls::stream<cons_beat_t> s_cons("s_axis_cons");
@@ -183,7 +189,8 @@ int main(int argc, char** argv) {
     m_imp.open_producer();
     std::thread kernel([&] {
         pgs_kernel(s_body, s_cons, m_body, trace, m_imp, nb, nm, iters, reg[kRegDt], reg[kRegGravityX],
-                   reg[kRegGravityY], reg[kRegGravityZ], reg[kRegDamping], reg[kRegOptions], &status, &issued);
+                   reg[kRegGravityY], reg[kRegGravityZ], reg[kRegDamping], reg[kRegOptions], PGS_SOFT_CALL &status,
+                   &issued);
         m_imp.close_producer();
     });
     if (!dma.stream_records(s_cons, m_imp)) fail(dma.error());  // exits with the kernel thread still waiting
@@ -192,7 +199,7 @@ int main(int argc, char** argv) {
 #else
     feed(s_cons, cons, cons_last);
     pgs_kernel(s_body, s_cons, m_body, trace, nb, nm, iters, reg[kRegDt], reg[kRegGravityX], reg[kRegGravityY],
-               reg[kRegGravityZ], reg[kRegDamping], reg[kRegOptions], &status, &issued);
+               reg[kRegGravityZ], reg[kRegDamping], reg[kRegOptions], PGS_SOFT_CALL &status, &issued);
 #endif
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 

@@ -144,7 +144,7 @@ void write_impulses(hls::stream<imp_beat_t>& m_axis_imp, const float impulses[4]
 // One contact pass: record k of the pass is manifold slot k.
 void contact_pass(hls::stream<cons_beat_t>& s_axis_cons, hls::stream<trace_t>& trace, uint32_t num_bodies,
                   uint32_t num_manifolds, uint32_t iteration, const float body_ref[kMaxBodies][kRefWords],
-                  float body_vel[kMaxBodies][6], PGS_IMPULSE_ARGS, Errors& err) {
+                  float body_vel[kMaxBodies][6], PGS_IMPULSE_ARGS, const SoftKeep& soft, Errors& err) {
     const bool zero_lam = iteration == 0;  // on chip: the impulses start the step at +0
     (void)zero_lam;
 #if !PGS_IMPULSES_IN_RECORDS
@@ -166,7 +166,7 @@ CONTACT:
 #else
         for (int i = 0; i < 4; i++) lam[i] = zero_lam ? 0.0f : imp_n[k][i];
 #endif
-        solve_contact(r, p.A, p.B, p.va, p.vb, lam);
+        solve_contact(r, p.A, p.B, p.va, p.vb, lam, soft);
 #if PGS_IMPULSES_IN_RECORDS
         write_impulses(m_axis_imp, lam, k == num_manifolds - 1);
 #else
@@ -240,8 +240,8 @@ INTEGRATE:
 void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_t>& s_axis_cons,
                 hls::stream<body_out_beat_t>& m_axis_body, hls::stream<trace_t>& trace, PGS_IMP_OUT_PORT
                 uint32_t num_bodies, uint32_t num_manifolds, uint32_t iterations, uint32_t dt, uint32_t gravity_x,
-                uint32_t gravity_y, uint32_t gravity_z, uint32_t damping, uint32_t options, uint32_t* status,
-                uint32_t* issued) {
+                uint32_t gravity_y, uint32_t gravity_z, uint32_t damping, uint32_t options, PGS_SOFT_PORTS
+                uint32_t* status, uint32_t* issued) {
 #pragma HLS INTERFACE mode=axis port=s_axis_body
 #pragma HLS INTERFACE mode=axis port=s_axis_cons
 #pragma HLS INTERFACE mode=axis port=m_axis_body
@@ -259,6 +259,10 @@ void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=gravity_z bundle=control offset=PGS_REG_GRAVITY_Z)
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=damping bundle=control offset=PGS_REG_DAMPING)
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=options bundle=control offset=PGS_REG_OPTIONS)
+#if PGS_SOFT_CONTACT
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=keep_dyn bundle=control offset=PGS_REG_KEEP_DYN)
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=keep_static bundle=control offset=PGS_REG_KEEP_STATIC)
+#endif
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=status bundle=control offset=PGS_REG_STATUS)
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=issued bundle=control offset=PGS_REG_ISSUED)
 #pragma HLS INTERFACE mode=s_axilite port=return bundle=control
@@ -287,6 +291,11 @@ void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_
     } else if (num_bodies != 0) {  // no bodies: nothing to load, solve or integrate (as the RTL)
         load_bodies(s_axis_body, num_bodies, body_ref, body_vel, body_q, err);
         const bool interleaved = (options & kOptInterleaved) != 0;
+#if PGS_SOFT_CONTACT
+        const SoftKeep soft = {(options & kOptSoftContact) != 0, from_bits(keep_dyn), from_bits(keep_static)};
+#else
+        const SoftKeep soft = {false, 1.0f, 1.0f};
+#endif
     PASSES:
         for (uint32_t p = 0; p < 2 * iterations; p++) {
 #pragma HLS LOOP_TRIPCOUNT min=2 max=64 avg=8
@@ -296,7 +305,7 @@ void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_
                               err);
             else
                 contact_pass(s_axis_cons, trace, num_bodies, num_manifolds, it, body_ref, body_vel, PGS_IMPULSE_CALL,
-                             err);
+                             soft, err);
             count += num_manifolds;
         }
         const Vec3 gravity = vec3(from_bits(gravity_x), from_bits(gravity_y), from_bits(gravity_z));

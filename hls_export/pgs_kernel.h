@@ -7,6 +7,8 @@
 //   PGS_IINV_W         inverse-inertia words per body (3; 1 scalar, 6 the symmetric 3x3; pgs_stream.h)
 //   PGS_MU_W           friction-coefficient words per friction record (0 the constant 0.7; 1 a word; pgs_stream.h)
 //   PGS_IMPULSES_IN_RECORDS  1: the impulses travel with the records, out on m_axis_imp; 0: on chip (pgs_stream.h)
+//   PGS_SOFT_CONTACT   1: Box2D's soft contact row (the RTL's SOFT_CONTACT): lam * keep before the add, with the
+//                      options bit kOptSoftContact and the arguments keep_dyn, keep_static; 0: the rigid row only
 //   PGS_EXP_BITS, PGS_MAN_BITS  the number format (8, 23: binary32; C simulation also 5, 10 and 8, 7; pgs_fp.h)
 #ifndef PGS_KERNEL_H
 #define PGS_KERNEL_H
@@ -21,6 +23,9 @@
 #endif
 #ifndef PGS_MAX_MANIFOLDS
 #define PGS_MAX_MANIFOLDS 262144
+#endif
+#ifndef PGS_SOFT_CONTACT
+#define PGS_SOFT_CONTACT 0
 #endif
 
 namespace pgs {
@@ -49,11 +54,17 @@ inline uint32_t pass_iteration(uint32_t p, uint32_t iterations, bool interleaved
 #else
 #define PGS_IMP_OUT_PORT
 #endif
+// the soft contact row's keep factors (format bit patterns), arguments of the soft contact build only
+#if PGS_SOFT_CONTACT
+#define PGS_SOFT_PORTS uint32_t keep_dyn, uint32_t keep_static,
+#else
+#define PGS_SOFT_PORTS
+#endif
 
 void pgs_kernel(hls::stream<pgs::body_in_beat_t>& s_axis_body, hls::stream<pgs::cons_beat_t>& s_axis_cons,
                 hls::stream<pgs::body_out_beat_t>& m_axis_body, hls::stream<pgs::trace_t>& trace,
                 PGS_IMP_OUT_PORT uint32_t num_bodies, uint32_t num_manifolds, uint32_t iterations, uint32_t dt,
                 uint32_t gravity_x, uint32_t gravity_y, uint32_t gravity_z, uint32_t damping, uint32_t options,
-                uint32_t* status, uint32_t* issued);
+                PGS_SOFT_PORTS uint32_t* status, uint32_t* issued);
 
 #endif  // PGS_KERNEL_H

@@ -27,6 +27,18 @@ struct BodyRef {
     InvInertia i_inv;
 };
 
+// The soft contact row's per-call constants (models/soft_contact.py, SolverParams.soft_keep): with `on`, each point's
+// accumulated impulse is multiplied by its keep factor before the add (1 where b > 0, `stat` for a row with a static
+// body, `dyn` otherwise); off: the rigid row (a build with PGS_SOFT_CONTACT = 0 never multiplies).
+struct SoftKeep {
+    bool on;
+    float dyn, stat;
+};
+#ifndef PGS_SOFT_CONTACT
+#define PGS_SOFT_CONTACT 0
+#endif
+constexpr bool kSoftContact = PGS_SOFT_CONTACT != 0;
+
 // Per body, read and written by the passes.
 struct Velocity {
     Vec3 v, w;
@@ -82,9 +94,10 @@ inline void apply_impulse(Velocity& a, Velocity& b, const Vec3& lin_a, const Vec
 
 // --- contact pass of one manifold: lam[0..3] in/out ---------------------------------------------------------
 inline void solve_contact(const ContactRec& r, const BodyRef& A, const BodyRef& B, Velocity& va, Velocity& vb,
-                          float lam[4]) {
+                          float lam[4], const SoftKeep& soft) {
     const Vec3 lin_a = v_scale(r.n, A.m_inv);
     const Vec3 lin_b = v_scale(r.n, B.m_inv);
+    const float keep_row = (A.m_inv == 0.0f || B.m_inv == 0.0f) ? soft.stat : soft.dyn;
 POINTS:
     for (int i = 0; i < 4; i++) {  // sequential: point i+1 sees point i's velocities
 #pragma HLS UNROLL
@@ -93,7 +106,8 @@ POINTS:
         const Vec3 cb = cross3(v_sub(r.p[i], B.x), r.n);
         const float vrel = add(sub(dot3(r.n, va.v), dot3(r.n, vb.v)), sub(dot3(ca, va.w), dot3(cb, vb.w)));
         const float d0 = mul(add(vrel, r.bias[i]), r.jac_inv[i]);
-        const float lam_new = maximum(add(lam[i], d0), 0.0f);
+        const float start = (kSoftContact && soft.on) ? mul(lam[i], r.bias[i] > 0.0f ? 1.0f : keep_row) : lam[i];
+        const float lam_new = maximum(add(start, d0), 0.0f);
         const float d = sub(lam_new, lam[i]);
         if (active) lam[i] = lam_new;
         apply_impulse(va, vb, lin_a, inertia_mul(A.i_inv, ca), lin_b, inertia_mul(B.i_inv, cb), d, active);

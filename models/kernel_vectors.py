@@ -114,8 +114,10 @@ def contact_words(cons: ConstraintSet, idx: np.ndarray, lam: np.ndarray, g: _Gat
                            lam] + _gathered_words(g, inertia_words), axis=1)
 
 
-def contact_golden(ar: Arithmetic, words: np.ndarray, inertia_words: int = 3) -> np.ndarray:
-    """(K, 53) input words -> (K, 16) output words of ``contact_solve`` (one manifold per row)."""
+def contact_golden(ar: Arithmetic, words: np.ndarray, inertia_words: int = 3,
+                   soft_keep: tuple[float, float] | None = None) -> np.ndarray:
+    """(K, 53) input words -> (K, 16) output words of ``contact_solve`` (one manifold per row), with the soft
+    contact's keep factors ``soft_keep`` (``SolverParams.soft_keep``) where given."""
     w = np.asarray(words, dtype=np.float64)
     k = w.shape[0]
     bodies, a, b = _bodies_for_pairs(_body_words(w, 27, inertia_words))
@@ -124,7 +126,7 @@ def contact_golden(ar: Arithmetic, words: np.ndarray, inertia_words: int = 3) ->
         jac_inv=w[:, 15:19], bias=w[:, 19:23], center=np.zeros((k, 3)), tangent=np.zeros((k, 2, 3)),
         f_jac_inv=np.zeros((k, 2)), spin_damp=np.zeros(k, dtype=bool))
     g = _Gathered(bodies, a, b)
-    lam = contact_solve(ar, g, cons, np.arange(k), w[:, 23:27])
+    lam = contact_solve(ar, g, cons, np.arange(k), w[:, 23:27], soft_keep)
     return np.concatenate([lam, g.va, g.wa, g.vb, g.wb], axis=1)
 
 

@@ -32,9 +32,13 @@ ARGUMENTS: tuple[Register, ...] = (
     Register("gravity_y", 0x38, "RW", "format bit pattern"),
     Register("gravity_z", 0x40, "RW", "format bit pattern"),
     Register("damping", 0x48, "RW", "angular damping per step (format bit pattern)"),
-    Register("options", 0x50, "RW", "bit 0: interleaved pass order"),
+    Register("options", 0x50, "RW", "bit 0: interleaved pass order; bit 1: soft contact (SOFT_CONTACT build)"),
     Register("lag", 0x90, "RW", "window kernel: slots a pass trails the pass before it"),
     Register("fetch_passes", 0x98, "RW", "window kernel: passes served by one fetch of the records"),
+    Register("keep_dyn", 0xA0, "RW", "soft contact kernel: keep factor of a row between two dynamic bodies "
+                                     "(format bit pattern)"),
+    Register("keep_static", 0xA8, "RW", "soft contact kernel: keep factor of a row with a static body "
+                                        "(format bit pattern)"),
 )
 
 # Control, status and counters.
@@ -66,6 +70,7 @@ AP_START, AP_DONE, AP_IDLE, AP_READY, AUTO_RESTART = 1 << 0, 1 << 1, 1 << 2, 1 <
 AP_INTERRUPT = 1 << 9  # read only: the interrupt output (GIE && ISR != 0)
 # options bits
 OPT_INTERLEAVED = 1 << 0
+OPT_SOFT_CONTACT = 1 << 1  # SOFT_CONTACT build: lam * keep before the add (keep_dyn, keep_static); ignored otherwise
 # fp_status bits
 FP_OVERFLOW_FLAG, FP_UNDERFLOW_FLAG, FP_INVALID_FLAG = 1 << 0, 1 << 1, 1 << 2
 MAX_ITERATIONS = (1 << 16) - 1

@@ -11,7 +11,7 @@
 //   0x0C ISR      bit0 ap_done, bit1 ap_ready interrupt status (R/TOW: writing 1 toggles)
 //   0x10 num_bodies      0x18 num_manifolds  0x20 iterations  0x28 dt         (R/W, 8-byte stride)
 //   0x30 gravity_x       0x38 gravity_y      0x40 gravity_z   0x48 damping
-//   0x50 options         bit0 interleaved pass order
+//   0x50 options         bit0 interleaved pass order, bit1 soft contact (SOFT_CONTACT kernel)
 //   0x58 status   (R/W1C) sticky error flags (write 1 to clear): bits 7:0 codes 1..8 (bit k-1 for code
 //                 k), bits 31:24 codes 9..16 (bit 24+k-9); bits 15:8 code of the first error since the
 //                 flags were last all clear (0 = none; cleared with the last flag); bits 23:16 read 0
@@ -20,9 +20,10 @@
 //   0x80 / 0x84 / 0x88 floating-point overflow / underflow / invalid (NaN) events of the run (R)
 //   0x8C fp_status (R/W1C) sticky event flags: bit 0 overflow, bit 1 underflow, bit 2 invalid
 //   0x90 lag             0x98 fetch_passes  (R/W, 8-byte stride) arguments of a window kernel (WINDOW > 0)
+//   0xA0 keep_dyn        0xA8 keep_static   (R/W, 8-byte stride) arguments of a soft contact kernel (SOFT_CONTACT)
 // Errors raised here: code 8 = AP_CTRL written with ap_start = 1 while a run is pending or busy (the
 // write does nothing else); code 9 = an access to an unmapped address. The upper words of the 8-byte
-// argument slots (0x14, 0x1C, ... 0x54, 0x94, 0x9C) are reserved: they read 0, ignore writes and answer OKAY (a host
+// argument slots (0x14, 0x1C, ... 0x54, 0x94, 0x9C, 0xA4, 0xAC) are reserved: they read 0, ignore writes and answer OKAY (a host
 // may write 64-bit arguments); every other address without a register reads 0, ignores writes and
 // answers SLVERR (RRESP/BRESP = 2'b10).
 // Ports s_axi_control_* (the HLS bundle name `control`). Handshake: one outstanding read and one outstanding write, like the HLS-generated slave (AWREADY
@@ -81,6 +82,8 @@ module pgs_control_s_axi
     output logic [31:0]         options,
     output logic [31:0]         lag,
     output logic [31:0]         fetch_passes,
+    output logic [31:0]         keep_dyn,
+    output logic [31:0]         keep_static,
     input  wire  [7:0]          err_set,      // pulse: set these sticky error flags (codes 1..8)
     input  wire  [7:0]          err_code,     // code recorded with the first error
     input  wire  [2:0]          fp_set,       // pulse: set these sticky event flags
@@ -119,6 +122,8 @@ module pgs_control_s_axi
     localparam logic [ADDR_W-1:0] A_FP_STAT = ADDR_W'(REG_FP_STATUS);
     localparam logic [ADDR_W-1:0] A_LAG     = ADDR_W'(REG_LAG);
     localparam logic [ADDR_W-1:0] A_FETCH   = ADDR_W'(REG_FETCH_PASSES);
+    localparam logic [ADDR_W-1:0] A_KEEP_D  = ADDR_W'(REG_KEEP_DYN);
+    localparam logic [ADDR_W-1:0] A_KEEP_S  = ADDR_W'(REG_KEEP_STATIC);
     localparam logic [1:0]        OKAY      = 2'b00;
     localparam logic [1:0]        SLVERR    = 2'b10;
 
@@ -127,9 +132,10 @@ module pgs_control_s_axi
         unique case (a)
             A_AP_CTRL, A_GIE, A_IER, A_ISR, A_NBODY, A_NMANI, A_ITERS, A_DT, A_GX, A_GY, A_GZ, A_DAMP, A_OPT,
             A_STATUS, A_CYC_LO, A_CYC_HI, A_STALL, A_BUBBLE, A_ISSUED, A_REJECT, A_FP_OVF, A_FP_UNF, A_FP_INV,
-            A_FP_STAT, A_LAG, A_FETCH: return 1'b1;
+            A_FP_STAT, A_LAG, A_FETCH, A_KEEP_D, A_KEEP_S: return 1'b1;
             default:   return a[2:0] == 3'd4 && ((a >= A_NBODY + ADDR_W'(4) && a <= A_OPT + ADDR_W'(4))
-                                                 || a == A_LAG + ADDR_W'(4) || a == A_FETCH + ADDR_W'(4));
+                                                 || a == A_LAG + ADDR_W'(4) || a == A_FETCH + ADDR_W'(4)
+                                                 || a == A_KEEP_D + ADDR_W'(4) || a == A_KEEP_S + ADDR_W'(4));
         endcase
     endfunction
 
@@ -265,7 +271,7 @@ module pgs_control_s_axi
 
     // ---------------- argument registers (not reset: written by the host before ap_start) ----------
     logic [31:0] r_num_bodies, r_num_manifolds, r_iterations, r_dt, r_gx, r_gy, r_gz, r_damping, r_options, r_lag,
-                 r_fetch;
+                 r_fetch, r_keep_d, r_keep_s;
     always_ff @(posedge ap_clk) begin
         if (rst) begin
             // arguments read 0 after reset, like the HLS slave's registers
@@ -280,6 +286,8 @@ module pgs_control_s_axi
             r_options       <= '0;
             r_lag           <= '0;
             r_fetch         <= '0;
+            r_keep_d        <= '0;
+            r_keep_s        <= '0;
         end else if (w_hs) begin
             unique case (waddr)
                 A_NBODY: r_num_bodies    <= merge(r_num_bodies, wdata32, wstrb4);
@@ -293,6 +301,8 @@ module pgs_control_s_axi
                 A_OPT:   r_options       <= merge(r_options, wdata32, wstrb4);
                 A_LAG:   r_lag           <= merge(r_lag, wdata32, wstrb4);
                 A_FETCH: r_fetch         <= merge(r_fetch, wdata32, wstrb4);
+                A_KEEP_D: r_keep_d       <= merge(r_keep_d, wdata32, wstrb4);
+                A_KEEP_S: r_keep_s       <= merge(r_keep_s, wdata32, wstrb4);
                 default: ;
             endcase
         end
@@ -308,6 +318,8 @@ module pgs_control_s_axi
     assign options       = r_options;
     assign lag           = r_lag;
     assign fetch_passes  = r_fetch;
+    assign keep_dyn      = r_keep_d;
+    assign keep_static   = r_keep_s;
 
     // ---------------- read data (registered at the AR handshake) ----------------
     logic [31:0] rmux;
@@ -336,6 +348,8 @@ module pgs_control_s_axi
             A_OPT:     rmux = r_options;
             A_LAG:     rmux = r_lag;
             A_FETCH:   rmux = r_fetch;
+            A_KEEP_D:  rmux = r_keep_d;
+            A_KEEP_S:  rmux = r_keep_s;
             A_STATUS:  rmux = {int_err_flags[15:8], 8'd0, int_err_code, int_err_flags[7:0]};
             A_CYC_LO:  rmux = stat_cycles[31:0];
             A_CYC_HI:  rmux = stat_cycles[63:32];

@@ -29,6 +29,7 @@ generated/pgs_friction_pipe.sv
 generated/pgs_contact_pipe_scalar.sv
 generated/pgs_friction_pipe_scalar.sv
 generated/pgs_contact_pipe_full.sv
+generated/pgs_contact_pipe_soft.sv
 generated/pgs_friction_pipe_full.sv
 generated/pgs_friction_pipe_mu.sv
 generated/pgs_friction_pipe_scalar_mu.sv

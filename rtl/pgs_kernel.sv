@@ -47,6 +47,7 @@ module pgs_kernel #(
     parameter int MU_W           = 0,     // friction-coefficient words of a friction record: 0 the constant, 1 a word
     parameter int BODY_BANKS     = 0,     // 0: body velocities as a multiport array; > 0: that many banks (LANES = 1)
     parameter bit TANGENTS_ON_CHIP = 1'b0, // 1: friction records without t0, t1, derived from n (pgs_friction_pipe_tb)
+    parameter bit SOFT_CONTACT   = 1'b0,  // 1 (IINV_W = 3): the soft contact pipe (options bit 1, keep_dyn, keep_static)
     parameter int C_S_AXI_CONTROL_ADDR_WIDTH = 8,
     parameter int C_S_AXI_CONTROL_DATA_WIDTH = 32,
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
@@ -101,7 +102,8 @@ module pgs_kernel #(
     assign ap_rst_n_inv = !ap_rst_n;
 
     logic        ap_start, ap_done, ap_idle;
-    logic [31:0] num_bodies, num_manifolds, iterations, dt, gx, gy, gz, damping, options, lag, fetch_passes;
+    logic [31:0] num_bodies, num_manifolds, iterations, dt, gx, gy, gz, damping, options, lag, fetch_passes,
+                 keep_dyn, keep_static;
     logic [7:0]  err_set, err_code;
     logic [2:0]  fp_set;
     logic [63:0] stat_cycles;
@@ -117,7 +119,7 @@ module pgs_kernel #(
         .s_axi_control_RRESP, .interrupt,
         .ap_start, .ap_done, .ap_idle, .ap_ready(ap_done),
         .num_bodies, .num_manifolds, .iterations, .dt, .gravity_x(gx), .gravity_y(gy), .gravity_z(gz),
-        .damping, .options, .lag, .fetch_passes, .err_set, .err_code, .fp_set, .stat_cycles, .stat_stalls, .stat_bubbles, .stat_issued,
+        .damping, .options, .lag, .fetch_passes, .keep_dyn, .keep_static, .err_set, .err_code, .fp_set, .stat_cycles, .stat_stalls, .stat_bubbles, .stat_issued,
         .stat_rejected, .stat_fp_overflow, .stat_fp_underflow, .stat_fp_invalid);
 
     pgs_sequencer #(
@@ -125,12 +127,14 @@ module pgs_kernel #(
         .BODY_IN_W(BODY_IN_W), .CONS_W(CONS_W), .BODY_OUT_W(BODY_OUT_W), .TRACE(TRACE),
         .HAZARD_DEPTH(HAZARD_DEPTH), .OUT_FIFO_DEPTH(OUT_FIFO_DEPTH), .WINDOW(WINDOW), .WINDOW_CTX(WINDOW_CTX),
         .LANES(LANES), .IINV_W(IINV_W), .IMPULSES_IN_RECORDS(IMPULSES_IN_RECORDS), .MU_W(MU_W),
-        .BODY_BANKS(BODY_BANKS), .TANGENTS_ON_CHIP(TANGENTS_ON_CHIP)
+        .BODY_BANKS(BODY_BANKS), .TANGENTS_ON_CHIP(TANGENTS_ON_CHIP), .SOFT_CONTACT(SOFT_CONTACT)
     ) u_seq (
         .clk(ap_clk), .rst(ap_rst_n_inv), .start(ap_start), .idle(ap_idle), .done(ap_done),
         .arg_num_bodies(num_bodies), .arg_num_manifolds(num_manifolds), .arg_iterations(iterations),
         .arg_dt(dt[W-1:0]), .arg_gx(gx[W-1:0]), .arg_gy(gy[W-1:0]), .arg_gz(gz[W-1:0]),
         .arg_damping(damping[W-1:0]), .opt_interleaved(options[pgs_regs_pkg::OPT_INTERLEAVED_BIT]), .arg_lag(lag), .arg_fetch_passes(fetch_passes),
+        .opt_soft(options[pgs_regs_pkg::OPT_SOFT_CONTACT_BIT]), .arg_keep_dyn(keep_dyn[W-1:0]),
+        .arg_keep_static(keep_static[W-1:0]),
         .s_body_tdata(s_axis_body_TDATA), .s_body_tvalid(s_axis_body_TVALID), .s_body_tready(s_axis_body_TREADY),
         .s_body_tlast(s_axis_body_TLAST),
         .s_cons_tdata(s_axis_cons_TDATA), .s_cons_tvalid(s_axis_cons_TVALID), .s_cons_tready(s_axis_cons_TREADY),
@@ -146,10 +150,12 @@ module pgs_kernel #(
     // and the reserved option bits.
     generate
         if (W < 32) begin : g_unused_hi
-            wire unused_hi = ^{dt[31:W], gx[31:W], gy[31:W], gz[31:W], damping[31:W]};
+            wire unused_hi = ^{dt[31:W], gx[31:W], gy[31:W], gz[31:W], damping[31:W], keep_dyn[31:W],
+                               keep_static[31:W]};
         end
     endgenerate
-    wire unused_opt = ^(options & ~(32'd1 << pgs_regs_pkg::OPT_INTERLEAVED_BIT));   // the other options bits
+    wire unused_opt = ^(options & ~((32'd1 << pgs_regs_pkg::OPT_INTERLEAVED_BIT)
+                                    | (32'd1 << pgs_regs_pkg::OPT_SOFT_CONTACT_BIT)));   // the other options bits
 endmodule
 
 `default_nettype wire

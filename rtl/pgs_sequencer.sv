@@ -76,6 +76,7 @@ module pgs_sequencer #(
     parameter int MU_W           = 0,      // friction-coefficient words per friction record: 0 the constant, 1 a word
     parameter int BODY_BANKS     = 0,      // > 0 (LANES = 1): body velocities in banks; a busy bank stalls the issue
     parameter bit TANGENTS_ON_CHIP = 1'b0, // 1: friction records without t0, t1; pgs_friction_pipe_tb derives them
+    parameter bit SOFT_CONTACT   = 1'b0,   // 1 (IINV_W = 3): the soft contact pipe, lam * keep before the add
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64,
     localparam int IMP_OUT_W     = (4 * W + 7) / 8 * 8
@@ -96,6 +97,9 @@ module pgs_sequencer #(
     input  wire                   opt_interleaved,
     input  wire  [31:0]           arg_lag,           // WINDOW > 0: slots a pass trails the pass before it
     input  wire  [31:0]           arg_fetch_passes,  // WINDOW > 0: passes served by one fetch of the records
+    input  wire                   opt_soft,          // SOFT_CONTACT: the keep factors apply (clear: keep = 1)
+    input  wire  [W-1:0]          arg_keep_dyn,      // SOFT_CONTACT: keep factor of a row of two dynamic bodies
+    input  wire  [W-1:0]          arg_keep_static,   // SOFT_CONTACT: keep factor of a row with a static body
     input  wire  [BODY_IN_W-1:0]  s_body_tdata,
     input  wire                   s_body_tvalid,
     output logic                  s_body_tready,
@@ -177,6 +181,9 @@ module pgs_sequencer #(
     if (TANGENTS_ON_CHIP && (WINDOW > 0 || IINV_W != 3 || MU_W != 0)) begin : g_bad_tangents
         $error("pgs_sequencer: TANGENTS_ON_CHIP is a configuration of the streaming kernel (WINDOW = 0) with the diagonal inverse inertia (IINV_W = 3) and the constant friction coefficient (MU_W = 0)");
     end
+    if (SOFT_CONTACT && (IINV_W != 3 || WINDOW > 0 || LANES > 1)) begin : g_bad_soft
+        $error("pgs_sequencer: SOFT_CONTACT (the soft contact pipe) is built for IINV_W = 3 on the streaming kernel");
+    end
 
     typedef enum logic [2:0] {S_IDLE, S_LOAD, S_SOLVE, S_DRAIN, S_INTEG, S_DONE} phase_t;
     phase_t phase;
@@ -187,6 +194,9 @@ module pgs_sequencer #(
     logic        ilv;
     logic [31:0] r_lag, r_fetch;
     logic [W-1:0] r_dt, r_gx, r_gy, r_gz, r_damp;
+    logic         r_soft;                 // SOFT_CONTACT: opt_soft and the keep factors of the run
+    logic [W-1:0] r_keep_d, r_keep_s;
+    localparam int SOFT_WORDS = SOFT_CONTACT ? 2 : 0;   // the soft contact pipe's keep_dyn, keep_static words
     wire  bad_window = WINDOW > 0 && (arg_fetch_passes == 0 || arg_fetch_passes > 32'(WINDOW_CTX) || arg_lag == 0
                        || 64'(arg_fetch_passes - 1) * 64'(arg_lag) + 64'd2 > 64'(WINDOW));
     wire  bad_args = arg_num_bodies > 32'(MAX_BODIES) || arg_num_manifolds > 32'(MAX_MANIFOLDS)
@@ -207,6 +217,9 @@ module pgs_sequencer #(
             r_gy   <= arg_gy;
             r_gz   <= arg_gz;
             r_damp <= arg_damping;
+            r_soft <= opt_soft;
+            r_keep_d <= arg_keep_dyn;
+            r_keep_s <= arg_keep_static;
         end
     end
 
@@ -504,7 +517,7 @@ module pgs_sequencer #(
         // body fields of the stage-1 reads (A on port 2l, B on port 2l + 1)
         wire [BREC_W-1:0] ra = rd_data[2*l*BREC_W +: BREC_W];
         wire [BREC_W-1:0] rb = rd_data[(2*l+1)*BREC_W +: BREC_W];
-        logic [(47 + 2*IINV_W)*W-1:0] c_in;
+        logic [(47 + 2*IINV_W + SOFT_WORDS)*W-1:0] c_in;
         // the friction pipe's inputs: its F_PIPE record words, lam[4], lamT[2], xA, xB, vA wA vB wB, mInvA/B, IInvA/B,
         // then (MU_W = 1) the coefficient
         localparam int FB = F_PIPE + 6;   // word of the bodies' fields
@@ -521,6 +534,8 @@ module pgs_sequencer #(
             c_in[46*W +: W]   = rb[13*W +: W];     // mInvB
             c_in[47*W +: IINV_W*W] = ra[14*W +: IINV_W*W];              // IInvA
             c_in[(47 + IINV_W)*W +: IINV_W*W] = rb[14*W +: IINV_W*W];   // IInvB
+            for (int k = 0; k < SOFT_WORDS; k++)                                   // keep_dyn, keep_static
+                c_in[(47 + 2*IINV_W + k)*W +: W] = k == 0 ? r_keep_d : r_keep_s;
             f_in = '0;
             f_in[0 +: F_PIPE*W]       = s1_words[0 +: F_PIPE*W];
             f_in[F_PIPE*W +: 4*W]     = rd_lam;
@@ -574,10 +589,18 @@ module pgs_sequencer #(
                     .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
             end
         end else begin : g_diagonal
-            pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
-                .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
-                .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
-                .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
+            // SOFT_CONTACT: the soft contact pipe (the same latency; keep_dyn, keep_static its last words)
+            if (SOFT_CONTACT) begin : g_soft
+                pgs_contact_pipe_soft #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
+                    .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_soft(r_soft),
+                    .in_count(1'b1), .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out),
+                    .ev_overflow(c_ev_ovf), .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
+            end else begin : g_rigid
+                pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
+                    .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
+                    .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
+                    .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
+            end
             if (MU_W == 1) begin : g_mu
                 pgs_friction_pipe_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
                     .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
@@ -841,6 +864,7 @@ module pgs_sequencer #(
     logic unused_seq;
     always_comb begin
         unused_seq = ^{i_iter_full[ITER_W], ofifo_full, b_unused_tag, brec, rd0_data, bad};
+        if (!SOFT_CONTACT) unused_seq ^= ^{r_soft, r_keep_d, r_keep_s};   // the rigid kernel reads no keep factor
         for (int l = 0; l < LANES; l++) unused_seq ^= ^{lrec[l][CREC_W-1:64 + S1_WORDS*W], lslot[l][31:SLOT_W]};
     end
 endmodule

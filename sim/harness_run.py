@@ -25,7 +25,7 @@ from models.contact_solver import pass_sequence
 from models.dma_model import DmaPreset
 from models.kernel_shape import harness_ddr_millibytes
 from models.kernel_job import KernelJob
-from models.register_map import OFFSET
+from models.register_map import OFFSET, OPT_SOFT_CONTACT
 from sim.kernel_build import KernelBuild
 
 # cycles allowed per manifold-pass and per body before the harness declares a hang
@@ -54,6 +54,9 @@ def register_writes(job: KernelJob) -> list[tuple[int, int]]:
               "iterations": job.params.iterations, "dt": enc(ip.dt), "gravity_x": enc(ip.gravity[0]),
               "gravity_y": enc(ip.gravity[1]), "gravity_z": enc(ip.gravity[2]), "damping": enc(ip.damping),
               "options": int(job.params.interleaved)}
+    if job.params.soft_keep is not None:  # the soft contact kernel's keep factors (models/soft_contact.py)
+        values |= {"options": values["options"] | OPT_SOFT_CONTACT, "keep_dyn": enc(job.params.soft_keep[0]),
+                   "keep_static": enc(job.params.soft_keep[1])}
     if job.record_window is not None:
         values |= {"lag": job.record_window.lag, "fetch_passes": job.record_window.fetch_passes}
     return [(OFFSET[name], value) for name, value in values.items()]
@@ -70,6 +73,9 @@ def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild, turnaround: int
     cycles from an impulse-out record to the first beat of its reader (``DmaPreset.impulse_turnaround_cycles``)."""
     if job.record_bits is not None:
         raise ValueError("mixed storage (KernelJob.record_bits) has no RTL kernel: the cycle and resource models only")
+    if job.params.soft_keep is not None and not kb.soft_contact:
+        raise ValueError(f"a soft contact job (soft_keep {job.params.soft_keep}) needs the kernel build with the soft "
+                         "contact pipe (KernelBuild.soft_contact, SOFT_CONTACT = 1)")
     run_dir.mkdir(parents=True, exist_ok=True)
     body = sf.pack_body_table(job.fmt, job.bodies, kb.body_in_bits, inertia_words=kb.inertia_words)
     if job.impulses_in_records != kb.impulses_in_records:

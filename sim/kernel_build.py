@@ -78,6 +78,7 @@ class KernelBuild:
     friction_words: int = 0  # MU_W: friction-coefficient words per friction record (0 the constant, 1 a word)
     body_banks: int = 0  # BODY_BANKS: body velocities in that many true dual-port banks (0: multiport; one lane only)
     tangents_on_chip: bool = False  # TANGENTS_ON_CHIP: friction records without t0, t1 (pgs_friction_pipe_tb)
+    soft_contact: bool = False  # SOFT_CONTACT: the soft contact pipe (lam * keep before the add; 3 inertia words)
     friction_sign_bug: bool = False  # the friction pipe with the wrong sign (the scoreboard must catch it)
     compile_profile: str = "quick"  # a key of COMPILE_PROFILES
 
@@ -91,21 +92,28 @@ class KernelBuild:
                                       or self.friction_words or self.friction_sign_bug):
             raise ValueError("the tangent basis derived on chip (tangents_on_chip) is a configuration of the streaming "
                              "kernel with the diagonal inverse inertia and the constant friction coefficient")
+        if self.soft_contact and (self.window or self.lanes > 1):
+            raise ValueError("the soft contact pipe (soft_contact) is a configuration of the streaming kernel")
+        if self.soft_contact and self.inertia_words != sf.KERNEL_INERTIA_WORDS:
+            raise ValueError(f"the soft contact pipe (soft_contact) is built for {sf.KERNEL_INERTIA_WORDS} "
+                             f"inverse-inertia words per body, got {self.inertia_words}")
         if self.compile_profile not in COMPILE_PROFILES:
             raise ValueError(f"compile profile {self.compile_profile!r}: expected one of {sorted(COMPILE_PROFILES)}")
 
     @staticmethod
     def for_job(job: KernelJob, preset: DmaPreset, waves: bool = False, body_bits: int = 128) -> "KernelBuild":
         """The build that runs ``job``: the preset's constraint beat, the window plan's ring, contexts and lanes,
-        body streams of ``body_bits``, the job's inverse-inertia and friction-coefficient words and its friction
-        record layout (the tangents derived on chip)."""
+        body streams of ``body_bits``, the job's inverse-inertia and friction-coefficient words, its friction
+        record layout (the tangents derived on chip) and the soft contact pipe for a soft job
+        (``SolverParams.soft_keep``)."""
         plan = job.record_window
         return KernelBuild(job.fmt, cons_bits=preset.stream_bits, body_in_bits=body_bits, body_out_bits=body_bits,
                            waves=waves, window=0 if plan is None else plan.depth,
                            window_ctx=8 if plan is None else plan.ctx, lanes=1 if plan is None else plan.lanes,
                            inertia_words=job.inertia_words, impulses_in_records=job.impulses_in_records,
                            friction_words=job.friction_words, body_banks=job.body_banks,
-                           tangents_on_chip=job.tangents_on_chip)
+                           tangents_on_chip=job.tangents_on_chip,
+                           soft_contact=job.params.soft_keep is not None)
 
     @property
     def name(self) -> str:
@@ -119,6 +127,7 @@ class KernelBuild:
                 + ("_mu" if self.friction_words else "")
                 + (f"_bk{self.body_banks}" if self.body_banks else "")
                 + ("_tb" if self.tangents_on_chip else "")
+                + ("_soft" if self.soft_contact else "")
                 + ("_friction_sign_bug" if self.friction_sign_bug else "")
                 + (f"_{self.compile_profile}" if self.compile_profile != "quick" else "")
                 + ("_waves" if self.waves else ""))
@@ -139,7 +148,8 @@ class KernelBuild:
                     {"IMPULSES_IN_RECORDS": 1} if self.impulses_in_records else {}) | (
                     {"MU_W": self.friction_words} if self.friction_words else {}) | (
                     {"BODY_BANKS": self.body_banks} if self.body_banks else {}) | (
-                    {"TANGENTS_ON_CHIP": 1} if self.tangents_on_chip else {})
+                    {"TANGENTS_ON_CHIP": 1} if self.tangents_on_chip else {}) | (
+                    {"SOFT_CONTACT": 1} if self.soft_contact else {})
 
     @property
     def layout(self) -> sf.StreamLayout:

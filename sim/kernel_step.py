@@ -72,13 +72,17 @@ class KernelResult:
 def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int, gap_permille: int = 0,
                     backpressure_permille: int = 0, progress: ProgressSink | None = None,
                     golden: Golden | None = None, waves: Path | None = None, wave_cycles: int = 20000,
-                    keep_trace: bool = False, body_bits: int = 128, inertia_words: int | None = None) -> KernelResult:
+                    keep_trace: bool = False, body_bits: int = 128, inertia_words: int | None = None,
+                    soft_contact: bool = False) -> KernelResult:
     """Build (once), run and check one step of the kernel; never raises on a mismatch (see ``comparison``).
     ``inertia_words``: the build's inverse-inertia words per body in place of the job's (1, 3 or 6; a body table
-    whose mode needs more is refused when its record is packed)."""
+    whose mode needs more is refused when its record is packed). ``soft_contact``: run on the soft contact build
+    even where the job is rigid (its options bit clear: the rigid update, e.g. a soft step's relax call)."""
     kb = KernelBuild.for_job(job, preset, waves is not None, body_bits)
     if inertia_words is not None:
         kb = replace(kb, inertia_words=inertia_words)
+    if soft_contact:
+        kb = replace(kb, soft_contact=True)
     if job.bodies.num_bodies > kb.max_bodies or job.cons.num_manifolds > kb.max_manifolds:
         raise ValueError(f"{job.bodies.num_bodies} bodies / {job.cons.num_manifolds} manifolds exceed the kernel's "
                          f"MAX_BODIES {kb.max_bodies} / MAX_MANIFOLDS {kb.max_manifolds}")

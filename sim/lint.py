@@ -7,7 +7,8 @@ being found by file name in the list's folders (``-y``), two runs at a time. A m
 binary16 and bfloat16 parameter sets; one with a ``WINDOW`` parameter also as a window kernel; one with an
 ``IINV_W`` parameter also with the 1- and 6-word inverse inertia; one with ``IMPULSES_IN_RECORDS`` also with the
 impulses in the records; one with a ``MU_W`` parameter also with the per-manifold friction word (and both together); one with
-``BODY_BANKS`` also with banked body velocities; one with ``TANGENTS_ON_CHIP`` also with the tangent basis derived on chip.
+``BODY_BANKS`` also with banked body velocities; one with ``TANGENTS_ON_CHIP`` also with the tangent basis derived on
+chip; one with ``SOFT_CONTACT`` also with the soft contact pipe.
 Any warning or error makes the exit status non-zero.
 
 Usage: ``python -m sim.lint [-v] [TOP ...]`` (default: every top).
@@ -91,6 +92,12 @@ TANGENT_PARAM_SETS: dict[str, dict[str, int]] = {
     "tangents-records-fp16": {"TANGENTS_ON_CHIP": 1, "IMPULSES_IN_RECORDS": 1, **format_params(FP16)},
     "tangents-onchip-impulses": {"TANGENTS_ON_CHIP": 1},
 }
+# The soft contact pipe (Box2D's soft step, models/soft_contact.py): modules with a SOFT_CONTACT parameter are also
+# linted with it, alone, in fp16 and with the impulses in the records (the build the soft closed loop runs on).
+SOFT_PARAM_SETS: dict[str, dict[str, int]] = {
+    "soft-contact": {"SOFT_CONTACT": 1},
+    "soft-contact-impulses-in-records-fp16": {"SOFT_CONTACT": 1, "IMPULSES_IN_RECORDS": 1, **format_params(FP16)},
+}
 
 _PARAM_RE = re.compile(r"\bparameter\s+(?:(?:int|integer|logic|bit)\b[^=;,)]*?\s)?\s*(\w+)\s*=")
 _PACKAGE_RE = re.compile(r"^\s*package\s+\w+", re.MULTILINE)
@@ -124,7 +131,7 @@ def runs_for(module_file: Path) -> list[LintRun]:
     params = set(_PARAM_RE.findall(module_file.read_text()))
     out = [LintRun(top, "default", {})]
     for label, pset in (FORMAT_PARAM_SETS | WINDOW_PARAM_SETS | INERTIA_PARAM_SETS | IMPULSE_PARAM_SETS
-                        | FRICTION_PARAM_SETS | BANK_PARAM_SETS | TANGENT_PARAM_SETS).items():
+                        | FRICTION_PARAM_SETS | BANK_PARAM_SETS | TANGENT_PARAM_SETS | SOFT_PARAM_SETS).items():
         if set(pset) <= params:
             out.append(LintRun(top, label, dict(pset)))
     return out

@@ -50,7 +50,7 @@ from models.number_format import KERNEL_FORMATS, NumberFormat
 from models.kernel_shape import IMPULSE_FIFO_DEPTH
 from models.stream_format import BODY_IN_WORDS, HEADER_BITS, IMPULSE_OUT_WORDS, WINDOW_WORDS
 from rtl.gen.dataflow import BOOL, OP_SIGNATURES
-from rtl.gen.kernel_graphs import GRAPHS
+from rtl.gen.kernel_graphs import GRAPHS, MODE_GRAPHS
 from rtl.gen.operator_timing import MINMAX_LATENCY, operator_latencies
 
 FIGURES_FILE = Path(__file__).parent / "generated" / "resource_figures.json"
@@ -167,7 +167,7 @@ TAG_BITS = 64  # the pass-through tag of every pipe (its TAG_W default)
 @lru_cache(maxsize=None)
 def pipe_shape(name: str, man_bits: int) -> PipeShape:
     """Operators and delay lines of one generated datapath at ``man_bits`` (the emitted RTL's structure)."""
-    graph = GRAPHS[name]()
+    graph = {**GRAPHS, **MODE_GRAPHS}[name]()
     sched = graph.schedule()
     ops: dict[str, int] = {}
     for v in sched.nodes:
@@ -269,6 +269,7 @@ class KernelConfig:
     operator_source: str = "yosys"  # "yosys" | "vendor"
     tangents_on_chip: bool = False  # the friction pipe derives t0, t1 from n (pgs_friction_pipe_tb)
     converters: tuple[Converters, ...] = ()  # mixed storage: format converters at unpack and pack (mixed_layout)
+    soft_contact: bool = False  # the soft contact pipe (pgs_contact_pipe_soft, SOFT_CONTACT: lam * keep per point)
 
     def __post_init__(self) -> None:
         if self.lanes < 1 or self.lanes & (self.lanes - 1):
@@ -291,6 +292,8 @@ class KernelConfig:
                      else "")]
         if self.tangents_on_chip:
             levers.append("tangent basis derived on chip")
+        if self.soft_contact:
+            levers.append("soft contact pipe")
         if self.record_bits:
             levers.append(f"ring words {self.record_bits} bits")
         if self.converters:
@@ -436,7 +439,8 @@ def estimate(cfg: KernelConfig, platform: Optional[ob.Platform] = None,
     data = data or figures()
     parts = []
     friction = "pgs_friction_pipe_tb" if cfg.tangents_on_chip else "pgs_friction_pipe"
-    for name, per in (("pgs_contact_pipe", cfg.lanes), (friction, cfg.lanes), ("pgs_integrate_pipe", 1)):
+    contact = "pgs_contact_pipe_soft" if cfg.soft_contact else "pgs_contact_pipe"
+    for name, per in ((contact, cfg.lanes), (friction, cfg.lanes), ("pgs_integrate_pipe", 1)):
         res, src = pipe_resources(name, cfg, data)
         parts.append(Part(f"{name} x {per}", res.scaled(per), "operators: " + ", ".join(src)
                           + "; delay lines: distributed RAM rule"))
@@ -527,7 +531,7 @@ def config_for_job(job: KernelJob) -> KernelConfig:
     return KernelConfig(job.fmt, job.bodies.num_bodies, len(job.slots), lanes=plan.lanes if plan else 1,
                         window=plan.depth if plan else 0, impulses_resident=not job.impulses_in_records,
                         body_ports="banked" if job.body_banks else "lvt", body_banks=job.body_banks or RECORDS_BANKS,
-                        tangents_on_chip=job.tangents_on_chip)
+                        tangents_on_chip=job.tangents_on_chip, soft_contact=job.params.soft_keep is not None)
 
 
 def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: int, lanes: int = 1,

@@ -1,15 +1,21 @@
 """The RTL kernel as the stepper of a closed loop (``models.closed_loop``): every step runs in the compiled harness
 and must equal the golden model's bit for bit. The default kernel keeps its impulses on chip and starts every step
-from zero: a warm-started loop (``models.closed_loop.Remedy``) is refused on it (:class:`WarmStartUnsupported`); a soft
-step (Box2D's soft contact) is refused on every build (:class:`SoftContactUnsupported`). With
+from zero: a warm-started loop (``models.closed_loop.Remedy``) is refused on it (:class:`WarmStartUnsupported`). With
 ``impulses_in_records=True`` every step runs on the streaming kernel whose impulses travel with the records
 (IMPULSES_IN_RECORDS), and a warm start's impulses are the ones the records of each kind's first pass carry.
+
+Box2D's soft step (``models/soft_contact.py``: a soft solve call with ``SolverParams.soft_keep``, then a relax call
+that continues its impulses) runs with ``soft_contact=True``: every call on the SOFT_CONTACT build, the solve call
+with the options bit and the keep factors set, the relax call (rigid, the same kernel and records with the relax
+bias) with the bit clear. A soft call asked of a stepper without it is refused (:class:`SoftContactUnsupported`); a
+relax call, which starts from the solve's impulses, needs ``impulses_in_records=True`` too.
 
     run_closed_loop("incline", 5, FP32, 4, stepper=rtl_stepper(get_preset("zcu102"), Path("build/rtl_loop")))
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Optional
 
@@ -17,10 +23,12 @@ import numpy as np
 
 from models.constraints import BodyTable, ConstraintSet
 from models.contact_solver import Impulses, SolverParams
+from models.cycle_model import predict_job
 from models.dma_model import DmaPreset
 from models.integrator import IntegrationParams
 from models.kernel_job import KernelJob
 from models.number_format import NumberFormat
+from models.stream_format import KERNEL_INERTIA_WORDS
 from sim.harness_run import KernelRunError
 from sim.kernel_step import golden_step, run_kernel_step
 from sim.trace_compare import kernel_bodies
@@ -31,23 +39,43 @@ class WarmStartUnsupported(ValueError):
 
 
 class SoftContactUnsupported(ValueError):
-    """A soft contact step (``SolverParams.soft_keep``, models/soft_contact.py) asked of the RTL kernel, whose contact
-    pipe has no ``lam * keep`` multiply yet (docs/stability.md, the soft step's RTL next step)."""
+    """A soft contact call (``SolverParams.soft_keep``, models/soft_contact.py) asked of a kernel build without the
+    soft contact pipe, or of a job the soft build does not run (another inverse-inertia mode)."""
 
 
-def rtl_stepper(preset: DmaPreset, work_dir: Path, seed: int = 1,
-                impulses_in_records: bool = False) -> Callable[..., Callable[..., tuple[BodyTable, Impulses]]]:
+@dataclass(frozen=True)
+class RtlCall:
+    """One kernel call of a closed loop on the RTL: its cycles (the kernel's counter and the cycle model's
+    prediction of the same job), what was compared with the golden model, and whether it was a soft call."""
+
+    rtl_cycles: int
+    model_cycles: int
+    trace_records: int
+    body_records: int
+    differing_bits: int
+    soft: bool
+
+
+def _check_soft(params: SolverParams, soft_contact: bool) -> None:
+    if params.soft_keep is not None and not soft_contact:
+        raise SoftContactUnsupported(
+            f"a soft contact call (lam * keep, keep = {params.soft_keep}) needs the kernel build with the soft "
+            "contact pipe: rtl_stepper(..., soft_contact=True) (SOFT_CONTACT = 1)")
+
+
+def rtl_stepper(preset: DmaPreset, work_dir: Path, seed: int = 1, impulses_in_records: bool = False,
+                soft_contact: bool = False,
+                calls: Optional[list[RtlCall]] = None) -> Callable[..., Callable[..., tuple[BodyTable, Impulses]]]:
     """A closed-loop stepper factory (``models.closed_loop.StepperFactory``) that runs every step on the RTL kernel
-    (with the impulses in the records when asked) and fails on the first step whose trace or body table differs
-    from the golden model."""
+    (with the impulses in the records when asked, on the soft contact build when asked) and fails on the first step
+    whose trace or body table differs from the golden model. Every factory of one stepper numbers its runs in one
+    sequence (a soft step's solve and relax calls are two factories); ``calls`` collects each call's
+    :class:`RtlCall`."""
+    count = [0]
 
     def factory(fmt: NumberFormat, params: SolverParams,
                 ip: IntegrationParams) -> Callable[..., tuple[BodyTable, Impulses]]:
-        if params.soft_keep is not None:
-            raise SoftContactUnsupported(
-                f"the RTL kernel's contact pipe has no soft-contact multiply (lam * keep, keep = {params.soft_keep}): "
-                "run soft remedies on the golden model (docs/stability.md)")
-        count = [0]
+        _check_soft(params, soft_contact)
 
         def step(bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,
                  initial: Optional[Impulses] = None) -> tuple[BodyTable, Impulses]:
@@ -57,14 +85,21 @@ def rtl_stepper(preset: DmaPreset, work_dir: Path, seed: int = 1,
                     "read mux) and reads no initial impulses: warm start it with the impulses in the records "
                     "(rtl_stepper(..., impulses_in_records=True))")
             job = KernelJob(fmt, bodies, cons, order, params, ip)
+            if soft_contact and job.inertia_words != KERNEL_INERTIA_WORDS:
+                raise SoftContactUnsupported(f"the soft contact build takes {KERNEL_INERTIA_WORDS} inverse-inertia "
+                                             f"words per body; this job's bodies need {job.inertia_words}")
             if impulses_in_records:
                 job = job.impulses_travelling(initial)
             run_dir = work_dir / f"step{count[0]:05d}"
             golden = golden_step(job)
-            res = run_kernel_step(job, preset, run_dir, seed, golden=golden)
+            res = run_kernel_step(job, preset, run_dir, seed, golden=golden, soft_contact=soft_contact)
             if not res.bit_exact:
-                raise KernelRunError(f"closed-loop step {count[0]}: {res.comparison.first_mismatch}")
+                raise KernelRunError(f"closed-loop call {count[0]}: {res.comparison.first_mismatch}")
             count[0] += 1
+            if calls is not None:
+                c = res.comparison
+                calls.append(RtlCall(res.cycles, predict_job(job, preset).cycles, c.records, c.bodies,
+                                     c.differing_bits, params.soft_keep is not None))
             # the trace comparison checked every pass's accumulated impulses bit for bit (and, with the impulses in
             # the records, every impulse-out record): the golden ones are the kernel's
             return kernel_bodies(run_dir, job), golden.solved.impulses

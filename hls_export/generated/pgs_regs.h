@@ -34,6 +34,8 @@
 #define PGS_REG_FP_STATUS 0x8C
 #define PGS_REG_LAG 0x90
 #define PGS_REG_FETCH_PASSES 0x98
+#define PGS_REG_KEEP_DYN 0xA0
+#define PGS_REG_KEEP_STATIC 0xA8
 #define PGS_PRAGMA_TEXT(x) _Pragma(#x)
 #define PGS_PRAGMA(x) PGS_PRAGMA_TEXT(x)
 
@@ -52,7 +54,7 @@ constexpr uint32_t kRegGravityX = PGS_REG_GRAVITY_X;  // RW: format bit pattern
 constexpr uint32_t kRegGravityY = PGS_REG_GRAVITY_Y;  // RW: format bit pattern
 constexpr uint32_t kRegGravityZ = PGS_REG_GRAVITY_Z;  // RW: format bit pattern
 constexpr uint32_t kRegDamping = PGS_REG_DAMPING;  // RW: angular damping per step (format bit pattern)
-constexpr uint32_t kRegOptions = PGS_REG_OPTIONS;  // RW: bit 0: interleaved pass order
+constexpr uint32_t kRegOptions = PGS_REG_OPTIONS;  // RW: bit 0: interleaved pass order; bit 1: soft contact (SOFT_CONTACT build)
 constexpr uint32_t kRegStatus = PGS_REG_STATUS;  // W1C: sticky error flags; bits 15:8 the first error code
 constexpr uint32_t kRegCyclesLo = PGS_REG_CYCLES_LO;  // R: cycles ap_start to ap_done, low word
 constexpr uint32_t kRegCyclesHi = PGS_REG_CYCLES_HI;  // R: cycles ap_start to ap_done, high word
@@ -66,6 +68,8 @@ constexpr uint32_t kRegFpInvalid = PGS_REG_FP_INVALID;  // R: floating-point inv
 constexpr uint32_t kRegFpStatus = PGS_REG_FP_STATUS;  // W1C: sticky event flags: bit0 overflow, bit1 underflow, bit2 invalid
 constexpr uint32_t kRegLag = PGS_REG_LAG;  // RW: window kernel: slots a pass trails the pass before it
 constexpr uint32_t kRegFetchPasses = PGS_REG_FETCH_PASSES;  // RW: window kernel: passes served by one fetch of the records
+constexpr uint32_t kRegKeepDyn = PGS_REG_KEEP_DYN;  // RW: soft contact kernel: keep factor of a row between two dynamic bodies (format bit pattern)
+constexpr uint32_t kRegKeepStatic = PGS_REG_KEEP_STATIC;  // RW: soft contact kernel: keep factor of a row with a static body (format bit pattern)
 
 // ap_ctrl bit masks
 constexpr uint32_t kApStart = 0x1u;
@@ -77,6 +81,7 @@ constexpr uint32_t kApInterrupt = 0x200u;
 
 // options bit masks
 constexpr uint32_t kOptInterleaved = 0x1u;
+constexpr uint32_t kOptSoftContact = 0x2u;
 
 // fp_status bit masks
 constexpr uint32_t kFpOverflowFlag = 0x1u;

@@ -14,6 +14,7 @@ DSL                meaning                     RTL              latency
 ``g.max/min(a,b)`` IEEE maximum / minimum      ``fp_minmax``    1 (its LATENCY parameter)
 ``g.lt(a, b)``     a < b (quiet, BOOL)         ``fp_minmax`` lt 1
 ``g.is_zero(a)``   a == 0 (FTZ, BOOL)          exponent == 0    0 (combinational)
+``g.is_pos(a)``    a > 0 (FTZ, BOOL; a not NaN) sign 0, exp != 0 0 (combinational)
 ``g.select(p,a,b)`` p ? a : b                  mux              0 (combinational)
 ``-a``             sign flip (exact)           wire             0
 ``g.const(x)``     x rounded to the format     localparam       --
@@ -59,6 +60,7 @@ OP_SIGNATURES: dict[str, tuple[tuple[str, ...], str, Optional[str]]] = {
     "min": ((FLOAT, FLOAT), FLOAT, "fp_minmax"),
     "lt": ((FLOAT, FLOAT), BOOL, "fp_minmax"),
     "is_zero": ((FLOAT,), BOOL, None),
+    "is_pos": ((FLOAT,), BOOL, None),
     "select": ((BOOL, FLOAT, FLOAT), FLOAT, None),
     "neg": ((FLOAT,), FLOAT, None),
 }
@@ -233,6 +235,10 @@ class Graph:
     def is_zero(self, a: Value, name: Optional[str] = None) -> Value:
         return self.op("is_zero", a, name=name)
 
+    def is_pos(self, a: Value, name: Optional[str] = None) -> Value:
+        """a > 0 for a value of the format that is not NaN (the sign bit clear, the exponent not zero)."""
+        return self.op("is_pos", a, name=name)
+
     def select(self, p: Value, a: Value, b: Value, name: Optional[str] = None) -> Value:
         """p ? a : b"""
         return self.op("select", p, a, b, name=name)
@@ -282,6 +288,8 @@ class Graph:
                     r = a[0] < a[1]
                 elif v.op == "is_zero":
                     r = a[0] == 0.0
+                elif v.op == "is_pos":
+                    r = a[0] > 0.0
                 elif v.op == "select":
                     r = np.where(a[0], a[1], a[2])
                 elif v.op == "neg":

@@ -110,26 +110,53 @@ def pipe_module(base: str, inertia_words: int, manifold_friction: bool = False) 
 
 
 # --- contact pass ------------------------------------------------------------------------------------
-def contact_in(inertia_words: int = 3) -> list[str]:
-    """The contact pipe's input words with ``inertia_words`` inverse-inertia words per body."""
+def contact_in(inertia_words: int = 3, soft: bool = False) -> list[str]:
+    """The contact pipe's input words with ``inertia_words`` inverse-inertia words per body (and, for the soft
+    contact pipe, the two per-call keep factors last)."""
     return (["n_x", "n_y", "n_z"] + [f"p{i}_{c}" for i in range(4) for c in "xyz"]
             + [f"jac_inv{i}" for i in range(4)] + [f"b{i}" for i in range(4)] + [f"lam{i}" for i in range(4)]
             + [f"{v}_{c}" for v in ("xA", "xB", "vA", "wA", "vB", "wB") for c in "xyz"]
-            + ["mInvA", "mInvB"] + inertia_ports(inertia_words))
+            + ["mInvA", "mInvB"] + inertia_ports(inertia_words) + (list(SOFT_KEEP_WORDS) if soft else []))
+
+
+# the soft contact pipe's two per-call constants (models.contact_solver.SolverParams.soft_keep's order: a row
+# between two dynamic bodies, a row with a static body), words after the inverse inertia
+SOFT_KEEP_WORDS = ("keep_dyn", "keep_static")
+SOFT_DOC = """
+
+Soft contact (models/soft_contact.py, SolverParams.soft_keep): with in_soft set, each point's accumulated
+impulse is multiplied by its keep factor before the add, lam' = max(lam * keep + delta0, 0): keep is 1 where
+b > 0 (a speculative point), else keep_static for a row with a static body (mInvA or mInvB zero) and keep_dyn
+otherwise. With in_soft clear keep is 1 (a multiply by 1 is exact: the rigid update, bit for bit)."""
 
 
 CONTACT_IN = contact_in()
 CONTACT_OUT = ([f"lam{i}" for i in range(4)] + [f"{v}_{c}" for v in ("vA", "wA", "vB", "wB") for c in "xyz"])
 
 
-def contact_graph(inertia_words: int = 3) -> Graph:
-    module = pipe_module("pgs_contact_pipe", inertia_words)
+def _soft_keeps(g: Graph, bias: list[Value], ma: Value, mb: Value) -> list[Value]:
+    """Each point's keep factor (``models.contact_solver._row_keep``), 1 where ``in_soft`` is clear."""
+    kd, ks = (g.input(w) for w in SOFT_KEEP_WORDS)
+    soft = g.bool_input("soft")
+    one = g.const(1.0, "one")
+    row = g.select(g.is_zero(ma, name="staticA"), ks, g.select(g.is_zero(mb, name="staticB"), ks, kd),
+                   name="keep_row")
+    return [g.select(soft, g.select(g.is_pos(bias[i], name=f"apart{i}"), one, row), one, name=f"keep{i}")
+            for i in range(4)]
+
+
+def contact_graph(inertia_words: int = 3, soft: bool = False) -> Graph:
+    """The contact pass; ``soft``: the soft contact pipe (module suffix ``_soft``, the diagonal mode only), the
+    accumulated impulse times a keep factor before the add (:data:`SOFT_DOC`)."""
+    if soft and inertia_words != 3:
+        raise ValueError(f"the soft contact pipe is built for 3 inverse-inertia words per body, got {inertia_words}")
+    module = pipe_module("pgs_contact_pipe", inertia_words) + ("_soft" if soft else "")
     g = Graph(module, doc=f"""\
 {module}: one contact pass of one manifold (models/contact_solver.py contact_solve for a
 single manifold; models/OPERATION_ORDER.md "Contact pass"). The four points are solved in order,
 point i+1 seeing point i's velocity update; a point with jac_inv == 0 is skipped (its lam and the
 velocities keep their previous values: selects). The velocities of a static body are computed the
-same way; the caller must not write them back.""" + _inertia_doc(inertia_words))
+same way; the caller must not write them back.""" + _inertia_doc(inertia_words) + (SOFT_DOC if soft else ""))
     n = g.inputs_vec("n")
     p = [g.inputs_vec(f"p{i}") for i in range(4)]
     jac = [g.input(f"jac_inv{i}") for i in range(4)]
@@ -140,7 +167,8 @@ same way; the caller must not write them back.""" + _inertia_doc(inertia_words))
     vb, wb = g.inputs_vec("vB"), g.inputs_vec("wB")
     ma, mb = g.input("mInvA"), g.input("mInvB")
     ia, ib = inertia_inputs(g, "A", inertia_words), inertia_inputs(g, "B", inertia_words)
-    assert [v.name.removeprefix("in_") for v in g.inputs] == contact_in(inertia_words)
+    keep = _soft_keeps(g, bias, ma, mb) if soft else None
+    assert [v.name.removeprefix("in_") for v in g.inputs] == contact_in(inertia_words, soft)
 
     lin_a = named(scale3(n, ma), "linA")
     lin_b = named(scale3(n, mb), "linB")
@@ -152,7 +180,8 @@ same way; the caller must not write them back.""" + _inertia_doc(inertia_words))
             cb = named(cross3(named(vsub(p[i], xb), "rB"), n), "cB")
             vrel = ((dot3(n, va) - dot3(n, vb)) + (dot3(ca, wa) - dot3(cb, wb))).named("vrel")
             delta = ((vrel + bias[i]) * jac[i]).named("delta0")
-            new = g.max(lam[i] + delta, zero, name="lam_new")
+            start = lam[i] if keep is None else (lam[i] * keep[i]).named("lam_kept")
+            new = g.max(start + delta, zero, name="lam_new")
             delta = (new - lam[i]).named("delta")
             lam[i] = g.select(skip, lam[i], new, name="lam")
             ang_a = named(inertia_mul(ia, ca), "angA")
@@ -374,4 +403,7 @@ MODE_GRAPHS: dict[str, Callable[[], Graph]] = {
     **{pipe_module("pgs_friction_pipe", w): partial(friction_graph, inertia_words=w) for w in (1, 6)},
     **{pipe_module("pgs_friction_pipe", w, True): partial(friction_graph, inertia_words=w, manifold_friction=True)
        for w in (1, 3, 6)},
+    # the soft contact pipe (the kernel's SOFT_CONTACT = 1): the same latency (the lam * keep multiply is off the
+    # critical path, cocotb_tests/test_soft_contact_pipe.py)
+    "pgs_contact_pipe_soft": partial(contact_graph, soft=True),
 }

@@ -93,6 +93,8 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
             return f"{names[0]} < {names[1]}"
         if v.op == "is_zero":
             return f"{names[0]} == 0"
+        if v.op == "is_pos":
+            return f"{names[0]} > 0"
         return f"{v.op}({', '.join(names)})"
 
     L: list[str] = [HEADER]
@@ -252,6 +254,8 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
             L.append(f"    assign {v.name} = {ops[0]} ? {ops[1]} : {ops[2]};")
         elif v.op == "is_zero":
             L.append(f"    assign {v.name} = ({ops[0]}[W-2:MAN_BITS] == '0);   // subnormals read as zero")
+        elif v.op == "is_pos":
+            L.append(f"    assign {v.name} = !{ops[0]}[W-1] && ({ops[0]}[W-2:MAN_BITS] != '0);   // not NaN: a > 0")
         elif mod in _FLAGGED:
             operands = f".a({ops[0]})" + (f", .b({ops[1]})" if mod != "fp_sqrt" else "")
             extra = f", .sub(1'b{1 if v.op == 'sub' else 0})" if mod == "fp_add" else ""

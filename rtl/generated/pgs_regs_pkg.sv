@@ -21,7 +21,7 @@ package pgs_regs_pkg;
     localparam int unsigned REG_GRAVITY_Y     = 32'h38;  // RW: format bit pattern
     localparam int unsigned REG_GRAVITY_Z     = 32'h40;  // RW: format bit pattern
     localparam int unsigned REG_DAMPING       = 32'h48;  // RW: angular damping per step (format bit pattern)
-    localparam int unsigned REG_OPTIONS       = 32'h50;  // RW: bit 0: interleaved pass order
+    localparam int unsigned REG_OPTIONS       = 32'h50;  // RW: bit 0: interleaved pass order; bit 1: soft contact (SOFT_CONTACT build)
     localparam int unsigned REG_STATUS        = 32'h58;  // W1C: sticky error flags; bits 15:8 the first error code
     localparam int unsigned REG_CYCLES_LO     = 32'h60;  // R: cycles ap_start to ap_done, low word
     localparam int unsigned REG_CYCLES_HI     = 32'h64;  // R: cycles ap_start to ap_done, high word
@@ -35,6 +35,8 @@ package pgs_regs_pkg;
     localparam int unsigned REG_FP_STATUS     = 32'h8C;  // W1C: sticky event flags: bit0 overflow, bit1 underflow, bit2 invalid
     localparam int unsigned REG_LAG           = 32'h90;  // RW: window kernel: slots a pass trails the pass before it
     localparam int unsigned REG_FETCH_PASSES  = 32'h98;  // RW: window kernel: passes served by one fetch of the records
+    localparam int unsigned REG_KEEP_DYN      = 32'hA0;  // RW: soft contact kernel: keep factor of a row between two dynamic bodies (format bit pattern)
+    localparam int unsigned REG_KEEP_STATIC   = 32'hA8;  // RW: soft contact kernel: keep factor of a row with a static body (format bit pattern)
 
     // ap_ctrl bit positions
     localparam int unsigned AP_START_BIT = 0;
@@ -46,6 +48,7 @@ package pgs_regs_pkg;
 
     // options bit positions
     localparam int unsigned OPT_INTERLEAVED_BIT = 0;
+    localparam int unsigned OPT_SOFT_CONTACT_BIT = 1;
 
     // fp_status bit positions
     localparam int unsigned FP_OVERFLOW_FLAG_BIT = 0;

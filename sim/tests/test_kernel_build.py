@@ -4,6 +4,7 @@ without building anything."""
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,7 +16,7 @@ from models.integrator import IntegrationParams
 from models.kernel_job import KernelJob
 from models.number_format import FP16, FP32
 from sim.cocotb_run import kernel_cocotb_build
-from sim.harness_run import register_writes
+from sim.harness_run import register_writes, write_inputs
 from sim.kernel_build import HARNESS, PUBLIC_VLT, VARIANT_ROOT, KernelBuild
 
 
@@ -28,7 +29,8 @@ def test_names_are_distinct_per_description() -> None:
                 KernelBuild(FP32, window=1024, window_ctx=4), KernelBuild(FP32, window=1024, lanes=2),
                 KernelBuild(FP32, waves=True), KernelBuild(FP32, friction_sign_bug=True),
                 KernelBuild(FP32, compile_profile="o0"), KernelBuild(FP32, inertia_words=1),
-                KernelBuild(FP32, inertia_words=6), KernelBuild(FP32, inertia_words=6, friction_words=1)]
+                KernelBuild(FP32, inertia_words=6), KernelBuild(FP32, inertia_words=6, friction_words=1),
+                KernelBuild(FP32, soft_contact=True)]
     names = [base.name] + [v.name for v in variants]
     assert len(set(names)) == len(names), names
     assert len({base, *variants}) == len(names)  # hashable, distinct
@@ -89,7 +91,7 @@ def test_cocotb_build_is_the_harness_build(monkeypatch: pytest.MonkeyPatch) -> N
 
 def test_register_writes_use_the_register_map() -> None:
     """The harness programs every scalar argument at its offset of models/register_map.py, in argument order;
-    the window kernel's two registers only for a window job."""
+    the window kernel's two registers only for a window job, the soft contact kernel's two only for a soft job."""
     from types import SimpleNamespace
 
     ip = IntegrationParams(dt=1 / 60, gravity=(0.0, 0.0, -9.81))
@@ -97,7 +99,8 @@ def test_register_writes_use_the_register_map() -> None:
                     SolverParams(4, interleaved=True), ip)
     writes = dict(register_writes(job))
     off = register_map.OFFSET
-    assert [o for o, _ in register_writes(job)] == [off[n] for n in register_map.ARG_NAMES[:-2]]
+    optional = ("lag", "fetch_passes", "keep_dyn", "keep_static")
+    assert [o for o, _ in register_writes(job)] == [off[n] for n in register_map.ARG_NAMES if n not in optional]
     assert writes[off["num_bodies"]] == 5 and writes[off["num_manifolds"]] == 3
     assert writes[off["iterations"]] == 4 and writes[off["options"]] == register_map.OPT_INTERLEAVED
     assert writes[off["dt"]] == int(FP32.encode(np.float64(1 / 60)))
@@ -107,6 +110,28 @@ def test_register_writes_use_the_register_map() -> None:
     windowed = dataclasses.replace(job, record_window=plan)
     wwrites = dict(register_writes(windowed))
     assert wwrites[off["lag"]] == 7 and wwrites[off["fetch_passes"]] == 2 and wwrites[off["num_manifolds"]] == 4
+    soft = dict(register_writes(dataclasses.replace(job, params=SolverParams(4, soft_keep=(0.75, 0.5)))))
+    assert soft[off["options"]] == register_map.OPT_SOFT_CONTACT
+    assert soft[off["keep_dyn"]] == int(FP32.encode(np.float64(0.75)))
+    assert soft[off["keep_static"]] == int(FP32.encode(np.float64(0.5)))
+
+
+def test_soft_contact_build() -> None:
+    """The soft contact pipe is its own build (SOFT_CONTACT = 1, off by default), chosen for a soft job; it is built
+    for the diagonal inverse inertia on the streaming kernel only, and a soft job on another build is refused
+    before any file is written."""
+    kb = KernelBuild(FP32, impulses_in_records=True, soft_contact=True)
+    assert kb.name == "pgs_kernel_e8m23_c512_ir_soft" and kb.parameters["SOFT_CONTACT"] == 1
+    assert "SOFT_CONTACT" not in KernelBuild(FP32).parameters
+    for bad in (dict(inertia_words=6), dict(window=1024)):
+        with pytest.raises(ValueError, match="soft contact pipe"):
+            KernelBuild(FP32, soft_contact=True, **bad)
+    ip = IntegrationParams(dt=1 / 120, gravity=(0.0, 0.0, 0.0))
+    from types import SimpleNamespace
+    job = KernelJob(FP32, SimpleNamespace(num_bodies=5), None, np.array([0, 1]),  # type: ignore[arg-type]
+                    SolverParams(1, soft_keep=(0.75, 0.5)), ip)
+    with pytest.raises(ValueError, match="needs the kernel build with the soft contact pipe"):
+        write_inputs(Path("/nonexistent/never/written"), job, KernelBuild(FP32))
 
 
 def test_stale_dependency_files_are_dropped(tmp_path) -> None:

@@ -3,6 +3,7 @@ pipe, the verdict against a platform, and the fit lines of a run."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -147,3 +148,16 @@ def test_tangent_basis_on_chip_in_the_estimate() -> None:
     base = {p.name: p.resources for p in rm.estimate(rm.config_for_job(pile_job())).parts}
     assert parts["pgs_friction_pipe_tb x 1"].lut > base["pgs_friction_pipe x 1"].lut
     assert KernelBuild.for_job(derived, get_preset("zcu102")).parameters["TANGENTS_ON_CHIP"] == 1
+
+
+def test_soft_contact_pipe_adds_four_multipliers() -> None:
+    """The soft contact pipe (SOFT_CONTACT) is the rigid pipe plus one fp_mul per point (its b > 0 test is
+    combinational, no comparator): the estimate grows by those and their delay lines, the memories do not."""
+    rigid, soft = rm.pipe_shape("pgs_contact_pipe", 23), rm.pipe_shape("pgs_contact_pipe_soft", 23)
+    assert soft.latency == rigid.latency
+    assert {k: soft.operators[k] - rigid.operators.get(k, 0) for k in soft.operators} == {
+        "fp_add": 0, "fp_minmax": 0, "fp_mul": 4}
+    base = rm.KernelConfig(FP32, 38_881, 147_485, impulses_resident=False, body_ports="banked", body_banks=2)
+    a, b = rm.estimate(base).total, rm.estimate(dataclasses.replace(base, soft_contact=True)).total
+    assert b.dsp - a.dsp == 8 and b.bram36 == a.bram36 and b.lut > a.lut
+    assert "soft contact pipe" in dataclasses.replace(base, soft_contact=True).describe()

@@ -12,8 +12,8 @@ import pytest
 from models.closed_loop import Remedy, run_closed_loop
 from models.dma_model import get_preset
 from models.number_format import FP16, FP32
-from models.stability import CASES, REMEDIES, judge
-from sim.rtl_stepper import SoftContactUnsupported, WarmStartUnsupported, rtl_stepper
+from models.stability import CASES, REMEDIES, call_iterations, judge
+from sim.rtl_stepper import RtlCall, SoftContactUnsupported, WarmStartUnsupported, rtl_stepper
 from sim.stability import main as stability_main
 
 
@@ -76,14 +76,36 @@ def test_the_rtl_kernel_refuses_a_warm_start(tmp_path: Path) -> None:
     assert not any(tmp_path.iterdir())  # nothing was written for the refused step
 
 
-def test_the_rtl_kernel_refuses_a_soft_step(tmp_path: Path) -> None:
-    """The contact pipe has no soft-contact multiply: a soft remedy on the RTL stepper stops before its first kernel
-    call, by name, on either impulse store, with nothing written."""
+def test_the_rtl_kernel_refuses_an_unsupported_soft_step(tmp_path: Path) -> None:
+    """A soft remedy on a stepper without the soft contact build stops before its first kernel call, by name, on
+    either impulse store; on the soft build with on-chip impulses the warm start (and the relax call, which continues
+    the solve call's impulses) is refused by name. Nothing is written."""
+    soft = REMEDIES["warm1+soft15z1+sub2+relax"]
     for records in (False, True):
-        with pytest.raises(SoftContactUnsupported, match="no soft-contact multiply"):
-            run_closed_loop("incline", 2, FP32, 4, remedy=REMEDIES["warm1+soft15z1+sub2+relax"],
+        with pytest.raises(SoftContactUnsupported, match="needs the kernel build with the soft contact pipe"):
+            run_closed_loop("incline", 2, FP32, 4, remedy=soft,
                             stepper=rtl_stepper(get_preset("zcu102"), tmp_path, impulses_in_records=records))
+    with pytest.raises(WarmStartUnsupported, match="reads no initial impulses"):
+        run_closed_loop("incline", 2, FP32, 4, remedy=soft,
+                        stepper=rtl_stepper(get_preset("zcu102"), tmp_path, soft_contact=True))
     assert not any(tmp_path.iterdir())
+
+
+def test_soft_closed_loop_on_the_rtl_kernel(tmp_path: Path) -> None:
+    """Box2D's soft step through the RTL: three closed-loop steps of the box on the 20 degree slope (a hard case of
+    the suite) in fp32, each 2 substeps of a soft solve call and a relax call, on the soft contact build with the
+    impulses in the records: every call bit-exact with the golden model and cycle-exact with the cycle model, the
+    final state equal to the golden loop's."""
+    remedy, kw = REMEDIES["warm1+soft15z1+sub2+relax"], dict(angle_deg=20.0, friction=0.7)
+    calls: list[RtlCall] = []
+    iters = call_iterations(4, remedy)
+    stepper = rtl_stepper(get_preset("zcu102"), tmp_path, impulses_in_records=True, soft_contact=True, calls=calls)
+    rtl = run_closed_loop("incline", 3, FP32, iters, remedy=remedy, stepper=stepper, **kw)
+    gold = run_closed_loop("incline", 3, FP32, iters, remedy=remedy, **kw)
+    for f in ("position", "orientation", "linear_velocity", "angular_velocity"):
+        assert np.array_equal(getattr(rtl.final, f), getattr(gold.final, f)), f
+    assert len(calls) == 3 * remedy.calls_per_step and [c.soft for c in calls[:2]] == [True, False]
+    assert all(c.rtl_cycles == c.model_cycles and c.differing_bits == 0 and c.trace_records > 0 for c in calls)
 
 
 def test_warm_started_closed_loop_on_the_kernel_with_impulses_in_the_records(tmp_path: Path) -> None:
