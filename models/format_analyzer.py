@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, Mapping
 
 import numpy as np
 
@@ -122,6 +122,21 @@ def measure_ranges(bodies: BodyTable, cons: ConstraintSet, normal_impulse: np.nd
     return out
 
 
+def round_groups(bodies: BodyTable, cons: ConstraintSet, storage: Mapping[str, NumberFormat],
+                 fields_of: Mapping[str, tuple[str, tuple[str, ...]]] = GROUPS, skip: tuple[str, ...] = ()
+                 ) -> tuple[BodyTable, ConstraintSet]:
+    """``bodies`` and ``cons`` with each group's fields (``fields_of``: group -> table and fields, less ``skip``)
+    rounded to the group's format in ``storage``."""
+    for group, fmt in storage.items():
+        table, all_fields = fields_of[group]
+        fields = tuple(f for f in all_fields if f not in skip)
+        if table == "bodies":
+            bodies = dataclasses.replace(bodies, **{f: fmt.round(getattr(bodies, f)) for f in fields})
+        else:
+            cons = dataclasses.replace(cons, **{f: fmt.round(getattr(cons, f)) for f in fields})
+    return bodies, cons
+
+
 @dataclass
 class StepProblem:
     """One frame's step: everything needed to solve it in any format."""
@@ -137,13 +152,7 @@ class StepProblem:
         self.reference = self.step(FLOAT64)
 
     def step(self, ar: Arithmetic, storage: dict[str, NumberFormat] | None = None) -> BodyTable:
-        bodies, cons = self.bodies, self.cons
-        for group, fmt in (storage or {}).items():
-            table, fields = GROUPS[group]
-            if table == "bodies":
-                bodies = dataclasses.replace(bodies, **{f: fmt.round(getattr(bodies, f)) for f in fields})
-            else:
-                cons = dataclasses.replace(cons, **{f: fmt.round(getattr(cons, f)) for f in fields})
+        bodies, cons = round_groups(self.bodies, self.cons, storage or {})
         solved = solve(bodies.rounded(ar), cons.rounded(ar), self.schedule, ar, self.params)
         return integrate(solved.bodies, ar, self.iparams)
 

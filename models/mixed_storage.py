@@ -98,20 +98,6 @@ class Budget:
         return max((got[p] / lim[p]) if lim[p] > 0 else (0.0 if got[p] == 0 else float("inf")) for p in self.parts)
 
 
-def _round_fields(bodies: BodyTable, cons: ConstraintSet, storage: Mapping[str, NumberFormat],
-                  skip: tuple[str, ...] = ()) -> tuple[BodyTable, ConstraintSet]:
-    for group, fmt in storage.items():
-        if group == IMPULSES:
-            continue
-        table, all_fields = FIELDS[group]
-        fields = tuple(f for f in all_fields if f not in skip)
-        if table == "bodies":
-            bodies = dataclasses.replace(bodies, **{f: fmt.round(getattr(bodies, f)) for f in fields})
-        else:
-            cons = dataclasses.replace(cons, **{f: fmt.round(getattr(cons, f)) for f in fields})
-    return bodies, cons
-
-
 def solve_stored_impulses(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arithmetic,
                           params: SolverParams, stored: NumberFormat) -> BodyTable:
     """:func:`models.contact_solver.solve` with the impulses written back in ``stored`` after every pass (each
@@ -138,7 +124,8 @@ class MixedStepProblem(fa.StepProblem):
         unknown = sorted(set(storage) - set(STORED_GROUPS))
         if unknown:
             raise ValueError(f"unknown field groups {unknown} (groups: {', '.join(STORED_GROUPS)})")
-        bodies, cons = _round_fields(self.bodies, self.cons, storage, ("tangent",) if self.tangents_on_chip else ())
+        bodies, cons = fa.round_groups(self.bodies, self.cons, {g: f for g, f in storage.items() if g != IMPULSES},
+                                       FIELDS, ("tangent",) if self.tangents_on_chip else ())
         bodies, cons = bodies.rounded(ar), cons.rounded(ar)
         if self.tangents_on_chip and isinstance(ar, NumberFormat):  # float64: the frame's planeSpace tangents
             cons = derive_tangents(cons, ar)
