@@ -18,3 +18,38 @@ def test_rtl_lints_clean() -> None:
     summary = re.search(r"lint: (\d+) runs over (\d+) tops, 0 with warnings/errors", proc.stdout)
     _, modules = rtl_files()
     assert summary and int(summary.group(2)) == len(modules), f"not every module of rtl/pgs_kernel.f linted: {summary}"
+
+
+def test_sequencer_is_linted_through_the_kernel_with_every_parameter_set() -> None:
+    """The sequencer's parameter-set runs are the kernel's (it passes them through); a parent that drops one, or
+    holds the instance inside a generate block, makes the pruning an error instead of a silent gap."""
+    from sim.lint import _PARAM_RE, ELABORATED_BY_PARENT, forwarded_params, param_sets, runs_for
+
+    _, modules = rtl_files()
+    by_name = {m.stem: m for m in modules}
+    for child, parent in ELABORATED_BY_PARENT.items():
+        assert [r.label for r in runs_for(by_name[child])] == ["default"]
+        varied = {name for pset in param_sets().values() for name in pset}
+        declared = set(_PARAM_RE.findall(by_name[child].read_text()))
+        assert varied & declared <= forwarded_params(by_name[parent], child)
+        assert len(runs_for(by_name[parent])) == 1 + sum(
+            set(p) <= forwarded_params(by_name[parent], child) for p in param_sets().values())
+
+
+def test_pruning_refuses_a_parent_that_does_not_pass_a_parameter(tmp_path: Path) -> None:
+    import pytest
+
+    from sim.lint import forwarded_params, runs_for
+
+    (tmp_path / "pgs_kernel.sv").write_text(
+        "module pgs_kernel #(parameter int EXP_BITS = 8) ();\n"
+        "  pgs_sequencer #(.EXP_BITS(EXP_BITS), .MAN_BITS(10)) u_seq ();\nendmodule\n")
+    (tmp_path / "pgs_sequencer.sv").write_text(
+        "module pgs_sequencer #(parameter int EXP_BITS = 8, parameter int MAN_BITS = 23) ();\nendmodule\n")
+    assert forwarded_params(tmp_path / "pgs_kernel.sv", "pgs_sequencer") == {"EXP_BITS"}
+    with pytest.raises(ValueError, match="MAN_BITS"):
+        runs_for(tmp_path / "pgs_sequencer.sv")
+    (tmp_path / "pgs_kernel.sv").write_text(
+        "module pgs_kernel #(parameter int EXP_BITS = 8, parameter int MAN_BITS = 23) ();\n  generate if (1) begin\n"
+        "  pgs_sequencer #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_seq ();\n  end endgenerate\nendmodule\n")
+    assert forwarded_params(tmp_path / "pgs_kernel.sv", "pgs_sequencer") == set()

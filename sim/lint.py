@@ -8,7 +8,9 @@ binary16 and bfloat16 parameter sets; one with a ``WINDOW`` parameter also as a 
 ``IINV_W`` parameter also with the 1- and 6-word inverse inertia; one with ``IMPULSES_IN_RECORDS`` also with the
 impulses in the records; one with a ``MU_W`` parameter also with the per-manifold friction word (and both together); one with
 ``BODY_BANKS`` also with banked body velocities; one with ``TANGENTS_ON_CHIP`` also with the tangent basis derived on
-chip; one with ``SOFT_CONTACT`` also with the soft contact pipe.
+chip; one with ``SOFT_CONTACT`` also with the soft contact pipe. A module that its parent instantiates
+unconditionally with every one of its parameters passed through (``ELABORATED_BY_PARENT``: the sequencer inside the
+kernel top) is linted as a top with its defaults only: the parent's runs elaborate it with each parameter set.
 Any warning or error makes the exit status non-zero.
 
 Usage: ``python -m sim.lint [-v] [TOP ...]`` (default: every top).
@@ -99,6 +101,11 @@ SOFT_PARAM_SETS: dict[str, dict[str, int]] = {
     "soft-contact-impulses-in-records-fp16": {"SOFT_CONTACT": 1, "IMPULSES_IN_RECORDS": 1, **format_params(FP16)},
 }
 
+# Modules linted as tops with their default parameters only, because the parent named here instantiates them
+# outside any generate block and passes every parameter the sets vary through (``.P(P)``; checked by :func:`forwarded_params`),
+# so each of the parent's parameter-set runs elaborates them with that set.
+ELABORATED_BY_PARENT: dict[str, str] = {"pgs_sequencer": "pgs_kernel"}
+
 _PARAM_RE = re.compile(r"\bparameter\s+(?:(?:int|integer|logic|bit)\b[^=;,)]*?\s)?\s*(\w+)\s*=")
 _PACKAGE_RE = re.compile(r"^\s*package\s+\w+", re.MULTILINE)
 
@@ -126,12 +133,36 @@ def rtl_files(sources: Sequence[Path] | None = None) -> tuple[list[Path], list[P
     return packages, modules
 
 
+def forwarded_params(parent_file: Path, child: str) -> set[str]:
+    """The parameters ``parent_file`` passes through by name (``.P(P)``) to its instance of ``child``; none when
+    that instance lies inside a generate block."""
+    text = re.sub(r"//[^\n]*", "", parent_file.read_text())
+    inst = re.search(rf"\b{child}\s*#\s*\((.*?)\)\s*\w+\s*\(", text, re.DOTALL)
+    before = text[:inst.start()] if inst else ""
+    if inst is None or len(re.findall(r"\bgenerate\b", before)) != len(re.findall(r"\bendgenerate\b", before)):
+        return set()  # no instance, or one inside a generate block (it may not be elaborated)
+    return {a for a, b in re.findall(r"\.(\w+)\s*\(\s*(\w+)\s*\)", inst.group(1)) if a == b}
+
+
+def param_sets() -> dict[str, dict[str, int]]:
+    """Every extra parameter set, by label."""
+    return (FORMAT_PARAM_SETS | WINDOW_PARAM_SETS | INERTIA_PARAM_SETS | IMPULSE_PARAM_SETS | FRICTION_PARAM_SETS
+            | BANK_PARAM_SETS | TANGENT_PARAM_SETS | SOFT_PARAM_SETS)
+
+
 def runs_for(module_file: Path) -> list[LintRun]:
     top = module_file.stem
     params = set(_PARAM_RE.findall(module_file.read_text()))
     out = [LintRun(top, "default", {})]
-    for label, pset in (FORMAT_PARAM_SETS | WINDOW_PARAM_SETS | INERTIA_PARAM_SETS | IMPULSE_PARAM_SETS
-                        | FRICTION_PARAM_SETS | BANK_PARAM_SETS | TANGENT_PARAM_SETS | SOFT_PARAM_SETS).items():
+    if top in ELABORATED_BY_PARENT:
+        parent = module_file.with_name(ELABORATED_BY_PARENT[top] + module_file.suffix)
+        varied = params & {name for pset in param_sets().values() for name in pset}
+        missing = varied - forwarded_params(parent, top)
+        if missing:
+            raise ValueError(f"{parent.name} does not pass {', '.join(sorted(missing))} through to {top}: "
+                             f"lint {top} with every parameter set (remove it from ELABORATED_BY_PARENT)")
+        return out
+    for label, pset in param_sets().items():
         if set(pset) <= params:
             out.append(LintRun(top, label, dict(pset)))
     return out
