@@ -38,13 +38,15 @@ DRIVER ?= harness
 # where independent points run (sim/executor.py): local:N processes, dask:local:N, dask:tcp://host:port;
 # empty: make sweep runs its points one at a time (local:1), the others on local:$(JOBS)
 EXECUTOR ?=
+# pytest-xdist workers of make test (tests of one module stay on one worker: their module fixtures run once)
+TEST_JOBS ?= 2
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
 .PHONY: help venv sysdeps test sim sweep analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
 
 help:
-	@echo "make test      run the whole test suite (what CI runs)"
+	@echo "make test      run the whole test suite (what CI runs; TEST_JOBS=2 pytest workers)"
 	@echo "make sim       run a scene end to end (SCENE=pile|thesis|stack|jenga_tower|...|world.py|obj.urdf"
 	@echo "               SCENE_ARGS=\"key=value ...\" ITERS= FORMAT= DMA= SEED= WAVES=1);"
 	@echo "               MODE=model: the cycle model's estimate alone (no Verilator); SCHEDULE=hazard|banded|..."
@@ -95,7 +97,7 @@ sysdeps:
 	fi
 
 test: $(STAMP)
-	$(TOOLENV) $(VPY) -m pytest
+	$(TOOLENV) $(VPY) -m pytest -n $(TEST_JOBS) --dist loadscope
 
 sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \

@@ -55,7 +55,7 @@ from sim.harness_run import run_harness, write_inputs
 from sim.kernel_build import KernelBuild, default_window
 from sim.kernel_step import golden_step
 from sim.trace_compare import Comparison, compare_body_out, compare_impulse_out, compare_trace, read_trace
-from sim.verilator_build import REPO_ROOT
+from sim.verilator_build import REPO_ROOT, build_lock
 
 HLS_DIR = Path(__file__).resolve().parent
 BUILD_ROOT = REPO_ROOT / "build" / "hls_csim"
@@ -94,14 +94,18 @@ def compile_cpp(sources: Sequence[Path], exe: Path, defines: Sequence[str] = (),
     cmd = [cxx, *CXXFLAGS, *defines, f"-I{HLS_DIR}", *map(str, sources), "-o", str(exe)]
     stamp = exe.with_suffix(".cmd")
     deps = [*sources, *HLS_DIR.glob("*.h"), *(HLS_DIR / "generated").glob("*.h"), *(HLS_DIR / "shims").glob("*.h")]
-    if (exe.is_file() and stamp.is_file() and stamp.read_text() == " ".join(cmd)
-            and exe.stat().st_mtime >= max(p.stat().st_mtime for p in deps)):
-        return exe
-    exe.parent.mkdir(parents=True, exist_ok=True)
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0:
-        raise CsimError(f"{' '.join(cmd)}\n{proc.stdout}{proc.stderr}")
-    stamp.write_text(" ".join(cmd))
+    with build_lock(exe.parent):  # another process may be building (or running) the same executable
+        if (exe.is_file() and stamp.is_file() and stamp.read_text() == " ".join(cmd)
+                and exe.stat().st_mtime >= max(p.stat().st_mtime for p in deps)):
+            return exe
+        exe.parent.mkdir(parents=True, exist_ok=True)
+        partial = exe.with_name(f"{exe.name}.{os.getpid()}.partial")
+        proc = subprocess.run([*cmd[:-1], str(partial)], capture_output=True, text=True)
+        if proc.returncode != 0:
+            partial.unlink(missing_ok=True)
+            raise CsimError(f"{' '.join(cmd)}\n{proc.stdout}{proc.stderr}")
+        partial.replace(exe)  # a running copy keeps its own inode
+        stamp.write_text(" ".join(cmd))
     return exe
 
 

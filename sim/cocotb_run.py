@@ -30,7 +30,7 @@ from models.number_format import parse_format
 from models.stream_format import KERNEL_INERTIA_WORDS
 from sim.gtkwave_save import Group, kernel_groups, write_save_file
 from sim.kernel_build import PUBLIC_VLT, TOP, WAVE_ARGS, KernelBuild
-from sim.verilator_build import MODEL_OPT_ARGS, QUICK_COMPILE_ARGS, REPO_ROOT, ensure_verilator_env
+from sim.verilator_build import MODEL_OPT_ARGS, QUICK_COMPILE_ARGS, REPO_ROOT, build_lock, ensure_verilator_env
 
 BUILD_ROOT = REPO_ROOT / "build" / "cocotb"
 TESTS_DIR = REPO_ROOT / "cocotb_tests"
@@ -109,8 +109,9 @@ def _build(top: str, sources: Sequence[Path], parameters: Mapping[str, int], bui
     if public_vlt is not None:  # expose only what the testbench touches (the runner makes every net public)
         build_args += ["--no-public-flat-rw", str(public_vlt)]
     t0 = time.perf_counter()
-    runner.build(sources=[str(s) for s in sources], hdl_toplevel=top, parameters=dict(parameters),
-                 build_dir=str(build_dir), build_args=build_args, waves=waves, timescale=("1ns", "1ps"))
+    with build_lock(build_dir):
+        runner.build(sources=[str(s) for s in sources], hdl_toplevel=top, parameters=dict(parameters),
+                     build_dir=str(build_dir), build_args=build_args, waves=waves, timescale=("1ns", "1ps"))
     return time.perf_counter() - t0
 
 

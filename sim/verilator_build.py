@@ -21,7 +21,8 @@ import re
 import shutil
 import subprocess
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 from rtl.gen.file_list import kernel_sources
@@ -97,6 +98,17 @@ def build_name(top: str, parameters: Mapping[str, ParamValue]) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]", "_", f"{top}__{parts}")
 
 
+@contextmanager
+def build_lock(build_dir: Path) -> Iterator[None]:
+    """Hold the lock of one build directory (a ``.<name>.lock`` file beside it) while the block runs: processes
+    that share a build (pytest-xdist workers, ``make sim`` beside ``make test``) wait for each other instead of
+    writing the same objects, and the second finds the build up to date."""
+    build_dir.parent.mkdir(parents=True, exist_ok=True)
+    with (build_dir.parent / f".{build_dir.name}.lock").open("w") as lock_file:
+        fcntl.flock(lock_file, fcntl.LOCK_EX)
+        yield
+
+
 def drop_stale_dependencies(mdir: Path) -> list[Path]:
     """Delete the make dependency files (and their objects) in ``mdir`` that name a file which no longer exists.
 
@@ -167,13 +179,7 @@ def build(
     cmd += [str(Path(c).resolve()) for c in cpp_files]
 
     t0 = time.monotonic()
-    # one build per directory at a time: processes that share a build (pytest-xdist workers, make sim beside
-    # make test) wait for each other instead of writing the same objects; the second finds it up to date
-    if lock:
-        with (mdir.parent / f".{mdir.name}.lock").open("w") as lock_file:
-            fcntl.flock(lock_file, fcntl.LOCK_EX)
-            proc = subprocess.run(cmd, cwd=REPO_ROOT, capture_output=True, text=True)
-    else:
+    with build_lock(mdir) if lock else nullcontext():
         proc = subprocess.run(cmd, cwd=REPO_ROOT, capture_output=True, text=True)
     elapsed = time.monotonic() - t0
     if proc.returncode != 0:
