@@ -14,15 +14,6 @@ rounding once one side dominates and break positive definiteness.) KKT: ``H x + 
 For the exact reference the unknowns are body velocities (6 per body): K has 6x6 blocks on the contact graph, as
 sparse as the manifolds, where the dual form over contact points (``A M^-1 A^T``) fills in wherever points share a
 body. The iterates are not trusted: callers certify the result (``models/exact_bound.py``).
-
-Polish: the last interior-point iterations are the dearest (a large solve's Newton matrices get harder to factorise
-as the weights grow), and by then the iterate already tells which inequalities hold with equality and which
-absolute values are zero. Once the complementarity is below ``POLISH_FROM``, that active set is guessed (multiplier
-above its slack) and the equality-constrained QP it leaves is solved by the method of multipliers on one
-factorisation of ``H + E^T W E`` (E: the active rows); a few primal-dual active-set rounds correct the rows the
-guess got wrong. The point is kept when it meets the same tolerances as an interior-point iterate (active rows
-held, the others satisfied, multipliers in their bounds, stationarity); otherwise the interior point goes on, and
-guesses again at most ``POLISH_TRIES`` times in all.
 """
 
 from __future__ import annotations
@@ -47,11 +38,6 @@ FEASIBILITY_TOLERANCE = 1e-13  # relative to 1 + the largest |b|, |d| (primal) a
 DUAL_FLOOR = 1e-10
 DUAL_FLOOR_AFTER = 15
 COMPLEMENTARITY_TOLERANCE = 1e-15  # max slack * multiplier, relative to (1 + max |b|, |d|) (1 + max multiplier)
-POLISH_FROM = 1e-9  # relative complementarity (as above) from which the active set is guessed and polished
-POLISH_TRIES = 3  # guesses per solve; a failed guess costs its rounds and leaves the iterate as it was
-POLISH_ROUNDS = 8  # active-set corrections per guess (one factorisation each)
-POLISH_PENALTY = 1e6  # W per active row: this times the inverse of the row's effective inverse mass (diagonal of H)
-POLISH_STEPS = 40  # multiplier updates (one solve each) before a guess is given up
 
 
 @dataclass
@@ -79,8 +65,6 @@ class IpmResult:
     primal_residual: float
     dual_residual: float
     complementarity: float  # max slack * multiplier
-    polished: bool = False  # x solves the equality QP of the guessed active set (see the module's text)
-    polish_steps: int = 0  # solves of the last polish tried, over its rounds
 
 
 class IpmTimeout(RuntimeError):
@@ -124,40 +108,23 @@ def solve_ipm(qp: QpData, x0: np.ndarray, time_limit_s: float,
     factor = SpdFactor()
     scale_p = 1.0 + max(float(np.abs(qp.b).max(initial=0.0)), float(np.abs(qp.d).max(initial=0.0)))
     scale_d = 1.0 + max(float(np.abs(qp.q).max(initial=0.0)), float(np.abs(qp.L).max(initial=0.0)))
-    it = polishes = polish_factorizations = 0
-
-    def meets_tolerances(r: IpmResult, worst_mult: float) -> bool:
-        dual_floor = r.polished or it >= DUAL_FLOOR_AFTER  # a polished point's multipliers carry W times rounding
-        return (r.primal_residual <= FEASIBILITY_TOLERANCE * scale_p
-                and r.dual_residual <= max(FEASIBILITY_TOLERANCE, DUAL_FLOOR * dual_floor) * scale_d
-                and r.complementarity <= COMPLEMENTARITY_TOLERANCE * scale_p * (1.0 + worst_mult))
-
+    it = 0
     try:
         while True:
             res = _residuals(qp, AT, CT, st)
             worst_mult = max(float(m.max(initial=0.0)) for m in (st.lam, st.a, st.bm))
-            result = IpmResult(st.x, st.lam, st.a - st.bm, it, factor.factorizations + polish_factorizations,
-                               time.monotonic() - t0, False,
+            result = IpmResult(st.x, st.lam, st.a - st.bm, it, factor.factorizations, time.monotonic() - t0, False,
                                max(float(np.abs(r).max(initial=0.0)) for r in (res[1], res[2], res[3])),
                                max(float(np.abs(r).max(initial=0.0)) for r in (res[0], res[4])),
                                max(float((v * w).max(initial=0.0)) for v, w in st.pairs()))
             if log is not None:
                 log(result)
-            if meets_tolerances(result, worst_mult):
+            if (result.primal_residual <= FEASIBILITY_TOLERANCE * scale_p
+                    and result.dual_residual <= max(FEASIBILITY_TOLERANCE, DUAL_FLOOR * (it >= DUAL_FLOOR_AFTER))
+                    * scale_d
+                    and result.complementarity <= COMPLEMENTARITY_TOLERANCE * scale_p * (1.0 + worst_mult)):
                 result.converged = True
                 return result
-            if polishes < POLISH_TRIES and result.complementarity <= POLISH_FROM * scale_p * (1.0 + worst_mult):
-                polishes += 1
-                polished = _polish(qp, AT, CT, st, FEASIBILITY_TOLERANCE * scale_p,
-                                   FEASIBILITY_TOLERANCE * scale_d)
-                polish_factorizations += polished.factorizations
-                polished.iterations, polished.seconds = it, time.monotonic() - t0
-                polished.factorizations = factor.factorizations + polish_factorizations
-                if log is not None:
-                    log(polished)
-                if meets_tolerances(polished, worst_mult):
-                    polished.converged = True
-                    return polished
             if it >= MAX_ITERATIONS:
                 return result
             if time.monotonic() - t0 > time_limit_s:
@@ -169,105 +136,6 @@ def solve_ipm(qp: QpData, x0: np.ndarray, time_limit_s: float,
             it += 1
     finally:
         factor.release()
-
-
-@dataclass
-class _ActiveSet:
-    """Which rows of A hold with equality (``active``), which absolute values are zero (``stick``), and the sign of
-    the others (``sign``: the multiplier is ``sign L`` there)."""
-
-    active: np.ndarray
-    stick: np.ndarray
-    sign: np.ndarray
-
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, _ActiveSet) and all(
-            np.array_equal(getattr(self, f), getattr(other, f)) for f in ("active", "stick", "sign"))
-
-
-def _polish(qp: QpData, AT: sp.csr_matrix, CT: sp.csr_matrix, st: _State, tol_primal: float,
-            tol_dual: float) -> IpmResult:
-    """The solution of the equality QP of the active set guessed from ``st`` (module text), the guess corrected
-    for at most ``POLISH_ROUNDS`` rounds (one factorisation each) by primal-dual active-set steps: a row whose
-    multiplier came out negative leaves, an inactive row violated by more than ``tol_primal`` / 10 joins; a
-    sticking row whose multiplier left [-L, L] slides with that sign, a sliding row whose value took the other
-    sign sticks. The residuals are measured on the original problem: an active row's slack is taken as 0 and its
-    |A x + b| counts as primal residual, an inactive row (multiplier 0) counts its violation, so the
-    complementarity is 0 exactly. ``factorizations`` and ``polish_steps`` count the rounds' factorisations and
-    solves; iterations and timing are left for the caller to fill in."""
-    aset = _ActiveSet(st.lam > st.s, (st.a > st.s1) & (st.bm > st.s2),
-                      np.where(qp.C @ st.x + qp.d >= 0.0, 1.0, -1.0))
-    x, lam, mult = st.x, st.lam, st.a - st.bm
-    steps = rounds = 0
-    for rounds in range(1, POLISH_ROUNDS + 1):
-        try:
-            x, lam, mult, n = _equality_qp(qp, CT, aset, x, lam, mult, tol_dual)
-        except SpdFactorError:  # the guess made K singular: return what the last round had
-            break
-        steps += n
-        s_all, r_all = qp.A @ x + qp.b, qp.C @ x + qp.d
-        out = np.abs(mult) > qp.L
-        turned = ~aset.stick & (aset.sign * r_all < -0.1 * tol_primal)
-        nxt = _ActiveSet((aset.active & (lam >= 0.0)) | (~aset.active & (s_all < -0.1 * tol_primal)),
-                         (aset.stick & ~out) | turned, np.where(aset.stick & out, np.sign(mult), aset.sign))
-        if nxt == aset:
-            break
-        aset = nxt
-    lam = np.where(aset.active, np.maximum(lam, 0.0), 0.0)
-    mult = np.where(aset.stick, np.clip(mult, -qp.L, qp.L), aset.sign * qp.L)
-    s_all, r_all = qp.A @ x + qp.b, qp.C @ x + qp.d
-    slide = ~aset.stick
-    primal = max(float(np.abs(s_all[aset.active]).max(initial=0.0)), float((-s_all[~aset.active]).max(initial=0.0)),
-                 float(np.abs(r_all[aset.stick]).max(initial=0.0)),
-                 float((-aset.sign * r_all)[slide].max(initial=0.0)))
-    dual = float(np.abs(qp.H @ x + qp.q - AT @ lam + CT @ mult).max(initial=0.0))
-    return IpmResult(x, lam, mult, 0, rounds, 0.0, False, primal, dual, 0.0, polished=True, polish_steps=steps)
-
-
-def _equality_qp(qp: QpData, CT: sp.csr_matrix, aset: _ActiveSet, x: np.ndarray, lam: np.ndarray,
-                 mult: np.ndarray, tol_dual: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """minimise 1/2 x^T H x + q^T x + sum_slide sign L (C x + d) subject to the active rows of A and the sticking
-    rows of C held at 0, by the method of multipliers on one factorisation of ``H + E^T W E``, from ``x`` and the
-    multipliers ``lam`` (rows of A) and ``mult`` (rows of C). Returns x, the multipliers as full vectors (those of
-    the active and sticking rows from the solve, unclipped; the others as given) and the number of solves.
-
-    The updates stop once ``E x + e`` no longer improves (its rounding, which the last update passes on to the
-    multipliers times W); then the multipliers follow from stationarity alone (the same update without
-    ``W (E x + e)``) until it holds to ``tol_dual`` / 10."""
-    E = sp.vstack([qp.A[aset.active], qp.C[aset.stick]], format="csr")
-    e = np.concatenate([qp.b[aset.active], qp.d[aset.stick]])
-    slide = ~aset.stick
-    g = qp.q + CT[:, slide] @ (aset.sign[slide] * qp.L[slide])
-    nu = np.concatenate([lam[aset.active], -mult[aset.stick]])
-    weight = POLISH_PENALTY / np.maximum(np.asarray(E.multiply(E) @ (1.0 / qp.H.diagonal())).ravel(), 1e-300)
-    factor = SpdFactor()
-    steps = 0
-    try:
-        K = (qp.H + E.T @ sp.diags(weight) @ E).tocsr()
-        factor.factor(K)
-        last = np.inf
-        while steps < POLISH_STEPS:  # x corrected from the current residuals (one refinement each)
-            x = x - factor.solve(qp.H @ x + g - E.T @ nu + E.T @ (weight * (E @ x + e)))
-            held = E @ x + e
-            nu = nu - weight * held
-            steps += 1
-            worst = float(np.abs(held).max(initial=0.0))
-            if worst > 0.5 * last or worst == 0.0:  # down to the rounding of E x + e
-                break
-            last = worst
-        for _ in range(POLISH_STEPS):
-            r_d = qp.H @ x + g - E.T @ nu
-            if float(np.abs(r_d).max(initial=0.0)) <= 0.1 * tol_dual:
-                break
-            nu = nu + weight * (E @ factor.solve(r_d))
-            steps += 1
-    finally:
-        factor.release()
-    n_act = int(aset.active.sum())
-    lam, mult = lam.copy(), mult.copy()
-    lam[aset.active] = nu[:n_act]
-    mult[aset.stick] = -nu[n_act:]
-    return x, lam, mult, steps
 
 
 def _start(qp: QpData, x: np.ndarray) -> _State:

@@ -114,8 +114,7 @@ def _run(qp: QpData, x0: np.ndarray, time_s: float, info: dict[str, float], phas
 
 def _progress(phase: str) -> Callable[[IpmResult], None]:
     def log(res: IpmResult) -> None:
-        what = "polished active set of interior point iteration" if res.polished else "interior point iteration"
-        print(f"exact reference, {phase} phase: {what} {res.iterations}, {res.seconds:.0f} s, "
+        print(f"exact reference, {phase} phase: interior point iteration {res.iterations}, {res.seconds:.0f} s, "
               f"primal / dual residual {res.primal_residual:.1e} / {res.dual_residual:.1e}, max s lam "
               f"{res.complementarity:.1e}", file=sys.stderr, flush=True)
     return log
@@ -129,6 +128,3 @@ def _record(info: dict[str, float], phase: str, res: IpmResult) -> None:
     info[f"{key} primal residual"] = res.primal_residual
     info[f"{key} dual residual"] = res.dual_residual
     info[f"{key} max s lam"] = res.complementarity
-    info[f"{key} ended on a polished active set"] = float(res.polished)
-    if res.polished:
-        info[f"{key} polish: multiplier updates"] = res.polish_steps

@@ -56,8 +56,7 @@ def _later_settings(bodies: BodyTable, cons: ConstraintSet, params: SolverParams
     """Key entries only for problems whose reference the version-3 computation got wrong or refused, so that the
     keys (and cached references) of every other problem stay as they were: a full 3x3 inverse inertia (refused
     before, and a failure may be recorded under the old key), per-manifold friction coefficients (solved with
-    ``params.friction_coeff`` before), the interleaved order (refused before), more contact rows than the direct
-    solves take (a large island's interior point now ends on a polished active set)."""
+    ``params.friction_coeff`` before), the interleaved order (refused before)."""
     out = {}
     if bodies.inv_inertia.shape[1] == 6:
         out["inertia"] = "full 3x3, damping off the eigenvectors as a non-symmetric box problem"
@@ -65,8 +64,6 @@ def _later_settings(bodies: BodyTable, cons: ConstraintSet, params: SolverParams
         out["friction"] = "per manifold"
     if params.interleaved:
         out["interleaved"] = "coupled fixed point by alternation"
-    if int(cons.num_points.sum()) > DIRECT_ROWS_LIMIT and large_island.LARGE_ISLAND_METHOD == "ipm":
-        out["large island"] = "interior point ended by an active-set polish"  # may hold an island above the limit
     return out
 
 

@@ -208,9 +208,6 @@ def test_large_island_path_reaches_the_direct_reference_and_certifies_it(pile, m
     it = exact_reference(bodies, cons)
     assert it.details[f"contact phase: {ITERATION_KEYS[method]}"] > 0
     assert it.details[f"friction phase: {ITERATION_KEYS[method]}"] > 0
-    if method == "ipm":  # both phases end on the active set their interior point identified
-        for phase in ("contact", "friction"):
-            assert it.details[f"{phase} phase: body-space interior point ended on a polished active set"] == 1.0
     dv = np.linalg.norm(it.bodies.linear_velocity - ref.bodies.linear_velocity, axis=1).max()
     dw = np.linalg.norm(it.bodies.angular_velocity - ref.bodies.angular_velocity, axis=1).max()
     assert dv <= 1e-8 and dw <= 1e-8
