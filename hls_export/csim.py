@@ -91,7 +91,8 @@ def csim_name(kb: KernelBuild) -> str:
 def compile_cpp(sources: Sequence[Path], exe: Path, defines: Sequence[str] = (), cxx: str = "g++") -> Path:
     """Compile ``sources`` (with the kernel's flags and include path) into ``exe`` unless it was built by the same
     command and is newer than every source and header under ``hls_export/``."""
-    cmd = [cxx, *CXXFLAGS, *defines, f"-I{HLS_DIR}", *map(str, sources), "-o", str(exe)]
+    compile_to = [cxx, *CXXFLAGS, *defines, f"-I{HLS_DIR}", *map(str, sources), "-o"]
+    cmd = [*compile_to, str(exe)]
     stamp = exe.with_suffix(".cmd")
     deps = [*sources, *HLS_DIR.glob("*.h"), *(HLS_DIR / "generated").glob("*.h"), *(HLS_DIR / "shims").glob("*.h")]
     with build_lock(exe.parent):  # another process may be building (or running) the same executable
@@ -100,7 +101,7 @@ def compile_cpp(sources: Sequence[Path], exe: Path, defines: Sequence[str] = (),
             return exe
         exe.parent.mkdir(parents=True, exist_ok=True)
         partial = exe.with_name(f"{exe.name}.{os.getpid()}.partial")
-        proc = subprocess.run([*cmd[:-1], str(partial)], capture_output=True, text=True)
+        proc = subprocess.run([*compile_to, str(partial)], capture_output=True, text=True)
         if proc.returncode != 0:
             partial.unlink(missing_ok=True)
             raise CsimError(f"{' '.join(cmd)}\n{proc.stdout}{proc.stderr}")
