@@ -58,6 +58,11 @@ def independent_manifolds(job: KernelJob) -> KernelJob:
     return dataclasses.replace(job, cons=cons, schedule=np.arange(m, dtype=np.int64))
 
 
+def rigid_call(job: KernelJob) -> KernelJob:
+    """The soft build's rigid call (keep factors of 1 in the registers: the relax call of Box2D's soft step)."""
+    return dataclasses.replace(job, params=dataclasses.replace(job.params, soft_keep=None))
+
+
 @dataclass(frozen=True)
 class Case:
     """One harness run of the regression on the build of configuration ``config``."""
@@ -187,6 +192,9 @@ CASES_OF: dict[str, list[Case]] = {
     "stream-fp32": streaming_cases("stream-fp32") + [
         Case("stream-fp32-stack-wide-index", "stream-fp32", "stack", edit=edit_wide_index)],
     "stream-fp16": streaming_cases("stream-fp16"),
+    "stream-fp32-records-tangents": records_cases("stream-fp32-records-tangents"),
+    "stream-fp32-soft": records_cases("stream-fp32-soft") + [
+        Case("stream-fp32-soft-pile-hazard-zcu102-rigid-call", "stream-fp32-soft", "pile", job_edit=rigid_call)],
     "window-fp32-l2": window_cases("window-fp32-l2"),
     "window-fp16-l4": window_cases("window-fp16-l4"),
     "stream-fp32-inertia1": inertia_cases("stream-fp32-inertia1", ("stack", "pile")),

@@ -1,6 +1,7 @@
 """The kernel configurations ``make coverage`` measures, each on its own: every configuration the README reports
 (the streaming kernel in fp32 and fp16, with its impulses on chip and in the records, the window kernel of its
-headline rows, the inverse-inertia modes, the friction coefficient per manifold).
+headline rows, the tangent basis derived on chip, the soft contact pipe, the inverse-inertia modes, the friction
+coefficient per manifold).
 
 One row of :data:`CONFIGURATIONS` per configuration: its instrumented build (:meth:`Configuration.build`, built
 once) and the window plan of its runs (:meth:`Configuration.job`). A configuration's coverage is the merge of its
@@ -24,7 +25,12 @@ from models.frame import Frame
 from models.kernel_job import KernelJob
 from models.number_format import FP16, FP32, NumberFormat
 from models.record_window import DEFAULT_CTX, DEFAULT_DEPTH
+from models.soft_contact import SoftContact
 from sim.kernel_build import KernelBuild, default_window
+
+# the soft rows of the soft build's runs: Box2D's contact hertz and damping ratio of the soft closed loop, at a
+# 120 Hz substep (the keep factors differ from 1 in both words, so the keep multiply's operand bits toggle)
+SOFT_KEEP = SoftContact(hertz=15.0, damping_ratio=1.0).keep(1.0 / 120.0)
 
 
 @dataclass(frozen=True)
@@ -42,6 +48,8 @@ class Configuration:
     inertia_words: int = sf.KERNEL_INERTIA_WORDS  # IINV_W: 1, 3 or 6
     impulses_in_records: bool = False  # IMPULSE_STORE=records (IMPULSES_IN_RECORDS = 1): streaming kernel only
     friction_words: int = 0  # MU_W: 1 a friction coefficient per manifold (the Bullet 2 worlds' build)
+    tangents_on_chip: bool = False  # TANGENTS=chip (TANGENTS_ON_CHIP = 1): friction records without t0, t1
+    soft_keep: tuple[float, float] | None = None  # SOFT_CONTACT = 1: the runs solve Box2D's soft rows with this keep
     beat_preset: str = "zcu102"  # the DMA preset whose stream beat the constraint stream has
     readme: str = ""  # the README row (or feature) this configuration stands for
     build_options: tuple[tuple[str, Any], ...] = ()  # other KernelBuild fields of this configuration, by name
@@ -53,16 +61,20 @@ class Configuration:
                          body_in_bits=self.body_bits, body_out_bits=self.body_bits, window=self.record_window,
                          window_ctx=DEFAULT_CTX, lanes=self.lanes, inertia_words=self.inertia_words,
                          impulses_in_records=self.impulses_in_records, friction_words=self.friction_words,
+                         tangents_on_chip=self.tangents_on_chip, soft_contact=self.soft_keep is not None,
                          body_banks=default_body_banks(self.fmt, self.impulses_in_records, bool(self.record_window)))
         return dataclasses.replace(kb, **dict(self.build_options))
 
     def job(self, frame: Frame, params: SolverParams, schedule: str, fetch_passes: int | None = None) -> KernelJob:
         """The step of ``frame`` in this configuration's format, ordered by ``schedule``, on its kernel (windowed
         as ``make sim RECORD_WINDOW=...`` does, with ``fetch_passes`` passes per fetch where given; with the
-        impulses in the records starting from zeros, a cold start). A scene whose manifolds carry their own
+        impulses in the records starting from zeros, a cold start; with the tangents derived on chip in that record
+        layout; on the soft build with the configuration's keep factors). A scene whose manifolds carry their own
         friction coefficient runs on a build without the coefficient word (MU_W = 0) with the kernel's one
         coefficient; a configuration with the word takes only such scenes."""
         hazard = default_window(self.fmt, get_preset(self.beat_preset).stream_bits)
+        if self.soft_keep is not None:
+            params = dataclasses.replace(params, soft_keep=self.soft_keep)
         job = KernelJob.from_frame(frame, self.fmt, params, schedule, hazard)
         if job.friction_words != self.friction_words:
             if self.friction_words:
@@ -70,7 +82,8 @@ class Configuration:
                                  "(MU_W = 1 needs one)")
             job = dataclasses.replace(job, cons=dataclasses.replace(job.cons, friction=job.cons.friction[:, :0]))
         if self.impulses_in_records:
-            return job.impulses_travelling()
+            job = job.impulses_travelling()
+            return job.tangents_derived() if self.tangents_on_chip else job
         if not self.record_window:
             return job
         return job.windowed(self.record_window, DEFAULT_CTX, fetch_passes or self.fetch_passes or None, self.lanes)
@@ -89,6 +102,12 @@ CONFIGURATIONS: tuple[Configuration, ...] = (
                   readme="window kernel, fp32, 2 lanes (`RECORD_WINDOW=16384 LANES=2 BODY_BITS=512`)"),
     Configuration("window-fp16-l4", FP16, record_window=DEFAULT_DEPTH, lanes=4, body_bits=512,
                   readme="window kernel, fp16, 4 lanes (`FORMAT=fp16 RECORD_WINDOW=16384 LANES=4 BODY_BITS=512`)"),
+    Configuration("stream-fp32-records-tangents", FP32, impulses_in_records=True, tangents_on_chip=True,
+                  readme="fp32 records design with the tangent basis derived on chip "
+                         "(`make sim IMPULSE_STORE=records TANGENTS=chip`)"),
+    Configuration("stream-fp32-soft", FP32, impulses_in_records=True, soft_keep=SOFT_KEEP,
+                  readme="Box2D's soft step through the RTL (`SOFT_CONTACT = 1`, impulses in the records: the soft "
+                         "closed loop's build, `python -m sim.soft_rtl_loop`)"),
     Configuration("stream-fp32-inertia1", FP32, inertia_words=1,
                   readme="scalar inverse inertia, 1 word per body (IINV_W=1)"),
     Configuration("stream-fp32-inertia6", FP32, inertia_words=6,

@@ -5,6 +5,7 @@ of the harness's input files and the bad-input edits against the catalogue; the 
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ from models.number_format import FP32
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from sim.coverage import build, cases, configurations, data, input_edits, report, runs, waivers
 from sim.kernel_build import KernelBuild
+from sim.verilator_build import REPO_ROOT
 
 CANNED = Path(__file__).resolve().parent / "data" / "coverage_canned.dat"
 
@@ -78,11 +80,33 @@ def test_each_configuration_has_a_build_and_runs() -> None:
     for case in cases.CASES:
         assert get_preset(case.dma).stream_bits == case.configuration.build().cons_bits, case.label
     banks = {c.name: c.build().body_banks for c in configurations.CONFIGURATIONS if c.impulses_in_records}
-    assert banks == {"stream-fp16-records": 0, "stream-fp32-records": 2}  # the builds make sim runs
+    assert banks == {"stream-fp16-records": 0, "stream-fp32-records": 2, "stream-fp32-records-tangents": 2,
+                     "stream-fp32-soft": 2}  # the builds make sim runs
     window = configurations.BY_NAME["window-fp16-l4"]
     assert (window.build().window, window.build().lanes, window.build().body_in_bits) == (16384, 4, 512)
     fp16_shared = [s.label for s in [cases.REGISTER_CASE, *cases.FP_OPERATOR_CASES] if s.counts_for(window)]
     assert fp16_shared == ["pgs_control_s_axi-register-test", "fp-operators-fp16"]
+
+
+def test_each_configuration_builds_what_its_runs_need() -> None:
+    """The instrumented build of a configuration is the build ``make sim`` makes for its runs' steps
+    (``KernelBuild.for_job``): the tangent basis derived on chip, the soft contact pipe and every other parameter,
+    so that its coverage is of the kernel its README row runs (the inverse-inertia words are the one parameter a
+    configuration sets for itself: the inertia modes run the test scenes on a build of 1 or 6 words); the soft
+    build's rigid call keeps the build."""
+    stack = scenes.load_or_capture("stack", **KERNEL_TEST_SCENES["stack"])
+    rotated = scenes.load_or_capture(*cases.SCENES["rotated"][:1], **cases.SCENES["rotated"][1])
+    for c in configurations.CONFIGURATIONS:
+        job = c.job(rotated if c.friction_words else stack, SolverParams(4), "sweep" if c.record_window else "hazard")
+        made = KernelBuild.for_job(job, get_preset(c.beat_preset), body_bits=c.body_bits)
+        assert dataclasses.replace(made, inertia_words=c.inertia_words) == c.build(), c.name
+    params = {n: configurations.BY_NAME[n].build().parameters
+              for n in ("stream-fp32-records-tangents", "stream-fp32-soft")}
+    assert params["stream-fp32-records-tangents"]["TANGENTS_ON_CHIP"] == 1
+    assert params["stream-fp32-soft"]["SOFT_CONTACT"] == 1 and "SOFT_CONTACT" not in params[
+        "stream-fp32-records-tangents"]
+    soft = configurations.BY_NAME["stream-fp32-soft"].job(stack, SolverParams(4), "hazard")
+    assert soft.params.soft_keep == configurations.SOFT_KEEP and cases.rigid_call(soft).params.soft_keep is None
 
 
 def test_counts_merge_across_runs() -> None:
@@ -176,6 +200,14 @@ def test_friction_coefficient_words_follow_the_build(tmp_path: Path) -> None:
         configurations.BY_NAME["stream-fp32-mu"].job(stack, SolverParams(4), "hazard")
 
 
+def test_every_waiver_names_a_line_the_rtl_has() -> None:
+    """Each waiver's text starts a line of its file (a waiver whose line was rewritten would waive nothing and
+    leave its point counted as uncovered)."""
+    for w in waivers.WAIVERS:
+        lines = (REPO_ROOT / w.file).read_text().splitlines()
+        assert any(w.matches(w.file, line) for line in lines), (w.file, w.source)
+
+
 def test_waivers_of_a_parameter_set_hold_only_for_it() -> None:
     """A loop with no iteration in one parameter set (the lane-collision loop with one lane, the friction
     coefficient's copy with MU_W = 0) is waived there only: the builds that run it must cover it."""
@@ -185,6 +217,8 @@ def test_waivers_of_a_parameter_set_hold_only_for_it() -> None:
     assert {lanes_loop, mu_loop} <= sources("stream-fp16-records")
     assert lanes_loop not in sources("window-fp32-l2") and mu_loop in sources("window-fp32-l2")
     assert mu_loop not in sources("stream-fp32-mu") and lanes_loop in sources("stream-fp32-mu")
+    soft_loop = "for (int k = 0; k < SOFT_WORDS; k++)"
+    assert soft_loop not in sources("stream-fp32-soft") and soft_loop in sources("stream-fp32-records-tangents")
     assert len(sources("stream-fp32")) == len(waivers.WAIVERS)
 
 
