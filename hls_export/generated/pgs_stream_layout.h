@@ -9,6 +9,7 @@ namespace pgs {
 constexpr int kHeaderBits           = 64;  // bits of the header in front of a constraint record's words
 constexpr int kContactWords         = 23;  // words of a contact record
 constexpr int kFrictionWords        = 14;  // words of a friction record
+constexpr int kTangentWords         = 6;  // friction record words of t0, t1 (absent with the tangents derived on chip)
 constexpr int kBodyInWords          = 17;  // words of a body-in record (the default build's 3 inverse-inertia words)
 constexpr int kBodyInInvInertia     = 14;  // word of a body-in record where its inverse inertia starts
 constexpr int kBodyOutWords         = 13;  // words of a body-out record

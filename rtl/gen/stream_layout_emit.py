@@ -3,7 +3,8 @@ SystemVerilog package ``pgs_stream_layout_pkg`` (``rtl/generated/``) for the seq
 
 Written by ``python -m rtl.gen`` from ``models/stream_format.py`` (the one definition of the record layouts): the
 header bits, the words of each record kind and the trace record's tail. ``hls_export/pgs_stream.h`` builds its
-beat counts and record types on them; ``rtl/pgs_sequencer.sv`` its record words, the friction record's words
+beat counts and record types on them (the friction record without t0, t1 of ``PGS_TANGENTS_ON_CHIP``: less
+``kTangentWords``, as ``StreamLayout``); ``rtl/pgs_sequencer.sv`` its record words, the friction record's words
 up to its impulses for each MU_W and TANGENTS_ON_CHIP (a table of ``StreamLayout.friction_lam_word``) and the
 record words the friction pipe takes.
 """
@@ -24,6 +25,7 @@ _CONSTANTS: dict[str, tuple[int, str]] = {
     "kHeaderBits": (sf.HEADER_BITS, "bits of the header in front of a constraint record's words"),
     "kContactWords": (sf.CONTACT_WORDS, "words of a contact record"),
     "kFrictionWords": (sf.FRICTION_WORDS, "words of a friction record"),
+    "kTangentWords": (sf.TANGENT_WORDS, "friction record words of t0, t1 (absent with the tangents derived on chip)"),
     "kBodyInWords": (sf.BODY_IN_WORDS, "words of a body-in record (the default build's 3 inverse-inertia words)"),
     "kBodyInInvInertia": (sf.BODY_INV_INERTIA, "word of a body-in record where its inverse inertia starts"),
     "kBodyOutWords": (sf.BODY_OUT_WORDS, "words of a body-out record"),
