@@ -8,7 +8,9 @@
 //     in once, each pass streams one constraint record per manifold, the integration streams the bodies out;
 //     built with PGS_IMPULSES_IN_RECORDS = 1 (the RTL's IMPULSES_IN_RECORDS, the design that fits the ZCU102) there
 //     is no impulse array: each record carries the impulses its pass starts from and the updated ones leave on
-//     m_axis_imp, one record per slot and pass (the DMA writes them to the DDR buffer the next passes read);
+//     m_axis_imp, one record per slot and pass (the DMA writes them to the DDR buffer the next passes read); with
+//     PGS_TANGENTS_ON_CHIP = 1 as well (the RTL's TANGENTS_ON_CHIP) the friction records carry no t0, t1 and the
+//     friction pass derives them from n (pgs_solver.h plane_space, models/tangent_basis.py);
 //   * one pipelined loop per pass kind (PIPELINE, the fixed-size inner loops unrolled), ARRAY_PARTITION of the
 //     per-body and per-slot words so that a record reads and writes all of them at once, and DEPENDENCE
 //     inter false on the body velocities and the impulses (below).
@@ -191,7 +193,8 @@ FRICTION:
 #if !PGS_IMPULSES_IN_RECORDS
 #pragma HLS DEPENDENCE variable=imp_t type=inter dependent=false
 #endif
-        const FrictionRec r = decode_friction(read_cons<kFrictionBeats>(s_axis_cons, k == num_manifolds - 1, err));
+        FrictionRec r = decode_friction(read_cons<kFrictionBeats>(s_axis_cons, k == num_manifolds - 1, err));
+        if (kTangentsOnChip) plane_space(r.n, r.t);  // the record carries no t0, t1: derived from n
         BodyPair p = gather(r.h, num_bodies, body_ref, body_vel, err);
         float lam_n[4], lam_t[2];
 #if PGS_IMPULSES_IN_RECORDS

@@ -7,6 +7,8 @@
 //   PGS_IINV_W         inverse-inertia words per body (3; 1 scalar, 6 the symmetric 3x3; pgs_stream.h)
 //   PGS_MU_W           friction-coefficient words per friction record (0 the constant 0.7; 1 a word; pgs_stream.h)
 //   PGS_IMPULSES_IN_RECORDS  1: the impulses travel with the records, out on m_axis_imp; 0: on chip (pgs_stream.h)
+//   PGS_TANGENTS_ON_CHIP  1: friction records without t0, t1, derived from n in the format (the RTL's
+//                      TANGENTS_ON_CHIP; only with PGS_IMPULSES_IN_RECORDS = 1, PGS_IINV_W = 3, PGS_MU_W = 0)
 //   PGS_SOFT_CONTACT   1: Box2D's soft contact row (the RTL's SOFT_CONTACT): lam * keep before the add, with the
 //                      options bit kOptSoftContact and the arguments keep_dyn, keep_static; 0: the rigid row only
 //   PGS_EXP_BITS, PGS_MAN_BITS  the number format (8, 23: binary32; C simulation also 5, 10 and 8, 7; pgs_fp.h)

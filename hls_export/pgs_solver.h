@@ -114,6 +114,28 @@ POINTS:
     }
 }
 
+// --- the friction tangent basis derived from the normal (PGS_TANGENTS_ON_CHIP = 1) ------------------------------
+// models/tangent_basis.py plane_space_in, operation for operation (the RTL's pgs_friction_pipe_tb, rtl/gen
+// kernel_graphs.py plane_space): Bullet's btPlaneSpace1 of m = -n, every operation rounded to the format, the
+// square root and the division each once; the branch on |m_z| is a select (both bases are computed).
+constexpr double kPlaneSpaceSplit = 0.70710678;  // models.tangent_basis.PLANE_SPACE_SPLIT (Bullet's SIMDSQRT12)
+
+inline void plane_space(const Vec3& n, Vec3 t[2]) {
+    const float mx = -n.x, my = -n.y, mz = -n.z;  // sign flips: exact
+    const float one = constant(1.0), zero = 0.0f;
+    const bool use_z = constant(kPlaneSpaceSplit) < maximum(mz, -mz);
+    const float a_z = add(mul(my, my), mul(mz, mz));
+    const float k_z = div(one, sqrt(use_z ? a_z : one));
+    const Vec3 pz = vec3(zero, mul(-mz, k_z), mul(my, k_z));
+    const Vec3 qz = vec3(mul(a_z, k_z), mul(-mx, pz.z), mul(mx, pz.y));
+    const float a_x = add(mul(mx, mx), mul(my, my));
+    const float k_x = div(one, sqrt(use_z ? one : a_x));
+    const Vec3 px = vec3(mul(-my, k_x), mul(mx, k_x), zero);
+    const Vec3 qx = vec3(mul(-mz, px.y), mul(mz, px.x), mul(a_x, k_x));
+    t[0] = use_z ? pz : px;
+    t[1] = use_z ? qz : qx;
+}
+
 // --- friction pass of one manifold: lam_t[0..1] in/out, lam_n the manifold's normal impulses ----------------
 inline void solve_friction(const FrictionRec& r, const BodyRef& A, const BodyRef& B, Velocity& va, Velocity& vb,
                            const float lam_n[4], float lam_t[2]) {

@@ -8,6 +8,8 @@
 //             PGS_IMPULSES_IN_RECORDS = 1: then lam[0..3]               64 + 27 W bits
 //   friction  header, n(3), c(3), t0(3), t1(3), f_jac_inv(2), mu (PGS_MU_W = 1)   64 + (14 + PGS_MU_W) W bits
 //             PGS_IMPULSES_IN_RECORDS = 1: then lam[0..3], lamT[0..1]  64 + (20 + PGS_MU_W) W bits
+//             PGS_TANGENTS_ON_CHIP = 1 (with PGS_IMPULSES_IN_RECORDS = 1, PGS_MU_W = 0, PGS_IINV_W = 3): without t0,
+//             t1 (the kernel derives them from n, pgs_solver.h plane_space): n, c, f_jac_inv, lam, lamT  64 + 14 W bits
 //   impulse-out (m_axis_imp, PGS_IMPULSES_IN_RECORDS = 1)  contact lam[0..3]; friction lamT[0..1], 0, 0
 //             4 W bits rounded up to whole bytes, one per slot of every pass, TLAST on a pass's last
 //   header    bits 31:0 body_a, 62:32 body_b, 63 spin_damp
@@ -38,6 +40,9 @@
 #ifndef PGS_IMPULSES_IN_RECORDS
 #define PGS_IMPULSES_IN_RECORDS 0  // 1: the impulses travel with the records and leave on m_axis_imp (no impulse RAM)
 #endif
+#ifndef PGS_TANGENTS_ON_CHIP
+#define PGS_TANGENTS_ON_CHIP 0  // 1: friction records without t0, t1, derived from n (the RTL's TANGENTS_ON_CHIP)
+#endif
 #ifndef PGS_BODY_IN_W
 #define PGS_BODY_IN_W 128
 #endif
@@ -61,11 +66,25 @@ constexpr bool kImpulsesInRecords = PGS_IMPULSES_IN_RECORDS != 0;
 static_assert(PGS_IMPULSES_IN_RECORDS == 0 || PGS_IMPULSES_IN_RECORDS == 1, "PGS_IMPULSES_IN_RECORDS must be 0 or 1");
 constexpr int kMuWords = PGS_MU_W;
 static_assert(kMuWords == 0 || kMuWords == 1, "PGS_MU_W must be 0 or 1");
+constexpr bool kTangentsOnChip = PGS_TANGENTS_ON_CHIP != 0;
+static_assert(PGS_TANGENTS_ON_CHIP == 0 || PGS_TANGENTS_ON_CHIP == 1, "PGS_TANGENTS_ON_CHIP must be 0 or 1");
+static_assert(!kTangentsOnChip || kImpulsesInRecords,
+              "PGS_TANGENTS_ON_CHIP = 1 is a configuration of the records design: build it with "
+              "PGS_IMPULSES_IN_RECORDS = 1");
+static_assert(!kTangentsOnChip || (kMuWords == 0 && PGS_IINV_W == 3),
+              "PGS_TANGENTS_ON_CHIP = 1 is built for the diagonal inverse inertia (PGS_IINV_W = 3) and the constant "
+              "friction coefficient (PGS_MU_W = 0)");
+// the friction record's t0, t1 words (0: derived on chip) and its words before the coefficient: n, c, [t0, t1],
+// f_jac_inv (StreamLayout._tangent_words; the generated counts include the tangents)
+constexpr int kFrictionTangentWords = kTangentsOnChip ? 0 : kTangentWords;
+constexpr int kFrictionStaticWords = kFrictionWords - kTangentWords + kFrictionTangentWords;
+constexpr int kFrictionJacInvAt = kFrictionStaticWords - 2;  // f_jac_inv[0..1], the last two of them
 // words after the header (models.stream_format.StreamLayout.contact_record_words / friction_record_words)
 constexpr int kContactRecordWords = kContactWords + (kImpulsesInRecords ? kContactImpulseWords : 0);
-constexpr int kFrictionRecordWords = kFrictionWords + kMuWords + (kImpulsesInRecords ? kFrictionImpulseWords : 0);
-constexpr int kFrictionLamAt = kFrictionLamWord + kMuWords;    // StreamLayout.friction_lam_word
-constexpr int kFrictionLamtAt = kFrictionLamtWord + kMuWords;  // StreamLayout.friction_lamt_word
+constexpr int kFrictionRecordWords = kFrictionStaticWords + kMuWords + (kImpulsesInRecords ? kFrictionImpulseWords : 0);
+// StreamLayout.friction_lam_word, friction_lamt_word
+constexpr int kFrictionLamAt = kFrictionLamWord - kTangentWords + kFrictionTangentWords + kMuWords;
+constexpr int kFrictionLamtAt = kFrictionLamtWord - kTangentWords + kFrictionTangentWords + kMuWords;
 constexpr int kContactBeats = beats_for(kHeaderBits + kContactRecordWords * kWordBits, kConsW);
 constexpr int kFrictionBeats = beats_for(kHeaderBits + kFrictionRecordWords * kWordBits, kConsW);
 constexpr int kImpOutW = (kImpulseOutWords * kWordBits + 7) / 8 * 8;  // m_axis_imp TDATA: whole bytes
@@ -108,7 +127,7 @@ struct ContactRec {
 struct FrictionRec {
     Header h;
     Vec3 n, c;
-    Vec3 t[2];
+    Vec3 t[2];  // PGS_TANGENTS_ON_CHIP = 1: not in the record, zeros until the kernel derives them (plane_space)
     float f_jac_inv[2];
     float mu;  // the manifold's friction coefficient (PGS_MU_W = 1; else the constant kFrictionCoeff)
     float lam[4], lam_t[2];  // the manifold's normal impulses and the pass's start (PGS_IMPULSES_IN_RECORDS = 1)
@@ -231,11 +250,12 @@ inline FrictionRec decode_friction(const friction_bits_t& r) {
     f.h = header_at(r);
     f.n = vec_at(r, kHeaderBits, 0);
     f.c = vec_at(r, kHeaderBits, 3);
-    f.t[0] = vec_at(r, kHeaderBits, 6);
-    f.t[1] = vec_at(r, kHeaderBits, 9);
-    f.f_jac_inv[0] = value_at(r, kHeaderBits, 12);
-    f.f_jac_inv[1] = value_at(r, kHeaderBits, 13);
-    f.mu = kMuWords ? value_at(r, kHeaderBits, kFrictionWords) : 0.0f;
+    const Vec3 zero = {0.0f, 0.0f, 0.0f};
+    f.t[0] = kTangentsOnChip ? zero : vec_at(r, kHeaderBits, 6);
+    f.t[1] = kTangentsOnChip ? zero : vec_at(r, kHeaderBits, 9);
+    f.f_jac_inv[0] = value_at(r, kHeaderBits, kFrictionJacInvAt);
+    f.f_jac_inv[1] = value_at(r, kHeaderBits, kFrictionJacInvAt + 1);
+    f.mu = kMuWords ? value_at(r, kHeaderBits, kFrictionStaticWords) : 0.0f;
     for (int i = 0; i < 4; i++) {
 #pragma HLS UNROLL
         f.lam[i] = kImpulsesInRecords ? value_at(r, kHeaderBits, kFrictionLamAt + i) : 0.0f;
