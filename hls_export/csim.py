@@ -23,10 +23,17 @@ the add, ``models/soft_contact.py``) is built for a ``KernelBuild`` with ``soft_
 records design with it on the records scenes and formats, warm-started, each step once with the soft row (keep
 factors of :data:`SOFT_KEEP`, the options bit set) and once rigid (the bit clear), against the golden model of each.
 
-``make csim`` (``python -m hls_export.csim``) runs both designs: the on-chip one in binary32 on the stack, the
-incline and a 4x3x4 pile in the hazard and the pybullet schedules, and the records design in binary16 and binary32 on
-the pile and the stack, cold and warm-started (``--designs onchip`` or ``records`` runs one; ``soft`` is not in
-the default); it prints a table and exits 1 on any difference.
+The records design with the tangent basis derived on chip (``PGS_TANGENTS_ON_CHIP=1``, the RTL's
+``TANGENTS_ON_CHIP``: the friction record carries no t0, t1, the friction pass derives them from n in the format,
+``models/tangent_basis.py``) is built for a ``KernelBuild`` with ``tangents_on_chip`` (and ``impulses_in_records``:
+the C++ refuses it without); ``--designs tangents`` runs it on the records scenes and formats, cold and warm-started,
+against the golden model of ``KernelJob.tangents_derived()``.
+
+``make csim`` (``python -m hls_export.csim``) runs three designs: the on-chip one in binary32 on the stack, the
+incline and a 4x3x4 pile in the hazard and the pybullet schedules, the records design in binary16 and binary32 on
+the pile and the stack, cold and warm-started, and the same with the tangents derived on chip (``--designs onchip``,
+``records`` or ``tangents`` runs one; ``soft`` is not in the default); it prints a table and exits 1 on any
+difference.
 """
 
 from __future__ import annotations
@@ -85,6 +92,7 @@ def csim_name(kb: KernelBuild) -> str:
             + (f"_i{kb.inertia_words}" if kb.inertia_words != sf.KERNEL_INERTIA_WORDS else "")
             + ("_ir" if kb.impulses_in_records else "")
             + ("_mu" if kb.friction_words else "")
+            + ("_tb" if kb.tangents_on_chip else "")
             + ("_soft" if kb.soft_contact else ""))
 
 
@@ -117,12 +125,15 @@ def build_csim(kb: KernelBuild = KernelBuild(FP32), cxx: str = "g++") -> Path:
         raise ValueError("the HLS kernel is the streaming kernel: no window, lanes or pipe variants")
     if kb.fmt.exp_bits > 8 or kb.fmt.man_bits > 23:
         raise ValueError(f"the HLS kernel holds values in a C++ float: {kb.fmt.name} does not fit")
+    if kb.tangents_on_chip and not kb.impulses_in_records:  # the C++'s static_assert, before a compile
+        raise ValueError("the HLS kernel derives the tangents on chip (PGS_TANGENTS_ON_CHIP) in the records design "
+                         "only (PGS_IMPULSES_IN_RECORDS = 1)")
     defines = [f"-DPGS_EXP_BITS={kb.fmt.exp_bits}", f"-DPGS_MAN_BITS={kb.fmt.man_bits}",
                f"-DPGS_MAX_BODIES={kb.max_bodies}", f"-DPGS_MAX_MANIFOLDS={kb.max_manifolds}",
                f"-DPGS_CONS_W={kb.cons_bits}", f"-DPGS_BODY_IN_W={kb.body_in_bits}",
                f"-DPGS_BODY_OUT_W={kb.body_out_bits}", f"-DPGS_IINV_W={kb.inertia_words}",
                f"-DPGS_MU_W={kb.friction_words}", f"-DPGS_IMPULSES_IN_RECORDS={int(kb.impulses_in_records)}",
-               f"-DPGS_SOFT_CONTACT={int(kb.soft_contact)}"]
+               f"-DPGS_SOFT_CONTACT={int(kb.soft_contact)}", f"-DPGS_TANGENTS_ON_CHIP={int(kb.tangents_on_chip)}"]
     if kb.impulses_in_records:  # the testbench's DMA thread needs the blocking, thread-safe local streams
         defines.append("-DPGS_FORCE_SHIMS")
     return compile_cpp(SOURCES, BUILD_ROOT / csim_name(kb) / "pgs_csim", defines, cxx)
@@ -176,14 +187,16 @@ def run_written_step(job: KernelJob, run_dir: Path, exe: Path, kb: KernelBuild, 
 def scene_job(scene: str, schedule: str, iterations: int = 4, kb: KernelBuild = KernelBuild(FP32),
               interleaved: bool = False) -> KernelJob:
     """One step of a ``SCENES`` scene in ``kb``'s format, ordered by ``schedule`` (hazard window = the RTL's); with
-    ``kb.impulses_in_records`` the step of the records design, starting from zeros."""
+    ``kb.impulses_in_records`` the step of the records design, starting from zeros; with ``kb.tangents_on_chip``
+    its friction tangents derived from the normals in the format (``KernelJob.tangents_derived``)."""
     params = SCENES.get(scene, EXTRA_SCENES.get(scene))
     if params is None:
         raise ValueError(f"scene {scene!r}: expected one of {', '.join([*SCENES, *EXTRA_SCENES])}")
     frame = scenes.load_or_capture(scene, **params)
     job = KernelJob.from_frame(frame, kb.fmt, SolverParams(iterations, interleaved=interleaved), schedule,
                                default_window(kb.fmt, kb.cons_bits))
-    return job.impulses_travelling() if kb.impulses_in_records else job
+    job = job.impulses_travelling() if kb.impulses_in_records else job
+    return job.tangents_derived() if kb.tangents_on_chip else job
 
 
 def warm_start(job: KernelJob, seed: int) -> Impulses:
@@ -196,13 +209,16 @@ def warm_start(job: KernelJob, seed: int) -> Impulses:
     return Impulses(normal, friction)
 
 
-def records_build(fmt: NumberFormat, job: KernelJob | None = None, soft_contact: bool = False) -> KernelBuild:
+def records_build(fmt: NumberFormat, job: KernelJob | None = None, soft_contact: bool = False,
+                  tangents_on_chip: bool = False) -> KernelBuild:
     """The records design's build for ``fmt`` (and ``job``'s friction-coefficient and inverse-inertia words; with
-    the soft contact row where asked)."""
+    the soft contact row where asked; with the tangents derived on chip where asked or ``job`` derives them)."""
     if job is None:
-        return KernelBuild(fmt, impulses_in_records=True, soft_contact=soft_contact)
+        return KernelBuild(fmt, impulses_in_records=True, soft_contact=soft_contact,
+                           tangents_on_chip=tangents_on_chip)
     return KernelBuild(fmt, impulses_in_records=True, inertia_words=job.inertia_words,
-                       friction_words=job.friction_words, soft_contact=soft_contact)
+                       friction_words=job.friction_words, soft_contact=soft_contact,
+                       tangents_on_chip=tangents_on_chip or job.tangents_on_chip)
 
 
 def soft_jobs(cold: KernelJob) -> dict[str, KernelJob]:
@@ -222,9 +238,10 @@ def _print_row(case: str, res: CsimResult) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--designs", default="onchip,records", help="comma-separated: onchip (impulses on chip, "
-                    "binary32), records (impulses in the records, PGS_IMPULSES_IN_RECORDS=1), soft (records with "
-                    "the soft contact row, PGS_SOFT_CONTACT=1; not in the default)")
+    ap.add_argument("--designs", default="onchip,records,tangents", help="comma-separated: onchip (impulses on "
+                    "chip, binary32), records (impulses in the records, PGS_IMPULSES_IN_RECORDS=1), tangents (records "
+                    "with the tangents derived on chip, PGS_TANGENTS_ON_CHIP=1), soft (records with the soft contact "
+                    "row, PGS_SOFT_CONTACT=1; not in the default)")
     ap.add_argument("--scenes", default=",".join(SCENES),
                     help="on-chip design, comma-separated, from " + ", ".join(SCENES))
     ap.add_argument("--schedules", default=",".join(SCHEDULES))
@@ -235,9 +252,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=REPO_ROOT / "build" / "hls_csim" / "runs")
     args = ap.parse_args(argv)
     designs = args.designs.split(",")
-    unknown = set(designs) - {"onchip", "records", "soft"}
+    unknown = set(designs) - {"onchip", "records", "tangents", "soft"}
     if unknown:
-        ap.error(f"unknown design(s) {sorted(unknown)}: onchip, records, soft")
+        ap.error(f"unknown design(s) {sorted(unknown)}: onchip, records, tangents, soft")
     print(f"{'case':<30} {'manifold-passes':>15} {'bodies':>7} {'imp-out rec':>11} {'differing bits':>14} "
           f"{'window hazards':>14} {'csim s':>7} {'golden s':>8}  result")
     bad = 0
@@ -251,18 +268,20 @@ def main(argv: list[str] | None = None) -> int:
                                     exe, kb, window)
                 bad += not res.bit_exact
                 _print_row(f"onchip fp32 {scene}/{schedule}", res)
-    if "records" in designs:
+    for design in ("records", "tangents"):
+        if design not in designs:
+            continue
         for fname in args.records_formats.split(","):
             fmt = RECORDS_FORMATS[fname]
             for scene in args.records_scenes.split(","):
-                cold = scene_job(scene, "hazard", args.iters, records_build(fmt))
+                cold = scene_job(scene, "hazard", args.iters, records_build(fmt, tangents_on_chip=design == "tangents"))
                 kb = records_build(fmt, cold)
                 exe = build_csim(kb)
                 for start, job in (("cold", cold), ("warm", cold.impulses_travelling(warm_start(cold, WARM_SEED)))):
-                    res = run_csim_step(job, args.out / f"records-{fname}-{scene}-{start}", exe, kb,
+                    res = run_csim_step(job, args.out / f"{design}-{fname}-{scene}-{start}", exe, kb,
                                         default_window(fmt, kb.cons_bits))
                     bad += not res.bit_exact
-                    _print_row(f"records {fname} {scene}/hazard {start}", res)
+                    _print_row(f"{design} {fname} {scene}/hazard {start}", res)
     if "soft" in designs:
         for fname in args.records_formats.split(","):
             fmt = RECORDS_FORMATS[fname]
