@@ -14,6 +14,9 @@
 #                                        in the records, m_axis_imp out, no impulse array); 0: impulses on chip
 #                                        (the old design). Its C simulation needs the thread-safe local
 #                                        stream shims (-DPGS_FORCE_SHIMS, added to the csim flags below).
+#   PGS_SOFT_CONTACT                     0 (default); 1: Box2D's soft contact row (the RTL's SOFT_CONTACT)
+#   PGS_TANGENTS_ON_CHIP                 0 (default); 1: friction records without t0, t1, derived from the normal
+#                                        (the RTL's TANGENTS_ON_CHIP; only with PGS_IMPULSES_IN_RECORDS = 1)
 #   PGS_CSIM_DIR                         a run directory written by sim.harness_run.write_inputs for a job of
 #                                        the same design (the records design: with impulse_plan.bin): run the
 #                                        C simulation testbench on it first (csim_design)
@@ -33,7 +36,8 @@ proc env_or {name default} {
 
 set defines [list]
 foreach {name default} {PGS_MAX_BODIES 65536 PGS_MAX_MANIFOLDS 262144 PGS_CONS_W 512 PGS_BODY_IN_W 128
-                        PGS_BODY_OUT_W 128 PGS_IINV_W 3 PGS_MU_W 0 PGS_IMPULSES_IN_RECORDS 1} {
+                        PGS_BODY_OUT_W 128 PGS_IINV_W 3 PGS_MU_W 0 PGS_IMPULSES_IN_RECORDS 1
+                        PGS_SOFT_CONTACT 0 PGS_TANGENTS_ON_CHIP 0} {
     lappend defines "-D$name=[env_or $name $default]"
 }
 # the golden operation order: nothing fused, no fast-math reassociation
