@@ -10,11 +10,14 @@ step, which solves with the derived tangents (``KernelJob.tangents_derived``):
 * deterministic streams: every retire cycle, the total and the stall and bubble counters equal the cycle model's
   (the deeper friction pipe's latency, the one-beat friction record);
 * the fp16 records design with the option (its own build, ``pgs_kernel_e5m10_c512_ir_tb``): the pile bit-exact with
-  random stalls and cycle-exact with deterministic streams.
+  random stalls and cycle-exact with deterministic streams;
+* the pile turned a quarter about x (a z-up world, as pybullet's own examples are): its normals lie along z, so the
+  pipe takes the basis's other branch (|n_z| above the split), which the y-up scenes never reach.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
 
@@ -24,9 +27,11 @@ import pytest
 from models import cycle_model, scenes
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
+from models.constraints import BodyTable
 from models.kernel_job import KernelJob
 from models.number_format import FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
+from models.tangent_basis import PLANE_SPACE_SPLIT
 from sim.kernel_build import KernelBuild, default_window
 from sim.kernel_step import run_kernel_step
 
@@ -47,6 +52,29 @@ def streamed_job(scene: str, fmt: NumberFormat = FP32) -> KernelJob:
 
 def scene_job(scene: str, fmt: NumberFormat = FP32) -> KernelJob:
     return streamed_job(scene, fmt).tangents_derived()
+
+
+def _turn_x(v: np.ndarray) -> np.ndarray:
+    """Vectors (..., 3) turned a quarter about x: (x, y, z) -> (x, -z, y), exact in floating point."""
+    return np.stack([v[..., 0], -v[..., 2], v[..., 1]], axis=-1)
+
+
+def quarter_turn_x(job: KernelJob) -> KernelJob:
+    """``job``'s world turned a quarter about x (y up becomes z up): every position, velocity, normal, point and the
+    gravity turned (exactly), the orientations composed with the turn and rounded to the format, the world-frame
+    inverse inertia's diagonal with y and z exchanged; the solver's coefficients kept (those of the host's turned
+    basis: the kernel derives another basis of the same plane, so this is a check of the bits, not of physics)."""
+    b, c = job.bodies, job.cons
+    s = np.sqrt(0.5)
+    qx, qy, qz, qw = b.orientation.T
+    orientation = np.stack([s * (qx + qw), s * (qy - qz), s * (qz + qy), s * (qw - qx)], axis=1)
+    bodies = BodyTable(_turn_x(b.position), orientation, _turn_x(b.linear_velocity), _turn_x(b.angular_velocity),
+                       b.inv_mass, b.inv_inertia[:, [0, 2, 1]]).rounded(job.fmt)
+    cons = dataclasses.replace(c, normal=_turn_x(c.normal), points=_turn_x(c.points), center=_turn_x(c.center),
+                               tangent=_turn_x(c.tangent))
+    gravity = tuple(float(g) for g in _turn_x(np.array(job.iparams.gravity)))
+    return dataclasses.replace(job, bodies=bodies, cons=cons,
+                               iparams=dataclasses.replace(job.iparams, gravity=gravity))
 
 
 def test_the_build_derives_the_tangents() -> None:
@@ -102,4 +130,24 @@ def test_fp16_pile_bit_exact_and_cycle_exact(tmp_path: Path) -> None:
     assert det.bit_exact, det.comparison.first_mismatch
     agree = cycle_model.compare_run(pred, det, job.slots)
     print(f"[pile/fp16/impulses in records/tangents on chip] random stalls {res.cycles:,} cycles; {agree.describe()}")
+    assert agree.ok, agree.first_mismatch
+
+
+def test_z_up_world_takes_the_other_branch(tmp_path: Path) -> None:
+    """The pile turned z-up: nearly every normal has |n_z| above the split (the basis's z branch), the derived basis
+    is still not the host's (the run can tell them apart), and the kernel is bit-exact with random stalls and
+    cycle-exact with deterministic streams."""
+    job, seed = quarter_turn_x(streamed_job("pile")).tangents_derived(), _seed()
+    assert job.bodies.inv_inertia.shape[1] == 3 and job.iparams.gravity[2] < 0
+    assert (np.abs(job.cons.normal[:, 2]) > PLANE_SPACE_SPLIT).mean() > 0.9
+    host = quarter_turn_x(streamed_job("pile"))
+    assert not np.array_equal(job.cons.tangent, host.cons.tangent)
+    print(f"\nseed {seed} (SEED={seed} reproduces)")
+    res = run_kernel_step(job, PRESET, tmp_path / "random", seed, GAP_PERMILLE, BP_PERMILLE)
+    assert res.bit_exact, res.comparison.first_mismatch
+    det = run_kernel_step(job, PRESET, tmp_path / "deterministic", seed=1, keep_trace=True)
+    assert det.bit_exact, det.comparison.first_mismatch
+    agree = cycle_model.compare_run(cycle_model.predict_job(job, PRESET), det, job.slots)
+    print(f"[pile z-up/fp32/impulses in records/tangents on chip] random stalls {res.cycles:,} cycles; "
+          f"{agree.describe()}")
     assert agree.ok, agree.first_mismatch
