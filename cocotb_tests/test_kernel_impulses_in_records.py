@@ -13,7 +13,10 @@ TLAST per pass) with the golden model of the same step:
   counters equal the cycle model's;
 * a warm start: random non-negative initial normal impulses and friction impulses within the limit, bit-exact
   against ``solve(..., initial=...)``, cycles exact; also with the passes interleaved (contact, friction, ...:
-  each friction pass reads the lam its contact pass just wrote).
+  each friction pass reads the lam its contact pass just wrote);
+* body streams of 256-bit beats (``make sim IMPULSE_STORE=records BODY_BITS=256``, its own build): the body load
+  and the integration's body-out take fewer beats, bit-exact and every retire cycle the cycle model's with the
+  same beats (``predict_job(..., body_bits=256)``), fewer cycles than on 128-bit beats.
 """
 
 from __future__ import annotations
@@ -84,3 +87,17 @@ def test_cycles_match_model(which: str, tmp_path: Path) -> None:
     agree = cycle_model.compare_run(pred, res, job.slots)
     print(f"\n[{which}/fp16/impulses in records] {agree.describe()}; stalls {pred.stalls:,}, bubbles {pred.bubbles:,}")
     assert agree.ok, agree.first_mismatch
+
+
+def test_wide_body_streams_cycle_exact(tmp_path: Path) -> None:
+    """256-bit body beats: the fp16 body-in record (272 bits) in 2 beats instead of 3, body-out (208) in 1 instead
+    of 2; the model with the 128-bit beats would not match this run."""
+    job = pile_job()
+    pred = cycle_model.predict_job(job, PRESET, body_bits=256)
+    res = run_kernel_step(job, PRESET, tmp_path, seed=1, keep_trace=True, body_bits=256)
+    assert res.bit_exact, res.comparison.first_mismatch
+    agree = cycle_model.compare_run(pred, res, job.slots)
+    narrow = cycle_model.predict_job(job, PRESET).cycles
+    print(f"\n[pile/fp16/impulses in records/256-bit body beats] {agree.describe()}; 128-bit beats: {narrow:,} cycles")
+    assert agree.ok, agree.first_mismatch
+    assert (pred.shape.body_in_beats, pred.shape.body_out_beats) == (2, 1) and res.cycles < narrow

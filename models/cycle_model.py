@@ -180,20 +180,32 @@ def predict(shape: KernelShape, dma: DmaTiming, step: StepShape) -> Prediction:
     return pred
 
 
-def predict_job(job: "KernelJob", preset: DmaPreset, prefetched: bool = False) -> Prediction:
-    """The model of ``job`` run by ``sim.kernel_step.run_kernel_step`` with ``preset`` (gap and backpressure 0)."""
-    return predict(KernelShape.of(job.fmt, preset.stream_bits, inertia_words=job.inertia_words,
-                                  impulses_in_records=job.impulses_in_records, friction_words=job.friction_words,
-                                  body_banks=job.body_banks, tangents_on_chip=job.tangents_on_chip,
-                                  record_bits=job.record_bits),
-                   DmaTiming.of(preset, prefetched, job.stream_layout(preset.stream_bits).ddr_read_share(job.params)),
-                   StepShape.of_job(job))
+def _job_shape(job: "KernelJob", preset: DmaPreset, body_bits: int) -> KernelShape:
+    return KernelShape.of(job.fmt, preset.stream_bits, body_bits, inertia_words=job.inertia_words,
+                          impulses_in_records=job.impulses_in_records, friction_words=job.friction_words,
+                          body_banks=job.body_banks, tangents_on_chip=job.tangents_on_chip, record_bits=job.record_bits)
 
 
-def lower_bound(job: "KernelJob", preset: DmaPreset, prefetched: bool = False) -> int:
+def _job_timing(job: "KernelJob", preset: DmaPreset, prefetched: bool) -> DmaTiming:
+    return DmaTiming.of(preset, prefetched, job.stream_layout(preset.stream_bits).ddr_read_share(job.params))
+
+
+def predict_job(job: "KernelJob", preset: DmaPreset, prefetched: bool = False, body_bits: int = 128) -> Prediction:
+    """The model of ``job`` run by ``sim.kernel_step.run_kernel_step`` with ``preset`` (gap and backpressure 0) on
+    body-in and body-out streams of ``body_bits``-bit beats (``make sim BODY_BITS``)."""
+    return predict(_job_shape(job, preset, body_bits), _job_timing(job, preset, prefetched), StepShape.of_job(job))
+
+
+def check_body_beats(job: "KernelJob", preset: DmaPreset, body_bits: int) -> None:
+    """A ValueError where the model cannot take ``job``'s body beats of ``body_bits`` bits on ``preset``: the DDR
+    must give one body beat a cycle."""
+    _check_body_rate(_job_shape(job, preset, body_bits), _job_timing(job, preset, False))
+
+
+def lower_bound(job: "KernelJob", preset: DmaPreset, prefetched: bool = False, body_bits: int = 128) -> int:
     """Cycles no run of ``job`` can beat: random stream gaps and backpressure only delay beats (every step of
     the model is a max of earlier events), so the deterministic prediction bounds them from below."""
-    return predict_job(job, preset, prefetched).cycles
+    return predict_job(job, preset, prefetched, body_bits).cycles
 
 
 def _empty(shape: KernelShape, done: int) -> Prediction:
@@ -201,11 +213,16 @@ def _empty(shape: KernelShape, done: int) -> Prediction:
     return Prediction(shape, z, z, z, z, z, z, z, z, z, z, z, z, z, z, 0, 0, done - 1, done, 0, 0, 0)
 
 
+def _check_body_rate(shape: KernelShape, dma: DmaTiming) -> None:
+    if dma.rate and dma.rate < shape.body_beat_bytes:
+        raise ValueError(f"the DDR's {dma.rate:g} B per cycle are less than one {8 * shape.body_beat_bytes}-bit body "
+                         "beat per cycle: not modeled (a narrower BODY_BITS)")
+
+
 def _load_end(shape: KernelShape, dma: DmaTiming, nb: int) -> int:
     """Cycle the last body-in beat is taken: one beat per cycle from the transfer's first (the bucket always
     holds a 16-byte beat: it refills by >= 16 bytes a cycle, and a constraint beat only spends what is there)."""
-    if dma.rate and dma.rate < shape.body_beat_bytes:
-        raise ValueError(f"DDR rate {dma.rate} B/cycle below one body beat per cycle: not modeled")
+    _check_body_rate(shape, dma)
     first = 0 if dma.prefetched else max(dma.startup - 1, 0)
     return first + nb * shape.body_in_beats - 1
 

@@ -287,13 +287,16 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     job = kernel_job(KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip), args)
     if args.record_window and args.mode == "model":
         raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
+    if not args.record_window and (args.mode == "model" or not args.no_kernel):
+        cycle_model.check_body_beats(job, preset, args.body_bits)  # a body beat the model cannot take: before the build
     if args.mode == "model":  # MODE=model: the cycle model's estimate, the golden model's errors vs the exact reference
         golden = timer.run(f"{fmt.name} golden model solve + integrate", golden_step, job)
         ref = timer.run("float64 reference solve + integrate", _solve_and_integrate, bodies, cons, schedule, params, ip)
         exact = timer.run("exact reference (solve or cache)", exact_error.exact_step, bodies, cons, ip,
                           exact_error.reference_dir(args), args.exact_budget, params)
         return ModelRunResult(name, label, frame.num_bodies, frame.num_manifolds, sched_stats.describe(),
-                              preset.describe(), model_section(job, preset), fit=kernel_fit(job, args.dma),
+                              preset.describe(), model_section(job, preset, body_bits=args.body_bits),
+                              fit=kernel_fit(job, args.dma),
                               errors=exact_error.exact_errors(exact, golden.final, ref, None, bodies.dynamic),
                               error_source=f"{fmt.name} golden model"), None
 
@@ -346,7 +349,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         if res.cycles:  # a run that failed before ap_done has no speed to report
             result.speed = kernel_speed(res, job, preset, sched_stats.bubbles, args.driver)
         if job.record_window is None:
-            result.cycle_model = model_section(job, preset, res, args.stall_permille)
+            result.cycle_model = model_section(job, preset, res, args.stall_permille, args.body_bits)
         else:
             result.window = window_facts(job, preset)
     return result, kb
@@ -387,11 +390,11 @@ def step_errors(source: str, ours: BodyTable, step: StepInputs, fmt: NumberForma
 
 
 def model_section(job: KernelJob, preset: DmaPreset, res: KernelResult | None = None,
-                  stall_permille: int = 0) -> dict[str, Any]:
-    """The cycle model's estimate; beside an RTL run, every retire cycle compared (deterministic streams) or the
-    model as a lower bound (random stalls)."""
+                  stall_permille: int = 0, body_bits: int = 128) -> dict[str, Any]:
+    """The cycle model's estimate (body streams of ``body_bits``-bit beats); beside an RTL run, every retire cycle
+    compared (deterministic streams) or the model as a lower bound (random stalls)."""
     t0 = time.process_time()
-    pred = cycle_model.predict_job(job, preset)
+    pred = cycle_model.predict_job(job, preset, body_bits=body_bits)
     seconds = time.process_time() - t0
     if res is None or res.trace is None or stall_permille:
         return cycle_model.report_section(pred, preset, seconds, None if res is None else res.cycles)

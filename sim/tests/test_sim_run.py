@@ -153,6 +153,15 @@ def test_tools_reject_bad_frame_files(tmp_path: Path, capsys: pytest.CaptureFixt
     assert path.read_bytes() == before
 
 
+def test_body_beats_the_cycle_model_cannot_take_are_refused_before_the_build(tmp_path: Path,
+                                                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """The streaming kernel on 512-bit body beats, more than the zcu102's DDR gives a cycle: one line, exit status
+    2, no run directory, before any build (in RTL mode and in MODE=model)."""
+    for mode in ("rtl", "model"):
+        _expect_error("sim.run", ["--scene", "stack", "--body-bits", "512", "--mode", mode], tmp_path / mode,
+                      "less than one 512-bit body beat per cycle: not modeled", capsys)
+
+
 def test_failed_runs_leave_no_partial_output(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                              monkeypatch: pytest.MonkeyPatch) -> None:
     """The kernel step fails after writing its input files into the run (sweep) directory: the error is one
