@@ -17,8 +17,10 @@ A :class:`Remedy` changes how a step is solved, never the contacts: ``warm_facto
 from the previous one's impulses (``models/warm_start.py``: points matched as Bullet 2 matches them, applied on the
 host at setup, the loop carrying the :class:`~models.warm_start.ContactMemory` step to step); ``substeps`` > 1 solves
 a step as that many kernel calls of dt / n (``models/substep.py``); ``soft`` runs Box2D v3's soft step, each substep a
-soft solve call and (``relax``) a relax call (``models/soft_contact.py``). :data:`COLD` (the default) is Bullet's GPU
-scheme.
+soft solve call and (``relax``) a relax call (``models/soft_contact.py``); ``shock`` solves ground-up in layers and
+makes the last contact pass of each kernel call (of a soft substep: its relax call) a shock pass
+(``models/shock_propagation.py``), ``shock_friction`` the last friction pass too. :data:`COLD` (the default) is
+Bullet's GPU scheme.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from .inertia import CONVENTION_KEY, DEFAULT_CONVENTION, BulletConvention, conve
 from .integrator import IntegrationParams, integrate
 from .number_format import FLOAT64, Arithmetic
 from .schedule import make_schedule
+from .shock_propagation import body_layers, layer_order, shock_constraints
 from .soft_contact import SoftContact, add_gravity, relax_constraints, soft_constraints
 from .substep import ContactPoints, substep_constraints
 from .warm_start import ContactMemory, Contacts, WarmStartReport, apply_impulses, warm_start
@@ -66,8 +69,17 @@ class Remedy:
     substeps: int = 1
     relax: bool = False  # the last substep without the position correction (models/substep.py); soft: a relax call
     soft: Optional[SoftContact] = None  # Box2D's soft contact (models/soft_contact.py), each substep a kernel call
+    shock: bool = False  # shock propagation (models/shock_propagation.py): layer order, the last contact pass frozen
+    shock_friction: bool = False  # ... and the last friction pass of each call too
+    shock_impulses: str = "keep"  # of the frozen rows: "keep", "drop", "return" (SolverParams.shock_impulses)
+    shock_passes: int = 1  # the last n passes of each shocked kind in each call (the scheme: 1)
+    shock_linear: bool = False  # a shock row moves the upper body along the normal only (no angular write)
 
     def __post_init__(self) -> None:
+        if self.shock_friction and not self.shock:
+            raise ValueError(f"remedy {self.name}: shock_friction needs shock")
+        if self.shock and self.soft is not None and not self.relax:
+            raise ValueError(f"remedy {self.name}: a soft shock remedy shocks its relax call (needs relax)")
         if self.relax and self.substeps < 2 and self.soft is None:
             raise ValueError(f"remedy {self.name}: a relax substep needs substeps >= 2 (one to correct positions)")
         if self.substeps < 1 or not 0.0 <= self.warm_factor <= 1.0:
@@ -169,7 +181,9 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
         state = world.body_state()
         gravity = np.asarray(scenes.GRAVITY, dtype=np.float64)
         ip = IntegrationParams(dt=world.dt / remedy.substeps, gravity=tuple(gravity))
-        solver = SolverParams(iterations=iterations)  # bullet2's pairs carry their friction per manifold
+        solver = SolverParams(iterations=iterations, shock_contact=remedy.shock,
+                              shock_friction=remedy.shock_friction, shock_impulses=remedy.shock_impulses,
+                              shock_passes=remedy.shock_passes)  # bullet2's pairs carry their friction per manifold
         bodies = body_table_from_state(state, gravity, world.dt, convention=convention).rounded(ar)
         advance = stepper(ar, solver, ip) if remedy.soft is None else _SoftCalls.of(stepper, ar, solver, ip, remedy)
         carried = _RemedyState()
@@ -188,6 +202,10 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
             frame = _contact_frame(world, bodies, mf, state, gravity, convention)
             cons = setup_constraints(frame, bodies, solver.friction_coeff).rounded(ar)
             order = make_schedule(schedule, cons, dyn, window)
+            if remedy.shock:
+                layers = body_layers(cons.body_a, cons.body_b, dyn)
+                cons = shock_constraints(cons, bodies, ar, layers, remedy.shock_linear)
+                order = layer_order(order, cons, layers)
             bodies = (_remedy_step(remedy, advance, bodies, cons, order, mf, ar, solver, ip.dt, carried)
                       if remedy.soft is None else _soft_step(remedy, advance, bodies, cons, order, mf, ar, solver,
                                                              carried))
@@ -279,6 +297,8 @@ class _SoftCalls:
            remedy: Remedy) -> "_SoftCalls":
         assert remedy.soft is not None
         soft = replace(solver, soft_keep=remedy.soft.keep(ip.dt))
+        if remedy.relax:  # a shock remedy shocks the substep's last contact pass: its relax call's
+            soft = replace(soft, shock_contact=False, shock_friction=False)
         if not remedy.relax:
             return _SoftCalls(stepper(ar, soft, ip), None, ip.dt, ip.gravity)
         still = (0.0, 0.0, 0.0)

@@ -23,6 +23,7 @@ import numpy as np
 from .constraints import FRICTION_COEFF, BodyTable, ConstraintSet
 from .inertia import inertia_product
 from .number_format import Arithmetic
+from .shock_propagation import FREEZE_A, FREEZE_B, FREEZE_NONE, ShockConstraintSet
 
 SPIN_DAMP_FACTOR = 0.1
 
@@ -61,6 +62,17 @@ class SolverParams:
     # accumulated impulse its soft update keeps, 1 - impulseScale, for a row between two dynamic bodies and for a
     # row with a static body. None (the default): the rigid update, today's kernel, bit for bit.
     soft_keep: Optional[tuple[float, float]] = None
+    # shock propagation (models/shock_propagation.py): the last contact pass (and with shock_friction the last
+    # friction pass) of the call freezes each manifold's lower body and uses the shock rows of a ShockConstraintSet.
+    # False (the default): every pass is the thesis's update, bit for bit.
+    shock_contact: bool = False
+    shock_friction: bool = False
+    # what becomes of a shock pass's impulses on its frozen rows (a row with nothing frozen keeps its own):
+    # "keep" as any pass's; "drop": discarded (a velocity correction only: the friction limit reads, and the call
+    # returns, those of the pass before it); "return": kept for the rest of the call (the friction limit reads them),
+    # the call returns those of the pass before it
+    shock_impulses: str = "keep"
+    shock_passes: int = 1  # how many of the last passes of each shocked kind are shock passes (the scheme: 1)
 
 
 @dataclass
@@ -152,19 +164,30 @@ class _Gathered:
         bodies.angular_velocity[b[db]] = self.wb[db]
 
 
+# a shock pass's per-manifold frozen flags: (body A frozen, body B frozen), (K,) bool each, and a third: the rows
+# of a linear shock (the unfrozen body's angular velocity not written either); None: no shock pass
+Freeze = Optional[tuple[np.ndarray, np.ndarray, np.ndarray]]
+
+
 def _apply(ar: Arithmetic, g: _Gathered, lin_a: np.ndarray, ang_a: np.ndarray, lin_b: np.ndarray,
-           ang_b: np.ndarray, delta: np.ndarray, mask: Optional[np.ndarray] = None) -> None:
-    """v_A += lin_a*d, w_A += ang_a*d, v_B -= lin_b*d, w_B -= ang_b*d (only where mask)."""
+           ang_b: np.ndarray, delta: np.ndarray, mask: Optional[np.ndarray] = None, freeze: Freeze = None) -> None:
+    """v_A += lin_a*d, w_A += ang_a*d, v_B -= lin_b*d, w_B -= ang_b*d (only where mask; a frozen body: never)."""
     va = ar.add(g.va, scale3(ar, lin_a, delta))
     wa = ar.add(g.wa, scale3(ar, ang_a, delta))
     vb = ar.sub(g.vb, scale3(ar, lin_b, delta))
     wb = ar.sub(g.wb, scale3(ar, ang_b, delta))
-    if mask is None:
+    if mask is None and freeze is None:
         g.va, g.wa, g.vb, g.wb = va, wa, vb, wb
-    else:
+    elif freeze is None:
         m = mask[:, None]
         g.va, g.wa = np.where(m, va, g.va), np.where(m, wa, g.wa)
         g.vb, g.wb = np.where(m, vb, g.vb), np.where(m, wb, g.wb)
+    else:
+        m = np.ones(delta.shape[0], dtype=bool) if mask is None else mask
+        m_a, m_b = m & ~freeze[0], m & ~freeze[1]
+        r_a, r_b = m_a & ~freeze[2], m_b & ~freeze[2]
+        g.va, g.wa = np.where(m_a[:, None], va, g.va), np.where(r_a[:, None], wa, g.wa)
+        g.vb, g.wb = np.where(m_b[:, None], vb, g.vb), np.where(r_b[:, None], wb, g.wb)
 
 
 def _row_keep(keep: tuple[np.ndarray, np.ndarray], bias: np.ndarray, g: _Gathered) -> np.ndarray:
@@ -176,7 +199,8 @@ def _row_keep(keep: tuple[np.ndarray, np.ndarray], bias: np.ndarray, g: _Gathere
 
 
 def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.ndarray, lam: np.ndarray,
-                  soft_keep: Optional[tuple[float, float]] = None) -> np.ndarray:
+                  soft_keep: Optional[tuple[float, float]] = None, jac_inv: Optional[np.ndarray] = None,
+                  freeze: Freeze = None) -> np.ndarray:
     """One contact pass over manifolds ``idx`` (vectorized); returns the new accumulated impulses (K,4).
 
     Per point i (skipped when jac_inv[i] == 0), in order i = 0..3, using the velocities the previous
@@ -192,7 +216,11 @@ def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nda
         lam'  = max(lam * keep + delta, 0) ; delta = lam' - lam
     keep = 1 - impulseScale, a per-call constant (``_row_keep``: 1 where b > 0); the mass scale is in the row's
     jac_inv and the soft bias in its b, both set by the host per call.
+
+    A shock pass (models/shock_propagation.py) gives its rows' ``jac_inv`` (the frozen body's inverse mass and
+    inertia 0) and ``freeze``: the frozen body's velocities are read as above but never written.
     """
+    jac_all = cons.jac_inv if jac_inv is None else jac_inv
     keep = None if soft_keep is None else (ar.const(soft_keep[0]), ar.const(soft_keep[1]))
     n = cons.normal[idx]
     lam = lam.copy()
@@ -200,7 +228,7 @@ def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nda
     lin_b = scale3(ar, n, g.mb)
     zero = ar.const(0.0)
     for i in range(4):
-        jac = cons.jac_inv[idx, i]
+        jac = jac_all[idx, i]
         active = jac != 0.0
         if not np.any(active):
             continue
@@ -213,12 +241,14 @@ def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nda
         new = ar.max(ar.add(start, delta), zero)
         delta = ar.sub(new, lam[:, i])
         lam[:, i] = np.where(active, new, lam[:, i])
-        _apply(ar, g, lin_a, inertia_product(ar, g.ia, ca), lin_b, inertia_product(ar, g.ib, cb), delta, active)
+        _apply(ar, g, lin_a, inertia_product(ar, g.ia, ca), lin_b, inertia_product(ar, g.ib, cb), delta, active,
+               freeze)
     return lam
 
 
 def friction_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.ndarray, lam_n: np.ndarray,
-                   lam_t: np.ndarray, friction_coeff: float) -> np.ndarray:
+                   lam_t: np.ndarray, friction_coeff: float, f_jac_inv: Optional[np.ndarray] = None,
+                   freeze: Freeze = None) -> np.ndarray:
     """One friction pass over manifolds ``idx``; returns the new friction impulses (K,2).
 
         limit = mu * ((lam0 + lam1) + (lam2 + lam3))           (mu = friction_coeff, Bullet GPU's 0.7, or the
@@ -231,8 +261,10 @@ def friction_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nd
             lam'  = min(max(lam + delta, -limit), limit) ; delta = lam' - lam
             vA -= (mA t) delta ; wA -= (IA cA) delta ; vB += (mB t) delta ; wB += (IB cB) delta
         if spin_damp:  wA -= ((n.wA) * 0.1) n ; wB -= ((n.wB) * 0.1) n
-    A manifold whose f_jac_inv[0] is 0 is skipped entirely (Bullet's early return).
+    A manifold whose f_jac_inv[0] is 0 is skipped entirely (Bullet's early return). A shock pass gives its rows'
+    ``f_jac_inv`` and ``freeze`` (the frozen body is never written, its spin damping included).
     """
+    f_jac = cons.f_jac_inv if f_jac_inv is None else f_jac_inv
     lam_t = lam_t.copy()
     active = cons.f_jac_inv[idx, 0] != 0.0
     ln = lam_n[idx]
@@ -247,21 +279,23 @@ def friction_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nd
         ca = cross3(ar, ra, t)
         cb = cross3(ar, rb, t)
         u = ar.add(ar.sub(dot3(ar, t, g.va), dot3(ar, t, g.vb)), ar.sub(dot3(ar, ca, g.wa), dot3(ar, cb, g.wb)))
-        delta = ar.mul(-u, cons.f_jac_inv[idx, j])
+        delta = ar.mul(-u, f_jac[idx, j])
         new = ar.min(ar.max(ar.add(lam_t[:, j], delta), neg_limit), limit)
         delta = ar.sub(new, lam_t[:, j])
         lam_t[:, j] = np.where(active, new, lam_t[:, j])
         # the friction impulse acts along -t on A and +t on B: negate delta and reuse _apply's signs
         _apply(ar, g, scale3(ar, t, g.ma), inertia_product(ar, g.ia, ca), scale3(ar, t, g.mb),
-               inertia_product(ar, g.ib, cb), -delta, active)
+               inertia_product(ar, g.ib, cb), -delta, active, freeze)
     damp = active & cons.spin_damp[idx]
     if np.any(damp):
         n = cons.normal[idx]
         k = ar.const(SPIN_DAMP_FACTOR)
         wa = ar.sub(g.wa, scale3(ar, n, ar.mul(dot3(ar, n, g.wa), k)))
         wb = ar.sub(g.wb, scale3(ar, n, ar.mul(dot3(ar, n, g.wb), k)))
-        g.wa = np.where(damp[:, None], wa, g.wa)
-        g.wb = np.where(damp[:, None], wb, g.wb)
+        damp_a = damp if freeze is None else damp & ~freeze[0] & ~freeze[2]
+        damp_b = damp if freeze is None else damp & ~freeze[1] & ~freeze[2]
+        g.wa = np.where(damp_a[:, None], wa, g.wa)
+        g.wb = np.where(damp_b[:, None], wb, g.wb)
     return lam_t
 
 
@@ -288,27 +322,59 @@ def solve(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arit
     if imp.normal.shape != (cons.num_manifolds, 4) or imp.friction.shape != (cons.num_manifolds, 2):
         raise ValueError(f"initial impulses must be ({cons.num_manifolds},4) and ({cons.num_manifolds},2), got "
                          f"{imp.normal.shape} and {imp.friction.shape}")
+    if (params.shock_contact or params.shock_friction) and not isinstance(cons, ShockConstraintSet):
+        raise ValueError("a shock pass needs the shock rows: models.shock_propagation.shock_constraints")
+    if params.shock_impulses not in SHOCK_IMPULSES:
+        raise ValueError(f"shock_impulses must be one of {', '.join(SHOCK_IMPULSES)}, got {params.shock_impulses!r}")
     if levels is None:
         levels = schedule_levels(schedule, cons, bodies.dynamic)
+    before: Optional[Impulses] = None  # "return": the impulses before the first shock pass
     for kind, it in pass_sequence(params):
+        if before is None and params.shock_impulses == "return" and _is_shock_pass(params, kind, it):
+            before = imp.copy()
         run_pass(out, imp, cons, levels, ar, kind, it, params, schedule, trace)
+    if before is not None:
+        assert isinstance(cons, ShockConstraintSet)
+        rows = cons.frozen != FREEZE_NONE
+        imp.normal[rows] = before.normal[rows] if params.shock_contact else imp.normal[rows]
+        imp.friction[rows] = before.friction[rows] if params.shock_friction else imp.friction[rows]
     return SolveResult(bodies=out, impulses=imp, levels=len(levels))
+
+
+SHOCK_IMPULSES = ("keep", "drop", "return")
+
+
+def _is_shock_pass(params: SolverParams, kind: int, iteration: int) -> bool:
+    """The last ``shock_passes`` passes of a shocked kind (models/shock_propagation.py)."""
+    return iteration >= params.iterations - params.shock_passes and (
+        params.shock_contact if kind == CONTACT_PASS else params.shock_friction)
 
 
 def run_pass(out: BodyTable, imp: Impulses, cons: ConstraintSet, levels: list[np.ndarray], ar: Arithmetic, kind: int,
              iteration: int, params: SolverParams, schedule: np.ndarray, trace: Optional[TraceSink] = None) -> None:
     """One pass of ``kind`` over all manifolds, updating ``out``'s velocities and ``imp`` in place."""
     pass_records: list[PassRecord] = []
+    shock = _is_shock_pass(params, kind, iteration)
     for idx in levels:
         a, b = cons.body_a[idx], cons.body_b[idx]
         g = _Gathered(out, a, b)
+        freeze: Freeze = None
+        if shock:
+            assert isinstance(cons, ShockConstraintSet)
+            fa, fb = cons.frozen[idx] == FREEZE_A, cons.frozen[idx] == FREEZE_B
+            freeze = (fa, fb, (fa | fb) & cons.linear)
         if kind == CONTACT_PASS:
-            imp.normal[idx] = contact_solve(ar, g, cons, idx, imp.normal[idx], params.soft_keep)
-            new_imp = imp.normal[idx]
+            new_imp = contact_solve(ar, g, cons, idx, imp.normal[idx], params.soft_keep,
+                                    cons.shock_jac_inv if shock else None, freeze)
+            if freeze is not None and params.shock_impulses == "drop":
+                new_imp = np.where((freeze[0] | freeze[1])[:, None], imp.normal[idx], new_imp)
+            imp.normal[idx] = new_imp
         else:
-            imp.friction[idx] = friction_solve(ar, g, cons, idx, imp.normal, imp.friction[idx],
-                                               params.friction_coeff)
-            new_imp = imp.friction[idx]
+            new_imp = friction_solve(ar, g, cons, idx, imp.normal, imp.friction[idx], params.friction_coeff,
+                                     cons.shock_f_jac_inv if shock else None, freeze)
+            if freeze is not None and params.shock_impulses == "drop":
+                new_imp = np.where((freeze[0] | freeze[1])[:, None], imp.friction[idx], new_imp)
+            imp.friction[idx] = new_imp
         g.scatter(out, a, b)
         if trace is not None:
             pass_records.append(PassRecord(idx, kind, iteration, new_imp, g.va, g.wa, g.vb, g.wb))

@@ -198,7 +198,54 @@ REMEDIES: dict[str, Remedy] = {r.name: r for r in (
     # tuned (docs/stability.md): Box2D's 30 Hz rings on resting piles at 1 iteration per call; 15 Hz with Box2D's
     # damping ratio 10, and 15 Hz critically damped (ratio 1), which holds the plank and the pyramid
     Remedy("warm1+soft15+sub2+relax", 1.0, 2, relax=True, soft=SoftContact(hertz=15.0)),
-    Remedy("warm1+soft15z1+sub2+relax", 1.0, 2, relax=True, soft=SoftContact(hertz=15.0, damping_ratio=1.0)))}
+    Remedy("warm1+soft15z1+sub2+relax", 1.0, 2, relax=True, soft=SoftContact(hertz=15.0, damping_ratio=1.0)),
+    # shock propagation (models/shock_propagation.py): ground-up layer order, the last contact pass of each kernel
+    # call (of a soft substep: its relax call) freezes each contact's lower body; "shockf": the last friction pass too
+    Remedy("shock", 0.0, shock=True), Remedy("warm+shock", WARMSTART_FACTOR, shock=True),
+    Remedy("warm+shockf", WARMSTART_FACTOR, shock=True, shock_friction=True),
+    Remedy("warm1+shock", 1.0, shock=True), Remedy("warm1+shockf", 1.0, shock=True, shock_friction=True),
+    Remedy("warm+sub2+shock", WARMSTART_FACTOR, 2, shock=True),
+    Remedy("warm+sub2+shockf", WARMSTART_FACTOR, 2, shock=True, shock_friction=True),
+    # "shockv": the shock passes correct velocities only (their impulses dropped, not carried to the next step)
+    Remedy("shockv", 0.0, shock=True, shock_impulses="drop"),
+    Remedy("warm+shockv", WARMSTART_FACTOR, shock=True, shock_impulses="drop"),
+    Remedy("warm+shockfv", WARMSTART_FACTOR, shock=True, shock_friction=True, shock_impulses="drop"),
+    Remedy("warm1+shockv", 1.0, shock=True, shock_impulses="drop"),
+    Remedy("warm1+shockfv", 1.0, shock=True, shock_friction=True, shock_impulses="drop"),
+    Remedy("warm+sub2+shockv", WARMSTART_FACTOR, 2, shock=True, shock_impulses="drop"),
+    Remedy("warm1+soft15z1+sub2+relax+shockv", 1.0, 2, relax=True,
+           soft=SoftContact(hertz=15.0, damping_ratio=1.0), shock=True, shock_impulses="drop"),
+    # "shock2": the last two contact passes of each call are shock passes (a deviation from the scheme's one)
+    Remedy("warm+shock2v", WARMSTART_FACTOR, shock=True, shock_impulses="drop", shock_passes=2),
+    Remedy("warm+shock2", WARMSTART_FACTOR, shock=True, shock_passes=2),
+    Remedy("warm+shock3v", WARMSTART_FACTOR, shock=True, shock_impulses="drop", shock_passes=3),
+    # "shockl": a linear shock (the shock rows move the upper body along the normal only, no angular write)
+    Remedy("warm+shocklv", WARMSTART_FACTOR, shock=True, shock_impulses="drop", shock_linear=True),
+    Remedy("warm+shockl", WARMSTART_FACTOR, shock=True, shock_linear=True),
+    Remedy("warm+sub2+shocklv", WARMSTART_FACTOR, 2, shock=True, shock_impulses="drop", shock_linear=True),
+    Remedy("warm+shockflv", WARMSTART_FACTOR, shock=True, shock_friction=True, shock_impulses="drop",
+           shock_linear=True),
+    Remedy("warm+sub2+shockflv", WARMSTART_FACTOR, 2, shock=True, shock_friction=True, shock_impulses="drop",
+           shock_linear=True),
+    Remedy("warm1+sub2+shocklv", 1.0, 2, shock=True, shock_impulses="drop", shock_linear=True),
+    Remedy("warm+sub4+shocklv", WARMSTART_FACTOR, 4, shock=True, shock_impulses="drop", shock_linear=True),
+    Remedy("warm1+soft15z1+sub2+relax+shocklv", 1.0, 2, relax=True,
+           soft=SoftContact(hertz=15.0, damping_ratio=1.0), shock=True, shock_impulses="drop", shock_linear=True),
+    # "...r": the frozen rows' shock impulses kept for the call's friction limit, not returned (not carried)
+    Remedy("warm+shocklr", WARMSTART_FACTOR, shock=True, shock_impulses="return", shock_linear=True),
+    Remedy("warm+sub2+shocklr", WARMSTART_FACTOR, 2, shock=True, shock_impulses="return", shock_linear=True),
+    Remedy("warm+sub4+shocklr", WARMSTART_FACTOR, 4, shock=True, shock_impulses="return", shock_linear=True),
+    Remedy("warm+sub4+shockl", WARMSTART_FACTOR, 4, shock=True, shock_linear=True),
+    Remedy("warm+sub4+shockflv", WARMSTART_FACTOR, 4, shock=True, shock_friction=True, shock_impulses="drop",
+           shock_linear=True),
+    Remedy("warm+sub4+shockflr", WARMSTART_FACTOR, 4, shock=True, shock_friction=True, shock_impulses="return",
+           shock_linear=True),
+    Remedy("warm+sub4+shockv", WARMSTART_FACTOR, 4, shock=True, shock_impulses="drop"),
+    Remedy("warm+sub4+shockr", WARMSTART_FACTOR, 4, shock=True, shock_impulses="return"),
+    Remedy("warm1+soft15z1+sub2+relax+shock", 1.0, 2, relax=True, soft=SoftContact(hertz=15.0, damping_ratio=1.0),
+           shock=True),
+    Remedy("warm1+soft15z1+sub2+relax+shockf", 1.0, 2, relax=True, soft=SoftContact(hertz=15.0, damping_ratio=1.0),
+           shock=True, shock_friction=True))}
 
 
 def _always(thresholds: Thresholds) -> Callable[[int], Thresholds]:
