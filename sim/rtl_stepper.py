@@ -43,6 +43,11 @@ class SoftContactUnsupported(ValueError):
     soft contact pipe, or of a job the soft build does not run (another inverse-inertia mode)."""
 
 
+class ShockUnsupported(ValueError):
+    """A shock pass (``SolverParams.shock_contact`` / ``shock_friction``, models/shock_propagation.py) asked of the RTL
+    kernel, which has no frozen-body write mask."""
+
+
 @dataclass(frozen=True)
 class RtlCall:
     """One kernel call of a closed loop on the RTL: its cycles (the kernel's counter and the cycle model's
@@ -76,6 +81,9 @@ def rtl_stepper(preset: DmaPreset, work_dir: Path, seed: int = 1, impulses_in_re
     def factory(fmt: NumberFormat, params: SolverParams,
                 ip: IntegrationParams) -> Callable[..., tuple[BodyTable, Impulses]]:
         _check_soft(params, soft_contact)
+        if params.shock_contact or params.shock_friction:
+            raise ShockUnsupported("shock propagation (models/shock_propagation.py) is golden-model only: the RTL "
+                                   "kernel has no per-manifold frozen-body write mask")
 
         def step(bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,
                  initial: Optional[Impulses] = None) -> tuple[BodyTable, Impulses]:

@@ -5,7 +5,8 @@ the RTL kernel matches bit for bit) at 1, 4, 10 and 30 iterations, judges it on 
 case's thresholds (``models/stability.py``: penetration against Bullet's slop, each body's largest excursion and
 path length, speeds net of the stored g*dt; every limit with its reason), under each remedy (``--remedies``:
 cold = Bullet GPU, warm = Bullet 2's warm start, warm+subN = warm start and N substeps, ...+soft... = Box2D v3's
-soft step, models/soft_contact.py, every solve and relax call counted; each priced in kernel
+soft step, models/soft_contact.py, every solve and relax call counted; ...shock... = shock propagation,
+models/shock_propagation.py; each priced in kernel
 cycles per step by the cycle model) and writes ``build/stability/stability.md``
 (the limits and the table), ``stability.csv`` and one plot per case (kinetic energy and penetration over the
 steps, ``<case>.png``). Failing rows are findings, reported, not errors: the command exits
