@@ -297,10 +297,10 @@ class _SoftCalls:
            remedy: Remedy) -> "_SoftCalls":
         assert remedy.soft is not None
         soft = replace(solver, soft_keep=remedy.soft.keep(ip.dt))
-        if remedy.relax:  # a shock remedy shocks the substep's last contact pass: its relax call's
-            soft = replace(soft, shock_contact=False, shock_friction=False)
         if not remedy.relax:
             return _SoftCalls(stepper(ar, soft, ip), None, ip.dt, ip.gravity)
+        # a shock remedy shocks the substep's last contact pass, its relax call's: the soft call has none
+        soft = replace(soft, shock_contact=False, shock_friction=False)
         still = (0.0, 0.0, 0.0)
         return _SoftCalls(stepper(ar, soft, replace(ip, gravity=still)),
                           stepper(ar, solver, IntegrationParams(dt=0.0, gravity=still, damping=1.0)), ip.dt,

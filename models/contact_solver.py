@@ -363,18 +363,16 @@ def run_pass(out: BodyTable, imp: Impulses, cons: ConstraintSet, levels: list[np
             assert isinstance(cons, ShockConstraintSet)
             fa, fb = cons.frozen[idx] == FREEZE_A, cons.frozen[idx] == FREEZE_B
             freeze = (fa, fb, (fa | fb) & cons.linear)
+        held = imp.normal if kind == CONTACT_PASS else imp.friction  # the pass kind's accumulated impulses
         if kind == CONTACT_PASS:
-            new_imp = contact_solve(ar, g, cons, idx, imp.normal[idx], params.soft_keep,
+            new_imp = contact_solve(ar, g, cons, idx, held[idx], params.soft_keep,
                                     cons.shock_jac_inv if shock else None, freeze)
-            if freeze is not None and params.shock_impulses == "drop":
-                new_imp = np.where((freeze[0] | freeze[1])[:, None], imp.normal[idx], new_imp)
-            imp.normal[idx] = new_imp
         else:
-            new_imp = friction_solve(ar, g, cons, idx, imp.normal, imp.friction[idx], params.friction_coeff,
+            new_imp = friction_solve(ar, g, cons, idx, imp.normal, held[idx], params.friction_coeff,
                                      cons.shock_f_jac_inv if shock else None, freeze)
-            if freeze is not None and params.shock_impulses == "drop":
-                new_imp = np.where((freeze[0] | freeze[1])[:, None], imp.friction[idx], new_imp)
-            imp.friction[idx] = new_imp
+        if freeze is not None and params.shock_impulses == "drop":  # the frozen rows keep what they held
+            new_imp = np.where((freeze[0] | freeze[1])[:, None], held[idx], new_imp)
+        held[idx] = new_imp
         g.scatter(out, a, b)
         if trace is not None:
             pass_records.append(PassRecord(idx, kind, iteration, new_imp, g.va, g.wa, g.vb, g.wb))
