@@ -29,11 +29,19 @@ The records design with the tangent basis derived on chip (``PGS_TANGENTS_ON_CHI
 the C++ refuses it without); ``--designs tangents`` runs it on the records scenes and formats, cold and warm-started,
 against the golden model of ``KernelJob.tangents_derived()``.
 
-``make csim`` (``python -m hls_export.csim``) runs three designs: the on-chip one in binary32 on the stack, the
+Shock propagation (``models/shock_propagation.py``: in a shock pass each manifold row may have one body frozen, a
+static body for that row, and a linear row has no inverse inertia and no spin damping) needs no build option: the
+host sets the header's frozen-A, frozen-B and linear bits in a shock pass's records and streams that pass's shock
+rows' jac_inv / f_jac_inv, and the kernel reads the bits (``pgs_kernel.cpp`` ``shock_row``). ``--designs shock`` runs
+the records design on the records scenes and formats, warm-started, each step of :data:`SHOCKS` (``KernelJob.shocked``,
+the frozen rows' impulses returned) with one iteration whose passes are all shock passes and with ``--iters``
+iterations whose last contact (and friction) pass is, against the golden model of each.
+
+``make csim`` (``python -m hls_export.csim``) runs four designs: the on-chip one in binary32 on the stack, the
 incline and a 4x3x4 pile in the hazard and the pybullet schedules, the records design in binary16 and binary32 on
-the pile and the stack, cold and warm-started, and the same with the tangents derived on chip (``--designs onchip``,
-``records`` or ``tangents`` runs one; ``soft`` is not in the default); it prints a table and exits 1 on any
-difference.
+the pile and the stack, cold and warm-started, the same with the tangents derived on chip, and the shock steps
+(``--designs onchip``, ``records``, ``tangents`` or ``shock`` runs one; ``soft`` is not in the default); it prints
+a table and exits 1 on any difference.
 """
 
 from __future__ import annotations
@@ -80,6 +88,10 @@ EXTRA_SCENES: dict[str, dict[str, Any]] = {"thesis": {"seed": 1}}  # by name onl
 WARM_SEED = 7  # the warm start's random impulses (make csim)
 # the soft design's keep factors: Box2D's 15 Hz critically damped contact at substeps of 1/120 s (two values, not 1)
 SOFT_KEEP = SoftContact(hertz=15.0, damping_ratio=1.0).keep(1.0 / 120.0)
+# the shock design's steps: (linear, friction) of KernelJob.shocked; with friction the friction passes are shocked too
+# (angular+friction: the frozen body's spin damping is computed and not written back, which only it shows)
+SHOCKS: dict[str, tuple[bool, bool]] = {"angular": (False, False), "linear": (True, False),
+                                        "linear+friction": (True, True), "angular+friction": (False, True)}
 
 
 class CsimError(RuntimeError):
@@ -228,6 +240,19 @@ def soft_jobs(cold: KernelJob) -> dict[str, KernelJob]:
     return {"soft": replace(warm, params=replace(warm.params, soft_keep=SOFT_KEEP)), "rigid": warm}
 
 
+def shock_job(cold: KernelJob, shock: str) -> KernelJob:
+    """The shock design's step of a records job: ``KernelJob.shocked`` with :data:`SHOCKS` ``[shock]``, one shock
+    pass of each shocked kind, the frozen rows' impulses returned, warm-started (:data:`WARM_SEED`)."""
+    linear, friction = SHOCKS[shock]
+    job = cold.shocked(linear=linear, friction=friction, impulses="return", passes=1)
+    return job.impulses_travelling(warm_start(job, WARM_SEED))
+
+
+def unshocked(job: KernelJob) -> KernelJob:
+    """``job`` without its shock passes: the same records, schedule and start, the shock flags of its params clear."""
+    return replace(job, params=replace(job.params, shock_contact=False, shock_friction=False))
+
+
 def _print_row(case: str, res: CsimResult) -> None:
     c = res.comparison
     verdict = "bit-exact" if res.bit_exact else f"MISMATCH: {c.first_mismatch}"
@@ -238,10 +263,11 @@ def _print_row(case: str, res: CsimResult) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--designs", default="onchip,records,tangents", help="comma-separated: onchip (impulses on "
+    ap.add_argument("--designs", default="onchip,records,tangents,shock", help="comma-separated: onchip (impulses on "
                     "chip, binary32), records (impulses in the records, PGS_IMPULSES_IN_RECORDS=1), tangents (records "
                     "with the tangents derived on chip, PGS_TANGENTS_ON_CHIP=1), soft (records with the soft contact "
-                    "row, PGS_SOFT_CONTACT=1; not in the default)")
+                    "row, PGS_SOFT_CONTACT=1; not in the default), shock (records with shock passes, 1 and --iters "
+                    "iterations)")
     ap.add_argument("--scenes", default=",".join(SCENES),
                     help="on-chip design, comma-separated, from " + ", ".join(SCENES))
     ap.add_argument("--schedules", default=",".join(SCHEDULES))
@@ -252,9 +278,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=REPO_ROOT / "build" / "hls_csim" / "runs")
     args = ap.parse_args(argv)
     designs = args.designs.split(",")
-    unknown = set(designs) - {"onchip", "records", "tangents", "soft"}
+    unknown = set(designs) - {"onchip", "records", "tangents", "soft", "shock"}
     if unknown:
-        ap.error(f"unknown design(s) {sorted(unknown)}: onchip, records, tangents, soft")
+        ap.error(f"unknown design(s) {sorted(unknown)}: onchip, records, tangents, soft, shock")
     print(f"{'case':<30} {'manifold-passes':>15} {'bodies':>7} {'imp-out rec':>11} {'differing bits':>14} "
           f"{'window hazards':>14} {'csim s':>7} {'golden s':>8}  result")
     bad = 0
@@ -294,6 +320,20 @@ def main(argv: list[str] | None = None) -> int:
                                         default_window(fmt, kb.cons_bits))
                     bad += not res.bit_exact
                     _print_row(f"soft {fname} {scene}/hazard warm {row}", res)
+    if "shock" in designs:
+        for fname in args.records_formats.split(","):
+            fmt = RECORDS_FORMATS[fname]
+            for scene in args.records_scenes.split(","):
+                for iters in sorted({1, args.iters}):
+                    cold = scene_job(scene, "hazard", iters, records_build(fmt))
+                    kb = records_build(fmt, cold)
+                    exe = build_csim(kb)
+                    for shock in SHOCKS:
+                        job = shock_job(cold, shock)
+                        res = run_csim_step(job, args.out / f"shock-{fname}-{scene}-i{iters}-{shock}", exe, kb,
+                                            default_window(fmt, kb.cons_bits))
+                        bad += not res.bit_exact
+                        _print_row(f"shock {fname} {scene} i{iters} {shock}", res)
     print("window hazards: records naming a dynamic body that one of the records before them in the pass (the RTL's "
           "hazard window for the format) names too; the synthesized kernel (DEPENDENCE false on the velocities) "
           "equals this C simulation only where that is 0 for a window of at least its pipeline's records in flight.")

@@ -87,20 +87,31 @@ struct BodyPair {
     Velocity va, vb;
 };
 
+// A body's constants as a shock pass's row takes them (the header bits; models/contact_solver.py _Gathered.freeze):
+// a frozen body's inverse mass and inertia +0 (a static body for this record: its velocities are read, not written
+// back), a linear row's inverse inertia +0.
+BodyRef shock_row(const BodyRef& r, bool frozen, bool linear) {
+    BodyRef s = r;
+    s.m_inv = frozen ? 0.0f : r.m_inv;
+    for (int k = 0; k < kIInvWords; k++) s.i_inv.k[k] = frozen || linear ? 0.0f : r.i_inv.k[k];
+    return s;
+}
+
 BodyPair gather(const Header& h, uint32_t num_bodies, const float body_ref[kMaxBodies][kRefWords],
                 const float body_vel[kMaxBodies][6], Errors& err) {
     if (h.body_a >= num_bodies || h.body_b >= num_bodies) err.raise(kErrBodyIndex);
     BodyPair p;
     p.a = h.body_a & (kMaxBodies - 1);
     p.b = h.body_b & (kMaxBodies - 1);
-    p.A = load_ref(body_ref, p.a);
-    p.B = load_ref(body_ref, p.b);
+    p.A = shock_row(load_ref(body_ref, p.a), h.frozen_a, h.shock_linear);
+    p.B = shock_row(load_ref(body_ref, p.b), h.frozen_b, h.shock_linear);
     p.va = load_vel(body_vel, p.a);
     p.vb = load_vel(body_vel, p.b);
     return p;
 }
 
-// Only dynamic bodies (m_inv != 0) are written back; a static body's velocities are read-only.
+// Only dynamic bodies (m_inv != 0 as gathered) are written back; a static body's velocities are read-only, and so
+// are a frozen body's in a shock pass's row.
 void retire(float body_vel[kMaxBodies][6], const BodyPair& p) {
     if (p.A.m_inv != 0.0f) store_vel(body_vel, p.a, p.va);
     if (p.B.m_inv != 0.0f) store_vel(body_vel, p.b, p.vb);

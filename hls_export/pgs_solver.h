@@ -20,7 +20,8 @@ constexpr double kTaylorSinc = 0.020833333333;
 constexpr double kSinCoeffs[3] = {-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0};
 constexpr double kCosCoeffs[4] = {-1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0, 1.0 / 40320.0};
 
-// Per body, read-only during the passes.
+// Per body, read-only during the passes; a record's as it gathers them (a shock pass's row: the frozen body's inverse
+// mass and inertia +0, a linear row's inverse inertia +0; pgs_kernel.cpp shock_row).
 struct BodyRef {
     Vec3 x;
     float m_inv;
@@ -163,7 +164,7 @@ ROWS:
     const float k = constant(kSpinDampFactor);
     const Vec3 wa = v_sub(va.w, v_scale(r.n, mul(dot3(r.n, va.w), k)));
     const Vec3 wb = v_sub(vb.w, v_scale(r.n, mul(dot3(r.n, vb.w), k)));
-    if (active && r.h.spin_damp) {
+    if (active && r.h.spin_damp && !r.h.shock_linear) {  // a linear shock row: no spin damping
         va.w = wa;
         vb.w = wb;
     }

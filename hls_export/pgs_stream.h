@@ -12,7 +12,8 @@
 //             t1 (the kernel derives them from n, pgs_solver.h plane_space): n, c, f_jac_inv, lam, lamT  64 + 14 W bits
 //   impulse-out (m_axis_imp, PGS_IMPULSES_IN_RECORDS = 1)  contact lam[0..3]; friction lamT[0..1], 0, 0
 //             4 W bits rounded up to whole bytes, one per slot of every pass, TLAST on a pass's last
-//   header    bits 31:0 body_a, 62:32 body_b, 63 spin_damp
+//   header    bits 31:0 body_a, 59:32 body_b, 60 frozen A, 61 frozen B, 62 linear shock, 63 spin_damp (the three
+//             shock bits only in a shock pass's records, models/shock_propagation.py; positions kHeader*Bit)
 //   body-in   pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass, inv_inertia(PGS_IINV_W)   (14 + PGS_IINV_W) W bits
 //   body-out  pos(3), q(4), v(3), w(3)                                           13 W bits
 //   trace     impulses[0..3] (friction: lamT[0..1], 0, 0), vA, wA, vB, wB (16 W bits), then slot (32 bits),
@@ -95,6 +96,10 @@ constexpr int kBodyInRecordWords = kBodyInInvInertia + kIInvWords;
 constexpr int kBodyInBeats = beats_for(kBodyInRecordWords * kWordBits, kBodyInW);
 constexpr int kBodyOutBeats = beats_for(kBodyOutWords * kWordBits, kBodyOutW);
 
+static_assert(kHeaderBodyBLsb == 32 && kHeaderBodyBLsb + kHeaderBodyBBits <= kHeaderFrozenABit &&
+                  kHeaderSpinDampBit < kHeaderBits,
+              "the header's fields: body_a in bits 31:0, body_b below the shock bits, all within the header");
+
 typedef ap_axiu<kConsW, 0, 0, 0> cons_beat_t;
 typedef ap_axiu<kBodyInW, 0, 0, 0> body_in_beat_t;
 typedef ap_axiu<kBodyOutW, 0, 0, 0> body_out_beat_t;
@@ -110,8 +115,13 @@ struct Vec3 {
     float x, y, z;
 };
 
+// A constraint record's header. A shock pass's row (models/shock_propagation.py) may have one body frozen: the
+// contact and friction update take it as a static body (inverse mass and inertia +0, velocities not written back);
+// a linear shock row takes both bodies' inverse inertia as +0 and is not spin-damped (pgs_kernel.cpp shock_row).
 struct Header {
     uint32_t body_a, body_b;
+    bool frozen_a, frozen_b;  // a shock pass's row: body A / body B frozen
+    bool shock_linear;        // a linear shock row: no inverse inertia, no spin damping
     bool spin_damp;
 };
 
@@ -224,9 +234,12 @@ void put_vec(ap_uint<N>& rec, int base, int k, const Vec3& v) {
 template <int N>
 Header header_at(const ap_uint<N>& rec) {
     Header h;
-    h.body_a = rec.range(31, 0).to_uint();
-    h.body_b = rec.range(62, 32).to_uint();
-    h.spin_damp = rec.range(63, 63).to_uint() != 0;
+    h.body_a = rec.range(kHeaderBodyBLsb - 1, 0).to_uint();
+    h.body_b = rec.range(kHeaderBodyBLsb + kHeaderBodyBBits - 1, kHeaderBodyBLsb).to_uint();
+    h.frozen_a = rec.range(kHeaderFrozenABit, kHeaderFrozenABit).to_uint() != 0;
+    h.frozen_b = rec.range(kHeaderFrozenBBit, kHeaderFrozenBBit).to_uint() != 0;
+    h.shock_linear = rec.range(kHeaderShockLinearBit, kHeaderShockLinearBit).to_uint() != 0;
+    h.spin_damp = rec.range(kHeaderSpinDampBit, kHeaderSpinDampBit).to_uint() != 0;
     return h;
 }
 

@@ -38,7 +38,7 @@ from .inertia import CONVENTION_KEY, DEFAULT_CONVENTION, BulletConvention, conve
 from .integrator import IntegrationParams, integrate
 from .number_format import FLOAT64, Arithmetic
 from .schedule import make_schedule
-from .shock_propagation import body_layers, layer_order, shock_constraints
+from .shock_propagation import shock_step
 from .soft_contact import SoftContact, add_gravity, relax_constraints, soft_constraints
 from .substep import ContactPoints, substep_constraints
 from .warm_start import ContactMemory, Contacts, WarmStartReport, apply_impulses, warm_start
@@ -203,9 +203,7 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
             cons = setup_constraints(frame, bodies, solver.friction_coeff).rounded(ar)
             order = make_schedule(schedule, cons, dyn, window)
             if remedy.shock:
-                layers = body_layers(cons.body_a, cons.body_b, dyn)
-                cons = shock_constraints(cons, bodies, ar, layers, remedy.shock_linear)
-                order = layer_order(order, cons, layers)
+                cons, order = shock_step(cons, bodies, order, ar, remedy.shock_linear)
             bodies = (_remedy_step(remedy, advance, bodies, cons, order, mf, ar, solver, ip.dt, carried)
                       if remedy.soft is None else _soft_step(remedy, advance, bodies, cons, order, mf, ar, solver,
                                                              carried))

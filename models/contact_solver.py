@@ -154,6 +154,15 @@ class _Gathered:
         self.ma, self.mb = bodies.inv_mass[a], bodies.inv_mass[b]
         self.ia, self.ib = bodies.inv_inertia[a], bodies.inv_inertia[b]
 
+    def freeze(self, frozen_a: np.ndarray, frozen_b: np.ndarray, linear: np.ndarray) -> None:
+        """A shock pass's rows (models/shock_propagation.py): the frozen body reads as a static one (inverse mass and
+        inertia 0, so it is never written back), and a linear row's bodies have no inverse inertia (no angular
+        write). The kernel does the same: the frozen side's mass words enter its pipe as 0, its write is dropped."""
+        self.ma = np.where(frozen_a, 0.0, self.ma)
+        self.mb = np.where(frozen_b, 0.0, self.mb)
+        self.ia = np.where((frozen_a | linear)[:, None], 0.0, self.ia)
+        self.ib = np.where((frozen_b | linear)[:, None], 0.0, self.ib)
+
     def scatter(self, bodies: BodyTable, a: np.ndarray, b: np.ndarray) -> None:
         """Write back the velocities of dynamic bodies only (static bodies are never written)."""
         da = self.ma != 0.0
@@ -164,30 +173,19 @@ class _Gathered:
         bodies.angular_velocity[b[db]] = self.wb[db]
 
 
-# a shock pass's per-manifold frozen flags: (body A frozen, body B frozen), (K,) bool each, and a third: the rows
-# of a linear shock (the unfrozen body's angular velocity not written either); None: no shock pass
-Freeze = Optional[tuple[np.ndarray, np.ndarray, np.ndarray]]
-
-
 def _apply(ar: Arithmetic, g: _Gathered, lin_a: np.ndarray, ang_a: np.ndarray, lin_b: np.ndarray,
-           ang_b: np.ndarray, delta: np.ndarray, mask: Optional[np.ndarray] = None, freeze: Freeze = None) -> None:
-    """v_A += lin_a*d, w_A += ang_a*d, v_B -= lin_b*d, w_B -= ang_b*d (only where mask; a frozen body: never)."""
+           ang_b: np.ndarray, delta: np.ndarray, mask: Optional[np.ndarray] = None) -> None:
+    """v_A += lin_a*d, w_A += ang_a*d, v_B -= lin_b*d, w_B -= ang_b*d (only where mask)."""
     va = ar.add(g.va, scale3(ar, lin_a, delta))
     wa = ar.add(g.wa, scale3(ar, ang_a, delta))
     vb = ar.sub(g.vb, scale3(ar, lin_b, delta))
     wb = ar.sub(g.wb, scale3(ar, ang_b, delta))
-    if mask is None and freeze is None:
+    if mask is None:
         g.va, g.wa, g.vb, g.wb = va, wa, vb, wb
-    elif freeze is None:
+    else:
         m = mask[:, None]
         g.va, g.wa = np.where(m, va, g.va), np.where(m, wa, g.wa)
         g.vb, g.wb = np.where(m, vb, g.vb), np.where(m, wb, g.wb)
-    else:
-        m = np.ones(delta.shape[0], dtype=bool) if mask is None else mask
-        m_a, m_b = m & ~freeze[0], m & ~freeze[1]
-        r_a, r_b = m_a & ~freeze[2], m_b & ~freeze[2]
-        g.va, g.wa = np.where(m_a[:, None], va, g.va), np.where(r_a[:, None], wa, g.wa)
-        g.vb, g.wb = np.where(m_b[:, None], vb, g.vb), np.where(r_b[:, None], wb, g.wb)
 
 
 def _row_keep(keep: tuple[np.ndarray, np.ndarray], bias: np.ndarray, g: _Gathered) -> np.ndarray:
@@ -199,8 +197,7 @@ def _row_keep(keep: tuple[np.ndarray, np.ndarray], bias: np.ndarray, g: _Gathere
 
 
 def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.ndarray, lam: np.ndarray,
-                  soft_keep: Optional[tuple[float, float]] = None, jac_inv: Optional[np.ndarray] = None,
-                  freeze: Freeze = None) -> np.ndarray:
+                  soft_keep: Optional[tuple[float, float]] = None, jac_inv: Optional[np.ndarray] = None) -> np.ndarray:
     """One contact pass over manifolds ``idx`` (vectorized); returns the new accumulated impulses (K,4).
 
     Per point i (skipped when jac_inv[i] == 0), in order i = 0..3, using the velocities the previous
@@ -218,7 +215,7 @@ def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nda
     jac_inv and the soft bias in its b, both set by the host per call.
 
     A shock pass (models/shock_propagation.py) gives its rows' ``jac_inv`` (the frozen body's inverse mass and
-    inertia 0) and ``freeze``: the frozen body's velocities are read as above but never written.
+    inertia 0) and gathers the frozen body as a static one (``_Gathered.freeze``): read as above, never written.
     """
     jac_all = cons.jac_inv if jac_inv is None else jac_inv
     keep = None if soft_keep is None else (ar.const(soft_keep[0]), ar.const(soft_keep[1]))
@@ -241,14 +238,13 @@ def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nda
         new = ar.max(ar.add(start, delta), zero)
         delta = ar.sub(new, lam[:, i])
         lam[:, i] = np.where(active, new, lam[:, i])
-        _apply(ar, g, lin_a, inertia_product(ar, g.ia, ca), lin_b, inertia_product(ar, g.ib, cb), delta, active,
-               freeze)
+        _apply(ar, g, lin_a, inertia_product(ar, g.ia, ca), lin_b, inertia_product(ar, g.ib, cb), delta, active)
     return lam
 
 
 def friction_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.ndarray, lam_n: np.ndarray,
                    lam_t: np.ndarray, friction_coeff: float, f_jac_inv: Optional[np.ndarray] = None,
-                   freeze: Freeze = None) -> np.ndarray:
+                   no_spin: Optional[np.ndarray] = None) -> np.ndarray:
     """One friction pass over manifolds ``idx``; returns the new friction impulses (K,2).
 
         limit = mu * ((lam0 + lam1) + (lam2 + lam3))           (mu = friction_coeff, Bullet GPU's 0.7, or the
@@ -262,11 +258,12 @@ def friction_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nd
             vA -= (mA t) delta ; wA -= (IA cA) delta ; vB += (mB t) delta ; wB += (IB cB) delta
         if spin_damp:  wA -= ((n.wA) * 0.1) n ; wB -= ((n.wB) * 0.1) n
     A manifold whose f_jac_inv[0] is 0 is skipped entirely (Bullet's early return). A shock pass gives its rows'
-    ``f_jac_inv`` and ``freeze`` (the frozen body is never written, its spin damping included).
+    ``f_jac_inv``, gathers each frozen body as a static one (``_Gathered.freeze``: never written, its spin damping
+    included) and ``no_spin``: the linear shock rows, whose bodies are not spin-damped either.
     """
     f_jac = cons.f_jac_inv if f_jac_inv is None else f_jac_inv
     lam_t = lam_t.copy()
-    active = cons.f_jac_inv[idx, 0] != 0.0
+    active = f_jac[idx, 0] != 0.0  # the row the kernel reads (a shock pass: its shock row)
     ln = lam_n[idx]
     mu = cons.friction[idx, 0] if cons.per_manifold_friction else ar.const(friction_coeff)
     limit = ar.mul(mu, ar.add(ar.add(ln[:, 0], ln[:, 1]), ar.add(ln[:, 2], ln[:, 3])))
@@ -285,17 +282,15 @@ def friction_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nd
         lam_t[:, j] = np.where(active, new, lam_t[:, j])
         # the friction impulse acts along -t on A and +t on B: negate delta and reuse _apply's signs
         _apply(ar, g, scale3(ar, t, g.ma), inertia_product(ar, g.ia, ca), scale3(ar, t, g.mb),
-               inertia_product(ar, g.ib, cb), -delta, active, freeze)
-    damp = active & cons.spin_damp[idx]
+               inertia_product(ar, g.ib, cb), -delta, active)
+    damp = active & cons.spin_damp[idx] & (True if no_spin is None else ~no_spin)
     if np.any(damp):
         n = cons.normal[idx]
         k = ar.const(SPIN_DAMP_FACTOR)
         wa = ar.sub(g.wa, scale3(ar, n, ar.mul(dot3(ar, n, g.wa), k)))
         wb = ar.sub(g.wb, scale3(ar, n, ar.mul(dot3(ar, n, g.wb), k)))
-        damp_a = damp if freeze is None else damp & ~freeze[0] & ~freeze[2]
-        damp_b = damp if freeze is None else damp & ~freeze[1] & ~freeze[2]
-        g.wa = np.where(damp_a[:, None], wa, g.wa)
-        g.wb = np.where(damp_b[:, None], wb, g.wb)
+        g.wa = np.where(damp[:, None], wa, g.wa)
+        g.wb = np.where(damp[:, None], wb, g.wb)
     return lam_t
 
 
@@ -330,7 +325,7 @@ def solve(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arit
         levels = schedule_levels(schedule, cons, bodies.dynamic)
     before: Optional[Impulses] = None  # "return": the impulses before the first shock pass
     for kind, it in pass_sequence(params):
-        if before is None and params.shock_impulses == "return" and _is_shock_pass(params, kind, it):
+        if before is None and params.shock_impulses == "return" and is_shock_pass(params, kind, it):
             before = imp.copy()
         run_pass(out, imp, cons, levels, ar, kind, it, params, schedule, trace)
     if before is not None:
@@ -344,7 +339,7 @@ def solve(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arit
 SHOCK_IMPULSES = ("keep", "drop", "return")
 
 
-def _is_shock_pass(params: SolverParams, kind: int, iteration: int) -> bool:
+def is_shock_pass(params: SolverParams, kind: int, iteration: int) -> bool:
     """The last ``shock_passes`` passes of a shocked kind (models/shock_propagation.py)."""
     return iteration >= params.iterations - params.shock_passes and (
         params.shock_contact if kind == CONTACT_PASS else params.shock_friction)
@@ -354,24 +349,27 @@ def run_pass(out: BodyTable, imp: Impulses, cons: ConstraintSet, levels: list[np
              iteration: int, params: SolverParams, schedule: np.ndarray, trace: Optional[TraceSink] = None) -> None:
     """One pass of ``kind`` over all manifolds, updating ``out``'s velocities and ``imp`` in place."""
     pass_records: list[PassRecord] = []
-    shock = _is_shock_pass(params, kind, iteration)
+    shock = is_shock_pass(params, kind, iteration)
     for idx in levels:
         a, b = cons.body_a[idx], cons.body_b[idx]
         g = _Gathered(out, a, b)
-        freeze: Freeze = None
+        frozen: Optional[np.ndarray] = None  # a shock pass: the rows with a frozen body
+        linear: Optional[np.ndarray] = None
         if shock:
             assert isinstance(cons, ShockConstraintSet)
             fa, fb = cons.frozen[idx] == FREEZE_A, cons.frozen[idx] == FREEZE_B
-            freeze = (fa, fb, (fa | fb) & cons.linear)
+            frozen = fa | fb
+            linear = frozen & cons.linear
+            g.freeze(fa, fb, linear)
         held = imp.normal if kind == CONTACT_PASS else imp.friction  # the pass kind's accumulated impulses
         if kind == CONTACT_PASS:
             new_imp = contact_solve(ar, g, cons, idx, held[idx], params.soft_keep,
-                                    cons.shock_jac_inv if shock else None, freeze)
+                                    cons.shock_jac_inv if shock else None)
         else:
             new_imp = friction_solve(ar, g, cons, idx, imp.normal, held[idx], params.friction_coeff,
-                                     cons.shock_f_jac_inv if shock else None, freeze)
-        if freeze is not None and params.shock_impulses == "drop":  # the frozen rows keep what they held
-            new_imp = np.where((freeze[0] | freeze[1])[:, None], held[idx], new_imp)
+                                     cons.shock_f_jac_inv if shock else None, linear)
+        if frozen is not None and params.shock_impulses == "drop":  # the frozen rows keep what they held
+            new_imp = np.where(frozen[:, None], held[idx], new_imp)
         held[idx] = new_imp
         g.scatter(out, a, b)
         if trace is not None:

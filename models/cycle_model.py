@@ -61,6 +61,7 @@ from .contact_solver import CONTACT_PASS, FRICTION_PASS
 from .dma_model import DmaPreset
 from .kernel_job import KernelJob
 from .kernel_shape import DmaTiming, KernelShape, StepShape
+from .shock_propagation import FREEZE_A, FREEZE_B
 
 # why a record issued later than it was assembled (Prediction.cause)
 READY, SOLVE_START, HAZARD, SWITCH, CAM_FULL, BANK_BUSY = range(6)
@@ -332,6 +333,11 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
     banks = shape.body_banks
     reads = list(zip(step.body_a.tolist(), step.body_b.tolist()))
     writes = [tuple(x for x in (a, b) if x >= 0) for a, b in zip(dyn_a.tolist(), dyn_b.tolist())]
+    # a shock pass does not write its rows' frozen bodies (the hazards stay: the CAM holds both)
+    shock_writes = writes if step.frozen is None else [
+        tuple(x for x, frozen in ((a, f == FREEZE_A), (b, f == FREEZE_B)) if x >= 0 and not frozen)
+        for a, b, f in zip(dyn_a.tolist(), dyn_b.tolist(), step.frozen.tolist())]
+    shock_pass = step.shock_passes or (False,) * len(step.passes)
     pending: deque[tuple[int, tuple[int, ...], int]] = deque()
     stream = ((p * nm + s, kind, s) for p, (kind, _) in enumerate(step.passes) for s in range(nm))
     for rec in chain(stream, (None,)):
@@ -368,7 +374,7 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
                 last_kind, last_retire = kind, ret
                 retired.append(ret)
                 if banks:
-                    pending.append((ret, writes[s], n_iss))
+                    pending.append((ret, shock_writes[s] if shock_pass[r_idx // nm] else writes[s], n_iss))
                 ready_a(ready)
                 issue_a(t)
                 off_a(f_off)

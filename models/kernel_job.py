@@ -25,6 +25,7 @@ from models.integrator import IntegrationParams
 from models.number_format import NumberFormat
 from models.record_window import WindowPlan, plan_window
 from models.schedule import make_schedule
+from models.shock_propagation import shock_step
 from models.tangent_basis import derive_tangents
 
 
@@ -77,6 +78,9 @@ class KernelJob:
                            lanes)
         if self.impulses_in_records:
             raise ValueError("the window kernel holds its impulses on chip: no impulses in the records")
+        if self.params.shock_contact or self.params.shock_friction:
+            raise ValueError("a shock pass is marked in its records' headers, and the window kernel reads a record "
+                             "once for several passes: shock propagation runs on the streaming kernel")
         if self.tangents_on_chip:
             raise ValueError("the window kernel streams the friction tangents: no tangents derived on chip")
         return KernelJob(self.fmt, self.bodies, self.cons, self.schedule, self.params, self.iparams, plan)
@@ -95,6 +99,21 @@ class KernelJob:
         if self.record_window is not None:
             raise ValueError("tangents derived on chip are a record layout of the streaming kernel")
         return dataclasses.replace(self, cons=derive_tangents(self.cons, self.fmt), tangents_on_chip=True)
+
+    def shocked(self, linear: bool = False, friction: bool = False, impulses: str = "keep",
+                passes: int = 1) -> "KernelJob":
+        """This step with shock propagation (``models/shock_propagation.py``): the shock rows and the ground-up
+        layer order of this step's contact graph, the last ``passes`` contact passes (and with ``friction`` the
+        last friction passes) shock passes, their frozen rows' impulses kept or returned (``SolverParams``). The
+        streaming kernel reads the shock passes' records with the frozen-body bits in their headers."""
+        if self.record_window is not None:
+            raise ValueError("shock propagation runs on the streaming kernel (a window record serves several passes)")
+        if self.tangents_on_chip:
+            raise ValueError("take the shock rows before the tangents are derived (KernelJob.shocked first)")
+        cons, order = shock_step(self.cons, self.bodies, self.schedule, self.fmt, linear)
+        params = dataclasses.replace(self.params, shock_contact=True, shock_friction=friction,
+                                     shock_impulses=impulses, shock_passes=passes)
+        return dataclasses.replace(self, cons=cons, schedule=order, params=params)
 
     def stored_as(self, record_bits: sf.RecordBits) -> "KernelJob":
         """This step with its records in the sizes of a mixed storage (``models/mixed_layout.py``: the cycle and

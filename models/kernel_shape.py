@@ -12,11 +12,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .contact_solver import CONTACT_PASS, SolverParams, pass_sequence
+from .contact_solver import CONTACT_PASS, SolverParams, is_shock_pass, pass_sequence
 from .body_banks import check_banks
 from .dma_model import DmaPreset
 from .kernel_job import KernelJob
 from .number_format import NumberFormat
+from .shock_propagation import ShockConstraintSet
 from .stream_format import KERNEL_INERTIA_WORDS, RecordBits, StreamLayout
 
 RTL_DIR = Path(__file__).resolve().parents[1] / "rtl"
@@ -131,20 +132,27 @@ class StepShape:
     body_b: np.ndarray
     dynamic: np.ndarray  # (N,) the body RAM's flag: the inverse mass's exponent is not zero (after rounding)
     passes: tuple[tuple[int, int], ...]  # (kind, iteration) in stream order
+    # shock propagation (models/shock_propagation.py): per pass whether it is a shock pass, and per slot the body a
+    # shock pass does not write (FREEZE_NONE / FREEZE_A / FREEZE_B); the hazards are those of the other passes
+    shock_passes: tuple[bool, ...] = ()
+    frozen: np.ndarray | None = None
 
     @staticmethod
     def of(fmt: NumberFormat, inv_mass: np.ndarray, body_a: np.ndarray, body_b: np.ndarray,
-           params: SolverParams) -> "StepShape":
+           params: SolverParams, frozen: np.ndarray | None = None) -> "StepShape":
         exp = (np.asarray(fmt.encode(inv_mass), dtype=np.uint64) >> np.uint64(fmt.man_bits)) & \
             np.uint64((1 << fmt.exp_bits) - 1)
+        passes = tuple(pass_sequence(params))
+        shock = tuple(is_shock_pass(params, kind, it) for kind, it in passes)
         return StepShape(len(inv_mass), np.asarray(body_a, np.int64), np.asarray(body_b, np.int64), exp != 0,
-                         tuple(pass_sequence(params)))
+                         passes, shock if any(shock) else (), frozen if any(shock) else None)
 
     @staticmethod
     def of_job(job: "KernelJob") -> "StepShape":
         slots = job.slots
+        frozen = job.cons.frozen[slots] if isinstance(job.cons, ShockConstraintSet) else None
         return StepShape.of(job.fmt, job.bodies.inv_mass, job.cons.body_a[slots], job.cons.body_b[slots],
-                            job.params)
+                            job.params, frozen)
 
     @property
     def num_slots(self) -> int:

@@ -127,3 +127,13 @@ def shock_constraints(cons: ConstraintSet, bodies: BodyTable, ar: Arithmetic, la
     f_jac = np.where((frozen == FREEZE_NONE)[:, None], cons.f_jac_inv, ar.round(f_jac))
     fields = {name: getattr(cons, name) for name in cons.__dataclass_fields__ if name in ConstraintSet.__dataclass_fields__}
     return ShockConstraintSet(**fields, frozen=frozen, linear=linear, shock_jac_inv=jac, shock_f_jac_inv=f_jac)
+
+
+def shock_step(cons: ConstraintSet, bodies: BodyTable, schedule: np.ndarray, ar: Arithmetic,
+               linear: bool = False) -> tuple[ShockConstraintSet, np.ndarray]:
+    """One step's shock rows (:func:`shock_constraints`) and its schedule in the ground-up :func:`layer_order`, from
+    the layers of this step's contact graph."""
+    layers = body_layers(cons.body_a, cons.body_b, bodies.dynamic)
+    shocked = shock_constraints(cons, bodies, ar, layers, linear)
+    return shocked, layer_order(schedule, shocked, layers)
+

@@ -28,7 +28,10 @@ friction, impulses the friction record, then lam[0..3] (word 14, the friction li
 in the records     -> 64 + 20 W bits
 impulse-out        4 words: contact lam[0..3]; friction lamT[0..1], then two zero words; a rejected slot all
 (m_axis_imp)       zeros -> 4 W bits rounded up to whole bytes; one per slot of every pass, TLAST on a pass's last
-header             bits 31:0 body_a, bits 62:32 body_b, bit 63 spin_damp (all record kinds)
+header             bits 31:0 body_a, bits 59:32 body_b, bit 60 frozen A, bit 61 frozen B, bit 62 linear shock, bit 63
+                   spin_damp (all record kinds; the three shock bits are set only in a shock pass's records of the
+                   streaming kernel, models/shock_propagation.py: the frozen body enters the pipe with inverse mass
+                   and inertia 0 and is not written; a linear row's bodies with inverse inertia 0, no spin damping)
 body-in            14 + I words: pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass(1), inv_inertia(I): I = 1
                    (scalar), 3 (diagonal xx, yy, zz) or 6 (symmetric: xx, yy, zz, xy, xz, yz), the inverse-inertia
                    mode (models/inertia.py); the kernel's build today: I = 3 (17 words)
@@ -64,14 +67,15 @@ manifold in schedule order, TLAST on the last beat of each fetch (:func:`pack_wi
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .constraints import BodyTable, ConstraintSet
-from .contact_solver import CONTACT_PASS, Impulses, SolverParams, pass_sequence
+from .contact_solver import CONTACT_PASS, Impulses, SolverParams, is_shock_pass, pass_sequence
 from .inertia import InertiaMode, inertia_mode
 from .number_format import NumberFormat
+from .shock_propagation import FREEZE_A, FREEZE_B, ShockConstraintSet
 
 HEADER_BITS = 64
 CONTACT_WORDS = 23
@@ -128,7 +132,13 @@ BODY_OUT_FIELDS = [f"{f}.{c}" for f, cs in (("pos", "xyz"), ("q", "xyzw"), ("v",
 DEFAULT_CONS_BEAT_BITS = 512
 DEFAULT_BODY_BEAT_BITS = 128
 
-_BODY_B_BITS = 31
+# the constraint header's fields (bit positions from bit 0; body_a is bits 31:0)
+HEADER_BODY_B_LSB = 32
+HEADER_BODY_B_BITS = 28
+HEADER_FROZEN_A_BIT = 60
+HEADER_FROZEN_B_BIT = 61
+HEADER_SHOCK_LINEAR_BIT = 62
+HEADER_SPIN_DAMP_BIT = 63
 _CHUNK_RECORDS = 8192  # records packed or unpacked at a time
 
 
@@ -194,14 +204,31 @@ def unpack_records(beats: np.ndarray, num_words: int, word_bits: int, beat_bits:
 
 
 # --- record contents ----------------------------------------------------------------------------------
-def constraint_header(cons: ConstraintSet, idx: np.ndarray) -> np.ndarray:
-    """{bit 63 spin_damp, bits 62:32 body_b, bits 31:0 body_a} per manifold of ``idx``."""
+def constraint_header(cons: ConstraintSet, idx: np.ndarray, shock: bool = False) -> np.ndarray:
+    """{bit 63 spin_damp, bits 59:32 body_b, bits 31:0 body_a} per manifold of ``idx``; ``shock`` (a shock pass's
+    records, ``cons`` a :class:`ShockConstraintSet`): with the frozen-body bits and the linear bit of each row."""
     a = cons.body_a[idx].astype(np.uint64)
     b = cons.body_b[idx].astype(np.uint64)
-    if np.any(a >= (1 << 32)) or np.any(b >= (1 << _BODY_B_BITS)):
+    if np.any(a >= (1 << 32)) or np.any(b >= (1 << HEADER_BODY_B_BITS)):
         raise ValueError("body index does not fit the record header")
     sd = cons.spin_damp[idx].astype(np.uint64)
-    return a | (b << np.uint64(32)) | (sd << np.uint64(63))
+    hdr = a | (b << np.uint64(HEADER_BODY_B_LSB)) | (sd << np.uint64(HEADER_SPIN_DAMP_BIT))
+    if shock:
+        if not isinstance(cons, ShockConstraintSet):
+            raise ValueError("a shock pass's records need the shock rows: models.shock_propagation.shock_constraints")
+        fa, fb = cons.frozen[idx] == FREEZE_A, cons.frozen[idx] == FREEZE_B
+        lin = (fa | fb) & cons.linear
+        hdr |= ((fa.astype(np.uint64) << np.uint64(HEADER_FROZEN_A_BIT))
+                | (fb.astype(np.uint64) << np.uint64(HEADER_FROZEN_B_BIT))
+                | (lin.astype(np.uint64) << np.uint64(HEADER_SHOCK_LINEAR_BIT)))
+    return hdr
+
+
+def shock_rows(cons: ConstraintSet) -> ConstraintSet:
+    """The records a shock pass streams: ``cons`` with its shock rows' ``jac_inv`` and ``f_jac_inv``."""
+    if not isinstance(cons, ShockConstraintSet):
+        raise ValueError("a shock pass's records need the shock rows: models.shock_propagation.shock_constraints")
+    return replace(cons, jac_inv=cons.shock_jac_inv, f_jac_inv=cons.shock_f_jac_inv)
 
 
 def contact_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np.ndarray:
@@ -474,15 +501,29 @@ def pack_constraint_stream(fmt: NumberFormat, cons: ConstraintSet, schedule: np.
     records of the on-chip impulse RAM. ``tangents_on_chip``: the friction records without t0, t1 (the kernel built
     with TANGENTS_ON_CHIP derives them)."""
     idx = schedule_manifolds(schedule)
-    header = constraint_header(cons, idx)
-    c_words, f_words = contact_words(fmt, cons, idx), friction_words(fmt, cons, idx, tangents_on_chip)
+    lam = lam_t = None
     if impulses is not None:
         lam, lam_t = fmt.encode(impulses.normal[idx]), fmt.encode(impulses.friction[idx])
-        c_words = np.concatenate([c_words, lam], axis=1)
-        f_words = np.concatenate([f_words, lam, lam_t], axis=1)
-    contact = pack_records(header, c_words, fmt.width, beat_bits)
-    friction = pack_records(header, f_words, fmt.width, beat_bits)
-    return _transfers([contact if kind == CONTACT_PASS else friction for kind, _ in pass_sequence(params)], beat_bits)
+
+    def records(kind: int, shock: bool) -> np.ndarray:
+        rows = shock_rows(cons) if shock else cons
+        if kind == CONTACT_PASS:
+            words = contact_words(fmt, rows, idx)
+            extra = [] if lam is None else [lam]
+        else:
+            words = friction_words(fmt, rows, idx, tangents_on_chip)
+            extra = [] if lam is None else [lam, lam_t]
+        return pack_records(constraint_header(cons, idx, shock), np.concatenate([words, *extra], axis=1),
+                            fmt.width, beat_bits)
+
+    packed: dict[tuple[int, bool], np.ndarray] = {}
+    blocks = []
+    for kind, it in pass_sequence(params):
+        key = (kind, is_shock_pass(params, kind, it))
+        if key not in packed:
+            packed[key] = records(*key)
+        blocks.append(packed[key])
+    return _transfers(blocks, beat_bits)
 
 
 def window_fetches(params: SolverParams, fetch_passes: int) -> int:
@@ -521,8 +562,11 @@ def unpack_constraint_records(fmt: NumberFormat, beats: np.ndarray, kind: int,
     assert hdr is not None
     out: dict[str, np.ndarray] = {
         "body_a": (hdr & np.uint64(0xFFFFFFFF)).astype(np.int64),
-        "body_b": ((hdr >> np.uint64(32)) & np.uint64((1 << _BODY_B_BITS) - 1)).astype(np.int64),
-        "spin_damp": ((hdr >> np.uint64(63)) & np.uint64(1)).astype(bool),
+        "body_b": ((hdr >> np.uint64(HEADER_BODY_B_LSB)) & np.uint64((1 << HEADER_BODY_B_BITS) - 1)).astype(np.int64),
+        "frozen_a": ((hdr >> np.uint64(HEADER_FROZEN_A_BIT)) & np.uint64(1)).astype(bool),
+        "frozen_b": ((hdr >> np.uint64(HEADER_FROZEN_B_BIT)) & np.uint64(1)).astype(bool),
+        "shock_linear": ((hdr >> np.uint64(HEADER_SHOCK_LINEAR_BIT)) & np.uint64(1)).astype(bool),
+        "spin_damp": ((hdr >> np.uint64(HEADER_SPIN_DAMP_BIT)) & np.uint64(1)).astype(bool),
     }
     v = fmt.decode(words)
     out["normal"] = v[:, 0:3]

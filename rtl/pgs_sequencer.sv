@@ -393,12 +393,17 @@ module pgs_sequencer #(
 
     logic [IDX_W-1:0]  la [LANES], lb [LANES];   // bodies A, B of each lane
     logic [63:0]       lhdr [LANES];
+    // a shock pass's header bits (the streaming kernel; the window kernel's records serve several passes: ignored)
+    logic [LANES-1:0]  l_fa, l_fb, l_lin;
     logic [31:0]       lslot [LANES];            // manifold slot of each lane
     always_comb begin
         for (int l = 0; l < LANES; l++) begin
             lhdr[l]  = lrec[l][63:0];
             la[l]    = lhdr[l][IDX_W-1:0];
             lb[l]    = lhdr[l][32 +: IDX_W];
+            l_fa[l]  = WINDOW == 0 && lhdr[l][pgs_stream_layout_pkg::HEADER_FROZEN_A_BIT];
+            l_fb[l]  = WINDOW == 0 && lhdr[l][pgs_stream_layout_pkg::HEADER_FROZEN_B_BIT];
+            l_lin[l] = WINDOW == 0 && lhdr[l][pgs_stream_layout_pkg::HEADER_SHOCK_LINEAR_BIT];
             lslot[l] = i_slot * LANES + 32'(l);
         end
     end
@@ -412,7 +417,7 @@ module pgs_sequencer #(
         automatic logic [LANES-1:0] go = '0;   // the lanes so far that issue
         for (int l = 0; l < LANES; l++) begin
             automatic logic [31:0] ha = lhdr[l][31:0];
-            automatic logic [31:0] hb = {1'b0, lhdr[l][62:32]};
+            automatic logic [31:0] hb = 32'(lhdr[l][pgs_stream_layout_pkg::HEADER_BODY_B_LSB +: pgs_stream_layout_pkg::HEADER_BODY_B_BITS]);
             automatic logic rej_prev = i_pass != '0 && slot_rej[lslot[l][SLOT_W-1:0]];
             automatic logic rej_bad;
             l_nonfinite[l] = 1'b0;
@@ -485,8 +490,12 @@ module pgs_sequencer #(
         logic [STAG_W-1:0] c_out_tag, f_out_tag, f_pipe_tag;
         logic [16*W-1:0]   c_out;
         logic [14*W-1:0]   f_out, f_pipe;
-        // stage 1: the record and tag of the manifold issued in the previous cycle
-        logic              s1_valid, s1_kind, s1_sd;
+        // stage 1: the record and tag of the manifold issued in the previous cycle. A shock pass's row (header bits
+        // frozen A / B, linear; models/shock_propagation.py, streaming kernel only) takes its frozen body as a static
+        // one: its inverse mass and inertia enter the pipe as 0 and its tag's dynamic bit is clear, so retire does
+        // not write it (the CAM holds it as issued: the hazards, and so the cycles, are those of the same schedule
+        // without the bits); a linear row's inverse inertias enter as 0 and its spin damping is off.
+        logic              s1_valid, s1_kind, s1_sd, s1_fa, s1_fb, s1_lin;
         logic [S1_WORDS*W-1:0] s1_words;
         if (IMPULSES_IN_RECORDS) begin : g_imp_rec
             // the impulses the pass starts from are the record's last words (host-given or last pass's)
@@ -508,15 +517,23 @@ module pgs_sequencer #(
         always_ff @(posedge clk) begin
             if (l_issue[l]) begin
                 s1_kind  <= rkind;
-                s1_sd    <= lhdr[l][63];
+                s1_sd    <= lhdr[l][pgs_stream_layout_pkg::HEADER_SPIN_DAMP_BIT] && !l_lin[l];
+                s1_fa    <= l_fa[l];
+                s1_fb    <= l_fb[l];
+                s1_lin   <= l_lin[l];
                 s1_words <= lrec[l][64 +: S1_WORDS*W];
-                s1_tag   <= {lslot[l][SLOT_W-1:0], i_iter, la[l], lb[l], dyn[2*l], dyn[2*l+1]};
+                s1_tag   <= {lslot[l][SLOT_W-1:0], i_iter, la[l], lb[l], dyn[2*l] && !l_fa[l], dyn[2*l+1] && !l_fb[l]};
             end
         end
 
         // body fields of the stage-1 reads (A on port 2l, B on port 2l + 1)
         wire [BREC_W-1:0] ra = rd_data[2*l*BREC_W +: BREC_W];
         wire [BREC_W-1:0] rb = rd_data[(2*l+1)*BREC_W +: BREC_W];
+        // the bodies' mass words as the pipes take them: 0 for a frozen body, no inverse inertia on a linear row
+        wire [W-1:0]        m_a = s1_fa ? '0 : ra[13*W +: W];
+        wire [W-1:0]        m_b = s1_fb ? '0 : rb[13*W +: W];
+        wire [IINV_W*W-1:0] i_a = s1_fa || s1_lin ? '0 : ra[14*W +: IINV_W*W];
+        wire [IINV_W*W-1:0] i_b = s1_fb || s1_lin ? '0 : rb[14*W +: IINV_W*W];
         logic [(47 + 2*IINV_W + SOFT_WORDS)*W-1:0] c_in;
         // the friction pipe's inputs: its F_PIPE record words, lam[4], lamT[2], xA, xB, vA wA vB wB, mInvA/B, IInvA/B,
         // then (MU_W = 1) the coefficient
@@ -530,10 +547,10 @@ module pgs_sequencer #(
             c_in[30*W +: 3*W] = rb[0 +: 3*W];      // xB
             c_in[33*W +: 6*W] = ra[7*W +: 6*W];    // vA, wA
             c_in[39*W +: 6*W] = rb[7*W +: 6*W];    // vB, wB
-            c_in[45*W +: W]   = ra[13*W +: W];     // mInvA
-            c_in[46*W +: W]   = rb[13*W +: W];     // mInvB
-            c_in[47*W +: IINV_W*W] = ra[14*W +: IINV_W*W];              // IInvA
-            c_in[(47 + IINV_W)*W +: IINV_W*W] = rb[14*W +: IINV_W*W];   // IInvB
+            c_in[45*W +: W]   = m_a;               // mInvA
+            c_in[46*W +: W]   = m_b;               // mInvB
+            c_in[47*W +: IINV_W*W] = i_a;                               // IInvA
+            c_in[(47 + IINV_W)*W +: IINV_W*W] = i_b;                    // IInvB
             for (int k = 0; k < SOFT_WORDS; k++)                                   // keep_dyn, keep_static
                 c_in[(47 + 2*IINV_W + k)*W +: W] = k == 0 ? r_keep_d : r_keep_s;
             f_in = '0;
@@ -544,10 +561,10 @@ module pgs_sequencer #(
             f_in[(FB + 3)*W +: 3*W]   = rb[0 +: 3*W];
             f_in[(FB + 6)*W +: 6*W]   = ra[7*W +: 6*W];
             f_in[(FB + 12)*W +: 6*W]  = rb[7*W +: 6*W];
-            f_in[(FB + 18)*W +: W]    = ra[13*W +: W];
-            f_in[(FB + 19)*W +: W]    = rb[13*W +: W];
-            f_in[(FB + 20)*W +: IINV_W*W] = ra[14*W +: IINV_W*W];
-            f_in[(FB + 20 + IINV_W)*W +: IINV_W*W] = rb[14*W +: IINV_W*W];
+            f_in[(FB + 18)*W +: W]    = m_a;
+            f_in[(FB + 19)*W +: W]    = m_b;
+            f_in[(FB + 20)*W +: IINV_W*W] = i_a;
+            f_in[(FB + 20 + IINV_W)*W +: IINV_W*W] = i_b;
             for (int k = 0; k < MU_W; k++) f_in[(FB + 20 + 2*IINV_W + k)*W +: W] = s1_words[(F_PIPE + k)*W +: W];   // mu
         end
 

@@ -15,7 +15,10 @@ is not an eigenvector of a rounded isotropic inertia and its spin-damping rows w
 frames (``models/exact_reference_cache.py``).
 
 The remedies: ``cold`` (the thesis scheme), ``warm`` (``--factor``, Bullet 2's 0.85) and, per ``--more-factors``
-value f, ``warm<f>`` (the same matched impulses at factor f; 1 is Box2D's full warm start), each its own curve.
+value f, ``warm<f>`` (the same matched impulses at factor f; 1 is Box2D's full warm start), each its own curve;
+with ``--shock`` each warm remedy's shock variant ``<remedy>+shocklr`` (``models/shock_propagation.py``: one call, its
+last contact pass a linear shock pass with the frozen rows' impulses returned, in the step's ground-up layer order,
+priced by the cycle model in that order), its own curve too.
 
 Each format is solved and priced in ``make sim``'s hazard schedule with the format's window
 (``sim.kernel_build.default_window``) on the streaming kernel whose impulses travel with the records
@@ -143,13 +146,26 @@ def solve_series(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, a
     return {k: state for k, (state, _) in after.items()}
 
 
+SHOCK_SUFFIX = "+shocklr"  # a warm remedy's shock variant: one call, its last contact pass a linear shock pass
+
+
+def shock_job(fmt: NumberFormat, bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,
+              iterations: int) -> KernelJob:
+    """The step as one call of ``iterations`` whose last contact pass is a linear shock pass, its frozen rows'
+    impulses returned (``models/shock_propagation.py``; the ground-up layer order of the step), on the streaming
+    kernel with the impulses in the records."""
+    job = KernelJob(fmt, bodies, cons, order, SolverParams(iterations=iterations), IntegrationParams())
+    return job.impulses_travelling(None).shocked(linear=True, impulses="return")
+
+
 def price(last: StepInput, fmt: NumberFormat, iters: Sequence[int], ref: ExactReference,
-          preset: str = "zcu102", warm: dict[str, float] | None = None) -> list[dict[str, Any]]:
-    """Per remedy (cold, then each of ``warm``: name -> scale of the captured warm start, default ``{"warm": 1}``)
-    and iteration count: max, median and p99 |dv| (m/s) and |dw| (rad/s) against the exact reference ``ref`` of the
-    step, and the kernel cycles of the step on the streaming kernel with the impulses in the records (per step and
-    per manifold-pass), in ``fmt``'s hazard schedule. The cycle model reads no impulse value (the records are the
-    same bytes, zeros or a warm start), so one prediction prices every remedy."""
+          preset: str = "zcu102", warm: dict[str, float] | None = None, shock: bool = False) -> list[dict[str, Any]]:
+    """Per remedy (cold, then each of ``warm``: name -> scale of the captured warm start, default ``{"warm": 1}``;
+    with ``shock`` each warm remedy's :func:`shock_job` too, named with :data:`SHOCK_SUFFIX`) and iteration count:
+    max, median and p99 |dv| (m/s) and |dw| (rad/s) against the exact reference ``ref`` of the step, and the kernel
+    cycles of the step on the streaming kernel with the impulses in the records (per step and per manifold-pass), in
+    ``fmt``'s hazard schedule (a shock remedy: its layer order). The cycle model reads no impulse value (the records
+    are the same bytes, zeros or a warm start), so one prediction prices every remedy of one order."""
     if last.initial is None:
         raise ValueError("the captured step carries no warm-start impulses (the loop ran cold)")
     check_impulses(last.initial, last.cons)  # wrong count, NaN/Inf, negative: refused before any solve
@@ -158,17 +174,24 @@ def price(last: StepInput, fmt: NumberFormat, iters: Sequence[int], ref: ExactRe
     bodies, cons = last.bodies.rounded(fmt), last.cons.rounded(fmt)
     order = make_schedule("hazard", cons, dyn, default_window(fmt, dma.stream_bits))
     solved = {"cold": solve_series(bodies, cons, order, fmt, iters)}
+    shocked: dict[int, KernelJob] = {it: shock_job(fmt, bodies, cons, order, it) for it in iters} if shock else {}
     for name, scale in ({"warm": 1.0} if warm is None else warm).items():
         if not 0.0 < scale or not np.isfinite(scale):
             raise ValueError(f"remedy {name}: the warm start's scale must be positive and finite, got {scale}")
         initial = Impulses(fmt.round(scale * last.initial.normal), fmt.round(scale * last.initial.friction))
-        solved[name] = solve_series(apply_impulses(bodies, cons, initial, fmt), cons, order, fmt, iters, initial)
+        start = apply_impulses(bodies, cons, initial, fmt)
+        solved[name] = solve_series(start, cons, order, fmt, iters, initial)
+        if shock:
+            solved[name + SHOCK_SUFFIX] = {
+                it: solve(start, j.cons, j.schedule, fmt, j.params, initial=initial).bodies for it, j in shocked.items()}
     rows = []
     for it in sorted(set(iters)):
         job = KernelJob(fmt, bodies, cons, order, SolverParams(iterations=it), IntegrationParams())
         job.impulses_travelling(initial)  # the warm step is a valid job of this design (values of fmt, finite)
-        cycles = predict_job(job.impulses_travelling(None), dma).cycles
+        hazard_cycles = predict_job(job.impulses_travelling(None), dma).cycles
+        shock_cycles = predict_job(shocked[it], dma).cycles if shock else 0
         for remedy in solved:
+            cycles = shock_cycles if remedy.endswith(SHOCK_SUFFIX) else hazard_cycles
             e = solution_error(solved[remedy][it], ref.bodies, dyn)
             rows.append({"format": fmt.name, "remedy": remedy, "iterations": it,
                          **dict(zip(ERROR_KEYS, (e.max_dv, e.median_dv, e.p99_dv, e.max_dw, e.median_dw, e.p99_dw))),
@@ -263,6 +286,9 @@ def _parse(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--step", type=int, default=None, help="with --from-frames: the captured step priced")
     ap.add_argument("--history", type=int, default=1, help="with --from-frames: frames solved before it, each "
                                                           "warm-started from the one before")
+    ap.add_argument("--shock", action="store_true",
+                    help=f"price each warm remedy's shock variant too (<remedy>{SHOCK_SUFFIX}: one call, its last "
+                         "contact pass a linear shock pass, in the step's ground-up layer order)")
     ap.add_argument("--plot", default="", help="write the speed-against-error plot (PNG) here")
     return ap.parse_args(argv)
 
@@ -308,7 +334,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         ref, ref_path, hit = cached_exact_reference(last.bodies, last.cons, args.cache_dir, SolverParams(),
                                                     Budget(time_s=args.exact_budget))
         warm = {"warm": 1.0, **{f"warm{f:g}": f / args.factor for f in more}}  # scales of the captured start
-        rows = [r for fmt in fmts for r in price(last, fmt, iters, ref, args.preset, warm)]
+        rows = [r for fmt in fmts for r in price(last, fmt, iters, ref, args.preset, warm, args.shock)]
     except (ExactReferenceError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

@@ -4,6 +4,11 @@ from zero: a warm-started loop (``models.closed_loop.Remedy``) is refused on it 
 ``impulses_in_records=True`` every step runs on the streaming kernel whose impulses travel with the records
 (IMPULSES_IN_RECORDS), and a warm start's impulses are the ones the records of each kind's first pass carry.
 
+Shock propagation (``models/shock_propagation.py``) runs on every streaming build: the shock passes' records carry
+the frozen-body bits in their headers and the shock rows' words (``models.stream_format.pack_constraint_stream``);
+the impulses a ``"return"`` call puts back on its frozen rows are the golden model's, after the kernel's every pass
+matched it. A ``"drop"`` call is refused (:class:`ShockUnsupported`).
+
 Box2D's soft step (``models/soft_contact.py``: a soft solve call with ``SolverParams.soft_keep``, then a relax call
 that continues its impulses) runs with ``soft_contact=True``: every call on the SOFT_CONTACT build, the solve call
 with the options bit and the keep factors set, the relax call (rigid, the same kernel and records with the relax
@@ -44,8 +49,9 @@ class SoftContactUnsupported(ValueError):
 
 
 class ShockUnsupported(ValueError):
-    """A shock pass (``SolverParams.shock_contact`` / ``shock_friction``, models/shock_propagation.py) asked of the RTL
-    kernel, which has no frozen-body write mask."""
+    """A shock pass (``SolverParams.shock_contact`` / ``shock_friction``, models/shock_propagation.py) the RTL kernel
+    does not run: one whose frozen rows keep the impulses they held (``shock_impulses="drop"``; the kernel writes every
+    row's new impulses)."""
 
 
 @dataclass(frozen=True)
@@ -81,9 +87,10 @@ def rtl_stepper(preset: DmaPreset, work_dir: Path, seed: int = 1, impulses_in_re
     def factory(fmt: NumberFormat, params: SolverParams,
                 ip: IntegrationParams) -> Callable[..., tuple[BodyTable, Impulses]]:
         _check_soft(params, soft_contact)
-        if params.shock_contact or params.shock_friction:
-            raise ShockUnsupported("shock propagation (models/shock_propagation.py) is golden-model only: the RTL "
-                                   "kernel has no per-manifold frozen-body write mask")
+        if (params.shock_contact or params.shock_friction) and params.shock_impulses == "drop":
+            raise ShockUnsupported("a shock pass whose frozen rows keep the impulses they held (shock_impulses "
+                                   "'drop') is golden-model only: the kernel writes every row's new impulses; 'keep' "
+                                   "and 'return' (the host puts the frozen rows' impulses back after the call) run")
 
         def step(bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,
                  initial: Optional[Impulses] = None) -> tuple[BodyTable, Impulses]:

@@ -7,6 +7,12 @@
 namespace pgs {
 
 constexpr int kHeaderBits           = 64;  // bits of the header in front of a constraint record's words
+constexpr int kHeaderBodyBLsb       = 32;  // header bit where body_b starts (body_a: bits 31:0)
+constexpr int kHeaderBodyBBits      = 28;  // bits of the header's body_b
+constexpr int kHeaderFrozenABit     = 60;  // header bit: a shock pass's row with body A frozen
+constexpr int kHeaderFrozenBBit     = 61;  // header bit: a shock pass's row with body B frozen
+constexpr int kHeaderShockLinearBit = 62;  // header bit: a linear shock row (no inverse inertia)
+constexpr int kHeaderSpinDampBit    = 63;  // header bit: the manifold's spin damping
 constexpr int kContactWords         = 23;  // words of a contact record
 constexpr int kFrictionWords        = 14;  // words of a friction record
 constexpr int kTangentWords         = 6;  // friction record words of t0, t1 (absent with the tangents derived on chip)

@@ -216,13 +216,3 @@ def test_shock_levels_bit_identical_to_sequential(pile, ar) -> None:
             assert np.array_equal(getattr(vec.bodies, f), getattr(seq.bodies, f))
         assert np.array_equal(vec.impulses.normal, seq.impulses.normal)
     assert isinstance(shock.rounded(ar), ShockConstraintSet)
-
-
-def test_the_rtl_stepper_refuses_a_shock_pass(tmp_path) -> None:
-    """No RTL is built or run: the stepper factory refuses a shock call by name before any job."""
-    from models.dma_model import get_preset
-    from models.integrator import IntegrationParams
-    from sim.rtl_stepper import ShockUnsupported, rtl_stepper
-
-    with pytest.raises(ShockUnsupported, match="golden-model only"):
-        rtl_stepper(get_preset("zcu102"), tmp_path)(FP32, SolverParams(shock_contact=True), IntegrationParams())

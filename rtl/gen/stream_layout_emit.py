@@ -23,6 +23,12 @@ _SOURCE = "models/stream_format.py"
 # C++ name -> (value, what it counts), in the order of the header
 _CONSTANTS: dict[str, tuple[int, str]] = {
     "kHeaderBits": (sf.HEADER_BITS, "bits of the header in front of a constraint record's words"),
+    "kHeaderBodyBLsb": (sf.HEADER_BODY_B_LSB, "header bit where body_b starts (body_a: bits 31:0)"),
+    "kHeaderBodyBBits": (sf.HEADER_BODY_B_BITS, "bits of the header's body_b"),
+    "kHeaderFrozenABit": (sf.HEADER_FROZEN_A_BIT, "header bit: a shock pass's row with body A frozen"),
+    "kHeaderFrozenBBit": (sf.HEADER_FROZEN_B_BIT, "header bit: a shock pass's row with body B frozen"),
+    "kHeaderShockLinearBit": (sf.HEADER_SHOCK_LINEAR_BIT, "header bit: a linear shock row (no inverse inertia)"),
+    "kHeaderSpinDampBit": (sf.HEADER_SPIN_DAMP_BIT, "header bit: the manifold's spin damping"),
     "kContactWords": (sf.CONTACT_WORDS, "words of a contact record"),
     "kFrictionWords": (sf.FRICTION_WORDS, "words of a friction record"),
     "kTangentWords": (sf.TANGENT_WORDS, "friction record words of t0, t1 (absent with the tangents derived on chip)"),
@@ -56,6 +62,12 @@ def emit_stream_layout_header() -> str:
 # SystemVerilog name -> (value, what it counts), in the order of the package
 _SV_CONSTANTS: dict[str, tuple[int, str]] = {
     "HEADER_BITS": (sf.HEADER_BITS, "bits of the header in front of a constraint record's words"),
+    "HEADER_BODY_B_LSB": (sf.HEADER_BODY_B_LSB, "header bit where body_b starts (body_a: bits 31:0)"),
+    "HEADER_BODY_B_BITS": (sf.HEADER_BODY_B_BITS, "bits of the header's body_b"),
+    "HEADER_FROZEN_A_BIT": (sf.HEADER_FROZEN_A_BIT, "header bit: a shock pass's row with body A frozen"),
+    "HEADER_FROZEN_B_BIT": (sf.HEADER_FROZEN_B_BIT, "header bit: a shock pass's row with body B frozen"),
+    "HEADER_SHOCK_LINEAR_BIT": (sf.HEADER_SHOCK_LINEAR_BIT, "header bit: a linear shock row (no inverse inertia)"),
+    "HEADER_SPIN_DAMP_BIT": (sf.HEADER_SPIN_DAMP_BIT, "header bit: the manifold's spin damping"),
     "CONTACT_WORDS": (sf.CONTACT_WORDS, "words of a contact record: n, p[0..3], jac_inv, b"),
     "FRICTION_WORDS": (sf.FRICTION_WORDS, "words of a friction record with t0, t1: n, c, t0, t1, f_jac_inv"),
     "TANGENT_WORDS": (sf.TANGENT_WORDS, "words of t0, t1 (absent with the tangents derived on chip)"),

@@ -8,6 +8,12 @@ package pgs_stream_layout_pkg;
     // every module uses some of the constants
     /* verilator lint_off UNUSEDPARAM */
     localparam int HEADER_BITS             = 64;  // bits of the header in front of a constraint record's words
+    localparam int HEADER_BODY_B_LSB       = 32;  // header bit where body_b starts (body_a: bits 31:0)
+    localparam int HEADER_BODY_B_BITS      = 28;  // bits of the header's body_b
+    localparam int HEADER_FROZEN_A_BIT     = 60;  // header bit: a shock pass's row with body A frozen
+    localparam int HEADER_FROZEN_B_BIT     = 61;  // header bit: a shock pass's row with body B frozen
+    localparam int HEADER_SHOCK_LINEAR_BIT = 62;  // header bit: a linear shock row (no inverse inertia)
+    localparam int HEADER_SPIN_DAMP_BIT    = 63;  // header bit: the manifold's spin damping
     localparam int CONTACT_WORDS           = 23;  // words of a contact record: n, p[0..3], jac_inv, b
     localparam int FRICTION_WORDS          = 14;  // words of a friction record with t0, t1: n, c, t0, t1, f_jac_inv
     localparam int TANGENT_WORDS           = 6;  // words of t0, t1 (absent with the tangents derived on chip)

@@ -17,7 +17,11 @@ from models.contact_solver import solve
 from models.schedule import make_schedule
 from models.warm_start import apply_impulses
 from models.scenes.frame_cache import load_or_capture
-from sim.remedy_price import ERROR_KEYS, capture, capture_from_frames, main, price, solve_series, verdict
+from models.cycle_model import predict_job
+from models.dma_model import get_preset
+from sim.kernel_build import default_window
+from sim.remedy_price import (ERROR_KEYS, SHOCK_SUFFIX, capture, capture_from_frames, main, price, shock_job,
+                              solve_series, verdict)
 
 TINY = ["--scene", "stack", "--scene-args", "n=4", "--settle", "0", "--steps", "12", "--iters", "1,4"]
 
@@ -111,6 +115,23 @@ def test_a_cold_capture_or_bad_arguments_are_refused() -> None:
     assert main(["--format", "fp99"]) == 2
     assert main(["--preset", "nope"]) == 2
     assert main(["--more-factors", "1.5"]) == 2 and main(["--factor", "0"]) == 2
+
+
+def test_the_shock_variant_is_its_own_curve_priced_in_its_layer_order() -> None:
+    """--shock: each warm remedy's one-call shock variant (the last contact pass a linear shock pass, the frozen rows'
+    impulses returned) is its own curve, priced by the cycle model in the step's ground-up order."""
+    last, _, ref = _stack_step()
+    rows = price(last, FP32, [1, 4], ref, shock=True)
+    by = {(r["remedy"], r["iterations"]): r for r in rows}
+    assert {r["remedy"] for r in rows} == {"cold", "warm", "warm" + SHOCK_SUFFIX}
+    bodies, cons = last.bodies.rounded(FP32), last.cons.rounded(FP32)
+    for it in (1, 4):
+        order = make_schedule("hazard", cons, bodies.dynamic, default_window(FP32, get_preset("zcu102").stream_bits))
+        job = shock_job(FP32, bodies, cons, order, it)
+        assert job.params.shock_contact and job.params.shock_impulses == "return" and job.cons.linear
+        assert by["warm" + SHOCK_SUFFIX, it]["cycles"] == predict_job(job, get_preset("zcu102")).cycles
+        assert by["warm" + SHOCK_SUFFIX, it]["max |dv|"] != by["warm", it]["max |dv|"]
+    assert len(verdict(rows, 4, 4)) == 2  # one line per warm remedy, the shock variant's included
 
 
 def test_further_warm_start_factors_are_their_own_remedies() -> None:

@@ -13,7 +13,7 @@ from models.closed_loop import Remedy, run_closed_loop
 from models.dma_model import get_preset
 from models.number_format import FP16, FP32
 from models.stability import CASES, REMEDIES, call_iterations, judge
-from sim.rtl_stepper import RtlCall, SoftContactUnsupported, WarmStartUnsupported, rtl_stepper
+from sim.rtl_stepper import RtlCall, ShockUnsupported, SoftContactUnsupported, WarmStartUnsupported, rtl_stepper
 from sim.stability import main as stability_main
 
 
@@ -119,3 +119,32 @@ def test_warm_started_closed_loop_on_the_kernel_with_impulses_in_the_records(tmp
     gold = run_closed_loop("incline", 3, FP16, 4, remedy=warm, **kw)
     for f in ("position", "orientation", "linear_velocity", "angular_velocity"):
         assert np.array_equal(getattr(rtl.final, f), getattr(gold.final, f)), f
+
+
+def test_shock_closed_loop_on_the_rtl_kernel(tmp_path: Path) -> None:
+    """Shock propagation through the RTL: two closed-loop steps of the 20-cube stack in fp32 with the remedy that
+    passes every hard case in the golden model (warm start, 4 substeps of one iteration, every contact pass a linear
+    shock pass, the frozen rows' impulses returned), on the build the soft loop uses (the soft bit clear: the rigid
+    kernel) with the impulses in the records and banked body velocities: every call bit-exact with the golden model
+    and cycle-exact with the cycle model, the final state the golden loop's and not the loop's without the shock."""
+    remedy = REMEDIES["warm+sub4+shocklr"]
+    calls: list[RtlCall] = []
+    iters = call_iterations(4, remedy)
+    stepper = rtl_stepper(get_preset("zcu102"), tmp_path, impulses_in_records=True, soft_contact=True, calls=calls)
+    rtl = run_closed_loop("stack", 2, FP32, iters, remedy=remedy, stepper=stepper, **CASES["stack20"].params)
+    gold = run_closed_loop("stack", 2, FP32, iters, remedy=remedy, **CASES["stack20"].params)
+    unshocked = run_closed_loop("stack", 2, FP32, iters, remedy=REMEDIES["warm+sub4"], **CASES["stack20"].params)
+    for f in ("position", "orientation", "linear_velocity", "angular_velocity"):
+        assert np.array_equal(getattr(rtl.final, f), getattr(gold.final, f)), f
+    assert not np.array_equal(rtl.final.linear_velocity, unshocked.final.linear_velocity)
+    assert len(calls) == 2 * remedy.calls_per_step
+    assert all(c.rtl_cycles == c.model_cycles and c.differing_bits == 0 and c.trace_records > 0 for c in calls)
+
+
+def test_the_rtl_kernel_refuses_a_shock_pass_that_drops_its_impulses(tmp_path: Path) -> None:
+    """A shock remedy whose frozen rows keep the impulses they held stops before its first kernel call, by name."""
+    with pytest.raises(ShockUnsupported, match="golden-model only"):
+        run_closed_loop("stack", 2, FP32, 4, remedy=REMEDIES["warm+shockv"],
+                        stepper=rtl_stepper(get_preset("zcu102"), tmp_path, impulses_in_records=True))
+    assert not any(tmp_path.iterdir())
+
