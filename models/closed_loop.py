@@ -74,10 +74,11 @@ class Remedy:
     shock_impulses: str = "keep"  # of the frozen rows: "keep", "drop", "return" (SolverParams.shock_impulses)
     shock_passes: int = 1  # the last n passes of each shocked kind in each call (the scheme: 1)
     shock_linear: bool = False  # a shock row moves the upper body along the normal only (no angular write)
+    shock_hazard: bool = False  # each layer pair's manifolds in the hazard order of the loop's window
 
     def __post_init__(self) -> None:
-        if self.shock_friction and not self.shock:
-            raise ValueError(f"remedy {self.name}: shock_friction needs shock")
+        if (self.shock_friction or self.shock_hazard) and not self.shock:
+            raise ValueError(f"remedy {self.name}: shock_friction and shock_hazard need shock")
         if self.shock and self.soft is not None and not self.relax:
             raise ValueError(f"remedy {self.name}: a soft shock remedy shocks its relax call (needs relax)")
         if self.relax and self.substeps < 2 and self.soft is None:
@@ -203,7 +204,8 @@ def run_closed_loop(scene: str, steps: int, ar: Arithmetic = FLOAT64, iterations
             cons = setup_constraints(frame, bodies, solver.friction_coeff).rounded(ar)
             order = make_schedule(schedule, cons, dyn, window)
             if remedy.shock:
-                cons, order = shock_step(cons, bodies, order, ar, remedy.shock_linear)
+                cons, order = shock_step(cons, bodies, order, ar, remedy.shock_linear,
+                                         window if remedy.shock_hazard else 0)
             bodies = (_remedy_step(remedy, advance, bodies, cons, order, mf, ar, solver, ip.dt, carried)
                       if remedy.soft is None else _soft_step(remedy, advance, bodies, cons, order, mf, ar, solver,
                                                              carried))

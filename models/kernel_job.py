@@ -101,16 +101,17 @@ class KernelJob:
         return dataclasses.replace(self, cons=derive_tangents(self.cons, self.fmt), tangents_on_chip=True)
 
     def shocked(self, linear: bool = False, friction: bool = False, impulses: str = "keep",
-                passes: int = 1) -> "KernelJob":
+                passes: int = 1, window: int = 0) -> "KernelJob":
         """This step with shock propagation (``models/shock_propagation.py``): the shock rows and the ground-up
-        layer order of this step's contact graph, the last ``passes`` contact passes (and with ``friction`` the
-        last friction passes) shock passes, their frozen rows' impulses kept or returned (``SolverParams``). The
-        streaming kernel reads the shock passes' records with the frozen-body bits in their headers."""
+        layer order of this step's contact graph (``window`` > 0: each layer pair in the hazard order of that
+        window), the last ``passes`` contact passes (and with ``friction`` the last friction passes) shock passes,
+        their frozen rows' impulses kept or returned (``SolverParams``). The streaming kernel reads the shock
+        passes' records with the frozen-body bits in their headers."""
         if self.record_window is not None:
             raise ValueError("shock propagation runs on the streaming kernel (a window record serves several passes)")
         if self.tangents_on_chip:
             raise ValueError("take the shock rows before the tangents are derived (KernelJob.shocked first)")
-        cons, order = shock_step(self.cons, self.bodies, self.schedule, self.fmt, linear)
+        cons, order = shock_step(self.cons, self.bodies, self.schedule, self.fmt, linear, window)
         params = dataclasses.replace(self.params, shock_contact=True, shock_friction=friction,
                                      shock_impulses=impulses, shock_passes=passes)
         return dataclasses.replace(self, cons=cons, schedule=order, params=params)

@@ -70,13 +70,20 @@ def hazard_order(cons: ConstraintSet, dynamic: np.ndarray, window: int,
 
     ``priority`` (a permutation of the manifolds) replaces frame order as the order in which ready
     manifolds are preferred; None is frame order."""
-    if window < 1:
-        raise ValueError(f"hazard window must be >= 1, got {window}")
     order = np.arange(cons.num_manifolds, dtype=np.int64) if priority is None else \
         _check_permutation(priority, cons.num_manifolds)
+    return hazard_order_of(order, cons, dynamic, window)
+
+
+def hazard_order_of(manifolds: np.ndarray, cons: ConstraintSet, dynamic: np.ndarray, window: int) -> np.ndarray:
+    """The greedy hazard-free order (with bubbles) of the given ``manifolds`` alone, preferred in their given order
+    (``hazard_order`` of a subset: a group that must stay together, e.g. one layer pair of shock propagation)."""
+    if window < 1:
+        raise ValueError(f"hazard window must be >= 1, got {window}")
+    idx = np.asarray(manifolds, dtype=np.int64)
     a, b = _dynamic_pairs(cons, dynamic)
-    ranks = _greedy_hazard_ranks(a[order].tolist(), b[order].tolist(), window)
-    return np.where(ranks >= 0, order[np.maximum(ranks, 0)], BUBBLE)
+    ranks = _greedy_hazard_ranks(a[idx].tolist(), b[idx].tolist(), window)
+    return np.where(ranks >= 0, idx[np.maximum(ranks, 0)], BUBBLE)
 
 
 def _greedy_hazard_ranks(a_list: list[int], b_list: list[int], window: int) -> np.ndarray:

@@ -8,7 +8,9 @@ but not written, so the weight of a heavy upper body cannot push lighter lower b
   every body of inverse mass 0, layer 0); a body no static body reaches gets :data:`UNREACHED`;
 * a manifold's **lower body** is the one of smaller layer; on a tie neither is frozen (the row is solved as usual);
   a static lower body is not flagged (a static body is never written anyway);
-* the **schedule** is the given one stably sorted ground-up by (lower layer, upper layer) of each manifold;
+* the **schedule** is the given one stably sorted ground-up by (lower layer, upper layer) of each manifold (or, with a
+  hazard window, each such layer pair's manifolds in the greedy hazard order: the kernel issues a pair's rows back to
+  back instead of stalling on the bodies they share);
 * the **shock rows**: ``jac_inv`` and ``f_jac_inv`` recomputed on the host (float64, rounded once to the format)
   with the frozen body's inverse mass and inverse inertia 0, ``-1 / K`` with K the other body's terms only.
 
@@ -26,6 +28,7 @@ import numpy as np
 from .constraints import BodyTable, ConstraintSet
 from .inertia import quadratic_form
 from .number_format import Arithmetic
+from .schedule import hazard_order_of
 
 UNREACHED = np.iinfo(np.int64).max // 4  # the layer of a body no static body reaches
 FREEZE_NONE, FREEZE_A, FREEZE_B = 0, 1, 2
@@ -57,12 +60,24 @@ def frozen_side(body_a: np.ndarray, body_b: np.ndarray, layer: np.ndarray, dynam
     return out
 
 
-def layer_order(schedule: np.ndarray, cons: ConstraintSet, layer: np.ndarray) -> np.ndarray:
-    """The schedule's manifolds (bubbles dropped) stably sorted ground-up by (lower layer, upper layer)."""
+def layer_order(schedule: np.ndarray, cons: ConstraintSet, layer: np.ndarray, dynamic: np.ndarray | None = None,
+                window: int = 0) -> np.ndarray:
+    """The schedule's manifolds (bubbles dropped) stably sorted ground-up by (lower layer, upper layer); with
+    ``window`` > 0 each layer pair's manifolds in the greedy hazard order of that window (``dynamic``: the bodies'
+    flags; bubbles within a pair), the pairs still one after the other ground-up."""
     order = np.asarray(schedule)
     order = order[order >= 0]
     la, lb = layer[cons.body_a[order]], layer[cons.body_b[order]]
-    return order[np.lexsort((np.maximum(la, lb), np.minimum(la, lb)))]
+    lo, hi = np.minimum(la, lb), np.maximum(la, lb)
+    key = np.lexsort((hi, lo))
+    order, lo, hi = order[key], lo[key], hi[key]
+    if window <= 0 or order.size == 0:
+        return order
+    if dynamic is None:
+        raise ValueError("a hazard order within the layer pairs needs the bodies' dynamic flags")
+    starts = np.flatnonzero(np.r_[True, (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])])
+    groups = np.split(order, starts[1:])
+    return np.concatenate([hazard_order_of(g, cons, dynamic, window) for g in groups])
 
 
 def _side_terms(direction: np.ndarray, r: np.ndarray, bodies: BodyTable, body: np.ndarray,
@@ -130,10 +145,10 @@ def shock_constraints(cons: ConstraintSet, bodies: BodyTable, ar: Arithmetic, la
 
 
 def shock_step(cons: ConstraintSet, bodies: BodyTable, schedule: np.ndarray, ar: Arithmetic,
-               linear: bool = False) -> tuple[ShockConstraintSet, np.ndarray]:
-    """One step's shock rows (:func:`shock_constraints`) and its schedule in the ground-up :func:`layer_order`, from
-    the layers of this step's contact graph."""
+               linear: bool = False, window: int = 0) -> tuple[ShockConstraintSet, np.ndarray]:
+    """One step's shock rows (:func:`shock_constraints`) and its schedule in the ground-up :func:`layer_order` (with
+    ``window`` > 0: hazard-ordered within each layer pair), from the layers of this step's contact graph."""
     layers = body_layers(cons.body_a, cons.body_b, bodies.dynamic)
     shocked = shock_constraints(cons, bodies, ar, layers, linear)
-    return shocked, layer_order(schedule, shocked, layers)
+    return shocked, layer_order(schedule, shocked, layers, bodies.dynamic, window)
 

@@ -236,6 +236,9 @@ REMEDIES: dict[str, Remedy] = {r.name: r for r in (
     Remedy("warm+sub2+shocklr", WARMSTART_FACTOR, 2, shock=True, shock_impulses="return", shock_linear=True),
     Remedy("warm+sub4+shocklr", WARMSTART_FACTOR, 4, shock=True, shock_impulses="return", shock_linear=True),
     Remedy("warm+sub4+shockl", WARMSTART_FACTOR, 4, shock=True, shock_linear=True),
+    # "...h": each layer pair's manifolds in the hazard order of the loop's window (the kernel's pipeline kept full)
+    Remedy("warm+sub4+shocklrh", WARMSTART_FACTOR, 4, shock=True, shock_impulses="return", shock_linear=True,
+           shock_hazard=True),
     Remedy("warm+sub4+shockflv", WARMSTART_FACTOR, 4, shock=True, shock_friction=True, shock_impulses="drop",
            shock_linear=True),
     Remedy("warm+sub4+shockflr", WARMSTART_FACTOR, 4, shock=True, shock_friction=True, shock_impulses="return",

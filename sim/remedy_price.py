@@ -18,7 +18,8 @@ The remedies: ``cold`` (the thesis scheme), ``warm`` (``--factor``, Bullet 2's 0
 value f, ``warm<f>`` (the same matched impulses at factor f; 1 is Box2D's full warm start), each its own curve;
 with ``--shock`` each warm remedy's shock variant ``<remedy>+shocklr`` (``models/shock_propagation.py``: one call, its
 last contact pass a linear shock pass with the frozen rows' impulses returned, in the step's ground-up layer order,
-priced by the cycle model in that order), its own curve too.
+priced by the cycle model in that order), and ``<remedy>+shocklrh``, each layer pair of that order in the hazard
+order of the format's window, each its own curve too.
 
 Each format is solved and priced in ``make sim``'s hazard schedule with the format's window
 (``sim.kernel_build.default_window``) on the streaming kernel whose impulses travel with the records
@@ -147,21 +148,23 @@ def solve_series(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, a
 
 
 SHOCK_SUFFIX = "+shocklr"  # a warm remedy's shock variant: one call, its last contact pass a linear shock pass
+SHOCK_HAZARD_SUFFIX = "+shocklrh"  # the same, each layer pair in the hazard order of the format's window
 
 
 def shock_job(fmt: NumberFormat, bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,
-              iterations: int) -> KernelJob:
+              iterations: int, window: int = 0) -> KernelJob:
     """The step as one call of ``iterations`` whose last contact pass is a linear shock pass, its frozen rows'
-    impulses returned (``models/shock_propagation.py``; the ground-up layer order of the step), on the streaming
-    kernel with the impulses in the records."""
+    impulses returned (``models/shock_propagation.py``; the ground-up layer order of the step, with ``window`` > 0
+    each layer pair in the hazard order of that window), on the streaming kernel with the impulses in the records."""
     job = KernelJob(fmt, bodies, cons, order, SolverParams(iterations=iterations), IntegrationParams())
-    return job.impulses_travelling(None).shocked(linear=True, impulses="return")
+    return job.impulses_travelling(None).shocked(linear=True, impulses="return", window=window)
 
 
 def price(last: StepInput, fmt: NumberFormat, iters: Sequence[int], ref: ExactReference,
           preset: str = "zcu102", warm: dict[str, float] | None = None, shock: bool = False) -> list[dict[str, Any]]:
     """Per remedy (cold, then each of ``warm``: name -> scale of the captured warm start, default ``{"warm": 1}``;
-    with ``shock`` each warm remedy's :func:`shock_job` too, named with :data:`SHOCK_SUFFIX`) and iteration count:
+    with ``shock`` each warm remedy's :func:`shock_job` too, named with :data:`SHOCK_SUFFIX`, and with
+    :data:`SHOCK_HAZARD_SUFFIX` in the hazard order of the format's window within each layer pair) and iteration count:
     max, median and p99 |dv| (m/s) and |dw| (rad/s) against the exact reference ``ref`` of the step, and the kernel
     cycles of the step on the streaming kernel with the impulses in the records (per step and per manifold-pass), in
     ``fmt``'s hazard schedule (a shock remedy: its layer order). The cycle model reads no impulse value (the records
@@ -172,26 +175,29 @@ def price(last: StepInput, fmt: NumberFormat, iters: Sequence[int], ref: ExactRe
     dma = get_preset(preset)
     dyn = last.bodies.dynamic
     bodies, cons = last.bodies.rounded(fmt), last.cons.rounded(fmt)
-    order = make_schedule("hazard", cons, dyn, default_window(fmt, dma.stream_bits))
+    window = default_window(fmt, dma.stream_bits)
+    order = make_schedule("hazard", cons, dyn, window)
     solved = {"cold": solve_series(bodies, cons, order, fmt, iters)}
-    shocked: dict[int, KernelJob] = {it: shock_job(fmt, bodies, cons, order, it) for it in iters} if shock else {}
+    variants = {SHOCK_SUFFIX: 0, SHOCK_HAZARD_SUFFIX: window} if shock else {}
+    shocked = {(suffix, it): shock_job(fmt, bodies, cons, order, it, w) for suffix, w in variants.items()
+               for it in iters}
     for name, scale in ({"warm": 1.0} if warm is None else warm).items():
         if not 0.0 < scale or not np.isfinite(scale):
             raise ValueError(f"remedy {name}: the warm start's scale must be positive and finite, got {scale}")
         initial = Impulses(fmt.round(scale * last.initial.normal), fmt.round(scale * last.initial.friction))
         start = apply_impulses(bodies, cons, initial, fmt)
         solved[name] = solve_series(start, cons, order, fmt, iters, initial)
-        if shock:
-            solved[name + SHOCK_SUFFIX] = {
-                it: solve(start, j.cons, j.schedule, fmt, j.params, initial=initial).bodies for it, j in shocked.items()}
+        for suffix in variants:
+            solved[name + suffix] = {it: solve(start, j.cons, j.schedule, fmt, j.params, initial=initial).bodies
+                                     for (s, it), j in shocked.items() if s == suffix}
     rows = []
     for it in sorted(set(iters)):
         job = KernelJob(fmt, bodies, cons, order, SolverParams(iterations=it), IntegrationParams())
         job.impulses_travelling(initial)  # the warm step is a valid job of this design (values of fmt, finite)
         hazard_cycles = predict_job(job.impulses_travelling(None), dma).cycles
-        shock_cycles = predict_job(shocked[it], dma).cycles if shock else 0
+        shock_cycles = {suffix: predict_job(shocked[suffix, it], dma).cycles for suffix in variants}
         for remedy in solved:
-            cycles = shock_cycles if remedy.endswith(SHOCK_SUFFIX) else hazard_cycles
+            cycles = next((c for suffix, c in shock_cycles.items() if remedy.endswith(suffix)), hazard_cycles)
             e = solution_error(solved[remedy][it], ref.bodies, dyn)
             rows.append({"format": fmt.name, "remedy": remedy, "iterations": it,
                          **dict(zip(ERROR_KEYS, (e.max_dv, e.median_dv, e.p99_dv, e.max_dw, e.median_dw, e.p99_dw))),
@@ -287,8 +293,9 @@ def _parse(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--history", type=int, default=1, help="with --from-frames: frames solved before it, each "
                                                           "warm-started from the one before")
     ap.add_argument("--shock", action="store_true",
-                    help=f"price each warm remedy's shock variant too (<remedy>{SHOCK_SUFFIX}: one call, its last "
-                         "contact pass a linear shock pass, in the step's ground-up layer order)")
+                    help=f"price each warm remedy's shock variants too (<remedy>{SHOCK_SUFFIX}: one call, its last "
+                         "contact pass a linear shock pass, in the step's ground-up layer order; "
+                         f"<remedy>{SHOCK_HAZARD_SUFFIX}: each layer pair in the hazard order)")
     ap.add_argument("--plot", default="", help="write the speed-against-error plot (PNG) here")
     return ap.parse_args(argv)
 

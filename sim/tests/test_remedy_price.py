@@ -20,7 +20,7 @@ from models.scenes.frame_cache import load_or_capture
 from models.cycle_model import predict_job
 from models.dma_model import get_preset
 from sim.kernel_build import default_window
-from sim.remedy_price import (ERROR_KEYS, SHOCK_SUFFIX, capture, capture_from_frames, main, price, shock_job,
+from sim.remedy_price import (ERROR_KEYS, SHOCK_HAZARD_SUFFIX, SHOCK_SUFFIX, capture, capture_from_frames, main, price, shock_job,
                               solve_series, verdict)
 
 TINY = ["--scene", "stack", "--scene-args", "n=4", "--settle", "0", "--steps", "12", "--iters", "1,4"]
@@ -123,15 +123,17 @@ def test_the_shock_variant_is_its_own_curve_priced_in_its_layer_order() -> None:
     last, _, ref = _stack_step()
     rows = price(last, FP32, [1, 4], ref, shock=True)
     by = {(r["remedy"], r["iterations"]): r for r in rows}
-    assert {r["remedy"] for r in rows} == {"cold", "warm", "warm" + SHOCK_SUFFIX}
+    assert {r["remedy"] for r in rows} == {"cold", "warm", "warm" + SHOCK_SUFFIX, "warm" + SHOCK_HAZARD_SUFFIX}
     bodies, cons = last.bodies.rounded(FP32), last.cons.rounded(FP32)
+    window = default_window(FP32, get_preset("zcu102").stream_bits)
+    order = make_schedule("hazard", cons, bodies.dynamic, window)
     for it in (1, 4):
-        order = make_schedule("hazard", cons, bodies.dynamic, default_window(FP32, get_preset("zcu102").stream_bits))
-        job = shock_job(FP32, bodies, cons, order, it)
-        assert job.params.shock_contact and job.params.shock_impulses == "return" and job.cons.linear
-        assert by["warm" + SHOCK_SUFFIX, it]["cycles"] == predict_job(job, get_preset("zcu102")).cycles
-        assert by["warm" + SHOCK_SUFFIX, it]["max |dv|"] != by["warm", it]["max |dv|"]
-    assert len(verdict(rows, 4, 4)) == 2  # one line per warm remedy, the shock variant's included
+        for suffix, w in ((SHOCK_SUFFIX, 0), (SHOCK_HAZARD_SUFFIX, window)):
+            job = shock_job(FP32, bodies, cons, order, it, w)
+            assert job.params.shock_contact and job.params.shock_impulses == "return" and job.cons.linear
+            assert by["warm" + suffix, it]["cycles"] == predict_job(job, get_preset("zcu102")).cycles
+            assert by["warm" + suffix, it]["max |dv|"] != by["warm", it]["max |dv|"]
+    assert len(verdict(rows, 4, 4)) == 3  # one line per warm remedy, the shock variants' included
 
 
 def test_further_warm_start_factors_are_their_own_remedies() -> None:
