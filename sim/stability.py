@@ -45,7 +45,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--formats", default="fp32,fp16,bf16", help="comma-separated number formats")
     ap.add_argument("--iters", default=",".join(map(str, ITERATIONS)),
                     help="comma-separated iteration counts per step (a remedy's substeps share them)")
-    ap.add_argument("--remedies", default="cold,warm,warm+sub2,warm1+soft15z1+sub2+relax",
+    ap.add_argument("--remedies", default="cold,warm,warm+sub2,warm1+soft15z1+sub2+relax,warm+sub4+shocklrh",
                     help=f"comma-separated remedies ({', '.join(REMEDIES)}; models/stability.py REMEDIES)")
     ap.add_argument("--steps", type=int, default=0, help="override every case's step count (0: the case's own)")
     ap.add_argument("--jobs", type=int, default=2, help="parallel runs (the default executor local:<jobs>)")
