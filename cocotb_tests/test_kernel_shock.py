@@ -53,10 +53,6 @@ def records_shock_job() -> KernelJob:
     return pile_job(1, BIG_PILE).impulses_travelling().shocked(linear=True, friction=True, impulses="return")
 
 
-def _unshocked(job: KernelJob) -> KernelJob:
-    return dataclasses.replace(job, params=dataclasses.replace(job.params, shock_contact=False, shock_friction=False))
-
-
 def _cycles_without_the_bank_rule(job: KernelJob) -> int:
     """The cycle model of ``job`` as if its shock passes wrote every dynamic body (the banks busy with them)."""
     step = dataclasses.replace(StepShape.of_job(job), frozen=None, shock_passes=())
@@ -69,7 +65,7 @@ def test_the_shock_rows_reach_the_records_build() -> None:
     assert KernelBuild.for_job(job, PRESET).name == "pgs_kernel_e8m23_c512_ir_bk2"
     frozen = int(np.count_nonzero(job.cons.frozen != FREEZE_NONE))
     assert frozen > job.cons.num_manifolds // 2  # most rows of a pile have a lower body
-    gold, plain = golden_step(job).final, golden_step(_unshocked(job)).final
+    gold, plain = golden_step(job).final, golden_step(job.unshocked()).final
     assert not np.array_equal(gold.linear_velocity, plain.linear_velocity)  # the runs below can tell them apart
 
 
@@ -106,7 +102,7 @@ def test_onchip_kernel_last_contact_pass_shocked(tmp_path: Path) -> None:
     job = pile_job(4).shocked()
     assert KernelBuild.for_job(job, PRESET).name == "pgs_kernel_e8m23_c512"
     assert not np.array_equal(golden_step(job).final.linear_velocity,
-                              golden_step(_unshocked(job)).final.linear_velocity)
+                              golden_step(job.unshocked()).final.linear_velocity)
     _deterministic_run(job, tmp_path, "pile/fp32/on-chip impulses/last contact pass shocked")
 
 

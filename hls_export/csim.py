@@ -248,11 +248,6 @@ def shock_job(cold: KernelJob, shock: str) -> KernelJob:
     return job.impulses_travelling(warm_start(job, WARM_SEED))
 
 
-def unshocked(job: KernelJob) -> KernelJob:
-    """``job`` without its shock passes: the same records, schedule and start, the shock flags of its params clear."""
-    return replace(job, params=replace(job.params, shock_contact=False, shock_friction=False))
-
-
 def _print_row(case: str, res: CsimResult) -> None:
     c = res.comparison
     verdict = "bit-exact" if res.bit_exact else f"MISMATCH: {c.first_mismatch}"

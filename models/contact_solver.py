@@ -23,7 +23,7 @@ import numpy as np
 from .constraints import FRICTION_COEFF, BodyTable, ConstraintSet
 from .inertia import inertia_product
 from .number_format import Arithmetic
-from .shock_propagation import FREEZE_A, FREEZE_B, FREEZE_NONE, ShockConstraintSet
+from .shock_propagation import FREEZE_NONE, ShockConstraintSet
 
 SPIN_DAMP_FACTOR = 0.1
 
@@ -357,9 +357,8 @@ def run_pass(out: BodyTable, imp: Impulses, cons: ConstraintSet, levels: list[np
         linear: Optional[np.ndarray] = None
         if shock:
             assert isinstance(cons, ShockConstraintSet)
-            fa, fb = cons.frozen[idx] == FREEZE_A, cons.frozen[idx] == FREEZE_B
+            fa, fb, linear = cons.row_flags(idx)
             frozen = fa | fb
-            linear = frozen & cons.linear
             g.freeze(fa, fb, linear)
         held = imp.normal if kind == CONTACT_PASS else imp.friction  # the pass kind's accumulated impulses
         if kind == CONTACT_PASS:

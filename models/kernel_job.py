@@ -116,6 +116,12 @@ class KernelJob:
                                      shock_impulses=impulses, shock_passes=passes)
         return dataclasses.replace(self, cons=cons, schedule=order, params=params)
 
+    def unshocked(self) -> "KernelJob":
+        """This step without its shock passes: the same records, schedule and start, the shock flags of its
+        parameters clear (what a shocked step is told apart from)."""
+        return dataclasses.replace(self, params=dataclasses.replace(self.params, shock_contact=False,
+                                                                    shock_friction=False))
+
     def stored_as(self, record_bits: sf.RecordBits) -> "KernelJob":
         """This step with its records in the sizes of a mixed storage (``models/mixed_layout.py``: the cycle and
         resource models know it, the golden model's values are ``models/mixed_storage.py``'s, no RTL)."""

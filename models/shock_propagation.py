@@ -111,6 +111,13 @@ class ShockConstraintSet(ConstraintSet):
             raise ValueError(f"shock rows must be frozen ({m},), shock_jac_inv ({m},4), shock_f_jac_inv ({m},2)")
 
 
+    def row_flags(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per manifold of ``idx`` in a shock pass: body A frozen, body B frozen, and a linear row (a row with a
+        frozen body, of a linear shock set): the kernel's header bits, the golden model's ``_Gathered.freeze``."""
+        fa, fb = self.frozen[idx] == FREEZE_A, self.frozen[idx] == FREEZE_B
+        return fa, fb, (fa | fb) & self.linear
+
+
 def shock_constraints(cons: ConstraintSet, bodies: BodyTable, ar: Arithmetic, layer: np.ndarray | None = None,
                       linear: bool = False) -> ShockConstraintSet:
     """``cons`` with the frozen flags and the shock rows' coefficients (float64 on the host, rounded once);

@@ -75,7 +75,7 @@ from .constraints import BodyTable, ConstraintSet
 from .contact_solver import CONTACT_PASS, Impulses, SolverParams, is_shock_pass, pass_sequence
 from .inertia import InertiaMode, inertia_mode
 from .number_format import NumberFormat
-from .shock_propagation import FREEZE_A, FREEZE_B, ShockConstraintSet
+from .shock_propagation import ShockConstraintSet
 
 HEADER_BITS = 64
 CONTACT_WORDS = 23
@@ -216,8 +216,7 @@ def constraint_header(cons: ConstraintSet, idx: np.ndarray, shock: bool = False)
     if shock:
         if not isinstance(cons, ShockConstraintSet):
             raise ValueError("a shock pass's records need the shock rows: models.shock_propagation.shock_constraints")
-        fa, fb = cons.frozen[idx] == FREEZE_A, cons.frozen[idx] == FREEZE_B
-        lin = (fa | fb) & cons.linear
+        fa, fb, lin = cons.row_flags(idx)
         hdr |= ((fa.astype(np.uint64) << np.uint64(HEADER_FROZEN_A_BIT))
                 | (fb.astype(np.uint64) << np.uint64(HEADER_FROZEN_B_BIT))
                 | (lin.astype(np.uint64) << np.uint64(HEADER_SHOCK_LINEAR_BIT)))
