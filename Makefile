@@ -72,7 +72,8 @@ help:
 	@echo "               written to sim/generated/resource_figures.json for the resource model (docs/resources.md)"
 	@echo "make lint      verilator --lint-only -Wall on every RTL top"
 	@echo "make bench     simulated cycles per second of the kernel harness, compile profiles side by side"
-	@echo "               (SCENE= SCENE_ARGS= FORMAT= DMA= PROFILES=quick,o2 RUNS=3; a new profile builds first, minutes)"
+	@echo "               (SCENE= SCENE_ARGS= FORMAT= DMA= PROFILES=quick,o2 RUNS=3 MAX_CYCLES=0; a new profile builds"
+	@echo "               first, minutes; BASELINE_EXE= a harness from another tree, e.g. a worktree of an older commit)"
 	@echo "make rtl       regenerate the kernel datapaths and generated contracts (rtl/generated/, hls_export/generated/) from rtl/gen"
 	@echo "make clean     remove build outputs (keeps .venv and cached frames)"
 
@@ -146,9 +147,11 @@ lint: $(STAMP)
 
 PROFILES ?= quick,o2
 RUNS ?= 3
+MAX_CYCLES ?= 0
+BASELINE_EXE ?=
 bench: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.bench_sim_speed --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) \
-		--profiles $(PROFILES) --runs $(RUNS)
+		--profiles $(PROFILES) --runs $(RUNS) --max-cycles $(MAX_CYCLES) --baseline-exe "$(BASELINE_EXE)"
 
 rtl: $(STAMP)
 	$(TOOLENV) $(VPY) -m rtl.gen

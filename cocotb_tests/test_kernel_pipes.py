@@ -1,8 +1,9 @@
 """Bit-exact tests of the generated kernel datapaths (rtl/generated/pgs_{contact,friction,integrate}_pipe.sv).
 
 For each module and each format (fp32, fp16, bf16) the module is compiled once with Verilator into a
-C++ executable (``cocotb_tests/pipes/pipe_main.cpp``: one input record per cycle, ~5 % random idle
-cycles with junk inputs, checks of LATENCY, order, tag pass-through and reset). Every output word
+C++ executable (``cocotb_tests/pipes/pipe_main.cpp``: one input record per cycle, 25 % random idle
+cycles with junk inputs (the operators and delay lines take a word only with its valid bit, so idle cycles
+between records are what checks those enables), checks of LATENCY, order, tag pass-through and reset). Every output word
 must equal, bit for bit, the golden model (``contact_solve`` / ``friction_solve`` / ``integrate``
 through ``models/kernel_vectors.py``) evaluated on the same input words.
 
@@ -56,6 +57,7 @@ from sim.verilator_build import DEBUG_COMPILE_ARGS, build  # noqa: E402
 HERE = Path(__file__).resolve().parent / "pipes"
 RTL = REPO / "rtl"
 DEFAULT_SEED = 20240615
+IDLE_PERMILLE = 250  # idle cycles between the records, per mille
 FORMATS = KERNEL_FORMATS
 # Verilator: keep every operator instance a separate function (-fno-inline) and compile without C++
 # optimization: the designs are large and the runs short, so this is the fastest overall.
@@ -272,7 +274,7 @@ def run_harness(h: Harness, bits: np.ndarray, flags: np.ndarray, count: np.ndarr
     rec = np.concatenate([bits, word[:, None]], axis=1).astype("<u4")
     inp, outp = tmp / "in.bin", tmp / "out.bin"
     rec.tofile(inp)
-    proc = subprocess.run([str(h.exe), str(inp), str(outp), str(h.latency), str(seed), "50"],
+    proc = subprocess.run([str(h.exe), str(inp), str(outp), str(h.latency), str(seed), str(IDLE_PERMILLE)],
                           capture_output=True, text=True)
     assert proc.returncode == 0, f"harness failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}"
     res = np.fromfile(outp, dtype="<u4")

@@ -10,7 +10,6 @@ generated/pgs_stream_layout_pkg.sv
 generated/pgs_pipe_latency_pkg.sv
 
 // floating-point operators
-fp/fp_lzc.sv
 fp/fp_unpack.sv
 fp/fp_round_pack.sv
 fp/fp_valid_pipe.sv

@@ -641,9 +641,13 @@ module pgs_sequencer #(
         // the contact pipe's latency, so that every manifold retires C_LAT + 1 cycles after its issue, in
         // issue order
         if (F_ALIGN > 0) begin : g_f_align
-            fp_valid_pipe #(.LATENCY(F_ALIGN)) u_f_valid (.clk, .rst, .in_valid(f_pipe_valid), .out_valid(f_out_valid));
-            pgs_delay #(.WIDTH(STAG_W + 14*W), .DEPTH(F_ALIGN)) u_f_data (.clk, .d({f_pipe_tag, f_pipe}),
-                                                                       .q({f_out_tag, f_out}));
+            /* verilator lint_off UNUSEDSIGNAL */
+            logic [F_ALIGN:0] f_align_valid;   // the line keeps the valid results: [F_ALIGN-1:0]
+            /* verilator lint_on UNUSEDSIGNAL */
+            fp_valid_pipe #(.LATENCY(F_ALIGN)) u_f_valid (.clk, .rst, .in_valid(f_pipe_valid),
+                                                          .stage_valid(f_align_valid), .out_valid(f_out_valid));
+            pgs_delay #(.WIDTH(STAG_W + 14*W), .DEPTH(F_ALIGN)) u_f_data (
+                .clk, .d({f_pipe_tag, f_pipe}), .valid(f_align_valid[F_ALIGN-1:0]), .q({f_out_tag, f_out}));
         end else begin : g_f_direct
             assign f_out_valid = f_pipe_valid;
             assign f_out_tag   = f_pipe_tag;

@@ -10,10 +10,15 @@ profile: the build's wall and CPU seconds (Verilator, make and the compiler; abo
 there) and its CPU ratio to the first profile's, simulated cycles, the median of cycles per wall second and per
 CPU second of the harness process (the CPU figure holds on a loaded machine), and the ratio of the CPU figure to
 the first profile's. ``--max-cycles`` stops every run at that many cycles (a prefix of a long scene's step, the
-same for every profile; the outputs compared are then the prefix's).
+same for every profile; the outputs compared are then the prefix's). ``--baseline-exe`` adds a harness built
+elsewhere (the same kernel build from another tree, for example a git worktree of the commit before an RTL
+change) as the first, reference column: the same runs, the same inputs, byte-identical outputs, and each
+profile's speed as a ratio against it, measured side by side.
 
     python -m sim.bench_sim_speed --scene pile --profiles quick,o2 --runs 3
     python -m sim.bench_sim_speed --scene thesis --profiles quick,os --runs 3 --max-cycles 300000
+    python -m sim.bench_sim_speed --scene pile --profiles quick --runs 5 \
+        --baseline-exe ../old/build/verilator/pgs_kernel_e8m23_c512/pgs_kernel_e8m23_c512
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ from sim.kernel_build import COMPILE_PROFILES, KernelBuild, build_kernel, defaul
 from sim.verilator_build import REPO_ROOT
 
 OUTPUTS = ("trace.bin", "body_out.bin", "body_out_last.bin")
+BASELINE = "baseline"  # the column of --baseline-exe
 
 
 @dataclass
@@ -71,6 +77,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--max-cycles", type=int, default=0,
                     help="stop each run after this many cycles (0: run the whole step)")
     ap.add_argument("--out", default="build/bench", help="parent directory of the run directories")
+    ap.add_argument("--baseline-exe", default="",
+                    help="a harness of the same kernel build from another tree: the reference column")
     return ap.parse_args(argv)
 
 
@@ -91,6 +99,8 @@ def check_args(args: argparse.Namespace) -> list[str]:
     if not isinstance(parse_format(args.format), NumberFormat):
         raise ValueError(f"--format {args.format!r} is not a kernel format")
     get_preset(args.dma)
+    if args.baseline_exe and not Path(args.baseline_exe).is_file():
+        raise ValueError(f"--baseline-exe {args.baseline_exe}: no such file")
     return profiles
 
 
@@ -134,7 +144,8 @@ def report(results: list[ProfileRuns], label: str) -> str:
     for pr in results:
         ratio = pr.cycles_per_s(pr.cpu_s) / ref.cycles_per_s(ref.cpu_s)
         build_ratio = f"{pr.build_cpu_s / ref.build_cpu_s:11.2f}x" if ref.build_cpu_s >= 1.0 else f"{'-':>12}"
-        flags = " ".join(a for a in COMPILE_PROFILES[pr.profile] if a != "-MAKEFLAGS")
+        flags = (f"built elsewhere: {pr.exe}" if pr.profile == BASELINE else
+                 " ".join(a for a in COMPILE_PROFILES[pr.profile] if a != "-MAKEFLAGS"))
         lines.append(f"{pr.profile:<8} {pr.build_s:8.1f} {pr.build_cpu_s:12.1f} {build_ratio} "
                      f"{pr.cycles_per_s(pr.wall_s) / 1e3:12.1f} {pr.cycles_per_s(pr.cpu_s) / 1e3:11.1f} "
                      f"{ratio:9.2f}x  {flags}")
@@ -154,6 +165,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     label = f"{scene}-{job.fmt.name}-it{args.iters}-s{args.seed}-{args.dma}"
     base = REPO_ROOT / args.out / label
     results = []
+    if args.baseline_exe:
+        run_dir = base / BASELINE
+        shutil.rmtree(run_dir, ignore_errors=True)
+        write_inputs(run_dir, job, replace(kb, compile_profile=profiles[0]))
+        results.append(ProfileRuns(BASELINE, Path(args.baseline_exe).resolve(), 0.0, 0.0))
     for profile in profiles:
         profile_kb = replace(kb, compile_profile=profile)
         cpu0 = child_cpu_s()

@@ -17,7 +17,8 @@
 //   stage 2: align the smaller significand (guard, round, sticky bits) and add / subtract
 //   stage 3: leading-zero count and normalization
 //   stage 4: round to nearest even, exceptions, pack (output register)
-// Only the valid bits are reset; data registers are free-running.
+// Only the valid bits are reset; each data register stage is enabled by the valid bit of the stage
+// before it (its contents are meaningful only with that bit).
 `default_nettype none
 
 module fp_add #(
@@ -44,107 +45,105 @@ module fp_add #(
     localparam int DW   = $clog2(SW + 1);        // alignment shift width (clamped to SW)
 
     // ---------------- stage 1: unpack and order ----------------
-    logic                a_sign, b_sign, a_inf, b_inf, a_nan, b_nan;
-    // The zero flags are not needed: flushed zeros unpack to exponent 0 and significand 0, which
-    // the datapath adds exactly like any other operand.
+    // Each register stage takes an operation only when the stage before holds one (stage_valid, a
+    // clock enable on a board): its logic, the operands' unpack included, is written inside that
+    // branch with the branch's own temporaries, so a simulator computes it only then.
     /* verilator lint_off UNUSEDSIGNAL */
-    logic                a_zero, b_zero;
+    logic [LATENCY:0] stage_valid;   // [i]: in_valid i cycles ago; the stages enabled here read [2:1]
     /* verilator lint_on UNUSEDSIGNAL */
-    logic [EXP_BITS-1:0] a_exp, b_exp;
-    logic [P-1:0]        a_sig, b_sig;
 
-    fp_unpack #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_unpack_a (
-        .x(a), .sign(a_sign), .exp(a_exp), .sig(a_sig), .is_zero(a_zero), .is_inf(a_inf), .is_nan(a_nan)
-    );
-    fp_unpack #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_unpack_b (
-        .x(b), .sign(b_sign), .exp(b_exp), .sig(b_sig), .is_zero(b_zero), .is_inf(b_inf), .is_nan(b_nan)
-    );
-
-    logic                bs_eff, swap, invalid;
-    logic [EXP_BITS-1:0] diff_full;
-    logic [DW-1:0]       diff_c;
-    // Carried unchanged to stage 3: NaN operand, invalid, infinity and its sign, sign of an exact
-    // zero sum, sign and exponent of the bigger operand.
-    logic [5:0]          side;
-
-    always_comb begin
-        bs_eff    = b_sign ^ sub;
-        // Zeros (and flushed subnormals) unpack to exponent 0 and significand 0, so they order
-        // below every non-zero finite value.
-        swap      = {b_exp, b_sig} > {a_exp, a_sig};
-        diff_full = swap ? (b_exp - a_exp) : (a_exp - b_exp);
-        diff_c    = (diff_full > EXP_BITS'(SW)) ? DW'(SW) : diff_full[DW-1:0];
-        invalid   = a_inf && b_inf && (a_sign != bs_eff);
-        side      = {a_nan || b_nan, invalid, a_inf || b_inf, a_inf ? a_sign : bs_eff,
-                     a_sign && bs_eff, swap ? bs_eff : a_sign};
-    end
-
-    logic                s2_nan_op, s2_inv, s2_inf, s2_inf_sign, s2_zero_sign, s2_sign;
-    logic [EXP_BITS-1:0] s2_exp;
-
-    fp_data_pipe #(.WIDTH(6 + EXP_BITS), .DEPTH(2)) u_side (
-        .clk(clk), .d({side, swap ? b_exp : a_exp}),
-        .q({s2_nan_op, s2_inv, s2_inf, s2_inf_sign, s2_zero_sign, s2_sign, s2_exp})
-    );
-
-    // stage-1 registers of the datapath
+    // stage-1 registers: the datapath, and what travels unchanged to stage 3 (NaN operand,
+    // invalid, infinity and its sign, sign of an exact zero sum, sign and exponent of the bigger
+    // operand)
     logic                s1_eff_sub;
     logic [P-1:0]        s1_big, s1_small;
     logic [DW-1:0]       s1_shift;
+    logic [5:0]          s1_side;
+    logic [EXP_BITS-1:0] s1_exp;
 
     always_ff @(posedge clk) begin
-        s1_eff_sub <= a_sign ^ bs_eff;
-        s1_big     <= swap ? b_sig : a_sig;
-        s1_small   <= swap ? a_sig : b_sig;
-        s1_shift   <= diff_c;
+        if (in_valid) begin : b_order
+            automatic logic                a_sign, b_sign, bs_eff, a_inf, b_inf, a_nan, b_nan, swap;
+            automatic logic [EXP_BITS-1:0] a_exp, b_exp, diff_full;
+            automatic logic [P-1:0]        a_sig, b_sig;
+            // the fields as fp_unpack gives them: a subnormal reads as a zero (significand 0)
+            {a_sign, a_exp} = a[W-1:MAN_BITS];
+            {b_sign, b_exp} = b[W-1:MAN_BITS];
+            a_sig  = (a_exp == '0) ? '0 : {1'b1, a[MAN_BITS-1:0]};
+            b_sig  = (b_exp == '0) ? '0 : {1'b1, b[MAN_BITS-1:0]};
+            a_inf  = (a_exp == '1) && (a[MAN_BITS-1:0] == '0);
+            b_inf  = (b_exp == '1) && (b[MAN_BITS-1:0] == '0);
+            a_nan  = (a_exp == '1) && (a[MAN_BITS-1:0] != '0);
+            b_nan  = (b_exp == '1) && (b[MAN_BITS-1:0] != '0);
+            bs_eff = b_sign ^ sub;
+            // Order by the raw magnitudes {exponent, mantissa}: the same order as the unpacked
+            // {exponent, significand} (zeros and flushed subnormals, exponent 0, below everything
+            // else), except between two operands of exponent 0, which are both zero here, where
+            // either order gives the same result.
+            swap   = b[W-2:0] > a[W-2:0];
+            diff_full  = swap ? (b_exp - a_exp) : (a_exp - b_exp);
+            s1_eff_sub <= a_sign ^ bs_eff;
+            s1_big     <= swap ? b_sig : a_sig;
+            s1_small   <= swap ? a_sig : b_sig;
+            s1_shift   <= (diff_full > EXP_BITS'(SW)) ? DW'(SW) : diff_full[DW-1:0];
+            s1_side    <= {a_nan || b_nan, a_inf && b_inf && (a_sign != bs_eff), a_inf || b_inf,
+                           a_inf ? a_sign : bs_eff, a_sign && bs_eff, swap ? bs_eff : a_sign};
+            s1_exp     <= swap ? b_exp : a_exp;
+        end
     end
 
     // ---------------- stage 2: align and add ----------------
-    logic [2*SW-1:0] small_wide;
-    logic [SW-1:0]   small_al;
-    logic [NW-1:0]   sum;
-
-    always_comb begin
-        small_wide = {s1_small, 3'b000, {SW{1'b0}}} >> s1_shift;
-        // Bits shifted out below the sticky position are OR-ed into it.
-        small_al   = {small_wide[2*SW-1:SW+1], small_wide[SW] | (|small_wide[SW-1:0])};
-        if (s1_eff_sub) sum = {1'b0, s1_big, 3'b000} - {1'b0, small_al};
-        else            sum = {1'b0, s1_big, 3'b000} + {1'b0, small_al};
-    end
-
-    logic [NW-1:0] s2_sum;
+    logic [NW-1:0]       s2_sum;
+    logic [5:0]          s2_side;
+    logic [EXP_BITS-1:0] s2_exp;
 
     always_ff @(posedge clk) begin
-        s2_sum <= sum;
+        if (stage_valid[1]) begin : b_align
+            automatic logic [SW-1:0] small_sh;
+            automatic logic          lost;   // a one shifted out below the sticky position
+            automatic logic [SW-1:0] small_al;
+            small_sh = {s1_small, 3'b000} >> s1_shift;
+            // The shifted-out bits are the small significand's bits below position shift - 3 (its
+            // three appended zeros go first): a mask of the shift, not the shifter's lower half.
+            lost = 1'b0;
+            for (int i = 0; i < P; i++) lost |= s1_small[i] && (DW'(i + 3) < s1_shift);
+            small_al = {small_sh[SW-1:1], small_sh[0] | lost};
+            if (s1_eff_sub) s2_sum <= {1'b0, s1_big, 3'b000} - {1'b0, small_al};
+            else            s2_sum <= {1'b0, s1_big, 3'b000} + {1'b0, small_al};
+            s2_side <= s1_side;
+            s2_exp  <= s1_exp;
+        end
     end
 
     // ---------------- stage 3: normalize ----------------
-    logic [LZW-1:0] lz;
-    logic           sum_zero;
-
-    fp_lzc #(.WIDTH(NW)) u_lzc (.x(s2_sum), .count(lz));
-
-    assign sum_zero = (s2_sum == '0);
-
     logic [4:0]           s3_special;
     logic signed [EW-1:0] s3_exp;
     logic [NW-1:0]        s3_norm;
 
     always_ff @(posedge clk) begin
-        // An infinity takes its own sign, an exact zero sum the sign of a zero sum.
-        s3_special <= {s2_nan_op, s2_inv, s2_inf, sum_zero,
-                       s2_inf ? s2_inf_sign : (sum_zero ? s2_zero_sign : s2_sign)};
-        // The big operand's hidden bit sits at sum bit NW-2, so the leading one at NW-1-lz has
-        // weight 2^(exp + 1 - lz - bias).
-        s3_exp     <= $signed({{(EW-EXP_BITS){1'b0}}, s2_exp}) + EW'(1) - $signed({{(EW-LZW){1'b0}}, lz});
-        s3_norm    <= s2_sum << lz;
+        if (stage_valid[2]) begin : b_normalize
+            automatic logic [LZW-1:0] lz;         // leading zeros of the sum
+            automatic logic           sum_zero;
+            lz = LZW'(NW);
+            for (int i = 0; i < NW; i++) begin
+                if (s2_sum[i]) lz = LZW'(NW - 1 - i);
+            end
+            sum_zero = (s2_sum == '0);
+            // An infinity takes its own sign, an exact zero sum the sign of a zero sum.
+            s3_special <= {s2_side[5:3], sum_zero, s2_side[3] ? s2_side[2] : (sum_zero ? s2_side[1] : s2_side[0])};
+            // The big operand's hidden bit sits at sum bit NW-2, so the leading one at NW-1-lz has
+            // weight 2^(exp + 1 - lz - bias).
+            s3_exp     <= $signed({{(EW-EXP_BITS){1'b0}}, s2_exp}) + EW'(1) - $signed({{(EW-LZW){1'b0}}, lz});
+            s3_norm    <= s2_sum << lz;
+        end
     end
 
     // ---------------- stage 4: round and pack ----------------
     fp_result_stage #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW), .LATENCY(LATENCY)) u_result (
         .clk(clk), .rst(rst), .in_valid(in_valid), .special(s3_special),
         .exp_in(s3_exp), .sig_in(s3_norm[NW-1:NW-P]), .round_bit(s3_norm[NW-P-1]),
-        .sticky(|s3_norm[NW-P-2:0]), .out_valid(out_valid), .y(y), .flags(flags));
+        .sticky(|s3_norm[NW-P-2:0]), .stage_valid(stage_valid), .out_valid(out_valid), .y(y),
+        .flags(flags));
 endmodule
 
 `default_nettype wire

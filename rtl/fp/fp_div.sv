@@ -21,7 +21,8 @@
 //   stage 1            : unpack, classify, sign and exponent difference
 //   stages 2 .. P+3    : one quotient bit each (P+2 = MAN_BITS+3 stages)
 //   stage  P+4         : normalization, round to nearest even, exceptions, pack (output register)
-// Only the valid bits are reset; data registers are free-running.
+// Only the valid bits are reset; each data register stage is enabled by the valid bit of the stage
+// before it (the side band's shift register is free-running).
 `default_nettype none
 
 module fp_div #(
@@ -81,31 +82,33 @@ module fp_div #(
     logic [P:0]    st_rem [NQ+1];   // partial remainder (< 2 * divisor), already shifted
     logic [NQ-1:0] st_quo [NQ+1];   // quotient bits so far (LSB = newest)
 
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [LATENCY:0] stage_valid;   // [i]: in_valid i cycles ago; the recurrence reads [NQ:1]
+    /* verilator lint_on UNUSEDSIGNAL */
+
+    // Each stage takes an operation only when the stage before holds one (a clock enable on a board;
+    // blocking temporaries inside the branch, so a simulator computes the stage only then).
     always_ff @(posedge clk) begin
-        st_den[0] <= b_sig;
-        st_rem[0] <= {1'b0, a_sig};
-        st_quo[0] <= '0;
-    end
-
-    // ---------------- stages 2 .. NQ+1: restoring recurrence ----------------
-    logic [P:0] trial [NQ];
-    logic       qbit  [NQ];
-    logic [P:0] rem_n [NQ];
-
-    always_comb begin
-        for (int k = 0; k < NQ; k++) begin
-            trial[k] = st_rem[k] - {1'b0, st_den[k]};
-            qbit[k]  = (st_rem[k] >= {1'b0, st_den[k]});
-            // The remainder after the subtraction is below the divisor (< 2^P): shift it left.
-            rem_n[k] = qbit[k] ? {trial[k][P-1:0], 1'b0} : {st_rem[k][P-1:0], 1'b0};
+        if (in_valid) begin
+            st_den[0] <= b_sig;
+            st_rem[0] <= {1'b0, a_sig};
+            st_quo[0] <= '0;
         end
     end
 
+    // ---------------- stages 2 .. NQ+1: restoring recurrence ----------------
     always_ff @(posedge clk) begin
         for (int k = 0; k < NQ; k++) begin
-            st_den[k+1] <= st_den[k];
-            st_rem[k+1] <= rem_n[k];
-            st_quo[k+1] <= {st_quo[k][NQ-2:0], qbit[k]};
+            if (stage_valid[k+1]) begin : b_digit
+                automatic logic [P-1:0] trial;   // the low P bits of the difference: all the shift keeps
+                automatic logic         qbit;
+                trial = st_rem[k][P-1:0] - st_den[k];
+                qbit  = (st_rem[k] >= {1'b0, st_den[k]});
+                st_den[k+1] <= st_den[k];
+                // The remainder after the subtraction is below the divisor (< 2^P): shift it left.
+                st_rem[k+1] <= qbit ? {trial[P-1:0], 1'b0} : {st_rem[k][P-1:0], 1'b0};
+                st_quo[k+1] <= {st_quo[k][NQ-2:0], qbit};
+            end
         end
     end
 
@@ -135,7 +138,7 @@ module fp_div #(
     fp_result_stage #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW), .LATENCY(LATENCY)) u_result (
         .clk(clk), .rst(rst), .in_valid(in_valid), .special(last_special),
         .exp_in(exp_n), .sig_in(sig_n), .round_bit(rnd_n), .sticky(sticky_n),
-        .out_valid(out_valid), .y(y), .flags(flags));
+        .stage_valid(stage_valid), .out_valid(out_valid), .y(y), .flags(flags));
 endmodule
 
 `default_nettype wire

@@ -84,8 +84,13 @@ module fp_minmax #(
         .clk(clk), .d({c_min, c_max, c_lt, c_eq, nan_any}), .q({y_min, y_max, lt, eq, unordered})
     );
 
+    // The core is a few comparisons and selects: its output stages are not enabled by the valid bits.
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [LATENCY:0] stage_valid;
+    /* verilator lint_on UNUSEDSIGNAL */
+
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
+        .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(stage_valid), .out_valid(out_valid)
     );
 endmodule
 

@@ -16,7 +16,8 @@
 //   stage 1: unpack, classify, sign and exponent sum
 //   stage 2: significand product (maps to a pipelined DSP multiplier)
 //   stage 3: 1-bit normalization, round to nearest even, exceptions, pack (output register)
-// Only the valid bits are reset; data registers are free-running.
+// Only the valid bits are reset; each data register stage is enabled by the valid bit of the stage
+// before it.
 `default_nettype none
 
 module fp_mul #(
@@ -39,45 +40,48 @@ module fp_mul #(
     localparam int BIAS = (1 << (EXP_BITS - 1)) - 1;
 
     // ---------------- stage 1: unpack ----------------
-    logic                a_sign, b_sign, a_zero, b_zero, a_inf, b_inf, a_nan, b_nan;
-    logic [EXP_BITS-1:0] a_exp, b_exp;
-    logic [P-1:0]        a_sig, b_sig;
-
-    fp_unpack #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_unpack_a (
-        .x(a), .sign(a_sign), .exp(a_exp), .sig(a_sig), .is_zero(a_zero), .is_inf(a_inf), .is_nan(a_nan)
-    );
-    fp_unpack #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_unpack_b (
-        .x(b), .sign(b_sign), .exp(b_exp), .sig(b_sig), .is_zero(b_zero), .is_inf(b_inf), .is_nan(b_nan)
-    );
+    // Each register stage takes an operation only when the stage before holds one (stage_valid, a
+    // clock enable on a board): its logic, the operands' unpack included, is written inside that
+    // branch with the branch's own temporaries, so a simulator computes it only then.
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [LATENCY:0] stage_valid;   // [i]: in_valid i cycles ago; the stages enabled here read [1]
+    /* verilator lint_on UNUSEDSIGNAL */
 
     // The exception side band (fp_result_stage's `special`) and the exponent sum travel to stage 3.
-    logic                 invalid;
-    logic [4:0]           special;
-    logic signed [EW-1:0] exp_sum;
-
-    always_comb begin
-        invalid = (a_inf && b_zero) || (a_zero && b_inf);
-        special = {a_nan || b_nan, invalid, a_inf || b_inf, a_zero || b_zero, a_sign ^ b_sign};
-        exp_sum = $signed({2'b00, a_exp}) + $signed({2'b00, b_exp}) - EW'(BIAS);
-    end
-
-    logic [4:0]           s2_special;
-    logic signed [EW-1:0] s2_exp;
-
-    fp_data_pipe #(.WIDTH(5 + EW), .DEPTH(2)) u_side (.clk(clk), .d({special, exp_sum}), .q({s2_special, s2_exp}));
-
-    logic [P-1:0] s1_a_sig, s1_b_sig;
+    logic [P-1:0]         s1_a_sig, s1_b_sig;
+    logic [4:0]           s1_special, s2_special;
+    logic signed [EW-1:0] s1_exp, s2_exp;
 
     always_ff @(posedge clk) begin
-        s1_a_sig <= a_sig;
-        s1_b_sig <= b_sig;
+        if (in_valid) begin : b_unpack
+            automatic logic                a_sign, b_sign, a_zero, b_zero, a_inf, b_inf, a_nan, b_nan;
+            automatic logic [EXP_BITS-1:0] a_exp, b_exp;
+            // the fields as fp_unpack gives them: a subnormal reads as a zero
+            {a_sign, a_exp} = a[W-1:MAN_BITS];
+            {b_sign, b_exp} = b[W-1:MAN_BITS];
+            a_zero = (a_exp == '0);
+            b_zero = (b_exp == '0);
+            a_inf  = (a_exp == '1) && (a[MAN_BITS-1:0] == '0);
+            b_inf  = (b_exp == '1) && (b[MAN_BITS-1:0] == '0);
+            a_nan  = (a_exp == '1) && (a[MAN_BITS-1:0] != '0);
+            b_nan  = (b_exp == '1) && (b[MAN_BITS-1:0] != '0);
+            s1_a_sig   <= a_zero ? '0 : {1'b1, a[MAN_BITS-1:0]};
+            s1_b_sig   <= b_zero ? '0 : {1'b1, b[MAN_BITS-1:0]};
+            s1_special <= {a_nan || b_nan, (a_inf && b_zero) || (a_zero && b_inf), a_inf || b_inf,
+                           a_zero || b_zero, a_sign ^ b_sign};
+            s1_exp     <= $signed({2'b00, a_exp}) + $signed({2'b00, b_exp}) - EW'(BIAS);
+        end
     end
 
     // ---------------- stage 2: multiply ----------------
     logic [2*P-1:0] s2_prod;
 
     always_ff @(posedge clk) begin
-        s2_prod <= {{P{1'b0}}, s1_a_sig} * {{P{1'b0}}, s1_b_sig};
+        if (stage_valid[1]) begin
+            s2_prod    <= {{P{1'b0}}, s1_a_sig} * {{P{1'b0}}, s1_b_sig};
+            s2_special <= s1_special;
+            s2_exp     <= s1_exp;
+        end
     end
 
     // ---------------- stage 3: normalize, round, pack ----------------
@@ -88,23 +92,18 @@ module fp_mul #(
     logic signed [EW-1:0] exp_n;
 
     always_comb begin
-        hi = s2_prod[2*P-1];
-        if (hi) begin
-            sig_n    = s2_prod[2*P-1:P];
-            rnd_n    = s2_prod[P-1];
-            sticky_n = |s2_prod[P-2:0];
-        end else begin
-            sig_n    = s2_prod[2*P-2:P-1];
-            rnd_n    = s2_prod[P-2];
-            sticky_n = |s2_prod[P-3:0];
-        end
+        hi       = s2_prod[2*P-1];
+        sig_n    = hi ? s2_prod[2*P-1:P] : s2_prod[2*P-2:P-1];
+        rnd_n    = hi ? s2_prod[P-1] : s2_prod[P-2];
+        // the bits below the round bit: the low P-2 in both binades, and bit P-2 in the upper one
+        sticky_n = (|s2_prod[P-3:0]) || (hi && s2_prod[P-2]);
         exp_n = s2_exp + {{(EW-1){1'b0}}, hi};
     end
 
     fp_result_stage #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW), .LATENCY(LATENCY)) u_result (
         .clk(clk), .rst(rst), .in_valid(in_valid), .special(s2_special),
         .exp_in(exp_n), .sig_in(sig_n), .round_bit(rnd_n), .sticky(sticky_n),
-        .out_valid(out_valid), .y(y), .flags(flags));
+        .stage_valid(stage_valid), .out_valid(out_valid), .y(y), .flags(flags));
 endmodule
 
 `default_nettype wire

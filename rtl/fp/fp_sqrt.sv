@@ -20,7 +20,8 @@
 //   stage 1           : unpack, classify, exponent halving, radicand alignment
 //   stages 2 .. P+2   : one root bit each (P+1 = MAN_BITS+2 stages)
 //   stage  P+3        : round to nearest even, exceptions, pack (output register)
-// Only the valid bits are reset; data registers are free-running.
+// Only the valid bits are reset; each data register stage is enabled by the valid bit of the stage
+// before it (the side band's shift register is free-running).
 `default_nettype none
 
 module fp_sqrt #(
@@ -85,32 +86,35 @@ module fp_sqrt #(
     logic [RW-1:0] st_rem  [NR+1];   // partial remainder
     logic [NR-1:0] st_root [NR+1];   // root bits so far (LSB = newest)
 
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [LATENCY:0] stage_valid;   // [i]: in_valid i cycles ago; the recurrence reads [NR:1]
+    /* verilator lint_on UNUSEDSIGNAL */
+
+    // Each stage takes an operation only when the stage before holds one (a clock enable on a board;
+    // blocking temporaries inside the branch, so a simulator computes the stage only then).
     always_ff @(posedge clk) begin
-        st_rad[0]  <= m_scaled;
-        st_rem[0]  <= '0;
-        st_root[0] <= '0;
+        if (in_valid) begin
+            st_rad[0]  <= m_scaled;
+            st_rem[0]  <= '0;
+            st_root[0] <= '0;
+        end
     end
 
     // ---------------- stages 2 .. NR+1: restoring recurrence ----------------
     // N = M' * 2^(P+1) has 2P+2 bits: M' (P+1 bits) followed by P+1 zeros; each stage brings down
     // two bits, the shift register supplies M' and then zeros.
-    logic [RW-1:0] cur   [NR];
-    logic [RW-1:0] trial [NR];
-    logic          rbit  [NR];
-
-    always_comb begin
-        for (int k = 0; k < NR; k++) begin
-            cur[k]   = {st_rem[k][RW-3:0], st_rad[k][P:P-1]};
-            trial[k] = {{(RW-NR-2){1'b0}}, st_root[k], 2'b01};
-            rbit[k]  = (cur[k] >= trial[k]);
-        end
-    end
-
     always_ff @(posedge clk) begin
         for (int k = 0; k < NR; k++) begin
-            st_rad[k+1]  <= {st_rad[k][P-2:0], 2'b00};
-            st_rem[k+1]  <= rbit[k] ? (cur[k] - trial[k]) : cur[k];
-            st_root[k+1] <= {st_root[k][NR-2:0], rbit[k]};
+            if (stage_valid[k+1]) begin : b_digit
+                automatic logic [RW-1:0] cur, trial;
+                automatic logic          rbit;
+                cur   = {st_rem[k][RW-3:0], st_rad[k][P:P-1]};
+                trial = {{(RW-NR-2){1'b0}}, st_root[k], 2'b01};
+                rbit  = (cur >= trial);
+                st_rad[k+1]  <= {st_rad[k][P-2:0], 2'b00};
+                st_rem[k+1]  <= rbit ? (cur - trial) : cur;
+                st_root[k+1] <= {st_root[k][NR-2:0], rbit};
+            end
         end
     end
 
@@ -118,7 +122,7 @@ module fp_sqrt #(
     fp_result_stage #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .EW(EW), .LATENCY(LATENCY)) u_result (
         .clk(clk), .rst(rst), .in_valid(in_valid), .special(last_special),
         .exp_in($signed({2'b00, last_exp})), .sig_in(st_root[NR][NR-1:1]), .round_bit(st_root[NR][0]),
-        .sticky(st_rem[NR] != '0), .out_valid(out_valid), .y(y), .flags(flags));
+        .sticky(st_rem[NR] != '0), .stage_valid(stage_valid), .out_valid(out_valid), .y(y), .flags(flags));
 endmodule
 
 `default_nettype wire

@@ -176,22 +176,29 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
         L.append("    assign op_valid_nc = '0;")
     L += ["    /* verilator lint_on UNUSEDSIGNAL */", ""]
 
-    L += ["    // Valid and tag pipelines.",
+    L += ["    // Valid and tag pipelines. valid_q[k]: in_valid k cycles ago; an operator's in_valid is the",
+          "    // bit at its issue cycle, so its register stages are enabled only for the pipeline's inputs.",
+          "    /* verilator lint_off UNUSEDSIGNAL */",
+          "    logic [LATENCY:0] valid_q;   // the stages after the last operator's issue are not read",
+          "    /* verilator lint_on UNUSEDSIGNAL */",
           "    fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (",
-          "        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)", "    );",
-          "    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (.clk(clk), .d(in_tag), .q(out_tag));", ""]
+          "        .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)",
+          "    );",
+          "    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (",
+          "        .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)", "    );", ""]
     ev_depth = Time.max([sch.ready[v.id] for v in fp_nodes])
     L += ["    // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);",
           "    // an operator's flags belong to the input taken at its ready cycle minus that many cycles.",
           f"    localparam int EV_DEPTH = {ev_depth.sv()};",
-          "    logic [EV_DEPTH:0] ev_q;",
-          "    assign ev_q[0] = in_valid && in_count;",
-          "    for (genvar i = 1; i <= EV_DEPTH; i++) begin : g_ev",
-          "        always_ff @(posedge clk) begin",
-          "            if (rst) ev_q[i] <= 1'b0;",
-          "            else     ev_q[i] <= ev_q[i-1];",
-          "        end",
+          "    logic [EV_DEPTH:1] ev_r;",
+          "    /* verilator lint_off UNUSEDSIGNAL */",
+          "    logic [EV_DEPTH:0] ev_q;   // read at the operators' ready cycles only",
+          "    /* verilator lint_on UNUSEDSIGNAL */",
+          "    always_ff @(posedge clk) begin   // one shift of the whole register",
+          "        if (rst) ev_r <= '0;",
+          "        else     ev_r <= EV_DEPTH'({ev_r, in_valid && in_count});",
           "    end",
+          "    assign ev_q = {ev_r, in_valid && in_count};",
           "    logic [N_FP_OPS-1:0] ev_ovf, ev_unf, ev_inv;   // flags of counted inputs, one bit per operator",
           "    always_ff @(posedge clk) begin",
           "        ev_overflow  <= EV_W'($countones(ev_ovf));",
@@ -205,6 +212,9 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
         return [f"    assign ev_ovf[{k}] = fl_{v.name}[0] && ev_q[{at}];",
                 f"    assign ev_unf[{k}] = fl_{v.name}[1] && ev_q[{at}];",
                 f"    assign ev_inv[{k}] = fl_{v.name}[2] && ev_q[{at}];"]
+
+    def issue_valid(v: Value) -> str:
+        return f"valid_q[{sch.issue[v.id].sv()}]"
 
     def emit_line(v: Value) -> list[str]:
         line = sch.lines.get(v.id)
@@ -222,7 +232,13 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
             out.append(f"    pgs_delay #(.WIDTH({w}), .DEPTH({depth}), .N_TAPS({nt}), .TAPS({tap_par}))")
         else:
             out.append(f"    pgs_delay #(.WIDTH({w}), .DEPTH({depth}))")
-        out.append(f"        u_dl_{v.name} (.clk(clk), .d({v.name}), .q(dl_{v.name}));")
+        # the line keeps the words of the pipe's valid inputs: valid_q from this value's ready cycle on
+        # (pgs_delay's valid port is max(DEPTH, 1) wide; a line of depth 0 reads none of it)
+        if depth.isdigit():
+            valid = f"valid_q[{ready.sv()} +: {depth}]" if depth != "0" else "1'b0"
+        else:  # a depth that depends on the format
+            valid = f"valid_q[{ready.sv()} +: (({depth}) > 0 ? ({depth}) : 1)]"
+        out.append(f"        u_dl_{v.name} (.clk(clk), .d({v.name}), .valid({valid}), .q(dl_{v.name}));")
         return out
 
     L.append("    // Input words and their delay lines.")
@@ -261,7 +277,7 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
             extra = f", .sub(1'b{1 if v.op == 'sub' else 0})" if mod == "fp_add" else ""
             L.append(f"    logic [2:0] fl_{v.name};")
             L.append(f"    {mod} #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_{v.name} (")
-            L.append(f"        .clk(clk), .rst(rst), .in_valid(1'b1), {operands}{extra},")
+            L.append(f"        .clk(clk), .rst(rst), .in_valid({issue_valid(v)}), {operands}{extra},")
             L.append(f"        .out_valid(op_valid_nc[{k_op}]), .y({v.name}), .flags(fl_{v.name})")
             L.append("    );")
             L += emit_flags(v)
@@ -270,7 +286,7 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
             conn = {"min": f"nc_{v.name}_min", "max": f"nc_{v.name}_max", "lt": f"nc_{v.name}_lt"}
             conn[{"min": "min", "max": "max", "lt": "lt"}[v.op]] = v.name
             L.append(f"    fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_{v.name} (")
-            L.append(f"        .clk(clk), .rst(rst), .in_valid(1'b1), .a({ops[0]}), .b({ops[1]}),")
+            L.append(f"        .clk(clk), .rst(rst), .in_valid({issue_valid(v)}), .a({ops[0]}), .b({ops[1]}),")
             L.append(f"        .out_valid(op_valid_nc[{k_op}]), .y_min({conn['min']}), .y_max({conn['max']}),")
             L.append(f"        .lt({conn['lt']}), .eq(nc_{v.name}_eq), .unordered(nc_{v.name}_uo)")
             L.append("    );")

@@ -68,23 +68,30 @@ module pgs_contact_pipe #(
     logic         nc_pt3_lam_new_lt, nc_pt3_lam_new_eq, nc_pt3_lam_new_uo;
     /* verilator lint_on UNUSEDSIGNAL */
 
-    // Valid and tag pipelines.
+    // Valid and tag pipelines. valid_q[k]: in_valid k cycles ago; an operator's in_valid is the
+    // bit at its issue cycle, so its register stages are enabled only for the pipeline's inputs.
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [LATENCY:0] valid_q;   // the stages after the last operator's issue are not read
+    /* verilator lint_on UNUSEDSIGNAL */
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
+        .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (.clk(clk), .d(in_tag), .q(out_tag));
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+        .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
+    );
 
     // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);
     // an operator's flags belong to the input taken at its ready cycle minus that many cycles.
     localparam int EV_DEPTH = 179;
-    logic [EV_DEPTH:0] ev_q;
-    assign ev_q[0] = in_valid && in_count;
-    for (genvar i = 1; i <= EV_DEPTH; i++) begin : g_ev
-        always_ff @(posedge clk) begin
-            if (rst) ev_q[i] <= 1'b0;
-            else     ev_q[i] <= ev_q[i-1];
-        end
+    logic [EV_DEPTH:1] ev_r;
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [EV_DEPTH:0] ev_q;   // read at the operators' ready cycles only
+    /* verilator lint_on UNUSEDSIGNAL */
+    always_ff @(posedge clk) begin   // one shift of the whole register
+        if (rst) ev_r <= '0;
+        else     ev_r <= EV_DEPTH'({ev_r, in_valid && in_count});
     end
+    assign ev_q = {ev_r, in_valid && in_count};
     logic [N_FP_OPS-1:0] ev_ovf, ev_unf, ev_inv;   // flags of counted inputs, one bit per operator
     always_ff @(posedge clk) begin
         ev_overflow  <= EV_W'($countones(ev_ovf));
@@ -97,267 +104,267 @@ module pgs_contact_pipe #(
     assign in_n_x = in_data[0*W +: W];
     logic [5*W-1:0] dl_in_n_x;
     pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
-        u_dl_in_n_x (.clk(clk), .d(in_n_x), .q(dl_in_n_x));
+        u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 137]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [5*W-1:0] dl_in_n_y;
     pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
-        u_dl_in_n_y (.clk(clk), .d(in_n_y), .q(dl_in_n_y));
+        u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 137]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [5*W-1:0] dl_in_n_z;
     pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
-        u_dl_in_n_z (.clk(clk), .d(in_n_z), .q(dl_in_n_z));
+        u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 137]), .q(dl_in_n_z));
     logic [W-1:0] in_p0_x;
     assign in_p0_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_p0_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p0_x (.clk(clk), .d(in_p0_x), .q(dl_in_p0_x));
+        u_dl_in_p0_x (.clk(clk), .d(in_p0_x), .valid(1'b0), .q(dl_in_p0_x));
     logic [W-1:0] in_p0_y;
     assign in_p0_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_p0_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p0_y (.clk(clk), .d(in_p0_y), .q(dl_in_p0_y));
+        u_dl_in_p0_y (.clk(clk), .d(in_p0_y), .valid(1'b0), .q(dl_in_p0_y));
     logic [W-1:0] in_p0_z;
     assign in_p0_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_p0_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p0_z (.clk(clk), .d(in_p0_z), .q(dl_in_p0_z));
+        u_dl_in_p0_z (.clk(clk), .d(in_p0_z), .valid(1'b0), .q(dl_in_p0_z));
     logic [W-1:0] in_p1_x;
     assign in_p1_x = in_data[6*W +: W];
     logic [W-1:0] dl_in_p1_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p1_x (.clk(clk), .d(in_p1_x), .q(dl_in_p1_x));
+        u_dl_in_p1_x (.clk(clk), .d(in_p1_x), .valid(1'b0), .q(dl_in_p1_x));
     logic [W-1:0] in_p1_y;
     assign in_p1_y = in_data[7*W +: W];
     logic [W-1:0] dl_in_p1_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p1_y (.clk(clk), .d(in_p1_y), .q(dl_in_p1_y));
+        u_dl_in_p1_y (.clk(clk), .d(in_p1_y), .valid(1'b0), .q(dl_in_p1_y));
     logic [W-1:0] in_p1_z;
     assign in_p1_z = in_data[8*W +: W];
     logic [W-1:0] dl_in_p1_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p1_z (.clk(clk), .d(in_p1_z), .q(dl_in_p1_z));
+        u_dl_in_p1_z (.clk(clk), .d(in_p1_z), .valid(1'b0), .q(dl_in_p1_z));
     logic [W-1:0] in_p2_x;
     assign in_p2_x = in_data[9*W +: W];
     logic [W-1:0] dl_in_p2_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p2_x (.clk(clk), .d(in_p2_x), .q(dl_in_p2_x));
+        u_dl_in_p2_x (.clk(clk), .d(in_p2_x), .valid(1'b0), .q(dl_in_p2_x));
     logic [W-1:0] in_p2_y;
     assign in_p2_y = in_data[10*W +: W];
     logic [W-1:0] dl_in_p2_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p2_y (.clk(clk), .d(in_p2_y), .q(dl_in_p2_y));
+        u_dl_in_p2_y (.clk(clk), .d(in_p2_y), .valid(1'b0), .q(dl_in_p2_y));
     logic [W-1:0] in_p2_z;
     assign in_p2_z = in_data[11*W +: W];
     logic [W-1:0] dl_in_p2_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p2_z (.clk(clk), .d(in_p2_z), .q(dl_in_p2_z));
+        u_dl_in_p2_z (.clk(clk), .d(in_p2_z), .valid(1'b0), .q(dl_in_p2_z));
     logic [W-1:0] in_p3_x;
     assign in_p3_x = in_data[12*W +: W];
     logic [W-1:0] dl_in_p3_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p3_x (.clk(clk), .d(in_p3_x), .q(dl_in_p3_x));
+        u_dl_in_p3_x (.clk(clk), .d(in_p3_x), .valid(1'b0), .q(dl_in_p3_x));
     logic [W-1:0] in_p3_y;
     assign in_p3_y = in_data[13*W +: W];
     logic [W-1:0] dl_in_p3_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p3_y (.clk(clk), .d(in_p3_y), .q(dl_in_p3_y));
+        u_dl_in_p3_y (.clk(clk), .d(in_p3_y), .valid(1'b0), .q(dl_in_p3_y));
     logic [W-1:0] in_p3_z;
     assign in_p3_z = in_data[14*W +: W];
     logic [W-1:0] dl_in_p3_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p3_z (.clk(clk), .d(in_p3_z), .q(dl_in_p3_z));
+        u_dl_in_p3_z (.clk(clk), .d(in_p3_z), .valid(1'b0), .q(dl_in_p3_z));
     logic [W-1:0] in_jac_inv0;
     assign in_jac_inv0 = in_data[15*W +: W];
     logic [2*W-1:0] dl_in_jac_inv0;
     pgs_delay #(.WIDTH(W), .DEPTH(34), .N_TAPS(2), .TAPS({32'(34), 32'(0)}))
-        u_dl_in_jac_inv0 (.clk(clk), .d(in_jac_inv0), .q(dl_in_jac_inv0));
+        u_dl_in_jac_inv0 (.clk(clk), .d(in_jac_inv0), .valid(valid_q[0 +: 34]), .q(dl_in_jac_inv0));
     logic [W-1:0] in_jac_inv1;
     assign in_jac_inv1 = in_data[16*W +: W];
     logic [2*W-1:0] dl_in_jac_inv1;
     pgs_delay #(.WIDTH(W), .DEPTH(76), .N_TAPS(2), .TAPS({32'(76), 32'(0)}))
-        u_dl_in_jac_inv1 (.clk(clk), .d(in_jac_inv1), .q(dl_in_jac_inv1));
+        u_dl_in_jac_inv1 (.clk(clk), .d(in_jac_inv1), .valid(valid_q[0 +: 76]), .q(dl_in_jac_inv1));
     logic [W-1:0] in_jac_inv2;
     assign in_jac_inv2 = in_data[17*W +: W];
     logic [2*W-1:0] dl_in_jac_inv2;
     pgs_delay #(.WIDTH(W), .DEPTH(118), .N_TAPS(2), .TAPS({32'(118), 32'(0)}))
-        u_dl_in_jac_inv2 (.clk(clk), .d(in_jac_inv2), .q(dl_in_jac_inv2));
+        u_dl_in_jac_inv2 (.clk(clk), .d(in_jac_inv2), .valid(valid_q[0 +: 118]), .q(dl_in_jac_inv2));
     logic [W-1:0] in_jac_inv3;
     assign in_jac_inv3 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_jac_inv3;
     pgs_delay #(.WIDTH(W), .DEPTH(160), .N_TAPS(2), .TAPS({32'(160), 32'(0)}))
-        u_dl_in_jac_inv3 (.clk(clk), .d(in_jac_inv3), .q(dl_in_jac_inv3));
+        u_dl_in_jac_inv3 (.clk(clk), .d(in_jac_inv3), .valid(valid_q[0 +: 160]), .q(dl_in_jac_inv3));
     logic [W-1:0] in_b0;
     assign in_b0 = in_data[19*W +: W];
     logic [W-1:0] dl_in_b0;
     pgs_delay #(.WIDTH(W), .DEPTH(30))
-        u_dl_in_b0 (.clk(clk), .d(in_b0), .q(dl_in_b0));
+        u_dl_in_b0 (.clk(clk), .d(in_b0), .valid(valid_q[0 +: 30]), .q(dl_in_b0));
     logic [W-1:0] in_b1;
     assign in_b1 = in_data[20*W +: W];
     logic [W-1:0] dl_in_b1;
     pgs_delay #(.WIDTH(W), .DEPTH(72))
-        u_dl_in_b1 (.clk(clk), .d(in_b1), .q(dl_in_b1));
+        u_dl_in_b1 (.clk(clk), .d(in_b1), .valid(valid_q[0 +: 72]), .q(dl_in_b1));
     logic [W-1:0] in_b2;
     assign in_b2 = in_data[21*W +: W];
     logic [W-1:0] dl_in_b2;
     pgs_delay #(.WIDTH(W), .DEPTH(114))
-        u_dl_in_b2 (.clk(clk), .d(in_b2), .q(dl_in_b2));
+        u_dl_in_b2 (.clk(clk), .d(in_b2), .valid(valid_q[0 +: 114]), .q(dl_in_b2));
     logic [W-1:0] in_b3;
     assign in_b3 = in_data[22*W +: W];
     logic [W-1:0] dl_in_b3;
     pgs_delay #(.WIDTH(W), .DEPTH(156))
-        u_dl_in_b3 (.clk(clk), .d(in_b3), .q(dl_in_b3));
+        u_dl_in_b3 (.clk(clk), .d(in_b3), .valid(valid_q[0 +: 156]), .q(dl_in_b3));
     logic [W-1:0] in_lam0;
     assign in_lam0 = in_data[23*W +: W];
     logic [2*W-1:0] dl_in_lam0;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(42), 32'(37)}))
-        u_dl_in_lam0 (.clk(clk), .d(in_lam0), .q(dl_in_lam0));
+        u_dl_in_lam0 (.clk(clk), .d(in_lam0), .valid(valid_q[0 +: 42]), .q(dl_in_lam0));
     logic [W-1:0] in_lam1;
     assign in_lam1 = in_data[24*W +: W];
     logic [2*W-1:0] dl_in_lam1;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(84), 32'(79)}))
-        u_dl_in_lam1 (.clk(clk), .d(in_lam1), .q(dl_in_lam1));
+        u_dl_in_lam1 (.clk(clk), .d(in_lam1), .valid(valid_q[0 +: 84]), .q(dl_in_lam1));
     logic [W-1:0] in_lam2;
     assign in_lam2 = in_data[25*W +: W];
     logic [2*W-1:0] dl_in_lam2;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(126), 32'(121)}))
-        u_dl_in_lam2 (.clk(clk), .d(in_lam2), .q(dl_in_lam2));
+        u_dl_in_lam2 (.clk(clk), .d(in_lam2), .valid(valid_q[0 +: 126]), .q(dl_in_lam2));
     logic [W-1:0] in_lam3;
     assign in_lam3 = in_data[26*W +: W];
     logic [2*W-1:0] dl_in_lam3;
     pgs_delay #(.WIDTH(W), .DEPTH(168), .N_TAPS(2), .TAPS({32'(168), 32'(163)}))
-        u_dl_in_lam3 (.clk(clk), .d(in_lam3), .q(dl_in_lam3));
+        u_dl_in_lam3 (.clk(clk), .d(in_lam3), .valid(valid_q[0 +: 168]), .q(dl_in_lam3));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[27*W +: W];
     logic [W-1:0] dl_in_xA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .q(dl_in_xA_x));
+        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[28*W +: W];
     logic [W-1:0] dl_in_xA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .q(dl_in_xA_y));
+        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[29*W +: W];
     logic [W-1:0] dl_in_xA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .q(dl_in_xA_z));
+        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[30*W +: W];
     logic [W-1:0] dl_in_xB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .q(dl_in_xB_x));
+        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[31*W +: W];
     logic [W-1:0] dl_in_xB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .q(dl_in_xB_y));
+        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[32*W +: W];
     logic [W-1:0] dl_in_xB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .q(dl_in_xB_z));
+        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .q(dl_in_vA_x));
+        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 53]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .q(dl_in_vA_y));
+        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 53]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .q(dl_in_vA_z));
+        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 53]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .q(dl_in_wA_x));
+        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 53]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .q(dl_in_wA_y));
+        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 53]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[38*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .q(dl_in_wA_z));
+        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 53]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[39*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .q(dl_in_vB_x));
+        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 53]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[40*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .q(dl_in_vB_y));
+        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 53]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[41*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .q(dl_in_vB_z));
+        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 53]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[42*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .q(dl_in_wB_x));
+        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 53]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[43*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .q(dl_in_wB_y));
+        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 53]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[44*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .q(dl_in_wB_z));
+        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 53]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[45*W +: W];
     logic [W-1:0] dl_in_mInvA;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .q(dl_in_mInvA));
+        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[46*W +: W];
     logic [W-1:0] dl_in_mInvB;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .q(dl_in_mInvB));
+        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_x;
     assign in_IInvA_x = in_data[47*W +: W];
     logic [W-1:0] dl_in_IInvA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_x (.clk(clk), .d(in_IInvA_x), .q(dl_in_IInvA_x));
+        u_dl_in_IInvA_x (.clk(clk), .d(in_IInvA_x), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_x));
     logic [W-1:0] in_IInvA_y;
     assign in_IInvA_y = in_data[48*W +: W];
     logic [W-1:0] dl_in_IInvA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_y (.clk(clk), .d(in_IInvA_y), .q(dl_in_IInvA_y));
+        u_dl_in_IInvA_y (.clk(clk), .d(in_IInvA_y), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_y));
     logic [W-1:0] in_IInvA_z;
     assign in_IInvA_z = in_data[49*W +: W];
     logic [W-1:0] dl_in_IInvA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_z (.clk(clk), .d(in_IInvA_z), .q(dl_in_IInvA_z));
+        u_dl_in_IInvA_z (.clk(clk), .d(in_IInvA_z), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_z));
     logic [W-1:0] in_IInvB_x;
     assign in_IInvB_x = in_data[50*W +: W];
     logic [W-1:0] dl_in_IInvB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_x (.clk(clk), .d(in_IInvB_x), .q(dl_in_IInvB_x));
+        u_dl_in_IInvB_x (.clk(clk), .d(in_IInvB_x), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_x));
     logic [W-1:0] in_IInvB_y;
     assign in_IInvB_y = in_data[51*W +: W];
     logic [W-1:0] dl_in_IInvB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_y (.clk(clk), .d(in_IInvB_y), .q(dl_in_IInvB_y));
+        u_dl_in_IInvB_y (.clk(clk), .d(in_IInvB_y), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_y));
     logic [W-1:0] in_IInvB_z;
     assign in_IInvB_z = in_data[52*W +: W];
     logic [W-1:0] dl_in_IInvB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_z (.clk(clk), .d(in_IInvB_z), .q(dl_in_IInvB_z));
+        u_dl_in_IInvB_z (.clk(clk), .d(in_IInvB_z), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_z));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
     // bf16; its delay line feeds every consumer at the consumer's issue cycle.
@@ -365,7 +372,7 @@ module pgs_contact_pipe #(
     logic [W-1:0] linA_x;
     logic [2:0] fl_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[0]), .y(linA_x), .flags(fl_linA_x)
     );
     assign ev_ovf[0] = fl_linA_x[0] && ev_q[3];
@@ -373,12 +380,12 @@ module pgs_contact_pipe #(
     assign ev_inv[0] = fl_linA_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linA_x (.clk(clk), .d(linA_x), .q(dl_linA_x));
+        u_dl_linA_x (.clk(clk), .d(linA_x), .valid(valid_q[3 +: 169]), .q(dl_linA_x));
     // linA_y = n_y * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_y;
     logic [2:0] fl_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[1]), .y(linA_y), .flags(fl_linA_y)
     );
     assign ev_ovf[1] = fl_linA_y[0] && ev_q[3];
@@ -386,12 +393,12 @@ module pgs_contact_pipe #(
     assign ev_inv[1] = fl_linA_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linA_y (.clk(clk), .d(linA_y), .q(dl_linA_y));
+        u_dl_linA_y (.clk(clk), .d(linA_y), .valid(valid_q[3 +: 169]), .q(dl_linA_y));
     // linA_z = n_z * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_z;
     logic [2:0] fl_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[2]), .y(linA_z), .flags(fl_linA_z)
     );
     assign ev_ovf[2] = fl_linA_z[0] && ev_q[3];
@@ -399,12 +406,12 @@ module pgs_contact_pipe #(
     assign ev_inv[2] = fl_linA_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linA_z (.clk(clk), .d(linA_z), .q(dl_linA_z));
+        u_dl_linA_z (.clk(clk), .d(linA_z), .valid(valid_q[3 +: 169]), .q(dl_linA_z));
     // linB_x = n_x * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_x;
     logic [2:0] fl_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[3]), .y(linB_x), .flags(fl_linB_x)
     );
     assign ev_ovf[3] = fl_linB_x[0] && ev_q[3];
@@ -412,12 +419,12 @@ module pgs_contact_pipe #(
     assign ev_inv[3] = fl_linB_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linB_x (.clk(clk), .d(linB_x), .q(dl_linB_x));
+        u_dl_linB_x (.clk(clk), .d(linB_x), .valid(valid_q[3 +: 169]), .q(dl_linB_x));
     // linB_y = n_y * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_y;
     logic [2:0] fl_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[4]), .y(linB_y), .flags(fl_linB_y)
     );
     assign ev_ovf[4] = fl_linB_y[0] && ev_q[3];
@@ -425,12 +432,12 @@ module pgs_contact_pipe #(
     assign ev_inv[4] = fl_linB_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linB_y (.clk(clk), .d(linB_y), .q(dl_linB_y));
+        u_dl_linB_y (.clk(clk), .d(linB_y), .valid(valid_q[3 +: 169]), .q(dl_linB_y));
     // linB_z = n_z * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_z;
     logic [2:0] fl_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[5]), .y(linB_z), .flags(fl_linB_z)
     );
     assign ev_ovf[5] = fl_linB_z[0] && ev_q[3];
@@ -438,18 +445,18 @@ module pgs_contact_pipe #(
     assign ev_inv[5] = fl_linB_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linB_z (.clk(clk), .d(linB_z), .q(dl_linB_z));
+        u_dl_linB_z (.clk(clk), .d(linB_z), .valid(valid_q[3 +: 169]), .q(dl_linB_z));
     // pt0_skip = jac_inv0 == 0   (ready @0/0/0)
     logic pt0_skip;
     assign pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt0_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}))
-        u_dl_pt0_skip (.clk(clk), .d(pt0_skip), .q(dl_pt0_skip));
+        u_dl_pt0_skip (.clk(clk), .d(pt0_skip), .valid(valid_q[0 +: 53]), .q(dl_pt0_skip));
     // pt0_rA_x = p0_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt0_rA_x;
     logic [2:0] fl_pt0_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(pt0_rA_x), .flags(fl_pt0_rA_x)
     );
     assign ev_ovf[6] = fl_pt0_rA_x[0] && ev_q[4];
@@ -457,12 +464,12 @@ module pgs_contact_pipe #(
     assign ev_inv[6] = fl_pt0_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rA_x (.clk(clk), .d(pt0_rA_x), .q(dl_pt0_rA_x));
+        u_dl_pt0_rA_x (.clk(clk), .d(pt0_rA_x), .valid(1'b0), .q(dl_pt0_rA_x));
     // pt0_rA_y = p0_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt0_rA_y;
     logic [2:0] fl_pt0_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(pt0_rA_y), .flags(fl_pt0_rA_y)
     );
     assign ev_ovf[7] = fl_pt0_rA_y[0] && ev_q[4];
@@ -470,12 +477,12 @@ module pgs_contact_pipe #(
     assign ev_inv[7] = fl_pt0_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rA_y (.clk(clk), .d(pt0_rA_y), .q(dl_pt0_rA_y));
+        u_dl_pt0_rA_y (.clk(clk), .d(pt0_rA_y), .valid(1'b0), .q(dl_pt0_rA_y));
     // pt0_rA_z = p0_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt0_rA_z;
     logic [2:0] fl_pt0_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(pt0_rA_z), .flags(fl_pt0_rA_z)
     );
     assign ev_ovf[8] = fl_pt0_rA_z[0] && ev_q[4];
@@ -483,12 +490,12 @@ module pgs_contact_pipe #(
     assign ev_inv[8] = fl_pt0_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rA_z (.clk(clk), .d(pt0_rA_z), .q(dl_pt0_rA_z));
+        u_dl_pt0_rA_z (.clk(clk), .d(pt0_rA_z), .valid(1'b0), .q(dl_pt0_rA_z));
     // pt0_mul64 = pt0_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul64;
     logic [2:0] fl_pt0_mul64;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul64 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[9]), .y(pt0_mul64), .flags(fl_pt0_mul64)
     );
     assign ev_ovf[9] = fl_pt0_mul64[0] && ev_q[7];
@@ -496,12 +503,12 @@ module pgs_contact_pipe #(
     assign ev_inv[9] = fl_pt0_mul64[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul64;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul64 (.clk(clk), .d(pt0_mul64), .q(dl_pt0_mul64));
+        u_dl_pt0_mul64 (.clk(clk), .d(pt0_mul64), .valid(1'b0), .q(dl_pt0_mul64));
     // pt0_mul65 = pt0_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul65;
     logic [2:0] fl_pt0_mul65;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul65 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[10]), .y(pt0_mul65), .flags(fl_pt0_mul65)
     );
     assign ev_ovf[10] = fl_pt0_mul65[0] && ev_q[7];
@@ -509,12 +516,12 @@ module pgs_contact_pipe #(
     assign ev_inv[10] = fl_pt0_mul65[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul65;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul65 (.clk(clk), .d(pt0_mul65), .q(dl_pt0_mul65));
+        u_dl_pt0_mul65 (.clk(clk), .d(pt0_mul65), .valid(1'b0), .q(dl_pt0_mul65));
     // pt0_cA_x = pt0_mul64 - pt0_mul65   (ready @11/11/11)
     logic [W-1:0] pt0_cA_x;
     logic [2:0] fl_pt0_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul64), .b(dl_pt0_mul65), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul64), .b(dl_pt0_mul65), .sub(1'b1),
         .out_valid(op_valid_nc[11]), .y(pt0_cA_x), .flags(fl_pt0_cA_x)
     );
     assign ev_ovf[11] = fl_pt0_cA_x[0] && ev_q[11];
@@ -522,12 +529,12 @@ module pgs_contact_pipe #(
     assign ev_inv[11] = fl_pt0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cA_x (.clk(clk), .d(pt0_cA_x), .q(dl_pt0_cA_x));
+        u_dl_pt0_cA_x (.clk(clk), .d(pt0_cA_x), .valid(1'b0), .q(dl_pt0_cA_x));
     // pt0_mul67 = pt0_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul67;
     logic [2:0] fl_pt0_mul67;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul67 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[12]), .y(pt0_mul67), .flags(fl_pt0_mul67)
     );
     assign ev_ovf[12] = fl_pt0_mul67[0] && ev_q[7];
@@ -535,12 +542,12 @@ module pgs_contact_pipe #(
     assign ev_inv[12] = fl_pt0_mul67[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul67;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul67 (.clk(clk), .d(pt0_mul67), .q(dl_pt0_mul67));
+        u_dl_pt0_mul67 (.clk(clk), .d(pt0_mul67), .valid(1'b0), .q(dl_pt0_mul67));
     // pt0_mul68 = pt0_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul68;
     logic [2:0] fl_pt0_mul68;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul68 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[13]), .y(pt0_mul68), .flags(fl_pt0_mul68)
     );
     assign ev_ovf[13] = fl_pt0_mul68[0] && ev_q[7];
@@ -548,12 +555,12 @@ module pgs_contact_pipe #(
     assign ev_inv[13] = fl_pt0_mul68[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul68;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul68 (.clk(clk), .d(pt0_mul68), .q(dl_pt0_mul68));
+        u_dl_pt0_mul68 (.clk(clk), .d(pt0_mul68), .valid(1'b0), .q(dl_pt0_mul68));
     // pt0_cA_y = pt0_mul67 - pt0_mul68   (ready @11/11/11)
     logic [W-1:0] pt0_cA_y;
     logic [2:0] fl_pt0_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul67), .b(dl_pt0_mul68), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul67), .b(dl_pt0_mul68), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(pt0_cA_y), .flags(fl_pt0_cA_y)
     );
     assign ev_ovf[14] = fl_pt0_cA_y[0] && ev_q[11];
@@ -561,12 +568,12 @@ module pgs_contact_pipe #(
     assign ev_inv[14] = fl_pt0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cA_y (.clk(clk), .d(pt0_cA_y), .q(dl_pt0_cA_y));
+        u_dl_pt0_cA_y (.clk(clk), .d(pt0_cA_y), .valid(1'b0), .q(dl_pt0_cA_y));
     // pt0_mul70 = pt0_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul70;
     logic [2:0] fl_pt0_mul70;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul70 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[15]), .y(pt0_mul70), .flags(fl_pt0_mul70)
     );
     assign ev_ovf[15] = fl_pt0_mul70[0] && ev_q[7];
@@ -574,12 +581,12 @@ module pgs_contact_pipe #(
     assign ev_inv[15] = fl_pt0_mul70[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul70;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul70 (.clk(clk), .d(pt0_mul70), .q(dl_pt0_mul70));
+        u_dl_pt0_mul70 (.clk(clk), .d(pt0_mul70), .valid(1'b0), .q(dl_pt0_mul70));
     // pt0_mul71 = pt0_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul71;
     logic [2:0] fl_pt0_mul71;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul71 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[16]), .y(pt0_mul71), .flags(fl_pt0_mul71)
     );
     assign ev_ovf[16] = fl_pt0_mul71[0] && ev_q[7];
@@ -587,12 +594,12 @@ module pgs_contact_pipe #(
     assign ev_inv[16] = fl_pt0_mul71[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul71;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul71 (.clk(clk), .d(pt0_mul71), .q(dl_pt0_mul71));
+        u_dl_pt0_mul71 (.clk(clk), .d(pt0_mul71), .valid(1'b0), .q(dl_pt0_mul71));
     // pt0_cA_z = pt0_mul70 - pt0_mul71   (ready @11/11/11)
     logic [W-1:0] pt0_cA_z;
     logic [2:0] fl_pt0_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul70), .b(dl_pt0_mul71), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul70), .b(dl_pt0_mul71), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(pt0_cA_z), .flags(fl_pt0_cA_z)
     );
     assign ev_ovf[17] = fl_pt0_cA_z[0] && ev_q[11];
@@ -600,12 +607,12 @@ module pgs_contact_pipe #(
     assign ev_inv[17] = fl_pt0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cA_z (.clk(clk), .d(pt0_cA_z), .q(dl_pt0_cA_z));
+        u_dl_pt0_cA_z (.clk(clk), .d(pt0_cA_z), .valid(1'b0), .q(dl_pt0_cA_z));
     // pt0_rB_x = p0_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt0_rB_x;
     logic [2:0] fl_pt0_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(pt0_rB_x), .flags(fl_pt0_rB_x)
     );
     assign ev_ovf[18] = fl_pt0_rB_x[0] && ev_q[4];
@@ -613,12 +620,12 @@ module pgs_contact_pipe #(
     assign ev_inv[18] = fl_pt0_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rB_x (.clk(clk), .d(pt0_rB_x), .q(dl_pt0_rB_x));
+        u_dl_pt0_rB_x (.clk(clk), .d(pt0_rB_x), .valid(1'b0), .q(dl_pt0_rB_x));
     // pt0_rB_y = p0_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt0_rB_y;
     logic [2:0] fl_pt0_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(pt0_rB_y), .flags(fl_pt0_rB_y)
     );
     assign ev_ovf[19] = fl_pt0_rB_y[0] && ev_q[4];
@@ -626,12 +633,12 @@ module pgs_contact_pipe #(
     assign ev_inv[19] = fl_pt0_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rB_y (.clk(clk), .d(pt0_rB_y), .q(dl_pt0_rB_y));
+        u_dl_pt0_rB_y (.clk(clk), .d(pt0_rB_y), .valid(1'b0), .q(dl_pt0_rB_y));
     // pt0_rB_z = p0_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt0_rB_z;
     logic [2:0] fl_pt0_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(pt0_rB_z), .flags(fl_pt0_rB_z)
     );
     assign ev_ovf[20] = fl_pt0_rB_z[0] && ev_q[4];
@@ -639,12 +646,12 @@ module pgs_contact_pipe #(
     assign ev_inv[20] = fl_pt0_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rB_z (.clk(clk), .d(pt0_rB_z), .q(dl_pt0_rB_z));
+        u_dl_pt0_rB_z (.clk(clk), .d(pt0_rB_z), .valid(1'b0), .q(dl_pt0_rB_z));
     // pt0_mul76 = pt0_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul76;
     logic [2:0] fl_pt0_mul76;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul76 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[21]), .y(pt0_mul76), .flags(fl_pt0_mul76)
     );
     assign ev_ovf[21] = fl_pt0_mul76[0] && ev_q[7];
@@ -652,12 +659,12 @@ module pgs_contact_pipe #(
     assign ev_inv[21] = fl_pt0_mul76[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul76;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul76 (.clk(clk), .d(pt0_mul76), .q(dl_pt0_mul76));
+        u_dl_pt0_mul76 (.clk(clk), .d(pt0_mul76), .valid(1'b0), .q(dl_pt0_mul76));
     // pt0_mul77 = pt0_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul77;
     logic [2:0] fl_pt0_mul77;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul77 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[22]), .y(pt0_mul77), .flags(fl_pt0_mul77)
     );
     assign ev_ovf[22] = fl_pt0_mul77[0] && ev_q[7];
@@ -665,12 +672,12 @@ module pgs_contact_pipe #(
     assign ev_inv[22] = fl_pt0_mul77[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul77;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul77 (.clk(clk), .d(pt0_mul77), .q(dl_pt0_mul77));
+        u_dl_pt0_mul77 (.clk(clk), .d(pt0_mul77), .valid(1'b0), .q(dl_pt0_mul77));
     // pt0_cB_x = pt0_mul76 - pt0_mul77   (ready @11/11/11)
     logic [W-1:0] pt0_cB_x;
     logic [2:0] fl_pt0_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul76), .b(dl_pt0_mul77), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul76), .b(dl_pt0_mul77), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(pt0_cB_x), .flags(fl_pt0_cB_x)
     );
     assign ev_ovf[23] = fl_pt0_cB_x[0] && ev_q[11];
@@ -678,12 +685,12 @@ module pgs_contact_pipe #(
     assign ev_inv[23] = fl_pt0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cB_x (.clk(clk), .d(pt0_cB_x), .q(dl_pt0_cB_x));
+        u_dl_pt0_cB_x (.clk(clk), .d(pt0_cB_x), .valid(1'b0), .q(dl_pt0_cB_x));
     // pt0_mul79 = pt0_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul79;
     logic [2:0] fl_pt0_mul79;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul79 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[24]), .y(pt0_mul79), .flags(fl_pt0_mul79)
     );
     assign ev_ovf[24] = fl_pt0_mul79[0] && ev_q[7];
@@ -691,12 +698,12 @@ module pgs_contact_pipe #(
     assign ev_inv[24] = fl_pt0_mul79[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul79;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul79 (.clk(clk), .d(pt0_mul79), .q(dl_pt0_mul79));
+        u_dl_pt0_mul79 (.clk(clk), .d(pt0_mul79), .valid(1'b0), .q(dl_pt0_mul79));
     // pt0_mul80 = pt0_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul80;
     logic [2:0] fl_pt0_mul80;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul80 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[25]), .y(pt0_mul80), .flags(fl_pt0_mul80)
     );
     assign ev_ovf[25] = fl_pt0_mul80[0] && ev_q[7];
@@ -704,12 +711,12 @@ module pgs_contact_pipe #(
     assign ev_inv[25] = fl_pt0_mul80[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul80;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul80 (.clk(clk), .d(pt0_mul80), .q(dl_pt0_mul80));
+        u_dl_pt0_mul80 (.clk(clk), .d(pt0_mul80), .valid(1'b0), .q(dl_pt0_mul80));
     // pt0_cB_y = pt0_mul79 - pt0_mul80   (ready @11/11/11)
     logic [W-1:0] pt0_cB_y;
     logic [2:0] fl_pt0_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul79), .b(dl_pt0_mul80), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul79), .b(dl_pt0_mul80), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(pt0_cB_y), .flags(fl_pt0_cB_y)
     );
     assign ev_ovf[26] = fl_pt0_cB_y[0] && ev_q[11];
@@ -717,12 +724,12 @@ module pgs_contact_pipe #(
     assign ev_inv[26] = fl_pt0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cB_y (.clk(clk), .d(pt0_cB_y), .q(dl_pt0_cB_y));
+        u_dl_pt0_cB_y (.clk(clk), .d(pt0_cB_y), .valid(1'b0), .q(dl_pt0_cB_y));
     // pt0_mul82 = pt0_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul82;
     logic [2:0] fl_pt0_mul82;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul82 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[27]), .y(pt0_mul82), .flags(fl_pt0_mul82)
     );
     assign ev_ovf[27] = fl_pt0_mul82[0] && ev_q[7];
@@ -730,12 +737,12 @@ module pgs_contact_pipe #(
     assign ev_inv[27] = fl_pt0_mul82[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul82;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul82 (.clk(clk), .d(pt0_mul82), .q(dl_pt0_mul82));
+        u_dl_pt0_mul82 (.clk(clk), .d(pt0_mul82), .valid(1'b0), .q(dl_pt0_mul82));
     // pt0_mul83 = pt0_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul83;
     logic [2:0] fl_pt0_mul83;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul83 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[28]), .y(pt0_mul83), .flags(fl_pt0_mul83)
     );
     assign ev_ovf[28] = fl_pt0_mul83[0] && ev_q[7];
@@ -743,12 +750,12 @@ module pgs_contact_pipe #(
     assign ev_inv[28] = fl_pt0_mul83[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul83;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul83 (.clk(clk), .d(pt0_mul83), .q(dl_pt0_mul83));
+        u_dl_pt0_mul83 (.clk(clk), .d(pt0_mul83), .valid(1'b0), .q(dl_pt0_mul83));
     // pt0_cB_z = pt0_mul82 - pt0_mul83   (ready @11/11/11)
     logic [W-1:0] pt0_cB_z;
     logic [2:0] fl_pt0_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul82), .b(dl_pt0_mul83), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul82), .b(dl_pt0_mul83), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(pt0_cB_z), .flags(fl_pt0_cB_z)
     );
     assign ev_ovf[29] = fl_pt0_cB_z[0] && ev_q[11];
@@ -756,12 +763,12 @@ module pgs_contact_pipe #(
     assign ev_inv[29] = fl_pt0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cB_z (.clk(clk), .d(pt0_cB_z), .q(dl_pt0_cB_z));
+        u_dl_pt0_cB_z (.clk(clk), .d(pt0_cB_z), .valid(1'b0), .q(dl_pt0_cB_z));
     // pt0_mul85 = n_x * vA_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul85;
     logic [2:0] fl_pt0_mul85;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul85 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[30]), .y(pt0_mul85), .flags(fl_pt0_mul85)
     );
     assign ev_ovf[30] = fl_pt0_mul85[0] && ev_q[3];
@@ -769,12 +776,12 @@ module pgs_contact_pipe #(
     assign ev_inv[30] = fl_pt0_mul85[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul85;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul85 (.clk(clk), .d(pt0_mul85), .q(dl_pt0_mul85));
+        u_dl_pt0_mul85 (.clk(clk), .d(pt0_mul85), .valid(1'b0), .q(dl_pt0_mul85));
     // pt0_mul86 = n_y * vA_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul86;
     logic [2:0] fl_pt0_mul86;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul86 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[31]), .y(pt0_mul86), .flags(fl_pt0_mul86)
     );
     assign ev_ovf[31] = fl_pt0_mul86[0] && ev_q[3];
@@ -782,12 +789,12 @@ module pgs_contact_pipe #(
     assign ev_inv[31] = fl_pt0_mul86[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul86;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul86 (.clk(clk), .d(pt0_mul86), .q(dl_pt0_mul86));
+        u_dl_pt0_mul86 (.clk(clk), .d(pt0_mul86), .valid(1'b0), .q(dl_pt0_mul86));
     // pt0_add87 = pt0_mul85 + pt0_mul86   (ready @7/7/7)
     logic [W-1:0] pt0_add87;
     logic [2:0] fl_pt0_add87;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add87 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul85), .b(dl_pt0_mul86), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul85), .b(dl_pt0_mul86), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(pt0_add87), .flags(fl_pt0_add87)
     );
     assign ev_ovf[32] = fl_pt0_add87[0] && ev_q[7];
@@ -795,12 +802,12 @@ module pgs_contact_pipe #(
     assign ev_inv[32] = fl_pt0_add87[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add87;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add87 (.clk(clk), .d(pt0_add87), .q(dl_pt0_add87));
+        u_dl_pt0_add87 (.clk(clk), .d(pt0_add87), .valid(1'b0), .q(dl_pt0_add87));
     // pt0_mul88 = n_z * vA_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul88;
     logic [2:0] fl_pt0_mul88;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul88 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[33]), .y(pt0_mul88), .flags(fl_pt0_mul88)
     );
     assign ev_ovf[33] = fl_pt0_mul88[0] && ev_q[3];
@@ -808,12 +815,12 @@ module pgs_contact_pipe #(
     assign ev_inv[33] = fl_pt0_mul88[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul88;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul88 (.clk(clk), .d(pt0_mul88), .q(dl_pt0_mul88));
+        u_dl_pt0_mul88 (.clk(clk), .d(pt0_mul88), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul88));
     // pt0_add89 = pt0_add87 + pt0_mul88   (ready @11/11/11)
     logic [W-1:0] pt0_add89;
     logic [2:0] fl_pt0_add89;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add89 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add87), .b(dl_pt0_mul88), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add87), .b(dl_pt0_mul88), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(pt0_add89), .flags(fl_pt0_add89)
     );
     assign ev_ovf[34] = fl_pt0_add89[0] && ev_q[11];
@@ -821,12 +828,12 @@ module pgs_contact_pipe #(
     assign ev_inv[34] = fl_pt0_add89[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add89;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add89 (.clk(clk), .d(pt0_add89), .q(dl_pt0_add89));
+        u_dl_pt0_add89 (.clk(clk), .d(pt0_add89), .valid(1'b0), .q(dl_pt0_add89));
     // pt0_mul90 = n_x * vB_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul90;
     logic [2:0] fl_pt0_mul90;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul90 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[35]), .y(pt0_mul90), .flags(fl_pt0_mul90)
     );
     assign ev_ovf[35] = fl_pt0_mul90[0] && ev_q[3];
@@ -834,12 +841,12 @@ module pgs_contact_pipe #(
     assign ev_inv[35] = fl_pt0_mul90[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul90;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul90 (.clk(clk), .d(pt0_mul90), .q(dl_pt0_mul90));
+        u_dl_pt0_mul90 (.clk(clk), .d(pt0_mul90), .valid(1'b0), .q(dl_pt0_mul90));
     // pt0_mul91 = n_y * vB_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul91;
     logic [2:0] fl_pt0_mul91;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul91 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[36]), .y(pt0_mul91), .flags(fl_pt0_mul91)
     );
     assign ev_ovf[36] = fl_pt0_mul91[0] && ev_q[3];
@@ -847,12 +854,12 @@ module pgs_contact_pipe #(
     assign ev_inv[36] = fl_pt0_mul91[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul91;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul91 (.clk(clk), .d(pt0_mul91), .q(dl_pt0_mul91));
+        u_dl_pt0_mul91 (.clk(clk), .d(pt0_mul91), .valid(1'b0), .q(dl_pt0_mul91));
     // pt0_add92 = pt0_mul90 + pt0_mul91   (ready @7/7/7)
     logic [W-1:0] pt0_add92;
     logic [2:0] fl_pt0_add92;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add92 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul90), .b(dl_pt0_mul91), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul90), .b(dl_pt0_mul91), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(pt0_add92), .flags(fl_pt0_add92)
     );
     assign ev_ovf[37] = fl_pt0_add92[0] && ev_q[7];
@@ -860,12 +867,12 @@ module pgs_contact_pipe #(
     assign ev_inv[37] = fl_pt0_add92[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add92;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add92 (.clk(clk), .d(pt0_add92), .q(dl_pt0_add92));
+        u_dl_pt0_add92 (.clk(clk), .d(pt0_add92), .valid(1'b0), .q(dl_pt0_add92));
     // pt0_mul93 = n_z * vB_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul93;
     logic [2:0] fl_pt0_mul93;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul93 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[38]), .y(pt0_mul93), .flags(fl_pt0_mul93)
     );
     assign ev_ovf[38] = fl_pt0_mul93[0] && ev_q[3];
@@ -873,12 +880,12 @@ module pgs_contact_pipe #(
     assign ev_inv[38] = fl_pt0_mul93[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul93;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul93 (.clk(clk), .d(pt0_mul93), .q(dl_pt0_mul93));
+        u_dl_pt0_mul93 (.clk(clk), .d(pt0_mul93), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul93));
     // pt0_add94 = pt0_add92 + pt0_mul93   (ready @11/11/11)
     logic [W-1:0] pt0_add94;
     logic [2:0] fl_pt0_add94;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add94 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add92), .b(dl_pt0_mul93), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add92), .b(dl_pt0_mul93), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(pt0_add94), .flags(fl_pt0_add94)
     );
     assign ev_ovf[39] = fl_pt0_add94[0] && ev_q[11];
@@ -886,12 +893,12 @@ module pgs_contact_pipe #(
     assign ev_inv[39] = fl_pt0_add94[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add94;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add94 (.clk(clk), .d(pt0_add94), .q(dl_pt0_add94));
+        u_dl_pt0_add94 (.clk(clk), .d(pt0_add94), .valid(1'b0), .q(dl_pt0_add94));
     // pt0_sub95 = pt0_add89 - pt0_add94   (ready @15/15/15)
     logic [W-1:0] pt0_sub95;
     logic [2:0] fl_pt0_sub95;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub95 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add89), .b(dl_pt0_add94), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_add89), .b(dl_pt0_add94), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(pt0_sub95), .flags(fl_pt0_sub95)
     );
     assign ev_ovf[40] = fl_pt0_sub95[0] && ev_q[15];
@@ -899,12 +906,12 @@ module pgs_contact_pipe #(
     assign ev_inv[40] = fl_pt0_sub95[2] && ev_q[15];
     logic [W-1:0] dl_pt0_sub95;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_pt0_sub95 (.clk(clk), .d(pt0_sub95), .q(dl_pt0_sub95));
+        u_dl_pt0_sub95 (.clk(clk), .d(pt0_sub95), .valid(valid_q[15 +: 11]), .q(dl_pt0_sub95));
     // pt0_mul96 = pt0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul96;
     logic [2:0] fl_pt0_mul96;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul96 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_x), .b(dl_in_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cA_x), .b(dl_in_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[41]), .y(pt0_mul96), .flags(fl_pt0_mul96)
     );
     assign ev_ovf[41] = fl_pt0_mul96[0] && ev_q[14];
@@ -912,12 +919,12 @@ module pgs_contact_pipe #(
     assign ev_inv[41] = fl_pt0_mul96[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul96;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul96 (.clk(clk), .d(pt0_mul96), .q(dl_pt0_mul96));
+        u_dl_pt0_mul96 (.clk(clk), .d(pt0_mul96), .valid(1'b0), .q(dl_pt0_mul96));
     // pt0_mul97 = pt0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul97;
     logic [2:0] fl_pt0_mul97;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul97 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_y), .b(dl_in_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cA_y), .b(dl_in_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[42]), .y(pt0_mul97), .flags(fl_pt0_mul97)
     );
     assign ev_ovf[42] = fl_pt0_mul97[0] && ev_q[14];
@@ -925,12 +932,12 @@ module pgs_contact_pipe #(
     assign ev_inv[42] = fl_pt0_mul97[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul97;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul97 (.clk(clk), .d(pt0_mul97), .q(dl_pt0_mul97));
+        u_dl_pt0_mul97 (.clk(clk), .d(pt0_mul97), .valid(1'b0), .q(dl_pt0_mul97));
     // pt0_add98 = pt0_mul96 + pt0_mul97   (ready @18/18/18)
     logic [W-1:0] pt0_add98;
     logic [2:0] fl_pt0_add98;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add98 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul96), .b(dl_pt0_mul97), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul96), .b(dl_pt0_mul97), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(pt0_add98), .flags(fl_pt0_add98)
     );
     assign ev_ovf[43] = fl_pt0_add98[0] && ev_q[18];
@@ -938,12 +945,12 @@ module pgs_contact_pipe #(
     assign ev_inv[43] = fl_pt0_add98[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add98;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add98 (.clk(clk), .d(pt0_add98), .q(dl_pt0_add98));
+        u_dl_pt0_add98 (.clk(clk), .d(pt0_add98), .valid(1'b0), .q(dl_pt0_add98));
     // pt0_mul99 = pt0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul99;
     logic [2:0] fl_pt0_mul99;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul99 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_z), .b(dl_in_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cA_z), .b(dl_in_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[44]), .y(pt0_mul99), .flags(fl_pt0_mul99)
     );
     assign ev_ovf[44] = fl_pt0_mul99[0] && ev_q[14];
@@ -951,12 +958,12 @@ module pgs_contact_pipe #(
     assign ev_inv[44] = fl_pt0_mul99[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul99;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul99 (.clk(clk), .d(pt0_mul99), .q(dl_pt0_mul99));
+        u_dl_pt0_mul99 (.clk(clk), .d(pt0_mul99), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul99));
     // pt0_add100 = pt0_add98 + pt0_mul99   (ready @22/22/22)
     logic [W-1:0] pt0_add100;
     logic [2:0] fl_pt0_add100;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add100 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add98), .b(dl_pt0_mul99), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add98), .b(dl_pt0_mul99), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(pt0_add100), .flags(fl_pt0_add100)
     );
     assign ev_ovf[45] = fl_pt0_add100[0] && ev_q[22];
@@ -964,12 +971,12 @@ module pgs_contact_pipe #(
     assign ev_inv[45] = fl_pt0_add100[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add100;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add100 (.clk(clk), .d(pt0_add100), .q(dl_pt0_add100));
+        u_dl_pt0_add100 (.clk(clk), .d(pt0_add100), .valid(1'b0), .q(dl_pt0_add100));
     // pt0_mul101 = pt0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul101;
     logic [2:0] fl_pt0_mul101;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul101 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_x), .b(dl_in_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cB_x), .b(dl_in_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[46]), .y(pt0_mul101), .flags(fl_pt0_mul101)
     );
     assign ev_ovf[46] = fl_pt0_mul101[0] && ev_q[14];
@@ -977,12 +984,12 @@ module pgs_contact_pipe #(
     assign ev_inv[46] = fl_pt0_mul101[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul101;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul101 (.clk(clk), .d(pt0_mul101), .q(dl_pt0_mul101));
+        u_dl_pt0_mul101 (.clk(clk), .d(pt0_mul101), .valid(1'b0), .q(dl_pt0_mul101));
     // pt0_mul102 = pt0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul102;
     logic [2:0] fl_pt0_mul102;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul102 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_y), .b(dl_in_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cB_y), .b(dl_in_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[47]), .y(pt0_mul102), .flags(fl_pt0_mul102)
     );
     assign ev_ovf[47] = fl_pt0_mul102[0] && ev_q[14];
@@ -990,12 +997,12 @@ module pgs_contact_pipe #(
     assign ev_inv[47] = fl_pt0_mul102[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul102;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul102 (.clk(clk), .d(pt0_mul102), .q(dl_pt0_mul102));
+        u_dl_pt0_mul102 (.clk(clk), .d(pt0_mul102), .valid(1'b0), .q(dl_pt0_mul102));
     // pt0_add103 = pt0_mul101 + pt0_mul102   (ready @18/18/18)
     logic [W-1:0] pt0_add103;
     logic [2:0] fl_pt0_add103;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add103 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul101), .b(dl_pt0_mul102), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul101), .b(dl_pt0_mul102), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(pt0_add103), .flags(fl_pt0_add103)
     );
     assign ev_ovf[48] = fl_pt0_add103[0] && ev_q[18];
@@ -1003,12 +1010,12 @@ module pgs_contact_pipe #(
     assign ev_inv[48] = fl_pt0_add103[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add103;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add103 (.clk(clk), .d(pt0_add103), .q(dl_pt0_add103));
+        u_dl_pt0_add103 (.clk(clk), .d(pt0_add103), .valid(1'b0), .q(dl_pt0_add103));
     // pt0_mul104 = pt0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul104;
     logic [2:0] fl_pt0_mul104;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul104 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_z), .b(dl_in_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cB_z), .b(dl_in_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[49]), .y(pt0_mul104), .flags(fl_pt0_mul104)
     );
     assign ev_ovf[49] = fl_pt0_mul104[0] && ev_q[14];
@@ -1016,12 +1023,12 @@ module pgs_contact_pipe #(
     assign ev_inv[49] = fl_pt0_mul104[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul104;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul104 (.clk(clk), .d(pt0_mul104), .q(dl_pt0_mul104));
+        u_dl_pt0_mul104 (.clk(clk), .d(pt0_mul104), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul104));
     // pt0_add105 = pt0_add103 + pt0_mul104   (ready @22/22/22)
     logic [W-1:0] pt0_add105;
     logic [2:0] fl_pt0_add105;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add105 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add103), .b(dl_pt0_mul104), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add103), .b(dl_pt0_mul104), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(pt0_add105), .flags(fl_pt0_add105)
     );
     assign ev_ovf[50] = fl_pt0_add105[0] && ev_q[22];
@@ -1029,12 +1036,12 @@ module pgs_contact_pipe #(
     assign ev_inv[50] = fl_pt0_add105[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add105;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add105 (.clk(clk), .d(pt0_add105), .q(dl_pt0_add105));
+        u_dl_pt0_add105 (.clk(clk), .d(pt0_add105), .valid(1'b0), .q(dl_pt0_add105));
     // pt0_sub106 = pt0_add100 - pt0_add105   (ready @26/26/26)
     logic [W-1:0] pt0_sub106;
     logic [2:0] fl_pt0_sub106;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub106 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add100), .b(dl_pt0_add105), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_pt0_add100), .b(dl_pt0_add105), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(pt0_sub106), .flags(fl_pt0_sub106)
     );
     assign ev_ovf[51] = fl_pt0_sub106[0] && ev_q[26];
@@ -1042,12 +1049,12 @@ module pgs_contact_pipe #(
     assign ev_inv[51] = fl_pt0_sub106[2] && ev_q[26];
     logic [W-1:0] dl_pt0_sub106;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub106 (.clk(clk), .d(pt0_sub106), .q(dl_pt0_sub106));
+        u_dl_pt0_sub106 (.clk(clk), .d(pt0_sub106), .valid(1'b0), .q(dl_pt0_sub106));
     // pt0_vrel = pt0_sub95 + pt0_sub106   (ready @30/30/30)
     logic [W-1:0] pt0_vrel;
     logic [2:0] fl_pt0_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_sub95), .b(dl_pt0_sub106), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_pt0_sub95), .b(dl_pt0_sub106), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(pt0_vrel), .flags(fl_pt0_vrel)
     );
     assign ev_ovf[52] = fl_pt0_vrel[0] && ev_q[30];
@@ -1055,12 +1062,12 @@ module pgs_contact_pipe #(
     assign ev_inv[52] = fl_pt0_vrel[2] && ev_q[30];
     logic [W-1:0] dl_pt0_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_vrel (.clk(clk), .d(pt0_vrel), .q(dl_pt0_vrel));
+        u_dl_pt0_vrel (.clk(clk), .d(pt0_vrel), .valid(1'b0), .q(dl_pt0_vrel));
     // pt0_add108 = pt0_vrel + b0   (ready @34/34/34)
     logic [W-1:0] pt0_add108;
     logic [2:0] fl_pt0_add108;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add108 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[30]), .a(dl_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(pt0_add108), .flags(fl_pt0_add108)
     );
     assign ev_ovf[53] = fl_pt0_add108[0] && ev_q[34];
@@ -1068,12 +1075,12 @@ module pgs_contact_pipe #(
     assign ev_inv[53] = fl_pt0_add108[2] && ev_q[34];
     logic [W-1:0] dl_pt0_add108;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add108 (.clk(clk), .d(pt0_add108), .q(dl_pt0_add108));
+        u_dl_pt0_add108 (.clk(clk), .d(pt0_add108), .valid(1'b0), .q(dl_pt0_add108));
     // pt0_delta0 = pt0_add108 * jac_inv0   (ready @37/37/37)
     logic [W-1:0] pt0_delta0;
     logic [2:0] fl_pt0_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add108), .b(dl_in_jac_inv0[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[34]), .a(dl_pt0_add108), .b(dl_in_jac_inv0[1*W +: W]),
         .out_valid(op_valid_nc[54]), .y(pt0_delta0), .flags(fl_pt0_delta0)
     );
     assign ev_ovf[54] = fl_pt0_delta0[0] && ev_q[37];
@@ -1081,12 +1088,12 @@ module pgs_contact_pipe #(
     assign ev_inv[54] = fl_pt0_delta0[2] && ev_q[37];
     logic [W-1:0] dl_pt0_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_delta0 (.clk(clk), .d(pt0_delta0), .q(dl_pt0_delta0));
+        u_dl_pt0_delta0 (.clk(clk), .d(pt0_delta0), .valid(1'b0), .q(dl_pt0_delta0));
     // pt0_add110 = lam0 + pt0_delta0   (ready @41/41/41)
     logic [W-1:0] pt0_add110;
     logic [2:0] fl_pt0_add110;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add110 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam0[0*W +: W]), .b(dl_pt0_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(dl_in_lam0[0*W +: W]), .b(dl_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[55]), .y(pt0_add110), .flags(fl_pt0_add110)
     );
     assign ev_ovf[55] = fl_pt0_add110[0] && ev_q[41];
@@ -1094,22 +1101,22 @@ module pgs_contact_pipe #(
     assign ev_inv[55] = fl_pt0_add110[2] && ev_q[41];
     logic [W-1:0] dl_pt0_add110;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add110 (.clk(clk), .d(pt0_add110), .q(dl_pt0_add110));
+        u_dl_pt0_add110 (.clk(clk), .d(pt0_add110), .valid(1'b0), .q(dl_pt0_add110));
     // pt0_lam_new = max(pt0_add110, 0.0)   (ready @42/42/42)
     logic [W-1:0] pt0_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt0_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add110), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[41]), .a(dl_pt0_add110), .b(K_ZERO),
         .out_valid(op_valid_nc[56]), .y_min(nc_pt0_lam_new_min), .y_max(pt0_lam_new),
         .lt(nc_pt0_lam_new_lt), .eq(nc_pt0_lam_new_eq), .unordered(nc_pt0_lam_new_uo)
     );
     logic [W-1:0] dl_pt0_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_lam_new (.clk(clk), .d(pt0_lam_new), .q(dl_pt0_lam_new));
+        u_dl_pt0_lam_new (.clk(clk), .d(pt0_lam_new), .valid(1'b0), .q(dl_pt0_lam_new));
     // pt0_delta = pt0_lam_new - lam0   (ready @46/46/46)
     logic [W-1:0] pt0_delta;
     logic [2:0] fl_pt0_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_lam_new), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[42]), .a(dl_pt0_lam_new), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[57]), .y(pt0_delta), .flags(fl_pt0_delta)
     );
     assign ev_ovf[56] = fl_pt0_delta[0] && ev_q[46];
@@ -1117,18 +1124,18 @@ module pgs_contact_pipe #(
     assign ev_inv[56] = fl_pt0_delta[2] && ev_q[46];
     logic [W-1:0] dl_pt0_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_delta (.clk(clk), .d(pt0_delta), .q(dl_pt0_delta));
+        u_dl_pt0_delta (.clk(clk), .d(pt0_delta), .valid(1'b0), .q(dl_pt0_delta));
     // pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (ready @42/42/42)
     logic [W-1:0] pt0_lam;
     assign pt0_lam = dl_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_pt0_lam_new;
     logic [W-1:0] dl_pt0_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(137))
-        u_dl_pt0_lam (.clk(clk), .d(pt0_lam), .q(dl_pt0_lam));
+        u_dl_pt0_lam (.clk(clk), .d(pt0_lam), .valid(valid_q[42 +: 137]), .q(dl_pt0_lam));
     // pt0_angA_x = IInvA_x * pt0_cA_x   (ready @14/14/14)
     logic [W-1:0] pt0_angA_x;
     logic [2:0] fl_pt0_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_pt0_cA_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_x), .b(dl_pt0_cA_x),
         .out_valid(op_valid_nc[58]), .y(pt0_angA_x), .flags(fl_pt0_angA_x)
     );
     assign ev_ovf[57] = fl_pt0_angA_x[0] && ev_q[14];
@@ -1136,12 +1143,12 @@ module pgs_contact_pipe #(
     assign ev_inv[57] = fl_pt0_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angA_x (.clk(clk), .d(pt0_angA_x), .q(dl_pt0_angA_x));
+        u_dl_pt0_angA_x (.clk(clk), .d(pt0_angA_x), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_x));
     // pt0_angA_y = IInvA_y * pt0_cA_y   (ready @14/14/14)
     logic [W-1:0] pt0_angA_y;
     logic [2:0] fl_pt0_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_pt0_cA_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_y), .b(dl_pt0_cA_y),
         .out_valid(op_valid_nc[59]), .y(pt0_angA_y), .flags(fl_pt0_angA_y)
     );
     assign ev_ovf[58] = fl_pt0_angA_y[0] && ev_q[14];
@@ -1149,12 +1156,12 @@ module pgs_contact_pipe #(
     assign ev_inv[58] = fl_pt0_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angA_y (.clk(clk), .d(pt0_angA_y), .q(dl_pt0_angA_y));
+        u_dl_pt0_angA_y (.clk(clk), .d(pt0_angA_y), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_y));
     // pt0_angA_z = IInvA_z * pt0_cA_z   (ready @14/14/14)
     logic [W-1:0] pt0_angA_z;
     logic [2:0] fl_pt0_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_pt0_cA_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_z), .b(dl_pt0_cA_z),
         .out_valid(op_valid_nc[60]), .y(pt0_angA_z), .flags(fl_pt0_angA_z)
     );
     assign ev_ovf[59] = fl_pt0_angA_z[0] && ev_q[14];
@@ -1162,12 +1169,12 @@ module pgs_contact_pipe #(
     assign ev_inv[59] = fl_pt0_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angA_z (.clk(clk), .d(pt0_angA_z), .q(dl_pt0_angA_z));
+        u_dl_pt0_angA_z (.clk(clk), .d(pt0_angA_z), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_z));
     // pt0_angB_x = IInvB_x * pt0_cB_x   (ready @14/14/14)
     logic [W-1:0] pt0_angB_x;
     logic [2:0] fl_pt0_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_pt0_cB_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_x), .b(dl_pt0_cB_x),
         .out_valid(op_valid_nc[61]), .y(pt0_angB_x), .flags(fl_pt0_angB_x)
     );
     assign ev_ovf[60] = fl_pt0_angB_x[0] && ev_q[14];
@@ -1175,12 +1182,12 @@ module pgs_contact_pipe #(
     assign ev_inv[60] = fl_pt0_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angB_x (.clk(clk), .d(pt0_angB_x), .q(dl_pt0_angB_x));
+        u_dl_pt0_angB_x (.clk(clk), .d(pt0_angB_x), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_x));
     // pt0_angB_y = IInvB_y * pt0_cB_y   (ready @14/14/14)
     logic [W-1:0] pt0_angB_y;
     logic [2:0] fl_pt0_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_pt0_cB_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_y), .b(dl_pt0_cB_y),
         .out_valid(op_valid_nc[62]), .y(pt0_angB_y), .flags(fl_pt0_angB_y)
     );
     assign ev_ovf[61] = fl_pt0_angB_y[0] && ev_q[14];
@@ -1188,12 +1195,12 @@ module pgs_contact_pipe #(
     assign ev_inv[61] = fl_pt0_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angB_y (.clk(clk), .d(pt0_angB_y), .q(dl_pt0_angB_y));
+        u_dl_pt0_angB_y (.clk(clk), .d(pt0_angB_y), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_y));
     // pt0_angB_z = IInvB_z * pt0_cB_z   (ready @14/14/14)
     logic [W-1:0] pt0_angB_z;
     logic [2:0] fl_pt0_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_pt0_cB_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_z), .b(dl_pt0_cB_z),
         .out_valid(op_valid_nc[63]), .y(pt0_angB_z), .flags(fl_pt0_angB_z)
     );
     assign ev_ovf[62] = fl_pt0_angB_z[0] && ev_q[14];
@@ -1201,12 +1208,12 @@ module pgs_contact_pipe #(
     assign ev_inv[62] = fl_pt0_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angB_z (.clk(clk), .d(pt0_angB_z), .q(dl_pt0_angB_z));
+        u_dl_pt0_angB_z (.clk(clk), .d(pt0_angB_z), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_z));
     // pt0_mul120 = linA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul120;
     logic [2:0] fl_pt0_mul120;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul120 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linA_x[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[64]), .y(pt0_mul120), .flags(fl_pt0_mul120)
     );
     assign ev_ovf[63] = fl_pt0_mul120[0] && ev_q[49];
@@ -1214,12 +1221,12 @@ module pgs_contact_pipe #(
     assign ev_inv[63] = fl_pt0_mul120[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul120;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul120 (.clk(clk), .d(pt0_mul120), .q(dl_pt0_mul120));
+        u_dl_pt0_mul120 (.clk(clk), .d(pt0_mul120), .valid(1'b0), .q(dl_pt0_mul120));
     // pt0_mul121 = linA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul121;
     logic [2:0] fl_pt0_mul121;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul121 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linA_y[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[65]), .y(pt0_mul121), .flags(fl_pt0_mul121)
     );
     assign ev_ovf[64] = fl_pt0_mul121[0] && ev_q[49];
@@ -1227,12 +1234,12 @@ module pgs_contact_pipe #(
     assign ev_inv[64] = fl_pt0_mul121[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul121;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul121 (.clk(clk), .d(pt0_mul121), .q(dl_pt0_mul121));
+        u_dl_pt0_mul121 (.clk(clk), .d(pt0_mul121), .valid(1'b0), .q(dl_pt0_mul121));
     // pt0_mul122 = linA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul122;
     logic [2:0] fl_pt0_mul122;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul122 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linA_z[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[66]), .y(pt0_mul122), .flags(fl_pt0_mul122)
     );
     assign ev_ovf[65] = fl_pt0_mul122[0] && ev_q[49];
@@ -1240,12 +1247,12 @@ module pgs_contact_pipe #(
     assign ev_inv[65] = fl_pt0_mul122[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul122;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul122 (.clk(clk), .d(pt0_mul122), .q(dl_pt0_mul122));
+        u_dl_pt0_mul122 (.clk(clk), .d(pt0_mul122), .valid(1'b0), .q(dl_pt0_mul122));
     // pt0_add123 = vA_x + pt0_mul120   (ready @53/53/53)
     logic [W-1:0] pt0_add123;
     logic [2:0] fl_pt0_add123;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add123 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_x[1*W +: W]), .b(dl_pt0_mul120), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_pt0_mul120), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(pt0_add123), .flags(fl_pt0_add123)
     );
     assign ev_ovf[66] = fl_pt0_add123[0] && ev_q[53];
@@ -1253,12 +1260,12 @@ module pgs_contact_pipe #(
     assign ev_inv[66] = fl_pt0_add123[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add123;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add123 (.clk(clk), .d(pt0_add123), .q(dl_pt0_add123));
+        u_dl_pt0_add123 (.clk(clk), .d(pt0_add123), .valid(1'b0), .q(dl_pt0_add123));
     // pt0_add124 = vA_y + pt0_mul121   (ready @53/53/53)
     logic [W-1:0] pt0_add124;
     logic [2:0] fl_pt0_add124;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add124 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_y[1*W +: W]), .b(dl_pt0_mul121), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_pt0_mul121), .sub(1'b0),
         .out_valid(op_valid_nc[68]), .y(pt0_add124), .flags(fl_pt0_add124)
     );
     assign ev_ovf[67] = fl_pt0_add124[0] && ev_q[53];
@@ -1266,12 +1273,12 @@ module pgs_contact_pipe #(
     assign ev_inv[67] = fl_pt0_add124[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add124;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add124 (.clk(clk), .d(pt0_add124), .q(dl_pt0_add124));
+        u_dl_pt0_add124 (.clk(clk), .d(pt0_add124), .valid(1'b0), .q(dl_pt0_add124));
     // pt0_add125 = vA_z + pt0_mul122   (ready @53/53/53)
     logic [W-1:0] pt0_add125;
     logic [2:0] fl_pt0_add125;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add125 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_z[1*W +: W]), .b(dl_pt0_mul122), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_pt0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(pt0_add125), .flags(fl_pt0_add125)
     );
     assign ev_ovf[68] = fl_pt0_add125[0] && ev_q[53];
@@ -1279,30 +1286,30 @@ module pgs_contact_pipe #(
     assign ev_inv[68] = fl_pt0_add125[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add125;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add125 (.clk(clk), .d(pt0_add125), .q(dl_pt0_add125));
+        u_dl_pt0_add125 (.clk(clk), .d(pt0_add125), .valid(1'b0), .q(dl_pt0_add125));
     // pt0_vA_x = pt0_skip ? vA_x : pt0_add123   (ready @53/53/53)
     logic [W-1:0] pt0_vA_x;
     assign pt0_vA_x = dl_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_pt0_add123;
     logic [3*W-1:0] dl_pt0_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vA_x (.clk(clk), .d(pt0_vA_x), .q(dl_pt0_vA_x));
+        u_dl_pt0_vA_x (.clk(clk), .d(pt0_vA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_x));
     // pt0_vA_y = pt0_skip ? vA_y : pt0_add124   (ready @53/53/53)
     logic [W-1:0] pt0_vA_y;
     assign pt0_vA_y = dl_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_pt0_add124;
     logic [3*W-1:0] dl_pt0_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vA_y (.clk(clk), .d(pt0_vA_y), .q(dl_pt0_vA_y));
+        u_dl_pt0_vA_y (.clk(clk), .d(pt0_vA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_y));
     // pt0_vA_z = pt0_skip ? vA_z : pt0_add125   (ready @53/53/53)
     logic [W-1:0] pt0_vA_z;
     assign pt0_vA_z = dl_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_pt0_add125;
     logic [3*W-1:0] dl_pt0_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vA_z (.clk(clk), .d(pt0_vA_z), .q(dl_pt0_vA_z));
+        u_dl_pt0_vA_z (.clk(clk), .d(pt0_vA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_z));
     // pt0_mul129 = pt0_angA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul129;
     logic [2:0] fl_pt0_mul129;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul129 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_x), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angA_x), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[70]), .y(pt0_mul129), .flags(fl_pt0_mul129)
     );
     assign ev_ovf[69] = fl_pt0_mul129[0] && ev_q[49];
@@ -1310,12 +1317,12 @@ module pgs_contact_pipe #(
     assign ev_inv[69] = fl_pt0_mul129[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul129;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul129 (.clk(clk), .d(pt0_mul129), .q(dl_pt0_mul129));
+        u_dl_pt0_mul129 (.clk(clk), .d(pt0_mul129), .valid(1'b0), .q(dl_pt0_mul129));
     // pt0_mul130 = pt0_angA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul130;
     logic [2:0] fl_pt0_mul130;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul130 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_y), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angA_y), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[71]), .y(pt0_mul130), .flags(fl_pt0_mul130)
     );
     assign ev_ovf[70] = fl_pt0_mul130[0] && ev_q[49];
@@ -1323,12 +1330,12 @@ module pgs_contact_pipe #(
     assign ev_inv[70] = fl_pt0_mul130[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul130;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul130 (.clk(clk), .d(pt0_mul130), .q(dl_pt0_mul130));
+        u_dl_pt0_mul130 (.clk(clk), .d(pt0_mul130), .valid(1'b0), .q(dl_pt0_mul130));
     // pt0_mul131 = pt0_angA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul131;
     logic [2:0] fl_pt0_mul131;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul131 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_z), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angA_z), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[72]), .y(pt0_mul131), .flags(fl_pt0_mul131)
     );
     assign ev_ovf[71] = fl_pt0_mul131[0] && ev_q[49];
@@ -1336,12 +1343,12 @@ module pgs_contact_pipe #(
     assign ev_inv[71] = fl_pt0_mul131[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul131;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul131 (.clk(clk), .d(pt0_mul131), .q(dl_pt0_mul131));
+        u_dl_pt0_mul131 (.clk(clk), .d(pt0_mul131), .valid(1'b0), .q(dl_pt0_mul131));
     // pt0_add132 = wA_x + pt0_mul129   (ready @53/53/53)
     logic [W-1:0] pt0_add132;
     logic [2:0] fl_pt0_add132;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add132 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_x[1*W +: W]), .b(dl_pt0_mul129), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_pt0_mul129), .sub(1'b0),
         .out_valid(op_valid_nc[73]), .y(pt0_add132), .flags(fl_pt0_add132)
     );
     assign ev_ovf[72] = fl_pt0_add132[0] && ev_q[53];
@@ -1349,12 +1356,12 @@ module pgs_contact_pipe #(
     assign ev_inv[72] = fl_pt0_add132[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add132;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add132 (.clk(clk), .d(pt0_add132), .q(dl_pt0_add132));
+        u_dl_pt0_add132 (.clk(clk), .d(pt0_add132), .valid(1'b0), .q(dl_pt0_add132));
     // pt0_add133 = wA_y + pt0_mul130   (ready @53/53/53)
     logic [W-1:0] pt0_add133;
     logic [2:0] fl_pt0_add133;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add133 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_y[1*W +: W]), .b(dl_pt0_mul130), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_pt0_mul130), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(pt0_add133), .flags(fl_pt0_add133)
     );
     assign ev_ovf[73] = fl_pt0_add133[0] && ev_q[53];
@@ -1362,12 +1369,12 @@ module pgs_contact_pipe #(
     assign ev_inv[73] = fl_pt0_add133[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add133;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add133 (.clk(clk), .d(pt0_add133), .q(dl_pt0_add133));
+        u_dl_pt0_add133 (.clk(clk), .d(pt0_add133), .valid(1'b0), .q(dl_pt0_add133));
     // pt0_add134 = wA_z + pt0_mul131   (ready @53/53/53)
     logic [W-1:0] pt0_add134;
     logic [2:0] fl_pt0_add134;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add134 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_z[1*W +: W]), .b(dl_pt0_mul131), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_pt0_mul131), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(pt0_add134), .flags(fl_pt0_add134)
     );
     assign ev_ovf[74] = fl_pt0_add134[0] && ev_q[53];
@@ -1375,30 +1382,30 @@ module pgs_contact_pipe #(
     assign ev_inv[74] = fl_pt0_add134[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add134;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add134 (.clk(clk), .d(pt0_add134), .q(dl_pt0_add134));
+        u_dl_pt0_add134 (.clk(clk), .d(pt0_add134), .valid(1'b0), .q(dl_pt0_add134));
     // pt0_wA_x = pt0_skip ? wA_x : pt0_add132   (ready @53/53/53)
     logic [W-1:0] pt0_wA_x;
     assign pt0_wA_x = dl_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_pt0_add132;
     logic [3*W-1:0] dl_pt0_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wA_x (.clk(clk), .d(pt0_wA_x), .q(dl_pt0_wA_x));
+        u_dl_pt0_wA_x (.clk(clk), .d(pt0_wA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_x));
     // pt0_wA_y = pt0_skip ? wA_y : pt0_add133   (ready @53/53/53)
     logic [W-1:0] pt0_wA_y;
     assign pt0_wA_y = dl_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_pt0_add133;
     logic [3*W-1:0] dl_pt0_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wA_y (.clk(clk), .d(pt0_wA_y), .q(dl_pt0_wA_y));
+        u_dl_pt0_wA_y (.clk(clk), .d(pt0_wA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_y));
     // pt0_wA_z = pt0_skip ? wA_z : pt0_add134   (ready @53/53/53)
     logic [W-1:0] pt0_wA_z;
     assign pt0_wA_z = dl_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_pt0_add134;
     logic [3*W-1:0] dl_pt0_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wA_z (.clk(clk), .d(pt0_wA_z), .q(dl_pt0_wA_z));
+        u_dl_pt0_wA_z (.clk(clk), .d(pt0_wA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_z));
     // pt0_mul138 = linB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul138;
     logic [2:0] fl_pt0_mul138;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul138 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linB_x[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[76]), .y(pt0_mul138), .flags(fl_pt0_mul138)
     );
     assign ev_ovf[75] = fl_pt0_mul138[0] && ev_q[49];
@@ -1406,12 +1413,12 @@ module pgs_contact_pipe #(
     assign ev_inv[75] = fl_pt0_mul138[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul138;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul138 (.clk(clk), .d(pt0_mul138), .q(dl_pt0_mul138));
+        u_dl_pt0_mul138 (.clk(clk), .d(pt0_mul138), .valid(1'b0), .q(dl_pt0_mul138));
     // pt0_mul139 = linB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul139;
     logic [2:0] fl_pt0_mul139;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul139 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linB_y[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[77]), .y(pt0_mul139), .flags(fl_pt0_mul139)
     );
     assign ev_ovf[76] = fl_pt0_mul139[0] && ev_q[49];
@@ -1419,12 +1426,12 @@ module pgs_contact_pipe #(
     assign ev_inv[76] = fl_pt0_mul139[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul139;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul139 (.clk(clk), .d(pt0_mul139), .q(dl_pt0_mul139));
+        u_dl_pt0_mul139 (.clk(clk), .d(pt0_mul139), .valid(1'b0), .q(dl_pt0_mul139));
     // pt0_mul140 = linB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul140;
     logic [2:0] fl_pt0_mul140;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul140 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linB_z[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[78]), .y(pt0_mul140), .flags(fl_pt0_mul140)
     );
     assign ev_ovf[77] = fl_pt0_mul140[0] && ev_q[49];
@@ -1432,12 +1439,12 @@ module pgs_contact_pipe #(
     assign ev_inv[77] = fl_pt0_mul140[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul140;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul140 (.clk(clk), .d(pt0_mul140), .q(dl_pt0_mul140));
+        u_dl_pt0_mul140 (.clk(clk), .d(pt0_mul140), .valid(1'b0), .q(dl_pt0_mul140));
     // pt0_sub141 = vB_x - pt0_mul138   (ready @53/53/53)
     logic [W-1:0] pt0_sub141;
     logic [2:0] fl_pt0_sub141;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub141 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_x[1*W +: W]), .b(dl_pt0_mul138), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_pt0_mul138), .sub(1'b1),
         .out_valid(op_valid_nc[79]), .y(pt0_sub141), .flags(fl_pt0_sub141)
     );
     assign ev_ovf[78] = fl_pt0_sub141[0] && ev_q[53];
@@ -1445,12 +1452,12 @@ module pgs_contact_pipe #(
     assign ev_inv[78] = fl_pt0_sub141[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub141;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub141 (.clk(clk), .d(pt0_sub141), .q(dl_pt0_sub141));
+        u_dl_pt0_sub141 (.clk(clk), .d(pt0_sub141), .valid(1'b0), .q(dl_pt0_sub141));
     // pt0_sub142 = vB_y - pt0_mul139   (ready @53/53/53)
     logic [W-1:0] pt0_sub142;
     logic [2:0] fl_pt0_sub142;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub142 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_y[1*W +: W]), .b(dl_pt0_mul139), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_pt0_mul139), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(pt0_sub142), .flags(fl_pt0_sub142)
     );
     assign ev_ovf[79] = fl_pt0_sub142[0] && ev_q[53];
@@ -1458,12 +1465,12 @@ module pgs_contact_pipe #(
     assign ev_inv[79] = fl_pt0_sub142[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub142;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub142 (.clk(clk), .d(pt0_sub142), .q(dl_pt0_sub142));
+        u_dl_pt0_sub142 (.clk(clk), .d(pt0_sub142), .valid(1'b0), .q(dl_pt0_sub142));
     // pt0_sub143 = vB_z - pt0_mul140   (ready @53/53/53)
     logic [W-1:0] pt0_sub143;
     logic [2:0] fl_pt0_sub143;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub143 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_z[1*W +: W]), .b(dl_pt0_mul140), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_pt0_mul140), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(pt0_sub143), .flags(fl_pt0_sub143)
     );
     assign ev_ovf[80] = fl_pt0_sub143[0] && ev_q[53];
@@ -1471,30 +1478,30 @@ module pgs_contact_pipe #(
     assign ev_inv[80] = fl_pt0_sub143[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub143;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub143 (.clk(clk), .d(pt0_sub143), .q(dl_pt0_sub143));
+        u_dl_pt0_sub143 (.clk(clk), .d(pt0_sub143), .valid(1'b0), .q(dl_pt0_sub143));
     // pt0_vB_x = pt0_skip ? vB_x : pt0_sub141   (ready @53/53/53)
     logic [W-1:0] pt0_vB_x;
     assign pt0_vB_x = dl_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_pt0_sub141;
     logic [3*W-1:0] dl_pt0_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vB_x (.clk(clk), .d(pt0_vB_x), .q(dl_pt0_vB_x));
+        u_dl_pt0_vB_x (.clk(clk), .d(pt0_vB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_x));
     // pt0_vB_y = pt0_skip ? vB_y : pt0_sub142   (ready @53/53/53)
     logic [W-1:0] pt0_vB_y;
     assign pt0_vB_y = dl_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_pt0_sub142;
     logic [3*W-1:0] dl_pt0_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vB_y (.clk(clk), .d(pt0_vB_y), .q(dl_pt0_vB_y));
+        u_dl_pt0_vB_y (.clk(clk), .d(pt0_vB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_y));
     // pt0_vB_z = pt0_skip ? vB_z : pt0_sub143   (ready @53/53/53)
     logic [W-1:0] pt0_vB_z;
     assign pt0_vB_z = dl_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_pt0_sub143;
     logic [3*W-1:0] dl_pt0_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vB_z (.clk(clk), .d(pt0_vB_z), .q(dl_pt0_vB_z));
+        u_dl_pt0_vB_z (.clk(clk), .d(pt0_vB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_z));
     // pt0_mul147 = pt0_angB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul147;
     logic [2:0] fl_pt0_mul147;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul147 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_x), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angB_x), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[82]), .y(pt0_mul147), .flags(fl_pt0_mul147)
     );
     assign ev_ovf[81] = fl_pt0_mul147[0] && ev_q[49];
@@ -1502,12 +1509,12 @@ module pgs_contact_pipe #(
     assign ev_inv[81] = fl_pt0_mul147[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul147;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul147 (.clk(clk), .d(pt0_mul147), .q(dl_pt0_mul147));
+        u_dl_pt0_mul147 (.clk(clk), .d(pt0_mul147), .valid(1'b0), .q(dl_pt0_mul147));
     // pt0_mul148 = pt0_angB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul148;
     logic [2:0] fl_pt0_mul148;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul148 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_y), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angB_y), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[83]), .y(pt0_mul148), .flags(fl_pt0_mul148)
     );
     assign ev_ovf[82] = fl_pt0_mul148[0] && ev_q[49];
@@ -1515,12 +1522,12 @@ module pgs_contact_pipe #(
     assign ev_inv[82] = fl_pt0_mul148[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul148;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul148 (.clk(clk), .d(pt0_mul148), .q(dl_pt0_mul148));
+        u_dl_pt0_mul148 (.clk(clk), .d(pt0_mul148), .valid(1'b0), .q(dl_pt0_mul148));
     // pt0_mul149 = pt0_angB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul149;
     logic [2:0] fl_pt0_mul149;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul149 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_z), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angB_z), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[84]), .y(pt0_mul149), .flags(fl_pt0_mul149)
     );
     assign ev_ovf[83] = fl_pt0_mul149[0] && ev_q[49];
@@ -1528,12 +1535,12 @@ module pgs_contact_pipe #(
     assign ev_inv[83] = fl_pt0_mul149[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul149;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul149 (.clk(clk), .d(pt0_mul149), .q(dl_pt0_mul149));
+        u_dl_pt0_mul149 (.clk(clk), .d(pt0_mul149), .valid(1'b0), .q(dl_pt0_mul149));
     // pt0_sub150 = wB_x - pt0_mul147   (ready @53/53/53)
     logic [W-1:0] pt0_sub150;
     logic [2:0] fl_pt0_sub150;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub150 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_x[1*W +: W]), .b(dl_pt0_mul147), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_pt0_mul147), .sub(1'b1),
         .out_valid(op_valid_nc[85]), .y(pt0_sub150), .flags(fl_pt0_sub150)
     );
     assign ev_ovf[84] = fl_pt0_sub150[0] && ev_q[53];
@@ -1541,12 +1548,12 @@ module pgs_contact_pipe #(
     assign ev_inv[84] = fl_pt0_sub150[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub150;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub150 (.clk(clk), .d(pt0_sub150), .q(dl_pt0_sub150));
+        u_dl_pt0_sub150 (.clk(clk), .d(pt0_sub150), .valid(1'b0), .q(dl_pt0_sub150));
     // pt0_sub151 = wB_y - pt0_mul148   (ready @53/53/53)
     logic [W-1:0] pt0_sub151;
     logic [2:0] fl_pt0_sub151;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub151 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_y[1*W +: W]), .b(dl_pt0_mul148), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_pt0_mul148), .sub(1'b1),
         .out_valid(op_valid_nc[86]), .y(pt0_sub151), .flags(fl_pt0_sub151)
     );
     assign ev_ovf[85] = fl_pt0_sub151[0] && ev_q[53];
@@ -1554,12 +1561,12 @@ module pgs_contact_pipe #(
     assign ev_inv[85] = fl_pt0_sub151[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub151;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub151 (.clk(clk), .d(pt0_sub151), .q(dl_pt0_sub151));
+        u_dl_pt0_sub151 (.clk(clk), .d(pt0_sub151), .valid(1'b0), .q(dl_pt0_sub151));
     // pt0_sub152 = wB_z - pt0_mul149   (ready @53/53/53)
     logic [W-1:0] pt0_sub152;
     logic [2:0] fl_pt0_sub152;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub152 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_z[1*W +: W]), .b(dl_pt0_mul149), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_pt0_mul149), .sub(1'b1),
         .out_valid(op_valid_nc[87]), .y(pt0_sub152), .flags(fl_pt0_sub152)
     );
     assign ev_ovf[86] = fl_pt0_sub152[0] && ev_q[53];
@@ -1567,36 +1574,36 @@ module pgs_contact_pipe #(
     assign ev_inv[86] = fl_pt0_sub152[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub152;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub152 (.clk(clk), .d(pt0_sub152), .q(dl_pt0_sub152));
+        u_dl_pt0_sub152 (.clk(clk), .d(pt0_sub152), .valid(1'b0), .q(dl_pt0_sub152));
     // pt0_wB_x = pt0_skip ? wB_x : pt0_sub150   (ready @53/53/53)
     logic [W-1:0] pt0_wB_x;
     assign pt0_wB_x = dl_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_pt0_sub150;
     logic [3*W-1:0] dl_pt0_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wB_x (.clk(clk), .d(pt0_wB_x), .q(dl_pt0_wB_x));
+        u_dl_pt0_wB_x (.clk(clk), .d(pt0_wB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_x));
     // pt0_wB_y = pt0_skip ? wB_y : pt0_sub151   (ready @53/53/53)
     logic [W-1:0] pt0_wB_y;
     assign pt0_wB_y = dl_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_pt0_sub151;
     logic [3*W-1:0] dl_pt0_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wB_y (.clk(clk), .d(pt0_wB_y), .q(dl_pt0_wB_y));
+        u_dl_pt0_wB_y (.clk(clk), .d(pt0_wB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_y));
     // pt0_wB_z = pt0_skip ? wB_z : pt0_sub152   (ready @53/53/53)
     logic [W-1:0] pt0_wB_z;
     assign pt0_wB_z = dl_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_pt0_sub152;
     logic [3*W-1:0] dl_pt0_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wB_z (.clk(clk), .d(pt0_wB_z), .q(dl_pt0_wB_z));
+        u_dl_pt0_wB_z (.clk(clk), .d(pt0_wB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_z));
     // pt1_skip = jac_inv1 == 0   (ready @0/0/0)
     logic pt1_skip;
     assign pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt1_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}))
-        u_dl_pt1_skip (.clk(clk), .d(pt1_skip), .q(dl_pt1_skip));
+        u_dl_pt1_skip (.clk(clk), .d(pt1_skip), .valid(valid_q[0 +: 95]), .q(dl_pt1_skip));
     // pt1_rA_x = p1_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt1_rA_x;
     logic [2:0] fl_pt1_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[88]), .y(pt1_rA_x), .flags(fl_pt1_rA_x)
     );
     assign ev_ovf[87] = fl_pt1_rA_x[0] && ev_q[4];
@@ -1604,12 +1611,12 @@ module pgs_contact_pipe #(
     assign ev_inv[87] = fl_pt1_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rA_x (.clk(clk), .d(pt1_rA_x), .q(dl_pt1_rA_x));
+        u_dl_pt1_rA_x (.clk(clk), .d(pt1_rA_x), .valid(1'b0), .q(dl_pt1_rA_x));
     // pt1_rA_y = p1_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt1_rA_y;
     logic [2:0] fl_pt1_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(pt1_rA_y), .flags(fl_pt1_rA_y)
     );
     assign ev_ovf[88] = fl_pt1_rA_y[0] && ev_q[4];
@@ -1617,12 +1624,12 @@ module pgs_contact_pipe #(
     assign ev_inv[88] = fl_pt1_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rA_y (.clk(clk), .d(pt1_rA_y), .q(dl_pt1_rA_y));
+        u_dl_pt1_rA_y (.clk(clk), .d(pt1_rA_y), .valid(1'b0), .q(dl_pt1_rA_y));
     // pt1_rA_z = p1_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt1_rA_z;
     logic [2:0] fl_pt1_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(pt1_rA_z), .flags(fl_pt1_rA_z)
     );
     assign ev_ovf[89] = fl_pt1_rA_z[0] && ev_q[4];
@@ -1630,12 +1637,12 @@ module pgs_contact_pipe #(
     assign ev_inv[89] = fl_pt1_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rA_z (.clk(clk), .d(pt1_rA_z), .q(dl_pt1_rA_z));
+        u_dl_pt1_rA_z (.clk(clk), .d(pt1_rA_z), .valid(1'b0), .q(dl_pt1_rA_z));
     // pt1_mul160 = pt1_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul160;
     logic [2:0] fl_pt1_mul160;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul160 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[91]), .y(pt1_mul160), .flags(fl_pt1_mul160)
     );
     assign ev_ovf[90] = fl_pt1_mul160[0] && ev_q[7];
@@ -1643,12 +1650,12 @@ module pgs_contact_pipe #(
     assign ev_inv[90] = fl_pt1_mul160[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul160;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul160 (.clk(clk), .d(pt1_mul160), .q(dl_pt1_mul160));
+        u_dl_pt1_mul160 (.clk(clk), .d(pt1_mul160), .valid(1'b0), .q(dl_pt1_mul160));
     // pt1_mul161 = pt1_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul161;
     logic [2:0] fl_pt1_mul161;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul161 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[92]), .y(pt1_mul161), .flags(fl_pt1_mul161)
     );
     assign ev_ovf[91] = fl_pt1_mul161[0] && ev_q[7];
@@ -1656,12 +1663,12 @@ module pgs_contact_pipe #(
     assign ev_inv[91] = fl_pt1_mul161[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul161;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul161 (.clk(clk), .d(pt1_mul161), .q(dl_pt1_mul161));
+        u_dl_pt1_mul161 (.clk(clk), .d(pt1_mul161), .valid(1'b0), .q(dl_pt1_mul161));
     // pt1_cA_x = pt1_mul160 - pt1_mul161   (ready @11/11/11)
     logic [W-1:0] pt1_cA_x;
     logic [2:0] fl_pt1_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul160), .b(dl_pt1_mul161), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul160), .b(dl_pt1_mul161), .sub(1'b1),
         .out_valid(op_valid_nc[93]), .y(pt1_cA_x), .flags(fl_pt1_cA_x)
     );
     assign ev_ovf[92] = fl_pt1_cA_x[0] && ev_q[11];
@@ -1669,12 +1676,12 @@ module pgs_contact_pipe #(
     assign ev_inv[92] = fl_pt1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cA_x (.clk(clk), .d(pt1_cA_x), .q(dl_pt1_cA_x));
+        u_dl_pt1_cA_x (.clk(clk), .d(pt1_cA_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_x));
     // pt1_mul163 = pt1_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul163;
     logic [2:0] fl_pt1_mul163;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul163 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[94]), .y(pt1_mul163), .flags(fl_pt1_mul163)
     );
     assign ev_ovf[93] = fl_pt1_mul163[0] && ev_q[7];
@@ -1682,12 +1689,12 @@ module pgs_contact_pipe #(
     assign ev_inv[93] = fl_pt1_mul163[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul163;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul163 (.clk(clk), .d(pt1_mul163), .q(dl_pt1_mul163));
+        u_dl_pt1_mul163 (.clk(clk), .d(pt1_mul163), .valid(1'b0), .q(dl_pt1_mul163));
     // pt1_mul164 = pt1_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul164;
     logic [2:0] fl_pt1_mul164;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul164 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[95]), .y(pt1_mul164), .flags(fl_pt1_mul164)
     );
     assign ev_ovf[94] = fl_pt1_mul164[0] && ev_q[7];
@@ -1695,12 +1702,12 @@ module pgs_contact_pipe #(
     assign ev_inv[94] = fl_pt1_mul164[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul164;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul164 (.clk(clk), .d(pt1_mul164), .q(dl_pt1_mul164));
+        u_dl_pt1_mul164 (.clk(clk), .d(pt1_mul164), .valid(1'b0), .q(dl_pt1_mul164));
     // pt1_cA_y = pt1_mul163 - pt1_mul164   (ready @11/11/11)
     logic [W-1:0] pt1_cA_y;
     logic [2:0] fl_pt1_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul163), .b(dl_pt1_mul164), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul163), .b(dl_pt1_mul164), .sub(1'b1),
         .out_valid(op_valid_nc[96]), .y(pt1_cA_y), .flags(fl_pt1_cA_y)
     );
     assign ev_ovf[95] = fl_pt1_cA_y[0] && ev_q[11];
@@ -1708,12 +1715,12 @@ module pgs_contact_pipe #(
     assign ev_inv[95] = fl_pt1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cA_y (.clk(clk), .d(pt1_cA_y), .q(dl_pt1_cA_y));
+        u_dl_pt1_cA_y (.clk(clk), .d(pt1_cA_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_y));
     // pt1_mul166 = pt1_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul166;
     logic [2:0] fl_pt1_mul166;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul166 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[97]), .y(pt1_mul166), .flags(fl_pt1_mul166)
     );
     assign ev_ovf[96] = fl_pt1_mul166[0] && ev_q[7];
@@ -1721,12 +1728,12 @@ module pgs_contact_pipe #(
     assign ev_inv[96] = fl_pt1_mul166[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul166;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul166 (.clk(clk), .d(pt1_mul166), .q(dl_pt1_mul166));
+        u_dl_pt1_mul166 (.clk(clk), .d(pt1_mul166), .valid(1'b0), .q(dl_pt1_mul166));
     // pt1_mul167 = pt1_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul167;
     logic [2:0] fl_pt1_mul167;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul167 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[98]), .y(pt1_mul167), .flags(fl_pt1_mul167)
     );
     assign ev_ovf[97] = fl_pt1_mul167[0] && ev_q[7];
@@ -1734,12 +1741,12 @@ module pgs_contact_pipe #(
     assign ev_inv[97] = fl_pt1_mul167[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul167;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul167 (.clk(clk), .d(pt1_mul167), .q(dl_pt1_mul167));
+        u_dl_pt1_mul167 (.clk(clk), .d(pt1_mul167), .valid(1'b0), .q(dl_pt1_mul167));
     // pt1_cA_z = pt1_mul166 - pt1_mul167   (ready @11/11/11)
     logic [W-1:0] pt1_cA_z;
     logic [2:0] fl_pt1_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul166), .b(dl_pt1_mul167), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul166), .b(dl_pt1_mul167), .sub(1'b1),
         .out_valid(op_valid_nc[99]), .y(pt1_cA_z), .flags(fl_pt1_cA_z)
     );
     assign ev_ovf[98] = fl_pt1_cA_z[0] && ev_q[11];
@@ -1747,12 +1754,12 @@ module pgs_contact_pipe #(
     assign ev_inv[98] = fl_pt1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cA_z (.clk(clk), .d(pt1_cA_z), .q(dl_pt1_cA_z));
+        u_dl_pt1_cA_z (.clk(clk), .d(pt1_cA_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_z));
     // pt1_rB_x = p1_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt1_rB_x;
     logic [2:0] fl_pt1_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(pt1_rB_x), .flags(fl_pt1_rB_x)
     );
     assign ev_ovf[99] = fl_pt1_rB_x[0] && ev_q[4];
@@ -1760,12 +1767,12 @@ module pgs_contact_pipe #(
     assign ev_inv[99] = fl_pt1_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rB_x (.clk(clk), .d(pt1_rB_x), .q(dl_pt1_rB_x));
+        u_dl_pt1_rB_x (.clk(clk), .d(pt1_rB_x), .valid(1'b0), .q(dl_pt1_rB_x));
     // pt1_rB_y = p1_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt1_rB_y;
     logic [2:0] fl_pt1_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[101]), .y(pt1_rB_y), .flags(fl_pt1_rB_y)
     );
     assign ev_ovf[100] = fl_pt1_rB_y[0] && ev_q[4];
@@ -1773,12 +1780,12 @@ module pgs_contact_pipe #(
     assign ev_inv[100] = fl_pt1_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rB_y (.clk(clk), .d(pt1_rB_y), .q(dl_pt1_rB_y));
+        u_dl_pt1_rB_y (.clk(clk), .d(pt1_rB_y), .valid(1'b0), .q(dl_pt1_rB_y));
     // pt1_rB_z = p1_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt1_rB_z;
     logic [2:0] fl_pt1_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[102]), .y(pt1_rB_z), .flags(fl_pt1_rB_z)
     );
     assign ev_ovf[101] = fl_pt1_rB_z[0] && ev_q[4];
@@ -1786,12 +1793,12 @@ module pgs_contact_pipe #(
     assign ev_inv[101] = fl_pt1_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rB_z (.clk(clk), .d(pt1_rB_z), .q(dl_pt1_rB_z));
+        u_dl_pt1_rB_z (.clk(clk), .d(pt1_rB_z), .valid(1'b0), .q(dl_pt1_rB_z));
     // pt1_mul172 = pt1_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul172;
     logic [2:0] fl_pt1_mul172;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul172 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[103]), .y(pt1_mul172), .flags(fl_pt1_mul172)
     );
     assign ev_ovf[102] = fl_pt1_mul172[0] && ev_q[7];
@@ -1799,12 +1806,12 @@ module pgs_contact_pipe #(
     assign ev_inv[102] = fl_pt1_mul172[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul172;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul172 (.clk(clk), .d(pt1_mul172), .q(dl_pt1_mul172));
+        u_dl_pt1_mul172 (.clk(clk), .d(pt1_mul172), .valid(1'b0), .q(dl_pt1_mul172));
     // pt1_mul173 = pt1_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul173;
     logic [2:0] fl_pt1_mul173;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul173 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[104]), .y(pt1_mul173), .flags(fl_pt1_mul173)
     );
     assign ev_ovf[103] = fl_pt1_mul173[0] && ev_q[7];
@@ -1812,12 +1819,12 @@ module pgs_contact_pipe #(
     assign ev_inv[103] = fl_pt1_mul173[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul173;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul173 (.clk(clk), .d(pt1_mul173), .q(dl_pt1_mul173));
+        u_dl_pt1_mul173 (.clk(clk), .d(pt1_mul173), .valid(1'b0), .q(dl_pt1_mul173));
     // pt1_cB_x = pt1_mul172 - pt1_mul173   (ready @11/11/11)
     logic [W-1:0] pt1_cB_x;
     logic [2:0] fl_pt1_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul172), .b(dl_pt1_mul173), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul172), .b(dl_pt1_mul173), .sub(1'b1),
         .out_valid(op_valid_nc[105]), .y(pt1_cB_x), .flags(fl_pt1_cB_x)
     );
     assign ev_ovf[104] = fl_pt1_cB_x[0] && ev_q[11];
@@ -1825,12 +1832,12 @@ module pgs_contact_pipe #(
     assign ev_inv[104] = fl_pt1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cB_x (.clk(clk), .d(pt1_cB_x), .q(dl_pt1_cB_x));
+        u_dl_pt1_cB_x (.clk(clk), .d(pt1_cB_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_x));
     // pt1_mul175 = pt1_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul175;
     logic [2:0] fl_pt1_mul175;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul175 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[106]), .y(pt1_mul175), .flags(fl_pt1_mul175)
     );
     assign ev_ovf[105] = fl_pt1_mul175[0] && ev_q[7];
@@ -1838,12 +1845,12 @@ module pgs_contact_pipe #(
     assign ev_inv[105] = fl_pt1_mul175[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul175;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul175 (.clk(clk), .d(pt1_mul175), .q(dl_pt1_mul175));
+        u_dl_pt1_mul175 (.clk(clk), .d(pt1_mul175), .valid(1'b0), .q(dl_pt1_mul175));
     // pt1_mul176 = pt1_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul176;
     logic [2:0] fl_pt1_mul176;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul176 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[107]), .y(pt1_mul176), .flags(fl_pt1_mul176)
     );
     assign ev_ovf[106] = fl_pt1_mul176[0] && ev_q[7];
@@ -1851,12 +1858,12 @@ module pgs_contact_pipe #(
     assign ev_inv[106] = fl_pt1_mul176[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul176;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul176 (.clk(clk), .d(pt1_mul176), .q(dl_pt1_mul176));
+        u_dl_pt1_mul176 (.clk(clk), .d(pt1_mul176), .valid(1'b0), .q(dl_pt1_mul176));
     // pt1_cB_y = pt1_mul175 - pt1_mul176   (ready @11/11/11)
     logic [W-1:0] pt1_cB_y;
     logic [2:0] fl_pt1_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul175), .b(dl_pt1_mul176), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul175), .b(dl_pt1_mul176), .sub(1'b1),
         .out_valid(op_valid_nc[108]), .y(pt1_cB_y), .flags(fl_pt1_cB_y)
     );
     assign ev_ovf[107] = fl_pt1_cB_y[0] && ev_q[11];
@@ -1864,12 +1871,12 @@ module pgs_contact_pipe #(
     assign ev_inv[107] = fl_pt1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cB_y (.clk(clk), .d(pt1_cB_y), .q(dl_pt1_cB_y));
+        u_dl_pt1_cB_y (.clk(clk), .d(pt1_cB_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_y));
     // pt1_mul178 = pt1_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul178;
     logic [2:0] fl_pt1_mul178;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul178 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[109]), .y(pt1_mul178), .flags(fl_pt1_mul178)
     );
     assign ev_ovf[108] = fl_pt1_mul178[0] && ev_q[7];
@@ -1877,12 +1884,12 @@ module pgs_contact_pipe #(
     assign ev_inv[108] = fl_pt1_mul178[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul178;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul178 (.clk(clk), .d(pt1_mul178), .q(dl_pt1_mul178));
+        u_dl_pt1_mul178 (.clk(clk), .d(pt1_mul178), .valid(1'b0), .q(dl_pt1_mul178));
     // pt1_mul179 = pt1_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul179;
     logic [2:0] fl_pt1_mul179;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul179 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[110]), .y(pt1_mul179), .flags(fl_pt1_mul179)
     );
     assign ev_ovf[109] = fl_pt1_mul179[0] && ev_q[7];
@@ -1890,12 +1897,12 @@ module pgs_contact_pipe #(
     assign ev_inv[109] = fl_pt1_mul179[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul179;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul179 (.clk(clk), .d(pt1_mul179), .q(dl_pt1_mul179));
+        u_dl_pt1_mul179 (.clk(clk), .d(pt1_mul179), .valid(1'b0), .q(dl_pt1_mul179));
     // pt1_cB_z = pt1_mul178 - pt1_mul179   (ready @11/11/11)
     logic [W-1:0] pt1_cB_z;
     logic [2:0] fl_pt1_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul178), .b(dl_pt1_mul179), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul178), .b(dl_pt1_mul179), .sub(1'b1),
         .out_valid(op_valid_nc[111]), .y(pt1_cB_z), .flags(fl_pt1_cB_z)
     );
     assign ev_ovf[110] = fl_pt1_cB_z[0] && ev_q[11];
@@ -1903,12 +1910,12 @@ module pgs_contact_pipe #(
     assign ev_inv[110] = fl_pt1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cB_z (.clk(clk), .d(pt1_cB_z), .q(dl_pt1_cB_z));
+        u_dl_pt1_cB_z (.clk(clk), .d(pt1_cB_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_z));
     // pt1_mul181 = n_x * pt0_vA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul181;
     logic [2:0] fl_pt1_mul181;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul181 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[112]), .y(pt1_mul181), .flags(fl_pt1_mul181)
     );
     assign ev_ovf[111] = fl_pt1_mul181[0] && ev_q[56];
@@ -1916,12 +1923,12 @@ module pgs_contact_pipe #(
     assign ev_inv[111] = fl_pt1_mul181[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul181;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul181 (.clk(clk), .d(pt1_mul181), .q(dl_pt1_mul181));
+        u_dl_pt1_mul181 (.clk(clk), .d(pt1_mul181), .valid(1'b0), .q(dl_pt1_mul181));
     // pt1_mul182 = n_y * pt0_vA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul182;
     logic [2:0] fl_pt1_mul182;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul182 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[113]), .y(pt1_mul182), .flags(fl_pt1_mul182)
     );
     assign ev_ovf[112] = fl_pt1_mul182[0] && ev_q[56];
@@ -1929,12 +1936,12 @@ module pgs_contact_pipe #(
     assign ev_inv[112] = fl_pt1_mul182[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul182;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul182 (.clk(clk), .d(pt1_mul182), .q(dl_pt1_mul182));
+        u_dl_pt1_mul182 (.clk(clk), .d(pt1_mul182), .valid(1'b0), .q(dl_pt1_mul182));
     // pt1_add183 = pt1_mul181 + pt1_mul182   (ready @60/60/60)
     logic [W-1:0] pt1_add183;
     logic [2:0] fl_pt1_add183;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add183 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul181), .b(dl_pt1_mul182), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul181), .b(dl_pt1_mul182), .sub(1'b0),
         .out_valid(op_valid_nc[114]), .y(pt1_add183), .flags(fl_pt1_add183)
     );
     assign ev_ovf[113] = fl_pt1_add183[0] && ev_q[60];
@@ -1942,12 +1949,12 @@ module pgs_contact_pipe #(
     assign ev_inv[113] = fl_pt1_add183[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add183;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add183 (.clk(clk), .d(pt1_add183), .q(dl_pt1_add183));
+        u_dl_pt1_add183 (.clk(clk), .d(pt1_add183), .valid(1'b0), .q(dl_pt1_add183));
     // pt1_mul184 = n_z * pt0_vA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul184;
     logic [2:0] fl_pt1_mul184;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul184 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[115]), .y(pt1_mul184), .flags(fl_pt1_mul184)
     );
     assign ev_ovf[114] = fl_pt1_mul184[0] && ev_q[56];
@@ -1955,12 +1962,12 @@ module pgs_contact_pipe #(
     assign ev_inv[114] = fl_pt1_mul184[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul184;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul184 (.clk(clk), .d(pt1_mul184), .q(dl_pt1_mul184));
+        u_dl_pt1_mul184 (.clk(clk), .d(pt1_mul184), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul184));
     // pt1_add185 = pt1_add183 + pt1_mul184   (ready @64/64/64)
     logic [W-1:0] pt1_add185;
     logic [2:0] fl_pt1_add185;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add185 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add183), .b(dl_pt1_mul184), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add183), .b(dl_pt1_mul184), .sub(1'b0),
         .out_valid(op_valid_nc[116]), .y(pt1_add185), .flags(fl_pt1_add185)
     );
     assign ev_ovf[115] = fl_pt1_add185[0] && ev_q[64];
@@ -1968,12 +1975,12 @@ module pgs_contact_pipe #(
     assign ev_inv[115] = fl_pt1_add185[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add185;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add185 (.clk(clk), .d(pt1_add185), .q(dl_pt1_add185));
+        u_dl_pt1_add185 (.clk(clk), .d(pt1_add185), .valid(1'b0), .q(dl_pt1_add185));
     // pt1_mul186 = n_x * pt0_vB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul186;
     logic [2:0] fl_pt1_mul186;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul186 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[117]), .y(pt1_mul186), .flags(fl_pt1_mul186)
     );
     assign ev_ovf[116] = fl_pt1_mul186[0] && ev_q[56];
@@ -1981,12 +1988,12 @@ module pgs_contact_pipe #(
     assign ev_inv[116] = fl_pt1_mul186[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul186;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul186 (.clk(clk), .d(pt1_mul186), .q(dl_pt1_mul186));
+        u_dl_pt1_mul186 (.clk(clk), .d(pt1_mul186), .valid(1'b0), .q(dl_pt1_mul186));
     // pt1_mul187 = n_y * pt0_vB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul187;
     logic [2:0] fl_pt1_mul187;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul187 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[118]), .y(pt1_mul187), .flags(fl_pt1_mul187)
     );
     assign ev_ovf[117] = fl_pt1_mul187[0] && ev_q[56];
@@ -1994,12 +2001,12 @@ module pgs_contact_pipe #(
     assign ev_inv[117] = fl_pt1_mul187[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul187;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul187 (.clk(clk), .d(pt1_mul187), .q(dl_pt1_mul187));
+        u_dl_pt1_mul187 (.clk(clk), .d(pt1_mul187), .valid(1'b0), .q(dl_pt1_mul187));
     // pt1_add188 = pt1_mul186 + pt1_mul187   (ready @60/60/60)
     logic [W-1:0] pt1_add188;
     logic [2:0] fl_pt1_add188;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add188 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul186), .b(dl_pt1_mul187), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul186), .b(dl_pt1_mul187), .sub(1'b0),
         .out_valid(op_valid_nc[119]), .y(pt1_add188), .flags(fl_pt1_add188)
     );
     assign ev_ovf[118] = fl_pt1_add188[0] && ev_q[60];
@@ -2007,12 +2014,12 @@ module pgs_contact_pipe #(
     assign ev_inv[118] = fl_pt1_add188[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add188;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add188 (.clk(clk), .d(pt1_add188), .q(dl_pt1_add188));
+        u_dl_pt1_add188 (.clk(clk), .d(pt1_add188), .valid(1'b0), .q(dl_pt1_add188));
     // pt1_mul189 = n_z * pt0_vB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul189;
     logic [2:0] fl_pt1_mul189;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul189 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[120]), .y(pt1_mul189), .flags(fl_pt1_mul189)
     );
     assign ev_ovf[119] = fl_pt1_mul189[0] && ev_q[56];
@@ -2020,12 +2027,12 @@ module pgs_contact_pipe #(
     assign ev_inv[119] = fl_pt1_mul189[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul189;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul189 (.clk(clk), .d(pt1_mul189), .q(dl_pt1_mul189));
+        u_dl_pt1_mul189 (.clk(clk), .d(pt1_mul189), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul189));
     // pt1_add190 = pt1_add188 + pt1_mul189   (ready @64/64/64)
     logic [W-1:0] pt1_add190;
     logic [2:0] fl_pt1_add190;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add190 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add188), .b(dl_pt1_mul189), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add188), .b(dl_pt1_mul189), .sub(1'b0),
         .out_valid(op_valid_nc[121]), .y(pt1_add190), .flags(fl_pt1_add190)
     );
     assign ev_ovf[120] = fl_pt1_add190[0] && ev_q[64];
@@ -2033,12 +2040,12 @@ module pgs_contact_pipe #(
     assign ev_inv[120] = fl_pt1_add190[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add190;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add190 (.clk(clk), .d(pt1_add190), .q(dl_pt1_add190));
+        u_dl_pt1_add190 (.clk(clk), .d(pt1_add190), .valid(1'b0), .q(dl_pt1_add190));
     // pt1_sub191 = pt1_add185 - pt1_add190   (ready @68/68/68)
     logic [W-1:0] pt1_sub191;
     logic [2:0] fl_pt1_sub191;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub191 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add185), .b(dl_pt1_add190), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add185), .b(dl_pt1_add190), .sub(1'b1),
         .out_valid(op_valid_nc[122]), .y(pt1_sub191), .flags(fl_pt1_sub191)
     );
     assign ev_ovf[121] = fl_pt1_sub191[0] && ev_q[68];
@@ -2046,12 +2053,12 @@ module pgs_contact_pipe #(
     assign ev_inv[121] = fl_pt1_sub191[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub191;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub191 (.clk(clk), .d(pt1_sub191), .q(dl_pt1_sub191));
+        u_dl_pt1_sub191 (.clk(clk), .d(pt1_sub191), .valid(1'b0), .q(dl_pt1_sub191));
     // pt1_mul192 = pt1_cA_x * pt0_wA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul192;
     logic [2:0] fl_pt1_mul192;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul192 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_x[0*W +: W]), .b(dl_pt0_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cA_x[0*W +: W]), .b(dl_pt0_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[123]), .y(pt1_mul192), .flags(fl_pt1_mul192)
     );
     assign ev_ovf[122] = fl_pt1_mul192[0] && ev_q[56];
@@ -2059,12 +2066,12 @@ module pgs_contact_pipe #(
     assign ev_inv[122] = fl_pt1_mul192[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul192;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul192 (.clk(clk), .d(pt1_mul192), .q(dl_pt1_mul192));
+        u_dl_pt1_mul192 (.clk(clk), .d(pt1_mul192), .valid(1'b0), .q(dl_pt1_mul192));
     // pt1_mul193 = pt1_cA_y * pt0_wA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul193;
     logic [2:0] fl_pt1_mul193;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul193 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_y[0*W +: W]), .b(dl_pt0_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cA_y[0*W +: W]), .b(dl_pt0_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[124]), .y(pt1_mul193), .flags(fl_pt1_mul193)
     );
     assign ev_ovf[123] = fl_pt1_mul193[0] && ev_q[56];
@@ -2072,12 +2079,12 @@ module pgs_contact_pipe #(
     assign ev_inv[123] = fl_pt1_mul193[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul193;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul193 (.clk(clk), .d(pt1_mul193), .q(dl_pt1_mul193));
+        u_dl_pt1_mul193 (.clk(clk), .d(pt1_mul193), .valid(1'b0), .q(dl_pt1_mul193));
     // pt1_add194 = pt1_mul192 + pt1_mul193   (ready @60/60/60)
     logic [W-1:0] pt1_add194;
     logic [2:0] fl_pt1_add194;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add194 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul192), .b(dl_pt1_mul193), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul192), .b(dl_pt1_mul193), .sub(1'b0),
         .out_valid(op_valid_nc[125]), .y(pt1_add194), .flags(fl_pt1_add194)
     );
     assign ev_ovf[124] = fl_pt1_add194[0] && ev_q[60];
@@ -2085,12 +2092,12 @@ module pgs_contact_pipe #(
     assign ev_inv[124] = fl_pt1_add194[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add194;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add194 (.clk(clk), .d(pt1_add194), .q(dl_pt1_add194));
+        u_dl_pt1_add194 (.clk(clk), .d(pt1_add194), .valid(1'b0), .q(dl_pt1_add194));
     // pt1_mul195 = pt1_cA_z * pt0_wA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul195;
     logic [2:0] fl_pt1_mul195;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul195 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_z[0*W +: W]), .b(dl_pt0_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cA_z[0*W +: W]), .b(dl_pt0_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[126]), .y(pt1_mul195), .flags(fl_pt1_mul195)
     );
     assign ev_ovf[125] = fl_pt1_mul195[0] && ev_q[56];
@@ -2098,12 +2105,12 @@ module pgs_contact_pipe #(
     assign ev_inv[125] = fl_pt1_mul195[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul195;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul195 (.clk(clk), .d(pt1_mul195), .q(dl_pt1_mul195));
+        u_dl_pt1_mul195 (.clk(clk), .d(pt1_mul195), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul195));
     // pt1_add196 = pt1_add194 + pt1_mul195   (ready @64/64/64)
     logic [W-1:0] pt1_add196;
     logic [2:0] fl_pt1_add196;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add196 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add194), .b(dl_pt1_mul195), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add194), .b(dl_pt1_mul195), .sub(1'b0),
         .out_valid(op_valid_nc[127]), .y(pt1_add196), .flags(fl_pt1_add196)
     );
     assign ev_ovf[126] = fl_pt1_add196[0] && ev_q[64];
@@ -2111,12 +2118,12 @@ module pgs_contact_pipe #(
     assign ev_inv[126] = fl_pt1_add196[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add196;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add196 (.clk(clk), .d(pt1_add196), .q(dl_pt1_add196));
+        u_dl_pt1_add196 (.clk(clk), .d(pt1_add196), .valid(1'b0), .q(dl_pt1_add196));
     // pt1_mul197 = pt1_cB_x * pt0_wB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul197;
     logic [2:0] fl_pt1_mul197;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul197 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_x[0*W +: W]), .b(dl_pt0_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cB_x[0*W +: W]), .b(dl_pt0_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[128]), .y(pt1_mul197), .flags(fl_pt1_mul197)
     );
     assign ev_ovf[127] = fl_pt1_mul197[0] && ev_q[56];
@@ -2124,12 +2131,12 @@ module pgs_contact_pipe #(
     assign ev_inv[127] = fl_pt1_mul197[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul197;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul197 (.clk(clk), .d(pt1_mul197), .q(dl_pt1_mul197));
+        u_dl_pt1_mul197 (.clk(clk), .d(pt1_mul197), .valid(1'b0), .q(dl_pt1_mul197));
     // pt1_mul198 = pt1_cB_y * pt0_wB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul198;
     logic [2:0] fl_pt1_mul198;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul198 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_y[0*W +: W]), .b(dl_pt0_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cB_y[0*W +: W]), .b(dl_pt0_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[129]), .y(pt1_mul198), .flags(fl_pt1_mul198)
     );
     assign ev_ovf[128] = fl_pt1_mul198[0] && ev_q[56];
@@ -2137,12 +2144,12 @@ module pgs_contact_pipe #(
     assign ev_inv[128] = fl_pt1_mul198[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul198;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul198 (.clk(clk), .d(pt1_mul198), .q(dl_pt1_mul198));
+        u_dl_pt1_mul198 (.clk(clk), .d(pt1_mul198), .valid(1'b0), .q(dl_pt1_mul198));
     // pt1_add199 = pt1_mul197 + pt1_mul198   (ready @60/60/60)
     logic [W-1:0] pt1_add199;
     logic [2:0] fl_pt1_add199;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add199 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul197), .b(dl_pt1_mul198), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul197), .b(dl_pt1_mul198), .sub(1'b0),
         .out_valid(op_valid_nc[130]), .y(pt1_add199), .flags(fl_pt1_add199)
     );
     assign ev_ovf[129] = fl_pt1_add199[0] && ev_q[60];
@@ -2150,12 +2157,12 @@ module pgs_contact_pipe #(
     assign ev_inv[129] = fl_pt1_add199[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add199;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add199 (.clk(clk), .d(pt1_add199), .q(dl_pt1_add199));
+        u_dl_pt1_add199 (.clk(clk), .d(pt1_add199), .valid(1'b0), .q(dl_pt1_add199));
     // pt1_mul200 = pt1_cB_z * pt0_wB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul200;
     logic [2:0] fl_pt1_mul200;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul200 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_z[0*W +: W]), .b(dl_pt0_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cB_z[0*W +: W]), .b(dl_pt0_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[131]), .y(pt1_mul200), .flags(fl_pt1_mul200)
     );
     assign ev_ovf[130] = fl_pt1_mul200[0] && ev_q[56];
@@ -2163,12 +2170,12 @@ module pgs_contact_pipe #(
     assign ev_inv[130] = fl_pt1_mul200[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul200;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul200 (.clk(clk), .d(pt1_mul200), .q(dl_pt1_mul200));
+        u_dl_pt1_mul200 (.clk(clk), .d(pt1_mul200), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul200));
     // pt1_add201 = pt1_add199 + pt1_mul200   (ready @64/64/64)
     logic [W-1:0] pt1_add201;
     logic [2:0] fl_pt1_add201;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add201 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add199), .b(dl_pt1_mul200), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add199), .b(dl_pt1_mul200), .sub(1'b0),
         .out_valid(op_valid_nc[132]), .y(pt1_add201), .flags(fl_pt1_add201)
     );
     assign ev_ovf[131] = fl_pt1_add201[0] && ev_q[64];
@@ -2176,12 +2183,12 @@ module pgs_contact_pipe #(
     assign ev_inv[131] = fl_pt1_add201[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add201;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add201 (.clk(clk), .d(pt1_add201), .q(dl_pt1_add201));
+        u_dl_pt1_add201 (.clk(clk), .d(pt1_add201), .valid(1'b0), .q(dl_pt1_add201));
     // pt1_sub202 = pt1_add196 - pt1_add201   (ready @68/68/68)
     logic [W-1:0] pt1_sub202;
     logic [2:0] fl_pt1_sub202;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub202 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add196), .b(dl_pt1_add201), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add196), .b(dl_pt1_add201), .sub(1'b1),
         .out_valid(op_valid_nc[133]), .y(pt1_sub202), .flags(fl_pt1_sub202)
     );
     assign ev_ovf[132] = fl_pt1_sub202[0] && ev_q[68];
@@ -2189,12 +2196,12 @@ module pgs_contact_pipe #(
     assign ev_inv[132] = fl_pt1_sub202[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub202;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub202 (.clk(clk), .d(pt1_sub202), .q(dl_pt1_sub202));
+        u_dl_pt1_sub202 (.clk(clk), .d(pt1_sub202), .valid(1'b0), .q(dl_pt1_sub202));
     // pt1_vrel = pt1_sub191 + pt1_sub202   (ready @72/72/72)
     logic [W-1:0] pt1_vrel;
     logic [2:0] fl_pt1_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_sub191), .b(dl_pt1_sub202), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[68]), .a(dl_pt1_sub191), .b(dl_pt1_sub202), .sub(1'b0),
         .out_valid(op_valid_nc[134]), .y(pt1_vrel), .flags(fl_pt1_vrel)
     );
     assign ev_ovf[133] = fl_pt1_vrel[0] && ev_q[72];
@@ -2202,12 +2209,12 @@ module pgs_contact_pipe #(
     assign ev_inv[133] = fl_pt1_vrel[2] && ev_q[72];
     logic [W-1:0] dl_pt1_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_vrel (.clk(clk), .d(pt1_vrel), .q(dl_pt1_vrel));
+        u_dl_pt1_vrel (.clk(clk), .d(pt1_vrel), .valid(1'b0), .q(dl_pt1_vrel));
     // pt1_add204 = pt1_vrel + b1   (ready @76/76/76)
     logic [W-1:0] pt1_add204;
     logic [2:0] fl_pt1_add204;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add204 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vrel), .b(dl_in_b1), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_pt1_vrel), .b(dl_in_b1), .sub(1'b0),
         .out_valid(op_valid_nc[135]), .y(pt1_add204), .flags(fl_pt1_add204)
     );
     assign ev_ovf[134] = fl_pt1_add204[0] && ev_q[76];
@@ -2215,12 +2222,12 @@ module pgs_contact_pipe #(
     assign ev_inv[134] = fl_pt1_add204[2] && ev_q[76];
     logic [W-1:0] dl_pt1_add204;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add204 (.clk(clk), .d(pt1_add204), .q(dl_pt1_add204));
+        u_dl_pt1_add204 (.clk(clk), .d(pt1_add204), .valid(1'b0), .q(dl_pt1_add204));
     // pt1_delta0 = pt1_add204 * jac_inv1   (ready @79/79/79)
     logic [W-1:0] pt1_delta0;
     logic [2:0] fl_pt1_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add204), .b(dl_in_jac_inv1[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[76]), .a(dl_pt1_add204), .b(dl_in_jac_inv1[1*W +: W]),
         .out_valid(op_valid_nc[136]), .y(pt1_delta0), .flags(fl_pt1_delta0)
     );
     assign ev_ovf[135] = fl_pt1_delta0[0] && ev_q[79];
@@ -2228,12 +2235,12 @@ module pgs_contact_pipe #(
     assign ev_inv[135] = fl_pt1_delta0[2] && ev_q[79];
     logic [W-1:0] dl_pt1_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_delta0 (.clk(clk), .d(pt1_delta0), .q(dl_pt1_delta0));
+        u_dl_pt1_delta0 (.clk(clk), .d(pt1_delta0), .valid(1'b0), .q(dl_pt1_delta0));
     // pt1_add206 = lam1 + pt1_delta0   (ready @83/83/83)
     logic [W-1:0] pt1_add206;
     logic [2:0] fl_pt1_add206;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add206 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam1[0*W +: W]), .b(dl_pt1_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[79]), .a(dl_in_lam1[0*W +: W]), .b(dl_pt1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[137]), .y(pt1_add206), .flags(fl_pt1_add206)
     );
     assign ev_ovf[136] = fl_pt1_add206[0] && ev_q[83];
@@ -2241,22 +2248,22 @@ module pgs_contact_pipe #(
     assign ev_inv[136] = fl_pt1_add206[2] && ev_q[83];
     logic [W-1:0] dl_pt1_add206;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add206 (.clk(clk), .d(pt1_add206), .q(dl_pt1_add206));
+        u_dl_pt1_add206 (.clk(clk), .d(pt1_add206), .valid(1'b0), .q(dl_pt1_add206));
     // pt1_lam_new = max(pt1_add206, 0.0)   (ready @84/84/84)
     logic [W-1:0] pt1_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt1_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add206), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[83]), .a(dl_pt1_add206), .b(K_ZERO),
         .out_valid(op_valid_nc[138]), .y_min(nc_pt1_lam_new_min), .y_max(pt1_lam_new),
         .lt(nc_pt1_lam_new_lt), .eq(nc_pt1_lam_new_eq), .unordered(nc_pt1_lam_new_uo)
     );
     logic [W-1:0] dl_pt1_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_lam_new (.clk(clk), .d(pt1_lam_new), .q(dl_pt1_lam_new));
+        u_dl_pt1_lam_new (.clk(clk), .d(pt1_lam_new), .valid(1'b0), .q(dl_pt1_lam_new));
     // pt1_delta = pt1_lam_new - lam1   (ready @88/88/88)
     logic [W-1:0] pt1_delta;
     logic [2:0] fl_pt1_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_lam_new), .b(dl_in_lam1[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(dl_pt1_lam_new), .b(dl_in_lam1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[139]), .y(pt1_delta), .flags(fl_pt1_delta)
     );
     assign ev_ovf[137] = fl_pt1_delta[0] && ev_q[88];
@@ -2264,18 +2271,18 @@ module pgs_contact_pipe #(
     assign ev_inv[137] = fl_pt1_delta[2] && ev_q[88];
     logic [W-1:0] dl_pt1_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_delta (.clk(clk), .d(pt1_delta), .q(dl_pt1_delta));
+        u_dl_pt1_delta (.clk(clk), .d(pt1_delta), .valid(1'b0), .q(dl_pt1_delta));
     // pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (ready @84/84/84)
     logic [W-1:0] pt1_lam;
     assign pt1_lam = dl_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_pt1_lam_new;
     logic [W-1:0] dl_pt1_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(95))
-        u_dl_pt1_lam (.clk(clk), .d(pt1_lam), .q(dl_pt1_lam));
+        u_dl_pt1_lam (.clk(clk), .d(pt1_lam), .valid(valid_q[84 +: 95]), .q(dl_pt1_lam));
     // pt1_angA_x = IInvA_x * pt1_cA_x   (ready @14/14/14)
     logic [W-1:0] pt1_angA_x;
     logic [2:0] fl_pt1_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_pt1_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_x), .b(dl_pt1_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[140]), .y(pt1_angA_x), .flags(fl_pt1_angA_x)
     );
     assign ev_ovf[138] = fl_pt1_angA_x[0] && ev_q[14];
@@ -2283,12 +2290,12 @@ module pgs_contact_pipe #(
     assign ev_inv[138] = fl_pt1_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angA_x (.clk(clk), .d(pt1_angA_x), .q(dl_pt1_angA_x));
+        u_dl_pt1_angA_x (.clk(clk), .d(pt1_angA_x), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_x));
     // pt1_angA_y = IInvA_y * pt1_cA_y   (ready @14/14/14)
     logic [W-1:0] pt1_angA_y;
     logic [2:0] fl_pt1_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_pt1_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_y), .b(dl_pt1_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[141]), .y(pt1_angA_y), .flags(fl_pt1_angA_y)
     );
     assign ev_ovf[139] = fl_pt1_angA_y[0] && ev_q[14];
@@ -2296,12 +2303,12 @@ module pgs_contact_pipe #(
     assign ev_inv[139] = fl_pt1_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angA_y (.clk(clk), .d(pt1_angA_y), .q(dl_pt1_angA_y));
+        u_dl_pt1_angA_y (.clk(clk), .d(pt1_angA_y), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_y));
     // pt1_angA_z = IInvA_z * pt1_cA_z   (ready @14/14/14)
     logic [W-1:0] pt1_angA_z;
     logic [2:0] fl_pt1_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_pt1_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_z), .b(dl_pt1_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[142]), .y(pt1_angA_z), .flags(fl_pt1_angA_z)
     );
     assign ev_ovf[140] = fl_pt1_angA_z[0] && ev_q[14];
@@ -2309,12 +2316,12 @@ module pgs_contact_pipe #(
     assign ev_inv[140] = fl_pt1_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angA_z (.clk(clk), .d(pt1_angA_z), .q(dl_pt1_angA_z));
+        u_dl_pt1_angA_z (.clk(clk), .d(pt1_angA_z), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_z));
     // pt1_angB_x = IInvB_x * pt1_cB_x   (ready @14/14/14)
     logic [W-1:0] pt1_angB_x;
     logic [2:0] fl_pt1_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_pt1_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_x), .b(dl_pt1_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[143]), .y(pt1_angB_x), .flags(fl_pt1_angB_x)
     );
     assign ev_ovf[141] = fl_pt1_angB_x[0] && ev_q[14];
@@ -2322,12 +2329,12 @@ module pgs_contact_pipe #(
     assign ev_inv[141] = fl_pt1_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angB_x (.clk(clk), .d(pt1_angB_x), .q(dl_pt1_angB_x));
+        u_dl_pt1_angB_x (.clk(clk), .d(pt1_angB_x), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_x));
     // pt1_angB_y = IInvB_y * pt1_cB_y   (ready @14/14/14)
     logic [W-1:0] pt1_angB_y;
     logic [2:0] fl_pt1_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_pt1_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_y), .b(dl_pt1_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[144]), .y(pt1_angB_y), .flags(fl_pt1_angB_y)
     );
     assign ev_ovf[142] = fl_pt1_angB_y[0] && ev_q[14];
@@ -2335,12 +2342,12 @@ module pgs_contact_pipe #(
     assign ev_inv[142] = fl_pt1_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angB_y (.clk(clk), .d(pt1_angB_y), .q(dl_pt1_angB_y));
+        u_dl_pt1_angB_y (.clk(clk), .d(pt1_angB_y), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_y));
     // pt1_angB_z = IInvB_z * pt1_cB_z   (ready @14/14/14)
     logic [W-1:0] pt1_angB_z;
     logic [2:0] fl_pt1_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_pt1_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_z), .b(dl_pt1_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[145]), .y(pt1_angB_z), .flags(fl_pt1_angB_z)
     );
     assign ev_ovf[143] = fl_pt1_angB_z[0] && ev_q[14];
@@ -2348,12 +2355,12 @@ module pgs_contact_pipe #(
     assign ev_inv[143] = fl_pt1_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angB_z (.clk(clk), .d(pt1_angB_z), .q(dl_pt1_angB_z));
+        u_dl_pt1_angB_z (.clk(clk), .d(pt1_angB_z), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_z));
     // pt1_mul216 = linA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul216;
     logic [2:0] fl_pt1_mul216;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul216 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linA_x[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[146]), .y(pt1_mul216), .flags(fl_pt1_mul216)
     );
     assign ev_ovf[144] = fl_pt1_mul216[0] && ev_q[91];
@@ -2361,12 +2368,12 @@ module pgs_contact_pipe #(
     assign ev_inv[144] = fl_pt1_mul216[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul216;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul216 (.clk(clk), .d(pt1_mul216), .q(dl_pt1_mul216));
+        u_dl_pt1_mul216 (.clk(clk), .d(pt1_mul216), .valid(1'b0), .q(dl_pt1_mul216));
     // pt1_mul217 = linA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul217;
     logic [2:0] fl_pt1_mul217;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul217 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linA_y[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[147]), .y(pt1_mul217), .flags(fl_pt1_mul217)
     );
     assign ev_ovf[145] = fl_pt1_mul217[0] && ev_q[91];
@@ -2374,12 +2381,12 @@ module pgs_contact_pipe #(
     assign ev_inv[145] = fl_pt1_mul217[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul217;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul217 (.clk(clk), .d(pt1_mul217), .q(dl_pt1_mul217));
+        u_dl_pt1_mul217 (.clk(clk), .d(pt1_mul217), .valid(1'b0), .q(dl_pt1_mul217));
     // pt1_mul218 = linA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul218;
     logic [2:0] fl_pt1_mul218;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul218 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linA_z[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[148]), .y(pt1_mul218), .flags(fl_pt1_mul218)
     );
     assign ev_ovf[146] = fl_pt1_mul218[0] && ev_q[91];
@@ -2387,12 +2394,12 @@ module pgs_contact_pipe #(
     assign ev_inv[146] = fl_pt1_mul218[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul218;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul218 (.clk(clk), .d(pt1_mul218), .q(dl_pt1_mul218));
+        u_dl_pt1_mul218 (.clk(clk), .d(pt1_mul218), .valid(1'b0), .q(dl_pt1_mul218));
     // pt1_add219 = pt0_vA_x + pt1_mul216   (ready @95/95/95)
     logic [W-1:0] pt1_add219;
     logic [2:0] fl_pt1_add219;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add219 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_x[1*W +: W]), .b(dl_pt1_mul216), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_x[1*W +: W]), .b(dl_pt1_mul216), .sub(1'b0),
         .out_valid(op_valid_nc[149]), .y(pt1_add219), .flags(fl_pt1_add219)
     );
     assign ev_ovf[147] = fl_pt1_add219[0] && ev_q[95];
@@ -2400,12 +2407,12 @@ module pgs_contact_pipe #(
     assign ev_inv[147] = fl_pt1_add219[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add219;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add219 (.clk(clk), .d(pt1_add219), .q(dl_pt1_add219));
+        u_dl_pt1_add219 (.clk(clk), .d(pt1_add219), .valid(1'b0), .q(dl_pt1_add219));
     // pt1_add220 = pt0_vA_y + pt1_mul217   (ready @95/95/95)
     logic [W-1:0] pt1_add220;
     logic [2:0] fl_pt1_add220;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add220 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_y[1*W +: W]), .b(dl_pt1_mul217), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_y[1*W +: W]), .b(dl_pt1_mul217), .sub(1'b0),
         .out_valid(op_valid_nc[150]), .y(pt1_add220), .flags(fl_pt1_add220)
     );
     assign ev_ovf[148] = fl_pt1_add220[0] && ev_q[95];
@@ -2413,12 +2420,12 @@ module pgs_contact_pipe #(
     assign ev_inv[148] = fl_pt1_add220[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add220;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add220 (.clk(clk), .d(pt1_add220), .q(dl_pt1_add220));
+        u_dl_pt1_add220 (.clk(clk), .d(pt1_add220), .valid(1'b0), .q(dl_pt1_add220));
     // pt1_add221 = pt0_vA_z + pt1_mul218   (ready @95/95/95)
     logic [W-1:0] pt1_add221;
     logic [2:0] fl_pt1_add221;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add221 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_z[1*W +: W]), .b(dl_pt1_mul218), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_z[1*W +: W]), .b(dl_pt1_mul218), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(pt1_add221), .flags(fl_pt1_add221)
     );
     assign ev_ovf[149] = fl_pt1_add221[0] && ev_q[95];
@@ -2426,30 +2433,30 @@ module pgs_contact_pipe #(
     assign ev_inv[149] = fl_pt1_add221[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add221;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add221 (.clk(clk), .d(pt1_add221), .q(dl_pt1_add221));
+        u_dl_pt1_add221 (.clk(clk), .d(pt1_add221), .valid(1'b0), .q(dl_pt1_add221));
     // pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add219   (ready @95/95/95)
     logic [W-1:0] pt1_vA_x;
     assign pt1_vA_x = dl_pt1_skip[1] ? dl_pt0_vA_x[2*W +: W] : dl_pt1_add219;
     logic [3*W-1:0] dl_pt1_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vA_x (.clk(clk), .d(pt1_vA_x), .q(dl_pt1_vA_x));
+        u_dl_pt1_vA_x (.clk(clk), .d(pt1_vA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_x));
     // pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add220   (ready @95/95/95)
     logic [W-1:0] pt1_vA_y;
     assign pt1_vA_y = dl_pt1_skip[1] ? dl_pt0_vA_y[2*W +: W] : dl_pt1_add220;
     logic [3*W-1:0] dl_pt1_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vA_y (.clk(clk), .d(pt1_vA_y), .q(dl_pt1_vA_y));
+        u_dl_pt1_vA_y (.clk(clk), .d(pt1_vA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_y));
     // pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add221   (ready @95/95/95)
     logic [W-1:0] pt1_vA_z;
     assign pt1_vA_z = dl_pt1_skip[1] ? dl_pt0_vA_z[2*W +: W] : dl_pt1_add221;
     logic [3*W-1:0] dl_pt1_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vA_z (.clk(clk), .d(pt1_vA_z), .q(dl_pt1_vA_z));
+        u_dl_pt1_vA_z (.clk(clk), .d(pt1_vA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_z));
     // pt1_mul225 = pt1_angA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul225;
     logic [2:0] fl_pt1_mul225;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul225 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_x), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angA_x), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[152]), .y(pt1_mul225), .flags(fl_pt1_mul225)
     );
     assign ev_ovf[150] = fl_pt1_mul225[0] && ev_q[91];
@@ -2457,12 +2464,12 @@ module pgs_contact_pipe #(
     assign ev_inv[150] = fl_pt1_mul225[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul225;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul225 (.clk(clk), .d(pt1_mul225), .q(dl_pt1_mul225));
+        u_dl_pt1_mul225 (.clk(clk), .d(pt1_mul225), .valid(1'b0), .q(dl_pt1_mul225));
     // pt1_mul226 = pt1_angA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul226;
     logic [2:0] fl_pt1_mul226;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul226 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_y), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angA_y), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[153]), .y(pt1_mul226), .flags(fl_pt1_mul226)
     );
     assign ev_ovf[151] = fl_pt1_mul226[0] && ev_q[91];
@@ -2470,12 +2477,12 @@ module pgs_contact_pipe #(
     assign ev_inv[151] = fl_pt1_mul226[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul226;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul226 (.clk(clk), .d(pt1_mul226), .q(dl_pt1_mul226));
+        u_dl_pt1_mul226 (.clk(clk), .d(pt1_mul226), .valid(1'b0), .q(dl_pt1_mul226));
     // pt1_mul227 = pt1_angA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul227;
     logic [2:0] fl_pt1_mul227;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul227 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_z), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angA_z), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[154]), .y(pt1_mul227), .flags(fl_pt1_mul227)
     );
     assign ev_ovf[152] = fl_pt1_mul227[0] && ev_q[91];
@@ -2483,12 +2490,12 @@ module pgs_contact_pipe #(
     assign ev_inv[152] = fl_pt1_mul227[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul227;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul227 (.clk(clk), .d(pt1_mul227), .q(dl_pt1_mul227));
+        u_dl_pt1_mul227 (.clk(clk), .d(pt1_mul227), .valid(1'b0), .q(dl_pt1_mul227));
     // pt1_add228 = pt0_wA_x + pt1_mul225   (ready @95/95/95)
     logic [W-1:0] pt1_add228;
     logic [2:0] fl_pt1_add228;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add228 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_x[1*W +: W]), .b(dl_pt1_mul225), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_x[1*W +: W]), .b(dl_pt1_mul225), .sub(1'b0),
         .out_valid(op_valid_nc[155]), .y(pt1_add228), .flags(fl_pt1_add228)
     );
     assign ev_ovf[153] = fl_pt1_add228[0] && ev_q[95];
@@ -2496,12 +2503,12 @@ module pgs_contact_pipe #(
     assign ev_inv[153] = fl_pt1_add228[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add228;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add228 (.clk(clk), .d(pt1_add228), .q(dl_pt1_add228));
+        u_dl_pt1_add228 (.clk(clk), .d(pt1_add228), .valid(1'b0), .q(dl_pt1_add228));
     // pt1_add229 = pt0_wA_y + pt1_mul226   (ready @95/95/95)
     logic [W-1:0] pt1_add229;
     logic [2:0] fl_pt1_add229;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add229 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_y[1*W +: W]), .b(dl_pt1_mul226), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_y[1*W +: W]), .b(dl_pt1_mul226), .sub(1'b0),
         .out_valid(op_valid_nc[156]), .y(pt1_add229), .flags(fl_pt1_add229)
     );
     assign ev_ovf[154] = fl_pt1_add229[0] && ev_q[95];
@@ -2509,12 +2516,12 @@ module pgs_contact_pipe #(
     assign ev_inv[154] = fl_pt1_add229[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add229;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add229 (.clk(clk), .d(pt1_add229), .q(dl_pt1_add229));
+        u_dl_pt1_add229 (.clk(clk), .d(pt1_add229), .valid(1'b0), .q(dl_pt1_add229));
     // pt1_add230 = pt0_wA_z + pt1_mul227   (ready @95/95/95)
     logic [W-1:0] pt1_add230;
     logic [2:0] fl_pt1_add230;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add230 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_z[1*W +: W]), .b(dl_pt1_mul227), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_z[1*W +: W]), .b(dl_pt1_mul227), .sub(1'b0),
         .out_valid(op_valid_nc[157]), .y(pt1_add230), .flags(fl_pt1_add230)
     );
     assign ev_ovf[155] = fl_pt1_add230[0] && ev_q[95];
@@ -2522,30 +2529,30 @@ module pgs_contact_pipe #(
     assign ev_inv[155] = fl_pt1_add230[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add230;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add230 (.clk(clk), .d(pt1_add230), .q(dl_pt1_add230));
+        u_dl_pt1_add230 (.clk(clk), .d(pt1_add230), .valid(1'b0), .q(dl_pt1_add230));
     // pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add228   (ready @95/95/95)
     logic [W-1:0] pt1_wA_x;
     assign pt1_wA_x = dl_pt1_skip[1] ? dl_pt0_wA_x[2*W +: W] : dl_pt1_add228;
     logic [3*W-1:0] dl_pt1_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wA_x (.clk(clk), .d(pt1_wA_x), .q(dl_pt1_wA_x));
+        u_dl_pt1_wA_x (.clk(clk), .d(pt1_wA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_x));
     // pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add229   (ready @95/95/95)
     logic [W-1:0] pt1_wA_y;
     assign pt1_wA_y = dl_pt1_skip[1] ? dl_pt0_wA_y[2*W +: W] : dl_pt1_add229;
     logic [3*W-1:0] dl_pt1_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wA_y (.clk(clk), .d(pt1_wA_y), .q(dl_pt1_wA_y));
+        u_dl_pt1_wA_y (.clk(clk), .d(pt1_wA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_y));
     // pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add230   (ready @95/95/95)
     logic [W-1:0] pt1_wA_z;
     assign pt1_wA_z = dl_pt1_skip[1] ? dl_pt0_wA_z[2*W +: W] : dl_pt1_add230;
     logic [3*W-1:0] dl_pt1_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wA_z (.clk(clk), .d(pt1_wA_z), .q(dl_pt1_wA_z));
+        u_dl_pt1_wA_z (.clk(clk), .d(pt1_wA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_z));
     // pt1_mul234 = linB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul234;
     logic [2:0] fl_pt1_mul234;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul234 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linB_x[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[158]), .y(pt1_mul234), .flags(fl_pt1_mul234)
     );
     assign ev_ovf[156] = fl_pt1_mul234[0] && ev_q[91];
@@ -2553,12 +2560,12 @@ module pgs_contact_pipe #(
     assign ev_inv[156] = fl_pt1_mul234[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul234;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul234 (.clk(clk), .d(pt1_mul234), .q(dl_pt1_mul234));
+        u_dl_pt1_mul234 (.clk(clk), .d(pt1_mul234), .valid(1'b0), .q(dl_pt1_mul234));
     // pt1_mul235 = linB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul235;
     logic [2:0] fl_pt1_mul235;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul235 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linB_y[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[159]), .y(pt1_mul235), .flags(fl_pt1_mul235)
     );
     assign ev_ovf[157] = fl_pt1_mul235[0] && ev_q[91];
@@ -2566,12 +2573,12 @@ module pgs_contact_pipe #(
     assign ev_inv[157] = fl_pt1_mul235[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul235;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul235 (.clk(clk), .d(pt1_mul235), .q(dl_pt1_mul235));
+        u_dl_pt1_mul235 (.clk(clk), .d(pt1_mul235), .valid(1'b0), .q(dl_pt1_mul235));
     // pt1_mul236 = linB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul236;
     logic [2:0] fl_pt1_mul236;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul236 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linB_z[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[160]), .y(pt1_mul236), .flags(fl_pt1_mul236)
     );
     assign ev_ovf[158] = fl_pt1_mul236[0] && ev_q[91];
@@ -2579,12 +2586,12 @@ module pgs_contact_pipe #(
     assign ev_inv[158] = fl_pt1_mul236[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul236;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul236 (.clk(clk), .d(pt1_mul236), .q(dl_pt1_mul236));
+        u_dl_pt1_mul236 (.clk(clk), .d(pt1_mul236), .valid(1'b0), .q(dl_pt1_mul236));
     // pt1_sub237 = pt0_vB_x - pt1_mul234   (ready @95/95/95)
     logic [W-1:0] pt1_sub237;
     logic [2:0] fl_pt1_sub237;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub237 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_x[1*W +: W]), .b(dl_pt1_mul234), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_x[1*W +: W]), .b(dl_pt1_mul234), .sub(1'b1),
         .out_valid(op_valid_nc[161]), .y(pt1_sub237), .flags(fl_pt1_sub237)
     );
     assign ev_ovf[159] = fl_pt1_sub237[0] && ev_q[95];
@@ -2592,12 +2599,12 @@ module pgs_contact_pipe #(
     assign ev_inv[159] = fl_pt1_sub237[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub237;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub237 (.clk(clk), .d(pt1_sub237), .q(dl_pt1_sub237));
+        u_dl_pt1_sub237 (.clk(clk), .d(pt1_sub237), .valid(1'b0), .q(dl_pt1_sub237));
     // pt1_sub238 = pt0_vB_y - pt1_mul235   (ready @95/95/95)
     logic [W-1:0] pt1_sub238;
     logic [2:0] fl_pt1_sub238;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub238 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_y[1*W +: W]), .b(dl_pt1_mul235), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_y[1*W +: W]), .b(dl_pt1_mul235), .sub(1'b1),
         .out_valid(op_valid_nc[162]), .y(pt1_sub238), .flags(fl_pt1_sub238)
     );
     assign ev_ovf[160] = fl_pt1_sub238[0] && ev_q[95];
@@ -2605,12 +2612,12 @@ module pgs_contact_pipe #(
     assign ev_inv[160] = fl_pt1_sub238[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub238;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub238 (.clk(clk), .d(pt1_sub238), .q(dl_pt1_sub238));
+        u_dl_pt1_sub238 (.clk(clk), .d(pt1_sub238), .valid(1'b0), .q(dl_pt1_sub238));
     // pt1_sub239 = pt0_vB_z - pt1_mul236   (ready @95/95/95)
     logic [W-1:0] pt1_sub239;
     logic [2:0] fl_pt1_sub239;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub239 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_z[1*W +: W]), .b(dl_pt1_mul236), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_z[1*W +: W]), .b(dl_pt1_mul236), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(pt1_sub239), .flags(fl_pt1_sub239)
     );
     assign ev_ovf[161] = fl_pt1_sub239[0] && ev_q[95];
@@ -2618,30 +2625,30 @@ module pgs_contact_pipe #(
     assign ev_inv[161] = fl_pt1_sub239[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub239;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub239 (.clk(clk), .d(pt1_sub239), .q(dl_pt1_sub239));
+        u_dl_pt1_sub239 (.clk(clk), .d(pt1_sub239), .valid(1'b0), .q(dl_pt1_sub239));
     // pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub237   (ready @95/95/95)
     logic [W-1:0] pt1_vB_x;
     assign pt1_vB_x = dl_pt1_skip[1] ? dl_pt0_vB_x[2*W +: W] : dl_pt1_sub237;
     logic [3*W-1:0] dl_pt1_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vB_x (.clk(clk), .d(pt1_vB_x), .q(dl_pt1_vB_x));
+        u_dl_pt1_vB_x (.clk(clk), .d(pt1_vB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_x));
     // pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub238   (ready @95/95/95)
     logic [W-1:0] pt1_vB_y;
     assign pt1_vB_y = dl_pt1_skip[1] ? dl_pt0_vB_y[2*W +: W] : dl_pt1_sub238;
     logic [3*W-1:0] dl_pt1_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vB_y (.clk(clk), .d(pt1_vB_y), .q(dl_pt1_vB_y));
+        u_dl_pt1_vB_y (.clk(clk), .d(pt1_vB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_y));
     // pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub239   (ready @95/95/95)
     logic [W-1:0] pt1_vB_z;
     assign pt1_vB_z = dl_pt1_skip[1] ? dl_pt0_vB_z[2*W +: W] : dl_pt1_sub239;
     logic [3*W-1:0] dl_pt1_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vB_z (.clk(clk), .d(pt1_vB_z), .q(dl_pt1_vB_z));
+        u_dl_pt1_vB_z (.clk(clk), .d(pt1_vB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_z));
     // pt1_mul243 = pt1_angB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul243;
     logic [2:0] fl_pt1_mul243;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul243 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_x), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angB_x), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[164]), .y(pt1_mul243), .flags(fl_pt1_mul243)
     );
     assign ev_ovf[162] = fl_pt1_mul243[0] && ev_q[91];
@@ -2649,12 +2656,12 @@ module pgs_contact_pipe #(
     assign ev_inv[162] = fl_pt1_mul243[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul243;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul243 (.clk(clk), .d(pt1_mul243), .q(dl_pt1_mul243));
+        u_dl_pt1_mul243 (.clk(clk), .d(pt1_mul243), .valid(1'b0), .q(dl_pt1_mul243));
     // pt1_mul244 = pt1_angB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul244;
     logic [2:0] fl_pt1_mul244;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul244 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_y), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angB_y), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[165]), .y(pt1_mul244), .flags(fl_pt1_mul244)
     );
     assign ev_ovf[163] = fl_pt1_mul244[0] && ev_q[91];
@@ -2662,12 +2669,12 @@ module pgs_contact_pipe #(
     assign ev_inv[163] = fl_pt1_mul244[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul244;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul244 (.clk(clk), .d(pt1_mul244), .q(dl_pt1_mul244));
+        u_dl_pt1_mul244 (.clk(clk), .d(pt1_mul244), .valid(1'b0), .q(dl_pt1_mul244));
     // pt1_mul245 = pt1_angB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul245;
     logic [2:0] fl_pt1_mul245;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul245 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_z), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angB_z), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[166]), .y(pt1_mul245), .flags(fl_pt1_mul245)
     );
     assign ev_ovf[164] = fl_pt1_mul245[0] && ev_q[91];
@@ -2675,12 +2682,12 @@ module pgs_contact_pipe #(
     assign ev_inv[164] = fl_pt1_mul245[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul245;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul245 (.clk(clk), .d(pt1_mul245), .q(dl_pt1_mul245));
+        u_dl_pt1_mul245 (.clk(clk), .d(pt1_mul245), .valid(1'b0), .q(dl_pt1_mul245));
     // pt1_sub246 = pt0_wB_x - pt1_mul243   (ready @95/95/95)
     logic [W-1:0] pt1_sub246;
     logic [2:0] fl_pt1_sub246;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub246 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_x[1*W +: W]), .b(dl_pt1_mul243), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_x[1*W +: W]), .b(dl_pt1_mul243), .sub(1'b1),
         .out_valid(op_valid_nc[167]), .y(pt1_sub246), .flags(fl_pt1_sub246)
     );
     assign ev_ovf[165] = fl_pt1_sub246[0] && ev_q[95];
@@ -2688,12 +2695,12 @@ module pgs_contact_pipe #(
     assign ev_inv[165] = fl_pt1_sub246[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub246;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub246 (.clk(clk), .d(pt1_sub246), .q(dl_pt1_sub246));
+        u_dl_pt1_sub246 (.clk(clk), .d(pt1_sub246), .valid(1'b0), .q(dl_pt1_sub246));
     // pt1_sub247 = pt0_wB_y - pt1_mul244   (ready @95/95/95)
     logic [W-1:0] pt1_sub247;
     logic [2:0] fl_pt1_sub247;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub247 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_y[1*W +: W]), .b(dl_pt1_mul244), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_y[1*W +: W]), .b(dl_pt1_mul244), .sub(1'b1),
         .out_valid(op_valid_nc[168]), .y(pt1_sub247), .flags(fl_pt1_sub247)
     );
     assign ev_ovf[166] = fl_pt1_sub247[0] && ev_q[95];
@@ -2701,12 +2708,12 @@ module pgs_contact_pipe #(
     assign ev_inv[166] = fl_pt1_sub247[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub247;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub247 (.clk(clk), .d(pt1_sub247), .q(dl_pt1_sub247));
+        u_dl_pt1_sub247 (.clk(clk), .d(pt1_sub247), .valid(1'b0), .q(dl_pt1_sub247));
     // pt1_sub248 = pt0_wB_z - pt1_mul245   (ready @95/95/95)
     logic [W-1:0] pt1_sub248;
     logic [2:0] fl_pt1_sub248;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub248 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_z[1*W +: W]), .b(dl_pt1_mul245), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_z[1*W +: W]), .b(dl_pt1_mul245), .sub(1'b1),
         .out_valid(op_valid_nc[169]), .y(pt1_sub248), .flags(fl_pt1_sub248)
     );
     assign ev_ovf[167] = fl_pt1_sub248[0] && ev_q[95];
@@ -2714,36 +2721,36 @@ module pgs_contact_pipe #(
     assign ev_inv[167] = fl_pt1_sub248[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub248;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub248 (.clk(clk), .d(pt1_sub248), .q(dl_pt1_sub248));
+        u_dl_pt1_sub248 (.clk(clk), .d(pt1_sub248), .valid(1'b0), .q(dl_pt1_sub248));
     // pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub246   (ready @95/95/95)
     logic [W-1:0] pt1_wB_x;
     assign pt1_wB_x = dl_pt1_skip[1] ? dl_pt0_wB_x[2*W +: W] : dl_pt1_sub246;
     logic [3*W-1:0] dl_pt1_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wB_x (.clk(clk), .d(pt1_wB_x), .q(dl_pt1_wB_x));
+        u_dl_pt1_wB_x (.clk(clk), .d(pt1_wB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_x));
     // pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub247   (ready @95/95/95)
     logic [W-1:0] pt1_wB_y;
     assign pt1_wB_y = dl_pt1_skip[1] ? dl_pt0_wB_y[2*W +: W] : dl_pt1_sub247;
     logic [3*W-1:0] dl_pt1_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wB_y (.clk(clk), .d(pt1_wB_y), .q(dl_pt1_wB_y));
+        u_dl_pt1_wB_y (.clk(clk), .d(pt1_wB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_y));
     // pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub248   (ready @95/95/95)
     logic [W-1:0] pt1_wB_z;
     assign pt1_wB_z = dl_pt1_skip[1] ? dl_pt0_wB_z[2*W +: W] : dl_pt1_sub248;
     logic [3*W-1:0] dl_pt1_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wB_z (.clk(clk), .d(pt1_wB_z), .q(dl_pt1_wB_z));
+        u_dl_pt1_wB_z (.clk(clk), .d(pt1_wB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_z));
     // pt2_skip = jac_inv2 == 0   (ready @0/0/0)
     logic pt2_skip;
     assign pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt2_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}))
-        u_dl_pt2_skip (.clk(clk), .d(pt2_skip), .q(dl_pt2_skip));
+        u_dl_pt2_skip (.clk(clk), .d(pt2_skip), .valid(valid_q[0 +: 137]), .q(dl_pt2_skip));
     // pt2_rA_x = p2_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt2_rA_x;
     logic [2:0] fl_pt2_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[170]), .y(pt2_rA_x), .flags(fl_pt2_rA_x)
     );
     assign ev_ovf[168] = fl_pt2_rA_x[0] && ev_q[4];
@@ -2751,12 +2758,12 @@ module pgs_contact_pipe #(
     assign ev_inv[168] = fl_pt2_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rA_x (.clk(clk), .d(pt2_rA_x), .q(dl_pt2_rA_x));
+        u_dl_pt2_rA_x (.clk(clk), .d(pt2_rA_x), .valid(1'b0), .q(dl_pt2_rA_x));
     // pt2_rA_y = p2_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt2_rA_y;
     logic [2:0] fl_pt2_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(pt2_rA_y), .flags(fl_pt2_rA_y)
     );
     assign ev_ovf[169] = fl_pt2_rA_y[0] && ev_q[4];
@@ -2764,12 +2771,12 @@ module pgs_contact_pipe #(
     assign ev_inv[169] = fl_pt2_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rA_y (.clk(clk), .d(pt2_rA_y), .q(dl_pt2_rA_y));
+        u_dl_pt2_rA_y (.clk(clk), .d(pt2_rA_y), .valid(1'b0), .q(dl_pt2_rA_y));
     // pt2_rA_z = p2_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt2_rA_z;
     logic [2:0] fl_pt2_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(pt2_rA_z), .flags(fl_pt2_rA_z)
     );
     assign ev_ovf[170] = fl_pt2_rA_z[0] && ev_q[4];
@@ -2777,12 +2784,12 @@ module pgs_contact_pipe #(
     assign ev_inv[170] = fl_pt2_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rA_z (.clk(clk), .d(pt2_rA_z), .q(dl_pt2_rA_z));
+        u_dl_pt2_rA_z (.clk(clk), .d(pt2_rA_z), .valid(1'b0), .q(dl_pt2_rA_z));
     // pt2_mul256 = pt2_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul256;
     logic [2:0] fl_pt2_mul256;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul256 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[173]), .y(pt2_mul256), .flags(fl_pt2_mul256)
     );
     assign ev_ovf[171] = fl_pt2_mul256[0] && ev_q[7];
@@ -2790,12 +2797,12 @@ module pgs_contact_pipe #(
     assign ev_inv[171] = fl_pt2_mul256[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul256;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul256 (.clk(clk), .d(pt2_mul256), .q(dl_pt2_mul256));
+        u_dl_pt2_mul256 (.clk(clk), .d(pt2_mul256), .valid(1'b0), .q(dl_pt2_mul256));
     // pt2_mul257 = pt2_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul257;
     logic [2:0] fl_pt2_mul257;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul257 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[174]), .y(pt2_mul257), .flags(fl_pt2_mul257)
     );
     assign ev_ovf[172] = fl_pt2_mul257[0] && ev_q[7];
@@ -2803,12 +2810,12 @@ module pgs_contact_pipe #(
     assign ev_inv[172] = fl_pt2_mul257[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul257;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul257 (.clk(clk), .d(pt2_mul257), .q(dl_pt2_mul257));
+        u_dl_pt2_mul257 (.clk(clk), .d(pt2_mul257), .valid(1'b0), .q(dl_pt2_mul257));
     // pt2_cA_x = pt2_mul256 - pt2_mul257   (ready @11/11/11)
     logic [W-1:0] pt2_cA_x;
     logic [2:0] fl_pt2_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul256), .b(dl_pt2_mul257), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul256), .b(dl_pt2_mul257), .sub(1'b1),
         .out_valid(op_valid_nc[175]), .y(pt2_cA_x), .flags(fl_pt2_cA_x)
     );
     assign ev_ovf[173] = fl_pt2_cA_x[0] && ev_q[11];
@@ -2816,12 +2823,12 @@ module pgs_contact_pipe #(
     assign ev_inv[173] = fl_pt2_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cA_x (.clk(clk), .d(pt2_cA_x), .q(dl_pt2_cA_x));
+        u_dl_pt2_cA_x (.clk(clk), .d(pt2_cA_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_x));
     // pt2_mul259 = pt2_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul259;
     logic [2:0] fl_pt2_mul259;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul259 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[176]), .y(pt2_mul259), .flags(fl_pt2_mul259)
     );
     assign ev_ovf[174] = fl_pt2_mul259[0] && ev_q[7];
@@ -2829,12 +2836,12 @@ module pgs_contact_pipe #(
     assign ev_inv[174] = fl_pt2_mul259[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul259;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul259 (.clk(clk), .d(pt2_mul259), .q(dl_pt2_mul259));
+        u_dl_pt2_mul259 (.clk(clk), .d(pt2_mul259), .valid(1'b0), .q(dl_pt2_mul259));
     // pt2_mul260 = pt2_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul260;
     logic [2:0] fl_pt2_mul260;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul260 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[177]), .y(pt2_mul260), .flags(fl_pt2_mul260)
     );
     assign ev_ovf[175] = fl_pt2_mul260[0] && ev_q[7];
@@ -2842,12 +2849,12 @@ module pgs_contact_pipe #(
     assign ev_inv[175] = fl_pt2_mul260[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul260;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul260 (.clk(clk), .d(pt2_mul260), .q(dl_pt2_mul260));
+        u_dl_pt2_mul260 (.clk(clk), .d(pt2_mul260), .valid(1'b0), .q(dl_pt2_mul260));
     // pt2_cA_y = pt2_mul259 - pt2_mul260   (ready @11/11/11)
     logic [W-1:0] pt2_cA_y;
     logic [2:0] fl_pt2_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul259), .b(dl_pt2_mul260), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul259), .b(dl_pt2_mul260), .sub(1'b1),
         .out_valid(op_valid_nc[178]), .y(pt2_cA_y), .flags(fl_pt2_cA_y)
     );
     assign ev_ovf[176] = fl_pt2_cA_y[0] && ev_q[11];
@@ -2855,12 +2862,12 @@ module pgs_contact_pipe #(
     assign ev_inv[176] = fl_pt2_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cA_y (.clk(clk), .d(pt2_cA_y), .q(dl_pt2_cA_y));
+        u_dl_pt2_cA_y (.clk(clk), .d(pt2_cA_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_y));
     // pt2_mul262 = pt2_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul262;
     logic [2:0] fl_pt2_mul262;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul262 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[179]), .y(pt2_mul262), .flags(fl_pt2_mul262)
     );
     assign ev_ovf[177] = fl_pt2_mul262[0] && ev_q[7];
@@ -2868,12 +2875,12 @@ module pgs_contact_pipe #(
     assign ev_inv[177] = fl_pt2_mul262[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul262;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul262 (.clk(clk), .d(pt2_mul262), .q(dl_pt2_mul262));
+        u_dl_pt2_mul262 (.clk(clk), .d(pt2_mul262), .valid(1'b0), .q(dl_pt2_mul262));
     // pt2_mul263 = pt2_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul263;
     logic [2:0] fl_pt2_mul263;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul263 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[180]), .y(pt2_mul263), .flags(fl_pt2_mul263)
     );
     assign ev_ovf[178] = fl_pt2_mul263[0] && ev_q[7];
@@ -2881,12 +2888,12 @@ module pgs_contact_pipe #(
     assign ev_inv[178] = fl_pt2_mul263[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul263;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul263 (.clk(clk), .d(pt2_mul263), .q(dl_pt2_mul263));
+        u_dl_pt2_mul263 (.clk(clk), .d(pt2_mul263), .valid(1'b0), .q(dl_pt2_mul263));
     // pt2_cA_z = pt2_mul262 - pt2_mul263   (ready @11/11/11)
     logic [W-1:0] pt2_cA_z;
     logic [2:0] fl_pt2_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul262), .b(dl_pt2_mul263), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul262), .b(dl_pt2_mul263), .sub(1'b1),
         .out_valid(op_valid_nc[181]), .y(pt2_cA_z), .flags(fl_pt2_cA_z)
     );
     assign ev_ovf[179] = fl_pt2_cA_z[0] && ev_q[11];
@@ -2894,12 +2901,12 @@ module pgs_contact_pipe #(
     assign ev_inv[179] = fl_pt2_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cA_z (.clk(clk), .d(pt2_cA_z), .q(dl_pt2_cA_z));
+        u_dl_pt2_cA_z (.clk(clk), .d(pt2_cA_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_z));
     // pt2_rB_x = p2_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt2_rB_x;
     logic [2:0] fl_pt2_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[182]), .y(pt2_rB_x), .flags(fl_pt2_rB_x)
     );
     assign ev_ovf[180] = fl_pt2_rB_x[0] && ev_q[4];
@@ -2907,12 +2914,12 @@ module pgs_contact_pipe #(
     assign ev_inv[180] = fl_pt2_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rB_x (.clk(clk), .d(pt2_rB_x), .q(dl_pt2_rB_x));
+        u_dl_pt2_rB_x (.clk(clk), .d(pt2_rB_x), .valid(1'b0), .q(dl_pt2_rB_x));
     // pt2_rB_y = p2_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt2_rB_y;
     logic [2:0] fl_pt2_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(pt2_rB_y), .flags(fl_pt2_rB_y)
     );
     assign ev_ovf[181] = fl_pt2_rB_y[0] && ev_q[4];
@@ -2920,12 +2927,12 @@ module pgs_contact_pipe #(
     assign ev_inv[181] = fl_pt2_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rB_y (.clk(clk), .d(pt2_rB_y), .q(dl_pt2_rB_y));
+        u_dl_pt2_rB_y (.clk(clk), .d(pt2_rB_y), .valid(1'b0), .q(dl_pt2_rB_y));
     // pt2_rB_z = p2_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt2_rB_z;
     logic [2:0] fl_pt2_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(pt2_rB_z), .flags(fl_pt2_rB_z)
     );
     assign ev_ovf[182] = fl_pt2_rB_z[0] && ev_q[4];
@@ -2933,12 +2940,12 @@ module pgs_contact_pipe #(
     assign ev_inv[182] = fl_pt2_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rB_z (.clk(clk), .d(pt2_rB_z), .q(dl_pt2_rB_z));
+        u_dl_pt2_rB_z (.clk(clk), .d(pt2_rB_z), .valid(1'b0), .q(dl_pt2_rB_z));
     // pt2_mul268 = pt2_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul268;
     logic [2:0] fl_pt2_mul268;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul268 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[185]), .y(pt2_mul268), .flags(fl_pt2_mul268)
     );
     assign ev_ovf[183] = fl_pt2_mul268[0] && ev_q[7];
@@ -2946,12 +2953,12 @@ module pgs_contact_pipe #(
     assign ev_inv[183] = fl_pt2_mul268[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul268;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul268 (.clk(clk), .d(pt2_mul268), .q(dl_pt2_mul268));
+        u_dl_pt2_mul268 (.clk(clk), .d(pt2_mul268), .valid(1'b0), .q(dl_pt2_mul268));
     // pt2_mul269 = pt2_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul269;
     logic [2:0] fl_pt2_mul269;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul269 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[186]), .y(pt2_mul269), .flags(fl_pt2_mul269)
     );
     assign ev_ovf[184] = fl_pt2_mul269[0] && ev_q[7];
@@ -2959,12 +2966,12 @@ module pgs_contact_pipe #(
     assign ev_inv[184] = fl_pt2_mul269[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul269;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul269 (.clk(clk), .d(pt2_mul269), .q(dl_pt2_mul269));
+        u_dl_pt2_mul269 (.clk(clk), .d(pt2_mul269), .valid(1'b0), .q(dl_pt2_mul269));
     // pt2_cB_x = pt2_mul268 - pt2_mul269   (ready @11/11/11)
     logic [W-1:0] pt2_cB_x;
     logic [2:0] fl_pt2_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul268), .b(dl_pt2_mul269), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul268), .b(dl_pt2_mul269), .sub(1'b1),
         .out_valid(op_valid_nc[187]), .y(pt2_cB_x), .flags(fl_pt2_cB_x)
     );
     assign ev_ovf[185] = fl_pt2_cB_x[0] && ev_q[11];
@@ -2972,12 +2979,12 @@ module pgs_contact_pipe #(
     assign ev_inv[185] = fl_pt2_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cB_x (.clk(clk), .d(pt2_cB_x), .q(dl_pt2_cB_x));
+        u_dl_pt2_cB_x (.clk(clk), .d(pt2_cB_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_x));
     // pt2_mul271 = pt2_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul271;
     logic [2:0] fl_pt2_mul271;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul271 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[188]), .y(pt2_mul271), .flags(fl_pt2_mul271)
     );
     assign ev_ovf[186] = fl_pt2_mul271[0] && ev_q[7];
@@ -2985,12 +2992,12 @@ module pgs_contact_pipe #(
     assign ev_inv[186] = fl_pt2_mul271[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul271;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul271 (.clk(clk), .d(pt2_mul271), .q(dl_pt2_mul271));
+        u_dl_pt2_mul271 (.clk(clk), .d(pt2_mul271), .valid(1'b0), .q(dl_pt2_mul271));
     // pt2_mul272 = pt2_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul272;
     logic [2:0] fl_pt2_mul272;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul272 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[189]), .y(pt2_mul272), .flags(fl_pt2_mul272)
     );
     assign ev_ovf[187] = fl_pt2_mul272[0] && ev_q[7];
@@ -2998,12 +3005,12 @@ module pgs_contact_pipe #(
     assign ev_inv[187] = fl_pt2_mul272[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul272;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul272 (.clk(clk), .d(pt2_mul272), .q(dl_pt2_mul272));
+        u_dl_pt2_mul272 (.clk(clk), .d(pt2_mul272), .valid(1'b0), .q(dl_pt2_mul272));
     // pt2_cB_y = pt2_mul271 - pt2_mul272   (ready @11/11/11)
     logic [W-1:0] pt2_cB_y;
     logic [2:0] fl_pt2_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul271), .b(dl_pt2_mul272), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul271), .b(dl_pt2_mul272), .sub(1'b1),
         .out_valid(op_valid_nc[190]), .y(pt2_cB_y), .flags(fl_pt2_cB_y)
     );
     assign ev_ovf[188] = fl_pt2_cB_y[0] && ev_q[11];
@@ -3011,12 +3018,12 @@ module pgs_contact_pipe #(
     assign ev_inv[188] = fl_pt2_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cB_y (.clk(clk), .d(pt2_cB_y), .q(dl_pt2_cB_y));
+        u_dl_pt2_cB_y (.clk(clk), .d(pt2_cB_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_y));
     // pt2_mul274 = pt2_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul274;
     logic [2:0] fl_pt2_mul274;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul274 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[191]), .y(pt2_mul274), .flags(fl_pt2_mul274)
     );
     assign ev_ovf[189] = fl_pt2_mul274[0] && ev_q[7];
@@ -3024,12 +3031,12 @@ module pgs_contact_pipe #(
     assign ev_inv[189] = fl_pt2_mul274[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul274;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul274 (.clk(clk), .d(pt2_mul274), .q(dl_pt2_mul274));
+        u_dl_pt2_mul274 (.clk(clk), .d(pt2_mul274), .valid(1'b0), .q(dl_pt2_mul274));
     // pt2_mul275 = pt2_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul275;
     logic [2:0] fl_pt2_mul275;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul275 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[192]), .y(pt2_mul275), .flags(fl_pt2_mul275)
     );
     assign ev_ovf[190] = fl_pt2_mul275[0] && ev_q[7];
@@ -3037,12 +3044,12 @@ module pgs_contact_pipe #(
     assign ev_inv[190] = fl_pt2_mul275[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul275;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul275 (.clk(clk), .d(pt2_mul275), .q(dl_pt2_mul275));
+        u_dl_pt2_mul275 (.clk(clk), .d(pt2_mul275), .valid(1'b0), .q(dl_pt2_mul275));
     // pt2_cB_z = pt2_mul274 - pt2_mul275   (ready @11/11/11)
     logic [W-1:0] pt2_cB_z;
     logic [2:0] fl_pt2_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul274), .b(dl_pt2_mul275), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul274), .b(dl_pt2_mul275), .sub(1'b1),
         .out_valid(op_valid_nc[193]), .y(pt2_cB_z), .flags(fl_pt2_cB_z)
     );
     assign ev_ovf[191] = fl_pt2_cB_z[0] && ev_q[11];
@@ -3050,12 +3057,12 @@ module pgs_contact_pipe #(
     assign ev_inv[191] = fl_pt2_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cB_z (.clk(clk), .d(pt2_cB_z), .q(dl_pt2_cB_z));
+        u_dl_pt2_cB_z (.clk(clk), .d(pt2_cB_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_z));
     // pt2_mul277 = n_x * pt1_vA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul277;
     logic [2:0] fl_pt2_mul277;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul277 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[194]), .y(pt2_mul277), .flags(fl_pt2_mul277)
     );
     assign ev_ovf[192] = fl_pt2_mul277[0] && ev_q[98];
@@ -3063,12 +3070,12 @@ module pgs_contact_pipe #(
     assign ev_inv[192] = fl_pt2_mul277[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul277;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul277 (.clk(clk), .d(pt2_mul277), .q(dl_pt2_mul277));
+        u_dl_pt2_mul277 (.clk(clk), .d(pt2_mul277), .valid(1'b0), .q(dl_pt2_mul277));
     // pt2_mul278 = n_y * pt1_vA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul278;
     logic [2:0] fl_pt2_mul278;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul278 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[195]), .y(pt2_mul278), .flags(fl_pt2_mul278)
     );
     assign ev_ovf[193] = fl_pt2_mul278[0] && ev_q[98];
@@ -3076,12 +3083,12 @@ module pgs_contact_pipe #(
     assign ev_inv[193] = fl_pt2_mul278[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul278;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul278 (.clk(clk), .d(pt2_mul278), .q(dl_pt2_mul278));
+        u_dl_pt2_mul278 (.clk(clk), .d(pt2_mul278), .valid(1'b0), .q(dl_pt2_mul278));
     // pt2_add279 = pt2_mul277 + pt2_mul278   (ready @102/102/102)
     logic [W-1:0] pt2_add279;
     logic [2:0] fl_pt2_add279;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add279 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul277), .b(dl_pt2_mul278), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul277), .b(dl_pt2_mul278), .sub(1'b0),
         .out_valid(op_valid_nc[196]), .y(pt2_add279), .flags(fl_pt2_add279)
     );
     assign ev_ovf[194] = fl_pt2_add279[0] && ev_q[102];
@@ -3089,12 +3096,12 @@ module pgs_contact_pipe #(
     assign ev_inv[194] = fl_pt2_add279[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add279;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add279 (.clk(clk), .d(pt2_add279), .q(dl_pt2_add279));
+        u_dl_pt2_add279 (.clk(clk), .d(pt2_add279), .valid(1'b0), .q(dl_pt2_add279));
     // pt2_mul280 = n_z * pt1_vA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul280;
     logic [2:0] fl_pt2_mul280;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul280 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[197]), .y(pt2_mul280), .flags(fl_pt2_mul280)
     );
     assign ev_ovf[195] = fl_pt2_mul280[0] && ev_q[98];
@@ -3102,12 +3109,12 @@ module pgs_contact_pipe #(
     assign ev_inv[195] = fl_pt2_mul280[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul280;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul280 (.clk(clk), .d(pt2_mul280), .q(dl_pt2_mul280));
+        u_dl_pt2_mul280 (.clk(clk), .d(pt2_mul280), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul280));
     // pt2_add281 = pt2_add279 + pt2_mul280   (ready @106/106/106)
     logic [W-1:0] pt2_add281;
     logic [2:0] fl_pt2_add281;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add281 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add279), .b(dl_pt2_mul280), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add279), .b(dl_pt2_mul280), .sub(1'b0),
         .out_valid(op_valid_nc[198]), .y(pt2_add281), .flags(fl_pt2_add281)
     );
     assign ev_ovf[196] = fl_pt2_add281[0] && ev_q[106];
@@ -3115,12 +3122,12 @@ module pgs_contact_pipe #(
     assign ev_inv[196] = fl_pt2_add281[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add281;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add281 (.clk(clk), .d(pt2_add281), .q(dl_pt2_add281));
+        u_dl_pt2_add281 (.clk(clk), .d(pt2_add281), .valid(1'b0), .q(dl_pt2_add281));
     // pt2_mul282 = n_x * pt1_vB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul282;
     logic [2:0] fl_pt2_mul282;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul282 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[199]), .y(pt2_mul282), .flags(fl_pt2_mul282)
     );
     assign ev_ovf[197] = fl_pt2_mul282[0] && ev_q[98];
@@ -3128,12 +3135,12 @@ module pgs_contact_pipe #(
     assign ev_inv[197] = fl_pt2_mul282[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul282;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul282 (.clk(clk), .d(pt2_mul282), .q(dl_pt2_mul282));
+        u_dl_pt2_mul282 (.clk(clk), .d(pt2_mul282), .valid(1'b0), .q(dl_pt2_mul282));
     // pt2_mul283 = n_y * pt1_vB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul283;
     logic [2:0] fl_pt2_mul283;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul283 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[200]), .y(pt2_mul283), .flags(fl_pt2_mul283)
     );
     assign ev_ovf[198] = fl_pt2_mul283[0] && ev_q[98];
@@ -3141,12 +3148,12 @@ module pgs_contact_pipe #(
     assign ev_inv[198] = fl_pt2_mul283[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul283;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul283 (.clk(clk), .d(pt2_mul283), .q(dl_pt2_mul283));
+        u_dl_pt2_mul283 (.clk(clk), .d(pt2_mul283), .valid(1'b0), .q(dl_pt2_mul283));
     // pt2_add284 = pt2_mul282 + pt2_mul283   (ready @102/102/102)
     logic [W-1:0] pt2_add284;
     logic [2:0] fl_pt2_add284;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add284 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul282), .b(dl_pt2_mul283), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul282), .b(dl_pt2_mul283), .sub(1'b0),
         .out_valid(op_valid_nc[201]), .y(pt2_add284), .flags(fl_pt2_add284)
     );
     assign ev_ovf[199] = fl_pt2_add284[0] && ev_q[102];
@@ -3154,12 +3161,12 @@ module pgs_contact_pipe #(
     assign ev_inv[199] = fl_pt2_add284[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add284;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add284 (.clk(clk), .d(pt2_add284), .q(dl_pt2_add284));
+        u_dl_pt2_add284 (.clk(clk), .d(pt2_add284), .valid(1'b0), .q(dl_pt2_add284));
     // pt2_mul285 = n_z * pt1_vB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul285;
     logic [2:0] fl_pt2_mul285;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul285 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[202]), .y(pt2_mul285), .flags(fl_pt2_mul285)
     );
     assign ev_ovf[200] = fl_pt2_mul285[0] && ev_q[98];
@@ -3167,12 +3174,12 @@ module pgs_contact_pipe #(
     assign ev_inv[200] = fl_pt2_mul285[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul285;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul285 (.clk(clk), .d(pt2_mul285), .q(dl_pt2_mul285));
+        u_dl_pt2_mul285 (.clk(clk), .d(pt2_mul285), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul285));
     // pt2_add286 = pt2_add284 + pt2_mul285   (ready @106/106/106)
     logic [W-1:0] pt2_add286;
     logic [2:0] fl_pt2_add286;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add286 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add284), .b(dl_pt2_mul285), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add284), .b(dl_pt2_mul285), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(pt2_add286), .flags(fl_pt2_add286)
     );
     assign ev_ovf[201] = fl_pt2_add286[0] && ev_q[106];
@@ -3180,12 +3187,12 @@ module pgs_contact_pipe #(
     assign ev_inv[201] = fl_pt2_add286[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add286;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add286 (.clk(clk), .d(pt2_add286), .q(dl_pt2_add286));
+        u_dl_pt2_add286 (.clk(clk), .d(pt2_add286), .valid(1'b0), .q(dl_pt2_add286));
     // pt2_sub287 = pt2_add281 - pt2_add286   (ready @110/110/110)
     logic [W-1:0] pt2_sub287;
     logic [2:0] fl_pt2_sub287;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub287 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add281), .b(dl_pt2_add286), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add281), .b(dl_pt2_add286), .sub(1'b1),
         .out_valid(op_valid_nc[204]), .y(pt2_sub287), .flags(fl_pt2_sub287)
     );
     assign ev_ovf[202] = fl_pt2_sub287[0] && ev_q[110];
@@ -3193,12 +3200,12 @@ module pgs_contact_pipe #(
     assign ev_inv[202] = fl_pt2_sub287[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub287;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub287 (.clk(clk), .d(pt2_sub287), .q(dl_pt2_sub287));
+        u_dl_pt2_sub287 (.clk(clk), .d(pt2_sub287), .valid(1'b0), .q(dl_pt2_sub287));
     // pt2_mul288 = pt2_cA_x * pt1_wA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul288;
     logic [2:0] fl_pt2_mul288;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul288 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_x[0*W +: W]), .b(dl_pt1_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cA_x[0*W +: W]), .b(dl_pt1_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[205]), .y(pt2_mul288), .flags(fl_pt2_mul288)
     );
     assign ev_ovf[203] = fl_pt2_mul288[0] && ev_q[98];
@@ -3206,12 +3213,12 @@ module pgs_contact_pipe #(
     assign ev_inv[203] = fl_pt2_mul288[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul288;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul288 (.clk(clk), .d(pt2_mul288), .q(dl_pt2_mul288));
+        u_dl_pt2_mul288 (.clk(clk), .d(pt2_mul288), .valid(1'b0), .q(dl_pt2_mul288));
     // pt2_mul289 = pt2_cA_y * pt1_wA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul289;
     logic [2:0] fl_pt2_mul289;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul289 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_y[0*W +: W]), .b(dl_pt1_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cA_y[0*W +: W]), .b(dl_pt1_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[206]), .y(pt2_mul289), .flags(fl_pt2_mul289)
     );
     assign ev_ovf[204] = fl_pt2_mul289[0] && ev_q[98];
@@ -3219,12 +3226,12 @@ module pgs_contact_pipe #(
     assign ev_inv[204] = fl_pt2_mul289[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul289;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul289 (.clk(clk), .d(pt2_mul289), .q(dl_pt2_mul289));
+        u_dl_pt2_mul289 (.clk(clk), .d(pt2_mul289), .valid(1'b0), .q(dl_pt2_mul289));
     // pt2_add290 = pt2_mul288 + pt2_mul289   (ready @102/102/102)
     logic [W-1:0] pt2_add290;
     logic [2:0] fl_pt2_add290;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add290 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul288), .b(dl_pt2_mul289), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul288), .b(dl_pt2_mul289), .sub(1'b0),
         .out_valid(op_valid_nc[207]), .y(pt2_add290), .flags(fl_pt2_add290)
     );
     assign ev_ovf[205] = fl_pt2_add290[0] && ev_q[102];
@@ -3232,12 +3239,12 @@ module pgs_contact_pipe #(
     assign ev_inv[205] = fl_pt2_add290[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add290;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add290 (.clk(clk), .d(pt2_add290), .q(dl_pt2_add290));
+        u_dl_pt2_add290 (.clk(clk), .d(pt2_add290), .valid(1'b0), .q(dl_pt2_add290));
     // pt2_mul291 = pt2_cA_z * pt1_wA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul291;
     logic [2:0] fl_pt2_mul291;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul291 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_z[0*W +: W]), .b(dl_pt1_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cA_z[0*W +: W]), .b(dl_pt1_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[208]), .y(pt2_mul291), .flags(fl_pt2_mul291)
     );
     assign ev_ovf[206] = fl_pt2_mul291[0] && ev_q[98];
@@ -3245,12 +3252,12 @@ module pgs_contact_pipe #(
     assign ev_inv[206] = fl_pt2_mul291[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul291;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul291 (.clk(clk), .d(pt2_mul291), .q(dl_pt2_mul291));
+        u_dl_pt2_mul291 (.clk(clk), .d(pt2_mul291), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul291));
     // pt2_add292 = pt2_add290 + pt2_mul291   (ready @106/106/106)
     logic [W-1:0] pt2_add292;
     logic [2:0] fl_pt2_add292;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add292 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add290), .b(dl_pt2_mul291), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add290), .b(dl_pt2_mul291), .sub(1'b0),
         .out_valid(op_valid_nc[209]), .y(pt2_add292), .flags(fl_pt2_add292)
     );
     assign ev_ovf[207] = fl_pt2_add292[0] && ev_q[106];
@@ -3258,12 +3265,12 @@ module pgs_contact_pipe #(
     assign ev_inv[207] = fl_pt2_add292[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add292;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add292 (.clk(clk), .d(pt2_add292), .q(dl_pt2_add292));
+        u_dl_pt2_add292 (.clk(clk), .d(pt2_add292), .valid(1'b0), .q(dl_pt2_add292));
     // pt2_mul293 = pt2_cB_x * pt1_wB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul293;
     logic [2:0] fl_pt2_mul293;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul293 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_x[0*W +: W]), .b(dl_pt1_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cB_x[0*W +: W]), .b(dl_pt1_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[210]), .y(pt2_mul293), .flags(fl_pt2_mul293)
     );
     assign ev_ovf[208] = fl_pt2_mul293[0] && ev_q[98];
@@ -3271,12 +3278,12 @@ module pgs_contact_pipe #(
     assign ev_inv[208] = fl_pt2_mul293[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul293;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul293 (.clk(clk), .d(pt2_mul293), .q(dl_pt2_mul293));
+        u_dl_pt2_mul293 (.clk(clk), .d(pt2_mul293), .valid(1'b0), .q(dl_pt2_mul293));
     // pt2_mul294 = pt2_cB_y * pt1_wB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul294;
     logic [2:0] fl_pt2_mul294;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul294 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_y[0*W +: W]), .b(dl_pt1_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cB_y[0*W +: W]), .b(dl_pt1_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[211]), .y(pt2_mul294), .flags(fl_pt2_mul294)
     );
     assign ev_ovf[209] = fl_pt2_mul294[0] && ev_q[98];
@@ -3284,12 +3291,12 @@ module pgs_contact_pipe #(
     assign ev_inv[209] = fl_pt2_mul294[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul294;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul294 (.clk(clk), .d(pt2_mul294), .q(dl_pt2_mul294));
+        u_dl_pt2_mul294 (.clk(clk), .d(pt2_mul294), .valid(1'b0), .q(dl_pt2_mul294));
     // pt2_add295 = pt2_mul293 + pt2_mul294   (ready @102/102/102)
     logic [W-1:0] pt2_add295;
     logic [2:0] fl_pt2_add295;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add295 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul293), .b(dl_pt2_mul294), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul293), .b(dl_pt2_mul294), .sub(1'b0),
         .out_valid(op_valid_nc[212]), .y(pt2_add295), .flags(fl_pt2_add295)
     );
     assign ev_ovf[210] = fl_pt2_add295[0] && ev_q[102];
@@ -3297,12 +3304,12 @@ module pgs_contact_pipe #(
     assign ev_inv[210] = fl_pt2_add295[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add295;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add295 (.clk(clk), .d(pt2_add295), .q(dl_pt2_add295));
+        u_dl_pt2_add295 (.clk(clk), .d(pt2_add295), .valid(1'b0), .q(dl_pt2_add295));
     // pt2_mul296 = pt2_cB_z * pt1_wB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul296;
     logic [2:0] fl_pt2_mul296;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul296 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_z[0*W +: W]), .b(dl_pt1_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cB_z[0*W +: W]), .b(dl_pt1_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[213]), .y(pt2_mul296), .flags(fl_pt2_mul296)
     );
     assign ev_ovf[211] = fl_pt2_mul296[0] && ev_q[98];
@@ -3310,12 +3317,12 @@ module pgs_contact_pipe #(
     assign ev_inv[211] = fl_pt2_mul296[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul296;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul296 (.clk(clk), .d(pt2_mul296), .q(dl_pt2_mul296));
+        u_dl_pt2_mul296 (.clk(clk), .d(pt2_mul296), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul296));
     // pt2_add297 = pt2_add295 + pt2_mul296   (ready @106/106/106)
     logic [W-1:0] pt2_add297;
     logic [2:0] fl_pt2_add297;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add297 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add295), .b(dl_pt2_mul296), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add295), .b(dl_pt2_mul296), .sub(1'b0),
         .out_valid(op_valid_nc[214]), .y(pt2_add297), .flags(fl_pt2_add297)
     );
     assign ev_ovf[212] = fl_pt2_add297[0] && ev_q[106];
@@ -3323,12 +3330,12 @@ module pgs_contact_pipe #(
     assign ev_inv[212] = fl_pt2_add297[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add297;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add297 (.clk(clk), .d(pt2_add297), .q(dl_pt2_add297));
+        u_dl_pt2_add297 (.clk(clk), .d(pt2_add297), .valid(1'b0), .q(dl_pt2_add297));
     // pt2_sub298 = pt2_add292 - pt2_add297   (ready @110/110/110)
     logic [W-1:0] pt2_sub298;
     logic [2:0] fl_pt2_sub298;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub298 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add292), .b(dl_pt2_add297), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add292), .b(dl_pt2_add297), .sub(1'b1),
         .out_valid(op_valid_nc[215]), .y(pt2_sub298), .flags(fl_pt2_sub298)
     );
     assign ev_ovf[213] = fl_pt2_sub298[0] && ev_q[110];
@@ -3336,12 +3343,12 @@ module pgs_contact_pipe #(
     assign ev_inv[213] = fl_pt2_sub298[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub298;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub298 (.clk(clk), .d(pt2_sub298), .q(dl_pt2_sub298));
+        u_dl_pt2_sub298 (.clk(clk), .d(pt2_sub298), .valid(1'b0), .q(dl_pt2_sub298));
     // pt2_vrel = pt2_sub287 + pt2_sub298   (ready @114/114/114)
     logic [W-1:0] pt2_vrel;
     logic [2:0] fl_pt2_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_sub287), .b(dl_pt2_sub298), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[110]), .a(dl_pt2_sub287), .b(dl_pt2_sub298), .sub(1'b0),
         .out_valid(op_valid_nc[216]), .y(pt2_vrel), .flags(fl_pt2_vrel)
     );
     assign ev_ovf[214] = fl_pt2_vrel[0] && ev_q[114];
@@ -3349,12 +3356,12 @@ module pgs_contact_pipe #(
     assign ev_inv[214] = fl_pt2_vrel[2] && ev_q[114];
     logic [W-1:0] dl_pt2_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_vrel (.clk(clk), .d(pt2_vrel), .q(dl_pt2_vrel));
+        u_dl_pt2_vrel (.clk(clk), .d(pt2_vrel), .valid(1'b0), .q(dl_pt2_vrel));
     // pt2_add300 = pt2_vrel + b2   (ready @118/118/118)
     logic [W-1:0] pt2_add300;
     logic [2:0] fl_pt2_add300;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add300 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[114]), .a(dl_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
         .out_valid(op_valid_nc[217]), .y(pt2_add300), .flags(fl_pt2_add300)
     );
     assign ev_ovf[215] = fl_pt2_add300[0] && ev_q[118];
@@ -3362,12 +3369,12 @@ module pgs_contact_pipe #(
     assign ev_inv[215] = fl_pt2_add300[2] && ev_q[118];
     logic [W-1:0] dl_pt2_add300;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add300 (.clk(clk), .d(pt2_add300), .q(dl_pt2_add300));
+        u_dl_pt2_add300 (.clk(clk), .d(pt2_add300), .valid(1'b0), .q(dl_pt2_add300));
     // pt2_delta0 = pt2_add300 * jac_inv2   (ready @121/121/121)
     logic [W-1:0] pt2_delta0;
     logic [2:0] fl_pt2_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add300), .b(dl_in_jac_inv2[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[118]), .a(dl_pt2_add300), .b(dl_in_jac_inv2[1*W +: W]),
         .out_valid(op_valid_nc[218]), .y(pt2_delta0), .flags(fl_pt2_delta0)
     );
     assign ev_ovf[216] = fl_pt2_delta0[0] && ev_q[121];
@@ -3375,12 +3382,12 @@ module pgs_contact_pipe #(
     assign ev_inv[216] = fl_pt2_delta0[2] && ev_q[121];
     logic [W-1:0] dl_pt2_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_delta0 (.clk(clk), .d(pt2_delta0), .q(dl_pt2_delta0));
+        u_dl_pt2_delta0 (.clk(clk), .d(pt2_delta0), .valid(1'b0), .q(dl_pt2_delta0));
     // pt2_add302 = lam2 + pt2_delta0   (ready @125/125/125)
     logic [W-1:0] pt2_add302;
     logic [2:0] fl_pt2_add302;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add302 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam2[0*W +: W]), .b(dl_pt2_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[121]), .a(dl_in_lam2[0*W +: W]), .b(dl_pt2_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[219]), .y(pt2_add302), .flags(fl_pt2_add302)
     );
     assign ev_ovf[217] = fl_pt2_add302[0] && ev_q[125];
@@ -3388,22 +3395,22 @@ module pgs_contact_pipe #(
     assign ev_inv[217] = fl_pt2_add302[2] && ev_q[125];
     logic [W-1:0] dl_pt2_add302;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add302 (.clk(clk), .d(pt2_add302), .q(dl_pt2_add302));
+        u_dl_pt2_add302 (.clk(clk), .d(pt2_add302), .valid(1'b0), .q(dl_pt2_add302));
     // pt2_lam_new = max(pt2_add302, 0.0)   (ready @126/126/126)
     logic [W-1:0] pt2_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt2_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add302), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[125]), .a(dl_pt2_add302), .b(K_ZERO),
         .out_valid(op_valid_nc[220]), .y_min(nc_pt2_lam_new_min), .y_max(pt2_lam_new),
         .lt(nc_pt2_lam_new_lt), .eq(nc_pt2_lam_new_eq), .unordered(nc_pt2_lam_new_uo)
     );
     logic [W-1:0] dl_pt2_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_lam_new (.clk(clk), .d(pt2_lam_new), .q(dl_pt2_lam_new));
+        u_dl_pt2_lam_new (.clk(clk), .d(pt2_lam_new), .valid(1'b0), .q(dl_pt2_lam_new));
     // pt2_delta = pt2_lam_new - lam2   (ready @130/130/130)
     logic [W-1:0] pt2_delta;
     logic [2:0] fl_pt2_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_lam_new), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[126]), .a(dl_pt2_lam_new), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[221]), .y(pt2_delta), .flags(fl_pt2_delta)
     );
     assign ev_ovf[218] = fl_pt2_delta[0] && ev_q[130];
@@ -3411,18 +3418,18 @@ module pgs_contact_pipe #(
     assign ev_inv[218] = fl_pt2_delta[2] && ev_q[130];
     logic [W-1:0] dl_pt2_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_delta (.clk(clk), .d(pt2_delta), .q(dl_pt2_delta));
+        u_dl_pt2_delta (.clk(clk), .d(pt2_delta), .valid(1'b0), .q(dl_pt2_delta));
     // pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (ready @126/126/126)
     logic [W-1:0] pt2_lam;
     assign pt2_lam = dl_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_pt2_lam_new;
     logic [W-1:0] dl_pt2_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(53))
-        u_dl_pt2_lam (.clk(clk), .d(pt2_lam), .q(dl_pt2_lam));
+        u_dl_pt2_lam (.clk(clk), .d(pt2_lam), .valid(valid_q[126 +: 53]), .q(dl_pt2_lam));
     // pt2_angA_x = IInvA_x * pt2_cA_x   (ready @14/14/14)
     logic [W-1:0] pt2_angA_x;
     logic [2:0] fl_pt2_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_pt2_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_x), .b(dl_pt2_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[222]), .y(pt2_angA_x), .flags(fl_pt2_angA_x)
     );
     assign ev_ovf[219] = fl_pt2_angA_x[0] && ev_q[14];
@@ -3430,12 +3437,12 @@ module pgs_contact_pipe #(
     assign ev_inv[219] = fl_pt2_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angA_x (.clk(clk), .d(pt2_angA_x), .q(dl_pt2_angA_x));
+        u_dl_pt2_angA_x (.clk(clk), .d(pt2_angA_x), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_x));
     // pt2_angA_y = IInvA_y * pt2_cA_y   (ready @14/14/14)
     logic [W-1:0] pt2_angA_y;
     logic [2:0] fl_pt2_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_pt2_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_y), .b(dl_pt2_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[223]), .y(pt2_angA_y), .flags(fl_pt2_angA_y)
     );
     assign ev_ovf[220] = fl_pt2_angA_y[0] && ev_q[14];
@@ -3443,12 +3450,12 @@ module pgs_contact_pipe #(
     assign ev_inv[220] = fl_pt2_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angA_y (.clk(clk), .d(pt2_angA_y), .q(dl_pt2_angA_y));
+        u_dl_pt2_angA_y (.clk(clk), .d(pt2_angA_y), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_y));
     // pt2_angA_z = IInvA_z * pt2_cA_z   (ready @14/14/14)
     logic [W-1:0] pt2_angA_z;
     logic [2:0] fl_pt2_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_pt2_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_z), .b(dl_pt2_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[224]), .y(pt2_angA_z), .flags(fl_pt2_angA_z)
     );
     assign ev_ovf[221] = fl_pt2_angA_z[0] && ev_q[14];
@@ -3456,12 +3463,12 @@ module pgs_contact_pipe #(
     assign ev_inv[221] = fl_pt2_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angA_z (.clk(clk), .d(pt2_angA_z), .q(dl_pt2_angA_z));
+        u_dl_pt2_angA_z (.clk(clk), .d(pt2_angA_z), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_z));
     // pt2_angB_x = IInvB_x * pt2_cB_x   (ready @14/14/14)
     logic [W-1:0] pt2_angB_x;
     logic [2:0] fl_pt2_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_pt2_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_x), .b(dl_pt2_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[225]), .y(pt2_angB_x), .flags(fl_pt2_angB_x)
     );
     assign ev_ovf[222] = fl_pt2_angB_x[0] && ev_q[14];
@@ -3469,12 +3476,12 @@ module pgs_contact_pipe #(
     assign ev_inv[222] = fl_pt2_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angB_x (.clk(clk), .d(pt2_angB_x), .q(dl_pt2_angB_x));
+        u_dl_pt2_angB_x (.clk(clk), .d(pt2_angB_x), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_x));
     // pt2_angB_y = IInvB_y * pt2_cB_y   (ready @14/14/14)
     logic [W-1:0] pt2_angB_y;
     logic [2:0] fl_pt2_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_pt2_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_y), .b(dl_pt2_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[226]), .y(pt2_angB_y), .flags(fl_pt2_angB_y)
     );
     assign ev_ovf[223] = fl_pt2_angB_y[0] && ev_q[14];
@@ -3482,12 +3489,12 @@ module pgs_contact_pipe #(
     assign ev_inv[223] = fl_pt2_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angB_y (.clk(clk), .d(pt2_angB_y), .q(dl_pt2_angB_y));
+        u_dl_pt2_angB_y (.clk(clk), .d(pt2_angB_y), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_y));
     // pt2_angB_z = IInvB_z * pt2_cB_z   (ready @14/14/14)
     logic [W-1:0] pt2_angB_z;
     logic [2:0] fl_pt2_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_pt2_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_z), .b(dl_pt2_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[227]), .y(pt2_angB_z), .flags(fl_pt2_angB_z)
     );
     assign ev_ovf[224] = fl_pt2_angB_z[0] && ev_q[14];
@@ -3495,12 +3502,12 @@ module pgs_contact_pipe #(
     assign ev_inv[224] = fl_pt2_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angB_z (.clk(clk), .d(pt2_angB_z), .q(dl_pt2_angB_z));
+        u_dl_pt2_angB_z (.clk(clk), .d(pt2_angB_z), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_z));
     // pt2_mul312 = linA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul312;
     logic [2:0] fl_pt2_mul312;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul312 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linA_x[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[228]), .y(pt2_mul312), .flags(fl_pt2_mul312)
     );
     assign ev_ovf[225] = fl_pt2_mul312[0] && ev_q[133];
@@ -3508,12 +3515,12 @@ module pgs_contact_pipe #(
     assign ev_inv[225] = fl_pt2_mul312[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul312;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul312 (.clk(clk), .d(pt2_mul312), .q(dl_pt2_mul312));
+        u_dl_pt2_mul312 (.clk(clk), .d(pt2_mul312), .valid(1'b0), .q(dl_pt2_mul312));
     // pt2_mul313 = linA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul313;
     logic [2:0] fl_pt2_mul313;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul313 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linA_y[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[229]), .y(pt2_mul313), .flags(fl_pt2_mul313)
     );
     assign ev_ovf[226] = fl_pt2_mul313[0] && ev_q[133];
@@ -3521,12 +3528,12 @@ module pgs_contact_pipe #(
     assign ev_inv[226] = fl_pt2_mul313[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul313;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul313 (.clk(clk), .d(pt2_mul313), .q(dl_pt2_mul313));
+        u_dl_pt2_mul313 (.clk(clk), .d(pt2_mul313), .valid(1'b0), .q(dl_pt2_mul313));
     // pt2_mul314 = linA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul314;
     logic [2:0] fl_pt2_mul314;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul314 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linA_z[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[230]), .y(pt2_mul314), .flags(fl_pt2_mul314)
     );
     assign ev_ovf[227] = fl_pt2_mul314[0] && ev_q[133];
@@ -3534,12 +3541,12 @@ module pgs_contact_pipe #(
     assign ev_inv[227] = fl_pt2_mul314[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul314;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul314 (.clk(clk), .d(pt2_mul314), .q(dl_pt2_mul314));
+        u_dl_pt2_mul314 (.clk(clk), .d(pt2_mul314), .valid(1'b0), .q(dl_pt2_mul314));
     // pt2_add315 = pt1_vA_x + pt2_mul312   (ready @137/137/137)
     logic [W-1:0] pt2_add315;
     logic [2:0] fl_pt2_add315;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add315 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_x[1*W +: W]), .b(dl_pt2_mul312), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_x[1*W +: W]), .b(dl_pt2_mul312), .sub(1'b0),
         .out_valid(op_valid_nc[231]), .y(pt2_add315), .flags(fl_pt2_add315)
     );
     assign ev_ovf[228] = fl_pt2_add315[0] && ev_q[137];
@@ -3547,12 +3554,12 @@ module pgs_contact_pipe #(
     assign ev_inv[228] = fl_pt2_add315[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add315;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add315 (.clk(clk), .d(pt2_add315), .q(dl_pt2_add315));
+        u_dl_pt2_add315 (.clk(clk), .d(pt2_add315), .valid(1'b0), .q(dl_pt2_add315));
     // pt2_add316 = pt1_vA_y + pt2_mul313   (ready @137/137/137)
     logic [W-1:0] pt2_add316;
     logic [2:0] fl_pt2_add316;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add316 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_y[1*W +: W]), .b(dl_pt2_mul313), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_y[1*W +: W]), .b(dl_pt2_mul313), .sub(1'b0),
         .out_valid(op_valid_nc[232]), .y(pt2_add316), .flags(fl_pt2_add316)
     );
     assign ev_ovf[229] = fl_pt2_add316[0] && ev_q[137];
@@ -3560,12 +3567,12 @@ module pgs_contact_pipe #(
     assign ev_inv[229] = fl_pt2_add316[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add316;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add316 (.clk(clk), .d(pt2_add316), .q(dl_pt2_add316));
+        u_dl_pt2_add316 (.clk(clk), .d(pt2_add316), .valid(1'b0), .q(dl_pt2_add316));
     // pt2_add317 = pt1_vA_z + pt2_mul314   (ready @137/137/137)
     logic [W-1:0] pt2_add317;
     logic [2:0] fl_pt2_add317;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add317 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_z[1*W +: W]), .b(dl_pt2_mul314), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_z[1*W +: W]), .b(dl_pt2_mul314), .sub(1'b0),
         .out_valid(op_valid_nc[233]), .y(pt2_add317), .flags(fl_pt2_add317)
     );
     assign ev_ovf[230] = fl_pt2_add317[0] && ev_q[137];
@@ -3573,30 +3580,30 @@ module pgs_contact_pipe #(
     assign ev_inv[230] = fl_pt2_add317[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add317;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add317 (.clk(clk), .d(pt2_add317), .q(dl_pt2_add317));
+        u_dl_pt2_add317 (.clk(clk), .d(pt2_add317), .valid(1'b0), .q(dl_pt2_add317));
     // pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add315   (ready @137/137/137)
     logic [W-1:0] pt2_vA_x;
     assign pt2_vA_x = dl_pt2_skip[1] ? dl_pt1_vA_x[2*W +: W] : dl_pt2_add315;
     logic [3*W-1:0] dl_pt2_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vA_x (.clk(clk), .d(pt2_vA_x), .q(dl_pt2_vA_x));
+        u_dl_pt2_vA_x (.clk(clk), .d(pt2_vA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_x));
     // pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add316   (ready @137/137/137)
     logic [W-1:0] pt2_vA_y;
     assign pt2_vA_y = dl_pt2_skip[1] ? dl_pt1_vA_y[2*W +: W] : dl_pt2_add316;
     logic [3*W-1:0] dl_pt2_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vA_y (.clk(clk), .d(pt2_vA_y), .q(dl_pt2_vA_y));
+        u_dl_pt2_vA_y (.clk(clk), .d(pt2_vA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_y));
     // pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add317   (ready @137/137/137)
     logic [W-1:0] pt2_vA_z;
     assign pt2_vA_z = dl_pt2_skip[1] ? dl_pt1_vA_z[2*W +: W] : dl_pt2_add317;
     logic [3*W-1:0] dl_pt2_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vA_z (.clk(clk), .d(pt2_vA_z), .q(dl_pt2_vA_z));
+        u_dl_pt2_vA_z (.clk(clk), .d(pt2_vA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_z));
     // pt2_mul321 = pt2_angA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul321;
     logic [2:0] fl_pt2_mul321;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul321 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_x), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angA_x), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[234]), .y(pt2_mul321), .flags(fl_pt2_mul321)
     );
     assign ev_ovf[231] = fl_pt2_mul321[0] && ev_q[133];
@@ -3604,12 +3611,12 @@ module pgs_contact_pipe #(
     assign ev_inv[231] = fl_pt2_mul321[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul321;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul321 (.clk(clk), .d(pt2_mul321), .q(dl_pt2_mul321));
+        u_dl_pt2_mul321 (.clk(clk), .d(pt2_mul321), .valid(1'b0), .q(dl_pt2_mul321));
     // pt2_mul322 = pt2_angA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul322;
     logic [2:0] fl_pt2_mul322;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul322 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_y), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angA_y), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[235]), .y(pt2_mul322), .flags(fl_pt2_mul322)
     );
     assign ev_ovf[232] = fl_pt2_mul322[0] && ev_q[133];
@@ -3617,12 +3624,12 @@ module pgs_contact_pipe #(
     assign ev_inv[232] = fl_pt2_mul322[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul322;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul322 (.clk(clk), .d(pt2_mul322), .q(dl_pt2_mul322));
+        u_dl_pt2_mul322 (.clk(clk), .d(pt2_mul322), .valid(1'b0), .q(dl_pt2_mul322));
     // pt2_mul323 = pt2_angA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul323;
     logic [2:0] fl_pt2_mul323;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul323 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_z), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angA_z), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[236]), .y(pt2_mul323), .flags(fl_pt2_mul323)
     );
     assign ev_ovf[233] = fl_pt2_mul323[0] && ev_q[133];
@@ -3630,12 +3637,12 @@ module pgs_contact_pipe #(
     assign ev_inv[233] = fl_pt2_mul323[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul323;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul323 (.clk(clk), .d(pt2_mul323), .q(dl_pt2_mul323));
+        u_dl_pt2_mul323 (.clk(clk), .d(pt2_mul323), .valid(1'b0), .q(dl_pt2_mul323));
     // pt2_add324 = pt1_wA_x + pt2_mul321   (ready @137/137/137)
     logic [W-1:0] pt2_add324;
     logic [2:0] fl_pt2_add324;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add324 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_x[1*W +: W]), .b(dl_pt2_mul321), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_x[1*W +: W]), .b(dl_pt2_mul321), .sub(1'b0),
         .out_valid(op_valid_nc[237]), .y(pt2_add324), .flags(fl_pt2_add324)
     );
     assign ev_ovf[234] = fl_pt2_add324[0] && ev_q[137];
@@ -3643,12 +3650,12 @@ module pgs_contact_pipe #(
     assign ev_inv[234] = fl_pt2_add324[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add324;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add324 (.clk(clk), .d(pt2_add324), .q(dl_pt2_add324));
+        u_dl_pt2_add324 (.clk(clk), .d(pt2_add324), .valid(1'b0), .q(dl_pt2_add324));
     // pt2_add325 = pt1_wA_y + pt2_mul322   (ready @137/137/137)
     logic [W-1:0] pt2_add325;
     logic [2:0] fl_pt2_add325;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add325 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_y[1*W +: W]), .b(dl_pt2_mul322), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_y[1*W +: W]), .b(dl_pt2_mul322), .sub(1'b0),
         .out_valid(op_valid_nc[238]), .y(pt2_add325), .flags(fl_pt2_add325)
     );
     assign ev_ovf[235] = fl_pt2_add325[0] && ev_q[137];
@@ -3656,12 +3663,12 @@ module pgs_contact_pipe #(
     assign ev_inv[235] = fl_pt2_add325[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add325;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add325 (.clk(clk), .d(pt2_add325), .q(dl_pt2_add325));
+        u_dl_pt2_add325 (.clk(clk), .d(pt2_add325), .valid(1'b0), .q(dl_pt2_add325));
     // pt2_add326 = pt1_wA_z + pt2_mul323   (ready @137/137/137)
     logic [W-1:0] pt2_add326;
     logic [2:0] fl_pt2_add326;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add326 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_z[1*W +: W]), .b(dl_pt2_mul323), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_z[1*W +: W]), .b(dl_pt2_mul323), .sub(1'b0),
         .out_valid(op_valid_nc[239]), .y(pt2_add326), .flags(fl_pt2_add326)
     );
     assign ev_ovf[236] = fl_pt2_add326[0] && ev_q[137];
@@ -3669,30 +3676,30 @@ module pgs_contact_pipe #(
     assign ev_inv[236] = fl_pt2_add326[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add326;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add326 (.clk(clk), .d(pt2_add326), .q(dl_pt2_add326));
+        u_dl_pt2_add326 (.clk(clk), .d(pt2_add326), .valid(1'b0), .q(dl_pt2_add326));
     // pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add324   (ready @137/137/137)
     logic [W-1:0] pt2_wA_x;
     assign pt2_wA_x = dl_pt2_skip[1] ? dl_pt1_wA_x[2*W +: W] : dl_pt2_add324;
     logic [3*W-1:0] dl_pt2_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wA_x (.clk(clk), .d(pt2_wA_x), .q(dl_pt2_wA_x));
+        u_dl_pt2_wA_x (.clk(clk), .d(pt2_wA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_x));
     // pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add325   (ready @137/137/137)
     logic [W-1:0] pt2_wA_y;
     assign pt2_wA_y = dl_pt2_skip[1] ? dl_pt1_wA_y[2*W +: W] : dl_pt2_add325;
     logic [3*W-1:0] dl_pt2_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wA_y (.clk(clk), .d(pt2_wA_y), .q(dl_pt2_wA_y));
+        u_dl_pt2_wA_y (.clk(clk), .d(pt2_wA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_y));
     // pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add326   (ready @137/137/137)
     logic [W-1:0] pt2_wA_z;
     assign pt2_wA_z = dl_pt2_skip[1] ? dl_pt1_wA_z[2*W +: W] : dl_pt2_add326;
     logic [3*W-1:0] dl_pt2_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wA_z (.clk(clk), .d(pt2_wA_z), .q(dl_pt2_wA_z));
+        u_dl_pt2_wA_z (.clk(clk), .d(pt2_wA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_z));
     // pt2_mul330 = linB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul330;
     logic [2:0] fl_pt2_mul330;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul330 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linB_x[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[240]), .y(pt2_mul330), .flags(fl_pt2_mul330)
     );
     assign ev_ovf[237] = fl_pt2_mul330[0] && ev_q[133];
@@ -3700,12 +3707,12 @@ module pgs_contact_pipe #(
     assign ev_inv[237] = fl_pt2_mul330[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul330;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul330 (.clk(clk), .d(pt2_mul330), .q(dl_pt2_mul330));
+        u_dl_pt2_mul330 (.clk(clk), .d(pt2_mul330), .valid(1'b0), .q(dl_pt2_mul330));
     // pt2_mul331 = linB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul331;
     logic [2:0] fl_pt2_mul331;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul331 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linB_y[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[241]), .y(pt2_mul331), .flags(fl_pt2_mul331)
     );
     assign ev_ovf[238] = fl_pt2_mul331[0] && ev_q[133];
@@ -3713,12 +3720,12 @@ module pgs_contact_pipe #(
     assign ev_inv[238] = fl_pt2_mul331[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul331;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul331 (.clk(clk), .d(pt2_mul331), .q(dl_pt2_mul331));
+        u_dl_pt2_mul331 (.clk(clk), .d(pt2_mul331), .valid(1'b0), .q(dl_pt2_mul331));
     // pt2_mul332 = linB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul332;
     logic [2:0] fl_pt2_mul332;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul332 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linB_z[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[242]), .y(pt2_mul332), .flags(fl_pt2_mul332)
     );
     assign ev_ovf[239] = fl_pt2_mul332[0] && ev_q[133];
@@ -3726,12 +3733,12 @@ module pgs_contact_pipe #(
     assign ev_inv[239] = fl_pt2_mul332[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul332;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul332 (.clk(clk), .d(pt2_mul332), .q(dl_pt2_mul332));
+        u_dl_pt2_mul332 (.clk(clk), .d(pt2_mul332), .valid(1'b0), .q(dl_pt2_mul332));
     // pt2_sub333 = pt1_vB_x - pt2_mul330   (ready @137/137/137)
     logic [W-1:0] pt2_sub333;
     logic [2:0] fl_pt2_sub333;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub333 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_x[1*W +: W]), .b(dl_pt2_mul330), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_x[1*W +: W]), .b(dl_pt2_mul330), .sub(1'b1),
         .out_valid(op_valid_nc[243]), .y(pt2_sub333), .flags(fl_pt2_sub333)
     );
     assign ev_ovf[240] = fl_pt2_sub333[0] && ev_q[137];
@@ -3739,12 +3746,12 @@ module pgs_contact_pipe #(
     assign ev_inv[240] = fl_pt2_sub333[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub333;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub333 (.clk(clk), .d(pt2_sub333), .q(dl_pt2_sub333));
+        u_dl_pt2_sub333 (.clk(clk), .d(pt2_sub333), .valid(1'b0), .q(dl_pt2_sub333));
     // pt2_sub334 = pt1_vB_y - pt2_mul331   (ready @137/137/137)
     logic [W-1:0] pt2_sub334;
     logic [2:0] fl_pt2_sub334;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub334 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_y[1*W +: W]), .b(dl_pt2_mul331), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_y[1*W +: W]), .b(dl_pt2_mul331), .sub(1'b1),
         .out_valid(op_valid_nc[244]), .y(pt2_sub334), .flags(fl_pt2_sub334)
     );
     assign ev_ovf[241] = fl_pt2_sub334[0] && ev_q[137];
@@ -3752,12 +3759,12 @@ module pgs_contact_pipe #(
     assign ev_inv[241] = fl_pt2_sub334[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub334;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub334 (.clk(clk), .d(pt2_sub334), .q(dl_pt2_sub334));
+        u_dl_pt2_sub334 (.clk(clk), .d(pt2_sub334), .valid(1'b0), .q(dl_pt2_sub334));
     // pt2_sub335 = pt1_vB_z - pt2_mul332   (ready @137/137/137)
     logic [W-1:0] pt2_sub335;
     logic [2:0] fl_pt2_sub335;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub335 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_z[1*W +: W]), .b(dl_pt2_mul332), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_z[1*W +: W]), .b(dl_pt2_mul332), .sub(1'b1),
         .out_valid(op_valid_nc[245]), .y(pt2_sub335), .flags(fl_pt2_sub335)
     );
     assign ev_ovf[242] = fl_pt2_sub335[0] && ev_q[137];
@@ -3765,30 +3772,30 @@ module pgs_contact_pipe #(
     assign ev_inv[242] = fl_pt2_sub335[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub335;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub335 (.clk(clk), .d(pt2_sub335), .q(dl_pt2_sub335));
+        u_dl_pt2_sub335 (.clk(clk), .d(pt2_sub335), .valid(1'b0), .q(dl_pt2_sub335));
     // pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub333   (ready @137/137/137)
     logic [W-1:0] pt2_vB_x;
     assign pt2_vB_x = dl_pt2_skip[1] ? dl_pt1_vB_x[2*W +: W] : dl_pt2_sub333;
     logic [3*W-1:0] dl_pt2_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vB_x (.clk(clk), .d(pt2_vB_x), .q(dl_pt2_vB_x));
+        u_dl_pt2_vB_x (.clk(clk), .d(pt2_vB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_x));
     // pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub334   (ready @137/137/137)
     logic [W-1:0] pt2_vB_y;
     assign pt2_vB_y = dl_pt2_skip[1] ? dl_pt1_vB_y[2*W +: W] : dl_pt2_sub334;
     logic [3*W-1:0] dl_pt2_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vB_y (.clk(clk), .d(pt2_vB_y), .q(dl_pt2_vB_y));
+        u_dl_pt2_vB_y (.clk(clk), .d(pt2_vB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_y));
     // pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub335   (ready @137/137/137)
     logic [W-1:0] pt2_vB_z;
     assign pt2_vB_z = dl_pt2_skip[1] ? dl_pt1_vB_z[2*W +: W] : dl_pt2_sub335;
     logic [3*W-1:0] dl_pt2_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vB_z (.clk(clk), .d(pt2_vB_z), .q(dl_pt2_vB_z));
+        u_dl_pt2_vB_z (.clk(clk), .d(pt2_vB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_z));
     // pt2_mul339 = pt2_angB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul339;
     logic [2:0] fl_pt2_mul339;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul339 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_x), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angB_x), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[246]), .y(pt2_mul339), .flags(fl_pt2_mul339)
     );
     assign ev_ovf[243] = fl_pt2_mul339[0] && ev_q[133];
@@ -3796,12 +3803,12 @@ module pgs_contact_pipe #(
     assign ev_inv[243] = fl_pt2_mul339[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul339;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul339 (.clk(clk), .d(pt2_mul339), .q(dl_pt2_mul339));
+        u_dl_pt2_mul339 (.clk(clk), .d(pt2_mul339), .valid(1'b0), .q(dl_pt2_mul339));
     // pt2_mul340 = pt2_angB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul340;
     logic [2:0] fl_pt2_mul340;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul340 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_y), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angB_y), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[247]), .y(pt2_mul340), .flags(fl_pt2_mul340)
     );
     assign ev_ovf[244] = fl_pt2_mul340[0] && ev_q[133];
@@ -3809,12 +3816,12 @@ module pgs_contact_pipe #(
     assign ev_inv[244] = fl_pt2_mul340[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul340;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul340 (.clk(clk), .d(pt2_mul340), .q(dl_pt2_mul340));
+        u_dl_pt2_mul340 (.clk(clk), .d(pt2_mul340), .valid(1'b0), .q(dl_pt2_mul340));
     // pt2_mul341 = pt2_angB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul341;
     logic [2:0] fl_pt2_mul341;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul341 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_z), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angB_z), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[248]), .y(pt2_mul341), .flags(fl_pt2_mul341)
     );
     assign ev_ovf[245] = fl_pt2_mul341[0] && ev_q[133];
@@ -3822,12 +3829,12 @@ module pgs_contact_pipe #(
     assign ev_inv[245] = fl_pt2_mul341[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul341;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul341 (.clk(clk), .d(pt2_mul341), .q(dl_pt2_mul341));
+        u_dl_pt2_mul341 (.clk(clk), .d(pt2_mul341), .valid(1'b0), .q(dl_pt2_mul341));
     // pt2_sub342 = pt1_wB_x - pt2_mul339   (ready @137/137/137)
     logic [W-1:0] pt2_sub342;
     logic [2:0] fl_pt2_sub342;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub342 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_x[1*W +: W]), .b(dl_pt2_mul339), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_x[1*W +: W]), .b(dl_pt2_mul339), .sub(1'b1),
         .out_valid(op_valid_nc[249]), .y(pt2_sub342), .flags(fl_pt2_sub342)
     );
     assign ev_ovf[246] = fl_pt2_sub342[0] && ev_q[137];
@@ -3835,12 +3842,12 @@ module pgs_contact_pipe #(
     assign ev_inv[246] = fl_pt2_sub342[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub342;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub342 (.clk(clk), .d(pt2_sub342), .q(dl_pt2_sub342));
+        u_dl_pt2_sub342 (.clk(clk), .d(pt2_sub342), .valid(1'b0), .q(dl_pt2_sub342));
     // pt2_sub343 = pt1_wB_y - pt2_mul340   (ready @137/137/137)
     logic [W-1:0] pt2_sub343;
     logic [2:0] fl_pt2_sub343;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub343 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_y[1*W +: W]), .b(dl_pt2_mul340), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_y[1*W +: W]), .b(dl_pt2_mul340), .sub(1'b1),
         .out_valid(op_valid_nc[250]), .y(pt2_sub343), .flags(fl_pt2_sub343)
     );
     assign ev_ovf[247] = fl_pt2_sub343[0] && ev_q[137];
@@ -3848,12 +3855,12 @@ module pgs_contact_pipe #(
     assign ev_inv[247] = fl_pt2_sub343[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub343;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub343 (.clk(clk), .d(pt2_sub343), .q(dl_pt2_sub343));
+        u_dl_pt2_sub343 (.clk(clk), .d(pt2_sub343), .valid(1'b0), .q(dl_pt2_sub343));
     // pt2_sub344 = pt1_wB_z - pt2_mul341   (ready @137/137/137)
     logic [W-1:0] pt2_sub344;
     logic [2:0] fl_pt2_sub344;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub344 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_z[1*W +: W]), .b(dl_pt2_mul341), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_z[1*W +: W]), .b(dl_pt2_mul341), .sub(1'b1),
         .out_valid(op_valid_nc[251]), .y(pt2_sub344), .flags(fl_pt2_sub344)
     );
     assign ev_ovf[248] = fl_pt2_sub344[0] && ev_q[137];
@@ -3861,36 +3868,36 @@ module pgs_contact_pipe #(
     assign ev_inv[248] = fl_pt2_sub344[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub344;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub344 (.clk(clk), .d(pt2_sub344), .q(dl_pt2_sub344));
+        u_dl_pt2_sub344 (.clk(clk), .d(pt2_sub344), .valid(1'b0), .q(dl_pt2_sub344));
     // pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub342   (ready @137/137/137)
     logic [W-1:0] pt2_wB_x;
     assign pt2_wB_x = dl_pt2_skip[1] ? dl_pt1_wB_x[2*W +: W] : dl_pt2_sub342;
     logic [3*W-1:0] dl_pt2_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wB_x (.clk(clk), .d(pt2_wB_x), .q(dl_pt2_wB_x));
+        u_dl_pt2_wB_x (.clk(clk), .d(pt2_wB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_x));
     // pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub343   (ready @137/137/137)
     logic [W-1:0] pt2_wB_y;
     assign pt2_wB_y = dl_pt2_skip[1] ? dl_pt1_wB_y[2*W +: W] : dl_pt2_sub343;
     logic [3*W-1:0] dl_pt2_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wB_y (.clk(clk), .d(pt2_wB_y), .q(dl_pt2_wB_y));
+        u_dl_pt2_wB_y (.clk(clk), .d(pt2_wB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_y));
     // pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub344   (ready @137/137/137)
     logic [W-1:0] pt2_wB_z;
     assign pt2_wB_z = dl_pt2_skip[1] ? dl_pt1_wB_z[2*W +: W] : dl_pt2_sub344;
     logic [3*W-1:0] dl_pt2_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wB_z (.clk(clk), .d(pt2_wB_z), .q(dl_pt2_wB_z));
+        u_dl_pt2_wB_z (.clk(clk), .d(pt2_wB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_z));
     // pt3_skip = jac_inv3 == 0   (ready @0/0/0)
     logic pt3_skip;
     assign pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt3_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}))
-        u_dl_pt3_skip (.clk(clk), .d(pt3_skip), .q(dl_pt3_skip));
+        u_dl_pt3_skip (.clk(clk), .d(pt3_skip), .valid(valid_q[0 +: 179]), .q(dl_pt3_skip));
     // pt3_rA_x = p3_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt3_rA_x;
     logic [2:0] fl_pt3_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(pt3_rA_x), .flags(fl_pt3_rA_x)
     );
     assign ev_ovf[249] = fl_pt3_rA_x[0] && ev_q[4];
@@ -3898,12 +3905,12 @@ module pgs_contact_pipe #(
     assign ev_inv[249] = fl_pt3_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rA_x (.clk(clk), .d(pt3_rA_x), .q(dl_pt3_rA_x));
+        u_dl_pt3_rA_x (.clk(clk), .d(pt3_rA_x), .valid(1'b0), .q(dl_pt3_rA_x));
     // pt3_rA_y = p3_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt3_rA_y;
     logic [2:0] fl_pt3_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[253]), .y(pt3_rA_y), .flags(fl_pt3_rA_y)
     );
     assign ev_ovf[250] = fl_pt3_rA_y[0] && ev_q[4];
@@ -3911,12 +3918,12 @@ module pgs_contact_pipe #(
     assign ev_inv[250] = fl_pt3_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rA_y (.clk(clk), .d(pt3_rA_y), .q(dl_pt3_rA_y));
+        u_dl_pt3_rA_y (.clk(clk), .d(pt3_rA_y), .valid(1'b0), .q(dl_pt3_rA_y));
     // pt3_rA_z = p3_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt3_rA_z;
     logic [2:0] fl_pt3_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[254]), .y(pt3_rA_z), .flags(fl_pt3_rA_z)
     );
     assign ev_ovf[251] = fl_pt3_rA_z[0] && ev_q[4];
@@ -3924,12 +3931,12 @@ module pgs_contact_pipe #(
     assign ev_inv[251] = fl_pt3_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rA_z (.clk(clk), .d(pt3_rA_z), .q(dl_pt3_rA_z));
+        u_dl_pt3_rA_z (.clk(clk), .d(pt3_rA_z), .valid(1'b0), .q(dl_pt3_rA_z));
     // pt3_mul352 = pt3_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul352;
     logic [2:0] fl_pt3_mul352;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul352 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[255]), .y(pt3_mul352), .flags(fl_pt3_mul352)
     );
     assign ev_ovf[252] = fl_pt3_mul352[0] && ev_q[7];
@@ -3937,12 +3944,12 @@ module pgs_contact_pipe #(
     assign ev_inv[252] = fl_pt3_mul352[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul352;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul352 (.clk(clk), .d(pt3_mul352), .q(dl_pt3_mul352));
+        u_dl_pt3_mul352 (.clk(clk), .d(pt3_mul352), .valid(1'b0), .q(dl_pt3_mul352));
     // pt3_mul353 = pt3_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul353;
     logic [2:0] fl_pt3_mul353;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul353 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[256]), .y(pt3_mul353), .flags(fl_pt3_mul353)
     );
     assign ev_ovf[253] = fl_pt3_mul353[0] && ev_q[7];
@@ -3950,12 +3957,12 @@ module pgs_contact_pipe #(
     assign ev_inv[253] = fl_pt3_mul353[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul353;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul353 (.clk(clk), .d(pt3_mul353), .q(dl_pt3_mul353));
+        u_dl_pt3_mul353 (.clk(clk), .d(pt3_mul353), .valid(1'b0), .q(dl_pt3_mul353));
     // pt3_cA_x = pt3_mul352 - pt3_mul353   (ready @11/11/11)
     logic [W-1:0] pt3_cA_x;
     logic [2:0] fl_pt3_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul352), .b(dl_pt3_mul353), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul352), .b(dl_pt3_mul353), .sub(1'b1),
         .out_valid(op_valid_nc[257]), .y(pt3_cA_x), .flags(fl_pt3_cA_x)
     );
     assign ev_ovf[254] = fl_pt3_cA_x[0] && ev_q[11];
@@ -3963,12 +3970,12 @@ module pgs_contact_pipe #(
     assign ev_inv[254] = fl_pt3_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cA_x (.clk(clk), .d(pt3_cA_x), .q(dl_pt3_cA_x));
+        u_dl_pt3_cA_x (.clk(clk), .d(pt3_cA_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_x));
     // pt3_mul355 = pt3_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul355;
     logic [2:0] fl_pt3_mul355;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul355 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[258]), .y(pt3_mul355), .flags(fl_pt3_mul355)
     );
     assign ev_ovf[255] = fl_pt3_mul355[0] && ev_q[7];
@@ -3976,12 +3983,12 @@ module pgs_contact_pipe #(
     assign ev_inv[255] = fl_pt3_mul355[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul355;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul355 (.clk(clk), .d(pt3_mul355), .q(dl_pt3_mul355));
+        u_dl_pt3_mul355 (.clk(clk), .d(pt3_mul355), .valid(1'b0), .q(dl_pt3_mul355));
     // pt3_mul356 = pt3_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul356;
     logic [2:0] fl_pt3_mul356;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul356 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[259]), .y(pt3_mul356), .flags(fl_pt3_mul356)
     );
     assign ev_ovf[256] = fl_pt3_mul356[0] && ev_q[7];
@@ -3989,12 +3996,12 @@ module pgs_contact_pipe #(
     assign ev_inv[256] = fl_pt3_mul356[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul356;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul356 (.clk(clk), .d(pt3_mul356), .q(dl_pt3_mul356));
+        u_dl_pt3_mul356 (.clk(clk), .d(pt3_mul356), .valid(1'b0), .q(dl_pt3_mul356));
     // pt3_cA_y = pt3_mul355 - pt3_mul356   (ready @11/11/11)
     logic [W-1:0] pt3_cA_y;
     logic [2:0] fl_pt3_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul355), .b(dl_pt3_mul356), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul355), .b(dl_pt3_mul356), .sub(1'b1),
         .out_valid(op_valid_nc[260]), .y(pt3_cA_y), .flags(fl_pt3_cA_y)
     );
     assign ev_ovf[257] = fl_pt3_cA_y[0] && ev_q[11];
@@ -4002,12 +4009,12 @@ module pgs_contact_pipe #(
     assign ev_inv[257] = fl_pt3_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cA_y (.clk(clk), .d(pt3_cA_y), .q(dl_pt3_cA_y));
+        u_dl_pt3_cA_y (.clk(clk), .d(pt3_cA_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_y));
     // pt3_mul358 = pt3_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul358;
     logic [2:0] fl_pt3_mul358;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul358 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[261]), .y(pt3_mul358), .flags(fl_pt3_mul358)
     );
     assign ev_ovf[258] = fl_pt3_mul358[0] && ev_q[7];
@@ -4015,12 +4022,12 @@ module pgs_contact_pipe #(
     assign ev_inv[258] = fl_pt3_mul358[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul358;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul358 (.clk(clk), .d(pt3_mul358), .q(dl_pt3_mul358));
+        u_dl_pt3_mul358 (.clk(clk), .d(pt3_mul358), .valid(1'b0), .q(dl_pt3_mul358));
     // pt3_mul359 = pt3_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul359;
     logic [2:0] fl_pt3_mul359;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul359 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[262]), .y(pt3_mul359), .flags(fl_pt3_mul359)
     );
     assign ev_ovf[259] = fl_pt3_mul359[0] && ev_q[7];
@@ -4028,12 +4035,12 @@ module pgs_contact_pipe #(
     assign ev_inv[259] = fl_pt3_mul359[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul359;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul359 (.clk(clk), .d(pt3_mul359), .q(dl_pt3_mul359));
+        u_dl_pt3_mul359 (.clk(clk), .d(pt3_mul359), .valid(1'b0), .q(dl_pt3_mul359));
     // pt3_cA_z = pt3_mul358 - pt3_mul359   (ready @11/11/11)
     logic [W-1:0] pt3_cA_z;
     logic [2:0] fl_pt3_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul358), .b(dl_pt3_mul359), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul358), .b(dl_pt3_mul359), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(pt3_cA_z), .flags(fl_pt3_cA_z)
     );
     assign ev_ovf[260] = fl_pt3_cA_z[0] && ev_q[11];
@@ -4041,12 +4048,12 @@ module pgs_contact_pipe #(
     assign ev_inv[260] = fl_pt3_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cA_z (.clk(clk), .d(pt3_cA_z), .q(dl_pt3_cA_z));
+        u_dl_pt3_cA_z (.clk(clk), .d(pt3_cA_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_z));
     // pt3_rB_x = p3_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt3_rB_x;
     logic [2:0] fl_pt3_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[264]), .y(pt3_rB_x), .flags(fl_pt3_rB_x)
     );
     assign ev_ovf[261] = fl_pt3_rB_x[0] && ev_q[4];
@@ -4054,12 +4061,12 @@ module pgs_contact_pipe #(
     assign ev_inv[261] = fl_pt3_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rB_x (.clk(clk), .d(pt3_rB_x), .q(dl_pt3_rB_x));
+        u_dl_pt3_rB_x (.clk(clk), .d(pt3_rB_x), .valid(1'b0), .q(dl_pt3_rB_x));
     // pt3_rB_y = p3_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt3_rB_y;
     logic [2:0] fl_pt3_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[265]), .y(pt3_rB_y), .flags(fl_pt3_rB_y)
     );
     assign ev_ovf[262] = fl_pt3_rB_y[0] && ev_q[4];
@@ -4067,12 +4074,12 @@ module pgs_contact_pipe #(
     assign ev_inv[262] = fl_pt3_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rB_y (.clk(clk), .d(pt3_rB_y), .q(dl_pt3_rB_y));
+        u_dl_pt3_rB_y (.clk(clk), .d(pt3_rB_y), .valid(1'b0), .q(dl_pt3_rB_y));
     // pt3_rB_z = p3_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt3_rB_z;
     logic [2:0] fl_pt3_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[266]), .y(pt3_rB_z), .flags(fl_pt3_rB_z)
     );
     assign ev_ovf[263] = fl_pt3_rB_z[0] && ev_q[4];
@@ -4080,12 +4087,12 @@ module pgs_contact_pipe #(
     assign ev_inv[263] = fl_pt3_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rB_z (.clk(clk), .d(pt3_rB_z), .q(dl_pt3_rB_z));
+        u_dl_pt3_rB_z (.clk(clk), .d(pt3_rB_z), .valid(1'b0), .q(dl_pt3_rB_z));
     // pt3_mul364 = pt3_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul364;
     logic [2:0] fl_pt3_mul364;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul364 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[267]), .y(pt3_mul364), .flags(fl_pt3_mul364)
     );
     assign ev_ovf[264] = fl_pt3_mul364[0] && ev_q[7];
@@ -4093,12 +4100,12 @@ module pgs_contact_pipe #(
     assign ev_inv[264] = fl_pt3_mul364[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul364;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul364 (.clk(clk), .d(pt3_mul364), .q(dl_pt3_mul364));
+        u_dl_pt3_mul364 (.clk(clk), .d(pt3_mul364), .valid(1'b0), .q(dl_pt3_mul364));
     // pt3_mul365 = pt3_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul365;
     logic [2:0] fl_pt3_mul365;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul365 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[268]), .y(pt3_mul365), .flags(fl_pt3_mul365)
     );
     assign ev_ovf[265] = fl_pt3_mul365[0] && ev_q[7];
@@ -4106,12 +4113,12 @@ module pgs_contact_pipe #(
     assign ev_inv[265] = fl_pt3_mul365[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul365;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul365 (.clk(clk), .d(pt3_mul365), .q(dl_pt3_mul365));
+        u_dl_pt3_mul365 (.clk(clk), .d(pt3_mul365), .valid(1'b0), .q(dl_pt3_mul365));
     // pt3_cB_x = pt3_mul364 - pt3_mul365   (ready @11/11/11)
     logic [W-1:0] pt3_cB_x;
     logic [2:0] fl_pt3_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul364), .b(dl_pt3_mul365), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul364), .b(dl_pt3_mul365), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(pt3_cB_x), .flags(fl_pt3_cB_x)
     );
     assign ev_ovf[266] = fl_pt3_cB_x[0] && ev_q[11];
@@ -4119,12 +4126,12 @@ module pgs_contact_pipe #(
     assign ev_inv[266] = fl_pt3_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cB_x (.clk(clk), .d(pt3_cB_x), .q(dl_pt3_cB_x));
+        u_dl_pt3_cB_x (.clk(clk), .d(pt3_cB_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_x));
     // pt3_mul367 = pt3_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul367;
     logic [2:0] fl_pt3_mul367;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul367 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[270]), .y(pt3_mul367), .flags(fl_pt3_mul367)
     );
     assign ev_ovf[267] = fl_pt3_mul367[0] && ev_q[7];
@@ -4132,12 +4139,12 @@ module pgs_contact_pipe #(
     assign ev_inv[267] = fl_pt3_mul367[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul367;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul367 (.clk(clk), .d(pt3_mul367), .q(dl_pt3_mul367));
+        u_dl_pt3_mul367 (.clk(clk), .d(pt3_mul367), .valid(1'b0), .q(dl_pt3_mul367));
     // pt3_mul368 = pt3_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul368;
     logic [2:0] fl_pt3_mul368;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul368 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[271]), .y(pt3_mul368), .flags(fl_pt3_mul368)
     );
     assign ev_ovf[268] = fl_pt3_mul368[0] && ev_q[7];
@@ -4145,12 +4152,12 @@ module pgs_contact_pipe #(
     assign ev_inv[268] = fl_pt3_mul368[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul368;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul368 (.clk(clk), .d(pt3_mul368), .q(dl_pt3_mul368));
+        u_dl_pt3_mul368 (.clk(clk), .d(pt3_mul368), .valid(1'b0), .q(dl_pt3_mul368));
     // pt3_cB_y = pt3_mul367 - pt3_mul368   (ready @11/11/11)
     logic [W-1:0] pt3_cB_y;
     logic [2:0] fl_pt3_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul367), .b(dl_pt3_mul368), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul367), .b(dl_pt3_mul368), .sub(1'b1),
         .out_valid(op_valid_nc[272]), .y(pt3_cB_y), .flags(fl_pt3_cB_y)
     );
     assign ev_ovf[269] = fl_pt3_cB_y[0] && ev_q[11];
@@ -4158,12 +4165,12 @@ module pgs_contact_pipe #(
     assign ev_inv[269] = fl_pt3_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cB_y (.clk(clk), .d(pt3_cB_y), .q(dl_pt3_cB_y));
+        u_dl_pt3_cB_y (.clk(clk), .d(pt3_cB_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_y));
     // pt3_mul370 = pt3_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul370;
     logic [2:0] fl_pt3_mul370;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul370 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[273]), .y(pt3_mul370), .flags(fl_pt3_mul370)
     );
     assign ev_ovf[270] = fl_pt3_mul370[0] && ev_q[7];
@@ -4171,12 +4178,12 @@ module pgs_contact_pipe #(
     assign ev_inv[270] = fl_pt3_mul370[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul370;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul370 (.clk(clk), .d(pt3_mul370), .q(dl_pt3_mul370));
+        u_dl_pt3_mul370 (.clk(clk), .d(pt3_mul370), .valid(1'b0), .q(dl_pt3_mul370));
     // pt3_mul371 = pt3_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul371;
     logic [2:0] fl_pt3_mul371;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul371 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[274]), .y(pt3_mul371), .flags(fl_pt3_mul371)
     );
     assign ev_ovf[271] = fl_pt3_mul371[0] && ev_q[7];
@@ -4184,12 +4191,12 @@ module pgs_contact_pipe #(
     assign ev_inv[271] = fl_pt3_mul371[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul371;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul371 (.clk(clk), .d(pt3_mul371), .q(dl_pt3_mul371));
+        u_dl_pt3_mul371 (.clk(clk), .d(pt3_mul371), .valid(1'b0), .q(dl_pt3_mul371));
     // pt3_cB_z = pt3_mul370 - pt3_mul371   (ready @11/11/11)
     logic [W-1:0] pt3_cB_z;
     logic [2:0] fl_pt3_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul370), .b(dl_pt3_mul371), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul370), .b(dl_pt3_mul371), .sub(1'b1),
         .out_valid(op_valid_nc[275]), .y(pt3_cB_z), .flags(fl_pt3_cB_z)
     );
     assign ev_ovf[272] = fl_pt3_cB_z[0] && ev_q[11];
@@ -4197,12 +4204,12 @@ module pgs_contact_pipe #(
     assign ev_inv[272] = fl_pt3_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cB_z (.clk(clk), .d(pt3_cB_z), .q(dl_pt3_cB_z));
+        u_dl_pt3_cB_z (.clk(clk), .d(pt3_cB_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_z));
     // pt3_mul373 = n_x * pt2_vA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul373;
     logic [2:0] fl_pt3_mul373;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul373 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[276]), .y(pt3_mul373), .flags(fl_pt3_mul373)
     );
     assign ev_ovf[273] = fl_pt3_mul373[0] && ev_q[140];
@@ -4210,12 +4217,12 @@ module pgs_contact_pipe #(
     assign ev_inv[273] = fl_pt3_mul373[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul373;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul373 (.clk(clk), .d(pt3_mul373), .q(dl_pt3_mul373));
+        u_dl_pt3_mul373 (.clk(clk), .d(pt3_mul373), .valid(1'b0), .q(dl_pt3_mul373));
     // pt3_mul374 = n_y * pt2_vA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul374;
     logic [2:0] fl_pt3_mul374;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul374 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[277]), .y(pt3_mul374), .flags(fl_pt3_mul374)
     );
     assign ev_ovf[274] = fl_pt3_mul374[0] && ev_q[140];
@@ -4223,12 +4230,12 @@ module pgs_contact_pipe #(
     assign ev_inv[274] = fl_pt3_mul374[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul374;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul374 (.clk(clk), .d(pt3_mul374), .q(dl_pt3_mul374));
+        u_dl_pt3_mul374 (.clk(clk), .d(pt3_mul374), .valid(1'b0), .q(dl_pt3_mul374));
     // pt3_add375 = pt3_mul373 + pt3_mul374   (ready @144/144/144)
     logic [W-1:0] pt3_add375;
     logic [2:0] fl_pt3_add375;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add375 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul373), .b(dl_pt3_mul374), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul373), .b(dl_pt3_mul374), .sub(1'b0),
         .out_valid(op_valid_nc[278]), .y(pt3_add375), .flags(fl_pt3_add375)
     );
     assign ev_ovf[275] = fl_pt3_add375[0] && ev_q[144];
@@ -4236,12 +4243,12 @@ module pgs_contact_pipe #(
     assign ev_inv[275] = fl_pt3_add375[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add375;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add375 (.clk(clk), .d(pt3_add375), .q(dl_pt3_add375));
+        u_dl_pt3_add375 (.clk(clk), .d(pt3_add375), .valid(1'b0), .q(dl_pt3_add375));
     // pt3_mul376 = n_z * pt2_vA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul376;
     logic [2:0] fl_pt3_mul376;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul376 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[279]), .y(pt3_mul376), .flags(fl_pt3_mul376)
     );
     assign ev_ovf[276] = fl_pt3_mul376[0] && ev_q[140];
@@ -4249,12 +4256,12 @@ module pgs_contact_pipe #(
     assign ev_inv[276] = fl_pt3_mul376[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul376;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul376 (.clk(clk), .d(pt3_mul376), .q(dl_pt3_mul376));
+        u_dl_pt3_mul376 (.clk(clk), .d(pt3_mul376), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul376));
     // pt3_add377 = pt3_add375 + pt3_mul376   (ready @148/148/148)
     logic [W-1:0] pt3_add377;
     logic [2:0] fl_pt3_add377;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add377 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add375), .b(dl_pt3_mul376), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add375), .b(dl_pt3_mul376), .sub(1'b0),
         .out_valid(op_valid_nc[280]), .y(pt3_add377), .flags(fl_pt3_add377)
     );
     assign ev_ovf[277] = fl_pt3_add377[0] && ev_q[148];
@@ -4262,12 +4269,12 @@ module pgs_contact_pipe #(
     assign ev_inv[277] = fl_pt3_add377[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add377;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add377 (.clk(clk), .d(pt3_add377), .q(dl_pt3_add377));
+        u_dl_pt3_add377 (.clk(clk), .d(pt3_add377), .valid(1'b0), .q(dl_pt3_add377));
     // pt3_mul378 = n_x * pt2_vB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul378;
     logic [2:0] fl_pt3_mul378;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul378 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[281]), .y(pt3_mul378), .flags(fl_pt3_mul378)
     );
     assign ev_ovf[278] = fl_pt3_mul378[0] && ev_q[140];
@@ -4275,12 +4282,12 @@ module pgs_contact_pipe #(
     assign ev_inv[278] = fl_pt3_mul378[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul378;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul378 (.clk(clk), .d(pt3_mul378), .q(dl_pt3_mul378));
+        u_dl_pt3_mul378 (.clk(clk), .d(pt3_mul378), .valid(1'b0), .q(dl_pt3_mul378));
     // pt3_mul379 = n_y * pt2_vB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul379;
     logic [2:0] fl_pt3_mul379;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul379 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[282]), .y(pt3_mul379), .flags(fl_pt3_mul379)
     );
     assign ev_ovf[279] = fl_pt3_mul379[0] && ev_q[140];
@@ -4288,12 +4295,12 @@ module pgs_contact_pipe #(
     assign ev_inv[279] = fl_pt3_mul379[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul379;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul379 (.clk(clk), .d(pt3_mul379), .q(dl_pt3_mul379));
+        u_dl_pt3_mul379 (.clk(clk), .d(pt3_mul379), .valid(1'b0), .q(dl_pt3_mul379));
     // pt3_add380 = pt3_mul378 + pt3_mul379   (ready @144/144/144)
     logic [W-1:0] pt3_add380;
     logic [2:0] fl_pt3_add380;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add380 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul378), .b(dl_pt3_mul379), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul378), .b(dl_pt3_mul379), .sub(1'b0),
         .out_valid(op_valid_nc[283]), .y(pt3_add380), .flags(fl_pt3_add380)
     );
     assign ev_ovf[280] = fl_pt3_add380[0] && ev_q[144];
@@ -4301,12 +4308,12 @@ module pgs_contact_pipe #(
     assign ev_inv[280] = fl_pt3_add380[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add380;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add380 (.clk(clk), .d(pt3_add380), .q(dl_pt3_add380));
+        u_dl_pt3_add380 (.clk(clk), .d(pt3_add380), .valid(1'b0), .q(dl_pt3_add380));
     // pt3_mul381 = n_z * pt2_vB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul381;
     logic [2:0] fl_pt3_mul381;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul381 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[284]), .y(pt3_mul381), .flags(fl_pt3_mul381)
     );
     assign ev_ovf[281] = fl_pt3_mul381[0] && ev_q[140];
@@ -4314,12 +4321,12 @@ module pgs_contact_pipe #(
     assign ev_inv[281] = fl_pt3_mul381[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul381;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul381 (.clk(clk), .d(pt3_mul381), .q(dl_pt3_mul381));
+        u_dl_pt3_mul381 (.clk(clk), .d(pt3_mul381), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul381));
     // pt3_add382 = pt3_add380 + pt3_mul381   (ready @148/148/148)
     logic [W-1:0] pt3_add382;
     logic [2:0] fl_pt3_add382;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add382 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add380), .b(dl_pt3_mul381), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add380), .b(dl_pt3_mul381), .sub(1'b0),
         .out_valid(op_valid_nc[285]), .y(pt3_add382), .flags(fl_pt3_add382)
     );
     assign ev_ovf[282] = fl_pt3_add382[0] && ev_q[148];
@@ -4327,12 +4334,12 @@ module pgs_contact_pipe #(
     assign ev_inv[282] = fl_pt3_add382[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add382;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add382 (.clk(clk), .d(pt3_add382), .q(dl_pt3_add382));
+        u_dl_pt3_add382 (.clk(clk), .d(pt3_add382), .valid(1'b0), .q(dl_pt3_add382));
     // pt3_sub383 = pt3_add377 - pt3_add382   (ready @152/152/152)
     logic [W-1:0] pt3_sub383;
     logic [2:0] fl_pt3_sub383;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub383 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add377), .b(dl_pt3_add382), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add377), .b(dl_pt3_add382), .sub(1'b1),
         .out_valid(op_valid_nc[286]), .y(pt3_sub383), .flags(fl_pt3_sub383)
     );
     assign ev_ovf[283] = fl_pt3_sub383[0] && ev_q[152];
@@ -4340,12 +4347,12 @@ module pgs_contact_pipe #(
     assign ev_inv[283] = fl_pt3_sub383[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub383;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub383 (.clk(clk), .d(pt3_sub383), .q(dl_pt3_sub383));
+        u_dl_pt3_sub383 (.clk(clk), .d(pt3_sub383), .valid(1'b0), .q(dl_pt3_sub383));
     // pt3_mul384 = pt3_cA_x * pt2_wA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul384;
     logic [2:0] fl_pt3_mul384;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul384 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_x[0*W +: W]), .b(dl_pt2_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cA_x[0*W +: W]), .b(dl_pt2_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[287]), .y(pt3_mul384), .flags(fl_pt3_mul384)
     );
     assign ev_ovf[284] = fl_pt3_mul384[0] && ev_q[140];
@@ -4353,12 +4360,12 @@ module pgs_contact_pipe #(
     assign ev_inv[284] = fl_pt3_mul384[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul384;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul384 (.clk(clk), .d(pt3_mul384), .q(dl_pt3_mul384));
+        u_dl_pt3_mul384 (.clk(clk), .d(pt3_mul384), .valid(1'b0), .q(dl_pt3_mul384));
     // pt3_mul385 = pt3_cA_y * pt2_wA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul385;
     logic [2:0] fl_pt3_mul385;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul385 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_y[0*W +: W]), .b(dl_pt2_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cA_y[0*W +: W]), .b(dl_pt2_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[288]), .y(pt3_mul385), .flags(fl_pt3_mul385)
     );
     assign ev_ovf[285] = fl_pt3_mul385[0] && ev_q[140];
@@ -4366,12 +4373,12 @@ module pgs_contact_pipe #(
     assign ev_inv[285] = fl_pt3_mul385[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul385;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul385 (.clk(clk), .d(pt3_mul385), .q(dl_pt3_mul385));
+        u_dl_pt3_mul385 (.clk(clk), .d(pt3_mul385), .valid(1'b0), .q(dl_pt3_mul385));
     // pt3_add386 = pt3_mul384 + pt3_mul385   (ready @144/144/144)
     logic [W-1:0] pt3_add386;
     logic [2:0] fl_pt3_add386;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add386 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul384), .b(dl_pt3_mul385), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul384), .b(dl_pt3_mul385), .sub(1'b0),
         .out_valid(op_valid_nc[289]), .y(pt3_add386), .flags(fl_pt3_add386)
     );
     assign ev_ovf[286] = fl_pt3_add386[0] && ev_q[144];
@@ -4379,12 +4386,12 @@ module pgs_contact_pipe #(
     assign ev_inv[286] = fl_pt3_add386[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add386;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add386 (.clk(clk), .d(pt3_add386), .q(dl_pt3_add386));
+        u_dl_pt3_add386 (.clk(clk), .d(pt3_add386), .valid(1'b0), .q(dl_pt3_add386));
     // pt3_mul387 = pt3_cA_z * pt2_wA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul387;
     logic [2:0] fl_pt3_mul387;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul387 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_z[0*W +: W]), .b(dl_pt2_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cA_z[0*W +: W]), .b(dl_pt2_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[290]), .y(pt3_mul387), .flags(fl_pt3_mul387)
     );
     assign ev_ovf[287] = fl_pt3_mul387[0] && ev_q[140];
@@ -4392,12 +4399,12 @@ module pgs_contact_pipe #(
     assign ev_inv[287] = fl_pt3_mul387[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul387;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul387 (.clk(clk), .d(pt3_mul387), .q(dl_pt3_mul387));
+        u_dl_pt3_mul387 (.clk(clk), .d(pt3_mul387), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul387));
     // pt3_add388 = pt3_add386 + pt3_mul387   (ready @148/148/148)
     logic [W-1:0] pt3_add388;
     logic [2:0] fl_pt3_add388;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add388 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add386), .b(dl_pt3_mul387), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add386), .b(dl_pt3_mul387), .sub(1'b0),
         .out_valid(op_valid_nc[291]), .y(pt3_add388), .flags(fl_pt3_add388)
     );
     assign ev_ovf[288] = fl_pt3_add388[0] && ev_q[148];
@@ -4405,12 +4412,12 @@ module pgs_contact_pipe #(
     assign ev_inv[288] = fl_pt3_add388[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add388;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add388 (.clk(clk), .d(pt3_add388), .q(dl_pt3_add388));
+        u_dl_pt3_add388 (.clk(clk), .d(pt3_add388), .valid(1'b0), .q(dl_pt3_add388));
     // pt3_mul389 = pt3_cB_x * pt2_wB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul389;
     logic [2:0] fl_pt3_mul389;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul389 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_x[0*W +: W]), .b(dl_pt2_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cB_x[0*W +: W]), .b(dl_pt2_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[292]), .y(pt3_mul389), .flags(fl_pt3_mul389)
     );
     assign ev_ovf[289] = fl_pt3_mul389[0] && ev_q[140];
@@ -4418,12 +4425,12 @@ module pgs_contact_pipe #(
     assign ev_inv[289] = fl_pt3_mul389[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul389;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul389 (.clk(clk), .d(pt3_mul389), .q(dl_pt3_mul389));
+        u_dl_pt3_mul389 (.clk(clk), .d(pt3_mul389), .valid(1'b0), .q(dl_pt3_mul389));
     // pt3_mul390 = pt3_cB_y * pt2_wB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul390;
     logic [2:0] fl_pt3_mul390;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul390 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_y[0*W +: W]), .b(dl_pt2_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cB_y[0*W +: W]), .b(dl_pt2_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[293]), .y(pt3_mul390), .flags(fl_pt3_mul390)
     );
     assign ev_ovf[290] = fl_pt3_mul390[0] && ev_q[140];
@@ -4431,12 +4438,12 @@ module pgs_contact_pipe #(
     assign ev_inv[290] = fl_pt3_mul390[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul390;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul390 (.clk(clk), .d(pt3_mul390), .q(dl_pt3_mul390));
+        u_dl_pt3_mul390 (.clk(clk), .d(pt3_mul390), .valid(1'b0), .q(dl_pt3_mul390));
     // pt3_add391 = pt3_mul389 + pt3_mul390   (ready @144/144/144)
     logic [W-1:0] pt3_add391;
     logic [2:0] fl_pt3_add391;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add391 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul389), .b(dl_pt3_mul390), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul389), .b(dl_pt3_mul390), .sub(1'b0),
         .out_valid(op_valid_nc[294]), .y(pt3_add391), .flags(fl_pt3_add391)
     );
     assign ev_ovf[291] = fl_pt3_add391[0] && ev_q[144];
@@ -4444,12 +4451,12 @@ module pgs_contact_pipe #(
     assign ev_inv[291] = fl_pt3_add391[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add391;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add391 (.clk(clk), .d(pt3_add391), .q(dl_pt3_add391));
+        u_dl_pt3_add391 (.clk(clk), .d(pt3_add391), .valid(1'b0), .q(dl_pt3_add391));
     // pt3_mul392 = pt3_cB_z * pt2_wB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul392;
     logic [2:0] fl_pt3_mul392;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul392 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_z[0*W +: W]), .b(dl_pt2_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cB_z[0*W +: W]), .b(dl_pt2_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[295]), .y(pt3_mul392), .flags(fl_pt3_mul392)
     );
     assign ev_ovf[292] = fl_pt3_mul392[0] && ev_q[140];
@@ -4457,12 +4464,12 @@ module pgs_contact_pipe #(
     assign ev_inv[292] = fl_pt3_mul392[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul392;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul392 (.clk(clk), .d(pt3_mul392), .q(dl_pt3_mul392));
+        u_dl_pt3_mul392 (.clk(clk), .d(pt3_mul392), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul392));
     // pt3_add393 = pt3_add391 + pt3_mul392   (ready @148/148/148)
     logic [W-1:0] pt3_add393;
     logic [2:0] fl_pt3_add393;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add393 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add391), .b(dl_pt3_mul392), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add391), .b(dl_pt3_mul392), .sub(1'b0),
         .out_valid(op_valid_nc[296]), .y(pt3_add393), .flags(fl_pt3_add393)
     );
     assign ev_ovf[293] = fl_pt3_add393[0] && ev_q[148];
@@ -4470,12 +4477,12 @@ module pgs_contact_pipe #(
     assign ev_inv[293] = fl_pt3_add393[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add393;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add393 (.clk(clk), .d(pt3_add393), .q(dl_pt3_add393));
+        u_dl_pt3_add393 (.clk(clk), .d(pt3_add393), .valid(1'b0), .q(dl_pt3_add393));
     // pt3_sub394 = pt3_add388 - pt3_add393   (ready @152/152/152)
     logic [W-1:0] pt3_sub394;
     logic [2:0] fl_pt3_sub394;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub394 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add388), .b(dl_pt3_add393), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add388), .b(dl_pt3_add393), .sub(1'b1),
         .out_valid(op_valid_nc[297]), .y(pt3_sub394), .flags(fl_pt3_sub394)
     );
     assign ev_ovf[294] = fl_pt3_sub394[0] && ev_q[152];
@@ -4483,12 +4490,12 @@ module pgs_contact_pipe #(
     assign ev_inv[294] = fl_pt3_sub394[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub394;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub394 (.clk(clk), .d(pt3_sub394), .q(dl_pt3_sub394));
+        u_dl_pt3_sub394 (.clk(clk), .d(pt3_sub394), .valid(1'b0), .q(dl_pt3_sub394));
     // pt3_vrel = pt3_sub383 + pt3_sub394   (ready @156/156/156)
     logic [W-1:0] pt3_vrel;
     logic [2:0] fl_pt3_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_sub383), .b(dl_pt3_sub394), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[152]), .a(dl_pt3_sub383), .b(dl_pt3_sub394), .sub(1'b0),
         .out_valid(op_valid_nc[298]), .y(pt3_vrel), .flags(fl_pt3_vrel)
     );
     assign ev_ovf[295] = fl_pt3_vrel[0] && ev_q[156];
@@ -4496,12 +4503,12 @@ module pgs_contact_pipe #(
     assign ev_inv[295] = fl_pt3_vrel[2] && ev_q[156];
     logic [W-1:0] dl_pt3_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vrel (.clk(clk), .d(pt3_vrel), .q(dl_pt3_vrel));
+        u_dl_pt3_vrel (.clk(clk), .d(pt3_vrel), .valid(1'b0), .q(dl_pt3_vrel));
     // pt3_add396 = pt3_vrel + b3   (ready @160/160/160)
     logic [W-1:0] pt3_add396;
     logic [2:0] fl_pt3_add396;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add396 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_vrel), .b(dl_in_b3), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(dl_pt3_vrel), .b(dl_in_b3), .sub(1'b0),
         .out_valid(op_valid_nc[299]), .y(pt3_add396), .flags(fl_pt3_add396)
     );
     assign ev_ovf[296] = fl_pt3_add396[0] && ev_q[160];
@@ -4509,12 +4516,12 @@ module pgs_contact_pipe #(
     assign ev_inv[296] = fl_pt3_add396[2] && ev_q[160];
     logic [W-1:0] dl_pt3_add396;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add396 (.clk(clk), .d(pt3_add396), .q(dl_pt3_add396));
+        u_dl_pt3_add396 (.clk(clk), .d(pt3_add396), .valid(1'b0), .q(dl_pt3_add396));
     // pt3_delta0 = pt3_add396 * jac_inv3   (ready @163/163/163)
     logic [W-1:0] pt3_delta0;
     logic [2:0] fl_pt3_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add396), .b(dl_in_jac_inv3[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[160]), .a(dl_pt3_add396), .b(dl_in_jac_inv3[1*W +: W]),
         .out_valid(op_valid_nc[300]), .y(pt3_delta0), .flags(fl_pt3_delta0)
     );
     assign ev_ovf[297] = fl_pt3_delta0[0] && ev_q[163];
@@ -4522,12 +4529,12 @@ module pgs_contact_pipe #(
     assign ev_inv[297] = fl_pt3_delta0[2] && ev_q[163];
     logic [W-1:0] dl_pt3_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_delta0 (.clk(clk), .d(pt3_delta0), .q(dl_pt3_delta0));
+        u_dl_pt3_delta0 (.clk(clk), .d(pt3_delta0), .valid(1'b0), .q(dl_pt3_delta0));
     // pt3_add398 = lam3 + pt3_delta0   (ready @167/167/167)
     logic [W-1:0] pt3_add398;
     logic [2:0] fl_pt3_add398;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add398 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam3[0*W +: W]), .b(dl_pt3_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(dl_in_lam3[0*W +: W]), .b(dl_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[301]), .y(pt3_add398), .flags(fl_pt3_add398)
     );
     assign ev_ovf[298] = fl_pt3_add398[0] && ev_q[167];
@@ -4535,22 +4542,22 @@ module pgs_contact_pipe #(
     assign ev_inv[298] = fl_pt3_add398[2] && ev_q[167];
     logic [W-1:0] dl_pt3_add398;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add398 (.clk(clk), .d(pt3_add398), .q(dl_pt3_add398));
+        u_dl_pt3_add398 (.clk(clk), .d(pt3_add398), .valid(1'b0), .q(dl_pt3_add398));
     // pt3_lam_new = max(pt3_add398, 0.0)   (ready @168/168/168)
     logic [W-1:0] pt3_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt3_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add398), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[167]), .a(dl_pt3_add398), .b(K_ZERO),
         .out_valid(op_valid_nc[302]), .y_min(nc_pt3_lam_new_min), .y_max(pt3_lam_new),
         .lt(nc_pt3_lam_new_lt), .eq(nc_pt3_lam_new_eq), .unordered(nc_pt3_lam_new_uo)
     );
     logic [W-1:0] dl_pt3_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_lam_new (.clk(clk), .d(pt3_lam_new), .q(dl_pt3_lam_new));
+        u_dl_pt3_lam_new (.clk(clk), .d(pt3_lam_new), .valid(1'b0), .q(dl_pt3_lam_new));
     // pt3_delta = pt3_lam_new - lam3   (ready @172/172/172)
     logic [W-1:0] pt3_delta;
     logic [2:0] fl_pt3_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_lam_new), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[168]), .a(dl_pt3_lam_new), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[303]), .y(pt3_delta), .flags(fl_pt3_delta)
     );
     assign ev_ovf[299] = fl_pt3_delta[0] && ev_q[172];
@@ -4558,18 +4565,18 @@ module pgs_contact_pipe #(
     assign ev_inv[299] = fl_pt3_delta[2] && ev_q[172];
     logic [W-1:0] dl_pt3_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_delta (.clk(clk), .d(pt3_delta), .q(dl_pt3_delta));
+        u_dl_pt3_delta (.clk(clk), .d(pt3_delta), .valid(1'b0), .q(dl_pt3_delta));
     // pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (ready @168/168/168)
     logic [W-1:0] pt3_lam;
     assign pt3_lam = dl_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_pt3_lam_new;
     logic [W-1:0] dl_pt3_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_pt3_lam (.clk(clk), .d(pt3_lam), .q(dl_pt3_lam));
+        u_dl_pt3_lam (.clk(clk), .d(pt3_lam), .valid(valid_q[168 +: 11]), .q(dl_pt3_lam));
     // pt3_angA_x = IInvA_x * pt3_cA_x   (ready @14/14/14)
     logic [W-1:0] pt3_angA_x;
     logic [2:0] fl_pt3_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_pt3_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_x), .b(dl_pt3_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[304]), .y(pt3_angA_x), .flags(fl_pt3_angA_x)
     );
     assign ev_ovf[300] = fl_pt3_angA_x[0] && ev_q[14];
@@ -4577,12 +4584,12 @@ module pgs_contact_pipe #(
     assign ev_inv[300] = fl_pt3_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angA_x (.clk(clk), .d(pt3_angA_x), .q(dl_pt3_angA_x));
+        u_dl_pt3_angA_x (.clk(clk), .d(pt3_angA_x), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_x));
     // pt3_angA_y = IInvA_y * pt3_cA_y   (ready @14/14/14)
     logic [W-1:0] pt3_angA_y;
     logic [2:0] fl_pt3_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_pt3_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_y), .b(dl_pt3_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[305]), .y(pt3_angA_y), .flags(fl_pt3_angA_y)
     );
     assign ev_ovf[301] = fl_pt3_angA_y[0] && ev_q[14];
@@ -4590,12 +4597,12 @@ module pgs_contact_pipe #(
     assign ev_inv[301] = fl_pt3_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angA_y (.clk(clk), .d(pt3_angA_y), .q(dl_pt3_angA_y));
+        u_dl_pt3_angA_y (.clk(clk), .d(pt3_angA_y), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_y));
     // pt3_angA_z = IInvA_z * pt3_cA_z   (ready @14/14/14)
     logic [W-1:0] pt3_angA_z;
     logic [2:0] fl_pt3_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_pt3_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_z), .b(dl_pt3_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[306]), .y(pt3_angA_z), .flags(fl_pt3_angA_z)
     );
     assign ev_ovf[302] = fl_pt3_angA_z[0] && ev_q[14];
@@ -4603,12 +4610,12 @@ module pgs_contact_pipe #(
     assign ev_inv[302] = fl_pt3_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angA_z (.clk(clk), .d(pt3_angA_z), .q(dl_pt3_angA_z));
+        u_dl_pt3_angA_z (.clk(clk), .d(pt3_angA_z), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_z));
     // pt3_angB_x = IInvB_x * pt3_cB_x   (ready @14/14/14)
     logic [W-1:0] pt3_angB_x;
     logic [2:0] fl_pt3_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_pt3_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_x), .b(dl_pt3_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[307]), .y(pt3_angB_x), .flags(fl_pt3_angB_x)
     );
     assign ev_ovf[303] = fl_pt3_angB_x[0] && ev_q[14];
@@ -4616,12 +4623,12 @@ module pgs_contact_pipe #(
     assign ev_inv[303] = fl_pt3_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angB_x (.clk(clk), .d(pt3_angB_x), .q(dl_pt3_angB_x));
+        u_dl_pt3_angB_x (.clk(clk), .d(pt3_angB_x), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_x));
     // pt3_angB_y = IInvB_y * pt3_cB_y   (ready @14/14/14)
     logic [W-1:0] pt3_angB_y;
     logic [2:0] fl_pt3_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_pt3_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_y), .b(dl_pt3_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[308]), .y(pt3_angB_y), .flags(fl_pt3_angB_y)
     );
     assign ev_ovf[304] = fl_pt3_angB_y[0] && ev_q[14];
@@ -4629,12 +4636,12 @@ module pgs_contact_pipe #(
     assign ev_inv[304] = fl_pt3_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angB_y (.clk(clk), .d(pt3_angB_y), .q(dl_pt3_angB_y));
+        u_dl_pt3_angB_y (.clk(clk), .d(pt3_angB_y), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_y));
     // pt3_angB_z = IInvB_z * pt3_cB_z   (ready @14/14/14)
     logic [W-1:0] pt3_angB_z;
     logic [2:0] fl_pt3_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_pt3_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_z), .b(dl_pt3_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[309]), .y(pt3_angB_z), .flags(fl_pt3_angB_z)
     );
     assign ev_ovf[305] = fl_pt3_angB_z[0] && ev_q[14];
@@ -4642,12 +4649,12 @@ module pgs_contact_pipe #(
     assign ev_inv[305] = fl_pt3_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angB_z (.clk(clk), .d(pt3_angB_z), .q(dl_pt3_angB_z));
+        u_dl_pt3_angB_z (.clk(clk), .d(pt3_angB_z), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_z));
     // pt3_mul408 = linA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul408;
     logic [2:0] fl_pt3_mul408;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul408 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linA_x[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[310]), .y(pt3_mul408), .flags(fl_pt3_mul408)
     );
     assign ev_ovf[306] = fl_pt3_mul408[0] && ev_q[175];
@@ -4655,12 +4662,12 @@ module pgs_contact_pipe #(
     assign ev_inv[306] = fl_pt3_mul408[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul408;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul408 (.clk(clk), .d(pt3_mul408), .q(dl_pt3_mul408));
+        u_dl_pt3_mul408 (.clk(clk), .d(pt3_mul408), .valid(1'b0), .q(dl_pt3_mul408));
     // pt3_mul409 = linA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul409;
     logic [2:0] fl_pt3_mul409;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul409 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linA_y[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[311]), .y(pt3_mul409), .flags(fl_pt3_mul409)
     );
     assign ev_ovf[307] = fl_pt3_mul409[0] && ev_q[175];
@@ -4668,12 +4675,12 @@ module pgs_contact_pipe #(
     assign ev_inv[307] = fl_pt3_mul409[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul409;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul409 (.clk(clk), .d(pt3_mul409), .q(dl_pt3_mul409));
+        u_dl_pt3_mul409 (.clk(clk), .d(pt3_mul409), .valid(1'b0), .q(dl_pt3_mul409));
     // pt3_mul410 = linA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul410;
     logic [2:0] fl_pt3_mul410;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul410 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linA_z[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[312]), .y(pt3_mul410), .flags(fl_pt3_mul410)
     );
     assign ev_ovf[308] = fl_pt3_mul410[0] && ev_q[175];
@@ -4681,12 +4688,12 @@ module pgs_contact_pipe #(
     assign ev_inv[308] = fl_pt3_mul410[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul410;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul410 (.clk(clk), .d(pt3_mul410), .q(dl_pt3_mul410));
+        u_dl_pt3_mul410 (.clk(clk), .d(pt3_mul410), .valid(1'b0), .q(dl_pt3_mul410));
     // pt3_add411 = pt2_vA_x + pt3_mul408   (ready @179/179/179)
     logic [W-1:0] pt3_add411;
     logic [2:0] fl_pt3_add411;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add411 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_x[1*W +: W]), .b(dl_pt3_mul408), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_x[1*W +: W]), .b(dl_pt3_mul408), .sub(1'b0),
         .out_valid(op_valid_nc[313]), .y(pt3_add411), .flags(fl_pt3_add411)
     );
     assign ev_ovf[309] = fl_pt3_add411[0] && ev_q[179];
@@ -4694,12 +4701,12 @@ module pgs_contact_pipe #(
     assign ev_inv[309] = fl_pt3_add411[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add411;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add411 (.clk(clk), .d(pt3_add411), .q(dl_pt3_add411));
+        u_dl_pt3_add411 (.clk(clk), .d(pt3_add411), .valid(1'b0), .q(dl_pt3_add411));
     // pt3_add412 = pt2_vA_y + pt3_mul409   (ready @179/179/179)
     logic [W-1:0] pt3_add412;
     logic [2:0] fl_pt3_add412;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add412 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_y[1*W +: W]), .b(dl_pt3_mul409), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_y[1*W +: W]), .b(dl_pt3_mul409), .sub(1'b0),
         .out_valid(op_valid_nc[314]), .y(pt3_add412), .flags(fl_pt3_add412)
     );
     assign ev_ovf[310] = fl_pt3_add412[0] && ev_q[179];
@@ -4707,12 +4714,12 @@ module pgs_contact_pipe #(
     assign ev_inv[310] = fl_pt3_add412[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add412;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add412 (.clk(clk), .d(pt3_add412), .q(dl_pt3_add412));
+        u_dl_pt3_add412 (.clk(clk), .d(pt3_add412), .valid(1'b0), .q(dl_pt3_add412));
     // pt3_add413 = pt2_vA_z + pt3_mul410   (ready @179/179/179)
     logic [W-1:0] pt3_add413;
     logic [2:0] fl_pt3_add413;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add413 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_z[1*W +: W]), .b(dl_pt3_mul410), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_z[1*W +: W]), .b(dl_pt3_mul410), .sub(1'b0),
         .out_valid(op_valid_nc[315]), .y(pt3_add413), .flags(fl_pt3_add413)
     );
     assign ev_ovf[311] = fl_pt3_add413[0] && ev_q[179];
@@ -4720,30 +4727,30 @@ module pgs_contact_pipe #(
     assign ev_inv[311] = fl_pt3_add413[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add413;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add413 (.clk(clk), .d(pt3_add413), .q(dl_pt3_add413));
+        u_dl_pt3_add413 (.clk(clk), .d(pt3_add413), .valid(1'b0), .q(dl_pt3_add413));
     // pt3_vA_x = pt3_skip ? pt2_vA_x : pt3_add411   (ready @179/179/179)
     logic [W-1:0] pt3_vA_x;
     assign pt3_vA_x = dl_pt3_skip[1] ? dl_pt2_vA_x[2*W +: W] : dl_pt3_add411;
     logic [W-1:0] dl_pt3_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vA_x (.clk(clk), .d(pt3_vA_x), .q(dl_pt3_vA_x));
+        u_dl_pt3_vA_x (.clk(clk), .d(pt3_vA_x), .valid(1'b0), .q(dl_pt3_vA_x));
     // pt3_vA_y = pt3_skip ? pt2_vA_y : pt3_add412   (ready @179/179/179)
     logic [W-1:0] pt3_vA_y;
     assign pt3_vA_y = dl_pt3_skip[1] ? dl_pt2_vA_y[2*W +: W] : dl_pt3_add412;
     logic [W-1:0] dl_pt3_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vA_y (.clk(clk), .d(pt3_vA_y), .q(dl_pt3_vA_y));
+        u_dl_pt3_vA_y (.clk(clk), .d(pt3_vA_y), .valid(1'b0), .q(dl_pt3_vA_y));
     // pt3_vA_z = pt3_skip ? pt2_vA_z : pt3_add413   (ready @179/179/179)
     logic [W-1:0] pt3_vA_z;
     assign pt3_vA_z = dl_pt3_skip[1] ? dl_pt2_vA_z[2*W +: W] : dl_pt3_add413;
     logic [W-1:0] dl_pt3_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vA_z (.clk(clk), .d(pt3_vA_z), .q(dl_pt3_vA_z));
+        u_dl_pt3_vA_z (.clk(clk), .d(pt3_vA_z), .valid(1'b0), .q(dl_pt3_vA_z));
     // pt3_mul417 = pt3_angA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul417;
     logic [2:0] fl_pt3_mul417;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul417 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_x), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angA_x), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[316]), .y(pt3_mul417), .flags(fl_pt3_mul417)
     );
     assign ev_ovf[312] = fl_pt3_mul417[0] && ev_q[175];
@@ -4751,12 +4758,12 @@ module pgs_contact_pipe #(
     assign ev_inv[312] = fl_pt3_mul417[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul417;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul417 (.clk(clk), .d(pt3_mul417), .q(dl_pt3_mul417));
+        u_dl_pt3_mul417 (.clk(clk), .d(pt3_mul417), .valid(1'b0), .q(dl_pt3_mul417));
     // pt3_mul418 = pt3_angA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul418;
     logic [2:0] fl_pt3_mul418;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul418 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_y), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angA_y), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[317]), .y(pt3_mul418), .flags(fl_pt3_mul418)
     );
     assign ev_ovf[313] = fl_pt3_mul418[0] && ev_q[175];
@@ -4764,12 +4771,12 @@ module pgs_contact_pipe #(
     assign ev_inv[313] = fl_pt3_mul418[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul418;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul418 (.clk(clk), .d(pt3_mul418), .q(dl_pt3_mul418));
+        u_dl_pt3_mul418 (.clk(clk), .d(pt3_mul418), .valid(1'b0), .q(dl_pt3_mul418));
     // pt3_mul419 = pt3_angA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul419;
     logic [2:0] fl_pt3_mul419;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul419 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_z), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angA_z), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[318]), .y(pt3_mul419), .flags(fl_pt3_mul419)
     );
     assign ev_ovf[314] = fl_pt3_mul419[0] && ev_q[175];
@@ -4777,12 +4784,12 @@ module pgs_contact_pipe #(
     assign ev_inv[314] = fl_pt3_mul419[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul419;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul419 (.clk(clk), .d(pt3_mul419), .q(dl_pt3_mul419));
+        u_dl_pt3_mul419 (.clk(clk), .d(pt3_mul419), .valid(1'b0), .q(dl_pt3_mul419));
     // pt3_add420 = pt2_wA_x + pt3_mul417   (ready @179/179/179)
     logic [W-1:0] pt3_add420;
     logic [2:0] fl_pt3_add420;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add420 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_x[1*W +: W]), .b(dl_pt3_mul417), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_x[1*W +: W]), .b(dl_pt3_mul417), .sub(1'b0),
         .out_valid(op_valid_nc[319]), .y(pt3_add420), .flags(fl_pt3_add420)
     );
     assign ev_ovf[315] = fl_pt3_add420[0] && ev_q[179];
@@ -4790,12 +4797,12 @@ module pgs_contact_pipe #(
     assign ev_inv[315] = fl_pt3_add420[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add420;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add420 (.clk(clk), .d(pt3_add420), .q(dl_pt3_add420));
+        u_dl_pt3_add420 (.clk(clk), .d(pt3_add420), .valid(1'b0), .q(dl_pt3_add420));
     // pt3_add421 = pt2_wA_y + pt3_mul418   (ready @179/179/179)
     logic [W-1:0] pt3_add421;
     logic [2:0] fl_pt3_add421;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add421 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_y[1*W +: W]), .b(dl_pt3_mul418), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_y[1*W +: W]), .b(dl_pt3_mul418), .sub(1'b0),
         .out_valid(op_valid_nc[320]), .y(pt3_add421), .flags(fl_pt3_add421)
     );
     assign ev_ovf[316] = fl_pt3_add421[0] && ev_q[179];
@@ -4803,12 +4810,12 @@ module pgs_contact_pipe #(
     assign ev_inv[316] = fl_pt3_add421[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add421;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add421 (.clk(clk), .d(pt3_add421), .q(dl_pt3_add421));
+        u_dl_pt3_add421 (.clk(clk), .d(pt3_add421), .valid(1'b0), .q(dl_pt3_add421));
     // pt3_add422 = pt2_wA_z + pt3_mul419   (ready @179/179/179)
     logic [W-1:0] pt3_add422;
     logic [2:0] fl_pt3_add422;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add422 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_z[1*W +: W]), .b(dl_pt3_mul419), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_z[1*W +: W]), .b(dl_pt3_mul419), .sub(1'b0),
         .out_valid(op_valid_nc[321]), .y(pt3_add422), .flags(fl_pt3_add422)
     );
     assign ev_ovf[317] = fl_pt3_add422[0] && ev_q[179];
@@ -4816,30 +4823,30 @@ module pgs_contact_pipe #(
     assign ev_inv[317] = fl_pt3_add422[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add422;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add422 (.clk(clk), .d(pt3_add422), .q(dl_pt3_add422));
+        u_dl_pt3_add422 (.clk(clk), .d(pt3_add422), .valid(1'b0), .q(dl_pt3_add422));
     // pt3_wA_x = pt3_skip ? pt2_wA_x : pt3_add420   (ready @179/179/179)
     logic [W-1:0] pt3_wA_x;
     assign pt3_wA_x = dl_pt3_skip[1] ? dl_pt2_wA_x[2*W +: W] : dl_pt3_add420;
     logic [W-1:0] dl_pt3_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wA_x (.clk(clk), .d(pt3_wA_x), .q(dl_pt3_wA_x));
+        u_dl_pt3_wA_x (.clk(clk), .d(pt3_wA_x), .valid(1'b0), .q(dl_pt3_wA_x));
     // pt3_wA_y = pt3_skip ? pt2_wA_y : pt3_add421   (ready @179/179/179)
     logic [W-1:0] pt3_wA_y;
     assign pt3_wA_y = dl_pt3_skip[1] ? dl_pt2_wA_y[2*W +: W] : dl_pt3_add421;
     logic [W-1:0] dl_pt3_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wA_y (.clk(clk), .d(pt3_wA_y), .q(dl_pt3_wA_y));
+        u_dl_pt3_wA_y (.clk(clk), .d(pt3_wA_y), .valid(1'b0), .q(dl_pt3_wA_y));
     // pt3_wA_z = pt3_skip ? pt2_wA_z : pt3_add422   (ready @179/179/179)
     logic [W-1:0] pt3_wA_z;
     assign pt3_wA_z = dl_pt3_skip[1] ? dl_pt2_wA_z[2*W +: W] : dl_pt3_add422;
     logic [W-1:0] dl_pt3_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wA_z (.clk(clk), .d(pt3_wA_z), .q(dl_pt3_wA_z));
+        u_dl_pt3_wA_z (.clk(clk), .d(pt3_wA_z), .valid(1'b0), .q(dl_pt3_wA_z));
     // pt3_mul426 = linB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul426;
     logic [2:0] fl_pt3_mul426;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul426 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linB_x[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[322]), .y(pt3_mul426), .flags(fl_pt3_mul426)
     );
     assign ev_ovf[318] = fl_pt3_mul426[0] && ev_q[175];
@@ -4847,12 +4854,12 @@ module pgs_contact_pipe #(
     assign ev_inv[318] = fl_pt3_mul426[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul426;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul426 (.clk(clk), .d(pt3_mul426), .q(dl_pt3_mul426));
+        u_dl_pt3_mul426 (.clk(clk), .d(pt3_mul426), .valid(1'b0), .q(dl_pt3_mul426));
     // pt3_mul427 = linB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul427;
     logic [2:0] fl_pt3_mul427;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul427 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linB_y[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[323]), .y(pt3_mul427), .flags(fl_pt3_mul427)
     );
     assign ev_ovf[319] = fl_pt3_mul427[0] && ev_q[175];
@@ -4860,12 +4867,12 @@ module pgs_contact_pipe #(
     assign ev_inv[319] = fl_pt3_mul427[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul427;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul427 (.clk(clk), .d(pt3_mul427), .q(dl_pt3_mul427));
+        u_dl_pt3_mul427 (.clk(clk), .d(pt3_mul427), .valid(1'b0), .q(dl_pt3_mul427));
     // pt3_mul428 = linB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul428;
     logic [2:0] fl_pt3_mul428;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul428 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linB_z[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[324]), .y(pt3_mul428), .flags(fl_pt3_mul428)
     );
     assign ev_ovf[320] = fl_pt3_mul428[0] && ev_q[175];
@@ -4873,12 +4880,12 @@ module pgs_contact_pipe #(
     assign ev_inv[320] = fl_pt3_mul428[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul428;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul428 (.clk(clk), .d(pt3_mul428), .q(dl_pt3_mul428));
+        u_dl_pt3_mul428 (.clk(clk), .d(pt3_mul428), .valid(1'b0), .q(dl_pt3_mul428));
     // pt3_sub429 = pt2_vB_x - pt3_mul426   (ready @179/179/179)
     logic [W-1:0] pt3_sub429;
     logic [2:0] fl_pt3_sub429;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub429 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_x[1*W +: W]), .b(dl_pt3_mul426), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_x[1*W +: W]), .b(dl_pt3_mul426), .sub(1'b1),
         .out_valid(op_valid_nc[325]), .y(pt3_sub429), .flags(fl_pt3_sub429)
     );
     assign ev_ovf[321] = fl_pt3_sub429[0] && ev_q[179];
@@ -4886,12 +4893,12 @@ module pgs_contact_pipe #(
     assign ev_inv[321] = fl_pt3_sub429[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub429;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub429 (.clk(clk), .d(pt3_sub429), .q(dl_pt3_sub429));
+        u_dl_pt3_sub429 (.clk(clk), .d(pt3_sub429), .valid(1'b0), .q(dl_pt3_sub429));
     // pt3_sub430 = pt2_vB_y - pt3_mul427   (ready @179/179/179)
     logic [W-1:0] pt3_sub430;
     logic [2:0] fl_pt3_sub430;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub430 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_y[1*W +: W]), .b(dl_pt3_mul427), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_y[1*W +: W]), .b(dl_pt3_mul427), .sub(1'b1),
         .out_valid(op_valid_nc[326]), .y(pt3_sub430), .flags(fl_pt3_sub430)
     );
     assign ev_ovf[322] = fl_pt3_sub430[0] && ev_q[179];
@@ -4899,12 +4906,12 @@ module pgs_contact_pipe #(
     assign ev_inv[322] = fl_pt3_sub430[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub430;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub430 (.clk(clk), .d(pt3_sub430), .q(dl_pt3_sub430));
+        u_dl_pt3_sub430 (.clk(clk), .d(pt3_sub430), .valid(1'b0), .q(dl_pt3_sub430));
     // pt3_sub431 = pt2_vB_z - pt3_mul428   (ready @179/179/179)
     logic [W-1:0] pt3_sub431;
     logic [2:0] fl_pt3_sub431;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub431 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_z[1*W +: W]), .b(dl_pt3_mul428), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_z[1*W +: W]), .b(dl_pt3_mul428), .sub(1'b1),
         .out_valid(op_valid_nc[327]), .y(pt3_sub431), .flags(fl_pt3_sub431)
     );
     assign ev_ovf[323] = fl_pt3_sub431[0] && ev_q[179];
@@ -4912,30 +4919,30 @@ module pgs_contact_pipe #(
     assign ev_inv[323] = fl_pt3_sub431[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub431;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub431 (.clk(clk), .d(pt3_sub431), .q(dl_pt3_sub431));
+        u_dl_pt3_sub431 (.clk(clk), .d(pt3_sub431), .valid(1'b0), .q(dl_pt3_sub431));
     // pt3_vB_x = pt3_skip ? pt2_vB_x : pt3_sub429   (ready @179/179/179)
     logic [W-1:0] pt3_vB_x;
     assign pt3_vB_x = dl_pt3_skip[1] ? dl_pt2_vB_x[2*W +: W] : dl_pt3_sub429;
     logic [W-1:0] dl_pt3_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vB_x (.clk(clk), .d(pt3_vB_x), .q(dl_pt3_vB_x));
+        u_dl_pt3_vB_x (.clk(clk), .d(pt3_vB_x), .valid(1'b0), .q(dl_pt3_vB_x));
     // pt3_vB_y = pt3_skip ? pt2_vB_y : pt3_sub430   (ready @179/179/179)
     logic [W-1:0] pt3_vB_y;
     assign pt3_vB_y = dl_pt3_skip[1] ? dl_pt2_vB_y[2*W +: W] : dl_pt3_sub430;
     logic [W-1:0] dl_pt3_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vB_y (.clk(clk), .d(pt3_vB_y), .q(dl_pt3_vB_y));
+        u_dl_pt3_vB_y (.clk(clk), .d(pt3_vB_y), .valid(1'b0), .q(dl_pt3_vB_y));
     // pt3_vB_z = pt3_skip ? pt2_vB_z : pt3_sub431   (ready @179/179/179)
     logic [W-1:0] pt3_vB_z;
     assign pt3_vB_z = dl_pt3_skip[1] ? dl_pt2_vB_z[2*W +: W] : dl_pt3_sub431;
     logic [W-1:0] dl_pt3_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vB_z (.clk(clk), .d(pt3_vB_z), .q(dl_pt3_vB_z));
+        u_dl_pt3_vB_z (.clk(clk), .d(pt3_vB_z), .valid(1'b0), .q(dl_pt3_vB_z));
     // pt3_mul435 = pt3_angB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul435;
     logic [2:0] fl_pt3_mul435;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul435 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_x), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angB_x), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[328]), .y(pt3_mul435), .flags(fl_pt3_mul435)
     );
     assign ev_ovf[324] = fl_pt3_mul435[0] && ev_q[175];
@@ -4943,12 +4950,12 @@ module pgs_contact_pipe #(
     assign ev_inv[324] = fl_pt3_mul435[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul435;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul435 (.clk(clk), .d(pt3_mul435), .q(dl_pt3_mul435));
+        u_dl_pt3_mul435 (.clk(clk), .d(pt3_mul435), .valid(1'b0), .q(dl_pt3_mul435));
     // pt3_mul436 = pt3_angB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul436;
     logic [2:0] fl_pt3_mul436;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul436 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_y), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angB_y), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[329]), .y(pt3_mul436), .flags(fl_pt3_mul436)
     );
     assign ev_ovf[325] = fl_pt3_mul436[0] && ev_q[175];
@@ -4956,12 +4963,12 @@ module pgs_contact_pipe #(
     assign ev_inv[325] = fl_pt3_mul436[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul436;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul436 (.clk(clk), .d(pt3_mul436), .q(dl_pt3_mul436));
+        u_dl_pt3_mul436 (.clk(clk), .d(pt3_mul436), .valid(1'b0), .q(dl_pt3_mul436));
     // pt3_mul437 = pt3_angB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul437;
     logic [2:0] fl_pt3_mul437;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul437 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_z), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angB_z), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[330]), .y(pt3_mul437), .flags(fl_pt3_mul437)
     );
     assign ev_ovf[326] = fl_pt3_mul437[0] && ev_q[175];
@@ -4969,12 +4976,12 @@ module pgs_contact_pipe #(
     assign ev_inv[326] = fl_pt3_mul437[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul437;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul437 (.clk(clk), .d(pt3_mul437), .q(dl_pt3_mul437));
+        u_dl_pt3_mul437 (.clk(clk), .d(pt3_mul437), .valid(1'b0), .q(dl_pt3_mul437));
     // pt3_sub438 = pt2_wB_x - pt3_mul435   (ready @179/179/179)
     logic [W-1:0] pt3_sub438;
     logic [2:0] fl_pt3_sub438;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub438 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_x[1*W +: W]), .b(dl_pt3_mul435), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_x[1*W +: W]), .b(dl_pt3_mul435), .sub(1'b1),
         .out_valid(op_valid_nc[331]), .y(pt3_sub438), .flags(fl_pt3_sub438)
     );
     assign ev_ovf[327] = fl_pt3_sub438[0] && ev_q[179];
@@ -4982,12 +4989,12 @@ module pgs_contact_pipe #(
     assign ev_inv[327] = fl_pt3_sub438[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub438;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub438 (.clk(clk), .d(pt3_sub438), .q(dl_pt3_sub438));
+        u_dl_pt3_sub438 (.clk(clk), .d(pt3_sub438), .valid(1'b0), .q(dl_pt3_sub438));
     // pt3_sub439 = pt2_wB_y - pt3_mul436   (ready @179/179/179)
     logic [W-1:0] pt3_sub439;
     logic [2:0] fl_pt3_sub439;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub439 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_y[1*W +: W]), .b(dl_pt3_mul436), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_y[1*W +: W]), .b(dl_pt3_mul436), .sub(1'b1),
         .out_valid(op_valid_nc[332]), .y(pt3_sub439), .flags(fl_pt3_sub439)
     );
     assign ev_ovf[328] = fl_pt3_sub439[0] && ev_q[179];
@@ -4995,12 +5002,12 @@ module pgs_contact_pipe #(
     assign ev_inv[328] = fl_pt3_sub439[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub439;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub439 (.clk(clk), .d(pt3_sub439), .q(dl_pt3_sub439));
+        u_dl_pt3_sub439 (.clk(clk), .d(pt3_sub439), .valid(1'b0), .q(dl_pt3_sub439));
     // pt3_sub440 = pt2_wB_z - pt3_mul437   (ready @179/179/179)
     logic [W-1:0] pt3_sub440;
     logic [2:0] fl_pt3_sub440;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub440 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_z[1*W +: W]), .b(dl_pt3_mul437), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_z[1*W +: W]), .b(dl_pt3_mul437), .sub(1'b1),
         .out_valid(op_valid_nc[333]), .y(pt3_sub440), .flags(fl_pt3_sub440)
     );
     assign ev_ovf[329] = fl_pt3_sub440[0] && ev_q[179];
@@ -5008,25 +5015,25 @@ module pgs_contact_pipe #(
     assign ev_inv[329] = fl_pt3_sub440[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub440;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub440 (.clk(clk), .d(pt3_sub440), .q(dl_pt3_sub440));
+        u_dl_pt3_sub440 (.clk(clk), .d(pt3_sub440), .valid(1'b0), .q(dl_pt3_sub440));
     // pt3_wB_x = pt3_skip ? pt2_wB_x : pt3_sub438   (ready @179/179/179)
     logic [W-1:0] pt3_wB_x;
     assign pt3_wB_x = dl_pt3_skip[1] ? dl_pt2_wB_x[2*W +: W] : dl_pt3_sub438;
     logic [W-1:0] dl_pt3_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wB_x (.clk(clk), .d(pt3_wB_x), .q(dl_pt3_wB_x));
+        u_dl_pt3_wB_x (.clk(clk), .d(pt3_wB_x), .valid(1'b0), .q(dl_pt3_wB_x));
     // pt3_wB_y = pt3_skip ? pt2_wB_y : pt3_sub439   (ready @179/179/179)
     logic [W-1:0] pt3_wB_y;
     assign pt3_wB_y = dl_pt3_skip[1] ? dl_pt2_wB_y[2*W +: W] : dl_pt3_sub439;
     logic [W-1:0] dl_pt3_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wB_y (.clk(clk), .d(pt3_wB_y), .q(dl_pt3_wB_y));
+        u_dl_pt3_wB_y (.clk(clk), .d(pt3_wB_y), .valid(1'b0), .q(dl_pt3_wB_y));
     // pt3_wB_z = pt3_skip ? pt2_wB_z : pt3_sub440   (ready @179/179/179)
     logic [W-1:0] pt3_wB_z;
     assign pt3_wB_z = dl_pt3_skip[1] ? dl_pt2_wB_z[2*W +: W] : dl_pt3_sub440;
     logic [W-1:0] dl_pt3_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wB_z (.clk(clk), .d(pt3_wB_z), .q(dl_pt3_wB_z));
+        u_dl_pt3_wB_z (.clk(clk), .d(pt3_wB_z), .valid(1'b0), .q(dl_pt3_wB_z));
 
     // Outputs, each delayed to LATENCY.
     assign out_data[0*W +: W] = dl_pt0_lam;   // lam0

@@ -71,23 +71,30 @@ module pgs_contact_pipe_full #(
     logic         nc_pt3_lam_new_lt, nc_pt3_lam_new_eq, nc_pt3_lam_new_uo;
     /* verilator lint_on UNUSEDSIGNAL */
 
-    // Valid and tag pipelines.
+    // Valid and tag pipelines. valid_q[k]: in_valid k cycles ago; an operator's in_valid is the
+    // bit at its issue cycle, so its register stages are enabled only for the pipeline's inputs.
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [LATENCY:0] valid_q;   // the stages after the last operator's issue are not read
+    /* verilator lint_on UNUSEDSIGNAL */
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
+        .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (.clk(clk), .d(in_tag), .q(out_tag));
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+        .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
+    );
 
     // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);
     // an operator's flags belong to the input taken at its ready cycle minus that many cycles.
     localparam int EV_DEPTH = 179;
-    logic [EV_DEPTH:0] ev_q;
-    assign ev_q[0] = in_valid && in_count;
-    for (genvar i = 1; i <= EV_DEPTH; i++) begin : g_ev
-        always_ff @(posedge clk) begin
-            if (rst) ev_q[i] <= 1'b0;
-            else     ev_q[i] <= ev_q[i-1];
-        end
+    logic [EV_DEPTH:1] ev_r;
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [EV_DEPTH:0] ev_q;   // read at the operators' ready cycles only
+    /* verilator lint_on UNUSEDSIGNAL */
+    always_ff @(posedge clk) begin   // one shift of the whole register
+        if (rst) ev_r <= '0;
+        else     ev_r <= EV_DEPTH'({ev_r, in_valid && in_count});
     end
+    assign ev_q = {ev_r, in_valid && in_count};
     logic [N_FP_OPS-1:0] ev_ovf, ev_unf, ev_inv;   // flags of counted inputs, one bit per operator
     always_ff @(posedge clk) begin
         ev_overflow  <= EV_W'($countones(ev_ovf));
@@ -100,297 +107,297 @@ module pgs_contact_pipe_full #(
     assign in_n_x = in_data[0*W +: W];
     logic [5*W-1:0] dl_in_n_x;
     pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
-        u_dl_in_n_x (.clk(clk), .d(in_n_x), .q(dl_in_n_x));
+        u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 137]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [5*W-1:0] dl_in_n_y;
     pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
-        u_dl_in_n_y (.clk(clk), .d(in_n_y), .q(dl_in_n_y));
+        u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 137]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [5*W-1:0] dl_in_n_z;
     pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
-        u_dl_in_n_z (.clk(clk), .d(in_n_z), .q(dl_in_n_z));
+        u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 137]), .q(dl_in_n_z));
     logic [W-1:0] in_p0_x;
     assign in_p0_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_p0_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p0_x (.clk(clk), .d(in_p0_x), .q(dl_in_p0_x));
+        u_dl_in_p0_x (.clk(clk), .d(in_p0_x), .valid(1'b0), .q(dl_in_p0_x));
     logic [W-1:0] in_p0_y;
     assign in_p0_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_p0_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p0_y (.clk(clk), .d(in_p0_y), .q(dl_in_p0_y));
+        u_dl_in_p0_y (.clk(clk), .d(in_p0_y), .valid(1'b0), .q(dl_in_p0_y));
     logic [W-1:0] in_p0_z;
     assign in_p0_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_p0_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p0_z (.clk(clk), .d(in_p0_z), .q(dl_in_p0_z));
+        u_dl_in_p0_z (.clk(clk), .d(in_p0_z), .valid(1'b0), .q(dl_in_p0_z));
     logic [W-1:0] in_p1_x;
     assign in_p1_x = in_data[6*W +: W];
     logic [W-1:0] dl_in_p1_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p1_x (.clk(clk), .d(in_p1_x), .q(dl_in_p1_x));
+        u_dl_in_p1_x (.clk(clk), .d(in_p1_x), .valid(1'b0), .q(dl_in_p1_x));
     logic [W-1:0] in_p1_y;
     assign in_p1_y = in_data[7*W +: W];
     logic [W-1:0] dl_in_p1_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p1_y (.clk(clk), .d(in_p1_y), .q(dl_in_p1_y));
+        u_dl_in_p1_y (.clk(clk), .d(in_p1_y), .valid(1'b0), .q(dl_in_p1_y));
     logic [W-1:0] in_p1_z;
     assign in_p1_z = in_data[8*W +: W];
     logic [W-1:0] dl_in_p1_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p1_z (.clk(clk), .d(in_p1_z), .q(dl_in_p1_z));
+        u_dl_in_p1_z (.clk(clk), .d(in_p1_z), .valid(1'b0), .q(dl_in_p1_z));
     logic [W-1:0] in_p2_x;
     assign in_p2_x = in_data[9*W +: W];
     logic [W-1:0] dl_in_p2_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p2_x (.clk(clk), .d(in_p2_x), .q(dl_in_p2_x));
+        u_dl_in_p2_x (.clk(clk), .d(in_p2_x), .valid(1'b0), .q(dl_in_p2_x));
     logic [W-1:0] in_p2_y;
     assign in_p2_y = in_data[10*W +: W];
     logic [W-1:0] dl_in_p2_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p2_y (.clk(clk), .d(in_p2_y), .q(dl_in_p2_y));
+        u_dl_in_p2_y (.clk(clk), .d(in_p2_y), .valid(1'b0), .q(dl_in_p2_y));
     logic [W-1:0] in_p2_z;
     assign in_p2_z = in_data[11*W +: W];
     logic [W-1:0] dl_in_p2_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p2_z (.clk(clk), .d(in_p2_z), .q(dl_in_p2_z));
+        u_dl_in_p2_z (.clk(clk), .d(in_p2_z), .valid(1'b0), .q(dl_in_p2_z));
     logic [W-1:0] in_p3_x;
     assign in_p3_x = in_data[12*W +: W];
     logic [W-1:0] dl_in_p3_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p3_x (.clk(clk), .d(in_p3_x), .q(dl_in_p3_x));
+        u_dl_in_p3_x (.clk(clk), .d(in_p3_x), .valid(1'b0), .q(dl_in_p3_x));
     logic [W-1:0] in_p3_y;
     assign in_p3_y = in_data[13*W +: W];
     logic [W-1:0] dl_in_p3_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p3_y (.clk(clk), .d(in_p3_y), .q(dl_in_p3_y));
+        u_dl_in_p3_y (.clk(clk), .d(in_p3_y), .valid(1'b0), .q(dl_in_p3_y));
     logic [W-1:0] in_p3_z;
     assign in_p3_z = in_data[14*W +: W];
     logic [W-1:0] dl_in_p3_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p3_z (.clk(clk), .d(in_p3_z), .q(dl_in_p3_z));
+        u_dl_in_p3_z (.clk(clk), .d(in_p3_z), .valid(1'b0), .q(dl_in_p3_z));
     logic [W-1:0] in_jac_inv0;
     assign in_jac_inv0 = in_data[15*W +: W];
     logic [2*W-1:0] dl_in_jac_inv0;
     pgs_delay #(.WIDTH(W), .DEPTH(34), .N_TAPS(2), .TAPS({32'(34), 32'(0)}))
-        u_dl_in_jac_inv0 (.clk(clk), .d(in_jac_inv0), .q(dl_in_jac_inv0));
+        u_dl_in_jac_inv0 (.clk(clk), .d(in_jac_inv0), .valid(valid_q[0 +: 34]), .q(dl_in_jac_inv0));
     logic [W-1:0] in_jac_inv1;
     assign in_jac_inv1 = in_data[16*W +: W];
     logic [2*W-1:0] dl_in_jac_inv1;
     pgs_delay #(.WIDTH(W), .DEPTH(76), .N_TAPS(2), .TAPS({32'(76), 32'(0)}))
-        u_dl_in_jac_inv1 (.clk(clk), .d(in_jac_inv1), .q(dl_in_jac_inv1));
+        u_dl_in_jac_inv1 (.clk(clk), .d(in_jac_inv1), .valid(valid_q[0 +: 76]), .q(dl_in_jac_inv1));
     logic [W-1:0] in_jac_inv2;
     assign in_jac_inv2 = in_data[17*W +: W];
     logic [2*W-1:0] dl_in_jac_inv2;
     pgs_delay #(.WIDTH(W), .DEPTH(118), .N_TAPS(2), .TAPS({32'(118), 32'(0)}))
-        u_dl_in_jac_inv2 (.clk(clk), .d(in_jac_inv2), .q(dl_in_jac_inv2));
+        u_dl_in_jac_inv2 (.clk(clk), .d(in_jac_inv2), .valid(valid_q[0 +: 118]), .q(dl_in_jac_inv2));
     logic [W-1:0] in_jac_inv3;
     assign in_jac_inv3 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_jac_inv3;
     pgs_delay #(.WIDTH(W), .DEPTH(160), .N_TAPS(2), .TAPS({32'(160), 32'(0)}))
-        u_dl_in_jac_inv3 (.clk(clk), .d(in_jac_inv3), .q(dl_in_jac_inv3));
+        u_dl_in_jac_inv3 (.clk(clk), .d(in_jac_inv3), .valid(valid_q[0 +: 160]), .q(dl_in_jac_inv3));
     logic [W-1:0] in_b0;
     assign in_b0 = in_data[19*W +: W];
     logic [W-1:0] dl_in_b0;
     pgs_delay #(.WIDTH(W), .DEPTH(30))
-        u_dl_in_b0 (.clk(clk), .d(in_b0), .q(dl_in_b0));
+        u_dl_in_b0 (.clk(clk), .d(in_b0), .valid(valid_q[0 +: 30]), .q(dl_in_b0));
     logic [W-1:0] in_b1;
     assign in_b1 = in_data[20*W +: W];
     logic [W-1:0] dl_in_b1;
     pgs_delay #(.WIDTH(W), .DEPTH(72))
-        u_dl_in_b1 (.clk(clk), .d(in_b1), .q(dl_in_b1));
+        u_dl_in_b1 (.clk(clk), .d(in_b1), .valid(valid_q[0 +: 72]), .q(dl_in_b1));
     logic [W-1:0] in_b2;
     assign in_b2 = in_data[21*W +: W];
     logic [W-1:0] dl_in_b2;
     pgs_delay #(.WIDTH(W), .DEPTH(114))
-        u_dl_in_b2 (.clk(clk), .d(in_b2), .q(dl_in_b2));
+        u_dl_in_b2 (.clk(clk), .d(in_b2), .valid(valid_q[0 +: 114]), .q(dl_in_b2));
     logic [W-1:0] in_b3;
     assign in_b3 = in_data[22*W +: W];
     logic [W-1:0] dl_in_b3;
     pgs_delay #(.WIDTH(W), .DEPTH(156))
-        u_dl_in_b3 (.clk(clk), .d(in_b3), .q(dl_in_b3));
+        u_dl_in_b3 (.clk(clk), .d(in_b3), .valid(valid_q[0 +: 156]), .q(dl_in_b3));
     logic [W-1:0] in_lam0;
     assign in_lam0 = in_data[23*W +: W];
     logic [2*W-1:0] dl_in_lam0;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(42), 32'(37)}))
-        u_dl_in_lam0 (.clk(clk), .d(in_lam0), .q(dl_in_lam0));
+        u_dl_in_lam0 (.clk(clk), .d(in_lam0), .valid(valid_q[0 +: 42]), .q(dl_in_lam0));
     logic [W-1:0] in_lam1;
     assign in_lam1 = in_data[24*W +: W];
     logic [2*W-1:0] dl_in_lam1;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(84), 32'(79)}))
-        u_dl_in_lam1 (.clk(clk), .d(in_lam1), .q(dl_in_lam1));
+        u_dl_in_lam1 (.clk(clk), .d(in_lam1), .valid(valid_q[0 +: 84]), .q(dl_in_lam1));
     logic [W-1:0] in_lam2;
     assign in_lam2 = in_data[25*W +: W];
     logic [2*W-1:0] dl_in_lam2;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(126), 32'(121)}))
-        u_dl_in_lam2 (.clk(clk), .d(in_lam2), .q(dl_in_lam2));
+        u_dl_in_lam2 (.clk(clk), .d(in_lam2), .valid(valid_q[0 +: 126]), .q(dl_in_lam2));
     logic [W-1:0] in_lam3;
     assign in_lam3 = in_data[26*W +: W];
     logic [2*W-1:0] dl_in_lam3;
     pgs_delay #(.WIDTH(W), .DEPTH(168), .N_TAPS(2), .TAPS({32'(168), 32'(163)}))
-        u_dl_in_lam3 (.clk(clk), .d(in_lam3), .q(dl_in_lam3));
+        u_dl_in_lam3 (.clk(clk), .d(in_lam3), .valid(valid_q[0 +: 168]), .q(dl_in_lam3));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[27*W +: W];
     logic [W-1:0] dl_in_xA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .q(dl_in_xA_x));
+        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[28*W +: W];
     logic [W-1:0] dl_in_xA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .q(dl_in_xA_y));
+        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[29*W +: W];
     logic [W-1:0] dl_in_xA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .q(dl_in_xA_z));
+        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[30*W +: W];
     logic [W-1:0] dl_in_xB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .q(dl_in_xB_x));
+        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[31*W +: W];
     logic [W-1:0] dl_in_xB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .q(dl_in_xB_y));
+        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[32*W +: W];
     logic [W-1:0] dl_in_xB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .q(dl_in_xB_z));
+        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .q(dl_in_vA_x));
+        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 53]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .q(dl_in_vA_y));
+        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 53]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .q(dl_in_vA_z));
+        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 53]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .q(dl_in_wA_x));
+        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 53]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .q(dl_in_wA_y));
+        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 53]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[38*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .q(dl_in_wA_z));
+        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 53]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[39*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .q(dl_in_vB_x));
+        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 53]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[40*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .q(dl_in_vB_y));
+        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 53]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[41*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .q(dl_in_vB_z));
+        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 53]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[42*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .q(dl_in_wB_x));
+        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 53]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[43*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .q(dl_in_wB_y));
+        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 53]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[44*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .q(dl_in_wB_z));
+        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 53]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[45*W +: W];
     logic [W-1:0] dl_in_mInvA;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .q(dl_in_mInvA));
+        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[46*W +: W];
     logic [W-1:0] dl_in_mInvB;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .q(dl_in_mInvB));
+        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_xx;
     assign in_IInvA_xx = in_data[47*W +: W];
     logic [W-1:0] dl_in_IInvA_xx;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_xx (.clk(clk), .d(in_IInvA_xx), .q(dl_in_IInvA_xx));
+        u_dl_in_IInvA_xx (.clk(clk), .d(in_IInvA_xx), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_xx));
     logic [W-1:0] in_IInvA_yy;
     assign in_IInvA_yy = in_data[48*W +: W];
     logic [W-1:0] dl_in_IInvA_yy;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_yy (.clk(clk), .d(in_IInvA_yy), .q(dl_in_IInvA_yy));
+        u_dl_in_IInvA_yy (.clk(clk), .d(in_IInvA_yy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_yy));
     logic [W-1:0] in_IInvA_zz;
     assign in_IInvA_zz = in_data[49*W +: W];
     logic [W-1:0] dl_in_IInvA_zz;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_zz (.clk(clk), .d(in_IInvA_zz), .q(dl_in_IInvA_zz));
+        u_dl_in_IInvA_zz (.clk(clk), .d(in_IInvA_zz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_zz));
     logic [W-1:0] in_IInvA_xy;
     assign in_IInvA_xy = in_data[50*W +: W];
     logic [W-1:0] dl_in_IInvA_xy;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_xy (.clk(clk), .d(in_IInvA_xy), .q(dl_in_IInvA_xy));
+        u_dl_in_IInvA_xy (.clk(clk), .d(in_IInvA_xy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_xy));
     logic [W-1:0] in_IInvA_xz;
     assign in_IInvA_xz = in_data[51*W +: W];
     logic [W-1:0] dl_in_IInvA_xz;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_xz (.clk(clk), .d(in_IInvA_xz), .q(dl_in_IInvA_xz));
+        u_dl_in_IInvA_xz (.clk(clk), .d(in_IInvA_xz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_xz));
     logic [W-1:0] in_IInvA_yz;
     assign in_IInvA_yz = in_data[52*W +: W];
     logic [W-1:0] dl_in_IInvA_yz;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_yz (.clk(clk), .d(in_IInvA_yz), .q(dl_in_IInvA_yz));
+        u_dl_in_IInvA_yz (.clk(clk), .d(in_IInvA_yz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_yz));
     logic [W-1:0] in_IInvB_xx;
     assign in_IInvB_xx = in_data[53*W +: W];
     logic [W-1:0] dl_in_IInvB_xx;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_xx (.clk(clk), .d(in_IInvB_xx), .q(dl_in_IInvB_xx));
+        u_dl_in_IInvB_xx (.clk(clk), .d(in_IInvB_xx), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_xx));
     logic [W-1:0] in_IInvB_yy;
     assign in_IInvB_yy = in_data[54*W +: W];
     logic [W-1:0] dl_in_IInvB_yy;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_yy (.clk(clk), .d(in_IInvB_yy), .q(dl_in_IInvB_yy));
+        u_dl_in_IInvB_yy (.clk(clk), .d(in_IInvB_yy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_yy));
     logic [W-1:0] in_IInvB_zz;
     assign in_IInvB_zz = in_data[55*W +: W];
     logic [W-1:0] dl_in_IInvB_zz;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_zz (.clk(clk), .d(in_IInvB_zz), .q(dl_in_IInvB_zz));
+        u_dl_in_IInvB_zz (.clk(clk), .d(in_IInvB_zz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_zz));
     logic [W-1:0] in_IInvB_xy;
     assign in_IInvB_xy = in_data[56*W +: W];
     logic [W-1:0] dl_in_IInvB_xy;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_xy (.clk(clk), .d(in_IInvB_xy), .q(dl_in_IInvB_xy));
+        u_dl_in_IInvB_xy (.clk(clk), .d(in_IInvB_xy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_xy));
     logic [W-1:0] in_IInvB_xz;
     assign in_IInvB_xz = in_data[57*W +: W];
     logic [W-1:0] dl_in_IInvB_xz;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_xz (.clk(clk), .d(in_IInvB_xz), .q(dl_in_IInvB_xz));
+        u_dl_in_IInvB_xz (.clk(clk), .d(in_IInvB_xz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_xz));
     logic [W-1:0] in_IInvB_yz;
     assign in_IInvB_yz = in_data[58*W +: W];
     logic [W-1:0] dl_in_IInvB_yz;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_yz (.clk(clk), .d(in_IInvB_yz), .q(dl_in_IInvB_yz));
+        u_dl_in_IInvB_yz (.clk(clk), .d(in_IInvB_yz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_yz));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
     // bf16; its delay line feeds every consumer at the consumer's issue cycle.
@@ -398,7 +405,7 @@ module pgs_contact_pipe_full #(
     logic [W-1:0] linA_x;
     logic [2:0] fl_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[0]), .y(linA_x), .flags(fl_linA_x)
     );
     assign ev_ovf[0] = fl_linA_x[0] && ev_q[3];
@@ -406,12 +413,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[0] = fl_linA_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linA_x (.clk(clk), .d(linA_x), .q(dl_linA_x));
+        u_dl_linA_x (.clk(clk), .d(linA_x), .valid(valid_q[3 +: 169]), .q(dl_linA_x));
     // linA_y = n_y * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_y;
     logic [2:0] fl_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[1]), .y(linA_y), .flags(fl_linA_y)
     );
     assign ev_ovf[1] = fl_linA_y[0] && ev_q[3];
@@ -419,12 +426,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[1] = fl_linA_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linA_y (.clk(clk), .d(linA_y), .q(dl_linA_y));
+        u_dl_linA_y (.clk(clk), .d(linA_y), .valid(valid_q[3 +: 169]), .q(dl_linA_y));
     // linA_z = n_z * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_z;
     logic [2:0] fl_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[2]), .y(linA_z), .flags(fl_linA_z)
     );
     assign ev_ovf[2] = fl_linA_z[0] && ev_q[3];
@@ -432,12 +439,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[2] = fl_linA_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linA_z (.clk(clk), .d(linA_z), .q(dl_linA_z));
+        u_dl_linA_z (.clk(clk), .d(linA_z), .valid(valid_q[3 +: 169]), .q(dl_linA_z));
     // linB_x = n_x * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_x;
     logic [2:0] fl_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[3]), .y(linB_x), .flags(fl_linB_x)
     );
     assign ev_ovf[3] = fl_linB_x[0] && ev_q[3];
@@ -445,12 +452,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[3] = fl_linB_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linB_x (.clk(clk), .d(linB_x), .q(dl_linB_x));
+        u_dl_linB_x (.clk(clk), .d(linB_x), .valid(valid_q[3 +: 169]), .q(dl_linB_x));
     // linB_y = n_y * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_y;
     logic [2:0] fl_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[4]), .y(linB_y), .flags(fl_linB_y)
     );
     assign ev_ovf[4] = fl_linB_y[0] && ev_q[3];
@@ -458,12 +465,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[4] = fl_linB_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linB_y (.clk(clk), .d(linB_y), .q(dl_linB_y));
+        u_dl_linB_y (.clk(clk), .d(linB_y), .valid(valid_q[3 +: 169]), .q(dl_linB_y));
     // linB_z = n_z * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_z;
     logic [2:0] fl_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[5]), .y(linB_z), .flags(fl_linB_z)
     );
     assign ev_ovf[5] = fl_linB_z[0] && ev_q[3];
@@ -471,18 +478,18 @@ module pgs_contact_pipe_full #(
     assign ev_inv[5] = fl_linB_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linB_z (.clk(clk), .d(linB_z), .q(dl_linB_z));
+        u_dl_linB_z (.clk(clk), .d(linB_z), .valid(valid_q[3 +: 169]), .q(dl_linB_z));
     // pt0_skip = jac_inv0 == 0   (ready @0/0/0)
     logic pt0_skip;
     assign pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt0_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}))
-        u_dl_pt0_skip (.clk(clk), .d(pt0_skip), .q(dl_pt0_skip));
+        u_dl_pt0_skip (.clk(clk), .d(pt0_skip), .valid(valid_q[0 +: 53]), .q(dl_pt0_skip));
     // pt0_rA_x = p0_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt0_rA_x;
     logic [2:0] fl_pt0_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(pt0_rA_x), .flags(fl_pt0_rA_x)
     );
     assign ev_ovf[6] = fl_pt0_rA_x[0] && ev_q[4];
@@ -490,12 +497,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[6] = fl_pt0_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rA_x (.clk(clk), .d(pt0_rA_x), .q(dl_pt0_rA_x));
+        u_dl_pt0_rA_x (.clk(clk), .d(pt0_rA_x), .valid(1'b0), .q(dl_pt0_rA_x));
     // pt0_rA_y = p0_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt0_rA_y;
     logic [2:0] fl_pt0_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(pt0_rA_y), .flags(fl_pt0_rA_y)
     );
     assign ev_ovf[7] = fl_pt0_rA_y[0] && ev_q[4];
@@ -503,12 +510,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[7] = fl_pt0_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rA_y (.clk(clk), .d(pt0_rA_y), .q(dl_pt0_rA_y));
+        u_dl_pt0_rA_y (.clk(clk), .d(pt0_rA_y), .valid(1'b0), .q(dl_pt0_rA_y));
     // pt0_rA_z = p0_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt0_rA_z;
     logic [2:0] fl_pt0_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(pt0_rA_z), .flags(fl_pt0_rA_z)
     );
     assign ev_ovf[8] = fl_pt0_rA_z[0] && ev_q[4];
@@ -516,12 +523,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[8] = fl_pt0_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rA_z (.clk(clk), .d(pt0_rA_z), .q(dl_pt0_rA_z));
+        u_dl_pt0_rA_z (.clk(clk), .d(pt0_rA_z), .valid(1'b0), .q(dl_pt0_rA_z));
     // pt0_mul70 = pt0_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul70;
     logic [2:0] fl_pt0_mul70;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul70 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[9]), .y(pt0_mul70), .flags(fl_pt0_mul70)
     );
     assign ev_ovf[9] = fl_pt0_mul70[0] && ev_q[7];
@@ -529,12 +536,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[9] = fl_pt0_mul70[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul70;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul70 (.clk(clk), .d(pt0_mul70), .q(dl_pt0_mul70));
+        u_dl_pt0_mul70 (.clk(clk), .d(pt0_mul70), .valid(1'b0), .q(dl_pt0_mul70));
     // pt0_mul71 = pt0_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul71;
     logic [2:0] fl_pt0_mul71;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul71 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[10]), .y(pt0_mul71), .flags(fl_pt0_mul71)
     );
     assign ev_ovf[10] = fl_pt0_mul71[0] && ev_q[7];
@@ -542,12 +549,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[10] = fl_pt0_mul71[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul71;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul71 (.clk(clk), .d(pt0_mul71), .q(dl_pt0_mul71));
+        u_dl_pt0_mul71 (.clk(clk), .d(pt0_mul71), .valid(1'b0), .q(dl_pt0_mul71));
     // pt0_cA_x = pt0_mul70 - pt0_mul71   (ready @11/11/11)
     logic [W-1:0] pt0_cA_x;
     logic [2:0] fl_pt0_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul70), .b(dl_pt0_mul71), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul70), .b(dl_pt0_mul71), .sub(1'b1),
         .out_valid(op_valid_nc[11]), .y(pt0_cA_x), .flags(fl_pt0_cA_x)
     );
     assign ev_ovf[11] = fl_pt0_cA_x[0] && ev_q[11];
@@ -555,12 +562,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[11] = fl_pt0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cA_x (.clk(clk), .d(pt0_cA_x), .q(dl_pt0_cA_x));
+        u_dl_pt0_cA_x (.clk(clk), .d(pt0_cA_x), .valid(1'b0), .q(dl_pt0_cA_x));
     // pt0_mul73 = pt0_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul73;
     logic [2:0] fl_pt0_mul73;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul73 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[12]), .y(pt0_mul73), .flags(fl_pt0_mul73)
     );
     assign ev_ovf[12] = fl_pt0_mul73[0] && ev_q[7];
@@ -568,12 +575,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[12] = fl_pt0_mul73[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul73;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul73 (.clk(clk), .d(pt0_mul73), .q(dl_pt0_mul73));
+        u_dl_pt0_mul73 (.clk(clk), .d(pt0_mul73), .valid(1'b0), .q(dl_pt0_mul73));
     // pt0_mul74 = pt0_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul74;
     logic [2:0] fl_pt0_mul74;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul74 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[13]), .y(pt0_mul74), .flags(fl_pt0_mul74)
     );
     assign ev_ovf[13] = fl_pt0_mul74[0] && ev_q[7];
@@ -581,12 +588,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[13] = fl_pt0_mul74[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul74;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul74 (.clk(clk), .d(pt0_mul74), .q(dl_pt0_mul74));
+        u_dl_pt0_mul74 (.clk(clk), .d(pt0_mul74), .valid(1'b0), .q(dl_pt0_mul74));
     // pt0_cA_y = pt0_mul73 - pt0_mul74   (ready @11/11/11)
     logic [W-1:0] pt0_cA_y;
     logic [2:0] fl_pt0_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul73), .b(dl_pt0_mul74), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul73), .b(dl_pt0_mul74), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(pt0_cA_y), .flags(fl_pt0_cA_y)
     );
     assign ev_ovf[14] = fl_pt0_cA_y[0] && ev_q[11];
@@ -594,12 +601,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[14] = fl_pt0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cA_y (.clk(clk), .d(pt0_cA_y), .q(dl_pt0_cA_y));
+        u_dl_pt0_cA_y (.clk(clk), .d(pt0_cA_y), .valid(1'b0), .q(dl_pt0_cA_y));
     // pt0_mul76 = pt0_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul76;
     logic [2:0] fl_pt0_mul76;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul76 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[15]), .y(pt0_mul76), .flags(fl_pt0_mul76)
     );
     assign ev_ovf[15] = fl_pt0_mul76[0] && ev_q[7];
@@ -607,12 +614,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[15] = fl_pt0_mul76[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul76;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul76 (.clk(clk), .d(pt0_mul76), .q(dl_pt0_mul76));
+        u_dl_pt0_mul76 (.clk(clk), .d(pt0_mul76), .valid(1'b0), .q(dl_pt0_mul76));
     // pt0_mul77 = pt0_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul77;
     logic [2:0] fl_pt0_mul77;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul77 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[16]), .y(pt0_mul77), .flags(fl_pt0_mul77)
     );
     assign ev_ovf[16] = fl_pt0_mul77[0] && ev_q[7];
@@ -620,12 +627,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[16] = fl_pt0_mul77[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul77;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul77 (.clk(clk), .d(pt0_mul77), .q(dl_pt0_mul77));
+        u_dl_pt0_mul77 (.clk(clk), .d(pt0_mul77), .valid(1'b0), .q(dl_pt0_mul77));
     // pt0_cA_z = pt0_mul76 - pt0_mul77   (ready @11/11/11)
     logic [W-1:0] pt0_cA_z;
     logic [2:0] fl_pt0_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul76), .b(dl_pt0_mul77), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul76), .b(dl_pt0_mul77), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(pt0_cA_z), .flags(fl_pt0_cA_z)
     );
     assign ev_ovf[17] = fl_pt0_cA_z[0] && ev_q[11];
@@ -633,12 +640,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[17] = fl_pt0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cA_z (.clk(clk), .d(pt0_cA_z), .q(dl_pt0_cA_z));
+        u_dl_pt0_cA_z (.clk(clk), .d(pt0_cA_z), .valid(1'b0), .q(dl_pt0_cA_z));
     // pt0_rB_x = p0_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt0_rB_x;
     logic [2:0] fl_pt0_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(pt0_rB_x), .flags(fl_pt0_rB_x)
     );
     assign ev_ovf[18] = fl_pt0_rB_x[0] && ev_q[4];
@@ -646,12 +653,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[18] = fl_pt0_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rB_x (.clk(clk), .d(pt0_rB_x), .q(dl_pt0_rB_x));
+        u_dl_pt0_rB_x (.clk(clk), .d(pt0_rB_x), .valid(1'b0), .q(dl_pt0_rB_x));
     // pt0_rB_y = p0_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt0_rB_y;
     logic [2:0] fl_pt0_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(pt0_rB_y), .flags(fl_pt0_rB_y)
     );
     assign ev_ovf[19] = fl_pt0_rB_y[0] && ev_q[4];
@@ -659,12 +666,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[19] = fl_pt0_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rB_y (.clk(clk), .d(pt0_rB_y), .q(dl_pt0_rB_y));
+        u_dl_pt0_rB_y (.clk(clk), .d(pt0_rB_y), .valid(1'b0), .q(dl_pt0_rB_y));
     // pt0_rB_z = p0_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt0_rB_z;
     logic [2:0] fl_pt0_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(pt0_rB_z), .flags(fl_pt0_rB_z)
     );
     assign ev_ovf[20] = fl_pt0_rB_z[0] && ev_q[4];
@@ -672,12 +679,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[20] = fl_pt0_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rB_z (.clk(clk), .d(pt0_rB_z), .q(dl_pt0_rB_z));
+        u_dl_pt0_rB_z (.clk(clk), .d(pt0_rB_z), .valid(1'b0), .q(dl_pt0_rB_z));
     // pt0_mul82 = pt0_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul82;
     logic [2:0] fl_pt0_mul82;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul82 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[21]), .y(pt0_mul82), .flags(fl_pt0_mul82)
     );
     assign ev_ovf[21] = fl_pt0_mul82[0] && ev_q[7];
@@ -685,12 +692,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[21] = fl_pt0_mul82[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul82;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul82 (.clk(clk), .d(pt0_mul82), .q(dl_pt0_mul82));
+        u_dl_pt0_mul82 (.clk(clk), .d(pt0_mul82), .valid(1'b0), .q(dl_pt0_mul82));
     // pt0_mul83 = pt0_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul83;
     logic [2:0] fl_pt0_mul83;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul83 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[22]), .y(pt0_mul83), .flags(fl_pt0_mul83)
     );
     assign ev_ovf[22] = fl_pt0_mul83[0] && ev_q[7];
@@ -698,12 +705,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[22] = fl_pt0_mul83[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul83;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul83 (.clk(clk), .d(pt0_mul83), .q(dl_pt0_mul83));
+        u_dl_pt0_mul83 (.clk(clk), .d(pt0_mul83), .valid(1'b0), .q(dl_pt0_mul83));
     // pt0_cB_x = pt0_mul82 - pt0_mul83   (ready @11/11/11)
     logic [W-1:0] pt0_cB_x;
     logic [2:0] fl_pt0_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul82), .b(dl_pt0_mul83), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul82), .b(dl_pt0_mul83), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(pt0_cB_x), .flags(fl_pt0_cB_x)
     );
     assign ev_ovf[23] = fl_pt0_cB_x[0] && ev_q[11];
@@ -711,12 +718,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[23] = fl_pt0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cB_x (.clk(clk), .d(pt0_cB_x), .q(dl_pt0_cB_x));
+        u_dl_pt0_cB_x (.clk(clk), .d(pt0_cB_x), .valid(1'b0), .q(dl_pt0_cB_x));
     // pt0_mul85 = pt0_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul85;
     logic [2:0] fl_pt0_mul85;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul85 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[24]), .y(pt0_mul85), .flags(fl_pt0_mul85)
     );
     assign ev_ovf[24] = fl_pt0_mul85[0] && ev_q[7];
@@ -724,12 +731,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[24] = fl_pt0_mul85[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul85;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul85 (.clk(clk), .d(pt0_mul85), .q(dl_pt0_mul85));
+        u_dl_pt0_mul85 (.clk(clk), .d(pt0_mul85), .valid(1'b0), .q(dl_pt0_mul85));
     // pt0_mul86 = pt0_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul86;
     logic [2:0] fl_pt0_mul86;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul86 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[25]), .y(pt0_mul86), .flags(fl_pt0_mul86)
     );
     assign ev_ovf[25] = fl_pt0_mul86[0] && ev_q[7];
@@ -737,12 +744,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[25] = fl_pt0_mul86[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul86;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul86 (.clk(clk), .d(pt0_mul86), .q(dl_pt0_mul86));
+        u_dl_pt0_mul86 (.clk(clk), .d(pt0_mul86), .valid(1'b0), .q(dl_pt0_mul86));
     // pt0_cB_y = pt0_mul85 - pt0_mul86   (ready @11/11/11)
     logic [W-1:0] pt0_cB_y;
     logic [2:0] fl_pt0_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul85), .b(dl_pt0_mul86), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul85), .b(dl_pt0_mul86), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(pt0_cB_y), .flags(fl_pt0_cB_y)
     );
     assign ev_ovf[26] = fl_pt0_cB_y[0] && ev_q[11];
@@ -750,12 +757,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[26] = fl_pt0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cB_y (.clk(clk), .d(pt0_cB_y), .q(dl_pt0_cB_y));
+        u_dl_pt0_cB_y (.clk(clk), .d(pt0_cB_y), .valid(1'b0), .q(dl_pt0_cB_y));
     // pt0_mul88 = pt0_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul88;
     logic [2:0] fl_pt0_mul88;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul88 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[27]), .y(pt0_mul88), .flags(fl_pt0_mul88)
     );
     assign ev_ovf[27] = fl_pt0_mul88[0] && ev_q[7];
@@ -763,12 +770,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[27] = fl_pt0_mul88[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul88;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul88 (.clk(clk), .d(pt0_mul88), .q(dl_pt0_mul88));
+        u_dl_pt0_mul88 (.clk(clk), .d(pt0_mul88), .valid(1'b0), .q(dl_pt0_mul88));
     // pt0_mul89 = pt0_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul89;
     logic [2:0] fl_pt0_mul89;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul89 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[28]), .y(pt0_mul89), .flags(fl_pt0_mul89)
     );
     assign ev_ovf[28] = fl_pt0_mul89[0] && ev_q[7];
@@ -776,12 +783,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[28] = fl_pt0_mul89[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul89;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul89 (.clk(clk), .d(pt0_mul89), .q(dl_pt0_mul89));
+        u_dl_pt0_mul89 (.clk(clk), .d(pt0_mul89), .valid(1'b0), .q(dl_pt0_mul89));
     // pt0_cB_z = pt0_mul88 - pt0_mul89   (ready @11/11/11)
     logic [W-1:0] pt0_cB_z;
     logic [2:0] fl_pt0_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul88), .b(dl_pt0_mul89), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul88), .b(dl_pt0_mul89), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(pt0_cB_z), .flags(fl_pt0_cB_z)
     );
     assign ev_ovf[29] = fl_pt0_cB_z[0] && ev_q[11];
@@ -789,12 +796,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[29] = fl_pt0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cB_z (.clk(clk), .d(pt0_cB_z), .q(dl_pt0_cB_z));
+        u_dl_pt0_cB_z (.clk(clk), .d(pt0_cB_z), .valid(1'b0), .q(dl_pt0_cB_z));
     // pt0_mul91 = n_x * vA_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul91;
     logic [2:0] fl_pt0_mul91;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul91 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[30]), .y(pt0_mul91), .flags(fl_pt0_mul91)
     );
     assign ev_ovf[30] = fl_pt0_mul91[0] && ev_q[3];
@@ -802,12 +809,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[30] = fl_pt0_mul91[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul91;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul91 (.clk(clk), .d(pt0_mul91), .q(dl_pt0_mul91));
+        u_dl_pt0_mul91 (.clk(clk), .d(pt0_mul91), .valid(1'b0), .q(dl_pt0_mul91));
     // pt0_mul92 = n_y * vA_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul92;
     logic [2:0] fl_pt0_mul92;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul92 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[31]), .y(pt0_mul92), .flags(fl_pt0_mul92)
     );
     assign ev_ovf[31] = fl_pt0_mul92[0] && ev_q[3];
@@ -815,12 +822,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[31] = fl_pt0_mul92[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul92;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul92 (.clk(clk), .d(pt0_mul92), .q(dl_pt0_mul92));
+        u_dl_pt0_mul92 (.clk(clk), .d(pt0_mul92), .valid(1'b0), .q(dl_pt0_mul92));
     // pt0_add93 = pt0_mul91 + pt0_mul92   (ready @7/7/7)
     logic [W-1:0] pt0_add93;
     logic [2:0] fl_pt0_add93;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add93 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul91), .b(dl_pt0_mul92), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul91), .b(dl_pt0_mul92), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(pt0_add93), .flags(fl_pt0_add93)
     );
     assign ev_ovf[32] = fl_pt0_add93[0] && ev_q[7];
@@ -828,12 +835,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[32] = fl_pt0_add93[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add93;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add93 (.clk(clk), .d(pt0_add93), .q(dl_pt0_add93));
+        u_dl_pt0_add93 (.clk(clk), .d(pt0_add93), .valid(1'b0), .q(dl_pt0_add93));
     // pt0_mul94 = n_z * vA_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul94;
     logic [2:0] fl_pt0_mul94;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul94 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[33]), .y(pt0_mul94), .flags(fl_pt0_mul94)
     );
     assign ev_ovf[33] = fl_pt0_mul94[0] && ev_q[3];
@@ -841,12 +848,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[33] = fl_pt0_mul94[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul94;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul94 (.clk(clk), .d(pt0_mul94), .q(dl_pt0_mul94));
+        u_dl_pt0_mul94 (.clk(clk), .d(pt0_mul94), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul94));
     // pt0_add95 = pt0_add93 + pt0_mul94   (ready @11/11/11)
     logic [W-1:0] pt0_add95;
     logic [2:0] fl_pt0_add95;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add95 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add93), .b(dl_pt0_mul94), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add93), .b(dl_pt0_mul94), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(pt0_add95), .flags(fl_pt0_add95)
     );
     assign ev_ovf[34] = fl_pt0_add95[0] && ev_q[11];
@@ -854,12 +861,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[34] = fl_pt0_add95[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add95;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add95 (.clk(clk), .d(pt0_add95), .q(dl_pt0_add95));
+        u_dl_pt0_add95 (.clk(clk), .d(pt0_add95), .valid(1'b0), .q(dl_pt0_add95));
     // pt0_mul96 = n_x * vB_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul96;
     logic [2:0] fl_pt0_mul96;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul96 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[35]), .y(pt0_mul96), .flags(fl_pt0_mul96)
     );
     assign ev_ovf[35] = fl_pt0_mul96[0] && ev_q[3];
@@ -867,12 +874,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[35] = fl_pt0_mul96[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul96;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul96 (.clk(clk), .d(pt0_mul96), .q(dl_pt0_mul96));
+        u_dl_pt0_mul96 (.clk(clk), .d(pt0_mul96), .valid(1'b0), .q(dl_pt0_mul96));
     // pt0_mul97 = n_y * vB_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul97;
     logic [2:0] fl_pt0_mul97;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul97 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[36]), .y(pt0_mul97), .flags(fl_pt0_mul97)
     );
     assign ev_ovf[36] = fl_pt0_mul97[0] && ev_q[3];
@@ -880,12 +887,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[36] = fl_pt0_mul97[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul97;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul97 (.clk(clk), .d(pt0_mul97), .q(dl_pt0_mul97));
+        u_dl_pt0_mul97 (.clk(clk), .d(pt0_mul97), .valid(1'b0), .q(dl_pt0_mul97));
     // pt0_add98 = pt0_mul96 + pt0_mul97   (ready @7/7/7)
     logic [W-1:0] pt0_add98;
     logic [2:0] fl_pt0_add98;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add98 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul96), .b(dl_pt0_mul97), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul96), .b(dl_pt0_mul97), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(pt0_add98), .flags(fl_pt0_add98)
     );
     assign ev_ovf[37] = fl_pt0_add98[0] && ev_q[7];
@@ -893,12 +900,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[37] = fl_pt0_add98[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add98;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add98 (.clk(clk), .d(pt0_add98), .q(dl_pt0_add98));
+        u_dl_pt0_add98 (.clk(clk), .d(pt0_add98), .valid(1'b0), .q(dl_pt0_add98));
     // pt0_mul99 = n_z * vB_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul99;
     logic [2:0] fl_pt0_mul99;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul99 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[38]), .y(pt0_mul99), .flags(fl_pt0_mul99)
     );
     assign ev_ovf[38] = fl_pt0_mul99[0] && ev_q[3];
@@ -906,12 +913,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[38] = fl_pt0_mul99[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul99;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul99 (.clk(clk), .d(pt0_mul99), .q(dl_pt0_mul99));
+        u_dl_pt0_mul99 (.clk(clk), .d(pt0_mul99), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul99));
     // pt0_add100 = pt0_add98 + pt0_mul99   (ready @11/11/11)
     logic [W-1:0] pt0_add100;
     logic [2:0] fl_pt0_add100;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add100 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add98), .b(dl_pt0_mul99), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add98), .b(dl_pt0_mul99), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(pt0_add100), .flags(fl_pt0_add100)
     );
     assign ev_ovf[39] = fl_pt0_add100[0] && ev_q[11];
@@ -919,12 +926,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[39] = fl_pt0_add100[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add100;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add100 (.clk(clk), .d(pt0_add100), .q(dl_pt0_add100));
+        u_dl_pt0_add100 (.clk(clk), .d(pt0_add100), .valid(1'b0), .q(dl_pt0_add100));
     // pt0_sub101 = pt0_add95 - pt0_add100   (ready @15/15/15)
     logic [W-1:0] pt0_sub101;
     logic [2:0] fl_pt0_sub101;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub101 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add95), .b(dl_pt0_add100), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_add95), .b(dl_pt0_add100), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(pt0_sub101), .flags(fl_pt0_sub101)
     );
     assign ev_ovf[40] = fl_pt0_sub101[0] && ev_q[15];
@@ -932,12 +939,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[40] = fl_pt0_sub101[2] && ev_q[15];
     logic [W-1:0] dl_pt0_sub101;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_pt0_sub101 (.clk(clk), .d(pt0_sub101), .q(dl_pt0_sub101));
+        u_dl_pt0_sub101 (.clk(clk), .d(pt0_sub101), .valid(valid_q[15 +: 11]), .q(dl_pt0_sub101));
     // pt0_mul102 = pt0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul102;
     logic [2:0] fl_pt0_mul102;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul102 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_x), .b(dl_in_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cA_x), .b(dl_in_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[41]), .y(pt0_mul102), .flags(fl_pt0_mul102)
     );
     assign ev_ovf[41] = fl_pt0_mul102[0] && ev_q[14];
@@ -945,12 +952,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[41] = fl_pt0_mul102[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul102;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul102 (.clk(clk), .d(pt0_mul102), .q(dl_pt0_mul102));
+        u_dl_pt0_mul102 (.clk(clk), .d(pt0_mul102), .valid(1'b0), .q(dl_pt0_mul102));
     // pt0_mul103 = pt0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul103;
     logic [2:0] fl_pt0_mul103;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul103 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_y), .b(dl_in_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cA_y), .b(dl_in_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[42]), .y(pt0_mul103), .flags(fl_pt0_mul103)
     );
     assign ev_ovf[42] = fl_pt0_mul103[0] && ev_q[14];
@@ -958,12 +965,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[42] = fl_pt0_mul103[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul103;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul103 (.clk(clk), .d(pt0_mul103), .q(dl_pt0_mul103));
+        u_dl_pt0_mul103 (.clk(clk), .d(pt0_mul103), .valid(1'b0), .q(dl_pt0_mul103));
     // pt0_add104 = pt0_mul102 + pt0_mul103   (ready @18/18/18)
     logic [W-1:0] pt0_add104;
     logic [2:0] fl_pt0_add104;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add104 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul102), .b(dl_pt0_mul103), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul102), .b(dl_pt0_mul103), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(pt0_add104), .flags(fl_pt0_add104)
     );
     assign ev_ovf[43] = fl_pt0_add104[0] && ev_q[18];
@@ -971,12 +978,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[43] = fl_pt0_add104[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add104;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add104 (.clk(clk), .d(pt0_add104), .q(dl_pt0_add104));
+        u_dl_pt0_add104 (.clk(clk), .d(pt0_add104), .valid(1'b0), .q(dl_pt0_add104));
     // pt0_mul105 = pt0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul105;
     logic [2:0] fl_pt0_mul105;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul105 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_z), .b(dl_in_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cA_z), .b(dl_in_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[44]), .y(pt0_mul105), .flags(fl_pt0_mul105)
     );
     assign ev_ovf[44] = fl_pt0_mul105[0] && ev_q[14];
@@ -984,12 +991,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[44] = fl_pt0_mul105[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul105;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul105 (.clk(clk), .d(pt0_mul105), .q(dl_pt0_mul105));
+        u_dl_pt0_mul105 (.clk(clk), .d(pt0_mul105), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul105));
     // pt0_add106 = pt0_add104 + pt0_mul105   (ready @22/22/22)
     logic [W-1:0] pt0_add106;
     logic [2:0] fl_pt0_add106;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add106 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add104), .b(dl_pt0_mul105), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add104), .b(dl_pt0_mul105), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(pt0_add106), .flags(fl_pt0_add106)
     );
     assign ev_ovf[45] = fl_pt0_add106[0] && ev_q[22];
@@ -997,12 +1004,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[45] = fl_pt0_add106[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add106;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add106 (.clk(clk), .d(pt0_add106), .q(dl_pt0_add106));
+        u_dl_pt0_add106 (.clk(clk), .d(pt0_add106), .valid(1'b0), .q(dl_pt0_add106));
     // pt0_mul107 = pt0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul107;
     logic [2:0] fl_pt0_mul107;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul107 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_x), .b(dl_in_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cB_x), .b(dl_in_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[46]), .y(pt0_mul107), .flags(fl_pt0_mul107)
     );
     assign ev_ovf[46] = fl_pt0_mul107[0] && ev_q[14];
@@ -1010,12 +1017,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[46] = fl_pt0_mul107[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul107;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul107 (.clk(clk), .d(pt0_mul107), .q(dl_pt0_mul107));
+        u_dl_pt0_mul107 (.clk(clk), .d(pt0_mul107), .valid(1'b0), .q(dl_pt0_mul107));
     // pt0_mul108 = pt0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul108;
     logic [2:0] fl_pt0_mul108;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul108 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_y), .b(dl_in_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cB_y), .b(dl_in_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[47]), .y(pt0_mul108), .flags(fl_pt0_mul108)
     );
     assign ev_ovf[47] = fl_pt0_mul108[0] && ev_q[14];
@@ -1023,12 +1030,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[47] = fl_pt0_mul108[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul108;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul108 (.clk(clk), .d(pt0_mul108), .q(dl_pt0_mul108));
+        u_dl_pt0_mul108 (.clk(clk), .d(pt0_mul108), .valid(1'b0), .q(dl_pt0_mul108));
     // pt0_add109 = pt0_mul107 + pt0_mul108   (ready @18/18/18)
     logic [W-1:0] pt0_add109;
     logic [2:0] fl_pt0_add109;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add109 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul107), .b(dl_pt0_mul108), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul107), .b(dl_pt0_mul108), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(pt0_add109), .flags(fl_pt0_add109)
     );
     assign ev_ovf[48] = fl_pt0_add109[0] && ev_q[18];
@@ -1036,12 +1043,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[48] = fl_pt0_add109[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add109;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add109 (.clk(clk), .d(pt0_add109), .q(dl_pt0_add109));
+        u_dl_pt0_add109 (.clk(clk), .d(pt0_add109), .valid(1'b0), .q(dl_pt0_add109));
     // pt0_mul110 = pt0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul110;
     logic [2:0] fl_pt0_mul110;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul110 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_z), .b(dl_in_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cB_z), .b(dl_in_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[49]), .y(pt0_mul110), .flags(fl_pt0_mul110)
     );
     assign ev_ovf[49] = fl_pt0_mul110[0] && ev_q[14];
@@ -1049,12 +1056,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[49] = fl_pt0_mul110[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul110;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul110 (.clk(clk), .d(pt0_mul110), .q(dl_pt0_mul110));
+        u_dl_pt0_mul110 (.clk(clk), .d(pt0_mul110), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul110));
     // pt0_add111 = pt0_add109 + pt0_mul110   (ready @22/22/22)
     logic [W-1:0] pt0_add111;
     logic [2:0] fl_pt0_add111;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add111 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add109), .b(dl_pt0_mul110), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add109), .b(dl_pt0_mul110), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(pt0_add111), .flags(fl_pt0_add111)
     );
     assign ev_ovf[50] = fl_pt0_add111[0] && ev_q[22];
@@ -1062,12 +1069,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[50] = fl_pt0_add111[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add111;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add111 (.clk(clk), .d(pt0_add111), .q(dl_pt0_add111));
+        u_dl_pt0_add111 (.clk(clk), .d(pt0_add111), .valid(1'b0), .q(dl_pt0_add111));
     // pt0_sub112 = pt0_add106 - pt0_add111   (ready @26/26/26)
     logic [W-1:0] pt0_sub112;
     logic [2:0] fl_pt0_sub112;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub112 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add106), .b(dl_pt0_add111), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_pt0_add106), .b(dl_pt0_add111), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(pt0_sub112), .flags(fl_pt0_sub112)
     );
     assign ev_ovf[51] = fl_pt0_sub112[0] && ev_q[26];
@@ -1075,12 +1082,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[51] = fl_pt0_sub112[2] && ev_q[26];
     logic [W-1:0] dl_pt0_sub112;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub112 (.clk(clk), .d(pt0_sub112), .q(dl_pt0_sub112));
+        u_dl_pt0_sub112 (.clk(clk), .d(pt0_sub112), .valid(1'b0), .q(dl_pt0_sub112));
     // pt0_vrel = pt0_sub101 + pt0_sub112   (ready @30/30/30)
     logic [W-1:0] pt0_vrel;
     logic [2:0] fl_pt0_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_sub101), .b(dl_pt0_sub112), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_pt0_sub101), .b(dl_pt0_sub112), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(pt0_vrel), .flags(fl_pt0_vrel)
     );
     assign ev_ovf[52] = fl_pt0_vrel[0] && ev_q[30];
@@ -1088,12 +1095,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[52] = fl_pt0_vrel[2] && ev_q[30];
     logic [W-1:0] dl_pt0_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_vrel (.clk(clk), .d(pt0_vrel), .q(dl_pt0_vrel));
+        u_dl_pt0_vrel (.clk(clk), .d(pt0_vrel), .valid(1'b0), .q(dl_pt0_vrel));
     // pt0_add114 = pt0_vrel + b0   (ready @34/34/34)
     logic [W-1:0] pt0_add114;
     logic [2:0] fl_pt0_add114;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add114 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[30]), .a(dl_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(pt0_add114), .flags(fl_pt0_add114)
     );
     assign ev_ovf[53] = fl_pt0_add114[0] && ev_q[34];
@@ -1101,12 +1108,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[53] = fl_pt0_add114[2] && ev_q[34];
     logic [W-1:0] dl_pt0_add114;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add114 (.clk(clk), .d(pt0_add114), .q(dl_pt0_add114));
+        u_dl_pt0_add114 (.clk(clk), .d(pt0_add114), .valid(1'b0), .q(dl_pt0_add114));
     // pt0_delta0 = pt0_add114 * jac_inv0   (ready @37/37/37)
     logic [W-1:0] pt0_delta0;
     logic [2:0] fl_pt0_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add114), .b(dl_in_jac_inv0[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[34]), .a(dl_pt0_add114), .b(dl_in_jac_inv0[1*W +: W]),
         .out_valid(op_valid_nc[54]), .y(pt0_delta0), .flags(fl_pt0_delta0)
     );
     assign ev_ovf[54] = fl_pt0_delta0[0] && ev_q[37];
@@ -1114,12 +1121,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[54] = fl_pt0_delta0[2] && ev_q[37];
     logic [W-1:0] dl_pt0_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_delta0 (.clk(clk), .d(pt0_delta0), .q(dl_pt0_delta0));
+        u_dl_pt0_delta0 (.clk(clk), .d(pt0_delta0), .valid(1'b0), .q(dl_pt0_delta0));
     // pt0_add116 = lam0 + pt0_delta0   (ready @41/41/41)
     logic [W-1:0] pt0_add116;
     logic [2:0] fl_pt0_add116;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add116 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam0[0*W +: W]), .b(dl_pt0_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(dl_in_lam0[0*W +: W]), .b(dl_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[55]), .y(pt0_add116), .flags(fl_pt0_add116)
     );
     assign ev_ovf[55] = fl_pt0_add116[0] && ev_q[41];
@@ -1127,22 +1134,22 @@ module pgs_contact_pipe_full #(
     assign ev_inv[55] = fl_pt0_add116[2] && ev_q[41];
     logic [W-1:0] dl_pt0_add116;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add116 (.clk(clk), .d(pt0_add116), .q(dl_pt0_add116));
+        u_dl_pt0_add116 (.clk(clk), .d(pt0_add116), .valid(1'b0), .q(dl_pt0_add116));
     // pt0_lam_new = max(pt0_add116, 0.0)   (ready @42/42/42)
     logic [W-1:0] pt0_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt0_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add116), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[41]), .a(dl_pt0_add116), .b(K_ZERO),
         .out_valid(op_valid_nc[56]), .y_min(nc_pt0_lam_new_min), .y_max(pt0_lam_new),
         .lt(nc_pt0_lam_new_lt), .eq(nc_pt0_lam_new_eq), .unordered(nc_pt0_lam_new_uo)
     );
     logic [W-1:0] dl_pt0_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_lam_new (.clk(clk), .d(pt0_lam_new), .q(dl_pt0_lam_new));
+        u_dl_pt0_lam_new (.clk(clk), .d(pt0_lam_new), .valid(1'b0), .q(dl_pt0_lam_new));
     // pt0_delta = pt0_lam_new - lam0   (ready @46/46/46)
     logic [W-1:0] pt0_delta;
     logic [2:0] fl_pt0_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_lam_new), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[42]), .a(dl_pt0_lam_new), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[57]), .y(pt0_delta), .flags(fl_pt0_delta)
     );
     assign ev_ovf[56] = fl_pt0_delta[0] && ev_q[46];
@@ -1150,18 +1157,18 @@ module pgs_contact_pipe_full #(
     assign ev_inv[56] = fl_pt0_delta[2] && ev_q[46];
     logic [W-1:0] dl_pt0_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_delta (.clk(clk), .d(pt0_delta), .q(dl_pt0_delta));
+        u_dl_pt0_delta (.clk(clk), .d(pt0_delta), .valid(1'b0), .q(dl_pt0_delta));
     // pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (ready @42/42/42)
     logic [W-1:0] pt0_lam;
     assign pt0_lam = dl_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_pt0_lam_new;
     logic [W-1:0] dl_pt0_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(137))
-        u_dl_pt0_lam (.clk(clk), .d(pt0_lam), .q(dl_pt0_lam));
+        u_dl_pt0_lam (.clk(clk), .d(pt0_lam), .valid(valid_q[42 +: 137]), .q(dl_pt0_lam));
     // pt0_mul120 = IInvA_xx * pt0_cA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul120;
     logic [2:0] fl_pt0_mul120;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul120 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xx), .b(dl_pt0_cA_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xx), .b(dl_pt0_cA_x),
         .out_valid(op_valid_nc[58]), .y(pt0_mul120), .flags(fl_pt0_mul120)
     );
     assign ev_ovf[57] = fl_pt0_mul120[0] && ev_q[14];
@@ -1169,12 +1176,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[57] = fl_pt0_mul120[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul120;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul120 (.clk(clk), .d(pt0_mul120), .q(dl_pt0_mul120));
+        u_dl_pt0_mul120 (.clk(clk), .d(pt0_mul120), .valid(1'b0), .q(dl_pt0_mul120));
     // pt0_mul121 = IInvA_xy * pt0_cA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul121;
     logic [2:0] fl_pt0_mul121;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul121 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xy), .b(dl_pt0_cA_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xy), .b(dl_pt0_cA_y),
         .out_valid(op_valid_nc[59]), .y(pt0_mul121), .flags(fl_pt0_mul121)
     );
     assign ev_ovf[58] = fl_pt0_mul121[0] && ev_q[14];
@@ -1182,12 +1189,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[58] = fl_pt0_mul121[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul121;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul121 (.clk(clk), .d(pt0_mul121), .q(dl_pt0_mul121));
+        u_dl_pt0_mul121 (.clk(clk), .d(pt0_mul121), .valid(1'b0), .q(dl_pt0_mul121));
     // pt0_add122 = pt0_mul120 + pt0_mul121   (ready @18/18/18)
     logic [W-1:0] pt0_add122;
     logic [2:0] fl_pt0_add122;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add122 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul120), .b(dl_pt0_mul121), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul120), .b(dl_pt0_mul121), .sub(1'b0),
         .out_valid(op_valid_nc[60]), .y(pt0_add122), .flags(fl_pt0_add122)
     );
     assign ev_ovf[59] = fl_pt0_add122[0] && ev_q[18];
@@ -1195,12 +1202,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[59] = fl_pt0_add122[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add122;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add122 (.clk(clk), .d(pt0_add122), .q(dl_pt0_add122));
+        u_dl_pt0_add122 (.clk(clk), .d(pt0_add122), .valid(1'b0), .q(dl_pt0_add122));
     // pt0_mul123 = IInvA_xz * pt0_cA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul123;
     logic [2:0] fl_pt0_mul123;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul123 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xz), .b(dl_pt0_cA_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xz), .b(dl_pt0_cA_z),
         .out_valid(op_valid_nc[61]), .y(pt0_mul123), .flags(fl_pt0_mul123)
     );
     assign ev_ovf[60] = fl_pt0_mul123[0] && ev_q[14];
@@ -1208,12 +1215,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[60] = fl_pt0_mul123[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul123;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul123 (.clk(clk), .d(pt0_mul123), .q(dl_pt0_mul123));
+        u_dl_pt0_mul123 (.clk(clk), .d(pt0_mul123), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul123));
     // pt0_angA_x = pt0_add122 + pt0_mul123   (ready @22/22/22)
     logic [W-1:0] pt0_angA_x;
     logic [2:0] fl_pt0_angA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add122), .b(dl_pt0_mul123), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add122), .b(dl_pt0_mul123), .sub(1'b0),
         .out_valid(op_valid_nc[62]), .y(pt0_angA_x), .flags(fl_pt0_angA_x)
     );
     assign ev_ovf[61] = fl_pt0_angA_x[0] && ev_q[22];
@@ -1221,12 +1228,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[61] = fl_pt0_angA_x[2] && ev_q[22];
     logic [W-1:0] dl_pt0_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(24))
-        u_dl_pt0_angA_x (.clk(clk), .d(pt0_angA_x), .q(dl_pt0_angA_x));
+        u_dl_pt0_angA_x (.clk(clk), .d(pt0_angA_x), .valid(valid_q[22 +: 24]), .q(dl_pt0_angA_x));
     // pt0_mul125 = IInvA_xy * pt0_cA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul125;
     logic [2:0] fl_pt0_mul125;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul125 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xy), .b(dl_pt0_cA_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xy), .b(dl_pt0_cA_x),
         .out_valid(op_valid_nc[63]), .y(pt0_mul125), .flags(fl_pt0_mul125)
     );
     assign ev_ovf[62] = fl_pt0_mul125[0] && ev_q[14];
@@ -1234,12 +1241,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[62] = fl_pt0_mul125[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul125;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul125 (.clk(clk), .d(pt0_mul125), .q(dl_pt0_mul125));
+        u_dl_pt0_mul125 (.clk(clk), .d(pt0_mul125), .valid(1'b0), .q(dl_pt0_mul125));
     // pt0_mul126 = IInvA_yy * pt0_cA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul126;
     logic [2:0] fl_pt0_mul126;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul126 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yy), .b(dl_pt0_cA_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yy), .b(dl_pt0_cA_y),
         .out_valid(op_valid_nc[64]), .y(pt0_mul126), .flags(fl_pt0_mul126)
     );
     assign ev_ovf[63] = fl_pt0_mul126[0] && ev_q[14];
@@ -1247,12 +1254,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[63] = fl_pt0_mul126[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul126;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul126 (.clk(clk), .d(pt0_mul126), .q(dl_pt0_mul126));
+        u_dl_pt0_mul126 (.clk(clk), .d(pt0_mul126), .valid(1'b0), .q(dl_pt0_mul126));
     // pt0_add127 = pt0_mul125 + pt0_mul126   (ready @18/18/18)
     logic [W-1:0] pt0_add127;
     logic [2:0] fl_pt0_add127;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add127 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul125), .b(dl_pt0_mul126), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul125), .b(dl_pt0_mul126), .sub(1'b0),
         .out_valid(op_valid_nc[65]), .y(pt0_add127), .flags(fl_pt0_add127)
     );
     assign ev_ovf[64] = fl_pt0_add127[0] && ev_q[18];
@@ -1260,12 +1267,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[64] = fl_pt0_add127[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add127;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add127 (.clk(clk), .d(pt0_add127), .q(dl_pt0_add127));
+        u_dl_pt0_add127 (.clk(clk), .d(pt0_add127), .valid(1'b0), .q(dl_pt0_add127));
     // pt0_mul128 = IInvA_yz * pt0_cA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul128;
     logic [2:0] fl_pt0_mul128;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul128 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yz), .b(dl_pt0_cA_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yz), .b(dl_pt0_cA_z),
         .out_valid(op_valid_nc[66]), .y(pt0_mul128), .flags(fl_pt0_mul128)
     );
     assign ev_ovf[65] = fl_pt0_mul128[0] && ev_q[14];
@@ -1273,12 +1280,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[65] = fl_pt0_mul128[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul128;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul128 (.clk(clk), .d(pt0_mul128), .q(dl_pt0_mul128));
+        u_dl_pt0_mul128 (.clk(clk), .d(pt0_mul128), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul128));
     // pt0_angA_y = pt0_add127 + pt0_mul128   (ready @22/22/22)
     logic [W-1:0] pt0_angA_y;
     logic [2:0] fl_pt0_angA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add127), .b(dl_pt0_mul128), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add127), .b(dl_pt0_mul128), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(pt0_angA_y), .flags(fl_pt0_angA_y)
     );
     assign ev_ovf[66] = fl_pt0_angA_y[0] && ev_q[22];
@@ -1286,12 +1293,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[66] = fl_pt0_angA_y[2] && ev_q[22];
     logic [W-1:0] dl_pt0_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(24))
-        u_dl_pt0_angA_y (.clk(clk), .d(pt0_angA_y), .q(dl_pt0_angA_y));
+        u_dl_pt0_angA_y (.clk(clk), .d(pt0_angA_y), .valid(valid_q[22 +: 24]), .q(dl_pt0_angA_y));
     // pt0_mul130 = IInvA_xz * pt0_cA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul130;
     logic [2:0] fl_pt0_mul130;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul130 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xz), .b(dl_pt0_cA_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xz), .b(dl_pt0_cA_x),
         .out_valid(op_valid_nc[68]), .y(pt0_mul130), .flags(fl_pt0_mul130)
     );
     assign ev_ovf[67] = fl_pt0_mul130[0] && ev_q[14];
@@ -1299,12 +1306,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[67] = fl_pt0_mul130[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul130;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul130 (.clk(clk), .d(pt0_mul130), .q(dl_pt0_mul130));
+        u_dl_pt0_mul130 (.clk(clk), .d(pt0_mul130), .valid(1'b0), .q(dl_pt0_mul130));
     // pt0_mul131 = IInvA_yz * pt0_cA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul131;
     logic [2:0] fl_pt0_mul131;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul131 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yz), .b(dl_pt0_cA_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yz), .b(dl_pt0_cA_y),
         .out_valid(op_valid_nc[69]), .y(pt0_mul131), .flags(fl_pt0_mul131)
     );
     assign ev_ovf[68] = fl_pt0_mul131[0] && ev_q[14];
@@ -1312,12 +1319,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[68] = fl_pt0_mul131[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul131;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul131 (.clk(clk), .d(pt0_mul131), .q(dl_pt0_mul131));
+        u_dl_pt0_mul131 (.clk(clk), .d(pt0_mul131), .valid(1'b0), .q(dl_pt0_mul131));
     // pt0_add132 = pt0_mul130 + pt0_mul131   (ready @18/18/18)
     logic [W-1:0] pt0_add132;
     logic [2:0] fl_pt0_add132;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add132 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul130), .b(dl_pt0_mul131), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul130), .b(dl_pt0_mul131), .sub(1'b0),
         .out_valid(op_valid_nc[70]), .y(pt0_add132), .flags(fl_pt0_add132)
     );
     assign ev_ovf[69] = fl_pt0_add132[0] && ev_q[18];
@@ -1325,12 +1332,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[69] = fl_pt0_add132[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add132;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add132 (.clk(clk), .d(pt0_add132), .q(dl_pt0_add132));
+        u_dl_pt0_add132 (.clk(clk), .d(pt0_add132), .valid(1'b0), .q(dl_pt0_add132));
     // pt0_mul133 = IInvA_zz * pt0_cA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul133;
     logic [2:0] fl_pt0_mul133;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul133 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_zz), .b(dl_pt0_cA_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_zz), .b(dl_pt0_cA_z),
         .out_valid(op_valid_nc[71]), .y(pt0_mul133), .flags(fl_pt0_mul133)
     );
     assign ev_ovf[70] = fl_pt0_mul133[0] && ev_q[14];
@@ -1338,12 +1345,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[70] = fl_pt0_mul133[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul133;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul133 (.clk(clk), .d(pt0_mul133), .q(dl_pt0_mul133));
+        u_dl_pt0_mul133 (.clk(clk), .d(pt0_mul133), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul133));
     // pt0_angA_z = pt0_add132 + pt0_mul133   (ready @22/22/22)
     logic [W-1:0] pt0_angA_z;
     logic [2:0] fl_pt0_angA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add132), .b(dl_pt0_mul133), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add132), .b(dl_pt0_mul133), .sub(1'b0),
         .out_valid(op_valid_nc[72]), .y(pt0_angA_z), .flags(fl_pt0_angA_z)
     );
     assign ev_ovf[71] = fl_pt0_angA_z[0] && ev_q[22];
@@ -1351,12 +1358,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[71] = fl_pt0_angA_z[2] && ev_q[22];
     logic [W-1:0] dl_pt0_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(24))
-        u_dl_pt0_angA_z (.clk(clk), .d(pt0_angA_z), .q(dl_pt0_angA_z));
+        u_dl_pt0_angA_z (.clk(clk), .d(pt0_angA_z), .valid(valid_q[22 +: 24]), .q(dl_pt0_angA_z));
     // pt0_mul135 = IInvB_xx * pt0_cB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul135;
     logic [2:0] fl_pt0_mul135;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul135 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xx), .b(dl_pt0_cB_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xx), .b(dl_pt0_cB_x),
         .out_valid(op_valid_nc[73]), .y(pt0_mul135), .flags(fl_pt0_mul135)
     );
     assign ev_ovf[72] = fl_pt0_mul135[0] && ev_q[14];
@@ -1364,12 +1371,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[72] = fl_pt0_mul135[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul135;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul135 (.clk(clk), .d(pt0_mul135), .q(dl_pt0_mul135));
+        u_dl_pt0_mul135 (.clk(clk), .d(pt0_mul135), .valid(1'b0), .q(dl_pt0_mul135));
     // pt0_mul136 = IInvB_xy * pt0_cB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul136;
     logic [2:0] fl_pt0_mul136;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul136 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xy), .b(dl_pt0_cB_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xy), .b(dl_pt0_cB_y),
         .out_valid(op_valid_nc[74]), .y(pt0_mul136), .flags(fl_pt0_mul136)
     );
     assign ev_ovf[73] = fl_pt0_mul136[0] && ev_q[14];
@@ -1377,12 +1384,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[73] = fl_pt0_mul136[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul136;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul136 (.clk(clk), .d(pt0_mul136), .q(dl_pt0_mul136));
+        u_dl_pt0_mul136 (.clk(clk), .d(pt0_mul136), .valid(1'b0), .q(dl_pt0_mul136));
     // pt0_add137 = pt0_mul135 + pt0_mul136   (ready @18/18/18)
     logic [W-1:0] pt0_add137;
     logic [2:0] fl_pt0_add137;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add137 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul135), .b(dl_pt0_mul136), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul135), .b(dl_pt0_mul136), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(pt0_add137), .flags(fl_pt0_add137)
     );
     assign ev_ovf[74] = fl_pt0_add137[0] && ev_q[18];
@@ -1390,12 +1397,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[74] = fl_pt0_add137[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add137;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add137 (.clk(clk), .d(pt0_add137), .q(dl_pt0_add137));
+        u_dl_pt0_add137 (.clk(clk), .d(pt0_add137), .valid(1'b0), .q(dl_pt0_add137));
     // pt0_mul138 = IInvB_xz * pt0_cB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul138;
     logic [2:0] fl_pt0_mul138;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul138 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xz), .b(dl_pt0_cB_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xz), .b(dl_pt0_cB_z),
         .out_valid(op_valid_nc[76]), .y(pt0_mul138), .flags(fl_pt0_mul138)
     );
     assign ev_ovf[75] = fl_pt0_mul138[0] && ev_q[14];
@@ -1403,12 +1410,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[75] = fl_pt0_mul138[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul138;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul138 (.clk(clk), .d(pt0_mul138), .q(dl_pt0_mul138));
+        u_dl_pt0_mul138 (.clk(clk), .d(pt0_mul138), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul138));
     // pt0_angB_x = pt0_add137 + pt0_mul138   (ready @22/22/22)
     logic [W-1:0] pt0_angB_x;
     logic [2:0] fl_pt0_angB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add137), .b(dl_pt0_mul138), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add137), .b(dl_pt0_mul138), .sub(1'b0),
         .out_valid(op_valid_nc[77]), .y(pt0_angB_x), .flags(fl_pt0_angB_x)
     );
     assign ev_ovf[76] = fl_pt0_angB_x[0] && ev_q[22];
@@ -1416,12 +1423,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[76] = fl_pt0_angB_x[2] && ev_q[22];
     logic [W-1:0] dl_pt0_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(24))
-        u_dl_pt0_angB_x (.clk(clk), .d(pt0_angB_x), .q(dl_pt0_angB_x));
+        u_dl_pt0_angB_x (.clk(clk), .d(pt0_angB_x), .valid(valid_q[22 +: 24]), .q(dl_pt0_angB_x));
     // pt0_mul140 = IInvB_xy * pt0_cB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul140;
     logic [2:0] fl_pt0_mul140;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul140 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xy), .b(dl_pt0_cB_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xy), .b(dl_pt0_cB_x),
         .out_valid(op_valid_nc[78]), .y(pt0_mul140), .flags(fl_pt0_mul140)
     );
     assign ev_ovf[77] = fl_pt0_mul140[0] && ev_q[14];
@@ -1429,12 +1436,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[77] = fl_pt0_mul140[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul140;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul140 (.clk(clk), .d(pt0_mul140), .q(dl_pt0_mul140));
+        u_dl_pt0_mul140 (.clk(clk), .d(pt0_mul140), .valid(1'b0), .q(dl_pt0_mul140));
     // pt0_mul141 = IInvB_yy * pt0_cB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul141;
     logic [2:0] fl_pt0_mul141;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul141 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yy), .b(dl_pt0_cB_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yy), .b(dl_pt0_cB_y),
         .out_valid(op_valid_nc[79]), .y(pt0_mul141), .flags(fl_pt0_mul141)
     );
     assign ev_ovf[78] = fl_pt0_mul141[0] && ev_q[14];
@@ -1442,12 +1449,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[78] = fl_pt0_mul141[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul141;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul141 (.clk(clk), .d(pt0_mul141), .q(dl_pt0_mul141));
+        u_dl_pt0_mul141 (.clk(clk), .d(pt0_mul141), .valid(1'b0), .q(dl_pt0_mul141));
     // pt0_add142 = pt0_mul140 + pt0_mul141   (ready @18/18/18)
     logic [W-1:0] pt0_add142;
     logic [2:0] fl_pt0_add142;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add142 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul140), .b(dl_pt0_mul141), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul140), .b(dl_pt0_mul141), .sub(1'b0),
         .out_valid(op_valid_nc[80]), .y(pt0_add142), .flags(fl_pt0_add142)
     );
     assign ev_ovf[79] = fl_pt0_add142[0] && ev_q[18];
@@ -1455,12 +1462,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[79] = fl_pt0_add142[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add142;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add142 (.clk(clk), .d(pt0_add142), .q(dl_pt0_add142));
+        u_dl_pt0_add142 (.clk(clk), .d(pt0_add142), .valid(1'b0), .q(dl_pt0_add142));
     // pt0_mul143 = IInvB_yz * pt0_cB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul143;
     logic [2:0] fl_pt0_mul143;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul143 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yz), .b(dl_pt0_cB_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yz), .b(dl_pt0_cB_z),
         .out_valid(op_valid_nc[81]), .y(pt0_mul143), .flags(fl_pt0_mul143)
     );
     assign ev_ovf[80] = fl_pt0_mul143[0] && ev_q[14];
@@ -1468,12 +1475,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[80] = fl_pt0_mul143[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul143;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul143 (.clk(clk), .d(pt0_mul143), .q(dl_pt0_mul143));
+        u_dl_pt0_mul143 (.clk(clk), .d(pt0_mul143), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul143));
     // pt0_angB_y = pt0_add142 + pt0_mul143   (ready @22/22/22)
     logic [W-1:0] pt0_angB_y;
     logic [2:0] fl_pt0_angB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add142), .b(dl_pt0_mul143), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add142), .b(dl_pt0_mul143), .sub(1'b0),
         .out_valid(op_valid_nc[82]), .y(pt0_angB_y), .flags(fl_pt0_angB_y)
     );
     assign ev_ovf[81] = fl_pt0_angB_y[0] && ev_q[22];
@@ -1481,12 +1488,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[81] = fl_pt0_angB_y[2] && ev_q[22];
     logic [W-1:0] dl_pt0_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(24))
-        u_dl_pt0_angB_y (.clk(clk), .d(pt0_angB_y), .q(dl_pt0_angB_y));
+        u_dl_pt0_angB_y (.clk(clk), .d(pt0_angB_y), .valid(valid_q[22 +: 24]), .q(dl_pt0_angB_y));
     // pt0_mul145 = IInvB_xz * pt0_cB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul145;
     logic [2:0] fl_pt0_mul145;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul145 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xz), .b(dl_pt0_cB_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xz), .b(dl_pt0_cB_x),
         .out_valid(op_valid_nc[83]), .y(pt0_mul145), .flags(fl_pt0_mul145)
     );
     assign ev_ovf[82] = fl_pt0_mul145[0] && ev_q[14];
@@ -1494,12 +1501,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[82] = fl_pt0_mul145[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul145;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul145 (.clk(clk), .d(pt0_mul145), .q(dl_pt0_mul145));
+        u_dl_pt0_mul145 (.clk(clk), .d(pt0_mul145), .valid(1'b0), .q(dl_pt0_mul145));
     // pt0_mul146 = IInvB_yz * pt0_cB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul146;
     logic [2:0] fl_pt0_mul146;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul146 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yz), .b(dl_pt0_cB_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yz), .b(dl_pt0_cB_y),
         .out_valid(op_valid_nc[84]), .y(pt0_mul146), .flags(fl_pt0_mul146)
     );
     assign ev_ovf[83] = fl_pt0_mul146[0] && ev_q[14];
@@ -1507,12 +1514,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[83] = fl_pt0_mul146[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul146;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul146 (.clk(clk), .d(pt0_mul146), .q(dl_pt0_mul146));
+        u_dl_pt0_mul146 (.clk(clk), .d(pt0_mul146), .valid(1'b0), .q(dl_pt0_mul146));
     // pt0_add147 = pt0_mul145 + pt0_mul146   (ready @18/18/18)
     logic [W-1:0] pt0_add147;
     logic [2:0] fl_pt0_add147;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add147 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul145), .b(dl_pt0_mul146), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul145), .b(dl_pt0_mul146), .sub(1'b0),
         .out_valid(op_valid_nc[85]), .y(pt0_add147), .flags(fl_pt0_add147)
     );
     assign ev_ovf[84] = fl_pt0_add147[0] && ev_q[18];
@@ -1520,12 +1527,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[84] = fl_pt0_add147[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add147;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add147 (.clk(clk), .d(pt0_add147), .q(dl_pt0_add147));
+        u_dl_pt0_add147 (.clk(clk), .d(pt0_add147), .valid(1'b0), .q(dl_pt0_add147));
     // pt0_mul148 = IInvB_zz * pt0_cB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul148;
     logic [2:0] fl_pt0_mul148;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul148 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_zz), .b(dl_pt0_cB_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_zz), .b(dl_pt0_cB_z),
         .out_valid(op_valid_nc[86]), .y(pt0_mul148), .flags(fl_pt0_mul148)
     );
     assign ev_ovf[85] = fl_pt0_mul148[0] && ev_q[14];
@@ -1533,12 +1540,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[85] = fl_pt0_mul148[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul148;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul148 (.clk(clk), .d(pt0_mul148), .q(dl_pt0_mul148));
+        u_dl_pt0_mul148 (.clk(clk), .d(pt0_mul148), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul148));
     // pt0_angB_z = pt0_add147 + pt0_mul148   (ready @22/22/22)
     logic [W-1:0] pt0_angB_z;
     logic [2:0] fl_pt0_angB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add147), .b(dl_pt0_mul148), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add147), .b(dl_pt0_mul148), .sub(1'b0),
         .out_valid(op_valid_nc[87]), .y(pt0_angB_z), .flags(fl_pt0_angB_z)
     );
     assign ev_ovf[86] = fl_pt0_angB_z[0] && ev_q[22];
@@ -1546,12 +1553,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[86] = fl_pt0_angB_z[2] && ev_q[22];
     logic [W-1:0] dl_pt0_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(24))
-        u_dl_pt0_angB_z (.clk(clk), .d(pt0_angB_z), .q(dl_pt0_angB_z));
+        u_dl_pt0_angB_z (.clk(clk), .d(pt0_angB_z), .valid(valid_q[22 +: 24]), .q(dl_pt0_angB_z));
     // pt0_mul150 = linA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul150;
     logic [2:0] fl_pt0_mul150;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul150 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linA_x[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[88]), .y(pt0_mul150), .flags(fl_pt0_mul150)
     );
     assign ev_ovf[87] = fl_pt0_mul150[0] && ev_q[49];
@@ -1559,12 +1566,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[87] = fl_pt0_mul150[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul150;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul150 (.clk(clk), .d(pt0_mul150), .q(dl_pt0_mul150));
+        u_dl_pt0_mul150 (.clk(clk), .d(pt0_mul150), .valid(1'b0), .q(dl_pt0_mul150));
     // pt0_mul151 = linA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul151;
     logic [2:0] fl_pt0_mul151;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul151 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linA_y[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[89]), .y(pt0_mul151), .flags(fl_pt0_mul151)
     );
     assign ev_ovf[88] = fl_pt0_mul151[0] && ev_q[49];
@@ -1572,12 +1579,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[88] = fl_pt0_mul151[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul151;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul151 (.clk(clk), .d(pt0_mul151), .q(dl_pt0_mul151));
+        u_dl_pt0_mul151 (.clk(clk), .d(pt0_mul151), .valid(1'b0), .q(dl_pt0_mul151));
     // pt0_mul152 = linA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul152;
     logic [2:0] fl_pt0_mul152;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul152 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linA_z[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[90]), .y(pt0_mul152), .flags(fl_pt0_mul152)
     );
     assign ev_ovf[89] = fl_pt0_mul152[0] && ev_q[49];
@@ -1585,12 +1592,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[89] = fl_pt0_mul152[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul152;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul152 (.clk(clk), .d(pt0_mul152), .q(dl_pt0_mul152));
+        u_dl_pt0_mul152 (.clk(clk), .d(pt0_mul152), .valid(1'b0), .q(dl_pt0_mul152));
     // pt0_add153 = vA_x + pt0_mul150   (ready @53/53/53)
     logic [W-1:0] pt0_add153;
     logic [2:0] fl_pt0_add153;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add153 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_x[1*W +: W]), .b(dl_pt0_mul150), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_pt0_mul150), .sub(1'b0),
         .out_valid(op_valid_nc[91]), .y(pt0_add153), .flags(fl_pt0_add153)
     );
     assign ev_ovf[90] = fl_pt0_add153[0] && ev_q[53];
@@ -1598,12 +1605,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[90] = fl_pt0_add153[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add153;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add153 (.clk(clk), .d(pt0_add153), .q(dl_pt0_add153));
+        u_dl_pt0_add153 (.clk(clk), .d(pt0_add153), .valid(1'b0), .q(dl_pt0_add153));
     // pt0_add154 = vA_y + pt0_mul151   (ready @53/53/53)
     logic [W-1:0] pt0_add154;
     logic [2:0] fl_pt0_add154;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add154 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_y[1*W +: W]), .b(dl_pt0_mul151), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_pt0_mul151), .sub(1'b0),
         .out_valid(op_valid_nc[92]), .y(pt0_add154), .flags(fl_pt0_add154)
     );
     assign ev_ovf[91] = fl_pt0_add154[0] && ev_q[53];
@@ -1611,12 +1618,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[91] = fl_pt0_add154[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add154;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add154 (.clk(clk), .d(pt0_add154), .q(dl_pt0_add154));
+        u_dl_pt0_add154 (.clk(clk), .d(pt0_add154), .valid(1'b0), .q(dl_pt0_add154));
     // pt0_add155 = vA_z + pt0_mul152   (ready @53/53/53)
     logic [W-1:0] pt0_add155;
     logic [2:0] fl_pt0_add155;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add155 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_z[1*W +: W]), .b(dl_pt0_mul152), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_pt0_mul152), .sub(1'b0),
         .out_valid(op_valid_nc[93]), .y(pt0_add155), .flags(fl_pt0_add155)
     );
     assign ev_ovf[92] = fl_pt0_add155[0] && ev_q[53];
@@ -1624,30 +1631,30 @@ module pgs_contact_pipe_full #(
     assign ev_inv[92] = fl_pt0_add155[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add155;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add155 (.clk(clk), .d(pt0_add155), .q(dl_pt0_add155));
+        u_dl_pt0_add155 (.clk(clk), .d(pt0_add155), .valid(1'b0), .q(dl_pt0_add155));
     // pt0_vA_x = pt0_skip ? vA_x : pt0_add153   (ready @53/53/53)
     logic [W-1:0] pt0_vA_x;
     assign pt0_vA_x = dl_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_pt0_add153;
     logic [3*W-1:0] dl_pt0_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vA_x (.clk(clk), .d(pt0_vA_x), .q(dl_pt0_vA_x));
+        u_dl_pt0_vA_x (.clk(clk), .d(pt0_vA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_x));
     // pt0_vA_y = pt0_skip ? vA_y : pt0_add154   (ready @53/53/53)
     logic [W-1:0] pt0_vA_y;
     assign pt0_vA_y = dl_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_pt0_add154;
     logic [3*W-1:0] dl_pt0_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vA_y (.clk(clk), .d(pt0_vA_y), .q(dl_pt0_vA_y));
+        u_dl_pt0_vA_y (.clk(clk), .d(pt0_vA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_y));
     // pt0_vA_z = pt0_skip ? vA_z : pt0_add155   (ready @53/53/53)
     logic [W-1:0] pt0_vA_z;
     assign pt0_vA_z = dl_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_pt0_add155;
     logic [3*W-1:0] dl_pt0_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vA_z (.clk(clk), .d(pt0_vA_z), .q(dl_pt0_vA_z));
+        u_dl_pt0_vA_z (.clk(clk), .d(pt0_vA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_z));
     // pt0_mul159 = pt0_angA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul159;
     logic [2:0] fl_pt0_mul159;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul159 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_x), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angA_x), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[94]), .y(pt0_mul159), .flags(fl_pt0_mul159)
     );
     assign ev_ovf[93] = fl_pt0_mul159[0] && ev_q[49];
@@ -1655,12 +1662,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[93] = fl_pt0_mul159[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul159;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul159 (.clk(clk), .d(pt0_mul159), .q(dl_pt0_mul159));
+        u_dl_pt0_mul159 (.clk(clk), .d(pt0_mul159), .valid(1'b0), .q(dl_pt0_mul159));
     // pt0_mul160 = pt0_angA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul160;
     logic [2:0] fl_pt0_mul160;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul160 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_y), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angA_y), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[95]), .y(pt0_mul160), .flags(fl_pt0_mul160)
     );
     assign ev_ovf[94] = fl_pt0_mul160[0] && ev_q[49];
@@ -1668,12 +1675,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[94] = fl_pt0_mul160[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul160;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul160 (.clk(clk), .d(pt0_mul160), .q(dl_pt0_mul160));
+        u_dl_pt0_mul160 (.clk(clk), .d(pt0_mul160), .valid(1'b0), .q(dl_pt0_mul160));
     // pt0_mul161 = pt0_angA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul161;
     logic [2:0] fl_pt0_mul161;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul161 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_z), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angA_z), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[96]), .y(pt0_mul161), .flags(fl_pt0_mul161)
     );
     assign ev_ovf[95] = fl_pt0_mul161[0] && ev_q[49];
@@ -1681,12 +1688,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[95] = fl_pt0_mul161[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul161;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul161 (.clk(clk), .d(pt0_mul161), .q(dl_pt0_mul161));
+        u_dl_pt0_mul161 (.clk(clk), .d(pt0_mul161), .valid(1'b0), .q(dl_pt0_mul161));
     // pt0_add162 = wA_x + pt0_mul159   (ready @53/53/53)
     logic [W-1:0] pt0_add162;
     logic [2:0] fl_pt0_add162;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add162 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_x[1*W +: W]), .b(dl_pt0_mul159), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_pt0_mul159), .sub(1'b0),
         .out_valid(op_valid_nc[97]), .y(pt0_add162), .flags(fl_pt0_add162)
     );
     assign ev_ovf[96] = fl_pt0_add162[0] && ev_q[53];
@@ -1694,12 +1701,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[96] = fl_pt0_add162[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add162;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add162 (.clk(clk), .d(pt0_add162), .q(dl_pt0_add162));
+        u_dl_pt0_add162 (.clk(clk), .d(pt0_add162), .valid(1'b0), .q(dl_pt0_add162));
     // pt0_add163 = wA_y + pt0_mul160   (ready @53/53/53)
     logic [W-1:0] pt0_add163;
     logic [2:0] fl_pt0_add163;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add163 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_y[1*W +: W]), .b(dl_pt0_mul160), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_pt0_mul160), .sub(1'b0),
         .out_valid(op_valid_nc[98]), .y(pt0_add163), .flags(fl_pt0_add163)
     );
     assign ev_ovf[97] = fl_pt0_add163[0] && ev_q[53];
@@ -1707,12 +1714,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[97] = fl_pt0_add163[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add163;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add163 (.clk(clk), .d(pt0_add163), .q(dl_pt0_add163));
+        u_dl_pt0_add163 (.clk(clk), .d(pt0_add163), .valid(1'b0), .q(dl_pt0_add163));
     // pt0_add164 = wA_z + pt0_mul161   (ready @53/53/53)
     logic [W-1:0] pt0_add164;
     logic [2:0] fl_pt0_add164;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add164 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_z[1*W +: W]), .b(dl_pt0_mul161), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_pt0_mul161), .sub(1'b0),
         .out_valid(op_valid_nc[99]), .y(pt0_add164), .flags(fl_pt0_add164)
     );
     assign ev_ovf[98] = fl_pt0_add164[0] && ev_q[53];
@@ -1720,30 +1727,30 @@ module pgs_contact_pipe_full #(
     assign ev_inv[98] = fl_pt0_add164[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add164;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add164 (.clk(clk), .d(pt0_add164), .q(dl_pt0_add164));
+        u_dl_pt0_add164 (.clk(clk), .d(pt0_add164), .valid(1'b0), .q(dl_pt0_add164));
     // pt0_wA_x = pt0_skip ? wA_x : pt0_add162   (ready @53/53/53)
     logic [W-1:0] pt0_wA_x;
     assign pt0_wA_x = dl_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_pt0_add162;
     logic [3*W-1:0] dl_pt0_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wA_x (.clk(clk), .d(pt0_wA_x), .q(dl_pt0_wA_x));
+        u_dl_pt0_wA_x (.clk(clk), .d(pt0_wA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_x));
     // pt0_wA_y = pt0_skip ? wA_y : pt0_add163   (ready @53/53/53)
     logic [W-1:0] pt0_wA_y;
     assign pt0_wA_y = dl_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_pt0_add163;
     logic [3*W-1:0] dl_pt0_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wA_y (.clk(clk), .d(pt0_wA_y), .q(dl_pt0_wA_y));
+        u_dl_pt0_wA_y (.clk(clk), .d(pt0_wA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_y));
     // pt0_wA_z = pt0_skip ? wA_z : pt0_add164   (ready @53/53/53)
     logic [W-1:0] pt0_wA_z;
     assign pt0_wA_z = dl_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_pt0_add164;
     logic [3*W-1:0] dl_pt0_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wA_z (.clk(clk), .d(pt0_wA_z), .q(dl_pt0_wA_z));
+        u_dl_pt0_wA_z (.clk(clk), .d(pt0_wA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_z));
     // pt0_mul168 = linB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul168;
     logic [2:0] fl_pt0_mul168;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul168 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linB_x[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[100]), .y(pt0_mul168), .flags(fl_pt0_mul168)
     );
     assign ev_ovf[99] = fl_pt0_mul168[0] && ev_q[49];
@@ -1751,12 +1758,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[99] = fl_pt0_mul168[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul168;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul168 (.clk(clk), .d(pt0_mul168), .q(dl_pt0_mul168));
+        u_dl_pt0_mul168 (.clk(clk), .d(pt0_mul168), .valid(1'b0), .q(dl_pt0_mul168));
     // pt0_mul169 = linB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul169;
     logic [2:0] fl_pt0_mul169;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul169 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linB_y[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[101]), .y(pt0_mul169), .flags(fl_pt0_mul169)
     );
     assign ev_ovf[100] = fl_pt0_mul169[0] && ev_q[49];
@@ -1764,12 +1771,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[100] = fl_pt0_mul169[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul169;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul169 (.clk(clk), .d(pt0_mul169), .q(dl_pt0_mul169));
+        u_dl_pt0_mul169 (.clk(clk), .d(pt0_mul169), .valid(1'b0), .q(dl_pt0_mul169));
     // pt0_mul170 = linB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul170;
     logic [2:0] fl_pt0_mul170;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul170 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linB_z[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[102]), .y(pt0_mul170), .flags(fl_pt0_mul170)
     );
     assign ev_ovf[101] = fl_pt0_mul170[0] && ev_q[49];
@@ -1777,12 +1784,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[101] = fl_pt0_mul170[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul170;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul170 (.clk(clk), .d(pt0_mul170), .q(dl_pt0_mul170));
+        u_dl_pt0_mul170 (.clk(clk), .d(pt0_mul170), .valid(1'b0), .q(dl_pt0_mul170));
     // pt0_sub171 = vB_x - pt0_mul168   (ready @53/53/53)
     logic [W-1:0] pt0_sub171;
     logic [2:0] fl_pt0_sub171;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub171 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_x[1*W +: W]), .b(dl_pt0_mul168), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_pt0_mul168), .sub(1'b1),
         .out_valid(op_valid_nc[103]), .y(pt0_sub171), .flags(fl_pt0_sub171)
     );
     assign ev_ovf[102] = fl_pt0_sub171[0] && ev_q[53];
@@ -1790,12 +1797,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[102] = fl_pt0_sub171[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub171;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub171 (.clk(clk), .d(pt0_sub171), .q(dl_pt0_sub171));
+        u_dl_pt0_sub171 (.clk(clk), .d(pt0_sub171), .valid(1'b0), .q(dl_pt0_sub171));
     // pt0_sub172 = vB_y - pt0_mul169   (ready @53/53/53)
     logic [W-1:0] pt0_sub172;
     logic [2:0] fl_pt0_sub172;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub172 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_y[1*W +: W]), .b(dl_pt0_mul169), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_pt0_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[104]), .y(pt0_sub172), .flags(fl_pt0_sub172)
     );
     assign ev_ovf[103] = fl_pt0_sub172[0] && ev_q[53];
@@ -1803,12 +1810,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[103] = fl_pt0_sub172[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub172;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub172 (.clk(clk), .d(pt0_sub172), .q(dl_pt0_sub172));
+        u_dl_pt0_sub172 (.clk(clk), .d(pt0_sub172), .valid(1'b0), .q(dl_pt0_sub172));
     // pt0_sub173 = vB_z - pt0_mul170   (ready @53/53/53)
     logic [W-1:0] pt0_sub173;
     logic [2:0] fl_pt0_sub173;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub173 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_z[1*W +: W]), .b(dl_pt0_mul170), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_pt0_mul170), .sub(1'b1),
         .out_valid(op_valid_nc[105]), .y(pt0_sub173), .flags(fl_pt0_sub173)
     );
     assign ev_ovf[104] = fl_pt0_sub173[0] && ev_q[53];
@@ -1816,30 +1823,30 @@ module pgs_contact_pipe_full #(
     assign ev_inv[104] = fl_pt0_sub173[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub173;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub173 (.clk(clk), .d(pt0_sub173), .q(dl_pt0_sub173));
+        u_dl_pt0_sub173 (.clk(clk), .d(pt0_sub173), .valid(1'b0), .q(dl_pt0_sub173));
     // pt0_vB_x = pt0_skip ? vB_x : pt0_sub171   (ready @53/53/53)
     logic [W-1:0] pt0_vB_x;
     assign pt0_vB_x = dl_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_pt0_sub171;
     logic [3*W-1:0] dl_pt0_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vB_x (.clk(clk), .d(pt0_vB_x), .q(dl_pt0_vB_x));
+        u_dl_pt0_vB_x (.clk(clk), .d(pt0_vB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_x));
     // pt0_vB_y = pt0_skip ? vB_y : pt0_sub172   (ready @53/53/53)
     logic [W-1:0] pt0_vB_y;
     assign pt0_vB_y = dl_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_pt0_sub172;
     logic [3*W-1:0] dl_pt0_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vB_y (.clk(clk), .d(pt0_vB_y), .q(dl_pt0_vB_y));
+        u_dl_pt0_vB_y (.clk(clk), .d(pt0_vB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_y));
     // pt0_vB_z = pt0_skip ? vB_z : pt0_sub173   (ready @53/53/53)
     logic [W-1:0] pt0_vB_z;
     assign pt0_vB_z = dl_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_pt0_sub173;
     logic [3*W-1:0] dl_pt0_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vB_z (.clk(clk), .d(pt0_vB_z), .q(dl_pt0_vB_z));
+        u_dl_pt0_vB_z (.clk(clk), .d(pt0_vB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_z));
     // pt0_mul177 = pt0_angB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul177;
     logic [2:0] fl_pt0_mul177;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul177 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_x), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angB_x), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[106]), .y(pt0_mul177), .flags(fl_pt0_mul177)
     );
     assign ev_ovf[105] = fl_pt0_mul177[0] && ev_q[49];
@@ -1847,12 +1854,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[105] = fl_pt0_mul177[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul177;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul177 (.clk(clk), .d(pt0_mul177), .q(dl_pt0_mul177));
+        u_dl_pt0_mul177 (.clk(clk), .d(pt0_mul177), .valid(1'b0), .q(dl_pt0_mul177));
     // pt0_mul178 = pt0_angB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul178;
     logic [2:0] fl_pt0_mul178;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul178 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_y), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angB_y), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[107]), .y(pt0_mul178), .flags(fl_pt0_mul178)
     );
     assign ev_ovf[106] = fl_pt0_mul178[0] && ev_q[49];
@@ -1860,12 +1867,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[106] = fl_pt0_mul178[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul178;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul178 (.clk(clk), .d(pt0_mul178), .q(dl_pt0_mul178));
+        u_dl_pt0_mul178 (.clk(clk), .d(pt0_mul178), .valid(1'b0), .q(dl_pt0_mul178));
     // pt0_mul179 = pt0_angB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul179;
     logic [2:0] fl_pt0_mul179;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul179 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_z), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angB_z), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[108]), .y(pt0_mul179), .flags(fl_pt0_mul179)
     );
     assign ev_ovf[107] = fl_pt0_mul179[0] && ev_q[49];
@@ -1873,12 +1880,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[107] = fl_pt0_mul179[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul179;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul179 (.clk(clk), .d(pt0_mul179), .q(dl_pt0_mul179));
+        u_dl_pt0_mul179 (.clk(clk), .d(pt0_mul179), .valid(1'b0), .q(dl_pt0_mul179));
     // pt0_sub180 = wB_x - pt0_mul177   (ready @53/53/53)
     logic [W-1:0] pt0_sub180;
     logic [2:0] fl_pt0_sub180;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub180 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_x[1*W +: W]), .b(dl_pt0_mul177), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_pt0_mul177), .sub(1'b1),
         .out_valid(op_valid_nc[109]), .y(pt0_sub180), .flags(fl_pt0_sub180)
     );
     assign ev_ovf[108] = fl_pt0_sub180[0] && ev_q[53];
@@ -1886,12 +1893,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[108] = fl_pt0_sub180[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub180;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub180 (.clk(clk), .d(pt0_sub180), .q(dl_pt0_sub180));
+        u_dl_pt0_sub180 (.clk(clk), .d(pt0_sub180), .valid(1'b0), .q(dl_pt0_sub180));
     // pt0_sub181 = wB_y - pt0_mul178   (ready @53/53/53)
     logic [W-1:0] pt0_sub181;
     logic [2:0] fl_pt0_sub181;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub181 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_y[1*W +: W]), .b(dl_pt0_mul178), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_pt0_mul178), .sub(1'b1),
         .out_valid(op_valid_nc[110]), .y(pt0_sub181), .flags(fl_pt0_sub181)
     );
     assign ev_ovf[109] = fl_pt0_sub181[0] && ev_q[53];
@@ -1899,12 +1906,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[109] = fl_pt0_sub181[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub181;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub181 (.clk(clk), .d(pt0_sub181), .q(dl_pt0_sub181));
+        u_dl_pt0_sub181 (.clk(clk), .d(pt0_sub181), .valid(1'b0), .q(dl_pt0_sub181));
     // pt0_sub182 = wB_z - pt0_mul179   (ready @53/53/53)
     logic [W-1:0] pt0_sub182;
     logic [2:0] fl_pt0_sub182;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub182 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_z[1*W +: W]), .b(dl_pt0_mul179), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_pt0_mul179), .sub(1'b1),
         .out_valid(op_valid_nc[111]), .y(pt0_sub182), .flags(fl_pt0_sub182)
     );
     assign ev_ovf[110] = fl_pt0_sub182[0] && ev_q[53];
@@ -1912,36 +1919,36 @@ module pgs_contact_pipe_full #(
     assign ev_inv[110] = fl_pt0_sub182[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub182;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub182 (.clk(clk), .d(pt0_sub182), .q(dl_pt0_sub182));
+        u_dl_pt0_sub182 (.clk(clk), .d(pt0_sub182), .valid(1'b0), .q(dl_pt0_sub182));
     // pt0_wB_x = pt0_skip ? wB_x : pt0_sub180   (ready @53/53/53)
     logic [W-1:0] pt0_wB_x;
     assign pt0_wB_x = dl_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_pt0_sub180;
     logic [3*W-1:0] dl_pt0_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wB_x (.clk(clk), .d(pt0_wB_x), .q(dl_pt0_wB_x));
+        u_dl_pt0_wB_x (.clk(clk), .d(pt0_wB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_x));
     // pt0_wB_y = pt0_skip ? wB_y : pt0_sub181   (ready @53/53/53)
     logic [W-1:0] pt0_wB_y;
     assign pt0_wB_y = dl_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_pt0_sub181;
     logic [3*W-1:0] dl_pt0_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wB_y (.clk(clk), .d(pt0_wB_y), .q(dl_pt0_wB_y));
+        u_dl_pt0_wB_y (.clk(clk), .d(pt0_wB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_y));
     // pt0_wB_z = pt0_skip ? wB_z : pt0_sub182   (ready @53/53/53)
     logic [W-1:0] pt0_wB_z;
     assign pt0_wB_z = dl_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_pt0_sub182;
     logic [3*W-1:0] dl_pt0_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wB_z (.clk(clk), .d(pt0_wB_z), .q(dl_pt0_wB_z));
+        u_dl_pt0_wB_z (.clk(clk), .d(pt0_wB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_z));
     // pt1_skip = jac_inv1 == 0   (ready @0/0/0)
     logic pt1_skip;
     assign pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt1_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}))
-        u_dl_pt1_skip (.clk(clk), .d(pt1_skip), .q(dl_pt1_skip));
+        u_dl_pt1_skip (.clk(clk), .d(pt1_skip), .valid(valid_q[0 +: 95]), .q(dl_pt1_skip));
     // pt1_rA_x = p1_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt1_rA_x;
     logic [2:0] fl_pt1_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[112]), .y(pt1_rA_x), .flags(fl_pt1_rA_x)
     );
     assign ev_ovf[111] = fl_pt1_rA_x[0] && ev_q[4];
@@ -1949,12 +1956,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[111] = fl_pt1_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rA_x (.clk(clk), .d(pt1_rA_x), .q(dl_pt1_rA_x));
+        u_dl_pt1_rA_x (.clk(clk), .d(pt1_rA_x), .valid(1'b0), .q(dl_pt1_rA_x));
     // pt1_rA_y = p1_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt1_rA_y;
     logic [2:0] fl_pt1_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[113]), .y(pt1_rA_y), .flags(fl_pt1_rA_y)
     );
     assign ev_ovf[112] = fl_pt1_rA_y[0] && ev_q[4];
@@ -1962,12 +1969,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[112] = fl_pt1_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rA_y (.clk(clk), .d(pt1_rA_y), .q(dl_pt1_rA_y));
+        u_dl_pt1_rA_y (.clk(clk), .d(pt1_rA_y), .valid(1'b0), .q(dl_pt1_rA_y));
     // pt1_rA_z = p1_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt1_rA_z;
     logic [2:0] fl_pt1_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[114]), .y(pt1_rA_z), .flags(fl_pt1_rA_z)
     );
     assign ev_ovf[113] = fl_pt1_rA_z[0] && ev_q[4];
@@ -1975,12 +1982,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[113] = fl_pt1_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rA_z (.clk(clk), .d(pt1_rA_z), .q(dl_pt1_rA_z));
+        u_dl_pt1_rA_z (.clk(clk), .d(pt1_rA_z), .valid(1'b0), .q(dl_pt1_rA_z));
     // pt1_mul190 = pt1_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul190;
     logic [2:0] fl_pt1_mul190;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul190 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[115]), .y(pt1_mul190), .flags(fl_pt1_mul190)
     );
     assign ev_ovf[114] = fl_pt1_mul190[0] && ev_q[7];
@@ -1988,12 +1995,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[114] = fl_pt1_mul190[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul190;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul190 (.clk(clk), .d(pt1_mul190), .q(dl_pt1_mul190));
+        u_dl_pt1_mul190 (.clk(clk), .d(pt1_mul190), .valid(1'b0), .q(dl_pt1_mul190));
     // pt1_mul191 = pt1_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul191;
     logic [2:0] fl_pt1_mul191;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul191 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[116]), .y(pt1_mul191), .flags(fl_pt1_mul191)
     );
     assign ev_ovf[115] = fl_pt1_mul191[0] && ev_q[7];
@@ -2001,12 +2008,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[115] = fl_pt1_mul191[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul191;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul191 (.clk(clk), .d(pt1_mul191), .q(dl_pt1_mul191));
+        u_dl_pt1_mul191 (.clk(clk), .d(pt1_mul191), .valid(1'b0), .q(dl_pt1_mul191));
     // pt1_cA_x = pt1_mul190 - pt1_mul191   (ready @11/11/11)
     logic [W-1:0] pt1_cA_x;
     logic [2:0] fl_pt1_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul190), .b(dl_pt1_mul191), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul190), .b(dl_pt1_mul191), .sub(1'b1),
         .out_valid(op_valid_nc[117]), .y(pt1_cA_x), .flags(fl_pt1_cA_x)
     );
     assign ev_ovf[116] = fl_pt1_cA_x[0] && ev_q[11];
@@ -2014,12 +2021,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[116] = fl_pt1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cA_x (.clk(clk), .d(pt1_cA_x), .q(dl_pt1_cA_x));
+        u_dl_pt1_cA_x (.clk(clk), .d(pt1_cA_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_x));
     // pt1_mul193 = pt1_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul193;
     logic [2:0] fl_pt1_mul193;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul193 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[118]), .y(pt1_mul193), .flags(fl_pt1_mul193)
     );
     assign ev_ovf[117] = fl_pt1_mul193[0] && ev_q[7];
@@ -2027,12 +2034,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[117] = fl_pt1_mul193[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul193;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul193 (.clk(clk), .d(pt1_mul193), .q(dl_pt1_mul193));
+        u_dl_pt1_mul193 (.clk(clk), .d(pt1_mul193), .valid(1'b0), .q(dl_pt1_mul193));
     // pt1_mul194 = pt1_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul194;
     logic [2:0] fl_pt1_mul194;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul194 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[119]), .y(pt1_mul194), .flags(fl_pt1_mul194)
     );
     assign ev_ovf[118] = fl_pt1_mul194[0] && ev_q[7];
@@ -2040,12 +2047,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[118] = fl_pt1_mul194[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul194;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul194 (.clk(clk), .d(pt1_mul194), .q(dl_pt1_mul194));
+        u_dl_pt1_mul194 (.clk(clk), .d(pt1_mul194), .valid(1'b0), .q(dl_pt1_mul194));
     // pt1_cA_y = pt1_mul193 - pt1_mul194   (ready @11/11/11)
     logic [W-1:0] pt1_cA_y;
     logic [2:0] fl_pt1_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul193), .b(dl_pt1_mul194), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul193), .b(dl_pt1_mul194), .sub(1'b1),
         .out_valid(op_valid_nc[120]), .y(pt1_cA_y), .flags(fl_pt1_cA_y)
     );
     assign ev_ovf[119] = fl_pt1_cA_y[0] && ev_q[11];
@@ -2053,12 +2060,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[119] = fl_pt1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cA_y (.clk(clk), .d(pt1_cA_y), .q(dl_pt1_cA_y));
+        u_dl_pt1_cA_y (.clk(clk), .d(pt1_cA_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_y));
     // pt1_mul196 = pt1_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul196;
     logic [2:0] fl_pt1_mul196;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul196 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[121]), .y(pt1_mul196), .flags(fl_pt1_mul196)
     );
     assign ev_ovf[120] = fl_pt1_mul196[0] && ev_q[7];
@@ -2066,12 +2073,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[120] = fl_pt1_mul196[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul196;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul196 (.clk(clk), .d(pt1_mul196), .q(dl_pt1_mul196));
+        u_dl_pt1_mul196 (.clk(clk), .d(pt1_mul196), .valid(1'b0), .q(dl_pt1_mul196));
     // pt1_mul197 = pt1_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul197;
     logic [2:0] fl_pt1_mul197;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul197 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[122]), .y(pt1_mul197), .flags(fl_pt1_mul197)
     );
     assign ev_ovf[121] = fl_pt1_mul197[0] && ev_q[7];
@@ -2079,12 +2086,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[121] = fl_pt1_mul197[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul197;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul197 (.clk(clk), .d(pt1_mul197), .q(dl_pt1_mul197));
+        u_dl_pt1_mul197 (.clk(clk), .d(pt1_mul197), .valid(1'b0), .q(dl_pt1_mul197));
     // pt1_cA_z = pt1_mul196 - pt1_mul197   (ready @11/11/11)
     logic [W-1:0] pt1_cA_z;
     logic [2:0] fl_pt1_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul196), .b(dl_pt1_mul197), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul196), .b(dl_pt1_mul197), .sub(1'b1),
         .out_valid(op_valid_nc[123]), .y(pt1_cA_z), .flags(fl_pt1_cA_z)
     );
     assign ev_ovf[122] = fl_pt1_cA_z[0] && ev_q[11];
@@ -2092,12 +2099,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[122] = fl_pt1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cA_z (.clk(clk), .d(pt1_cA_z), .q(dl_pt1_cA_z));
+        u_dl_pt1_cA_z (.clk(clk), .d(pt1_cA_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_z));
     // pt1_rB_x = p1_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt1_rB_x;
     logic [2:0] fl_pt1_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[124]), .y(pt1_rB_x), .flags(fl_pt1_rB_x)
     );
     assign ev_ovf[123] = fl_pt1_rB_x[0] && ev_q[4];
@@ -2105,12 +2112,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[123] = fl_pt1_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rB_x (.clk(clk), .d(pt1_rB_x), .q(dl_pt1_rB_x));
+        u_dl_pt1_rB_x (.clk(clk), .d(pt1_rB_x), .valid(1'b0), .q(dl_pt1_rB_x));
     // pt1_rB_y = p1_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt1_rB_y;
     logic [2:0] fl_pt1_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[125]), .y(pt1_rB_y), .flags(fl_pt1_rB_y)
     );
     assign ev_ovf[124] = fl_pt1_rB_y[0] && ev_q[4];
@@ -2118,12 +2125,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[124] = fl_pt1_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rB_y (.clk(clk), .d(pt1_rB_y), .q(dl_pt1_rB_y));
+        u_dl_pt1_rB_y (.clk(clk), .d(pt1_rB_y), .valid(1'b0), .q(dl_pt1_rB_y));
     // pt1_rB_z = p1_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt1_rB_z;
     logic [2:0] fl_pt1_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[126]), .y(pt1_rB_z), .flags(fl_pt1_rB_z)
     );
     assign ev_ovf[125] = fl_pt1_rB_z[0] && ev_q[4];
@@ -2131,12 +2138,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[125] = fl_pt1_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rB_z (.clk(clk), .d(pt1_rB_z), .q(dl_pt1_rB_z));
+        u_dl_pt1_rB_z (.clk(clk), .d(pt1_rB_z), .valid(1'b0), .q(dl_pt1_rB_z));
     // pt1_mul202 = pt1_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul202;
     logic [2:0] fl_pt1_mul202;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul202 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[127]), .y(pt1_mul202), .flags(fl_pt1_mul202)
     );
     assign ev_ovf[126] = fl_pt1_mul202[0] && ev_q[7];
@@ -2144,12 +2151,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[126] = fl_pt1_mul202[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul202;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul202 (.clk(clk), .d(pt1_mul202), .q(dl_pt1_mul202));
+        u_dl_pt1_mul202 (.clk(clk), .d(pt1_mul202), .valid(1'b0), .q(dl_pt1_mul202));
     // pt1_mul203 = pt1_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul203;
     logic [2:0] fl_pt1_mul203;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul203 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[128]), .y(pt1_mul203), .flags(fl_pt1_mul203)
     );
     assign ev_ovf[127] = fl_pt1_mul203[0] && ev_q[7];
@@ -2157,12 +2164,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[127] = fl_pt1_mul203[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul203;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul203 (.clk(clk), .d(pt1_mul203), .q(dl_pt1_mul203));
+        u_dl_pt1_mul203 (.clk(clk), .d(pt1_mul203), .valid(1'b0), .q(dl_pt1_mul203));
     // pt1_cB_x = pt1_mul202 - pt1_mul203   (ready @11/11/11)
     logic [W-1:0] pt1_cB_x;
     logic [2:0] fl_pt1_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul202), .b(dl_pt1_mul203), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul202), .b(dl_pt1_mul203), .sub(1'b1),
         .out_valid(op_valid_nc[129]), .y(pt1_cB_x), .flags(fl_pt1_cB_x)
     );
     assign ev_ovf[128] = fl_pt1_cB_x[0] && ev_q[11];
@@ -2170,12 +2177,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[128] = fl_pt1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cB_x (.clk(clk), .d(pt1_cB_x), .q(dl_pt1_cB_x));
+        u_dl_pt1_cB_x (.clk(clk), .d(pt1_cB_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_x));
     // pt1_mul205 = pt1_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul205;
     logic [2:0] fl_pt1_mul205;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul205 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[130]), .y(pt1_mul205), .flags(fl_pt1_mul205)
     );
     assign ev_ovf[129] = fl_pt1_mul205[0] && ev_q[7];
@@ -2183,12 +2190,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[129] = fl_pt1_mul205[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul205;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul205 (.clk(clk), .d(pt1_mul205), .q(dl_pt1_mul205));
+        u_dl_pt1_mul205 (.clk(clk), .d(pt1_mul205), .valid(1'b0), .q(dl_pt1_mul205));
     // pt1_mul206 = pt1_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul206;
     logic [2:0] fl_pt1_mul206;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul206 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[131]), .y(pt1_mul206), .flags(fl_pt1_mul206)
     );
     assign ev_ovf[130] = fl_pt1_mul206[0] && ev_q[7];
@@ -2196,12 +2203,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[130] = fl_pt1_mul206[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul206;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul206 (.clk(clk), .d(pt1_mul206), .q(dl_pt1_mul206));
+        u_dl_pt1_mul206 (.clk(clk), .d(pt1_mul206), .valid(1'b0), .q(dl_pt1_mul206));
     // pt1_cB_y = pt1_mul205 - pt1_mul206   (ready @11/11/11)
     logic [W-1:0] pt1_cB_y;
     logic [2:0] fl_pt1_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul205), .b(dl_pt1_mul206), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul205), .b(dl_pt1_mul206), .sub(1'b1),
         .out_valid(op_valid_nc[132]), .y(pt1_cB_y), .flags(fl_pt1_cB_y)
     );
     assign ev_ovf[131] = fl_pt1_cB_y[0] && ev_q[11];
@@ -2209,12 +2216,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[131] = fl_pt1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cB_y (.clk(clk), .d(pt1_cB_y), .q(dl_pt1_cB_y));
+        u_dl_pt1_cB_y (.clk(clk), .d(pt1_cB_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_y));
     // pt1_mul208 = pt1_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul208;
     logic [2:0] fl_pt1_mul208;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul208 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[133]), .y(pt1_mul208), .flags(fl_pt1_mul208)
     );
     assign ev_ovf[132] = fl_pt1_mul208[0] && ev_q[7];
@@ -2222,12 +2229,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[132] = fl_pt1_mul208[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul208;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul208 (.clk(clk), .d(pt1_mul208), .q(dl_pt1_mul208));
+        u_dl_pt1_mul208 (.clk(clk), .d(pt1_mul208), .valid(1'b0), .q(dl_pt1_mul208));
     // pt1_mul209 = pt1_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul209;
     logic [2:0] fl_pt1_mul209;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul209 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[134]), .y(pt1_mul209), .flags(fl_pt1_mul209)
     );
     assign ev_ovf[133] = fl_pt1_mul209[0] && ev_q[7];
@@ -2235,12 +2242,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[133] = fl_pt1_mul209[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul209;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul209 (.clk(clk), .d(pt1_mul209), .q(dl_pt1_mul209));
+        u_dl_pt1_mul209 (.clk(clk), .d(pt1_mul209), .valid(1'b0), .q(dl_pt1_mul209));
     // pt1_cB_z = pt1_mul208 - pt1_mul209   (ready @11/11/11)
     logic [W-1:0] pt1_cB_z;
     logic [2:0] fl_pt1_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul208), .b(dl_pt1_mul209), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul208), .b(dl_pt1_mul209), .sub(1'b1),
         .out_valid(op_valid_nc[135]), .y(pt1_cB_z), .flags(fl_pt1_cB_z)
     );
     assign ev_ovf[134] = fl_pt1_cB_z[0] && ev_q[11];
@@ -2248,12 +2255,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[134] = fl_pt1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cB_z (.clk(clk), .d(pt1_cB_z), .q(dl_pt1_cB_z));
+        u_dl_pt1_cB_z (.clk(clk), .d(pt1_cB_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_z));
     // pt1_mul211 = n_x * pt0_vA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul211;
     logic [2:0] fl_pt1_mul211;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul211 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[136]), .y(pt1_mul211), .flags(fl_pt1_mul211)
     );
     assign ev_ovf[135] = fl_pt1_mul211[0] && ev_q[56];
@@ -2261,12 +2268,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[135] = fl_pt1_mul211[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul211;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul211 (.clk(clk), .d(pt1_mul211), .q(dl_pt1_mul211));
+        u_dl_pt1_mul211 (.clk(clk), .d(pt1_mul211), .valid(1'b0), .q(dl_pt1_mul211));
     // pt1_mul212 = n_y * pt0_vA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul212;
     logic [2:0] fl_pt1_mul212;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul212 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[137]), .y(pt1_mul212), .flags(fl_pt1_mul212)
     );
     assign ev_ovf[136] = fl_pt1_mul212[0] && ev_q[56];
@@ -2274,12 +2281,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[136] = fl_pt1_mul212[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul212;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul212 (.clk(clk), .d(pt1_mul212), .q(dl_pt1_mul212));
+        u_dl_pt1_mul212 (.clk(clk), .d(pt1_mul212), .valid(1'b0), .q(dl_pt1_mul212));
     // pt1_add213 = pt1_mul211 + pt1_mul212   (ready @60/60/60)
     logic [W-1:0] pt1_add213;
     logic [2:0] fl_pt1_add213;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add213 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul211), .b(dl_pt1_mul212), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul211), .b(dl_pt1_mul212), .sub(1'b0),
         .out_valid(op_valid_nc[138]), .y(pt1_add213), .flags(fl_pt1_add213)
     );
     assign ev_ovf[137] = fl_pt1_add213[0] && ev_q[60];
@@ -2287,12 +2294,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[137] = fl_pt1_add213[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add213;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add213 (.clk(clk), .d(pt1_add213), .q(dl_pt1_add213));
+        u_dl_pt1_add213 (.clk(clk), .d(pt1_add213), .valid(1'b0), .q(dl_pt1_add213));
     // pt1_mul214 = n_z * pt0_vA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul214;
     logic [2:0] fl_pt1_mul214;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul214 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[139]), .y(pt1_mul214), .flags(fl_pt1_mul214)
     );
     assign ev_ovf[138] = fl_pt1_mul214[0] && ev_q[56];
@@ -2300,12 +2307,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[138] = fl_pt1_mul214[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul214;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul214 (.clk(clk), .d(pt1_mul214), .q(dl_pt1_mul214));
+        u_dl_pt1_mul214 (.clk(clk), .d(pt1_mul214), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul214));
     // pt1_add215 = pt1_add213 + pt1_mul214   (ready @64/64/64)
     logic [W-1:0] pt1_add215;
     logic [2:0] fl_pt1_add215;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add215 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add213), .b(dl_pt1_mul214), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add213), .b(dl_pt1_mul214), .sub(1'b0),
         .out_valid(op_valid_nc[140]), .y(pt1_add215), .flags(fl_pt1_add215)
     );
     assign ev_ovf[139] = fl_pt1_add215[0] && ev_q[64];
@@ -2313,12 +2320,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[139] = fl_pt1_add215[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add215;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add215 (.clk(clk), .d(pt1_add215), .q(dl_pt1_add215));
+        u_dl_pt1_add215 (.clk(clk), .d(pt1_add215), .valid(1'b0), .q(dl_pt1_add215));
     // pt1_mul216 = n_x * pt0_vB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul216;
     logic [2:0] fl_pt1_mul216;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul216 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[141]), .y(pt1_mul216), .flags(fl_pt1_mul216)
     );
     assign ev_ovf[140] = fl_pt1_mul216[0] && ev_q[56];
@@ -2326,12 +2333,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[140] = fl_pt1_mul216[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul216;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul216 (.clk(clk), .d(pt1_mul216), .q(dl_pt1_mul216));
+        u_dl_pt1_mul216 (.clk(clk), .d(pt1_mul216), .valid(1'b0), .q(dl_pt1_mul216));
     // pt1_mul217 = n_y * pt0_vB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul217;
     logic [2:0] fl_pt1_mul217;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul217 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[142]), .y(pt1_mul217), .flags(fl_pt1_mul217)
     );
     assign ev_ovf[141] = fl_pt1_mul217[0] && ev_q[56];
@@ -2339,12 +2346,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[141] = fl_pt1_mul217[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul217;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul217 (.clk(clk), .d(pt1_mul217), .q(dl_pt1_mul217));
+        u_dl_pt1_mul217 (.clk(clk), .d(pt1_mul217), .valid(1'b0), .q(dl_pt1_mul217));
     // pt1_add218 = pt1_mul216 + pt1_mul217   (ready @60/60/60)
     logic [W-1:0] pt1_add218;
     logic [2:0] fl_pt1_add218;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add218 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul216), .b(dl_pt1_mul217), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul216), .b(dl_pt1_mul217), .sub(1'b0),
         .out_valid(op_valid_nc[143]), .y(pt1_add218), .flags(fl_pt1_add218)
     );
     assign ev_ovf[142] = fl_pt1_add218[0] && ev_q[60];
@@ -2352,12 +2359,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[142] = fl_pt1_add218[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add218;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add218 (.clk(clk), .d(pt1_add218), .q(dl_pt1_add218));
+        u_dl_pt1_add218 (.clk(clk), .d(pt1_add218), .valid(1'b0), .q(dl_pt1_add218));
     // pt1_mul219 = n_z * pt0_vB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul219;
     logic [2:0] fl_pt1_mul219;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul219 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[144]), .y(pt1_mul219), .flags(fl_pt1_mul219)
     );
     assign ev_ovf[143] = fl_pt1_mul219[0] && ev_q[56];
@@ -2365,12 +2372,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[143] = fl_pt1_mul219[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul219;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul219 (.clk(clk), .d(pt1_mul219), .q(dl_pt1_mul219));
+        u_dl_pt1_mul219 (.clk(clk), .d(pt1_mul219), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul219));
     // pt1_add220 = pt1_add218 + pt1_mul219   (ready @64/64/64)
     logic [W-1:0] pt1_add220;
     logic [2:0] fl_pt1_add220;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add220 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add218), .b(dl_pt1_mul219), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add218), .b(dl_pt1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[145]), .y(pt1_add220), .flags(fl_pt1_add220)
     );
     assign ev_ovf[144] = fl_pt1_add220[0] && ev_q[64];
@@ -2378,12 +2385,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[144] = fl_pt1_add220[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add220;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add220 (.clk(clk), .d(pt1_add220), .q(dl_pt1_add220));
+        u_dl_pt1_add220 (.clk(clk), .d(pt1_add220), .valid(1'b0), .q(dl_pt1_add220));
     // pt1_sub221 = pt1_add215 - pt1_add220   (ready @68/68/68)
     logic [W-1:0] pt1_sub221;
     logic [2:0] fl_pt1_sub221;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub221 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add215), .b(dl_pt1_add220), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add215), .b(dl_pt1_add220), .sub(1'b1),
         .out_valid(op_valid_nc[146]), .y(pt1_sub221), .flags(fl_pt1_sub221)
     );
     assign ev_ovf[145] = fl_pt1_sub221[0] && ev_q[68];
@@ -2391,12 +2398,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[145] = fl_pt1_sub221[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub221;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub221 (.clk(clk), .d(pt1_sub221), .q(dl_pt1_sub221));
+        u_dl_pt1_sub221 (.clk(clk), .d(pt1_sub221), .valid(1'b0), .q(dl_pt1_sub221));
     // pt1_mul222 = pt1_cA_x * pt0_wA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul222;
     logic [2:0] fl_pt1_mul222;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul222 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_x[0*W +: W]), .b(dl_pt0_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cA_x[0*W +: W]), .b(dl_pt0_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[147]), .y(pt1_mul222), .flags(fl_pt1_mul222)
     );
     assign ev_ovf[146] = fl_pt1_mul222[0] && ev_q[56];
@@ -2404,12 +2411,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[146] = fl_pt1_mul222[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul222;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul222 (.clk(clk), .d(pt1_mul222), .q(dl_pt1_mul222));
+        u_dl_pt1_mul222 (.clk(clk), .d(pt1_mul222), .valid(1'b0), .q(dl_pt1_mul222));
     // pt1_mul223 = pt1_cA_y * pt0_wA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul223;
     logic [2:0] fl_pt1_mul223;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul223 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_y[0*W +: W]), .b(dl_pt0_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cA_y[0*W +: W]), .b(dl_pt0_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[148]), .y(pt1_mul223), .flags(fl_pt1_mul223)
     );
     assign ev_ovf[147] = fl_pt1_mul223[0] && ev_q[56];
@@ -2417,12 +2424,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[147] = fl_pt1_mul223[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul223;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul223 (.clk(clk), .d(pt1_mul223), .q(dl_pt1_mul223));
+        u_dl_pt1_mul223 (.clk(clk), .d(pt1_mul223), .valid(1'b0), .q(dl_pt1_mul223));
     // pt1_add224 = pt1_mul222 + pt1_mul223   (ready @60/60/60)
     logic [W-1:0] pt1_add224;
     logic [2:0] fl_pt1_add224;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add224 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul222), .b(dl_pt1_mul223), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul222), .b(dl_pt1_mul223), .sub(1'b0),
         .out_valid(op_valid_nc[149]), .y(pt1_add224), .flags(fl_pt1_add224)
     );
     assign ev_ovf[148] = fl_pt1_add224[0] && ev_q[60];
@@ -2430,12 +2437,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[148] = fl_pt1_add224[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add224;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add224 (.clk(clk), .d(pt1_add224), .q(dl_pt1_add224));
+        u_dl_pt1_add224 (.clk(clk), .d(pt1_add224), .valid(1'b0), .q(dl_pt1_add224));
     // pt1_mul225 = pt1_cA_z * pt0_wA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul225;
     logic [2:0] fl_pt1_mul225;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul225 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_z[0*W +: W]), .b(dl_pt0_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cA_z[0*W +: W]), .b(dl_pt0_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[150]), .y(pt1_mul225), .flags(fl_pt1_mul225)
     );
     assign ev_ovf[149] = fl_pt1_mul225[0] && ev_q[56];
@@ -2443,12 +2450,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[149] = fl_pt1_mul225[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul225;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul225 (.clk(clk), .d(pt1_mul225), .q(dl_pt1_mul225));
+        u_dl_pt1_mul225 (.clk(clk), .d(pt1_mul225), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul225));
     // pt1_add226 = pt1_add224 + pt1_mul225   (ready @64/64/64)
     logic [W-1:0] pt1_add226;
     logic [2:0] fl_pt1_add226;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add226 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add224), .b(dl_pt1_mul225), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add224), .b(dl_pt1_mul225), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(pt1_add226), .flags(fl_pt1_add226)
     );
     assign ev_ovf[150] = fl_pt1_add226[0] && ev_q[64];
@@ -2456,12 +2463,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[150] = fl_pt1_add226[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add226;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add226 (.clk(clk), .d(pt1_add226), .q(dl_pt1_add226));
+        u_dl_pt1_add226 (.clk(clk), .d(pt1_add226), .valid(1'b0), .q(dl_pt1_add226));
     // pt1_mul227 = pt1_cB_x * pt0_wB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul227;
     logic [2:0] fl_pt1_mul227;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul227 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_x[0*W +: W]), .b(dl_pt0_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cB_x[0*W +: W]), .b(dl_pt0_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[152]), .y(pt1_mul227), .flags(fl_pt1_mul227)
     );
     assign ev_ovf[151] = fl_pt1_mul227[0] && ev_q[56];
@@ -2469,12 +2476,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[151] = fl_pt1_mul227[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul227;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul227 (.clk(clk), .d(pt1_mul227), .q(dl_pt1_mul227));
+        u_dl_pt1_mul227 (.clk(clk), .d(pt1_mul227), .valid(1'b0), .q(dl_pt1_mul227));
     // pt1_mul228 = pt1_cB_y * pt0_wB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul228;
     logic [2:0] fl_pt1_mul228;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul228 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_y[0*W +: W]), .b(dl_pt0_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cB_y[0*W +: W]), .b(dl_pt0_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[153]), .y(pt1_mul228), .flags(fl_pt1_mul228)
     );
     assign ev_ovf[152] = fl_pt1_mul228[0] && ev_q[56];
@@ -2482,12 +2489,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[152] = fl_pt1_mul228[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul228;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul228 (.clk(clk), .d(pt1_mul228), .q(dl_pt1_mul228));
+        u_dl_pt1_mul228 (.clk(clk), .d(pt1_mul228), .valid(1'b0), .q(dl_pt1_mul228));
     // pt1_add229 = pt1_mul227 + pt1_mul228   (ready @60/60/60)
     logic [W-1:0] pt1_add229;
     logic [2:0] fl_pt1_add229;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add229 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul227), .b(dl_pt1_mul228), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul227), .b(dl_pt1_mul228), .sub(1'b0),
         .out_valid(op_valid_nc[154]), .y(pt1_add229), .flags(fl_pt1_add229)
     );
     assign ev_ovf[153] = fl_pt1_add229[0] && ev_q[60];
@@ -2495,12 +2502,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[153] = fl_pt1_add229[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add229;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add229 (.clk(clk), .d(pt1_add229), .q(dl_pt1_add229));
+        u_dl_pt1_add229 (.clk(clk), .d(pt1_add229), .valid(1'b0), .q(dl_pt1_add229));
     // pt1_mul230 = pt1_cB_z * pt0_wB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul230;
     logic [2:0] fl_pt1_mul230;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul230 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_z[0*W +: W]), .b(dl_pt0_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cB_z[0*W +: W]), .b(dl_pt0_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[155]), .y(pt1_mul230), .flags(fl_pt1_mul230)
     );
     assign ev_ovf[154] = fl_pt1_mul230[0] && ev_q[56];
@@ -2508,12 +2515,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[154] = fl_pt1_mul230[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul230;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul230 (.clk(clk), .d(pt1_mul230), .q(dl_pt1_mul230));
+        u_dl_pt1_mul230 (.clk(clk), .d(pt1_mul230), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul230));
     // pt1_add231 = pt1_add229 + pt1_mul230   (ready @64/64/64)
     logic [W-1:0] pt1_add231;
     logic [2:0] fl_pt1_add231;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add231 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add229), .b(dl_pt1_mul230), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add229), .b(dl_pt1_mul230), .sub(1'b0),
         .out_valid(op_valid_nc[156]), .y(pt1_add231), .flags(fl_pt1_add231)
     );
     assign ev_ovf[155] = fl_pt1_add231[0] && ev_q[64];
@@ -2521,12 +2528,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[155] = fl_pt1_add231[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add231;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add231 (.clk(clk), .d(pt1_add231), .q(dl_pt1_add231));
+        u_dl_pt1_add231 (.clk(clk), .d(pt1_add231), .valid(1'b0), .q(dl_pt1_add231));
     // pt1_sub232 = pt1_add226 - pt1_add231   (ready @68/68/68)
     logic [W-1:0] pt1_sub232;
     logic [2:0] fl_pt1_sub232;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub232 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add226), .b(dl_pt1_add231), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add226), .b(dl_pt1_add231), .sub(1'b1),
         .out_valid(op_valid_nc[157]), .y(pt1_sub232), .flags(fl_pt1_sub232)
     );
     assign ev_ovf[156] = fl_pt1_sub232[0] && ev_q[68];
@@ -2534,12 +2541,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[156] = fl_pt1_sub232[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub232;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub232 (.clk(clk), .d(pt1_sub232), .q(dl_pt1_sub232));
+        u_dl_pt1_sub232 (.clk(clk), .d(pt1_sub232), .valid(1'b0), .q(dl_pt1_sub232));
     // pt1_vrel = pt1_sub221 + pt1_sub232   (ready @72/72/72)
     logic [W-1:0] pt1_vrel;
     logic [2:0] fl_pt1_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_sub221), .b(dl_pt1_sub232), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[68]), .a(dl_pt1_sub221), .b(dl_pt1_sub232), .sub(1'b0),
         .out_valid(op_valid_nc[158]), .y(pt1_vrel), .flags(fl_pt1_vrel)
     );
     assign ev_ovf[157] = fl_pt1_vrel[0] && ev_q[72];
@@ -2547,12 +2554,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[157] = fl_pt1_vrel[2] && ev_q[72];
     logic [W-1:0] dl_pt1_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_vrel (.clk(clk), .d(pt1_vrel), .q(dl_pt1_vrel));
+        u_dl_pt1_vrel (.clk(clk), .d(pt1_vrel), .valid(1'b0), .q(dl_pt1_vrel));
     // pt1_add234 = pt1_vrel + b1   (ready @76/76/76)
     logic [W-1:0] pt1_add234;
     logic [2:0] fl_pt1_add234;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add234 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vrel), .b(dl_in_b1), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_pt1_vrel), .b(dl_in_b1), .sub(1'b0),
         .out_valid(op_valid_nc[159]), .y(pt1_add234), .flags(fl_pt1_add234)
     );
     assign ev_ovf[158] = fl_pt1_add234[0] && ev_q[76];
@@ -2560,12 +2567,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[158] = fl_pt1_add234[2] && ev_q[76];
     logic [W-1:0] dl_pt1_add234;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add234 (.clk(clk), .d(pt1_add234), .q(dl_pt1_add234));
+        u_dl_pt1_add234 (.clk(clk), .d(pt1_add234), .valid(1'b0), .q(dl_pt1_add234));
     // pt1_delta0 = pt1_add234 * jac_inv1   (ready @79/79/79)
     logic [W-1:0] pt1_delta0;
     logic [2:0] fl_pt1_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add234), .b(dl_in_jac_inv1[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[76]), .a(dl_pt1_add234), .b(dl_in_jac_inv1[1*W +: W]),
         .out_valid(op_valid_nc[160]), .y(pt1_delta0), .flags(fl_pt1_delta0)
     );
     assign ev_ovf[159] = fl_pt1_delta0[0] && ev_q[79];
@@ -2573,12 +2580,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[159] = fl_pt1_delta0[2] && ev_q[79];
     logic [W-1:0] dl_pt1_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_delta0 (.clk(clk), .d(pt1_delta0), .q(dl_pt1_delta0));
+        u_dl_pt1_delta0 (.clk(clk), .d(pt1_delta0), .valid(1'b0), .q(dl_pt1_delta0));
     // pt1_add236 = lam1 + pt1_delta0   (ready @83/83/83)
     logic [W-1:0] pt1_add236;
     logic [2:0] fl_pt1_add236;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add236 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam1[0*W +: W]), .b(dl_pt1_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[79]), .a(dl_in_lam1[0*W +: W]), .b(dl_pt1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[161]), .y(pt1_add236), .flags(fl_pt1_add236)
     );
     assign ev_ovf[160] = fl_pt1_add236[0] && ev_q[83];
@@ -2586,22 +2593,22 @@ module pgs_contact_pipe_full #(
     assign ev_inv[160] = fl_pt1_add236[2] && ev_q[83];
     logic [W-1:0] dl_pt1_add236;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add236 (.clk(clk), .d(pt1_add236), .q(dl_pt1_add236));
+        u_dl_pt1_add236 (.clk(clk), .d(pt1_add236), .valid(1'b0), .q(dl_pt1_add236));
     // pt1_lam_new = max(pt1_add236, 0.0)   (ready @84/84/84)
     logic [W-1:0] pt1_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt1_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add236), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[83]), .a(dl_pt1_add236), .b(K_ZERO),
         .out_valid(op_valid_nc[162]), .y_min(nc_pt1_lam_new_min), .y_max(pt1_lam_new),
         .lt(nc_pt1_lam_new_lt), .eq(nc_pt1_lam_new_eq), .unordered(nc_pt1_lam_new_uo)
     );
     logic [W-1:0] dl_pt1_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_lam_new (.clk(clk), .d(pt1_lam_new), .q(dl_pt1_lam_new));
+        u_dl_pt1_lam_new (.clk(clk), .d(pt1_lam_new), .valid(1'b0), .q(dl_pt1_lam_new));
     // pt1_delta = pt1_lam_new - lam1   (ready @88/88/88)
     logic [W-1:0] pt1_delta;
     logic [2:0] fl_pt1_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_lam_new), .b(dl_in_lam1[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(dl_pt1_lam_new), .b(dl_in_lam1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(pt1_delta), .flags(fl_pt1_delta)
     );
     assign ev_ovf[161] = fl_pt1_delta[0] && ev_q[88];
@@ -2609,18 +2616,18 @@ module pgs_contact_pipe_full #(
     assign ev_inv[161] = fl_pt1_delta[2] && ev_q[88];
     logic [W-1:0] dl_pt1_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_delta (.clk(clk), .d(pt1_delta), .q(dl_pt1_delta));
+        u_dl_pt1_delta (.clk(clk), .d(pt1_delta), .valid(1'b0), .q(dl_pt1_delta));
     // pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (ready @84/84/84)
     logic [W-1:0] pt1_lam;
     assign pt1_lam = dl_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_pt1_lam_new;
     logic [W-1:0] dl_pt1_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(95))
-        u_dl_pt1_lam (.clk(clk), .d(pt1_lam), .q(dl_pt1_lam));
+        u_dl_pt1_lam (.clk(clk), .d(pt1_lam), .valid(valid_q[84 +: 95]), .q(dl_pt1_lam));
     // pt1_mul240 = IInvA_xx * pt1_cA_x   (ready @14/14/14)
     logic [W-1:0] pt1_mul240;
     logic [2:0] fl_pt1_mul240;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul240 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xx), .b(dl_pt1_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xx), .b(dl_pt1_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[164]), .y(pt1_mul240), .flags(fl_pt1_mul240)
     );
     assign ev_ovf[162] = fl_pt1_mul240[0] && ev_q[14];
@@ -2628,12 +2635,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[162] = fl_pt1_mul240[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul240;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul240 (.clk(clk), .d(pt1_mul240), .q(dl_pt1_mul240));
+        u_dl_pt1_mul240 (.clk(clk), .d(pt1_mul240), .valid(1'b0), .q(dl_pt1_mul240));
     // pt1_mul241 = IInvA_xy * pt1_cA_y   (ready @14/14/14)
     logic [W-1:0] pt1_mul241;
     logic [2:0] fl_pt1_mul241;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul241 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xy), .b(dl_pt1_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xy), .b(dl_pt1_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[165]), .y(pt1_mul241), .flags(fl_pt1_mul241)
     );
     assign ev_ovf[163] = fl_pt1_mul241[0] && ev_q[14];
@@ -2641,12 +2648,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[163] = fl_pt1_mul241[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul241;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul241 (.clk(clk), .d(pt1_mul241), .q(dl_pt1_mul241));
+        u_dl_pt1_mul241 (.clk(clk), .d(pt1_mul241), .valid(1'b0), .q(dl_pt1_mul241));
     // pt1_add242 = pt1_mul240 + pt1_mul241   (ready @18/18/18)
     logic [W-1:0] pt1_add242;
     logic [2:0] fl_pt1_add242;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add242 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul240), .b(dl_pt1_mul241), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt1_mul240), .b(dl_pt1_mul241), .sub(1'b0),
         .out_valid(op_valid_nc[166]), .y(pt1_add242), .flags(fl_pt1_add242)
     );
     assign ev_ovf[164] = fl_pt1_add242[0] && ev_q[18];
@@ -2654,12 +2661,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[164] = fl_pt1_add242[2] && ev_q[18];
     logic [W-1:0] dl_pt1_add242;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add242 (.clk(clk), .d(pt1_add242), .q(dl_pt1_add242));
+        u_dl_pt1_add242 (.clk(clk), .d(pt1_add242), .valid(1'b0), .q(dl_pt1_add242));
     // pt1_mul243 = IInvA_xz * pt1_cA_z   (ready @14/14/14)
     logic [W-1:0] pt1_mul243;
     logic [2:0] fl_pt1_mul243;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul243 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xz), .b(dl_pt1_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xz), .b(dl_pt1_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[167]), .y(pt1_mul243), .flags(fl_pt1_mul243)
     );
     assign ev_ovf[165] = fl_pt1_mul243[0] && ev_q[14];
@@ -2667,12 +2674,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[165] = fl_pt1_mul243[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul243;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul243 (.clk(clk), .d(pt1_mul243), .q(dl_pt1_mul243));
+        u_dl_pt1_mul243 (.clk(clk), .d(pt1_mul243), .valid(valid_q[14 +: 4]), .q(dl_pt1_mul243));
     // pt1_angA_x = pt1_add242 + pt1_mul243   (ready @22/22/22)
     logic [W-1:0] pt1_angA_x;
     logic [2:0] fl_pt1_angA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add242), .b(dl_pt1_mul243), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt1_add242), .b(dl_pt1_mul243), .sub(1'b0),
         .out_valid(op_valid_nc[168]), .y(pt1_angA_x), .flags(fl_pt1_angA_x)
     );
     assign ev_ovf[166] = fl_pt1_angA_x[0] && ev_q[22];
@@ -2680,12 +2687,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[166] = fl_pt1_angA_x[2] && ev_q[22];
     logic [W-1:0] dl_pt1_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(66))
-        u_dl_pt1_angA_x (.clk(clk), .d(pt1_angA_x), .q(dl_pt1_angA_x));
+        u_dl_pt1_angA_x (.clk(clk), .d(pt1_angA_x), .valid(valid_q[22 +: 66]), .q(dl_pt1_angA_x));
     // pt1_mul245 = IInvA_xy * pt1_cA_x   (ready @14/14/14)
     logic [W-1:0] pt1_mul245;
     logic [2:0] fl_pt1_mul245;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul245 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xy), .b(dl_pt1_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xy), .b(dl_pt1_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[169]), .y(pt1_mul245), .flags(fl_pt1_mul245)
     );
     assign ev_ovf[167] = fl_pt1_mul245[0] && ev_q[14];
@@ -2693,12 +2700,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[167] = fl_pt1_mul245[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul245;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul245 (.clk(clk), .d(pt1_mul245), .q(dl_pt1_mul245));
+        u_dl_pt1_mul245 (.clk(clk), .d(pt1_mul245), .valid(1'b0), .q(dl_pt1_mul245));
     // pt1_mul246 = IInvA_yy * pt1_cA_y   (ready @14/14/14)
     logic [W-1:0] pt1_mul246;
     logic [2:0] fl_pt1_mul246;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul246 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yy), .b(dl_pt1_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yy), .b(dl_pt1_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[170]), .y(pt1_mul246), .flags(fl_pt1_mul246)
     );
     assign ev_ovf[168] = fl_pt1_mul246[0] && ev_q[14];
@@ -2706,12 +2713,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[168] = fl_pt1_mul246[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul246;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul246 (.clk(clk), .d(pt1_mul246), .q(dl_pt1_mul246));
+        u_dl_pt1_mul246 (.clk(clk), .d(pt1_mul246), .valid(1'b0), .q(dl_pt1_mul246));
     // pt1_add247 = pt1_mul245 + pt1_mul246   (ready @18/18/18)
     logic [W-1:0] pt1_add247;
     logic [2:0] fl_pt1_add247;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add247 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul245), .b(dl_pt1_mul246), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt1_mul245), .b(dl_pt1_mul246), .sub(1'b0),
         .out_valid(op_valid_nc[171]), .y(pt1_add247), .flags(fl_pt1_add247)
     );
     assign ev_ovf[169] = fl_pt1_add247[0] && ev_q[18];
@@ -2719,12 +2726,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[169] = fl_pt1_add247[2] && ev_q[18];
     logic [W-1:0] dl_pt1_add247;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add247 (.clk(clk), .d(pt1_add247), .q(dl_pt1_add247));
+        u_dl_pt1_add247 (.clk(clk), .d(pt1_add247), .valid(1'b0), .q(dl_pt1_add247));
     // pt1_mul248 = IInvA_yz * pt1_cA_z   (ready @14/14/14)
     logic [W-1:0] pt1_mul248;
     logic [2:0] fl_pt1_mul248;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul248 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yz), .b(dl_pt1_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yz), .b(dl_pt1_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[172]), .y(pt1_mul248), .flags(fl_pt1_mul248)
     );
     assign ev_ovf[170] = fl_pt1_mul248[0] && ev_q[14];
@@ -2732,12 +2739,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[170] = fl_pt1_mul248[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul248;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul248 (.clk(clk), .d(pt1_mul248), .q(dl_pt1_mul248));
+        u_dl_pt1_mul248 (.clk(clk), .d(pt1_mul248), .valid(valid_q[14 +: 4]), .q(dl_pt1_mul248));
     // pt1_angA_y = pt1_add247 + pt1_mul248   (ready @22/22/22)
     logic [W-1:0] pt1_angA_y;
     logic [2:0] fl_pt1_angA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add247), .b(dl_pt1_mul248), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt1_add247), .b(dl_pt1_mul248), .sub(1'b0),
         .out_valid(op_valid_nc[173]), .y(pt1_angA_y), .flags(fl_pt1_angA_y)
     );
     assign ev_ovf[171] = fl_pt1_angA_y[0] && ev_q[22];
@@ -2745,12 +2752,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[171] = fl_pt1_angA_y[2] && ev_q[22];
     logic [W-1:0] dl_pt1_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(66))
-        u_dl_pt1_angA_y (.clk(clk), .d(pt1_angA_y), .q(dl_pt1_angA_y));
+        u_dl_pt1_angA_y (.clk(clk), .d(pt1_angA_y), .valid(valid_q[22 +: 66]), .q(dl_pt1_angA_y));
     // pt1_mul250 = IInvA_xz * pt1_cA_x   (ready @14/14/14)
     logic [W-1:0] pt1_mul250;
     logic [2:0] fl_pt1_mul250;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul250 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xz), .b(dl_pt1_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xz), .b(dl_pt1_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[174]), .y(pt1_mul250), .flags(fl_pt1_mul250)
     );
     assign ev_ovf[172] = fl_pt1_mul250[0] && ev_q[14];
@@ -2758,12 +2765,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[172] = fl_pt1_mul250[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul250;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul250 (.clk(clk), .d(pt1_mul250), .q(dl_pt1_mul250));
+        u_dl_pt1_mul250 (.clk(clk), .d(pt1_mul250), .valid(1'b0), .q(dl_pt1_mul250));
     // pt1_mul251 = IInvA_yz * pt1_cA_y   (ready @14/14/14)
     logic [W-1:0] pt1_mul251;
     logic [2:0] fl_pt1_mul251;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul251 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yz), .b(dl_pt1_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yz), .b(dl_pt1_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[175]), .y(pt1_mul251), .flags(fl_pt1_mul251)
     );
     assign ev_ovf[173] = fl_pt1_mul251[0] && ev_q[14];
@@ -2771,12 +2778,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[173] = fl_pt1_mul251[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul251;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul251 (.clk(clk), .d(pt1_mul251), .q(dl_pt1_mul251));
+        u_dl_pt1_mul251 (.clk(clk), .d(pt1_mul251), .valid(1'b0), .q(dl_pt1_mul251));
     // pt1_add252 = pt1_mul250 + pt1_mul251   (ready @18/18/18)
     logic [W-1:0] pt1_add252;
     logic [2:0] fl_pt1_add252;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add252 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul250), .b(dl_pt1_mul251), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt1_mul250), .b(dl_pt1_mul251), .sub(1'b0),
         .out_valid(op_valid_nc[176]), .y(pt1_add252), .flags(fl_pt1_add252)
     );
     assign ev_ovf[174] = fl_pt1_add252[0] && ev_q[18];
@@ -2784,12 +2791,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[174] = fl_pt1_add252[2] && ev_q[18];
     logic [W-1:0] dl_pt1_add252;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add252 (.clk(clk), .d(pt1_add252), .q(dl_pt1_add252));
+        u_dl_pt1_add252 (.clk(clk), .d(pt1_add252), .valid(1'b0), .q(dl_pt1_add252));
     // pt1_mul253 = IInvA_zz * pt1_cA_z   (ready @14/14/14)
     logic [W-1:0] pt1_mul253;
     logic [2:0] fl_pt1_mul253;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul253 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_zz), .b(dl_pt1_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_zz), .b(dl_pt1_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[177]), .y(pt1_mul253), .flags(fl_pt1_mul253)
     );
     assign ev_ovf[175] = fl_pt1_mul253[0] && ev_q[14];
@@ -2797,12 +2804,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[175] = fl_pt1_mul253[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul253;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul253 (.clk(clk), .d(pt1_mul253), .q(dl_pt1_mul253));
+        u_dl_pt1_mul253 (.clk(clk), .d(pt1_mul253), .valid(valid_q[14 +: 4]), .q(dl_pt1_mul253));
     // pt1_angA_z = pt1_add252 + pt1_mul253   (ready @22/22/22)
     logic [W-1:0] pt1_angA_z;
     logic [2:0] fl_pt1_angA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add252), .b(dl_pt1_mul253), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt1_add252), .b(dl_pt1_mul253), .sub(1'b0),
         .out_valid(op_valid_nc[178]), .y(pt1_angA_z), .flags(fl_pt1_angA_z)
     );
     assign ev_ovf[176] = fl_pt1_angA_z[0] && ev_q[22];
@@ -2810,12 +2817,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[176] = fl_pt1_angA_z[2] && ev_q[22];
     logic [W-1:0] dl_pt1_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(66))
-        u_dl_pt1_angA_z (.clk(clk), .d(pt1_angA_z), .q(dl_pt1_angA_z));
+        u_dl_pt1_angA_z (.clk(clk), .d(pt1_angA_z), .valid(valid_q[22 +: 66]), .q(dl_pt1_angA_z));
     // pt1_mul255 = IInvB_xx * pt1_cB_x   (ready @14/14/14)
     logic [W-1:0] pt1_mul255;
     logic [2:0] fl_pt1_mul255;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul255 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xx), .b(dl_pt1_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xx), .b(dl_pt1_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[179]), .y(pt1_mul255), .flags(fl_pt1_mul255)
     );
     assign ev_ovf[177] = fl_pt1_mul255[0] && ev_q[14];
@@ -2823,12 +2830,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[177] = fl_pt1_mul255[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul255;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul255 (.clk(clk), .d(pt1_mul255), .q(dl_pt1_mul255));
+        u_dl_pt1_mul255 (.clk(clk), .d(pt1_mul255), .valid(1'b0), .q(dl_pt1_mul255));
     // pt1_mul256 = IInvB_xy * pt1_cB_y   (ready @14/14/14)
     logic [W-1:0] pt1_mul256;
     logic [2:0] fl_pt1_mul256;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul256 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xy), .b(dl_pt1_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xy), .b(dl_pt1_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[180]), .y(pt1_mul256), .flags(fl_pt1_mul256)
     );
     assign ev_ovf[178] = fl_pt1_mul256[0] && ev_q[14];
@@ -2836,12 +2843,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[178] = fl_pt1_mul256[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul256;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul256 (.clk(clk), .d(pt1_mul256), .q(dl_pt1_mul256));
+        u_dl_pt1_mul256 (.clk(clk), .d(pt1_mul256), .valid(1'b0), .q(dl_pt1_mul256));
     // pt1_add257 = pt1_mul255 + pt1_mul256   (ready @18/18/18)
     logic [W-1:0] pt1_add257;
     logic [2:0] fl_pt1_add257;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add257 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul255), .b(dl_pt1_mul256), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt1_mul255), .b(dl_pt1_mul256), .sub(1'b0),
         .out_valid(op_valid_nc[181]), .y(pt1_add257), .flags(fl_pt1_add257)
     );
     assign ev_ovf[179] = fl_pt1_add257[0] && ev_q[18];
@@ -2849,12 +2856,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[179] = fl_pt1_add257[2] && ev_q[18];
     logic [W-1:0] dl_pt1_add257;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add257 (.clk(clk), .d(pt1_add257), .q(dl_pt1_add257));
+        u_dl_pt1_add257 (.clk(clk), .d(pt1_add257), .valid(1'b0), .q(dl_pt1_add257));
     // pt1_mul258 = IInvB_xz * pt1_cB_z   (ready @14/14/14)
     logic [W-1:0] pt1_mul258;
     logic [2:0] fl_pt1_mul258;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul258 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xz), .b(dl_pt1_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xz), .b(dl_pt1_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[182]), .y(pt1_mul258), .flags(fl_pt1_mul258)
     );
     assign ev_ovf[180] = fl_pt1_mul258[0] && ev_q[14];
@@ -2862,12 +2869,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[180] = fl_pt1_mul258[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul258;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul258 (.clk(clk), .d(pt1_mul258), .q(dl_pt1_mul258));
+        u_dl_pt1_mul258 (.clk(clk), .d(pt1_mul258), .valid(valid_q[14 +: 4]), .q(dl_pt1_mul258));
     // pt1_angB_x = pt1_add257 + pt1_mul258   (ready @22/22/22)
     logic [W-1:0] pt1_angB_x;
     logic [2:0] fl_pt1_angB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add257), .b(dl_pt1_mul258), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt1_add257), .b(dl_pt1_mul258), .sub(1'b0),
         .out_valid(op_valid_nc[183]), .y(pt1_angB_x), .flags(fl_pt1_angB_x)
     );
     assign ev_ovf[181] = fl_pt1_angB_x[0] && ev_q[22];
@@ -2875,12 +2882,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[181] = fl_pt1_angB_x[2] && ev_q[22];
     logic [W-1:0] dl_pt1_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(66))
-        u_dl_pt1_angB_x (.clk(clk), .d(pt1_angB_x), .q(dl_pt1_angB_x));
+        u_dl_pt1_angB_x (.clk(clk), .d(pt1_angB_x), .valid(valid_q[22 +: 66]), .q(dl_pt1_angB_x));
     // pt1_mul260 = IInvB_xy * pt1_cB_x   (ready @14/14/14)
     logic [W-1:0] pt1_mul260;
     logic [2:0] fl_pt1_mul260;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul260 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xy), .b(dl_pt1_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xy), .b(dl_pt1_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[184]), .y(pt1_mul260), .flags(fl_pt1_mul260)
     );
     assign ev_ovf[182] = fl_pt1_mul260[0] && ev_q[14];
@@ -2888,12 +2895,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[182] = fl_pt1_mul260[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul260;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul260 (.clk(clk), .d(pt1_mul260), .q(dl_pt1_mul260));
+        u_dl_pt1_mul260 (.clk(clk), .d(pt1_mul260), .valid(1'b0), .q(dl_pt1_mul260));
     // pt1_mul261 = IInvB_yy * pt1_cB_y   (ready @14/14/14)
     logic [W-1:0] pt1_mul261;
     logic [2:0] fl_pt1_mul261;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul261 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yy), .b(dl_pt1_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yy), .b(dl_pt1_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[185]), .y(pt1_mul261), .flags(fl_pt1_mul261)
     );
     assign ev_ovf[183] = fl_pt1_mul261[0] && ev_q[14];
@@ -2901,12 +2908,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[183] = fl_pt1_mul261[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul261;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul261 (.clk(clk), .d(pt1_mul261), .q(dl_pt1_mul261));
+        u_dl_pt1_mul261 (.clk(clk), .d(pt1_mul261), .valid(1'b0), .q(dl_pt1_mul261));
     // pt1_add262 = pt1_mul260 + pt1_mul261   (ready @18/18/18)
     logic [W-1:0] pt1_add262;
     logic [2:0] fl_pt1_add262;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add262 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul260), .b(dl_pt1_mul261), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt1_mul260), .b(dl_pt1_mul261), .sub(1'b0),
         .out_valid(op_valid_nc[186]), .y(pt1_add262), .flags(fl_pt1_add262)
     );
     assign ev_ovf[184] = fl_pt1_add262[0] && ev_q[18];
@@ -2914,12 +2921,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[184] = fl_pt1_add262[2] && ev_q[18];
     logic [W-1:0] dl_pt1_add262;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add262 (.clk(clk), .d(pt1_add262), .q(dl_pt1_add262));
+        u_dl_pt1_add262 (.clk(clk), .d(pt1_add262), .valid(1'b0), .q(dl_pt1_add262));
     // pt1_mul263 = IInvB_yz * pt1_cB_z   (ready @14/14/14)
     logic [W-1:0] pt1_mul263;
     logic [2:0] fl_pt1_mul263;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul263 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yz), .b(dl_pt1_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yz), .b(dl_pt1_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[187]), .y(pt1_mul263), .flags(fl_pt1_mul263)
     );
     assign ev_ovf[185] = fl_pt1_mul263[0] && ev_q[14];
@@ -2927,12 +2934,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[185] = fl_pt1_mul263[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul263;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul263 (.clk(clk), .d(pt1_mul263), .q(dl_pt1_mul263));
+        u_dl_pt1_mul263 (.clk(clk), .d(pt1_mul263), .valid(valid_q[14 +: 4]), .q(dl_pt1_mul263));
     // pt1_angB_y = pt1_add262 + pt1_mul263   (ready @22/22/22)
     logic [W-1:0] pt1_angB_y;
     logic [2:0] fl_pt1_angB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add262), .b(dl_pt1_mul263), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt1_add262), .b(dl_pt1_mul263), .sub(1'b0),
         .out_valid(op_valid_nc[188]), .y(pt1_angB_y), .flags(fl_pt1_angB_y)
     );
     assign ev_ovf[186] = fl_pt1_angB_y[0] && ev_q[22];
@@ -2940,12 +2947,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[186] = fl_pt1_angB_y[2] && ev_q[22];
     logic [W-1:0] dl_pt1_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(66))
-        u_dl_pt1_angB_y (.clk(clk), .d(pt1_angB_y), .q(dl_pt1_angB_y));
+        u_dl_pt1_angB_y (.clk(clk), .d(pt1_angB_y), .valid(valid_q[22 +: 66]), .q(dl_pt1_angB_y));
     // pt1_mul265 = IInvB_xz * pt1_cB_x   (ready @14/14/14)
     logic [W-1:0] pt1_mul265;
     logic [2:0] fl_pt1_mul265;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul265 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xz), .b(dl_pt1_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xz), .b(dl_pt1_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[189]), .y(pt1_mul265), .flags(fl_pt1_mul265)
     );
     assign ev_ovf[187] = fl_pt1_mul265[0] && ev_q[14];
@@ -2953,12 +2960,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[187] = fl_pt1_mul265[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul265;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul265 (.clk(clk), .d(pt1_mul265), .q(dl_pt1_mul265));
+        u_dl_pt1_mul265 (.clk(clk), .d(pt1_mul265), .valid(1'b0), .q(dl_pt1_mul265));
     // pt1_mul266 = IInvB_yz * pt1_cB_y   (ready @14/14/14)
     logic [W-1:0] pt1_mul266;
     logic [2:0] fl_pt1_mul266;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul266 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yz), .b(dl_pt1_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yz), .b(dl_pt1_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[190]), .y(pt1_mul266), .flags(fl_pt1_mul266)
     );
     assign ev_ovf[188] = fl_pt1_mul266[0] && ev_q[14];
@@ -2966,12 +2973,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[188] = fl_pt1_mul266[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul266;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul266 (.clk(clk), .d(pt1_mul266), .q(dl_pt1_mul266));
+        u_dl_pt1_mul266 (.clk(clk), .d(pt1_mul266), .valid(1'b0), .q(dl_pt1_mul266));
     // pt1_add267 = pt1_mul265 + pt1_mul266   (ready @18/18/18)
     logic [W-1:0] pt1_add267;
     logic [2:0] fl_pt1_add267;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add267 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul265), .b(dl_pt1_mul266), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt1_mul265), .b(dl_pt1_mul266), .sub(1'b0),
         .out_valid(op_valid_nc[191]), .y(pt1_add267), .flags(fl_pt1_add267)
     );
     assign ev_ovf[189] = fl_pt1_add267[0] && ev_q[18];
@@ -2979,12 +2986,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[189] = fl_pt1_add267[2] && ev_q[18];
     logic [W-1:0] dl_pt1_add267;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add267 (.clk(clk), .d(pt1_add267), .q(dl_pt1_add267));
+        u_dl_pt1_add267 (.clk(clk), .d(pt1_add267), .valid(1'b0), .q(dl_pt1_add267));
     // pt1_mul268 = IInvB_zz * pt1_cB_z   (ready @14/14/14)
     logic [W-1:0] pt1_mul268;
     logic [2:0] fl_pt1_mul268;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul268 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_zz), .b(dl_pt1_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_zz), .b(dl_pt1_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[192]), .y(pt1_mul268), .flags(fl_pt1_mul268)
     );
     assign ev_ovf[190] = fl_pt1_mul268[0] && ev_q[14];
@@ -2992,12 +2999,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[190] = fl_pt1_mul268[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul268;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul268 (.clk(clk), .d(pt1_mul268), .q(dl_pt1_mul268));
+        u_dl_pt1_mul268 (.clk(clk), .d(pt1_mul268), .valid(valid_q[14 +: 4]), .q(dl_pt1_mul268));
     // pt1_angB_z = pt1_add267 + pt1_mul268   (ready @22/22/22)
     logic [W-1:0] pt1_angB_z;
     logic [2:0] fl_pt1_angB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add267), .b(dl_pt1_mul268), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt1_add267), .b(dl_pt1_mul268), .sub(1'b0),
         .out_valid(op_valid_nc[193]), .y(pt1_angB_z), .flags(fl_pt1_angB_z)
     );
     assign ev_ovf[191] = fl_pt1_angB_z[0] && ev_q[22];
@@ -3005,12 +3012,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[191] = fl_pt1_angB_z[2] && ev_q[22];
     logic [W-1:0] dl_pt1_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(66))
-        u_dl_pt1_angB_z (.clk(clk), .d(pt1_angB_z), .q(dl_pt1_angB_z));
+        u_dl_pt1_angB_z (.clk(clk), .d(pt1_angB_z), .valid(valid_q[22 +: 66]), .q(dl_pt1_angB_z));
     // pt1_mul270 = linA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul270;
     logic [2:0] fl_pt1_mul270;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul270 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linA_x[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[194]), .y(pt1_mul270), .flags(fl_pt1_mul270)
     );
     assign ev_ovf[192] = fl_pt1_mul270[0] && ev_q[91];
@@ -3018,12 +3025,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[192] = fl_pt1_mul270[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul270;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul270 (.clk(clk), .d(pt1_mul270), .q(dl_pt1_mul270));
+        u_dl_pt1_mul270 (.clk(clk), .d(pt1_mul270), .valid(1'b0), .q(dl_pt1_mul270));
     // pt1_mul271 = linA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul271;
     logic [2:0] fl_pt1_mul271;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul271 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linA_y[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[195]), .y(pt1_mul271), .flags(fl_pt1_mul271)
     );
     assign ev_ovf[193] = fl_pt1_mul271[0] && ev_q[91];
@@ -3031,12 +3038,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[193] = fl_pt1_mul271[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul271;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul271 (.clk(clk), .d(pt1_mul271), .q(dl_pt1_mul271));
+        u_dl_pt1_mul271 (.clk(clk), .d(pt1_mul271), .valid(1'b0), .q(dl_pt1_mul271));
     // pt1_mul272 = linA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul272;
     logic [2:0] fl_pt1_mul272;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul272 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linA_z[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[196]), .y(pt1_mul272), .flags(fl_pt1_mul272)
     );
     assign ev_ovf[194] = fl_pt1_mul272[0] && ev_q[91];
@@ -3044,12 +3051,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[194] = fl_pt1_mul272[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul272;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul272 (.clk(clk), .d(pt1_mul272), .q(dl_pt1_mul272));
+        u_dl_pt1_mul272 (.clk(clk), .d(pt1_mul272), .valid(1'b0), .q(dl_pt1_mul272));
     // pt1_add273 = pt0_vA_x + pt1_mul270   (ready @95/95/95)
     logic [W-1:0] pt1_add273;
     logic [2:0] fl_pt1_add273;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add273 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_x[1*W +: W]), .b(dl_pt1_mul270), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_x[1*W +: W]), .b(dl_pt1_mul270), .sub(1'b0),
         .out_valid(op_valid_nc[197]), .y(pt1_add273), .flags(fl_pt1_add273)
     );
     assign ev_ovf[195] = fl_pt1_add273[0] && ev_q[95];
@@ -3057,12 +3064,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[195] = fl_pt1_add273[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add273;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add273 (.clk(clk), .d(pt1_add273), .q(dl_pt1_add273));
+        u_dl_pt1_add273 (.clk(clk), .d(pt1_add273), .valid(1'b0), .q(dl_pt1_add273));
     // pt1_add274 = pt0_vA_y + pt1_mul271   (ready @95/95/95)
     logic [W-1:0] pt1_add274;
     logic [2:0] fl_pt1_add274;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add274 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_y[1*W +: W]), .b(dl_pt1_mul271), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_y[1*W +: W]), .b(dl_pt1_mul271), .sub(1'b0),
         .out_valid(op_valid_nc[198]), .y(pt1_add274), .flags(fl_pt1_add274)
     );
     assign ev_ovf[196] = fl_pt1_add274[0] && ev_q[95];
@@ -3070,12 +3077,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[196] = fl_pt1_add274[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add274;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add274 (.clk(clk), .d(pt1_add274), .q(dl_pt1_add274));
+        u_dl_pt1_add274 (.clk(clk), .d(pt1_add274), .valid(1'b0), .q(dl_pt1_add274));
     // pt1_add275 = pt0_vA_z + pt1_mul272   (ready @95/95/95)
     logic [W-1:0] pt1_add275;
     logic [2:0] fl_pt1_add275;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add275 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_z[1*W +: W]), .b(dl_pt1_mul272), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_z[1*W +: W]), .b(dl_pt1_mul272), .sub(1'b0),
         .out_valid(op_valid_nc[199]), .y(pt1_add275), .flags(fl_pt1_add275)
     );
     assign ev_ovf[197] = fl_pt1_add275[0] && ev_q[95];
@@ -3083,30 +3090,30 @@ module pgs_contact_pipe_full #(
     assign ev_inv[197] = fl_pt1_add275[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add275;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add275 (.clk(clk), .d(pt1_add275), .q(dl_pt1_add275));
+        u_dl_pt1_add275 (.clk(clk), .d(pt1_add275), .valid(1'b0), .q(dl_pt1_add275));
     // pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add273   (ready @95/95/95)
     logic [W-1:0] pt1_vA_x;
     assign pt1_vA_x = dl_pt1_skip[1] ? dl_pt0_vA_x[2*W +: W] : dl_pt1_add273;
     logic [3*W-1:0] dl_pt1_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vA_x (.clk(clk), .d(pt1_vA_x), .q(dl_pt1_vA_x));
+        u_dl_pt1_vA_x (.clk(clk), .d(pt1_vA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_x));
     // pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add274   (ready @95/95/95)
     logic [W-1:0] pt1_vA_y;
     assign pt1_vA_y = dl_pt1_skip[1] ? dl_pt0_vA_y[2*W +: W] : dl_pt1_add274;
     logic [3*W-1:0] dl_pt1_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vA_y (.clk(clk), .d(pt1_vA_y), .q(dl_pt1_vA_y));
+        u_dl_pt1_vA_y (.clk(clk), .d(pt1_vA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_y));
     // pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add275   (ready @95/95/95)
     logic [W-1:0] pt1_vA_z;
     assign pt1_vA_z = dl_pt1_skip[1] ? dl_pt0_vA_z[2*W +: W] : dl_pt1_add275;
     logic [3*W-1:0] dl_pt1_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vA_z (.clk(clk), .d(pt1_vA_z), .q(dl_pt1_vA_z));
+        u_dl_pt1_vA_z (.clk(clk), .d(pt1_vA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_z));
     // pt1_mul279 = pt1_angA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul279;
     logic [2:0] fl_pt1_mul279;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul279 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_x), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angA_x), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[200]), .y(pt1_mul279), .flags(fl_pt1_mul279)
     );
     assign ev_ovf[198] = fl_pt1_mul279[0] && ev_q[91];
@@ -3114,12 +3121,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[198] = fl_pt1_mul279[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul279;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul279 (.clk(clk), .d(pt1_mul279), .q(dl_pt1_mul279));
+        u_dl_pt1_mul279 (.clk(clk), .d(pt1_mul279), .valid(1'b0), .q(dl_pt1_mul279));
     // pt1_mul280 = pt1_angA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul280;
     logic [2:0] fl_pt1_mul280;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul280 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_y), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angA_y), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[201]), .y(pt1_mul280), .flags(fl_pt1_mul280)
     );
     assign ev_ovf[199] = fl_pt1_mul280[0] && ev_q[91];
@@ -3127,12 +3134,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[199] = fl_pt1_mul280[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul280;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul280 (.clk(clk), .d(pt1_mul280), .q(dl_pt1_mul280));
+        u_dl_pt1_mul280 (.clk(clk), .d(pt1_mul280), .valid(1'b0), .q(dl_pt1_mul280));
     // pt1_mul281 = pt1_angA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul281;
     logic [2:0] fl_pt1_mul281;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul281 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_z), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angA_z), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[202]), .y(pt1_mul281), .flags(fl_pt1_mul281)
     );
     assign ev_ovf[200] = fl_pt1_mul281[0] && ev_q[91];
@@ -3140,12 +3147,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[200] = fl_pt1_mul281[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul281;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul281 (.clk(clk), .d(pt1_mul281), .q(dl_pt1_mul281));
+        u_dl_pt1_mul281 (.clk(clk), .d(pt1_mul281), .valid(1'b0), .q(dl_pt1_mul281));
     // pt1_add282 = pt0_wA_x + pt1_mul279   (ready @95/95/95)
     logic [W-1:0] pt1_add282;
     logic [2:0] fl_pt1_add282;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add282 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_x[1*W +: W]), .b(dl_pt1_mul279), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_x[1*W +: W]), .b(dl_pt1_mul279), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(pt1_add282), .flags(fl_pt1_add282)
     );
     assign ev_ovf[201] = fl_pt1_add282[0] && ev_q[95];
@@ -3153,12 +3160,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[201] = fl_pt1_add282[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add282;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add282 (.clk(clk), .d(pt1_add282), .q(dl_pt1_add282));
+        u_dl_pt1_add282 (.clk(clk), .d(pt1_add282), .valid(1'b0), .q(dl_pt1_add282));
     // pt1_add283 = pt0_wA_y + pt1_mul280   (ready @95/95/95)
     logic [W-1:0] pt1_add283;
     logic [2:0] fl_pt1_add283;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add283 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_y[1*W +: W]), .b(dl_pt1_mul280), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_y[1*W +: W]), .b(dl_pt1_mul280), .sub(1'b0),
         .out_valid(op_valid_nc[204]), .y(pt1_add283), .flags(fl_pt1_add283)
     );
     assign ev_ovf[202] = fl_pt1_add283[0] && ev_q[95];
@@ -3166,12 +3173,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[202] = fl_pt1_add283[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add283;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add283 (.clk(clk), .d(pt1_add283), .q(dl_pt1_add283));
+        u_dl_pt1_add283 (.clk(clk), .d(pt1_add283), .valid(1'b0), .q(dl_pt1_add283));
     // pt1_add284 = pt0_wA_z + pt1_mul281   (ready @95/95/95)
     logic [W-1:0] pt1_add284;
     logic [2:0] fl_pt1_add284;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add284 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_z[1*W +: W]), .b(dl_pt1_mul281), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_z[1*W +: W]), .b(dl_pt1_mul281), .sub(1'b0),
         .out_valid(op_valid_nc[205]), .y(pt1_add284), .flags(fl_pt1_add284)
     );
     assign ev_ovf[203] = fl_pt1_add284[0] && ev_q[95];
@@ -3179,30 +3186,30 @@ module pgs_contact_pipe_full #(
     assign ev_inv[203] = fl_pt1_add284[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add284;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add284 (.clk(clk), .d(pt1_add284), .q(dl_pt1_add284));
+        u_dl_pt1_add284 (.clk(clk), .d(pt1_add284), .valid(1'b0), .q(dl_pt1_add284));
     // pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add282   (ready @95/95/95)
     logic [W-1:0] pt1_wA_x;
     assign pt1_wA_x = dl_pt1_skip[1] ? dl_pt0_wA_x[2*W +: W] : dl_pt1_add282;
     logic [3*W-1:0] dl_pt1_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wA_x (.clk(clk), .d(pt1_wA_x), .q(dl_pt1_wA_x));
+        u_dl_pt1_wA_x (.clk(clk), .d(pt1_wA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_x));
     // pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add283   (ready @95/95/95)
     logic [W-1:0] pt1_wA_y;
     assign pt1_wA_y = dl_pt1_skip[1] ? dl_pt0_wA_y[2*W +: W] : dl_pt1_add283;
     logic [3*W-1:0] dl_pt1_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wA_y (.clk(clk), .d(pt1_wA_y), .q(dl_pt1_wA_y));
+        u_dl_pt1_wA_y (.clk(clk), .d(pt1_wA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_y));
     // pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add284   (ready @95/95/95)
     logic [W-1:0] pt1_wA_z;
     assign pt1_wA_z = dl_pt1_skip[1] ? dl_pt0_wA_z[2*W +: W] : dl_pt1_add284;
     logic [3*W-1:0] dl_pt1_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wA_z (.clk(clk), .d(pt1_wA_z), .q(dl_pt1_wA_z));
+        u_dl_pt1_wA_z (.clk(clk), .d(pt1_wA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_z));
     // pt1_mul288 = linB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul288;
     logic [2:0] fl_pt1_mul288;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul288 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linB_x[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[206]), .y(pt1_mul288), .flags(fl_pt1_mul288)
     );
     assign ev_ovf[204] = fl_pt1_mul288[0] && ev_q[91];
@@ -3210,12 +3217,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[204] = fl_pt1_mul288[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul288;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul288 (.clk(clk), .d(pt1_mul288), .q(dl_pt1_mul288));
+        u_dl_pt1_mul288 (.clk(clk), .d(pt1_mul288), .valid(1'b0), .q(dl_pt1_mul288));
     // pt1_mul289 = linB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul289;
     logic [2:0] fl_pt1_mul289;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul289 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linB_y[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[207]), .y(pt1_mul289), .flags(fl_pt1_mul289)
     );
     assign ev_ovf[205] = fl_pt1_mul289[0] && ev_q[91];
@@ -3223,12 +3230,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[205] = fl_pt1_mul289[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul289;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul289 (.clk(clk), .d(pt1_mul289), .q(dl_pt1_mul289));
+        u_dl_pt1_mul289 (.clk(clk), .d(pt1_mul289), .valid(1'b0), .q(dl_pt1_mul289));
     // pt1_mul290 = linB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul290;
     logic [2:0] fl_pt1_mul290;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul290 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linB_z[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[208]), .y(pt1_mul290), .flags(fl_pt1_mul290)
     );
     assign ev_ovf[206] = fl_pt1_mul290[0] && ev_q[91];
@@ -3236,12 +3243,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[206] = fl_pt1_mul290[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul290;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul290 (.clk(clk), .d(pt1_mul290), .q(dl_pt1_mul290));
+        u_dl_pt1_mul290 (.clk(clk), .d(pt1_mul290), .valid(1'b0), .q(dl_pt1_mul290));
     // pt1_sub291 = pt0_vB_x - pt1_mul288   (ready @95/95/95)
     logic [W-1:0] pt1_sub291;
     logic [2:0] fl_pt1_sub291;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub291 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_x[1*W +: W]), .b(dl_pt1_mul288), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_x[1*W +: W]), .b(dl_pt1_mul288), .sub(1'b1),
         .out_valid(op_valid_nc[209]), .y(pt1_sub291), .flags(fl_pt1_sub291)
     );
     assign ev_ovf[207] = fl_pt1_sub291[0] && ev_q[95];
@@ -3249,12 +3256,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[207] = fl_pt1_sub291[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub291;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub291 (.clk(clk), .d(pt1_sub291), .q(dl_pt1_sub291));
+        u_dl_pt1_sub291 (.clk(clk), .d(pt1_sub291), .valid(1'b0), .q(dl_pt1_sub291));
     // pt1_sub292 = pt0_vB_y - pt1_mul289   (ready @95/95/95)
     logic [W-1:0] pt1_sub292;
     logic [2:0] fl_pt1_sub292;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub292 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_y[1*W +: W]), .b(dl_pt1_mul289), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_y[1*W +: W]), .b(dl_pt1_mul289), .sub(1'b1),
         .out_valid(op_valid_nc[210]), .y(pt1_sub292), .flags(fl_pt1_sub292)
     );
     assign ev_ovf[208] = fl_pt1_sub292[0] && ev_q[95];
@@ -3262,12 +3269,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[208] = fl_pt1_sub292[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub292;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub292 (.clk(clk), .d(pt1_sub292), .q(dl_pt1_sub292));
+        u_dl_pt1_sub292 (.clk(clk), .d(pt1_sub292), .valid(1'b0), .q(dl_pt1_sub292));
     // pt1_sub293 = pt0_vB_z - pt1_mul290   (ready @95/95/95)
     logic [W-1:0] pt1_sub293;
     logic [2:0] fl_pt1_sub293;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub293 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_z[1*W +: W]), .b(dl_pt1_mul290), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_z[1*W +: W]), .b(dl_pt1_mul290), .sub(1'b1),
         .out_valid(op_valid_nc[211]), .y(pt1_sub293), .flags(fl_pt1_sub293)
     );
     assign ev_ovf[209] = fl_pt1_sub293[0] && ev_q[95];
@@ -3275,30 +3282,30 @@ module pgs_contact_pipe_full #(
     assign ev_inv[209] = fl_pt1_sub293[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub293;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub293 (.clk(clk), .d(pt1_sub293), .q(dl_pt1_sub293));
+        u_dl_pt1_sub293 (.clk(clk), .d(pt1_sub293), .valid(1'b0), .q(dl_pt1_sub293));
     // pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub291   (ready @95/95/95)
     logic [W-1:0] pt1_vB_x;
     assign pt1_vB_x = dl_pt1_skip[1] ? dl_pt0_vB_x[2*W +: W] : dl_pt1_sub291;
     logic [3*W-1:0] dl_pt1_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vB_x (.clk(clk), .d(pt1_vB_x), .q(dl_pt1_vB_x));
+        u_dl_pt1_vB_x (.clk(clk), .d(pt1_vB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_x));
     // pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub292   (ready @95/95/95)
     logic [W-1:0] pt1_vB_y;
     assign pt1_vB_y = dl_pt1_skip[1] ? dl_pt0_vB_y[2*W +: W] : dl_pt1_sub292;
     logic [3*W-1:0] dl_pt1_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vB_y (.clk(clk), .d(pt1_vB_y), .q(dl_pt1_vB_y));
+        u_dl_pt1_vB_y (.clk(clk), .d(pt1_vB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_y));
     // pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub293   (ready @95/95/95)
     logic [W-1:0] pt1_vB_z;
     assign pt1_vB_z = dl_pt1_skip[1] ? dl_pt0_vB_z[2*W +: W] : dl_pt1_sub293;
     logic [3*W-1:0] dl_pt1_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vB_z (.clk(clk), .d(pt1_vB_z), .q(dl_pt1_vB_z));
+        u_dl_pt1_vB_z (.clk(clk), .d(pt1_vB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_z));
     // pt1_mul297 = pt1_angB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul297;
     logic [2:0] fl_pt1_mul297;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul297 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_x), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angB_x), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[212]), .y(pt1_mul297), .flags(fl_pt1_mul297)
     );
     assign ev_ovf[210] = fl_pt1_mul297[0] && ev_q[91];
@@ -3306,12 +3313,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[210] = fl_pt1_mul297[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul297;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul297 (.clk(clk), .d(pt1_mul297), .q(dl_pt1_mul297));
+        u_dl_pt1_mul297 (.clk(clk), .d(pt1_mul297), .valid(1'b0), .q(dl_pt1_mul297));
     // pt1_mul298 = pt1_angB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul298;
     logic [2:0] fl_pt1_mul298;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul298 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_y), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angB_y), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[213]), .y(pt1_mul298), .flags(fl_pt1_mul298)
     );
     assign ev_ovf[211] = fl_pt1_mul298[0] && ev_q[91];
@@ -3319,12 +3326,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[211] = fl_pt1_mul298[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul298;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul298 (.clk(clk), .d(pt1_mul298), .q(dl_pt1_mul298));
+        u_dl_pt1_mul298 (.clk(clk), .d(pt1_mul298), .valid(1'b0), .q(dl_pt1_mul298));
     // pt1_mul299 = pt1_angB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul299;
     logic [2:0] fl_pt1_mul299;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul299 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_z), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angB_z), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[214]), .y(pt1_mul299), .flags(fl_pt1_mul299)
     );
     assign ev_ovf[212] = fl_pt1_mul299[0] && ev_q[91];
@@ -3332,12 +3339,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[212] = fl_pt1_mul299[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul299;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul299 (.clk(clk), .d(pt1_mul299), .q(dl_pt1_mul299));
+        u_dl_pt1_mul299 (.clk(clk), .d(pt1_mul299), .valid(1'b0), .q(dl_pt1_mul299));
     // pt1_sub300 = pt0_wB_x - pt1_mul297   (ready @95/95/95)
     logic [W-1:0] pt1_sub300;
     logic [2:0] fl_pt1_sub300;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub300 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_x[1*W +: W]), .b(dl_pt1_mul297), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_x[1*W +: W]), .b(dl_pt1_mul297), .sub(1'b1),
         .out_valid(op_valid_nc[215]), .y(pt1_sub300), .flags(fl_pt1_sub300)
     );
     assign ev_ovf[213] = fl_pt1_sub300[0] && ev_q[95];
@@ -3345,12 +3352,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[213] = fl_pt1_sub300[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub300;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub300 (.clk(clk), .d(pt1_sub300), .q(dl_pt1_sub300));
+        u_dl_pt1_sub300 (.clk(clk), .d(pt1_sub300), .valid(1'b0), .q(dl_pt1_sub300));
     // pt1_sub301 = pt0_wB_y - pt1_mul298   (ready @95/95/95)
     logic [W-1:0] pt1_sub301;
     logic [2:0] fl_pt1_sub301;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub301 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_y[1*W +: W]), .b(dl_pt1_mul298), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_y[1*W +: W]), .b(dl_pt1_mul298), .sub(1'b1),
         .out_valid(op_valid_nc[216]), .y(pt1_sub301), .flags(fl_pt1_sub301)
     );
     assign ev_ovf[214] = fl_pt1_sub301[0] && ev_q[95];
@@ -3358,12 +3365,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[214] = fl_pt1_sub301[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub301;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub301 (.clk(clk), .d(pt1_sub301), .q(dl_pt1_sub301));
+        u_dl_pt1_sub301 (.clk(clk), .d(pt1_sub301), .valid(1'b0), .q(dl_pt1_sub301));
     // pt1_sub302 = pt0_wB_z - pt1_mul299   (ready @95/95/95)
     logic [W-1:0] pt1_sub302;
     logic [2:0] fl_pt1_sub302;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub302 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_z[1*W +: W]), .b(dl_pt1_mul299), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_z[1*W +: W]), .b(dl_pt1_mul299), .sub(1'b1),
         .out_valid(op_valid_nc[217]), .y(pt1_sub302), .flags(fl_pt1_sub302)
     );
     assign ev_ovf[215] = fl_pt1_sub302[0] && ev_q[95];
@@ -3371,36 +3378,36 @@ module pgs_contact_pipe_full #(
     assign ev_inv[215] = fl_pt1_sub302[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub302;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub302 (.clk(clk), .d(pt1_sub302), .q(dl_pt1_sub302));
+        u_dl_pt1_sub302 (.clk(clk), .d(pt1_sub302), .valid(1'b0), .q(dl_pt1_sub302));
     // pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub300   (ready @95/95/95)
     logic [W-1:0] pt1_wB_x;
     assign pt1_wB_x = dl_pt1_skip[1] ? dl_pt0_wB_x[2*W +: W] : dl_pt1_sub300;
     logic [3*W-1:0] dl_pt1_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wB_x (.clk(clk), .d(pt1_wB_x), .q(dl_pt1_wB_x));
+        u_dl_pt1_wB_x (.clk(clk), .d(pt1_wB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_x));
     // pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub301   (ready @95/95/95)
     logic [W-1:0] pt1_wB_y;
     assign pt1_wB_y = dl_pt1_skip[1] ? dl_pt0_wB_y[2*W +: W] : dl_pt1_sub301;
     logic [3*W-1:0] dl_pt1_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wB_y (.clk(clk), .d(pt1_wB_y), .q(dl_pt1_wB_y));
+        u_dl_pt1_wB_y (.clk(clk), .d(pt1_wB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_y));
     // pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub302   (ready @95/95/95)
     logic [W-1:0] pt1_wB_z;
     assign pt1_wB_z = dl_pt1_skip[1] ? dl_pt0_wB_z[2*W +: W] : dl_pt1_sub302;
     logic [3*W-1:0] dl_pt1_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wB_z (.clk(clk), .d(pt1_wB_z), .q(dl_pt1_wB_z));
+        u_dl_pt1_wB_z (.clk(clk), .d(pt1_wB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_z));
     // pt2_skip = jac_inv2 == 0   (ready @0/0/0)
     logic pt2_skip;
     assign pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt2_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}))
-        u_dl_pt2_skip (.clk(clk), .d(pt2_skip), .q(dl_pt2_skip));
+        u_dl_pt2_skip (.clk(clk), .d(pt2_skip), .valid(valid_q[0 +: 137]), .q(dl_pt2_skip));
     // pt2_rA_x = p2_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt2_rA_x;
     logic [2:0] fl_pt2_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[218]), .y(pt2_rA_x), .flags(fl_pt2_rA_x)
     );
     assign ev_ovf[216] = fl_pt2_rA_x[0] && ev_q[4];
@@ -3408,12 +3415,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[216] = fl_pt2_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rA_x (.clk(clk), .d(pt2_rA_x), .q(dl_pt2_rA_x));
+        u_dl_pt2_rA_x (.clk(clk), .d(pt2_rA_x), .valid(1'b0), .q(dl_pt2_rA_x));
     // pt2_rA_y = p2_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt2_rA_y;
     logic [2:0] fl_pt2_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[219]), .y(pt2_rA_y), .flags(fl_pt2_rA_y)
     );
     assign ev_ovf[217] = fl_pt2_rA_y[0] && ev_q[4];
@@ -3421,12 +3428,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[217] = fl_pt2_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rA_y (.clk(clk), .d(pt2_rA_y), .q(dl_pt2_rA_y));
+        u_dl_pt2_rA_y (.clk(clk), .d(pt2_rA_y), .valid(1'b0), .q(dl_pt2_rA_y));
     // pt2_rA_z = p2_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt2_rA_z;
     logic [2:0] fl_pt2_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[220]), .y(pt2_rA_z), .flags(fl_pt2_rA_z)
     );
     assign ev_ovf[218] = fl_pt2_rA_z[0] && ev_q[4];
@@ -3434,12 +3441,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[218] = fl_pt2_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rA_z (.clk(clk), .d(pt2_rA_z), .q(dl_pt2_rA_z));
+        u_dl_pt2_rA_z (.clk(clk), .d(pt2_rA_z), .valid(1'b0), .q(dl_pt2_rA_z));
     // pt2_mul310 = pt2_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul310;
     logic [2:0] fl_pt2_mul310;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul310 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[221]), .y(pt2_mul310), .flags(fl_pt2_mul310)
     );
     assign ev_ovf[219] = fl_pt2_mul310[0] && ev_q[7];
@@ -3447,12 +3454,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[219] = fl_pt2_mul310[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul310;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul310 (.clk(clk), .d(pt2_mul310), .q(dl_pt2_mul310));
+        u_dl_pt2_mul310 (.clk(clk), .d(pt2_mul310), .valid(1'b0), .q(dl_pt2_mul310));
     // pt2_mul311 = pt2_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul311;
     logic [2:0] fl_pt2_mul311;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul311 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[222]), .y(pt2_mul311), .flags(fl_pt2_mul311)
     );
     assign ev_ovf[220] = fl_pt2_mul311[0] && ev_q[7];
@@ -3460,12 +3467,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[220] = fl_pt2_mul311[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul311;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul311 (.clk(clk), .d(pt2_mul311), .q(dl_pt2_mul311));
+        u_dl_pt2_mul311 (.clk(clk), .d(pt2_mul311), .valid(1'b0), .q(dl_pt2_mul311));
     // pt2_cA_x = pt2_mul310 - pt2_mul311   (ready @11/11/11)
     logic [W-1:0] pt2_cA_x;
     logic [2:0] fl_pt2_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul310), .b(dl_pt2_mul311), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul310), .b(dl_pt2_mul311), .sub(1'b1),
         .out_valid(op_valid_nc[223]), .y(pt2_cA_x), .flags(fl_pt2_cA_x)
     );
     assign ev_ovf[221] = fl_pt2_cA_x[0] && ev_q[11];
@@ -3473,12 +3480,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[221] = fl_pt2_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cA_x (.clk(clk), .d(pt2_cA_x), .q(dl_pt2_cA_x));
+        u_dl_pt2_cA_x (.clk(clk), .d(pt2_cA_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_x));
     // pt2_mul313 = pt2_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul313;
     logic [2:0] fl_pt2_mul313;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul313 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[224]), .y(pt2_mul313), .flags(fl_pt2_mul313)
     );
     assign ev_ovf[222] = fl_pt2_mul313[0] && ev_q[7];
@@ -3486,12 +3493,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[222] = fl_pt2_mul313[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul313;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul313 (.clk(clk), .d(pt2_mul313), .q(dl_pt2_mul313));
+        u_dl_pt2_mul313 (.clk(clk), .d(pt2_mul313), .valid(1'b0), .q(dl_pt2_mul313));
     // pt2_mul314 = pt2_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul314;
     logic [2:0] fl_pt2_mul314;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul314 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[225]), .y(pt2_mul314), .flags(fl_pt2_mul314)
     );
     assign ev_ovf[223] = fl_pt2_mul314[0] && ev_q[7];
@@ -3499,12 +3506,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[223] = fl_pt2_mul314[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul314;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul314 (.clk(clk), .d(pt2_mul314), .q(dl_pt2_mul314));
+        u_dl_pt2_mul314 (.clk(clk), .d(pt2_mul314), .valid(1'b0), .q(dl_pt2_mul314));
     // pt2_cA_y = pt2_mul313 - pt2_mul314   (ready @11/11/11)
     logic [W-1:0] pt2_cA_y;
     logic [2:0] fl_pt2_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul313), .b(dl_pt2_mul314), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul313), .b(dl_pt2_mul314), .sub(1'b1),
         .out_valid(op_valid_nc[226]), .y(pt2_cA_y), .flags(fl_pt2_cA_y)
     );
     assign ev_ovf[224] = fl_pt2_cA_y[0] && ev_q[11];
@@ -3512,12 +3519,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[224] = fl_pt2_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cA_y (.clk(clk), .d(pt2_cA_y), .q(dl_pt2_cA_y));
+        u_dl_pt2_cA_y (.clk(clk), .d(pt2_cA_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_y));
     // pt2_mul316 = pt2_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul316;
     logic [2:0] fl_pt2_mul316;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul316 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[227]), .y(pt2_mul316), .flags(fl_pt2_mul316)
     );
     assign ev_ovf[225] = fl_pt2_mul316[0] && ev_q[7];
@@ -3525,12 +3532,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[225] = fl_pt2_mul316[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul316;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul316 (.clk(clk), .d(pt2_mul316), .q(dl_pt2_mul316));
+        u_dl_pt2_mul316 (.clk(clk), .d(pt2_mul316), .valid(1'b0), .q(dl_pt2_mul316));
     // pt2_mul317 = pt2_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul317;
     logic [2:0] fl_pt2_mul317;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul317 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[228]), .y(pt2_mul317), .flags(fl_pt2_mul317)
     );
     assign ev_ovf[226] = fl_pt2_mul317[0] && ev_q[7];
@@ -3538,12 +3545,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[226] = fl_pt2_mul317[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul317;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul317 (.clk(clk), .d(pt2_mul317), .q(dl_pt2_mul317));
+        u_dl_pt2_mul317 (.clk(clk), .d(pt2_mul317), .valid(1'b0), .q(dl_pt2_mul317));
     // pt2_cA_z = pt2_mul316 - pt2_mul317   (ready @11/11/11)
     logic [W-1:0] pt2_cA_z;
     logic [2:0] fl_pt2_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul316), .b(dl_pt2_mul317), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul316), .b(dl_pt2_mul317), .sub(1'b1),
         .out_valid(op_valid_nc[229]), .y(pt2_cA_z), .flags(fl_pt2_cA_z)
     );
     assign ev_ovf[227] = fl_pt2_cA_z[0] && ev_q[11];
@@ -3551,12 +3558,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[227] = fl_pt2_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cA_z (.clk(clk), .d(pt2_cA_z), .q(dl_pt2_cA_z));
+        u_dl_pt2_cA_z (.clk(clk), .d(pt2_cA_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_z));
     // pt2_rB_x = p2_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt2_rB_x;
     logic [2:0] fl_pt2_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[230]), .y(pt2_rB_x), .flags(fl_pt2_rB_x)
     );
     assign ev_ovf[228] = fl_pt2_rB_x[0] && ev_q[4];
@@ -3564,12 +3571,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[228] = fl_pt2_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rB_x (.clk(clk), .d(pt2_rB_x), .q(dl_pt2_rB_x));
+        u_dl_pt2_rB_x (.clk(clk), .d(pt2_rB_x), .valid(1'b0), .q(dl_pt2_rB_x));
     // pt2_rB_y = p2_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt2_rB_y;
     logic [2:0] fl_pt2_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[231]), .y(pt2_rB_y), .flags(fl_pt2_rB_y)
     );
     assign ev_ovf[229] = fl_pt2_rB_y[0] && ev_q[4];
@@ -3577,12 +3584,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[229] = fl_pt2_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rB_y (.clk(clk), .d(pt2_rB_y), .q(dl_pt2_rB_y));
+        u_dl_pt2_rB_y (.clk(clk), .d(pt2_rB_y), .valid(1'b0), .q(dl_pt2_rB_y));
     // pt2_rB_z = p2_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt2_rB_z;
     logic [2:0] fl_pt2_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[232]), .y(pt2_rB_z), .flags(fl_pt2_rB_z)
     );
     assign ev_ovf[230] = fl_pt2_rB_z[0] && ev_q[4];
@@ -3590,12 +3597,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[230] = fl_pt2_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rB_z (.clk(clk), .d(pt2_rB_z), .q(dl_pt2_rB_z));
+        u_dl_pt2_rB_z (.clk(clk), .d(pt2_rB_z), .valid(1'b0), .q(dl_pt2_rB_z));
     // pt2_mul322 = pt2_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul322;
     logic [2:0] fl_pt2_mul322;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul322 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[233]), .y(pt2_mul322), .flags(fl_pt2_mul322)
     );
     assign ev_ovf[231] = fl_pt2_mul322[0] && ev_q[7];
@@ -3603,12 +3610,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[231] = fl_pt2_mul322[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul322;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul322 (.clk(clk), .d(pt2_mul322), .q(dl_pt2_mul322));
+        u_dl_pt2_mul322 (.clk(clk), .d(pt2_mul322), .valid(1'b0), .q(dl_pt2_mul322));
     // pt2_mul323 = pt2_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul323;
     logic [2:0] fl_pt2_mul323;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul323 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[234]), .y(pt2_mul323), .flags(fl_pt2_mul323)
     );
     assign ev_ovf[232] = fl_pt2_mul323[0] && ev_q[7];
@@ -3616,12 +3623,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[232] = fl_pt2_mul323[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul323;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul323 (.clk(clk), .d(pt2_mul323), .q(dl_pt2_mul323));
+        u_dl_pt2_mul323 (.clk(clk), .d(pt2_mul323), .valid(1'b0), .q(dl_pt2_mul323));
     // pt2_cB_x = pt2_mul322 - pt2_mul323   (ready @11/11/11)
     logic [W-1:0] pt2_cB_x;
     logic [2:0] fl_pt2_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul322), .b(dl_pt2_mul323), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul322), .b(dl_pt2_mul323), .sub(1'b1),
         .out_valid(op_valid_nc[235]), .y(pt2_cB_x), .flags(fl_pt2_cB_x)
     );
     assign ev_ovf[233] = fl_pt2_cB_x[0] && ev_q[11];
@@ -3629,12 +3636,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[233] = fl_pt2_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cB_x (.clk(clk), .d(pt2_cB_x), .q(dl_pt2_cB_x));
+        u_dl_pt2_cB_x (.clk(clk), .d(pt2_cB_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_x));
     // pt2_mul325 = pt2_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul325;
     logic [2:0] fl_pt2_mul325;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul325 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[236]), .y(pt2_mul325), .flags(fl_pt2_mul325)
     );
     assign ev_ovf[234] = fl_pt2_mul325[0] && ev_q[7];
@@ -3642,12 +3649,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[234] = fl_pt2_mul325[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul325;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul325 (.clk(clk), .d(pt2_mul325), .q(dl_pt2_mul325));
+        u_dl_pt2_mul325 (.clk(clk), .d(pt2_mul325), .valid(1'b0), .q(dl_pt2_mul325));
     // pt2_mul326 = pt2_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul326;
     logic [2:0] fl_pt2_mul326;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul326 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[237]), .y(pt2_mul326), .flags(fl_pt2_mul326)
     );
     assign ev_ovf[235] = fl_pt2_mul326[0] && ev_q[7];
@@ -3655,12 +3662,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[235] = fl_pt2_mul326[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul326;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul326 (.clk(clk), .d(pt2_mul326), .q(dl_pt2_mul326));
+        u_dl_pt2_mul326 (.clk(clk), .d(pt2_mul326), .valid(1'b0), .q(dl_pt2_mul326));
     // pt2_cB_y = pt2_mul325 - pt2_mul326   (ready @11/11/11)
     logic [W-1:0] pt2_cB_y;
     logic [2:0] fl_pt2_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul325), .b(dl_pt2_mul326), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul325), .b(dl_pt2_mul326), .sub(1'b1),
         .out_valid(op_valid_nc[238]), .y(pt2_cB_y), .flags(fl_pt2_cB_y)
     );
     assign ev_ovf[236] = fl_pt2_cB_y[0] && ev_q[11];
@@ -3668,12 +3675,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[236] = fl_pt2_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cB_y (.clk(clk), .d(pt2_cB_y), .q(dl_pt2_cB_y));
+        u_dl_pt2_cB_y (.clk(clk), .d(pt2_cB_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_y));
     // pt2_mul328 = pt2_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul328;
     logic [2:0] fl_pt2_mul328;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul328 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[239]), .y(pt2_mul328), .flags(fl_pt2_mul328)
     );
     assign ev_ovf[237] = fl_pt2_mul328[0] && ev_q[7];
@@ -3681,12 +3688,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[237] = fl_pt2_mul328[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul328;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul328 (.clk(clk), .d(pt2_mul328), .q(dl_pt2_mul328));
+        u_dl_pt2_mul328 (.clk(clk), .d(pt2_mul328), .valid(1'b0), .q(dl_pt2_mul328));
     // pt2_mul329 = pt2_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul329;
     logic [2:0] fl_pt2_mul329;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul329 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[240]), .y(pt2_mul329), .flags(fl_pt2_mul329)
     );
     assign ev_ovf[238] = fl_pt2_mul329[0] && ev_q[7];
@@ -3694,12 +3701,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[238] = fl_pt2_mul329[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul329;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul329 (.clk(clk), .d(pt2_mul329), .q(dl_pt2_mul329));
+        u_dl_pt2_mul329 (.clk(clk), .d(pt2_mul329), .valid(1'b0), .q(dl_pt2_mul329));
     // pt2_cB_z = pt2_mul328 - pt2_mul329   (ready @11/11/11)
     logic [W-1:0] pt2_cB_z;
     logic [2:0] fl_pt2_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul328), .b(dl_pt2_mul329), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul328), .b(dl_pt2_mul329), .sub(1'b1),
         .out_valid(op_valid_nc[241]), .y(pt2_cB_z), .flags(fl_pt2_cB_z)
     );
     assign ev_ovf[239] = fl_pt2_cB_z[0] && ev_q[11];
@@ -3707,12 +3714,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[239] = fl_pt2_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cB_z (.clk(clk), .d(pt2_cB_z), .q(dl_pt2_cB_z));
+        u_dl_pt2_cB_z (.clk(clk), .d(pt2_cB_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_z));
     // pt2_mul331 = n_x * pt1_vA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul331;
     logic [2:0] fl_pt2_mul331;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul331 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[242]), .y(pt2_mul331), .flags(fl_pt2_mul331)
     );
     assign ev_ovf[240] = fl_pt2_mul331[0] && ev_q[98];
@@ -3720,12 +3727,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[240] = fl_pt2_mul331[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul331;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul331 (.clk(clk), .d(pt2_mul331), .q(dl_pt2_mul331));
+        u_dl_pt2_mul331 (.clk(clk), .d(pt2_mul331), .valid(1'b0), .q(dl_pt2_mul331));
     // pt2_mul332 = n_y * pt1_vA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul332;
     logic [2:0] fl_pt2_mul332;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul332 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[243]), .y(pt2_mul332), .flags(fl_pt2_mul332)
     );
     assign ev_ovf[241] = fl_pt2_mul332[0] && ev_q[98];
@@ -3733,12 +3740,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[241] = fl_pt2_mul332[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul332;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul332 (.clk(clk), .d(pt2_mul332), .q(dl_pt2_mul332));
+        u_dl_pt2_mul332 (.clk(clk), .d(pt2_mul332), .valid(1'b0), .q(dl_pt2_mul332));
     // pt2_add333 = pt2_mul331 + pt2_mul332   (ready @102/102/102)
     logic [W-1:0] pt2_add333;
     logic [2:0] fl_pt2_add333;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add333 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul331), .b(dl_pt2_mul332), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul331), .b(dl_pt2_mul332), .sub(1'b0),
         .out_valid(op_valid_nc[244]), .y(pt2_add333), .flags(fl_pt2_add333)
     );
     assign ev_ovf[242] = fl_pt2_add333[0] && ev_q[102];
@@ -3746,12 +3753,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[242] = fl_pt2_add333[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add333;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add333 (.clk(clk), .d(pt2_add333), .q(dl_pt2_add333));
+        u_dl_pt2_add333 (.clk(clk), .d(pt2_add333), .valid(1'b0), .q(dl_pt2_add333));
     // pt2_mul334 = n_z * pt1_vA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul334;
     logic [2:0] fl_pt2_mul334;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul334 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[245]), .y(pt2_mul334), .flags(fl_pt2_mul334)
     );
     assign ev_ovf[243] = fl_pt2_mul334[0] && ev_q[98];
@@ -3759,12 +3766,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[243] = fl_pt2_mul334[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul334;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul334 (.clk(clk), .d(pt2_mul334), .q(dl_pt2_mul334));
+        u_dl_pt2_mul334 (.clk(clk), .d(pt2_mul334), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul334));
     // pt2_add335 = pt2_add333 + pt2_mul334   (ready @106/106/106)
     logic [W-1:0] pt2_add335;
     logic [2:0] fl_pt2_add335;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add335 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add333), .b(dl_pt2_mul334), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add333), .b(dl_pt2_mul334), .sub(1'b0),
         .out_valid(op_valid_nc[246]), .y(pt2_add335), .flags(fl_pt2_add335)
     );
     assign ev_ovf[244] = fl_pt2_add335[0] && ev_q[106];
@@ -3772,12 +3779,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[244] = fl_pt2_add335[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add335;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add335 (.clk(clk), .d(pt2_add335), .q(dl_pt2_add335));
+        u_dl_pt2_add335 (.clk(clk), .d(pt2_add335), .valid(1'b0), .q(dl_pt2_add335));
     // pt2_mul336 = n_x * pt1_vB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul336;
     logic [2:0] fl_pt2_mul336;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul336 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[247]), .y(pt2_mul336), .flags(fl_pt2_mul336)
     );
     assign ev_ovf[245] = fl_pt2_mul336[0] && ev_q[98];
@@ -3785,12 +3792,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[245] = fl_pt2_mul336[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul336;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul336 (.clk(clk), .d(pt2_mul336), .q(dl_pt2_mul336));
+        u_dl_pt2_mul336 (.clk(clk), .d(pt2_mul336), .valid(1'b0), .q(dl_pt2_mul336));
     // pt2_mul337 = n_y * pt1_vB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul337;
     logic [2:0] fl_pt2_mul337;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul337 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[248]), .y(pt2_mul337), .flags(fl_pt2_mul337)
     );
     assign ev_ovf[246] = fl_pt2_mul337[0] && ev_q[98];
@@ -3798,12 +3805,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[246] = fl_pt2_mul337[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul337;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul337 (.clk(clk), .d(pt2_mul337), .q(dl_pt2_mul337));
+        u_dl_pt2_mul337 (.clk(clk), .d(pt2_mul337), .valid(1'b0), .q(dl_pt2_mul337));
     // pt2_add338 = pt2_mul336 + pt2_mul337   (ready @102/102/102)
     logic [W-1:0] pt2_add338;
     logic [2:0] fl_pt2_add338;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add338 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul336), .b(dl_pt2_mul337), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul336), .b(dl_pt2_mul337), .sub(1'b0),
         .out_valid(op_valid_nc[249]), .y(pt2_add338), .flags(fl_pt2_add338)
     );
     assign ev_ovf[247] = fl_pt2_add338[0] && ev_q[102];
@@ -3811,12 +3818,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[247] = fl_pt2_add338[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add338;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add338 (.clk(clk), .d(pt2_add338), .q(dl_pt2_add338));
+        u_dl_pt2_add338 (.clk(clk), .d(pt2_add338), .valid(1'b0), .q(dl_pt2_add338));
     // pt2_mul339 = n_z * pt1_vB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul339;
     logic [2:0] fl_pt2_mul339;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul339 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[250]), .y(pt2_mul339), .flags(fl_pt2_mul339)
     );
     assign ev_ovf[248] = fl_pt2_mul339[0] && ev_q[98];
@@ -3824,12 +3831,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[248] = fl_pt2_mul339[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul339;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul339 (.clk(clk), .d(pt2_mul339), .q(dl_pt2_mul339));
+        u_dl_pt2_mul339 (.clk(clk), .d(pt2_mul339), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul339));
     // pt2_add340 = pt2_add338 + pt2_mul339   (ready @106/106/106)
     logic [W-1:0] pt2_add340;
     logic [2:0] fl_pt2_add340;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add340 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add338), .b(dl_pt2_mul339), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add338), .b(dl_pt2_mul339), .sub(1'b0),
         .out_valid(op_valid_nc[251]), .y(pt2_add340), .flags(fl_pt2_add340)
     );
     assign ev_ovf[249] = fl_pt2_add340[0] && ev_q[106];
@@ -3837,12 +3844,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[249] = fl_pt2_add340[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add340;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add340 (.clk(clk), .d(pt2_add340), .q(dl_pt2_add340));
+        u_dl_pt2_add340 (.clk(clk), .d(pt2_add340), .valid(1'b0), .q(dl_pt2_add340));
     // pt2_sub341 = pt2_add335 - pt2_add340   (ready @110/110/110)
     logic [W-1:0] pt2_sub341;
     logic [2:0] fl_pt2_sub341;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub341 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add335), .b(dl_pt2_add340), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add335), .b(dl_pt2_add340), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(pt2_sub341), .flags(fl_pt2_sub341)
     );
     assign ev_ovf[250] = fl_pt2_sub341[0] && ev_q[110];
@@ -3850,12 +3857,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[250] = fl_pt2_sub341[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub341;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub341 (.clk(clk), .d(pt2_sub341), .q(dl_pt2_sub341));
+        u_dl_pt2_sub341 (.clk(clk), .d(pt2_sub341), .valid(1'b0), .q(dl_pt2_sub341));
     // pt2_mul342 = pt2_cA_x * pt1_wA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul342;
     logic [2:0] fl_pt2_mul342;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul342 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_x[0*W +: W]), .b(dl_pt1_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cA_x[0*W +: W]), .b(dl_pt1_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[253]), .y(pt2_mul342), .flags(fl_pt2_mul342)
     );
     assign ev_ovf[251] = fl_pt2_mul342[0] && ev_q[98];
@@ -3863,12 +3870,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[251] = fl_pt2_mul342[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul342;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul342 (.clk(clk), .d(pt2_mul342), .q(dl_pt2_mul342));
+        u_dl_pt2_mul342 (.clk(clk), .d(pt2_mul342), .valid(1'b0), .q(dl_pt2_mul342));
     // pt2_mul343 = pt2_cA_y * pt1_wA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul343;
     logic [2:0] fl_pt2_mul343;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul343 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_y[0*W +: W]), .b(dl_pt1_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cA_y[0*W +: W]), .b(dl_pt1_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[254]), .y(pt2_mul343), .flags(fl_pt2_mul343)
     );
     assign ev_ovf[252] = fl_pt2_mul343[0] && ev_q[98];
@@ -3876,12 +3883,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[252] = fl_pt2_mul343[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul343;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul343 (.clk(clk), .d(pt2_mul343), .q(dl_pt2_mul343));
+        u_dl_pt2_mul343 (.clk(clk), .d(pt2_mul343), .valid(1'b0), .q(dl_pt2_mul343));
     // pt2_add344 = pt2_mul342 + pt2_mul343   (ready @102/102/102)
     logic [W-1:0] pt2_add344;
     logic [2:0] fl_pt2_add344;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add344 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul342), .b(dl_pt2_mul343), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul342), .b(dl_pt2_mul343), .sub(1'b0),
         .out_valid(op_valid_nc[255]), .y(pt2_add344), .flags(fl_pt2_add344)
     );
     assign ev_ovf[253] = fl_pt2_add344[0] && ev_q[102];
@@ -3889,12 +3896,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[253] = fl_pt2_add344[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add344;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add344 (.clk(clk), .d(pt2_add344), .q(dl_pt2_add344));
+        u_dl_pt2_add344 (.clk(clk), .d(pt2_add344), .valid(1'b0), .q(dl_pt2_add344));
     // pt2_mul345 = pt2_cA_z * pt1_wA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul345;
     logic [2:0] fl_pt2_mul345;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul345 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_z[0*W +: W]), .b(dl_pt1_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cA_z[0*W +: W]), .b(dl_pt1_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[256]), .y(pt2_mul345), .flags(fl_pt2_mul345)
     );
     assign ev_ovf[254] = fl_pt2_mul345[0] && ev_q[98];
@@ -3902,12 +3909,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[254] = fl_pt2_mul345[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul345;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul345 (.clk(clk), .d(pt2_mul345), .q(dl_pt2_mul345));
+        u_dl_pt2_mul345 (.clk(clk), .d(pt2_mul345), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul345));
     // pt2_add346 = pt2_add344 + pt2_mul345   (ready @106/106/106)
     logic [W-1:0] pt2_add346;
     logic [2:0] fl_pt2_add346;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add346 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add344), .b(dl_pt2_mul345), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add344), .b(dl_pt2_mul345), .sub(1'b0),
         .out_valid(op_valid_nc[257]), .y(pt2_add346), .flags(fl_pt2_add346)
     );
     assign ev_ovf[255] = fl_pt2_add346[0] && ev_q[106];
@@ -3915,12 +3922,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[255] = fl_pt2_add346[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add346;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add346 (.clk(clk), .d(pt2_add346), .q(dl_pt2_add346));
+        u_dl_pt2_add346 (.clk(clk), .d(pt2_add346), .valid(1'b0), .q(dl_pt2_add346));
     // pt2_mul347 = pt2_cB_x * pt1_wB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul347;
     logic [2:0] fl_pt2_mul347;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul347 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_x[0*W +: W]), .b(dl_pt1_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cB_x[0*W +: W]), .b(dl_pt1_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[258]), .y(pt2_mul347), .flags(fl_pt2_mul347)
     );
     assign ev_ovf[256] = fl_pt2_mul347[0] && ev_q[98];
@@ -3928,12 +3935,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[256] = fl_pt2_mul347[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul347;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul347 (.clk(clk), .d(pt2_mul347), .q(dl_pt2_mul347));
+        u_dl_pt2_mul347 (.clk(clk), .d(pt2_mul347), .valid(1'b0), .q(dl_pt2_mul347));
     // pt2_mul348 = pt2_cB_y * pt1_wB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul348;
     logic [2:0] fl_pt2_mul348;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul348 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_y[0*W +: W]), .b(dl_pt1_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cB_y[0*W +: W]), .b(dl_pt1_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[259]), .y(pt2_mul348), .flags(fl_pt2_mul348)
     );
     assign ev_ovf[257] = fl_pt2_mul348[0] && ev_q[98];
@@ -3941,12 +3948,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[257] = fl_pt2_mul348[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul348;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul348 (.clk(clk), .d(pt2_mul348), .q(dl_pt2_mul348));
+        u_dl_pt2_mul348 (.clk(clk), .d(pt2_mul348), .valid(1'b0), .q(dl_pt2_mul348));
     // pt2_add349 = pt2_mul347 + pt2_mul348   (ready @102/102/102)
     logic [W-1:0] pt2_add349;
     logic [2:0] fl_pt2_add349;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add349 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul347), .b(dl_pt2_mul348), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul347), .b(dl_pt2_mul348), .sub(1'b0),
         .out_valid(op_valid_nc[260]), .y(pt2_add349), .flags(fl_pt2_add349)
     );
     assign ev_ovf[258] = fl_pt2_add349[0] && ev_q[102];
@@ -3954,12 +3961,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[258] = fl_pt2_add349[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add349;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add349 (.clk(clk), .d(pt2_add349), .q(dl_pt2_add349));
+        u_dl_pt2_add349 (.clk(clk), .d(pt2_add349), .valid(1'b0), .q(dl_pt2_add349));
     // pt2_mul350 = pt2_cB_z * pt1_wB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul350;
     logic [2:0] fl_pt2_mul350;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul350 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_z[0*W +: W]), .b(dl_pt1_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cB_z[0*W +: W]), .b(dl_pt1_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[261]), .y(pt2_mul350), .flags(fl_pt2_mul350)
     );
     assign ev_ovf[259] = fl_pt2_mul350[0] && ev_q[98];
@@ -3967,12 +3974,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[259] = fl_pt2_mul350[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul350;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul350 (.clk(clk), .d(pt2_mul350), .q(dl_pt2_mul350));
+        u_dl_pt2_mul350 (.clk(clk), .d(pt2_mul350), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul350));
     // pt2_add351 = pt2_add349 + pt2_mul350   (ready @106/106/106)
     logic [W-1:0] pt2_add351;
     logic [2:0] fl_pt2_add351;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add351 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add349), .b(dl_pt2_mul350), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add349), .b(dl_pt2_mul350), .sub(1'b0),
         .out_valid(op_valid_nc[262]), .y(pt2_add351), .flags(fl_pt2_add351)
     );
     assign ev_ovf[260] = fl_pt2_add351[0] && ev_q[106];
@@ -3980,12 +3987,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[260] = fl_pt2_add351[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add351;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add351 (.clk(clk), .d(pt2_add351), .q(dl_pt2_add351));
+        u_dl_pt2_add351 (.clk(clk), .d(pt2_add351), .valid(1'b0), .q(dl_pt2_add351));
     // pt2_sub352 = pt2_add346 - pt2_add351   (ready @110/110/110)
     logic [W-1:0] pt2_sub352;
     logic [2:0] fl_pt2_sub352;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub352 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add346), .b(dl_pt2_add351), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add346), .b(dl_pt2_add351), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(pt2_sub352), .flags(fl_pt2_sub352)
     );
     assign ev_ovf[261] = fl_pt2_sub352[0] && ev_q[110];
@@ -3993,12 +4000,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[261] = fl_pt2_sub352[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub352;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub352 (.clk(clk), .d(pt2_sub352), .q(dl_pt2_sub352));
+        u_dl_pt2_sub352 (.clk(clk), .d(pt2_sub352), .valid(1'b0), .q(dl_pt2_sub352));
     // pt2_vrel = pt2_sub341 + pt2_sub352   (ready @114/114/114)
     logic [W-1:0] pt2_vrel;
     logic [2:0] fl_pt2_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_sub341), .b(dl_pt2_sub352), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[110]), .a(dl_pt2_sub341), .b(dl_pt2_sub352), .sub(1'b0),
         .out_valid(op_valid_nc[264]), .y(pt2_vrel), .flags(fl_pt2_vrel)
     );
     assign ev_ovf[262] = fl_pt2_vrel[0] && ev_q[114];
@@ -4006,12 +4013,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[262] = fl_pt2_vrel[2] && ev_q[114];
     logic [W-1:0] dl_pt2_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_vrel (.clk(clk), .d(pt2_vrel), .q(dl_pt2_vrel));
+        u_dl_pt2_vrel (.clk(clk), .d(pt2_vrel), .valid(1'b0), .q(dl_pt2_vrel));
     // pt2_add354 = pt2_vrel + b2   (ready @118/118/118)
     logic [W-1:0] pt2_add354;
     logic [2:0] fl_pt2_add354;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add354 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[114]), .a(dl_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
         .out_valid(op_valid_nc[265]), .y(pt2_add354), .flags(fl_pt2_add354)
     );
     assign ev_ovf[263] = fl_pt2_add354[0] && ev_q[118];
@@ -4019,12 +4026,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[263] = fl_pt2_add354[2] && ev_q[118];
     logic [W-1:0] dl_pt2_add354;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add354 (.clk(clk), .d(pt2_add354), .q(dl_pt2_add354));
+        u_dl_pt2_add354 (.clk(clk), .d(pt2_add354), .valid(1'b0), .q(dl_pt2_add354));
     // pt2_delta0 = pt2_add354 * jac_inv2   (ready @121/121/121)
     logic [W-1:0] pt2_delta0;
     logic [2:0] fl_pt2_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add354), .b(dl_in_jac_inv2[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[118]), .a(dl_pt2_add354), .b(dl_in_jac_inv2[1*W +: W]),
         .out_valid(op_valid_nc[266]), .y(pt2_delta0), .flags(fl_pt2_delta0)
     );
     assign ev_ovf[264] = fl_pt2_delta0[0] && ev_q[121];
@@ -4032,12 +4039,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[264] = fl_pt2_delta0[2] && ev_q[121];
     logic [W-1:0] dl_pt2_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_delta0 (.clk(clk), .d(pt2_delta0), .q(dl_pt2_delta0));
+        u_dl_pt2_delta0 (.clk(clk), .d(pt2_delta0), .valid(1'b0), .q(dl_pt2_delta0));
     // pt2_add356 = lam2 + pt2_delta0   (ready @125/125/125)
     logic [W-1:0] pt2_add356;
     logic [2:0] fl_pt2_add356;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add356 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam2[0*W +: W]), .b(dl_pt2_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[121]), .a(dl_in_lam2[0*W +: W]), .b(dl_pt2_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[267]), .y(pt2_add356), .flags(fl_pt2_add356)
     );
     assign ev_ovf[265] = fl_pt2_add356[0] && ev_q[125];
@@ -4045,22 +4052,22 @@ module pgs_contact_pipe_full #(
     assign ev_inv[265] = fl_pt2_add356[2] && ev_q[125];
     logic [W-1:0] dl_pt2_add356;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add356 (.clk(clk), .d(pt2_add356), .q(dl_pt2_add356));
+        u_dl_pt2_add356 (.clk(clk), .d(pt2_add356), .valid(1'b0), .q(dl_pt2_add356));
     // pt2_lam_new = max(pt2_add356, 0.0)   (ready @126/126/126)
     logic [W-1:0] pt2_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt2_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add356), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[125]), .a(dl_pt2_add356), .b(K_ZERO),
         .out_valid(op_valid_nc[268]), .y_min(nc_pt2_lam_new_min), .y_max(pt2_lam_new),
         .lt(nc_pt2_lam_new_lt), .eq(nc_pt2_lam_new_eq), .unordered(nc_pt2_lam_new_uo)
     );
     logic [W-1:0] dl_pt2_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_lam_new (.clk(clk), .d(pt2_lam_new), .q(dl_pt2_lam_new));
+        u_dl_pt2_lam_new (.clk(clk), .d(pt2_lam_new), .valid(1'b0), .q(dl_pt2_lam_new));
     // pt2_delta = pt2_lam_new - lam2   (ready @130/130/130)
     logic [W-1:0] pt2_delta;
     logic [2:0] fl_pt2_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_lam_new), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[126]), .a(dl_pt2_lam_new), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(pt2_delta), .flags(fl_pt2_delta)
     );
     assign ev_ovf[266] = fl_pt2_delta[0] && ev_q[130];
@@ -4068,18 +4075,18 @@ module pgs_contact_pipe_full #(
     assign ev_inv[266] = fl_pt2_delta[2] && ev_q[130];
     logic [W-1:0] dl_pt2_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_delta (.clk(clk), .d(pt2_delta), .q(dl_pt2_delta));
+        u_dl_pt2_delta (.clk(clk), .d(pt2_delta), .valid(1'b0), .q(dl_pt2_delta));
     // pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (ready @126/126/126)
     logic [W-1:0] pt2_lam;
     assign pt2_lam = dl_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_pt2_lam_new;
     logic [W-1:0] dl_pt2_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(53))
-        u_dl_pt2_lam (.clk(clk), .d(pt2_lam), .q(dl_pt2_lam));
+        u_dl_pt2_lam (.clk(clk), .d(pt2_lam), .valid(valid_q[126 +: 53]), .q(dl_pt2_lam));
     // pt2_mul360 = IInvA_xx * pt2_cA_x   (ready @14/14/14)
     logic [W-1:0] pt2_mul360;
     logic [2:0] fl_pt2_mul360;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul360 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xx), .b(dl_pt2_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xx), .b(dl_pt2_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[270]), .y(pt2_mul360), .flags(fl_pt2_mul360)
     );
     assign ev_ovf[267] = fl_pt2_mul360[0] && ev_q[14];
@@ -4087,12 +4094,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[267] = fl_pt2_mul360[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul360;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul360 (.clk(clk), .d(pt2_mul360), .q(dl_pt2_mul360));
+        u_dl_pt2_mul360 (.clk(clk), .d(pt2_mul360), .valid(1'b0), .q(dl_pt2_mul360));
     // pt2_mul361 = IInvA_xy * pt2_cA_y   (ready @14/14/14)
     logic [W-1:0] pt2_mul361;
     logic [2:0] fl_pt2_mul361;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul361 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xy), .b(dl_pt2_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xy), .b(dl_pt2_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[271]), .y(pt2_mul361), .flags(fl_pt2_mul361)
     );
     assign ev_ovf[268] = fl_pt2_mul361[0] && ev_q[14];
@@ -4100,12 +4107,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[268] = fl_pt2_mul361[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul361;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul361 (.clk(clk), .d(pt2_mul361), .q(dl_pt2_mul361));
+        u_dl_pt2_mul361 (.clk(clk), .d(pt2_mul361), .valid(1'b0), .q(dl_pt2_mul361));
     // pt2_add362 = pt2_mul360 + pt2_mul361   (ready @18/18/18)
     logic [W-1:0] pt2_add362;
     logic [2:0] fl_pt2_add362;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add362 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul360), .b(dl_pt2_mul361), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt2_mul360), .b(dl_pt2_mul361), .sub(1'b0),
         .out_valid(op_valid_nc[272]), .y(pt2_add362), .flags(fl_pt2_add362)
     );
     assign ev_ovf[269] = fl_pt2_add362[0] && ev_q[18];
@@ -4113,12 +4120,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[269] = fl_pt2_add362[2] && ev_q[18];
     logic [W-1:0] dl_pt2_add362;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add362 (.clk(clk), .d(pt2_add362), .q(dl_pt2_add362));
+        u_dl_pt2_add362 (.clk(clk), .d(pt2_add362), .valid(1'b0), .q(dl_pt2_add362));
     // pt2_mul363 = IInvA_xz * pt2_cA_z   (ready @14/14/14)
     logic [W-1:0] pt2_mul363;
     logic [2:0] fl_pt2_mul363;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul363 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xz), .b(dl_pt2_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xz), .b(dl_pt2_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[273]), .y(pt2_mul363), .flags(fl_pt2_mul363)
     );
     assign ev_ovf[270] = fl_pt2_mul363[0] && ev_q[14];
@@ -4126,12 +4133,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[270] = fl_pt2_mul363[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul363;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul363 (.clk(clk), .d(pt2_mul363), .q(dl_pt2_mul363));
+        u_dl_pt2_mul363 (.clk(clk), .d(pt2_mul363), .valid(valid_q[14 +: 4]), .q(dl_pt2_mul363));
     // pt2_angA_x = pt2_add362 + pt2_mul363   (ready @22/22/22)
     logic [W-1:0] pt2_angA_x;
     logic [2:0] fl_pt2_angA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add362), .b(dl_pt2_mul363), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt2_add362), .b(dl_pt2_mul363), .sub(1'b0),
         .out_valid(op_valid_nc[274]), .y(pt2_angA_x), .flags(fl_pt2_angA_x)
     );
     assign ev_ovf[271] = fl_pt2_angA_x[0] && ev_q[22];
@@ -4139,12 +4146,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[271] = fl_pt2_angA_x[2] && ev_q[22];
     logic [W-1:0] dl_pt2_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(108))
-        u_dl_pt2_angA_x (.clk(clk), .d(pt2_angA_x), .q(dl_pt2_angA_x));
+        u_dl_pt2_angA_x (.clk(clk), .d(pt2_angA_x), .valid(valid_q[22 +: 108]), .q(dl_pt2_angA_x));
     // pt2_mul365 = IInvA_xy * pt2_cA_x   (ready @14/14/14)
     logic [W-1:0] pt2_mul365;
     logic [2:0] fl_pt2_mul365;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul365 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xy), .b(dl_pt2_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xy), .b(dl_pt2_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[275]), .y(pt2_mul365), .flags(fl_pt2_mul365)
     );
     assign ev_ovf[272] = fl_pt2_mul365[0] && ev_q[14];
@@ -4152,12 +4159,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[272] = fl_pt2_mul365[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul365;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul365 (.clk(clk), .d(pt2_mul365), .q(dl_pt2_mul365));
+        u_dl_pt2_mul365 (.clk(clk), .d(pt2_mul365), .valid(1'b0), .q(dl_pt2_mul365));
     // pt2_mul366 = IInvA_yy * pt2_cA_y   (ready @14/14/14)
     logic [W-1:0] pt2_mul366;
     logic [2:0] fl_pt2_mul366;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul366 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yy), .b(dl_pt2_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yy), .b(dl_pt2_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[276]), .y(pt2_mul366), .flags(fl_pt2_mul366)
     );
     assign ev_ovf[273] = fl_pt2_mul366[0] && ev_q[14];
@@ -4165,12 +4172,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[273] = fl_pt2_mul366[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul366;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul366 (.clk(clk), .d(pt2_mul366), .q(dl_pt2_mul366));
+        u_dl_pt2_mul366 (.clk(clk), .d(pt2_mul366), .valid(1'b0), .q(dl_pt2_mul366));
     // pt2_add367 = pt2_mul365 + pt2_mul366   (ready @18/18/18)
     logic [W-1:0] pt2_add367;
     logic [2:0] fl_pt2_add367;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add367 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul365), .b(dl_pt2_mul366), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt2_mul365), .b(dl_pt2_mul366), .sub(1'b0),
         .out_valid(op_valid_nc[277]), .y(pt2_add367), .flags(fl_pt2_add367)
     );
     assign ev_ovf[274] = fl_pt2_add367[0] && ev_q[18];
@@ -4178,12 +4185,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[274] = fl_pt2_add367[2] && ev_q[18];
     logic [W-1:0] dl_pt2_add367;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add367 (.clk(clk), .d(pt2_add367), .q(dl_pt2_add367));
+        u_dl_pt2_add367 (.clk(clk), .d(pt2_add367), .valid(1'b0), .q(dl_pt2_add367));
     // pt2_mul368 = IInvA_yz * pt2_cA_z   (ready @14/14/14)
     logic [W-1:0] pt2_mul368;
     logic [2:0] fl_pt2_mul368;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul368 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yz), .b(dl_pt2_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yz), .b(dl_pt2_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[278]), .y(pt2_mul368), .flags(fl_pt2_mul368)
     );
     assign ev_ovf[275] = fl_pt2_mul368[0] && ev_q[14];
@@ -4191,12 +4198,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[275] = fl_pt2_mul368[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul368;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul368 (.clk(clk), .d(pt2_mul368), .q(dl_pt2_mul368));
+        u_dl_pt2_mul368 (.clk(clk), .d(pt2_mul368), .valid(valid_q[14 +: 4]), .q(dl_pt2_mul368));
     // pt2_angA_y = pt2_add367 + pt2_mul368   (ready @22/22/22)
     logic [W-1:0] pt2_angA_y;
     logic [2:0] fl_pt2_angA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add367), .b(dl_pt2_mul368), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt2_add367), .b(dl_pt2_mul368), .sub(1'b0),
         .out_valid(op_valid_nc[279]), .y(pt2_angA_y), .flags(fl_pt2_angA_y)
     );
     assign ev_ovf[276] = fl_pt2_angA_y[0] && ev_q[22];
@@ -4204,12 +4211,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[276] = fl_pt2_angA_y[2] && ev_q[22];
     logic [W-1:0] dl_pt2_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(108))
-        u_dl_pt2_angA_y (.clk(clk), .d(pt2_angA_y), .q(dl_pt2_angA_y));
+        u_dl_pt2_angA_y (.clk(clk), .d(pt2_angA_y), .valid(valid_q[22 +: 108]), .q(dl_pt2_angA_y));
     // pt2_mul370 = IInvA_xz * pt2_cA_x   (ready @14/14/14)
     logic [W-1:0] pt2_mul370;
     logic [2:0] fl_pt2_mul370;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul370 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xz), .b(dl_pt2_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xz), .b(dl_pt2_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[280]), .y(pt2_mul370), .flags(fl_pt2_mul370)
     );
     assign ev_ovf[277] = fl_pt2_mul370[0] && ev_q[14];
@@ -4217,12 +4224,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[277] = fl_pt2_mul370[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul370;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul370 (.clk(clk), .d(pt2_mul370), .q(dl_pt2_mul370));
+        u_dl_pt2_mul370 (.clk(clk), .d(pt2_mul370), .valid(1'b0), .q(dl_pt2_mul370));
     // pt2_mul371 = IInvA_yz * pt2_cA_y   (ready @14/14/14)
     logic [W-1:0] pt2_mul371;
     logic [2:0] fl_pt2_mul371;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul371 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yz), .b(dl_pt2_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yz), .b(dl_pt2_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[281]), .y(pt2_mul371), .flags(fl_pt2_mul371)
     );
     assign ev_ovf[278] = fl_pt2_mul371[0] && ev_q[14];
@@ -4230,12 +4237,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[278] = fl_pt2_mul371[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul371;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul371 (.clk(clk), .d(pt2_mul371), .q(dl_pt2_mul371));
+        u_dl_pt2_mul371 (.clk(clk), .d(pt2_mul371), .valid(1'b0), .q(dl_pt2_mul371));
     // pt2_add372 = pt2_mul370 + pt2_mul371   (ready @18/18/18)
     logic [W-1:0] pt2_add372;
     logic [2:0] fl_pt2_add372;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add372 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul370), .b(dl_pt2_mul371), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt2_mul370), .b(dl_pt2_mul371), .sub(1'b0),
         .out_valid(op_valid_nc[282]), .y(pt2_add372), .flags(fl_pt2_add372)
     );
     assign ev_ovf[279] = fl_pt2_add372[0] && ev_q[18];
@@ -4243,12 +4250,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[279] = fl_pt2_add372[2] && ev_q[18];
     logic [W-1:0] dl_pt2_add372;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add372 (.clk(clk), .d(pt2_add372), .q(dl_pt2_add372));
+        u_dl_pt2_add372 (.clk(clk), .d(pt2_add372), .valid(1'b0), .q(dl_pt2_add372));
     // pt2_mul373 = IInvA_zz * pt2_cA_z   (ready @14/14/14)
     logic [W-1:0] pt2_mul373;
     logic [2:0] fl_pt2_mul373;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul373 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_zz), .b(dl_pt2_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_zz), .b(dl_pt2_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[283]), .y(pt2_mul373), .flags(fl_pt2_mul373)
     );
     assign ev_ovf[280] = fl_pt2_mul373[0] && ev_q[14];
@@ -4256,12 +4263,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[280] = fl_pt2_mul373[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul373;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul373 (.clk(clk), .d(pt2_mul373), .q(dl_pt2_mul373));
+        u_dl_pt2_mul373 (.clk(clk), .d(pt2_mul373), .valid(valid_q[14 +: 4]), .q(dl_pt2_mul373));
     // pt2_angA_z = pt2_add372 + pt2_mul373   (ready @22/22/22)
     logic [W-1:0] pt2_angA_z;
     logic [2:0] fl_pt2_angA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add372), .b(dl_pt2_mul373), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt2_add372), .b(dl_pt2_mul373), .sub(1'b0),
         .out_valid(op_valid_nc[284]), .y(pt2_angA_z), .flags(fl_pt2_angA_z)
     );
     assign ev_ovf[281] = fl_pt2_angA_z[0] && ev_q[22];
@@ -4269,12 +4276,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[281] = fl_pt2_angA_z[2] && ev_q[22];
     logic [W-1:0] dl_pt2_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(108))
-        u_dl_pt2_angA_z (.clk(clk), .d(pt2_angA_z), .q(dl_pt2_angA_z));
+        u_dl_pt2_angA_z (.clk(clk), .d(pt2_angA_z), .valid(valid_q[22 +: 108]), .q(dl_pt2_angA_z));
     // pt2_mul375 = IInvB_xx * pt2_cB_x   (ready @14/14/14)
     logic [W-1:0] pt2_mul375;
     logic [2:0] fl_pt2_mul375;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul375 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xx), .b(dl_pt2_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xx), .b(dl_pt2_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[285]), .y(pt2_mul375), .flags(fl_pt2_mul375)
     );
     assign ev_ovf[282] = fl_pt2_mul375[0] && ev_q[14];
@@ -4282,12 +4289,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[282] = fl_pt2_mul375[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul375;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul375 (.clk(clk), .d(pt2_mul375), .q(dl_pt2_mul375));
+        u_dl_pt2_mul375 (.clk(clk), .d(pt2_mul375), .valid(1'b0), .q(dl_pt2_mul375));
     // pt2_mul376 = IInvB_xy * pt2_cB_y   (ready @14/14/14)
     logic [W-1:0] pt2_mul376;
     logic [2:0] fl_pt2_mul376;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul376 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xy), .b(dl_pt2_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xy), .b(dl_pt2_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[286]), .y(pt2_mul376), .flags(fl_pt2_mul376)
     );
     assign ev_ovf[283] = fl_pt2_mul376[0] && ev_q[14];
@@ -4295,12 +4302,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[283] = fl_pt2_mul376[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul376;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul376 (.clk(clk), .d(pt2_mul376), .q(dl_pt2_mul376));
+        u_dl_pt2_mul376 (.clk(clk), .d(pt2_mul376), .valid(1'b0), .q(dl_pt2_mul376));
     // pt2_add377 = pt2_mul375 + pt2_mul376   (ready @18/18/18)
     logic [W-1:0] pt2_add377;
     logic [2:0] fl_pt2_add377;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add377 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul375), .b(dl_pt2_mul376), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt2_mul375), .b(dl_pt2_mul376), .sub(1'b0),
         .out_valid(op_valid_nc[287]), .y(pt2_add377), .flags(fl_pt2_add377)
     );
     assign ev_ovf[284] = fl_pt2_add377[0] && ev_q[18];
@@ -4308,12 +4315,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[284] = fl_pt2_add377[2] && ev_q[18];
     logic [W-1:0] dl_pt2_add377;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add377 (.clk(clk), .d(pt2_add377), .q(dl_pt2_add377));
+        u_dl_pt2_add377 (.clk(clk), .d(pt2_add377), .valid(1'b0), .q(dl_pt2_add377));
     // pt2_mul378 = IInvB_xz * pt2_cB_z   (ready @14/14/14)
     logic [W-1:0] pt2_mul378;
     logic [2:0] fl_pt2_mul378;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul378 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xz), .b(dl_pt2_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xz), .b(dl_pt2_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[288]), .y(pt2_mul378), .flags(fl_pt2_mul378)
     );
     assign ev_ovf[285] = fl_pt2_mul378[0] && ev_q[14];
@@ -4321,12 +4328,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[285] = fl_pt2_mul378[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul378;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul378 (.clk(clk), .d(pt2_mul378), .q(dl_pt2_mul378));
+        u_dl_pt2_mul378 (.clk(clk), .d(pt2_mul378), .valid(valid_q[14 +: 4]), .q(dl_pt2_mul378));
     // pt2_angB_x = pt2_add377 + pt2_mul378   (ready @22/22/22)
     logic [W-1:0] pt2_angB_x;
     logic [2:0] fl_pt2_angB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add377), .b(dl_pt2_mul378), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt2_add377), .b(dl_pt2_mul378), .sub(1'b0),
         .out_valid(op_valid_nc[289]), .y(pt2_angB_x), .flags(fl_pt2_angB_x)
     );
     assign ev_ovf[286] = fl_pt2_angB_x[0] && ev_q[22];
@@ -4334,12 +4341,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[286] = fl_pt2_angB_x[2] && ev_q[22];
     logic [W-1:0] dl_pt2_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(108))
-        u_dl_pt2_angB_x (.clk(clk), .d(pt2_angB_x), .q(dl_pt2_angB_x));
+        u_dl_pt2_angB_x (.clk(clk), .d(pt2_angB_x), .valid(valid_q[22 +: 108]), .q(dl_pt2_angB_x));
     // pt2_mul380 = IInvB_xy * pt2_cB_x   (ready @14/14/14)
     logic [W-1:0] pt2_mul380;
     logic [2:0] fl_pt2_mul380;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul380 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xy), .b(dl_pt2_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xy), .b(dl_pt2_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[290]), .y(pt2_mul380), .flags(fl_pt2_mul380)
     );
     assign ev_ovf[287] = fl_pt2_mul380[0] && ev_q[14];
@@ -4347,12 +4354,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[287] = fl_pt2_mul380[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul380;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul380 (.clk(clk), .d(pt2_mul380), .q(dl_pt2_mul380));
+        u_dl_pt2_mul380 (.clk(clk), .d(pt2_mul380), .valid(1'b0), .q(dl_pt2_mul380));
     // pt2_mul381 = IInvB_yy * pt2_cB_y   (ready @14/14/14)
     logic [W-1:0] pt2_mul381;
     logic [2:0] fl_pt2_mul381;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul381 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yy), .b(dl_pt2_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yy), .b(dl_pt2_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[291]), .y(pt2_mul381), .flags(fl_pt2_mul381)
     );
     assign ev_ovf[288] = fl_pt2_mul381[0] && ev_q[14];
@@ -4360,12 +4367,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[288] = fl_pt2_mul381[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul381;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul381 (.clk(clk), .d(pt2_mul381), .q(dl_pt2_mul381));
+        u_dl_pt2_mul381 (.clk(clk), .d(pt2_mul381), .valid(1'b0), .q(dl_pt2_mul381));
     // pt2_add382 = pt2_mul380 + pt2_mul381   (ready @18/18/18)
     logic [W-1:0] pt2_add382;
     logic [2:0] fl_pt2_add382;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add382 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul380), .b(dl_pt2_mul381), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt2_mul380), .b(dl_pt2_mul381), .sub(1'b0),
         .out_valid(op_valid_nc[292]), .y(pt2_add382), .flags(fl_pt2_add382)
     );
     assign ev_ovf[289] = fl_pt2_add382[0] && ev_q[18];
@@ -4373,12 +4380,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[289] = fl_pt2_add382[2] && ev_q[18];
     logic [W-1:0] dl_pt2_add382;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add382 (.clk(clk), .d(pt2_add382), .q(dl_pt2_add382));
+        u_dl_pt2_add382 (.clk(clk), .d(pt2_add382), .valid(1'b0), .q(dl_pt2_add382));
     // pt2_mul383 = IInvB_yz * pt2_cB_z   (ready @14/14/14)
     logic [W-1:0] pt2_mul383;
     logic [2:0] fl_pt2_mul383;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul383 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yz), .b(dl_pt2_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yz), .b(dl_pt2_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[293]), .y(pt2_mul383), .flags(fl_pt2_mul383)
     );
     assign ev_ovf[290] = fl_pt2_mul383[0] && ev_q[14];
@@ -4386,12 +4393,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[290] = fl_pt2_mul383[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul383;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul383 (.clk(clk), .d(pt2_mul383), .q(dl_pt2_mul383));
+        u_dl_pt2_mul383 (.clk(clk), .d(pt2_mul383), .valid(valid_q[14 +: 4]), .q(dl_pt2_mul383));
     // pt2_angB_y = pt2_add382 + pt2_mul383   (ready @22/22/22)
     logic [W-1:0] pt2_angB_y;
     logic [2:0] fl_pt2_angB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add382), .b(dl_pt2_mul383), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt2_add382), .b(dl_pt2_mul383), .sub(1'b0),
         .out_valid(op_valid_nc[294]), .y(pt2_angB_y), .flags(fl_pt2_angB_y)
     );
     assign ev_ovf[291] = fl_pt2_angB_y[0] && ev_q[22];
@@ -4399,12 +4406,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[291] = fl_pt2_angB_y[2] && ev_q[22];
     logic [W-1:0] dl_pt2_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(108))
-        u_dl_pt2_angB_y (.clk(clk), .d(pt2_angB_y), .q(dl_pt2_angB_y));
+        u_dl_pt2_angB_y (.clk(clk), .d(pt2_angB_y), .valid(valid_q[22 +: 108]), .q(dl_pt2_angB_y));
     // pt2_mul385 = IInvB_xz * pt2_cB_x   (ready @14/14/14)
     logic [W-1:0] pt2_mul385;
     logic [2:0] fl_pt2_mul385;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul385 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xz), .b(dl_pt2_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xz), .b(dl_pt2_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[295]), .y(pt2_mul385), .flags(fl_pt2_mul385)
     );
     assign ev_ovf[292] = fl_pt2_mul385[0] && ev_q[14];
@@ -4412,12 +4419,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[292] = fl_pt2_mul385[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul385;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul385 (.clk(clk), .d(pt2_mul385), .q(dl_pt2_mul385));
+        u_dl_pt2_mul385 (.clk(clk), .d(pt2_mul385), .valid(1'b0), .q(dl_pt2_mul385));
     // pt2_mul386 = IInvB_yz * pt2_cB_y   (ready @14/14/14)
     logic [W-1:0] pt2_mul386;
     logic [2:0] fl_pt2_mul386;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul386 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yz), .b(dl_pt2_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yz), .b(dl_pt2_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[296]), .y(pt2_mul386), .flags(fl_pt2_mul386)
     );
     assign ev_ovf[293] = fl_pt2_mul386[0] && ev_q[14];
@@ -4425,12 +4432,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[293] = fl_pt2_mul386[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul386;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul386 (.clk(clk), .d(pt2_mul386), .q(dl_pt2_mul386));
+        u_dl_pt2_mul386 (.clk(clk), .d(pt2_mul386), .valid(1'b0), .q(dl_pt2_mul386));
     // pt2_add387 = pt2_mul385 + pt2_mul386   (ready @18/18/18)
     logic [W-1:0] pt2_add387;
     logic [2:0] fl_pt2_add387;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add387 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul385), .b(dl_pt2_mul386), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt2_mul385), .b(dl_pt2_mul386), .sub(1'b0),
         .out_valid(op_valid_nc[297]), .y(pt2_add387), .flags(fl_pt2_add387)
     );
     assign ev_ovf[294] = fl_pt2_add387[0] && ev_q[18];
@@ -4438,12 +4445,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[294] = fl_pt2_add387[2] && ev_q[18];
     logic [W-1:0] dl_pt2_add387;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add387 (.clk(clk), .d(pt2_add387), .q(dl_pt2_add387));
+        u_dl_pt2_add387 (.clk(clk), .d(pt2_add387), .valid(1'b0), .q(dl_pt2_add387));
     // pt2_mul388 = IInvB_zz * pt2_cB_z   (ready @14/14/14)
     logic [W-1:0] pt2_mul388;
     logic [2:0] fl_pt2_mul388;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul388 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_zz), .b(dl_pt2_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_zz), .b(dl_pt2_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[298]), .y(pt2_mul388), .flags(fl_pt2_mul388)
     );
     assign ev_ovf[295] = fl_pt2_mul388[0] && ev_q[14];
@@ -4451,12 +4458,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[295] = fl_pt2_mul388[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul388;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul388 (.clk(clk), .d(pt2_mul388), .q(dl_pt2_mul388));
+        u_dl_pt2_mul388 (.clk(clk), .d(pt2_mul388), .valid(valid_q[14 +: 4]), .q(dl_pt2_mul388));
     // pt2_angB_z = pt2_add387 + pt2_mul388   (ready @22/22/22)
     logic [W-1:0] pt2_angB_z;
     logic [2:0] fl_pt2_angB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add387), .b(dl_pt2_mul388), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt2_add387), .b(dl_pt2_mul388), .sub(1'b0),
         .out_valid(op_valid_nc[299]), .y(pt2_angB_z), .flags(fl_pt2_angB_z)
     );
     assign ev_ovf[296] = fl_pt2_angB_z[0] && ev_q[22];
@@ -4464,12 +4471,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[296] = fl_pt2_angB_z[2] && ev_q[22];
     logic [W-1:0] dl_pt2_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(108))
-        u_dl_pt2_angB_z (.clk(clk), .d(pt2_angB_z), .q(dl_pt2_angB_z));
+        u_dl_pt2_angB_z (.clk(clk), .d(pt2_angB_z), .valid(valid_q[22 +: 108]), .q(dl_pt2_angB_z));
     // pt2_mul390 = linA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul390;
     logic [2:0] fl_pt2_mul390;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul390 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linA_x[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[300]), .y(pt2_mul390), .flags(fl_pt2_mul390)
     );
     assign ev_ovf[297] = fl_pt2_mul390[0] && ev_q[133];
@@ -4477,12 +4484,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[297] = fl_pt2_mul390[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul390;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul390 (.clk(clk), .d(pt2_mul390), .q(dl_pt2_mul390));
+        u_dl_pt2_mul390 (.clk(clk), .d(pt2_mul390), .valid(1'b0), .q(dl_pt2_mul390));
     // pt2_mul391 = linA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul391;
     logic [2:0] fl_pt2_mul391;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul391 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linA_y[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[301]), .y(pt2_mul391), .flags(fl_pt2_mul391)
     );
     assign ev_ovf[298] = fl_pt2_mul391[0] && ev_q[133];
@@ -4490,12 +4497,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[298] = fl_pt2_mul391[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul391;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul391 (.clk(clk), .d(pt2_mul391), .q(dl_pt2_mul391));
+        u_dl_pt2_mul391 (.clk(clk), .d(pt2_mul391), .valid(1'b0), .q(dl_pt2_mul391));
     // pt2_mul392 = linA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul392;
     logic [2:0] fl_pt2_mul392;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul392 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linA_z[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[302]), .y(pt2_mul392), .flags(fl_pt2_mul392)
     );
     assign ev_ovf[299] = fl_pt2_mul392[0] && ev_q[133];
@@ -4503,12 +4510,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[299] = fl_pt2_mul392[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul392;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul392 (.clk(clk), .d(pt2_mul392), .q(dl_pt2_mul392));
+        u_dl_pt2_mul392 (.clk(clk), .d(pt2_mul392), .valid(1'b0), .q(dl_pt2_mul392));
     // pt2_add393 = pt1_vA_x + pt2_mul390   (ready @137/137/137)
     logic [W-1:0] pt2_add393;
     logic [2:0] fl_pt2_add393;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add393 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_x[1*W +: W]), .b(dl_pt2_mul390), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_x[1*W +: W]), .b(dl_pt2_mul390), .sub(1'b0),
         .out_valid(op_valid_nc[303]), .y(pt2_add393), .flags(fl_pt2_add393)
     );
     assign ev_ovf[300] = fl_pt2_add393[0] && ev_q[137];
@@ -4516,12 +4523,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[300] = fl_pt2_add393[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add393;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add393 (.clk(clk), .d(pt2_add393), .q(dl_pt2_add393));
+        u_dl_pt2_add393 (.clk(clk), .d(pt2_add393), .valid(1'b0), .q(dl_pt2_add393));
     // pt2_add394 = pt1_vA_y + pt2_mul391   (ready @137/137/137)
     logic [W-1:0] pt2_add394;
     logic [2:0] fl_pt2_add394;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add394 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_y[1*W +: W]), .b(dl_pt2_mul391), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_y[1*W +: W]), .b(dl_pt2_mul391), .sub(1'b0),
         .out_valid(op_valid_nc[304]), .y(pt2_add394), .flags(fl_pt2_add394)
     );
     assign ev_ovf[301] = fl_pt2_add394[0] && ev_q[137];
@@ -4529,12 +4536,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[301] = fl_pt2_add394[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add394;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add394 (.clk(clk), .d(pt2_add394), .q(dl_pt2_add394));
+        u_dl_pt2_add394 (.clk(clk), .d(pt2_add394), .valid(1'b0), .q(dl_pt2_add394));
     // pt2_add395 = pt1_vA_z + pt2_mul392   (ready @137/137/137)
     logic [W-1:0] pt2_add395;
     logic [2:0] fl_pt2_add395;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add395 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_z[1*W +: W]), .b(dl_pt2_mul392), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_z[1*W +: W]), .b(dl_pt2_mul392), .sub(1'b0),
         .out_valid(op_valid_nc[305]), .y(pt2_add395), .flags(fl_pt2_add395)
     );
     assign ev_ovf[302] = fl_pt2_add395[0] && ev_q[137];
@@ -4542,30 +4549,30 @@ module pgs_contact_pipe_full #(
     assign ev_inv[302] = fl_pt2_add395[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add395;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add395 (.clk(clk), .d(pt2_add395), .q(dl_pt2_add395));
+        u_dl_pt2_add395 (.clk(clk), .d(pt2_add395), .valid(1'b0), .q(dl_pt2_add395));
     // pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add393   (ready @137/137/137)
     logic [W-1:0] pt2_vA_x;
     assign pt2_vA_x = dl_pt2_skip[1] ? dl_pt1_vA_x[2*W +: W] : dl_pt2_add393;
     logic [3*W-1:0] dl_pt2_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vA_x (.clk(clk), .d(pt2_vA_x), .q(dl_pt2_vA_x));
+        u_dl_pt2_vA_x (.clk(clk), .d(pt2_vA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_x));
     // pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add394   (ready @137/137/137)
     logic [W-1:0] pt2_vA_y;
     assign pt2_vA_y = dl_pt2_skip[1] ? dl_pt1_vA_y[2*W +: W] : dl_pt2_add394;
     logic [3*W-1:0] dl_pt2_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vA_y (.clk(clk), .d(pt2_vA_y), .q(dl_pt2_vA_y));
+        u_dl_pt2_vA_y (.clk(clk), .d(pt2_vA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_y));
     // pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add395   (ready @137/137/137)
     logic [W-1:0] pt2_vA_z;
     assign pt2_vA_z = dl_pt2_skip[1] ? dl_pt1_vA_z[2*W +: W] : dl_pt2_add395;
     logic [3*W-1:0] dl_pt2_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vA_z (.clk(clk), .d(pt2_vA_z), .q(dl_pt2_vA_z));
+        u_dl_pt2_vA_z (.clk(clk), .d(pt2_vA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_z));
     // pt2_mul399 = pt2_angA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul399;
     logic [2:0] fl_pt2_mul399;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul399 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_x), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angA_x), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[306]), .y(pt2_mul399), .flags(fl_pt2_mul399)
     );
     assign ev_ovf[303] = fl_pt2_mul399[0] && ev_q[133];
@@ -4573,12 +4580,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[303] = fl_pt2_mul399[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul399;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul399 (.clk(clk), .d(pt2_mul399), .q(dl_pt2_mul399));
+        u_dl_pt2_mul399 (.clk(clk), .d(pt2_mul399), .valid(1'b0), .q(dl_pt2_mul399));
     // pt2_mul400 = pt2_angA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul400;
     logic [2:0] fl_pt2_mul400;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul400 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_y), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angA_y), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[307]), .y(pt2_mul400), .flags(fl_pt2_mul400)
     );
     assign ev_ovf[304] = fl_pt2_mul400[0] && ev_q[133];
@@ -4586,12 +4593,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[304] = fl_pt2_mul400[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul400;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul400 (.clk(clk), .d(pt2_mul400), .q(dl_pt2_mul400));
+        u_dl_pt2_mul400 (.clk(clk), .d(pt2_mul400), .valid(1'b0), .q(dl_pt2_mul400));
     // pt2_mul401 = pt2_angA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul401;
     logic [2:0] fl_pt2_mul401;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul401 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_z), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angA_z), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[308]), .y(pt2_mul401), .flags(fl_pt2_mul401)
     );
     assign ev_ovf[305] = fl_pt2_mul401[0] && ev_q[133];
@@ -4599,12 +4606,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[305] = fl_pt2_mul401[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul401;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul401 (.clk(clk), .d(pt2_mul401), .q(dl_pt2_mul401));
+        u_dl_pt2_mul401 (.clk(clk), .d(pt2_mul401), .valid(1'b0), .q(dl_pt2_mul401));
     // pt2_add402 = pt1_wA_x + pt2_mul399   (ready @137/137/137)
     logic [W-1:0] pt2_add402;
     logic [2:0] fl_pt2_add402;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add402 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_x[1*W +: W]), .b(dl_pt2_mul399), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_x[1*W +: W]), .b(dl_pt2_mul399), .sub(1'b0),
         .out_valid(op_valid_nc[309]), .y(pt2_add402), .flags(fl_pt2_add402)
     );
     assign ev_ovf[306] = fl_pt2_add402[0] && ev_q[137];
@@ -4612,12 +4619,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[306] = fl_pt2_add402[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add402;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add402 (.clk(clk), .d(pt2_add402), .q(dl_pt2_add402));
+        u_dl_pt2_add402 (.clk(clk), .d(pt2_add402), .valid(1'b0), .q(dl_pt2_add402));
     // pt2_add403 = pt1_wA_y + pt2_mul400   (ready @137/137/137)
     logic [W-1:0] pt2_add403;
     logic [2:0] fl_pt2_add403;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add403 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_y[1*W +: W]), .b(dl_pt2_mul400), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_y[1*W +: W]), .b(dl_pt2_mul400), .sub(1'b0),
         .out_valid(op_valid_nc[310]), .y(pt2_add403), .flags(fl_pt2_add403)
     );
     assign ev_ovf[307] = fl_pt2_add403[0] && ev_q[137];
@@ -4625,12 +4632,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[307] = fl_pt2_add403[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add403;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add403 (.clk(clk), .d(pt2_add403), .q(dl_pt2_add403));
+        u_dl_pt2_add403 (.clk(clk), .d(pt2_add403), .valid(1'b0), .q(dl_pt2_add403));
     // pt2_add404 = pt1_wA_z + pt2_mul401   (ready @137/137/137)
     logic [W-1:0] pt2_add404;
     logic [2:0] fl_pt2_add404;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add404 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_z[1*W +: W]), .b(dl_pt2_mul401), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_z[1*W +: W]), .b(dl_pt2_mul401), .sub(1'b0),
         .out_valid(op_valid_nc[311]), .y(pt2_add404), .flags(fl_pt2_add404)
     );
     assign ev_ovf[308] = fl_pt2_add404[0] && ev_q[137];
@@ -4638,30 +4645,30 @@ module pgs_contact_pipe_full #(
     assign ev_inv[308] = fl_pt2_add404[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add404;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add404 (.clk(clk), .d(pt2_add404), .q(dl_pt2_add404));
+        u_dl_pt2_add404 (.clk(clk), .d(pt2_add404), .valid(1'b0), .q(dl_pt2_add404));
     // pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add402   (ready @137/137/137)
     logic [W-1:0] pt2_wA_x;
     assign pt2_wA_x = dl_pt2_skip[1] ? dl_pt1_wA_x[2*W +: W] : dl_pt2_add402;
     logic [3*W-1:0] dl_pt2_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wA_x (.clk(clk), .d(pt2_wA_x), .q(dl_pt2_wA_x));
+        u_dl_pt2_wA_x (.clk(clk), .d(pt2_wA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_x));
     // pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add403   (ready @137/137/137)
     logic [W-1:0] pt2_wA_y;
     assign pt2_wA_y = dl_pt2_skip[1] ? dl_pt1_wA_y[2*W +: W] : dl_pt2_add403;
     logic [3*W-1:0] dl_pt2_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wA_y (.clk(clk), .d(pt2_wA_y), .q(dl_pt2_wA_y));
+        u_dl_pt2_wA_y (.clk(clk), .d(pt2_wA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_y));
     // pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add404   (ready @137/137/137)
     logic [W-1:0] pt2_wA_z;
     assign pt2_wA_z = dl_pt2_skip[1] ? dl_pt1_wA_z[2*W +: W] : dl_pt2_add404;
     logic [3*W-1:0] dl_pt2_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wA_z (.clk(clk), .d(pt2_wA_z), .q(dl_pt2_wA_z));
+        u_dl_pt2_wA_z (.clk(clk), .d(pt2_wA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_z));
     // pt2_mul408 = linB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul408;
     logic [2:0] fl_pt2_mul408;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul408 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linB_x[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[312]), .y(pt2_mul408), .flags(fl_pt2_mul408)
     );
     assign ev_ovf[309] = fl_pt2_mul408[0] && ev_q[133];
@@ -4669,12 +4676,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[309] = fl_pt2_mul408[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul408;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul408 (.clk(clk), .d(pt2_mul408), .q(dl_pt2_mul408));
+        u_dl_pt2_mul408 (.clk(clk), .d(pt2_mul408), .valid(1'b0), .q(dl_pt2_mul408));
     // pt2_mul409 = linB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul409;
     logic [2:0] fl_pt2_mul409;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul409 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linB_y[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[313]), .y(pt2_mul409), .flags(fl_pt2_mul409)
     );
     assign ev_ovf[310] = fl_pt2_mul409[0] && ev_q[133];
@@ -4682,12 +4689,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[310] = fl_pt2_mul409[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul409;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul409 (.clk(clk), .d(pt2_mul409), .q(dl_pt2_mul409));
+        u_dl_pt2_mul409 (.clk(clk), .d(pt2_mul409), .valid(1'b0), .q(dl_pt2_mul409));
     // pt2_mul410 = linB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul410;
     logic [2:0] fl_pt2_mul410;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul410 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linB_z[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[314]), .y(pt2_mul410), .flags(fl_pt2_mul410)
     );
     assign ev_ovf[311] = fl_pt2_mul410[0] && ev_q[133];
@@ -4695,12 +4702,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[311] = fl_pt2_mul410[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul410;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul410 (.clk(clk), .d(pt2_mul410), .q(dl_pt2_mul410));
+        u_dl_pt2_mul410 (.clk(clk), .d(pt2_mul410), .valid(1'b0), .q(dl_pt2_mul410));
     // pt2_sub411 = pt1_vB_x - pt2_mul408   (ready @137/137/137)
     logic [W-1:0] pt2_sub411;
     logic [2:0] fl_pt2_sub411;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub411 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_x[1*W +: W]), .b(dl_pt2_mul408), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_x[1*W +: W]), .b(dl_pt2_mul408), .sub(1'b1),
         .out_valid(op_valid_nc[315]), .y(pt2_sub411), .flags(fl_pt2_sub411)
     );
     assign ev_ovf[312] = fl_pt2_sub411[0] && ev_q[137];
@@ -4708,12 +4715,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[312] = fl_pt2_sub411[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub411;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub411 (.clk(clk), .d(pt2_sub411), .q(dl_pt2_sub411));
+        u_dl_pt2_sub411 (.clk(clk), .d(pt2_sub411), .valid(1'b0), .q(dl_pt2_sub411));
     // pt2_sub412 = pt1_vB_y - pt2_mul409   (ready @137/137/137)
     logic [W-1:0] pt2_sub412;
     logic [2:0] fl_pt2_sub412;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub412 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_y[1*W +: W]), .b(dl_pt2_mul409), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_y[1*W +: W]), .b(dl_pt2_mul409), .sub(1'b1),
         .out_valid(op_valid_nc[316]), .y(pt2_sub412), .flags(fl_pt2_sub412)
     );
     assign ev_ovf[313] = fl_pt2_sub412[0] && ev_q[137];
@@ -4721,12 +4728,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[313] = fl_pt2_sub412[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub412;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub412 (.clk(clk), .d(pt2_sub412), .q(dl_pt2_sub412));
+        u_dl_pt2_sub412 (.clk(clk), .d(pt2_sub412), .valid(1'b0), .q(dl_pt2_sub412));
     // pt2_sub413 = pt1_vB_z - pt2_mul410   (ready @137/137/137)
     logic [W-1:0] pt2_sub413;
     logic [2:0] fl_pt2_sub413;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub413 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_z[1*W +: W]), .b(dl_pt2_mul410), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_z[1*W +: W]), .b(dl_pt2_mul410), .sub(1'b1),
         .out_valid(op_valid_nc[317]), .y(pt2_sub413), .flags(fl_pt2_sub413)
     );
     assign ev_ovf[314] = fl_pt2_sub413[0] && ev_q[137];
@@ -4734,30 +4741,30 @@ module pgs_contact_pipe_full #(
     assign ev_inv[314] = fl_pt2_sub413[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub413;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub413 (.clk(clk), .d(pt2_sub413), .q(dl_pt2_sub413));
+        u_dl_pt2_sub413 (.clk(clk), .d(pt2_sub413), .valid(1'b0), .q(dl_pt2_sub413));
     // pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub411   (ready @137/137/137)
     logic [W-1:0] pt2_vB_x;
     assign pt2_vB_x = dl_pt2_skip[1] ? dl_pt1_vB_x[2*W +: W] : dl_pt2_sub411;
     logic [3*W-1:0] dl_pt2_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vB_x (.clk(clk), .d(pt2_vB_x), .q(dl_pt2_vB_x));
+        u_dl_pt2_vB_x (.clk(clk), .d(pt2_vB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_x));
     // pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub412   (ready @137/137/137)
     logic [W-1:0] pt2_vB_y;
     assign pt2_vB_y = dl_pt2_skip[1] ? dl_pt1_vB_y[2*W +: W] : dl_pt2_sub412;
     logic [3*W-1:0] dl_pt2_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vB_y (.clk(clk), .d(pt2_vB_y), .q(dl_pt2_vB_y));
+        u_dl_pt2_vB_y (.clk(clk), .d(pt2_vB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_y));
     // pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub413   (ready @137/137/137)
     logic [W-1:0] pt2_vB_z;
     assign pt2_vB_z = dl_pt2_skip[1] ? dl_pt1_vB_z[2*W +: W] : dl_pt2_sub413;
     logic [3*W-1:0] dl_pt2_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vB_z (.clk(clk), .d(pt2_vB_z), .q(dl_pt2_vB_z));
+        u_dl_pt2_vB_z (.clk(clk), .d(pt2_vB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_z));
     // pt2_mul417 = pt2_angB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul417;
     logic [2:0] fl_pt2_mul417;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul417 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_x), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angB_x), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[318]), .y(pt2_mul417), .flags(fl_pt2_mul417)
     );
     assign ev_ovf[315] = fl_pt2_mul417[0] && ev_q[133];
@@ -4765,12 +4772,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[315] = fl_pt2_mul417[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul417;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul417 (.clk(clk), .d(pt2_mul417), .q(dl_pt2_mul417));
+        u_dl_pt2_mul417 (.clk(clk), .d(pt2_mul417), .valid(1'b0), .q(dl_pt2_mul417));
     // pt2_mul418 = pt2_angB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul418;
     logic [2:0] fl_pt2_mul418;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul418 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_y), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angB_y), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[319]), .y(pt2_mul418), .flags(fl_pt2_mul418)
     );
     assign ev_ovf[316] = fl_pt2_mul418[0] && ev_q[133];
@@ -4778,12 +4785,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[316] = fl_pt2_mul418[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul418;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul418 (.clk(clk), .d(pt2_mul418), .q(dl_pt2_mul418));
+        u_dl_pt2_mul418 (.clk(clk), .d(pt2_mul418), .valid(1'b0), .q(dl_pt2_mul418));
     // pt2_mul419 = pt2_angB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul419;
     logic [2:0] fl_pt2_mul419;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul419 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_z), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angB_z), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[320]), .y(pt2_mul419), .flags(fl_pt2_mul419)
     );
     assign ev_ovf[317] = fl_pt2_mul419[0] && ev_q[133];
@@ -4791,12 +4798,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[317] = fl_pt2_mul419[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul419;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul419 (.clk(clk), .d(pt2_mul419), .q(dl_pt2_mul419));
+        u_dl_pt2_mul419 (.clk(clk), .d(pt2_mul419), .valid(1'b0), .q(dl_pt2_mul419));
     // pt2_sub420 = pt1_wB_x - pt2_mul417   (ready @137/137/137)
     logic [W-1:0] pt2_sub420;
     logic [2:0] fl_pt2_sub420;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub420 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_x[1*W +: W]), .b(dl_pt2_mul417), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_x[1*W +: W]), .b(dl_pt2_mul417), .sub(1'b1),
         .out_valid(op_valid_nc[321]), .y(pt2_sub420), .flags(fl_pt2_sub420)
     );
     assign ev_ovf[318] = fl_pt2_sub420[0] && ev_q[137];
@@ -4804,12 +4811,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[318] = fl_pt2_sub420[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub420;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub420 (.clk(clk), .d(pt2_sub420), .q(dl_pt2_sub420));
+        u_dl_pt2_sub420 (.clk(clk), .d(pt2_sub420), .valid(1'b0), .q(dl_pt2_sub420));
     // pt2_sub421 = pt1_wB_y - pt2_mul418   (ready @137/137/137)
     logic [W-1:0] pt2_sub421;
     logic [2:0] fl_pt2_sub421;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub421 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_y[1*W +: W]), .b(dl_pt2_mul418), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_y[1*W +: W]), .b(dl_pt2_mul418), .sub(1'b1),
         .out_valid(op_valid_nc[322]), .y(pt2_sub421), .flags(fl_pt2_sub421)
     );
     assign ev_ovf[319] = fl_pt2_sub421[0] && ev_q[137];
@@ -4817,12 +4824,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[319] = fl_pt2_sub421[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub421;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub421 (.clk(clk), .d(pt2_sub421), .q(dl_pt2_sub421));
+        u_dl_pt2_sub421 (.clk(clk), .d(pt2_sub421), .valid(1'b0), .q(dl_pt2_sub421));
     // pt2_sub422 = pt1_wB_z - pt2_mul419   (ready @137/137/137)
     logic [W-1:0] pt2_sub422;
     logic [2:0] fl_pt2_sub422;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub422 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_z[1*W +: W]), .b(dl_pt2_mul419), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_z[1*W +: W]), .b(dl_pt2_mul419), .sub(1'b1),
         .out_valid(op_valid_nc[323]), .y(pt2_sub422), .flags(fl_pt2_sub422)
     );
     assign ev_ovf[320] = fl_pt2_sub422[0] && ev_q[137];
@@ -4830,36 +4837,36 @@ module pgs_contact_pipe_full #(
     assign ev_inv[320] = fl_pt2_sub422[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub422;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub422 (.clk(clk), .d(pt2_sub422), .q(dl_pt2_sub422));
+        u_dl_pt2_sub422 (.clk(clk), .d(pt2_sub422), .valid(1'b0), .q(dl_pt2_sub422));
     // pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub420   (ready @137/137/137)
     logic [W-1:0] pt2_wB_x;
     assign pt2_wB_x = dl_pt2_skip[1] ? dl_pt1_wB_x[2*W +: W] : dl_pt2_sub420;
     logic [3*W-1:0] dl_pt2_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wB_x (.clk(clk), .d(pt2_wB_x), .q(dl_pt2_wB_x));
+        u_dl_pt2_wB_x (.clk(clk), .d(pt2_wB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_x));
     // pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub421   (ready @137/137/137)
     logic [W-1:0] pt2_wB_y;
     assign pt2_wB_y = dl_pt2_skip[1] ? dl_pt1_wB_y[2*W +: W] : dl_pt2_sub421;
     logic [3*W-1:0] dl_pt2_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wB_y (.clk(clk), .d(pt2_wB_y), .q(dl_pt2_wB_y));
+        u_dl_pt2_wB_y (.clk(clk), .d(pt2_wB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_y));
     // pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub422   (ready @137/137/137)
     logic [W-1:0] pt2_wB_z;
     assign pt2_wB_z = dl_pt2_skip[1] ? dl_pt1_wB_z[2*W +: W] : dl_pt2_sub422;
     logic [3*W-1:0] dl_pt2_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wB_z (.clk(clk), .d(pt2_wB_z), .q(dl_pt2_wB_z));
+        u_dl_pt2_wB_z (.clk(clk), .d(pt2_wB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_z));
     // pt3_skip = jac_inv3 == 0   (ready @0/0/0)
     logic pt3_skip;
     assign pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt3_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}))
-        u_dl_pt3_skip (.clk(clk), .d(pt3_skip), .q(dl_pt3_skip));
+        u_dl_pt3_skip (.clk(clk), .d(pt3_skip), .valid(valid_q[0 +: 179]), .q(dl_pt3_skip));
     // pt3_rA_x = p3_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt3_rA_x;
     logic [2:0] fl_pt3_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[324]), .y(pt3_rA_x), .flags(fl_pt3_rA_x)
     );
     assign ev_ovf[321] = fl_pt3_rA_x[0] && ev_q[4];
@@ -4867,12 +4874,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[321] = fl_pt3_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rA_x (.clk(clk), .d(pt3_rA_x), .q(dl_pt3_rA_x));
+        u_dl_pt3_rA_x (.clk(clk), .d(pt3_rA_x), .valid(1'b0), .q(dl_pt3_rA_x));
     // pt3_rA_y = p3_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt3_rA_y;
     logic [2:0] fl_pt3_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[325]), .y(pt3_rA_y), .flags(fl_pt3_rA_y)
     );
     assign ev_ovf[322] = fl_pt3_rA_y[0] && ev_q[4];
@@ -4880,12 +4887,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[322] = fl_pt3_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rA_y (.clk(clk), .d(pt3_rA_y), .q(dl_pt3_rA_y));
+        u_dl_pt3_rA_y (.clk(clk), .d(pt3_rA_y), .valid(1'b0), .q(dl_pt3_rA_y));
     // pt3_rA_z = p3_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt3_rA_z;
     logic [2:0] fl_pt3_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[326]), .y(pt3_rA_z), .flags(fl_pt3_rA_z)
     );
     assign ev_ovf[323] = fl_pt3_rA_z[0] && ev_q[4];
@@ -4893,12 +4900,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[323] = fl_pt3_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rA_z (.clk(clk), .d(pt3_rA_z), .q(dl_pt3_rA_z));
+        u_dl_pt3_rA_z (.clk(clk), .d(pt3_rA_z), .valid(1'b0), .q(dl_pt3_rA_z));
     // pt3_mul430 = pt3_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul430;
     logic [2:0] fl_pt3_mul430;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul430 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[327]), .y(pt3_mul430), .flags(fl_pt3_mul430)
     );
     assign ev_ovf[324] = fl_pt3_mul430[0] && ev_q[7];
@@ -4906,12 +4913,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[324] = fl_pt3_mul430[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul430;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul430 (.clk(clk), .d(pt3_mul430), .q(dl_pt3_mul430));
+        u_dl_pt3_mul430 (.clk(clk), .d(pt3_mul430), .valid(1'b0), .q(dl_pt3_mul430));
     // pt3_mul431 = pt3_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul431;
     logic [2:0] fl_pt3_mul431;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul431 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[328]), .y(pt3_mul431), .flags(fl_pt3_mul431)
     );
     assign ev_ovf[325] = fl_pt3_mul431[0] && ev_q[7];
@@ -4919,12 +4926,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[325] = fl_pt3_mul431[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul431;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul431 (.clk(clk), .d(pt3_mul431), .q(dl_pt3_mul431));
+        u_dl_pt3_mul431 (.clk(clk), .d(pt3_mul431), .valid(1'b0), .q(dl_pt3_mul431));
     // pt3_cA_x = pt3_mul430 - pt3_mul431   (ready @11/11/11)
     logic [W-1:0] pt3_cA_x;
     logic [2:0] fl_pt3_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul430), .b(dl_pt3_mul431), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul430), .b(dl_pt3_mul431), .sub(1'b1),
         .out_valid(op_valid_nc[329]), .y(pt3_cA_x), .flags(fl_pt3_cA_x)
     );
     assign ev_ovf[326] = fl_pt3_cA_x[0] && ev_q[11];
@@ -4932,12 +4939,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[326] = fl_pt3_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cA_x (.clk(clk), .d(pt3_cA_x), .q(dl_pt3_cA_x));
+        u_dl_pt3_cA_x (.clk(clk), .d(pt3_cA_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_x));
     // pt3_mul433 = pt3_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul433;
     logic [2:0] fl_pt3_mul433;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul433 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[330]), .y(pt3_mul433), .flags(fl_pt3_mul433)
     );
     assign ev_ovf[327] = fl_pt3_mul433[0] && ev_q[7];
@@ -4945,12 +4952,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[327] = fl_pt3_mul433[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul433;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul433 (.clk(clk), .d(pt3_mul433), .q(dl_pt3_mul433));
+        u_dl_pt3_mul433 (.clk(clk), .d(pt3_mul433), .valid(1'b0), .q(dl_pt3_mul433));
     // pt3_mul434 = pt3_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul434;
     logic [2:0] fl_pt3_mul434;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul434 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[331]), .y(pt3_mul434), .flags(fl_pt3_mul434)
     );
     assign ev_ovf[328] = fl_pt3_mul434[0] && ev_q[7];
@@ -4958,12 +4965,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[328] = fl_pt3_mul434[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul434;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul434 (.clk(clk), .d(pt3_mul434), .q(dl_pt3_mul434));
+        u_dl_pt3_mul434 (.clk(clk), .d(pt3_mul434), .valid(1'b0), .q(dl_pt3_mul434));
     // pt3_cA_y = pt3_mul433 - pt3_mul434   (ready @11/11/11)
     logic [W-1:0] pt3_cA_y;
     logic [2:0] fl_pt3_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul433), .b(dl_pt3_mul434), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul433), .b(dl_pt3_mul434), .sub(1'b1),
         .out_valid(op_valid_nc[332]), .y(pt3_cA_y), .flags(fl_pt3_cA_y)
     );
     assign ev_ovf[329] = fl_pt3_cA_y[0] && ev_q[11];
@@ -4971,12 +4978,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[329] = fl_pt3_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cA_y (.clk(clk), .d(pt3_cA_y), .q(dl_pt3_cA_y));
+        u_dl_pt3_cA_y (.clk(clk), .d(pt3_cA_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_y));
     // pt3_mul436 = pt3_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul436;
     logic [2:0] fl_pt3_mul436;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul436 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[333]), .y(pt3_mul436), .flags(fl_pt3_mul436)
     );
     assign ev_ovf[330] = fl_pt3_mul436[0] && ev_q[7];
@@ -4984,12 +4991,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[330] = fl_pt3_mul436[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul436;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul436 (.clk(clk), .d(pt3_mul436), .q(dl_pt3_mul436));
+        u_dl_pt3_mul436 (.clk(clk), .d(pt3_mul436), .valid(1'b0), .q(dl_pt3_mul436));
     // pt3_mul437 = pt3_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul437;
     logic [2:0] fl_pt3_mul437;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul437 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[334]), .y(pt3_mul437), .flags(fl_pt3_mul437)
     );
     assign ev_ovf[331] = fl_pt3_mul437[0] && ev_q[7];
@@ -4997,12 +5004,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[331] = fl_pt3_mul437[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul437;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul437 (.clk(clk), .d(pt3_mul437), .q(dl_pt3_mul437));
+        u_dl_pt3_mul437 (.clk(clk), .d(pt3_mul437), .valid(1'b0), .q(dl_pt3_mul437));
     // pt3_cA_z = pt3_mul436 - pt3_mul437   (ready @11/11/11)
     logic [W-1:0] pt3_cA_z;
     logic [2:0] fl_pt3_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul436), .b(dl_pt3_mul437), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul436), .b(dl_pt3_mul437), .sub(1'b1),
         .out_valid(op_valid_nc[335]), .y(pt3_cA_z), .flags(fl_pt3_cA_z)
     );
     assign ev_ovf[332] = fl_pt3_cA_z[0] && ev_q[11];
@@ -5010,12 +5017,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[332] = fl_pt3_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cA_z (.clk(clk), .d(pt3_cA_z), .q(dl_pt3_cA_z));
+        u_dl_pt3_cA_z (.clk(clk), .d(pt3_cA_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_z));
     // pt3_rB_x = p3_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt3_rB_x;
     logic [2:0] fl_pt3_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[336]), .y(pt3_rB_x), .flags(fl_pt3_rB_x)
     );
     assign ev_ovf[333] = fl_pt3_rB_x[0] && ev_q[4];
@@ -5023,12 +5030,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[333] = fl_pt3_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rB_x (.clk(clk), .d(pt3_rB_x), .q(dl_pt3_rB_x));
+        u_dl_pt3_rB_x (.clk(clk), .d(pt3_rB_x), .valid(1'b0), .q(dl_pt3_rB_x));
     // pt3_rB_y = p3_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt3_rB_y;
     logic [2:0] fl_pt3_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[337]), .y(pt3_rB_y), .flags(fl_pt3_rB_y)
     );
     assign ev_ovf[334] = fl_pt3_rB_y[0] && ev_q[4];
@@ -5036,12 +5043,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[334] = fl_pt3_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rB_y (.clk(clk), .d(pt3_rB_y), .q(dl_pt3_rB_y));
+        u_dl_pt3_rB_y (.clk(clk), .d(pt3_rB_y), .valid(1'b0), .q(dl_pt3_rB_y));
     // pt3_rB_z = p3_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt3_rB_z;
     logic [2:0] fl_pt3_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[338]), .y(pt3_rB_z), .flags(fl_pt3_rB_z)
     );
     assign ev_ovf[335] = fl_pt3_rB_z[0] && ev_q[4];
@@ -5049,12 +5056,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[335] = fl_pt3_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rB_z (.clk(clk), .d(pt3_rB_z), .q(dl_pt3_rB_z));
+        u_dl_pt3_rB_z (.clk(clk), .d(pt3_rB_z), .valid(1'b0), .q(dl_pt3_rB_z));
     // pt3_mul442 = pt3_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul442;
     logic [2:0] fl_pt3_mul442;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul442 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[339]), .y(pt3_mul442), .flags(fl_pt3_mul442)
     );
     assign ev_ovf[336] = fl_pt3_mul442[0] && ev_q[7];
@@ -5062,12 +5069,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[336] = fl_pt3_mul442[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul442;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul442 (.clk(clk), .d(pt3_mul442), .q(dl_pt3_mul442));
+        u_dl_pt3_mul442 (.clk(clk), .d(pt3_mul442), .valid(1'b0), .q(dl_pt3_mul442));
     // pt3_mul443 = pt3_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul443;
     logic [2:0] fl_pt3_mul443;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul443 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[340]), .y(pt3_mul443), .flags(fl_pt3_mul443)
     );
     assign ev_ovf[337] = fl_pt3_mul443[0] && ev_q[7];
@@ -5075,12 +5082,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[337] = fl_pt3_mul443[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul443;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul443 (.clk(clk), .d(pt3_mul443), .q(dl_pt3_mul443));
+        u_dl_pt3_mul443 (.clk(clk), .d(pt3_mul443), .valid(1'b0), .q(dl_pt3_mul443));
     // pt3_cB_x = pt3_mul442 - pt3_mul443   (ready @11/11/11)
     logic [W-1:0] pt3_cB_x;
     logic [2:0] fl_pt3_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul442), .b(dl_pt3_mul443), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul442), .b(dl_pt3_mul443), .sub(1'b1),
         .out_valid(op_valid_nc[341]), .y(pt3_cB_x), .flags(fl_pt3_cB_x)
     );
     assign ev_ovf[338] = fl_pt3_cB_x[0] && ev_q[11];
@@ -5088,12 +5095,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[338] = fl_pt3_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cB_x (.clk(clk), .d(pt3_cB_x), .q(dl_pt3_cB_x));
+        u_dl_pt3_cB_x (.clk(clk), .d(pt3_cB_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_x));
     // pt3_mul445 = pt3_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul445;
     logic [2:0] fl_pt3_mul445;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul445 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[342]), .y(pt3_mul445), .flags(fl_pt3_mul445)
     );
     assign ev_ovf[339] = fl_pt3_mul445[0] && ev_q[7];
@@ -5101,12 +5108,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[339] = fl_pt3_mul445[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul445;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul445 (.clk(clk), .d(pt3_mul445), .q(dl_pt3_mul445));
+        u_dl_pt3_mul445 (.clk(clk), .d(pt3_mul445), .valid(1'b0), .q(dl_pt3_mul445));
     // pt3_mul446 = pt3_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul446;
     logic [2:0] fl_pt3_mul446;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul446 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[343]), .y(pt3_mul446), .flags(fl_pt3_mul446)
     );
     assign ev_ovf[340] = fl_pt3_mul446[0] && ev_q[7];
@@ -5114,12 +5121,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[340] = fl_pt3_mul446[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul446;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul446 (.clk(clk), .d(pt3_mul446), .q(dl_pt3_mul446));
+        u_dl_pt3_mul446 (.clk(clk), .d(pt3_mul446), .valid(1'b0), .q(dl_pt3_mul446));
     // pt3_cB_y = pt3_mul445 - pt3_mul446   (ready @11/11/11)
     logic [W-1:0] pt3_cB_y;
     logic [2:0] fl_pt3_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul445), .b(dl_pt3_mul446), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul445), .b(dl_pt3_mul446), .sub(1'b1),
         .out_valid(op_valid_nc[344]), .y(pt3_cB_y), .flags(fl_pt3_cB_y)
     );
     assign ev_ovf[341] = fl_pt3_cB_y[0] && ev_q[11];
@@ -5127,12 +5134,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[341] = fl_pt3_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cB_y (.clk(clk), .d(pt3_cB_y), .q(dl_pt3_cB_y));
+        u_dl_pt3_cB_y (.clk(clk), .d(pt3_cB_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_y));
     // pt3_mul448 = pt3_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul448;
     logic [2:0] fl_pt3_mul448;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul448 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[345]), .y(pt3_mul448), .flags(fl_pt3_mul448)
     );
     assign ev_ovf[342] = fl_pt3_mul448[0] && ev_q[7];
@@ -5140,12 +5147,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[342] = fl_pt3_mul448[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul448;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul448 (.clk(clk), .d(pt3_mul448), .q(dl_pt3_mul448));
+        u_dl_pt3_mul448 (.clk(clk), .d(pt3_mul448), .valid(1'b0), .q(dl_pt3_mul448));
     // pt3_mul449 = pt3_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul449;
     logic [2:0] fl_pt3_mul449;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul449 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[346]), .y(pt3_mul449), .flags(fl_pt3_mul449)
     );
     assign ev_ovf[343] = fl_pt3_mul449[0] && ev_q[7];
@@ -5153,12 +5160,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[343] = fl_pt3_mul449[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul449;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul449 (.clk(clk), .d(pt3_mul449), .q(dl_pt3_mul449));
+        u_dl_pt3_mul449 (.clk(clk), .d(pt3_mul449), .valid(1'b0), .q(dl_pt3_mul449));
     // pt3_cB_z = pt3_mul448 - pt3_mul449   (ready @11/11/11)
     logic [W-1:0] pt3_cB_z;
     logic [2:0] fl_pt3_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul448), .b(dl_pt3_mul449), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul448), .b(dl_pt3_mul449), .sub(1'b1),
         .out_valid(op_valid_nc[347]), .y(pt3_cB_z), .flags(fl_pt3_cB_z)
     );
     assign ev_ovf[344] = fl_pt3_cB_z[0] && ev_q[11];
@@ -5166,12 +5173,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[344] = fl_pt3_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cB_z (.clk(clk), .d(pt3_cB_z), .q(dl_pt3_cB_z));
+        u_dl_pt3_cB_z (.clk(clk), .d(pt3_cB_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_z));
     // pt3_mul451 = n_x * pt2_vA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul451;
     logic [2:0] fl_pt3_mul451;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul451 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[348]), .y(pt3_mul451), .flags(fl_pt3_mul451)
     );
     assign ev_ovf[345] = fl_pt3_mul451[0] && ev_q[140];
@@ -5179,12 +5186,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[345] = fl_pt3_mul451[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul451;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul451 (.clk(clk), .d(pt3_mul451), .q(dl_pt3_mul451));
+        u_dl_pt3_mul451 (.clk(clk), .d(pt3_mul451), .valid(1'b0), .q(dl_pt3_mul451));
     // pt3_mul452 = n_y * pt2_vA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul452;
     logic [2:0] fl_pt3_mul452;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul452 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[349]), .y(pt3_mul452), .flags(fl_pt3_mul452)
     );
     assign ev_ovf[346] = fl_pt3_mul452[0] && ev_q[140];
@@ -5192,12 +5199,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[346] = fl_pt3_mul452[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul452;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul452 (.clk(clk), .d(pt3_mul452), .q(dl_pt3_mul452));
+        u_dl_pt3_mul452 (.clk(clk), .d(pt3_mul452), .valid(1'b0), .q(dl_pt3_mul452));
     // pt3_add453 = pt3_mul451 + pt3_mul452   (ready @144/144/144)
     logic [W-1:0] pt3_add453;
     logic [2:0] fl_pt3_add453;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add453 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul451), .b(dl_pt3_mul452), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul451), .b(dl_pt3_mul452), .sub(1'b0),
         .out_valid(op_valid_nc[350]), .y(pt3_add453), .flags(fl_pt3_add453)
     );
     assign ev_ovf[347] = fl_pt3_add453[0] && ev_q[144];
@@ -5205,12 +5212,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[347] = fl_pt3_add453[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add453;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add453 (.clk(clk), .d(pt3_add453), .q(dl_pt3_add453));
+        u_dl_pt3_add453 (.clk(clk), .d(pt3_add453), .valid(1'b0), .q(dl_pt3_add453));
     // pt3_mul454 = n_z * pt2_vA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul454;
     logic [2:0] fl_pt3_mul454;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul454 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[351]), .y(pt3_mul454), .flags(fl_pt3_mul454)
     );
     assign ev_ovf[348] = fl_pt3_mul454[0] && ev_q[140];
@@ -5218,12 +5225,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[348] = fl_pt3_mul454[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul454;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul454 (.clk(clk), .d(pt3_mul454), .q(dl_pt3_mul454));
+        u_dl_pt3_mul454 (.clk(clk), .d(pt3_mul454), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul454));
     // pt3_add455 = pt3_add453 + pt3_mul454   (ready @148/148/148)
     logic [W-1:0] pt3_add455;
     logic [2:0] fl_pt3_add455;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add455 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add453), .b(dl_pt3_mul454), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add453), .b(dl_pt3_mul454), .sub(1'b0),
         .out_valid(op_valid_nc[352]), .y(pt3_add455), .flags(fl_pt3_add455)
     );
     assign ev_ovf[349] = fl_pt3_add455[0] && ev_q[148];
@@ -5231,12 +5238,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[349] = fl_pt3_add455[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add455;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add455 (.clk(clk), .d(pt3_add455), .q(dl_pt3_add455));
+        u_dl_pt3_add455 (.clk(clk), .d(pt3_add455), .valid(1'b0), .q(dl_pt3_add455));
     // pt3_mul456 = n_x * pt2_vB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul456;
     logic [2:0] fl_pt3_mul456;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul456 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[353]), .y(pt3_mul456), .flags(fl_pt3_mul456)
     );
     assign ev_ovf[350] = fl_pt3_mul456[0] && ev_q[140];
@@ -5244,12 +5251,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[350] = fl_pt3_mul456[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul456;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul456 (.clk(clk), .d(pt3_mul456), .q(dl_pt3_mul456));
+        u_dl_pt3_mul456 (.clk(clk), .d(pt3_mul456), .valid(1'b0), .q(dl_pt3_mul456));
     // pt3_mul457 = n_y * pt2_vB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul457;
     logic [2:0] fl_pt3_mul457;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul457 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[354]), .y(pt3_mul457), .flags(fl_pt3_mul457)
     );
     assign ev_ovf[351] = fl_pt3_mul457[0] && ev_q[140];
@@ -5257,12 +5264,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[351] = fl_pt3_mul457[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul457;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul457 (.clk(clk), .d(pt3_mul457), .q(dl_pt3_mul457));
+        u_dl_pt3_mul457 (.clk(clk), .d(pt3_mul457), .valid(1'b0), .q(dl_pt3_mul457));
     // pt3_add458 = pt3_mul456 + pt3_mul457   (ready @144/144/144)
     logic [W-1:0] pt3_add458;
     logic [2:0] fl_pt3_add458;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add458 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul456), .b(dl_pt3_mul457), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul456), .b(dl_pt3_mul457), .sub(1'b0),
         .out_valid(op_valid_nc[355]), .y(pt3_add458), .flags(fl_pt3_add458)
     );
     assign ev_ovf[352] = fl_pt3_add458[0] && ev_q[144];
@@ -5270,12 +5277,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[352] = fl_pt3_add458[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add458;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add458 (.clk(clk), .d(pt3_add458), .q(dl_pt3_add458));
+        u_dl_pt3_add458 (.clk(clk), .d(pt3_add458), .valid(1'b0), .q(dl_pt3_add458));
     // pt3_mul459 = n_z * pt2_vB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul459;
     logic [2:0] fl_pt3_mul459;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul459 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[356]), .y(pt3_mul459), .flags(fl_pt3_mul459)
     );
     assign ev_ovf[353] = fl_pt3_mul459[0] && ev_q[140];
@@ -5283,12 +5290,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[353] = fl_pt3_mul459[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul459;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul459 (.clk(clk), .d(pt3_mul459), .q(dl_pt3_mul459));
+        u_dl_pt3_mul459 (.clk(clk), .d(pt3_mul459), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul459));
     // pt3_add460 = pt3_add458 + pt3_mul459   (ready @148/148/148)
     logic [W-1:0] pt3_add460;
     logic [2:0] fl_pt3_add460;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add460 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add458), .b(dl_pt3_mul459), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add458), .b(dl_pt3_mul459), .sub(1'b0),
         .out_valid(op_valid_nc[357]), .y(pt3_add460), .flags(fl_pt3_add460)
     );
     assign ev_ovf[354] = fl_pt3_add460[0] && ev_q[148];
@@ -5296,12 +5303,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[354] = fl_pt3_add460[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add460;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add460 (.clk(clk), .d(pt3_add460), .q(dl_pt3_add460));
+        u_dl_pt3_add460 (.clk(clk), .d(pt3_add460), .valid(1'b0), .q(dl_pt3_add460));
     // pt3_sub461 = pt3_add455 - pt3_add460   (ready @152/152/152)
     logic [W-1:0] pt3_sub461;
     logic [2:0] fl_pt3_sub461;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub461 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add455), .b(dl_pt3_add460), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add455), .b(dl_pt3_add460), .sub(1'b1),
         .out_valid(op_valid_nc[358]), .y(pt3_sub461), .flags(fl_pt3_sub461)
     );
     assign ev_ovf[355] = fl_pt3_sub461[0] && ev_q[152];
@@ -5309,12 +5316,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[355] = fl_pt3_sub461[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub461;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub461 (.clk(clk), .d(pt3_sub461), .q(dl_pt3_sub461));
+        u_dl_pt3_sub461 (.clk(clk), .d(pt3_sub461), .valid(1'b0), .q(dl_pt3_sub461));
     // pt3_mul462 = pt3_cA_x * pt2_wA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul462;
     logic [2:0] fl_pt3_mul462;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul462 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_x[0*W +: W]), .b(dl_pt2_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cA_x[0*W +: W]), .b(dl_pt2_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[359]), .y(pt3_mul462), .flags(fl_pt3_mul462)
     );
     assign ev_ovf[356] = fl_pt3_mul462[0] && ev_q[140];
@@ -5322,12 +5329,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[356] = fl_pt3_mul462[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul462;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul462 (.clk(clk), .d(pt3_mul462), .q(dl_pt3_mul462));
+        u_dl_pt3_mul462 (.clk(clk), .d(pt3_mul462), .valid(1'b0), .q(dl_pt3_mul462));
     // pt3_mul463 = pt3_cA_y * pt2_wA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul463;
     logic [2:0] fl_pt3_mul463;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul463 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_y[0*W +: W]), .b(dl_pt2_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cA_y[0*W +: W]), .b(dl_pt2_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[360]), .y(pt3_mul463), .flags(fl_pt3_mul463)
     );
     assign ev_ovf[357] = fl_pt3_mul463[0] && ev_q[140];
@@ -5335,12 +5342,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[357] = fl_pt3_mul463[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul463;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul463 (.clk(clk), .d(pt3_mul463), .q(dl_pt3_mul463));
+        u_dl_pt3_mul463 (.clk(clk), .d(pt3_mul463), .valid(1'b0), .q(dl_pt3_mul463));
     // pt3_add464 = pt3_mul462 + pt3_mul463   (ready @144/144/144)
     logic [W-1:0] pt3_add464;
     logic [2:0] fl_pt3_add464;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add464 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul462), .b(dl_pt3_mul463), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul462), .b(dl_pt3_mul463), .sub(1'b0),
         .out_valid(op_valid_nc[361]), .y(pt3_add464), .flags(fl_pt3_add464)
     );
     assign ev_ovf[358] = fl_pt3_add464[0] && ev_q[144];
@@ -5348,12 +5355,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[358] = fl_pt3_add464[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add464;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add464 (.clk(clk), .d(pt3_add464), .q(dl_pt3_add464));
+        u_dl_pt3_add464 (.clk(clk), .d(pt3_add464), .valid(1'b0), .q(dl_pt3_add464));
     // pt3_mul465 = pt3_cA_z * pt2_wA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul465;
     logic [2:0] fl_pt3_mul465;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul465 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_z[0*W +: W]), .b(dl_pt2_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cA_z[0*W +: W]), .b(dl_pt2_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[362]), .y(pt3_mul465), .flags(fl_pt3_mul465)
     );
     assign ev_ovf[359] = fl_pt3_mul465[0] && ev_q[140];
@@ -5361,12 +5368,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[359] = fl_pt3_mul465[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul465;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul465 (.clk(clk), .d(pt3_mul465), .q(dl_pt3_mul465));
+        u_dl_pt3_mul465 (.clk(clk), .d(pt3_mul465), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul465));
     // pt3_add466 = pt3_add464 + pt3_mul465   (ready @148/148/148)
     logic [W-1:0] pt3_add466;
     logic [2:0] fl_pt3_add466;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add466 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add464), .b(dl_pt3_mul465), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add464), .b(dl_pt3_mul465), .sub(1'b0),
         .out_valid(op_valid_nc[363]), .y(pt3_add466), .flags(fl_pt3_add466)
     );
     assign ev_ovf[360] = fl_pt3_add466[0] && ev_q[148];
@@ -5374,12 +5381,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[360] = fl_pt3_add466[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add466;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add466 (.clk(clk), .d(pt3_add466), .q(dl_pt3_add466));
+        u_dl_pt3_add466 (.clk(clk), .d(pt3_add466), .valid(1'b0), .q(dl_pt3_add466));
     // pt3_mul467 = pt3_cB_x * pt2_wB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul467;
     logic [2:0] fl_pt3_mul467;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul467 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_x[0*W +: W]), .b(dl_pt2_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cB_x[0*W +: W]), .b(dl_pt2_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[364]), .y(pt3_mul467), .flags(fl_pt3_mul467)
     );
     assign ev_ovf[361] = fl_pt3_mul467[0] && ev_q[140];
@@ -5387,12 +5394,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[361] = fl_pt3_mul467[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul467;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul467 (.clk(clk), .d(pt3_mul467), .q(dl_pt3_mul467));
+        u_dl_pt3_mul467 (.clk(clk), .d(pt3_mul467), .valid(1'b0), .q(dl_pt3_mul467));
     // pt3_mul468 = pt3_cB_y * pt2_wB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul468;
     logic [2:0] fl_pt3_mul468;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul468 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_y[0*W +: W]), .b(dl_pt2_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cB_y[0*W +: W]), .b(dl_pt2_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[365]), .y(pt3_mul468), .flags(fl_pt3_mul468)
     );
     assign ev_ovf[362] = fl_pt3_mul468[0] && ev_q[140];
@@ -5400,12 +5407,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[362] = fl_pt3_mul468[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul468;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul468 (.clk(clk), .d(pt3_mul468), .q(dl_pt3_mul468));
+        u_dl_pt3_mul468 (.clk(clk), .d(pt3_mul468), .valid(1'b0), .q(dl_pt3_mul468));
     // pt3_add469 = pt3_mul467 + pt3_mul468   (ready @144/144/144)
     logic [W-1:0] pt3_add469;
     logic [2:0] fl_pt3_add469;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add469 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul467), .b(dl_pt3_mul468), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul467), .b(dl_pt3_mul468), .sub(1'b0),
         .out_valid(op_valid_nc[366]), .y(pt3_add469), .flags(fl_pt3_add469)
     );
     assign ev_ovf[363] = fl_pt3_add469[0] && ev_q[144];
@@ -5413,12 +5420,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[363] = fl_pt3_add469[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add469;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add469 (.clk(clk), .d(pt3_add469), .q(dl_pt3_add469));
+        u_dl_pt3_add469 (.clk(clk), .d(pt3_add469), .valid(1'b0), .q(dl_pt3_add469));
     // pt3_mul470 = pt3_cB_z * pt2_wB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul470;
     logic [2:0] fl_pt3_mul470;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul470 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_z[0*W +: W]), .b(dl_pt2_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cB_z[0*W +: W]), .b(dl_pt2_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[367]), .y(pt3_mul470), .flags(fl_pt3_mul470)
     );
     assign ev_ovf[364] = fl_pt3_mul470[0] && ev_q[140];
@@ -5426,12 +5433,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[364] = fl_pt3_mul470[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul470;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul470 (.clk(clk), .d(pt3_mul470), .q(dl_pt3_mul470));
+        u_dl_pt3_mul470 (.clk(clk), .d(pt3_mul470), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul470));
     // pt3_add471 = pt3_add469 + pt3_mul470   (ready @148/148/148)
     logic [W-1:0] pt3_add471;
     logic [2:0] fl_pt3_add471;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add471 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add469), .b(dl_pt3_mul470), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add469), .b(dl_pt3_mul470), .sub(1'b0),
         .out_valid(op_valid_nc[368]), .y(pt3_add471), .flags(fl_pt3_add471)
     );
     assign ev_ovf[365] = fl_pt3_add471[0] && ev_q[148];
@@ -5439,12 +5446,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[365] = fl_pt3_add471[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add471;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add471 (.clk(clk), .d(pt3_add471), .q(dl_pt3_add471));
+        u_dl_pt3_add471 (.clk(clk), .d(pt3_add471), .valid(1'b0), .q(dl_pt3_add471));
     // pt3_sub472 = pt3_add466 - pt3_add471   (ready @152/152/152)
     logic [W-1:0] pt3_sub472;
     logic [2:0] fl_pt3_sub472;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub472 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add466), .b(dl_pt3_add471), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add466), .b(dl_pt3_add471), .sub(1'b1),
         .out_valid(op_valid_nc[369]), .y(pt3_sub472), .flags(fl_pt3_sub472)
     );
     assign ev_ovf[366] = fl_pt3_sub472[0] && ev_q[152];
@@ -5452,12 +5459,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[366] = fl_pt3_sub472[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub472;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub472 (.clk(clk), .d(pt3_sub472), .q(dl_pt3_sub472));
+        u_dl_pt3_sub472 (.clk(clk), .d(pt3_sub472), .valid(1'b0), .q(dl_pt3_sub472));
     // pt3_vrel = pt3_sub461 + pt3_sub472   (ready @156/156/156)
     logic [W-1:0] pt3_vrel;
     logic [2:0] fl_pt3_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_sub461), .b(dl_pt3_sub472), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[152]), .a(dl_pt3_sub461), .b(dl_pt3_sub472), .sub(1'b0),
         .out_valid(op_valid_nc[370]), .y(pt3_vrel), .flags(fl_pt3_vrel)
     );
     assign ev_ovf[367] = fl_pt3_vrel[0] && ev_q[156];
@@ -5465,12 +5472,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[367] = fl_pt3_vrel[2] && ev_q[156];
     logic [W-1:0] dl_pt3_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vrel (.clk(clk), .d(pt3_vrel), .q(dl_pt3_vrel));
+        u_dl_pt3_vrel (.clk(clk), .d(pt3_vrel), .valid(1'b0), .q(dl_pt3_vrel));
     // pt3_add474 = pt3_vrel + b3   (ready @160/160/160)
     logic [W-1:0] pt3_add474;
     logic [2:0] fl_pt3_add474;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add474 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_vrel), .b(dl_in_b3), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(dl_pt3_vrel), .b(dl_in_b3), .sub(1'b0),
         .out_valid(op_valid_nc[371]), .y(pt3_add474), .flags(fl_pt3_add474)
     );
     assign ev_ovf[368] = fl_pt3_add474[0] && ev_q[160];
@@ -5478,12 +5485,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[368] = fl_pt3_add474[2] && ev_q[160];
     logic [W-1:0] dl_pt3_add474;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add474 (.clk(clk), .d(pt3_add474), .q(dl_pt3_add474));
+        u_dl_pt3_add474 (.clk(clk), .d(pt3_add474), .valid(1'b0), .q(dl_pt3_add474));
     // pt3_delta0 = pt3_add474 * jac_inv3   (ready @163/163/163)
     logic [W-1:0] pt3_delta0;
     logic [2:0] fl_pt3_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add474), .b(dl_in_jac_inv3[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[160]), .a(dl_pt3_add474), .b(dl_in_jac_inv3[1*W +: W]),
         .out_valid(op_valid_nc[372]), .y(pt3_delta0), .flags(fl_pt3_delta0)
     );
     assign ev_ovf[369] = fl_pt3_delta0[0] && ev_q[163];
@@ -5491,12 +5498,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[369] = fl_pt3_delta0[2] && ev_q[163];
     logic [W-1:0] dl_pt3_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_delta0 (.clk(clk), .d(pt3_delta0), .q(dl_pt3_delta0));
+        u_dl_pt3_delta0 (.clk(clk), .d(pt3_delta0), .valid(1'b0), .q(dl_pt3_delta0));
     // pt3_add476 = lam3 + pt3_delta0   (ready @167/167/167)
     logic [W-1:0] pt3_add476;
     logic [2:0] fl_pt3_add476;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add476 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam3[0*W +: W]), .b(dl_pt3_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(dl_in_lam3[0*W +: W]), .b(dl_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[373]), .y(pt3_add476), .flags(fl_pt3_add476)
     );
     assign ev_ovf[370] = fl_pt3_add476[0] && ev_q[167];
@@ -5504,22 +5511,22 @@ module pgs_contact_pipe_full #(
     assign ev_inv[370] = fl_pt3_add476[2] && ev_q[167];
     logic [W-1:0] dl_pt3_add476;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add476 (.clk(clk), .d(pt3_add476), .q(dl_pt3_add476));
+        u_dl_pt3_add476 (.clk(clk), .d(pt3_add476), .valid(1'b0), .q(dl_pt3_add476));
     // pt3_lam_new = max(pt3_add476, 0.0)   (ready @168/168/168)
     logic [W-1:0] pt3_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt3_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add476), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[167]), .a(dl_pt3_add476), .b(K_ZERO),
         .out_valid(op_valid_nc[374]), .y_min(nc_pt3_lam_new_min), .y_max(pt3_lam_new),
         .lt(nc_pt3_lam_new_lt), .eq(nc_pt3_lam_new_eq), .unordered(nc_pt3_lam_new_uo)
     );
     logic [W-1:0] dl_pt3_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_lam_new (.clk(clk), .d(pt3_lam_new), .q(dl_pt3_lam_new));
+        u_dl_pt3_lam_new (.clk(clk), .d(pt3_lam_new), .valid(1'b0), .q(dl_pt3_lam_new));
     // pt3_delta = pt3_lam_new - lam3   (ready @172/172/172)
     logic [W-1:0] pt3_delta;
     logic [2:0] fl_pt3_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_lam_new), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[168]), .a(dl_pt3_lam_new), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[375]), .y(pt3_delta), .flags(fl_pt3_delta)
     );
     assign ev_ovf[371] = fl_pt3_delta[0] && ev_q[172];
@@ -5527,18 +5534,18 @@ module pgs_contact_pipe_full #(
     assign ev_inv[371] = fl_pt3_delta[2] && ev_q[172];
     logic [W-1:0] dl_pt3_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_delta (.clk(clk), .d(pt3_delta), .q(dl_pt3_delta));
+        u_dl_pt3_delta (.clk(clk), .d(pt3_delta), .valid(1'b0), .q(dl_pt3_delta));
     // pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (ready @168/168/168)
     logic [W-1:0] pt3_lam;
     assign pt3_lam = dl_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_pt3_lam_new;
     logic [W-1:0] dl_pt3_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_pt3_lam (.clk(clk), .d(pt3_lam), .q(dl_pt3_lam));
+        u_dl_pt3_lam (.clk(clk), .d(pt3_lam), .valid(valid_q[168 +: 11]), .q(dl_pt3_lam));
     // pt3_mul480 = IInvA_xx * pt3_cA_x   (ready @14/14/14)
     logic [W-1:0] pt3_mul480;
     logic [2:0] fl_pt3_mul480;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul480 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xx), .b(dl_pt3_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xx), .b(dl_pt3_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[376]), .y(pt3_mul480), .flags(fl_pt3_mul480)
     );
     assign ev_ovf[372] = fl_pt3_mul480[0] && ev_q[14];
@@ -5546,12 +5553,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[372] = fl_pt3_mul480[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul480;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul480 (.clk(clk), .d(pt3_mul480), .q(dl_pt3_mul480));
+        u_dl_pt3_mul480 (.clk(clk), .d(pt3_mul480), .valid(1'b0), .q(dl_pt3_mul480));
     // pt3_mul481 = IInvA_xy * pt3_cA_y   (ready @14/14/14)
     logic [W-1:0] pt3_mul481;
     logic [2:0] fl_pt3_mul481;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul481 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xy), .b(dl_pt3_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xy), .b(dl_pt3_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[377]), .y(pt3_mul481), .flags(fl_pt3_mul481)
     );
     assign ev_ovf[373] = fl_pt3_mul481[0] && ev_q[14];
@@ -5559,12 +5566,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[373] = fl_pt3_mul481[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul481;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul481 (.clk(clk), .d(pt3_mul481), .q(dl_pt3_mul481));
+        u_dl_pt3_mul481 (.clk(clk), .d(pt3_mul481), .valid(1'b0), .q(dl_pt3_mul481));
     // pt3_add482 = pt3_mul480 + pt3_mul481   (ready @18/18/18)
     logic [W-1:0] pt3_add482;
     logic [2:0] fl_pt3_add482;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add482 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul480), .b(dl_pt3_mul481), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt3_mul480), .b(dl_pt3_mul481), .sub(1'b0),
         .out_valid(op_valid_nc[378]), .y(pt3_add482), .flags(fl_pt3_add482)
     );
     assign ev_ovf[374] = fl_pt3_add482[0] && ev_q[18];
@@ -5572,12 +5579,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[374] = fl_pt3_add482[2] && ev_q[18];
     logic [W-1:0] dl_pt3_add482;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add482 (.clk(clk), .d(pt3_add482), .q(dl_pt3_add482));
+        u_dl_pt3_add482 (.clk(clk), .d(pt3_add482), .valid(1'b0), .q(dl_pt3_add482));
     // pt3_mul483 = IInvA_xz * pt3_cA_z   (ready @14/14/14)
     logic [W-1:0] pt3_mul483;
     logic [2:0] fl_pt3_mul483;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul483 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xz), .b(dl_pt3_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xz), .b(dl_pt3_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[379]), .y(pt3_mul483), .flags(fl_pt3_mul483)
     );
     assign ev_ovf[375] = fl_pt3_mul483[0] && ev_q[14];
@@ -5585,12 +5592,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[375] = fl_pt3_mul483[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul483;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul483 (.clk(clk), .d(pt3_mul483), .q(dl_pt3_mul483));
+        u_dl_pt3_mul483 (.clk(clk), .d(pt3_mul483), .valid(valid_q[14 +: 4]), .q(dl_pt3_mul483));
     // pt3_angA_x = pt3_add482 + pt3_mul483   (ready @22/22/22)
     logic [W-1:0] pt3_angA_x;
     logic [2:0] fl_pt3_angA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add482), .b(dl_pt3_mul483), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt3_add482), .b(dl_pt3_mul483), .sub(1'b0),
         .out_valid(op_valid_nc[380]), .y(pt3_angA_x), .flags(fl_pt3_angA_x)
     );
     assign ev_ovf[376] = fl_pt3_angA_x[0] && ev_q[22];
@@ -5598,12 +5605,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[376] = fl_pt3_angA_x[2] && ev_q[22];
     logic [W-1:0] dl_pt3_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(150))
-        u_dl_pt3_angA_x (.clk(clk), .d(pt3_angA_x), .q(dl_pt3_angA_x));
+        u_dl_pt3_angA_x (.clk(clk), .d(pt3_angA_x), .valid(valid_q[22 +: 150]), .q(dl_pt3_angA_x));
     // pt3_mul485 = IInvA_xy * pt3_cA_x   (ready @14/14/14)
     logic [W-1:0] pt3_mul485;
     logic [2:0] fl_pt3_mul485;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul485 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xy), .b(dl_pt3_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xy), .b(dl_pt3_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[381]), .y(pt3_mul485), .flags(fl_pt3_mul485)
     );
     assign ev_ovf[377] = fl_pt3_mul485[0] && ev_q[14];
@@ -5611,12 +5618,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[377] = fl_pt3_mul485[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul485;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul485 (.clk(clk), .d(pt3_mul485), .q(dl_pt3_mul485));
+        u_dl_pt3_mul485 (.clk(clk), .d(pt3_mul485), .valid(1'b0), .q(dl_pt3_mul485));
     // pt3_mul486 = IInvA_yy * pt3_cA_y   (ready @14/14/14)
     logic [W-1:0] pt3_mul486;
     logic [2:0] fl_pt3_mul486;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul486 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yy), .b(dl_pt3_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yy), .b(dl_pt3_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[382]), .y(pt3_mul486), .flags(fl_pt3_mul486)
     );
     assign ev_ovf[378] = fl_pt3_mul486[0] && ev_q[14];
@@ -5624,12 +5631,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[378] = fl_pt3_mul486[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul486;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul486 (.clk(clk), .d(pt3_mul486), .q(dl_pt3_mul486));
+        u_dl_pt3_mul486 (.clk(clk), .d(pt3_mul486), .valid(1'b0), .q(dl_pt3_mul486));
     // pt3_add487 = pt3_mul485 + pt3_mul486   (ready @18/18/18)
     logic [W-1:0] pt3_add487;
     logic [2:0] fl_pt3_add487;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add487 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul485), .b(dl_pt3_mul486), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt3_mul485), .b(dl_pt3_mul486), .sub(1'b0),
         .out_valid(op_valid_nc[383]), .y(pt3_add487), .flags(fl_pt3_add487)
     );
     assign ev_ovf[379] = fl_pt3_add487[0] && ev_q[18];
@@ -5637,12 +5644,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[379] = fl_pt3_add487[2] && ev_q[18];
     logic [W-1:0] dl_pt3_add487;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add487 (.clk(clk), .d(pt3_add487), .q(dl_pt3_add487));
+        u_dl_pt3_add487 (.clk(clk), .d(pt3_add487), .valid(1'b0), .q(dl_pt3_add487));
     // pt3_mul488 = IInvA_yz * pt3_cA_z   (ready @14/14/14)
     logic [W-1:0] pt3_mul488;
     logic [2:0] fl_pt3_mul488;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul488 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yz), .b(dl_pt3_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yz), .b(dl_pt3_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[384]), .y(pt3_mul488), .flags(fl_pt3_mul488)
     );
     assign ev_ovf[380] = fl_pt3_mul488[0] && ev_q[14];
@@ -5650,12 +5657,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[380] = fl_pt3_mul488[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul488;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul488 (.clk(clk), .d(pt3_mul488), .q(dl_pt3_mul488));
+        u_dl_pt3_mul488 (.clk(clk), .d(pt3_mul488), .valid(valid_q[14 +: 4]), .q(dl_pt3_mul488));
     // pt3_angA_y = pt3_add487 + pt3_mul488   (ready @22/22/22)
     logic [W-1:0] pt3_angA_y;
     logic [2:0] fl_pt3_angA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add487), .b(dl_pt3_mul488), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt3_add487), .b(dl_pt3_mul488), .sub(1'b0),
         .out_valid(op_valid_nc[385]), .y(pt3_angA_y), .flags(fl_pt3_angA_y)
     );
     assign ev_ovf[381] = fl_pt3_angA_y[0] && ev_q[22];
@@ -5663,12 +5670,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[381] = fl_pt3_angA_y[2] && ev_q[22];
     logic [W-1:0] dl_pt3_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(150))
-        u_dl_pt3_angA_y (.clk(clk), .d(pt3_angA_y), .q(dl_pt3_angA_y));
+        u_dl_pt3_angA_y (.clk(clk), .d(pt3_angA_y), .valid(valid_q[22 +: 150]), .q(dl_pt3_angA_y));
     // pt3_mul490 = IInvA_xz * pt3_cA_x   (ready @14/14/14)
     logic [W-1:0] pt3_mul490;
     logic [2:0] fl_pt3_mul490;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul490 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xz), .b(dl_pt3_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xz), .b(dl_pt3_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[386]), .y(pt3_mul490), .flags(fl_pt3_mul490)
     );
     assign ev_ovf[382] = fl_pt3_mul490[0] && ev_q[14];
@@ -5676,12 +5683,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[382] = fl_pt3_mul490[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul490;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul490 (.clk(clk), .d(pt3_mul490), .q(dl_pt3_mul490));
+        u_dl_pt3_mul490 (.clk(clk), .d(pt3_mul490), .valid(1'b0), .q(dl_pt3_mul490));
     // pt3_mul491 = IInvA_yz * pt3_cA_y   (ready @14/14/14)
     logic [W-1:0] pt3_mul491;
     logic [2:0] fl_pt3_mul491;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul491 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yz), .b(dl_pt3_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yz), .b(dl_pt3_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[387]), .y(pt3_mul491), .flags(fl_pt3_mul491)
     );
     assign ev_ovf[383] = fl_pt3_mul491[0] && ev_q[14];
@@ -5689,12 +5696,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[383] = fl_pt3_mul491[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul491;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul491 (.clk(clk), .d(pt3_mul491), .q(dl_pt3_mul491));
+        u_dl_pt3_mul491 (.clk(clk), .d(pt3_mul491), .valid(1'b0), .q(dl_pt3_mul491));
     // pt3_add492 = pt3_mul490 + pt3_mul491   (ready @18/18/18)
     logic [W-1:0] pt3_add492;
     logic [2:0] fl_pt3_add492;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add492 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul490), .b(dl_pt3_mul491), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt3_mul490), .b(dl_pt3_mul491), .sub(1'b0),
         .out_valid(op_valid_nc[388]), .y(pt3_add492), .flags(fl_pt3_add492)
     );
     assign ev_ovf[384] = fl_pt3_add492[0] && ev_q[18];
@@ -5702,12 +5709,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[384] = fl_pt3_add492[2] && ev_q[18];
     logic [W-1:0] dl_pt3_add492;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add492 (.clk(clk), .d(pt3_add492), .q(dl_pt3_add492));
+        u_dl_pt3_add492 (.clk(clk), .d(pt3_add492), .valid(1'b0), .q(dl_pt3_add492));
     // pt3_mul493 = IInvA_zz * pt3_cA_z   (ready @14/14/14)
     logic [W-1:0] pt3_mul493;
     logic [2:0] fl_pt3_mul493;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul493 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_zz), .b(dl_pt3_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_zz), .b(dl_pt3_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[389]), .y(pt3_mul493), .flags(fl_pt3_mul493)
     );
     assign ev_ovf[385] = fl_pt3_mul493[0] && ev_q[14];
@@ -5715,12 +5722,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[385] = fl_pt3_mul493[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul493;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul493 (.clk(clk), .d(pt3_mul493), .q(dl_pt3_mul493));
+        u_dl_pt3_mul493 (.clk(clk), .d(pt3_mul493), .valid(valid_q[14 +: 4]), .q(dl_pt3_mul493));
     // pt3_angA_z = pt3_add492 + pt3_mul493   (ready @22/22/22)
     logic [W-1:0] pt3_angA_z;
     logic [2:0] fl_pt3_angA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add492), .b(dl_pt3_mul493), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt3_add492), .b(dl_pt3_mul493), .sub(1'b0),
         .out_valid(op_valid_nc[390]), .y(pt3_angA_z), .flags(fl_pt3_angA_z)
     );
     assign ev_ovf[386] = fl_pt3_angA_z[0] && ev_q[22];
@@ -5728,12 +5735,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[386] = fl_pt3_angA_z[2] && ev_q[22];
     logic [W-1:0] dl_pt3_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(150))
-        u_dl_pt3_angA_z (.clk(clk), .d(pt3_angA_z), .q(dl_pt3_angA_z));
+        u_dl_pt3_angA_z (.clk(clk), .d(pt3_angA_z), .valid(valid_q[22 +: 150]), .q(dl_pt3_angA_z));
     // pt3_mul495 = IInvB_xx * pt3_cB_x   (ready @14/14/14)
     logic [W-1:0] pt3_mul495;
     logic [2:0] fl_pt3_mul495;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul495 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xx), .b(dl_pt3_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xx), .b(dl_pt3_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[391]), .y(pt3_mul495), .flags(fl_pt3_mul495)
     );
     assign ev_ovf[387] = fl_pt3_mul495[0] && ev_q[14];
@@ -5741,12 +5748,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[387] = fl_pt3_mul495[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul495;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul495 (.clk(clk), .d(pt3_mul495), .q(dl_pt3_mul495));
+        u_dl_pt3_mul495 (.clk(clk), .d(pt3_mul495), .valid(1'b0), .q(dl_pt3_mul495));
     // pt3_mul496 = IInvB_xy * pt3_cB_y   (ready @14/14/14)
     logic [W-1:0] pt3_mul496;
     logic [2:0] fl_pt3_mul496;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul496 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xy), .b(dl_pt3_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xy), .b(dl_pt3_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[392]), .y(pt3_mul496), .flags(fl_pt3_mul496)
     );
     assign ev_ovf[388] = fl_pt3_mul496[0] && ev_q[14];
@@ -5754,12 +5761,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[388] = fl_pt3_mul496[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul496;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul496 (.clk(clk), .d(pt3_mul496), .q(dl_pt3_mul496));
+        u_dl_pt3_mul496 (.clk(clk), .d(pt3_mul496), .valid(1'b0), .q(dl_pt3_mul496));
     // pt3_add497 = pt3_mul495 + pt3_mul496   (ready @18/18/18)
     logic [W-1:0] pt3_add497;
     logic [2:0] fl_pt3_add497;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add497 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul495), .b(dl_pt3_mul496), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt3_mul495), .b(dl_pt3_mul496), .sub(1'b0),
         .out_valid(op_valid_nc[393]), .y(pt3_add497), .flags(fl_pt3_add497)
     );
     assign ev_ovf[389] = fl_pt3_add497[0] && ev_q[18];
@@ -5767,12 +5774,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[389] = fl_pt3_add497[2] && ev_q[18];
     logic [W-1:0] dl_pt3_add497;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add497 (.clk(clk), .d(pt3_add497), .q(dl_pt3_add497));
+        u_dl_pt3_add497 (.clk(clk), .d(pt3_add497), .valid(1'b0), .q(dl_pt3_add497));
     // pt3_mul498 = IInvB_xz * pt3_cB_z   (ready @14/14/14)
     logic [W-1:0] pt3_mul498;
     logic [2:0] fl_pt3_mul498;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul498 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xz), .b(dl_pt3_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xz), .b(dl_pt3_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[394]), .y(pt3_mul498), .flags(fl_pt3_mul498)
     );
     assign ev_ovf[390] = fl_pt3_mul498[0] && ev_q[14];
@@ -5780,12 +5787,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[390] = fl_pt3_mul498[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul498;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul498 (.clk(clk), .d(pt3_mul498), .q(dl_pt3_mul498));
+        u_dl_pt3_mul498 (.clk(clk), .d(pt3_mul498), .valid(valid_q[14 +: 4]), .q(dl_pt3_mul498));
     // pt3_angB_x = pt3_add497 + pt3_mul498   (ready @22/22/22)
     logic [W-1:0] pt3_angB_x;
     logic [2:0] fl_pt3_angB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add497), .b(dl_pt3_mul498), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt3_add497), .b(dl_pt3_mul498), .sub(1'b0),
         .out_valid(op_valid_nc[395]), .y(pt3_angB_x), .flags(fl_pt3_angB_x)
     );
     assign ev_ovf[391] = fl_pt3_angB_x[0] && ev_q[22];
@@ -5793,12 +5800,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[391] = fl_pt3_angB_x[2] && ev_q[22];
     logic [W-1:0] dl_pt3_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(150))
-        u_dl_pt3_angB_x (.clk(clk), .d(pt3_angB_x), .q(dl_pt3_angB_x));
+        u_dl_pt3_angB_x (.clk(clk), .d(pt3_angB_x), .valid(valid_q[22 +: 150]), .q(dl_pt3_angB_x));
     // pt3_mul500 = IInvB_xy * pt3_cB_x   (ready @14/14/14)
     logic [W-1:0] pt3_mul500;
     logic [2:0] fl_pt3_mul500;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul500 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xy), .b(dl_pt3_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xy), .b(dl_pt3_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[396]), .y(pt3_mul500), .flags(fl_pt3_mul500)
     );
     assign ev_ovf[392] = fl_pt3_mul500[0] && ev_q[14];
@@ -5806,12 +5813,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[392] = fl_pt3_mul500[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul500;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul500 (.clk(clk), .d(pt3_mul500), .q(dl_pt3_mul500));
+        u_dl_pt3_mul500 (.clk(clk), .d(pt3_mul500), .valid(1'b0), .q(dl_pt3_mul500));
     // pt3_mul501 = IInvB_yy * pt3_cB_y   (ready @14/14/14)
     logic [W-1:0] pt3_mul501;
     logic [2:0] fl_pt3_mul501;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul501 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yy), .b(dl_pt3_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yy), .b(dl_pt3_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[397]), .y(pt3_mul501), .flags(fl_pt3_mul501)
     );
     assign ev_ovf[393] = fl_pt3_mul501[0] && ev_q[14];
@@ -5819,12 +5826,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[393] = fl_pt3_mul501[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul501;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul501 (.clk(clk), .d(pt3_mul501), .q(dl_pt3_mul501));
+        u_dl_pt3_mul501 (.clk(clk), .d(pt3_mul501), .valid(1'b0), .q(dl_pt3_mul501));
     // pt3_add502 = pt3_mul500 + pt3_mul501   (ready @18/18/18)
     logic [W-1:0] pt3_add502;
     logic [2:0] fl_pt3_add502;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add502 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul500), .b(dl_pt3_mul501), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt3_mul500), .b(dl_pt3_mul501), .sub(1'b0),
         .out_valid(op_valid_nc[398]), .y(pt3_add502), .flags(fl_pt3_add502)
     );
     assign ev_ovf[394] = fl_pt3_add502[0] && ev_q[18];
@@ -5832,12 +5839,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[394] = fl_pt3_add502[2] && ev_q[18];
     logic [W-1:0] dl_pt3_add502;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add502 (.clk(clk), .d(pt3_add502), .q(dl_pt3_add502));
+        u_dl_pt3_add502 (.clk(clk), .d(pt3_add502), .valid(1'b0), .q(dl_pt3_add502));
     // pt3_mul503 = IInvB_yz * pt3_cB_z   (ready @14/14/14)
     logic [W-1:0] pt3_mul503;
     logic [2:0] fl_pt3_mul503;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul503 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yz), .b(dl_pt3_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yz), .b(dl_pt3_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[399]), .y(pt3_mul503), .flags(fl_pt3_mul503)
     );
     assign ev_ovf[395] = fl_pt3_mul503[0] && ev_q[14];
@@ -5845,12 +5852,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[395] = fl_pt3_mul503[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul503;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul503 (.clk(clk), .d(pt3_mul503), .q(dl_pt3_mul503));
+        u_dl_pt3_mul503 (.clk(clk), .d(pt3_mul503), .valid(valid_q[14 +: 4]), .q(dl_pt3_mul503));
     // pt3_angB_y = pt3_add502 + pt3_mul503   (ready @22/22/22)
     logic [W-1:0] pt3_angB_y;
     logic [2:0] fl_pt3_angB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add502), .b(dl_pt3_mul503), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt3_add502), .b(dl_pt3_mul503), .sub(1'b0),
         .out_valid(op_valid_nc[400]), .y(pt3_angB_y), .flags(fl_pt3_angB_y)
     );
     assign ev_ovf[396] = fl_pt3_angB_y[0] && ev_q[22];
@@ -5858,12 +5865,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[396] = fl_pt3_angB_y[2] && ev_q[22];
     logic [W-1:0] dl_pt3_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(150))
-        u_dl_pt3_angB_y (.clk(clk), .d(pt3_angB_y), .q(dl_pt3_angB_y));
+        u_dl_pt3_angB_y (.clk(clk), .d(pt3_angB_y), .valid(valid_q[22 +: 150]), .q(dl_pt3_angB_y));
     // pt3_mul505 = IInvB_xz * pt3_cB_x   (ready @14/14/14)
     logic [W-1:0] pt3_mul505;
     logic [2:0] fl_pt3_mul505;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul505 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xz), .b(dl_pt3_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xz), .b(dl_pt3_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[401]), .y(pt3_mul505), .flags(fl_pt3_mul505)
     );
     assign ev_ovf[397] = fl_pt3_mul505[0] && ev_q[14];
@@ -5871,12 +5878,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[397] = fl_pt3_mul505[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul505;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul505 (.clk(clk), .d(pt3_mul505), .q(dl_pt3_mul505));
+        u_dl_pt3_mul505 (.clk(clk), .d(pt3_mul505), .valid(1'b0), .q(dl_pt3_mul505));
     // pt3_mul506 = IInvB_yz * pt3_cB_y   (ready @14/14/14)
     logic [W-1:0] pt3_mul506;
     logic [2:0] fl_pt3_mul506;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul506 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yz), .b(dl_pt3_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yz), .b(dl_pt3_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[402]), .y(pt3_mul506), .flags(fl_pt3_mul506)
     );
     assign ev_ovf[398] = fl_pt3_mul506[0] && ev_q[14];
@@ -5884,12 +5891,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[398] = fl_pt3_mul506[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul506;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul506 (.clk(clk), .d(pt3_mul506), .q(dl_pt3_mul506));
+        u_dl_pt3_mul506 (.clk(clk), .d(pt3_mul506), .valid(1'b0), .q(dl_pt3_mul506));
     // pt3_add507 = pt3_mul505 + pt3_mul506   (ready @18/18/18)
     logic [W-1:0] pt3_add507;
     logic [2:0] fl_pt3_add507;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add507 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul505), .b(dl_pt3_mul506), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt3_mul505), .b(dl_pt3_mul506), .sub(1'b0),
         .out_valid(op_valid_nc[403]), .y(pt3_add507), .flags(fl_pt3_add507)
     );
     assign ev_ovf[399] = fl_pt3_add507[0] && ev_q[18];
@@ -5897,12 +5904,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[399] = fl_pt3_add507[2] && ev_q[18];
     logic [W-1:0] dl_pt3_add507;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add507 (.clk(clk), .d(pt3_add507), .q(dl_pt3_add507));
+        u_dl_pt3_add507 (.clk(clk), .d(pt3_add507), .valid(1'b0), .q(dl_pt3_add507));
     // pt3_mul508 = IInvB_zz * pt3_cB_z   (ready @14/14/14)
     logic [W-1:0] pt3_mul508;
     logic [2:0] fl_pt3_mul508;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul508 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_zz), .b(dl_pt3_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_zz), .b(dl_pt3_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[404]), .y(pt3_mul508), .flags(fl_pt3_mul508)
     );
     assign ev_ovf[400] = fl_pt3_mul508[0] && ev_q[14];
@@ -5910,12 +5917,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[400] = fl_pt3_mul508[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul508;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul508 (.clk(clk), .d(pt3_mul508), .q(dl_pt3_mul508));
+        u_dl_pt3_mul508 (.clk(clk), .d(pt3_mul508), .valid(valid_q[14 +: 4]), .q(dl_pt3_mul508));
     // pt3_angB_z = pt3_add507 + pt3_mul508   (ready @22/22/22)
     logic [W-1:0] pt3_angB_z;
     logic [2:0] fl_pt3_angB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add507), .b(dl_pt3_mul508), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt3_add507), .b(dl_pt3_mul508), .sub(1'b0),
         .out_valid(op_valid_nc[405]), .y(pt3_angB_z), .flags(fl_pt3_angB_z)
     );
     assign ev_ovf[401] = fl_pt3_angB_z[0] && ev_q[22];
@@ -5923,12 +5930,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[401] = fl_pt3_angB_z[2] && ev_q[22];
     logic [W-1:0] dl_pt3_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(150))
-        u_dl_pt3_angB_z (.clk(clk), .d(pt3_angB_z), .q(dl_pt3_angB_z));
+        u_dl_pt3_angB_z (.clk(clk), .d(pt3_angB_z), .valid(valid_q[22 +: 150]), .q(dl_pt3_angB_z));
     // pt3_mul510 = linA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul510;
     logic [2:0] fl_pt3_mul510;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul510 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linA_x[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[406]), .y(pt3_mul510), .flags(fl_pt3_mul510)
     );
     assign ev_ovf[402] = fl_pt3_mul510[0] && ev_q[175];
@@ -5936,12 +5943,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[402] = fl_pt3_mul510[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul510;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul510 (.clk(clk), .d(pt3_mul510), .q(dl_pt3_mul510));
+        u_dl_pt3_mul510 (.clk(clk), .d(pt3_mul510), .valid(1'b0), .q(dl_pt3_mul510));
     // pt3_mul511 = linA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul511;
     logic [2:0] fl_pt3_mul511;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul511 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linA_y[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[407]), .y(pt3_mul511), .flags(fl_pt3_mul511)
     );
     assign ev_ovf[403] = fl_pt3_mul511[0] && ev_q[175];
@@ -5949,12 +5956,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[403] = fl_pt3_mul511[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul511;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul511 (.clk(clk), .d(pt3_mul511), .q(dl_pt3_mul511));
+        u_dl_pt3_mul511 (.clk(clk), .d(pt3_mul511), .valid(1'b0), .q(dl_pt3_mul511));
     // pt3_mul512 = linA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul512;
     logic [2:0] fl_pt3_mul512;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul512 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linA_z[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[408]), .y(pt3_mul512), .flags(fl_pt3_mul512)
     );
     assign ev_ovf[404] = fl_pt3_mul512[0] && ev_q[175];
@@ -5962,12 +5969,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[404] = fl_pt3_mul512[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul512;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul512 (.clk(clk), .d(pt3_mul512), .q(dl_pt3_mul512));
+        u_dl_pt3_mul512 (.clk(clk), .d(pt3_mul512), .valid(1'b0), .q(dl_pt3_mul512));
     // pt3_add513 = pt2_vA_x + pt3_mul510   (ready @179/179/179)
     logic [W-1:0] pt3_add513;
     logic [2:0] fl_pt3_add513;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add513 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_x[1*W +: W]), .b(dl_pt3_mul510), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_x[1*W +: W]), .b(dl_pt3_mul510), .sub(1'b0),
         .out_valid(op_valid_nc[409]), .y(pt3_add513), .flags(fl_pt3_add513)
     );
     assign ev_ovf[405] = fl_pt3_add513[0] && ev_q[179];
@@ -5975,12 +5982,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[405] = fl_pt3_add513[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add513;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add513 (.clk(clk), .d(pt3_add513), .q(dl_pt3_add513));
+        u_dl_pt3_add513 (.clk(clk), .d(pt3_add513), .valid(1'b0), .q(dl_pt3_add513));
     // pt3_add514 = pt2_vA_y + pt3_mul511   (ready @179/179/179)
     logic [W-1:0] pt3_add514;
     logic [2:0] fl_pt3_add514;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add514 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_y[1*W +: W]), .b(dl_pt3_mul511), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_y[1*W +: W]), .b(dl_pt3_mul511), .sub(1'b0),
         .out_valid(op_valid_nc[410]), .y(pt3_add514), .flags(fl_pt3_add514)
     );
     assign ev_ovf[406] = fl_pt3_add514[0] && ev_q[179];
@@ -5988,12 +5995,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[406] = fl_pt3_add514[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add514;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add514 (.clk(clk), .d(pt3_add514), .q(dl_pt3_add514));
+        u_dl_pt3_add514 (.clk(clk), .d(pt3_add514), .valid(1'b0), .q(dl_pt3_add514));
     // pt3_add515 = pt2_vA_z + pt3_mul512   (ready @179/179/179)
     logic [W-1:0] pt3_add515;
     logic [2:0] fl_pt3_add515;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add515 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_z[1*W +: W]), .b(dl_pt3_mul512), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_z[1*W +: W]), .b(dl_pt3_mul512), .sub(1'b0),
         .out_valid(op_valid_nc[411]), .y(pt3_add515), .flags(fl_pt3_add515)
     );
     assign ev_ovf[407] = fl_pt3_add515[0] && ev_q[179];
@@ -6001,30 +6008,30 @@ module pgs_contact_pipe_full #(
     assign ev_inv[407] = fl_pt3_add515[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add515;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add515 (.clk(clk), .d(pt3_add515), .q(dl_pt3_add515));
+        u_dl_pt3_add515 (.clk(clk), .d(pt3_add515), .valid(1'b0), .q(dl_pt3_add515));
     // pt3_vA_x = pt3_skip ? pt2_vA_x : pt3_add513   (ready @179/179/179)
     logic [W-1:0] pt3_vA_x;
     assign pt3_vA_x = dl_pt3_skip[1] ? dl_pt2_vA_x[2*W +: W] : dl_pt3_add513;
     logic [W-1:0] dl_pt3_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vA_x (.clk(clk), .d(pt3_vA_x), .q(dl_pt3_vA_x));
+        u_dl_pt3_vA_x (.clk(clk), .d(pt3_vA_x), .valid(1'b0), .q(dl_pt3_vA_x));
     // pt3_vA_y = pt3_skip ? pt2_vA_y : pt3_add514   (ready @179/179/179)
     logic [W-1:0] pt3_vA_y;
     assign pt3_vA_y = dl_pt3_skip[1] ? dl_pt2_vA_y[2*W +: W] : dl_pt3_add514;
     logic [W-1:0] dl_pt3_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vA_y (.clk(clk), .d(pt3_vA_y), .q(dl_pt3_vA_y));
+        u_dl_pt3_vA_y (.clk(clk), .d(pt3_vA_y), .valid(1'b0), .q(dl_pt3_vA_y));
     // pt3_vA_z = pt3_skip ? pt2_vA_z : pt3_add515   (ready @179/179/179)
     logic [W-1:0] pt3_vA_z;
     assign pt3_vA_z = dl_pt3_skip[1] ? dl_pt2_vA_z[2*W +: W] : dl_pt3_add515;
     logic [W-1:0] dl_pt3_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vA_z (.clk(clk), .d(pt3_vA_z), .q(dl_pt3_vA_z));
+        u_dl_pt3_vA_z (.clk(clk), .d(pt3_vA_z), .valid(1'b0), .q(dl_pt3_vA_z));
     // pt3_mul519 = pt3_angA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul519;
     logic [2:0] fl_pt3_mul519;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul519 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_x), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angA_x), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[412]), .y(pt3_mul519), .flags(fl_pt3_mul519)
     );
     assign ev_ovf[408] = fl_pt3_mul519[0] && ev_q[175];
@@ -6032,12 +6039,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[408] = fl_pt3_mul519[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul519;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul519 (.clk(clk), .d(pt3_mul519), .q(dl_pt3_mul519));
+        u_dl_pt3_mul519 (.clk(clk), .d(pt3_mul519), .valid(1'b0), .q(dl_pt3_mul519));
     // pt3_mul520 = pt3_angA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul520;
     logic [2:0] fl_pt3_mul520;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul520 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_y), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angA_y), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[413]), .y(pt3_mul520), .flags(fl_pt3_mul520)
     );
     assign ev_ovf[409] = fl_pt3_mul520[0] && ev_q[175];
@@ -6045,12 +6052,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[409] = fl_pt3_mul520[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul520;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul520 (.clk(clk), .d(pt3_mul520), .q(dl_pt3_mul520));
+        u_dl_pt3_mul520 (.clk(clk), .d(pt3_mul520), .valid(1'b0), .q(dl_pt3_mul520));
     // pt3_mul521 = pt3_angA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul521;
     logic [2:0] fl_pt3_mul521;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul521 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_z), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angA_z), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[414]), .y(pt3_mul521), .flags(fl_pt3_mul521)
     );
     assign ev_ovf[410] = fl_pt3_mul521[0] && ev_q[175];
@@ -6058,12 +6065,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[410] = fl_pt3_mul521[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul521;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul521 (.clk(clk), .d(pt3_mul521), .q(dl_pt3_mul521));
+        u_dl_pt3_mul521 (.clk(clk), .d(pt3_mul521), .valid(1'b0), .q(dl_pt3_mul521));
     // pt3_add522 = pt2_wA_x + pt3_mul519   (ready @179/179/179)
     logic [W-1:0] pt3_add522;
     logic [2:0] fl_pt3_add522;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add522 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_x[1*W +: W]), .b(dl_pt3_mul519), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_x[1*W +: W]), .b(dl_pt3_mul519), .sub(1'b0),
         .out_valid(op_valid_nc[415]), .y(pt3_add522), .flags(fl_pt3_add522)
     );
     assign ev_ovf[411] = fl_pt3_add522[0] && ev_q[179];
@@ -6071,12 +6078,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[411] = fl_pt3_add522[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add522;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add522 (.clk(clk), .d(pt3_add522), .q(dl_pt3_add522));
+        u_dl_pt3_add522 (.clk(clk), .d(pt3_add522), .valid(1'b0), .q(dl_pt3_add522));
     // pt3_add523 = pt2_wA_y + pt3_mul520   (ready @179/179/179)
     logic [W-1:0] pt3_add523;
     logic [2:0] fl_pt3_add523;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add523 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_y[1*W +: W]), .b(dl_pt3_mul520), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_y[1*W +: W]), .b(dl_pt3_mul520), .sub(1'b0),
         .out_valid(op_valid_nc[416]), .y(pt3_add523), .flags(fl_pt3_add523)
     );
     assign ev_ovf[412] = fl_pt3_add523[0] && ev_q[179];
@@ -6084,12 +6091,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[412] = fl_pt3_add523[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add523;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add523 (.clk(clk), .d(pt3_add523), .q(dl_pt3_add523));
+        u_dl_pt3_add523 (.clk(clk), .d(pt3_add523), .valid(1'b0), .q(dl_pt3_add523));
     // pt3_add524 = pt2_wA_z + pt3_mul521   (ready @179/179/179)
     logic [W-1:0] pt3_add524;
     logic [2:0] fl_pt3_add524;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add524 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_z[1*W +: W]), .b(dl_pt3_mul521), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_z[1*W +: W]), .b(dl_pt3_mul521), .sub(1'b0),
         .out_valid(op_valid_nc[417]), .y(pt3_add524), .flags(fl_pt3_add524)
     );
     assign ev_ovf[413] = fl_pt3_add524[0] && ev_q[179];
@@ -6097,30 +6104,30 @@ module pgs_contact_pipe_full #(
     assign ev_inv[413] = fl_pt3_add524[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add524;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add524 (.clk(clk), .d(pt3_add524), .q(dl_pt3_add524));
+        u_dl_pt3_add524 (.clk(clk), .d(pt3_add524), .valid(1'b0), .q(dl_pt3_add524));
     // pt3_wA_x = pt3_skip ? pt2_wA_x : pt3_add522   (ready @179/179/179)
     logic [W-1:0] pt3_wA_x;
     assign pt3_wA_x = dl_pt3_skip[1] ? dl_pt2_wA_x[2*W +: W] : dl_pt3_add522;
     logic [W-1:0] dl_pt3_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wA_x (.clk(clk), .d(pt3_wA_x), .q(dl_pt3_wA_x));
+        u_dl_pt3_wA_x (.clk(clk), .d(pt3_wA_x), .valid(1'b0), .q(dl_pt3_wA_x));
     // pt3_wA_y = pt3_skip ? pt2_wA_y : pt3_add523   (ready @179/179/179)
     logic [W-1:0] pt3_wA_y;
     assign pt3_wA_y = dl_pt3_skip[1] ? dl_pt2_wA_y[2*W +: W] : dl_pt3_add523;
     logic [W-1:0] dl_pt3_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wA_y (.clk(clk), .d(pt3_wA_y), .q(dl_pt3_wA_y));
+        u_dl_pt3_wA_y (.clk(clk), .d(pt3_wA_y), .valid(1'b0), .q(dl_pt3_wA_y));
     // pt3_wA_z = pt3_skip ? pt2_wA_z : pt3_add524   (ready @179/179/179)
     logic [W-1:0] pt3_wA_z;
     assign pt3_wA_z = dl_pt3_skip[1] ? dl_pt2_wA_z[2*W +: W] : dl_pt3_add524;
     logic [W-1:0] dl_pt3_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wA_z (.clk(clk), .d(pt3_wA_z), .q(dl_pt3_wA_z));
+        u_dl_pt3_wA_z (.clk(clk), .d(pt3_wA_z), .valid(1'b0), .q(dl_pt3_wA_z));
     // pt3_mul528 = linB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul528;
     logic [2:0] fl_pt3_mul528;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul528 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linB_x[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[418]), .y(pt3_mul528), .flags(fl_pt3_mul528)
     );
     assign ev_ovf[414] = fl_pt3_mul528[0] && ev_q[175];
@@ -6128,12 +6135,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[414] = fl_pt3_mul528[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul528;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul528 (.clk(clk), .d(pt3_mul528), .q(dl_pt3_mul528));
+        u_dl_pt3_mul528 (.clk(clk), .d(pt3_mul528), .valid(1'b0), .q(dl_pt3_mul528));
     // pt3_mul529 = linB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul529;
     logic [2:0] fl_pt3_mul529;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul529 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linB_y[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[419]), .y(pt3_mul529), .flags(fl_pt3_mul529)
     );
     assign ev_ovf[415] = fl_pt3_mul529[0] && ev_q[175];
@@ -6141,12 +6148,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[415] = fl_pt3_mul529[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul529;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul529 (.clk(clk), .d(pt3_mul529), .q(dl_pt3_mul529));
+        u_dl_pt3_mul529 (.clk(clk), .d(pt3_mul529), .valid(1'b0), .q(dl_pt3_mul529));
     // pt3_mul530 = linB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul530;
     logic [2:0] fl_pt3_mul530;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul530 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linB_z[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[420]), .y(pt3_mul530), .flags(fl_pt3_mul530)
     );
     assign ev_ovf[416] = fl_pt3_mul530[0] && ev_q[175];
@@ -6154,12 +6161,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[416] = fl_pt3_mul530[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul530;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul530 (.clk(clk), .d(pt3_mul530), .q(dl_pt3_mul530));
+        u_dl_pt3_mul530 (.clk(clk), .d(pt3_mul530), .valid(1'b0), .q(dl_pt3_mul530));
     // pt3_sub531 = pt2_vB_x - pt3_mul528   (ready @179/179/179)
     logic [W-1:0] pt3_sub531;
     logic [2:0] fl_pt3_sub531;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub531 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_x[1*W +: W]), .b(dl_pt3_mul528), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_x[1*W +: W]), .b(dl_pt3_mul528), .sub(1'b1),
         .out_valid(op_valid_nc[421]), .y(pt3_sub531), .flags(fl_pt3_sub531)
     );
     assign ev_ovf[417] = fl_pt3_sub531[0] && ev_q[179];
@@ -6167,12 +6174,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[417] = fl_pt3_sub531[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub531;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub531 (.clk(clk), .d(pt3_sub531), .q(dl_pt3_sub531));
+        u_dl_pt3_sub531 (.clk(clk), .d(pt3_sub531), .valid(1'b0), .q(dl_pt3_sub531));
     // pt3_sub532 = pt2_vB_y - pt3_mul529   (ready @179/179/179)
     logic [W-1:0] pt3_sub532;
     logic [2:0] fl_pt3_sub532;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub532 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_y[1*W +: W]), .b(dl_pt3_mul529), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_y[1*W +: W]), .b(dl_pt3_mul529), .sub(1'b1),
         .out_valid(op_valid_nc[422]), .y(pt3_sub532), .flags(fl_pt3_sub532)
     );
     assign ev_ovf[418] = fl_pt3_sub532[0] && ev_q[179];
@@ -6180,12 +6187,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[418] = fl_pt3_sub532[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub532;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub532 (.clk(clk), .d(pt3_sub532), .q(dl_pt3_sub532));
+        u_dl_pt3_sub532 (.clk(clk), .d(pt3_sub532), .valid(1'b0), .q(dl_pt3_sub532));
     // pt3_sub533 = pt2_vB_z - pt3_mul530   (ready @179/179/179)
     logic [W-1:0] pt3_sub533;
     logic [2:0] fl_pt3_sub533;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub533 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_z[1*W +: W]), .b(dl_pt3_mul530), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_z[1*W +: W]), .b(dl_pt3_mul530), .sub(1'b1),
         .out_valid(op_valid_nc[423]), .y(pt3_sub533), .flags(fl_pt3_sub533)
     );
     assign ev_ovf[419] = fl_pt3_sub533[0] && ev_q[179];
@@ -6193,30 +6200,30 @@ module pgs_contact_pipe_full #(
     assign ev_inv[419] = fl_pt3_sub533[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub533;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub533 (.clk(clk), .d(pt3_sub533), .q(dl_pt3_sub533));
+        u_dl_pt3_sub533 (.clk(clk), .d(pt3_sub533), .valid(1'b0), .q(dl_pt3_sub533));
     // pt3_vB_x = pt3_skip ? pt2_vB_x : pt3_sub531   (ready @179/179/179)
     logic [W-1:0] pt3_vB_x;
     assign pt3_vB_x = dl_pt3_skip[1] ? dl_pt2_vB_x[2*W +: W] : dl_pt3_sub531;
     logic [W-1:0] dl_pt3_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vB_x (.clk(clk), .d(pt3_vB_x), .q(dl_pt3_vB_x));
+        u_dl_pt3_vB_x (.clk(clk), .d(pt3_vB_x), .valid(1'b0), .q(dl_pt3_vB_x));
     // pt3_vB_y = pt3_skip ? pt2_vB_y : pt3_sub532   (ready @179/179/179)
     logic [W-1:0] pt3_vB_y;
     assign pt3_vB_y = dl_pt3_skip[1] ? dl_pt2_vB_y[2*W +: W] : dl_pt3_sub532;
     logic [W-1:0] dl_pt3_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vB_y (.clk(clk), .d(pt3_vB_y), .q(dl_pt3_vB_y));
+        u_dl_pt3_vB_y (.clk(clk), .d(pt3_vB_y), .valid(1'b0), .q(dl_pt3_vB_y));
     // pt3_vB_z = pt3_skip ? pt2_vB_z : pt3_sub533   (ready @179/179/179)
     logic [W-1:0] pt3_vB_z;
     assign pt3_vB_z = dl_pt3_skip[1] ? dl_pt2_vB_z[2*W +: W] : dl_pt3_sub533;
     logic [W-1:0] dl_pt3_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vB_z (.clk(clk), .d(pt3_vB_z), .q(dl_pt3_vB_z));
+        u_dl_pt3_vB_z (.clk(clk), .d(pt3_vB_z), .valid(1'b0), .q(dl_pt3_vB_z));
     // pt3_mul537 = pt3_angB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul537;
     logic [2:0] fl_pt3_mul537;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul537 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_x), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angB_x), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[424]), .y(pt3_mul537), .flags(fl_pt3_mul537)
     );
     assign ev_ovf[420] = fl_pt3_mul537[0] && ev_q[175];
@@ -6224,12 +6231,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[420] = fl_pt3_mul537[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul537;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul537 (.clk(clk), .d(pt3_mul537), .q(dl_pt3_mul537));
+        u_dl_pt3_mul537 (.clk(clk), .d(pt3_mul537), .valid(1'b0), .q(dl_pt3_mul537));
     // pt3_mul538 = pt3_angB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul538;
     logic [2:0] fl_pt3_mul538;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul538 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_y), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angB_y), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[425]), .y(pt3_mul538), .flags(fl_pt3_mul538)
     );
     assign ev_ovf[421] = fl_pt3_mul538[0] && ev_q[175];
@@ -6237,12 +6244,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[421] = fl_pt3_mul538[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul538;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul538 (.clk(clk), .d(pt3_mul538), .q(dl_pt3_mul538));
+        u_dl_pt3_mul538 (.clk(clk), .d(pt3_mul538), .valid(1'b0), .q(dl_pt3_mul538));
     // pt3_mul539 = pt3_angB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul539;
     logic [2:0] fl_pt3_mul539;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul539 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_z), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angB_z), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[426]), .y(pt3_mul539), .flags(fl_pt3_mul539)
     );
     assign ev_ovf[422] = fl_pt3_mul539[0] && ev_q[175];
@@ -6250,12 +6257,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[422] = fl_pt3_mul539[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul539;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul539 (.clk(clk), .d(pt3_mul539), .q(dl_pt3_mul539));
+        u_dl_pt3_mul539 (.clk(clk), .d(pt3_mul539), .valid(1'b0), .q(dl_pt3_mul539));
     // pt3_sub540 = pt2_wB_x - pt3_mul537   (ready @179/179/179)
     logic [W-1:0] pt3_sub540;
     logic [2:0] fl_pt3_sub540;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub540 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_x[1*W +: W]), .b(dl_pt3_mul537), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_x[1*W +: W]), .b(dl_pt3_mul537), .sub(1'b1),
         .out_valid(op_valid_nc[427]), .y(pt3_sub540), .flags(fl_pt3_sub540)
     );
     assign ev_ovf[423] = fl_pt3_sub540[0] && ev_q[179];
@@ -6263,12 +6270,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[423] = fl_pt3_sub540[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub540;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub540 (.clk(clk), .d(pt3_sub540), .q(dl_pt3_sub540));
+        u_dl_pt3_sub540 (.clk(clk), .d(pt3_sub540), .valid(1'b0), .q(dl_pt3_sub540));
     // pt3_sub541 = pt2_wB_y - pt3_mul538   (ready @179/179/179)
     logic [W-1:0] pt3_sub541;
     logic [2:0] fl_pt3_sub541;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub541 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_y[1*W +: W]), .b(dl_pt3_mul538), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_y[1*W +: W]), .b(dl_pt3_mul538), .sub(1'b1),
         .out_valid(op_valid_nc[428]), .y(pt3_sub541), .flags(fl_pt3_sub541)
     );
     assign ev_ovf[424] = fl_pt3_sub541[0] && ev_q[179];
@@ -6276,12 +6283,12 @@ module pgs_contact_pipe_full #(
     assign ev_inv[424] = fl_pt3_sub541[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub541;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub541 (.clk(clk), .d(pt3_sub541), .q(dl_pt3_sub541));
+        u_dl_pt3_sub541 (.clk(clk), .d(pt3_sub541), .valid(1'b0), .q(dl_pt3_sub541));
     // pt3_sub542 = pt2_wB_z - pt3_mul539   (ready @179/179/179)
     logic [W-1:0] pt3_sub542;
     logic [2:0] fl_pt3_sub542;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub542 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_z[1*W +: W]), .b(dl_pt3_mul539), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_z[1*W +: W]), .b(dl_pt3_mul539), .sub(1'b1),
         .out_valid(op_valid_nc[429]), .y(pt3_sub542), .flags(fl_pt3_sub542)
     );
     assign ev_ovf[425] = fl_pt3_sub542[0] && ev_q[179];
@@ -6289,25 +6296,25 @@ module pgs_contact_pipe_full #(
     assign ev_inv[425] = fl_pt3_sub542[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub542;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub542 (.clk(clk), .d(pt3_sub542), .q(dl_pt3_sub542));
+        u_dl_pt3_sub542 (.clk(clk), .d(pt3_sub542), .valid(1'b0), .q(dl_pt3_sub542));
     // pt3_wB_x = pt3_skip ? pt2_wB_x : pt3_sub540   (ready @179/179/179)
     logic [W-1:0] pt3_wB_x;
     assign pt3_wB_x = dl_pt3_skip[1] ? dl_pt2_wB_x[2*W +: W] : dl_pt3_sub540;
     logic [W-1:0] dl_pt3_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wB_x (.clk(clk), .d(pt3_wB_x), .q(dl_pt3_wB_x));
+        u_dl_pt3_wB_x (.clk(clk), .d(pt3_wB_x), .valid(1'b0), .q(dl_pt3_wB_x));
     // pt3_wB_y = pt3_skip ? pt2_wB_y : pt3_sub541   (ready @179/179/179)
     logic [W-1:0] pt3_wB_y;
     assign pt3_wB_y = dl_pt3_skip[1] ? dl_pt2_wB_y[2*W +: W] : dl_pt3_sub541;
     logic [W-1:0] dl_pt3_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wB_y (.clk(clk), .d(pt3_wB_y), .q(dl_pt3_wB_y));
+        u_dl_pt3_wB_y (.clk(clk), .d(pt3_wB_y), .valid(1'b0), .q(dl_pt3_wB_y));
     // pt3_wB_z = pt3_skip ? pt2_wB_z : pt3_sub542   (ready @179/179/179)
     logic [W-1:0] pt3_wB_z;
     assign pt3_wB_z = dl_pt3_skip[1] ? dl_pt2_wB_z[2*W +: W] : dl_pt3_sub542;
     logic [W-1:0] dl_pt3_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wB_z (.clk(clk), .d(pt3_wB_z), .q(dl_pt3_wB_z));
+        u_dl_pt3_wB_z (.clk(clk), .d(pt3_wB_z), .valid(1'b0), .q(dl_pt3_wB_z));
 
     // Outputs, each delayed to LATENCY.
     assign out_data[0*W +: W] = dl_pt0_lam;   // lam0

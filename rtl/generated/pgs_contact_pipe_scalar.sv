@@ -69,23 +69,30 @@ module pgs_contact_pipe_scalar #(
     logic         nc_pt3_lam_new_lt, nc_pt3_lam_new_eq, nc_pt3_lam_new_uo;
     /* verilator lint_on UNUSEDSIGNAL */
 
-    // Valid and tag pipelines.
+    // Valid and tag pipelines. valid_q[k]: in_valid k cycles ago; an operator's in_valid is the
+    // bit at its issue cycle, so its register stages are enabled only for the pipeline's inputs.
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [LATENCY:0] valid_q;   // the stages after the last operator's issue are not read
+    /* verilator lint_on UNUSEDSIGNAL */
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
+        .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (.clk(clk), .d(in_tag), .q(out_tag));
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+        .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
+    );
 
     // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);
     // an operator's flags belong to the input taken at its ready cycle minus that many cycles.
     localparam int EV_DEPTH = 179;
-    logic [EV_DEPTH:0] ev_q;
-    assign ev_q[0] = in_valid && in_count;
-    for (genvar i = 1; i <= EV_DEPTH; i++) begin : g_ev
-        always_ff @(posedge clk) begin
-            if (rst) ev_q[i] <= 1'b0;
-            else     ev_q[i] <= ev_q[i-1];
-        end
+    logic [EV_DEPTH:1] ev_r;
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [EV_DEPTH:0] ev_q;   // read at the operators' ready cycles only
+    /* verilator lint_on UNUSEDSIGNAL */
+    always_ff @(posedge clk) begin   // one shift of the whole register
+        if (rst) ev_r <= '0;
+        else     ev_r <= EV_DEPTH'({ev_r, in_valid && in_count});
     end
+    assign ev_q = {ev_r, in_valid && in_count};
     logic [N_FP_OPS-1:0] ev_ovf, ev_unf, ev_inv;   // flags of counted inputs, one bit per operator
     always_ff @(posedge clk) begin
         ev_overflow  <= EV_W'($countones(ev_ovf));
@@ -98,247 +105,247 @@ module pgs_contact_pipe_scalar #(
     assign in_n_x = in_data[0*W +: W];
     logic [5*W-1:0] dl_in_n_x;
     pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
-        u_dl_in_n_x (.clk(clk), .d(in_n_x), .q(dl_in_n_x));
+        u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 137]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [5*W-1:0] dl_in_n_y;
     pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
-        u_dl_in_n_y (.clk(clk), .d(in_n_y), .q(dl_in_n_y));
+        u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 137]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [5*W-1:0] dl_in_n_z;
     pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
-        u_dl_in_n_z (.clk(clk), .d(in_n_z), .q(dl_in_n_z));
+        u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 137]), .q(dl_in_n_z));
     logic [W-1:0] in_p0_x;
     assign in_p0_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_p0_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p0_x (.clk(clk), .d(in_p0_x), .q(dl_in_p0_x));
+        u_dl_in_p0_x (.clk(clk), .d(in_p0_x), .valid(1'b0), .q(dl_in_p0_x));
     logic [W-1:0] in_p0_y;
     assign in_p0_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_p0_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p0_y (.clk(clk), .d(in_p0_y), .q(dl_in_p0_y));
+        u_dl_in_p0_y (.clk(clk), .d(in_p0_y), .valid(1'b0), .q(dl_in_p0_y));
     logic [W-1:0] in_p0_z;
     assign in_p0_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_p0_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p0_z (.clk(clk), .d(in_p0_z), .q(dl_in_p0_z));
+        u_dl_in_p0_z (.clk(clk), .d(in_p0_z), .valid(1'b0), .q(dl_in_p0_z));
     logic [W-1:0] in_p1_x;
     assign in_p1_x = in_data[6*W +: W];
     logic [W-1:0] dl_in_p1_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p1_x (.clk(clk), .d(in_p1_x), .q(dl_in_p1_x));
+        u_dl_in_p1_x (.clk(clk), .d(in_p1_x), .valid(1'b0), .q(dl_in_p1_x));
     logic [W-1:0] in_p1_y;
     assign in_p1_y = in_data[7*W +: W];
     logic [W-1:0] dl_in_p1_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p1_y (.clk(clk), .d(in_p1_y), .q(dl_in_p1_y));
+        u_dl_in_p1_y (.clk(clk), .d(in_p1_y), .valid(1'b0), .q(dl_in_p1_y));
     logic [W-1:0] in_p1_z;
     assign in_p1_z = in_data[8*W +: W];
     logic [W-1:0] dl_in_p1_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p1_z (.clk(clk), .d(in_p1_z), .q(dl_in_p1_z));
+        u_dl_in_p1_z (.clk(clk), .d(in_p1_z), .valid(1'b0), .q(dl_in_p1_z));
     logic [W-1:0] in_p2_x;
     assign in_p2_x = in_data[9*W +: W];
     logic [W-1:0] dl_in_p2_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p2_x (.clk(clk), .d(in_p2_x), .q(dl_in_p2_x));
+        u_dl_in_p2_x (.clk(clk), .d(in_p2_x), .valid(1'b0), .q(dl_in_p2_x));
     logic [W-1:0] in_p2_y;
     assign in_p2_y = in_data[10*W +: W];
     logic [W-1:0] dl_in_p2_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p2_y (.clk(clk), .d(in_p2_y), .q(dl_in_p2_y));
+        u_dl_in_p2_y (.clk(clk), .d(in_p2_y), .valid(1'b0), .q(dl_in_p2_y));
     logic [W-1:0] in_p2_z;
     assign in_p2_z = in_data[11*W +: W];
     logic [W-1:0] dl_in_p2_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p2_z (.clk(clk), .d(in_p2_z), .q(dl_in_p2_z));
+        u_dl_in_p2_z (.clk(clk), .d(in_p2_z), .valid(1'b0), .q(dl_in_p2_z));
     logic [W-1:0] in_p3_x;
     assign in_p3_x = in_data[12*W +: W];
     logic [W-1:0] dl_in_p3_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p3_x (.clk(clk), .d(in_p3_x), .q(dl_in_p3_x));
+        u_dl_in_p3_x (.clk(clk), .d(in_p3_x), .valid(1'b0), .q(dl_in_p3_x));
     logic [W-1:0] in_p3_y;
     assign in_p3_y = in_data[13*W +: W];
     logic [W-1:0] dl_in_p3_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p3_y (.clk(clk), .d(in_p3_y), .q(dl_in_p3_y));
+        u_dl_in_p3_y (.clk(clk), .d(in_p3_y), .valid(1'b0), .q(dl_in_p3_y));
     logic [W-1:0] in_p3_z;
     assign in_p3_z = in_data[14*W +: W];
     logic [W-1:0] dl_in_p3_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p3_z (.clk(clk), .d(in_p3_z), .q(dl_in_p3_z));
+        u_dl_in_p3_z (.clk(clk), .d(in_p3_z), .valid(1'b0), .q(dl_in_p3_z));
     logic [W-1:0] in_jac_inv0;
     assign in_jac_inv0 = in_data[15*W +: W];
     logic [2*W-1:0] dl_in_jac_inv0;
     pgs_delay #(.WIDTH(W), .DEPTH(34), .N_TAPS(2), .TAPS({32'(34), 32'(0)}))
-        u_dl_in_jac_inv0 (.clk(clk), .d(in_jac_inv0), .q(dl_in_jac_inv0));
+        u_dl_in_jac_inv0 (.clk(clk), .d(in_jac_inv0), .valid(valid_q[0 +: 34]), .q(dl_in_jac_inv0));
     logic [W-1:0] in_jac_inv1;
     assign in_jac_inv1 = in_data[16*W +: W];
     logic [2*W-1:0] dl_in_jac_inv1;
     pgs_delay #(.WIDTH(W), .DEPTH(76), .N_TAPS(2), .TAPS({32'(76), 32'(0)}))
-        u_dl_in_jac_inv1 (.clk(clk), .d(in_jac_inv1), .q(dl_in_jac_inv1));
+        u_dl_in_jac_inv1 (.clk(clk), .d(in_jac_inv1), .valid(valid_q[0 +: 76]), .q(dl_in_jac_inv1));
     logic [W-1:0] in_jac_inv2;
     assign in_jac_inv2 = in_data[17*W +: W];
     logic [2*W-1:0] dl_in_jac_inv2;
     pgs_delay #(.WIDTH(W), .DEPTH(118), .N_TAPS(2), .TAPS({32'(118), 32'(0)}))
-        u_dl_in_jac_inv2 (.clk(clk), .d(in_jac_inv2), .q(dl_in_jac_inv2));
+        u_dl_in_jac_inv2 (.clk(clk), .d(in_jac_inv2), .valid(valid_q[0 +: 118]), .q(dl_in_jac_inv2));
     logic [W-1:0] in_jac_inv3;
     assign in_jac_inv3 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_jac_inv3;
     pgs_delay #(.WIDTH(W), .DEPTH(160), .N_TAPS(2), .TAPS({32'(160), 32'(0)}))
-        u_dl_in_jac_inv3 (.clk(clk), .d(in_jac_inv3), .q(dl_in_jac_inv3));
+        u_dl_in_jac_inv3 (.clk(clk), .d(in_jac_inv3), .valid(valid_q[0 +: 160]), .q(dl_in_jac_inv3));
     logic [W-1:0] in_b0;
     assign in_b0 = in_data[19*W +: W];
     logic [W-1:0] dl_in_b0;
     pgs_delay #(.WIDTH(W), .DEPTH(30))
-        u_dl_in_b0 (.clk(clk), .d(in_b0), .q(dl_in_b0));
+        u_dl_in_b0 (.clk(clk), .d(in_b0), .valid(valid_q[0 +: 30]), .q(dl_in_b0));
     logic [W-1:0] in_b1;
     assign in_b1 = in_data[20*W +: W];
     logic [W-1:0] dl_in_b1;
     pgs_delay #(.WIDTH(W), .DEPTH(72))
-        u_dl_in_b1 (.clk(clk), .d(in_b1), .q(dl_in_b1));
+        u_dl_in_b1 (.clk(clk), .d(in_b1), .valid(valid_q[0 +: 72]), .q(dl_in_b1));
     logic [W-1:0] in_b2;
     assign in_b2 = in_data[21*W +: W];
     logic [W-1:0] dl_in_b2;
     pgs_delay #(.WIDTH(W), .DEPTH(114))
-        u_dl_in_b2 (.clk(clk), .d(in_b2), .q(dl_in_b2));
+        u_dl_in_b2 (.clk(clk), .d(in_b2), .valid(valid_q[0 +: 114]), .q(dl_in_b2));
     logic [W-1:0] in_b3;
     assign in_b3 = in_data[22*W +: W];
     logic [W-1:0] dl_in_b3;
     pgs_delay #(.WIDTH(W), .DEPTH(156))
-        u_dl_in_b3 (.clk(clk), .d(in_b3), .q(dl_in_b3));
+        u_dl_in_b3 (.clk(clk), .d(in_b3), .valid(valid_q[0 +: 156]), .q(dl_in_b3));
     logic [W-1:0] in_lam0;
     assign in_lam0 = in_data[23*W +: W];
     logic [2*W-1:0] dl_in_lam0;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(42), 32'(37)}))
-        u_dl_in_lam0 (.clk(clk), .d(in_lam0), .q(dl_in_lam0));
+        u_dl_in_lam0 (.clk(clk), .d(in_lam0), .valid(valid_q[0 +: 42]), .q(dl_in_lam0));
     logic [W-1:0] in_lam1;
     assign in_lam1 = in_data[24*W +: W];
     logic [2*W-1:0] dl_in_lam1;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(84), 32'(79)}))
-        u_dl_in_lam1 (.clk(clk), .d(in_lam1), .q(dl_in_lam1));
+        u_dl_in_lam1 (.clk(clk), .d(in_lam1), .valid(valid_q[0 +: 84]), .q(dl_in_lam1));
     logic [W-1:0] in_lam2;
     assign in_lam2 = in_data[25*W +: W];
     logic [2*W-1:0] dl_in_lam2;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(126), 32'(121)}))
-        u_dl_in_lam2 (.clk(clk), .d(in_lam2), .q(dl_in_lam2));
+        u_dl_in_lam2 (.clk(clk), .d(in_lam2), .valid(valid_q[0 +: 126]), .q(dl_in_lam2));
     logic [W-1:0] in_lam3;
     assign in_lam3 = in_data[26*W +: W];
     logic [2*W-1:0] dl_in_lam3;
     pgs_delay #(.WIDTH(W), .DEPTH(168), .N_TAPS(2), .TAPS({32'(168), 32'(163)}))
-        u_dl_in_lam3 (.clk(clk), .d(in_lam3), .q(dl_in_lam3));
+        u_dl_in_lam3 (.clk(clk), .d(in_lam3), .valid(valid_q[0 +: 168]), .q(dl_in_lam3));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[27*W +: W];
     logic [W-1:0] dl_in_xA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .q(dl_in_xA_x));
+        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[28*W +: W];
     logic [W-1:0] dl_in_xA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .q(dl_in_xA_y));
+        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[29*W +: W];
     logic [W-1:0] dl_in_xA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .q(dl_in_xA_z));
+        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[30*W +: W];
     logic [W-1:0] dl_in_xB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .q(dl_in_xB_x));
+        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[31*W +: W];
     logic [W-1:0] dl_in_xB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .q(dl_in_xB_y));
+        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[32*W +: W];
     logic [W-1:0] dl_in_xB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .q(dl_in_xB_z));
+        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .q(dl_in_vA_x));
+        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 53]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .q(dl_in_vA_y));
+        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 53]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .q(dl_in_vA_z));
+        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 53]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .q(dl_in_wA_x));
+        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 53]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .q(dl_in_wA_y));
+        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 53]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[38*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .q(dl_in_wA_z));
+        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 53]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[39*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .q(dl_in_vB_x));
+        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 53]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[40*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .q(dl_in_vB_y));
+        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 53]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[41*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .q(dl_in_vB_z));
+        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 53]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[42*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .q(dl_in_wB_x));
+        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 53]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[43*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .q(dl_in_wB_y));
+        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 53]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[44*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .q(dl_in_wB_z));
+        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 53]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[45*W +: W];
     logic [W-1:0] dl_in_mInvA;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .q(dl_in_mInvA));
+        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[46*W +: W];
     logic [W-1:0] dl_in_mInvB;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .q(dl_in_mInvB));
+        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_s;
     assign in_IInvA_s = in_data[47*W +: W];
     logic [W-1:0] dl_in_IInvA_s;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_s (.clk(clk), .d(in_IInvA_s), .q(dl_in_IInvA_s));
+        u_dl_in_IInvA_s (.clk(clk), .d(in_IInvA_s), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_s));
     logic [W-1:0] in_IInvB_s;
     assign in_IInvB_s = in_data[48*W +: W];
     logic [W-1:0] dl_in_IInvB_s;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_s (.clk(clk), .d(in_IInvB_s), .q(dl_in_IInvB_s));
+        u_dl_in_IInvB_s (.clk(clk), .d(in_IInvB_s), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_s));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
     // bf16; its delay line feeds every consumer at the consumer's issue cycle.
@@ -346,7 +353,7 @@ module pgs_contact_pipe_scalar #(
     logic [W-1:0] linA_x;
     logic [2:0] fl_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[0]), .y(linA_x), .flags(fl_linA_x)
     );
     assign ev_ovf[0] = fl_linA_x[0] && ev_q[3];
@@ -354,12 +361,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[0] = fl_linA_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linA_x (.clk(clk), .d(linA_x), .q(dl_linA_x));
+        u_dl_linA_x (.clk(clk), .d(linA_x), .valid(valid_q[3 +: 169]), .q(dl_linA_x));
     // linA_y = n_y * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_y;
     logic [2:0] fl_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[1]), .y(linA_y), .flags(fl_linA_y)
     );
     assign ev_ovf[1] = fl_linA_y[0] && ev_q[3];
@@ -367,12 +374,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[1] = fl_linA_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linA_y (.clk(clk), .d(linA_y), .q(dl_linA_y));
+        u_dl_linA_y (.clk(clk), .d(linA_y), .valid(valid_q[3 +: 169]), .q(dl_linA_y));
     // linA_z = n_z * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_z;
     logic [2:0] fl_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[2]), .y(linA_z), .flags(fl_linA_z)
     );
     assign ev_ovf[2] = fl_linA_z[0] && ev_q[3];
@@ -380,12 +387,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[2] = fl_linA_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linA_z (.clk(clk), .d(linA_z), .q(dl_linA_z));
+        u_dl_linA_z (.clk(clk), .d(linA_z), .valid(valid_q[3 +: 169]), .q(dl_linA_z));
     // linB_x = n_x * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_x;
     logic [2:0] fl_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[3]), .y(linB_x), .flags(fl_linB_x)
     );
     assign ev_ovf[3] = fl_linB_x[0] && ev_q[3];
@@ -393,12 +400,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[3] = fl_linB_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linB_x (.clk(clk), .d(linB_x), .q(dl_linB_x));
+        u_dl_linB_x (.clk(clk), .d(linB_x), .valid(valid_q[3 +: 169]), .q(dl_linB_x));
     // linB_y = n_y * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_y;
     logic [2:0] fl_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[4]), .y(linB_y), .flags(fl_linB_y)
     );
     assign ev_ovf[4] = fl_linB_y[0] && ev_q[3];
@@ -406,12 +413,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[4] = fl_linB_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linB_y (.clk(clk), .d(linB_y), .q(dl_linB_y));
+        u_dl_linB_y (.clk(clk), .d(linB_y), .valid(valid_q[3 +: 169]), .q(dl_linB_y));
     // linB_z = n_z * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_z;
     logic [2:0] fl_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[5]), .y(linB_z), .flags(fl_linB_z)
     );
     assign ev_ovf[5] = fl_linB_z[0] && ev_q[3];
@@ -419,18 +426,18 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[5] = fl_linB_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linB_z (.clk(clk), .d(linB_z), .q(dl_linB_z));
+        u_dl_linB_z (.clk(clk), .d(linB_z), .valid(valid_q[3 +: 169]), .q(dl_linB_z));
     // pt0_skip = jac_inv0 == 0   (ready @0/0/0)
     logic pt0_skip;
     assign pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt0_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}))
-        u_dl_pt0_skip (.clk(clk), .d(pt0_skip), .q(dl_pt0_skip));
+        u_dl_pt0_skip (.clk(clk), .d(pt0_skip), .valid(valid_q[0 +: 53]), .q(dl_pt0_skip));
     // pt0_rA_x = p0_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt0_rA_x;
     logic [2:0] fl_pt0_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(pt0_rA_x), .flags(fl_pt0_rA_x)
     );
     assign ev_ovf[6] = fl_pt0_rA_x[0] && ev_q[4];
@@ -438,12 +445,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[6] = fl_pt0_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rA_x (.clk(clk), .d(pt0_rA_x), .q(dl_pt0_rA_x));
+        u_dl_pt0_rA_x (.clk(clk), .d(pt0_rA_x), .valid(1'b0), .q(dl_pt0_rA_x));
     // pt0_rA_y = p0_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt0_rA_y;
     logic [2:0] fl_pt0_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(pt0_rA_y), .flags(fl_pt0_rA_y)
     );
     assign ev_ovf[7] = fl_pt0_rA_y[0] && ev_q[4];
@@ -451,12 +458,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[7] = fl_pt0_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rA_y (.clk(clk), .d(pt0_rA_y), .q(dl_pt0_rA_y));
+        u_dl_pt0_rA_y (.clk(clk), .d(pt0_rA_y), .valid(1'b0), .q(dl_pt0_rA_y));
     // pt0_rA_z = p0_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt0_rA_z;
     logic [2:0] fl_pt0_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(pt0_rA_z), .flags(fl_pt0_rA_z)
     );
     assign ev_ovf[8] = fl_pt0_rA_z[0] && ev_q[4];
@@ -464,12 +471,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[8] = fl_pt0_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rA_z (.clk(clk), .d(pt0_rA_z), .q(dl_pt0_rA_z));
+        u_dl_pt0_rA_z (.clk(clk), .d(pt0_rA_z), .valid(1'b0), .q(dl_pt0_rA_z));
     // pt0_mul60 = pt0_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul60;
     logic [2:0] fl_pt0_mul60;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul60 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[9]), .y(pt0_mul60), .flags(fl_pt0_mul60)
     );
     assign ev_ovf[9] = fl_pt0_mul60[0] && ev_q[7];
@@ -477,12 +484,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[9] = fl_pt0_mul60[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul60;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul60 (.clk(clk), .d(pt0_mul60), .q(dl_pt0_mul60));
+        u_dl_pt0_mul60 (.clk(clk), .d(pt0_mul60), .valid(1'b0), .q(dl_pt0_mul60));
     // pt0_mul61 = pt0_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul61;
     logic [2:0] fl_pt0_mul61;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul61 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[10]), .y(pt0_mul61), .flags(fl_pt0_mul61)
     );
     assign ev_ovf[10] = fl_pt0_mul61[0] && ev_q[7];
@@ -490,12 +497,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[10] = fl_pt0_mul61[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul61;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul61 (.clk(clk), .d(pt0_mul61), .q(dl_pt0_mul61));
+        u_dl_pt0_mul61 (.clk(clk), .d(pt0_mul61), .valid(1'b0), .q(dl_pt0_mul61));
     // pt0_cA_x = pt0_mul60 - pt0_mul61   (ready @11/11/11)
     logic [W-1:0] pt0_cA_x;
     logic [2:0] fl_pt0_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul60), .b(dl_pt0_mul61), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul60), .b(dl_pt0_mul61), .sub(1'b1),
         .out_valid(op_valid_nc[11]), .y(pt0_cA_x), .flags(fl_pt0_cA_x)
     );
     assign ev_ovf[11] = fl_pt0_cA_x[0] && ev_q[11];
@@ -503,12 +510,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[11] = fl_pt0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cA_x (.clk(clk), .d(pt0_cA_x), .q(dl_pt0_cA_x));
+        u_dl_pt0_cA_x (.clk(clk), .d(pt0_cA_x), .valid(1'b0), .q(dl_pt0_cA_x));
     // pt0_mul63 = pt0_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul63;
     logic [2:0] fl_pt0_mul63;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul63 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[12]), .y(pt0_mul63), .flags(fl_pt0_mul63)
     );
     assign ev_ovf[12] = fl_pt0_mul63[0] && ev_q[7];
@@ -516,12 +523,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[12] = fl_pt0_mul63[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul63;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul63 (.clk(clk), .d(pt0_mul63), .q(dl_pt0_mul63));
+        u_dl_pt0_mul63 (.clk(clk), .d(pt0_mul63), .valid(1'b0), .q(dl_pt0_mul63));
     // pt0_mul64 = pt0_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul64;
     logic [2:0] fl_pt0_mul64;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul64 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[13]), .y(pt0_mul64), .flags(fl_pt0_mul64)
     );
     assign ev_ovf[13] = fl_pt0_mul64[0] && ev_q[7];
@@ -529,12 +536,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[13] = fl_pt0_mul64[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul64;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul64 (.clk(clk), .d(pt0_mul64), .q(dl_pt0_mul64));
+        u_dl_pt0_mul64 (.clk(clk), .d(pt0_mul64), .valid(1'b0), .q(dl_pt0_mul64));
     // pt0_cA_y = pt0_mul63 - pt0_mul64   (ready @11/11/11)
     logic [W-1:0] pt0_cA_y;
     logic [2:0] fl_pt0_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul63), .b(dl_pt0_mul64), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul63), .b(dl_pt0_mul64), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(pt0_cA_y), .flags(fl_pt0_cA_y)
     );
     assign ev_ovf[14] = fl_pt0_cA_y[0] && ev_q[11];
@@ -542,12 +549,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[14] = fl_pt0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cA_y (.clk(clk), .d(pt0_cA_y), .q(dl_pt0_cA_y));
+        u_dl_pt0_cA_y (.clk(clk), .d(pt0_cA_y), .valid(1'b0), .q(dl_pt0_cA_y));
     // pt0_mul66 = pt0_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul66;
     logic [2:0] fl_pt0_mul66;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul66 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[15]), .y(pt0_mul66), .flags(fl_pt0_mul66)
     );
     assign ev_ovf[15] = fl_pt0_mul66[0] && ev_q[7];
@@ -555,12 +562,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[15] = fl_pt0_mul66[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul66;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul66 (.clk(clk), .d(pt0_mul66), .q(dl_pt0_mul66));
+        u_dl_pt0_mul66 (.clk(clk), .d(pt0_mul66), .valid(1'b0), .q(dl_pt0_mul66));
     // pt0_mul67 = pt0_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul67;
     logic [2:0] fl_pt0_mul67;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul67 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[16]), .y(pt0_mul67), .flags(fl_pt0_mul67)
     );
     assign ev_ovf[16] = fl_pt0_mul67[0] && ev_q[7];
@@ -568,12 +575,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[16] = fl_pt0_mul67[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul67;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul67 (.clk(clk), .d(pt0_mul67), .q(dl_pt0_mul67));
+        u_dl_pt0_mul67 (.clk(clk), .d(pt0_mul67), .valid(1'b0), .q(dl_pt0_mul67));
     // pt0_cA_z = pt0_mul66 - pt0_mul67   (ready @11/11/11)
     logic [W-1:0] pt0_cA_z;
     logic [2:0] fl_pt0_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul66), .b(dl_pt0_mul67), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul66), .b(dl_pt0_mul67), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(pt0_cA_z), .flags(fl_pt0_cA_z)
     );
     assign ev_ovf[17] = fl_pt0_cA_z[0] && ev_q[11];
@@ -581,12 +588,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[17] = fl_pt0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cA_z (.clk(clk), .d(pt0_cA_z), .q(dl_pt0_cA_z));
+        u_dl_pt0_cA_z (.clk(clk), .d(pt0_cA_z), .valid(1'b0), .q(dl_pt0_cA_z));
     // pt0_rB_x = p0_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt0_rB_x;
     logic [2:0] fl_pt0_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(pt0_rB_x), .flags(fl_pt0_rB_x)
     );
     assign ev_ovf[18] = fl_pt0_rB_x[0] && ev_q[4];
@@ -594,12 +601,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[18] = fl_pt0_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rB_x (.clk(clk), .d(pt0_rB_x), .q(dl_pt0_rB_x));
+        u_dl_pt0_rB_x (.clk(clk), .d(pt0_rB_x), .valid(1'b0), .q(dl_pt0_rB_x));
     // pt0_rB_y = p0_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt0_rB_y;
     logic [2:0] fl_pt0_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(pt0_rB_y), .flags(fl_pt0_rB_y)
     );
     assign ev_ovf[19] = fl_pt0_rB_y[0] && ev_q[4];
@@ -607,12 +614,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[19] = fl_pt0_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rB_y (.clk(clk), .d(pt0_rB_y), .q(dl_pt0_rB_y));
+        u_dl_pt0_rB_y (.clk(clk), .d(pt0_rB_y), .valid(1'b0), .q(dl_pt0_rB_y));
     // pt0_rB_z = p0_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt0_rB_z;
     logic [2:0] fl_pt0_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(pt0_rB_z), .flags(fl_pt0_rB_z)
     );
     assign ev_ovf[20] = fl_pt0_rB_z[0] && ev_q[4];
@@ -620,12 +627,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[20] = fl_pt0_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rB_z (.clk(clk), .d(pt0_rB_z), .q(dl_pt0_rB_z));
+        u_dl_pt0_rB_z (.clk(clk), .d(pt0_rB_z), .valid(1'b0), .q(dl_pt0_rB_z));
     // pt0_mul72 = pt0_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul72;
     logic [2:0] fl_pt0_mul72;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul72 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[21]), .y(pt0_mul72), .flags(fl_pt0_mul72)
     );
     assign ev_ovf[21] = fl_pt0_mul72[0] && ev_q[7];
@@ -633,12 +640,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[21] = fl_pt0_mul72[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul72;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul72 (.clk(clk), .d(pt0_mul72), .q(dl_pt0_mul72));
+        u_dl_pt0_mul72 (.clk(clk), .d(pt0_mul72), .valid(1'b0), .q(dl_pt0_mul72));
     // pt0_mul73 = pt0_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul73;
     logic [2:0] fl_pt0_mul73;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul73 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[22]), .y(pt0_mul73), .flags(fl_pt0_mul73)
     );
     assign ev_ovf[22] = fl_pt0_mul73[0] && ev_q[7];
@@ -646,12 +653,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[22] = fl_pt0_mul73[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul73;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul73 (.clk(clk), .d(pt0_mul73), .q(dl_pt0_mul73));
+        u_dl_pt0_mul73 (.clk(clk), .d(pt0_mul73), .valid(1'b0), .q(dl_pt0_mul73));
     // pt0_cB_x = pt0_mul72 - pt0_mul73   (ready @11/11/11)
     logic [W-1:0] pt0_cB_x;
     logic [2:0] fl_pt0_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul72), .b(dl_pt0_mul73), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul72), .b(dl_pt0_mul73), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(pt0_cB_x), .flags(fl_pt0_cB_x)
     );
     assign ev_ovf[23] = fl_pt0_cB_x[0] && ev_q[11];
@@ -659,12 +666,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[23] = fl_pt0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cB_x (.clk(clk), .d(pt0_cB_x), .q(dl_pt0_cB_x));
+        u_dl_pt0_cB_x (.clk(clk), .d(pt0_cB_x), .valid(1'b0), .q(dl_pt0_cB_x));
     // pt0_mul75 = pt0_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul75;
     logic [2:0] fl_pt0_mul75;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul75 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[24]), .y(pt0_mul75), .flags(fl_pt0_mul75)
     );
     assign ev_ovf[24] = fl_pt0_mul75[0] && ev_q[7];
@@ -672,12 +679,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[24] = fl_pt0_mul75[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul75;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul75 (.clk(clk), .d(pt0_mul75), .q(dl_pt0_mul75));
+        u_dl_pt0_mul75 (.clk(clk), .d(pt0_mul75), .valid(1'b0), .q(dl_pt0_mul75));
     // pt0_mul76 = pt0_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul76;
     logic [2:0] fl_pt0_mul76;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul76 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[25]), .y(pt0_mul76), .flags(fl_pt0_mul76)
     );
     assign ev_ovf[25] = fl_pt0_mul76[0] && ev_q[7];
@@ -685,12 +692,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[25] = fl_pt0_mul76[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul76;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul76 (.clk(clk), .d(pt0_mul76), .q(dl_pt0_mul76));
+        u_dl_pt0_mul76 (.clk(clk), .d(pt0_mul76), .valid(1'b0), .q(dl_pt0_mul76));
     // pt0_cB_y = pt0_mul75 - pt0_mul76   (ready @11/11/11)
     logic [W-1:0] pt0_cB_y;
     logic [2:0] fl_pt0_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul75), .b(dl_pt0_mul76), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul75), .b(dl_pt0_mul76), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(pt0_cB_y), .flags(fl_pt0_cB_y)
     );
     assign ev_ovf[26] = fl_pt0_cB_y[0] && ev_q[11];
@@ -698,12 +705,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[26] = fl_pt0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cB_y (.clk(clk), .d(pt0_cB_y), .q(dl_pt0_cB_y));
+        u_dl_pt0_cB_y (.clk(clk), .d(pt0_cB_y), .valid(1'b0), .q(dl_pt0_cB_y));
     // pt0_mul78 = pt0_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul78;
     logic [2:0] fl_pt0_mul78;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul78 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[27]), .y(pt0_mul78), .flags(fl_pt0_mul78)
     );
     assign ev_ovf[27] = fl_pt0_mul78[0] && ev_q[7];
@@ -711,12 +718,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[27] = fl_pt0_mul78[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul78;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul78 (.clk(clk), .d(pt0_mul78), .q(dl_pt0_mul78));
+        u_dl_pt0_mul78 (.clk(clk), .d(pt0_mul78), .valid(1'b0), .q(dl_pt0_mul78));
     // pt0_mul79 = pt0_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul79;
     logic [2:0] fl_pt0_mul79;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul79 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[28]), .y(pt0_mul79), .flags(fl_pt0_mul79)
     );
     assign ev_ovf[28] = fl_pt0_mul79[0] && ev_q[7];
@@ -724,12 +731,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[28] = fl_pt0_mul79[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul79;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul79 (.clk(clk), .d(pt0_mul79), .q(dl_pt0_mul79));
+        u_dl_pt0_mul79 (.clk(clk), .d(pt0_mul79), .valid(1'b0), .q(dl_pt0_mul79));
     // pt0_cB_z = pt0_mul78 - pt0_mul79   (ready @11/11/11)
     logic [W-1:0] pt0_cB_z;
     logic [2:0] fl_pt0_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul78), .b(dl_pt0_mul79), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul78), .b(dl_pt0_mul79), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(pt0_cB_z), .flags(fl_pt0_cB_z)
     );
     assign ev_ovf[29] = fl_pt0_cB_z[0] && ev_q[11];
@@ -737,12 +744,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[29] = fl_pt0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cB_z (.clk(clk), .d(pt0_cB_z), .q(dl_pt0_cB_z));
+        u_dl_pt0_cB_z (.clk(clk), .d(pt0_cB_z), .valid(1'b0), .q(dl_pt0_cB_z));
     // pt0_mul81 = n_x * vA_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul81;
     logic [2:0] fl_pt0_mul81;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul81 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[30]), .y(pt0_mul81), .flags(fl_pt0_mul81)
     );
     assign ev_ovf[30] = fl_pt0_mul81[0] && ev_q[3];
@@ -750,12 +757,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[30] = fl_pt0_mul81[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul81;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul81 (.clk(clk), .d(pt0_mul81), .q(dl_pt0_mul81));
+        u_dl_pt0_mul81 (.clk(clk), .d(pt0_mul81), .valid(1'b0), .q(dl_pt0_mul81));
     // pt0_mul82 = n_y * vA_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul82;
     logic [2:0] fl_pt0_mul82;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul82 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[31]), .y(pt0_mul82), .flags(fl_pt0_mul82)
     );
     assign ev_ovf[31] = fl_pt0_mul82[0] && ev_q[3];
@@ -763,12 +770,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[31] = fl_pt0_mul82[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul82;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul82 (.clk(clk), .d(pt0_mul82), .q(dl_pt0_mul82));
+        u_dl_pt0_mul82 (.clk(clk), .d(pt0_mul82), .valid(1'b0), .q(dl_pt0_mul82));
     // pt0_add83 = pt0_mul81 + pt0_mul82   (ready @7/7/7)
     logic [W-1:0] pt0_add83;
     logic [2:0] fl_pt0_add83;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add83 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul81), .b(dl_pt0_mul82), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul81), .b(dl_pt0_mul82), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(pt0_add83), .flags(fl_pt0_add83)
     );
     assign ev_ovf[32] = fl_pt0_add83[0] && ev_q[7];
@@ -776,12 +783,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[32] = fl_pt0_add83[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add83;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add83 (.clk(clk), .d(pt0_add83), .q(dl_pt0_add83));
+        u_dl_pt0_add83 (.clk(clk), .d(pt0_add83), .valid(1'b0), .q(dl_pt0_add83));
     // pt0_mul84 = n_z * vA_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul84;
     logic [2:0] fl_pt0_mul84;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul84 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[33]), .y(pt0_mul84), .flags(fl_pt0_mul84)
     );
     assign ev_ovf[33] = fl_pt0_mul84[0] && ev_q[3];
@@ -789,12 +796,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[33] = fl_pt0_mul84[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul84;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul84 (.clk(clk), .d(pt0_mul84), .q(dl_pt0_mul84));
+        u_dl_pt0_mul84 (.clk(clk), .d(pt0_mul84), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul84));
     // pt0_add85 = pt0_add83 + pt0_mul84   (ready @11/11/11)
     logic [W-1:0] pt0_add85;
     logic [2:0] fl_pt0_add85;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add85 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add83), .b(dl_pt0_mul84), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add83), .b(dl_pt0_mul84), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(pt0_add85), .flags(fl_pt0_add85)
     );
     assign ev_ovf[34] = fl_pt0_add85[0] && ev_q[11];
@@ -802,12 +809,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[34] = fl_pt0_add85[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add85;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add85 (.clk(clk), .d(pt0_add85), .q(dl_pt0_add85));
+        u_dl_pt0_add85 (.clk(clk), .d(pt0_add85), .valid(1'b0), .q(dl_pt0_add85));
     // pt0_mul86 = n_x * vB_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul86;
     logic [2:0] fl_pt0_mul86;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul86 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[35]), .y(pt0_mul86), .flags(fl_pt0_mul86)
     );
     assign ev_ovf[35] = fl_pt0_mul86[0] && ev_q[3];
@@ -815,12 +822,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[35] = fl_pt0_mul86[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul86;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul86 (.clk(clk), .d(pt0_mul86), .q(dl_pt0_mul86));
+        u_dl_pt0_mul86 (.clk(clk), .d(pt0_mul86), .valid(1'b0), .q(dl_pt0_mul86));
     // pt0_mul87 = n_y * vB_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul87;
     logic [2:0] fl_pt0_mul87;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul87 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[36]), .y(pt0_mul87), .flags(fl_pt0_mul87)
     );
     assign ev_ovf[36] = fl_pt0_mul87[0] && ev_q[3];
@@ -828,12 +835,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[36] = fl_pt0_mul87[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul87;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul87 (.clk(clk), .d(pt0_mul87), .q(dl_pt0_mul87));
+        u_dl_pt0_mul87 (.clk(clk), .d(pt0_mul87), .valid(1'b0), .q(dl_pt0_mul87));
     // pt0_add88 = pt0_mul86 + pt0_mul87   (ready @7/7/7)
     logic [W-1:0] pt0_add88;
     logic [2:0] fl_pt0_add88;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add88 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul86), .b(dl_pt0_mul87), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul86), .b(dl_pt0_mul87), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(pt0_add88), .flags(fl_pt0_add88)
     );
     assign ev_ovf[37] = fl_pt0_add88[0] && ev_q[7];
@@ -841,12 +848,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[37] = fl_pt0_add88[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add88;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add88 (.clk(clk), .d(pt0_add88), .q(dl_pt0_add88));
+        u_dl_pt0_add88 (.clk(clk), .d(pt0_add88), .valid(1'b0), .q(dl_pt0_add88));
     // pt0_mul89 = n_z * vB_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul89;
     logic [2:0] fl_pt0_mul89;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul89 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[38]), .y(pt0_mul89), .flags(fl_pt0_mul89)
     );
     assign ev_ovf[38] = fl_pt0_mul89[0] && ev_q[3];
@@ -854,12 +861,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[38] = fl_pt0_mul89[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul89;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul89 (.clk(clk), .d(pt0_mul89), .q(dl_pt0_mul89));
+        u_dl_pt0_mul89 (.clk(clk), .d(pt0_mul89), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul89));
     // pt0_add90 = pt0_add88 + pt0_mul89   (ready @11/11/11)
     logic [W-1:0] pt0_add90;
     logic [2:0] fl_pt0_add90;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add90 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add88), .b(dl_pt0_mul89), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add88), .b(dl_pt0_mul89), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(pt0_add90), .flags(fl_pt0_add90)
     );
     assign ev_ovf[39] = fl_pt0_add90[0] && ev_q[11];
@@ -867,12 +874,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[39] = fl_pt0_add90[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add90;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add90 (.clk(clk), .d(pt0_add90), .q(dl_pt0_add90));
+        u_dl_pt0_add90 (.clk(clk), .d(pt0_add90), .valid(1'b0), .q(dl_pt0_add90));
     // pt0_sub91 = pt0_add85 - pt0_add90   (ready @15/15/15)
     logic [W-1:0] pt0_sub91;
     logic [2:0] fl_pt0_sub91;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub91 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add85), .b(dl_pt0_add90), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_add85), .b(dl_pt0_add90), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(pt0_sub91), .flags(fl_pt0_sub91)
     );
     assign ev_ovf[40] = fl_pt0_sub91[0] && ev_q[15];
@@ -880,12 +887,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[40] = fl_pt0_sub91[2] && ev_q[15];
     logic [W-1:0] dl_pt0_sub91;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_pt0_sub91 (.clk(clk), .d(pt0_sub91), .q(dl_pt0_sub91));
+        u_dl_pt0_sub91 (.clk(clk), .d(pt0_sub91), .valid(valid_q[15 +: 11]), .q(dl_pt0_sub91));
     // pt0_mul92 = pt0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul92;
     logic [2:0] fl_pt0_mul92;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul92 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_x), .b(dl_in_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cA_x), .b(dl_in_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[41]), .y(pt0_mul92), .flags(fl_pt0_mul92)
     );
     assign ev_ovf[41] = fl_pt0_mul92[0] && ev_q[14];
@@ -893,12 +900,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[41] = fl_pt0_mul92[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul92;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul92 (.clk(clk), .d(pt0_mul92), .q(dl_pt0_mul92));
+        u_dl_pt0_mul92 (.clk(clk), .d(pt0_mul92), .valid(1'b0), .q(dl_pt0_mul92));
     // pt0_mul93 = pt0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul93;
     logic [2:0] fl_pt0_mul93;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul93 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_y), .b(dl_in_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cA_y), .b(dl_in_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[42]), .y(pt0_mul93), .flags(fl_pt0_mul93)
     );
     assign ev_ovf[42] = fl_pt0_mul93[0] && ev_q[14];
@@ -906,12 +913,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[42] = fl_pt0_mul93[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul93;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul93 (.clk(clk), .d(pt0_mul93), .q(dl_pt0_mul93));
+        u_dl_pt0_mul93 (.clk(clk), .d(pt0_mul93), .valid(1'b0), .q(dl_pt0_mul93));
     // pt0_add94 = pt0_mul92 + pt0_mul93   (ready @18/18/18)
     logic [W-1:0] pt0_add94;
     logic [2:0] fl_pt0_add94;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add94 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul92), .b(dl_pt0_mul93), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul92), .b(dl_pt0_mul93), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(pt0_add94), .flags(fl_pt0_add94)
     );
     assign ev_ovf[43] = fl_pt0_add94[0] && ev_q[18];
@@ -919,12 +926,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[43] = fl_pt0_add94[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add94;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add94 (.clk(clk), .d(pt0_add94), .q(dl_pt0_add94));
+        u_dl_pt0_add94 (.clk(clk), .d(pt0_add94), .valid(1'b0), .q(dl_pt0_add94));
     // pt0_mul95 = pt0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul95;
     logic [2:0] fl_pt0_mul95;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul95 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_z), .b(dl_in_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cA_z), .b(dl_in_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[44]), .y(pt0_mul95), .flags(fl_pt0_mul95)
     );
     assign ev_ovf[44] = fl_pt0_mul95[0] && ev_q[14];
@@ -932,12 +939,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[44] = fl_pt0_mul95[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul95;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul95 (.clk(clk), .d(pt0_mul95), .q(dl_pt0_mul95));
+        u_dl_pt0_mul95 (.clk(clk), .d(pt0_mul95), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul95));
     // pt0_add96 = pt0_add94 + pt0_mul95   (ready @22/22/22)
     logic [W-1:0] pt0_add96;
     logic [2:0] fl_pt0_add96;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add96 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add94), .b(dl_pt0_mul95), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add94), .b(dl_pt0_mul95), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(pt0_add96), .flags(fl_pt0_add96)
     );
     assign ev_ovf[45] = fl_pt0_add96[0] && ev_q[22];
@@ -945,12 +952,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[45] = fl_pt0_add96[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add96;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add96 (.clk(clk), .d(pt0_add96), .q(dl_pt0_add96));
+        u_dl_pt0_add96 (.clk(clk), .d(pt0_add96), .valid(1'b0), .q(dl_pt0_add96));
     // pt0_mul97 = pt0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul97;
     logic [2:0] fl_pt0_mul97;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul97 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_x), .b(dl_in_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cB_x), .b(dl_in_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[46]), .y(pt0_mul97), .flags(fl_pt0_mul97)
     );
     assign ev_ovf[46] = fl_pt0_mul97[0] && ev_q[14];
@@ -958,12 +965,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[46] = fl_pt0_mul97[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul97;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul97 (.clk(clk), .d(pt0_mul97), .q(dl_pt0_mul97));
+        u_dl_pt0_mul97 (.clk(clk), .d(pt0_mul97), .valid(1'b0), .q(dl_pt0_mul97));
     // pt0_mul98 = pt0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul98;
     logic [2:0] fl_pt0_mul98;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul98 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_y), .b(dl_in_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cB_y), .b(dl_in_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[47]), .y(pt0_mul98), .flags(fl_pt0_mul98)
     );
     assign ev_ovf[47] = fl_pt0_mul98[0] && ev_q[14];
@@ -971,12 +978,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[47] = fl_pt0_mul98[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul98;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul98 (.clk(clk), .d(pt0_mul98), .q(dl_pt0_mul98));
+        u_dl_pt0_mul98 (.clk(clk), .d(pt0_mul98), .valid(1'b0), .q(dl_pt0_mul98));
     // pt0_add99 = pt0_mul97 + pt0_mul98   (ready @18/18/18)
     logic [W-1:0] pt0_add99;
     logic [2:0] fl_pt0_add99;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add99 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul97), .b(dl_pt0_mul98), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul97), .b(dl_pt0_mul98), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(pt0_add99), .flags(fl_pt0_add99)
     );
     assign ev_ovf[48] = fl_pt0_add99[0] && ev_q[18];
@@ -984,12 +991,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[48] = fl_pt0_add99[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add99;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add99 (.clk(clk), .d(pt0_add99), .q(dl_pt0_add99));
+        u_dl_pt0_add99 (.clk(clk), .d(pt0_add99), .valid(1'b0), .q(dl_pt0_add99));
     // pt0_mul100 = pt0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul100;
     logic [2:0] fl_pt0_mul100;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul100 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_z), .b(dl_in_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cB_z), .b(dl_in_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[49]), .y(pt0_mul100), .flags(fl_pt0_mul100)
     );
     assign ev_ovf[49] = fl_pt0_mul100[0] && ev_q[14];
@@ -997,12 +1004,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[49] = fl_pt0_mul100[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul100;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul100 (.clk(clk), .d(pt0_mul100), .q(dl_pt0_mul100));
+        u_dl_pt0_mul100 (.clk(clk), .d(pt0_mul100), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul100));
     // pt0_add101 = pt0_add99 + pt0_mul100   (ready @22/22/22)
     logic [W-1:0] pt0_add101;
     logic [2:0] fl_pt0_add101;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add101 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add99), .b(dl_pt0_mul100), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add99), .b(dl_pt0_mul100), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(pt0_add101), .flags(fl_pt0_add101)
     );
     assign ev_ovf[50] = fl_pt0_add101[0] && ev_q[22];
@@ -1010,12 +1017,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[50] = fl_pt0_add101[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add101;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add101 (.clk(clk), .d(pt0_add101), .q(dl_pt0_add101));
+        u_dl_pt0_add101 (.clk(clk), .d(pt0_add101), .valid(1'b0), .q(dl_pt0_add101));
     // pt0_sub102 = pt0_add96 - pt0_add101   (ready @26/26/26)
     logic [W-1:0] pt0_sub102;
     logic [2:0] fl_pt0_sub102;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub102 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add96), .b(dl_pt0_add101), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_pt0_add96), .b(dl_pt0_add101), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(pt0_sub102), .flags(fl_pt0_sub102)
     );
     assign ev_ovf[51] = fl_pt0_sub102[0] && ev_q[26];
@@ -1023,12 +1030,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[51] = fl_pt0_sub102[2] && ev_q[26];
     logic [W-1:0] dl_pt0_sub102;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub102 (.clk(clk), .d(pt0_sub102), .q(dl_pt0_sub102));
+        u_dl_pt0_sub102 (.clk(clk), .d(pt0_sub102), .valid(1'b0), .q(dl_pt0_sub102));
     // pt0_vrel = pt0_sub91 + pt0_sub102   (ready @30/30/30)
     logic [W-1:0] pt0_vrel;
     logic [2:0] fl_pt0_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_sub91), .b(dl_pt0_sub102), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_pt0_sub91), .b(dl_pt0_sub102), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(pt0_vrel), .flags(fl_pt0_vrel)
     );
     assign ev_ovf[52] = fl_pt0_vrel[0] && ev_q[30];
@@ -1036,12 +1043,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[52] = fl_pt0_vrel[2] && ev_q[30];
     logic [W-1:0] dl_pt0_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_vrel (.clk(clk), .d(pt0_vrel), .q(dl_pt0_vrel));
+        u_dl_pt0_vrel (.clk(clk), .d(pt0_vrel), .valid(1'b0), .q(dl_pt0_vrel));
     // pt0_add104 = pt0_vrel + b0   (ready @34/34/34)
     logic [W-1:0] pt0_add104;
     logic [2:0] fl_pt0_add104;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add104 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[30]), .a(dl_pt0_vrel), .b(dl_in_b0), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(pt0_add104), .flags(fl_pt0_add104)
     );
     assign ev_ovf[53] = fl_pt0_add104[0] && ev_q[34];
@@ -1049,12 +1056,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[53] = fl_pt0_add104[2] && ev_q[34];
     logic [W-1:0] dl_pt0_add104;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add104 (.clk(clk), .d(pt0_add104), .q(dl_pt0_add104));
+        u_dl_pt0_add104 (.clk(clk), .d(pt0_add104), .valid(1'b0), .q(dl_pt0_add104));
     // pt0_delta0 = pt0_add104 * jac_inv0   (ready @37/37/37)
     logic [W-1:0] pt0_delta0;
     logic [2:0] fl_pt0_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add104), .b(dl_in_jac_inv0[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[34]), .a(dl_pt0_add104), .b(dl_in_jac_inv0[1*W +: W]),
         .out_valid(op_valid_nc[54]), .y(pt0_delta0), .flags(fl_pt0_delta0)
     );
     assign ev_ovf[54] = fl_pt0_delta0[0] && ev_q[37];
@@ -1062,12 +1069,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[54] = fl_pt0_delta0[2] && ev_q[37];
     logic [W-1:0] dl_pt0_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_delta0 (.clk(clk), .d(pt0_delta0), .q(dl_pt0_delta0));
+        u_dl_pt0_delta0 (.clk(clk), .d(pt0_delta0), .valid(1'b0), .q(dl_pt0_delta0));
     // pt0_add106 = lam0 + pt0_delta0   (ready @41/41/41)
     logic [W-1:0] pt0_add106;
     logic [2:0] fl_pt0_add106;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add106 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam0[0*W +: W]), .b(dl_pt0_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(dl_in_lam0[0*W +: W]), .b(dl_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[55]), .y(pt0_add106), .flags(fl_pt0_add106)
     );
     assign ev_ovf[55] = fl_pt0_add106[0] && ev_q[41];
@@ -1075,22 +1082,22 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[55] = fl_pt0_add106[2] && ev_q[41];
     logic [W-1:0] dl_pt0_add106;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add106 (.clk(clk), .d(pt0_add106), .q(dl_pt0_add106));
+        u_dl_pt0_add106 (.clk(clk), .d(pt0_add106), .valid(1'b0), .q(dl_pt0_add106));
     // pt0_lam_new = max(pt0_add106, 0.0)   (ready @42/42/42)
     logic [W-1:0] pt0_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt0_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add106), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[41]), .a(dl_pt0_add106), .b(K_ZERO),
         .out_valid(op_valid_nc[56]), .y_min(nc_pt0_lam_new_min), .y_max(pt0_lam_new),
         .lt(nc_pt0_lam_new_lt), .eq(nc_pt0_lam_new_eq), .unordered(nc_pt0_lam_new_uo)
     );
     logic [W-1:0] dl_pt0_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_lam_new (.clk(clk), .d(pt0_lam_new), .q(dl_pt0_lam_new));
+        u_dl_pt0_lam_new (.clk(clk), .d(pt0_lam_new), .valid(1'b0), .q(dl_pt0_lam_new));
     // pt0_delta = pt0_lam_new - lam0   (ready @46/46/46)
     logic [W-1:0] pt0_delta;
     logic [2:0] fl_pt0_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_lam_new), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[42]), .a(dl_pt0_lam_new), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[57]), .y(pt0_delta), .flags(fl_pt0_delta)
     );
     assign ev_ovf[56] = fl_pt0_delta[0] && ev_q[46];
@@ -1098,18 +1105,18 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[56] = fl_pt0_delta[2] && ev_q[46];
     logic [W-1:0] dl_pt0_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_delta (.clk(clk), .d(pt0_delta), .q(dl_pt0_delta));
+        u_dl_pt0_delta (.clk(clk), .d(pt0_delta), .valid(1'b0), .q(dl_pt0_delta));
     // pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (ready @42/42/42)
     logic [W-1:0] pt0_lam;
     assign pt0_lam = dl_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_pt0_lam_new;
     logic [W-1:0] dl_pt0_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(137))
-        u_dl_pt0_lam (.clk(clk), .d(pt0_lam), .q(dl_pt0_lam));
+        u_dl_pt0_lam (.clk(clk), .d(pt0_lam), .valid(valid_q[42 +: 137]), .q(dl_pt0_lam));
     // pt0_angA_x = IInvA_s * pt0_cA_x   (ready @14/14/14)
     logic [W-1:0] pt0_angA_x;
     logic [2:0] fl_pt0_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_pt0_cA_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_pt0_cA_x),
         .out_valid(op_valid_nc[58]), .y(pt0_angA_x), .flags(fl_pt0_angA_x)
     );
     assign ev_ovf[57] = fl_pt0_angA_x[0] && ev_q[14];
@@ -1117,12 +1124,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[57] = fl_pt0_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angA_x (.clk(clk), .d(pt0_angA_x), .q(dl_pt0_angA_x));
+        u_dl_pt0_angA_x (.clk(clk), .d(pt0_angA_x), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_x));
     // pt0_angA_y = IInvA_s * pt0_cA_y   (ready @14/14/14)
     logic [W-1:0] pt0_angA_y;
     logic [2:0] fl_pt0_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_pt0_cA_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_pt0_cA_y),
         .out_valid(op_valid_nc[59]), .y(pt0_angA_y), .flags(fl_pt0_angA_y)
     );
     assign ev_ovf[58] = fl_pt0_angA_y[0] && ev_q[14];
@@ -1130,12 +1137,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[58] = fl_pt0_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angA_y (.clk(clk), .d(pt0_angA_y), .q(dl_pt0_angA_y));
+        u_dl_pt0_angA_y (.clk(clk), .d(pt0_angA_y), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_y));
     // pt0_angA_z = IInvA_s * pt0_cA_z   (ready @14/14/14)
     logic [W-1:0] pt0_angA_z;
     logic [2:0] fl_pt0_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_pt0_cA_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_pt0_cA_z),
         .out_valid(op_valid_nc[60]), .y(pt0_angA_z), .flags(fl_pt0_angA_z)
     );
     assign ev_ovf[59] = fl_pt0_angA_z[0] && ev_q[14];
@@ -1143,12 +1150,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[59] = fl_pt0_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angA_z (.clk(clk), .d(pt0_angA_z), .q(dl_pt0_angA_z));
+        u_dl_pt0_angA_z (.clk(clk), .d(pt0_angA_z), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_z));
     // pt0_angB_x = IInvB_s * pt0_cB_x   (ready @14/14/14)
     logic [W-1:0] pt0_angB_x;
     logic [2:0] fl_pt0_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_pt0_cB_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_pt0_cB_x),
         .out_valid(op_valid_nc[61]), .y(pt0_angB_x), .flags(fl_pt0_angB_x)
     );
     assign ev_ovf[60] = fl_pt0_angB_x[0] && ev_q[14];
@@ -1156,12 +1163,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[60] = fl_pt0_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angB_x (.clk(clk), .d(pt0_angB_x), .q(dl_pt0_angB_x));
+        u_dl_pt0_angB_x (.clk(clk), .d(pt0_angB_x), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_x));
     // pt0_angB_y = IInvB_s * pt0_cB_y   (ready @14/14/14)
     logic [W-1:0] pt0_angB_y;
     logic [2:0] fl_pt0_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_pt0_cB_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_pt0_cB_y),
         .out_valid(op_valid_nc[62]), .y(pt0_angB_y), .flags(fl_pt0_angB_y)
     );
     assign ev_ovf[61] = fl_pt0_angB_y[0] && ev_q[14];
@@ -1169,12 +1176,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[61] = fl_pt0_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angB_y (.clk(clk), .d(pt0_angB_y), .q(dl_pt0_angB_y));
+        u_dl_pt0_angB_y (.clk(clk), .d(pt0_angB_y), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_y));
     // pt0_angB_z = IInvB_s * pt0_cB_z   (ready @14/14/14)
     logic [W-1:0] pt0_angB_z;
     logic [2:0] fl_pt0_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_pt0_cB_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_pt0_cB_z),
         .out_valid(op_valid_nc[63]), .y(pt0_angB_z), .flags(fl_pt0_angB_z)
     );
     assign ev_ovf[62] = fl_pt0_angB_z[0] && ev_q[14];
@@ -1182,12 +1189,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[62] = fl_pt0_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angB_z (.clk(clk), .d(pt0_angB_z), .q(dl_pt0_angB_z));
+        u_dl_pt0_angB_z (.clk(clk), .d(pt0_angB_z), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_z));
     // pt0_mul116 = linA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul116;
     logic [2:0] fl_pt0_mul116;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul116 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linA_x[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[64]), .y(pt0_mul116), .flags(fl_pt0_mul116)
     );
     assign ev_ovf[63] = fl_pt0_mul116[0] && ev_q[49];
@@ -1195,12 +1202,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[63] = fl_pt0_mul116[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul116;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul116 (.clk(clk), .d(pt0_mul116), .q(dl_pt0_mul116));
+        u_dl_pt0_mul116 (.clk(clk), .d(pt0_mul116), .valid(1'b0), .q(dl_pt0_mul116));
     // pt0_mul117 = linA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul117;
     logic [2:0] fl_pt0_mul117;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul117 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linA_y[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[65]), .y(pt0_mul117), .flags(fl_pt0_mul117)
     );
     assign ev_ovf[64] = fl_pt0_mul117[0] && ev_q[49];
@@ -1208,12 +1215,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[64] = fl_pt0_mul117[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul117;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul117 (.clk(clk), .d(pt0_mul117), .q(dl_pt0_mul117));
+        u_dl_pt0_mul117 (.clk(clk), .d(pt0_mul117), .valid(1'b0), .q(dl_pt0_mul117));
     // pt0_mul118 = linA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul118;
     logic [2:0] fl_pt0_mul118;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul118 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linA_z[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[66]), .y(pt0_mul118), .flags(fl_pt0_mul118)
     );
     assign ev_ovf[65] = fl_pt0_mul118[0] && ev_q[49];
@@ -1221,12 +1228,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[65] = fl_pt0_mul118[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul118;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul118 (.clk(clk), .d(pt0_mul118), .q(dl_pt0_mul118));
+        u_dl_pt0_mul118 (.clk(clk), .d(pt0_mul118), .valid(1'b0), .q(dl_pt0_mul118));
     // pt0_add119 = vA_x + pt0_mul116   (ready @53/53/53)
     logic [W-1:0] pt0_add119;
     logic [2:0] fl_pt0_add119;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add119 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_x[1*W +: W]), .b(dl_pt0_mul116), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_pt0_mul116), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(pt0_add119), .flags(fl_pt0_add119)
     );
     assign ev_ovf[66] = fl_pt0_add119[0] && ev_q[53];
@@ -1234,12 +1241,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[66] = fl_pt0_add119[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add119;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add119 (.clk(clk), .d(pt0_add119), .q(dl_pt0_add119));
+        u_dl_pt0_add119 (.clk(clk), .d(pt0_add119), .valid(1'b0), .q(dl_pt0_add119));
     // pt0_add120 = vA_y + pt0_mul117   (ready @53/53/53)
     logic [W-1:0] pt0_add120;
     logic [2:0] fl_pt0_add120;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add120 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_y[1*W +: W]), .b(dl_pt0_mul117), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_pt0_mul117), .sub(1'b0),
         .out_valid(op_valid_nc[68]), .y(pt0_add120), .flags(fl_pt0_add120)
     );
     assign ev_ovf[67] = fl_pt0_add120[0] && ev_q[53];
@@ -1247,12 +1254,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[67] = fl_pt0_add120[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add120;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add120 (.clk(clk), .d(pt0_add120), .q(dl_pt0_add120));
+        u_dl_pt0_add120 (.clk(clk), .d(pt0_add120), .valid(1'b0), .q(dl_pt0_add120));
     // pt0_add121 = vA_z + pt0_mul118   (ready @53/53/53)
     logic [W-1:0] pt0_add121;
     logic [2:0] fl_pt0_add121;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add121 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_z[1*W +: W]), .b(dl_pt0_mul118), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_pt0_mul118), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(pt0_add121), .flags(fl_pt0_add121)
     );
     assign ev_ovf[68] = fl_pt0_add121[0] && ev_q[53];
@@ -1260,30 +1267,30 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[68] = fl_pt0_add121[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add121;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add121 (.clk(clk), .d(pt0_add121), .q(dl_pt0_add121));
+        u_dl_pt0_add121 (.clk(clk), .d(pt0_add121), .valid(1'b0), .q(dl_pt0_add121));
     // pt0_vA_x = pt0_skip ? vA_x : pt0_add119   (ready @53/53/53)
     logic [W-1:0] pt0_vA_x;
     assign pt0_vA_x = dl_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_pt0_add119;
     logic [3*W-1:0] dl_pt0_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vA_x (.clk(clk), .d(pt0_vA_x), .q(dl_pt0_vA_x));
+        u_dl_pt0_vA_x (.clk(clk), .d(pt0_vA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_x));
     // pt0_vA_y = pt0_skip ? vA_y : pt0_add120   (ready @53/53/53)
     logic [W-1:0] pt0_vA_y;
     assign pt0_vA_y = dl_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_pt0_add120;
     logic [3*W-1:0] dl_pt0_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vA_y (.clk(clk), .d(pt0_vA_y), .q(dl_pt0_vA_y));
+        u_dl_pt0_vA_y (.clk(clk), .d(pt0_vA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_y));
     // pt0_vA_z = pt0_skip ? vA_z : pt0_add121   (ready @53/53/53)
     logic [W-1:0] pt0_vA_z;
     assign pt0_vA_z = dl_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_pt0_add121;
     logic [3*W-1:0] dl_pt0_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vA_z (.clk(clk), .d(pt0_vA_z), .q(dl_pt0_vA_z));
+        u_dl_pt0_vA_z (.clk(clk), .d(pt0_vA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_z));
     // pt0_mul125 = pt0_angA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul125;
     logic [2:0] fl_pt0_mul125;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul125 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_x), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angA_x), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[70]), .y(pt0_mul125), .flags(fl_pt0_mul125)
     );
     assign ev_ovf[69] = fl_pt0_mul125[0] && ev_q[49];
@@ -1291,12 +1298,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[69] = fl_pt0_mul125[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul125;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul125 (.clk(clk), .d(pt0_mul125), .q(dl_pt0_mul125));
+        u_dl_pt0_mul125 (.clk(clk), .d(pt0_mul125), .valid(1'b0), .q(dl_pt0_mul125));
     // pt0_mul126 = pt0_angA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul126;
     logic [2:0] fl_pt0_mul126;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul126 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_y), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angA_y), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[71]), .y(pt0_mul126), .flags(fl_pt0_mul126)
     );
     assign ev_ovf[70] = fl_pt0_mul126[0] && ev_q[49];
@@ -1304,12 +1311,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[70] = fl_pt0_mul126[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul126;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul126 (.clk(clk), .d(pt0_mul126), .q(dl_pt0_mul126));
+        u_dl_pt0_mul126 (.clk(clk), .d(pt0_mul126), .valid(1'b0), .q(dl_pt0_mul126));
     // pt0_mul127 = pt0_angA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul127;
     logic [2:0] fl_pt0_mul127;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul127 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_z), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angA_z), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[72]), .y(pt0_mul127), .flags(fl_pt0_mul127)
     );
     assign ev_ovf[71] = fl_pt0_mul127[0] && ev_q[49];
@@ -1317,12 +1324,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[71] = fl_pt0_mul127[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul127;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul127 (.clk(clk), .d(pt0_mul127), .q(dl_pt0_mul127));
+        u_dl_pt0_mul127 (.clk(clk), .d(pt0_mul127), .valid(1'b0), .q(dl_pt0_mul127));
     // pt0_add128 = wA_x + pt0_mul125   (ready @53/53/53)
     logic [W-1:0] pt0_add128;
     logic [2:0] fl_pt0_add128;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add128 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_x[1*W +: W]), .b(dl_pt0_mul125), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_pt0_mul125), .sub(1'b0),
         .out_valid(op_valid_nc[73]), .y(pt0_add128), .flags(fl_pt0_add128)
     );
     assign ev_ovf[72] = fl_pt0_add128[0] && ev_q[53];
@@ -1330,12 +1337,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[72] = fl_pt0_add128[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add128;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add128 (.clk(clk), .d(pt0_add128), .q(dl_pt0_add128));
+        u_dl_pt0_add128 (.clk(clk), .d(pt0_add128), .valid(1'b0), .q(dl_pt0_add128));
     // pt0_add129 = wA_y + pt0_mul126   (ready @53/53/53)
     logic [W-1:0] pt0_add129;
     logic [2:0] fl_pt0_add129;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add129 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_y[1*W +: W]), .b(dl_pt0_mul126), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_pt0_mul126), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(pt0_add129), .flags(fl_pt0_add129)
     );
     assign ev_ovf[73] = fl_pt0_add129[0] && ev_q[53];
@@ -1343,12 +1350,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[73] = fl_pt0_add129[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add129;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add129 (.clk(clk), .d(pt0_add129), .q(dl_pt0_add129));
+        u_dl_pt0_add129 (.clk(clk), .d(pt0_add129), .valid(1'b0), .q(dl_pt0_add129));
     // pt0_add130 = wA_z + pt0_mul127   (ready @53/53/53)
     logic [W-1:0] pt0_add130;
     logic [2:0] fl_pt0_add130;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add130 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_z[1*W +: W]), .b(dl_pt0_mul127), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_pt0_mul127), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(pt0_add130), .flags(fl_pt0_add130)
     );
     assign ev_ovf[74] = fl_pt0_add130[0] && ev_q[53];
@@ -1356,30 +1363,30 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[74] = fl_pt0_add130[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add130;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add130 (.clk(clk), .d(pt0_add130), .q(dl_pt0_add130));
+        u_dl_pt0_add130 (.clk(clk), .d(pt0_add130), .valid(1'b0), .q(dl_pt0_add130));
     // pt0_wA_x = pt0_skip ? wA_x : pt0_add128   (ready @53/53/53)
     logic [W-1:0] pt0_wA_x;
     assign pt0_wA_x = dl_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_pt0_add128;
     logic [3*W-1:0] dl_pt0_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wA_x (.clk(clk), .d(pt0_wA_x), .q(dl_pt0_wA_x));
+        u_dl_pt0_wA_x (.clk(clk), .d(pt0_wA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_x));
     // pt0_wA_y = pt0_skip ? wA_y : pt0_add129   (ready @53/53/53)
     logic [W-1:0] pt0_wA_y;
     assign pt0_wA_y = dl_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_pt0_add129;
     logic [3*W-1:0] dl_pt0_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wA_y (.clk(clk), .d(pt0_wA_y), .q(dl_pt0_wA_y));
+        u_dl_pt0_wA_y (.clk(clk), .d(pt0_wA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_y));
     // pt0_wA_z = pt0_skip ? wA_z : pt0_add130   (ready @53/53/53)
     logic [W-1:0] pt0_wA_z;
     assign pt0_wA_z = dl_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_pt0_add130;
     logic [3*W-1:0] dl_pt0_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wA_z (.clk(clk), .d(pt0_wA_z), .q(dl_pt0_wA_z));
+        u_dl_pt0_wA_z (.clk(clk), .d(pt0_wA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_z));
     // pt0_mul134 = linB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul134;
     logic [2:0] fl_pt0_mul134;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul134 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linB_x[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[76]), .y(pt0_mul134), .flags(fl_pt0_mul134)
     );
     assign ev_ovf[75] = fl_pt0_mul134[0] && ev_q[49];
@@ -1387,12 +1394,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[75] = fl_pt0_mul134[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul134;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul134 (.clk(clk), .d(pt0_mul134), .q(dl_pt0_mul134));
+        u_dl_pt0_mul134 (.clk(clk), .d(pt0_mul134), .valid(1'b0), .q(dl_pt0_mul134));
     // pt0_mul135 = linB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul135;
     logic [2:0] fl_pt0_mul135;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul135 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linB_y[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[77]), .y(pt0_mul135), .flags(fl_pt0_mul135)
     );
     assign ev_ovf[76] = fl_pt0_mul135[0] && ev_q[49];
@@ -1400,12 +1407,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[76] = fl_pt0_mul135[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul135;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul135 (.clk(clk), .d(pt0_mul135), .q(dl_pt0_mul135));
+        u_dl_pt0_mul135 (.clk(clk), .d(pt0_mul135), .valid(1'b0), .q(dl_pt0_mul135));
     // pt0_mul136 = linB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul136;
     logic [2:0] fl_pt0_mul136;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul136 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linB_z[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[78]), .y(pt0_mul136), .flags(fl_pt0_mul136)
     );
     assign ev_ovf[77] = fl_pt0_mul136[0] && ev_q[49];
@@ -1413,12 +1420,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[77] = fl_pt0_mul136[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul136;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul136 (.clk(clk), .d(pt0_mul136), .q(dl_pt0_mul136));
+        u_dl_pt0_mul136 (.clk(clk), .d(pt0_mul136), .valid(1'b0), .q(dl_pt0_mul136));
     // pt0_sub137 = vB_x - pt0_mul134   (ready @53/53/53)
     logic [W-1:0] pt0_sub137;
     logic [2:0] fl_pt0_sub137;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub137 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_x[1*W +: W]), .b(dl_pt0_mul134), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_pt0_mul134), .sub(1'b1),
         .out_valid(op_valid_nc[79]), .y(pt0_sub137), .flags(fl_pt0_sub137)
     );
     assign ev_ovf[78] = fl_pt0_sub137[0] && ev_q[53];
@@ -1426,12 +1433,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[78] = fl_pt0_sub137[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub137;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub137 (.clk(clk), .d(pt0_sub137), .q(dl_pt0_sub137));
+        u_dl_pt0_sub137 (.clk(clk), .d(pt0_sub137), .valid(1'b0), .q(dl_pt0_sub137));
     // pt0_sub138 = vB_y - pt0_mul135   (ready @53/53/53)
     logic [W-1:0] pt0_sub138;
     logic [2:0] fl_pt0_sub138;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub138 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_y[1*W +: W]), .b(dl_pt0_mul135), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_pt0_mul135), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(pt0_sub138), .flags(fl_pt0_sub138)
     );
     assign ev_ovf[79] = fl_pt0_sub138[0] && ev_q[53];
@@ -1439,12 +1446,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[79] = fl_pt0_sub138[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub138;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub138 (.clk(clk), .d(pt0_sub138), .q(dl_pt0_sub138));
+        u_dl_pt0_sub138 (.clk(clk), .d(pt0_sub138), .valid(1'b0), .q(dl_pt0_sub138));
     // pt0_sub139 = vB_z - pt0_mul136   (ready @53/53/53)
     logic [W-1:0] pt0_sub139;
     logic [2:0] fl_pt0_sub139;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub139 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_z[1*W +: W]), .b(dl_pt0_mul136), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_pt0_mul136), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(pt0_sub139), .flags(fl_pt0_sub139)
     );
     assign ev_ovf[80] = fl_pt0_sub139[0] && ev_q[53];
@@ -1452,30 +1459,30 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[80] = fl_pt0_sub139[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub139;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub139 (.clk(clk), .d(pt0_sub139), .q(dl_pt0_sub139));
+        u_dl_pt0_sub139 (.clk(clk), .d(pt0_sub139), .valid(1'b0), .q(dl_pt0_sub139));
     // pt0_vB_x = pt0_skip ? vB_x : pt0_sub137   (ready @53/53/53)
     logic [W-1:0] pt0_vB_x;
     assign pt0_vB_x = dl_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_pt0_sub137;
     logic [3*W-1:0] dl_pt0_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vB_x (.clk(clk), .d(pt0_vB_x), .q(dl_pt0_vB_x));
+        u_dl_pt0_vB_x (.clk(clk), .d(pt0_vB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_x));
     // pt0_vB_y = pt0_skip ? vB_y : pt0_sub138   (ready @53/53/53)
     logic [W-1:0] pt0_vB_y;
     assign pt0_vB_y = dl_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_pt0_sub138;
     logic [3*W-1:0] dl_pt0_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vB_y (.clk(clk), .d(pt0_vB_y), .q(dl_pt0_vB_y));
+        u_dl_pt0_vB_y (.clk(clk), .d(pt0_vB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_y));
     // pt0_vB_z = pt0_skip ? vB_z : pt0_sub139   (ready @53/53/53)
     logic [W-1:0] pt0_vB_z;
     assign pt0_vB_z = dl_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_pt0_sub139;
     logic [3*W-1:0] dl_pt0_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vB_z (.clk(clk), .d(pt0_vB_z), .q(dl_pt0_vB_z));
+        u_dl_pt0_vB_z (.clk(clk), .d(pt0_vB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_z));
     // pt0_mul143 = pt0_angB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul143;
     logic [2:0] fl_pt0_mul143;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul143 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_x), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angB_x), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[82]), .y(pt0_mul143), .flags(fl_pt0_mul143)
     );
     assign ev_ovf[81] = fl_pt0_mul143[0] && ev_q[49];
@@ -1483,12 +1490,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[81] = fl_pt0_mul143[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul143;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul143 (.clk(clk), .d(pt0_mul143), .q(dl_pt0_mul143));
+        u_dl_pt0_mul143 (.clk(clk), .d(pt0_mul143), .valid(1'b0), .q(dl_pt0_mul143));
     // pt0_mul144 = pt0_angB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul144;
     logic [2:0] fl_pt0_mul144;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul144 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_y), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angB_y), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[83]), .y(pt0_mul144), .flags(fl_pt0_mul144)
     );
     assign ev_ovf[82] = fl_pt0_mul144[0] && ev_q[49];
@@ -1496,12 +1503,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[82] = fl_pt0_mul144[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul144;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul144 (.clk(clk), .d(pt0_mul144), .q(dl_pt0_mul144));
+        u_dl_pt0_mul144 (.clk(clk), .d(pt0_mul144), .valid(1'b0), .q(dl_pt0_mul144));
     // pt0_mul145 = pt0_angB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul145;
     logic [2:0] fl_pt0_mul145;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul145 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_z), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angB_z), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[84]), .y(pt0_mul145), .flags(fl_pt0_mul145)
     );
     assign ev_ovf[83] = fl_pt0_mul145[0] && ev_q[49];
@@ -1509,12 +1516,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[83] = fl_pt0_mul145[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul145;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul145 (.clk(clk), .d(pt0_mul145), .q(dl_pt0_mul145));
+        u_dl_pt0_mul145 (.clk(clk), .d(pt0_mul145), .valid(1'b0), .q(dl_pt0_mul145));
     // pt0_sub146 = wB_x - pt0_mul143   (ready @53/53/53)
     logic [W-1:0] pt0_sub146;
     logic [2:0] fl_pt0_sub146;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub146 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_x[1*W +: W]), .b(dl_pt0_mul143), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_pt0_mul143), .sub(1'b1),
         .out_valid(op_valid_nc[85]), .y(pt0_sub146), .flags(fl_pt0_sub146)
     );
     assign ev_ovf[84] = fl_pt0_sub146[0] && ev_q[53];
@@ -1522,12 +1529,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[84] = fl_pt0_sub146[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub146;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub146 (.clk(clk), .d(pt0_sub146), .q(dl_pt0_sub146));
+        u_dl_pt0_sub146 (.clk(clk), .d(pt0_sub146), .valid(1'b0), .q(dl_pt0_sub146));
     // pt0_sub147 = wB_y - pt0_mul144   (ready @53/53/53)
     logic [W-1:0] pt0_sub147;
     logic [2:0] fl_pt0_sub147;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub147 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_y[1*W +: W]), .b(dl_pt0_mul144), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_pt0_mul144), .sub(1'b1),
         .out_valid(op_valid_nc[86]), .y(pt0_sub147), .flags(fl_pt0_sub147)
     );
     assign ev_ovf[85] = fl_pt0_sub147[0] && ev_q[53];
@@ -1535,12 +1542,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[85] = fl_pt0_sub147[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub147;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub147 (.clk(clk), .d(pt0_sub147), .q(dl_pt0_sub147));
+        u_dl_pt0_sub147 (.clk(clk), .d(pt0_sub147), .valid(1'b0), .q(dl_pt0_sub147));
     // pt0_sub148 = wB_z - pt0_mul145   (ready @53/53/53)
     logic [W-1:0] pt0_sub148;
     logic [2:0] fl_pt0_sub148;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub148 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_z[1*W +: W]), .b(dl_pt0_mul145), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_pt0_mul145), .sub(1'b1),
         .out_valid(op_valid_nc[87]), .y(pt0_sub148), .flags(fl_pt0_sub148)
     );
     assign ev_ovf[86] = fl_pt0_sub148[0] && ev_q[53];
@@ -1548,36 +1555,36 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[86] = fl_pt0_sub148[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub148;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub148 (.clk(clk), .d(pt0_sub148), .q(dl_pt0_sub148));
+        u_dl_pt0_sub148 (.clk(clk), .d(pt0_sub148), .valid(1'b0), .q(dl_pt0_sub148));
     // pt0_wB_x = pt0_skip ? wB_x : pt0_sub146   (ready @53/53/53)
     logic [W-1:0] pt0_wB_x;
     assign pt0_wB_x = dl_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_pt0_sub146;
     logic [3*W-1:0] dl_pt0_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wB_x (.clk(clk), .d(pt0_wB_x), .q(dl_pt0_wB_x));
+        u_dl_pt0_wB_x (.clk(clk), .d(pt0_wB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_x));
     // pt0_wB_y = pt0_skip ? wB_y : pt0_sub147   (ready @53/53/53)
     logic [W-1:0] pt0_wB_y;
     assign pt0_wB_y = dl_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_pt0_sub147;
     logic [3*W-1:0] dl_pt0_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wB_y (.clk(clk), .d(pt0_wB_y), .q(dl_pt0_wB_y));
+        u_dl_pt0_wB_y (.clk(clk), .d(pt0_wB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_y));
     // pt0_wB_z = pt0_skip ? wB_z : pt0_sub148   (ready @53/53/53)
     logic [W-1:0] pt0_wB_z;
     assign pt0_wB_z = dl_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_pt0_sub148;
     logic [3*W-1:0] dl_pt0_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wB_z (.clk(clk), .d(pt0_wB_z), .q(dl_pt0_wB_z));
+        u_dl_pt0_wB_z (.clk(clk), .d(pt0_wB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_z));
     // pt1_skip = jac_inv1 == 0   (ready @0/0/0)
     logic pt1_skip;
     assign pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt1_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}))
-        u_dl_pt1_skip (.clk(clk), .d(pt1_skip), .q(dl_pt1_skip));
+        u_dl_pt1_skip (.clk(clk), .d(pt1_skip), .valid(valid_q[0 +: 95]), .q(dl_pt1_skip));
     // pt1_rA_x = p1_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt1_rA_x;
     logic [2:0] fl_pt1_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[88]), .y(pt1_rA_x), .flags(fl_pt1_rA_x)
     );
     assign ev_ovf[87] = fl_pt1_rA_x[0] && ev_q[4];
@@ -1585,12 +1592,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[87] = fl_pt1_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rA_x (.clk(clk), .d(pt1_rA_x), .q(dl_pt1_rA_x));
+        u_dl_pt1_rA_x (.clk(clk), .d(pt1_rA_x), .valid(1'b0), .q(dl_pt1_rA_x));
     // pt1_rA_y = p1_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt1_rA_y;
     logic [2:0] fl_pt1_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(pt1_rA_y), .flags(fl_pt1_rA_y)
     );
     assign ev_ovf[88] = fl_pt1_rA_y[0] && ev_q[4];
@@ -1598,12 +1605,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[88] = fl_pt1_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rA_y (.clk(clk), .d(pt1_rA_y), .q(dl_pt1_rA_y));
+        u_dl_pt1_rA_y (.clk(clk), .d(pt1_rA_y), .valid(1'b0), .q(dl_pt1_rA_y));
     // pt1_rA_z = p1_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt1_rA_z;
     logic [2:0] fl_pt1_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(pt1_rA_z), .flags(fl_pt1_rA_z)
     );
     assign ev_ovf[89] = fl_pt1_rA_z[0] && ev_q[4];
@@ -1611,12 +1618,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[89] = fl_pt1_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rA_z (.clk(clk), .d(pt1_rA_z), .q(dl_pt1_rA_z));
+        u_dl_pt1_rA_z (.clk(clk), .d(pt1_rA_z), .valid(1'b0), .q(dl_pt1_rA_z));
     // pt1_mul156 = pt1_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul156;
     logic [2:0] fl_pt1_mul156;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul156 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[91]), .y(pt1_mul156), .flags(fl_pt1_mul156)
     );
     assign ev_ovf[90] = fl_pt1_mul156[0] && ev_q[7];
@@ -1624,12 +1631,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[90] = fl_pt1_mul156[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul156;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul156 (.clk(clk), .d(pt1_mul156), .q(dl_pt1_mul156));
+        u_dl_pt1_mul156 (.clk(clk), .d(pt1_mul156), .valid(1'b0), .q(dl_pt1_mul156));
     // pt1_mul157 = pt1_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul157;
     logic [2:0] fl_pt1_mul157;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul157 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[92]), .y(pt1_mul157), .flags(fl_pt1_mul157)
     );
     assign ev_ovf[91] = fl_pt1_mul157[0] && ev_q[7];
@@ -1637,12 +1644,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[91] = fl_pt1_mul157[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul157;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul157 (.clk(clk), .d(pt1_mul157), .q(dl_pt1_mul157));
+        u_dl_pt1_mul157 (.clk(clk), .d(pt1_mul157), .valid(1'b0), .q(dl_pt1_mul157));
     // pt1_cA_x = pt1_mul156 - pt1_mul157   (ready @11/11/11)
     logic [W-1:0] pt1_cA_x;
     logic [2:0] fl_pt1_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul156), .b(dl_pt1_mul157), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul156), .b(dl_pt1_mul157), .sub(1'b1),
         .out_valid(op_valid_nc[93]), .y(pt1_cA_x), .flags(fl_pt1_cA_x)
     );
     assign ev_ovf[92] = fl_pt1_cA_x[0] && ev_q[11];
@@ -1650,12 +1657,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[92] = fl_pt1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cA_x (.clk(clk), .d(pt1_cA_x), .q(dl_pt1_cA_x));
+        u_dl_pt1_cA_x (.clk(clk), .d(pt1_cA_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_x));
     // pt1_mul159 = pt1_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul159;
     logic [2:0] fl_pt1_mul159;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul159 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[94]), .y(pt1_mul159), .flags(fl_pt1_mul159)
     );
     assign ev_ovf[93] = fl_pt1_mul159[0] && ev_q[7];
@@ -1663,12 +1670,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[93] = fl_pt1_mul159[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul159;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul159 (.clk(clk), .d(pt1_mul159), .q(dl_pt1_mul159));
+        u_dl_pt1_mul159 (.clk(clk), .d(pt1_mul159), .valid(1'b0), .q(dl_pt1_mul159));
     // pt1_mul160 = pt1_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul160;
     logic [2:0] fl_pt1_mul160;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul160 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[95]), .y(pt1_mul160), .flags(fl_pt1_mul160)
     );
     assign ev_ovf[94] = fl_pt1_mul160[0] && ev_q[7];
@@ -1676,12 +1683,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[94] = fl_pt1_mul160[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul160;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul160 (.clk(clk), .d(pt1_mul160), .q(dl_pt1_mul160));
+        u_dl_pt1_mul160 (.clk(clk), .d(pt1_mul160), .valid(1'b0), .q(dl_pt1_mul160));
     // pt1_cA_y = pt1_mul159 - pt1_mul160   (ready @11/11/11)
     logic [W-1:0] pt1_cA_y;
     logic [2:0] fl_pt1_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul159), .b(dl_pt1_mul160), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul159), .b(dl_pt1_mul160), .sub(1'b1),
         .out_valid(op_valid_nc[96]), .y(pt1_cA_y), .flags(fl_pt1_cA_y)
     );
     assign ev_ovf[95] = fl_pt1_cA_y[0] && ev_q[11];
@@ -1689,12 +1696,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[95] = fl_pt1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cA_y (.clk(clk), .d(pt1_cA_y), .q(dl_pt1_cA_y));
+        u_dl_pt1_cA_y (.clk(clk), .d(pt1_cA_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_y));
     // pt1_mul162 = pt1_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul162;
     logic [2:0] fl_pt1_mul162;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul162 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[97]), .y(pt1_mul162), .flags(fl_pt1_mul162)
     );
     assign ev_ovf[96] = fl_pt1_mul162[0] && ev_q[7];
@@ -1702,12 +1709,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[96] = fl_pt1_mul162[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul162;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul162 (.clk(clk), .d(pt1_mul162), .q(dl_pt1_mul162));
+        u_dl_pt1_mul162 (.clk(clk), .d(pt1_mul162), .valid(1'b0), .q(dl_pt1_mul162));
     // pt1_mul163 = pt1_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul163;
     logic [2:0] fl_pt1_mul163;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul163 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[98]), .y(pt1_mul163), .flags(fl_pt1_mul163)
     );
     assign ev_ovf[97] = fl_pt1_mul163[0] && ev_q[7];
@@ -1715,12 +1722,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[97] = fl_pt1_mul163[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul163;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul163 (.clk(clk), .d(pt1_mul163), .q(dl_pt1_mul163));
+        u_dl_pt1_mul163 (.clk(clk), .d(pt1_mul163), .valid(1'b0), .q(dl_pt1_mul163));
     // pt1_cA_z = pt1_mul162 - pt1_mul163   (ready @11/11/11)
     logic [W-1:0] pt1_cA_z;
     logic [2:0] fl_pt1_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul162), .b(dl_pt1_mul163), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul162), .b(dl_pt1_mul163), .sub(1'b1),
         .out_valid(op_valid_nc[99]), .y(pt1_cA_z), .flags(fl_pt1_cA_z)
     );
     assign ev_ovf[98] = fl_pt1_cA_z[0] && ev_q[11];
@@ -1728,12 +1735,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[98] = fl_pt1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cA_z (.clk(clk), .d(pt1_cA_z), .q(dl_pt1_cA_z));
+        u_dl_pt1_cA_z (.clk(clk), .d(pt1_cA_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_z));
     // pt1_rB_x = p1_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt1_rB_x;
     logic [2:0] fl_pt1_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(pt1_rB_x), .flags(fl_pt1_rB_x)
     );
     assign ev_ovf[99] = fl_pt1_rB_x[0] && ev_q[4];
@@ -1741,12 +1748,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[99] = fl_pt1_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rB_x (.clk(clk), .d(pt1_rB_x), .q(dl_pt1_rB_x));
+        u_dl_pt1_rB_x (.clk(clk), .d(pt1_rB_x), .valid(1'b0), .q(dl_pt1_rB_x));
     // pt1_rB_y = p1_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt1_rB_y;
     logic [2:0] fl_pt1_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[101]), .y(pt1_rB_y), .flags(fl_pt1_rB_y)
     );
     assign ev_ovf[100] = fl_pt1_rB_y[0] && ev_q[4];
@@ -1754,12 +1761,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[100] = fl_pt1_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rB_y (.clk(clk), .d(pt1_rB_y), .q(dl_pt1_rB_y));
+        u_dl_pt1_rB_y (.clk(clk), .d(pt1_rB_y), .valid(1'b0), .q(dl_pt1_rB_y));
     // pt1_rB_z = p1_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt1_rB_z;
     logic [2:0] fl_pt1_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[102]), .y(pt1_rB_z), .flags(fl_pt1_rB_z)
     );
     assign ev_ovf[101] = fl_pt1_rB_z[0] && ev_q[4];
@@ -1767,12 +1774,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[101] = fl_pt1_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rB_z (.clk(clk), .d(pt1_rB_z), .q(dl_pt1_rB_z));
+        u_dl_pt1_rB_z (.clk(clk), .d(pt1_rB_z), .valid(1'b0), .q(dl_pt1_rB_z));
     // pt1_mul168 = pt1_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul168;
     logic [2:0] fl_pt1_mul168;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul168 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[103]), .y(pt1_mul168), .flags(fl_pt1_mul168)
     );
     assign ev_ovf[102] = fl_pt1_mul168[0] && ev_q[7];
@@ -1780,12 +1787,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[102] = fl_pt1_mul168[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul168;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul168 (.clk(clk), .d(pt1_mul168), .q(dl_pt1_mul168));
+        u_dl_pt1_mul168 (.clk(clk), .d(pt1_mul168), .valid(1'b0), .q(dl_pt1_mul168));
     // pt1_mul169 = pt1_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul169;
     logic [2:0] fl_pt1_mul169;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul169 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[104]), .y(pt1_mul169), .flags(fl_pt1_mul169)
     );
     assign ev_ovf[103] = fl_pt1_mul169[0] && ev_q[7];
@@ -1793,12 +1800,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[103] = fl_pt1_mul169[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul169;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul169 (.clk(clk), .d(pt1_mul169), .q(dl_pt1_mul169));
+        u_dl_pt1_mul169 (.clk(clk), .d(pt1_mul169), .valid(1'b0), .q(dl_pt1_mul169));
     // pt1_cB_x = pt1_mul168 - pt1_mul169   (ready @11/11/11)
     logic [W-1:0] pt1_cB_x;
     logic [2:0] fl_pt1_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul168), .b(dl_pt1_mul169), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul168), .b(dl_pt1_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[105]), .y(pt1_cB_x), .flags(fl_pt1_cB_x)
     );
     assign ev_ovf[104] = fl_pt1_cB_x[0] && ev_q[11];
@@ -1806,12 +1813,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[104] = fl_pt1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cB_x (.clk(clk), .d(pt1_cB_x), .q(dl_pt1_cB_x));
+        u_dl_pt1_cB_x (.clk(clk), .d(pt1_cB_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_x));
     // pt1_mul171 = pt1_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul171;
     logic [2:0] fl_pt1_mul171;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul171 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[106]), .y(pt1_mul171), .flags(fl_pt1_mul171)
     );
     assign ev_ovf[105] = fl_pt1_mul171[0] && ev_q[7];
@@ -1819,12 +1826,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[105] = fl_pt1_mul171[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul171;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul171 (.clk(clk), .d(pt1_mul171), .q(dl_pt1_mul171));
+        u_dl_pt1_mul171 (.clk(clk), .d(pt1_mul171), .valid(1'b0), .q(dl_pt1_mul171));
     // pt1_mul172 = pt1_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul172;
     logic [2:0] fl_pt1_mul172;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul172 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[107]), .y(pt1_mul172), .flags(fl_pt1_mul172)
     );
     assign ev_ovf[106] = fl_pt1_mul172[0] && ev_q[7];
@@ -1832,12 +1839,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[106] = fl_pt1_mul172[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul172;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul172 (.clk(clk), .d(pt1_mul172), .q(dl_pt1_mul172));
+        u_dl_pt1_mul172 (.clk(clk), .d(pt1_mul172), .valid(1'b0), .q(dl_pt1_mul172));
     // pt1_cB_y = pt1_mul171 - pt1_mul172   (ready @11/11/11)
     logic [W-1:0] pt1_cB_y;
     logic [2:0] fl_pt1_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul171), .b(dl_pt1_mul172), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul171), .b(dl_pt1_mul172), .sub(1'b1),
         .out_valid(op_valid_nc[108]), .y(pt1_cB_y), .flags(fl_pt1_cB_y)
     );
     assign ev_ovf[107] = fl_pt1_cB_y[0] && ev_q[11];
@@ -1845,12 +1852,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[107] = fl_pt1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cB_y (.clk(clk), .d(pt1_cB_y), .q(dl_pt1_cB_y));
+        u_dl_pt1_cB_y (.clk(clk), .d(pt1_cB_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_y));
     // pt1_mul174 = pt1_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul174;
     logic [2:0] fl_pt1_mul174;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul174 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[109]), .y(pt1_mul174), .flags(fl_pt1_mul174)
     );
     assign ev_ovf[108] = fl_pt1_mul174[0] && ev_q[7];
@@ -1858,12 +1865,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[108] = fl_pt1_mul174[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul174;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul174 (.clk(clk), .d(pt1_mul174), .q(dl_pt1_mul174));
+        u_dl_pt1_mul174 (.clk(clk), .d(pt1_mul174), .valid(1'b0), .q(dl_pt1_mul174));
     // pt1_mul175 = pt1_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul175;
     logic [2:0] fl_pt1_mul175;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul175 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[110]), .y(pt1_mul175), .flags(fl_pt1_mul175)
     );
     assign ev_ovf[109] = fl_pt1_mul175[0] && ev_q[7];
@@ -1871,12 +1878,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[109] = fl_pt1_mul175[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul175;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul175 (.clk(clk), .d(pt1_mul175), .q(dl_pt1_mul175));
+        u_dl_pt1_mul175 (.clk(clk), .d(pt1_mul175), .valid(1'b0), .q(dl_pt1_mul175));
     // pt1_cB_z = pt1_mul174 - pt1_mul175   (ready @11/11/11)
     logic [W-1:0] pt1_cB_z;
     logic [2:0] fl_pt1_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul174), .b(dl_pt1_mul175), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul174), .b(dl_pt1_mul175), .sub(1'b1),
         .out_valid(op_valid_nc[111]), .y(pt1_cB_z), .flags(fl_pt1_cB_z)
     );
     assign ev_ovf[110] = fl_pt1_cB_z[0] && ev_q[11];
@@ -1884,12 +1891,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[110] = fl_pt1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cB_z (.clk(clk), .d(pt1_cB_z), .q(dl_pt1_cB_z));
+        u_dl_pt1_cB_z (.clk(clk), .d(pt1_cB_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_z));
     // pt1_mul177 = n_x * pt0_vA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul177;
     logic [2:0] fl_pt1_mul177;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul177 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[112]), .y(pt1_mul177), .flags(fl_pt1_mul177)
     );
     assign ev_ovf[111] = fl_pt1_mul177[0] && ev_q[56];
@@ -1897,12 +1904,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[111] = fl_pt1_mul177[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul177;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul177 (.clk(clk), .d(pt1_mul177), .q(dl_pt1_mul177));
+        u_dl_pt1_mul177 (.clk(clk), .d(pt1_mul177), .valid(1'b0), .q(dl_pt1_mul177));
     // pt1_mul178 = n_y * pt0_vA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul178;
     logic [2:0] fl_pt1_mul178;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul178 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[113]), .y(pt1_mul178), .flags(fl_pt1_mul178)
     );
     assign ev_ovf[112] = fl_pt1_mul178[0] && ev_q[56];
@@ -1910,12 +1917,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[112] = fl_pt1_mul178[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul178;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul178 (.clk(clk), .d(pt1_mul178), .q(dl_pt1_mul178));
+        u_dl_pt1_mul178 (.clk(clk), .d(pt1_mul178), .valid(1'b0), .q(dl_pt1_mul178));
     // pt1_add179 = pt1_mul177 + pt1_mul178   (ready @60/60/60)
     logic [W-1:0] pt1_add179;
     logic [2:0] fl_pt1_add179;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add179 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul177), .b(dl_pt1_mul178), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul177), .b(dl_pt1_mul178), .sub(1'b0),
         .out_valid(op_valid_nc[114]), .y(pt1_add179), .flags(fl_pt1_add179)
     );
     assign ev_ovf[113] = fl_pt1_add179[0] && ev_q[60];
@@ -1923,12 +1930,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[113] = fl_pt1_add179[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add179;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add179 (.clk(clk), .d(pt1_add179), .q(dl_pt1_add179));
+        u_dl_pt1_add179 (.clk(clk), .d(pt1_add179), .valid(1'b0), .q(dl_pt1_add179));
     // pt1_mul180 = n_z * pt0_vA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul180;
     logic [2:0] fl_pt1_mul180;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul180 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[115]), .y(pt1_mul180), .flags(fl_pt1_mul180)
     );
     assign ev_ovf[114] = fl_pt1_mul180[0] && ev_q[56];
@@ -1936,12 +1943,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[114] = fl_pt1_mul180[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul180;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul180 (.clk(clk), .d(pt1_mul180), .q(dl_pt1_mul180));
+        u_dl_pt1_mul180 (.clk(clk), .d(pt1_mul180), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul180));
     // pt1_add181 = pt1_add179 + pt1_mul180   (ready @64/64/64)
     logic [W-1:0] pt1_add181;
     logic [2:0] fl_pt1_add181;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add181 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add179), .b(dl_pt1_mul180), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add179), .b(dl_pt1_mul180), .sub(1'b0),
         .out_valid(op_valid_nc[116]), .y(pt1_add181), .flags(fl_pt1_add181)
     );
     assign ev_ovf[115] = fl_pt1_add181[0] && ev_q[64];
@@ -1949,12 +1956,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[115] = fl_pt1_add181[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add181;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add181 (.clk(clk), .d(pt1_add181), .q(dl_pt1_add181));
+        u_dl_pt1_add181 (.clk(clk), .d(pt1_add181), .valid(1'b0), .q(dl_pt1_add181));
     // pt1_mul182 = n_x * pt0_vB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul182;
     logic [2:0] fl_pt1_mul182;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul182 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[117]), .y(pt1_mul182), .flags(fl_pt1_mul182)
     );
     assign ev_ovf[116] = fl_pt1_mul182[0] && ev_q[56];
@@ -1962,12 +1969,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[116] = fl_pt1_mul182[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul182;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul182 (.clk(clk), .d(pt1_mul182), .q(dl_pt1_mul182));
+        u_dl_pt1_mul182 (.clk(clk), .d(pt1_mul182), .valid(1'b0), .q(dl_pt1_mul182));
     // pt1_mul183 = n_y * pt0_vB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul183;
     logic [2:0] fl_pt1_mul183;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul183 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[118]), .y(pt1_mul183), .flags(fl_pt1_mul183)
     );
     assign ev_ovf[117] = fl_pt1_mul183[0] && ev_q[56];
@@ -1975,12 +1982,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[117] = fl_pt1_mul183[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul183;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul183 (.clk(clk), .d(pt1_mul183), .q(dl_pt1_mul183));
+        u_dl_pt1_mul183 (.clk(clk), .d(pt1_mul183), .valid(1'b0), .q(dl_pt1_mul183));
     // pt1_add184 = pt1_mul182 + pt1_mul183   (ready @60/60/60)
     logic [W-1:0] pt1_add184;
     logic [2:0] fl_pt1_add184;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add184 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul182), .b(dl_pt1_mul183), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul182), .b(dl_pt1_mul183), .sub(1'b0),
         .out_valid(op_valid_nc[119]), .y(pt1_add184), .flags(fl_pt1_add184)
     );
     assign ev_ovf[118] = fl_pt1_add184[0] && ev_q[60];
@@ -1988,12 +1995,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[118] = fl_pt1_add184[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add184;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add184 (.clk(clk), .d(pt1_add184), .q(dl_pt1_add184));
+        u_dl_pt1_add184 (.clk(clk), .d(pt1_add184), .valid(1'b0), .q(dl_pt1_add184));
     // pt1_mul185 = n_z * pt0_vB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul185;
     logic [2:0] fl_pt1_mul185;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul185 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[120]), .y(pt1_mul185), .flags(fl_pt1_mul185)
     );
     assign ev_ovf[119] = fl_pt1_mul185[0] && ev_q[56];
@@ -2001,12 +2008,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[119] = fl_pt1_mul185[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul185;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul185 (.clk(clk), .d(pt1_mul185), .q(dl_pt1_mul185));
+        u_dl_pt1_mul185 (.clk(clk), .d(pt1_mul185), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul185));
     // pt1_add186 = pt1_add184 + pt1_mul185   (ready @64/64/64)
     logic [W-1:0] pt1_add186;
     logic [2:0] fl_pt1_add186;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add186 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add184), .b(dl_pt1_mul185), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add184), .b(dl_pt1_mul185), .sub(1'b0),
         .out_valid(op_valid_nc[121]), .y(pt1_add186), .flags(fl_pt1_add186)
     );
     assign ev_ovf[120] = fl_pt1_add186[0] && ev_q[64];
@@ -2014,12 +2021,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[120] = fl_pt1_add186[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add186;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add186 (.clk(clk), .d(pt1_add186), .q(dl_pt1_add186));
+        u_dl_pt1_add186 (.clk(clk), .d(pt1_add186), .valid(1'b0), .q(dl_pt1_add186));
     // pt1_sub187 = pt1_add181 - pt1_add186   (ready @68/68/68)
     logic [W-1:0] pt1_sub187;
     logic [2:0] fl_pt1_sub187;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub187 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add181), .b(dl_pt1_add186), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add181), .b(dl_pt1_add186), .sub(1'b1),
         .out_valid(op_valid_nc[122]), .y(pt1_sub187), .flags(fl_pt1_sub187)
     );
     assign ev_ovf[121] = fl_pt1_sub187[0] && ev_q[68];
@@ -2027,12 +2034,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[121] = fl_pt1_sub187[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub187;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub187 (.clk(clk), .d(pt1_sub187), .q(dl_pt1_sub187));
+        u_dl_pt1_sub187 (.clk(clk), .d(pt1_sub187), .valid(1'b0), .q(dl_pt1_sub187));
     // pt1_mul188 = pt1_cA_x * pt0_wA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul188;
     logic [2:0] fl_pt1_mul188;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul188 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_x[0*W +: W]), .b(dl_pt0_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cA_x[0*W +: W]), .b(dl_pt0_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[123]), .y(pt1_mul188), .flags(fl_pt1_mul188)
     );
     assign ev_ovf[122] = fl_pt1_mul188[0] && ev_q[56];
@@ -2040,12 +2047,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[122] = fl_pt1_mul188[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul188;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul188 (.clk(clk), .d(pt1_mul188), .q(dl_pt1_mul188));
+        u_dl_pt1_mul188 (.clk(clk), .d(pt1_mul188), .valid(1'b0), .q(dl_pt1_mul188));
     // pt1_mul189 = pt1_cA_y * pt0_wA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul189;
     logic [2:0] fl_pt1_mul189;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul189 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_y[0*W +: W]), .b(dl_pt0_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cA_y[0*W +: W]), .b(dl_pt0_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[124]), .y(pt1_mul189), .flags(fl_pt1_mul189)
     );
     assign ev_ovf[123] = fl_pt1_mul189[0] && ev_q[56];
@@ -2053,12 +2060,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[123] = fl_pt1_mul189[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul189;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul189 (.clk(clk), .d(pt1_mul189), .q(dl_pt1_mul189));
+        u_dl_pt1_mul189 (.clk(clk), .d(pt1_mul189), .valid(1'b0), .q(dl_pt1_mul189));
     // pt1_add190 = pt1_mul188 + pt1_mul189   (ready @60/60/60)
     logic [W-1:0] pt1_add190;
     logic [2:0] fl_pt1_add190;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add190 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul188), .b(dl_pt1_mul189), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul188), .b(dl_pt1_mul189), .sub(1'b0),
         .out_valid(op_valid_nc[125]), .y(pt1_add190), .flags(fl_pt1_add190)
     );
     assign ev_ovf[124] = fl_pt1_add190[0] && ev_q[60];
@@ -2066,12 +2073,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[124] = fl_pt1_add190[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add190;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add190 (.clk(clk), .d(pt1_add190), .q(dl_pt1_add190));
+        u_dl_pt1_add190 (.clk(clk), .d(pt1_add190), .valid(1'b0), .q(dl_pt1_add190));
     // pt1_mul191 = pt1_cA_z * pt0_wA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul191;
     logic [2:0] fl_pt1_mul191;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul191 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_z[0*W +: W]), .b(dl_pt0_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cA_z[0*W +: W]), .b(dl_pt0_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[126]), .y(pt1_mul191), .flags(fl_pt1_mul191)
     );
     assign ev_ovf[125] = fl_pt1_mul191[0] && ev_q[56];
@@ -2079,12 +2086,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[125] = fl_pt1_mul191[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul191;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul191 (.clk(clk), .d(pt1_mul191), .q(dl_pt1_mul191));
+        u_dl_pt1_mul191 (.clk(clk), .d(pt1_mul191), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul191));
     // pt1_add192 = pt1_add190 + pt1_mul191   (ready @64/64/64)
     logic [W-1:0] pt1_add192;
     logic [2:0] fl_pt1_add192;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add192 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add190), .b(dl_pt1_mul191), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add190), .b(dl_pt1_mul191), .sub(1'b0),
         .out_valid(op_valid_nc[127]), .y(pt1_add192), .flags(fl_pt1_add192)
     );
     assign ev_ovf[126] = fl_pt1_add192[0] && ev_q[64];
@@ -2092,12 +2099,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[126] = fl_pt1_add192[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add192;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add192 (.clk(clk), .d(pt1_add192), .q(dl_pt1_add192));
+        u_dl_pt1_add192 (.clk(clk), .d(pt1_add192), .valid(1'b0), .q(dl_pt1_add192));
     // pt1_mul193 = pt1_cB_x * pt0_wB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul193;
     logic [2:0] fl_pt1_mul193;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul193 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_x[0*W +: W]), .b(dl_pt0_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cB_x[0*W +: W]), .b(dl_pt0_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[128]), .y(pt1_mul193), .flags(fl_pt1_mul193)
     );
     assign ev_ovf[127] = fl_pt1_mul193[0] && ev_q[56];
@@ -2105,12 +2112,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[127] = fl_pt1_mul193[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul193;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul193 (.clk(clk), .d(pt1_mul193), .q(dl_pt1_mul193));
+        u_dl_pt1_mul193 (.clk(clk), .d(pt1_mul193), .valid(1'b0), .q(dl_pt1_mul193));
     // pt1_mul194 = pt1_cB_y * pt0_wB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul194;
     logic [2:0] fl_pt1_mul194;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul194 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_y[0*W +: W]), .b(dl_pt0_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cB_y[0*W +: W]), .b(dl_pt0_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[129]), .y(pt1_mul194), .flags(fl_pt1_mul194)
     );
     assign ev_ovf[128] = fl_pt1_mul194[0] && ev_q[56];
@@ -2118,12 +2125,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[128] = fl_pt1_mul194[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul194;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul194 (.clk(clk), .d(pt1_mul194), .q(dl_pt1_mul194));
+        u_dl_pt1_mul194 (.clk(clk), .d(pt1_mul194), .valid(1'b0), .q(dl_pt1_mul194));
     // pt1_add195 = pt1_mul193 + pt1_mul194   (ready @60/60/60)
     logic [W-1:0] pt1_add195;
     logic [2:0] fl_pt1_add195;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add195 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul193), .b(dl_pt1_mul194), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul193), .b(dl_pt1_mul194), .sub(1'b0),
         .out_valid(op_valid_nc[130]), .y(pt1_add195), .flags(fl_pt1_add195)
     );
     assign ev_ovf[129] = fl_pt1_add195[0] && ev_q[60];
@@ -2131,12 +2138,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[129] = fl_pt1_add195[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add195;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add195 (.clk(clk), .d(pt1_add195), .q(dl_pt1_add195));
+        u_dl_pt1_add195 (.clk(clk), .d(pt1_add195), .valid(1'b0), .q(dl_pt1_add195));
     // pt1_mul196 = pt1_cB_z * pt0_wB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul196;
     logic [2:0] fl_pt1_mul196;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul196 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_z[0*W +: W]), .b(dl_pt0_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cB_z[0*W +: W]), .b(dl_pt0_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[131]), .y(pt1_mul196), .flags(fl_pt1_mul196)
     );
     assign ev_ovf[130] = fl_pt1_mul196[0] && ev_q[56];
@@ -2144,12 +2151,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[130] = fl_pt1_mul196[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul196;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul196 (.clk(clk), .d(pt1_mul196), .q(dl_pt1_mul196));
+        u_dl_pt1_mul196 (.clk(clk), .d(pt1_mul196), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul196));
     // pt1_add197 = pt1_add195 + pt1_mul196   (ready @64/64/64)
     logic [W-1:0] pt1_add197;
     logic [2:0] fl_pt1_add197;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add197 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add195), .b(dl_pt1_mul196), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add195), .b(dl_pt1_mul196), .sub(1'b0),
         .out_valid(op_valid_nc[132]), .y(pt1_add197), .flags(fl_pt1_add197)
     );
     assign ev_ovf[131] = fl_pt1_add197[0] && ev_q[64];
@@ -2157,12 +2164,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[131] = fl_pt1_add197[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add197;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add197 (.clk(clk), .d(pt1_add197), .q(dl_pt1_add197));
+        u_dl_pt1_add197 (.clk(clk), .d(pt1_add197), .valid(1'b0), .q(dl_pt1_add197));
     // pt1_sub198 = pt1_add192 - pt1_add197   (ready @68/68/68)
     logic [W-1:0] pt1_sub198;
     logic [2:0] fl_pt1_sub198;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub198 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add192), .b(dl_pt1_add197), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add192), .b(dl_pt1_add197), .sub(1'b1),
         .out_valid(op_valid_nc[133]), .y(pt1_sub198), .flags(fl_pt1_sub198)
     );
     assign ev_ovf[132] = fl_pt1_sub198[0] && ev_q[68];
@@ -2170,12 +2177,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[132] = fl_pt1_sub198[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub198;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub198 (.clk(clk), .d(pt1_sub198), .q(dl_pt1_sub198));
+        u_dl_pt1_sub198 (.clk(clk), .d(pt1_sub198), .valid(1'b0), .q(dl_pt1_sub198));
     // pt1_vrel = pt1_sub187 + pt1_sub198   (ready @72/72/72)
     logic [W-1:0] pt1_vrel;
     logic [2:0] fl_pt1_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_sub187), .b(dl_pt1_sub198), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[68]), .a(dl_pt1_sub187), .b(dl_pt1_sub198), .sub(1'b0),
         .out_valid(op_valid_nc[134]), .y(pt1_vrel), .flags(fl_pt1_vrel)
     );
     assign ev_ovf[133] = fl_pt1_vrel[0] && ev_q[72];
@@ -2183,12 +2190,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[133] = fl_pt1_vrel[2] && ev_q[72];
     logic [W-1:0] dl_pt1_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_vrel (.clk(clk), .d(pt1_vrel), .q(dl_pt1_vrel));
+        u_dl_pt1_vrel (.clk(clk), .d(pt1_vrel), .valid(1'b0), .q(dl_pt1_vrel));
     // pt1_add200 = pt1_vrel + b1   (ready @76/76/76)
     logic [W-1:0] pt1_add200;
     logic [2:0] fl_pt1_add200;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add200 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vrel), .b(dl_in_b1), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_pt1_vrel), .b(dl_in_b1), .sub(1'b0),
         .out_valid(op_valid_nc[135]), .y(pt1_add200), .flags(fl_pt1_add200)
     );
     assign ev_ovf[134] = fl_pt1_add200[0] && ev_q[76];
@@ -2196,12 +2203,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[134] = fl_pt1_add200[2] && ev_q[76];
     logic [W-1:0] dl_pt1_add200;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add200 (.clk(clk), .d(pt1_add200), .q(dl_pt1_add200));
+        u_dl_pt1_add200 (.clk(clk), .d(pt1_add200), .valid(1'b0), .q(dl_pt1_add200));
     // pt1_delta0 = pt1_add200 * jac_inv1   (ready @79/79/79)
     logic [W-1:0] pt1_delta0;
     logic [2:0] fl_pt1_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add200), .b(dl_in_jac_inv1[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[76]), .a(dl_pt1_add200), .b(dl_in_jac_inv1[1*W +: W]),
         .out_valid(op_valid_nc[136]), .y(pt1_delta0), .flags(fl_pt1_delta0)
     );
     assign ev_ovf[135] = fl_pt1_delta0[0] && ev_q[79];
@@ -2209,12 +2216,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[135] = fl_pt1_delta0[2] && ev_q[79];
     logic [W-1:0] dl_pt1_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_delta0 (.clk(clk), .d(pt1_delta0), .q(dl_pt1_delta0));
+        u_dl_pt1_delta0 (.clk(clk), .d(pt1_delta0), .valid(1'b0), .q(dl_pt1_delta0));
     // pt1_add202 = lam1 + pt1_delta0   (ready @83/83/83)
     logic [W-1:0] pt1_add202;
     logic [2:0] fl_pt1_add202;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add202 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam1[0*W +: W]), .b(dl_pt1_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[79]), .a(dl_in_lam1[0*W +: W]), .b(dl_pt1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[137]), .y(pt1_add202), .flags(fl_pt1_add202)
     );
     assign ev_ovf[136] = fl_pt1_add202[0] && ev_q[83];
@@ -2222,22 +2229,22 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[136] = fl_pt1_add202[2] && ev_q[83];
     logic [W-1:0] dl_pt1_add202;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add202 (.clk(clk), .d(pt1_add202), .q(dl_pt1_add202));
+        u_dl_pt1_add202 (.clk(clk), .d(pt1_add202), .valid(1'b0), .q(dl_pt1_add202));
     // pt1_lam_new = max(pt1_add202, 0.0)   (ready @84/84/84)
     logic [W-1:0] pt1_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt1_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add202), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[83]), .a(dl_pt1_add202), .b(K_ZERO),
         .out_valid(op_valid_nc[138]), .y_min(nc_pt1_lam_new_min), .y_max(pt1_lam_new),
         .lt(nc_pt1_lam_new_lt), .eq(nc_pt1_lam_new_eq), .unordered(nc_pt1_lam_new_uo)
     );
     logic [W-1:0] dl_pt1_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_lam_new (.clk(clk), .d(pt1_lam_new), .q(dl_pt1_lam_new));
+        u_dl_pt1_lam_new (.clk(clk), .d(pt1_lam_new), .valid(1'b0), .q(dl_pt1_lam_new));
     // pt1_delta = pt1_lam_new - lam1   (ready @88/88/88)
     logic [W-1:0] pt1_delta;
     logic [2:0] fl_pt1_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_lam_new), .b(dl_in_lam1[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(dl_pt1_lam_new), .b(dl_in_lam1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[139]), .y(pt1_delta), .flags(fl_pt1_delta)
     );
     assign ev_ovf[137] = fl_pt1_delta[0] && ev_q[88];
@@ -2245,18 +2252,18 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[137] = fl_pt1_delta[2] && ev_q[88];
     logic [W-1:0] dl_pt1_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_delta (.clk(clk), .d(pt1_delta), .q(dl_pt1_delta));
+        u_dl_pt1_delta (.clk(clk), .d(pt1_delta), .valid(1'b0), .q(dl_pt1_delta));
     // pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (ready @84/84/84)
     logic [W-1:0] pt1_lam;
     assign pt1_lam = dl_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_pt1_lam_new;
     logic [W-1:0] dl_pt1_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(95))
-        u_dl_pt1_lam (.clk(clk), .d(pt1_lam), .q(dl_pt1_lam));
+        u_dl_pt1_lam (.clk(clk), .d(pt1_lam), .valid(valid_q[84 +: 95]), .q(dl_pt1_lam));
     // pt1_angA_x = IInvA_s * pt1_cA_x   (ready @14/14/14)
     logic [W-1:0] pt1_angA_x;
     logic [2:0] fl_pt1_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_pt1_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_pt1_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[140]), .y(pt1_angA_x), .flags(fl_pt1_angA_x)
     );
     assign ev_ovf[138] = fl_pt1_angA_x[0] && ev_q[14];
@@ -2264,12 +2271,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[138] = fl_pt1_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angA_x (.clk(clk), .d(pt1_angA_x), .q(dl_pt1_angA_x));
+        u_dl_pt1_angA_x (.clk(clk), .d(pt1_angA_x), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_x));
     // pt1_angA_y = IInvA_s * pt1_cA_y   (ready @14/14/14)
     logic [W-1:0] pt1_angA_y;
     logic [2:0] fl_pt1_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_pt1_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_pt1_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[141]), .y(pt1_angA_y), .flags(fl_pt1_angA_y)
     );
     assign ev_ovf[139] = fl_pt1_angA_y[0] && ev_q[14];
@@ -2277,12 +2284,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[139] = fl_pt1_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angA_y (.clk(clk), .d(pt1_angA_y), .q(dl_pt1_angA_y));
+        u_dl_pt1_angA_y (.clk(clk), .d(pt1_angA_y), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_y));
     // pt1_angA_z = IInvA_s * pt1_cA_z   (ready @14/14/14)
     logic [W-1:0] pt1_angA_z;
     logic [2:0] fl_pt1_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_pt1_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_pt1_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[142]), .y(pt1_angA_z), .flags(fl_pt1_angA_z)
     );
     assign ev_ovf[140] = fl_pt1_angA_z[0] && ev_q[14];
@@ -2290,12 +2297,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[140] = fl_pt1_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angA_z (.clk(clk), .d(pt1_angA_z), .q(dl_pt1_angA_z));
+        u_dl_pt1_angA_z (.clk(clk), .d(pt1_angA_z), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_z));
     // pt1_angB_x = IInvB_s * pt1_cB_x   (ready @14/14/14)
     logic [W-1:0] pt1_angB_x;
     logic [2:0] fl_pt1_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_pt1_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_pt1_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[143]), .y(pt1_angB_x), .flags(fl_pt1_angB_x)
     );
     assign ev_ovf[141] = fl_pt1_angB_x[0] && ev_q[14];
@@ -2303,12 +2310,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[141] = fl_pt1_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angB_x (.clk(clk), .d(pt1_angB_x), .q(dl_pt1_angB_x));
+        u_dl_pt1_angB_x (.clk(clk), .d(pt1_angB_x), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_x));
     // pt1_angB_y = IInvB_s * pt1_cB_y   (ready @14/14/14)
     logic [W-1:0] pt1_angB_y;
     logic [2:0] fl_pt1_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_pt1_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_pt1_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[144]), .y(pt1_angB_y), .flags(fl_pt1_angB_y)
     );
     assign ev_ovf[142] = fl_pt1_angB_y[0] && ev_q[14];
@@ -2316,12 +2323,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[142] = fl_pt1_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angB_y (.clk(clk), .d(pt1_angB_y), .q(dl_pt1_angB_y));
+        u_dl_pt1_angB_y (.clk(clk), .d(pt1_angB_y), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_y));
     // pt1_angB_z = IInvB_s * pt1_cB_z   (ready @14/14/14)
     logic [W-1:0] pt1_angB_z;
     logic [2:0] fl_pt1_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_pt1_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_pt1_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[145]), .y(pt1_angB_z), .flags(fl_pt1_angB_z)
     );
     assign ev_ovf[143] = fl_pt1_angB_z[0] && ev_q[14];
@@ -2329,12 +2336,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[143] = fl_pt1_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angB_z (.clk(clk), .d(pt1_angB_z), .q(dl_pt1_angB_z));
+        u_dl_pt1_angB_z (.clk(clk), .d(pt1_angB_z), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_z));
     // pt1_mul212 = linA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul212;
     logic [2:0] fl_pt1_mul212;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul212 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linA_x[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[146]), .y(pt1_mul212), .flags(fl_pt1_mul212)
     );
     assign ev_ovf[144] = fl_pt1_mul212[0] && ev_q[91];
@@ -2342,12 +2349,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[144] = fl_pt1_mul212[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul212;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul212 (.clk(clk), .d(pt1_mul212), .q(dl_pt1_mul212));
+        u_dl_pt1_mul212 (.clk(clk), .d(pt1_mul212), .valid(1'b0), .q(dl_pt1_mul212));
     // pt1_mul213 = linA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul213;
     logic [2:0] fl_pt1_mul213;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul213 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linA_y[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[147]), .y(pt1_mul213), .flags(fl_pt1_mul213)
     );
     assign ev_ovf[145] = fl_pt1_mul213[0] && ev_q[91];
@@ -2355,12 +2362,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[145] = fl_pt1_mul213[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul213;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul213 (.clk(clk), .d(pt1_mul213), .q(dl_pt1_mul213));
+        u_dl_pt1_mul213 (.clk(clk), .d(pt1_mul213), .valid(1'b0), .q(dl_pt1_mul213));
     // pt1_mul214 = linA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul214;
     logic [2:0] fl_pt1_mul214;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul214 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linA_z[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[148]), .y(pt1_mul214), .flags(fl_pt1_mul214)
     );
     assign ev_ovf[146] = fl_pt1_mul214[0] && ev_q[91];
@@ -2368,12 +2375,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[146] = fl_pt1_mul214[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul214;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul214 (.clk(clk), .d(pt1_mul214), .q(dl_pt1_mul214));
+        u_dl_pt1_mul214 (.clk(clk), .d(pt1_mul214), .valid(1'b0), .q(dl_pt1_mul214));
     // pt1_add215 = pt0_vA_x + pt1_mul212   (ready @95/95/95)
     logic [W-1:0] pt1_add215;
     logic [2:0] fl_pt1_add215;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add215 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_x[1*W +: W]), .b(dl_pt1_mul212), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_x[1*W +: W]), .b(dl_pt1_mul212), .sub(1'b0),
         .out_valid(op_valid_nc[149]), .y(pt1_add215), .flags(fl_pt1_add215)
     );
     assign ev_ovf[147] = fl_pt1_add215[0] && ev_q[95];
@@ -2381,12 +2388,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[147] = fl_pt1_add215[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add215;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add215 (.clk(clk), .d(pt1_add215), .q(dl_pt1_add215));
+        u_dl_pt1_add215 (.clk(clk), .d(pt1_add215), .valid(1'b0), .q(dl_pt1_add215));
     // pt1_add216 = pt0_vA_y + pt1_mul213   (ready @95/95/95)
     logic [W-1:0] pt1_add216;
     logic [2:0] fl_pt1_add216;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add216 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_y[1*W +: W]), .b(dl_pt1_mul213), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_y[1*W +: W]), .b(dl_pt1_mul213), .sub(1'b0),
         .out_valid(op_valid_nc[150]), .y(pt1_add216), .flags(fl_pt1_add216)
     );
     assign ev_ovf[148] = fl_pt1_add216[0] && ev_q[95];
@@ -2394,12 +2401,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[148] = fl_pt1_add216[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add216;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add216 (.clk(clk), .d(pt1_add216), .q(dl_pt1_add216));
+        u_dl_pt1_add216 (.clk(clk), .d(pt1_add216), .valid(1'b0), .q(dl_pt1_add216));
     // pt1_add217 = pt0_vA_z + pt1_mul214   (ready @95/95/95)
     logic [W-1:0] pt1_add217;
     logic [2:0] fl_pt1_add217;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add217 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_z[1*W +: W]), .b(dl_pt1_mul214), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_z[1*W +: W]), .b(dl_pt1_mul214), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(pt1_add217), .flags(fl_pt1_add217)
     );
     assign ev_ovf[149] = fl_pt1_add217[0] && ev_q[95];
@@ -2407,30 +2414,30 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[149] = fl_pt1_add217[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add217;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add217 (.clk(clk), .d(pt1_add217), .q(dl_pt1_add217));
+        u_dl_pt1_add217 (.clk(clk), .d(pt1_add217), .valid(1'b0), .q(dl_pt1_add217));
     // pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add215   (ready @95/95/95)
     logic [W-1:0] pt1_vA_x;
     assign pt1_vA_x = dl_pt1_skip[1] ? dl_pt0_vA_x[2*W +: W] : dl_pt1_add215;
     logic [3*W-1:0] dl_pt1_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vA_x (.clk(clk), .d(pt1_vA_x), .q(dl_pt1_vA_x));
+        u_dl_pt1_vA_x (.clk(clk), .d(pt1_vA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_x));
     // pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add216   (ready @95/95/95)
     logic [W-1:0] pt1_vA_y;
     assign pt1_vA_y = dl_pt1_skip[1] ? dl_pt0_vA_y[2*W +: W] : dl_pt1_add216;
     logic [3*W-1:0] dl_pt1_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vA_y (.clk(clk), .d(pt1_vA_y), .q(dl_pt1_vA_y));
+        u_dl_pt1_vA_y (.clk(clk), .d(pt1_vA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_y));
     // pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add217   (ready @95/95/95)
     logic [W-1:0] pt1_vA_z;
     assign pt1_vA_z = dl_pt1_skip[1] ? dl_pt0_vA_z[2*W +: W] : dl_pt1_add217;
     logic [3*W-1:0] dl_pt1_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vA_z (.clk(clk), .d(pt1_vA_z), .q(dl_pt1_vA_z));
+        u_dl_pt1_vA_z (.clk(clk), .d(pt1_vA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_z));
     // pt1_mul221 = pt1_angA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul221;
     logic [2:0] fl_pt1_mul221;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul221 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_x), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angA_x), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[152]), .y(pt1_mul221), .flags(fl_pt1_mul221)
     );
     assign ev_ovf[150] = fl_pt1_mul221[0] && ev_q[91];
@@ -2438,12 +2445,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[150] = fl_pt1_mul221[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul221;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul221 (.clk(clk), .d(pt1_mul221), .q(dl_pt1_mul221));
+        u_dl_pt1_mul221 (.clk(clk), .d(pt1_mul221), .valid(1'b0), .q(dl_pt1_mul221));
     // pt1_mul222 = pt1_angA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul222;
     logic [2:0] fl_pt1_mul222;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul222 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_y), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angA_y), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[153]), .y(pt1_mul222), .flags(fl_pt1_mul222)
     );
     assign ev_ovf[151] = fl_pt1_mul222[0] && ev_q[91];
@@ -2451,12 +2458,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[151] = fl_pt1_mul222[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul222;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul222 (.clk(clk), .d(pt1_mul222), .q(dl_pt1_mul222));
+        u_dl_pt1_mul222 (.clk(clk), .d(pt1_mul222), .valid(1'b0), .q(dl_pt1_mul222));
     // pt1_mul223 = pt1_angA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul223;
     logic [2:0] fl_pt1_mul223;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul223 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_z), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angA_z), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[154]), .y(pt1_mul223), .flags(fl_pt1_mul223)
     );
     assign ev_ovf[152] = fl_pt1_mul223[0] && ev_q[91];
@@ -2464,12 +2471,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[152] = fl_pt1_mul223[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul223;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul223 (.clk(clk), .d(pt1_mul223), .q(dl_pt1_mul223));
+        u_dl_pt1_mul223 (.clk(clk), .d(pt1_mul223), .valid(1'b0), .q(dl_pt1_mul223));
     // pt1_add224 = pt0_wA_x + pt1_mul221   (ready @95/95/95)
     logic [W-1:0] pt1_add224;
     logic [2:0] fl_pt1_add224;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add224 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_x[1*W +: W]), .b(dl_pt1_mul221), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_x[1*W +: W]), .b(dl_pt1_mul221), .sub(1'b0),
         .out_valid(op_valid_nc[155]), .y(pt1_add224), .flags(fl_pt1_add224)
     );
     assign ev_ovf[153] = fl_pt1_add224[0] && ev_q[95];
@@ -2477,12 +2484,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[153] = fl_pt1_add224[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add224;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add224 (.clk(clk), .d(pt1_add224), .q(dl_pt1_add224));
+        u_dl_pt1_add224 (.clk(clk), .d(pt1_add224), .valid(1'b0), .q(dl_pt1_add224));
     // pt1_add225 = pt0_wA_y + pt1_mul222   (ready @95/95/95)
     logic [W-1:0] pt1_add225;
     logic [2:0] fl_pt1_add225;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add225 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_y[1*W +: W]), .b(dl_pt1_mul222), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_y[1*W +: W]), .b(dl_pt1_mul222), .sub(1'b0),
         .out_valid(op_valid_nc[156]), .y(pt1_add225), .flags(fl_pt1_add225)
     );
     assign ev_ovf[154] = fl_pt1_add225[0] && ev_q[95];
@@ -2490,12 +2497,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[154] = fl_pt1_add225[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add225;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add225 (.clk(clk), .d(pt1_add225), .q(dl_pt1_add225));
+        u_dl_pt1_add225 (.clk(clk), .d(pt1_add225), .valid(1'b0), .q(dl_pt1_add225));
     // pt1_add226 = pt0_wA_z + pt1_mul223   (ready @95/95/95)
     logic [W-1:0] pt1_add226;
     logic [2:0] fl_pt1_add226;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add226 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_z[1*W +: W]), .b(dl_pt1_mul223), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_z[1*W +: W]), .b(dl_pt1_mul223), .sub(1'b0),
         .out_valid(op_valid_nc[157]), .y(pt1_add226), .flags(fl_pt1_add226)
     );
     assign ev_ovf[155] = fl_pt1_add226[0] && ev_q[95];
@@ -2503,30 +2510,30 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[155] = fl_pt1_add226[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add226;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add226 (.clk(clk), .d(pt1_add226), .q(dl_pt1_add226));
+        u_dl_pt1_add226 (.clk(clk), .d(pt1_add226), .valid(1'b0), .q(dl_pt1_add226));
     // pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add224   (ready @95/95/95)
     logic [W-1:0] pt1_wA_x;
     assign pt1_wA_x = dl_pt1_skip[1] ? dl_pt0_wA_x[2*W +: W] : dl_pt1_add224;
     logic [3*W-1:0] dl_pt1_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wA_x (.clk(clk), .d(pt1_wA_x), .q(dl_pt1_wA_x));
+        u_dl_pt1_wA_x (.clk(clk), .d(pt1_wA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_x));
     // pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add225   (ready @95/95/95)
     logic [W-1:0] pt1_wA_y;
     assign pt1_wA_y = dl_pt1_skip[1] ? dl_pt0_wA_y[2*W +: W] : dl_pt1_add225;
     logic [3*W-1:0] dl_pt1_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wA_y (.clk(clk), .d(pt1_wA_y), .q(dl_pt1_wA_y));
+        u_dl_pt1_wA_y (.clk(clk), .d(pt1_wA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_y));
     // pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add226   (ready @95/95/95)
     logic [W-1:0] pt1_wA_z;
     assign pt1_wA_z = dl_pt1_skip[1] ? dl_pt0_wA_z[2*W +: W] : dl_pt1_add226;
     logic [3*W-1:0] dl_pt1_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wA_z (.clk(clk), .d(pt1_wA_z), .q(dl_pt1_wA_z));
+        u_dl_pt1_wA_z (.clk(clk), .d(pt1_wA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_z));
     // pt1_mul230 = linB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul230;
     logic [2:0] fl_pt1_mul230;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul230 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linB_x[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[158]), .y(pt1_mul230), .flags(fl_pt1_mul230)
     );
     assign ev_ovf[156] = fl_pt1_mul230[0] && ev_q[91];
@@ -2534,12 +2541,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[156] = fl_pt1_mul230[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul230;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul230 (.clk(clk), .d(pt1_mul230), .q(dl_pt1_mul230));
+        u_dl_pt1_mul230 (.clk(clk), .d(pt1_mul230), .valid(1'b0), .q(dl_pt1_mul230));
     // pt1_mul231 = linB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul231;
     logic [2:0] fl_pt1_mul231;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul231 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linB_y[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[159]), .y(pt1_mul231), .flags(fl_pt1_mul231)
     );
     assign ev_ovf[157] = fl_pt1_mul231[0] && ev_q[91];
@@ -2547,12 +2554,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[157] = fl_pt1_mul231[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul231;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul231 (.clk(clk), .d(pt1_mul231), .q(dl_pt1_mul231));
+        u_dl_pt1_mul231 (.clk(clk), .d(pt1_mul231), .valid(1'b0), .q(dl_pt1_mul231));
     // pt1_mul232 = linB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul232;
     logic [2:0] fl_pt1_mul232;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul232 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linB_z[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[160]), .y(pt1_mul232), .flags(fl_pt1_mul232)
     );
     assign ev_ovf[158] = fl_pt1_mul232[0] && ev_q[91];
@@ -2560,12 +2567,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[158] = fl_pt1_mul232[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul232;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul232 (.clk(clk), .d(pt1_mul232), .q(dl_pt1_mul232));
+        u_dl_pt1_mul232 (.clk(clk), .d(pt1_mul232), .valid(1'b0), .q(dl_pt1_mul232));
     // pt1_sub233 = pt0_vB_x - pt1_mul230   (ready @95/95/95)
     logic [W-1:0] pt1_sub233;
     logic [2:0] fl_pt1_sub233;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub233 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_x[1*W +: W]), .b(dl_pt1_mul230), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_x[1*W +: W]), .b(dl_pt1_mul230), .sub(1'b1),
         .out_valid(op_valid_nc[161]), .y(pt1_sub233), .flags(fl_pt1_sub233)
     );
     assign ev_ovf[159] = fl_pt1_sub233[0] && ev_q[95];
@@ -2573,12 +2580,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[159] = fl_pt1_sub233[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub233;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub233 (.clk(clk), .d(pt1_sub233), .q(dl_pt1_sub233));
+        u_dl_pt1_sub233 (.clk(clk), .d(pt1_sub233), .valid(1'b0), .q(dl_pt1_sub233));
     // pt1_sub234 = pt0_vB_y - pt1_mul231   (ready @95/95/95)
     logic [W-1:0] pt1_sub234;
     logic [2:0] fl_pt1_sub234;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub234 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_y[1*W +: W]), .b(dl_pt1_mul231), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_y[1*W +: W]), .b(dl_pt1_mul231), .sub(1'b1),
         .out_valid(op_valid_nc[162]), .y(pt1_sub234), .flags(fl_pt1_sub234)
     );
     assign ev_ovf[160] = fl_pt1_sub234[0] && ev_q[95];
@@ -2586,12 +2593,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[160] = fl_pt1_sub234[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub234;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub234 (.clk(clk), .d(pt1_sub234), .q(dl_pt1_sub234));
+        u_dl_pt1_sub234 (.clk(clk), .d(pt1_sub234), .valid(1'b0), .q(dl_pt1_sub234));
     // pt1_sub235 = pt0_vB_z - pt1_mul232   (ready @95/95/95)
     logic [W-1:0] pt1_sub235;
     logic [2:0] fl_pt1_sub235;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub235 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_z[1*W +: W]), .b(dl_pt1_mul232), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_z[1*W +: W]), .b(dl_pt1_mul232), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(pt1_sub235), .flags(fl_pt1_sub235)
     );
     assign ev_ovf[161] = fl_pt1_sub235[0] && ev_q[95];
@@ -2599,30 +2606,30 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[161] = fl_pt1_sub235[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub235;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub235 (.clk(clk), .d(pt1_sub235), .q(dl_pt1_sub235));
+        u_dl_pt1_sub235 (.clk(clk), .d(pt1_sub235), .valid(1'b0), .q(dl_pt1_sub235));
     // pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub233   (ready @95/95/95)
     logic [W-1:0] pt1_vB_x;
     assign pt1_vB_x = dl_pt1_skip[1] ? dl_pt0_vB_x[2*W +: W] : dl_pt1_sub233;
     logic [3*W-1:0] dl_pt1_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vB_x (.clk(clk), .d(pt1_vB_x), .q(dl_pt1_vB_x));
+        u_dl_pt1_vB_x (.clk(clk), .d(pt1_vB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_x));
     // pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub234   (ready @95/95/95)
     logic [W-1:0] pt1_vB_y;
     assign pt1_vB_y = dl_pt1_skip[1] ? dl_pt0_vB_y[2*W +: W] : dl_pt1_sub234;
     logic [3*W-1:0] dl_pt1_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vB_y (.clk(clk), .d(pt1_vB_y), .q(dl_pt1_vB_y));
+        u_dl_pt1_vB_y (.clk(clk), .d(pt1_vB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_y));
     // pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub235   (ready @95/95/95)
     logic [W-1:0] pt1_vB_z;
     assign pt1_vB_z = dl_pt1_skip[1] ? dl_pt0_vB_z[2*W +: W] : dl_pt1_sub235;
     logic [3*W-1:0] dl_pt1_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vB_z (.clk(clk), .d(pt1_vB_z), .q(dl_pt1_vB_z));
+        u_dl_pt1_vB_z (.clk(clk), .d(pt1_vB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_z));
     // pt1_mul239 = pt1_angB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul239;
     logic [2:0] fl_pt1_mul239;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul239 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_x), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angB_x), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[164]), .y(pt1_mul239), .flags(fl_pt1_mul239)
     );
     assign ev_ovf[162] = fl_pt1_mul239[0] && ev_q[91];
@@ -2630,12 +2637,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[162] = fl_pt1_mul239[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul239;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul239 (.clk(clk), .d(pt1_mul239), .q(dl_pt1_mul239));
+        u_dl_pt1_mul239 (.clk(clk), .d(pt1_mul239), .valid(1'b0), .q(dl_pt1_mul239));
     // pt1_mul240 = pt1_angB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul240;
     logic [2:0] fl_pt1_mul240;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul240 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_y), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angB_y), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[165]), .y(pt1_mul240), .flags(fl_pt1_mul240)
     );
     assign ev_ovf[163] = fl_pt1_mul240[0] && ev_q[91];
@@ -2643,12 +2650,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[163] = fl_pt1_mul240[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul240;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul240 (.clk(clk), .d(pt1_mul240), .q(dl_pt1_mul240));
+        u_dl_pt1_mul240 (.clk(clk), .d(pt1_mul240), .valid(1'b0), .q(dl_pt1_mul240));
     // pt1_mul241 = pt1_angB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul241;
     logic [2:0] fl_pt1_mul241;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul241 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_z), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angB_z), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[166]), .y(pt1_mul241), .flags(fl_pt1_mul241)
     );
     assign ev_ovf[164] = fl_pt1_mul241[0] && ev_q[91];
@@ -2656,12 +2663,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[164] = fl_pt1_mul241[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul241;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul241 (.clk(clk), .d(pt1_mul241), .q(dl_pt1_mul241));
+        u_dl_pt1_mul241 (.clk(clk), .d(pt1_mul241), .valid(1'b0), .q(dl_pt1_mul241));
     // pt1_sub242 = pt0_wB_x - pt1_mul239   (ready @95/95/95)
     logic [W-1:0] pt1_sub242;
     logic [2:0] fl_pt1_sub242;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub242 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_x[1*W +: W]), .b(dl_pt1_mul239), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_x[1*W +: W]), .b(dl_pt1_mul239), .sub(1'b1),
         .out_valid(op_valid_nc[167]), .y(pt1_sub242), .flags(fl_pt1_sub242)
     );
     assign ev_ovf[165] = fl_pt1_sub242[0] && ev_q[95];
@@ -2669,12 +2676,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[165] = fl_pt1_sub242[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub242;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub242 (.clk(clk), .d(pt1_sub242), .q(dl_pt1_sub242));
+        u_dl_pt1_sub242 (.clk(clk), .d(pt1_sub242), .valid(1'b0), .q(dl_pt1_sub242));
     // pt1_sub243 = pt0_wB_y - pt1_mul240   (ready @95/95/95)
     logic [W-1:0] pt1_sub243;
     logic [2:0] fl_pt1_sub243;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub243 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_y[1*W +: W]), .b(dl_pt1_mul240), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_y[1*W +: W]), .b(dl_pt1_mul240), .sub(1'b1),
         .out_valid(op_valid_nc[168]), .y(pt1_sub243), .flags(fl_pt1_sub243)
     );
     assign ev_ovf[166] = fl_pt1_sub243[0] && ev_q[95];
@@ -2682,12 +2689,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[166] = fl_pt1_sub243[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub243;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub243 (.clk(clk), .d(pt1_sub243), .q(dl_pt1_sub243));
+        u_dl_pt1_sub243 (.clk(clk), .d(pt1_sub243), .valid(1'b0), .q(dl_pt1_sub243));
     // pt1_sub244 = pt0_wB_z - pt1_mul241   (ready @95/95/95)
     logic [W-1:0] pt1_sub244;
     logic [2:0] fl_pt1_sub244;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub244 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_z[1*W +: W]), .b(dl_pt1_mul241), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_z[1*W +: W]), .b(dl_pt1_mul241), .sub(1'b1),
         .out_valid(op_valid_nc[169]), .y(pt1_sub244), .flags(fl_pt1_sub244)
     );
     assign ev_ovf[167] = fl_pt1_sub244[0] && ev_q[95];
@@ -2695,36 +2702,36 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[167] = fl_pt1_sub244[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub244;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub244 (.clk(clk), .d(pt1_sub244), .q(dl_pt1_sub244));
+        u_dl_pt1_sub244 (.clk(clk), .d(pt1_sub244), .valid(1'b0), .q(dl_pt1_sub244));
     // pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub242   (ready @95/95/95)
     logic [W-1:0] pt1_wB_x;
     assign pt1_wB_x = dl_pt1_skip[1] ? dl_pt0_wB_x[2*W +: W] : dl_pt1_sub242;
     logic [3*W-1:0] dl_pt1_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wB_x (.clk(clk), .d(pt1_wB_x), .q(dl_pt1_wB_x));
+        u_dl_pt1_wB_x (.clk(clk), .d(pt1_wB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_x));
     // pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub243   (ready @95/95/95)
     logic [W-1:0] pt1_wB_y;
     assign pt1_wB_y = dl_pt1_skip[1] ? dl_pt0_wB_y[2*W +: W] : dl_pt1_sub243;
     logic [3*W-1:0] dl_pt1_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wB_y (.clk(clk), .d(pt1_wB_y), .q(dl_pt1_wB_y));
+        u_dl_pt1_wB_y (.clk(clk), .d(pt1_wB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_y));
     // pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub244   (ready @95/95/95)
     logic [W-1:0] pt1_wB_z;
     assign pt1_wB_z = dl_pt1_skip[1] ? dl_pt0_wB_z[2*W +: W] : dl_pt1_sub244;
     logic [3*W-1:0] dl_pt1_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wB_z (.clk(clk), .d(pt1_wB_z), .q(dl_pt1_wB_z));
+        u_dl_pt1_wB_z (.clk(clk), .d(pt1_wB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_z));
     // pt2_skip = jac_inv2 == 0   (ready @0/0/0)
     logic pt2_skip;
     assign pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt2_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}))
-        u_dl_pt2_skip (.clk(clk), .d(pt2_skip), .q(dl_pt2_skip));
+        u_dl_pt2_skip (.clk(clk), .d(pt2_skip), .valid(valid_q[0 +: 137]), .q(dl_pt2_skip));
     // pt2_rA_x = p2_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt2_rA_x;
     logic [2:0] fl_pt2_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[170]), .y(pt2_rA_x), .flags(fl_pt2_rA_x)
     );
     assign ev_ovf[168] = fl_pt2_rA_x[0] && ev_q[4];
@@ -2732,12 +2739,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[168] = fl_pt2_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rA_x (.clk(clk), .d(pt2_rA_x), .q(dl_pt2_rA_x));
+        u_dl_pt2_rA_x (.clk(clk), .d(pt2_rA_x), .valid(1'b0), .q(dl_pt2_rA_x));
     // pt2_rA_y = p2_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt2_rA_y;
     logic [2:0] fl_pt2_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(pt2_rA_y), .flags(fl_pt2_rA_y)
     );
     assign ev_ovf[169] = fl_pt2_rA_y[0] && ev_q[4];
@@ -2745,12 +2752,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[169] = fl_pt2_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rA_y (.clk(clk), .d(pt2_rA_y), .q(dl_pt2_rA_y));
+        u_dl_pt2_rA_y (.clk(clk), .d(pt2_rA_y), .valid(1'b0), .q(dl_pt2_rA_y));
     // pt2_rA_z = p2_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt2_rA_z;
     logic [2:0] fl_pt2_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(pt2_rA_z), .flags(fl_pt2_rA_z)
     );
     assign ev_ovf[170] = fl_pt2_rA_z[0] && ev_q[4];
@@ -2758,12 +2765,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[170] = fl_pt2_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rA_z (.clk(clk), .d(pt2_rA_z), .q(dl_pt2_rA_z));
+        u_dl_pt2_rA_z (.clk(clk), .d(pt2_rA_z), .valid(1'b0), .q(dl_pt2_rA_z));
     // pt2_mul252 = pt2_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul252;
     logic [2:0] fl_pt2_mul252;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul252 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[173]), .y(pt2_mul252), .flags(fl_pt2_mul252)
     );
     assign ev_ovf[171] = fl_pt2_mul252[0] && ev_q[7];
@@ -2771,12 +2778,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[171] = fl_pt2_mul252[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul252;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul252 (.clk(clk), .d(pt2_mul252), .q(dl_pt2_mul252));
+        u_dl_pt2_mul252 (.clk(clk), .d(pt2_mul252), .valid(1'b0), .q(dl_pt2_mul252));
     // pt2_mul253 = pt2_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul253;
     logic [2:0] fl_pt2_mul253;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul253 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[174]), .y(pt2_mul253), .flags(fl_pt2_mul253)
     );
     assign ev_ovf[172] = fl_pt2_mul253[0] && ev_q[7];
@@ -2784,12 +2791,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[172] = fl_pt2_mul253[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul253;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul253 (.clk(clk), .d(pt2_mul253), .q(dl_pt2_mul253));
+        u_dl_pt2_mul253 (.clk(clk), .d(pt2_mul253), .valid(1'b0), .q(dl_pt2_mul253));
     // pt2_cA_x = pt2_mul252 - pt2_mul253   (ready @11/11/11)
     logic [W-1:0] pt2_cA_x;
     logic [2:0] fl_pt2_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul252), .b(dl_pt2_mul253), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul252), .b(dl_pt2_mul253), .sub(1'b1),
         .out_valid(op_valid_nc[175]), .y(pt2_cA_x), .flags(fl_pt2_cA_x)
     );
     assign ev_ovf[173] = fl_pt2_cA_x[0] && ev_q[11];
@@ -2797,12 +2804,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[173] = fl_pt2_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cA_x (.clk(clk), .d(pt2_cA_x), .q(dl_pt2_cA_x));
+        u_dl_pt2_cA_x (.clk(clk), .d(pt2_cA_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_x));
     // pt2_mul255 = pt2_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul255;
     logic [2:0] fl_pt2_mul255;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul255 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[176]), .y(pt2_mul255), .flags(fl_pt2_mul255)
     );
     assign ev_ovf[174] = fl_pt2_mul255[0] && ev_q[7];
@@ -2810,12 +2817,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[174] = fl_pt2_mul255[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul255;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul255 (.clk(clk), .d(pt2_mul255), .q(dl_pt2_mul255));
+        u_dl_pt2_mul255 (.clk(clk), .d(pt2_mul255), .valid(1'b0), .q(dl_pt2_mul255));
     // pt2_mul256 = pt2_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul256;
     logic [2:0] fl_pt2_mul256;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul256 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[177]), .y(pt2_mul256), .flags(fl_pt2_mul256)
     );
     assign ev_ovf[175] = fl_pt2_mul256[0] && ev_q[7];
@@ -2823,12 +2830,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[175] = fl_pt2_mul256[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul256;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul256 (.clk(clk), .d(pt2_mul256), .q(dl_pt2_mul256));
+        u_dl_pt2_mul256 (.clk(clk), .d(pt2_mul256), .valid(1'b0), .q(dl_pt2_mul256));
     // pt2_cA_y = pt2_mul255 - pt2_mul256   (ready @11/11/11)
     logic [W-1:0] pt2_cA_y;
     logic [2:0] fl_pt2_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul255), .b(dl_pt2_mul256), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul255), .b(dl_pt2_mul256), .sub(1'b1),
         .out_valid(op_valid_nc[178]), .y(pt2_cA_y), .flags(fl_pt2_cA_y)
     );
     assign ev_ovf[176] = fl_pt2_cA_y[0] && ev_q[11];
@@ -2836,12 +2843,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[176] = fl_pt2_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cA_y (.clk(clk), .d(pt2_cA_y), .q(dl_pt2_cA_y));
+        u_dl_pt2_cA_y (.clk(clk), .d(pt2_cA_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_y));
     // pt2_mul258 = pt2_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul258;
     logic [2:0] fl_pt2_mul258;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul258 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[179]), .y(pt2_mul258), .flags(fl_pt2_mul258)
     );
     assign ev_ovf[177] = fl_pt2_mul258[0] && ev_q[7];
@@ -2849,12 +2856,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[177] = fl_pt2_mul258[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul258;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul258 (.clk(clk), .d(pt2_mul258), .q(dl_pt2_mul258));
+        u_dl_pt2_mul258 (.clk(clk), .d(pt2_mul258), .valid(1'b0), .q(dl_pt2_mul258));
     // pt2_mul259 = pt2_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul259;
     logic [2:0] fl_pt2_mul259;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul259 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[180]), .y(pt2_mul259), .flags(fl_pt2_mul259)
     );
     assign ev_ovf[178] = fl_pt2_mul259[0] && ev_q[7];
@@ -2862,12 +2869,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[178] = fl_pt2_mul259[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul259;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul259 (.clk(clk), .d(pt2_mul259), .q(dl_pt2_mul259));
+        u_dl_pt2_mul259 (.clk(clk), .d(pt2_mul259), .valid(1'b0), .q(dl_pt2_mul259));
     // pt2_cA_z = pt2_mul258 - pt2_mul259   (ready @11/11/11)
     logic [W-1:0] pt2_cA_z;
     logic [2:0] fl_pt2_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul258), .b(dl_pt2_mul259), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul258), .b(dl_pt2_mul259), .sub(1'b1),
         .out_valid(op_valid_nc[181]), .y(pt2_cA_z), .flags(fl_pt2_cA_z)
     );
     assign ev_ovf[179] = fl_pt2_cA_z[0] && ev_q[11];
@@ -2875,12 +2882,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[179] = fl_pt2_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cA_z (.clk(clk), .d(pt2_cA_z), .q(dl_pt2_cA_z));
+        u_dl_pt2_cA_z (.clk(clk), .d(pt2_cA_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_z));
     // pt2_rB_x = p2_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt2_rB_x;
     logic [2:0] fl_pt2_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[182]), .y(pt2_rB_x), .flags(fl_pt2_rB_x)
     );
     assign ev_ovf[180] = fl_pt2_rB_x[0] && ev_q[4];
@@ -2888,12 +2895,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[180] = fl_pt2_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rB_x (.clk(clk), .d(pt2_rB_x), .q(dl_pt2_rB_x));
+        u_dl_pt2_rB_x (.clk(clk), .d(pt2_rB_x), .valid(1'b0), .q(dl_pt2_rB_x));
     // pt2_rB_y = p2_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt2_rB_y;
     logic [2:0] fl_pt2_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(pt2_rB_y), .flags(fl_pt2_rB_y)
     );
     assign ev_ovf[181] = fl_pt2_rB_y[0] && ev_q[4];
@@ -2901,12 +2908,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[181] = fl_pt2_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rB_y (.clk(clk), .d(pt2_rB_y), .q(dl_pt2_rB_y));
+        u_dl_pt2_rB_y (.clk(clk), .d(pt2_rB_y), .valid(1'b0), .q(dl_pt2_rB_y));
     // pt2_rB_z = p2_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt2_rB_z;
     logic [2:0] fl_pt2_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(pt2_rB_z), .flags(fl_pt2_rB_z)
     );
     assign ev_ovf[182] = fl_pt2_rB_z[0] && ev_q[4];
@@ -2914,12 +2921,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[182] = fl_pt2_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rB_z (.clk(clk), .d(pt2_rB_z), .q(dl_pt2_rB_z));
+        u_dl_pt2_rB_z (.clk(clk), .d(pt2_rB_z), .valid(1'b0), .q(dl_pt2_rB_z));
     // pt2_mul264 = pt2_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul264;
     logic [2:0] fl_pt2_mul264;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul264 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[185]), .y(pt2_mul264), .flags(fl_pt2_mul264)
     );
     assign ev_ovf[183] = fl_pt2_mul264[0] && ev_q[7];
@@ -2927,12 +2934,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[183] = fl_pt2_mul264[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul264;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul264 (.clk(clk), .d(pt2_mul264), .q(dl_pt2_mul264));
+        u_dl_pt2_mul264 (.clk(clk), .d(pt2_mul264), .valid(1'b0), .q(dl_pt2_mul264));
     // pt2_mul265 = pt2_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul265;
     logic [2:0] fl_pt2_mul265;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul265 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[186]), .y(pt2_mul265), .flags(fl_pt2_mul265)
     );
     assign ev_ovf[184] = fl_pt2_mul265[0] && ev_q[7];
@@ -2940,12 +2947,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[184] = fl_pt2_mul265[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul265;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul265 (.clk(clk), .d(pt2_mul265), .q(dl_pt2_mul265));
+        u_dl_pt2_mul265 (.clk(clk), .d(pt2_mul265), .valid(1'b0), .q(dl_pt2_mul265));
     // pt2_cB_x = pt2_mul264 - pt2_mul265   (ready @11/11/11)
     logic [W-1:0] pt2_cB_x;
     logic [2:0] fl_pt2_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul264), .b(dl_pt2_mul265), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul264), .b(dl_pt2_mul265), .sub(1'b1),
         .out_valid(op_valid_nc[187]), .y(pt2_cB_x), .flags(fl_pt2_cB_x)
     );
     assign ev_ovf[185] = fl_pt2_cB_x[0] && ev_q[11];
@@ -2953,12 +2960,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[185] = fl_pt2_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cB_x (.clk(clk), .d(pt2_cB_x), .q(dl_pt2_cB_x));
+        u_dl_pt2_cB_x (.clk(clk), .d(pt2_cB_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_x));
     // pt2_mul267 = pt2_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul267;
     logic [2:0] fl_pt2_mul267;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul267 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[188]), .y(pt2_mul267), .flags(fl_pt2_mul267)
     );
     assign ev_ovf[186] = fl_pt2_mul267[0] && ev_q[7];
@@ -2966,12 +2973,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[186] = fl_pt2_mul267[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul267;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul267 (.clk(clk), .d(pt2_mul267), .q(dl_pt2_mul267));
+        u_dl_pt2_mul267 (.clk(clk), .d(pt2_mul267), .valid(1'b0), .q(dl_pt2_mul267));
     // pt2_mul268 = pt2_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul268;
     logic [2:0] fl_pt2_mul268;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul268 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[189]), .y(pt2_mul268), .flags(fl_pt2_mul268)
     );
     assign ev_ovf[187] = fl_pt2_mul268[0] && ev_q[7];
@@ -2979,12 +2986,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[187] = fl_pt2_mul268[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul268;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul268 (.clk(clk), .d(pt2_mul268), .q(dl_pt2_mul268));
+        u_dl_pt2_mul268 (.clk(clk), .d(pt2_mul268), .valid(1'b0), .q(dl_pt2_mul268));
     // pt2_cB_y = pt2_mul267 - pt2_mul268   (ready @11/11/11)
     logic [W-1:0] pt2_cB_y;
     logic [2:0] fl_pt2_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul267), .b(dl_pt2_mul268), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul267), .b(dl_pt2_mul268), .sub(1'b1),
         .out_valid(op_valid_nc[190]), .y(pt2_cB_y), .flags(fl_pt2_cB_y)
     );
     assign ev_ovf[188] = fl_pt2_cB_y[0] && ev_q[11];
@@ -2992,12 +2999,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[188] = fl_pt2_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cB_y (.clk(clk), .d(pt2_cB_y), .q(dl_pt2_cB_y));
+        u_dl_pt2_cB_y (.clk(clk), .d(pt2_cB_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_y));
     // pt2_mul270 = pt2_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul270;
     logic [2:0] fl_pt2_mul270;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul270 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[191]), .y(pt2_mul270), .flags(fl_pt2_mul270)
     );
     assign ev_ovf[189] = fl_pt2_mul270[0] && ev_q[7];
@@ -3005,12 +3012,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[189] = fl_pt2_mul270[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul270;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul270 (.clk(clk), .d(pt2_mul270), .q(dl_pt2_mul270));
+        u_dl_pt2_mul270 (.clk(clk), .d(pt2_mul270), .valid(1'b0), .q(dl_pt2_mul270));
     // pt2_mul271 = pt2_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul271;
     logic [2:0] fl_pt2_mul271;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul271 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[192]), .y(pt2_mul271), .flags(fl_pt2_mul271)
     );
     assign ev_ovf[190] = fl_pt2_mul271[0] && ev_q[7];
@@ -3018,12 +3025,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[190] = fl_pt2_mul271[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul271;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul271 (.clk(clk), .d(pt2_mul271), .q(dl_pt2_mul271));
+        u_dl_pt2_mul271 (.clk(clk), .d(pt2_mul271), .valid(1'b0), .q(dl_pt2_mul271));
     // pt2_cB_z = pt2_mul270 - pt2_mul271   (ready @11/11/11)
     logic [W-1:0] pt2_cB_z;
     logic [2:0] fl_pt2_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul270), .b(dl_pt2_mul271), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul270), .b(dl_pt2_mul271), .sub(1'b1),
         .out_valid(op_valid_nc[193]), .y(pt2_cB_z), .flags(fl_pt2_cB_z)
     );
     assign ev_ovf[191] = fl_pt2_cB_z[0] && ev_q[11];
@@ -3031,12 +3038,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[191] = fl_pt2_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cB_z (.clk(clk), .d(pt2_cB_z), .q(dl_pt2_cB_z));
+        u_dl_pt2_cB_z (.clk(clk), .d(pt2_cB_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_z));
     // pt2_mul273 = n_x * pt1_vA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul273;
     logic [2:0] fl_pt2_mul273;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul273 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[194]), .y(pt2_mul273), .flags(fl_pt2_mul273)
     );
     assign ev_ovf[192] = fl_pt2_mul273[0] && ev_q[98];
@@ -3044,12 +3051,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[192] = fl_pt2_mul273[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul273;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul273 (.clk(clk), .d(pt2_mul273), .q(dl_pt2_mul273));
+        u_dl_pt2_mul273 (.clk(clk), .d(pt2_mul273), .valid(1'b0), .q(dl_pt2_mul273));
     // pt2_mul274 = n_y * pt1_vA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul274;
     logic [2:0] fl_pt2_mul274;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul274 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[195]), .y(pt2_mul274), .flags(fl_pt2_mul274)
     );
     assign ev_ovf[193] = fl_pt2_mul274[0] && ev_q[98];
@@ -3057,12 +3064,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[193] = fl_pt2_mul274[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul274;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul274 (.clk(clk), .d(pt2_mul274), .q(dl_pt2_mul274));
+        u_dl_pt2_mul274 (.clk(clk), .d(pt2_mul274), .valid(1'b0), .q(dl_pt2_mul274));
     // pt2_add275 = pt2_mul273 + pt2_mul274   (ready @102/102/102)
     logic [W-1:0] pt2_add275;
     logic [2:0] fl_pt2_add275;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add275 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul273), .b(dl_pt2_mul274), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul273), .b(dl_pt2_mul274), .sub(1'b0),
         .out_valid(op_valid_nc[196]), .y(pt2_add275), .flags(fl_pt2_add275)
     );
     assign ev_ovf[194] = fl_pt2_add275[0] && ev_q[102];
@@ -3070,12 +3077,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[194] = fl_pt2_add275[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add275;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add275 (.clk(clk), .d(pt2_add275), .q(dl_pt2_add275));
+        u_dl_pt2_add275 (.clk(clk), .d(pt2_add275), .valid(1'b0), .q(dl_pt2_add275));
     // pt2_mul276 = n_z * pt1_vA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul276;
     logic [2:0] fl_pt2_mul276;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul276 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[197]), .y(pt2_mul276), .flags(fl_pt2_mul276)
     );
     assign ev_ovf[195] = fl_pt2_mul276[0] && ev_q[98];
@@ -3083,12 +3090,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[195] = fl_pt2_mul276[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul276;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul276 (.clk(clk), .d(pt2_mul276), .q(dl_pt2_mul276));
+        u_dl_pt2_mul276 (.clk(clk), .d(pt2_mul276), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul276));
     // pt2_add277 = pt2_add275 + pt2_mul276   (ready @106/106/106)
     logic [W-1:0] pt2_add277;
     logic [2:0] fl_pt2_add277;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add277 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add275), .b(dl_pt2_mul276), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add275), .b(dl_pt2_mul276), .sub(1'b0),
         .out_valid(op_valid_nc[198]), .y(pt2_add277), .flags(fl_pt2_add277)
     );
     assign ev_ovf[196] = fl_pt2_add277[0] && ev_q[106];
@@ -3096,12 +3103,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[196] = fl_pt2_add277[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add277;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add277 (.clk(clk), .d(pt2_add277), .q(dl_pt2_add277));
+        u_dl_pt2_add277 (.clk(clk), .d(pt2_add277), .valid(1'b0), .q(dl_pt2_add277));
     // pt2_mul278 = n_x * pt1_vB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul278;
     logic [2:0] fl_pt2_mul278;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul278 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[199]), .y(pt2_mul278), .flags(fl_pt2_mul278)
     );
     assign ev_ovf[197] = fl_pt2_mul278[0] && ev_q[98];
@@ -3109,12 +3116,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[197] = fl_pt2_mul278[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul278;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul278 (.clk(clk), .d(pt2_mul278), .q(dl_pt2_mul278));
+        u_dl_pt2_mul278 (.clk(clk), .d(pt2_mul278), .valid(1'b0), .q(dl_pt2_mul278));
     // pt2_mul279 = n_y * pt1_vB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul279;
     logic [2:0] fl_pt2_mul279;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul279 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[200]), .y(pt2_mul279), .flags(fl_pt2_mul279)
     );
     assign ev_ovf[198] = fl_pt2_mul279[0] && ev_q[98];
@@ -3122,12 +3129,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[198] = fl_pt2_mul279[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul279;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul279 (.clk(clk), .d(pt2_mul279), .q(dl_pt2_mul279));
+        u_dl_pt2_mul279 (.clk(clk), .d(pt2_mul279), .valid(1'b0), .q(dl_pt2_mul279));
     // pt2_add280 = pt2_mul278 + pt2_mul279   (ready @102/102/102)
     logic [W-1:0] pt2_add280;
     logic [2:0] fl_pt2_add280;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add280 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul278), .b(dl_pt2_mul279), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul278), .b(dl_pt2_mul279), .sub(1'b0),
         .out_valid(op_valid_nc[201]), .y(pt2_add280), .flags(fl_pt2_add280)
     );
     assign ev_ovf[199] = fl_pt2_add280[0] && ev_q[102];
@@ -3135,12 +3142,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[199] = fl_pt2_add280[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add280;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add280 (.clk(clk), .d(pt2_add280), .q(dl_pt2_add280));
+        u_dl_pt2_add280 (.clk(clk), .d(pt2_add280), .valid(1'b0), .q(dl_pt2_add280));
     // pt2_mul281 = n_z * pt1_vB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul281;
     logic [2:0] fl_pt2_mul281;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul281 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[202]), .y(pt2_mul281), .flags(fl_pt2_mul281)
     );
     assign ev_ovf[200] = fl_pt2_mul281[0] && ev_q[98];
@@ -3148,12 +3155,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[200] = fl_pt2_mul281[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul281;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul281 (.clk(clk), .d(pt2_mul281), .q(dl_pt2_mul281));
+        u_dl_pt2_mul281 (.clk(clk), .d(pt2_mul281), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul281));
     // pt2_add282 = pt2_add280 + pt2_mul281   (ready @106/106/106)
     logic [W-1:0] pt2_add282;
     logic [2:0] fl_pt2_add282;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add282 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add280), .b(dl_pt2_mul281), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add280), .b(dl_pt2_mul281), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(pt2_add282), .flags(fl_pt2_add282)
     );
     assign ev_ovf[201] = fl_pt2_add282[0] && ev_q[106];
@@ -3161,12 +3168,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[201] = fl_pt2_add282[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add282;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add282 (.clk(clk), .d(pt2_add282), .q(dl_pt2_add282));
+        u_dl_pt2_add282 (.clk(clk), .d(pt2_add282), .valid(1'b0), .q(dl_pt2_add282));
     // pt2_sub283 = pt2_add277 - pt2_add282   (ready @110/110/110)
     logic [W-1:0] pt2_sub283;
     logic [2:0] fl_pt2_sub283;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub283 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add277), .b(dl_pt2_add282), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add277), .b(dl_pt2_add282), .sub(1'b1),
         .out_valid(op_valid_nc[204]), .y(pt2_sub283), .flags(fl_pt2_sub283)
     );
     assign ev_ovf[202] = fl_pt2_sub283[0] && ev_q[110];
@@ -3174,12 +3181,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[202] = fl_pt2_sub283[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub283;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub283 (.clk(clk), .d(pt2_sub283), .q(dl_pt2_sub283));
+        u_dl_pt2_sub283 (.clk(clk), .d(pt2_sub283), .valid(1'b0), .q(dl_pt2_sub283));
     // pt2_mul284 = pt2_cA_x * pt1_wA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul284;
     logic [2:0] fl_pt2_mul284;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul284 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_x[0*W +: W]), .b(dl_pt1_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cA_x[0*W +: W]), .b(dl_pt1_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[205]), .y(pt2_mul284), .flags(fl_pt2_mul284)
     );
     assign ev_ovf[203] = fl_pt2_mul284[0] && ev_q[98];
@@ -3187,12 +3194,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[203] = fl_pt2_mul284[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul284;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul284 (.clk(clk), .d(pt2_mul284), .q(dl_pt2_mul284));
+        u_dl_pt2_mul284 (.clk(clk), .d(pt2_mul284), .valid(1'b0), .q(dl_pt2_mul284));
     // pt2_mul285 = pt2_cA_y * pt1_wA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul285;
     logic [2:0] fl_pt2_mul285;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul285 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_y[0*W +: W]), .b(dl_pt1_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cA_y[0*W +: W]), .b(dl_pt1_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[206]), .y(pt2_mul285), .flags(fl_pt2_mul285)
     );
     assign ev_ovf[204] = fl_pt2_mul285[0] && ev_q[98];
@@ -3200,12 +3207,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[204] = fl_pt2_mul285[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul285;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul285 (.clk(clk), .d(pt2_mul285), .q(dl_pt2_mul285));
+        u_dl_pt2_mul285 (.clk(clk), .d(pt2_mul285), .valid(1'b0), .q(dl_pt2_mul285));
     // pt2_add286 = pt2_mul284 + pt2_mul285   (ready @102/102/102)
     logic [W-1:0] pt2_add286;
     logic [2:0] fl_pt2_add286;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add286 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul284), .b(dl_pt2_mul285), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul284), .b(dl_pt2_mul285), .sub(1'b0),
         .out_valid(op_valid_nc[207]), .y(pt2_add286), .flags(fl_pt2_add286)
     );
     assign ev_ovf[205] = fl_pt2_add286[0] && ev_q[102];
@@ -3213,12 +3220,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[205] = fl_pt2_add286[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add286;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add286 (.clk(clk), .d(pt2_add286), .q(dl_pt2_add286));
+        u_dl_pt2_add286 (.clk(clk), .d(pt2_add286), .valid(1'b0), .q(dl_pt2_add286));
     // pt2_mul287 = pt2_cA_z * pt1_wA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul287;
     logic [2:0] fl_pt2_mul287;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul287 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_z[0*W +: W]), .b(dl_pt1_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cA_z[0*W +: W]), .b(dl_pt1_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[208]), .y(pt2_mul287), .flags(fl_pt2_mul287)
     );
     assign ev_ovf[206] = fl_pt2_mul287[0] && ev_q[98];
@@ -3226,12 +3233,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[206] = fl_pt2_mul287[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul287;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul287 (.clk(clk), .d(pt2_mul287), .q(dl_pt2_mul287));
+        u_dl_pt2_mul287 (.clk(clk), .d(pt2_mul287), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul287));
     // pt2_add288 = pt2_add286 + pt2_mul287   (ready @106/106/106)
     logic [W-1:0] pt2_add288;
     logic [2:0] fl_pt2_add288;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add288 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add286), .b(dl_pt2_mul287), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add286), .b(dl_pt2_mul287), .sub(1'b0),
         .out_valid(op_valid_nc[209]), .y(pt2_add288), .flags(fl_pt2_add288)
     );
     assign ev_ovf[207] = fl_pt2_add288[0] && ev_q[106];
@@ -3239,12 +3246,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[207] = fl_pt2_add288[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add288;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add288 (.clk(clk), .d(pt2_add288), .q(dl_pt2_add288));
+        u_dl_pt2_add288 (.clk(clk), .d(pt2_add288), .valid(1'b0), .q(dl_pt2_add288));
     // pt2_mul289 = pt2_cB_x * pt1_wB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul289;
     logic [2:0] fl_pt2_mul289;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul289 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_x[0*W +: W]), .b(dl_pt1_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cB_x[0*W +: W]), .b(dl_pt1_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[210]), .y(pt2_mul289), .flags(fl_pt2_mul289)
     );
     assign ev_ovf[208] = fl_pt2_mul289[0] && ev_q[98];
@@ -3252,12 +3259,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[208] = fl_pt2_mul289[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul289;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul289 (.clk(clk), .d(pt2_mul289), .q(dl_pt2_mul289));
+        u_dl_pt2_mul289 (.clk(clk), .d(pt2_mul289), .valid(1'b0), .q(dl_pt2_mul289));
     // pt2_mul290 = pt2_cB_y * pt1_wB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul290;
     logic [2:0] fl_pt2_mul290;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul290 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_y[0*W +: W]), .b(dl_pt1_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cB_y[0*W +: W]), .b(dl_pt1_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[211]), .y(pt2_mul290), .flags(fl_pt2_mul290)
     );
     assign ev_ovf[209] = fl_pt2_mul290[0] && ev_q[98];
@@ -3265,12 +3272,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[209] = fl_pt2_mul290[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul290;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul290 (.clk(clk), .d(pt2_mul290), .q(dl_pt2_mul290));
+        u_dl_pt2_mul290 (.clk(clk), .d(pt2_mul290), .valid(1'b0), .q(dl_pt2_mul290));
     // pt2_add291 = pt2_mul289 + pt2_mul290   (ready @102/102/102)
     logic [W-1:0] pt2_add291;
     logic [2:0] fl_pt2_add291;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add291 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul289), .b(dl_pt2_mul290), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul289), .b(dl_pt2_mul290), .sub(1'b0),
         .out_valid(op_valid_nc[212]), .y(pt2_add291), .flags(fl_pt2_add291)
     );
     assign ev_ovf[210] = fl_pt2_add291[0] && ev_q[102];
@@ -3278,12 +3285,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[210] = fl_pt2_add291[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add291;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add291 (.clk(clk), .d(pt2_add291), .q(dl_pt2_add291));
+        u_dl_pt2_add291 (.clk(clk), .d(pt2_add291), .valid(1'b0), .q(dl_pt2_add291));
     // pt2_mul292 = pt2_cB_z * pt1_wB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul292;
     logic [2:0] fl_pt2_mul292;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul292 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_z[0*W +: W]), .b(dl_pt1_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cB_z[0*W +: W]), .b(dl_pt1_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[213]), .y(pt2_mul292), .flags(fl_pt2_mul292)
     );
     assign ev_ovf[211] = fl_pt2_mul292[0] && ev_q[98];
@@ -3291,12 +3298,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[211] = fl_pt2_mul292[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul292;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul292 (.clk(clk), .d(pt2_mul292), .q(dl_pt2_mul292));
+        u_dl_pt2_mul292 (.clk(clk), .d(pt2_mul292), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul292));
     // pt2_add293 = pt2_add291 + pt2_mul292   (ready @106/106/106)
     logic [W-1:0] pt2_add293;
     logic [2:0] fl_pt2_add293;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add293 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add291), .b(dl_pt2_mul292), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add291), .b(dl_pt2_mul292), .sub(1'b0),
         .out_valid(op_valid_nc[214]), .y(pt2_add293), .flags(fl_pt2_add293)
     );
     assign ev_ovf[212] = fl_pt2_add293[0] && ev_q[106];
@@ -3304,12 +3311,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[212] = fl_pt2_add293[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add293;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add293 (.clk(clk), .d(pt2_add293), .q(dl_pt2_add293));
+        u_dl_pt2_add293 (.clk(clk), .d(pt2_add293), .valid(1'b0), .q(dl_pt2_add293));
     // pt2_sub294 = pt2_add288 - pt2_add293   (ready @110/110/110)
     logic [W-1:0] pt2_sub294;
     logic [2:0] fl_pt2_sub294;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub294 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add288), .b(dl_pt2_add293), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add288), .b(dl_pt2_add293), .sub(1'b1),
         .out_valid(op_valid_nc[215]), .y(pt2_sub294), .flags(fl_pt2_sub294)
     );
     assign ev_ovf[213] = fl_pt2_sub294[0] && ev_q[110];
@@ -3317,12 +3324,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[213] = fl_pt2_sub294[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub294;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub294 (.clk(clk), .d(pt2_sub294), .q(dl_pt2_sub294));
+        u_dl_pt2_sub294 (.clk(clk), .d(pt2_sub294), .valid(1'b0), .q(dl_pt2_sub294));
     // pt2_vrel = pt2_sub283 + pt2_sub294   (ready @114/114/114)
     logic [W-1:0] pt2_vrel;
     logic [2:0] fl_pt2_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_sub283), .b(dl_pt2_sub294), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[110]), .a(dl_pt2_sub283), .b(dl_pt2_sub294), .sub(1'b0),
         .out_valid(op_valid_nc[216]), .y(pt2_vrel), .flags(fl_pt2_vrel)
     );
     assign ev_ovf[214] = fl_pt2_vrel[0] && ev_q[114];
@@ -3330,12 +3337,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[214] = fl_pt2_vrel[2] && ev_q[114];
     logic [W-1:0] dl_pt2_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_vrel (.clk(clk), .d(pt2_vrel), .q(dl_pt2_vrel));
+        u_dl_pt2_vrel (.clk(clk), .d(pt2_vrel), .valid(1'b0), .q(dl_pt2_vrel));
     // pt2_add296 = pt2_vrel + b2   (ready @118/118/118)
     logic [W-1:0] pt2_add296;
     logic [2:0] fl_pt2_add296;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add296 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[114]), .a(dl_pt2_vrel), .b(dl_in_b2), .sub(1'b0),
         .out_valid(op_valid_nc[217]), .y(pt2_add296), .flags(fl_pt2_add296)
     );
     assign ev_ovf[215] = fl_pt2_add296[0] && ev_q[118];
@@ -3343,12 +3350,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[215] = fl_pt2_add296[2] && ev_q[118];
     logic [W-1:0] dl_pt2_add296;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add296 (.clk(clk), .d(pt2_add296), .q(dl_pt2_add296));
+        u_dl_pt2_add296 (.clk(clk), .d(pt2_add296), .valid(1'b0), .q(dl_pt2_add296));
     // pt2_delta0 = pt2_add296 * jac_inv2   (ready @121/121/121)
     logic [W-1:0] pt2_delta0;
     logic [2:0] fl_pt2_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add296), .b(dl_in_jac_inv2[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[118]), .a(dl_pt2_add296), .b(dl_in_jac_inv2[1*W +: W]),
         .out_valid(op_valid_nc[218]), .y(pt2_delta0), .flags(fl_pt2_delta0)
     );
     assign ev_ovf[216] = fl_pt2_delta0[0] && ev_q[121];
@@ -3356,12 +3363,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[216] = fl_pt2_delta0[2] && ev_q[121];
     logic [W-1:0] dl_pt2_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_delta0 (.clk(clk), .d(pt2_delta0), .q(dl_pt2_delta0));
+        u_dl_pt2_delta0 (.clk(clk), .d(pt2_delta0), .valid(1'b0), .q(dl_pt2_delta0));
     // pt2_add298 = lam2 + pt2_delta0   (ready @125/125/125)
     logic [W-1:0] pt2_add298;
     logic [2:0] fl_pt2_add298;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add298 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam2[0*W +: W]), .b(dl_pt2_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[121]), .a(dl_in_lam2[0*W +: W]), .b(dl_pt2_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[219]), .y(pt2_add298), .flags(fl_pt2_add298)
     );
     assign ev_ovf[217] = fl_pt2_add298[0] && ev_q[125];
@@ -3369,22 +3376,22 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[217] = fl_pt2_add298[2] && ev_q[125];
     logic [W-1:0] dl_pt2_add298;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add298 (.clk(clk), .d(pt2_add298), .q(dl_pt2_add298));
+        u_dl_pt2_add298 (.clk(clk), .d(pt2_add298), .valid(1'b0), .q(dl_pt2_add298));
     // pt2_lam_new = max(pt2_add298, 0.0)   (ready @126/126/126)
     logic [W-1:0] pt2_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt2_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add298), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[125]), .a(dl_pt2_add298), .b(K_ZERO),
         .out_valid(op_valid_nc[220]), .y_min(nc_pt2_lam_new_min), .y_max(pt2_lam_new),
         .lt(nc_pt2_lam_new_lt), .eq(nc_pt2_lam_new_eq), .unordered(nc_pt2_lam_new_uo)
     );
     logic [W-1:0] dl_pt2_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_lam_new (.clk(clk), .d(pt2_lam_new), .q(dl_pt2_lam_new));
+        u_dl_pt2_lam_new (.clk(clk), .d(pt2_lam_new), .valid(1'b0), .q(dl_pt2_lam_new));
     // pt2_delta = pt2_lam_new - lam2   (ready @130/130/130)
     logic [W-1:0] pt2_delta;
     logic [2:0] fl_pt2_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_lam_new), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[126]), .a(dl_pt2_lam_new), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[221]), .y(pt2_delta), .flags(fl_pt2_delta)
     );
     assign ev_ovf[218] = fl_pt2_delta[0] && ev_q[130];
@@ -3392,18 +3399,18 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[218] = fl_pt2_delta[2] && ev_q[130];
     logic [W-1:0] dl_pt2_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_delta (.clk(clk), .d(pt2_delta), .q(dl_pt2_delta));
+        u_dl_pt2_delta (.clk(clk), .d(pt2_delta), .valid(1'b0), .q(dl_pt2_delta));
     // pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (ready @126/126/126)
     logic [W-1:0] pt2_lam;
     assign pt2_lam = dl_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_pt2_lam_new;
     logic [W-1:0] dl_pt2_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(53))
-        u_dl_pt2_lam (.clk(clk), .d(pt2_lam), .q(dl_pt2_lam));
+        u_dl_pt2_lam (.clk(clk), .d(pt2_lam), .valid(valid_q[126 +: 53]), .q(dl_pt2_lam));
     // pt2_angA_x = IInvA_s * pt2_cA_x   (ready @14/14/14)
     logic [W-1:0] pt2_angA_x;
     logic [2:0] fl_pt2_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_pt2_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_pt2_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[222]), .y(pt2_angA_x), .flags(fl_pt2_angA_x)
     );
     assign ev_ovf[219] = fl_pt2_angA_x[0] && ev_q[14];
@@ -3411,12 +3418,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[219] = fl_pt2_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angA_x (.clk(clk), .d(pt2_angA_x), .q(dl_pt2_angA_x));
+        u_dl_pt2_angA_x (.clk(clk), .d(pt2_angA_x), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_x));
     // pt2_angA_y = IInvA_s * pt2_cA_y   (ready @14/14/14)
     logic [W-1:0] pt2_angA_y;
     logic [2:0] fl_pt2_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_pt2_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_pt2_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[223]), .y(pt2_angA_y), .flags(fl_pt2_angA_y)
     );
     assign ev_ovf[220] = fl_pt2_angA_y[0] && ev_q[14];
@@ -3424,12 +3431,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[220] = fl_pt2_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angA_y (.clk(clk), .d(pt2_angA_y), .q(dl_pt2_angA_y));
+        u_dl_pt2_angA_y (.clk(clk), .d(pt2_angA_y), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_y));
     // pt2_angA_z = IInvA_s * pt2_cA_z   (ready @14/14/14)
     logic [W-1:0] pt2_angA_z;
     logic [2:0] fl_pt2_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_pt2_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_pt2_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[224]), .y(pt2_angA_z), .flags(fl_pt2_angA_z)
     );
     assign ev_ovf[221] = fl_pt2_angA_z[0] && ev_q[14];
@@ -3437,12 +3444,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[221] = fl_pt2_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angA_z (.clk(clk), .d(pt2_angA_z), .q(dl_pt2_angA_z));
+        u_dl_pt2_angA_z (.clk(clk), .d(pt2_angA_z), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_z));
     // pt2_angB_x = IInvB_s * pt2_cB_x   (ready @14/14/14)
     logic [W-1:0] pt2_angB_x;
     logic [2:0] fl_pt2_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_pt2_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_pt2_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[225]), .y(pt2_angB_x), .flags(fl_pt2_angB_x)
     );
     assign ev_ovf[222] = fl_pt2_angB_x[0] && ev_q[14];
@@ -3450,12 +3457,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[222] = fl_pt2_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angB_x (.clk(clk), .d(pt2_angB_x), .q(dl_pt2_angB_x));
+        u_dl_pt2_angB_x (.clk(clk), .d(pt2_angB_x), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_x));
     // pt2_angB_y = IInvB_s * pt2_cB_y   (ready @14/14/14)
     logic [W-1:0] pt2_angB_y;
     logic [2:0] fl_pt2_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_pt2_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_pt2_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[226]), .y(pt2_angB_y), .flags(fl_pt2_angB_y)
     );
     assign ev_ovf[223] = fl_pt2_angB_y[0] && ev_q[14];
@@ -3463,12 +3470,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[223] = fl_pt2_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angB_y (.clk(clk), .d(pt2_angB_y), .q(dl_pt2_angB_y));
+        u_dl_pt2_angB_y (.clk(clk), .d(pt2_angB_y), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_y));
     // pt2_angB_z = IInvB_s * pt2_cB_z   (ready @14/14/14)
     logic [W-1:0] pt2_angB_z;
     logic [2:0] fl_pt2_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_pt2_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_pt2_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[227]), .y(pt2_angB_z), .flags(fl_pt2_angB_z)
     );
     assign ev_ovf[224] = fl_pt2_angB_z[0] && ev_q[14];
@@ -3476,12 +3483,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[224] = fl_pt2_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angB_z (.clk(clk), .d(pt2_angB_z), .q(dl_pt2_angB_z));
+        u_dl_pt2_angB_z (.clk(clk), .d(pt2_angB_z), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_z));
     // pt2_mul308 = linA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul308;
     logic [2:0] fl_pt2_mul308;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul308 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linA_x[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[228]), .y(pt2_mul308), .flags(fl_pt2_mul308)
     );
     assign ev_ovf[225] = fl_pt2_mul308[0] && ev_q[133];
@@ -3489,12 +3496,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[225] = fl_pt2_mul308[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul308;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul308 (.clk(clk), .d(pt2_mul308), .q(dl_pt2_mul308));
+        u_dl_pt2_mul308 (.clk(clk), .d(pt2_mul308), .valid(1'b0), .q(dl_pt2_mul308));
     // pt2_mul309 = linA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul309;
     logic [2:0] fl_pt2_mul309;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul309 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linA_y[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[229]), .y(pt2_mul309), .flags(fl_pt2_mul309)
     );
     assign ev_ovf[226] = fl_pt2_mul309[0] && ev_q[133];
@@ -3502,12 +3509,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[226] = fl_pt2_mul309[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul309;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul309 (.clk(clk), .d(pt2_mul309), .q(dl_pt2_mul309));
+        u_dl_pt2_mul309 (.clk(clk), .d(pt2_mul309), .valid(1'b0), .q(dl_pt2_mul309));
     // pt2_mul310 = linA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul310;
     logic [2:0] fl_pt2_mul310;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul310 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linA_z[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[230]), .y(pt2_mul310), .flags(fl_pt2_mul310)
     );
     assign ev_ovf[227] = fl_pt2_mul310[0] && ev_q[133];
@@ -3515,12 +3522,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[227] = fl_pt2_mul310[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul310;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul310 (.clk(clk), .d(pt2_mul310), .q(dl_pt2_mul310));
+        u_dl_pt2_mul310 (.clk(clk), .d(pt2_mul310), .valid(1'b0), .q(dl_pt2_mul310));
     // pt2_add311 = pt1_vA_x + pt2_mul308   (ready @137/137/137)
     logic [W-1:0] pt2_add311;
     logic [2:0] fl_pt2_add311;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add311 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_x[1*W +: W]), .b(dl_pt2_mul308), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_x[1*W +: W]), .b(dl_pt2_mul308), .sub(1'b0),
         .out_valid(op_valid_nc[231]), .y(pt2_add311), .flags(fl_pt2_add311)
     );
     assign ev_ovf[228] = fl_pt2_add311[0] && ev_q[137];
@@ -3528,12 +3535,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[228] = fl_pt2_add311[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add311;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add311 (.clk(clk), .d(pt2_add311), .q(dl_pt2_add311));
+        u_dl_pt2_add311 (.clk(clk), .d(pt2_add311), .valid(1'b0), .q(dl_pt2_add311));
     // pt2_add312 = pt1_vA_y + pt2_mul309   (ready @137/137/137)
     logic [W-1:0] pt2_add312;
     logic [2:0] fl_pt2_add312;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add312 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_y[1*W +: W]), .b(dl_pt2_mul309), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_y[1*W +: W]), .b(dl_pt2_mul309), .sub(1'b0),
         .out_valid(op_valid_nc[232]), .y(pt2_add312), .flags(fl_pt2_add312)
     );
     assign ev_ovf[229] = fl_pt2_add312[0] && ev_q[137];
@@ -3541,12 +3548,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[229] = fl_pt2_add312[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add312;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add312 (.clk(clk), .d(pt2_add312), .q(dl_pt2_add312));
+        u_dl_pt2_add312 (.clk(clk), .d(pt2_add312), .valid(1'b0), .q(dl_pt2_add312));
     // pt2_add313 = pt1_vA_z + pt2_mul310   (ready @137/137/137)
     logic [W-1:0] pt2_add313;
     logic [2:0] fl_pt2_add313;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add313 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_z[1*W +: W]), .b(dl_pt2_mul310), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_z[1*W +: W]), .b(dl_pt2_mul310), .sub(1'b0),
         .out_valid(op_valid_nc[233]), .y(pt2_add313), .flags(fl_pt2_add313)
     );
     assign ev_ovf[230] = fl_pt2_add313[0] && ev_q[137];
@@ -3554,30 +3561,30 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[230] = fl_pt2_add313[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add313;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add313 (.clk(clk), .d(pt2_add313), .q(dl_pt2_add313));
+        u_dl_pt2_add313 (.clk(clk), .d(pt2_add313), .valid(1'b0), .q(dl_pt2_add313));
     // pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add311   (ready @137/137/137)
     logic [W-1:0] pt2_vA_x;
     assign pt2_vA_x = dl_pt2_skip[1] ? dl_pt1_vA_x[2*W +: W] : dl_pt2_add311;
     logic [3*W-1:0] dl_pt2_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vA_x (.clk(clk), .d(pt2_vA_x), .q(dl_pt2_vA_x));
+        u_dl_pt2_vA_x (.clk(clk), .d(pt2_vA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_x));
     // pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add312   (ready @137/137/137)
     logic [W-1:0] pt2_vA_y;
     assign pt2_vA_y = dl_pt2_skip[1] ? dl_pt1_vA_y[2*W +: W] : dl_pt2_add312;
     logic [3*W-1:0] dl_pt2_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vA_y (.clk(clk), .d(pt2_vA_y), .q(dl_pt2_vA_y));
+        u_dl_pt2_vA_y (.clk(clk), .d(pt2_vA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_y));
     // pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add313   (ready @137/137/137)
     logic [W-1:0] pt2_vA_z;
     assign pt2_vA_z = dl_pt2_skip[1] ? dl_pt1_vA_z[2*W +: W] : dl_pt2_add313;
     logic [3*W-1:0] dl_pt2_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vA_z (.clk(clk), .d(pt2_vA_z), .q(dl_pt2_vA_z));
+        u_dl_pt2_vA_z (.clk(clk), .d(pt2_vA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_z));
     // pt2_mul317 = pt2_angA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul317;
     logic [2:0] fl_pt2_mul317;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul317 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_x), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angA_x), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[234]), .y(pt2_mul317), .flags(fl_pt2_mul317)
     );
     assign ev_ovf[231] = fl_pt2_mul317[0] && ev_q[133];
@@ -3585,12 +3592,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[231] = fl_pt2_mul317[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul317;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul317 (.clk(clk), .d(pt2_mul317), .q(dl_pt2_mul317));
+        u_dl_pt2_mul317 (.clk(clk), .d(pt2_mul317), .valid(1'b0), .q(dl_pt2_mul317));
     // pt2_mul318 = pt2_angA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul318;
     logic [2:0] fl_pt2_mul318;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul318 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_y), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angA_y), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[235]), .y(pt2_mul318), .flags(fl_pt2_mul318)
     );
     assign ev_ovf[232] = fl_pt2_mul318[0] && ev_q[133];
@@ -3598,12 +3605,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[232] = fl_pt2_mul318[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul318;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul318 (.clk(clk), .d(pt2_mul318), .q(dl_pt2_mul318));
+        u_dl_pt2_mul318 (.clk(clk), .d(pt2_mul318), .valid(1'b0), .q(dl_pt2_mul318));
     // pt2_mul319 = pt2_angA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul319;
     logic [2:0] fl_pt2_mul319;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul319 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_z), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angA_z), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[236]), .y(pt2_mul319), .flags(fl_pt2_mul319)
     );
     assign ev_ovf[233] = fl_pt2_mul319[0] && ev_q[133];
@@ -3611,12 +3618,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[233] = fl_pt2_mul319[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul319;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul319 (.clk(clk), .d(pt2_mul319), .q(dl_pt2_mul319));
+        u_dl_pt2_mul319 (.clk(clk), .d(pt2_mul319), .valid(1'b0), .q(dl_pt2_mul319));
     // pt2_add320 = pt1_wA_x + pt2_mul317   (ready @137/137/137)
     logic [W-1:0] pt2_add320;
     logic [2:0] fl_pt2_add320;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add320 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_x[1*W +: W]), .b(dl_pt2_mul317), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_x[1*W +: W]), .b(dl_pt2_mul317), .sub(1'b0),
         .out_valid(op_valid_nc[237]), .y(pt2_add320), .flags(fl_pt2_add320)
     );
     assign ev_ovf[234] = fl_pt2_add320[0] && ev_q[137];
@@ -3624,12 +3631,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[234] = fl_pt2_add320[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add320;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add320 (.clk(clk), .d(pt2_add320), .q(dl_pt2_add320));
+        u_dl_pt2_add320 (.clk(clk), .d(pt2_add320), .valid(1'b0), .q(dl_pt2_add320));
     // pt2_add321 = pt1_wA_y + pt2_mul318   (ready @137/137/137)
     logic [W-1:0] pt2_add321;
     logic [2:0] fl_pt2_add321;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add321 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_y[1*W +: W]), .b(dl_pt2_mul318), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_y[1*W +: W]), .b(dl_pt2_mul318), .sub(1'b0),
         .out_valid(op_valid_nc[238]), .y(pt2_add321), .flags(fl_pt2_add321)
     );
     assign ev_ovf[235] = fl_pt2_add321[0] && ev_q[137];
@@ -3637,12 +3644,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[235] = fl_pt2_add321[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add321;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add321 (.clk(clk), .d(pt2_add321), .q(dl_pt2_add321));
+        u_dl_pt2_add321 (.clk(clk), .d(pt2_add321), .valid(1'b0), .q(dl_pt2_add321));
     // pt2_add322 = pt1_wA_z + pt2_mul319   (ready @137/137/137)
     logic [W-1:0] pt2_add322;
     logic [2:0] fl_pt2_add322;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add322 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_z[1*W +: W]), .b(dl_pt2_mul319), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_z[1*W +: W]), .b(dl_pt2_mul319), .sub(1'b0),
         .out_valid(op_valid_nc[239]), .y(pt2_add322), .flags(fl_pt2_add322)
     );
     assign ev_ovf[236] = fl_pt2_add322[0] && ev_q[137];
@@ -3650,30 +3657,30 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[236] = fl_pt2_add322[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add322;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add322 (.clk(clk), .d(pt2_add322), .q(dl_pt2_add322));
+        u_dl_pt2_add322 (.clk(clk), .d(pt2_add322), .valid(1'b0), .q(dl_pt2_add322));
     // pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add320   (ready @137/137/137)
     logic [W-1:0] pt2_wA_x;
     assign pt2_wA_x = dl_pt2_skip[1] ? dl_pt1_wA_x[2*W +: W] : dl_pt2_add320;
     logic [3*W-1:0] dl_pt2_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wA_x (.clk(clk), .d(pt2_wA_x), .q(dl_pt2_wA_x));
+        u_dl_pt2_wA_x (.clk(clk), .d(pt2_wA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_x));
     // pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add321   (ready @137/137/137)
     logic [W-1:0] pt2_wA_y;
     assign pt2_wA_y = dl_pt2_skip[1] ? dl_pt1_wA_y[2*W +: W] : dl_pt2_add321;
     logic [3*W-1:0] dl_pt2_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wA_y (.clk(clk), .d(pt2_wA_y), .q(dl_pt2_wA_y));
+        u_dl_pt2_wA_y (.clk(clk), .d(pt2_wA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_y));
     // pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add322   (ready @137/137/137)
     logic [W-1:0] pt2_wA_z;
     assign pt2_wA_z = dl_pt2_skip[1] ? dl_pt1_wA_z[2*W +: W] : dl_pt2_add322;
     logic [3*W-1:0] dl_pt2_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wA_z (.clk(clk), .d(pt2_wA_z), .q(dl_pt2_wA_z));
+        u_dl_pt2_wA_z (.clk(clk), .d(pt2_wA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_z));
     // pt2_mul326 = linB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul326;
     logic [2:0] fl_pt2_mul326;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul326 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linB_x[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[240]), .y(pt2_mul326), .flags(fl_pt2_mul326)
     );
     assign ev_ovf[237] = fl_pt2_mul326[0] && ev_q[133];
@@ -3681,12 +3688,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[237] = fl_pt2_mul326[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul326;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul326 (.clk(clk), .d(pt2_mul326), .q(dl_pt2_mul326));
+        u_dl_pt2_mul326 (.clk(clk), .d(pt2_mul326), .valid(1'b0), .q(dl_pt2_mul326));
     // pt2_mul327 = linB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul327;
     logic [2:0] fl_pt2_mul327;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul327 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linB_y[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[241]), .y(pt2_mul327), .flags(fl_pt2_mul327)
     );
     assign ev_ovf[238] = fl_pt2_mul327[0] && ev_q[133];
@@ -3694,12 +3701,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[238] = fl_pt2_mul327[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul327;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul327 (.clk(clk), .d(pt2_mul327), .q(dl_pt2_mul327));
+        u_dl_pt2_mul327 (.clk(clk), .d(pt2_mul327), .valid(1'b0), .q(dl_pt2_mul327));
     // pt2_mul328 = linB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul328;
     logic [2:0] fl_pt2_mul328;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul328 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linB_z[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[242]), .y(pt2_mul328), .flags(fl_pt2_mul328)
     );
     assign ev_ovf[239] = fl_pt2_mul328[0] && ev_q[133];
@@ -3707,12 +3714,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[239] = fl_pt2_mul328[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul328;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul328 (.clk(clk), .d(pt2_mul328), .q(dl_pt2_mul328));
+        u_dl_pt2_mul328 (.clk(clk), .d(pt2_mul328), .valid(1'b0), .q(dl_pt2_mul328));
     // pt2_sub329 = pt1_vB_x - pt2_mul326   (ready @137/137/137)
     logic [W-1:0] pt2_sub329;
     logic [2:0] fl_pt2_sub329;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub329 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_x[1*W +: W]), .b(dl_pt2_mul326), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_x[1*W +: W]), .b(dl_pt2_mul326), .sub(1'b1),
         .out_valid(op_valid_nc[243]), .y(pt2_sub329), .flags(fl_pt2_sub329)
     );
     assign ev_ovf[240] = fl_pt2_sub329[0] && ev_q[137];
@@ -3720,12 +3727,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[240] = fl_pt2_sub329[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub329;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub329 (.clk(clk), .d(pt2_sub329), .q(dl_pt2_sub329));
+        u_dl_pt2_sub329 (.clk(clk), .d(pt2_sub329), .valid(1'b0), .q(dl_pt2_sub329));
     // pt2_sub330 = pt1_vB_y - pt2_mul327   (ready @137/137/137)
     logic [W-1:0] pt2_sub330;
     logic [2:0] fl_pt2_sub330;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub330 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_y[1*W +: W]), .b(dl_pt2_mul327), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_y[1*W +: W]), .b(dl_pt2_mul327), .sub(1'b1),
         .out_valid(op_valid_nc[244]), .y(pt2_sub330), .flags(fl_pt2_sub330)
     );
     assign ev_ovf[241] = fl_pt2_sub330[0] && ev_q[137];
@@ -3733,12 +3740,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[241] = fl_pt2_sub330[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub330;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub330 (.clk(clk), .d(pt2_sub330), .q(dl_pt2_sub330));
+        u_dl_pt2_sub330 (.clk(clk), .d(pt2_sub330), .valid(1'b0), .q(dl_pt2_sub330));
     // pt2_sub331 = pt1_vB_z - pt2_mul328   (ready @137/137/137)
     logic [W-1:0] pt2_sub331;
     logic [2:0] fl_pt2_sub331;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub331 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_z[1*W +: W]), .b(dl_pt2_mul328), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_z[1*W +: W]), .b(dl_pt2_mul328), .sub(1'b1),
         .out_valid(op_valid_nc[245]), .y(pt2_sub331), .flags(fl_pt2_sub331)
     );
     assign ev_ovf[242] = fl_pt2_sub331[0] && ev_q[137];
@@ -3746,30 +3753,30 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[242] = fl_pt2_sub331[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub331;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub331 (.clk(clk), .d(pt2_sub331), .q(dl_pt2_sub331));
+        u_dl_pt2_sub331 (.clk(clk), .d(pt2_sub331), .valid(1'b0), .q(dl_pt2_sub331));
     // pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub329   (ready @137/137/137)
     logic [W-1:0] pt2_vB_x;
     assign pt2_vB_x = dl_pt2_skip[1] ? dl_pt1_vB_x[2*W +: W] : dl_pt2_sub329;
     logic [3*W-1:0] dl_pt2_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vB_x (.clk(clk), .d(pt2_vB_x), .q(dl_pt2_vB_x));
+        u_dl_pt2_vB_x (.clk(clk), .d(pt2_vB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_x));
     // pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub330   (ready @137/137/137)
     logic [W-1:0] pt2_vB_y;
     assign pt2_vB_y = dl_pt2_skip[1] ? dl_pt1_vB_y[2*W +: W] : dl_pt2_sub330;
     logic [3*W-1:0] dl_pt2_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vB_y (.clk(clk), .d(pt2_vB_y), .q(dl_pt2_vB_y));
+        u_dl_pt2_vB_y (.clk(clk), .d(pt2_vB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_y));
     // pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub331   (ready @137/137/137)
     logic [W-1:0] pt2_vB_z;
     assign pt2_vB_z = dl_pt2_skip[1] ? dl_pt1_vB_z[2*W +: W] : dl_pt2_sub331;
     logic [3*W-1:0] dl_pt2_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vB_z (.clk(clk), .d(pt2_vB_z), .q(dl_pt2_vB_z));
+        u_dl_pt2_vB_z (.clk(clk), .d(pt2_vB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_z));
     // pt2_mul335 = pt2_angB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul335;
     logic [2:0] fl_pt2_mul335;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul335 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_x), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angB_x), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[246]), .y(pt2_mul335), .flags(fl_pt2_mul335)
     );
     assign ev_ovf[243] = fl_pt2_mul335[0] && ev_q[133];
@@ -3777,12 +3784,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[243] = fl_pt2_mul335[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul335;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul335 (.clk(clk), .d(pt2_mul335), .q(dl_pt2_mul335));
+        u_dl_pt2_mul335 (.clk(clk), .d(pt2_mul335), .valid(1'b0), .q(dl_pt2_mul335));
     // pt2_mul336 = pt2_angB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul336;
     logic [2:0] fl_pt2_mul336;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul336 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_y), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angB_y), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[247]), .y(pt2_mul336), .flags(fl_pt2_mul336)
     );
     assign ev_ovf[244] = fl_pt2_mul336[0] && ev_q[133];
@@ -3790,12 +3797,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[244] = fl_pt2_mul336[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul336;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul336 (.clk(clk), .d(pt2_mul336), .q(dl_pt2_mul336));
+        u_dl_pt2_mul336 (.clk(clk), .d(pt2_mul336), .valid(1'b0), .q(dl_pt2_mul336));
     // pt2_mul337 = pt2_angB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul337;
     logic [2:0] fl_pt2_mul337;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul337 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_z), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angB_z), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[248]), .y(pt2_mul337), .flags(fl_pt2_mul337)
     );
     assign ev_ovf[245] = fl_pt2_mul337[0] && ev_q[133];
@@ -3803,12 +3810,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[245] = fl_pt2_mul337[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul337;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul337 (.clk(clk), .d(pt2_mul337), .q(dl_pt2_mul337));
+        u_dl_pt2_mul337 (.clk(clk), .d(pt2_mul337), .valid(1'b0), .q(dl_pt2_mul337));
     // pt2_sub338 = pt1_wB_x - pt2_mul335   (ready @137/137/137)
     logic [W-1:0] pt2_sub338;
     logic [2:0] fl_pt2_sub338;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub338 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_x[1*W +: W]), .b(dl_pt2_mul335), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_x[1*W +: W]), .b(dl_pt2_mul335), .sub(1'b1),
         .out_valid(op_valid_nc[249]), .y(pt2_sub338), .flags(fl_pt2_sub338)
     );
     assign ev_ovf[246] = fl_pt2_sub338[0] && ev_q[137];
@@ -3816,12 +3823,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[246] = fl_pt2_sub338[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub338;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub338 (.clk(clk), .d(pt2_sub338), .q(dl_pt2_sub338));
+        u_dl_pt2_sub338 (.clk(clk), .d(pt2_sub338), .valid(1'b0), .q(dl_pt2_sub338));
     // pt2_sub339 = pt1_wB_y - pt2_mul336   (ready @137/137/137)
     logic [W-1:0] pt2_sub339;
     logic [2:0] fl_pt2_sub339;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub339 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_y[1*W +: W]), .b(dl_pt2_mul336), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_y[1*W +: W]), .b(dl_pt2_mul336), .sub(1'b1),
         .out_valid(op_valid_nc[250]), .y(pt2_sub339), .flags(fl_pt2_sub339)
     );
     assign ev_ovf[247] = fl_pt2_sub339[0] && ev_q[137];
@@ -3829,12 +3836,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[247] = fl_pt2_sub339[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub339;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub339 (.clk(clk), .d(pt2_sub339), .q(dl_pt2_sub339));
+        u_dl_pt2_sub339 (.clk(clk), .d(pt2_sub339), .valid(1'b0), .q(dl_pt2_sub339));
     // pt2_sub340 = pt1_wB_z - pt2_mul337   (ready @137/137/137)
     logic [W-1:0] pt2_sub340;
     logic [2:0] fl_pt2_sub340;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub340 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_z[1*W +: W]), .b(dl_pt2_mul337), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_z[1*W +: W]), .b(dl_pt2_mul337), .sub(1'b1),
         .out_valid(op_valid_nc[251]), .y(pt2_sub340), .flags(fl_pt2_sub340)
     );
     assign ev_ovf[248] = fl_pt2_sub340[0] && ev_q[137];
@@ -3842,36 +3849,36 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[248] = fl_pt2_sub340[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub340;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub340 (.clk(clk), .d(pt2_sub340), .q(dl_pt2_sub340));
+        u_dl_pt2_sub340 (.clk(clk), .d(pt2_sub340), .valid(1'b0), .q(dl_pt2_sub340));
     // pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub338   (ready @137/137/137)
     logic [W-1:0] pt2_wB_x;
     assign pt2_wB_x = dl_pt2_skip[1] ? dl_pt1_wB_x[2*W +: W] : dl_pt2_sub338;
     logic [3*W-1:0] dl_pt2_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wB_x (.clk(clk), .d(pt2_wB_x), .q(dl_pt2_wB_x));
+        u_dl_pt2_wB_x (.clk(clk), .d(pt2_wB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_x));
     // pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub339   (ready @137/137/137)
     logic [W-1:0] pt2_wB_y;
     assign pt2_wB_y = dl_pt2_skip[1] ? dl_pt1_wB_y[2*W +: W] : dl_pt2_sub339;
     logic [3*W-1:0] dl_pt2_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wB_y (.clk(clk), .d(pt2_wB_y), .q(dl_pt2_wB_y));
+        u_dl_pt2_wB_y (.clk(clk), .d(pt2_wB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_y));
     // pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub340   (ready @137/137/137)
     logic [W-1:0] pt2_wB_z;
     assign pt2_wB_z = dl_pt2_skip[1] ? dl_pt1_wB_z[2*W +: W] : dl_pt2_sub340;
     logic [3*W-1:0] dl_pt2_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wB_z (.clk(clk), .d(pt2_wB_z), .q(dl_pt2_wB_z));
+        u_dl_pt2_wB_z (.clk(clk), .d(pt2_wB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_z));
     // pt3_skip = jac_inv3 == 0   (ready @0/0/0)
     logic pt3_skip;
     assign pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt3_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}))
-        u_dl_pt3_skip (.clk(clk), .d(pt3_skip), .q(dl_pt3_skip));
+        u_dl_pt3_skip (.clk(clk), .d(pt3_skip), .valid(valid_q[0 +: 179]), .q(dl_pt3_skip));
     // pt3_rA_x = p3_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt3_rA_x;
     logic [2:0] fl_pt3_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(pt3_rA_x), .flags(fl_pt3_rA_x)
     );
     assign ev_ovf[249] = fl_pt3_rA_x[0] && ev_q[4];
@@ -3879,12 +3886,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[249] = fl_pt3_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rA_x (.clk(clk), .d(pt3_rA_x), .q(dl_pt3_rA_x));
+        u_dl_pt3_rA_x (.clk(clk), .d(pt3_rA_x), .valid(1'b0), .q(dl_pt3_rA_x));
     // pt3_rA_y = p3_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt3_rA_y;
     logic [2:0] fl_pt3_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[253]), .y(pt3_rA_y), .flags(fl_pt3_rA_y)
     );
     assign ev_ovf[250] = fl_pt3_rA_y[0] && ev_q[4];
@@ -3892,12 +3899,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[250] = fl_pt3_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rA_y (.clk(clk), .d(pt3_rA_y), .q(dl_pt3_rA_y));
+        u_dl_pt3_rA_y (.clk(clk), .d(pt3_rA_y), .valid(1'b0), .q(dl_pt3_rA_y));
     // pt3_rA_z = p3_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt3_rA_z;
     logic [2:0] fl_pt3_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[254]), .y(pt3_rA_z), .flags(fl_pt3_rA_z)
     );
     assign ev_ovf[251] = fl_pt3_rA_z[0] && ev_q[4];
@@ -3905,12 +3912,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[251] = fl_pt3_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rA_z (.clk(clk), .d(pt3_rA_z), .q(dl_pt3_rA_z));
+        u_dl_pt3_rA_z (.clk(clk), .d(pt3_rA_z), .valid(1'b0), .q(dl_pt3_rA_z));
     // pt3_mul348 = pt3_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul348;
     logic [2:0] fl_pt3_mul348;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul348 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[255]), .y(pt3_mul348), .flags(fl_pt3_mul348)
     );
     assign ev_ovf[252] = fl_pt3_mul348[0] && ev_q[7];
@@ -3918,12 +3925,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[252] = fl_pt3_mul348[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul348;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul348 (.clk(clk), .d(pt3_mul348), .q(dl_pt3_mul348));
+        u_dl_pt3_mul348 (.clk(clk), .d(pt3_mul348), .valid(1'b0), .q(dl_pt3_mul348));
     // pt3_mul349 = pt3_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul349;
     logic [2:0] fl_pt3_mul349;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul349 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[256]), .y(pt3_mul349), .flags(fl_pt3_mul349)
     );
     assign ev_ovf[253] = fl_pt3_mul349[0] && ev_q[7];
@@ -3931,12 +3938,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[253] = fl_pt3_mul349[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul349;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul349 (.clk(clk), .d(pt3_mul349), .q(dl_pt3_mul349));
+        u_dl_pt3_mul349 (.clk(clk), .d(pt3_mul349), .valid(1'b0), .q(dl_pt3_mul349));
     // pt3_cA_x = pt3_mul348 - pt3_mul349   (ready @11/11/11)
     logic [W-1:0] pt3_cA_x;
     logic [2:0] fl_pt3_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul348), .b(dl_pt3_mul349), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul348), .b(dl_pt3_mul349), .sub(1'b1),
         .out_valid(op_valid_nc[257]), .y(pt3_cA_x), .flags(fl_pt3_cA_x)
     );
     assign ev_ovf[254] = fl_pt3_cA_x[0] && ev_q[11];
@@ -3944,12 +3951,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[254] = fl_pt3_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cA_x (.clk(clk), .d(pt3_cA_x), .q(dl_pt3_cA_x));
+        u_dl_pt3_cA_x (.clk(clk), .d(pt3_cA_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_x));
     // pt3_mul351 = pt3_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul351;
     logic [2:0] fl_pt3_mul351;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul351 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[258]), .y(pt3_mul351), .flags(fl_pt3_mul351)
     );
     assign ev_ovf[255] = fl_pt3_mul351[0] && ev_q[7];
@@ -3957,12 +3964,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[255] = fl_pt3_mul351[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul351;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul351 (.clk(clk), .d(pt3_mul351), .q(dl_pt3_mul351));
+        u_dl_pt3_mul351 (.clk(clk), .d(pt3_mul351), .valid(1'b0), .q(dl_pt3_mul351));
     // pt3_mul352 = pt3_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul352;
     logic [2:0] fl_pt3_mul352;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul352 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[259]), .y(pt3_mul352), .flags(fl_pt3_mul352)
     );
     assign ev_ovf[256] = fl_pt3_mul352[0] && ev_q[7];
@@ -3970,12 +3977,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[256] = fl_pt3_mul352[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul352;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul352 (.clk(clk), .d(pt3_mul352), .q(dl_pt3_mul352));
+        u_dl_pt3_mul352 (.clk(clk), .d(pt3_mul352), .valid(1'b0), .q(dl_pt3_mul352));
     // pt3_cA_y = pt3_mul351 - pt3_mul352   (ready @11/11/11)
     logic [W-1:0] pt3_cA_y;
     logic [2:0] fl_pt3_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul351), .b(dl_pt3_mul352), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul351), .b(dl_pt3_mul352), .sub(1'b1),
         .out_valid(op_valid_nc[260]), .y(pt3_cA_y), .flags(fl_pt3_cA_y)
     );
     assign ev_ovf[257] = fl_pt3_cA_y[0] && ev_q[11];
@@ -3983,12 +3990,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[257] = fl_pt3_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cA_y (.clk(clk), .d(pt3_cA_y), .q(dl_pt3_cA_y));
+        u_dl_pt3_cA_y (.clk(clk), .d(pt3_cA_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_y));
     // pt3_mul354 = pt3_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul354;
     logic [2:0] fl_pt3_mul354;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul354 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[261]), .y(pt3_mul354), .flags(fl_pt3_mul354)
     );
     assign ev_ovf[258] = fl_pt3_mul354[0] && ev_q[7];
@@ -3996,12 +4003,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[258] = fl_pt3_mul354[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul354;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul354 (.clk(clk), .d(pt3_mul354), .q(dl_pt3_mul354));
+        u_dl_pt3_mul354 (.clk(clk), .d(pt3_mul354), .valid(1'b0), .q(dl_pt3_mul354));
     // pt3_mul355 = pt3_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul355;
     logic [2:0] fl_pt3_mul355;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul355 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[262]), .y(pt3_mul355), .flags(fl_pt3_mul355)
     );
     assign ev_ovf[259] = fl_pt3_mul355[0] && ev_q[7];
@@ -4009,12 +4016,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[259] = fl_pt3_mul355[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul355;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul355 (.clk(clk), .d(pt3_mul355), .q(dl_pt3_mul355));
+        u_dl_pt3_mul355 (.clk(clk), .d(pt3_mul355), .valid(1'b0), .q(dl_pt3_mul355));
     // pt3_cA_z = pt3_mul354 - pt3_mul355   (ready @11/11/11)
     logic [W-1:0] pt3_cA_z;
     logic [2:0] fl_pt3_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul354), .b(dl_pt3_mul355), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul354), .b(dl_pt3_mul355), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(pt3_cA_z), .flags(fl_pt3_cA_z)
     );
     assign ev_ovf[260] = fl_pt3_cA_z[0] && ev_q[11];
@@ -4022,12 +4029,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[260] = fl_pt3_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cA_z (.clk(clk), .d(pt3_cA_z), .q(dl_pt3_cA_z));
+        u_dl_pt3_cA_z (.clk(clk), .d(pt3_cA_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_z));
     // pt3_rB_x = p3_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt3_rB_x;
     logic [2:0] fl_pt3_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[264]), .y(pt3_rB_x), .flags(fl_pt3_rB_x)
     );
     assign ev_ovf[261] = fl_pt3_rB_x[0] && ev_q[4];
@@ -4035,12 +4042,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[261] = fl_pt3_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rB_x (.clk(clk), .d(pt3_rB_x), .q(dl_pt3_rB_x));
+        u_dl_pt3_rB_x (.clk(clk), .d(pt3_rB_x), .valid(1'b0), .q(dl_pt3_rB_x));
     // pt3_rB_y = p3_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt3_rB_y;
     logic [2:0] fl_pt3_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[265]), .y(pt3_rB_y), .flags(fl_pt3_rB_y)
     );
     assign ev_ovf[262] = fl_pt3_rB_y[0] && ev_q[4];
@@ -4048,12 +4055,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[262] = fl_pt3_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rB_y (.clk(clk), .d(pt3_rB_y), .q(dl_pt3_rB_y));
+        u_dl_pt3_rB_y (.clk(clk), .d(pt3_rB_y), .valid(1'b0), .q(dl_pt3_rB_y));
     // pt3_rB_z = p3_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt3_rB_z;
     logic [2:0] fl_pt3_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[266]), .y(pt3_rB_z), .flags(fl_pt3_rB_z)
     );
     assign ev_ovf[263] = fl_pt3_rB_z[0] && ev_q[4];
@@ -4061,12 +4068,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[263] = fl_pt3_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rB_z (.clk(clk), .d(pt3_rB_z), .q(dl_pt3_rB_z));
+        u_dl_pt3_rB_z (.clk(clk), .d(pt3_rB_z), .valid(1'b0), .q(dl_pt3_rB_z));
     // pt3_mul360 = pt3_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul360;
     logic [2:0] fl_pt3_mul360;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul360 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[267]), .y(pt3_mul360), .flags(fl_pt3_mul360)
     );
     assign ev_ovf[264] = fl_pt3_mul360[0] && ev_q[7];
@@ -4074,12 +4081,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[264] = fl_pt3_mul360[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul360;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul360 (.clk(clk), .d(pt3_mul360), .q(dl_pt3_mul360));
+        u_dl_pt3_mul360 (.clk(clk), .d(pt3_mul360), .valid(1'b0), .q(dl_pt3_mul360));
     // pt3_mul361 = pt3_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul361;
     logic [2:0] fl_pt3_mul361;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul361 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[268]), .y(pt3_mul361), .flags(fl_pt3_mul361)
     );
     assign ev_ovf[265] = fl_pt3_mul361[0] && ev_q[7];
@@ -4087,12 +4094,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[265] = fl_pt3_mul361[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul361;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul361 (.clk(clk), .d(pt3_mul361), .q(dl_pt3_mul361));
+        u_dl_pt3_mul361 (.clk(clk), .d(pt3_mul361), .valid(1'b0), .q(dl_pt3_mul361));
     // pt3_cB_x = pt3_mul360 - pt3_mul361   (ready @11/11/11)
     logic [W-1:0] pt3_cB_x;
     logic [2:0] fl_pt3_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul360), .b(dl_pt3_mul361), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul360), .b(dl_pt3_mul361), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(pt3_cB_x), .flags(fl_pt3_cB_x)
     );
     assign ev_ovf[266] = fl_pt3_cB_x[0] && ev_q[11];
@@ -4100,12 +4107,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[266] = fl_pt3_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cB_x (.clk(clk), .d(pt3_cB_x), .q(dl_pt3_cB_x));
+        u_dl_pt3_cB_x (.clk(clk), .d(pt3_cB_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_x));
     // pt3_mul363 = pt3_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul363;
     logic [2:0] fl_pt3_mul363;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul363 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[270]), .y(pt3_mul363), .flags(fl_pt3_mul363)
     );
     assign ev_ovf[267] = fl_pt3_mul363[0] && ev_q[7];
@@ -4113,12 +4120,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[267] = fl_pt3_mul363[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul363;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul363 (.clk(clk), .d(pt3_mul363), .q(dl_pt3_mul363));
+        u_dl_pt3_mul363 (.clk(clk), .d(pt3_mul363), .valid(1'b0), .q(dl_pt3_mul363));
     // pt3_mul364 = pt3_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul364;
     logic [2:0] fl_pt3_mul364;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul364 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[271]), .y(pt3_mul364), .flags(fl_pt3_mul364)
     );
     assign ev_ovf[268] = fl_pt3_mul364[0] && ev_q[7];
@@ -4126,12 +4133,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[268] = fl_pt3_mul364[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul364;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul364 (.clk(clk), .d(pt3_mul364), .q(dl_pt3_mul364));
+        u_dl_pt3_mul364 (.clk(clk), .d(pt3_mul364), .valid(1'b0), .q(dl_pt3_mul364));
     // pt3_cB_y = pt3_mul363 - pt3_mul364   (ready @11/11/11)
     logic [W-1:0] pt3_cB_y;
     logic [2:0] fl_pt3_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul363), .b(dl_pt3_mul364), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul363), .b(dl_pt3_mul364), .sub(1'b1),
         .out_valid(op_valid_nc[272]), .y(pt3_cB_y), .flags(fl_pt3_cB_y)
     );
     assign ev_ovf[269] = fl_pt3_cB_y[0] && ev_q[11];
@@ -4139,12 +4146,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[269] = fl_pt3_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cB_y (.clk(clk), .d(pt3_cB_y), .q(dl_pt3_cB_y));
+        u_dl_pt3_cB_y (.clk(clk), .d(pt3_cB_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_y));
     // pt3_mul366 = pt3_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul366;
     logic [2:0] fl_pt3_mul366;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul366 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[273]), .y(pt3_mul366), .flags(fl_pt3_mul366)
     );
     assign ev_ovf[270] = fl_pt3_mul366[0] && ev_q[7];
@@ -4152,12 +4159,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[270] = fl_pt3_mul366[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul366;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul366 (.clk(clk), .d(pt3_mul366), .q(dl_pt3_mul366));
+        u_dl_pt3_mul366 (.clk(clk), .d(pt3_mul366), .valid(1'b0), .q(dl_pt3_mul366));
     // pt3_mul367 = pt3_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul367;
     logic [2:0] fl_pt3_mul367;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul367 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[274]), .y(pt3_mul367), .flags(fl_pt3_mul367)
     );
     assign ev_ovf[271] = fl_pt3_mul367[0] && ev_q[7];
@@ -4165,12 +4172,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[271] = fl_pt3_mul367[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul367;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul367 (.clk(clk), .d(pt3_mul367), .q(dl_pt3_mul367));
+        u_dl_pt3_mul367 (.clk(clk), .d(pt3_mul367), .valid(1'b0), .q(dl_pt3_mul367));
     // pt3_cB_z = pt3_mul366 - pt3_mul367   (ready @11/11/11)
     logic [W-1:0] pt3_cB_z;
     logic [2:0] fl_pt3_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul366), .b(dl_pt3_mul367), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul366), .b(dl_pt3_mul367), .sub(1'b1),
         .out_valid(op_valid_nc[275]), .y(pt3_cB_z), .flags(fl_pt3_cB_z)
     );
     assign ev_ovf[272] = fl_pt3_cB_z[0] && ev_q[11];
@@ -4178,12 +4185,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[272] = fl_pt3_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cB_z (.clk(clk), .d(pt3_cB_z), .q(dl_pt3_cB_z));
+        u_dl_pt3_cB_z (.clk(clk), .d(pt3_cB_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_z));
     // pt3_mul369 = n_x * pt2_vA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul369;
     logic [2:0] fl_pt3_mul369;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul369 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[276]), .y(pt3_mul369), .flags(fl_pt3_mul369)
     );
     assign ev_ovf[273] = fl_pt3_mul369[0] && ev_q[140];
@@ -4191,12 +4198,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[273] = fl_pt3_mul369[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul369;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul369 (.clk(clk), .d(pt3_mul369), .q(dl_pt3_mul369));
+        u_dl_pt3_mul369 (.clk(clk), .d(pt3_mul369), .valid(1'b0), .q(dl_pt3_mul369));
     // pt3_mul370 = n_y * pt2_vA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul370;
     logic [2:0] fl_pt3_mul370;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul370 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[277]), .y(pt3_mul370), .flags(fl_pt3_mul370)
     );
     assign ev_ovf[274] = fl_pt3_mul370[0] && ev_q[140];
@@ -4204,12 +4211,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[274] = fl_pt3_mul370[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul370;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul370 (.clk(clk), .d(pt3_mul370), .q(dl_pt3_mul370));
+        u_dl_pt3_mul370 (.clk(clk), .d(pt3_mul370), .valid(1'b0), .q(dl_pt3_mul370));
     // pt3_add371 = pt3_mul369 + pt3_mul370   (ready @144/144/144)
     logic [W-1:0] pt3_add371;
     logic [2:0] fl_pt3_add371;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add371 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul369), .b(dl_pt3_mul370), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul369), .b(dl_pt3_mul370), .sub(1'b0),
         .out_valid(op_valid_nc[278]), .y(pt3_add371), .flags(fl_pt3_add371)
     );
     assign ev_ovf[275] = fl_pt3_add371[0] && ev_q[144];
@@ -4217,12 +4224,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[275] = fl_pt3_add371[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add371;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add371 (.clk(clk), .d(pt3_add371), .q(dl_pt3_add371));
+        u_dl_pt3_add371 (.clk(clk), .d(pt3_add371), .valid(1'b0), .q(dl_pt3_add371));
     // pt3_mul372 = n_z * pt2_vA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul372;
     logic [2:0] fl_pt3_mul372;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul372 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[279]), .y(pt3_mul372), .flags(fl_pt3_mul372)
     );
     assign ev_ovf[276] = fl_pt3_mul372[0] && ev_q[140];
@@ -4230,12 +4237,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[276] = fl_pt3_mul372[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul372;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul372 (.clk(clk), .d(pt3_mul372), .q(dl_pt3_mul372));
+        u_dl_pt3_mul372 (.clk(clk), .d(pt3_mul372), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul372));
     // pt3_add373 = pt3_add371 + pt3_mul372   (ready @148/148/148)
     logic [W-1:0] pt3_add373;
     logic [2:0] fl_pt3_add373;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add373 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add371), .b(dl_pt3_mul372), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add371), .b(dl_pt3_mul372), .sub(1'b0),
         .out_valid(op_valid_nc[280]), .y(pt3_add373), .flags(fl_pt3_add373)
     );
     assign ev_ovf[277] = fl_pt3_add373[0] && ev_q[148];
@@ -4243,12 +4250,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[277] = fl_pt3_add373[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add373;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add373 (.clk(clk), .d(pt3_add373), .q(dl_pt3_add373));
+        u_dl_pt3_add373 (.clk(clk), .d(pt3_add373), .valid(1'b0), .q(dl_pt3_add373));
     // pt3_mul374 = n_x * pt2_vB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul374;
     logic [2:0] fl_pt3_mul374;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul374 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[281]), .y(pt3_mul374), .flags(fl_pt3_mul374)
     );
     assign ev_ovf[278] = fl_pt3_mul374[0] && ev_q[140];
@@ -4256,12 +4263,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[278] = fl_pt3_mul374[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul374;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul374 (.clk(clk), .d(pt3_mul374), .q(dl_pt3_mul374));
+        u_dl_pt3_mul374 (.clk(clk), .d(pt3_mul374), .valid(1'b0), .q(dl_pt3_mul374));
     // pt3_mul375 = n_y * pt2_vB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul375;
     logic [2:0] fl_pt3_mul375;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul375 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[282]), .y(pt3_mul375), .flags(fl_pt3_mul375)
     );
     assign ev_ovf[279] = fl_pt3_mul375[0] && ev_q[140];
@@ -4269,12 +4276,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[279] = fl_pt3_mul375[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul375;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul375 (.clk(clk), .d(pt3_mul375), .q(dl_pt3_mul375));
+        u_dl_pt3_mul375 (.clk(clk), .d(pt3_mul375), .valid(1'b0), .q(dl_pt3_mul375));
     // pt3_add376 = pt3_mul374 + pt3_mul375   (ready @144/144/144)
     logic [W-1:0] pt3_add376;
     logic [2:0] fl_pt3_add376;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add376 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul374), .b(dl_pt3_mul375), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul374), .b(dl_pt3_mul375), .sub(1'b0),
         .out_valid(op_valid_nc[283]), .y(pt3_add376), .flags(fl_pt3_add376)
     );
     assign ev_ovf[280] = fl_pt3_add376[0] && ev_q[144];
@@ -4282,12 +4289,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[280] = fl_pt3_add376[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add376;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add376 (.clk(clk), .d(pt3_add376), .q(dl_pt3_add376));
+        u_dl_pt3_add376 (.clk(clk), .d(pt3_add376), .valid(1'b0), .q(dl_pt3_add376));
     // pt3_mul377 = n_z * pt2_vB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul377;
     logic [2:0] fl_pt3_mul377;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul377 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[284]), .y(pt3_mul377), .flags(fl_pt3_mul377)
     );
     assign ev_ovf[281] = fl_pt3_mul377[0] && ev_q[140];
@@ -4295,12 +4302,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[281] = fl_pt3_mul377[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul377;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul377 (.clk(clk), .d(pt3_mul377), .q(dl_pt3_mul377));
+        u_dl_pt3_mul377 (.clk(clk), .d(pt3_mul377), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul377));
     // pt3_add378 = pt3_add376 + pt3_mul377   (ready @148/148/148)
     logic [W-1:0] pt3_add378;
     logic [2:0] fl_pt3_add378;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add378 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add376), .b(dl_pt3_mul377), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add376), .b(dl_pt3_mul377), .sub(1'b0),
         .out_valid(op_valid_nc[285]), .y(pt3_add378), .flags(fl_pt3_add378)
     );
     assign ev_ovf[282] = fl_pt3_add378[0] && ev_q[148];
@@ -4308,12 +4315,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[282] = fl_pt3_add378[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add378;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add378 (.clk(clk), .d(pt3_add378), .q(dl_pt3_add378));
+        u_dl_pt3_add378 (.clk(clk), .d(pt3_add378), .valid(1'b0), .q(dl_pt3_add378));
     // pt3_sub379 = pt3_add373 - pt3_add378   (ready @152/152/152)
     logic [W-1:0] pt3_sub379;
     logic [2:0] fl_pt3_sub379;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub379 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add373), .b(dl_pt3_add378), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add373), .b(dl_pt3_add378), .sub(1'b1),
         .out_valid(op_valid_nc[286]), .y(pt3_sub379), .flags(fl_pt3_sub379)
     );
     assign ev_ovf[283] = fl_pt3_sub379[0] && ev_q[152];
@@ -4321,12 +4328,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[283] = fl_pt3_sub379[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub379;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub379 (.clk(clk), .d(pt3_sub379), .q(dl_pt3_sub379));
+        u_dl_pt3_sub379 (.clk(clk), .d(pt3_sub379), .valid(1'b0), .q(dl_pt3_sub379));
     // pt3_mul380 = pt3_cA_x * pt2_wA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul380;
     logic [2:0] fl_pt3_mul380;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul380 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_x[0*W +: W]), .b(dl_pt2_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cA_x[0*W +: W]), .b(dl_pt2_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[287]), .y(pt3_mul380), .flags(fl_pt3_mul380)
     );
     assign ev_ovf[284] = fl_pt3_mul380[0] && ev_q[140];
@@ -4334,12 +4341,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[284] = fl_pt3_mul380[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul380;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul380 (.clk(clk), .d(pt3_mul380), .q(dl_pt3_mul380));
+        u_dl_pt3_mul380 (.clk(clk), .d(pt3_mul380), .valid(1'b0), .q(dl_pt3_mul380));
     // pt3_mul381 = pt3_cA_y * pt2_wA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul381;
     logic [2:0] fl_pt3_mul381;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul381 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_y[0*W +: W]), .b(dl_pt2_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cA_y[0*W +: W]), .b(dl_pt2_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[288]), .y(pt3_mul381), .flags(fl_pt3_mul381)
     );
     assign ev_ovf[285] = fl_pt3_mul381[0] && ev_q[140];
@@ -4347,12 +4354,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[285] = fl_pt3_mul381[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul381;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul381 (.clk(clk), .d(pt3_mul381), .q(dl_pt3_mul381));
+        u_dl_pt3_mul381 (.clk(clk), .d(pt3_mul381), .valid(1'b0), .q(dl_pt3_mul381));
     // pt3_add382 = pt3_mul380 + pt3_mul381   (ready @144/144/144)
     logic [W-1:0] pt3_add382;
     logic [2:0] fl_pt3_add382;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add382 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul380), .b(dl_pt3_mul381), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul380), .b(dl_pt3_mul381), .sub(1'b0),
         .out_valid(op_valid_nc[289]), .y(pt3_add382), .flags(fl_pt3_add382)
     );
     assign ev_ovf[286] = fl_pt3_add382[0] && ev_q[144];
@@ -4360,12 +4367,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[286] = fl_pt3_add382[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add382;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add382 (.clk(clk), .d(pt3_add382), .q(dl_pt3_add382));
+        u_dl_pt3_add382 (.clk(clk), .d(pt3_add382), .valid(1'b0), .q(dl_pt3_add382));
     // pt3_mul383 = pt3_cA_z * pt2_wA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul383;
     logic [2:0] fl_pt3_mul383;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul383 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_z[0*W +: W]), .b(dl_pt2_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cA_z[0*W +: W]), .b(dl_pt2_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[290]), .y(pt3_mul383), .flags(fl_pt3_mul383)
     );
     assign ev_ovf[287] = fl_pt3_mul383[0] && ev_q[140];
@@ -4373,12 +4380,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[287] = fl_pt3_mul383[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul383;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul383 (.clk(clk), .d(pt3_mul383), .q(dl_pt3_mul383));
+        u_dl_pt3_mul383 (.clk(clk), .d(pt3_mul383), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul383));
     // pt3_add384 = pt3_add382 + pt3_mul383   (ready @148/148/148)
     logic [W-1:0] pt3_add384;
     logic [2:0] fl_pt3_add384;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add384 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add382), .b(dl_pt3_mul383), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add382), .b(dl_pt3_mul383), .sub(1'b0),
         .out_valid(op_valid_nc[291]), .y(pt3_add384), .flags(fl_pt3_add384)
     );
     assign ev_ovf[288] = fl_pt3_add384[0] && ev_q[148];
@@ -4386,12 +4393,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[288] = fl_pt3_add384[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add384;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add384 (.clk(clk), .d(pt3_add384), .q(dl_pt3_add384));
+        u_dl_pt3_add384 (.clk(clk), .d(pt3_add384), .valid(1'b0), .q(dl_pt3_add384));
     // pt3_mul385 = pt3_cB_x * pt2_wB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul385;
     logic [2:0] fl_pt3_mul385;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul385 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_x[0*W +: W]), .b(dl_pt2_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cB_x[0*W +: W]), .b(dl_pt2_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[292]), .y(pt3_mul385), .flags(fl_pt3_mul385)
     );
     assign ev_ovf[289] = fl_pt3_mul385[0] && ev_q[140];
@@ -4399,12 +4406,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[289] = fl_pt3_mul385[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul385;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul385 (.clk(clk), .d(pt3_mul385), .q(dl_pt3_mul385));
+        u_dl_pt3_mul385 (.clk(clk), .d(pt3_mul385), .valid(1'b0), .q(dl_pt3_mul385));
     // pt3_mul386 = pt3_cB_y * pt2_wB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul386;
     logic [2:0] fl_pt3_mul386;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul386 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_y[0*W +: W]), .b(dl_pt2_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cB_y[0*W +: W]), .b(dl_pt2_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[293]), .y(pt3_mul386), .flags(fl_pt3_mul386)
     );
     assign ev_ovf[290] = fl_pt3_mul386[0] && ev_q[140];
@@ -4412,12 +4419,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[290] = fl_pt3_mul386[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul386;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul386 (.clk(clk), .d(pt3_mul386), .q(dl_pt3_mul386));
+        u_dl_pt3_mul386 (.clk(clk), .d(pt3_mul386), .valid(1'b0), .q(dl_pt3_mul386));
     // pt3_add387 = pt3_mul385 + pt3_mul386   (ready @144/144/144)
     logic [W-1:0] pt3_add387;
     logic [2:0] fl_pt3_add387;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add387 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul385), .b(dl_pt3_mul386), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul385), .b(dl_pt3_mul386), .sub(1'b0),
         .out_valid(op_valid_nc[294]), .y(pt3_add387), .flags(fl_pt3_add387)
     );
     assign ev_ovf[291] = fl_pt3_add387[0] && ev_q[144];
@@ -4425,12 +4432,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[291] = fl_pt3_add387[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add387;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add387 (.clk(clk), .d(pt3_add387), .q(dl_pt3_add387));
+        u_dl_pt3_add387 (.clk(clk), .d(pt3_add387), .valid(1'b0), .q(dl_pt3_add387));
     // pt3_mul388 = pt3_cB_z * pt2_wB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul388;
     logic [2:0] fl_pt3_mul388;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul388 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_z[0*W +: W]), .b(dl_pt2_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cB_z[0*W +: W]), .b(dl_pt2_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[295]), .y(pt3_mul388), .flags(fl_pt3_mul388)
     );
     assign ev_ovf[292] = fl_pt3_mul388[0] && ev_q[140];
@@ -4438,12 +4445,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[292] = fl_pt3_mul388[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul388;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul388 (.clk(clk), .d(pt3_mul388), .q(dl_pt3_mul388));
+        u_dl_pt3_mul388 (.clk(clk), .d(pt3_mul388), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul388));
     // pt3_add389 = pt3_add387 + pt3_mul388   (ready @148/148/148)
     logic [W-1:0] pt3_add389;
     logic [2:0] fl_pt3_add389;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add389 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add387), .b(dl_pt3_mul388), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add387), .b(dl_pt3_mul388), .sub(1'b0),
         .out_valid(op_valid_nc[296]), .y(pt3_add389), .flags(fl_pt3_add389)
     );
     assign ev_ovf[293] = fl_pt3_add389[0] && ev_q[148];
@@ -4451,12 +4458,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[293] = fl_pt3_add389[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add389;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add389 (.clk(clk), .d(pt3_add389), .q(dl_pt3_add389));
+        u_dl_pt3_add389 (.clk(clk), .d(pt3_add389), .valid(1'b0), .q(dl_pt3_add389));
     // pt3_sub390 = pt3_add384 - pt3_add389   (ready @152/152/152)
     logic [W-1:0] pt3_sub390;
     logic [2:0] fl_pt3_sub390;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub390 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add384), .b(dl_pt3_add389), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add384), .b(dl_pt3_add389), .sub(1'b1),
         .out_valid(op_valid_nc[297]), .y(pt3_sub390), .flags(fl_pt3_sub390)
     );
     assign ev_ovf[294] = fl_pt3_sub390[0] && ev_q[152];
@@ -4464,12 +4471,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[294] = fl_pt3_sub390[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub390;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub390 (.clk(clk), .d(pt3_sub390), .q(dl_pt3_sub390));
+        u_dl_pt3_sub390 (.clk(clk), .d(pt3_sub390), .valid(1'b0), .q(dl_pt3_sub390));
     // pt3_vrel = pt3_sub379 + pt3_sub390   (ready @156/156/156)
     logic [W-1:0] pt3_vrel;
     logic [2:0] fl_pt3_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_sub379), .b(dl_pt3_sub390), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[152]), .a(dl_pt3_sub379), .b(dl_pt3_sub390), .sub(1'b0),
         .out_valid(op_valid_nc[298]), .y(pt3_vrel), .flags(fl_pt3_vrel)
     );
     assign ev_ovf[295] = fl_pt3_vrel[0] && ev_q[156];
@@ -4477,12 +4484,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[295] = fl_pt3_vrel[2] && ev_q[156];
     logic [W-1:0] dl_pt3_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vrel (.clk(clk), .d(pt3_vrel), .q(dl_pt3_vrel));
+        u_dl_pt3_vrel (.clk(clk), .d(pt3_vrel), .valid(1'b0), .q(dl_pt3_vrel));
     // pt3_add392 = pt3_vrel + b3   (ready @160/160/160)
     logic [W-1:0] pt3_add392;
     logic [2:0] fl_pt3_add392;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add392 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_vrel), .b(dl_in_b3), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(dl_pt3_vrel), .b(dl_in_b3), .sub(1'b0),
         .out_valid(op_valid_nc[299]), .y(pt3_add392), .flags(fl_pt3_add392)
     );
     assign ev_ovf[296] = fl_pt3_add392[0] && ev_q[160];
@@ -4490,12 +4497,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[296] = fl_pt3_add392[2] && ev_q[160];
     logic [W-1:0] dl_pt3_add392;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add392 (.clk(clk), .d(pt3_add392), .q(dl_pt3_add392));
+        u_dl_pt3_add392 (.clk(clk), .d(pt3_add392), .valid(1'b0), .q(dl_pt3_add392));
     // pt3_delta0 = pt3_add392 * jac_inv3   (ready @163/163/163)
     logic [W-1:0] pt3_delta0;
     logic [2:0] fl_pt3_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add392), .b(dl_in_jac_inv3[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[160]), .a(dl_pt3_add392), .b(dl_in_jac_inv3[1*W +: W]),
         .out_valid(op_valid_nc[300]), .y(pt3_delta0), .flags(fl_pt3_delta0)
     );
     assign ev_ovf[297] = fl_pt3_delta0[0] && ev_q[163];
@@ -4503,12 +4510,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[297] = fl_pt3_delta0[2] && ev_q[163];
     logic [W-1:0] dl_pt3_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_delta0 (.clk(clk), .d(pt3_delta0), .q(dl_pt3_delta0));
+        u_dl_pt3_delta0 (.clk(clk), .d(pt3_delta0), .valid(1'b0), .q(dl_pt3_delta0));
     // pt3_add394 = lam3 + pt3_delta0   (ready @167/167/167)
     logic [W-1:0] pt3_add394;
     logic [2:0] fl_pt3_add394;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add394 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam3[0*W +: W]), .b(dl_pt3_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(dl_in_lam3[0*W +: W]), .b(dl_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[301]), .y(pt3_add394), .flags(fl_pt3_add394)
     );
     assign ev_ovf[298] = fl_pt3_add394[0] && ev_q[167];
@@ -4516,22 +4523,22 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[298] = fl_pt3_add394[2] && ev_q[167];
     logic [W-1:0] dl_pt3_add394;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add394 (.clk(clk), .d(pt3_add394), .q(dl_pt3_add394));
+        u_dl_pt3_add394 (.clk(clk), .d(pt3_add394), .valid(1'b0), .q(dl_pt3_add394));
     // pt3_lam_new = max(pt3_add394, 0.0)   (ready @168/168/168)
     logic [W-1:0] pt3_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt3_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add394), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[167]), .a(dl_pt3_add394), .b(K_ZERO),
         .out_valid(op_valid_nc[302]), .y_min(nc_pt3_lam_new_min), .y_max(pt3_lam_new),
         .lt(nc_pt3_lam_new_lt), .eq(nc_pt3_lam_new_eq), .unordered(nc_pt3_lam_new_uo)
     );
     logic [W-1:0] dl_pt3_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_lam_new (.clk(clk), .d(pt3_lam_new), .q(dl_pt3_lam_new));
+        u_dl_pt3_lam_new (.clk(clk), .d(pt3_lam_new), .valid(1'b0), .q(dl_pt3_lam_new));
     // pt3_delta = pt3_lam_new - lam3   (ready @172/172/172)
     logic [W-1:0] pt3_delta;
     logic [2:0] fl_pt3_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_lam_new), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[168]), .a(dl_pt3_lam_new), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[303]), .y(pt3_delta), .flags(fl_pt3_delta)
     );
     assign ev_ovf[299] = fl_pt3_delta[0] && ev_q[172];
@@ -4539,18 +4546,18 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[299] = fl_pt3_delta[2] && ev_q[172];
     logic [W-1:0] dl_pt3_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_delta (.clk(clk), .d(pt3_delta), .q(dl_pt3_delta));
+        u_dl_pt3_delta (.clk(clk), .d(pt3_delta), .valid(1'b0), .q(dl_pt3_delta));
     // pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (ready @168/168/168)
     logic [W-1:0] pt3_lam;
     assign pt3_lam = dl_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_pt3_lam_new;
     logic [W-1:0] dl_pt3_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_pt3_lam (.clk(clk), .d(pt3_lam), .q(dl_pt3_lam));
+        u_dl_pt3_lam (.clk(clk), .d(pt3_lam), .valid(valid_q[168 +: 11]), .q(dl_pt3_lam));
     // pt3_angA_x = IInvA_s * pt3_cA_x   (ready @14/14/14)
     logic [W-1:0] pt3_angA_x;
     logic [2:0] fl_pt3_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_pt3_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_pt3_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[304]), .y(pt3_angA_x), .flags(fl_pt3_angA_x)
     );
     assign ev_ovf[300] = fl_pt3_angA_x[0] && ev_q[14];
@@ -4558,12 +4565,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[300] = fl_pt3_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angA_x (.clk(clk), .d(pt3_angA_x), .q(dl_pt3_angA_x));
+        u_dl_pt3_angA_x (.clk(clk), .d(pt3_angA_x), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_x));
     // pt3_angA_y = IInvA_s * pt3_cA_y   (ready @14/14/14)
     logic [W-1:0] pt3_angA_y;
     logic [2:0] fl_pt3_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_pt3_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_pt3_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[305]), .y(pt3_angA_y), .flags(fl_pt3_angA_y)
     );
     assign ev_ovf[301] = fl_pt3_angA_y[0] && ev_q[14];
@@ -4571,12 +4578,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[301] = fl_pt3_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angA_y (.clk(clk), .d(pt3_angA_y), .q(dl_pt3_angA_y));
+        u_dl_pt3_angA_y (.clk(clk), .d(pt3_angA_y), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_y));
     // pt3_angA_z = IInvA_s * pt3_cA_z   (ready @14/14/14)
     logic [W-1:0] pt3_angA_z;
     logic [2:0] fl_pt3_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_pt3_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_pt3_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[306]), .y(pt3_angA_z), .flags(fl_pt3_angA_z)
     );
     assign ev_ovf[302] = fl_pt3_angA_z[0] && ev_q[14];
@@ -4584,12 +4591,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[302] = fl_pt3_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angA_z (.clk(clk), .d(pt3_angA_z), .q(dl_pt3_angA_z));
+        u_dl_pt3_angA_z (.clk(clk), .d(pt3_angA_z), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_z));
     // pt3_angB_x = IInvB_s * pt3_cB_x   (ready @14/14/14)
     logic [W-1:0] pt3_angB_x;
     logic [2:0] fl_pt3_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_pt3_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_pt3_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[307]), .y(pt3_angB_x), .flags(fl_pt3_angB_x)
     );
     assign ev_ovf[303] = fl_pt3_angB_x[0] && ev_q[14];
@@ -4597,12 +4604,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[303] = fl_pt3_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angB_x (.clk(clk), .d(pt3_angB_x), .q(dl_pt3_angB_x));
+        u_dl_pt3_angB_x (.clk(clk), .d(pt3_angB_x), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_x));
     // pt3_angB_y = IInvB_s * pt3_cB_y   (ready @14/14/14)
     logic [W-1:0] pt3_angB_y;
     logic [2:0] fl_pt3_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_pt3_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_pt3_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[308]), .y(pt3_angB_y), .flags(fl_pt3_angB_y)
     );
     assign ev_ovf[304] = fl_pt3_angB_y[0] && ev_q[14];
@@ -4610,12 +4617,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[304] = fl_pt3_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angB_y (.clk(clk), .d(pt3_angB_y), .q(dl_pt3_angB_y));
+        u_dl_pt3_angB_y (.clk(clk), .d(pt3_angB_y), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_y));
     // pt3_angB_z = IInvB_s * pt3_cB_z   (ready @14/14/14)
     logic [W-1:0] pt3_angB_z;
     logic [2:0] fl_pt3_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_pt3_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_pt3_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[309]), .y(pt3_angB_z), .flags(fl_pt3_angB_z)
     );
     assign ev_ovf[305] = fl_pt3_angB_z[0] && ev_q[14];
@@ -4623,12 +4630,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[305] = fl_pt3_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angB_z (.clk(clk), .d(pt3_angB_z), .q(dl_pt3_angB_z));
+        u_dl_pt3_angB_z (.clk(clk), .d(pt3_angB_z), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_z));
     // pt3_mul404 = linA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul404;
     logic [2:0] fl_pt3_mul404;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul404 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linA_x[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[310]), .y(pt3_mul404), .flags(fl_pt3_mul404)
     );
     assign ev_ovf[306] = fl_pt3_mul404[0] && ev_q[175];
@@ -4636,12 +4643,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[306] = fl_pt3_mul404[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul404;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul404 (.clk(clk), .d(pt3_mul404), .q(dl_pt3_mul404));
+        u_dl_pt3_mul404 (.clk(clk), .d(pt3_mul404), .valid(1'b0), .q(dl_pt3_mul404));
     // pt3_mul405 = linA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul405;
     logic [2:0] fl_pt3_mul405;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul405 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linA_y[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[311]), .y(pt3_mul405), .flags(fl_pt3_mul405)
     );
     assign ev_ovf[307] = fl_pt3_mul405[0] && ev_q[175];
@@ -4649,12 +4656,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[307] = fl_pt3_mul405[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul405;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul405 (.clk(clk), .d(pt3_mul405), .q(dl_pt3_mul405));
+        u_dl_pt3_mul405 (.clk(clk), .d(pt3_mul405), .valid(1'b0), .q(dl_pt3_mul405));
     // pt3_mul406 = linA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul406;
     logic [2:0] fl_pt3_mul406;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul406 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linA_z[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[312]), .y(pt3_mul406), .flags(fl_pt3_mul406)
     );
     assign ev_ovf[308] = fl_pt3_mul406[0] && ev_q[175];
@@ -4662,12 +4669,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[308] = fl_pt3_mul406[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul406;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul406 (.clk(clk), .d(pt3_mul406), .q(dl_pt3_mul406));
+        u_dl_pt3_mul406 (.clk(clk), .d(pt3_mul406), .valid(1'b0), .q(dl_pt3_mul406));
     // pt3_add407 = pt2_vA_x + pt3_mul404   (ready @179/179/179)
     logic [W-1:0] pt3_add407;
     logic [2:0] fl_pt3_add407;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add407 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_x[1*W +: W]), .b(dl_pt3_mul404), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_x[1*W +: W]), .b(dl_pt3_mul404), .sub(1'b0),
         .out_valid(op_valid_nc[313]), .y(pt3_add407), .flags(fl_pt3_add407)
     );
     assign ev_ovf[309] = fl_pt3_add407[0] && ev_q[179];
@@ -4675,12 +4682,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[309] = fl_pt3_add407[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add407;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add407 (.clk(clk), .d(pt3_add407), .q(dl_pt3_add407));
+        u_dl_pt3_add407 (.clk(clk), .d(pt3_add407), .valid(1'b0), .q(dl_pt3_add407));
     // pt3_add408 = pt2_vA_y + pt3_mul405   (ready @179/179/179)
     logic [W-1:0] pt3_add408;
     logic [2:0] fl_pt3_add408;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add408 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_y[1*W +: W]), .b(dl_pt3_mul405), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_y[1*W +: W]), .b(dl_pt3_mul405), .sub(1'b0),
         .out_valid(op_valid_nc[314]), .y(pt3_add408), .flags(fl_pt3_add408)
     );
     assign ev_ovf[310] = fl_pt3_add408[0] && ev_q[179];
@@ -4688,12 +4695,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[310] = fl_pt3_add408[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add408;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add408 (.clk(clk), .d(pt3_add408), .q(dl_pt3_add408));
+        u_dl_pt3_add408 (.clk(clk), .d(pt3_add408), .valid(1'b0), .q(dl_pt3_add408));
     // pt3_add409 = pt2_vA_z + pt3_mul406   (ready @179/179/179)
     logic [W-1:0] pt3_add409;
     logic [2:0] fl_pt3_add409;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add409 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_z[1*W +: W]), .b(dl_pt3_mul406), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_z[1*W +: W]), .b(dl_pt3_mul406), .sub(1'b0),
         .out_valid(op_valid_nc[315]), .y(pt3_add409), .flags(fl_pt3_add409)
     );
     assign ev_ovf[311] = fl_pt3_add409[0] && ev_q[179];
@@ -4701,30 +4708,30 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[311] = fl_pt3_add409[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add409;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add409 (.clk(clk), .d(pt3_add409), .q(dl_pt3_add409));
+        u_dl_pt3_add409 (.clk(clk), .d(pt3_add409), .valid(1'b0), .q(dl_pt3_add409));
     // pt3_vA_x = pt3_skip ? pt2_vA_x : pt3_add407   (ready @179/179/179)
     logic [W-1:0] pt3_vA_x;
     assign pt3_vA_x = dl_pt3_skip[1] ? dl_pt2_vA_x[2*W +: W] : dl_pt3_add407;
     logic [W-1:0] dl_pt3_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vA_x (.clk(clk), .d(pt3_vA_x), .q(dl_pt3_vA_x));
+        u_dl_pt3_vA_x (.clk(clk), .d(pt3_vA_x), .valid(1'b0), .q(dl_pt3_vA_x));
     // pt3_vA_y = pt3_skip ? pt2_vA_y : pt3_add408   (ready @179/179/179)
     logic [W-1:0] pt3_vA_y;
     assign pt3_vA_y = dl_pt3_skip[1] ? dl_pt2_vA_y[2*W +: W] : dl_pt3_add408;
     logic [W-1:0] dl_pt3_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vA_y (.clk(clk), .d(pt3_vA_y), .q(dl_pt3_vA_y));
+        u_dl_pt3_vA_y (.clk(clk), .d(pt3_vA_y), .valid(1'b0), .q(dl_pt3_vA_y));
     // pt3_vA_z = pt3_skip ? pt2_vA_z : pt3_add409   (ready @179/179/179)
     logic [W-1:0] pt3_vA_z;
     assign pt3_vA_z = dl_pt3_skip[1] ? dl_pt2_vA_z[2*W +: W] : dl_pt3_add409;
     logic [W-1:0] dl_pt3_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vA_z (.clk(clk), .d(pt3_vA_z), .q(dl_pt3_vA_z));
+        u_dl_pt3_vA_z (.clk(clk), .d(pt3_vA_z), .valid(1'b0), .q(dl_pt3_vA_z));
     // pt3_mul413 = pt3_angA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul413;
     logic [2:0] fl_pt3_mul413;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul413 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_x), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angA_x), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[316]), .y(pt3_mul413), .flags(fl_pt3_mul413)
     );
     assign ev_ovf[312] = fl_pt3_mul413[0] && ev_q[175];
@@ -4732,12 +4739,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[312] = fl_pt3_mul413[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul413;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul413 (.clk(clk), .d(pt3_mul413), .q(dl_pt3_mul413));
+        u_dl_pt3_mul413 (.clk(clk), .d(pt3_mul413), .valid(1'b0), .q(dl_pt3_mul413));
     // pt3_mul414 = pt3_angA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul414;
     logic [2:0] fl_pt3_mul414;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul414 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_y), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angA_y), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[317]), .y(pt3_mul414), .flags(fl_pt3_mul414)
     );
     assign ev_ovf[313] = fl_pt3_mul414[0] && ev_q[175];
@@ -4745,12 +4752,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[313] = fl_pt3_mul414[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul414;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul414 (.clk(clk), .d(pt3_mul414), .q(dl_pt3_mul414));
+        u_dl_pt3_mul414 (.clk(clk), .d(pt3_mul414), .valid(1'b0), .q(dl_pt3_mul414));
     // pt3_mul415 = pt3_angA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul415;
     logic [2:0] fl_pt3_mul415;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul415 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_z), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angA_z), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[318]), .y(pt3_mul415), .flags(fl_pt3_mul415)
     );
     assign ev_ovf[314] = fl_pt3_mul415[0] && ev_q[175];
@@ -4758,12 +4765,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[314] = fl_pt3_mul415[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul415;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul415 (.clk(clk), .d(pt3_mul415), .q(dl_pt3_mul415));
+        u_dl_pt3_mul415 (.clk(clk), .d(pt3_mul415), .valid(1'b0), .q(dl_pt3_mul415));
     // pt3_add416 = pt2_wA_x + pt3_mul413   (ready @179/179/179)
     logic [W-1:0] pt3_add416;
     logic [2:0] fl_pt3_add416;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add416 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_x[1*W +: W]), .b(dl_pt3_mul413), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_x[1*W +: W]), .b(dl_pt3_mul413), .sub(1'b0),
         .out_valid(op_valid_nc[319]), .y(pt3_add416), .flags(fl_pt3_add416)
     );
     assign ev_ovf[315] = fl_pt3_add416[0] && ev_q[179];
@@ -4771,12 +4778,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[315] = fl_pt3_add416[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add416;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add416 (.clk(clk), .d(pt3_add416), .q(dl_pt3_add416));
+        u_dl_pt3_add416 (.clk(clk), .d(pt3_add416), .valid(1'b0), .q(dl_pt3_add416));
     // pt3_add417 = pt2_wA_y + pt3_mul414   (ready @179/179/179)
     logic [W-1:0] pt3_add417;
     logic [2:0] fl_pt3_add417;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add417 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_y[1*W +: W]), .b(dl_pt3_mul414), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_y[1*W +: W]), .b(dl_pt3_mul414), .sub(1'b0),
         .out_valid(op_valid_nc[320]), .y(pt3_add417), .flags(fl_pt3_add417)
     );
     assign ev_ovf[316] = fl_pt3_add417[0] && ev_q[179];
@@ -4784,12 +4791,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[316] = fl_pt3_add417[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add417;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add417 (.clk(clk), .d(pt3_add417), .q(dl_pt3_add417));
+        u_dl_pt3_add417 (.clk(clk), .d(pt3_add417), .valid(1'b0), .q(dl_pt3_add417));
     // pt3_add418 = pt2_wA_z + pt3_mul415   (ready @179/179/179)
     logic [W-1:0] pt3_add418;
     logic [2:0] fl_pt3_add418;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add418 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_z[1*W +: W]), .b(dl_pt3_mul415), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_z[1*W +: W]), .b(dl_pt3_mul415), .sub(1'b0),
         .out_valid(op_valid_nc[321]), .y(pt3_add418), .flags(fl_pt3_add418)
     );
     assign ev_ovf[317] = fl_pt3_add418[0] && ev_q[179];
@@ -4797,30 +4804,30 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[317] = fl_pt3_add418[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add418;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add418 (.clk(clk), .d(pt3_add418), .q(dl_pt3_add418));
+        u_dl_pt3_add418 (.clk(clk), .d(pt3_add418), .valid(1'b0), .q(dl_pt3_add418));
     // pt3_wA_x = pt3_skip ? pt2_wA_x : pt3_add416   (ready @179/179/179)
     logic [W-1:0] pt3_wA_x;
     assign pt3_wA_x = dl_pt3_skip[1] ? dl_pt2_wA_x[2*W +: W] : dl_pt3_add416;
     logic [W-1:0] dl_pt3_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wA_x (.clk(clk), .d(pt3_wA_x), .q(dl_pt3_wA_x));
+        u_dl_pt3_wA_x (.clk(clk), .d(pt3_wA_x), .valid(1'b0), .q(dl_pt3_wA_x));
     // pt3_wA_y = pt3_skip ? pt2_wA_y : pt3_add417   (ready @179/179/179)
     logic [W-1:0] pt3_wA_y;
     assign pt3_wA_y = dl_pt3_skip[1] ? dl_pt2_wA_y[2*W +: W] : dl_pt3_add417;
     logic [W-1:0] dl_pt3_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wA_y (.clk(clk), .d(pt3_wA_y), .q(dl_pt3_wA_y));
+        u_dl_pt3_wA_y (.clk(clk), .d(pt3_wA_y), .valid(1'b0), .q(dl_pt3_wA_y));
     // pt3_wA_z = pt3_skip ? pt2_wA_z : pt3_add418   (ready @179/179/179)
     logic [W-1:0] pt3_wA_z;
     assign pt3_wA_z = dl_pt3_skip[1] ? dl_pt2_wA_z[2*W +: W] : dl_pt3_add418;
     logic [W-1:0] dl_pt3_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wA_z (.clk(clk), .d(pt3_wA_z), .q(dl_pt3_wA_z));
+        u_dl_pt3_wA_z (.clk(clk), .d(pt3_wA_z), .valid(1'b0), .q(dl_pt3_wA_z));
     // pt3_mul422 = linB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul422;
     logic [2:0] fl_pt3_mul422;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul422 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linB_x[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[322]), .y(pt3_mul422), .flags(fl_pt3_mul422)
     );
     assign ev_ovf[318] = fl_pt3_mul422[0] && ev_q[175];
@@ -4828,12 +4835,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[318] = fl_pt3_mul422[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul422;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul422 (.clk(clk), .d(pt3_mul422), .q(dl_pt3_mul422));
+        u_dl_pt3_mul422 (.clk(clk), .d(pt3_mul422), .valid(1'b0), .q(dl_pt3_mul422));
     // pt3_mul423 = linB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul423;
     logic [2:0] fl_pt3_mul423;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul423 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linB_y[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[323]), .y(pt3_mul423), .flags(fl_pt3_mul423)
     );
     assign ev_ovf[319] = fl_pt3_mul423[0] && ev_q[175];
@@ -4841,12 +4848,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[319] = fl_pt3_mul423[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul423;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul423 (.clk(clk), .d(pt3_mul423), .q(dl_pt3_mul423));
+        u_dl_pt3_mul423 (.clk(clk), .d(pt3_mul423), .valid(1'b0), .q(dl_pt3_mul423));
     // pt3_mul424 = linB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul424;
     logic [2:0] fl_pt3_mul424;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul424 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linB_z[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[324]), .y(pt3_mul424), .flags(fl_pt3_mul424)
     );
     assign ev_ovf[320] = fl_pt3_mul424[0] && ev_q[175];
@@ -4854,12 +4861,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[320] = fl_pt3_mul424[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul424;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul424 (.clk(clk), .d(pt3_mul424), .q(dl_pt3_mul424));
+        u_dl_pt3_mul424 (.clk(clk), .d(pt3_mul424), .valid(1'b0), .q(dl_pt3_mul424));
     // pt3_sub425 = pt2_vB_x - pt3_mul422   (ready @179/179/179)
     logic [W-1:0] pt3_sub425;
     logic [2:0] fl_pt3_sub425;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub425 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_x[1*W +: W]), .b(dl_pt3_mul422), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_x[1*W +: W]), .b(dl_pt3_mul422), .sub(1'b1),
         .out_valid(op_valid_nc[325]), .y(pt3_sub425), .flags(fl_pt3_sub425)
     );
     assign ev_ovf[321] = fl_pt3_sub425[0] && ev_q[179];
@@ -4867,12 +4874,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[321] = fl_pt3_sub425[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub425;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub425 (.clk(clk), .d(pt3_sub425), .q(dl_pt3_sub425));
+        u_dl_pt3_sub425 (.clk(clk), .d(pt3_sub425), .valid(1'b0), .q(dl_pt3_sub425));
     // pt3_sub426 = pt2_vB_y - pt3_mul423   (ready @179/179/179)
     logic [W-1:0] pt3_sub426;
     logic [2:0] fl_pt3_sub426;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub426 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_y[1*W +: W]), .b(dl_pt3_mul423), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_y[1*W +: W]), .b(dl_pt3_mul423), .sub(1'b1),
         .out_valid(op_valid_nc[326]), .y(pt3_sub426), .flags(fl_pt3_sub426)
     );
     assign ev_ovf[322] = fl_pt3_sub426[0] && ev_q[179];
@@ -4880,12 +4887,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[322] = fl_pt3_sub426[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub426;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub426 (.clk(clk), .d(pt3_sub426), .q(dl_pt3_sub426));
+        u_dl_pt3_sub426 (.clk(clk), .d(pt3_sub426), .valid(1'b0), .q(dl_pt3_sub426));
     // pt3_sub427 = pt2_vB_z - pt3_mul424   (ready @179/179/179)
     logic [W-1:0] pt3_sub427;
     logic [2:0] fl_pt3_sub427;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub427 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_z[1*W +: W]), .b(dl_pt3_mul424), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_z[1*W +: W]), .b(dl_pt3_mul424), .sub(1'b1),
         .out_valid(op_valid_nc[327]), .y(pt3_sub427), .flags(fl_pt3_sub427)
     );
     assign ev_ovf[323] = fl_pt3_sub427[0] && ev_q[179];
@@ -4893,30 +4900,30 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[323] = fl_pt3_sub427[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub427;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub427 (.clk(clk), .d(pt3_sub427), .q(dl_pt3_sub427));
+        u_dl_pt3_sub427 (.clk(clk), .d(pt3_sub427), .valid(1'b0), .q(dl_pt3_sub427));
     // pt3_vB_x = pt3_skip ? pt2_vB_x : pt3_sub425   (ready @179/179/179)
     logic [W-1:0] pt3_vB_x;
     assign pt3_vB_x = dl_pt3_skip[1] ? dl_pt2_vB_x[2*W +: W] : dl_pt3_sub425;
     logic [W-1:0] dl_pt3_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vB_x (.clk(clk), .d(pt3_vB_x), .q(dl_pt3_vB_x));
+        u_dl_pt3_vB_x (.clk(clk), .d(pt3_vB_x), .valid(1'b0), .q(dl_pt3_vB_x));
     // pt3_vB_y = pt3_skip ? pt2_vB_y : pt3_sub426   (ready @179/179/179)
     logic [W-1:0] pt3_vB_y;
     assign pt3_vB_y = dl_pt3_skip[1] ? dl_pt2_vB_y[2*W +: W] : dl_pt3_sub426;
     logic [W-1:0] dl_pt3_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vB_y (.clk(clk), .d(pt3_vB_y), .q(dl_pt3_vB_y));
+        u_dl_pt3_vB_y (.clk(clk), .d(pt3_vB_y), .valid(1'b0), .q(dl_pt3_vB_y));
     // pt3_vB_z = pt3_skip ? pt2_vB_z : pt3_sub427   (ready @179/179/179)
     logic [W-1:0] pt3_vB_z;
     assign pt3_vB_z = dl_pt3_skip[1] ? dl_pt2_vB_z[2*W +: W] : dl_pt3_sub427;
     logic [W-1:0] dl_pt3_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vB_z (.clk(clk), .d(pt3_vB_z), .q(dl_pt3_vB_z));
+        u_dl_pt3_vB_z (.clk(clk), .d(pt3_vB_z), .valid(1'b0), .q(dl_pt3_vB_z));
     // pt3_mul431 = pt3_angB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul431;
     logic [2:0] fl_pt3_mul431;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul431 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_x), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angB_x), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[328]), .y(pt3_mul431), .flags(fl_pt3_mul431)
     );
     assign ev_ovf[324] = fl_pt3_mul431[0] && ev_q[175];
@@ -4924,12 +4931,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[324] = fl_pt3_mul431[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul431;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul431 (.clk(clk), .d(pt3_mul431), .q(dl_pt3_mul431));
+        u_dl_pt3_mul431 (.clk(clk), .d(pt3_mul431), .valid(1'b0), .q(dl_pt3_mul431));
     // pt3_mul432 = pt3_angB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul432;
     logic [2:0] fl_pt3_mul432;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul432 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_y), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angB_y), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[329]), .y(pt3_mul432), .flags(fl_pt3_mul432)
     );
     assign ev_ovf[325] = fl_pt3_mul432[0] && ev_q[175];
@@ -4937,12 +4944,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[325] = fl_pt3_mul432[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul432;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul432 (.clk(clk), .d(pt3_mul432), .q(dl_pt3_mul432));
+        u_dl_pt3_mul432 (.clk(clk), .d(pt3_mul432), .valid(1'b0), .q(dl_pt3_mul432));
     // pt3_mul433 = pt3_angB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul433;
     logic [2:0] fl_pt3_mul433;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul433 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_z), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angB_z), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[330]), .y(pt3_mul433), .flags(fl_pt3_mul433)
     );
     assign ev_ovf[326] = fl_pt3_mul433[0] && ev_q[175];
@@ -4950,12 +4957,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[326] = fl_pt3_mul433[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul433;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul433 (.clk(clk), .d(pt3_mul433), .q(dl_pt3_mul433));
+        u_dl_pt3_mul433 (.clk(clk), .d(pt3_mul433), .valid(1'b0), .q(dl_pt3_mul433));
     // pt3_sub434 = pt2_wB_x - pt3_mul431   (ready @179/179/179)
     logic [W-1:0] pt3_sub434;
     logic [2:0] fl_pt3_sub434;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub434 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_x[1*W +: W]), .b(dl_pt3_mul431), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_x[1*W +: W]), .b(dl_pt3_mul431), .sub(1'b1),
         .out_valid(op_valid_nc[331]), .y(pt3_sub434), .flags(fl_pt3_sub434)
     );
     assign ev_ovf[327] = fl_pt3_sub434[0] && ev_q[179];
@@ -4963,12 +4970,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[327] = fl_pt3_sub434[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub434;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub434 (.clk(clk), .d(pt3_sub434), .q(dl_pt3_sub434));
+        u_dl_pt3_sub434 (.clk(clk), .d(pt3_sub434), .valid(1'b0), .q(dl_pt3_sub434));
     // pt3_sub435 = pt2_wB_y - pt3_mul432   (ready @179/179/179)
     logic [W-1:0] pt3_sub435;
     logic [2:0] fl_pt3_sub435;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub435 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_y[1*W +: W]), .b(dl_pt3_mul432), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_y[1*W +: W]), .b(dl_pt3_mul432), .sub(1'b1),
         .out_valid(op_valid_nc[332]), .y(pt3_sub435), .flags(fl_pt3_sub435)
     );
     assign ev_ovf[328] = fl_pt3_sub435[0] && ev_q[179];
@@ -4976,12 +4983,12 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[328] = fl_pt3_sub435[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub435;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub435 (.clk(clk), .d(pt3_sub435), .q(dl_pt3_sub435));
+        u_dl_pt3_sub435 (.clk(clk), .d(pt3_sub435), .valid(1'b0), .q(dl_pt3_sub435));
     // pt3_sub436 = pt2_wB_z - pt3_mul433   (ready @179/179/179)
     logic [W-1:0] pt3_sub436;
     logic [2:0] fl_pt3_sub436;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub436 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_z[1*W +: W]), .b(dl_pt3_mul433), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_z[1*W +: W]), .b(dl_pt3_mul433), .sub(1'b1),
         .out_valid(op_valid_nc[333]), .y(pt3_sub436), .flags(fl_pt3_sub436)
     );
     assign ev_ovf[329] = fl_pt3_sub436[0] && ev_q[179];
@@ -4989,25 +4996,25 @@ module pgs_contact_pipe_scalar #(
     assign ev_inv[329] = fl_pt3_sub436[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub436;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub436 (.clk(clk), .d(pt3_sub436), .q(dl_pt3_sub436));
+        u_dl_pt3_sub436 (.clk(clk), .d(pt3_sub436), .valid(1'b0), .q(dl_pt3_sub436));
     // pt3_wB_x = pt3_skip ? pt2_wB_x : pt3_sub434   (ready @179/179/179)
     logic [W-1:0] pt3_wB_x;
     assign pt3_wB_x = dl_pt3_skip[1] ? dl_pt2_wB_x[2*W +: W] : dl_pt3_sub434;
     logic [W-1:0] dl_pt3_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wB_x (.clk(clk), .d(pt3_wB_x), .q(dl_pt3_wB_x));
+        u_dl_pt3_wB_x (.clk(clk), .d(pt3_wB_x), .valid(1'b0), .q(dl_pt3_wB_x));
     // pt3_wB_y = pt3_skip ? pt2_wB_y : pt3_sub435   (ready @179/179/179)
     logic [W-1:0] pt3_wB_y;
     assign pt3_wB_y = dl_pt3_skip[1] ? dl_pt2_wB_y[2*W +: W] : dl_pt3_sub435;
     logic [W-1:0] dl_pt3_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wB_y (.clk(clk), .d(pt3_wB_y), .q(dl_pt3_wB_y));
+        u_dl_pt3_wB_y (.clk(clk), .d(pt3_wB_y), .valid(1'b0), .q(dl_pt3_wB_y));
     // pt3_wB_z = pt3_skip ? pt2_wB_z : pt3_sub436   (ready @179/179/179)
     logic [W-1:0] pt3_wB_z;
     assign pt3_wB_z = dl_pt3_skip[1] ? dl_pt2_wB_z[2*W +: W] : dl_pt3_sub436;
     logic [W-1:0] dl_pt3_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wB_z (.clk(clk), .d(pt3_wB_z), .q(dl_pt3_wB_z));
+        u_dl_pt3_wB_z (.clk(clk), .d(pt3_wB_z), .valid(1'b0), .q(dl_pt3_wB_z));
 
     // Outputs, each delayed to LATENCY.
     assign out_data[0*W +: W] = dl_pt0_lam;   // lam0

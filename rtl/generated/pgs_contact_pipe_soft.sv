@@ -76,23 +76,30 @@ module pgs_contact_pipe_soft #(
     logic         nc_pt3_lam_new_lt, nc_pt3_lam_new_eq, nc_pt3_lam_new_uo;
     /* verilator lint_on UNUSEDSIGNAL */
 
-    // Valid and tag pipelines.
+    // Valid and tag pipelines. valid_q[k]: in_valid k cycles ago; an operator's in_valid is the
+    // bit at its issue cycle, so its register stages are enabled only for the pipeline's inputs.
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [LATENCY:0] valid_q;   // the stages after the last operator's issue are not read
+    /* verilator lint_on UNUSEDSIGNAL */
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
+        .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (.clk(clk), .d(in_tag), .q(out_tag));
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+        .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
+    );
 
     // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);
     // an operator's flags belong to the input taken at its ready cycle minus that many cycles.
     localparam int EV_DEPTH = 179;
-    logic [EV_DEPTH:0] ev_q;
-    assign ev_q[0] = in_valid && in_count;
-    for (genvar i = 1; i <= EV_DEPTH; i++) begin : g_ev
-        always_ff @(posedge clk) begin
-            if (rst) ev_q[i] <= 1'b0;
-            else     ev_q[i] <= ev_q[i-1];
-        end
+    logic [EV_DEPTH:1] ev_r;
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [EV_DEPTH:0] ev_q;   // read at the operators' ready cycles only
+    /* verilator lint_on UNUSEDSIGNAL */
+    always_ff @(posedge clk) begin   // one shift of the whole register
+        if (rst) ev_r <= '0;
+        else     ev_r <= EV_DEPTH'({ev_r, in_valid && in_count});
     end
+    assign ev_q = {ev_r, in_valid && in_count};
     logic [N_FP_OPS-1:0] ev_ovf, ev_unf, ev_inv;   // flags of counted inputs, one bit per operator
     always_ff @(posedge clk) begin
         ev_overflow  <= EV_W'($countones(ev_ovf));
@@ -105,280 +112,280 @@ module pgs_contact_pipe_soft #(
     assign in_n_x = in_data[0*W +: W];
     logic [5*W-1:0] dl_in_n_x;
     pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
-        u_dl_in_n_x (.clk(clk), .d(in_n_x), .q(dl_in_n_x));
+        u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 137]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [5*W-1:0] dl_in_n_y;
     pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
-        u_dl_in_n_y (.clk(clk), .d(in_n_y), .q(dl_in_n_y));
+        u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 137]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [5*W-1:0] dl_in_n_z;
     pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
-        u_dl_in_n_z (.clk(clk), .d(in_n_z), .q(dl_in_n_z));
+        u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 137]), .q(dl_in_n_z));
     logic [W-1:0] in_p0_x;
     assign in_p0_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_p0_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p0_x (.clk(clk), .d(in_p0_x), .q(dl_in_p0_x));
+        u_dl_in_p0_x (.clk(clk), .d(in_p0_x), .valid(1'b0), .q(dl_in_p0_x));
     logic [W-1:0] in_p0_y;
     assign in_p0_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_p0_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p0_y (.clk(clk), .d(in_p0_y), .q(dl_in_p0_y));
+        u_dl_in_p0_y (.clk(clk), .d(in_p0_y), .valid(1'b0), .q(dl_in_p0_y));
     logic [W-1:0] in_p0_z;
     assign in_p0_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_p0_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p0_z (.clk(clk), .d(in_p0_z), .q(dl_in_p0_z));
+        u_dl_in_p0_z (.clk(clk), .d(in_p0_z), .valid(1'b0), .q(dl_in_p0_z));
     logic [W-1:0] in_p1_x;
     assign in_p1_x = in_data[6*W +: W];
     logic [W-1:0] dl_in_p1_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p1_x (.clk(clk), .d(in_p1_x), .q(dl_in_p1_x));
+        u_dl_in_p1_x (.clk(clk), .d(in_p1_x), .valid(1'b0), .q(dl_in_p1_x));
     logic [W-1:0] in_p1_y;
     assign in_p1_y = in_data[7*W +: W];
     logic [W-1:0] dl_in_p1_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p1_y (.clk(clk), .d(in_p1_y), .q(dl_in_p1_y));
+        u_dl_in_p1_y (.clk(clk), .d(in_p1_y), .valid(1'b0), .q(dl_in_p1_y));
     logic [W-1:0] in_p1_z;
     assign in_p1_z = in_data[8*W +: W];
     logic [W-1:0] dl_in_p1_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p1_z (.clk(clk), .d(in_p1_z), .q(dl_in_p1_z));
+        u_dl_in_p1_z (.clk(clk), .d(in_p1_z), .valid(1'b0), .q(dl_in_p1_z));
     logic [W-1:0] in_p2_x;
     assign in_p2_x = in_data[9*W +: W];
     logic [W-1:0] dl_in_p2_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p2_x (.clk(clk), .d(in_p2_x), .q(dl_in_p2_x));
+        u_dl_in_p2_x (.clk(clk), .d(in_p2_x), .valid(1'b0), .q(dl_in_p2_x));
     logic [W-1:0] in_p2_y;
     assign in_p2_y = in_data[10*W +: W];
     logic [W-1:0] dl_in_p2_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p2_y (.clk(clk), .d(in_p2_y), .q(dl_in_p2_y));
+        u_dl_in_p2_y (.clk(clk), .d(in_p2_y), .valid(1'b0), .q(dl_in_p2_y));
     logic [W-1:0] in_p2_z;
     assign in_p2_z = in_data[11*W +: W];
     logic [W-1:0] dl_in_p2_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p2_z (.clk(clk), .d(in_p2_z), .q(dl_in_p2_z));
+        u_dl_in_p2_z (.clk(clk), .d(in_p2_z), .valid(1'b0), .q(dl_in_p2_z));
     logic [W-1:0] in_p3_x;
     assign in_p3_x = in_data[12*W +: W];
     logic [W-1:0] dl_in_p3_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p3_x (.clk(clk), .d(in_p3_x), .q(dl_in_p3_x));
+        u_dl_in_p3_x (.clk(clk), .d(in_p3_x), .valid(1'b0), .q(dl_in_p3_x));
     logic [W-1:0] in_p3_y;
     assign in_p3_y = in_data[13*W +: W];
     logic [W-1:0] dl_in_p3_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p3_y (.clk(clk), .d(in_p3_y), .q(dl_in_p3_y));
+        u_dl_in_p3_y (.clk(clk), .d(in_p3_y), .valid(1'b0), .q(dl_in_p3_y));
     logic [W-1:0] in_p3_z;
     assign in_p3_z = in_data[14*W +: W];
     logic [W-1:0] dl_in_p3_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_p3_z (.clk(clk), .d(in_p3_z), .q(dl_in_p3_z));
+        u_dl_in_p3_z (.clk(clk), .d(in_p3_z), .valid(1'b0), .q(dl_in_p3_z));
     logic [W-1:0] in_jac_inv0;
     assign in_jac_inv0 = in_data[15*W +: W];
     logic [2*W-1:0] dl_in_jac_inv0;
     pgs_delay #(.WIDTH(W), .DEPTH(34), .N_TAPS(2), .TAPS({32'(34), 32'(0)}))
-        u_dl_in_jac_inv0 (.clk(clk), .d(in_jac_inv0), .q(dl_in_jac_inv0));
+        u_dl_in_jac_inv0 (.clk(clk), .d(in_jac_inv0), .valid(valid_q[0 +: 34]), .q(dl_in_jac_inv0));
     logic [W-1:0] in_jac_inv1;
     assign in_jac_inv1 = in_data[16*W +: W];
     logic [2*W-1:0] dl_in_jac_inv1;
     pgs_delay #(.WIDTH(W), .DEPTH(76), .N_TAPS(2), .TAPS({32'(76), 32'(0)}))
-        u_dl_in_jac_inv1 (.clk(clk), .d(in_jac_inv1), .q(dl_in_jac_inv1));
+        u_dl_in_jac_inv1 (.clk(clk), .d(in_jac_inv1), .valid(valid_q[0 +: 76]), .q(dl_in_jac_inv1));
     logic [W-1:0] in_jac_inv2;
     assign in_jac_inv2 = in_data[17*W +: W];
     logic [2*W-1:0] dl_in_jac_inv2;
     pgs_delay #(.WIDTH(W), .DEPTH(118), .N_TAPS(2), .TAPS({32'(118), 32'(0)}))
-        u_dl_in_jac_inv2 (.clk(clk), .d(in_jac_inv2), .q(dl_in_jac_inv2));
+        u_dl_in_jac_inv2 (.clk(clk), .d(in_jac_inv2), .valid(valid_q[0 +: 118]), .q(dl_in_jac_inv2));
     logic [W-1:0] in_jac_inv3;
     assign in_jac_inv3 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_jac_inv3;
     pgs_delay #(.WIDTH(W), .DEPTH(160), .N_TAPS(2), .TAPS({32'(160), 32'(0)}))
-        u_dl_in_jac_inv3 (.clk(clk), .d(in_jac_inv3), .q(dl_in_jac_inv3));
+        u_dl_in_jac_inv3 (.clk(clk), .d(in_jac_inv3), .valid(valid_q[0 +: 160]), .q(dl_in_jac_inv3));
     logic [W-1:0] in_b0;
     assign in_b0 = in_data[19*W +: W];
     logic [2*W-1:0] dl_in_b0;
     pgs_delay #(.WIDTH(W), .DEPTH(30), .N_TAPS(2), .TAPS({32'(30), 32'(0)}))
-        u_dl_in_b0 (.clk(clk), .d(in_b0), .q(dl_in_b0));
+        u_dl_in_b0 (.clk(clk), .d(in_b0), .valid(valid_q[0 +: 30]), .q(dl_in_b0));
     logic [W-1:0] in_b1;
     assign in_b1 = in_data[20*W +: W];
     logic [2*W-1:0] dl_in_b1;
     pgs_delay #(.WIDTH(W), .DEPTH(72), .N_TAPS(2), .TAPS({32'(72), 32'(0)}))
-        u_dl_in_b1 (.clk(clk), .d(in_b1), .q(dl_in_b1));
+        u_dl_in_b1 (.clk(clk), .d(in_b1), .valid(valid_q[0 +: 72]), .q(dl_in_b1));
     logic [W-1:0] in_b2;
     assign in_b2 = in_data[21*W +: W];
     logic [2*W-1:0] dl_in_b2;
     pgs_delay #(.WIDTH(W), .DEPTH(114), .N_TAPS(2), .TAPS({32'(114), 32'(0)}))
-        u_dl_in_b2 (.clk(clk), .d(in_b2), .q(dl_in_b2));
+        u_dl_in_b2 (.clk(clk), .d(in_b2), .valid(valid_q[0 +: 114]), .q(dl_in_b2));
     logic [W-1:0] in_b3;
     assign in_b3 = in_data[22*W +: W];
     logic [2*W-1:0] dl_in_b3;
     pgs_delay #(.WIDTH(W), .DEPTH(156), .N_TAPS(2), .TAPS({32'(156), 32'(0)}))
-        u_dl_in_b3 (.clk(clk), .d(in_b3), .q(dl_in_b3));
+        u_dl_in_b3 (.clk(clk), .d(in_b3), .valid(valid_q[0 +: 156]), .q(dl_in_b3));
     logic [W-1:0] in_lam0;
     assign in_lam0 = in_data[23*W +: W];
     logic [2*W-1:0] dl_in_lam0;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(42), 32'(0)}))
-        u_dl_in_lam0 (.clk(clk), .d(in_lam0), .q(dl_in_lam0));
+        u_dl_in_lam0 (.clk(clk), .d(in_lam0), .valid(valid_q[0 +: 42]), .q(dl_in_lam0));
     logic [W-1:0] in_lam1;
     assign in_lam1 = in_data[24*W +: W];
     logic [2*W-1:0] dl_in_lam1;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(84), 32'(0)}))
-        u_dl_in_lam1 (.clk(clk), .d(in_lam1), .q(dl_in_lam1));
+        u_dl_in_lam1 (.clk(clk), .d(in_lam1), .valid(valid_q[0 +: 84]), .q(dl_in_lam1));
     logic [W-1:0] in_lam2;
     assign in_lam2 = in_data[25*W +: W];
     logic [2*W-1:0] dl_in_lam2;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(126), 32'(0)}))
-        u_dl_in_lam2 (.clk(clk), .d(in_lam2), .q(dl_in_lam2));
+        u_dl_in_lam2 (.clk(clk), .d(in_lam2), .valid(valid_q[0 +: 126]), .q(dl_in_lam2));
     logic [W-1:0] in_lam3;
     assign in_lam3 = in_data[26*W +: W];
     logic [2*W-1:0] dl_in_lam3;
     pgs_delay #(.WIDTH(W), .DEPTH(168), .N_TAPS(2), .TAPS({32'(168), 32'(0)}))
-        u_dl_in_lam3 (.clk(clk), .d(in_lam3), .q(dl_in_lam3));
+        u_dl_in_lam3 (.clk(clk), .d(in_lam3), .valid(valid_q[0 +: 168]), .q(dl_in_lam3));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[27*W +: W];
     logic [W-1:0] dl_in_xA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .q(dl_in_xA_x));
+        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[28*W +: W];
     logic [W-1:0] dl_in_xA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .q(dl_in_xA_y));
+        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[29*W +: W];
     logic [W-1:0] dl_in_xA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .q(dl_in_xA_z));
+        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[30*W +: W];
     logic [W-1:0] dl_in_xB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .q(dl_in_xB_x));
+        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[31*W +: W];
     logic [W-1:0] dl_in_xB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .q(dl_in_xB_y));
+        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[32*W +: W];
     logic [W-1:0] dl_in_xB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .q(dl_in_xB_z));
+        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .q(dl_in_vA_x));
+        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 53]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .q(dl_in_vA_y));
+        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 53]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .q(dl_in_vA_z));
+        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 53]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .q(dl_in_wA_x));
+        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 53]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .q(dl_in_wA_y));
+        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 53]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[38*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .q(dl_in_wA_z));
+        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 53]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[39*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .q(dl_in_vB_x));
+        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 53]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[40*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .q(dl_in_vB_y));
+        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 53]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[41*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
-        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .q(dl_in_vB_z));
+        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 53]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[42*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .q(dl_in_wB_x));
+        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 53]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[43*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .q(dl_in_wB_y));
+        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 53]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[44*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
-        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .q(dl_in_wB_z));
+        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 53]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[45*W +: W];
     logic [W-1:0] dl_in_mInvA;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .q(dl_in_mInvA));
+        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[46*W +: W];
     logic [W-1:0] dl_in_mInvB;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .q(dl_in_mInvB));
+        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_x;
     assign in_IInvA_x = in_data[47*W +: W];
     logic [W-1:0] dl_in_IInvA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_x (.clk(clk), .d(in_IInvA_x), .q(dl_in_IInvA_x));
+        u_dl_in_IInvA_x (.clk(clk), .d(in_IInvA_x), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_x));
     logic [W-1:0] in_IInvA_y;
     assign in_IInvA_y = in_data[48*W +: W];
     logic [W-1:0] dl_in_IInvA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_y (.clk(clk), .d(in_IInvA_y), .q(dl_in_IInvA_y));
+        u_dl_in_IInvA_y (.clk(clk), .d(in_IInvA_y), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_y));
     logic [W-1:0] in_IInvA_z;
     assign in_IInvA_z = in_data[49*W +: W];
     logic [W-1:0] dl_in_IInvA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_z (.clk(clk), .d(in_IInvA_z), .q(dl_in_IInvA_z));
+        u_dl_in_IInvA_z (.clk(clk), .d(in_IInvA_z), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_z));
     logic [W-1:0] in_IInvB_x;
     assign in_IInvB_x = in_data[50*W +: W];
     logic [W-1:0] dl_in_IInvB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_x (.clk(clk), .d(in_IInvB_x), .q(dl_in_IInvB_x));
+        u_dl_in_IInvB_x (.clk(clk), .d(in_IInvB_x), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_x));
     logic [W-1:0] in_IInvB_y;
     assign in_IInvB_y = in_data[51*W +: W];
     logic [W-1:0] dl_in_IInvB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_y (.clk(clk), .d(in_IInvB_y), .q(dl_in_IInvB_y));
+        u_dl_in_IInvB_y (.clk(clk), .d(in_IInvB_y), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_y));
     logic [W-1:0] in_IInvB_z;
     assign in_IInvB_z = in_data[52*W +: W];
     logic [W-1:0] dl_in_IInvB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_z (.clk(clk), .d(in_IInvB_z), .q(dl_in_IInvB_z));
+        u_dl_in_IInvB_z (.clk(clk), .d(in_IInvB_z), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_z));
     logic [W-1:0] in_keep_dyn;
     assign in_keep_dyn = in_data[53*W +: W];
     logic [W-1:0] dl_in_keep_dyn;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_keep_dyn (.clk(clk), .d(in_keep_dyn), .q(dl_in_keep_dyn));
+        u_dl_in_keep_dyn (.clk(clk), .d(in_keep_dyn), .valid(1'b0), .q(dl_in_keep_dyn));
     logic [W-1:0] in_keep_static;
     assign in_keep_static = in_data[54*W +: W];
     logic [W-1:0] dl_in_keep_static;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_keep_static (.clk(clk), .d(in_keep_static), .q(dl_in_keep_static));
+        u_dl_in_keep_static (.clk(clk), .d(in_keep_static), .valid(1'b0), .q(dl_in_keep_static));
     logic [1-1:0] dl_in_soft;
     pgs_delay #(.WIDTH(1), .DEPTH(0))
-        u_dl_in_soft (.clk(clk), .d(in_soft), .q(dl_in_soft));
+        u_dl_in_soft (.clk(clk), .d(in_soft), .valid(1'b0), .q(dl_in_soft));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
     // bf16; its delay line feeds every consumer at the consumer's issue cycle.
@@ -387,102 +394,102 @@ module pgs_contact_pipe_soft #(
     assign staticA = (dl_in_mInvA[W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [1-1:0] dl_staticA;
     pgs_delay #(.WIDTH(1), .DEPTH(0))
-        u_dl_staticA (.clk(clk), .d(staticA), .q(dl_staticA));
+        u_dl_staticA (.clk(clk), .d(staticA), .valid(1'b0), .q(dl_staticA));
     // staticB = mInvB == 0   (ready @0/0/0)
     logic staticB;
     assign staticB = (dl_in_mInvB[W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [1-1:0] dl_staticB;
     pgs_delay #(.WIDTH(1), .DEPTH(0))
-        u_dl_staticB (.clk(clk), .d(staticB), .q(dl_staticB));
+        u_dl_staticB (.clk(clk), .d(staticB), .valid(1'b0), .q(dl_staticB));
     // select59 = staticB ? keep_static : keep_dyn   (ready @0/0/0)
     logic [W-1:0] select59;
     assign select59 = dl_staticB ? dl_in_keep_static : dl_in_keep_dyn;
     logic [W-1:0] dl_select59;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_select59 (.clk(clk), .d(select59), .q(dl_select59));
+        u_dl_select59 (.clk(clk), .d(select59), .valid(1'b0), .q(dl_select59));
     // keep_row = staticA ? keep_static : select59   (ready @0/0/0)
     logic [W-1:0] keep_row;
     assign keep_row = dl_staticA ? dl_in_keep_static : dl_select59;
     logic [W-1:0] dl_keep_row;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_keep_row (.clk(clk), .d(keep_row), .q(dl_keep_row));
+        u_dl_keep_row (.clk(clk), .d(keep_row), .valid(1'b0), .q(dl_keep_row));
     // apart0 = b0 > 0   (ready @0/0/0)
     logic apart0;
     assign apart0 = !dl_in_b0[0*W +: W][W-1] && (dl_in_b0[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
     logic [1-1:0] dl_apart0;
     pgs_delay #(.WIDTH(1), .DEPTH(0))
-        u_dl_apart0 (.clk(clk), .d(apart0), .q(dl_apart0));
+        u_dl_apart0 (.clk(clk), .d(apart0), .valid(1'b0), .q(dl_apart0));
     // select62 = apart0 ? 1.0 : keep_row   (ready @0/0/0)
     logic [W-1:0] select62;
     assign select62 = dl_apart0 ? K_ONE : dl_keep_row;
     logic [W-1:0] dl_select62;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_select62 (.clk(clk), .d(select62), .q(dl_select62));
+        u_dl_select62 (.clk(clk), .d(select62), .valid(1'b0), .q(dl_select62));
     // keep0 = soft ? select62 : 1.0   (ready @0/0/0)
     logic [W-1:0] keep0;
     assign keep0 = dl_in_soft ? dl_select62 : K_ONE;
     logic [W-1:0] dl_keep0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_keep0 (.clk(clk), .d(keep0), .q(dl_keep0));
+        u_dl_keep0 (.clk(clk), .d(keep0), .valid(1'b0), .q(dl_keep0));
     // apart1 = b1 > 0   (ready @0/0/0)
     logic apart1;
     assign apart1 = !dl_in_b1[0*W +: W][W-1] && (dl_in_b1[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
     logic [1-1:0] dl_apart1;
     pgs_delay #(.WIDTH(1), .DEPTH(0))
-        u_dl_apart1 (.clk(clk), .d(apart1), .q(dl_apart1));
+        u_dl_apart1 (.clk(clk), .d(apart1), .valid(1'b0), .q(dl_apart1));
     // select65 = apart1 ? 1.0 : keep_row   (ready @0/0/0)
     logic [W-1:0] select65;
     assign select65 = dl_apart1 ? K_ONE : dl_keep_row;
     logic [W-1:0] dl_select65;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_select65 (.clk(clk), .d(select65), .q(dl_select65));
+        u_dl_select65 (.clk(clk), .d(select65), .valid(1'b0), .q(dl_select65));
     // keep1 = soft ? select65 : 1.0   (ready @0/0/0)
     logic [W-1:0] keep1;
     assign keep1 = dl_in_soft ? dl_select65 : K_ONE;
     logic [W-1:0] dl_keep1;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_keep1 (.clk(clk), .d(keep1), .q(dl_keep1));
+        u_dl_keep1 (.clk(clk), .d(keep1), .valid(1'b0), .q(dl_keep1));
     // apart2 = b2 > 0   (ready @0/0/0)
     logic apart2;
     assign apart2 = !dl_in_b2[0*W +: W][W-1] && (dl_in_b2[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
     logic [1-1:0] dl_apart2;
     pgs_delay #(.WIDTH(1), .DEPTH(0))
-        u_dl_apart2 (.clk(clk), .d(apart2), .q(dl_apart2));
+        u_dl_apart2 (.clk(clk), .d(apart2), .valid(1'b0), .q(dl_apart2));
     // select68 = apart2 ? 1.0 : keep_row   (ready @0/0/0)
     logic [W-1:0] select68;
     assign select68 = dl_apart2 ? K_ONE : dl_keep_row;
     logic [W-1:0] dl_select68;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_select68 (.clk(clk), .d(select68), .q(dl_select68));
+        u_dl_select68 (.clk(clk), .d(select68), .valid(1'b0), .q(dl_select68));
     // keep2 = soft ? select68 : 1.0   (ready @0/0/0)
     logic [W-1:0] keep2;
     assign keep2 = dl_in_soft ? dl_select68 : K_ONE;
     logic [W-1:0] dl_keep2;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_keep2 (.clk(clk), .d(keep2), .q(dl_keep2));
+        u_dl_keep2 (.clk(clk), .d(keep2), .valid(1'b0), .q(dl_keep2));
     // apart3 = b3 > 0   (ready @0/0/0)
     logic apart3;
     assign apart3 = !dl_in_b3[0*W +: W][W-1] && (dl_in_b3[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
     logic [1-1:0] dl_apart3;
     pgs_delay #(.WIDTH(1), .DEPTH(0))
-        u_dl_apart3 (.clk(clk), .d(apart3), .q(dl_apart3));
+        u_dl_apart3 (.clk(clk), .d(apart3), .valid(1'b0), .q(dl_apart3));
     // select71 = apart3 ? 1.0 : keep_row   (ready @0/0/0)
     logic [W-1:0] select71;
     assign select71 = dl_apart3 ? K_ONE : dl_keep_row;
     logic [W-1:0] dl_select71;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_select71 (.clk(clk), .d(select71), .q(dl_select71));
+        u_dl_select71 (.clk(clk), .d(select71), .valid(1'b0), .q(dl_select71));
     // keep3 = soft ? select71 : 1.0   (ready @0/0/0)
     logic [W-1:0] keep3;
     assign keep3 = dl_in_soft ? dl_select71 : K_ONE;
     logic [W-1:0] dl_keep3;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_keep3 (.clk(clk), .d(keep3), .q(dl_keep3));
+        u_dl_keep3 (.clk(clk), .d(keep3), .valid(1'b0), .q(dl_keep3));
     // linA_x = n_x * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_x;
     logic [2:0] fl_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[0]), .y(linA_x), .flags(fl_linA_x)
     );
     assign ev_ovf[0] = fl_linA_x[0] && ev_q[3];
@@ -490,12 +497,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[0] = fl_linA_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linA_x (.clk(clk), .d(linA_x), .q(dl_linA_x));
+        u_dl_linA_x (.clk(clk), .d(linA_x), .valid(valid_q[3 +: 169]), .q(dl_linA_x));
     // linA_y = n_y * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_y;
     logic [2:0] fl_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[1]), .y(linA_y), .flags(fl_linA_y)
     );
     assign ev_ovf[1] = fl_linA_y[0] && ev_q[3];
@@ -503,12 +510,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[1] = fl_linA_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linA_y (.clk(clk), .d(linA_y), .q(dl_linA_y));
+        u_dl_linA_y (.clk(clk), .d(linA_y), .valid(valid_q[3 +: 169]), .q(dl_linA_y));
     // linA_z = n_z * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_z;
     logic [2:0] fl_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[2]), .y(linA_z), .flags(fl_linA_z)
     );
     assign ev_ovf[2] = fl_linA_z[0] && ev_q[3];
@@ -516,12 +523,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[2] = fl_linA_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linA_z (.clk(clk), .d(linA_z), .q(dl_linA_z));
+        u_dl_linA_z (.clk(clk), .d(linA_z), .valid(valid_q[3 +: 169]), .q(dl_linA_z));
     // linB_x = n_x * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_x;
     logic [2:0] fl_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[3]), .y(linB_x), .flags(fl_linB_x)
     );
     assign ev_ovf[3] = fl_linB_x[0] && ev_q[3];
@@ -529,12 +536,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[3] = fl_linB_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linB_x (.clk(clk), .d(linB_x), .q(dl_linB_x));
+        u_dl_linB_x (.clk(clk), .d(linB_x), .valid(valid_q[3 +: 169]), .q(dl_linB_x));
     // linB_y = n_y * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_y;
     logic [2:0] fl_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[4]), .y(linB_y), .flags(fl_linB_y)
     );
     assign ev_ovf[4] = fl_linB_y[0] && ev_q[3];
@@ -542,12 +549,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[4] = fl_linB_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linB_y (.clk(clk), .d(linB_y), .q(dl_linB_y));
+        u_dl_linB_y (.clk(clk), .d(linB_y), .valid(valid_q[3 +: 169]), .q(dl_linB_y));
     // linB_z = n_z * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_z;
     logic [2:0] fl_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_linB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[5]), .y(linB_z), .flags(fl_linB_z)
     );
     assign ev_ovf[5] = fl_linB_z[0] && ev_q[3];
@@ -555,18 +562,18 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[5] = fl_linB_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
-        u_dl_linB_z (.clk(clk), .d(linB_z), .q(dl_linB_z));
+        u_dl_linB_z (.clk(clk), .d(linB_z), .valid(valid_q[3 +: 169]), .q(dl_linB_z));
     // pt0_skip = jac_inv0 == 0   (ready @0/0/0)
     logic pt0_skip;
     assign pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt0_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}))
-        u_dl_pt0_skip (.clk(clk), .d(pt0_skip), .q(dl_pt0_skip));
+        u_dl_pt0_skip (.clk(clk), .d(pt0_skip), .valid(valid_q[0 +: 53]), .q(dl_pt0_skip));
     // pt0_rA_x = p0_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt0_rA_x;
     logic [2:0] fl_pt0_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(pt0_rA_x), .flags(fl_pt0_rA_x)
     );
     assign ev_ovf[6] = fl_pt0_rA_x[0] && ev_q[4];
@@ -574,12 +581,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[6] = fl_pt0_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rA_x (.clk(clk), .d(pt0_rA_x), .q(dl_pt0_rA_x));
+        u_dl_pt0_rA_x (.clk(clk), .d(pt0_rA_x), .valid(1'b0), .q(dl_pt0_rA_x));
     // pt0_rA_y = p0_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt0_rA_y;
     logic [2:0] fl_pt0_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(pt0_rA_y), .flags(fl_pt0_rA_y)
     );
     assign ev_ovf[7] = fl_pt0_rA_y[0] && ev_q[4];
@@ -587,12 +594,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[7] = fl_pt0_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rA_y (.clk(clk), .d(pt0_rA_y), .q(dl_pt0_rA_y));
+        u_dl_pt0_rA_y (.clk(clk), .d(pt0_rA_y), .valid(1'b0), .q(dl_pt0_rA_y));
     // pt0_rA_z = p0_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt0_rA_z;
     logic [2:0] fl_pt0_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(pt0_rA_z), .flags(fl_pt0_rA_z)
     );
     assign ev_ovf[8] = fl_pt0_rA_z[0] && ev_q[4];
@@ -600,12 +607,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[8] = fl_pt0_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rA_z (.clk(clk), .d(pt0_rA_z), .q(dl_pt0_rA_z));
+        u_dl_pt0_rA_z (.clk(clk), .d(pt0_rA_z), .valid(1'b0), .q(dl_pt0_rA_z));
     // pt0_mul84 = pt0_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul84;
     logic [2:0] fl_pt0_mul84;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul84 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[9]), .y(pt0_mul84), .flags(fl_pt0_mul84)
     );
     assign ev_ovf[9] = fl_pt0_mul84[0] && ev_q[7];
@@ -613,12 +620,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[9] = fl_pt0_mul84[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul84;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul84 (.clk(clk), .d(pt0_mul84), .q(dl_pt0_mul84));
+        u_dl_pt0_mul84 (.clk(clk), .d(pt0_mul84), .valid(1'b0), .q(dl_pt0_mul84));
     // pt0_mul85 = pt0_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul85;
     logic [2:0] fl_pt0_mul85;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul85 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[10]), .y(pt0_mul85), .flags(fl_pt0_mul85)
     );
     assign ev_ovf[10] = fl_pt0_mul85[0] && ev_q[7];
@@ -626,12 +633,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[10] = fl_pt0_mul85[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul85;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul85 (.clk(clk), .d(pt0_mul85), .q(dl_pt0_mul85));
+        u_dl_pt0_mul85 (.clk(clk), .d(pt0_mul85), .valid(1'b0), .q(dl_pt0_mul85));
     // pt0_cA_x = pt0_mul84 - pt0_mul85   (ready @11/11/11)
     logic [W-1:0] pt0_cA_x;
     logic [2:0] fl_pt0_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul84), .b(dl_pt0_mul85), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul84), .b(dl_pt0_mul85), .sub(1'b1),
         .out_valid(op_valid_nc[11]), .y(pt0_cA_x), .flags(fl_pt0_cA_x)
     );
     assign ev_ovf[11] = fl_pt0_cA_x[0] && ev_q[11];
@@ -639,12 +646,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[11] = fl_pt0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cA_x (.clk(clk), .d(pt0_cA_x), .q(dl_pt0_cA_x));
+        u_dl_pt0_cA_x (.clk(clk), .d(pt0_cA_x), .valid(1'b0), .q(dl_pt0_cA_x));
     // pt0_mul87 = pt0_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul87;
     logic [2:0] fl_pt0_mul87;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul87 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[12]), .y(pt0_mul87), .flags(fl_pt0_mul87)
     );
     assign ev_ovf[12] = fl_pt0_mul87[0] && ev_q[7];
@@ -652,12 +659,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[12] = fl_pt0_mul87[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul87;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul87 (.clk(clk), .d(pt0_mul87), .q(dl_pt0_mul87));
+        u_dl_pt0_mul87 (.clk(clk), .d(pt0_mul87), .valid(1'b0), .q(dl_pt0_mul87));
     // pt0_mul88 = pt0_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul88;
     logic [2:0] fl_pt0_mul88;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul88 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[13]), .y(pt0_mul88), .flags(fl_pt0_mul88)
     );
     assign ev_ovf[13] = fl_pt0_mul88[0] && ev_q[7];
@@ -665,12 +672,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[13] = fl_pt0_mul88[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul88;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul88 (.clk(clk), .d(pt0_mul88), .q(dl_pt0_mul88));
+        u_dl_pt0_mul88 (.clk(clk), .d(pt0_mul88), .valid(1'b0), .q(dl_pt0_mul88));
     // pt0_cA_y = pt0_mul87 - pt0_mul88   (ready @11/11/11)
     logic [W-1:0] pt0_cA_y;
     logic [2:0] fl_pt0_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul87), .b(dl_pt0_mul88), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul87), .b(dl_pt0_mul88), .sub(1'b1),
         .out_valid(op_valid_nc[14]), .y(pt0_cA_y), .flags(fl_pt0_cA_y)
     );
     assign ev_ovf[14] = fl_pt0_cA_y[0] && ev_q[11];
@@ -678,12 +685,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[14] = fl_pt0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cA_y (.clk(clk), .d(pt0_cA_y), .q(dl_pt0_cA_y));
+        u_dl_pt0_cA_y (.clk(clk), .d(pt0_cA_y), .valid(1'b0), .q(dl_pt0_cA_y));
     // pt0_mul90 = pt0_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul90;
     logic [2:0] fl_pt0_mul90;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul90 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[15]), .y(pt0_mul90), .flags(fl_pt0_mul90)
     );
     assign ev_ovf[15] = fl_pt0_mul90[0] && ev_q[7];
@@ -691,12 +698,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[15] = fl_pt0_mul90[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul90;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul90 (.clk(clk), .d(pt0_mul90), .q(dl_pt0_mul90));
+        u_dl_pt0_mul90 (.clk(clk), .d(pt0_mul90), .valid(1'b0), .q(dl_pt0_mul90));
     // pt0_mul91 = pt0_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul91;
     logic [2:0] fl_pt0_mul91;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul91 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[16]), .y(pt0_mul91), .flags(fl_pt0_mul91)
     );
     assign ev_ovf[16] = fl_pt0_mul91[0] && ev_q[7];
@@ -704,12 +711,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[16] = fl_pt0_mul91[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul91;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul91 (.clk(clk), .d(pt0_mul91), .q(dl_pt0_mul91));
+        u_dl_pt0_mul91 (.clk(clk), .d(pt0_mul91), .valid(1'b0), .q(dl_pt0_mul91));
     // pt0_cA_z = pt0_mul90 - pt0_mul91   (ready @11/11/11)
     logic [W-1:0] pt0_cA_z;
     logic [2:0] fl_pt0_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul90), .b(dl_pt0_mul91), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul90), .b(dl_pt0_mul91), .sub(1'b1),
         .out_valid(op_valid_nc[17]), .y(pt0_cA_z), .flags(fl_pt0_cA_z)
     );
     assign ev_ovf[17] = fl_pt0_cA_z[0] && ev_q[11];
@@ -717,12 +724,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[17] = fl_pt0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cA_z (.clk(clk), .d(pt0_cA_z), .q(dl_pt0_cA_z));
+        u_dl_pt0_cA_z (.clk(clk), .d(pt0_cA_z), .valid(1'b0), .q(dl_pt0_cA_z));
     // pt0_rB_x = p0_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt0_rB_x;
     logic [2:0] fl_pt0_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(pt0_rB_x), .flags(fl_pt0_rB_x)
     );
     assign ev_ovf[18] = fl_pt0_rB_x[0] && ev_q[4];
@@ -730,12 +737,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[18] = fl_pt0_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rB_x (.clk(clk), .d(pt0_rB_x), .q(dl_pt0_rB_x));
+        u_dl_pt0_rB_x (.clk(clk), .d(pt0_rB_x), .valid(1'b0), .q(dl_pt0_rB_x));
     // pt0_rB_y = p0_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt0_rB_y;
     logic [2:0] fl_pt0_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[19]), .y(pt0_rB_y), .flags(fl_pt0_rB_y)
     );
     assign ev_ovf[19] = fl_pt0_rB_y[0] && ev_q[4];
@@ -743,12 +750,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[19] = fl_pt0_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rB_y (.clk(clk), .d(pt0_rB_y), .q(dl_pt0_rB_y));
+        u_dl_pt0_rB_y (.clk(clk), .d(pt0_rB_y), .valid(1'b0), .q(dl_pt0_rB_y));
     // pt0_rB_z = p0_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt0_rB_z;
     logic [2:0] fl_pt0_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p0_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p0_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[20]), .y(pt0_rB_z), .flags(fl_pt0_rB_z)
     );
     assign ev_ovf[20] = fl_pt0_rB_z[0] && ev_q[4];
@@ -756,12 +763,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[20] = fl_pt0_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_rB_z (.clk(clk), .d(pt0_rB_z), .q(dl_pt0_rB_z));
+        u_dl_pt0_rB_z (.clk(clk), .d(pt0_rB_z), .valid(1'b0), .q(dl_pt0_rB_z));
     // pt0_mul96 = pt0_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul96;
     logic [2:0] fl_pt0_mul96;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul96 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[21]), .y(pt0_mul96), .flags(fl_pt0_mul96)
     );
     assign ev_ovf[21] = fl_pt0_mul96[0] && ev_q[7];
@@ -769,12 +776,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[21] = fl_pt0_mul96[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul96;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul96 (.clk(clk), .d(pt0_mul96), .q(dl_pt0_mul96));
+        u_dl_pt0_mul96 (.clk(clk), .d(pt0_mul96), .valid(1'b0), .q(dl_pt0_mul96));
     // pt0_mul97 = pt0_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul97;
     logic [2:0] fl_pt0_mul97;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul97 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[22]), .y(pt0_mul97), .flags(fl_pt0_mul97)
     );
     assign ev_ovf[22] = fl_pt0_mul97[0] && ev_q[7];
@@ -782,12 +789,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[22] = fl_pt0_mul97[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul97;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul97 (.clk(clk), .d(pt0_mul97), .q(dl_pt0_mul97));
+        u_dl_pt0_mul97 (.clk(clk), .d(pt0_mul97), .valid(1'b0), .q(dl_pt0_mul97));
     // pt0_cB_x = pt0_mul96 - pt0_mul97   (ready @11/11/11)
     logic [W-1:0] pt0_cB_x;
     logic [2:0] fl_pt0_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul96), .b(dl_pt0_mul97), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul96), .b(dl_pt0_mul97), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(pt0_cB_x), .flags(fl_pt0_cB_x)
     );
     assign ev_ovf[23] = fl_pt0_cB_x[0] && ev_q[11];
@@ -795,12 +802,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[23] = fl_pt0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cB_x (.clk(clk), .d(pt0_cB_x), .q(dl_pt0_cB_x));
+        u_dl_pt0_cB_x (.clk(clk), .d(pt0_cB_x), .valid(1'b0), .q(dl_pt0_cB_x));
     // pt0_mul99 = pt0_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul99;
     logic [2:0] fl_pt0_mul99;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul99 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[24]), .y(pt0_mul99), .flags(fl_pt0_mul99)
     );
     assign ev_ovf[24] = fl_pt0_mul99[0] && ev_q[7];
@@ -808,12 +815,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[24] = fl_pt0_mul99[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul99;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul99 (.clk(clk), .d(pt0_mul99), .q(dl_pt0_mul99));
+        u_dl_pt0_mul99 (.clk(clk), .d(pt0_mul99), .valid(1'b0), .q(dl_pt0_mul99));
     // pt0_mul100 = pt0_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul100;
     logic [2:0] fl_pt0_mul100;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul100 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[25]), .y(pt0_mul100), .flags(fl_pt0_mul100)
     );
     assign ev_ovf[25] = fl_pt0_mul100[0] && ev_q[7];
@@ -821,12 +828,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[25] = fl_pt0_mul100[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul100;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul100 (.clk(clk), .d(pt0_mul100), .q(dl_pt0_mul100));
+        u_dl_pt0_mul100 (.clk(clk), .d(pt0_mul100), .valid(1'b0), .q(dl_pt0_mul100));
     // pt0_cB_y = pt0_mul99 - pt0_mul100   (ready @11/11/11)
     logic [W-1:0] pt0_cB_y;
     logic [2:0] fl_pt0_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul99), .b(dl_pt0_mul100), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul99), .b(dl_pt0_mul100), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(pt0_cB_y), .flags(fl_pt0_cB_y)
     );
     assign ev_ovf[26] = fl_pt0_cB_y[0] && ev_q[11];
@@ -834,12 +841,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[26] = fl_pt0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cB_y (.clk(clk), .d(pt0_cB_y), .q(dl_pt0_cB_y));
+        u_dl_pt0_cB_y (.clk(clk), .d(pt0_cB_y), .valid(1'b0), .q(dl_pt0_cB_y));
     // pt0_mul102 = pt0_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul102;
     logic [2:0] fl_pt0_mul102;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul102 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[27]), .y(pt0_mul102), .flags(fl_pt0_mul102)
     );
     assign ev_ovf[27] = fl_pt0_mul102[0] && ev_q[7];
@@ -847,12 +854,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[27] = fl_pt0_mul102[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul102;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul102 (.clk(clk), .d(pt0_mul102), .q(dl_pt0_mul102));
+        u_dl_pt0_mul102 (.clk(clk), .d(pt0_mul102), .valid(1'b0), .q(dl_pt0_mul102));
     // pt0_mul103 = pt0_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul103;
     logic [2:0] fl_pt0_mul103;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul103 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt0_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[28]), .y(pt0_mul103), .flags(fl_pt0_mul103)
     );
     assign ev_ovf[28] = fl_pt0_mul103[0] && ev_q[7];
@@ -860,12 +867,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[28] = fl_pt0_mul103[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul103;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul103 (.clk(clk), .d(pt0_mul103), .q(dl_pt0_mul103));
+        u_dl_pt0_mul103 (.clk(clk), .d(pt0_mul103), .valid(1'b0), .q(dl_pt0_mul103));
     // pt0_cB_z = pt0_mul102 - pt0_mul103   (ready @11/11/11)
     logic [W-1:0] pt0_cB_z;
     logic [2:0] fl_pt0_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul102), .b(dl_pt0_mul103), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_mul102), .b(dl_pt0_mul103), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(pt0_cB_z), .flags(fl_pt0_cB_z)
     );
     assign ev_ovf[29] = fl_pt0_cB_z[0] && ev_q[11];
@@ -873,12 +880,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[29] = fl_pt0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_cB_z (.clk(clk), .d(pt0_cB_z), .q(dl_pt0_cB_z));
+        u_dl_pt0_cB_z (.clk(clk), .d(pt0_cB_z), .valid(1'b0), .q(dl_pt0_cB_z));
     // pt0_mul105 = n_x * vA_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul105;
     logic [2:0] fl_pt0_mul105;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul105 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[30]), .y(pt0_mul105), .flags(fl_pt0_mul105)
     );
     assign ev_ovf[30] = fl_pt0_mul105[0] && ev_q[3];
@@ -886,12 +893,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[30] = fl_pt0_mul105[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul105;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul105 (.clk(clk), .d(pt0_mul105), .q(dl_pt0_mul105));
+        u_dl_pt0_mul105 (.clk(clk), .d(pt0_mul105), .valid(1'b0), .q(dl_pt0_mul105));
     // pt0_mul106 = n_y * vA_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul106;
     logic [2:0] fl_pt0_mul106;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul106 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[31]), .y(pt0_mul106), .flags(fl_pt0_mul106)
     );
     assign ev_ovf[31] = fl_pt0_mul106[0] && ev_q[3];
@@ -899,12 +906,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[31] = fl_pt0_mul106[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul106;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul106 (.clk(clk), .d(pt0_mul106), .q(dl_pt0_mul106));
+        u_dl_pt0_mul106 (.clk(clk), .d(pt0_mul106), .valid(1'b0), .q(dl_pt0_mul106));
     // pt0_add107 = pt0_mul105 + pt0_mul106   (ready @7/7/7)
     logic [W-1:0] pt0_add107;
     logic [2:0] fl_pt0_add107;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add107 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul105), .b(dl_pt0_mul106), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul105), .b(dl_pt0_mul106), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(pt0_add107), .flags(fl_pt0_add107)
     );
     assign ev_ovf[32] = fl_pt0_add107[0] && ev_q[7];
@@ -912,12 +919,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[32] = fl_pt0_add107[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add107;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add107 (.clk(clk), .d(pt0_add107), .q(dl_pt0_add107));
+        u_dl_pt0_add107 (.clk(clk), .d(pt0_add107), .valid(1'b0), .q(dl_pt0_add107));
     // pt0_mul108 = n_z * vA_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul108;
     logic [2:0] fl_pt0_mul108;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul108 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[33]), .y(pt0_mul108), .flags(fl_pt0_mul108)
     );
     assign ev_ovf[33] = fl_pt0_mul108[0] && ev_q[3];
@@ -925,12 +932,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[33] = fl_pt0_mul108[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul108;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul108 (.clk(clk), .d(pt0_mul108), .q(dl_pt0_mul108));
+        u_dl_pt0_mul108 (.clk(clk), .d(pt0_mul108), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul108));
     // pt0_add109 = pt0_add107 + pt0_mul108   (ready @11/11/11)
     logic [W-1:0] pt0_add109;
     logic [2:0] fl_pt0_add109;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add109 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add107), .b(dl_pt0_mul108), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add107), .b(dl_pt0_mul108), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(pt0_add109), .flags(fl_pt0_add109)
     );
     assign ev_ovf[34] = fl_pt0_add109[0] && ev_q[11];
@@ -938,12 +945,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[34] = fl_pt0_add109[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add109;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add109 (.clk(clk), .d(pt0_add109), .q(dl_pt0_add109));
+        u_dl_pt0_add109 (.clk(clk), .d(pt0_add109), .valid(1'b0), .q(dl_pt0_add109));
     // pt0_mul110 = n_x * vB_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul110;
     logic [2:0] fl_pt0_mul110;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul110 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_x[0*W +: W]), .b(dl_in_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[35]), .y(pt0_mul110), .flags(fl_pt0_mul110)
     );
     assign ev_ovf[35] = fl_pt0_mul110[0] && ev_q[3];
@@ -951,12 +958,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[35] = fl_pt0_mul110[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul110;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul110 (.clk(clk), .d(pt0_mul110), .q(dl_pt0_mul110));
+        u_dl_pt0_mul110 (.clk(clk), .d(pt0_mul110), .valid(1'b0), .q(dl_pt0_mul110));
     // pt0_mul111 = n_y * vB_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul111;
     logic [2:0] fl_pt0_mul111;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul111 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_y[0*W +: W]), .b(dl_in_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[36]), .y(pt0_mul111), .flags(fl_pt0_mul111)
     );
     assign ev_ovf[36] = fl_pt0_mul111[0] && ev_q[3];
@@ -964,12 +971,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[36] = fl_pt0_mul111[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul111;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul111 (.clk(clk), .d(pt0_mul111), .q(dl_pt0_mul111));
+        u_dl_pt0_mul111 (.clk(clk), .d(pt0_mul111), .valid(1'b0), .q(dl_pt0_mul111));
     // pt0_add112 = pt0_mul110 + pt0_mul111   (ready @7/7/7)
     logic [W-1:0] pt0_add112;
     logic [2:0] fl_pt0_add112;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add112 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul110), .b(dl_pt0_mul111), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_pt0_mul110), .b(dl_pt0_mul111), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(pt0_add112), .flags(fl_pt0_add112)
     );
     assign ev_ovf[37] = fl_pt0_add112[0] && ev_q[7];
@@ -977,12 +984,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[37] = fl_pt0_add112[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add112;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add112 (.clk(clk), .d(pt0_add112), .q(dl_pt0_add112));
+        u_dl_pt0_add112 (.clk(clk), .d(pt0_add112), .valid(1'b0), .q(dl_pt0_add112));
     // pt0_mul113 = n_z * vB_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul113;
     logic [2:0] fl_pt0_mul113;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul113 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_n_z[0*W +: W]), .b(dl_in_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[38]), .y(pt0_mul113), .flags(fl_pt0_mul113)
     );
     assign ev_ovf[38] = fl_pt0_mul113[0] && ev_q[3];
@@ -990,12 +997,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[38] = fl_pt0_mul113[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul113;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul113 (.clk(clk), .d(pt0_mul113), .q(dl_pt0_mul113));
+        u_dl_pt0_mul113 (.clk(clk), .d(pt0_mul113), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul113));
     // pt0_add114 = pt0_add112 + pt0_mul113   (ready @11/11/11)
     logic [W-1:0] pt0_add114;
     logic [2:0] fl_pt0_add114;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add114 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add112), .b(dl_pt0_mul113), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt0_add112), .b(dl_pt0_mul113), .sub(1'b0),
         .out_valid(op_valid_nc[39]), .y(pt0_add114), .flags(fl_pt0_add114)
     );
     assign ev_ovf[39] = fl_pt0_add114[0] && ev_q[11];
@@ -1003,12 +1010,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[39] = fl_pt0_add114[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add114;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add114 (.clk(clk), .d(pt0_add114), .q(dl_pt0_add114));
+        u_dl_pt0_add114 (.clk(clk), .d(pt0_add114), .valid(1'b0), .q(dl_pt0_add114));
     // pt0_sub115 = pt0_add109 - pt0_add114   (ready @15/15/15)
     logic [W-1:0] pt0_sub115;
     logic [2:0] fl_pt0_sub115;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub115 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add109), .b(dl_pt0_add114), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_add109), .b(dl_pt0_add114), .sub(1'b1),
         .out_valid(op_valid_nc[40]), .y(pt0_sub115), .flags(fl_pt0_sub115)
     );
     assign ev_ovf[40] = fl_pt0_sub115[0] && ev_q[15];
@@ -1016,12 +1023,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[40] = fl_pt0_sub115[2] && ev_q[15];
     logic [W-1:0] dl_pt0_sub115;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_pt0_sub115 (.clk(clk), .d(pt0_sub115), .q(dl_pt0_sub115));
+        u_dl_pt0_sub115 (.clk(clk), .d(pt0_sub115), .valid(valid_q[15 +: 11]), .q(dl_pt0_sub115));
     // pt0_mul116 = pt0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul116;
     logic [2:0] fl_pt0_mul116;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul116 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_x), .b(dl_in_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cA_x), .b(dl_in_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[41]), .y(pt0_mul116), .flags(fl_pt0_mul116)
     );
     assign ev_ovf[41] = fl_pt0_mul116[0] && ev_q[14];
@@ -1029,12 +1036,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[41] = fl_pt0_mul116[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul116;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul116 (.clk(clk), .d(pt0_mul116), .q(dl_pt0_mul116));
+        u_dl_pt0_mul116 (.clk(clk), .d(pt0_mul116), .valid(1'b0), .q(dl_pt0_mul116));
     // pt0_mul117 = pt0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul117;
     logic [2:0] fl_pt0_mul117;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul117 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_y), .b(dl_in_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cA_y), .b(dl_in_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[42]), .y(pt0_mul117), .flags(fl_pt0_mul117)
     );
     assign ev_ovf[42] = fl_pt0_mul117[0] && ev_q[14];
@@ -1042,12 +1049,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[42] = fl_pt0_mul117[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul117;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul117 (.clk(clk), .d(pt0_mul117), .q(dl_pt0_mul117));
+        u_dl_pt0_mul117 (.clk(clk), .d(pt0_mul117), .valid(1'b0), .q(dl_pt0_mul117));
     // pt0_add118 = pt0_mul116 + pt0_mul117   (ready @18/18/18)
     logic [W-1:0] pt0_add118;
     logic [2:0] fl_pt0_add118;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add118 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul116), .b(dl_pt0_mul117), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul116), .b(dl_pt0_mul117), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(pt0_add118), .flags(fl_pt0_add118)
     );
     assign ev_ovf[43] = fl_pt0_add118[0] && ev_q[18];
@@ -1055,12 +1062,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[43] = fl_pt0_add118[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add118;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add118 (.clk(clk), .d(pt0_add118), .q(dl_pt0_add118));
+        u_dl_pt0_add118 (.clk(clk), .d(pt0_add118), .valid(1'b0), .q(dl_pt0_add118));
     // pt0_mul119 = pt0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul119;
     logic [2:0] fl_pt0_mul119;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul119 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cA_z), .b(dl_in_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cA_z), .b(dl_in_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[44]), .y(pt0_mul119), .flags(fl_pt0_mul119)
     );
     assign ev_ovf[44] = fl_pt0_mul119[0] && ev_q[14];
@@ -1068,12 +1075,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[44] = fl_pt0_mul119[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul119;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul119 (.clk(clk), .d(pt0_mul119), .q(dl_pt0_mul119));
+        u_dl_pt0_mul119 (.clk(clk), .d(pt0_mul119), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul119));
     // pt0_add120 = pt0_add118 + pt0_mul119   (ready @22/22/22)
     logic [W-1:0] pt0_add120;
     logic [2:0] fl_pt0_add120;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add120 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add118), .b(dl_pt0_mul119), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add118), .b(dl_pt0_mul119), .sub(1'b0),
         .out_valid(op_valid_nc[45]), .y(pt0_add120), .flags(fl_pt0_add120)
     );
     assign ev_ovf[45] = fl_pt0_add120[0] && ev_q[22];
@@ -1081,12 +1088,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[45] = fl_pt0_add120[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add120;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add120 (.clk(clk), .d(pt0_add120), .q(dl_pt0_add120));
+        u_dl_pt0_add120 (.clk(clk), .d(pt0_add120), .valid(1'b0), .q(dl_pt0_add120));
     // pt0_mul121 = pt0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul121;
     logic [2:0] fl_pt0_mul121;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul121 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_x), .b(dl_in_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cB_x), .b(dl_in_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[46]), .y(pt0_mul121), .flags(fl_pt0_mul121)
     );
     assign ev_ovf[46] = fl_pt0_mul121[0] && ev_q[14];
@@ -1094,12 +1101,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[46] = fl_pt0_mul121[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul121;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul121 (.clk(clk), .d(pt0_mul121), .q(dl_pt0_mul121));
+        u_dl_pt0_mul121 (.clk(clk), .d(pt0_mul121), .valid(1'b0), .q(dl_pt0_mul121));
     // pt0_mul122 = pt0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul122;
     logic [2:0] fl_pt0_mul122;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul122 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_y), .b(dl_in_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cB_y), .b(dl_in_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[47]), .y(pt0_mul122), .flags(fl_pt0_mul122)
     );
     assign ev_ovf[47] = fl_pt0_mul122[0] && ev_q[14];
@@ -1107,12 +1114,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[47] = fl_pt0_mul122[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul122;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul122 (.clk(clk), .d(pt0_mul122), .q(dl_pt0_mul122));
+        u_dl_pt0_mul122 (.clk(clk), .d(pt0_mul122), .valid(1'b0), .q(dl_pt0_mul122));
     // pt0_add123 = pt0_mul121 + pt0_mul122   (ready @18/18/18)
     logic [W-1:0] pt0_add123;
     logic [2:0] fl_pt0_add123;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add123 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_mul121), .b(dl_pt0_mul122), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_pt0_mul121), .b(dl_pt0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(pt0_add123), .flags(fl_pt0_add123)
     );
     assign ev_ovf[48] = fl_pt0_add123[0] && ev_q[18];
@@ -1120,12 +1127,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[48] = fl_pt0_add123[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add123;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add123 (.clk(clk), .d(pt0_add123), .q(dl_pt0_add123));
+        u_dl_pt0_add123 (.clk(clk), .d(pt0_add123), .valid(1'b0), .q(dl_pt0_add123));
     // pt0_mul124 = pt0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul124;
     logic [2:0] fl_pt0_mul124;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul124 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_cB_z), .b(dl_in_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_pt0_cB_z), .b(dl_in_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[49]), .y(pt0_mul124), .flags(fl_pt0_mul124)
     );
     assign ev_ovf[49] = fl_pt0_mul124[0] && ev_q[14];
@@ -1133,12 +1140,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[49] = fl_pt0_mul124[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul124;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt0_mul124 (.clk(clk), .d(pt0_mul124), .q(dl_pt0_mul124));
+        u_dl_pt0_mul124 (.clk(clk), .d(pt0_mul124), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul124));
     // pt0_add125 = pt0_add123 + pt0_mul124   (ready @22/22/22)
     logic [W-1:0] pt0_add125;
     logic [2:0] fl_pt0_add125;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add125 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add123), .b(dl_pt0_mul124), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_pt0_add123), .b(dl_pt0_mul124), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(pt0_add125), .flags(fl_pt0_add125)
     );
     assign ev_ovf[50] = fl_pt0_add125[0] && ev_q[22];
@@ -1146,12 +1153,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[50] = fl_pt0_add125[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add125;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add125 (.clk(clk), .d(pt0_add125), .q(dl_pt0_add125));
+        u_dl_pt0_add125 (.clk(clk), .d(pt0_add125), .valid(1'b0), .q(dl_pt0_add125));
     // pt0_sub126 = pt0_add120 - pt0_add125   (ready @26/26/26)
     logic [W-1:0] pt0_sub126;
     logic [2:0] fl_pt0_sub126;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub126 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add120), .b(dl_pt0_add125), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_pt0_add120), .b(dl_pt0_add125), .sub(1'b1),
         .out_valid(op_valid_nc[51]), .y(pt0_sub126), .flags(fl_pt0_sub126)
     );
     assign ev_ovf[51] = fl_pt0_sub126[0] && ev_q[26];
@@ -1159,12 +1166,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[51] = fl_pt0_sub126[2] && ev_q[26];
     logic [W-1:0] dl_pt0_sub126;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub126 (.clk(clk), .d(pt0_sub126), .q(dl_pt0_sub126));
+        u_dl_pt0_sub126 (.clk(clk), .d(pt0_sub126), .valid(1'b0), .q(dl_pt0_sub126));
     // pt0_vrel = pt0_sub115 + pt0_sub126   (ready @30/30/30)
     logic [W-1:0] pt0_vrel;
     logic [2:0] fl_pt0_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_sub115), .b(dl_pt0_sub126), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_pt0_sub115), .b(dl_pt0_sub126), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(pt0_vrel), .flags(fl_pt0_vrel)
     );
     assign ev_ovf[52] = fl_pt0_vrel[0] && ev_q[30];
@@ -1172,12 +1179,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[52] = fl_pt0_vrel[2] && ev_q[30];
     logic [W-1:0] dl_pt0_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_vrel (.clk(clk), .d(pt0_vrel), .q(dl_pt0_vrel));
+        u_dl_pt0_vrel (.clk(clk), .d(pt0_vrel), .valid(1'b0), .q(dl_pt0_vrel));
     // pt0_add128 = pt0_vrel + b0   (ready @34/34/34)
     logic [W-1:0] pt0_add128;
     logic [2:0] fl_pt0_add128;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add128 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vrel), .b(dl_in_b0[1*W +: W]), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[30]), .a(dl_pt0_vrel), .b(dl_in_b0[1*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(pt0_add128), .flags(fl_pt0_add128)
     );
     assign ev_ovf[53] = fl_pt0_add128[0] && ev_q[34];
@@ -1185,12 +1192,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[53] = fl_pt0_add128[2] && ev_q[34];
     logic [W-1:0] dl_pt0_add128;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add128 (.clk(clk), .d(pt0_add128), .q(dl_pt0_add128));
+        u_dl_pt0_add128 (.clk(clk), .d(pt0_add128), .valid(1'b0), .q(dl_pt0_add128));
     // pt0_delta0 = pt0_add128 * jac_inv0   (ready @37/37/37)
     logic [W-1:0] pt0_delta0;
     logic [2:0] fl_pt0_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add128), .b(dl_in_jac_inv0[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[34]), .a(dl_pt0_add128), .b(dl_in_jac_inv0[1*W +: W]),
         .out_valid(op_valid_nc[54]), .y(pt0_delta0), .flags(fl_pt0_delta0)
     );
     assign ev_ovf[54] = fl_pt0_delta0[0] && ev_q[37];
@@ -1198,12 +1205,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[54] = fl_pt0_delta0[2] && ev_q[37];
     logic [W-1:0] dl_pt0_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_delta0 (.clk(clk), .d(pt0_delta0), .q(dl_pt0_delta0));
+        u_dl_pt0_delta0 (.clk(clk), .d(pt0_delta0), .valid(1'b0), .q(dl_pt0_delta0));
     // pt0_lam_kept = lam0 * keep0   (ready @3/3/3)
     logic [W-1:0] pt0_lam_kept;
     logic [2:0] fl_pt0_lam_kept;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_lam_kept (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam0[0*W +: W]), .b(dl_keep0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam0[0*W +: W]), .b(dl_keep0),
         .out_valid(op_valid_nc[55]), .y(pt0_lam_kept), .flags(fl_pt0_lam_kept)
     );
     assign ev_ovf[55] = fl_pt0_lam_kept[0] && ev_q[3];
@@ -1211,12 +1218,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[55] = fl_pt0_lam_kept[2] && ev_q[3];
     logic [W-1:0] dl_pt0_lam_kept;
     pgs_delay #(.WIDTH(W), .DEPTH(34))
-        u_dl_pt0_lam_kept (.clk(clk), .d(pt0_lam_kept), .q(dl_pt0_lam_kept));
+        u_dl_pt0_lam_kept (.clk(clk), .d(pt0_lam_kept), .valid(valid_q[3 +: 34]), .q(dl_pt0_lam_kept));
     // pt0_add131 = pt0_lam_kept + pt0_delta0   (ready @41/41/41)
     logic [W-1:0] pt0_add131;
     logic [2:0] fl_pt0_add131;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add131 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_lam_kept), .b(dl_pt0_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(dl_pt0_lam_kept), .b(dl_pt0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[56]), .y(pt0_add131), .flags(fl_pt0_add131)
     );
     assign ev_ovf[56] = fl_pt0_add131[0] && ev_q[41];
@@ -1224,22 +1231,22 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[56] = fl_pt0_add131[2] && ev_q[41];
     logic [W-1:0] dl_pt0_add131;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add131 (.clk(clk), .d(pt0_add131), .q(dl_pt0_add131));
+        u_dl_pt0_add131 (.clk(clk), .d(pt0_add131), .valid(1'b0), .q(dl_pt0_add131));
     // pt0_lam_new = max(pt0_add131, 0.0)   (ready @42/42/42)
     logic [W-1:0] pt0_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt0_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_add131), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[41]), .a(dl_pt0_add131), .b(K_ZERO),
         .out_valid(op_valid_nc[57]), .y_min(nc_pt0_lam_new_min), .y_max(pt0_lam_new),
         .lt(nc_pt0_lam_new_lt), .eq(nc_pt0_lam_new_eq), .unordered(nc_pt0_lam_new_uo)
     );
     logic [W-1:0] dl_pt0_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_lam_new (.clk(clk), .d(pt0_lam_new), .q(dl_pt0_lam_new));
+        u_dl_pt0_lam_new (.clk(clk), .d(pt0_lam_new), .valid(1'b0), .q(dl_pt0_lam_new));
     // pt0_delta = pt0_lam_new - lam0   (ready @46/46/46)
     logic [W-1:0] pt0_delta;
     logic [2:0] fl_pt0_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_lam_new), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[42]), .a(dl_pt0_lam_new), .b(dl_in_lam0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[58]), .y(pt0_delta), .flags(fl_pt0_delta)
     );
     assign ev_ovf[57] = fl_pt0_delta[0] && ev_q[46];
@@ -1247,18 +1254,18 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[57] = fl_pt0_delta[2] && ev_q[46];
     logic [W-1:0] dl_pt0_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_delta (.clk(clk), .d(pt0_delta), .q(dl_pt0_delta));
+        u_dl_pt0_delta (.clk(clk), .d(pt0_delta), .valid(1'b0), .q(dl_pt0_delta));
     // pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (ready @42/42/42)
     logic [W-1:0] pt0_lam;
     assign pt0_lam = dl_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_pt0_lam_new;
     logic [W-1:0] dl_pt0_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(137))
-        u_dl_pt0_lam (.clk(clk), .d(pt0_lam), .q(dl_pt0_lam));
+        u_dl_pt0_lam (.clk(clk), .d(pt0_lam), .valid(valid_q[42 +: 137]), .q(dl_pt0_lam));
     // pt0_angA_x = IInvA_x * pt0_cA_x   (ready @14/14/14)
     logic [W-1:0] pt0_angA_x;
     logic [2:0] fl_pt0_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_pt0_cA_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_x), .b(dl_pt0_cA_x),
         .out_valid(op_valid_nc[59]), .y(pt0_angA_x), .flags(fl_pt0_angA_x)
     );
     assign ev_ovf[58] = fl_pt0_angA_x[0] && ev_q[14];
@@ -1266,12 +1273,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[58] = fl_pt0_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angA_x (.clk(clk), .d(pt0_angA_x), .q(dl_pt0_angA_x));
+        u_dl_pt0_angA_x (.clk(clk), .d(pt0_angA_x), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_x));
     // pt0_angA_y = IInvA_y * pt0_cA_y   (ready @14/14/14)
     logic [W-1:0] pt0_angA_y;
     logic [2:0] fl_pt0_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_pt0_cA_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_y), .b(dl_pt0_cA_y),
         .out_valid(op_valid_nc[60]), .y(pt0_angA_y), .flags(fl_pt0_angA_y)
     );
     assign ev_ovf[59] = fl_pt0_angA_y[0] && ev_q[14];
@@ -1279,12 +1286,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[59] = fl_pt0_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angA_y (.clk(clk), .d(pt0_angA_y), .q(dl_pt0_angA_y));
+        u_dl_pt0_angA_y (.clk(clk), .d(pt0_angA_y), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_y));
     // pt0_angA_z = IInvA_z * pt0_cA_z   (ready @14/14/14)
     logic [W-1:0] pt0_angA_z;
     logic [2:0] fl_pt0_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_pt0_cA_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_z), .b(dl_pt0_cA_z),
         .out_valid(op_valid_nc[61]), .y(pt0_angA_z), .flags(fl_pt0_angA_z)
     );
     assign ev_ovf[60] = fl_pt0_angA_z[0] && ev_q[14];
@@ -1292,12 +1299,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[60] = fl_pt0_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angA_z (.clk(clk), .d(pt0_angA_z), .q(dl_pt0_angA_z));
+        u_dl_pt0_angA_z (.clk(clk), .d(pt0_angA_z), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_z));
     // pt0_angB_x = IInvB_x * pt0_cB_x   (ready @14/14/14)
     logic [W-1:0] pt0_angB_x;
     logic [2:0] fl_pt0_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_pt0_cB_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_x), .b(dl_pt0_cB_x),
         .out_valid(op_valid_nc[62]), .y(pt0_angB_x), .flags(fl_pt0_angB_x)
     );
     assign ev_ovf[61] = fl_pt0_angB_x[0] && ev_q[14];
@@ -1305,12 +1312,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[61] = fl_pt0_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angB_x (.clk(clk), .d(pt0_angB_x), .q(dl_pt0_angB_x));
+        u_dl_pt0_angB_x (.clk(clk), .d(pt0_angB_x), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_x));
     // pt0_angB_y = IInvB_y * pt0_cB_y   (ready @14/14/14)
     logic [W-1:0] pt0_angB_y;
     logic [2:0] fl_pt0_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_pt0_cB_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_y), .b(dl_pt0_cB_y),
         .out_valid(op_valid_nc[63]), .y(pt0_angB_y), .flags(fl_pt0_angB_y)
     );
     assign ev_ovf[62] = fl_pt0_angB_y[0] && ev_q[14];
@@ -1318,12 +1325,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[62] = fl_pt0_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angB_y (.clk(clk), .d(pt0_angB_y), .q(dl_pt0_angB_y));
+        u_dl_pt0_angB_y (.clk(clk), .d(pt0_angB_y), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_y));
     // pt0_angB_z = IInvB_z * pt0_cB_z   (ready @14/14/14)
     logic [W-1:0] pt0_angB_z;
     logic [2:0] fl_pt0_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_pt0_cB_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_z), .b(dl_pt0_cB_z),
         .out_valid(op_valid_nc[64]), .y(pt0_angB_z), .flags(fl_pt0_angB_z)
     );
     assign ev_ovf[63] = fl_pt0_angB_z[0] && ev_q[14];
@@ -1331,12 +1338,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[63] = fl_pt0_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_pt0_angB_z (.clk(clk), .d(pt0_angB_z), .q(dl_pt0_angB_z));
+        u_dl_pt0_angB_z (.clk(clk), .d(pt0_angB_z), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_z));
     // pt0_mul141 = linA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul141;
     logic [2:0] fl_pt0_mul141;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul141 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linA_x[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[65]), .y(pt0_mul141), .flags(fl_pt0_mul141)
     );
     assign ev_ovf[64] = fl_pt0_mul141[0] && ev_q[49];
@@ -1344,12 +1351,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[64] = fl_pt0_mul141[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul141;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul141 (.clk(clk), .d(pt0_mul141), .q(dl_pt0_mul141));
+        u_dl_pt0_mul141 (.clk(clk), .d(pt0_mul141), .valid(1'b0), .q(dl_pt0_mul141));
     // pt0_mul142 = linA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul142;
     logic [2:0] fl_pt0_mul142;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul142 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linA_y[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[66]), .y(pt0_mul142), .flags(fl_pt0_mul142)
     );
     assign ev_ovf[65] = fl_pt0_mul142[0] && ev_q[49];
@@ -1357,12 +1364,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[65] = fl_pt0_mul142[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul142;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul142 (.clk(clk), .d(pt0_mul142), .q(dl_pt0_mul142));
+        u_dl_pt0_mul142 (.clk(clk), .d(pt0_mul142), .valid(1'b0), .q(dl_pt0_mul142));
     // pt0_mul143 = linA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul143;
     logic [2:0] fl_pt0_mul143;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul143 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linA_z[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[67]), .y(pt0_mul143), .flags(fl_pt0_mul143)
     );
     assign ev_ovf[66] = fl_pt0_mul143[0] && ev_q[49];
@@ -1370,12 +1377,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[66] = fl_pt0_mul143[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul143;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul143 (.clk(clk), .d(pt0_mul143), .q(dl_pt0_mul143));
+        u_dl_pt0_mul143 (.clk(clk), .d(pt0_mul143), .valid(1'b0), .q(dl_pt0_mul143));
     // pt0_add144 = vA_x + pt0_mul141   (ready @53/53/53)
     logic [W-1:0] pt0_add144;
     logic [2:0] fl_pt0_add144;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add144 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_x[1*W +: W]), .b(dl_pt0_mul141), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_x[1*W +: W]), .b(dl_pt0_mul141), .sub(1'b0),
         .out_valid(op_valid_nc[68]), .y(pt0_add144), .flags(fl_pt0_add144)
     );
     assign ev_ovf[67] = fl_pt0_add144[0] && ev_q[53];
@@ -1383,12 +1390,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[67] = fl_pt0_add144[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add144;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add144 (.clk(clk), .d(pt0_add144), .q(dl_pt0_add144));
+        u_dl_pt0_add144 (.clk(clk), .d(pt0_add144), .valid(1'b0), .q(dl_pt0_add144));
     // pt0_add145 = vA_y + pt0_mul142   (ready @53/53/53)
     logic [W-1:0] pt0_add145;
     logic [2:0] fl_pt0_add145;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add145 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_y[1*W +: W]), .b(dl_pt0_mul142), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_y[1*W +: W]), .b(dl_pt0_mul142), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(pt0_add145), .flags(fl_pt0_add145)
     );
     assign ev_ovf[68] = fl_pt0_add145[0] && ev_q[53];
@@ -1396,12 +1403,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[68] = fl_pt0_add145[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add145;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add145 (.clk(clk), .d(pt0_add145), .q(dl_pt0_add145));
+        u_dl_pt0_add145 (.clk(clk), .d(pt0_add145), .valid(1'b0), .q(dl_pt0_add145));
     // pt0_add146 = vA_z + pt0_mul143   (ready @53/53/53)
     logic [W-1:0] pt0_add146;
     logic [2:0] fl_pt0_add146;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add146 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_z[1*W +: W]), .b(dl_pt0_mul143), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vA_z[1*W +: W]), .b(dl_pt0_mul143), .sub(1'b0),
         .out_valid(op_valid_nc[70]), .y(pt0_add146), .flags(fl_pt0_add146)
     );
     assign ev_ovf[69] = fl_pt0_add146[0] && ev_q[53];
@@ -1409,30 +1416,30 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[69] = fl_pt0_add146[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add146;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add146 (.clk(clk), .d(pt0_add146), .q(dl_pt0_add146));
+        u_dl_pt0_add146 (.clk(clk), .d(pt0_add146), .valid(1'b0), .q(dl_pt0_add146));
     // pt0_vA_x = pt0_skip ? vA_x : pt0_add144   (ready @53/53/53)
     logic [W-1:0] pt0_vA_x;
     assign pt0_vA_x = dl_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_pt0_add144;
     logic [3*W-1:0] dl_pt0_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vA_x (.clk(clk), .d(pt0_vA_x), .q(dl_pt0_vA_x));
+        u_dl_pt0_vA_x (.clk(clk), .d(pt0_vA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_x));
     // pt0_vA_y = pt0_skip ? vA_y : pt0_add145   (ready @53/53/53)
     logic [W-1:0] pt0_vA_y;
     assign pt0_vA_y = dl_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_pt0_add145;
     logic [3*W-1:0] dl_pt0_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vA_y (.clk(clk), .d(pt0_vA_y), .q(dl_pt0_vA_y));
+        u_dl_pt0_vA_y (.clk(clk), .d(pt0_vA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_y));
     // pt0_vA_z = pt0_skip ? vA_z : pt0_add146   (ready @53/53/53)
     logic [W-1:0] pt0_vA_z;
     assign pt0_vA_z = dl_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_pt0_add146;
     logic [3*W-1:0] dl_pt0_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vA_z (.clk(clk), .d(pt0_vA_z), .q(dl_pt0_vA_z));
+        u_dl_pt0_vA_z (.clk(clk), .d(pt0_vA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_z));
     // pt0_mul150 = pt0_angA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul150;
     logic [2:0] fl_pt0_mul150;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul150 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_x), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angA_x), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[71]), .y(pt0_mul150), .flags(fl_pt0_mul150)
     );
     assign ev_ovf[70] = fl_pt0_mul150[0] && ev_q[49];
@@ -1440,12 +1447,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[70] = fl_pt0_mul150[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul150;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul150 (.clk(clk), .d(pt0_mul150), .q(dl_pt0_mul150));
+        u_dl_pt0_mul150 (.clk(clk), .d(pt0_mul150), .valid(1'b0), .q(dl_pt0_mul150));
     // pt0_mul151 = pt0_angA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul151;
     logic [2:0] fl_pt0_mul151;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul151 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_y), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angA_y), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[72]), .y(pt0_mul151), .flags(fl_pt0_mul151)
     );
     assign ev_ovf[71] = fl_pt0_mul151[0] && ev_q[49];
@@ -1453,12 +1460,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[71] = fl_pt0_mul151[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul151;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul151 (.clk(clk), .d(pt0_mul151), .q(dl_pt0_mul151));
+        u_dl_pt0_mul151 (.clk(clk), .d(pt0_mul151), .valid(1'b0), .q(dl_pt0_mul151));
     // pt0_mul152 = pt0_angA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul152;
     logic [2:0] fl_pt0_mul152;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul152 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angA_z), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angA_z), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[73]), .y(pt0_mul152), .flags(fl_pt0_mul152)
     );
     assign ev_ovf[72] = fl_pt0_mul152[0] && ev_q[49];
@@ -1466,12 +1473,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[72] = fl_pt0_mul152[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul152;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul152 (.clk(clk), .d(pt0_mul152), .q(dl_pt0_mul152));
+        u_dl_pt0_mul152 (.clk(clk), .d(pt0_mul152), .valid(1'b0), .q(dl_pt0_mul152));
     // pt0_add153 = wA_x + pt0_mul150   (ready @53/53/53)
     logic [W-1:0] pt0_add153;
     logic [2:0] fl_pt0_add153;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add153 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_x[1*W +: W]), .b(dl_pt0_mul150), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_x[1*W +: W]), .b(dl_pt0_mul150), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(pt0_add153), .flags(fl_pt0_add153)
     );
     assign ev_ovf[73] = fl_pt0_add153[0] && ev_q[53];
@@ -1479,12 +1486,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[73] = fl_pt0_add153[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add153;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add153 (.clk(clk), .d(pt0_add153), .q(dl_pt0_add153));
+        u_dl_pt0_add153 (.clk(clk), .d(pt0_add153), .valid(1'b0), .q(dl_pt0_add153));
     // pt0_add154 = wA_y + pt0_mul151   (ready @53/53/53)
     logic [W-1:0] pt0_add154;
     logic [2:0] fl_pt0_add154;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add154 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_y[1*W +: W]), .b(dl_pt0_mul151), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_y[1*W +: W]), .b(dl_pt0_mul151), .sub(1'b0),
         .out_valid(op_valid_nc[75]), .y(pt0_add154), .flags(fl_pt0_add154)
     );
     assign ev_ovf[74] = fl_pt0_add154[0] && ev_q[53];
@@ -1492,12 +1499,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[74] = fl_pt0_add154[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add154;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add154 (.clk(clk), .d(pt0_add154), .q(dl_pt0_add154));
+        u_dl_pt0_add154 (.clk(clk), .d(pt0_add154), .valid(1'b0), .q(dl_pt0_add154));
     // pt0_add155 = wA_z + pt0_mul152   (ready @53/53/53)
     logic [W-1:0] pt0_add155;
     logic [2:0] fl_pt0_add155;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_add155 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_z[1*W +: W]), .b(dl_pt0_mul152), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wA_z[1*W +: W]), .b(dl_pt0_mul152), .sub(1'b0),
         .out_valid(op_valid_nc[76]), .y(pt0_add155), .flags(fl_pt0_add155)
     );
     assign ev_ovf[75] = fl_pt0_add155[0] && ev_q[53];
@@ -1505,30 +1512,30 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[75] = fl_pt0_add155[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add155;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_add155 (.clk(clk), .d(pt0_add155), .q(dl_pt0_add155));
+        u_dl_pt0_add155 (.clk(clk), .d(pt0_add155), .valid(1'b0), .q(dl_pt0_add155));
     // pt0_wA_x = pt0_skip ? wA_x : pt0_add153   (ready @53/53/53)
     logic [W-1:0] pt0_wA_x;
     assign pt0_wA_x = dl_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_pt0_add153;
     logic [3*W-1:0] dl_pt0_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wA_x (.clk(clk), .d(pt0_wA_x), .q(dl_pt0_wA_x));
+        u_dl_pt0_wA_x (.clk(clk), .d(pt0_wA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_x));
     // pt0_wA_y = pt0_skip ? wA_y : pt0_add154   (ready @53/53/53)
     logic [W-1:0] pt0_wA_y;
     assign pt0_wA_y = dl_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_pt0_add154;
     logic [3*W-1:0] dl_pt0_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wA_y (.clk(clk), .d(pt0_wA_y), .q(dl_pt0_wA_y));
+        u_dl_pt0_wA_y (.clk(clk), .d(pt0_wA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_y));
     // pt0_wA_z = pt0_skip ? wA_z : pt0_add155   (ready @53/53/53)
     logic [W-1:0] pt0_wA_z;
     assign pt0_wA_z = dl_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_pt0_add155;
     logic [3*W-1:0] dl_pt0_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wA_z (.clk(clk), .d(pt0_wA_z), .q(dl_pt0_wA_z));
+        u_dl_pt0_wA_z (.clk(clk), .d(pt0_wA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_z));
     // pt0_mul159 = linB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul159;
     logic [2:0] fl_pt0_mul159;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul159 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linB_x[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[77]), .y(pt0_mul159), .flags(fl_pt0_mul159)
     );
     assign ev_ovf[76] = fl_pt0_mul159[0] && ev_q[49];
@@ -1536,12 +1543,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[76] = fl_pt0_mul159[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul159;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul159 (.clk(clk), .d(pt0_mul159), .q(dl_pt0_mul159));
+        u_dl_pt0_mul159 (.clk(clk), .d(pt0_mul159), .valid(1'b0), .q(dl_pt0_mul159));
     // pt0_mul160 = linB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul160;
     logic [2:0] fl_pt0_mul160;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul160 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linB_y[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[78]), .y(pt0_mul160), .flags(fl_pt0_mul160)
     );
     assign ev_ovf[77] = fl_pt0_mul160[0] && ev_q[49];
@@ -1549,12 +1556,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[77] = fl_pt0_mul160[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul160;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul160 (.clk(clk), .d(pt0_mul160), .q(dl_pt0_mul160));
+        u_dl_pt0_mul160 (.clk(clk), .d(pt0_mul160), .valid(1'b0), .q(dl_pt0_mul160));
     // pt0_mul161 = linB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul161;
     logic [2:0] fl_pt0_mul161;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul161 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[0*W +: W]), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_linB_z[0*W +: W]), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[79]), .y(pt0_mul161), .flags(fl_pt0_mul161)
     );
     assign ev_ovf[78] = fl_pt0_mul161[0] && ev_q[49];
@@ -1562,12 +1569,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[78] = fl_pt0_mul161[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul161;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul161 (.clk(clk), .d(pt0_mul161), .q(dl_pt0_mul161));
+        u_dl_pt0_mul161 (.clk(clk), .d(pt0_mul161), .valid(1'b0), .q(dl_pt0_mul161));
     // pt0_sub162 = vB_x - pt0_mul159   (ready @53/53/53)
     logic [W-1:0] pt0_sub162;
     logic [2:0] fl_pt0_sub162;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub162 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_x[1*W +: W]), .b(dl_pt0_mul159), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_x[1*W +: W]), .b(dl_pt0_mul159), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(pt0_sub162), .flags(fl_pt0_sub162)
     );
     assign ev_ovf[79] = fl_pt0_sub162[0] && ev_q[53];
@@ -1575,12 +1582,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[79] = fl_pt0_sub162[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub162;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub162 (.clk(clk), .d(pt0_sub162), .q(dl_pt0_sub162));
+        u_dl_pt0_sub162 (.clk(clk), .d(pt0_sub162), .valid(1'b0), .q(dl_pt0_sub162));
     // pt0_sub163 = vB_y - pt0_mul160   (ready @53/53/53)
     logic [W-1:0] pt0_sub163;
     logic [2:0] fl_pt0_sub163;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub163 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_y[1*W +: W]), .b(dl_pt0_mul160), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_y[1*W +: W]), .b(dl_pt0_mul160), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(pt0_sub163), .flags(fl_pt0_sub163)
     );
     assign ev_ovf[80] = fl_pt0_sub163[0] && ev_q[53];
@@ -1588,12 +1595,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[80] = fl_pt0_sub163[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub163;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub163 (.clk(clk), .d(pt0_sub163), .q(dl_pt0_sub163));
+        u_dl_pt0_sub163 (.clk(clk), .d(pt0_sub163), .valid(1'b0), .q(dl_pt0_sub163));
     // pt0_sub164 = vB_z - pt0_mul161   (ready @53/53/53)
     logic [W-1:0] pt0_sub164;
     logic [2:0] fl_pt0_sub164;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub164 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_z[1*W +: W]), .b(dl_pt0_mul161), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_vB_z[1*W +: W]), .b(dl_pt0_mul161), .sub(1'b1),
         .out_valid(op_valid_nc[82]), .y(pt0_sub164), .flags(fl_pt0_sub164)
     );
     assign ev_ovf[81] = fl_pt0_sub164[0] && ev_q[53];
@@ -1601,30 +1608,30 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[81] = fl_pt0_sub164[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub164;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub164 (.clk(clk), .d(pt0_sub164), .q(dl_pt0_sub164));
+        u_dl_pt0_sub164 (.clk(clk), .d(pt0_sub164), .valid(1'b0), .q(dl_pt0_sub164));
     // pt0_vB_x = pt0_skip ? vB_x : pt0_sub162   (ready @53/53/53)
     logic [W-1:0] pt0_vB_x;
     assign pt0_vB_x = dl_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_pt0_sub162;
     logic [3*W-1:0] dl_pt0_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vB_x (.clk(clk), .d(pt0_vB_x), .q(dl_pt0_vB_x));
+        u_dl_pt0_vB_x (.clk(clk), .d(pt0_vB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_x));
     // pt0_vB_y = pt0_skip ? vB_y : pt0_sub163   (ready @53/53/53)
     logic [W-1:0] pt0_vB_y;
     assign pt0_vB_y = dl_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_pt0_sub163;
     logic [3*W-1:0] dl_pt0_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vB_y (.clk(clk), .d(pt0_vB_y), .q(dl_pt0_vB_y));
+        u_dl_pt0_vB_y (.clk(clk), .d(pt0_vB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_y));
     // pt0_vB_z = pt0_skip ? vB_z : pt0_sub164   (ready @53/53/53)
     logic [W-1:0] pt0_vB_z;
     assign pt0_vB_z = dl_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_pt0_sub164;
     logic [3*W-1:0] dl_pt0_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_vB_z (.clk(clk), .d(pt0_vB_z), .q(dl_pt0_vB_z));
+        u_dl_pt0_vB_z (.clk(clk), .d(pt0_vB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_z));
     // pt0_mul168 = pt0_angB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul168;
     logic [2:0] fl_pt0_mul168;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul168 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_x), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angB_x), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[83]), .y(pt0_mul168), .flags(fl_pt0_mul168)
     );
     assign ev_ovf[82] = fl_pt0_mul168[0] && ev_q[49];
@@ -1632,12 +1639,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[82] = fl_pt0_mul168[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul168;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul168 (.clk(clk), .d(pt0_mul168), .q(dl_pt0_mul168));
+        u_dl_pt0_mul168 (.clk(clk), .d(pt0_mul168), .valid(1'b0), .q(dl_pt0_mul168));
     // pt0_mul169 = pt0_angB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul169;
     logic [2:0] fl_pt0_mul169;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul169 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_y), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angB_y), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[84]), .y(pt0_mul169), .flags(fl_pt0_mul169)
     );
     assign ev_ovf[83] = fl_pt0_mul169[0] && ev_q[49];
@@ -1645,12 +1652,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[83] = fl_pt0_mul169[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul169;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul169 (.clk(clk), .d(pt0_mul169), .q(dl_pt0_mul169));
+        u_dl_pt0_mul169 (.clk(clk), .d(pt0_mul169), .valid(1'b0), .q(dl_pt0_mul169));
     // pt0_mul170 = pt0_angB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul170;
     logic [2:0] fl_pt0_mul170;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_mul170 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_angB_z), .b(dl_pt0_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_pt0_angB_z), .b(dl_pt0_delta),
         .out_valid(op_valid_nc[85]), .y(pt0_mul170), .flags(fl_pt0_mul170)
     );
     assign ev_ovf[84] = fl_pt0_mul170[0] && ev_q[49];
@@ -1658,12 +1665,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[84] = fl_pt0_mul170[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul170;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_mul170 (.clk(clk), .d(pt0_mul170), .q(dl_pt0_mul170));
+        u_dl_pt0_mul170 (.clk(clk), .d(pt0_mul170), .valid(1'b0), .q(dl_pt0_mul170));
     // pt0_sub171 = wB_x - pt0_mul168   (ready @53/53/53)
     logic [W-1:0] pt0_sub171;
     logic [2:0] fl_pt0_sub171;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub171 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_x[1*W +: W]), .b(dl_pt0_mul168), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_x[1*W +: W]), .b(dl_pt0_mul168), .sub(1'b1),
         .out_valid(op_valid_nc[86]), .y(pt0_sub171), .flags(fl_pt0_sub171)
     );
     assign ev_ovf[85] = fl_pt0_sub171[0] && ev_q[53];
@@ -1671,12 +1678,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[85] = fl_pt0_sub171[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub171;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub171 (.clk(clk), .d(pt0_sub171), .q(dl_pt0_sub171));
+        u_dl_pt0_sub171 (.clk(clk), .d(pt0_sub171), .valid(1'b0), .q(dl_pt0_sub171));
     // pt0_sub172 = wB_y - pt0_mul169   (ready @53/53/53)
     logic [W-1:0] pt0_sub172;
     logic [2:0] fl_pt0_sub172;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub172 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_y[1*W +: W]), .b(dl_pt0_mul169), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_y[1*W +: W]), .b(dl_pt0_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[87]), .y(pt0_sub172), .flags(fl_pt0_sub172)
     );
     assign ev_ovf[86] = fl_pt0_sub172[0] && ev_q[53];
@@ -1684,12 +1691,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[86] = fl_pt0_sub172[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub172;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub172 (.clk(clk), .d(pt0_sub172), .q(dl_pt0_sub172));
+        u_dl_pt0_sub172 (.clk(clk), .d(pt0_sub172), .valid(1'b0), .q(dl_pt0_sub172));
     // pt0_sub173 = wB_z - pt0_mul170   (ready @53/53/53)
     logic [W-1:0] pt0_sub173;
     logic [2:0] fl_pt0_sub173;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt0_sub173 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_z[1*W +: W]), .b(dl_pt0_mul170), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[49]), .a(dl_in_wB_z[1*W +: W]), .b(dl_pt0_mul170), .sub(1'b1),
         .out_valid(op_valid_nc[88]), .y(pt0_sub173), .flags(fl_pt0_sub173)
     );
     assign ev_ovf[87] = fl_pt0_sub173[0] && ev_q[53];
@@ -1697,36 +1704,36 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[87] = fl_pt0_sub173[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub173;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt0_sub173 (.clk(clk), .d(pt0_sub173), .q(dl_pt0_sub173));
+        u_dl_pt0_sub173 (.clk(clk), .d(pt0_sub173), .valid(1'b0), .q(dl_pt0_sub173));
     // pt0_wB_x = pt0_skip ? wB_x : pt0_sub171   (ready @53/53/53)
     logic [W-1:0] pt0_wB_x;
     assign pt0_wB_x = dl_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_pt0_sub171;
     logic [3*W-1:0] dl_pt0_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wB_x (.clk(clk), .d(pt0_wB_x), .q(dl_pt0_wB_x));
+        u_dl_pt0_wB_x (.clk(clk), .d(pt0_wB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_x));
     // pt0_wB_y = pt0_skip ? wB_y : pt0_sub172   (ready @53/53/53)
     logic [W-1:0] pt0_wB_y;
     assign pt0_wB_y = dl_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_pt0_sub172;
     logic [3*W-1:0] dl_pt0_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wB_y (.clk(clk), .d(pt0_wB_y), .q(dl_pt0_wB_y));
+        u_dl_pt0_wB_y (.clk(clk), .d(pt0_wB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_y));
     // pt0_wB_z = pt0_skip ? wB_z : pt0_sub173   (ready @53/53/53)
     logic [W-1:0] pt0_wB_z;
     assign pt0_wB_z = dl_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_pt0_sub173;
     logic [3*W-1:0] dl_pt0_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt0_wB_z (.clk(clk), .d(pt0_wB_z), .q(dl_pt0_wB_z));
+        u_dl_pt0_wB_z (.clk(clk), .d(pt0_wB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_z));
     // pt1_skip = jac_inv1 == 0   (ready @0/0/0)
     logic pt1_skip;
     assign pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt1_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}))
-        u_dl_pt1_skip (.clk(clk), .d(pt1_skip), .q(dl_pt1_skip));
+        u_dl_pt1_skip (.clk(clk), .d(pt1_skip), .valid(valid_q[0 +: 95]), .q(dl_pt1_skip));
     // pt1_rA_x = p1_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt1_rA_x;
     logic [2:0] fl_pt1_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(pt1_rA_x), .flags(fl_pt1_rA_x)
     );
     assign ev_ovf[88] = fl_pt1_rA_x[0] && ev_q[4];
@@ -1734,12 +1741,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[88] = fl_pt1_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rA_x (.clk(clk), .d(pt1_rA_x), .q(dl_pt1_rA_x));
+        u_dl_pt1_rA_x (.clk(clk), .d(pt1_rA_x), .valid(1'b0), .q(dl_pt1_rA_x));
     // pt1_rA_y = p1_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt1_rA_y;
     logic [2:0] fl_pt1_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(pt1_rA_y), .flags(fl_pt1_rA_y)
     );
     assign ev_ovf[89] = fl_pt1_rA_y[0] && ev_q[4];
@@ -1747,12 +1754,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[89] = fl_pt1_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rA_y (.clk(clk), .d(pt1_rA_y), .q(dl_pt1_rA_y));
+        u_dl_pt1_rA_y (.clk(clk), .d(pt1_rA_y), .valid(1'b0), .q(dl_pt1_rA_y));
     // pt1_rA_z = p1_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt1_rA_z;
     logic [2:0] fl_pt1_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[91]), .y(pt1_rA_z), .flags(fl_pt1_rA_z)
     );
     assign ev_ovf[90] = fl_pt1_rA_z[0] && ev_q[4];
@@ -1760,12 +1767,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[90] = fl_pt1_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rA_z (.clk(clk), .d(pt1_rA_z), .q(dl_pt1_rA_z));
+        u_dl_pt1_rA_z (.clk(clk), .d(pt1_rA_z), .valid(1'b0), .q(dl_pt1_rA_z));
     // pt1_mul181 = pt1_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul181;
     logic [2:0] fl_pt1_mul181;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul181 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[92]), .y(pt1_mul181), .flags(fl_pt1_mul181)
     );
     assign ev_ovf[91] = fl_pt1_mul181[0] && ev_q[7];
@@ -1773,12 +1780,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[91] = fl_pt1_mul181[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul181;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul181 (.clk(clk), .d(pt1_mul181), .q(dl_pt1_mul181));
+        u_dl_pt1_mul181 (.clk(clk), .d(pt1_mul181), .valid(1'b0), .q(dl_pt1_mul181));
     // pt1_mul182 = pt1_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul182;
     logic [2:0] fl_pt1_mul182;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul182 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[93]), .y(pt1_mul182), .flags(fl_pt1_mul182)
     );
     assign ev_ovf[92] = fl_pt1_mul182[0] && ev_q[7];
@@ -1786,12 +1793,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[92] = fl_pt1_mul182[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul182;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul182 (.clk(clk), .d(pt1_mul182), .q(dl_pt1_mul182));
+        u_dl_pt1_mul182 (.clk(clk), .d(pt1_mul182), .valid(1'b0), .q(dl_pt1_mul182));
     // pt1_cA_x = pt1_mul181 - pt1_mul182   (ready @11/11/11)
     logic [W-1:0] pt1_cA_x;
     logic [2:0] fl_pt1_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul181), .b(dl_pt1_mul182), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul181), .b(dl_pt1_mul182), .sub(1'b1),
         .out_valid(op_valid_nc[94]), .y(pt1_cA_x), .flags(fl_pt1_cA_x)
     );
     assign ev_ovf[93] = fl_pt1_cA_x[0] && ev_q[11];
@@ -1799,12 +1806,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[93] = fl_pt1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cA_x (.clk(clk), .d(pt1_cA_x), .q(dl_pt1_cA_x));
+        u_dl_pt1_cA_x (.clk(clk), .d(pt1_cA_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_x));
     // pt1_mul184 = pt1_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul184;
     logic [2:0] fl_pt1_mul184;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul184 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[95]), .y(pt1_mul184), .flags(fl_pt1_mul184)
     );
     assign ev_ovf[94] = fl_pt1_mul184[0] && ev_q[7];
@@ -1812,12 +1819,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[94] = fl_pt1_mul184[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul184;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul184 (.clk(clk), .d(pt1_mul184), .q(dl_pt1_mul184));
+        u_dl_pt1_mul184 (.clk(clk), .d(pt1_mul184), .valid(1'b0), .q(dl_pt1_mul184));
     // pt1_mul185 = pt1_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul185;
     logic [2:0] fl_pt1_mul185;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul185 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[96]), .y(pt1_mul185), .flags(fl_pt1_mul185)
     );
     assign ev_ovf[95] = fl_pt1_mul185[0] && ev_q[7];
@@ -1825,12 +1832,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[95] = fl_pt1_mul185[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul185;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul185 (.clk(clk), .d(pt1_mul185), .q(dl_pt1_mul185));
+        u_dl_pt1_mul185 (.clk(clk), .d(pt1_mul185), .valid(1'b0), .q(dl_pt1_mul185));
     // pt1_cA_y = pt1_mul184 - pt1_mul185   (ready @11/11/11)
     logic [W-1:0] pt1_cA_y;
     logic [2:0] fl_pt1_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul184), .b(dl_pt1_mul185), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul184), .b(dl_pt1_mul185), .sub(1'b1),
         .out_valid(op_valid_nc[97]), .y(pt1_cA_y), .flags(fl_pt1_cA_y)
     );
     assign ev_ovf[96] = fl_pt1_cA_y[0] && ev_q[11];
@@ -1838,12 +1845,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[96] = fl_pt1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cA_y (.clk(clk), .d(pt1_cA_y), .q(dl_pt1_cA_y));
+        u_dl_pt1_cA_y (.clk(clk), .d(pt1_cA_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_y));
     // pt1_mul187 = pt1_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul187;
     logic [2:0] fl_pt1_mul187;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul187 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[98]), .y(pt1_mul187), .flags(fl_pt1_mul187)
     );
     assign ev_ovf[97] = fl_pt1_mul187[0] && ev_q[7];
@@ -1851,12 +1858,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[97] = fl_pt1_mul187[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul187;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul187 (.clk(clk), .d(pt1_mul187), .q(dl_pt1_mul187));
+        u_dl_pt1_mul187 (.clk(clk), .d(pt1_mul187), .valid(1'b0), .q(dl_pt1_mul187));
     // pt1_mul188 = pt1_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul188;
     logic [2:0] fl_pt1_mul188;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul188 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[99]), .y(pt1_mul188), .flags(fl_pt1_mul188)
     );
     assign ev_ovf[98] = fl_pt1_mul188[0] && ev_q[7];
@@ -1864,12 +1871,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[98] = fl_pt1_mul188[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul188;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul188 (.clk(clk), .d(pt1_mul188), .q(dl_pt1_mul188));
+        u_dl_pt1_mul188 (.clk(clk), .d(pt1_mul188), .valid(1'b0), .q(dl_pt1_mul188));
     // pt1_cA_z = pt1_mul187 - pt1_mul188   (ready @11/11/11)
     logic [W-1:0] pt1_cA_z;
     logic [2:0] fl_pt1_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul187), .b(dl_pt1_mul188), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul187), .b(dl_pt1_mul188), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(pt1_cA_z), .flags(fl_pt1_cA_z)
     );
     assign ev_ovf[99] = fl_pt1_cA_z[0] && ev_q[11];
@@ -1877,12 +1884,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[99] = fl_pt1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cA_z (.clk(clk), .d(pt1_cA_z), .q(dl_pt1_cA_z));
+        u_dl_pt1_cA_z (.clk(clk), .d(pt1_cA_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_z));
     // pt1_rB_x = p1_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt1_rB_x;
     logic [2:0] fl_pt1_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[101]), .y(pt1_rB_x), .flags(fl_pt1_rB_x)
     );
     assign ev_ovf[100] = fl_pt1_rB_x[0] && ev_q[4];
@@ -1890,12 +1897,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[100] = fl_pt1_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rB_x (.clk(clk), .d(pt1_rB_x), .q(dl_pt1_rB_x));
+        u_dl_pt1_rB_x (.clk(clk), .d(pt1_rB_x), .valid(1'b0), .q(dl_pt1_rB_x));
     // pt1_rB_y = p1_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt1_rB_y;
     logic [2:0] fl_pt1_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[102]), .y(pt1_rB_y), .flags(fl_pt1_rB_y)
     );
     assign ev_ovf[101] = fl_pt1_rB_y[0] && ev_q[4];
@@ -1903,12 +1910,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[101] = fl_pt1_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rB_y (.clk(clk), .d(pt1_rB_y), .q(dl_pt1_rB_y));
+        u_dl_pt1_rB_y (.clk(clk), .d(pt1_rB_y), .valid(1'b0), .q(dl_pt1_rB_y));
     // pt1_rB_z = p1_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt1_rB_z;
     logic [2:0] fl_pt1_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p1_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[103]), .y(pt1_rB_z), .flags(fl_pt1_rB_z)
     );
     assign ev_ovf[102] = fl_pt1_rB_z[0] && ev_q[4];
@@ -1916,12 +1923,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[102] = fl_pt1_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_rB_z (.clk(clk), .d(pt1_rB_z), .q(dl_pt1_rB_z));
+        u_dl_pt1_rB_z (.clk(clk), .d(pt1_rB_z), .valid(1'b0), .q(dl_pt1_rB_z));
     // pt1_mul193 = pt1_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul193;
     logic [2:0] fl_pt1_mul193;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul193 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[104]), .y(pt1_mul193), .flags(fl_pt1_mul193)
     );
     assign ev_ovf[103] = fl_pt1_mul193[0] && ev_q[7];
@@ -1929,12 +1936,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[103] = fl_pt1_mul193[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul193;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul193 (.clk(clk), .d(pt1_mul193), .q(dl_pt1_mul193));
+        u_dl_pt1_mul193 (.clk(clk), .d(pt1_mul193), .valid(1'b0), .q(dl_pt1_mul193));
     // pt1_mul194 = pt1_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul194;
     logic [2:0] fl_pt1_mul194;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul194 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[105]), .y(pt1_mul194), .flags(fl_pt1_mul194)
     );
     assign ev_ovf[104] = fl_pt1_mul194[0] && ev_q[7];
@@ -1942,12 +1949,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[104] = fl_pt1_mul194[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul194;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul194 (.clk(clk), .d(pt1_mul194), .q(dl_pt1_mul194));
+        u_dl_pt1_mul194 (.clk(clk), .d(pt1_mul194), .valid(1'b0), .q(dl_pt1_mul194));
     // pt1_cB_x = pt1_mul193 - pt1_mul194   (ready @11/11/11)
     logic [W-1:0] pt1_cB_x;
     logic [2:0] fl_pt1_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul193), .b(dl_pt1_mul194), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul193), .b(dl_pt1_mul194), .sub(1'b1),
         .out_valid(op_valid_nc[106]), .y(pt1_cB_x), .flags(fl_pt1_cB_x)
     );
     assign ev_ovf[105] = fl_pt1_cB_x[0] && ev_q[11];
@@ -1955,12 +1962,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[105] = fl_pt1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cB_x (.clk(clk), .d(pt1_cB_x), .q(dl_pt1_cB_x));
+        u_dl_pt1_cB_x (.clk(clk), .d(pt1_cB_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_x));
     // pt1_mul196 = pt1_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul196;
     logic [2:0] fl_pt1_mul196;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul196 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[107]), .y(pt1_mul196), .flags(fl_pt1_mul196)
     );
     assign ev_ovf[106] = fl_pt1_mul196[0] && ev_q[7];
@@ -1968,12 +1975,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[106] = fl_pt1_mul196[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul196;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul196 (.clk(clk), .d(pt1_mul196), .q(dl_pt1_mul196));
+        u_dl_pt1_mul196 (.clk(clk), .d(pt1_mul196), .valid(1'b0), .q(dl_pt1_mul196));
     // pt1_mul197 = pt1_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul197;
     logic [2:0] fl_pt1_mul197;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul197 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[108]), .y(pt1_mul197), .flags(fl_pt1_mul197)
     );
     assign ev_ovf[107] = fl_pt1_mul197[0] && ev_q[7];
@@ -1981,12 +1988,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[107] = fl_pt1_mul197[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul197;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul197 (.clk(clk), .d(pt1_mul197), .q(dl_pt1_mul197));
+        u_dl_pt1_mul197 (.clk(clk), .d(pt1_mul197), .valid(1'b0), .q(dl_pt1_mul197));
     // pt1_cB_y = pt1_mul196 - pt1_mul197   (ready @11/11/11)
     logic [W-1:0] pt1_cB_y;
     logic [2:0] fl_pt1_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul196), .b(dl_pt1_mul197), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul196), .b(dl_pt1_mul197), .sub(1'b1),
         .out_valid(op_valid_nc[109]), .y(pt1_cB_y), .flags(fl_pt1_cB_y)
     );
     assign ev_ovf[108] = fl_pt1_cB_y[0] && ev_q[11];
@@ -1994,12 +2001,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[108] = fl_pt1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cB_y (.clk(clk), .d(pt1_cB_y), .q(dl_pt1_cB_y));
+        u_dl_pt1_cB_y (.clk(clk), .d(pt1_cB_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_y));
     // pt1_mul199 = pt1_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul199;
     logic [2:0] fl_pt1_mul199;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul199 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[110]), .y(pt1_mul199), .flags(fl_pt1_mul199)
     );
     assign ev_ovf[109] = fl_pt1_mul199[0] && ev_q[7];
@@ -2007,12 +2014,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[109] = fl_pt1_mul199[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul199;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul199 (.clk(clk), .d(pt1_mul199), .q(dl_pt1_mul199));
+        u_dl_pt1_mul199 (.clk(clk), .d(pt1_mul199), .valid(1'b0), .q(dl_pt1_mul199));
     // pt1_mul200 = pt1_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul200;
     logic [2:0] fl_pt1_mul200;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul200 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt1_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[111]), .y(pt1_mul200), .flags(fl_pt1_mul200)
     );
     assign ev_ovf[110] = fl_pt1_mul200[0] && ev_q[7];
@@ -2020,12 +2027,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[110] = fl_pt1_mul200[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul200;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul200 (.clk(clk), .d(pt1_mul200), .q(dl_pt1_mul200));
+        u_dl_pt1_mul200 (.clk(clk), .d(pt1_mul200), .valid(1'b0), .q(dl_pt1_mul200));
     // pt1_cB_z = pt1_mul199 - pt1_mul200   (ready @11/11/11)
     logic [W-1:0] pt1_cB_z;
     logic [2:0] fl_pt1_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul199), .b(dl_pt1_mul200), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt1_mul199), .b(dl_pt1_mul200), .sub(1'b1),
         .out_valid(op_valid_nc[112]), .y(pt1_cB_z), .flags(fl_pt1_cB_z)
     );
     assign ev_ovf[111] = fl_pt1_cB_z[0] && ev_q[11];
@@ -2033,12 +2040,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[111] = fl_pt1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
-        u_dl_pt1_cB_z (.clk(clk), .d(pt1_cB_z), .q(dl_pt1_cB_z));
+        u_dl_pt1_cB_z (.clk(clk), .d(pt1_cB_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_z));
     // pt1_mul202 = n_x * pt0_vA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul202;
     logic [2:0] fl_pt1_mul202;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul202 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[113]), .y(pt1_mul202), .flags(fl_pt1_mul202)
     );
     assign ev_ovf[112] = fl_pt1_mul202[0] && ev_q[56];
@@ -2046,12 +2053,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[112] = fl_pt1_mul202[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul202;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul202 (.clk(clk), .d(pt1_mul202), .q(dl_pt1_mul202));
+        u_dl_pt1_mul202 (.clk(clk), .d(pt1_mul202), .valid(1'b0), .q(dl_pt1_mul202));
     // pt1_mul203 = n_y * pt0_vA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul203;
     logic [2:0] fl_pt1_mul203;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul203 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[114]), .y(pt1_mul203), .flags(fl_pt1_mul203)
     );
     assign ev_ovf[113] = fl_pt1_mul203[0] && ev_q[56];
@@ -2059,12 +2066,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[113] = fl_pt1_mul203[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul203;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul203 (.clk(clk), .d(pt1_mul203), .q(dl_pt1_mul203));
+        u_dl_pt1_mul203 (.clk(clk), .d(pt1_mul203), .valid(1'b0), .q(dl_pt1_mul203));
     // pt1_add204 = pt1_mul202 + pt1_mul203   (ready @60/60/60)
     logic [W-1:0] pt1_add204;
     logic [2:0] fl_pt1_add204;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add204 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul202), .b(dl_pt1_mul203), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul202), .b(dl_pt1_mul203), .sub(1'b0),
         .out_valid(op_valid_nc[115]), .y(pt1_add204), .flags(fl_pt1_add204)
     );
     assign ev_ovf[114] = fl_pt1_add204[0] && ev_q[60];
@@ -2072,12 +2079,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[114] = fl_pt1_add204[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add204;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add204 (.clk(clk), .d(pt1_add204), .q(dl_pt1_add204));
+        u_dl_pt1_add204 (.clk(clk), .d(pt1_add204), .valid(1'b0), .q(dl_pt1_add204));
     // pt1_mul205 = n_z * pt0_vA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul205;
     logic [2:0] fl_pt1_mul205;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul205 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[116]), .y(pt1_mul205), .flags(fl_pt1_mul205)
     );
     assign ev_ovf[115] = fl_pt1_mul205[0] && ev_q[56];
@@ -2085,12 +2092,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[115] = fl_pt1_mul205[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul205;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul205 (.clk(clk), .d(pt1_mul205), .q(dl_pt1_mul205));
+        u_dl_pt1_mul205 (.clk(clk), .d(pt1_mul205), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul205));
     // pt1_add206 = pt1_add204 + pt1_mul205   (ready @64/64/64)
     logic [W-1:0] pt1_add206;
     logic [2:0] fl_pt1_add206;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add206 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add204), .b(dl_pt1_mul205), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add204), .b(dl_pt1_mul205), .sub(1'b0),
         .out_valid(op_valid_nc[117]), .y(pt1_add206), .flags(fl_pt1_add206)
     );
     assign ev_ovf[116] = fl_pt1_add206[0] && ev_q[64];
@@ -2098,12 +2105,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[116] = fl_pt1_add206[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add206;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add206 (.clk(clk), .d(pt1_add206), .q(dl_pt1_add206));
+        u_dl_pt1_add206 (.clk(clk), .d(pt1_add206), .valid(1'b0), .q(dl_pt1_add206));
     // pt1_mul207 = n_x * pt0_vB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul207;
     logic [2:0] fl_pt1_mul207;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul207 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_x[2*W +: W]), .b(dl_pt0_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[118]), .y(pt1_mul207), .flags(fl_pt1_mul207)
     );
     assign ev_ovf[117] = fl_pt1_mul207[0] && ev_q[56];
@@ -2111,12 +2118,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[117] = fl_pt1_mul207[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul207;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul207 (.clk(clk), .d(pt1_mul207), .q(dl_pt1_mul207));
+        u_dl_pt1_mul207 (.clk(clk), .d(pt1_mul207), .valid(1'b0), .q(dl_pt1_mul207));
     // pt1_mul208 = n_y * pt0_vB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul208;
     logic [2:0] fl_pt1_mul208;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul208 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_y[2*W +: W]), .b(dl_pt0_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[119]), .y(pt1_mul208), .flags(fl_pt1_mul208)
     );
     assign ev_ovf[118] = fl_pt1_mul208[0] && ev_q[56];
@@ -2124,12 +2131,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[118] = fl_pt1_mul208[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul208;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul208 (.clk(clk), .d(pt1_mul208), .q(dl_pt1_mul208));
+        u_dl_pt1_mul208 (.clk(clk), .d(pt1_mul208), .valid(1'b0), .q(dl_pt1_mul208));
     // pt1_add209 = pt1_mul207 + pt1_mul208   (ready @60/60/60)
     logic [W-1:0] pt1_add209;
     logic [2:0] fl_pt1_add209;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add209 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul207), .b(dl_pt1_mul208), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul207), .b(dl_pt1_mul208), .sub(1'b0),
         .out_valid(op_valid_nc[120]), .y(pt1_add209), .flags(fl_pt1_add209)
     );
     assign ev_ovf[119] = fl_pt1_add209[0] && ev_q[60];
@@ -2137,12 +2144,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[119] = fl_pt1_add209[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add209;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add209 (.clk(clk), .d(pt1_add209), .q(dl_pt1_add209));
+        u_dl_pt1_add209 (.clk(clk), .d(pt1_add209), .valid(1'b0), .q(dl_pt1_add209));
     // pt1_mul210 = n_z * pt0_vB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul210;
     logic [2:0] fl_pt1_mul210;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul210 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_in_n_z[2*W +: W]), .b(dl_pt0_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[121]), .y(pt1_mul210), .flags(fl_pt1_mul210)
     );
     assign ev_ovf[120] = fl_pt1_mul210[0] && ev_q[56];
@@ -2150,12 +2157,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[120] = fl_pt1_mul210[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul210;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul210 (.clk(clk), .d(pt1_mul210), .q(dl_pt1_mul210));
+        u_dl_pt1_mul210 (.clk(clk), .d(pt1_mul210), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul210));
     // pt1_add211 = pt1_add209 + pt1_mul210   (ready @64/64/64)
     logic [W-1:0] pt1_add211;
     logic [2:0] fl_pt1_add211;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add211 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add209), .b(dl_pt1_mul210), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add209), .b(dl_pt1_mul210), .sub(1'b0),
         .out_valid(op_valid_nc[122]), .y(pt1_add211), .flags(fl_pt1_add211)
     );
     assign ev_ovf[121] = fl_pt1_add211[0] && ev_q[64];
@@ -2163,12 +2170,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[121] = fl_pt1_add211[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add211;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add211 (.clk(clk), .d(pt1_add211), .q(dl_pt1_add211));
+        u_dl_pt1_add211 (.clk(clk), .d(pt1_add211), .valid(1'b0), .q(dl_pt1_add211));
     // pt1_sub212 = pt1_add206 - pt1_add211   (ready @68/68/68)
     logic [W-1:0] pt1_sub212;
     logic [2:0] fl_pt1_sub212;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub212 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add206), .b(dl_pt1_add211), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add206), .b(dl_pt1_add211), .sub(1'b1),
         .out_valid(op_valid_nc[123]), .y(pt1_sub212), .flags(fl_pt1_sub212)
     );
     assign ev_ovf[122] = fl_pt1_sub212[0] && ev_q[68];
@@ -2176,12 +2183,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[122] = fl_pt1_sub212[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub212;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub212 (.clk(clk), .d(pt1_sub212), .q(dl_pt1_sub212));
+        u_dl_pt1_sub212 (.clk(clk), .d(pt1_sub212), .valid(1'b0), .q(dl_pt1_sub212));
     // pt1_mul213 = pt1_cA_x * pt0_wA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul213;
     logic [2:0] fl_pt1_mul213;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul213 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_x[0*W +: W]), .b(dl_pt0_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cA_x[0*W +: W]), .b(dl_pt0_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[124]), .y(pt1_mul213), .flags(fl_pt1_mul213)
     );
     assign ev_ovf[123] = fl_pt1_mul213[0] && ev_q[56];
@@ -2189,12 +2196,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[123] = fl_pt1_mul213[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul213;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul213 (.clk(clk), .d(pt1_mul213), .q(dl_pt1_mul213));
+        u_dl_pt1_mul213 (.clk(clk), .d(pt1_mul213), .valid(1'b0), .q(dl_pt1_mul213));
     // pt1_mul214 = pt1_cA_y * pt0_wA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul214;
     logic [2:0] fl_pt1_mul214;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul214 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_y[0*W +: W]), .b(dl_pt0_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cA_y[0*W +: W]), .b(dl_pt0_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[125]), .y(pt1_mul214), .flags(fl_pt1_mul214)
     );
     assign ev_ovf[124] = fl_pt1_mul214[0] && ev_q[56];
@@ -2202,12 +2209,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[124] = fl_pt1_mul214[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul214;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul214 (.clk(clk), .d(pt1_mul214), .q(dl_pt1_mul214));
+        u_dl_pt1_mul214 (.clk(clk), .d(pt1_mul214), .valid(1'b0), .q(dl_pt1_mul214));
     // pt1_add215 = pt1_mul213 + pt1_mul214   (ready @60/60/60)
     logic [W-1:0] pt1_add215;
     logic [2:0] fl_pt1_add215;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add215 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul213), .b(dl_pt1_mul214), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul213), .b(dl_pt1_mul214), .sub(1'b0),
         .out_valid(op_valid_nc[126]), .y(pt1_add215), .flags(fl_pt1_add215)
     );
     assign ev_ovf[125] = fl_pt1_add215[0] && ev_q[60];
@@ -2215,12 +2222,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[125] = fl_pt1_add215[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add215;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add215 (.clk(clk), .d(pt1_add215), .q(dl_pt1_add215));
+        u_dl_pt1_add215 (.clk(clk), .d(pt1_add215), .valid(1'b0), .q(dl_pt1_add215));
     // pt1_mul216 = pt1_cA_z * pt0_wA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul216;
     logic [2:0] fl_pt1_mul216;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul216 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cA_z[0*W +: W]), .b(dl_pt0_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cA_z[0*W +: W]), .b(dl_pt0_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[127]), .y(pt1_mul216), .flags(fl_pt1_mul216)
     );
     assign ev_ovf[126] = fl_pt1_mul216[0] && ev_q[56];
@@ -2228,12 +2235,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[126] = fl_pt1_mul216[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul216;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul216 (.clk(clk), .d(pt1_mul216), .q(dl_pt1_mul216));
+        u_dl_pt1_mul216 (.clk(clk), .d(pt1_mul216), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul216));
     // pt1_add217 = pt1_add215 + pt1_mul216   (ready @64/64/64)
     logic [W-1:0] pt1_add217;
     logic [2:0] fl_pt1_add217;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add217 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add215), .b(dl_pt1_mul216), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add215), .b(dl_pt1_mul216), .sub(1'b0),
         .out_valid(op_valid_nc[128]), .y(pt1_add217), .flags(fl_pt1_add217)
     );
     assign ev_ovf[127] = fl_pt1_add217[0] && ev_q[64];
@@ -2241,12 +2248,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[127] = fl_pt1_add217[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add217;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add217 (.clk(clk), .d(pt1_add217), .q(dl_pt1_add217));
+        u_dl_pt1_add217 (.clk(clk), .d(pt1_add217), .valid(1'b0), .q(dl_pt1_add217));
     // pt1_mul218 = pt1_cB_x * pt0_wB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul218;
     logic [2:0] fl_pt1_mul218;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul218 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_x[0*W +: W]), .b(dl_pt0_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cB_x[0*W +: W]), .b(dl_pt0_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[129]), .y(pt1_mul218), .flags(fl_pt1_mul218)
     );
     assign ev_ovf[128] = fl_pt1_mul218[0] && ev_q[56];
@@ -2254,12 +2261,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[128] = fl_pt1_mul218[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul218;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul218 (.clk(clk), .d(pt1_mul218), .q(dl_pt1_mul218));
+        u_dl_pt1_mul218 (.clk(clk), .d(pt1_mul218), .valid(1'b0), .q(dl_pt1_mul218));
     // pt1_mul219 = pt1_cB_y * pt0_wB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul219;
     logic [2:0] fl_pt1_mul219;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul219 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_y[0*W +: W]), .b(dl_pt0_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cB_y[0*W +: W]), .b(dl_pt0_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[130]), .y(pt1_mul219), .flags(fl_pt1_mul219)
     );
     assign ev_ovf[129] = fl_pt1_mul219[0] && ev_q[56];
@@ -2267,12 +2274,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[129] = fl_pt1_mul219[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul219;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul219 (.clk(clk), .d(pt1_mul219), .q(dl_pt1_mul219));
+        u_dl_pt1_mul219 (.clk(clk), .d(pt1_mul219), .valid(1'b0), .q(dl_pt1_mul219));
     // pt1_add220 = pt1_mul218 + pt1_mul219   (ready @60/60/60)
     logic [W-1:0] pt1_add220;
     logic [2:0] fl_pt1_add220;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add220 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_mul218), .b(dl_pt1_mul219), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[56]), .a(dl_pt1_mul218), .b(dl_pt1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[131]), .y(pt1_add220), .flags(fl_pt1_add220)
     );
     assign ev_ovf[130] = fl_pt1_add220[0] && ev_q[60];
@@ -2280,12 +2287,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[130] = fl_pt1_add220[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add220;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add220 (.clk(clk), .d(pt1_add220), .q(dl_pt1_add220));
+        u_dl_pt1_add220 (.clk(clk), .d(pt1_add220), .valid(1'b0), .q(dl_pt1_add220));
     // pt1_mul221 = pt1_cB_z * pt0_wB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul221;
     logic [2:0] fl_pt1_mul221;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul221 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_cB_z[0*W +: W]), .b(dl_pt0_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_pt1_cB_z[0*W +: W]), .b(dl_pt0_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[132]), .y(pt1_mul221), .flags(fl_pt1_mul221)
     );
     assign ev_ovf[131] = fl_pt1_mul221[0] && ev_q[56];
@@ -2293,12 +2300,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[131] = fl_pt1_mul221[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul221;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt1_mul221 (.clk(clk), .d(pt1_mul221), .q(dl_pt1_mul221));
+        u_dl_pt1_mul221 (.clk(clk), .d(pt1_mul221), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul221));
     // pt1_add222 = pt1_add220 + pt1_mul221   (ready @64/64/64)
     logic [W-1:0] pt1_add222;
     logic [2:0] fl_pt1_add222;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add222 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add220), .b(dl_pt1_mul221), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[60]), .a(dl_pt1_add220), .b(dl_pt1_mul221), .sub(1'b0),
         .out_valid(op_valid_nc[133]), .y(pt1_add222), .flags(fl_pt1_add222)
     );
     assign ev_ovf[132] = fl_pt1_add222[0] && ev_q[64];
@@ -2306,12 +2313,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[132] = fl_pt1_add222[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add222;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add222 (.clk(clk), .d(pt1_add222), .q(dl_pt1_add222));
+        u_dl_pt1_add222 (.clk(clk), .d(pt1_add222), .valid(1'b0), .q(dl_pt1_add222));
     // pt1_sub223 = pt1_add217 - pt1_add222   (ready @68/68/68)
     logic [W-1:0] pt1_sub223;
     logic [2:0] fl_pt1_sub223;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub223 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add217), .b(dl_pt1_add222), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[64]), .a(dl_pt1_add217), .b(dl_pt1_add222), .sub(1'b1),
         .out_valid(op_valid_nc[134]), .y(pt1_sub223), .flags(fl_pt1_sub223)
     );
     assign ev_ovf[133] = fl_pt1_sub223[0] && ev_q[68];
@@ -2319,12 +2326,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[133] = fl_pt1_sub223[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub223;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub223 (.clk(clk), .d(pt1_sub223), .q(dl_pt1_sub223));
+        u_dl_pt1_sub223 (.clk(clk), .d(pt1_sub223), .valid(1'b0), .q(dl_pt1_sub223));
     // pt1_vrel = pt1_sub212 + pt1_sub223   (ready @72/72/72)
     logic [W-1:0] pt1_vrel;
     logic [2:0] fl_pt1_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_sub212), .b(dl_pt1_sub223), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[68]), .a(dl_pt1_sub212), .b(dl_pt1_sub223), .sub(1'b0),
         .out_valid(op_valid_nc[135]), .y(pt1_vrel), .flags(fl_pt1_vrel)
     );
     assign ev_ovf[134] = fl_pt1_vrel[0] && ev_q[72];
@@ -2332,12 +2339,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[134] = fl_pt1_vrel[2] && ev_q[72];
     logic [W-1:0] dl_pt1_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_vrel (.clk(clk), .d(pt1_vrel), .q(dl_pt1_vrel));
+        u_dl_pt1_vrel (.clk(clk), .d(pt1_vrel), .valid(1'b0), .q(dl_pt1_vrel));
     // pt1_add225 = pt1_vrel + b1   (ready @76/76/76)
     logic [W-1:0] pt1_add225;
     logic [2:0] fl_pt1_add225;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add225 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vrel), .b(dl_in_b1[1*W +: W]), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_pt1_vrel), .b(dl_in_b1[1*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[136]), .y(pt1_add225), .flags(fl_pt1_add225)
     );
     assign ev_ovf[135] = fl_pt1_add225[0] && ev_q[76];
@@ -2345,12 +2352,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[135] = fl_pt1_add225[2] && ev_q[76];
     logic [W-1:0] dl_pt1_add225;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add225 (.clk(clk), .d(pt1_add225), .q(dl_pt1_add225));
+        u_dl_pt1_add225 (.clk(clk), .d(pt1_add225), .valid(1'b0), .q(dl_pt1_add225));
     // pt1_delta0 = pt1_add225 * jac_inv1   (ready @79/79/79)
     logic [W-1:0] pt1_delta0;
     logic [2:0] fl_pt1_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add225), .b(dl_in_jac_inv1[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[76]), .a(dl_pt1_add225), .b(dl_in_jac_inv1[1*W +: W]),
         .out_valid(op_valid_nc[137]), .y(pt1_delta0), .flags(fl_pt1_delta0)
     );
     assign ev_ovf[136] = fl_pt1_delta0[0] && ev_q[79];
@@ -2358,12 +2365,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[136] = fl_pt1_delta0[2] && ev_q[79];
     logic [W-1:0] dl_pt1_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_delta0 (.clk(clk), .d(pt1_delta0), .q(dl_pt1_delta0));
+        u_dl_pt1_delta0 (.clk(clk), .d(pt1_delta0), .valid(1'b0), .q(dl_pt1_delta0));
     // pt1_lam_kept = lam1 * keep1   (ready @3/3/3)
     logic [W-1:0] pt1_lam_kept;
     logic [2:0] fl_pt1_lam_kept;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_lam_kept (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam1[0*W +: W]), .b(dl_keep1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam1[0*W +: W]), .b(dl_keep1),
         .out_valid(op_valid_nc[138]), .y(pt1_lam_kept), .flags(fl_pt1_lam_kept)
     );
     assign ev_ovf[137] = fl_pt1_lam_kept[0] && ev_q[3];
@@ -2371,12 +2378,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[137] = fl_pt1_lam_kept[2] && ev_q[3];
     logic [W-1:0] dl_pt1_lam_kept;
     pgs_delay #(.WIDTH(W), .DEPTH(76))
-        u_dl_pt1_lam_kept (.clk(clk), .d(pt1_lam_kept), .q(dl_pt1_lam_kept));
+        u_dl_pt1_lam_kept (.clk(clk), .d(pt1_lam_kept), .valid(valid_q[3 +: 76]), .q(dl_pt1_lam_kept));
     // pt1_add228 = pt1_lam_kept + pt1_delta0   (ready @83/83/83)
     logic [W-1:0] pt1_add228;
     logic [2:0] fl_pt1_add228;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add228 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_lam_kept), .b(dl_pt1_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[79]), .a(dl_pt1_lam_kept), .b(dl_pt1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[139]), .y(pt1_add228), .flags(fl_pt1_add228)
     );
     assign ev_ovf[138] = fl_pt1_add228[0] && ev_q[83];
@@ -2384,22 +2391,22 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[138] = fl_pt1_add228[2] && ev_q[83];
     logic [W-1:0] dl_pt1_add228;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add228 (.clk(clk), .d(pt1_add228), .q(dl_pt1_add228));
+        u_dl_pt1_add228 (.clk(clk), .d(pt1_add228), .valid(1'b0), .q(dl_pt1_add228));
     // pt1_lam_new = max(pt1_add228, 0.0)   (ready @84/84/84)
     logic [W-1:0] pt1_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt1_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_add228), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[83]), .a(dl_pt1_add228), .b(K_ZERO),
         .out_valid(op_valid_nc[140]), .y_min(nc_pt1_lam_new_min), .y_max(pt1_lam_new),
         .lt(nc_pt1_lam_new_lt), .eq(nc_pt1_lam_new_eq), .unordered(nc_pt1_lam_new_uo)
     );
     logic [W-1:0] dl_pt1_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_lam_new (.clk(clk), .d(pt1_lam_new), .q(dl_pt1_lam_new));
+        u_dl_pt1_lam_new (.clk(clk), .d(pt1_lam_new), .valid(1'b0), .q(dl_pt1_lam_new));
     // pt1_delta = pt1_lam_new - lam1   (ready @88/88/88)
     logic [W-1:0] pt1_delta;
     logic [2:0] fl_pt1_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_lam_new), .b(dl_in_lam1[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[84]), .a(dl_pt1_lam_new), .b(dl_in_lam1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[141]), .y(pt1_delta), .flags(fl_pt1_delta)
     );
     assign ev_ovf[139] = fl_pt1_delta[0] && ev_q[88];
@@ -2407,18 +2414,18 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[139] = fl_pt1_delta[2] && ev_q[88];
     logic [W-1:0] dl_pt1_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_delta (.clk(clk), .d(pt1_delta), .q(dl_pt1_delta));
+        u_dl_pt1_delta (.clk(clk), .d(pt1_delta), .valid(1'b0), .q(dl_pt1_delta));
     // pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (ready @84/84/84)
     logic [W-1:0] pt1_lam;
     assign pt1_lam = dl_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_pt1_lam_new;
     logic [W-1:0] dl_pt1_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(95))
-        u_dl_pt1_lam (.clk(clk), .d(pt1_lam), .q(dl_pt1_lam));
+        u_dl_pt1_lam (.clk(clk), .d(pt1_lam), .valid(valid_q[84 +: 95]), .q(dl_pt1_lam));
     // pt1_angA_x = IInvA_x * pt1_cA_x   (ready @14/14/14)
     logic [W-1:0] pt1_angA_x;
     logic [2:0] fl_pt1_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_pt1_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_x), .b(dl_pt1_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[142]), .y(pt1_angA_x), .flags(fl_pt1_angA_x)
     );
     assign ev_ovf[140] = fl_pt1_angA_x[0] && ev_q[14];
@@ -2426,12 +2433,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[140] = fl_pt1_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angA_x (.clk(clk), .d(pt1_angA_x), .q(dl_pt1_angA_x));
+        u_dl_pt1_angA_x (.clk(clk), .d(pt1_angA_x), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_x));
     // pt1_angA_y = IInvA_y * pt1_cA_y   (ready @14/14/14)
     logic [W-1:0] pt1_angA_y;
     logic [2:0] fl_pt1_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_pt1_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_y), .b(dl_pt1_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[143]), .y(pt1_angA_y), .flags(fl_pt1_angA_y)
     );
     assign ev_ovf[141] = fl_pt1_angA_y[0] && ev_q[14];
@@ -2439,12 +2446,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[141] = fl_pt1_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angA_y (.clk(clk), .d(pt1_angA_y), .q(dl_pt1_angA_y));
+        u_dl_pt1_angA_y (.clk(clk), .d(pt1_angA_y), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_y));
     // pt1_angA_z = IInvA_z * pt1_cA_z   (ready @14/14/14)
     logic [W-1:0] pt1_angA_z;
     logic [2:0] fl_pt1_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_pt1_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_z), .b(dl_pt1_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[144]), .y(pt1_angA_z), .flags(fl_pt1_angA_z)
     );
     assign ev_ovf[142] = fl_pt1_angA_z[0] && ev_q[14];
@@ -2452,12 +2459,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[142] = fl_pt1_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angA_z (.clk(clk), .d(pt1_angA_z), .q(dl_pt1_angA_z));
+        u_dl_pt1_angA_z (.clk(clk), .d(pt1_angA_z), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_z));
     // pt1_angB_x = IInvB_x * pt1_cB_x   (ready @14/14/14)
     logic [W-1:0] pt1_angB_x;
     logic [2:0] fl_pt1_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_pt1_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_x), .b(dl_pt1_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[145]), .y(pt1_angB_x), .flags(fl_pt1_angB_x)
     );
     assign ev_ovf[143] = fl_pt1_angB_x[0] && ev_q[14];
@@ -2465,12 +2472,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[143] = fl_pt1_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angB_x (.clk(clk), .d(pt1_angB_x), .q(dl_pt1_angB_x));
+        u_dl_pt1_angB_x (.clk(clk), .d(pt1_angB_x), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_x));
     // pt1_angB_y = IInvB_y * pt1_cB_y   (ready @14/14/14)
     logic [W-1:0] pt1_angB_y;
     logic [2:0] fl_pt1_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_pt1_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_y), .b(dl_pt1_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[146]), .y(pt1_angB_y), .flags(fl_pt1_angB_y)
     );
     assign ev_ovf[144] = fl_pt1_angB_y[0] && ev_q[14];
@@ -2478,12 +2485,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[144] = fl_pt1_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angB_y (.clk(clk), .d(pt1_angB_y), .q(dl_pt1_angB_y));
+        u_dl_pt1_angB_y (.clk(clk), .d(pt1_angB_y), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_y));
     // pt1_angB_z = IInvB_z * pt1_cB_z   (ready @14/14/14)
     logic [W-1:0] pt1_angB_z;
     logic [2:0] fl_pt1_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_pt1_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_z), .b(dl_pt1_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[147]), .y(pt1_angB_z), .flags(fl_pt1_angB_z)
     );
     assign ev_ovf[145] = fl_pt1_angB_z[0] && ev_q[14];
@@ -2491,12 +2498,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[145] = fl_pt1_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(74))
-        u_dl_pt1_angB_z (.clk(clk), .d(pt1_angB_z), .q(dl_pt1_angB_z));
+        u_dl_pt1_angB_z (.clk(clk), .d(pt1_angB_z), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_z));
     // pt1_mul238 = linA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul238;
     logic [2:0] fl_pt1_mul238;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul238 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linA_x[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[148]), .y(pt1_mul238), .flags(fl_pt1_mul238)
     );
     assign ev_ovf[146] = fl_pt1_mul238[0] && ev_q[91];
@@ -2504,12 +2511,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[146] = fl_pt1_mul238[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul238;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul238 (.clk(clk), .d(pt1_mul238), .q(dl_pt1_mul238));
+        u_dl_pt1_mul238 (.clk(clk), .d(pt1_mul238), .valid(1'b0), .q(dl_pt1_mul238));
     // pt1_mul239 = linA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul239;
     logic [2:0] fl_pt1_mul239;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul239 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linA_y[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[149]), .y(pt1_mul239), .flags(fl_pt1_mul239)
     );
     assign ev_ovf[147] = fl_pt1_mul239[0] && ev_q[91];
@@ -2517,12 +2524,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[147] = fl_pt1_mul239[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul239;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul239 (.clk(clk), .d(pt1_mul239), .q(dl_pt1_mul239));
+        u_dl_pt1_mul239 (.clk(clk), .d(pt1_mul239), .valid(1'b0), .q(dl_pt1_mul239));
     // pt1_mul240 = linA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul240;
     logic [2:0] fl_pt1_mul240;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul240 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linA_z[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[150]), .y(pt1_mul240), .flags(fl_pt1_mul240)
     );
     assign ev_ovf[148] = fl_pt1_mul240[0] && ev_q[91];
@@ -2530,12 +2537,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[148] = fl_pt1_mul240[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul240;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul240 (.clk(clk), .d(pt1_mul240), .q(dl_pt1_mul240));
+        u_dl_pt1_mul240 (.clk(clk), .d(pt1_mul240), .valid(1'b0), .q(dl_pt1_mul240));
     // pt1_add241 = pt0_vA_x + pt1_mul238   (ready @95/95/95)
     logic [W-1:0] pt1_add241;
     logic [2:0] fl_pt1_add241;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add241 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_x[1*W +: W]), .b(dl_pt1_mul238), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_x[1*W +: W]), .b(dl_pt1_mul238), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(pt1_add241), .flags(fl_pt1_add241)
     );
     assign ev_ovf[149] = fl_pt1_add241[0] && ev_q[95];
@@ -2543,12 +2550,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[149] = fl_pt1_add241[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add241;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add241 (.clk(clk), .d(pt1_add241), .q(dl_pt1_add241));
+        u_dl_pt1_add241 (.clk(clk), .d(pt1_add241), .valid(1'b0), .q(dl_pt1_add241));
     // pt1_add242 = pt0_vA_y + pt1_mul239   (ready @95/95/95)
     logic [W-1:0] pt1_add242;
     logic [2:0] fl_pt1_add242;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add242 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_y[1*W +: W]), .b(dl_pt1_mul239), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_y[1*W +: W]), .b(dl_pt1_mul239), .sub(1'b0),
         .out_valid(op_valid_nc[152]), .y(pt1_add242), .flags(fl_pt1_add242)
     );
     assign ev_ovf[150] = fl_pt1_add242[0] && ev_q[95];
@@ -2556,12 +2563,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[150] = fl_pt1_add242[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add242;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add242 (.clk(clk), .d(pt1_add242), .q(dl_pt1_add242));
+        u_dl_pt1_add242 (.clk(clk), .d(pt1_add242), .valid(1'b0), .q(dl_pt1_add242));
     // pt1_add243 = pt0_vA_z + pt1_mul240   (ready @95/95/95)
     logic [W-1:0] pt1_add243;
     logic [2:0] fl_pt1_add243;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add243 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vA_z[1*W +: W]), .b(dl_pt1_mul240), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vA_z[1*W +: W]), .b(dl_pt1_mul240), .sub(1'b0),
         .out_valid(op_valid_nc[153]), .y(pt1_add243), .flags(fl_pt1_add243)
     );
     assign ev_ovf[151] = fl_pt1_add243[0] && ev_q[95];
@@ -2569,30 +2576,30 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[151] = fl_pt1_add243[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add243;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add243 (.clk(clk), .d(pt1_add243), .q(dl_pt1_add243));
+        u_dl_pt1_add243 (.clk(clk), .d(pt1_add243), .valid(1'b0), .q(dl_pt1_add243));
     // pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add241   (ready @95/95/95)
     logic [W-1:0] pt1_vA_x;
     assign pt1_vA_x = dl_pt1_skip[1] ? dl_pt0_vA_x[2*W +: W] : dl_pt1_add241;
     logic [3*W-1:0] dl_pt1_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vA_x (.clk(clk), .d(pt1_vA_x), .q(dl_pt1_vA_x));
+        u_dl_pt1_vA_x (.clk(clk), .d(pt1_vA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_x));
     // pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add242   (ready @95/95/95)
     logic [W-1:0] pt1_vA_y;
     assign pt1_vA_y = dl_pt1_skip[1] ? dl_pt0_vA_y[2*W +: W] : dl_pt1_add242;
     logic [3*W-1:0] dl_pt1_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vA_y (.clk(clk), .d(pt1_vA_y), .q(dl_pt1_vA_y));
+        u_dl_pt1_vA_y (.clk(clk), .d(pt1_vA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_y));
     // pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add243   (ready @95/95/95)
     logic [W-1:0] pt1_vA_z;
     assign pt1_vA_z = dl_pt1_skip[1] ? dl_pt0_vA_z[2*W +: W] : dl_pt1_add243;
     logic [3*W-1:0] dl_pt1_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vA_z (.clk(clk), .d(pt1_vA_z), .q(dl_pt1_vA_z));
+        u_dl_pt1_vA_z (.clk(clk), .d(pt1_vA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_z));
     // pt1_mul247 = pt1_angA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul247;
     logic [2:0] fl_pt1_mul247;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul247 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_x), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angA_x), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[154]), .y(pt1_mul247), .flags(fl_pt1_mul247)
     );
     assign ev_ovf[152] = fl_pt1_mul247[0] && ev_q[91];
@@ -2600,12 +2607,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[152] = fl_pt1_mul247[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul247;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul247 (.clk(clk), .d(pt1_mul247), .q(dl_pt1_mul247));
+        u_dl_pt1_mul247 (.clk(clk), .d(pt1_mul247), .valid(1'b0), .q(dl_pt1_mul247));
     // pt1_mul248 = pt1_angA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul248;
     logic [2:0] fl_pt1_mul248;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul248 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_y), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angA_y), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[155]), .y(pt1_mul248), .flags(fl_pt1_mul248)
     );
     assign ev_ovf[153] = fl_pt1_mul248[0] && ev_q[91];
@@ -2613,12 +2620,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[153] = fl_pt1_mul248[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul248;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul248 (.clk(clk), .d(pt1_mul248), .q(dl_pt1_mul248));
+        u_dl_pt1_mul248 (.clk(clk), .d(pt1_mul248), .valid(1'b0), .q(dl_pt1_mul248));
     // pt1_mul249 = pt1_angA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul249;
     logic [2:0] fl_pt1_mul249;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul249 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angA_z), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angA_z), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[156]), .y(pt1_mul249), .flags(fl_pt1_mul249)
     );
     assign ev_ovf[154] = fl_pt1_mul249[0] && ev_q[91];
@@ -2626,12 +2633,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[154] = fl_pt1_mul249[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul249;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul249 (.clk(clk), .d(pt1_mul249), .q(dl_pt1_mul249));
+        u_dl_pt1_mul249 (.clk(clk), .d(pt1_mul249), .valid(1'b0), .q(dl_pt1_mul249));
     // pt1_add250 = pt0_wA_x + pt1_mul247   (ready @95/95/95)
     logic [W-1:0] pt1_add250;
     logic [2:0] fl_pt1_add250;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add250 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_x[1*W +: W]), .b(dl_pt1_mul247), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_x[1*W +: W]), .b(dl_pt1_mul247), .sub(1'b0),
         .out_valid(op_valid_nc[157]), .y(pt1_add250), .flags(fl_pt1_add250)
     );
     assign ev_ovf[155] = fl_pt1_add250[0] && ev_q[95];
@@ -2639,12 +2646,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[155] = fl_pt1_add250[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add250;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add250 (.clk(clk), .d(pt1_add250), .q(dl_pt1_add250));
+        u_dl_pt1_add250 (.clk(clk), .d(pt1_add250), .valid(1'b0), .q(dl_pt1_add250));
     // pt1_add251 = pt0_wA_y + pt1_mul248   (ready @95/95/95)
     logic [W-1:0] pt1_add251;
     logic [2:0] fl_pt1_add251;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add251 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_y[1*W +: W]), .b(dl_pt1_mul248), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_y[1*W +: W]), .b(dl_pt1_mul248), .sub(1'b0),
         .out_valid(op_valid_nc[158]), .y(pt1_add251), .flags(fl_pt1_add251)
     );
     assign ev_ovf[156] = fl_pt1_add251[0] && ev_q[95];
@@ -2652,12 +2659,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[156] = fl_pt1_add251[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add251;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add251 (.clk(clk), .d(pt1_add251), .q(dl_pt1_add251));
+        u_dl_pt1_add251 (.clk(clk), .d(pt1_add251), .valid(1'b0), .q(dl_pt1_add251));
     // pt1_add252 = pt0_wA_z + pt1_mul249   (ready @95/95/95)
     logic [W-1:0] pt1_add252;
     logic [2:0] fl_pt1_add252;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_add252 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wA_z[1*W +: W]), .b(dl_pt1_mul249), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wA_z[1*W +: W]), .b(dl_pt1_mul249), .sub(1'b0),
         .out_valid(op_valid_nc[159]), .y(pt1_add252), .flags(fl_pt1_add252)
     );
     assign ev_ovf[157] = fl_pt1_add252[0] && ev_q[95];
@@ -2665,30 +2672,30 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[157] = fl_pt1_add252[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add252;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_add252 (.clk(clk), .d(pt1_add252), .q(dl_pt1_add252));
+        u_dl_pt1_add252 (.clk(clk), .d(pt1_add252), .valid(1'b0), .q(dl_pt1_add252));
     // pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add250   (ready @95/95/95)
     logic [W-1:0] pt1_wA_x;
     assign pt1_wA_x = dl_pt1_skip[1] ? dl_pt0_wA_x[2*W +: W] : dl_pt1_add250;
     logic [3*W-1:0] dl_pt1_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wA_x (.clk(clk), .d(pt1_wA_x), .q(dl_pt1_wA_x));
+        u_dl_pt1_wA_x (.clk(clk), .d(pt1_wA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_x));
     // pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add251   (ready @95/95/95)
     logic [W-1:0] pt1_wA_y;
     assign pt1_wA_y = dl_pt1_skip[1] ? dl_pt0_wA_y[2*W +: W] : dl_pt1_add251;
     logic [3*W-1:0] dl_pt1_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wA_y (.clk(clk), .d(pt1_wA_y), .q(dl_pt1_wA_y));
+        u_dl_pt1_wA_y (.clk(clk), .d(pt1_wA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_y));
     // pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add252   (ready @95/95/95)
     logic [W-1:0] pt1_wA_z;
     assign pt1_wA_z = dl_pt1_skip[1] ? dl_pt0_wA_z[2*W +: W] : dl_pt1_add252;
     logic [3*W-1:0] dl_pt1_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wA_z (.clk(clk), .d(pt1_wA_z), .q(dl_pt1_wA_z));
+        u_dl_pt1_wA_z (.clk(clk), .d(pt1_wA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_z));
     // pt1_mul256 = linB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul256;
     logic [2:0] fl_pt1_mul256;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul256 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linB_x[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[160]), .y(pt1_mul256), .flags(fl_pt1_mul256)
     );
     assign ev_ovf[158] = fl_pt1_mul256[0] && ev_q[91];
@@ -2696,12 +2703,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[158] = fl_pt1_mul256[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul256;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul256 (.clk(clk), .d(pt1_mul256), .q(dl_pt1_mul256));
+        u_dl_pt1_mul256 (.clk(clk), .d(pt1_mul256), .valid(1'b0), .q(dl_pt1_mul256));
     // pt1_mul257 = linB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul257;
     logic [2:0] fl_pt1_mul257;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul257 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linB_y[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[161]), .y(pt1_mul257), .flags(fl_pt1_mul257)
     );
     assign ev_ovf[159] = fl_pt1_mul257[0] && ev_q[91];
@@ -2709,12 +2716,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[159] = fl_pt1_mul257[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul257;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul257 (.clk(clk), .d(pt1_mul257), .q(dl_pt1_mul257));
+        u_dl_pt1_mul257 (.clk(clk), .d(pt1_mul257), .valid(1'b0), .q(dl_pt1_mul257));
     // pt1_mul258 = linB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul258;
     logic [2:0] fl_pt1_mul258;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul258 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[1*W +: W]), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_linB_z[1*W +: W]), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[162]), .y(pt1_mul258), .flags(fl_pt1_mul258)
     );
     assign ev_ovf[160] = fl_pt1_mul258[0] && ev_q[91];
@@ -2722,12 +2729,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[160] = fl_pt1_mul258[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul258;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul258 (.clk(clk), .d(pt1_mul258), .q(dl_pt1_mul258));
+        u_dl_pt1_mul258 (.clk(clk), .d(pt1_mul258), .valid(1'b0), .q(dl_pt1_mul258));
     // pt1_sub259 = pt0_vB_x - pt1_mul256   (ready @95/95/95)
     logic [W-1:0] pt1_sub259;
     logic [2:0] fl_pt1_sub259;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub259 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_x[1*W +: W]), .b(dl_pt1_mul256), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_x[1*W +: W]), .b(dl_pt1_mul256), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(pt1_sub259), .flags(fl_pt1_sub259)
     );
     assign ev_ovf[161] = fl_pt1_sub259[0] && ev_q[95];
@@ -2735,12 +2742,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[161] = fl_pt1_sub259[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub259;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub259 (.clk(clk), .d(pt1_sub259), .q(dl_pt1_sub259));
+        u_dl_pt1_sub259 (.clk(clk), .d(pt1_sub259), .valid(1'b0), .q(dl_pt1_sub259));
     // pt1_sub260 = pt0_vB_y - pt1_mul257   (ready @95/95/95)
     logic [W-1:0] pt1_sub260;
     logic [2:0] fl_pt1_sub260;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub260 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_y[1*W +: W]), .b(dl_pt1_mul257), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_y[1*W +: W]), .b(dl_pt1_mul257), .sub(1'b1),
         .out_valid(op_valid_nc[164]), .y(pt1_sub260), .flags(fl_pt1_sub260)
     );
     assign ev_ovf[162] = fl_pt1_sub260[0] && ev_q[95];
@@ -2748,12 +2755,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[162] = fl_pt1_sub260[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub260;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub260 (.clk(clk), .d(pt1_sub260), .q(dl_pt1_sub260));
+        u_dl_pt1_sub260 (.clk(clk), .d(pt1_sub260), .valid(1'b0), .q(dl_pt1_sub260));
     // pt1_sub261 = pt0_vB_z - pt1_mul258   (ready @95/95/95)
     logic [W-1:0] pt1_sub261;
     logic [2:0] fl_pt1_sub261;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub261 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_vB_z[1*W +: W]), .b(dl_pt1_mul258), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_vB_z[1*W +: W]), .b(dl_pt1_mul258), .sub(1'b1),
         .out_valid(op_valid_nc[165]), .y(pt1_sub261), .flags(fl_pt1_sub261)
     );
     assign ev_ovf[163] = fl_pt1_sub261[0] && ev_q[95];
@@ -2761,30 +2768,30 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[163] = fl_pt1_sub261[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub261;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub261 (.clk(clk), .d(pt1_sub261), .q(dl_pt1_sub261));
+        u_dl_pt1_sub261 (.clk(clk), .d(pt1_sub261), .valid(1'b0), .q(dl_pt1_sub261));
     // pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub259   (ready @95/95/95)
     logic [W-1:0] pt1_vB_x;
     assign pt1_vB_x = dl_pt1_skip[1] ? dl_pt0_vB_x[2*W +: W] : dl_pt1_sub259;
     logic [3*W-1:0] dl_pt1_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vB_x (.clk(clk), .d(pt1_vB_x), .q(dl_pt1_vB_x));
+        u_dl_pt1_vB_x (.clk(clk), .d(pt1_vB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_x));
     // pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub260   (ready @95/95/95)
     logic [W-1:0] pt1_vB_y;
     assign pt1_vB_y = dl_pt1_skip[1] ? dl_pt0_vB_y[2*W +: W] : dl_pt1_sub260;
     logic [3*W-1:0] dl_pt1_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vB_y (.clk(clk), .d(pt1_vB_y), .q(dl_pt1_vB_y));
+        u_dl_pt1_vB_y (.clk(clk), .d(pt1_vB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_y));
     // pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub261   (ready @95/95/95)
     logic [W-1:0] pt1_vB_z;
     assign pt1_vB_z = dl_pt1_skip[1] ? dl_pt0_vB_z[2*W +: W] : dl_pt1_sub261;
     logic [3*W-1:0] dl_pt1_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_vB_z (.clk(clk), .d(pt1_vB_z), .q(dl_pt1_vB_z));
+        u_dl_pt1_vB_z (.clk(clk), .d(pt1_vB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_z));
     // pt1_mul265 = pt1_angB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul265;
     logic [2:0] fl_pt1_mul265;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul265 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_x), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angB_x), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[166]), .y(pt1_mul265), .flags(fl_pt1_mul265)
     );
     assign ev_ovf[164] = fl_pt1_mul265[0] && ev_q[91];
@@ -2792,12 +2799,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[164] = fl_pt1_mul265[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul265;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul265 (.clk(clk), .d(pt1_mul265), .q(dl_pt1_mul265));
+        u_dl_pt1_mul265 (.clk(clk), .d(pt1_mul265), .valid(1'b0), .q(dl_pt1_mul265));
     // pt1_mul266 = pt1_angB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul266;
     logic [2:0] fl_pt1_mul266;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul266 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_y), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angB_y), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[167]), .y(pt1_mul266), .flags(fl_pt1_mul266)
     );
     assign ev_ovf[165] = fl_pt1_mul266[0] && ev_q[91];
@@ -2805,12 +2812,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[165] = fl_pt1_mul266[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul266;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul266 (.clk(clk), .d(pt1_mul266), .q(dl_pt1_mul266));
+        u_dl_pt1_mul266 (.clk(clk), .d(pt1_mul266), .valid(1'b0), .q(dl_pt1_mul266));
     // pt1_mul267 = pt1_angB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul267;
     logic [2:0] fl_pt1_mul267;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_mul267 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_angB_z), .b(dl_pt1_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[88]), .a(dl_pt1_angB_z), .b(dl_pt1_delta),
         .out_valid(op_valid_nc[168]), .y(pt1_mul267), .flags(fl_pt1_mul267)
     );
     assign ev_ovf[166] = fl_pt1_mul267[0] && ev_q[91];
@@ -2818,12 +2825,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[166] = fl_pt1_mul267[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul267;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_mul267 (.clk(clk), .d(pt1_mul267), .q(dl_pt1_mul267));
+        u_dl_pt1_mul267 (.clk(clk), .d(pt1_mul267), .valid(1'b0), .q(dl_pt1_mul267));
     // pt1_sub268 = pt0_wB_x - pt1_mul265   (ready @95/95/95)
     logic [W-1:0] pt1_sub268;
     logic [2:0] fl_pt1_sub268;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub268 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_x[1*W +: W]), .b(dl_pt1_mul265), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_x[1*W +: W]), .b(dl_pt1_mul265), .sub(1'b1),
         .out_valid(op_valid_nc[169]), .y(pt1_sub268), .flags(fl_pt1_sub268)
     );
     assign ev_ovf[167] = fl_pt1_sub268[0] && ev_q[95];
@@ -2831,12 +2838,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[167] = fl_pt1_sub268[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub268;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub268 (.clk(clk), .d(pt1_sub268), .q(dl_pt1_sub268));
+        u_dl_pt1_sub268 (.clk(clk), .d(pt1_sub268), .valid(1'b0), .q(dl_pt1_sub268));
     // pt1_sub269 = pt0_wB_y - pt1_mul266   (ready @95/95/95)
     logic [W-1:0] pt1_sub269;
     logic [2:0] fl_pt1_sub269;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub269 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_y[1*W +: W]), .b(dl_pt1_mul266), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_y[1*W +: W]), .b(dl_pt1_mul266), .sub(1'b1),
         .out_valid(op_valid_nc[170]), .y(pt1_sub269), .flags(fl_pt1_sub269)
     );
     assign ev_ovf[168] = fl_pt1_sub269[0] && ev_q[95];
@@ -2844,12 +2851,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[168] = fl_pt1_sub269[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub269;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub269 (.clk(clk), .d(pt1_sub269), .q(dl_pt1_sub269));
+        u_dl_pt1_sub269 (.clk(clk), .d(pt1_sub269), .valid(1'b0), .q(dl_pt1_sub269));
     // pt1_sub270 = pt0_wB_z - pt1_mul267   (ready @95/95/95)
     logic [W-1:0] pt1_sub270;
     logic [2:0] fl_pt1_sub270;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt1_sub270 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt0_wB_z[1*W +: W]), .b(dl_pt1_mul267), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[91]), .a(dl_pt0_wB_z[1*W +: W]), .b(dl_pt1_mul267), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(pt1_sub270), .flags(fl_pt1_sub270)
     );
     assign ev_ovf[169] = fl_pt1_sub270[0] && ev_q[95];
@@ -2857,36 +2864,36 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[169] = fl_pt1_sub270[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub270;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt1_sub270 (.clk(clk), .d(pt1_sub270), .q(dl_pt1_sub270));
+        u_dl_pt1_sub270 (.clk(clk), .d(pt1_sub270), .valid(1'b0), .q(dl_pt1_sub270));
     // pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub268   (ready @95/95/95)
     logic [W-1:0] pt1_wB_x;
     assign pt1_wB_x = dl_pt1_skip[1] ? dl_pt0_wB_x[2*W +: W] : dl_pt1_sub268;
     logic [3*W-1:0] dl_pt1_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wB_x (.clk(clk), .d(pt1_wB_x), .q(dl_pt1_wB_x));
+        u_dl_pt1_wB_x (.clk(clk), .d(pt1_wB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_x));
     // pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub269   (ready @95/95/95)
     logic [W-1:0] pt1_wB_y;
     assign pt1_wB_y = dl_pt1_skip[1] ? dl_pt0_wB_y[2*W +: W] : dl_pt1_sub269;
     logic [3*W-1:0] dl_pt1_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wB_y (.clk(clk), .d(pt1_wB_y), .q(dl_pt1_wB_y));
+        u_dl_pt1_wB_y (.clk(clk), .d(pt1_wB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_y));
     // pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub270   (ready @95/95/95)
     logic [W-1:0] pt1_wB_z;
     assign pt1_wB_z = dl_pt1_skip[1] ? dl_pt0_wB_z[2*W +: W] : dl_pt1_sub270;
     logic [3*W-1:0] dl_pt1_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt1_wB_z (.clk(clk), .d(pt1_wB_z), .q(dl_pt1_wB_z));
+        u_dl_pt1_wB_z (.clk(clk), .d(pt1_wB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_z));
     // pt2_skip = jac_inv2 == 0   (ready @0/0/0)
     logic pt2_skip;
     assign pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt2_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}))
-        u_dl_pt2_skip (.clk(clk), .d(pt2_skip), .q(dl_pt2_skip));
+        u_dl_pt2_skip (.clk(clk), .d(pt2_skip), .valid(valid_q[0 +: 137]), .q(dl_pt2_skip));
     // pt2_rA_x = p2_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt2_rA_x;
     logic [2:0] fl_pt2_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(pt2_rA_x), .flags(fl_pt2_rA_x)
     );
     assign ev_ovf[170] = fl_pt2_rA_x[0] && ev_q[4];
@@ -2894,12 +2901,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[170] = fl_pt2_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rA_x (.clk(clk), .d(pt2_rA_x), .q(dl_pt2_rA_x));
+        u_dl_pt2_rA_x (.clk(clk), .d(pt2_rA_x), .valid(1'b0), .q(dl_pt2_rA_x));
     // pt2_rA_y = p2_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt2_rA_y;
     logic [2:0] fl_pt2_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[173]), .y(pt2_rA_y), .flags(fl_pt2_rA_y)
     );
     assign ev_ovf[171] = fl_pt2_rA_y[0] && ev_q[4];
@@ -2907,12 +2914,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[171] = fl_pt2_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rA_y (.clk(clk), .d(pt2_rA_y), .q(dl_pt2_rA_y));
+        u_dl_pt2_rA_y (.clk(clk), .d(pt2_rA_y), .valid(1'b0), .q(dl_pt2_rA_y));
     // pt2_rA_z = p2_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt2_rA_z;
     logic [2:0] fl_pt2_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[174]), .y(pt2_rA_z), .flags(fl_pt2_rA_z)
     );
     assign ev_ovf[172] = fl_pt2_rA_z[0] && ev_q[4];
@@ -2920,12 +2927,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[172] = fl_pt2_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rA_z (.clk(clk), .d(pt2_rA_z), .q(dl_pt2_rA_z));
+        u_dl_pt2_rA_z (.clk(clk), .d(pt2_rA_z), .valid(1'b0), .q(dl_pt2_rA_z));
     // pt2_mul278 = pt2_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul278;
     logic [2:0] fl_pt2_mul278;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul278 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[175]), .y(pt2_mul278), .flags(fl_pt2_mul278)
     );
     assign ev_ovf[173] = fl_pt2_mul278[0] && ev_q[7];
@@ -2933,12 +2940,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[173] = fl_pt2_mul278[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul278;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul278 (.clk(clk), .d(pt2_mul278), .q(dl_pt2_mul278));
+        u_dl_pt2_mul278 (.clk(clk), .d(pt2_mul278), .valid(1'b0), .q(dl_pt2_mul278));
     // pt2_mul279 = pt2_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul279;
     logic [2:0] fl_pt2_mul279;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul279 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[176]), .y(pt2_mul279), .flags(fl_pt2_mul279)
     );
     assign ev_ovf[174] = fl_pt2_mul279[0] && ev_q[7];
@@ -2946,12 +2953,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[174] = fl_pt2_mul279[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul279;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul279 (.clk(clk), .d(pt2_mul279), .q(dl_pt2_mul279));
+        u_dl_pt2_mul279 (.clk(clk), .d(pt2_mul279), .valid(1'b0), .q(dl_pt2_mul279));
     // pt2_cA_x = pt2_mul278 - pt2_mul279   (ready @11/11/11)
     logic [W-1:0] pt2_cA_x;
     logic [2:0] fl_pt2_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul278), .b(dl_pt2_mul279), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul278), .b(dl_pt2_mul279), .sub(1'b1),
         .out_valid(op_valid_nc[177]), .y(pt2_cA_x), .flags(fl_pt2_cA_x)
     );
     assign ev_ovf[175] = fl_pt2_cA_x[0] && ev_q[11];
@@ -2959,12 +2966,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[175] = fl_pt2_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cA_x (.clk(clk), .d(pt2_cA_x), .q(dl_pt2_cA_x));
+        u_dl_pt2_cA_x (.clk(clk), .d(pt2_cA_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_x));
     // pt2_mul281 = pt2_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul281;
     logic [2:0] fl_pt2_mul281;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul281 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[178]), .y(pt2_mul281), .flags(fl_pt2_mul281)
     );
     assign ev_ovf[176] = fl_pt2_mul281[0] && ev_q[7];
@@ -2972,12 +2979,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[176] = fl_pt2_mul281[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul281;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul281 (.clk(clk), .d(pt2_mul281), .q(dl_pt2_mul281));
+        u_dl_pt2_mul281 (.clk(clk), .d(pt2_mul281), .valid(1'b0), .q(dl_pt2_mul281));
     // pt2_mul282 = pt2_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul282;
     logic [2:0] fl_pt2_mul282;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul282 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[179]), .y(pt2_mul282), .flags(fl_pt2_mul282)
     );
     assign ev_ovf[177] = fl_pt2_mul282[0] && ev_q[7];
@@ -2985,12 +2992,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[177] = fl_pt2_mul282[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul282;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul282 (.clk(clk), .d(pt2_mul282), .q(dl_pt2_mul282));
+        u_dl_pt2_mul282 (.clk(clk), .d(pt2_mul282), .valid(1'b0), .q(dl_pt2_mul282));
     // pt2_cA_y = pt2_mul281 - pt2_mul282   (ready @11/11/11)
     logic [W-1:0] pt2_cA_y;
     logic [2:0] fl_pt2_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul281), .b(dl_pt2_mul282), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul281), .b(dl_pt2_mul282), .sub(1'b1),
         .out_valid(op_valid_nc[180]), .y(pt2_cA_y), .flags(fl_pt2_cA_y)
     );
     assign ev_ovf[178] = fl_pt2_cA_y[0] && ev_q[11];
@@ -2998,12 +3005,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[178] = fl_pt2_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cA_y (.clk(clk), .d(pt2_cA_y), .q(dl_pt2_cA_y));
+        u_dl_pt2_cA_y (.clk(clk), .d(pt2_cA_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_y));
     // pt2_mul284 = pt2_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul284;
     logic [2:0] fl_pt2_mul284;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul284 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[181]), .y(pt2_mul284), .flags(fl_pt2_mul284)
     );
     assign ev_ovf[179] = fl_pt2_mul284[0] && ev_q[7];
@@ -3011,12 +3018,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[179] = fl_pt2_mul284[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul284;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul284 (.clk(clk), .d(pt2_mul284), .q(dl_pt2_mul284));
+        u_dl_pt2_mul284 (.clk(clk), .d(pt2_mul284), .valid(1'b0), .q(dl_pt2_mul284));
     // pt2_mul285 = pt2_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul285;
     logic [2:0] fl_pt2_mul285;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul285 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[182]), .y(pt2_mul285), .flags(fl_pt2_mul285)
     );
     assign ev_ovf[180] = fl_pt2_mul285[0] && ev_q[7];
@@ -3024,12 +3031,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[180] = fl_pt2_mul285[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul285;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul285 (.clk(clk), .d(pt2_mul285), .q(dl_pt2_mul285));
+        u_dl_pt2_mul285 (.clk(clk), .d(pt2_mul285), .valid(1'b0), .q(dl_pt2_mul285));
     // pt2_cA_z = pt2_mul284 - pt2_mul285   (ready @11/11/11)
     logic [W-1:0] pt2_cA_z;
     logic [2:0] fl_pt2_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul284), .b(dl_pt2_mul285), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul284), .b(dl_pt2_mul285), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(pt2_cA_z), .flags(fl_pt2_cA_z)
     );
     assign ev_ovf[181] = fl_pt2_cA_z[0] && ev_q[11];
@@ -3037,12 +3044,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[181] = fl_pt2_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cA_z (.clk(clk), .d(pt2_cA_z), .q(dl_pt2_cA_z));
+        u_dl_pt2_cA_z (.clk(clk), .d(pt2_cA_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_z));
     // pt2_rB_x = p2_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt2_rB_x;
     logic [2:0] fl_pt2_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(pt2_rB_x), .flags(fl_pt2_rB_x)
     );
     assign ev_ovf[182] = fl_pt2_rB_x[0] && ev_q[4];
@@ -3050,12 +3057,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[182] = fl_pt2_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rB_x (.clk(clk), .d(pt2_rB_x), .q(dl_pt2_rB_x));
+        u_dl_pt2_rB_x (.clk(clk), .d(pt2_rB_x), .valid(1'b0), .q(dl_pt2_rB_x));
     // pt2_rB_y = p2_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt2_rB_y;
     logic [2:0] fl_pt2_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[185]), .y(pt2_rB_y), .flags(fl_pt2_rB_y)
     );
     assign ev_ovf[183] = fl_pt2_rB_y[0] && ev_q[4];
@@ -3063,12 +3070,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[183] = fl_pt2_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rB_y (.clk(clk), .d(pt2_rB_y), .q(dl_pt2_rB_y));
+        u_dl_pt2_rB_y (.clk(clk), .d(pt2_rB_y), .valid(1'b0), .q(dl_pt2_rB_y));
     // pt2_rB_z = p2_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt2_rB_z;
     logic [2:0] fl_pt2_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p2_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[186]), .y(pt2_rB_z), .flags(fl_pt2_rB_z)
     );
     assign ev_ovf[184] = fl_pt2_rB_z[0] && ev_q[4];
@@ -3076,12 +3083,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[184] = fl_pt2_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_rB_z (.clk(clk), .d(pt2_rB_z), .q(dl_pt2_rB_z));
+        u_dl_pt2_rB_z (.clk(clk), .d(pt2_rB_z), .valid(1'b0), .q(dl_pt2_rB_z));
     // pt2_mul290 = pt2_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul290;
     logic [2:0] fl_pt2_mul290;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul290 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[187]), .y(pt2_mul290), .flags(fl_pt2_mul290)
     );
     assign ev_ovf[185] = fl_pt2_mul290[0] && ev_q[7];
@@ -3089,12 +3096,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[185] = fl_pt2_mul290[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul290;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul290 (.clk(clk), .d(pt2_mul290), .q(dl_pt2_mul290));
+        u_dl_pt2_mul290 (.clk(clk), .d(pt2_mul290), .valid(1'b0), .q(dl_pt2_mul290));
     // pt2_mul291 = pt2_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul291;
     logic [2:0] fl_pt2_mul291;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul291 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[188]), .y(pt2_mul291), .flags(fl_pt2_mul291)
     );
     assign ev_ovf[186] = fl_pt2_mul291[0] && ev_q[7];
@@ -3102,12 +3109,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[186] = fl_pt2_mul291[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul291;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul291 (.clk(clk), .d(pt2_mul291), .q(dl_pt2_mul291));
+        u_dl_pt2_mul291 (.clk(clk), .d(pt2_mul291), .valid(1'b0), .q(dl_pt2_mul291));
     // pt2_cB_x = pt2_mul290 - pt2_mul291   (ready @11/11/11)
     logic [W-1:0] pt2_cB_x;
     logic [2:0] fl_pt2_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul290), .b(dl_pt2_mul291), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul290), .b(dl_pt2_mul291), .sub(1'b1),
         .out_valid(op_valid_nc[189]), .y(pt2_cB_x), .flags(fl_pt2_cB_x)
     );
     assign ev_ovf[187] = fl_pt2_cB_x[0] && ev_q[11];
@@ -3115,12 +3122,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[187] = fl_pt2_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cB_x (.clk(clk), .d(pt2_cB_x), .q(dl_pt2_cB_x));
+        u_dl_pt2_cB_x (.clk(clk), .d(pt2_cB_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_x));
     // pt2_mul293 = pt2_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul293;
     logic [2:0] fl_pt2_mul293;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul293 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[190]), .y(pt2_mul293), .flags(fl_pt2_mul293)
     );
     assign ev_ovf[188] = fl_pt2_mul293[0] && ev_q[7];
@@ -3128,12 +3135,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[188] = fl_pt2_mul293[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul293;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul293 (.clk(clk), .d(pt2_mul293), .q(dl_pt2_mul293));
+        u_dl_pt2_mul293 (.clk(clk), .d(pt2_mul293), .valid(1'b0), .q(dl_pt2_mul293));
     // pt2_mul294 = pt2_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul294;
     logic [2:0] fl_pt2_mul294;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul294 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[191]), .y(pt2_mul294), .flags(fl_pt2_mul294)
     );
     assign ev_ovf[189] = fl_pt2_mul294[0] && ev_q[7];
@@ -3141,12 +3148,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[189] = fl_pt2_mul294[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul294;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul294 (.clk(clk), .d(pt2_mul294), .q(dl_pt2_mul294));
+        u_dl_pt2_mul294 (.clk(clk), .d(pt2_mul294), .valid(1'b0), .q(dl_pt2_mul294));
     // pt2_cB_y = pt2_mul293 - pt2_mul294   (ready @11/11/11)
     logic [W-1:0] pt2_cB_y;
     logic [2:0] fl_pt2_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul293), .b(dl_pt2_mul294), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul293), .b(dl_pt2_mul294), .sub(1'b1),
         .out_valid(op_valid_nc[192]), .y(pt2_cB_y), .flags(fl_pt2_cB_y)
     );
     assign ev_ovf[190] = fl_pt2_cB_y[0] && ev_q[11];
@@ -3154,12 +3161,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[190] = fl_pt2_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cB_y (.clk(clk), .d(pt2_cB_y), .q(dl_pt2_cB_y));
+        u_dl_pt2_cB_y (.clk(clk), .d(pt2_cB_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_y));
     // pt2_mul296 = pt2_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul296;
     logic [2:0] fl_pt2_mul296;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul296 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[193]), .y(pt2_mul296), .flags(fl_pt2_mul296)
     );
     assign ev_ovf[191] = fl_pt2_mul296[0] && ev_q[7];
@@ -3167,12 +3174,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[191] = fl_pt2_mul296[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul296;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul296 (.clk(clk), .d(pt2_mul296), .q(dl_pt2_mul296));
+        u_dl_pt2_mul296 (.clk(clk), .d(pt2_mul296), .valid(1'b0), .q(dl_pt2_mul296));
     // pt2_mul297 = pt2_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul297;
     logic [2:0] fl_pt2_mul297;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul297 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt2_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[194]), .y(pt2_mul297), .flags(fl_pt2_mul297)
     );
     assign ev_ovf[192] = fl_pt2_mul297[0] && ev_q[7];
@@ -3180,12 +3187,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[192] = fl_pt2_mul297[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul297;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul297 (.clk(clk), .d(pt2_mul297), .q(dl_pt2_mul297));
+        u_dl_pt2_mul297 (.clk(clk), .d(pt2_mul297), .valid(1'b0), .q(dl_pt2_mul297));
     // pt2_cB_z = pt2_mul296 - pt2_mul297   (ready @11/11/11)
     logic [W-1:0] pt2_cB_z;
     logic [2:0] fl_pt2_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul296), .b(dl_pt2_mul297), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt2_mul296), .b(dl_pt2_mul297), .sub(1'b1),
         .out_valid(op_valid_nc[195]), .y(pt2_cB_z), .flags(fl_pt2_cB_z)
     );
     assign ev_ovf[193] = fl_pt2_cB_z[0] && ev_q[11];
@@ -3193,12 +3200,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[193] = fl_pt2_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
-        u_dl_pt2_cB_z (.clk(clk), .d(pt2_cB_z), .q(dl_pt2_cB_z));
+        u_dl_pt2_cB_z (.clk(clk), .d(pt2_cB_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_z));
     // pt2_mul299 = n_x * pt1_vA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul299;
     logic [2:0] fl_pt2_mul299;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul299 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[196]), .y(pt2_mul299), .flags(fl_pt2_mul299)
     );
     assign ev_ovf[194] = fl_pt2_mul299[0] && ev_q[98];
@@ -3206,12 +3213,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[194] = fl_pt2_mul299[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul299;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul299 (.clk(clk), .d(pt2_mul299), .q(dl_pt2_mul299));
+        u_dl_pt2_mul299 (.clk(clk), .d(pt2_mul299), .valid(1'b0), .q(dl_pt2_mul299));
     // pt2_mul300 = n_y * pt1_vA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul300;
     logic [2:0] fl_pt2_mul300;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul300 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[197]), .y(pt2_mul300), .flags(fl_pt2_mul300)
     );
     assign ev_ovf[195] = fl_pt2_mul300[0] && ev_q[98];
@@ -3219,12 +3226,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[195] = fl_pt2_mul300[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul300;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul300 (.clk(clk), .d(pt2_mul300), .q(dl_pt2_mul300));
+        u_dl_pt2_mul300 (.clk(clk), .d(pt2_mul300), .valid(1'b0), .q(dl_pt2_mul300));
     // pt2_add301 = pt2_mul299 + pt2_mul300   (ready @102/102/102)
     logic [W-1:0] pt2_add301;
     logic [2:0] fl_pt2_add301;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add301 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul299), .b(dl_pt2_mul300), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul299), .b(dl_pt2_mul300), .sub(1'b0),
         .out_valid(op_valid_nc[198]), .y(pt2_add301), .flags(fl_pt2_add301)
     );
     assign ev_ovf[196] = fl_pt2_add301[0] && ev_q[102];
@@ -3232,12 +3239,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[196] = fl_pt2_add301[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add301;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add301 (.clk(clk), .d(pt2_add301), .q(dl_pt2_add301));
+        u_dl_pt2_add301 (.clk(clk), .d(pt2_add301), .valid(1'b0), .q(dl_pt2_add301));
     // pt2_mul302 = n_z * pt1_vA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul302;
     logic [2:0] fl_pt2_mul302;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul302 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[199]), .y(pt2_mul302), .flags(fl_pt2_mul302)
     );
     assign ev_ovf[197] = fl_pt2_mul302[0] && ev_q[98];
@@ -3245,12 +3252,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[197] = fl_pt2_mul302[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul302;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul302 (.clk(clk), .d(pt2_mul302), .q(dl_pt2_mul302));
+        u_dl_pt2_mul302 (.clk(clk), .d(pt2_mul302), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul302));
     // pt2_add303 = pt2_add301 + pt2_mul302   (ready @106/106/106)
     logic [W-1:0] pt2_add303;
     logic [2:0] fl_pt2_add303;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add303 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add301), .b(dl_pt2_mul302), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add301), .b(dl_pt2_mul302), .sub(1'b0),
         .out_valid(op_valid_nc[200]), .y(pt2_add303), .flags(fl_pt2_add303)
     );
     assign ev_ovf[198] = fl_pt2_add303[0] && ev_q[106];
@@ -3258,12 +3265,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[198] = fl_pt2_add303[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add303;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add303 (.clk(clk), .d(pt2_add303), .q(dl_pt2_add303));
+        u_dl_pt2_add303 (.clk(clk), .d(pt2_add303), .valid(1'b0), .q(dl_pt2_add303));
     // pt2_mul304 = n_x * pt1_vB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul304;
     logic [2:0] fl_pt2_mul304;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul304 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_x[3*W +: W]), .b(dl_pt1_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[201]), .y(pt2_mul304), .flags(fl_pt2_mul304)
     );
     assign ev_ovf[199] = fl_pt2_mul304[0] && ev_q[98];
@@ -3271,12 +3278,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[199] = fl_pt2_mul304[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul304;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul304 (.clk(clk), .d(pt2_mul304), .q(dl_pt2_mul304));
+        u_dl_pt2_mul304 (.clk(clk), .d(pt2_mul304), .valid(1'b0), .q(dl_pt2_mul304));
     // pt2_mul305 = n_y * pt1_vB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul305;
     logic [2:0] fl_pt2_mul305;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul305 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_y[3*W +: W]), .b(dl_pt1_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[202]), .y(pt2_mul305), .flags(fl_pt2_mul305)
     );
     assign ev_ovf[200] = fl_pt2_mul305[0] && ev_q[98];
@@ -3284,12 +3291,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[200] = fl_pt2_mul305[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul305;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul305 (.clk(clk), .d(pt2_mul305), .q(dl_pt2_mul305));
+        u_dl_pt2_mul305 (.clk(clk), .d(pt2_mul305), .valid(1'b0), .q(dl_pt2_mul305));
     // pt2_add306 = pt2_mul304 + pt2_mul305   (ready @102/102/102)
     logic [W-1:0] pt2_add306;
     logic [2:0] fl_pt2_add306;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add306 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul304), .b(dl_pt2_mul305), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul304), .b(dl_pt2_mul305), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(pt2_add306), .flags(fl_pt2_add306)
     );
     assign ev_ovf[201] = fl_pt2_add306[0] && ev_q[102];
@@ -3297,12 +3304,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[201] = fl_pt2_add306[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add306;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add306 (.clk(clk), .d(pt2_add306), .q(dl_pt2_add306));
+        u_dl_pt2_add306 (.clk(clk), .d(pt2_add306), .valid(1'b0), .q(dl_pt2_add306));
     // pt2_mul307 = n_z * pt1_vB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul307;
     logic [2:0] fl_pt2_mul307;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul307 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_in_n_z[3*W +: W]), .b(dl_pt1_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[204]), .y(pt2_mul307), .flags(fl_pt2_mul307)
     );
     assign ev_ovf[202] = fl_pt2_mul307[0] && ev_q[98];
@@ -3310,12 +3317,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[202] = fl_pt2_mul307[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul307;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul307 (.clk(clk), .d(pt2_mul307), .q(dl_pt2_mul307));
+        u_dl_pt2_mul307 (.clk(clk), .d(pt2_mul307), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul307));
     // pt2_add308 = pt2_add306 + pt2_mul307   (ready @106/106/106)
     logic [W-1:0] pt2_add308;
     logic [2:0] fl_pt2_add308;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add308 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add306), .b(dl_pt2_mul307), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add306), .b(dl_pt2_mul307), .sub(1'b0),
         .out_valid(op_valid_nc[205]), .y(pt2_add308), .flags(fl_pt2_add308)
     );
     assign ev_ovf[203] = fl_pt2_add308[0] && ev_q[106];
@@ -3323,12 +3330,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[203] = fl_pt2_add308[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add308;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add308 (.clk(clk), .d(pt2_add308), .q(dl_pt2_add308));
+        u_dl_pt2_add308 (.clk(clk), .d(pt2_add308), .valid(1'b0), .q(dl_pt2_add308));
     // pt2_sub309 = pt2_add303 - pt2_add308   (ready @110/110/110)
     logic [W-1:0] pt2_sub309;
     logic [2:0] fl_pt2_sub309;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub309 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add303), .b(dl_pt2_add308), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add303), .b(dl_pt2_add308), .sub(1'b1),
         .out_valid(op_valid_nc[206]), .y(pt2_sub309), .flags(fl_pt2_sub309)
     );
     assign ev_ovf[204] = fl_pt2_sub309[0] && ev_q[110];
@@ -3336,12 +3343,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[204] = fl_pt2_sub309[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub309;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub309 (.clk(clk), .d(pt2_sub309), .q(dl_pt2_sub309));
+        u_dl_pt2_sub309 (.clk(clk), .d(pt2_sub309), .valid(1'b0), .q(dl_pt2_sub309));
     // pt2_mul310 = pt2_cA_x * pt1_wA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul310;
     logic [2:0] fl_pt2_mul310;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul310 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_x[0*W +: W]), .b(dl_pt1_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cA_x[0*W +: W]), .b(dl_pt1_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[207]), .y(pt2_mul310), .flags(fl_pt2_mul310)
     );
     assign ev_ovf[205] = fl_pt2_mul310[0] && ev_q[98];
@@ -3349,12 +3356,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[205] = fl_pt2_mul310[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul310;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul310 (.clk(clk), .d(pt2_mul310), .q(dl_pt2_mul310));
+        u_dl_pt2_mul310 (.clk(clk), .d(pt2_mul310), .valid(1'b0), .q(dl_pt2_mul310));
     // pt2_mul311 = pt2_cA_y * pt1_wA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul311;
     logic [2:0] fl_pt2_mul311;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul311 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_y[0*W +: W]), .b(dl_pt1_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cA_y[0*W +: W]), .b(dl_pt1_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[208]), .y(pt2_mul311), .flags(fl_pt2_mul311)
     );
     assign ev_ovf[206] = fl_pt2_mul311[0] && ev_q[98];
@@ -3362,12 +3369,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[206] = fl_pt2_mul311[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul311;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul311 (.clk(clk), .d(pt2_mul311), .q(dl_pt2_mul311));
+        u_dl_pt2_mul311 (.clk(clk), .d(pt2_mul311), .valid(1'b0), .q(dl_pt2_mul311));
     // pt2_add312 = pt2_mul310 + pt2_mul311   (ready @102/102/102)
     logic [W-1:0] pt2_add312;
     logic [2:0] fl_pt2_add312;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add312 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul310), .b(dl_pt2_mul311), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul310), .b(dl_pt2_mul311), .sub(1'b0),
         .out_valid(op_valid_nc[209]), .y(pt2_add312), .flags(fl_pt2_add312)
     );
     assign ev_ovf[207] = fl_pt2_add312[0] && ev_q[102];
@@ -3375,12 +3382,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[207] = fl_pt2_add312[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add312;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add312 (.clk(clk), .d(pt2_add312), .q(dl_pt2_add312));
+        u_dl_pt2_add312 (.clk(clk), .d(pt2_add312), .valid(1'b0), .q(dl_pt2_add312));
     // pt2_mul313 = pt2_cA_z * pt1_wA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul313;
     logic [2:0] fl_pt2_mul313;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul313 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cA_z[0*W +: W]), .b(dl_pt1_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cA_z[0*W +: W]), .b(dl_pt1_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[210]), .y(pt2_mul313), .flags(fl_pt2_mul313)
     );
     assign ev_ovf[208] = fl_pt2_mul313[0] && ev_q[98];
@@ -3388,12 +3395,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[208] = fl_pt2_mul313[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul313;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul313 (.clk(clk), .d(pt2_mul313), .q(dl_pt2_mul313));
+        u_dl_pt2_mul313 (.clk(clk), .d(pt2_mul313), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul313));
     // pt2_add314 = pt2_add312 + pt2_mul313   (ready @106/106/106)
     logic [W-1:0] pt2_add314;
     logic [2:0] fl_pt2_add314;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add314 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add312), .b(dl_pt2_mul313), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add312), .b(dl_pt2_mul313), .sub(1'b0),
         .out_valid(op_valid_nc[211]), .y(pt2_add314), .flags(fl_pt2_add314)
     );
     assign ev_ovf[209] = fl_pt2_add314[0] && ev_q[106];
@@ -3401,12 +3408,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[209] = fl_pt2_add314[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add314;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add314 (.clk(clk), .d(pt2_add314), .q(dl_pt2_add314));
+        u_dl_pt2_add314 (.clk(clk), .d(pt2_add314), .valid(1'b0), .q(dl_pt2_add314));
     // pt2_mul315 = pt2_cB_x * pt1_wB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul315;
     logic [2:0] fl_pt2_mul315;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul315 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_x[0*W +: W]), .b(dl_pt1_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cB_x[0*W +: W]), .b(dl_pt1_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[212]), .y(pt2_mul315), .flags(fl_pt2_mul315)
     );
     assign ev_ovf[210] = fl_pt2_mul315[0] && ev_q[98];
@@ -3414,12 +3421,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[210] = fl_pt2_mul315[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul315;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul315 (.clk(clk), .d(pt2_mul315), .q(dl_pt2_mul315));
+        u_dl_pt2_mul315 (.clk(clk), .d(pt2_mul315), .valid(1'b0), .q(dl_pt2_mul315));
     // pt2_mul316 = pt2_cB_y * pt1_wB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul316;
     logic [2:0] fl_pt2_mul316;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul316 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_y[0*W +: W]), .b(dl_pt1_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cB_y[0*W +: W]), .b(dl_pt1_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[213]), .y(pt2_mul316), .flags(fl_pt2_mul316)
     );
     assign ev_ovf[211] = fl_pt2_mul316[0] && ev_q[98];
@@ -3427,12 +3434,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[211] = fl_pt2_mul316[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul316;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul316 (.clk(clk), .d(pt2_mul316), .q(dl_pt2_mul316));
+        u_dl_pt2_mul316 (.clk(clk), .d(pt2_mul316), .valid(1'b0), .q(dl_pt2_mul316));
     // pt2_add317 = pt2_mul315 + pt2_mul316   (ready @102/102/102)
     logic [W-1:0] pt2_add317;
     logic [2:0] fl_pt2_add317;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add317 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_mul315), .b(dl_pt2_mul316), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[98]), .a(dl_pt2_mul315), .b(dl_pt2_mul316), .sub(1'b0),
         .out_valid(op_valid_nc[214]), .y(pt2_add317), .flags(fl_pt2_add317)
     );
     assign ev_ovf[212] = fl_pt2_add317[0] && ev_q[102];
@@ -3440,12 +3447,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[212] = fl_pt2_add317[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add317;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add317 (.clk(clk), .d(pt2_add317), .q(dl_pt2_add317));
+        u_dl_pt2_add317 (.clk(clk), .d(pt2_add317), .valid(1'b0), .q(dl_pt2_add317));
     // pt2_mul318 = pt2_cB_z * pt1_wB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul318;
     logic [2:0] fl_pt2_mul318;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul318 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_cB_z[0*W +: W]), .b(dl_pt1_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[95]), .a(dl_pt2_cB_z[0*W +: W]), .b(dl_pt1_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[215]), .y(pt2_mul318), .flags(fl_pt2_mul318)
     );
     assign ev_ovf[213] = fl_pt2_mul318[0] && ev_q[98];
@@ -3453,12 +3460,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[213] = fl_pt2_mul318[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul318;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt2_mul318 (.clk(clk), .d(pt2_mul318), .q(dl_pt2_mul318));
+        u_dl_pt2_mul318 (.clk(clk), .d(pt2_mul318), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul318));
     // pt2_add319 = pt2_add317 + pt2_mul318   (ready @106/106/106)
     logic [W-1:0] pt2_add319;
     logic [2:0] fl_pt2_add319;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add319 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add317), .b(dl_pt2_mul318), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[102]), .a(dl_pt2_add317), .b(dl_pt2_mul318), .sub(1'b0),
         .out_valid(op_valid_nc[216]), .y(pt2_add319), .flags(fl_pt2_add319)
     );
     assign ev_ovf[214] = fl_pt2_add319[0] && ev_q[106];
@@ -3466,12 +3473,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[214] = fl_pt2_add319[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add319;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add319 (.clk(clk), .d(pt2_add319), .q(dl_pt2_add319));
+        u_dl_pt2_add319 (.clk(clk), .d(pt2_add319), .valid(1'b0), .q(dl_pt2_add319));
     // pt2_sub320 = pt2_add314 - pt2_add319   (ready @110/110/110)
     logic [W-1:0] pt2_sub320;
     logic [2:0] fl_pt2_sub320;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub320 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add314), .b(dl_pt2_add319), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_pt2_add314), .b(dl_pt2_add319), .sub(1'b1),
         .out_valid(op_valid_nc[217]), .y(pt2_sub320), .flags(fl_pt2_sub320)
     );
     assign ev_ovf[215] = fl_pt2_sub320[0] && ev_q[110];
@@ -3479,12 +3486,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[215] = fl_pt2_sub320[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub320;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub320 (.clk(clk), .d(pt2_sub320), .q(dl_pt2_sub320));
+        u_dl_pt2_sub320 (.clk(clk), .d(pt2_sub320), .valid(1'b0), .q(dl_pt2_sub320));
     // pt2_vrel = pt2_sub309 + pt2_sub320   (ready @114/114/114)
     logic [W-1:0] pt2_vrel;
     logic [2:0] fl_pt2_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_sub309), .b(dl_pt2_sub320), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[110]), .a(dl_pt2_sub309), .b(dl_pt2_sub320), .sub(1'b0),
         .out_valid(op_valid_nc[218]), .y(pt2_vrel), .flags(fl_pt2_vrel)
     );
     assign ev_ovf[216] = fl_pt2_vrel[0] && ev_q[114];
@@ -3492,12 +3499,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[216] = fl_pt2_vrel[2] && ev_q[114];
     logic [W-1:0] dl_pt2_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_vrel (.clk(clk), .d(pt2_vrel), .q(dl_pt2_vrel));
+        u_dl_pt2_vrel (.clk(clk), .d(pt2_vrel), .valid(1'b0), .q(dl_pt2_vrel));
     // pt2_add322 = pt2_vrel + b2   (ready @118/118/118)
     logic [W-1:0] pt2_add322;
     logic [2:0] fl_pt2_add322;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add322 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vrel), .b(dl_in_b2[1*W +: W]), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[114]), .a(dl_pt2_vrel), .b(dl_in_b2[1*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[219]), .y(pt2_add322), .flags(fl_pt2_add322)
     );
     assign ev_ovf[217] = fl_pt2_add322[0] && ev_q[118];
@@ -3505,12 +3512,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[217] = fl_pt2_add322[2] && ev_q[118];
     logic [W-1:0] dl_pt2_add322;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add322 (.clk(clk), .d(pt2_add322), .q(dl_pt2_add322));
+        u_dl_pt2_add322 (.clk(clk), .d(pt2_add322), .valid(1'b0), .q(dl_pt2_add322));
     // pt2_delta0 = pt2_add322 * jac_inv2   (ready @121/121/121)
     logic [W-1:0] pt2_delta0;
     logic [2:0] fl_pt2_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add322), .b(dl_in_jac_inv2[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[118]), .a(dl_pt2_add322), .b(dl_in_jac_inv2[1*W +: W]),
         .out_valid(op_valid_nc[220]), .y(pt2_delta0), .flags(fl_pt2_delta0)
     );
     assign ev_ovf[218] = fl_pt2_delta0[0] && ev_q[121];
@@ -3518,12 +3525,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[218] = fl_pt2_delta0[2] && ev_q[121];
     logic [W-1:0] dl_pt2_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_delta0 (.clk(clk), .d(pt2_delta0), .q(dl_pt2_delta0));
+        u_dl_pt2_delta0 (.clk(clk), .d(pt2_delta0), .valid(1'b0), .q(dl_pt2_delta0));
     // pt2_lam_kept = lam2 * keep2   (ready @3/3/3)
     logic [W-1:0] pt2_lam_kept;
     logic [2:0] fl_pt2_lam_kept;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_lam_kept (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam2[0*W +: W]), .b(dl_keep2),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam2[0*W +: W]), .b(dl_keep2),
         .out_valid(op_valid_nc[221]), .y(pt2_lam_kept), .flags(fl_pt2_lam_kept)
     );
     assign ev_ovf[219] = fl_pt2_lam_kept[0] && ev_q[3];
@@ -3531,12 +3538,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[219] = fl_pt2_lam_kept[2] && ev_q[3];
     logic [W-1:0] dl_pt2_lam_kept;
     pgs_delay #(.WIDTH(W), .DEPTH(118))
-        u_dl_pt2_lam_kept (.clk(clk), .d(pt2_lam_kept), .q(dl_pt2_lam_kept));
+        u_dl_pt2_lam_kept (.clk(clk), .d(pt2_lam_kept), .valid(valid_q[3 +: 118]), .q(dl_pt2_lam_kept));
     // pt2_add325 = pt2_lam_kept + pt2_delta0   (ready @125/125/125)
     logic [W-1:0] pt2_add325;
     logic [2:0] fl_pt2_add325;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add325 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_lam_kept), .b(dl_pt2_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[121]), .a(dl_pt2_lam_kept), .b(dl_pt2_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[222]), .y(pt2_add325), .flags(fl_pt2_add325)
     );
     assign ev_ovf[220] = fl_pt2_add325[0] && ev_q[125];
@@ -3544,22 +3551,22 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[220] = fl_pt2_add325[2] && ev_q[125];
     logic [W-1:0] dl_pt2_add325;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add325 (.clk(clk), .d(pt2_add325), .q(dl_pt2_add325));
+        u_dl_pt2_add325 (.clk(clk), .d(pt2_add325), .valid(1'b0), .q(dl_pt2_add325));
     // pt2_lam_new = max(pt2_add325, 0.0)   (ready @126/126/126)
     logic [W-1:0] pt2_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt2_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_add325), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[125]), .a(dl_pt2_add325), .b(K_ZERO),
         .out_valid(op_valid_nc[223]), .y_min(nc_pt2_lam_new_min), .y_max(pt2_lam_new),
         .lt(nc_pt2_lam_new_lt), .eq(nc_pt2_lam_new_eq), .unordered(nc_pt2_lam_new_uo)
     );
     logic [W-1:0] dl_pt2_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_lam_new (.clk(clk), .d(pt2_lam_new), .q(dl_pt2_lam_new));
+        u_dl_pt2_lam_new (.clk(clk), .d(pt2_lam_new), .valid(1'b0), .q(dl_pt2_lam_new));
     // pt2_delta = pt2_lam_new - lam2   (ready @130/130/130)
     logic [W-1:0] pt2_delta;
     logic [2:0] fl_pt2_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_lam_new), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[126]), .a(dl_pt2_lam_new), .b(dl_in_lam2[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[224]), .y(pt2_delta), .flags(fl_pt2_delta)
     );
     assign ev_ovf[221] = fl_pt2_delta[0] && ev_q[130];
@@ -3567,18 +3574,18 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[221] = fl_pt2_delta[2] && ev_q[130];
     logic [W-1:0] dl_pt2_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_delta (.clk(clk), .d(pt2_delta), .q(dl_pt2_delta));
+        u_dl_pt2_delta (.clk(clk), .d(pt2_delta), .valid(1'b0), .q(dl_pt2_delta));
     // pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (ready @126/126/126)
     logic [W-1:0] pt2_lam;
     assign pt2_lam = dl_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_pt2_lam_new;
     logic [W-1:0] dl_pt2_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(53))
-        u_dl_pt2_lam (.clk(clk), .d(pt2_lam), .q(dl_pt2_lam));
+        u_dl_pt2_lam (.clk(clk), .d(pt2_lam), .valid(valid_q[126 +: 53]), .q(dl_pt2_lam));
     // pt2_angA_x = IInvA_x * pt2_cA_x   (ready @14/14/14)
     logic [W-1:0] pt2_angA_x;
     logic [2:0] fl_pt2_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_pt2_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_x), .b(dl_pt2_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[225]), .y(pt2_angA_x), .flags(fl_pt2_angA_x)
     );
     assign ev_ovf[222] = fl_pt2_angA_x[0] && ev_q[14];
@@ -3586,12 +3593,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[222] = fl_pt2_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angA_x (.clk(clk), .d(pt2_angA_x), .q(dl_pt2_angA_x));
+        u_dl_pt2_angA_x (.clk(clk), .d(pt2_angA_x), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_x));
     // pt2_angA_y = IInvA_y * pt2_cA_y   (ready @14/14/14)
     logic [W-1:0] pt2_angA_y;
     logic [2:0] fl_pt2_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_pt2_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_y), .b(dl_pt2_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[226]), .y(pt2_angA_y), .flags(fl_pt2_angA_y)
     );
     assign ev_ovf[223] = fl_pt2_angA_y[0] && ev_q[14];
@@ -3599,12 +3606,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[223] = fl_pt2_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angA_y (.clk(clk), .d(pt2_angA_y), .q(dl_pt2_angA_y));
+        u_dl_pt2_angA_y (.clk(clk), .d(pt2_angA_y), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_y));
     // pt2_angA_z = IInvA_z * pt2_cA_z   (ready @14/14/14)
     logic [W-1:0] pt2_angA_z;
     logic [2:0] fl_pt2_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_pt2_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_z), .b(dl_pt2_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[227]), .y(pt2_angA_z), .flags(fl_pt2_angA_z)
     );
     assign ev_ovf[224] = fl_pt2_angA_z[0] && ev_q[14];
@@ -3612,12 +3619,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[224] = fl_pt2_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angA_z (.clk(clk), .d(pt2_angA_z), .q(dl_pt2_angA_z));
+        u_dl_pt2_angA_z (.clk(clk), .d(pt2_angA_z), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_z));
     // pt2_angB_x = IInvB_x * pt2_cB_x   (ready @14/14/14)
     logic [W-1:0] pt2_angB_x;
     logic [2:0] fl_pt2_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_pt2_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_x), .b(dl_pt2_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[228]), .y(pt2_angB_x), .flags(fl_pt2_angB_x)
     );
     assign ev_ovf[225] = fl_pt2_angB_x[0] && ev_q[14];
@@ -3625,12 +3632,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[225] = fl_pt2_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angB_x (.clk(clk), .d(pt2_angB_x), .q(dl_pt2_angB_x));
+        u_dl_pt2_angB_x (.clk(clk), .d(pt2_angB_x), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_x));
     // pt2_angB_y = IInvB_y * pt2_cB_y   (ready @14/14/14)
     logic [W-1:0] pt2_angB_y;
     logic [2:0] fl_pt2_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_pt2_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_y), .b(dl_pt2_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[229]), .y(pt2_angB_y), .flags(fl_pt2_angB_y)
     );
     assign ev_ovf[226] = fl_pt2_angB_y[0] && ev_q[14];
@@ -3638,12 +3645,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[226] = fl_pt2_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angB_y (.clk(clk), .d(pt2_angB_y), .q(dl_pt2_angB_y));
+        u_dl_pt2_angB_y (.clk(clk), .d(pt2_angB_y), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_y));
     // pt2_angB_z = IInvB_z * pt2_cB_z   (ready @14/14/14)
     logic [W-1:0] pt2_angB_z;
     logic [2:0] fl_pt2_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_pt2_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_z), .b(dl_pt2_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[230]), .y(pt2_angB_z), .flags(fl_pt2_angB_z)
     );
     assign ev_ovf[227] = fl_pt2_angB_z[0] && ev_q[14];
@@ -3651,12 +3658,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[227] = fl_pt2_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(116))
-        u_dl_pt2_angB_z (.clk(clk), .d(pt2_angB_z), .q(dl_pt2_angB_z));
+        u_dl_pt2_angB_z (.clk(clk), .d(pt2_angB_z), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_z));
     // pt2_mul335 = linA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul335;
     logic [2:0] fl_pt2_mul335;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul335 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linA_x[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[231]), .y(pt2_mul335), .flags(fl_pt2_mul335)
     );
     assign ev_ovf[228] = fl_pt2_mul335[0] && ev_q[133];
@@ -3664,12 +3671,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[228] = fl_pt2_mul335[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul335;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul335 (.clk(clk), .d(pt2_mul335), .q(dl_pt2_mul335));
+        u_dl_pt2_mul335 (.clk(clk), .d(pt2_mul335), .valid(1'b0), .q(dl_pt2_mul335));
     // pt2_mul336 = linA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul336;
     logic [2:0] fl_pt2_mul336;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul336 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linA_y[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[232]), .y(pt2_mul336), .flags(fl_pt2_mul336)
     );
     assign ev_ovf[229] = fl_pt2_mul336[0] && ev_q[133];
@@ -3677,12 +3684,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[229] = fl_pt2_mul336[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul336;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul336 (.clk(clk), .d(pt2_mul336), .q(dl_pt2_mul336));
+        u_dl_pt2_mul336 (.clk(clk), .d(pt2_mul336), .valid(1'b0), .q(dl_pt2_mul336));
     // pt2_mul337 = linA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul337;
     logic [2:0] fl_pt2_mul337;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul337 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linA_z[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[233]), .y(pt2_mul337), .flags(fl_pt2_mul337)
     );
     assign ev_ovf[230] = fl_pt2_mul337[0] && ev_q[133];
@@ -3690,12 +3697,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[230] = fl_pt2_mul337[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul337;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul337 (.clk(clk), .d(pt2_mul337), .q(dl_pt2_mul337));
+        u_dl_pt2_mul337 (.clk(clk), .d(pt2_mul337), .valid(1'b0), .q(dl_pt2_mul337));
     // pt2_add338 = pt1_vA_x + pt2_mul335   (ready @137/137/137)
     logic [W-1:0] pt2_add338;
     logic [2:0] fl_pt2_add338;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add338 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_x[1*W +: W]), .b(dl_pt2_mul335), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_x[1*W +: W]), .b(dl_pt2_mul335), .sub(1'b0),
         .out_valid(op_valid_nc[234]), .y(pt2_add338), .flags(fl_pt2_add338)
     );
     assign ev_ovf[231] = fl_pt2_add338[0] && ev_q[137];
@@ -3703,12 +3710,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[231] = fl_pt2_add338[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add338;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add338 (.clk(clk), .d(pt2_add338), .q(dl_pt2_add338));
+        u_dl_pt2_add338 (.clk(clk), .d(pt2_add338), .valid(1'b0), .q(dl_pt2_add338));
     // pt2_add339 = pt1_vA_y + pt2_mul336   (ready @137/137/137)
     logic [W-1:0] pt2_add339;
     logic [2:0] fl_pt2_add339;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add339 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_y[1*W +: W]), .b(dl_pt2_mul336), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_y[1*W +: W]), .b(dl_pt2_mul336), .sub(1'b0),
         .out_valid(op_valid_nc[235]), .y(pt2_add339), .flags(fl_pt2_add339)
     );
     assign ev_ovf[232] = fl_pt2_add339[0] && ev_q[137];
@@ -3716,12 +3723,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[232] = fl_pt2_add339[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add339;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add339 (.clk(clk), .d(pt2_add339), .q(dl_pt2_add339));
+        u_dl_pt2_add339 (.clk(clk), .d(pt2_add339), .valid(1'b0), .q(dl_pt2_add339));
     // pt2_add340 = pt1_vA_z + pt2_mul337   (ready @137/137/137)
     logic [W-1:0] pt2_add340;
     logic [2:0] fl_pt2_add340;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add340 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vA_z[1*W +: W]), .b(dl_pt2_mul337), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vA_z[1*W +: W]), .b(dl_pt2_mul337), .sub(1'b0),
         .out_valid(op_valid_nc[236]), .y(pt2_add340), .flags(fl_pt2_add340)
     );
     assign ev_ovf[233] = fl_pt2_add340[0] && ev_q[137];
@@ -3729,30 +3736,30 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[233] = fl_pt2_add340[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add340;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add340 (.clk(clk), .d(pt2_add340), .q(dl_pt2_add340));
+        u_dl_pt2_add340 (.clk(clk), .d(pt2_add340), .valid(1'b0), .q(dl_pt2_add340));
     // pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add338   (ready @137/137/137)
     logic [W-1:0] pt2_vA_x;
     assign pt2_vA_x = dl_pt2_skip[1] ? dl_pt1_vA_x[2*W +: W] : dl_pt2_add338;
     logic [3*W-1:0] dl_pt2_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vA_x (.clk(clk), .d(pt2_vA_x), .q(dl_pt2_vA_x));
+        u_dl_pt2_vA_x (.clk(clk), .d(pt2_vA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_x));
     // pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add339   (ready @137/137/137)
     logic [W-1:0] pt2_vA_y;
     assign pt2_vA_y = dl_pt2_skip[1] ? dl_pt1_vA_y[2*W +: W] : dl_pt2_add339;
     logic [3*W-1:0] dl_pt2_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vA_y (.clk(clk), .d(pt2_vA_y), .q(dl_pt2_vA_y));
+        u_dl_pt2_vA_y (.clk(clk), .d(pt2_vA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_y));
     // pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add340   (ready @137/137/137)
     logic [W-1:0] pt2_vA_z;
     assign pt2_vA_z = dl_pt2_skip[1] ? dl_pt1_vA_z[2*W +: W] : dl_pt2_add340;
     logic [3*W-1:0] dl_pt2_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vA_z (.clk(clk), .d(pt2_vA_z), .q(dl_pt2_vA_z));
+        u_dl_pt2_vA_z (.clk(clk), .d(pt2_vA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_z));
     // pt2_mul344 = pt2_angA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul344;
     logic [2:0] fl_pt2_mul344;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul344 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_x), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angA_x), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[237]), .y(pt2_mul344), .flags(fl_pt2_mul344)
     );
     assign ev_ovf[234] = fl_pt2_mul344[0] && ev_q[133];
@@ -3760,12 +3767,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[234] = fl_pt2_mul344[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul344;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul344 (.clk(clk), .d(pt2_mul344), .q(dl_pt2_mul344));
+        u_dl_pt2_mul344 (.clk(clk), .d(pt2_mul344), .valid(1'b0), .q(dl_pt2_mul344));
     // pt2_mul345 = pt2_angA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul345;
     logic [2:0] fl_pt2_mul345;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul345 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_y), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angA_y), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[238]), .y(pt2_mul345), .flags(fl_pt2_mul345)
     );
     assign ev_ovf[235] = fl_pt2_mul345[0] && ev_q[133];
@@ -3773,12 +3780,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[235] = fl_pt2_mul345[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul345;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul345 (.clk(clk), .d(pt2_mul345), .q(dl_pt2_mul345));
+        u_dl_pt2_mul345 (.clk(clk), .d(pt2_mul345), .valid(1'b0), .q(dl_pt2_mul345));
     // pt2_mul346 = pt2_angA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul346;
     logic [2:0] fl_pt2_mul346;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul346 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angA_z), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angA_z), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[239]), .y(pt2_mul346), .flags(fl_pt2_mul346)
     );
     assign ev_ovf[236] = fl_pt2_mul346[0] && ev_q[133];
@@ -3786,12 +3793,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[236] = fl_pt2_mul346[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul346;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul346 (.clk(clk), .d(pt2_mul346), .q(dl_pt2_mul346));
+        u_dl_pt2_mul346 (.clk(clk), .d(pt2_mul346), .valid(1'b0), .q(dl_pt2_mul346));
     // pt2_add347 = pt1_wA_x + pt2_mul344   (ready @137/137/137)
     logic [W-1:0] pt2_add347;
     logic [2:0] fl_pt2_add347;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add347 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_x[1*W +: W]), .b(dl_pt2_mul344), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_x[1*W +: W]), .b(dl_pt2_mul344), .sub(1'b0),
         .out_valid(op_valid_nc[240]), .y(pt2_add347), .flags(fl_pt2_add347)
     );
     assign ev_ovf[237] = fl_pt2_add347[0] && ev_q[137];
@@ -3799,12 +3806,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[237] = fl_pt2_add347[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add347;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add347 (.clk(clk), .d(pt2_add347), .q(dl_pt2_add347));
+        u_dl_pt2_add347 (.clk(clk), .d(pt2_add347), .valid(1'b0), .q(dl_pt2_add347));
     // pt2_add348 = pt1_wA_y + pt2_mul345   (ready @137/137/137)
     logic [W-1:0] pt2_add348;
     logic [2:0] fl_pt2_add348;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add348 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_y[1*W +: W]), .b(dl_pt2_mul345), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_y[1*W +: W]), .b(dl_pt2_mul345), .sub(1'b0),
         .out_valid(op_valid_nc[241]), .y(pt2_add348), .flags(fl_pt2_add348)
     );
     assign ev_ovf[238] = fl_pt2_add348[0] && ev_q[137];
@@ -3812,12 +3819,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[238] = fl_pt2_add348[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add348;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add348 (.clk(clk), .d(pt2_add348), .q(dl_pt2_add348));
+        u_dl_pt2_add348 (.clk(clk), .d(pt2_add348), .valid(1'b0), .q(dl_pt2_add348));
     // pt2_add349 = pt1_wA_z + pt2_mul346   (ready @137/137/137)
     logic [W-1:0] pt2_add349;
     logic [2:0] fl_pt2_add349;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_add349 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wA_z[1*W +: W]), .b(dl_pt2_mul346), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wA_z[1*W +: W]), .b(dl_pt2_mul346), .sub(1'b0),
         .out_valid(op_valid_nc[242]), .y(pt2_add349), .flags(fl_pt2_add349)
     );
     assign ev_ovf[239] = fl_pt2_add349[0] && ev_q[137];
@@ -3825,30 +3832,30 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[239] = fl_pt2_add349[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add349;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_add349 (.clk(clk), .d(pt2_add349), .q(dl_pt2_add349));
+        u_dl_pt2_add349 (.clk(clk), .d(pt2_add349), .valid(1'b0), .q(dl_pt2_add349));
     // pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add347   (ready @137/137/137)
     logic [W-1:0] pt2_wA_x;
     assign pt2_wA_x = dl_pt2_skip[1] ? dl_pt1_wA_x[2*W +: W] : dl_pt2_add347;
     logic [3*W-1:0] dl_pt2_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wA_x (.clk(clk), .d(pt2_wA_x), .q(dl_pt2_wA_x));
+        u_dl_pt2_wA_x (.clk(clk), .d(pt2_wA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_x));
     // pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add348   (ready @137/137/137)
     logic [W-1:0] pt2_wA_y;
     assign pt2_wA_y = dl_pt2_skip[1] ? dl_pt1_wA_y[2*W +: W] : dl_pt2_add348;
     logic [3*W-1:0] dl_pt2_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wA_y (.clk(clk), .d(pt2_wA_y), .q(dl_pt2_wA_y));
+        u_dl_pt2_wA_y (.clk(clk), .d(pt2_wA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_y));
     // pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add349   (ready @137/137/137)
     logic [W-1:0] pt2_wA_z;
     assign pt2_wA_z = dl_pt2_skip[1] ? dl_pt1_wA_z[2*W +: W] : dl_pt2_add349;
     logic [3*W-1:0] dl_pt2_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wA_z (.clk(clk), .d(pt2_wA_z), .q(dl_pt2_wA_z));
+        u_dl_pt2_wA_z (.clk(clk), .d(pt2_wA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_z));
     // pt2_mul353 = linB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul353;
     logic [2:0] fl_pt2_mul353;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul353 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linB_x[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[243]), .y(pt2_mul353), .flags(fl_pt2_mul353)
     );
     assign ev_ovf[240] = fl_pt2_mul353[0] && ev_q[133];
@@ -3856,12 +3863,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[240] = fl_pt2_mul353[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul353;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul353 (.clk(clk), .d(pt2_mul353), .q(dl_pt2_mul353));
+        u_dl_pt2_mul353 (.clk(clk), .d(pt2_mul353), .valid(1'b0), .q(dl_pt2_mul353));
     // pt2_mul354 = linB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul354;
     logic [2:0] fl_pt2_mul354;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul354 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linB_y[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[244]), .y(pt2_mul354), .flags(fl_pt2_mul354)
     );
     assign ev_ovf[241] = fl_pt2_mul354[0] && ev_q[133];
@@ -3869,12 +3876,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[241] = fl_pt2_mul354[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul354;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul354 (.clk(clk), .d(pt2_mul354), .q(dl_pt2_mul354));
+        u_dl_pt2_mul354 (.clk(clk), .d(pt2_mul354), .valid(1'b0), .q(dl_pt2_mul354));
     // pt2_mul355 = linB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul355;
     logic [2:0] fl_pt2_mul355;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul355 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[2*W +: W]), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_linB_z[2*W +: W]), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[245]), .y(pt2_mul355), .flags(fl_pt2_mul355)
     );
     assign ev_ovf[242] = fl_pt2_mul355[0] && ev_q[133];
@@ -3882,12 +3889,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[242] = fl_pt2_mul355[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul355;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul355 (.clk(clk), .d(pt2_mul355), .q(dl_pt2_mul355));
+        u_dl_pt2_mul355 (.clk(clk), .d(pt2_mul355), .valid(1'b0), .q(dl_pt2_mul355));
     // pt2_sub356 = pt1_vB_x - pt2_mul353   (ready @137/137/137)
     logic [W-1:0] pt2_sub356;
     logic [2:0] fl_pt2_sub356;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub356 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_x[1*W +: W]), .b(dl_pt2_mul353), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_x[1*W +: W]), .b(dl_pt2_mul353), .sub(1'b1),
         .out_valid(op_valid_nc[246]), .y(pt2_sub356), .flags(fl_pt2_sub356)
     );
     assign ev_ovf[243] = fl_pt2_sub356[0] && ev_q[137];
@@ -3895,12 +3902,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[243] = fl_pt2_sub356[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub356;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub356 (.clk(clk), .d(pt2_sub356), .q(dl_pt2_sub356));
+        u_dl_pt2_sub356 (.clk(clk), .d(pt2_sub356), .valid(1'b0), .q(dl_pt2_sub356));
     // pt2_sub357 = pt1_vB_y - pt2_mul354   (ready @137/137/137)
     logic [W-1:0] pt2_sub357;
     logic [2:0] fl_pt2_sub357;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub357 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_y[1*W +: W]), .b(dl_pt2_mul354), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_y[1*W +: W]), .b(dl_pt2_mul354), .sub(1'b1),
         .out_valid(op_valid_nc[247]), .y(pt2_sub357), .flags(fl_pt2_sub357)
     );
     assign ev_ovf[244] = fl_pt2_sub357[0] && ev_q[137];
@@ -3908,12 +3915,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[244] = fl_pt2_sub357[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub357;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub357 (.clk(clk), .d(pt2_sub357), .q(dl_pt2_sub357));
+        u_dl_pt2_sub357 (.clk(clk), .d(pt2_sub357), .valid(1'b0), .q(dl_pt2_sub357));
     // pt2_sub358 = pt1_vB_z - pt2_mul355   (ready @137/137/137)
     logic [W-1:0] pt2_sub358;
     logic [2:0] fl_pt2_sub358;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub358 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_vB_z[1*W +: W]), .b(dl_pt2_mul355), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_vB_z[1*W +: W]), .b(dl_pt2_mul355), .sub(1'b1),
         .out_valid(op_valid_nc[248]), .y(pt2_sub358), .flags(fl_pt2_sub358)
     );
     assign ev_ovf[245] = fl_pt2_sub358[0] && ev_q[137];
@@ -3921,30 +3928,30 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[245] = fl_pt2_sub358[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub358;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub358 (.clk(clk), .d(pt2_sub358), .q(dl_pt2_sub358));
+        u_dl_pt2_sub358 (.clk(clk), .d(pt2_sub358), .valid(1'b0), .q(dl_pt2_sub358));
     // pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub356   (ready @137/137/137)
     logic [W-1:0] pt2_vB_x;
     assign pt2_vB_x = dl_pt2_skip[1] ? dl_pt1_vB_x[2*W +: W] : dl_pt2_sub356;
     logic [3*W-1:0] dl_pt2_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vB_x (.clk(clk), .d(pt2_vB_x), .q(dl_pt2_vB_x));
+        u_dl_pt2_vB_x (.clk(clk), .d(pt2_vB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_x));
     // pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub357   (ready @137/137/137)
     logic [W-1:0] pt2_vB_y;
     assign pt2_vB_y = dl_pt2_skip[1] ? dl_pt1_vB_y[2*W +: W] : dl_pt2_sub357;
     logic [3*W-1:0] dl_pt2_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vB_y (.clk(clk), .d(pt2_vB_y), .q(dl_pt2_vB_y));
+        u_dl_pt2_vB_y (.clk(clk), .d(pt2_vB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_y));
     // pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub358   (ready @137/137/137)
     logic [W-1:0] pt2_vB_z;
     assign pt2_vB_z = dl_pt2_skip[1] ? dl_pt1_vB_z[2*W +: W] : dl_pt2_sub358;
     logic [3*W-1:0] dl_pt2_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_vB_z (.clk(clk), .d(pt2_vB_z), .q(dl_pt2_vB_z));
+        u_dl_pt2_vB_z (.clk(clk), .d(pt2_vB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_z));
     // pt2_mul362 = pt2_angB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul362;
     logic [2:0] fl_pt2_mul362;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul362 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_x), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angB_x), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[249]), .y(pt2_mul362), .flags(fl_pt2_mul362)
     );
     assign ev_ovf[246] = fl_pt2_mul362[0] && ev_q[133];
@@ -3952,12 +3959,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[246] = fl_pt2_mul362[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul362;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul362 (.clk(clk), .d(pt2_mul362), .q(dl_pt2_mul362));
+        u_dl_pt2_mul362 (.clk(clk), .d(pt2_mul362), .valid(1'b0), .q(dl_pt2_mul362));
     // pt2_mul363 = pt2_angB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul363;
     logic [2:0] fl_pt2_mul363;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul363 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_y), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angB_y), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[250]), .y(pt2_mul363), .flags(fl_pt2_mul363)
     );
     assign ev_ovf[247] = fl_pt2_mul363[0] && ev_q[133];
@@ -3965,12 +3972,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[247] = fl_pt2_mul363[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul363;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul363 (.clk(clk), .d(pt2_mul363), .q(dl_pt2_mul363));
+        u_dl_pt2_mul363 (.clk(clk), .d(pt2_mul363), .valid(1'b0), .q(dl_pt2_mul363));
     // pt2_mul364 = pt2_angB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul364;
     logic [2:0] fl_pt2_mul364;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_mul364 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_angB_z), .b(dl_pt2_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[130]), .a(dl_pt2_angB_z), .b(dl_pt2_delta),
         .out_valid(op_valid_nc[251]), .y(pt2_mul364), .flags(fl_pt2_mul364)
     );
     assign ev_ovf[248] = fl_pt2_mul364[0] && ev_q[133];
@@ -3978,12 +3985,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[248] = fl_pt2_mul364[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul364;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_mul364 (.clk(clk), .d(pt2_mul364), .q(dl_pt2_mul364));
+        u_dl_pt2_mul364 (.clk(clk), .d(pt2_mul364), .valid(1'b0), .q(dl_pt2_mul364));
     // pt2_sub365 = pt1_wB_x - pt2_mul362   (ready @137/137/137)
     logic [W-1:0] pt2_sub365;
     logic [2:0] fl_pt2_sub365;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub365 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_x[1*W +: W]), .b(dl_pt2_mul362), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_x[1*W +: W]), .b(dl_pt2_mul362), .sub(1'b1),
         .out_valid(op_valid_nc[252]), .y(pt2_sub365), .flags(fl_pt2_sub365)
     );
     assign ev_ovf[249] = fl_pt2_sub365[0] && ev_q[137];
@@ -3991,12 +3998,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[249] = fl_pt2_sub365[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub365;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub365 (.clk(clk), .d(pt2_sub365), .q(dl_pt2_sub365));
+        u_dl_pt2_sub365 (.clk(clk), .d(pt2_sub365), .valid(1'b0), .q(dl_pt2_sub365));
     // pt2_sub366 = pt1_wB_y - pt2_mul363   (ready @137/137/137)
     logic [W-1:0] pt2_sub366;
     logic [2:0] fl_pt2_sub366;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub366 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_y[1*W +: W]), .b(dl_pt2_mul363), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_y[1*W +: W]), .b(dl_pt2_mul363), .sub(1'b1),
         .out_valid(op_valid_nc[253]), .y(pt2_sub366), .flags(fl_pt2_sub366)
     );
     assign ev_ovf[250] = fl_pt2_sub366[0] && ev_q[137];
@@ -4004,12 +4011,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[250] = fl_pt2_sub366[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub366;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub366 (.clk(clk), .d(pt2_sub366), .q(dl_pt2_sub366));
+        u_dl_pt2_sub366 (.clk(clk), .d(pt2_sub366), .valid(1'b0), .q(dl_pt2_sub366));
     // pt2_sub367 = pt1_wB_z - pt2_mul364   (ready @137/137/137)
     logic [W-1:0] pt2_sub367;
     logic [2:0] fl_pt2_sub367;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt2_sub367 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt1_wB_z[1*W +: W]), .b(dl_pt2_mul364), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[133]), .a(dl_pt1_wB_z[1*W +: W]), .b(dl_pt2_mul364), .sub(1'b1),
         .out_valid(op_valid_nc[254]), .y(pt2_sub367), .flags(fl_pt2_sub367)
     );
     assign ev_ovf[251] = fl_pt2_sub367[0] && ev_q[137];
@@ -4017,36 +4024,36 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[251] = fl_pt2_sub367[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub367;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt2_sub367 (.clk(clk), .d(pt2_sub367), .q(dl_pt2_sub367));
+        u_dl_pt2_sub367 (.clk(clk), .d(pt2_sub367), .valid(1'b0), .q(dl_pt2_sub367));
     // pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub365   (ready @137/137/137)
     logic [W-1:0] pt2_wB_x;
     assign pt2_wB_x = dl_pt2_skip[1] ? dl_pt1_wB_x[2*W +: W] : dl_pt2_sub365;
     logic [3*W-1:0] dl_pt2_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wB_x (.clk(clk), .d(pt2_wB_x), .q(dl_pt2_wB_x));
+        u_dl_pt2_wB_x (.clk(clk), .d(pt2_wB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_x));
     // pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub366   (ready @137/137/137)
     logic [W-1:0] pt2_wB_y;
     assign pt2_wB_y = dl_pt2_skip[1] ? dl_pt1_wB_y[2*W +: W] : dl_pt2_sub366;
     logic [3*W-1:0] dl_pt2_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wB_y (.clk(clk), .d(pt2_wB_y), .q(dl_pt2_wB_y));
+        u_dl_pt2_wB_y (.clk(clk), .d(pt2_wB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_y));
     // pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub367   (ready @137/137/137)
     logic [W-1:0] pt2_wB_z;
     assign pt2_wB_z = dl_pt2_skip[1] ? dl_pt1_wB_z[2*W +: W] : dl_pt2_sub367;
     logic [3*W-1:0] dl_pt2_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
-        u_dl_pt2_wB_z (.clk(clk), .d(pt2_wB_z), .q(dl_pt2_wB_z));
+        u_dl_pt2_wB_z (.clk(clk), .d(pt2_wB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_z));
     // pt3_skip = jac_inv3 == 0   (ready @0/0/0)
     logic pt3_skip;
     assign pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt3_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}))
-        u_dl_pt3_skip (.clk(clk), .d(pt3_skip), .q(dl_pt3_skip));
+        u_dl_pt3_skip (.clk(clk), .d(pt3_skip), .valid(valid_q[0 +: 179]), .q(dl_pt3_skip));
     // pt3_rA_x = p3_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt3_rA_x;
     logic [2:0] fl_pt3_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[255]), .y(pt3_rA_x), .flags(fl_pt3_rA_x)
     );
     assign ev_ovf[252] = fl_pt3_rA_x[0] && ev_q[4];
@@ -4054,12 +4061,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[252] = fl_pt3_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rA_x (.clk(clk), .d(pt3_rA_x), .q(dl_pt3_rA_x));
+        u_dl_pt3_rA_x (.clk(clk), .d(pt3_rA_x), .valid(1'b0), .q(dl_pt3_rA_x));
     // pt3_rA_y = p3_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt3_rA_y;
     logic [2:0] fl_pt3_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[256]), .y(pt3_rA_y), .flags(fl_pt3_rA_y)
     );
     assign ev_ovf[253] = fl_pt3_rA_y[0] && ev_q[4];
@@ -4067,12 +4074,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[253] = fl_pt3_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rA_y (.clk(clk), .d(pt3_rA_y), .q(dl_pt3_rA_y));
+        u_dl_pt3_rA_y (.clk(clk), .d(pt3_rA_y), .valid(1'b0), .q(dl_pt3_rA_y));
     // pt3_rA_z = p3_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt3_rA_z;
     logic [2:0] fl_pt3_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[257]), .y(pt3_rA_z), .flags(fl_pt3_rA_z)
     );
     assign ev_ovf[254] = fl_pt3_rA_z[0] && ev_q[4];
@@ -4080,12 +4087,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[254] = fl_pt3_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rA_z (.clk(clk), .d(pt3_rA_z), .q(dl_pt3_rA_z));
+        u_dl_pt3_rA_z (.clk(clk), .d(pt3_rA_z), .valid(1'b0), .q(dl_pt3_rA_z));
     // pt3_mul375 = pt3_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul375;
     logic [2:0] fl_pt3_mul375;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul375 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[258]), .y(pt3_mul375), .flags(fl_pt3_mul375)
     );
     assign ev_ovf[255] = fl_pt3_mul375[0] && ev_q[7];
@@ -4093,12 +4100,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[255] = fl_pt3_mul375[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul375;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul375 (.clk(clk), .d(pt3_mul375), .q(dl_pt3_mul375));
+        u_dl_pt3_mul375 (.clk(clk), .d(pt3_mul375), .valid(1'b0), .q(dl_pt3_mul375));
     // pt3_mul376 = pt3_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul376;
     logic [2:0] fl_pt3_mul376;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul376 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[259]), .y(pt3_mul376), .flags(fl_pt3_mul376)
     );
     assign ev_ovf[256] = fl_pt3_mul376[0] && ev_q[7];
@@ -4106,12 +4113,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[256] = fl_pt3_mul376[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul376;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul376 (.clk(clk), .d(pt3_mul376), .q(dl_pt3_mul376));
+        u_dl_pt3_mul376 (.clk(clk), .d(pt3_mul376), .valid(1'b0), .q(dl_pt3_mul376));
     // pt3_cA_x = pt3_mul375 - pt3_mul376   (ready @11/11/11)
     logic [W-1:0] pt3_cA_x;
     logic [2:0] fl_pt3_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul375), .b(dl_pt3_mul376), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul375), .b(dl_pt3_mul376), .sub(1'b1),
         .out_valid(op_valid_nc[260]), .y(pt3_cA_x), .flags(fl_pt3_cA_x)
     );
     assign ev_ovf[257] = fl_pt3_cA_x[0] && ev_q[11];
@@ -4119,12 +4126,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[257] = fl_pt3_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cA_x (.clk(clk), .d(pt3_cA_x), .q(dl_pt3_cA_x));
+        u_dl_pt3_cA_x (.clk(clk), .d(pt3_cA_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_x));
     // pt3_mul378 = pt3_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul378;
     logic [2:0] fl_pt3_mul378;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul378 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[261]), .y(pt3_mul378), .flags(fl_pt3_mul378)
     );
     assign ev_ovf[258] = fl_pt3_mul378[0] && ev_q[7];
@@ -4132,12 +4139,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[258] = fl_pt3_mul378[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul378;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul378 (.clk(clk), .d(pt3_mul378), .q(dl_pt3_mul378));
+        u_dl_pt3_mul378 (.clk(clk), .d(pt3_mul378), .valid(1'b0), .q(dl_pt3_mul378));
     // pt3_mul379 = pt3_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul379;
     logic [2:0] fl_pt3_mul379;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul379 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[262]), .y(pt3_mul379), .flags(fl_pt3_mul379)
     );
     assign ev_ovf[259] = fl_pt3_mul379[0] && ev_q[7];
@@ -4145,12 +4152,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[259] = fl_pt3_mul379[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul379;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul379 (.clk(clk), .d(pt3_mul379), .q(dl_pt3_mul379));
+        u_dl_pt3_mul379 (.clk(clk), .d(pt3_mul379), .valid(1'b0), .q(dl_pt3_mul379));
     // pt3_cA_y = pt3_mul378 - pt3_mul379   (ready @11/11/11)
     logic [W-1:0] pt3_cA_y;
     logic [2:0] fl_pt3_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul378), .b(dl_pt3_mul379), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul378), .b(dl_pt3_mul379), .sub(1'b1),
         .out_valid(op_valid_nc[263]), .y(pt3_cA_y), .flags(fl_pt3_cA_y)
     );
     assign ev_ovf[260] = fl_pt3_cA_y[0] && ev_q[11];
@@ -4158,12 +4165,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[260] = fl_pt3_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cA_y (.clk(clk), .d(pt3_cA_y), .q(dl_pt3_cA_y));
+        u_dl_pt3_cA_y (.clk(clk), .d(pt3_cA_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_y));
     // pt3_mul381 = pt3_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul381;
     logic [2:0] fl_pt3_mul381;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul381 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[264]), .y(pt3_mul381), .flags(fl_pt3_mul381)
     );
     assign ev_ovf[261] = fl_pt3_mul381[0] && ev_q[7];
@@ -4171,12 +4178,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[261] = fl_pt3_mul381[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul381;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul381 (.clk(clk), .d(pt3_mul381), .q(dl_pt3_mul381));
+        u_dl_pt3_mul381 (.clk(clk), .d(pt3_mul381), .valid(1'b0), .q(dl_pt3_mul381));
     // pt3_mul382 = pt3_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul382;
     logic [2:0] fl_pt3_mul382;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul382 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rA_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rA_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[265]), .y(pt3_mul382), .flags(fl_pt3_mul382)
     );
     assign ev_ovf[262] = fl_pt3_mul382[0] && ev_q[7];
@@ -4184,12 +4191,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[262] = fl_pt3_mul382[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul382;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul382 (.clk(clk), .d(pt3_mul382), .q(dl_pt3_mul382));
+        u_dl_pt3_mul382 (.clk(clk), .d(pt3_mul382), .valid(1'b0), .q(dl_pt3_mul382));
     // pt3_cA_z = pt3_mul381 - pt3_mul382   (ready @11/11/11)
     logic [W-1:0] pt3_cA_z;
     logic [2:0] fl_pt3_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul381), .b(dl_pt3_mul382), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul381), .b(dl_pt3_mul382), .sub(1'b1),
         .out_valid(op_valid_nc[266]), .y(pt3_cA_z), .flags(fl_pt3_cA_z)
     );
     assign ev_ovf[263] = fl_pt3_cA_z[0] && ev_q[11];
@@ -4197,12 +4204,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[263] = fl_pt3_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cA_z (.clk(clk), .d(pt3_cA_z), .q(dl_pt3_cA_z));
+        u_dl_pt3_cA_z (.clk(clk), .d(pt3_cA_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_z));
     // pt3_rB_x = p3_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt3_rB_x;
     logic [2:0] fl_pt3_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[267]), .y(pt3_rB_x), .flags(fl_pt3_rB_x)
     );
     assign ev_ovf[264] = fl_pt3_rB_x[0] && ev_q[4];
@@ -4210,12 +4217,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[264] = fl_pt3_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rB_x (.clk(clk), .d(pt3_rB_x), .q(dl_pt3_rB_x));
+        u_dl_pt3_rB_x (.clk(clk), .d(pt3_rB_x), .valid(1'b0), .q(dl_pt3_rB_x));
     // pt3_rB_y = p3_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt3_rB_y;
     logic [2:0] fl_pt3_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[268]), .y(pt3_rB_y), .flags(fl_pt3_rB_y)
     );
     assign ev_ovf[265] = fl_pt3_rB_y[0] && ev_q[4];
@@ -4223,12 +4230,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[265] = fl_pt3_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rB_y (.clk(clk), .d(pt3_rB_y), .q(dl_pt3_rB_y));
+        u_dl_pt3_rB_y (.clk(clk), .d(pt3_rB_y), .valid(1'b0), .q(dl_pt3_rB_y));
     // pt3_rB_z = p3_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt3_rB_z;
     logic [2:0] fl_pt3_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_p3_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[269]), .y(pt3_rB_z), .flags(fl_pt3_rB_z)
     );
     assign ev_ovf[266] = fl_pt3_rB_z[0] && ev_q[4];
@@ -4236,12 +4243,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[266] = fl_pt3_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_rB_z (.clk(clk), .d(pt3_rB_z), .q(dl_pt3_rB_z));
+        u_dl_pt3_rB_z (.clk(clk), .d(pt3_rB_z), .valid(1'b0), .q(dl_pt3_rB_z));
     // pt3_mul387 = pt3_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul387;
     logic [2:0] fl_pt3_mul387;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul387 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_y), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_y), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[270]), .y(pt3_mul387), .flags(fl_pt3_mul387)
     );
     assign ev_ovf[267] = fl_pt3_mul387[0] && ev_q[7];
@@ -4249,12 +4256,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[267] = fl_pt3_mul387[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul387;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul387 (.clk(clk), .d(pt3_mul387), .q(dl_pt3_mul387));
+        u_dl_pt3_mul387 (.clk(clk), .d(pt3_mul387), .valid(1'b0), .q(dl_pt3_mul387));
     // pt3_mul388 = pt3_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul388;
     logic [2:0] fl_pt3_mul388;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul388 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_z), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_z), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[271]), .y(pt3_mul388), .flags(fl_pt3_mul388)
     );
     assign ev_ovf[268] = fl_pt3_mul388[0] && ev_q[7];
@@ -4262,12 +4269,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[268] = fl_pt3_mul388[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul388;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul388 (.clk(clk), .d(pt3_mul388), .q(dl_pt3_mul388));
+        u_dl_pt3_mul388 (.clk(clk), .d(pt3_mul388), .valid(1'b0), .q(dl_pt3_mul388));
     // pt3_cB_x = pt3_mul387 - pt3_mul388   (ready @11/11/11)
     logic [W-1:0] pt3_cB_x;
     logic [2:0] fl_pt3_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul387), .b(dl_pt3_mul388), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul387), .b(dl_pt3_mul388), .sub(1'b1),
         .out_valid(op_valid_nc[272]), .y(pt3_cB_x), .flags(fl_pt3_cB_x)
     );
     assign ev_ovf[269] = fl_pt3_cB_x[0] && ev_q[11];
@@ -4275,12 +4282,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[269] = fl_pt3_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cB_x (.clk(clk), .d(pt3_cB_x), .q(dl_pt3_cB_x));
+        u_dl_pt3_cB_x (.clk(clk), .d(pt3_cB_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_x));
     // pt3_mul390 = pt3_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul390;
     logic [2:0] fl_pt3_mul390;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul390 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_z), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_z), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[273]), .y(pt3_mul390), .flags(fl_pt3_mul390)
     );
     assign ev_ovf[270] = fl_pt3_mul390[0] && ev_q[7];
@@ -4288,12 +4295,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[270] = fl_pt3_mul390[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul390;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul390 (.clk(clk), .d(pt3_mul390), .q(dl_pt3_mul390));
+        u_dl_pt3_mul390 (.clk(clk), .d(pt3_mul390), .valid(1'b0), .q(dl_pt3_mul390));
     // pt3_mul391 = pt3_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul391;
     logic [2:0] fl_pt3_mul391;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul391 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_x), .b(dl_in_n_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_x), .b(dl_in_n_z[1*W +: W]),
         .out_valid(op_valid_nc[274]), .y(pt3_mul391), .flags(fl_pt3_mul391)
     );
     assign ev_ovf[271] = fl_pt3_mul391[0] && ev_q[7];
@@ -4301,12 +4308,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[271] = fl_pt3_mul391[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul391;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul391 (.clk(clk), .d(pt3_mul391), .q(dl_pt3_mul391));
+        u_dl_pt3_mul391 (.clk(clk), .d(pt3_mul391), .valid(1'b0), .q(dl_pt3_mul391));
     // pt3_cB_y = pt3_mul390 - pt3_mul391   (ready @11/11/11)
     logic [W-1:0] pt3_cB_y;
     logic [2:0] fl_pt3_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul390), .b(dl_pt3_mul391), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul390), .b(dl_pt3_mul391), .sub(1'b1),
         .out_valid(op_valid_nc[275]), .y(pt3_cB_y), .flags(fl_pt3_cB_y)
     );
     assign ev_ovf[272] = fl_pt3_cB_y[0] && ev_q[11];
@@ -4314,12 +4321,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[272] = fl_pt3_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cB_y (.clk(clk), .d(pt3_cB_y), .q(dl_pt3_cB_y));
+        u_dl_pt3_cB_y (.clk(clk), .d(pt3_cB_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_y));
     // pt3_mul393 = pt3_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul393;
     logic [2:0] fl_pt3_mul393;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul393 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_x), .b(dl_in_n_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_x), .b(dl_in_n_y[1*W +: W]),
         .out_valid(op_valid_nc[276]), .y(pt3_mul393), .flags(fl_pt3_mul393)
     );
     assign ev_ovf[273] = fl_pt3_mul393[0] && ev_q[7];
@@ -4327,12 +4334,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[273] = fl_pt3_mul393[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul393;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul393 (.clk(clk), .d(pt3_mul393), .q(dl_pt3_mul393));
+        u_dl_pt3_mul393 (.clk(clk), .d(pt3_mul393), .valid(1'b0), .q(dl_pt3_mul393));
     // pt3_mul394 = pt3_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul394;
     logic [2:0] fl_pt3_mul394;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul394 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_rB_y), .b(dl_in_n_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_pt3_rB_y), .b(dl_in_n_x[1*W +: W]),
         .out_valid(op_valid_nc[277]), .y(pt3_mul394), .flags(fl_pt3_mul394)
     );
     assign ev_ovf[274] = fl_pt3_mul394[0] && ev_q[7];
@@ -4340,12 +4347,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[274] = fl_pt3_mul394[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul394;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul394 (.clk(clk), .d(pt3_mul394), .q(dl_pt3_mul394));
+        u_dl_pt3_mul394 (.clk(clk), .d(pt3_mul394), .valid(1'b0), .q(dl_pt3_mul394));
     // pt3_cB_z = pt3_mul393 - pt3_mul394   (ready @11/11/11)
     logic [W-1:0] pt3_cB_z;
     logic [2:0] fl_pt3_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul393), .b(dl_pt3_mul394), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_pt3_mul393), .b(dl_pt3_mul394), .sub(1'b1),
         .out_valid(op_valid_nc[278]), .y(pt3_cB_z), .flags(fl_pt3_cB_z)
     );
     assign ev_ovf[275] = fl_pt3_cB_z[0] && ev_q[11];
@@ -4353,12 +4360,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[275] = fl_pt3_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
-        u_dl_pt3_cB_z (.clk(clk), .d(pt3_cB_z), .q(dl_pt3_cB_z));
+        u_dl_pt3_cB_z (.clk(clk), .d(pt3_cB_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_z));
     // pt3_mul396 = n_x * pt2_vA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul396;
     logic [2:0] fl_pt3_mul396;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul396 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[279]), .y(pt3_mul396), .flags(fl_pt3_mul396)
     );
     assign ev_ovf[276] = fl_pt3_mul396[0] && ev_q[140];
@@ -4366,12 +4373,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[276] = fl_pt3_mul396[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul396;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul396 (.clk(clk), .d(pt3_mul396), .q(dl_pt3_mul396));
+        u_dl_pt3_mul396 (.clk(clk), .d(pt3_mul396), .valid(1'b0), .q(dl_pt3_mul396));
     // pt3_mul397 = n_y * pt2_vA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul397;
     logic [2:0] fl_pt3_mul397;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul397 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[280]), .y(pt3_mul397), .flags(fl_pt3_mul397)
     );
     assign ev_ovf[277] = fl_pt3_mul397[0] && ev_q[140];
@@ -4379,12 +4386,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[277] = fl_pt3_mul397[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul397;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul397 (.clk(clk), .d(pt3_mul397), .q(dl_pt3_mul397));
+        u_dl_pt3_mul397 (.clk(clk), .d(pt3_mul397), .valid(1'b0), .q(dl_pt3_mul397));
     // pt3_add398 = pt3_mul396 + pt3_mul397   (ready @144/144/144)
     logic [W-1:0] pt3_add398;
     logic [2:0] fl_pt3_add398;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add398 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul396), .b(dl_pt3_mul397), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul396), .b(dl_pt3_mul397), .sub(1'b0),
         .out_valid(op_valid_nc[281]), .y(pt3_add398), .flags(fl_pt3_add398)
     );
     assign ev_ovf[278] = fl_pt3_add398[0] && ev_q[144];
@@ -4392,12 +4399,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[278] = fl_pt3_add398[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add398;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add398 (.clk(clk), .d(pt3_add398), .q(dl_pt3_add398));
+        u_dl_pt3_add398 (.clk(clk), .d(pt3_add398), .valid(1'b0), .q(dl_pt3_add398));
     // pt3_mul399 = n_z * pt2_vA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul399;
     logic [2:0] fl_pt3_mul399;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul399 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[282]), .y(pt3_mul399), .flags(fl_pt3_mul399)
     );
     assign ev_ovf[279] = fl_pt3_mul399[0] && ev_q[140];
@@ -4405,12 +4412,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[279] = fl_pt3_mul399[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul399;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul399 (.clk(clk), .d(pt3_mul399), .q(dl_pt3_mul399));
+        u_dl_pt3_mul399 (.clk(clk), .d(pt3_mul399), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul399));
     // pt3_add400 = pt3_add398 + pt3_mul399   (ready @148/148/148)
     logic [W-1:0] pt3_add400;
     logic [2:0] fl_pt3_add400;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add400 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add398), .b(dl_pt3_mul399), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add398), .b(dl_pt3_mul399), .sub(1'b0),
         .out_valid(op_valid_nc[283]), .y(pt3_add400), .flags(fl_pt3_add400)
     );
     assign ev_ovf[280] = fl_pt3_add400[0] && ev_q[148];
@@ -4418,12 +4425,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[280] = fl_pt3_add400[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add400;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add400 (.clk(clk), .d(pt3_add400), .q(dl_pt3_add400));
+        u_dl_pt3_add400 (.clk(clk), .d(pt3_add400), .valid(1'b0), .q(dl_pt3_add400));
     // pt3_mul401 = n_x * pt2_vB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul401;
     logic [2:0] fl_pt3_mul401;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul401 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_x[4*W +: W]), .b(dl_pt2_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[284]), .y(pt3_mul401), .flags(fl_pt3_mul401)
     );
     assign ev_ovf[281] = fl_pt3_mul401[0] && ev_q[140];
@@ -4431,12 +4438,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[281] = fl_pt3_mul401[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul401;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul401 (.clk(clk), .d(pt3_mul401), .q(dl_pt3_mul401));
+        u_dl_pt3_mul401 (.clk(clk), .d(pt3_mul401), .valid(1'b0), .q(dl_pt3_mul401));
     // pt3_mul402 = n_y * pt2_vB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul402;
     logic [2:0] fl_pt3_mul402;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul402 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_y[4*W +: W]), .b(dl_pt2_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[285]), .y(pt3_mul402), .flags(fl_pt3_mul402)
     );
     assign ev_ovf[282] = fl_pt3_mul402[0] && ev_q[140];
@@ -4444,12 +4451,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[282] = fl_pt3_mul402[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul402;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul402 (.clk(clk), .d(pt3_mul402), .q(dl_pt3_mul402));
+        u_dl_pt3_mul402 (.clk(clk), .d(pt3_mul402), .valid(1'b0), .q(dl_pt3_mul402));
     // pt3_add403 = pt3_mul401 + pt3_mul402   (ready @144/144/144)
     logic [W-1:0] pt3_add403;
     logic [2:0] fl_pt3_add403;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add403 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul401), .b(dl_pt3_mul402), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul401), .b(dl_pt3_mul402), .sub(1'b0),
         .out_valid(op_valid_nc[286]), .y(pt3_add403), .flags(fl_pt3_add403)
     );
     assign ev_ovf[283] = fl_pt3_add403[0] && ev_q[144];
@@ -4457,12 +4464,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[283] = fl_pt3_add403[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add403;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add403 (.clk(clk), .d(pt3_add403), .q(dl_pt3_add403));
+        u_dl_pt3_add403 (.clk(clk), .d(pt3_add403), .valid(1'b0), .q(dl_pt3_add403));
     // pt3_mul404 = n_z * pt2_vB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul404;
     logic [2:0] fl_pt3_mul404;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul404 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_in_n_z[4*W +: W]), .b(dl_pt2_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[287]), .y(pt3_mul404), .flags(fl_pt3_mul404)
     );
     assign ev_ovf[284] = fl_pt3_mul404[0] && ev_q[140];
@@ -4470,12 +4477,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[284] = fl_pt3_mul404[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul404;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul404 (.clk(clk), .d(pt3_mul404), .q(dl_pt3_mul404));
+        u_dl_pt3_mul404 (.clk(clk), .d(pt3_mul404), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul404));
     // pt3_add405 = pt3_add403 + pt3_mul404   (ready @148/148/148)
     logic [W-1:0] pt3_add405;
     logic [2:0] fl_pt3_add405;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add405 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add403), .b(dl_pt3_mul404), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add403), .b(dl_pt3_mul404), .sub(1'b0),
         .out_valid(op_valid_nc[288]), .y(pt3_add405), .flags(fl_pt3_add405)
     );
     assign ev_ovf[285] = fl_pt3_add405[0] && ev_q[148];
@@ -4483,12 +4490,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[285] = fl_pt3_add405[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add405;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add405 (.clk(clk), .d(pt3_add405), .q(dl_pt3_add405));
+        u_dl_pt3_add405 (.clk(clk), .d(pt3_add405), .valid(1'b0), .q(dl_pt3_add405));
     // pt3_sub406 = pt3_add400 - pt3_add405   (ready @152/152/152)
     logic [W-1:0] pt3_sub406;
     logic [2:0] fl_pt3_sub406;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub406 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add400), .b(dl_pt3_add405), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add400), .b(dl_pt3_add405), .sub(1'b1),
         .out_valid(op_valid_nc[289]), .y(pt3_sub406), .flags(fl_pt3_sub406)
     );
     assign ev_ovf[286] = fl_pt3_sub406[0] && ev_q[152];
@@ -4496,12 +4503,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[286] = fl_pt3_sub406[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub406;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub406 (.clk(clk), .d(pt3_sub406), .q(dl_pt3_sub406));
+        u_dl_pt3_sub406 (.clk(clk), .d(pt3_sub406), .valid(1'b0), .q(dl_pt3_sub406));
     // pt3_mul407 = pt3_cA_x * pt2_wA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul407;
     logic [2:0] fl_pt3_mul407;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul407 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_x[0*W +: W]), .b(dl_pt2_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cA_x[0*W +: W]), .b(dl_pt2_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[290]), .y(pt3_mul407), .flags(fl_pt3_mul407)
     );
     assign ev_ovf[287] = fl_pt3_mul407[0] && ev_q[140];
@@ -4509,12 +4516,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[287] = fl_pt3_mul407[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul407;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul407 (.clk(clk), .d(pt3_mul407), .q(dl_pt3_mul407));
+        u_dl_pt3_mul407 (.clk(clk), .d(pt3_mul407), .valid(1'b0), .q(dl_pt3_mul407));
     // pt3_mul408 = pt3_cA_y * pt2_wA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul408;
     logic [2:0] fl_pt3_mul408;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul408 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_y[0*W +: W]), .b(dl_pt2_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cA_y[0*W +: W]), .b(dl_pt2_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[291]), .y(pt3_mul408), .flags(fl_pt3_mul408)
     );
     assign ev_ovf[288] = fl_pt3_mul408[0] && ev_q[140];
@@ -4522,12 +4529,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[288] = fl_pt3_mul408[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul408;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul408 (.clk(clk), .d(pt3_mul408), .q(dl_pt3_mul408));
+        u_dl_pt3_mul408 (.clk(clk), .d(pt3_mul408), .valid(1'b0), .q(dl_pt3_mul408));
     // pt3_add409 = pt3_mul407 + pt3_mul408   (ready @144/144/144)
     logic [W-1:0] pt3_add409;
     logic [2:0] fl_pt3_add409;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add409 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul407), .b(dl_pt3_mul408), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul407), .b(dl_pt3_mul408), .sub(1'b0),
         .out_valid(op_valid_nc[292]), .y(pt3_add409), .flags(fl_pt3_add409)
     );
     assign ev_ovf[289] = fl_pt3_add409[0] && ev_q[144];
@@ -4535,12 +4542,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[289] = fl_pt3_add409[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add409;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add409 (.clk(clk), .d(pt3_add409), .q(dl_pt3_add409));
+        u_dl_pt3_add409 (.clk(clk), .d(pt3_add409), .valid(1'b0), .q(dl_pt3_add409));
     // pt3_mul410 = pt3_cA_z * pt2_wA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul410;
     logic [2:0] fl_pt3_mul410;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul410 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cA_z[0*W +: W]), .b(dl_pt2_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cA_z[0*W +: W]), .b(dl_pt2_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[293]), .y(pt3_mul410), .flags(fl_pt3_mul410)
     );
     assign ev_ovf[290] = fl_pt3_mul410[0] && ev_q[140];
@@ -4548,12 +4555,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[290] = fl_pt3_mul410[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul410;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul410 (.clk(clk), .d(pt3_mul410), .q(dl_pt3_mul410));
+        u_dl_pt3_mul410 (.clk(clk), .d(pt3_mul410), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul410));
     // pt3_add411 = pt3_add409 + pt3_mul410   (ready @148/148/148)
     logic [W-1:0] pt3_add411;
     logic [2:0] fl_pt3_add411;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add411 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add409), .b(dl_pt3_mul410), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add409), .b(dl_pt3_mul410), .sub(1'b0),
         .out_valid(op_valid_nc[294]), .y(pt3_add411), .flags(fl_pt3_add411)
     );
     assign ev_ovf[291] = fl_pt3_add411[0] && ev_q[148];
@@ -4561,12 +4568,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[291] = fl_pt3_add411[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add411;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add411 (.clk(clk), .d(pt3_add411), .q(dl_pt3_add411));
+        u_dl_pt3_add411 (.clk(clk), .d(pt3_add411), .valid(1'b0), .q(dl_pt3_add411));
     // pt3_mul412 = pt3_cB_x * pt2_wB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul412;
     logic [2:0] fl_pt3_mul412;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul412 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_x[0*W +: W]), .b(dl_pt2_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cB_x[0*W +: W]), .b(dl_pt2_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[295]), .y(pt3_mul412), .flags(fl_pt3_mul412)
     );
     assign ev_ovf[292] = fl_pt3_mul412[0] && ev_q[140];
@@ -4574,12 +4581,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[292] = fl_pt3_mul412[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul412;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul412 (.clk(clk), .d(pt3_mul412), .q(dl_pt3_mul412));
+        u_dl_pt3_mul412 (.clk(clk), .d(pt3_mul412), .valid(1'b0), .q(dl_pt3_mul412));
     // pt3_mul413 = pt3_cB_y * pt2_wB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul413;
     logic [2:0] fl_pt3_mul413;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul413 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_y[0*W +: W]), .b(dl_pt2_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cB_y[0*W +: W]), .b(dl_pt2_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[296]), .y(pt3_mul413), .flags(fl_pt3_mul413)
     );
     assign ev_ovf[293] = fl_pt3_mul413[0] && ev_q[140];
@@ -4587,12 +4594,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[293] = fl_pt3_mul413[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul413;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul413 (.clk(clk), .d(pt3_mul413), .q(dl_pt3_mul413));
+        u_dl_pt3_mul413 (.clk(clk), .d(pt3_mul413), .valid(1'b0), .q(dl_pt3_mul413));
     // pt3_add414 = pt3_mul412 + pt3_mul413   (ready @144/144/144)
     logic [W-1:0] pt3_add414;
     logic [2:0] fl_pt3_add414;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add414 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_mul412), .b(dl_pt3_mul413), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[140]), .a(dl_pt3_mul412), .b(dl_pt3_mul413), .sub(1'b0),
         .out_valid(op_valid_nc[297]), .y(pt3_add414), .flags(fl_pt3_add414)
     );
     assign ev_ovf[294] = fl_pt3_add414[0] && ev_q[144];
@@ -4600,12 +4607,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[294] = fl_pt3_add414[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add414;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add414 (.clk(clk), .d(pt3_add414), .q(dl_pt3_add414));
+        u_dl_pt3_add414 (.clk(clk), .d(pt3_add414), .valid(1'b0), .q(dl_pt3_add414));
     // pt3_mul415 = pt3_cB_z * pt2_wB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul415;
     logic [2:0] fl_pt3_mul415;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul415 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_cB_z[0*W +: W]), .b(dl_pt2_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[137]), .a(dl_pt3_cB_z[0*W +: W]), .b(dl_pt2_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[298]), .y(pt3_mul415), .flags(fl_pt3_mul415)
     );
     assign ev_ovf[295] = fl_pt3_mul415[0] && ev_q[140];
@@ -4613,12 +4620,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[295] = fl_pt3_mul415[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul415;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_pt3_mul415 (.clk(clk), .d(pt3_mul415), .q(dl_pt3_mul415));
+        u_dl_pt3_mul415 (.clk(clk), .d(pt3_mul415), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul415));
     // pt3_add416 = pt3_add414 + pt3_mul415   (ready @148/148/148)
     logic [W-1:0] pt3_add416;
     logic [2:0] fl_pt3_add416;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add416 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add414), .b(dl_pt3_mul415), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[144]), .a(dl_pt3_add414), .b(dl_pt3_mul415), .sub(1'b0),
         .out_valid(op_valid_nc[299]), .y(pt3_add416), .flags(fl_pt3_add416)
     );
     assign ev_ovf[296] = fl_pt3_add416[0] && ev_q[148];
@@ -4626,12 +4633,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[296] = fl_pt3_add416[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add416;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add416 (.clk(clk), .d(pt3_add416), .q(dl_pt3_add416));
+        u_dl_pt3_add416 (.clk(clk), .d(pt3_add416), .valid(1'b0), .q(dl_pt3_add416));
     // pt3_sub417 = pt3_add411 - pt3_add416   (ready @152/152/152)
     logic [W-1:0] pt3_sub417;
     logic [2:0] fl_pt3_sub417;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub417 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add411), .b(dl_pt3_add416), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[148]), .a(dl_pt3_add411), .b(dl_pt3_add416), .sub(1'b1),
         .out_valid(op_valid_nc[300]), .y(pt3_sub417), .flags(fl_pt3_sub417)
     );
     assign ev_ovf[297] = fl_pt3_sub417[0] && ev_q[152];
@@ -4639,12 +4646,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[297] = fl_pt3_sub417[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub417;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub417 (.clk(clk), .d(pt3_sub417), .q(dl_pt3_sub417));
+        u_dl_pt3_sub417 (.clk(clk), .d(pt3_sub417), .valid(1'b0), .q(dl_pt3_sub417));
     // pt3_vrel = pt3_sub406 + pt3_sub417   (ready @156/156/156)
     logic [W-1:0] pt3_vrel;
     logic [2:0] fl_pt3_vrel;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_vrel (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_sub406), .b(dl_pt3_sub417), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[152]), .a(dl_pt3_sub406), .b(dl_pt3_sub417), .sub(1'b0),
         .out_valid(op_valid_nc[301]), .y(pt3_vrel), .flags(fl_pt3_vrel)
     );
     assign ev_ovf[298] = fl_pt3_vrel[0] && ev_q[156];
@@ -4652,12 +4659,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[298] = fl_pt3_vrel[2] && ev_q[156];
     logic [W-1:0] dl_pt3_vrel;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vrel (.clk(clk), .d(pt3_vrel), .q(dl_pt3_vrel));
+        u_dl_pt3_vrel (.clk(clk), .d(pt3_vrel), .valid(1'b0), .q(dl_pt3_vrel));
     // pt3_add419 = pt3_vrel + b3   (ready @160/160/160)
     logic [W-1:0] pt3_add419;
     logic [2:0] fl_pt3_add419;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add419 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_vrel), .b(dl_in_b3[1*W +: W]), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[156]), .a(dl_pt3_vrel), .b(dl_in_b3[1*W +: W]), .sub(1'b0),
         .out_valid(op_valid_nc[302]), .y(pt3_add419), .flags(fl_pt3_add419)
     );
     assign ev_ovf[299] = fl_pt3_add419[0] && ev_q[160];
@@ -4665,12 +4672,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[299] = fl_pt3_add419[2] && ev_q[160];
     logic [W-1:0] dl_pt3_add419;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add419 (.clk(clk), .d(pt3_add419), .q(dl_pt3_add419));
+        u_dl_pt3_add419 (.clk(clk), .d(pt3_add419), .valid(1'b0), .q(dl_pt3_add419));
     // pt3_delta0 = pt3_add419 * jac_inv3   (ready @163/163/163)
     logic [W-1:0] pt3_delta0;
     logic [2:0] fl_pt3_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add419), .b(dl_in_jac_inv3[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[160]), .a(dl_pt3_add419), .b(dl_in_jac_inv3[1*W +: W]),
         .out_valid(op_valid_nc[303]), .y(pt3_delta0), .flags(fl_pt3_delta0)
     );
     assign ev_ovf[300] = fl_pt3_delta0[0] && ev_q[163];
@@ -4678,12 +4685,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[300] = fl_pt3_delta0[2] && ev_q[163];
     logic [W-1:0] dl_pt3_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_delta0 (.clk(clk), .d(pt3_delta0), .q(dl_pt3_delta0));
+        u_dl_pt3_delta0 (.clk(clk), .d(pt3_delta0), .valid(1'b0), .q(dl_pt3_delta0));
     // pt3_lam_kept = lam3 * keep3   (ready @3/3/3)
     logic [W-1:0] pt3_lam_kept;
     logic [2:0] fl_pt3_lam_kept;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_lam_kept (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam3[0*W +: W]), .b(dl_keep3),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam3[0*W +: W]), .b(dl_keep3),
         .out_valid(op_valid_nc[304]), .y(pt3_lam_kept), .flags(fl_pt3_lam_kept)
     );
     assign ev_ovf[301] = fl_pt3_lam_kept[0] && ev_q[3];
@@ -4691,12 +4698,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[301] = fl_pt3_lam_kept[2] && ev_q[3];
     logic [W-1:0] dl_pt3_lam_kept;
     pgs_delay #(.WIDTH(W), .DEPTH(160))
-        u_dl_pt3_lam_kept (.clk(clk), .d(pt3_lam_kept), .q(dl_pt3_lam_kept));
+        u_dl_pt3_lam_kept (.clk(clk), .d(pt3_lam_kept), .valid(valid_q[3 +: 160]), .q(dl_pt3_lam_kept));
     // pt3_add422 = pt3_lam_kept + pt3_delta0   (ready @167/167/167)
     logic [W-1:0] pt3_add422;
     logic [2:0] fl_pt3_add422;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add422 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_lam_kept), .b(dl_pt3_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[163]), .a(dl_pt3_lam_kept), .b(dl_pt3_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[305]), .y(pt3_add422), .flags(fl_pt3_add422)
     );
     assign ev_ovf[302] = fl_pt3_add422[0] && ev_q[167];
@@ -4704,22 +4711,22 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[302] = fl_pt3_add422[2] && ev_q[167];
     logic [W-1:0] dl_pt3_add422;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add422 (.clk(clk), .d(pt3_add422), .q(dl_pt3_add422));
+        u_dl_pt3_add422 (.clk(clk), .d(pt3_add422), .valid(1'b0), .q(dl_pt3_add422));
     // pt3_lam_new = max(pt3_add422, 0.0)   (ready @168/168/168)
     logic [W-1:0] pt3_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_pt3_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_add422), .b(K_ZERO),
+        .clk(clk), .rst(rst), .in_valid(valid_q[167]), .a(dl_pt3_add422), .b(K_ZERO),
         .out_valid(op_valid_nc[306]), .y_min(nc_pt3_lam_new_min), .y_max(pt3_lam_new),
         .lt(nc_pt3_lam_new_lt), .eq(nc_pt3_lam_new_eq), .unordered(nc_pt3_lam_new_uo)
     );
     logic [W-1:0] dl_pt3_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_lam_new (.clk(clk), .d(pt3_lam_new), .q(dl_pt3_lam_new));
+        u_dl_pt3_lam_new (.clk(clk), .d(pt3_lam_new), .valid(1'b0), .q(dl_pt3_lam_new));
     // pt3_delta = pt3_lam_new - lam3   (ready @172/172/172)
     logic [W-1:0] pt3_delta;
     logic [2:0] fl_pt3_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_lam_new), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[168]), .a(dl_pt3_lam_new), .b(dl_in_lam3[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[307]), .y(pt3_delta), .flags(fl_pt3_delta)
     );
     assign ev_ovf[303] = fl_pt3_delta[0] && ev_q[172];
@@ -4727,18 +4734,18 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[303] = fl_pt3_delta[2] && ev_q[172];
     logic [W-1:0] dl_pt3_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_delta (.clk(clk), .d(pt3_delta), .q(dl_pt3_delta));
+        u_dl_pt3_delta (.clk(clk), .d(pt3_delta), .valid(1'b0), .q(dl_pt3_delta));
     // pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (ready @168/168/168)
     logic [W-1:0] pt3_lam;
     assign pt3_lam = dl_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_pt3_lam_new;
     logic [W-1:0] dl_pt3_lam;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_pt3_lam (.clk(clk), .d(pt3_lam), .q(dl_pt3_lam));
+        u_dl_pt3_lam (.clk(clk), .d(pt3_lam), .valid(valid_q[168 +: 11]), .q(dl_pt3_lam));
     // pt3_angA_x = IInvA_x * pt3_cA_x   (ready @14/14/14)
     logic [W-1:0] pt3_angA_x;
     logic [2:0] fl_pt3_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_pt3_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_x), .b(dl_pt3_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[308]), .y(pt3_angA_x), .flags(fl_pt3_angA_x)
     );
     assign ev_ovf[304] = fl_pt3_angA_x[0] && ev_q[14];
@@ -4746,12 +4753,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[304] = fl_pt3_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angA_x (.clk(clk), .d(pt3_angA_x), .q(dl_pt3_angA_x));
+        u_dl_pt3_angA_x (.clk(clk), .d(pt3_angA_x), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_x));
     // pt3_angA_y = IInvA_y * pt3_cA_y   (ready @14/14/14)
     logic [W-1:0] pt3_angA_y;
     logic [2:0] fl_pt3_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_pt3_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_y), .b(dl_pt3_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[309]), .y(pt3_angA_y), .flags(fl_pt3_angA_y)
     );
     assign ev_ovf[305] = fl_pt3_angA_y[0] && ev_q[14];
@@ -4759,12 +4766,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[305] = fl_pt3_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angA_y (.clk(clk), .d(pt3_angA_y), .q(dl_pt3_angA_y));
+        u_dl_pt3_angA_y (.clk(clk), .d(pt3_angA_y), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_y));
     // pt3_angA_z = IInvA_z * pt3_cA_z   (ready @14/14/14)
     logic [W-1:0] pt3_angA_z;
     logic [2:0] fl_pt3_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_pt3_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_z), .b(dl_pt3_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[310]), .y(pt3_angA_z), .flags(fl_pt3_angA_z)
     );
     assign ev_ovf[306] = fl_pt3_angA_z[0] && ev_q[14];
@@ -4772,12 +4779,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[306] = fl_pt3_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angA_z (.clk(clk), .d(pt3_angA_z), .q(dl_pt3_angA_z));
+        u_dl_pt3_angA_z (.clk(clk), .d(pt3_angA_z), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_z));
     // pt3_angB_x = IInvB_x * pt3_cB_x   (ready @14/14/14)
     logic [W-1:0] pt3_angB_x;
     logic [2:0] fl_pt3_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_pt3_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_x), .b(dl_pt3_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[311]), .y(pt3_angB_x), .flags(fl_pt3_angB_x)
     );
     assign ev_ovf[307] = fl_pt3_angB_x[0] && ev_q[14];
@@ -4785,12 +4792,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[307] = fl_pt3_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angB_x (.clk(clk), .d(pt3_angB_x), .q(dl_pt3_angB_x));
+        u_dl_pt3_angB_x (.clk(clk), .d(pt3_angB_x), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_x));
     // pt3_angB_y = IInvB_y * pt3_cB_y   (ready @14/14/14)
     logic [W-1:0] pt3_angB_y;
     logic [2:0] fl_pt3_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_pt3_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_y), .b(dl_pt3_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[312]), .y(pt3_angB_y), .flags(fl_pt3_angB_y)
     );
     assign ev_ovf[308] = fl_pt3_angB_y[0] && ev_q[14];
@@ -4798,12 +4805,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[308] = fl_pt3_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angB_y (.clk(clk), .d(pt3_angB_y), .q(dl_pt3_angB_y));
+        u_dl_pt3_angB_y (.clk(clk), .d(pt3_angB_y), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_y));
     // pt3_angB_z = IInvB_z * pt3_cB_z   (ready @14/14/14)
     logic [W-1:0] pt3_angB_z;
     logic [2:0] fl_pt3_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_pt3_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_z), .b(dl_pt3_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[313]), .y(pt3_angB_z), .flags(fl_pt3_angB_z)
     );
     assign ev_ovf[309] = fl_pt3_angB_z[0] && ev_q[14];
@@ -4811,12 +4818,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[309] = fl_pt3_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(158))
-        u_dl_pt3_angB_z (.clk(clk), .d(pt3_angB_z), .q(dl_pt3_angB_z));
+        u_dl_pt3_angB_z (.clk(clk), .d(pt3_angB_z), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_z));
     // pt3_mul432 = linA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul432;
     logic [2:0] fl_pt3_mul432;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul432 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_x[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linA_x[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[314]), .y(pt3_mul432), .flags(fl_pt3_mul432)
     );
     assign ev_ovf[310] = fl_pt3_mul432[0] && ev_q[175];
@@ -4824,12 +4831,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[310] = fl_pt3_mul432[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul432;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul432 (.clk(clk), .d(pt3_mul432), .q(dl_pt3_mul432));
+        u_dl_pt3_mul432 (.clk(clk), .d(pt3_mul432), .valid(1'b0), .q(dl_pt3_mul432));
     // pt3_mul433 = linA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul433;
     logic [2:0] fl_pt3_mul433;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul433 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_y[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linA_y[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[315]), .y(pt3_mul433), .flags(fl_pt3_mul433)
     );
     assign ev_ovf[311] = fl_pt3_mul433[0] && ev_q[175];
@@ -4837,12 +4844,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[311] = fl_pt3_mul433[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul433;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul433 (.clk(clk), .d(pt3_mul433), .q(dl_pt3_mul433));
+        u_dl_pt3_mul433 (.clk(clk), .d(pt3_mul433), .valid(1'b0), .q(dl_pt3_mul433));
     // pt3_mul434 = linA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul434;
     logic [2:0] fl_pt3_mul434;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul434 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linA_z[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linA_z[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[316]), .y(pt3_mul434), .flags(fl_pt3_mul434)
     );
     assign ev_ovf[312] = fl_pt3_mul434[0] && ev_q[175];
@@ -4850,12 +4857,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[312] = fl_pt3_mul434[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul434;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul434 (.clk(clk), .d(pt3_mul434), .q(dl_pt3_mul434));
+        u_dl_pt3_mul434 (.clk(clk), .d(pt3_mul434), .valid(1'b0), .q(dl_pt3_mul434));
     // pt3_add435 = pt2_vA_x + pt3_mul432   (ready @179/179/179)
     logic [W-1:0] pt3_add435;
     logic [2:0] fl_pt3_add435;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add435 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_x[1*W +: W]), .b(dl_pt3_mul432), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_x[1*W +: W]), .b(dl_pt3_mul432), .sub(1'b0),
         .out_valid(op_valid_nc[317]), .y(pt3_add435), .flags(fl_pt3_add435)
     );
     assign ev_ovf[313] = fl_pt3_add435[0] && ev_q[179];
@@ -4863,12 +4870,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[313] = fl_pt3_add435[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add435;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add435 (.clk(clk), .d(pt3_add435), .q(dl_pt3_add435));
+        u_dl_pt3_add435 (.clk(clk), .d(pt3_add435), .valid(1'b0), .q(dl_pt3_add435));
     // pt3_add436 = pt2_vA_y + pt3_mul433   (ready @179/179/179)
     logic [W-1:0] pt3_add436;
     logic [2:0] fl_pt3_add436;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add436 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_y[1*W +: W]), .b(dl_pt3_mul433), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_y[1*W +: W]), .b(dl_pt3_mul433), .sub(1'b0),
         .out_valid(op_valid_nc[318]), .y(pt3_add436), .flags(fl_pt3_add436)
     );
     assign ev_ovf[314] = fl_pt3_add436[0] && ev_q[179];
@@ -4876,12 +4883,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[314] = fl_pt3_add436[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add436;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add436 (.clk(clk), .d(pt3_add436), .q(dl_pt3_add436));
+        u_dl_pt3_add436 (.clk(clk), .d(pt3_add436), .valid(1'b0), .q(dl_pt3_add436));
     // pt3_add437 = pt2_vA_z + pt3_mul434   (ready @179/179/179)
     logic [W-1:0] pt3_add437;
     logic [2:0] fl_pt3_add437;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add437 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vA_z[1*W +: W]), .b(dl_pt3_mul434), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vA_z[1*W +: W]), .b(dl_pt3_mul434), .sub(1'b0),
         .out_valid(op_valid_nc[319]), .y(pt3_add437), .flags(fl_pt3_add437)
     );
     assign ev_ovf[315] = fl_pt3_add437[0] && ev_q[179];
@@ -4889,30 +4896,30 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[315] = fl_pt3_add437[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add437;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add437 (.clk(clk), .d(pt3_add437), .q(dl_pt3_add437));
+        u_dl_pt3_add437 (.clk(clk), .d(pt3_add437), .valid(1'b0), .q(dl_pt3_add437));
     // pt3_vA_x = pt3_skip ? pt2_vA_x : pt3_add435   (ready @179/179/179)
     logic [W-1:0] pt3_vA_x;
     assign pt3_vA_x = dl_pt3_skip[1] ? dl_pt2_vA_x[2*W +: W] : dl_pt3_add435;
     logic [W-1:0] dl_pt3_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vA_x (.clk(clk), .d(pt3_vA_x), .q(dl_pt3_vA_x));
+        u_dl_pt3_vA_x (.clk(clk), .d(pt3_vA_x), .valid(1'b0), .q(dl_pt3_vA_x));
     // pt3_vA_y = pt3_skip ? pt2_vA_y : pt3_add436   (ready @179/179/179)
     logic [W-1:0] pt3_vA_y;
     assign pt3_vA_y = dl_pt3_skip[1] ? dl_pt2_vA_y[2*W +: W] : dl_pt3_add436;
     logic [W-1:0] dl_pt3_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vA_y (.clk(clk), .d(pt3_vA_y), .q(dl_pt3_vA_y));
+        u_dl_pt3_vA_y (.clk(clk), .d(pt3_vA_y), .valid(1'b0), .q(dl_pt3_vA_y));
     // pt3_vA_z = pt3_skip ? pt2_vA_z : pt3_add437   (ready @179/179/179)
     logic [W-1:0] pt3_vA_z;
     assign pt3_vA_z = dl_pt3_skip[1] ? dl_pt2_vA_z[2*W +: W] : dl_pt3_add437;
     logic [W-1:0] dl_pt3_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vA_z (.clk(clk), .d(pt3_vA_z), .q(dl_pt3_vA_z));
+        u_dl_pt3_vA_z (.clk(clk), .d(pt3_vA_z), .valid(1'b0), .q(dl_pt3_vA_z));
     // pt3_mul441 = pt3_angA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul441;
     logic [2:0] fl_pt3_mul441;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul441 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_x), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angA_x), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[320]), .y(pt3_mul441), .flags(fl_pt3_mul441)
     );
     assign ev_ovf[316] = fl_pt3_mul441[0] && ev_q[175];
@@ -4920,12 +4927,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[316] = fl_pt3_mul441[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul441;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul441 (.clk(clk), .d(pt3_mul441), .q(dl_pt3_mul441));
+        u_dl_pt3_mul441 (.clk(clk), .d(pt3_mul441), .valid(1'b0), .q(dl_pt3_mul441));
     // pt3_mul442 = pt3_angA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul442;
     logic [2:0] fl_pt3_mul442;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul442 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_y), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angA_y), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[321]), .y(pt3_mul442), .flags(fl_pt3_mul442)
     );
     assign ev_ovf[317] = fl_pt3_mul442[0] && ev_q[175];
@@ -4933,12 +4940,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[317] = fl_pt3_mul442[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul442;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul442 (.clk(clk), .d(pt3_mul442), .q(dl_pt3_mul442));
+        u_dl_pt3_mul442 (.clk(clk), .d(pt3_mul442), .valid(1'b0), .q(dl_pt3_mul442));
     // pt3_mul443 = pt3_angA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul443;
     logic [2:0] fl_pt3_mul443;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul443 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angA_z), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angA_z), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[322]), .y(pt3_mul443), .flags(fl_pt3_mul443)
     );
     assign ev_ovf[318] = fl_pt3_mul443[0] && ev_q[175];
@@ -4946,12 +4953,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[318] = fl_pt3_mul443[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul443;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul443 (.clk(clk), .d(pt3_mul443), .q(dl_pt3_mul443));
+        u_dl_pt3_mul443 (.clk(clk), .d(pt3_mul443), .valid(1'b0), .q(dl_pt3_mul443));
     // pt3_add444 = pt2_wA_x + pt3_mul441   (ready @179/179/179)
     logic [W-1:0] pt3_add444;
     logic [2:0] fl_pt3_add444;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add444 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_x[1*W +: W]), .b(dl_pt3_mul441), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_x[1*W +: W]), .b(dl_pt3_mul441), .sub(1'b0),
         .out_valid(op_valid_nc[323]), .y(pt3_add444), .flags(fl_pt3_add444)
     );
     assign ev_ovf[319] = fl_pt3_add444[0] && ev_q[179];
@@ -4959,12 +4966,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[319] = fl_pt3_add444[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add444;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add444 (.clk(clk), .d(pt3_add444), .q(dl_pt3_add444));
+        u_dl_pt3_add444 (.clk(clk), .d(pt3_add444), .valid(1'b0), .q(dl_pt3_add444));
     // pt3_add445 = pt2_wA_y + pt3_mul442   (ready @179/179/179)
     logic [W-1:0] pt3_add445;
     logic [2:0] fl_pt3_add445;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add445 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_y[1*W +: W]), .b(dl_pt3_mul442), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_y[1*W +: W]), .b(dl_pt3_mul442), .sub(1'b0),
         .out_valid(op_valid_nc[324]), .y(pt3_add445), .flags(fl_pt3_add445)
     );
     assign ev_ovf[320] = fl_pt3_add445[0] && ev_q[179];
@@ -4972,12 +4979,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[320] = fl_pt3_add445[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add445;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add445 (.clk(clk), .d(pt3_add445), .q(dl_pt3_add445));
+        u_dl_pt3_add445 (.clk(clk), .d(pt3_add445), .valid(1'b0), .q(dl_pt3_add445));
     // pt3_add446 = pt2_wA_z + pt3_mul443   (ready @179/179/179)
     logic [W-1:0] pt3_add446;
     logic [2:0] fl_pt3_add446;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_add446 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wA_z[1*W +: W]), .b(dl_pt3_mul443), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wA_z[1*W +: W]), .b(dl_pt3_mul443), .sub(1'b0),
         .out_valid(op_valid_nc[325]), .y(pt3_add446), .flags(fl_pt3_add446)
     );
     assign ev_ovf[321] = fl_pt3_add446[0] && ev_q[179];
@@ -4985,30 +4992,30 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[321] = fl_pt3_add446[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add446;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_add446 (.clk(clk), .d(pt3_add446), .q(dl_pt3_add446));
+        u_dl_pt3_add446 (.clk(clk), .d(pt3_add446), .valid(1'b0), .q(dl_pt3_add446));
     // pt3_wA_x = pt3_skip ? pt2_wA_x : pt3_add444   (ready @179/179/179)
     logic [W-1:0] pt3_wA_x;
     assign pt3_wA_x = dl_pt3_skip[1] ? dl_pt2_wA_x[2*W +: W] : dl_pt3_add444;
     logic [W-1:0] dl_pt3_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wA_x (.clk(clk), .d(pt3_wA_x), .q(dl_pt3_wA_x));
+        u_dl_pt3_wA_x (.clk(clk), .d(pt3_wA_x), .valid(1'b0), .q(dl_pt3_wA_x));
     // pt3_wA_y = pt3_skip ? pt2_wA_y : pt3_add445   (ready @179/179/179)
     logic [W-1:0] pt3_wA_y;
     assign pt3_wA_y = dl_pt3_skip[1] ? dl_pt2_wA_y[2*W +: W] : dl_pt3_add445;
     logic [W-1:0] dl_pt3_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wA_y (.clk(clk), .d(pt3_wA_y), .q(dl_pt3_wA_y));
+        u_dl_pt3_wA_y (.clk(clk), .d(pt3_wA_y), .valid(1'b0), .q(dl_pt3_wA_y));
     // pt3_wA_z = pt3_skip ? pt2_wA_z : pt3_add446   (ready @179/179/179)
     logic [W-1:0] pt3_wA_z;
     assign pt3_wA_z = dl_pt3_skip[1] ? dl_pt2_wA_z[2*W +: W] : dl_pt3_add446;
     logic [W-1:0] dl_pt3_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wA_z (.clk(clk), .d(pt3_wA_z), .q(dl_pt3_wA_z));
+        u_dl_pt3_wA_z (.clk(clk), .d(pt3_wA_z), .valid(1'b0), .q(dl_pt3_wA_z));
     // pt3_mul450 = linB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul450;
     logic [2:0] fl_pt3_mul450;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul450 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_x[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linB_x[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[326]), .y(pt3_mul450), .flags(fl_pt3_mul450)
     );
     assign ev_ovf[322] = fl_pt3_mul450[0] && ev_q[175];
@@ -5016,12 +5023,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[322] = fl_pt3_mul450[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul450;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul450 (.clk(clk), .d(pt3_mul450), .q(dl_pt3_mul450));
+        u_dl_pt3_mul450 (.clk(clk), .d(pt3_mul450), .valid(1'b0), .q(dl_pt3_mul450));
     // pt3_mul451 = linB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul451;
     logic [2:0] fl_pt3_mul451;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul451 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_y[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linB_y[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[327]), .y(pt3_mul451), .flags(fl_pt3_mul451)
     );
     assign ev_ovf[323] = fl_pt3_mul451[0] && ev_q[175];
@@ -5029,12 +5036,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[323] = fl_pt3_mul451[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul451;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul451 (.clk(clk), .d(pt3_mul451), .q(dl_pt3_mul451));
+        u_dl_pt3_mul451 (.clk(clk), .d(pt3_mul451), .valid(1'b0), .q(dl_pt3_mul451));
     // pt3_mul452 = linB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul452;
     logic [2:0] fl_pt3_mul452;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul452 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_linB_z[3*W +: W]), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_linB_z[3*W +: W]), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[328]), .y(pt3_mul452), .flags(fl_pt3_mul452)
     );
     assign ev_ovf[324] = fl_pt3_mul452[0] && ev_q[175];
@@ -5042,12 +5049,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[324] = fl_pt3_mul452[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul452;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul452 (.clk(clk), .d(pt3_mul452), .q(dl_pt3_mul452));
+        u_dl_pt3_mul452 (.clk(clk), .d(pt3_mul452), .valid(1'b0), .q(dl_pt3_mul452));
     // pt3_sub453 = pt2_vB_x - pt3_mul450   (ready @179/179/179)
     logic [W-1:0] pt3_sub453;
     logic [2:0] fl_pt3_sub453;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub453 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_x[1*W +: W]), .b(dl_pt3_mul450), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_x[1*W +: W]), .b(dl_pt3_mul450), .sub(1'b1),
         .out_valid(op_valid_nc[329]), .y(pt3_sub453), .flags(fl_pt3_sub453)
     );
     assign ev_ovf[325] = fl_pt3_sub453[0] && ev_q[179];
@@ -5055,12 +5062,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[325] = fl_pt3_sub453[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub453;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub453 (.clk(clk), .d(pt3_sub453), .q(dl_pt3_sub453));
+        u_dl_pt3_sub453 (.clk(clk), .d(pt3_sub453), .valid(1'b0), .q(dl_pt3_sub453));
     // pt3_sub454 = pt2_vB_y - pt3_mul451   (ready @179/179/179)
     logic [W-1:0] pt3_sub454;
     logic [2:0] fl_pt3_sub454;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub454 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_y[1*W +: W]), .b(dl_pt3_mul451), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_y[1*W +: W]), .b(dl_pt3_mul451), .sub(1'b1),
         .out_valid(op_valid_nc[330]), .y(pt3_sub454), .flags(fl_pt3_sub454)
     );
     assign ev_ovf[326] = fl_pt3_sub454[0] && ev_q[179];
@@ -5068,12 +5075,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[326] = fl_pt3_sub454[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub454;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub454 (.clk(clk), .d(pt3_sub454), .q(dl_pt3_sub454));
+        u_dl_pt3_sub454 (.clk(clk), .d(pt3_sub454), .valid(1'b0), .q(dl_pt3_sub454));
     // pt3_sub455 = pt2_vB_z - pt3_mul452   (ready @179/179/179)
     logic [W-1:0] pt3_sub455;
     logic [2:0] fl_pt3_sub455;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub455 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_vB_z[1*W +: W]), .b(dl_pt3_mul452), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_vB_z[1*W +: W]), .b(dl_pt3_mul452), .sub(1'b1),
         .out_valid(op_valid_nc[331]), .y(pt3_sub455), .flags(fl_pt3_sub455)
     );
     assign ev_ovf[327] = fl_pt3_sub455[0] && ev_q[179];
@@ -5081,30 +5088,30 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[327] = fl_pt3_sub455[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub455;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub455 (.clk(clk), .d(pt3_sub455), .q(dl_pt3_sub455));
+        u_dl_pt3_sub455 (.clk(clk), .d(pt3_sub455), .valid(1'b0), .q(dl_pt3_sub455));
     // pt3_vB_x = pt3_skip ? pt2_vB_x : pt3_sub453   (ready @179/179/179)
     logic [W-1:0] pt3_vB_x;
     assign pt3_vB_x = dl_pt3_skip[1] ? dl_pt2_vB_x[2*W +: W] : dl_pt3_sub453;
     logic [W-1:0] dl_pt3_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vB_x (.clk(clk), .d(pt3_vB_x), .q(dl_pt3_vB_x));
+        u_dl_pt3_vB_x (.clk(clk), .d(pt3_vB_x), .valid(1'b0), .q(dl_pt3_vB_x));
     // pt3_vB_y = pt3_skip ? pt2_vB_y : pt3_sub454   (ready @179/179/179)
     logic [W-1:0] pt3_vB_y;
     assign pt3_vB_y = dl_pt3_skip[1] ? dl_pt2_vB_y[2*W +: W] : dl_pt3_sub454;
     logic [W-1:0] dl_pt3_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vB_y (.clk(clk), .d(pt3_vB_y), .q(dl_pt3_vB_y));
+        u_dl_pt3_vB_y (.clk(clk), .d(pt3_vB_y), .valid(1'b0), .q(dl_pt3_vB_y));
     // pt3_vB_z = pt3_skip ? pt2_vB_z : pt3_sub455   (ready @179/179/179)
     logic [W-1:0] pt3_vB_z;
     assign pt3_vB_z = dl_pt3_skip[1] ? dl_pt2_vB_z[2*W +: W] : dl_pt3_sub455;
     logic [W-1:0] dl_pt3_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_vB_z (.clk(clk), .d(pt3_vB_z), .q(dl_pt3_vB_z));
+        u_dl_pt3_vB_z (.clk(clk), .d(pt3_vB_z), .valid(1'b0), .q(dl_pt3_vB_z));
     // pt3_mul459 = pt3_angB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul459;
     logic [2:0] fl_pt3_mul459;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul459 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_x), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angB_x), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[332]), .y(pt3_mul459), .flags(fl_pt3_mul459)
     );
     assign ev_ovf[328] = fl_pt3_mul459[0] && ev_q[175];
@@ -5112,12 +5119,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[328] = fl_pt3_mul459[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul459;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul459 (.clk(clk), .d(pt3_mul459), .q(dl_pt3_mul459));
+        u_dl_pt3_mul459 (.clk(clk), .d(pt3_mul459), .valid(1'b0), .q(dl_pt3_mul459));
     // pt3_mul460 = pt3_angB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul460;
     logic [2:0] fl_pt3_mul460;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul460 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_y), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angB_y), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[333]), .y(pt3_mul460), .flags(fl_pt3_mul460)
     );
     assign ev_ovf[329] = fl_pt3_mul460[0] && ev_q[175];
@@ -5125,12 +5132,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[329] = fl_pt3_mul460[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul460;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul460 (.clk(clk), .d(pt3_mul460), .q(dl_pt3_mul460));
+        u_dl_pt3_mul460 (.clk(clk), .d(pt3_mul460), .valid(1'b0), .q(dl_pt3_mul460));
     // pt3_mul461 = pt3_angB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul461;
     logic [2:0] fl_pt3_mul461;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_mul461 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt3_angB_z), .b(dl_pt3_delta),
+        .clk(clk), .rst(rst), .in_valid(valid_q[172]), .a(dl_pt3_angB_z), .b(dl_pt3_delta),
         .out_valid(op_valid_nc[334]), .y(pt3_mul461), .flags(fl_pt3_mul461)
     );
     assign ev_ovf[330] = fl_pt3_mul461[0] && ev_q[175];
@@ -5138,12 +5145,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[330] = fl_pt3_mul461[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul461;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_mul461 (.clk(clk), .d(pt3_mul461), .q(dl_pt3_mul461));
+        u_dl_pt3_mul461 (.clk(clk), .d(pt3_mul461), .valid(1'b0), .q(dl_pt3_mul461));
     // pt3_sub462 = pt2_wB_x - pt3_mul459   (ready @179/179/179)
     logic [W-1:0] pt3_sub462;
     logic [2:0] fl_pt3_sub462;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub462 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_x[1*W +: W]), .b(dl_pt3_mul459), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_x[1*W +: W]), .b(dl_pt3_mul459), .sub(1'b1),
         .out_valid(op_valid_nc[335]), .y(pt3_sub462), .flags(fl_pt3_sub462)
     );
     assign ev_ovf[331] = fl_pt3_sub462[0] && ev_q[179];
@@ -5151,12 +5158,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[331] = fl_pt3_sub462[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub462;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub462 (.clk(clk), .d(pt3_sub462), .q(dl_pt3_sub462));
+        u_dl_pt3_sub462 (.clk(clk), .d(pt3_sub462), .valid(1'b0), .q(dl_pt3_sub462));
     // pt3_sub463 = pt2_wB_y - pt3_mul460   (ready @179/179/179)
     logic [W-1:0] pt3_sub463;
     logic [2:0] fl_pt3_sub463;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub463 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_y[1*W +: W]), .b(dl_pt3_mul460), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_y[1*W +: W]), .b(dl_pt3_mul460), .sub(1'b1),
         .out_valid(op_valid_nc[336]), .y(pt3_sub463), .flags(fl_pt3_sub463)
     );
     assign ev_ovf[332] = fl_pt3_sub463[0] && ev_q[179];
@@ -5164,12 +5171,12 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[332] = fl_pt3_sub463[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub463;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub463 (.clk(clk), .d(pt3_sub463), .q(dl_pt3_sub463));
+        u_dl_pt3_sub463 (.clk(clk), .d(pt3_sub463), .valid(1'b0), .q(dl_pt3_sub463));
     // pt3_sub464 = pt2_wB_z - pt3_mul461   (ready @179/179/179)
     logic [W-1:0] pt3_sub464;
     logic [2:0] fl_pt3_sub464;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pt3_sub464 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_pt2_wB_z[1*W +: W]), .b(dl_pt3_mul461), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[175]), .a(dl_pt2_wB_z[1*W +: W]), .b(dl_pt3_mul461), .sub(1'b1),
         .out_valid(op_valid_nc[337]), .y(pt3_sub464), .flags(fl_pt3_sub464)
     );
     assign ev_ovf[333] = fl_pt3_sub464[0] && ev_q[179];
@@ -5177,25 +5184,25 @@ module pgs_contact_pipe_soft #(
     assign ev_inv[333] = fl_pt3_sub464[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub464;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_sub464 (.clk(clk), .d(pt3_sub464), .q(dl_pt3_sub464));
+        u_dl_pt3_sub464 (.clk(clk), .d(pt3_sub464), .valid(1'b0), .q(dl_pt3_sub464));
     // pt3_wB_x = pt3_skip ? pt2_wB_x : pt3_sub462   (ready @179/179/179)
     logic [W-1:0] pt3_wB_x;
     assign pt3_wB_x = dl_pt3_skip[1] ? dl_pt2_wB_x[2*W +: W] : dl_pt3_sub462;
     logic [W-1:0] dl_pt3_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wB_x (.clk(clk), .d(pt3_wB_x), .q(dl_pt3_wB_x));
+        u_dl_pt3_wB_x (.clk(clk), .d(pt3_wB_x), .valid(1'b0), .q(dl_pt3_wB_x));
     // pt3_wB_y = pt3_skip ? pt2_wB_y : pt3_sub463   (ready @179/179/179)
     logic [W-1:0] pt3_wB_y;
     assign pt3_wB_y = dl_pt3_skip[1] ? dl_pt2_wB_y[2*W +: W] : dl_pt3_sub463;
     logic [W-1:0] dl_pt3_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wB_y (.clk(clk), .d(pt3_wB_y), .q(dl_pt3_wB_y));
+        u_dl_pt3_wB_y (.clk(clk), .d(pt3_wB_y), .valid(1'b0), .q(dl_pt3_wB_y));
     // pt3_wB_z = pt3_skip ? pt2_wB_z : pt3_sub464   (ready @179/179/179)
     logic [W-1:0] pt3_wB_z;
     assign pt3_wB_z = dl_pt3_skip[1] ? dl_pt2_wB_z[2*W +: W] : dl_pt3_sub464;
     logic [W-1:0] dl_pt3_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_pt3_wB_z (.clk(clk), .d(pt3_wB_z), .q(dl_pt3_wB_z));
+        u_dl_pt3_wB_z (.clk(clk), .d(pt3_wB_z), .valid(1'b0), .q(dl_pt3_wB_z));
 
     // Outputs, each delayed to LATENCY.
     assign out_data[0*W +: W] = dl_pt0_lam;   // lam0

@@ -69,23 +69,30 @@ module pgs_friction_pipe #(
     logic         nc_t1_lam_new_lt, nc_t1_lam_new_eq, nc_t1_lam_new_uo;
     /* verilator lint_on UNUSEDSIGNAL */
 
-    // Valid and tag pipelines.
+    // Valid and tag pipelines. valid_q[k]: in_valid k cycles ago; an operator's in_valid is the
+    // bit at its issue cycle, so its register stages are enabled only for the pipeline's inputs.
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [LATENCY:0] valid_q;   // the stages after the last operator's issue are not read
+    /* verilator lint_on UNUSEDSIGNAL */
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
+        .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (.clk(clk), .d(in_tag), .q(out_tag));
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+        .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
+    );
 
     // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);
     // an operator's flags belong to the input taken at its ready cycle minus that many cycles.
     localparam int EV_DEPTH = 110;
-    logic [EV_DEPTH:0] ev_q;
-    assign ev_q[0] = in_valid && in_count;
-    for (genvar i = 1; i <= EV_DEPTH; i++) begin : g_ev
-        always_ff @(posedge clk) begin
-            if (rst) ev_q[i] <= 1'b0;
-            else     ev_q[i] <= ev_q[i-1];
-        end
+    logic [EV_DEPTH:1] ev_r;
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [EV_DEPTH:0] ev_q;   // read at the operators' ready cycles only
+    /* verilator lint_on UNUSEDSIGNAL */
+    always_ff @(posedge clk) begin   // one shift of the whole register
+        if (rst) ev_r <= '0;
+        else     ev_r <= EV_DEPTH'({ev_r, in_valid && in_count});
     end
+    assign ev_q = {ev_r, in_valid && in_count};
     logic [N_FP_OPS-1:0] ev_ovf, ev_unf, ev_inv;   // flags of counted inputs, one bit per operator
     always_ff @(posedge clk) begin
         ev_overflow  <= EV_W'($countones(ev_ovf));
@@ -98,235 +105,235 @@ module pgs_friction_pipe #(
     assign in_n_x = in_data[0*W +: W];
     logic [2*W-1:0] dl_in_n_x;
     pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
-        u_dl_in_n_x (.clk(clk), .d(in_n_x), .q(dl_in_n_x));
+        u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 103]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [2*W-1:0] dl_in_n_y;
     pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
-        u_dl_in_n_y (.clk(clk), .d(in_n_y), .q(dl_in_n_y));
+        u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 103]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [2*W-1:0] dl_in_n_z;
     pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
-        u_dl_in_n_z (.clk(clk), .d(in_n_z), .q(dl_in_n_z));
+        u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 103]), .q(dl_in_n_z));
     logic [W-1:0] in_c_x;
     assign in_c_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_c_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_c_x (.clk(clk), .d(in_c_x), .q(dl_in_c_x));
+        u_dl_in_c_x (.clk(clk), .d(in_c_x), .valid(1'b0), .q(dl_in_c_x));
     logic [W-1:0] in_c_y;
     assign in_c_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_c_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_c_y (.clk(clk), .d(in_c_y), .q(dl_in_c_y));
+        u_dl_in_c_y (.clk(clk), .d(in_c_y), .valid(1'b0), .q(dl_in_c_y));
     logic [W-1:0] in_c_z;
     assign in_c_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_c_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_c_z (.clk(clk), .d(in_c_z), .q(dl_in_c_z));
+        u_dl_in_c_z (.clk(clk), .d(in_c_z), .valid(1'b0), .q(dl_in_c_z));
     logic [W-1:0] in_t0_x;
     assign in_t0_x = in_data[6*W +: W];
     logic [2*W-1:0] dl_in_t0_x;
     pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
-        u_dl_in_t0_x (.clk(clk), .d(in_t0_x), .q(dl_in_t0_x));
+        u_dl_in_t0_x (.clk(clk), .d(in_t0_x), .valid(valid_q[0 +: 4]), .q(dl_in_t0_x));
     logic [W-1:0] in_t0_y;
     assign in_t0_y = in_data[7*W +: W];
     logic [2*W-1:0] dl_in_t0_y;
     pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
-        u_dl_in_t0_y (.clk(clk), .d(in_t0_y), .q(dl_in_t0_y));
+        u_dl_in_t0_y (.clk(clk), .d(in_t0_y), .valid(valid_q[0 +: 4]), .q(dl_in_t0_y));
     logic [W-1:0] in_t0_z;
     assign in_t0_z = in_data[8*W +: W];
     logic [2*W-1:0] dl_in_t0_z;
     pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
-        u_dl_in_t0_z (.clk(clk), .d(in_t0_z), .q(dl_in_t0_z));
+        u_dl_in_t0_z (.clk(clk), .d(in_t0_z), .valid(valid_q[0 +: 4]), .q(dl_in_t0_z));
     logic [W-1:0] in_t1_x;
     assign in_t1_x = in_data[9*W +: W];
     logic [3*W-1:0] dl_in_t1_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
-        u_dl_in_t1_x (.clk(clk), .d(in_t1_x), .q(dl_in_t1_x));
+        u_dl_in_t1_x (.clk(clk), .d(in_t1_x), .valid(valid_q[0 +: 50]), .q(dl_in_t1_x));
     logic [W-1:0] in_t1_y;
     assign in_t1_y = in_data[10*W +: W];
     logic [3*W-1:0] dl_in_t1_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
-        u_dl_in_t1_y (.clk(clk), .d(in_t1_y), .q(dl_in_t1_y));
+        u_dl_in_t1_y (.clk(clk), .d(in_t1_y), .valid(valid_q[0 +: 50]), .q(dl_in_t1_y));
     logic [W-1:0] in_t1_z;
     assign in_t1_z = in_data[11*W +: W];
     logic [3*W-1:0] dl_in_t1_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
-        u_dl_in_t1_z (.clk(clk), .d(in_t1_z), .q(dl_in_t1_z));
+        u_dl_in_t1_z (.clk(clk), .d(in_t1_z), .valid(valid_q[0 +: 50]), .q(dl_in_t1_z));
     logic [W-1:0] in_f_jac_inv0;
     assign in_f_jac_inv0 = in_data[12*W +: W];
     logic [2*W-1:0] dl_in_f_jac_inv0;
     pgs_delay #(.WIDTH(W), .DEPTH(30), .N_TAPS(2), .TAPS({32'(30), 32'(0)}))
-        u_dl_in_f_jac_inv0 (.clk(clk), .d(in_f_jac_inv0), .q(dl_in_f_jac_inv0));
+        u_dl_in_f_jac_inv0 (.clk(clk), .d(in_f_jac_inv0), .valid(valid_q[0 +: 30]), .q(dl_in_f_jac_inv0));
     logic [W-1:0] in_f_jac_inv1;
     assign in_f_jac_inv1 = in_data[13*W +: W];
     logic [W-1:0] dl_in_f_jac_inv1;
     pgs_delay #(.WIDTH(W), .DEPTH(69))
-        u_dl_in_f_jac_inv1 (.clk(clk), .d(in_f_jac_inv1), .q(dl_in_f_jac_inv1));
+        u_dl_in_f_jac_inv1 (.clk(clk), .d(in_f_jac_inv1), .valid(valid_q[0 +: 69]), .q(dl_in_f_jac_inv1));
     logic [W-1:0] in_lam_n0;
     assign in_lam_n0 = in_data[14*W +: W];
     logic [W-1:0] dl_in_lam_n0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n0 (.clk(clk), .d(in_lam_n0), .q(dl_in_lam_n0));
+        u_dl_in_lam_n0 (.clk(clk), .d(in_lam_n0), .valid(1'b0), .q(dl_in_lam_n0));
     logic [W-1:0] in_lam_n1;
     assign in_lam_n1 = in_data[15*W +: W];
     logic [W-1:0] dl_in_lam_n1;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n1 (.clk(clk), .d(in_lam_n1), .q(dl_in_lam_n1));
+        u_dl_in_lam_n1 (.clk(clk), .d(in_lam_n1), .valid(1'b0), .q(dl_in_lam_n1));
     logic [W-1:0] in_lam_n2;
     assign in_lam_n2 = in_data[16*W +: W];
     logic [W-1:0] dl_in_lam_n2;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n2 (.clk(clk), .d(in_lam_n2), .q(dl_in_lam_n2));
+        u_dl_in_lam_n2 (.clk(clk), .d(in_lam_n2), .valid(1'b0), .q(dl_in_lam_n2));
     logic [W-1:0] in_lam_n3;
     assign in_lam_n3 = in_data[17*W +: W];
     logic [W-1:0] dl_in_lam_n3;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n3 (.clk(clk), .d(in_lam_n3), .q(dl_in_lam_n3));
+        u_dl_in_lam_n3 (.clk(clk), .d(in_lam_n3), .valid(1'b0), .q(dl_in_lam_n3));
     logic [W-1:0] in_lamT0;
     assign in_lamT0 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_lamT0;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(39), 32'(33)}))
-        u_dl_in_lamT0 (.clk(clk), .d(in_lamT0), .q(dl_in_lamT0));
+        u_dl_in_lamT0 (.clk(clk), .d(in_lamT0), .valid(valid_q[0 +: 39]), .q(dl_in_lamT0));
     logic [W-1:0] in_lamT1;
     assign in_lamT1 = in_data[19*W +: W];
     logic [2*W-1:0] dl_in_lamT1;
     pgs_delay #(.WIDTH(W), .DEPTH(78), .N_TAPS(2), .TAPS({32'(78), 32'(72)}))
-        u_dl_in_lamT1 (.clk(clk), .d(in_lamT1), .q(dl_in_lamT1));
+        u_dl_in_lamT1 (.clk(clk), .d(in_lamT1), .valid(valid_q[0 +: 78]), .q(dl_in_lamT1));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[20*W +: W];
     logic [W-1:0] dl_in_xA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .q(dl_in_xA_x));
+        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[21*W +: W];
     logic [W-1:0] dl_in_xA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .q(dl_in_xA_y));
+        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[22*W +: W];
     logic [W-1:0] dl_in_xA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .q(dl_in_xA_z));
+        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[23*W +: W];
     logic [W-1:0] dl_in_xB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .q(dl_in_xB_x));
+        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[24*W +: W];
     logic [W-1:0] dl_in_xB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .q(dl_in_xB_y));
+        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[25*W +: W];
     logic [W-1:0] dl_in_xB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .q(dl_in_xB_z));
+        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[26*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .q(dl_in_vA_x));
+        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 50]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[27*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .q(dl_in_vA_y));
+        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 50]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[28*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .q(dl_in_vA_z));
+        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 50]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[29*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .q(dl_in_wA_x));
+        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 50]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[30*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .q(dl_in_wA_y));
+        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 50]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[31*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .q(dl_in_wA_z));
+        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 50]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[32*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .q(dl_in_vB_x));
+        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 50]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .q(dl_in_vB_y));
+        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 50]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .q(dl_in_vB_z));
+        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 50]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .q(dl_in_wB_x));
+        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 50]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .q(dl_in_wB_y));
+        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 50]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .q(dl_in_wB_z));
+        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 50]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[38*W +: W];
     logic [W-1:0] dl_in_mInvA;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .q(dl_in_mInvA));
+        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[39*W +: W];
     logic [W-1:0] dl_in_mInvB;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .q(dl_in_mInvB));
+        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_x;
     assign in_IInvA_x = in_data[40*W +: W];
     logic [W-1:0] dl_in_IInvA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_x (.clk(clk), .d(in_IInvA_x), .q(dl_in_IInvA_x));
+        u_dl_in_IInvA_x (.clk(clk), .d(in_IInvA_x), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_x));
     logic [W-1:0] in_IInvA_y;
     assign in_IInvA_y = in_data[41*W +: W];
     logic [W-1:0] dl_in_IInvA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_y (.clk(clk), .d(in_IInvA_y), .q(dl_in_IInvA_y));
+        u_dl_in_IInvA_y (.clk(clk), .d(in_IInvA_y), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_y));
     logic [W-1:0] in_IInvA_z;
     assign in_IInvA_z = in_data[42*W +: W];
     logic [W-1:0] dl_in_IInvA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_z (.clk(clk), .d(in_IInvA_z), .q(dl_in_IInvA_z));
+        u_dl_in_IInvA_z (.clk(clk), .d(in_IInvA_z), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_z));
     logic [W-1:0] in_IInvB_x;
     assign in_IInvB_x = in_data[43*W +: W];
     logic [W-1:0] dl_in_IInvB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_x (.clk(clk), .d(in_IInvB_x), .q(dl_in_IInvB_x));
+        u_dl_in_IInvB_x (.clk(clk), .d(in_IInvB_x), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_x));
     logic [W-1:0] in_IInvB_y;
     assign in_IInvB_y = in_data[44*W +: W];
     logic [W-1:0] dl_in_IInvB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_y (.clk(clk), .d(in_IInvB_y), .q(dl_in_IInvB_y));
+        u_dl_in_IInvB_y (.clk(clk), .d(in_IInvB_y), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_y));
     logic [W-1:0] in_IInvB_z;
     assign in_IInvB_z = in_data[45*W +: W];
     logic [W-1:0] dl_in_IInvB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_z (.clk(clk), .d(in_IInvB_z), .q(dl_in_IInvB_z));
+        u_dl_in_IInvB_z (.clk(clk), .d(in_IInvB_z), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_z));
     logic [1-1:0] dl_in_spin_damp;
     pgs_delay #(.WIDTH(1), .DEPTH(110))
-        u_dl_in_spin_damp (.clk(clk), .d(in_spin_damp), .q(dl_in_spin_damp));
+        u_dl_in_spin_damp (.clk(clk), .d(in_spin_damp), .valid(valid_q[0 +: 110]), .q(dl_in_spin_damp));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
     // bf16; its delay line feeds every consumer at the consumer's issue cycle.
@@ -335,12 +342,12 @@ module pgs_friction_pipe #(
     assign skip = (dl_in_f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [5*1-1:0] dl_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(110), .N_TAPS(5), .TAPS({32'(110), 32'(89), 32'(78), 32'(50), 32'(39)}))
-        u_dl_skip (.clk(clk), .d(skip), .q(dl_skip));
+        u_dl_skip (.clk(clk), .d(skip), .valid(valid_q[0 +: 110]), .q(dl_skip));
     // add49 = lam_n0 + lam_n1   (ready @4/4/4)
     logic [W-1:0] add49;
     logic [2:0] fl_add49;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add49 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam_n0), .b(dl_in_lam_n1), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n0), .b(dl_in_lam_n1), .sub(1'b0),
         .out_valid(op_valid_nc[0]), .y(add49), .flags(fl_add49)
     );
     assign ev_ovf[0] = fl_add49[0] && ev_q[4];
@@ -348,12 +355,12 @@ module pgs_friction_pipe #(
     assign ev_inv[0] = fl_add49[2] && ev_q[4];
     logic [W-1:0] dl_add49;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add49 (.clk(clk), .d(add49), .q(dl_add49));
+        u_dl_add49 (.clk(clk), .d(add49), .valid(1'b0), .q(dl_add49));
     // add50 = lam_n2 + lam_n3   (ready @4/4/4)
     logic [W-1:0] add50;
     logic [2:0] fl_add50;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add50 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam_n2), .b(dl_in_lam_n3), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n2), .b(dl_in_lam_n3), .sub(1'b0),
         .out_valid(op_valid_nc[1]), .y(add50), .flags(fl_add50)
     );
     assign ev_ovf[1] = fl_add50[0] && ev_q[4];
@@ -361,12 +368,12 @@ module pgs_friction_pipe #(
     assign ev_inv[1] = fl_add50[2] && ev_q[4];
     logic [W-1:0] dl_add50;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add50 (.clk(clk), .d(add50), .q(dl_add50));
+        u_dl_add50 (.clk(clk), .d(add50), .valid(1'b0), .q(dl_add50));
     // add51 = add49 + add50   (ready @8/8/8)
     logic [W-1:0] add51;
     logic [2:0] fl_add51;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add51 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_add49), .b(dl_add50), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_add49), .b(dl_add50), .sub(1'b0),
         .out_valid(op_valid_nc[2]), .y(add51), .flags(fl_add51)
     );
     assign ev_ovf[2] = fl_add51[0] && ev_q[8];
@@ -374,12 +381,12 @@ module pgs_friction_pipe #(
     assign ev_inv[2] = fl_add51[2] && ev_q[8];
     logic [W-1:0] dl_add51;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add51 (.clk(clk), .d(add51), .q(dl_add51));
+        u_dl_add51 (.clk(clk), .d(add51), .valid(1'b0), .q(dl_add51));
     // limit = 0.7 * add51   (ready @11/11/11)
     logic [W-1:0] limit;
     logic [2:0] fl_limit;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_limit (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_MU), .b(dl_add51),
+        .clk(clk), .rst(rst), .in_valid(valid_q[8]), .a(K_MU), .b(dl_add51),
         .out_valid(op_valid_nc[3]), .y(limit), .flags(fl_limit)
     );
     assign ev_ovf[3] = fl_limit[0] && ev_q[11];
@@ -387,18 +394,18 @@ module pgs_friction_pipe #(
     assign ev_inv[3] = fl_limit[2] && ev_q[11];
     logic [3*W-1:0] dl_limit;
     pgs_delay #(.WIDTH(W), .DEPTH(66), .N_TAPS(3), .TAPS({32'(66), 32'(27), 32'(0)}))
-        u_dl_limit (.clk(clk), .d(limit), .q(dl_limit));
+        u_dl_limit (.clk(clk), .d(limit), .valid(valid_q[11 +: 66]), .q(dl_limit));
     // neg_limit = -limit   (ready @11/11/11)
     logic [W-1:0] neg_limit;
     assign neg_limit = {~dl_limit[0*W +: W][W-1], dl_limit[0*W +: W][W-2:0]};
     logic [2*W-1:0] dl_neg_limit;
     pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(2), .TAPS({32'(65), 32'(26)}))
-        u_dl_neg_limit (.clk(clk), .d(neg_limit), .q(dl_neg_limit));
+        u_dl_neg_limit (.clk(clk), .d(neg_limit), .valid(valid_q[11 +: 65]), .q(dl_neg_limit));
     // rA_x = c_x - xA_x   (ready @4/4/4)
     logic [W-1:0] rA_x;
     logic [2:0] fl_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[4]), .y(rA_x), .flags(fl_rA_x)
     );
     assign ev_ovf[4] = fl_rA_x[0] && ev_q[4];
@@ -406,12 +413,12 @@ module pgs_friction_pipe #(
     assign ev_inv[4] = fl_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rA_x (.clk(clk), .d(rA_x), .q(dl_rA_x));
+        u_dl_rA_x (.clk(clk), .d(rA_x), .valid(1'b0), .q(dl_rA_x));
     // rA_y = c_y - xA_y   (ready @4/4/4)
     logic [W-1:0] rA_y;
     logic [2:0] fl_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[5]), .y(rA_y), .flags(fl_rA_y)
     );
     assign ev_ovf[5] = fl_rA_y[0] && ev_q[4];
@@ -419,12 +426,12 @@ module pgs_friction_pipe #(
     assign ev_inv[5] = fl_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rA_y (.clk(clk), .d(rA_y), .q(dl_rA_y));
+        u_dl_rA_y (.clk(clk), .d(rA_y), .valid(1'b0), .q(dl_rA_y));
     // rA_z = c_z - xA_z   (ready @4/4/4)
     logic [W-1:0] rA_z;
     logic [2:0] fl_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(rA_z), .flags(fl_rA_z)
     );
     assign ev_ovf[6] = fl_rA_z[0] && ev_q[4];
@@ -432,12 +439,12 @@ module pgs_friction_pipe #(
     assign ev_inv[6] = fl_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rA_z (.clk(clk), .d(rA_z), .q(dl_rA_z));
+        u_dl_rA_z (.clk(clk), .d(rA_z), .valid(1'b0), .q(dl_rA_z));
     // rB_x = c_x - xB_x   (ready @4/4/4)
     logic [W-1:0] rB_x;
     logic [2:0] fl_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(rB_x), .flags(fl_rB_x)
     );
     assign ev_ovf[7] = fl_rB_x[0] && ev_q[4];
@@ -445,12 +452,12 @@ module pgs_friction_pipe #(
     assign ev_inv[7] = fl_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rB_x (.clk(clk), .d(rB_x), .q(dl_rB_x));
+        u_dl_rB_x (.clk(clk), .d(rB_x), .valid(1'b0), .q(dl_rB_x));
     // rB_y = c_y - xB_y   (ready @4/4/4)
     logic [W-1:0] rB_y;
     logic [2:0] fl_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(rB_y), .flags(fl_rB_y)
     );
     assign ev_ovf[8] = fl_rB_y[0] && ev_q[4];
@@ -458,12 +465,12 @@ module pgs_friction_pipe #(
     assign ev_inv[8] = fl_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rB_y (.clk(clk), .d(rB_y), .q(dl_rB_y));
+        u_dl_rB_y (.clk(clk), .d(rB_y), .valid(1'b0), .q(dl_rB_y));
     // rB_z = c_z - xB_z   (ready @4/4/4)
     logic [W-1:0] rB_z;
     logic [2:0] fl_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[9]), .y(rB_z), .flags(fl_rB_z)
     );
     assign ev_ovf[9] = fl_rB_z[0] && ev_q[4];
@@ -471,12 +478,12 @@ module pgs_friction_pipe #(
     assign ev_inv[9] = fl_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rB_z (.clk(clk), .d(rB_z), .q(dl_rB_z));
+        u_dl_rB_z (.clk(clk), .d(rB_z), .valid(1'b0), .q(dl_rB_z));
     // t0_mul60 = rA_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul60;
     logic [2:0] fl_t0_mul60;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul60 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t0_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_y), .b(dl_in_t0_z[0*W +: W]),
         .out_valid(op_valid_nc[10]), .y(t0_mul60), .flags(fl_t0_mul60)
     );
     assign ev_ovf[10] = fl_t0_mul60[0] && ev_q[7];
@@ -484,12 +491,12 @@ module pgs_friction_pipe #(
     assign ev_inv[10] = fl_t0_mul60[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul60;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul60 (.clk(clk), .d(t0_mul60), .q(dl_t0_mul60));
+        u_dl_t0_mul60 (.clk(clk), .d(t0_mul60), .valid(1'b0), .q(dl_t0_mul60));
     // t0_mul61 = rA_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul61;
     logic [2:0] fl_t0_mul61;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul61 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t0_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_z), .b(dl_in_t0_y[0*W +: W]),
         .out_valid(op_valid_nc[11]), .y(t0_mul61), .flags(fl_t0_mul61)
     );
     assign ev_ovf[11] = fl_t0_mul61[0] && ev_q[7];
@@ -497,12 +504,12 @@ module pgs_friction_pipe #(
     assign ev_inv[11] = fl_t0_mul61[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul61;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul61 (.clk(clk), .d(t0_mul61), .q(dl_t0_mul61));
+        u_dl_t0_mul61 (.clk(clk), .d(t0_mul61), .valid(1'b0), .q(dl_t0_mul61));
     // t0_cA_x = t0_mul60 - t0_mul61   (ready @11/11/11)
     logic [W-1:0] t0_cA_x;
     logic [2:0] fl_t0_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul60), .b(dl_t0_mul61), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul60), .b(dl_t0_mul61), .sub(1'b1),
         .out_valid(op_valid_nc[12]), .y(t0_cA_x), .flags(fl_t0_cA_x)
     );
     assign ev_ovf[12] = fl_t0_cA_x[0] && ev_q[11];
@@ -510,12 +517,12 @@ module pgs_friction_pipe #(
     assign ev_inv[12] = fl_t0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cA_x (.clk(clk), .d(t0_cA_x), .q(dl_t0_cA_x));
+        u_dl_t0_cA_x (.clk(clk), .d(t0_cA_x), .valid(1'b0), .q(dl_t0_cA_x));
     // t0_mul63 = rA_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul63;
     logic [2:0] fl_t0_mul63;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul63 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t0_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_z), .b(dl_in_t0_x[0*W +: W]),
         .out_valid(op_valid_nc[13]), .y(t0_mul63), .flags(fl_t0_mul63)
     );
     assign ev_ovf[13] = fl_t0_mul63[0] && ev_q[7];
@@ -523,12 +530,12 @@ module pgs_friction_pipe #(
     assign ev_inv[13] = fl_t0_mul63[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul63;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul63 (.clk(clk), .d(t0_mul63), .q(dl_t0_mul63));
+        u_dl_t0_mul63 (.clk(clk), .d(t0_mul63), .valid(1'b0), .q(dl_t0_mul63));
     // t0_mul64 = rA_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul64;
     logic [2:0] fl_t0_mul64;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul64 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t0_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_x), .b(dl_in_t0_z[0*W +: W]),
         .out_valid(op_valid_nc[14]), .y(t0_mul64), .flags(fl_t0_mul64)
     );
     assign ev_ovf[14] = fl_t0_mul64[0] && ev_q[7];
@@ -536,12 +543,12 @@ module pgs_friction_pipe #(
     assign ev_inv[14] = fl_t0_mul64[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul64;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul64 (.clk(clk), .d(t0_mul64), .q(dl_t0_mul64));
+        u_dl_t0_mul64 (.clk(clk), .d(t0_mul64), .valid(1'b0), .q(dl_t0_mul64));
     // t0_cA_y = t0_mul63 - t0_mul64   (ready @11/11/11)
     logic [W-1:0] t0_cA_y;
     logic [2:0] fl_t0_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul63), .b(dl_t0_mul64), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul63), .b(dl_t0_mul64), .sub(1'b1),
         .out_valid(op_valid_nc[15]), .y(t0_cA_y), .flags(fl_t0_cA_y)
     );
     assign ev_ovf[15] = fl_t0_cA_y[0] && ev_q[11];
@@ -549,12 +556,12 @@ module pgs_friction_pipe #(
     assign ev_inv[15] = fl_t0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cA_y (.clk(clk), .d(t0_cA_y), .q(dl_t0_cA_y));
+        u_dl_t0_cA_y (.clk(clk), .d(t0_cA_y), .valid(1'b0), .q(dl_t0_cA_y));
     // t0_mul66 = rA_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul66;
     logic [2:0] fl_t0_mul66;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul66 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t0_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_x), .b(dl_in_t0_y[0*W +: W]),
         .out_valid(op_valid_nc[16]), .y(t0_mul66), .flags(fl_t0_mul66)
     );
     assign ev_ovf[16] = fl_t0_mul66[0] && ev_q[7];
@@ -562,12 +569,12 @@ module pgs_friction_pipe #(
     assign ev_inv[16] = fl_t0_mul66[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul66;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul66 (.clk(clk), .d(t0_mul66), .q(dl_t0_mul66));
+        u_dl_t0_mul66 (.clk(clk), .d(t0_mul66), .valid(1'b0), .q(dl_t0_mul66));
     // t0_mul67 = rA_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul67;
     logic [2:0] fl_t0_mul67;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul67 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t0_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_y), .b(dl_in_t0_x[0*W +: W]),
         .out_valid(op_valid_nc[17]), .y(t0_mul67), .flags(fl_t0_mul67)
     );
     assign ev_ovf[17] = fl_t0_mul67[0] && ev_q[7];
@@ -575,12 +582,12 @@ module pgs_friction_pipe #(
     assign ev_inv[17] = fl_t0_mul67[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul67;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul67 (.clk(clk), .d(t0_mul67), .q(dl_t0_mul67));
+        u_dl_t0_mul67 (.clk(clk), .d(t0_mul67), .valid(1'b0), .q(dl_t0_mul67));
     // t0_cA_z = t0_mul66 - t0_mul67   (ready @11/11/11)
     logic [W-1:0] t0_cA_z;
     logic [2:0] fl_t0_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul66), .b(dl_t0_mul67), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul66), .b(dl_t0_mul67), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(t0_cA_z), .flags(fl_t0_cA_z)
     );
     assign ev_ovf[18] = fl_t0_cA_z[0] && ev_q[11];
@@ -588,12 +595,12 @@ module pgs_friction_pipe #(
     assign ev_inv[18] = fl_t0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cA_z (.clk(clk), .d(t0_cA_z), .q(dl_t0_cA_z));
+        u_dl_t0_cA_z (.clk(clk), .d(t0_cA_z), .valid(1'b0), .q(dl_t0_cA_z));
     // t0_mul69 = rB_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul69;
     logic [2:0] fl_t0_mul69;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul69 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t0_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_y), .b(dl_in_t0_z[0*W +: W]),
         .out_valid(op_valid_nc[19]), .y(t0_mul69), .flags(fl_t0_mul69)
     );
     assign ev_ovf[19] = fl_t0_mul69[0] && ev_q[7];
@@ -601,12 +608,12 @@ module pgs_friction_pipe #(
     assign ev_inv[19] = fl_t0_mul69[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul69;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul69 (.clk(clk), .d(t0_mul69), .q(dl_t0_mul69));
+        u_dl_t0_mul69 (.clk(clk), .d(t0_mul69), .valid(1'b0), .q(dl_t0_mul69));
     // t0_mul70 = rB_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul70;
     logic [2:0] fl_t0_mul70;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul70 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t0_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_z), .b(dl_in_t0_y[0*W +: W]),
         .out_valid(op_valid_nc[20]), .y(t0_mul70), .flags(fl_t0_mul70)
     );
     assign ev_ovf[20] = fl_t0_mul70[0] && ev_q[7];
@@ -614,12 +621,12 @@ module pgs_friction_pipe #(
     assign ev_inv[20] = fl_t0_mul70[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul70;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul70 (.clk(clk), .d(t0_mul70), .q(dl_t0_mul70));
+        u_dl_t0_mul70 (.clk(clk), .d(t0_mul70), .valid(1'b0), .q(dl_t0_mul70));
     // t0_cB_x = t0_mul69 - t0_mul70   (ready @11/11/11)
     logic [W-1:0] t0_cB_x;
     logic [2:0] fl_t0_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul69), .b(dl_t0_mul70), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul69), .b(dl_t0_mul70), .sub(1'b1),
         .out_valid(op_valid_nc[21]), .y(t0_cB_x), .flags(fl_t0_cB_x)
     );
     assign ev_ovf[21] = fl_t0_cB_x[0] && ev_q[11];
@@ -627,12 +634,12 @@ module pgs_friction_pipe #(
     assign ev_inv[21] = fl_t0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cB_x (.clk(clk), .d(t0_cB_x), .q(dl_t0_cB_x));
+        u_dl_t0_cB_x (.clk(clk), .d(t0_cB_x), .valid(1'b0), .q(dl_t0_cB_x));
     // t0_mul72 = rB_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul72;
     logic [2:0] fl_t0_mul72;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul72 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t0_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_z), .b(dl_in_t0_x[0*W +: W]),
         .out_valid(op_valid_nc[22]), .y(t0_mul72), .flags(fl_t0_mul72)
     );
     assign ev_ovf[22] = fl_t0_mul72[0] && ev_q[7];
@@ -640,12 +647,12 @@ module pgs_friction_pipe #(
     assign ev_inv[22] = fl_t0_mul72[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul72;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul72 (.clk(clk), .d(t0_mul72), .q(dl_t0_mul72));
+        u_dl_t0_mul72 (.clk(clk), .d(t0_mul72), .valid(1'b0), .q(dl_t0_mul72));
     // t0_mul73 = rB_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul73;
     logic [2:0] fl_t0_mul73;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul73 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t0_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_x), .b(dl_in_t0_z[0*W +: W]),
         .out_valid(op_valid_nc[23]), .y(t0_mul73), .flags(fl_t0_mul73)
     );
     assign ev_ovf[23] = fl_t0_mul73[0] && ev_q[7];
@@ -653,12 +660,12 @@ module pgs_friction_pipe #(
     assign ev_inv[23] = fl_t0_mul73[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul73;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul73 (.clk(clk), .d(t0_mul73), .q(dl_t0_mul73));
+        u_dl_t0_mul73 (.clk(clk), .d(t0_mul73), .valid(1'b0), .q(dl_t0_mul73));
     // t0_cB_y = t0_mul72 - t0_mul73   (ready @11/11/11)
     logic [W-1:0] t0_cB_y;
     logic [2:0] fl_t0_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul72), .b(dl_t0_mul73), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul72), .b(dl_t0_mul73), .sub(1'b1),
         .out_valid(op_valid_nc[24]), .y(t0_cB_y), .flags(fl_t0_cB_y)
     );
     assign ev_ovf[24] = fl_t0_cB_y[0] && ev_q[11];
@@ -666,12 +673,12 @@ module pgs_friction_pipe #(
     assign ev_inv[24] = fl_t0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cB_y (.clk(clk), .d(t0_cB_y), .q(dl_t0_cB_y));
+        u_dl_t0_cB_y (.clk(clk), .d(t0_cB_y), .valid(1'b0), .q(dl_t0_cB_y));
     // t0_mul75 = rB_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul75;
     logic [2:0] fl_t0_mul75;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul75 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t0_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_x), .b(dl_in_t0_y[0*W +: W]),
         .out_valid(op_valid_nc[25]), .y(t0_mul75), .flags(fl_t0_mul75)
     );
     assign ev_ovf[25] = fl_t0_mul75[0] && ev_q[7];
@@ -679,12 +686,12 @@ module pgs_friction_pipe #(
     assign ev_inv[25] = fl_t0_mul75[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul75;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul75 (.clk(clk), .d(t0_mul75), .q(dl_t0_mul75));
+        u_dl_t0_mul75 (.clk(clk), .d(t0_mul75), .valid(1'b0), .q(dl_t0_mul75));
     // t0_mul76 = rB_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul76;
     logic [2:0] fl_t0_mul76;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul76 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t0_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_y), .b(dl_in_t0_x[0*W +: W]),
         .out_valid(op_valid_nc[26]), .y(t0_mul76), .flags(fl_t0_mul76)
     );
     assign ev_ovf[26] = fl_t0_mul76[0] && ev_q[7];
@@ -692,12 +699,12 @@ module pgs_friction_pipe #(
     assign ev_inv[26] = fl_t0_mul76[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul76;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul76 (.clk(clk), .d(t0_mul76), .q(dl_t0_mul76));
+        u_dl_t0_mul76 (.clk(clk), .d(t0_mul76), .valid(1'b0), .q(dl_t0_mul76));
     // t0_cB_z = t0_mul75 - t0_mul76   (ready @11/11/11)
     logic [W-1:0] t0_cB_z;
     logic [2:0] fl_t0_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul75), .b(dl_t0_mul76), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul75), .b(dl_t0_mul76), .sub(1'b1),
         .out_valid(op_valid_nc[27]), .y(t0_cB_z), .flags(fl_t0_cB_z)
     );
     assign ev_ovf[27] = fl_t0_cB_z[0] && ev_q[11];
@@ -705,12 +712,12 @@ module pgs_friction_pipe #(
     assign ev_inv[27] = fl_t0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cB_z (.clk(clk), .d(t0_cB_z), .q(dl_t0_cB_z));
+        u_dl_t0_cB_z (.clk(clk), .d(t0_cB_z), .valid(1'b0), .q(dl_t0_cB_z));
     // t0_mul78 = t0_x * vA_x   (ready @3/3/3)
     logic [W-1:0] t0_mul78;
     logic [2:0] fl_t0_mul78;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul78 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[28]), .y(t0_mul78), .flags(fl_t0_mul78)
     );
     assign ev_ovf[28] = fl_t0_mul78[0] && ev_q[3];
@@ -718,12 +725,12 @@ module pgs_friction_pipe #(
     assign ev_inv[28] = fl_t0_mul78[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul78;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul78 (.clk(clk), .d(t0_mul78), .q(dl_t0_mul78));
+        u_dl_t0_mul78 (.clk(clk), .d(t0_mul78), .valid(1'b0), .q(dl_t0_mul78));
     // t0_mul79 = t0_y * vA_y   (ready @3/3/3)
     logic [W-1:0] t0_mul79;
     logic [2:0] fl_t0_mul79;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul79 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[29]), .y(t0_mul79), .flags(fl_t0_mul79)
     );
     assign ev_ovf[29] = fl_t0_mul79[0] && ev_q[3];
@@ -731,12 +738,12 @@ module pgs_friction_pipe #(
     assign ev_inv[29] = fl_t0_mul79[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul79;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul79 (.clk(clk), .d(t0_mul79), .q(dl_t0_mul79));
+        u_dl_t0_mul79 (.clk(clk), .d(t0_mul79), .valid(1'b0), .q(dl_t0_mul79));
     // t0_add80 = t0_mul78 + t0_mul79   (ready @7/7/7)
     logic [W-1:0] t0_add80;
     logic [2:0] fl_t0_add80;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add80 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul78), .b(dl_t0_mul79), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_t0_mul78), .b(dl_t0_mul79), .sub(1'b0),
         .out_valid(op_valid_nc[30]), .y(t0_add80), .flags(fl_t0_add80)
     );
     assign ev_ovf[30] = fl_t0_add80[0] && ev_q[7];
@@ -744,12 +751,12 @@ module pgs_friction_pipe #(
     assign ev_inv[30] = fl_t0_add80[2] && ev_q[7];
     logic [W-1:0] dl_t0_add80;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add80 (.clk(clk), .d(t0_add80), .q(dl_t0_add80));
+        u_dl_t0_add80 (.clk(clk), .d(t0_add80), .valid(1'b0), .q(dl_t0_add80));
     // t0_mul81 = t0_z * vA_z   (ready @3/3/3)
     logic [W-1:0] t0_mul81;
     logic [2:0] fl_t0_mul81;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul81 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[31]), .y(t0_mul81), .flags(fl_t0_mul81)
     );
     assign ev_ovf[31] = fl_t0_mul81[0] && ev_q[3];
@@ -757,12 +764,12 @@ module pgs_friction_pipe #(
     assign ev_inv[31] = fl_t0_mul81[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul81;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul81 (.clk(clk), .d(t0_mul81), .q(dl_t0_mul81));
+        u_dl_t0_mul81 (.clk(clk), .d(t0_mul81), .valid(valid_q[3 +: 4]), .q(dl_t0_mul81));
     // t0_add82 = t0_add80 + t0_mul81   (ready @11/11/11)
     logic [W-1:0] t0_add82;
     logic [2:0] fl_t0_add82;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add82 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add80), .b(dl_t0_mul81), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_add80), .b(dl_t0_mul81), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(t0_add82), .flags(fl_t0_add82)
     );
     assign ev_ovf[32] = fl_t0_add82[0] && ev_q[11];
@@ -770,12 +777,12 @@ module pgs_friction_pipe #(
     assign ev_inv[32] = fl_t0_add82[2] && ev_q[11];
     logic [W-1:0] dl_t0_add82;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add82 (.clk(clk), .d(t0_add82), .q(dl_t0_add82));
+        u_dl_t0_add82 (.clk(clk), .d(t0_add82), .valid(1'b0), .q(dl_t0_add82));
     // t0_mul83 = t0_x * vB_x   (ready @3/3/3)
     logic [W-1:0] t0_mul83;
     logic [2:0] fl_t0_mul83;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul83 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[33]), .y(t0_mul83), .flags(fl_t0_mul83)
     );
     assign ev_ovf[33] = fl_t0_mul83[0] && ev_q[3];
@@ -783,12 +790,12 @@ module pgs_friction_pipe #(
     assign ev_inv[33] = fl_t0_mul83[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul83;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul83 (.clk(clk), .d(t0_mul83), .q(dl_t0_mul83));
+        u_dl_t0_mul83 (.clk(clk), .d(t0_mul83), .valid(1'b0), .q(dl_t0_mul83));
     // t0_mul84 = t0_y * vB_y   (ready @3/3/3)
     logic [W-1:0] t0_mul84;
     logic [2:0] fl_t0_mul84;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul84 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[34]), .y(t0_mul84), .flags(fl_t0_mul84)
     );
     assign ev_ovf[34] = fl_t0_mul84[0] && ev_q[3];
@@ -796,12 +803,12 @@ module pgs_friction_pipe #(
     assign ev_inv[34] = fl_t0_mul84[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul84;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul84 (.clk(clk), .d(t0_mul84), .q(dl_t0_mul84));
+        u_dl_t0_mul84 (.clk(clk), .d(t0_mul84), .valid(1'b0), .q(dl_t0_mul84));
     // t0_add85 = t0_mul83 + t0_mul84   (ready @7/7/7)
     logic [W-1:0] t0_add85;
     logic [2:0] fl_t0_add85;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add85 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul83), .b(dl_t0_mul84), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_t0_mul83), .b(dl_t0_mul84), .sub(1'b0),
         .out_valid(op_valid_nc[35]), .y(t0_add85), .flags(fl_t0_add85)
     );
     assign ev_ovf[35] = fl_t0_add85[0] && ev_q[7];
@@ -809,12 +816,12 @@ module pgs_friction_pipe #(
     assign ev_inv[35] = fl_t0_add85[2] && ev_q[7];
     logic [W-1:0] dl_t0_add85;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add85 (.clk(clk), .d(t0_add85), .q(dl_t0_add85));
+        u_dl_t0_add85 (.clk(clk), .d(t0_add85), .valid(1'b0), .q(dl_t0_add85));
     // t0_mul86 = t0_z * vB_z   (ready @3/3/3)
     logic [W-1:0] t0_mul86;
     logic [2:0] fl_t0_mul86;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul86 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[36]), .y(t0_mul86), .flags(fl_t0_mul86)
     );
     assign ev_ovf[36] = fl_t0_mul86[0] && ev_q[3];
@@ -822,12 +829,12 @@ module pgs_friction_pipe #(
     assign ev_inv[36] = fl_t0_mul86[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul86;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul86 (.clk(clk), .d(t0_mul86), .q(dl_t0_mul86));
+        u_dl_t0_mul86 (.clk(clk), .d(t0_mul86), .valid(valid_q[3 +: 4]), .q(dl_t0_mul86));
     // t0_add87 = t0_add85 + t0_mul86   (ready @11/11/11)
     logic [W-1:0] t0_add87;
     logic [2:0] fl_t0_add87;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add87 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add85), .b(dl_t0_mul86), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_add85), .b(dl_t0_mul86), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(t0_add87), .flags(fl_t0_add87)
     );
     assign ev_ovf[37] = fl_t0_add87[0] && ev_q[11];
@@ -835,12 +842,12 @@ module pgs_friction_pipe #(
     assign ev_inv[37] = fl_t0_add87[2] && ev_q[11];
     logic [W-1:0] dl_t0_add87;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add87 (.clk(clk), .d(t0_add87), .q(dl_t0_add87));
+        u_dl_t0_add87 (.clk(clk), .d(t0_add87), .valid(1'b0), .q(dl_t0_add87));
     // t0_sub88 = t0_add82 - t0_add87   (ready @15/15/15)
     logic [W-1:0] t0_sub88;
     logic [2:0] fl_t0_sub88;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub88 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add82), .b(dl_t0_add87), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_add82), .b(dl_t0_add87), .sub(1'b1),
         .out_valid(op_valid_nc[38]), .y(t0_sub88), .flags(fl_t0_sub88)
     );
     assign ev_ovf[38] = fl_t0_sub88[0] && ev_q[15];
@@ -848,12 +855,12 @@ module pgs_friction_pipe #(
     assign ev_inv[38] = fl_t0_sub88[2] && ev_q[15];
     logic [W-1:0] dl_t0_sub88;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_t0_sub88 (.clk(clk), .d(t0_sub88), .q(dl_t0_sub88));
+        u_dl_t0_sub88 (.clk(clk), .d(t0_sub88), .valid(valid_q[15 +: 11]), .q(dl_t0_sub88));
     // t0_mul89 = t0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] t0_mul89;
     logic [2:0] fl_t0_mul89;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul89 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_x), .b(dl_in_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cA_x), .b(dl_in_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[39]), .y(t0_mul89), .flags(fl_t0_mul89)
     );
     assign ev_ovf[39] = fl_t0_mul89[0] && ev_q[14];
@@ -861,12 +868,12 @@ module pgs_friction_pipe #(
     assign ev_inv[39] = fl_t0_mul89[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul89;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul89 (.clk(clk), .d(t0_mul89), .q(dl_t0_mul89));
+        u_dl_t0_mul89 (.clk(clk), .d(t0_mul89), .valid(1'b0), .q(dl_t0_mul89));
     // t0_mul90 = t0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] t0_mul90;
     logic [2:0] fl_t0_mul90;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul90 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_y), .b(dl_in_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cA_y), .b(dl_in_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[40]), .y(t0_mul90), .flags(fl_t0_mul90)
     );
     assign ev_ovf[40] = fl_t0_mul90[0] && ev_q[14];
@@ -874,12 +881,12 @@ module pgs_friction_pipe #(
     assign ev_inv[40] = fl_t0_mul90[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul90;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul90 (.clk(clk), .d(t0_mul90), .q(dl_t0_mul90));
+        u_dl_t0_mul90 (.clk(clk), .d(t0_mul90), .valid(1'b0), .q(dl_t0_mul90));
     // t0_add91 = t0_mul89 + t0_mul90   (ready @18/18/18)
     logic [W-1:0] t0_add91;
     logic [2:0] fl_t0_add91;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add91 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul89), .b(dl_t0_mul90), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul89), .b(dl_t0_mul90), .sub(1'b0),
         .out_valid(op_valid_nc[41]), .y(t0_add91), .flags(fl_t0_add91)
     );
     assign ev_ovf[41] = fl_t0_add91[0] && ev_q[18];
@@ -887,12 +894,12 @@ module pgs_friction_pipe #(
     assign ev_inv[41] = fl_t0_add91[2] && ev_q[18];
     logic [W-1:0] dl_t0_add91;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add91 (.clk(clk), .d(t0_add91), .q(dl_t0_add91));
+        u_dl_t0_add91 (.clk(clk), .d(t0_add91), .valid(1'b0), .q(dl_t0_add91));
     // t0_mul92 = t0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] t0_mul92;
     logic [2:0] fl_t0_mul92;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul92 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_z), .b(dl_in_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cA_z), .b(dl_in_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[42]), .y(t0_mul92), .flags(fl_t0_mul92)
     );
     assign ev_ovf[42] = fl_t0_mul92[0] && ev_q[14];
@@ -900,12 +907,12 @@ module pgs_friction_pipe #(
     assign ev_inv[42] = fl_t0_mul92[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul92;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul92 (.clk(clk), .d(t0_mul92), .q(dl_t0_mul92));
+        u_dl_t0_mul92 (.clk(clk), .d(t0_mul92), .valid(valid_q[14 +: 4]), .q(dl_t0_mul92));
     // t0_add93 = t0_add91 + t0_mul92   (ready @22/22/22)
     logic [W-1:0] t0_add93;
     logic [2:0] fl_t0_add93;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add93 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add91), .b(dl_t0_mul92), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add91), .b(dl_t0_mul92), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(t0_add93), .flags(fl_t0_add93)
     );
     assign ev_ovf[43] = fl_t0_add93[0] && ev_q[22];
@@ -913,12 +920,12 @@ module pgs_friction_pipe #(
     assign ev_inv[43] = fl_t0_add93[2] && ev_q[22];
     logic [W-1:0] dl_t0_add93;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add93 (.clk(clk), .d(t0_add93), .q(dl_t0_add93));
+        u_dl_t0_add93 (.clk(clk), .d(t0_add93), .valid(1'b0), .q(dl_t0_add93));
     // t0_mul94 = t0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] t0_mul94;
     logic [2:0] fl_t0_mul94;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul94 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_x), .b(dl_in_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cB_x), .b(dl_in_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[44]), .y(t0_mul94), .flags(fl_t0_mul94)
     );
     assign ev_ovf[44] = fl_t0_mul94[0] && ev_q[14];
@@ -926,12 +933,12 @@ module pgs_friction_pipe #(
     assign ev_inv[44] = fl_t0_mul94[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul94;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul94 (.clk(clk), .d(t0_mul94), .q(dl_t0_mul94));
+        u_dl_t0_mul94 (.clk(clk), .d(t0_mul94), .valid(1'b0), .q(dl_t0_mul94));
     // t0_mul95 = t0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] t0_mul95;
     logic [2:0] fl_t0_mul95;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul95 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_y), .b(dl_in_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cB_y), .b(dl_in_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[45]), .y(t0_mul95), .flags(fl_t0_mul95)
     );
     assign ev_ovf[45] = fl_t0_mul95[0] && ev_q[14];
@@ -939,12 +946,12 @@ module pgs_friction_pipe #(
     assign ev_inv[45] = fl_t0_mul95[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul95;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul95 (.clk(clk), .d(t0_mul95), .q(dl_t0_mul95));
+        u_dl_t0_mul95 (.clk(clk), .d(t0_mul95), .valid(1'b0), .q(dl_t0_mul95));
     // t0_add96 = t0_mul94 + t0_mul95   (ready @18/18/18)
     logic [W-1:0] t0_add96;
     logic [2:0] fl_t0_add96;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add96 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul94), .b(dl_t0_mul95), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul94), .b(dl_t0_mul95), .sub(1'b0),
         .out_valid(op_valid_nc[46]), .y(t0_add96), .flags(fl_t0_add96)
     );
     assign ev_ovf[46] = fl_t0_add96[0] && ev_q[18];
@@ -952,12 +959,12 @@ module pgs_friction_pipe #(
     assign ev_inv[46] = fl_t0_add96[2] && ev_q[18];
     logic [W-1:0] dl_t0_add96;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add96 (.clk(clk), .d(t0_add96), .q(dl_t0_add96));
+        u_dl_t0_add96 (.clk(clk), .d(t0_add96), .valid(1'b0), .q(dl_t0_add96));
     // t0_mul97 = t0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] t0_mul97;
     logic [2:0] fl_t0_mul97;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul97 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_z), .b(dl_in_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cB_z), .b(dl_in_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[47]), .y(t0_mul97), .flags(fl_t0_mul97)
     );
     assign ev_ovf[47] = fl_t0_mul97[0] && ev_q[14];
@@ -965,12 +972,12 @@ module pgs_friction_pipe #(
     assign ev_inv[47] = fl_t0_mul97[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul97;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul97 (.clk(clk), .d(t0_mul97), .q(dl_t0_mul97));
+        u_dl_t0_mul97 (.clk(clk), .d(t0_mul97), .valid(valid_q[14 +: 4]), .q(dl_t0_mul97));
     // t0_add98 = t0_add96 + t0_mul97   (ready @22/22/22)
     logic [W-1:0] t0_add98;
     logic [2:0] fl_t0_add98;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add98 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add96), .b(dl_t0_mul97), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add96), .b(dl_t0_mul97), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(t0_add98), .flags(fl_t0_add98)
     );
     assign ev_ovf[48] = fl_t0_add98[0] && ev_q[22];
@@ -978,12 +985,12 @@ module pgs_friction_pipe #(
     assign ev_inv[48] = fl_t0_add98[2] && ev_q[22];
     logic [W-1:0] dl_t0_add98;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add98 (.clk(clk), .d(t0_add98), .q(dl_t0_add98));
+        u_dl_t0_add98 (.clk(clk), .d(t0_add98), .valid(1'b0), .q(dl_t0_add98));
     // t0_sub99 = t0_add93 - t0_add98   (ready @26/26/26)
     logic [W-1:0] t0_sub99;
     logic [2:0] fl_t0_sub99;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub99 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add93), .b(dl_t0_add98), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_t0_add93), .b(dl_t0_add98), .sub(1'b1),
         .out_valid(op_valid_nc[49]), .y(t0_sub99), .flags(fl_t0_sub99)
     );
     assign ev_ovf[49] = fl_t0_sub99[0] && ev_q[26];
@@ -991,12 +998,12 @@ module pgs_friction_pipe #(
     assign ev_inv[49] = fl_t0_sub99[2] && ev_q[26];
     logic [W-1:0] dl_t0_sub99;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub99 (.clk(clk), .d(t0_sub99), .q(dl_t0_sub99));
+        u_dl_t0_sub99 (.clk(clk), .d(t0_sub99), .valid(1'b0), .q(dl_t0_sub99));
     // t0_u = t0_sub88 + t0_sub99   (ready @30/30/30)
     logic [W-1:0] t0_u;
     logic [2:0] fl_t0_u;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_u (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_sub88), .b(dl_t0_sub99), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_t0_sub88), .b(dl_t0_sub99), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(t0_u), .flags(fl_t0_u)
     );
     assign ev_ovf[50] = fl_t0_u[0] && ev_q[30];
@@ -1004,18 +1011,18 @@ module pgs_friction_pipe #(
     assign ev_inv[50] = fl_t0_u[2] && ev_q[30];
     logic [W-1:0] dl_t0_u;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_u (.clk(clk), .d(t0_u), .q(dl_t0_u));
+        u_dl_t0_u (.clk(clk), .d(t0_u), .valid(1'b0), .q(dl_t0_u));
     // t0_neg101 = -t0_u   (ready @30/30/30)
     logic [W-1:0] t0_neg101;
     assign t0_neg101 = {~dl_t0_u[W-1], dl_t0_u[W-2:0]};
     logic [W-1:0] dl_t0_neg101;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_neg101 (.clk(clk), .d(t0_neg101), .q(dl_t0_neg101));
+        u_dl_t0_neg101 (.clk(clk), .d(t0_neg101), .valid(1'b0), .q(dl_t0_neg101));
     // t0_delta0 = t0_neg101 * f_jac_inv0   (ready @33/33/33)
     logic [W-1:0] t0_delta0;
     logic [2:0] fl_t0_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_neg101), .b(dl_in_f_jac_inv0[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[30]), .a(dl_t0_neg101), .b(dl_in_f_jac_inv0[1*W +: W]),
         .out_valid(op_valid_nc[51]), .y(t0_delta0), .flags(fl_t0_delta0)
     );
     assign ev_ovf[51] = fl_t0_delta0[0] && ev_q[33];
@@ -1023,12 +1030,12 @@ module pgs_friction_pipe #(
     assign ev_inv[51] = fl_t0_delta0[2] && ev_q[33];
     logic [W-1:0] dl_t0_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_delta0 (.clk(clk), .d(t0_delta0), .q(dl_t0_delta0));
+        u_dl_t0_delta0 (.clk(clk), .d(t0_delta0), .valid(1'b0), .q(dl_t0_delta0));
     // t0_add103 = lamT0 + t0_delta0   (ready @37/37/37)
     logic [W-1:0] t0_add103;
     logic [2:0] fl_t0_add103;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add103 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lamT0[0*W +: W]), .b(dl_t0_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[33]), .a(dl_in_lamT0[0*W +: W]), .b(dl_t0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(t0_add103), .flags(fl_t0_add103)
     );
     assign ev_ovf[52] = fl_t0_add103[0] && ev_q[37];
@@ -1036,32 +1043,32 @@ module pgs_friction_pipe #(
     assign ev_inv[52] = fl_t0_add103[2] && ev_q[37];
     logic [W-1:0] dl_t0_add103;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add103 (.clk(clk), .d(t0_add103), .q(dl_t0_add103));
+        u_dl_t0_add103 (.clk(clk), .d(t0_add103), .valid(1'b0), .q(dl_t0_add103));
     // t0_max104 = max(t0_add103, neg_limit)   (ready @38/38/38)
     logic [W-1:0] t0_max104;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t0_max104 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add103), .b(dl_neg_limit[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(dl_t0_add103), .b(dl_neg_limit[0*W +: W]),
         .out_valid(op_valid_nc[53]), .y_min(nc_t0_max104_min), .y_max(t0_max104),
         .lt(nc_t0_max104_lt), .eq(nc_t0_max104_eq), .unordered(nc_t0_max104_uo)
     );
     logic [W-1:0] dl_t0_max104;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_max104 (.clk(clk), .d(t0_max104), .q(dl_t0_max104));
+        u_dl_t0_max104 (.clk(clk), .d(t0_max104), .valid(1'b0), .q(dl_t0_max104));
     // t0_lam_new = min(t0_max104, limit)   (ready @39/39/39)
     logic [W-1:0] t0_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t0_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_max104), .b(dl_limit[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[38]), .a(dl_t0_max104), .b(dl_limit[1*W +: W]),
         .out_valid(op_valid_nc[54]), .y_min(t0_lam_new), .y_max(nc_t0_lam_new_max),
         .lt(nc_t0_lam_new_lt), .eq(nc_t0_lam_new_eq), .unordered(nc_t0_lam_new_uo)
     );
     logic [W-1:0] dl_t0_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_lam_new (.clk(clk), .d(t0_lam_new), .q(dl_t0_lam_new));
+        u_dl_t0_lam_new (.clk(clk), .d(t0_lam_new), .valid(1'b0), .q(dl_t0_lam_new));
     // t0_delta = t0_lam_new - lamT0   (ready @43/43/43)
     logic [W-1:0] t0_delta;
     logic [2:0] fl_t0_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_lam_new), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[39]), .a(dl_t0_lam_new), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[55]), .y(t0_delta), .flags(fl_t0_delta)
     );
     assign ev_ovf[53] = fl_t0_delta[0] && ev_q[43];
@@ -1069,24 +1076,24 @@ module pgs_friction_pipe #(
     assign ev_inv[53] = fl_t0_delta[2] && ev_q[43];
     logic [W-1:0] dl_t0_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_delta (.clk(clk), .d(t0_delta), .q(dl_t0_delta));
+        u_dl_t0_delta (.clk(clk), .d(t0_delta), .valid(1'b0), .q(dl_t0_delta));
     // t0_lamT = skip ? lamT0 : t0_lam_new   (ready @39/39/39)
     logic [W-1:0] t0_lamT;
     assign t0_lamT = dl_skip[0] ? dl_in_lamT0[1*W +: W] : dl_t0_lam_new;
     logic [W-1:0] dl_t0_lamT;
     pgs_delay #(.WIDTH(W), .DEPTH(71))
-        u_dl_t0_lamT (.clk(clk), .d(t0_lamT), .q(dl_t0_lamT));
+        u_dl_t0_lamT (.clk(clk), .d(t0_lamT), .valid(valid_q[39 +: 71]), .q(dl_t0_lamT));
     // t0_e = -t0_delta   (ready @43/43/43)
     logic [W-1:0] t0_e;
     assign t0_e = {~dl_t0_delta[W-1], dl_t0_delta[W-2:0]};
     logic [W-1:0] dl_t0_e;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_e (.clk(clk), .d(t0_e), .q(dl_t0_e));
+        u_dl_t0_e (.clk(clk), .d(t0_e), .valid(1'b0), .q(dl_t0_e));
     // t0_linA_x = t0_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_x;
     logic [2:0] fl_t0_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[56]), .y(t0_linA_x), .flags(fl_t0_linA_x)
     );
     assign ev_ovf[54] = fl_t0_linA_x[0] && ev_q[3];
@@ -1094,12 +1101,12 @@ module pgs_friction_pipe #(
     assign ev_inv[54] = fl_t0_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linA_x (.clk(clk), .d(t0_linA_x), .q(dl_t0_linA_x));
+        u_dl_t0_linA_x (.clk(clk), .d(t0_linA_x), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_x));
     // t0_linA_y = t0_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_y;
     logic [2:0] fl_t0_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[57]), .y(t0_linA_y), .flags(fl_t0_linA_y)
     );
     assign ev_ovf[55] = fl_t0_linA_y[0] && ev_q[3];
@@ -1107,12 +1114,12 @@ module pgs_friction_pipe #(
     assign ev_inv[55] = fl_t0_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linA_y (.clk(clk), .d(t0_linA_y), .q(dl_t0_linA_y));
+        u_dl_t0_linA_y (.clk(clk), .d(t0_linA_y), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_y));
     // t0_linA_z = t0_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_z;
     logic [2:0] fl_t0_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[58]), .y(t0_linA_z), .flags(fl_t0_linA_z)
     );
     assign ev_ovf[56] = fl_t0_linA_z[0] && ev_q[3];
@@ -1120,12 +1127,12 @@ module pgs_friction_pipe #(
     assign ev_inv[56] = fl_t0_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .q(dl_t0_linA_z));
+        u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_z));
     // t0_mul112 = t0_linA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul112;
     logic [2:0] fl_t0_mul112;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul112 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linA_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[59]), .y(t0_mul112), .flags(fl_t0_mul112)
     );
     assign ev_ovf[57] = fl_t0_mul112[0] && ev_q[46];
@@ -1133,12 +1140,12 @@ module pgs_friction_pipe #(
     assign ev_inv[57] = fl_t0_mul112[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul112;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul112 (.clk(clk), .d(t0_mul112), .q(dl_t0_mul112));
+        u_dl_t0_mul112 (.clk(clk), .d(t0_mul112), .valid(1'b0), .q(dl_t0_mul112));
     // t0_mul113 = t0_linA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul113;
     logic [2:0] fl_t0_mul113;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul113 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linA_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[60]), .y(t0_mul113), .flags(fl_t0_mul113)
     );
     assign ev_ovf[58] = fl_t0_mul113[0] && ev_q[46];
@@ -1146,12 +1153,12 @@ module pgs_friction_pipe #(
     assign ev_inv[58] = fl_t0_mul113[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul113;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul113 (.clk(clk), .d(t0_mul113), .q(dl_t0_mul113));
+        u_dl_t0_mul113 (.clk(clk), .d(t0_mul113), .valid(1'b0), .q(dl_t0_mul113));
     // t0_mul114 = t0_linA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul114;
     logic [2:0] fl_t0_mul114;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul114 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linA_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[61]), .y(t0_mul114), .flags(fl_t0_mul114)
     );
     assign ev_ovf[59] = fl_t0_mul114[0] && ev_q[46];
@@ -1159,12 +1166,12 @@ module pgs_friction_pipe #(
     assign ev_inv[59] = fl_t0_mul114[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul114;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul114 (.clk(clk), .d(t0_mul114), .q(dl_t0_mul114));
+        u_dl_t0_mul114 (.clk(clk), .d(t0_mul114), .valid(1'b0), .q(dl_t0_mul114));
     // t0_add115 = vA_x + t0_mul112   (ready @50/50/50)
     logic [W-1:0] t0_add115;
     logic [2:0] fl_t0_add115;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add115 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_x[1*W +: W]), .b(dl_t0_mul112), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_x[1*W +: W]), .b(dl_t0_mul112), .sub(1'b0),
         .out_valid(op_valid_nc[62]), .y(t0_add115), .flags(fl_t0_add115)
     );
     assign ev_ovf[60] = fl_t0_add115[0] && ev_q[50];
@@ -1172,12 +1179,12 @@ module pgs_friction_pipe #(
     assign ev_inv[60] = fl_t0_add115[2] && ev_q[50];
     logic [W-1:0] dl_t0_add115;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add115 (.clk(clk), .d(t0_add115), .q(dl_t0_add115));
+        u_dl_t0_add115 (.clk(clk), .d(t0_add115), .valid(1'b0), .q(dl_t0_add115));
     // t0_add116 = vA_y + t0_mul113   (ready @50/50/50)
     logic [W-1:0] t0_add116;
     logic [2:0] fl_t0_add116;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add116 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_y[1*W +: W]), .b(dl_t0_mul113), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_y[1*W +: W]), .b(dl_t0_mul113), .sub(1'b0),
         .out_valid(op_valid_nc[63]), .y(t0_add116), .flags(fl_t0_add116)
     );
     assign ev_ovf[61] = fl_t0_add116[0] && ev_q[50];
@@ -1185,12 +1192,12 @@ module pgs_friction_pipe #(
     assign ev_inv[61] = fl_t0_add116[2] && ev_q[50];
     logic [W-1:0] dl_t0_add116;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add116 (.clk(clk), .d(t0_add116), .q(dl_t0_add116));
+        u_dl_t0_add116 (.clk(clk), .d(t0_add116), .valid(1'b0), .q(dl_t0_add116));
     // t0_add117 = vA_z + t0_mul114   (ready @50/50/50)
     logic [W-1:0] t0_add117;
     logic [2:0] fl_t0_add117;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add117 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_z[1*W +: W]), .b(dl_t0_mul114), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_z[1*W +: W]), .b(dl_t0_mul114), .sub(1'b0),
         .out_valid(op_valid_nc[64]), .y(t0_add117), .flags(fl_t0_add117)
     );
     assign ev_ovf[62] = fl_t0_add117[0] && ev_q[50];
@@ -1198,30 +1205,30 @@ module pgs_friction_pipe #(
     assign ev_inv[62] = fl_t0_add117[2] && ev_q[50];
     logic [W-1:0] dl_t0_add117;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add117 (.clk(clk), .d(t0_add117), .q(dl_t0_add117));
+        u_dl_t0_add117 (.clk(clk), .d(t0_add117), .valid(1'b0), .q(dl_t0_add117));
     // t0_vA_x = skip ? vA_x : t0_add115   (ready @50/50/50)
     logic [W-1:0] t0_vA_x;
     assign t0_vA_x = dl_skip[1] ? dl_in_vA_x[2*W +: W] : dl_t0_add115;
     logic [3*W-1:0] dl_t0_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vA_x (.clk(clk), .d(t0_vA_x), .q(dl_t0_vA_x));
+        u_dl_t0_vA_x (.clk(clk), .d(t0_vA_x), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_x));
     // t0_vA_y = skip ? vA_y : t0_add116   (ready @50/50/50)
     logic [W-1:0] t0_vA_y;
     assign t0_vA_y = dl_skip[1] ? dl_in_vA_y[2*W +: W] : dl_t0_add116;
     logic [3*W-1:0] dl_t0_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vA_y (.clk(clk), .d(t0_vA_y), .q(dl_t0_vA_y));
+        u_dl_t0_vA_y (.clk(clk), .d(t0_vA_y), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_y));
     // t0_vA_z = skip ? vA_z : t0_add117   (ready @50/50/50)
     logic [W-1:0] t0_vA_z;
     assign t0_vA_z = dl_skip[1] ? dl_in_vA_z[2*W +: W] : dl_t0_add117;
     logic [3*W-1:0] dl_t0_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vA_z (.clk(clk), .d(t0_vA_z), .q(dl_t0_vA_z));
+        u_dl_t0_vA_z (.clk(clk), .d(t0_vA_z), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_z));
     // t0_angA_x = IInvA_x * t0_cA_x   (ready @14/14/14)
     logic [W-1:0] t0_angA_x;
     logic [2:0] fl_t0_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_t0_cA_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_x), .b(dl_t0_cA_x),
         .out_valid(op_valid_nc[65]), .y(t0_angA_x), .flags(fl_t0_angA_x)
     );
     assign ev_ovf[63] = fl_t0_angA_x[0] && ev_q[14];
@@ -1229,12 +1236,12 @@ module pgs_friction_pipe #(
     assign ev_inv[63] = fl_t0_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
-        u_dl_t0_angA_x (.clk(clk), .d(t0_angA_x), .q(dl_t0_angA_x));
+        u_dl_t0_angA_x (.clk(clk), .d(t0_angA_x), .valid(valid_q[14 +: 29]), .q(dl_t0_angA_x));
     // t0_angA_y = IInvA_y * t0_cA_y   (ready @14/14/14)
     logic [W-1:0] t0_angA_y;
     logic [2:0] fl_t0_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_t0_cA_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_y), .b(dl_t0_cA_y),
         .out_valid(op_valid_nc[66]), .y(t0_angA_y), .flags(fl_t0_angA_y)
     );
     assign ev_ovf[64] = fl_t0_angA_y[0] && ev_q[14];
@@ -1242,12 +1249,12 @@ module pgs_friction_pipe #(
     assign ev_inv[64] = fl_t0_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
-        u_dl_t0_angA_y (.clk(clk), .d(t0_angA_y), .q(dl_t0_angA_y));
+        u_dl_t0_angA_y (.clk(clk), .d(t0_angA_y), .valid(valid_q[14 +: 29]), .q(dl_t0_angA_y));
     // t0_angA_z = IInvA_z * t0_cA_z   (ready @14/14/14)
     logic [W-1:0] t0_angA_z;
     logic [2:0] fl_t0_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_t0_cA_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_z), .b(dl_t0_cA_z),
         .out_valid(op_valid_nc[67]), .y(t0_angA_z), .flags(fl_t0_angA_z)
     );
     assign ev_ovf[65] = fl_t0_angA_z[0] && ev_q[14];
@@ -1255,12 +1262,12 @@ module pgs_friction_pipe #(
     assign ev_inv[65] = fl_t0_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
-        u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .q(dl_t0_angA_z));
+        u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .valid(valid_q[14 +: 29]), .q(dl_t0_angA_z));
     // t0_mul124 = t0_angA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul124;
     logic [2:0] fl_t0_mul124;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul124 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angA_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[68]), .y(t0_mul124), .flags(fl_t0_mul124)
     );
     assign ev_ovf[66] = fl_t0_mul124[0] && ev_q[46];
@@ -1268,12 +1275,12 @@ module pgs_friction_pipe #(
     assign ev_inv[66] = fl_t0_mul124[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul124;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul124 (.clk(clk), .d(t0_mul124), .q(dl_t0_mul124));
+        u_dl_t0_mul124 (.clk(clk), .d(t0_mul124), .valid(1'b0), .q(dl_t0_mul124));
     // t0_mul125 = t0_angA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul125;
     logic [2:0] fl_t0_mul125;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul125 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angA_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[69]), .y(t0_mul125), .flags(fl_t0_mul125)
     );
     assign ev_ovf[67] = fl_t0_mul125[0] && ev_q[46];
@@ -1281,12 +1288,12 @@ module pgs_friction_pipe #(
     assign ev_inv[67] = fl_t0_mul125[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul125;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul125 (.clk(clk), .d(t0_mul125), .q(dl_t0_mul125));
+        u_dl_t0_mul125 (.clk(clk), .d(t0_mul125), .valid(1'b0), .q(dl_t0_mul125));
     // t0_mul126 = t0_angA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul126;
     logic [2:0] fl_t0_mul126;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul126 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angA_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[70]), .y(t0_mul126), .flags(fl_t0_mul126)
     );
     assign ev_ovf[68] = fl_t0_mul126[0] && ev_q[46];
@@ -1294,12 +1301,12 @@ module pgs_friction_pipe #(
     assign ev_inv[68] = fl_t0_mul126[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul126;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul126 (.clk(clk), .d(t0_mul126), .q(dl_t0_mul126));
+        u_dl_t0_mul126 (.clk(clk), .d(t0_mul126), .valid(1'b0), .q(dl_t0_mul126));
     // t0_add127 = wA_x + t0_mul124   (ready @50/50/50)
     logic [W-1:0] t0_add127;
     logic [2:0] fl_t0_add127;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add127 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_x[1*W +: W]), .b(dl_t0_mul124), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_x[1*W +: W]), .b(dl_t0_mul124), .sub(1'b0),
         .out_valid(op_valid_nc[71]), .y(t0_add127), .flags(fl_t0_add127)
     );
     assign ev_ovf[69] = fl_t0_add127[0] && ev_q[50];
@@ -1307,12 +1314,12 @@ module pgs_friction_pipe #(
     assign ev_inv[69] = fl_t0_add127[2] && ev_q[50];
     logic [W-1:0] dl_t0_add127;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add127 (.clk(clk), .d(t0_add127), .q(dl_t0_add127));
+        u_dl_t0_add127 (.clk(clk), .d(t0_add127), .valid(1'b0), .q(dl_t0_add127));
     // t0_add128 = wA_y + t0_mul125   (ready @50/50/50)
     logic [W-1:0] t0_add128;
     logic [2:0] fl_t0_add128;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add128 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_y[1*W +: W]), .b(dl_t0_mul125), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_y[1*W +: W]), .b(dl_t0_mul125), .sub(1'b0),
         .out_valid(op_valid_nc[72]), .y(t0_add128), .flags(fl_t0_add128)
     );
     assign ev_ovf[70] = fl_t0_add128[0] && ev_q[50];
@@ -1320,12 +1327,12 @@ module pgs_friction_pipe #(
     assign ev_inv[70] = fl_t0_add128[2] && ev_q[50];
     logic [W-1:0] dl_t0_add128;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add128 (.clk(clk), .d(t0_add128), .q(dl_t0_add128));
+        u_dl_t0_add128 (.clk(clk), .d(t0_add128), .valid(1'b0), .q(dl_t0_add128));
     // t0_add129 = wA_z + t0_mul126   (ready @50/50/50)
     logic [W-1:0] t0_add129;
     logic [2:0] fl_t0_add129;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add129 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_z[1*W +: W]), .b(dl_t0_mul126), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_z[1*W +: W]), .b(dl_t0_mul126), .sub(1'b0),
         .out_valid(op_valid_nc[73]), .y(t0_add129), .flags(fl_t0_add129)
     );
     assign ev_ovf[71] = fl_t0_add129[0] && ev_q[50];
@@ -1333,30 +1340,30 @@ module pgs_friction_pipe #(
     assign ev_inv[71] = fl_t0_add129[2] && ev_q[50];
     logic [W-1:0] dl_t0_add129;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add129 (.clk(clk), .d(t0_add129), .q(dl_t0_add129));
+        u_dl_t0_add129 (.clk(clk), .d(t0_add129), .valid(1'b0), .q(dl_t0_add129));
     // t0_wA_x = skip ? wA_x : t0_add127   (ready @50/50/50)
     logic [W-1:0] t0_wA_x;
     assign t0_wA_x = dl_skip[1] ? dl_in_wA_x[2*W +: W] : dl_t0_add127;
     logic [3*W-1:0] dl_t0_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wA_x (.clk(clk), .d(t0_wA_x), .q(dl_t0_wA_x));
+        u_dl_t0_wA_x (.clk(clk), .d(t0_wA_x), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_x));
     // t0_wA_y = skip ? wA_y : t0_add128   (ready @50/50/50)
     logic [W-1:0] t0_wA_y;
     assign t0_wA_y = dl_skip[1] ? dl_in_wA_y[2*W +: W] : dl_t0_add128;
     logic [3*W-1:0] dl_t0_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wA_y (.clk(clk), .d(t0_wA_y), .q(dl_t0_wA_y));
+        u_dl_t0_wA_y (.clk(clk), .d(t0_wA_y), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_y));
     // t0_wA_z = skip ? wA_z : t0_add129   (ready @50/50/50)
     logic [W-1:0] t0_wA_z;
     assign t0_wA_z = dl_skip[1] ? dl_in_wA_z[2*W +: W] : dl_t0_add129;
     logic [3*W-1:0] dl_t0_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wA_z (.clk(clk), .d(t0_wA_z), .q(dl_t0_wA_z));
+        u_dl_t0_wA_z (.clk(clk), .d(t0_wA_z), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_z));
     // t0_linB_x = t0_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_x;
     logic [2:0] fl_t0_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[74]), .y(t0_linB_x), .flags(fl_t0_linB_x)
     );
     assign ev_ovf[72] = fl_t0_linB_x[0] && ev_q[3];
@@ -1364,12 +1371,12 @@ module pgs_friction_pipe #(
     assign ev_inv[72] = fl_t0_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linB_x (.clk(clk), .d(t0_linB_x), .q(dl_t0_linB_x));
+        u_dl_t0_linB_x (.clk(clk), .d(t0_linB_x), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_x));
     // t0_linB_y = t0_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_y;
     logic [2:0] fl_t0_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[75]), .y(t0_linB_y), .flags(fl_t0_linB_y)
     );
     assign ev_ovf[73] = fl_t0_linB_y[0] && ev_q[3];
@@ -1377,12 +1384,12 @@ module pgs_friction_pipe #(
     assign ev_inv[73] = fl_t0_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linB_y (.clk(clk), .d(t0_linB_y), .q(dl_t0_linB_y));
+        u_dl_t0_linB_y (.clk(clk), .d(t0_linB_y), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_y));
     // t0_linB_z = t0_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_z;
     logic [2:0] fl_t0_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[76]), .y(t0_linB_z), .flags(fl_t0_linB_z)
     );
     assign ev_ovf[74] = fl_t0_linB_z[0] && ev_q[3];
@@ -1390,12 +1397,12 @@ module pgs_friction_pipe #(
     assign ev_inv[74] = fl_t0_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .q(dl_t0_linB_z));
+        u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_z));
     // t0_mul136 = t0_linB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul136;
     logic [2:0] fl_t0_mul136;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul136 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linB_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[77]), .y(t0_mul136), .flags(fl_t0_mul136)
     );
     assign ev_ovf[75] = fl_t0_mul136[0] && ev_q[46];
@@ -1403,12 +1410,12 @@ module pgs_friction_pipe #(
     assign ev_inv[75] = fl_t0_mul136[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul136;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul136 (.clk(clk), .d(t0_mul136), .q(dl_t0_mul136));
+        u_dl_t0_mul136 (.clk(clk), .d(t0_mul136), .valid(1'b0), .q(dl_t0_mul136));
     // t0_mul137 = t0_linB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul137;
     logic [2:0] fl_t0_mul137;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul137 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linB_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[78]), .y(t0_mul137), .flags(fl_t0_mul137)
     );
     assign ev_ovf[76] = fl_t0_mul137[0] && ev_q[46];
@@ -1416,12 +1423,12 @@ module pgs_friction_pipe #(
     assign ev_inv[76] = fl_t0_mul137[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul137;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul137 (.clk(clk), .d(t0_mul137), .q(dl_t0_mul137));
+        u_dl_t0_mul137 (.clk(clk), .d(t0_mul137), .valid(1'b0), .q(dl_t0_mul137));
     // t0_mul138 = t0_linB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul138;
     logic [2:0] fl_t0_mul138;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul138 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linB_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[79]), .y(t0_mul138), .flags(fl_t0_mul138)
     );
     assign ev_ovf[77] = fl_t0_mul138[0] && ev_q[46];
@@ -1429,12 +1436,12 @@ module pgs_friction_pipe #(
     assign ev_inv[77] = fl_t0_mul138[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul138;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul138 (.clk(clk), .d(t0_mul138), .q(dl_t0_mul138));
+        u_dl_t0_mul138 (.clk(clk), .d(t0_mul138), .valid(1'b0), .q(dl_t0_mul138));
     // t0_sub139 = vB_x - t0_mul136   (ready @50/50/50)
     logic [W-1:0] t0_sub139;
     logic [2:0] fl_t0_sub139;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub139 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_x[1*W +: W]), .b(dl_t0_mul136), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_x[1*W +: W]), .b(dl_t0_mul136), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(t0_sub139), .flags(fl_t0_sub139)
     );
     assign ev_ovf[78] = fl_t0_sub139[0] && ev_q[50];
@@ -1442,12 +1449,12 @@ module pgs_friction_pipe #(
     assign ev_inv[78] = fl_t0_sub139[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub139;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub139 (.clk(clk), .d(t0_sub139), .q(dl_t0_sub139));
+        u_dl_t0_sub139 (.clk(clk), .d(t0_sub139), .valid(1'b0), .q(dl_t0_sub139));
     // t0_sub140 = vB_y - t0_mul137   (ready @50/50/50)
     logic [W-1:0] t0_sub140;
     logic [2:0] fl_t0_sub140;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub140 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_y[1*W +: W]), .b(dl_t0_mul137), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_y[1*W +: W]), .b(dl_t0_mul137), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(t0_sub140), .flags(fl_t0_sub140)
     );
     assign ev_ovf[79] = fl_t0_sub140[0] && ev_q[50];
@@ -1455,12 +1462,12 @@ module pgs_friction_pipe #(
     assign ev_inv[79] = fl_t0_sub140[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub140;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub140 (.clk(clk), .d(t0_sub140), .q(dl_t0_sub140));
+        u_dl_t0_sub140 (.clk(clk), .d(t0_sub140), .valid(1'b0), .q(dl_t0_sub140));
     // t0_sub141 = vB_z - t0_mul138   (ready @50/50/50)
     logic [W-1:0] t0_sub141;
     logic [2:0] fl_t0_sub141;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub141 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_z[1*W +: W]), .b(dl_t0_mul138), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_z[1*W +: W]), .b(dl_t0_mul138), .sub(1'b1),
         .out_valid(op_valid_nc[82]), .y(t0_sub141), .flags(fl_t0_sub141)
     );
     assign ev_ovf[80] = fl_t0_sub141[0] && ev_q[50];
@@ -1468,30 +1475,30 @@ module pgs_friction_pipe #(
     assign ev_inv[80] = fl_t0_sub141[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub141;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub141 (.clk(clk), .d(t0_sub141), .q(dl_t0_sub141));
+        u_dl_t0_sub141 (.clk(clk), .d(t0_sub141), .valid(1'b0), .q(dl_t0_sub141));
     // t0_vB_x = skip ? vB_x : t0_sub139   (ready @50/50/50)
     logic [W-1:0] t0_vB_x;
     assign t0_vB_x = dl_skip[1] ? dl_in_vB_x[2*W +: W] : dl_t0_sub139;
     logic [3*W-1:0] dl_t0_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vB_x (.clk(clk), .d(t0_vB_x), .q(dl_t0_vB_x));
+        u_dl_t0_vB_x (.clk(clk), .d(t0_vB_x), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_x));
     // t0_vB_y = skip ? vB_y : t0_sub140   (ready @50/50/50)
     logic [W-1:0] t0_vB_y;
     assign t0_vB_y = dl_skip[1] ? dl_in_vB_y[2*W +: W] : dl_t0_sub140;
     logic [3*W-1:0] dl_t0_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vB_y (.clk(clk), .d(t0_vB_y), .q(dl_t0_vB_y));
+        u_dl_t0_vB_y (.clk(clk), .d(t0_vB_y), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_y));
     // t0_vB_z = skip ? vB_z : t0_sub141   (ready @50/50/50)
     logic [W-1:0] t0_vB_z;
     assign t0_vB_z = dl_skip[1] ? dl_in_vB_z[2*W +: W] : dl_t0_sub141;
     logic [3*W-1:0] dl_t0_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vB_z (.clk(clk), .d(t0_vB_z), .q(dl_t0_vB_z));
+        u_dl_t0_vB_z (.clk(clk), .d(t0_vB_z), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_z));
     // t0_angB_x = IInvB_x * t0_cB_x   (ready @14/14/14)
     logic [W-1:0] t0_angB_x;
     logic [2:0] fl_t0_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_t0_cB_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_x), .b(dl_t0_cB_x),
         .out_valid(op_valid_nc[83]), .y(t0_angB_x), .flags(fl_t0_angB_x)
     );
     assign ev_ovf[81] = fl_t0_angB_x[0] && ev_q[14];
@@ -1499,12 +1506,12 @@ module pgs_friction_pipe #(
     assign ev_inv[81] = fl_t0_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
-        u_dl_t0_angB_x (.clk(clk), .d(t0_angB_x), .q(dl_t0_angB_x));
+        u_dl_t0_angB_x (.clk(clk), .d(t0_angB_x), .valid(valid_q[14 +: 29]), .q(dl_t0_angB_x));
     // t0_angB_y = IInvB_y * t0_cB_y   (ready @14/14/14)
     logic [W-1:0] t0_angB_y;
     logic [2:0] fl_t0_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_t0_cB_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_y), .b(dl_t0_cB_y),
         .out_valid(op_valid_nc[84]), .y(t0_angB_y), .flags(fl_t0_angB_y)
     );
     assign ev_ovf[82] = fl_t0_angB_y[0] && ev_q[14];
@@ -1512,12 +1519,12 @@ module pgs_friction_pipe #(
     assign ev_inv[82] = fl_t0_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
-        u_dl_t0_angB_y (.clk(clk), .d(t0_angB_y), .q(dl_t0_angB_y));
+        u_dl_t0_angB_y (.clk(clk), .d(t0_angB_y), .valid(valid_q[14 +: 29]), .q(dl_t0_angB_y));
     // t0_angB_z = IInvB_z * t0_cB_z   (ready @14/14/14)
     logic [W-1:0] t0_angB_z;
     logic [2:0] fl_t0_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_t0_cB_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_z), .b(dl_t0_cB_z),
         .out_valid(op_valid_nc[85]), .y(t0_angB_z), .flags(fl_t0_angB_z)
     );
     assign ev_ovf[83] = fl_t0_angB_z[0] && ev_q[14];
@@ -1525,12 +1532,12 @@ module pgs_friction_pipe #(
     assign ev_inv[83] = fl_t0_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
-        u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .q(dl_t0_angB_z));
+        u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .valid(valid_q[14 +: 29]), .q(dl_t0_angB_z));
     // t0_mul148 = t0_angB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul148;
     logic [2:0] fl_t0_mul148;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul148 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angB_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[86]), .y(t0_mul148), .flags(fl_t0_mul148)
     );
     assign ev_ovf[84] = fl_t0_mul148[0] && ev_q[46];
@@ -1538,12 +1545,12 @@ module pgs_friction_pipe #(
     assign ev_inv[84] = fl_t0_mul148[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul148;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul148 (.clk(clk), .d(t0_mul148), .q(dl_t0_mul148));
+        u_dl_t0_mul148 (.clk(clk), .d(t0_mul148), .valid(1'b0), .q(dl_t0_mul148));
     // t0_mul149 = t0_angB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul149;
     logic [2:0] fl_t0_mul149;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul149 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angB_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[87]), .y(t0_mul149), .flags(fl_t0_mul149)
     );
     assign ev_ovf[85] = fl_t0_mul149[0] && ev_q[46];
@@ -1551,12 +1558,12 @@ module pgs_friction_pipe #(
     assign ev_inv[85] = fl_t0_mul149[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul149;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul149 (.clk(clk), .d(t0_mul149), .q(dl_t0_mul149));
+        u_dl_t0_mul149 (.clk(clk), .d(t0_mul149), .valid(1'b0), .q(dl_t0_mul149));
     // t0_mul150 = t0_angB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul150;
     logic [2:0] fl_t0_mul150;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul150 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angB_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[88]), .y(t0_mul150), .flags(fl_t0_mul150)
     );
     assign ev_ovf[86] = fl_t0_mul150[0] && ev_q[46];
@@ -1564,12 +1571,12 @@ module pgs_friction_pipe #(
     assign ev_inv[86] = fl_t0_mul150[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul150;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul150 (.clk(clk), .d(t0_mul150), .q(dl_t0_mul150));
+        u_dl_t0_mul150 (.clk(clk), .d(t0_mul150), .valid(1'b0), .q(dl_t0_mul150));
     // t0_sub151 = wB_x - t0_mul148   (ready @50/50/50)
     logic [W-1:0] t0_sub151;
     logic [2:0] fl_t0_sub151;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub151 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_x[1*W +: W]), .b(dl_t0_mul148), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_x[1*W +: W]), .b(dl_t0_mul148), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(t0_sub151), .flags(fl_t0_sub151)
     );
     assign ev_ovf[87] = fl_t0_sub151[0] && ev_q[50];
@@ -1577,12 +1584,12 @@ module pgs_friction_pipe #(
     assign ev_inv[87] = fl_t0_sub151[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub151;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub151 (.clk(clk), .d(t0_sub151), .q(dl_t0_sub151));
+        u_dl_t0_sub151 (.clk(clk), .d(t0_sub151), .valid(1'b0), .q(dl_t0_sub151));
     // t0_sub152 = wB_y - t0_mul149   (ready @50/50/50)
     logic [W-1:0] t0_sub152;
     logic [2:0] fl_t0_sub152;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub152 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_y[1*W +: W]), .b(dl_t0_mul149), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_y[1*W +: W]), .b(dl_t0_mul149), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(t0_sub152), .flags(fl_t0_sub152)
     );
     assign ev_ovf[88] = fl_t0_sub152[0] && ev_q[50];
@@ -1590,12 +1597,12 @@ module pgs_friction_pipe #(
     assign ev_inv[88] = fl_t0_sub152[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub152;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub152 (.clk(clk), .d(t0_sub152), .q(dl_t0_sub152));
+        u_dl_t0_sub152 (.clk(clk), .d(t0_sub152), .valid(1'b0), .q(dl_t0_sub152));
     // t0_sub153 = wB_z - t0_mul150   (ready @50/50/50)
     logic [W-1:0] t0_sub153;
     logic [2:0] fl_t0_sub153;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub153 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_z[1*W +: W]), .b(dl_t0_mul150), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_z[1*W +: W]), .b(dl_t0_mul150), .sub(1'b1),
         .out_valid(op_valid_nc[91]), .y(t0_sub153), .flags(fl_t0_sub153)
     );
     assign ev_ovf[89] = fl_t0_sub153[0] && ev_q[50];
@@ -1603,30 +1610,30 @@ module pgs_friction_pipe #(
     assign ev_inv[89] = fl_t0_sub153[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub153;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub153 (.clk(clk), .d(t0_sub153), .q(dl_t0_sub153));
+        u_dl_t0_sub153 (.clk(clk), .d(t0_sub153), .valid(1'b0), .q(dl_t0_sub153));
     // t0_wB_x = skip ? wB_x : t0_sub151   (ready @50/50/50)
     logic [W-1:0] t0_wB_x;
     assign t0_wB_x = dl_skip[1] ? dl_in_wB_x[2*W +: W] : dl_t0_sub151;
     logic [3*W-1:0] dl_t0_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wB_x (.clk(clk), .d(t0_wB_x), .q(dl_t0_wB_x));
+        u_dl_t0_wB_x (.clk(clk), .d(t0_wB_x), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_x));
     // t0_wB_y = skip ? wB_y : t0_sub152   (ready @50/50/50)
     logic [W-1:0] t0_wB_y;
     assign t0_wB_y = dl_skip[1] ? dl_in_wB_y[2*W +: W] : dl_t0_sub152;
     logic [3*W-1:0] dl_t0_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wB_y (.clk(clk), .d(t0_wB_y), .q(dl_t0_wB_y));
+        u_dl_t0_wB_y (.clk(clk), .d(t0_wB_y), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_y));
     // t0_wB_z = skip ? wB_z : t0_sub153   (ready @50/50/50)
     logic [W-1:0] t0_wB_z;
     assign t0_wB_z = dl_skip[1] ? dl_in_wB_z[2*W +: W] : dl_t0_sub153;
     logic [3*W-1:0] dl_t0_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wB_z (.clk(clk), .d(t0_wB_z), .q(dl_t0_wB_z));
+        u_dl_t0_wB_z (.clk(clk), .d(t0_wB_z), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_z));
     // t1_mul157 = rA_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul157;
     logic [2:0] fl_t1_mul157;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul157 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_y), .b(dl_in_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[92]), .y(t1_mul157), .flags(fl_t1_mul157)
     );
     assign ev_ovf[90] = fl_t1_mul157[0] && ev_q[7];
@@ -1634,12 +1641,12 @@ module pgs_friction_pipe #(
     assign ev_inv[90] = fl_t1_mul157[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul157;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul157 (.clk(clk), .d(t1_mul157), .q(dl_t1_mul157));
+        u_dl_t1_mul157 (.clk(clk), .d(t1_mul157), .valid(1'b0), .q(dl_t1_mul157));
     // t1_mul158 = rA_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul158;
     logic [2:0] fl_t1_mul158;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul158 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_z), .b(dl_in_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[93]), .y(t1_mul158), .flags(fl_t1_mul158)
     );
     assign ev_ovf[91] = fl_t1_mul158[0] && ev_q[7];
@@ -1647,12 +1654,12 @@ module pgs_friction_pipe #(
     assign ev_inv[91] = fl_t1_mul158[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul158;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul158 (.clk(clk), .d(t1_mul158), .q(dl_t1_mul158));
+        u_dl_t1_mul158 (.clk(clk), .d(t1_mul158), .valid(1'b0), .q(dl_t1_mul158));
     // t1_cA_x = t1_mul157 - t1_mul158   (ready @11/11/11)
     logic [W-1:0] t1_cA_x;
     logic [2:0] fl_t1_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul157), .b(dl_t1_mul158), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul157), .b(dl_t1_mul158), .sub(1'b1),
         .out_valid(op_valid_nc[94]), .y(t1_cA_x), .flags(fl_t1_cA_x)
     );
     assign ev_ovf[92] = fl_t1_cA_x[0] && ev_q[11];
@@ -1660,12 +1667,12 @@ module pgs_friction_pipe #(
     assign ev_inv[92] = fl_t1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cA_x (.clk(clk), .d(t1_cA_x), .q(dl_t1_cA_x));
+        u_dl_t1_cA_x (.clk(clk), .d(t1_cA_x), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_x));
     // t1_mul160 = rA_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul160;
     logic [2:0] fl_t1_mul160;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul160 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_z), .b(dl_in_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[95]), .y(t1_mul160), .flags(fl_t1_mul160)
     );
     assign ev_ovf[93] = fl_t1_mul160[0] && ev_q[7];
@@ -1673,12 +1680,12 @@ module pgs_friction_pipe #(
     assign ev_inv[93] = fl_t1_mul160[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul160;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul160 (.clk(clk), .d(t1_mul160), .q(dl_t1_mul160));
+        u_dl_t1_mul160 (.clk(clk), .d(t1_mul160), .valid(1'b0), .q(dl_t1_mul160));
     // t1_mul161 = rA_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul161;
     logic [2:0] fl_t1_mul161;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul161 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_x), .b(dl_in_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[96]), .y(t1_mul161), .flags(fl_t1_mul161)
     );
     assign ev_ovf[94] = fl_t1_mul161[0] && ev_q[7];
@@ -1686,12 +1693,12 @@ module pgs_friction_pipe #(
     assign ev_inv[94] = fl_t1_mul161[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul161;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul161 (.clk(clk), .d(t1_mul161), .q(dl_t1_mul161));
+        u_dl_t1_mul161 (.clk(clk), .d(t1_mul161), .valid(1'b0), .q(dl_t1_mul161));
     // t1_cA_y = t1_mul160 - t1_mul161   (ready @11/11/11)
     logic [W-1:0] t1_cA_y;
     logic [2:0] fl_t1_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul160), .b(dl_t1_mul161), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul160), .b(dl_t1_mul161), .sub(1'b1),
         .out_valid(op_valid_nc[97]), .y(t1_cA_y), .flags(fl_t1_cA_y)
     );
     assign ev_ovf[95] = fl_t1_cA_y[0] && ev_q[11];
@@ -1699,12 +1706,12 @@ module pgs_friction_pipe #(
     assign ev_inv[95] = fl_t1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cA_y (.clk(clk), .d(t1_cA_y), .q(dl_t1_cA_y));
+        u_dl_t1_cA_y (.clk(clk), .d(t1_cA_y), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_y));
     // t1_mul163 = rA_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul163;
     logic [2:0] fl_t1_mul163;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul163 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_x), .b(dl_in_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[98]), .y(t1_mul163), .flags(fl_t1_mul163)
     );
     assign ev_ovf[96] = fl_t1_mul163[0] && ev_q[7];
@@ -1712,12 +1719,12 @@ module pgs_friction_pipe #(
     assign ev_inv[96] = fl_t1_mul163[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul163;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul163 (.clk(clk), .d(t1_mul163), .q(dl_t1_mul163));
+        u_dl_t1_mul163 (.clk(clk), .d(t1_mul163), .valid(1'b0), .q(dl_t1_mul163));
     // t1_mul164 = rA_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul164;
     logic [2:0] fl_t1_mul164;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul164 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_y), .b(dl_in_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[99]), .y(t1_mul164), .flags(fl_t1_mul164)
     );
     assign ev_ovf[97] = fl_t1_mul164[0] && ev_q[7];
@@ -1725,12 +1732,12 @@ module pgs_friction_pipe #(
     assign ev_inv[97] = fl_t1_mul164[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul164;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul164 (.clk(clk), .d(t1_mul164), .q(dl_t1_mul164));
+        u_dl_t1_mul164 (.clk(clk), .d(t1_mul164), .valid(1'b0), .q(dl_t1_mul164));
     // t1_cA_z = t1_mul163 - t1_mul164   (ready @11/11/11)
     logic [W-1:0] t1_cA_z;
     logic [2:0] fl_t1_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul163), .b(dl_t1_mul164), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul163), .b(dl_t1_mul164), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(t1_cA_z), .flags(fl_t1_cA_z)
     );
     assign ev_ovf[98] = fl_t1_cA_z[0] && ev_q[11];
@@ -1738,12 +1745,12 @@ module pgs_friction_pipe #(
     assign ev_inv[98] = fl_t1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cA_z (.clk(clk), .d(t1_cA_z), .q(dl_t1_cA_z));
+        u_dl_t1_cA_z (.clk(clk), .d(t1_cA_z), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_z));
     // t1_mul166 = rB_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul166;
     logic [2:0] fl_t1_mul166;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul166 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_y), .b(dl_in_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[101]), .y(t1_mul166), .flags(fl_t1_mul166)
     );
     assign ev_ovf[99] = fl_t1_mul166[0] && ev_q[7];
@@ -1751,12 +1758,12 @@ module pgs_friction_pipe #(
     assign ev_inv[99] = fl_t1_mul166[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul166;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul166 (.clk(clk), .d(t1_mul166), .q(dl_t1_mul166));
+        u_dl_t1_mul166 (.clk(clk), .d(t1_mul166), .valid(1'b0), .q(dl_t1_mul166));
     // t1_mul167 = rB_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul167;
     logic [2:0] fl_t1_mul167;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul167 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_z), .b(dl_in_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[102]), .y(t1_mul167), .flags(fl_t1_mul167)
     );
     assign ev_ovf[100] = fl_t1_mul167[0] && ev_q[7];
@@ -1764,12 +1771,12 @@ module pgs_friction_pipe #(
     assign ev_inv[100] = fl_t1_mul167[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul167;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul167 (.clk(clk), .d(t1_mul167), .q(dl_t1_mul167));
+        u_dl_t1_mul167 (.clk(clk), .d(t1_mul167), .valid(1'b0), .q(dl_t1_mul167));
     // t1_cB_x = t1_mul166 - t1_mul167   (ready @11/11/11)
     logic [W-1:0] t1_cB_x;
     logic [2:0] fl_t1_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul166), .b(dl_t1_mul167), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul166), .b(dl_t1_mul167), .sub(1'b1),
         .out_valid(op_valid_nc[103]), .y(t1_cB_x), .flags(fl_t1_cB_x)
     );
     assign ev_ovf[101] = fl_t1_cB_x[0] && ev_q[11];
@@ -1777,12 +1784,12 @@ module pgs_friction_pipe #(
     assign ev_inv[101] = fl_t1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cB_x (.clk(clk), .d(t1_cB_x), .q(dl_t1_cB_x));
+        u_dl_t1_cB_x (.clk(clk), .d(t1_cB_x), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_x));
     // t1_mul169 = rB_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul169;
     logic [2:0] fl_t1_mul169;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul169 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_z), .b(dl_in_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[104]), .y(t1_mul169), .flags(fl_t1_mul169)
     );
     assign ev_ovf[102] = fl_t1_mul169[0] && ev_q[7];
@@ -1790,12 +1797,12 @@ module pgs_friction_pipe #(
     assign ev_inv[102] = fl_t1_mul169[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul169;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul169 (.clk(clk), .d(t1_mul169), .q(dl_t1_mul169));
+        u_dl_t1_mul169 (.clk(clk), .d(t1_mul169), .valid(1'b0), .q(dl_t1_mul169));
     // t1_mul170 = rB_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul170;
     logic [2:0] fl_t1_mul170;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul170 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_x), .b(dl_in_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[105]), .y(t1_mul170), .flags(fl_t1_mul170)
     );
     assign ev_ovf[103] = fl_t1_mul170[0] && ev_q[7];
@@ -1803,12 +1810,12 @@ module pgs_friction_pipe #(
     assign ev_inv[103] = fl_t1_mul170[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul170;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul170 (.clk(clk), .d(t1_mul170), .q(dl_t1_mul170));
+        u_dl_t1_mul170 (.clk(clk), .d(t1_mul170), .valid(1'b0), .q(dl_t1_mul170));
     // t1_cB_y = t1_mul169 - t1_mul170   (ready @11/11/11)
     logic [W-1:0] t1_cB_y;
     logic [2:0] fl_t1_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul169), .b(dl_t1_mul170), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul169), .b(dl_t1_mul170), .sub(1'b1),
         .out_valid(op_valid_nc[106]), .y(t1_cB_y), .flags(fl_t1_cB_y)
     );
     assign ev_ovf[104] = fl_t1_cB_y[0] && ev_q[11];
@@ -1816,12 +1823,12 @@ module pgs_friction_pipe #(
     assign ev_inv[104] = fl_t1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cB_y (.clk(clk), .d(t1_cB_y), .q(dl_t1_cB_y));
+        u_dl_t1_cB_y (.clk(clk), .d(t1_cB_y), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_y));
     // t1_mul172 = rB_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul172;
     logic [2:0] fl_t1_mul172;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul172 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_x), .b(dl_in_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[107]), .y(t1_mul172), .flags(fl_t1_mul172)
     );
     assign ev_ovf[105] = fl_t1_mul172[0] && ev_q[7];
@@ -1829,12 +1836,12 @@ module pgs_friction_pipe #(
     assign ev_inv[105] = fl_t1_mul172[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul172;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul172 (.clk(clk), .d(t1_mul172), .q(dl_t1_mul172));
+        u_dl_t1_mul172 (.clk(clk), .d(t1_mul172), .valid(1'b0), .q(dl_t1_mul172));
     // t1_mul173 = rB_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul173;
     logic [2:0] fl_t1_mul173;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul173 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_y), .b(dl_in_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[108]), .y(t1_mul173), .flags(fl_t1_mul173)
     );
     assign ev_ovf[106] = fl_t1_mul173[0] && ev_q[7];
@@ -1842,12 +1849,12 @@ module pgs_friction_pipe #(
     assign ev_inv[106] = fl_t1_mul173[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul173;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul173 (.clk(clk), .d(t1_mul173), .q(dl_t1_mul173));
+        u_dl_t1_mul173 (.clk(clk), .d(t1_mul173), .valid(1'b0), .q(dl_t1_mul173));
     // t1_cB_z = t1_mul172 - t1_mul173   (ready @11/11/11)
     logic [W-1:0] t1_cB_z;
     logic [2:0] fl_t1_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul172), .b(dl_t1_mul173), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul172), .b(dl_t1_mul173), .sub(1'b1),
         .out_valid(op_valid_nc[109]), .y(t1_cB_z), .flags(fl_t1_cB_z)
     );
     assign ev_ovf[107] = fl_t1_cB_z[0] && ev_q[11];
@@ -1855,12 +1862,12 @@ module pgs_friction_pipe #(
     assign ev_inv[107] = fl_t1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cB_z (.clk(clk), .d(t1_cB_z), .q(dl_t1_cB_z));
+        u_dl_t1_cB_z (.clk(clk), .d(t1_cB_z), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_z));
     // t1_mul175 = t1_x * t0_vA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul175;
     logic [2:0] fl_t1_mul175;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul175 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[110]), .y(t1_mul175), .flags(fl_t1_mul175)
     );
     assign ev_ovf[108] = fl_t1_mul175[0] && ev_q[53];
@@ -1868,12 +1875,12 @@ module pgs_friction_pipe #(
     assign ev_inv[108] = fl_t1_mul175[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul175;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul175 (.clk(clk), .d(t1_mul175), .q(dl_t1_mul175));
+        u_dl_t1_mul175 (.clk(clk), .d(t1_mul175), .valid(1'b0), .q(dl_t1_mul175));
     // t1_mul176 = t1_y * t0_vA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul176;
     logic [2:0] fl_t1_mul176;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul176 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[111]), .y(t1_mul176), .flags(fl_t1_mul176)
     );
     assign ev_ovf[109] = fl_t1_mul176[0] && ev_q[53];
@@ -1881,12 +1888,12 @@ module pgs_friction_pipe #(
     assign ev_inv[109] = fl_t1_mul176[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul176;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul176 (.clk(clk), .d(t1_mul176), .q(dl_t1_mul176));
+        u_dl_t1_mul176 (.clk(clk), .d(t1_mul176), .valid(1'b0), .q(dl_t1_mul176));
     // t1_add177 = t1_mul175 + t1_mul176   (ready @57/57/57)
     logic [W-1:0] t1_add177;
     logic [2:0] fl_t1_add177;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add177 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul175), .b(dl_t1_mul176), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul175), .b(dl_t1_mul176), .sub(1'b0),
         .out_valid(op_valid_nc[112]), .y(t1_add177), .flags(fl_t1_add177)
     );
     assign ev_ovf[110] = fl_t1_add177[0] && ev_q[57];
@@ -1894,12 +1901,12 @@ module pgs_friction_pipe #(
     assign ev_inv[110] = fl_t1_add177[2] && ev_q[57];
     logic [W-1:0] dl_t1_add177;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add177 (.clk(clk), .d(t1_add177), .q(dl_t1_add177));
+        u_dl_t1_add177 (.clk(clk), .d(t1_add177), .valid(1'b0), .q(dl_t1_add177));
     // t1_mul178 = t1_z * t0_vA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul178;
     logic [2:0] fl_t1_mul178;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul178 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[113]), .y(t1_mul178), .flags(fl_t1_mul178)
     );
     assign ev_ovf[111] = fl_t1_mul178[0] && ev_q[53];
@@ -1907,12 +1914,12 @@ module pgs_friction_pipe #(
     assign ev_inv[111] = fl_t1_mul178[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul178;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul178 (.clk(clk), .d(t1_mul178), .q(dl_t1_mul178));
+        u_dl_t1_mul178 (.clk(clk), .d(t1_mul178), .valid(valid_q[53 +: 4]), .q(dl_t1_mul178));
     // t1_add179 = t1_add177 + t1_mul178   (ready @61/61/61)
     logic [W-1:0] t1_add179;
     logic [2:0] fl_t1_add179;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add179 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add177), .b(dl_t1_mul178), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add177), .b(dl_t1_mul178), .sub(1'b0),
         .out_valid(op_valid_nc[114]), .y(t1_add179), .flags(fl_t1_add179)
     );
     assign ev_ovf[112] = fl_t1_add179[0] && ev_q[61];
@@ -1920,12 +1927,12 @@ module pgs_friction_pipe #(
     assign ev_inv[112] = fl_t1_add179[2] && ev_q[61];
     logic [W-1:0] dl_t1_add179;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add179 (.clk(clk), .d(t1_add179), .q(dl_t1_add179));
+        u_dl_t1_add179 (.clk(clk), .d(t1_add179), .valid(1'b0), .q(dl_t1_add179));
     // t1_mul180 = t1_x * t0_vB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul180;
     logic [2:0] fl_t1_mul180;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul180 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[115]), .y(t1_mul180), .flags(fl_t1_mul180)
     );
     assign ev_ovf[113] = fl_t1_mul180[0] && ev_q[53];
@@ -1933,12 +1940,12 @@ module pgs_friction_pipe #(
     assign ev_inv[113] = fl_t1_mul180[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul180;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul180 (.clk(clk), .d(t1_mul180), .q(dl_t1_mul180));
+        u_dl_t1_mul180 (.clk(clk), .d(t1_mul180), .valid(1'b0), .q(dl_t1_mul180));
     // t1_mul181 = t1_y * t0_vB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul181;
     logic [2:0] fl_t1_mul181;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul181 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[116]), .y(t1_mul181), .flags(fl_t1_mul181)
     );
     assign ev_ovf[114] = fl_t1_mul181[0] && ev_q[53];
@@ -1946,12 +1953,12 @@ module pgs_friction_pipe #(
     assign ev_inv[114] = fl_t1_mul181[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul181;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul181 (.clk(clk), .d(t1_mul181), .q(dl_t1_mul181));
+        u_dl_t1_mul181 (.clk(clk), .d(t1_mul181), .valid(1'b0), .q(dl_t1_mul181));
     // t1_add182 = t1_mul180 + t1_mul181   (ready @57/57/57)
     logic [W-1:0] t1_add182;
     logic [2:0] fl_t1_add182;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add182 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul180), .b(dl_t1_mul181), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul180), .b(dl_t1_mul181), .sub(1'b0),
         .out_valid(op_valid_nc[117]), .y(t1_add182), .flags(fl_t1_add182)
     );
     assign ev_ovf[115] = fl_t1_add182[0] && ev_q[57];
@@ -1959,12 +1966,12 @@ module pgs_friction_pipe #(
     assign ev_inv[115] = fl_t1_add182[2] && ev_q[57];
     logic [W-1:0] dl_t1_add182;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add182 (.clk(clk), .d(t1_add182), .q(dl_t1_add182));
+        u_dl_t1_add182 (.clk(clk), .d(t1_add182), .valid(1'b0), .q(dl_t1_add182));
     // t1_mul183 = t1_z * t0_vB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul183;
     logic [2:0] fl_t1_mul183;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul183 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[118]), .y(t1_mul183), .flags(fl_t1_mul183)
     );
     assign ev_ovf[116] = fl_t1_mul183[0] && ev_q[53];
@@ -1972,12 +1979,12 @@ module pgs_friction_pipe #(
     assign ev_inv[116] = fl_t1_mul183[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul183;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul183 (.clk(clk), .d(t1_mul183), .q(dl_t1_mul183));
+        u_dl_t1_mul183 (.clk(clk), .d(t1_mul183), .valid(valid_q[53 +: 4]), .q(dl_t1_mul183));
     // t1_add184 = t1_add182 + t1_mul183   (ready @61/61/61)
     logic [W-1:0] t1_add184;
     logic [2:0] fl_t1_add184;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add184 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add182), .b(dl_t1_mul183), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add182), .b(dl_t1_mul183), .sub(1'b0),
         .out_valid(op_valid_nc[119]), .y(t1_add184), .flags(fl_t1_add184)
     );
     assign ev_ovf[117] = fl_t1_add184[0] && ev_q[61];
@@ -1985,12 +1992,12 @@ module pgs_friction_pipe #(
     assign ev_inv[117] = fl_t1_add184[2] && ev_q[61];
     logic [W-1:0] dl_t1_add184;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add184 (.clk(clk), .d(t1_add184), .q(dl_t1_add184));
+        u_dl_t1_add184 (.clk(clk), .d(t1_add184), .valid(1'b0), .q(dl_t1_add184));
     // t1_sub185 = t1_add179 - t1_add184   (ready @65/65/65)
     logic [W-1:0] t1_sub185;
     logic [2:0] fl_t1_sub185;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub185 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add179), .b(dl_t1_add184), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[61]), .a(dl_t1_add179), .b(dl_t1_add184), .sub(1'b1),
         .out_valid(op_valid_nc[120]), .y(t1_sub185), .flags(fl_t1_sub185)
     );
     assign ev_ovf[118] = fl_t1_sub185[0] && ev_q[65];
@@ -1998,12 +2005,12 @@ module pgs_friction_pipe #(
     assign ev_inv[118] = fl_t1_sub185[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub185;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub185 (.clk(clk), .d(t1_sub185), .q(dl_t1_sub185));
+        u_dl_t1_sub185 (.clk(clk), .d(t1_sub185), .valid(1'b0), .q(dl_t1_sub185));
     // t1_mul186 = t1_cA_x * t0_wA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul186;
     logic [2:0] fl_t1_mul186;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul186 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_x[0*W +: W]), .b(dl_t0_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cA_x[0*W +: W]), .b(dl_t0_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[121]), .y(t1_mul186), .flags(fl_t1_mul186)
     );
     assign ev_ovf[119] = fl_t1_mul186[0] && ev_q[53];
@@ -2011,12 +2018,12 @@ module pgs_friction_pipe #(
     assign ev_inv[119] = fl_t1_mul186[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul186;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul186 (.clk(clk), .d(t1_mul186), .q(dl_t1_mul186));
+        u_dl_t1_mul186 (.clk(clk), .d(t1_mul186), .valid(1'b0), .q(dl_t1_mul186));
     // t1_mul187 = t1_cA_y * t0_wA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul187;
     logic [2:0] fl_t1_mul187;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul187 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_y[0*W +: W]), .b(dl_t0_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cA_y[0*W +: W]), .b(dl_t0_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[122]), .y(t1_mul187), .flags(fl_t1_mul187)
     );
     assign ev_ovf[120] = fl_t1_mul187[0] && ev_q[53];
@@ -2024,12 +2031,12 @@ module pgs_friction_pipe #(
     assign ev_inv[120] = fl_t1_mul187[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul187;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul187 (.clk(clk), .d(t1_mul187), .q(dl_t1_mul187));
+        u_dl_t1_mul187 (.clk(clk), .d(t1_mul187), .valid(1'b0), .q(dl_t1_mul187));
     // t1_add188 = t1_mul186 + t1_mul187   (ready @57/57/57)
     logic [W-1:0] t1_add188;
     logic [2:0] fl_t1_add188;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add188 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul186), .b(dl_t1_mul187), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul186), .b(dl_t1_mul187), .sub(1'b0),
         .out_valid(op_valid_nc[123]), .y(t1_add188), .flags(fl_t1_add188)
     );
     assign ev_ovf[121] = fl_t1_add188[0] && ev_q[57];
@@ -2037,12 +2044,12 @@ module pgs_friction_pipe #(
     assign ev_inv[121] = fl_t1_add188[2] && ev_q[57];
     logic [W-1:0] dl_t1_add188;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add188 (.clk(clk), .d(t1_add188), .q(dl_t1_add188));
+        u_dl_t1_add188 (.clk(clk), .d(t1_add188), .valid(1'b0), .q(dl_t1_add188));
     // t1_mul189 = t1_cA_z * t0_wA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul189;
     logic [2:0] fl_t1_mul189;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul189 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_z[0*W +: W]), .b(dl_t0_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cA_z[0*W +: W]), .b(dl_t0_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[124]), .y(t1_mul189), .flags(fl_t1_mul189)
     );
     assign ev_ovf[122] = fl_t1_mul189[0] && ev_q[53];
@@ -2050,12 +2057,12 @@ module pgs_friction_pipe #(
     assign ev_inv[122] = fl_t1_mul189[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul189;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul189 (.clk(clk), .d(t1_mul189), .q(dl_t1_mul189));
+        u_dl_t1_mul189 (.clk(clk), .d(t1_mul189), .valid(valid_q[53 +: 4]), .q(dl_t1_mul189));
     // t1_add190 = t1_add188 + t1_mul189   (ready @61/61/61)
     logic [W-1:0] t1_add190;
     logic [2:0] fl_t1_add190;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add190 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add188), .b(dl_t1_mul189), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add188), .b(dl_t1_mul189), .sub(1'b0),
         .out_valid(op_valid_nc[125]), .y(t1_add190), .flags(fl_t1_add190)
     );
     assign ev_ovf[123] = fl_t1_add190[0] && ev_q[61];
@@ -2063,12 +2070,12 @@ module pgs_friction_pipe #(
     assign ev_inv[123] = fl_t1_add190[2] && ev_q[61];
     logic [W-1:0] dl_t1_add190;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add190 (.clk(clk), .d(t1_add190), .q(dl_t1_add190));
+        u_dl_t1_add190 (.clk(clk), .d(t1_add190), .valid(1'b0), .q(dl_t1_add190));
     // t1_mul191 = t1_cB_x * t0_wB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul191;
     logic [2:0] fl_t1_mul191;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul191 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_x[0*W +: W]), .b(dl_t0_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cB_x[0*W +: W]), .b(dl_t0_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[126]), .y(t1_mul191), .flags(fl_t1_mul191)
     );
     assign ev_ovf[124] = fl_t1_mul191[0] && ev_q[53];
@@ -2076,12 +2083,12 @@ module pgs_friction_pipe #(
     assign ev_inv[124] = fl_t1_mul191[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul191;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul191 (.clk(clk), .d(t1_mul191), .q(dl_t1_mul191));
+        u_dl_t1_mul191 (.clk(clk), .d(t1_mul191), .valid(1'b0), .q(dl_t1_mul191));
     // t1_mul192 = t1_cB_y * t0_wB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul192;
     logic [2:0] fl_t1_mul192;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul192 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_y[0*W +: W]), .b(dl_t0_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cB_y[0*W +: W]), .b(dl_t0_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[127]), .y(t1_mul192), .flags(fl_t1_mul192)
     );
     assign ev_ovf[125] = fl_t1_mul192[0] && ev_q[53];
@@ -2089,12 +2096,12 @@ module pgs_friction_pipe #(
     assign ev_inv[125] = fl_t1_mul192[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul192;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul192 (.clk(clk), .d(t1_mul192), .q(dl_t1_mul192));
+        u_dl_t1_mul192 (.clk(clk), .d(t1_mul192), .valid(1'b0), .q(dl_t1_mul192));
     // t1_add193 = t1_mul191 + t1_mul192   (ready @57/57/57)
     logic [W-1:0] t1_add193;
     logic [2:0] fl_t1_add193;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add193 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul191), .b(dl_t1_mul192), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul191), .b(dl_t1_mul192), .sub(1'b0),
         .out_valid(op_valid_nc[128]), .y(t1_add193), .flags(fl_t1_add193)
     );
     assign ev_ovf[126] = fl_t1_add193[0] && ev_q[57];
@@ -2102,12 +2109,12 @@ module pgs_friction_pipe #(
     assign ev_inv[126] = fl_t1_add193[2] && ev_q[57];
     logic [W-1:0] dl_t1_add193;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add193 (.clk(clk), .d(t1_add193), .q(dl_t1_add193));
+        u_dl_t1_add193 (.clk(clk), .d(t1_add193), .valid(1'b0), .q(dl_t1_add193));
     // t1_mul194 = t1_cB_z * t0_wB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul194;
     logic [2:0] fl_t1_mul194;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul194 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_z[0*W +: W]), .b(dl_t0_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cB_z[0*W +: W]), .b(dl_t0_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[129]), .y(t1_mul194), .flags(fl_t1_mul194)
     );
     assign ev_ovf[127] = fl_t1_mul194[0] && ev_q[53];
@@ -2115,12 +2122,12 @@ module pgs_friction_pipe #(
     assign ev_inv[127] = fl_t1_mul194[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul194;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul194 (.clk(clk), .d(t1_mul194), .q(dl_t1_mul194));
+        u_dl_t1_mul194 (.clk(clk), .d(t1_mul194), .valid(valid_q[53 +: 4]), .q(dl_t1_mul194));
     // t1_add195 = t1_add193 + t1_mul194   (ready @61/61/61)
     logic [W-1:0] t1_add195;
     logic [2:0] fl_t1_add195;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add195 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add193), .b(dl_t1_mul194), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add193), .b(dl_t1_mul194), .sub(1'b0),
         .out_valid(op_valid_nc[130]), .y(t1_add195), .flags(fl_t1_add195)
     );
     assign ev_ovf[128] = fl_t1_add195[0] && ev_q[61];
@@ -2128,12 +2135,12 @@ module pgs_friction_pipe #(
     assign ev_inv[128] = fl_t1_add195[2] && ev_q[61];
     logic [W-1:0] dl_t1_add195;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add195 (.clk(clk), .d(t1_add195), .q(dl_t1_add195));
+        u_dl_t1_add195 (.clk(clk), .d(t1_add195), .valid(1'b0), .q(dl_t1_add195));
     // t1_sub196 = t1_add190 - t1_add195   (ready @65/65/65)
     logic [W-1:0] t1_sub196;
     logic [2:0] fl_t1_sub196;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub196 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add190), .b(dl_t1_add195), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[61]), .a(dl_t1_add190), .b(dl_t1_add195), .sub(1'b1),
         .out_valid(op_valid_nc[131]), .y(t1_sub196), .flags(fl_t1_sub196)
     );
     assign ev_ovf[129] = fl_t1_sub196[0] && ev_q[65];
@@ -2141,12 +2148,12 @@ module pgs_friction_pipe #(
     assign ev_inv[129] = fl_t1_sub196[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub196;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub196 (.clk(clk), .d(t1_sub196), .q(dl_t1_sub196));
+        u_dl_t1_sub196 (.clk(clk), .d(t1_sub196), .valid(1'b0), .q(dl_t1_sub196));
     // t1_u = t1_sub185 + t1_sub196   (ready @69/69/69)
     logic [W-1:0] t1_u;
     logic [2:0] fl_t1_u;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_u (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_sub185), .b(dl_t1_sub196), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[65]), .a(dl_t1_sub185), .b(dl_t1_sub196), .sub(1'b0),
         .out_valid(op_valid_nc[132]), .y(t1_u), .flags(fl_t1_u)
     );
     assign ev_ovf[130] = fl_t1_u[0] && ev_q[69];
@@ -2154,18 +2161,18 @@ module pgs_friction_pipe #(
     assign ev_inv[130] = fl_t1_u[2] && ev_q[69];
     logic [W-1:0] dl_t1_u;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_u (.clk(clk), .d(t1_u), .q(dl_t1_u));
+        u_dl_t1_u (.clk(clk), .d(t1_u), .valid(1'b0), .q(dl_t1_u));
     // t1_neg198 = -t1_u   (ready @69/69/69)
     logic [W-1:0] t1_neg198;
     assign t1_neg198 = {~dl_t1_u[W-1], dl_t1_u[W-2:0]};
     logic [W-1:0] dl_t1_neg198;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_neg198 (.clk(clk), .d(t1_neg198), .q(dl_t1_neg198));
+        u_dl_t1_neg198 (.clk(clk), .d(t1_neg198), .valid(1'b0), .q(dl_t1_neg198));
     // t1_delta0 = t1_neg198 * f_jac_inv1   (ready @72/72/72)
     logic [W-1:0] t1_delta0;
     logic [2:0] fl_t1_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_neg198), .b(dl_in_f_jac_inv1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[69]), .a(dl_t1_neg198), .b(dl_in_f_jac_inv1),
         .out_valid(op_valid_nc[133]), .y(t1_delta0), .flags(fl_t1_delta0)
     );
     assign ev_ovf[131] = fl_t1_delta0[0] && ev_q[72];
@@ -2173,12 +2180,12 @@ module pgs_friction_pipe #(
     assign ev_inv[131] = fl_t1_delta0[2] && ev_q[72];
     logic [W-1:0] dl_t1_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_delta0 (.clk(clk), .d(t1_delta0), .q(dl_t1_delta0));
+        u_dl_t1_delta0 (.clk(clk), .d(t1_delta0), .valid(1'b0), .q(dl_t1_delta0));
     // t1_add200 = lamT1 + t1_delta0   (ready @76/76/76)
     logic [W-1:0] t1_add200;
     logic [2:0] fl_t1_add200;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add200 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lamT1[0*W +: W]), .b(dl_t1_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_in_lamT1[0*W +: W]), .b(dl_t1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[134]), .y(t1_add200), .flags(fl_t1_add200)
     );
     assign ev_ovf[132] = fl_t1_add200[0] && ev_q[76];
@@ -2186,32 +2193,32 @@ module pgs_friction_pipe #(
     assign ev_inv[132] = fl_t1_add200[2] && ev_q[76];
     logic [W-1:0] dl_t1_add200;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add200 (.clk(clk), .d(t1_add200), .q(dl_t1_add200));
+        u_dl_t1_add200 (.clk(clk), .d(t1_add200), .valid(1'b0), .q(dl_t1_add200));
     // t1_max201 = max(t1_add200, neg_limit)   (ready @77/77/77)
     logic [W-1:0] t1_max201;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t1_max201 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add200), .b(dl_neg_limit[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[76]), .a(dl_t1_add200), .b(dl_neg_limit[1*W +: W]),
         .out_valid(op_valid_nc[135]), .y_min(nc_t1_max201_min), .y_max(t1_max201),
         .lt(nc_t1_max201_lt), .eq(nc_t1_max201_eq), .unordered(nc_t1_max201_uo)
     );
     logic [W-1:0] dl_t1_max201;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_max201 (.clk(clk), .d(t1_max201), .q(dl_t1_max201));
+        u_dl_t1_max201 (.clk(clk), .d(t1_max201), .valid(1'b0), .q(dl_t1_max201));
     // t1_lam_new = min(t1_max201, limit)   (ready @78/78/78)
     logic [W-1:0] t1_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t1_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_max201), .b(dl_limit[2*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[77]), .a(dl_t1_max201), .b(dl_limit[2*W +: W]),
         .out_valid(op_valid_nc[136]), .y_min(t1_lam_new), .y_max(nc_t1_lam_new_max),
         .lt(nc_t1_lam_new_lt), .eq(nc_t1_lam_new_eq), .unordered(nc_t1_lam_new_uo)
     );
     logic [W-1:0] dl_t1_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_lam_new (.clk(clk), .d(t1_lam_new), .q(dl_t1_lam_new));
+        u_dl_t1_lam_new (.clk(clk), .d(t1_lam_new), .valid(1'b0), .q(dl_t1_lam_new));
     // t1_delta = t1_lam_new - lamT1   (ready @82/82/82)
     logic [W-1:0] t1_delta;
     logic [2:0] fl_t1_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_lam_new), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[78]), .a(dl_t1_lam_new), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[137]), .y(t1_delta), .flags(fl_t1_delta)
     );
     assign ev_ovf[133] = fl_t1_delta[0] && ev_q[82];
@@ -2219,24 +2226,24 @@ module pgs_friction_pipe #(
     assign ev_inv[133] = fl_t1_delta[2] && ev_q[82];
     logic [W-1:0] dl_t1_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_delta (.clk(clk), .d(t1_delta), .q(dl_t1_delta));
+        u_dl_t1_delta (.clk(clk), .d(t1_delta), .valid(1'b0), .q(dl_t1_delta));
     // t1_lamT = skip ? lamT1 : t1_lam_new   (ready @78/78/78)
     logic [W-1:0] t1_lamT;
     assign t1_lamT = dl_skip[2] ? dl_in_lamT1[1*W +: W] : dl_t1_lam_new;
     logic [W-1:0] dl_t1_lamT;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_t1_lamT (.clk(clk), .d(t1_lamT), .q(dl_t1_lamT));
+        u_dl_t1_lamT (.clk(clk), .d(t1_lamT), .valid(valid_q[78 +: 32]), .q(dl_t1_lamT));
     // t1_e = -t1_delta   (ready @82/82/82)
     logic [W-1:0] t1_e;
     assign t1_e = {~dl_t1_delta[W-1], dl_t1_delta[W-2:0]};
     logic [W-1:0] dl_t1_e;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_e (.clk(clk), .d(t1_e), .q(dl_t1_e));
+        u_dl_t1_e (.clk(clk), .d(t1_e), .valid(1'b0), .q(dl_t1_e));
     // t1_linA_x = t1_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_x;
     logic [2:0] fl_t1_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[138]), .y(t1_linA_x), .flags(fl_t1_linA_x)
     );
     assign ev_ovf[134] = fl_t1_linA_x[0] && ev_q[3];
@@ -2244,12 +2251,12 @@ module pgs_friction_pipe #(
     assign ev_inv[134] = fl_t1_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linA_x (.clk(clk), .d(t1_linA_x), .q(dl_t1_linA_x));
+        u_dl_t1_linA_x (.clk(clk), .d(t1_linA_x), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_x));
     // t1_linA_y = t1_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_y;
     logic [2:0] fl_t1_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[139]), .y(t1_linA_y), .flags(fl_t1_linA_y)
     );
     assign ev_ovf[135] = fl_t1_linA_y[0] && ev_q[3];
@@ -2257,12 +2264,12 @@ module pgs_friction_pipe #(
     assign ev_inv[135] = fl_t1_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linA_y (.clk(clk), .d(t1_linA_y), .q(dl_t1_linA_y));
+        u_dl_t1_linA_y (.clk(clk), .d(t1_linA_y), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_y));
     // t1_linA_z = t1_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_z;
     logic [2:0] fl_t1_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[140]), .y(t1_linA_z), .flags(fl_t1_linA_z)
     );
     assign ev_ovf[136] = fl_t1_linA_z[0] && ev_q[3];
@@ -2270,12 +2277,12 @@ module pgs_friction_pipe #(
     assign ev_inv[136] = fl_t1_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .q(dl_t1_linA_z));
+        u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_z));
     // t1_mul209 = t1_linA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul209;
     logic [2:0] fl_t1_mul209;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul209 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linA_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[141]), .y(t1_mul209), .flags(fl_t1_mul209)
     );
     assign ev_ovf[137] = fl_t1_mul209[0] && ev_q[85];
@@ -2283,12 +2290,12 @@ module pgs_friction_pipe #(
     assign ev_inv[137] = fl_t1_mul209[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul209;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul209 (.clk(clk), .d(t1_mul209), .q(dl_t1_mul209));
+        u_dl_t1_mul209 (.clk(clk), .d(t1_mul209), .valid(1'b0), .q(dl_t1_mul209));
     // t1_mul210 = t1_linA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul210;
     logic [2:0] fl_t1_mul210;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul210 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linA_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[142]), .y(t1_mul210), .flags(fl_t1_mul210)
     );
     assign ev_ovf[138] = fl_t1_mul210[0] && ev_q[85];
@@ -2296,12 +2303,12 @@ module pgs_friction_pipe #(
     assign ev_inv[138] = fl_t1_mul210[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul210;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul210 (.clk(clk), .d(t1_mul210), .q(dl_t1_mul210));
+        u_dl_t1_mul210 (.clk(clk), .d(t1_mul210), .valid(1'b0), .q(dl_t1_mul210));
     // t1_mul211 = t1_linA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul211;
     logic [2:0] fl_t1_mul211;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul211 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linA_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[143]), .y(t1_mul211), .flags(fl_t1_mul211)
     );
     assign ev_ovf[139] = fl_t1_mul211[0] && ev_q[85];
@@ -2309,12 +2316,12 @@ module pgs_friction_pipe #(
     assign ev_inv[139] = fl_t1_mul211[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul211;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul211 (.clk(clk), .d(t1_mul211), .q(dl_t1_mul211));
+        u_dl_t1_mul211 (.clk(clk), .d(t1_mul211), .valid(1'b0), .q(dl_t1_mul211));
     // t1_add212 = t0_vA_x + t1_mul209   (ready @89/89/89)
     logic [W-1:0] t1_add212;
     logic [2:0] fl_t1_add212;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add212 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_x[1*W +: W]), .b(dl_t1_mul209), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_x[1*W +: W]), .b(dl_t1_mul209), .sub(1'b0),
         .out_valid(op_valid_nc[144]), .y(t1_add212), .flags(fl_t1_add212)
     );
     assign ev_ovf[140] = fl_t1_add212[0] && ev_q[89];
@@ -2322,12 +2329,12 @@ module pgs_friction_pipe #(
     assign ev_inv[140] = fl_t1_add212[2] && ev_q[89];
     logic [W-1:0] dl_t1_add212;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add212 (.clk(clk), .d(t1_add212), .q(dl_t1_add212));
+        u_dl_t1_add212 (.clk(clk), .d(t1_add212), .valid(1'b0), .q(dl_t1_add212));
     // t1_add213 = t0_vA_y + t1_mul210   (ready @89/89/89)
     logic [W-1:0] t1_add213;
     logic [2:0] fl_t1_add213;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add213 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_y[1*W +: W]), .b(dl_t1_mul210), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_y[1*W +: W]), .b(dl_t1_mul210), .sub(1'b0),
         .out_valid(op_valid_nc[145]), .y(t1_add213), .flags(fl_t1_add213)
     );
     assign ev_ovf[141] = fl_t1_add213[0] && ev_q[89];
@@ -2335,12 +2342,12 @@ module pgs_friction_pipe #(
     assign ev_inv[141] = fl_t1_add213[2] && ev_q[89];
     logic [W-1:0] dl_t1_add213;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add213 (.clk(clk), .d(t1_add213), .q(dl_t1_add213));
+        u_dl_t1_add213 (.clk(clk), .d(t1_add213), .valid(1'b0), .q(dl_t1_add213));
     // t1_add214 = t0_vA_z + t1_mul211   (ready @89/89/89)
     logic [W-1:0] t1_add214;
     logic [2:0] fl_t1_add214;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add214 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_z[1*W +: W]), .b(dl_t1_mul211), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_z[1*W +: W]), .b(dl_t1_mul211), .sub(1'b0),
         .out_valid(op_valid_nc[146]), .y(t1_add214), .flags(fl_t1_add214)
     );
     assign ev_ovf[142] = fl_t1_add214[0] && ev_q[89];
@@ -2348,30 +2355,30 @@ module pgs_friction_pipe #(
     assign ev_inv[142] = fl_t1_add214[2] && ev_q[89];
     logic [W-1:0] dl_t1_add214;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add214 (.clk(clk), .d(t1_add214), .q(dl_t1_add214));
+        u_dl_t1_add214 (.clk(clk), .d(t1_add214), .valid(1'b0), .q(dl_t1_add214));
     // t1_vA_x = skip ? t0_vA_x : t1_add212   (ready @89/89/89)
     logic [W-1:0] t1_vA_x;
     assign t1_vA_x = dl_skip[3] ? dl_t0_vA_x[2*W +: W] : dl_t1_add212;
     logic [W-1:0] dl_t1_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vA_x (.clk(clk), .d(t1_vA_x), .q(dl_t1_vA_x));
+        u_dl_t1_vA_x (.clk(clk), .d(t1_vA_x), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_x));
     // t1_vA_y = skip ? t0_vA_y : t1_add213   (ready @89/89/89)
     logic [W-1:0] t1_vA_y;
     assign t1_vA_y = dl_skip[3] ? dl_t0_vA_y[2*W +: W] : dl_t1_add213;
     logic [W-1:0] dl_t1_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vA_y (.clk(clk), .d(t1_vA_y), .q(dl_t1_vA_y));
+        u_dl_t1_vA_y (.clk(clk), .d(t1_vA_y), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_y));
     // t1_vA_z = skip ? t0_vA_z : t1_add214   (ready @89/89/89)
     logic [W-1:0] t1_vA_z;
     assign t1_vA_z = dl_skip[3] ? dl_t0_vA_z[2*W +: W] : dl_t1_add214;
     logic [W-1:0] dl_t1_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vA_z (.clk(clk), .d(t1_vA_z), .q(dl_t1_vA_z));
+        u_dl_t1_vA_z (.clk(clk), .d(t1_vA_z), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_z));
     // t1_angA_x = IInvA_x * t1_cA_x   (ready @14/14/14)
     logic [W-1:0] t1_angA_x;
     logic [2:0] fl_t1_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x), .b(dl_t1_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_x), .b(dl_t1_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[147]), .y(t1_angA_x), .flags(fl_t1_angA_x)
     );
     assign ev_ovf[143] = fl_t1_angA_x[0] && ev_q[14];
@@ -2379,12 +2386,12 @@ module pgs_friction_pipe #(
     assign ev_inv[143] = fl_t1_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
-        u_dl_t1_angA_x (.clk(clk), .d(t1_angA_x), .q(dl_t1_angA_x));
+        u_dl_t1_angA_x (.clk(clk), .d(t1_angA_x), .valid(valid_q[14 +: 68]), .q(dl_t1_angA_x));
     // t1_angA_y = IInvA_y * t1_cA_y   (ready @14/14/14)
     logic [W-1:0] t1_angA_y;
     logic [2:0] fl_t1_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y), .b(dl_t1_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_y), .b(dl_t1_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[148]), .y(t1_angA_y), .flags(fl_t1_angA_y)
     );
     assign ev_ovf[144] = fl_t1_angA_y[0] && ev_q[14];
@@ -2392,12 +2399,12 @@ module pgs_friction_pipe #(
     assign ev_inv[144] = fl_t1_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
-        u_dl_t1_angA_y (.clk(clk), .d(t1_angA_y), .q(dl_t1_angA_y));
+        u_dl_t1_angA_y (.clk(clk), .d(t1_angA_y), .valid(valid_q[14 +: 68]), .q(dl_t1_angA_y));
     // t1_angA_z = IInvA_z * t1_cA_z   (ready @14/14/14)
     logic [W-1:0] t1_angA_z;
     logic [2:0] fl_t1_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z), .b(dl_t1_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_z), .b(dl_t1_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[149]), .y(t1_angA_z), .flags(fl_t1_angA_z)
     );
     assign ev_ovf[145] = fl_t1_angA_z[0] && ev_q[14];
@@ -2405,12 +2412,12 @@ module pgs_friction_pipe #(
     assign ev_inv[145] = fl_t1_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
-        u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .q(dl_t1_angA_z));
+        u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .valid(valid_q[14 +: 68]), .q(dl_t1_angA_z));
     // t1_mul221 = t1_angA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul221;
     logic [2:0] fl_t1_mul221;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul221 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angA_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[150]), .y(t1_mul221), .flags(fl_t1_mul221)
     );
     assign ev_ovf[146] = fl_t1_mul221[0] && ev_q[85];
@@ -2418,12 +2425,12 @@ module pgs_friction_pipe #(
     assign ev_inv[146] = fl_t1_mul221[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul221;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul221 (.clk(clk), .d(t1_mul221), .q(dl_t1_mul221));
+        u_dl_t1_mul221 (.clk(clk), .d(t1_mul221), .valid(1'b0), .q(dl_t1_mul221));
     // t1_mul222 = t1_angA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul222;
     logic [2:0] fl_t1_mul222;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul222 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angA_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[151]), .y(t1_mul222), .flags(fl_t1_mul222)
     );
     assign ev_ovf[147] = fl_t1_mul222[0] && ev_q[85];
@@ -2431,12 +2438,12 @@ module pgs_friction_pipe #(
     assign ev_inv[147] = fl_t1_mul222[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul222;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul222 (.clk(clk), .d(t1_mul222), .q(dl_t1_mul222));
+        u_dl_t1_mul222 (.clk(clk), .d(t1_mul222), .valid(1'b0), .q(dl_t1_mul222));
     // t1_mul223 = t1_angA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul223;
     logic [2:0] fl_t1_mul223;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul223 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angA_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[152]), .y(t1_mul223), .flags(fl_t1_mul223)
     );
     assign ev_ovf[148] = fl_t1_mul223[0] && ev_q[85];
@@ -2444,12 +2451,12 @@ module pgs_friction_pipe #(
     assign ev_inv[148] = fl_t1_mul223[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul223;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul223 (.clk(clk), .d(t1_mul223), .q(dl_t1_mul223));
+        u_dl_t1_mul223 (.clk(clk), .d(t1_mul223), .valid(1'b0), .q(dl_t1_mul223));
     // t1_add224 = t0_wA_x + t1_mul221   (ready @89/89/89)
     logic [W-1:0] t1_add224;
     logic [2:0] fl_t1_add224;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add224 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_x[1*W +: W]), .b(dl_t1_mul221), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_x[1*W +: W]), .b(dl_t1_mul221), .sub(1'b0),
         .out_valid(op_valid_nc[153]), .y(t1_add224), .flags(fl_t1_add224)
     );
     assign ev_ovf[149] = fl_t1_add224[0] && ev_q[89];
@@ -2457,12 +2464,12 @@ module pgs_friction_pipe #(
     assign ev_inv[149] = fl_t1_add224[2] && ev_q[89];
     logic [W-1:0] dl_t1_add224;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add224 (.clk(clk), .d(t1_add224), .q(dl_t1_add224));
+        u_dl_t1_add224 (.clk(clk), .d(t1_add224), .valid(1'b0), .q(dl_t1_add224));
     // t1_add225 = t0_wA_y + t1_mul222   (ready @89/89/89)
     logic [W-1:0] t1_add225;
     logic [2:0] fl_t1_add225;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add225 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_y[1*W +: W]), .b(dl_t1_mul222), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_y[1*W +: W]), .b(dl_t1_mul222), .sub(1'b0),
         .out_valid(op_valid_nc[154]), .y(t1_add225), .flags(fl_t1_add225)
     );
     assign ev_ovf[150] = fl_t1_add225[0] && ev_q[89];
@@ -2470,12 +2477,12 @@ module pgs_friction_pipe #(
     assign ev_inv[150] = fl_t1_add225[2] && ev_q[89];
     logic [W-1:0] dl_t1_add225;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add225 (.clk(clk), .d(t1_add225), .q(dl_t1_add225));
+        u_dl_t1_add225 (.clk(clk), .d(t1_add225), .valid(1'b0), .q(dl_t1_add225));
     // t1_add226 = t0_wA_z + t1_mul223   (ready @89/89/89)
     logic [W-1:0] t1_add226;
     logic [2:0] fl_t1_add226;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add226 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_z[1*W +: W]), .b(dl_t1_mul223), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_z[1*W +: W]), .b(dl_t1_mul223), .sub(1'b0),
         .out_valid(op_valid_nc[155]), .y(t1_add226), .flags(fl_t1_add226)
     );
     assign ev_ovf[151] = fl_t1_add226[0] && ev_q[89];
@@ -2483,30 +2490,30 @@ module pgs_friction_pipe #(
     assign ev_inv[151] = fl_t1_add226[2] && ev_q[89];
     logic [W-1:0] dl_t1_add226;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add226 (.clk(clk), .d(t1_add226), .q(dl_t1_add226));
+        u_dl_t1_add226 (.clk(clk), .d(t1_add226), .valid(1'b0), .q(dl_t1_add226));
     // t1_wA_x = skip ? t0_wA_x : t1_add224   (ready @89/89/89)
     logic [W-1:0] t1_wA_x;
     assign t1_wA_x = dl_skip[3] ? dl_t0_wA_x[2*W +: W] : dl_t1_add224;
     logic [3*W-1:0] dl_t1_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wA_x (.clk(clk), .d(t1_wA_x), .q(dl_t1_wA_x));
+        u_dl_t1_wA_x (.clk(clk), .d(t1_wA_x), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_x));
     // t1_wA_y = skip ? t0_wA_y : t1_add225   (ready @89/89/89)
     logic [W-1:0] t1_wA_y;
     assign t1_wA_y = dl_skip[3] ? dl_t0_wA_y[2*W +: W] : dl_t1_add225;
     logic [3*W-1:0] dl_t1_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wA_y (.clk(clk), .d(t1_wA_y), .q(dl_t1_wA_y));
+        u_dl_t1_wA_y (.clk(clk), .d(t1_wA_y), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_y));
     // t1_wA_z = skip ? t0_wA_z : t1_add226   (ready @89/89/89)
     logic [W-1:0] t1_wA_z;
     assign t1_wA_z = dl_skip[3] ? dl_t0_wA_z[2*W +: W] : dl_t1_add226;
     logic [3*W-1:0] dl_t1_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wA_z (.clk(clk), .d(t1_wA_z), .q(dl_t1_wA_z));
+        u_dl_t1_wA_z (.clk(clk), .d(t1_wA_z), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_z));
     // t1_linB_x = t1_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_x;
     logic [2:0] fl_t1_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[156]), .y(t1_linB_x), .flags(fl_t1_linB_x)
     );
     assign ev_ovf[152] = fl_t1_linB_x[0] && ev_q[3];
@@ -2514,12 +2521,12 @@ module pgs_friction_pipe #(
     assign ev_inv[152] = fl_t1_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linB_x (.clk(clk), .d(t1_linB_x), .q(dl_t1_linB_x));
+        u_dl_t1_linB_x (.clk(clk), .d(t1_linB_x), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_x));
     // t1_linB_y = t1_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_y;
     logic [2:0] fl_t1_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[157]), .y(t1_linB_y), .flags(fl_t1_linB_y)
     );
     assign ev_ovf[153] = fl_t1_linB_y[0] && ev_q[3];
@@ -2527,12 +2534,12 @@ module pgs_friction_pipe #(
     assign ev_inv[153] = fl_t1_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linB_y (.clk(clk), .d(t1_linB_y), .q(dl_t1_linB_y));
+        u_dl_t1_linB_y (.clk(clk), .d(t1_linB_y), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_y));
     // t1_linB_z = t1_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_z;
     logic [2:0] fl_t1_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[158]), .y(t1_linB_z), .flags(fl_t1_linB_z)
     );
     assign ev_ovf[154] = fl_t1_linB_z[0] && ev_q[3];
@@ -2540,12 +2547,12 @@ module pgs_friction_pipe #(
     assign ev_inv[154] = fl_t1_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .q(dl_t1_linB_z));
+        u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_z));
     // t1_mul233 = t1_linB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul233;
     logic [2:0] fl_t1_mul233;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul233 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linB_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[159]), .y(t1_mul233), .flags(fl_t1_mul233)
     );
     assign ev_ovf[155] = fl_t1_mul233[0] && ev_q[85];
@@ -2553,12 +2560,12 @@ module pgs_friction_pipe #(
     assign ev_inv[155] = fl_t1_mul233[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul233;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul233 (.clk(clk), .d(t1_mul233), .q(dl_t1_mul233));
+        u_dl_t1_mul233 (.clk(clk), .d(t1_mul233), .valid(1'b0), .q(dl_t1_mul233));
     // t1_mul234 = t1_linB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul234;
     logic [2:0] fl_t1_mul234;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul234 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linB_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[160]), .y(t1_mul234), .flags(fl_t1_mul234)
     );
     assign ev_ovf[156] = fl_t1_mul234[0] && ev_q[85];
@@ -2566,12 +2573,12 @@ module pgs_friction_pipe #(
     assign ev_inv[156] = fl_t1_mul234[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul234;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul234 (.clk(clk), .d(t1_mul234), .q(dl_t1_mul234));
+        u_dl_t1_mul234 (.clk(clk), .d(t1_mul234), .valid(1'b0), .q(dl_t1_mul234));
     // t1_mul235 = t1_linB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul235;
     logic [2:0] fl_t1_mul235;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul235 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linB_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[161]), .y(t1_mul235), .flags(fl_t1_mul235)
     );
     assign ev_ovf[157] = fl_t1_mul235[0] && ev_q[85];
@@ -2579,12 +2586,12 @@ module pgs_friction_pipe #(
     assign ev_inv[157] = fl_t1_mul235[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul235;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul235 (.clk(clk), .d(t1_mul235), .q(dl_t1_mul235));
+        u_dl_t1_mul235 (.clk(clk), .d(t1_mul235), .valid(1'b0), .q(dl_t1_mul235));
     // t1_sub236 = t0_vB_x - t1_mul233   (ready @89/89/89)
     logic [W-1:0] t1_sub236;
     logic [2:0] fl_t1_sub236;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub236 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_x[1*W +: W]), .b(dl_t1_mul233), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_x[1*W +: W]), .b(dl_t1_mul233), .sub(1'b1),
         .out_valid(op_valid_nc[162]), .y(t1_sub236), .flags(fl_t1_sub236)
     );
     assign ev_ovf[158] = fl_t1_sub236[0] && ev_q[89];
@@ -2592,12 +2599,12 @@ module pgs_friction_pipe #(
     assign ev_inv[158] = fl_t1_sub236[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub236;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub236 (.clk(clk), .d(t1_sub236), .q(dl_t1_sub236));
+        u_dl_t1_sub236 (.clk(clk), .d(t1_sub236), .valid(1'b0), .q(dl_t1_sub236));
     // t1_sub237 = t0_vB_y - t1_mul234   (ready @89/89/89)
     logic [W-1:0] t1_sub237;
     logic [2:0] fl_t1_sub237;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub237 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_y[1*W +: W]), .b(dl_t1_mul234), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_y[1*W +: W]), .b(dl_t1_mul234), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(t1_sub237), .flags(fl_t1_sub237)
     );
     assign ev_ovf[159] = fl_t1_sub237[0] && ev_q[89];
@@ -2605,12 +2612,12 @@ module pgs_friction_pipe #(
     assign ev_inv[159] = fl_t1_sub237[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub237;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub237 (.clk(clk), .d(t1_sub237), .q(dl_t1_sub237));
+        u_dl_t1_sub237 (.clk(clk), .d(t1_sub237), .valid(1'b0), .q(dl_t1_sub237));
     // t1_sub238 = t0_vB_z - t1_mul235   (ready @89/89/89)
     logic [W-1:0] t1_sub238;
     logic [2:0] fl_t1_sub238;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub238 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_z[1*W +: W]), .b(dl_t1_mul235), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_z[1*W +: W]), .b(dl_t1_mul235), .sub(1'b1),
         .out_valid(op_valid_nc[164]), .y(t1_sub238), .flags(fl_t1_sub238)
     );
     assign ev_ovf[160] = fl_t1_sub238[0] && ev_q[89];
@@ -2618,30 +2625,30 @@ module pgs_friction_pipe #(
     assign ev_inv[160] = fl_t1_sub238[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub238;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub238 (.clk(clk), .d(t1_sub238), .q(dl_t1_sub238));
+        u_dl_t1_sub238 (.clk(clk), .d(t1_sub238), .valid(1'b0), .q(dl_t1_sub238));
     // t1_vB_x = skip ? t0_vB_x : t1_sub236   (ready @89/89/89)
     logic [W-1:0] t1_vB_x;
     assign t1_vB_x = dl_skip[3] ? dl_t0_vB_x[2*W +: W] : dl_t1_sub236;
     logic [W-1:0] dl_t1_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vB_x (.clk(clk), .d(t1_vB_x), .q(dl_t1_vB_x));
+        u_dl_t1_vB_x (.clk(clk), .d(t1_vB_x), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_x));
     // t1_vB_y = skip ? t0_vB_y : t1_sub237   (ready @89/89/89)
     logic [W-1:0] t1_vB_y;
     assign t1_vB_y = dl_skip[3] ? dl_t0_vB_y[2*W +: W] : dl_t1_sub237;
     logic [W-1:0] dl_t1_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vB_y (.clk(clk), .d(t1_vB_y), .q(dl_t1_vB_y));
+        u_dl_t1_vB_y (.clk(clk), .d(t1_vB_y), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_y));
     // t1_vB_z = skip ? t0_vB_z : t1_sub238   (ready @89/89/89)
     logic [W-1:0] t1_vB_z;
     assign t1_vB_z = dl_skip[3] ? dl_t0_vB_z[2*W +: W] : dl_t1_sub238;
     logic [W-1:0] dl_t1_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vB_z (.clk(clk), .d(t1_vB_z), .q(dl_t1_vB_z));
+        u_dl_t1_vB_z (.clk(clk), .d(t1_vB_z), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_z));
     // t1_angB_x = IInvB_x * t1_cB_x   (ready @14/14/14)
     logic [W-1:0] t1_angB_x;
     logic [2:0] fl_t1_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x), .b(dl_t1_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_x), .b(dl_t1_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[165]), .y(t1_angB_x), .flags(fl_t1_angB_x)
     );
     assign ev_ovf[161] = fl_t1_angB_x[0] && ev_q[14];
@@ -2649,12 +2656,12 @@ module pgs_friction_pipe #(
     assign ev_inv[161] = fl_t1_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
-        u_dl_t1_angB_x (.clk(clk), .d(t1_angB_x), .q(dl_t1_angB_x));
+        u_dl_t1_angB_x (.clk(clk), .d(t1_angB_x), .valid(valid_q[14 +: 68]), .q(dl_t1_angB_x));
     // t1_angB_y = IInvB_y * t1_cB_y   (ready @14/14/14)
     logic [W-1:0] t1_angB_y;
     logic [2:0] fl_t1_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y), .b(dl_t1_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_y), .b(dl_t1_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[166]), .y(t1_angB_y), .flags(fl_t1_angB_y)
     );
     assign ev_ovf[162] = fl_t1_angB_y[0] && ev_q[14];
@@ -2662,12 +2669,12 @@ module pgs_friction_pipe #(
     assign ev_inv[162] = fl_t1_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
-        u_dl_t1_angB_y (.clk(clk), .d(t1_angB_y), .q(dl_t1_angB_y));
+        u_dl_t1_angB_y (.clk(clk), .d(t1_angB_y), .valid(valid_q[14 +: 68]), .q(dl_t1_angB_y));
     // t1_angB_z = IInvB_z * t1_cB_z   (ready @14/14/14)
     logic [W-1:0] t1_angB_z;
     logic [2:0] fl_t1_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z), .b(dl_t1_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_z), .b(dl_t1_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[167]), .y(t1_angB_z), .flags(fl_t1_angB_z)
     );
     assign ev_ovf[163] = fl_t1_angB_z[0] && ev_q[14];
@@ -2675,12 +2682,12 @@ module pgs_friction_pipe #(
     assign ev_inv[163] = fl_t1_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
-        u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .q(dl_t1_angB_z));
+        u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .valid(valid_q[14 +: 68]), .q(dl_t1_angB_z));
     // t1_mul245 = t1_angB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul245;
     logic [2:0] fl_t1_mul245;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul245 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angB_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[168]), .y(t1_mul245), .flags(fl_t1_mul245)
     );
     assign ev_ovf[164] = fl_t1_mul245[0] && ev_q[85];
@@ -2688,12 +2695,12 @@ module pgs_friction_pipe #(
     assign ev_inv[164] = fl_t1_mul245[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul245;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul245 (.clk(clk), .d(t1_mul245), .q(dl_t1_mul245));
+        u_dl_t1_mul245 (.clk(clk), .d(t1_mul245), .valid(1'b0), .q(dl_t1_mul245));
     // t1_mul246 = t1_angB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul246;
     logic [2:0] fl_t1_mul246;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul246 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angB_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[169]), .y(t1_mul246), .flags(fl_t1_mul246)
     );
     assign ev_ovf[165] = fl_t1_mul246[0] && ev_q[85];
@@ -2701,12 +2708,12 @@ module pgs_friction_pipe #(
     assign ev_inv[165] = fl_t1_mul246[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul246;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul246 (.clk(clk), .d(t1_mul246), .q(dl_t1_mul246));
+        u_dl_t1_mul246 (.clk(clk), .d(t1_mul246), .valid(1'b0), .q(dl_t1_mul246));
     // t1_mul247 = t1_angB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul247;
     logic [2:0] fl_t1_mul247;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul247 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angB_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[170]), .y(t1_mul247), .flags(fl_t1_mul247)
     );
     assign ev_ovf[166] = fl_t1_mul247[0] && ev_q[85];
@@ -2714,12 +2721,12 @@ module pgs_friction_pipe #(
     assign ev_inv[166] = fl_t1_mul247[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul247;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul247 (.clk(clk), .d(t1_mul247), .q(dl_t1_mul247));
+        u_dl_t1_mul247 (.clk(clk), .d(t1_mul247), .valid(1'b0), .q(dl_t1_mul247));
     // t1_sub248 = t0_wB_x - t1_mul245   (ready @89/89/89)
     logic [W-1:0] t1_sub248;
     logic [2:0] fl_t1_sub248;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub248 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_x[1*W +: W]), .b(dl_t1_mul245), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_x[1*W +: W]), .b(dl_t1_mul245), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(t1_sub248), .flags(fl_t1_sub248)
     );
     assign ev_ovf[167] = fl_t1_sub248[0] && ev_q[89];
@@ -2727,12 +2734,12 @@ module pgs_friction_pipe #(
     assign ev_inv[167] = fl_t1_sub248[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub248;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub248 (.clk(clk), .d(t1_sub248), .q(dl_t1_sub248));
+        u_dl_t1_sub248 (.clk(clk), .d(t1_sub248), .valid(1'b0), .q(dl_t1_sub248));
     // t1_sub249 = t0_wB_y - t1_mul246   (ready @89/89/89)
     logic [W-1:0] t1_sub249;
     logic [2:0] fl_t1_sub249;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub249 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_y[1*W +: W]), .b(dl_t1_mul246), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_y[1*W +: W]), .b(dl_t1_mul246), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(t1_sub249), .flags(fl_t1_sub249)
     );
     assign ev_ovf[168] = fl_t1_sub249[0] && ev_q[89];
@@ -2740,12 +2747,12 @@ module pgs_friction_pipe #(
     assign ev_inv[168] = fl_t1_sub249[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub249;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub249 (.clk(clk), .d(t1_sub249), .q(dl_t1_sub249));
+        u_dl_t1_sub249 (.clk(clk), .d(t1_sub249), .valid(1'b0), .q(dl_t1_sub249));
     // t1_sub250 = t0_wB_z - t1_mul247   (ready @89/89/89)
     logic [W-1:0] t1_sub250;
     logic [2:0] fl_t1_sub250;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub250 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_z[1*W +: W]), .b(dl_t1_mul247), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_z[1*W +: W]), .b(dl_t1_mul247), .sub(1'b1),
         .out_valid(op_valid_nc[173]), .y(t1_sub250), .flags(fl_t1_sub250)
     );
     assign ev_ovf[169] = fl_t1_sub250[0] && ev_q[89];
@@ -2753,30 +2760,30 @@ module pgs_friction_pipe #(
     assign ev_inv[169] = fl_t1_sub250[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub250;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub250 (.clk(clk), .d(t1_sub250), .q(dl_t1_sub250));
+        u_dl_t1_sub250 (.clk(clk), .d(t1_sub250), .valid(1'b0), .q(dl_t1_sub250));
     // t1_wB_x = skip ? t0_wB_x : t1_sub248   (ready @89/89/89)
     logic [W-1:0] t1_wB_x;
     assign t1_wB_x = dl_skip[3] ? dl_t0_wB_x[2*W +: W] : dl_t1_sub248;
     logic [3*W-1:0] dl_t1_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wB_x (.clk(clk), .d(t1_wB_x), .q(dl_t1_wB_x));
+        u_dl_t1_wB_x (.clk(clk), .d(t1_wB_x), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_x));
     // t1_wB_y = skip ? t0_wB_y : t1_sub249   (ready @89/89/89)
     logic [W-1:0] t1_wB_y;
     assign t1_wB_y = dl_skip[3] ? dl_t0_wB_y[2*W +: W] : dl_t1_sub249;
     logic [3*W-1:0] dl_t1_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wB_y (.clk(clk), .d(t1_wB_y), .q(dl_t1_wB_y));
+        u_dl_t1_wB_y (.clk(clk), .d(t1_wB_y), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_y));
     // t1_wB_z = skip ? t0_wB_z : t1_sub250   (ready @89/89/89)
     logic [W-1:0] t1_wB_z;
     assign t1_wB_z = dl_skip[3] ? dl_t0_wB_z[2*W +: W] : dl_t1_sub250;
     logic [3*W-1:0] dl_t1_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wB_z (.clk(clk), .d(t1_wB_z), .q(dl_t1_wB_z));
+        u_dl_t1_wB_z (.clk(clk), .d(t1_wB_z), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_z));
     // spin_mul255 = n_x * t1_wA_x   (ready @92/92/92)
     logic [W-1:0] spin_mul255;
     logic [2:0] fl_spin_mul255;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul255 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[174]), .y(spin_mul255), .flags(fl_spin_mul255)
     );
     assign ev_ovf[170] = fl_spin_mul255[0] && ev_q[92];
@@ -2784,12 +2791,12 @@ module pgs_friction_pipe #(
     assign ev_inv[170] = fl_spin_mul255[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul255;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul255 (.clk(clk), .d(spin_mul255), .q(dl_spin_mul255));
+        u_dl_spin_mul255 (.clk(clk), .d(spin_mul255), .valid(1'b0), .q(dl_spin_mul255));
     // spin_mul256 = n_y * t1_wA_y   (ready @92/92/92)
     logic [W-1:0] spin_mul256;
     logic [2:0] fl_spin_mul256;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul256 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[175]), .y(spin_mul256), .flags(fl_spin_mul256)
     );
     assign ev_ovf[171] = fl_spin_mul256[0] && ev_q[92];
@@ -2797,12 +2804,12 @@ module pgs_friction_pipe #(
     assign ev_inv[171] = fl_spin_mul256[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul256;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul256 (.clk(clk), .d(spin_mul256), .q(dl_spin_mul256));
+        u_dl_spin_mul256 (.clk(clk), .d(spin_mul256), .valid(1'b0), .q(dl_spin_mul256));
     // spin_add257 = spin_mul255 + spin_mul256   (ready @96/96/96)
     logic [W-1:0] spin_add257;
     logic [2:0] fl_spin_add257;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add257 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_mul255), .b(dl_spin_mul256), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[92]), .a(dl_spin_mul255), .b(dl_spin_mul256), .sub(1'b0),
         .out_valid(op_valid_nc[176]), .y(spin_add257), .flags(fl_spin_add257)
     );
     assign ev_ovf[172] = fl_spin_add257[0] && ev_q[96];
@@ -2810,12 +2817,12 @@ module pgs_friction_pipe #(
     assign ev_inv[172] = fl_spin_add257[2] && ev_q[96];
     logic [W-1:0] dl_spin_add257;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add257 (.clk(clk), .d(spin_add257), .q(dl_spin_add257));
+        u_dl_spin_add257 (.clk(clk), .d(spin_add257), .valid(1'b0), .q(dl_spin_add257));
     // spin_mul258 = n_z * t1_wA_z   (ready @92/92/92)
     logic [W-1:0] spin_mul258;
     logic [2:0] fl_spin_mul258;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul258 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[177]), .y(spin_mul258), .flags(fl_spin_mul258)
     );
     assign ev_ovf[173] = fl_spin_mul258[0] && ev_q[92];
@@ -2823,12 +2830,12 @@ module pgs_friction_pipe #(
     assign ev_inv[173] = fl_spin_mul258[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul258;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_spin_mul258 (.clk(clk), .d(spin_mul258), .q(dl_spin_mul258));
+        u_dl_spin_mul258 (.clk(clk), .d(spin_mul258), .valid(valid_q[92 +: 4]), .q(dl_spin_mul258));
     // spin_add259 = spin_add257 + spin_mul258   (ready @100/100/100)
     logic [W-1:0] spin_add259;
     logic [2:0] fl_spin_add259;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add259 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add257), .b(dl_spin_mul258), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[96]), .a(dl_spin_add257), .b(dl_spin_mul258), .sub(1'b0),
         .out_valid(op_valid_nc[178]), .y(spin_add259), .flags(fl_spin_add259)
     );
     assign ev_ovf[174] = fl_spin_add259[0] && ev_q[100];
@@ -2836,12 +2843,12 @@ module pgs_friction_pipe #(
     assign ev_inv[174] = fl_spin_add259[2] && ev_q[100];
     logic [W-1:0] dl_spin_add259;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add259 (.clk(clk), .d(spin_add259), .q(dl_spin_add259));
+        u_dl_spin_add259 (.clk(clk), .d(spin_add259), .valid(1'b0), .q(dl_spin_add259));
     // spin_sA = spin_add259 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sA;
     logic [2:0] fl_spin_sA;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_sA (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add259), .b(K_SPIN_DAMP),
+        .clk(clk), .rst(rst), .in_valid(valid_q[100]), .a(dl_spin_add259), .b(K_SPIN_DAMP),
         .out_valid(op_valid_nc[179]), .y(spin_sA), .flags(fl_spin_sA)
     );
     assign ev_ovf[175] = fl_spin_sA[0] && ev_q[103];
@@ -2849,12 +2856,12 @@ module pgs_friction_pipe #(
     assign ev_inv[175] = fl_spin_sA[2] && ev_q[103];
     logic [W-1:0] dl_spin_sA;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_sA (.clk(clk), .d(spin_sA), .q(dl_spin_sA));
+        u_dl_spin_sA (.clk(clk), .d(spin_sA), .valid(1'b0), .q(dl_spin_sA));
     // spin_mul261 = n_x * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul261;
     logic [2:0] fl_spin_mul261;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul261 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sA),
         .out_valid(op_valid_nc[180]), .y(spin_mul261), .flags(fl_spin_mul261)
     );
     assign ev_ovf[176] = fl_spin_mul261[0] && ev_q[106];
@@ -2862,12 +2869,12 @@ module pgs_friction_pipe #(
     assign ev_inv[176] = fl_spin_mul261[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul261;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul261 (.clk(clk), .d(spin_mul261), .q(dl_spin_mul261));
+        u_dl_spin_mul261 (.clk(clk), .d(spin_mul261), .valid(1'b0), .q(dl_spin_mul261));
     // spin_mul262 = n_y * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul262;
     logic [2:0] fl_spin_mul262;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul262 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sA),
         .out_valid(op_valid_nc[181]), .y(spin_mul262), .flags(fl_spin_mul262)
     );
     assign ev_ovf[177] = fl_spin_mul262[0] && ev_q[106];
@@ -2875,12 +2882,12 @@ module pgs_friction_pipe #(
     assign ev_inv[177] = fl_spin_mul262[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul262;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul262 (.clk(clk), .d(spin_mul262), .q(dl_spin_mul262));
+        u_dl_spin_mul262 (.clk(clk), .d(spin_mul262), .valid(1'b0), .q(dl_spin_mul262));
     // spin_mul263 = n_z * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul263;
     logic [2:0] fl_spin_mul263;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul263 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sA),
         .out_valid(op_valid_nc[182]), .y(spin_mul263), .flags(fl_spin_mul263)
     );
     assign ev_ovf[178] = fl_spin_mul263[0] && ev_q[106];
@@ -2888,12 +2895,12 @@ module pgs_friction_pipe #(
     assign ev_inv[178] = fl_spin_mul263[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul263;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul263 (.clk(clk), .d(spin_mul263), .q(dl_spin_mul263));
+        u_dl_spin_mul263 (.clk(clk), .d(spin_mul263), .valid(1'b0), .q(dl_spin_mul263));
     // spin_wA_damped_x = t1_wA_x - spin_mul261   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_x;
     logic [2:0] fl_spin_wA_damped_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_x[1*W +: W]), .b(dl_spin_mul261), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_x[1*W +: W]), .b(dl_spin_mul261), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(spin_wA_damped_x), .flags(fl_spin_wA_damped_x)
     );
     assign ev_ovf[179] = fl_spin_wA_damped_x[0] && ev_q[110];
@@ -2901,12 +2908,12 @@ module pgs_friction_pipe #(
     assign ev_inv[179] = fl_spin_wA_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_damped_x (.clk(clk), .d(spin_wA_damped_x), .q(dl_spin_wA_damped_x));
+        u_dl_spin_wA_damped_x (.clk(clk), .d(spin_wA_damped_x), .valid(1'b0), .q(dl_spin_wA_damped_x));
     // spin_wA_damped_y = t1_wA_y - spin_mul262   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_y;
     logic [2:0] fl_spin_wA_damped_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_y[1*W +: W]), .b(dl_spin_mul262), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_y[1*W +: W]), .b(dl_spin_mul262), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(spin_wA_damped_y), .flags(fl_spin_wA_damped_y)
     );
     assign ev_ovf[180] = fl_spin_wA_damped_y[0] && ev_q[110];
@@ -2914,12 +2921,12 @@ module pgs_friction_pipe #(
     assign ev_inv[180] = fl_spin_wA_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_damped_y (.clk(clk), .d(spin_wA_damped_y), .q(dl_spin_wA_damped_y));
+        u_dl_spin_wA_damped_y (.clk(clk), .d(spin_wA_damped_y), .valid(1'b0), .q(dl_spin_wA_damped_y));
     // spin_wA_damped_z = t1_wA_z - spin_mul263   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_z;
     logic [2:0] fl_spin_wA_damped_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_z[1*W +: W]), .b(dl_spin_mul263), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_z[1*W +: W]), .b(dl_spin_mul263), .sub(1'b1),
         .out_valid(op_valid_nc[185]), .y(spin_wA_damped_z), .flags(fl_spin_wA_damped_z)
     );
     assign ev_ovf[181] = fl_spin_wA_damped_z[0] && ev_q[110];
@@ -2927,12 +2934,12 @@ module pgs_friction_pipe #(
     assign ev_inv[181] = fl_spin_wA_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_damped_z (.clk(clk), .d(spin_wA_damped_z), .q(dl_spin_wA_damped_z));
+        u_dl_spin_wA_damped_z (.clk(clk), .d(spin_wA_damped_z), .valid(1'b0), .q(dl_spin_wA_damped_z));
     // spin_mul267 = n_x * t1_wB_x   (ready @92/92/92)
     logic [W-1:0] spin_mul267;
     logic [2:0] fl_spin_mul267;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul267 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[186]), .y(spin_mul267), .flags(fl_spin_mul267)
     );
     assign ev_ovf[182] = fl_spin_mul267[0] && ev_q[92];
@@ -2940,12 +2947,12 @@ module pgs_friction_pipe #(
     assign ev_inv[182] = fl_spin_mul267[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul267;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul267 (.clk(clk), .d(spin_mul267), .q(dl_spin_mul267));
+        u_dl_spin_mul267 (.clk(clk), .d(spin_mul267), .valid(1'b0), .q(dl_spin_mul267));
     // spin_mul268 = n_y * t1_wB_y   (ready @92/92/92)
     logic [W-1:0] spin_mul268;
     logic [2:0] fl_spin_mul268;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul268 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[187]), .y(spin_mul268), .flags(fl_spin_mul268)
     );
     assign ev_ovf[183] = fl_spin_mul268[0] && ev_q[92];
@@ -2953,12 +2960,12 @@ module pgs_friction_pipe #(
     assign ev_inv[183] = fl_spin_mul268[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul268;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul268 (.clk(clk), .d(spin_mul268), .q(dl_spin_mul268));
+        u_dl_spin_mul268 (.clk(clk), .d(spin_mul268), .valid(1'b0), .q(dl_spin_mul268));
     // spin_add269 = spin_mul267 + spin_mul268   (ready @96/96/96)
     logic [W-1:0] spin_add269;
     logic [2:0] fl_spin_add269;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add269 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_mul267), .b(dl_spin_mul268), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[92]), .a(dl_spin_mul267), .b(dl_spin_mul268), .sub(1'b0),
         .out_valid(op_valid_nc[188]), .y(spin_add269), .flags(fl_spin_add269)
     );
     assign ev_ovf[184] = fl_spin_add269[0] && ev_q[96];
@@ -2966,12 +2973,12 @@ module pgs_friction_pipe #(
     assign ev_inv[184] = fl_spin_add269[2] && ev_q[96];
     logic [W-1:0] dl_spin_add269;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add269 (.clk(clk), .d(spin_add269), .q(dl_spin_add269));
+        u_dl_spin_add269 (.clk(clk), .d(spin_add269), .valid(1'b0), .q(dl_spin_add269));
     // spin_mul270 = n_z * t1_wB_z   (ready @92/92/92)
     logic [W-1:0] spin_mul270;
     logic [2:0] fl_spin_mul270;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul270 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[189]), .y(spin_mul270), .flags(fl_spin_mul270)
     );
     assign ev_ovf[185] = fl_spin_mul270[0] && ev_q[92];
@@ -2979,12 +2986,12 @@ module pgs_friction_pipe #(
     assign ev_inv[185] = fl_spin_mul270[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul270;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_spin_mul270 (.clk(clk), .d(spin_mul270), .q(dl_spin_mul270));
+        u_dl_spin_mul270 (.clk(clk), .d(spin_mul270), .valid(valid_q[92 +: 4]), .q(dl_spin_mul270));
     // spin_add271 = spin_add269 + spin_mul270   (ready @100/100/100)
     logic [W-1:0] spin_add271;
     logic [2:0] fl_spin_add271;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add271 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add269), .b(dl_spin_mul270), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[96]), .a(dl_spin_add269), .b(dl_spin_mul270), .sub(1'b0),
         .out_valid(op_valid_nc[190]), .y(spin_add271), .flags(fl_spin_add271)
     );
     assign ev_ovf[186] = fl_spin_add271[0] && ev_q[100];
@@ -2992,12 +2999,12 @@ module pgs_friction_pipe #(
     assign ev_inv[186] = fl_spin_add271[2] && ev_q[100];
     logic [W-1:0] dl_spin_add271;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add271 (.clk(clk), .d(spin_add271), .q(dl_spin_add271));
+        u_dl_spin_add271 (.clk(clk), .d(spin_add271), .valid(1'b0), .q(dl_spin_add271));
     // spin_sB = spin_add271 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sB;
     logic [2:0] fl_spin_sB;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_sB (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add271), .b(K_SPIN_DAMP),
+        .clk(clk), .rst(rst), .in_valid(valid_q[100]), .a(dl_spin_add271), .b(K_SPIN_DAMP),
         .out_valid(op_valid_nc[191]), .y(spin_sB), .flags(fl_spin_sB)
     );
     assign ev_ovf[187] = fl_spin_sB[0] && ev_q[103];
@@ -3005,12 +3012,12 @@ module pgs_friction_pipe #(
     assign ev_inv[187] = fl_spin_sB[2] && ev_q[103];
     logic [W-1:0] dl_spin_sB;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_sB (.clk(clk), .d(spin_sB), .q(dl_spin_sB));
+        u_dl_spin_sB (.clk(clk), .d(spin_sB), .valid(1'b0), .q(dl_spin_sB));
     // spin_mul273 = n_x * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul273;
     logic [2:0] fl_spin_mul273;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul273 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sB),
         .out_valid(op_valid_nc[192]), .y(spin_mul273), .flags(fl_spin_mul273)
     );
     assign ev_ovf[188] = fl_spin_mul273[0] && ev_q[106];
@@ -3018,12 +3025,12 @@ module pgs_friction_pipe #(
     assign ev_inv[188] = fl_spin_mul273[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul273;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul273 (.clk(clk), .d(spin_mul273), .q(dl_spin_mul273));
+        u_dl_spin_mul273 (.clk(clk), .d(spin_mul273), .valid(1'b0), .q(dl_spin_mul273));
     // spin_mul274 = n_y * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul274;
     logic [2:0] fl_spin_mul274;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul274 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sB),
         .out_valid(op_valid_nc[193]), .y(spin_mul274), .flags(fl_spin_mul274)
     );
     assign ev_ovf[189] = fl_spin_mul274[0] && ev_q[106];
@@ -3031,12 +3038,12 @@ module pgs_friction_pipe #(
     assign ev_inv[189] = fl_spin_mul274[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul274;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul274 (.clk(clk), .d(spin_mul274), .q(dl_spin_mul274));
+        u_dl_spin_mul274 (.clk(clk), .d(spin_mul274), .valid(1'b0), .q(dl_spin_mul274));
     // spin_mul275 = n_z * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul275;
     logic [2:0] fl_spin_mul275;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul275 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sB),
         .out_valid(op_valid_nc[194]), .y(spin_mul275), .flags(fl_spin_mul275)
     );
     assign ev_ovf[190] = fl_spin_mul275[0] && ev_q[106];
@@ -3044,12 +3051,12 @@ module pgs_friction_pipe #(
     assign ev_inv[190] = fl_spin_mul275[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul275;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul275 (.clk(clk), .d(spin_mul275), .q(dl_spin_mul275));
+        u_dl_spin_mul275 (.clk(clk), .d(spin_mul275), .valid(1'b0), .q(dl_spin_mul275));
     // spin_wB_damped_x = t1_wB_x - spin_mul273   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_x;
     logic [2:0] fl_spin_wB_damped_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_x[1*W +: W]), .b(dl_spin_mul273), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_x[1*W +: W]), .b(dl_spin_mul273), .sub(1'b1),
         .out_valid(op_valid_nc[195]), .y(spin_wB_damped_x), .flags(fl_spin_wB_damped_x)
     );
     assign ev_ovf[191] = fl_spin_wB_damped_x[0] && ev_q[110];
@@ -3057,12 +3064,12 @@ module pgs_friction_pipe #(
     assign ev_inv[191] = fl_spin_wB_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_damped_x (.clk(clk), .d(spin_wB_damped_x), .q(dl_spin_wB_damped_x));
+        u_dl_spin_wB_damped_x (.clk(clk), .d(spin_wB_damped_x), .valid(1'b0), .q(dl_spin_wB_damped_x));
     // spin_wB_damped_y = t1_wB_y - spin_mul274   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_y;
     logic [2:0] fl_spin_wB_damped_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_y[1*W +: W]), .b(dl_spin_mul274), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_y[1*W +: W]), .b(dl_spin_mul274), .sub(1'b1),
         .out_valid(op_valid_nc[196]), .y(spin_wB_damped_y), .flags(fl_spin_wB_damped_y)
     );
     assign ev_ovf[192] = fl_spin_wB_damped_y[0] && ev_q[110];
@@ -3070,12 +3077,12 @@ module pgs_friction_pipe #(
     assign ev_inv[192] = fl_spin_wB_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_damped_y (.clk(clk), .d(spin_wB_damped_y), .q(dl_spin_wB_damped_y));
+        u_dl_spin_wB_damped_y (.clk(clk), .d(spin_wB_damped_y), .valid(1'b0), .q(dl_spin_wB_damped_y));
     // spin_wB_damped_z = t1_wB_z - spin_mul275   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_z;
     logic [2:0] fl_spin_wB_damped_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_z[1*W +: W]), .b(dl_spin_mul275), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_z[1*W +: W]), .b(dl_spin_mul275), .sub(1'b1),
         .out_valid(op_valid_nc[197]), .y(spin_wB_damped_z), .flags(fl_spin_wB_damped_z)
     );
     assign ev_ovf[193] = fl_spin_wB_damped_z[0] && ev_q[110];
@@ -3083,79 +3090,79 @@ module pgs_friction_pipe #(
     assign ev_inv[193] = fl_spin_wB_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_damped_z (.clk(clk), .d(spin_wB_damped_z), .q(dl_spin_wB_damped_z));
+        u_dl_spin_wB_damped_z (.clk(clk), .d(spin_wB_damped_z), .valid(1'b0), .q(dl_spin_wB_damped_z));
     // spin_select279 = spin_damp ? spin_wA_damped_x : t1_wA_x   (ready @110/110/110)
     logic [W-1:0] spin_select279;
     assign spin_select279 = dl_in_spin_damp ? dl_spin_wA_damped_x : dl_t1_wA_x[2*W +: W];
     logic [W-1:0] dl_spin_select279;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select279 (.clk(clk), .d(spin_select279), .q(dl_spin_select279));
+        u_dl_spin_select279 (.clk(clk), .d(spin_select279), .valid(1'b0), .q(dl_spin_select279));
     // spin_select280 = spin_damp ? spin_wA_damped_y : t1_wA_y   (ready @110/110/110)
     logic [W-1:0] spin_select280;
     assign spin_select280 = dl_in_spin_damp ? dl_spin_wA_damped_y : dl_t1_wA_y[2*W +: W];
     logic [W-1:0] dl_spin_select280;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select280 (.clk(clk), .d(spin_select280), .q(dl_spin_select280));
+        u_dl_spin_select280 (.clk(clk), .d(spin_select280), .valid(1'b0), .q(dl_spin_select280));
     // spin_select281 = spin_damp ? spin_wA_damped_z : t1_wA_z   (ready @110/110/110)
     logic [W-1:0] spin_select281;
     assign spin_select281 = dl_in_spin_damp ? dl_spin_wA_damped_z : dl_t1_wA_z[2*W +: W];
     logic [W-1:0] dl_spin_select281;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select281 (.clk(clk), .d(spin_select281), .q(dl_spin_select281));
+        u_dl_spin_select281 (.clk(clk), .d(spin_select281), .valid(1'b0), .q(dl_spin_select281));
     // spin_wA_x = skip ? t1_wA_x : spin_select279   (ready @110/110/110)
     logic [W-1:0] spin_wA_x;
     assign spin_wA_x = dl_skip[4] ? dl_t1_wA_x[2*W +: W] : dl_spin_select279;
     logic [W-1:0] dl_spin_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_x (.clk(clk), .d(spin_wA_x), .q(dl_spin_wA_x));
+        u_dl_spin_wA_x (.clk(clk), .d(spin_wA_x), .valid(1'b0), .q(dl_spin_wA_x));
     // spin_wA_y = skip ? t1_wA_y : spin_select280   (ready @110/110/110)
     logic [W-1:0] spin_wA_y;
     assign spin_wA_y = dl_skip[4] ? dl_t1_wA_y[2*W +: W] : dl_spin_select280;
     logic [W-1:0] dl_spin_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_y (.clk(clk), .d(spin_wA_y), .q(dl_spin_wA_y));
+        u_dl_spin_wA_y (.clk(clk), .d(spin_wA_y), .valid(1'b0), .q(dl_spin_wA_y));
     // spin_wA_z = skip ? t1_wA_z : spin_select281   (ready @110/110/110)
     logic [W-1:0] spin_wA_z;
     assign spin_wA_z = dl_skip[4] ? dl_t1_wA_z[2*W +: W] : dl_spin_select281;
     logic [W-1:0] dl_spin_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_z (.clk(clk), .d(spin_wA_z), .q(dl_spin_wA_z));
+        u_dl_spin_wA_z (.clk(clk), .d(spin_wA_z), .valid(1'b0), .q(dl_spin_wA_z));
     // spin_select285 = spin_damp ? spin_wB_damped_x : t1_wB_x   (ready @110/110/110)
     logic [W-1:0] spin_select285;
     assign spin_select285 = dl_in_spin_damp ? dl_spin_wB_damped_x : dl_t1_wB_x[2*W +: W];
     logic [W-1:0] dl_spin_select285;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select285 (.clk(clk), .d(spin_select285), .q(dl_spin_select285));
+        u_dl_spin_select285 (.clk(clk), .d(spin_select285), .valid(1'b0), .q(dl_spin_select285));
     // spin_select286 = spin_damp ? spin_wB_damped_y : t1_wB_y   (ready @110/110/110)
     logic [W-1:0] spin_select286;
     assign spin_select286 = dl_in_spin_damp ? dl_spin_wB_damped_y : dl_t1_wB_y[2*W +: W];
     logic [W-1:0] dl_spin_select286;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select286 (.clk(clk), .d(spin_select286), .q(dl_spin_select286));
+        u_dl_spin_select286 (.clk(clk), .d(spin_select286), .valid(1'b0), .q(dl_spin_select286));
     // spin_select287 = spin_damp ? spin_wB_damped_z : t1_wB_z   (ready @110/110/110)
     logic [W-1:0] spin_select287;
     assign spin_select287 = dl_in_spin_damp ? dl_spin_wB_damped_z : dl_t1_wB_z[2*W +: W];
     logic [W-1:0] dl_spin_select287;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select287 (.clk(clk), .d(spin_select287), .q(dl_spin_select287));
+        u_dl_spin_select287 (.clk(clk), .d(spin_select287), .valid(1'b0), .q(dl_spin_select287));
     // spin_wB_x = skip ? t1_wB_x : spin_select285   (ready @110/110/110)
     logic [W-1:0] spin_wB_x;
     assign spin_wB_x = dl_skip[4] ? dl_t1_wB_x[2*W +: W] : dl_spin_select285;
     logic [W-1:0] dl_spin_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_x (.clk(clk), .d(spin_wB_x), .q(dl_spin_wB_x));
+        u_dl_spin_wB_x (.clk(clk), .d(spin_wB_x), .valid(1'b0), .q(dl_spin_wB_x));
     // spin_wB_y = skip ? t1_wB_y : spin_select286   (ready @110/110/110)
     logic [W-1:0] spin_wB_y;
     assign spin_wB_y = dl_skip[4] ? dl_t1_wB_y[2*W +: W] : dl_spin_select286;
     logic [W-1:0] dl_spin_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_y (.clk(clk), .d(spin_wB_y), .q(dl_spin_wB_y));
+        u_dl_spin_wB_y (.clk(clk), .d(spin_wB_y), .valid(1'b0), .q(dl_spin_wB_y));
     // spin_wB_z = skip ? t1_wB_z : spin_select287   (ready @110/110/110)
     logic [W-1:0] spin_wB_z;
     assign spin_wB_z = dl_skip[4] ? dl_t1_wB_z[2*W +: W] : dl_spin_select287;
     logic [W-1:0] dl_spin_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_z (.clk(clk), .d(spin_wB_z), .q(dl_spin_wB_z));
+        u_dl_spin_wB_z (.clk(clk), .d(spin_wB_z), .valid(1'b0), .q(dl_spin_wB_z));
 
     // Outputs, each delayed to LATENCY.
     assign out_data[0*W +: W] = dl_t0_lamT;   // lamT0

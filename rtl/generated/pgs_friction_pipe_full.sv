@@ -72,23 +72,30 @@ module pgs_friction_pipe_full #(
     logic         nc_t1_lam_new_lt, nc_t1_lam_new_eq, nc_t1_lam_new_uo;
     /* verilator lint_on UNUSEDSIGNAL */
 
-    // Valid and tag pipelines.
+    // Valid and tag pipelines. valid_q[k]: in_valid k cycles ago; an operator's in_valid is the
+    // bit at its issue cycle, so its register stages are enabled only for the pipeline's inputs.
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [LATENCY:0] valid_q;   // the stages after the last operator's issue are not read
+    /* verilator lint_on UNUSEDSIGNAL */
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
+        .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (.clk(clk), .d(in_tag), .q(out_tag));
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+        .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
+    );
 
     // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);
     // an operator's flags belong to the input taken at its ready cycle minus that many cycles.
     localparam int EV_DEPTH = 110;
-    logic [EV_DEPTH:0] ev_q;
-    assign ev_q[0] = in_valid && in_count;
-    for (genvar i = 1; i <= EV_DEPTH; i++) begin : g_ev
-        always_ff @(posedge clk) begin
-            if (rst) ev_q[i] <= 1'b0;
-            else     ev_q[i] <= ev_q[i-1];
-        end
+    logic [EV_DEPTH:1] ev_r;
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [EV_DEPTH:0] ev_q;   // read at the operators' ready cycles only
+    /* verilator lint_on UNUSEDSIGNAL */
+    always_ff @(posedge clk) begin   // one shift of the whole register
+        if (rst) ev_r <= '0;
+        else     ev_r <= EV_DEPTH'({ev_r, in_valid && in_count});
     end
+    assign ev_q = {ev_r, in_valid && in_count};
     logic [N_FP_OPS-1:0] ev_ovf, ev_unf, ev_inv;   // flags of counted inputs, one bit per operator
     always_ff @(posedge clk) begin
         ev_overflow  <= EV_W'($countones(ev_ovf));
@@ -101,265 +108,265 @@ module pgs_friction_pipe_full #(
     assign in_n_x = in_data[0*W +: W];
     logic [2*W-1:0] dl_in_n_x;
     pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
-        u_dl_in_n_x (.clk(clk), .d(in_n_x), .q(dl_in_n_x));
+        u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 103]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [2*W-1:0] dl_in_n_y;
     pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
-        u_dl_in_n_y (.clk(clk), .d(in_n_y), .q(dl_in_n_y));
+        u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 103]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [2*W-1:0] dl_in_n_z;
     pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
-        u_dl_in_n_z (.clk(clk), .d(in_n_z), .q(dl_in_n_z));
+        u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 103]), .q(dl_in_n_z));
     logic [W-1:0] in_c_x;
     assign in_c_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_c_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_c_x (.clk(clk), .d(in_c_x), .q(dl_in_c_x));
+        u_dl_in_c_x (.clk(clk), .d(in_c_x), .valid(1'b0), .q(dl_in_c_x));
     logic [W-1:0] in_c_y;
     assign in_c_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_c_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_c_y (.clk(clk), .d(in_c_y), .q(dl_in_c_y));
+        u_dl_in_c_y (.clk(clk), .d(in_c_y), .valid(1'b0), .q(dl_in_c_y));
     logic [W-1:0] in_c_z;
     assign in_c_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_c_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_c_z (.clk(clk), .d(in_c_z), .q(dl_in_c_z));
+        u_dl_in_c_z (.clk(clk), .d(in_c_z), .valid(1'b0), .q(dl_in_c_z));
     logic [W-1:0] in_t0_x;
     assign in_t0_x = in_data[6*W +: W];
     logic [2*W-1:0] dl_in_t0_x;
     pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
-        u_dl_in_t0_x (.clk(clk), .d(in_t0_x), .q(dl_in_t0_x));
+        u_dl_in_t0_x (.clk(clk), .d(in_t0_x), .valid(valid_q[0 +: 4]), .q(dl_in_t0_x));
     logic [W-1:0] in_t0_y;
     assign in_t0_y = in_data[7*W +: W];
     logic [2*W-1:0] dl_in_t0_y;
     pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
-        u_dl_in_t0_y (.clk(clk), .d(in_t0_y), .q(dl_in_t0_y));
+        u_dl_in_t0_y (.clk(clk), .d(in_t0_y), .valid(valid_q[0 +: 4]), .q(dl_in_t0_y));
     logic [W-1:0] in_t0_z;
     assign in_t0_z = in_data[8*W +: W];
     logic [2*W-1:0] dl_in_t0_z;
     pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
-        u_dl_in_t0_z (.clk(clk), .d(in_t0_z), .q(dl_in_t0_z));
+        u_dl_in_t0_z (.clk(clk), .d(in_t0_z), .valid(valid_q[0 +: 4]), .q(dl_in_t0_z));
     logic [W-1:0] in_t1_x;
     assign in_t1_x = in_data[9*W +: W];
     logic [3*W-1:0] dl_in_t1_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
-        u_dl_in_t1_x (.clk(clk), .d(in_t1_x), .q(dl_in_t1_x));
+        u_dl_in_t1_x (.clk(clk), .d(in_t1_x), .valid(valid_q[0 +: 50]), .q(dl_in_t1_x));
     logic [W-1:0] in_t1_y;
     assign in_t1_y = in_data[10*W +: W];
     logic [3*W-1:0] dl_in_t1_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
-        u_dl_in_t1_y (.clk(clk), .d(in_t1_y), .q(dl_in_t1_y));
+        u_dl_in_t1_y (.clk(clk), .d(in_t1_y), .valid(valid_q[0 +: 50]), .q(dl_in_t1_y));
     logic [W-1:0] in_t1_z;
     assign in_t1_z = in_data[11*W +: W];
     logic [3*W-1:0] dl_in_t1_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
-        u_dl_in_t1_z (.clk(clk), .d(in_t1_z), .q(dl_in_t1_z));
+        u_dl_in_t1_z (.clk(clk), .d(in_t1_z), .valid(valid_q[0 +: 50]), .q(dl_in_t1_z));
     logic [W-1:0] in_f_jac_inv0;
     assign in_f_jac_inv0 = in_data[12*W +: W];
     logic [2*W-1:0] dl_in_f_jac_inv0;
     pgs_delay #(.WIDTH(W), .DEPTH(30), .N_TAPS(2), .TAPS({32'(30), 32'(0)}))
-        u_dl_in_f_jac_inv0 (.clk(clk), .d(in_f_jac_inv0), .q(dl_in_f_jac_inv0));
+        u_dl_in_f_jac_inv0 (.clk(clk), .d(in_f_jac_inv0), .valid(valid_q[0 +: 30]), .q(dl_in_f_jac_inv0));
     logic [W-1:0] in_f_jac_inv1;
     assign in_f_jac_inv1 = in_data[13*W +: W];
     logic [W-1:0] dl_in_f_jac_inv1;
     pgs_delay #(.WIDTH(W), .DEPTH(69))
-        u_dl_in_f_jac_inv1 (.clk(clk), .d(in_f_jac_inv1), .q(dl_in_f_jac_inv1));
+        u_dl_in_f_jac_inv1 (.clk(clk), .d(in_f_jac_inv1), .valid(valid_q[0 +: 69]), .q(dl_in_f_jac_inv1));
     logic [W-1:0] in_lam_n0;
     assign in_lam_n0 = in_data[14*W +: W];
     logic [W-1:0] dl_in_lam_n0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n0 (.clk(clk), .d(in_lam_n0), .q(dl_in_lam_n0));
+        u_dl_in_lam_n0 (.clk(clk), .d(in_lam_n0), .valid(1'b0), .q(dl_in_lam_n0));
     logic [W-1:0] in_lam_n1;
     assign in_lam_n1 = in_data[15*W +: W];
     logic [W-1:0] dl_in_lam_n1;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n1 (.clk(clk), .d(in_lam_n1), .q(dl_in_lam_n1));
+        u_dl_in_lam_n1 (.clk(clk), .d(in_lam_n1), .valid(1'b0), .q(dl_in_lam_n1));
     logic [W-1:0] in_lam_n2;
     assign in_lam_n2 = in_data[16*W +: W];
     logic [W-1:0] dl_in_lam_n2;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n2 (.clk(clk), .d(in_lam_n2), .q(dl_in_lam_n2));
+        u_dl_in_lam_n2 (.clk(clk), .d(in_lam_n2), .valid(1'b0), .q(dl_in_lam_n2));
     logic [W-1:0] in_lam_n3;
     assign in_lam_n3 = in_data[17*W +: W];
     logic [W-1:0] dl_in_lam_n3;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n3 (.clk(clk), .d(in_lam_n3), .q(dl_in_lam_n3));
+        u_dl_in_lam_n3 (.clk(clk), .d(in_lam_n3), .valid(1'b0), .q(dl_in_lam_n3));
     logic [W-1:0] in_lamT0;
     assign in_lamT0 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_lamT0;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(39), 32'(33)}))
-        u_dl_in_lamT0 (.clk(clk), .d(in_lamT0), .q(dl_in_lamT0));
+        u_dl_in_lamT0 (.clk(clk), .d(in_lamT0), .valid(valid_q[0 +: 39]), .q(dl_in_lamT0));
     logic [W-1:0] in_lamT1;
     assign in_lamT1 = in_data[19*W +: W];
     logic [2*W-1:0] dl_in_lamT1;
     pgs_delay #(.WIDTH(W), .DEPTH(78), .N_TAPS(2), .TAPS({32'(78), 32'(72)}))
-        u_dl_in_lamT1 (.clk(clk), .d(in_lamT1), .q(dl_in_lamT1));
+        u_dl_in_lamT1 (.clk(clk), .d(in_lamT1), .valid(valid_q[0 +: 78]), .q(dl_in_lamT1));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[20*W +: W];
     logic [W-1:0] dl_in_xA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .q(dl_in_xA_x));
+        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[21*W +: W];
     logic [W-1:0] dl_in_xA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .q(dl_in_xA_y));
+        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[22*W +: W];
     logic [W-1:0] dl_in_xA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .q(dl_in_xA_z));
+        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[23*W +: W];
     logic [W-1:0] dl_in_xB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .q(dl_in_xB_x));
+        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[24*W +: W];
     logic [W-1:0] dl_in_xB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .q(dl_in_xB_y));
+        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[25*W +: W];
     logic [W-1:0] dl_in_xB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .q(dl_in_xB_z));
+        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[26*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .q(dl_in_vA_x));
+        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 50]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[27*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .q(dl_in_vA_y));
+        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 50]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[28*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .q(dl_in_vA_z));
+        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 50]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[29*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .q(dl_in_wA_x));
+        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 50]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[30*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .q(dl_in_wA_y));
+        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 50]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[31*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .q(dl_in_wA_z));
+        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 50]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[32*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .q(dl_in_vB_x));
+        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 50]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .q(dl_in_vB_y));
+        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 50]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .q(dl_in_vB_z));
+        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 50]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .q(dl_in_wB_x));
+        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 50]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .q(dl_in_wB_y));
+        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 50]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .q(dl_in_wB_z));
+        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 50]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[38*W +: W];
     logic [W-1:0] dl_in_mInvA;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .q(dl_in_mInvA));
+        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[39*W +: W];
     logic [W-1:0] dl_in_mInvB;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .q(dl_in_mInvB));
+        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_xx;
     assign in_IInvA_xx = in_data[40*W +: W];
     logic [W-1:0] dl_in_IInvA_xx;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_xx (.clk(clk), .d(in_IInvA_xx), .q(dl_in_IInvA_xx));
+        u_dl_in_IInvA_xx (.clk(clk), .d(in_IInvA_xx), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_xx));
     logic [W-1:0] in_IInvA_yy;
     assign in_IInvA_yy = in_data[41*W +: W];
     logic [W-1:0] dl_in_IInvA_yy;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_yy (.clk(clk), .d(in_IInvA_yy), .q(dl_in_IInvA_yy));
+        u_dl_in_IInvA_yy (.clk(clk), .d(in_IInvA_yy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_yy));
     logic [W-1:0] in_IInvA_zz;
     assign in_IInvA_zz = in_data[42*W +: W];
     logic [W-1:0] dl_in_IInvA_zz;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_zz (.clk(clk), .d(in_IInvA_zz), .q(dl_in_IInvA_zz));
+        u_dl_in_IInvA_zz (.clk(clk), .d(in_IInvA_zz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_zz));
     logic [W-1:0] in_IInvA_xy;
     assign in_IInvA_xy = in_data[43*W +: W];
     logic [W-1:0] dl_in_IInvA_xy;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_xy (.clk(clk), .d(in_IInvA_xy), .q(dl_in_IInvA_xy));
+        u_dl_in_IInvA_xy (.clk(clk), .d(in_IInvA_xy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_xy));
     logic [W-1:0] in_IInvA_xz;
     assign in_IInvA_xz = in_data[44*W +: W];
     logic [W-1:0] dl_in_IInvA_xz;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_xz (.clk(clk), .d(in_IInvA_xz), .q(dl_in_IInvA_xz));
+        u_dl_in_IInvA_xz (.clk(clk), .d(in_IInvA_xz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_xz));
     logic [W-1:0] in_IInvA_yz;
     assign in_IInvA_yz = in_data[45*W +: W];
     logic [W-1:0] dl_in_IInvA_yz;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_yz (.clk(clk), .d(in_IInvA_yz), .q(dl_in_IInvA_yz));
+        u_dl_in_IInvA_yz (.clk(clk), .d(in_IInvA_yz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_yz));
     logic [W-1:0] in_IInvB_xx;
     assign in_IInvB_xx = in_data[46*W +: W];
     logic [W-1:0] dl_in_IInvB_xx;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_xx (.clk(clk), .d(in_IInvB_xx), .q(dl_in_IInvB_xx));
+        u_dl_in_IInvB_xx (.clk(clk), .d(in_IInvB_xx), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_xx));
     logic [W-1:0] in_IInvB_yy;
     assign in_IInvB_yy = in_data[47*W +: W];
     logic [W-1:0] dl_in_IInvB_yy;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_yy (.clk(clk), .d(in_IInvB_yy), .q(dl_in_IInvB_yy));
+        u_dl_in_IInvB_yy (.clk(clk), .d(in_IInvB_yy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_yy));
     logic [W-1:0] in_IInvB_zz;
     assign in_IInvB_zz = in_data[48*W +: W];
     logic [W-1:0] dl_in_IInvB_zz;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_zz (.clk(clk), .d(in_IInvB_zz), .q(dl_in_IInvB_zz));
+        u_dl_in_IInvB_zz (.clk(clk), .d(in_IInvB_zz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_zz));
     logic [W-1:0] in_IInvB_xy;
     assign in_IInvB_xy = in_data[49*W +: W];
     logic [W-1:0] dl_in_IInvB_xy;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_xy (.clk(clk), .d(in_IInvB_xy), .q(dl_in_IInvB_xy));
+        u_dl_in_IInvB_xy (.clk(clk), .d(in_IInvB_xy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_xy));
     logic [W-1:0] in_IInvB_xz;
     assign in_IInvB_xz = in_data[50*W +: W];
     logic [W-1:0] dl_in_IInvB_xz;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_xz (.clk(clk), .d(in_IInvB_xz), .q(dl_in_IInvB_xz));
+        u_dl_in_IInvB_xz (.clk(clk), .d(in_IInvB_xz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_xz));
     logic [W-1:0] in_IInvB_yz;
     assign in_IInvB_yz = in_data[51*W +: W];
     logic [W-1:0] dl_in_IInvB_yz;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_yz (.clk(clk), .d(in_IInvB_yz), .q(dl_in_IInvB_yz));
+        u_dl_in_IInvB_yz (.clk(clk), .d(in_IInvB_yz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_yz));
     logic [1-1:0] dl_in_spin_damp;
     pgs_delay #(.WIDTH(1), .DEPTH(110))
-        u_dl_in_spin_damp (.clk(clk), .d(in_spin_damp), .q(dl_in_spin_damp));
+        u_dl_in_spin_damp (.clk(clk), .d(in_spin_damp), .valid(valid_q[0 +: 110]), .q(dl_in_spin_damp));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
     // bf16; its delay line feeds every consumer at the consumer's issue cycle.
@@ -368,12 +375,12 @@ module pgs_friction_pipe_full #(
     assign skip = (dl_in_f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [5*1-1:0] dl_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(110), .N_TAPS(5), .TAPS({32'(110), 32'(89), 32'(78), 32'(50), 32'(39)}))
-        u_dl_skip (.clk(clk), .d(skip), .q(dl_skip));
+        u_dl_skip (.clk(clk), .d(skip), .valid(valid_q[0 +: 110]), .q(dl_skip));
     // add55 = lam_n0 + lam_n1   (ready @4/4/4)
     logic [W-1:0] add55;
     logic [2:0] fl_add55;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add55 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam_n0), .b(dl_in_lam_n1), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n0), .b(dl_in_lam_n1), .sub(1'b0),
         .out_valid(op_valid_nc[0]), .y(add55), .flags(fl_add55)
     );
     assign ev_ovf[0] = fl_add55[0] && ev_q[4];
@@ -381,12 +388,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[0] = fl_add55[2] && ev_q[4];
     logic [W-1:0] dl_add55;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add55 (.clk(clk), .d(add55), .q(dl_add55));
+        u_dl_add55 (.clk(clk), .d(add55), .valid(1'b0), .q(dl_add55));
     // add56 = lam_n2 + lam_n3   (ready @4/4/4)
     logic [W-1:0] add56;
     logic [2:0] fl_add56;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add56 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam_n2), .b(dl_in_lam_n3), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n2), .b(dl_in_lam_n3), .sub(1'b0),
         .out_valid(op_valid_nc[1]), .y(add56), .flags(fl_add56)
     );
     assign ev_ovf[1] = fl_add56[0] && ev_q[4];
@@ -394,12 +401,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[1] = fl_add56[2] && ev_q[4];
     logic [W-1:0] dl_add56;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add56 (.clk(clk), .d(add56), .q(dl_add56));
+        u_dl_add56 (.clk(clk), .d(add56), .valid(1'b0), .q(dl_add56));
     // add57 = add55 + add56   (ready @8/8/8)
     logic [W-1:0] add57;
     logic [2:0] fl_add57;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add57 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_add55), .b(dl_add56), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_add55), .b(dl_add56), .sub(1'b0),
         .out_valid(op_valid_nc[2]), .y(add57), .flags(fl_add57)
     );
     assign ev_ovf[2] = fl_add57[0] && ev_q[8];
@@ -407,12 +414,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[2] = fl_add57[2] && ev_q[8];
     logic [W-1:0] dl_add57;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add57 (.clk(clk), .d(add57), .q(dl_add57));
+        u_dl_add57 (.clk(clk), .d(add57), .valid(1'b0), .q(dl_add57));
     // limit = 0.7 * add57   (ready @11/11/11)
     logic [W-1:0] limit;
     logic [2:0] fl_limit;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_limit (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_MU), .b(dl_add57),
+        .clk(clk), .rst(rst), .in_valid(valid_q[8]), .a(K_MU), .b(dl_add57),
         .out_valid(op_valid_nc[3]), .y(limit), .flags(fl_limit)
     );
     assign ev_ovf[3] = fl_limit[0] && ev_q[11];
@@ -420,18 +427,18 @@ module pgs_friction_pipe_full #(
     assign ev_inv[3] = fl_limit[2] && ev_q[11];
     logic [3*W-1:0] dl_limit;
     pgs_delay #(.WIDTH(W), .DEPTH(66), .N_TAPS(3), .TAPS({32'(66), 32'(27), 32'(0)}))
-        u_dl_limit (.clk(clk), .d(limit), .q(dl_limit));
+        u_dl_limit (.clk(clk), .d(limit), .valid(valid_q[11 +: 66]), .q(dl_limit));
     // neg_limit = -limit   (ready @11/11/11)
     logic [W-1:0] neg_limit;
     assign neg_limit = {~dl_limit[0*W +: W][W-1], dl_limit[0*W +: W][W-2:0]};
     logic [2*W-1:0] dl_neg_limit;
     pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(2), .TAPS({32'(65), 32'(26)}))
-        u_dl_neg_limit (.clk(clk), .d(neg_limit), .q(dl_neg_limit));
+        u_dl_neg_limit (.clk(clk), .d(neg_limit), .valid(valid_q[11 +: 65]), .q(dl_neg_limit));
     // rA_x = c_x - xA_x   (ready @4/4/4)
     logic [W-1:0] rA_x;
     logic [2:0] fl_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[4]), .y(rA_x), .flags(fl_rA_x)
     );
     assign ev_ovf[4] = fl_rA_x[0] && ev_q[4];
@@ -439,12 +446,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[4] = fl_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rA_x (.clk(clk), .d(rA_x), .q(dl_rA_x));
+        u_dl_rA_x (.clk(clk), .d(rA_x), .valid(1'b0), .q(dl_rA_x));
     // rA_y = c_y - xA_y   (ready @4/4/4)
     logic [W-1:0] rA_y;
     logic [2:0] fl_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[5]), .y(rA_y), .flags(fl_rA_y)
     );
     assign ev_ovf[5] = fl_rA_y[0] && ev_q[4];
@@ -452,12 +459,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[5] = fl_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rA_y (.clk(clk), .d(rA_y), .q(dl_rA_y));
+        u_dl_rA_y (.clk(clk), .d(rA_y), .valid(1'b0), .q(dl_rA_y));
     // rA_z = c_z - xA_z   (ready @4/4/4)
     logic [W-1:0] rA_z;
     logic [2:0] fl_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(rA_z), .flags(fl_rA_z)
     );
     assign ev_ovf[6] = fl_rA_z[0] && ev_q[4];
@@ -465,12 +472,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[6] = fl_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rA_z (.clk(clk), .d(rA_z), .q(dl_rA_z));
+        u_dl_rA_z (.clk(clk), .d(rA_z), .valid(1'b0), .q(dl_rA_z));
     // rB_x = c_x - xB_x   (ready @4/4/4)
     logic [W-1:0] rB_x;
     logic [2:0] fl_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(rB_x), .flags(fl_rB_x)
     );
     assign ev_ovf[7] = fl_rB_x[0] && ev_q[4];
@@ -478,12 +485,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[7] = fl_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rB_x (.clk(clk), .d(rB_x), .q(dl_rB_x));
+        u_dl_rB_x (.clk(clk), .d(rB_x), .valid(1'b0), .q(dl_rB_x));
     // rB_y = c_y - xB_y   (ready @4/4/4)
     logic [W-1:0] rB_y;
     logic [2:0] fl_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(rB_y), .flags(fl_rB_y)
     );
     assign ev_ovf[8] = fl_rB_y[0] && ev_q[4];
@@ -491,12 +498,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[8] = fl_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rB_y (.clk(clk), .d(rB_y), .q(dl_rB_y));
+        u_dl_rB_y (.clk(clk), .d(rB_y), .valid(1'b0), .q(dl_rB_y));
     // rB_z = c_z - xB_z   (ready @4/4/4)
     logic [W-1:0] rB_z;
     logic [2:0] fl_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[9]), .y(rB_z), .flags(fl_rB_z)
     );
     assign ev_ovf[9] = fl_rB_z[0] && ev_q[4];
@@ -504,12 +511,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[9] = fl_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rB_z (.clk(clk), .d(rB_z), .q(dl_rB_z));
+        u_dl_rB_z (.clk(clk), .d(rB_z), .valid(1'b0), .q(dl_rB_z));
     // t0_mul66 = rA_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul66;
     logic [2:0] fl_t0_mul66;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul66 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t0_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_y), .b(dl_in_t0_z[0*W +: W]),
         .out_valid(op_valid_nc[10]), .y(t0_mul66), .flags(fl_t0_mul66)
     );
     assign ev_ovf[10] = fl_t0_mul66[0] && ev_q[7];
@@ -517,12 +524,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[10] = fl_t0_mul66[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul66;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul66 (.clk(clk), .d(t0_mul66), .q(dl_t0_mul66));
+        u_dl_t0_mul66 (.clk(clk), .d(t0_mul66), .valid(1'b0), .q(dl_t0_mul66));
     // t0_mul67 = rA_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul67;
     logic [2:0] fl_t0_mul67;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul67 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t0_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_z), .b(dl_in_t0_y[0*W +: W]),
         .out_valid(op_valid_nc[11]), .y(t0_mul67), .flags(fl_t0_mul67)
     );
     assign ev_ovf[11] = fl_t0_mul67[0] && ev_q[7];
@@ -530,12 +537,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[11] = fl_t0_mul67[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul67;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul67 (.clk(clk), .d(t0_mul67), .q(dl_t0_mul67));
+        u_dl_t0_mul67 (.clk(clk), .d(t0_mul67), .valid(1'b0), .q(dl_t0_mul67));
     // t0_cA_x = t0_mul66 - t0_mul67   (ready @11/11/11)
     logic [W-1:0] t0_cA_x;
     logic [2:0] fl_t0_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul66), .b(dl_t0_mul67), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul66), .b(dl_t0_mul67), .sub(1'b1),
         .out_valid(op_valid_nc[12]), .y(t0_cA_x), .flags(fl_t0_cA_x)
     );
     assign ev_ovf[12] = fl_t0_cA_x[0] && ev_q[11];
@@ -543,12 +550,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[12] = fl_t0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cA_x (.clk(clk), .d(t0_cA_x), .q(dl_t0_cA_x));
+        u_dl_t0_cA_x (.clk(clk), .d(t0_cA_x), .valid(1'b0), .q(dl_t0_cA_x));
     // t0_mul69 = rA_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul69;
     logic [2:0] fl_t0_mul69;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul69 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t0_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_z), .b(dl_in_t0_x[0*W +: W]),
         .out_valid(op_valid_nc[13]), .y(t0_mul69), .flags(fl_t0_mul69)
     );
     assign ev_ovf[13] = fl_t0_mul69[0] && ev_q[7];
@@ -556,12 +563,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[13] = fl_t0_mul69[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul69;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul69 (.clk(clk), .d(t0_mul69), .q(dl_t0_mul69));
+        u_dl_t0_mul69 (.clk(clk), .d(t0_mul69), .valid(1'b0), .q(dl_t0_mul69));
     // t0_mul70 = rA_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul70;
     logic [2:0] fl_t0_mul70;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul70 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t0_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_x), .b(dl_in_t0_z[0*W +: W]),
         .out_valid(op_valid_nc[14]), .y(t0_mul70), .flags(fl_t0_mul70)
     );
     assign ev_ovf[14] = fl_t0_mul70[0] && ev_q[7];
@@ -569,12 +576,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[14] = fl_t0_mul70[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul70;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul70 (.clk(clk), .d(t0_mul70), .q(dl_t0_mul70));
+        u_dl_t0_mul70 (.clk(clk), .d(t0_mul70), .valid(1'b0), .q(dl_t0_mul70));
     // t0_cA_y = t0_mul69 - t0_mul70   (ready @11/11/11)
     logic [W-1:0] t0_cA_y;
     logic [2:0] fl_t0_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul69), .b(dl_t0_mul70), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul69), .b(dl_t0_mul70), .sub(1'b1),
         .out_valid(op_valid_nc[15]), .y(t0_cA_y), .flags(fl_t0_cA_y)
     );
     assign ev_ovf[15] = fl_t0_cA_y[0] && ev_q[11];
@@ -582,12 +589,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[15] = fl_t0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cA_y (.clk(clk), .d(t0_cA_y), .q(dl_t0_cA_y));
+        u_dl_t0_cA_y (.clk(clk), .d(t0_cA_y), .valid(1'b0), .q(dl_t0_cA_y));
     // t0_mul72 = rA_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul72;
     logic [2:0] fl_t0_mul72;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul72 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t0_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_x), .b(dl_in_t0_y[0*W +: W]),
         .out_valid(op_valid_nc[16]), .y(t0_mul72), .flags(fl_t0_mul72)
     );
     assign ev_ovf[16] = fl_t0_mul72[0] && ev_q[7];
@@ -595,12 +602,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[16] = fl_t0_mul72[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul72;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul72 (.clk(clk), .d(t0_mul72), .q(dl_t0_mul72));
+        u_dl_t0_mul72 (.clk(clk), .d(t0_mul72), .valid(1'b0), .q(dl_t0_mul72));
     // t0_mul73 = rA_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul73;
     logic [2:0] fl_t0_mul73;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul73 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t0_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_y), .b(dl_in_t0_x[0*W +: W]),
         .out_valid(op_valid_nc[17]), .y(t0_mul73), .flags(fl_t0_mul73)
     );
     assign ev_ovf[17] = fl_t0_mul73[0] && ev_q[7];
@@ -608,12 +615,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[17] = fl_t0_mul73[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul73;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul73 (.clk(clk), .d(t0_mul73), .q(dl_t0_mul73));
+        u_dl_t0_mul73 (.clk(clk), .d(t0_mul73), .valid(1'b0), .q(dl_t0_mul73));
     // t0_cA_z = t0_mul72 - t0_mul73   (ready @11/11/11)
     logic [W-1:0] t0_cA_z;
     logic [2:0] fl_t0_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul72), .b(dl_t0_mul73), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul72), .b(dl_t0_mul73), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(t0_cA_z), .flags(fl_t0_cA_z)
     );
     assign ev_ovf[18] = fl_t0_cA_z[0] && ev_q[11];
@@ -621,12 +628,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[18] = fl_t0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cA_z (.clk(clk), .d(t0_cA_z), .q(dl_t0_cA_z));
+        u_dl_t0_cA_z (.clk(clk), .d(t0_cA_z), .valid(1'b0), .q(dl_t0_cA_z));
     // t0_mul75 = rB_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul75;
     logic [2:0] fl_t0_mul75;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul75 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t0_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_y), .b(dl_in_t0_z[0*W +: W]),
         .out_valid(op_valid_nc[19]), .y(t0_mul75), .flags(fl_t0_mul75)
     );
     assign ev_ovf[19] = fl_t0_mul75[0] && ev_q[7];
@@ -634,12 +641,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[19] = fl_t0_mul75[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul75;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul75 (.clk(clk), .d(t0_mul75), .q(dl_t0_mul75));
+        u_dl_t0_mul75 (.clk(clk), .d(t0_mul75), .valid(1'b0), .q(dl_t0_mul75));
     // t0_mul76 = rB_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul76;
     logic [2:0] fl_t0_mul76;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul76 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t0_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_z), .b(dl_in_t0_y[0*W +: W]),
         .out_valid(op_valid_nc[20]), .y(t0_mul76), .flags(fl_t0_mul76)
     );
     assign ev_ovf[20] = fl_t0_mul76[0] && ev_q[7];
@@ -647,12 +654,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[20] = fl_t0_mul76[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul76;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul76 (.clk(clk), .d(t0_mul76), .q(dl_t0_mul76));
+        u_dl_t0_mul76 (.clk(clk), .d(t0_mul76), .valid(1'b0), .q(dl_t0_mul76));
     // t0_cB_x = t0_mul75 - t0_mul76   (ready @11/11/11)
     logic [W-1:0] t0_cB_x;
     logic [2:0] fl_t0_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul75), .b(dl_t0_mul76), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul75), .b(dl_t0_mul76), .sub(1'b1),
         .out_valid(op_valid_nc[21]), .y(t0_cB_x), .flags(fl_t0_cB_x)
     );
     assign ev_ovf[21] = fl_t0_cB_x[0] && ev_q[11];
@@ -660,12 +667,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[21] = fl_t0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cB_x (.clk(clk), .d(t0_cB_x), .q(dl_t0_cB_x));
+        u_dl_t0_cB_x (.clk(clk), .d(t0_cB_x), .valid(1'b0), .q(dl_t0_cB_x));
     // t0_mul78 = rB_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul78;
     logic [2:0] fl_t0_mul78;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul78 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t0_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_z), .b(dl_in_t0_x[0*W +: W]),
         .out_valid(op_valid_nc[22]), .y(t0_mul78), .flags(fl_t0_mul78)
     );
     assign ev_ovf[22] = fl_t0_mul78[0] && ev_q[7];
@@ -673,12 +680,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[22] = fl_t0_mul78[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul78;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul78 (.clk(clk), .d(t0_mul78), .q(dl_t0_mul78));
+        u_dl_t0_mul78 (.clk(clk), .d(t0_mul78), .valid(1'b0), .q(dl_t0_mul78));
     // t0_mul79 = rB_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul79;
     logic [2:0] fl_t0_mul79;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul79 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t0_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_x), .b(dl_in_t0_z[0*W +: W]),
         .out_valid(op_valid_nc[23]), .y(t0_mul79), .flags(fl_t0_mul79)
     );
     assign ev_ovf[23] = fl_t0_mul79[0] && ev_q[7];
@@ -686,12 +693,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[23] = fl_t0_mul79[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul79;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul79 (.clk(clk), .d(t0_mul79), .q(dl_t0_mul79));
+        u_dl_t0_mul79 (.clk(clk), .d(t0_mul79), .valid(1'b0), .q(dl_t0_mul79));
     // t0_cB_y = t0_mul78 - t0_mul79   (ready @11/11/11)
     logic [W-1:0] t0_cB_y;
     logic [2:0] fl_t0_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul78), .b(dl_t0_mul79), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul78), .b(dl_t0_mul79), .sub(1'b1),
         .out_valid(op_valid_nc[24]), .y(t0_cB_y), .flags(fl_t0_cB_y)
     );
     assign ev_ovf[24] = fl_t0_cB_y[0] && ev_q[11];
@@ -699,12 +706,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[24] = fl_t0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cB_y (.clk(clk), .d(t0_cB_y), .q(dl_t0_cB_y));
+        u_dl_t0_cB_y (.clk(clk), .d(t0_cB_y), .valid(1'b0), .q(dl_t0_cB_y));
     // t0_mul81 = rB_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul81;
     logic [2:0] fl_t0_mul81;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul81 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t0_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_x), .b(dl_in_t0_y[0*W +: W]),
         .out_valid(op_valid_nc[25]), .y(t0_mul81), .flags(fl_t0_mul81)
     );
     assign ev_ovf[25] = fl_t0_mul81[0] && ev_q[7];
@@ -712,12 +719,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[25] = fl_t0_mul81[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul81;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul81 (.clk(clk), .d(t0_mul81), .q(dl_t0_mul81));
+        u_dl_t0_mul81 (.clk(clk), .d(t0_mul81), .valid(1'b0), .q(dl_t0_mul81));
     // t0_mul82 = rB_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul82;
     logic [2:0] fl_t0_mul82;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul82 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t0_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_y), .b(dl_in_t0_x[0*W +: W]),
         .out_valid(op_valid_nc[26]), .y(t0_mul82), .flags(fl_t0_mul82)
     );
     assign ev_ovf[26] = fl_t0_mul82[0] && ev_q[7];
@@ -725,12 +732,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[26] = fl_t0_mul82[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul82;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul82 (.clk(clk), .d(t0_mul82), .q(dl_t0_mul82));
+        u_dl_t0_mul82 (.clk(clk), .d(t0_mul82), .valid(1'b0), .q(dl_t0_mul82));
     // t0_cB_z = t0_mul81 - t0_mul82   (ready @11/11/11)
     logic [W-1:0] t0_cB_z;
     logic [2:0] fl_t0_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul81), .b(dl_t0_mul82), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul81), .b(dl_t0_mul82), .sub(1'b1),
         .out_valid(op_valid_nc[27]), .y(t0_cB_z), .flags(fl_t0_cB_z)
     );
     assign ev_ovf[27] = fl_t0_cB_z[0] && ev_q[11];
@@ -738,12 +745,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[27] = fl_t0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cB_z (.clk(clk), .d(t0_cB_z), .q(dl_t0_cB_z));
+        u_dl_t0_cB_z (.clk(clk), .d(t0_cB_z), .valid(1'b0), .q(dl_t0_cB_z));
     // t0_mul84 = t0_x * vA_x   (ready @3/3/3)
     logic [W-1:0] t0_mul84;
     logic [2:0] fl_t0_mul84;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul84 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[28]), .y(t0_mul84), .flags(fl_t0_mul84)
     );
     assign ev_ovf[28] = fl_t0_mul84[0] && ev_q[3];
@@ -751,12 +758,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[28] = fl_t0_mul84[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul84;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul84 (.clk(clk), .d(t0_mul84), .q(dl_t0_mul84));
+        u_dl_t0_mul84 (.clk(clk), .d(t0_mul84), .valid(1'b0), .q(dl_t0_mul84));
     // t0_mul85 = t0_y * vA_y   (ready @3/3/3)
     logic [W-1:0] t0_mul85;
     logic [2:0] fl_t0_mul85;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul85 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[29]), .y(t0_mul85), .flags(fl_t0_mul85)
     );
     assign ev_ovf[29] = fl_t0_mul85[0] && ev_q[3];
@@ -764,12 +771,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[29] = fl_t0_mul85[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul85;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul85 (.clk(clk), .d(t0_mul85), .q(dl_t0_mul85));
+        u_dl_t0_mul85 (.clk(clk), .d(t0_mul85), .valid(1'b0), .q(dl_t0_mul85));
     // t0_add86 = t0_mul84 + t0_mul85   (ready @7/7/7)
     logic [W-1:0] t0_add86;
     logic [2:0] fl_t0_add86;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add86 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul84), .b(dl_t0_mul85), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_t0_mul84), .b(dl_t0_mul85), .sub(1'b0),
         .out_valid(op_valid_nc[30]), .y(t0_add86), .flags(fl_t0_add86)
     );
     assign ev_ovf[30] = fl_t0_add86[0] && ev_q[7];
@@ -777,12 +784,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[30] = fl_t0_add86[2] && ev_q[7];
     logic [W-1:0] dl_t0_add86;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add86 (.clk(clk), .d(t0_add86), .q(dl_t0_add86));
+        u_dl_t0_add86 (.clk(clk), .d(t0_add86), .valid(1'b0), .q(dl_t0_add86));
     // t0_mul87 = t0_z * vA_z   (ready @3/3/3)
     logic [W-1:0] t0_mul87;
     logic [2:0] fl_t0_mul87;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul87 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[31]), .y(t0_mul87), .flags(fl_t0_mul87)
     );
     assign ev_ovf[31] = fl_t0_mul87[0] && ev_q[3];
@@ -790,12 +797,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[31] = fl_t0_mul87[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul87;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul87 (.clk(clk), .d(t0_mul87), .q(dl_t0_mul87));
+        u_dl_t0_mul87 (.clk(clk), .d(t0_mul87), .valid(valid_q[3 +: 4]), .q(dl_t0_mul87));
     // t0_add88 = t0_add86 + t0_mul87   (ready @11/11/11)
     logic [W-1:0] t0_add88;
     logic [2:0] fl_t0_add88;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add88 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add86), .b(dl_t0_mul87), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_add86), .b(dl_t0_mul87), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(t0_add88), .flags(fl_t0_add88)
     );
     assign ev_ovf[32] = fl_t0_add88[0] && ev_q[11];
@@ -803,12 +810,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[32] = fl_t0_add88[2] && ev_q[11];
     logic [W-1:0] dl_t0_add88;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add88 (.clk(clk), .d(t0_add88), .q(dl_t0_add88));
+        u_dl_t0_add88 (.clk(clk), .d(t0_add88), .valid(1'b0), .q(dl_t0_add88));
     // t0_mul89 = t0_x * vB_x   (ready @3/3/3)
     logic [W-1:0] t0_mul89;
     logic [2:0] fl_t0_mul89;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul89 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[33]), .y(t0_mul89), .flags(fl_t0_mul89)
     );
     assign ev_ovf[33] = fl_t0_mul89[0] && ev_q[3];
@@ -816,12 +823,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[33] = fl_t0_mul89[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul89;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul89 (.clk(clk), .d(t0_mul89), .q(dl_t0_mul89));
+        u_dl_t0_mul89 (.clk(clk), .d(t0_mul89), .valid(1'b0), .q(dl_t0_mul89));
     // t0_mul90 = t0_y * vB_y   (ready @3/3/3)
     logic [W-1:0] t0_mul90;
     logic [2:0] fl_t0_mul90;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul90 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[34]), .y(t0_mul90), .flags(fl_t0_mul90)
     );
     assign ev_ovf[34] = fl_t0_mul90[0] && ev_q[3];
@@ -829,12 +836,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[34] = fl_t0_mul90[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul90;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul90 (.clk(clk), .d(t0_mul90), .q(dl_t0_mul90));
+        u_dl_t0_mul90 (.clk(clk), .d(t0_mul90), .valid(1'b0), .q(dl_t0_mul90));
     // t0_add91 = t0_mul89 + t0_mul90   (ready @7/7/7)
     logic [W-1:0] t0_add91;
     logic [2:0] fl_t0_add91;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add91 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul89), .b(dl_t0_mul90), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_t0_mul89), .b(dl_t0_mul90), .sub(1'b0),
         .out_valid(op_valid_nc[35]), .y(t0_add91), .flags(fl_t0_add91)
     );
     assign ev_ovf[35] = fl_t0_add91[0] && ev_q[7];
@@ -842,12 +849,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[35] = fl_t0_add91[2] && ev_q[7];
     logic [W-1:0] dl_t0_add91;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add91 (.clk(clk), .d(t0_add91), .q(dl_t0_add91));
+        u_dl_t0_add91 (.clk(clk), .d(t0_add91), .valid(1'b0), .q(dl_t0_add91));
     // t0_mul92 = t0_z * vB_z   (ready @3/3/3)
     logic [W-1:0] t0_mul92;
     logic [2:0] fl_t0_mul92;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul92 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[36]), .y(t0_mul92), .flags(fl_t0_mul92)
     );
     assign ev_ovf[36] = fl_t0_mul92[0] && ev_q[3];
@@ -855,12 +862,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[36] = fl_t0_mul92[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul92;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul92 (.clk(clk), .d(t0_mul92), .q(dl_t0_mul92));
+        u_dl_t0_mul92 (.clk(clk), .d(t0_mul92), .valid(valid_q[3 +: 4]), .q(dl_t0_mul92));
     // t0_add93 = t0_add91 + t0_mul92   (ready @11/11/11)
     logic [W-1:0] t0_add93;
     logic [2:0] fl_t0_add93;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add93 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add91), .b(dl_t0_mul92), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_add91), .b(dl_t0_mul92), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(t0_add93), .flags(fl_t0_add93)
     );
     assign ev_ovf[37] = fl_t0_add93[0] && ev_q[11];
@@ -868,12 +875,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[37] = fl_t0_add93[2] && ev_q[11];
     logic [W-1:0] dl_t0_add93;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add93 (.clk(clk), .d(t0_add93), .q(dl_t0_add93));
+        u_dl_t0_add93 (.clk(clk), .d(t0_add93), .valid(1'b0), .q(dl_t0_add93));
     // t0_sub94 = t0_add88 - t0_add93   (ready @15/15/15)
     logic [W-1:0] t0_sub94;
     logic [2:0] fl_t0_sub94;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub94 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add88), .b(dl_t0_add93), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_add88), .b(dl_t0_add93), .sub(1'b1),
         .out_valid(op_valid_nc[38]), .y(t0_sub94), .flags(fl_t0_sub94)
     );
     assign ev_ovf[38] = fl_t0_sub94[0] && ev_q[15];
@@ -881,12 +888,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[38] = fl_t0_sub94[2] && ev_q[15];
     logic [W-1:0] dl_t0_sub94;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_t0_sub94 (.clk(clk), .d(t0_sub94), .q(dl_t0_sub94));
+        u_dl_t0_sub94 (.clk(clk), .d(t0_sub94), .valid(valid_q[15 +: 11]), .q(dl_t0_sub94));
     // t0_mul95 = t0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] t0_mul95;
     logic [2:0] fl_t0_mul95;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul95 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_x), .b(dl_in_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cA_x), .b(dl_in_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[39]), .y(t0_mul95), .flags(fl_t0_mul95)
     );
     assign ev_ovf[39] = fl_t0_mul95[0] && ev_q[14];
@@ -894,12 +901,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[39] = fl_t0_mul95[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul95;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul95 (.clk(clk), .d(t0_mul95), .q(dl_t0_mul95));
+        u_dl_t0_mul95 (.clk(clk), .d(t0_mul95), .valid(1'b0), .q(dl_t0_mul95));
     // t0_mul96 = t0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] t0_mul96;
     logic [2:0] fl_t0_mul96;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul96 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_y), .b(dl_in_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cA_y), .b(dl_in_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[40]), .y(t0_mul96), .flags(fl_t0_mul96)
     );
     assign ev_ovf[40] = fl_t0_mul96[0] && ev_q[14];
@@ -907,12 +914,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[40] = fl_t0_mul96[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul96;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul96 (.clk(clk), .d(t0_mul96), .q(dl_t0_mul96));
+        u_dl_t0_mul96 (.clk(clk), .d(t0_mul96), .valid(1'b0), .q(dl_t0_mul96));
     // t0_add97 = t0_mul95 + t0_mul96   (ready @18/18/18)
     logic [W-1:0] t0_add97;
     logic [2:0] fl_t0_add97;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add97 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul95), .b(dl_t0_mul96), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul95), .b(dl_t0_mul96), .sub(1'b0),
         .out_valid(op_valid_nc[41]), .y(t0_add97), .flags(fl_t0_add97)
     );
     assign ev_ovf[41] = fl_t0_add97[0] && ev_q[18];
@@ -920,12 +927,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[41] = fl_t0_add97[2] && ev_q[18];
     logic [W-1:0] dl_t0_add97;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add97 (.clk(clk), .d(t0_add97), .q(dl_t0_add97));
+        u_dl_t0_add97 (.clk(clk), .d(t0_add97), .valid(1'b0), .q(dl_t0_add97));
     // t0_mul98 = t0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] t0_mul98;
     logic [2:0] fl_t0_mul98;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul98 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_z), .b(dl_in_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cA_z), .b(dl_in_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[42]), .y(t0_mul98), .flags(fl_t0_mul98)
     );
     assign ev_ovf[42] = fl_t0_mul98[0] && ev_q[14];
@@ -933,12 +940,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[42] = fl_t0_mul98[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul98;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul98 (.clk(clk), .d(t0_mul98), .q(dl_t0_mul98));
+        u_dl_t0_mul98 (.clk(clk), .d(t0_mul98), .valid(valid_q[14 +: 4]), .q(dl_t0_mul98));
     // t0_add99 = t0_add97 + t0_mul98   (ready @22/22/22)
     logic [W-1:0] t0_add99;
     logic [2:0] fl_t0_add99;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add99 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add97), .b(dl_t0_mul98), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add97), .b(dl_t0_mul98), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(t0_add99), .flags(fl_t0_add99)
     );
     assign ev_ovf[43] = fl_t0_add99[0] && ev_q[22];
@@ -946,12 +953,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[43] = fl_t0_add99[2] && ev_q[22];
     logic [W-1:0] dl_t0_add99;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add99 (.clk(clk), .d(t0_add99), .q(dl_t0_add99));
+        u_dl_t0_add99 (.clk(clk), .d(t0_add99), .valid(1'b0), .q(dl_t0_add99));
     // t0_mul100 = t0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] t0_mul100;
     logic [2:0] fl_t0_mul100;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul100 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_x), .b(dl_in_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cB_x), .b(dl_in_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[44]), .y(t0_mul100), .flags(fl_t0_mul100)
     );
     assign ev_ovf[44] = fl_t0_mul100[0] && ev_q[14];
@@ -959,12 +966,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[44] = fl_t0_mul100[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul100;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul100 (.clk(clk), .d(t0_mul100), .q(dl_t0_mul100));
+        u_dl_t0_mul100 (.clk(clk), .d(t0_mul100), .valid(1'b0), .q(dl_t0_mul100));
     // t0_mul101 = t0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] t0_mul101;
     logic [2:0] fl_t0_mul101;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul101 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_y), .b(dl_in_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cB_y), .b(dl_in_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[45]), .y(t0_mul101), .flags(fl_t0_mul101)
     );
     assign ev_ovf[45] = fl_t0_mul101[0] && ev_q[14];
@@ -972,12 +979,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[45] = fl_t0_mul101[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul101;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul101 (.clk(clk), .d(t0_mul101), .q(dl_t0_mul101));
+        u_dl_t0_mul101 (.clk(clk), .d(t0_mul101), .valid(1'b0), .q(dl_t0_mul101));
     // t0_add102 = t0_mul100 + t0_mul101   (ready @18/18/18)
     logic [W-1:0] t0_add102;
     logic [2:0] fl_t0_add102;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add102 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul100), .b(dl_t0_mul101), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul100), .b(dl_t0_mul101), .sub(1'b0),
         .out_valid(op_valid_nc[46]), .y(t0_add102), .flags(fl_t0_add102)
     );
     assign ev_ovf[46] = fl_t0_add102[0] && ev_q[18];
@@ -985,12 +992,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[46] = fl_t0_add102[2] && ev_q[18];
     logic [W-1:0] dl_t0_add102;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add102 (.clk(clk), .d(t0_add102), .q(dl_t0_add102));
+        u_dl_t0_add102 (.clk(clk), .d(t0_add102), .valid(1'b0), .q(dl_t0_add102));
     // t0_mul103 = t0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] t0_mul103;
     logic [2:0] fl_t0_mul103;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul103 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_z), .b(dl_in_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cB_z), .b(dl_in_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[47]), .y(t0_mul103), .flags(fl_t0_mul103)
     );
     assign ev_ovf[47] = fl_t0_mul103[0] && ev_q[14];
@@ -998,12 +1005,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[47] = fl_t0_mul103[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul103;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul103 (.clk(clk), .d(t0_mul103), .q(dl_t0_mul103));
+        u_dl_t0_mul103 (.clk(clk), .d(t0_mul103), .valid(valid_q[14 +: 4]), .q(dl_t0_mul103));
     // t0_add104 = t0_add102 + t0_mul103   (ready @22/22/22)
     logic [W-1:0] t0_add104;
     logic [2:0] fl_t0_add104;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add104 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add102), .b(dl_t0_mul103), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add102), .b(dl_t0_mul103), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(t0_add104), .flags(fl_t0_add104)
     );
     assign ev_ovf[48] = fl_t0_add104[0] && ev_q[22];
@@ -1011,12 +1018,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[48] = fl_t0_add104[2] && ev_q[22];
     logic [W-1:0] dl_t0_add104;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add104 (.clk(clk), .d(t0_add104), .q(dl_t0_add104));
+        u_dl_t0_add104 (.clk(clk), .d(t0_add104), .valid(1'b0), .q(dl_t0_add104));
     // t0_sub105 = t0_add99 - t0_add104   (ready @26/26/26)
     logic [W-1:0] t0_sub105;
     logic [2:0] fl_t0_sub105;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub105 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add99), .b(dl_t0_add104), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_t0_add99), .b(dl_t0_add104), .sub(1'b1),
         .out_valid(op_valid_nc[49]), .y(t0_sub105), .flags(fl_t0_sub105)
     );
     assign ev_ovf[49] = fl_t0_sub105[0] && ev_q[26];
@@ -1024,12 +1031,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[49] = fl_t0_sub105[2] && ev_q[26];
     logic [W-1:0] dl_t0_sub105;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub105 (.clk(clk), .d(t0_sub105), .q(dl_t0_sub105));
+        u_dl_t0_sub105 (.clk(clk), .d(t0_sub105), .valid(1'b0), .q(dl_t0_sub105));
     // t0_u = t0_sub94 + t0_sub105   (ready @30/30/30)
     logic [W-1:0] t0_u;
     logic [2:0] fl_t0_u;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_u (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_sub94), .b(dl_t0_sub105), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_t0_sub94), .b(dl_t0_sub105), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(t0_u), .flags(fl_t0_u)
     );
     assign ev_ovf[50] = fl_t0_u[0] && ev_q[30];
@@ -1037,18 +1044,18 @@ module pgs_friction_pipe_full #(
     assign ev_inv[50] = fl_t0_u[2] && ev_q[30];
     logic [W-1:0] dl_t0_u;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_u (.clk(clk), .d(t0_u), .q(dl_t0_u));
+        u_dl_t0_u (.clk(clk), .d(t0_u), .valid(1'b0), .q(dl_t0_u));
     // t0_neg107 = -t0_u   (ready @30/30/30)
     logic [W-1:0] t0_neg107;
     assign t0_neg107 = {~dl_t0_u[W-1], dl_t0_u[W-2:0]};
     logic [W-1:0] dl_t0_neg107;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_neg107 (.clk(clk), .d(t0_neg107), .q(dl_t0_neg107));
+        u_dl_t0_neg107 (.clk(clk), .d(t0_neg107), .valid(1'b0), .q(dl_t0_neg107));
     // t0_delta0 = t0_neg107 * f_jac_inv0   (ready @33/33/33)
     logic [W-1:0] t0_delta0;
     logic [2:0] fl_t0_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_neg107), .b(dl_in_f_jac_inv0[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[30]), .a(dl_t0_neg107), .b(dl_in_f_jac_inv0[1*W +: W]),
         .out_valid(op_valid_nc[51]), .y(t0_delta0), .flags(fl_t0_delta0)
     );
     assign ev_ovf[51] = fl_t0_delta0[0] && ev_q[33];
@@ -1056,12 +1063,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[51] = fl_t0_delta0[2] && ev_q[33];
     logic [W-1:0] dl_t0_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_delta0 (.clk(clk), .d(t0_delta0), .q(dl_t0_delta0));
+        u_dl_t0_delta0 (.clk(clk), .d(t0_delta0), .valid(1'b0), .q(dl_t0_delta0));
     // t0_add109 = lamT0 + t0_delta0   (ready @37/37/37)
     logic [W-1:0] t0_add109;
     logic [2:0] fl_t0_add109;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add109 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lamT0[0*W +: W]), .b(dl_t0_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[33]), .a(dl_in_lamT0[0*W +: W]), .b(dl_t0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(t0_add109), .flags(fl_t0_add109)
     );
     assign ev_ovf[52] = fl_t0_add109[0] && ev_q[37];
@@ -1069,32 +1076,32 @@ module pgs_friction_pipe_full #(
     assign ev_inv[52] = fl_t0_add109[2] && ev_q[37];
     logic [W-1:0] dl_t0_add109;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add109 (.clk(clk), .d(t0_add109), .q(dl_t0_add109));
+        u_dl_t0_add109 (.clk(clk), .d(t0_add109), .valid(1'b0), .q(dl_t0_add109));
     // t0_max110 = max(t0_add109, neg_limit)   (ready @38/38/38)
     logic [W-1:0] t0_max110;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t0_max110 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add109), .b(dl_neg_limit[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(dl_t0_add109), .b(dl_neg_limit[0*W +: W]),
         .out_valid(op_valid_nc[53]), .y_min(nc_t0_max110_min), .y_max(t0_max110),
         .lt(nc_t0_max110_lt), .eq(nc_t0_max110_eq), .unordered(nc_t0_max110_uo)
     );
     logic [W-1:0] dl_t0_max110;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_max110 (.clk(clk), .d(t0_max110), .q(dl_t0_max110));
+        u_dl_t0_max110 (.clk(clk), .d(t0_max110), .valid(1'b0), .q(dl_t0_max110));
     // t0_lam_new = min(t0_max110, limit)   (ready @39/39/39)
     logic [W-1:0] t0_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t0_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_max110), .b(dl_limit[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[38]), .a(dl_t0_max110), .b(dl_limit[1*W +: W]),
         .out_valid(op_valid_nc[54]), .y_min(t0_lam_new), .y_max(nc_t0_lam_new_max),
         .lt(nc_t0_lam_new_lt), .eq(nc_t0_lam_new_eq), .unordered(nc_t0_lam_new_uo)
     );
     logic [W-1:0] dl_t0_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_lam_new (.clk(clk), .d(t0_lam_new), .q(dl_t0_lam_new));
+        u_dl_t0_lam_new (.clk(clk), .d(t0_lam_new), .valid(1'b0), .q(dl_t0_lam_new));
     // t0_delta = t0_lam_new - lamT0   (ready @43/43/43)
     logic [W-1:0] t0_delta;
     logic [2:0] fl_t0_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_lam_new), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[39]), .a(dl_t0_lam_new), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[55]), .y(t0_delta), .flags(fl_t0_delta)
     );
     assign ev_ovf[53] = fl_t0_delta[0] && ev_q[43];
@@ -1102,24 +1109,24 @@ module pgs_friction_pipe_full #(
     assign ev_inv[53] = fl_t0_delta[2] && ev_q[43];
     logic [W-1:0] dl_t0_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_delta (.clk(clk), .d(t0_delta), .q(dl_t0_delta));
+        u_dl_t0_delta (.clk(clk), .d(t0_delta), .valid(1'b0), .q(dl_t0_delta));
     // t0_lamT = skip ? lamT0 : t0_lam_new   (ready @39/39/39)
     logic [W-1:0] t0_lamT;
     assign t0_lamT = dl_skip[0] ? dl_in_lamT0[1*W +: W] : dl_t0_lam_new;
     logic [W-1:0] dl_t0_lamT;
     pgs_delay #(.WIDTH(W), .DEPTH(71))
-        u_dl_t0_lamT (.clk(clk), .d(t0_lamT), .q(dl_t0_lamT));
+        u_dl_t0_lamT (.clk(clk), .d(t0_lamT), .valid(valid_q[39 +: 71]), .q(dl_t0_lamT));
     // t0_e = -t0_delta   (ready @43/43/43)
     logic [W-1:0] t0_e;
     assign t0_e = {~dl_t0_delta[W-1], dl_t0_delta[W-2:0]};
     logic [W-1:0] dl_t0_e;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_e (.clk(clk), .d(t0_e), .q(dl_t0_e));
+        u_dl_t0_e (.clk(clk), .d(t0_e), .valid(1'b0), .q(dl_t0_e));
     // t0_linA_x = t0_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_x;
     logic [2:0] fl_t0_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[56]), .y(t0_linA_x), .flags(fl_t0_linA_x)
     );
     assign ev_ovf[54] = fl_t0_linA_x[0] && ev_q[3];
@@ -1127,12 +1134,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[54] = fl_t0_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linA_x (.clk(clk), .d(t0_linA_x), .q(dl_t0_linA_x));
+        u_dl_t0_linA_x (.clk(clk), .d(t0_linA_x), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_x));
     // t0_linA_y = t0_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_y;
     logic [2:0] fl_t0_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[57]), .y(t0_linA_y), .flags(fl_t0_linA_y)
     );
     assign ev_ovf[55] = fl_t0_linA_y[0] && ev_q[3];
@@ -1140,12 +1147,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[55] = fl_t0_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linA_y (.clk(clk), .d(t0_linA_y), .q(dl_t0_linA_y));
+        u_dl_t0_linA_y (.clk(clk), .d(t0_linA_y), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_y));
     // t0_linA_z = t0_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_z;
     logic [2:0] fl_t0_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[58]), .y(t0_linA_z), .flags(fl_t0_linA_z)
     );
     assign ev_ovf[56] = fl_t0_linA_z[0] && ev_q[3];
@@ -1153,12 +1160,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[56] = fl_t0_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .q(dl_t0_linA_z));
+        u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_z));
     // t0_mul118 = t0_linA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul118;
     logic [2:0] fl_t0_mul118;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul118 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linA_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[59]), .y(t0_mul118), .flags(fl_t0_mul118)
     );
     assign ev_ovf[57] = fl_t0_mul118[0] && ev_q[46];
@@ -1166,12 +1173,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[57] = fl_t0_mul118[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul118;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul118 (.clk(clk), .d(t0_mul118), .q(dl_t0_mul118));
+        u_dl_t0_mul118 (.clk(clk), .d(t0_mul118), .valid(1'b0), .q(dl_t0_mul118));
     // t0_mul119 = t0_linA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul119;
     logic [2:0] fl_t0_mul119;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul119 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linA_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[60]), .y(t0_mul119), .flags(fl_t0_mul119)
     );
     assign ev_ovf[58] = fl_t0_mul119[0] && ev_q[46];
@@ -1179,12 +1186,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[58] = fl_t0_mul119[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul119;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul119 (.clk(clk), .d(t0_mul119), .q(dl_t0_mul119));
+        u_dl_t0_mul119 (.clk(clk), .d(t0_mul119), .valid(1'b0), .q(dl_t0_mul119));
     // t0_mul120 = t0_linA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul120;
     logic [2:0] fl_t0_mul120;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul120 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linA_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[61]), .y(t0_mul120), .flags(fl_t0_mul120)
     );
     assign ev_ovf[59] = fl_t0_mul120[0] && ev_q[46];
@@ -1192,12 +1199,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[59] = fl_t0_mul120[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul120;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul120 (.clk(clk), .d(t0_mul120), .q(dl_t0_mul120));
+        u_dl_t0_mul120 (.clk(clk), .d(t0_mul120), .valid(1'b0), .q(dl_t0_mul120));
     // t0_add121 = vA_x + t0_mul118   (ready @50/50/50)
     logic [W-1:0] t0_add121;
     logic [2:0] fl_t0_add121;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add121 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_x[1*W +: W]), .b(dl_t0_mul118), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_x[1*W +: W]), .b(dl_t0_mul118), .sub(1'b0),
         .out_valid(op_valid_nc[62]), .y(t0_add121), .flags(fl_t0_add121)
     );
     assign ev_ovf[60] = fl_t0_add121[0] && ev_q[50];
@@ -1205,12 +1212,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[60] = fl_t0_add121[2] && ev_q[50];
     logic [W-1:0] dl_t0_add121;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add121 (.clk(clk), .d(t0_add121), .q(dl_t0_add121));
+        u_dl_t0_add121 (.clk(clk), .d(t0_add121), .valid(1'b0), .q(dl_t0_add121));
     // t0_add122 = vA_y + t0_mul119   (ready @50/50/50)
     logic [W-1:0] t0_add122;
     logic [2:0] fl_t0_add122;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add122 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_y[1*W +: W]), .b(dl_t0_mul119), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_y[1*W +: W]), .b(dl_t0_mul119), .sub(1'b0),
         .out_valid(op_valid_nc[63]), .y(t0_add122), .flags(fl_t0_add122)
     );
     assign ev_ovf[61] = fl_t0_add122[0] && ev_q[50];
@@ -1218,12 +1225,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[61] = fl_t0_add122[2] && ev_q[50];
     logic [W-1:0] dl_t0_add122;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add122 (.clk(clk), .d(t0_add122), .q(dl_t0_add122));
+        u_dl_t0_add122 (.clk(clk), .d(t0_add122), .valid(1'b0), .q(dl_t0_add122));
     // t0_add123 = vA_z + t0_mul120   (ready @50/50/50)
     logic [W-1:0] t0_add123;
     logic [2:0] fl_t0_add123;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add123 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_z[1*W +: W]), .b(dl_t0_mul120), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_z[1*W +: W]), .b(dl_t0_mul120), .sub(1'b0),
         .out_valid(op_valid_nc[64]), .y(t0_add123), .flags(fl_t0_add123)
     );
     assign ev_ovf[62] = fl_t0_add123[0] && ev_q[50];
@@ -1231,30 +1238,30 @@ module pgs_friction_pipe_full #(
     assign ev_inv[62] = fl_t0_add123[2] && ev_q[50];
     logic [W-1:0] dl_t0_add123;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add123 (.clk(clk), .d(t0_add123), .q(dl_t0_add123));
+        u_dl_t0_add123 (.clk(clk), .d(t0_add123), .valid(1'b0), .q(dl_t0_add123));
     // t0_vA_x = skip ? vA_x : t0_add121   (ready @50/50/50)
     logic [W-1:0] t0_vA_x;
     assign t0_vA_x = dl_skip[1] ? dl_in_vA_x[2*W +: W] : dl_t0_add121;
     logic [3*W-1:0] dl_t0_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vA_x (.clk(clk), .d(t0_vA_x), .q(dl_t0_vA_x));
+        u_dl_t0_vA_x (.clk(clk), .d(t0_vA_x), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_x));
     // t0_vA_y = skip ? vA_y : t0_add122   (ready @50/50/50)
     logic [W-1:0] t0_vA_y;
     assign t0_vA_y = dl_skip[1] ? dl_in_vA_y[2*W +: W] : dl_t0_add122;
     logic [3*W-1:0] dl_t0_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vA_y (.clk(clk), .d(t0_vA_y), .q(dl_t0_vA_y));
+        u_dl_t0_vA_y (.clk(clk), .d(t0_vA_y), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_y));
     // t0_vA_z = skip ? vA_z : t0_add123   (ready @50/50/50)
     logic [W-1:0] t0_vA_z;
     assign t0_vA_z = dl_skip[1] ? dl_in_vA_z[2*W +: W] : dl_t0_add123;
     logic [3*W-1:0] dl_t0_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vA_z (.clk(clk), .d(t0_vA_z), .q(dl_t0_vA_z));
+        u_dl_t0_vA_z (.clk(clk), .d(t0_vA_z), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_z));
     // t0_mul127 = IInvA_xx * t0_cA_x   (ready @14/14/14)
     logic [W-1:0] t0_mul127;
     logic [2:0] fl_t0_mul127;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul127 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xx), .b(dl_t0_cA_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xx), .b(dl_t0_cA_x),
         .out_valid(op_valid_nc[65]), .y(t0_mul127), .flags(fl_t0_mul127)
     );
     assign ev_ovf[63] = fl_t0_mul127[0] && ev_q[14];
@@ -1262,12 +1269,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[63] = fl_t0_mul127[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul127;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul127 (.clk(clk), .d(t0_mul127), .q(dl_t0_mul127));
+        u_dl_t0_mul127 (.clk(clk), .d(t0_mul127), .valid(1'b0), .q(dl_t0_mul127));
     // t0_mul128 = IInvA_xy * t0_cA_y   (ready @14/14/14)
     logic [W-1:0] t0_mul128;
     logic [2:0] fl_t0_mul128;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul128 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xy), .b(dl_t0_cA_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xy), .b(dl_t0_cA_y),
         .out_valid(op_valid_nc[66]), .y(t0_mul128), .flags(fl_t0_mul128)
     );
     assign ev_ovf[64] = fl_t0_mul128[0] && ev_q[14];
@@ -1275,12 +1282,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[64] = fl_t0_mul128[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul128;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul128 (.clk(clk), .d(t0_mul128), .q(dl_t0_mul128));
+        u_dl_t0_mul128 (.clk(clk), .d(t0_mul128), .valid(1'b0), .q(dl_t0_mul128));
     // t0_add129 = t0_mul127 + t0_mul128   (ready @18/18/18)
     logic [W-1:0] t0_add129;
     logic [2:0] fl_t0_add129;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add129 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul127), .b(dl_t0_mul128), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul127), .b(dl_t0_mul128), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(t0_add129), .flags(fl_t0_add129)
     );
     assign ev_ovf[65] = fl_t0_add129[0] && ev_q[18];
@@ -1288,12 +1295,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[65] = fl_t0_add129[2] && ev_q[18];
     logic [W-1:0] dl_t0_add129;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add129 (.clk(clk), .d(t0_add129), .q(dl_t0_add129));
+        u_dl_t0_add129 (.clk(clk), .d(t0_add129), .valid(1'b0), .q(dl_t0_add129));
     // t0_mul130 = IInvA_xz * t0_cA_z   (ready @14/14/14)
     logic [W-1:0] t0_mul130;
     logic [2:0] fl_t0_mul130;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul130 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xz), .b(dl_t0_cA_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xz), .b(dl_t0_cA_z),
         .out_valid(op_valid_nc[68]), .y(t0_mul130), .flags(fl_t0_mul130)
     );
     assign ev_ovf[66] = fl_t0_mul130[0] && ev_q[14];
@@ -1301,12 +1308,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[66] = fl_t0_mul130[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul130;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul130 (.clk(clk), .d(t0_mul130), .q(dl_t0_mul130));
+        u_dl_t0_mul130 (.clk(clk), .d(t0_mul130), .valid(valid_q[14 +: 4]), .q(dl_t0_mul130));
     // t0_angA_x = t0_add129 + t0_mul130   (ready @22/22/22)
     logic [W-1:0] t0_angA_x;
     logic [2:0] fl_t0_angA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add129), .b(dl_t0_mul130), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add129), .b(dl_t0_mul130), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(t0_angA_x), .flags(fl_t0_angA_x)
     );
     assign ev_ovf[67] = fl_t0_angA_x[0] && ev_q[22];
@@ -1314,12 +1321,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[67] = fl_t0_angA_x[2] && ev_q[22];
     logic [W-1:0] dl_t0_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t0_angA_x (.clk(clk), .d(t0_angA_x), .q(dl_t0_angA_x));
+        u_dl_t0_angA_x (.clk(clk), .d(t0_angA_x), .valid(valid_q[22 +: 21]), .q(dl_t0_angA_x));
     // t0_mul132 = IInvA_xy * t0_cA_x   (ready @14/14/14)
     logic [W-1:0] t0_mul132;
     logic [2:0] fl_t0_mul132;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul132 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xy), .b(dl_t0_cA_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xy), .b(dl_t0_cA_x),
         .out_valid(op_valid_nc[70]), .y(t0_mul132), .flags(fl_t0_mul132)
     );
     assign ev_ovf[68] = fl_t0_mul132[0] && ev_q[14];
@@ -1327,12 +1334,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[68] = fl_t0_mul132[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul132;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul132 (.clk(clk), .d(t0_mul132), .q(dl_t0_mul132));
+        u_dl_t0_mul132 (.clk(clk), .d(t0_mul132), .valid(1'b0), .q(dl_t0_mul132));
     // t0_mul133 = IInvA_yy * t0_cA_y   (ready @14/14/14)
     logic [W-1:0] t0_mul133;
     logic [2:0] fl_t0_mul133;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul133 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yy), .b(dl_t0_cA_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yy), .b(dl_t0_cA_y),
         .out_valid(op_valid_nc[71]), .y(t0_mul133), .flags(fl_t0_mul133)
     );
     assign ev_ovf[69] = fl_t0_mul133[0] && ev_q[14];
@@ -1340,12 +1347,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[69] = fl_t0_mul133[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul133;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul133 (.clk(clk), .d(t0_mul133), .q(dl_t0_mul133));
+        u_dl_t0_mul133 (.clk(clk), .d(t0_mul133), .valid(1'b0), .q(dl_t0_mul133));
     // t0_add134 = t0_mul132 + t0_mul133   (ready @18/18/18)
     logic [W-1:0] t0_add134;
     logic [2:0] fl_t0_add134;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add134 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul132), .b(dl_t0_mul133), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul132), .b(dl_t0_mul133), .sub(1'b0),
         .out_valid(op_valid_nc[72]), .y(t0_add134), .flags(fl_t0_add134)
     );
     assign ev_ovf[70] = fl_t0_add134[0] && ev_q[18];
@@ -1353,12 +1360,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[70] = fl_t0_add134[2] && ev_q[18];
     logic [W-1:0] dl_t0_add134;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add134 (.clk(clk), .d(t0_add134), .q(dl_t0_add134));
+        u_dl_t0_add134 (.clk(clk), .d(t0_add134), .valid(1'b0), .q(dl_t0_add134));
     // t0_mul135 = IInvA_yz * t0_cA_z   (ready @14/14/14)
     logic [W-1:0] t0_mul135;
     logic [2:0] fl_t0_mul135;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul135 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yz), .b(dl_t0_cA_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yz), .b(dl_t0_cA_z),
         .out_valid(op_valid_nc[73]), .y(t0_mul135), .flags(fl_t0_mul135)
     );
     assign ev_ovf[71] = fl_t0_mul135[0] && ev_q[14];
@@ -1366,12 +1373,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[71] = fl_t0_mul135[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul135;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul135 (.clk(clk), .d(t0_mul135), .q(dl_t0_mul135));
+        u_dl_t0_mul135 (.clk(clk), .d(t0_mul135), .valid(valid_q[14 +: 4]), .q(dl_t0_mul135));
     // t0_angA_y = t0_add134 + t0_mul135   (ready @22/22/22)
     logic [W-1:0] t0_angA_y;
     logic [2:0] fl_t0_angA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add134), .b(dl_t0_mul135), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add134), .b(dl_t0_mul135), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(t0_angA_y), .flags(fl_t0_angA_y)
     );
     assign ev_ovf[72] = fl_t0_angA_y[0] && ev_q[22];
@@ -1379,12 +1386,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[72] = fl_t0_angA_y[2] && ev_q[22];
     logic [W-1:0] dl_t0_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t0_angA_y (.clk(clk), .d(t0_angA_y), .q(dl_t0_angA_y));
+        u_dl_t0_angA_y (.clk(clk), .d(t0_angA_y), .valid(valid_q[22 +: 21]), .q(dl_t0_angA_y));
     // t0_mul137 = IInvA_xz * t0_cA_x   (ready @14/14/14)
     logic [W-1:0] t0_mul137;
     logic [2:0] fl_t0_mul137;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul137 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xz), .b(dl_t0_cA_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xz), .b(dl_t0_cA_x),
         .out_valid(op_valid_nc[75]), .y(t0_mul137), .flags(fl_t0_mul137)
     );
     assign ev_ovf[73] = fl_t0_mul137[0] && ev_q[14];
@@ -1392,12 +1399,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[73] = fl_t0_mul137[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul137;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul137 (.clk(clk), .d(t0_mul137), .q(dl_t0_mul137));
+        u_dl_t0_mul137 (.clk(clk), .d(t0_mul137), .valid(1'b0), .q(dl_t0_mul137));
     // t0_mul138 = IInvA_yz * t0_cA_y   (ready @14/14/14)
     logic [W-1:0] t0_mul138;
     logic [2:0] fl_t0_mul138;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul138 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yz), .b(dl_t0_cA_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yz), .b(dl_t0_cA_y),
         .out_valid(op_valid_nc[76]), .y(t0_mul138), .flags(fl_t0_mul138)
     );
     assign ev_ovf[74] = fl_t0_mul138[0] && ev_q[14];
@@ -1405,12 +1412,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[74] = fl_t0_mul138[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul138;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul138 (.clk(clk), .d(t0_mul138), .q(dl_t0_mul138));
+        u_dl_t0_mul138 (.clk(clk), .d(t0_mul138), .valid(1'b0), .q(dl_t0_mul138));
     // t0_add139 = t0_mul137 + t0_mul138   (ready @18/18/18)
     logic [W-1:0] t0_add139;
     logic [2:0] fl_t0_add139;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add139 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul137), .b(dl_t0_mul138), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul137), .b(dl_t0_mul138), .sub(1'b0),
         .out_valid(op_valid_nc[77]), .y(t0_add139), .flags(fl_t0_add139)
     );
     assign ev_ovf[75] = fl_t0_add139[0] && ev_q[18];
@@ -1418,12 +1425,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[75] = fl_t0_add139[2] && ev_q[18];
     logic [W-1:0] dl_t0_add139;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add139 (.clk(clk), .d(t0_add139), .q(dl_t0_add139));
+        u_dl_t0_add139 (.clk(clk), .d(t0_add139), .valid(1'b0), .q(dl_t0_add139));
     // t0_mul140 = IInvA_zz * t0_cA_z   (ready @14/14/14)
     logic [W-1:0] t0_mul140;
     logic [2:0] fl_t0_mul140;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul140 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_zz), .b(dl_t0_cA_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_zz), .b(dl_t0_cA_z),
         .out_valid(op_valid_nc[78]), .y(t0_mul140), .flags(fl_t0_mul140)
     );
     assign ev_ovf[76] = fl_t0_mul140[0] && ev_q[14];
@@ -1431,12 +1438,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[76] = fl_t0_mul140[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul140;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul140 (.clk(clk), .d(t0_mul140), .q(dl_t0_mul140));
+        u_dl_t0_mul140 (.clk(clk), .d(t0_mul140), .valid(valid_q[14 +: 4]), .q(dl_t0_mul140));
     // t0_angA_z = t0_add139 + t0_mul140   (ready @22/22/22)
     logic [W-1:0] t0_angA_z;
     logic [2:0] fl_t0_angA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add139), .b(dl_t0_mul140), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add139), .b(dl_t0_mul140), .sub(1'b0),
         .out_valid(op_valid_nc[79]), .y(t0_angA_z), .flags(fl_t0_angA_z)
     );
     assign ev_ovf[77] = fl_t0_angA_z[0] && ev_q[22];
@@ -1444,12 +1451,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[77] = fl_t0_angA_z[2] && ev_q[22];
     logic [W-1:0] dl_t0_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .q(dl_t0_angA_z));
+        u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .valid(valid_q[22 +: 21]), .q(dl_t0_angA_z));
     // t0_mul142 = t0_angA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul142;
     logic [2:0] fl_t0_mul142;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul142 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angA_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[80]), .y(t0_mul142), .flags(fl_t0_mul142)
     );
     assign ev_ovf[78] = fl_t0_mul142[0] && ev_q[46];
@@ -1457,12 +1464,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[78] = fl_t0_mul142[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul142;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul142 (.clk(clk), .d(t0_mul142), .q(dl_t0_mul142));
+        u_dl_t0_mul142 (.clk(clk), .d(t0_mul142), .valid(1'b0), .q(dl_t0_mul142));
     // t0_mul143 = t0_angA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul143;
     logic [2:0] fl_t0_mul143;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul143 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angA_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[81]), .y(t0_mul143), .flags(fl_t0_mul143)
     );
     assign ev_ovf[79] = fl_t0_mul143[0] && ev_q[46];
@@ -1470,12 +1477,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[79] = fl_t0_mul143[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul143;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul143 (.clk(clk), .d(t0_mul143), .q(dl_t0_mul143));
+        u_dl_t0_mul143 (.clk(clk), .d(t0_mul143), .valid(1'b0), .q(dl_t0_mul143));
     // t0_mul144 = t0_angA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul144;
     logic [2:0] fl_t0_mul144;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul144 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angA_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[82]), .y(t0_mul144), .flags(fl_t0_mul144)
     );
     assign ev_ovf[80] = fl_t0_mul144[0] && ev_q[46];
@@ -1483,12 +1490,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[80] = fl_t0_mul144[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul144;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul144 (.clk(clk), .d(t0_mul144), .q(dl_t0_mul144));
+        u_dl_t0_mul144 (.clk(clk), .d(t0_mul144), .valid(1'b0), .q(dl_t0_mul144));
     // t0_add145 = wA_x + t0_mul142   (ready @50/50/50)
     logic [W-1:0] t0_add145;
     logic [2:0] fl_t0_add145;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add145 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_x[1*W +: W]), .b(dl_t0_mul142), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_x[1*W +: W]), .b(dl_t0_mul142), .sub(1'b0),
         .out_valid(op_valid_nc[83]), .y(t0_add145), .flags(fl_t0_add145)
     );
     assign ev_ovf[81] = fl_t0_add145[0] && ev_q[50];
@@ -1496,12 +1503,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[81] = fl_t0_add145[2] && ev_q[50];
     logic [W-1:0] dl_t0_add145;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add145 (.clk(clk), .d(t0_add145), .q(dl_t0_add145));
+        u_dl_t0_add145 (.clk(clk), .d(t0_add145), .valid(1'b0), .q(dl_t0_add145));
     // t0_add146 = wA_y + t0_mul143   (ready @50/50/50)
     logic [W-1:0] t0_add146;
     logic [2:0] fl_t0_add146;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add146 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_y[1*W +: W]), .b(dl_t0_mul143), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_y[1*W +: W]), .b(dl_t0_mul143), .sub(1'b0),
         .out_valid(op_valid_nc[84]), .y(t0_add146), .flags(fl_t0_add146)
     );
     assign ev_ovf[82] = fl_t0_add146[0] && ev_q[50];
@@ -1509,12 +1516,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[82] = fl_t0_add146[2] && ev_q[50];
     logic [W-1:0] dl_t0_add146;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add146 (.clk(clk), .d(t0_add146), .q(dl_t0_add146));
+        u_dl_t0_add146 (.clk(clk), .d(t0_add146), .valid(1'b0), .q(dl_t0_add146));
     // t0_add147 = wA_z + t0_mul144   (ready @50/50/50)
     logic [W-1:0] t0_add147;
     logic [2:0] fl_t0_add147;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add147 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_z[1*W +: W]), .b(dl_t0_mul144), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_z[1*W +: W]), .b(dl_t0_mul144), .sub(1'b0),
         .out_valid(op_valid_nc[85]), .y(t0_add147), .flags(fl_t0_add147)
     );
     assign ev_ovf[83] = fl_t0_add147[0] && ev_q[50];
@@ -1522,30 +1529,30 @@ module pgs_friction_pipe_full #(
     assign ev_inv[83] = fl_t0_add147[2] && ev_q[50];
     logic [W-1:0] dl_t0_add147;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add147 (.clk(clk), .d(t0_add147), .q(dl_t0_add147));
+        u_dl_t0_add147 (.clk(clk), .d(t0_add147), .valid(1'b0), .q(dl_t0_add147));
     // t0_wA_x = skip ? wA_x : t0_add145   (ready @50/50/50)
     logic [W-1:0] t0_wA_x;
     assign t0_wA_x = dl_skip[1] ? dl_in_wA_x[2*W +: W] : dl_t0_add145;
     logic [3*W-1:0] dl_t0_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wA_x (.clk(clk), .d(t0_wA_x), .q(dl_t0_wA_x));
+        u_dl_t0_wA_x (.clk(clk), .d(t0_wA_x), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_x));
     // t0_wA_y = skip ? wA_y : t0_add146   (ready @50/50/50)
     logic [W-1:0] t0_wA_y;
     assign t0_wA_y = dl_skip[1] ? dl_in_wA_y[2*W +: W] : dl_t0_add146;
     logic [3*W-1:0] dl_t0_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wA_y (.clk(clk), .d(t0_wA_y), .q(dl_t0_wA_y));
+        u_dl_t0_wA_y (.clk(clk), .d(t0_wA_y), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_y));
     // t0_wA_z = skip ? wA_z : t0_add147   (ready @50/50/50)
     logic [W-1:0] t0_wA_z;
     assign t0_wA_z = dl_skip[1] ? dl_in_wA_z[2*W +: W] : dl_t0_add147;
     logic [3*W-1:0] dl_t0_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wA_z (.clk(clk), .d(t0_wA_z), .q(dl_t0_wA_z));
+        u_dl_t0_wA_z (.clk(clk), .d(t0_wA_z), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_z));
     // t0_linB_x = t0_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_x;
     logic [2:0] fl_t0_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[86]), .y(t0_linB_x), .flags(fl_t0_linB_x)
     );
     assign ev_ovf[84] = fl_t0_linB_x[0] && ev_q[3];
@@ -1553,12 +1560,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[84] = fl_t0_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linB_x (.clk(clk), .d(t0_linB_x), .q(dl_t0_linB_x));
+        u_dl_t0_linB_x (.clk(clk), .d(t0_linB_x), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_x));
     // t0_linB_y = t0_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_y;
     logic [2:0] fl_t0_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[87]), .y(t0_linB_y), .flags(fl_t0_linB_y)
     );
     assign ev_ovf[85] = fl_t0_linB_y[0] && ev_q[3];
@@ -1566,12 +1573,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[85] = fl_t0_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linB_y (.clk(clk), .d(t0_linB_y), .q(dl_t0_linB_y));
+        u_dl_t0_linB_y (.clk(clk), .d(t0_linB_y), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_y));
     // t0_linB_z = t0_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_z;
     logic [2:0] fl_t0_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[88]), .y(t0_linB_z), .flags(fl_t0_linB_z)
     );
     assign ev_ovf[86] = fl_t0_linB_z[0] && ev_q[3];
@@ -1579,12 +1586,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[86] = fl_t0_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .q(dl_t0_linB_z));
+        u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_z));
     // t0_mul154 = t0_linB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul154;
     logic [2:0] fl_t0_mul154;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul154 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linB_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[89]), .y(t0_mul154), .flags(fl_t0_mul154)
     );
     assign ev_ovf[87] = fl_t0_mul154[0] && ev_q[46];
@@ -1592,12 +1599,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[87] = fl_t0_mul154[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul154;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul154 (.clk(clk), .d(t0_mul154), .q(dl_t0_mul154));
+        u_dl_t0_mul154 (.clk(clk), .d(t0_mul154), .valid(1'b0), .q(dl_t0_mul154));
     // t0_mul155 = t0_linB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul155;
     logic [2:0] fl_t0_mul155;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul155 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linB_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[90]), .y(t0_mul155), .flags(fl_t0_mul155)
     );
     assign ev_ovf[88] = fl_t0_mul155[0] && ev_q[46];
@@ -1605,12 +1612,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[88] = fl_t0_mul155[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul155;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul155 (.clk(clk), .d(t0_mul155), .q(dl_t0_mul155));
+        u_dl_t0_mul155 (.clk(clk), .d(t0_mul155), .valid(1'b0), .q(dl_t0_mul155));
     // t0_mul156 = t0_linB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul156;
     logic [2:0] fl_t0_mul156;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul156 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linB_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[91]), .y(t0_mul156), .flags(fl_t0_mul156)
     );
     assign ev_ovf[89] = fl_t0_mul156[0] && ev_q[46];
@@ -1618,12 +1625,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[89] = fl_t0_mul156[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul156;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul156 (.clk(clk), .d(t0_mul156), .q(dl_t0_mul156));
+        u_dl_t0_mul156 (.clk(clk), .d(t0_mul156), .valid(1'b0), .q(dl_t0_mul156));
     // t0_sub157 = vB_x - t0_mul154   (ready @50/50/50)
     logic [W-1:0] t0_sub157;
     logic [2:0] fl_t0_sub157;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub157 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_x[1*W +: W]), .b(dl_t0_mul154), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_x[1*W +: W]), .b(dl_t0_mul154), .sub(1'b1),
         .out_valid(op_valid_nc[92]), .y(t0_sub157), .flags(fl_t0_sub157)
     );
     assign ev_ovf[90] = fl_t0_sub157[0] && ev_q[50];
@@ -1631,12 +1638,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[90] = fl_t0_sub157[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub157;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub157 (.clk(clk), .d(t0_sub157), .q(dl_t0_sub157));
+        u_dl_t0_sub157 (.clk(clk), .d(t0_sub157), .valid(1'b0), .q(dl_t0_sub157));
     // t0_sub158 = vB_y - t0_mul155   (ready @50/50/50)
     logic [W-1:0] t0_sub158;
     logic [2:0] fl_t0_sub158;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub158 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_y[1*W +: W]), .b(dl_t0_mul155), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_y[1*W +: W]), .b(dl_t0_mul155), .sub(1'b1),
         .out_valid(op_valid_nc[93]), .y(t0_sub158), .flags(fl_t0_sub158)
     );
     assign ev_ovf[91] = fl_t0_sub158[0] && ev_q[50];
@@ -1644,12 +1651,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[91] = fl_t0_sub158[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub158;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub158 (.clk(clk), .d(t0_sub158), .q(dl_t0_sub158));
+        u_dl_t0_sub158 (.clk(clk), .d(t0_sub158), .valid(1'b0), .q(dl_t0_sub158));
     // t0_sub159 = vB_z - t0_mul156   (ready @50/50/50)
     logic [W-1:0] t0_sub159;
     logic [2:0] fl_t0_sub159;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub159 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_z[1*W +: W]), .b(dl_t0_mul156), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_z[1*W +: W]), .b(dl_t0_mul156), .sub(1'b1),
         .out_valid(op_valid_nc[94]), .y(t0_sub159), .flags(fl_t0_sub159)
     );
     assign ev_ovf[92] = fl_t0_sub159[0] && ev_q[50];
@@ -1657,30 +1664,30 @@ module pgs_friction_pipe_full #(
     assign ev_inv[92] = fl_t0_sub159[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub159;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub159 (.clk(clk), .d(t0_sub159), .q(dl_t0_sub159));
+        u_dl_t0_sub159 (.clk(clk), .d(t0_sub159), .valid(1'b0), .q(dl_t0_sub159));
     // t0_vB_x = skip ? vB_x : t0_sub157   (ready @50/50/50)
     logic [W-1:0] t0_vB_x;
     assign t0_vB_x = dl_skip[1] ? dl_in_vB_x[2*W +: W] : dl_t0_sub157;
     logic [3*W-1:0] dl_t0_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vB_x (.clk(clk), .d(t0_vB_x), .q(dl_t0_vB_x));
+        u_dl_t0_vB_x (.clk(clk), .d(t0_vB_x), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_x));
     // t0_vB_y = skip ? vB_y : t0_sub158   (ready @50/50/50)
     logic [W-1:0] t0_vB_y;
     assign t0_vB_y = dl_skip[1] ? dl_in_vB_y[2*W +: W] : dl_t0_sub158;
     logic [3*W-1:0] dl_t0_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vB_y (.clk(clk), .d(t0_vB_y), .q(dl_t0_vB_y));
+        u_dl_t0_vB_y (.clk(clk), .d(t0_vB_y), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_y));
     // t0_vB_z = skip ? vB_z : t0_sub159   (ready @50/50/50)
     logic [W-1:0] t0_vB_z;
     assign t0_vB_z = dl_skip[1] ? dl_in_vB_z[2*W +: W] : dl_t0_sub159;
     logic [3*W-1:0] dl_t0_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vB_z (.clk(clk), .d(t0_vB_z), .q(dl_t0_vB_z));
+        u_dl_t0_vB_z (.clk(clk), .d(t0_vB_z), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_z));
     // t0_mul163 = IInvB_xx * t0_cB_x   (ready @14/14/14)
     logic [W-1:0] t0_mul163;
     logic [2:0] fl_t0_mul163;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul163 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xx), .b(dl_t0_cB_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xx), .b(dl_t0_cB_x),
         .out_valid(op_valid_nc[95]), .y(t0_mul163), .flags(fl_t0_mul163)
     );
     assign ev_ovf[93] = fl_t0_mul163[0] && ev_q[14];
@@ -1688,12 +1695,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[93] = fl_t0_mul163[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul163;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul163 (.clk(clk), .d(t0_mul163), .q(dl_t0_mul163));
+        u_dl_t0_mul163 (.clk(clk), .d(t0_mul163), .valid(1'b0), .q(dl_t0_mul163));
     // t0_mul164 = IInvB_xy * t0_cB_y   (ready @14/14/14)
     logic [W-1:0] t0_mul164;
     logic [2:0] fl_t0_mul164;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul164 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xy), .b(dl_t0_cB_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xy), .b(dl_t0_cB_y),
         .out_valid(op_valid_nc[96]), .y(t0_mul164), .flags(fl_t0_mul164)
     );
     assign ev_ovf[94] = fl_t0_mul164[0] && ev_q[14];
@@ -1701,12 +1708,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[94] = fl_t0_mul164[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul164;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul164 (.clk(clk), .d(t0_mul164), .q(dl_t0_mul164));
+        u_dl_t0_mul164 (.clk(clk), .d(t0_mul164), .valid(1'b0), .q(dl_t0_mul164));
     // t0_add165 = t0_mul163 + t0_mul164   (ready @18/18/18)
     logic [W-1:0] t0_add165;
     logic [2:0] fl_t0_add165;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add165 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul163), .b(dl_t0_mul164), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul163), .b(dl_t0_mul164), .sub(1'b0),
         .out_valid(op_valid_nc[97]), .y(t0_add165), .flags(fl_t0_add165)
     );
     assign ev_ovf[95] = fl_t0_add165[0] && ev_q[18];
@@ -1714,12 +1721,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[95] = fl_t0_add165[2] && ev_q[18];
     logic [W-1:0] dl_t0_add165;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add165 (.clk(clk), .d(t0_add165), .q(dl_t0_add165));
+        u_dl_t0_add165 (.clk(clk), .d(t0_add165), .valid(1'b0), .q(dl_t0_add165));
     // t0_mul166 = IInvB_xz * t0_cB_z   (ready @14/14/14)
     logic [W-1:0] t0_mul166;
     logic [2:0] fl_t0_mul166;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul166 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xz), .b(dl_t0_cB_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xz), .b(dl_t0_cB_z),
         .out_valid(op_valid_nc[98]), .y(t0_mul166), .flags(fl_t0_mul166)
     );
     assign ev_ovf[96] = fl_t0_mul166[0] && ev_q[14];
@@ -1727,12 +1734,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[96] = fl_t0_mul166[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul166;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul166 (.clk(clk), .d(t0_mul166), .q(dl_t0_mul166));
+        u_dl_t0_mul166 (.clk(clk), .d(t0_mul166), .valid(valid_q[14 +: 4]), .q(dl_t0_mul166));
     // t0_angB_x = t0_add165 + t0_mul166   (ready @22/22/22)
     logic [W-1:0] t0_angB_x;
     logic [2:0] fl_t0_angB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add165), .b(dl_t0_mul166), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add165), .b(dl_t0_mul166), .sub(1'b0),
         .out_valid(op_valid_nc[99]), .y(t0_angB_x), .flags(fl_t0_angB_x)
     );
     assign ev_ovf[97] = fl_t0_angB_x[0] && ev_q[22];
@@ -1740,12 +1747,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[97] = fl_t0_angB_x[2] && ev_q[22];
     logic [W-1:0] dl_t0_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t0_angB_x (.clk(clk), .d(t0_angB_x), .q(dl_t0_angB_x));
+        u_dl_t0_angB_x (.clk(clk), .d(t0_angB_x), .valid(valid_q[22 +: 21]), .q(dl_t0_angB_x));
     // t0_mul168 = IInvB_xy * t0_cB_x   (ready @14/14/14)
     logic [W-1:0] t0_mul168;
     logic [2:0] fl_t0_mul168;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul168 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xy), .b(dl_t0_cB_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xy), .b(dl_t0_cB_x),
         .out_valid(op_valid_nc[100]), .y(t0_mul168), .flags(fl_t0_mul168)
     );
     assign ev_ovf[98] = fl_t0_mul168[0] && ev_q[14];
@@ -1753,12 +1760,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[98] = fl_t0_mul168[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul168;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul168 (.clk(clk), .d(t0_mul168), .q(dl_t0_mul168));
+        u_dl_t0_mul168 (.clk(clk), .d(t0_mul168), .valid(1'b0), .q(dl_t0_mul168));
     // t0_mul169 = IInvB_yy * t0_cB_y   (ready @14/14/14)
     logic [W-1:0] t0_mul169;
     logic [2:0] fl_t0_mul169;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul169 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yy), .b(dl_t0_cB_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yy), .b(dl_t0_cB_y),
         .out_valid(op_valid_nc[101]), .y(t0_mul169), .flags(fl_t0_mul169)
     );
     assign ev_ovf[99] = fl_t0_mul169[0] && ev_q[14];
@@ -1766,12 +1773,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[99] = fl_t0_mul169[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul169;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul169 (.clk(clk), .d(t0_mul169), .q(dl_t0_mul169));
+        u_dl_t0_mul169 (.clk(clk), .d(t0_mul169), .valid(1'b0), .q(dl_t0_mul169));
     // t0_add170 = t0_mul168 + t0_mul169   (ready @18/18/18)
     logic [W-1:0] t0_add170;
     logic [2:0] fl_t0_add170;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add170 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul168), .b(dl_t0_mul169), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul168), .b(dl_t0_mul169), .sub(1'b0),
         .out_valid(op_valid_nc[102]), .y(t0_add170), .flags(fl_t0_add170)
     );
     assign ev_ovf[100] = fl_t0_add170[0] && ev_q[18];
@@ -1779,12 +1786,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[100] = fl_t0_add170[2] && ev_q[18];
     logic [W-1:0] dl_t0_add170;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add170 (.clk(clk), .d(t0_add170), .q(dl_t0_add170));
+        u_dl_t0_add170 (.clk(clk), .d(t0_add170), .valid(1'b0), .q(dl_t0_add170));
     // t0_mul171 = IInvB_yz * t0_cB_z   (ready @14/14/14)
     logic [W-1:0] t0_mul171;
     logic [2:0] fl_t0_mul171;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul171 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yz), .b(dl_t0_cB_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yz), .b(dl_t0_cB_z),
         .out_valid(op_valid_nc[103]), .y(t0_mul171), .flags(fl_t0_mul171)
     );
     assign ev_ovf[101] = fl_t0_mul171[0] && ev_q[14];
@@ -1792,12 +1799,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[101] = fl_t0_mul171[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul171;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul171 (.clk(clk), .d(t0_mul171), .q(dl_t0_mul171));
+        u_dl_t0_mul171 (.clk(clk), .d(t0_mul171), .valid(valid_q[14 +: 4]), .q(dl_t0_mul171));
     // t0_angB_y = t0_add170 + t0_mul171   (ready @22/22/22)
     logic [W-1:0] t0_angB_y;
     logic [2:0] fl_t0_angB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add170), .b(dl_t0_mul171), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add170), .b(dl_t0_mul171), .sub(1'b0),
         .out_valid(op_valid_nc[104]), .y(t0_angB_y), .flags(fl_t0_angB_y)
     );
     assign ev_ovf[102] = fl_t0_angB_y[0] && ev_q[22];
@@ -1805,12 +1812,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[102] = fl_t0_angB_y[2] && ev_q[22];
     logic [W-1:0] dl_t0_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t0_angB_y (.clk(clk), .d(t0_angB_y), .q(dl_t0_angB_y));
+        u_dl_t0_angB_y (.clk(clk), .d(t0_angB_y), .valid(valid_q[22 +: 21]), .q(dl_t0_angB_y));
     // t0_mul173 = IInvB_xz * t0_cB_x   (ready @14/14/14)
     logic [W-1:0] t0_mul173;
     logic [2:0] fl_t0_mul173;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul173 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xz), .b(dl_t0_cB_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xz), .b(dl_t0_cB_x),
         .out_valid(op_valid_nc[105]), .y(t0_mul173), .flags(fl_t0_mul173)
     );
     assign ev_ovf[103] = fl_t0_mul173[0] && ev_q[14];
@@ -1818,12 +1825,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[103] = fl_t0_mul173[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul173;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul173 (.clk(clk), .d(t0_mul173), .q(dl_t0_mul173));
+        u_dl_t0_mul173 (.clk(clk), .d(t0_mul173), .valid(1'b0), .q(dl_t0_mul173));
     // t0_mul174 = IInvB_yz * t0_cB_y   (ready @14/14/14)
     logic [W-1:0] t0_mul174;
     logic [2:0] fl_t0_mul174;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul174 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yz), .b(dl_t0_cB_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yz), .b(dl_t0_cB_y),
         .out_valid(op_valid_nc[106]), .y(t0_mul174), .flags(fl_t0_mul174)
     );
     assign ev_ovf[104] = fl_t0_mul174[0] && ev_q[14];
@@ -1831,12 +1838,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[104] = fl_t0_mul174[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul174;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul174 (.clk(clk), .d(t0_mul174), .q(dl_t0_mul174));
+        u_dl_t0_mul174 (.clk(clk), .d(t0_mul174), .valid(1'b0), .q(dl_t0_mul174));
     // t0_add175 = t0_mul173 + t0_mul174   (ready @18/18/18)
     logic [W-1:0] t0_add175;
     logic [2:0] fl_t0_add175;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add175 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul173), .b(dl_t0_mul174), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul173), .b(dl_t0_mul174), .sub(1'b0),
         .out_valid(op_valid_nc[107]), .y(t0_add175), .flags(fl_t0_add175)
     );
     assign ev_ovf[105] = fl_t0_add175[0] && ev_q[18];
@@ -1844,12 +1851,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[105] = fl_t0_add175[2] && ev_q[18];
     logic [W-1:0] dl_t0_add175;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add175 (.clk(clk), .d(t0_add175), .q(dl_t0_add175));
+        u_dl_t0_add175 (.clk(clk), .d(t0_add175), .valid(1'b0), .q(dl_t0_add175));
     // t0_mul176 = IInvB_zz * t0_cB_z   (ready @14/14/14)
     logic [W-1:0] t0_mul176;
     logic [2:0] fl_t0_mul176;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul176 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_zz), .b(dl_t0_cB_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_zz), .b(dl_t0_cB_z),
         .out_valid(op_valid_nc[108]), .y(t0_mul176), .flags(fl_t0_mul176)
     );
     assign ev_ovf[106] = fl_t0_mul176[0] && ev_q[14];
@@ -1857,12 +1864,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[106] = fl_t0_mul176[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul176;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul176 (.clk(clk), .d(t0_mul176), .q(dl_t0_mul176));
+        u_dl_t0_mul176 (.clk(clk), .d(t0_mul176), .valid(valid_q[14 +: 4]), .q(dl_t0_mul176));
     // t0_angB_z = t0_add175 + t0_mul176   (ready @22/22/22)
     logic [W-1:0] t0_angB_z;
     logic [2:0] fl_t0_angB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add175), .b(dl_t0_mul176), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add175), .b(dl_t0_mul176), .sub(1'b0),
         .out_valid(op_valid_nc[109]), .y(t0_angB_z), .flags(fl_t0_angB_z)
     );
     assign ev_ovf[107] = fl_t0_angB_z[0] && ev_q[22];
@@ -1870,12 +1877,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[107] = fl_t0_angB_z[2] && ev_q[22];
     logic [W-1:0] dl_t0_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .q(dl_t0_angB_z));
+        u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .valid(valid_q[22 +: 21]), .q(dl_t0_angB_z));
     // t0_mul178 = t0_angB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul178;
     logic [2:0] fl_t0_mul178;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul178 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angB_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[110]), .y(t0_mul178), .flags(fl_t0_mul178)
     );
     assign ev_ovf[108] = fl_t0_mul178[0] && ev_q[46];
@@ -1883,12 +1890,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[108] = fl_t0_mul178[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul178;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul178 (.clk(clk), .d(t0_mul178), .q(dl_t0_mul178));
+        u_dl_t0_mul178 (.clk(clk), .d(t0_mul178), .valid(1'b0), .q(dl_t0_mul178));
     // t0_mul179 = t0_angB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul179;
     logic [2:0] fl_t0_mul179;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul179 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angB_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[111]), .y(t0_mul179), .flags(fl_t0_mul179)
     );
     assign ev_ovf[109] = fl_t0_mul179[0] && ev_q[46];
@@ -1896,12 +1903,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[109] = fl_t0_mul179[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul179;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul179 (.clk(clk), .d(t0_mul179), .q(dl_t0_mul179));
+        u_dl_t0_mul179 (.clk(clk), .d(t0_mul179), .valid(1'b0), .q(dl_t0_mul179));
     // t0_mul180 = t0_angB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul180;
     logic [2:0] fl_t0_mul180;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul180 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angB_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[112]), .y(t0_mul180), .flags(fl_t0_mul180)
     );
     assign ev_ovf[110] = fl_t0_mul180[0] && ev_q[46];
@@ -1909,12 +1916,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[110] = fl_t0_mul180[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul180;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul180 (.clk(clk), .d(t0_mul180), .q(dl_t0_mul180));
+        u_dl_t0_mul180 (.clk(clk), .d(t0_mul180), .valid(1'b0), .q(dl_t0_mul180));
     // t0_sub181 = wB_x - t0_mul178   (ready @50/50/50)
     logic [W-1:0] t0_sub181;
     logic [2:0] fl_t0_sub181;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub181 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_x[1*W +: W]), .b(dl_t0_mul178), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_x[1*W +: W]), .b(dl_t0_mul178), .sub(1'b1),
         .out_valid(op_valid_nc[113]), .y(t0_sub181), .flags(fl_t0_sub181)
     );
     assign ev_ovf[111] = fl_t0_sub181[0] && ev_q[50];
@@ -1922,12 +1929,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[111] = fl_t0_sub181[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub181;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub181 (.clk(clk), .d(t0_sub181), .q(dl_t0_sub181));
+        u_dl_t0_sub181 (.clk(clk), .d(t0_sub181), .valid(1'b0), .q(dl_t0_sub181));
     // t0_sub182 = wB_y - t0_mul179   (ready @50/50/50)
     logic [W-1:0] t0_sub182;
     logic [2:0] fl_t0_sub182;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub182 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_y[1*W +: W]), .b(dl_t0_mul179), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_y[1*W +: W]), .b(dl_t0_mul179), .sub(1'b1),
         .out_valid(op_valid_nc[114]), .y(t0_sub182), .flags(fl_t0_sub182)
     );
     assign ev_ovf[112] = fl_t0_sub182[0] && ev_q[50];
@@ -1935,12 +1942,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[112] = fl_t0_sub182[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub182;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub182 (.clk(clk), .d(t0_sub182), .q(dl_t0_sub182));
+        u_dl_t0_sub182 (.clk(clk), .d(t0_sub182), .valid(1'b0), .q(dl_t0_sub182));
     // t0_sub183 = wB_z - t0_mul180   (ready @50/50/50)
     logic [W-1:0] t0_sub183;
     logic [2:0] fl_t0_sub183;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub183 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_z[1*W +: W]), .b(dl_t0_mul180), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_z[1*W +: W]), .b(dl_t0_mul180), .sub(1'b1),
         .out_valid(op_valid_nc[115]), .y(t0_sub183), .flags(fl_t0_sub183)
     );
     assign ev_ovf[113] = fl_t0_sub183[0] && ev_q[50];
@@ -1948,30 +1955,30 @@ module pgs_friction_pipe_full #(
     assign ev_inv[113] = fl_t0_sub183[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub183;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub183 (.clk(clk), .d(t0_sub183), .q(dl_t0_sub183));
+        u_dl_t0_sub183 (.clk(clk), .d(t0_sub183), .valid(1'b0), .q(dl_t0_sub183));
     // t0_wB_x = skip ? wB_x : t0_sub181   (ready @50/50/50)
     logic [W-1:0] t0_wB_x;
     assign t0_wB_x = dl_skip[1] ? dl_in_wB_x[2*W +: W] : dl_t0_sub181;
     logic [3*W-1:0] dl_t0_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wB_x (.clk(clk), .d(t0_wB_x), .q(dl_t0_wB_x));
+        u_dl_t0_wB_x (.clk(clk), .d(t0_wB_x), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_x));
     // t0_wB_y = skip ? wB_y : t0_sub182   (ready @50/50/50)
     logic [W-1:0] t0_wB_y;
     assign t0_wB_y = dl_skip[1] ? dl_in_wB_y[2*W +: W] : dl_t0_sub182;
     logic [3*W-1:0] dl_t0_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wB_y (.clk(clk), .d(t0_wB_y), .q(dl_t0_wB_y));
+        u_dl_t0_wB_y (.clk(clk), .d(t0_wB_y), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_y));
     // t0_wB_z = skip ? wB_z : t0_sub183   (ready @50/50/50)
     logic [W-1:0] t0_wB_z;
     assign t0_wB_z = dl_skip[1] ? dl_in_wB_z[2*W +: W] : dl_t0_sub183;
     logic [3*W-1:0] dl_t0_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wB_z (.clk(clk), .d(t0_wB_z), .q(dl_t0_wB_z));
+        u_dl_t0_wB_z (.clk(clk), .d(t0_wB_z), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_z));
     // t1_mul187 = rA_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul187;
     logic [2:0] fl_t1_mul187;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul187 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_y), .b(dl_in_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[116]), .y(t1_mul187), .flags(fl_t1_mul187)
     );
     assign ev_ovf[114] = fl_t1_mul187[0] && ev_q[7];
@@ -1979,12 +1986,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[114] = fl_t1_mul187[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul187;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul187 (.clk(clk), .d(t1_mul187), .q(dl_t1_mul187));
+        u_dl_t1_mul187 (.clk(clk), .d(t1_mul187), .valid(1'b0), .q(dl_t1_mul187));
     // t1_mul188 = rA_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul188;
     logic [2:0] fl_t1_mul188;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul188 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_z), .b(dl_in_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[117]), .y(t1_mul188), .flags(fl_t1_mul188)
     );
     assign ev_ovf[115] = fl_t1_mul188[0] && ev_q[7];
@@ -1992,12 +1999,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[115] = fl_t1_mul188[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul188;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul188 (.clk(clk), .d(t1_mul188), .q(dl_t1_mul188));
+        u_dl_t1_mul188 (.clk(clk), .d(t1_mul188), .valid(1'b0), .q(dl_t1_mul188));
     // t1_cA_x = t1_mul187 - t1_mul188   (ready @11/11/11)
     logic [W-1:0] t1_cA_x;
     logic [2:0] fl_t1_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul187), .b(dl_t1_mul188), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul187), .b(dl_t1_mul188), .sub(1'b1),
         .out_valid(op_valid_nc[118]), .y(t1_cA_x), .flags(fl_t1_cA_x)
     );
     assign ev_ovf[116] = fl_t1_cA_x[0] && ev_q[11];
@@ -2005,12 +2012,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[116] = fl_t1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cA_x (.clk(clk), .d(t1_cA_x), .q(dl_t1_cA_x));
+        u_dl_t1_cA_x (.clk(clk), .d(t1_cA_x), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_x));
     // t1_mul190 = rA_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul190;
     logic [2:0] fl_t1_mul190;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul190 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_z), .b(dl_in_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[119]), .y(t1_mul190), .flags(fl_t1_mul190)
     );
     assign ev_ovf[117] = fl_t1_mul190[0] && ev_q[7];
@@ -2018,12 +2025,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[117] = fl_t1_mul190[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul190;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul190 (.clk(clk), .d(t1_mul190), .q(dl_t1_mul190));
+        u_dl_t1_mul190 (.clk(clk), .d(t1_mul190), .valid(1'b0), .q(dl_t1_mul190));
     // t1_mul191 = rA_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul191;
     logic [2:0] fl_t1_mul191;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul191 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_x), .b(dl_in_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[120]), .y(t1_mul191), .flags(fl_t1_mul191)
     );
     assign ev_ovf[118] = fl_t1_mul191[0] && ev_q[7];
@@ -2031,12 +2038,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[118] = fl_t1_mul191[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul191;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul191 (.clk(clk), .d(t1_mul191), .q(dl_t1_mul191));
+        u_dl_t1_mul191 (.clk(clk), .d(t1_mul191), .valid(1'b0), .q(dl_t1_mul191));
     // t1_cA_y = t1_mul190 - t1_mul191   (ready @11/11/11)
     logic [W-1:0] t1_cA_y;
     logic [2:0] fl_t1_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul190), .b(dl_t1_mul191), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul190), .b(dl_t1_mul191), .sub(1'b1),
         .out_valid(op_valid_nc[121]), .y(t1_cA_y), .flags(fl_t1_cA_y)
     );
     assign ev_ovf[119] = fl_t1_cA_y[0] && ev_q[11];
@@ -2044,12 +2051,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[119] = fl_t1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cA_y (.clk(clk), .d(t1_cA_y), .q(dl_t1_cA_y));
+        u_dl_t1_cA_y (.clk(clk), .d(t1_cA_y), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_y));
     // t1_mul193 = rA_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul193;
     logic [2:0] fl_t1_mul193;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul193 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_x), .b(dl_in_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[122]), .y(t1_mul193), .flags(fl_t1_mul193)
     );
     assign ev_ovf[120] = fl_t1_mul193[0] && ev_q[7];
@@ -2057,12 +2064,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[120] = fl_t1_mul193[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul193;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul193 (.clk(clk), .d(t1_mul193), .q(dl_t1_mul193));
+        u_dl_t1_mul193 (.clk(clk), .d(t1_mul193), .valid(1'b0), .q(dl_t1_mul193));
     // t1_mul194 = rA_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul194;
     logic [2:0] fl_t1_mul194;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul194 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_y), .b(dl_in_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[123]), .y(t1_mul194), .flags(fl_t1_mul194)
     );
     assign ev_ovf[121] = fl_t1_mul194[0] && ev_q[7];
@@ -2070,12 +2077,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[121] = fl_t1_mul194[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul194;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul194 (.clk(clk), .d(t1_mul194), .q(dl_t1_mul194));
+        u_dl_t1_mul194 (.clk(clk), .d(t1_mul194), .valid(1'b0), .q(dl_t1_mul194));
     // t1_cA_z = t1_mul193 - t1_mul194   (ready @11/11/11)
     logic [W-1:0] t1_cA_z;
     logic [2:0] fl_t1_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul193), .b(dl_t1_mul194), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul193), .b(dl_t1_mul194), .sub(1'b1),
         .out_valid(op_valid_nc[124]), .y(t1_cA_z), .flags(fl_t1_cA_z)
     );
     assign ev_ovf[122] = fl_t1_cA_z[0] && ev_q[11];
@@ -2083,12 +2090,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[122] = fl_t1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cA_z (.clk(clk), .d(t1_cA_z), .q(dl_t1_cA_z));
+        u_dl_t1_cA_z (.clk(clk), .d(t1_cA_z), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_z));
     // t1_mul196 = rB_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul196;
     logic [2:0] fl_t1_mul196;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul196 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_y), .b(dl_in_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[125]), .y(t1_mul196), .flags(fl_t1_mul196)
     );
     assign ev_ovf[123] = fl_t1_mul196[0] && ev_q[7];
@@ -2096,12 +2103,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[123] = fl_t1_mul196[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul196;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul196 (.clk(clk), .d(t1_mul196), .q(dl_t1_mul196));
+        u_dl_t1_mul196 (.clk(clk), .d(t1_mul196), .valid(1'b0), .q(dl_t1_mul196));
     // t1_mul197 = rB_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul197;
     logic [2:0] fl_t1_mul197;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul197 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_z), .b(dl_in_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[126]), .y(t1_mul197), .flags(fl_t1_mul197)
     );
     assign ev_ovf[124] = fl_t1_mul197[0] && ev_q[7];
@@ -2109,12 +2116,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[124] = fl_t1_mul197[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul197;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul197 (.clk(clk), .d(t1_mul197), .q(dl_t1_mul197));
+        u_dl_t1_mul197 (.clk(clk), .d(t1_mul197), .valid(1'b0), .q(dl_t1_mul197));
     // t1_cB_x = t1_mul196 - t1_mul197   (ready @11/11/11)
     logic [W-1:0] t1_cB_x;
     logic [2:0] fl_t1_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul196), .b(dl_t1_mul197), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul196), .b(dl_t1_mul197), .sub(1'b1),
         .out_valid(op_valid_nc[127]), .y(t1_cB_x), .flags(fl_t1_cB_x)
     );
     assign ev_ovf[125] = fl_t1_cB_x[0] && ev_q[11];
@@ -2122,12 +2129,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[125] = fl_t1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cB_x (.clk(clk), .d(t1_cB_x), .q(dl_t1_cB_x));
+        u_dl_t1_cB_x (.clk(clk), .d(t1_cB_x), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_x));
     // t1_mul199 = rB_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul199;
     logic [2:0] fl_t1_mul199;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul199 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_z), .b(dl_in_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[128]), .y(t1_mul199), .flags(fl_t1_mul199)
     );
     assign ev_ovf[126] = fl_t1_mul199[0] && ev_q[7];
@@ -2135,12 +2142,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[126] = fl_t1_mul199[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul199;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul199 (.clk(clk), .d(t1_mul199), .q(dl_t1_mul199));
+        u_dl_t1_mul199 (.clk(clk), .d(t1_mul199), .valid(1'b0), .q(dl_t1_mul199));
     // t1_mul200 = rB_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul200;
     logic [2:0] fl_t1_mul200;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul200 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_x), .b(dl_in_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[129]), .y(t1_mul200), .flags(fl_t1_mul200)
     );
     assign ev_ovf[127] = fl_t1_mul200[0] && ev_q[7];
@@ -2148,12 +2155,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[127] = fl_t1_mul200[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul200;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul200 (.clk(clk), .d(t1_mul200), .q(dl_t1_mul200));
+        u_dl_t1_mul200 (.clk(clk), .d(t1_mul200), .valid(1'b0), .q(dl_t1_mul200));
     // t1_cB_y = t1_mul199 - t1_mul200   (ready @11/11/11)
     logic [W-1:0] t1_cB_y;
     logic [2:0] fl_t1_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul199), .b(dl_t1_mul200), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul199), .b(dl_t1_mul200), .sub(1'b1),
         .out_valid(op_valid_nc[130]), .y(t1_cB_y), .flags(fl_t1_cB_y)
     );
     assign ev_ovf[128] = fl_t1_cB_y[0] && ev_q[11];
@@ -2161,12 +2168,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[128] = fl_t1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cB_y (.clk(clk), .d(t1_cB_y), .q(dl_t1_cB_y));
+        u_dl_t1_cB_y (.clk(clk), .d(t1_cB_y), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_y));
     // t1_mul202 = rB_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul202;
     logic [2:0] fl_t1_mul202;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul202 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_x), .b(dl_in_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[131]), .y(t1_mul202), .flags(fl_t1_mul202)
     );
     assign ev_ovf[129] = fl_t1_mul202[0] && ev_q[7];
@@ -2174,12 +2181,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[129] = fl_t1_mul202[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul202;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul202 (.clk(clk), .d(t1_mul202), .q(dl_t1_mul202));
+        u_dl_t1_mul202 (.clk(clk), .d(t1_mul202), .valid(1'b0), .q(dl_t1_mul202));
     // t1_mul203 = rB_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul203;
     logic [2:0] fl_t1_mul203;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul203 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_y), .b(dl_in_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[132]), .y(t1_mul203), .flags(fl_t1_mul203)
     );
     assign ev_ovf[130] = fl_t1_mul203[0] && ev_q[7];
@@ -2187,12 +2194,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[130] = fl_t1_mul203[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul203;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul203 (.clk(clk), .d(t1_mul203), .q(dl_t1_mul203));
+        u_dl_t1_mul203 (.clk(clk), .d(t1_mul203), .valid(1'b0), .q(dl_t1_mul203));
     // t1_cB_z = t1_mul202 - t1_mul203   (ready @11/11/11)
     logic [W-1:0] t1_cB_z;
     logic [2:0] fl_t1_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul202), .b(dl_t1_mul203), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul202), .b(dl_t1_mul203), .sub(1'b1),
         .out_valid(op_valid_nc[133]), .y(t1_cB_z), .flags(fl_t1_cB_z)
     );
     assign ev_ovf[131] = fl_t1_cB_z[0] && ev_q[11];
@@ -2200,12 +2207,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[131] = fl_t1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cB_z (.clk(clk), .d(t1_cB_z), .q(dl_t1_cB_z));
+        u_dl_t1_cB_z (.clk(clk), .d(t1_cB_z), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_z));
     // t1_mul205 = t1_x * t0_vA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul205;
     logic [2:0] fl_t1_mul205;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul205 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[134]), .y(t1_mul205), .flags(fl_t1_mul205)
     );
     assign ev_ovf[132] = fl_t1_mul205[0] && ev_q[53];
@@ -2213,12 +2220,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[132] = fl_t1_mul205[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul205;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul205 (.clk(clk), .d(t1_mul205), .q(dl_t1_mul205));
+        u_dl_t1_mul205 (.clk(clk), .d(t1_mul205), .valid(1'b0), .q(dl_t1_mul205));
     // t1_mul206 = t1_y * t0_vA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul206;
     logic [2:0] fl_t1_mul206;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul206 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[135]), .y(t1_mul206), .flags(fl_t1_mul206)
     );
     assign ev_ovf[133] = fl_t1_mul206[0] && ev_q[53];
@@ -2226,12 +2233,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[133] = fl_t1_mul206[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul206;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul206 (.clk(clk), .d(t1_mul206), .q(dl_t1_mul206));
+        u_dl_t1_mul206 (.clk(clk), .d(t1_mul206), .valid(1'b0), .q(dl_t1_mul206));
     // t1_add207 = t1_mul205 + t1_mul206   (ready @57/57/57)
     logic [W-1:0] t1_add207;
     logic [2:0] fl_t1_add207;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add207 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul205), .b(dl_t1_mul206), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul205), .b(dl_t1_mul206), .sub(1'b0),
         .out_valid(op_valid_nc[136]), .y(t1_add207), .flags(fl_t1_add207)
     );
     assign ev_ovf[134] = fl_t1_add207[0] && ev_q[57];
@@ -2239,12 +2246,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[134] = fl_t1_add207[2] && ev_q[57];
     logic [W-1:0] dl_t1_add207;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add207 (.clk(clk), .d(t1_add207), .q(dl_t1_add207));
+        u_dl_t1_add207 (.clk(clk), .d(t1_add207), .valid(1'b0), .q(dl_t1_add207));
     // t1_mul208 = t1_z * t0_vA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul208;
     logic [2:0] fl_t1_mul208;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul208 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[137]), .y(t1_mul208), .flags(fl_t1_mul208)
     );
     assign ev_ovf[135] = fl_t1_mul208[0] && ev_q[53];
@@ -2252,12 +2259,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[135] = fl_t1_mul208[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul208;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul208 (.clk(clk), .d(t1_mul208), .q(dl_t1_mul208));
+        u_dl_t1_mul208 (.clk(clk), .d(t1_mul208), .valid(valid_q[53 +: 4]), .q(dl_t1_mul208));
     // t1_add209 = t1_add207 + t1_mul208   (ready @61/61/61)
     logic [W-1:0] t1_add209;
     logic [2:0] fl_t1_add209;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add209 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add207), .b(dl_t1_mul208), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add207), .b(dl_t1_mul208), .sub(1'b0),
         .out_valid(op_valid_nc[138]), .y(t1_add209), .flags(fl_t1_add209)
     );
     assign ev_ovf[136] = fl_t1_add209[0] && ev_q[61];
@@ -2265,12 +2272,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[136] = fl_t1_add209[2] && ev_q[61];
     logic [W-1:0] dl_t1_add209;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add209 (.clk(clk), .d(t1_add209), .q(dl_t1_add209));
+        u_dl_t1_add209 (.clk(clk), .d(t1_add209), .valid(1'b0), .q(dl_t1_add209));
     // t1_mul210 = t1_x * t0_vB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul210;
     logic [2:0] fl_t1_mul210;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul210 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[139]), .y(t1_mul210), .flags(fl_t1_mul210)
     );
     assign ev_ovf[137] = fl_t1_mul210[0] && ev_q[53];
@@ -2278,12 +2285,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[137] = fl_t1_mul210[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul210;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul210 (.clk(clk), .d(t1_mul210), .q(dl_t1_mul210));
+        u_dl_t1_mul210 (.clk(clk), .d(t1_mul210), .valid(1'b0), .q(dl_t1_mul210));
     // t1_mul211 = t1_y * t0_vB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul211;
     logic [2:0] fl_t1_mul211;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul211 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[140]), .y(t1_mul211), .flags(fl_t1_mul211)
     );
     assign ev_ovf[138] = fl_t1_mul211[0] && ev_q[53];
@@ -2291,12 +2298,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[138] = fl_t1_mul211[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul211;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul211 (.clk(clk), .d(t1_mul211), .q(dl_t1_mul211));
+        u_dl_t1_mul211 (.clk(clk), .d(t1_mul211), .valid(1'b0), .q(dl_t1_mul211));
     // t1_add212 = t1_mul210 + t1_mul211   (ready @57/57/57)
     logic [W-1:0] t1_add212;
     logic [2:0] fl_t1_add212;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add212 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul210), .b(dl_t1_mul211), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul210), .b(dl_t1_mul211), .sub(1'b0),
         .out_valid(op_valid_nc[141]), .y(t1_add212), .flags(fl_t1_add212)
     );
     assign ev_ovf[139] = fl_t1_add212[0] && ev_q[57];
@@ -2304,12 +2311,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[139] = fl_t1_add212[2] && ev_q[57];
     logic [W-1:0] dl_t1_add212;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add212 (.clk(clk), .d(t1_add212), .q(dl_t1_add212));
+        u_dl_t1_add212 (.clk(clk), .d(t1_add212), .valid(1'b0), .q(dl_t1_add212));
     // t1_mul213 = t1_z * t0_vB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul213;
     logic [2:0] fl_t1_mul213;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul213 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[142]), .y(t1_mul213), .flags(fl_t1_mul213)
     );
     assign ev_ovf[140] = fl_t1_mul213[0] && ev_q[53];
@@ -2317,12 +2324,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[140] = fl_t1_mul213[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul213;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul213 (.clk(clk), .d(t1_mul213), .q(dl_t1_mul213));
+        u_dl_t1_mul213 (.clk(clk), .d(t1_mul213), .valid(valid_q[53 +: 4]), .q(dl_t1_mul213));
     // t1_add214 = t1_add212 + t1_mul213   (ready @61/61/61)
     logic [W-1:0] t1_add214;
     logic [2:0] fl_t1_add214;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add214 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add212), .b(dl_t1_mul213), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add212), .b(dl_t1_mul213), .sub(1'b0),
         .out_valid(op_valid_nc[143]), .y(t1_add214), .flags(fl_t1_add214)
     );
     assign ev_ovf[141] = fl_t1_add214[0] && ev_q[61];
@@ -2330,12 +2337,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[141] = fl_t1_add214[2] && ev_q[61];
     logic [W-1:0] dl_t1_add214;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add214 (.clk(clk), .d(t1_add214), .q(dl_t1_add214));
+        u_dl_t1_add214 (.clk(clk), .d(t1_add214), .valid(1'b0), .q(dl_t1_add214));
     // t1_sub215 = t1_add209 - t1_add214   (ready @65/65/65)
     logic [W-1:0] t1_sub215;
     logic [2:0] fl_t1_sub215;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub215 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add209), .b(dl_t1_add214), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[61]), .a(dl_t1_add209), .b(dl_t1_add214), .sub(1'b1),
         .out_valid(op_valid_nc[144]), .y(t1_sub215), .flags(fl_t1_sub215)
     );
     assign ev_ovf[142] = fl_t1_sub215[0] && ev_q[65];
@@ -2343,12 +2350,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[142] = fl_t1_sub215[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub215;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub215 (.clk(clk), .d(t1_sub215), .q(dl_t1_sub215));
+        u_dl_t1_sub215 (.clk(clk), .d(t1_sub215), .valid(1'b0), .q(dl_t1_sub215));
     // t1_mul216 = t1_cA_x * t0_wA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul216;
     logic [2:0] fl_t1_mul216;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul216 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_x[0*W +: W]), .b(dl_t0_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cA_x[0*W +: W]), .b(dl_t0_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[145]), .y(t1_mul216), .flags(fl_t1_mul216)
     );
     assign ev_ovf[143] = fl_t1_mul216[0] && ev_q[53];
@@ -2356,12 +2363,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[143] = fl_t1_mul216[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul216;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul216 (.clk(clk), .d(t1_mul216), .q(dl_t1_mul216));
+        u_dl_t1_mul216 (.clk(clk), .d(t1_mul216), .valid(1'b0), .q(dl_t1_mul216));
     // t1_mul217 = t1_cA_y * t0_wA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul217;
     logic [2:0] fl_t1_mul217;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul217 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_y[0*W +: W]), .b(dl_t0_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cA_y[0*W +: W]), .b(dl_t0_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[146]), .y(t1_mul217), .flags(fl_t1_mul217)
     );
     assign ev_ovf[144] = fl_t1_mul217[0] && ev_q[53];
@@ -2369,12 +2376,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[144] = fl_t1_mul217[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul217;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul217 (.clk(clk), .d(t1_mul217), .q(dl_t1_mul217));
+        u_dl_t1_mul217 (.clk(clk), .d(t1_mul217), .valid(1'b0), .q(dl_t1_mul217));
     // t1_add218 = t1_mul216 + t1_mul217   (ready @57/57/57)
     logic [W-1:0] t1_add218;
     logic [2:0] fl_t1_add218;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add218 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul216), .b(dl_t1_mul217), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul216), .b(dl_t1_mul217), .sub(1'b0),
         .out_valid(op_valid_nc[147]), .y(t1_add218), .flags(fl_t1_add218)
     );
     assign ev_ovf[145] = fl_t1_add218[0] && ev_q[57];
@@ -2382,12 +2389,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[145] = fl_t1_add218[2] && ev_q[57];
     logic [W-1:0] dl_t1_add218;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add218 (.clk(clk), .d(t1_add218), .q(dl_t1_add218));
+        u_dl_t1_add218 (.clk(clk), .d(t1_add218), .valid(1'b0), .q(dl_t1_add218));
     // t1_mul219 = t1_cA_z * t0_wA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul219;
     logic [2:0] fl_t1_mul219;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul219 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_z[0*W +: W]), .b(dl_t0_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cA_z[0*W +: W]), .b(dl_t0_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[148]), .y(t1_mul219), .flags(fl_t1_mul219)
     );
     assign ev_ovf[146] = fl_t1_mul219[0] && ev_q[53];
@@ -2395,12 +2402,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[146] = fl_t1_mul219[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul219;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul219 (.clk(clk), .d(t1_mul219), .q(dl_t1_mul219));
+        u_dl_t1_mul219 (.clk(clk), .d(t1_mul219), .valid(valid_q[53 +: 4]), .q(dl_t1_mul219));
     // t1_add220 = t1_add218 + t1_mul219   (ready @61/61/61)
     logic [W-1:0] t1_add220;
     logic [2:0] fl_t1_add220;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add220 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add218), .b(dl_t1_mul219), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add218), .b(dl_t1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[149]), .y(t1_add220), .flags(fl_t1_add220)
     );
     assign ev_ovf[147] = fl_t1_add220[0] && ev_q[61];
@@ -2408,12 +2415,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[147] = fl_t1_add220[2] && ev_q[61];
     logic [W-1:0] dl_t1_add220;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add220 (.clk(clk), .d(t1_add220), .q(dl_t1_add220));
+        u_dl_t1_add220 (.clk(clk), .d(t1_add220), .valid(1'b0), .q(dl_t1_add220));
     // t1_mul221 = t1_cB_x * t0_wB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul221;
     logic [2:0] fl_t1_mul221;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul221 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_x[0*W +: W]), .b(dl_t0_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cB_x[0*W +: W]), .b(dl_t0_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[150]), .y(t1_mul221), .flags(fl_t1_mul221)
     );
     assign ev_ovf[148] = fl_t1_mul221[0] && ev_q[53];
@@ -2421,12 +2428,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[148] = fl_t1_mul221[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul221;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul221 (.clk(clk), .d(t1_mul221), .q(dl_t1_mul221));
+        u_dl_t1_mul221 (.clk(clk), .d(t1_mul221), .valid(1'b0), .q(dl_t1_mul221));
     // t1_mul222 = t1_cB_y * t0_wB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul222;
     logic [2:0] fl_t1_mul222;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul222 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_y[0*W +: W]), .b(dl_t0_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cB_y[0*W +: W]), .b(dl_t0_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[151]), .y(t1_mul222), .flags(fl_t1_mul222)
     );
     assign ev_ovf[149] = fl_t1_mul222[0] && ev_q[53];
@@ -2434,12 +2441,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[149] = fl_t1_mul222[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul222;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul222 (.clk(clk), .d(t1_mul222), .q(dl_t1_mul222));
+        u_dl_t1_mul222 (.clk(clk), .d(t1_mul222), .valid(1'b0), .q(dl_t1_mul222));
     // t1_add223 = t1_mul221 + t1_mul222   (ready @57/57/57)
     logic [W-1:0] t1_add223;
     logic [2:0] fl_t1_add223;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add223 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul221), .b(dl_t1_mul222), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul221), .b(dl_t1_mul222), .sub(1'b0),
         .out_valid(op_valid_nc[152]), .y(t1_add223), .flags(fl_t1_add223)
     );
     assign ev_ovf[150] = fl_t1_add223[0] && ev_q[57];
@@ -2447,12 +2454,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[150] = fl_t1_add223[2] && ev_q[57];
     logic [W-1:0] dl_t1_add223;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add223 (.clk(clk), .d(t1_add223), .q(dl_t1_add223));
+        u_dl_t1_add223 (.clk(clk), .d(t1_add223), .valid(1'b0), .q(dl_t1_add223));
     // t1_mul224 = t1_cB_z * t0_wB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul224;
     logic [2:0] fl_t1_mul224;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul224 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_z[0*W +: W]), .b(dl_t0_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cB_z[0*W +: W]), .b(dl_t0_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[153]), .y(t1_mul224), .flags(fl_t1_mul224)
     );
     assign ev_ovf[151] = fl_t1_mul224[0] && ev_q[53];
@@ -2460,12 +2467,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[151] = fl_t1_mul224[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul224;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul224 (.clk(clk), .d(t1_mul224), .q(dl_t1_mul224));
+        u_dl_t1_mul224 (.clk(clk), .d(t1_mul224), .valid(valid_q[53 +: 4]), .q(dl_t1_mul224));
     // t1_add225 = t1_add223 + t1_mul224   (ready @61/61/61)
     logic [W-1:0] t1_add225;
     logic [2:0] fl_t1_add225;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add225 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add223), .b(dl_t1_mul224), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add223), .b(dl_t1_mul224), .sub(1'b0),
         .out_valid(op_valid_nc[154]), .y(t1_add225), .flags(fl_t1_add225)
     );
     assign ev_ovf[152] = fl_t1_add225[0] && ev_q[61];
@@ -2473,12 +2480,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[152] = fl_t1_add225[2] && ev_q[61];
     logic [W-1:0] dl_t1_add225;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add225 (.clk(clk), .d(t1_add225), .q(dl_t1_add225));
+        u_dl_t1_add225 (.clk(clk), .d(t1_add225), .valid(1'b0), .q(dl_t1_add225));
     // t1_sub226 = t1_add220 - t1_add225   (ready @65/65/65)
     logic [W-1:0] t1_sub226;
     logic [2:0] fl_t1_sub226;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub226 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add220), .b(dl_t1_add225), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[61]), .a(dl_t1_add220), .b(dl_t1_add225), .sub(1'b1),
         .out_valid(op_valid_nc[155]), .y(t1_sub226), .flags(fl_t1_sub226)
     );
     assign ev_ovf[153] = fl_t1_sub226[0] && ev_q[65];
@@ -2486,12 +2493,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[153] = fl_t1_sub226[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub226;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub226 (.clk(clk), .d(t1_sub226), .q(dl_t1_sub226));
+        u_dl_t1_sub226 (.clk(clk), .d(t1_sub226), .valid(1'b0), .q(dl_t1_sub226));
     // t1_u = t1_sub215 + t1_sub226   (ready @69/69/69)
     logic [W-1:0] t1_u;
     logic [2:0] fl_t1_u;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_u (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_sub215), .b(dl_t1_sub226), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[65]), .a(dl_t1_sub215), .b(dl_t1_sub226), .sub(1'b0),
         .out_valid(op_valid_nc[156]), .y(t1_u), .flags(fl_t1_u)
     );
     assign ev_ovf[154] = fl_t1_u[0] && ev_q[69];
@@ -2499,18 +2506,18 @@ module pgs_friction_pipe_full #(
     assign ev_inv[154] = fl_t1_u[2] && ev_q[69];
     logic [W-1:0] dl_t1_u;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_u (.clk(clk), .d(t1_u), .q(dl_t1_u));
+        u_dl_t1_u (.clk(clk), .d(t1_u), .valid(1'b0), .q(dl_t1_u));
     // t1_neg228 = -t1_u   (ready @69/69/69)
     logic [W-1:0] t1_neg228;
     assign t1_neg228 = {~dl_t1_u[W-1], dl_t1_u[W-2:0]};
     logic [W-1:0] dl_t1_neg228;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_neg228 (.clk(clk), .d(t1_neg228), .q(dl_t1_neg228));
+        u_dl_t1_neg228 (.clk(clk), .d(t1_neg228), .valid(1'b0), .q(dl_t1_neg228));
     // t1_delta0 = t1_neg228 * f_jac_inv1   (ready @72/72/72)
     logic [W-1:0] t1_delta0;
     logic [2:0] fl_t1_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_neg228), .b(dl_in_f_jac_inv1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[69]), .a(dl_t1_neg228), .b(dl_in_f_jac_inv1),
         .out_valid(op_valid_nc[157]), .y(t1_delta0), .flags(fl_t1_delta0)
     );
     assign ev_ovf[155] = fl_t1_delta0[0] && ev_q[72];
@@ -2518,12 +2525,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[155] = fl_t1_delta0[2] && ev_q[72];
     logic [W-1:0] dl_t1_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_delta0 (.clk(clk), .d(t1_delta0), .q(dl_t1_delta0));
+        u_dl_t1_delta0 (.clk(clk), .d(t1_delta0), .valid(1'b0), .q(dl_t1_delta0));
     // t1_add230 = lamT1 + t1_delta0   (ready @76/76/76)
     logic [W-1:0] t1_add230;
     logic [2:0] fl_t1_add230;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add230 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lamT1[0*W +: W]), .b(dl_t1_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_in_lamT1[0*W +: W]), .b(dl_t1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[158]), .y(t1_add230), .flags(fl_t1_add230)
     );
     assign ev_ovf[156] = fl_t1_add230[0] && ev_q[76];
@@ -2531,32 +2538,32 @@ module pgs_friction_pipe_full #(
     assign ev_inv[156] = fl_t1_add230[2] && ev_q[76];
     logic [W-1:0] dl_t1_add230;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add230 (.clk(clk), .d(t1_add230), .q(dl_t1_add230));
+        u_dl_t1_add230 (.clk(clk), .d(t1_add230), .valid(1'b0), .q(dl_t1_add230));
     // t1_max231 = max(t1_add230, neg_limit)   (ready @77/77/77)
     logic [W-1:0] t1_max231;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t1_max231 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add230), .b(dl_neg_limit[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[76]), .a(dl_t1_add230), .b(dl_neg_limit[1*W +: W]),
         .out_valid(op_valid_nc[159]), .y_min(nc_t1_max231_min), .y_max(t1_max231),
         .lt(nc_t1_max231_lt), .eq(nc_t1_max231_eq), .unordered(nc_t1_max231_uo)
     );
     logic [W-1:0] dl_t1_max231;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_max231 (.clk(clk), .d(t1_max231), .q(dl_t1_max231));
+        u_dl_t1_max231 (.clk(clk), .d(t1_max231), .valid(1'b0), .q(dl_t1_max231));
     // t1_lam_new = min(t1_max231, limit)   (ready @78/78/78)
     logic [W-1:0] t1_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t1_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_max231), .b(dl_limit[2*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[77]), .a(dl_t1_max231), .b(dl_limit[2*W +: W]),
         .out_valid(op_valid_nc[160]), .y_min(t1_lam_new), .y_max(nc_t1_lam_new_max),
         .lt(nc_t1_lam_new_lt), .eq(nc_t1_lam_new_eq), .unordered(nc_t1_lam_new_uo)
     );
     logic [W-1:0] dl_t1_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_lam_new (.clk(clk), .d(t1_lam_new), .q(dl_t1_lam_new));
+        u_dl_t1_lam_new (.clk(clk), .d(t1_lam_new), .valid(1'b0), .q(dl_t1_lam_new));
     // t1_delta = t1_lam_new - lamT1   (ready @82/82/82)
     logic [W-1:0] t1_delta;
     logic [2:0] fl_t1_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_lam_new), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[78]), .a(dl_t1_lam_new), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[161]), .y(t1_delta), .flags(fl_t1_delta)
     );
     assign ev_ovf[157] = fl_t1_delta[0] && ev_q[82];
@@ -2564,24 +2571,24 @@ module pgs_friction_pipe_full #(
     assign ev_inv[157] = fl_t1_delta[2] && ev_q[82];
     logic [W-1:0] dl_t1_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_delta (.clk(clk), .d(t1_delta), .q(dl_t1_delta));
+        u_dl_t1_delta (.clk(clk), .d(t1_delta), .valid(1'b0), .q(dl_t1_delta));
     // t1_lamT = skip ? lamT1 : t1_lam_new   (ready @78/78/78)
     logic [W-1:0] t1_lamT;
     assign t1_lamT = dl_skip[2] ? dl_in_lamT1[1*W +: W] : dl_t1_lam_new;
     logic [W-1:0] dl_t1_lamT;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_t1_lamT (.clk(clk), .d(t1_lamT), .q(dl_t1_lamT));
+        u_dl_t1_lamT (.clk(clk), .d(t1_lamT), .valid(valid_q[78 +: 32]), .q(dl_t1_lamT));
     // t1_e = -t1_delta   (ready @82/82/82)
     logic [W-1:0] t1_e;
     assign t1_e = {~dl_t1_delta[W-1], dl_t1_delta[W-2:0]};
     logic [W-1:0] dl_t1_e;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_e (.clk(clk), .d(t1_e), .q(dl_t1_e));
+        u_dl_t1_e (.clk(clk), .d(t1_e), .valid(1'b0), .q(dl_t1_e));
     // t1_linA_x = t1_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_x;
     logic [2:0] fl_t1_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[162]), .y(t1_linA_x), .flags(fl_t1_linA_x)
     );
     assign ev_ovf[158] = fl_t1_linA_x[0] && ev_q[3];
@@ -2589,12 +2596,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[158] = fl_t1_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linA_x (.clk(clk), .d(t1_linA_x), .q(dl_t1_linA_x));
+        u_dl_t1_linA_x (.clk(clk), .d(t1_linA_x), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_x));
     // t1_linA_y = t1_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_y;
     logic [2:0] fl_t1_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[163]), .y(t1_linA_y), .flags(fl_t1_linA_y)
     );
     assign ev_ovf[159] = fl_t1_linA_y[0] && ev_q[3];
@@ -2602,12 +2609,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[159] = fl_t1_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linA_y (.clk(clk), .d(t1_linA_y), .q(dl_t1_linA_y));
+        u_dl_t1_linA_y (.clk(clk), .d(t1_linA_y), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_y));
     // t1_linA_z = t1_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_z;
     logic [2:0] fl_t1_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[164]), .y(t1_linA_z), .flags(fl_t1_linA_z)
     );
     assign ev_ovf[160] = fl_t1_linA_z[0] && ev_q[3];
@@ -2615,12 +2622,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[160] = fl_t1_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .q(dl_t1_linA_z));
+        u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_z));
     // t1_mul239 = t1_linA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul239;
     logic [2:0] fl_t1_mul239;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul239 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linA_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[165]), .y(t1_mul239), .flags(fl_t1_mul239)
     );
     assign ev_ovf[161] = fl_t1_mul239[0] && ev_q[85];
@@ -2628,12 +2635,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[161] = fl_t1_mul239[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul239;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul239 (.clk(clk), .d(t1_mul239), .q(dl_t1_mul239));
+        u_dl_t1_mul239 (.clk(clk), .d(t1_mul239), .valid(1'b0), .q(dl_t1_mul239));
     // t1_mul240 = t1_linA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul240;
     logic [2:0] fl_t1_mul240;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul240 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linA_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[166]), .y(t1_mul240), .flags(fl_t1_mul240)
     );
     assign ev_ovf[162] = fl_t1_mul240[0] && ev_q[85];
@@ -2641,12 +2648,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[162] = fl_t1_mul240[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul240;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul240 (.clk(clk), .d(t1_mul240), .q(dl_t1_mul240));
+        u_dl_t1_mul240 (.clk(clk), .d(t1_mul240), .valid(1'b0), .q(dl_t1_mul240));
     // t1_mul241 = t1_linA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul241;
     logic [2:0] fl_t1_mul241;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul241 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linA_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[167]), .y(t1_mul241), .flags(fl_t1_mul241)
     );
     assign ev_ovf[163] = fl_t1_mul241[0] && ev_q[85];
@@ -2654,12 +2661,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[163] = fl_t1_mul241[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul241;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul241 (.clk(clk), .d(t1_mul241), .q(dl_t1_mul241));
+        u_dl_t1_mul241 (.clk(clk), .d(t1_mul241), .valid(1'b0), .q(dl_t1_mul241));
     // t1_add242 = t0_vA_x + t1_mul239   (ready @89/89/89)
     logic [W-1:0] t1_add242;
     logic [2:0] fl_t1_add242;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add242 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_x[1*W +: W]), .b(dl_t1_mul239), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_x[1*W +: W]), .b(dl_t1_mul239), .sub(1'b0),
         .out_valid(op_valid_nc[168]), .y(t1_add242), .flags(fl_t1_add242)
     );
     assign ev_ovf[164] = fl_t1_add242[0] && ev_q[89];
@@ -2667,12 +2674,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[164] = fl_t1_add242[2] && ev_q[89];
     logic [W-1:0] dl_t1_add242;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add242 (.clk(clk), .d(t1_add242), .q(dl_t1_add242));
+        u_dl_t1_add242 (.clk(clk), .d(t1_add242), .valid(1'b0), .q(dl_t1_add242));
     // t1_add243 = t0_vA_y + t1_mul240   (ready @89/89/89)
     logic [W-1:0] t1_add243;
     logic [2:0] fl_t1_add243;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add243 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_y[1*W +: W]), .b(dl_t1_mul240), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_y[1*W +: W]), .b(dl_t1_mul240), .sub(1'b0),
         .out_valid(op_valid_nc[169]), .y(t1_add243), .flags(fl_t1_add243)
     );
     assign ev_ovf[165] = fl_t1_add243[0] && ev_q[89];
@@ -2680,12 +2687,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[165] = fl_t1_add243[2] && ev_q[89];
     logic [W-1:0] dl_t1_add243;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add243 (.clk(clk), .d(t1_add243), .q(dl_t1_add243));
+        u_dl_t1_add243 (.clk(clk), .d(t1_add243), .valid(1'b0), .q(dl_t1_add243));
     // t1_add244 = t0_vA_z + t1_mul241   (ready @89/89/89)
     logic [W-1:0] t1_add244;
     logic [2:0] fl_t1_add244;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add244 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_z[1*W +: W]), .b(dl_t1_mul241), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_z[1*W +: W]), .b(dl_t1_mul241), .sub(1'b0),
         .out_valid(op_valid_nc[170]), .y(t1_add244), .flags(fl_t1_add244)
     );
     assign ev_ovf[166] = fl_t1_add244[0] && ev_q[89];
@@ -2693,30 +2700,30 @@ module pgs_friction_pipe_full #(
     assign ev_inv[166] = fl_t1_add244[2] && ev_q[89];
     logic [W-1:0] dl_t1_add244;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add244 (.clk(clk), .d(t1_add244), .q(dl_t1_add244));
+        u_dl_t1_add244 (.clk(clk), .d(t1_add244), .valid(1'b0), .q(dl_t1_add244));
     // t1_vA_x = skip ? t0_vA_x : t1_add242   (ready @89/89/89)
     logic [W-1:0] t1_vA_x;
     assign t1_vA_x = dl_skip[3] ? dl_t0_vA_x[2*W +: W] : dl_t1_add242;
     logic [W-1:0] dl_t1_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vA_x (.clk(clk), .d(t1_vA_x), .q(dl_t1_vA_x));
+        u_dl_t1_vA_x (.clk(clk), .d(t1_vA_x), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_x));
     // t1_vA_y = skip ? t0_vA_y : t1_add243   (ready @89/89/89)
     logic [W-1:0] t1_vA_y;
     assign t1_vA_y = dl_skip[3] ? dl_t0_vA_y[2*W +: W] : dl_t1_add243;
     logic [W-1:0] dl_t1_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vA_y (.clk(clk), .d(t1_vA_y), .q(dl_t1_vA_y));
+        u_dl_t1_vA_y (.clk(clk), .d(t1_vA_y), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_y));
     // t1_vA_z = skip ? t0_vA_z : t1_add244   (ready @89/89/89)
     logic [W-1:0] t1_vA_z;
     assign t1_vA_z = dl_skip[3] ? dl_t0_vA_z[2*W +: W] : dl_t1_add244;
     logic [W-1:0] dl_t1_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vA_z (.clk(clk), .d(t1_vA_z), .q(dl_t1_vA_z));
+        u_dl_t1_vA_z (.clk(clk), .d(t1_vA_z), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_z));
     // t1_mul248 = IInvA_xx * t1_cA_x   (ready @14/14/14)
     logic [W-1:0] t1_mul248;
     logic [2:0] fl_t1_mul248;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul248 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xx), .b(dl_t1_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xx), .b(dl_t1_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[171]), .y(t1_mul248), .flags(fl_t1_mul248)
     );
     assign ev_ovf[167] = fl_t1_mul248[0] && ev_q[14];
@@ -2724,12 +2731,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[167] = fl_t1_mul248[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul248;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul248 (.clk(clk), .d(t1_mul248), .q(dl_t1_mul248));
+        u_dl_t1_mul248 (.clk(clk), .d(t1_mul248), .valid(1'b0), .q(dl_t1_mul248));
     // t1_mul249 = IInvA_xy * t1_cA_y   (ready @14/14/14)
     logic [W-1:0] t1_mul249;
     logic [2:0] fl_t1_mul249;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul249 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xy), .b(dl_t1_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xy), .b(dl_t1_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[172]), .y(t1_mul249), .flags(fl_t1_mul249)
     );
     assign ev_ovf[168] = fl_t1_mul249[0] && ev_q[14];
@@ -2737,12 +2744,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[168] = fl_t1_mul249[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul249;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul249 (.clk(clk), .d(t1_mul249), .q(dl_t1_mul249));
+        u_dl_t1_mul249 (.clk(clk), .d(t1_mul249), .valid(1'b0), .q(dl_t1_mul249));
     // t1_add250 = t1_mul248 + t1_mul249   (ready @18/18/18)
     logic [W-1:0] t1_add250;
     logic [2:0] fl_t1_add250;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add250 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul248), .b(dl_t1_mul249), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t1_mul248), .b(dl_t1_mul249), .sub(1'b0),
         .out_valid(op_valid_nc[173]), .y(t1_add250), .flags(fl_t1_add250)
     );
     assign ev_ovf[169] = fl_t1_add250[0] && ev_q[18];
@@ -2750,12 +2757,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[169] = fl_t1_add250[2] && ev_q[18];
     logic [W-1:0] dl_t1_add250;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add250 (.clk(clk), .d(t1_add250), .q(dl_t1_add250));
+        u_dl_t1_add250 (.clk(clk), .d(t1_add250), .valid(1'b0), .q(dl_t1_add250));
     // t1_mul251 = IInvA_xz * t1_cA_z   (ready @14/14/14)
     logic [W-1:0] t1_mul251;
     logic [2:0] fl_t1_mul251;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul251 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xz), .b(dl_t1_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xz), .b(dl_t1_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[174]), .y(t1_mul251), .flags(fl_t1_mul251)
     );
     assign ev_ovf[170] = fl_t1_mul251[0] && ev_q[14];
@@ -2763,12 +2770,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[170] = fl_t1_mul251[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul251;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul251 (.clk(clk), .d(t1_mul251), .q(dl_t1_mul251));
+        u_dl_t1_mul251 (.clk(clk), .d(t1_mul251), .valid(valid_q[14 +: 4]), .q(dl_t1_mul251));
     // t1_angA_x = t1_add250 + t1_mul251   (ready @22/22/22)
     logic [W-1:0] t1_angA_x;
     logic [2:0] fl_t1_angA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add250), .b(dl_t1_mul251), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t1_add250), .b(dl_t1_mul251), .sub(1'b0),
         .out_valid(op_valid_nc[175]), .y(t1_angA_x), .flags(fl_t1_angA_x)
     );
     assign ev_ovf[171] = fl_t1_angA_x[0] && ev_q[22];
@@ -2776,12 +2783,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[171] = fl_t1_angA_x[2] && ev_q[22];
     logic [W-1:0] dl_t1_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(60))
-        u_dl_t1_angA_x (.clk(clk), .d(t1_angA_x), .q(dl_t1_angA_x));
+        u_dl_t1_angA_x (.clk(clk), .d(t1_angA_x), .valid(valid_q[22 +: 60]), .q(dl_t1_angA_x));
     // t1_mul253 = IInvA_xy * t1_cA_x   (ready @14/14/14)
     logic [W-1:0] t1_mul253;
     logic [2:0] fl_t1_mul253;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul253 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xy), .b(dl_t1_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xy), .b(dl_t1_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[176]), .y(t1_mul253), .flags(fl_t1_mul253)
     );
     assign ev_ovf[172] = fl_t1_mul253[0] && ev_q[14];
@@ -2789,12 +2796,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[172] = fl_t1_mul253[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul253;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul253 (.clk(clk), .d(t1_mul253), .q(dl_t1_mul253));
+        u_dl_t1_mul253 (.clk(clk), .d(t1_mul253), .valid(1'b0), .q(dl_t1_mul253));
     // t1_mul254 = IInvA_yy * t1_cA_y   (ready @14/14/14)
     logic [W-1:0] t1_mul254;
     logic [2:0] fl_t1_mul254;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul254 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yy), .b(dl_t1_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yy), .b(dl_t1_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[177]), .y(t1_mul254), .flags(fl_t1_mul254)
     );
     assign ev_ovf[173] = fl_t1_mul254[0] && ev_q[14];
@@ -2802,12 +2809,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[173] = fl_t1_mul254[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul254;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul254 (.clk(clk), .d(t1_mul254), .q(dl_t1_mul254));
+        u_dl_t1_mul254 (.clk(clk), .d(t1_mul254), .valid(1'b0), .q(dl_t1_mul254));
     // t1_add255 = t1_mul253 + t1_mul254   (ready @18/18/18)
     logic [W-1:0] t1_add255;
     logic [2:0] fl_t1_add255;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add255 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul253), .b(dl_t1_mul254), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t1_mul253), .b(dl_t1_mul254), .sub(1'b0),
         .out_valid(op_valid_nc[178]), .y(t1_add255), .flags(fl_t1_add255)
     );
     assign ev_ovf[174] = fl_t1_add255[0] && ev_q[18];
@@ -2815,12 +2822,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[174] = fl_t1_add255[2] && ev_q[18];
     logic [W-1:0] dl_t1_add255;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add255 (.clk(clk), .d(t1_add255), .q(dl_t1_add255));
+        u_dl_t1_add255 (.clk(clk), .d(t1_add255), .valid(1'b0), .q(dl_t1_add255));
     // t1_mul256 = IInvA_yz * t1_cA_z   (ready @14/14/14)
     logic [W-1:0] t1_mul256;
     logic [2:0] fl_t1_mul256;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul256 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yz), .b(dl_t1_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yz), .b(dl_t1_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[179]), .y(t1_mul256), .flags(fl_t1_mul256)
     );
     assign ev_ovf[175] = fl_t1_mul256[0] && ev_q[14];
@@ -2828,12 +2835,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[175] = fl_t1_mul256[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul256;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul256 (.clk(clk), .d(t1_mul256), .q(dl_t1_mul256));
+        u_dl_t1_mul256 (.clk(clk), .d(t1_mul256), .valid(valid_q[14 +: 4]), .q(dl_t1_mul256));
     // t1_angA_y = t1_add255 + t1_mul256   (ready @22/22/22)
     logic [W-1:0] t1_angA_y;
     logic [2:0] fl_t1_angA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add255), .b(dl_t1_mul256), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t1_add255), .b(dl_t1_mul256), .sub(1'b0),
         .out_valid(op_valid_nc[180]), .y(t1_angA_y), .flags(fl_t1_angA_y)
     );
     assign ev_ovf[176] = fl_t1_angA_y[0] && ev_q[22];
@@ -2841,12 +2848,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[176] = fl_t1_angA_y[2] && ev_q[22];
     logic [W-1:0] dl_t1_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(60))
-        u_dl_t1_angA_y (.clk(clk), .d(t1_angA_y), .q(dl_t1_angA_y));
+        u_dl_t1_angA_y (.clk(clk), .d(t1_angA_y), .valid(valid_q[22 +: 60]), .q(dl_t1_angA_y));
     // t1_mul258 = IInvA_xz * t1_cA_x   (ready @14/14/14)
     logic [W-1:0] t1_mul258;
     logic [2:0] fl_t1_mul258;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul258 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_xz), .b(dl_t1_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_xz), .b(dl_t1_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[181]), .y(t1_mul258), .flags(fl_t1_mul258)
     );
     assign ev_ovf[177] = fl_t1_mul258[0] && ev_q[14];
@@ -2854,12 +2861,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[177] = fl_t1_mul258[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul258;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul258 (.clk(clk), .d(t1_mul258), .q(dl_t1_mul258));
+        u_dl_t1_mul258 (.clk(clk), .d(t1_mul258), .valid(1'b0), .q(dl_t1_mul258));
     // t1_mul259 = IInvA_yz * t1_cA_y   (ready @14/14/14)
     logic [W-1:0] t1_mul259;
     logic [2:0] fl_t1_mul259;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul259 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_yz), .b(dl_t1_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_yz), .b(dl_t1_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[182]), .y(t1_mul259), .flags(fl_t1_mul259)
     );
     assign ev_ovf[178] = fl_t1_mul259[0] && ev_q[14];
@@ -2867,12 +2874,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[178] = fl_t1_mul259[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul259;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul259 (.clk(clk), .d(t1_mul259), .q(dl_t1_mul259));
+        u_dl_t1_mul259 (.clk(clk), .d(t1_mul259), .valid(1'b0), .q(dl_t1_mul259));
     // t1_add260 = t1_mul258 + t1_mul259   (ready @18/18/18)
     logic [W-1:0] t1_add260;
     logic [2:0] fl_t1_add260;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add260 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul258), .b(dl_t1_mul259), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t1_mul258), .b(dl_t1_mul259), .sub(1'b0),
         .out_valid(op_valid_nc[183]), .y(t1_add260), .flags(fl_t1_add260)
     );
     assign ev_ovf[179] = fl_t1_add260[0] && ev_q[18];
@@ -2880,12 +2887,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[179] = fl_t1_add260[2] && ev_q[18];
     logic [W-1:0] dl_t1_add260;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add260 (.clk(clk), .d(t1_add260), .q(dl_t1_add260));
+        u_dl_t1_add260 (.clk(clk), .d(t1_add260), .valid(1'b0), .q(dl_t1_add260));
     // t1_mul261 = IInvA_zz * t1_cA_z   (ready @14/14/14)
     logic [W-1:0] t1_mul261;
     logic [2:0] fl_t1_mul261;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul261 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_zz), .b(dl_t1_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_zz), .b(dl_t1_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[184]), .y(t1_mul261), .flags(fl_t1_mul261)
     );
     assign ev_ovf[180] = fl_t1_mul261[0] && ev_q[14];
@@ -2893,12 +2900,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[180] = fl_t1_mul261[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul261;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul261 (.clk(clk), .d(t1_mul261), .q(dl_t1_mul261));
+        u_dl_t1_mul261 (.clk(clk), .d(t1_mul261), .valid(valid_q[14 +: 4]), .q(dl_t1_mul261));
     // t1_angA_z = t1_add260 + t1_mul261   (ready @22/22/22)
     logic [W-1:0] t1_angA_z;
     logic [2:0] fl_t1_angA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add260), .b(dl_t1_mul261), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t1_add260), .b(dl_t1_mul261), .sub(1'b0),
         .out_valid(op_valid_nc[185]), .y(t1_angA_z), .flags(fl_t1_angA_z)
     );
     assign ev_ovf[181] = fl_t1_angA_z[0] && ev_q[22];
@@ -2906,12 +2913,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[181] = fl_t1_angA_z[2] && ev_q[22];
     logic [W-1:0] dl_t1_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(60))
-        u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .q(dl_t1_angA_z));
+        u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .valid(valid_q[22 +: 60]), .q(dl_t1_angA_z));
     // t1_mul263 = t1_angA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul263;
     logic [2:0] fl_t1_mul263;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul263 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angA_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[186]), .y(t1_mul263), .flags(fl_t1_mul263)
     );
     assign ev_ovf[182] = fl_t1_mul263[0] && ev_q[85];
@@ -2919,12 +2926,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[182] = fl_t1_mul263[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul263;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul263 (.clk(clk), .d(t1_mul263), .q(dl_t1_mul263));
+        u_dl_t1_mul263 (.clk(clk), .d(t1_mul263), .valid(1'b0), .q(dl_t1_mul263));
     // t1_mul264 = t1_angA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul264;
     logic [2:0] fl_t1_mul264;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul264 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angA_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[187]), .y(t1_mul264), .flags(fl_t1_mul264)
     );
     assign ev_ovf[183] = fl_t1_mul264[0] && ev_q[85];
@@ -2932,12 +2939,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[183] = fl_t1_mul264[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul264;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul264 (.clk(clk), .d(t1_mul264), .q(dl_t1_mul264));
+        u_dl_t1_mul264 (.clk(clk), .d(t1_mul264), .valid(1'b0), .q(dl_t1_mul264));
     // t1_mul265 = t1_angA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul265;
     logic [2:0] fl_t1_mul265;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul265 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angA_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[188]), .y(t1_mul265), .flags(fl_t1_mul265)
     );
     assign ev_ovf[184] = fl_t1_mul265[0] && ev_q[85];
@@ -2945,12 +2952,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[184] = fl_t1_mul265[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul265;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul265 (.clk(clk), .d(t1_mul265), .q(dl_t1_mul265));
+        u_dl_t1_mul265 (.clk(clk), .d(t1_mul265), .valid(1'b0), .q(dl_t1_mul265));
     // t1_add266 = t0_wA_x + t1_mul263   (ready @89/89/89)
     logic [W-1:0] t1_add266;
     logic [2:0] fl_t1_add266;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add266 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_x[1*W +: W]), .b(dl_t1_mul263), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_x[1*W +: W]), .b(dl_t1_mul263), .sub(1'b0),
         .out_valid(op_valid_nc[189]), .y(t1_add266), .flags(fl_t1_add266)
     );
     assign ev_ovf[185] = fl_t1_add266[0] && ev_q[89];
@@ -2958,12 +2965,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[185] = fl_t1_add266[2] && ev_q[89];
     logic [W-1:0] dl_t1_add266;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add266 (.clk(clk), .d(t1_add266), .q(dl_t1_add266));
+        u_dl_t1_add266 (.clk(clk), .d(t1_add266), .valid(1'b0), .q(dl_t1_add266));
     // t1_add267 = t0_wA_y + t1_mul264   (ready @89/89/89)
     logic [W-1:0] t1_add267;
     logic [2:0] fl_t1_add267;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add267 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_y[1*W +: W]), .b(dl_t1_mul264), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_y[1*W +: W]), .b(dl_t1_mul264), .sub(1'b0),
         .out_valid(op_valid_nc[190]), .y(t1_add267), .flags(fl_t1_add267)
     );
     assign ev_ovf[186] = fl_t1_add267[0] && ev_q[89];
@@ -2971,12 +2978,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[186] = fl_t1_add267[2] && ev_q[89];
     logic [W-1:0] dl_t1_add267;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add267 (.clk(clk), .d(t1_add267), .q(dl_t1_add267));
+        u_dl_t1_add267 (.clk(clk), .d(t1_add267), .valid(1'b0), .q(dl_t1_add267));
     // t1_add268 = t0_wA_z + t1_mul265   (ready @89/89/89)
     logic [W-1:0] t1_add268;
     logic [2:0] fl_t1_add268;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add268 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_z[1*W +: W]), .b(dl_t1_mul265), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_z[1*W +: W]), .b(dl_t1_mul265), .sub(1'b0),
         .out_valid(op_valid_nc[191]), .y(t1_add268), .flags(fl_t1_add268)
     );
     assign ev_ovf[187] = fl_t1_add268[0] && ev_q[89];
@@ -2984,30 +2991,30 @@ module pgs_friction_pipe_full #(
     assign ev_inv[187] = fl_t1_add268[2] && ev_q[89];
     logic [W-1:0] dl_t1_add268;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add268 (.clk(clk), .d(t1_add268), .q(dl_t1_add268));
+        u_dl_t1_add268 (.clk(clk), .d(t1_add268), .valid(1'b0), .q(dl_t1_add268));
     // t1_wA_x = skip ? t0_wA_x : t1_add266   (ready @89/89/89)
     logic [W-1:0] t1_wA_x;
     assign t1_wA_x = dl_skip[3] ? dl_t0_wA_x[2*W +: W] : dl_t1_add266;
     logic [3*W-1:0] dl_t1_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wA_x (.clk(clk), .d(t1_wA_x), .q(dl_t1_wA_x));
+        u_dl_t1_wA_x (.clk(clk), .d(t1_wA_x), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_x));
     // t1_wA_y = skip ? t0_wA_y : t1_add267   (ready @89/89/89)
     logic [W-1:0] t1_wA_y;
     assign t1_wA_y = dl_skip[3] ? dl_t0_wA_y[2*W +: W] : dl_t1_add267;
     logic [3*W-1:0] dl_t1_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wA_y (.clk(clk), .d(t1_wA_y), .q(dl_t1_wA_y));
+        u_dl_t1_wA_y (.clk(clk), .d(t1_wA_y), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_y));
     // t1_wA_z = skip ? t0_wA_z : t1_add268   (ready @89/89/89)
     logic [W-1:0] t1_wA_z;
     assign t1_wA_z = dl_skip[3] ? dl_t0_wA_z[2*W +: W] : dl_t1_add268;
     logic [3*W-1:0] dl_t1_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wA_z (.clk(clk), .d(t1_wA_z), .q(dl_t1_wA_z));
+        u_dl_t1_wA_z (.clk(clk), .d(t1_wA_z), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_z));
     // t1_linB_x = t1_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_x;
     logic [2:0] fl_t1_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[192]), .y(t1_linB_x), .flags(fl_t1_linB_x)
     );
     assign ev_ovf[188] = fl_t1_linB_x[0] && ev_q[3];
@@ -3015,12 +3022,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[188] = fl_t1_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linB_x (.clk(clk), .d(t1_linB_x), .q(dl_t1_linB_x));
+        u_dl_t1_linB_x (.clk(clk), .d(t1_linB_x), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_x));
     // t1_linB_y = t1_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_y;
     logic [2:0] fl_t1_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[193]), .y(t1_linB_y), .flags(fl_t1_linB_y)
     );
     assign ev_ovf[189] = fl_t1_linB_y[0] && ev_q[3];
@@ -3028,12 +3035,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[189] = fl_t1_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linB_y (.clk(clk), .d(t1_linB_y), .q(dl_t1_linB_y));
+        u_dl_t1_linB_y (.clk(clk), .d(t1_linB_y), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_y));
     // t1_linB_z = t1_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_z;
     logic [2:0] fl_t1_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[194]), .y(t1_linB_z), .flags(fl_t1_linB_z)
     );
     assign ev_ovf[190] = fl_t1_linB_z[0] && ev_q[3];
@@ -3041,12 +3048,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[190] = fl_t1_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .q(dl_t1_linB_z));
+        u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_z));
     // t1_mul275 = t1_linB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul275;
     logic [2:0] fl_t1_mul275;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul275 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linB_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[195]), .y(t1_mul275), .flags(fl_t1_mul275)
     );
     assign ev_ovf[191] = fl_t1_mul275[0] && ev_q[85];
@@ -3054,12 +3061,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[191] = fl_t1_mul275[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul275;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul275 (.clk(clk), .d(t1_mul275), .q(dl_t1_mul275));
+        u_dl_t1_mul275 (.clk(clk), .d(t1_mul275), .valid(1'b0), .q(dl_t1_mul275));
     // t1_mul276 = t1_linB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul276;
     logic [2:0] fl_t1_mul276;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul276 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linB_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[196]), .y(t1_mul276), .flags(fl_t1_mul276)
     );
     assign ev_ovf[192] = fl_t1_mul276[0] && ev_q[85];
@@ -3067,12 +3074,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[192] = fl_t1_mul276[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul276;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul276 (.clk(clk), .d(t1_mul276), .q(dl_t1_mul276));
+        u_dl_t1_mul276 (.clk(clk), .d(t1_mul276), .valid(1'b0), .q(dl_t1_mul276));
     // t1_mul277 = t1_linB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul277;
     logic [2:0] fl_t1_mul277;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul277 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linB_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[197]), .y(t1_mul277), .flags(fl_t1_mul277)
     );
     assign ev_ovf[193] = fl_t1_mul277[0] && ev_q[85];
@@ -3080,12 +3087,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[193] = fl_t1_mul277[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul277;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul277 (.clk(clk), .d(t1_mul277), .q(dl_t1_mul277));
+        u_dl_t1_mul277 (.clk(clk), .d(t1_mul277), .valid(1'b0), .q(dl_t1_mul277));
     // t1_sub278 = t0_vB_x - t1_mul275   (ready @89/89/89)
     logic [W-1:0] t1_sub278;
     logic [2:0] fl_t1_sub278;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub278 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_x[1*W +: W]), .b(dl_t1_mul275), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_x[1*W +: W]), .b(dl_t1_mul275), .sub(1'b1),
         .out_valid(op_valid_nc[198]), .y(t1_sub278), .flags(fl_t1_sub278)
     );
     assign ev_ovf[194] = fl_t1_sub278[0] && ev_q[89];
@@ -3093,12 +3100,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[194] = fl_t1_sub278[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub278;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub278 (.clk(clk), .d(t1_sub278), .q(dl_t1_sub278));
+        u_dl_t1_sub278 (.clk(clk), .d(t1_sub278), .valid(1'b0), .q(dl_t1_sub278));
     // t1_sub279 = t0_vB_y - t1_mul276   (ready @89/89/89)
     logic [W-1:0] t1_sub279;
     logic [2:0] fl_t1_sub279;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub279 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_y[1*W +: W]), .b(dl_t1_mul276), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_y[1*W +: W]), .b(dl_t1_mul276), .sub(1'b1),
         .out_valid(op_valid_nc[199]), .y(t1_sub279), .flags(fl_t1_sub279)
     );
     assign ev_ovf[195] = fl_t1_sub279[0] && ev_q[89];
@@ -3106,12 +3113,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[195] = fl_t1_sub279[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub279;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub279 (.clk(clk), .d(t1_sub279), .q(dl_t1_sub279));
+        u_dl_t1_sub279 (.clk(clk), .d(t1_sub279), .valid(1'b0), .q(dl_t1_sub279));
     // t1_sub280 = t0_vB_z - t1_mul277   (ready @89/89/89)
     logic [W-1:0] t1_sub280;
     logic [2:0] fl_t1_sub280;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub280 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_z[1*W +: W]), .b(dl_t1_mul277), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_z[1*W +: W]), .b(dl_t1_mul277), .sub(1'b1),
         .out_valid(op_valid_nc[200]), .y(t1_sub280), .flags(fl_t1_sub280)
     );
     assign ev_ovf[196] = fl_t1_sub280[0] && ev_q[89];
@@ -3119,30 +3126,30 @@ module pgs_friction_pipe_full #(
     assign ev_inv[196] = fl_t1_sub280[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub280;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub280 (.clk(clk), .d(t1_sub280), .q(dl_t1_sub280));
+        u_dl_t1_sub280 (.clk(clk), .d(t1_sub280), .valid(1'b0), .q(dl_t1_sub280));
     // t1_vB_x = skip ? t0_vB_x : t1_sub278   (ready @89/89/89)
     logic [W-1:0] t1_vB_x;
     assign t1_vB_x = dl_skip[3] ? dl_t0_vB_x[2*W +: W] : dl_t1_sub278;
     logic [W-1:0] dl_t1_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vB_x (.clk(clk), .d(t1_vB_x), .q(dl_t1_vB_x));
+        u_dl_t1_vB_x (.clk(clk), .d(t1_vB_x), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_x));
     // t1_vB_y = skip ? t0_vB_y : t1_sub279   (ready @89/89/89)
     logic [W-1:0] t1_vB_y;
     assign t1_vB_y = dl_skip[3] ? dl_t0_vB_y[2*W +: W] : dl_t1_sub279;
     logic [W-1:0] dl_t1_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vB_y (.clk(clk), .d(t1_vB_y), .q(dl_t1_vB_y));
+        u_dl_t1_vB_y (.clk(clk), .d(t1_vB_y), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_y));
     // t1_vB_z = skip ? t0_vB_z : t1_sub280   (ready @89/89/89)
     logic [W-1:0] t1_vB_z;
     assign t1_vB_z = dl_skip[3] ? dl_t0_vB_z[2*W +: W] : dl_t1_sub280;
     logic [W-1:0] dl_t1_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vB_z (.clk(clk), .d(t1_vB_z), .q(dl_t1_vB_z));
+        u_dl_t1_vB_z (.clk(clk), .d(t1_vB_z), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_z));
     // t1_mul284 = IInvB_xx * t1_cB_x   (ready @14/14/14)
     logic [W-1:0] t1_mul284;
     logic [2:0] fl_t1_mul284;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul284 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xx), .b(dl_t1_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xx), .b(dl_t1_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[201]), .y(t1_mul284), .flags(fl_t1_mul284)
     );
     assign ev_ovf[197] = fl_t1_mul284[0] && ev_q[14];
@@ -3150,12 +3157,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[197] = fl_t1_mul284[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul284;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul284 (.clk(clk), .d(t1_mul284), .q(dl_t1_mul284));
+        u_dl_t1_mul284 (.clk(clk), .d(t1_mul284), .valid(1'b0), .q(dl_t1_mul284));
     // t1_mul285 = IInvB_xy * t1_cB_y   (ready @14/14/14)
     logic [W-1:0] t1_mul285;
     logic [2:0] fl_t1_mul285;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul285 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xy), .b(dl_t1_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xy), .b(dl_t1_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[202]), .y(t1_mul285), .flags(fl_t1_mul285)
     );
     assign ev_ovf[198] = fl_t1_mul285[0] && ev_q[14];
@@ -3163,12 +3170,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[198] = fl_t1_mul285[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul285;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul285 (.clk(clk), .d(t1_mul285), .q(dl_t1_mul285));
+        u_dl_t1_mul285 (.clk(clk), .d(t1_mul285), .valid(1'b0), .q(dl_t1_mul285));
     // t1_add286 = t1_mul284 + t1_mul285   (ready @18/18/18)
     logic [W-1:0] t1_add286;
     logic [2:0] fl_t1_add286;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add286 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul284), .b(dl_t1_mul285), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t1_mul284), .b(dl_t1_mul285), .sub(1'b0),
         .out_valid(op_valid_nc[203]), .y(t1_add286), .flags(fl_t1_add286)
     );
     assign ev_ovf[199] = fl_t1_add286[0] && ev_q[18];
@@ -3176,12 +3183,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[199] = fl_t1_add286[2] && ev_q[18];
     logic [W-1:0] dl_t1_add286;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add286 (.clk(clk), .d(t1_add286), .q(dl_t1_add286));
+        u_dl_t1_add286 (.clk(clk), .d(t1_add286), .valid(1'b0), .q(dl_t1_add286));
     // t1_mul287 = IInvB_xz * t1_cB_z   (ready @14/14/14)
     logic [W-1:0] t1_mul287;
     logic [2:0] fl_t1_mul287;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul287 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xz), .b(dl_t1_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xz), .b(dl_t1_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[204]), .y(t1_mul287), .flags(fl_t1_mul287)
     );
     assign ev_ovf[200] = fl_t1_mul287[0] && ev_q[14];
@@ -3189,12 +3196,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[200] = fl_t1_mul287[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul287;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul287 (.clk(clk), .d(t1_mul287), .q(dl_t1_mul287));
+        u_dl_t1_mul287 (.clk(clk), .d(t1_mul287), .valid(valid_q[14 +: 4]), .q(dl_t1_mul287));
     // t1_angB_x = t1_add286 + t1_mul287   (ready @22/22/22)
     logic [W-1:0] t1_angB_x;
     logic [2:0] fl_t1_angB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add286), .b(dl_t1_mul287), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t1_add286), .b(dl_t1_mul287), .sub(1'b0),
         .out_valid(op_valid_nc[205]), .y(t1_angB_x), .flags(fl_t1_angB_x)
     );
     assign ev_ovf[201] = fl_t1_angB_x[0] && ev_q[22];
@@ -3202,12 +3209,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[201] = fl_t1_angB_x[2] && ev_q[22];
     logic [W-1:0] dl_t1_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(60))
-        u_dl_t1_angB_x (.clk(clk), .d(t1_angB_x), .q(dl_t1_angB_x));
+        u_dl_t1_angB_x (.clk(clk), .d(t1_angB_x), .valid(valid_q[22 +: 60]), .q(dl_t1_angB_x));
     // t1_mul289 = IInvB_xy * t1_cB_x   (ready @14/14/14)
     logic [W-1:0] t1_mul289;
     logic [2:0] fl_t1_mul289;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul289 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xy), .b(dl_t1_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xy), .b(dl_t1_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[206]), .y(t1_mul289), .flags(fl_t1_mul289)
     );
     assign ev_ovf[202] = fl_t1_mul289[0] && ev_q[14];
@@ -3215,12 +3222,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[202] = fl_t1_mul289[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul289;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul289 (.clk(clk), .d(t1_mul289), .q(dl_t1_mul289));
+        u_dl_t1_mul289 (.clk(clk), .d(t1_mul289), .valid(1'b0), .q(dl_t1_mul289));
     // t1_mul290 = IInvB_yy * t1_cB_y   (ready @14/14/14)
     logic [W-1:0] t1_mul290;
     logic [2:0] fl_t1_mul290;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul290 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yy), .b(dl_t1_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yy), .b(dl_t1_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[207]), .y(t1_mul290), .flags(fl_t1_mul290)
     );
     assign ev_ovf[203] = fl_t1_mul290[0] && ev_q[14];
@@ -3228,12 +3235,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[203] = fl_t1_mul290[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul290;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul290 (.clk(clk), .d(t1_mul290), .q(dl_t1_mul290));
+        u_dl_t1_mul290 (.clk(clk), .d(t1_mul290), .valid(1'b0), .q(dl_t1_mul290));
     // t1_add291 = t1_mul289 + t1_mul290   (ready @18/18/18)
     logic [W-1:0] t1_add291;
     logic [2:0] fl_t1_add291;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add291 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul289), .b(dl_t1_mul290), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t1_mul289), .b(dl_t1_mul290), .sub(1'b0),
         .out_valid(op_valid_nc[208]), .y(t1_add291), .flags(fl_t1_add291)
     );
     assign ev_ovf[204] = fl_t1_add291[0] && ev_q[18];
@@ -3241,12 +3248,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[204] = fl_t1_add291[2] && ev_q[18];
     logic [W-1:0] dl_t1_add291;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add291 (.clk(clk), .d(t1_add291), .q(dl_t1_add291));
+        u_dl_t1_add291 (.clk(clk), .d(t1_add291), .valid(1'b0), .q(dl_t1_add291));
     // t1_mul292 = IInvB_yz * t1_cB_z   (ready @14/14/14)
     logic [W-1:0] t1_mul292;
     logic [2:0] fl_t1_mul292;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul292 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yz), .b(dl_t1_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yz), .b(dl_t1_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[209]), .y(t1_mul292), .flags(fl_t1_mul292)
     );
     assign ev_ovf[205] = fl_t1_mul292[0] && ev_q[14];
@@ -3254,12 +3261,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[205] = fl_t1_mul292[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul292;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul292 (.clk(clk), .d(t1_mul292), .q(dl_t1_mul292));
+        u_dl_t1_mul292 (.clk(clk), .d(t1_mul292), .valid(valid_q[14 +: 4]), .q(dl_t1_mul292));
     // t1_angB_y = t1_add291 + t1_mul292   (ready @22/22/22)
     logic [W-1:0] t1_angB_y;
     logic [2:0] fl_t1_angB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add291), .b(dl_t1_mul292), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t1_add291), .b(dl_t1_mul292), .sub(1'b0),
         .out_valid(op_valid_nc[210]), .y(t1_angB_y), .flags(fl_t1_angB_y)
     );
     assign ev_ovf[206] = fl_t1_angB_y[0] && ev_q[22];
@@ -3267,12 +3274,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[206] = fl_t1_angB_y[2] && ev_q[22];
     logic [W-1:0] dl_t1_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(60))
-        u_dl_t1_angB_y (.clk(clk), .d(t1_angB_y), .q(dl_t1_angB_y));
+        u_dl_t1_angB_y (.clk(clk), .d(t1_angB_y), .valid(valid_q[22 +: 60]), .q(dl_t1_angB_y));
     // t1_mul294 = IInvB_xz * t1_cB_x   (ready @14/14/14)
     logic [W-1:0] t1_mul294;
     logic [2:0] fl_t1_mul294;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul294 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_xz), .b(dl_t1_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_xz), .b(dl_t1_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[211]), .y(t1_mul294), .flags(fl_t1_mul294)
     );
     assign ev_ovf[207] = fl_t1_mul294[0] && ev_q[14];
@@ -3280,12 +3287,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[207] = fl_t1_mul294[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul294;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul294 (.clk(clk), .d(t1_mul294), .q(dl_t1_mul294));
+        u_dl_t1_mul294 (.clk(clk), .d(t1_mul294), .valid(1'b0), .q(dl_t1_mul294));
     // t1_mul295 = IInvB_yz * t1_cB_y   (ready @14/14/14)
     logic [W-1:0] t1_mul295;
     logic [2:0] fl_t1_mul295;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul295 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_yz), .b(dl_t1_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_yz), .b(dl_t1_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[212]), .y(t1_mul295), .flags(fl_t1_mul295)
     );
     assign ev_ovf[208] = fl_t1_mul295[0] && ev_q[14];
@@ -3293,12 +3300,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[208] = fl_t1_mul295[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul295;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul295 (.clk(clk), .d(t1_mul295), .q(dl_t1_mul295));
+        u_dl_t1_mul295 (.clk(clk), .d(t1_mul295), .valid(1'b0), .q(dl_t1_mul295));
     // t1_add296 = t1_mul294 + t1_mul295   (ready @18/18/18)
     logic [W-1:0] t1_add296;
     logic [2:0] fl_t1_add296;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add296 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul294), .b(dl_t1_mul295), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t1_mul294), .b(dl_t1_mul295), .sub(1'b0),
         .out_valid(op_valid_nc[213]), .y(t1_add296), .flags(fl_t1_add296)
     );
     assign ev_ovf[209] = fl_t1_add296[0] && ev_q[18];
@@ -3306,12 +3313,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[209] = fl_t1_add296[2] && ev_q[18];
     logic [W-1:0] dl_t1_add296;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add296 (.clk(clk), .d(t1_add296), .q(dl_t1_add296));
+        u_dl_t1_add296 (.clk(clk), .d(t1_add296), .valid(1'b0), .q(dl_t1_add296));
     // t1_mul297 = IInvB_zz * t1_cB_z   (ready @14/14/14)
     logic [W-1:0] t1_mul297;
     logic [2:0] fl_t1_mul297;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul297 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_zz), .b(dl_t1_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_zz), .b(dl_t1_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[214]), .y(t1_mul297), .flags(fl_t1_mul297)
     );
     assign ev_ovf[210] = fl_t1_mul297[0] && ev_q[14];
@@ -3319,12 +3326,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[210] = fl_t1_mul297[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul297;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul297 (.clk(clk), .d(t1_mul297), .q(dl_t1_mul297));
+        u_dl_t1_mul297 (.clk(clk), .d(t1_mul297), .valid(valid_q[14 +: 4]), .q(dl_t1_mul297));
     // t1_angB_z = t1_add296 + t1_mul297   (ready @22/22/22)
     logic [W-1:0] t1_angB_z;
     logic [2:0] fl_t1_angB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add296), .b(dl_t1_mul297), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t1_add296), .b(dl_t1_mul297), .sub(1'b0),
         .out_valid(op_valid_nc[215]), .y(t1_angB_z), .flags(fl_t1_angB_z)
     );
     assign ev_ovf[211] = fl_t1_angB_z[0] && ev_q[22];
@@ -3332,12 +3339,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[211] = fl_t1_angB_z[2] && ev_q[22];
     logic [W-1:0] dl_t1_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(60))
-        u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .q(dl_t1_angB_z));
+        u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .valid(valid_q[22 +: 60]), .q(dl_t1_angB_z));
     // t1_mul299 = t1_angB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul299;
     logic [2:0] fl_t1_mul299;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul299 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angB_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[216]), .y(t1_mul299), .flags(fl_t1_mul299)
     );
     assign ev_ovf[212] = fl_t1_mul299[0] && ev_q[85];
@@ -3345,12 +3352,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[212] = fl_t1_mul299[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul299;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul299 (.clk(clk), .d(t1_mul299), .q(dl_t1_mul299));
+        u_dl_t1_mul299 (.clk(clk), .d(t1_mul299), .valid(1'b0), .q(dl_t1_mul299));
     // t1_mul300 = t1_angB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul300;
     logic [2:0] fl_t1_mul300;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul300 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angB_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[217]), .y(t1_mul300), .flags(fl_t1_mul300)
     );
     assign ev_ovf[213] = fl_t1_mul300[0] && ev_q[85];
@@ -3358,12 +3365,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[213] = fl_t1_mul300[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul300;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul300 (.clk(clk), .d(t1_mul300), .q(dl_t1_mul300));
+        u_dl_t1_mul300 (.clk(clk), .d(t1_mul300), .valid(1'b0), .q(dl_t1_mul300));
     // t1_mul301 = t1_angB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul301;
     logic [2:0] fl_t1_mul301;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul301 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angB_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[218]), .y(t1_mul301), .flags(fl_t1_mul301)
     );
     assign ev_ovf[214] = fl_t1_mul301[0] && ev_q[85];
@@ -3371,12 +3378,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[214] = fl_t1_mul301[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul301;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul301 (.clk(clk), .d(t1_mul301), .q(dl_t1_mul301));
+        u_dl_t1_mul301 (.clk(clk), .d(t1_mul301), .valid(1'b0), .q(dl_t1_mul301));
     // t1_sub302 = t0_wB_x - t1_mul299   (ready @89/89/89)
     logic [W-1:0] t1_sub302;
     logic [2:0] fl_t1_sub302;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub302 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_x[1*W +: W]), .b(dl_t1_mul299), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_x[1*W +: W]), .b(dl_t1_mul299), .sub(1'b1),
         .out_valid(op_valid_nc[219]), .y(t1_sub302), .flags(fl_t1_sub302)
     );
     assign ev_ovf[215] = fl_t1_sub302[0] && ev_q[89];
@@ -3384,12 +3391,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[215] = fl_t1_sub302[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub302;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub302 (.clk(clk), .d(t1_sub302), .q(dl_t1_sub302));
+        u_dl_t1_sub302 (.clk(clk), .d(t1_sub302), .valid(1'b0), .q(dl_t1_sub302));
     // t1_sub303 = t0_wB_y - t1_mul300   (ready @89/89/89)
     logic [W-1:0] t1_sub303;
     logic [2:0] fl_t1_sub303;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub303 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_y[1*W +: W]), .b(dl_t1_mul300), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_y[1*W +: W]), .b(dl_t1_mul300), .sub(1'b1),
         .out_valid(op_valid_nc[220]), .y(t1_sub303), .flags(fl_t1_sub303)
     );
     assign ev_ovf[216] = fl_t1_sub303[0] && ev_q[89];
@@ -3397,12 +3404,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[216] = fl_t1_sub303[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub303;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub303 (.clk(clk), .d(t1_sub303), .q(dl_t1_sub303));
+        u_dl_t1_sub303 (.clk(clk), .d(t1_sub303), .valid(1'b0), .q(dl_t1_sub303));
     // t1_sub304 = t0_wB_z - t1_mul301   (ready @89/89/89)
     logic [W-1:0] t1_sub304;
     logic [2:0] fl_t1_sub304;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub304 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_z[1*W +: W]), .b(dl_t1_mul301), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_z[1*W +: W]), .b(dl_t1_mul301), .sub(1'b1),
         .out_valid(op_valid_nc[221]), .y(t1_sub304), .flags(fl_t1_sub304)
     );
     assign ev_ovf[217] = fl_t1_sub304[0] && ev_q[89];
@@ -3410,30 +3417,30 @@ module pgs_friction_pipe_full #(
     assign ev_inv[217] = fl_t1_sub304[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub304;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub304 (.clk(clk), .d(t1_sub304), .q(dl_t1_sub304));
+        u_dl_t1_sub304 (.clk(clk), .d(t1_sub304), .valid(1'b0), .q(dl_t1_sub304));
     // t1_wB_x = skip ? t0_wB_x : t1_sub302   (ready @89/89/89)
     logic [W-1:0] t1_wB_x;
     assign t1_wB_x = dl_skip[3] ? dl_t0_wB_x[2*W +: W] : dl_t1_sub302;
     logic [3*W-1:0] dl_t1_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wB_x (.clk(clk), .d(t1_wB_x), .q(dl_t1_wB_x));
+        u_dl_t1_wB_x (.clk(clk), .d(t1_wB_x), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_x));
     // t1_wB_y = skip ? t0_wB_y : t1_sub303   (ready @89/89/89)
     logic [W-1:0] t1_wB_y;
     assign t1_wB_y = dl_skip[3] ? dl_t0_wB_y[2*W +: W] : dl_t1_sub303;
     logic [3*W-1:0] dl_t1_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wB_y (.clk(clk), .d(t1_wB_y), .q(dl_t1_wB_y));
+        u_dl_t1_wB_y (.clk(clk), .d(t1_wB_y), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_y));
     // t1_wB_z = skip ? t0_wB_z : t1_sub304   (ready @89/89/89)
     logic [W-1:0] t1_wB_z;
     assign t1_wB_z = dl_skip[3] ? dl_t0_wB_z[2*W +: W] : dl_t1_sub304;
     logic [3*W-1:0] dl_t1_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wB_z (.clk(clk), .d(t1_wB_z), .q(dl_t1_wB_z));
+        u_dl_t1_wB_z (.clk(clk), .d(t1_wB_z), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_z));
     // spin_mul309 = n_x * t1_wA_x   (ready @92/92/92)
     logic [W-1:0] spin_mul309;
     logic [2:0] fl_spin_mul309;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul309 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[222]), .y(spin_mul309), .flags(fl_spin_mul309)
     );
     assign ev_ovf[218] = fl_spin_mul309[0] && ev_q[92];
@@ -3441,12 +3448,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[218] = fl_spin_mul309[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul309;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul309 (.clk(clk), .d(spin_mul309), .q(dl_spin_mul309));
+        u_dl_spin_mul309 (.clk(clk), .d(spin_mul309), .valid(1'b0), .q(dl_spin_mul309));
     // spin_mul310 = n_y * t1_wA_y   (ready @92/92/92)
     logic [W-1:0] spin_mul310;
     logic [2:0] fl_spin_mul310;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul310 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[223]), .y(spin_mul310), .flags(fl_spin_mul310)
     );
     assign ev_ovf[219] = fl_spin_mul310[0] && ev_q[92];
@@ -3454,12 +3461,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[219] = fl_spin_mul310[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul310;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul310 (.clk(clk), .d(spin_mul310), .q(dl_spin_mul310));
+        u_dl_spin_mul310 (.clk(clk), .d(spin_mul310), .valid(1'b0), .q(dl_spin_mul310));
     // spin_add311 = spin_mul309 + spin_mul310   (ready @96/96/96)
     logic [W-1:0] spin_add311;
     logic [2:0] fl_spin_add311;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add311 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_mul309), .b(dl_spin_mul310), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[92]), .a(dl_spin_mul309), .b(dl_spin_mul310), .sub(1'b0),
         .out_valid(op_valid_nc[224]), .y(spin_add311), .flags(fl_spin_add311)
     );
     assign ev_ovf[220] = fl_spin_add311[0] && ev_q[96];
@@ -3467,12 +3474,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[220] = fl_spin_add311[2] && ev_q[96];
     logic [W-1:0] dl_spin_add311;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add311 (.clk(clk), .d(spin_add311), .q(dl_spin_add311));
+        u_dl_spin_add311 (.clk(clk), .d(spin_add311), .valid(1'b0), .q(dl_spin_add311));
     // spin_mul312 = n_z * t1_wA_z   (ready @92/92/92)
     logic [W-1:0] spin_mul312;
     logic [2:0] fl_spin_mul312;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul312 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[225]), .y(spin_mul312), .flags(fl_spin_mul312)
     );
     assign ev_ovf[221] = fl_spin_mul312[0] && ev_q[92];
@@ -3480,12 +3487,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[221] = fl_spin_mul312[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul312;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_spin_mul312 (.clk(clk), .d(spin_mul312), .q(dl_spin_mul312));
+        u_dl_spin_mul312 (.clk(clk), .d(spin_mul312), .valid(valid_q[92 +: 4]), .q(dl_spin_mul312));
     // spin_add313 = spin_add311 + spin_mul312   (ready @100/100/100)
     logic [W-1:0] spin_add313;
     logic [2:0] fl_spin_add313;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add313 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add311), .b(dl_spin_mul312), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[96]), .a(dl_spin_add311), .b(dl_spin_mul312), .sub(1'b0),
         .out_valid(op_valid_nc[226]), .y(spin_add313), .flags(fl_spin_add313)
     );
     assign ev_ovf[222] = fl_spin_add313[0] && ev_q[100];
@@ -3493,12 +3500,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[222] = fl_spin_add313[2] && ev_q[100];
     logic [W-1:0] dl_spin_add313;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add313 (.clk(clk), .d(spin_add313), .q(dl_spin_add313));
+        u_dl_spin_add313 (.clk(clk), .d(spin_add313), .valid(1'b0), .q(dl_spin_add313));
     // spin_sA = spin_add313 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sA;
     logic [2:0] fl_spin_sA;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_sA (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add313), .b(K_SPIN_DAMP),
+        .clk(clk), .rst(rst), .in_valid(valid_q[100]), .a(dl_spin_add313), .b(K_SPIN_DAMP),
         .out_valid(op_valid_nc[227]), .y(spin_sA), .flags(fl_spin_sA)
     );
     assign ev_ovf[223] = fl_spin_sA[0] && ev_q[103];
@@ -3506,12 +3513,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[223] = fl_spin_sA[2] && ev_q[103];
     logic [W-1:0] dl_spin_sA;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_sA (.clk(clk), .d(spin_sA), .q(dl_spin_sA));
+        u_dl_spin_sA (.clk(clk), .d(spin_sA), .valid(1'b0), .q(dl_spin_sA));
     // spin_mul315 = n_x * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul315;
     logic [2:0] fl_spin_mul315;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul315 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sA),
         .out_valid(op_valid_nc[228]), .y(spin_mul315), .flags(fl_spin_mul315)
     );
     assign ev_ovf[224] = fl_spin_mul315[0] && ev_q[106];
@@ -3519,12 +3526,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[224] = fl_spin_mul315[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul315;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul315 (.clk(clk), .d(spin_mul315), .q(dl_spin_mul315));
+        u_dl_spin_mul315 (.clk(clk), .d(spin_mul315), .valid(1'b0), .q(dl_spin_mul315));
     // spin_mul316 = n_y * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul316;
     logic [2:0] fl_spin_mul316;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul316 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sA),
         .out_valid(op_valid_nc[229]), .y(spin_mul316), .flags(fl_spin_mul316)
     );
     assign ev_ovf[225] = fl_spin_mul316[0] && ev_q[106];
@@ -3532,12 +3539,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[225] = fl_spin_mul316[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul316;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul316 (.clk(clk), .d(spin_mul316), .q(dl_spin_mul316));
+        u_dl_spin_mul316 (.clk(clk), .d(spin_mul316), .valid(1'b0), .q(dl_spin_mul316));
     // spin_mul317 = n_z * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul317;
     logic [2:0] fl_spin_mul317;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul317 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sA),
         .out_valid(op_valid_nc[230]), .y(spin_mul317), .flags(fl_spin_mul317)
     );
     assign ev_ovf[226] = fl_spin_mul317[0] && ev_q[106];
@@ -3545,12 +3552,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[226] = fl_spin_mul317[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul317;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul317 (.clk(clk), .d(spin_mul317), .q(dl_spin_mul317));
+        u_dl_spin_mul317 (.clk(clk), .d(spin_mul317), .valid(1'b0), .q(dl_spin_mul317));
     // spin_wA_damped_x = t1_wA_x - spin_mul315   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_x;
     logic [2:0] fl_spin_wA_damped_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_x[1*W +: W]), .b(dl_spin_mul315), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_x[1*W +: W]), .b(dl_spin_mul315), .sub(1'b1),
         .out_valid(op_valid_nc[231]), .y(spin_wA_damped_x), .flags(fl_spin_wA_damped_x)
     );
     assign ev_ovf[227] = fl_spin_wA_damped_x[0] && ev_q[110];
@@ -3558,12 +3565,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[227] = fl_spin_wA_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_damped_x (.clk(clk), .d(spin_wA_damped_x), .q(dl_spin_wA_damped_x));
+        u_dl_spin_wA_damped_x (.clk(clk), .d(spin_wA_damped_x), .valid(1'b0), .q(dl_spin_wA_damped_x));
     // spin_wA_damped_y = t1_wA_y - spin_mul316   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_y;
     logic [2:0] fl_spin_wA_damped_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_y[1*W +: W]), .b(dl_spin_mul316), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_y[1*W +: W]), .b(dl_spin_mul316), .sub(1'b1),
         .out_valid(op_valid_nc[232]), .y(spin_wA_damped_y), .flags(fl_spin_wA_damped_y)
     );
     assign ev_ovf[228] = fl_spin_wA_damped_y[0] && ev_q[110];
@@ -3571,12 +3578,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[228] = fl_spin_wA_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_damped_y (.clk(clk), .d(spin_wA_damped_y), .q(dl_spin_wA_damped_y));
+        u_dl_spin_wA_damped_y (.clk(clk), .d(spin_wA_damped_y), .valid(1'b0), .q(dl_spin_wA_damped_y));
     // spin_wA_damped_z = t1_wA_z - spin_mul317   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_z;
     logic [2:0] fl_spin_wA_damped_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_z[1*W +: W]), .b(dl_spin_mul317), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_z[1*W +: W]), .b(dl_spin_mul317), .sub(1'b1),
         .out_valid(op_valid_nc[233]), .y(spin_wA_damped_z), .flags(fl_spin_wA_damped_z)
     );
     assign ev_ovf[229] = fl_spin_wA_damped_z[0] && ev_q[110];
@@ -3584,12 +3591,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[229] = fl_spin_wA_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_damped_z (.clk(clk), .d(spin_wA_damped_z), .q(dl_spin_wA_damped_z));
+        u_dl_spin_wA_damped_z (.clk(clk), .d(spin_wA_damped_z), .valid(1'b0), .q(dl_spin_wA_damped_z));
     // spin_mul321 = n_x * t1_wB_x   (ready @92/92/92)
     logic [W-1:0] spin_mul321;
     logic [2:0] fl_spin_mul321;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul321 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[234]), .y(spin_mul321), .flags(fl_spin_mul321)
     );
     assign ev_ovf[230] = fl_spin_mul321[0] && ev_q[92];
@@ -3597,12 +3604,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[230] = fl_spin_mul321[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul321;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul321 (.clk(clk), .d(spin_mul321), .q(dl_spin_mul321));
+        u_dl_spin_mul321 (.clk(clk), .d(spin_mul321), .valid(1'b0), .q(dl_spin_mul321));
     // spin_mul322 = n_y * t1_wB_y   (ready @92/92/92)
     logic [W-1:0] spin_mul322;
     logic [2:0] fl_spin_mul322;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul322 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[235]), .y(spin_mul322), .flags(fl_spin_mul322)
     );
     assign ev_ovf[231] = fl_spin_mul322[0] && ev_q[92];
@@ -3610,12 +3617,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[231] = fl_spin_mul322[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul322;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul322 (.clk(clk), .d(spin_mul322), .q(dl_spin_mul322));
+        u_dl_spin_mul322 (.clk(clk), .d(spin_mul322), .valid(1'b0), .q(dl_spin_mul322));
     // spin_add323 = spin_mul321 + spin_mul322   (ready @96/96/96)
     logic [W-1:0] spin_add323;
     logic [2:0] fl_spin_add323;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add323 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_mul321), .b(dl_spin_mul322), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[92]), .a(dl_spin_mul321), .b(dl_spin_mul322), .sub(1'b0),
         .out_valid(op_valid_nc[236]), .y(spin_add323), .flags(fl_spin_add323)
     );
     assign ev_ovf[232] = fl_spin_add323[0] && ev_q[96];
@@ -3623,12 +3630,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[232] = fl_spin_add323[2] && ev_q[96];
     logic [W-1:0] dl_spin_add323;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add323 (.clk(clk), .d(spin_add323), .q(dl_spin_add323));
+        u_dl_spin_add323 (.clk(clk), .d(spin_add323), .valid(1'b0), .q(dl_spin_add323));
     // spin_mul324 = n_z * t1_wB_z   (ready @92/92/92)
     logic [W-1:0] spin_mul324;
     logic [2:0] fl_spin_mul324;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul324 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[237]), .y(spin_mul324), .flags(fl_spin_mul324)
     );
     assign ev_ovf[233] = fl_spin_mul324[0] && ev_q[92];
@@ -3636,12 +3643,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[233] = fl_spin_mul324[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul324;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_spin_mul324 (.clk(clk), .d(spin_mul324), .q(dl_spin_mul324));
+        u_dl_spin_mul324 (.clk(clk), .d(spin_mul324), .valid(valid_q[92 +: 4]), .q(dl_spin_mul324));
     // spin_add325 = spin_add323 + spin_mul324   (ready @100/100/100)
     logic [W-1:0] spin_add325;
     logic [2:0] fl_spin_add325;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add325 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add323), .b(dl_spin_mul324), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[96]), .a(dl_spin_add323), .b(dl_spin_mul324), .sub(1'b0),
         .out_valid(op_valid_nc[238]), .y(spin_add325), .flags(fl_spin_add325)
     );
     assign ev_ovf[234] = fl_spin_add325[0] && ev_q[100];
@@ -3649,12 +3656,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[234] = fl_spin_add325[2] && ev_q[100];
     logic [W-1:0] dl_spin_add325;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add325 (.clk(clk), .d(spin_add325), .q(dl_spin_add325));
+        u_dl_spin_add325 (.clk(clk), .d(spin_add325), .valid(1'b0), .q(dl_spin_add325));
     // spin_sB = spin_add325 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sB;
     logic [2:0] fl_spin_sB;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_sB (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add325), .b(K_SPIN_DAMP),
+        .clk(clk), .rst(rst), .in_valid(valid_q[100]), .a(dl_spin_add325), .b(K_SPIN_DAMP),
         .out_valid(op_valid_nc[239]), .y(spin_sB), .flags(fl_spin_sB)
     );
     assign ev_ovf[235] = fl_spin_sB[0] && ev_q[103];
@@ -3662,12 +3669,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[235] = fl_spin_sB[2] && ev_q[103];
     logic [W-1:0] dl_spin_sB;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_sB (.clk(clk), .d(spin_sB), .q(dl_spin_sB));
+        u_dl_spin_sB (.clk(clk), .d(spin_sB), .valid(1'b0), .q(dl_spin_sB));
     // spin_mul327 = n_x * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul327;
     logic [2:0] fl_spin_mul327;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul327 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sB),
         .out_valid(op_valid_nc[240]), .y(spin_mul327), .flags(fl_spin_mul327)
     );
     assign ev_ovf[236] = fl_spin_mul327[0] && ev_q[106];
@@ -3675,12 +3682,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[236] = fl_spin_mul327[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul327;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul327 (.clk(clk), .d(spin_mul327), .q(dl_spin_mul327));
+        u_dl_spin_mul327 (.clk(clk), .d(spin_mul327), .valid(1'b0), .q(dl_spin_mul327));
     // spin_mul328 = n_y * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul328;
     logic [2:0] fl_spin_mul328;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul328 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sB),
         .out_valid(op_valid_nc[241]), .y(spin_mul328), .flags(fl_spin_mul328)
     );
     assign ev_ovf[237] = fl_spin_mul328[0] && ev_q[106];
@@ -3688,12 +3695,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[237] = fl_spin_mul328[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul328;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul328 (.clk(clk), .d(spin_mul328), .q(dl_spin_mul328));
+        u_dl_spin_mul328 (.clk(clk), .d(spin_mul328), .valid(1'b0), .q(dl_spin_mul328));
     // spin_mul329 = n_z * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul329;
     logic [2:0] fl_spin_mul329;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul329 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sB),
         .out_valid(op_valid_nc[242]), .y(spin_mul329), .flags(fl_spin_mul329)
     );
     assign ev_ovf[238] = fl_spin_mul329[0] && ev_q[106];
@@ -3701,12 +3708,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[238] = fl_spin_mul329[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul329;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul329 (.clk(clk), .d(spin_mul329), .q(dl_spin_mul329));
+        u_dl_spin_mul329 (.clk(clk), .d(spin_mul329), .valid(1'b0), .q(dl_spin_mul329));
     // spin_wB_damped_x = t1_wB_x - spin_mul327   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_x;
     logic [2:0] fl_spin_wB_damped_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_x[1*W +: W]), .b(dl_spin_mul327), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_x[1*W +: W]), .b(dl_spin_mul327), .sub(1'b1),
         .out_valid(op_valid_nc[243]), .y(spin_wB_damped_x), .flags(fl_spin_wB_damped_x)
     );
     assign ev_ovf[239] = fl_spin_wB_damped_x[0] && ev_q[110];
@@ -3714,12 +3721,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[239] = fl_spin_wB_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_damped_x (.clk(clk), .d(spin_wB_damped_x), .q(dl_spin_wB_damped_x));
+        u_dl_spin_wB_damped_x (.clk(clk), .d(spin_wB_damped_x), .valid(1'b0), .q(dl_spin_wB_damped_x));
     // spin_wB_damped_y = t1_wB_y - spin_mul328   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_y;
     logic [2:0] fl_spin_wB_damped_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_y[1*W +: W]), .b(dl_spin_mul328), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_y[1*W +: W]), .b(dl_spin_mul328), .sub(1'b1),
         .out_valid(op_valid_nc[244]), .y(spin_wB_damped_y), .flags(fl_spin_wB_damped_y)
     );
     assign ev_ovf[240] = fl_spin_wB_damped_y[0] && ev_q[110];
@@ -3727,12 +3734,12 @@ module pgs_friction_pipe_full #(
     assign ev_inv[240] = fl_spin_wB_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_damped_y (.clk(clk), .d(spin_wB_damped_y), .q(dl_spin_wB_damped_y));
+        u_dl_spin_wB_damped_y (.clk(clk), .d(spin_wB_damped_y), .valid(1'b0), .q(dl_spin_wB_damped_y));
     // spin_wB_damped_z = t1_wB_z - spin_mul329   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_z;
     logic [2:0] fl_spin_wB_damped_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_z[1*W +: W]), .b(dl_spin_mul329), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_z[1*W +: W]), .b(dl_spin_mul329), .sub(1'b1),
         .out_valid(op_valid_nc[245]), .y(spin_wB_damped_z), .flags(fl_spin_wB_damped_z)
     );
     assign ev_ovf[241] = fl_spin_wB_damped_z[0] && ev_q[110];
@@ -3740,79 +3747,79 @@ module pgs_friction_pipe_full #(
     assign ev_inv[241] = fl_spin_wB_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_damped_z (.clk(clk), .d(spin_wB_damped_z), .q(dl_spin_wB_damped_z));
+        u_dl_spin_wB_damped_z (.clk(clk), .d(spin_wB_damped_z), .valid(1'b0), .q(dl_spin_wB_damped_z));
     // spin_select333 = spin_damp ? spin_wA_damped_x : t1_wA_x   (ready @110/110/110)
     logic [W-1:0] spin_select333;
     assign spin_select333 = dl_in_spin_damp ? dl_spin_wA_damped_x : dl_t1_wA_x[2*W +: W];
     logic [W-1:0] dl_spin_select333;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select333 (.clk(clk), .d(spin_select333), .q(dl_spin_select333));
+        u_dl_spin_select333 (.clk(clk), .d(spin_select333), .valid(1'b0), .q(dl_spin_select333));
     // spin_select334 = spin_damp ? spin_wA_damped_y : t1_wA_y   (ready @110/110/110)
     logic [W-1:0] spin_select334;
     assign spin_select334 = dl_in_spin_damp ? dl_spin_wA_damped_y : dl_t1_wA_y[2*W +: W];
     logic [W-1:0] dl_spin_select334;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select334 (.clk(clk), .d(spin_select334), .q(dl_spin_select334));
+        u_dl_spin_select334 (.clk(clk), .d(spin_select334), .valid(1'b0), .q(dl_spin_select334));
     // spin_select335 = spin_damp ? spin_wA_damped_z : t1_wA_z   (ready @110/110/110)
     logic [W-1:0] spin_select335;
     assign spin_select335 = dl_in_spin_damp ? dl_spin_wA_damped_z : dl_t1_wA_z[2*W +: W];
     logic [W-1:0] dl_spin_select335;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select335 (.clk(clk), .d(spin_select335), .q(dl_spin_select335));
+        u_dl_spin_select335 (.clk(clk), .d(spin_select335), .valid(1'b0), .q(dl_spin_select335));
     // spin_wA_x = skip ? t1_wA_x : spin_select333   (ready @110/110/110)
     logic [W-1:0] spin_wA_x;
     assign spin_wA_x = dl_skip[4] ? dl_t1_wA_x[2*W +: W] : dl_spin_select333;
     logic [W-1:0] dl_spin_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_x (.clk(clk), .d(spin_wA_x), .q(dl_spin_wA_x));
+        u_dl_spin_wA_x (.clk(clk), .d(spin_wA_x), .valid(1'b0), .q(dl_spin_wA_x));
     // spin_wA_y = skip ? t1_wA_y : spin_select334   (ready @110/110/110)
     logic [W-1:0] spin_wA_y;
     assign spin_wA_y = dl_skip[4] ? dl_t1_wA_y[2*W +: W] : dl_spin_select334;
     logic [W-1:0] dl_spin_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_y (.clk(clk), .d(spin_wA_y), .q(dl_spin_wA_y));
+        u_dl_spin_wA_y (.clk(clk), .d(spin_wA_y), .valid(1'b0), .q(dl_spin_wA_y));
     // spin_wA_z = skip ? t1_wA_z : spin_select335   (ready @110/110/110)
     logic [W-1:0] spin_wA_z;
     assign spin_wA_z = dl_skip[4] ? dl_t1_wA_z[2*W +: W] : dl_spin_select335;
     logic [W-1:0] dl_spin_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_z (.clk(clk), .d(spin_wA_z), .q(dl_spin_wA_z));
+        u_dl_spin_wA_z (.clk(clk), .d(spin_wA_z), .valid(1'b0), .q(dl_spin_wA_z));
     // spin_select339 = spin_damp ? spin_wB_damped_x : t1_wB_x   (ready @110/110/110)
     logic [W-1:0] spin_select339;
     assign spin_select339 = dl_in_spin_damp ? dl_spin_wB_damped_x : dl_t1_wB_x[2*W +: W];
     logic [W-1:0] dl_spin_select339;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select339 (.clk(clk), .d(spin_select339), .q(dl_spin_select339));
+        u_dl_spin_select339 (.clk(clk), .d(spin_select339), .valid(1'b0), .q(dl_spin_select339));
     // spin_select340 = spin_damp ? spin_wB_damped_y : t1_wB_y   (ready @110/110/110)
     logic [W-1:0] spin_select340;
     assign spin_select340 = dl_in_spin_damp ? dl_spin_wB_damped_y : dl_t1_wB_y[2*W +: W];
     logic [W-1:0] dl_spin_select340;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select340 (.clk(clk), .d(spin_select340), .q(dl_spin_select340));
+        u_dl_spin_select340 (.clk(clk), .d(spin_select340), .valid(1'b0), .q(dl_spin_select340));
     // spin_select341 = spin_damp ? spin_wB_damped_z : t1_wB_z   (ready @110/110/110)
     logic [W-1:0] spin_select341;
     assign spin_select341 = dl_in_spin_damp ? dl_spin_wB_damped_z : dl_t1_wB_z[2*W +: W];
     logic [W-1:0] dl_spin_select341;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select341 (.clk(clk), .d(spin_select341), .q(dl_spin_select341));
+        u_dl_spin_select341 (.clk(clk), .d(spin_select341), .valid(1'b0), .q(dl_spin_select341));
     // spin_wB_x = skip ? t1_wB_x : spin_select339   (ready @110/110/110)
     logic [W-1:0] spin_wB_x;
     assign spin_wB_x = dl_skip[4] ? dl_t1_wB_x[2*W +: W] : dl_spin_select339;
     logic [W-1:0] dl_spin_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_x (.clk(clk), .d(spin_wB_x), .q(dl_spin_wB_x));
+        u_dl_spin_wB_x (.clk(clk), .d(spin_wB_x), .valid(1'b0), .q(dl_spin_wB_x));
     // spin_wB_y = skip ? t1_wB_y : spin_select340   (ready @110/110/110)
     logic [W-1:0] spin_wB_y;
     assign spin_wB_y = dl_skip[4] ? dl_t1_wB_y[2*W +: W] : dl_spin_select340;
     logic [W-1:0] dl_spin_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_y (.clk(clk), .d(spin_wB_y), .q(dl_spin_wB_y));
+        u_dl_spin_wB_y (.clk(clk), .d(spin_wB_y), .valid(1'b0), .q(dl_spin_wB_y));
     // spin_wB_z = skip ? t1_wB_z : spin_select341   (ready @110/110/110)
     logic [W-1:0] spin_wB_z;
     assign spin_wB_z = dl_skip[4] ? dl_t1_wB_z[2*W +: W] : dl_spin_select341;
     logic [W-1:0] dl_spin_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_z (.clk(clk), .d(spin_wB_z), .q(dl_spin_wB_z));
+        u_dl_spin_wB_z (.clk(clk), .d(spin_wB_z), .valid(1'b0), .q(dl_spin_wB_z));
 
     // Outputs, each delayed to LATENCY.
     assign out_data[0*W +: W] = dl_t0_lamT;   // lamT0

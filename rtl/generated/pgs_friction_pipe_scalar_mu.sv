@@ -71,23 +71,30 @@ module pgs_friction_pipe_scalar_mu #(
     logic         nc_t1_lam_new_lt, nc_t1_lam_new_eq, nc_t1_lam_new_uo;
     /* verilator lint_on UNUSEDSIGNAL */
 
-    // Valid and tag pipelines.
+    // Valid and tag pipelines. valid_q[k]: in_valid k cycles ago; an operator's in_valid is the
+    // bit at its issue cycle, so its register stages are enabled only for the pipeline's inputs.
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [LATENCY:0] valid_q;   // the stages after the last operator's issue are not read
+    /* verilator lint_on UNUSEDSIGNAL */
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
+        .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (.clk(clk), .d(in_tag), .q(out_tag));
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+        .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
+    );
 
     // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);
     // an operator's flags belong to the input taken at its ready cycle minus that many cycles.
     localparam int EV_DEPTH = 110;
-    logic [EV_DEPTH:0] ev_q;
-    assign ev_q[0] = in_valid && in_count;
-    for (genvar i = 1; i <= EV_DEPTH; i++) begin : g_ev
-        always_ff @(posedge clk) begin
-            if (rst) ev_q[i] <= 1'b0;
-            else     ev_q[i] <= ev_q[i-1];
-        end
+    logic [EV_DEPTH:1] ev_r;
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [EV_DEPTH:0] ev_q;   // read at the operators' ready cycles only
+    /* verilator lint_on UNUSEDSIGNAL */
+    always_ff @(posedge clk) begin   // one shift of the whole register
+        if (rst) ev_r <= '0;
+        else     ev_r <= EV_DEPTH'({ev_r, in_valid && in_count});
     end
+    assign ev_q = {ev_r, in_valid && in_count};
     logic [N_FP_OPS-1:0] ev_ovf, ev_unf, ev_inv;   // flags of counted inputs, one bit per operator
     always_ff @(posedge clk) begin
         ev_overflow  <= EV_W'($countones(ev_ovf));
@@ -100,220 +107,220 @@ module pgs_friction_pipe_scalar_mu #(
     assign in_n_x = in_data[0*W +: W];
     logic [2*W-1:0] dl_in_n_x;
     pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
-        u_dl_in_n_x (.clk(clk), .d(in_n_x), .q(dl_in_n_x));
+        u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 103]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [2*W-1:0] dl_in_n_y;
     pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
-        u_dl_in_n_y (.clk(clk), .d(in_n_y), .q(dl_in_n_y));
+        u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 103]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [2*W-1:0] dl_in_n_z;
     pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
-        u_dl_in_n_z (.clk(clk), .d(in_n_z), .q(dl_in_n_z));
+        u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 103]), .q(dl_in_n_z));
     logic [W-1:0] in_c_x;
     assign in_c_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_c_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_c_x (.clk(clk), .d(in_c_x), .q(dl_in_c_x));
+        u_dl_in_c_x (.clk(clk), .d(in_c_x), .valid(1'b0), .q(dl_in_c_x));
     logic [W-1:0] in_c_y;
     assign in_c_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_c_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_c_y (.clk(clk), .d(in_c_y), .q(dl_in_c_y));
+        u_dl_in_c_y (.clk(clk), .d(in_c_y), .valid(1'b0), .q(dl_in_c_y));
     logic [W-1:0] in_c_z;
     assign in_c_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_c_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_c_z (.clk(clk), .d(in_c_z), .q(dl_in_c_z));
+        u_dl_in_c_z (.clk(clk), .d(in_c_z), .valid(1'b0), .q(dl_in_c_z));
     logic [W-1:0] in_t0_x;
     assign in_t0_x = in_data[6*W +: W];
     logic [2*W-1:0] dl_in_t0_x;
     pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
-        u_dl_in_t0_x (.clk(clk), .d(in_t0_x), .q(dl_in_t0_x));
+        u_dl_in_t0_x (.clk(clk), .d(in_t0_x), .valid(valid_q[0 +: 4]), .q(dl_in_t0_x));
     logic [W-1:0] in_t0_y;
     assign in_t0_y = in_data[7*W +: W];
     logic [2*W-1:0] dl_in_t0_y;
     pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
-        u_dl_in_t0_y (.clk(clk), .d(in_t0_y), .q(dl_in_t0_y));
+        u_dl_in_t0_y (.clk(clk), .d(in_t0_y), .valid(valid_q[0 +: 4]), .q(dl_in_t0_y));
     logic [W-1:0] in_t0_z;
     assign in_t0_z = in_data[8*W +: W];
     logic [2*W-1:0] dl_in_t0_z;
     pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
-        u_dl_in_t0_z (.clk(clk), .d(in_t0_z), .q(dl_in_t0_z));
+        u_dl_in_t0_z (.clk(clk), .d(in_t0_z), .valid(valid_q[0 +: 4]), .q(dl_in_t0_z));
     logic [W-1:0] in_t1_x;
     assign in_t1_x = in_data[9*W +: W];
     logic [3*W-1:0] dl_in_t1_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
-        u_dl_in_t1_x (.clk(clk), .d(in_t1_x), .q(dl_in_t1_x));
+        u_dl_in_t1_x (.clk(clk), .d(in_t1_x), .valid(valid_q[0 +: 50]), .q(dl_in_t1_x));
     logic [W-1:0] in_t1_y;
     assign in_t1_y = in_data[10*W +: W];
     logic [3*W-1:0] dl_in_t1_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
-        u_dl_in_t1_y (.clk(clk), .d(in_t1_y), .q(dl_in_t1_y));
+        u_dl_in_t1_y (.clk(clk), .d(in_t1_y), .valid(valid_q[0 +: 50]), .q(dl_in_t1_y));
     logic [W-1:0] in_t1_z;
     assign in_t1_z = in_data[11*W +: W];
     logic [3*W-1:0] dl_in_t1_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
-        u_dl_in_t1_z (.clk(clk), .d(in_t1_z), .q(dl_in_t1_z));
+        u_dl_in_t1_z (.clk(clk), .d(in_t1_z), .valid(valid_q[0 +: 50]), .q(dl_in_t1_z));
     logic [W-1:0] in_f_jac_inv0;
     assign in_f_jac_inv0 = in_data[12*W +: W];
     logic [2*W-1:0] dl_in_f_jac_inv0;
     pgs_delay #(.WIDTH(W), .DEPTH(30), .N_TAPS(2), .TAPS({32'(30), 32'(0)}))
-        u_dl_in_f_jac_inv0 (.clk(clk), .d(in_f_jac_inv0), .q(dl_in_f_jac_inv0));
+        u_dl_in_f_jac_inv0 (.clk(clk), .d(in_f_jac_inv0), .valid(valid_q[0 +: 30]), .q(dl_in_f_jac_inv0));
     logic [W-1:0] in_f_jac_inv1;
     assign in_f_jac_inv1 = in_data[13*W +: W];
     logic [W-1:0] dl_in_f_jac_inv1;
     pgs_delay #(.WIDTH(W), .DEPTH(69))
-        u_dl_in_f_jac_inv1 (.clk(clk), .d(in_f_jac_inv1), .q(dl_in_f_jac_inv1));
+        u_dl_in_f_jac_inv1 (.clk(clk), .d(in_f_jac_inv1), .valid(valid_q[0 +: 69]), .q(dl_in_f_jac_inv1));
     logic [W-1:0] in_lam_n0;
     assign in_lam_n0 = in_data[14*W +: W];
     logic [W-1:0] dl_in_lam_n0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n0 (.clk(clk), .d(in_lam_n0), .q(dl_in_lam_n0));
+        u_dl_in_lam_n0 (.clk(clk), .d(in_lam_n0), .valid(1'b0), .q(dl_in_lam_n0));
     logic [W-1:0] in_lam_n1;
     assign in_lam_n1 = in_data[15*W +: W];
     logic [W-1:0] dl_in_lam_n1;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n1 (.clk(clk), .d(in_lam_n1), .q(dl_in_lam_n1));
+        u_dl_in_lam_n1 (.clk(clk), .d(in_lam_n1), .valid(1'b0), .q(dl_in_lam_n1));
     logic [W-1:0] in_lam_n2;
     assign in_lam_n2 = in_data[16*W +: W];
     logic [W-1:0] dl_in_lam_n2;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n2 (.clk(clk), .d(in_lam_n2), .q(dl_in_lam_n2));
+        u_dl_in_lam_n2 (.clk(clk), .d(in_lam_n2), .valid(1'b0), .q(dl_in_lam_n2));
     logic [W-1:0] in_lam_n3;
     assign in_lam_n3 = in_data[17*W +: W];
     logic [W-1:0] dl_in_lam_n3;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n3 (.clk(clk), .d(in_lam_n3), .q(dl_in_lam_n3));
+        u_dl_in_lam_n3 (.clk(clk), .d(in_lam_n3), .valid(1'b0), .q(dl_in_lam_n3));
     logic [W-1:0] in_lamT0;
     assign in_lamT0 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_lamT0;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(39), 32'(33)}))
-        u_dl_in_lamT0 (.clk(clk), .d(in_lamT0), .q(dl_in_lamT0));
+        u_dl_in_lamT0 (.clk(clk), .d(in_lamT0), .valid(valid_q[0 +: 39]), .q(dl_in_lamT0));
     logic [W-1:0] in_lamT1;
     assign in_lamT1 = in_data[19*W +: W];
     logic [2*W-1:0] dl_in_lamT1;
     pgs_delay #(.WIDTH(W), .DEPTH(78), .N_TAPS(2), .TAPS({32'(78), 32'(72)}))
-        u_dl_in_lamT1 (.clk(clk), .d(in_lamT1), .q(dl_in_lamT1));
+        u_dl_in_lamT1 (.clk(clk), .d(in_lamT1), .valid(valid_q[0 +: 78]), .q(dl_in_lamT1));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[20*W +: W];
     logic [W-1:0] dl_in_xA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .q(dl_in_xA_x));
+        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[21*W +: W];
     logic [W-1:0] dl_in_xA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .q(dl_in_xA_y));
+        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[22*W +: W];
     logic [W-1:0] dl_in_xA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .q(dl_in_xA_z));
+        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[23*W +: W];
     logic [W-1:0] dl_in_xB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .q(dl_in_xB_x));
+        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[24*W +: W];
     logic [W-1:0] dl_in_xB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .q(dl_in_xB_y));
+        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[25*W +: W];
     logic [W-1:0] dl_in_xB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .q(dl_in_xB_z));
+        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[26*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .q(dl_in_vA_x));
+        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 50]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[27*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .q(dl_in_vA_y));
+        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 50]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[28*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .q(dl_in_vA_z));
+        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 50]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[29*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .q(dl_in_wA_x));
+        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 50]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[30*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .q(dl_in_wA_y));
+        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 50]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[31*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .q(dl_in_wA_z));
+        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 50]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[32*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .q(dl_in_vB_x));
+        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 50]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .q(dl_in_vB_y));
+        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 50]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
-        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .q(dl_in_vB_z));
+        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 50]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .q(dl_in_wB_x));
+        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 50]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .q(dl_in_wB_y));
+        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 50]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
-        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .q(dl_in_wB_z));
+        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 50]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[38*W +: W];
     logic [W-1:0] dl_in_mInvA;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .q(dl_in_mInvA));
+        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[39*W +: W];
     logic [W-1:0] dl_in_mInvB;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .q(dl_in_mInvB));
+        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_s;
     assign in_IInvA_s = in_data[40*W +: W];
     logic [W-1:0] dl_in_IInvA_s;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvA_s (.clk(clk), .d(in_IInvA_s), .q(dl_in_IInvA_s));
+        u_dl_in_IInvA_s (.clk(clk), .d(in_IInvA_s), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_s));
     logic [W-1:0] in_IInvB_s;
     assign in_IInvB_s = in_data[41*W +: W];
     logic [W-1:0] dl_in_IInvB_s;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_in_IInvB_s (.clk(clk), .d(in_IInvB_s), .q(dl_in_IInvB_s));
+        u_dl_in_IInvB_s (.clk(clk), .d(in_IInvB_s), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_s));
     logic [W-1:0] in_mu;
     assign in_mu = in_data[42*W +: W];
     logic [W-1:0] dl_in_mu;
     pgs_delay #(.WIDTH(W), .DEPTH(8))
-        u_dl_in_mu (.clk(clk), .d(in_mu), .q(dl_in_mu));
+        u_dl_in_mu (.clk(clk), .d(in_mu), .valid(valid_q[0 +: 8]), .q(dl_in_mu));
     logic [1-1:0] dl_in_spin_damp;
     pgs_delay #(.WIDTH(1), .DEPTH(110))
-        u_dl_in_spin_damp (.clk(clk), .d(in_spin_damp), .q(dl_in_spin_damp));
+        u_dl_in_spin_damp (.clk(clk), .d(in_spin_damp), .valid(valid_q[0 +: 110]), .q(dl_in_spin_damp));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
     // bf16; its delay line feeds every consumer at the consumer's issue cycle.
@@ -322,12 +329,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign skip = (dl_in_f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [5*1-1:0] dl_skip;
     pgs_delay #(.WIDTH(1), .DEPTH(110), .N_TAPS(5), .TAPS({32'(110), 32'(89), 32'(78), 32'(50), 32'(39)}))
-        u_dl_skip (.clk(clk), .d(skip), .q(dl_skip));
+        u_dl_skip (.clk(clk), .d(skip), .valid(valid_q[0 +: 110]), .q(dl_skip));
     // add45 = lam_n0 + lam_n1   (ready @4/4/4)
     logic [W-1:0] add45;
     logic [2:0] fl_add45;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add45 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam_n0), .b(dl_in_lam_n1), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n0), .b(dl_in_lam_n1), .sub(1'b0),
         .out_valid(op_valid_nc[0]), .y(add45), .flags(fl_add45)
     );
     assign ev_ovf[0] = fl_add45[0] && ev_q[4];
@@ -335,12 +342,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[0] = fl_add45[2] && ev_q[4];
     logic [W-1:0] dl_add45;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add45 (.clk(clk), .d(add45), .q(dl_add45));
+        u_dl_add45 (.clk(clk), .d(add45), .valid(1'b0), .q(dl_add45));
     // add46 = lam_n2 + lam_n3   (ready @4/4/4)
     logic [W-1:0] add46;
     logic [2:0] fl_add46;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add46 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam_n2), .b(dl_in_lam_n3), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n2), .b(dl_in_lam_n3), .sub(1'b0),
         .out_valid(op_valid_nc[1]), .y(add46), .flags(fl_add46)
     );
     assign ev_ovf[1] = fl_add46[0] && ev_q[4];
@@ -348,12 +355,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[1] = fl_add46[2] && ev_q[4];
     logic [W-1:0] dl_add46;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add46 (.clk(clk), .d(add46), .q(dl_add46));
+        u_dl_add46 (.clk(clk), .d(add46), .valid(1'b0), .q(dl_add46));
     // add47 = add45 + add46   (ready @8/8/8)
     logic [W-1:0] add47;
     logic [2:0] fl_add47;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add47 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_add45), .b(dl_add46), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_add45), .b(dl_add46), .sub(1'b0),
         .out_valid(op_valid_nc[2]), .y(add47), .flags(fl_add47)
     );
     assign ev_ovf[2] = fl_add47[0] && ev_q[8];
@@ -361,12 +368,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[2] = fl_add47[2] && ev_q[8];
     logic [W-1:0] dl_add47;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add47 (.clk(clk), .d(add47), .q(dl_add47));
+        u_dl_add47 (.clk(clk), .d(add47), .valid(1'b0), .q(dl_add47));
     // limit = mu * add47   (ready @11/11/11)
     logic [W-1:0] limit;
     logic [2:0] fl_limit;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_limit (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_mu), .b(dl_add47),
+        .clk(clk), .rst(rst), .in_valid(valid_q[8]), .a(dl_in_mu), .b(dl_add47),
         .out_valid(op_valid_nc[3]), .y(limit), .flags(fl_limit)
     );
     assign ev_ovf[3] = fl_limit[0] && ev_q[11];
@@ -374,18 +381,18 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[3] = fl_limit[2] && ev_q[11];
     logic [3*W-1:0] dl_limit;
     pgs_delay #(.WIDTH(W), .DEPTH(66), .N_TAPS(3), .TAPS({32'(66), 32'(27), 32'(0)}))
-        u_dl_limit (.clk(clk), .d(limit), .q(dl_limit));
+        u_dl_limit (.clk(clk), .d(limit), .valid(valid_q[11 +: 66]), .q(dl_limit));
     // neg_limit = -limit   (ready @11/11/11)
     logic [W-1:0] neg_limit;
     assign neg_limit = {~dl_limit[0*W +: W][W-1], dl_limit[0*W +: W][W-2:0]};
     logic [2*W-1:0] dl_neg_limit;
     pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(2), .TAPS({32'(65), 32'(26)}))
-        u_dl_neg_limit (.clk(clk), .d(neg_limit), .q(dl_neg_limit));
+        u_dl_neg_limit (.clk(clk), .d(neg_limit), .valid(valid_q[11 +: 65]), .q(dl_neg_limit));
     // rA_x = c_x - xA_x   (ready @4/4/4)
     logic [W-1:0] rA_x;
     logic [2:0] fl_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[4]), .y(rA_x), .flags(fl_rA_x)
     );
     assign ev_ovf[4] = fl_rA_x[0] && ev_q[4];
@@ -393,12 +400,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[4] = fl_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rA_x (.clk(clk), .d(rA_x), .q(dl_rA_x));
+        u_dl_rA_x (.clk(clk), .d(rA_x), .valid(1'b0), .q(dl_rA_x));
     // rA_y = c_y - xA_y   (ready @4/4/4)
     logic [W-1:0] rA_y;
     logic [2:0] fl_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[5]), .y(rA_y), .flags(fl_rA_y)
     );
     assign ev_ovf[5] = fl_rA_y[0] && ev_q[4];
@@ -406,12 +413,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[5] = fl_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rA_y (.clk(clk), .d(rA_y), .q(dl_rA_y));
+        u_dl_rA_y (.clk(clk), .d(rA_y), .valid(1'b0), .q(dl_rA_y));
     // rA_z = c_z - xA_z   (ready @4/4/4)
     logic [W-1:0] rA_z;
     logic [2:0] fl_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[6]), .y(rA_z), .flags(fl_rA_z)
     );
     assign ev_ovf[6] = fl_rA_z[0] && ev_q[4];
@@ -419,12 +426,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[6] = fl_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rA_z (.clk(clk), .d(rA_z), .q(dl_rA_z));
+        u_dl_rA_z (.clk(clk), .d(rA_z), .valid(1'b0), .q(dl_rA_z));
     // rB_x = c_x - xB_x   (ready @4/4/4)
     logic [W-1:0] rB_x;
     logic [2:0] fl_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[7]), .y(rB_x), .flags(fl_rB_x)
     );
     assign ev_ovf[7] = fl_rB_x[0] && ev_q[4];
@@ -432,12 +439,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[7] = fl_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rB_x (.clk(clk), .d(rB_x), .q(dl_rB_x));
+        u_dl_rB_x (.clk(clk), .d(rB_x), .valid(1'b0), .q(dl_rB_x));
     // rB_y = c_y - xB_y   (ready @4/4/4)
     logic [W-1:0] rB_y;
     logic [2:0] fl_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[8]), .y(rB_y), .flags(fl_rB_y)
     );
     assign ev_ovf[8] = fl_rB_y[0] && ev_q[4];
@@ -445,12 +452,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[8] = fl_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rB_y (.clk(clk), .d(rB_y), .q(dl_rB_y));
+        u_dl_rB_y (.clk(clk), .d(rB_y), .valid(1'b0), .q(dl_rB_y));
     // rB_z = c_z - xB_z   (ready @4/4/4)
     logic [W-1:0] rB_z;
     logic [2:0] fl_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[9]), .y(rB_z), .flags(fl_rB_z)
     );
     assign ev_ovf[9] = fl_rB_z[0] && ev_q[4];
@@ -458,12 +465,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[9] = fl_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_rB_z (.clk(clk), .d(rB_z), .q(dl_rB_z));
+        u_dl_rB_z (.clk(clk), .d(rB_z), .valid(1'b0), .q(dl_rB_z));
     // t0_mul56 = rA_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul56;
     logic [2:0] fl_t0_mul56;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul56 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t0_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_y), .b(dl_in_t0_z[0*W +: W]),
         .out_valid(op_valid_nc[10]), .y(t0_mul56), .flags(fl_t0_mul56)
     );
     assign ev_ovf[10] = fl_t0_mul56[0] && ev_q[7];
@@ -471,12 +478,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[10] = fl_t0_mul56[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul56;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul56 (.clk(clk), .d(t0_mul56), .q(dl_t0_mul56));
+        u_dl_t0_mul56 (.clk(clk), .d(t0_mul56), .valid(1'b0), .q(dl_t0_mul56));
     // t0_mul57 = rA_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul57;
     logic [2:0] fl_t0_mul57;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul57 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t0_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_z), .b(dl_in_t0_y[0*W +: W]),
         .out_valid(op_valid_nc[11]), .y(t0_mul57), .flags(fl_t0_mul57)
     );
     assign ev_ovf[11] = fl_t0_mul57[0] && ev_q[7];
@@ -484,12 +491,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[11] = fl_t0_mul57[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul57;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul57 (.clk(clk), .d(t0_mul57), .q(dl_t0_mul57));
+        u_dl_t0_mul57 (.clk(clk), .d(t0_mul57), .valid(1'b0), .q(dl_t0_mul57));
     // t0_cA_x = t0_mul56 - t0_mul57   (ready @11/11/11)
     logic [W-1:0] t0_cA_x;
     logic [2:0] fl_t0_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul56), .b(dl_t0_mul57), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul56), .b(dl_t0_mul57), .sub(1'b1),
         .out_valid(op_valid_nc[12]), .y(t0_cA_x), .flags(fl_t0_cA_x)
     );
     assign ev_ovf[12] = fl_t0_cA_x[0] && ev_q[11];
@@ -497,12 +504,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[12] = fl_t0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cA_x (.clk(clk), .d(t0_cA_x), .q(dl_t0_cA_x));
+        u_dl_t0_cA_x (.clk(clk), .d(t0_cA_x), .valid(1'b0), .q(dl_t0_cA_x));
     // t0_mul59 = rA_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul59;
     logic [2:0] fl_t0_mul59;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul59 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t0_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_z), .b(dl_in_t0_x[0*W +: W]),
         .out_valid(op_valid_nc[13]), .y(t0_mul59), .flags(fl_t0_mul59)
     );
     assign ev_ovf[13] = fl_t0_mul59[0] && ev_q[7];
@@ -510,12 +517,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[13] = fl_t0_mul59[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul59;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul59 (.clk(clk), .d(t0_mul59), .q(dl_t0_mul59));
+        u_dl_t0_mul59 (.clk(clk), .d(t0_mul59), .valid(1'b0), .q(dl_t0_mul59));
     // t0_mul60 = rA_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul60;
     logic [2:0] fl_t0_mul60;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul60 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t0_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_x), .b(dl_in_t0_z[0*W +: W]),
         .out_valid(op_valid_nc[14]), .y(t0_mul60), .flags(fl_t0_mul60)
     );
     assign ev_ovf[14] = fl_t0_mul60[0] && ev_q[7];
@@ -523,12 +530,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[14] = fl_t0_mul60[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul60;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul60 (.clk(clk), .d(t0_mul60), .q(dl_t0_mul60));
+        u_dl_t0_mul60 (.clk(clk), .d(t0_mul60), .valid(1'b0), .q(dl_t0_mul60));
     // t0_cA_y = t0_mul59 - t0_mul60   (ready @11/11/11)
     logic [W-1:0] t0_cA_y;
     logic [2:0] fl_t0_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul59), .b(dl_t0_mul60), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul59), .b(dl_t0_mul60), .sub(1'b1),
         .out_valid(op_valid_nc[15]), .y(t0_cA_y), .flags(fl_t0_cA_y)
     );
     assign ev_ovf[15] = fl_t0_cA_y[0] && ev_q[11];
@@ -536,12 +543,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[15] = fl_t0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cA_y (.clk(clk), .d(t0_cA_y), .q(dl_t0_cA_y));
+        u_dl_t0_cA_y (.clk(clk), .d(t0_cA_y), .valid(1'b0), .q(dl_t0_cA_y));
     // t0_mul62 = rA_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul62;
     logic [2:0] fl_t0_mul62;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul62 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t0_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_x), .b(dl_in_t0_y[0*W +: W]),
         .out_valid(op_valid_nc[16]), .y(t0_mul62), .flags(fl_t0_mul62)
     );
     assign ev_ovf[16] = fl_t0_mul62[0] && ev_q[7];
@@ -549,12 +556,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[16] = fl_t0_mul62[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul62;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul62 (.clk(clk), .d(t0_mul62), .q(dl_t0_mul62));
+        u_dl_t0_mul62 (.clk(clk), .d(t0_mul62), .valid(1'b0), .q(dl_t0_mul62));
     // t0_mul63 = rA_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul63;
     logic [2:0] fl_t0_mul63;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul63 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t0_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_y), .b(dl_in_t0_x[0*W +: W]),
         .out_valid(op_valid_nc[17]), .y(t0_mul63), .flags(fl_t0_mul63)
     );
     assign ev_ovf[17] = fl_t0_mul63[0] && ev_q[7];
@@ -562,12 +569,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[17] = fl_t0_mul63[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul63;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul63 (.clk(clk), .d(t0_mul63), .q(dl_t0_mul63));
+        u_dl_t0_mul63 (.clk(clk), .d(t0_mul63), .valid(1'b0), .q(dl_t0_mul63));
     // t0_cA_z = t0_mul62 - t0_mul63   (ready @11/11/11)
     logic [W-1:0] t0_cA_z;
     logic [2:0] fl_t0_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul62), .b(dl_t0_mul63), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul62), .b(dl_t0_mul63), .sub(1'b1),
         .out_valid(op_valid_nc[18]), .y(t0_cA_z), .flags(fl_t0_cA_z)
     );
     assign ev_ovf[18] = fl_t0_cA_z[0] && ev_q[11];
@@ -575,12 +582,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[18] = fl_t0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cA_z (.clk(clk), .d(t0_cA_z), .q(dl_t0_cA_z));
+        u_dl_t0_cA_z (.clk(clk), .d(t0_cA_z), .valid(1'b0), .q(dl_t0_cA_z));
     // t0_mul65 = rB_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul65;
     logic [2:0] fl_t0_mul65;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul65 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t0_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_y), .b(dl_in_t0_z[0*W +: W]),
         .out_valid(op_valid_nc[19]), .y(t0_mul65), .flags(fl_t0_mul65)
     );
     assign ev_ovf[19] = fl_t0_mul65[0] && ev_q[7];
@@ -588,12 +595,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[19] = fl_t0_mul65[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul65;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul65 (.clk(clk), .d(t0_mul65), .q(dl_t0_mul65));
+        u_dl_t0_mul65 (.clk(clk), .d(t0_mul65), .valid(1'b0), .q(dl_t0_mul65));
     // t0_mul66 = rB_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul66;
     logic [2:0] fl_t0_mul66;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul66 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t0_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_z), .b(dl_in_t0_y[0*W +: W]),
         .out_valid(op_valid_nc[20]), .y(t0_mul66), .flags(fl_t0_mul66)
     );
     assign ev_ovf[20] = fl_t0_mul66[0] && ev_q[7];
@@ -601,12 +608,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[20] = fl_t0_mul66[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul66;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul66 (.clk(clk), .d(t0_mul66), .q(dl_t0_mul66));
+        u_dl_t0_mul66 (.clk(clk), .d(t0_mul66), .valid(1'b0), .q(dl_t0_mul66));
     // t0_cB_x = t0_mul65 - t0_mul66   (ready @11/11/11)
     logic [W-1:0] t0_cB_x;
     logic [2:0] fl_t0_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul65), .b(dl_t0_mul66), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul65), .b(dl_t0_mul66), .sub(1'b1),
         .out_valid(op_valid_nc[21]), .y(t0_cB_x), .flags(fl_t0_cB_x)
     );
     assign ev_ovf[21] = fl_t0_cB_x[0] && ev_q[11];
@@ -614,12 +621,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[21] = fl_t0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cB_x (.clk(clk), .d(t0_cB_x), .q(dl_t0_cB_x));
+        u_dl_t0_cB_x (.clk(clk), .d(t0_cB_x), .valid(1'b0), .q(dl_t0_cB_x));
     // t0_mul68 = rB_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul68;
     logic [2:0] fl_t0_mul68;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul68 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t0_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_z), .b(dl_in_t0_x[0*W +: W]),
         .out_valid(op_valid_nc[22]), .y(t0_mul68), .flags(fl_t0_mul68)
     );
     assign ev_ovf[22] = fl_t0_mul68[0] && ev_q[7];
@@ -627,12 +634,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[22] = fl_t0_mul68[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul68;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul68 (.clk(clk), .d(t0_mul68), .q(dl_t0_mul68));
+        u_dl_t0_mul68 (.clk(clk), .d(t0_mul68), .valid(1'b0), .q(dl_t0_mul68));
     // t0_mul69 = rB_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul69;
     logic [2:0] fl_t0_mul69;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul69 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t0_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_x), .b(dl_in_t0_z[0*W +: W]),
         .out_valid(op_valid_nc[23]), .y(t0_mul69), .flags(fl_t0_mul69)
     );
     assign ev_ovf[23] = fl_t0_mul69[0] && ev_q[7];
@@ -640,12 +647,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[23] = fl_t0_mul69[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul69;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul69 (.clk(clk), .d(t0_mul69), .q(dl_t0_mul69));
+        u_dl_t0_mul69 (.clk(clk), .d(t0_mul69), .valid(1'b0), .q(dl_t0_mul69));
     // t0_cB_y = t0_mul68 - t0_mul69   (ready @11/11/11)
     logic [W-1:0] t0_cB_y;
     logic [2:0] fl_t0_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul68), .b(dl_t0_mul69), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul68), .b(dl_t0_mul69), .sub(1'b1),
         .out_valid(op_valid_nc[24]), .y(t0_cB_y), .flags(fl_t0_cB_y)
     );
     assign ev_ovf[24] = fl_t0_cB_y[0] && ev_q[11];
@@ -653,12 +660,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[24] = fl_t0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cB_y (.clk(clk), .d(t0_cB_y), .q(dl_t0_cB_y));
+        u_dl_t0_cB_y (.clk(clk), .d(t0_cB_y), .valid(1'b0), .q(dl_t0_cB_y));
     // t0_mul71 = rB_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul71;
     logic [2:0] fl_t0_mul71;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul71 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t0_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_x), .b(dl_in_t0_y[0*W +: W]),
         .out_valid(op_valid_nc[25]), .y(t0_mul71), .flags(fl_t0_mul71)
     );
     assign ev_ovf[25] = fl_t0_mul71[0] && ev_q[7];
@@ -666,12 +673,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[25] = fl_t0_mul71[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul71;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul71 (.clk(clk), .d(t0_mul71), .q(dl_t0_mul71));
+        u_dl_t0_mul71 (.clk(clk), .d(t0_mul71), .valid(1'b0), .q(dl_t0_mul71));
     // t0_mul72 = rB_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul72;
     logic [2:0] fl_t0_mul72;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul72 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t0_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_y), .b(dl_in_t0_x[0*W +: W]),
         .out_valid(op_valid_nc[26]), .y(t0_mul72), .flags(fl_t0_mul72)
     );
     assign ev_ovf[26] = fl_t0_mul72[0] && ev_q[7];
@@ -679,12 +686,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[26] = fl_t0_mul72[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul72;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul72 (.clk(clk), .d(t0_mul72), .q(dl_t0_mul72));
+        u_dl_t0_mul72 (.clk(clk), .d(t0_mul72), .valid(1'b0), .q(dl_t0_mul72));
     // t0_cB_z = t0_mul71 - t0_mul72   (ready @11/11/11)
     logic [W-1:0] t0_cB_z;
     logic [2:0] fl_t0_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul71), .b(dl_t0_mul72), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_mul71), .b(dl_t0_mul72), .sub(1'b1),
         .out_valid(op_valid_nc[27]), .y(t0_cB_z), .flags(fl_t0_cB_z)
     );
     assign ev_ovf[27] = fl_t0_cB_z[0] && ev_q[11];
@@ -692,12 +699,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[27] = fl_t0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cB_z (.clk(clk), .d(t0_cB_z), .q(dl_t0_cB_z));
+        u_dl_t0_cB_z (.clk(clk), .d(t0_cB_z), .valid(1'b0), .q(dl_t0_cB_z));
     // t0_mul74 = t0_x * vA_x   (ready @3/3/3)
     logic [W-1:0] t0_mul74;
     logic [2:0] fl_t0_mul74;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul74 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[28]), .y(t0_mul74), .flags(fl_t0_mul74)
     );
     assign ev_ovf[28] = fl_t0_mul74[0] && ev_q[3];
@@ -705,12 +712,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[28] = fl_t0_mul74[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul74;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul74 (.clk(clk), .d(t0_mul74), .q(dl_t0_mul74));
+        u_dl_t0_mul74 (.clk(clk), .d(t0_mul74), .valid(1'b0), .q(dl_t0_mul74));
     // t0_mul75 = t0_y * vA_y   (ready @3/3/3)
     logic [W-1:0] t0_mul75;
     logic [2:0] fl_t0_mul75;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul75 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[29]), .y(t0_mul75), .flags(fl_t0_mul75)
     );
     assign ev_ovf[29] = fl_t0_mul75[0] && ev_q[3];
@@ -718,12 +725,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[29] = fl_t0_mul75[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul75;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul75 (.clk(clk), .d(t0_mul75), .q(dl_t0_mul75));
+        u_dl_t0_mul75 (.clk(clk), .d(t0_mul75), .valid(1'b0), .q(dl_t0_mul75));
     // t0_add76 = t0_mul74 + t0_mul75   (ready @7/7/7)
     logic [W-1:0] t0_add76;
     logic [2:0] fl_t0_add76;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add76 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul74), .b(dl_t0_mul75), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_t0_mul74), .b(dl_t0_mul75), .sub(1'b0),
         .out_valid(op_valid_nc[30]), .y(t0_add76), .flags(fl_t0_add76)
     );
     assign ev_ovf[30] = fl_t0_add76[0] && ev_q[7];
@@ -731,12 +738,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[30] = fl_t0_add76[2] && ev_q[7];
     logic [W-1:0] dl_t0_add76;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add76 (.clk(clk), .d(t0_add76), .q(dl_t0_add76));
+        u_dl_t0_add76 (.clk(clk), .d(t0_add76), .valid(1'b0), .q(dl_t0_add76));
     // t0_mul77 = t0_z * vA_z   (ready @3/3/3)
     logic [W-1:0] t0_mul77;
     logic [2:0] fl_t0_mul77;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul77 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[31]), .y(t0_mul77), .flags(fl_t0_mul77)
     );
     assign ev_ovf[31] = fl_t0_mul77[0] && ev_q[3];
@@ -744,12 +751,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[31] = fl_t0_mul77[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul77;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul77 (.clk(clk), .d(t0_mul77), .q(dl_t0_mul77));
+        u_dl_t0_mul77 (.clk(clk), .d(t0_mul77), .valid(valid_q[3 +: 4]), .q(dl_t0_mul77));
     // t0_add78 = t0_add76 + t0_mul77   (ready @11/11/11)
     logic [W-1:0] t0_add78;
     logic [2:0] fl_t0_add78;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add78 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add76), .b(dl_t0_mul77), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_add76), .b(dl_t0_mul77), .sub(1'b0),
         .out_valid(op_valid_nc[32]), .y(t0_add78), .flags(fl_t0_add78)
     );
     assign ev_ovf[32] = fl_t0_add78[0] && ev_q[11];
@@ -757,12 +764,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[32] = fl_t0_add78[2] && ev_q[11];
     logic [W-1:0] dl_t0_add78;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add78 (.clk(clk), .d(t0_add78), .q(dl_t0_add78));
+        u_dl_t0_add78 (.clk(clk), .d(t0_add78), .valid(1'b0), .q(dl_t0_add78));
     // t0_mul79 = t0_x * vB_x   (ready @3/3/3)
     logic [W-1:0] t0_mul79;
     logic [2:0] fl_t0_mul79;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul79 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[33]), .y(t0_mul79), .flags(fl_t0_mul79)
     );
     assign ev_ovf[33] = fl_t0_mul79[0] && ev_q[3];
@@ -770,12 +777,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[33] = fl_t0_mul79[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul79;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul79 (.clk(clk), .d(t0_mul79), .q(dl_t0_mul79));
+        u_dl_t0_mul79 (.clk(clk), .d(t0_mul79), .valid(1'b0), .q(dl_t0_mul79));
     // t0_mul80 = t0_y * vB_y   (ready @3/3/3)
     logic [W-1:0] t0_mul80;
     logic [2:0] fl_t0_mul80;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul80 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[34]), .y(t0_mul80), .flags(fl_t0_mul80)
     );
     assign ev_ovf[34] = fl_t0_mul80[0] && ev_q[3];
@@ -783,12 +790,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[34] = fl_t0_mul80[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul80;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul80 (.clk(clk), .d(t0_mul80), .q(dl_t0_mul80));
+        u_dl_t0_mul80 (.clk(clk), .d(t0_mul80), .valid(1'b0), .q(dl_t0_mul80));
     // t0_add81 = t0_mul79 + t0_mul80   (ready @7/7/7)
     logic [W-1:0] t0_add81;
     logic [2:0] fl_t0_add81;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add81 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul79), .b(dl_t0_mul80), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_t0_mul79), .b(dl_t0_mul80), .sub(1'b0),
         .out_valid(op_valid_nc[35]), .y(t0_add81), .flags(fl_t0_add81)
     );
     assign ev_ovf[35] = fl_t0_add81[0] && ev_q[7];
@@ -796,12 +803,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[35] = fl_t0_add81[2] && ev_q[7];
     logic [W-1:0] dl_t0_add81;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add81 (.clk(clk), .d(t0_add81), .q(dl_t0_add81));
+        u_dl_t0_add81 (.clk(clk), .d(t0_add81), .valid(1'b0), .q(dl_t0_add81));
     // t0_mul82 = t0_z * vB_z   (ready @3/3/3)
     logic [W-1:0] t0_mul82;
     logic [2:0] fl_t0_mul82;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul82 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[36]), .y(t0_mul82), .flags(fl_t0_mul82)
     );
     assign ev_ovf[36] = fl_t0_mul82[0] && ev_q[3];
@@ -809,12 +816,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[36] = fl_t0_mul82[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul82;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul82 (.clk(clk), .d(t0_mul82), .q(dl_t0_mul82));
+        u_dl_t0_mul82 (.clk(clk), .d(t0_mul82), .valid(valid_q[3 +: 4]), .q(dl_t0_mul82));
     // t0_add83 = t0_add81 + t0_mul82   (ready @11/11/11)
     logic [W-1:0] t0_add83;
     logic [2:0] fl_t0_add83;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add83 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add81), .b(dl_t0_mul82), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t0_add81), .b(dl_t0_mul82), .sub(1'b0),
         .out_valid(op_valid_nc[37]), .y(t0_add83), .flags(fl_t0_add83)
     );
     assign ev_ovf[37] = fl_t0_add83[0] && ev_q[11];
@@ -822,12 +829,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[37] = fl_t0_add83[2] && ev_q[11];
     logic [W-1:0] dl_t0_add83;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add83 (.clk(clk), .d(t0_add83), .q(dl_t0_add83));
+        u_dl_t0_add83 (.clk(clk), .d(t0_add83), .valid(1'b0), .q(dl_t0_add83));
     // t0_sub84 = t0_add78 - t0_add83   (ready @15/15/15)
     logic [W-1:0] t0_sub84;
     logic [2:0] fl_t0_sub84;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub84 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add78), .b(dl_t0_add83), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_add78), .b(dl_t0_add83), .sub(1'b1),
         .out_valid(op_valid_nc[38]), .y(t0_sub84), .flags(fl_t0_sub84)
     );
     assign ev_ovf[38] = fl_t0_sub84[0] && ev_q[15];
@@ -835,12 +842,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[38] = fl_t0_sub84[2] && ev_q[15];
     logic [W-1:0] dl_t0_sub84;
     pgs_delay #(.WIDTH(W), .DEPTH(11))
-        u_dl_t0_sub84 (.clk(clk), .d(t0_sub84), .q(dl_t0_sub84));
+        u_dl_t0_sub84 (.clk(clk), .d(t0_sub84), .valid(valid_q[15 +: 11]), .q(dl_t0_sub84));
     // t0_mul85 = t0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] t0_mul85;
     logic [2:0] fl_t0_mul85;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul85 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_x), .b(dl_in_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cA_x), .b(dl_in_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[39]), .y(t0_mul85), .flags(fl_t0_mul85)
     );
     assign ev_ovf[39] = fl_t0_mul85[0] && ev_q[14];
@@ -848,12 +855,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[39] = fl_t0_mul85[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul85;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul85 (.clk(clk), .d(t0_mul85), .q(dl_t0_mul85));
+        u_dl_t0_mul85 (.clk(clk), .d(t0_mul85), .valid(1'b0), .q(dl_t0_mul85));
     // t0_mul86 = t0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] t0_mul86;
     logic [2:0] fl_t0_mul86;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul86 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_y), .b(dl_in_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cA_y), .b(dl_in_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[40]), .y(t0_mul86), .flags(fl_t0_mul86)
     );
     assign ev_ovf[40] = fl_t0_mul86[0] && ev_q[14];
@@ -861,12 +868,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[40] = fl_t0_mul86[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul86;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul86 (.clk(clk), .d(t0_mul86), .q(dl_t0_mul86));
+        u_dl_t0_mul86 (.clk(clk), .d(t0_mul86), .valid(1'b0), .q(dl_t0_mul86));
     // t0_add87 = t0_mul85 + t0_mul86   (ready @18/18/18)
     logic [W-1:0] t0_add87;
     logic [2:0] fl_t0_add87;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add87 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul85), .b(dl_t0_mul86), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul85), .b(dl_t0_mul86), .sub(1'b0),
         .out_valid(op_valid_nc[41]), .y(t0_add87), .flags(fl_t0_add87)
     );
     assign ev_ovf[41] = fl_t0_add87[0] && ev_q[18];
@@ -874,12 +881,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[41] = fl_t0_add87[2] && ev_q[18];
     logic [W-1:0] dl_t0_add87;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add87 (.clk(clk), .d(t0_add87), .q(dl_t0_add87));
+        u_dl_t0_add87 (.clk(clk), .d(t0_add87), .valid(1'b0), .q(dl_t0_add87));
     // t0_mul88 = t0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] t0_mul88;
     logic [2:0] fl_t0_mul88;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul88 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_z), .b(dl_in_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cA_z), .b(dl_in_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[42]), .y(t0_mul88), .flags(fl_t0_mul88)
     );
     assign ev_ovf[42] = fl_t0_mul88[0] && ev_q[14];
@@ -887,12 +894,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[42] = fl_t0_mul88[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul88;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul88 (.clk(clk), .d(t0_mul88), .q(dl_t0_mul88));
+        u_dl_t0_mul88 (.clk(clk), .d(t0_mul88), .valid(valid_q[14 +: 4]), .q(dl_t0_mul88));
     // t0_add89 = t0_add87 + t0_mul88   (ready @22/22/22)
     logic [W-1:0] t0_add89;
     logic [2:0] fl_t0_add89;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add89 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add87), .b(dl_t0_mul88), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add87), .b(dl_t0_mul88), .sub(1'b0),
         .out_valid(op_valid_nc[43]), .y(t0_add89), .flags(fl_t0_add89)
     );
     assign ev_ovf[43] = fl_t0_add89[0] && ev_q[22];
@@ -900,12 +907,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[43] = fl_t0_add89[2] && ev_q[22];
     logic [W-1:0] dl_t0_add89;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add89 (.clk(clk), .d(t0_add89), .q(dl_t0_add89));
+        u_dl_t0_add89 (.clk(clk), .d(t0_add89), .valid(1'b0), .q(dl_t0_add89));
     // t0_mul90 = t0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] t0_mul90;
     logic [2:0] fl_t0_mul90;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul90 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_x), .b(dl_in_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cB_x), .b(dl_in_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[44]), .y(t0_mul90), .flags(fl_t0_mul90)
     );
     assign ev_ovf[44] = fl_t0_mul90[0] && ev_q[14];
@@ -913,12 +920,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[44] = fl_t0_mul90[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul90;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul90 (.clk(clk), .d(t0_mul90), .q(dl_t0_mul90));
+        u_dl_t0_mul90 (.clk(clk), .d(t0_mul90), .valid(1'b0), .q(dl_t0_mul90));
     // t0_mul91 = t0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] t0_mul91;
     logic [2:0] fl_t0_mul91;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul91 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_y), .b(dl_in_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cB_y), .b(dl_in_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[45]), .y(t0_mul91), .flags(fl_t0_mul91)
     );
     assign ev_ovf[45] = fl_t0_mul91[0] && ev_q[14];
@@ -926,12 +933,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[45] = fl_t0_mul91[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul91;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul91 (.clk(clk), .d(t0_mul91), .q(dl_t0_mul91));
+        u_dl_t0_mul91 (.clk(clk), .d(t0_mul91), .valid(1'b0), .q(dl_t0_mul91));
     // t0_add92 = t0_mul90 + t0_mul91   (ready @18/18/18)
     logic [W-1:0] t0_add92;
     logic [2:0] fl_t0_add92;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add92 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul90), .b(dl_t0_mul91), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_t0_mul90), .b(dl_t0_mul91), .sub(1'b0),
         .out_valid(op_valid_nc[46]), .y(t0_add92), .flags(fl_t0_add92)
     );
     assign ev_ovf[46] = fl_t0_add92[0] && ev_q[18];
@@ -939,12 +946,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[46] = fl_t0_add92[2] && ev_q[18];
     logic [W-1:0] dl_t0_add92;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add92 (.clk(clk), .d(t0_add92), .q(dl_t0_add92));
+        u_dl_t0_add92 (.clk(clk), .d(t0_add92), .valid(1'b0), .q(dl_t0_add92));
     // t0_mul93 = t0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] t0_mul93;
     logic [2:0] fl_t0_mul93;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul93 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_z), .b(dl_in_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_t0_cB_z), .b(dl_in_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[47]), .y(t0_mul93), .flags(fl_t0_mul93)
     );
     assign ev_ovf[47] = fl_t0_mul93[0] && ev_q[14];
@@ -952,12 +959,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[47] = fl_t0_mul93[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul93;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t0_mul93 (.clk(clk), .d(t0_mul93), .q(dl_t0_mul93));
+        u_dl_t0_mul93 (.clk(clk), .d(t0_mul93), .valid(valid_q[14 +: 4]), .q(dl_t0_mul93));
     // t0_add94 = t0_add92 + t0_mul93   (ready @22/22/22)
     logic [W-1:0] t0_add94;
     logic [2:0] fl_t0_add94;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add94 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add92), .b(dl_t0_mul93), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[18]), .a(dl_t0_add92), .b(dl_t0_mul93), .sub(1'b0),
         .out_valid(op_valid_nc[48]), .y(t0_add94), .flags(fl_t0_add94)
     );
     assign ev_ovf[48] = fl_t0_add94[0] && ev_q[22];
@@ -965,12 +972,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[48] = fl_t0_add94[2] && ev_q[22];
     logic [W-1:0] dl_t0_add94;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add94 (.clk(clk), .d(t0_add94), .q(dl_t0_add94));
+        u_dl_t0_add94 (.clk(clk), .d(t0_add94), .valid(1'b0), .q(dl_t0_add94));
     // t0_sub95 = t0_add89 - t0_add94   (ready @26/26/26)
     logic [W-1:0] t0_sub95;
     logic [2:0] fl_t0_sub95;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub95 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add89), .b(dl_t0_add94), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[22]), .a(dl_t0_add89), .b(dl_t0_add94), .sub(1'b1),
         .out_valid(op_valid_nc[49]), .y(t0_sub95), .flags(fl_t0_sub95)
     );
     assign ev_ovf[49] = fl_t0_sub95[0] && ev_q[26];
@@ -978,12 +985,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[49] = fl_t0_sub95[2] && ev_q[26];
     logic [W-1:0] dl_t0_sub95;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub95 (.clk(clk), .d(t0_sub95), .q(dl_t0_sub95));
+        u_dl_t0_sub95 (.clk(clk), .d(t0_sub95), .valid(1'b0), .q(dl_t0_sub95));
     // t0_u = t0_sub84 + t0_sub95   (ready @30/30/30)
     logic [W-1:0] t0_u;
     logic [2:0] fl_t0_u;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_u (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_sub84), .b(dl_t0_sub95), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[26]), .a(dl_t0_sub84), .b(dl_t0_sub95), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(t0_u), .flags(fl_t0_u)
     );
     assign ev_ovf[50] = fl_t0_u[0] && ev_q[30];
@@ -991,18 +998,18 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[50] = fl_t0_u[2] && ev_q[30];
     logic [W-1:0] dl_t0_u;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_u (.clk(clk), .d(t0_u), .q(dl_t0_u));
+        u_dl_t0_u (.clk(clk), .d(t0_u), .valid(1'b0), .q(dl_t0_u));
     // t0_neg97 = -t0_u   (ready @30/30/30)
     logic [W-1:0] t0_neg97;
     assign t0_neg97 = {~dl_t0_u[W-1], dl_t0_u[W-2:0]};
     logic [W-1:0] dl_t0_neg97;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_neg97 (.clk(clk), .d(t0_neg97), .q(dl_t0_neg97));
+        u_dl_t0_neg97 (.clk(clk), .d(t0_neg97), .valid(1'b0), .q(dl_t0_neg97));
     // t0_delta0 = t0_neg97 * f_jac_inv0   (ready @33/33/33)
     logic [W-1:0] t0_delta0;
     logic [2:0] fl_t0_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_neg97), .b(dl_in_f_jac_inv0[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[30]), .a(dl_t0_neg97), .b(dl_in_f_jac_inv0[1*W +: W]),
         .out_valid(op_valid_nc[51]), .y(t0_delta0), .flags(fl_t0_delta0)
     );
     assign ev_ovf[51] = fl_t0_delta0[0] && ev_q[33];
@@ -1010,12 +1017,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[51] = fl_t0_delta0[2] && ev_q[33];
     logic [W-1:0] dl_t0_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_delta0 (.clk(clk), .d(t0_delta0), .q(dl_t0_delta0));
+        u_dl_t0_delta0 (.clk(clk), .d(t0_delta0), .valid(1'b0), .q(dl_t0_delta0));
     // t0_add99 = lamT0 + t0_delta0   (ready @37/37/37)
     logic [W-1:0] t0_add99;
     logic [2:0] fl_t0_add99;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add99 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lamT0[0*W +: W]), .b(dl_t0_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[33]), .a(dl_in_lamT0[0*W +: W]), .b(dl_t0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[52]), .y(t0_add99), .flags(fl_t0_add99)
     );
     assign ev_ovf[52] = fl_t0_add99[0] && ev_q[37];
@@ -1023,32 +1030,32 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[52] = fl_t0_add99[2] && ev_q[37];
     logic [W-1:0] dl_t0_add99;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add99 (.clk(clk), .d(t0_add99), .q(dl_t0_add99));
+        u_dl_t0_add99 (.clk(clk), .d(t0_add99), .valid(1'b0), .q(dl_t0_add99));
     // t0_max100 = max(t0_add99, neg_limit)   (ready @38/38/38)
     logic [W-1:0] t0_max100;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t0_max100 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add99), .b(dl_neg_limit[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[37]), .a(dl_t0_add99), .b(dl_neg_limit[0*W +: W]),
         .out_valid(op_valid_nc[53]), .y_min(nc_t0_max100_min), .y_max(t0_max100),
         .lt(nc_t0_max100_lt), .eq(nc_t0_max100_eq), .unordered(nc_t0_max100_uo)
     );
     logic [W-1:0] dl_t0_max100;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_max100 (.clk(clk), .d(t0_max100), .q(dl_t0_max100));
+        u_dl_t0_max100 (.clk(clk), .d(t0_max100), .valid(1'b0), .q(dl_t0_max100));
     // t0_lam_new = min(t0_max100, limit)   (ready @39/39/39)
     logic [W-1:0] t0_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t0_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_max100), .b(dl_limit[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[38]), .a(dl_t0_max100), .b(dl_limit[1*W +: W]),
         .out_valid(op_valid_nc[54]), .y_min(t0_lam_new), .y_max(nc_t0_lam_new_max),
         .lt(nc_t0_lam_new_lt), .eq(nc_t0_lam_new_eq), .unordered(nc_t0_lam_new_uo)
     );
     logic [W-1:0] dl_t0_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_lam_new (.clk(clk), .d(t0_lam_new), .q(dl_t0_lam_new));
+        u_dl_t0_lam_new (.clk(clk), .d(t0_lam_new), .valid(1'b0), .q(dl_t0_lam_new));
     // t0_delta = t0_lam_new - lamT0   (ready @43/43/43)
     logic [W-1:0] t0_delta;
     logic [2:0] fl_t0_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_lam_new), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[39]), .a(dl_t0_lam_new), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[55]), .y(t0_delta), .flags(fl_t0_delta)
     );
     assign ev_ovf[53] = fl_t0_delta[0] && ev_q[43];
@@ -1056,24 +1063,24 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[53] = fl_t0_delta[2] && ev_q[43];
     logic [W-1:0] dl_t0_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_delta (.clk(clk), .d(t0_delta), .q(dl_t0_delta));
+        u_dl_t0_delta (.clk(clk), .d(t0_delta), .valid(1'b0), .q(dl_t0_delta));
     // t0_lamT = skip ? lamT0 : t0_lam_new   (ready @39/39/39)
     logic [W-1:0] t0_lamT;
     assign t0_lamT = dl_skip[0] ? dl_in_lamT0[1*W +: W] : dl_t0_lam_new;
     logic [W-1:0] dl_t0_lamT;
     pgs_delay #(.WIDTH(W), .DEPTH(71))
-        u_dl_t0_lamT (.clk(clk), .d(t0_lamT), .q(dl_t0_lamT));
+        u_dl_t0_lamT (.clk(clk), .d(t0_lamT), .valid(valid_q[39 +: 71]), .q(dl_t0_lamT));
     // t0_e = -t0_delta   (ready @43/43/43)
     logic [W-1:0] t0_e;
     assign t0_e = {~dl_t0_delta[W-1], dl_t0_delta[W-2:0]};
     logic [W-1:0] dl_t0_e;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_e (.clk(clk), .d(t0_e), .q(dl_t0_e));
+        u_dl_t0_e (.clk(clk), .d(t0_e), .valid(1'b0), .q(dl_t0_e));
     // t0_linA_x = t0_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_x;
     logic [2:0] fl_t0_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[56]), .y(t0_linA_x), .flags(fl_t0_linA_x)
     );
     assign ev_ovf[54] = fl_t0_linA_x[0] && ev_q[3];
@@ -1081,12 +1088,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[54] = fl_t0_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linA_x (.clk(clk), .d(t0_linA_x), .q(dl_t0_linA_x));
+        u_dl_t0_linA_x (.clk(clk), .d(t0_linA_x), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_x));
     // t0_linA_y = t0_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_y;
     logic [2:0] fl_t0_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[57]), .y(t0_linA_y), .flags(fl_t0_linA_y)
     );
     assign ev_ovf[55] = fl_t0_linA_y[0] && ev_q[3];
@@ -1094,12 +1101,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[55] = fl_t0_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linA_y (.clk(clk), .d(t0_linA_y), .q(dl_t0_linA_y));
+        u_dl_t0_linA_y (.clk(clk), .d(t0_linA_y), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_y));
     // t0_linA_z = t0_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_z;
     logic [2:0] fl_t0_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[58]), .y(t0_linA_z), .flags(fl_t0_linA_z)
     );
     assign ev_ovf[56] = fl_t0_linA_z[0] && ev_q[3];
@@ -1107,12 +1114,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[56] = fl_t0_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .q(dl_t0_linA_z));
+        u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_z));
     // t0_mul108 = t0_linA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul108;
     logic [2:0] fl_t0_mul108;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul108 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linA_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[59]), .y(t0_mul108), .flags(fl_t0_mul108)
     );
     assign ev_ovf[57] = fl_t0_mul108[0] && ev_q[46];
@@ -1120,12 +1127,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[57] = fl_t0_mul108[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul108;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul108 (.clk(clk), .d(t0_mul108), .q(dl_t0_mul108));
+        u_dl_t0_mul108 (.clk(clk), .d(t0_mul108), .valid(1'b0), .q(dl_t0_mul108));
     // t0_mul109 = t0_linA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul109;
     logic [2:0] fl_t0_mul109;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul109 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linA_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[60]), .y(t0_mul109), .flags(fl_t0_mul109)
     );
     assign ev_ovf[58] = fl_t0_mul109[0] && ev_q[46];
@@ -1133,12 +1140,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[58] = fl_t0_mul109[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul109;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul109 (.clk(clk), .d(t0_mul109), .q(dl_t0_mul109));
+        u_dl_t0_mul109 (.clk(clk), .d(t0_mul109), .valid(1'b0), .q(dl_t0_mul109));
     // t0_mul110 = t0_linA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul110;
     logic [2:0] fl_t0_mul110;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul110 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linA_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[61]), .y(t0_mul110), .flags(fl_t0_mul110)
     );
     assign ev_ovf[59] = fl_t0_mul110[0] && ev_q[46];
@@ -1146,12 +1153,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[59] = fl_t0_mul110[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul110;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul110 (.clk(clk), .d(t0_mul110), .q(dl_t0_mul110));
+        u_dl_t0_mul110 (.clk(clk), .d(t0_mul110), .valid(1'b0), .q(dl_t0_mul110));
     // t0_add111 = vA_x + t0_mul108   (ready @50/50/50)
     logic [W-1:0] t0_add111;
     logic [2:0] fl_t0_add111;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add111 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_x[1*W +: W]), .b(dl_t0_mul108), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_x[1*W +: W]), .b(dl_t0_mul108), .sub(1'b0),
         .out_valid(op_valid_nc[62]), .y(t0_add111), .flags(fl_t0_add111)
     );
     assign ev_ovf[60] = fl_t0_add111[0] && ev_q[50];
@@ -1159,12 +1166,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[60] = fl_t0_add111[2] && ev_q[50];
     logic [W-1:0] dl_t0_add111;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add111 (.clk(clk), .d(t0_add111), .q(dl_t0_add111));
+        u_dl_t0_add111 (.clk(clk), .d(t0_add111), .valid(1'b0), .q(dl_t0_add111));
     // t0_add112 = vA_y + t0_mul109   (ready @50/50/50)
     logic [W-1:0] t0_add112;
     logic [2:0] fl_t0_add112;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add112 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_y[1*W +: W]), .b(dl_t0_mul109), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_y[1*W +: W]), .b(dl_t0_mul109), .sub(1'b0),
         .out_valid(op_valid_nc[63]), .y(t0_add112), .flags(fl_t0_add112)
     );
     assign ev_ovf[61] = fl_t0_add112[0] && ev_q[50];
@@ -1172,12 +1179,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[61] = fl_t0_add112[2] && ev_q[50];
     logic [W-1:0] dl_t0_add112;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add112 (.clk(clk), .d(t0_add112), .q(dl_t0_add112));
+        u_dl_t0_add112 (.clk(clk), .d(t0_add112), .valid(1'b0), .q(dl_t0_add112));
     // t0_add113 = vA_z + t0_mul110   (ready @50/50/50)
     logic [W-1:0] t0_add113;
     logic [2:0] fl_t0_add113;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add113 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_z[1*W +: W]), .b(dl_t0_mul110), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vA_z[1*W +: W]), .b(dl_t0_mul110), .sub(1'b0),
         .out_valid(op_valid_nc[64]), .y(t0_add113), .flags(fl_t0_add113)
     );
     assign ev_ovf[62] = fl_t0_add113[0] && ev_q[50];
@@ -1185,30 +1192,30 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[62] = fl_t0_add113[2] && ev_q[50];
     logic [W-1:0] dl_t0_add113;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add113 (.clk(clk), .d(t0_add113), .q(dl_t0_add113));
+        u_dl_t0_add113 (.clk(clk), .d(t0_add113), .valid(1'b0), .q(dl_t0_add113));
     // t0_vA_x = skip ? vA_x : t0_add111   (ready @50/50/50)
     logic [W-1:0] t0_vA_x;
     assign t0_vA_x = dl_skip[1] ? dl_in_vA_x[2*W +: W] : dl_t0_add111;
     logic [3*W-1:0] dl_t0_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vA_x (.clk(clk), .d(t0_vA_x), .q(dl_t0_vA_x));
+        u_dl_t0_vA_x (.clk(clk), .d(t0_vA_x), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_x));
     // t0_vA_y = skip ? vA_y : t0_add112   (ready @50/50/50)
     logic [W-1:0] t0_vA_y;
     assign t0_vA_y = dl_skip[1] ? dl_in_vA_y[2*W +: W] : dl_t0_add112;
     logic [3*W-1:0] dl_t0_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vA_y (.clk(clk), .d(t0_vA_y), .q(dl_t0_vA_y));
+        u_dl_t0_vA_y (.clk(clk), .d(t0_vA_y), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_y));
     // t0_vA_z = skip ? vA_z : t0_add113   (ready @50/50/50)
     logic [W-1:0] t0_vA_z;
     assign t0_vA_z = dl_skip[1] ? dl_in_vA_z[2*W +: W] : dl_t0_add113;
     logic [3*W-1:0] dl_t0_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vA_z (.clk(clk), .d(t0_vA_z), .q(dl_t0_vA_z));
+        u_dl_t0_vA_z (.clk(clk), .d(t0_vA_z), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_z));
     // t0_angA_x = IInvA_s * t0_cA_x   (ready @14/14/14)
     logic [W-1:0] t0_angA_x;
     logic [2:0] fl_t0_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_t0_cA_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_t0_cA_x),
         .out_valid(op_valid_nc[65]), .y(t0_angA_x), .flags(fl_t0_angA_x)
     );
     assign ev_ovf[63] = fl_t0_angA_x[0] && ev_q[14];
@@ -1216,12 +1223,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[63] = fl_t0_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
-        u_dl_t0_angA_x (.clk(clk), .d(t0_angA_x), .q(dl_t0_angA_x));
+        u_dl_t0_angA_x (.clk(clk), .d(t0_angA_x), .valid(valid_q[14 +: 29]), .q(dl_t0_angA_x));
     // t0_angA_y = IInvA_s * t0_cA_y   (ready @14/14/14)
     logic [W-1:0] t0_angA_y;
     logic [2:0] fl_t0_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_t0_cA_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_t0_cA_y),
         .out_valid(op_valid_nc[66]), .y(t0_angA_y), .flags(fl_t0_angA_y)
     );
     assign ev_ovf[64] = fl_t0_angA_y[0] && ev_q[14];
@@ -1229,12 +1236,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[64] = fl_t0_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
-        u_dl_t0_angA_y (.clk(clk), .d(t0_angA_y), .q(dl_t0_angA_y));
+        u_dl_t0_angA_y (.clk(clk), .d(t0_angA_y), .valid(valid_q[14 +: 29]), .q(dl_t0_angA_y));
     // t0_angA_z = IInvA_s * t0_cA_z   (ready @14/14/14)
     logic [W-1:0] t0_angA_z;
     logic [2:0] fl_t0_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_t0_cA_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_t0_cA_z),
         .out_valid(op_valid_nc[67]), .y(t0_angA_z), .flags(fl_t0_angA_z)
     );
     assign ev_ovf[65] = fl_t0_angA_z[0] && ev_q[14];
@@ -1242,12 +1249,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[65] = fl_t0_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
-        u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .q(dl_t0_angA_z));
+        u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .valid(valid_q[14 +: 29]), .q(dl_t0_angA_z));
     // t0_mul120 = t0_angA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul120;
     logic [2:0] fl_t0_mul120;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul120 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angA_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[68]), .y(t0_mul120), .flags(fl_t0_mul120)
     );
     assign ev_ovf[66] = fl_t0_mul120[0] && ev_q[46];
@@ -1255,12 +1262,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[66] = fl_t0_mul120[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul120;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul120 (.clk(clk), .d(t0_mul120), .q(dl_t0_mul120));
+        u_dl_t0_mul120 (.clk(clk), .d(t0_mul120), .valid(1'b0), .q(dl_t0_mul120));
     // t0_mul121 = t0_angA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul121;
     logic [2:0] fl_t0_mul121;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul121 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angA_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[69]), .y(t0_mul121), .flags(fl_t0_mul121)
     );
     assign ev_ovf[67] = fl_t0_mul121[0] && ev_q[46];
@@ -1268,12 +1275,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[67] = fl_t0_mul121[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul121;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul121 (.clk(clk), .d(t0_mul121), .q(dl_t0_mul121));
+        u_dl_t0_mul121 (.clk(clk), .d(t0_mul121), .valid(1'b0), .q(dl_t0_mul121));
     // t0_mul122 = t0_angA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul122;
     logic [2:0] fl_t0_mul122;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul122 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angA_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[70]), .y(t0_mul122), .flags(fl_t0_mul122)
     );
     assign ev_ovf[68] = fl_t0_mul122[0] && ev_q[46];
@@ -1281,12 +1288,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[68] = fl_t0_mul122[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul122;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul122 (.clk(clk), .d(t0_mul122), .q(dl_t0_mul122));
+        u_dl_t0_mul122 (.clk(clk), .d(t0_mul122), .valid(1'b0), .q(dl_t0_mul122));
     // t0_add123 = wA_x + t0_mul120   (ready @50/50/50)
     logic [W-1:0] t0_add123;
     logic [2:0] fl_t0_add123;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add123 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_x[1*W +: W]), .b(dl_t0_mul120), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_x[1*W +: W]), .b(dl_t0_mul120), .sub(1'b0),
         .out_valid(op_valid_nc[71]), .y(t0_add123), .flags(fl_t0_add123)
     );
     assign ev_ovf[69] = fl_t0_add123[0] && ev_q[50];
@@ -1294,12 +1301,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[69] = fl_t0_add123[2] && ev_q[50];
     logic [W-1:0] dl_t0_add123;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add123 (.clk(clk), .d(t0_add123), .q(dl_t0_add123));
+        u_dl_t0_add123 (.clk(clk), .d(t0_add123), .valid(1'b0), .q(dl_t0_add123));
     // t0_add124 = wA_y + t0_mul121   (ready @50/50/50)
     logic [W-1:0] t0_add124;
     logic [2:0] fl_t0_add124;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add124 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_y[1*W +: W]), .b(dl_t0_mul121), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_y[1*W +: W]), .b(dl_t0_mul121), .sub(1'b0),
         .out_valid(op_valid_nc[72]), .y(t0_add124), .flags(fl_t0_add124)
     );
     assign ev_ovf[70] = fl_t0_add124[0] && ev_q[50];
@@ -1307,12 +1314,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[70] = fl_t0_add124[2] && ev_q[50];
     logic [W-1:0] dl_t0_add124;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add124 (.clk(clk), .d(t0_add124), .q(dl_t0_add124));
+        u_dl_t0_add124 (.clk(clk), .d(t0_add124), .valid(1'b0), .q(dl_t0_add124));
     // t0_add125 = wA_z + t0_mul122   (ready @50/50/50)
     logic [W-1:0] t0_add125;
     logic [2:0] fl_t0_add125;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add125 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_z[1*W +: W]), .b(dl_t0_mul122), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wA_z[1*W +: W]), .b(dl_t0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[73]), .y(t0_add125), .flags(fl_t0_add125)
     );
     assign ev_ovf[71] = fl_t0_add125[0] && ev_q[50];
@@ -1320,30 +1327,30 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[71] = fl_t0_add125[2] && ev_q[50];
     logic [W-1:0] dl_t0_add125;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add125 (.clk(clk), .d(t0_add125), .q(dl_t0_add125));
+        u_dl_t0_add125 (.clk(clk), .d(t0_add125), .valid(1'b0), .q(dl_t0_add125));
     // t0_wA_x = skip ? wA_x : t0_add123   (ready @50/50/50)
     logic [W-1:0] t0_wA_x;
     assign t0_wA_x = dl_skip[1] ? dl_in_wA_x[2*W +: W] : dl_t0_add123;
     logic [3*W-1:0] dl_t0_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wA_x (.clk(clk), .d(t0_wA_x), .q(dl_t0_wA_x));
+        u_dl_t0_wA_x (.clk(clk), .d(t0_wA_x), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_x));
     // t0_wA_y = skip ? wA_y : t0_add124   (ready @50/50/50)
     logic [W-1:0] t0_wA_y;
     assign t0_wA_y = dl_skip[1] ? dl_in_wA_y[2*W +: W] : dl_t0_add124;
     logic [3*W-1:0] dl_t0_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wA_y (.clk(clk), .d(t0_wA_y), .q(dl_t0_wA_y));
+        u_dl_t0_wA_y (.clk(clk), .d(t0_wA_y), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_y));
     // t0_wA_z = skip ? wA_z : t0_add125   (ready @50/50/50)
     logic [W-1:0] t0_wA_z;
     assign t0_wA_z = dl_skip[1] ? dl_in_wA_z[2*W +: W] : dl_t0_add125;
     logic [3*W-1:0] dl_t0_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wA_z (.clk(clk), .d(t0_wA_z), .q(dl_t0_wA_z));
+        u_dl_t0_wA_z (.clk(clk), .d(t0_wA_z), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_z));
     // t0_linB_x = t0_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_x;
     logic [2:0] fl_t0_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_x[1*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[74]), .y(t0_linB_x), .flags(fl_t0_linB_x)
     );
     assign ev_ovf[72] = fl_t0_linB_x[0] && ev_q[3];
@@ -1351,12 +1358,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[72] = fl_t0_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linB_x (.clk(clk), .d(t0_linB_x), .q(dl_t0_linB_x));
+        u_dl_t0_linB_x (.clk(clk), .d(t0_linB_x), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_x));
     // t0_linB_y = t0_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_y;
     logic [2:0] fl_t0_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_y[1*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[75]), .y(t0_linB_y), .flags(fl_t0_linB_y)
     );
     assign ev_ovf[73] = fl_t0_linB_y[0] && ev_q[3];
@@ -1364,12 +1371,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[73] = fl_t0_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linB_y (.clk(clk), .d(t0_linB_y), .q(dl_t0_linB_y));
+        u_dl_t0_linB_y (.clk(clk), .d(t0_linB_y), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_y));
     // t0_linB_z = t0_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_z;
     logic [2:0] fl_t0_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t0_z[1*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[76]), .y(t0_linB_z), .flags(fl_t0_linB_z)
     );
     assign ev_ovf[74] = fl_t0_linB_z[0] && ev_q[3];
@@ -1377,12 +1384,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[74] = fl_t0_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(40))
-        u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .q(dl_t0_linB_z));
+        u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_z));
     // t0_mul132 = t0_linB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul132;
     logic [2:0] fl_t0_mul132;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul132 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linB_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[77]), .y(t0_mul132), .flags(fl_t0_mul132)
     );
     assign ev_ovf[75] = fl_t0_mul132[0] && ev_q[46];
@@ -1390,12 +1397,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[75] = fl_t0_mul132[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul132;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul132 (.clk(clk), .d(t0_mul132), .q(dl_t0_mul132));
+        u_dl_t0_mul132 (.clk(clk), .d(t0_mul132), .valid(1'b0), .q(dl_t0_mul132));
     // t0_mul133 = t0_linB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul133;
     logic [2:0] fl_t0_mul133;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul133 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linB_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[78]), .y(t0_mul133), .flags(fl_t0_mul133)
     );
     assign ev_ovf[76] = fl_t0_mul133[0] && ev_q[46];
@@ -1403,12 +1410,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[76] = fl_t0_mul133[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul133;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul133 (.clk(clk), .d(t0_mul133), .q(dl_t0_mul133));
+        u_dl_t0_mul133 (.clk(clk), .d(t0_mul133), .valid(1'b0), .q(dl_t0_mul133));
     // t0_mul134 = t0_linB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul134;
     logic [2:0] fl_t0_mul134;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul134 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_linB_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[79]), .y(t0_mul134), .flags(fl_t0_mul134)
     );
     assign ev_ovf[77] = fl_t0_mul134[0] && ev_q[46];
@@ -1416,12 +1423,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[77] = fl_t0_mul134[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul134;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul134 (.clk(clk), .d(t0_mul134), .q(dl_t0_mul134));
+        u_dl_t0_mul134 (.clk(clk), .d(t0_mul134), .valid(1'b0), .q(dl_t0_mul134));
     // t0_sub135 = vB_x - t0_mul132   (ready @50/50/50)
     logic [W-1:0] t0_sub135;
     logic [2:0] fl_t0_sub135;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub135 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_x[1*W +: W]), .b(dl_t0_mul132), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_x[1*W +: W]), .b(dl_t0_mul132), .sub(1'b1),
         .out_valid(op_valid_nc[80]), .y(t0_sub135), .flags(fl_t0_sub135)
     );
     assign ev_ovf[78] = fl_t0_sub135[0] && ev_q[50];
@@ -1429,12 +1436,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[78] = fl_t0_sub135[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub135;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub135 (.clk(clk), .d(t0_sub135), .q(dl_t0_sub135));
+        u_dl_t0_sub135 (.clk(clk), .d(t0_sub135), .valid(1'b0), .q(dl_t0_sub135));
     // t0_sub136 = vB_y - t0_mul133   (ready @50/50/50)
     logic [W-1:0] t0_sub136;
     logic [2:0] fl_t0_sub136;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub136 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_y[1*W +: W]), .b(dl_t0_mul133), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_y[1*W +: W]), .b(dl_t0_mul133), .sub(1'b1),
         .out_valid(op_valid_nc[81]), .y(t0_sub136), .flags(fl_t0_sub136)
     );
     assign ev_ovf[79] = fl_t0_sub136[0] && ev_q[50];
@@ -1442,12 +1449,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[79] = fl_t0_sub136[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub136;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub136 (.clk(clk), .d(t0_sub136), .q(dl_t0_sub136));
+        u_dl_t0_sub136 (.clk(clk), .d(t0_sub136), .valid(1'b0), .q(dl_t0_sub136));
     // t0_sub137 = vB_z - t0_mul134   (ready @50/50/50)
     logic [W-1:0] t0_sub137;
     logic [2:0] fl_t0_sub137;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub137 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_z[1*W +: W]), .b(dl_t0_mul134), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_vB_z[1*W +: W]), .b(dl_t0_mul134), .sub(1'b1),
         .out_valid(op_valid_nc[82]), .y(t0_sub137), .flags(fl_t0_sub137)
     );
     assign ev_ovf[80] = fl_t0_sub137[0] && ev_q[50];
@@ -1455,30 +1462,30 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[80] = fl_t0_sub137[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub137;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub137 (.clk(clk), .d(t0_sub137), .q(dl_t0_sub137));
+        u_dl_t0_sub137 (.clk(clk), .d(t0_sub137), .valid(1'b0), .q(dl_t0_sub137));
     // t0_vB_x = skip ? vB_x : t0_sub135   (ready @50/50/50)
     logic [W-1:0] t0_vB_x;
     assign t0_vB_x = dl_skip[1] ? dl_in_vB_x[2*W +: W] : dl_t0_sub135;
     logic [3*W-1:0] dl_t0_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vB_x (.clk(clk), .d(t0_vB_x), .q(dl_t0_vB_x));
+        u_dl_t0_vB_x (.clk(clk), .d(t0_vB_x), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_x));
     // t0_vB_y = skip ? vB_y : t0_sub136   (ready @50/50/50)
     logic [W-1:0] t0_vB_y;
     assign t0_vB_y = dl_skip[1] ? dl_in_vB_y[2*W +: W] : dl_t0_sub136;
     logic [3*W-1:0] dl_t0_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vB_y (.clk(clk), .d(t0_vB_y), .q(dl_t0_vB_y));
+        u_dl_t0_vB_y (.clk(clk), .d(t0_vB_y), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_y));
     // t0_vB_z = skip ? vB_z : t0_sub137   (ready @50/50/50)
     logic [W-1:0] t0_vB_z;
     assign t0_vB_z = dl_skip[1] ? dl_in_vB_z[2*W +: W] : dl_t0_sub137;
     logic [3*W-1:0] dl_t0_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_vB_z (.clk(clk), .d(t0_vB_z), .q(dl_t0_vB_z));
+        u_dl_t0_vB_z (.clk(clk), .d(t0_vB_z), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_z));
     // t0_angB_x = IInvB_s * t0_cB_x   (ready @14/14/14)
     logic [W-1:0] t0_angB_x;
     logic [2:0] fl_t0_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_t0_cB_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_t0_cB_x),
         .out_valid(op_valid_nc[83]), .y(t0_angB_x), .flags(fl_t0_angB_x)
     );
     assign ev_ovf[81] = fl_t0_angB_x[0] && ev_q[14];
@@ -1486,12 +1493,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[81] = fl_t0_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
-        u_dl_t0_angB_x (.clk(clk), .d(t0_angB_x), .q(dl_t0_angB_x));
+        u_dl_t0_angB_x (.clk(clk), .d(t0_angB_x), .valid(valid_q[14 +: 29]), .q(dl_t0_angB_x));
     // t0_angB_y = IInvB_s * t0_cB_y   (ready @14/14/14)
     logic [W-1:0] t0_angB_y;
     logic [2:0] fl_t0_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_t0_cB_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_t0_cB_y),
         .out_valid(op_valid_nc[84]), .y(t0_angB_y), .flags(fl_t0_angB_y)
     );
     assign ev_ovf[82] = fl_t0_angB_y[0] && ev_q[14];
@@ -1499,12 +1506,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[82] = fl_t0_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
-        u_dl_t0_angB_y (.clk(clk), .d(t0_angB_y), .q(dl_t0_angB_y));
+        u_dl_t0_angB_y (.clk(clk), .d(t0_angB_y), .valid(valid_q[14 +: 29]), .q(dl_t0_angB_y));
     // t0_angB_z = IInvB_s * t0_cB_z   (ready @14/14/14)
     logic [W-1:0] t0_angB_z;
     logic [2:0] fl_t0_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_t0_cB_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_t0_cB_z),
         .out_valid(op_valid_nc[85]), .y(t0_angB_z), .flags(fl_t0_angB_z)
     );
     assign ev_ovf[83] = fl_t0_angB_z[0] && ev_q[14];
@@ -1512,12 +1519,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[83] = fl_t0_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(29))
-        u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .q(dl_t0_angB_z));
+        u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .valid(valid_q[14 +: 29]), .q(dl_t0_angB_z));
     // t0_mul144 = t0_angB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul144;
     logic [2:0] fl_t0_mul144;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul144 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angB_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[86]), .y(t0_mul144), .flags(fl_t0_mul144)
     );
     assign ev_ovf[84] = fl_t0_mul144[0] && ev_q[46];
@@ -1525,12 +1532,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[84] = fl_t0_mul144[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul144;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul144 (.clk(clk), .d(t0_mul144), .q(dl_t0_mul144));
+        u_dl_t0_mul144 (.clk(clk), .d(t0_mul144), .valid(1'b0), .q(dl_t0_mul144));
     // t0_mul145 = t0_angB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul145;
     logic [2:0] fl_t0_mul145;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul145 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angB_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[87]), .y(t0_mul145), .flags(fl_t0_mul145)
     );
     assign ev_ovf[85] = fl_t0_mul145[0] && ev_q[46];
@@ -1538,12 +1545,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[85] = fl_t0_mul145[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul145;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul145 (.clk(clk), .d(t0_mul145), .q(dl_t0_mul145));
+        u_dl_t0_mul145 (.clk(clk), .d(t0_mul145), .valid(1'b0), .q(dl_t0_mul145));
     // t0_mul146 = t0_angB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul146;
     logic [2:0] fl_t0_mul146;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul146 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[43]), .a(dl_t0_angB_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[88]), .y(t0_mul146), .flags(fl_t0_mul146)
     );
     assign ev_ovf[86] = fl_t0_mul146[0] && ev_q[46];
@@ -1551,12 +1558,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[86] = fl_t0_mul146[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul146;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul146 (.clk(clk), .d(t0_mul146), .q(dl_t0_mul146));
+        u_dl_t0_mul146 (.clk(clk), .d(t0_mul146), .valid(1'b0), .q(dl_t0_mul146));
     // t0_sub147 = wB_x - t0_mul144   (ready @50/50/50)
     logic [W-1:0] t0_sub147;
     logic [2:0] fl_t0_sub147;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub147 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_x[1*W +: W]), .b(dl_t0_mul144), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_x[1*W +: W]), .b(dl_t0_mul144), .sub(1'b1),
         .out_valid(op_valid_nc[89]), .y(t0_sub147), .flags(fl_t0_sub147)
     );
     assign ev_ovf[87] = fl_t0_sub147[0] && ev_q[50];
@@ -1564,12 +1571,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[87] = fl_t0_sub147[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub147;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub147 (.clk(clk), .d(t0_sub147), .q(dl_t0_sub147));
+        u_dl_t0_sub147 (.clk(clk), .d(t0_sub147), .valid(1'b0), .q(dl_t0_sub147));
     // t0_sub148 = wB_y - t0_mul145   (ready @50/50/50)
     logic [W-1:0] t0_sub148;
     logic [2:0] fl_t0_sub148;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub148 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_y[1*W +: W]), .b(dl_t0_mul145), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_y[1*W +: W]), .b(dl_t0_mul145), .sub(1'b1),
         .out_valid(op_valid_nc[90]), .y(t0_sub148), .flags(fl_t0_sub148)
     );
     assign ev_ovf[88] = fl_t0_sub148[0] && ev_q[50];
@@ -1577,12 +1584,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[88] = fl_t0_sub148[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub148;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub148 (.clk(clk), .d(t0_sub148), .q(dl_t0_sub148));
+        u_dl_t0_sub148 (.clk(clk), .d(t0_sub148), .valid(1'b0), .q(dl_t0_sub148));
     // t0_sub149 = wB_z - t0_mul146   (ready @50/50/50)
     logic [W-1:0] t0_sub149;
     logic [2:0] fl_t0_sub149;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub149 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_z[1*W +: W]), .b(dl_t0_mul146), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[46]), .a(dl_in_wB_z[1*W +: W]), .b(dl_t0_mul146), .sub(1'b1),
         .out_valid(op_valid_nc[91]), .y(t0_sub149), .flags(fl_t0_sub149)
     );
     assign ev_ovf[89] = fl_t0_sub149[0] && ev_q[50];
@@ -1590,30 +1597,30 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[89] = fl_t0_sub149[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub149;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub149 (.clk(clk), .d(t0_sub149), .q(dl_t0_sub149));
+        u_dl_t0_sub149 (.clk(clk), .d(t0_sub149), .valid(1'b0), .q(dl_t0_sub149));
     // t0_wB_x = skip ? wB_x : t0_sub147   (ready @50/50/50)
     logic [W-1:0] t0_wB_x;
     assign t0_wB_x = dl_skip[1] ? dl_in_wB_x[2*W +: W] : dl_t0_sub147;
     logic [3*W-1:0] dl_t0_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wB_x (.clk(clk), .d(t0_wB_x), .q(dl_t0_wB_x));
+        u_dl_t0_wB_x (.clk(clk), .d(t0_wB_x), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_x));
     // t0_wB_y = skip ? wB_y : t0_sub148   (ready @50/50/50)
     logic [W-1:0] t0_wB_y;
     assign t0_wB_y = dl_skip[1] ? dl_in_wB_y[2*W +: W] : dl_t0_sub148;
     logic [3*W-1:0] dl_t0_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wB_y (.clk(clk), .d(t0_wB_y), .q(dl_t0_wB_y));
+        u_dl_t0_wB_y (.clk(clk), .d(t0_wB_y), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_y));
     // t0_wB_z = skip ? wB_z : t0_sub149   (ready @50/50/50)
     logic [W-1:0] t0_wB_z;
     assign t0_wB_z = dl_skip[1] ? dl_in_wB_z[2*W +: W] : dl_t0_sub149;
     logic [3*W-1:0] dl_t0_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
-        u_dl_t0_wB_z (.clk(clk), .d(t0_wB_z), .q(dl_t0_wB_z));
+        u_dl_t0_wB_z (.clk(clk), .d(t0_wB_z), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_z));
     // t1_mul153 = rA_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul153;
     logic [2:0] fl_t1_mul153;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul153 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_y), .b(dl_in_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[92]), .y(t1_mul153), .flags(fl_t1_mul153)
     );
     assign ev_ovf[90] = fl_t1_mul153[0] && ev_q[7];
@@ -1621,12 +1628,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[90] = fl_t1_mul153[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul153;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul153 (.clk(clk), .d(t1_mul153), .q(dl_t1_mul153));
+        u_dl_t1_mul153 (.clk(clk), .d(t1_mul153), .valid(1'b0), .q(dl_t1_mul153));
     // t1_mul154 = rA_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul154;
     logic [2:0] fl_t1_mul154;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul154 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_z), .b(dl_in_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[93]), .y(t1_mul154), .flags(fl_t1_mul154)
     );
     assign ev_ovf[91] = fl_t1_mul154[0] && ev_q[7];
@@ -1634,12 +1641,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[91] = fl_t1_mul154[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul154;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul154 (.clk(clk), .d(t1_mul154), .q(dl_t1_mul154));
+        u_dl_t1_mul154 (.clk(clk), .d(t1_mul154), .valid(1'b0), .q(dl_t1_mul154));
     // t1_cA_x = t1_mul153 - t1_mul154   (ready @11/11/11)
     logic [W-1:0] t1_cA_x;
     logic [2:0] fl_t1_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul153), .b(dl_t1_mul154), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul153), .b(dl_t1_mul154), .sub(1'b1),
         .out_valid(op_valid_nc[94]), .y(t1_cA_x), .flags(fl_t1_cA_x)
     );
     assign ev_ovf[92] = fl_t1_cA_x[0] && ev_q[11];
@@ -1647,12 +1654,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[92] = fl_t1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cA_x (.clk(clk), .d(t1_cA_x), .q(dl_t1_cA_x));
+        u_dl_t1_cA_x (.clk(clk), .d(t1_cA_x), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_x));
     // t1_mul156 = rA_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul156;
     logic [2:0] fl_t1_mul156;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul156 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z), .b(dl_in_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_z), .b(dl_in_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[95]), .y(t1_mul156), .flags(fl_t1_mul156)
     );
     assign ev_ovf[93] = fl_t1_mul156[0] && ev_q[7];
@@ -1660,12 +1667,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[93] = fl_t1_mul156[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul156;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul156 (.clk(clk), .d(t1_mul156), .q(dl_t1_mul156));
+        u_dl_t1_mul156 (.clk(clk), .d(t1_mul156), .valid(1'b0), .q(dl_t1_mul156));
     // t1_mul157 = rA_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul157;
     logic [2:0] fl_t1_mul157;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul157 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_x), .b(dl_in_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[96]), .y(t1_mul157), .flags(fl_t1_mul157)
     );
     assign ev_ovf[94] = fl_t1_mul157[0] && ev_q[7];
@@ -1673,12 +1680,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[94] = fl_t1_mul157[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul157;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul157 (.clk(clk), .d(t1_mul157), .q(dl_t1_mul157));
+        u_dl_t1_mul157 (.clk(clk), .d(t1_mul157), .valid(1'b0), .q(dl_t1_mul157));
     // t1_cA_y = t1_mul156 - t1_mul157   (ready @11/11/11)
     logic [W-1:0] t1_cA_y;
     logic [2:0] fl_t1_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul156), .b(dl_t1_mul157), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul156), .b(dl_t1_mul157), .sub(1'b1),
         .out_valid(op_valid_nc[97]), .y(t1_cA_y), .flags(fl_t1_cA_y)
     );
     assign ev_ovf[95] = fl_t1_cA_y[0] && ev_q[11];
@@ -1686,12 +1693,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[95] = fl_t1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cA_y (.clk(clk), .d(t1_cA_y), .q(dl_t1_cA_y));
+        u_dl_t1_cA_y (.clk(clk), .d(t1_cA_y), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_y));
     // t1_mul159 = rA_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul159;
     logic [2:0] fl_t1_mul159;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul159 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x), .b(dl_in_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_x), .b(dl_in_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[98]), .y(t1_mul159), .flags(fl_t1_mul159)
     );
     assign ev_ovf[96] = fl_t1_mul159[0] && ev_q[7];
@@ -1699,12 +1706,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[96] = fl_t1_mul159[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul159;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul159 (.clk(clk), .d(t1_mul159), .q(dl_t1_mul159));
+        u_dl_t1_mul159 (.clk(clk), .d(t1_mul159), .valid(1'b0), .q(dl_t1_mul159));
     // t1_mul160 = rA_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul160;
     logic [2:0] fl_t1_mul160;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul160 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y), .b(dl_in_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rA_y), .b(dl_in_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[99]), .y(t1_mul160), .flags(fl_t1_mul160)
     );
     assign ev_ovf[97] = fl_t1_mul160[0] && ev_q[7];
@@ -1712,12 +1719,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[97] = fl_t1_mul160[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul160;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul160 (.clk(clk), .d(t1_mul160), .q(dl_t1_mul160));
+        u_dl_t1_mul160 (.clk(clk), .d(t1_mul160), .valid(1'b0), .q(dl_t1_mul160));
     // t1_cA_z = t1_mul159 - t1_mul160   (ready @11/11/11)
     logic [W-1:0] t1_cA_z;
     logic [2:0] fl_t1_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul159), .b(dl_t1_mul160), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul159), .b(dl_t1_mul160), .sub(1'b1),
         .out_valid(op_valid_nc[100]), .y(t1_cA_z), .flags(fl_t1_cA_z)
     );
     assign ev_ovf[98] = fl_t1_cA_z[0] && ev_q[11];
@@ -1725,12 +1732,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[98] = fl_t1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cA_z (.clk(clk), .d(t1_cA_z), .q(dl_t1_cA_z));
+        u_dl_t1_cA_z (.clk(clk), .d(t1_cA_z), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_z));
     // t1_mul162 = rB_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul162;
     logic [2:0] fl_t1_mul162;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul162 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_y), .b(dl_in_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[101]), .y(t1_mul162), .flags(fl_t1_mul162)
     );
     assign ev_ovf[99] = fl_t1_mul162[0] && ev_q[7];
@@ -1738,12 +1745,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[99] = fl_t1_mul162[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul162;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul162 (.clk(clk), .d(t1_mul162), .q(dl_t1_mul162));
+        u_dl_t1_mul162 (.clk(clk), .d(t1_mul162), .valid(1'b0), .q(dl_t1_mul162));
     // t1_mul163 = rB_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul163;
     logic [2:0] fl_t1_mul163;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul163 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_z), .b(dl_in_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[102]), .y(t1_mul163), .flags(fl_t1_mul163)
     );
     assign ev_ovf[100] = fl_t1_mul163[0] && ev_q[7];
@@ -1751,12 +1758,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[100] = fl_t1_mul163[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul163;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul163 (.clk(clk), .d(t1_mul163), .q(dl_t1_mul163));
+        u_dl_t1_mul163 (.clk(clk), .d(t1_mul163), .valid(1'b0), .q(dl_t1_mul163));
     // t1_cB_x = t1_mul162 - t1_mul163   (ready @11/11/11)
     logic [W-1:0] t1_cB_x;
     logic [2:0] fl_t1_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul162), .b(dl_t1_mul163), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul162), .b(dl_t1_mul163), .sub(1'b1),
         .out_valid(op_valid_nc[103]), .y(t1_cB_x), .flags(fl_t1_cB_x)
     );
     assign ev_ovf[101] = fl_t1_cB_x[0] && ev_q[11];
@@ -1764,12 +1771,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[101] = fl_t1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cB_x (.clk(clk), .d(t1_cB_x), .q(dl_t1_cB_x));
+        u_dl_t1_cB_x (.clk(clk), .d(t1_cB_x), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_x));
     // t1_mul165 = rB_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul165;
     logic [2:0] fl_t1_mul165;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul165 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z), .b(dl_in_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_z), .b(dl_in_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[104]), .y(t1_mul165), .flags(fl_t1_mul165)
     );
     assign ev_ovf[102] = fl_t1_mul165[0] && ev_q[7];
@@ -1777,12 +1784,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[102] = fl_t1_mul165[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul165;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul165 (.clk(clk), .d(t1_mul165), .q(dl_t1_mul165));
+        u_dl_t1_mul165 (.clk(clk), .d(t1_mul165), .valid(1'b0), .q(dl_t1_mul165));
     // t1_mul166 = rB_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul166;
     logic [2:0] fl_t1_mul166;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul166 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_x), .b(dl_in_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[105]), .y(t1_mul166), .flags(fl_t1_mul166)
     );
     assign ev_ovf[103] = fl_t1_mul166[0] && ev_q[7];
@@ -1790,12 +1797,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[103] = fl_t1_mul166[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul166;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul166 (.clk(clk), .d(t1_mul166), .q(dl_t1_mul166));
+        u_dl_t1_mul166 (.clk(clk), .d(t1_mul166), .valid(1'b0), .q(dl_t1_mul166));
     // t1_cB_y = t1_mul165 - t1_mul166   (ready @11/11/11)
     logic [W-1:0] t1_cB_y;
     logic [2:0] fl_t1_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul165), .b(dl_t1_mul166), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul165), .b(dl_t1_mul166), .sub(1'b1),
         .out_valid(op_valid_nc[106]), .y(t1_cB_y), .flags(fl_t1_cB_y)
     );
     assign ev_ovf[104] = fl_t1_cB_y[0] && ev_q[11];
@@ -1803,12 +1810,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[104] = fl_t1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cB_y (.clk(clk), .d(t1_cB_y), .q(dl_t1_cB_y));
+        u_dl_t1_cB_y (.clk(clk), .d(t1_cB_y), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_y));
     // t1_mul168 = rB_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul168;
     logic [2:0] fl_t1_mul168;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul168 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x), .b(dl_in_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_x), .b(dl_in_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[107]), .y(t1_mul168), .flags(fl_t1_mul168)
     );
     assign ev_ovf[105] = fl_t1_mul168[0] && ev_q[7];
@@ -1816,12 +1823,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[105] = fl_t1_mul168[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul168;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul168 (.clk(clk), .d(t1_mul168), .q(dl_t1_mul168));
+        u_dl_t1_mul168 (.clk(clk), .d(t1_mul168), .valid(1'b0), .q(dl_t1_mul168));
     // t1_mul169 = rB_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul169;
     logic [2:0] fl_t1_mul169;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul169 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y), .b(dl_in_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_rB_y), .b(dl_in_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[108]), .y(t1_mul169), .flags(fl_t1_mul169)
     );
     assign ev_ovf[106] = fl_t1_mul169[0] && ev_q[7];
@@ -1829,12 +1836,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[106] = fl_t1_mul169[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul169;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul169 (.clk(clk), .d(t1_mul169), .q(dl_t1_mul169));
+        u_dl_t1_mul169 (.clk(clk), .d(t1_mul169), .valid(1'b0), .q(dl_t1_mul169));
     // t1_cB_z = t1_mul168 - t1_mul169   (ready @11/11/11)
     logic [W-1:0] t1_cB_z;
     logic [2:0] fl_t1_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul168), .b(dl_t1_mul169), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_t1_mul168), .b(dl_t1_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[109]), .y(t1_cB_z), .flags(fl_t1_cB_z)
     );
     assign ev_ovf[107] = fl_t1_cB_z[0] && ev_q[11];
@@ -1842,12 +1849,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[107] = fl_t1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
-        u_dl_t1_cB_z (.clk(clk), .d(t1_cB_z), .q(dl_t1_cB_z));
+        u_dl_t1_cB_z (.clk(clk), .d(t1_cB_z), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_z));
     // t1_mul171 = t1_x * t0_vA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul171;
     logic [2:0] fl_t1_mul171;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul171 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[110]), .y(t1_mul171), .flags(fl_t1_mul171)
     );
     assign ev_ovf[108] = fl_t1_mul171[0] && ev_q[53];
@@ -1855,12 +1862,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[108] = fl_t1_mul171[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul171;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul171 (.clk(clk), .d(t1_mul171), .q(dl_t1_mul171));
+        u_dl_t1_mul171 (.clk(clk), .d(t1_mul171), .valid(1'b0), .q(dl_t1_mul171));
     // t1_mul172 = t1_y * t0_vA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul172;
     logic [2:0] fl_t1_mul172;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul172 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[111]), .y(t1_mul172), .flags(fl_t1_mul172)
     );
     assign ev_ovf[109] = fl_t1_mul172[0] && ev_q[53];
@@ -1868,12 +1875,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[109] = fl_t1_mul172[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul172;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul172 (.clk(clk), .d(t1_mul172), .q(dl_t1_mul172));
+        u_dl_t1_mul172 (.clk(clk), .d(t1_mul172), .valid(1'b0), .q(dl_t1_mul172));
     // t1_add173 = t1_mul171 + t1_mul172   (ready @57/57/57)
     logic [W-1:0] t1_add173;
     logic [2:0] fl_t1_add173;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add173 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul171), .b(dl_t1_mul172), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul171), .b(dl_t1_mul172), .sub(1'b0),
         .out_valid(op_valid_nc[112]), .y(t1_add173), .flags(fl_t1_add173)
     );
     assign ev_ovf[110] = fl_t1_add173[0] && ev_q[57];
@@ -1881,12 +1888,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[110] = fl_t1_add173[2] && ev_q[57];
     logic [W-1:0] dl_t1_add173;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add173 (.clk(clk), .d(t1_add173), .q(dl_t1_add173));
+        u_dl_t1_add173 (.clk(clk), .d(t1_add173), .valid(1'b0), .q(dl_t1_add173));
     // t1_mul174 = t1_z * t0_vA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul174;
     logic [2:0] fl_t1_mul174;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul174 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[113]), .y(t1_mul174), .flags(fl_t1_mul174)
     );
     assign ev_ovf[111] = fl_t1_mul174[0] && ev_q[53];
@@ -1894,12 +1901,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[111] = fl_t1_mul174[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul174;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul174 (.clk(clk), .d(t1_mul174), .q(dl_t1_mul174));
+        u_dl_t1_mul174 (.clk(clk), .d(t1_mul174), .valid(valid_q[53 +: 4]), .q(dl_t1_mul174));
     // t1_add175 = t1_add173 + t1_mul174   (ready @61/61/61)
     logic [W-1:0] t1_add175;
     logic [2:0] fl_t1_add175;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add175 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add173), .b(dl_t1_mul174), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add173), .b(dl_t1_mul174), .sub(1'b0),
         .out_valid(op_valid_nc[114]), .y(t1_add175), .flags(fl_t1_add175)
     );
     assign ev_ovf[112] = fl_t1_add175[0] && ev_q[61];
@@ -1907,12 +1914,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[112] = fl_t1_add175[2] && ev_q[61];
     logic [W-1:0] dl_t1_add175;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add175 (.clk(clk), .d(t1_add175), .q(dl_t1_add175));
+        u_dl_t1_add175 (.clk(clk), .d(t1_add175), .valid(1'b0), .q(dl_t1_add175));
     // t1_mul176 = t1_x * t0_vB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul176;
     logic [2:0] fl_t1_mul176;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul176 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_x[1*W +: W]), .b(dl_t0_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[115]), .y(t1_mul176), .flags(fl_t1_mul176)
     );
     assign ev_ovf[113] = fl_t1_mul176[0] && ev_q[53];
@@ -1920,12 +1927,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[113] = fl_t1_mul176[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul176;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul176 (.clk(clk), .d(t1_mul176), .q(dl_t1_mul176));
+        u_dl_t1_mul176 (.clk(clk), .d(t1_mul176), .valid(1'b0), .q(dl_t1_mul176));
     // t1_mul177 = t1_y * t0_vB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul177;
     logic [2:0] fl_t1_mul177;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul177 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_y[1*W +: W]), .b(dl_t0_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[116]), .y(t1_mul177), .flags(fl_t1_mul177)
     );
     assign ev_ovf[114] = fl_t1_mul177[0] && ev_q[53];
@@ -1933,12 +1940,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[114] = fl_t1_mul177[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul177;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul177 (.clk(clk), .d(t1_mul177), .q(dl_t1_mul177));
+        u_dl_t1_mul177 (.clk(clk), .d(t1_mul177), .valid(1'b0), .q(dl_t1_mul177));
     // t1_add178 = t1_mul176 + t1_mul177   (ready @57/57/57)
     logic [W-1:0] t1_add178;
     logic [2:0] fl_t1_add178;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add178 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul176), .b(dl_t1_mul177), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul176), .b(dl_t1_mul177), .sub(1'b0),
         .out_valid(op_valid_nc[117]), .y(t1_add178), .flags(fl_t1_add178)
     );
     assign ev_ovf[115] = fl_t1_add178[0] && ev_q[57];
@@ -1946,12 +1953,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[115] = fl_t1_add178[2] && ev_q[57];
     logic [W-1:0] dl_t1_add178;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add178 (.clk(clk), .d(t1_add178), .q(dl_t1_add178));
+        u_dl_t1_add178 (.clk(clk), .d(t1_add178), .valid(1'b0), .q(dl_t1_add178));
     // t1_mul179 = t1_z * t0_vB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul179;
     logic [2:0] fl_t1_mul179;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul179 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_in_t1_z[1*W +: W]), .b(dl_t0_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[118]), .y(t1_mul179), .flags(fl_t1_mul179)
     );
     assign ev_ovf[116] = fl_t1_mul179[0] && ev_q[53];
@@ -1959,12 +1966,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[116] = fl_t1_mul179[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul179;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul179 (.clk(clk), .d(t1_mul179), .q(dl_t1_mul179));
+        u_dl_t1_mul179 (.clk(clk), .d(t1_mul179), .valid(valid_q[53 +: 4]), .q(dl_t1_mul179));
     // t1_add180 = t1_add178 + t1_mul179   (ready @61/61/61)
     logic [W-1:0] t1_add180;
     logic [2:0] fl_t1_add180;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add180 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add178), .b(dl_t1_mul179), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add178), .b(dl_t1_mul179), .sub(1'b0),
         .out_valid(op_valid_nc[119]), .y(t1_add180), .flags(fl_t1_add180)
     );
     assign ev_ovf[117] = fl_t1_add180[0] && ev_q[61];
@@ -1972,12 +1979,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[117] = fl_t1_add180[2] && ev_q[61];
     logic [W-1:0] dl_t1_add180;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add180 (.clk(clk), .d(t1_add180), .q(dl_t1_add180));
+        u_dl_t1_add180 (.clk(clk), .d(t1_add180), .valid(1'b0), .q(dl_t1_add180));
     // t1_sub181 = t1_add175 - t1_add180   (ready @65/65/65)
     logic [W-1:0] t1_sub181;
     logic [2:0] fl_t1_sub181;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub181 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add175), .b(dl_t1_add180), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[61]), .a(dl_t1_add175), .b(dl_t1_add180), .sub(1'b1),
         .out_valid(op_valid_nc[120]), .y(t1_sub181), .flags(fl_t1_sub181)
     );
     assign ev_ovf[118] = fl_t1_sub181[0] && ev_q[65];
@@ -1985,12 +1992,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[118] = fl_t1_sub181[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub181;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub181 (.clk(clk), .d(t1_sub181), .q(dl_t1_sub181));
+        u_dl_t1_sub181 (.clk(clk), .d(t1_sub181), .valid(1'b0), .q(dl_t1_sub181));
     // t1_mul182 = t1_cA_x * t0_wA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul182;
     logic [2:0] fl_t1_mul182;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul182 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_x[0*W +: W]), .b(dl_t0_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cA_x[0*W +: W]), .b(dl_t0_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[121]), .y(t1_mul182), .flags(fl_t1_mul182)
     );
     assign ev_ovf[119] = fl_t1_mul182[0] && ev_q[53];
@@ -1998,12 +2005,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[119] = fl_t1_mul182[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul182;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul182 (.clk(clk), .d(t1_mul182), .q(dl_t1_mul182));
+        u_dl_t1_mul182 (.clk(clk), .d(t1_mul182), .valid(1'b0), .q(dl_t1_mul182));
     // t1_mul183 = t1_cA_y * t0_wA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul183;
     logic [2:0] fl_t1_mul183;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul183 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_y[0*W +: W]), .b(dl_t0_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cA_y[0*W +: W]), .b(dl_t0_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[122]), .y(t1_mul183), .flags(fl_t1_mul183)
     );
     assign ev_ovf[120] = fl_t1_mul183[0] && ev_q[53];
@@ -2011,12 +2018,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[120] = fl_t1_mul183[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul183;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul183 (.clk(clk), .d(t1_mul183), .q(dl_t1_mul183));
+        u_dl_t1_mul183 (.clk(clk), .d(t1_mul183), .valid(1'b0), .q(dl_t1_mul183));
     // t1_add184 = t1_mul182 + t1_mul183   (ready @57/57/57)
     logic [W-1:0] t1_add184;
     logic [2:0] fl_t1_add184;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add184 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul182), .b(dl_t1_mul183), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul182), .b(dl_t1_mul183), .sub(1'b0),
         .out_valid(op_valid_nc[123]), .y(t1_add184), .flags(fl_t1_add184)
     );
     assign ev_ovf[121] = fl_t1_add184[0] && ev_q[57];
@@ -2024,12 +2031,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[121] = fl_t1_add184[2] && ev_q[57];
     logic [W-1:0] dl_t1_add184;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add184 (.clk(clk), .d(t1_add184), .q(dl_t1_add184));
+        u_dl_t1_add184 (.clk(clk), .d(t1_add184), .valid(1'b0), .q(dl_t1_add184));
     // t1_mul185 = t1_cA_z * t0_wA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul185;
     logic [2:0] fl_t1_mul185;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul185 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_z[0*W +: W]), .b(dl_t0_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cA_z[0*W +: W]), .b(dl_t0_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[124]), .y(t1_mul185), .flags(fl_t1_mul185)
     );
     assign ev_ovf[122] = fl_t1_mul185[0] && ev_q[53];
@@ -2037,12 +2044,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[122] = fl_t1_mul185[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul185;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul185 (.clk(clk), .d(t1_mul185), .q(dl_t1_mul185));
+        u_dl_t1_mul185 (.clk(clk), .d(t1_mul185), .valid(valid_q[53 +: 4]), .q(dl_t1_mul185));
     // t1_add186 = t1_add184 + t1_mul185   (ready @61/61/61)
     logic [W-1:0] t1_add186;
     logic [2:0] fl_t1_add186;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add186 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add184), .b(dl_t1_mul185), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add184), .b(dl_t1_mul185), .sub(1'b0),
         .out_valid(op_valid_nc[125]), .y(t1_add186), .flags(fl_t1_add186)
     );
     assign ev_ovf[123] = fl_t1_add186[0] && ev_q[61];
@@ -2050,12 +2057,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[123] = fl_t1_add186[2] && ev_q[61];
     logic [W-1:0] dl_t1_add186;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add186 (.clk(clk), .d(t1_add186), .q(dl_t1_add186));
+        u_dl_t1_add186 (.clk(clk), .d(t1_add186), .valid(1'b0), .q(dl_t1_add186));
     // t1_mul187 = t1_cB_x * t0_wB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul187;
     logic [2:0] fl_t1_mul187;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul187 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_x[0*W +: W]), .b(dl_t0_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cB_x[0*W +: W]), .b(dl_t0_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[126]), .y(t1_mul187), .flags(fl_t1_mul187)
     );
     assign ev_ovf[124] = fl_t1_mul187[0] && ev_q[53];
@@ -2063,12 +2070,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[124] = fl_t1_mul187[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul187;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul187 (.clk(clk), .d(t1_mul187), .q(dl_t1_mul187));
+        u_dl_t1_mul187 (.clk(clk), .d(t1_mul187), .valid(1'b0), .q(dl_t1_mul187));
     // t1_mul188 = t1_cB_y * t0_wB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul188;
     logic [2:0] fl_t1_mul188;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul188 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_y[0*W +: W]), .b(dl_t0_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cB_y[0*W +: W]), .b(dl_t0_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[127]), .y(t1_mul188), .flags(fl_t1_mul188)
     );
     assign ev_ovf[125] = fl_t1_mul188[0] && ev_q[53];
@@ -2076,12 +2083,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[125] = fl_t1_mul188[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul188;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul188 (.clk(clk), .d(t1_mul188), .q(dl_t1_mul188));
+        u_dl_t1_mul188 (.clk(clk), .d(t1_mul188), .valid(1'b0), .q(dl_t1_mul188));
     // t1_add189 = t1_mul187 + t1_mul188   (ready @57/57/57)
     logic [W-1:0] t1_add189;
     logic [2:0] fl_t1_add189;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add189 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul187), .b(dl_t1_mul188), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[53]), .a(dl_t1_mul187), .b(dl_t1_mul188), .sub(1'b0),
         .out_valid(op_valid_nc[128]), .y(t1_add189), .flags(fl_t1_add189)
     );
     assign ev_ovf[126] = fl_t1_add189[0] && ev_q[57];
@@ -2089,12 +2096,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[126] = fl_t1_add189[2] && ev_q[57];
     logic [W-1:0] dl_t1_add189;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add189 (.clk(clk), .d(t1_add189), .q(dl_t1_add189));
+        u_dl_t1_add189 (.clk(clk), .d(t1_add189), .valid(1'b0), .q(dl_t1_add189));
     // t1_mul190 = t1_cB_z * t0_wB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul190;
     logic [2:0] fl_t1_mul190;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul190 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_z[0*W +: W]), .b(dl_t0_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[50]), .a(dl_t1_cB_z[0*W +: W]), .b(dl_t0_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[129]), .y(t1_mul190), .flags(fl_t1_mul190)
     );
     assign ev_ovf[127] = fl_t1_mul190[0] && ev_q[53];
@@ -2102,12 +2109,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[127] = fl_t1_mul190[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul190;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_t1_mul190 (.clk(clk), .d(t1_mul190), .q(dl_t1_mul190));
+        u_dl_t1_mul190 (.clk(clk), .d(t1_mul190), .valid(valid_q[53 +: 4]), .q(dl_t1_mul190));
     // t1_add191 = t1_add189 + t1_mul190   (ready @61/61/61)
     logic [W-1:0] t1_add191;
     logic [2:0] fl_t1_add191;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add191 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add189), .b(dl_t1_mul190), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[57]), .a(dl_t1_add189), .b(dl_t1_mul190), .sub(1'b0),
         .out_valid(op_valid_nc[130]), .y(t1_add191), .flags(fl_t1_add191)
     );
     assign ev_ovf[128] = fl_t1_add191[0] && ev_q[61];
@@ -2115,12 +2122,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[128] = fl_t1_add191[2] && ev_q[61];
     logic [W-1:0] dl_t1_add191;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add191 (.clk(clk), .d(t1_add191), .q(dl_t1_add191));
+        u_dl_t1_add191 (.clk(clk), .d(t1_add191), .valid(1'b0), .q(dl_t1_add191));
     // t1_sub192 = t1_add186 - t1_add191   (ready @65/65/65)
     logic [W-1:0] t1_sub192;
     logic [2:0] fl_t1_sub192;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub192 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add186), .b(dl_t1_add191), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[61]), .a(dl_t1_add186), .b(dl_t1_add191), .sub(1'b1),
         .out_valid(op_valid_nc[131]), .y(t1_sub192), .flags(fl_t1_sub192)
     );
     assign ev_ovf[129] = fl_t1_sub192[0] && ev_q[65];
@@ -2128,12 +2135,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[129] = fl_t1_sub192[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub192;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub192 (.clk(clk), .d(t1_sub192), .q(dl_t1_sub192));
+        u_dl_t1_sub192 (.clk(clk), .d(t1_sub192), .valid(1'b0), .q(dl_t1_sub192));
     // t1_u = t1_sub181 + t1_sub192   (ready @69/69/69)
     logic [W-1:0] t1_u;
     logic [2:0] fl_t1_u;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_u (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_sub181), .b(dl_t1_sub192), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[65]), .a(dl_t1_sub181), .b(dl_t1_sub192), .sub(1'b0),
         .out_valid(op_valid_nc[132]), .y(t1_u), .flags(fl_t1_u)
     );
     assign ev_ovf[130] = fl_t1_u[0] && ev_q[69];
@@ -2141,18 +2148,18 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[130] = fl_t1_u[2] && ev_q[69];
     logic [W-1:0] dl_t1_u;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_u (.clk(clk), .d(t1_u), .q(dl_t1_u));
+        u_dl_t1_u (.clk(clk), .d(t1_u), .valid(1'b0), .q(dl_t1_u));
     // t1_neg194 = -t1_u   (ready @69/69/69)
     logic [W-1:0] t1_neg194;
     assign t1_neg194 = {~dl_t1_u[W-1], dl_t1_u[W-2:0]};
     logic [W-1:0] dl_t1_neg194;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_neg194 (.clk(clk), .d(t1_neg194), .q(dl_t1_neg194));
+        u_dl_t1_neg194 (.clk(clk), .d(t1_neg194), .valid(1'b0), .q(dl_t1_neg194));
     // t1_delta0 = t1_neg194 * f_jac_inv1   (ready @72/72/72)
     logic [W-1:0] t1_delta0;
     logic [2:0] fl_t1_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_neg194), .b(dl_in_f_jac_inv1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[69]), .a(dl_t1_neg194), .b(dl_in_f_jac_inv1),
         .out_valid(op_valid_nc[133]), .y(t1_delta0), .flags(fl_t1_delta0)
     );
     assign ev_ovf[131] = fl_t1_delta0[0] && ev_q[72];
@@ -2160,12 +2167,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[131] = fl_t1_delta0[2] && ev_q[72];
     logic [W-1:0] dl_t1_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_delta0 (.clk(clk), .d(t1_delta0), .q(dl_t1_delta0));
+        u_dl_t1_delta0 (.clk(clk), .d(t1_delta0), .valid(1'b0), .q(dl_t1_delta0));
     // t1_add196 = lamT1 + t1_delta0   (ready @76/76/76)
     logic [W-1:0] t1_add196;
     logic [2:0] fl_t1_add196;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add196 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lamT1[0*W +: W]), .b(dl_t1_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[72]), .a(dl_in_lamT1[0*W +: W]), .b(dl_t1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[134]), .y(t1_add196), .flags(fl_t1_add196)
     );
     assign ev_ovf[132] = fl_t1_add196[0] && ev_q[76];
@@ -2173,32 +2180,32 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[132] = fl_t1_add196[2] && ev_q[76];
     logic [W-1:0] dl_t1_add196;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add196 (.clk(clk), .d(t1_add196), .q(dl_t1_add196));
+        u_dl_t1_add196 (.clk(clk), .d(t1_add196), .valid(1'b0), .q(dl_t1_add196));
     // t1_max197 = max(t1_add196, neg_limit)   (ready @77/77/77)
     logic [W-1:0] t1_max197;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t1_max197 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add196), .b(dl_neg_limit[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[76]), .a(dl_t1_add196), .b(dl_neg_limit[1*W +: W]),
         .out_valid(op_valid_nc[135]), .y_min(nc_t1_max197_min), .y_max(t1_max197),
         .lt(nc_t1_max197_lt), .eq(nc_t1_max197_eq), .unordered(nc_t1_max197_uo)
     );
     logic [W-1:0] dl_t1_max197;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_max197 (.clk(clk), .d(t1_max197), .q(dl_t1_max197));
+        u_dl_t1_max197 (.clk(clk), .d(t1_max197), .valid(1'b0), .q(dl_t1_max197));
     // t1_lam_new = min(t1_max197, limit)   (ready @78/78/78)
     logic [W-1:0] t1_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t1_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_max197), .b(dl_limit[2*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[77]), .a(dl_t1_max197), .b(dl_limit[2*W +: W]),
         .out_valid(op_valid_nc[136]), .y_min(t1_lam_new), .y_max(nc_t1_lam_new_max),
         .lt(nc_t1_lam_new_lt), .eq(nc_t1_lam_new_eq), .unordered(nc_t1_lam_new_uo)
     );
     logic [W-1:0] dl_t1_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_lam_new (.clk(clk), .d(t1_lam_new), .q(dl_t1_lam_new));
+        u_dl_t1_lam_new (.clk(clk), .d(t1_lam_new), .valid(1'b0), .q(dl_t1_lam_new));
     // t1_delta = t1_lam_new - lamT1   (ready @82/82/82)
     logic [W-1:0] t1_delta;
     logic [2:0] fl_t1_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_lam_new), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[78]), .a(dl_t1_lam_new), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[137]), .y(t1_delta), .flags(fl_t1_delta)
     );
     assign ev_ovf[133] = fl_t1_delta[0] && ev_q[82];
@@ -2206,24 +2213,24 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[133] = fl_t1_delta[2] && ev_q[82];
     logic [W-1:0] dl_t1_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_delta (.clk(clk), .d(t1_delta), .q(dl_t1_delta));
+        u_dl_t1_delta (.clk(clk), .d(t1_delta), .valid(1'b0), .q(dl_t1_delta));
     // t1_lamT = skip ? lamT1 : t1_lam_new   (ready @78/78/78)
     logic [W-1:0] t1_lamT;
     assign t1_lamT = dl_skip[2] ? dl_in_lamT1[1*W +: W] : dl_t1_lam_new;
     logic [W-1:0] dl_t1_lamT;
     pgs_delay #(.WIDTH(W), .DEPTH(32))
-        u_dl_t1_lamT (.clk(clk), .d(t1_lamT), .q(dl_t1_lamT));
+        u_dl_t1_lamT (.clk(clk), .d(t1_lamT), .valid(valid_q[78 +: 32]), .q(dl_t1_lamT));
     // t1_e = -t1_delta   (ready @82/82/82)
     logic [W-1:0] t1_e;
     assign t1_e = {~dl_t1_delta[W-1], dl_t1_delta[W-2:0]};
     logic [W-1:0] dl_t1_e;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_e (.clk(clk), .d(t1_e), .q(dl_t1_e));
+        u_dl_t1_e (.clk(clk), .d(t1_e), .valid(1'b0), .q(dl_t1_e));
     // t1_linA_x = t1_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_x;
     logic [2:0] fl_t1_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[138]), .y(t1_linA_x), .flags(fl_t1_linA_x)
     );
     assign ev_ovf[134] = fl_t1_linA_x[0] && ev_q[3];
@@ -2231,12 +2238,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[134] = fl_t1_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linA_x (.clk(clk), .d(t1_linA_x), .q(dl_t1_linA_x));
+        u_dl_t1_linA_x (.clk(clk), .d(t1_linA_x), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_x));
     // t1_linA_y = t1_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_y;
     logic [2:0] fl_t1_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[139]), .y(t1_linA_y), .flags(fl_t1_linA_y)
     );
     assign ev_ovf[135] = fl_t1_linA_y[0] && ev_q[3];
@@ -2244,12 +2251,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[135] = fl_t1_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linA_y (.clk(clk), .d(t1_linA_y), .q(dl_t1_linA_y));
+        u_dl_t1_linA_y (.clk(clk), .d(t1_linA_y), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_y));
     // t1_linA_z = t1_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_z;
     logic [2:0] fl_t1_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvA),
         .out_valid(op_valid_nc[140]), .y(t1_linA_z), .flags(fl_t1_linA_z)
     );
     assign ev_ovf[136] = fl_t1_linA_z[0] && ev_q[3];
@@ -2257,12 +2264,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[136] = fl_t1_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .q(dl_t1_linA_z));
+        u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_z));
     // t1_mul205 = t1_linA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul205;
     logic [2:0] fl_t1_mul205;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul205 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linA_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[141]), .y(t1_mul205), .flags(fl_t1_mul205)
     );
     assign ev_ovf[137] = fl_t1_mul205[0] && ev_q[85];
@@ -2270,12 +2277,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[137] = fl_t1_mul205[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul205;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul205 (.clk(clk), .d(t1_mul205), .q(dl_t1_mul205));
+        u_dl_t1_mul205 (.clk(clk), .d(t1_mul205), .valid(1'b0), .q(dl_t1_mul205));
     // t1_mul206 = t1_linA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul206;
     logic [2:0] fl_t1_mul206;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul206 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linA_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[142]), .y(t1_mul206), .flags(fl_t1_mul206)
     );
     assign ev_ovf[138] = fl_t1_mul206[0] && ev_q[85];
@@ -2283,12 +2290,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[138] = fl_t1_mul206[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul206;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul206 (.clk(clk), .d(t1_mul206), .q(dl_t1_mul206));
+        u_dl_t1_mul206 (.clk(clk), .d(t1_mul206), .valid(1'b0), .q(dl_t1_mul206));
     // t1_mul207 = t1_linA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul207;
     logic [2:0] fl_t1_mul207;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul207 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linA_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[143]), .y(t1_mul207), .flags(fl_t1_mul207)
     );
     assign ev_ovf[139] = fl_t1_mul207[0] && ev_q[85];
@@ -2296,12 +2303,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[139] = fl_t1_mul207[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul207;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul207 (.clk(clk), .d(t1_mul207), .q(dl_t1_mul207));
+        u_dl_t1_mul207 (.clk(clk), .d(t1_mul207), .valid(1'b0), .q(dl_t1_mul207));
     // t1_add208 = t0_vA_x + t1_mul205   (ready @89/89/89)
     logic [W-1:0] t1_add208;
     logic [2:0] fl_t1_add208;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add208 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_x[1*W +: W]), .b(dl_t1_mul205), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_x[1*W +: W]), .b(dl_t1_mul205), .sub(1'b0),
         .out_valid(op_valid_nc[144]), .y(t1_add208), .flags(fl_t1_add208)
     );
     assign ev_ovf[140] = fl_t1_add208[0] && ev_q[89];
@@ -2309,12 +2316,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[140] = fl_t1_add208[2] && ev_q[89];
     logic [W-1:0] dl_t1_add208;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add208 (.clk(clk), .d(t1_add208), .q(dl_t1_add208));
+        u_dl_t1_add208 (.clk(clk), .d(t1_add208), .valid(1'b0), .q(dl_t1_add208));
     // t1_add209 = t0_vA_y + t1_mul206   (ready @89/89/89)
     logic [W-1:0] t1_add209;
     logic [2:0] fl_t1_add209;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add209 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_y[1*W +: W]), .b(dl_t1_mul206), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_y[1*W +: W]), .b(dl_t1_mul206), .sub(1'b0),
         .out_valid(op_valid_nc[145]), .y(t1_add209), .flags(fl_t1_add209)
     );
     assign ev_ovf[141] = fl_t1_add209[0] && ev_q[89];
@@ -2322,12 +2329,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[141] = fl_t1_add209[2] && ev_q[89];
     logic [W-1:0] dl_t1_add209;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add209 (.clk(clk), .d(t1_add209), .q(dl_t1_add209));
+        u_dl_t1_add209 (.clk(clk), .d(t1_add209), .valid(1'b0), .q(dl_t1_add209));
     // t1_add210 = t0_vA_z + t1_mul207   (ready @89/89/89)
     logic [W-1:0] t1_add210;
     logic [2:0] fl_t1_add210;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add210 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_z[1*W +: W]), .b(dl_t1_mul207), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vA_z[1*W +: W]), .b(dl_t1_mul207), .sub(1'b0),
         .out_valid(op_valid_nc[146]), .y(t1_add210), .flags(fl_t1_add210)
     );
     assign ev_ovf[142] = fl_t1_add210[0] && ev_q[89];
@@ -2335,30 +2342,30 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[142] = fl_t1_add210[2] && ev_q[89];
     logic [W-1:0] dl_t1_add210;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add210 (.clk(clk), .d(t1_add210), .q(dl_t1_add210));
+        u_dl_t1_add210 (.clk(clk), .d(t1_add210), .valid(1'b0), .q(dl_t1_add210));
     // t1_vA_x = skip ? t0_vA_x : t1_add208   (ready @89/89/89)
     logic [W-1:0] t1_vA_x;
     assign t1_vA_x = dl_skip[3] ? dl_t0_vA_x[2*W +: W] : dl_t1_add208;
     logic [W-1:0] dl_t1_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vA_x (.clk(clk), .d(t1_vA_x), .q(dl_t1_vA_x));
+        u_dl_t1_vA_x (.clk(clk), .d(t1_vA_x), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_x));
     // t1_vA_y = skip ? t0_vA_y : t1_add209   (ready @89/89/89)
     logic [W-1:0] t1_vA_y;
     assign t1_vA_y = dl_skip[3] ? dl_t0_vA_y[2*W +: W] : dl_t1_add209;
     logic [W-1:0] dl_t1_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vA_y (.clk(clk), .d(t1_vA_y), .q(dl_t1_vA_y));
+        u_dl_t1_vA_y (.clk(clk), .d(t1_vA_y), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_y));
     // t1_vA_z = skip ? t0_vA_z : t1_add210   (ready @89/89/89)
     logic [W-1:0] t1_vA_z;
     assign t1_vA_z = dl_skip[3] ? dl_t0_vA_z[2*W +: W] : dl_t1_add210;
     logic [W-1:0] dl_t1_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vA_z (.clk(clk), .d(t1_vA_z), .q(dl_t1_vA_z));
+        u_dl_t1_vA_z (.clk(clk), .d(t1_vA_z), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_z));
     // t1_angA_x = IInvA_s * t1_cA_x   (ready @14/14/14)
     logic [W-1:0] t1_angA_x;
     logic [2:0] fl_t1_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_t1_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_t1_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[147]), .y(t1_angA_x), .flags(fl_t1_angA_x)
     );
     assign ev_ovf[143] = fl_t1_angA_x[0] && ev_q[14];
@@ -2366,12 +2373,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[143] = fl_t1_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
-        u_dl_t1_angA_x (.clk(clk), .d(t1_angA_x), .q(dl_t1_angA_x));
+        u_dl_t1_angA_x (.clk(clk), .d(t1_angA_x), .valid(valid_q[14 +: 68]), .q(dl_t1_angA_x));
     // t1_angA_y = IInvA_s * t1_cA_y   (ready @14/14/14)
     logic [W-1:0] t1_angA_y;
     logic [2:0] fl_t1_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_t1_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_t1_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[148]), .y(t1_angA_y), .flags(fl_t1_angA_y)
     );
     assign ev_ovf[144] = fl_t1_angA_y[0] && ev_q[14];
@@ -2379,12 +2386,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[144] = fl_t1_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
-        u_dl_t1_angA_y (.clk(clk), .d(t1_angA_y), .q(dl_t1_angA_y));
+        u_dl_t1_angA_y (.clk(clk), .d(t1_angA_y), .valid(valid_q[14 +: 68]), .q(dl_t1_angA_y));
     // t1_angA_z = IInvA_s * t1_cA_z   (ready @14/14/14)
     logic [W-1:0] t1_angA_z;
     logic [2:0] fl_t1_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_s), .b(dl_t1_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvA_s), .b(dl_t1_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[149]), .y(t1_angA_z), .flags(fl_t1_angA_z)
     );
     assign ev_ovf[145] = fl_t1_angA_z[0] && ev_q[14];
@@ -2392,12 +2399,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[145] = fl_t1_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
-        u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .q(dl_t1_angA_z));
+        u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .valid(valid_q[14 +: 68]), .q(dl_t1_angA_z));
     // t1_mul217 = t1_angA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul217;
     logic [2:0] fl_t1_mul217;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul217 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angA_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[150]), .y(t1_mul217), .flags(fl_t1_mul217)
     );
     assign ev_ovf[146] = fl_t1_mul217[0] && ev_q[85];
@@ -2405,12 +2412,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[146] = fl_t1_mul217[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul217;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul217 (.clk(clk), .d(t1_mul217), .q(dl_t1_mul217));
+        u_dl_t1_mul217 (.clk(clk), .d(t1_mul217), .valid(1'b0), .q(dl_t1_mul217));
     // t1_mul218 = t1_angA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul218;
     logic [2:0] fl_t1_mul218;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul218 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angA_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[151]), .y(t1_mul218), .flags(fl_t1_mul218)
     );
     assign ev_ovf[147] = fl_t1_mul218[0] && ev_q[85];
@@ -2418,12 +2425,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[147] = fl_t1_mul218[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul218;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul218 (.clk(clk), .d(t1_mul218), .q(dl_t1_mul218));
+        u_dl_t1_mul218 (.clk(clk), .d(t1_mul218), .valid(1'b0), .q(dl_t1_mul218));
     // t1_mul219 = t1_angA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul219;
     logic [2:0] fl_t1_mul219;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul219 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angA_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[152]), .y(t1_mul219), .flags(fl_t1_mul219)
     );
     assign ev_ovf[148] = fl_t1_mul219[0] && ev_q[85];
@@ -2431,12 +2438,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[148] = fl_t1_mul219[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul219;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul219 (.clk(clk), .d(t1_mul219), .q(dl_t1_mul219));
+        u_dl_t1_mul219 (.clk(clk), .d(t1_mul219), .valid(1'b0), .q(dl_t1_mul219));
     // t1_add220 = t0_wA_x + t1_mul217   (ready @89/89/89)
     logic [W-1:0] t1_add220;
     logic [2:0] fl_t1_add220;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add220 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_x[1*W +: W]), .b(dl_t1_mul217), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_x[1*W +: W]), .b(dl_t1_mul217), .sub(1'b0),
         .out_valid(op_valid_nc[153]), .y(t1_add220), .flags(fl_t1_add220)
     );
     assign ev_ovf[149] = fl_t1_add220[0] && ev_q[89];
@@ -2444,12 +2451,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[149] = fl_t1_add220[2] && ev_q[89];
     logic [W-1:0] dl_t1_add220;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add220 (.clk(clk), .d(t1_add220), .q(dl_t1_add220));
+        u_dl_t1_add220 (.clk(clk), .d(t1_add220), .valid(1'b0), .q(dl_t1_add220));
     // t1_add221 = t0_wA_y + t1_mul218   (ready @89/89/89)
     logic [W-1:0] t1_add221;
     logic [2:0] fl_t1_add221;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add221 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_y[1*W +: W]), .b(dl_t1_mul218), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_y[1*W +: W]), .b(dl_t1_mul218), .sub(1'b0),
         .out_valid(op_valid_nc[154]), .y(t1_add221), .flags(fl_t1_add221)
     );
     assign ev_ovf[150] = fl_t1_add221[0] && ev_q[89];
@@ -2457,12 +2464,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[150] = fl_t1_add221[2] && ev_q[89];
     logic [W-1:0] dl_t1_add221;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add221 (.clk(clk), .d(t1_add221), .q(dl_t1_add221));
+        u_dl_t1_add221 (.clk(clk), .d(t1_add221), .valid(1'b0), .q(dl_t1_add221));
     // t1_add222 = t0_wA_z + t1_mul219   (ready @89/89/89)
     logic [W-1:0] t1_add222;
     logic [2:0] fl_t1_add222;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add222 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_z[1*W +: W]), .b(dl_t1_mul219), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wA_z[1*W +: W]), .b(dl_t1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[155]), .y(t1_add222), .flags(fl_t1_add222)
     );
     assign ev_ovf[151] = fl_t1_add222[0] && ev_q[89];
@@ -2470,30 +2477,30 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[151] = fl_t1_add222[2] && ev_q[89];
     logic [W-1:0] dl_t1_add222;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add222 (.clk(clk), .d(t1_add222), .q(dl_t1_add222));
+        u_dl_t1_add222 (.clk(clk), .d(t1_add222), .valid(1'b0), .q(dl_t1_add222));
     // t1_wA_x = skip ? t0_wA_x : t1_add220   (ready @89/89/89)
     logic [W-1:0] t1_wA_x;
     assign t1_wA_x = dl_skip[3] ? dl_t0_wA_x[2*W +: W] : dl_t1_add220;
     logic [3*W-1:0] dl_t1_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wA_x (.clk(clk), .d(t1_wA_x), .q(dl_t1_wA_x));
+        u_dl_t1_wA_x (.clk(clk), .d(t1_wA_x), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_x));
     // t1_wA_y = skip ? t0_wA_y : t1_add221   (ready @89/89/89)
     logic [W-1:0] t1_wA_y;
     assign t1_wA_y = dl_skip[3] ? dl_t0_wA_y[2*W +: W] : dl_t1_add221;
     logic [3*W-1:0] dl_t1_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wA_y (.clk(clk), .d(t1_wA_y), .q(dl_t1_wA_y));
+        u_dl_t1_wA_y (.clk(clk), .d(t1_wA_y), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_y));
     // t1_wA_z = skip ? t0_wA_z : t1_add222   (ready @89/89/89)
     logic [W-1:0] t1_wA_z;
     assign t1_wA_z = dl_skip[3] ? dl_t0_wA_z[2*W +: W] : dl_t1_add222;
     logic [3*W-1:0] dl_t1_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wA_z (.clk(clk), .d(t1_wA_z), .q(dl_t1_wA_z));
+        u_dl_t1_wA_z (.clk(clk), .d(t1_wA_z), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_z));
     // t1_linB_x = t1_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_x;
     logic [2:0] fl_t1_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_x[2*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[156]), .y(t1_linB_x), .flags(fl_t1_linB_x)
     );
     assign ev_ovf[152] = fl_t1_linB_x[0] && ev_q[3];
@@ -2501,12 +2508,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[152] = fl_t1_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linB_x (.clk(clk), .d(t1_linB_x), .q(dl_t1_linB_x));
+        u_dl_t1_linB_x (.clk(clk), .d(t1_linB_x), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_x));
     // t1_linB_y = t1_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_y;
     logic [2:0] fl_t1_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_y[2*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[157]), .y(t1_linB_y), .flags(fl_t1_linB_y)
     );
     assign ev_ovf[153] = fl_t1_linB_y[0] && ev_q[3];
@@ -2514,12 +2521,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[153] = fl_t1_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linB_y (.clk(clk), .d(t1_linB_y), .q(dl_t1_linB_y));
+        u_dl_t1_linB_y (.clk(clk), .d(t1_linB_y), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_y));
     // t1_linB_z = t1_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_z;
     logic [2:0] fl_t1_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_t1_z[2*W +: W]), .b(dl_in_mInvB),
         .out_valid(op_valid_nc[158]), .y(t1_linB_z), .flags(fl_t1_linB_z)
     );
     assign ev_ovf[154] = fl_t1_linB_z[0] && ev_q[3];
@@ -2527,12 +2534,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[154] = fl_t1_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(79))
-        u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .q(dl_t1_linB_z));
+        u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_z));
     // t1_mul229 = t1_linB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul229;
     logic [2:0] fl_t1_mul229;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul229 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linB_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[159]), .y(t1_mul229), .flags(fl_t1_mul229)
     );
     assign ev_ovf[155] = fl_t1_mul229[0] && ev_q[85];
@@ -2540,12 +2547,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[155] = fl_t1_mul229[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul229;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul229 (.clk(clk), .d(t1_mul229), .q(dl_t1_mul229));
+        u_dl_t1_mul229 (.clk(clk), .d(t1_mul229), .valid(1'b0), .q(dl_t1_mul229));
     // t1_mul230 = t1_linB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul230;
     logic [2:0] fl_t1_mul230;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul230 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linB_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[160]), .y(t1_mul230), .flags(fl_t1_mul230)
     );
     assign ev_ovf[156] = fl_t1_mul230[0] && ev_q[85];
@@ -2553,12 +2560,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[156] = fl_t1_mul230[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul230;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul230 (.clk(clk), .d(t1_mul230), .q(dl_t1_mul230));
+        u_dl_t1_mul230 (.clk(clk), .d(t1_mul230), .valid(1'b0), .q(dl_t1_mul230));
     // t1_mul231 = t1_linB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul231;
     logic [2:0] fl_t1_mul231;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul231 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_linB_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[161]), .y(t1_mul231), .flags(fl_t1_mul231)
     );
     assign ev_ovf[157] = fl_t1_mul231[0] && ev_q[85];
@@ -2566,12 +2573,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[157] = fl_t1_mul231[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul231;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul231 (.clk(clk), .d(t1_mul231), .q(dl_t1_mul231));
+        u_dl_t1_mul231 (.clk(clk), .d(t1_mul231), .valid(1'b0), .q(dl_t1_mul231));
     // t1_sub232 = t0_vB_x - t1_mul229   (ready @89/89/89)
     logic [W-1:0] t1_sub232;
     logic [2:0] fl_t1_sub232;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub232 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_x[1*W +: W]), .b(dl_t1_mul229), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_x[1*W +: W]), .b(dl_t1_mul229), .sub(1'b1),
         .out_valid(op_valid_nc[162]), .y(t1_sub232), .flags(fl_t1_sub232)
     );
     assign ev_ovf[158] = fl_t1_sub232[0] && ev_q[89];
@@ -2579,12 +2586,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[158] = fl_t1_sub232[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub232;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub232 (.clk(clk), .d(t1_sub232), .q(dl_t1_sub232));
+        u_dl_t1_sub232 (.clk(clk), .d(t1_sub232), .valid(1'b0), .q(dl_t1_sub232));
     // t1_sub233 = t0_vB_y - t1_mul230   (ready @89/89/89)
     logic [W-1:0] t1_sub233;
     logic [2:0] fl_t1_sub233;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub233 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_y[1*W +: W]), .b(dl_t1_mul230), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_y[1*W +: W]), .b(dl_t1_mul230), .sub(1'b1),
         .out_valid(op_valid_nc[163]), .y(t1_sub233), .flags(fl_t1_sub233)
     );
     assign ev_ovf[159] = fl_t1_sub233[0] && ev_q[89];
@@ -2592,12 +2599,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[159] = fl_t1_sub233[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub233;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub233 (.clk(clk), .d(t1_sub233), .q(dl_t1_sub233));
+        u_dl_t1_sub233 (.clk(clk), .d(t1_sub233), .valid(1'b0), .q(dl_t1_sub233));
     // t1_sub234 = t0_vB_z - t1_mul231   (ready @89/89/89)
     logic [W-1:0] t1_sub234;
     logic [2:0] fl_t1_sub234;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub234 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_z[1*W +: W]), .b(dl_t1_mul231), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_vB_z[1*W +: W]), .b(dl_t1_mul231), .sub(1'b1),
         .out_valid(op_valid_nc[164]), .y(t1_sub234), .flags(fl_t1_sub234)
     );
     assign ev_ovf[160] = fl_t1_sub234[0] && ev_q[89];
@@ -2605,30 +2612,30 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[160] = fl_t1_sub234[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub234;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub234 (.clk(clk), .d(t1_sub234), .q(dl_t1_sub234));
+        u_dl_t1_sub234 (.clk(clk), .d(t1_sub234), .valid(1'b0), .q(dl_t1_sub234));
     // t1_vB_x = skip ? t0_vB_x : t1_sub232   (ready @89/89/89)
     logic [W-1:0] t1_vB_x;
     assign t1_vB_x = dl_skip[3] ? dl_t0_vB_x[2*W +: W] : dl_t1_sub232;
     logic [W-1:0] dl_t1_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vB_x (.clk(clk), .d(t1_vB_x), .q(dl_t1_vB_x));
+        u_dl_t1_vB_x (.clk(clk), .d(t1_vB_x), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_x));
     // t1_vB_y = skip ? t0_vB_y : t1_sub233   (ready @89/89/89)
     logic [W-1:0] t1_vB_y;
     assign t1_vB_y = dl_skip[3] ? dl_t0_vB_y[2*W +: W] : dl_t1_sub233;
     logic [W-1:0] dl_t1_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vB_y (.clk(clk), .d(t1_vB_y), .q(dl_t1_vB_y));
+        u_dl_t1_vB_y (.clk(clk), .d(t1_vB_y), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_y));
     // t1_vB_z = skip ? t0_vB_z : t1_sub234   (ready @89/89/89)
     logic [W-1:0] t1_vB_z;
     assign t1_vB_z = dl_skip[3] ? dl_t0_vB_z[2*W +: W] : dl_t1_sub234;
     logic [W-1:0] dl_t1_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21))
-        u_dl_t1_vB_z (.clk(clk), .d(t1_vB_z), .q(dl_t1_vB_z));
+        u_dl_t1_vB_z (.clk(clk), .d(t1_vB_z), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_z));
     // t1_angB_x = IInvB_s * t1_cB_x   (ready @14/14/14)
     logic [W-1:0] t1_angB_x;
     logic [2:0] fl_t1_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_t1_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_t1_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[165]), .y(t1_angB_x), .flags(fl_t1_angB_x)
     );
     assign ev_ovf[161] = fl_t1_angB_x[0] && ev_q[14];
@@ -2636,12 +2643,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[161] = fl_t1_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
-        u_dl_t1_angB_x (.clk(clk), .d(t1_angB_x), .q(dl_t1_angB_x));
+        u_dl_t1_angB_x (.clk(clk), .d(t1_angB_x), .valid(valid_q[14 +: 68]), .q(dl_t1_angB_x));
     // t1_angB_y = IInvB_s * t1_cB_y   (ready @14/14/14)
     logic [W-1:0] t1_angB_y;
     logic [2:0] fl_t1_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_t1_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_t1_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[166]), .y(t1_angB_y), .flags(fl_t1_angB_y)
     );
     assign ev_ovf[162] = fl_t1_angB_y[0] && ev_q[14];
@@ -2649,12 +2656,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[162] = fl_t1_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
-        u_dl_t1_angB_y (.clk(clk), .d(t1_angB_y), .q(dl_t1_angB_y));
+        u_dl_t1_angB_y (.clk(clk), .d(t1_angB_y), .valid(valid_q[14 +: 68]), .q(dl_t1_angB_y));
     // t1_angB_z = IInvB_s * t1_cB_z   (ready @14/14/14)
     logic [W-1:0] t1_angB_z;
     logic [2:0] fl_t1_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_s), .b(dl_t1_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[11]), .a(dl_in_IInvB_s), .b(dl_t1_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[167]), .y(t1_angB_z), .flags(fl_t1_angB_z)
     );
     assign ev_ovf[163] = fl_t1_angB_z[0] && ev_q[14];
@@ -2662,12 +2669,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[163] = fl_t1_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(68))
-        u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .q(dl_t1_angB_z));
+        u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .valid(valid_q[14 +: 68]), .q(dl_t1_angB_z));
     // t1_mul241 = t1_angB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul241;
     logic [2:0] fl_t1_mul241;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul241 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angB_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[168]), .y(t1_mul241), .flags(fl_t1_mul241)
     );
     assign ev_ovf[164] = fl_t1_mul241[0] && ev_q[85];
@@ -2675,12 +2682,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[164] = fl_t1_mul241[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul241;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul241 (.clk(clk), .d(t1_mul241), .q(dl_t1_mul241));
+        u_dl_t1_mul241 (.clk(clk), .d(t1_mul241), .valid(1'b0), .q(dl_t1_mul241));
     // t1_mul242 = t1_angB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul242;
     logic [2:0] fl_t1_mul242;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul242 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angB_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[169]), .y(t1_mul242), .flags(fl_t1_mul242)
     );
     assign ev_ovf[165] = fl_t1_mul242[0] && ev_q[85];
@@ -2688,12 +2695,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[165] = fl_t1_mul242[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul242;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul242 (.clk(clk), .d(t1_mul242), .q(dl_t1_mul242));
+        u_dl_t1_mul242 (.clk(clk), .d(t1_mul242), .valid(1'b0), .q(dl_t1_mul242));
     // t1_mul243 = t1_angB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul243;
     logic [2:0] fl_t1_mul243;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul243 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[82]), .a(dl_t1_angB_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[170]), .y(t1_mul243), .flags(fl_t1_mul243)
     );
     assign ev_ovf[166] = fl_t1_mul243[0] && ev_q[85];
@@ -2701,12 +2708,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[166] = fl_t1_mul243[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul243;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul243 (.clk(clk), .d(t1_mul243), .q(dl_t1_mul243));
+        u_dl_t1_mul243 (.clk(clk), .d(t1_mul243), .valid(1'b0), .q(dl_t1_mul243));
     // t1_sub244 = t0_wB_x - t1_mul241   (ready @89/89/89)
     logic [W-1:0] t1_sub244;
     logic [2:0] fl_t1_sub244;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub244 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_x[1*W +: W]), .b(dl_t1_mul241), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_x[1*W +: W]), .b(dl_t1_mul241), .sub(1'b1),
         .out_valid(op_valid_nc[171]), .y(t1_sub244), .flags(fl_t1_sub244)
     );
     assign ev_ovf[167] = fl_t1_sub244[0] && ev_q[89];
@@ -2714,12 +2721,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[167] = fl_t1_sub244[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub244;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub244 (.clk(clk), .d(t1_sub244), .q(dl_t1_sub244));
+        u_dl_t1_sub244 (.clk(clk), .d(t1_sub244), .valid(1'b0), .q(dl_t1_sub244));
     // t1_sub245 = t0_wB_y - t1_mul242   (ready @89/89/89)
     logic [W-1:0] t1_sub245;
     logic [2:0] fl_t1_sub245;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub245 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_y[1*W +: W]), .b(dl_t1_mul242), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_y[1*W +: W]), .b(dl_t1_mul242), .sub(1'b1),
         .out_valid(op_valid_nc[172]), .y(t1_sub245), .flags(fl_t1_sub245)
     );
     assign ev_ovf[168] = fl_t1_sub245[0] && ev_q[89];
@@ -2727,12 +2734,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[168] = fl_t1_sub245[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub245;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub245 (.clk(clk), .d(t1_sub245), .q(dl_t1_sub245));
+        u_dl_t1_sub245 (.clk(clk), .d(t1_sub245), .valid(1'b0), .q(dl_t1_sub245));
     // t1_sub246 = t0_wB_z - t1_mul243   (ready @89/89/89)
     logic [W-1:0] t1_sub246;
     logic [2:0] fl_t1_sub246;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub246 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_z[1*W +: W]), .b(dl_t1_mul243), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[85]), .a(dl_t0_wB_z[1*W +: W]), .b(dl_t1_mul243), .sub(1'b1),
         .out_valid(op_valid_nc[173]), .y(t1_sub246), .flags(fl_t1_sub246)
     );
     assign ev_ovf[169] = fl_t1_sub246[0] && ev_q[89];
@@ -2740,30 +2747,30 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[169] = fl_t1_sub246[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub246;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub246 (.clk(clk), .d(t1_sub246), .q(dl_t1_sub246));
+        u_dl_t1_sub246 (.clk(clk), .d(t1_sub246), .valid(1'b0), .q(dl_t1_sub246));
     // t1_wB_x = skip ? t0_wB_x : t1_sub244   (ready @89/89/89)
     logic [W-1:0] t1_wB_x;
     assign t1_wB_x = dl_skip[3] ? dl_t0_wB_x[2*W +: W] : dl_t1_sub244;
     logic [3*W-1:0] dl_t1_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wB_x (.clk(clk), .d(t1_wB_x), .q(dl_t1_wB_x));
+        u_dl_t1_wB_x (.clk(clk), .d(t1_wB_x), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_x));
     // t1_wB_y = skip ? t0_wB_y : t1_sub245   (ready @89/89/89)
     logic [W-1:0] t1_wB_y;
     assign t1_wB_y = dl_skip[3] ? dl_t0_wB_y[2*W +: W] : dl_t1_sub245;
     logic [3*W-1:0] dl_t1_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wB_y (.clk(clk), .d(t1_wB_y), .q(dl_t1_wB_y));
+        u_dl_t1_wB_y (.clk(clk), .d(t1_wB_y), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_y));
     // t1_wB_z = skip ? t0_wB_z : t1_sub246   (ready @89/89/89)
     logic [W-1:0] t1_wB_z;
     assign t1_wB_z = dl_skip[3] ? dl_t0_wB_z[2*W +: W] : dl_t1_sub246;
     logic [3*W-1:0] dl_t1_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
-        u_dl_t1_wB_z (.clk(clk), .d(t1_wB_z), .q(dl_t1_wB_z));
+        u_dl_t1_wB_z (.clk(clk), .d(t1_wB_z), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_z));
     // spin_mul251 = n_x * t1_wA_x   (ready @92/92/92)
     logic [W-1:0] spin_mul251;
     logic [2:0] fl_spin_mul251;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul251 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[174]), .y(spin_mul251), .flags(fl_spin_mul251)
     );
     assign ev_ovf[170] = fl_spin_mul251[0] && ev_q[92];
@@ -2771,12 +2778,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[170] = fl_spin_mul251[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul251;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul251 (.clk(clk), .d(spin_mul251), .q(dl_spin_mul251));
+        u_dl_spin_mul251 (.clk(clk), .d(spin_mul251), .valid(1'b0), .q(dl_spin_mul251));
     // spin_mul252 = n_y * t1_wA_y   (ready @92/92/92)
     logic [W-1:0] spin_mul252;
     logic [2:0] fl_spin_mul252;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul252 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[175]), .y(spin_mul252), .flags(fl_spin_mul252)
     );
     assign ev_ovf[171] = fl_spin_mul252[0] && ev_q[92];
@@ -2784,12 +2791,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[171] = fl_spin_mul252[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul252;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul252 (.clk(clk), .d(spin_mul252), .q(dl_spin_mul252));
+        u_dl_spin_mul252 (.clk(clk), .d(spin_mul252), .valid(1'b0), .q(dl_spin_mul252));
     // spin_add253 = spin_mul251 + spin_mul252   (ready @96/96/96)
     logic [W-1:0] spin_add253;
     logic [2:0] fl_spin_add253;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add253 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_mul251), .b(dl_spin_mul252), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[92]), .a(dl_spin_mul251), .b(dl_spin_mul252), .sub(1'b0),
         .out_valid(op_valid_nc[176]), .y(spin_add253), .flags(fl_spin_add253)
     );
     assign ev_ovf[172] = fl_spin_add253[0] && ev_q[96];
@@ -2797,12 +2804,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[172] = fl_spin_add253[2] && ev_q[96];
     logic [W-1:0] dl_spin_add253;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add253 (.clk(clk), .d(spin_add253), .q(dl_spin_add253));
+        u_dl_spin_add253 (.clk(clk), .d(spin_add253), .valid(1'b0), .q(dl_spin_add253));
     // spin_mul254 = n_z * t1_wA_z   (ready @92/92/92)
     logic [W-1:0] spin_mul254;
     logic [2:0] fl_spin_mul254;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul254 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[177]), .y(spin_mul254), .flags(fl_spin_mul254)
     );
     assign ev_ovf[173] = fl_spin_mul254[0] && ev_q[92];
@@ -2810,12 +2817,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[173] = fl_spin_mul254[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul254;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_spin_mul254 (.clk(clk), .d(spin_mul254), .q(dl_spin_mul254));
+        u_dl_spin_mul254 (.clk(clk), .d(spin_mul254), .valid(valid_q[92 +: 4]), .q(dl_spin_mul254));
     // spin_add255 = spin_add253 + spin_mul254   (ready @100/100/100)
     logic [W-1:0] spin_add255;
     logic [2:0] fl_spin_add255;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add255 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add253), .b(dl_spin_mul254), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[96]), .a(dl_spin_add253), .b(dl_spin_mul254), .sub(1'b0),
         .out_valid(op_valid_nc[178]), .y(spin_add255), .flags(fl_spin_add255)
     );
     assign ev_ovf[174] = fl_spin_add255[0] && ev_q[100];
@@ -2823,12 +2830,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[174] = fl_spin_add255[2] && ev_q[100];
     logic [W-1:0] dl_spin_add255;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add255 (.clk(clk), .d(spin_add255), .q(dl_spin_add255));
+        u_dl_spin_add255 (.clk(clk), .d(spin_add255), .valid(1'b0), .q(dl_spin_add255));
     // spin_sA = spin_add255 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sA;
     logic [2:0] fl_spin_sA;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_sA (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add255), .b(K_SPIN_DAMP),
+        .clk(clk), .rst(rst), .in_valid(valid_q[100]), .a(dl_spin_add255), .b(K_SPIN_DAMP),
         .out_valid(op_valid_nc[179]), .y(spin_sA), .flags(fl_spin_sA)
     );
     assign ev_ovf[175] = fl_spin_sA[0] && ev_q[103];
@@ -2836,12 +2843,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[175] = fl_spin_sA[2] && ev_q[103];
     logic [W-1:0] dl_spin_sA;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_sA (.clk(clk), .d(spin_sA), .q(dl_spin_sA));
+        u_dl_spin_sA (.clk(clk), .d(spin_sA), .valid(1'b0), .q(dl_spin_sA));
     // spin_mul257 = n_x * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul257;
     logic [2:0] fl_spin_mul257;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul257 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sA),
         .out_valid(op_valid_nc[180]), .y(spin_mul257), .flags(fl_spin_mul257)
     );
     assign ev_ovf[176] = fl_spin_mul257[0] && ev_q[106];
@@ -2849,12 +2856,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[176] = fl_spin_mul257[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul257;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul257 (.clk(clk), .d(spin_mul257), .q(dl_spin_mul257));
+        u_dl_spin_mul257 (.clk(clk), .d(spin_mul257), .valid(1'b0), .q(dl_spin_mul257));
     // spin_mul258 = n_y * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul258;
     logic [2:0] fl_spin_mul258;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul258 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sA),
         .out_valid(op_valid_nc[181]), .y(spin_mul258), .flags(fl_spin_mul258)
     );
     assign ev_ovf[177] = fl_spin_mul258[0] && ev_q[106];
@@ -2862,12 +2869,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[177] = fl_spin_mul258[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul258;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul258 (.clk(clk), .d(spin_mul258), .q(dl_spin_mul258));
+        u_dl_spin_mul258 (.clk(clk), .d(spin_mul258), .valid(1'b0), .q(dl_spin_mul258));
     // spin_mul259 = n_z * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul259;
     logic [2:0] fl_spin_mul259;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul259 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sA),
         .out_valid(op_valid_nc[182]), .y(spin_mul259), .flags(fl_spin_mul259)
     );
     assign ev_ovf[178] = fl_spin_mul259[0] && ev_q[106];
@@ -2875,12 +2882,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[178] = fl_spin_mul259[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul259;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul259 (.clk(clk), .d(spin_mul259), .q(dl_spin_mul259));
+        u_dl_spin_mul259 (.clk(clk), .d(spin_mul259), .valid(1'b0), .q(dl_spin_mul259));
     // spin_wA_damped_x = t1_wA_x - spin_mul257   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_x;
     logic [2:0] fl_spin_wA_damped_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_x[1*W +: W]), .b(dl_spin_mul257), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_x[1*W +: W]), .b(dl_spin_mul257), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(spin_wA_damped_x), .flags(fl_spin_wA_damped_x)
     );
     assign ev_ovf[179] = fl_spin_wA_damped_x[0] && ev_q[110];
@@ -2888,12 +2895,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[179] = fl_spin_wA_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_damped_x (.clk(clk), .d(spin_wA_damped_x), .q(dl_spin_wA_damped_x));
+        u_dl_spin_wA_damped_x (.clk(clk), .d(spin_wA_damped_x), .valid(1'b0), .q(dl_spin_wA_damped_x));
     // spin_wA_damped_y = t1_wA_y - spin_mul258   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_y;
     logic [2:0] fl_spin_wA_damped_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_y[1*W +: W]), .b(dl_spin_mul258), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_y[1*W +: W]), .b(dl_spin_mul258), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(spin_wA_damped_y), .flags(fl_spin_wA_damped_y)
     );
     assign ev_ovf[180] = fl_spin_wA_damped_y[0] && ev_q[110];
@@ -2901,12 +2908,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[180] = fl_spin_wA_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_damped_y (.clk(clk), .d(spin_wA_damped_y), .q(dl_spin_wA_damped_y));
+        u_dl_spin_wA_damped_y (.clk(clk), .d(spin_wA_damped_y), .valid(1'b0), .q(dl_spin_wA_damped_y));
     // spin_wA_damped_z = t1_wA_z - spin_mul259   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_z;
     logic [2:0] fl_spin_wA_damped_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_z[1*W +: W]), .b(dl_spin_mul259), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wA_z[1*W +: W]), .b(dl_spin_mul259), .sub(1'b1),
         .out_valid(op_valid_nc[185]), .y(spin_wA_damped_z), .flags(fl_spin_wA_damped_z)
     );
     assign ev_ovf[181] = fl_spin_wA_damped_z[0] && ev_q[110];
@@ -2914,12 +2921,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[181] = fl_spin_wA_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_damped_z (.clk(clk), .d(spin_wA_damped_z), .q(dl_spin_wA_damped_z));
+        u_dl_spin_wA_damped_z (.clk(clk), .d(spin_wA_damped_z), .valid(1'b0), .q(dl_spin_wA_damped_z));
     // spin_mul263 = n_x * t1_wB_x   (ready @92/92/92)
     logic [W-1:0] spin_mul263;
     logic [2:0] fl_spin_mul263;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul263 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_x[0*W +: W]), .b(dl_t1_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[186]), .y(spin_mul263), .flags(fl_spin_mul263)
     );
     assign ev_ovf[182] = fl_spin_mul263[0] && ev_q[92];
@@ -2927,12 +2934,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[182] = fl_spin_mul263[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul263;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul263 (.clk(clk), .d(spin_mul263), .q(dl_spin_mul263));
+        u_dl_spin_mul263 (.clk(clk), .d(spin_mul263), .valid(1'b0), .q(dl_spin_mul263));
     // spin_mul264 = n_y * t1_wB_y   (ready @92/92/92)
     logic [W-1:0] spin_mul264;
     logic [2:0] fl_spin_mul264;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul264 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_y[0*W +: W]), .b(dl_t1_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[187]), .y(spin_mul264), .flags(fl_spin_mul264)
     );
     assign ev_ovf[183] = fl_spin_mul264[0] && ev_q[92];
@@ -2940,12 +2947,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[183] = fl_spin_mul264[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul264;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul264 (.clk(clk), .d(spin_mul264), .q(dl_spin_mul264));
+        u_dl_spin_mul264 (.clk(clk), .d(spin_mul264), .valid(1'b0), .q(dl_spin_mul264));
     // spin_add265 = spin_mul263 + spin_mul264   (ready @96/96/96)
     logic [W-1:0] spin_add265;
     logic [2:0] fl_spin_add265;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add265 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_mul263), .b(dl_spin_mul264), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[92]), .a(dl_spin_mul263), .b(dl_spin_mul264), .sub(1'b0),
         .out_valid(op_valid_nc[188]), .y(spin_add265), .flags(fl_spin_add265)
     );
     assign ev_ovf[184] = fl_spin_add265[0] && ev_q[96];
@@ -2953,12 +2960,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[184] = fl_spin_add265[2] && ev_q[96];
     logic [W-1:0] dl_spin_add265;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add265 (.clk(clk), .d(spin_add265), .q(dl_spin_add265));
+        u_dl_spin_add265 (.clk(clk), .d(spin_add265), .valid(1'b0), .q(dl_spin_add265));
     // spin_mul266 = n_z * t1_wB_z   (ready @92/92/92)
     logic [W-1:0] spin_mul266;
     logic [2:0] fl_spin_mul266;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul266 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[89]), .a(dl_in_n_z[0*W +: W]), .b(dl_t1_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[189]), .y(spin_mul266), .flags(fl_spin_mul266)
     );
     assign ev_ovf[185] = fl_spin_mul266[0] && ev_q[92];
@@ -2966,12 +2973,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[185] = fl_spin_mul266[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul266;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_spin_mul266 (.clk(clk), .d(spin_mul266), .q(dl_spin_mul266));
+        u_dl_spin_mul266 (.clk(clk), .d(spin_mul266), .valid(valid_q[92 +: 4]), .q(dl_spin_mul266));
     // spin_add267 = spin_add265 + spin_mul266   (ready @100/100/100)
     logic [W-1:0] spin_add267;
     logic [2:0] fl_spin_add267;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add267 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add265), .b(dl_spin_mul266), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[96]), .a(dl_spin_add265), .b(dl_spin_mul266), .sub(1'b0),
         .out_valid(op_valid_nc[190]), .y(spin_add267), .flags(fl_spin_add267)
     );
     assign ev_ovf[186] = fl_spin_add267[0] && ev_q[100];
@@ -2979,12 +2986,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[186] = fl_spin_add267[2] && ev_q[100];
     logic [W-1:0] dl_spin_add267;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add267 (.clk(clk), .d(spin_add267), .q(dl_spin_add267));
+        u_dl_spin_add267 (.clk(clk), .d(spin_add267), .valid(1'b0), .q(dl_spin_add267));
     // spin_sB = spin_add267 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sB;
     logic [2:0] fl_spin_sB;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_sB (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add267), .b(K_SPIN_DAMP),
+        .clk(clk), .rst(rst), .in_valid(valid_q[100]), .a(dl_spin_add267), .b(K_SPIN_DAMP),
         .out_valid(op_valid_nc[191]), .y(spin_sB), .flags(fl_spin_sB)
     );
     assign ev_ovf[187] = fl_spin_sB[0] && ev_q[103];
@@ -2992,12 +2999,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[187] = fl_spin_sB[2] && ev_q[103];
     logic [W-1:0] dl_spin_sB;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_sB (.clk(clk), .d(spin_sB), .q(dl_spin_sB));
+        u_dl_spin_sB (.clk(clk), .d(spin_sB), .valid(1'b0), .q(dl_spin_sB));
     // spin_mul269 = n_x * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul269;
     logic [2:0] fl_spin_mul269;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul269 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_x[1*W +: W]), .b(dl_spin_sB),
         .out_valid(op_valid_nc[192]), .y(spin_mul269), .flags(fl_spin_mul269)
     );
     assign ev_ovf[188] = fl_spin_mul269[0] && ev_q[106];
@@ -3005,12 +3012,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[188] = fl_spin_mul269[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul269;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul269 (.clk(clk), .d(spin_mul269), .q(dl_spin_mul269));
+        u_dl_spin_mul269 (.clk(clk), .d(spin_mul269), .valid(1'b0), .q(dl_spin_mul269));
     // spin_mul270 = n_y * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul270;
     logic [2:0] fl_spin_mul270;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul270 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_y[1*W +: W]), .b(dl_spin_sB),
         .out_valid(op_valid_nc[193]), .y(spin_mul270), .flags(fl_spin_mul270)
     );
     assign ev_ovf[189] = fl_spin_mul270[0] && ev_q[106];
@@ -3018,12 +3025,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[189] = fl_spin_mul270[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul270;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul270 (.clk(clk), .d(spin_mul270), .q(dl_spin_mul270));
+        u_dl_spin_mul270 (.clk(clk), .d(spin_mul270), .valid(1'b0), .q(dl_spin_mul270));
     // spin_mul271 = n_z * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul271;
     logic [2:0] fl_spin_mul271;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul271 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[103]), .a(dl_in_n_z[1*W +: W]), .b(dl_spin_sB),
         .out_valid(op_valid_nc[194]), .y(spin_mul271), .flags(fl_spin_mul271)
     );
     assign ev_ovf[190] = fl_spin_mul271[0] && ev_q[106];
@@ -3031,12 +3038,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[190] = fl_spin_mul271[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul271;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul271 (.clk(clk), .d(spin_mul271), .q(dl_spin_mul271));
+        u_dl_spin_mul271 (.clk(clk), .d(spin_mul271), .valid(1'b0), .q(dl_spin_mul271));
     // spin_wB_damped_x = t1_wB_x - spin_mul269   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_x;
     logic [2:0] fl_spin_wB_damped_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_x[1*W +: W]), .b(dl_spin_mul269), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_x[1*W +: W]), .b(dl_spin_mul269), .sub(1'b1),
         .out_valid(op_valid_nc[195]), .y(spin_wB_damped_x), .flags(fl_spin_wB_damped_x)
     );
     assign ev_ovf[191] = fl_spin_wB_damped_x[0] && ev_q[110];
@@ -3044,12 +3051,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[191] = fl_spin_wB_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_damped_x (.clk(clk), .d(spin_wB_damped_x), .q(dl_spin_wB_damped_x));
+        u_dl_spin_wB_damped_x (.clk(clk), .d(spin_wB_damped_x), .valid(1'b0), .q(dl_spin_wB_damped_x));
     // spin_wB_damped_y = t1_wB_y - spin_mul270   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_y;
     logic [2:0] fl_spin_wB_damped_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_y[1*W +: W]), .b(dl_spin_mul270), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_y[1*W +: W]), .b(dl_spin_mul270), .sub(1'b1),
         .out_valid(op_valid_nc[196]), .y(spin_wB_damped_y), .flags(fl_spin_wB_damped_y)
     );
     assign ev_ovf[192] = fl_spin_wB_damped_y[0] && ev_q[110];
@@ -3057,12 +3064,12 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[192] = fl_spin_wB_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_damped_y (.clk(clk), .d(spin_wB_damped_y), .q(dl_spin_wB_damped_y));
+        u_dl_spin_wB_damped_y (.clk(clk), .d(spin_wB_damped_y), .valid(1'b0), .q(dl_spin_wB_damped_y));
     // spin_wB_damped_z = t1_wB_z - spin_mul271   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_z;
     logic [2:0] fl_spin_wB_damped_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_z[1*W +: W]), .b(dl_spin_mul271), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[106]), .a(dl_t1_wB_z[1*W +: W]), .b(dl_spin_mul271), .sub(1'b1),
         .out_valid(op_valid_nc[197]), .y(spin_wB_damped_z), .flags(fl_spin_wB_damped_z)
     );
     assign ev_ovf[193] = fl_spin_wB_damped_z[0] && ev_q[110];
@@ -3070,79 +3077,79 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_inv[193] = fl_spin_wB_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_damped_z (.clk(clk), .d(spin_wB_damped_z), .q(dl_spin_wB_damped_z));
+        u_dl_spin_wB_damped_z (.clk(clk), .d(spin_wB_damped_z), .valid(1'b0), .q(dl_spin_wB_damped_z));
     // spin_select275 = spin_damp ? spin_wA_damped_x : t1_wA_x   (ready @110/110/110)
     logic [W-1:0] spin_select275;
     assign spin_select275 = dl_in_spin_damp ? dl_spin_wA_damped_x : dl_t1_wA_x[2*W +: W];
     logic [W-1:0] dl_spin_select275;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select275 (.clk(clk), .d(spin_select275), .q(dl_spin_select275));
+        u_dl_spin_select275 (.clk(clk), .d(spin_select275), .valid(1'b0), .q(dl_spin_select275));
     // spin_select276 = spin_damp ? spin_wA_damped_y : t1_wA_y   (ready @110/110/110)
     logic [W-1:0] spin_select276;
     assign spin_select276 = dl_in_spin_damp ? dl_spin_wA_damped_y : dl_t1_wA_y[2*W +: W];
     logic [W-1:0] dl_spin_select276;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select276 (.clk(clk), .d(spin_select276), .q(dl_spin_select276));
+        u_dl_spin_select276 (.clk(clk), .d(spin_select276), .valid(1'b0), .q(dl_spin_select276));
     // spin_select277 = spin_damp ? spin_wA_damped_z : t1_wA_z   (ready @110/110/110)
     logic [W-1:0] spin_select277;
     assign spin_select277 = dl_in_spin_damp ? dl_spin_wA_damped_z : dl_t1_wA_z[2*W +: W];
     logic [W-1:0] dl_spin_select277;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select277 (.clk(clk), .d(spin_select277), .q(dl_spin_select277));
+        u_dl_spin_select277 (.clk(clk), .d(spin_select277), .valid(1'b0), .q(dl_spin_select277));
     // spin_wA_x = skip ? t1_wA_x : spin_select275   (ready @110/110/110)
     logic [W-1:0] spin_wA_x;
     assign spin_wA_x = dl_skip[4] ? dl_t1_wA_x[2*W +: W] : dl_spin_select275;
     logic [W-1:0] dl_spin_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_x (.clk(clk), .d(spin_wA_x), .q(dl_spin_wA_x));
+        u_dl_spin_wA_x (.clk(clk), .d(spin_wA_x), .valid(1'b0), .q(dl_spin_wA_x));
     // spin_wA_y = skip ? t1_wA_y : spin_select276   (ready @110/110/110)
     logic [W-1:0] spin_wA_y;
     assign spin_wA_y = dl_skip[4] ? dl_t1_wA_y[2*W +: W] : dl_spin_select276;
     logic [W-1:0] dl_spin_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_y (.clk(clk), .d(spin_wA_y), .q(dl_spin_wA_y));
+        u_dl_spin_wA_y (.clk(clk), .d(spin_wA_y), .valid(1'b0), .q(dl_spin_wA_y));
     // spin_wA_z = skip ? t1_wA_z : spin_select277   (ready @110/110/110)
     logic [W-1:0] spin_wA_z;
     assign spin_wA_z = dl_skip[4] ? dl_t1_wA_z[2*W +: W] : dl_spin_select277;
     logic [W-1:0] dl_spin_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_z (.clk(clk), .d(spin_wA_z), .q(dl_spin_wA_z));
+        u_dl_spin_wA_z (.clk(clk), .d(spin_wA_z), .valid(1'b0), .q(dl_spin_wA_z));
     // spin_select281 = spin_damp ? spin_wB_damped_x : t1_wB_x   (ready @110/110/110)
     logic [W-1:0] spin_select281;
     assign spin_select281 = dl_in_spin_damp ? dl_spin_wB_damped_x : dl_t1_wB_x[2*W +: W];
     logic [W-1:0] dl_spin_select281;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select281 (.clk(clk), .d(spin_select281), .q(dl_spin_select281));
+        u_dl_spin_select281 (.clk(clk), .d(spin_select281), .valid(1'b0), .q(dl_spin_select281));
     // spin_select282 = spin_damp ? spin_wB_damped_y : t1_wB_y   (ready @110/110/110)
     logic [W-1:0] spin_select282;
     assign spin_select282 = dl_in_spin_damp ? dl_spin_wB_damped_y : dl_t1_wB_y[2*W +: W];
     logic [W-1:0] dl_spin_select282;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select282 (.clk(clk), .d(spin_select282), .q(dl_spin_select282));
+        u_dl_spin_select282 (.clk(clk), .d(spin_select282), .valid(1'b0), .q(dl_spin_select282));
     // spin_select283 = spin_damp ? spin_wB_damped_z : t1_wB_z   (ready @110/110/110)
     logic [W-1:0] spin_select283;
     assign spin_select283 = dl_in_spin_damp ? dl_spin_wB_damped_z : dl_t1_wB_z[2*W +: W];
     logic [W-1:0] dl_spin_select283;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select283 (.clk(clk), .d(spin_select283), .q(dl_spin_select283));
+        u_dl_spin_select283 (.clk(clk), .d(spin_select283), .valid(1'b0), .q(dl_spin_select283));
     // spin_wB_x = skip ? t1_wB_x : spin_select281   (ready @110/110/110)
     logic [W-1:0] spin_wB_x;
     assign spin_wB_x = dl_skip[4] ? dl_t1_wB_x[2*W +: W] : dl_spin_select281;
     logic [W-1:0] dl_spin_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_x (.clk(clk), .d(spin_wB_x), .q(dl_spin_wB_x));
+        u_dl_spin_wB_x (.clk(clk), .d(spin_wB_x), .valid(1'b0), .q(dl_spin_wB_x));
     // spin_wB_y = skip ? t1_wB_y : spin_select282   (ready @110/110/110)
     logic [W-1:0] spin_wB_y;
     assign spin_wB_y = dl_skip[4] ? dl_t1_wB_y[2*W +: W] : dl_spin_select282;
     logic [W-1:0] dl_spin_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_y (.clk(clk), .d(spin_wB_y), .q(dl_spin_wB_y));
+        u_dl_spin_wB_y (.clk(clk), .d(spin_wB_y), .valid(1'b0), .q(dl_spin_wB_y));
     // spin_wB_z = skip ? t1_wB_z : spin_select283   (ready @110/110/110)
     logic [W-1:0] spin_wB_z;
     assign spin_wB_z = dl_skip[4] ? dl_t1_wB_z[2*W +: W] : dl_spin_select283;
     logic [W-1:0] dl_spin_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_z (.clk(clk), .d(spin_wB_z), .q(dl_spin_wB_z));
+        u_dl_spin_wB_z (.clk(clk), .d(spin_wB_z), .valid(1'b0), .q(dl_spin_wB_z));
 
     // Outputs, each delayed to LATENCY.
     assign out_data[0*W +: W] = dl_t0_lamT;   // lamT0

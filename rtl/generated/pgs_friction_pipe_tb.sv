@@ -76,23 +76,30 @@ module pgs_friction_pipe_tb #(
     logic         nc_t1_lam_new_lt, nc_t1_lam_new_eq, nc_t1_lam_new_uo;
     /* verilator lint_on UNUSEDSIGNAL */
 
-    // Valid and tag pipelines.
+    // Valid and tag pipelines. valid_q[k]: in_valid k cycles ago; an operator's in_valid is the
+    // bit at its issue cycle, so its register stages are enabled only for the pipeline's inputs.
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [LATENCY:0] valid_q;   // the stages after the last operator's issue are not read
+    /* verilator lint_on UNUSEDSIGNAL */
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
+        .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (.clk(clk), .d(in_tag), .q(out_tag));
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+        .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
+    );
 
     // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);
     // an operator's flags belong to the input taken at its ready cycle minus that many cycles.
     localparam int EV_DEPTH = 2*MAN_BITS + 125;
-    logic [EV_DEPTH:0] ev_q;
-    assign ev_q[0] = in_valid && in_count;
-    for (genvar i = 1; i <= EV_DEPTH; i++) begin : g_ev
-        always_ff @(posedge clk) begin
-            if (rst) ev_q[i] <= 1'b0;
-            else     ev_q[i] <= ev_q[i-1];
-        end
+    logic [EV_DEPTH:1] ev_r;
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [EV_DEPTH:0] ev_q;   // read at the operators' ready cycles only
+    /* verilator lint_on UNUSEDSIGNAL */
+    always_ff @(posedge clk) begin   // one shift of the whole register
+        if (rst) ev_r <= '0;
+        else     ev_r <= EV_DEPTH'({ev_r, in_valid && in_count});
     end
+    assign ev_q = {ev_r, in_valid && in_count};
     logic [N_FP_OPS-1:0] ev_ovf, ev_unf, ev_inv;   // flags of counted inputs, one bit per operator
     always_ff @(posedge clk) begin
         ev_overflow  <= EV_W'($countones(ev_ovf));
@@ -105,205 +112,205 @@ module pgs_friction_pipe_tb #(
     assign in_n_x = in_data[0*W +: W];
     logic [3*W-1:0] dl_in_n_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 118) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 118) - (0)), 32'((2*MAN_BITS + 104) - (0)), 32'(0)}))
-        u_dl_in_n_x (.clk(clk), .d(in_n_x), .q(dl_in_n_x));
+        u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: (((2*MAN_BITS + 118) - (0)) > 0 ? ((2*MAN_BITS + 118) - (0)) : 1)]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [3*W-1:0] dl_in_n_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 118) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 118) - (0)), 32'((2*MAN_BITS + 104) - (0)), 32'(0)}))
-        u_dl_in_n_y (.clk(clk), .d(in_n_y), .q(dl_in_n_y));
+        u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: (((2*MAN_BITS + 118) - (0)) > 0 ? ((2*MAN_BITS + 118) - (0)) : 1)]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [3*W-1:0] dl_in_n_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 118) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 118) - (0)), 32'((2*MAN_BITS + 104) - (0)), 32'(0)}))
-        u_dl_in_n_z (.clk(clk), .d(in_n_z), .q(dl_in_n_z));
+        u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: (((2*MAN_BITS + 118) - (0)) > 0 ? ((2*MAN_BITS + 118) - (0)) : 1)]), .q(dl_in_n_z));
     logic [W-1:0] in_c_x;
     assign in_c_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_c_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_c_x (.clk(clk), .d(in_c_x), .q(dl_in_c_x));
+        u_dl_in_c_x (.clk(clk), .d(in_c_x), .valid(1'b0), .q(dl_in_c_x));
     logic [W-1:0] in_c_y;
     assign in_c_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_c_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_c_y (.clk(clk), .d(in_c_y), .q(dl_in_c_y));
+        u_dl_in_c_y (.clk(clk), .d(in_c_y), .valid(1'b0), .q(dl_in_c_y));
     logic [W-1:0] in_c_z;
     assign in_c_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_c_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_c_z (.clk(clk), .d(in_c_z), .q(dl_in_c_z));
+        u_dl_in_c_z (.clk(clk), .d(in_c_z), .valid(1'b0), .q(dl_in_c_z));
     logic [W-1:0] in_f_jac_inv0;
     assign in_f_jac_inv0 = in_data[6*W +: W];
     logic [2*W-1:0] dl_in_f_jac_inv0;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 45) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 45) - (0)), 32'(0)}))
-        u_dl_in_f_jac_inv0 (.clk(clk), .d(in_f_jac_inv0), .q(dl_in_f_jac_inv0));
+        u_dl_in_f_jac_inv0 (.clk(clk), .d(in_f_jac_inv0), .valid(valid_q[0 +: (((2*MAN_BITS + 45) - (0)) > 0 ? ((2*MAN_BITS + 45) - (0)) : 1)]), .q(dl_in_f_jac_inv0));
     logic [W-1:0] in_f_jac_inv1;
     assign in_f_jac_inv1 = in_data[7*W +: W];
     logic [W-1:0] dl_in_f_jac_inv1;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 84) - (0)))
-        u_dl_in_f_jac_inv1 (.clk(clk), .d(in_f_jac_inv1), .q(dl_in_f_jac_inv1));
+        u_dl_in_f_jac_inv1 (.clk(clk), .d(in_f_jac_inv1), .valid(valid_q[0 +: (((2*MAN_BITS + 84) - (0)) > 0 ? ((2*MAN_BITS + 84) - (0)) : 1)]), .q(dl_in_f_jac_inv1));
     logic [W-1:0] in_lam_n0;
     assign in_lam_n0 = in_data[8*W +: W];
     logic [W-1:0] dl_in_lam_n0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n0 (.clk(clk), .d(in_lam_n0), .q(dl_in_lam_n0));
+        u_dl_in_lam_n0 (.clk(clk), .d(in_lam_n0), .valid(1'b0), .q(dl_in_lam_n0));
     logic [W-1:0] in_lam_n1;
     assign in_lam_n1 = in_data[9*W +: W];
     logic [W-1:0] dl_in_lam_n1;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n1 (.clk(clk), .d(in_lam_n1), .q(dl_in_lam_n1));
+        u_dl_in_lam_n1 (.clk(clk), .d(in_lam_n1), .valid(1'b0), .q(dl_in_lam_n1));
     logic [W-1:0] in_lam_n2;
     assign in_lam_n2 = in_data[10*W +: W];
     logic [W-1:0] dl_in_lam_n2;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n2 (.clk(clk), .d(in_lam_n2), .q(dl_in_lam_n2));
+        u_dl_in_lam_n2 (.clk(clk), .d(in_lam_n2), .valid(1'b0), .q(dl_in_lam_n2));
     logic [W-1:0] in_lam_n3;
     assign in_lam_n3 = in_data[11*W +: W];
     logic [W-1:0] dl_in_lam_n3;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_lam_n3 (.clk(clk), .d(in_lam_n3), .q(dl_in_lam_n3));
+        u_dl_in_lam_n3 (.clk(clk), .d(in_lam_n3), .valid(1'b0), .q(dl_in_lam_n3));
     logic [W-1:0] in_lamT0;
     assign in_lamT0 = in_data[12*W +: W];
     logic [2*W-1:0] dl_in_lamT0;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 54) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 54) - (0)), 32'((2*MAN_BITS + 48) - (0))}))
-        u_dl_in_lamT0 (.clk(clk), .d(in_lamT0), .q(dl_in_lamT0));
+        u_dl_in_lamT0 (.clk(clk), .d(in_lamT0), .valid(valid_q[0 +: (((2*MAN_BITS + 54) - (0)) > 0 ? ((2*MAN_BITS + 54) - (0)) : 1)]), .q(dl_in_lamT0));
     logic [W-1:0] in_lamT1;
     assign in_lamT1 = in_data[13*W +: W];
     logic [2*W-1:0] dl_in_lamT1;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 93) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 93) - (0)), 32'((2*MAN_BITS + 87) - (0))}))
-        u_dl_in_lamT1 (.clk(clk), .d(in_lamT1), .q(dl_in_lamT1));
+        u_dl_in_lamT1 (.clk(clk), .d(in_lamT1), .valid(valid_q[0 +: (((2*MAN_BITS + 93) - (0)) > 0 ? ((2*MAN_BITS + 93) - (0)) : 1)]), .q(dl_in_lamT1));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[14*W +: W];
     logic [W-1:0] dl_in_xA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .q(dl_in_xA_x));
+        u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[15*W +: W];
     logic [W-1:0] dl_in_xA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .q(dl_in_xA_y));
+        u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[16*W +: W];
     logic [W-1:0] dl_in_xA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .q(dl_in_xA_z));
+        u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[17*W +: W];
     logic [W-1:0] dl_in_xB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .q(dl_in_xB_x));
+        u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[18*W +: W];
     logic [W-1:0] dl_in_xB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .q(dl_in_xB_y));
+        u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[19*W +: W];
     logic [W-1:0] dl_in_xB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .q(dl_in_xB_z));
+        u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[20*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
-        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .q(dl_in_vA_x));
+        u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[21*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
-        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .q(dl_in_vA_y));
+        u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[22*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
-        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .q(dl_in_vA_z));
+        u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[23*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
-        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .q(dl_in_wA_x));
+        u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[24*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
-        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .q(dl_in_wA_y));
+        u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[25*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
-        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .q(dl_in_wA_z));
+        u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[26*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
-        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .q(dl_in_vB_x));
+        u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[27*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
-        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .q(dl_in_vB_y));
+        u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[28*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
-        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .q(dl_in_vB_z));
+        u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[29*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
-        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .q(dl_in_wB_x));
+        u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[30*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
-        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .q(dl_in_wB_y));
+        u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[31*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
-        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .q(dl_in_wB_z));
+        u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[32*W +: W];
     logic [2*W-1:0] dl_in_mInvA;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
-        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .q(dl_in_mInvA));
+        u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(valid_q[0 +: (((2*MAN_BITS + 22) - (0)) > 0 ? ((2*MAN_BITS + 22) - (0)) : 1)]), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[33*W +: W];
     logic [2*W-1:0] dl_in_mInvB;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
-        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .q(dl_in_mInvB));
+        u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(valid_q[0 +: (((2*MAN_BITS + 22) - (0)) > 0 ? ((2*MAN_BITS + 22) - (0)) : 1)]), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_x;
     assign in_IInvA_x = in_data[34*W +: W];
     logic [2*W-1:0] dl_in_IInvA_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
-        u_dl_in_IInvA_x (.clk(clk), .d(in_IInvA_x), .q(dl_in_IInvA_x));
+        u_dl_in_IInvA_x (.clk(clk), .d(in_IInvA_x), .valid(valid_q[0 +: (((2*MAN_BITS + 29) - (0)) > 0 ? ((2*MAN_BITS + 29) - (0)) : 1)]), .q(dl_in_IInvA_x));
     logic [W-1:0] in_IInvA_y;
     assign in_IInvA_y = in_data[35*W +: W];
     logic [2*W-1:0] dl_in_IInvA_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
-        u_dl_in_IInvA_y (.clk(clk), .d(in_IInvA_y), .q(dl_in_IInvA_y));
+        u_dl_in_IInvA_y (.clk(clk), .d(in_IInvA_y), .valid(valid_q[0 +: (((2*MAN_BITS + 29) - (0)) > 0 ? ((2*MAN_BITS + 29) - (0)) : 1)]), .q(dl_in_IInvA_y));
     logic [W-1:0] in_IInvA_z;
     assign in_IInvA_z = in_data[36*W +: W];
     logic [2*W-1:0] dl_in_IInvA_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
-        u_dl_in_IInvA_z (.clk(clk), .d(in_IInvA_z), .q(dl_in_IInvA_z));
+        u_dl_in_IInvA_z (.clk(clk), .d(in_IInvA_z), .valid(valid_q[0 +: (((2*MAN_BITS + 29) - (0)) > 0 ? ((2*MAN_BITS + 29) - (0)) : 1)]), .q(dl_in_IInvA_z));
     logic [W-1:0] in_IInvB_x;
     assign in_IInvB_x = in_data[37*W +: W];
     logic [2*W-1:0] dl_in_IInvB_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
-        u_dl_in_IInvB_x (.clk(clk), .d(in_IInvB_x), .q(dl_in_IInvB_x));
+        u_dl_in_IInvB_x (.clk(clk), .d(in_IInvB_x), .valid(valid_q[0 +: (((2*MAN_BITS + 29) - (0)) > 0 ? ((2*MAN_BITS + 29) - (0)) : 1)]), .q(dl_in_IInvB_x));
     logic [W-1:0] in_IInvB_y;
     assign in_IInvB_y = in_data[38*W +: W];
     logic [2*W-1:0] dl_in_IInvB_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
-        u_dl_in_IInvB_y (.clk(clk), .d(in_IInvB_y), .q(dl_in_IInvB_y));
+        u_dl_in_IInvB_y (.clk(clk), .d(in_IInvB_y), .valid(valid_q[0 +: (((2*MAN_BITS + 29) - (0)) > 0 ? ((2*MAN_BITS + 29) - (0)) : 1)]), .q(dl_in_IInvB_y));
     logic [W-1:0] in_IInvB_z;
     assign in_IInvB_z = in_data[39*W +: W];
     logic [2*W-1:0] dl_in_IInvB_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
-        u_dl_in_IInvB_z (.clk(clk), .d(in_IInvB_z), .q(dl_in_IInvB_z));
+        u_dl_in_IInvB_z (.clk(clk), .d(in_IInvB_z), .valid(valid_q[0 +: (((2*MAN_BITS + 29) - (0)) > 0 ? ((2*MAN_BITS + 29) - (0)) : 1)]), .q(dl_in_IInvB_z));
     logic [1-1:0] dl_in_spin_damp;
     pgs_delay #(.WIDTH(1), .DEPTH((2*MAN_BITS + 125) - (0)))
-        u_dl_in_spin_damp (.clk(clk), .d(in_spin_damp), .q(dl_in_spin_damp));
+        u_dl_in_spin_damp (.clk(clk), .d(in_spin_damp), .valid(valid_q[0 +: (((2*MAN_BITS + 125) - (0)) > 0 ? ((2*MAN_BITS + 125) - (0)) : 1)]), .q(dl_in_spin_damp));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
     // bf16; its delay line feeds every consumer at the consumer's issue cycle.
@@ -312,50 +319,50 @@ module pgs_friction_pipe_tb #(
     assign basis_m_x = {~dl_in_n_x[0*W +: W][W-1], dl_in_n_x[0*W +: W][W-2:0]};
     logic [3*W-1:0] dl_basis_m_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 19) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'((2*MAN_BITS + 19) - (0)), 32'(0)}))
-        u_dl_basis_m_x (.clk(clk), .d(basis_m_x), .q(dl_basis_m_x));
+        u_dl_basis_m_x (.clk(clk), .d(basis_m_x), .valid(valid_q[0 +: (((2*MAN_BITS + 19) - (0)) > 0 ? ((2*MAN_BITS + 19) - (0)) : 1)]), .q(dl_basis_m_x));
     // basis_m_y = -n_y   (ready @0/0/0)
     logic [W-1:0] basis_m_y;
     assign basis_m_y = {~dl_in_n_y[0*W +: W][W-1], dl_in_n_y[0*W +: W][W-2:0]};
     logic [2*W-1:0] dl_basis_m_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'(0)}))
-        u_dl_basis_m_y (.clk(clk), .d(basis_m_y), .q(dl_basis_m_y));
+        u_dl_basis_m_y (.clk(clk), .d(basis_m_y), .valid(valid_q[0 +: (((2*MAN_BITS + 16) - (0)) > 0 ? ((2*MAN_BITS + 16) - (0)) : 1)]), .q(dl_basis_m_y));
     // basis_m_z = -n_z   (ready @0/0/0)
     logic [W-1:0] basis_m_z;
     assign basis_m_z = {~dl_in_n_z[0*W +: W][W-1], dl_in_n_z[0*W +: W][W-2:0]};
     logic [2*W-1:0] dl_basis_m_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 19) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 19) - (0)), 32'(0)}))
-        u_dl_basis_m_z (.clk(clk), .d(basis_m_z), .q(dl_basis_m_z));
+        u_dl_basis_m_z (.clk(clk), .d(basis_m_z), .valid(valid_q[0 +: (((2*MAN_BITS + 19) - (0)) > 0 ? ((2*MAN_BITS + 19) - (0)) : 1)]), .q(dl_basis_m_z));
     // basis_neg48 = -basis_m_z   (ready @0/0/0)
     logic [W-1:0] basis_neg48;
     assign basis_neg48 = {~dl_basis_m_z[0*W +: W][W-1], dl_basis_m_z[0*W +: W][W-2:0]};
     logic [3*W-1:0] dl_basis_neg48;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 19) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 19) - (0)), 32'((2*MAN_BITS + 16) - (0)), 32'(0)}))
-        u_dl_basis_neg48 (.clk(clk), .d(basis_neg48), .q(dl_basis_neg48));
+        u_dl_basis_neg48 (.clk(clk), .d(basis_neg48), .valid(valid_q[0 +: (((2*MAN_BITS + 19) - (0)) > 0 ? ((2*MAN_BITS + 19) - (0)) : 1)]), .q(dl_basis_neg48));
     // basis_max49 = max(basis_m_z, basis_neg48)   (ready @1/1/1)
     logic [W-1:0] basis_max49;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_basis_max49 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_m_z[0*W +: W]), .b(dl_basis_neg48[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_basis_m_z[0*W +: W]), .b(dl_basis_neg48[0*W +: W]),
         .out_valid(op_valid_nc[0]), .y_min(nc_basis_max49_min), .y_max(basis_max49),
         .lt(nc_basis_max49_lt), .eq(nc_basis_max49_eq), .unordered(nc_basis_max49_uo)
     );
     logic [W-1:0] dl_basis_max49;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_max49 (.clk(clk), .d(basis_max49), .q(dl_basis_max49));
+        u_dl_basis_max49 (.clk(clk), .d(basis_max49), .valid(1'b0), .q(dl_basis_max49));
     // basis_use_z = 0.70710678 < basis_max49   (ready @2/2/2)
     logic basis_use_z;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_basis_use_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_SPLIT), .b(dl_basis_max49),
+        .clk(clk), .rst(rst), .in_valid(valid_q[1]), .a(K_SPLIT), .b(dl_basis_max49),
         .out_valid(op_valid_nc[1]), .y_min(nc_basis_use_z_min), .y_max(nc_basis_use_z_max),
         .lt(basis_use_z), .eq(nc_basis_use_z_eq), .unordered(nc_basis_use_z_uo)
     );
     logic [3*1-1:0] dl_basis_use_z;
     pgs_delay #(.WIDTH(1), .DEPTH((2*MAN_BITS + 22) - (2)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 22) - (2)), 32'((2*MAN_BITS + 19) - (2)), 32'(5)}))
-        u_dl_basis_use_z (.clk(clk), .d(basis_use_z), .q(dl_basis_use_z));
+        u_dl_basis_use_z (.clk(clk), .d(basis_use_z), .valid(valid_q[2 +: (((2*MAN_BITS + 22) - (2)) > 0 ? ((2*MAN_BITS + 22) - (2)) : 1)]), .q(dl_basis_use_z));
     // basis_mul51 = basis_m_y * basis_m_y   (ready @3/3/3)
     logic [W-1:0] basis_mul51;
     logic [2:0] fl_basis_mul51;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_mul51 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_m_y[0*W +: W]), .b(dl_basis_m_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_basis_m_y[0*W +: W]), .b(dl_basis_m_y[0*W +: W]),
         .out_valid(op_valid_nc[2]), .y(basis_mul51), .flags(fl_basis_mul51)
     );
     assign ev_ovf[0] = fl_basis_mul51[0] && ev_q[3];
@@ -363,12 +370,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[0] = fl_basis_mul51[2] && ev_q[3];
     logic [W-1:0] dl_basis_mul51;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_mul51 (.clk(clk), .d(basis_mul51), .q(dl_basis_mul51));
+        u_dl_basis_mul51 (.clk(clk), .d(basis_mul51), .valid(1'b0), .q(dl_basis_mul51));
     // basis_mul52 = basis_m_z * basis_m_z   (ready @3/3/3)
     logic [W-1:0] basis_mul52;
     logic [2:0] fl_basis_mul52;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_mul52 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_m_z[0*W +: W]), .b(dl_basis_m_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_basis_m_z[0*W +: W]), .b(dl_basis_m_z[0*W +: W]),
         .out_valid(op_valid_nc[3]), .y(basis_mul52), .flags(fl_basis_mul52)
     );
     assign ev_ovf[1] = fl_basis_mul52[0] && ev_q[3];
@@ -376,12 +383,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[1] = fl_basis_mul52[2] && ev_q[3];
     logic [W-1:0] dl_basis_mul52;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_mul52 (.clk(clk), .d(basis_mul52), .q(dl_basis_mul52));
+        u_dl_basis_mul52 (.clk(clk), .d(basis_mul52), .valid(1'b0), .q(dl_basis_mul52));
     // basis_a_z = basis_mul51 + basis_mul52   (ready @7/7/7)
     logic [W-1:0] basis_a_z;
     logic [2:0] fl_basis_a_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_a_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_mul51), .b(dl_basis_mul52), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_basis_mul51), .b(dl_basis_mul52), .sub(1'b0),
         .out_valid(op_valid_nc[4]), .y(basis_a_z), .flags(fl_basis_a_z)
     );
     assign ev_ovf[2] = fl_basis_a_z[0] && ev_q[7];
@@ -389,18 +396,18 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[2] = fl_basis_a_z[2] && ev_q[7];
     logic [2*W-1:0] dl_basis_a_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (7)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 16) - (7)), 32'(0)}))
-        u_dl_basis_a_z (.clk(clk), .d(basis_a_z), .q(dl_basis_a_z));
+        u_dl_basis_a_z (.clk(clk), .d(basis_a_z), .valid(valid_q[7 +: (((2*MAN_BITS + 16) - (7)) > 0 ? ((2*MAN_BITS + 16) - (7)) : 1)]), .q(dl_basis_a_z));
     // basis_select54 = basis_use_z ? basis_a_z : 1.0   (ready @7/7/7)
     logic [W-1:0] basis_select54;
     assign basis_select54 = dl_basis_use_z[0] ? dl_basis_a_z[0*W +: W] : K_ONE;
     logic [W-1:0] dl_basis_select54;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_select54 (.clk(clk), .d(basis_select54), .q(dl_basis_select54));
+        u_dl_basis_select54 (.clk(clk), .d(basis_select54), .valid(1'b0), .q(dl_basis_select54));
     // basis_sqrt55 = sqrt(basis_select54)   (ready @34/21/18)
     logic [W-1:0] basis_sqrt55;
     logic [2:0] fl_basis_sqrt55;
     fp_sqrt #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_sqrt55 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_select54),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_basis_select54),
         .out_valid(op_valid_nc[5]), .y(basis_sqrt55), .flags(fl_basis_sqrt55)
     );
     assign ev_ovf[3] = fl_basis_sqrt55[0] && ev_q[MAN_BITS + 11];
@@ -408,12 +415,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[3] = fl_basis_sqrt55[2] && ev_q[MAN_BITS + 11];
     logic [W-1:0] dl_basis_sqrt55;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_sqrt55 (.clk(clk), .d(basis_sqrt55), .q(dl_basis_sqrt55));
+        u_dl_basis_sqrt55 (.clk(clk), .d(basis_sqrt55), .valid(1'b0), .q(dl_basis_sqrt55));
     // basis_k_z = 1.0 / basis_sqrt55   (ready @62/36/30)
     logic [W-1:0] basis_k_z;
     logic [2:0] fl_basis_k_z;
     fp_div #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_k_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_ONE), .b(dl_basis_sqrt55),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 11]), .a(K_ONE), .b(dl_basis_sqrt55),
         .out_valid(op_valid_nc[6]), .y(basis_k_z), .flags(fl_basis_k_z)
     );
     assign ev_ovf[4] = fl_basis_k_z[0] && ev_q[2*MAN_BITS + 16];
@@ -421,12 +428,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[4] = fl_basis_k_z[2] && ev_q[2*MAN_BITS + 16];
     logic [W-1:0] dl_basis_k_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_k_z (.clk(clk), .d(basis_k_z), .q(dl_basis_k_z));
+        u_dl_basis_k_z (.clk(clk), .d(basis_k_z), .valid(1'b0), .q(dl_basis_k_z));
     // basis_pz_y = basis_neg48 * basis_k_z   (ready @65/39/33)
     logic [W-1:0] basis_pz_y;
     logic [2:0] fl_basis_pz_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_pz_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_neg48[1*W +: W]), .b(dl_basis_k_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 16]), .a(dl_basis_neg48[1*W +: W]), .b(dl_basis_k_z),
         .out_valid(op_valid_nc[7]), .y(basis_pz_y), .flags(fl_basis_pz_y)
     );
     assign ev_ovf[5] = fl_basis_pz_y[0] && ev_q[2*MAN_BITS + 19];
@@ -434,12 +441,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[5] = fl_basis_pz_y[2] && ev_q[2*MAN_BITS + 19];
     logic [W-1:0] dl_basis_pz_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_pz_y (.clk(clk), .d(basis_pz_y), .q(dl_basis_pz_y));
+        u_dl_basis_pz_y (.clk(clk), .d(basis_pz_y), .valid(1'b0), .q(dl_basis_pz_y));
     // basis_pz_z = basis_m_y * basis_k_z   (ready @65/39/33)
     logic [W-1:0] basis_pz_z;
     logic [2:0] fl_basis_pz_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_pz_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_m_y[1*W +: W]), .b(dl_basis_k_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 16]), .a(dl_basis_m_y[1*W +: W]), .b(dl_basis_k_z),
         .out_valid(op_valid_nc[8]), .y(basis_pz_z), .flags(fl_basis_pz_z)
     );
     assign ev_ovf[6] = fl_basis_pz_z[0] && ev_q[2*MAN_BITS + 19];
@@ -447,12 +454,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[6] = fl_basis_pz_z[2] && ev_q[2*MAN_BITS + 19];
     logic [W-1:0] dl_basis_pz_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_pz_z (.clk(clk), .d(basis_pz_z), .q(dl_basis_pz_z));
+        u_dl_basis_pz_z (.clk(clk), .d(basis_pz_z), .valid(1'b0), .q(dl_basis_pz_z));
     // basis_qz_x = basis_a_z * basis_k_z   (ready @65/39/33)
     logic [W-1:0] basis_qz_x;
     logic [2:0] fl_basis_qz_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_qz_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_a_z[1*W +: W]), .b(dl_basis_k_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 16]), .a(dl_basis_a_z[1*W +: W]), .b(dl_basis_k_z),
         .out_valid(op_valid_nc[9]), .y(basis_qz_x), .flags(fl_basis_qz_x)
     );
     assign ev_ovf[7] = fl_basis_qz_x[0] && ev_q[2*MAN_BITS + 19];
@@ -460,18 +467,18 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[7] = fl_basis_qz_x[2] && ev_q[2*MAN_BITS + 19];
     logic [W-1:0] dl_basis_qz_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (2*MAN_BITS + 19)))
-        u_dl_basis_qz_x (.clk(clk), .d(basis_qz_x), .q(dl_basis_qz_x));
+        u_dl_basis_qz_x (.clk(clk), .d(basis_qz_x), .valid(valid_q[2*MAN_BITS + 19 +: (((2*MAN_BITS + 22) - (2*MAN_BITS + 19)) > 0 ? ((2*MAN_BITS + 22) - (2*MAN_BITS + 19)) : 1)]), .q(dl_basis_qz_x));
     // basis_neg60 = -basis_m_x   (ready @0/0/0)
     logic [W-1:0] basis_neg60;
     assign basis_neg60 = {~dl_basis_m_x[0*W +: W][W-1], dl_basis_m_x[0*W +: W][W-2:0]};
     logic [W-1:0] dl_basis_neg60;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 19) - (0)))
-        u_dl_basis_neg60 (.clk(clk), .d(basis_neg60), .q(dl_basis_neg60));
+        u_dl_basis_neg60 (.clk(clk), .d(basis_neg60), .valid(valid_q[0 +: (((2*MAN_BITS + 19) - (0)) > 0 ? ((2*MAN_BITS + 19) - (0)) : 1)]), .q(dl_basis_neg60));
     // basis_qz_y = basis_neg60 * basis_pz_z   (ready @68/42/36)
     logic [W-1:0] basis_qz_y;
     logic [2:0] fl_basis_qz_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_qz_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_neg60), .b(dl_basis_pz_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_neg60), .b(dl_basis_pz_z),
         .out_valid(op_valid_nc[10]), .y(basis_qz_y), .flags(fl_basis_qz_y)
     );
     assign ev_ovf[8] = fl_basis_qz_y[0] && ev_q[2*MAN_BITS + 22];
@@ -479,12 +486,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[8] = fl_basis_qz_y[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_basis_qz_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_qz_y (.clk(clk), .d(basis_qz_y), .q(dl_basis_qz_y));
+        u_dl_basis_qz_y (.clk(clk), .d(basis_qz_y), .valid(1'b0), .q(dl_basis_qz_y));
     // basis_qz_z = basis_m_x * basis_pz_y   (ready @68/42/36)
     logic [W-1:0] basis_qz_z;
     logic [2:0] fl_basis_qz_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_qz_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_m_x[1*W +: W]), .b(dl_basis_pz_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_m_x[1*W +: W]), .b(dl_basis_pz_y),
         .out_valid(op_valid_nc[11]), .y(basis_qz_z), .flags(fl_basis_qz_z)
     );
     assign ev_ovf[9] = fl_basis_qz_z[0] && ev_q[2*MAN_BITS + 22];
@@ -492,12 +499,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[9] = fl_basis_qz_z[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_basis_qz_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_qz_z (.clk(clk), .d(basis_qz_z), .q(dl_basis_qz_z));
+        u_dl_basis_qz_z (.clk(clk), .d(basis_qz_z), .valid(1'b0), .q(dl_basis_qz_z));
     // basis_mul63 = basis_m_x * basis_m_x   (ready @3/3/3)
     logic [W-1:0] basis_mul63;
     logic [2:0] fl_basis_mul63;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_mul63 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_m_x[0*W +: W]), .b(dl_basis_m_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_basis_m_x[0*W +: W]), .b(dl_basis_m_x[0*W +: W]),
         .out_valid(op_valid_nc[12]), .y(basis_mul63), .flags(fl_basis_mul63)
     );
     assign ev_ovf[10] = fl_basis_mul63[0] && ev_q[3];
@@ -505,12 +512,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[10] = fl_basis_mul63[2] && ev_q[3];
     logic [W-1:0] dl_basis_mul63;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_mul63 (.clk(clk), .d(basis_mul63), .q(dl_basis_mul63));
+        u_dl_basis_mul63 (.clk(clk), .d(basis_mul63), .valid(1'b0), .q(dl_basis_mul63));
     // basis_a_x = basis_mul63 + basis_mul51   (ready @7/7/7)
     logic [W-1:0] basis_a_x;
     logic [2:0] fl_basis_a_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_a_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_mul63), .b(dl_basis_mul51), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_basis_mul63), .b(dl_basis_mul51), .sub(1'b0),
         .out_valid(op_valid_nc[13]), .y(basis_a_x), .flags(fl_basis_a_x)
     );
     assign ev_ovf[11] = fl_basis_a_x[0] && ev_q[7];
@@ -518,18 +525,18 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[11] = fl_basis_a_x[2] && ev_q[7];
     logic [2*W-1:0] dl_basis_a_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (7)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 16) - (7)), 32'(0)}))
-        u_dl_basis_a_x (.clk(clk), .d(basis_a_x), .q(dl_basis_a_x));
+        u_dl_basis_a_x (.clk(clk), .d(basis_a_x), .valid(valid_q[7 +: (((2*MAN_BITS + 16) - (7)) > 0 ? ((2*MAN_BITS + 16) - (7)) : 1)]), .q(dl_basis_a_x));
     // basis_select65 = basis_use_z ? 1.0 : basis_a_x   (ready @7/7/7)
     logic [W-1:0] basis_select65;
     assign basis_select65 = dl_basis_use_z[0] ? K_ONE : dl_basis_a_x[0*W +: W];
     logic [W-1:0] dl_basis_select65;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_select65 (.clk(clk), .d(basis_select65), .q(dl_basis_select65));
+        u_dl_basis_select65 (.clk(clk), .d(basis_select65), .valid(1'b0), .q(dl_basis_select65));
     // basis_sqrt66 = sqrt(basis_select65)   (ready @34/21/18)
     logic [W-1:0] basis_sqrt66;
     logic [2:0] fl_basis_sqrt66;
     fp_sqrt #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_sqrt66 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_select65),
+        .clk(clk), .rst(rst), .in_valid(valid_q[7]), .a(dl_basis_select65),
         .out_valid(op_valid_nc[14]), .y(basis_sqrt66), .flags(fl_basis_sqrt66)
     );
     assign ev_ovf[12] = fl_basis_sqrt66[0] && ev_q[MAN_BITS + 11];
@@ -537,12 +544,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[12] = fl_basis_sqrt66[2] && ev_q[MAN_BITS + 11];
     logic [W-1:0] dl_basis_sqrt66;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_sqrt66 (.clk(clk), .d(basis_sqrt66), .q(dl_basis_sqrt66));
+        u_dl_basis_sqrt66 (.clk(clk), .d(basis_sqrt66), .valid(1'b0), .q(dl_basis_sqrt66));
     // basis_k_x = 1.0 / basis_sqrt66   (ready @62/36/30)
     logic [W-1:0] basis_k_x;
     logic [2:0] fl_basis_k_x;
     fp_div #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_k_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_ONE), .b(dl_basis_sqrt66),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 11]), .a(K_ONE), .b(dl_basis_sqrt66),
         .out_valid(op_valid_nc[15]), .y(basis_k_x), .flags(fl_basis_k_x)
     );
     assign ev_ovf[13] = fl_basis_k_x[0] && ev_q[2*MAN_BITS + 16];
@@ -550,18 +557,18 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[13] = fl_basis_k_x[2] && ev_q[2*MAN_BITS + 16];
     logic [W-1:0] dl_basis_k_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_k_x (.clk(clk), .d(basis_k_x), .q(dl_basis_k_x));
+        u_dl_basis_k_x (.clk(clk), .d(basis_k_x), .valid(1'b0), .q(dl_basis_k_x));
     // basis_neg68 = -basis_m_y   (ready @0/0/0)
     logic [W-1:0] basis_neg68;
     assign basis_neg68 = {~dl_basis_m_y[0*W +: W][W-1], dl_basis_m_y[0*W +: W][W-2:0]};
     logic [W-1:0] dl_basis_neg68;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)))
-        u_dl_basis_neg68 (.clk(clk), .d(basis_neg68), .q(dl_basis_neg68));
+        u_dl_basis_neg68 (.clk(clk), .d(basis_neg68), .valid(valid_q[0 +: (((2*MAN_BITS + 16) - (0)) > 0 ? ((2*MAN_BITS + 16) - (0)) : 1)]), .q(dl_basis_neg68));
     // basis_px_x = basis_neg68 * basis_k_x   (ready @65/39/33)
     logic [W-1:0] basis_px_x;
     logic [2:0] fl_basis_px_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_px_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_neg68), .b(dl_basis_k_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 16]), .a(dl_basis_neg68), .b(dl_basis_k_x),
         .out_valid(op_valid_nc[16]), .y(basis_px_x), .flags(fl_basis_px_x)
     );
     assign ev_ovf[14] = fl_basis_px_x[0] && ev_q[2*MAN_BITS + 19];
@@ -569,12 +576,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[14] = fl_basis_px_x[2] && ev_q[2*MAN_BITS + 19];
     logic [W-1:0] dl_basis_px_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_px_x (.clk(clk), .d(basis_px_x), .q(dl_basis_px_x));
+        u_dl_basis_px_x (.clk(clk), .d(basis_px_x), .valid(1'b0), .q(dl_basis_px_x));
     // basis_px_y = basis_m_x * basis_k_x   (ready @65/39/33)
     logic [W-1:0] basis_px_y;
     logic [2:0] fl_basis_px_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_px_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_m_x[2*W +: W]), .b(dl_basis_k_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 16]), .a(dl_basis_m_x[2*W +: W]), .b(dl_basis_k_x),
         .out_valid(op_valid_nc[17]), .y(basis_px_y), .flags(fl_basis_px_y)
     );
     assign ev_ovf[15] = fl_basis_px_y[0] && ev_q[2*MAN_BITS + 19];
@@ -582,12 +589,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[15] = fl_basis_px_y[2] && ev_q[2*MAN_BITS + 19];
     logic [W-1:0] dl_basis_px_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_px_y (.clk(clk), .d(basis_px_y), .q(dl_basis_px_y));
+        u_dl_basis_px_y (.clk(clk), .d(basis_px_y), .valid(1'b0), .q(dl_basis_px_y));
     // basis_qx_x = basis_neg48 * basis_px_y   (ready @68/42/36)
     logic [W-1:0] basis_qx_x;
     logic [2:0] fl_basis_qx_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_qx_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_neg48[2*W +: W]), .b(dl_basis_px_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_neg48[2*W +: W]), .b(dl_basis_px_y),
         .out_valid(op_valid_nc[18]), .y(basis_qx_x), .flags(fl_basis_qx_x)
     );
     assign ev_ovf[16] = fl_basis_qx_x[0] && ev_q[2*MAN_BITS + 22];
@@ -595,12 +602,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[16] = fl_basis_qx_x[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_basis_qx_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_qx_x (.clk(clk), .d(basis_qx_x), .q(dl_basis_qx_x));
+        u_dl_basis_qx_x (.clk(clk), .d(basis_qx_x), .valid(1'b0), .q(dl_basis_qx_x));
     // basis_qx_y = basis_m_z * basis_px_x   (ready @68/42/36)
     logic [W-1:0] basis_qx_y;
     logic [2:0] fl_basis_qx_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_qx_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_m_z[1*W +: W]), .b(dl_basis_px_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_m_z[1*W +: W]), .b(dl_basis_px_x),
         .out_valid(op_valid_nc[19]), .y(basis_qx_y), .flags(fl_basis_qx_y)
     );
     assign ev_ovf[17] = fl_basis_qx_y[0] && ev_q[2*MAN_BITS + 22];
@@ -608,12 +615,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[17] = fl_basis_qx_y[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_basis_qx_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_qx_y (.clk(clk), .d(basis_qx_y), .q(dl_basis_qx_y));
+        u_dl_basis_qx_y (.clk(clk), .d(basis_qx_y), .valid(1'b0), .q(dl_basis_qx_y));
     // basis_qx_z = basis_a_x * basis_k_x   (ready @65/39/33)
     logic [W-1:0] basis_qx_z;
     logic [2:0] fl_basis_qx_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_basis_qx_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_a_x[1*W +: W]), .b(dl_basis_k_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 16]), .a(dl_basis_a_x[1*W +: W]), .b(dl_basis_k_x),
         .out_valid(op_valid_nc[20]), .y(basis_qx_z), .flags(fl_basis_qx_z)
     );
     assign ev_ovf[18] = fl_basis_qx_z[0] && ev_q[2*MAN_BITS + 19];
@@ -621,54 +628,54 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[18] = fl_basis_qx_z[2] && ev_q[2*MAN_BITS + 19];
     logic [W-1:0] dl_basis_qx_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (2*MAN_BITS + 19)))
-        u_dl_basis_qx_z (.clk(clk), .d(basis_qx_z), .q(dl_basis_qx_z));
+        u_dl_basis_qx_z (.clk(clk), .d(basis_qx_z), .valid(valid_q[2*MAN_BITS + 19 +: (((2*MAN_BITS + 22) - (2*MAN_BITS + 19)) > 0 ? ((2*MAN_BITS + 22) - (2*MAN_BITS + 19)) : 1)]), .q(dl_basis_qx_z));
     // basis_t0_x = basis_use_z ? 0.0 : basis_px_x   (ready @65/39/33)
     logic [W-1:0] basis_t0_x;
     assign basis_t0_x = dl_basis_use_z[1] ? K_ZERO : dl_basis_px_x;
     logic [W-1:0] dl_basis_t0_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_t0_x (.clk(clk), .d(basis_t0_x), .q(dl_basis_t0_x));
+        u_dl_basis_t0_x (.clk(clk), .d(basis_t0_x), .valid(1'b0), .q(dl_basis_t0_x));
     // basis_t0_y = basis_use_z ? basis_pz_y : basis_px_y   (ready @65/39/33)
     logic [W-1:0] basis_t0_y;
     assign basis_t0_y = dl_basis_use_z[1] ? dl_basis_pz_y : dl_basis_px_y;
     logic [W-1:0] dl_basis_t0_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_t0_y (.clk(clk), .d(basis_t0_y), .q(dl_basis_t0_y));
+        u_dl_basis_t0_y (.clk(clk), .d(basis_t0_y), .valid(1'b0), .q(dl_basis_t0_y));
     // basis_t0_z = basis_use_z ? basis_pz_z : 0.0   (ready @65/39/33)
     logic [W-1:0] basis_t0_z;
     assign basis_t0_z = dl_basis_use_z[1] ? dl_basis_pz_z : K_ZERO;
     logic [W-1:0] dl_basis_t0_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_basis_t0_z (.clk(clk), .d(basis_t0_z), .q(dl_basis_t0_z));
+        u_dl_basis_t0_z (.clk(clk), .d(basis_t0_z), .valid(1'b0), .q(dl_basis_t0_z));
     // basis_t1_x = basis_use_z ? basis_qz_x : basis_qx_x   (ready @68/42/36)
     logic [W-1:0] basis_t1_x;
     assign basis_t1_x = dl_basis_use_z[2] ? dl_basis_qz_x : dl_basis_qx_x;
     logic [2*W-1:0] dl_basis_t1_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), 32'(0)}))
-        u_dl_basis_t1_x (.clk(clk), .d(basis_t1_x), .q(dl_basis_t1_x));
+        u_dl_basis_t1_x (.clk(clk), .d(basis_t1_x), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 22)) : 1)]), .q(dl_basis_t1_x));
     // basis_t1_y = basis_use_z ? basis_qz_y : basis_qx_y   (ready @68/42/36)
     logic [W-1:0] basis_t1_y;
     assign basis_t1_y = dl_basis_use_z[2] ? dl_basis_qz_y : dl_basis_qx_y;
     logic [2*W-1:0] dl_basis_t1_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), 32'(0)}))
-        u_dl_basis_t1_y (.clk(clk), .d(basis_t1_y), .q(dl_basis_t1_y));
+        u_dl_basis_t1_y (.clk(clk), .d(basis_t1_y), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 22)) : 1)]), .q(dl_basis_t1_y));
     // basis_t1_z = basis_use_z ? basis_qz_z : basis_qx_z   (ready @68/42/36)
     logic [W-1:0] basis_t1_z;
     assign basis_t1_z = dl_basis_use_z[2] ? dl_basis_qz_z : dl_basis_qx_z;
     logic [2*W-1:0] dl_basis_t1_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), 32'(0)}))
-        u_dl_basis_t1_z (.clk(clk), .d(basis_t1_z), .q(dl_basis_t1_z));
+        u_dl_basis_t1_z (.clk(clk), .d(basis_t1_z), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 22)) : 1)]), .q(dl_basis_t1_z));
     // skip = f_jac_inv0 == 0   (ready @0/0/0)
     logic skip;
     assign skip = (dl_in_f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [5*1-1:0] dl_skip;
     pgs_delay #(.WIDTH(1), .DEPTH((2*MAN_BITS + 125) - (0)), .N_TAPS(5), .TAPS({32'((2*MAN_BITS + 125) - (0)), 32'((2*MAN_BITS + 104) - (0)), 32'((2*MAN_BITS + 93) - (0)), 32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 54) - (0))}))
-        u_dl_skip (.clk(clk), .d(skip), .q(dl_skip));
+        u_dl_skip (.clk(clk), .d(skip), .valid(valid_q[0 +: (((2*MAN_BITS + 125) - (0)) > 0 ? ((2*MAN_BITS + 125) - (0)) : 1)]), .q(dl_skip));
     // add81 = lam_n0 + lam_n1   (ready @4/4/4)
     logic [W-1:0] add81;
     logic [2:0] fl_add81;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add81 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam_n0), .b(dl_in_lam_n1), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n0), .b(dl_in_lam_n1), .sub(1'b0),
         .out_valid(op_valid_nc[21]), .y(add81), .flags(fl_add81)
     );
     assign ev_ovf[19] = fl_add81[0] && ev_q[4];
@@ -676,12 +683,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[19] = fl_add81[2] && ev_q[4];
     logic [W-1:0] dl_add81;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add81 (.clk(clk), .d(add81), .q(dl_add81));
+        u_dl_add81 (.clk(clk), .d(add81), .valid(1'b0), .q(dl_add81));
     // add82 = lam_n2 + lam_n3   (ready @4/4/4)
     logic [W-1:0] add82;
     logic [2:0] fl_add82;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add82 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lam_n2), .b(dl_in_lam_n3), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_lam_n2), .b(dl_in_lam_n3), .sub(1'b0),
         .out_valid(op_valid_nc[22]), .y(add82), .flags(fl_add82)
     );
     assign ev_ovf[20] = fl_add82[0] && ev_q[4];
@@ -689,12 +696,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[20] = fl_add82[2] && ev_q[4];
     logic [W-1:0] dl_add82;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add82 (.clk(clk), .d(add82), .q(dl_add82));
+        u_dl_add82 (.clk(clk), .d(add82), .valid(1'b0), .q(dl_add82));
     // add83 = add81 + add82   (ready @8/8/8)
     logic [W-1:0] add83;
     logic [2:0] fl_add83;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add83 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_add81), .b(dl_add82), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4]), .a(dl_add81), .b(dl_add82), .sub(1'b0),
         .out_valid(op_valid_nc[23]), .y(add83), .flags(fl_add83)
     );
     assign ev_ovf[21] = fl_add83[0] && ev_q[8];
@@ -702,12 +709,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[21] = fl_add83[2] && ev_q[8];
     logic [W-1:0] dl_add83;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add83 (.clk(clk), .d(add83), .q(dl_add83));
+        u_dl_add83 (.clk(clk), .d(add83), .valid(1'b0), .q(dl_add83));
     // limit = 0.7 * add83   (ready @11/11/11)
     logic [W-1:0] limit;
     logic [2:0] fl_limit;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_limit (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_MU), .b(dl_add83),
+        .clk(clk), .rst(rst), .in_valid(valid_q[8]), .a(K_MU), .b(dl_add83),
         .out_valid(op_valid_nc[24]), .y(limit), .flags(fl_limit)
     );
     assign ev_ovf[22] = fl_limit[0] && ev_q[11];
@@ -715,18 +722,18 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[22] = fl_limit[2] && ev_q[11];
     logic [3*W-1:0] dl_limit;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 92) - (11)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 92) - (11)), 32'((2*MAN_BITS + 53) - (11)), 32'(0)}))
-        u_dl_limit (.clk(clk), .d(limit), .q(dl_limit));
+        u_dl_limit (.clk(clk), .d(limit), .valid(valid_q[11 +: (((2*MAN_BITS + 92) - (11)) > 0 ? ((2*MAN_BITS + 92) - (11)) : 1)]), .q(dl_limit));
     // neg_limit = -limit   (ready @11/11/11)
     logic [W-1:0] neg_limit;
     assign neg_limit = {~dl_limit[0*W +: W][W-1], dl_limit[0*W +: W][W-2:0]};
     logic [2*W-1:0] dl_neg_limit;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 91) - (11)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 91) - (11)), 32'((2*MAN_BITS + 52) - (11))}))
-        u_dl_neg_limit (.clk(clk), .d(neg_limit), .q(dl_neg_limit));
+        u_dl_neg_limit (.clk(clk), .d(neg_limit), .valid(valid_q[11 +: (((2*MAN_BITS + 91) - (11)) > 0 ? ((2*MAN_BITS + 91) - (11)) : 1)]), .q(dl_neg_limit));
     // rA_x = c_x - xA_x   (ready @4/4/4)
     logic [W-1:0] rA_x;
     logic [2:0] fl_rA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_x), .b(dl_in_xA_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xA_x), .sub(1'b1),
         .out_valid(op_valid_nc[25]), .y(rA_x), .flags(fl_rA_x)
     );
     assign ev_ovf[23] = fl_rA_x[0] && ev_q[4];
@@ -734,12 +741,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[23] = fl_rA_x[2] && ev_q[4];
     logic [2*W-1:0] dl_rA_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}))
-        u_dl_rA_x (.clk(clk), .d(rA_x), .q(dl_rA_x));
+        u_dl_rA_x (.clk(clk), .d(rA_x), .valid(valid_q[4 +: (((2*MAN_BITS + 22) - (4)) > 0 ? ((2*MAN_BITS + 22) - (4)) : 1)]), .q(dl_rA_x));
     // rA_y = c_y - xA_y   (ready @4/4/4)
     logic [W-1:0] rA_y;
     logic [2:0] fl_rA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_y), .b(dl_in_xA_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xA_y), .sub(1'b1),
         .out_valid(op_valid_nc[26]), .y(rA_y), .flags(fl_rA_y)
     );
     assign ev_ovf[24] = fl_rA_y[0] && ev_q[4];
@@ -747,12 +754,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[24] = fl_rA_y[2] && ev_q[4];
     logic [2*W-1:0] dl_rA_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}))
-        u_dl_rA_y (.clk(clk), .d(rA_y), .q(dl_rA_y));
+        u_dl_rA_y (.clk(clk), .d(rA_y), .valid(valid_q[4 +: (((2*MAN_BITS + 22) - (4)) > 0 ? ((2*MAN_BITS + 22) - (4)) : 1)]), .q(dl_rA_y));
     // rA_z = c_z - xA_z   (ready @4/4/4)
     logic [W-1:0] rA_z;
     logic [2:0] fl_rA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_z), .b(dl_in_xA_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xA_z), .sub(1'b1),
         .out_valid(op_valid_nc[27]), .y(rA_z), .flags(fl_rA_z)
     );
     assign ev_ovf[25] = fl_rA_z[0] && ev_q[4];
@@ -760,12 +767,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[25] = fl_rA_z[2] && ev_q[4];
     logic [2*W-1:0] dl_rA_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}))
-        u_dl_rA_z (.clk(clk), .d(rA_z), .q(dl_rA_z));
+        u_dl_rA_z (.clk(clk), .d(rA_z), .valid(valid_q[4 +: (((2*MAN_BITS + 22) - (4)) > 0 ? ((2*MAN_BITS + 22) - (4)) : 1)]), .q(dl_rA_z));
     // rB_x = c_x - xB_x   (ready @4/4/4)
     logic [W-1:0] rB_x;
     logic [2:0] fl_rB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_x), .b(dl_in_xB_x), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_x), .b(dl_in_xB_x), .sub(1'b1),
         .out_valid(op_valid_nc[28]), .y(rB_x), .flags(fl_rB_x)
     );
     assign ev_ovf[26] = fl_rB_x[0] && ev_q[4];
@@ -773,12 +780,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[26] = fl_rB_x[2] && ev_q[4];
     logic [2*W-1:0] dl_rB_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}))
-        u_dl_rB_x (.clk(clk), .d(rB_x), .q(dl_rB_x));
+        u_dl_rB_x (.clk(clk), .d(rB_x), .valid(valid_q[4 +: (((2*MAN_BITS + 22) - (4)) > 0 ? ((2*MAN_BITS + 22) - (4)) : 1)]), .q(dl_rB_x));
     // rB_y = c_y - xB_y   (ready @4/4/4)
     logic [W-1:0] rB_y;
     logic [2:0] fl_rB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_y), .b(dl_in_xB_y), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_y), .b(dl_in_xB_y), .sub(1'b1),
         .out_valid(op_valid_nc[29]), .y(rB_y), .flags(fl_rB_y)
     );
     assign ev_ovf[27] = fl_rB_y[0] && ev_q[4];
@@ -786,12 +793,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[27] = fl_rB_y[2] && ev_q[4];
     logic [2*W-1:0] dl_rB_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}))
-        u_dl_rB_y (.clk(clk), .d(rB_y), .q(dl_rB_y));
+        u_dl_rB_y (.clk(clk), .d(rB_y), .valid(valid_q[4 +: (((2*MAN_BITS + 22) - (4)) > 0 ? ((2*MAN_BITS + 22) - (4)) : 1)]), .q(dl_rB_y));
     // rB_z = c_z - xB_z   (ready @4/4/4)
     logic [W-1:0] rB_z;
     logic [2:0] fl_rB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_rB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_c_z), .b(dl_in_xB_z), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_c_z), .b(dl_in_xB_z), .sub(1'b1),
         .out_valid(op_valid_nc[30]), .y(rB_z), .flags(fl_rB_z)
     );
     assign ev_ovf[28] = fl_rB_z[0] && ev_q[4];
@@ -799,12 +806,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[28] = fl_rB_z[2] && ev_q[4];
     logic [2*W-1:0] dl_rB_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}))
-        u_dl_rB_z (.clk(clk), .d(rB_z), .q(dl_rB_z));
+        u_dl_rB_z (.clk(clk), .d(rB_z), .valid(valid_q[4 +: (((2*MAN_BITS + 22) - (4)) > 0 ? ((2*MAN_BITS + 22) - (4)) : 1)]), .q(dl_rB_z));
     // t0_mul92 = rA_y * basis_t0_z   (ready @68/42/36)
     logic [W-1:0] t0_mul92;
     logic [2:0] fl_t0_mul92;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul92 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y[0*W +: W]), .b(dl_basis_t0_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_rA_y[0*W +: W]), .b(dl_basis_t0_z),
         .out_valid(op_valid_nc[31]), .y(t0_mul92), .flags(fl_t0_mul92)
     );
     assign ev_ovf[29] = fl_t0_mul92[0] && ev_q[2*MAN_BITS + 22];
@@ -812,12 +819,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[29] = fl_t0_mul92[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul92;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul92 (.clk(clk), .d(t0_mul92), .q(dl_t0_mul92));
+        u_dl_t0_mul92 (.clk(clk), .d(t0_mul92), .valid(1'b0), .q(dl_t0_mul92));
     // t0_mul93 = rA_z * basis_t0_y   (ready @68/42/36)
     logic [W-1:0] t0_mul93;
     logic [2:0] fl_t0_mul93;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul93 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z[0*W +: W]), .b(dl_basis_t0_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_rA_z[0*W +: W]), .b(dl_basis_t0_y),
         .out_valid(op_valid_nc[32]), .y(t0_mul93), .flags(fl_t0_mul93)
     );
     assign ev_ovf[30] = fl_t0_mul93[0] && ev_q[2*MAN_BITS + 22];
@@ -825,12 +832,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[30] = fl_t0_mul93[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul93;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul93 (.clk(clk), .d(t0_mul93), .q(dl_t0_mul93));
+        u_dl_t0_mul93 (.clk(clk), .d(t0_mul93), .valid(1'b0), .q(dl_t0_mul93));
     // t0_cA_x = t0_mul92 - t0_mul93   (ready @72/46/40)
     logic [W-1:0] t0_cA_x;
     logic [2:0] fl_t0_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul92), .b(dl_t0_mul93), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul92), .b(dl_t0_mul93), .sub(1'b1),
         .out_valid(op_valid_nc[33]), .y(t0_cA_x), .flags(fl_t0_cA_x)
     );
     assign ev_ovf[31] = fl_t0_cA_x[0] && ev_q[2*MAN_BITS + 26];
@@ -838,12 +845,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[31] = fl_t0_cA_x[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cA_x (.clk(clk), .d(t0_cA_x), .q(dl_t0_cA_x));
+        u_dl_t0_cA_x (.clk(clk), .d(t0_cA_x), .valid(1'b0), .q(dl_t0_cA_x));
     // t0_mul95 = rA_z * basis_t0_x   (ready @68/42/36)
     logic [W-1:0] t0_mul95;
     logic [2:0] fl_t0_mul95;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul95 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z[0*W +: W]), .b(dl_basis_t0_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_rA_z[0*W +: W]), .b(dl_basis_t0_x),
         .out_valid(op_valid_nc[34]), .y(t0_mul95), .flags(fl_t0_mul95)
     );
     assign ev_ovf[32] = fl_t0_mul95[0] && ev_q[2*MAN_BITS + 22];
@@ -851,12 +858,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[32] = fl_t0_mul95[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul95;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul95 (.clk(clk), .d(t0_mul95), .q(dl_t0_mul95));
+        u_dl_t0_mul95 (.clk(clk), .d(t0_mul95), .valid(1'b0), .q(dl_t0_mul95));
     // t0_mul96 = rA_x * basis_t0_z   (ready @68/42/36)
     logic [W-1:0] t0_mul96;
     logic [2:0] fl_t0_mul96;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul96 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x[0*W +: W]), .b(dl_basis_t0_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_rA_x[0*W +: W]), .b(dl_basis_t0_z),
         .out_valid(op_valid_nc[35]), .y(t0_mul96), .flags(fl_t0_mul96)
     );
     assign ev_ovf[33] = fl_t0_mul96[0] && ev_q[2*MAN_BITS + 22];
@@ -864,12 +871,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[33] = fl_t0_mul96[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul96;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul96 (.clk(clk), .d(t0_mul96), .q(dl_t0_mul96));
+        u_dl_t0_mul96 (.clk(clk), .d(t0_mul96), .valid(1'b0), .q(dl_t0_mul96));
     // t0_cA_y = t0_mul95 - t0_mul96   (ready @72/46/40)
     logic [W-1:0] t0_cA_y;
     logic [2:0] fl_t0_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul95), .b(dl_t0_mul96), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul95), .b(dl_t0_mul96), .sub(1'b1),
         .out_valid(op_valid_nc[36]), .y(t0_cA_y), .flags(fl_t0_cA_y)
     );
     assign ev_ovf[34] = fl_t0_cA_y[0] && ev_q[2*MAN_BITS + 26];
@@ -877,12 +884,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[34] = fl_t0_cA_y[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cA_y (.clk(clk), .d(t0_cA_y), .q(dl_t0_cA_y));
+        u_dl_t0_cA_y (.clk(clk), .d(t0_cA_y), .valid(1'b0), .q(dl_t0_cA_y));
     // t0_mul98 = rA_x * basis_t0_y   (ready @68/42/36)
     logic [W-1:0] t0_mul98;
     logic [2:0] fl_t0_mul98;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul98 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x[0*W +: W]), .b(dl_basis_t0_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_rA_x[0*W +: W]), .b(dl_basis_t0_y),
         .out_valid(op_valid_nc[37]), .y(t0_mul98), .flags(fl_t0_mul98)
     );
     assign ev_ovf[35] = fl_t0_mul98[0] && ev_q[2*MAN_BITS + 22];
@@ -890,12 +897,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[35] = fl_t0_mul98[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul98;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul98 (.clk(clk), .d(t0_mul98), .q(dl_t0_mul98));
+        u_dl_t0_mul98 (.clk(clk), .d(t0_mul98), .valid(1'b0), .q(dl_t0_mul98));
     // t0_mul99 = rA_y * basis_t0_x   (ready @68/42/36)
     logic [W-1:0] t0_mul99;
     logic [2:0] fl_t0_mul99;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul99 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y[0*W +: W]), .b(dl_basis_t0_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_rA_y[0*W +: W]), .b(dl_basis_t0_x),
         .out_valid(op_valid_nc[38]), .y(t0_mul99), .flags(fl_t0_mul99)
     );
     assign ev_ovf[36] = fl_t0_mul99[0] && ev_q[2*MAN_BITS + 22];
@@ -903,12 +910,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[36] = fl_t0_mul99[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul99;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul99 (.clk(clk), .d(t0_mul99), .q(dl_t0_mul99));
+        u_dl_t0_mul99 (.clk(clk), .d(t0_mul99), .valid(1'b0), .q(dl_t0_mul99));
     // t0_cA_z = t0_mul98 - t0_mul99   (ready @72/46/40)
     logic [W-1:0] t0_cA_z;
     logic [2:0] fl_t0_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul98), .b(dl_t0_mul99), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul98), .b(dl_t0_mul99), .sub(1'b1),
         .out_valid(op_valid_nc[39]), .y(t0_cA_z), .flags(fl_t0_cA_z)
     );
     assign ev_ovf[37] = fl_t0_cA_z[0] && ev_q[2*MAN_BITS + 26];
@@ -916,12 +923,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[37] = fl_t0_cA_z[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cA_z (.clk(clk), .d(t0_cA_z), .q(dl_t0_cA_z));
+        u_dl_t0_cA_z (.clk(clk), .d(t0_cA_z), .valid(1'b0), .q(dl_t0_cA_z));
     // t0_mul101 = rB_y * basis_t0_z   (ready @68/42/36)
     logic [W-1:0] t0_mul101;
     logic [2:0] fl_t0_mul101;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul101 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y[0*W +: W]), .b(dl_basis_t0_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_rB_y[0*W +: W]), .b(dl_basis_t0_z),
         .out_valid(op_valid_nc[40]), .y(t0_mul101), .flags(fl_t0_mul101)
     );
     assign ev_ovf[38] = fl_t0_mul101[0] && ev_q[2*MAN_BITS + 22];
@@ -929,12 +936,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[38] = fl_t0_mul101[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul101;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul101 (.clk(clk), .d(t0_mul101), .q(dl_t0_mul101));
+        u_dl_t0_mul101 (.clk(clk), .d(t0_mul101), .valid(1'b0), .q(dl_t0_mul101));
     // t0_mul102 = rB_z * basis_t0_y   (ready @68/42/36)
     logic [W-1:0] t0_mul102;
     logic [2:0] fl_t0_mul102;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul102 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z[0*W +: W]), .b(dl_basis_t0_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_rB_z[0*W +: W]), .b(dl_basis_t0_y),
         .out_valid(op_valid_nc[41]), .y(t0_mul102), .flags(fl_t0_mul102)
     );
     assign ev_ovf[39] = fl_t0_mul102[0] && ev_q[2*MAN_BITS + 22];
@@ -942,12 +949,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[39] = fl_t0_mul102[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul102;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul102 (.clk(clk), .d(t0_mul102), .q(dl_t0_mul102));
+        u_dl_t0_mul102 (.clk(clk), .d(t0_mul102), .valid(1'b0), .q(dl_t0_mul102));
     // t0_cB_x = t0_mul101 - t0_mul102   (ready @72/46/40)
     logic [W-1:0] t0_cB_x;
     logic [2:0] fl_t0_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul101), .b(dl_t0_mul102), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul101), .b(dl_t0_mul102), .sub(1'b1),
         .out_valid(op_valid_nc[42]), .y(t0_cB_x), .flags(fl_t0_cB_x)
     );
     assign ev_ovf[40] = fl_t0_cB_x[0] && ev_q[2*MAN_BITS + 26];
@@ -955,12 +962,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[40] = fl_t0_cB_x[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cB_x (.clk(clk), .d(t0_cB_x), .q(dl_t0_cB_x));
+        u_dl_t0_cB_x (.clk(clk), .d(t0_cB_x), .valid(1'b0), .q(dl_t0_cB_x));
     // t0_mul104 = rB_z * basis_t0_x   (ready @68/42/36)
     logic [W-1:0] t0_mul104;
     logic [2:0] fl_t0_mul104;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul104 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z[0*W +: W]), .b(dl_basis_t0_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_rB_z[0*W +: W]), .b(dl_basis_t0_x),
         .out_valid(op_valid_nc[43]), .y(t0_mul104), .flags(fl_t0_mul104)
     );
     assign ev_ovf[41] = fl_t0_mul104[0] && ev_q[2*MAN_BITS + 22];
@@ -968,12 +975,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[41] = fl_t0_mul104[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul104;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul104 (.clk(clk), .d(t0_mul104), .q(dl_t0_mul104));
+        u_dl_t0_mul104 (.clk(clk), .d(t0_mul104), .valid(1'b0), .q(dl_t0_mul104));
     // t0_mul105 = rB_x * basis_t0_z   (ready @68/42/36)
     logic [W-1:0] t0_mul105;
     logic [2:0] fl_t0_mul105;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul105 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x[0*W +: W]), .b(dl_basis_t0_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_rB_x[0*W +: W]), .b(dl_basis_t0_z),
         .out_valid(op_valid_nc[44]), .y(t0_mul105), .flags(fl_t0_mul105)
     );
     assign ev_ovf[42] = fl_t0_mul105[0] && ev_q[2*MAN_BITS + 22];
@@ -981,12 +988,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[42] = fl_t0_mul105[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul105;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul105 (.clk(clk), .d(t0_mul105), .q(dl_t0_mul105));
+        u_dl_t0_mul105 (.clk(clk), .d(t0_mul105), .valid(1'b0), .q(dl_t0_mul105));
     // t0_cB_y = t0_mul104 - t0_mul105   (ready @72/46/40)
     logic [W-1:0] t0_cB_y;
     logic [2:0] fl_t0_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul104), .b(dl_t0_mul105), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul104), .b(dl_t0_mul105), .sub(1'b1),
         .out_valid(op_valid_nc[45]), .y(t0_cB_y), .flags(fl_t0_cB_y)
     );
     assign ev_ovf[43] = fl_t0_cB_y[0] && ev_q[2*MAN_BITS + 26];
@@ -994,12 +1001,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[43] = fl_t0_cB_y[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cB_y (.clk(clk), .d(t0_cB_y), .q(dl_t0_cB_y));
+        u_dl_t0_cB_y (.clk(clk), .d(t0_cB_y), .valid(1'b0), .q(dl_t0_cB_y));
     // t0_mul107 = rB_x * basis_t0_y   (ready @68/42/36)
     logic [W-1:0] t0_mul107;
     logic [2:0] fl_t0_mul107;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul107 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x[0*W +: W]), .b(dl_basis_t0_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_rB_x[0*W +: W]), .b(dl_basis_t0_y),
         .out_valid(op_valid_nc[46]), .y(t0_mul107), .flags(fl_t0_mul107)
     );
     assign ev_ovf[44] = fl_t0_mul107[0] && ev_q[2*MAN_BITS + 22];
@@ -1007,12 +1014,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[44] = fl_t0_mul107[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul107;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul107 (.clk(clk), .d(t0_mul107), .q(dl_t0_mul107));
+        u_dl_t0_mul107 (.clk(clk), .d(t0_mul107), .valid(1'b0), .q(dl_t0_mul107));
     // t0_mul108 = rB_y * basis_t0_x   (ready @68/42/36)
     logic [W-1:0] t0_mul108;
     logic [2:0] fl_t0_mul108;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul108 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y[0*W +: W]), .b(dl_basis_t0_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_rB_y[0*W +: W]), .b(dl_basis_t0_x),
         .out_valid(op_valid_nc[47]), .y(t0_mul108), .flags(fl_t0_mul108)
     );
     assign ev_ovf[45] = fl_t0_mul108[0] && ev_q[2*MAN_BITS + 22];
@@ -1020,12 +1027,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[45] = fl_t0_mul108[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul108;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul108 (.clk(clk), .d(t0_mul108), .q(dl_t0_mul108));
+        u_dl_t0_mul108 (.clk(clk), .d(t0_mul108), .valid(1'b0), .q(dl_t0_mul108));
     // t0_cB_z = t0_mul107 - t0_mul108   (ready @72/46/40)
     logic [W-1:0] t0_cB_z;
     logic [2:0] fl_t0_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul107), .b(dl_t0_mul108), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul107), .b(dl_t0_mul108), .sub(1'b1),
         .out_valid(op_valid_nc[48]), .y(t0_cB_z), .flags(fl_t0_cB_z)
     );
     assign ev_ovf[46] = fl_t0_cB_z[0] && ev_q[2*MAN_BITS + 26];
@@ -1033,12 +1040,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[46] = fl_t0_cB_z[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_cB_z (.clk(clk), .d(t0_cB_z), .q(dl_t0_cB_z));
+        u_dl_t0_cB_z (.clk(clk), .d(t0_cB_z), .valid(1'b0), .q(dl_t0_cB_z));
     // t0_mul110 = basis_t0_x * vA_x   (ready @68/42/36)
     logic [W-1:0] t0_mul110;
     logic [2:0] fl_t0_mul110;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul110 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t0_x), .b(dl_in_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_t0_x), .b(dl_in_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[49]), .y(t0_mul110), .flags(fl_t0_mul110)
     );
     assign ev_ovf[47] = fl_t0_mul110[0] && ev_q[2*MAN_BITS + 22];
@@ -1046,12 +1053,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[47] = fl_t0_mul110[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul110;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul110 (.clk(clk), .d(t0_mul110), .q(dl_t0_mul110));
+        u_dl_t0_mul110 (.clk(clk), .d(t0_mul110), .valid(1'b0), .q(dl_t0_mul110));
     // t0_mul111 = basis_t0_y * vA_y   (ready @68/42/36)
     logic [W-1:0] t0_mul111;
     logic [2:0] fl_t0_mul111;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul111 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t0_y), .b(dl_in_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_t0_y), .b(dl_in_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[50]), .y(t0_mul111), .flags(fl_t0_mul111)
     );
     assign ev_ovf[48] = fl_t0_mul111[0] && ev_q[2*MAN_BITS + 22];
@@ -1059,12 +1066,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[48] = fl_t0_mul111[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul111;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul111 (.clk(clk), .d(t0_mul111), .q(dl_t0_mul111));
+        u_dl_t0_mul111 (.clk(clk), .d(t0_mul111), .valid(1'b0), .q(dl_t0_mul111));
     // t0_add112 = t0_mul110 + t0_mul111   (ready @72/46/40)
     logic [W-1:0] t0_add112;
     logic [2:0] fl_t0_add112;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add112 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul110), .b(dl_t0_mul111), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul110), .b(dl_t0_mul111), .sub(1'b0),
         .out_valid(op_valid_nc[51]), .y(t0_add112), .flags(fl_t0_add112)
     );
     assign ev_ovf[49] = fl_t0_add112[0] && ev_q[2*MAN_BITS + 26];
@@ -1072,12 +1079,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[49] = fl_t0_add112[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_add112;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add112 (.clk(clk), .d(t0_add112), .q(dl_t0_add112));
+        u_dl_t0_add112 (.clk(clk), .d(t0_add112), .valid(1'b0), .q(dl_t0_add112));
     // t0_mul113 = basis_t0_z * vA_z   (ready @68/42/36)
     logic [W-1:0] t0_mul113;
     logic [2:0] fl_t0_mul113;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul113 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t0_z), .b(dl_in_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_t0_z), .b(dl_in_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[52]), .y(t0_mul113), .flags(fl_t0_mul113)
     );
     assign ev_ovf[50] = fl_t0_mul113[0] && ev_q[2*MAN_BITS + 22];
@@ -1085,12 +1092,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[50] = fl_t0_mul113[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul113;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 26) - (2*MAN_BITS + 22)))
-        u_dl_t0_mul113 (.clk(clk), .d(t0_mul113), .q(dl_t0_mul113));
+        u_dl_t0_mul113 (.clk(clk), .d(t0_mul113), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 26) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 26) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_mul113));
     // t0_add114 = t0_add112 + t0_mul113   (ready @76/50/44)
     logic [W-1:0] t0_add114;
     logic [2:0] fl_t0_add114;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add114 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add112), .b(dl_t0_mul113), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_t0_add112), .b(dl_t0_mul113), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(t0_add114), .flags(fl_t0_add114)
     );
     assign ev_ovf[51] = fl_t0_add114[0] && ev_q[2*MAN_BITS + 30];
@@ -1098,12 +1105,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[51] = fl_t0_add114[2] && ev_q[2*MAN_BITS + 30];
     logic [W-1:0] dl_t0_add114;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add114 (.clk(clk), .d(t0_add114), .q(dl_t0_add114));
+        u_dl_t0_add114 (.clk(clk), .d(t0_add114), .valid(1'b0), .q(dl_t0_add114));
     // t0_mul115 = basis_t0_x * vB_x   (ready @68/42/36)
     logic [W-1:0] t0_mul115;
     logic [2:0] fl_t0_mul115;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul115 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t0_x), .b(dl_in_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_t0_x), .b(dl_in_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[54]), .y(t0_mul115), .flags(fl_t0_mul115)
     );
     assign ev_ovf[52] = fl_t0_mul115[0] && ev_q[2*MAN_BITS + 22];
@@ -1111,12 +1118,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[52] = fl_t0_mul115[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul115;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul115 (.clk(clk), .d(t0_mul115), .q(dl_t0_mul115));
+        u_dl_t0_mul115 (.clk(clk), .d(t0_mul115), .valid(1'b0), .q(dl_t0_mul115));
     // t0_mul116 = basis_t0_y * vB_y   (ready @68/42/36)
     logic [W-1:0] t0_mul116;
     logic [2:0] fl_t0_mul116;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul116 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t0_y), .b(dl_in_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_t0_y), .b(dl_in_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[55]), .y(t0_mul116), .flags(fl_t0_mul116)
     );
     assign ev_ovf[53] = fl_t0_mul116[0] && ev_q[2*MAN_BITS + 22];
@@ -1124,12 +1131,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[53] = fl_t0_mul116[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul116;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul116 (.clk(clk), .d(t0_mul116), .q(dl_t0_mul116));
+        u_dl_t0_mul116 (.clk(clk), .d(t0_mul116), .valid(1'b0), .q(dl_t0_mul116));
     // t0_add117 = t0_mul115 + t0_mul116   (ready @72/46/40)
     logic [W-1:0] t0_add117;
     logic [2:0] fl_t0_add117;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add117 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul115), .b(dl_t0_mul116), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_t0_mul115), .b(dl_t0_mul116), .sub(1'b0),
         .out_valid(op_valid_nc[56]), .y(t0_add117), .flags(fl_t0_add117)
     );
     assign ev_ovf[54] = fl_t0_add117[0] && ev_q[2*MAN_BITS + 26];
@@ -1137,12 +1144,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[54] = fl_t0_add117[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_add117;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add117 (.clk(clk), .d(t0_add117), .q(dl_t0_add117));
+        u_dl_t0_add117 (.clk(clk), .d(t0_add117), .valid(1'b0), .q(dl_t0_add117));
     // t0_mul118 = basis_t0_z * vB_z   (ready @68/42/36)
     logic [W-1:0] t0_mul118;
     logic [2:0] fl_t0_mul118;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul118 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t0_z), .b(dl_in_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_t0_z), .b(dl_in_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[57]), .y(t0_mul118), .flags(fl_t0_mul118)
     );
     assign ev_ovf[55] = fl_t0_mul118[0] && ev_q[2*MAN_BITS + 22];
@@ -1150,12 +1157,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[55] = fl_t0_mul118[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul118;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 26) - (2*MAN_BITS + 22)))
-        u_dl_t0_mul118 (.clk(clk), .d(t0_mul118), .q(dl_t0_mul118));
+        u_dl_t0_mul118 (.clk(clk), .d(t0_mul118), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 26) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 26) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_mul118));
     // t0_add119 = t0_add117 + t0_mul118   (ready @76/50/44)
     logic [W-1:0] t0_add119;
     logic [2:0] fl_t0_add119;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add119 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add117), .b(dl_t0_mul118), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_t0_add117), .b(dl_t0_mul118), .sub(1'b0),
         .out_valid(op_valid_nc[58]), .y(t0_add119), .flags(fl_t0_add119)
     );
     assign ev_ovf[56] = fl_t0_add119[0] && ev_q[2*MAN_BITS + 30];
@@ -1163,12 +1170,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[56] = fl_t0_add119[2] && ev_q[2*MAN_BITS + 30];
     logic [W-1:0] dl_t0_add119;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add119 (.clk(clk), .d(t0_add119), .q(dl_t0_add119));
+        u_dl_t0_add119 (.clk(clk), .d(t0_add119), .valid(1'b0), .q(dl_t0_add119));
     // t0_sub120 = t0_add114 - t0_add119   (ready @80/54/48)
     logic [W-1:0] t0_sub120;
     logic [2:0] fl_t0_sub120;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub120 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add114), .b(dl_t0_add119), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 30]), .a(dl_t0_add114), .b(dl_t0_add119), .sub(1'b1),
         .out_valid(op_valid_nc[59]), .y(t0_sub120), .flags(fl_t0_sub120)
     );
     assign ev_ovf[57] = fl_t0_sub120[0] && ev_q[2*MAN_BITS + 34];
@@ -1176,12 +1183,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[57] = fl_t0_sub120[2] && ev_q[2*MAN_BITS + 34];
     logic [W-1:0] dl_t0_sub120;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 41) - (2*MAN_BITS + 34)))
-        u_dl_t0_sub120 (.clk(clk), .d(t0_sub120), .q(dl_t0_sub120));
+        u_dl_t0_sub120 (.clk(clk), .d(t0_sub120), .valid(valid_q[2*MAN_BITS + 34 +: (((2*MAN_BITS + 41) - (2*MAN_BITS + 34)) > 0 ? ((2*MAN_BITS + 41) - (2*MAN_BITS + 34)) : 1)]), .q(dl_t0_sub120));
     // t0_mul121 = t0_cA_x * wA_x   (ready @75/49/43)
     logic [W-1:0] t0_mul121;
     logic [2:0] fl_t0_mul121;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul121 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_x), .b(dl_in_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_t0_cA_x), .b(dl_in_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[60]), .y(t0_mul121), .flags(fl_t0_mul121)
     );
     assign ev_ovf[58] = fl_t0_mul121[0] && ev_q[2*MAN_BITS + 29];
@@ -1189,12 +1196,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[58] = fl_t0_mul121[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_mul121;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul121 (.clk(clk), .d(t0_mul121), .q(dl_t0_mul121));
+        u_dl_t0_mul121 (.clk(clk), .d(t0_mul121), .valid(1'b0), .q(dl_t0_mul121));
     // t0_mul122 = t0_cA_y * wA_y   (ready @75/49/43)
     logic [W-1:0] t0_mul122;
     logic [2:0] fl_t0_mul122;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul122 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_y), .b(dl_in_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_t0_cA_y), .b(dl_in_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[61]), .y(t0_mul122), .flags(fl_t0_mul122)
     );
     assign ev_ovf[59] = fl_t0_mul122[0] && ev_q[2*MAN_BITS + 29];
@@ -1202,12 +1209,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[59] = fl_t0_mul122[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_mul122;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul122 (.clk(clk), .d(t0_mul122), .q(dl_t0_mul122));
+        u_dl_t0_mul122 (.clk(clk), .d(t0_mul122), .valid(1'b0), .q(dl_t0_mul122));
     // t0_add123 = t0_mul121 + t0_mul122   (ready @79/53/47)
     logic [W-1:0] t0_add123;
     logic [2:0] fl_t0_add123;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add123 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul121), .b(dl_t0_mul122), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 29]), .a(dl_t0_mul121), .b(dl_t0_mul122), .sub(1'b0),
         .out_valid(op_valid_nc[62]), .y(t0_add123), .flags(fl_t0_add123)
     );
     assign ev_ovf[60] = fl_t0_add123[0] && ev_q[2*MAN_BITS + 33];
@@ -1215,12 +1222,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[60] = fl_t0_add123[2] && ev_q[2*MAN_BITS + 33];
     logic [W-1:0] dl_t0_add123;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add123 (.clk(clk), .d(t0_add123), .q(dl_t0_add123));
+        u_dl_t0_add123 (.clk(clk), .d(t0_add123), .valid(1'b0), .q(dl_t0_add123));
     // t0_mul124 = t0_cA_z * wA_z   (ready @75/49/43)
     logic [W-1:0] t0_mul124;
     logic [2:0] fl_t0_mul124;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul124 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cA_z), .b(dl_in_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_t0_cA_z), .b(dl_in_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[63]), .y(t0_mul124), .flags(fl_t0_mul124)
     );
     assign ev_ovf[61] = fl_t0_mul124[0] && ev_q[2*MAN_BITS + 29];
@@ -1228,12 +1235,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[61] = fl_t0_mul124[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_mul124;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 33) - (2*MAN_BITS + 29)))
-        u_dl_t0_mul124 (.clk(clk), .d(t0_mul124), .q(dl_t0_mul124));
+        u_dl_t0_mul124 (.clk(clk), .d(t0_mul124), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 33) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 33) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_mul124));
     // t0_add125 = t0_add123 + t0_mul124   (ready @83/57/51)
     logic [W-1:0] t0_add125;
     logic [2:0] fl_t0_add125;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add125 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add123), .b(dl_t0_mul124), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 33]), .a(dl_t0_add123), .b(dl_t0_mul124), .sub(1'b0),
         .out_valid(op_valid_nc[64]), .y(t0_add125), .flags(fl_t0_add125)
     );
     assign ev_ovf[62] = fl_t0_add125[0] && ev_q[2*MAN_BITS + 37];
@@ -1241,12 +1248,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[62] = fl_t0_add125[2] && ev_q[2*MAN_BITS + 37];
     logic [W-1:0] dl_t0_add125;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add125 (.clk(clk), .d(t0_add125), .q(dl_t0_add125));
+        u_dl_t0_add125 (.clk(clk), .d(t0_add125), .valid(1'b0), .q(dl_t0_add125));
     // t0_mul126 = t0_cB_x * wB_x   (ready @75/49/43)
     logic [W-1:0] t0_mul126;
     logic [2:0] fl_t0_mul126;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul126 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_x), .b(dl_in_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_t0_cB_x), .b(dl_in_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[65]), .y(t0_mul126), .flags(fl_t0_mul126)
     );
     assign ev_ovf[63] = fl_t0_mul126[0] && ev_q[2*MAN_BITS + 29];
@@ -1254,12 +1261,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[63] = fl_t0_mul126[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_mul126;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul126 (.clk(clk), .d(t0_mul126), .q(dl_t0_mul126));
+        u_dl_t0_mul126 (.clk(clk), .d(t0_mul126), .valid(1'b0), .q(dl_t0_mul126));
     // t0_mul127 = t0_cB_y * wB_y   (ready @75/49/43)
     logic [W-1:0] t0_mul127;
     logic [2:0] fl_t0_mul127;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul127 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_y), .b(dl_in_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_t0_cB_y), .b(dl_in_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[66]), .y(t0_mul127), .flags(fl_t0_mul127)
     );
     assign ev_ovf[64] = fl_t0_mul127[0] && ev_q[2*MAN_BITS + 29];
@@ -1267,12 +1274,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[64] = fl_t0_mul127[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_mul127;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul127 (.clk(clk), .d(t0_mul127), .q(dl_t0_mul127));
+        u_dl_t0_mul127 (.clk(clk), .d(t0_mul127), .valid(1'b0), .q(dl_t0_mul127));
     // t0_add128 = t0_mul126 + t0_mul127   (ready @79/53/47)
     logic [W-1:0] t0_add128;
     logic [2:0] fl_t0_add128;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add128 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_mul126), .b(dl_t0_mul127), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 29]), .a(dl_t0_mul126), .b(dl_t0_mul127), .sub(1'b0),
         .out_valid(op_valid_nc[67]), .y(t0_add128), .flags(fl_t0_add128)
     );
     assign ev_ovf[65] = fl_t0_add128[0] && ev_q[2*MAN_BITS + 33];
@@ -1280,12 +1287,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[65] = fl_t0_add128[2] && ev_q[2*MAN_BITS + 33];
     logic [W-1:0] dl_t0_add128;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add128 (.clk(clk), .d(t0_add128), .q(dl_t0_add128));
+        u_dl_t0_add128 (.clk(clk), .d(t0_add128), .valid(1'b0), .q(dl_t0_add128));
     // t0_mul129 = t0_cB_z * wB_z   (ready @75/49/43)
     logic [W-1:0] t0_mul129;
     logic [2:0] fl_t0_mul129;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul129 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_cB_z), .b(dl_in_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_t0_cB_z), .b(dl_in_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[68]), .y(t0_mul129), .flags(fl_t0_mul129)
     );
     assign ev_ovf[66] = fl_t0_mul129[0] && ev_q[2*MAN_BITS + 29];
@@ -1293,12 +1300,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[66] = fl_t0_mul129[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_mul129;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 33) - (2*MAN_BITS + 29)))
-        u_dl_t0_mul129 (.clk(clk), .d(t0_mul129), .q(dl_t0_mul129));
+        u_dl_t0_mul129 (.clk(clk), .d(t0_mul129), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 33) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 33) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_mul129));
     // t0_add130 = t0_add128 + t0_mul129   (ready @83/57/51)
     logic [W-1:0] t0_add130;
     logic [2:0] fl_t0_add130;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add130 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add128), .b(dl_t0_mul129), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 33]), .a(dl_t0_add128), .b(dl_t0_mul129), .sub(1'b0),
         .out_valid(op_valid_nc[69]), .y(t0_add130), .flags(fl_t0_add130)
     );
     assign ev_ovf[67] = fl_t0_add130[0] && ev_q[2*MAN_BITS + 37];
@@ -1306,12 +1313,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[67] = fl_t0_add130[2] && ev_q[2*MAN_BITS + 37];
     logic [W-1:0] dl_t0_add130;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add130 (.clk(clk), .d(t0_add130), .q(dl_t0_add130));
+        u_dl_t0_add130 (.clk(clk), .d(t0_add130), .valid(1'b0), .q(dl_t0_add130));
     // t0_sub131 = t0_add125 - t0_add130   (ready @87/61/55)
     logic [W-1:0] t0_sub131;
     logic [2:0] fl_t0_sub131;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub131 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add125), .b(dl_t0_add130), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 37]), .a(dl_t0_add125), .b(dl_t0_add130), .sub(1'b1),
         .out_valid(op_valid_nc[70]), .y(t0_sub131), .flags(fl_t0_sub131)
     );
     assign ev_ovf[68] = fl_t0_sub131[0] && ev_q[2*MAN_BITS + 41];
@@ -1319,12 +1326,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[68] = fl_t0_sub131[2] && ev_q[2*MAN_BITS + 41];
     logic [W-1:0] dl_t0_sub131;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub131 (.clk(clk), .d(t0_sub131), .q(dl_t0_sub131));
+        u_dl_t0_sub131 (.clk(clk), .d(t0_sub131), .valid(1'b0), .q(dl_t0_sub131));
     // t0_u = t0_sub120 + t0_sub131   (ready @91/65/59)
     logic [W-1:0] t0_u;
     logic [2:0] fl_t0_u;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_u (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_sub120), .b(dl_t0_sub131), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 41]), .a(dl_t0_sub120), .b(dl_t0_sub131), .sub(1'b0),
         .out_valid(op_valid_nc[71]), .y(t0_u), .flags(fl_t0_u)
     );
     assign ev_ovf[69] = fl_t0_u[0] && ev_q[2*MAN_BITS + 45];
@@ -1332,18 +1339,18 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[69] = fl_t0_u[2] && ev_q[2*MAN_BITS + 45];
     logic [W-1:0] dl_t0_u;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_u (.clk(clk), .d(t0_u), .q(dl_t0_u));
+        u_dl_t0_u (.clk(clk), .d(t0_u), .valid(1'b0), .q(dl_t0_u));
     // t0_neg133 = -t0_u   (ready @91/65/59)
     logic [W-1:0] t0_neg133;
     assign t0_neg133 = {~dl_t0_u[W-1], dl_t0_u[W-2:0]};
     logic [W-1:0] dl_t0_neg133;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_neg133 (.clk(clk), .d(t0_neg133), .q(dl_t0_neg133));
+        u_dl_t0_neg133 (.clk(clk), .d(t0_neg133), .valid(1'b0), .q(dl_t0_neg133));
     // t0_delta0 = t0_neg133 * f_jac_inv0   (ready @94/68/62)
     logic [W-1:0] t0_delta0;
     logic [2:0] fl_t0_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_neg133), .b(dl_in_f_jac_inv0[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 45]), .a(dl_t0_neg133), .b(dl_in_f_jac_inv0[1*W +: W]),
         .out_valid(op_valid_nc[72]), .y(t0_delta0), .flags(fl_t0_delta0)
     );
     assign ev_ovf[70] = fl_t0_delta0[0] && ev_q[2*MAN_BITS + 48];
@@ -1351,12 +1358,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[70] = fl_t0_delta0[2] && ev_q[2*MAN_BITS + 48];
     logic [W-1:0] dl_t0_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_delta0 (.clk(clk), .d(t0_delta0), .q(dl_t0_delta0));
+        u_dl_t0_delta0 (.clk(clk), .d(t0_delta0), .valid(1'b0), .q(dl_t0_delta0));
     // t0_add135 = lamT0 + t0_delta0   (ready @98/72/66)
     logic [W-1:0] t0_add135;
     logic [2:0] fl_t0_add135;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add135 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lamT0[0*W +: W]), .b(dl_t0_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 48]), .a(dl_in_lamT0[0*W +: W]), .b(dl_t0_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[73]), .y(t0_add135), .flags(fl_t0_add135)
     );
     assign ev_ovf[71] = fl_t0_add135[0] && ev_q[2*MAN_BITS + 52];
@@ -1364,32 +1371,32 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[71] = fl_t0_add135[2] && ev_q[2*MAN_BITS + 52];
     logic [W-1:0] dl_t0_add135;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add135 (.clk(clk), .d(t0_add135), .q(dl_t0_add135));
+        u_dl_t0_add135 (.clk(clk), .d(t0_add135), .valid(1'b0), .q(dl_t0_add135));
     // t0_max136 = max(t0_add135, neg_limit)   (ready @99/73/67)
     logic [W-1:0] t0_max136;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t0_max136 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_add135), .b(dl_neg_limit[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 52]), .a(dl_t0_add135), .b(dl_neg_limit[0*W +: W]),
         .out_valid(op_valid_nc[74]), .y_min(nc_t0_max136_min), .y_max(t0_max136),
         .lt(nc_t0_max136_lt), .eq(nc_t0_max136_eq), .unordered(nc_t0_max136_uo)
     );
     logic [W-1:0] dl_t0_max136;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_max136 (.clk(clk), .d(t0_max136), .q(dl_t0_max136));
+        u_dl_t0_max136 (.clk(clk), .d(t0_max136), .valid(1'b0), .q(dl_t0_max136));
     // t0_lam_new = min(t0_max136, limit)   (ready @100/74/68)
     logic [W-1:0] t0_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t0_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_max136), .b(dl_limit[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 53]), .a(dl_t0_max136), .b(dl_limit[1*W +: W]),
         .out_valid(op_valid_nc[75]), .y_min(t0_lam_new), .y_max(nc_t0_lam_new_max),
         .lt(nc_t0_lam_new_lt), .eq(nc_t0_lam_new_eq), .unordered(nc_t0_lam_new_uo)
     );
     logic [W-1:0] dl_t0_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_lam_new (.clk(clk), .d(t0_lam_new), .q(dl_t0_lam_new));
+        u_dl_t0_lam_new (.clk(clk), .d(t0_lam_new), .valid(1'b0), .q(dl_t0_lam_new));
     // t0_delta = t0_lam_new - lamT0   (ready @104/78/72)
     logic [W-1:0] t0_delta;
     logic [2:0] fl_t0_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_lam_new), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 54]), .a(dl_t0_lam_new), .b(dl_in_lamT0[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[76]), .y(t0_delta), .flags(fl_t0_delta)
     );
     assign ev_ovf[72] = fl_t0_delta[0] && ev_q[2*MAN_BITS + 58];
@@ -1397,24 +1404,24 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[72] = fl_t0_delta[2] && ev_q[2*MAN_BITS + 58];
     logic [W-1:0] dl_t0_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_delta (.clk(clk), .d(t0_delta), .q(dl_t0_delta));
+        u_dl_t0_delta (.clk(clk), .d(t0_delta), .valid(1'b0), .q(dl_t0_delta));
     // t0_lamT = skip ? lamT0 : t0_lam_new   (ready @100/74/68)
     logic [W-1:0] t0_lamT;
     assign t0_lamT = dl_skip[0] ? dl_in_lamT0[1*W +: W] : dl_t0_lam_new;
     logic [W-1:0] dl_t0_lamT;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 54)))
-        u_dl_t0_lamT (.clk(clk), .d(t0_lamT), .q(dl_t0_lamT));
+        u_dl_t0_lamT (.clk(clk), .d(t0_lamT), .valid(valid_q[2*MAN_BITS + 54 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 54)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 54)) : 1)]), .q(dl_t0_lamT));
     // t0_e = -t0_delta   (ready @104/78/72)
     logic [W-1:0] t0_e;
     assign t0_e = {~dl_t0_delta[W-1], dl_t0_delta[W-2:0]};
     logic [W-1:0] dl_t0_e;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_e (.clk(clk), .d(t0_e), .q(dl_t0_e));
+        u_dl_t0_e (.clk(clk), .d(t0_e), .valid(1'b0), .q(dl_t0_e));
     // t0_linA_x = basis_t0_x * mInvA   (ready @68/42/36)
     logic [W-1:0] t0_linA_x;
     logic [2:0] fl_t0_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t0_x), .b(dl_in_mInvA[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_t0_x), .b(dl_in_mInvA[0*W +: W]),
         .out_valid(op_valid_nc[77]), .y(t0_linA_x), .flags(fl_t0_linA_x)
     );
     assign ev_ovf[73] = fl_t0_linA_x[0] && ev_q[2*MAN_BITS + 22];
@@ -1422,12 +1429,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[73] = fl_t0_linA_x[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)))
-        u_dl_t0_linA_x (.clk(clk), .d(t0_linA_x), .q(dl_t0_linA_x));
+        u_dl_t0_linA_x (.clk(clk), .d(t0_linA_x), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_linA_x));
     // t0_linA_y = basis_t0_y * mInvA   (ready @68/42/36)
     logic [W-1:0] t0_linA_y;
     logic [2:0] fl_t0_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t0_y), .b(dl_in_mInvA[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_t0_y), .b(dl_in_mInvA[0*W +: W]),
         .out_valid(op_valid_nc[78]), .y(t0_linA_y), .flags(fl_t0_linA_y)
     );
     assign ev_ovf[74] = fl_t0_linA_y[0] && ev_q[2*MAN_BITS + 22];
@@ -1435,12 +1442,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[74] = fl_t0_linA_y[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)))
-        u_dl_t0_linA_y (.clk(clk), .d(t0_linA_y), .q(dl_t0_linA_y));
+        u_dl_t0_linA_y (.clk(clk), .d(t0_linA_y), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_linA_y));
     // t0_linA_z = basis_t0_z * mInvA   (ready @68/42/36)
     logic [W-1:0] t0_linA_z;
     logic [2:0] fl_t0_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t0_z), .b(dl_in_mInvA[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_t0_z), .b(dl_in_mInvA[0*W +: W]),
         .out_valid(op_valid_nc[79]), .y(t0_linA_z), .flags(fl_t0_linA_z)
     );
     assign ev_ovf[75] = fl_t0_linA_z[0] && ev_q[2*MAN_BITS + 22];
@@ -1448,12 +1455,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[75] = fl_t0_linA_z[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)))
-        u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .q(dl_t0_linA_z));
+        u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_linA_z));
     // t0_mul144 = t0_linA_x * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul144;
     logic [2:0] fl_t0_mul144;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul144 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 58]), .a(dl_t0_linA_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[80]), .y(t0_mul144), .flags(fl_t0_mul144)
     );
     assign ev_ovf[76] = fl_t0_mul144[0] && ev_q[2*MAN_BITS + 61];
@@ -1461,12 +1468,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[76] = fl_t0_mul144[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul144;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul144 (.clk(clk), .d(t0_mul144), .q(dl_t0_mul144));
+        u_dl_t0_mul144 (.clk(clk), .d(t0_mul144), .valid(1'b0), .q(dl_t0_mul144));
     // t0_mul145 = t0_linA_y * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul145;
     logic [2:0] fl_t0_mul145;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul145 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 58]), .a(dl_t0_linA_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[81]), .y(t0_mul145), .flags(fl_t0_mul145)
     );
     assign ev_ovf[77] = fl_t0_mul145[0] && ev_q[2*MAN_BITS + 61];
@@ -1474,12 +1481,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[77] = fl_t0_mul145[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul145;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul145 (.clk(clk), .d(t0_mul145), .q(dl_t0_mul145));
+        u_dl_t0_mul145 (.clk(clk), .d(t0_mul145), .valid(1'b0), .q(dl_t0_mul145));
     // t0_mul146 = t0_linA_z * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul146;
     logic [2:0] fl_t0_mul146;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul146 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linA_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 58]), .a(dl_t0_linA_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[82]), .y(t0_mul146), .flags(fl_t0_mul146)
     );
     assign ev_ovf[78] = fl_t0_mul146[0] && ev_q[2*MAN_BITS + 61];
@@ -1487,12 +1494,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[78] = fl_t0_mul146[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul146;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul146 (.clk(clk), .d(t0_mul146), .q(dl_t0_mul146));
+        u_dl_t0_mul146 (.clk(clk), .d(t0_mul146), .valid(1'b0), .q(dl_t0_mul146));
     // t0_add147 = vA_x + t0_mul144   (ready @111/85/79)
     logic [W-1:0] t0_add147;
     logic [2:0] fl_t0_add147;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add147 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_x[1*W +: W]), .b(dl_t0_mul144), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_vA_x[1*W +: W]), .b(dl_t0_mul144), .sub(1'b0),
         .out_valid(op_valid_nc[83]), .y(t0_add147), .flags(fl_t0_add147)
     );
     assign ev_ovf[79] = fl_t0_add147[0] && ev_q[2*MAN_BITS + 65];
@@ -1500,12 +1507,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[79] = fl_t0_add147[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_add147;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add147 (.clk(clk), .d(t0_add147), .q(dl_t0_add147));
+        u_dl_t0_add147 (.clk(clk), .d(t0_add147), .valid(1'b0), .q(dl_t0_add147));
     // t0_add148 = vA_y + t0_mul145   (ready @111/85/79)
     logic [W-1:0] t0_add148;
     logic [2:0] fl_t0_add148;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add148 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_y[1*W +: W]), .b(dl_t0_mul145), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_vA_y[1*W +: W]), .b(dl_t0_mul145), .sub(1'b0),
         .out_valid(op_valid_nc[84]), .y(t0_add148), .flags(fl_t0_add148)
     );
     assign ev_ovf[80] = fl_t0_add148[0] && ev_q[2*MAN_BITS + 65];
@@ -1513,12 +1520,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[80] = fl_t0_add148[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_add148;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add148 (.clk(clk), .d(t0_add148), .q(dl_t0_add148));
+        u_dl_t0_add148 (.clk(clk), .d(t0_add148), .valid(1'b0), .q(dl_t0_add148));
     // t0_add149 = vA_z + t0_mul146   (ready @111/85/79)
     logic [W-1:0] t0_add149;
     logic [2:0] fl_t0_add149;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add149 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vA_z[1*W +: W]), .b(dl_t0_mul146), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_vA_z[1*W +: W]), .b(dl_t0_mul146), .sub(1'b0),
         .out_valid(op_valid_nc[85]), .y(t0_add149), .flags(fl_t0_add149)
     );
     assign ev_ovf[81] = fl_t0_add149[0] && ev_q[2*MAN_BITS + 65];
@@ -1526,30 +1533,30 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[81] = fl_t0_add149[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_add149;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add149 (.clk(clk), .d(t0_add149), .q(dl_t0_add149));
+        u_dl_t0_add149 (.clk(clk), .d(t0_add149), .valid(1'b0), .q(dl_t0_add149));
     // t0_vA_x = skip ? vA_x : t0_add147   (ready @111/85/79)
     logic [W-1:0] t0_vA_x;
     assign t0_vA_x = dl_skip[1] ? dl_in_vA_x[2*W +: W] : dl_t0_add147;
     logic [3*W-1:0] dl_t0_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
-        u_dl_t0_vA_x (.clk(clk), .d(t0_vA_x), .q(dl_t0_vA_x));
+        u_dl_t0_vA_x (.clk(clk), .d(t0_vA_x), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_vA_x));
     // t0_vA_y = skip ? vA_y : t0_add148   (ready @111/85/79)
     logic [W-1:0] t0_vA_y;
     assign t0_vA_y = dl_skip[1] ? dl_in_vA_y[2*W +: W] : dl_t0_add148;
     logic [3*W-1:0] dl_t0_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
-        u_dl_t0_vA_y (.clk(clk), .d(t0_vA_y), .q(dl_t0_vA_y));
+        u_dl_t0_vA_y (.clk(clk), .d(t0_vA_y), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_vA_y));
     // t0_vA_z = skip ? vA_z : t0_add149   (ready @111/85/79)
     logic [W-1:0] t0_vA_z;
     assign t0_vA_z = dl_skip[1] ? dl_in_vA_z[2*W +: W] : dl_t0_add149;
     logic [3*W-1:0] dl_t0_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
-        u_dl_t0_vA_z (.clk(clk), .d(t0_vA_z), .q(dl_t0_vA_z));
+        u_dl_t0_vA_z (.clk(clk), .d(t0_vA_z), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_vA_z));
     // t0_angA_x = IInvA_x * t0_cA_x   (ready @75/49/43)
     logic [W-1:0] t0_angA_x;
     logic [2:0] fl_t0_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x[0*W +: W]), .b(dl_t0_cA_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_in_IInvA_x[0*W +: W]), .b(dl_t0_cA_x),
         .out_valid(op_valid_nc[86]), .y(t0_angA_x), .flags(fl_t0_angA_x)
     );
     assign ev_ovf[82] = fl_t0_angA_x[0] && ev_q[2*MAN_BITS + 29];
@@ -1557,12 +1564,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[82] = fl_t0_angA_x[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)))
-        u_dl_t0_angA_x (.clk(clk), .d(t0_angA_x), .q(dl_t0_angA_x));
+        u_dl_t0_angA_x (.clk(clk), .d(t0_angA_x), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_angA_x));
     // t0_angA_y = IInvA_y * t0_cA_y   (ready @75/49/43)
     logic [W-1:0] t0_angA_y;
     logic [2:0] fl_t0_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y[0*W +: W]), .b(dl_t0_cA_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_in_IInvA_y[0*W +: W]), .b(dl_t0_cA_y),
         .out_valid(op_valid_nc[87]), .y(t0_angA_y), .flags(fl_t0_angA_y)
     );
     assign ev_ovf[83] = fl_t0_angA_y[0] && ev_q[2*MAN_BITS + 29];
@@ -1570,12 +1577,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[83] = fl_t0_angA_y[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)))
-        u_dl_t0_angA_y (.clk(clk), .d(t0_angA_y), .q(dl_t0_angA_y));
+        u_dl_t0_angA_y (.clk(clk), .d(t0_angA_y), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_angA_y));
     // t0_angA_z = IInvA_z * t0_cA_z   (ready @75/49/43)
     logic [W-1:0] t0_angA_z;
     logic [2:0] fl_t0_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z[0*W +: W]), .b(dl_t0_cA_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_in_IInvA_z[0*W +: W]), .b(dl_t0_cA_z),
         .out_valid(op_valid_nc[88]), .y(t0_angA_z), .flags(fl_t0_angA_z)
     );
     assign ev_ovf[84] = fl_t0_angA_z[0] && ev_q[2*MAN_BITS + 29];
@@ -1583,12 +1590,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[84] = fl_t0_angA_z[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)))
-        u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .q(dl_t0_angA_z));
+        u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_angA_z));
     // t0_mul156 = t0_angA_x * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul156;
     logic [2:0] fl_t0_mul156;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul156 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 58]), .a(dl_t0_angA_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[89]), .y(t0_mul156), .flags(fl_t0_mul156)
     );
     assign ev_ovf[85] = fl_t0_mul156[0] && ev_q[2*MAN_BITS + 61];
@@ -1596,12 +1603,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[85] = fl_t0_mul156[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul156;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul156 (.clk(clk), .d(t0_mul156), .q(dl_t0_mul156));
+        u_dl_t0_mul156 (.clk(clk), .d(t0_mul156), .valid(1'b0), .q(dl_t0_mul156));
     // t0_mul157 = t0_angA_y * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul157;
     logic [2:0] fl_t0_mul157;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul157 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 58]), .a(dl_t0_angA_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[90]), .y(t0_mul157), .flags(fl_t0_mul157)
     );
     assign ev_ovf[86] = fl_t0_mul157[0] && ev_q[2*MAN_BITS + 61];
@@ -1609,12 +1616,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[86] = fl_t0_mul157[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul157;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul157 (.clk(clk), .d(t0_mul157), .q(dl_t0_mul157));
+        u_dl_t0_mul157 (.clk(clk), .d(t0_mul157), .valid(1'b0), .q(dl_t0_mul157));
     // t0_mul158 = t0_angA_z * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul158;
     logic [2:0] fl_t0_mul158;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul158 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angA_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 58]), .a(dl_t0_angA_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[91]), .y(t0_mul158), .flags(fl_t0_mul158)
     );
     assign ev_ovf[87] = fl_t0_mul158[0] && ev_q[2*MAN_BITS + 61];
@@ -1622,12 +1629,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[87] = fl_t0_mul158[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul158;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul158 (.clk(clk), .d(t0_mul158), .q(dl_t0_mul158));
+        u_dl_t0_mul158 (.clk(clk), .d(t0_mul158), .valid(1'b0), .q(dl_t0_mul158));
     // t0_add159 = wA_x + t0_mul156   (ready @111/85/79)
     logic [W-1:0] t0_add159;
     logic [2:0] fl_t0_add159;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add159 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_x[1*W +: W]), .b(dl_t0_mul156), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_wA_x[1*W +: W]), .b(dl_t0_mul156), .sub(1'b0),
         .out_valid(op_valid_nc[92]), .y(t0_add159), .flags(fl_t0_add159)
     );
     assign ev_ovf[88] = fl_t0_add159[0] && ev_q[2*MAN_BITS + 65];
@@ -1635,12 +1642,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[88] = fl_t0_add159[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_add159;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add159 (.clk(clk), .d(t0_add159), .q(dl_t0_add159));
+        u_dl_t0_add159 (.clk(clk), .d(t0_add159), .valid(1'b0), .q(dl_t0_add159));
     // t0_add160 = wA_y + t0_mul157   (ready @111/85/79)
     logic [W-1:0] t0_add160;
     logic [2:0] fl_t0_add160;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add160 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_y[1*W +: W]), .b(dl_t0_mul157), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_wA_y[1*W +: W]), .b(dl_t0_mul157), .sub(1'b0),
         .out_valid(op_valid_nc[93]), .y(t0_add160), .flags(fl_t0_add160)
     );
     assign ev_ovf[89] = fl_t0_add160[0] && ev_q[2*MAN_BITS + 65];
@@ -1648,12 +1655,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[89] = fl_t0_add160[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_add160;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add160 (.clk(clk), .d(t0_add160), .q(dl_t0_add160));
+        u_dl_t0_add160 (.clk(clk), .d(t0_add160), .valid(1'b0), .q(dl_t0_add160));
     // t0_add161 = wA_z + t0_mul158   (ready @111/85/79)
     logic [W-1:0] t0_add161;
     logic [2:0] fl_t0_add161;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_add161 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wA_z[1*W +: W]), .b(dl_t0_mul158), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_wA_z[1*W +: W]), .b(dl_t0_mul158), .sub(1'b0),
         .out_valid(op_valid_nc[94]), .y(t0_add161), .flags(fl_t0_add161)
     );
     assign ev_ovf[90] = fl_t0_add161[0] && ev_q[2*MAN_BITS + 65];
@@ -1661,30 +1668,30 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[90] = fl_t0_add161[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_add161;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_add161 (.clk(clk), .d(t0_add161), .q(dl_t0_add161));
+        u_dl_t0_add161 (.clk(clk), .d(t0_add161), .valid(1'b0), .q(dl_t0_add161));
     // t0_wA_x = skip ? wA_x : t0_add159   (ready @111/85/79)
     logic [W-1:0] t0_wA_x;
     assign t0_wA_x = dl_skip[1] ? dl_in_wA_x[2*W +: W] : dl_t0_add159;
     logic [3*W-1:0] dl_t0_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
-        u_dl_t0_wA_x (.clk(clk), .d(t0_wA_x), .q(dl_t0_wA_x));
+        u_dl_t0_wA_x (.clk(clk), .d(t0_wA_x), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_wA_x));
     // t0_wA_y = skip ? wA_y : t0_add160   (ready @111/85/79)
     logic [W-1:0] t0_wA_y;
     assign t0_wA_y = dl_skip[1] ? dl_in_wA_y[2*W +: W] : dl_t0_add160;
     logic [3*W-1:0] dl_t0_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
-        u_dl_t0_wA_y (.clk(clk), .d(t0_wA_y), .q(dl_t0_wA_y));
+        u_dl_t0_wA_y (.clk(clk), .d(t0_wA_y), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_wA_y));
     // t0_wA_z = skip ? wA_z : t0_add161   (ready @111/85/79)
     logic [W-1:0] t0_wA_z;
     assign t0_wA_z = dl_skip[1] ? dl_in_wA_z[2*W +: W] : dl_t0_add161;
     logic [3*W-1:0] dl_t0_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
-        u_dl_t0_wA_z (.clk(clk), .d(t0_wA_z), .q(dl_t0_wA_z));
+        u_dl_t0_wA_z (.clk(clk), .d(t0_wA_z), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_wA_z));
     // t0_linB_x = basis_t0_x * mInvB   (ready @68/42/36)
     logic [W-1:0] t0_linB_x;
     logic [2:0] fl_t0_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t0_x), .b(dl_in_mInvB[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_t0_x), .b(dl_in_mInvB[0*W +: W]),
         .out_valid(op_valid_nc[95]), .y(t0_linB_x), .flags(fl_t0_linB_x)
     );
     assign ev_ovf[91] = fl_t0_linB_x[0] && ev_q[2*MAN_BITS + 22];
@@ -1692,12 +1699,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[91] = fl_t0_linB_x[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)))
-        u_dl_t0_linB_x (.clk(clk), .d(t0_linB_x), .q(dl_t0_linB_x));
+        u_dl_t0_linB_x (.clk(clk), .d(t0_linB_x), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_linB_x));
     // t0_linB_y = basis_t0_y * mInvB   (ready @68/42/36)
     logic [W-1:0] t0_linB_y;
     logic [2:0] fl_t0_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t0_y), .b(dl_in_mInvB[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_t0_y), .b(dl_in_mInvB[0*W +: W]),
         .out_valid(op_valid_nc[96]), .y(t0_linB_y), .flags(fl_t0_linB_y)
     );
     assign ev_ovf[92] = fl_t0_linB_y[0] && ev_q[2*MAN_BITS + 22];
@@ -1705,12 +1712,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[92] = fl_t0_linB_y[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)))
-        u_dl_t0_linB_y (.clk(clk), .d(t0_linB_y), .q(dl_t0_linB_y));
+        u_dl_t0_linB_y (.clk(clk), .d(t0_linB_y), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_linB_y));
     // t0_linB_z = basis_t0_z * mInvB   (ready @68/42/36)
     logic [W-1:0] t0_linB_z;
     logic [2:0] fl_t0_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_linB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t0_z), .b(dl_in_mInvB[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 19]), .a(dl_basis_t0_z), .b(dl_in_mInvB[0*W +: W]),
         .out_valid(op_valid_nc[97]), .y(t0_linB_z), .flags(fl_t0_linB_z)
     );
     assign ev_ovf[93] = fl_t0_linB_z[0] && ev_q[2*MAN_BITS + 22];
@@ -1718,12 +1725,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[93] = fl_t0_linB_z[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)))
-        u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .q(dl_t0_linB_z));
+        u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_linB_z));
     // t0_mul168 = t0_linB_x * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul168;
     logic [2:0] fl_t0_mul168;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul168 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 58]), .a(dl_t0_linB_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[98]), .y(t0_mul168), .flags(fl_t0_mul168)
     );
     assign ev_ovf[94] = fl_t0_mul168[0] && ev_q[2*MAN_BITS + 61];
@@ -1731,12 +1738,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[94] = fl_t0_mul168[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul168;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul168 (.clk(clk), .d(t0_mul168), .q(dl_t0_mul168));
+        u_dl_t0_mul168 (.clk(clk), .d(t0_mul168), .valid(1'b0), .q(dl_t0_mul168));
     // t0_mul169 = t0_linB_y * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul169;
     logic [2:0] fl_t0_mul169;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul169 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 58]), .a(dl_t0_linB_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[99]), .y(t0_mul169), .flags(fl_t0_mul169)
     );
     assign ev_ovf[95] = fl_t0_mul169[0] && ev_q[2*MAN_BITS + 61];
@@ -1744,12 +1751,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[95] = fl_t0_mul169[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul169;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul169 (.clk(clk), .d(t0_mul169), .q(dl_t0_mul169));
+        u_dl_t0_mul169 (.clk(clk), .d(t0_mul169), .valid(1'b0), .q(dl_t0_mul169));
     // t0_mul170 = t0_linB_z * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul170;
     logic [2:0] fl_t0_mul170;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul170 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_linB_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 58]), .a(dl_t0_linB_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[100]), .y(t0_mul170), .flags(fl_t0_mul170)
     );
     assign ev_ovf[96] = fl_t0_mul170[0] && ev_q[2*MAN_BITS + 61];
@@ -1757,12 +1764,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[96] = fl_t0_mul170[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul170;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul170 (.clk(clk), .d(t0_mul170), .q(dl_t0_mul170));
+        u_dl_t0_mul170 (.clk(clk), .d(t0_mul170), .valid(1'b0), .q(dl_t0_mul170));
     // t0_sub171 = vB_x - t0_mul168   (ready @111/85/79)
     logic [W-1:0] t0_sub171;
     logic [2:0] fl_t0_sub171;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub171 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_x[1*W +: W]), .b(dl_t0_mul168), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_vB_x[1*W +: W]), .b(dl_t0_mul168), .sub(1'b1),
         .out_valid(op_valid_nc[101]), .y(t0_sub171), .flags(fl_t0_sub171)
     );
     assign ev_ovf[97] = fl_t0_sub171[0] && ev_q[2*MAN_BITS + 65];
@@ -1770,12 +1777,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[97] = fl_t0_sub171[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_sub171;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub171 (.clk(clk), .d(t0_sub171), .q(dl_t0_sub171));
+        u_dl_t0_sub171 (.clk(clk), .d(t0_sub171), .valid(1'b0), .q(dl_t0_sub171));
     // t0_sub172 = vB_y - t0_mul169   (ready @111/85/79)
     logic [W-1:0] t0_sub172;
     logic [2:0] fl_t0_sub172;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub172 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_y[1*W +: W]), .b(dl_t0_mul169), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_vB_y[1*W +: W]), .b(dl_t0_mul169), .sub(1'b1),
         .out_valid(op_valid_nc[102]), .y(t0_sub172), .flags(fl_t0_sub172)
     );
     assign ev_ovf[98] = fl_t0_sub172[0] && ev_q[2*MAN_BITS + 65];
@@ -1783,12 +1790,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[98] = fl_t0_sub172[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_sub172;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub172 (.clk(clk), .d(t0_sub172), .q(dl_t0_sub172));
+        u_dl_t0_sub172 (.clk(clk), .d(t0_sub172), .valid(1'b0), .q(dl_t0_sub172));
     // t0_sub173 = vB_z - t0_mul170   (ready @111/85/79)
     logic [W-1:0] t0_sub173;
     logic [2:0] fl_t0_sub173;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub173 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_vB_z[1*W +: W]), .b(dl_t0_mul170), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_vB_z[1*W +: W]), .b(dl_t0_mul170), .sub(1'b1),
         .out_valid(op_valid_nc[103]), .y(t0_sub173), .flags(fl_t0_sub173)
     );
     assign ev_ovf[99] = fl_t0_sub173[0] && ev_q[2*MAN_BITS + 65];
@@ -1796,30 +1803,30 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[99] = fl_t0_sub173[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_sub173;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub173 (.clk(clk), .d(t0_sub173), .q(dl_t0_sub173));
+        u_dl_t0_sub173 (.clk(clk), .d(t0_sub173), .valid(1'b0), .q(dl_t0_sub173));
     // t0_vB_x = skip ? vB_x : t0_sub171   (ready @111/85/79)
     logic [W-1:0] t0_vB_x;
     assign t0_vB_x = dl_skip[1] ? dl_in_vB_x[2*W +: W] : dl_t0_sub171;
     logic [3*W-1:0] dl_t0_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
-        u_dl_t0_vB_x (.clk(clk), .d(t0_vB_x), .q(dl_t0_vB_x));
+        u_dl_t0_vB_x (.clk(clk), .d(t0_vB_x), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_vB_x));
     // t0_vB_y = skip ? vB_y : t0_sub172   (ready @111/85/79)
     logic [W-1:0] t0_vB_y;
     assign t0_vB_y = dl_skip[1] ? dl_in_vB_y[2*W +: W] : dl_t0_sub172;
     logic [3*W-1:0] dl_t0_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
-        u_dl_t0_vB_y (.clk(clk), .d(t0_vB_y), .q(dl_t0_vB_y));
+        u_dl_t0_vB_y (.clk(clk), .d(t0_vB_y), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_vB_y));
     // t0_vB_z = skip ? vB_z : t0_sub173   (ready @111/85/79)
     logic [W-1:0] t0_vB_z;
     assign t0_vB_z = dl_skip[1] ? dl_in_vB_z[2*W +: W] : dl_t0_sub173;
     logic [3*W-1:0] dl_t0_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
-        u_dl_t0_vB_z (.clk(clk), .d(t0_vB_z), .q(dl_t0_vB_z));
+        u_dl_t0_vB_z (.clk(clk), .d(t0_vB_z), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_vB_z));
     // t0_angB_x = IInvB_x * t0_cB_x   (ready @75/49/43)
     logic [W-1:0] t0_angB_x;
     logic [2:0] fl_t0_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x[0*W +: W]), .b(dl_t0_cB_x),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_in_IInvB_x[0*W +: W]), .b(dl_t0_cB_x),
         .out_valid(op_valid_nc[104]), .y(t0_angB_x), .flags(fl_t0_angB_x)
     );
     assign ev_ovf[100] = fl_t0_angB_x[0] && ev_q[2*MAN_BITS + 29];
@@ -1827,12 +1834,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[100] = fl_t0_angB_x[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)))
-        u_dl_t0_angB_x (.clk(clk), .d(t0_angB_x), .q(dl_t0_angB_x));
+        u_dl_t0_angB_x (.clk(clk), .d(t0_angB_x), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_angB_x));
     // t0_angB_y = IInvB_y * t0_cB_y   (ready @75/49/43)
     logic [W-1:0] t0_angB_y;
     logic [2:0] fl_t0_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y[0*W +: W]), .b(dl_t0_cB_y),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_in_IInvB_y[0*W +: W]), .b(dl_t0_cB_y),
         .out_valid(op_valid_nc[105]), .y(t0_angB_y), .flags(fl_t0_angB_y)
     );
     assign ev_ovf[101] = fl_t0_angB_y[0] && ev_q[2*MAN_BITS + 29];
@@ -1840,12 +1847,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[101] = fl_t0_angB_y[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)))
-        u_dl_t0_angB_y (.clk(clk), .d(t0_angB_y), .q(dl_t0_angB_y));
+        u_dl_t0_angB_y (.clk(clk), .d(t0_angB_y), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_angB_y));
     // t0_angB_z = IInvB_z * t0_cB_z   (ready @75/49/43)
     logic [W-1:0] t0_angB_z;
     logic [2:0] fl_t0_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z[0*W +: W]), .b(dl_t0_cB_z),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 26]), .a(dl_in_IInvB_z[0*W +: W]), .b(dl_t0_cB_z),
         .out_valid(op_valid_nc[106]), .y(t0_angB_z), .flags(fl_t0_angB_z)
     );
     assign ev_ovf[102] = fl_t0_angB_z[0] && ev_q[2*MAN_BITS + 29];
@@ -1853,12 +1860,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[102] = fl_t0_angB_z[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)))
-        u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .q(dl_t0_angB_z));
+        u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_angB_z));
     // t0_mul180 = t0_angB_x * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul180;
     logic [2:0] fl_t0_mul180;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul180 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_x), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 58]), .a(dl_t0_angB_x), .b(dl_t0_e),
         .out_valid(op_valid_nc[107]), .y(t0_mul180), .flags(fl_t0_mul180)
     );
     assign ev_ovf[103] = fl_t0_mul180[0] && ev_q[2*MAN_BITS + 61];
@@ -1866,12 +1873,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[103] = fl_t0_mul180[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul180;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul180 (.clk(clk), .d(t0_mul180), .q(dl_t0_mul180));
+        u_dl_t0_mul180 (.clk(clk), .d(t0_mul180), .valid(1'b0), .q(dl_t0_mul180));
     // t0_mul181 = t0_angB_y * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul181;
     logic [2:0] fl_t0_mul181;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul181 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_y), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 58]), .a(dl_t0_angB_y), .b(dl_t0_e),
         .out_valid(op_valid_nc[108]), .y(t0_mul181), .flags(fl_t0_mul181)
     );
     assign ev_ovf[104] = fl_t0_mul181[0] && ev_q[2*MAN_BITS + 61];
@@ -1879,12 +1886,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[104] = fl_t0_mul181[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul181;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul181 (.clk(clk), .d(t0_mul181), .q(dl_t0_mul181));
+        u_dl_t0_mul181 (.clk(clk), .d(t0_mul181), .valid(1'b0), .q(dl_t0_mul181));
     // t0_mul182 = t0_angB_z * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul182;
     logic [2:0] fl_t0_mul182;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_mul182 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_angB_z), .b(dl_t0_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 58]), .a(dl_t0_angB_z), .b(dl_t0_e),
         .out_valid(op_valid_nc[109]), .y(t0_mul182), .flags(fl_t0_mul182)
     );
     assign ev_ovf[105] = fl_t0_mul182[0] && ev_q[2*MAN_BITS + 61];
@@ -1892,12 +1899,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[105] = fl_t0_mul182[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul182;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_mul182 (.clk(clk), .d(t0_mul182), .q(dl_t0_mul182));
+        u_dl_t0_mul182 (.clk(clk), .d(t0_mul182), .valid(1'b0), .q(dl_t0_mul182));
     // t0_sub183 = wB_x - t0_mul180   (ready @111/85/79)
     logic [W-1:0] t0_sub183;
     logic [2:0] fl_t0_sub183;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub183 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_x[1*W +: W]), .b(dl_t0_mul180), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_wB_x[1*W +: W]), .b(dl_t0_mul180), .sub(1'b1),
         .out_valid(op_valid_nc[110]), .y(t0_sub183), .flags(fl_t0_sub183)
     );
     assign ev_ovf[106] = fl_t0_sub183[0] && ev_q[2*MAN_BITS + 65];
@@ -1905,12 +1912,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[106] = fl_t0_sub183[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_sub183;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub183 (.clk(clk), .d(t0_sub183), .q(dl_t0_sub183));
+        u_dl_t0_sub183 (.clk(clk), .d(t0_sub183), .valid(1'b0), .q(dl_t0_sub183));
     // t0_sub184 = wB_y - t0_mul181   (ready @111/85/79)
     logic [W-1:0] t0_sub184;
     logic [2:0] fl_t0_sub184;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub184 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_y[1*W +: W]), .b(dl_t0_mul181), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_wB_y[1*W +: W]), .b(dl_t0_mul181), .sub(1'b1),
         .out_valid(op_valid_nc[111]), .y(t0_sub184), .flags(fl_t0_sub184)
     );
     assign ev_ovf[107] = fl_t0_sub184[0] && ev_q[2*MAN_BITS + 65];
@@ -1918,12 +1925,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[107] = fl_t0_sub184[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_sub184;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub184 (.clk(clk), .d(t0_sub184), .q(dl_t0_sub184));
+        u_dl_t0_sub184 (.clk(clk), .d(t0_sub184), .valid(1'b0), .q(dl_t0_sub184));
     // t0_sub185 = wB_z - t0_mul182   (ready @111/85/79)
     logic [W-1:0] t0_sub185;
     logic [2:0] fl_t0_sub185;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t0_sub185 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_wB_z[1*W +: W]), .b(dl_t0_mul182), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 61]), .a(dl_in_wB_z[1*W +: W]), .b(dl_t0_mul182), .sub(1'b1),
         .out_valid(op_valid_nc[112]), .y(t0_sub185), .flags(fl_t0_sub185)
     );
     assign ev_ovf[108] = fl_t0_sub185[0] && ev_q[2*MAN_BITS + 65];
@@ -1931,30 +1938,30 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[108] = fl_t0_sub185[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_sub185;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t0_sub185 (.clk(clk), .d(t0_sub185), .q(dl_t0_sub185));
+        u_dl_t0_sub185 (.clk(clk), .d(t0_sub185), .valid(1'b0), .q(dl_t0_sub185));
     // t0_wB_x = skip ? wB_x : t0_sub183   (ready @111/85/79)
     logic [W-1:0] t0_wB_x;
     assign t0_wB_x = dl_skip[1] ? dl_in_wB_x[2*W +: W] : dl_t0_sub183;
     logic [3*W-1:0] dl_t0_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
-        u_dl_t0_wB_x (.clk(clk), .d(t0_wB_x), .q(dl_t0_wB_x));
+        u_dl_t0_wB_x (.clk(clk), .d(t0_wB_x), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_wB_x));
     // t0_wB_y = skip ? wB_y : t0_sub184   (ready @111/85/79)
     logic [W-1:0] t0_wB_y;
     assign t0_wB_y = dl_skip[1] ? dl_in_wB_y[2*W +: W] : dl_t0_sub184;
     logic [3*W-1:0] dl_t0_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
-        u_dl_t0_wB_y (.clk(clk), .d(t0_wB_y), .q(dl_t0_wB_y));
+        u_dl_t0_wB_y (.clk(clk), .d(t0_wB_y), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_wB_y));
     // t0_wB_z = skip ? wB_z : t0_sub185   (ready @111/85/79)
     logic [W-1:0] t0_wB_z;
     assign t0_wB_z = dl_skip[1] ? dl_in_wB_z[2*W +: W] : dl_t0_sub185;
     logic [3*W-1:0] dl_t0_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
-        u_dl_t0_wB_z (.clk(clk), .d(t0_wB_z), .q(dl_t0_wB_z));
+        u_dl_t0_wB_z (.clk(clk), .d(t0_wB_z), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_wB_z));
     // t1_mul189 = rA_y * basis_t1_z   (ready @71/45/39)
     logic [W-1:0] t1_mul189;
     logic [2:0] fl_t1_mul189;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul189 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y[1*W +: W]), .b(dl_basis_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_rA_y[1*W +: W]), .b(dl_basis_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[113]), .y(t1_mul189), .flags(fl_t1_mul189)
     );
     assign ev_ovf[109] = fl_t1_mul189[0] && ev_q[2*MAN_BITS + 25];
@@ -1962,12 +1969,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[109] = fl_t1_mul189[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul189;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul189 (.clk(clk), .d(t1_mul189), .q(dl_t1_mul189));
+        u_dl_t1_mul189 (.clk(clk), .d(t1_mul189), .valid(1'b0), .q(dl_t1_mul189));
     // t1_mul190 = rA_z * basis_t1_y   (ready @71/45/39)
     logic [W-1:0] t1_mul190;
     logic [2:0] fl_t1_mul190;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul190 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z[1*W +: W]), .b(dl_basis_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_rA_z[1*W +: W]), .b(dl_basis_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[114]), .y(t1_mul190), .flags(fl_t1_mul190)
     );
     assign ev_ovf[110] = fl_t1_mul190[0] && ev_q[2*MAN_BITS + 25];
@@ -1975,12 +1982,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[110] = fl_t1_mul190[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul190;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul190 (.clk(clk), .d(t1_mul190), .q(dl_t1_mul190));
+        u_dl_t1_mul190 (.clk(clk), .d(t1_mul190), .valid(1'b0), .q(dl_t1_mul190));
     // t1_cA_x = t1_mul189 - t1_mul190   (ready @75/49/43)
     logic [W-1:0] t1_cA_x;
     logic [2:0] fl_t1_cA_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul189), .b(dl_t1_mul190), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 25]), .a(dl_t1_mul189), .b(dl_t1_mul190), .sub(1'b1),
         .out_valid(op_valid_nc[115]), .y(t1_cA_x), .flags(fl_t1_cA_x)
     );
     assign ev_ovf[111] = fl_t1_cA_x[0] && ev_q[2*MAN_BITS + 29];
@@ -1988,12 +1995,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[111] = fl_t1_cA_x[2] && ev_q[2*MAN_BITS + 29];
     logic [2*W-1:0] dl_t1_cA_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}))
-        u_dl_t1_cA_x (.clk(clk), .d(t1_cA_x), .q(dl_t1_cA_x));
+        u_dl_t1_cA_x (.clk(clk), .d(t1_cA_x), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t1_cA_x));
     // t1_mul192 = rA_z * basis_t1_x   (ready @71/45/39)
     logic [W-1:0] t1_mul192;
     logic [2:0] fl_t1_mul192;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul192 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_z[1*W +: W]), .b(dl_basis_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_rA_z[1*W +: W]), .b(dl_basis_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[116]), .y(t1_mul192), .flags(fl_t1_mul192)
     );
     assign ev_ovf[112] = fl_t1_mul192[0] && ev_q[2*MAN_BITS + 25];
@@ -2001,12 +2008,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[112] = fl_t1_mul192[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul192;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul192 (.clk(clk), .d(t1_mul192), .q(dl_t1_mul192));
+        u_dl_t1_mul192 (.clk(clk), .d(t1_mul192), .valid(1'b0), .q(dl_t1_mul192));
     // t1_mul193 = rA_x * basis_t1_z   (ready @71/45/39)
     logic [W-1:0] t1_mul193;
     logic [2:0] fl_t1_mul193;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul193 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x[1*W +: W]), .b(dl_basis_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_rA_x[1*W +: W]), .b(dl_basis_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[117]), .y(t1_mul193), .flags(fl_t1_mul193)
     );
     assign ev_ovf[113] = fl_t1_mul193[0] && ev_q[2*MAN_BITS + 25];
@@ -2014,12 +2021,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[113] = fl_t1_mul193[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul193;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul193 (.clk(clk), .d(t1_mul193), .q(dl_t1_mul193));
+        u_dl_t1_mul193 (.clk(clk), .d(t1_mul193), .valid(1'b0), .q(dl_t1_mul193));
     // t1_cA_y = t1_mul192 - t1_mul193   (ready @75/49/43)
     logic [W-1:0] t1_cA_y;
     logic [2:0] fl_t1_cA_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul192), .b(dl_t1_mul193), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 25]), .a(dl_t1_mul192), .b(dl_t1_mul193), .sub(1'b1),
         .out_valid(op_valid_nc[118]), .y(t1_cA_y), .flags(fl_t1_cA_y)
     );
     assign ev_ovf[114] = fl_t1_cA_y[0] && ev_q[2*MAN_BITS + 29];
@@ -2027,12 +2034,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[114] = fl_t1_cA_y[2] && ev_q[2*MAN_BITS + 29];
     logic [2*W-1:0] dl_t1_cA_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}))
-        u_dl_t1_cA_y (.clk(clk), .d(t1_cA_y), .q(dl_t1_cA_y));
+        u_dl_t1_cA_y (.clk(clk), .d(t1_cA_y), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t1_cA_y));
     // t1_mul195 = rA_x * basis_t1_y   (ready @71/45/39)
     logic [W-1:0] t1_mul195;
     logic [2:0] fl_t1_mul195;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul195 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_x[1*W +: W]), .b(dl_basis_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_rA_x[1*W +: W]), .b(dl_basis_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[119]), .y(t1_mul195), .flags(fl_t1_mul195)
     );
     assign ev_ovf[115] = fl_t1_mul195[0] && ev_q[2*MAN_BITS + 25];
@@ -2040,12 +2047,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[115] = fl_t1_mul195[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul195;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul195 (.clk(clk), .d(t1_mul195), .q(dl_t1_mul195));
+        u_dl_t1_mul195 (.clk(clk), .d(t1_mul195), .valid(1'b0), .q(dl_t1_mul195));
     // t1_mul196 = rA_y * basis_t1_x   (ready @71/45/39)
     logic [W-1:0] t1_mul196;
     logic [2:0] fl_t1_mul196;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul196 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rA_y[1*W +: W]), .b(dl_basis_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_rA_y[1*W +: W]), .b(dl_basis_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[120]), .y(t1_mul196), .flags(fl_t1_mul196)
     );
     assign ev_ovf[116] = fl_t1_mul196[0] && ev_q[2*MAN_BITS + 25];
@@ -2053,12 +2060,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[116] = fl_t1_mul196[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul196;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul196 (.clk(clk), .d(t1_mul196), .q(dl_t1_mul196));
+        u_dl_t1_mul196 (.clk(clk), .d(t1_mul196), .valid(1'b0), .q(dl_t1_mul196));
     // t1_cA_z = t1_mul195 - t1_mul196   (ready @75/49/43)
     logic [W-1:0] t1_cA_z;
     logic [2:0] fl_t1_cA_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul195), .b(dl_t1_mul196), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 25]), .a(dl_t1_mul195), .b(dl_t1_mul196), .sub(1'b1),
         .out_valid(op_valid_nc[121]), .y(t1_cA_z), .flags(fl_t1_cA_z)
     );
     assign ev_ovf[117] = fl_t1_cA_z[0] && ev_q[2*MAN_BITS + 29];
@@ -2066,12 +2073,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[117] = fl_t1_cA_z[2] && ev_q[2*MAN_BITS + 29];
     logic [2*W-1:0] dl_t1_cA_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}))
-        u_dl_t1_cA_z (.clk(clk), .d(t1_cA_z), .q(dl_t1_cA_z));
+        u_dl_t1_cA_z (.clk(clk), .d(t1_cA_z), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t1_cA_z));
     // t1_mul198 = rB_y * basis_t1_z   (ready @71/45/39)
     logic [W-1:0] t1_mul198;
     logic [2:0] fl_t1_mul198;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul198 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y[1*W +: W]), .b(dl_basis_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_rB_y[1*W +: W]), .b(dl_basis_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[122]), .y(t1_mul198), .flags(fl_t1_mul198)
     );
     assign ev_ovf[118] = fl_t1_mul198[0] && ev_q[2*MAN_BITS + 25];
@@ -2079,12 +2086,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[118] = fl_t1_mul198[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul198;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul198 (.clk(clk), .d(t1_mul198), .q(dl_t1_mul198));
+        u_dl_t1_mul198 (.clk(clk), .d(t1_mul198), .valid(1'b0), .q(dl_t1_mul198));
     // t1_mul199 = rB_z * basis_t1_y   (ready @71/45/39)
     logic [W-1:0] t1_mul199;
     logic [2:0] fl_t1_mul199;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul199 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z[1*W +: W]), .b(dl_basis_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_rB_z[1*W +: W]), .b(dl_basis_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[123]), .y(t1_mul199), .flags(fl_t1_mul199)
     );
     assign ev_ovf[119] = fl_t1_mul199[0] && ev_q[2*MAN_BITS + 25];
@@ -2092,12 +2099,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[119] = fl_t1_mul199[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul199;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul199 (.clk(clk), .d(t1_mul199), .q(dl_t1_mul199));
+        u_dl_t1_mul199 (.clk(clk), .d(t1_mul199), .valid(1'b0), .q(dl_t1_mul199));
     // t1_cB_x = t1_mul198 - t1_mul199   (ready @75/49/43)
     logic [W-1:0] t1_cB_x;
     logic [2:0] fl_t1_cB_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul198), .b(dl_t1_mul199), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 25]), .a(dl_t1_mul198), .b(dl_t1_mul199), .sub(1'b1),
         .out_valid(op_valid_nc[124]), .y(t1_cB_x), .flags(fl_t1_cB_x)
     );
     assign ev_ovf[120] = fl_t1_cB_x[0] && ev_q[2*MAN_BITS + 29];
@@ -2105,12 +2112,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[120] = fl_t1_cB_x[2] && ev_q[2*MAN_BITS + 29];
     logic [2*W-1:0] dl_t1_cB_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}))
-        u_dl_t1_cB_x (.clk(clk), .d(t1_cB_x), .q(dl_t1_cB_x));
+        u_dl_t1_cB_x (.clk(clk), .d(t1_cB_x), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t1_cB_x));
     // t1_mul201 = rB_z * basis_t1_x   (ready @71/45/39)
     logic [W-1:0] t1_mul201;
     logic [2:0] fl_t1_mul201;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul201 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_z[1*W +: W]), .b(dl_basis_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_rB_z[1*W +: W]), .b(dl_basis_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[125]), .y(t1_mul201), .flags(fl_t1_mul201)
     );
     assign ev_ovf[121] = fl_t1_mul201[0] && ev_q[2*MAN_BITS + 25];
@@ -2118,12 +2125,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[121] = fl_t1_mul201[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul201;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul201 (.clk(clk), .d(t1_mul201), .q(dl_t1_mul201));
+        u_dl_t1_mul201 (.clk(clk), .d(t1_mul201), .valid(1'b0), .q(dl_t1_mul201));
     // t1_mul202 = rB_x * basis_t1_z   (ready @71/45/39)
     logic [W-1:0] t1_mul202;
     logic [2:0] fl_t1_mul202;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul202 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x[1*W +: W]), .b(dl_basis_t1_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_rB_x[1*W +: W]), .b(dl_basis_t1_z[0*W +: W]),
         .out_valid(op_valid_nc[126]), .y(t1_mul202), .flags(fl_t1_mul202)
     );
     assign ev_ovf[122] = fl_t1_mul202[0] && ev_q[2*MAN_BITS + 25];
@@ -2131,12 +2138,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[122] = fl_t1_mul202[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul202;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul202 (.clk(clk), .d(t1_mul202), .q(dl_t1_mul202));
+        u_dl_t1_mul202 (.clk(clk), .d(t1_mul202), .valid(1'b0), .q(dl_t1_mul202));
     // t1_cB_y = t1_mul201 - t1_mul202   (ready @75/49/43)
     logic [W-1:0] t1_cB_y;
     logic [2:0] fl_t1_cB_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul201), .b(dl_t1_mul202), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 25]), .a(dl_t1_mul201), .b(dl_t1_mul202), .sub(1'b1),
         .out_valid(op_valid_nc[127]), .y(t1_cB_y), .flags(fl_t1_cB_y)
     );
     assign ev_ovf[123] = fl_t1_cB_y[0] && ev_q[2*MAN_BITS + 29];
@@ -2144,12 +2151,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[123] = fl_t1_cB_y[2] && ev_q[2*MAN_BITS + 29];
     logic [2*W-1:0] dl_t1_cB_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}))
-        u_dl_t1_cB_y (.clk(clk), .d(t1_cB_y), .q(dl_t1_cB_y));
+        u_dl_t1_cB_y (.clk(clk), .d(t1_cB_y), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t1_cB_y));
     // t1_mul204 = rB_x * basis_t1_y   (ready @71/45/39)
     logic [W-1:0] t1_mul204;
     logic [2:0] fl_t1_mul204;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul204 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_x[1*W +: W]), .b(dl_basis_t1_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_rB_x[1*W +: W]), .b(dl_basis_t1_y[0*W +: W]),
         .out_valid(op_valid_nc[128]), .y(t1_mul204), .flags(fl_t1_mul204)
     );
     assign ev_ovf[124] = fl_t1_mul204[0] && ev_q[2*MAN_BITS + 25];
@@ -2157,12 +2164,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[124] = fl_t1_mul204[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul204;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul204 (.clk(clk), .d(t1_mul204), .q(dl_t1_mul204));
+        u_dl_t1_mul204 (.clk(clk), .d(t1_mul204), .valid(1'b0), .q(dl_t1_mul204));
     // t1_mul205 = rB_y * basis_t1_x   (ready @71/45/39)
     logic [W-1:0] t1_mul205;
     logic [2:0] fl_t1_mul205;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul205 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_rB_y[1*W +: W]), .b(dl_basis_t1_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_rB_y[1*W +: W]), .b(dl_basis_t1_x[0*W +: W]),
         .out_valid(op_valid_nc[129]), .y(t1_mul205), .flags(fl_t1_mul205)
     );
     assign ev_ovf[125] = fl_t1_mul205[0] && ev_q[2*MAN_BITS + 25];
@@ -2170,12 +2177,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[125] = fl_t1_mul205[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul205;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul205 (.clk(clk), .d(t1_mul205), .q(dl_t1_mul205));
+        u_dl_t1_mul205 (.clk(clk), .d(t1_mul205), .valid(1'b0), .q(dl_t1_mul205));
     // t1_cB_z = t1_mul204 - t1_mul205   (ready @75/49/43)
     logic [W-1:0] t1_cB_z;
     logic [2:0] fl_t1_cB_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_cB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul204), .b(dl_t1_mul205), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 25]), .a(dl_t1_mul204), .b(dl_t1_mul205), .sub(1'b1),
         .out_valid(op_valid_nc[130]), .y(t1_cB_z), .flags(fl_t1_cB_z)
     );
     assign ev_ovf[126] = fl_t1_cB_z[0] && ev_q[2*MAN_BITS + 29];
@@ -2183,12 +2190,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[126] = fl_t1_cB_z[2] && ev_q[2*MAN_BITS + 29];
     logic [2*W-1:0] dl_t1_cB_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}))
-        u_dl_t1_cB_z (.clk(clk), .d(t1_cB_z), .q(dl_t1_cB_z));
+        u_dl_t1_cB_z (.clk(clk), .d(t1_cB_z), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t1_cB_z));
     // t1_mul207 = basis_t1_x * t0_vA_x   (ready @114/88/82)
     logic [W-1:0] t1_mul207;
     logic [2:0] fl_t1_mul207;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul207 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t1_x[1*W +: W]), .b(dl_t0_vA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 65]), .a(dl_basis_t1_x[1*W +: W]), .b(dl_t0_vA_x[0*W +: W]),
         .out_valid(op_valid_nc[131]), .y(t1_mul207), .flags(fl_t1_mul207)
     );
     assign ev_ovf[127] = fl_t1_mul207[0] && ev_q[2*MAN_BITS + 68];
@@ -2196,12 +2203,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[127] = fl_t1_mul207[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul207;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul207 (.clk(clk), .d(t1_mul207), .q(dl_t1_mul207));
+        u_dl_t1_mul207 (.clk(clk), .d(t1_mul207), .valid(1'b0), .q(dl_t1_mul207));
     // t1_mul208 = basis_t1_y * t0_vA_y   (ready @114/88/82)
     logic [W-1:0] t1_mul208;
     logic [2:0] fl_t1_mul208;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul208 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t1_y[1*W +: W]), .b(dl_t0_vA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 65]), .a(dl_basis_t1_y[1*W +: W]), .b(dl_t0_vA_y[0*W +: W]),
         .out_valid(op_valid_nc[132]), .y(t1_mul208), .flags(fl_t1_mul208)
     );
     assign ev_ovf[128] = fl_t1_mul208[0] && ev_q[2*MAN_BITS + 68];
@@ -2209,12 +2216,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[128] = fl_t1_mul208[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul208;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul208 (.clk(clk), .d(t1_mul208), .q(dl_t1_mul208));
+        u_dl_t1_mul208 (.clk(clk), .d(t1_mul208), .valid(1'b0), .q(dl_t1_mul208));
     // t1_add209 = t1_mul207 + t1_mul208   (ready @118/92/86)
     logic [W-1:0] t1_add209;
     logic [2:0] fl_t1_add209;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add209 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul207), .b(dl_t1_mul208), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 68]), .a(dl_t1_mul207), .b(dl_t1_mul208), .sub(1'b0),
         .out_valid(op_valid_nc[133]), .y(t1_add209), .flags(fl_t1_add209)
     );
     assign ev_ovf[129] = fl_t1_add209[0] && ev_q[2*MAN_BITS + 72];
@@ -2222,12 +2229,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[129] = fl_t1_add209[2] && ev_q[2*MAN_BITS + 72];
     logic [W-1:0] dl_t1_add209;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add209 (.clk(clk), .d(t1_add209), .q(dl_t1_add209));
+        u_dl_t1_add209 (.clk(clk), .d(t1_add209), .valid(1'b0), .q(dl_t1_add209));
     // t1_mul210 = basis_t1_z * t0_vA_z   (ready @114/88/82)
     logic [W-1:0] t1_mul210;
     logic [2:0] fl_t1_mul210;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul210 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t1_z[1*W +: W]), .b(dl_t0_vA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 65]), .a(dl_basis_t1_z[1*W +: W]), .b(dl_t0_vA_z[0*W +: W]),
         .out_valid(op_valid_nc[134]), .y(t1_mul210), .flags(fl_t1_mul210)
     );
     assign ev_ovf[130] = fl_t1_mul210[0] && ev_q[2*MAN_BITS + 68];
@@ -2235,12 +2242,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[130] = fl_t1_mul210[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul210;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 72) - (2*MAN_BITS + 68)))
-        u_dl_t1_mul210 (.clk(clk), .d(t1_mul210), .q(dl_t1_mul210));
+        u_dl_t1_mul210 (.clk(clk), .d(t1_mul210), .valid(valid_q[2*MAN_BITS + 68 +: (((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) > 0 ? ((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) : 1)]), .q(dl_t1_mul210));
     // t1_add211 = t1_add209 + t1_mul210   (ready @122/96/90)
     logic [W-1:0] t1_add211;
     logic [2:0] fl_t1_add211;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add211 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add209), .b(dl_t1_mul210), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 72]), .a(dl_t1_add209), .b(dl_t1_mul210), .sub(1'b0),
         .out_valid(op_valid_nc[135]), .y(t1_add211), .flags(fl_t1_add211)
     );
     assign ev_ovf[131] = fl_t1_add211[0] && ev_q[2*MAN_BITS + 76];
@@ -2248,12 +2255,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[131] = fl_t1_add211[2] && ev_q[2*MAN_BITS + 76];
     logic [W-1:0] dl_t1_add211;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add211 (.clk(clk), .d(t1_add211), .q(dl_t1_add211));
+        u_dl_t1_add211 (.clk(clk), .d(t1_add211), .valid(1'b0), .q(dl_t1_add211));
     // t1_mul212 = basis_t1_x * t0_vB_x   (ready @114/88/82)
     logic [W-1:0] t1_mul212;
     logic [2:0] fl_t1_mul212;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul212 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t1_x[1*W +: W]), .b(dl_t0_vB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 65]), .a(dl_basis_t1_x[1*W +: W]), .b(dl_t0_vB_x[0*W +: W]),
         .out_valid(op_valid_nc[136]), .y(t1_mul212), .flags(fl_t1_mul212)
     );
     assign ev_ovf[132] = fl_t1_mul212[0] && ev_q[2*MAN_BITS + 68];
@@ -2261,12 +2268,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[132] = fl_t1_mul212[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul212;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul212 (.clk(clk), .d(t1_mul212), .q(dl_t1_mul212));
+        u_dl_t1_mul212 (.clk(clk), .d(t1_mul212), .valid(1'b0), .q(dl_t1_mul212));
     // t1_mul213 = basis_t1_y * t0_vB_y   (ready @114/88/82)
     logic [W-1:0] t1_mul213;
     logic [2:0] fl_t1_mul213;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul213 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t1_y[1*W +: W]), .b(dl_t0_vB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 65]), .a(dl_basis_t1_y[1*W +: W]), .b(dl_t0_vB_y[0*W +: W]),
         .out_valid(op_valid_nc[137]), .y(t1_mul213), .flags(fl_t1_mul213)
     );
     assign ev_ovf[133] = fl_t1_mul213[0] && ev_q[2*MAN_BITS + 68];
@@ -2274,12 +2281,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[133] = fl_t1_mul213[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul213;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul213 (.clk(clk), .d(t1_mul213), .q(dl_t1_mul213));
+        u_dl_t1_mul213 (.clk(clk), .d(t1_mul213), .valid(1'b0), .q(dl_t1_mul213));
     // t1_add214 = t1_mul212 + t1_mul213   (ready @118/92/86)
     logic [W-1:0] t1_add214;
     logic [2:0] fl_t1_add214;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add214 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul212), .b(dl_t1_mul213), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 68]), .a(dl_t1_mul212), .b(dl_t1_mul213), .sub(1'b0),
         .out_valid(op_valid_nc[138]), .y(t1_add214), .flags(fl_t1_add214)
     );
     assign ev_ovf[134] = fl_t1_add214[0] && ev_q[2*MAN_BITS + 72];
@@ -2287,12 +2294,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[134] = fl_t1_add214[2] && ev_q[2*MAN_BITS + 72];
     logic [W-1:0] dl_t1_add214;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add214 (.clk(clk), .d(t1_add214), .q(dl_t1_add214));
+        u_dl_t1_add214 (.clk(clk), .d(t1_add214), .valid(1'b0), .q(dl_t1_add214));
     // t1_mul215 = basis_t1_z * t0_vB_z   (ready @114/88/82)
     logic [W-1:0] t1_mul215;
     logic [2:0] fl_t1_mul215;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul215 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t1_z[1*W +: W]), .b(dl_t0_vB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 65]), .a(dl_basis_t1_z[1*W +: W]), .b(dl_t0_vB_z[0*W +: W]),
         .out_valid(op_valid_nc[139]), .y(t1_mul215), .flags(fl_t1_mul215)
     );
     assign ev_ovf[135] = fl_t1_mul215[0] && ev_q[2*MAN_BITS + 68];
@@ -2300,12 +2307,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[135] = fl_t1_mul215[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul215;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 72) - (2*MAN_BITS + 68)))
-        u_dl_t1_mul215 (.clk(clk), .d(t1_mul215), .q(dl_t1_mul215));
+        u_dl_t1_mul215 (.clk(clk), .d(t1_mul215), .valid(valid_q[2*MAN_BITS + 68 +: (((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) > 0 ? ((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) : 1)]), .q(dl_t1_mul215));
     // t1_add216 = t1_add214 + t1_mul215   (ready @122/96/90)
     logic [W-1:0] t1_add216;
     logic [2:0] fl_t1_add216;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add216 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add214), .b(dl_t1_mul215), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 72]), .a(dl_t1_add214), .b(dl_t1_mul215), .sub(1'b0),
         .out_valid(op_valid_nc[140]), .y(t1_add216), .flags(fl_t1_add216)
     );
     assign ev_ovf[136] = fl_t1_add216[0] && ev_q[2*MAN_BITS + 76];
@@ -2313,12 +2320,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[136] = fl_t1_add216[2] && ev_q[2*MAN_BITS + 76];
     logic [W-1:0] dl_t1_add216;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add216 (.clk(clk), .d(t1_add216), .q(dl_t1_add216));
+        u_dl_t1_add216 (.clk(clk), .d(t1_add216), .valid(1'b0), .q(dl_t1_add216));
     // t1_sub217 = t1_add211 - t1_add216   (ready @126/100/94)
     logic [W-1:0] t1_sub217;
     logic [2:0] fl_t1_sub217;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub217 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add211), .b(dl_t1_add216), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 76]), .a(dl_t1_add211), .b(dl_t1_add216), .sub(1'b1),
         .out_valid(op_valid_nc[141]), .y(t1_sub217), .flags(fl_t1_sub217)
     );
     assign ev_ovf[137] = fl_t1_sub217[0] && ev_q[2*MAN_BITS + 80];
@@ -2326,12 +2333,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[137] = fl_t1_sub217[2] && ev_q[2*MAN_BITS + 80];
     logic [W-1:0] dl_t1_sub217;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub217 (.clk(clk), .d(t1_sub217), .q(dl_t1_sub217));
+        u_dl_t1_sub217 (.clk(clk), .d(t1_sub217), .valid(1'b0), .q(dl_t1_sub217));
     // t1_mul218 = t1_cA_x * t0_wA_x   (ready @114/88/82)
     logic [W-1:0] t1_mul218;
     logic [2:0] fl_t1_mul218;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul218 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_x[0*W +: W]), .b(dl_t0_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 65]), .a(dl_t1_cA_x[0*W +: W]), .b(dl_t0_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[142]), .y(t1_mul218), .flags(fl_t1_mul218)
     );
     assign ev_ovf[138] = fl_t1_mul218[0] && ev_q[2*MAN_BITS + 68];
@@ -2339,12 +2346,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[138] = fl_t1_mul218[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul218;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul218 (.clk(clk), .d(t1_mul218), .q(dl_t1_mul218));
+        u_dl_t1_mul218 (.clk(clk), .d(t1_mul218), .valid(1'b0), .q(dl_t1_mul218));
     // t1_mul219 = t1_cA_y * t0_wA_y   (ready @114/88/82)
     logic [W-1:0] t1_mul219;
     logic [2:0] fl_t1_mul219;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul219 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_y[0*W +: W]), .b(dl_t0_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 65]), .a(dl_t1_cA_y[0*W +: W]), .b(dl_t0_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[143]), .y(t1_mul219), .flags(fl_t1_mul219)
     );
     assign ev_ovf[139] = fl_t1_mul219[0] && ev_q[2*MAN_BITS + 68];
@@ -2352,12 +2359,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[139] = fl_t1_mul219[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul219;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul219 (.clk(clk), .d(t1_mul219), .q(dl_t1_mul219));
+        u_dl_t1_mul219 (.clk(clk), .d(t1_mul219), .valid(1'b0), .q(dl_t1_mul219));
     // t1_add220 = t1_mul218 + t1_mul219   (ready @118/92/86)
     logic [W-1:0] t1_add220;
     logic [2:0] fl_t1_add220;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add220 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul218), .b(dl_t1_mul219), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 68]), .a(dl_t1_mul218), .b(dl_t1_mul219), .sub(1'b0),
         .out_valid(op_valid_nc[144]), .y(t1_add220), .flags(fl_t1_add220)
     );
     assign ev_ovf[140] = fl_t1_add220[0] && ev_q[2*MAN_BITS + 72];
@@ -2365,12 +2372,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[140] = fl_t1_add220[2] && ev_q[2*MAN_BITS + 72];
     logic [W-1:0] dl_t1_add220;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add220 (.clk(clk), .d(t1_add220), .q(dl_t1_add220));
+        u_dl_t1_add220 (.clk(clk), .d(t1_add220), .valid(1'b0), .q(dl_t1_add220));
     // t1_mul221 = t1_cA_z * t0_wA_z   (ready @114/88/82)
     logic [W-1:0] t1_mul221;
     logic [2:0] fl_t1_mul221;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul221 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cA_z[0*W +: W]), .b(dl_t0_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 65]), .a(dl_t1_cA_z[0*W +: W]), .b(dl_t0_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[145]), .y(t1_mul221), .flags(fl_t1_mul221)
     );
     assign ev_ovf[141] = fl_t1_mul221[0] && ev_q[2*MAN_BITS + 68];
@@ -2378,12 +2385,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[141] = fl_t1_mul221[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul221;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 72) - (2*MAN_BITS + 68)))
-        u_dl_t1_mul221 (.clk(clk), .d(t1_mul221), .q(dl_t1_mul221));
+        u_dl_t1_mul221 (.clk(clk), .d(t1_mul221), .valid(valid_q[2*MAN_BITS + 68 +: (((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) > 0 ? ((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) : 1)]), .q(dl_t1_mul221));
     // t1_add222 = t1_add220 + t1_mul221   (ready @122/96/90)
     logic [W-1:0] t1_add222;
     logic [2:0] fl_t1_add222;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add222 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add220), .b(dl_t1_mul221), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 72]), .a(dl_t1_add220), .b(dl_t1_mul221), .sub(1'b0),
         .out_valid(op_valid_nc[146]), .y(t1_add222), .flags(fl_t1_add222)
     );
     assign ev_ovf[142] = fl_t1_add222[0] && ev_q[2*MAN_BITS + 76];
@@ -2391,12 +2398,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[142] = fl_t1_add222[2] && ev_q[2*MAN_BITS + 76];
     logic [W-1:0] dl_t1_add222;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add222 (.clk(clk), .d(t1_add222), .q(dl_t1_add222));
+        u_dl_t1_add222 (.clk(clk), .d(t1_add222), .valid(1'b0), .q(dl_t1_add222));
     // t1_mul223 = t1_cB_x * t0_wB_x   (ready @114/88/82)
     logic [W-1:0] t1_mul223;
     logic [2:0] fl_t1_mul223;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul223 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_x[0*W +: W]), .b(dl_t0_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 65]), .a(dl_t1_cB_x[0*W +: W]), .b(dl_t0_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[147]), .y(t1_mul223), .flags(fl_t1_mul223)
     );
     assign ev_ovf[143] = fl_t1_mul223[0] && ev_q[2*MAN_BITS + 68];
@@ -2404,12 +2411,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[143] = fl_t1_mul223[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul223;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul223 (.clk(clk), .d(t1_mul223), .q(dl_t1_mul223));
+        u_dl_t1_mul223 (.clk(clk), .d(t1_mul223), .valid(1'b0), .q(dl_t1_mul223));
     // t1_mul224 = t1_cB_y * t0_wB_y   (ready @114/88/82)
     logic [W-1:0] t1_mul224;
     logic [2:0] fl_t1_mul224;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul224 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_y[0*W +: W]), .b(dl_t0_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 65]), .a(dl_t1_cB_y[0*W +: W]), .b(dl_t0_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[148]), .y(t1_mul224), .flags(fl_t1_mul224)
     );
     assign ev_ovf[144] = fl_t1_mul224[0] && ev_q[2*MAN_BITS + 68];
@@ -2417,12 +2424,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[144] = fl_t1_mul224[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul224;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul224 (.clk(clk), .d(t1_mul224), .q(dl_t1_mul224));
+        u_dl_t1_mul224 (.clk(clk), .d(t1_mul224), .valid(1'b0), .q(dl_t1_mul224));
     // t1_add225 = t1_mul223 + t1_mul224   (ready @118/92/86)
     logic [W-1:0] t1_add225;
     logic [2:0] fl_t1_add225;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add225 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_mul223), .b(dl_t1_mul224), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 68]), .a(dl_t1_mul223), .b(dl_t1_mul224), .sub(1'b0),
         .out_valid(op_valid_nc[149]), .y(t1_add225), .flags(fl_t1_add225)
     );
     assign ev_ovf[145] = fl_t1_add225[0] && ev_q[2*MAN_BITS + 72];
@@ -2430,12 +2437,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[145] = fl_t1_add225[2] && ev_q[2*MAN_BITS + 72];
     logic [W-1:0] dl_t1_add225;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add225 (.clk(clk), .d(t1_add225), .q(dl_t1_add225));
+        u_dl_t1_add225 (.clk(clk), .d(t1_add225), .valid(1'b0), .q(dl_t1_add225));
     // t1_mul226 = t1_cB_z * t0_wB_z   (ready @114/88/82)
     logic [W-1:0] t1_mul226;
     logic [2:0] fl_t1_mul226;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul226 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_cB_z[0*W +: W]), .b(dl_t0_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 65]), .a(dl_t1_cB_z[0*W +: W]), .b(dl_t0_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[150]), .y(t1_mul226), .flags(fl_t1_mul226)
     );
     assign ev_ovf[146] = fl_t1_mul226[0] && ev_q[2*MAN_BITS + 68];
@@ -2443,12 +2450,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[146] = fl_t1_mul226[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul226;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 72) - (2*MAN_BITS + 68)))
-        u_dl_t1_mul226 (.clk(clk), .d(t1_mul226), .q(dl_t1_mul226));
+        u_dl_t1_mul226 (.clk(clk), .d(t1_mul226), .valid(valid_q[2*MAN_BITS + 68 +: (((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) > 0 ? ((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) : 1)]), .q(dl_t1_mul226));
     // t1_add227 = t1_add225 + t1_mul226   (ready @122/96/90)
     logic [W-1:0] t1_add227;
     logic [2:0] fl_t1_add227;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add227 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add225), .b(dl_t1_mul226), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 72]), .a(dl_t1_add225), .b(dl_t1_mul226), .sub(1'b0),
         .out_valid(op_valid_nc[151]), .y(t1_add227), .flags(fl_t1_add227)
     );
     assign ev_ovf[147] = fl_t1_add227[0] && ev_q[2*MAN_BITS + 76];
@@ -2456,12 +2463,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[147] = fl_t1_add227[2] && ev_q[2*MAN_BITS + 76];
     logic [W-1:0] dl_t1_add227;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add227 (.clk(clk), .d(t1_add227), .q(dl_t1_add227));
+        u_dl_t1_add227 (.clk(clk), .d(t1_add227), .valid(1'b0), .q(dl_t1_add227));
     // t1_sub228 = t1_add222 - t1_add227   (ready @126/100/94)
     logic [W-1:0] t1_sub228;
     logic [2:0] fl_t1_sub228;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub228 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add222), .b(dl_t1_add227), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 76]), .a(dl_t1_add222), .b(dl_t1_add227), .sub(1'b1),
         .out_valid(op_valid_nc[152]), .y(t1_sub228), .flags(fl_t1_sub228)
     );
     assign ev_ovf[148] = fl_t1_sub228[0] && ev_q[2*MAN_BITS + 80];
@@ -2469,12 +2476,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[148] = fl_t1_sub228[2] && ev_q[2*MAN_BITS + 80];
     logic [W-1:0] dl_t1_sub228;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub228 (.clk(clk), .d(t1_sub228), .q(dl_t1_sub228));
+        u_dl_t1_sub228 (.clk(clk), .d(t1_sub228), .valid(1'b0), .q(dl_t1_sub228));
     // t1_u = t1_sub217 + t1_sub228   (ready @130/104/98)
     logic [W-1:0] t1_u;
     logic [2:0] fl_t1_u;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_u (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_sub217), .b(dl_t1_sub228), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 80]), .a(dl_t1_sub217), .b(dl_t1_sub228), .sub(1'b0),
         .out_valid(op_valid_nc[153]), .y(t1_u), .flags(fl_t1_u)
     );
     assign ev_ovf[149] = fl_t1_u[0] && ev_q[2*MAN_BITS + 84];
@@ -2482,18 +2489,18 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[149] = fl_t1_u[2] && ev_q[2*MAN_BITS + 84];
     logic [W-1:0] dl_t1_u;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_u (.clk(clk), .d(t1_u), .q(dl_t1_u));
+        u_dl_t1_u (.clk(clk), .d(t1_u), .valid(1'b0), .q(dl_t1_u));
     // t1_neg230 = -t1_u   (ready @130/104/98)
     logic [W-1:0] t1_neg230;
     assign t1_neg230 = {~dl_t1_u[W-1], dl_t1_u[W-2:0]};
     logic [W-1:0] dl_t1_neg230;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_neg230 (.clk(clk), .d(t1_neg230), .q(dl_t1_neg230));
+        u_dl_t1_neg230 (.clk(clk), .d(t1_neg230), .valid(1'b0), .q(dl_t1_neg230));
     // t1_delta0 = t1_neg230 * f_jac_inv1   (ready @133/107/101)
     logic [W-1:0] t1_delta0;
     logic [2:0] fl_t1_delta0;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_neg230), .b(dl_in_f_jac_inv1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 84]), .a(dl_t1_neg230), .b(dl_in_f_jac_inv1),
         .out_valid(op_valid_nc[154]), .y(t1_delta0), .flags(fl_t1_delta0)
     );
     assign ev_ovf[150] = fl_t1_delta0[0] && ev_q[2*MAN_BITS + 87];
@@ -2501,12 +2508,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[150] = fl_t1_delta0[2] && ev_q[2*MAN_BITS + 87];
     logic [W-1:0] dl_t1_delta0;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_delta0 (.clk(clk), .d(t1_delta0), .q(dl_t1_delta0));
+        u_dl_t1_delta0 (.clk(clk), .d(t1_delta0), .valid(1'b0), .q(dl_t1_delta0));
     // t1_add232 = lamT1 + t1_delta0   (ready @137/111/105)
     logic [W-1:0] t1_add232;
     logic [2:0] fl_t1_add232;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add232 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_lamT1[0*W +: W]), .b(dl_t1_delta0), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 87]), .a(dl_in_lamT1[0*W +: W]), .b(dl_t1_delta0), .sub(1'b0),
         .out_valid(op_valid_nc[155]), .y(t1_add232), .flags(fl_t1_add232)
     );
     assign ev_ovf[151] = fl_t1_add232[0] && ev_q[2*MAN_BITS + 91];
@@ -2514,32 +2521,32 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[151] = fl_t1_add232[2] && ev_q[2*MAN_BITS + 91];
     logic [W-1:0] dl_t1_add232;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add232 (.clk(clk), .d(t1_add232), .q(dl_t1_add232));
+        u_dl_t1_add232 (.clk(clk), .d(t1_add232), .valid(1'b0), .q(dl_t1_add232));
     // t1_max233 = max(t1_add232, neg_limit)   (ready @138/112/106)
     logic [W-1:0] t1_max233;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t1_max233 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_add232), .b(dl_neg_limit[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 91]), .a(dl_t1_add232), .b(dl_neg_limit[1*W +: W]),
         .out_valid(op_valid_nc[156]), .y_min(nc_t1_max233_min), .y_max(t1_max233),
         .lt(nc_t1_max233_lt), .eq(nc_t1_max233_eq), .unordered(nc_t1_max233_uo)
     );
     logic [W-1:0] dl_t1_max233;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_max233 (.clk(clk), .d(t1_max233), .q(dl_t1_max233));
+        u_dl_t1_max233 (.clk(clk), .d(t1_max233), .valid(1'b0), .q(dl_t1_max233));
     // t1_lam_new = min(t1_max233, limit)   (ready @139/113/107)
     logic [W-1:0] t1_lam_new;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_t1_lam_new (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_max233), .b(dl_limit[2*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 92]), .a(dl_t1_max233), .b(dl_limit[2*W +: W]),
         .out_valid(op_valid_nc[157]), .y_min(t1_lam_new), .y_max(nc_t1_lam_new_max),
         .lt(nc_t1_lam_new_lt), .eq(nc_t1_lam_new_eq), .unordered(nc_t1_lam_new_uo)
     );
     logic [W-1:0] dl_t1_lam_new;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_lam_new (.clk(clk), .d(t1_lam_new), .q(dl_t1_lam_new));
+        u_dl_t1_lam_new (.clk(clk), .d(t1_lam_new), .valid(1'b0), .q(dl_t1_lam_new));
     // t1_delta = t1_lam_new - lamT1   (ready @143/117/111)
     logic [W-1:0] t1_delta;
     logic [2:0] fl_t1_delta;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_delta (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_lam_new), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 93]), .a(dl_t1_lam_new), .b(dl_in_lamT1[1*W +: W]), .sub(1'b1),
         .out_valid(op_valid_nc[158]), .y(t1_delta), .flags(fl_t1_delta)
     );
     assign ev_ovf[152] = fl_t1_delta[0] && ev_q[2*MAN_BITS + 97];
@@ -2547,24 +2554,24 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[152] = fl_t1_delta[2] && ev_q[2*MAN_BITS + 97];
     logic [W-1:0] dl_t1_delta;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_delta (.clk(clk), .d(t1_delta), .q(dl_t1_delta));
+        u_dl_t1_delta (.clk(clk), .d(t1_delta), .valid(1'b0), .q(dl_t1_delta));
     // t1_lamT = skip ? lamT1 : t1_lam_new   (ready @139/113/107)
     logic [W-1:0] t1_lamT;
     assign t1_lamT = dl_skip[2] ? dl_in_lamT1[1*W +: W] : dl_t1_lam_new;
     logic [W-1:0] dl_t1_lamT;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 93)))
-        u_dl_t1_lamT (.clk(clk), .d(t1_lamT), .q(dl_t1_lamT));
+        u_dl_t1_lamT (.clk(clk), .d(t1_lamT), .valid(valid_q[2*MAN_BITS + 93 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 93)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 93)) : 1)]), .q(dl_t1_lamT));
     // t1_e = -t1_delta   (ready @143/117/111)
     logic [W-1:0] t1_e;
     assign t1_e = {~dl_t1_delta[W-1], dl_t1_delta[W-2:0]};
     logic [W-1:0] dl_t1_e;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_e (.clk(clk), .d(t1_e), .q(dl_t1_e));
+        u_dl_t1_e (.clk(clk), .d(t1_e), .valid(1'b0), .q(dl_t1_e));
     // t1_linA_x = basis_t1_x * mInvA   (ready @71/45/39)
     logic [W-1:0] t1_linA_x;
     logic [2:0] fl_t1_linA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t1_x[0*W +: W]), .b(dl_in_mInvA[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_basis_t1_x[0*W +: W]), .b(dl_in_mInvA[1*W +: W]),
         .out_valid(op_valid_nc[159]), .y(t1_linA_x), .flags(fl_t1_linA_x)
     );
     assign ev_ovf[153] = fl_t1_linA_x[0] && ev_q[2*MAN_BITS + 25];
@@ -2572,12 +2579,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[153] = fl_t1_linA_x[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_linA_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)))
-        u_dl_t1_linA_x (.clk(clk), .d(t1_linA_x), .q(dl_t1_linA_x));
+        u_dl_t1_linA_x (.clk(clk), .d(t1_linA_x), .valid(valid_q[2*MAN_BITS + 25 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) : 1)]), .q(dl_t1_linA_x));
     // t1_linA_y = basis_t1_y * mInvA   (ready @71/45/39)
     logic [W-1:0] t1_linA_y;
     logic [2:0] fl_t1_linA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t1_y[0*W +: W]), .b(dl_in_mInvA[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_basis_t1_y[0*W +: W]), .b(dl_in_mInvA[1*W +: W]),
         .out_valid(op_valid_nc[160]), .y(t1_linA_y), .flags(fl_t1_linA_y)
     );
     assign ev_ovf[154] = fl_t1_linA_y[0] && ev_q[2*MAN_BITS + 25];
@@ -2585,12 +2592,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[154] = fl_t1_linA_y[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_linA_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)))
-        u_dl_t1_linA_y (.clk(clk), .d(t1_linA_y), .q(dl_t1_linA_y));
+        u_dl_t1_linA_y (.clk(clk), .d(t1_linA_y), .valid(valid_q[2*MAN_BITS + 25 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) : 1)]), .q(dl_t1_linA_y));
     // t1_linA_z = basis_t1_z * mInvA   (ready @71/45/39)
     logic [W-1:0] t1_linA_z;
     logic [2:0] fl_t1_linA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t1_z[0*W +: W]), .b(dl_in_mInvA[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_basis_t1_z[0*W +: W]), .b(dl_in_mInvA[1*W +: W]),
         .out_valid(op_valid_nc[161]), .y(t1_linA_z), .flags(fl_t1_linA_z)
     );
     assign ev_ovf[155] = fl_t1_linA_z[0] && ev_q[2*MAN_BITS + 25];
@@ -2598,12 +2605,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[155] = fl_t1_linA_z[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_linA_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)))
-        u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .q(dl_t1_linA_z));
+        u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .valid(valid_q[2*MAN_BITS + 25 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) : 1)]), .q(dl_t1_linA_z));
     // t1_mul241 = t1_linA_x * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul241;
     logic [2:0] fl_t1_mul241;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul241 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 97]), .a(dl_t1_linA_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[162]), .y(t1_mul241), .flags(fl_t1_mul241)
     );
     assign ev_ovf[156] = fl_t1_mul241[0] && ev_q[2*MAN_BITS + 100];
@@ -2611,12 +2618,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[156] = fl_t1_mul241[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul241;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul241 (.clk(clk), .d(t1_mul241), .q(dl_t1_mul241));
+        u_dl_t1_mul241 (.clk(clk), .d(t1_mul241), .valid(1'b0), .q(dl_t1_mul241));
     // t1_mul242 = t1_linA_y * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul242;
     logic [2:0] fl_t1_mul242;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul242 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 97]), .a(dl_t1_linA_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[163]), .y(t1_mul242), .flags(fl_t1_mul242)
     );
     assign ev_ovf[157] = fl_t1_mul242[0] && ev_q[2*MAN_BITS + 100];
@@ -2624,12 +2631,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[157] = fl_t1_mul242[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul242;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul242 (.clk(clk), .d(t1_mul242), .q(dl_t1_mul242));
+        u_dl_t1_mul242 (.clk(clk), .d(t1_mul242), .valid(1'b0), .q(dl_t1_mul242));
     // t1_mul243 = t1_linA_z * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul243;
     logic [2:0] fl_t1_mul243;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul243 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linA_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 97]), .a(dl_t1_linA_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[164]), .y(t1_mul243), .flags(fl_t1_mul243)
     );
     assign ev_ovf[158] = fl_t1_mul243[0] && ev_q[2*MAN_BITS + 100];
@@ -2637,12 +2644,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[158] = fl_t1_mul243[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul243;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul243 (.clk(clk), .d(t1_mul243), .q(dl_t1_mul243));
+        u_dl_t1_mul243 (.clk(clk), .d(t1_mul243), .valid(1'b0), .q(dl_t1_mul243));
     // t1_add244 = t0_vA_x + t1_mul241   (ready @150/124/118)
     logic [W-1:0] t1_add244;
     logic [2:0] fl_t1_add244;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add244 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_x[1*W +: W]), .b(dl_t1_mul241), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_vA_x[1*W +: W]), .b(dl_t1_mul241), .sub(1'b0),
         .out_valid(op_valid_nc[165]), .y(t1_add244), .flags(fl_t1_add244)
     );
     assign ev_ovf[159] = fl_t1_add244[0] && ev_q[2*MAN_BITS + 104];
@@ -2650,12 +2657,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[159] = fl_t1_add244[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_add244;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add244 (.clk(clk), .d(t1_add244), .q(dl_t1_add244));
+        u_dl_t1_add244 (.clk(clk), .d(t1_add244), .valid(1'b0), .q(dl_t1_add244));
     // t1_add245 = t0_vA_y + t1_mul242   (ready @150/124/118)
     logic [W-1:0] t1_add245;
     logic [2:0] fl_t1_add245;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add245 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_y[1*W +: W]), .b(dl_t1_mul242), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_vA_y[1*W +: W]), .b(dl_t1_mul242), .sub(1'b0),
         .out_valid(op_valid_nc[166]), .y(t1_add245), .flags(fl_t1_add245)
     );
     assign ev_ovf[160] = fl_t1_add245[0] && ev_q[2*MAN_BITS + 104];
@@ -2663,12 +2670,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[160] = fl_t1_add245[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_add245;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add245 (.clk(clk), .d(t1_add245), .q(dl_t1_add245));
+        u_dl_t1_add245 (.clk(clk), .d(t1_add245), .valid(1'b0), .q(dl_t1_add245));
     // t1_add246 = t0_vA_z + t1_mul243   (ready @150/124/118)
     logic [W-1:0] t1_add246;
     logic [2:0] fl_t1_add246;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add246 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vA_z[1*W +: W]), .b(dl_t1_mul243), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_vA_z[1*W +: W]), .b(dl_t1_mul243), .sub(1'b0),
         .out_valid(op_valid_nc[167]), .y(t1_add246), .flags(fl_t1_add246)
     );
     assign ev_ovf[161] = fl_t1_add246[0] && ev_q[2*MAN_BITS + 104];
@@ -2676,30 +2683,30 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[161] = fl_t1_add246[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_add246;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add246 (.clk(clk), .d(t1_add246), .q(dl_t1_add246));
+        u_dl_t1_add246 (.clk(clk), .d(t1_add246), .valid(1'b0), .q(dl_t1_add246));
     // t1_vA_x = skip ? t0_vA_x : t1_add244   (ready @150/124/118)
     logic [W-1:0] t1_vA_x;
     assign t1_vA_x = dl_skip[3] ? dl_t0_vA_x[2*W +: W] : dl_t1_add244;
     logic [W-1:0] dl_t1_vA_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)))
-        u_dl_t1_vA_x (.clk(clk), .d(t1_vA_x), .q(dl_t1_vA_x));
+        u_dl_t1_vA_x (.clk(clk), .d(t1_vA_x), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_vA_x));
     // t1_vA_y = skip ? t0_vA_y : t1_add245   (ready @150/124/118)
     logic [W-1:0] t1_vA_y;
     assign t1_vA_y = dl_skip[3] ? dl_t0_vA_y[2*W +: W] : dl_t1_add245;
     logic [W-1:0] dl_t1_vA_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)))
-        u_dl_t1_vA_y (.clk(clk), .d(t1_vA_y), .q(dl_t1_vA_y));
+        u_dl_t1_vA_y (.clk(clk), .d(t1_vA_y), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_vA_y));
     // t1_vA_z = skip ? t0_vA_z : t1_add246   (ready @150/124/118)
     logic [W-1:0] t1_vA_z;
     assign t1_vA_z = dl_skip[3] ? dl_t0_vA_z[2*W +: W] : dl_t1_add246;
     logic [W-1:0] dl_t1_vA_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)))
-        u_dl_t1_vA_z (.clk(clk), .d(t1_vA_z), .q(dl_t1_vA_z));
+        u_dl_t1_vA_z (.clk(clk), .d(t1_vA_z), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_vA_z));
     // t1_angA_x = IInvA_x * t1_cA_x   (ready @78/52/46)
     logic [W-1:0] t1_angA_x;
     logic [2:0] fl_t1_angA_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_x[1*W +: W]), .b(dl_t1_cA_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 29]), .a(dl_in_IInvA_x[1*W +: W]), .b(dl_t1_cA_x[1*W +: W]),
         .out_valid(op_valid_nc[168]), .y(t1_angA_x), .flags(fl_t1_angA_x)
     );
     assign ev_ovf[162] = fl_t1_angA_x[0] && ev_q[2*MAN_BITS + 32];
@@ -2707,12 +2714,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[162] = fl_t1_angA_x[2] && ev_q[2*MAN_BITS + 32];
     logic [W-1:0] dl_t1_angA_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)))
-        u_dl_t1_angA_x (.clk(clk), .d(t1_angA_x), .q(dl_t1_angA_x));
+        u_dl_t1_angA_x (.clk(clk), .d(t1_angA_x), .valid(valid_q[2*MAN_BITS + 32 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) : 1)]), .q(dl_t1_angA_x));
     // t1_angA_y = IInvA_y * t1_cA_y   (ready @78/52/46)
     logic [W-1:0] t1_angA_y;
     logic [2:0] fl_t1_angA_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_y[1*W +: W]), .b(dl_t1_cA_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 29]), .a(dl_in_IInvA_y[1*W +: W]), .b(dl_t1_cA_y[1*W +: W]),
         .out_valid(op_valid_nc[169]), .y(t1_angA_y), .flags(fl_t1_angA_y)
     );
     assign ev_ovf[163] = fl_t1_angA_y[0] && ev_q[2*MAN_BITS + 32];
@@ -2720,12 +2727,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[163] = fl_t1_angA_y[2] && ev_q[2*MAN_BITS + 32];
     logic [W-1:0] dl_t1_angA_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)))
-        u_dl_t1_angA_y (.clk(clk), .d(t1_angA_y), .q(dl_t1_angA_y));
+        u_dl_t1_angA_y (.clk(clk), .d(t1_angA_y), .valid(valid_q[2*MAN_BITS + 32 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) : 1)]), .q(dl_t1_angA_y));
     // t1_angA_z = IInvA_z * t1_cA_z   (ready @78/52/46)
     logic [W-1:0] t1_angA_z;
     logic [2:0] fl_t1_angA_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angA_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvA_z[1*W +: W]), .b(dl_t1_cA_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 29]), .a(dl_in_IInvA_z[1*W +: W]), .b(dl_t1_cA_z[1*W +: W]),
         .out_valid(op_valid_nc[170]), .y(t1_angA_z), .flags(fl_t1_angA_z)
     );
     assign ev_ovf[164] = fl_t1_angA_z[0] && ev_q[2*MAN_BITS + 32];
@@ -2733,12 +2740,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[164] = fl_t1_angA_z[2] && ev_q[2*MAN_BITS + 32];
     logic [W-1:0] dl_t1_angA_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)))
-        u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .q(dl_t1_angA_z));
+        u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .valid(valid_q[2*MAN_BITS + 32 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) : 1)]), .q(dl_t1_angA_z));
     // t1_mul253 = t1_angA_x * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul253;
     logic [2:0] fl_t1_mul253;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul253 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 97]), .a(dl_t1_angA_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[171]), .y(t1_mul253), .flags(fl_t1_mul253)
     );
     assign ev_ovf[165] = fl_t1_mul253[0] && ev_q[2*MAN_BITS + 100];
@@ -2746,12 +2753,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[165] = fl_t1_mul253[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul253;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul253 (.clk(clk), .d(t1_mul253), .q(dl_t1_mul253));
+        u_dl_t1_mul253 (.clk(clk), .d(t1_mul253), .valid(1'b0), .q(dl_t1_mul253));
     // t1_mul254 = t1_angA_y * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul254;
     logic [2:0] fl_t1_mul254;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul254 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 97]), .a(dl_t1_angA_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[172]), .y(t1_mul254), .flags(fl_t1_mul254)
     );
     assign ev_ovf[166] = fl_t1_mul254[0] && ev_q[2*MAN_BITS + 100];
@@ -2759,12 +2766,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[166] = fl_t1_mul254[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul254;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul254 (.clk(clk), .d(t1_mul254), .q(dl_t1_mul254));
+        u_dl_t1_mul254 (.clk(clk), .d(t1_mul254), .valid(1'b0), .q(dl_t1_mul254));
     // t1_mul255 = t1_angA_z * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul255;
     logic [2:0] fl_t1_mul255;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul255 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angA_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 97]), .a(dl_t1_angA_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[173]), .y(t1_mul255), .flags(fl_t1_mul255)
     );
     assign ev_ovf[167] = fl_t1_mul255[0] && ev_q[2*MAN_BITS + 100];
@@ -2772,12 +2779,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[167] = fl_t1_mul255[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul255;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul255 (.clk(clk), .d(t1_mul255), .q(dl_t1_mul255));
+        u_dl_t1_mul255 (.clk(clk), .d(t1_mul255), .valid(1'b0), .q(dl_t1_mul255));
     // t1_add256 = t0_wA_x + t1_mul253   (ready @150/124/118)
     logic [W-1:0] t1_add256;
     logic [2:0] fl_t1_add256;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add256 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_x[1*W +: W]), .b(dl_t1_mul253), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_wA_x[1*W +: W]), .b(dl_t1_mul253), .sub(1'b0),
         .out_valid(op_valid_nc[174]), .y(t1_add256), .flags(fl_t1_add256)
     );
     assign ev_ovf[168] = fl_t1_add256[0] && ev_q[2*MAN_BITS + 104];
@@ -2785,12 +2792,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[168] = fl_t1_add256[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_add256;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add256 (.clk(clk), .d(t1_add256), .q(dl_t1_add256));
+        u_dl_t1_add256 (.clk(clk), .d(t1_add256), .valid(1'b0), .q(dl_t1_add256));
     // t1_add257 = t0_wA_y + t1_mul254   (ready @150/124/118)
     logic [W-1:0] t1_add257;
     logic [2:0] fl_t1_add257;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add257 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_y[1*W +: W]), .b(dl_t1_mul254), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_wA_y[1*W +: W]), .b(dl_t1_mul254), .sub(1'b0),
         .out_valid(op_valid_nc[175]), .y(t1_add257), .flags(fl_t1_add257)
     );
     assign ev_ovf[169] = fl_t1_add257[0] && ev_q[2*MAN_BITS + 104];
@@ -2798,12 +2805,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[169] = fl_t1_add257[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_add257;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add257 (.clk(clk), .d(t1_add257), .q(dl_t1_add257));
+        u_dl_t1_add257 (.clk(clk), .d(t1_add257), .valid(1'b0), .q(dl_t1_add257));
     // t1_add258 = t0_wA_z + t1_mul255   (ready @150/124/118)
     logic [W-1:0] t1_add258;
     logic [2:0] fl_t1_add258;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_add258 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wA_z[1*W +: W]), .b(dl_t1_mul255), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_wA_z[1*W +: W]), .b(dl_t1_mul255), .sub(1'b0),
         .out_valid(op_valid_nc[176]), .y(t1_add258), .flags(fl_t1_add258)
     );
     assign ev_ovf[170] = fl_t1_add258[0] && ev_q[2*MAN_BITS + 104];
@@ -2811,30 +2818,30 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[170] = fl_t1_add258[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_add258;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_add258 (.clk(clk), .d(t1_add258), .q(dl_t1_add258));
+        u_dl_t1_add258 (.clk(clk), .d(t1_add258), .valid(1'b0), .q(dl_t1_add258));
     // t1_wA_x = skip ? t0_wA_x : t1_add256   (ready @150/124/118)
     logic [W-1:0] t1_wA_x;
     assign t1_wA_x = dl_skip[3] ? dl_t0_wA_x[2*W +: W] : dl_t1_add256;
     logic [3*W-1:0] dl_t1_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}))
-        u_dl_t1_wA_x (.clk(clk), .d(t1_wA_x), .q(dl_t1_wA_x));
+        u_dl_t1_wA_x (.clk(clk), .d(t1_wA_x), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_wA_x));
     // t1_wA_y = skip ? t0_wA_y : t1_add257   (ready @150/124/118)
     logic [W-1:0] t1_wA_y;
     assign t1_wA_y = dl_skip[3] ? dl_t0_wA_y[2*W +: W] : dl_t1_add257;
     logic [3*W-1:0] dl_t1_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}))
-        u_dl_t1_wA_y (.clk(clk), .d(t1_wA_y), .q(dl_t1_wA_y));
+        u_dl_t1_wA_y (.clk(clk), .d(t1_wA_y), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_wA_y));
     // t1_wA_z = skip ? t0_wA_z : t1_add258   (ready @150/124/118)
     logic [W-1:0] t1_wA_z;
     assign t1_wA_z = dl_skip[3] ? dl_t0_wA_z[2*W +: W] : dl_t1_add258;
     logic [3*W-1:0] dl_t1_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}))
-        u_dl_t1_wA_z (.clk(clk), .d(t1_wA_z), .q(dl_t1_wA_z));
+        u_dl_t1_wA_z (.clk(clk), .d(t1_wA_z), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_wA_z));
     // t1_linB_x = basis_t1_x * mInvB   (ready @71/45/39)
     logic [W-1:0] t1_linB_x;
     logic [2:0] fl_t1_linB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t1_x[0*W +: W]), .b(dl_in_mInvB[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_basis_t1_x[0*W +: W]), .b(dl_in_mInvB[1*W +: W]),
         .out_valid(op_valid_nc[177]), .y(t1_linB_x), .flags(fl_t1_linB_x)
     );
     assign ev_ovf[171] = fl_t1_linB_x[0] && ev_q[2*MAN_BITS + 25];
@@ -2842,12 +2849,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[171] = fl_t1_linB_x[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_linB_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)))
-        u_dl_t1_linB_x (.clk(clk), .d(t1_linB_x), .q(dl_t1_linB_x));
+        u_dl_t1_linB_x (.clk(clk), .d(t1_linB_x), .valid(valid_q[2*MAN_BITS + 25 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) : 1)]), .q(dl_t1_linB_x));
     // t1_linB_y = basis_t1_y * mInvB   (ready @71/45/39)
     logic [W-1:0] t1_linB_y;
     logic [2:0] fl_t1_linB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t1_y[0*W +: W]), .b(dl_in_mInvB[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_basis_t1_y[0*W +: W]), .b(dl_in_mInvB[1*W +: W]),
         .out_valid(op_valid_nc[178]), .y(t1_linB_y), .flags(fl_t1_linB_y)
     );
     assign ev_ovf[172] = fl_t1_linB_y[0] && ev_q[2*MAN_BITS + 25];
@@ -2855,12 +2862,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[172] = fl_t1_linB_y[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_linB_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)))
-        u_dl_t1_linB_y (.clk(clk), .d(t1_linB_y), .q(dl_t1_linB_y));
+        u_dl_t1_linB_y (.clk(clk), .d(t1_linB_y), .valid(valid_q[2*MAN_BITS + 25 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) : 1)]), .q(dl_t1_linB_y));
     // t1_linB_z = basis_t1_z * mInvB   (ready @71/45/39)
     logic [W-1:0] t1_linB_z;
     logic [2:0] fl_t1_linB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_linB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_basis_t1_z[0*W +: W]), .b(dl_in_mInvB[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 22]), .a(dl_basis_t1_z[0*W +: W]), .b(dl_in_mInvB[1*W +: W]),
         .out_valid(op_valid_nc[179]), .y(t1_linB_z), .flags(fl_t1_linB_z)
     );
     assign ev_ovf[173] = fl_t1_linB_z[0] && ev_q[2*MAN_BITS + 25];
@@ -2868,12 +2875,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[173] = fl_t1_linB_z[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_linB_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)))
-        u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .q(dl_t1_linB_z));
+        u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .valid(valid_q[2*MAN_BITS + 25 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) : 1)]), .q(dl_t1_linB_z));
     // t1_mul265 = t1_linB_x * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul265;
     logic [2:0] fl_t1_mul265;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul265 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 97]), .a(dl_t1_linB_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[180]), .y(t1_mul265), .flags(fl_t1_mul265)
     );
     assign ev_ovf[174] = fl_t1_mul265[0] && ev_q[2*MAN_BITS + 100];
@@ -2881,12 +2888,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[174] = fl_t1_mul265[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul265;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul265 (.clk(clk), .d(t1_mul265), .q(dl_t1_mul265));
+        u_dl_t1_mul265 (.clk(clk), .d(t1_mul265), .valid(1'b0), .q(dl_t1_mul265));
     // t1_mul266 = t1_linB_y * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul266;
     logic [2:0] fl_t1_mul266;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul266 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 97]), .a(dl_t1_linB_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[181]), .y(t1_mul266), .flags(fl_t1_mul266)
     );
     assign ev_ovf[175] = fl_t1_mul266[0] && ev_q[2*MAN_BITS + 100];
@@ -2894,12 +2901,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[175] = fl_t1_mul266[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul266;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul266 (.clk(clk), .d(t1_mul266), .q(dl_t1_mul266));
+        u_dl_t1_mul266 (.clk(clk), .d(t1_mul266), .valid(1'b0), .q(dl_t1_mul266));
     // t1_mul267 = t1_linB_z * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul267;
     logic [2:0] fl_t1_mul267;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul267 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_linB_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 97]), .a(dl_t1_linB_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[182]), .y(t1_mul267), .flags(fl_t1_mul267)
     );
     assign ev_ovf[176] = fl_t1_mul267[0] && ev_q[2*MAN_BITS + 100];
@@ -2907,12 +2914,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[176] = fl_t1_mul267[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul267;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul267 (.clk(clk), .d(t1_mul267), .q(dl_t1_mul267));
+        u_dl_t1_mul267 (.clk(clk), .d(t1_mul267), .valid(1'b0), .q(dl_t1_mul267));
     // t1_sub268 = t0_vB_x - t1_mul265   (ready @150/124/118)
     logic [W-1:0] t1_sub268;
     logic [2:0] fl_t1_sub268;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub268 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_x[1*W +: W]), .b(dl_t1_mul265), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_vB_x[1*W +: W]), .b(dl_t1_mul265), .sub(1'b1),
         .out_valid(op_valid_nc[183]), .y(t1_sub268), .flags(fl_t1_sub268)
     );
     assign ev_ovf[177] = fl_t1_sub268[0] && ev_q[2*MAN_BITS + 104];
@@ -2920,12 +2927,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[177] = fl_t1_sub268[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_sub268;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub268 (.clk(clk), .d(t1_sub268), .q(dl_t1_sub268));
+        u_dl_t1_sub268 (.clk(clk), .d(t1_sub268), .valid(1'b0), .q(dl_t1_sub268));
     // t1_sub269 = t0_vB_y - t1_mul266   (ready @150/124/118)
     logic [W-1:0] t1_sub269;
     logic [2:0] fl_t1_sub269;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub269 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_y[1*W +: W]), .b(dl_t1_mul266), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_vB_y[1*W +: W]), .b(dl_t1_mul266), .sub(1'b1),
         .out_valid(op_valid_nc[184]), .y(t1_sub269), .flags(fl_t1_sub269)
     );
     assign ev_ovf[178] = fl_t1_sub269[0] && ev_q[2*MAN_BITS + 104];
@@ -2933,12 +2940,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[178] = fl_t1_sub269[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_sub269;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub269 (.clk(clk), .d(t1_sub269), .q(dl_t1_sub269));
+        u_dl_t1_sub269 (.clk(clk), .d(t1_sub269), .valid(1'b0), .q(dl_t1_sub269));
     // t1_sub270 = t0_vB_z - t1_mul267   (ready @150/124/118)
     logic [W-1:0] t1_sub270;
     logic [2:0] fl_t1_sub270;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub270 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_vB_z[1*W +: W]), .b(dl_t1_mul267), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_vB_z[1*W +: W]), .b(dl_t1_mul267), .sub(1'b1),
         .out_valid(op_valid_nc[185]), .y(t1_sub270), .flags(fl_t1_sub270)
     );
     assign ev_ovf[179] = fl_t1_sub270[0] && ev_q[2*MAN_BITS + 104];
@@ -2946,30 +2953,30 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[179] = fl_t1_sub270[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_sub270;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub270 (.clk(clk), .d(t1_sub270), .q(dl_t1_sub270));
+        u_dl_t1_sub270 (.clk(clk), .d(t1_sub270), .valid(1'b0), .q(dl_t1_sub270));
     // t1_vB_x = skip ? t0_vB_x : t1_sub268   (ready @150/124/118)
     logic [W-1:0] t1_vB_x;
     assign t1_vB_x = dl_skip[3] ? dl_t0_vB_x[2*W +: W] : dl_t1_sub268;
     logic [W-1:0] dl_t1_vB_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)))
-        u_dl_t1_vB_x (.clk(clk), .d(t1_vB_x), .q(dl_t1_vB_x));
+        u_dl_t1_vB_x (.clk(clk), .d(t1_vB_x), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_vB_x));
     // t1_vB_y = skip ? t0_vB_y : t1_sub269   (ready @150/124/118)
     logic [W-1:0] t1_vB_y;
     assign t1_vB_y = dl_skip[3] ? dl_t0_vB_y[2*W +: W] : dl_t1_sub269;
     logic [W-1:0] dl_t1_vB_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)))
-        u_dl_t1_vB_y (.clk(clk), .d(t1_vB_y), .q(dl_t1_vB_y));
+        u_dl_t1_vB_y (.clk(clk), .d(t1_vB_y), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_vB_y));
     // t1_vB_z = skip ? t0_vB_z : t1_sub270   (ready @150/124/118)
     logic [W-1:0] t1_vB_z;
     assign t1_vB_z = dl_skip[3] ? dl_t0_vB_z[2*W +: W] : dl_t1_sub270;
     logic [W-1:0] dl_t1_vB_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)))
-        u_dl_t1_vB_z (.clk(clk), .d(t1_vB_z), .q(dl_t1_vB_z));
+        u_dl_t1_vB_z (.clk(clk), .d(t1_vB_z), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_vB_z));
     // t1_angB_x = IInvB_x * t1_cB_x   (ready @78/52/46)
     logic [W-1:0] t1_angB_x;
     logic [2:0] fl_t1_angB_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_x[1*W +: W]), .b(dl_t1_cB_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 29]), .a(dl_in_IInvB_x[1*W +: W]), .b(dl_t1_cB_x[1*W +: W]),
         .out_valid(op_valid_nc[186]), .y(t1_angB_x), .flags(fl_t1_angB_x)
     );
     assign ev_ovf[180] = fl_t1_angB_x[0] && ev_q[2*MAN_BITS + 32];
@@ -2977,12 +2984,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[180] = fl_t1_angB_x[2] && ev_q[2*MAN_BITS + 32];
     logic [W-1:0] dl_t1_angB_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)))
-        u_dl_t1_angB_x (.clk(clk), .d(t1_angB_x), .q(dl_t1_angB_x));
+        u_dl_t1_angB_x (.clk(clk), .d(t1_angB_x), .valid(valid_q[2*MAN_BITS + 32 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) : 1)]), .q(dl_t1_angB_x));
     // t1_angB_y = IInvB_y * t1_cB_y   (ready @78/52/46)
     logic [W-1:0] t1_angB_y;
     logic [2:0] fl_t1_angB_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_y[1*W +: W]), .b(dl_t1_cB_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 29]), .a(dl_in_IInvB_y[1*W +: W]), .b(dl_t1_cB_y[1*W +: W]),
         .out_valid(op_valid_nc[187]), .y(t1_angB_y), .flags(fl_t1_angB_y)
     );
     assign ev_ovf[181] = fl_t1_angB_y[0] && ev_q[2*MAN_BITS + 32];
@@ -2990,12 +2997,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[181] = fl_t1_angB_y[2] && ev_q[2*MAN_BITS + 32];
     logic [W-1:0] dl_t1_angB_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)))
-        u_dl_t1_angB_y (.clk(clk), .d(t1_angB_y), .q(dl_t1_angB_y));
+        u_dl_t1_angB_y (.clk(clk), .d(t1_angB_y), .valid(valid_q[2*MAN_BITS + 32 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) : 1)]), .q(dl_t1_angB_y));
     // t1_angB_z = IInvB_z * t1_cB_z   (ready @78/52/46)
     logic [W-1:0] t1_angB_z;
     logic [2:0] fl_t1_angB_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_angB_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_IInvB_z[1*W +: W]), .b(dl_t1_cB_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 29]), .a(dl_in_IInvB_z[1*W +: W]), .b(dl_t1_cB_z[1*W +: W]),
         .out_valid(op_valid_nc[188]), .y(t1_angB_z), .flags(fl_t1_angB_z)
     );
     assign ev_ovf[182] = fl_t1_angB_z[0] && ev_q[2*MAN_BITS + 32];
@@ -3003,12 +3010,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[182] = fl_t1_angB_z[2] && ev_q[2*MAN_BITS + 32];
     logic [W-1:0] dl_t1_angB_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)))
-        u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .q(dl_t1_angB_z));
+        u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .valid(valid_q[2*MAN_BITS + 32 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) : 1)]), .q(dl_t1_angB_z));
     // t1_mul277 = t1_angB_x * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul277;
     logic [2:0] fl_t1_mul277;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul277 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_x), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 97]), .a(dl_t1_angB_x), .b(dl_t1_e),
         .out_valid(op_valid_nc[189]), .y(t1_mul277), .flags(fl_t1_mul277)
     );
     assign ev_ovf[183] = fl_t1_mul277[0] && ev_q[2*MAN_BITS + 100];
@@ -3016,12 +3023,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[183] = fl_t1_mul277[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul277;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul277 (.clk(clk), .d(t1_mul277), .q(dl_t1_mul277));
+        u_dl_t1_mul277 (.clk(clk), .d(t1_mul277), .valid(1'b0), .q(dl_t1_mul277));
     // t1_mul278 = t1_angB_y * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul278;
     logic [2:0] fl_t1_mul278;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul278 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_y), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 97]), .a(dl_t1_angB_y), .b(dl_t1_e),
         .out_valid(op_valid_nc[190]), .y(t1_mul278), .flags(fl_t1_mul278)
     );
     assign ev_ovf[184] = fl_t1_mul278[0] && ev_q[2*MAN_BITS + 100];
@@ -3029,12 +3036,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[184] = fl_t1_mul278[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul278;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul278 (.clk(clk), .d(t1_mul278), .q(dl_t1_mul278));
+        u_dl_t1_mul278 (.clk(clk), .d(t1_mul278), .valid(1'b0), .q(dl_t1_mul278));
     // t1_mul279 = t1_angB_z * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul279;
     logic [2:0] fl_t1_mul279;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_mul279 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_angB_z), .b(dl_t1_e),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 97]), .a(dl_t1_angB_z), .b(dl_t1_e),
         .out_valid(op_valid_nc[191]), .y(t1_mul279), .flags(fl_t1_mul279)
     );
     assign ev_ovf[185] = fl_t1_mul279[0] && ev_q[2*MAN_BITS + 100];
@@ -3042,12 +3049,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[185] = fl_t1_mul279[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul279;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_mul279 (.clk(clk), .d(t1_mul279), .q(dl_t1_mul279));
+        u_dl_t1_mul279 (.clk(clk), .d(t1_mul279), .valid(1'b0), .q(dl_t1_mul279));
     // t1_sub280 = t0_wB_x - t1_mul277   (ready @150/124/118)
     logic [W-1:0] t1_sub280;
     logic [2:0] fl_t1_sub280;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub280 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_x[1*W +: W]), .b(dl_t1_mul277), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_wB_x[1*W +: W]), .b(dl_t1_mul277), .sub(1'b1),
         .out_valid(op_valid_nc[192]), .y(t1_sub280), .flags(fl_t1_sub280)
     );
     assign ev_ovf[186] = fl_t1_sub280[0] && ev_q[2*MAN_BITS + 104];
@@ -3055,12 +3062,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[186] = fl_t1_sub280[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_sub280;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub280 (.clk(clk), .d(t1_sub280), .q(dl_t1_sub280));
+        u_dl_t1_sub280 (.clk(clk), .d(t1_sub280), .valid(1'b0), .q(dl_t1_sub280));
     // t1_sub281 = t0_wB_y - t1_mul278   (ready @150/124/118)
     logic [W-1:0] t1_sub281;
     logic [2:0] fl_t1_sub281;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub281 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_y[1*W +: W]), .b(dl_t1_mul278), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_wB_y[1*W +: W]), .b(dl_t1_mul278), .sub(1'b1),
         .out_valid(op_valid_nc[193]), .y(t1_sub281), .flags(fl_t1_sub281)
     );
     assign ev_ovf[187] = fl_t1_sub281[0] && ev_q[2*MAN_BITS + 104];
@@ -3068,12 +3075,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[187] = fl_t1_sub281[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_sub281;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub281 (.clk(clk), .d(t1_sub281), .q(dl_t1_sub281));
+        u_dl_t1_sub281 (.clk(clk), .d(t1_sub281), .valid(1'b0), .q(dl_t1_sub281));
     // t1_sub282 = t0_wB_z - t1_mul279   (ready @150/124/118)
     logic [W-1:0] t1_sub282;
     logic [2:0] fl_t1_sub282;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_t1_sub282 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t0_wB_z[1*W +: W]), .b(dl_t1_mul279), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 100]), .a(dl_t0_wB_z[1*W +: W]), .b(dl_t1_mul279), .sub(1'b1),
         .out_valid(op_valid_nc[194]), .y(t1_sub282), .flags(fl_t1_sub282)
     );
     assign ev_ovf[188] = fl_t1_sub282[0] && ev_q[2*MAN_BITS + 104];
@@ -3081,30 +3088,30 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[188] = fl_t1_sub282[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_sub282;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_t1_sub282 (.clk(clk), .d(t1_sub282), .q(dl_t1_sub282));
+        u_dl_t1_sub282 (.clk(clk), .d(t1_sub282), .valid(1'b0), .q(dl_t1_sub282));
     // t1_wB_x = skip ? t0_wB_x : t1_sub280   (ready @150/124/118)
     logic [W-1:0] t1_wB_x;
     assign t1_wB_x = dl_skip[3] ? dl_t0_wB_x[2*W +: W] : dl_t1_sub280;
     logic [3*W-1:0] dl_t1_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}))
-        u_dl_t1_wB_x (.clk(clk), .d(t1_wB_x), .q(dl_t1_wB_x));
+        u_dl_t1_wB_x (.clk(clk), .d(t1_wB_x), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_wB_x));
     // t1_wB_y = skip ? t0_wB_y : t1_sub281   (ready @150/124/118)
     logic [W-1:0] t1_wB_y;
     assign t1_wB_y = dl_skip[3] ? dl_t0_wB_y[2*W +: W] : dl_t1_sub281;
     logic [3*W-1:0] dl_t1_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}))
-        u_dl_t1_wB_y (.clk(clk), .d(t1_wB_y), .q(dl_t1_wB_y));
+        u_dl_t1_wB_y (.clk(clk), .d(t1_wB_y), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_wB_y));
     // t1_wB_z = skip ? t0_wB_z : t1_sub282   (ready @150/124/118)
     logic [W-1:0] t1_wB_z;
     assign t1_wB_z = dl_skip[3] ? dl_t0_wB_z[2*W +: W] : dl_t1_sub282;
     logic [3*W-1:0] dl_t1_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}))
-        u_dl_t1_wB_z (.clk(clk), .d(t1_wB_z), .q(dl_t1_wB_z));
+        u_dl_t1_wB_z (.clk(clk), .d(t1_wB_z), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_wB_z));
     // spin_mul287 = n_x * t1_wA_x   (ready @153/127/121)
     logic [W-1:0] spin_mul287;
     logic [2:0] fl_spin_mul287;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul287 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[1*W +: W]), .b(dl_t1_wA_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 104]), .a(dl_in_n_x[1*W +: W]), .b(dl_t1_wA_x[0*W +: W]),
         .out_valid(op_valid_nc[195]), .y(spin_mul287), .flags(fl_spin_mul287)
     );
     assign ev_ovf[189] = fl_spin_mul287[0] && ev_q[2*MAN_BITS + 107];
@@ -3112,12 +3119,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[189] = fl_spin_mul287[2] && ev_q[2*MAN_BITS + 107];
     logic [W-1:0] dl_spin_mul287;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul287 (.clk(clk), .d(spin_mul287), .q(dl_spin_mul287));
+        u_dl_spin_mul287 (.clk(clk), .d(spin_mul287), .valid(1'b0), .q(dl_spin_mul287));
     // spin_mul288 = n_y * t1_wA_y   (ready @153/127/121)
     logic [W-1:0] spin_mul288;
     logic [2:0] fl_spin_mul288;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul288 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[1*W +: W]), .b(dl_t1_wA_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 104]), .a(dl_in_n_y[1*W +: W]), .b(dl_t1_wA_y[0*W +: W]),
         .out_valid(op_valid_nc[196]), .y(spin_mul288), .flags(fl_spin_mul288)
     );
     assign ev_ovf[190] = fl_spin_mul288[0] && ev_q[2*MAN_BITS + 107];
@@ -3125,12 +3132,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[190] = fl_spin_mul288[2] && ev_q[2*MAN_BITS + 107];
     logic [W-1:0] dl_spin_mul288;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul288 (.clk(clk), .d(spin_mul288), .q(dl_spin_mul288));
+        u_dl_spin_mul288 (.clk(clk), .d(spin_mul288), .valid(1'b0), .q(dl_spin_mul288));
     // spin_add289 = spin_mul287 + spin_mul288   (ready @157/131/125)
     logic [W-1:0] spin_add289;
     logic [2:0] fl_spin_add289;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add289 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_mul287), .b(dl_spin_mul288), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 107]), .a(dl_spin_mul287), .b(dl_spin_mul288), .sub(1'b0),
         .out_valid(op_valid_nc[197]), .y(spin_add289), .flags(fl_spin_add289)
     );
     assign ev_ovf[191] = fl_spin_add289[0] && ev_q[2*MAN_BITS + 111];
@@ -3138,12 +3145,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[191] = fl_spin_add289[2] && ev_q[2*MAN_BITS + 111];
     logic [W-1:0] dl_spin_add289;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add289 (.clk(clk), .d(spin_add289), .q(dl_spin_add289));
+        u_dl_spin_add289 (.clk(clk), .d(spin_add289), .valid(1'b0), .q(dl_spin_add289));
     // spin_mul290 = n_z * t1_wA_z   (ready @153/127/121)
     logic [W-1:0] spin_mul290;
     logic [2:0] fl_spin_mul290;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul290 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[1*W +: W]), .b(dl_t1_wA_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 104]), .a(dl_in_n_z[1*W +: W]), .b(dl_t1_wA_z[0*W +: W]),
         .out_valid(op_valid_nc[198]), .y(spin_mul290), .flags(fl_spin_mul290)
     );
     assign ev_ovf[192] = fl_spin_mul290[0] && ev_q[2*MAN_BITS + 107];
@@ -3151,12 +3158,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[192] = fl_spin_mul290[2] && ev_q[2*MAN_BITS + 107];
     logic [W-1:0] dl_spin_mul290;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 111) - (2*MAN_BITS + 107)))
-        u_dl_spin_mul290 (.clk(clk), .d(spin_mul290), .q(dl_spin_mul290));
+        u_dl_spin_mul290 (.clk(clk), .d(spin_mul290), .valid(valid_q[2*MAN_BITS + 107 +: (((2*MAN_BITS + 111) - (2*MAN_BITS + 107)) > 0 ? ((2*MAN_BITS + 111) - (2*MAN_BITS + 107)) : 1)]), .q(dl_spin_mul290));
     // spin_add291 = spin_add289 + spin_mul290   (ready @161/135/129)
     logic [W-1:0] spin_add291;
     logic [2:0] fl_spin_add291;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add291 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add289), .b(dl_spin_mul290), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 111]), .a(dl_spin_add289), .b(dl_spin_mul290), .sub(1'b0),
         .out_valid(op_valid_nc[199]), .y(spin_add291), .flags(fl_spin_add291)
     );
     assign ev_ovf[193] = fl_spin_add291[0] && ev_q[2*MAN_BITS + 115];
@@ -3164,12 +3171,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[193] = fl_spin_add291[2] && ev_q[2*MAN_BITS + 115];
     logic [W-1:0] dl_spin_add291;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add291 (.clk(clk), .d(spin_add291), .q(dl_spin_add291));
+        u_dl_spin_add291 (.clk(clk), .d(spin_add291), .valid(1'b0), .q(dl_spin_add291));
     // spin_sA = spin_add291 * 0.1   (ready @164/138/132)
     logic [W-1:0] spin_sA;
     logic [2:0] fl_spin_sA;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_sA (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add291), .b(K_SPIN_DAMP),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 115]), .a(dl_spin_add291), .b(K_SPIN_DAMP),
         .out_valid(op_valid_nc[200]), .y(spin_sA), .flags(fl_spin_sA)
     );
     assign ev_ovf[194] = fl_spin_sA[0] && ev_q[2*MAN_BITS + 118];
@@ -3177,12 +3184,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[194] = fl_spin_sA[2] && ev_q[2*MAN_BITS + 118];
     logic [W-1:0] dl_spin_sA;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_sA (.clk(clk), .d(spin_sA), .q(dl_spin_sA));
+        u_dl_spin_sA (.clk(clk), .d(spin_sA), .valid(1'b0), .q(dl_spin_sA));
     // spin_mul293 = n_x * spin_sA   (ready @167/141/135)
     logic [W-1:0] spin_mul293;
     logic [2:0] fl_spin_mul293;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul293 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[2*W +: W]), .b(dl_spin_sA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 118]), .a(dl_in_n_x[2*W +: W]), .b(dl_spin_sA),
         .out_valid(op_valid_nc[201]), .y(spin_mul293), .flags(fl_spin_mul293)
     );
     assign ev_ovf[195] = fl_spin_mul293[0] && ev_q[2*MAN_BITS + 121];
@@ -3190,12 +3197,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[195] = fl_spin_mul293[2] && ev_q[2*MAN_BITS + 121];
     logic [W-1:0] dl_spin_mul293;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul293 (.clk(clk), .d(spin_mul293), .q(dl_spin_mul293));
+        u_dl_spin_mul293 (.clk(clk), .d(spin_mul293), .valid(1'b0), .q(dl_spin_mul293));
     // spin_mul294 = n_y * spin_sA   (ready @167/141/135)
     logic [W-1:0] spin_mul294;
     logic [2:0] fl_spin_mul294;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul294 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[2*W +: W]), .b(dl_spin_sA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 118]), .a(dl_in_n_y[2*W +: W]), .b(dl_spin_sA),
         .out_valid(op_valid_nc[202]), .y(spin_mul294), .flags(fl_spin_mul294)
     );
     assign ev_ovf[196] = fl_spin_mul294[0] && ev_q[2*MAN_BITS + 121];
@@ -3203,12 +3210,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[196] = fl_spin_mul294[2] && ev_q[2*MAN_BITS + 121];
     logic [W-1:0] dl_spin_mul294;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul294 (.clk(clk), .d(spin_mul294), .q(dl_spin_mul294));
+        u_dl_spin_mul294 (.clk(clk), .d(spin_mul294), .valid(1'b0), .q(dl_spin_mul294));
     // spin_mul295 = n_z * spin_sA   (ready @167/141/135)
     logic [W-1:0] spin_mul295;
     logic [2:0] fl_spin_mul295;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul295 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[2*W +: W]), .b(dl_spin_sA),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 118]), .a(dl_in_n_z[2*W +: W]), .b(dl_spin_sA),
         .out_valid(op_valid_nc[203]), .y(spin_mul295), .flags(fl_spin_mul295)
     );
     assign ev_ovf[197] = fl_spin_mul295[0] && ev_q[2*MAN_BITS + 121];
@@ -3216,12 +3223,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[197] = fl_spin_mul295[2] && ev_q[2*MAN_BITS + 121];
     logic [W-1:0] dl_spin_mul295;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul295 (.clk(clk), .d(spin_mul295), .q(dl_spin_mul295));
+        u_dl_spin_mul295 (.clk(clk), .d(spin_mul295), .valid(1'b0), .q(dl_spin_mul295));
     // spin_wA_damped_x = t1_wA_x - spin_mul293   (ready @171/145/139)
     logic [W-1:0] spin_wA_damped_x;
     logic [2:0] fl_spin_wA_damped_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_x[1*W +: W]), .b(dl_spin_mul293), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 121]), .a(dl_t1_wA_x[1*W +: W]), .b(dl_spin_mul293), .sub(1'b1),
         .out_valid(op_valid_nc[204]), .y(spin_wA_damped_x), .flags(fl_spin_wA_damped_x)
     );
     assign ev_ovf[198] = fl_spin_wA_damped_x[0] && ev_q[2*MAN_BITS + 125];
@@ -3229,12 +3236,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[198] = fl_spin_wA_damped_x[2] && ev_q[2*MAN_BITS + 125];
     logic [W-1:0] dl_spin_wA_damped_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_damped_x (.clk(clk), .d(spin_wA_damped_x), .q(dl_spin_wA_damped_x));
+        u_dl_spin_wA_damped_x (.clk(clk), .d(spin_wA_damped_x), .valid(1'b0), .q(dl_spin_wA_damped_x));
     // spin_wA_damped_y = t1_wA_y - spin_mul294   (ready @171/145/139)
     logic [W-1:0] spin_wA_damped_y;
     logic [2:0] fl_spin_wA_damped_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_y[1*W +: W]), .b(dl_spin_mul294), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 121]), .a(dl_t1_wA_y[1*W +: W]), .b(dl_spin_mul294), .sub(1'b1),
         .out_valid(op_valid_nc[205]), .y(spin_wA_damped_y), .flags(fl_spin_wA_damped_y)
     );
     assign ev_ovf[199] = fl_spin_wA_damped_y[0] && ev_q[2*MAN_BITS + 125];
@@ -3242,12 +3249,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[199] = fl_spin_wA_damped_y[2] && ev_q[2*MAN_BITS + 125];
     logic [W-1:0] dl_spin_wA_damped_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_damped_y (.clk(clk), .d(spin_wA_damped_y), .q(dl_spin_wA_damped_y));
+        u_dl_spin_wA_damped_y (.clk(clk), .d(spin_wA_damped_y), .valid(1'b0), .q(dl_spin_wA_damped_y));
     // spin_wA_damped_z = t1_wA_z - spin_mul295   (ready @171/145/139)
     logic [W-1:0] spin_wA_damped_z;
     logic [2:0] fl_spin_wA_damped_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wA_damped_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wA_z[1*W +: W]), .b(dl_spin_mul295), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 121]), .a(dl_t1_wA_z[1*W +: W]), .b(dl_spin_mul295), .sub(1'b1),
         .out_valid(op_valid_nc[206]), .y(spin_wA_damped_z), .flags(fl_spin_wA_damped_z)
     );
     assign ev_ovf[200] = fl_spin_wA_damped_z[0] && ev_q[2*MAN_BITS + 125];
@@ -3255,12 +3262,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[200] = fl_spin_wA_damped_z[2] && ev_q[2*MAN_BITS + 125];
     logic [W-1:0] dl_spin_wA_damped_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_damped_z (.clk(clk), .d(spin_wA_damped_z), .q(dl_spin_wA_damped_z));
+        u_dl_spin_wA_damped_z (.clk(clk), .d(spin_wA_damped_z), .valid(1'b0), .q(dl_spin_wA_damped_z));
     // spin_mul299 = n_x * t1_wB_x   (ready @153/127/121)
     logic [W-1:0] spin_mul299;
     logic [2:0] fl_spin_mul299;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul299 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[1*W +: W]), .b(dl_t1_wB_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 104]), .a(dl_in_n_x[1*W +: W]), .b(dl_t1_wB_x[0*W +: W]),
         .out_valid(op_valid_nc[207]), .y(spin_mul299), .flags(fl_spin_mul299)
     );
     assign ev_ovf[201] = fl_spin_mul299[0] && ev_q[2*MAN_BITS + 107];
@@ -3268,12 +3275,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[201] = fl_spin_mul299[2] && ev_q[2*MAN_BITS + 107];
     logic [W-1:0] dl_spin_mul299;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul299 (.clk(clk), .d(spin_mul299), .q(dl_spin_mul299));
+        u_dl_spin_mul299 (.clk(clk), .d(spin_mul299), .valid(1'b0), .q(dl_spin_mul299));
     // spin_mul300 = n_y * t1_wB_y   (ready @153/127/121)
     logic [W-1:0] spin_mul300;
     logic [2:0] fl_spin_mul300;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul300 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[1*W +: W]), .b(dl_t1_wB_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 104]), .a(dl_in_n_y[1*W +: W]), .b(dl_t1_wB_y[0*W +: W]),
         .out_valid(op_valid_nc[208]), .y(spin_mul300), .flags(fl_spin_mul300)
     );
     assign ev_ovf[202] = fl_spin_mul300[0] && ev_q[2*MAN_BITS + 107];
@@ -3281,12 +3288,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[202] = fl_spin_mul300[2] && ev_q[2*MAN_BITS + 107];
     logic [W-1:0] dl_spin_mul300;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul300 (.clk(clk), .d(spin_mul300), .q(dl_spin_mul300));
+        u_dl_spin_mul300 (.clk(clk), .d(spin_mul300), .valid(1'b0), .q(dl_spin_mul300));
     // spin_add301 = spin_mul299 + spin_mul300   (ready @157/131/125)
     logic [W-1:0] spin_add301;
     logic [2:0] fl_spin_add301;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add301 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_mul299), .b(dl_spin_mul300), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 107]), .a(dl_spin_mul299), .b(dl_spin_mul300), .sub(1'b0),
         .out_valid(op_valid_nc[209]), .y(spin_add301), .flags(fl_spin_add301)
     );
     assign ev_ovf[203] = fl_spin_add301[0] && ev_q[2*MAN_BITS + 111];
@@ -3294,12 +3301,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[203] = fl_spin_add301[2] && ev_q[2*MAN_BITS + 111];
     logic [W-1:0] dl_spin_add301;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add301 (.clk(clk), .d(spin_add301), .q(dl_spin_add301));
+        u_dl_spin_add301 (.clk(clk), .d(spin_add301), .valid(1'b0), .q(dl_spin_add301));
     // spin_mul302 = n_z * t1_wB_z   (ready @153/127/121)
     logic [W-1:0] spin_mul302;
     logic [2:0] fl_spin_mul302;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul302 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[1*W +: W]), .b(dl_t1_wB_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 104]), .a(dl_in_n_z[1*W +: W]), .b(dl_t1_wB_z[0*W +: W]),
         .out_valid(op_valid_nc[210]), .y(spin_mul302), .flags(fl_spin_mul302)
     );
     assign ev_ovf[204] = fl_spin_mul302[0] && ev_q[2*MAN_BITS + 107];
@@ -3307,12 +3314,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[204] = fl_spin_mul302[2] && ev_q[2*MAN_BITS + 107];
     logic [W-1:0] dl_spin_mul302;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 111) - (2*MAN_BITS + 107)))
-        u_dl_spin_mul302 (.clk(clk), .d(spin_mul302), .q(dl_spin_mul302));
+        u_dl_spin_mul302 (.clk(clk), .d(spin_mul302), .valid(valid_q[2*MAN_BITS + 107 +: (((2*MAN_BITS + 111) - (2*MAN_BITS + 107)) > 0 ? ((2*MAN_BITS + 111) - (2*MAN_BITS + 107)) : 1)]), .q(dl_spin_mul302));
     // spin_add303 = spin_add301 + spin_mul302   (ready @161/135/129)
     logic [W-1:0] spin_add303;
     logic [2:0] fl_spin_add303;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_add303 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add301), .b(dl_spin_mul302), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 111]), .a(dl_spin_add301), .b(dl_spin_mul302), .sub(1'b0),
         .out_valid(op_valid_nc[211]), .y(spin_add303), .flags(fl_spin_add303)
     );
     assign ev_ovf[205] = fl_spin_add303[0] && ev_q[2*MAN_BITS + 115];
@@ -3320,12 +3327,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[205] = fl_spin_add303[2] && ev_q[2*MAN_BITS + 115];
     logic [W-1:0] dl_spin_add303;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_add303 (.clk(clk), .d(spin_add303), .q(dl_spin_add303));
+        u_dl_spin_add303 (.clk(clk), .d(spin_add303), .valid(1'b0), .q(dl_spin_add303));
     // spin_sB = spin_add303 * 0.1   (ready @164/138/132)
     logic [W-1:0] spin_sB;
     logic [2:0] fl_spin_sB;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_sB (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_spin_add303), .b(K_SPIN_DAMP),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 115]), .a(dl_spin_add303), .b(K_SPIN_DAMP),
         .out_valid(op_valid_nc[212]), .y(spin_sB), .flags(fl_spin_sB)
     );
     assign ev_ovf[206] = fl_spin_sB[0] && ev_q[2*MAN_BITS + 118];
@@ -3333,12 +3340,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[206] = fl_spin_sB[2] && ev_q[2*MAN_BITS + 118];
     logic [W-1:0] dl_spin_sB;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_sB (.clk(clk), .d(spin_sB), .q(dl_spin_sB));
+        u_dl_spin_sB (.clk(clk), .d(spin_sB), .valid(1'b0), .q(dl_spin_sB));
     // spin_mul305 = n_x * spin_sB   (ready @167/141/135)
     logic [W-1:0] spin_mul305;
     logic [2:0] fl_spin_mul305;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul305 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_x[2*W +: W]), .b(dl_spin_sB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 118]), .a(dl_in_n_x[2*W +: W]), .b(dl_spin_sB),
         .out_valid(op_valid_nc[213]), .y(spin_mul305), .flags(fl_spin_mul305)
     );
     assign ev_ovf[207] = fl_spin_mul305[0] && ev_q[2*MAN_BITS + 121];
@@ -3346,12 +3353,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[207] = fl_spin_mul305[2] && ev_q[2*MAN_BITS + 121];
     logic [W-1:0] dl_spin_mul305;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul305 (.clk(clk), .d(spin_mul305), .q(dl_spin_mul305));
+        u_dl_spin_mul305 (.clk(clk), .d(spin_mul305), .valid(1'b0), .q(dl_spin_mul305));
     // spin_mul306 = n_y * spin_sB   (ready @167/141/135)
     logic [W-1:0] spin_mul306;
     logic [2:0] fl_spin_mul306;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul306 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_y[2*W +: W]), .b(dl_spin_sB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 118]), .a(dl_in_n_y[2*W +: W]), .b(dl_spin_sB),
         .out_valid(op_valid_nc[214]), .y(spin_mul306), .flags(fl_spin_mul306)
     );
     assign ev_ovf[208] = fl_spin_mul306[0] && ev_q[2*MAN_BITS + 121];
@@ -3359,12 +3366,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[208] = fl_spin_mul306[2] && ev_q[2*MAN_BITS + 121];
     logic [W-1:0] dl_spin_mul306;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul306 (.clk(clk), .d(spin_mul306), .q(dl_spin_mul306));
+        u_dl_spin_mul306 (.clk(clk), .d(spin_mul306), .valid(1'b0), .q(dl_spin_mul306));
     // spin_mul307 = n_z * spin_sB   (ready @167/141/135)
     logic [W-1:0] spin_mul307;
     logic [2:0] fl_spin_mul307;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_mul307 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_n_z[2*W +: W]), .b(dl_spin_sB),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 118]), .a(dl_in_n_z[2*W +: W]), .b(dl_spin_sB),
         .out_valid(op_valid_nc[215]), .y(spin_mul307), .flags(fl_spin_mul307)
     );
     assign ev_ovf[209] = fl_spin_mul307[0] && ev_q[2*MAN_BITS + 121];
@@ -3372,12 +3379,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[209] = fl_spin_mul307[2] && ev_q[2*MAN_BITS + 121];
     logic [W-1:0] dl_spin_mul307;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_mul307 (.clk(clk), .d(spin_mul307), .q(dl_spin_mul307));
+        u_dl_spin_mul307 (.clk(clk), .d(spin_mul307), .valid(1'b0), .q(dl_spin_mul307));
     // spin_wB_damped_x = t1_wB_x - spin_mul305   (ready @171/145/139)
     logic [W-1:0] spin_wB_damped_x;
     logic [2:0] fl_spin_wB_damped_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_x[1*W +: W]), .b(dl_spin_mul305), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 121]), .a(dl_t1_wB_x[1*W +: W]), .b(dl_spin_mul305), .sub(1'b1),
         .out_valid(op_valid_nc[216]), .y(spin_wB_damped_x), .flags(fl_spin_wB_damped_x)
     );
     assign ev_ovf[210] = fl_spin_wB_damped_x[0] && ev_q[2*MAN_BITS + 125];
@@ -3385,12 +3392,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[210] = fl_spin_wB_damped_x[2] && ev_q[2*MAN_BITS + 125];
     logic [W-1:0] dl_spin_wB_damped_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_damped_x (.clk(clk), .d(spin_wB_damped_x), .q(dl_spin_wB_damped_x));
+        u_dl_spin_wB_damped_x (.clk(clk), .d(spin_wB_damped_x), .valid(1'b0), .q(dl_spin_wB_damped_x));
     // spin_wB_damped_y = t1_wB_y - spin_mul306   (ready @171/145/139)
     logic [W-1:0] spin_wB_damped_y;
     logic [2:0] fl_spin_wB_damped_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_y[1*W +: W]), .b(dl_spin_mul306), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 121]), .a(dl_t1_wB_y[1*W +: W]), .b(dl_spin_mul306), .sub(1'b1),
         .out_valid(op_valid_nc[217]), .y(spin_wB_damped_y), .flags(fl_spin_wB_damped_y)
     );
     assign ev_ovf[211] = fl_spin_wB_damped_y[0] && ev_q[2*MAN_BITS + 125];
@@ -3398,12 +3405,12 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[211] = fl_spin_wB_damped_y[2] && ev_q[2*MAN_BITS + 125];
     logic [W-1:0] dl_spin_wB_damped_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_damped_y (.clk(clk), .d(spin_wB_damped_y), .q(dl_spin_wB_damped_y));
+        u_dl_spin_wB_damped_y (.clk(clk), .d(spin_wB_damped_y), .valid(1'b0), .q(dl_spin_wB_damped_y));
     // spin_wB_damped_z = t1_wB_z - spin_mul307   (ready @171/145/139)
     logic [W-1:0] spin_wB_damped_z;
     logic [2:0] fl_spin_wB_damped_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_spin_wB_damped_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_t1_wB_z[1*W +: W]), .b(dl_spin_mul307), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 121]), .a(dl_t1_wB_z[1*W +: W]), .b(dl_spin_mul307), .sub(1'b1),
         .out_valid(op_valid_nc[218]), .y(spin_wB_damped_z), .flags(fl_spin_wB_damped_z)
     );
     assign ev_ovf[212] = fl_spin_wB_damped_z[0] && ev_q[2*MAN_BITS + 125];
@@ -3411,79 +3418,79 @@ module pgs_friction_pipe_tb #(
     assign ev_inv[212] = fl_spin_wB_damped_z[2] && ev_q[2*MAN_BITS + 125];
     logic [W-1:0] dl_spin_wB_damped_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_damped_z (.clk(clk), .d(spin_wB_damped_z), .q(dl_spin_wB_damped_z));
+        u_dl_spin_wB_damped_z (.clk(clk), .d(spin_wB_damped_z), .valid(1'b0), .q(dl_spin_wB_damped_z));
     // spin_select311 = spin_damp ? spin_wA_damped_x : t1_wA_x   (ready @171/145/139)
     logic [W-1:0] spin_select311;
     assign spin_select311 = dl_in_spin_damp ? dl_spin_wA_damped_x : dl_t1_wA_x[2*W +: W];
     logic [W-1:0] dl_spin_select311;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select311 (.clk(clk), .d(spin_select311), .q(dl_spin_select311));
+        u_dl_spin_select311 (.clk(clk), .d(spin_select311), .valid(1'b0), .q(dl_spin_select311));
     // spin_select312 = spin_damp ? spin_wA_damped_y : t1_wA_y   (ready @171/145/139)
     logic [W-1:0] spin_select312;
     assign spin_select312 = dl_in_spin_damp ? dl_spin_wA_damped_y : dl_t1_wA_y[2*W +: W];
     logic [W-1:0] dl_spin_select312;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select312 (.clk(clk), .d(spin_select312), .q(dl_spin_select312));
+        u_dl_spin_select312 (.clk(clk), .d(spin_select312), .valid(1'b0), .q(dl_spin_select312));
     // spin_select313 = spin_damp ? spin_wA_damped_z : t1_wA_z   (ready @171/145/139)
     logic [W-1:0] spin_select313;
     assign spin_select313 = dl_in_spin_damp ? dl_spin_wA_damped_z : dl_t1_wA_z[2*W +: W];
     logic [W-1:0] dl_spin_select313;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select313 (.clk(clk), .d(spin_select313), .q(dl_spin_select313));
+        u_dl_spin_select313 (.clk(clk), .d(spin_select313), .valid(1'b0), .q(dl_spin_select313));
     // spin_wA_x = skip ? t1_wA_x : spin_select311   (ready @171/145/139)
     logic [W-1:0] spin_wA_x;
     assign spin_wA_x = dl_skip[4] ? dl_t1_wA_x[2*W +: W] : dl_spin_select311;
     logic [W-1:0] dl_spin_wA_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_x (.clk(clk), .d(spin_wA_x), .q(dl_spin_wA_x));
+        u_dl_spin_wA_x (.clk(clk), .d(spin_wA_x), .valid(1'b0), .q(dl_spin_wA_x));
     // spin_wA_y = skip ? t1_wA_y : spin_select312   (ready @171/145/139)
     logic [W-1:0] spin_wA_y;
     assign spin_wA_y = dl_skip[4] ? dl_t1_wA_y[2*W +: W] : dl_spin_select312;
     logic [W-1:0] dl_spin_wA_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_y (.clk(clk), .d(spin_wA_y), .q(dl_spin_wA_y));
+        u_dl_spin_wA_y (.clk(clk), .d(spin_wA_y), .valid(1'b0), .q(dl_spin_wA_y));
     // spin_wA_z = skip ? t1_wA_z : spin_select313   (ready @171/145/139)
     logic [W-1:0] spin_wA_z;
     assign spin_wA_z = dl_skip[4] ? dl_t1_wA_z[2*W +: W] : dl_spin_select313;
     logic [W-1:0] dl_spin_wA_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wA_z (.clk(clk), .d(spin_wA_z), .q(dl_spin_wA_z));
+        u_dl_spin_wA_z (.clk(clk), .d(spin_wA_z), .valid(1'b0), .q(dl_spin_wA_z));
     // spin_select317 = spin_damp ? spin_wB_damped_x : t1_wB_x   (ready @171/145/139)
     logic [W-1:0] spin_select317;
     assign spin_select317 = dl_in_spin_damp ? dl_spin_wB_damped_x : dl_t1_wB_x[2*W +: W];
     logic [W-1:0] dl_spin_select317;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select317 (.clk(clk), .d(spin_select317), .q(dl_spin_select317));
+        u_dl_spin_select317 (.clk(clk), .d(spin_select317), .valid(1'b0), .q(dl_spin_select317));
     // spin_select318 = spin_damp ? spin_wB_damped_y : t1_wB_y   (ready @171/145/139)
     logic [W-1:0] spin_select318;
     assign spin_select318 = dl_in_spin_damp ? dl_spin_wB_damped_y : dl_t1_wB_y[2*W +: W];
     logic [W-1:0] dl_spin_select318;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select318 (.clk(clk), .d(spin_select318), .q(dl_spin_select318));
+        u_dl_spin_select318 (.clk(clk), .d(spin_select318), .valid(1'b0), .q(dl_spin_select318));
     // spin_select319 = spin_damp ? spin_wB_damped_z : t1_wB_z   (ready @171/145/139)
     logic [W-1:0] spin_select319;
     assign spin_select319 = dl_in_spin_damp ? dl_spin_wB_damped_z : dl_t1_wB_z[2*W +: W];
     logic [W-1:0] dl_spin_select319;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_select319 (.clk(clk), .d(spin_select319), .q(dl_spin_select319));
+        u_dl_spin_select319 (.clk(clk), .d(spin_select319), .valid(1'b0), .q(dl_spin_select319));
     // spin_wB_x = skip ? t1_wB_x : spin_select317   (ready @171/145/139)
     logic [W-1:0] spin_wB_x;
     assign spin_wB_x = dl_skip[4] ? dl_t1_wB_x[2*W +: W] : dl_spin_select317;
     logic [W-1:0] dl_spin_wB_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_x (.clk(clk), .d(spin_wB_x), .q(dl_spin_wB_x));
+        u_dl_spin_wB_x (.clk(clk), .d(spin_wB_x), .valid(1'b0), .q(dl_spin_wB_x));
     // spin_wB_y = skip ? t1_wB_y : spin_select318   (ready @171/145/139)
     logic [W-1:0] spin_wB_y;
     assign spin_wB_y = dl_skip[4] ? dl_t1_wB_y[2*W +: W] : dl_spin_select318;
     logic [W-1:0] dl_spin_wB_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_y (.clk(clk), .d(spin_wB_y), .q(dl_spin_wB_y));
+        u_dl_spin_wB_y (.clk(clk), .d(spin_wB_y), .valid(1'b0), .q(dl_spin_wB_y));
     // spin_wB_z = skip ? t1_wB_z : spin_select319   (ready @171/145/139)
     logic [W-1:0] spin_wB_z;
     assign spin_wB_z = dl_skip[4] ? dl_t1_wB_z[2*W +: W] : dl_spin_select319;
     logic [W-1:0] dl_spin_wB_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_spin_wB_z (.clk(clk), .d(spin_wB_z), .q(dl_spin_wB_z));
+        u_dl_spin_wB_z (.clk(clk), .d(spin_wB_z), .valid(1'b0), .q(dl_spin_wB_z));
 
     // Outputs, each delayed to LATENCY.
     assign out_data[0*W +: W] = dl_t0_lamT;   // lamT0

@@ -71,23 +71,30 @@ module pgs_integrate_pipe #(
     logic         nc_v_small_lt, nc_v_small_eq, nc_v_small_uo;
     /* verilator lint_on UNUSEDSIGNAL */
 
-    // Valid and tag pipelines.
+    // Valid and tag pipelines. valid_q[k]: in_valid k cycles ago; an operator's in_valid is the
+    // bit at its issue cycle, so its register stages are enabled only for the pipeline's inputs.
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [LATENCY:0] valid_q;   // the stages after the last operator's issue are not read
+    /* verilator lint_on UNUSEDSIGNAL */
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .in_valid(in_valid), .out_valid(out_valid)
+        .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (.clk(clk), .d(in_tag), .q(out_tag));
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+        .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
+    );
 
     // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);
     // an operator's flags belong to the input taken at its ready cycle minus that many cycles.
     localparam int EV_DEPTH = 4*MAN_BITS + 94;
-    logic [EV_DEPTH:0] ev_q;
-    assign ev_q[0] = in_valid && in_count;
-    for (genvar i = 1; i <= EV_DEPTH; i++) begin : g_ev
-        always_ff @(posedge clk) begin
-            if (rst) ev_q[i] <= 1'b0;
-            else     ev_q[i] <= ev_q[i-1];
-        end
+    logic [EV_DEPTH:1] ev_r;
+    /* verilator lint_off UNUSEDSIGNAL */
+    logic [EV_DEPTH:0] ev_q;   // read at the operators' ready cycles only
+    /* verilator lint_on UNUSEDSIGNAL */
+    always_ff @(posedge clk) begin   // one shift of the whole register
+        if (rst) ev_r <= '0;
+        else     ev_r <= EV_DEPTH'({ev_r, in_valid && in_count});
     end
+    assign ev_q = {ev_r, in_valid && in_count};
     logic [N_FP_OPS-1:0] ev_ovf, ev_unf, ev_inv;   // flags of counted inputs, one bit per operator
     always_ff @(posedge clk) begin
         ev_overflow  <= EV_W'($countones(ev_ovf));
@@ -100,92 +107,92 @@ module pgs_integrate_pipe #(
     assign in_pos_x = in_data[0*W +: W];
     logic [W-1:0] dl_in_pos_x;
     pgs_delay #(.WIDTH(W), .DEPTH(3))
-        u_dl_in_pos_x (.clk(clk), .d(in_pos_x), .q(dl_in_pos_x));
+        u_dl_in_pos_x (.clk(clk), .d(in_pos_x), .valid(valid_q[0 +: 3]), .q(dl_in_pos_x));
     logic [W-1:0] in_pos_y;
     assign in_pos_y = in_data[1*W +: W];
     logic [W-1:0] dl_in_pos_y;
     pgs_delay #(.WIDTH(W), .DEPTH(3))
-        u_dl_in_pos_y (.clk(clk), .d(in_pos_y), .q(dl_in_pos_y));
+        u_dl_in_pos_y (.clk(clk), .d(in_pos_y), .valid(valid_q[0 +: 3]), .q(dl_in_pos_y));
     logic [W-1:0] in_pos_z;
     assign in_pos_z = in_data[2*W +: W];
     logic [W-1:0] dl_in_pos_z;
     pgs_delay #(.WIDTH(W), .DEPTH(3))
-        u_dl_in_pos_z (.clk(clk), .d(in_pos_z), .q(dl_in_pos_z));
+        u_dl_in_pos_z (.clk(clk), .d(in_pos_z), .valid(valid_q[0 +: 3]), .q(dl_in_pos_z));
     logic [W-1:0] in_q_x;
     assign in_q_x = in_data[3*W +: W];
     logic [2*W-1:0] dl_in_q_x;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 60) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 60) - (0)), 32'((MAN_BITS + 56) - (0))}))
-        u_dl_in_q_x (.clk(clk), .d(in_q_x), .q(dl_in_q_x));
+        u_dl_in_q_x (.clk(clk), .d(in_q_x), .valid(valid_q[0 +: (((2*MAN_BITS + 60) - (0)) > 0 ? ((2*MAN_BITS + 60) - (0)) : 1)]), .q(dl_in_q_x));
     logic [W-1:0] in_q_y;
     assign in_q_y = in_data[4*W +: W];
     logic [2*W-1:0] dl_in_q_y;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 60) - (0)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 56) - (0)), 32'((2*MAN_BITS + 60) - (0))}))
-        u_dl_in_q_y (.clk(clk), .d(in_q_y), .q(dl_in_q_y));
+        u_dl_in_q_y (.clk(clk), .d(in_q_y), .valid(valid_q[0 +: (((2*MAN_BITS + 60) - (0)) > 0 ? ((2*MAN_BITS + 60) - (0)) : 1)]), .q(dl_in_q_y));
     logic [W-1:0] in_q_z;
     assign in_q_z = in_data[5*W +: W];
     logic [2*W-1:0] dl_in_q_z;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 60) - (0)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 56) - (0)), 32'((2*MAN_BITS + 60) - (0))}))
-        u_dl_in_q_z (.clk(clk), .d(in_q_z), .q(dl_in_q_z));
+        u_dl_in_q_z (.clk(clk), .d(in_q_z), .valid(valid_q[0 +: (((2*MAN_BITS + 60) - (0)) > 0 ? ((2*MAN_BITS + 60) - (0)) : 1)]), .q(dl_in_q_z));
     logic [W-1:0] in_q_w;
     assign in_q_w = in_data[6*W +: W];
     logic [2*W-1:0] dl_in_q_w;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 60) - (0)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 56) - (0)), 32'((2*MAN_BITS + 60) - (0))}))
-        u_dl_in_q_w (.clk(clk), .d(in_q_w), .q(dl_in_q_w));
+        u_dl_in_q_w (.clk(clk), .d(in_q_w), .valid(valid_q[0 +: (((2*MAN_BITS + 60) - (0)) > 0 ? ((2*MAN_BITS + 60) - (0)) : 1)]), .q(dl_in_q_w));
     logic [W-1:0] in_v_x;
     assign in_v_x = in_data[7*W +: W];
     logic [2*W-1:0] dl_in_v_x;
     pgs_delay #(.WIDTH(W), .DEPTH(3), .N_TAPS(2), .TAPS({32'(3), 32'(0)}))
-        u_dl_in_v_x (.clk(clk), .d(in_v_x), .q(dl_in_v_x));
+        u_dl_in_v_x (.clk(clk), .d(in_v_x), .valid(valid_q[0 +: 3]), .q(dl_in_v_x));
     logic [W-1:0] in_v_y;
     assign in_v_y = in_data[8*W +: W];
     logic [2*W-1:0] dl_in_v_y;
     pgs_delay #(.WIDTH(W), .DEPTH(3), .N_TAPS(2), .TAPS({32'(3), 32'(0)}))
-        u_dl_in_v_y (.clk(clk), .d(in_v_y), .q(dl_in_v_y));
+        u_dl_in_v_y (.clk(clk), .d(in_v_y), .valid(valid_q[0 +: 3]), .q(dl_in_v_y));
     logic [W-1:0] in_v_z;
     assign in_v_z = in_data[9*W +: W];
     logic [2*W-1:0] dl_in_v_z;
     pgs_delay #(.WIDTH(W), .DEPTH(3), .N_TAPS(2), .TAPS({32'(3), 32'(0)}))
-        u_dl_in_v_z (.clk(clk), .d(in_v_z), .q(dl_in_v_z));
+        u_dl_in_v_z (.clk(clk), .d(in_v_z), .valid(valid_q[0 +: 3]), .q(dl_in_v_z));
     logic [W-1:0] in_w_x;
     assign in_w_x = in_data[10*W +: W];
     logic [W-1:0] dl_in_w_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_w_x (.clk(clk), .d(in_w_x), .q(dl_in_w_x));
+        u_dl_in_w_x (.clk(clk), .d(in_w_x), .valid(1'b0), .q(dl_in_w_x));
     logic [W-1:0] in_w_y;
     assign in_w_y = in_data[11*W +: W];
     logic [W-1:0] dl_in_w_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_w_y (.clk(clk), .d(in_w_y), .q(dl_in_w_y));
+        u_dl_in_w_y (.clk(clk), .d(in_w_y), .valid(1'b0), .q(dl_in_w_y));
     logic [W-1:0] in_w_z;
     assign in_w_z = in_data[12*W +: W];
     logic [W-1:0] dl_in_w_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_w_z (.clk(clk), .d(in_w_z), .q(dl_in_w_z));
+        u_dl_in_w_z (.clk(clk), .d(in_w_z), .valid(1'b0), .q(dl_in_w_z));
     logic [W-1:0] in_dt;
     assign in_dt = in_data[13*W +: W];
     logic [3*W-1:0] dl_in_dt;
     pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 18) - (0)), .N_TAPS(3), .TAPS({32'((MAN_BITS + 18) - (0)), 32'(3), 32'(0)}))
-        u_dl_in_dt (.clk(clk), .d(in_dt), .q(dl_in_dt));
+        u_dl_in_dt (.clk(clk), .d(in_dt), .valid(valid_q[0 +: (((MAN_BITS + 18) - (0)) > 0 ? ((MAN_BITS + 18) - (0)) : 1)]), .q(dl_in_dt));
     logic [W-1:0] in_damping;
     assign in_damping = in_data[14*W +: W];
     logic [W-1:0] dl_in_damping;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_damping (.clk(clk), .d(in_damping), .q(dl_in_damping));
+        u_dl_in_damping (.clk(clk), .d(in_damping), .valid(1'b0), .q(dl_in_damping));
     logic [W-1:0] in_g_x;
     assign in_g_x = in_data[15*W +: W];
     logic [W-1:0] dl_in_g_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_g_x (.clk(clk), .d(in_g_x), .q(dl_in_g_x));
+        u_dl_in_g_x (.clk(clk), .d(in_g_x), .valid(1'b0), .q(dl_in_g_x));
     logic [W-1:0] in_g_y;
     assign in_g_y = in_data[16*W +: W];
     logic [W-1:0] dl_in_g_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_g_y (.clk(clk), .d(in_g_y), .q(dl_in_g_y));
+        u_dl_in_g_y (.clk(clk), .d(in_g_y), .valid(1'b0), .q(dl_in_g_y));
     logic [W-1:0] in_g_z;
     assign in_g_z = in_data[17*W +: W];
     logic [W-1:0] dl_in_g_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_in_g_z (.clk(clk), .d(in_g_z), .q(dl_in_g_z));
+        u_dl_in_g_z (.clk(clk), .d(in_g_z), .valid(1'b0), .q(dl_in_g_z));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
     // bf16; its delay line feeds every consumer at the consumer's issue cycle.
@@ -193,7 +200,7 @@ module pgs_integrate_pipe #(
     logic [W-1:0] half_dt;
     logic [2:0] fl_half_dt;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_half_dt (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_HALF), .b(dl_in_dt[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(K_HALF), .b(dl_in_dt[0*W +: W]),
         .out_valid(op_valid_nc[0]), .y(half_dt), .flags(fl_half_dt)
     );
     assign ev_ovf[0] = fl_half_dt[0] && ev_q[3];
@@ -201,12 +208,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[0] = fl_half_dt[2] && ev_q[3];
     logic [2*W-1:0] dl_half_dt;
     pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 28) - (3)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 28) - (3)), 32'((MAN_BITS + 22) - (3))}))
-        u_dl_half_dt (.clk(clk), .d(half_dt), .q(dl_half_dt));
+        u_dl_half_dt (.clk(clk), .d(half_dt), .valid(valid_q[3 +: (((MAN_BITS + 28) - (3)) > 0 ? ((MAN_BITS + 28) - (3)) : 1)]), .q(dl_half_dt));
     // mul20 = dt * dt   (ready @3/3/3)
     logic [W-1:0] mul20;
     logic [2:0] fl_mul20;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul20 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_dt[0*W +: W]), .b(dl_in_dt[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_dt[0*W +: W]), .b(dl_in_dt[0*W +: W]),
         .out_valid(op_valid_nc[1]), .y(mul20), .flags(fl_mul20)
     );
     assign ev_ovf[1] = fl_mul20[0] && ev_q[3];
@@ -214,12 +221,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[1] = fl_mul20[2] && ev_q[3];
     logic [W-1:0] dl_mul20;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul20 (.clk(clk), .d(mul20), .q(dl_mul20));
+        u_dl_mul20 (.clk(clk), .d(mul20), .valid(1'b0), .q(dl_mul20));
     // mul21 = mul20 * dt   (ready @6/6/6)
     logic [W-1:0] mul21;
     logic [2:0] fl_mul21;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul21 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul20), .b(dl_in_dt[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_mul20), .b(dl_in_dt[1*W +: W]),
         .out_valid(op_valid_nc[2]), .y(mul21), .flags(fl_mul21)
     );
     assign ev_ovf[2] = fl_mul21[0] && ev_q[6];
@@ -227,12 +234,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[2] = fl_mul21[2] && ev_q[6];
     logic [W-1:0] dl_mul21;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul21 (.clk(clk), .d(mul21), .q(dl_mul21));
+        u_dl_mul21 (.clk(clk), .d(mul21), .valid(1'b0), .q(dl_mul21));
     // dt3c = mul21 * 0.020833333333   (ready @9/9/9)
     logic [W-1:0] dt3c;
     logic [2:0] fl_dt3c;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_dt3c (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul21), .b(K_TAYLOR_SINC),
+        .clk(clk), .rst(rst), .in_valid(valid_q[6]), .a(dl_mul21), .b(K_TAYLOR_SINC),
         .out_valid(op_valid_nc[3]), .y(dt3c), .flags(fl_dt3c)
     );
     assign ev_ovf[3] = fl_dt3c[0] && ev_q[9];
@@ -240,12 +247,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[3] = fl_dt3c[2] && ev_q[9];
     logic [W-1:0] dl_dt3c;
     pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 22) - (9)))
-        u_dl_dt3c (.clk(clk), .d(dt3c), .q(dl_dt3c));
+        u_dl_dt3c (.clk(clk), .d(dt3c), .valid(valid_q[9 +: (((MAN_BITS + 22) - (9)) > 0 ? ((MAN_BITS + 22) - (9)) : 1)]), .q(dl_dt3c));
     // g_dt_x = g_x * dt   (ready @3/3/3)
     logic [W-1:0] g_dt_x;
     logic [2:0] fl_g_dt_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_g_dt_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_g_x), .b(dl_in_dt[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_g_x), .b(dl_in_dt[0*W +: W]),
         .out_valid(op_valid_nc[4]), .y(g_dt_x), .flags(fl_g_dt_x)
     );
     assign ev_ovf[4] = fl_g_dt_x[0] && ev_q[3];
@@ -253,12 +260,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[4] = fl_g_dt_x[2] && ev_q[3];
     logic [W-1:0] dl_g_dt_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_g_dt_x (.clk(clk), .d(g_dt_x), .q(dl_g_dt_x));
+        u_dl_g_dt_x (.clk(clk), .d(g_dt_x), .valid(1'b0), .q(dl_g_dt_x));
     // g_dt_y = g_y * dt   (ready @3/3/3)
     logic [W-1:0] g_dt_y;
     logic [2:0] fl_g_dt_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_g_dt_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_g_y), .b(dl_in_dt[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_g_y), .b(dl_in_dt[0*W +: W]),
         .out_valid(op_valid_nc[5]), .y(g_dt_y), .flags(fl_g_dt_y)
     );
     assign ev_ovf[5] = fl_g_dt_y[0] && ev_q[3];
@@ -266,12 +273,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[5] = fl_g_dt_y[2] && ev_q[3];
     logic [W-1:0] dl_g_dt_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_g_dt_y (.clk(clk), .d(g_dt_y), .q(dl_g_dt_y));
+        u_dl_g_dt_y (.clk(clk), .d(g_dt_y), .valid(1'b0), .q(dl_g_dt_y));
     // g_dt_z = g_z * dt   (ready @3/3/3)
     logic [W-1:0] g_dt_z;
     logic [2:0] fl_g_dt_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_g_dt_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_g_z), .b(dl_in_dt[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_g_z), .b(dl_in_dt[0*W +: W]),
         .out_valid(op_valid_nc[6]), .y(g_dt_z), .flags(fl_g_dt_z)
     );
     assign ev_ovf[6] = fl_g_dt_z[0] && ev_q[3];
@@ -279,12 +286,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[6] = fl_g_dt_z[2] && ev_q[3];
     logic [W-1:0] dl_g_dt_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_g_dt_z (.clk(clk), .d(g_dt_z), .q(dl_g_dt_z));
+        u_dl_g_dt_z (.clk(clk), .d(g_dt_z), .valid(1'b0), .q(dl_g_dt_z));
     // w_x = w_x * damping   (ready @3/3/3)
     logic [W-1:0] w_x;
     logic [2:0] fl_w_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_w_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_w_x), .b(dl_in_damping),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_w_x), .b(dl_in_damping),
         .out_valid(op_valid_nc[7]), .y(w_x), .flags(fl_w_x)
     );
     assign ev_ovf[7] = fl_w_x[0] && ev_q[3];
@@ -292,12 +299,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[7] = fl_w_x[2] && ev_q[3];
     logic [3*W-1:0] dl_w_x;
     pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (3)), .N_TAPS(3), .TAPS({32'((4*MAN_BITS + 94) - (3)), 32'((2*MAN_BITS + 57) - (3)), 32'(0)}))
-        u_dl_w_x (.clk(clk), .d(w_x), .q(dl_w_x));
+        u_dl_w_x (.clk(clk), .d(w_x), .valid(valid_q[3 +: (((4*MAN_BITS + 94) - (3)) > 0 ? ((4*MAN_BITS + 94) - (3)) : 1)]), .q(dl_w_x));
     // w_y = w_y * damping   (ready @3/3/3)
     logic [W-1:0] w_y;
     logic [2:0] fl_w_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_w_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_w_y), .b(dl_in_damping),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_w_y), .b(dl_in_damping),
         .out_valid(op_valid_nc[8]), .y(w_y), .flags(fl_w_y)
     );
     assign ev_ovf[8] = fl_w_y[0] && ev_q[3];
@@ -305,12 +312,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[8] = fl_w_y[2] && ev_q[3];
     logic [3*W-1:0] dl_w_y;
     pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (3)), .N_TAPS(3), .TAPS({32'((4*MAN_BITS + 94) - (3)), 32'((2*MAN_BITS + 57) - (3)), 32'(0)}))
-        u_dl_w_y (.clk(clk), .d(w_y), .q(dl_w_y));
+        u_dl_w_y (.clk(clk), .d(w_y), .valid(valid_q[3 +: (((4*MAN_BITS + 94) - (3)) > 0 ? ((4*MAN_BITS + 94) - (3)) : 1)]), .q(dl_w_y));
     // w_z = w_z * damping   (ready @3/3/3)
     logic [W-1:0] w_z;
     logic [2:0] fl_w_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_w_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_w_z), .b(dl_in_damping),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_w_z), .b(dl_in_damping),
         .out_valid(op_valid_nc[9]), .y(w_z), .flags(fl_w_z)
     );
     assign ev_ovf[9] = fl_w_z[0] && ev_q[3];
@@ -318,12 +325,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[9] = fl_w_z[2] && ev_q[3];
     logic [3*W-1:0] dl_w_z;
     pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (3)), .N_TAPS(3), .TAPS({32'((4*MAN_BITS + 94) - (3)), 32'((2*MAN_BITS + 57) - (3)), 32'(0)}))
-        u_dl_w_z (.clk(clk), .d(w_z), .q(dl_w_z));
+        u_dl_w_z (.clk(clk), .d(w_z), .valid(valid_q[3 +: (((4*MAN_BITS + 94) - (3)) > 0 ? ((4*MAN_BITS + 94) - (3)) : 1)]), .q(dl_w_z));
     // mul31 = w_x * w_x   (ready @6/6/6)
     logic [W-1:0] mul31;
     logic [2:0] fl_mul31;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul31 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_w_x[0*W +: W]), .b(dl_w_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_w_x[0*W +: W]), .b(dl_w_x[0*W +: W]),
         .out_valid(op_valid_nc[10]), .y(mul31), .flags(fl_mul31)
     );
     assign ev_ovf[10] = fl_mul31[0] && ev_q[6];
@@ -331,12 +338,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[10] = fl_mul31[2] && ev_q[6];
     logic [W-1:0] dl_mul31;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul31 (.clk(clk), .d(mul31), .q(dl_mul31));
+        u_dl_mul31 (.clk(clk), .d(mul31), .valid(1'b0), .q(dl_mul31));
     // mul32 = w_y * w_y   (ready @6/6/6)
     logic [W-1:0] mul32;
     logic [2:0] fl_mul32;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul32 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_w_y[0*W +: W]), .b(dl_w_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_w_y[0*W +: W]), .b(dl_w_y[0*W +: W]),
         .out_valid(op_valid_nc[11]), .y(mul32), .flags(fl_mul32)
     );
     assign ev_ovf[11] = fl_mul32[0] && ev_q[6];
@@ -344,12 +351,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[11] = fl_mul32[2] && ev_q[6];
     logic [W-1:0] dl_mul32;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul32 (.clk(clk), .d(mul32), .q(dl_mul32));
+        u_dl_mul32 (.clk(clk), .d(mul32), .valid(1'b0), .q(dl_mul32));
     // add33 = mul31 + mul32   (ready @10/10/10)
     logic [W-1:0] add33;
     logic [2:0] fl_add33;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add33 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul31), .b(dl_mul32), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[6]), .a(dl_mul31), .b(dl_mul32), .sub(1'b0),
         .out_valid(op_valid_nc[12]), .y(add33), .flags(fl_add33)
     );
     assign ev_ovf[12] = fl_add33[0] && ev_q[10];
@@ -357,12 +364,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[12] = fl_add33[2] && ev_q[10];
     logic [W-1:0] dl_add33;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add33 (.clk(clk), .d(add33), .q(dl_add33));
+        u_dl_add33 (.clk(clk), .d(add33), .valid(1'b0), .q(dl_add33));
     // mul34 = w_z * w_z   (ready @6/6/6)
     logic [W-1:0] mul34;
     logic [2:0] fl_mul34;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul34 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_w_z[0*W +: W]), .b(dl_w_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_w_z[0*W +: W]), .b(dl_w_z[0*W +: W]),
         .out_valid(op_valid_nc[13]), .y(mul34), .flags(fl_mul34)
     );
     assign ev_ovf[13] = fl_mul34[0] && ev_q[6];
@@ -370,12 +377,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[13] = fl_mul34[2] && ev_q[6];
     logic [W-1:0] dl_mul34;
     pgs_delay #(.WIDTH(W), .DEPTH(4))
-        u_dl_mul34 (.clk(clk), .d(mul34), .q(dl_mul34));
+        u_dl_mul34 (.clk(clk), .d(mul34), .valid(valid_q[6 +: 4]), .q(dl_mul34));
     // add35 = add33 + mul34   (ready @14/14/14)
     logic [W-1:0] add35;
     logic [2:0] fl_add35;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add35 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_add33), .b(dl_mul34), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[10]), .a(dl_add33), .b(dl_mul34), .sub(1'b0),
         .out_valid(op_valid_nc[14]), .y(add35), .flags(fl_add35)
     );
     assign ev_ovf[14] = fl_add35[0] && ev_q[14];
@@ -383,12 +390,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[14] = fl_add35[2] && ev_q[14];
     logic [W-1:0] dl_add35;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add35 (.clk(clk), .d(add35), .q(dl_add35));
+        u_dl_add35 (.clk(clk), .d(add35), .valid(1'b0), .q(dl_add35));
     // theta0 = sqrt(add35)   (ready @41/28/25)
     logic [W-1:0] theta0;
     logic [2:0] fl_theta0;
     fp_sqrt #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_theta0 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_add35),
+        .clk(clk), .rst(rst), .in_valid(valid_q[14]), .a(dl_add35),
         .out_valid(op_valid_nc[15]), .y(theta0), .flags(fl_theta0)
     );
     assign ev_ovf[15] = fl_theta0[0] && ev_q[MAN_BITS + 18];
@@ -396,12 +403,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[15] = fl_theta0[2] && ev_q[MAN_BITS + 18];
     logic [2*W-1:0] dl_theta0;
     pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 22) - (MAN_BITS + 18)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 22) - (MAN_BITS + 18)), 32'(0)}))
-        u_dl_theta0 (.clk(clk), .d(theta0), .q(dl_theta0));
+        u_dl_theta0 (.clk(clk), .d(theta0), .valid(valid_q[MAN_BITS + 18 +: (((MAN_BITS + 22) - (MAN_BITS + 18)) > 0 ? ((MAN_BITS + 22) - (MAN_BITS + 18)) : 1)]), .q(dl_theta0));
     // mul37 = theta0 * dt   (ready @44/31/28)
     logic [W-1:0] mul37;
     logic [2:0] fl_mul37;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul37 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_theta0[0*W +: W]), .b(dl_in_dt[2*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 18]), .a(dl_theta0[0*W +: W]), .b(dl_in_dt[2*W +: W]),
         .out_valid(op_valid_nc[16]), .y(mul37), .flags(fl_mul37)
     );
     assign ev_ovf[16] = fl_mul37[0] && ev_q[MAN_BITS + 21];
@@ -409,22 +416,22 @@ module pgs_integrate_pipe #(
     assign ev_inv[16] = fl_mul37[2] && ev_q[MAN_BITS + 21];
     logic [W-1:0] dl_mul37;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul37 (.clk(clk), .d(mul37), .q(dl_mul37));
+        u_dl_mul37 (.clk(clk), .d(mul37), .valid(1'b0), .q(dl_mul37));
     // clamp = 0.785398135 < mul37   (ready @45/32/29)
     logic clamp;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_clamp (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_MAX_ANGLE), .b(dl_mul37),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 21]), .a(K_MAX_ANGLE), .b(dl_mul37),
         .out_valid(op_valid_nc[17]), .y_min(nc_clamp_min), .y_max(nc_clamp_max),
         .lt(clamp), .eq(nc_clamp_eq), .unordered(nc_clamp_uo)
     );
     logic [1-1:0] dl_clamp;
     pgs_delay #(.WIDTH(1), .DEPTH(0))
-        u_dl_clamp (.clk(clk), .d(clamp), .q(dl_clamp));
+        u_dl_clamp (.clk(clk), .d(clamp), .valid(1'b0), .q(dl_clamp));
     // theta_max = 0.785398135 / dt   (ready @28/15/12)
     logic [W-1:0] theta_max;
     logic [2:0] fl_theta_max;
     fp_div #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_theta_max (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_MAX_ANGLE), .b(dl_in_dt[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(K_MAX_ANGLE), .b(dl_in_dt[0*W +: W]),
         .out_valid(op_valid_nc[18]), .y(theta_max), .flags(fl_theta_max)
     );
     assign ev_ovf[17] = fl_theta_max[0] && ev_q[MAN_BITS + 5];
@@ -432,18 +439,18 @@ module pgs_integrate_pipe #(
     assign ev_inv[17] = fl_theta_max[2] && ev_q[MAN_BITS + 5];
     logic [W-1:0] dl_theta_max;
     pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 22) - (MAN_BITS + 5)))
-        u_dl_theta_max (.clk(clk), .d(theta_max), .q(dl_theta_max));
+        u_dl_theta_max (.clk(clk), .d(theta_max), .valid(valid_q[MAN_BITS + 5 +: (((MAN_BITS + 22) - (MAN_BITS + 5)) > 0 ? ((MAN_BITS + 22) - (MAN_BITS + 5)) : 1)]), .q(dl_theta_max));
     // theta = clamp ? theta_max : theta0   (ready @45/32/29)
     logic [W-1:0] theta;
     assign theta = dl_clamp ? dl_theta_max : dl_theta0[1*W +: W];
     logic [3*W-1:0] dl_theta;
     pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 52) - (MAN_BITS + 22)), .N_TAPS(3), .TAPS({32'((MAN_BITS + 52) - (MAN_BITS + 22)), 32'((MAN_BITS + 25) - (MAN_BITS + 22)), 32'(0)}))
-        u_dl_theta (.clk(clk), .d(theta), .q(dl_theta));
+        u_dl_theta (.clk(clk), .d(theta), .valid(valid_q[MAN_BITS + 22 +: (((MAN_BITS + 52) - (MAN_BITS + 22)) > 0 ? ((MAN_BITS + 52) - (MAN_BITS + 22)) : 1)]), .q(dl_theta));
     // x = theta * half_dt   (ready @48/35/32)
     logic [W-1:0] x;
     logic [2:0] fl_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_theta[0*W +: W]), .b(dl_half_dt[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 22]), .a(dl_theta[0*W +: W]), .b(dl_half_dt[0*W +: W]),
         .out_valid(op_valid_nc[19]), .y(x), .flags(fl_x)
     );
     assign ev_ovf[18] = fl_x[0] && ev_q[MAN_BITS + 25];
@@ -451,22 +458,22 @@ module pgs_integrate_pipe #(
     assign ev_inv[18] = fl_x[2] && ev_q[MAN_BITS + 25];
     logic [3*W-1:0] dl_x;
     pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 48) - (MAN_BITS + 25)), .N_TAPS(3), .TAPS({32'((MAN_BITS + 48) - (MAN_BITS + 25)), 32'((MAN_BITS + 45) - (MAN_BITS + 25)), 32'(0)}))
-        u_dl_x (.clk(clk), .d(x), .q(dl_x));
+        u_dl_x (.clk(clk), .d(x), .valid(valid_q[MAN_BITS + 25 +: (((MAN_BITS + 48) - (MAN_BITS + 25)) > 0 ? ((MAN_BITS + 48) - (MAN_BITS + 25)) : 1)]), .q(dl_x));
     // v_small = theta < 0.001   (ready @46/33/30)
     logic v_small;
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_v_small (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_theta[0*W +: W]), .b(K_SMALL_ANGLE),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 22]), .a(dl_theta[0*W +: W]), .b(K_SMALL_ANGLE),
         .out_valid(op_valid_nc[20]), .y_min(nc_v_small_min), .y_max(nc_v_small_max),
         .lt(v_small), .eq(nc_v_small_eq), .unordered(nc_v_small_uo)
     );
     logic [1-1:0] dl_v_small;
     pgs_delay #(.WIDTH(1), .DEPTH((2*MAN_BITS + 57) - (MAN_BITS + 23)))
-        u_dl_v_small (.clk(clk), .d(v_small), .q(dl_v_small));
+        u_dl_v_small (.clk(clk), .d(v_small), .valid(valid_q[MAN_BITS + 23 +: (((2*MAN_BITS + 57) - (MAN_BITS + 23)) > 0 ? ((2*MAN_BITS + 57) - (MAN_BITS + 23)) : 1)]), .q(dl_v_small));
     // mul44 = dt3c * theta   (ready @48/35/32)
     logic [W-1:0] mul44;
     logic [2:0] fl_mul44;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul44 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_dt3c), .b(dl_theta[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 22]), .a(dl_dt3c), .b(dl_theta[0*W +: W]),
         .out_valid(op_valid_nc[21]), .y(mul44), .flags(fl_mul44)
     );
     assign ev_ovf[19] = fl_mul44[0] && ev_q[MAN_BITS + 25];
@@ -474,12 +481,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[19] = fl_mul44[2] && ev_q[MAN_BITS + 25];
     logic [W-1:0] dl_mul44;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul44 (.clk(clk), .d(mul44), .q(dl_mul44));
+        u_dl_mul44 (.clk(clk), .d(mul44), .valid(1'b0), .q(dl_mul44));
     // mul45 = mul44 * theta   (ready @51/38/35)
     logic [W-1:0] mul45;
     logic [2:0] fl_mul45;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul45 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul44), .b(dl_theta[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 25]), .a(dl_mul44), .b(dl_theta[1*W +: W]),
         .out_valid(op_valid_nc[22]), .y(mul45), .flags(fl_mul45)
     );
     assign ev_ovf[20] = fl_mul45[0] && ev_q[MAN_BITS + 28];
@@ -487,12 +494,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[20] = fl_mul45[2] && ev_q[MAN_BITS + 28];
     logic [W-1:0] dl_mul45;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul45 (.clk(clk), .d(mul45), .q(dl_mul45));
+        u_dl_mul45 (.clk(clk), .d(mul45), .valid(1'b0), .q(dl_mul45));
     // s_small = half_dt - mul45   (ready @55/42/39)
     logic [W-1:0] s_small;
     logic [2:0] fl_s_small;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_s_small (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_half_dt[1*W +: W]), .b(dl_mul45), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 28]), .a(dl_half_dt[1*W +: W]), .b(dl_mul45), .sub(1'b1),
         .out_valid(op_valid_nc[23]), .y(s_small), .flags(fl_s_small)
     );
     assign ev_ovf[21] = fl_s_small[0] && ev_q[MAN_BITS + 32];
@@ -500,12 +507,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[21] = fl_s_small[2] && ev_q[MAN_BITS + 32];
     logic [W-1:0] dl_s_small;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 57) - (MAN_BITS + 32)))
-        u_dl_s_small (.clk(clk), .d(s_small), .q(dl_s_small));
+        u_dl_s_small (.clk(clk), .d(s_small), .valid(valid_q[MAN_BITS + 32 +: (((2*MAN_BITS + 57) - (MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 57) - (MAN_BITS + 32)) : 1)]), .q(dl_s_small));
     // x2 = x * x   (ready @51/38/35)
     logic [W-1:0] x2;
     logic [2:0] fl_x2;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_x2 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_x[0*W +: W]), .b(dl_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 25]), .a(dl_x[0*W +: W]), .b(dl_x[0*W +: W]),
         .out_valid(op_valid_nc[24]), .y(x2), .flags(fl_x2)
     );
     assign ev_ovf[22] = fl_x2[0] && ev_q[MAN_BITS + 28];
@@ -513,12 +520,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[22] = fl_x2[2] && ev_q[MAN_BITS + 28];
     logic [4*W-1:0] dl_x2;
     pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 49) - (MAN_BITS + 28)), .N_TAPS(4), .TAPS({32'((MAN_BITS + 49) - (MAN_BITS + 28)), 32'((MAN_BITS + 42) - (MAN_BITS + 28)), 32'((MAN_BITS + 35) - (MAN_BITS + 28)), 32'(0)}))
-        u_dl_x2 (.clk(clk), .d(x2), .q(dl_x2));
+        u_dl_x2 (.clk(clk), .d(x2), .valid(valid_q[MAN_BITS + 28 +: (((MAN_BITS + 49) - (MAN_BITS + 28)) > 0 ? ((MAN_BITS + 49) - (MAN_BITS + 28)) : 1)]), .q(dl_x2));
     // mul50 = x2 * -0.0001984126984126984   (ready @54/41/38)
     logic [W-1:0] mul50;
     logic [2:0] fl_mul50;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul50 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_x2[0*W +: W]), .b(K_SIN_C2),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 28]), .a(dl_x2[0*W +: W]), .b(K_SIN_C2),
         .out_valid(op_valid_nc[25]), .y(mul50), .flags(fl_mul50)
     );
     assign ev_ovf[23] = fl_mul50[0] && ev_q[MAN_BITS + 31];
@@ -526,12 +533,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[23] = fl_mul50[2] && ev_q[MAN_BITS + 31];
     logic [W-1:0] dl_mul50;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul50 (.clk(clk), .d(mul50), .q(dl_mul50));
+        u_dl_mul50 (.clk(clk), .d(mul50), .valid(1'b0), .q(dl_mul50));
     // add51 = 0.008333333333333333 + mul50   (ready @58/45/42)
     logic [W-1:0] add51;
     logic [2:0] fl_add51;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add51 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_SIN_C1), .b(dl_mul50), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 31]), .a(K_SIN_C1), .b(dl_mul50), .sub(1'b0),
         .out_valid(op_valid_nc[26]), .y(add51), .flags(fl_add51)
     );
     assign ev_ovf[24] = fl_add51[0] && ev_q[MAN_BITS + 35];
@@ -539,12 +546,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[24] = fl_add51[2] && ev_q[MAN_BITS + 35];
     logic [W-1:0] dl_add51;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add51 (.clk(clk), .d(add51), .q(dl_add51));
+        u_dl_add51 (.clk(clk), .d(add51), .valid(1'b0), .q(dl_add51));
     // mul53 = x2 * add51   (ready @61/48/45)
     logic [W-1:0] mul53;
     logic [2:0] fl_mul53;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul53 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_x2[1*W +: W]), .b(dl_add51),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 35]), .a(dl_x2[1*W +: W]), .b(dl_add51),
         .out_valid(op_valid_nc[27]), .y(mul53), .flags(fl_mul53)
     );
     assign ev_ovf[25] = fl_mul53[0] && ev_q[MAN_BITS + 38];
@@ -552,12 +559,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[25] = fl_mul53[2] && ev_q[MAN_BITS + 38];
     logic [W-1:0] dl_mul53;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul53 (.clk(clk), .d(mul53), .q(dl_mul53));
+        u_dl_mul53 (.clk(clk), .d(mul53), .valid(1'b0), .q(dl_mul53));
     // add54 = -0.16666666666666666 + mul53   (ready @65/52/49)
     logic [W-1:0] add54;
     logic [2:0] fl_add54;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add54 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_SIN_C0), .b(dl_mul53), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 38]), .a(K_SIN_C0), .b(dl_mul53), .sub(1'b0),
         .out_valid(op_valid_nc[28]), .y(add54), .flags(fl_add54)
     );
     assign ev_ovf[26] = fl_add54[0] && ev_q[MAN_BITS + 42];
@@ -565,12 +572,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[26] = fl_add54[2] && ev_q[MAN_BITS + 42];
     logic [W-1:0] dl_add54;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add54 (.clk(clk), .d(add54), .q(dl_add54));
+        u_dl_add54 (.clk(clk), .d(add54), .valid(1'b0), .q(dl_add54));
     // mul55 = x2 * add54   (ready @68/55/52)
     logic [W-1:0] mul55;
     logic [2:0] fl_mul55;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul55 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_x2[2*W +: W]), .b(dl_add54),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 42]), .a(dl_x2[2*W +: W]), .b(dl_add54),
         .out_valid(op_valid_nc[29]), .y(mul55), .flags(fl_mul55)
     );
     assign ev_ovf[27] = fl_mul55[0] && ev_q[MAN_BITS + 45];
@@ -578,12 +585,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[27] = fl_mul55[2] && ev_q[MAN_BITS + 45];
     logic [W-1:0] dl_mul55;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul55 (.clk(clk), .d(mul55), .q(dl_mul55));
+        u_dl_mul55 (.clk(clk), .d(mul55), .valid(1'b0), .q(dl_mul55));
     // mul56 = x * mul55   (ready @71/58/55)
     logic [W-1:0] mul56;
     logic [2:0] fl_mul56;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul56 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_x[1*W +: W]), .b(dl_mul55),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 45]), .a(dl_x[1*W +: W]), .b(dl_mul55),
         .out_valid(op_valid_nc[30]), .y(mul56), .flags(fl_mul56)
     );
     assign ev_ovf[28] = fl_mul56[0] && ev_q[MAN_BITS + 48];
@@ -591,12 +598,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[28] = fl_mul56[2] && ev_q[MAN_BITS + 48];
     logic [W-1:0] dl_mul56;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul56 (.clk(clk), .d(mul56), .q(dl_mul56));
+        u_dl_mul56 (.clk(clk), .d(mul56), .valid(1'b0), .q(dl_mul56));
     // sin_x = x + mul56   (ready @75/62/59)
     logic [W-1:0] sin_x;
     logic [2:0] fl_sin_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_sin_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_x[2*W +: W]), .b(dl_mul56), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 48]), .a(dl_x[2*W +: W]), .b(dl_mul56), .sub(1'b0),
         .out_valid(op_valid_nc[31]), .y(sin_x), .flags(fl_sin_x)
     );
     assign ev_ovf[29] = fl_sin_x[0] && ev_q[MAN_BITS + 52];
@@ -604,12 +611,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[29] = fl_sin_x[2] && ev_q[MAN_BITS + 52];
     logic [W-1:0] dl_sin_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_sin_x (.clk(clk), .d(sin_x), .q(dl_sin_x));
+        u_dl_sin_x (.clk(clk), .d(sin_x), .valid(1'b0), .q(dl_sin_x));
     // s_large = sin_x / theta   (ready @103/77/71)
     logic [W-1:0] s_large;
     logic [2:0] fl_s_large;
     fp_div #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_s_large (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_sin_x), .b(dl_theta[2*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 52]), .a(dl_sin_x), .b(dl_theta[2*W +: W]),
         .out_valid(op_valid_nc[32]), .y(s_large), .flags(fl_s_large)
     );
     assign ev_ovf[30] = fl_s_large[0] && ev_q[2*MAN_BITS + 57];
@@ -617,18 +624,18 @@ module pgs_integrate_pipe #(
     assign ev_inv[30] = fl_s_large[2] && ev_q[2*MAN_BITS + 57];
     logic [W-1:0] dl_s_large;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_s_large (.clk(clk), .d(s_large), .q(dl_s_large));
+        u_dl_s_large (.clk(clk), .d(s_large), .valid(1'b0), .q(dl_s_large));
     // s = v_small ? s_small : s_large   (ready @103/77/71)
     logic [W-1:0] s;
     assign s = dl_v_small ? dl_s_small : dl_s_large;
     logic [W-1:0] dl_s;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_s (.clk(clk), .d(s), .q(dl_s));
+        u_dl_s (.clk(clk), .d(s), .valid(1'b0), .q(dl_s));
     // mul63 = x2 * 2.48015873015873e-05   (ready @54/41/38)
     logic [W-1:0] mul63;
     logic [2:0] fl_mul63;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul63 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_x2[0*W +: W]), .b(K_COS_C3),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 28]), .a(dl_x2[0*W +: W]), .b(K_COS_C3),
         .out_valid(op_valid_nc[33]), .y(mul63), .flags(fl_mul63)
     );
     assign ev_ovf[31] = fl_mul63[0] && ev_q[MAN_BITS + 31];
@@ -636,12 +643,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[31] = fl_mul63[2] && ev_q[MAN_BITS + 31];
     logic [W-1:0] dl_mul63;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul63 (.clk(clk), .d(mul63), .q(dl_mul63));
+        u_dl_mul63 (.clk(clk), .d(mul63), .valid(1'b0), .q(dl_mul63));
     // add64 = -0.001388888888888889 + mul63   (ready @58/45/42)
     logic [W-1:0] add64;
     logic [2:0] fl_add64;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add64 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_COS_C2), .b(dl_mul63), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 31]), .a(K_COS_C2), .b(dl_mul63), .sub(1'b0),
         .out_valid(op_valid_nc[34]), .y(add64), .flags(fl_add64)
     );
     assign ev_ovf[32] = fl_add64[0] && ev_q[MAN_BITS + 35];
@@ -649,12 +656,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[32] = fl_add64[2] && ev_q[MAN_BITS + 35];
     logic [W-1:0] dl_add64;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add64 (.clk(clk), .d(add64), .q(dl_add64));
+        u_dl_add64 (.clk(clk), .d(add64), .valid(1'b0), .q(dl_add64));
     // mul66 = x2 * add64   (ready @61/48/45)
     logic [W-1:0] mul66;
     logic [2:0] fl_mul66;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul66 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_x2[1*W +: W]), .b(dl_add64),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 35]), .a(dl_x2[1*W +: W]), .b(dl_add64),
         .out_valid(op_valid_nc[35]), .y(mul66), .flags(fl_mul66)
     );
     assign ev_ovf[33] = fl_mul66[0] && ev_q[MAN_BITS + 38];
@@ -662,12 +669,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[33] = fl_mul66[2] && ev_q[MAN_BITS + 38];
     logic [W-1:0] dl_mul66;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul66 (.clk(clk), .d(mul66), .q(dl_mul66));
+        u_dl_mul66 (.clk(clk), .d(mul66), .valid(1'b0), .q(dl_mul66));
     // add67 = 0.041666666666666664 + mul66   (ready @65/52/49)
     logic [W-1:0] add67;
     logic [2:0] fl_add67;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add67 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_COS_C1), .b(dl_mul66), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 38]), .a(K_COS_C1), .b(dl_mul66), .sub(1'b0),
         .out_valid(op_valid_nc[36]), .y(add67), .flags(fl_add67)
     );
     assign ev_ovf[34] = fl_add67[0] && ev_q[MAN_BITS + 42];
@@ -675,12 +682,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[34] = fl_add67[2] && ev_q[MAN_BITS + 42];
     logic [W-1:0] dl_add67;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add67 (.clk(clk), .d(add67), .q(dl_add67));
+        u_dl_add67 (.clk(clk), .d(add67), .valid(1'b0), .q(dl_add67));
     // mul69 = x2 * add67   (ready @68/55/52)
     logic [W-1:0] mul69;
     logic [2:0] fl_mul69;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul69 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_x2[2*W +: W]), .b(dl_add67),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 42]), .a(dl_x2[2*W +: W]), .b(dl_add67),
         .out_valid(op_valid_nc[37]), .y(mul69), .flags(fl_mul69)
     );
     assign ev_ovf[35] = fl_mul69[0] && ev_q[MAN_BITS + 45];
@@ -688,12 +695,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[35] = fl_mul69[2] && ev_q[MAN_BITS + 45];
     logic [W-1:0] dl_mul69;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul69 (.clk(clk), .d(mul69), .q(dl_mul69));
+        u_dl_mul69 (.clk(clk), .d(mul69), .valid(1'b0), .q(dl_mul69));
     // add70 = -0.5 + mul69   (ready @72/59/56)
     logic [W-1:0] add70;
     logic [2:0] fl_add70;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add70 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_COS_C0), .b(dl_mul69), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 45]), .a(K_COS_C0), .b(dl_mul69), .sub(1'b0),
         .out_valid(op_valid_nc[38]), .y(add70), .flags(fl_add70)
     );
     assign ev_ovf[36] = fl_add70[0] && ev_q[MAN_BITS + 49];
@@ -701,12 +708,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[36] = fl_add70[2] && ev_q[MAN_BITS + 49];
     logic [W-1:0] dl_add70;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add70 (.clk(clk), .d(add70), .q(dl_add70));
+        u_dl_add70 (.clk(clk), .d(add70), .valid(1'b0), .q(dl_add70));
     // mul71 = x2 * add70   (ready @75/62/59)
     logic [W-1:0] mul71;
     logic [2:0] fl_mul71;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul71 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_x2[3*W +: W]), .b(dl_add70),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 49]), .a(dl_x2[3*W +: W]), .b(dl_add70),
         .out_valid(op_valid_nc[39]), .y(mul71), .flags(fl_mul71)
     );
     assign ev_ovf[37] = fl_mul71[0] && ev_q[MAN_BITS + 52];
@@ -714,12 +721,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[37] = fl_mul71[2] && ev_q[MAN_BITS + 52];
     logic [W-1:0] dl_mul71;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul71 (.clk(clk), .d(mul71), .q(dl_mul71));
+        u_dl_mul71 (.clk(clk), .d(mul71), .valid(1'b0), .q(dl_mul71));
     // cos_x = 1.0 + mul71   (ready @79/66/63)
     logic [W-1:0] cos_x;
     logic [2:0] fl_cos_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_cos_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_ONE), .b(dl_mul71), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 52]), .a(K_ONE), .b(dl_mul71), .sub(1'b0),
         .out_valid(op_valid_nc[40]), .y(cos_x), .flags(fl_cos_x)
     );
     assign ev_ovf[38] = fl_cos_x[0] && ev_q[MAN_BITS + 56];
@@ -727,12 +734,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[38] = fl_cos_x[2] && ev_q[MAN_BITS + 56];
     logic [W-1:0] dl_cos_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_cos_x (.clk(clk), .d(cos_x), .q(dl_cos_x));
+        u_dl_cos_x (.clk(clk), .d(cos_x), .valid(1'b0), .q(dl_cos_x));
     // dq_x = w_x * s   (ready @106/80/74)
     logic [W-1:0] dq_x;
     logic [2:0] fl_dq_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_dq_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_w_x[1*W +: W]), .b(dl_s),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 57]), .a(dl_w_x[1*W +: W]), .b(dl_s),
         .out_valid(op_valid_nc[41]), .y(dq_x), .flags(fl_dq_x)
     );
     assign ev_ovf[39] = fl_dq_x[0] && ev_q[2*MAN_BITS + 60];
@@ -740,12 +747,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[39] = fl_dq_x[2] && ev_q[2*MAN_BITS + 60];
     logic [W-1:0] dl_dq_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_dq_x (.clk(clk), .d(dq_x), .q(dl_dq_x));
+        u_dl_dq_x (.clk(clk), .d(dq_x), .valid(1'b0), .q(dl_dq_x));
     // dq_y = w_y * s   (ready @106/80/74)
     logic [W-1:0] dq_y;
     logic [2:0] fl_dq_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_dq_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_w_y[1*W +: W]), .b(dl_s),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 57]), .a(dl_w_y[1*W +: W]), .b(dl_s),
         .out_valid(op_valid_nc[42]), .y(dq_y), .flags(fl_dq_y)
     );
     assign ev_ovf[40] = fl_dq_y[0] && ev_q[2*MAN_BITS + 60];
@@ -753,12 +760,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[40] = fl_dq_y[2] && ev_q[2*MAN_BITS + 60];
     logic [W-1:0] dl_dq_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_dq_y (.clk(clk), .d(dq_y), .q(dl_dq_y));
+        u_dl_dq_y (.clk(clk), .d(dq_y), .valid(1'b0), .q(dl_dq_y));
     // dq_z = w_z * s   (ready @106/80/74)
     logic [W-1:0] dq_z;
     logic [2:0] fl_dq_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_dq_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_w_z[1*W +: W]), .b(dl_s),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 57]), .a(dl_w_z[1*W +: W]), .b(dl_s),
         .out_valid(op_valid_nc[43]), .y(dq_z), .flags(fl_dq_z)
     );
     assign ev_ovf[41] = fl_dq_z[0] && ev_q[2*MAN_BITS + 60];
@@ -766,12 +773,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[41] = fl_dq_z[2] && ev_q[2*MAN_BITS + 60];
     logic [W-1:0] dl_dq_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_dq_z (.clk(clk), .d(dq_z), .q(dl_dq_z));
+        u_dl_dq_z (.clk(clk), .d(dq_z), .valid(1'b0), .q(dl_dq_z));
     // mul76 = cos_x * q_x   (ready @82/69/66)
     logic [W-1:0] mul76;
     logic [2:0] fl_mul76;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul76 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_cos_x), .b(dl_in_q_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 56]), .a(dl_cos_x), .b(dl_in_q_x[0*W +: W]),
         .out_valid(op_valid_nc[44]), .y(mul76), .flags(fl_mul76)
     );
     assign ev_ovf[42] = fl_mul76[0] && ev_q[MAN_BITS + 59];
@@ -779,12 +786,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[42] = fl_mul76[2] && ev_q[MAN_BITS + 59];
     logic [W-1:0] dl_mul76;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 63) - (MAN_BITS + 59)))
-        u_dl_mul76 (.clk(clk), .d(mul76), .q(dl_mul76));
+        u_dl_mul76 (.clk(clk), .d(mul76), .valid(valid_q[MAN_BITS + 59 +: (((2*MAN_BITS + 63) - (MAN_BITS + 59)) > 0 ? ((2*MAN_BITS + 63) - (MAN_BITS + 59)) : 1)]), .q(dl_mul76));
     // mul77 = dq_x * q_w   (ready @109/83/77)
     logic [W-1:0] mul77;
     logic [2:0] fl_mul77;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul77 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_dq_x), .b(dl_in_q_w[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 60]), .a(dl_dq_x), .b(dl_in_q_w[0*W +: W]),
         .out_valid(op_valid_nc[45]), .y(mul77), .flags(fl_mul77)
     );
     assign ev_ovf[43] = fl_mul77[0] && ev_q[2*MAN_BITS + 63];
@@ -792,12 +799,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[43] = fl_mul77[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul77;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul77 (.clk(clk), .d(mul77), .q(dl_mul77));
+        u_dl_mul77 (.clk(clk), .d(mul77), .valid(1'b0), .q(dl_mul77));
     // add78 = mul76 + mul77   (ready @113/87/81)
     logic [W-1:0] add78;
     logic [2:0] fl_add78;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add78 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul76), .b(dl_mul77), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul76), .b(dl_mul77), .sub(1'b0),
         .out_valid(op_valid_nc[46]), .y(add78), .flags(fl_add78)
     );
     assign ev_ovf[44] = fl_add78[0] && ev_q[2*MAN_BITS + 67];
@@ -805,12 +812,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[44] = fl_add78[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_add78;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add78 (.clk(clk), .d(add78), .q(dl_add78));
+        u_dl_add78 (.clk(clk), .d(add78), .valid(1'b0), .q(dl_add78));
     // mul79 = dq_y * q_z   (ready @109/83/77)
     logic [W-1:0] mul79;
     logic [2:0] fl_mul79;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul79 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_dq_y), .b(dl_in_q_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 60]), .a(dl_dq_y), .b(dl_in_q_z[0*W +: W]),
         .out_valid(op_valid_nc[47]), .y(mul79), .flags(fl_mul79)
     );
     assign ev_ovf[45] = fl_mul79[0] && ev_q[2*MAN_BITS + 63];
@@ -818,12 +825,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[45] = fl_mul79[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul79;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul79 (.clk(clk), .d(mul79), .q(dl_mul79));
+        u_dl_mul79 (.clk(clk), .d(mul79), .valid(1'b0), .q(dl_mul79));
     // mul80 = dq_z * q_y   (ready @109/83/77)
     logic [W-1:0] mul80;
     logic [2:0] fl_mul80;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul80 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_dq_z), .b(dl_in_q_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 60]), .a(dl_dq_z), .b(dl_in_q_y[0*W +: W]),
         .out_valid(op_valid_nc[48]), .y(mul80), .flags(fl_mul80)
     );
     assign ev_ovf[46] = fl_mul80[0] && ev_q[2*MAN_BITS + 63];
@@ -831,12 +838,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[46] = fl_mul80[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul80;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul80 (.clk(clk), .d(mul80), .q(dl_mul80));
+        u_dl_mul80 (.clk(clk), .d(mul80), .valid(1'b0), .q(dl_mul80));
     // sub81 = mul79 - mul80   (ready @113/87/81)
     logic [W-1:0] sub81;
     logic [2:0] fl_sub81;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_sub81 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul79), .b(dl_mul80), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul79), .b(dl_mul80), .sub(1'b1),
         .out_valid(op_valid_nc[49]), .y(sub81), .flags(fl_sub81)
     );
     assign ev_ovf[47] = fl_sub81[0] && ev_q[2*MAN_BITS + 67];
@@ -844,12 +851,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[47] = fl_sub81[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_sub81;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_sub81 (.clk(clk), .d(sub81), .q(dl_sub81));
+        u_dl_sub81 (.clk(clk), .d(sub81), .valid(1'b0), .q(dl_sub81));
     // qn_x = add78 + sub81   (ready @117/91/85)
     logic [W-1:0] qn_x;
     logic [2:0] fl_qn_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_qn_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_add78), .b(dl_sub81), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 67]), .a(dl_add78), .b(dl_sub81), .sub(1'b0),
         .out_valid(op_valid_nc[50]), .y(qn_x), .flags(fl_qn_x)
     );
     assign ev_ovf[48] = fl_qn_x[0] && ev_q[2*MAN_BITS + 71];
@@ -857,12 +864,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[48] = fl_qn_x[2] && ev_q[2*MAN_BITS + 71];
     logic [2*W-1:0] dl_qn_x;
     pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), .N_TAPS(2), .TAPS({32'((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), 32'(0)}))
-        u_dl_qn_x (.clk(clk), .d(qn_x), .q(dl_qn_x));
+        u_dl_qn_x (.clk(clk), .d(qn_x), .valid(valid_q[2*MAN_BITS + 71 +: (((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) > 0 ? ((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) : 1)]), .q(dl_qn_x));
     // mul83 = cos_x * q_y   (ready @82/69/66)
     logic [W-1:0] mul83;
     logic [2:0] fl_mul83;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul83 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_cos_x), .b(dl_in_q_y[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 56]), .a(dl_cos_x), .b(dl_in_q_y[1*W +: W]),
         .out_valid(op_valid_nc[51]), .y(mul83), .flags(fl_mul83)
     );
     assign ev_ovf[49] = fl_mul83[0] && ev_q[MAN_BITS + 59];
@@ -870,12 +877,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[49] = fl_mul83[2] && ev_q[MAN_BITS + 59];
     logic [W-1:0] dl_mul83;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 63) - (MAN_BITS + 59)))
-        u_dl_mul83 (.clk(clk), .d(mul83), .q(dl_mul83));
+        u_dl_mul83 (.clk(clk), .d(mul83), .valid(valid_q[MAN_BITS + 59 +: (((2*MAN_BITS + 63) - (MAN_BITS + 59)) > 0 ? ((2*MAN_BITS + 63) - (MAN_BITS + 59)) : 1)]), .q(dl_mul83));
     // mul84 = dq_y * q_w   (ready @109/83/77)
     logic [W-1:0] mul84;
     logic [2:0] fl_mul84;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul84 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_dq_y), .b(dl_in_q_w[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 60]), .a(dl_dq_y), .b(dl_in_q_w[0*W +: W]),
         .out_valid(op_valid_nc[52]), .y(mul84), .flags(fl_mul84)
     );
     assign ev_ovf[50] = fl_mul84[0] && ev_q[2*MAN_BITS + 63];
@@ -883,12 +890,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[50] = fl_mul84[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul84;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul84 (.clk(clk), .d(mul84), .q(dl_mul84));
+        u_dl_mul84 (.clk(clk), .d(mul84), .valid(1'b0), .q(dl_mul84));
     // add85 = mul83 + mul84   (ready @113/87/81)
     logic [W-1:0] add85;
     logic [2:0] fl_add85;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add85 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul83), .b(dl_mul84), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul83), .b(dl_mul84), .sub(1'b0),
         .out_valid(op_valid_nc[53]), .y(add85), .flags(fl_add85)
     );
     assign ev_ovf[51] = fl_add85[0] && ev_q[2*MAN_BITS + 67];
@@ -896,12 +903,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[51] = fl_add85[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_add85;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add85 (.clk(clk), .d(add85), .q(dl_add85));
+        u_dl_add85 (.clk(clk), .d(add85), .valid(1'b0), .q(dl_add85));
     // mul86 = dq_z * q_x   (ready @109/83/77)
     logic [W-1:0] mul86;
     logic [2:0] fl_mul86;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul86 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_dq_z), .b(dl_in_q_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 60]), .a(dl_dq_z), .b(dl_in_q_x[1*W +: W]),
         .out_valid(op_valid_nc[54]), .y(mul86), .flags(fl_mul86)
     );
     assign ev_ovf[52] = fl_mul86[0] && ev_q[2*MAN_BITS + 63];
@@ -909,12 +916,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[52] = fl_mul86[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul86;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul86 (.clk(clk), .d(mul86), .q(dl_mul86));
+        u_dl_mul86 (.clk(clk), .d(mul86), .valid(1'b0), .q(dl_mul86));
     // mul87 = dq_x * q_z   (ready @109/83/77)
     logic [W-1:0] mul87;
     logic [2:0] fl_mul87;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul87 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_dq_x), .b(dl_in_q_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 60]), .a(dl_dq_x), .b(dl_in_q_z[0*W +: W]),
         .out_valid(op_valid_nc[55]), .y(mul87), .flags(fl_mul87)
     );
     assign ev_ovf[53] = fl_mul87[0] && ev_q[2*MAN_BITS + 63];
@@ -922,12 +929,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[53] = fl_mul87[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul87;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul87 (.clk(clk), .d(mul87), .q(dl_mul87));
+        u_dl_mul87 (.clk(clk), .d(mul87), .valid(1'b0), .q(dl_mul87));
     // sub88 = mul86 - mul87   (ready @113/87/81)
     logic [W-1:0] sub88;
     logic [2:0] fl_sub88;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_sub88 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul86), .b(dl_mul87), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul86), .b(dl_mul87), .sub(1'b1),
         .out_valid(op_valid_nc[56]), .y(sub88), .flags(fl_sub88)
     );
     assign ev_ovf[54] = fl_sub88[0] && ev_q[2*MAN_BITS + 67];
@@ -935,12 +942,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[54] = fl_sub88[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_sub88;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_sub88 (.clk(clk), .d(sub88), .q(dl_sub88));
+        u_dl_sub88 (.clk(clk), .d(sub88), .valid(1'b0), .q(dl_sub88));
     // qn_y = add85 + sub88   (ready @117/91/85)
     logic [W-1:0] qn_y;
     logic [2:0] fl_qn_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_qn_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_add85), .b(dl_sub88), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 67]), .a(dl_add85), .b(dl_sub88), .sub(1'b0),
         .out_valid(op_valid_nc[57]), .y(qn_y), .flags(fl_qn_y)
     );
     assign ev_ovf[55] = fl_qn_y[0] && ev_q[2*MAN_BITS + 71];
@@ -948,12 +955,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[55] = fl_qn_y[2] && ev_q[2*MAN_BITS + 71];
     logic [2*W-1:0] dl_qn_y;
     pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), .N_TAPS(2), .TAPS({32'((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), 32'(0)}))
-        u_dl_qn_y (.clk(clk), .d(qn_y), .q(dl_qn_y));
+        u_dl_qn_y (.clk(clk), .d(qn_y), .valid(valid_q[2*MAN_BITS + 71 +: (((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) > 0 ? ((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) : 1)]), .q(dl_qn_y));
     // mul90 = cos_x * q_z   (ready @82/69/66)
     logic [W-1:0] mul90;
     logic [2:0] fl_mul90;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul90 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_cos_x), .b(dl_in_q_z[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 56]), .a(dl_cos_x), .b(dl_in_q_z[1*W +: W]),
         .out_valid(op_valid_nc[58]), .y(mul90), .flags(fl_mul90)
     );
     assign ev_ovf[56] = fl_mul90[0] && ev_q[MAN_BITS + 59];
@@ -961,12 +968,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[56] = fl_mul90[2] && ev_q[MAN_BITS + 59];
     logic [W-1:0] dl_mul90;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 63) - (MAN_BITS + 59)))
-        u_dl_mul90 (.clk(clk), .d(mul90), .q(dl_mul90));
+        u_dl_mul90 (.clk(clk), .d(mul90), .valid(valid_q[MAN_BITS + 59 +: (((2*MAN_BITS + 63) - (MAN_BITS + 59)) > 0 ? ((2*MAN_BITS + 63) - (MAN_BITS + 59)) : 1)]), .q(dl_mul90));
     // mul91 = dq_z * q_w   (ready @109/83/77)
     logic [W-1:0] mul91;
     logic [2:0] fl_mul91;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul91 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_dq_z), .b(dl_in_q_w[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 60]), .a(dl_dq_z), .b(dl_in_q_w[0*W +: W]),
         .out_valid(op_valid_nc[59]), .y(mul91), .flags(fl_mul91)
     );
     assign ev_ovf[57] = fl_mul91[0] && ev_q[2*MAN_BITS + 63];
@@ -974,12 +981,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[57] = fl_mul91[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul91;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul91 (.clk(clk), .d(mul91), .q(dl_mul91));
+        u_dl_mul91 (.clk(clk), .d(mul91), .valid(1'b0), .q(dl_mul91));
     // add92 = mul90 + mul91   (ready @113/87/81)
     logic [W-1:0] add92;
     logic [2:0] fl_add92;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add92 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul90), .b(dl_mul91), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul90), .b(dl_mul91), .sub(1'b0),
         .out_valid(op_valid_nc[60]), .y(add92), .flags(fl_add92)
     );
     assign ev_ovf[58] = fl_add92[0] && ev_q[2*MAN_BITS + 67];
@@ -987,12 +994,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[58] = fl_add92[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_add92;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add92 (.clk(clk), .d(add92), .q(dl_add92));
+        u_dl_add92 (.clk(clk), .d(add92), .valid(1'b0), .q(dl_add92));
     // mul93 = dq_x * q_y   (ready @109/83/77)
     logic [W-1:0] mul93;
     logic [2:0] fl_mul93;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul93 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_dq_x), .b(dl_in_q_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 60]), .a(dl_dq_x), .b(dl_in_q_y[0*W +: W]),
         .out_valid(op_valid_nc[61]), .y(mul93), .flags(fl_mul93)
     );
     assign ev_ovf[59] = fl_mul93[0] && ev_q[2*MAN_BITS + 63];
@@ -1000,12 +1007,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[59] = fl_mul93[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul93;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul93 (.clk(clk), .d(mul93), .q(dl_mul93));
+        u_dl_mul93 (.clk(clk), .d(mul93), .valid(1'b0), .q(dl_mul93));
     // mul94 = dq_y * q_x   (ready @109/83/77)
     logic [W-1:0] mul94;
     logic [2:0] fl_mul94;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul94 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_dq_y), .b(dl_in_q_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 60]), .a(dl_dq_y), .b(dl_in_q_x[1*W +: W]),
         .out_valid(op_valid_nc[62]), .y(mul94), .flags(fl_mul94)
     );
     assign ev_ovf[60] = fl_mul94[0] && ev_q[2*MAN_BITS + 63];
@@ -1013,12 +1020,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[60] = fl_mul94[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul94;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul94 (.clk(clk), .d(mul94), .q(dl_mul94));
+        u_dl_mul94 (.clk(clk), .d(mul94), .valid(1'b0), .q(dl_mul94));
     // sub95 = mul93 - mul94   (ready @113/87/81)
     logic [W-1:0] sub95;
     logic [2:0] fl_sub95;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_sub95 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul93), .b(dl_mul94), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul93), .b(dl_mul94), .sub(1'b1),
         .out_valid(op_valid_nc[63]), .y(sub95), .flags(fl_sub95)
     );
     assign ev_ovf[61] = fl_sub95[0] && ev_q[2*MAN_BITS + 67];
@@ -1026,12 +1033,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[61] = fl_sub95[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_sub95;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_sub95 (.clk(clk), .d(sub95), .q(dl_sub95));
+        u_dl_sub95 (.clk(clk), .d(sub95), .valid(1'b0), .q(dl_sub95));
     // qn_z = add92 + sub95   (ready @117/91/85)
     logic [W-1:0] qn_z;
     logic [2:0] fl_qn_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_qn_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_add92), .b(dl_sub95), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 67]), .a(dl_add92), .b(dl_sub95), .sub(1'b0),
         .out_valid(op_valid_nc[64]), .y(qn_z), .flags(fl_qn_z)
     );
     assign ev_ovf[62] = fl_qn_z[0] && ev_q[2*MAN_BITS + 71];
@@ -1039,12 +1046,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[62] = fl_qn_z[2] && ev_q[2*MAN_BITS + 71];
     logic [2*W-1:0] dl_qn_z;
     pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), .N_TAPS(2), .TAPS({32'((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), 32'(0)}))
-        u_dl_qn_z (.clk(clk), .d(qn_z), .q(dl_qn_z));
+        u_dl_qn_z (.clk(clk), .d(qn_z), .valid(valid_q[2*MAN_BITS + 71 +: (((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) > 0 ? ((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) : 1)]), .q(dl_qn_z));
     // mul97 = cos_x * q_w   (ready @82/69/66)
     logic [W-1:0] mul97;
     logic [2:0] fl_mul97;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul97 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_cos_x), .b(dl_in_q_w[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[MAN_BITS + 56]), .a(dl_cos_x), .b(dl_in_q_w[1*W +: W]),
         .out_valid(op_valid_nc[65]), .y(mul97), .flags(fl_mul97)
     );
     assign ev_ovf[63] = fl_mul97[0] && ev_q[MAN_BITS + 59];
@@ -1052,12 +1059,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[63] = fl_mul97[2] && ev_q[MAN_BITS + 59];
     logic [W-1:0] dl_mul97;
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 63) - (MAN_BITS + 59)))
-        u_dl_mul97 (.clk(clk), .d(mul97), .q(dl_mul97));
+        u_dl_mul97 (.clk(clk), .d(mul97), .valid(valid_q[MAN_BITS + 59 +: (((2*MAN_BITS + 63) - (MAN_BITS + 59)) > 0 ? ((2*MAN_BITS + 63) - (MAN_BITS + 59)) : 1)]), .q(dl_mul97));
     // mul98 = dq_x * q_x   (ready @109/83/77)
     logic [W-1:0] mul98;
     logic [2:0] fl_mul98;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul98 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_dq_x), .b(dl_in_q_x[1*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 60]), .a(dl_dq_x), .b(dl_in_q_x[1*W +: W]),
         .out_valid(op_valid_nc[66]), .y(mul98), .flags(fl_mul98)
     );
     assign ev_ovf[64] = fl_mul98[0] && ev_q[2*MAN_BITS + 63];
@@ -1065,12 +1072,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[64] = fl_mul98[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul98;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul98 (.clk(clk), .d(mul98), .q(dl_mul98));
+        u_dl_mul98 (.clk(clk), .d(mul98), .valid(1'b0), .q(dl_mul98));
     // sub99 = mul97 - mul98   (ready @113/87/81)
     logic [W-1:0] sub99;
     logic [2:0] fl_sub99;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_sub99 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul97), .b(dl_mul98), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul97), .b(dl_mul98), .sub(1'b1),
         .out_valid(op_valid_nc[67]), .y(sub99), .flags(fl_sub99)
     );
     assign ev_ovf[65] = fl_sub99[0] && ev_q[2*MAN_BITS + 67];
@@ -1078,12 +1085,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[65] = fl_sub99[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_sub99;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_sub99 (.clk(clk), .d(sub99), .q(dl_sub99));
+        u_dl_sub99 (.clk(clk), .d(sub99), .valid(1'b0), .q(dl_sub99));
     // mul100 = dq_y * q_y   (ready @109/83/77)
     logic [W-1:0] mul100;
     logic [2:0] fl_mul100;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul100 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_dq_y), .b(dl_in_q_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 60]), .a(dl_dq_y), .b(dl_in_q_y[0*W +: W]),
         .out_valid(op_valid_nc[68]), .y(mul100), .flags(fl_mul100)
     );
     assign ev_ovf[66] = fl_mul100[0] && ev_q[2*MAN_BITS + 63];
@@ -1091,12 +1098,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[66] = fl_mul100[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul100;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul100 (.clk(clk), .d(mul100), .q(dl_mul100));
+        u_dl_mul100 (.clk(clk), .d(mul100), .valid(1'b0), .q(dl_mul100));
     // mul101 = dq_z * q_z   (ready @109/83/77)
     logic [W-1:0] mul101;
     logic [2:0] fl_mul101;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul101 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_dq_z), .b(dl_in_q_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 60]), .a(dl_dq_z), .b(dl_in_q_z[0*W +: W]),
         .out_valid(op_valid_nc[69]), .y(mul101), .flags(fl_mul101)
     );
     assign ev_ovf[67] = fl_mul101[0] && ev_q[2*MAN_BITS + 63];
@@ -1104,12 +1111,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[67] = fl_mul101[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul101;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul101 (.clk(clk), .d(mul101), .q(dl_mul101));
+        u_dl_mul101 (.clk(clk), .d(mul101), .valid(1'b0), .q(dl_mul101));
     // add102 = mul100 + mul101   (ready @113/87/81)
     logic [W-1:0] add102;
     logic [2:0] fl_add102;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add102 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul100), .b(dl_mul101), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 63]), .a(dl_mul100), .b(dl_mul101), .sub(1'b0),
         .out_valid(op_valid_nc[70]), .y(add102), .flags(fl_add102)
     );
     assign ev_ovf[68] = fl_add102[0] && ev_q[2*MAN_BITS + 67];
@@ -1117,12 +1124,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[68] = fl_add102[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_add102;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add102 (.clk(clk), .d(add102), .q(dl_add102));
+        u_dl_add102 (.clk(clk), .d(add102), .valid(1'b0), .q(dl_add102));
     // qn_w = sub99 - add102   (ready @117/91/85)
     logic [W-1:0] qn_w;
     logic [2:0] fl_qn_w;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_qn_w (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_sub99), .b(dl_add102), .sub(1'b1),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 67]), .a(dl_sub99), .b(dl_add102), .sub(1'b1),
         .out_valid(op_valid_nc[71]), .y(qn_w), .flags(fl_qn_w)
     );
     assign ev_ovf[69] = fl_qn_w[0] && ev_q[2*MAN_BITS + 71];
@@ -1130,12 +1137,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[69] = fl_qn_w[2] && ev_q[2*MAN_BITS + 71];
     logic [2*W-1:0] dl_qn_w;
     pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), .N_TAPS(2), .TAPS({32'((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), 32'(0)}))
-        u_dl_qn_w (.clk(clk), .d(qn_w), .q(dl_qn_w));
+        u_dl_qn_w (.clk(clk), .d(qn_w), .valid(valid_q[2*MAN_BITS + 71 +: (((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) > 0 ? ((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) : 1)]), .q(dl_qn_w));
     // mul104 = qn_x * qn_x   (ready @120/94/88)
     logic [W-1:0] mul104;
     logic [2:0] fl_mul104;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul104 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_qn_x[0*W +: W]), .b(dl_qn_x[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 71]), .a(dl_qn_x[0*W +: W]), .b(dl_qn_x[0*W +: W]),
         .out_valid(op_valid_nc[72]), .y(mul104), .flags(fl_mul104)
     );
     assign ev_ovf[70] = fl_mul104[0] && ev_q[2*MAN_BITS + 74];
@@ -1143,12 +1150,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[70] = fl_mul104[2] && ev_q[2*MAN_BITS + 74];
     logic [W-1:0] dl_mul104;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul104 (.clk(clk), .d(mul104), .q(dl_mul104));
+        u_dl_mul104 (.clk(clk), .d(mul104), .valid(1'b0), .q(dl_mul104));
     // mul105 = qn_y * qn_y   (ready @120/94/88)
     logic [W-1:0] mul105;
     logic [2:0] fl_mul105;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul105 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_qn_y[0*W +: W]), .b(dl_qn_y[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 71]), .a(dl_qn_y[0*W +: W]), .b(dl_qn_y[0*W +: W]),
         .out_valid(op_valid_nc[73]), .y(mul105), .flags(fl_mul105)
     );
     assign ev_ovf[71] = fl_mul105[0] && ev_q[2*MAN_BITS + 74];
@@ -1156,12 +1163,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[71] = fl_mul105[2] && ev_q[2*MAN_BITS + 74];
     logic [W-1:0] dl_mul105;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul105 (.clk(clk), .d(mul105), .q(dl_mul105));
+        u_dl_mul105 (.clk(clk), .d(mul105), .valid(1'b0), .q(dl_mul105));
     // add106 = mul104 + mul105   (ready @124/98/92)
     logic [W-1:0] add106;
     logic [2:0] fl_add106;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add106 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul104), .b(dl_mul105), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 74]), .a(dl_mul104), .b(dl_mul105), .sub(1'b0),
         .out_valid(op_valid_nc[74]), .y(add106), .flags(fl_add106)
     );
     assign ev_ovf[72] = fl_add106[0] && ev_q[2*MAN_BITS + 78];
@@ -1169,12 +1176,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[72] = fl_add106[2] && ev_q[2*MAN_BITS + 78];
     logic [W-1:0] dl_add106;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add106 (.clk(clk), .d(add106), .q(dl_add106));
+        u_dl_add106 (.clk(clk), .d(add106), .valid(1'b0), .q(dl_add106));
     // mul107 = qn_z * qn_z   (ready @120/94/88)
     logic [W-1:0] mul107;
     logic [2:0] fl_mul107;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul107 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_qn_z[0*W +: W]), .b(dl_qn_z[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 71]), .a(dl_qn_z[0*W +: W]), .b(dl_qn_z[0*W +: W]),
         .out_valid(op_valid_nc[75]), .y(mul107), .flags(fl_mul107)
     );
     assign ev_ovf[73] = fl_mul107[0] && ev_q[2*MAN_BITS + 74];
@@ -1182,12 +1189,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[73] = fl_mul107[2] && ev_q[2*MAN_BITS + 74];
     logic [W-1:0] dl_mul107;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul107 (.clk(clk), .d(mul107), .q(dl_mul107));
+        u_dl_mul107 (.clk(clk), .d(mul107), .valid(1'b0), .q(dl_mul107));
     // mul108 = qn_w * qn_w   (ready @120/94/88)
     logic [W-1:0] mul108;
     logic [2:0] fl_mul108;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul108 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_qn_w[0*W +: W]), .b(dl_qn_w[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 71]), .a(dl_qn_w[0*W +: W]), .b(dl_qn_w[0*W +: W]),
         .out_valid(op_valid_nc[76]), .y(mul108), .flags(fl_mul108)
     );
     assign ev_ovf[74] = fl_mul108[0] && ev_q[2*MAN_BITS + 74];
@@ -1195,12 +1202,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[74] = fl_mul108[2] && ev_q[2*MAN_BITS + 74];
     logic [W-1:0] dl_mul108;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul108 (.clk(clk), .d(mul108), .q(dl_mul108));
+        u_dl_mul108 (.clk(clk), .d(mul108), .valid(1'b0), .q(dl_mul108));
     // add109 = mul107 + mul108   (ready @124/98/92)
     logic [W-1:0] add109;
     logic [2:0] fl_add109;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_add109 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_mul107), .b(dl_mul108), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 74]), .a(dl_mul107), .b(dl_mul108), .sub(1'b0),
         .out_valid(op_valid_nc[77]), .y(add109), .flags(fl_add109)
     );
     assign ev_ovf[75] = fl_add109[0] && ev_q[2*MAN_BITS + 78];
@@ -1208,12 +1215,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[75] = fl_add109[2] && ev_q[2*MAN_BITS + 78];
     logic [W-1:0] dl_add109;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_add109 (.clk(clk), .d(add109), .q(dl_add109));
+        u_dl_add109 (.clk(clk), .d(add109), .valid(1'b0), .q(dl_add109));
     // norm2 = add106 + add109   (ready @128/102/96)
     logic [W-1:0] norm2;
     logic [2:0] fl_norm2;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_norm2 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_add106), .b(dl_add109), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 78]), .a(dl_add106), .b(dl_add109), .sub(1'b0),
         .out_valid(op_valid_nc[78]), .y(norm2), .flags(fl_norm2)
     );
     assign ev_ovf[76] = fl_norm2[0] && ev_q[2*MAN_BITS + 82];
@@ -1221,12 +1228,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[76] = fl_norm2[2] && ev_q[2*MAN_BITS + 82];
     logic [W-1:0] dl_norm2;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_norm2 (.clk(clk), .d(norm2), .q(dl_norm2));
+        u_dl_norm2 (.clk(clk), .d(norm2), .valid(1'b0), .q(dl_norm2));
     // norm = sqrt(norm2)   (ready @155/116/107)
     logic [W-1:0] norm;
     logic [2:0] fl_norm;
     fp_sqrt #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_norm (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_norm2),
+        .clk(clk), .rst(rst), .in_valid(valid_q[2*MAN_BITS + 82]), .a(dl_norm2),
         .out_valid(op_valid_nc[79]), .y(norm), .flags(fl_norm)
     );
     assign ev_ovf[77] = fl_norm[0] && ev_q[3*MAN_BITS + 86];
@@ -1234,12 +1241,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[77] = fl_norm[2] && ev_q[3*MAN_BITS + 86];
     logic [W-1:0] dl_norm;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_norm (.clk(clk), .d(norm), .q(dl_norm));
+        u_dl_norm (.clk(clk), .d(norm), .valid(1'b0), .q(dl_norm));
     // inv_norm = 1.0 / norm   (ready @183/131/119)
     logic [W-1:0] inv_norm;
     logic [2:0] fl_inv_norm;
     fp_div #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_inv_norm (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(K_ONE), .b(dl_norm),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3*MAN_BITS + 86]), .a(K_ONE), .b(dl_norm),
         .out_valid(op_valid_nc[80]), .y(inv_norm), .flags(fl_inv_norm)
     );
     assign ev_ovf[78] = fl_inv_norm[0] && ev_q[4*MAN_BITS + 91];
@@ -1247,12 +1254,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[78] = fl_inv_norm[2] && ev_q[4*MAN_BITS + 91];
     logic [W-1:0] dl_inv_norm;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_inv_norm (.clk(clk), .d(inv_norm), .q(dl_inv_norm));
+        u_dl_inv_norm (.clk(clk), .d(inv_norm), .valid(1'b0), .q(dl_inv_norm));
     // q_x = qn_x * inv_norm   (ready @186/134/122)
     logic [W-1:0] q_x;
     logic [2:0] fl_q_x;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_q_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_qn_x[1*W +: W]), .b(dl_inv_norm),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4*MAN_BITS + 91]), .a(dl_qn_x[1*W +: W]), .b(dl_inv_norm),
         .out_valid(op_valid_nc[81]), .y(q_x), .flags(fl_q_x)
     );
     assign ev_ovf[79] = fl_q_x[0] && ev_q[4*MAN_BITS + 94];
@@ -1260,12 +1267,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[79] = fl_q_x[2] && ev_q[4*MAN_BITS + 94];
     logic [W-1:0] dl_q_x;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_q_x (.clk(clk), .d(q_x), .q(dl_q_x));
+        u_dl_q_x (.clk(clk), .d(q_x), .valid(1'b0), .q(dl_q_x));
     // q_y = qn_y * inv_norm   (ready @186/134/122)
     logic [W-1:0] q_y;
     logic [2:0] fl_q_y;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_q_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_qn_y[1*W +: W]), .b(dl_inv_norm),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4*MAN_BITS + 91]), .a(dl_qn_y[1*W +: W]), .b(dl_inv_norm),
         .out_valid(op_valid_nc[82]), .y(q_y), .flags(fl_q_y)
     );
     assign ev_ovf[80] = fl_q_y[0] && ev_q[4*MAN_BITS + 94];
@@ -1273,12 +1280,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[80] = fl_q_y[2] && ev_q[4*MAN_BITS + 94];
     logic [W-1:0] dl_q_y;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_q_y (.clk(clk), .d(q_y), .q(dl_q_y));
+        u_dl_q_y (.clk(clk), .d(q_y), .valid(1'b0), .q(dl_q_y));
     // q_z = qn_z * inv_norm   (ready @186/134/122)
     logic [W-1:0] q_z;
     logic [2:0] fl_q_z;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_q_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_qn_z[1*W +: W]), .b(dl_inv_norm),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4*MAN_BITS + 91]), .a(dl_qn_z[1*W +: W]), .b(dl_inv_norm),
         .out_valid(op_valid_nc[83]), .y(q_z), .flags(fl_q_z)
     );
     assign ev_ovf[81] = fl_q_z[0] && ev_q[4*MAN_BITS + 94];
@@ -1286,12 +1293,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[81] = fl_q_z[2] && ev_q[4*MAN_BITS + 94];
     logic [W-1:0] dl_q_z;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_q_z (.clk(clk), .d(q_z), .q(dl_q_z));
+        u_dl_q_z (.clk(clk), .d(q_z), .valid(1'b0), .q(dl_q_z));
     // q_w = qn_w * inv_norm   (ready @186/134/122)
     logic [W-1:0] q_w;
     logic [2:0] fl_q_w;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_q_w (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_qn_w[1*W +: W]), .b(dl_inv_norm),
+        .clk(clk), .rst(rst), .in_valid(valid_q[4*MAN_BITS + 91]), .a(dl_qn_w[1*W +: W]), .b(dl_inv_norm),
         .out_valid(op_valid_nc[84]), .y(q_w), .flags(fl_q_w)
     );
     assign ev_ovf[82] = fl_q_w[0] && ev_q[4*MAN_BITS + 94];
@@ -1299,12 +1306,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[82] = fl_q_w[2] && ev_q[4*MAN_BITS + 94];
     logic [W-1:0] dl_q_w;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_q_w (.clk(clk), .d(q_w), .q(dl_q_w));
+        u_dl_q_w (.clk(clk), .d(q_w), .valid(1'b0), .q(dl_q_w));
     // mul117 = v_x * dt   (ready @3/3/3)
     logic [W-1:0] mul117;
     logic [2:0] fl_mul117;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul117 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_v_x[0*W +: W]), .b(dl_in_dt[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_v_x[0*W +: W]), .b(dl_in_dt[0*W +: W]),
         .out_valid(op_valid_nc[85]), .y(mul117), .flags(fl_mul117)
     );
     assign ev_ovf[83] = fl_mul117[0] && ev_q[3];
@@ -1312,12 +1319,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[83] = fl_mul117[2] && ev_q[3];
     logic [W-1:0] dl_mul117;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul117 (.clk(clk), .d(mul117), .q(dl_mul117));
+        u_dl_mul117 (.clk(clk), .d(mul117), .valid(1'b0), .q(dl_mul117));
     // mul118 = v_y * dt   (ready @3/3/3)
     logic [W-1:0] mul118;
     logic [2:0] fl_mul118;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul118 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_v_y[0*W +: W]), .b(dl_in_dt[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_v_y[0*W +: W]), .b(dl_in_dt[0*W +: W]),
         .out_valid(op_valid_nc[86]), .y(mul118), .flags(fl_mul118)
     );
     assign ev_ovf[84] = fl_mul118[0] && ev_q[3];
@@ -1325,12 +1332,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[84] = fl_mul118[2] && ev_q[3];
     logic [W-1:0] dl_mul118;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul118 (.clk(clk), .d(mul118), .q(dl_mul118));
+        u_dl_mul118 (.clk(clk), .d(mul118), .valid(1'b0), .q(dl_mul118));
     // mul119 = v_z * dt   (ready @3/3/3)
     logic [W-1:0] mul119;
     logic [2:0] fl_mul119;
     fp_mul #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_mul119 (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_v_z[0*W +: W]), .b(dl_in_dt[0*W +: W]),
+        .clk(clk), .rst(rst), .in_valid(valid_q[0]), .a(dl_in_v_z[0*W +: W]), .b(dl_in_dt[0*W +: W]),
         .out_valid(op_valid_nc[87]), .y(mul119), .flags(fl_mul119)
     );
     assign ev_ovf[85] = fl_mul119[0] && ev_q[3];
@@ -1338,12 +1345,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[85] = fl_mul119[2] && ev_q[3];
     logic [W-1:0] dl_mul119;
     pgs_delay #(.WIDTH(W), .DEPTH(0))
-        u_dl_mul119 (.clk(clk), .d(mul119), .q(dl_mul119));
+        u_dl_mul119 (.clk(clk), .d(mul119), .valid(1'b0), .q(dl_mul119));
     // pos_x = pos_x + mul117   (ready @7/7/7)
     logic [W-1:0] pos_x;
     logic [2:0] fl_pos_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pos_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_pos_x), .b(dl_mul117), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_in_pos_x), .b(dl_mul117), .sub(1'b0),
         .out_valid(op_valid_nc[88]), .y(pos_x), .flags(fl_pos_x)
     );
     assign ev_ovf[86] = fl_pos_x[0] && ev_q[7];
@@ -1351,12 +1358,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[86] = fl_pos_x[2] && ev_q[7];
     logic [W-1:0] dl_pos_x;
     pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)))
-        u_dl_pos_x (.clk(clk), .d(pos_x), .q(dl_pos_x));
+        u_dl_pos_x (.clk(clk), .d(pos_x), .valid(valid_q[7 +: (((4*MAN_BITS + 94) - (7)) > 0 ? ((4*MAN_BITS + 94) - (7)) : 1)]), .q(dl_pos_x));
     // pos_y = pos_y + mul118   (ready @7/7/7)
     logic [W-1:0] pos_y;
     logic [2:0] fl_pos_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pos_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_pos_y), .b(dl_mul118), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_in_pos_y), .b(dl_mul118), .sub(1'b0),
         .out_valid(op_valid_nc[89]), .y(pos_y), .flags(fl_pos_y)
     );
     assign ev_ovf[87] = fl_pos_y[0] && ev_q[7];
@@ -1364,12 +1371,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[87] = fl_pos_y[2] && ev_q[7];
     logic [W-1:0] dl_pos_y;
     pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)))
-        u_dl_pos_y (.clk(clk), .d(pos_y), .q(dl_pos_y));
+        u_dl_pos_y (.clk(clk), .d(pos_y), .valid(valid_q[7 +: (((4*MAN_BITS + 94) - (7)) > 0 ? ((4*MAN_BITS + 94) - (7)) : 1)]), .q(dl_pos_y));
     // pos_z = pos_z + mul119   (ready @7/7/7)
     logic [W-1:0] pos_z;
     logic [2:0] fl_pos_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_pos_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_pos_z), .b(dl_mul119), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_in_pos_z), .b(dl_mul119), .sub(1'b0),
         .out_valid(op_valid_nc[90]), .y(pos_z), .flags(fl_pos_z)
     );
     assign ev_ovf[88] = fl_pos_z[0] && ev_q[7];
@@ -1377,12 +1384,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[88] = fl_pos_z[2] && ev_q[7];
     logic [W-1:0] dl_pos_z;
     pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)))
-        u_dl_pos_z (.clk(clk), .d(pos_z), .q(dl_pos_z));
+        u_dl_pos_z (.clk(clk), .d(pos_z), .valid(valid_q[7 +: (((4*MAN_BITS + 94) - (7)) > 0 ? ((4*MAN_BITS + 94) - (7)) : 1)]), .q(dl_pos_z));
     // v_x = v_x + g_dt_x   (ready @7/7/7)
     logic [W-1:0] v_x;
     logic [2:0] fl_v_x;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_v_x (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_v_x[1*W +: W]), .b(dl_g_dt_x), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_in_v_x[1*W +: W]), .b(dl_g_dt_x), .sub(1'b0),
         .out_valid(op_valid_nc[91]), .y(v_x), .flags(fl_v_x)
     );
     assign ev_ovf[89] = fl_v_x[0] && ev_q[7];
@@ -1390,12 +1397,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[89] = fl_v_x[2] && ev_q[7];
     logic [W-1:0] dl_v_x;
     pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)))
-        u_dl_v_x (.clk(clk), .d(v_x), .q(dl_v_x));
+        u_dl_v_x (.clk(clk), .d(v_x), .valid(valid_q[7 +: (((4*MAN_BITS + 94) - (7)) > 0 ? ((4*MAN_BITS + 94) - (7)) : 1)]), .q(dl_v_x));
     // v_y = v_y + g_dt_y   (ready @7/7/7)
     logic [W-1:0] v_y;
     logic [2:0] fl_v_y;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_v_y (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_v_y[1*W +: W]), .b(dl_g_dt_y), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_in_v_y[1*W +: W]), .b(dl_g_dt_y), .sub(1'b0),
         .out_valid(op_valid_nc[92]), .y(v_y), .flags(fl_v_y)
     );
     assign ev_ovf[90] = fl_v_y[0] && ev_q[7];
@@ -1403,12 +1410,12 @@ module pgs_integrate_pipe #(
     assign ev_inv[90] = fl_v_y[2] && ev_q[7];
     logic [W-1:0] dl_v_y;
     pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)))
-        u_dl_v_y (.clk(clk), .d(v_y), .q(dl_v_y));
+        u_dl_v_y (.clk(clk), .d(v_y), .valid(valid_q[7 +: (((4*MAN_BITS + 94) - (7)) > 0 ? ((4*MAN_BITS + 94) - (7)) : 1)]), .q(dl_v_y));
     // v_z = v_z + g_dt_z   (ready @7/7/7)
     logic [W-1:0] v_z;
     logic [2:0] fl_v_z;
     fp_add #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS)) u_v_z (
-        .clk(clk), .rst(rst), .in_valid(1'b1), .a(dl_in_v_z[1*W +: W]), .b(dl_g_dt_z), .sub(1'b0),
+        .clk(clk), .rst(rst), .in_valid(valid_q[3]), .a(dl_in_v_z[1*W +: W]), .b(dl_g_dt_z), .sub(1'b0),
         .out_valid(op_valid_nc[93]), .y(v_z), .flags(fl_v_z)
     );
     assign ev_ovf[91] = fl_v_z[0] && ev_q[7];
@@ -1416,7 +1423,7 @@ module pgs_integrate_pipe #(
     assign ev_inv[91] = fl_v_z[2] && ev_q[7];
     logic [W-1:0] dl_v_z;
     pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)))
-        u_dl_v_z (.clk(clk), .d(v_z), .q(dl_v_z));
+        u_dl_v_z (.clk(clk), .d(v_z), .valid(valid_q[7 +: (((4*MAN_BITS + 94) - (7)) > 0 ? ((4*MAN_BITS + 94) - (7)) : 1)]), .q(dl_v_z));
 
     // Outputs, each delayed to LATENCY.
     assign out_data[0*W +: W] = dl_pos_x;   // pos_x

@@ -34,6 +34,7 @@ def test_each_profile_builds_apart() -> None:
     (["--iters", "0"], "--iters must be >= 1"),
     (["--format", "float64"], "not a kernel format"),
     (["--max-cycles", "-1"], "--max-cycles must be >= 0"),
+    (["--baseline-exe", "/nonexistent/harness"], "--baseline-exe /nonexistent/harness: no such file"),
 ])
 def test_bad_options_are_named(argv: list[str], message: str) -> None:
     with pytest.raises(ValueError, match=message.replace("[", r"\[").replace("]", r"\]")):
@@ -56,3 +57,13 @@ def test_report_gives_build_and_speed_ratios_to_the_first_profile() -> None:
     assert lines[3].split()[:7] == ["os", "10.0", "250.0", "2.50x", "0.3", "1.0", "2.00x"]
     built = bench.report([runs("quick", 0.2, 2.0), runs("os", 0.1, 1.0)], "pile").splitlines()
     assert built[3].split()[3] == "-"
+
+
+def test_report_puts_a_baseline_harness_first() -> None:
+    """A harness from another tree (--baseline-exe) is the reference column: each profile's speed is a ratio to it,
+    and its row names the executable instead of compile flags."""
+    base = bench.ProfileRuns(bench.BASELINE, Path("/old/harness"), 0.0, 0.0, 1000, [4.0] * 3, [4.0] * 3)
+    new = bench.ProfileRuns("quick", Path("quick"), 10.0, 50.0, 1000, [2.0] * 3, [1.0] * 3)
+    lines = bench.report([base, new], "pile").splitlines()
+    assert lines[2].split()[0] == bench.BASELINE and lines[2].endswith("built elsewhere: /old/harness")
+    assert lines[3].split()[6] == "4.00x" and lines[3].split()[3] == "-"
