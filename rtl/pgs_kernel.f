@@ -11,7 +11,6 @@ generated/pgs_pipe_latency_pkg.sv
 
 // floating-point operators
 fp/fp_unpack.sv
-fp/fp_round_pack.sv
 fp/fp_valid_pipe.sv
 fp/fp_data_pipe.sv
 fp/fp_result_stage.sv

@@ -11,7 +11,7 @@
 //   * overflow -> +-inf, result below min normal after rounding -> +-0
 // Event flags (models/number_format.py, registered with y): flags = {invalid, underflow, overflow};
 //   overflow / underflow: the rounding overflowed to +-inf / flushed a non-zero result to +-0 (from
-//   fp_round_pack), invalid: a NaN made from non-NaN operands (inf - inf).
+//   fp_result_stage), invalid: a NaN made from non-NaN operands (inf - inf).
 // Latency: LATENCY = 4 cycles, one operation accepted per cycle (II = 1).
 //   stage 1: unpack, classify, order operands by magnitude, exponent difference
 //   stage 2: align the smaller significand (guard, round, sticky bits) and add / subtract

@@ -16,7 +16,7 @@
 //   * overflow -> +-inf, result below min normal after rounding -> +-0
 // Event flags (models/number_format.py, registered with y): flags = {invalid, underflow, overflow};
 //   overflow / underflow: the rounding overflowed to +-inf / flushed a non-zero result to +-0 (from
-//   fp_round_pack), invalid: a NaN made from non-NaN operands (0 / 0, inf / inf).
+//   fp_result_stage), invalid: a NaN made from non-NaN operands (0 / 0, inf / inf).
 // Latency: LATENCY = MAN_BITS + 5 cycles (binary32: 28, binary16: 15, bfloat16: 12), II = 1.
 //   stage 1            : unpack, classify, sign and exponent difference
 //   stages 2 .. P+3    : one quotient bit each (P+2 = MAN_BITS+3 stages)

@@ -11,7 +11,7 @@
 //   * overflow -> +-inf, result below min normal after rounding -> +-0
 // Event flags (models/number_format.py, registered with y): flags = {invalid, underflow, overflow};
 //   overflow / underflow: the rounding overflowed to +-inf / flushed a non-zero result to +-0 (from
-//   fp_round_pack), invalid: a NaN made from non-NaN operands (0 * inf).
+//   fp_result_stage), invalid: a NaN made from non-NaN operands (0 * inf).
 // Latency: LATENCY = 3 cycles, one operation accepted per cycle (II = 1).
 //   stage 1: unpack, classify, sign and exponent sum
 //   stage 2: significand product (maps to a pipelined DSP multiplier)

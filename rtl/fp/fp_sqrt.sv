@@ -14,7 +14,7 @@
 //   * +inf                                     -> +inf
 // Event flags (models/number_format.py, registered with y): flags = {invalid, underflow, overflow};
 //   overflow / underflow: the rounding overflowed to +-inf / flushed a non-zero result to +-0 (from
-//   fp_round_pack), invalid: a NaN made from non-NaN operands (a negative non-zero operand, -inf included; overflow and underflow
+//   fp_result_stage), invalid: a NaN made from non-NaN operands (a negative non-zero operand, -inf included; overflow and underflow
 //   cannot happen).
 // Latency: LATENCY = MAN_BITS + 4 cycles (binary32: 27, binary16: 14, bfloat16: 11), II = 1.
 //   stage 1           : unpack, classify, exponent halving, radicand alignment
