@@ -1,5 +1,5 @@
 """The records design in fp32 with its body velocities in true dual-port banks (``BODY_BANKS = 2``,
-``rtl/pgs_body_vel_banks.sv``): one Verilator build (``pgs_kernel_e8m23_c512_ir_bk2``, the zcu102 preset's
+``rtl/pgs_body_vel_banks.sv``): one Verilator build (``pgs_kernel_e8m23_c512_ir_bk2_dl65``, the zcu102 preset's
 512-bit beats) for every test here. ``sim.kernel_step`` compares bit for bit the trace, the body-out stream and the
 impulse-out stream with the golden model of the same step:
 
@@ -44,7 +44,7 @@ def scene_job(scene: str) -> KernelJob:
 
 def test_the_build_is_banked() -> None:
     kb = KernelBuild.for_job(scene_job("stack"), PRESET)
-    assert kb.parameters["BODY_BANKS"] == RECORDS_BANKS and kb.name == "pgs_kernel_e8m23_c512_ir_bk2"
+    assert kb.parameters["BODY_BANKS"] == RECORDS_BANKS and kb.name == "pgs_kernel_e8m23_c512_ir_bk2_dl65"
 
 
 @pytest.mark.parametrize("scene", ["pile", "stack"])

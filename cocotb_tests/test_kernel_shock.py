@@ -5,7 +5,7 @@ row's inverse inertias enter as 0 and its spin damping is off. ``sim.kernel_step
 the body-out stream (and the impulse-out stream) with the golden model of the same step. Two builds that other
 tests build too:
 
-* the fp32 records design (impulses in the records, two body banks, ``pgs_kernel_e8m23_c512_ir_bk2``) on a pile of
+* the fp32 records design (impulses in the records, two body banks, ``pgs_kernel_e8m23_c512_ir_bk2_dl65``) on a pile of
   256 cubes, one iteration (every pass a shock pass, linear, the friction pass too, the frozen rows' impulses
   returned: the ``warm+sub4+shocklr`` remedy's call with friction shocked): bit-exact with random stream gaps and
   backpressure (the seed is printed, ``SEED=<int>`` overrides it); with deterministic streams every retire cycle
@@ -62,7 +62,7 @@ def _cycles_without_the_bank_rule(job: KernelJob) -> int:
 
 def test_the_shock_rows_reach_the_records_build() -> None:
     job = records_shock_job()
-    assert KernelBuild.for_job(job, PRESET).name == "pgs_kernel_e8m23_c512_ir_bk2"
+    assert KernelBuild.for_job(job, PRESET).name == "pgs_kernel_e8m23_c512_ir_bk2_dl65"
     frozen = int(np.count_nonzero(job.cons.frozen != FREEZE_NONE))
     assert frozen > job.cons.num_manifolds // 2  # most rows of a pile have a lower body
     gold, plain = golden_step(job).final, golden_step(job.unshocked()).final

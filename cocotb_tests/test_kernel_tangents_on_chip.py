@@ -1,7 +1,7 @@
 """The fp32 records design (impulses in the records, two body banks) with the tangent basis derived on chip
 (``TANGENTS_ON_CHIP = 1``): the friction record carries no t0, t1 (512 bits, one 512-bit beat instead of two) and
 ``pgs_friction_pipe_tb`` derives them from the normal (``models/tangent_basis.py``). One Verilator build
-(``pgs_kernel_e8m23_c512_ir_bk2_tb``, the zcu102 preset's 512-bit beats) for every test here; ``sim.kernel_step``
+(``pgs_kernel_e8m23_c512_ir_bk2_tb_dl65``, the zcu102 preset's 512-bit beats) for every test here; ``sim.kernel_step``
 compares bit for bit the trace, the body-out stream and the impulse-out stream with the golden model of the same
 step, which solves with the derived tangents (``KernelJob.tangents_derived``):
 
@@ -79,7 +79,7 @@ def quarter_turn_x(job: KernelJob) -> KernelJob:
 
 def test_the_build_derives_the_tangents() -> None:
     kb = KernelBuild.for_job(scene_job("stack"), PRESET)
-    assert kb.name == "pgs_kernel_e8m23_c512_ir_bk2_tb"
+    assert kb.name == "pgs_kernel_e8m23_c512_ir_bk2_tb_dl65"
     assert kb.parameters["TANGENTS_ON_CHIP"] == 1 and kb.parameters["IMPULSES_IN_RECORDS"] == 1
     assert kb.layout.friction_beats == 1 and kb.defines["FRICTION_BEATS"] == 1
     assert KernelBuild.for_job(streamed_job("stack"), PRESET).layout.friction_beats == 2

@@ -222,15 +222,17 @@ def warm_start(job: KernelJob, seed: int) -> Impulses:
 
 
 def records_build(fmt: NumberFormat, job: KernelJob | None = None, soft_contact: bool = False,
-                  tangents_on_chip: bool = False) -> KernelBuild:
+                  tangents_on_chip: bool = False, body_bits: int = 128) -> KernelBuild:
     """The records design's build for ``fmt`` (and ``job``'s friction-coefficient and inverse-inertia words; with
-    the soft contact row where asked; with the tangents derived on chip where asked or ``job`` derives them)."""
+    the soft contact row where asked; with the tangents derived on chip where asked or ``job`` derives them), with
+    body streams of ``body_bits`` (PGS_BODY_IN_W = PGS_BODY_OUT_W)."""
     if job is None:
         return KernelBuild(fmt, impulses_in_records=True, soft_contact=soft_contact,
-                           tangents_on_chip=tangents_on_chip)
+                           tangents_on_chip=tangents_on_chip, body_in_bits=body_bits, body_out_bits=body_bits)
     return KernelBuild(fmt, impulses_in_records=True, inertia_words=job.inertia_words,
                        friction_words=job.friction_words, soft_contact=soft_contact,
-                       tangents_on_chip=tangents_on_chip or job.tangents_on_chip)
+                       tangents_on_chip=tangents_on_chip or job.tangents_on_chip, body_in_bits=body_bits,
+                       body_out_bits=body_bits)
 
 
 def soft_jobs(cold: KernelJob) -> dict[str, KernelJob]:
@@ -270,6 +272,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="records design, comma-separated, from " + ", ".join([*SCENES, *EXTRA_SCENES]))
     ap.add_argument("--records-formats", default=",".join(RECORDS_FORMATS))
     ap.add_argument("--iters", type=int, default=4)
+    ap.add_argument("--body-bits", type=int, default=128, choices=(128, 256),
+                    help="records and tangents designs: the body streams' beat (make sim's BODY_BITS)")
     ap.add_argument("--out", type=Path, default=REPO_ROOT / "build" / "hls_csim" / "runs")
     args = ap.parse_args(argv)
     designs = args.designs.split(",")
@@ -295,8 +299,9 @@ def main(argv: list[str] | None = None) -> int:
         for fname in args.records_formats.split(","):
             fmt = RECORDS_FORMATS[fname]
             for scene in args.records_scenes.split(","):
-                cold = scene_job(scene, "hazard", args.iters, records_build(fmt, tangents_on_chip=design == "tangents"))
-                kb = records_build(fmt, cold)
+                cold = scene_job(scene, "hazard", args.iters, records_build(fmt, tangents_on_chip=design == "tangents",
+                                                                            body_bits=args.body_bits))
+                kb = records_build(fmt, cold, body_bits=args.body_bits)
                 exe = build_csim(kb)
                 for start, job in (("cold", cold), ("warm", cold.impulses_travelling(warm_start(cold, WARM_SEED)))):
                     res = run_csim_step(job, args.out / f"{design}-{fname}-{scene}-{start}", exe, kb,

@@ -53,8 +53,10 @@ from models.onchip_budget import get_platform
 from rtl.gen.file_list import kernel_sources
 from rtl.gen.operator_timing import MINMAX_LATENCY
 from sim.executor import parse_executor, run_points
-from sim.resource_model import (CAM_UNIT, FIGURES_FILE, OPERATOR_MODULES, VENDOR_OPERATORS, KernelConfig, Resources, memories,
-                                pipe_resources, rtl_latency)
+from models.delay_lines import BLOCK_MIN_DEPTH
+from sim.resource_model import (CAM_UNIT, FIGURES_FILE, OPERATOR_MODULES, VENDOR_OPERATORS, DelayLine, KernelConfig,
+                                Resources, control_unit, delay_line_resources, memories, pipe_resources,
+                                rtl_latency)
 from sim.verilator_build import REPO_ROOT
 
 BUILD = REPO_ROOT / "build" / "resources"
@@ -132,20 +134,33 @@ class Unit:
     format_params: bool = True  # the top takes EXP_BITS / MAN_BITS (the hazard CAM does not)
 
 
+CONTROL_BLACKBOXES = ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe", "pgs_body_ram", "pgs_impulse_ram")
 UNITS = {
     "contact": Unit("contact", "pgs_contact_pipe"),
     "friction": Unit("friction", "pgs_friction_pipe"),
     "integrate": Unit("integrate", "pgs_integrate_pipe"),
-    "control": Unit("control", "pgs_kernel", ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe",
-                                              "pgs_body_ram", "pgs_impulse_ram"), classic_abc=True),
+    "control": Unit("control", "pgs_kernel", CONTROL_BLACKBOXES, classic_abc=True),
+    # the control with 256-bit body streams (BODY_BITS=256: wider body assemblers, fewer beats), an alternative
+    # to the 128-bit one the totals count
+    control_unit(256): Unit(control_unit(256), "pgs_kernel", CONTROL_BLACKBOXES, classic_abc=True,
+                            params=(("BODY_IN_W", 256), ("BODY_OUT_W", 256))),
     # the hazard CAM alone at one lane's two body ports: the share of the control the resource model scales
     CAM_UNIT: Unit(CAM_UNIT, "pgs_hazard_cam", classic_abc=True, format_params=False),
 }
 # the memory formula against Yosys on a RAM it can map (not part of the totals)
 CHECK_SLOTS = 4096
 IMPULSE_CHECK = Unit("impulse_ram_check", "pgs_impulse_ram", params=(("MAX_MANIFOLDS", CHECK_SLOTS),))
+# the delay-line rule against Yosys: one fp32 word delayed DELAY_CHECK_DEPTH cycles, its array marked for LUT RAM
+# (BLOCK_MIN_DEPTH = 0) and for block RAM (the kernel's threshold, models/delay_lines.py)
+DELAY_CHECK_WIDTH, DELAY_CHECK_DEPTH = 32, 100
+DELAY_CHECKS = {block: Unit(f"delay_line_check_{'block' if block else 'lutram'}", "pgs_delay",
+                            params=(("WIDTH", DELAY_CHECK_WIDTH), ("DEPTH", DELAY_CHECK_DEPTH),
+                                    ("BLOCK_MIN_DEPTH", block)), format_params=False)
+                for block in (0, BLOCK_MIN_DEPTH)}
+CHECK_UNITS = (IMPULSE_CHECK, *DELAY_CHECKS.values())
 UNIT_LABELS = {"contact": "pgs_contact_pipe", "friction": "pgs_friction_pipe", "integrate": "pgs_integrate_pipe",
-               "control": "control (pgs_kernel less pipes and RAMs)", CAM_UNIT: "pgs_hazard_cam (inside the control)"}
+               "control": "control (pgs_kernel less pipes and RAMs)",
+               control_unit(256): "control with 256-bit body streams (not in the totals)", CAM_UNIT: "pgs_hazard_cam (inside the control)"}
 # each floating-point operator alone, once per format (its latency is the RTL's, fp_minmax's the generator's):
 # the per-operator figures of the resource model (sim/resource_model.py), written to sim/generated/
 OPERATOR_UNITS = {mod: Unit(f"op_{mod}", mod, params=(("LATENCY", MINMAX_LATENCY),) if mod == "fp_minmax" else ())
@@ -154,7 +169,7 @@ OPERATOR_UNITS = {mod: Unit(f"op_{mod}", mod, params=(("LATENCY", MINMAX_LATENCY
 
 def unit_named(name: str) -> Unit:
     """The unit of a point's name: a key of UNITS, an operator unit's name or the memory check's."""
-    by_name = {**UNITS, **{u.name: u for u in OPERATOR_UNITS.values()}, IMPULSE_CHECK.name: IMPULSE_CHECK}
+    by_name = {**UNITS, **{u.name: u for u in OPERATOR_UNITS.values()}, **{u.name: u for u in CHECK_UNITS}}
     try:
         return by_name[name]
     except KeyError:
@@ -258,7 +273,7 @@ def run_unit(unit: Unit, fmt: NumberFormat, sources: list[Path], build: Path = B
 class ResourcePoint:
     """One Yosys run (``sim.executor`` point): a unit in a format; its resources and cell counts come back."""
 
-    unit: str  # a key of UNITS, or IMPULSE_CHECK's name
+    unit: str  # a key of UNITS, an operator unit's name or a check unit's (CHECK_UNITS)
     fmt: str
 
     @property
@@ -267,8 +282,8 @@ class ResourcePoint:
 
     @property
     def command(self) -> str:
-        if self.unit == IMPULSE_CHECK.name:
-            return f".venv/bin/python -m hls_export.resources --formats {self.fmt} --units contact"
+        if self.unit in {u.name for u in CHECK_UNITS}:
+            return f".venv/bin/python -m hls_export.resources --formats {self.fmt} --units '' --no-operators"
         if self.unit.startswith("op_"):
             return f".venv/bin/python -m hls_export.resources --formats {self.fmt} --units '' --no-check"
         return f".venv/bin/python -m hls_export.resources --formats {self.fmt} --units {self.unit} --no-check"
@@ -303,9 +318,8 @@ def report(fmt: NumberFormat, results: list[UnitResult]) -> list[str]:
     rows = []
     logic = Resources()
     for r in results:
-        if r.unit.name == CAM_UNIT:
-            continue  # inside the control's figure
-        logic = logic + r.resources
+        if r.unit.name not in (CAM_UNIT, control_unit(256)):  # inside the control's figure / an alternative to it
+            logic = logic + r.resources
         src = "cached" if r.cached else "run"
         rows.append([fmt.name, f"{UNIT_LABELS[r.unit.name]} (Yosys, {r.seconds:.0f} s, {src})",
                      *(_cell(v, k) for k, v in r.resources.as_dict().items())])
@@ -332,6 +346,16 @@ def figure_row(r: UnitResult) -> dict[str, Any]:
     return row
 
 
+def delay_check_line(block: int, r: UnitResult) -> str:
+    """Yosys of one checked delay line beside the resource model's figure for it."""
+    rule = delay_line_resources(DelayLine(DELAY_CHECK_WIDTH, DELAY_CHECK_DEPTH, (DELAY_CHECK_DEPTH,)),
+                                DELAY_CHECK_WIDTH, block)
+    where = f"block RAM from {block} deep" if block else "LUT RAM"
+    return (f"delay-line check: {DELAY_CHECK_WIDTH} bits x {DELAY_CHECK_DEPTH} cycles, {where}: Yosys LUT "
+            f"{r.resources.lut:g}, FF {r.resources.ff:g}, BRAM36 {r.resources.bram36:g} ({r.seconds:.0f} s); rule LUT "
+            f"{rule.lut:g}, FF {rule.ff:g}, BRAM36 {rule.bram36:g}")
+
+
 def write_figures(done: list[UnitResult], path: Path = FIGURES_FILE) -> None:
     """Merge the runs into the committed figures of the resource model (operators and units per format)."""
     data: dict[str, Any] = json.loads(path.read_text()) if path.is_file() else {}
@@ -341,7 +365,7 @@ def write_figures(done: list[UnitResult], path: Path = FIGURES_FILE) -> None:
                      "included), FF, DSP48E2, BRAM36 (RAMB18E2 = 0.5), URAM288 per operator (its RTL latency) and "
                      "per unit, per format; seconds: of the Yosys run on the machine that ran it")
     for r in done:
-        if r.unit == IMPULSE_CHECK:
+        if r.unit in CHECK_UNITS:
             continue
         section = "operators" if r.unit.name.startswith("op_") else "units"
         name = r.unit.top if section == "operators" else r.unit.name
@@ -391,7 +415,9 @@ def main(argv: list[str] | None = None) -> int:
     prepare_sources(BUILD / "src")  # once here: workers of this checkout then find them up to date
     ops = [] if args.no_operators else list(OPERATOR_UNITS.values())
     points = [ResourcePoint(u.name, f.name) for f in fmts for u in ops + units]
-    points += [ResourcePoint(IMPULSE_CHECK.name, f.name) for f in fmts] if not args.no_check else []
+    if not args.no_check:  # the memory check per format; the delay lines' in the first (their width is fixed)
+        points += [ResourcePoint(IMPULSE_CHECK.name, f.name) for f in fmts]
+        points += [ResourcePoint(u.name, fmts[0].name) for u in DELAY_CHECKS.values()]
     result = run_points(points, spec, label="resources")
     if result.failures:
         for failure in result.failures:
@@ -423,6 +449,9 @@ def main(argv: list[str] | None = None) -> int:
             formula = memory_resources(r.fmt, 0, CHECK_SLOTS).bram36
             print(f"memory check, {r.fmt.name}: pgs_impulse_ram with {CHECK_SLOTS:,} slots: Yosys "
                   f"{r.resources.bram36:g} BRAM36 ({r.resources.lut:g} LUT, {r.seconds:.0f} s), formula {formula:g}")
+    for block, unit in DELAY_CHECKS.items():
+        for r in (r for r in done if r.unit == unit):
+            print(delay_check_line(block, r))
     if not args.no_write:
         write_figures(done)
         print(f"figures written to {FIGURES_FILE.relative_to(REPO_ROOT)}")

@@ -18,6 +18,7 @@ import numpy as np
 
 from models import stream_format as sf
 from models.body_banks import default_body_banks
+from models.delay_lines import default_delay_block_min_depth
 from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.contact_solver import Impulses, SolverParams, pass_sequence
 from models.frame import Frame
@@ -150,6 +151,11 @@ class KernelJob:
         """Body-velocity banks of the kernel build that runs this step (``models.body_banks``: 0 the multiport
         memory)."""
         return default_body_banks(self.fmt, self.impulses_in_records, self.record_window is not None)
+
+    @property
+    def delay_block_min_depth(self) -> int:
+        """The depth from which the build's delay lines are in block RAM (``models.delay_lines``: 0 none)."""
+        return default_delay_block_min_depth(self.fmt, self.impulses_in_records, self.record_window is not None)
 
     @property
     def friction_words(self) -> int:

@@ -19,6 +19,13 @@
 // stage, and it is how a board build keeps long delays in block or distributed RAM. Both forms
 // give the same q in every cycle where the tap's word was valid, once the line has been full
 // (before that the words are unset).
+//
+// Mapping on a board: the RAM form's array carries ram_style = "block" when BLOCK_MIN_DEPTH > 0 and
+// DEPTH >= BLOCK_MIN_DEPTH, else "distributed" (LUT RAM). Block RAM takes a long line's LUTs away at
+// one RAMB18/36 per tap of delay >= 2 (each tap is one read port; the registered read is the block
+// RAM's output latch); which lines go there is a kernel build parameter (the generated pipes'
+// DELAY_BLOCK_MIN_DEPTH), counted the same way by sim/resource_model.py. Simulation is the same for
+// every value: the attribute only tells synthesis where the array lives.
 `default_nettype none
 
 module pgs_delay #(
@@ -27,6 +34,7 @@ module pgs_delay #(
     parameter int                   N_TAPS        = 1,
     parameter logic [N_TAPS*32-1:0] TAPS          = (N_TAPS * 32)'(DEPTH),
     parameter int                   RAM_MIN_DEPTH = 4,  // lines at least this deep are circular buffers
+    parameter int                   BLOCK_MIN_DEPTH = 0,  // RAM lines at least this deep in block RAM; 0: none
     localparam int                  VW            = DEPTH > 0 ? DEPTH : 1
 ) (
     // clk has no load when DEPTH == 0 (the line is a wire).
@@ -49,6 +57,9 @@ module pgs_delay #(
     end
     if (RAM_MIN_DEPTH < 2) begin : g_bad_min_depth
         $error("pgs_delay: RAM_MIN_DEPTH = %0d, must be >= 2", RAM_MIN_DEPTH);
+    end
+    if (BLOCK_MIN_DEPTH < 0) begin : g_bad_block_depth
+        $error("pgs_delay: BLOCK_MIN_DEPTH = %0d, must be >= 0", BLOCK_MIN_DEPTH);
     end
 
     if (DEPTH == 0) begin : g_wire
@@ -74,8 +85,13 @@ module pgs_delay #(
             end
         end
     end else begin : g_ram
-        localparam int AW = $clog2(DEPTH);
+        localparam int    AW        = $clog2(DEPTH);
+        // read by synthesis only: Verilator ignores the attribute that names it
+        /* verilator lint_off UNUSEDPARAM */
+        localparam string RAM_STYLE = BLOCK_MIN_DEPTH > 0 && DEPTH >= BLOCK_MIN_DEPTH ? "block" : "distributed";
+        /* verilator lint_on UNUSEDPARAM */
 
+        (* ram_style = RAM_STYLE *)
         logic [WIDTH-1:0] mem [0:DEPTH-1];   // mem[(wr_ptr - i) mod DEPTH]: d delayed by i cycles, 1 <= i <= DEPTH
         logic [AW-1:0]    wr_ptr;            // free-running; no reset port: a power-up value (FPGA register init)
 

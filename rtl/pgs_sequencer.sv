@@ -77,6 +77,7 @@ module pgs_sequencer #(
     parameter int BODY_BANKS     = 0,      // > 0 (LANES = 1): body velocities in banks; a busy bank stalls the issue
     parameter bit TANGENTS_ON_CHIP = 1'b0, // 1: friction records without t0, t1; pgs_friction_pipe_tb derives them
     parameter bit SOFT_CONTACT   = 1'b0,   // 1 (IINV_W = 3): the soft contact pipe, lam * keep before the add
+    parameter int DELAY_BLOCK_MIN_DEPTH = 0, // the pipes' delay lines at least this deep in block RAM (0: LUT RAM)
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64,
     localparam int IMP_OUT_W     = (4 * W + 7) / 8 * 8
@@ -574,33 +575,39 @@ module pgs_sequencer #(
         wire c_in_valid = s1_valid && s1_kind == CONTACT;
         wire f_in_valid = s1_valid && s1_kind == FRICTION;
         if (IINV_W == 1) begin : g_scalar
-            pgs_contact_pipe_scalar #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
+            pgs_contact_pipe_scalar #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
+                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_contact (
                 .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
                 .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
                 .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
             if (MU_W == 1) begin : g_mu
-                pgs_friction_pipe_scalar_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                pgs_friction_pipe_scalar_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
+                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
                     .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
                     .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
                     .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
             end else begin : g_mu_const
-                pgs_friction_pipe_scalar #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                pgs_friction_pipe_scalar #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
+                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
                     .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
                     .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
                     .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
             end
         end else if (IINV_W == 6) begin : g_full
-            pgs_contact_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
+            pgs_contact_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
+                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_contact (
                 .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
                 .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
                 .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
             if (MU_W == 1) begin : g_mu
-                pgs_friction_pipe_full_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                pgs_friction_pipe_full_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
+                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
                     .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
                     .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
                     .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
             end else begin : g_mu_const
-                pgs_friction_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                pgs_friction_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
+                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
                     .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
                     .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
                     .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
@@ -608,29 +615,34 @@ module pgs_sequencer #(
         end else begin : g_diagonal
             // SOFT_CONTACT: the soft contact pipe (the same latency; keep_dyn, keep_static its last words)
             if (SOFT_CONTACT) begin : g_soft
-                pgs_contact_pipe_soft #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
+                pgs_contact_pipe_soft #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
+                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_contact (
                     .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_soft(r_soft),
                     .in_count(1'b1), .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out),
                     .ev_overflow(c_ev_ovf), .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
             end else begin : g_rigid
-                pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_contact (
+                pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
+                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_contact (
                     .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
                     .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
                     .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
             end
             if (MU_W == 1) begin : g_mu
-                pgs_friction_pipe_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                pgs_friction_pipe_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
+                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
                     .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
                     .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
                     .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
             end else if (TANGENTS_ON_CHIP) begin : g_tangents
                 // the friction record carries no t0, t1: the pipe derives them from n (planeSpace of -n)
-                pgs_friction_pipe_tb #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                pgs_friction_pipe_tb #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
+                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
                     .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
                     .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
                     .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
             end else begin : g_mu_const
-                pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W)) u_friction (
+                pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
+                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
                     .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
                     .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
                     .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
@@ -646,7 +658,7 @@ module pgs_sequencer #(
             /* verilator lint_on UNUSEDSIGNAL */
             fp_valid_pipe #(.LATENCY(F_ALIGN)) u_f_valid (.clk, .rst, .in_valid(f_pipe_valid),
                                                           .stage_valid(f_align_valid), .out_valid(f_out_valid));
-            pgs_delay #(.WIDTH(STAG_W + 14*W), .DEPTH(F_ALIGN)) u_f_data (
+            pgs_delay #(.WIDTH(STAG_W + 14*W), .DEPTH(F_ALIGN), .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_f_data (
                 .clk, .d({f_pipe_tag, f_pipe}), .valid(f_align_valid[F_ALIGN-1:0]), .q({f_out_tag, f_out}));
         end else begin : g_f_direct
             assign f_out_valid = f_pipe_valid;
@@ -779,7 +791,8 @@ module pgs_sequencer #(
     logic [ITAG_W-1:0] io_tag;
     logic [EV_W-1:0]   i_ev_ovf, i_ev_unf, i_ev_inv;
     logic [OREC_W-1:0] io_data;
-    pgs_integrate_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(ITAG_W)) u_integrate (
+    pgs_integrate_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(ITAG_W),
+                         .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_integrate (
         .clk, .rst, .in_valid(i1_valid), .in_tag({i1_static, rd0_data[0 +: OREC_W]}), .in_data(i_in),
         .in_count(!i1_static), .out_valid(io_valid), .out_tag(io_tag), .out_data(io_data), .ev_overflow(i_ev_ovf),
         .ev_underflow(i_ev_unf), .ev_invalid(i_ev_inv));

@@ -23,6 +23,7 @@ from typing import Any, Protocol
 
 from models import stream_format as sf
 from models.body_banks import check_banks
+from models.delay_lines import check_block_min_depth
 from models.dma_model import DmaPreset
 from models.kernel_job import KernelJob
 from models.kernel_shape import KernelShape
@@ -81,6 +82,9 @@ class KernelBuild:
     body_banks: int = 0  # BODY_BANKS: body velocities in that many true dual-port banks (0: multiport; one lane only)
     tangents_on_chip: bool = False  # TANGENTS_ON_CHIP: friction records without t0, t1 (pgs_friction_pipe_tb)
     soft_contact: bool = False  # SOFT_CONTACT: the soft contact pipe (lam * keep before the add; 3 inertia words)
+    # DELAY_BLOCK_MIN_DEPTH: the pipes' delay lines at least this deep in block RAM (0: LUT RAM); a synthesis
+    # attribute, the same simulation, but the parameter set of the design a run reports (models/delay_lines.py)
+    delay_block_min_depth: int = 0
     friction_sign_bug: bool = False  # the friction pipe with the wrong sign (the scoreboard must catch it)
     compile_profile: str = "quick"  # a key of COMPILE_PROFILES
 
@@ -99,6 +103,7 @@ class KernelBuild:
         if self.soft_contact and self.inertia_words != sf.KERNEL_INERTIA_WORDS:
             raise ValueError(f"the soft contact pipe (soft_contact) is built for {sf.KERNEL_INERTIA_WORDS} "
                              f"inverse-inertia words per body, got {self.inertia_words}")
+        check_block_min_depth(self.delay_block_min_depth)
         if self.compile_profile not in COMPILE_PROFILES:
             raise ValueError(f"compile profile {self.compile_profile!r}: expected one of {sorted(COMPILE_PROFILES)}")
 
@@ -115,7 +120,8 @@ class KernelBuild:
                            inertia_words=job.inertia_words, impulses_in_records=job.impulses_in_records,
                            friction_words=job.friction_words, body_banks=job.body_banks,
                            tangents_on_chip=job.tangents_on_chip,
-                           soft_contact=job.params.soft_keep is not None)
+                           soft_contact=job.params.soft_keep is not None,
+                           delay_block_min_depth=job.delay_block_min_depth)
 
     @property
     def name(self) -> str:
@@ -130,6 +136,7 @@ class KernelBuild:
                 + (f"_bk{self.body_banks}" if self.body_banks else "")
                 + ("_tb" if self.tangents_on_chip else "")
                 + ("_soft" if self.soft_contact else "")
+                + (f"_dl{self.delay_block_min_depth}" if self.delay_block_min_depth else "")
                 + ("_friction_sign_bug" if self.friction_sign_bug else "")
                 + (f"_{self.compile_profile}" if self.compile_profile != "quick" else "")
                 + ("_waves" if self.waves else ""))
@@ -151,7 +158,8 @@ class KernelBuild:
                     {"MU_W": self.friction_words} if self.friction_words else {}) | (
                     {"BODY_BANKS": self.body_banks} if self.body_banks else {}) | (
                     {"TANGENTS_ON_CHIP": 1} if self.tangents_on_chip else {}) | (
-                    {"SOFT_CONTACT": 1} if self.soft_contact else {})
+                    {"SOFT_CONTACT": 1} if self.soft_contact else {}) | (
+                    {"DELAY_BLOCK_MIN_DEPTH": self.delay_block_min_depth} if self.delay_block_min_depth else {})
 
     @property
     def layout(self) -> sf.StreamLayout:

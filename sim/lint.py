@@ -100,6 +100,15 @@ SOFT_PARAM_SETS: dict[str, dict[str, int]] = {
     "soft-contact": {"SOFT_CONTACT": 1},
     "soft-contact-impulses-in-records-fp16": {"SOFT_CONTACT": 1, "IMPULSES_IN_RECORDS": 1, **format_params(FP16)},
 }
+# The delay lines' block RAM mapping (a synthesis attribute, the same simulation): the modules with a
+# DELAY_BLOCK_MIN_DEPTH parameter (the generated pipes, the sequencer, the kernel) are also linted with lines from 65
+# deep in block RAM, the kernel also on the fp32 records design that uses it; pgs_delay with a block RAM line.
+DELAY_PARAM_SETS: dict[str, dict[str, int]] = {
+    "delay-lines-block": {"DELAY_BLOCK_MIN_DEPTH": 65},
+    "delay-lines-block-tangents-records-banked": {"DELAY_BLOCK_MIN_DEPTH": 65, "TANGENTS_ON_CHIP": 1,
+                                                  "IMPULSES_IN_RECORDS": 1, "BODY_BANKS": 2},
+    "delay-line-block-ram": {"DEPTH": 100, "BLOCK_MIN_DEPTH": 64},
+}
 
 # Modules linted as tops with their default parameters only, because the parent named here instantiates them
 # outside any generate block and passes every parameter the sets vary through (``.P(P)``; checked by :func:`forwarded_params`),
@@ -147,7 +156,7 @@ def forwarded_params(parent_file: Path, child: str) -> set[str]:
 def param_sets() -> dict[str, dict[str, int]]:
     """Every extra parameter set, by label."""
     return (FORMAT_PARAM_SETS | WINDOW_PARAM_SETS | INERTIA_PARAM_SETS | IMPULSE_PARAM_SETS | FRICTION_PARAM_SETS
-            | BANK_PARAM_SETS | TANGENT_PARAM_SETS | SOFT_PARAM_SETS)
+            | BANK_PARAM_SETS | TANGENT_PARAM_SETS | SOFT_PARAM_SETS | DELAY_PARAM_SETS)
 
 
 def runs_for(module_file: Path) -> list[LintRun]:

@@ -6,7 +6,8 @@ For every format, kernel (the streaming kernel; the window kernel with 1, 2 or 4
 on chip; body ports as a live-value table or banks: for the streaming kernel the built ``BODY_BANKS`` memory of
 ``models.body_banks`` (2 true dual-port banks, a busy bank stalls the issue: measured by the cycle model, not in
 the floor), for the window kernel's lanes banks the schedule keeps apart (not built); operator figures from Yosys or, where
-published, from Vitis HLS) it prints the estimated LUT, FF, DSP, BRAM36 and URAM as shares of the platform, the
+published, from Vitis HLS; the pipes' delay lines from 65 deep in LUT RAM or in block RAM, ``models.delay_lines``) it
+prints the estimated LUT, FF, DSP, BRAM36 and URAM as shares of the platform, the
 verdict, and the DDR / compute floor in cycles per manifold-pass of the kernel's fetch schedule
 (``models.onchip_budget.floors``: the streaming kernel reads every record every pass, the window kernel once per
 step, as the README's window runs with FETCH_PASSES=0 do). Body words and ports change the resources, not the
@@ -26,6 +27,7 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 from models import onchip_budget as ob
+from models.delay_lines import BLOCK_MIN_DEPTH
 from models.number_format import FP16, FP32, NumberFormat
 from sim import resource_model as rm
 
@@ -46,12 +48,14 @@ def rows(platform: ob.Platform, formats: Sequence[NumberFormat], bodies: int, ma
     data = data or rm.figures()
     out = []
     kernels = [(0, 1)] + [(ring, lanes) for lanes in (1, 2, 4)]
-    levers = itertools.product((True, False), ("full", "solve"), ("lvt", "banked"), ("yosys", "vendor"))
-    for fmt, (window, lanes), (resident, body, ports, source) in itertools.product(formats, kernels, list(levers)):
+    levers = itertools.product((True, False), ("full", "solve"), ("lvt", "banked"), ("yosys", "vendor"),
+                               (0, BLOCK_MIN_DEPTH))
+    for fmt, (window, lanes), (resident, body, ports, source, delay) in itertools.product(formats, kernels,
+                                                                                          list(levers)):
         if source == "vendor" and not any(f == fmt.name for _, f in rm.VENDOR_OPERATORS):
             continue  # no published figure in this format: the same as Yosys's
         cfg = rm.KernelConfig(fmt, bodies, manifolds, lanes=lanes, window=window, impulses_resident=resident,
-                              body_words=body, body_ports=ports, operator_source=source)
+                              body_words=body, body_ports=ports, operator_source=source, delay_block_min_depth=delay)
         fl = ob.floors(platform, fmt, bodies, manifolds, iters, (fetch_every or iters) if window else 0, lanes,
                        resident)
         out.append(Row(cfg, rm.verdict(rm.estimate(cfg, platform, data), platform), fl))
@@ -61,12 +65,12 @@ def rows(platform: ob.Platform, formats: Sequence[NumberFormat], bodies: int, ma
 def describe(c: rm.KernelConfig) -> str:
     kernel = "streaming" if not c.window else f"window x{c.lanes}"
     return (f"{c.fmt.name} | {kernel} | {'resident' if c.impulses_resident else 'with records'} | {c.body_words} | "
-            f"{c.body_ports} | {c.operator_source}")
+            f"{c.body_ports} | {c.operator_source} | {'block RAM' if c.delay_block_min_depth else 'LUT RAM'}")
 
 
 def table(found: Sequence[Row], only_fitting: bool) -> list[str]:
-    head = ("| format | kernel | impulses | body words | body ports | operator figures | LUT | FF | DSP | BRAM36 | "
-            "URAM | verdict | floor c/mp (bound) |")
+    head = ("| format | kernel | impulses | body words | body ports | operator figures | long delay lines | LUT | FF | "
+            "DSP | BRAM36 | URAM | verdict | floor c/mp (bound) |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in sorted(found, key=lambda r: r.floor.cycles_per_manifold_pass):
         if r.verdict.fits != only_fitting:

@@ -11,7 +11,9 @@ the source of its figure:
   (:data:`VENDOR_OPERATORS`) it is shown beside Yosys's, and ``operator_source="vendor"`` uses it;
 * **delay lines** of the datapaths (``rtl/pgs_delay.sv``, from the generator's schedule): lines shorter than 4
   stages are registers; longer ones are circular buffers in distributed RAM (RAM32M16 / RAM64M8 in simple
-  dual-port use: 8 LUTs hold 32 x 14 or 64 x 7 bit-reads, a tap is a read port), plus a register per tap;
+  dual-port use: 8 LUTs hold 32 x 14 or 64 x 7 bit-reads, a tap is a read port), plus a register per tap; or,
+  from ``delay_block_min_depth`` deep (the build's DELAY_BLOCK_MIN_DEPTH, ``models/delay_lines.py``), in block
+  RAM: one simple dual-port array per tap, in its cheapest BRAM36 / BRAM18 aspect ratio;
 * **memories**, mapped as a board build maps them: each array in the cheapest BRAM36 / BRAM18 aspect ratio,
   with the replicas or banks its ports need (true dual-port blocks give two ports), and in UltraRAM (4K x 72,
   two ports) on a platform that has it when the array is at least 4K deep;
@@ -25,7 +27,7 @@ the whole body-in record; ``"solve"``: only velocities and mass properties, posi
 through at integration), ``body_ports`` (``"lvt"``: every write port a bank replicated per read port;
 ``"banked"``: one copy of the velocities in ``body_banks`` true dual-port banks, a busy bank stalling the issue:
 ``rtl/pgs_body_vel_banks.sv``, built for one lane; for more lanes an estimate of banks the schedule keeps apart),
-and
+``delay_block_min_depth`` (the delay lines from that depth in block RAM instead of LUT RAM), and
 ``record_bits`` (word width of the record fields stored in the ring: a storage format per field group).
 
 The estimate is a sum of parts: Yosys of the whole pipes (cached under ``build/resources``) is printed beside it
@@ -44,6 +46,7 @@ from typing import Any, Optional, Union
 
 from models import onchip_budget as ob
 from models.body_banks import RECORDS_BANKS
+from models.delay_lines import check_block_min_depth
 from models.kernel_job import KernelJob
 from models.mixed_layout import Converters
 from models.number_format import KERNEL_FORMATS, NumberFormat
@@ -54,6 +57,7 @@ from rtl.gen.kernel_graphs import GRAPHS, MODE_GRAPHS
 from rtl.gen.operator_timing import MINMAX_LATENCY, operator_latencies
 
 FIGURES_FILE = Path(__file__).parent / "generated" / "resource_figures.json"
+DEFAULT_BODY_BITS = 128  # the body streams' beat of the default build (BODY_IN_W, BODY_OUT_W of rtl/pgs_kernel.sv)
 REGENERATE = "make resources"  # the command that rewrites FIGURES_FILE
 OPERATOR_MODULES = tuple(sorted({mod for _, _, mod in OP_SIGNATURES.values() if mod}))
 KEYS = ("LUT", "FF", "DSP", "BRAM36", "URAM")
@@ -190,20 +194,25 @@ def pipe_shape(name: str, man_bits: int) -> PipeShape:
 SHIFT_MAX_DEPTH = 3  # pgs_delay: lines shorter than RAM_MIN_DEPTH = 4 are shift registers
 
 
-def delay_line_resources(line: DelayLine, word_bits: int) -> Resources:
-    """A tapped delay line as a board build maps ``rtl/pgs_delay.sv``: registers, or distributed RAM."""
+def delay_line_resources(line: DelayLine, word_bits: int, block_min_depth: int = 0) -> Resources:
+    """A tapped delay line as a board build maps ``rtl/pgs_delay.sv``: registers, distributed RAM, or (a RAM line
+    at least ``block_min_depth`` deep, when that is > 0: the pipes' DELAY_BLOCK_MIN_DEPTH) block RAM, one simple
+    dual-port array per tap of delay >= 2 whose output latch is the tap's register."""
     width = line.width or word_bits
     if line.depth <= SHIFT_MAX_DEPTH:
         return Resources(ff=width * line.depth)
     ram_taps = [t for t in line.taps if t >= 2]
     reg_taps = [t for t in line.taps if t == 1]
+    pointer = math.ceil(math.log2(line.depth))
+    if 0 < block_min_depth <= line.depth:
+        return Resources(lut=pointer, ff=width * len(reg_taps) + pointer,
+                         bram36=len(ram_taps) * bram36_for(line.depth, width))
     bit_reads = width * len(ram_taps)
     if line.depth <= 32:
         luts = 8 * math.ceil(bit_reads / 14)
     else:
         blocks = math.ceil(line.depth / 64)
         luts = 8 * blocks * math.ceil(bit_reads / 7) + bit_reads * math.ceil((blocks - 1) / 3)  # + depth mux
-    pointer = math.ceil(math.log2(line.depth))
     return Resources(lut=luts + pointer, ff=width * (len(ram_taps) + len(reg_taps)) + pointer)
 
 
@@ -270,6 +279,8 @@ class KernelConfig:
     tangents_on_chip: bool = False  # the friction pipe derives t0, t1 from n (pgs_friction_pipe_tb)
     converters: tuple[Converters, ...] = ()  # mixed storage: format converters at unpack and pack (mixed_layout)
     soft_contact: bool = False  # the soft contact pipe (pgs_contact_pipe_soft, SOFT_CONTACT: lam * keep per point)
+    delay_block_min_depth: int = 0  # the pipes' delay lines at least this deep in block RAM (DELAY_BLOCK_MIN_DEPTH)
+    body_bits: int = DEFAULT_BODY_BITS  # the body streams' beat (BODY_IN_W = BODY_OUT_W): the control's figure
 
     def __post_init__(self) -> None:
         if self.lanes < 1 or self.lanes & (self.lanes - 1):
@@ -283,6 +294,7 @@ class KernelConfig:
             raise ValueError(f"body_banks must be a power of two, got {self.body_banks}")
         if min(self.max_bodies, self.max_manifolds, self.window) < 0:
             raise ValueError("memory depths must not be negative")
+        check_block_min_depth(self.delay_block_min_depth)
 
     def describe(self) -> str:
         kind = f"window kernel, ring {self.window:,}, {self.lanes} lane(s)" if self.window else "streaming kernel"
@@ -294,6 +306,10 @@ class KernelConfig:
             levers.append("tangent basis derived on chip")
         if self.soft_contact:
             levers.append("soft contact pipe")
+        if self.body_bits != DEFAULT_BODY_BITS:
+            levers.append(f"{self.body_bits}-bit body streams")
+        if self.delay_block_min_depth:
+            levers.append(f"delay lines from {self.delay_block_min_depth} deep in block RAM")
         if self.record_bits:
             levers.append(f"ring words {self.record_bits} bits")
         if self.converters:
@@ -362,27 +378,37 @@ def pipe_resources(name: str, cfg: KernelConfig, data: dict[str, Any]) -> tuple[
         total = total + fig.resources.scaled(n)
         sources.append(f"{n} {mod} ({fig.source})")
     for line in shape.lines:
-        total = total + delay_line_resources(line, cfg.fmt.width)
+        total = total + delay_line_resources(line, cfg.fmt.width, cfg.delay_block_min_depth)
     return total, sources
 
 
 CAM_UNIT = "hazard_cam"  # the figure of pgs_hazard_cam alone (2 body ports), to scale with lanes
 
 
-def _control_figure(fmt: NumberFormat, data: dict[str, Any]) -> tuple[Resources, str]:
-    """Yosys's control of ``fmt``, else of a kernel format with the same word width (the control moves words and
-    does no arithmetic on them)."""
+def control_unit(body_bits: int) -> str:
+    """The name of Yosys's control unit with body streams of ``body_bits`` (hls_export/resources.py UNITS)."""
+    return "control" if body_bits == DEFAULT_BODY_BITS else f"control_b{body_bits}"
+
+
+def _control_figure(fmt: NumberFormat, data: dict[str, Any], body_bits: int = DEFAULT_BODY_BITS
+                    ) -> tuple[Resources, str]:
+    """Yosys's control of ``fmt`` with body streams of ``body_bits``, else of a kernel format with the same word
+    width (the control moves words and does no arithmetic on them); where no run has that body width, the 128-bit
+    streams' control, marked so (the body assemblers' registers and multiplexers differ)."""
     units = data["units"]
-    if "control" in units.get(fmt.name, {}):
-        return Resources.from_dict(units[fmt.name]["control"]), "Yosys"
-    for other in KERNEL_FORMATS.values():
-        if other.width == fmt.width and "control" in units.get(other.name, {}):
-            return Resources.from_dict(units[other.name]["control"]), f"Yosys of the {other.name} control (same width)"
+    for unit, note in ((control_unit(body_bits), ""),
+                       ("control", f" with {DEFAULT_BODY_BITS}-bit body streams (none of {body_bits} bits)")):
+        if unit in units.get(fmt.name, {}):
+            return Resources.from_dict(units[fmt.name][unit]), "Yosys" + note
+        for other in KERNEL_FORMATS.values():
+            if other.width == fmt.width and unit in units.get(other.name, {}):
+                return (Resources.from_dict(units[other.name][unit]),
+                        f"Yosys of the {other.name} control (same width){note}")
     raise KeyError(f"no Yosys figure of the control in {fmt.name} in {FIGURES_FILE}: `{REGENERATE}`")
 
 
 def control_resources(cfg: KernelConfig, data: dict[str, Any]) -> Part:
-    ctrl, source = _control_figure(cfg.fmt, data)
+    ctrl, source = _control_figure(cfg.fmt, data, cfg.body_bits)
     if cfg.lanes == 1:
         return Part("control (register file, sequencer, assemblers, hazard CAM, FIFOs)", ctrl, source)
     # the CAM has no format parameter: its figure from whichever format's run has it
@@ -525,13 +551,15 @@ class NoEstimate:
     reason: str
 
 
-def config_for_job(job: KernelJob) -> KernelConfig:
-    """The configuration a run built: its format, lanes and ring, memories as deep as its scene needs."""
+def config_for_job(job: KernelJob, body_bits: int = DEFAULT_BODY_BITS) -> KernelConfig:
+    """The configuration a run built: its format, lanes and ring, memories as deep as its scene needs, body streams
+    of ``body_bits``."""
     plan = job.record_window
     return KernelConfig(job.fmt, job.bodies.num_bodies, len(job.slots), lanes=plan.lanes if plan else 1,
                         window=plan.depth if plan else 0, impulses_resident=not job.impulses_in_records,
                         body_ports="banked" if job.body_banks else "lvt", body_banks=job.body_banks or RECORDS_BANKS,
-                        tangents_on_chip=job.tangents_on_chip, soft_contact=job.params.soft_keep is not None)
+                        tangents_on_chip=job.tangents_on_chip, soft_contact=job.params.soft_keep is not None,
+                        delay_block_min_depth=job.delay_block_min_depth, body_bits=body_bits)
 
 
 def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: int, lanes: int = 1,
@@ -556,11 +584,11 @@ def short_verdict(v: Union[FitVerdict, NoEstimate]) -> str:
     return "FITS" if v.fits else f"DOES NOT FIT ({v.overflows[0]} {_share(v.shares[v.overflows[0]])})"
 
 
-def kernel_fit(job: KernelJob, dma: str) -> Union[FitVerdict, NoEstimate]:
-    """The fit verdict of a run's configuration on its DMA preset's platform."""
+def kernel_fit(job: KernelJob, dma: str, body_bits: int = DEFAULT_BODY_BITS) -> Union[FitVerdict, NoEstimate]:
+    """The fit verdict of a run's configuration (body streams of ``body_bits``) on its DMA preset's platform."""
     if dma not in ob.PLATFORMS:
         return NoEstimate(f"no platform behind the DMA preset {dma!r} (platforms: {', '.join(ob.PLATFORMS)})")
-    return fit_or_reason(config_for_job(job), ob.get_platform(dma))
+    return fit_or_reason(config_for_job(job, body_bits), ob.get_platform(dma))
 
 
 def fit_rows(v: Union[FitVerdict, NoEstimate]) -> dict[str, str]:

@@ -296,7 +296,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
                           exact_error.reference_dir(args), args.exact_budget, params)
         return ModelRunResult(name, label, frame.num_bodies, frame.num_manifolds, sched_stats.describe(),
                               preset.describe(), model_section(job, preset, body_bits=args.body_bits),
-                              fit=kernel_fit(job, args.dma),
+                              fit=kernel_fit(job, args.dma, args.body_bits),
                               errors=exact_error.exact_errors(exact, golden.final, ref, None, bodies.dynamic),
                               error_source=f"{fmt.name} golden model"), None
 
@@ -341,7 +341,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
             "float64 reference (numpy)": timer.seconds["float64 reference solve + integrate"],
             f"{fmt.name} golden model (numpy)": timer.seconds[f"{fmt.name} golden model solve + integrate"]}),
         timer.seconds)
-    result.fit = kernel_fit(job, args.dma)
+    result.fit = kernel_fit(job, args.dma, args.body_bits)
     if res is not None:
         cmp = res.comparison
         result.bits = BitExactness(cmp.differing_bits, cmp.differing_words, cmp.records, cmp.bodies,

@@ -72,6 +72,22 @@ def test_csim_tangents_bit_exact(fmt_name: str, scene: str, start: str, tmp_path
     assert int(res.registers["impulse_out_records"]) == job.manifold_passes
 
 
+@pytest.mark.parametrize(("fmt_name", "tangents"), [("fp32", True), ("fp16", False)])
+def test_csim_with_256_bit_body_streams(fmt_name: str, tangents: bool, tmp_path: Path) -> None:
+    """The fastest fitting designs' body streams (make sim BODY_BITS=256: fp32 with the tangents derived, fp16 with
+    the tangents streamed): PGS_BODY_IN_W = PGS_BODY_OUT_W = 256, two body-in beats and one body-out beat per body
+    in fp16 (three and two in fp32), bit-exact on the pile."""
+    fmt = RECORDS_FORMATS[fmt_name]
+    job = scene_job("pile", "hazard", 4, records_build(fmt, tangents_on_chip=tangents, body_bits=256))
+    kb = records_build(fmt, job, body_bits=256)
+    assert (kb.body_in_bits, kb.body_out_bits, kb.tangents_on_chip) == (256, 256, tangents)
+    assert (kb.layout.body_in_beats, kb.layout.body_out_beats) == ((3, 2) if fmt_name == "fp32" else (2, 1))
+    res = run_csim_step(job, tmp_path, build_csim(kb), kb, default_window(fmt, kb.cons_bits))
+    if res.comparison.first_mismatch is not None:
+        pytest.fail(res.comparison.first_mismatch)
+    assert res.bit_exact and res.comparison.bodies == job.bodies.num_bodies
+
+
 def test_the_friction_record_has_no_tangents() -> None:
     """The build's friction record is StreamLayout's without t0, t1: fp32 512 bits (one 512-bit beat, two with the
     tangents), fp16 288 bits (one beat either way)."""

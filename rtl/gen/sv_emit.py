@@ -119,6 +119,9 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
           "    parameter  int EXP_BITS = 8,",
           "    parameter  int MAN_BITS = 23,",
           "    parameter  int TAG_W    = 64,",
+          "    // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in",
+          "    // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)",
+          "    parameter  int DELAY_BLOCK_MIN_DEPTH = 0,",
           "    localparam int W        = 1 + EXP_BITS + MAN_BITS,",
           f"    localparam int N_IN     = {n_in},",
           f"    localparam int N_OUT    = {n_out},",
@@ -184,7 +187,7 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
           "    fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (",
           "        .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)",
           "    );",
-          "    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (",
+          "    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY), .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_tag (",
           "        .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)", "    );", ""]
     ev_depth = Time.max([sch.ready[v.id] for v in fp_nodes])
     L += ["    // Event pipeline: ev_q[k] = (in_valid && in_count) k cycles ago (reset like the valid pipeline);",
@@ -229,9 +232,10 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
         tap_par = "{" + ", ".join(f"32'({t})" for t in reversed(taps)) + "}"
         out = [f"    logic [{nt}*{w}-1:0] dl_{v.name};" if nt > 1 else f"    logic [{w}-1:0] dl_{v.name};"]
         if nt > 1:
-            out.append(f"    pgs_delay #(.WIDTH({w}), .DEPTH({depth}), .N_TAPS({nt}), .TAPS({tap_par}))")
+            out.append(f"    pgs_delay #(.WIDTH({w}), .DEPTH({depth}), .N_TAPS({nt}), .TAPS({tap_par}),")
         else:
-            out.append(f"    pgs_delay #(.WIDTH({w}), .DEPTH({depth}))")
+            out.append(f"    pgs_delay #(.WIDTH({w}), .DEPTH({depth}),")
+        out.append("                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))")
         # the line keeps the words of the pipe's valid inputs: valid_q from this value's ready cycle on
         # (pgs_delay's valid port is max(DEPTH, 1) wide; a line of depth 0 reads none of it)
         if depth.isdigit():

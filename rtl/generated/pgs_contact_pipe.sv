@@ -26,6 +26,9 @@ module pgs_contact_pipe #(
     parameter  int EXP_BITS = 8,
     parameter  int MAN_BITS = 23,
     parameter  int TAG_W    = 64,
+    // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
+    // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
+    parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 53,
     localparam int N_OUT    = 16,
@@ -76,7 +79,7 @@ module pgs_contact_pipe #(
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
         .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY), .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_tag (
         .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
     );
 
@@ -103,267 +106,320 @@ module pgs_contact_pipe #(
     logic [W-1:0] in_n_x;
     assign in_n_x = in_data[0*W +: W];
     logic [5*W-1:0] dl_in_n_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 137]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [5*W-1:0] dl_in_n_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 137]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [5*W-1:0] dl_in_n_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 137]), .q(dl_in_n_z));
     logic [W-1:0] in_p0_x;
     assign in_p0_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_p0_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p0_x (.clk(clk), .d(in_p0_x), .valid(1'b0), .q(dl_in_p0_x));
     logic [W-1:0] in_p0_y;
     assign in_p0_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_p0_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p0_y (.clk(clk), .d(in_p0_y), .valid(1'b0), .q(dl_in_p0_y));
     logic [W-1:0] in_p0_z;
     assign in_p0_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_p0_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p0_z (.clk(clk), .d(in_p0_z), .valid(1'b0), .q(dl_in_p0_z));
     logic [W-1:0] in_p1_x;
     assign in_p1_x = in_data[6*W +: W];
     logic [W-1:0] dl_in_p1_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p1_x (.clk(clk), .d(in_p1_x), .valid(1'b0), .q(dl_in_p1_x));
     logic [W-1:0] in_p1_y;
     assign in_p1_y = in_data[7*W +: W];
     logic [W-1:0] dl_in_p1_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p1_y (.clk(clk), .d(in_p1_y), .valid(1'b0), .q(dl_in_p1_y));
     logic [W-1:0] in_p1_z;
     assign in_p1_z = in_data[8*W +: W];
     logic [W-1:0] dl_in_p1_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p1_z (.clk(clk), .d(in_p1_z), .valid(1'b0), .q(dl_in_p1_z));
     logic [W-1:0] in_p2_x;
     assign in_p2_x = in_data[9*W +: W];
     logic [W-1:0] dl_in_p2_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p2_x (.clk(clk), .d(in_p2_x), .valid(1'b0), .q(dl_in_p2_x));
     logic [W-1:0] in_p2_y;
     assign in_p2_y = in_data[10*W +: W];
     logic [W-1:0] dl_in_p2_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p2_y (.clk(clk), .d(in_p2_y), .valid(1'b0), .q(dl_in_p2_y));
     logic [W-1:0] in_p2_z;
     assign in_p2_z = in_data[11*W +: W];
     logic [W-1:0] dl_in_p2_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p2_z (.clk(clk), .d(in_p2_z), .valid(1'b0), .q(dl_in_p2_z));
     logic [W-1:0] in_p3_x;
     assign in_p3_x = in_data[12*W +: W];
     logic [W-1:0] dl_in_p3_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p3_x (.clk(clk), .d(in_p3_x), .valid(1'b0), .q(dl_in_p3_x));
     logic [W-1:0] in_p3_y;
     assign in_p3_y = in_data[13*W +: W];
     logic [W-1:0] dl_in_p3_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p3_y (.clk(clk), .d(in_p3_y), .valid(1'b0), .q(dl_in_p3_y));
     logic [W-1:0] in_p3_z;
     assign in_p3_z = in_data[14*W +: W];
     logic [W-1:0] dl_in_p3_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p3_z (.clk(clk), .d(in_p3_z), .valid(1'b0), .q(dl_in_p3_z));
     logic [W-1:0] in_jac_inv0;
     assign in_jac_inv0 = in_data[15*W +: W];
     logic [2*W-1:0] dl_in_jac_inv0;
-    pgs_delay #(.WIDTH(W), .DEPTH(34), .N_TAPS(2), .TAPS({32'(34), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(34), .N_TAPS(2), .TAPS({32'(34), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv0 (.clk(clk), .d(in_jac_inv0), .valid(valid_q[0 +: 34]), .q(dl_in_jac_inv0));
     logic [W-1:0] in_jac_inv1;
     assign in_jac_inv1 = in_data[16*W +: W];
     logic [2*W-1:0] dl_in_jac_inv1;
-    pgs_delay #(.WIDTH(W), .DEPTH(76), .N_TAPS(2), .TAPS({32'(76), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(76), .N_TAPS(2), .TAPS({32'(76), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv1 (.clk(clk), .d(in_jac_inv1), .valid(valid_q[0 +: 76]), .q(dl_in_jac_inv1));
     logic [W-1:0] in_jac_inv2;
     assign in_jac_inv2 = in_data[17*W +: W];
     logic [2*W-1:0] dl_in_jac_inv2;
-    pgs_delay #(.WIDTH(W), .DEPTH(118), .N_TAPS(2), .TAPS({32'(118), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(118), .N_TAPS(2), .TAPS({32'(118), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv2 (.clk(clk), .d(in_jac_inv2), .valid(valid_q[0 +: 118]), .q(dl_in_jac_inv2));
     logic [W-1:0] in_jac_inv3;
     assign in_jac_inv3 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_jac_inv3;
-    pgs_delay #(.WIDTH(W), .DEPTH(160), .N_TAPS(2), .TAPS({32'(160), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(160), .N_TAPS(2), .TAPS({32'(160), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv3 (.clk(clk), .d(in_jac_inv3), .valid(valid_q[0 +: 160]), .q(dl_in_jac_inv3));
     logic [W-1:0] in_b0;
     assign in_b0 = in_data[19*W +: W];
     logic [W-1:0] dl_in_b0;
-    pgs_delay #(.WIDTH(W), .DEPTH(30))
+    pgs_delay #(.WIDTH(W), .DEPTH(30),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b0 (.clk(clk), .d(in_b0), .valid(valid_q[0 +: 30]), .q(dl_in_b0));
     logic [W-1:0] in_b1;
     assign in_b1 = in_data[20*W +: W];
     logic [W-1:0] dl_in_b1;
-    pgs_delay #(.WIDTH(W), .DEPTH(72))
+    pgs_delay #(.WIDTH(W), .DEPTH(72),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b1 (.clk(clk), .d(in_b1), .valid(valid_q[0 +: 72]), .q(dl_in_b1));
     logic [W-1:0] in_b2;
     assign in_b2 = in_data[21*W +: W];
     logic [W-1:0] dl_in_b2;
-    pgs_delay #(.WIDTH(W), .DEPTH(114))
+    pgs_delay #(.WIDTH(W), .DEPTH(114),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b2 (.clk(clk), .d(in_b2), .valid(valid_q[0 +: 114]), .q(dl_in_b2));
     logic [W-1:0] in_b3;
     assign in_b3 = in_data[22*W +: W];
     logic [W-1:0] dl_in_b3;
-    pgs_delay #(.WIDTH(W), .DEPTH(156))
+    pgs_delay #(.WIDTH(W), .DEPTH(156),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b3 (.clk(clk), .d(in_b3), .valid(valid_q[0 +: 156]), .q(dl_in_b3));
     logic [W-1:0] in_lam0;
     assign in_lam0 = in_data[23*W +: W];
     logic [2*W-1:0] dl_in_lam0;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(42), 32'(37)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(42), 32'(37)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam0 (.clk(clk), .d(in_lam0), .valid(valid_q[0 +: 42]), .q(dl_in_lam0));
     logic [W-1:0] in_lam1;
     assign in_lam1 = in_data[24*W +: W];
     logic [2*W-1:0] dl_in_lam1;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(84), 32'(79)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(84), 32'(79)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam1 (.clk(clk), .d(in_lam1), .valid(valid_q[0 +: 84]), .q(dl_in_lam1));
     logic [W-1:0] in_lam2;
     assign in_lam2 = in_data[25*W +: W];
     logic [2*W-1:0] dl_in_lam2;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(126), 32'(121)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(126), 32'(121)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam2 (.clk(clk), .d(in_lam2), .valid(valid_q[0 +: 126]), .q(dl_in_lam2));
     logic [W-1:0] in_lam3;
     assign in_lam3 = in_data[26*W +: W];
     logic [2*W-1:0] dl_in_lam3;
-    pgs_delay #(.WIDTH(W), .DEPTH(168), .N_TAPS(2), .TAPS({32'(168), 32'(163)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(168), .N_TAPS(2), .TAPS({32'(168), 32'(163)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam3 (.clk(clk), .d(in_lam3), .valid(valid_q[0 +: 168]), .q(dl_in_lam3));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[27*W +: W];
     logic [W-1:0] dl_in_xA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[28*W +: W];
     logic [W-1:0] dl_in_xA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[29*W +: W];
     logic [W-1:0] dl_in_xA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[30*W +: W];
     logic [W-1:0] dl_in_xB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[31*W +: W];
     logic [W-1:0] dl_in_xB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[32*W +: W];
     logic [W-1:0] dl_in_xB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 53]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 53]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 53]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 53]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 53]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[38*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 53]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[39*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 53]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[40*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 53]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[41*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 53]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[42*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 53]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[43*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 53]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[44*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 53]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[45*W +: W];
     logic [W-1:0] dl_in_mInvA;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[46*W +: W];
     logic [W-1:0] dl_in_mInvB;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_x;
     assign in_IInvA_x = in_data[47*W +: W];
     logic [W-1:0] dl_in_IInvA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_x (.clk(clk), .d(in_IInvA_x), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_x));
     logic [W-1:0] in_IInvA_y;
     assign in_IInvA_y = in_data[48*W +: W];
     logic [W-1:0] dl_in_IInvA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_y (.clk(clk), .d(in_IInvA_y), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_y));
     logic [W-1:0] in_IInvA_z;
     assign in_IInvA_z = in_data[49*W +: W];
     logic [W-1:0] dl_in_IInvA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_z (.clk(clk), .d(in_IInvA_z), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_z));
     logic [W-1:0] in_IInvB_x;
     assign in_IInvB_x = in_data[50*W +: W];
     logic [W-1:0] dl_in_IInvB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_x (.clk(clk), .d(in_IInvB_x), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_x));
     logic [W-1:0] in_IInvB_y;
     assign in_IInvB_y = in_data[51*W +: W];
     logic [W-1:0] dl_in_IInvB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_y (.clk(clk), .d(in_IInvB_y), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_y));
     logic [W-1:0] in_IInvB_z;
     assign in_IInvB_z = in_data[52*W +: W];
     logic [W-1:0] dl_in_IInvB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_z (.clk(clk), .d(in_IInvB_z), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_z));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
@@ -379,7 +435,8 @@ module pgs_contact_pipe #(
     assign ev_unf[0] = fl_linA_x[1] && ev_q[3];
     assign ev_inv[0] = fl_linA_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linA_x (.clk(clk), .d(linA_x), .valid(valid_q[3 +: 169]), .q(dl_linA_x));
     // linA_y = n_y * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_y;
@@ -392,7 +449,8 @@ module pgs_contact_pipe #(
     assign ev_unf[1] = fl_linA_y[1] && ev_q[3];
     assign ev_inv[1] = fl_linA_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linA_y (.clk(clk), .d(linA_y), .valid(valid_q[3 +: 169]), .q(dl_linA_y));
     // linA_z = n_z * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_z;
@@ -405,7 +463,8 @@ module pgs_contact_pipe #(
     assign ev_unf[2] = fl_linA_z[1] && ev_q[3];
     assign ev_inv[2] = fl_linA_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linA_z (.clk(clk), .d(linA_z), .valid(valid_q[3 +: 169]), .q(dl_linA_z));
     // linB_x = n_x * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_x;
@@ -418,7 +477,8 @@ module pgs_contact_pipe #(
     assign ev_unf[3] = fl_linB_x[1] && ev_q[3];
     assign ev_inv[3] = fl_linB_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linB_x (.clk(clk), .d(linB_x), .valid(valid_q[3 +: 169]), .q(dl_linB_x));
     // linB_y = n_y * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_y;
@@ -431,7 +491,8 @@ module pgs_contact_pipe #(
     assign ev_unf[4] = fl_linB_y[1] && ev_q[3];
     assign ev_inv[4] = fl_linB_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linB_y (.clk(clk), .d(linB_y), .valid(valid_q[3 +: 169]), .q(dl_linB_y));
     // linB_z = n_z * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_z;
@@ -444,13 +505,15 @@ module pgs_contact_pipe #(
     assign ev_unf[5] = fl_linB_z[1] && ev_q[3];
     assign ev_inv[5] = fl_linB_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linB_z (.clk(clk), .d(linB_z), .valid(valid_q[3 +: 169]), .q(dl_linB_z));
     // pt0_skip = jac_inv0 == 0   (ready @0/0/0)
     logic pt0_skip;
     assign pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt0_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_skip (.clk(clk), .d(pt0_skip), .valid(valid_q[0 +: 53]), .q(dl_pt0_skip));
     // pt0_rA_x = p0_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt0_rA_x;
@@ -463,7 +526,8 @@ module pgs_contact_pipe #(
     assign ev_unf[6] = fl_pt0_rA_x[1] && ev_q[4];
     assign ev_inv[6] = fl_pt0_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rA_x (.clk(clk), .d(pt0_rA_x), .valid(1'b0), .q(dl_pt0_rA_x));
     // pt0_rA_y = p0_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt0_rA_y;
@@ -476,7 +540,8 @@ module pgs_contact_pipe #(
     assign ev_unf[7] = fl_pt0_rA_y[1] && ev_q[4];
     assign ev_inv[7] = fl_pt0_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rA_y (.clk(clk), .d(pt0_rA_y), .valid(1'b0), .q(dl_pt0_rA_y));
     // pt0_rA_z = p0_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt0_rA_z;
@@ -489,7 +554,8 @@ module pgs_contact_pipe #(
     assign ev_unf[8] = fl_pt0_rA_z[1] && ev_q[4];
     assign ev_inv[8] = fl_pt0_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rA_z (.clk(clk), .d(pt0_rA_z), .valid(1'b0), .q(dl_pt0_rA_z));
     // pt0_mul64 = pt0_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul64;
@@ -502,7 +568,8 @@ module pgs_contact_pipe #(
     assign ev_unf[9] = fl_pt0_mul64[1] && ev_q[7];
     assign ev_inv[9] = fl_pt0_mul64[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul64;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul64 (.clk(clk), .d(pt0_mul64), .valid(1'b0), .q(dl_pt0_mul64));
     // pt0_mul65 = pt0_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul65;
@@ -515,7 +582,8 @@ module pgs_contact_pipe #(
     assign ev_unf[10] = fl_pt0_mul65[1] && ev_q[7];
     assign ev_inv[10] = fl_pt0_mul65[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul65;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul65 (.clk(clk), .d(pt0_mul65), .valid(1'b0), .q(dl_pt0_mul65));
     // pt0_cA_x = pt0_mul64 - pt0_mul65   (ready @11/11/11)
     logic [W-1:0] pt0_cA_x;
@@ -528,7 +596,8 @@ module pgs_contact_pipe #(
     assign ev_unf[11] = fl_pt0_cA_x[1] && ev_q[11];
     assign ev_inv[11] = fl_pt0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cA_x (.clk(clk), .d(pt0_cA_x), .valid(1'b0), .q(dl_pt0_cA_x));
     // pt0_mul67 = pt0_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul67;
@@ -541,7 +610,8 @@ module pgs_contact_pipe #(
     assign ev_unf[12] = fl_pt0_mul67[1] && ev_q[7];
     assign ev_inv[12] = fl_pt0_mul67[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul67;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul67 (.clk(clk), .d(pt0_mul67), .valid(1'b0), .q(dl_pt0_mul67));
     // pt0_mul68 = pt0_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul68;
@@ -554,7 +624,8 @@ module pgs_contact_pipe #(
     assign ev_unf[13] = fl_pt0_mul68[1] && ev_q[7];
     assign ev_inv[13] = fl_pt0_mul68[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul68;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul68 (.clk(clk), .d(pt0_mul68), .valid(1'b0), .q(dl_pt0_mul68));
     // pt0_cA_y = pt0_mul67 - pt0_mul68   (ready @11/11/11)
     logic [W-1:0] pt0_cA_y;
@@ -567,7 +638,8 @@ module pgs_contact_pipe #(
     assign ev_unf[14] = fl_pt0_cA_y[1] && ev_q[11];
     assign ev_inv[14] = fl_pt0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cA_y (.clk(clk), .d(pt0_cA_y), .valid(1'b0), .q(dl_pt0_cA_y));
     // pt0_mul70 = pt0_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul70;
@@ -580,7 +652,8 @@ module pgs_contact_pipe #(
     assign ev_unf[15] = fl_pt0_mul70[1] && ev_q[7];
     assign ev_inv[15] = fl_pt0_mul70[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul70;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul70 (.clk(clk), .d(pt0_mul70), .valid(1'b0), .q(dl_pt0_mul70));
     // pt0_mul71 = pt0_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul71;
@@ -593,7 +666,8 @@ module pgs_contact_pipe #(
     assign ev_unf[16] = fl_pt0_mul71[1] && ev_q[7];
     assign ev_inv[16] = fl_pt0_mul71[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul71;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul71 (.clk(clk), .d(pt0_mul71), .valid(1'b0), .q(dl_pt0_mul71));
     // pt0_cA_z = pt0_mul70 - pt0_mul71   (ready @11/11/11)
     logic [W-1:0] pt0_cA_z;
@@ -606,7 +680,8 @@ module pgs_contact_pipe #(
     assign ev_unf[17] = fl_pt0_cA_z[1] && ev_q[11];
     assign ev_inv[17] = fl_pt0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cA_z (.clk(clk), .d(pt0_cA_z), .valid(1'b0), .q(dl_pt0_cA_z));
     // pt0_rB_x = p0_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt0_rB_x;
@@ -619,7 +694,8 @@ module pgs_contact_pipe #(
     assign ev_unf[18] = fl_pt0_rB_x[1] && ev_q[4];
     assign ev_inv[18] = fl_pt0_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rB_x (.clk(clk), .d(pt0_rB_x), .valid(1'b0), .q(dl_pt0_rB_x));
     // pt0_rB_y = p0_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt0_rB_y;
@@ -632,7 +708,8 @@ module pgs_contact_pipe #(
     assign ev_unf[19] = fl_pt0_rB_y[1] && ev_q[4];
     assign ev_inv[19] = fl_pt0_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rB_y (.clk(clk), .d(pt0_rB_y), .valid(1'b0), .q(dl_pt0_rB_y));
     // pt0_rB_z = p0_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt0_rB_z;
@@ -645,7 +722,8 @@ module pgs_contact_pipe #(
     assign ev_unf[20] = fl_pt0_rB_z[1] && ev_q[4];
     assign ev_inv[20] = fl_pt0_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rB_z (.clk(clk), .d(pt0_rB_z), .valid(1'b0), .q(dl_pt0_rB_z));
     // pt0_mul76 = pt0_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul76;
@@ -658,7 +736,8 @@ module pgs_contact_pipe #(
     assign ev_unf[21] = fl_pt0_mul76[1] && ev_q[7];
     assign ev_inv[21] = fl_pt0_mul76[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul76;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul76 (.clk(clk), .d(pt0_mul76), .valid(1'b0), .q(dl_pt0_mul76));
     // pt0_mul77 = pt0_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul77;
@@ -671,7 +750,8 @@ module pgs_contact_pipe #(
     assign ev_unf[22] = fl_pt0_mul77[1] && ev_q[7];
     assign ev_inv[22] = fl_pt0_mul77[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul77;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul77 (.clk(clk), .d(pt0_mul77), .valid(1'b0), .q(dl_pt0_mul77));
     // pt0_cB_x = pt0_mul76 - pt0_mul77   (ready @11/11/11)
     logic [W-1:0] pt0_cB_x;
@@ -684,7 +764,8 @@ module pgs_contact_pipe #(
     assign ev_unf[23] = fl_pt0_cB_x[1] && ev_q[11];
     assign ev_inv[23] = fl_pt0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cB_x (.clk(clk), .d(pt0_cB_x), .valid(1'b0), .q(dl_pt0_cB_x));
     // pt0_mul79 = pt0_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul79;
@@ -697,7 +778,8 @@ module pgs_contact_pipe #(
     assign ev_unf[24] = fl_pt0_mul79[1] && ev_q[7];
     assign ev_inv[24] = fl_pt0_mul79[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul79;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul79 (.clk(clk), .d(pt0_mul79), .valid(1'b0), .q(dl_pt0_mul79));
     // pt0_mul80 = pt0_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul80;
@@ -710,7 +792,8 @@ module pgs_contact_pipe #(
     assign ev_unf[25] = fl_pt0_mul80[1] && ev_q[7];
     assign ev_inv[25] = fl_pt0_mul80[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul80;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul80 (.clk(clk), .d(pt0_mul80), .valid(1'b0), .q(dl_pt0_mul80));
     // pt0_cB_y = pt0_mul79 - pt0_mul80   (ready @11/11/11)
     logic [W-1:0] pt0_cB_y;
@@ -723,7 +806,8 @@ module pgs_contact_pipe #(
     assign ev_unf[26] = fl_pt0_cB_y[1] && ev_q[11];
     assign ev_inv[26] = fl_pt0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cB_y (.clk(clk), .d(pt0_cB_y), .valid(1'b0), .q(dl_pt0_cB_y));
     // pt0_mul82 = pt0_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul82;
@@ -736,7 +820,8 @@ module pgs_contact_pipe #(
     assign ev_unf[27] = fl_pt0_mul82[1] && ev_q[7];
     assign ev_inv[27] = fl_pt0_mul82[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul82;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul82 (.clk(clk), .d(pt0_mul82), .valid(1'b0), .q(dl_pt0_mul82));
     // pt0_mul83 = pt0_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul83;
@@ -749,7 +834,8 @@ module pgs_contact_pipe #(
     assign ev_unf[28] = fl_pt0_mul83[1] && ev_q[7];
     assign ev_inv[28] = fl_pt0_mul83[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul83;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul83 (.clk(clk), .d(pt0_mul83), .valid(1'b0), .q(dl_pt0_mul83));
     // pt0_cB_z = pt0_mul82 - pt0_mul83   (ready @11/11/11)
     logic [W-1:0] pt0_cB_z;
@@ -762,7 +848,8 @@ module pgs_contact_pipe #(
     assign ev_unf[29] = fl_pt0_cB_z[1] && ev_q[11];
     assign ev_inv[29] = fl_pt0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cB_z (.clk(clk), .d(pt0_cB_z), .valid(1'b0), .q(dl_pt0_cB_z));
     // pt0_mul85 = n_x * vA_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul85;
@@ -775,7 +862,8 @@ module pgs_contact_pipe #(
     assign ev_unf[30] = fl_pt0_mul85[1] && ev_q[3];
     assign ev_inv[30] = fl_pt0_mul85[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul85;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul85 (.clk(clk), .d(pt0_mul85), .valid(1'b0), .q(dl_pt0_mul85));
     // pt0_mul86 = n_y * vA_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul86;
@@ -788,7 +876,8 @@ module pgs_contact_pipe #(
     assign ev_unf[31] = fl_pt0_mul86[1] && ev_q[3];
     assign ev_inv[31] = fl_pt0_mul86[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul86;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul86 (.clk(clk), .d(pt0_mul86), .valid(1'b0), .q(dl_pt0_mul86));
     // pt0_add87 = pt0_mul85 + pt0_mul86   (ready @7/7/7)
     logic [W-1:0] pt0_add87;
@@ -801,7 +890,8 @@ module pgs_contact_pipe #(
     assign ev_unf[32] = fl_pt0_add87[1] && ev_q[7];
     assign ev_inv[32] = fl_pt0_add87[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add87;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add87 (.clk(clk), .d(pt0_add87), .valid(1'b0), .q(dl_pt0_add87));
     // pt0_mul88 = n_z * vA_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul88;
@@ -814,7 +904,8 @@ module pgs_contact_pipe #(
     assign ev_unf[33] = fl_pt0_mul88[1] && ev_q[3];
     assign ev_inv[33] = fl_pt0_mul88[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul88;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul88 (.clk(clk), .d(pt0_mul88), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul88));
     // pt0_add89 = pt0_add87 + pt0_mul88   (ready @11/11/11)
     logic [W-1:0] pt0_add89;
@@ -827,7 +918,8 @@ module pgs_contact_pipe #(
     assign ev_unf[34] = fl_pt0_add89[1] && ev_q[11];
     assign ev_inv[34] = fl_pt0_add89[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add89;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add89 (.clk(clk), .d(pt0_add89), .valid(1'b0), .q(dl_pt0_add89));
     // pt0_mul90 = n_x * vB_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul90;
@@ -840,7 +932,8 @@ module pgs_contact_pipe #(
     assign ev_unf[35] = fl_pt0_mul90[1] && ev_q[3];
     assign ev_inv[35] = fl_pt0_mul90[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul90;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul90 (.clk(clk), .d(pt0_mul90), .valid(1'b0), .q(dl_pt0_mul90));
     // pt0_mul91 = n_y * vB_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul91;
@@ -853,7 +946,8 @@ module pgs_contact_pipe #(
     assign ev_unf[36] = fl_pt0_mul91[1] && ev_q[3];
     assign ev_inv[36] = fl_pt0_mul91[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul91;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul91 (.clk(clk), .d(pt0_mul91), .valid(1'b0), .q(dl_pt0_mul91));
     // pt0_add92 = pt0_mul90 + pt0_mul91   (ready @7/7/7)
     logic [W-1:0] pt0_add92;
@@ -866,7 +960,8 @@ module pgs_contact_pipe #(
     assign ev_unf[37] = fl_pt0_add92[1] && ev_q[7];
     assign ev_inv[37] = fl_pt0_add92[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add92;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add92 (.clk(clk), .d(pt0_add92), .valid(1'b0), .q(dl_pt0_add92));
     // pt0_mul93 = n_z * vB_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul93;
@@ -879,7 +974,8 @@ module pgs_contact_pipe #(
     assign ev_unf[38] = fl_pt0_mul93[1] && ev_q[3];
     assign ev_inv[38] = fl_pt0_mul93[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul93;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul93 (.clk(clk), .d(pt0_mul93), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul93));
     // pt0_add94 = pt0_add92 + pt0_mul93   (ready @11/11/11)
     logic [W-1:0] pt0_add94;
@@ -892,7 +988,8 @@ module pgs_contact_pipe #(
     assign ev_unf[39] = fl_pt0_add94[1] && ev_q[11];
     assign ev_inv[39] = fl_pt0_add94[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add94;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add94 (.clk(clk), .d(pt0_add94), .valid(1'b0), .q(dl_pt0_add94));
     // pt0_sub95 = pt0_add89 - pt0_add94   (ready @15/15/15)
     logic [W-1:0] pt0_sub95;
@@ -905,7 +1002,8 @@ module pgs_contact_pipe #(
     assign ev_unf[40] = fl_pt0_sub95[1] && ev_q[15];
     assign ev_inv[40] = fl_pt0_sub95[2] && ev_q[15];
     logic [W-1:0] dl_pt0_sub95;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub95 (.clk(clk), .d(pt0_sub95), .valid(valid_q[15 +: 11]), .q(dl_pt0_sub95));
     // pt0_mul96 = pt0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul96;
@@ -918,7 +1016,8 @@ module pgs_contact_pipe #(
     assign ev_unf[41] = fl_pt0_mul96[1] && ev_q[14];
     assign ev_inv[41] = fl_pt0_mul96[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul96;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul96 (.clk(clk), .d(pt0_mul96), .valid(1'b0), .q(dl_pt0_mul96));
     // pt0_mul97 = pt0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul97;
@@ -931,7 +1030,8 @@ module pgs_contact_pipe #(
     assign ev_unf[42] = fl_pt0_mul97[1] && ev_q[14];
     assign ev_inv[42] = fl_pt0_mul97[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul97;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul97 (.clk(clk), .d(pt0_mul97), .valid(1'b0), .q(dl_pt0_mul97));
     // pt0_add98 = pt0_mul96 + pt0_mul97   (ready @18/18/18)
     logic [W-1:0] pt0_add98;
@@ -944,7 +1044,8 @@ module pgs_contact_pipe #(
     assign ev_unf[43] = fl_pt0_add98[1] && ev_q[18];
     assign ev_inv[43] = fl_pt0_add98[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add98;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add98 (.clk(clk), .d(pt0_add98), .valid(1'b0), .q(dl_pt0_add98));
     // pt0_mul99 = pt0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul99;
@@ -957,7 +1058,8 @@ module pgs_contact_pipe #(
     assign ev_unf[44] = fl_pt0_mul99[1] && ev_q[14];
     assign ev_inv[44] = fl_pt0_mul99[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul99;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul99 (.clk(clk), .d(pt0_mul99), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul99));
     // pt0_add100 = pt0_add98 + pt0_mul99   (ready @22/22/22)
     logic [W-1:0] pt0_add100;
@@ -970,7 +1072,8 @@ module pgs_contact_pipe #(
     assign ev_unf[45] = fl_pt0_add100[1] && ev_q[22];
     assign ev_inv[45] = fl_pt0_add100[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add100;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add100 (.clk(clk), .d(pt0_add100), .valid(1'b0), .q(dl_pt0_add100));
     // pt0_mul101 = pt0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul101;
@@ -983,7 +1086,8 @@ module pgs_contact_pipe #(
     assign ev_unf[46] = fl_pt0_mul101[1] && ev_q[14];
     assign ev_inv[46] = fl_pt0_mul101[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul101;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul101 (.clk(clk), .d(pt0_mul101), .valid(1'b0), .q(dl_pt0_mul101));
     // pt0_mul102 = pt0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul102;
@@ -996,7 +1100,8 @@ module pgs_contact_pipe #(
     assign ev_unf[47] = fl_pt0_mul102[1] && ev_q[14];
     assign ev_inv[47] = fl_pt0_mul102[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul102;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul102 (.clk(clk), .d(pt0_mul102), .valid(1'b0), .q(dl_pt0_mul102));
     // pt0_add103 = pt0_mul101 + pt0_mul102   (ready @18/18/18)
     logic [W-1:0] pt0_add103;
@@ -1009,7 +1114,8 @@ module pgs_contact_pipe #(
     assign ev_unf[48] = fl_pt0_add103[1] && ev_q[18];
     assign ev_inv[48] = fl_pt0_add103[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add103;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add103 (.clk(clk), .d(pt0_add103), .valid(1'b0), .q(dl_pt0_add103));
     // pt0_mul104 = pt0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul104;
@@ -1022,7 +1128,8 @@ module pgs_contact_pipe #(
     assign ev_unf[49] = fl_pt0_mul104[1] && ev_q[14];
     assign ev_inv[49] = fl_pt0_mul104[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul104;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul104 (.clk(clk), .d(pt0_mul104), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul104));
     // pt0_add105 = pt0_add103 + pt0_mul104   (ready @22/22/22)
     logic [W-1:0] pt0_add105;
@@ -1035,7 +1142,8 @@ module pgs_contact_pipe #(
     assign ev_unf[50] = fl_pt0_add105[1] && ev_q[22];
     assign ev_inv[50] = fl_pt0_add105[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add105;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add105 (.clk(clk), .d(pt0_add105), .valid(1'b0), .q(dl_pt0_add105));
     // pt0_sub106 = pt0_add100 - pt0_add105   (ready @26/26/26)
     logic [W-1:0] pt0_sub106;
@@ -1048,7 +1156,8 @@ module pgs_contact_pipe #(
     assign ev_unf[51] = fl_pt0_sub106[1] && ev_q[26];
     assign ev_inv[51] = fl_pt0_sub106[2] && ev_q[26];
     logic [W-1:0] dl_pt0_sub106;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub106 (.clk(clk), .d(pt0_sub106), .valid(1'b0), .q(dl_pt0_sub106));
     // pt0_vrel = pt0_sub95 + pt0_sub106   (ready @30/30/30)
     logic [W-1:0] pt0_vrel;
@@ -1061,7 +1170,8 @@ module pgs_contact_pipe #(
     assign ev_unf[52] = fl_pt0_vrel[1] && ev_q[30];
     assign ev_inv[52] = fl_pt0_vrel[2] && ev_q[30];
     logic [W-1:0] dl_pt0_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vrel (.clk(clk), .d(pt0_vrel), .valid(1'b0), .q(dl_pt0_vrel));
     // pt0_add108 = pt0_vrel + b0   (ready @34/34/34)
     logic [W-1:0] pt0_add108;
@@ -1074,7 +1184,8 @@ module pgs_contact_pipe #(
     assign ev_unf[53] = fl_pt0_add108[1] && ev_q[34];
     assign ev_inv[53] = fl_pt0_add108[2] && ev_q[34];
     logic [W-1:0] dl_pt0_add108;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add108 (.clk(clk), .d(pt0_add108), .valid(1'b0), .q(dl_pt0_add108));
     // pt0_delta0 = pt0_add108 * jac_inv0   (ready @37/37/37)
     logic [W-1:0] pt0_delta0;
@@ -1087,7 +1198,8 @@ module pgs_contact_pipe #(
     assign ev_unf[54] = fl_pt0_delta0[1] && ev_q[37];
     assign ev_inv[54] = fl_pt0_delta0[2] && ev_q[37];
     logic [W-1:0] dl_pt0_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_delta0 (.clk(clk), .d(pt0_delta0), .valid(1'b0), .q(dl_pt0_delta0));
     // pt0_add110 = lam0 + pt0_delta0   (ready @41/41/41)
     logic [W-1:0] pt0_add110;
@@ -1100,7 +1212,8 @@ module pgs_contact_pipe #(
     assign ev_unf[55] = fl_pt0_add110[1] && ev_q[41];
     assign ev_inv[55] = fl_pt0_add110[2] && ev_q[41];
     logic [W-1:0] dl_pt0_add110;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add110 (.clk(clk), .d(pt0_add110), .valid(1'b0), .q(dl_pt0_add110));
     // pt0_lam_new = max(pt0_add110, 0.0)   (ready @42/42/42)
     logic [W-1:0] pt0_lam_new;
@@ -1110,7 +1223,8 @@ module pgs_contact_pipe #(
         .lt(nc_pt0_lam_new_lt), .eq(nc_pt0_lam_new_eq), .unordered(nc_pt0_lam_new_uo)
     );
     logic [W-1:0] dl_pt0_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_lam_new (.clk(clk), .d(pt0_lam_new), .valid(1'b0), .q(dl_pt0_lam_new));
     // pt0_delta = pt0_lam_new - lam0   (ready @46/46/46)
     logic [W-1:0] pt0_delta;
@@ -1123,13 +1237,15 @@ module pgs_contact_pipe #(
     assign ev_unf[56] = fl_pt0_delta[1] && ev_q[46];
     assign ev_inv[56] = fl_pt0_delta[2] && ev_q[46];
     logic [W-1:0] dl_pt0_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_delta (.clk(clk), .d(pt0_delta), .valid(1'b0), .q(dl_pt0_delta));
     // pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (ready @42/42/42)
     logic [W-1:0] pt0_lam;
     assign pt0_lam = dl_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_pt0_lam_new;
     logic [W-1:0] dl_pt0_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(137))
+    pgs_delay #(.WIDTH(W), .DEPTH(137),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_lam (.clk(clk), .d(pt0_lam), .valid(valid_q[42 +: 137]), .q(dl_pt0_lam));
     // pt0_angA_x = IInvA_x * pt0_cA_x   (ready @14/14/14)
     logic [W-1:0] pt0_angA_x;
@@ -1142,7 +1258,8 @@ module pgs_contact_pipe #(
     assign ev_unf[57] = fl_pt0_angA_x[1] && ev_q[14];
     assign ev_inv[57] = fl_pt0_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angA_x (.clk(clk), .d(pt0_angA_x), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_x));
     // pt0_angA_y = IInvA_y * pt0_cA_y   (ready @14/14/14)
     logic [W-1:0] pt0_angA_y;
@@ -1155,7 +1272,8 @@ module pgs_contact_pipe #(
     assign ev_unf[58] = fl_pt0_angA_y[1] && ev_q[14];
     assign ev_inv[58] = fl_pt0_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angA_y (.clk(clk), .d(pt0_angA_y), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_y));
     // pt0_angA_z = IInvA_z * pt0_cA_z   (ready @14/14/14)
     logic [W-1:0] pt0_angA_z;
@@ -1168,7 +1286,8 @@ module pgs_contact_pipe #(
     assign ev_unf[59] = fl_pt0_angA_z[1] && ev_q[14];
     assign ev_inv[59] = fl_pt0_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angA_z (.clk(clk), .d(pt0_angA_z), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_z));
     // pt0_angB_x = IInvB_x * pt0_cB_x   (ready @14/14/14)
     logic [W-1:0] pt0_angB_x;
@@ -1181,7 +1300,8 @@ module pgs_contact_pipe #(
     assign ev_unf[60] = fl_pt0_angB_x[1] && ev_q[14];
     assign ev_inv[60] = fl_pt0_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angB_x (.clk(clk), .d(pt0_angB_x), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_x));
     // pt0_angB_y = IInvB_y * pt0_cB_y   (ready @14/14/14)
     logic [W-1:0] pt0_angB_y;
@@ -1194,7 +1314,8 @@ module pgs_contact_pipe #(
     assign ev_unf[61] = fl_pt0_angB_y[1] && ev_q[14];
     assign ev_inv[61] = fl_pt0_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angB_y (.clk(clk), .d(pt0_angB_y), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_y));
     // pt0_angB_z = IInvB_z * pt0_cB_z   (ready @14/14/14)
     logic [W-1:0] pt0_angB_z;
@@ -1207,7 +1328,8 @@ module pgs_contact_pipe #(
     assign ev_unf[62] = fl_pt0_angB_z[1] && ev_q[14];
     assign ev_inv[62] = fl_pt0_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angB_z (.clk(clk), .d(pt0_angB_z), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_z));
     // pt0_mul120 = linA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul120;
@@ -1220,7 +1342,8 @@ module pgs_contact_pipe #(
     assign ev_unf[63] = fl_pt0_mul120[1] && ev_q[49];
     assign ev_inv[63] = fl_pt0_mul120[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul120;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul120 (.clk(clk), .d(pt0_mul120), .valid(1'b0), .q(dl_pt0_mul120));
     // pt0_mul121 = linA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul121;
@@ -1233,7 +1356,8 @@ module pgs_contact_pipe #(
     assign ev_unf[64] = fl_pt0_mul121[1] && ev_q[49];
     assign ev_inv[64] = fl_pt0_mul121[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul121;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul121 (.clk(clk), .d(pt0_mul121), .valid(1'b0), .q(dl_pt0_mul121));
     // pt0_mul122 = linA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul122;
@@ -1246,7 +1370,8 @@ module pgs_contact_pipe #(
     assign ev_unf[65] = fl_pt0_mul122[1] && ev_q[49];
     assign ev_inv[65] = fl_pt0_mul122[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul122;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul122 (.clk(clk), .d(pt0_mul122), .valid(1'b0), .q(dl_pt0_mul122));
     // pt0_add123 = vA_x + pt0_mul120   (ready @53/53/53)
     logic [W-1:0] pt0_add123;
@@ -1259,7 +1384,8 @@ module pgs_contact_pipe #(
     assign ev_unf[66] = fl_pt0_add123[1] && ev_q[53];
     assign ev_inv[66] = fl_pt0_add123[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add123;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add123 (.clk(clk), .d(pt0_add123), .valid(1'b0), .q(dl_pt0_add123));
     // pt0_add124 = vA_y + pt0_mul121   (ready @53/53/53)
     logic [W-1:0] pt0_add124;
@@ -1272,7 +1398,8 @@ module pgs_contact_pipe #(
     assign ev_unf[67] = fl_pt0_add124[1] && ev_q[53];
     assign ev_inv[67] = fl_pt0_add124[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add124;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add124 (.clk(clk), .d(pt0_add124), .valid(1'b0), .q(dl_pt0_add124));
     // pt0_add125 = vA_z + pt0_mul122   (ready @53/53/53)
     logic [W-1:0] pt0_add125;
@@ -1285,25 +1412,29 @@ module pgs_contact_pipe #(
     assign ev_unf[68] = fl_pt0_add125[1] && ev_q[53];
     assign ev_inv[68] = fl_pt0_add125[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add125;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add125 (.clk(clk), .d(pt0_add125), .valid(1'b0), .q(dl_pt0_add125));
     // pt0_vA_x = pt0_skip ? vA_x : pt0_add123   (ready @53/53/53)
     logic [W-1:0] pt0_vA_x;
     assign pt0_vA_x = dl_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_pt0_add123;
     logic [3*W-1:0] dl_pt0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vA_x (.clk(clk), .d(pt0_vA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_x));
     // pt0_vA_y = pt0_skip ? vA_y : pt0_add124   (ready @53/53/53)
     logic [W-1:0] pt0_vA_y;
     assign pt0_vA_y = dl_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_pt0_add124;
     logic [3*W-1:0] dl_pt0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vA_y (.clk(clk), .d(pt0_vA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_y));
     // pt0_vA_z = pt0_skip ? vA_z : pt0_add125   (ready @53/53/53)
     logic [W-1:0] pt0_vA_z;
     assign pt0_vA_z = dl_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_pt0_add125;
     logic [3*W-1:0] dl_pt0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vA_z (.clk(clk), .d(pt0_vA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_z));
     // pt0_mul129 = pt0_angA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul129;
@@ -1316,7 +1447,8 @@ module pgs_contact_pipe #(
     assign ev_unf[69] = fl_pt0_mul129[1] && ev_q[49];
     assign ev_inv[69] = fl_pt0_mul129[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul129;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul129 (.clk(clk), .d(pt0_mul129), .valid(1'b0), .q(dl_pt0_mul129));
     // pt0_mul130 = pt0_angA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul130;
@@ -1329,7 +1461,8 @@ module pgs_contact_pipe #(
     assign ev_unf[70] = fl_pt0_mul130[1] && ev_q[49];
     assign ev_inv[70] = fl_pt0_mul130[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul130;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul130 (.clk(clk), .d(pt0_mul130), .valid(1'b0), .q(dl_pt0_mul130));
     // pt0_mul131 = pt0_angA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul131;
@@ -1342,7 +1475,8 @@ module pgs_contact_pipe #(
     assign ev_unf[71] = fl_pt0_mul131[1] && ev_q[49];
     assign ev_inv[71] = fl_pt0_mul131[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul131;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul131 (.clk(clk), .d(pt0_mul131), .valid(1'b0), .q(dl_pt0_mul131));
     // pt0_add132 = wA_x + pt0_mul129   (ready @53/53/53)
     logic [W-1:0] pt0_add132;
@@ -1355,7 +1489,8 @@ module pgs_contact_pipe #(
     assign ev_unf[72] = fl_pt0_add132[1] && ev_q[53];
     assign ev_inv[72] = fl_pt0_add132[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add132;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add132 (.clk(clk), .d(pt0_add132), .valid(1'b0), .q(dl_pt0_add132));
     // pt0_add133 = wA_y + pt0_mul130   (ready @53/53/53)
     logic [W-1:0] pt0_add133;
@@ -1368,7 +1503,8 @@ module pgs_contact_pipe #(
     assign ev_unf[73] = fl_pt0_add133[1] && ev_q[53];
     assign ev_inv[73] = fl_pt0_add133[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add133;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add133 (.clk(clk), .d(pt0_add133), .valid(1'b0), .q(dl_pt0_add133));
     // pt0_add134 = wA_z + pt0_mul131   (ready @53/53/53)
     logic [W-1:0] pt0_add134;
@@ -1381,25 +1517,29 @@ module pgs_contact_pipe #(
     assign ev_unf[74] = fl_pt0_add134[1] && ev_q[53];
     assign ev_inv[74] = fl_pt0_add134[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add134;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add134 (.clk(clk), .d(pt0_add134), .valid(1'b0), .q(dl_pt0_add134));
     // pt0_wA_x = pt0_skip ? wA_x : pt0_add132   (ready @53/53/53)
     logic [W-1:0] pt0_wA_x;
     assign pt0_wA_x = dl_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_pt0_add132;
     logic [3*W-1:0] dl_pt0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wA_x (.clk(clk), .d(pt0_wA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_x));
     // pt0_wA_y = pt0_skip ? wA_y : pt0_add133   (ready @53/53/53)
     logic [W-1:0] pt0_wA_y;
     assign pt0_wA_y = dl_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_pt0_add133;
     logic [3*W-1:0] dl_pt0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wA_y (.clk(clk), .d(pt0_wA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_y));
     // pt0_wA_z = pt0_skip ? wA_z : pt0_add134   (ready @53/53/53)
     logic [W-1:0] pt0_wA_z;
     assign pt0_wA_z = dl_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_pt0_add134;
     logic [3*W-1:0] dl_pt0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wA_z (.clk(clk), .d(pt0_wA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_z));
     // pt0_mul138 = linB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul138;
@@ -1412,7 +1552,8 @@ module pgs_contact_pipe #(
     assign ev_unf[75] = fl_pt0_mul138[1] && ev_q[49];
     assign ev_inv[75] = fl_pt0_mul138[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul138;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul138 (.clk(clk), .d(pt0_mul138), .valid(1'b0), .q(dl_pt0_mul138));
     // pt0_mul139 = linB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul139;
@@ -1425,7 +1566,8 @@ module pgs_contact_pipe #(
     assign ev_unf[76] = fl_pt0_mul139[1] && ev_q[49];
     assign ev_inv[76] = fl_pt0_mul139[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul139;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul139 (.clk(clk), .d(pt0_mul139), .valid(1'b0), .q(dl_pt0_mul139));
     // pt0_mul140 = linB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul140;
@@ -1438,7 +1580,8 @@ module pgs_contact_pipe #(
     assign ev_unf[77] = fl_pt0_mul140[1] && ev_q[49];
     assign ev_inv[77] = fl_pt0_mul140[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul140;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul140 (.clk(clk), .d(pt0_mul140), .valid(1'b0), .q(dl_pt0_mul140));
     // pt0_sub141 = vB_x - pt0_mul138   (ready @53/53/53)
     logic [W-1:0] pt0_sub141;
@@ -1451,7 +1594,8 @@ module pgs_contact_pipe #(
     assign ev_unf[78] = fl_pt0_sub141[1] && ev_q[53];
     assign ev_inv[78] = fl_pt0_sub141[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub141;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub141 (.clk(clk), .d(pt0_sub141), .valid(1'b0), .q(dl_pt0_sub141));
     // pt0_sub142 = vB_y - pt0_mul139   (ready @53/53/53)
     logic [W-1:0] pt0_sub142;
@@ -1464,7 +1608,8 @@ module pgs_contact_pipe #(
     assign ev_unf[79] = fl_pt0_sub142[1] && ev_q[53];
     assign ev_inv[79] = fl_pt0_sub142[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub142;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub142 (.clk(clk), .d(pt0_sub142), .valid(1'b0), .q(dl_pt0_sub142));
     // pt0_sub143 = vB_z - pt0_mul140   (ready @53/53/53)
     logic [W-1:0] pt0_sub143;
@@ -1477,25 +1622,29 @@ module pgs_contact_pipe #(
     assign ev_unf[80] = fl_pt0_sub143[1] && ev_q[53];
     assign ev_inv[80] = fl_pt0_sub143[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub143;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub143 (.clk(clk), .d(pt0_sub143), .valid(1'b0), .q(dl_pt0_sub143));
     // pt0_vB_x = pt0_skip ? vB_x : pt0_sub141   (ready @53/53/53)
     logic [W-1:0] pt0_vB_x;
     assign pt0_vB_x = dl_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_pt0_sub141;
     logic [3*W-1:0] dl_pt0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vB_x (.clk(clk), .d(pt0_vB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_x));
     // pt0_vB_y = pt0_skip ? vB_y : pt0_sub142   (ready @53/53/53)
     logic [W-1:0] pt0_vB_y;
     assign pt0_vB_y = dl_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_pt0_sub142;
     logic [3*W-1:0] dl_pt0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vB_y (.clk(clk), .d(pt0_vB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_y));
     // pt0_vB_z = pt0_skip ? vB_z : pt0_sub143   (ready @53/53/53)
     logic [W-1:0] pt0_vB_z;
     assign pt0_vB_z = dl_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_pt0_sub143;
     logic [3*W-1:0] dl_pt0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vB_z (.clk(clk), .d(pt0_vB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_z));
     // pt0_mul147 = pt0_angB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul147;
@@ -1508,7 +1657,8 @@ module pgs_contact_pipe #(
     assign ev_unf[81] = fl_pt0_mul147[1] && ev_q[49];
     assign ev_inv[81] = fl_pt0_mul147[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul147;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul147 (.clk(clk), .d(pt0_mul147), .valid(1'b0), .q(dl_pt0_mul147));
     // pt0_mul148 = pt0_angB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul148;
@@ -1521,7 +1671,8 @@ module pgs_contact_pipe #(
     assign ev_unf[82] = fl_pt0_mul148[1] && ev_q[49];
     assign ev_inv[82] = fl_pt0_mul148[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul148;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul148 (.clk(clk), .d(pt0_mul148), .valid(1'b0), .q(dl_pt0_mul148));
     // pt0_mul149 = pt0_angB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul149;
@@ -1534,7 +1685,8 @@ module pgs_contact_pipe #(
     assign ev_unf[83] = fl_pt0_mul149[1] && ev_q[49];
     assign ev_inv[83] = fl_pt0_mul149[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul149;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul149 (.clk(clk), .d(pt0_mul149), .valid(1'b0), .q(dl_pt0_mul149));
     // pt0_sub150 = wB_x - pt0_mul147   (ready @53/53/53)
     logic [W-1:0] pt0_sub150;
@@ -1547,7 +1699,8 @@ module pgs_contact_pipe #(
     assign ev_unf[84] = fl_pt0_sub150[1] && ev_q[53];
     assign ev_inv[84] = fl_pt0_sub150[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub150;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub150 (.clk(clk), .d(pt0_sub150), .valid(1'b0), .q(dl_pt0_sub150));
     // pt0_sub151 = wB_y - pt0_mul148   (ready @53/53/53)
     logic [W-1:0] pt0_sub151;
@@ -1560,7 +1713,8 @@ module pgs_contact_pipe #(
     assign ev_unf[85] = fl_pt0_sub151[1] && ev_q[53];
     assign ev_inv[85] = fl_pt0_sub151[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub151;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub151 (.clk(clk), .d(pt0_sub151), .valid(1'b0), .q(dl_pt0_sub151));
     // pt0_sub152 = wB_z - pt0_mul149   (ready @53/53/53)
     logic [W-1:0] pt0_sub152;
@@ -1573,31 +1727,36 @@ module pgs_contact_pipe #(
     assign ev_unf[86] = fl_pt0_sub152[1] && ev_q[53];
     assign ev_inv[86] = fl_pt0_sub152[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub152;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub152 (.clk(clk), .d(pt0_sub152), .valid(1'b0), .q(dl_pt0_sub152));
     // pt0_wB_x = pt0_skip ? wB_x : pt0_sub150   (ready @53/53/53)
     logic [W-1:0] pt0_wB_x;
     assign pt0_wB_x = dl_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_pt0_sub150;
     logic [3*W-1:0] dl_pt0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wB_x (.clk(clk), .d(pt0_wB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_x));
     // pt0_wB_y = pt0_skip ? wB_y : pt0_sub151   (ready @53/53/53)
     logic [W-1:0] pt0_wB_y;
     assign pt0_wB_y = dl_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_pt0_sub151;
     logic [3*W-1:0] dl_pt0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wB_y (.clk(clk), .d(pt0_wB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_y));
     // pt0_wB_z = pt0_skip ? wB_z : pt0_sub152   (ready @53/53/53)
     logic [W-1:0] pt0_wB_z;
     assign pt0_wB_z = dl_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_pt0_sub152;
     logic [3*W-1:0] dl_pt0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wB_z (.clk(clk), .d(pt0_wB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_z));
     // pt1_skip = jac_inv1 == 0   (ready @0/0/0)
     logic pt1_skip;
     assign pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt1_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_skip (.clk(clk), .d(pt1_skip), .valid(valid_q[0 +: 95]), .q(dl_pt1_skip));
     // pt1_rA_x = p1_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt1_rA_x;
@@ -1610,7 +1769,8 @@ module pgs_contact_pipe #(
     assign ev_unf[87] = fl_pt1_rA_x[1] && ev_q[4];
     assign ev_inv[87] = fl_pt1_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rA_x (.clk(clk), .d(pt1_rA_x), .valid(1'b0), .q(dl_pt1_rA_x));
     // pt1_rA_y = p1_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt1_rA_y;
@@ -1623,7 +1783,8 @@ module pgs_contact_pipe #(
     assign ev_unf[88] = fl_pt1_rA_y[1] && ev_q[4];
     assign ev_inv[88] = fl_pt1_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rA_y (.clk(clk), .d(pt1_rA_y), .valid(1'b0), .q(dl_pt1_rA_y));
     // pt1_rA_z = p1_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt1_rA_z;
@@ -1636,7 +1797,8 @@ module pgs_contact_pipe #(
     assign ev_unf[89] = fl_pt1_rA_z[1] && ev_q[4];
     assign ev_inv[89] = fl_pt1_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rA_z (.clk(clk), .d(pt1_rA_z), .valid(1'b0), .q(dl_pt1_rA_z));
     // pt1_mul160 = pt1_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul160;
@@ -1649,7 +1811,8 @@ module pgs_contact_pipe #(
     assign ev_unf[90] = fl_pt1_mul160[1] && ev_q[7];
     assign ev_inv[90] = fl_pt1_mul160[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul160;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul160 (.clk(clk), .d(pt1_mul160), .valid(1'b0), .q(dl_pt1_mul160));
     // pt1_mul161 = pt1_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul161;
@@ -1662,7 +1825,8 @@ module pgs_contact_pipe #(
     assign ev_unf[91] = fl_pt1_mul161[1] && ev_q[7];
     assign ev_inv[91] = fl_pt1_mul161[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul161;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul161 (.clk(clk), .d(pt1_mul161), .valid(1'b0), .q(dl_pt1_mul161));
     // pt1_cA_x = pt1_mul160 - pt1_mul161   (ready @11/11/11)
     logic [W-1:0] pt1_cA_x;
@@ -1675,7 +1839,8 @@ module pgs_contact_pipe #(
     assign ev_unf[92] = fl_pt1_cA_x[1] && ev_q[11];
     assign ev_inv[92] = fl_pt1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cA_x (.clk(clk), .d(pt1_cA_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_x));
     // pt1_mul163 = pt1_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul163;
@@ -1688,7 +1853,8 @@ module pgs_contact_pipe #(
     assign ev_unf[93] = fl_pt1_mul163[1] && ev_q[7];
     assign ev_inv[93] = fl_pt1_mul163[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul163;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul163 (.clk(clk), .d(pt1_mul163), .valid(1'b0), .q(dl_pt1_mul163));
     // pt1_mul164 = pt1_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul164;
@@ -1701,7 +1867,8 @@ module pgs_contact_pipe #(
     assign ev_unf[94] = fl_pt1_mul164[1] && ev_q[7];
     assign ev_inv[94] = fl_pt1_mul164[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul164;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul164 (.clk(clk), .d(pt1_mul164), .valid(1'b0), .q(dl_pt1_mul164));
     // pt1_cA_y = pt1_mul163 - pt1_mul164   (ready @11/11/11)
     logic [W-1:0] pt1_cA_y;
@@ -1714,7 +1881,8 @@ module pgs_contact_pipe #(
     assign ev_unf[95] = fl_pt1_cA_y[1] && ev_q[11];
     assign ev_inv[95] = fl_pt1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cA_y (.clk(clk), .d(pt1_cA_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_y));
     // pt1_mul166 = pt1_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul166;
@@ -1727,7 +1895,8 @@ module pgs_contact_pipe #(
     assign ev_unf[96] = fl_pt1_mul166[1] && ev_q[7];
     assign ev_inv[96] = fl_pt1_mul166[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul166;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul166 (.clk(clk), .d(pt1_mul166), .valid(1'b0), .q(dl_pt1_mul166));
     // pt1_mul167 = pt1_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul167;
@@ -1740,7 +1909,8 @@ module pgs_contact_pipe #(
     assign ev_unf[97] = fl_pt1_mul167[1] && ev_q[7];
     assign ev_inv[97] = fl_pt1_mul167[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul167;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul167 (.clk(clk), .d(pt1_mul167), .valid(1'b0), .q(dl_pt1_mul167));
     // pt1_cA_z = pt1_mul166 - pt1_mul167   (ready @11/11/11)
     logic [W-1:0] pt1_cA_z;
@@ -1753,7 +1923,8 @@ module pgs_contact_pipe #(
     assign ev_unf[98] = fl_pt1_cA_z[1] && ev_q[11];
     assign ev_inv[98] = fl_pt1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cA_z (.clk(clk), .d(pt1_cA_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_z));
     // pt1_rB_x = p1_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt1_rB_x;
@@ -1766,7 +1937,8 @@ module pgs_contact_pipe #(
     assign ev_unf[99] = fl_pt1_rB_x[1] && ev_q[4];
     assign ev_inv[99] = fl_pt1_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rB_x (.clk(clk), .d(pt1_rB_x), .valid(1'b0), .q(dl_pt1_rB_x));
     // pt1_rB_y = p1_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt1_rB_y;
@@ -1779,7 +1951,8 @@ module pgs_contact_pipe #(
     assign ev_unf[100] = fl_pt1_rB_y[1] && ev_q[4];
     assign ev_inv[100] = fl_pt1_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rB_y (.clk(clk), .d(pt1_rB_y), .valid(1'b0), .q(dl_pt1_rB_y));
     // pt1_rB_z = p1_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt1_rB_z;
@@ -1792,7 +1965,8 @@ module pgs_contact_pipe #(
     assign ev_unf[101] = fl_pt1_rB_z[1] && ev_q[4];
     assign ev_inv[101] = fl_pt1_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rB_z (.clk(clk), .d(pt1_rB_z), .valid(1'b0), .q(dl_pt1_rB_z));
     // pt1_mul172 = pt1_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul172;
@@ -1805,7 +1979,8 @@ module pgs_contact_pipe #(
     assign ev_unf[102] = fl_pt1_mul172[1] && ev_q[7];
     assign ev_inv[102] = fl_pt1_mul172[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul172;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul172 (.clk(clk), .d(pt1_mul172), .valid(1'b0), .q(dl_pt1_mul172));
     // pt1_mul173 = pt1_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul173;
@@ -1818,7 +1993,8 @@ module pgs_contact_pipe #(
     assign ev_unf[103] = fl_pt1_mul173[1] && ev_q[7];
     assign ev_inv[103] = fl_pt1_mul173[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul173;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul173 (.clk(clk), .d(pt1_mul173), .valid(1'b0), .q(dl_pt1_mul173));
     // pt1_cB_x = pt1_mul172 - pt1_mul173   (ready @11/11/11)
     logic [W-1:0] pt1_cB_x;
@@ -1831,7 +2007,8 @@ module pgs_contact_pipe #(
     assign ev_unf[104] = fl_pt1_cB_x[1] && ev_q[11];
     assign ev_inv[104] = fl_pt1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cB_x (.clk(clk), .d(pt1_cB_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_x));
     // pt1_mul175 = pt1_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul175;
@@ -1844,7 +2021,8 @@ module pgs_contact_pipe #(
     assign ev_unf[105] = fl_pt1_mul175[1] && ev_q[7];
     assign ev_inv[105] = fl_pt1_mul175[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul175;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul175 (.clk(clk), .d(pt1_mul175), .valid(1'b0), .q(dl_pt1_mul175));
     // pt1_mul176 = pt1_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul176;
@@ -1857,7 +2035,8 @@ module pgs_contact_pipe #(
     assign ev_unf[106] = fl_pt1_mul176[1] && ev_q[7];
     assign ev_inv[106] = fl_pt1_mul176[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul176;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul176 (.clk(clk), .d(pt1_mul176), .valid(1'b0), .q(dl_pt1_mul176));
     // pt1_cB_y = pt1_mul175 - pt1_mul176   (ready @11/11/11)
     logic [W-1:0] pt1_cB_y;
@@ -1870,7 +2049,8 @@ module pgs_contact_pipe #(
     assign ev_unf[107] = fl_pt1_cB_y[1] && ev_q[11];
     assign ev_inv[107] = fl_pt1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cB_y (.clk(clk), .d(pt1_cB_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_y));
     // pt1_mul178 = pt1_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul178;
@@ -1883,7 +2063,8 @@ module pgs_contact_pipe #(
     assign ev_unf[108] = fl_pt1_mul178[1] && ev_q[7];
     assign ev_inv[108] = fl_pt1_mul178[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul178;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul178 (.clk(clk), .d(pt1_mul178), .valid(1'b0), .q(dl_pt1_mul178));
     // pt1_mul179 = pt1_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul179;
@@ -1896,7 +2077,8 @@ module pgs_contact_pipe #(
     assign ev_unf[109] = fl_pt1_mul179[1] && ev_q[7];
     assign ev_inv[109] = fl_pt1_mul179[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul179;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul179 (.clk(clk), .d(pt1_mul179), .valid(1'b0), .q(dl_pt1_mul179));
     // pt1_cB_z = pt1_mul178 - pt1_mul179   (ready @11/11/11)
     logic [W-1:0] pt1_cB_z;
@@ -1909,7 +2091,8 @@ module pgs_contact_pipe #(
     assign ev_unf[110] = fl_pt1_cB_z[1] && ev_q[11];
     assign ev_inv[110] = fl_pt1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cB_z (.clk(clk), .d(pt1_cB_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_z));
     // pt1_mul181 = n_x * pt0_vA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul181;
@@ -1922,7 +2105,8 @@ module pgs_contact_pipe #(
     assign ev_unf[111] = fl_pt1_mul181[1] && ev_q[56];
     assign ev_inv[111] = fl_pt1_mul181[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul181;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul181 (.clk(clk), .d(pt1_mul181), .valid(1'b0), .q(dl_pt1_mul181));
     // pt1_mul182 = n_y * pt0_vA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul182;
@@ -1935,7 +2119,8 @@ module pgs_contact_pipe #(
     assign ev_unf[112] = fl_pt1_mul182[1] && ev_q[56];
     assign ev_inv[112] = fl_pt1_mul182[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul182;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul182 (.clk(clk), .d(pt1_mul182), .valid(1'b0), .q(dl_pt1_mul182));
     // pt1_add183 = pt1_mul181 + pt1_mul182   (ready @60/60/60)
     logic [W-1:0] pt1_add183;
@@ -1948,7 +2133,8 @@ module pgs_contact_pipe #(
     assign ev_unf[113] = fl_pt1_add183[1] && ev_q[60];
     assign ev_inv[113] = fl_pt1_add183[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add183;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add183 (.clk(clk), .d(pt1_add183), .valid(1'b0), .q(dl_pt1_add183));
     // pt1_mul184 = n_z * pt0_vA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul184;
@@ -1961,7 +2147,8 @@ module pgs_contact_pipe #(
     assign ev_unf[114] = fl_pt1_mul184[1] && ev_q[56];
     assign ev_inv[114] = fl_pt1_mul184[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul184;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul184 (.clk(clk), .d(pt1_mul184), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul184));
     // pt1_add185 = pt1_add183 + pt1_mul184   (ready @64/64/64)
     logic [W-1:0] pt1_add185;
@@ -1974,7 +2161,8 @@ module pgs_contact_pipe #(
     assign ev_unf[115] = fl_pt1_add185[1] && ev_q[64];
     assign ev_inv[115] = fl_pt1_add185[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add185;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add185 (.clk(clk), .d(pt1_add185), .valid(1'b0), .q(dl_pt1_add185));
     // pt1_mul186 = n_x * pt0_vB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul186;
@@ -1987,7 +2175,8 @@ module pgs_contact_pipe #(
     assign ev_unf[116] = fl_pt1_mul186[1] && ev_q[56];
     assign ev_inv[116] = fl_pt1_mul186[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul186;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul186 (.clk(clk), .d(pt1_mul186), .valid(1'b0), .q(dl_pt1_mul186));
     // pt1_mul187 = n_y * pt0_vB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul187;
@@ -2000,7 +2189,8 @@ module pgs_contact_pipe #(
     assign ev_unf[117] = fl_pt1_mul187[1] && ev_q[56];
     assign ev_inv[117] = fl_pt1_mul187[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul187;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul187 (.clk(clk), .d(pt1_mul187), .valid(1'b0), .q(dl_pt1_mul187));
     // pt1_add188 = pt1_mul186 + pt1_mul187   (ready @60/60/60)
     logic [W-1:0] pt1_add188;
@@ -2013,7 +2203,8 @@ module pgs_contact_pipe #(
     assign ev_unf[118] = fl_pt1_add188[1] && ev_q[60];
     assign ev_inv[118] = fl_pt1_add188[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add188;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add188 (.clk(clk), .d(pt1_add188), .valid(1'b0), .q(dl_pt1_add188));
     // pt1_mul189 = n_z * pt0_vB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul189;
@@ -2026,7 +2217,8 @@ module pgs_contact_pipe #(
     assign ev_unf[119] = fl_pt1_mul189[1] && ev_q[56];
     assign ev_inv[119] = fl_pt1_mul189[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul189;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul189 (.clk(clk), .d(pt1_mul189), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul189));
     // pt1_add190 = pt1_add188 + pt1_mul189   (ready @64/64/64)
     logic [W-1:0] pt1_add190;
@@ -2039,7 +2231,8 @@ module pgs_contact_pipe #(
     assign ev_unf[120] = fl_pt1_add190[1] && ev_q[64];
     assign ev_inv[120] = fl_pt1_add190[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add190;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add190 (.clk(clk), .d(pt1_add190), .valid(1'b0), .q(dl_pt1_add190));
     // pt1_sub191 = pt1_add185 - pt1_add190   (ready @68/68/68)
     logic [W-1:0] pt1_sub191;
@@ -2052,7 +2245,8 @@ module pgs_contact_pipe #(
     assign ev_unf[121] = fl_pt1_sub191[1] && ev_q[68];
     assign ev_inv[121] = fl_pt1_sub191[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub191;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub191 (.clk(clk), .d(pt1_sub191), .valid(1'b0), .q(dl_pt1_sub191));
     // pt1_mul192 = pt1_cA_x * pt0_wA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul192;
@@ -2065,7 +2259,8 @@ module pgs_contact_pipe #(
     assign ev_unf[122] = fl_pt1_mul192[1] && ev_q[56];
     assign ev_inv[122] = fl_pt1_mul192[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul192;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul192 (.clk(clk), .d(pt1_mul192), .valid(1'b0), .q(dl_pt1_mul192));
     // pt1_mul193 = pt1_cA_y * pt0_wA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul193;
@@ -2078,7 +2273,8 @@ module pgs_contact_pipe #(
     assign ev_unf[123] = fl_pt1_mul193[1] && ev_q[56];
     assign ev_inv[123] = fl_pt1_mul193[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul193;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul193 (.clk(clk), .d(pt1_mul193), .valid(1'b0), .q(dl_pt1_mul193));
     // pt1_add194 = pt1_mul192 + pt1_mul193   (ready @60/60/60)
     logic [W-1:0] pt1_add194;
@@ -2091,7 +2287,8 @@ module pgs_contact_pipe #(
     assign ev_unf[124] = fl_pt1_add194[1] && ev_q[60];
     assign ev_inv[124] = fl_pt1_add194[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add194;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add194 (.clk(clk), .d(pt1_add194), .valid(1'b0), .q(dl_pt1_add194));
     // pt1_mul195 = pt1_cA_z * pt0_wA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul195;
@@ -2104,7 +2301,8 @@ module pgs_contact_pipe #(
     assign ev_unf[125] = fl_pt1_mul195[1] && ev_q[56];
     assign ev_inv[125] = fl_pt1_mul195[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul195;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul195 (.clk(clk), .d(pt1_mul195), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul195));
     // pt1_add196 = pt1_add194 + pt1_mul195   (ready @64/64/64)
     logic [W-1:0] pt1_add196;
@@ -2117,7 +2315,8 @@ module pgs_contact_pipe #(
     assign ev_unf[126] = fl_pt1_add196[1] && ev_q[64];
     assign ev_inv[126] = fl_pt1_add196[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add196;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add196 (.clk(clk), .d(pt1_add196), .valid(1'b0), .q(dl_pt1_add196));
     // pt1_mul197 = pt1_cB_x * pt0_wB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul197;
@@ -2130,7 +2329,8 @@ module pgs_contact_pipe #(
     assign ev_unf[127] = fl_pt1_mul197[1] && ev_q[56];
     assign ev_inv[127] = fl_pt1_mul197[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul197;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul197 (.clk(clk), .d(pt1_mul197), .valid(1'b0), .q(dl_pt1_mul197));
     // pt1_mul198 = pt1_cB_y * pt0_wB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul198;
@@ -2143,7 +2343,8 @@ module pgs_contact_pipe #(
     assign ev_unf[128] = fl_pt1_mul198[1] && ev_q[56];
     assign ev_inv[128] = fl_pt1_mul198[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul198;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul198 (.clk(clk), .d(pt1_mul198), .valid(1'b0), .q(dl_pt1_mul198));
     // pt1_add199 = pt1_mul197 + pt1_mul198   (ready @60/60/60)
     logic [W-1:0] pt1_add199;
@@ -2156,7 +2357,8 @@ module pgs_contact_pipe #(
     assign ev_unf[129] = fl_pt1_add199[1] && ev_q[60];
     assign ev_inv[129] = fl_pt1_add199[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add199;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add199 (.clk(clk), .d(pt1_add199), .valid(1'b0), .q(dl_pt1_add199));
     // pt1_mul200 = pt1_cB_z * pt0_wB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul200;
@@ -2169,7 +2371,8 @@ module pgs_contact_pipe #(
     assign ev_unf[130] = fl_pt1_mul200[1] && ev_q[56];
     assign ev_inv[130] = fl_pt1_mul200[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul200;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul200 (.clk(clk), .d(pt1_mul200), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul200));
     // pt1_add201 = pt1_add199 + pt1_mul200   (ready @64/64/64)
     logic [W-1:0] pt1_add201;
@@ -2182,7 +2385,8 @@ module pgs_contact_pipe #(
     assign ev_unf[131] = fl_pt1_add201[1] && ev_q[64];
     assign ev_inv[131] = fl_pt1_add201[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add201;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add201 (.clk(clk), .d(pt1_add201), .valid(1'b0), .q(dl_pt1_add201));
     // pt1_sub202 = pt1_add196 - pt1_add201   (ready @68/68/68)
     logic [W-1:0] pt1_sub202;
@@ -2195,7 +2399,8 @@ module pgs_contact_pipe #(
     assign ev_unf[132] = fl_pt1_sub202[1] && ev_q[68];
     assign ev_inv[132] = fl_pt1_sub202[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub202;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub202 (.clk(clk), .d(pt1_sub202), .valid(1'b0), .q(dl_pt1_sub202));
     // pt1_vrel = pt1_sub191 + pt1_sub202   (ready @72/72/72)
     logic [W-1:0] pt1_vrel;
@@ -2208,7 +2413,8 @@ module pgs_contact_pipe #(
     assign ev_unf[133] = fl_pt1_vrel[1] && ev_q[72];
     assign ev_inv[133] = fl_pt1_vrel[2] && ev_q[72];
     logic [W-1:0] dl_pt1_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vrel (.clk(clk), .d(pt1_vrel), .valid(1'b0), .q(dl_pt1_vrel));
     // pt1_add204 = pt1_vrel + b1   (ready @76/76/76)
     logic [W-1:0] pt1_add204;
@@ -2221,7 +2427,8 @@ module pgs_contact_pipe #(
     assign ev_unf[134] = fl_pt1_add204[1] && ev_q[76];
     assign ev_inv[134] = fl_pt1_add204[2] && ev_q[76];
     logic [W-1:0] dl_pt1_add204;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add204 (.clk(clk), .d(pt1_add204), .valid(1'b0), .q(dl_pt1_add204));
     // pt1_delta0 = pt1_add204 * jac_inv1   (ready @79/79/79)
     logic [W-1:0] pt1_delta0;
@@ -2234,7 +2441,8 @@ module pgs_contact_pipe #(
     assign ev_unf[135] = fl_pt1_delta0[1] && ev_q[79];
     assign ev_inv[135] = fl_pt1_delta0[2] && ev_q[79];
     logic [W-1:0] dl_pt1_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_delta0 (.clk(clk), .d(pt1_delta0), .valid(1'b0), .q(dl_pt1_delta0));
     // pt1_add206 = lam1 + pt1_delta0   (ready @83/83/83)
     logic [W-1:0] pt1_add206;
@@ -2247,7 +2455,8 @@ module pgs_contact_pipe #(
     assign ev_unf[136] = fl_pt1_add206[1] && ev_q[83];
     assign ev_inv[136] = fl_pt1_add206[2] && ev_q[83];
     logic [W-1:0] dl_pt1_add206;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add206 (.clk(clk), .d(pt1_add206), .valid(1'b0), .q(dl_pt1_add206));
     // pt1_lam_new = max(pt1_add206, 0.0)   (ready @84/84/84)
     logic [W-1:0] pt1_lam_new;
@@ -2257,7 +2466,8 @@ module pgs_contact_pipe #(
         .lt(nc_pt1_lam_new_lt), .eq(nc_pt1_lam_new_eq), .unordered(nc_pt1_lam_new_uo)
     );
     logic [W-1:0] dl_pt1_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_lam_new (.clk(clk), .d(pt1_lam_new), .valid(1'b0), .q(dl_pt1_lam_new));
     // pt1_delta = pt1_lam_new - lam1   (ready @88/88/88)
     logic [W-1:0] pt1_delta;
@@ -2270,13 +2480,15 @@ module pgs_contact_pipe #(
     assign ev_unf[137] = fl_pt1_delta[1] && ev_q[88];
     assign ev_inv[137] = fl_pt1_delta[2] && ev_q[88];
     logic [W-1:0] dl_pt1_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_delta (.clk(clk), .d(pt1_delta), .valid(1'b0), .q(dl_pt1_delta));
     // pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (ready @84/84/84)
     logic [W-1:0] pt1_lam;
     assign pt1_lam = dl_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_pt1_lam_new;
     logic [W-1:0] dl_pt1_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(95))
+    pgs_delay #(.WIDTH(W), .DEPTH(95),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_lam (.clk(clk), .d(pt1_lam), .valid(valid_q[84 +: 95]), .q(dl_pt1_lam));
     // pt1_angA_x = IInvA_x * pt1_cA_x   (ready @14/14/14)
     logic [W-1:0] pt1_angA_x;
@@ -2289,7 +2501,8 @@ module pgs_contact_pipe #(
     assign ev_unf[138] = fl_pt1_angA_x[1] && ev_q[14];
     assign ev_inv[138] = fl_pt1_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angA_x (.clk(clk), .d(pt1_angA_x), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_x));
     // pt1_angA_y = IInvA_y * pt1_cA_y   (ready @14/14/14)
     logic [W-1:0] pt1_angA_y;
@@ -2302,7 +2515,8 @@ module pgs_contact_pipe #(
     assign ev_unf[139] = fl_pt1_angA_y[1] && ev_q[14];
     assign ev_inv[139] = fl_pt1_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angA_y (.clk(clk), .d(pt1_angA_y), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_y));
     // pt1_angA_z = IInvA_z * pt1_cA_z   (ready @14/14/14)
     logic [W-1:0] pt1_angA_z;
@@ -2315,7 +2529,8 @@ module pgs_contact_pipe #(
     assign ev_unf[140] = fl_pt1_angA_z[1] && ev_q[14];
     assign ev_inv[140] = fl_pt1_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angA_z (.clk(clk), .d(pt1_angA_z), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_z));
     // pt1_angB_x = IInvB_x * pt1_cB_x   (ready @14/14/14)
     logic [W-1:0] pt1_angB_x;
@@ -2328,7 +2543,8 @@ module pgs_contact_pipe #(
     assign ev_unf[141] = fl_pt1_angB_x[1] && ev_q[14];
     assign ev_inv[141] = fl_pt1_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angB_x (.clk(clk), .d(pt1_angB_x), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_x));
     // pt1_angB_y = IInvB_y * pt1_cB_y   (ready @14/14/14)
     logic [W-1:0] pt1_angB_y;
@@ -2341,7 +2557,8 @@ module pgs_contact_pipe #(
     assign ev_unf[142] = fl_pt1_angB_y[1] && ev_q[14];
     assign ev_inv[142] = fl_pt1_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angB_y (.clk(clk), .d(pt1_angB_y), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_y));
     // pt1_angB_z = IInvB_z * pt1_cB_z   (ready @14/14/14)
     logic [W-1:0] pt1_angB_z;
@@ -2354,7 +2571,8 @@ module pgs_contact_pipe #(
     assign ev_unf[143] = fl_pt1_angB_z[1] && ev_q[14];
     assign ev_inv[143] = fl_pt1_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angB_z (.clk(clk), .d(pt1_angB_z), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_z));
     // pt1_mul216 = linA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul216;
@@ -2367,7 +2585,8 @@ module pgs_contact_pipe #(
     assign ev_unf[144] = fl_pt1_mul216[1] && ev_q[91];
     assign ev_inv[144] = fl_pt1_mul216[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul216;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul216 (.clk(clk), .d(pt1_mul216), .valid(1'b0), .q(dl_pt1_mul216));
     // pt1_mul217 = linA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul217;
@@ -2380,7 +2599,8 @@ module pgs_contact_pipe #(
     assign ev_unf[145] = fl_pt1_mul217[1] && ev_q[91];
     assign ev_inv[145] = fl_pt1_mul217[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul217;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul217 (.clk(clk), .d(pt1_mul217), .valid(1'b0), .q(dl_pt1_mul217));
     // pt1_mul218 = linA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul218;
@@ -2393,7 +2613,8 @@ module pgs_contact_pipe #(
     assign ev_unf[146] = fl_pt1_mul218[1] && ev_q[91];
     assign ev_inv[146] = fl_pt1_mul218[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul218;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul218 (.clk(clk), .d(pt1_mul218), .valid(1'b0), .q(dl_pt1_mul218));
     // pt1_add219 = pt0_vA_x + pt1_mul216   (ready @95/95/95)
     logic [W-1:0] pt1_add219;
@@ -2406,7 +2627,8 @@ module pgs_contact_pipe #(
     assign ev_unf[147] = fl_pt1_add219[1] && ev_q[95];
     assign ev_inv[147] = fl_pt1_add219[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add219;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add219 (.clk(clk), .d(pt1_add219), .valid(1'b0), .q(dl_pt1_add219));
     // pt1_add220 = pt0_vA_y + pt1_mul217   (ready @95/95/95)
     logic [W-1:0] pt1_add220;
@@ -2419,7 +2641,8 @@ module pgs_contact_pipe #(
     assign ev_unf[148] = fl_pt1_add220[1] && ev_q[95];
     assign ev_inv[148] = fl_pt1_add220[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add220;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add220 (.clk(clk), .d(pt1_add220), .valid(1'b0), .q(dl_pt1_add220));
     // pt1_add221 = pt0_vA_z + pt1_mul218   (ready @95/95/95)
     logic [W-1:0] pt1_add221;
@@ -2432,25 +2655,29 @@ module pgs_contact_pipe #(
     assign ev_unf[149] = fl_pt1_add221[1] && ev_q[95];
     assign ev_inv[149] = fl_pt1_add221[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add221;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add221 (.clk(clk), .d(pt1_add221), .valid(1'b0), .q(dl_pt1_add221));
     // pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add219   (ready @95/95/95)
     logic [W-1:0] pt1_vA_x;
     assign pt1_vA_x = dl_pt1_skip[1] ? dl_pt0_vA_x[2*W +: W] : dl_pt1_add219;
     logic [3*W-1:0] dl_pt1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vA_x (.clk(clk), .d(pt1_vA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_x));
     // pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add220   (ready @95/95/95)
     logic [W-1:0] pt1_vA_y;
     assign pt1_vA_y = dl_pt1_skip[1] ? dl_pt0_vA_y[2*W +: W] : dl_pt1_add220;
     logic [3*W-1:0] dl_pt1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vA_y (.clk(clk), .d(pt1_vA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_y));
     // pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add221   (ready @95/95/95)
     logic [W-1:0] pt1_vA_z;
     assign pt1_vA_z = dl_pt1_skip[1] ? dl_pt0_vA_z[2*W +: W] : dl_pt1_add221;
     logic [3*W-1:0] dl_pt1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vA_z (.clk(clk), .d(pt1_vA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_z));
     // pt1_mul225 = pt1_angA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul225;
@@ -2463,7 +2690,8 @@ module pgs_contact_pipe #(
     assign ev_unf[150] = fl_pt1_mul225[1] && ev_q[91];
     assign ev_inv[150] = fl_pt1_mul225[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul225;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul225 (.clk(clk), .d(pt1_mul225), .valid(1'b0), .q(dl_pt1_mul225));
     // pt1_mul226 = pt1_angA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul226;
@@ -2476,7 +2704,8 @@ module pgs_contact_pipe #(
     assign ev_unf[151] = fl_pt1_mul226[1] && ev_q[91];
     assign ev_inv[151] = fl_pt1_mul226[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul226;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul226 (.clk(clk), .d(pt1_mul226), .valid(1'b0), .q(dl_pt1_mul226));
     // pt1_mul227 = pt1_angA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul227;
@@ -2489,7 +2718,8 @@ module pgs_contact_pipe #(
     assign ev_unf[152] = fl_pt1_mul227[1] && ev_q[91];
     assign ev_inv[152] = fl_pt1_mul227[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul227;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul227 (.clk(clk), .d(pt1_mul227), .valid(1'b0), .q(dl_pt1_mul227));
     // pt1_add228 = pt0_wA_x + pt1_mul225   (ready @95/95/95)
     logic [W-1:0] pt1_add228;
@@ -2502,7 +2732,8 @@ module pgs_contact_pipe #(
     assign ev_unf[153] = fl_pt1_add228[1] && ev_q[95];
     assign ev_inv[153] = fl_pt1_add228[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add228;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add228 (.clk(clk), .d(pt1_add228), .valid(1'b0), .q(dl_pt1_add228));
     // pt1_add229 = pt0_wA_y + pt1_mul226   (ready @95/95/95)
     logic [W-1:0] pt1_add229;
@@ -2515,7 +2746,8 @@ module pgs_contact_pipe #(
     assign ev_unf[154] = fl_pt1_add229[1] && ev_q[95];
     assign ev_inv[154] = fl_pt1_add229[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add229;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add229 (.clk(clk), .d(pt1_add229), .valid(1'b0), .q(dl_pt1_add229));
     // pt1_add230 = pt0_wA_z + pt1_mul227   (ready @95/95/95)
     logic [W-1:0] pt1_add230;
@@ -2528,25 +2760,29 @@ module pgs_contact_pipe #(
     assign ev_unf[155] = fl_pt1_add230[1] && ev_q[95];
     assign ev_inv[155] = fl_pt1_add230[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add230;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add230 (.clk(clk), .d(pt1_add230), .valid(1'b0), .q(dl_pt1_add230));
     // pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add228   (ready @95/95/95)
     logic [W-1:0] pt1_wA_x;
     assign pt1_wA_x = dl_pt1_skip[1] ? dl_pt0_wA_x[2*W +: W] : dl_pt1_add228;
     logic [3*W-1:0] dl_pt1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wA_x (.clk(clk), .d(pt1_wA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_x));
     // pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add229   (ready @95/95/95)
     logic [W-1:0] pt1_wA_y;
     assign pt1_wA_y = dl_pt1_skip[1] ? dl_pt0_wA_y[2*W +: W] : dl_pt1_add229;
     logic [3*W-1:0] dl_pt1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wA_y (.clk(clk), .d(pt1_wA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_y));
     // pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add230   (ready @95/95/95)
     logic [W-1:0] pt1_wA_z;
     assign pt1_wA_z = dl_pt1_skip[1] ? dl_pt0_wA_z[2*W +: W] : dl_pt1_add230;
     logic [3*W-1:0] dl_pt1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wA_z (.clk(clk), .d(pt1_wA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_z));
     // pt1_mul234 = linB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul234;
@@ -2559,7 +2795,8 @@ module pgs_contact_pipe #(
     assign ev_unf[156] = fl_pt1_mul234[1] && ev_q[91];
     assign ev_inv[156] = fl_pt1_mul234[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul234;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul234 (.clk(clk), .d(pt1_mul234), .valid(1'b0), .q(dl_pt1_mul234));
     // pt1_mul235 = linB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul235;
@@ -2572,7 +2809,8 @@ module pgs_contact_pipe #(
     assign ev_unf[157] = fl_pt1_mul235[1] && ev_q[91];
     assign ev_inv[157] = fl_pt1_mul235[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul235;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul235 (.clk(clk), .d(pt1_mul235), .valid(1'b0), .q(dl_pt1_mul235));
     // pt1_mul236 = linB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul236;
@@ -2585,7 +2823,8 @@ module pgs_contact_pipe #(
     assign ev_unf[158] = fl_pt1_mul236[1] && ev_q[91];
     assign ev_inv[158] = fl_pt1_mul236[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul236;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul236 (.clk(clk), .d(pt1_mul236), .valid(1'b0), .q(dl_pt1_mul236));
     // pt1_sub237 = pt0_vB_x - pt1_mul234   (ready @95/95/95)
     logic [W-1:0] pt1_sub237;
@@ -2598,7 +2837,8 @@ module pgs_contact_pipe #(
     assign ev_unf[159] = fl_pt1_sub237[1] && ev_q[95];
     assign ev_inv[159] = fl_pt1_sub237[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub237;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub237 (.clk(clk), .d(pt1_sub237), .valid(1'b0), .q(dl_pt1_sub237));
     // pt1_sub238 = pt0_vB_y - pt1_mul235   (ready @95/95/95)
     logic [W-1:0] pt1_sub238;
@@ -2611,7 +2851,8 @@ module pgs_contact_pipe #(
     assign ev_unf[160] = fl_pt1_sub238[1] && ev_q[95];
     assign ev_inv[160] = fl_pt1_sub238[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub238;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub238 (.clk(clk), .d(pt1_sub238), .valid(1'b0), .q(dl_pt1_sub238));
     // pt1_sub239 = pt0_vB_z - pt1_mul236   (ready @95/95/95)
     logic [W-1:0] pt1_sub239;
@@ -2624,25 +2865,29 @@ module pgs_contact_pipe #(
     assign ev_unf[161] = fl_pt1_sub239[1] && ev_q[95];
     assign ev_inv[161] = fl_pt1_sub239[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub239;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub239 (.clk(clk), .d(pt1_sub239), .valid(1'b0), .q(dl_pt1_sub239));
     // pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub237   (ready @95/95/95)
     logic [W-1:0] pt1_vB_x;
     assign pt1_vB_x = dl_pt1_skip[1] ? dl_pt0_vB_x[2*W +: W] : dl_pt1_sub237;
     logic [3*W-1:0] dl_pt1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vB_x (.clk(clk), .d(pt1_vB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_x));
     // pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub238   (ready @95/95/95)
     logic [W-1:0] pt1_vB_y;
     assign pt1_vB_y = dl_pt1_skip[1] ? dl_pt0_vB_y[2*W +: W] : dl_pt1_sub238;
     logic [3*W-1:0] dl_pt1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vB_y (.clk(clk), .d(pt1_vB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_y));
     // pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub239   (ready @95/95/95)
     logic [W-1:0] pt1_vB_z;
     assign pt1_vB_z = dl_pt1_skip[1] ? dl_pt0_vB_z[2*W +: W] : dl_pt1_sub239;
     logic [3*W-1:0] dl_pt1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vB_z (.clk(clk), .d(pt1_vB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_z));
     // pt1_mul243 = pt1_angB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul243;
@@ -2655,7 +2900,8 @@ module pgs_contact_pipe #(
     assign ev_unf[162] = fl_pt1_mul243[1] && ev_q[91];
     assign ev_inv[162] = fl_pt1_mul243[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul243;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul243 (.clk(clk), .d(pt1_mul243), .valid(1'b0), .q(dl_pt1_mul243));
     // pt1_mul244 = pt1_angB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul244;
@@ -2668,7 +2914,8 @@ module pgs_contact_pipe #(
     assign ev_unf[163] = fl_pt1_mul244[1] && ev_q[91];
     assign ev_inv[163] = fl_pt1_mul244[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul244;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul244 (.clk(clk), .d(pt1_mul244), .valid(1'b0), .q(dl_pt1_mul244));
     // pt1_mul245 = pt1_angB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul245;
@@ -2681,7 +2928,8 @@ module pgs_contact_pipe #(
     assign ev_unf[164] = fl_pt1_mul245[1] && ev_q[91];
     assign ev_inv[164] = fl_pt1_mul245[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul245;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul245 (.clk(clk), .d(pt1_mul245), .valid(1'b0), .q(dl_pt1_mul245));
     // pt1_sub246 = pt0_wB_x - pt1_mul243   (ready @95/95/95)
     logic [W-1:0] pt1_sub246;
@@ -2694,7 +2942,8 @@ module pgs_contact_pipe #(
     assign ev_unf[165] = fl_pt1_sub246[1] && ev_q[95];
     assign ev_inv[165] = fl_pt1_sub246[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub246;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub246 (.clk(clk), .d(pt1_sub246), .valid(1'b0), .q(dl_pt1_sub246));
     // pt1_sub247 = pt0_wB_y - pt1_mul244   (ready @95/95/95)
     logic [W-1:0] pt1_sub247;
@@ -2707,7 +2956,8 @@ module pgs_contact_pipe #(
     assign ev_unf[166] = fl_pt1_sub247[1] && ev_q[95];
     assign ev_inv[166] = fl_pt1_sub247[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub247;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub247 (.clk(clk), .d(pt1_sub247), .valid(1'b0), .q(dl_pt1_sub247));
     // pt1_sub248 = pt0_wB_z - pt1_mul245   (ready @95/95/95)
     logic [W-1:0] pt1_sub248;
@@ -2720,31 +2970,36 @@ module pgs_contact_pipe #(
     assign ev_unf[167] = fl_pt1_sub248[1] && ev_q[95];
     assign ev_inv[167] = fl_pt1_sub248[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub248;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub248 (.clk(clk), .d(pt1_sub248), .valid(1'b0), .q(dl_pt1_sub248));
     // pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub246   (ready @95/95/95)
     logic [W-1:0] pt1_wB_x;
     assign pt1_wB_x = dl_pt1_skip[1] ? dl_pt0_wB_x[2*W +: W] : dl_pt1_sub246;
     logic [3*W-1:0] dl_pt1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wB_x (.clk(clk), .d(pt1_wB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_x));
     // pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub247   (ready @95/95/95)
     logic [W-1:0] pt1_wB_y;
     assign pt1_wB_y = dl_pt1_skip[1] ? dl_pt0_wB_y[2*W +: W] : dl_pt1_sub247;
     logic [3*W-1:0] dl_pt1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wB_y (.clk(clk), .d(pt1_wB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_y));
     // pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub248   (ready @95/95/95)
     logic [W-1:0] pt1_wB_z;
     assign pt1_wB_z = dl_pt1_skip[1] ? dl_pt0_wB_z[2*W +: W] : dl_pt1_sub248;
     logic [3*W-1:0] dl_pt1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wB_z (.clk(clk), .d(pt1_wB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_z));
     // pt2_skip = jac_inv2 == 0   (ready @0/0/0)
     logic pt2_skip;
     assign pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt2_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_skip (.clk(clk), .d(pt2_skip), .valid(valid_q[0 +: 137]), .q(dl_pt2_skip));
     // pt2_rA_x = p2_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt2_rA_x;
@@ -2757,7 +3012,8 @@ module pgs_contact_pipe #(
     assign ev_unf[168] = fl_pt2_rA_x[1] && ev_q[4];
     assign ev_inv[168] = fl_pt2_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rA_x (.clk(clk), .d(pt2_rA_x), .valid(1'b0), .q(dl_pt2_rA_x));
     // pt2_rA_y = p2_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt2_rA_y;
@@ -2770,7 +3026,8 @@ module pgs_contact_pipe #(
     assign ev_unf[169] = fl_pt2_rA_y[1] && ev_q[4];
     assign ev_inv[169] = fl_pt2_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rA_y (.clk(clk), .d(pt2_rA_y), .valid(1'b0), .q(dl_pt2_rA_y));
     // pt2_rA_z = p2_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt2_rA_z;
@@ -2783,7 +3040,8 @@ module pgs_contact_pipe #(
     assign ev_unf[170] = fl_pt2_rA_z[1] && ev_q[4];
     assign ev_inv[170] = fl_pt2_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rA_z (.clk(clk), .d(pt2_rA_z), .valid(1'b0), .q(dl_pt2_rA_z));
     // pt2_mul256 = pt2_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul256;
@@ -2796,7 +3054,8 @@ module pgs_contact_pipe #(
     assign ev_unf[171] = fl_pt2_mul256[1] && ev_q[7];
     assign ev_inv[171] = fl_pt2_mul256[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul256;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul256 (.clk(clk), .d(pt2_mul256), .valid(1'b0), .q(dl_pt2_mul256));
     // pt2_mul257 = pt2_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul257;
@@ -2809,7 +3068,8 @@ module pgs_contact_pipe #(
     assign ev_unf[172] = fl_pt2_mul257[1] && ev_q[7];
     assign ev_inv[172] = fl_pt2_mul257[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul257;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul257 (.clk(clk), .d(pt2_mul257), .valid(1'b0), .q(dl_pt2_mul257));
     // pt2_cA_x = pt2_mul256 - pt2_mul257   (ready @11/11/11)
     logic [W-1:0] pt2_cA_x;
@@ -2822,7 +3082,8 @@ module pgs_contact_pipe #(
     assign ev_unf[173] = fl_pt2_cA_x[1] && ev_q[11];
     assign ev_inv[173] = fl_pt2_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cA_x (.clk(clk), .d(pt2_cA_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_x));
     // pt2_mul259 = pt2_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul259;
@@ -2835,7 +3096,8 @@ module pgs_contact_pipe #(
     assign ev_unf[174] = fl_pt2_mul259[1] && ev_q[7];
     assign ev_inv[174] = fl_pt2_mul259[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul259;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul259 (.clk(clk), .d(pt2_mul259), .valid(1'b0), .q(dl_pt2_mul259));
     // pt2_mul260 = pt2_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul260;
@@ -2848,7 +3110,8 @@ module pgs_contact_pipe #(
     assign ev_unf[175] = fl_pt2_mul260[1] && ev_q[7];
     assign ev_inv[175] = fl_pt2_mul260[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul260;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul260 (.clk(clk), .d(pt2_mul260), .valid(1'b0), .q(dl_pt2_mul260));
     // pt2_cA_y = pt2_mul259 - pt2_mul260   (ready @11/11/11)
     logic [W-1:0] pt2_cA_y;
@@ -2861,7 +3124,8 @@ module pgs_contact_pipe #(
     assign ev_unf[176] = fl_pt2_cA_y[1] && ev_q[11];
     assign ev_inv[176] = fl_pt2_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cA_y (.clk(clk), .d(pt2_cA_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_y));
     // pt2_mul262 = pt2_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul262;
@@ -2874,7 +3138,8 @@ module pgs_contact_pipe #(
     assign ev_unf[177] = fl_pt2_mul262[1] && ev_q[7];
     assign ev_inv[177] = fl_pt2_mul262[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul262;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul262 (.clk(clk), .d(pt2_mul262), .valid(1'b0), .q(dl_pt2_mul262));
     // pt2_mul263 = pt2_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul263;
@@ -2887,7 +3152,8 @@ module pgs_contact_pipe #(
     assign ev_unf[178] = fl_pt2_mul263[1] && ev_q[7];
     assign ev_inv[178] = fl_pt2_mul263[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul263;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul263 (.clk(clk), .d(pt2_mul263), .valid(1'b0), .q(dl_pt2_mul263));
     // pt2_cA_z = pt2_mul262 - pt2_mul263   (ready @11/11/11)
     logic [W-1:0] pt2_cA_z;
@@ -2900,7 +3166,8 @@ module pgs_contact_pipe #(
     assign ev_unf[179] = fl_pt2_cA_z[1] && ev_q[11];
     assign ev_inv[179] = fl_pt2_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cA_z (.clk(clk), .d(pt2_cA_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_z));
     // pt2_rB_x = p2_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt2_rB_x;
@@ -2913,7 +3180,8 @@ module pgs_contact_pipe #(
     assign ev_unf[180] = fl_pt2_rB_x[1] && ev_q[4];
     assign ev_inv[180] = fl_pt2_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rB_x (.clk(clk), .d(pt2_rB_x), .valid(1'b0), .q(dl_pt2_rB_x));
     // pt2_rB_y = p2_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt2_rB_y;
@@ -2926,7 +3194,8 @@ module pgs_contact_pipe #(
     assign ev_unf[181] = fl_pt2_rB_y[1] && ev_q[4];
     assign ev_inv[181] = fl_pt2_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rB_y (.clk(clk), .d(pt2_rB_y), .valid(1'b0), .q(dl_pt2_rB_y));
     // pt2_rB_z = p2_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt2_rB_z;
@@ -2939,7 +3208,8 @@ module pgs_contact_pipe #(
     assign ev_unf[182] = fl_pt2_rB_z[1] && ev_q[4];
     assign ev_inv[182] = fl_pt2_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rB_z (.clk(clk), .d(pt2_rB_z), .valid(1'b0), .q(dl_pt2_rB_z));
     // pt2_mul268 = pt2_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul268;
@@ -2952,7 +3222,8 @@ module pgs_contact_pipe #(
     assign ev_unf[183] = fl_pt2_mul268[1] && ev_q[7];
     assign ev_inv[183] = fl_pt2_mul268[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul268;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul268 (.clk(clk), .d(pt2_mul268), .valid(1'b0), .q(dl_pt2_mul268));
     // pt2_mul269 = pt2_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul269;
@@ -2965,7 +3236,8 @@ module pgs_contact_pipe #(
     assign ev_unf[184] = fl_pt2_mul269[1] && ev_q[7];
     assign ev_inv[184] = fl_pt2_mul269[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul269;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul269 (.clk(clk), .d(pt2_mul269), .valid(1'b0), .q(dl_pt2_mul269));
     // pt2_cB_x = pt2_mul268 - pt2_mul269   (ready @11/11/11)
     logic [W-1:0] pt2_cB_x;
@@ -2978,7 +3250,8 @@ module pgs_contact_pipe #(
     assign ev_unf[185] = fl_pt2_cB_x[1] && ev_q[11];
     assign ev_inv[185] = fl_pt2_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cB_x (.clk(clk), .d(pt2_cB_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_x));
     // pt2_mul271 = pt2_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul271;
@@ -2991,7 +3264,8 @@ module pgs_contact_pipe #(
     assign ev_unf[186] = fl_pt2_mul271[1] && ev_q[7];
     assign ev_inv[186] = fl_pt2_mul271[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul271;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul271 (.clk(clk), .d(pt2_mul271), .valid(1'b0), .q(dl_pt2_mul271));
     // pt2_mul272 = pt2_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul272;
@@ -3004,7 +3278,8 @@ module pgs_contact_pipe #(
     assign ev_unf[187] = fl_pt2_mul272[1] && ev_q[7];
     assign ev_inv[187] = fl_pt2_mul272[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul272;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul272 (.clk(clk), .d(pt2_mul272), .valid(1'b0), .q(dl_pt2_mul272));
     // pt2_cB_y = pt2_mul271 - pt2_mul272   (ready @11/11/11)
     logic [W-1:0] pt2_cB_y;
@@ -3017,7 +3292,8 @@ module pgs_contact_pipe #(
     assign ev_unf[188] = fl_pt2_cB_y[1] && ev_q[11];
     assign ev_inv[188] = fl_pt2_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cB_y (.clk(clk), .d(pt2_cB_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_y));
     // pt2_mul274 = pt2_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul274;
@@ -3030,7 +3306,8 @@ module pgs_contact_pipe #(
     assign ev_unf[189] = fl_pt2_mul274[1] && ev_q[7];
     assign ev_inv[189] = fl_pt2_mul274[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul274;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul274 (.clk(clk), .d(pt2_mul274), .valid(1'b0), .q(dl_pt2_mul274));
     // pt2_mul275 = pt2_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul275;
@@ -3043,7 +3320,8 @@ module pgs_contact_pipe #(
     assign ev_unf[190] = fl_pt2_mul275[1] && ev_q[7];
     assign ev_inv[190] = fl_pt2_mul275[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul275;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul275 (.clk(clk), .d(pt2_mul275), .valid(1'b0), .q(dl_pt2_mul275));
     // pt2_cB_z = pt2_mul274 - pt2_mul275   (ready @11/11/11)
     logic [W-1:0] pt2_cB_z;
@@ -3056,7 +3334,8 @@ module pgs_contact_pipe #(
     assign ev_unf[191] = fl_pt2_cB_z[1] && ev_q[11];
     assign ev_inv[191] = fl_pt2_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cB_z (.clk(clk), .d(pt2_cB_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_z));
     // pt2_mul277 = n_x * pt1_vA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul277;
@@ -3069,7 +3348,8 @@ module pgs_contact_pipe #(
     assign ev_unf[192] = fl_pt2_mul277[1] && ev_q[98];
     assign ev_inv[192] = fl_pt2_mul277[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul277;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul277 (.clk(clk), .d(pt2_mul277), .valid(1'b0), .q(dl_pt2_mul277));
     // pt2_mul278 = n_y * pt1_vA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul278;
@@ -3082,7 +3362,8 @@ module pgs_contact_pipe #(
     assign ev_unf[193] = fl_pt2_mul278[1] && ev_q[98];
     assign ev_inv[193] = fl_pt2_mul278[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul278;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul278 (.clk(clk), .d(pt2_mul278), .valid(1'b0), .q(dl_pt2_mul278));
     // pt2_add279 = pt2_mul277 + pt2_mul278   (ready @102/102/102)
     logic [W-1:0] pt2_add279;
@@ -3095,7 +3376,8 @@ module pgs_contact_pipe #(
     assign ev_unf[194] = fl_pt2_add279[1] && ev_q[102];
     assign ev_inv[194] = fl_pt2_add279[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add279;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add279 (.clk(clk), .d(pt2_add279), .valid(1'b0), .q(dl_pt2_add279));
     // pt2_mul280 = n_z * pt1_vA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul280;
@@ -3108,7 +3390,8 @@ module pgs_contact_pipe #(
     assign ev_unf[195] = fl_pt2_mul280[1] && ev_q[98];
     assign ev_inv[195] = fl_pt2_mul280[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul280;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul280 (.clk(clk), .d(pt2_mul280), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul280));
     // pt2_add281 = pt2_add279 + pt2_mul280   (ready @106/106/106)
     logic [W-1:0] pt2_add281;
@@ -3121,7 +3404,8 @@ module pgs_contact_pipe #(
     assign ev_unf[196] = fl_pt2_add281[1] && ev_q[106];
     assign ev_inv[196] = fl_pt2_add281[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add281;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add281 (.clk(clk), .d(pt2_add281), .valid(1'b0), .q(dl_pt2_add281));
     // pt2_mul282 = n_x * pt1_vB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul282;
@@ -3134,7 +3418,8 @@ module pgs_contact_pipe #(
     assign ev_unf[197] = fl_pt2_mul282[1] && ev_q[98];
     assign ev_inv[197] = fl_pt2_mul282[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul282;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul282 (.clk(clk), .d(pt2_mul282), .valid(1'b0), .q(dl_pt2_mul282));
     // pt2_mul283 = n_y * pt1_vB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul283;
@@ -3147,7 +3432,8 @@ module pgs_contact_pipe #(
     assign ev_unf[198] = fl_pt2_mul283[1] && ev_q[98];
     assign ev_inv[198] = fl_pt2_mul283[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul283;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul283 (.clk(clk), .d(pt2_mul283), .valid(1'b0), .q(dl_pt2_mul283));
     // pt2_add284 = pt2_mul282 + pt2_mul283   (ready @102/102/102)
     logic [W-1:0] pt2_add284;
@@ -3160,7 +3446,8 @@ module pgs_contact_pipe #(
     assign ev_unf[199] = fl_pt2_add284[1] && ev_q[102];
     assign ev_inv[199] = fl_pt2_add284[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add284;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add284 (.clk(clk), .d(pt2_add284), .valid(1'b0), .q(dl_pt2_add284));
     // pt2_mul285 = n_z * pt1_vB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul285;
@@ -3173,7 +3460,8 @@ module pgs_contact_pipe #(
     assign ev_unf[200] = fl_pt2_mul285[1] && ev_q[98];
     assign ev_inv[200] = fl_pt2_mul285[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul285;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul285 (.clk(clk), .d(pt2_mul285), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul285));
     // pt2_add286 = pt2_add284 + pt2_mul285   (ready @106/106/106)
     logic [W-1:0] pt2_add286;
@@ -3186,7 +3474,8 @@ module pgs_contact_pipe #(
     assign ev_unf[201] = fl_pt2_add286[1] && ev_q[106];
     assign ev_inv[201] = fl_pt2_add286[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add286;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add286 (.clk(clk), .d(pt2_add286), .valid(1'b0), .q(dl_pt2_add286));
     // pt2_sub287 = pt2_add281 - pt2_add286   (ready @110/110/110)
     logic [W-1:0] pt2_sub287;
@@ -3199,7 +3488,8 @@ module pgs_contact_pipe #(
     assign ev_unf[202] = fl_pt2_sub287[1] && ev_q[110];
     assign ev_inv[202] = fl_pt2_sub287[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub287;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub287 (.clk(clk), .d(pt2_sub287), .valid(1'b0), .q(dl_pt2_sub287));
     // pt2_mul288 = pt2_cA_x * pt1_wA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul288;
@@ -3212,7 +3502,8 @@ module pgs_contact_pipe #(
     assign ev_unf[203] = fl_pt2_mul288[1] && ev_q[98];
     assign ev_inv[203] = fl_pt2_mul288[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul288;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul288 (.clk(clk), .d(pt2_mul288), .valid(1'b0), .q(dl_pt2_mul288));
     // pt2_mul289 = pt2_cA_y * pt1_wA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul289;
@@ -3225,7 +3516,8 @@ module pgs_contact_pipe #(
     assign ev_unf[204] = fl_pt2_mul289[1] && ev_q[98];
     assign ev_inv[204] = fl_pt2_mul289[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul289;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul289 (.clk(clk), .d(pt2_mul289), .valid(1'b0), .q(dl_pt2_mul289));
     // pt2_add290 = pt2_mul288 + pt2_mul289   (ready @102/102/102)
     logic [W-1:0] pt2_add290;
@@ -3238,7 +3530,8 @@ module pgs_contact_pipe #(
     assign ev_unf[205] = fl_pt2_add290[1] && ev_q[102];
     assign ev_inv[205] = fl_pt2_add290[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add290;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add290 (.clk(clk), .d(pt2_add290), .valid(1'b0), .q(dl_pt2_add290));
     // pt2_mul291 = pt2_cA_z * pt1_wA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul291;
@@ -3251,7 +3544,8 @@ module pgs_contact_pipe #(
     assign ev_unf[206] = fl_pt2_mul291[1] && ev_q[98];
     assign ev_inv[206] = fl_pt2_mul291[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul291;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul291 (.clk(clk), .d(pt2_mul291), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul291));
     // pt2_add292 = pt2_add290 + pt2_mul291   (ready @106/106/106)
     logic [W-1:0] pt2_add292;
@@ -3264,7 +3558,8 @@ module pgs_contact_pipe #(
     assign ev_unf[207] = fl_pt2_add292[1] && ev_q[106];
     assign ev_inv[207] = fl_pt2_add292[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add292;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add292 (.clk(clk), .d(pt2_add292), .valid(1'b0), .q(dl_pt2_add292));
     // pt2_mul293 = pt2_cB_x * pt1_wB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul293;
@@ -3277,7 +3572,8 @@ module pgs_contact_pipe #(
     assign ev_unf[208] = fl_pt2_mul293[1] && ev_q[98];
     assign ev_inv[208] = fl_pt2_mul293[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul293;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul293 (.clk(clk), .d(pt2_mul293), .valid(1'b0), .q(dl_pt2_mul293));
     // pt2_mul294 = pt2_cB_y * pt1_wB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul294;
@@ -3290,7 +3586,8 @@ module pgs_contact_pipe #(
     assign ev_unf[209] = fl_pt2_mul294[1] && ev_q[98];
     assign ev_inv[209] = fl_pt2_mul294[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul294;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul294 (.clk(clk), .d(pt2_mul294), .valid(1'b0), .q(dl_pt2_mul294));
     // pt2_add295 = pt2_mul293 + pt2_mul294   (ready @102/102/102)
     logic [W-1:0] pt2_add295;
@@ -3303,7 +3600,8 @@ module pgs_contact_pipe #(
     assign ev_unf[210] = fl_pt2_add295[1] && ev_q[102];
     assign ev_inv[210] = fl_pt2_add295[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add295;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add295 (.clk(clk), .d(pt2_add295), .valid(1'b0), .q(dl_pt2_add295));
     // pt2_mul296 = pt2_cB_z * pt1_wB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul296;
@@ -3316,7 +3614,8 @@ module pgs_contact_pipe #(
     assign ev_unf[211] = fl_pt2_mul296[1] && ev_q[98];
     assign ev_inv[211] = fl_pt2_mul296[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul296;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul296 (.clk(clk), .d(pt2_mul296), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul296));
     // pt2_add297 = pt2_add295 + pt2_mul296   (ready @106/106/106)
     logic [W-1:0] pt2_add297;
@@ -3329,7 +3628,8 @@ module pgs_contact_pipe #(
     assign ev_unf[212] = fl_pt2_add297[1] && ev_q[106];
     assign ev_inv[212] = fl_pt2_add297[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add297;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add297 (.clk(clk), .d(pt2_add297), .valid(1'b0), .q(dl_pt2_add297));
     // pt2_sub298 = pt2_add292 - pt2_add297   (ready @110/110/110)
     logic [W-1:0] pt2_sub298;
@@ -3342,7 +3642,8 @@ module pgs_contact_pipe #(
     assign ev_unf[213] = fl_pt2_sub298[1] && ev_q[110];
     assign ev_inv[213] = fl_pt2_sub298[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub298;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub298 (.clk(clk), .d(pt2_sub298), .valid(1'b0), .q(dl_pt2_sub298));
     // pt2_vrel = pt2_sub287 + pt2_sub298   (ready @114/114/114)
     logic [W-1:0] pt2_vrel;
@@ -3355,7 +3656,8 @@ module pgs_contact_pipe #(
     assign ev_unf[214] = fl_pt2_vrel[1] && ev_q[114];
     assign ev_inv[214] = fl_pt2_vrel[2] && ev_q[114];
     logic [W-1:0] dl_pt2_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vrel (.clk(clk), .d(pt2_vrel), .valid(1'b0), .q(dl_pt2_vrel));
     // pt2_add300 = pt2_vrel + b2   (ready @118/118/118)
     logic [W-1:0] pt2_add300;
@@ -3368,7 +3670,8 @@ module pgs_contact_pipe #(
     assign ev_unf[215] = fl_pt2_add300[1] && ev_q[118];
     assign ev_inv[215] = fl_pt2_add300[2] && ev_q[118];
     logic [W-1:0] dl_pt2_add300;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add300 (.clk(clk), .d(pt2_add300), .valid(1'b0), .q(dl_pt2_add300));
     // pt2_delta0 = pt2_add300 * jac_inv2   (ready @121/121/121)
     logic [W-1:0] pt2_delta0;
@@ -3381,7 +3684,8 @@ module pgs_contact_pipe #(
     assign ev_unf[216] = fl_pt2_delta0[1] && ev_q[121];
     assign ev_inv[216] = fl_pt2_delta0[2] && ev_q[121];
     logic [W-1:0] dl_pt2_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_delta0 (.clk(clk), .d(pt2_delta0), .valid(1'b0), .q(dl_pt2_delta0));
     // pt2_add302 = lam2 + pt2_delta0   (ready @125/125/125)
     logic [W-1:0] pt2_add302;
@@ -3394,7 +3698,8 @@ module pgs_contact_pipe #(
     assign ev_unf[217] = fl_pt2_add302[1] && ev_q[125];
     assign ev_inv[217] = fl_pt2_add302[2] && ev_q[125];
     logic [W-1:0] dl_pt2_add302;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add302 (.clk(clk), .d(pt2_add302), .valid(1'b0), .q(dl_pt2_add302));
     // pt2_lam_new = max(pt2_add302, 0.0)   (ready @126/126/126)
     logic [W-1:0] pt2_lam_new;
@@ -3404,7 +3709,8 @@ module pgs_contact_pipe #(
         .lt(nc_pt2_lam_new_lt), .eq(nc_pt2_lam_new_eq), .unordered(nc_pt2_lam_new_uo)
     );
     logic [W-1:0] dl_pt2_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_lam_new (.clk(clk), .d(pt2_lam_new), .valid(1'b0), .q(dl_pt2_lam_new));
     // pt2_delta = pt2_lam_new - lam2   (ready @130/130/130)
     logic [W-1:0] pt2_delta;
@@ -3417,13 +3723,15 @@ module pgs_contact_pipe #(
     assign ev_unf[218] = fl_pt2_delta[1] && ev_q[130];
     assign ev_inv[218] = fl_pt2_delta[2] && ev_q[130];
     logic [W-1:0] dl_pt2_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_delta (.clk(clk), .d(pt2_delta), .valid(1'b0), .q(dl_pt2_delta));
     // pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (ready @126/126/126)
     logic [W-1:0] pt2_lam;
     assign pt2_lam = dl_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_pt2_lam_new;
     logic [W-1:0] dl_pt2_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(53))
+    pgs_delay #(.WIDTH(W), .DEPTH(53),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_lam (.clk(clk), .d(pt2_lam), .valid(valid_q[126 +: 53]), .q(dl_pt2_lam));
     // pt2_angA_x = IInvA_x * pt2_cA_x   (ready @14/14/14)
     logic [W-1:0] pt2_angA_x;
@@ -3436,7 +3744,8 @@ module pgs_contact_pipe #(
     assign ev_unf[219] = fl_pt2_angA_x[1] && ev_q[14];
     assign ev_inv[219] = fl_pt2_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angA_x (.clk(clk), .d(pt2_angA_x), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_x));
     // pt2_angA_y = IInvA_y * pt2_cA_y   (ready @14/14/14)
     logic [W-1:0] pt2_angA_y;
@@ -3449,7 +3758,8 @@ module pgs_contact_pipe #(
     assign ev_unf[220] = fl_pt2_angA_y[1] && ev_q[14];
     assign ev_inv[220] = fl_pt2_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angA_y (.clk(clk), .d(pt2_angA_y), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_y));
     // pt2_angA_z = IInvA_z * pt2_cA_z   (ready @14/14/14)
     logic [W-1:0] pt2_angA_z;
@@ -3462,7 +3772,8 @@ module pgs_contact_pipe #(
     assign ev_unf[221] = fl_pt2_angA_z[1] && ev_q[14];
     assign ev_inv[221] = fl_pt2_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angA_z (.clk(clk), .d(pt2_angA_z), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_z));
     // pt2_angB_x = IInvB_x * pt2_cB_x   (ready @14/14/14)
     logic [W-1:0] pt2_angB_x;
@@ -3475,7 +3786,8 @@ module pgs_contact_pipe #(
     assign ev_unf[222] = fl_pt2_angB_x[1] && ev_q[14];
     assign ev_inv[222] = fl_pt2_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angB_x (.clk(clk), .d(pt2_angB_x), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_x));
     // pt2_angB_y = IInvB_y * pt2_cB_y   (ready @14/14/14)
     logic [W-1:0] pt2_angB_y;
@@ -3488,7 +3800,8 @@ module pgs_contact_pipe #(
     assign ev_unf[223] = fl_pt2_angB_y[1] && ev_q[14];
     assign ev_inv[223] = fl_pt2_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angB_y (.clk(clk), .d(pt2_angB_y), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_y));
     // pt2_angB_z = IInvB_z * pt2_cB_z   (ready @14/14/14)
     logic [W-1:0] pt2_angB_z;
@@ -3501,7 +3814,8 @@ module pgs_contact_pipe #(
     assign ev_unf[224] = fl_pt2_angB_z[1] && ev_q[14];
     assign ev_inv[224] = fl_pt2_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angB_z (.clk(clk), .d(pt2_angB_z), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_z));
     // pt2_mul312 = linA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul312;
@@ -3514,7 +3828,8 @@ module pgs_contact_pipe #(
     assign ev_unf[225] = fl_pt2_mul312[1] && ev_q[133];
     assign ev_inv[225] = fl_pt2_mul312[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul312;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul312 (.clk(clk), .d(pt2_mul312), .valid(1'b0), .q(dl_pt2_mul312));
     // pt2_mul313 = linA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul313;
@@ -3527,7 +3842,8 @@ module pgs_contact_pipe #(
     assign ev_unf[226] = fl_pt2_mul313[1] && ev_q[133];
     assign ev_inv[226] = fl_pt2_mul313[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul313;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul313 (.clk(clk), .d(pt2_mul313), .valid(1'b0), .q(dl_pt2_mul313));
     // pt2_mul314 = linA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul314;
@@ -3540,7 +3856,8 @@ module pgs_contact_pipe #(
     assign ev_unf[227] = fl_pt2_mul314[1] && ev_q[133];
     assign ev_inv[227] = fl_pt2_mul314[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul314;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul314 (.clk(clk), .d(pt2_mul314), .valid(1'b0), .q(dl_pt2_mul314));
     // pt2_add315 = pt1_vA_x + pt2_mul312   (ready @137/137/137)
     logic [W-1:0] pt2_add315;
@@ -3553,7 +3870,8 @@ module pgs_contact_pipe #(
     assign ev_unf[228] = fl_pt2_add315[1] && ev_q[137];
     assign ev_inv[228] = fl_pt2_add315[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add315;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add315 (.clk(clk), .d(pt2_add315), .valid(1'b0), .q(dl_pt2_add315));
     // pt2_add316 = pt1_vA_y + pt2_mul313   (ready @137/137/137)
     logic [W-1:0] pt2_add316;
@@ -3566,7 +3884,8 @@ module pgs_contact_pipe #(
     assign ev_unf[229] = fl_pt2_add316[1] && ev_q[137];
     assign ev_inv[229] = fl_pt2_add316[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add316;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add316 (.clk(clk), .d(pt2_add316), .valid(1'b0), .q(dl_pt2_add316));
     // pt2_add317 = pt1_vA_z + pt2_mul314   (ready @137/137/137)
     logic [W-1:0] pt2_add317;
@@ -3579,25 +3898,29 @@ module pgs_contact_pipe #(
     assign ev_unf[230] = fl_pt2_add317[1] && ev_q[137];
     assign ev_inv[230] = fl_pt2_add317[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add317;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add317 (.clk(clk), .d(pt2_add317), .valid(1'b0), .q(dl_pt2_add317));
     // pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add315   (ready @137/137/137)
     logic [W-1:0] pt2_vA_x;
     assign pt2_vA_x = dl_pt2_skip[1] ? dl_pt1_vA_x[2*W +: W] : dl_pt2_add315;
     logic [3*W-1:0] dl_pt2_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vA_x (.clk(clk), .d(pt2_vA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_x));
     // pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add316   (ready @137/137/137)
     logic [W-1:0] pt2_vA_y;
     assign pt2_vA_y = dl_pt2_skip[1] ? dl_pt1_vA_y[2*W +: W] : dl_pt2_add316;
     logic [3*W-1:0] dl_pt2_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vA_y (.clk(clk), .d(pt2_vA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_y));
     // pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add317   (ready @137/137/137)
     logic [W-1:0] pt2_vA_z;
     assign pt2_vA_z = dl_pt2_skip[1] ? dl_pt1_vA_z[2*W +: W] : dl_pt2_add317;
     logic [3*W-1:0] dl_pt2_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vA_z (.clk(clk), .d(pt2_vA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_z));
     // pt2_mul321 = pt2_angA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul321;
@@ -3610,7 +3933,8 @@ module pgs_contact_pipe #(
     assign ev_unf[231] = fl_pt2_mul321[1] && ev_q[133];
     assign ev_inv[231] = fl_pt2_mul321[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul321;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul321 (.clk(clk), .d(pt2_mul321), .valid(1'b0), .q(dl_pt2_mul321));
     // pt2_mul322 = pt2_angA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul322;
@@ -3623,7 +3947,8 @@ module pgs_contact_pipe #(
     assign ev_unf[232] = fl_pt2_mul322[1] && ev_q[133];
     assign ev_inv[232] = fl_pt2_mul322[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul322;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul322 (.clk(clk), .d(pt2_mul322), .valid(1'b0), .q(dl_pt2_mul322));
     // pt2_mul323 = pt2_angA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul323;
@@ -3636,7 +3961,8 @@ module pgs_contact_pipe #(
     assign ev_unf[233] = fl_pt2_mul323[1] && ev_q[133];
     assign ev_inv[233] = fl_pt2_mul323[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul323;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul323 (.clk(clk), .d(pt2_mul323), .valid(1'b0), .q(dl_pt2_mul323));
     // pt2_add324 = pt1_wA_x + pt2_mul321   (ready @137/137/137)
     logic [W-1:0] pt2_add324;
@@ -3649,7 +3975,8 @@ module pgs_contact_pipe #(
     assign ev_unf[234] = fl_pt2_add324[1] && ev_q[137];
     assign ev_inv[234] = fl_pt2_add324[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add324;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add324 (.clk(clk), .d(pt2_add324), .valid(1'b0), .q(dl_pt2_add324));
     // pt2_add325 = pt1_wA_y + pt2_mul322   (ready @137/137/137)
     logic [W-1:0] pt2_add325;
@@ -3662,7 +3989,8 @@ module pgs_contact_pipe #(
     assign ev_unf[235] = fl_pt2_add325[1] && ev_q[137];
     assign ev_inv[235] = fl_pt2_add325[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add325;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add325 (.clk(clk), .d(pt2_add325), .valid(1'b0), .q(dl_pt2_add325));
     // pt2_add326 = pt1_wA_z + pt2_mul323   (ready @137/137/137)
     logic [W-1:0] pt2_add326;
@@ -3675,25 +4003,29 @@ module pgs_contact_pipe #(
     assign ev_unf[236] = fl_pt2_add326[1] && ev_q[137];
     assign ev_inv[236] = fl_pt2_add326[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add326;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add326 (.clk(clk), .d(pt2_add326), .valid(1'b0), .q(dl_pt2_add326));
     // pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add324   (ready @137/137/137)
     logic [W-1:0] pt2_wA_x;
     assign pt2_wA_x = dl_pt2_skip[1] ? dl_pt1_wA_x[2*W +: W] : dl_pt2_add324;
     logic [3*W-1:0] dl_pt2_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wA_x (.clk(clk), .d(pt2_wA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_x));
     // pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add325   (ready @137/137/137)
     logic [W-1:0] pt2_wA_y;
     assign pt2_wA_y = dl_pt2_skip[1] ? dl_pt1_wA_y[2*W +: W] : dl_pt2_add325;
     logic [3*W-1:0] dl_pt2_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wA_y (.clk(clk), .d(pt2_wA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_y));
     // pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add326   (ready @137/137/137)
     logic [W-1:0] pt2_wA_z;
     assign pt2_wA_z = dl_pt2_skip[1] ? dl_pt1_wA_z[2*W +: W] : dl_pt2_add326;
     logic [3*W-1:0] dl_pt2_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wA_z (.clk(clk), .d(pt2_wA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_z));
     // pt2_mul330 = linB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul330;
@@ -3706,7 +4038,8 @@ module pgs_contact_pipe #(
     assign ev_unf[237] = fl_pt2_mul330[1] && ev_q[133];
     assign ev_inv[237] = fl_pt2_mul330[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul330;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul330 (.clk(clk), .d(pt2_mul330), .valid(1'b0), .q(dl_pt2_mul330));
     // pt2_mul331 = linB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul331;
@@ -3719,7 +4052,8 @@ module pgs_contact_pipe #(
     assign ev_unf[238] = fl_pt2_mul331[1] && ev_q[133];
     assign ev_inv[238] = fl_pt2_mul331[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul331;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul331 (.clk(clk), .d(pt2_mul331), .valid(1'b0), .q(dl_pt2_mul331));
     // pt2_mul332 = linB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul332;
@@ -3732,7 +4066,8 @@ module pgs_contact_pipe #(
     assign ev_unf[239] = fl_pt2_mul332[1] && ev_q[133];
     assign ev_inv[239] = fl_pt2_mul332[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul332;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul332 (.clk(clk), .d(pt2_mul332), .valid(1'b0), .q(dl_pt2_mul332));
     // pt2_sub333 = pt1_vB_x - pt2_mul330   (ready @137/137/137)
     logic [W-1:0] pt2_sub333;
@@ -3745,7 +4080,8 @@ module pgs_contact_pipe #(
     assign ev_unf[240] = fl_pt2_sub333[1] && ev_q[137];
     assign ev_inv[240] = fl_pt2_sub333[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub333;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub333 (.clk(clk), .d(pt2_sub333), .valid(1'b0), .q(dl_pt2_sub333));
     // pt2_sub334 = pt1_vB_y - pt2_mul331   (ready @137/137/137)
     logic [W-1:0] pt2_sub334;
@@ -3758,7 +4094,8 @@ module pgs_contact_pipe #(
     assign ev_unf[241] = fl_pt2_sub334[1] && ev_q[137];
     assign ev_inv[241] = fl_pt2_sub334[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub334;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub334 (.clk(clk), .d(pt2_sub334), .valid(1'b0), .q(dl_pt2_sub334));
     // pt2_sub335 = pt1_vB_z - pt2_mul332   (ready @137/137/137)
     logic [W-1:0] pt2_sub335;
@@ -3771,25 +4108,29 @@ module pgs_contact_pipe #(
     assign ev_unf[242] = fl_pt2_sub335[1] && ev_q[137];
     assign ev_inv[242] = fl_pt2_sub335[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub335;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub335 (.clk(clk), .d(pt2_sub335), .valid(1'b0), .q(dl_pt2_sub335));
     // pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub333   (ready @137/137/137)
     logic [W-1:0] pt2_vB_x;
     assign pt2_vB_x = dl_pt2_skip[1] ? dl_pt1_vB_x[2*W +: W] : dl_pt2_sub333;
     logic [3*W-1:0] dl_pt2_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vB_x (.clk(clk), .d(pt2_vB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_x));
     // pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub334   (ready @137/137/137)
     logic [W-1:0] pt2_vB_y;
     assign pt2_vB_y = dl_pt2_skip[1] ? dl_pt1_vB_y[2*W +: W] : dl_pt2_sub334;
     logic [3*W-1:0] dl_pt2_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vB_y (.clk(clk), .d(pt2_vB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_y));
     // pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub335   (ready @137/137/137)
     logic [W-1:0] pt2_vB_z;
     assign pt2_vB_z = dl_pt2_skip[1] ? dl_pt1_vB_z[2*W +: W] : dl_pt2_sub335;
     logic [3*W-1:0] dl_pt2_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vB_z (.clk(clk), .d(pt2_vB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_z));
     // pt2_mul339 = pt2_angB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul339;
@@ -3802,7 +4143,8 @@ module pgs_contact_pipe #(
     assign ev_unf[243] = fl_pt2_mul339[1] && ev_q[133];
     assign ev_inv[243] = fl_pt2_mul339[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul339;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul339 (.clk(clk), .d(pt2_mul339), .valid(1'b0), .q(dl_pt2_mul339));
     // pt2_mul340 = pt2_angB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul340;
@@ -3815,7 +4157,8 @@ module pgs_contact_pipe #(
     assign ev_unf[244] = fl_pt2_mul340[1] && ev_q[133];
     assign ev_inv[244] = fl_pt2_mul340[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul340;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul340 (.clk(clk), .d(pt2_mul340), .valid(1'b0), .q(dl_pt2_mul340));
     // pt2_mul341 = pt2_angB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul341;
@@ -3828,7 +4171,8 @@ module pgs_contact_pipe #(
     assign ev_unf[245] = fl_pt2_mul341[1] && ev_q[133];
     assign ev_inv[245] = fl_pt2_mul341[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul341;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul341 (.clk(clk), .d(pt2_mul341), .valid(1'b0), .q(dl_pt2_mul341));
     // pt2_sub342 = pt1_wB_x - pt2_mul339   (ready @137/137/137)
     logic [W-1:0] pt2_sub342;
@@ -3841,7 +4185,8 @@ module pgs_contact_pipe #(
     assign ev_unf[246] = fl_pt2_sub342[1] && ev_q[137];
     assign ev_inv[246] = fl_pt2_sub342[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub342;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub342 (.clk(clk), .d(pt2_sub342), .valid(1'b0), .q(dl_pt2_sub342));
     // pt2_sub343 = pt1_wB_y - pt2_mul340   (ready @137/137/137)
     logic [W-1:0] pt2_sub343;
@@ -3854,7 +4199,8 @@ module pgs_contact_pipe #(
     assign ev_unf[247] = fl_pt2_sub343[1] && ev_q[137];
     assign ev_inv[247] = fl_pt2_sub343[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub343;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub343 (.clk(clk), .d(pt2_sub343), .valid(1'b0), .q(dl_pt2_sub343));
     // pt2_sub344 = pt1_wB_z - pt2_mul341   (ready @137/137/137)
     logic [W-1:0] pt2_sub344;
@@ -3867,31 +4213,36 @@ module pgs_contact_pipe #(
     assign ev_unf[248] = fl_pt2_sub344[1] && ev_q[137];
     assign ev_inv[248] = fl_pt2_sub344[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub344;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub344 (.clk(clk), .d(pt2_sub344), .valid(1'b0), .q(dl_pt2_sub344));
     // pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub342   (ready @137/137/137)
     logic [W-1:0] pt2_wB_x;
     assign pt2_wB_x = dl_pt2_skip[1] ? dl_pt1_wB_x[2*W +: W] : dl_pt2_sub342;
     logic [3*W-1:0] dl_pt2_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wB_x (.clk(clk), .d(pt2_wB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_x));
     // pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub343   (ready @137/137/137)
     logic [W-1:0] pt2_wB_y;
     assign pt2_wB_y = dl_pt2_skip[1] ? dl_pt1_wB_y[2*W +: W] : dl_pt2_sub343;
     logic [3*W-1:0] dl_pt2_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wB_y (.clk(clk), .d(pt2_wB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_y));
     // pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub344   (ready @137/137/137)
     logic [W-1:0] pt2_wB_z;
     assign pt2_wB_z = dl_pt2_skip[1] ? dl_pt1_wB_z[2*W +: W] : dl_pt2_sub344;
     logic [3*W-1:0] dl_pt2_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wB_z (.clk(clk), .d(pt2_wB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_z));
     // pt3_skip = jac_inv3 == 0   (ready @0/0/0)
     logic pt3_skip;
     assign pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt3_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_skip (.clk(clk), .d(pt3_skip), .valid(valid_q[0 +: 179]), .q(dl_pt3_skip));
     // pt3_rA_x = p3_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt3_rA_x;
@@ -3904,7 +4255,8 @@ module pgs_contact_pipe #(
     assign ev_unf[249] = fl_pt3_rA_x[1] && ev_q[4];
     assign ev_inv[249] = fl_pt3_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rA_x (.clk(clk), .d(pt3_rA_x), .valid(1'b0), .q(dl_pt3_rA_x));
     // pt3_rA_y = p3_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt3_rA_y;
@@ -3917,7 +4269,8 @@ module pgs_contact_pipe #(
     assign ev_unf[250] = fl_pt3_rA_y[1] && ev_q[4];
     assign ev_inv[250] = fl_pt3_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rA_y (.clk(clk), .d(pt3_rA_y), .valid(1'b0), .q(dl_pt3_rA_y));
     // pt3_rA_z = p3_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt3_rA_z;
@@ -3930,7 +4283,8 @@ module pgs_contact_pipe #(
     assign ev_unf[251] = fl_pt3_rA_z[1] && ev_q[4];
     assign ev_inv[251] = fl_pt3_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rA_z (.clk(clk), .d(pt3_rA_z), .valid(1'b0), .q(dl_pt3_rA_z));
     // pt3_mul352 = pt3_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul352;
@@ -3943,7 +4297,8 @@ module pgs_contact_pipe #(
     assign ev_unf[252] = fl_pt3_mul352[1] && ev_q[7];
     assign ev_inv[252] = fl_pt3_mul352[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul352;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul352 (.clk(clk), .d(pt3_mul352), .valid(1'b0), .q(dl_pt3_mul352));
     // pt3_mul353 = pt3_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul353;
@@ -3956,7 +4311,8 @@ module pgs_contact_pipe #(
     assign ev_unf[253] = fl_pt3_mul353[1] && ev_q[7];
     assign ev_inv[253] = fl_pt3_mul353[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul353;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul353 (.clk(clk), .d(pt3_mul353), .valid(1'b0), .q(dl_pt3_mul353));
     // pt3_cA_x = pt3_mul352 - pt3_mul353   (ready @11/11/11)
     logic [W-1:0] pt3_cA_x;
@@ -3969,7 +4325,8 @@ module pgs_contact_pipe #(
     assign ev_unf[254] = fl_pt3_cA_x[1] && ev_q[11];
     assign ev_inv[254] = fl_pt3_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cA_x (.clk(clk), .d(pt3_cA_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_x));
     // pt3_mul355 = pt3_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul355;
@@ -3982,7 +4339,8 @@ module pgs_contact_pipe #(
     assign ev_unf[255] = fl_pt3_mul355[1] && ev_q[7];
     assign ev_inv[255] = fl_pt3_mul355[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul355;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul355 (.clk(clk), .d(pt3_mul355), .valid(1'b0), .q(dl_pt3_mul355));
     // pt3_mul356 = pt3_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul356;
@@ -3995,7 +4353,8 @@ module pgs_contact_pipe #(
     assign ev_unf[256] = fl_pt3_mul356[1] && ev_q[7];
     assign ev_inv[256] = fl_pt3_mul356[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul356;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul356 (.clk(clk), .d(pt3_mul356), .valid(1'b0), .q(dl_pt3_mul356));
     // pt3_cA_y = pt3_mul355 - pt3_mul356   (ready @11/11/11)
     logic [W-1:0] pt3_cA_y;
@@ -4008,7 +4367,8 @@ module pgs_contact_pipe #(
     assign ev_unf[257] = fl_pt3_cA_y[1] && ev_q[11];
     assign ev_inv[257] = fl_pt3_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cA_y (.clk(clk), .d(pt3_cA_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_y));
     // pt3_mul358 = pt3_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul358;
@@ -4021,7 +4381,8 @@ module pgs_contact_pipe #(
     assign ev_unf[258] = fl_pt3_mul358[1] && ev_q[7];
     assign ev_inv[258] = fl_pt3_mul358[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul358;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul358 (.clk(clk), .d(pt3_mul358), .valid(1'b0), .q(dl_pt3_mul358));
     // pt3_mul359 = pt3_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul359;
@@ -4034,7 +4395,8 @@ module pgs_contact_pipe #(
     assign ev_unf[259] = fl_pt3_mul359[1] && ev_q[7];
     assign ev_inv[259] = fl_pt3_mul359[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul359;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul359 (.clk(clk), .d(pt3_mul359), .valid(1'b0), .q(dl_pt3_mul359));
     // pt3_cA_z = pt3_mul358 - pt3_mul359   (ready @11/11/11)
     logic [W-1:0] pt3_cA_z;
@@ -4047,7 +4409,8 @@ module pgs_contact_pipe #(
     assign ev_unf[260] = fl_pt3_cA_z[1] && ev_q[11];
     assign ev_inv[260] = fl_pt3_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cA_z (.clk(clk), .d(pt3_cA_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_z));
     // pt3_rB_x = p3_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt3_rB_x;
@@ -4060,7 +4423,8 @@ module pgs_contact_pipe #(
     assign ev_unf[261] = fl_pt3_rB_x[1] && ev_q[4];
     assign ev_inv[261] = fl_pt3_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rB_x (.clk(clk), .d(pt3_rB_x), .valid(1'b0), .q(dl_pt3_rB_x));
     // pt3_rB_y = p3_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt3_rB_y;
@@ -4073,7 +4437,8 @@ module pgs_contact_pipe #(
     assign ev_unf[262] = fl_pt3_rB_y[1] && ev_q[4];
     assign ev_inv[262] = fl_pt3_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rB_y (.clk(clk), .d(pt3_rB_y), .valid(1'b0), .q(dl_pt3_rB_y));
     // pt3_rB_z = p3_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt3_rB_z;
@@ -4086,7 +4451,8 @@ module pgs_contact_pipe #(
     assign ev_unf[263] = fl_pt3_rB_z[1] && ev_q[4];
     assign ev_inv[263] = fl_pt3_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rB_z (.clk(clk), .d(pt3_rB_z), .valid(1'b0), .q(dl_pt3_rB_z));
     // pt3_mul364 = pt3_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul364;
@@ -4099,7 +4465,8 @@ module pgs_contact_pipe #(
     assign ev_unf[264] = fl_pt3_mul364[1] && ev_q[7];
     assign ev_inv[264] = fl_pt3_mul364[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul364;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul364 (.clk(clk), .d(pt3_mul364), .valid(1'b0), .q(dl_pt3_mul364));
     // pt3_mul365 = pt3_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul365;
@@ -4112,7 +4479,8 @@ module pgs_contact_pipe #(
     assign ev_unf[265] = fl_pt3_mul365[1] && ev_q[7];
     assign ev_inv[265] = fl_pt3_mul365[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul365;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul365 (.clk(clk), .d(pt3_mul365), .valid(1'b0), .q(dl_pt3_mul365));
     // pt3_cB_x = pt3_mul364 - pt3_mul365   (ready @11/11/11)
     logic [W-1:0] pt3_cB_x;
@@ -4125,7 +4493,8 @@ module pgs_contact_pipe #(
     assign ev_unf[266] = fl_pt3_cB_x[1] && ev_q[11];
     assign ev_inv[266] = fl_pt3_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cB_x (.clk(clk), .d(pt3_cB_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_x));
     // pt3_mul367 = pt3_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul367;
@@ -4138,7 +4507,8 @@ module pgs_contact_pipe #(
     assign ev_unf[267] = fl_pt3_mul367[1] && ev_q[7];
     assign ev_inv[267] = fl_pt3_mul367[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul367;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul367 (.clk(clk), .d(pt3_mul367), .valid(1'b0), .q(dl_pt3_mul367));
     // pt3_mul368 = pt3_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul368;
@@ -4151,7 +4521,8 @@ module pgs_contact_pipe #(
     assign ev_unf[268] = fl_pt3_mul368[1] && ev_q[7];
     assign ev_inv[268] = fl_pt3_mul368[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul368;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul368 (.clk(clk), .d(pt3_mul368), .valid(1'b0), .q(dl_pt3_mul368));
     // pt3_cB_y = pt3_mul367 - pt3_mul368   (ready @11/11/11)
     logic [W-1:0] pt3_cB_y;
@@ -4164,7 +4535,8 @@ module pgs_contact_pipe #(
     assign ev_unf[269] = fl_pt3_cB_y[1] && ev_q[11];
     assign ev_inv[269] = fl_pt3_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cB_y (.clk(clk), .d(pt3_cB_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_y));
     // pt3_mul370 = pt3_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul370;
@@ -4177,7 +4549,8 @@ module pgs_contact_pipe #(
     assign ev_unf[270] = fl_pt3_mul370[1] && ev_q[7];
     assign ev_inv[270] = fl_pt3_mul370[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul370;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul370 (.clk(clk), .d(pt3_mul370), .valid(1'b0), .q(dl_pt3_mul370));
     // pt3_mul371 = pt3_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul371;
@@ -4190,7 +4563,8 @@ module pgs_contact_pipe #(
     assign ev_unf[271] = fl_pt3_mul371[1] && ev_q[7];
     assign ev_inv[271] = fl_pt3_mul371[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul371;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul371 (.clk(clk), .d(pt3_mul371), .valid(1'b0), .q(dl_pt3_mul371));
     // pt3_cB_z = pt3_mul370 - pt3_mul371   (ready @11/11/11)
     logic [W-1:0] pt3_cB_z;
@@ -4203,7 +4577,8 @@ module pgs_contact_pipe #(
     assign ev_unf[272] = fl_pt3_cB_z[1] && ev_q[11];
     assign ev_inv[272] = fl_pt3_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cB_z (.clk(clk), .d(pt3_cB_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_z));
     // pt3_mul373 = n_x * pt2_vA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul373;
@@ -4216,7 +4591,8 @@ module pgs_contact_pipe #(
     assign ev_unf[273] = fl_pt3_mul373[1] && ev_q[140];
     assign ev_inv[273] = fl_pt3_mul373[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul373;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul373 (.clk(clk), .d(pt3_mul373), .valid(1'b0), .q(dl_pt3_mul373));
     // pt3_mul374 = n_y * pt2_vA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul374;
@@ -4229,7 +4605,8 @@ module pgs_contact_pipe #(
     assign ev_unf[274] = fl_pt3_mul374[1] && ev_q[140];
     assign ev_inv[274] = fl_pt3_mul374[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul374;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul374 (.clk(clk), .d(pt3_mul374), .valid(1'b0), .q(dl_pt3_mul374));
     // pt3_add375 = pt3_mul373 + pt3_mul374   (ready @144/144/144)
     logic [W-1:0] pt3_add375;
@@ -4242,7 +4619,8 @@ module pgs_contact_pipe #(
     assign ev_unf[275] = fl_pt3_add375[1] && ev_q[144];
     assign ev_inv[275] = fl_pt3_add375[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add375;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add375 (.clk(clk), .d(pt3_add375), .valid(1'b0), .q(dl_pt3_add375));
     // pt3_mul376 = n_z * pt2_vA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul376;
@@ -4255,7 +4633,8 @@ module pgs_contact_pipe #(
     assign ev_unf[276] = fl_pt3_mul376[1] && ev_q[140];
     assign ev_inv[276] = fl_pt3_mul376[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul376;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul376 (.clk(clk), .d(pt3_mul376), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul376));
     // pt3_add377 = pt3_add375 + pt3_mul376   (ready @148/148/148)
     logic [W-1:0] pt3_add377;
@@ -4268,7 +4647,8 @@ module pgs_contact_pipe #(
     assign ev_unf[277] = fl_pt3_add377[1] && ev_q[148];
     assign ev_inv[277] = fl_pt3_add377[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add377;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add377 (.clk(clk), .d(pt3_add377), .valid(1'b0), .q(dl_pt3_add377));
     // pt3_mul378 = n_x * pt2_vB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul378;
@@ -4281,7 +4661,8 @@ module pgs_contact_pipe #(
     assign ev_unf[278] = fl_pt3_mul378[1] && ev_q[140];
     assign ev_inv[278] = fl_pt3_mul378[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul378;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul378 (.clk(clk), .d(pt3_mul378), .valid(1'b0), .q(dl_pt3_mul378));
     // pt3_mul379 = n_y * pt2_vB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul379;
@@ -4294,7 +4675,8 @@ module pgs_contact_pipe #(
     assign ev_unf[279] = fl_pt3_mul379[1] && ev_q[140];
     assign ev_inv[279] = fl_pt3_mul379[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul379;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul379 (.clk(clk), .d(pt3_mul379), .valid(1'b0), .q(dl_pt3_mul379));
     // pt3_add380 = pt3_mul378 + pt3_mul379   (ready @144/144/144)
     logic [W-1:0] pt3_add380;
@@ -4307,7 +4689,8 @@ module pgs_contact_pipe #(
     assign ev_unf[280] = fl_pt3_add380[1] && ev_q[144];
     assign ev_inv[280] = fl_pt3_add380[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add380;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add380 (.clk(clk), .d(pt3_add380), .valid(1'b0), .q(dl_pt3_add380));
     // pt3_mul381 = n_z * pt2_vB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul381;
@@ -4320,7 +4703,8 @@ module pgs_contact_pipe #(
     assign ev_unf[281] = fl_pt3_mul381[1] && ev_q[140];
     assign ev_inv[281] = fl_pt3_mul381[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul381;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul381 (.clk(clk), .d(pt3_mul381), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul381));
     // pt3_add382 = pt3_add380 + pt3_mul381   (ready @148/148/148)
     logic [W-1:0] pt3_add382;
@@ -4333,7 +4717,8 @@ module pgs_contact_pipe #(
     assign ev_unf[282] = fl_pt3_add382[1] && ev_q[148];
     assign ev_inv[282] = fl_pt3_add382[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add382;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add382 (.clk(clk), .d(pt3_add382), .valid(1'b0), .q(dl_pt3_add382));
     // pt3_sub383 = pt3_add377 - pt3_add382   (ready @152/152/152)
     logic [W-1:0] pt3_sub383;
@@ -4346,7 +4731,8 @@ module pgs_contact_pipe #(
     assign ev_unf[283] = fl_pt3_sub383[1] && ev_q[152];
     assign ev_inv[283] = fl_pt3_sub383[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub383;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub383 (.clk(clk), .d(pt3_sub383), .valid(1'b0), .q(dl_pt3_sub383));
     // pt3_mul384 = pt3_cA_x * pt2_wA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul384;
@@ -4359,7 +4745,8 @@ module pgs_contact_pipe #(
     assign ev_unf[284] = fl_pt3_mul384[1] && ev_q[140];
     assign ev_inv[284] = fl_pt3_mul384[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul384;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul384 (.clk(clk), .d(pt3_mul384), .valid(1'b0), .q(dl_pt3_mul384));
     // pt3_mul385 = pt3_cA_y * pt2_wA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul385;
@@ -4372,7 +4759,8 @@ module pgs_contact_pipe #(
     assign ev_unf[285] = fl_pt3_mul385[1] && ev_q[140];
     assign ev_inv[285] = fl_pt3_mul385[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul385;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul385 (.clk(clk), .d(pt3_mul385), .valid(1'b0), .q(dl_pt3_mul385));
     // pt3_add386 = pt3_mul384 + pt3_mul385   (ready @144/144/144)
     logic [W-1:0] pt3_add386;
@@ -4385,7 +4773,8 @@ module pgs_contact_pipe #(
     assign ev_unf[286] = fl_pt3_add386[1] && ev_q[144];
     assign ev_inv[286] = fl_pt3_add386[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add386;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add386 (.clk(clk), .d(pt3_add386), .valid(1'b0), .q(dl_pt3_add386));
     // pt3_mul387 = pt3_cA_z * pt2_wA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul387;
@@ -4398,7 +4787,8 @@ module pgs_contact_pipe #(
     assign ev_unf[287] = fl_pt3_mul387[1] && ev_q[140];
     assign ev_inv[287] = fl_pt3_mul387[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul387;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul387 (.clk(clk), .d(pt3_mul387), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul387));
     // pt3_add388 = pt3_add386 + pt3_mul387   (ready @148/148/148)
     logic [W-1:0] pt3_add388;
@@ -4411,7 +4801,8 @@ module pgs_contact_pipe #(
     assign ev_unf[288] = fl_pt3_add388[1] && ev_q[148];
     assign ev_inv[288] = fl_pt3_add388[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add388;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add388 (.clk(clk), .d(pt3_add388), .valid(1'b0), .q(dl_pt3_add388));
     // pt3_mul389 = pt3_cB_x * pt2_wB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul389;
@@ -4424,7 +4815,8 @@ module pgs_contact_pipe #(
     assign ev_unf[289] = fl_pt3_mul389[1] && ev_q[140];
     assign ev_inv[289] = fl_pt3_mul389[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul389;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul389 (.clk(clk), .d(pt3_mul389), .valid(1'b0), .q(dl_pt3_mul389));
     // pt3_mul390 = pt3_cB_y * pt2_wB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul390;
@@ -4437,7 +4829,8 @@ module pgs_contact_pipe #(
     assign ev_unf[290] = fl_pt3_mul390[1] && ev_q[140];
     assign ev_inv[290] = fl_pt3_mul390[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul390;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul390 (.clk(clk), .d(pt3_mul390), .valid(1'b0), .q(dl_pt3_mul390));
     // pt3_add391 = pt3_mul389 + pt3_mul390   (ready @144/144/144)
     logic [W-1:0] pt3_add391;
@@ -4450,7 +4843,8 @@ module pgs_contact_pipe #(
     assign ev_unf[291] = fl_pt3_add391[1] && ev_q[144];
     assign ev_inv[291] = fl_pt3_add391[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add391;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add391 (.clk(clk), .d(pt3_add391), .valid(1'b0), .q(dl_pt3_add391));
     // pt3_mul392 = pt3_cB_z * pt2_wB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul392;
@@ -4463,7 +4857,8 @@ module pgs_contact_pipe #(
     assign ev_unf[292] = fl_pt3_mul392[1] && ev_q[140];
     assign ev_inv[292] = fl_pt3_mul392[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul392;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul392 (.clk(clk), .d(pt3_mul392), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul392));
     // pt3_add393 = pt3_add391 + pt3_mul392   (ready @148/148/148)
     logic [W-1:0] pt3_add393;
@@ -4476,7 +4871,8 @@ module pgs_contact_pipe #(
     assign ev_unf[293] = fl_pt3_add393[1] && ev_q[148];
     assign ev_inv[293] = fl_pt3_add393[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add393;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add393 (.clk(clk), .d(pt3_add393), .valid(1'b0), .q(dl_pt3_add393));
     // pt3_sub394 = pt3_add388 - pt3_add393   (ready @152/152/152)
     logic [W-1:0] pt3_sub394;
@@ -4489,7 +4885,8 @@ module pgs_contact_pipe #(
     assign ev_unf[294] = fl_pt3_sub394[1] && ev_q[152];
     assign ev_inv[294] = fl_pt3_sub394[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub394;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub394 (.clk(clk), .d(pt3_sub394), .valid(1'b0), .q(dl_pt3_sub394));
     // pt3_vrel = pt3_sub383 + pt3_sub394   (ready @156/156/156)
     logic [W-1:0] pt3_vrel;
@@ -4502,7 +4899,8 @@ module pgs_contact_pipe #(
     assign ev_unf[295] = fl_pt3_vrel[1] && ev_q[156];
     assign ev_inv[295] = fl_pt3_vrel[2] && ev_q[156];
     logic [W-1:0] dl_pt3_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vrel (.clk(clk), .d(pt3_vrel), .valid(1'b0), .q(dl_pt3_vrel));
     // pt3_add396 = pt3_vrel + b3   (ready @160/160/160)
     logic [W-1:0] pt3_add396;
@@ -4515,7 +4913,8 @@ module pgs_contact_pipe #(
     assign ev_unf[296] = fl_pt3_add396[1] && ev_q[160];
     assign ev_inv[296] = fl_pt3_add396[2] && ev_q[160];
     logic [W-1:0] dl_pt3_add396;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add396 (.clk(clk), .d(pt3_add396), .valid(1'b0), .q(dl_pt3_add396));
     // pt3_delta0 = pt3_add396 * jac_inv3   (ready @163/163/163)
     logic [W-1:0] pt3_delta0;
@@ -4528,7 +4927,8 @@ module pgs_contact_pipe #(
     assign ev_unf[297] = fl_pt3_delta0[1] && ev_q[163];
     assign ev_inv[297] = fl_pt3_delta0[2] && ev_q[163];
     logic [W-1:0] dl_pt3_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_delta0 (.clk(clk), .d(pt3_delta0), .valid(1'b0), .q(dl_pt3_delta0));
     // pt3_add398 = lam3 + pt3_delta0   (ready @167/167/167)
     logic [W-1:0] pt3_add398;
@@ -4541,7 +4941,8 @@ module pgs_contact_pipe #(
     assign ev_unf[298] = fl_pt3_add398[1] && ev_q[167];
     assign ev_inv[298] = fl_pt3_add398[2] && ev_q[167];
     logic [W-1:0] dl_pt3_add398;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add398 (.clk(clk), .d(pt3_add398), .valid(1'b0), .q(dl_pt3_add398));
     // pt3_lam_new = max(pt3_add398, 0.0)   (ready @168/168/168)
     logic [W-1:0] pt3_lam_new;
@@ -4551,7 +4952,8 @@ module pgs_contact_pipe #(
         .lt(nc_pt3_lam_new_lt), .eq(nc_pt3_lam_new_eq), .unordered(nc_pt3_lam_new_uo)
     );
     logic [W-1:0] dl_pt3_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_lam_new (.clk(clk), .d(pt3_lam_new), .valid(1'b0), .q(dl_pt3_lam_new));
     // pt3_delta = pt3_lam_new - lam3   (ready @172/172/172)
     logic [W-1:0] pt3_delta;
@@ -4564,13 +4966,15 @@ module pgs_contact_pipe #(
     assign ev_unf[299] = fl_pt3_delta[1] && ev_q[172];
     assign ev_inv[299] = fl_pt3_delta[2] && ev_q[172];
     logic [W-1:0] dl_pt3_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_delta (.clk(clk), .d(pt3_delta), .valid(1'b0), .q(dl_pt3_delta));
     // pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (ready @168/168/168)
     logic [W-1:0] pt3_lam;
     assign pt3_lam = dl_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_pt3_lam_new;
     logic [W-1:0] dl_pt3_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_lam (.clk(clk), .d(pt3_lam), .valid(valid_q[168 +: 11]), .q(dl_pt3_lam));
     // pt3_angA_x = IInvA_x * pt3_cA_x   (ready @14/14/14)
     logic [W-1:0] pt3_angA_x;
@@ -4583,7 +4987,8 @@ module pgs_contact_pipe #(
     assign ev_unf[300] = fl_pt3_angA_x[1] && ev_q[14];
     assign ev_inv[300] = fl_pt3_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angA_x (.clk(clk), .d(pt3_angA_x), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_x));
     // pt3_angA_y = IInvA_y * pt3_cA_y   (ready @14/14/14)
     logic [W-1:0] pt3_angA_y;
@@ -4596,7 +5001,8 @@ module pgs_contact_pipe #(
     assign ev_unf[301] = fl_pt3_angA_y[1] && ev_q[14];
     assign ev_inv[301] = fl_pt3_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angA_y (.clk(clk), .d(pt3_angA_y), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_y));
     // pt3_angA_z = IInvA_z * pt3_cA_z   (ready @14/14/14)
     logic [W-1:0] pt3_angA_z;
@@ -4609,7 +5015,8 @@ module pgs_contact_pipe #(
     assign ev_unf[302] = fl_pt3_angA_z[1] && ev_q[14];
     assign ev_inv[302] = fl_pt3_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angA_z (.clk(clk), .d(pt3_angA_z), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_z));
     // pt3_angB_x = IInvB_x * pt3_cB_x   (ready @14/14/14)
     logic [W-1:0] pt3_angB_x;
@@ -4622,7 +5029,8 @@ module pgs_contact_pipe #(
     assign ev_unf[303] = fl_pt3_angB_x[1] && ev_q[14];
     assign ev_inv[303] = fl_pt3_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angB_x (.clk(clk), .d(pt3_angB_x), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_x));
     // pt3_angB_y = IInvB_y * pt3_cB_y   (ready @14/14/14)
     logic [W-1:0] pt3_angB_y;
@@ -4635,7 +5043,8 @@ module pgs_contact_pipe #(
     assign ev_unf[304] = fl_pt3_angB_y[1] && ev_q[14];
     assign ev_inv[304] = fl_pt3_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angB_y (.clk(clk), .d(pt3_angB_y), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_y));
     // pt3_angB_z = IInvB_z * pt3_cB_z   (ready @14/14/14)
     logic [W-1:0] pt3_angB_z;
@@ -4648,7 +5057,8 @@ module pgs_contact_pipe #(
     assign ev_unf[305] = fl_pt3_angB_z[1] && ev_q[14];
     assign ev_inv[305] = fl_pt3_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angB_z (.clk(clk), .d(pt3_angB_z), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_z));
     // pt3_mul408 = linA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul408;
@@ -4661,7 +5071,8 @@ module pgs_contact_pipe #(
     assign ev_unf[306] = fl_pt3_mul408[1] && ev_q[175];
     assign ev_inv[306] = fl_pt3_mul408[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul408;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul408 (.clk(clk), .d(pt3_mul408), .valid(1'b0), .q(dl_pt3_mul408));
     // pt3_mul409 = linA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul409;
@@ -4674,7 +5085,8 @@ module pgs_contact_pipe #(
     assign ev_unf[307] = fl_pt3_mul409[1] && ev_q[175];
     assign ev_inv[307] = fl_pt3_mul409[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul409;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul409 (.clk(clk), .d(pt3_mul409), .valid(1'b0), .q(dl_pt3_mul409));
     // pt3_mul410 = linA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul410;
@@ -4687,7 +5099,8 @@ module pgs_contact_pipe #(
     assign ev_unf[308] = fl_pt3_mul410[1] && ev_q[175];
     assign ev_inv[308] = fl_pt3_mul410[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul410;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul410 (.clk(clk), .d(pt3_mul410), .valid(1'b0), .q(dl_pt3_mul410));
     // pt3_add411 = pt2_vA_x + pt3_mul408   (ready @179/179/179)
     logic [W-1:0] pt3_add411;
@@ -4700,7 +5113,8 @@ module pgs_contact_pipe #(
     assign ev_unf[309] = fl_pt3_add411[1] && ev_q[179];
     assign ev_inv[309] = fl_pt3_add411[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add411;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add411 (.clk(clk), .d(pt3_add411), .valid(1'b0), .q(dl_pt3_add411));
     // pt3_add412 = pt2_vA_y + pt3_mul409   (ready @179/179/179)
     logic [W-1:0] pt3_add412;
@@ -4713,7 +5127,8 @@ module pgs_contact_pipe #(
     assign ev_unf[310] = fl_pt3_add412[1] && ev_q[179];
     assign ev_inv[310] = fl_pt3_add412[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add412;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add412 (.clk(clk), .d(pt3_add412), .valid(1'b0), .q(dl_pt3_add412));
     // pt3_add413 = pt2_vA_z + pt3_mul410   (ready @179/179/179)
     logic [W-1:0] pt3_add413;
@@ -4726,25 +5141,29 @@ module pgs_contact_pipe #(
     assign ev_unf[311] = fl_pt3_add413[1] && ev_q[179];
     assign ev_inv[311] = fl_pt3_add413[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add413;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add413 (.clk(clk), .d(pt3_add413), .valid(1'b0), .q(dl_pt3_add413));
     // pt3_vA_x = pt3_skip ? pt2_vA_x : pt3_add411   (ready @179/179/179)
     logic [W-1:0] pt3_vA_x;
     assign pt3_vA_x = dl_pt3_skip[1] ? dl_pt2_vA_x[2*W +: W] : dl_pt3_add411;
     logic [W-1:0] dl_pt3_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vA_x (.clk(clk), .d(pt3_vA_x), .valid(1'b0), .q(dl_pt3_vA_x));
     // pt3_vA_y = pt3_skip ? pt2_vA_y : pt3_add412   (ready @179/179/179)
     logic [W-1:0] pt3_vA_y;
     assign pt3_vA_y = dl_pt3_skip[1] ? dl_pt2_vA_y[2*W +: W] : dl_pt3_add412;
     logic [W-1:0] dl_pt3_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vA_y (.clk(clk), .d(pt3_vA_y), .valid(1'b0), .q(dl_pt3_vA_y));
     // pt3_vA_z = pt3_skip ? pt2_vA_z : pt3_add413   (ready @179/179/179)
     logic [W-1:0] pt3_vA_z;
     assign pt3_vA_z = dl_pt3_skip[1] ? dl_pt2_vA_z[2*W +: W] : dl_pt3_add413;
     logic [W-1:0] dl_pt3_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vA_z (.clk(clk), .d(pt3_vA_z), .valid(1'b0), .q(dl_pt3_vA_z));
     // pt3_mul417 = pt3_angA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul417;
@@ -4757,7 +5176,8 @@ module pgs_contact_pipe #(
     assign ev_unf[312] = fl_pt3_mul417[1] && ev_q[175];
     assign ev_inv[312] = fl_pt3_mul417[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul417;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul417 (.clk(clk), .d(pt3_mul417), .valid(1'b0), .q(dl_pt3_mul417));
     // pt3_mul418 = pt3_angA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul418;
@@ -4770,7 +5190,8 @@ module pgs_contact_pipe #(
     assign ev_unf[313] = fl_pt3_mul418[1] && ev_q[175];
     assign ev_inv[313] = fl_pt3_mul418[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul418;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul418 (.clk(clk), .d(pt3_mul418), .valid(1'b0), .q(dl_pt3_mul418));
     // pt3_mul419 = pt3_angA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul419;
@@ -4783,7 +5204,8 @@ module pgs_contact_pipe #(
     assign ev_unf[314] = fl_pt3_mul419[1] && ev_q[175];
     assign ev_inv[314] = fl_pt3_mul419[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul419;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul419 (.clk(clk), .d(pt3_mul419), .valid(1'b0), .q(dl_pt3_mul419));
     // pt3_add420 = pt2_wA_x + pt3_mul417   (ready @179/179/179)
     logic [W-1:0] pt3_add420;
@@ -4796,7 +5218,8 @@ module pgs_contact_pipe #(
     assign ev_unf[315] = fl_pt3_add420[1] && ev_q[179];
     assign ev_inv[315] = fl_pt3_add420[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add420;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add420 (.clk(clk), .d(pt3_add420), .valid(1'b0), .q(dl_pt3_add420));
     // pt3_add421 = pt2_wA_y + pt3_mul418   (ready @179/179/179)
     logic [W-1:0] pt3_add421;
@@ -4809,7 +5232,8 @@ module pgs_contact_pipe #(
     assign ev_unf[316] = fl_pt3_add421[1] && ev_q[179];
     assign ev_inv[316] = fl_pt3_add421[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add421;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add421 (.clk(clk), .d(pt3_add421), .valid(1'b0), .q(dl_pt3_add421));
     // pt3_add422 = pt2_wA_z + pt3_mul419   (ready @179/179/179)
     logic [W-1:0] pt3_add422;
@@ -4822,25 +5246,29 @@ module pgs_contact_pipe #(
     assign ev_unf[317] = fl_pt3_add422[1] && ev_q[179];
     assign ev_inv[317] = fl_pt3_add422[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add422;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add422 (.clk(clk), .d(pt3_add422), .valid(1'b0), .q(dl_pt3_add422));
     // pt3_wA_x = pt3_skip ? pt2_wA_x : pt3_add420   (ready @179/179/179)
     logic [W-1:0] pt3_wA_x;
     assign pt3_wA_x = dl_pt3_skip[1] ? dl_pt2_wA_x[2*W +: W] : dl_pt3_add420;
     logic [W-1:0] dl_pt3_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wA_x (.clk(clk), .d(pt3_wA_x), .valid(1'b0), .q(dl_pt3_wA_x));
     // pt3_wA_y = pt3_skip ? pt2_wA_y : pt3_add421   (ready @179/179/179)
     logic [W-1:0] pt3_wA_y;
     assign pt3_wA_y = dl_pt3_skip[1] ? dl_pt2_wA_y[2*W +: W] : dl_pt3_add421;
     logic [W-1:0] dl_pt3_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wA_y (.clk(clk), .d(pt3_wA_y), .valid(1'b0), .q(dl_pt3_wA_y));
     // pt3_wA_z = pt3_skip ? pt2_wA_z : pt3_add422   (ready @179/179/179)
     logic [W-1:0] pt3_wA_z;
     assign pt3_wA_z = dl_pt3_skip[1] ? dl_pt2_wA_z[2*W +: W] : dl_pt3_add422;
     logic [W-1:0] dl_pt3_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wA_z (.clk(clk), .d(pt3_wA_z), .valid(1'b0), .q(dl_pt3_wA_z));
     // pt3_mul426 = linB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul426;
@@ -4853,7 +5281,8 @@ module pgs_contact_pipe #(
     assign ev_unf[318] = fl_pt3_mul426[1] && ev_q[175];
     assign ev_inv[318] = fl_pt3_mul426[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul426;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul426 (.clk(clk), .d(pt3_mul426), .valid(1'b0), .q(dl_pt3_mul426));
     // pt3_mul427 = linB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul427;
@@ -4866,7 +5295,8 @@ module pgs_contact_pipe #(
     assign ev_unf[319] = fl_pt3_mul427[1] && ev_q[175];
     assign ev_inv[319] = fl_pt3_mul427[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul427;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul427 (.clk(clk), .d(pt3_mul427), .valid(1'b0), .q(dl_pt3_mul427));
     // pt3_mul428 = linB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul428;
@@ -4879,7 +5309,8 @@ module pgs_contact_pipe #(
     assign ev_unf[320] = fl_pt3_mul428[1] && ev_q[175];
     assign ev_inv[320] = fl_pt3_mul428[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul428;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul428 (.clk(clk), .d(pt3_mul428), .valid(1'b0), .q(dl_pt3_mul428));
     // pt3_sub429 = pt2_vB_x - pt3_mul426   (ready @179/179/179)
     logic [W-1:0] pt3_sub429;
@@ -4892,7 +5323,8 @@ module pgs_contact_pipe #(
     assign ev_unf[321] = fl_pt3_sub429[1] && ev_q[179];
     assign ev_inv[321] = fl_pt3_sub429[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub429;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub429 (.clk(clk), .d(pt3_sub429), .valid(1'b0), .q(dl_pt3_sub429));
     // pt3_sub430 = pt2_vB_y - pt3_mul427   (ready @179/179/179)
     logic [W-1:0] pt3_sub430;
@@ -4905,7 +5337,8 @@ module pgs_contact_pipe #(
     assign ev_unf[322] = fl_pt3_sub430[1] && ev_q[179];
     assign ev_inv[322] = fl_pt3_sub430[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub430;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub430 (.clk(clk), .d(pt3_sub430), .valid(1'b0), .q(dl_pt3_sub430));
     // pt3_sub431 = pt2_vB_z - pt3_mul428   (ready @179/179/179)
     logic [W-1:0] pt3_sub431;
@@ -4918,25 +5351,29 @@ module pgs_contact_pipe #(
     assign ev_unf[323] = fl_pt3_sub431[1] && ev_q[179];
     assign ev_inv[323] = fl_pt3_sub431[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub431;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub431 (.clk(clk), .d(pt3_sub431), .valid(1'b0), .q(dl_pt3_sub431));
     // pt3_vB_x = pt3_skip ? pt2_vB_x : pt3_sub429   (ready @179/179/179)
     logic [W-1:0] pt3_vB_x;
     assign pt3_vB_x = dl_pt3_skip[1] ? dl_pt2_vB_x[2*W +: W] : dl_pt3_sub429;
     logic [W-1:0] dl_pt3_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vB_x (.clk(clk), .d(pt3_vB_x), .valid(1'b0), .q(dl_pt3_vB_x));
     // pt3_vB_y = pt3_skip ? pt2_vB_y : pt3_sub430   (ready @179/179/179)
     logic [W-1:0] pt3_vB_y;
     assign pt3_vB_y = dl_pt3_skip[1] ? dl_pt2_vB_y[2*W +: W] : dl_pt3_sub430;
     logic [W-1:0] dl_pt3_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vB_y (.clk(clk), .d(pt3_vB_y), .valid(1'b0), .q(dl_pt3_vB_y));
     // pt3_vB_z = pt3_skip ? pt2_vB_z : pt3_sub431   (ready @179/179/179)
     logic [W-1:0] pt3_vB_z;
     assign pt3_vB_z = dl_pt3_skip[1] ? dl_pt2_vB_z[2*W +: W] : dl_pt3_sub431;
     logic [W-1:0] dl_pt3_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vB_z (.clk(clk), .d(pt3_vB_z), .valid(1'b0), .q(dl_pt3_vB_z));
     // pt3_mul435 = pt3_angB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul435;
@@ -4949,7 +5386,8 @@ module pgs_contact_pipe #(
     assign ev_unf[324] = fl_pt3_mul435[1] && ev_q[175];
     assign ev_inv[324] = fl_pt3_mul435[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul435;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul435 (.clk(clk), .d(pt3_mul435), .valid(1'b0), .q(dl_pt3_mul435));
     // pt3_mul436 = pt3_angB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul436;
@@ -4962,7 +5400,8 @@ module pgs_contact_pipe #(
     assign ev_unf[325] = fl_pt3_mul436[1] && ev_q[175];
     assign ev_inv[325] = fl_pt3_mul436[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul436;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul436 (.clk(clk), .d(pt3_mul436), .valid(1'b0), .q(dl_pt3_mul436));
     // pt3_mul437 = pt3_angB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul437;
@@ -4975,7 +5414,8 @@ module pgs_contact_pipe #(
     assign ev_unf[326] = fl_pt3_mul437[1] && ev_q[175];
     assign ev_inv[326] = fl_pt3_mul437[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul437;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul437 (.clk(clk), .d(pt3_mul437), .valid(1'b0), .q(dl_pt3_mul437));
     // pt3_sub438 = pt2_wB_x - pt3_mul435   (ready @179/179/179)
     logic [W-1:0] pt3_sub438;
@@ -4988,7 +5428,8 @@ module pgs_contact_pipe #(
     assign ev_unf[327] = fl_pt3_sub438[1] && ev_q[179];
     assign ev_inv[327] = fl_pt3_sub438[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub438;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub438 (.clk(clk), .d(pt3_sub438), .valid(1'b0), .q(dl_pt3_sub438));
     // pt3_sub439 = pt2_wB_y - pt3_mul436   (ready @179/179/179)
     logic [W-1:0] pt3_sub439;
@@ -5001,7 +5442,8 @@ module pgs_contact_pipe #(
     assign ev_unf[328] = fl_pt3_sub439[1] && ev_q[179];
     assign ev_inv[328] = fl_pt3_sub439[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub439;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub439 (.clk(clk), .d(pt3_sub439), .valid(1'b0), .q(dl_pt3_sub439));
     // pt3_sub440 = pt2_wB_z - pt3_mul437   (ready @179/179/179)
     logic [W-1:0] pt3_sub440;
@@ -5014,25 +5456,29 @@ module pgs_contact_pipe #(
     assign ev_unf[329] = fl_pt3_sub440[1] && ev_q[179];
     assign ev_inv[329] = fl_pt3_sub440[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub440;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub440 (.clk(clk), .d(pt3_sub440), .valid(1'b0), .q(dl_pt3_sub440));
     // pt3_wB_x = pt3_skip ? pt2_wB_x : pt3_sub438   (ready @179/179/179)
     logic [W-1:0] pt3_wB_x;
     assign pt3_wB_x = dl_pt3_skip[1] ? dl_pt2_wB_x[2*W +: W] : dl_pt3_sub438;
     logic [W-1:0] dl_pt3_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wB_x (.clk(clk), .d(pt3_wB_x), .valid(1'b0), .q(dl_pt3_wB_x));
     // pt3_wB_y = pt3_skip ? pt2_wB_y : pt3_sub439   (ready @179/179/179)
     logic [W-1:0] pt3_wB_y;
     assign pt3_wB_y = dl_pt3_skip[1] ? dl_pt2_wB_y[2*W +: W] : dl_pt3_sub439;
     logic [W-1:0] dl_pt3_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wB_y (.clk(clk), .d(pt3_wB_y), .valid(1'b0), .q(dl_pt3_wB_y));
     // pt3_wB_z = pt3_skip ? pt2_wB_z : pt3_sub440   (ready @179/179/179)
     logic [W-1:0] pt3_wB_z;
     assign pt3_wB_z = dl_pt3_skip[1] ? dl_pt2_wB_z[2*W +: W] : dl_pt3_sub440;
     logic [W-1:0] dl_pt3_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wB_z (.clk(clk), .d(pt3_wB_z), .valid(1'b0), .q(dl_pt3_wB_z));
 
     // Outputs, each delayed to LATENCY.

@@ -29,6 +29,9 @@ module pgs_contact_pipe_full #(
     parameter  int EXP_BITS = 8,
     parameter  int MAN_BITS = 23,
     parameter  int TAG_W    = 64,
+    // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
+    // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
+    parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 59,
     localparam int N_OUT    = 16,
@@ -79,7 +82,7 @@ module pgs_contact_pipe_full #(
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
         .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY), .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_tag (
         .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
     );
 
@@ -106,297 +109,356 @@ module pgs_contact_pipe_full #(
     logic [W-1:0] in_n_x;
     assign in_n_x = in_data[0*W +: W];
     logic [5*W-1:0] dl_in_n_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 137]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [5*W-1:0] dl_in_n_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 137]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [5*W-1:0] dl_in_n_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 137]), .q(dl_in_n_z));
     logic [W-1:0] in_p0_x;
     assign in_p0_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_p0_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p0_x (.clk(clk), .d(in_p0_x), .valid(1'b0), .q(dl_in_p0_x));
     logic [W-1:0] in_p0_y;
     assign in_p0_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_p0_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p0_y (.clk(clk), .d(in_p0_y), .valid(1'b0), .q(dl_in_p0_y));
     logic [W-1:0] in_p0_z;
     assign in_p0_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_p0_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p0_z (.clk(clk), .d(in_p0_z), .valid(1'b0), .q(dl_in_p0_z));
     logic [W-1:0] in_p1_x;
     assign in_p1_x = in_data[6*W +: W];
     logic [W-1:0] dl_in_p1_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p1_x (.clk(clk), .d(in_p1_x), .valid(1'b0), .q(dl_in_p1_x));
     logic [W-1:0] in_p1_y;
     assign in_p1_y = in_data[7*W +: W];
     logic [W-1:0] dl_in_p1_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p1_y (.clk(clk), .d(in_p1_y), .valid(1'b0), .q(dl_in_p1_y));
     logic [W-1:0] in_p1_z;
     assign in_p1_z = in_data[8*W +: W];
     logic [W-1:0] dl_in_p1_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p1_z (.clk(clk), .d(in_p1_z), .valid(1'b0), .q(dl_in_p1_z));
     logic [W-1:0] in_p2_x;
     assign in_p2_x = in_data[9*W +: W];
     logic [W-1:0] dl_in_p2_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p2_x (.clk(clk), .d(in_p2_x), .valid(1'b0), .q(dl_in_p2_x));
     logic [W-1:0] in_p2_y;
     assign in_p2_y = in_data[10*W +: W];
     logic [W-1:0] dl_in_p2_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p2_y (.clk(clk), .d(in_p2_y), .valid(1'b0), .q(dl_in_p2_y));
     logic [W-1:0] in_p2_z;
     assign in_p2_z = in_data[11*W +: W];
     logic [W-1:0] dl_in_p2_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p2_z (.clk(clk), .d(in_p2_z), .valid(1'b0), .q(dl_in_p2_z));
     logic [W-1:0] in_p3_x;
     assign in_p3_x = in_data[12*W +: W];
     logic [W-1:0] dl_in_p3_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p3_x (.clk(clk), .d(in_p3_x), .valid(1'b0), .q(dl_in_p3_x));
     logic [W-1:0] in_p3_y;
     assign in_p3_y = in_data[13*W +: W];
     logic [W-1:0] dl_in_p3_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p3_y (.clk(clk), .d(in_p3_y), .valid(1'b0), .q(dl_in_p3_y));
     logic [W-1:0] in_p3_z;
     assign in_p3_z = in_data[14*W +: W];
     logic [W-1:0] dl_in_p3_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p3_z (.clk(clk), .d(in_p3_z), .valid(1'b0), .q(dl_in_p3_z));
     logic [W-1:0] in_jac_inv0;
     assign in_jac_inv0 = in_data[15*W +: W];
     logic [2*W-1:0] dl_in_jac_inv0;
-    pgs_delay #(.WIDTH(W), .DEPTH(34), .N_TAPS(2), .TAPS({32'(34), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(34), .N_TAPS(2), .TAPS({32'(34), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv0 (.clk(clk), .d(in_jac_inv0), .valid(valid_q[0 +: 34]), .q(dl_in_jac_inv0));
     logic [W-1:0] in_jac_inv1;
     assign in_jac_inv1 = in_data[16*W +: W];
     logic [2*W-1:0] dl_in_jac_inv1;
-    pgs_delay #(.WIDTH(W), .DEPTH(76), .N_TAPS(2), .TAPS({32'(76), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(76), .N_TAPS(2), .TAPS({32'(76), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv1 (.clk(clk), .d(in_jac_inv1), .valid(valid_q[0 +: 76]), .q(dl_in_jac_inv1));
     logic [W-1:0] in_jac_inv2;
     assign in_jac_inv2 = in_data[17*W +: W];
     logic [2*W-1:0] dl_in_jac_inv2;
-    pgs_delay #(.WIDTH(W), .DEPTH(118), .N_TAPS(2), .TAPS({32'(118), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(118), .N_TAPS(2), .TAPS({32'(118), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv2 (.clk(clk), .d(in_jac_inv2), .valid(valid_q[0 +: 118]), .q(dl_in_jac_inv2));
     logic [W-1:0] in_jac_inv3;
     assign in_jac_inv3 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_jac_inv3;
-    pgs_delay #(.WIDTH(W), .DEPTH(160), .N_TAPS(2), .TAPS({32'(160), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(160), .N_TAPS(2), .TAPS({32'(160), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv3 (.clk(clk), .d(in_jac_inv3), .valid(valid_q[0 +: 160]), .q(dl_in_jac_inv3));
     logic [W-1:0] in_b0;
     assign in_b0 = in_data[19*W +: W];
     logic [W-1:0] dl_in_b0;
-    pgs_delay #(.WIDTH(W), .DEPTH(30))
+    pgs_delay #(.WIDTH(W), .DEPTH(30),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b0 (.clk(clk), .d(in_b0), .valid(valid_q[0 +: 30]), .q(dl_in_b0));
     logic [W-1:0] in_b1;
     assign in_b1 = in_data[20*W +: W];
     logic [W-1:0] dl_in_b1;
-    pgs_delay #(.WIDTH(W), .DEPTH(72))
+    pgs_delay #(.WIDTH(W), .DEPTH(72),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b1 (.clk(clk), .d(in_b1), .valid(valid_q[0 +: 72]), .q(dl_in_b1));
     logic [W-1:0] in_b2;
     assign in_b2 = in_data[21*W +: W];
     logic [W-1:0] dl_in_b2;
-    pgs_delay #(.WIDTH(W), .DEPTH(114))
+    pgs_delay #(.WIDTH(W), .DEPTH(114),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b2 (.clk(clk), .d(in_b2), .valid(valid_q[0 +: 114]), .q(dl_in_b2));
     logic [W-1:0] in_b3;
     assign in_b3 = in_data[22*W +: W];
     logic [W-1:0] dl_in_b3;
-    pgs_delay #(.WIDTH(W), .DEPTH(156))
+    pgs_delay #(.WIDTH(W), .DEPTH(156),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b3 (.clk(clk), .d(in_b3), .valid(valid_q[0 +: 156]), .q(dl_in_b3));
     logic [W-1:0] in_lam0;
     assign in_lam0 = in_data[23*W +: W];
     logic [2*W-1:0] dl_in_lam0;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(42), 32'(37)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(42), 32'(37)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam0 (.clk(clk), .d(in_lam0), .valid(valid_q[0 +: 42]), .q(dl_in_lam0));
     logic [W-1:0] in_lam1;
     assign in_lam1 = in_data[24*W +: W];
     logic [2*W-1:0] dl_in_lam1;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(84), 32'(79)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(84), 32'(79)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam1 (.clk(clk), .d(in_lam1), .valid(valid_q[0 +: 84]), .q(dl_in_lam1));
     logic [W-1:0] in_lam2;
     assign in_lam2 = in_data[25*W +: W];
     logic [2*W-1:0] dl_in_lam2;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(126), 32'(121)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(126), 32'(121)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam2 (.clk(clk), .d(in_lam2), .valid(valid_q[0 +: 126]), .q(dl_in_lam2));
     logic [W-1:0] in_lam3;
     assign in_lam3 = in_data[26*W +: W];
     logic [2*W-1:0] dl_in_lam3;
-    pgs_delay #(.WIDTH(W), .DEPTH(168), .N_TAPS(2), .TAPS({32'(168), 32'(163)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(168), .N_TAPS(2), .TAPS({32'(168), 32'(163)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam3 (.clk(clk), .d(in_lam3), .valid(valid_q[0 +: 168]), .q(dl_in_lam3));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[27*W +: W];
     logic [W-1:0] dl_in_xA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[28*W +: W];
     logic [W-1:0] dl_in_xA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[29*W +: W];
     logic [W-1:0] dl_in_xA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[30*W +: W];
     logic [W-1:0] dl_in_xB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[31*W +: W];
     logic [W-1:0] dl_in_xB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[32*W +: W];
     logic [W-1:0] dl_in_xB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 53]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 53]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 53]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 53]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 53]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[38*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 53]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[39*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 53]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[40*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 53]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[41*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 53]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[42*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 53]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[43*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 53]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[44*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 53]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[45*W +: W];
     logic [W-1:0] dl_in_mInvA;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[46*W +: W];
     logic [W-1:0] dl_in_mInvB;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_xx;
     assign in_IInvA_xx = in_data[47*W +: W];
     logic [W-1:0] dl_in_IInvA_xx;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_xx (.clk(clk), .d(in_IInvA_xx), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_xx));
     logic [W-1:0] in_IInvA_yy;
     assign in_IInvA_yy = in_data[48*W +: W];
     logic [W-1:0] dl_in_IInvA_yy;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_yy (.clk(clk), .d(in_IInvA_yy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_yy));
     logic [W-1:0] in_IInvA_zz;
     assign in_IInvA_zz = in_data[49*W +: W];
     logic [W-1:0] dl_in_IInvA_zz;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_zz (.clk(clk), .d(in_IInvA_zz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_zz));
     logic [W-1:0] in_IInvA_xy;
     assign in_IInvA_xy = in_data[50*W +: W];
     logic [W-1:0] dl_in_IInvA_xy;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_xy (.clk(clk), .d(in_IInvA_xy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_xy));
     logic [W-1:0] in_IInvA_xz;
     assign in_IInvA_xz = in_data[51*W +: W];
     logic [W-1:0] dl_in_IInvA_xz;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_xz (.clk(clk), .d(in_IInvA_xz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_xz));
     logic [W-1:0] in_IInvA_yz;
     assign in_IInvA_yz = in_data[52*W +: W];
     logic [W-1:0] dl_in_IInvA_yz;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_yz (.clk(clk), .d(in_IInvA_yz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_yz));
     logic [W-1:0] in_IInvB_xx;
     assign in_IInvB_xx = in_data[53*W +: W];
     logic [W-1:0] dl_in_IInvB_xx;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_xx (.clk(clk), .d(in_IInvB_xx), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_xx));
     logic [W-1:0] in_IInvB_yy;
     assign in_IInvB_yy = in_data[54*W +: W];
     logic [W-1:0] dl_in_IInvB_yy;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_yy (.clk(clk), .d(in_IInvB_yy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_yy));
     logic [W-1:0] in_IInvB_zz;
     assign in_IInvB_zz = in_data[55*W +: W];
     logic [W-1:0] dl_in_IInvB_zz;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_zz (.clk(clk), .d(in_IInvB_zz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_zz));
     logic [W-1:0] in_IInvB_xy;
     assign in_IInvB_xy = in_data[56*W +: W];
     logic [W-1:0] dl_in_IInvB_xy;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_xy (.clk(clk), .d(in_IInvB_xy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_xy));
     logic [W-1:0] in_IInvB_xz;
     assign in_IInvB_xz = in_data[57*W +: W];
     logic [W-1:0] dl_in_IInvB_xz;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_xz (.clk(clk), .d(in_IInvB_xz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_xz));
     logic [W-1:0] in_IInvB_yz;
     assign in_IInvB_yz = in_data[58*W +: W];
     logic [W-1:0] dl_in_IInvB_yz;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_yz (.clk(clk), .d(in_IInvB_yz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_yz));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
@@ -412,7 +474,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[0] = fl_linA_x[1] && ev_q[3];
     assign ev_inv[0] = fl_linA_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linA_x (.clk(clk), .d(linA_x), .valid(valid_q[3 +: 169]), .q(dl_linA_x));
     // linA_y = n_y * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_y;
@@ -425,7 +488,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[1] = fl_linA_y[1] && ev_q[3];
     assign ev_inv[1] = fl_linA_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linA_y (.clk(clk), .d(linA_y), .valid(valid_q[3 +: 169]), .q(dl_linA_y));
     // linA_z = n_z * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_z;
@@ -438,7 +502,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[2] = fl_linA_z[1] && ev_q[3];
     assign ev_inv[2] = fl_linA_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linA_z (.clk(clk), .d(linA_z), .valid(valid_q[3 +: 169]), .q(dl_linA_z));
     // linB_x = n_x * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_x;
@@ -451,7 +516,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[3] = fl_linB_x[1] && ev_q[3];
     assign ev_inv[3] = fl_linB_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linB_x (.clk(clk), .d(linB_x), .valid(valid_q[3 +: 169]), .q(dl_linB_x));
     // linB_y = n_y * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_y;
@@ -464,7 +530,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[4] = fl_linB_y[1] && ev_q[3];
     assign ev_inv[4] = fl_linB_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linB_y (.clk(clk), .d(linB_y), .valid(valid_q[3 +: 169]), .q(dl_linB_y));
     // linB_z = n_z * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_z;
@@ -477,13 +544,15 @@ module pgs_contact_pipe_full #(
     assign ev_unf[5] = fl_linB_z[1] && ev_q[3];
     assign ev_inv[5] = fl_linB_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linB_z (.clk(clk), .d(linB_z), .valid(valid_q[3 +: 169]), .q(dl_linB_z));
     // pt0_skip = jac_inv0 == 0   (ready @0/0/0)
     logic pt0_skip;
     assign pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt0_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_skip (.clk(clk), .d(pt0_skip), .valid(valid_q[0 +: 53]), .q(dl_pt0_skip));
     // pt0_rA_x = p0_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt0_rA_x;
@@ -496,7 +565,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[6] = fl_pt0_rA_x[1] && ev_q[4];
     assign ev_inv[6] = fl_pt0_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rA_x (.clk(clk), .d(pt0_rA_x), .valid(1'b0), .q(dl_pt0_rA_x));
     // pt0_rA_y = p0_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt0_rA_y;
@@ -509,7 +579,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[7] = fl_pt0_rA_y[1] && ev_q[4];
     assign ev_inv[7] = fl_pt0_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rA_y (.clk(clk), .d(pt0_rA_y), .valid(1'b0), .q(dl_pt0_rA_y));
     // pt0_rA_z = p0_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt0_rA_z;
@@ -522,7 +593,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[8] = fl_pt0_rA_z[1] && ev_q[4];
     assign ev_inv[8] = fl_pt0_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rA_z (.clk(clk), .d(pt0_rA_z), .valid(1'b0), .q(dl_pt0_rA_z));
     // pt0_mul70 = pt0_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul70;
@@ -535,7 +607,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[9] = fl_pt0_mul70[1] && ev_q[7];
     assign ev_inv[9] = fl_pt0_mul70[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul70;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul70 (.clk(clk), .d(pt0_mul70), .valid(1'b0), .q(dl_pt0_mul70));
     // pt0_mul71 = pt0_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul71;
@@ -548,7 +621,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[10] = fl_pt0_mul71[1] && ev_q[7];
     assign ev_inv[10] = fl_pt0_mul71[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul71;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul71 (.clk(clk), .d(pt0_mul71), .valid(1'b0), .q(dl_pt0_mul71));
     // pt0_cA_x = pt0_mul70 - pt0_mul71   (ready @11/11/11)
     logic [W-1:0] pt0_cA_x;
@@ -561,7 +635,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[11] = fl_pt0_cA_x[1] && ev_q[11];
     assign ev_inv[11] = fl_pt0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cA_x (.clk(clk), .d(pt0_cA_x), .valid(1'b0), .q(dl_pt0_cA_x));
     // pt0_mul73 = pt0_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul73;
@@ -574,7 +649,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[12] = fl_pt0_mul73[1] && ev_q[7];
     assign ev_inv[12] = fl_pt0_mul73[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul73;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul73 (.clk(clk), .d(pt0_mul73), .valid(1'b0), .q(dl_pt0_mul73));
     // pt0_mul74 = pt0_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul74;
@@ -587,7 +663,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[13] = fl_pt0_mul74[1] && ev_q[7];
     assign ev_inv[13] = fl_pt0_mul74[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul74;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul74 (.clk(clk), .d(pt0_mul74), .valid(1'b0), .q(dl_pt0_mul74));
     // pt0_cA_y = pt0_mul73 - pt0_mul74   (ready @11/11/11)
     logic [W-1:0] pt0_cA_y;
@@ -600,7 +677,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[14] = fl_pt0_cA_y[1] && ev_q[11];
     assign ev_inv[14] = fl_pt0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cA_y (.clk(clk), .d(pt0_cA_y), .valid(1'b0), .q(dl_pt0_cA_y));
     // pt0_mul76 = pt0_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul76;
@@ -613,7 +691,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[15] = fl_pt0_mul76[1] && ev_q[7];
     assign ev_inv[15] = fl_pt0_mul76[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul76;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul76 (.clk(clk), .d(pt0_mul76), .valid(1'b0), .q(dl_pt0_mul76));
     // pt0_mul77 = pt0_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul77;
@@ -626,7 +705,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[16] = fl_pt0_mul77[1] && ev_q[7];
     assign ev_inv[16] = fl_pt0_mul77[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul77;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul77 (.clk(clk), .d(pt0_mul77), .valid(1'b0), .q(dl_pt0_mul77));
     // pt0_cA_z = pt0_mul76 - pt0_mul77   (ready @11/11/11)
     logic [W-1:0] pt0_cA_z;
@@ -639,7 +719,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[17] = fl_pt0_cA_z[1] && ev_q[11];
     assign ev_inv[17] = fl_pt0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cA_z (.clk(clk), .d(pt0_cA_z), .valid(1'b0), .q(dl_pt0_cA_z));
     // pt0_rB_x = p0_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt0_rB_x;
@@ -652,7 +733,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[18] = fl_pt0_rB_x[1] && ev_q[4];
     assign ev_inv[18] = fl_pt0_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rB_x (.clk(clk), .d(pt0_rB_x), .valid(1'b0), .q(dl_pt0_rB_x));
     // pt0_rB_y = p0_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt0_rB_y;
@@ -665,7 +747,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[19] = fl_pt0_rB_y[1] && ev_q[4];
     assign ev_inv[19] = fl_pt0_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rB_y (.clk(clk), .d(pt0_rB_y), .valid(1'b0), .q(dl_pt0_rB_y));
     // pt0_rB_z = p0_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt0_rB_z;
@@ -678,7 +761,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[20] = fl_pt0_rB_z[1] && ev_q[4];
     assign ev_inv[20] = fl_pt0_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rB_z (.clk(clk), .d(pt0_rB_z), .valid(1'b0), .q(dl_pt0_rB_z));
     // pt0_mul82 = pt0_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul82;
@@ -691,7 +775,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[21] = fl_pt0_mul82[1] && ev_q[7];
     assign ev_inv[21] = fl_pt0_mul82[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul82;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul82 (.clk(clk), .d(pt0_mul82), .valid(1'b0), .q(dl_pt0_mul82));
     // pt0_mul83 = pt0_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul83;
@@ -704,7 +789,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[22] = fl_pt0_mul83[1] && ev_q[7];
     assign ev_inv[22] = fl_pt0_mul83[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul83;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul83 (.clk(clk), .d(pt0_mul83), .valid(1'b0), .q(dl_pt0_mul83));
     // pt0_cB_x = pt0_mul82 - pt0_mul83   (ready @11/11/11)
     logic [W-1:0] pt0_cB_x;
@@ -717,7 +803,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[23] = fl_pt0_cB_x[1] && ev_q[11];
     assign ev_inv[23] = fl_pt0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cB_x (.clk(clk), .d(pt0_cB_x), .valid(1'b0), .q(dl_pt0_cB_x));
     // pt0_mul85 = pt0_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul85;
@@ -730,7 +817,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[24] = fl_pt0_mul85[1] && ev_q[7];
     assign ev_inv[24] = fl_pt0_mul85[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul85;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul85 (.clk(clk), .d(pt0_mul85), .valid(1'b0), .q(dl_pt0_mul85));
     // pt0_mul86 = pt0_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul86;
@@ -743,7 +831,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[25] = fl_pt0_mul86[1] && ev_q[7];
     assign ev_inv[25] = fl_pt0_mul86[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul86;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul86 (.clk(clk), .d(pt0_mul86), .valid(1'b0), .q(dl_pt0_mul86));
     // pt0_cB_y = pt0_mul85 - pt0_mul86   (ready @11/11/11)
     logic [W-1:0] pt0_cB_y;
@@ -756,7 +845,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[26] = fl_pt0_cB_y[1] && ev_q[11];
     assign ev_inv[26] = fl_pt0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cB_y (.clk(clk), .d(pt0_cB_y), .valid(1'b0), .q(dl_pt0_cB_y));
     // pt0_mul88 = pt0_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul88;
@@ -769,7 +859,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[27] = fl_pt0_mul88[1] && ev_q[7];
     assign ev_inv[27] = fl_pt0_mul88[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul88;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul88 (.clk(clk), .d(pt0_mul88), .valid(1'b0), .q(dl_pt0_mul88));
     // pt0_mul89 = pt0_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul89;
@@ -782,7 +873,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[28] = fl_pt0_mul89[1] && ev_q[7];
     assign ev_inv[28] = fl_pt0_mul89[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul89;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul89 (.clk(clk), .d(pt0_mul89), .valid(1'b0), .q(dl_pt0_mul89));
     // pt0_cB_z = pt0_mul88 - pt0_mul89   (ready @11/11/11)
     logic [W-1:0] pt0_cB_z;
@@ -795,7 +887,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[29] = fl_pt0_cB_z[1] && ev_q[11];
     assign ev_inv[29] = fl_pt0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cB_z (.clk(clk), .d(pt0_cB_z), .valid(1'b0), .q(dl_pt0_cB_z));
     // pt0_mul91 = n_x * vA_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul91;
@@ -808,7 +901,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[30] = fl_pt0_mul91[1] && ev_q[3];
     assign ev_inv[30] = fl_pt0_mul91[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul91;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul91 (.clk(clk), .d(pt0_mul91), .valid(1'b0), .q(dl_pt0_mul91));
     // pt0_mul92 = n_y * vA_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul92;
@@ -821,7 +915,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[31] = fl_pt0_mul92[1] && ev_q[3];
     assign ev_inv[31] = fl_pt0_mul92[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul92;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul92 (.clk(clk), .d(pt0_mul92), .valid(1'b0), .q(dl_pt0_mul92));
     // pt0_add93 = pt0_mul91 + pt0_mul92   (ready @7/7/7)
     logic [W-1:0] pt0_add93;
@@ -834,7 +929,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[32] = fl_pt0_add93[1] && ev_q[7];
     assign ev_inv[32] = fl_pt0_add93[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add93;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add93 (.clk(clk), .d(pt0_add93), .valid(1'b0), .q(dl_pt0_add93));
     // pt0_mul94 = n_z * vA_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul94;
@@ -847,7 +943,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[33] = fl_pt0_mul94[1] && ev_q[3];
     assign ev_inv[33] = fl_pt0_mul94[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul94;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul94 (.clk(clk), .d(pt0_mul94), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul94));
     // pt0_add95 = pt0_add93 + pt0_mul94   (ready @11/11/11)
     logic [W-1:0] pt0_add95;
@@ -860,7 +957,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[34] = fl_pt0_add95[1] && ev_q[11];
     assign ev_inv[34] = fl_pt0_add95[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add95;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add95 (.clk(clk), .d(pt0_add95), .valid(1'b0), .q(dl_pt0_add95));
     // pt0_mul96 = n_x * vB_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul96;
@@ -873,7 +971,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[35] = fl_pt0_mul96[1] && ev_q[3];
     assign ev_inv[35] = fl_pt0_mul96[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul96;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul96 (.clk(clk), .d(pt0_mul96), .valid(1'b0), .q(dl_pt0_mul96));
     // pt0_mul97 = n_y * vB_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul97;
@@ -886,7 +985,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[36] = fl_pt0_mul97[1] && ev_q[3];
     assign ev_inv[36] = fl_pt0_mul97[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul97;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul97 (.clk(clk), .d(pt0_mul97), .valid(1'b0), .q(dl_pt0_mul97));
     // pt0_add98 = pt0_mul96 + pt0_mul97   (ready @7/7/7)
     logic [W-1:0] pt0_add98;
@@ -899,7 +999,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[37] = fl_pt0_add98[1] && ev_q[7];
     assign ev_inv[37] = fl_pt0_add98[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add98;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add98 (.clk(clk), .d(pt0_add98), .valid(1'b0), .q(dl_pt0_add98));
     // pt0_mul99 = n_z * vB_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul99;
@@ -912,7 +1013,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[38] = fl_pt0_mul99[1] && ev_q[3];
     assign ev_inv[38] = fl_pt0_mul99[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul99;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul99 (.clk(clk), .d(pt0_mul99), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul99));
     // pt0_add100 = pt0_add98 + pt0_mul99   (ready @11/11/11)
     logic [W-1:0] pt0_add100;
@@ -925,7 +1027,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[39] = fl_pt0_add100[1] && ev_q[11];
     assign ev_inv[39] = fl_pt0_add100[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add100;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add100 (.clk(clk), .d(pt0_add100), .valid(1'b0), .q(dl_pt0_add100));
     // pt0_sub101 = pt0_add95 - pt0_add100   (ready @15/15/15)
     logic [W-1:0] pt0_sub101;
@@ -938,7 +1041,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[40] = fl_pt0_sub101[1] && ev_q[15];
     assign ev_inv[40] = fl_pt0_sub101[2] && ev_q[15];
     logic [W-1:0] dl_pt0_sub101;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub101 (.clk(clk), .d(pt0_sub101), .valid(valid_q[15 +: 11]), .q(dl_pt0_sub101));
     // pt0_mul102 = pt0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul102;
@@ -951,7 +1055,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[41] = fl_pt0_mul102[1] && ev_q[14];
     assign ev_inv[41] = fl_pt0_mul102[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul102;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul102 (.clk(clk), .d(pt0_mul102), .valid(1'b0), .q(dl_pt0_mul102));
     // pt0_mul103 = pt0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul103;
@@ -964,7 +1069,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[42] = fl_pt0_mul103[1] && ev_q[14];
     assign ev_inv[42] = fl_pt0_mul103[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul103;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul103 (.clk(clk), .d(pt0_mul103), .valid(1'b0), .q(dl_pt0_mul103));
     // pt0_add104 = pt0_mul102 + pt0_mul103   (ready @18/18/18)
     logic [W-1:0] pt0_add104;
@@ -977,7 +1083,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[43] = fl_pt0_add104[1] && ev_q[18];
     assign ev_inv[43] = fl_pt0_add104[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add104;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add104 (.clk(clk), .d(pt0_add104), .valid(1'b0), .q(dl_pt0_add104));
     // pt0_mul105 = pt0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul105;
@@ -990,7 +1097,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[44] = fl_pt0_mul105[1] && ev_q[14];
     assign ev_inv[44] = fl_pt0_mul105[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul105;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul105 (.clk(clk), .d(pt0_mul105), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul105));
     // pt0_add106 = pt0_add104 + pt0_mul105   (ready @22/22/22)
     logic [W-1:0] pt0_add106;
@@ -1003,7 +1111,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[45] = fl_pt0_add106[1] && ev_q[22];
     assign ev_inv[45] = fl_pt0_add106[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add106;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add106 (.clk(clk), .d(pt0_add106), .valid(1'b0), .q(dl_pt0_add106));
     // pt0_mul107 = pt0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul107;
@@ -1016,7 +1125,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[46] = fl_pt0_mul107[1] && ev_q[14];
     assign ev_inv[46] = fl_pt0_mul107[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul107;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul107 (.clk(clk), .d(pt0_mul107), .valid(1'b0), .q(dl_pt0_mul107));
     // pt0_mul108 = pt0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul108;
@@ -1029,7 +1139,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[47] = fl_pt0_mul108[1] && ev_q[14];
     assign ev_inv[47] = fl_pt0_mul108[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul108;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul108 (.clk(clk), .d(pt0_mul108), .valid(1'b0), .q(dl_pt0_mul108));
     // pt0_add109 = pt0_mul107 + pt0_mul108   (ready @18/18/18)
     logic [W-1:0] pt0_add109;
@@ -1042,7 +1153,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[48] = fl_pt0_add109[1] && ev_q[18];
     assign ev_inv[48] = fl_pt0_add109[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add109;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add109 (.clk(clk), .d(pt0_add109), .valid(1'b0), .q(dl_pt0_add109));
     // pt0_mul110 = pt0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul110;
@@ -1055,7 +1167,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[49] = fl_pt0_mul110[1] && ev_q[14];
     assign ev_inv[49] = fl_pt0_mul110[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul110;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul110 (.clk(clk), .d(pt0_mul110), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul110));
     // pt0_add111 = pt0_add109 + pt0_mul110   (ready @22/22/22)
     logic [W-1:0] pt0_add111;
@@ -1068,7 +1181,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[50] = fl_pt0_add111[1] && ev_q[22];
     assign ev_inv[50] = fl_pt0_add111[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add111;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add111 (.clk(clk), .d(pt0_add111), .valid(1'b0), .q(dl_pt0_add111));
     // pt0_sub112 = pt0_add106 - pt0_add111   (ready @26/26/26)
     logic [W-1:0] pt0_sub112;
@@ -1081,7 +1195,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[51] = fl_pt0_sub112[1] && ev_q[26];
     assign ev_inv[51] = fl_pt0_sub112[2] && ev_q[26];
     logic [W-1:0] dl_pt0_sub112;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub112 (.clk(clk), .d(pt0_sub112), .valid(1'b0), .q(dl_pt0_sub112));
     // pt0_vrel = pt0_sub101 + pt0_sub112   (ready @30/30/30)
     logic [W-1:0] pt0_vrel;
@@ -1094,7 +1209,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[52] = fl_pt0_vrel[1] && ev_q[30];
     assign ev_inv[52] = fl_pt0_vrel[2] && ev_q[30];
     logic [W-1:0] dl_pt0_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vrel (.clk(clk), .d(pt0_vrel), .valid(1'b0), .q(dl_pt0_vrel));
     // pt0_add114 = pt0_vrel + b0   (ready @34/34/34)
     logic [W-1:0] pt0_add114;
@@ -1107,7 +1223,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[53] = fl_pt0_add114[1] && ev_q[34];
     assign ev_inv[53] = fl_pt0_add114[2] && ev_q[34];
     logic [W-1:0] dl_pt0_add114;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add114 (.clk(clk), .d(pt0_add114), .valid(1'b0), .q(dl_pt0_add114));
     // pt0_delta0 = pt0_add114 * jac_inv0   (ready @37/37/37)
     logic [W-1:0] pt0_delta0;
@@ -1120,7 +1237,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[54] = fl_pt0_delta0[1] && ev_q[37];
     assign ev_inv[54] = fl_pt0_delta0[2] && ev_q[37];
     logic [W-1:0] dl_pt0_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_delta0 (.clk(clk), .d(pt0_delta0), .valid(1'b0), .q(dl_pt0_delta0));
     // pt0_add116 = lam0 + pt0_delta0   (ready @41/41/41)
     logic [W-1:0] pt0_add116;
@@ -1133,7 +1251,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[55] = fl_pt0_add116[1] && ev_q[41];
     assign ev_inv[55] = fl_pt0_add116[2] && ev_q[41];
     logic [W-1:0] dl_pt0_add116;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add116 (.clk(clk), .d(pt0_add116), .valid(1'b0), .q(dl_pt0_add116));
     // pt0_lam_new = max(pt0_add116, 0.0)   (ready @42/42/42)
     logic [W-1:0] pt0_lam_new;
@@ -1143,7 +1262,8 @@ module pgs_contact_pipe_full #(
         .lt(nc_pt0_lam_new_lt), .eq(nc_pt0_lam_new_eq), .unordered(nc_pt0_lam_new_uo)
     );
     logic [W-1:0] dl_pt0_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_lam_new (.clk(clk), .d(pt0_lam_new), .valid(1'b0), .q(dl_pt0_lam_new));
     // pt0_delta = pt0_lam_new - lam0   (ready @46/46/46)
     logic [W-1:0] pt0_delta;
@@ -1156,13 +1276,15 @@ module pgs_contact_pipe_full #(
     assign ev_unf[56] = fl_pt0_delta[1] && ev_q[46];
     assign ev_inv[56] = fl_pt0_delta[2] && ev_q[46];
     logic [W-1:0] dl_pt0_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_delta (.clk(clk), .d(pt0_delta), .valid(1'b0), .q(dl_pt0_delta));
     // pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (ready @42/42/42)
     logic [W-1:0] pt0_lam;
     assign pt0_lam = dl_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_pt0_lam_new;
     logic [W-1:0] dl_pt0_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(137))
+    pgs_delay #(.WIDTH(W), .DEPTH(137),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_lam (.clk(clk), .d(pt0_lam), .valid(valid_q[42 +: 137]), .q(dl_pt0_lam));
     // pt0_mul120 = IInvA_xx * pt0_cA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul120;
@@ -1175,7 +1297,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[57] = fl_pt0_mul120[1] && ev_q[14];
     assign ev_inv[57] = fl_pt0_mul120[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul120;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul120 (.clk(clk), .d(pt0_mul120), .valid(1'b0), .q(dl_pt0_mul120));
     // pt0_mul121 = IInvA_xy * pt0_cA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul121;
@@ -1188,7 +1311,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[58] = fl_pt0_mul121[1] && ev_q[14];
     assign ev_inv[58] = fl_pt0_mul121[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul121;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul121 (.clk(clk), .d(pt0_mul121), .valid(1'b0), .q(dl_pt0_mul121));
     // pt0_add122 = pt0_mul120 + pt0_mul121   (ready @18/18/18)
     logic [W-1:0] pt0_add122;
@@ -1201,7 +1325,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[59] = fl_pt0_add122[1] && ev_q[18];
     assign ev_inv[59] = fl_pt0_add122[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add122;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add122 (.clk(clk), .d(pt0_add122), .valid(1'b0), .q(dl_pt0_add122));
     // pt0_mul123 = IInvA_xz * pt0_cA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul123;
@@ -1214,7 +1339,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[60] = fl_pt0_mul123[1] && ev_q[14];
     assign ev_inv[60] = fl_pt0_mul123[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul123;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul123 (.clk(clk), .d(pt0_mul123), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul123));
     // pt0_angA_x = pt0_add122 + pt0_mul123   (ready @22/22/22)
     logic [W-1:0] pt0_angA_x;
@@ -1227,7 +1353,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[61] = fl_pt0_angA_x[1] && ev_q[22];
     assign ev_inv[61] = fl_pt0_angA_x[2] && ev_q[22];
     logic [W-1:0] dl_pt0_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(24))
+    pgs_delay #(.WIDTH(W), .DEPTH(24),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angA_x (.clk(clk), .d(pt0_angA_x), .valid(valid_q[22 +: 24]), .q(dl_pt0_angA_x));
     // pt0_mul125 = IInvA_xy * pt0_cA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul125;
@@ -1240,7 +1367,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[62] = fl_pt0_mul125[1] && ev_q[14];
     assign ev_inv[62] = fl_pt0_mul125[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul125;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul125 (.clk(clk), .d(pt0_mul125), .valid(1'b0), .q(dl_pt0_mul125));
     // pt0_mul126 = IInvA_yy * pt0_cA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul126;
@@ -1253,7 +1381,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[63] = fl_pt0_mul126[1] && ev_q[14];
     assign ev_inv[63] = fl_pt0_mul126[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul126;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul126 (.clk(clk), .d(pt0_mul126), .valid(1'b0), .q(dl_pt0_mul126));
     // pt0_add127 = pt0_mul125 + pt0_mul126   (ready @18/18/18)
     logic [W-1:0] pt0_add127;
@@ -1266,7 +1395,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[64] = fl_pt0_add127[1] && ev_q[18];
     assign ev_inv[64] = fl_pt0_add127[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add127;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add127 (.clk(clk), .d(pt0_add127), .valid(1'b0), .q(dl_pt0_add127));
     // pt0_mul128 = IInvA_yz * pt0_cA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul128;
@@ -1279,7 +1409,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[65] = fl_pt0_mul128[1] && ev_q[14];
     assign ev_inv[65] = fl_pt0_mul128[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul128;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul128 (.clk(clk), .d(pt0_mul128), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul128));
     // pt0_angA_y = pt0_add127 + pt0_mul128   (ready @22/22/22)
     logic [W-1:0] pt0_angA_y;
@@ -1292,7 +1423,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[66] = fl_pt0_angA_y[1] && ev_q[22];
     assign ev_inv[66] = fl_pt0_angA_y[2] && ev_q[22];
     logic [W-1:0] dl_pt0_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(24))
+    pgs_delay #(.WIDTH(W), .DEPTH(24),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angA_y (.clk(clk), .d(pt0_angA_y), .valid(valid_q[22 +: 24]), .q(dl_pt0_angA_y));
     // pt0_mul130 = IInvA_xz * pt0_cA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul130;
@@ -1305,7 +1437,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[67] = fl_pt0_mul130[1] && ev_q[14];
     assign ev_inv[67] = fl_pt0_mul130[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul130;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul130 (.clk(clk), .d(pt0_mul130), .valid(1'b0), .q(dl_pt0_mul130));
     // pt0_mul131 = IInvA_yz * pt0_cA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul131;
@@ -1318,7 +1451,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[68] = fl_pt0_mul131[1] && ev_q[14];
     assign ev_inv[68] = fl_pt0_mul131[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul131;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul131 (.clk(clk), .d(pt0_mul131), .valid(1'b0), .q(dl_pt0_mul131));
     // pt0_add132 = pt0_mul130 + pt0_mul131   (ready @18/18/18)
     logic [W-1:0] pt0_add132;
@@ -1331,7 +1465,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[69] = fl_pt0_add132[1] && ev_q[18];
     assign ev_inv[69] = fl_pt0_add132[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add132;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add132 (.clk(clk), .d(pt0_add132), .valid(1'b0), .q(dl_pt0_add132));
     // pt0_mul133 = IInvA_zz * pt0_cA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul133;
@@ -1344,7 +1479,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[70] = fl_pt0_mul133[1] && ev_q[14];
     assign ev_inv[70] = fl_pt0_mul133[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul133;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul133 (.clk(clk), .d(pt0_mul133), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul133));
     // pt0_angA_z = pt0_add132 + pt0_mul133   (ready @22/22/22)
     logic [W-1:0] pt0_angA_z;
@@ -1357,7 +1493,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[71] = fl_pt0_angA_z[1] && ev_q[22];
     assign ev_inv[71] = fl_pt0_angA_z[2] && ev_q[22];
     logic [W-1:0] dl_pt0_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(24))
+    pgs_delay #(.WIDTH(W), .DEPTH(24),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angA_z (.clk(clk), .d(pt0_angA_z), .valid(valid_q[22 +: 24]), .q(dl_pt0_angA_z));
     // pt0_mul135 = IInvB_xx * pt0_cB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul135;
@@ -1370,7 +1507,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[72] = fl_pt0_mul135[1] && ev_q[14];
     assign ev_inv[72] = fl_pt0_mul135[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul135;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul135 (.clk(clk), .d(pt0_mul135), .valid(1'b0), .q(dl_pt0_mul135));
     // pt0_mul136 = IInvB_xy * pt0_cB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul136;
@@ -1383,7 +1521,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[73] = fl_pt0_mul136[1] && ev_q[14];
     assign ev_inv[73] = fl_pt0_mul136[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul136;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul136 (.clk(clk), .d(pt0_mul136), .valid(1'b0), .q(dl_pt0_mul136));
     // pt0_add137 = pt0_mul135 + pt0_mul136   (ready @18/18/18)
     logic [W-1:0] pt0_add137;
@@ -1396,7 +1535,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[74] = fl_pt0_add137[1] && ev_q[18];
     assign ev_inv[74] = fl_pt0_add137[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add137;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add137 (.clk(clk), .d(pt0_add137), .valid(1'b0), .q(dl_pt0_add137));
     // pt0_mul138 = IInvB_xz * pt0_cB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul138;
@@ -1409,7 +1549,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[75] = fl_pt0_mul138[1] && ev_q[14];
     assign ev_inv[75] = fl_pt0_mul138[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul138;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul138 (.clk(clk), .d(pt0_mul138), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul138));
     // pt0_angB_x = pt0_add137 + pt0_mul138   (ready @22/22/22)
     logic [W-1:0] pt0_angB_x;
@@ -1422,7 +1563,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[76] = fl_pt0_angB_x[1] && ev_q[22];
     assign ev_inv[76] = fl_pt0_angB_x[2] && ev_q[22];
     logic [W-1:0] dl_pt0_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(24))
+    pgs_delay #(.WIDTH(W), .DEPTH(24),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angB_x (.clk(clk), .d(pt0_angB_x), .valid(valid_q[22 +: 24]), .q(dl_pt0_angB_x));
     // pt0_mul140 = IInvB_xy * pt0_cB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul140;
@@ -1435,7 +1577,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[77] = fl_pt0_mul140[1] && ev_q[14];
     assign ev_inv[77] = fl_pt0_mul140[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul140;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul140 (.clk(clk), .d(pt0_mul140), .valid(1'b0), .q(dl_pt0_mul140));
     // pt0_mul141 = IInvB_yy * pt0_cB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul141;
@@ -1448,7 +1591,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[78] = fl_pt0_mul141[1] && ev_q[14];
     assign ev_inv[78] = fl_pt0_mul141[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul141;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul141 (.clk(clk), .d(pt0_mul141), .valid(1'b0), .q(dl_pt0_mul141));
     // pt0_add142 = pt0_mul140 + pt0_mul141   (ready @18/18/18)
     logic [W-1:0] pt0_add142;
@@ -1461,7 +1605,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[79] = fl_pt0_add142[1] && ev_q[18];
     assign ev_inv[79] = fl_pt0_add142[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add142;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add142 (.clk(clk), .d(pt0_add142), .valid(1'b0), .q(dl_pt0_add142));
     // pt0_mul143 = IInvB_yz * pt0_cB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul143;
@@ -1474,7 +1619,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[80] = fl_pt0_mul143[1] && ev_q[14];
     assign ev_inv[80] = fl_pt0_mul143[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul143;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul143 (.clk(clk), .d(pt0_mul143), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul143));
     // pt0_angB_y = pt0_add142 + pt0_mul143   (ready @22/22/22)
     logic [W-1:0] pt0_angB_y;
@@ -1487,7 +1633,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[81] = fl_pt0_angB_y[1] && ev_q[22];
     assign ev_inv[81] = fl_pt0_angB_y[2] && ev_q[22];
     logic [W-1:0] dl_pt0_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(24))
+    pgs_delay #(.WIDTH(W), .DEPTH(24),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angB_y (.clk(clk), .d(pt0_angB_y), .valid(valid_q[22 +: 24]), .q(dl_pt0_angB_y));
     // pt0_mul145 = IInvB_xz * pt0_cB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul145;
@@ -1500,7 +1647,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[82] = fl_pt0_mul145[1] && ev_q[14];
     assign ev_inv[82] = fl_pt0_mul145[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul145;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul145 (.clk(clk), .d(pt0_mul145), .valid(1'b0), .q(dl_pt0_mul145));
     // pt0_mul146 = IInvB_yz * pt0_cB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul146;
@@ -1513,7 +1661,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[83] = fl_pt0_mul146[1] && ev_q[14];
     assign ev_inv[83] = fl_pt0_mul146[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul146;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul146 (.clk(clk), .d(pt0_mul146), .valid(1'b0), .q(dl_pt0_mul146));
     // pt0_add147 = pt0_mul145 + pt0_mul146   (ready @18/18/18)
     logic [W-1:0] pt0_add147;
@@ -1526,7 +1675,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[84] = fl_pt0_add147[1] && ev_q[18];
     assign ev_inv[84] = fl_pt0_add147[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add147;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add147 (.clk(clk), .d(pt0_add147), .valid(1'b0), .q(dl_pt0_add147));
     // pt0_mul148 = IInvB_zz * pt0_cB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul148;
@@ -1539,7 +1689,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[85] = fl_pt0_mul148[1] && ev_q[14];
     assign ev_inv[85] = fl_pt0_mul148[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul148;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul148 (.clk(clk), .d(pt0_mul148), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul148));
     // pt0_angB_z = pt0_add147 + pt0_mul148   (ready @22/22/22)
     logic [W-1:0] pt0_angB_z;
@@ -1552,7 +1703,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[86] = fl_pt0_angB_z[1] && ev_q[22];
     assign ev_inv[86] = fl_pt0_angB_z[2] && ev_q[22];
     logic [W-1:0] dl_pt0_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(24))
+    pgs_delay #(.WIDTH(W), .DEPTH(24),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angB_z (.clk(clk), .d(pt0_angB_z), .valid(valid_q[22 +: 24]), .q(dl_pt0_angB_z));
     // pt0_mul150 = linA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul150;
@@ -1565,7 +1717,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[87] = fl_pt0_mul150[1] && ev_q[49];
     assign ev_inv[87] = fl_pt0_mul150[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul150;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul150 (.clk(clk), .d(pt0_mul150), .valid(1'b0), .q(dl_pt0_mul150));
     // pt0_mul151 = linA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul151;
@@ -1578,7 +1731,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[88] = fl_pt0_mul151[1] && ev_q[49];
     assign ev_inv[88] = fl_pt0_mul151[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul151;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul151 (.clk(clk), .d(pt0_mul151), .valid(1'b0), .q(dl_pt0_mul151));
     // pt0_mul152 = linA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul152;
@@ -1591,7 +1745,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[89] = fl_pt0_mul152[1] && ev_q[49];
     assign ev_inv[89] = fl_pt0_mul152[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul152;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul152 (.clk(clk), .d(pt0_mul152), .valid(1'b0), .q(dl_pt0_mul152));
     // pt0_add153 = vA_x + pt0_mul150   (ready @53/53/53)
     logic [W-1:0] pt0_add153;
@@ -1604,7 +1759,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[90] = fl_pt0_add153[1] && ev_q[53];
     assign ev_inv[90] = fl_pt0_add153[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add153;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add153 (.clk(clk), .d(pt0_add153), .valid(1'b0), .q(dl_pt0_add153));
     // pt0_add154 = vA_y + pt0_mul151   (ready @53/53/53)
     logic [W-1:0] pt0_add154;
@@ -1617,7 +1773,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[91] = fl_pt0_add154[1] && ev_q[53];
     assign ev_inv[91] = fl_pt0_add154[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add154;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add154 (.clk(clk), .d(pt0_add154), .valid(1'b0), .q(dl_pt0_add154));
     // pt0_add155 = vA_z + pt0_mul152   (ready @53/53/53)
     logic [W-1:0] pt0_add155;
@@ -1630,25 +1787,29 @@ module pgs_contact_pipe_full #(
     assign ev_unf[92] = fl_pt0_add155[1] && ev_q[53];
     assign ev_inv[92] = fl_pt0_add155[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add155;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add155 (.clk(clk), .d(pt0_add155), .valid(1'b0), .q(dl_pt0_add155));
     // pt0_vA_x = pt0_skip ? vA_x : pt0_add153   (ready @53/53/53)
     logic [W-1:0] pt0_vA_x;
     assign pt0_vA_x = dl_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_pt0_add153;
     logic [3*W-1:0] dl_pt0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vA_x (.clk(clk), .d(pt0_vA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_x));
     // pt0_vA_y = pt0_skip ? vA_y : pt0_add154   (ready @53/53/53)
     logic [W-1:0] pt0_vA_y;
     assign pt0_vA_y = dl_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_pt0_add154;
     logic [3*W-1:0] dl_pt0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vA_y (.clk(clk), .d(pt0_vA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_y));
     // pt0_vA_z = pt0_skip ? vA_z : pt0_add155   (ready @53/53/53)
     logic [W-1:0] pt0_vA_z;
     assign pt0_vA_z = dl_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_pt0_add155;
     logic [3*W-1:0] dl_pt0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vA_z (.clk(clk), .d(pt0_vA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_z));
     // pt0_mul159 = pt0_angA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul159;
@@ -1661,7 +1822,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[93] = fl_pt0_mul159[1] && ev_q[49];
     assign ev_inv[93] = fl_pt0_mul159[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul159;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul159 (.clk(clk), .d(pt0_mul159), .valid(1'b0), .q(dl_pt0_mul159));
     // pt0_mul160 = pt0_angA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul160;
@@ -1674,7 +1836,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[94] = fl_pt0_mul160[1] && ev_q[49];
     assign ev_inv[94] = fl_pt0_mul160[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul160;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul160 (.clk(clk), .d(pt0_mul160), .valid(1'b0), .q(dl_pt0_mul160));
     // pt0_mul161 = pt0_angA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul161;
@@ -1687,7 +1850,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[95] = fl_pt0_mul161[1] && ev_q[49];
     assign ev_inv[95] = fl_pt0_mul161[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul161;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul161 (.clk(clk), .d(pt0_mul161), .valid(1'b0), .q(dl_pt0_mul161));
     // pt0_add162 = wA_x + pt0_mul159   (ready @53/53/53)
     logic [W-1:0] pt0_add162;
@@ -1700,7 +1864,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[96] = fl_pt0_add162[1] && ev_q[53];
     assign ev_inv[96] = fl_pt0_add162[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add162;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add162 (.clk(clk), .d(pt0_add162), .valid(1'b0), .q(dl_pt0_add162));
     // pt0_add163 = wA_y + pt0_mul160   (ready @53/53/53)
     logic [W-1:0] pt0_add163;
@@ -1713,7 +1878,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[97] = fl_pt0_add163[1] && ev_q[53];
     assign ev_inv[97] = fl_pt0_add163[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add163;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add163 (.clk(clk), .d(pt0_add163), .valid(1'b0), .q(dl_pt0_add163));
     // pt0_add164 = wA_z + pt0_mul161   (ready @53/53/53)
     logic [W-1:0] pt0_add164;
@@ -1726,25 +1892,29 @@ module pgs_contact_pipe_full #(
     assign ev_unf[98] = fl_pt0_add164[1] && ev_q[53];
     assign ev_inv[98] = fl_pt0_add164[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add164;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add164 (.clk(clk), .d(pt0_add164), .valid(1'b0), .q(dl_pt0_add164));
     // pt0_wA_x = pt0_skip ? wA_x : pt0_add162   (ready @53/53/53)
     logic [W-1:0] pt0_wA_x;
     assign pt0_wA_x = dl_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_pt0_add162;
     logic [3*W-1:0] dl_pt0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wA_x (.clk(clk), .d(pt0_wA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_x));
     // pt0_wA_y = pt0_skip ? wA_y : pt0_add163   (ready @53/53/53)
     logic [W-1:0] pt0_wA_y;
     assign pt0_wA_y = dl_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_pt0_add163;
     logic [3*W-1:0] dl_pt0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wA_y (.clk(clk), .d(pt0_wA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_y));
     // pt0_wA_z = pt0_skip ? wA_z : pt0_add164   (ready @53/53/53)
     logic [W-1:0] pt0_wA_z;
     assign pt0_wA_z = dl_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_pt0_add164;
     logic [3*W-1:0] dl_pt0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wA_z (.clk(clk), .d(pt0_wA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_z));
     // pt0_mul168 = linB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul168;
@@ -1757,7 +1927,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[99] = fl_pt0_mul168[1] && ev_q[49];
     assign ev_inv[99] = fl_pt0_mul168[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul168;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul168 (.clk(clk), .d(pt0_mul168), .valid(1'b0), .q(dl_pt0_mul168));
     // pt0_mul169 = linB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul169;
@@ -1770,7 +1941,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[100] = fl_pt0_mul169[1] && ev_q[49];
     assign ev_inv[100] = fl_pt0_mul169[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul169;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul169 (.clk(clk), .d(pt0_mul169), .valid(1'b0), .q(dl_pt0_mul169));
     // pt0_mul170 = linB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul170;
@@ -1783,7 +1955,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[101] = fl_pt0_mul170[1] && ev_q[49];
     assign ev_inv[101] = fl_pt0_mul170[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul170;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul170 (.clk(clk), .d(pt0_mul170), .valid(1'b0), .q(dl_pt0_mul170));
     // pt0_sub171 = vB_x - pt0_mul168   (ready @53/53/53)
     logic [W-1:0] pt0_sub171;
@@ -1796,7 +1969,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[102] = fl_pt0_sub171[1] && ev_q[53];
     assign ev_inv[102] = fl_pt0_sub171[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub171;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub171 (.clk(clk), .d(pt0_sub171), .valid(1'b0), .q(dl_pt0_sub171));
     // pt0_sub172 = vB_y - pt0_mul169   (ready @53/53/53)
     logic [W-1:0] pt0_sub172;
@@ -1809,7 +1983,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[103] = fl_pt0_sub172[1] && ev_q[53];
     assign ev_inv[103] = fl_pt0_sub172[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub172;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub172 (.clk(clk), .d(pt0_sub172), .valid(1'b0), .q(dl_pt0_sub172));
     // pt0_sub173 = vB_z - pt0_mul170   (ready @53/53/53)
     logic [W-1:0] pt0_sub173;
@@ -1822,25 +1997,29 @@ module pgs_contact_pipe_full #(
     assign ev_unf[104] = fl_pt0_sub173[1] && ev_q[53];
     assign ev_inv[104] = fl_pt0_sub173[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub173;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub173 (.clk(clk), .d(pt0_sub173), .valid(1'b0), .q(dl_pt0_sub173));
     // pt0_vB_x = pt0_skip ? vB_x : pt0_sub171   (ready @53/53/53)
     logic [W-1:0] pt0_vB_x;
     assign pt0_vB_x = dl_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_pt0_sub171;
     logic [3*W-1:0] dl_pt0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vB_x (.clk(clk), .d(pt0_vB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_x));
     // pt0_vB_y = pt0_skip ? vB_y : pt0_sub172   (ready @53/53/53)
     logic [W-1:0] pt0_vB_y;
     assign pt0_vB_y = dl_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_pt0_sub172;
     logic [3*W-1:0] dl_pt0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vB_y (.clk(clk), .d(pt0_vB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_y));
     // pt0_vB_z = pt0_skip ? vB_z : pt0_sub173   (ready @53/53/53)
     logic [W-1:0] pt0_vB_z;
     assign pt0_vB_z = dl_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_pt0_sub173;
     logic [3*W-1:0] dl_pt0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vB_z (.clk(clk), .d(pt0_vB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_z));
     // pt0_mul177 = pt0_angB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul177;
@@ -1853,7 +2032,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[105] = fl_pt0_mul177[1] && ev_q[49];
     assign ev_inv[105] = fl_pt0_mul177[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul177;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul177 (.clk(clk), .d(pt0_mul177), .valid(1'b0), .q(dl_pt0_mul177));
     // pt0_mul178 = pt0_angB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul178;
@@ -1866,7 +2046,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[106] = fl_pt0_mul178[1] && ev_q[49];
     assign ev_inv[106] = fl_pt0_mul178[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul178;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul178 (.clk(clk), .d(pt0_mul178), .valid(1'b0), .q(dl_pt0_mul178));
     // pt0_mul179 = pt0_angB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul179;
@@ -1879,7 +2060,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[107] = fl_pt0_mul179[1] && ev_q[49];
     assign ev_inv[107] = fl_pt0_mul179[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul179;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul179 (.clk(clk), .d(pt0_mul179), .valid(1'b0), .q(dl_pt0_mul179));
     // pt0_sub180 = wB_x - pt0_mul177   (ready @53/53/53)
     logic [W-1:0] pt0_sub180;
@@ -1892,7 +2074,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[108] = fl_pt0_sub180[1] && ev_q[53];
     assign ev_inv[108] = fl_pt0_sub180[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub180;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub180 (.clk(clk), .d(pt0_sub180), .valid(1'b0), .q(dl_pt0_sub180));
     // pt0_sub181 = wB_y - pt0_mul178   (ready @53/53/53)
     logic [W-1:0] pt0_sub181;
@@ -1905,7 +2088,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[109] = fl_pt0_sub181[1] && ev_q[53];
     assign ev_inv[109] = fl_pt0_sub181[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub181;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub181 (.clk(clk), .d(pt0_sub181), .valid(1'b0), .q(dl_pt0_sub181));
     // pt0_sub182 = wB_z - pt0_mul179   (ready @53/53/53)
     logic [W-1:0] pt0_sub182;
@@ -1918,31 +2102,36 @@ module pgs_contact_pipe_full #(
     assign ev_unf[110] = fl_pt0_sub182[1] && ev_q[53];
     assign ev_inv[110] = fl_pt0_sub182[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub182;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub182 (.clk(clk), .d(pt0_sub182), .valid(1'b0), .q(dl_pt0_sub182));
     // pt0_wB_x = pt0_skip ? wB_x : pt0_sub180   (ready @53/53/53)
     logic [W-1:0] pt0_wB_x;
     assign pt0_wB_x = dl_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_pt0_sub180;
     logic [3*W-1:0] dl_pt0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wB_x (.clk(clk), .d(pt0_wB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_x));
     // pt0_wB_y = pt0_skip ? wB_y : pt0_sub181   (ready @53/53/53)
     logic [W-1:0] pt0_wB_y;
     assign pt0_wB_y = dl_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_pt0_sub181;
     logic [3*W-1:0] dl_pt0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wB_y (.clk(clk), .d(pt0_wB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_y));
     // pt0_wB_z = pt0_skip ? wB_z : pt0_sub182   (ready @53/53/53)
     logic [W-1:0] pt0_wB_z;
     assign pt0_wB_z = dl_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_pt0_sub182;
     logic [3*W-1:0] dl_pt0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wB_z (.clk(clk), .d(pt0_wB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_z));
     // pt1_skip = jac_inv1 == 0   (ready @0/0/0)
     logic pt1_skip;
     assign pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt1_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_skip (.clk(clk), .d(pt1_skip), .valid(valid_q[0 +: 95]), .q(dl_pt1_skip));
     // pt1_rA_x = p1_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt1_rA_x;
@@ -1955,7 +2144,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[111] = fl_pt1_rA_x[1] && ev_q[4];
     assign ev_inv[111] = fl_pt1_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rA_x (.clk(clk), .d(pt1_rA_x), .valid(1'b0), .q(dl_pt1_rA_x));
     // pt1_rA_y = p1_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt1_rA_y;
@@ -1968,7 +2158,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[112] = fl_pt1_rA_y[1] && ev_q[4];
     assign ev_inv[112] = fl_pt1_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rA_y (.clk(clk), .d(pt1_rA_y), .valid(1'b0), .q(dl_pt1_rA_y));
     // pt1_rA_z = p1_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt1_rA_z;
@@ -1981,7 +2172,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[113] = fl_pt1_rA_z[1] && ev_q[4];
     assign ev_inv[113] = fl_pt1_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rA_z (.clk(clk), .d(pt1_rA_z), .valid(1'b0), .q(dl_pt1_rA_z));
     // pt1_mul190 = pt1_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul190;
@@ -1994,7 +2186,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[114] = fl_pt1_mul190[1] && ev_q[7];
     assign ev_inv[114] = fl_pt1_mul190[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul190;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul190 (.clk(clk), .d(pt1_mul190), .valid(1'b0), .q(dl_pt1_mul190));
     // pt1_mul191 = pt1_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul191;
@@ -2007,7 +2200,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[115] = fl_pt1_mul191[1] && ev_q[7];
     assign ev_inv[115] = fl_pt1_mul191[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul191;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul191 (.clk(clk), .d(pt1_mul191), .valid(1'b0), .q(dl_pt1_mul191));
     // pt1_cA_x = pt1_mul190 - pt1_mul191   (ready @11/11/11)
     logic [W-1:0] pt1_cA_x;
@@ -2020,7 +2214,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[116] = fl_pt1_cA_x[1] && ev_q[11];
     assign ev_inv[116] = fl_pt1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cA_x (.clk(clk), .d(pt1_cA_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_x));
     // pt1_mul193 = pt1_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul193;
@@ -2033,7 +2228,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[117] = fl_pt1_mul193[1] && ev_q[7];
     assign ev_inv[117] = fl_pt1_mul193[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul193;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul193 (.clk(clk), .d(pt1_mul193), .valid(1'b0), .q(dl_pt1_mul193));
     // pt1_mul194 = pt1_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul194;
@@ -2046,7 +2242,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[118] = fl_pt1_mul194[1] && ev_q[7];
     assign ev_inv[118] = fl_pt1_mul194[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul194;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul194 (.clk(clk), .d(pt1_mul194), .valid(1'b0), .q(dl_pt1_mul194));
     // pt1_cA_y = pt1_mul193 - pt1_mul194   (ready @11/11/11)
     logic [W-1:0] pt1_cA_y;
@@ -2059,7 +2256,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[119] = fl_pt1_cA_y[1] && ev_q[11];
     assign ev_inv[119] = fl_pt1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cA_y (.clk(clk), .d(pt1_cA_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_y));
     // pt1_mul196 = pt1_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul196;
@@ -2072,7 +2270,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[120] = fl_pt1_mul196[1] && ev_q[7];
     assign ev_inv[120] = fl_pt1_mul196[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul196;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul196 (.clk(clk), .d(pt1_mul196), .valid(1'b0), .q(dl_pt1_mul196));
     // pt1_mul197 = pt1_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul197;
@@ -2085,7 +2284,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[121] = fl_pt1_mul197[1] && ev_q[7];
     assign ev_inv[121] = fl_pt1_mul197[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul197;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul197 (.clk(clk), .d(pt1_mul197), .valid(1'b0), .q(dl_pt1_mul197));
     // pt1_cA_z = pt1_mul196 - pt1_mul197   (ready @11/11/11)
     logic [W-1:0] pt1_cA_z;
@@ -2098,7 +2298,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[122] = fl_pt1_cA_z[1] && ev_q[11];
     assign ev_inv[122] = fl_pt1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cA_z (.clk(clk), .d(pt1_cA_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_z));
     // pt1_rB_x = p1_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt1_rB_x;
@@ -2111,7 +2312,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[123] = fl_pt1_rB_x[1] && ev_q[4];
     assign ev_inv[123] = fl_pt1_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rB_x (.clk(clk), .d(pt1_rB_x), .valid(1'b0), .q(dl_pt1_rB_x));
     // pt1_rB_y = p1_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt1_rB_y;
@@ -2124,7 +2326,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[124] = fl_pt1_rB_y[1] && ev_q[4];
     assign ev_inv[124] = fl_pt1_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rB_y (.clk(clk), .d(pt1_rB_y), .valid(1'b0), .q(dl_pt1_rB_y));
     // pt1_rB_z = p1_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt1_rB_z;
@@ -2137,7 +2340,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[125] = fl_pt1_rB_z[1] && ev_q[4];
     assign ev_inv[125] = fl_pt1_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rB_z (.clk(clk), .d(pt1_rB_z), .valid(1'b0), .q(dl_pt1_rB_z));
     // pt1_mul202 = pt1_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul202;
@@ -2150,7 +2354,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[126] = fl_pt1_mul202[1] && ev_q[7];
     assign ev_inv[126] = fl_pt1_mul202[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul202;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul202 (.clk(clk), .d(pt1_mul202), .valid(1'b0), .q(dl_pt1_mul202));
     // pt1_mul203 = pt1_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul203;
@@ -2163,7 +2368,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[127] = fl_pt1_mul203[1] && ev_q[7];
     assign ev_inv[127] = fl_pt1_mul203[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul203;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul203 (.clk(clk), .d(pt1_mul203), .valid(1'b0), .q(dl_pt1_mul203));
     // pt1_cB_x = pt1_mul202 - pt1_mul203   (ready @11/11/11)
     logic [W-1:0] pt1_cB_x;
@@ -2176,7 +2382,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[128] = fl_pt1_cB_x[1] && ev_q[11];
     assign ev_inv[128] = fl_pt1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cB_x (.clk(clk), .d(pt1_cB_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_x));
     // pt1_mul205 = pt1_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul205;
@@ -2189,7 +2396,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[129] = fl_pt1_mul205[1] && ev_q[7];
     assign ev_inv[129] = fl_pt1_mul205[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul205;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul205 (.clk(clk), .d(pt1_mul205), .valid(1'b0), .q(dl_pt1_mul205));
     // pt1_mul206 = pt1_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul206;
@@ -2202,7 +2410,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[130] = fl_pt1_mul206[1] && ev_q[7];
     assign ev_inv[130] = fl_pt1_mul206[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul206;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul206 (.clk(clk), .d(pt1_mul206), .valid(1'b0), .q(dl_pt1_mul206));
     // pt1_cB_y = pt1_mul205 - pt1_mul206   (ready @11/11/11)
     logic [W-1:0] pt1_cB_y;
@@ -2215,7 +2424,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[131] = fl_pt1_cB_y[1] && ev_q[11];
     assign ev_inv[131] = fl_pt1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cB_y (.clk(clk), .d(pt1_cB_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_y));
     // pt1_mul208 = pt1_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul208;
@@ -2228,7 +2438,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[132] = fl_pt1_mul208[1] && ev_q[7];
     assign ev_inv[132] = fl_pt1_mul208[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul208;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul208 (.clk(clk), .d(pt1_mul208), .valid(1'b0), .q(dl_pt1_mul208));
     // pt1_mul209 = pt1_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul209;
@@ -2241,7 +2452,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[133] = fl_pt1_mul209[1] && ev_q[7];
     assign ev_inv[133] = fl_pt1_mul209[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul209;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul209 (.clk(clk), .d(pt1_mul209), .valid(1'b0), .q(dl_pt1_mul209));
     // pt1_cB_z = pt1_mul208 - pt1_mul209   (ready @11/11/11)
     logic [W-1:0] pt1_cB_z;
@@ -2254,7 +2466,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[134] = fl_pt1_cB_z[1] && ev_q[11];
     assign ev_inv[134] = fl_pt1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cB_z (.clk(clk), .d(pt1_cB_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_z));
     // pt1_mul211 = n_x * pt0_vA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul211;
@@ -2267,7 +2480,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[135] = fl_pt1_mul211[1] && ev_q[56];
     assign ev_inv[135] = fl_pt1_mul211[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul211;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul211 (.clk(clk), .d(pt1_mul211), .valid(1'b0), .q(dl_pt1_mul211));
     // pt1_mul212 = n_y * pt0_vA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul212;
@@ -2280,7 +2494,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[136] = fl_pt1_mul212[1] && ev_q[56];
     assign ev_inv[136] = fl_pt1_mul212[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul212;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul212 (.clk(clk), .d(pt1_mul212), .valid(1'b0), .q(dl_pt1_mul212));
     // pt1_add213 = pt1_mul211 + pt1_mul212   (ready @60/60/60)
     logic [W-1:0] pt1_add213;
@@ -2293,7 +2508,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[137] = fl_pt1_add213[1] && ev_q[60];
     assign ev_inv[137] = fl_pt1_add213[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add213;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add213 (.clk(clk), .d(pt1_add213), .valid(1'b0), .q(dl_pt1_add213));
     // pt1_mul214 = n_z * pt0_vA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul214;
@@ -2306,7 +2522,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[138] = fl_pt1_mul214[1] && ev_q[56];
     assign ev_inv[138] = fl_pt1_mul214[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul214;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul214 (.clk(clk), .d(pt1_mul214), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul214));
     // pt1_add215 = pt1_add213 + pt1_mul214   (ready @64/64/64)
     logic [W-1:0] pt1_add215;
@@ -2319,7 +2536,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[139] = fl_pt1_add215[1] && ev_q[64];
     assign ev_inv[139] = fl_pt1_add215[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add215;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add215 (.clk(clk), .d(pt1_add215), .valid(1'b0), .q(dl_pt1_add215));
     // pt1_mul216 = n_x * pt0_vB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul216;
@@ -2332,7 +2550,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[140] = fl_pt1_mul216[1] && ev_q[56];
     assign ev_inv[140] = fl_pt1_mul216[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul216;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul216 (.clk(clk), .d(pt1_mul216), .valid(1'b0), .q(dl_pt1_mul216));
     // pt1_mul217 = n_y * pt0_vB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul217;
@@ -2345,7 +2564,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[141] = fl_pt1_mul217[1] && ev_q[56];
     assign ev_inv[141] = fl_pt1_mul217[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul217;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul217 (.clk(clk), .d(pt1_mul217), .valid(1'b0), .q(dl_pt1_mul217));
     // pt1_add218 = pt1_mul216 + pt1_mul217   (ready @60/60/60)
     logic [W-1:0] pt1_add218;
@@ -2358,7 +2578,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[142] = fl_pt1_add218[1] && ev_q[60];
     assign ev_inv[142] = fl_pt1_add218[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add218;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add218 (.clk(clk), .d(pt1_add218), .valid(1'b0), .q(dl_pt1_add218));
     // pt1_mul219 = n_z * pt0_vB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul219;
@@ -2371,7 +2592,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[143] = fl_pt1_mul219[1] && ev_q[56];
     assign ev_inv[143] = fl_pt1_mul219[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul219;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul219 (.clk(clk), .d(pt1_mul219), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul219));
     // pt1_add220 = pt1_add218 + pt1_mul219   (ready @64/64/64)
     logic [W-1:0] pt1_add220;
@@ -2384,7 +2606,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[144] = fl_pt1_add220[1] && ev_q[64];
     assign ev_inv[144] = fl_pt1_add220[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add220;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add220 (.clk(clk), .d(pt1_add220), .valid(1'b0), .q(dl_pt1_add220));
     // pt1_sub221 = pt1_add215 - pt1_add220   (ready @68/68/68)
     logic [W-1:0] pt1_sub221;
@@ -2397,7 +2620,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[145] = fl_pt1_sub221[1] && ev_q[68];
     assign ev_inv[145] = fl_pt1_sub221[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub221;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub221 (.clk(clk), .d(pt1_sub221), .valid(1'b0), .q(dl_pt1_sub221));
     // pt1_mul222 = pt1_cA_x * pt0_wA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul222;
@@ -2410,7 +2634,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[146] = fl_pt1_mul222[1] && ev_q[56];
     assign ev_inv[146] = fl_pt1_mul222[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul222;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul222 (.clk(clk), .d(pt1_mul222), .valid(1'b0), .q(dl_pt1_mul222));
     // pt1_mul223 = pt1_cA_y * pt0_wA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul223;
@@ -2423,7 +2648,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[147] = fl_pt1_mul223[1] && ev_q[56];
     assign ev_inv[147] = fl_pt1_mul223[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul223;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul223 (.clk(clk), .d(pt1_mul223), .valid(1'b0), .q(dl_pt1_mul223));
     // pt1_add224 = pt1_mul222 + pt1_mul223   (ready @60/60/60)
     logic [W-1:0] pt1_add224;
@@ -2436,7 +2662,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[148] = fl_pt1_add224[1] && ev_q[60];
     assign ev_inv[148] = fl_pt1_add224[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add224;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add224 (.clk(clk), .d(pt1_add224), .valid(1'b0), .q(dl_pt1_add224));
     // pt1_mul225 = pt1_cA_z * pt0_wA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul225;
@@ -2449,7 +2676,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[149] = fl_pt1_mul225[1] && ev_q[56];
     assign ev_inv[149] = fl_pt1_mul225[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul225;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul225 (.clk(clk), .d(pt1_mul225), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul225));
     // pt1_add226 = pt1_add224 + pt1_mul225   (ready @64/64/64)
     logic [W-1:0] pt1_add226;
@@ -2462,7 +2690,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[150] = fl_pt1_add226[1] && ev_q[64];
     assign ev_inv[150] = fl_pt1_add226[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add226;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add226 (.clk(clk), .d(pt1_add226), .valid(1'b0), .q(dl_pt1_add226));
     // pt1_mul227 = pt1_cB_x * pt0_wB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul227;
@@ -2475,7 +2704,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[151] = fl_pt1_mul227[1] && ev_q[56];
     assign ev_inv[151] = fl_pt1_mul227[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul227;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul227 (.clk(clk), .d(pt1_mul227), .valid(1'b0), .q(dl_pt1_mul227));
     // pt1_mul228 = pt1_cB_y * pt0_wB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul228;
@@ -2488,7 +2718,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[152] = fl_pt1_mul228[1] && ev_q[56];
     assign ev_inv[152] = fl_pt1_mul228[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul228;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul228 (.clk(clk), .d(pt1_mul228), .valid(1'b0), .q(dl_pt1_mul228));
     // pt1_add229 = pt1_mul227 + pt1_mul228   (ready @60/60/60)
     logic [W-1:0] pt1_add229;
@@ -2501,7 +2732,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[153] = fl_pt1_add229[1] && ev_q[60];
     assign ev_inv[153] = fl_pt1_add229[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add229;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add229 (.clk(clk), .d(pt1_add229), .valid(1'b0), .q(dl_pt1_add229));
     // pt1_mul230 = pt1_cB_z * pt0_wB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul230;
@@ -2514,7 +2746,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[154] = fl_pt1_mul230[1] && ev_q[56];
     assign ev_inv[154] = fl_pt1_mul230[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul230;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul230 (.clk(clk), .d(pt1_mul230), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul230));
     // pt1_add231 = pt1_add229 + pt1_mul230   (ready @64/64/64)
     logic [W-1:0] pt1_add231;
@@ -2527,7 +2760,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[155] = fl_pt1_add231[1] && ev_q[64];
     assign ev_inv[155] = fl_pt1_add231[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add231;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add231 (.clk(clk), .d(pt1_add231), .valid(1'b0), .q(dl_pt1_add231));
     // pt1_sub232 = pt1_add226 - pt1_add231   (ready @68/68/68)
     logic [W-1:0] pt1_sub232;
@@ -2540,7 +2774,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[156] = fl_pt1_sub232[1] && ev_q[68];
     assign ev_inv[156] = fl_pt1_sub232[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub232;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub232 (.clk(clk), .d(pt1_sub232), .valid(1'b0), .q(dl_pt1_sub232));
     // pt1_vrel = pt1_sub221 + pt1_sub232   (ready @72/72/72)
     logic [W-1:0] pt1_vrel;
@@ -2553,7 +2788,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[157] = fl_pt1_vrel[1] && ev_q[72];
     assign ev_inv[157] = fl_pt1_vrel[2] && ev_q[72];
     logic [W-1:0] dl_pt1_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vrel (.clk(clk), .d(pt1_vrel), .valid(1'b0), .q(dl_pt1_vrel));
     // pt1_add234 = pt1_vrel + b1   (ready @76/76/76)
     logic [W-1:0] pt1_add234;
@@ -2566,7 +2802,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[158] = fl_pt1_add234[1] && ev_q[76];
     assign ev_inv[158] = fl_pt1_add234[2] && ev_q[76];
     logic [W-1:0] dl_pt1_add234;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add234 (.clk(clk), .d(pt1_add234), .valid(1'b0), .q(dl_pt1_add234));
     // pt1_delta0 = pt1_add234 * jac_inv1   (ready @79/79/79)
     logic [W-1:0] pt1_delta0;
@@ -2579,7 +2816,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[159] = fl_pt1_delta0[1] && ev_q[79];
     assign ev_inv[159] = fl_pt1_delta0[2] && ev_q[79];
     logic [W-1:0] dl_pt1_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_delta0 (.clk(clk), .d(pt1_delta0), .valid(1'b0), .q(dl_pt1_delta0));
     // pt1_add236 = lam1 + pt1_delta0   (ready @83/83/83)
     logic [W-1:0] pt1_add236;
@@ -2592,7 +2830,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[160] = fl_pt1_add236[1] && ev_q[83];
     assign ev_inv[160] = fl_pt1_add236[2] && ev_q[83];
     logic [W-1:0] dl_pt1_add236;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add236 (.clk(clk), .d(pt1_add236), .valid(1'b0), .q(dl_pt1_add236));
     // pt1_lam_new = max(pt1_add236, 0.0)   (ready @84/84/84)
     logic [W-1:0] pt1_lam_new;
@@ -2602,7 +2841,8 @@ module pgs_contact_pipe_full #(
         .lt(nc_pt1_lam_new_lt), .eq(nc_pt1_lam_new_eq), .unordered(nc_pt1_lam_new_uo)
     );
     logic [W-1:0] dl_pt1_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_lam_new (.clk(clk), .d(pt1_lam_new), .valid(1'b0), .q(dl_pt1_lam_new));
     // pt1_delta = pt1_lam_new - lam1   (ready @88/88/88)
     logic [W-1:0] pt1_delta;
@@ -2615,13 +2855,15 @@ module pgs_contact_pipe_full #(
     assign ev_unf[161] = fl_pt1_delta[1] && ev_q[88];
     assign ev_inv[161] = fl_pt1_delta[2] && ev_q[88];
     logic [W-1:0] dl_pt1_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_delta (.clk(clk), .d(pt1_delta), .valid(1'b0), .q(dl_pt1_delta));
     // pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (ready @84/84/84)
     logic [W-1:0] pt1_lam;
     assign pt1_lam = dl_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_pt1_lam_new;
     logic [W-1:0] dl_pt1_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(95))
+    pgs_delay #(.WIDTH(W), .DEPTH(95),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_lam (.clk(clk), .d(pt1_lam), .valid(valid_q[84 +: 95]), .q(dl_pt1_lam));
     // pt1_mul240 = IInvA_xx * pt1_cA_x   (ready @14/14/14)
     logic [W-1:0] pt1_mul240;
@@ -2634,7 +2876,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[162] = fl_pt1_mul240[1] && ev_q[14];
     assign ev_inv[162] = fl_pt1_mul240[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul240;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul240 (.clk(clk), .d(pt1_mul240), .valid(1'b0), .q(dl_pt1_mul240));
     // pt1_mul241 = IInvA_xy * pt1_cA_y   (ready @14/14/14)
     logic [W-1:0] pt1_mul241;
@@ -2647,7 +2890,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[163] = fl_pt1_mul241[1] && ev_q[14];
     assign ev_inv[163] = fl_pt1_mul241[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul241;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul241 (.clk(clk), .d(pt1_mul241), .valid(1'b0), .q(dl_pt1_mul241));
     // pt1_add242 = pt1_mul240 + pt1_mul241   (ready @18/18/18)
     logic [W-1:0] pt1_add242;
@@ -2660,7 +2904,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[164] = fl_pt1_add242[1] && ev_q[18];
     assign ev_inv[164] = fl_pt1_add242[2] && ev_q[18];
     logic [W-1:0] dl_pt1_add242;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add242 (.clk(clk), .d(pt1_add242), .valid(1'b0), .q(dl_pt1_add242));
     // pt1_mul243 = IInvA_xz * pt1_cA_z   (ready @14/14/14)
     logic [W-1:0] pt1_mul243;
@@ -2673,7 +2918,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[165] = fl_pt1_mul243[1] && ev_q[14];
     assign ev_inv[165] = fl_pt1_mul243[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul243;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul243 (.clk(clk), .d(pt1_mul243), .valid(valid_q[14 +: 4]), .q(dl_pt1_mul243));
     // pt1_angA_x = pt1_add242 + pt1_mul243   (ready @22/22/22)
     logic [W-1:0] pt1_angA_x;
@@ -2686,7 +2932,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[166] = fl_pt1_angA_x[1] && ev_q[22];
     assign ev_inv[166] = fl_pt1_angA_x[2] && ev_q[22];
     logic [W-1:0] dl_pt1_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(66))
+    pgs_delay #(.WIDTH(W), .DEPTH(66),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angA_x (.clk(clk), .d(pt1_angA_x), .valid(valid_q[22 +: 66]), .q(dl_pt1_angA_x));
     // pt1_mul245 = IInvA_xy * pt1_cA_x   (ready @14/14/14)
     logic [W-1:0] pt1_mul245;
@@ -2699,7 +2946,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[167] = fl_pt1_mul245[1] && ev_q[14];
     assign ev_inv[167] = fl_pt1_mul245[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul245;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul245 (.clk(clk), .d(pt1_mul245), .valid(1'b0), .q(dl_pt1_mul245));
     // pt1_mul246 = IInvA_yy * pt1_cA_y   (ready @14/14/14)
     logic [W-1:0] pt1_mul246;
@@ -2712,7 +2960,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[168] = fl_pt1_mul246[1] && ev_q[14];
     assign ev_inv[168] = fl_pt1_mul246[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul246;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul246 (.clk(clk), .d(pt1_mul246), .valid(1'b0), .q(dl_pt1_mul246));
     // pt1_add247 = pt1_mul245 + pt1_mul246   (ready @18/18/18)
     logic [W-1:0] pt1_add247;
@@ -2725,7 +2974,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[169] = fl_pt1_add247[1] && ev_q[18];
     assign ev_inv[169] = fl_pt1_add247[2] && ev_q[18];
     logic [W-1:0] dl_pt1_add247;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add247 (.clk(clk), .d(pt1_add247), .valid(1'b0), .q(dl_pt1_add247));
     // pt1_mul248 = IInvA_yz * pt1_cA_z   (ready @14/14/14)
     logic [W-1:0] pt1_mul248;
@@ -2738,7 +2988,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[170] = fl_pt1_mul248[1] && ev_q[14];
     assign ev_inv[170] = fl_pt1_mul248[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul248;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul248 (.clk(clk), .d(pt1_mul248), .valid(valid_q[14 +: 4]), .q(dl_pt1_mul248));
     // pt1_angA_y = pt1_add247 + pt1_mul248   (ready @22/22/22)
     logic [W-1:0] pt1_angA_y;
@@ -2751,7 +3002,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[171] = fl_pt1_angA_y[1] && ev_q[22];
     assign ev_inv[171] = fl_pt1_angA_y[2] && ev_q[22];
     logic [W-1:0] dl_pt1_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(66))
+    pgs_delay #(.WIDTH(W), .DEPTH(66),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angA_y (.clk(clk), .d(pt1_angA_y), .valid(valid_q[22 +: 66]), .q(dl_pt1_angA_y));
     // pt1_mul250 = IInvA_xz * pt1_cA_x   (ready @14/14/14)
     logic [W-1:0] pt1_mul250;
@@ -2764,7 +3016,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[172] = fl_pt1_mul250[1] && ev_q[14];
     assign ev_inv[172] = fl_pt1_mul250[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul250;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul250 (.clk(clk), .d(pt1_mul250), .valid(1'b0), .q(dl_pt1_mul250));
     // pt1_mul251 = IInvA_yz * pt1_cA_y   (ready @14/14/14)
     logic [W-1:0] pt1_mul251;
@@ -2777,7 +3030,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[173] = fl_pt1_mul251[1] && ev_q[14];
     assign ev_inv[173] = fl_pt1_mul251[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul251;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul251 (.clk(clk), .d(pt1_mul251), .valid(1'b0), .q(dl_pt1_mul251));
     // pt1_add252 = pt1_mul250 + pt1_mul251   (ready @18/18/18)
     logic [W-1:0] pt1_add252;
@@ -2790,7 +3044,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[174] = fl_pt1_add252[1] && ev_q[18];
     assign ev_inv[174] = fl_pt1_add252[2] && ev_q[18];
     logic [W-1:0] dl_pt1_add252;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add252 (.clk(clk), .d(pt1_add252), .valid(1'b0), .q(dl_pt1_add252));
     // pt1_mul253 = IInvA_zz * pt1_cA_z   (ready @14/14/14)
     logic [W-1:0] pt1_mul253;
@@ -2803,7 +3058,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[175] = fl_pt1_mul253[1] && ev_q[14];
     assign ev_inv[175] = fl_pt1_mul253[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul253;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul253 (.clk(clk), .d(pt1_mul253), .valid(valid_q[14 +: 4]), .q(dl_pt1_mul253));
     // pt1_angA_z = pt1_add252 + pt1_mul253   (ready @22/22/22)
     logic [W-1:0] pt1_angA_z;
@@ -2816,7 +3072,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[176] = fl_pt1_angA_z[1] && ev_q[22];
     assign ev_inv[176] = fl_pt1_angA_z[2] && ev_q[22];
     logic [W-1:0] dl_pt1_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(66))
+    pgs_delay #(.WIDTH(W), .DEPTH(66),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angA_z (.clk(clk), .d(pt1_angA_z), .valid(valid_q[22 +: 66]), .q(dl_pt1_angA_z));
     // pt1_mul255 = IInvB_xx * pt1_cB_x   (ready @14/14/14)
     logic [W-1:0] pt1_mul255;
@@ -2829,7 +3086,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[177] = fl_pt1_mul255[1] && ev_q[14];
     assign ev_inv[177] = fl_pt1_mul255[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul255;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul255 (.clk(clk), .d(pt1_mul255), .valid(1'b0), .q(dl_pt1_mul255));
     // pt1_mul256 = IInvB_xy * pt1_cB_y   (ready @14/14/14)
     logic [W-1:0] pt1_mul256;
@@ -2842,7 +3100,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[178] = fl_pt1_mul256[1] && ev_q[14];
     assign ev_inv[178] = fl_pt1_mul256[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul256;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul256 (.clk(clk), .d(pt1_mul256), .valid(1'b0), .q(dl_pt1_mul256));
     // pt1_add257 = pt1_mul255 + pt1_mul256   (ready @18/18/18)
     logic [W-1:0] pt1_add257;
@@ -2855,7 +3114,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[179] = fl_pt1_add257[1] && ev_q[18];
     assign ev_inv[179] = fl_pt1_add257[2] && ev_q[18];
     logic [W-1:0] dl_pt1_add257;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add257 (.clk(clk), .d(pt1_add257), .valid(1'b0), .q(dl_pt1_add257));
     // pt1_mul258 = IInvB_xz * pt1_cB_z   (ready @14/14/14)
     logic [W-1:0] pt1_mul258;
@@ -2868,7 +3128,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[180] = fl_pt1_mul258[1] && ev_q[14];
     assign ev_inv[180] = fl_pt1_mul258[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul258;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul258 (.clk(clk), .d(pt1_mul258), .valid(valid_q[14 +: 4]), .q(dl_pt1_mul258));
     // pt1_angB_x = pt1_add257 + pt1_mul258   (ready @22/22/22)
     logic [W-1:0] pt1_angB_x;
@@ -2881,7 +3142,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[181] = fl_pt1_angB_x[1] && ev_q[22];
     assign ev_inv[181] = fl_pt1_angB_x[2] && ev_q[22];
     logic [W-1:0] dl_pt1_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(66))
+    pgs_delay #(.WIDTH(W), .DEPTH(66),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angB_x (.clk(clk), .d(pt1_angB_x), .valid(valid_q[22 +: 66]), .q(dl_pt1_angB_x));
     // pt1_mul260 = IInvB_xy * pt1_cB_x   (ready @14/14/14)
     logic [W-1:0] pt1_mul260;
@@ -2894,7 +3156,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[182] = fl_pt1_mul260[1] && ev_q[14];
     assign ev_inv[182] = fl_pt1_mul260[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul260;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul260 (.clk(clk), .d(pt1_mul260), .valid(1'b0), .q(dl_pt1_mul260));
     // pt1_mul261 = IInvB_yy * pt1_cB_y   (ready @14/14/14)
     logic [W-1:0] pt1_mul261;
@@ -2907,7 +3170,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[183] = fl_pt1_mul261[1] && ev_q[14];
     assign ev_inv[183] = fl_pt1_mul261[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul261;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul261 (.clk(clk), .d(pt1_mul261), .valid(1'b0), .q(dl_pt1_mul261));
     // pt1_add262 = pt1_mul260 + pt1_mul261   (ready @18/18/18)
     logic [W-1:0] pt1_add262;
@@ -2920,7 +3184,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[184] = fl_pt1_add262[1] && ev_q[18];
     assign ev_inv[184] = fl_pt1_add262[2] && ev_q[18];
     logic [W-1:0] dl_pt1_add262;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add262 (.clk(clk), .d(pt1_add262), .valid(1'b0), .q(dl_pt1_add262));
     // pt1_mul263 = IInvB_yz * pt1_cB_z   (ready @14/14/14)
     logic [W-1:0] pt1_mul263;
@@ -2933,7 +3198,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[185] = fl_pt1_mul263[1] && ev_q[14];
     assign ev_inv[185] = fl_pt1_mul263[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul263;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul263 (.clk(clk), .d(pt1_mul263), .valid(valid_q[14 +: 4]), .q(dl_pt1_mul263));
     // pt1_angB_y = pt1_add262 + pt1_mul263   (ready @22/22/22)
     logic [W-1:0] pt1_angB_y;
@@ -2946,7 +3212,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[186] = fl_pt1_angB_y[1] && ev_q[22];
     assign ev_inv[186] = fl_pt1_angB_y[2] && ev_q[22];
     logic [W-1:0] dl_pt1_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(66))
+    pgs_delay #(.WIDTH(W), .DEPTH(66),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angB_y (.clk(clk), .d(pt1_angB_y), .valid(valid_q[22 +: 66]), .q(dl_pt1_angB_y));
     // pt1_mul265 = IInvB_xz * pt1_cB_x   (ready @14/14/14)
     logic [W-1:0] pt1_mul265;
@@ -2959,7 +3226,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[187] = fl_pt1_mul265[1] && ev_q[14];
     assign ev_inv[187] = fl_pt1_mul265[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul265;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul265 (.clk(clk), .d(pt1_mul265), .valid(1'b0), .q(dl_pt1_mul265));
     // pt1_mul266 = IInvB_yz * pt1_cB_y   (ready @14/14/14)
     logic [W-1:0] pt1_mul266;
@@ -2972,7 +3240,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[188] = fl_pt1_mul266[1] && ev_q[14];
     assign ev_inv[188] = fl_pt1_mul266[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul266;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul266 (.clk(clk), .d(pt1_mul266), .valid(1'b0), .q(dl_pt1_mul266));
     // pt1_add267 = pt1_mul265 + pt1_mul266   (ready @18/18/18)
     logic [W-1:0] pt1_add267;
@@ -2985,7 +3254,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[189] = fl_pt1_add267[1] && ev_q[18];
     assign ev_inv[189] = fl_pt1_add267[2] && ev_q[18];
     logic [W-1:0] dl_pt1_add267;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add267 (.clk(clk), .d(pt1_add267), .valid(1'b0), .q(dl_pt1_add267));
     // pt1_mul268 = IInvB_zz * pt1_cB_z   (ready @14/14/14)
     logic [W-1:0] pt1_mul268;
@@ -2998,7 +3268,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[190] = fl_pt1_mul268[1] && ev_q[14];
     assign ev_inv[190] = fl_pt1_mul268[2] && ev_q[14];
     logic [W-1:0] dl_pt1_mul268;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul268 (.clk(clk), .d(pt1_mul268), .valid(valid_q[14 +: 4]), .q(dl_pt1_mul268));
     // pt1_angB_z = pt1_add267 + pt1_mul268   (ready @22/22/22)
     logic [W-1:0] pt1_angB_z;
@@ -3011,7 +3282,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[191] = fl_pt1_angB_z[1] && ev_q[22];
     assign ev_inv[191] = fl_pt1_angB_z[2] && ev_q[22];
     logic [W-1:0] dl_pt1_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(66))
+    pgs_delay #(.WIDTH(W), .DEPTH(66),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angB_z (.clk(clk), .d(pt1_angB_z), .valid(valid_q[22 +: 66]), .q(dl_pt1_angB_z));
     // pt1_mul270 = linA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul270;
@@ -3024,7 +3296,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[192] = fl_pt1_mul270[1] && ev_q[91];
     assign ev_inv[192] = fl_pt1_mul270[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul270;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul270 (.clk(clk), .d(pt1_mul270), .valid(1'b0), .q(dl_pt1_mul270));
     // pt1_mul271 = linA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul271;
@@ -3037,7 +3310,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[193] = fl_pt1_mul271[1] && ev_q[91];
     assign ev_inv[193] = fl_pt1_mul271[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul271;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul271 (.clk(clk), .d(pt1_mul271), .valid(1'b0), .q(dl_pt1_mul271));
     // pt1_mul272 = linA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul272;
@@ -3050,7 +3324,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[194] = fl_pt1_mul272[1] && ev_q[91];
     assign ev_inv[194] = fl_pt1_mul272[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul272;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul272 (.clk(clk), .d(pt1_mul272), .valid(1'b0), .q(dl_pt1_mul272));
     // pt1_add273 = pt0_vA_x + pt1_mul270   (ready @95/95/95)
     logic [W-1:0] pt1_add273;
@@ -3063,7 +3338,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[195] = fl_pt1_add273[1] && ev_q[95];
     assign ev_inv[195] = fl_pt1_add273[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add273;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add273 (.clk(clk), .d(pt1_add273), .valid(1'b0), .q(dl_pt1_add273));
     // pt1_add274 = pt0_vA_y + pt1_mul271   (ready @95/95/95)
     logic [W-1:0] pt1_add274;
@@ -3076,7 +3352,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[196] = fl_pt1_add274[1] && ev_q[95];
     assign ev_inv[196] = fl_pt1_add274[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add274;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add274 (.clk(clk), .d(pt1_add274), .valid(1'b0), .q(dl_pt1_add274));
     // pt1_add275 = pt0_vA_z + pt1_mul272   (ready @95/95/95)
     logic [W-1:0] pt1_add275;
@@ -3089,25 +3366,29 @@ module pgs_contact_pipe_full #(
     assign ev_unf[197] = fl_pt1_add275[1] && ev_q[95];
     assign ev_inv[197] = fl_pt1_add275[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add275;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add275 (.clk(clk), .d(pt1_add275), .valid(1'b0), .q(dl_pt1_add275));
     // pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add273   (ready @95/95/95)
     logic [W-1:0] pt1_vA_x;
     assign pt1_vA_x = dl_pt1_skip[1] ? dl_pt0_vA_x[2*W +: W] : dl_pt1_add273;
     logic [3*W-1:0] dl_pt1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vA_x (.clk(clk), .d(pt1_vA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_x));
     // pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add274   (ready @95/95/95)
     logic [W-1:0] pt1_vA_y;
     assign pt1_vA_y = dl_pt1_skip[1] ? dl_pt0_vA_y[2*W +: W] : dl_pt1_add274;
     logic [3*W-1:0] dl_pt1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vA_y (.clk(clk), .d(pt1_vA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_y));
     // pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add275   (ready @95/95/95)
     logic [W-1:0] pt1_vA_z;
     assign pt1_vA_z = dl_pt1_skip[1] ? dl_pt0_vA_z[2*W +: W] : dl_pt1_add275;
     logic [3*W-1:0] dl_pt1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vA_z (.clk(clk), .d(pt1_vA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_z));
     // pt1_mul279 = pt1_angA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul279;
@@ -3120,7 +3401,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[198] = fl_pt1_mul279[1] && ev_q[91];
     assign ev_inv[198] = fl_pt1_mul279[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul279;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul279 (.clk(clk), .d(pt1_mul279), .valid(1'b0), .q(dl_pt1_mul279));
     // pt1_mul280 = pt1_angA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul280;
@@ -3133,7 +3415,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[199] = fl_pt1_mul280[1] && ev_q[91];
     assign ev_inv[199] = fl_pt1_mul280[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul280;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul280 (.clk(clk), .d(pt1_mul280), .valid(1'b0), .q(dl_pt1_mul280));
     // pt1_mul281 = pt1_angA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul281;
@@ -3146,7 +3429,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[200] = fl_pt1_mul281[1] && ev_q[91];
     assign ev_inv[200] = fl_pt1_mul281[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul281;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul281 (.clk(clk), .d(pt1_mul281), .valid(1'b0), .q(dl_pt1_mul281));
     // pt1_add282 = pt0_wA_x + pt1_mul279   (ready @95/95/95)
     logic [W-1:0] pt1_add282;
@@ -3159,7 +3443,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[201] = fl_pt1_add282[1] && ev_q[95];
     assign ev_inv[201] = fl_pt1_add282[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add282;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add282 (.clk(clk), .d(pt1_add282), .valid(1'b0), .q(dl_pt1_add282));
     // pt1_add283 = pt0_wA_y + pt1_mul280   (ready @95/95/95)
     logic [W-1:0] pt1_add283;
@@ -3172,7 +3457,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[202] = fl_pt1_add283[1] && ev_q[95];
     assign ev_inv[202] = fl_pt1_add283[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add283;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add283 (.clk(clk), .d(pt1_add283), .valid(1'b0), .q(dl_pt1_add283));
     // pt1_add284 = pt0_wA_z + pt1_mul281   (ready @95/95/95)
     logic [W-1:0] pt1_add284;
@@ -3185,25 +3471,29 @@ module pgs_contact_pipe_full #(
     assign ev_unf[203] = fl_pt1_add284[1] && ev_q[95];
     assign ev_inv[203] = fl_pt1_add284[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add284;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add284 (.clk(clk), .d(pt1_add284), .valid(1'b0), .q(dl_pt1_add284));
     // pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add282   (ready @95/95/95)
     logic [W-1:0] pt1_wA_x;
     assign pt1_wA_x = dl_pt1_skip[1] ? dl_pt0_wA_x[2*W +: W] : dl_pt1_add282;
     logic [3*W-1:0] dl_pt1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wA_x (.clk(clk), .d(pt1_wA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_x));
     // pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add283   (ready @95/95/95)
     logic [W-1:0] pt1_wA_y;
     assign pt1_wA_y = dl_pt1_skip[1] ? dl_pt0_wA_y[2*W +: W] : dl_pt1_add283;
     logic [3*W-1:0] dl_pt1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wA_y (.clk(clk), .d(pt1_wA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_y));
     // pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add284   (ready @95/95/95)
     logic [W-1:0] pt1_wA_z;
     assign pt1_wA_z = dl_pt1_skip[1] ? dl_pt0_wA_z[2*W +: W] : dl_pt1_add284;
     logic [3*W-1:0] dl_pt1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wA_z (.clk(clk), .d(pt1_wA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_z));
     // pt1_mul288 = linB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul288;
@@ -3216,7 +3506,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[204] = fl_pt1_mul288[1] && ev_q[91];
     assign ev_inv[204] = fl_pt1_mul288[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul288;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul288 (.clk(clk), .d(pt1_mul288), .valid(1'b0), .q(dl_pt1_mul288));
     // pt1_mul289 = linB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul289;
@@ -3229,7 +3520,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[205] = fl_pt1_mul289[1] && ev_q[91];
     assign ev_inv[205] = fl_pt1_mul289[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul289;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul289 (.clk(clk), .d(pt1_mul289), .valid(1'b0), .q(dl_pt1_mul289));
     // pt1_mul290 = linB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul290;
@@ -3242,7 +3534,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[206] = fl_pt1_mul290[1] && ev_q[91];
     assign ev_inv[206] = fl_pt1_mul290[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul290;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul290 (.clk(clk), .d(pt1_mul290), .valid(1'b0), .q(dl_pt1_mul290));
     // pt1_sub291 = pt0_vB_x - pt1_mul288   (ready @95/95/95)
     logic [W-1:0] pt1_sub291;
@@ -3255,7 +3548,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[207] = fl_pt1_sub291[1] && ev_q[95];
     assign ev_inv[207] = fl_pt1_sub291[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub291;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub291 (.clk(clk), .d(pt1_sub291), .valid(1'b0), .q(dl_pt1_sub291));
     // pt1_sub292 = pt0_vB_y - pt1_mul289   (ready @95/95/95)
     logic [W-1:0] pt1_sub292;
@@ -3268,7 +3562,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[208] = fl_pt1_sub292[1] && ev_q[95];
     assign ev_inv[208] = fl_pt1_sub292[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub292;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub292 (.clk(clk), .d(pt1_sub292), .valid(1'b0), .q(dl_pt1_sub292));
     // pt1_sub293 = pt0_vB_z - pt1_mul290   (ready @95/95/95)
     logic [W-1:0] pt1_sub293;
@@ -3281,25 +3576,29 @@ module pgs_contact_pipe_full #(
     assign ev_unf[209] = fl_pt1_sub293[1] && ev_q[95];
     assign ev_inv[209] = fl_pt1_sub293[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub293;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub293 (.clk(clk), .d(pt1_sub293), .valid(1'b0), .q(dl_pt1_sub293));
     // pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub291   (ready @95/95/95)
     logic [W-1:0] pt1_vB_x;
     assign pt1_vB_x = dl_pt1_skip[1] ? dl_pt0_vB_x[2*W +: W] : dl_pt1_sub291;
     logic [3*W-1:0] dl_pt1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vB_x (.clk(clk), .d(pt1_vB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_x));
     // pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub292   (ready @95/95/95)
     logic [W-1:0] pt1_vB_y;
     assign pt1_vB_y = dl_pt1_skip[1] ? dl_pt0_vB_y[2*W +: W] : dl_pt1_sub292;
     logic [3*W-1:0] dl_pt1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vB_y (.clk(clk), .d(pt1_vB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_y));
     // pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub293   (ready @95/95/95)
     logic [W-1:0] pt1_vB_z;
     assign pt1_vB_z = dl_pt1_skip[1] ? dl_pt0_vB_z[2*W +: W] : dl_pt1_sub293;
     logic [3*W-1:0] dl_pt1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vB_z (.clk(clk), .d(pt1_vB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_z));
     // pt1_mul297 = pt1_angB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul297;
@@ -3312,7 +3611,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[210] = fl_pt1_mul297[1] && ev_q[91];
     assign ev_inv[210] = fl_pt1_mul297[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul297;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul297 (.clk(clk), .d(pt1_mul297), .valid(1'b0), .q(dl_pt1_mul297));
     // pt1_mul298 = pt1_angB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul298;
@@ -3325,7 +3625,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[211] = fl_pt1_mul298[1] && ev_q[91];
     assign ev_inv[211] = fl_pt1_mul298[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul298;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul298 (.clk(clk), .d(pt1_mul298), .valid(1'b0), .q(dl_pt1_mul298));
     // pt1_mul299 = pt1_angB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul299;
@@ -3338,7 +3639,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[212] = fl_pt1_mul299[1] && ev_q[91];
     assign ev_inv[212] = fl_pt1_mul299[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul299;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul299 (.clk(clk), .d(pt1_mul299), .valid(1'b0), .q(dl_pt1_mul299));
     // pt1_sub300 = pt0_wB_x - pt1_mul297   (ready @95/95/95)
     logic [W-1:0] pt1_sub300;
@@ -3351,7 +3653,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[213] = fl_pt1_sub300[1] && ev_q[95];
     assign ev_inv[213] = fl_pt1_sub300[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub300;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub300 (.clk(clk), .d(pt1_sub300), .valid(1'b0), .q(dl_pt1_sub300));
     // pt1_sub301 = pt0_wB_y - pt1_mul298   (ready @95/95/95)
     logic [W-1:0] pt1_sub301;
@@ -3364,7 +3667,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[214] = fl_pt1_sub301[1] && ev_q[95];
     assign ev_inv[214] = fl_pt1_sub301[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub301;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub301 (.clk(clk), .d(pt1_sub301), .valid(1'b0), .q(dl_pt1_sub301));
     // pt1_sub302 = pt0_wB_z - pt1_mul299   (ready @95/95/95)
     logic [W-1:0] pt1_sub302;
@@ -3377,31 +3681,36 @@ module pgs_contact_pipe_full #(
     assign ev_unf[215] = fl_pt1_sub302[1] && ev_q[95];
     assign ev_inv[215] = fl_pt1_sub302[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub302;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub302 (.clk(clk), .d(pt1_sub302), .valid(1'b0), .q(dl_pt1_sub302));
     // pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub300   (ready @95/95/95)
     logic [W-1:0] pt1_wB_x;
     assign pt1_wB_x = dl_pt1_skip[1] ? dl_pt0_wB_x[2*W +: W] : dl_pt1_sub300;
     logic [3*W-1:0] dl_pt1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wB_x (.clk(clk), .d(pt1_wB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_x));
     // pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub301   (ready @95/95/95)
     logic [W-1:0] pt1_wB_y;
     assign pt1_wB_y = dl_pt1_skip[1] ? dl_pt0_wB_y[2*W +: W] : dl_pt1_sub301;
     logic [3*W-1:0] dl_pt1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wB_y (.clk(clk), .d(pt1_wB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_y));
     // pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub302   (ready @95/95/95)
     logic [W-1:0] pt1_wB_z;
     assign pt1_wB_z = dl_pt1_skip[1] ? dl_pt0_wB_z[2*W +: W] : dl_pt1_sub302;
     logic [3*W-1:0] dl_pt1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wB_z (.clk(clk), .d(pt1_wB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_z));
     // pt2_skip = jac_inv2 == 0   (ready @0/0/0)
     logic pt2_skip;
     assign pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt2_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_skip (.clk(clk), .d(pt2_skip), .valid(valid_q[0 +: 137]), .q(dl_pt2_skip));
     // pt2_rA_x = p2_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt2_rA_x;
@@ -3414,7 +3723,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[216] = fl_pt2_rA_x[1] && ev_q[4];
     assign ev_inv[216] = fl_pt2_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rA_x (.clk(clk), .d(pt2_rA_x), .valid(1'b0), .q(dl_pt2_rA_x));
     // pt2_rA_y = p2_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt2_rA_y;
@@ -3427,7 +3737,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[217] = fl_pt2_rA_y[1] && ev_q[4];
     assign ev_inv[217] = fl_pt2_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rA_y (.clk(clk), .d(pt2_rA_y), .valid(1'b0), .q(dl_pt2_rA_y));
     // pt2_rA_z = p2_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt2_rA_z;
@@ -3440,7 +3751,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[218] = fl_pt2_rA_z[1] && ev_q[4];
     assign ev_inv[218] = fl_pt2_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rA_z (.clk(clk), .d(pt2_rA_z), .valid(1'b0), .q(dl_pt2_rA_z));
     // pt2_mul310 = pt2_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul310;
@@ -3453,7 +3765,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[219] = fl_pt2_mul310[1] && ev_q[7];
     assign ev_inv[219] = fl_pt2_mul310[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul310;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul310 (.clk(clk), .d(pt2_mul310), .valid(1'b0), .q(dl_pt2_mul310));
     // pt2_mul311 = pt2_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul311;
@@ -3466,7 +3779,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[220] = fl_pt2_mul311[1] && ev_q[7];
     assign ev_inv[220] = fl_pt2_mul311[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul311;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul311 (.clk(clk), .d(pt2_mul311), .valid(1'b0), .q(dl_pt2_mul311));
     // pt2_cA_x = pt2_mul310 - pt2_mul311   (ready @11/11/11)
     logic [W-1:0] pt2_cA_x;
@@ -3479,7 +3793,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[221] = fl_pt2_cA_x[1] && ev_q[11];
     assign ev_inv[221] = fl_pt2_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cA_x (.clk(clk), .d(pt2_cA_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_x));
     // pt2_mul313 = pt2_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul313;
@@ -3492,7 +3807,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[222] = fl_pt2_mul313[1] && ev_q[7];
     assign ev_inv[222] = fl_pt2_mul313[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul313;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul313 (.clk(clk), .d(pt2_mul313), .valid(1'b0), .q(dl_pt2_mul313));
     // pt2_mul314 = pt2_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul314;
@@ -3505,7 +3821,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[223] = fl_pt2_mul314[1] && ev_q[7];
     assign ev_inv[223] = fl_pt2_mul314[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul314;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul314 (.clk(clk), .d(pt2_mul314), .valid(1'b0), .q(dl_pt2_mul314));
     // pt2_cA_y = pt2_mul313 - pt2_mul314   (ready @11/11/11)
     logic [W-1:0] pt2_cA_y;
@@ -3518,7 +3835,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[224] = fl_pt2_cA_y[1] && ev_q[11];
     assign ev_inv[224] = fl_pt2_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cA_y (.clk(clk), .d(pt2_cA_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_y));
     // pt2_mul316 = pt2_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul316;
@@ -3531,7 +3849,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[225] = fl_pt2_mul316[1] && ev_q[7];
     assign ev_inv[225] = fl_pt2_mul316[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul316;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul316 (.clk(clk), .d(pt2_mul316), .valid(1'b0), .q(dl_pt2_mul316));
     // pt2_mul317 = pt2_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul317;
@@ -3544,7 +3863,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[226] = fl_pt2_mul317[1] && ev_q[7];
     assign ev_inv[226] = fl_pt2_mul317[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul317;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul317 (.clk(clk), .d(pt2_mul317), .valid(1'b0), .q(dl_pt2_mul317));
     // pt2_cA_z = pt2_mul316 - pt2_mul317   (ready @11/11/11)
     logic [W-1:0] pt2_cA_z;
@@ -3557,7 +3877,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[227] = fl_pt2_cA_z[1] && ev_q[11];
     assign ev_inv[227] = fl_pt2_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cA_z (.clk(clk), .d(pt2_cA_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_z));
     // pt2_rB_x = p2_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt2_rB_x;
@@ -3570,7 +3891,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[228] = fl_pt2_rB_x[1] && ev_q[4];
     assign ev_inv[228] = fl_pt2_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rB_x (.clk(clk), .d(pt2_rB_x), .valid(1'b0), .q(dl_pt2_rB_x));
     // pt2_rB_y = p2_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt2_rB_y;
@@ -3583,7 +3905,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[229] = fl_pt2_rB_y[1] && ev_q[4];
     assign ev_inv[229] = fl_pt2_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rB_y (.clk(clk), .d(pt2_rB_y), .valid(1'b0), .q(dl_pt2_rB_y));
     // pt2_rB_z = p2_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt2_rB_z;
@@ -3596,7 +3919,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[230] = fl_pt2_rB_z[1] && ev_q[4];
     assign ev_inv[230] = fl_pt2_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rB_z (.clk(clk), .d(pt2_rB_z), .valid(1'b0), .q(dl_pt2_rB_z));
     // pt2_mul322 = pt2_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul322;
@@ -3609,7 +3933,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[231] = fl_pt2_mul322[1] && ev_q[7];
     assign ev_inv[231] = fl_pt2_mul322[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul322;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul322 (.clk(clk), .d(pt2_mul322), .valid(1'b0), .q(dl_pt2_mul322));
     // pt2_mul323 = pt2_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul323;
@@ -3622,7 +3947,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[232] = fl_pt2_mul323[1] && ev_q[7];
     assign ev_inv[232] = fl_pt2_mul323[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul323;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul323 (.clk(clk), .d(pt2_mul323), .valid(1'b0), .q(dl_pt2_mul323));
     // pt2_cB_x = pt2_mul322 - pt2_mul323   (ready @11/11/11)
     logic [W-1:0] pt2_cB_x;
@@ -3635,7 +3961,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[233] = fl_pt2_cB_x[1] && ev_q[11];
     assign ev_inv[233] = fl_pt2_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cB_x (.clk(clk), .d(pt2_cB_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_x));
     // pt2_mul325 = pt2_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul325;
@@ -3648,7 +3975,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[234] = fl_pt2_mul325[1] && ev_q[7];
     assign ev_inv[234] = fl_pt2_mul325[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul325;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul325 (.clk(clk), .d(pt2_mul325), .valid(1'b0), .q(dl_pt2_mul325));
     // pt2_mul326 = pt2_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul326;
@@ -3661,7 +3989,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[235] = fl_pt2_mul326[1] && ev_q[7];
     assign ev_inv[235] = fl_pt2_mul326[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul326;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul326 (.clk(clk), .d(pt2_mul326), .valid(1'b0), .q(dl_pt2_mul326));
     // pt2_cB_y = pt2_mul325 - pt2_mul326   (ready @11/11/11)
     logic [W-1:0] pt2_cB_y;
@@ -3674,7 +4003,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[236] = fl_pt2_cB_y[1] && ev_q[11];
     assign ev_inv[236] = fl_pt2_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cB_y (.clk(clk), .d(pt2_cB_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_y));
     // pt2_mul328 = pt2_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul328;
@@ -3687,7 +4017,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[237] = fl_pt2_mul328[1] && ev_q[7];
     assign ev_inv[237] = fl_pt2_mul328[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul328;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul328 (.clk(clk), .d(pt2_mul328), .valid(1'b0), .q(dl_pt2_mul328));
     // pt2_mul329 = pt2_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul329;
@@ -3700,7 +4031,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[238] = fl_pt2_mul329[1] && ev_q[7];
     assign ev_inv[238] = fl_pt2_mul329[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul329;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul329 (.clk(clk), .d(pt2_mul329), .valid(1'b0), .q(dl_pt2_mul329));
     // pt2_cB_z = pt2_mul328 - pt2_mul329   (ready @11/11/11)
     logic [W-1:0] pt2_cB_z;
@@ -3713,7 +4045,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[239] = fl_pt2_cB_z[1] && ev_q[11];
     assign ev_inv[239] = fl_pt2_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cB_z (.clk(clk), .d(pt2_cB_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_z));
     // pt2_mul331 = n_x * pt1_vA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul331;
@@ -3726,7 +4059,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[240] = fl_pt2_mul331[1] && ev_q[98];
     assign ev_inv[240] = fl_pt2_mul331[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul331;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul331 (.clk(clk), .d(pt2_mul331), .valid(1'b0), .q(dl_pt2_mul331));
     // pt2_mul332 = n_y * pt1_vA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul332;
@@ -3739,7 +4073,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[241] = fl_pt2_mul332[1] && ev_q[98];
     assign ev_inv[241] = fl_pt2_mul332[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul332;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul332 (.clk(clk), .d(pt2_mul332), .valid(1'b0), .q(dl_pt2_mul332));
     // pt2_add333 = pt2_mul331 + pt2_mul332   (ready @102/102/102)
     logic [W-1:0] pt2_add333;
@@ -3752,7 +4087,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[242] = fl_pt2_add333[1] && ev_q[102];
     assign ev_inv[242] = fl_pt2_add333[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add333;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add333 (.clk(clk), .d(pt2_add333), .valid(1'b0), .q(dl_pt2_add333));
     // pt2_mul334 = n_z * pt1_vA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul334;
@@ -3765,7 +4101,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[243] = fl_pt2_mul334[1] && ev_q[98];
     assign ev_inv[243] = fl_pt2_mul334[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul334;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul334 (.clk(clk), .d(pt2_mul334), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul334));
     // pt2_add335 = pt2_add333 + pt2_mul334   (ready @106/106/106)
     logic [W-1:0] pt2_add335;
@@ -3778,7 +4115,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[244] = fl_pt2_add335[1] && ev_q[106];
     assign ev_inv[244] = fl_pt2_add335[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add335;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add335 (.clk(clk), .d(pt2_add335), .valid(1'b0), .q(dl_pt2_add335));
     // pt2_mul336 = n_x * pt1_vB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul336;
@@ -3791,7 +4129,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[245] = fl_pt2_mul336[1] && ev_q[98];
     assign ev_inv[245] = fl_pt2_mul336[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul336;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul336 (.clk(clk), .d(pt2_mul336), .valid(1'b0), .q(dl_pt2_mul336));
     // pt2_mul337 = n_y * pt1_vB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul337;
@@ -3804,7 +4143,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[246] = fl_pt2_mul337[1] && ev_q[98];
     assign ev_inv[246] = fl_pt2_mul337[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul337;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul337 (.clk(clk), .d(pt2_mul337), .valid(1'b0), .q(dl_pt2_mul337));
     // pt2_add338 = pt2_mul336 + pt2_mul337   (ready @102/102/102)
     logic [W-1:0] pt2_add338;
@@ -3817,7 +4157,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[247] = fl_pt2_add338[1] && ev_q[102];
     assign ev_inv[247] = fl_pt2_add338[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add338;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add338 (.clk(clk), .d(pt2_add338), .valid(1'b0), .q(dl_pt2_add338));
     // pt2_mul339 = n_z * pt1_vB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul339;
@@ -3830,7 +4171,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[248] = fl_pt2_mul339[1] && ev_q[98];
     assign ev_inv[248] = fl_pt2_mul339[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul339;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul339 (.clk(clk), .d(pt2_mul339), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul339));
     // pt2_add340 = pt2_add338 + pt2_mul339   (ready @106/106/106)
     logic [W-1:0] pt2_add340;
@@ -3843,7 +4185,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[249] = fl_pt2_add340[1] && ev_q[106];
     assign ev_inv[249] = fl_pt2_add340[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add340;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add340 (.clk(clk), .d(pt2_add340), .valid(1'b0), .q(dl_pt2_add340));
     // pt2_sub341 = pt2_add335 - pt2_add340   (ready @110/110/110)
     logic [W-1:0] pt2_sub341;
@@ -3856,7 +4199,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[250] = fl_pt2_sub341[1] && ev_q[110];
     assign ev_inv[250] = fl_pt2_sub341[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub341;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub341 (.clk(clk), .d(pt2_sub341), .valid(1'b0), .q(dl_pt2_sub341));
     // pt2_mul342 = pt2_cA_x * pt1_wA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul342;
@@ -3869,7 +4213,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[251] = fl_pt2_mul342[1] && ev_q[98];
     assign ev_inv[251] = fl_pt2_mul342[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul342;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul342 (.clk(clk), .d(pt2_mul342), .valid(1'b0), .q(dl_pt2_mul342));
     // pt2_mul343 = pt2_cA_y * pt1_wA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul343;
@@ -3882,7 +4227,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[252] = fl_pt2_mul343[1] && ev_q[98];
     assign ev_inv[252] = fl_pt2_mul343[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul343;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul343 (.clk(clk), .d(pt2_mul343), .valid(1'b0), .q(dl_pt2_mul343));
     // pt2_add344 = pt2_mul342 + pt2_mul343   (ready @102/102/102)
     logic [W-1:0] pt2_add344;
@@ -3895,7 +4241,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[253] = fl_pt2_add344[1] && ev_q[102];
     assign ev_inv[253] = fl_pt2_add344[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add344;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add344 (.clk(clk), .d(pt2_add344), .valid(1'b0), .q(dl_pt2_add344));
     // pt2_mul345 = pt2_cA_z * pt1_wA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul345;
@@ -3908,7 +4255,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[254] = fl_pt2_mul345[1] && ev_q[98];
     assign ev_inv[254] = fl_pt2_mul345[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul345;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul345 (.clk(clk), .d(pt2_mul345), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul345));
     // pt2_add346 = pt2_add344 + pt2_mul345   (ready @106/106/106)
     logic [W-1:0] pt2_add346;
@@ -3921,7 +4269,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[255] = fl_pt2_add346[1] && ev_q[106];
     assign ev_inv[255] = fl_pt2_add346[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add346;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add346 (.clk(clk), .d(pt2_add346), .valid(1'b0), .q(dl_pt2_add346));
     // pt2_mul347 = pt2_cB_x * pt1_wB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul347;
@@ -3934,7 +4283,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[256] = fl_pt2_mul347[1] && ev_q[98];
     assign ev_inv[256] = fl_pt2_mul347[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul347;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul347 (.clk(clk), .d(pt2_mul347), .valid(1'b0), .q(dl_pt2_mul347));
     // pt2_mul348 = pt2_cB_y * pt1_wB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul348;
@@ -3947,7 +4297,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[257] = fl_pt2_mul348[1] && ev_q[98];
     assign ev_inv[257] = fl_pt2_mul348[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul348;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul348 (.clk(clk), .d(pt2_mul348), .valid(1'b0), .q(dl_pt2_mul348));
     // pt2_add349 = pt2_mul347 + pt2_mul348   (ready @102/102/102)
     logic [W-1:0] pt2_add349;
@@ -3960,7 +4311,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[258] = fl_pt2_add349[1] && ev_q[102];
     assign ev_inv[258] = fl_pt2_add349[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add349;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add349 (.clk(clk), .d(pt2_add349), .valid(1'b0), .q(dl_pt2_add349));
     // pt2_mul350 = pt2_cB_z * pt1_wB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul350;
@@ -3973,7 +4325,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[259] = fl_pt2_mul350[1] && ev_q[98];
     assign ev_inv[259] = fl_pt2_mul350[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul350;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul350 (.clk(clk), .d(pt2_mul350), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul350));
     // pt2_add351 = pt2_add349 + pt2_mul350   (ready @106/106/106)
     logic [W-1:0] pt2_add351;
@@ -3986,7 +4339,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[260] = fl_pt2_add351[1] && ev_q[106];
     assign ev_inv[260] = fl_pt2_add351[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add351;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add351 (.clk(clk), .d(pt2_add351), .valid(1'b0), .q(dl_pt2_add351));
     // pt2_sub352 = pt2_add346 - pt2_add351   (ready @110/110/110)
     logic [W-1:0] pt2_sub352;
@@ -3999,7 +4353,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[261] = fl_pt2_sub352[1] && ev_q[110];
     assign ev_inv[261] = fl_pt2_sub352[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub352;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub352 (.clk(clk), .d(pt2_sub352), .valid(1'b0), .q(dl_pt2_sub352));
     // pt2_vrel = pt2_sub341 + pt2_sub352   (ready @114/114/114)
     logic [W-1:0] pt2_vrel;
@@ -4012,7 +4367,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[262] = fl_pt2_vrel[1] && ev_q[114];
     assign ev_inv[262] = fl_pt2_vrel[2] && ev_q[114];
     logic [W-1:0] dl_pt2_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vrel (.clk(clk), .d(pt2_vrel), .valid(1'b0), .q(dl_pt2_vrel));
     // pt2_add354 = pt2_vrel + b2   (ready @118/118/118)
     logic [W-1:0] pt2_add354;
@@ -4025,7 +4381,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[263] = fl_pt2_add354[1] && ev_q[118];
     assign ev_inv[263] = fl_pt2_add354[2] && ev_q[118];
     logic [W-1:0] dl_pt2_add354;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add354 (.clk(clk), .d(pt2_add354), .valid(1'b0), .q(dl_pt2_add354));
     // pt2_delta0 = pt2_add354 * jac_inv2   (ready @121/121/121)
     logic [W-1:0] pt2_delta0;
@@ -4038,7 +4395,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[264] = fl_pt2_delta0[1] && ev_q[121];
     assign ev_inv[264] = fl_pt2_delta0[2] && ev_q[121];
     logic [W-1:0] dl_pt2_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_delta0 (.clk(clk), .d(pt2_delta0), .valid(1'b0), .q(dl_pt2_delta0));
     // pt2_add356 = lam2 + pt2_delta0   (ready @125/125/125)
     logic [W-1:0] pt2_add356;
@@ -4051,7 +4409,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[265] = fl_pt2_add356[1] && ev_q[125];
     assign ev_inv[265] = fl_pt2_add356[2] && ev_q[125];
     logic [W-1:0] dl_pt2_add356;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add356 (.clk(clk), .d(pt2_add356), .valid(1'b0), .q(dl_pt2_add356));
     // pt2_lam_new = max(pt2_add356, 0.0)   (ready @126/126/126)
     logic [W-1:0] pt2_lam_new;
@@ -4061,7 +4420,8 @@ module pgs_contact_pipe_full #(
         .lt(nc_pt2_lam_new_lt), .eq(nc_pt2_lam_new_eq), .unordered(nc_pt2_lam_new_uo)
     );
     logic [W-1:0] dl_pt2_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_lam_new (.clk(clk), .d(pt2_lam_new), .valid(1'b0), .q(dl_pt2_lam_new));
     // pt2_delta = pt2_lam_new - lam2   (ready @130/130/130)
     logic [W-1:0] pt2_delta;
@@ -4074,13 +4434,15 @@ module pgs_contact_pipe_full #(
     assign ev_unf[266] = fl_pt2_delta[1] && ev_q[130];
     assign ev_inv[266] = fl_pt2_delta[2] && ev_q[130];
     logic [W-1:0] dl_pt2_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_delta (.clk(clk), .d(pt2_delta), .valid(1'b0), .q(dl_pt2_delta));
     // pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (ready @126/126/126)
     logic [W-1:0] pt2_lam;
     assign pt2_lam = dl_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_pt2_lam_new;
     logic [W-1:0] dl_pt2_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(53))
+    pgs_delay #(.WIDTH(W), .DEPTH(53),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_lam (.clk(clk), .d(pt2_lam), .valid(valid_q[126 +: 53]), .q(dl_pt2_lam));
     // pt2_mul360 = IInvA_xx * pt2_cA_x   (ready @14/14/14)
     logic [W-1:0] pt2_mul360;
@@ -4093,7 +4455,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[267] = fl_pt2_mul360[1] && ev_q[14];
     assign ev_inv[267] = fl_pt2_mul360[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul360;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul360 (.clk(clk), .d(pt2_mul360), .valid(1'b0), .q(dl_pt2_mul360));
     // pt2_mul361 = IInvA_xy * pt2_cA_y   (ready @14/14/14)
     logic [W-1:0] pt2_mul361;
@@ -4106,7 +4469,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[268] = fl_pt2_mul361[1] && ev_q[14];
     assign ev_inv[268] = fl_pt2_mul361[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul361;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul361 (.clk(clk), .d(pt2_mul361), .valid(1'b0), .q(dl_pt2_mul361));
     // pt2_add362 = pt2_mul360 + pt2_mul361   (ready @18/18/18)
     logic [W-1:0] pt2_add362;
@@ -4119,7 +4483,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[269] = fl_pt2_add362[1] && ev_q[18];
     assign ev_inv[269] = fl_pt2_add362[2] && ev_q[18];
     logic [W-1:0] dl_pt2_add362;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add362 (.clk(clk), .d(pt2_add362), .valid(1'b0), .q(dl_pt2_add362));
     // pt2_mul363 = IInvA_xz * pt2_cA_z   (ready @14/14/14)
     logic [W-1:0] pt2_mul363;
@@ -4132,7 +4497,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[270] = fl_pt2_mul363[1] && ev_q[14];
     assign ev_inv[270] = fl_pt2_mul363[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul363;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul363 (.clk(clk), .d(pt2_mul363), .valid(valid_q[14 +: 4]), .q(dl_pt2_mul363));
     // pt2_angA_x = pt2_add362 + pt2_mul363   (ready @22/22/22)
     logic [W-1:0] pt2_angA_x;
@@ -4145,7 +4511,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[271] = fl_pt2_angA_x[1] && ev_q[22];
     assign ev_inv[271] = fl_pt2_angA_x[2] && ev_q[22];
     logic [W-1:0] dl_pt2_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(108))
+    pgs_delay #(.WIDTH(W), .DEPTH(108),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angA_x (.clk(clk), .d(pt2_angA_x), .valid(valid_q[22 +: 108]), .q(dl_pt2_angA_x));
     // pt2_mul365 = IInvA_xy * pt2_cA_x   (ready @14/14/14)
     logic [W-1:0] pt2_mul365;
@@ -4158,7 +4525,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[272] = fl_pt2_mul365[1] && ev_q[14];
     assign ev_inv[272] = fl_pt2_mul365[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul365;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul365 (.clk(clk), .d(pt2_mul365), .valid(1'b0), .q(dl_pt2_mul365));
     // pt2_mul366 = IInvA_yy * pt2_cA_y   (ready @14/14/14)
     logic [W-1:0] pt2_mul366;
@@ -4171,7 +4539,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[273] = fl_pt2_mul366[1] && ev_q[14];
     assign ev_inv[273] = fl_pt2_mul366[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul366;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul366 (.clk(clk), .d(pt2_mul366), .valid(1'b0), .q(dl_pt2_mul366));
     // pt2_add367 = pt2_mul365 + pt2_mul366   (ready @18/18/18)
     logic [W-1:0] pt2_add367;
@@ -4184,7 +4553,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[274] = fl_pt2_add367[1] && ev_q[18];
     assign ev_inv[274] = fl_pt2_add367[2] && ev_q[18];
     logic [W-1:0] dl_pt2_add367;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add367 (.clk(clk), .d(pt2_add367), .valid(1'b0), .q(dl_pt2_add367));
     // pt2_mul368 = IInvA_yz * pt2_cA_z   (ready @14/14/14)
     logic [W-1:0] pt2_mul368;
@@ -4197,7 +4567,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[275] = fl_pt2_mul368[1] && ev_q[14];
     assign ev_inv[275] = fl_pt2_mul368[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul368;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul368 (.clk(clk), .d(pt2_mul368), .valid(valid_q[14 +: 4]), .q(dl_pt2_mul368));
     // pt2_angA_y = pt2_add367 + pt2_mul368   (ready @22/22/22)
     logic [W-1:0] pt2_angA_y;
@@ -4210,7 +4581,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[276] = fl_pt2_angA_y[1] && ev_q[22];
     assign ev_inv[276] = fl_pt2_angA_y[2] && ev_q[22];
     logic [W-1:0] dl_pt2_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(108))
+    pgs_delay #(.WIDTH(W), .DEPTH(108),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angA_y (.clk(clk), .d(pt2_angA_y), .valid(valid_q[22 +: 108]), .q(dl_pt2_angA_y));
     // pt2_mul370 = IInvA_xz * pt2_cA_x   (ready @14/14/14)
     logic [W-1:0] pt2_mul370;
@@ -4223,7 +4595,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[277] = fl_pt2_mul370[1] && ev_q[14];
     assign ev_inv[277] = fl_pt2_mul370[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul370;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul370 (.clk(clk), .d(pt2_mul370), .valid(1'b0), .q(dl_pt2_mul370));
     // pt2_mul371 = IInvA_yz * pt2_cA_y   (ready @14/14/14)
     logic [W-1:0] pt2_mul371;
@@ -4236,7 +4609,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[278] = fl_pt2_mul371[1] && ev_q[14];
     assign ev_inv[278] = fl_pt2_mul371[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul371;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul371 (.clk(clk), .d(pt2_mul371), .valid(1'b0), .q(dl_pt2_mul371));
     // pt2_add372 = pt2_mul370 + pt2_mul371   (ready @18/18/18)
     logic [W-1:0] pt2_add372;
@@ -4249,7 +4623,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[279] = fl_pt2_add372[1] && ev_q[18];
     assign ev_inv[279] = fl_pt2_add372[2] && ev_q[18];
     logic [W-1:0] dl_pt2_add372;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add372 (.clk(clk), .d(pt2_add372), .valid(1'b0), .q(dl_pt2_add372));
     // pt2_mul373 = IInvA_zz * pt2_cA_z   (ready @14/14/14)
     logic [W-1:0] pt2_mul373;
@@ -4262,7 +4637,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[280] = fl_pt2_mul373[1] && ev_q[14];
     assign ev_inv[280] = fl_pt2_mul373[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul373;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul373 (.clk(clk), .d(pt2_mul373), .valid(valid_q[14 +: 4]), .q(dl_pt2_mul373));
     // pt2_angA_z = pt2_add372 + pt2_mul373   (ready @22/22/22)
     logic [W-1:0] pt2_angA_z;
@@ -4275,7 +4651,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[281] = fl_pt2_angA_z[1] && ev_q[22];
     assign ev_inv[281] = fl_pt2_angA_z[2] && ev_q[22];
     logic [W-1:0] dl_pt2_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(108))
+    pgs_delay #(.WIDTH(W), .DEPTH(108),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angA_z (.clk(clk), .d(pt2_angA_z), .valid(valid_q[22 +: 108]), .q(dl_pt2_angA_z));
     // pt2_mul375 = IInvB_xx * pt2_cB_x   (ready @14/14/14)
     logic [W-1:0] pt2_mul375;
@@ -4288,7 +4665,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[282] = fl_pt2_mul375[1] && ev_q[14];
     assign ev_inv[282] = fl_pt2_mul375[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul375;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul375 (.clk(clk), .d(pt2_mul375), .valid(1'b0), .q(dl_pt2_mul375));
     // pt2_mul376 = IInvB_xy * pt2_cB_y   (ready @14/14/14)
     logic [W-1:0] pt2_mul376;
@@ -4301,7 +4679,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[283] = fl_pt2_mul376[1] && ev_q[14];
     assign ev_inv[283] = fl_pt2_mul376[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul376;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul376 (.clk(clk), .d(pt2_mul376), .valid(1'b0), .q(dl_pt2_mul376));
     // pt2_add377 = pt2_mul375 + pt2_mul376   (ready @18/18/18)
     logic [W-1:0] pt2_add377;
@@ -4314,7 +4693,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[284] = fl_pt2_add377[1] && ev_q[18];
     assign ev_inv[284] = fl_pt2_add377[2] && ev_q[18];
     logic [W-1:0] dl_pt2_add377;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add377 (.clk(clk), .d(pt2_add377), .valid(1'b0), .q(dl_pt2_add377));
     // pt2_mul378 = IInvB_xz * pt2_cB_z   (ready @14/14/14)
     logic [W-1:0] pt2_mul378;
@@ -4327,7 +4707,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[285] = fl_pt2_mul378[1] && ev_q[14];
     assign ev_inv[285] = fl_pt2_mul378[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul378;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul378 (.clk(clk), .d(pt2_mul378), .valid(valid_q[14 +: 4]), .q(dl_pt2_mul378));
     // pt2_angB_x = pt2_add377 + pt2_mul378   (ready @22/22/22)
     logic [W-1:0] pt2_angB_x;
@@ -4340,7 +4721,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[286] = fl_pt2_angB_x[1] && ev_q[22];
     assign ev_inv[286] = fl_pt2_angB_x[2] && ev_q[22];
     logic [W-1:0] dl_pt2_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(108))
+    pgs_delay #(.WIDTH(W), .DEPTH(108),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angB_x (.clk(clk), .d(pt2_angB_x), .valid(valid_q[22 +: 108]), .q(dl_pt2_angB_x));
     // pt2_mul380 = IInvB_xy * pt2_cB_x   (ready @14/14/14)
     logic [W-1:0] pt2_mul380;
@@ -4353,7 +4735,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[287] = fl_pt2_mul380[1] && ev_q[14];
     assign ev_inv[287] = fl_pt2_mul380[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul380;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul380 (.clk(clk), .d(pt2_mul380), .valid(1'b0), .q(dl_pt2_mul380));
     // pt2_mul381 = IInvB_yy * pt2_cB_y   (ready @14/14/14)
     logic [W-1:0] pt2_mul381;
@@ -4366,7 +4749,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[288] = fl_pt2_mul381[1] && ev_q[14];
     assign ev_inv[288] = fl_pt2_mul381[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul381;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul381 (.clk(clk), .d(pt2_mul381), .valid(1'b0), .q(dl_pt2_mul381));
     // pt2_add382 = pt2_mul380 + pt2_mul381   (ready @18/18/18)
     logic [W-1:0] pt2_add382;
@@ -4379,7 +4763,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[289] = fl_pt2_add382[1] && ev_q[18];
     assign ev_inv[289] = fl_pt2_add382[2] && ev_q[18];
     logic [W-1:0] dl_pt2_add382;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add382 (.clk(clk), .d(pt2_add382), .valid(1'b0), .q(dl_pt2_add382));
     // pt2_mul383 = IInvB_yz * pt2_cB_z   (ready @14/14/14)
     logic [W-1:0] pt2_mul383;
@@ -4392,7 +4777,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[290] = fl_pt2_mul383[1] && ev_q[14];
     assign ev_inv[290] = fl_pt2_mul383[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul383;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul383 (.clk(clk), .d(pt2_mul383), .valid(valid_q[14 +: 4]), .q(dl_pt2_mul383));
     // pt2_angB_y = pt2_add382 + pt2_mul383   (ready @22/22/22)
     logic [W-1:0] pt2_angB_y;
@@ -4405,7 +4791,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[291] = fl_pt2_angB_y[1] && ev_q[22];
     assign ev_inv[291] = fl_pt2_angB_y[2] && ev_q[22];
     logic [W-1:0] dl_pt2_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(108))
+    pgs_delay #(.WIDTH(W), .DEPTH(108),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angB_y (.clk(clk), .d(pt2_angB_y), .valid(valid_q[22 +: 108]), .q(dl_pt2_angB_y));
     // pt2_mul385 = IInvB_xz * pt2_cB_x   (ready @14/14/14)
     logic [W-1:0] pt2_mul385;
@@ -4418,7 +4805,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[292] = fl_pt2_mul385[1] && ev_q[14];
     assign ev_inv[292] = fl_pt2_mul385[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul385;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul385 (.clk(clk), .d(pt2_mul385), .valid(1'b0), .q(dl_pt2_mul385));
     // pt2_mul386 = IInvB_yz * pt2_cB_y   (ready @14/14/14)
     logic [W-1:0] pt2_mul386;
@@ -4431,7 +4819,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[293] = fl_pt2_mul386[1] && ev_q[14];
     assign ev_inv[293] = fl_pt2_mul386[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul386;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul386 (.clk(clk), .d(pt2_mul386), .valid(1'b0), .q(dl_pt2_mul386));
     // pt2_add387 = pt2_mul385 + pt2_mul386   (ready @18/18/18)
     logic [W-1:0] pt2_add387;
@@ -4444,7 +4833,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[294] = fl_pt2_add387[1] && ev_q[18];
     assign ev_inv[294] = fl_pt2_add387[2] && ev_q[18];
     logic [W-1:0] dl_pt2_add387;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add387 (.clk(clk), .d(pt2_add387), .valid(1'b0), .q(dl_pt2_add387));
     // pt2_mul388 = IInvB_zz * pt2_cB_z   (ready @14/14/14)
     logic [W-1:0] pt2_mul388;
@@ -4457,7 +4847,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[295] = fl_pt2_mul388[1] && ev_q[14];
     assign ev_inv[295] = fl_pt2_mul388[2] && ev_q[14];
     logic [W-1:0] dl_pt2_mul388;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul388 (.clk(clk), .d(pt2_mul388), .valid(valid_q[14 +: 4]), .q(dl_pt2_mul388));
     // pt2_angB_z = pt2_add387 + pt2_mul388   (ready @22/22/22)
     logic [W-1:0] pt2_angB_z;
@@ -4470,7 +4861,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[296] = fl_pt2_angB_z[1] && ev_q[22];
     assign ev_inv[296] = fl_pt2_angB_z[2] && ev_q[22];
     logic [W-1:0] dl_pt2_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(108))
+    pgs_delay #(.WIDTH(W), .DEPTH(108),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angB_z (.clk(clk), .d(pt2_angB_z), .valid(valid_q[22 +: 108]), .q(dl_pt2_angB_z));
     // pt2_mul390 = linA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul390;
@@ -4483,7 +4875,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[297] = fl_pt2_mul390[1] && ev_q[133];
     assign ev_inv[297] = fl_pt2_mul390[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul390;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul390 (.clk(clk), .d(pt2_mul390), .valid(1'b0), .q(dl_pt2_mul390));
     // pt2_mul391 = linA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul391;
@@ -4496,7 +4889,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[298] = fl_pt2_mul391[1] && ev_q[133];
     assign ev_inv[298] = fl_pt2_mul391[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul391;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul391 (.clk(clk), .d(pt2_mul391), .valid(1'b0), .q(dl_pt2_mul391));
     // pt2_mul392 = linA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul392;
@@ -4509,7 +4903,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[299] = fl_pt2_mul392[1] && ev_q[133];
     assign ev_inv[299] = fl_pt2_mul392[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul392;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul392 (.clk(clk), .d(pt2_mul392), .valid(1'b0), .q(dl_pt2_mul392));
     // pt2_add393 = pt1_vA_x + pt2_mul390   (ready @137/137/137)
     logic [W-1:0] pt2_add393;
@@ -4522,7 +4917,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[300] = fl_pt2_add393[1] && ev_q[137];
     assign ev_inv[300] = fl_pt2_add393[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add393;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add393 (.clk(clk), .d(pt2_add393), .valid(1'b0), .q(dl_pt2_add393));
     // pt2_add394 = pt1_vA_y + pt2_mul391   (ready @137/137/137)
     logic [W-1:0] pt2_add394;
@@ -4535,7 +4931,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[301] = fl_pt2_add394[1] && ev_q[137];
     assign ev_inv[301] = fl_pt2_add394[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add394;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add394 (.clk(clk), .d(pt2_add394), .valid(1'b0), .q(dl_pt2_add394));
     // pt2_add395 = pt1_vA_z + pt2_mul392   (ready @137/137/137)
     logic [W-1:0] pt2_add395;
@@ -4548,25 +4945,29 @@ module pgs_contact_pipe_full #(
     assign ev_unf[302] = fl_pt2_add395[1] && ev_q[137];
     assign ev_inv[302] = fl_pt2_add395[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add395;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add395 (.clk(clk), .d(pt2_add395), .valid(1'b0), .q(dl_pt2_add395));
     // pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add393   (ready @137/137/137)
     logic [W-1:0] pt2_vA_x;
     assign pt2_vA_x = dl_pt2_skip[1] ? dl_pt1_vA_x[2*W +: W] : dl_pt2_add393;
     logic [3*W-1:0] dl_pt2_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vA_x (.clk(clk), .d(pt2_vA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_x));
     // pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add394   (ready @137/137/137)
     logic [W-1:0] pt2_vA_y;
     assign pt2_vA_y = dl_pt2_skip[1] ? dl_pt1_vA_y[2*W +: W] : dl_pt2_add394;
     logic [3*W-1:0] dl_pt2_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vA_y (.clk(clk), .d(pt2_vA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_y));
     // pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add395   (ready @137/137/137)
     logic [W-1:0] pt2_vA_z;
     assign pt2_vA_z = dl_pt2_skip[1] ? dl_pt1_vA_z[2*W +: W] : dl_pt2_add395;
     logic [3*W-1:0] dl_pt2_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vA_z (.clk(clk), .d(pt2_vA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_z));
     // pt2_mul399 = pt2_angA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul399;
@@ -4579,7 +4980,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[303] = fl_pt2_mul399[1] && ev_q[133];
     assign ev_inv[303] = fl_pt2_mul399[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul399;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul399 (.clk(clk), .d(pt2_mul399), .valid(1'b0), .q(dl_pt2_mul399));
     // pt2_mul400 = pt2_angA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul400;
@@ -4592,7 +4994,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[304] = fl_pt2_mul400[1] && ev_q[133];
     assign ev_inv[304] = fl_pt2_mul400[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul400;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul400 (.clk(clk), .d(pt2_mul400), .valid(1'b0), .q(dl_pt2_mul400));
     // pt2_mul401 = pt2_angA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul401;
@@ -4605,7 +5008,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[305] = fl_pt2_mul401[1] && ev_q[133];
     assign ev_inv[305] = fl_pt2_mul401[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul401;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul401 (.clk(clk), .d(pt2_mul401), .valid(1'b0), .q(dl_pt2_mul401));
     // pt2_add402 = pt1_wA_x + pt2_mul399   (ready @137/137/137)
     logic [W-1:0] pt2_add402;
@@ -4618,7 +5022,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[306] = fl_pt2_add402[1] && ev_q[137];
     assign ev_inv[306] = fl_pt2_add402[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add402;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add402 (.clk(clk), .d(pt2_add402), .valid(1'b0), .q(dl_pt2_add402));
     // pt2_add403 = pt1_wA_y + pt2_mul400   (ready @137/137/137)
     logic [W-1:0] pt2_add403;
@@ -4631,7 +5036,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[307] = fl_pt2_add403[1] && ev_q[137];
     assign ev_inv[307] = fl_pt2_add403[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add403;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add403 (.clk(clk), .d(pt2_add403), .valid(1'b0), .q(dl_pt2_add403));
     // pt2_add404 = pt1_wA_z + pt2_mul401   (ready @137/137/137)
     logic [W-1:0] pt2_add404;
@@ -4644,25 +5050,29 @@ module pgs_contact_pipe_full #(
     assign ev_unf[308] = fl_pt2_add404[1] && ev_q[137];
     assign ev_inv[308] = fl_pt2_add404[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add404;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add404 (.clk(clk), .d(pt2_add404), .valid(1'b0), .q(dl_pt2_add404));
     // pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add402   (ready @137/137/137)
     logic [W-1:0] pt2_wA_x;
     assign pt2_wA_x = dl_pt2_skip[1] ? dl_pt1_wA_x[2*W +: W] : dl_pt2_add402;
     logic [3*W-1:0] dl_pt2_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wA_x (.clk(clk), .d(pt2_wA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_x));
     // pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add403   (ready @137/137/137)
     logic [W-1:0] pt2_wA_y;
     assign pt2_wA_y = dl_pt2_skip[1] ? dl_pt1_wA_y[2*W +: W] : dl_pt2_add403;
     logic [3*W-1:0] dl_pt2_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wA_y (.clk(clk), .d(pt2_wA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_y));
     // pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add404   (ready @137/137/137)
     logic [W-1:0] pt2_wA_z;
     assign pt2_wA_z = dl_pt2_skip[1] ? dl_pt1_wA_z[2*W +: W] : dl_pt2_add404;
     logic [3*W-1:0] dl_pt2_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wA_z (.clk(clk), .d(pt2_wA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_z));
     // pt2_mul408 = linB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul408;
@@ -4675,7 +5085,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[309] = fl_pt2_mul408[1] && ev_q[133];
     assign ev_inv[309] = fl_pt2_mul408[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul408;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul408 (.clk(clk), .d(pt2_mul408), .valid(1'b0), .q(dl_pt2_mul408));
     // pt2_mul409 = linB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul409;
@@ -4688,7 +5099,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[310] = fl_pt2_mul409[1] && ev_q[133];
     assign ev_inv[310] = fl_pt2_mul409[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul409;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul409 (.clk(clk), .d(pt2_mul409), .valid(1'b0), .q(dl_pt2_mul409));
     // pt2_mul410 = linB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul410;
@@ -4701,7 +5113,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[311] = fl_pt2_mul410[1] && ev_q[133];
     assign ev_inv[311] = fl_pt2_mul410[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul410;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul410 (.clk(clk), .d(pt2_mul410), .valid(1'b0), .q(dl_pt2_mul410));
     // pt2_sub411 = pt1_vB_x - pt2_mul408   (ready @137/137/137)
     logic [W-1:0] pt2_sub411;
@@ -4714,7 +5127,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[312] = fl_pt2_sub411[1] && ev_q[137];
     assign ev_inv[312] = fl_pt2_sub411[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub411;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub411 (.clk(clk), .d(pt2_sub411), .valid(1'b0), .q(dl_pt2_sub411));
     // pt2_sub412 = pt1_vB_y - pt2_mul409   (ready @137/137/137)
     logic [W-1:0] pt2_sub412;
@@ -4727,7 +5141,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[313] = fl_pt2_sub412[1] && ev_q[137];
     assign ev_inv[313] = fl_pt2_sub412[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub412;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub412 (.clk(clk), .d(pt2_sub412), .valid(1'b0), .q(dl_pt2_sub412));
     // pt2_sub413 = pt1_vB_z - pt2_mul410   (ready @137/137/137)
     logic [W-1:0] pt2_sub413;
@@ -4740,25 +5155,29 @@ module pgs_contact_pipe_full #(
     assign ev_unf[314] = fl_pt2_sub413[1] && ev_q[137];
     assign ev_inv[314] = fl_pt2_sub413[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub413;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub413 (.clk(clk), .d(pt2_sub413), .valid(1'b0), .q(dl_pt2_sub413));
     // pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub411   (ready @137/137/137)
     logic [W-1:0] pt2_vB_x;
     assign pt2_vB_x = dl_pt2_skip[1] ? dl_pt1_vB_x[2*W +: W] : dl_pt2_sub411;
     logic [3*W-1:0] dl_pt2_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vB_x (.clk(clk), .d(pt2_vB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_x));
     // pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub412   (ready @137/137/137)
     logic [W-1:0] pt2_vB_y;
     assign pt2_vB_y = dl_pt2_skip[1] ? dl_pt1_vB_y[2*W +: W] : dl_pt2_sub412;
     logic [3*W-1:0] dl_pt2_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vB_y (.clk(clk), .d(pt2_vB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_y));
     // pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub413   (ready @137/137/137)
     logic [W-1:0] pt2_vB_z;
     assign pt2_vB_z = dl_pt2_skip[1] ? dl_pt1_vB_z[2*W +: W] : dl_pt2_sub413;
     logic [3*W-1:0] dl_pt2_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vB_z (.clk(clk), .d(pt2_vB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_z));
     // pt2_mul417 = pt2_angB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul417;
@@ -4771,7 +5190,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[315] = fl_pt2_mul417[1] && ev_q[133];
     assign ev_inv[315] = fl_pt2_mul417[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul417;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul417 (.clk(clk), .d(pt2_mul417), .valid(1'b0), .q(dl_pt2_mul417));
     // pt2_mul418 = pt2_angB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul418;
@@ -4784,7 +5204,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[316] = fl_pt2_mul418[1] && ev_q[133];
     assign ev_inv[316] = fl_pt2_mul418[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul418;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul418 (.clk(clk), .d(pt2_mul418), .valid(1'b0), .q(dl_pt2_mul418));
     // pt2_mul419 = pt2_angB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul419;
@@ -4797,7 +5218,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[317] = fl_pt2_mul419[1] && ev_q[133];
     assign ev_inv[317] = fl_pt2_mul419[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul419;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul419 (.clk(clk), .d(pt2_mul419), .valid(1'b0), .q(dl_pt2_mul419));
     // pt2_sub420 = pt1_wB_x - pt2_mul417   (ready @137/137/137)
     logic [W-1:0] pt2_sub420;
@@ -4810,7 +5232,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[318] = fl_pt2_sub420[1] && ev_q[137];
     assign ev_inv[318] = fl_pt2_sub420[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub420;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub420 (.clk(clk), .d(pt2_sub420), .valid(1'b0), .q(dl_pt2_sub420));
     // pt2_sub421 = pt1_wB_y - pt2_mul418   (ready @137/137/137)
     logic [W-1:0] pt2_sub421;
@@ -4823,7 +5246,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[319] = fl_pt2_sub421[1] && ev_q[137];
     assign ev_inv[319] = fl_pt2_sub421[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub421;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub421 (.clk(clk), .d(pt2_sub421), .valid(1'b0), .q(dl_pt2_sub421));
     // pt2_sub422 = pt1_wB_z - pt2_mul419   (ready @137/137/137)
     logic [W-1:0] pt2_sub422;
@@ -4836,31 +5260,36 @@ module pgs_contact_pipe_full #(
     assign ev_unf[320] = fl_pt2_sub422[1] && ev_q[137];
     assign ev_inv[320] = fl_pt2_sub422[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub422;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub422 (.clk(clk), .d(pt2_sub422), .valid(1'b0), .q(dl_pt2_sub422));
     // pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub420   (ready @137/137/137)
     logic [W-1:0] pt2_wB_x;
     assign pt2_wB_x = dl_pt2_skip[1] ? dl_pt1_wB_x[2*W +: W] : dl_pt2_sub420;
     logic [3*W-1:0] dl_pt2_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wB_x (.clk(clk), .d(pt2_wB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_x));
     // pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub421   (ready @137/137/137)
     logic [W-1:0] pt2_wB_y;
     assign pt2_wB_y = dl_pt2_skip[1] ? dl_pt1_wB_y[2*W +: W] : dl_pt2_sub421;
     logic [3*W-1:0] dl_pt2_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wB_y (.clk(clk), .d(pt2_wB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_y));
     // pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub422   (ready @137/137/137)
     logic [W-1:0] pt2_wB_z;
     assign pt2_wB_z = dl_pt2_skip[1] ? dl_pt1_wB_z[2*W +: W] : dl_pt2_sub422;
     logic [3*W-1:0] dl_pt2_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wB_z (.clk(clk), .d(pt2_wB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_z));
     // pt3_skip = jac_inv3 == 0   (ready @0/0/0)
     logic pt3_skip;
     assign pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt3_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_skip (.clk(clk), .d(pt3_skip), .valid(valid_q[0 +: 179]), .q(dl_pt3_skip));
     // pt3_rA_x = p3_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt3_rA_x;
@@ -4873,7 +5302,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[321] = fl_pt3_rA_x[1] && ev_q[4];
     assign ev_inv[321] = fl_pt3_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rA_x (.clk(clk), .d(pt3_rA_x), .valid(1'b0), .q(dl_pt3_rA_x));
     // pt3_rA_y = p3_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt3_rA_y;
@@ -4886,7 +5316,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[322] = fl_pt3_rA_y[1] && ev_q[4];
     assign ev_inv[322] = fl_pt3_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rA_y (.clk(clk), .d(pt3_rA_y), .valid(1'b0), .q(dl_pt3_rA_y));
     // pt3_rA_z = p3_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt3_rA_z;
@@ -4899,7 +5330,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[323] = fl_pt3_rA_z[1] && ev_q[4];
     assign ev_inv[323] = fl_pt3_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rA_z (.clk(clk), .d(pt3_rA_z), .valid(1'b0), .q(dl_pt3_rA_z));
     // pt3_mul430 = pt3_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul430;
@@ -4912,7 +5344,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[324] = fl_pt3_mul430[1] && ev_q[7];
     assign ev_inv[324] = fl_pt3_mul430[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul430;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul430 (.clk(clk), .d(pt3_mul430), .valid(1'b0), .q(dl_pt3_mul430));
     // pt3_mul431 = pt3_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul431;
@@ -4925,7 +5358,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[325] = fl_pt3_mul431[1] && ev_q[7];
     assign ev_inv[325] = fl_pt3_mul431[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul431;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul431 (.clk(clk), .d(pt3_mul431), .valid(1'b0), .q(dl_pt3_mul431));
     // pt3_cA_x = pt3_mul430 - pt3_mul431   (ready @11/11/11)
     logic [W-1:0] pt3_cA_x;
@@ -4938,7 +5372,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[326] = fl_pt3_cA_x[1] && ev_q[11];
     assign ev_inv[326] = fl_pt3_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cA_x (.clk(clk), .d(pt3_cA_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_x));
     // pt3_mul433 = pt3_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul433;
@@ -4951,7 +5386,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[327] = fl_pt3_mul433[1] && ev_q[7];
     assign ev_inv[327] = fl_pt3_mul433[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul433;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul433 (.clk(clk), .d(pt3_mul433), .valid(1'b0), .q(dl_pt3_mul433));
     // pt3_mul434 = pt3_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul434;
@@ -4964,7 +5400,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[328] = fl_pt3_mul434[1] && ev_q[7];
     assign ev_inv[328] = fl_pt3_mul434[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul434;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul434 (.clk(clk), .d(pt3_mul434), .valid(1'b0), .q(dl_pt3_mul434));
     // pt3_cA_y = pt3_mul433 - pt3_mul434   (ready @11/11/11)
     logic [W-1:0] pt3_cA_y;
@@ -4977,7 +5414,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[329] = fl_pt3_cA_y[1] && ev_q[11];
     assign ev_inv[329] = fl_pt3_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cA_y (.clk(clk), .d(pt3_cA_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_y));
     // pt3_mul436 = pt3_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul436;
@@ -4990,7 +5428,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[330] = fl_pt3_mul436[1] && ev_q[7];
     assign ev_inv[330] = fl_pt3_mul436[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul436;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul436 (.clk(clk), .d(pt3_mul436), .valid(1'b0), .q(dl_pt3_mul436));
     // pt3_mul437 = pt3_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul437;
@@ -5003,7 +5442,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[331] = fl_pt3_mul437[1] && ev_q[7];
     assign ev_inv[331] = fl_pt3_mul437[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul437;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul437 (.clk(clk), .d(pt3_mul437), .valid(1'b0), .q(dl_pt3_mul437));
     // pt3_cA_z = pt3_mul436 - pt3_mul437   (ready @11/11/11)
     logic [W-1:0] pt3_cA_z;
@@ -5016,7 +5456,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[332] = fl_pt3_cA_z[1] && ev_q[11];
     assign ev_inv[332] = fl_pt3_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cA_z (.clk(clk), .d(pt3_cA_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_z));
     // pt3_rB_x = p3_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt3_rB_x;
@@ -5029,7 +5470,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[333] = fl_pt3_rB_x[1] && ev_q[4];
     assign ev_inv[333] = fl_pt3_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rB_x (.clk(clk), .d(pt3_rB_x), .valid(1'b0), .q(dl_pt3_rB_x));
     // pt3_rB_y = p3_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt3_rB_y;
@@ -5042,7 +5484,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[334] = fl_pt3_rB_y[1] && ev_q[4];
     assign ev_inv[334] = fl_pt3_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rB_y (.clk(clk), .d(pt3_rB_y), .valid(1'b0), .q(dl_pt3_rB_y));
     // pt3_rB_z = p3_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt3_rB_z;
@@ -5055,7 +5498,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[335] = fl_pt3_rB_z[1] && ev_q[4];
     assign ev_inv[335] = fl_pt3_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rB_z (.clk(clk), .d(pt3_rB_z), .valid(1'b0), .q(dl_pt3_rB_z));
     // pt3_mul442 = pt3_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul442;
@@ -5068,7 +5512,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[336] = fl_pt3_mul442[1] && ev_q[7];
     assign ev_inv[336] = fl_pt3_mul442[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul442;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul442 (.clk(clk), .d(pt3_mul442), .valid(1'b0), .q(dl_pt3_mul442));
     // pt3_mul443 = pt3_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul443;
@@ -5081,7 +5526,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[337] = fl_pt3_mul443[1] && ev_q[7];
     assign ev_inv[337] = fl_pt3_mul443[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul443;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul443 (.clk(clk), .d(pt3_mul443), .valid(1'b0), .q(dl_pt3_mul443));
     // pt3_cB_x = pt3_mul442 - pt3_mul443   (ready @11/11/11)
     logic [W-1:0] pt3_cB_x;
@@ -5094,7 +5540,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[338] = fl_pt3_cB_x[1] && ev_q[11];
     assign ev_inv[338] = fl_pt3_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cB_x (.clk(clk), .d(pt3_cB_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_x));
     // pt3_mul445 = pt3_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul445;
@@ -5107,7 +5554,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[339] = fl_pt3_mul445[1] && ev_q[7];
     assign ev_inv[339] = fl_pt3_mul445[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul445;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul445 (.clk(clk), .d(pt3_mul445), .valid(1'b0), .q(dl_pt3_mul445));
     // pt3_mul446 = pt3_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul446;
@@ -5120,7 +5568,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[340] = fl_pt3_mul446[1] && ev_q[7];
     assign ev_inv[340] = fl_pt3_mul446[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul446;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul446 (.clk(clk), .d(pt3_mul446), .valid(1'b0), .q(dl_pt3_mul446));
     // pt3_cB_y = pt3_mul445 - pt3_mul446   (ready @11/11/11)
     logic [W-1:0] pt3_cB_y;
@@ -5133,7 +5582,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[341] = fl_pt3_cB_y[1] && ev_q[11];
     assign ev_inv[341] = fl_pt3_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cB_y (.clk(clk), .d(pt3_cB_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_y));
     // pt3_mul448 = pt3_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul448;
@@ -5146,7 +5596,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[342] = fl_pt3_mul448[1] && ev_q[7];
     assign ev_inv[342] = fl_pt3_mul448[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul448;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul448 (.clk(clk), .d(pt3_mul448), .valid(1'b0), .q(dl_pt3_mul448));
     // pt3_mul449 = pt3_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul449;
@@ -5159,7 +5610,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[343] = fl_pt3_mul449[1] && ev_q[7];
     assign ev_inv[343] = fl_pt3_mul449[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul449;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul449 (.clk(clk), .d(pt3_mul449), .valid(1'b0), .q(dl_pt3_mul449));
     // pt3_cB_z = pt3_mul448 - pt3_mul449   (ready @11/11/11)
     logic [W-1:0] pt3_cB_z;
@@ -5172,7 +5624,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[344] = fl_pt3_cB_z[1] && ev_q[11];
     assign ev_inv[344] = fl_pt3_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cB_z (.clk(clk), .d(pt3_cB_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_z));
     // pt3_mul451 = n_x * pt2_vA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul451;
@@ -5185,7 +5638,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[345] = fl_pt3_mul451[1] && ev_q[140];
     assign ev_inv[345] = fl_pt3_mul451[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul451;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul451 (.clk(clk), .d(pt3_mul451), .valid(1'b0), .q(dl_pt3_mul451));
     // pt3_mul452 = n_y * pt2_vA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul452;
@@ -5198,7 +5652,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[346] = fl_pt3_mul452[1] && ev_q[140];
     assign ev_inv[346] = fl_pt3_mul452[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul452;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul452 (.clk(clk), .d(pt3_mul452), .valid(1'b0), .q(dl_pt3_mul452));
     // pt3_add453 = pt3_mul451 + pt3_mul452   (ready @144/144/144)
     logic [W-1:0] pt3_add453;
@@ -5211,7 +5666,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[347] = fl_pt3_add453[1] && ev_q[144];
     assign ev_inv[347] = fl_pt3_add453[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add453;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add453 (.clk(clk), .d(pt3_add453), .valid(1'b0), .q(dl_pt3_add453));
     // pt3_mul454 = n_z * pt2_vA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul454;
@@ -5224,7 +5680,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[348] = fl_pt3_mul454[1] && ev_q[140];
     assign ev_inv[348] = fl_pt3_mul454[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul454;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul454 (.clk(clk), .d(pt3_mul454), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul454));
     // pt3_add455 = pt3_add453 + pt3_mul454   (ready @148/148/148)
     logic [W-1:0] pt3_add455;
@@ -5237,7 +5694,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[349] = fl_pt3_add455[1] && ev_q[148];
     assign ev_inv[349] = fl_pt3_add455[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add455;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add455 (.clk(clk), .d(pt3_add455), .valid(1'b0), .q(dl_pt3_add455));
     // pt3_mul456 = n_x * pt2_vB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul456;
@@ -5250,7 +5708,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[350] = fl_pt3_mul456[1] && ev_q[140];
     assign ev_inv[350] = fl_pt3_mul456[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul456;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul456 (.clk(clk), .d(pt3_mul456), .valid(1'b0), .q(dl_pt3_mul456));
     // pt3_mul457 = n_y * pt2_vB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul457;
@@ -5263,7 +5722,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[351] = fl_pt3_mul457[1] && ev_q[140];
     assign ev_inv[351] = fl_pt3_mul457[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul457;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul457 (.clk(clk), .d(pt3_mul457), .valid(1'b0), .q(dl_pt3_mul457));
     // pt3_add458 = pt3_mul456 + pt3_mul457   (ready @144/144/144)
     logic [W-1:0] pt3_add458;
@@ -5276,7 +5736,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[352] = fl_pt3_add458[1] && ev_q[144];
     assign ev_inv[352] = fl_pt3_add458[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add458;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add458 (.clk(clk), .d(pt3_add458), .valid(1'b0), .q(dl_pt3_add458));
     // pt3_mul459 = n_z * pt2_vB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul459;
@@ -5289,7 +5750,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[353] = fl_pt3_mul459[1] && ev_q[140];
     assign ev_inv[353] = fl_pt3_mul459[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul459;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul459 (.clk(clk), .d(pt3_mul459), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul459));
     // pt3_add460 = pt3_add458 + pt3_mul459   (ready @148/148/148)
     logic [W-1:0] pt3_add460;
@@ -5302,7 +5764,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[354] = fl_pt3_add460[1] && ev_q[148];
     assign ev_inv[354] = fl_pt3_add460[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add460;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add460 (.clk(clk), .d(pt3_add460), .valid(1'b0), .q(dl_pt3_add460));
     // pt3_sub461 = pt3_add455 - pt3_add460   (ready @152/152/152)
     logic [W-1:0] pt3_sub461;
@@ -5315,7 +5778,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[355] = fl_pt3_sub461[1] && ev_q[152];
     assign ev_inv[355] = fl_pt3_sub461[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub461;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub461 (.clk(clk), .d(pt3_sub461), .valid(1'b0), .q(dl_pt3_sub461));
     // pt3_mul462 = pt3_cA_x * pt2_wA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul462;
@@ -5328,7 +5792,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[356] = fl_pt3_mul462[1] && ev_q[140];
     assign ev_inv[356] = fl_pt3_mul462[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul462;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul462 (.clk(clk), .d(pt3_mul462), .valid(1'b0), .q(dl_pt3_mul462));
     // pt3_mul463 = pt3_cA_y * pt2_wA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul463;
@@ -5341,7 +5806,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[357] = fl_pt3_mul463[1] && ev_q[140];
     assign ev_inv[357] = fl_pt3_mul463[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul463;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul463 (.clk(clk), .d(pt3_mul463), .valid(1'b0), .q(dl_pt3_mul463));
     // pt3_add464 = pt3_mul462 + pt3_mul463   (ready @144/144/144)
     logic [W-1:0] pt3_add464;
@@ -5354,7 +5820,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[358] = fl_pt3_add464[1] && ev_q[144];
     assign ev_inv[358] = fl_pt3_add464[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add464;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add464 (.clk(clk), .d(pt3_add464), .valid(1'b0), .q(dl_pt3_add464));
     // pt3_mul465 = pt3_cA_z * pt2_wA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul465;
@@ -5367,7 +5834,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[359] = fl_pt3_mul465[1] && ev_q[140];
     assign ev_inv[359] = fl_pt3_mul465[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul465;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul465 (.clk(clk), .d(pt3_mul465), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul465));
     // pt3_add466 = pt3_add464 + pt3_mul465   (ready @148/148/148)
     logic [W-1:0] pt3_add466;
@@ -5380,7 +5848,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[360] = fl_pt3_add466[1] && ev_q[148];
     assign ev_inv[360] = fl_pt3_add466[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add466;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add466 (.clk(clk), .d(pt3_add466), .valid(1'b0), .q(dl_pt3_add466));
     // pt3_mul467 = pt3_cB_x * pt2_wB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul467;
@@ -5393,7 +5862,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[361] = fl_pt3_mul467[1] && ev_q[140];
     assign ev_inv[361] = fl_pt3_mul467[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul467;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul467 (.clk(clk), .d(pt3_mul467), .valid(1'b0), .q(dl_pt3_mul467));
     // pt3_mul468 = pt3_cB_y * pt2_wB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul468;
@@ -5406,7 +5876,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[362] = fl_pt3_mul468[1] && ev_q[140];
     assign ev_inv[362] = fl_pt3_mul468[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul468;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul468 (.clk(clk), .d(pt3_mul468), .valid(1'b0), .q(dl_pt3_mul468));
     // pt3_add469 = pt3_mul467 + pt3_mul468   (ready @144/144/144)
     logic [W-1:0] pt3_add469;
@@ -5419,7 +5890,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[363] = fl_pt3_add469[1] && ev_q[144];
     assign ev_inv[363] = fl_pt3_add469[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add469;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add469 (.clk(clk), .d(pt3_add469), .valid(1'b0), .q(dl_pt3_add469));
     // pt3_mul470 = pt3_cB_z * pt2_wB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul470;
@@ -5432,7 +5904,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[364] = fl_pt3_mul470[1] && ev_q[140];
     assign ev_inv[364] = fl_pt3_mul470[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul470;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul470 (.clk(clk), .d(pt3_mul470), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul470));
     // pt3_add471 = pt3_add469 + pt3_mul470   (ready @148/148/148)
     logic [W-1:0] pt3_add471;
@@ -5445,7 +5918,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[365] = fl_pt3_add471[1] && ev_q[148];
     assign ev_inv[365] = fl_pt3_add471[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add471;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add471 (.clk(clk), .d(pt3_add471), .valid(1'b0), .q(dl_pt3_add471));
     // pt3_sub472 = pt3_add466 - pt3_add471   (ready @152/152/152)
     logic [W-1:0] pt3_sub472;
@@ -5458,7 +5932,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[366] = fl_pt3_sub472[1] && ev_q[152];
     assign ev_inv[366] = fl_pt3_sub472[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub472;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub472 (.clk(clk), .d(pt3_sub472), .valid(1'b0), .q(dl_pt3_sub472));
     // pt3_vrel = pt3_sub461 + pt3_sub472   (ready @156/156/156)
     logic [W-1:0] pt3_vrel;
@@ -5471,7 +5946,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[367] = fl_pt3_vrel[1] && ev_q[156];
     assign ev_inv[367] = fl_pt3_vrel[2] && ev_q[156];
     logic [W-1:0] dl_pt3_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vrel (.clk(clk), .d(pt3_vrel), .valid(1'b0), .q(dl_pt3_vrel));
     // pt3_add474 = pt3_vrel + b3   (ready @160/160/160)
     logic [W-1:0] pt3_add474;
@@ -5484,7 +5960,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[368] = fl_pt3_add474[1] && ev_q[160];
     assign ev_inv[368] = fl_pt3_add474[2] && ev_q[160];
     logic [W-1:0] dl_pt3_add474;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add474 (.clk(clk), .d(pt3_add474), .valid(1'b0), .q(dl_pt3_add474));
     // pt3_delta0 = pt3_add474 * jac_inv3   (ready @163/163/163)
     logic [W-1:0] pt3_delta0;
@@ -5497,7 +5974,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[369] = fl_pt3_delta0[1] && ev_q[163];
     assign ev_inv[369] = fl_pt3_delta0[2] && ev_q[163];
     logic [W-1:0] dl_pt3_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_delta0 (.clk(clk), .d(pt3_delta0), .valid(1'b0), .q(dl_pt3_delta0));
     // pt3_add476 = lam3 + pt3_delta0   (ready @167/167/167)
     logic [W-1:0] pt3_add476;
@@ -5510,7 +5988,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[370] = fl_pt3_add476[1] && ev_q[167];
     assign ev_inv[370] = fl_pt3_add476[2] && ev_q[167];
     logic [W-1:0] dl_pt3_add476;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add476 (.clk(clk), .d(pt3_add476), .valid(1'b0), .q(dl_pt3_add476));
     // pt3_lam_new = max(pt3_add476, 0.0)   (ready @168/168/168)
     logic [W-1:0] pt3_lam_new;
@@ -5520,7 +5999,8 @@ module pgs_contact_pipe_full #(
         .lt(nc_pt3_lam_new_lt), .eq(nc_pt3_lam_new_eq), .unordered(nc_pt3_lam_new_uo)
     );
     logic [W-1:0] dl_pt3_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_lam_new (.clk(clk), .d(pt3_lam_new), .valid(1'b0), .q(dl_pt3_lam_new));
     // pt3_delta = pt3_lam_new - lam3   (ready @172/172/172)
     logic [W-1:0] pt3_delta;
@@ -5533,13 +6013,15 @@ module pgs_contact_pipe_full #(
     assign ev_unf[371] = fl_pt3_delta[1] && ev_q[172];
     assign ev_inv[371] = fl_pt3_delta[2] && ev_q[172];
     logic [W-1:0] dl_pt3_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_delta (.clk(clk), .d(pt3_delta), .valid(1'b0), .q(dl_pt3_delta));
     // pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (ready @168/168/168)
     logic [W-1:0] pt3_lam;
     assign pt3_lam = dl_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_pt3_lam_new;
     logic [W-1:0] dl_pt3_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_lam (.clk(clk), .d(pt3_lam), .valid(valid_q[168 +: 11]), .q(dl_pt3_lam));
     // pt3_mul480 = IInvA_xx * pt3_cA_x   (ready @14/14/14)
     logic [W-1:0] pt3_mul480;
@@ -5552,7 +6034,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[372] = fl_pt3_mul480[1] && ev_q[14];
     assign ev_inv[372] = fl_pt3_mul480[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul480;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul480 (.clk(clk), .d(pt3_mul480), .valid(1'b0), .q(dl_pt3_mul480));
     // pt3_mul481 = IInvA_xy * pt3_cA_y   (ready @14/14/14)
     logic [W-1:0] pt3_mul481;
@@ -5565,7 +6048,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[373] = fl_pt3_mul481[1] && ev_q[14];
     assign ev_inv[373] = fl_pt3_mul481[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul481;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul481 (.clk(clk), .d(pt3_mul481), .valid(1'b0), .q(dl_pt3_mul481));
     // pt3_add482 = pt3_mul480 + pt3_mul481   (ready @18/18/18)
     logic [W-1:0] pt3_add482;
@@ -5578,7 +6062,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[374] = fl_pt3_add482[1] && ev_q[18];
     assign ev_inv[374] = fl_pt3_add482[2] && ev_q[18];
     logic [W-1:0] dl_pt3_add482;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add482 (.clk(clk), .d(pt3_add482), .valid(1'b0), .q(dl_pt3_add482));
     // pt3_mul483 = IInvA_xz * pt3_cA_z   (ready @14/14/14)
     logic [W-1:0] pt3_mul483;
@@ -5591,7 +6076,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[375] = fl_pt3_mul483[1] && ev_q[14];
     assign ev_inv[375] = fl_pt3_mul483[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul483;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul483 (.clk(clk), .d(pt3_mul483), .valid(valid_q[14 +: 4]), .q(dl_pt3_mul483));
     // pt3_angA_x = pt3_add482 + pt3_mul483   (ready @22/22/22)
     logic [W-1:0] pt3_angA_x;
@@ -5604,7 +6090,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[376] = fl_pt3_angA_x[1] && ev_q[22];
     assign ev_inv[376] = fl_pt3_angA_x[2] && ev_q[22];
     logic [W-1:0] dl_pt3_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(150))
+    pgs_delay #(.WIDTH(W), .DEPTH(150),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angA_x (.clk(clk), .d(pt3_angA_x), .valid(valid_q[22 +: 150]), .q(dl_pt3_angA_x));
     // pt3_mul485 = IInvA_xy * pt3_cA_x   (ready @14/14/14)
     logic [W-1:0] pt3_mul485;
@@ -5617,7 +6104,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[377] = fl_pt3_mul485[1] && ev_q[14];
     assign ev_inv[377] = fl_pt3_mul485[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul485;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul485 (.clk(clk), .d(pt3_mul485), .valid(1'b0), .q(dl_pt3_mul485));
     // pt3_mul486 = IInvA_yy * pt3_cA_y   (ready @14/14/14)
     logic [W-1:0] pt3_mul486;
@@ -5630,7 +6118,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[378] = fl_pt3_mul486[1] && ev_q[14];
     assign ev_inv[378] = fl_pt3_mul486[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul486;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul486 (.clk(clk), .d(pt3_mul486), .valid(1'b0), .q(dl_pt3_mul486));
     // pt3_add487 = pt3_mul485 + pt3_mul486   (ready @18/18/18)
     logic [W-1:0] pt3_add487;
@@ -5643,7 +6132,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[379] = fl_pt3_add487[1] && ev_q[18];
     assign ev_inv[379] = fl_pt3_add487[2] && ev_q[18];
     logic [W-1:0] dl_pt3_add487;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add487 (.clk(clk), .d(pt3_add487), .valid(1'b0), .q(dl_pt3_add487));
     // pt3_mul488 = IInvA_yz * pt3_cA_z   (ready @14/14/14)
     logic [W-1:0] pt3_mul488;
@@ -5656,7 +6146,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[380] = fl_pt3_mul488[1] && ev_q[14];
     assign ev_inv[380] = fl_pt3_mul488[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul488;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul488 (.clk(clk), .d(pt3_mul488), .valid(valid_q[14 +: 4]), .q(dl_pt3_mul488));
     // pt3_angA_y = pt3_add487 + pt3_mul488   (ready @22/22/22)
     logic [W-1:0] pt3_angA_y;
@@ -5669,7 +6160,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[381] = fl_pt3_angA_y[1] && ev_q[22];
     assign ev_inv[381] = fl_pt3_angA_y[2] && ev_q[22];
     logic [W-1:0] dl_pt3_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(150))
+    pgs_delay #(.WIDTH(W), .DEPTH(150),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angA_y (.clk(clk), .d(pt3_angA_y), .valid(valid_q[22 +: 150]), .q(dl_pt3_angA_y));
     // pt3_mul490 = IInvA_xz * pt3_cA_x   (ready @14/14/14)
     logic [W-1:0] pt3_mul490;
@@ -5682,7 +6174,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[382] = fl_pt3_mul490[1] && ev_q[14];
     assign ev_inv[382] = fl_pt3_mul490[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul490;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul490 (.clk(clk), .d(pt3_mul490), .valid(1'b0), .q(dl_pt3_mul490));
     // pt3_mul491 = IInvA_yz * pt3_cA_y   (ready @14/14/14)
     logic [W-1:0] pt3_mul491;
@@ -5695,7 +6188,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[383] = fl_pt3_mul491[1] && ev_q[14];
     assign ev_inv[383] = fl_pt3_mul491[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul491;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul491 (.clk(clk), .d(pt3_mul491), .valid(1'b0), .q(dl_pt3_mul491));
     // pt3_add492 = pt3_mul490 + pt3_mul491   (ready @18/18/18)
     logic [W-1:0] pt3_add492;
@@ -5708,7 +6202,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[384] = fl_pt3_add492[1] && ev_q[18];
     assign ev_inv[384] = fl_pt3_add492[2] && ev_q[18];
     logic [W-1:0] dl_pt3_add492;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add492 (.clk(clk), .d(pt3_add492), .valid(1'b0), .q(dl_pt3_add492));
     // pt3_mul493 = IInvA_zz * pt3_cA_z   (ready @14/14/14)
     logic [W-1:0] pt3_mul493;
@@ -5721,7 +6216,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[385] = fl_pt3_mul493[1] && ev_q[14];
     assign ev_inv[385] = fl_pt3_mul493[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul493;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul493 (.clk(clk), .d(pt3_mul493), .valid(valid_q[14 +: 4]), .q(dl_pt3_mul493));
     // pt3_angA_z = pt3_add492 + pt3_mul493   (ready @22/22/22)
     logic [W-1:0] pt3_angA_z;
@@ -5734,7 +6230,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[386] = fl_pt3_angA_z[1] && ev_q[22];
     assign ev_inv[386] = fl_pt3_angA_z[2] && ev_q[22];
     logic [W-1:0] dl_pt3_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(150))
+    pgs_delay #(.WIDTH(W), .DEPTH(150),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angA_z (.clk(clk), .d(pt3_angA_z), .valid(valid_q[22 +: 150]), .q(dl_pt3_angA_z));
     // pt3_mul495 = IInvB_xx * pt3_cB_x   (ready @14/14/14)
     logic [W-1:0] pt3_mul495;
@@ -5747,7 +6244,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[387] = fl_pt3_mul495[1] && ev_q[14];
     assign ev_inv[387] = fl_pt3_mul495[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul495;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul495 (.clk(clk), .d(pt3_mul495), .valid(1'b0), .q(dl_pt3_mul495));
     // pt3_mul496 = IInvB_xy * pt3_cB_y   (ready @14/14/14)
     logic [W-1:0] pt3_mul496;
@@ -5760,7 +6258,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[388] = fl_pt3_mul496[1] && ev_q[14];
     assign ev_inv[388] = fl_pt3_mul496[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul496;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul496 (.clk(clk), .d(pt3_mul496), .valid(1'b0), .q(dl_pt3_mul496));
     // pt3_add497 = pt3_mul495 + pt3_mul496   (ready @18/18/18)
     logic [W-1:0] pt3_add497;
@@ -5773,7 +6272,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[389] = fl_pt3_add497[1] && ev_q[18];
     assign ev_inv[389] = fl_pt3_add497[2] && ev_q[18];
     logic [W-1:0] dl_pt3_add497;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add497 (.clk(clk), .d(pt3_add497), .valid(1'b0), .q(dl_pt3_add497));
     // pt3_mul498 = IInvB_xz * pt3_cB_z   (ready @14/14/14)
     logic [W-1:0] pt3_mul498;
@@ -5786,7 +6286,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[390] = fl_pt3_mul498[1] && ev_q[14];
     assign ev_inv[390] = fl_pt3_mul498[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul498;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul498 (.clk(clk), .d(pt3_mul498), .valid(valid_q[14 +: 4]), .q(dl_pt3_mul498));
     // pt3_angB_x = pt3_add497 + pt3_mul498   (ready @22/22/22)
     logic [W-1:0] pt3_angB_x;
@@ -5799,7 +6300,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[391] = fl_pt3_angB_x[1] && ev_q[22];
     assign ev_inv[391] = fl_pt3_angB_x[2] && ev_q[22];
     logic [W-1:0] dl_pt3_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(150))
+    pgs_delay #(.WIDTH(W), .DEPTH(150),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angB_x (.clk(clk), .d(pt3_angB_x), .valid(valid_q[22 +: 150]), .q(dl_pt3_angB_x));
     // pt3_mul500 = IInvB_xy * pt3_cB_x   (ready @14/14/14)
     logic [W-1:0] pt3_mul500;
@@ -5812,7 +6314,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[392] = fl_pt3_mul500[1] && ev_q[14];
     assign ev_inv[392] = fl_pt3_mul500[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul500;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul500 (.clk(clk), .d(pt3_mul500), .valid(1'b0), .q(dl_pt3_mul500));
     // pt3_mul501 = IInvB_yy * pt3_cB_y   (ready @14/14/14)
     logic [W-1:0] pt3_mul501;
@@ -5825,7 +6328,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[393] = fl_pt3_mul501[1] && ev_q[14];
     assign ev_inv[393] = fl_pt3_mul501[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul501;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul501 (.clk(clk), .d(pt3_mul501), .valid(1'b0), .q(dl_pt3_mul501));
     // pt3_add502 = pt3_mul500 + pt3_mul501   (ready @18/18/18)
     logic [W-1:0] pt3_add502;
@@ -5838,7 +6342,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[394] = fl_pt3_add502[1] && ev_q[18];
     assign ev_inv[394] = fl_pt3_add502[2] && ev_q[18];
     logic [W-1:0] dl_pt3_add502;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add502 (.clk(clk), .d(pt3_add502), .valid(1'b0), .q(dl_pt3_add502));
     // pt3_mul503 = IInvB_yz * pt3_cB_z   (ready @14/14/14)
     logic [W-1:0] pt3_mul503;
@@ -5851,7 +6356,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[395] = fl_pt3_mul503[1] && ev_q[14];
     assign ev_inv[395] = fl_pt3_mul503[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul503;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul503 (.clk(clk), .d(pt3_mul503), .valid(valid_q[14 +: 4]), .q(dl_pt3_mul503));
     // pt3_angB_y = pt3_add502 + pt3_mul503   (ready @22/22/22)
     logic [W-1:0] pt3_angB_y;
@@ -5864,7 +6370,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[396] = fl_pt3_angB_y[1] && ev_q[22];
     assign ev_inv[396] = fl_pt3_angB_y[2] && ev_q[22];
     logic [W-1:0] dl_pt3_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(150))
+    pgs_delay #(.WIDTH(W), .DEPTH(150),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angB_y (.clk(clk), .d(pt3_angB_y), .valid(valid_q[22 +: 150]), .q(dl_pt3_angB_y));
     // pt3_mul505 = IInvB_xz * pt3_cB_x   (ready @14/14/14)
     logic [W-1:0] pt3_mul505;
@@ -5877,7 +6384,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[397] = fl_pt3_mul505[1] && ev_q[14];
     assign ev_inv[397] = fl_pt3_mul505[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul505;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul505 (.clk(clk), .d(pt3_mul505), .valid(1'b0), .q(dl_pt3_mul505));
     // pt3_mul506 = IInvB_yz * pt3_cB_y   (ready @14/14/14)
     logic [W-1:0] pt3_mul506;
@@ -5890,7 +6398,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[398] = fl_pt3_mul506[1] && ev_q[14];
     assign ev_inv[398] = fl_pt3_mul506[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul506;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul506 (.clk(clk), .d(pt3_mul506), .valid(1'b0), .q(dl_pt3_mul506));
     // pt3_add507 = pt3_mul505 + pt3_mul506   (ready @18/18/18)
     logic [W-1:0] pt3_add507;
@@ -5903,7 +6412,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[399] = fl_pt3_add507[1] && ev_q[18];
     assign ev_inv[399] = fl_pt3_add507[2] && ev_q[18];
     logic [W-1:0] dl_pt3_add507;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add507 (.clk(clk), .d(pt3_add507), .valid(1'b0), .q(dl_pt3_add507));
     // pt3_mul508 = IInvB_zz * pt3_cB_z   (ready @14/14/14)
     logic [W-1:0] pt3_mul508;
@@ -5916,7 +6426,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[400] = fl_pt3_mul508[1] && ev_q[14];
     assign ev_inv[400] = fl_pt3_mul508[2] && ev_q[14];
     logic [W-1:0] dl_pt3_mul508;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul508 (.clk(clk), .d(pt3_mul508), .valid(valid_q[14 +: 4]), .q(dl_pt3_mul508));
     // pt3_angB_z = pt3_add507 + pt3_mul508   (ready @22/22/22)
     logic [W-1:0] pt3_angB_z;
@@ -5929,7 +6440,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[401] = fl_pt3_angB_z[1] && ev_q[22];
     assign ev_inv[401] = fl_pt3_angB_z[2] && ev_q[22];
     logic [W-1:0] dl_pt3_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(150))
+    pgs_delay #(.WIDTH(W), .DEPTH(150),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angB_z (.clk(clk), .d(pt3_angB_z), .valid(valid_q[22 +: 150]), .q(dl_pt3_angB_z));
     // pt3_mul510 = linA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul510;
@@ -5942,7 +6454,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[402] = fl_pt3_mul510[1] && ev_q[175];
     assign ev_inv[402] = fl_pt3_mul510[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul510;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul510 (.clk(clk), .d(pt3_mul510), .valid(1'b0), .q(dl_pt3_mul510));
     // pt3_mul511 = linA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul511;
@@ -5955,7 +6468,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[403] = fl_pt3_mul511[1] && ev_q[175];
     assign ev_inv[403] = fl_pt3_mul511[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul511;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul511 (.clk(clk), .d(pt3_mul511), .valid(1'b0), .q(dl_pt3_mul511));
     // pt3_mul512 = linA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul512;
@@ -5968,7 +6482,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[404] = fl_pt3_mul512[1] && ev_q[175];
     assign ev_inv[404] = fl_pt3_mul512[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul512;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul512 (.clk(clk), .d(pt3_mul512), .valid(1'b0), .q(dl_pt3_mul512));
     // pt3_add513 = pt2_vA_x + pt3_mul510   (ready @179/179/179)
     logic [W-1:0] pt3_add513;
@@ -5981,7 +6496,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[405] = fl_pt3_add513[1] && ev_q[179];
     assign ev_inv[405] = fl_pt3_add513[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add513;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add513 (.clk(clk), .d(pt3_add513), .valid(1'b0), .q(dl_pt3_add513));
     // pt3_add514 = pt2_vA_y + pt3_mul511   (ready @179/179/179)
     logic [W-1:0] pt3_add514;
@@ -5994,7 +6510,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[406] = fl_pt3_add514[1] && ev_q[179];
     assign ev_inv[406] = fl_pt3_add514[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add514;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add514 (.clk(clk), .d(pt3_add514), .valid(1'b0), .q(dl_pt3_add514));
     // pt3_add515 = pt2_vA_z + pt3_mul512   (ready @179/179/179)
     logic [W-1:0] pt3_add515;
@@ -6007,25 +6524,29 @@ module pgs_contact_pipe_full #(
     assign ev_unf[407] = fl_pt3_add515[1] && ev_q[179];
     assign ev_inv[407] = fl_pt3_add515[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add515;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add515 (.clk(clk), .d(pt3_add515), .valid(1'b0), .q(dl_pt3_add515));
     // pt3_vA_x = pt3_skip ? pt2_vA_x : pt3_add513   (ready @179/179/179)
     logic [W-1:0] pt3_vA_x;
     assign pt3_vA_x = dl_pt3_skip[1] ? dl_pt2_vA_x[2*W +: W] : dl_pt3_add513;
     logic [W-1:0] dl_pt3_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vA_x (.clk(clk), .d(pt3_vA_x), .valid(1'b0), .q(dl_pt3_vA_x));
     // pt3_vA_y = pt3_skip ? pt2_vA_y : pt3_add514   (ready @179/179/179)
     logic [W-1:0] pt3_vA_y;
     assign pt3_vA_y = dl_pt3_skip[1] ? dl_pt2_vA_y[2*W +: W] : dl_pt3_add514;
     logic [W-1:0] dl_pt3_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vA_y (.clk(clk), .d(pt3_vA_y), .valid(1'b0), .q(dl_pt3_vA_y));
     // pt3_vA_z = pt3_skip ? pt2_vA_z : pt3_add515   (ready @179/179/179)
     logic [W-1:0] pt3_vA_z;
     assign pt3_vA_z = dl_pt3_skip[1] ? dl_pt2_vA_z[2*W +: W] : dl_pt3_add515;
     logic [W-1:0] dl_pt3_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vA_z (.clk(clk), .d(pt3_vA_z), .valid(1'b0), .q(dl_pt3_vA_z));
     // pt3_mul519 = pt3_angA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul519;
@@ -6038,7 +6559,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[408] = fl_pt3_mul519[1] && ev_q[175];
     assign ev_inv[408] = fl_pt3_mul519[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul519;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul519 (.clk(clk), .d(pt3_mul519), .valid(1'b0), .q(dl_pt3_mul519));
     // pt3_mul520 = pt3_angA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul520;
@@ -6051,7 +6573,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[409] = fl_pt3_mul520[1] && ev_q[175];
     assign ev_inv[409] = fl_pt3_mul520[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul520;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul520 (.clk(clk), .d(pt3_mul520), .valid(1'b0), .q(dl_pt3_mul520));
     // pt3_mul521 = pt3_angA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul521;
@@ -6064,7 +6587,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[410] = fl_pt3_mul521[1] && ev_q[175];
     assign ev_inv[410] = fl_pt3_mul521[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul521;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul521 (.clk(clk), .d(pt3_mul521), .valid(1'b0), .q(dl_pt3_mul521));
     // pt3_add522 = pt2_wA_x + pt3_mul519   (ready @179/179/179)
     logic [W-1:0] pt3_add522;
@@ -6077,7 +6601,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[411] = fl_pt3_add522[1] && ev_q[179];
     assign ev_inv[411] = fl_pt3_add522[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add522;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add522 (.clk(clk), .d(pt3_add522), .valid(1'b0), .q(dl_pt3_add522));
     // pt3_add523 = pt2_wA_y + pt3_mul520   (ready @179/179/179)
     logic [W-1:0] pt3_add523;
@@ -6090,7 +6615,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[412] = fl_pt3_add523[1] && ev_q[179];
     assign ev_inv[412] = fl_pt3_add523[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add523;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add523 (.clk(clk), .d(pt3_add523), .valid(1'b0), .q(dl_pt3_add523));
     // pt3_add524 = pt2_wA_z + pt3_mul521   (ready @179/179/179)
     logic [W-1:0] pt3_add524;
@@ -6103,25 +6629,29 @@ module pgs_contact_pipe_full #(
     assign ev_unf[413] = fl_pt3_add524[1] && ev_q[179];
     assign ev_inv[413] = fl_pt3_add524[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add524;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add524 (.clk(clk), .d(pt3_add524), .valid(1'b0), .q(dl_pt3_add524));
     // pt3_wA_x = pt3_skip ? pt2_wA_x : pt3_add522   (ready @179/179/179)
     logic [W-1:0] pt3_wA_x;
     assign pt3_wA_x = dl_pt3_skip[1] ? dl_pt2_wA_x[2*W +: W] : dl_pt3_add522;
     logic [W-1:0] dl_pt3_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wA_x (.clk(clk), .d(pt3_wA_x), .valid(1'b0), .q(dl_pt3_wA_x));
     // pt3_wA_y = pt3_skip ? pt2_wA_y : pt3_add523   (ready @179/179/179)
     logic [W-1:0] pt3_wA_y;
     assign pt3_wA_y = dl_pt3_skip[1] ? dl_pt2_wA_y[2*W +: W] : dl_pt3_add523;
     logic [W-1:0] dl_pt3_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wA_y (.clk(clk), .d(pt3_wA_y), .valid(1'b0), .q(dl_pt3_wA_y));
     // pt3_wA_z = pt3_skip ? pt2_wA_z : pt3_add524   (ready @179/179/179)
     logic [W-1:0] pt3_wA_z;
     assign pt3_wA_z = dl_pt3_skip[1] ? dl_pt2_wA_z[2*W +: W] : dl_pt3_add524;
     logic [W-1:0] dl_pt3_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wA_z (.clk(clk), .d(pt3_wA_z), .valid(1'b0), .q(dl_pt3_wA_z));
     // pt3_mul528 = linB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul528;
@@ -6134,7 +6664,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[414] = fl_pt3_mul528[1] && ev_q[175];
     assign ev_inv[414] = fl_pt3_mul528[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul528;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul528 (.clk(clk), .d(pt3_mul528), .valid(1'b0), .q(dl_pt3_mul528));
     // pt3_mul529 = linB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul529;
@@ -6147,7 +6678,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[415] = fl_pt3_mul529[1] && ev_q[175];
     assign ev_inv[415] = fl_pt3_mul529[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul529;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul529 (.clk(clk), .d(pt3_mul529), .valid(1'b0), .q(dl_pt3_mul529));
     // pt3_mul530 = linB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul530;
@@ -6160,7 +6692,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[416] = fl_pt3_mul530[1] && ev_q[175];
     assign ev_inv[416] = fl_pt3_mul530[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul530;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul530 (.clk(clk), .d(pt3_mul530), .valid(1'b0), .q(dl_pt3_mul530));
     // pt3_sub531 = pt2_vB_x - pt3_mul528   (ready @179/179/179)
     logic [W-1:0] pt3_sub531;
@@ -6173,7 +6706,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[417] = fl_pt3_sub531[1] && ev_q[179];
     assign ev_inv[417] = fl_pt3_sub531[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub531;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub531 (.clk(clk), .d(pt3_sub531), .valid(1'b0), .q(dl_pt3_sub531));
     // pt3_sub532 = pt2_vB_y - pt3_mul529   (ready @179/179/179)
     logic [W-1:0] pt3_sub532;
@@ -6186,7 +6720,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[418] = fl_pt3_sub532[1] && ev_q[179];
     assign ev_inv[418] = fl_pt3_sub532[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub532;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub532 (.clk(clk), .d(pt3_sub532), .valid(1'b0), .q(dl_pt3_sub532));
     // pt3_sub533 = pt2_vB_z - pt3_mul530   (ready @179/179/179)
     logic [W-1:0] pt3_sub533;
@@ -6199,25 +6734,29 @@ module pgs_contact_pipe_full #(
     assign ev_unf[419] = fl_pt3_sub533[1] && ev_q[179];
     assign ev_inv[419] = fl_pt3_sub533[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub533;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub533 (.clk(clk), .d(pt3_sub533), .valid(1'b0), .q(dl_pt3_sub533));
     // pt3_vB_x = pt3_skip ? pt2_vB_x : pt3_sub531   (ready @179/179/179)
     logic [W-1:0] pt3_vB_x;
     assign pt3_vB_x = dl_pt3_skip[1] ? dl_pt2_vB_x[2*W +: W] : dl_pt3_sub531;
     logic [W-1:0] dl_pt3_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vB_x (.clk(clk), .d(pt3_vB_x), .valid(1'b0), .q(dl_pt3_vB_x));
     // pt3_vB_y = pt3_skip ? pt2_vB_y : pt3_sub532   (ready @179/179/179)
     logic [W-1:0] pt3_vB_y;
     assign pt3_vB_y = dl_pt3_skip[1] ? dl_pt2_vB_y[2*W +: W] : dl_pt3_sub532;
     logic [W-1:0] dl_pt3_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vB_y (.clk(clk), .d(pt3_vB_y), .valid(1'b0), .q(dl_pt3_vB_y));
     // pt3_vB_z = pt3_skip ? pt2_vB_z : pt3_sub533   (ready @179/179/179)
     logic [W-1:0] pt3_vB_z;
     assign pt3_vB_z = dl_pt3_skip[1] ? dl_pt2_vB_z[2*W +: W] : dl_pt3_sub533;
     logic [W-1:0] dl_pt3_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vB_z (.clk(clk), .d(pt3_vB_z), .valid(1'b0), .q(dl_pt3_vB_z));
     // pt3_mul537 = pt3_angB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul537;
@@ -6230,7 +6769,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[420] = fl_pt3_mul537[1] && ev_q[175];
     assign ev_inv[420] = fl_pt3_mul537[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul537;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul537 (.clk(clk), .d(pt3_mul537), .valid(1'b0), .q(dl_pt3_mul537));
     // pt3_mul538 = pt3_angB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul538;
@@ -6243,7 +6783,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[421] = fl_pt3_mul538[1] && ev_q[175];
     assign ev_inv[421] = fl_pt3_mul538[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul538;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul538 (.clk(clk), .d(pt3_mul538), .valid(1'b0), .q(dl_pt3_mul538));
     // pt3_mul539 = pt3_angB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul539;
@@ -6256,7 +6797,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[422] = fl_pt3_mul539[1] && ev_q[175];
     assign ev_inv[422] = fl_pt3_mul539[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul539;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul539 (.clk(clk), .d(pt3_mul539), .valid(1'b0), .q(dl_pt3_mul539));
     // pt3_sub540 = pt2_wB_x - pt3_mul537   (ready @179/179/179)
     logic [W-1:0] pt3_sub540;
@@ -6269,7 +6811,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[423] = fl_pt3_sub540[1] && ev_q[179];
     assign ev_inv[423] = fl_pt3_sub540[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub540;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub540 (.clk(clk), .d(pt3_sub540), .valid(1'b0), .q(dl_pt3_sub540));
     // pt3_sub541 = pt2_wB_y - pt3_mul538   (ready @179/179/179)
     logic [W-1:0] pt3_sub541;
@@ -6282,7 +6825,8 @@ module pgs_contact_pipe_full #(
     assign ev_unf[424] = fl_pt3_sub541[1] && ev_q[179];
     assign ev_inv[424] = fl_pt3_sub541[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub541;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub541 (.clk(clk), .d(pt3_sub541), .valid(1'b0), .q(dl_pt3_sub541));
     // pt3_sub542 = pt2_wB_z - pt3_mul539   (ready @179/179/179)
     logic [W-1:0] pt3_sub542;
@@ -6295,25 +6839,29 @@ module pgs_contact_pipe_full #(
     assign ev_unf[425] = fl_pt3_sub542[1] && ev_q[179];
     assign ev_inv[425] = fl_pt3_sub542[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub542;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub542 (.clk(clk), .d(pt3_sub542), .valid(1'b0), .q(dl_pt3_sub542));
     // pt3_wB_x = pt3_skip ? pt2_wB_x : pt3_sub540   (ready @179/179/179)
     logic [W-1:0] pt3_wB_x;
     assign pt3_wB_x = dl_pt3_skip[1] ? dl_pt2_wB_x[2*W +: W] : dl_pt3_sub540;
     logic [W-1:0] dl_pt3_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wB_x (.clk(clk), .d(pt3_wB_x), .valid(1'b0), .q(dl_pt3_wB_x));
     // pt3_wB_y = pt3_skip ? pt2_wB_y : pt3_sub541   (ready @179/179/179)
     logic [W-1:0] pt3_wB_y;
     assign pt3_wB_y = dl_pt3_skip[1] ? dl_pt2_wB_y[2*W +: W] : dl_pt3_sub541;
     logic [W-1:0] dl_pt3_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wB_y (.clk(clk), .d(pt3_wB_y), .valid(1'b0), .q(dl_pt3_wB_y));
     // pt3_wB_z = pt3_skip ? pt2_wB_z : pt3_sub542   (ready @179/179/179)
     logic [W-1:0] pt3_wB_z;
     assign pt3_wB_z = dl_pt3_skip[1] ? dl_pt2_wB_z[2*W +: W] : dl_pt3_sub542;
     logic [W-1:0] dl_pt3_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wB_z (.clk(clk), .d(pt3_wB_z), .valid(1'b0), .q(dl_pt3_wB_z));
 
     // Outputs, each delayed to LATENCY.

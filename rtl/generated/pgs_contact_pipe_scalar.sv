@@ -27,6 +27,9 @@ module pgs_contact_pipe_scalar #(
     parameter  int EXP_BITS = 8,
     parameter  int MAN_BITS = 23,
     parameter  int TAG_W    = 64,
+    // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
+    // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
+    parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 49,
     localparam int N_OUT    = 16,
@@ -77,7 +80,7 @@ module pgs_contact_pipe_scalar #(
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
         .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY), .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_tag (
         .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
     );
 
@@ -104,247 +107,296 @@ module pgs_contact_pipe_scalar #(
     logic [W-1:0] in_n_x;
     assign in_n_x = in_data[0*W +: W];
     logic [5*W-1:0] dl_in_n_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 137]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [5*W-1:0] dl_in_n_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 137]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [5*W-1:0] dl_in_n_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 137]), .q(dl_in_n_z));
     logic [W-1:0] in_p0_x;
     assign in_p0_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_p0_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p0_x (.clk(clk), .d(in_p0_x), .valid(1'b0), .q(dl_in_p0_x));
     logic [W-1:0] in_p0_y;
     assign in_p0_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_p0_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p0_y (.clk(clk), .d(in_p0_y), .valid(1'b0), .q(dl_in_p0_y));
     logic [W-1:0] in_p0_z;
     assign in_p0_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_p0_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p0_z (.clk(clk), .d(in_p0_z), .valid(1'b0), .q(dl_in_p0_z));
     logic [W-1:0] in_p1_x;
     assign in_p1_x = in_data[6*W +: W];
     logic [W-1:0] dl_in_p1_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p1_x (.clk(clk), .d(in_p1_x), .valid(1'b0), .q(dl_in_p1_x));
     logic [W-1:0] in_p1_y;
     assign in_p1_y = in_data[7*W +: W];
     logic [W-1:0] dl_in_p1_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p1_y (.clk(clk), .d(in_p1_y), .valid(1'b0), .q(dl_in_p1_y));
     logic [W-1:0] in_p1_z;
     assign in_p1_z = in_data[8*W +: W];
     logic [W-1:0] dl_in_p1_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p1_z (.clk(clk), .d(in_p1_z), .valid(1'b0), .q(dl_in_p1_z));
     logic [W-1:0] in_p2_x;
     assign in_p2_x = in_data[9*W +: W];
     logic [W-1:0] dl_in_p2_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p2_x (.clk(clk), .d(in_p2_x), .valid(1'b0), .q(dl_in_p2_x));
     logic [W-1:0] in_p2_y;
     assign in_p2_y = in_data[10*W +: W];
     logic [W-1:0] dl_in_p2_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p2_y (.clk(clk), .d(in_p2_y), .valid(1'b0), .q(dl_in_p2_y));
     logic [W-1:0] in_p2_z;
     assign in_p2_z = in_data[11*W +: W];
     logic [W-1:0] dl_in_p2_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p2_z (.clk(clk), .d(in_p2_z), .valid(1'b0), .q(dl_in_p2_z));
     logic [W-1:0] in_p3_x;
     assign in_p3_x = in_data[12*W +: W];
     logic [W-1:0] dl_in_p3_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p3_x (.clk(clk), .d(in_p3_x), .valid(1'b0), .q(dl_in_p3_x));
     logic [W-1:0] in_p3_y;
     assign in_p3_y = in_data[13*W +: W];
     logic [W-1:0] dl_in_p3_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p3_y (.clk(clk), .d(in_p3_y), .valid(1'b0), .q(dl_in_p3_y));
     logic [W-1:0] in_p3_z;
     assign in_p3_z = in_data[14*W +: W];
     logic [W-1:0] dl_in_p3_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p3_z (.clk(clk), .d(in_p3_z), .valid(1'b0), .q(dl_in_p3_z));
     logic [W-1:0] in_jac_inv0;
     assign in_jac_inv0 = in_data[15*W +: W];
     logic [2*W-1:0] dl_in_jac_inv0;
-    pgs_delay #(.WIDTH(W), .DEPTH(34), .N_TAPS(2), .TAPS({32'(34), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(34), .N_TAPS(2), .TAPS({32'(34), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv0 (.clk(clk), .d(in_jac_inv0), .valid(valid_q[0 +: 34]), .q(dl_in_jac_inv0));
     logic [W-1:0] in_jac_inv1;
     assign in_jac_inv1 = in_data[16*W +: W];
     logic [2*W-1:0] dl_in_jac_inv1;
-    pgs_delay #(.WIDTH(W), .DEPTH(76), .N_TAPS(2), .TAPS({32'(76), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(76), .N_TAPS(2), .TAPS({32'(76), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv1 (.clk(clk), .d(in_jac_inv1), .valid(valid_q[0 +: 76]), .q(dl_in_jac_inv1));
     logic [W-1:0] in_jac_inv2;
     assign in_jac_inv2 = in_data[17*W +: W];
     logic [2*W-1:0] dl_in_jac_inv2;
-    pgs_delay #(.WIDTH(W), .DEPTH(118), .N_TAPS(2), .TAPS({32'(118), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(118), .N_TAPS(2), .TAPS({32'(118), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv2 (.clk(clk), .d(in_jac_inv2), .valid(valid_q[0 +: 118]), .q(dl_in_jac_inv2));
     logic [W-1:0] in_jac_inv3;
     assign in_jac_inv3 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_jac_inv3;
-    pgs_delay #(.WIDTH(W), .DEPTH(160), .N_TAPS(2), .TAPS({32'(160), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(160), .N_TAPS(2), .TAPS({32'(160), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv3 (.clk(clk), .d(in_jac_inv3), .valid(valid_q[0 +: 160]), .q(dl_in_jac_inv3));
     logic [W-1:0] in_b0;
     assign in_b0 = in_data[19*W +: W];
     logic [W-1:0] dl_in_b0;
-    pgs_delay #(.WIDTH(W), .DEPTH(30))
+    pgs_delay #(.WIDTH(W), .DEPTH(30),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b0 (.clk(clk), .d(in_b0), .valid(valid_q[0 +: 30]), .q(dl_in_b0));
     logic [W-1:0] in_b1;
     assign in_b1 = in_data[20*W +: W];
     logic [W-1:0] dl_in_b1;
-    pgs_delay #(.WIDTH(W), .DEPTH(72))
+    pgs_delay #(.WIDTH(W), .DEPTH(72),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b1 (.clk(clk), .d(in_b1), .valid(valid_q[0 +: 72]), .q(dl_in_b1));
     logic [W-1:0] in_b2;
     assign in_b2 = in_data[21*W +: W];
     logic [W-1:0] dl_in_b2;
-    pgs_delay #(.WIDTH(W), .DEPTH(114))
+    pgs_delay #(.WIDTH(W), .DEPTH(114),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b2 (.clk(clk), .d(in_b2), .valid(valid_q[0 +: 114]), .q(dl_in_b2));
     logic [W-1:0] in_b3;
     assign in_b3 = in_data[22*W +: W];
     logic [W-1:0] dl_in_b3;
-    pgs_delay #(.WIDTH(W), .DEPTH(156))
+    pgs_delay #(.WIDTH(W), .DEPTH(156),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b3 (.clk(clk), .d(in_b3), .valid(valid_q[0 +: 156]), .q(dl_in_b3));
     logic [W-1:0] in_lam0;
     assign in_lam0 = in_data[23*W +: W];
     logic [2*W-1:0] dl_in_lam0;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(42), 32'(37)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(42), 32'(37)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam0 (.clk(clk), .d(in_lam0), .valid(valid_q[0 +: 42]), .q(dl_in_lam0));
     logic [W-1:0] in_lam1;
     assign in_lam1 = in_data[24*W +: W];
     logic [2*W-1:0] dl_in_lam1;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(84), 32'(79)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(84), 32'(79)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam1 (.clk(clk), .d(in_lam1), .valid(valid_q[0 +: 84]), .q(dl_in_lam1));
     logic [W-1:0] in_lam2;
     assign in_lam2 = in_data[25*W +: W];
     logic [2*W-1:0] dl_in_lam2;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(126), 32'(121)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(126), 32'(121)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam2 (.clk(clk), .d(in_lam2), .valid(valid_q[0 +: 126]), .q(dl_in_lam2));
     logic [W-1:0] in_lam3;
     assign in_lam3 = in_data[26*W +: W];
     logic [2*W-1:0] dl_in_lam3;
-    pgs_delay #(.WIDTH(W), .DEPTH(168), .N_TAPS(2), .TAPS({32'(168), 32'(163)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(168), .N_TAPS(2), .TAPS({32'(168), 32'(163)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam3 (.clk(clk), .d(in_lam3), .valid(valid_q[0 +: 168]), .q(dl_in_lam3));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[27*W +: W];
     logic [W-1:0] dl_in_xA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[28*W +: W];
     logic [W-1:0] dl_in_xA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[29*W +: W];
     logic [W-1:0] dl_in_xA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[30*W +: W];
     logic [W-1:0] dl_in_xB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[31*W +: W];
     logic [W-1:0] dl_in_xB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[32*W +: W];
     logic [W-1:0] dl_in_xB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 53]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 53]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 53]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 53]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 53]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[38*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 53]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[39*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 53]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[40*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 53]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[41*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 53]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[42*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 53]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[43*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 53]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[44*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 53]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[45*W +: W];
     logic [W-1:0] dl_in_mInvA;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[46*W +: W];
     logic [W-1:0] dl_in_mInvB;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_s;
     assign in_IInvA_s = in_data[47*W +: W];
     logic [W-1:0] dl_in_IInvA_s;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_s (.clk(clk), .d(in_IInvA_s), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_s));
     logic [W-1:0] in_IInvB_s;
     assign in_IInvB_s = in_data[48*W +: W];
     logic [W-1:0] dl_in_IInvB_s;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_s (.clk(clk), .d(in_IInvB_s), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_s));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
@@ -360,7 +412,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[0] = fl_linA_x[1] && ev_q[3];
     assign ev_inv[0] = fl_linA_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linA_x (.clk(clk), .d(linA_x), .valid(valid_q[3 +: 169]), .q(dl_linA_x));
     // linA_y = n_y * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_y;
@@ -373,7 +426,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[1] = fl_linA_y[1] && ev_q[3];
     assign ev_inv[1] = fl_linA_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linA_y (.clk(clk), .d(linA_y), .valid(valid_q[3 +: 169]), .q(dl_linA_y));
     // linA_z = n_z * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_z;
@@ -386,7 +440,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[2] = fl_linA_z[1] && ev_q[3];
     assign ev_inv[2] = fl_linA_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linA_z (.clk(clk), .d(linA_z), .valid(valid_q[3 +: 169]), .q(dl_linA_z));
     // linB_x = n_x * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_x;
@@ -399,7 +454,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[3] = fl_linB_x[1] && ev_q[3];
     assign ev_inv[3] = fl_linB_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linB_x (.clk(clk), .d(linB_x), .valid(valid_q[3 +: 169]), .q(dl_linB_x));
     // linB_y = n_y * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_y;
@@ -412,7 +468,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[4] = fl_linB_y[1] && ev_q[3];
     assign ev_inv[4] = fl_linB_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linB_y (.clk(clk), .d(linB_y), .valid(valid_q[3 +: 169]), .q(dl_linB_y));
     // linB_z = n_z * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_z;
@@ -425,13 +482,15 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[5] = fl_linB_z[1] && ev_q[3];
     assign ev_inv[5] = fl_linB_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linB_z (.clk(clk), .d(linB_z), .valid(valid_q[3 +: 169]), .q(dl_linB_z));
     // pt0_skip = jac_inv0 == 0   (ready @0/0/0)
     logic pt0_skip;
     assign pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt0_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_skip (.clk(clk), .d(pt0_skip), .valid(valid_q[0 +: 53]), .q(dl_pt0_skip));
     // pt0_rA_x = p0_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt0_rA_x;
@@ -444,7 +503,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[6] = fl_pt0_rA_x[1] && ev_q[4];
     assign ev_inv[6] = fl_pt0_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rA_x (.clk(clk), .d(pt0_rA_x), .valid(1'b0), .q(dl_pt0_rA_x));
     // pt0_rA_y = p0_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt0_rA_y;
@@ -457,7 +517,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[7] = fl_pt0_rA_y[1] && ev_q[4];
     assign ev_inv[7] = fl_pt0_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rA_y (.clk(clk), .d(pt0_rA_y), .valid(1'b0), .q(dl_pt0_rA_y));
     // pt0_rA_z = p0_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt0_rA_z;
@@ -470,7 +531,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[8] = fl_pt0_rA_z[1] && ev_q[4];
     assign ev_inv[8] = fl_pt0_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rA_z (.clk(clk), .d(pt0_rA_z), .valid(1'b0), .q(dl_pt0_rA_z));
     // pt0_mul60 = pt0_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul60;
@@ -483,7 +545,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[9] = fl_pt0_mul60[1] && ev_q[7];
     assign ev_inv[9] = fl_pt0_mul60[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul60;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul60 (.clk(clk), .d(pt0_mul60), .valid(1'b0), .q(dl_pt0_mul60));
     // pt0_mul61 = pt0_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul61;
@@ -496,7 +559,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[10] = fl_pt0_mul61[1] && ev_q[7];
     assign ev_inv[10] = fl_pt0_mul61[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul61;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul61 (.clk(clk), .d(pt0_mul61), .valid(1'b0), .q(dl_pt0_mul61));
     // pt0_cA_x = pt0_mul60 - pt0_mul61   (ready @11/11/11)
     logic [W-1:0] pt0_cA_x;
@@ -509,7 +573,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[11] = fl_pt0_cA_x[1] && ev_q[11];
     assign ev_inv[11] = fl_pt0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cA_x (.clk(clk), .d(pt0_cA_x), .valid(1'b0), .q(dl_pt0_cA_x));
     // pt0_mul63 = pt0_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul63;
@@ -522,7 +587,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[12] = fl_pt0_mul63[1] && ev_q[7];
     assign ev_inv[12] = fl_pt0_mul63[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul63;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul63 (.clk(clk), .d(pt0_mul63), .valid(1'b0), .q(dl_pt0_mul63));
     // pt0_mul64 = pt0_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul64;
@@ -535,7 +601,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[13] = fl_pt0_mul64[1] && ev_q[7];
     assign ev_inv[13] = fl_pt0_mul64[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul64;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul64 (.clk(clk), .d(pt0_mul64), .valid(1'b0), .q(dl_pt0_mul64));
     // pt0_cA_y = pt0_mul63 - pt0_mul64   (ready @11/11/11)
     logic [W-1:0] pt0_cA_y;
@@ -548,7 +615,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[14] = fl_pt0_cA_y[1] && ev_q[11];
     assign ev_inv[14] = fl_pt0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cA_y (.clk(clk), .d(pt0_cA_y), .valid(1'b0), .q(dl_pt0_cA_y));
     // pt0_mul66 = pt0_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul66;
@@ -561,7 +629,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[15] = fl_pt0_mul66[1] && ev_q[7];
     assign ev_inv[15] = fl_pt0_mul66[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul66;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul66 (.clk(clk), .d(pt0_mul66), .valid(1'b0), .q(dl_pt0_mul66));
     // pt0_mul67 = pt0_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul67;
@@ -574,7 +643,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[16] = fl_pt0_mul67[1] && ev_q[7];
     assign ev_inv[16] = fl_pt0_mul67[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul67;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul67 (.clk(clk), .d(pt0_mul67), .valid(1'b0), .q(dl_pt0_mul67));
     // pt0_cA_z = pt0_mul66 - pt0_mul67   (ready @11/11/11)
     logic [W-1:0] pt0_cA_z;
@@ -587,7 +657,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[17] = fl_pt0_cA_z[1] && ev_q[11];
     assign ev_inv[17] = fl_pt0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cA_z (.clk(clk), .d(pt0_cA_z), .valid(1'b0), .q(dl_pt0_cA_z));
     // pt0_rB_x = p0_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt0_rB_x;
@@ -600,7 +671,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[18] = fl_pt0_rB_x[1] && ev_q[4];
     assign ev_inv[18] = fl_pt0_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rB_x (.clk(clk), .d(pt0_rB_x), .valid(1'b0), .q(dl_pt0_rB_x));
     // pt0_rB_y = p0_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt0_rB_y;
@@ -613,7 +685,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[19] = fl_pt0_rB_y[1] && ev_q[4];
     assign ev_inv[19] = fl_pt0_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rB_y (.clk(clk), .d(pt0_rB_y), .valid(1'b0), .q(dl_pt0_rB_y));
     // pt0_rB_z = p0_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt0_rB_z;
@@ -626,7 +699,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[20] = fl_pt0_rB_z[1] && ev_q[4];
     assign ev_inv[20] = fl_pt0_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rB_z (.clk(clk), .d(pt0_rB_z), .valid(1'b0), .q(dl_pt0_rB_z));
     // pt0_mul72 = pt0_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul72;
@@ -639,7 +713,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[21] = fl_pt0_mul72[1] && ev_q[7];
     assign ev_inv[21] = fl_pt0_mul72[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul72;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul72 (.clk(clk), .d(pt0_mul72), .valid(1'b0), .q(dl_pt0_mul72));
     // pt0_mul73 = pt0_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul73;
@@ -652,7 +727,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[22] = fl_pt0_mul73[1] && ev_q[7];
     assign ev_inv[22] = fl_pt0_mul73[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul73;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul73 (.clk(clk), .d(pt0_mul73), .valid(1'b0), .q(dl_pt0_mul73));
     // pt0_cB_x = pt0_mul72 - pt0_mul73   (ready @11/11/11)
     logic [W-1:0] pt0_cB_x;
@@ -665,7 +741,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[23] = fl_pt0_cB_x[1] && ev_q[11];
     assign ev_inv[23] = fl_pt0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cB_x (.clk(clk), .d(pt0_cB_x), .valid(1'b0), .q(dl_pt0_cB_x));
     // pt0_mul75 = pt0_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul75;
@@ -678,7 +755,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[24] = fl_pt0_mul75[1] && ev_q[7];
     assign ev_inv[24] = fl_pt0_mul75[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul75;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul75 (.clk(clk), .d(pt0_mul75), .valid(1'b0), .q(dl_pt0_mul75));
     // pt0_mul76 = pt0_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul76;
@@ -691,7 +769,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[25] = fl_pt0_mul76[1] && ev_q[7];
     assign ev_inv[25] = fl_pt0_mul76[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul76;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul76 (.clk(clk), .d(pt0_mul76), .valid(1'b0), .q(dl_pt0_mul76));
     // pt0_cB_y = pt0_mul75 - pt0_mul76   (ready @11/11/11)
     logic [W-1:0] pt0_cB_y;
@@ -704,7 +783,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[26] = fl_pt0_cB_y[1] && ev_q[11];
     assign ev_inv[26] = fl_pt0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cB_y (.clk(clk), .d(pt0_cB_y), .valid(1'b0), .q(dl_pt0_cB_y));
     // pt0_mul78 = pt0_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul78;
@@ -717,7 +797,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[27] = fl_pt0_mul78[1] && ev_q[7];
     assign ev_inv[27] = fl_pt0_mul78[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul78;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul78 (.clk(clk), .d(pt0_mul78), .valid(1'b0), .q(dl_pt0_mul78));
     // pt0_mul79 = pt0_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul79;
@@ -730,7 +811,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[28] = fl_pt0_mul79[1] && ev_q[7];
     assign ev_inv[28] = fl_pt0_mul79[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul79;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul79 (.clk(clk), .d(pt0_mul79), .valid(1'b0), .q(dl_pt0_mul79));
     // pt0_cB_z = pt0_mul78 - pt0_mul79   (ready @11/11/11)
     logic [W-1:0] pt0_cB_z;
@@ -743,7 +825,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[29] = fl_pt0_cB_z[1] && ev_q[11];
     assign ev_inv[29] = fl_pt0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cB_z (.clk(clk), .d(pt0_cB_z), .valid(1'b0), .q(dl_pt0_cB_z));
     // pt0_mul81 = n_x * vA_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul81;
@@ -756,7 +839,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[30] = fl_pt0_mul81[1] && ev_q[3];
     assign ev_inv[30] = fl_pt0_mul81[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul81;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul81 (.clk(clk), .d(pt0_mul81), .valid(1'b0), .q(dl_pt0_mul81));
     // pt0_mul82 = n_y * vA_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul82;
@@ -769,7 +853,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[31] = fl_pt0_mul82[1] && ev_q[3];
     assign ev_inv[31] = fl_pt0_mul82[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul82;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul82 (.clk(clk), .d(pt0_mul82), .valid(1'b0), .q(dl_pt0_mul82));
     // pt0_add83 = pt0_mul81 + pt0_mul82   (ready @7/7/7)
     logic [W-1:0] pt0_add83;
@@ -782,7 +867,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[32] = fl_pt0_add83[1] && ev_q[7];
     assign ev_inv[32] = fl_pt0_add83[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add83;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add83 (.clk(clk), .d(pt0_add83), .valid(1'b0), .q(dl_pt0_add83));
     // pt0_mul84 = n_z * vA_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul84;
@@ -795,7 +881,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[33] = fl_pt0_mul84[1] && ev_q[3];
     assign ev_inv[33] = fl_pt0_mul84[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul84;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul84 (.clk(clk), .d(pt0_mul84), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul84));
     // pt0_add85 = pt0_add83 + pt0_mul84   (ready @11/11/11)
     logic [W-1:0] pt0_add85;
@@ -808,7 +895,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[34] = fl_pt0_add85[1] && ev_q[11];
     assign ev_inv[34] = fl_pt0_add85[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add85;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add85 (.clk(clk), .d(pt0_add85), .valid(1'b0), .q(dl_pt0_add85));
     // pt0_mul86 = n_x * vB_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul86;
@@ -821,7 +909,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[35] = fl_pt0_mul86[1] && ev_q[3];
     assign ev_inv[35] = fl_pt0_mul86[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul86;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul86 (.clk(clk), .d(pt0_mul86), .valid(1'b0), .q(dl_pt0_mul86));
     // pt0_mul87 = n_y * vB_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul87;
@@ -834,7 +923,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[36] = fl_pt0_mul87[1] && ev_q[3];
     assign ev_inv[36] = fl_pt0_mul87[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul87;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul87 (.clk(clk), .d(pt0_mul87), .valid(1'b0), .q(dl_pt0_mul87));
     // pt0_add88 = pt0_mul86 + pt0_mul87   (ready @7/7/7)
     logic [W-1:0] pt0_add88;
@@ -847,7 +937,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[37] = fl_pt0_add88[1] && ev_q[7];
     assign ev_inv[37] = fl_pt0_add88[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add88;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add88 (.clk(clk), .d(pt0_add88), .valid(1'b0), .q(dl_pt0_add88));
     // pt0_mul89 = n_z * vB_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul89;
@@ -860,7 +951,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[38] = fl_pt0_mul89[1] && ev_q[3];
     assign ev_inv[38] = fl_pt0_mul89[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul89;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul89 (.clk(clk), .d(pt0_mul89), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul89));
     // pt0_add90 = pt0_add88 + pt0_mul89   (ready @11/11/11)
     logic [W-1:0] pt0_add90;
@@ -873,7 +965,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[39] = fl_pt0_add90[1] && ev_q[11];
     assign ev_inv[39] = fl_pt0_add90[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add90;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add90 (.clk(clk), .d(pt0_add90), .valid(1'b0), .q(dl_pt0_add90));
     // pt0_sub91 = pt0_add85 - pt0_add90   (ready @15/15/15)
     logic [W-1:0] pt0_sub91;
@@ -886,7 +979,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[40] = fl_pt0_sub91[1] && ev_q[15];
     assign ev_inv[40] = fl_pt0_sub91[2] && ev_q[15];
     logic [W-1:0] dl_pt0_sub91;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub91 (.clk(clk), .d(pt0_sub91), .valid(valid_q[15 +: 11]), .q(dl_pt0_sub91));
     // pt0_mul92 = pt0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul92;
@@ -899,7 +993,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[41] = fl_pt0_mul92[1] && ev_q[14];
     assign ev_inv[41] = fl_pt0_mul92[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul92;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul92 (.clk(clk), .d(pt0_mul92), .valid(1'b0), .q(dl_pt0_mul92));
     // pt0_mul93 = pt0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul93;
@@ -912,7 +1007,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[42] = fl_pt0_mul93[1] && ev_q[14];
     assign ev_inv[42] = fl_pt0_mul93[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul93;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul93 (.clk(clk), .d(pt0_mul93), .valid(1'b0), .q(dl_pt0_mul93));
     // pt0_add94 = pt0_mul92 + pt0_mul93   (ready @18/18/18)
     logic [W-1:0] pt0_add94;
@@ -925,7 +1021,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[43] = fl_pt0_add94[1] && ev_q[18];
     assign ev_inv[43] = fl_pt0_add94[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add94;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add94 (.clk(clk), .d(pt0_add94), .valid(1'b0), .q(dl_pt0_add94));
     // pt0_mul95 = pt0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul95;
@@ -938,7 +1035,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[44] = fl_pt0_mul95[1] && ev_q[14];
     assign ev_inv[44] = fl_pt0_mul95[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul95;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul95 (.clk(clk), .d(pt0_mul95), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul95));
     // pt0_add96 = pt0_add94 + pt0_mul95   (ready @22/22/22)
     logic [W-1:0] pt0_add96;
@@ -951,7 +1049,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[45] = fl_pt0_add96[1] && ev_q[22];
     assign ev_inv[45] = fl_pt0_add96[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add96;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add96 (.clk(clk), .d(pt0_add96), .valid(1'b0), .q(dl_pt0_add96));
     // pt0_mul97 = pt0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul97;
@@ -964,7 +1063,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[46] = fl_pt0_mul97[1] && ev_q[14];
     assign ev_inv[46] = fl_pt0_mul97[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul97;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul97 (.clk(clk), .d(pt0_mul97), .valid(1'b0), .q(dl_pt0_mul97));
     // pt0_mul98 = pt0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul98;
@@ -977,7 +1077,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[47] = fl_pt0_mul98[1] && ev_q[14];
     assign ev_inv[47] = fl_pt0_mul98[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul98;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul98 (.clk(clk), .d(pt0_mul98), .valid(1'b0), .q(dl_pt0_mul98));
     // pt0_add99 = pt0_mul97 + pt0_mul98   (ready @18/18/18)
     logic [W-1:0] pt0_add99;
@@ -990,7 +1091,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[48] = fl_pt0_add99[1] && ev_q[18];
     assign ev_inv[48] = fl_pt0_add99[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add99;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add99 (.clk(clk), .d(pt0_add99), .valid(1'b0), .q(dl_pt0_add99));
     // pt0_mul100 = pt0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul100;
@@ -1003,7 +1105,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[49] = fl_pt0_mul100[1] && ev_q[14];
     assign ev_inv[49] = fl_pt0_mul100[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul100;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul100 (.clk(clk), .d(pt0_mul100), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul100));
     // pt0_add101 = pt0_add99 + pt0_mul100   (ready @22/22/22)
     logic [W-1:0] pt0_add101;
@@ -1016,7 +1119,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[50] = fl_pt0_add101[1] && ev_q[22];
     assign ev_inv[50] = fl_pt0_add101[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add101;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add101 (.clk(clk), .d(pt0_add101), .valid(1'b0), .q(dl_pt0_add101));
     // pt0_sub102 = pt0_add96 - pt0_add101   (ready @26/26/26)
     logic [W-1:0] pt0_sub102;
@@ -1029,7 +1133,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[51] = fl_pt0_sub102[1] && ev_q[26];
     assign ev_inv[51] = fl_pt0_sub102[2] && ev_q[26];
     logic [W-1:0] dl_pt0_sub102;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub102 (.clk(clk), .d(pt0_sub102), .valid(1'b0), .q(dl_pt0_sub102));
     // pt0_vrel = pt0_sub91 + pt0_sub102   (ready @30/30/30)
     logic [W-1:0] pt0_vrel;
@@ -1042,7 +1147,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[52] = fl_pt0_vrel[1] && ev_q[30];
     assign ev_inv[52] = fl_pt0_vrel[2] && ev_q[30];
     logic [W-1:0] dl_pt0_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vrel (.clk(clk), .d(pt0_vrel), .valid(1'b0), .q(dl_pt0_vrel));
     // pt0_add104 = pt0_vrel + b0   (ready @34/34/34)
     logic [W-1:0] pt0_add104;
@@ -1055,7 +1161,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[53] = fl_pt0_add104[1] && ev_q[34];
     assign ev_inv[53] = fl_pt0_add104[2] && ev_q[34];
     logic [W-1:0] dl_pt0_add104;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add104 (.clk(clk), .d(pt0_add104), .valid(1'b0), .q(dl_pt0_add104));
     // pt0_delta0 = pt0_add104 * jac_inv0   (ready @37/37/37)
     logic [W-1:0] pt0_delta0;
@@ -1068,7 +1175,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[54] = fl_pt0_delta0[1] && ev_q[37];
     assign ev_inv[54] = fl_pt0_delta0[2] && ev_q[37];
     logic [W-1:0] dl_pt0_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_delta0 (.clk(clk), .d(pt0_delta0), .valid(1'b0), .q(dl_pt0_delta0));
     // pt0_add106 = lam0 + pt0_delta0   (ready @41/41/41)
     logic [W-1:0] pt0_add106;
@@ -1081,7 +1189,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[55] = fl_pt0_add106[1] && ev_q[41];
     assign ev_inv[55] = fl_pt0_add106[2] && ev_q[41];
     logic [W-1:0] dl_pt0_add106;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add106 (.clk(clk), .d(pt0_add106), .valid(1'b0), .q(dl_pt0_add106));
     // pt0_lam_new = max(pt0_add106, 0.0)   (ready @42/42/42)
     logic [W-1:0] pt0_lam_new;
@@ -1091,7 +1200,8 @@ module pgs_contact_pipe_scalar #(
         .lt(nc_pt0_lam_new_lt), .eq(nc_pt0_lam_new_eq), .unordered(nc_pt0_lam_new_uo)
     );
     logic [W-1:0] dl_pt0_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_lam_new (.clk(clk), .d(pt0_lam_new), .valid(1'b0), .q(dl_pt0_lam_new));
     // pt0_delta = pt0_lam_new - lam0   (ready @46/46/46)
     logic [W-1:0] pt0_delta;
@@ -1104,13 +1214,15 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[56] = fl_pt0_delta[1] && ev_q[46];
     assign ev_inv[56] = fl_pt0_delta[2] && ev_q[46];
     logic [W-1:0] dl_pt0_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_delta (.clk(clk), .d(pt0_delta), .valid(1'b0), .q(dl_pt0_delta));
     // pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (ready @42/42/42)
     logic [W-1:0] pt0_lam;
     assign pt0_lam = dl_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_pt0_lam_new;
     logic [W-1:0] dl_pt0_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(137))
+    pgs_delay #(.WIDTH(W), .DEPTH(137),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_lam (.clk(clk), .d(pt0_lam), .valid(valid_q[42 +: 137]), .q(dl_pt0_lam));
     // pt0_angA_x = IInvA_s * pt0_cA_x   (ready @14/14/14)
     logic [W-1:0] pt0_angA_x;
@@ -1123,7 +1235,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[57] = fl_pt0_angA_x[1] && ev_q[14];
     assign ev_inv[57] = fl_pt0_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angA_x (.clk(clk), .d(pt0_angA_x), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_x));
     // pt0_angA_y = IInvA_s * pt0_cA_y   (ready @14/14/14)
     logic [W-1:0] pt0_angA_y;
@@ -1136,7 +1249,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[58] = fl_pt0_angA_y[1] && ev_q[14];
     assign ev_inv[58] = fl_pt0_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angA_y (.clk(clk), .d(pt0_angA_y), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_y));
     // pt0_angA_z = IInvA_s * pt0_cA_z   (ready @14/14/14)
     logic [W-1:0] pt0_angA_z;
@@ -1149,7 +1263,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[59] = fl_pt0_angA_z[1] && ev_q[14];
     assign ev_inv[59] = fl_pt0_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angA_z (.clk(clk), .d(pt0_angA_z), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_z));
     // pt0_angB_x = IInvB_s * pt0_cB_x   (ready @14/14/14)
     logic [W-1:0] pt0_angB_x;
@@ -1162,7 +1277,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[60] = fl_pt0_angB_x[1] && ev_q[14];
     assign ev_inv[60] = fl_pt0_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angB_x (.clk(clk), .d(pt0_angB_x), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_x));
     // pt0_angB_y = IInvB_s * pt0_cB_y   (ready @14/14/14)
     logic [W-1:0] pt0_angB_y;
@@ -1175,7 +1291,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[61] = fl_pt0_angB_y[1] && ev_q[14];
     assign ev_inv[61] = fl_pt0_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angB_y (.clk(clk), .d(pt0_angB_y), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_y));
     // pt0_angB_z = IInvB_s * pt0_cB_z   (ready @14/14/14)
     logic [W-1:0] pt0_angB_z;
@@ -1188,7 +1305,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[62] = fl_pt0_angB_z[1] && ev_q[14];
     assign ev_inv[62] = fl_pt0_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angB_z (.clk(clk), .d(pt0_angB_z), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_z));
     // pt0_mul116 = linA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul116;
@@ -1201,7 +1319,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[63] = fl_pt0_mul116[1] && ev_q[49];
     assign ev_inv[63] = fl_pt0_mul116[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul116;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul116 (.clk(clk), .d(pt0_mul116), .valid(1'b0), .q(dl_pt0_mul116));
     // pt0_mul117 = linA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul117;
@@ -1214,7 +1333,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[64] = fl_pt0_mul117[1] && ev_q[49];
     assign ev_inv[64] = fl_pt0_mul117[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul117;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul117 (.clk(clk), .d(pt0_mul117), .valid(1'b0), .q(dl_pt0_mul117));
     // pt0_mul118 = linA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul118;
@@ -1227,7 +1347,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[65] = fl_pt0_mul118[1] && ev_q[49];
     assign ev_inv[65] = fl_pt0_mul118[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul118;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul118 (.clk(clk), .d(pt0_mul118), .valid(1'b0), .q(dl_pt0_mul118));
     // pt0_add119 = vA_x + pt0_mul116   (ready @53/53/53)
     logic [W-1:0] pt0_add119;
@@ -1240,7 +1361,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[66] = fl_pt0_add119[1] && ev_q[53];
     assign ev_inv[66] = fl_pt0_add119[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add119;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add119 (.clk(clk), .d(pt0_add119), .valid(1'b0), .q(dl_pt0_add119));
     // pt0_add120 = vA_y + pt0_mul117   (ready @53/53/53)
     logic [W-1:0] pt0_add120;
@@ -1253,7 +1375,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[67] = fl_pt0_add120[1] && ev_q[53];
     assign ev_inv[67] = fl_pt0_add120[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add120;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add120 (.clk(clk), .d(pt0_add120), .valid(1'b0), .q(dl_pt0_add120));
     // pt0_add121 = vA_z + pt0_mul118   (ready @53/53/53)
     logic [W-1:0] pt0_add121;
@@ -1266,25 +1389,29 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[68] = fl_pt0_add121[1] && ev_q[53];
     assign ev_inv[68] = fl_pt0_add121[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add121;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add121 (.clk(clk), .d(pt0_add121), .valid(1'b0), .q(dl_pt0_add121));
     // pt0_vA_x = pt0_skip ? vA_x : pt0_add119   (ready @53/53/53)
     logic [W-1:0] pt0_vA_x;
     assign pt0_vA_x = dl_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_pt0_add119;
     logic [3*W-1:0] dl_pt0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vA_x (.clk(clk), .d(pt0_vA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_x));
     // pt0_vA_y = pt0_skip ? vA_y : pt0_add120   (ready @53/53/53)
     logic [W-1:0] pt0_vA_y;
     assign pt0_vA_y = dl_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_pt0_add120;
     logic [3*W-1:0] dl_pt0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vA_y (.clk(clk), .d(pt0_vA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_y));
     // pt0_vA_z = pt0_skip ? vA_z : pt0_add121   (ready @53/53/53)
     logic [W-1:0] pt0_vA_z;
     assign pt0_vA_z = dl_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_pt0_add121;
     logic [3*W-1:0] dl_pt0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vA_z (.clk(clk), .d(pt0_vA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_z));
     // pt0_mul125 = pt0_angA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul125;
@@ -1297,7 +1424,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[69] = fl_pt0_mul125[1] && ev_q[49];
     assign ev_inv[69] = fl_pt0_mul125[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul125;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul125 (.clk(clk), .d(pt0_mul125), .valid(1'b0), .q(dl_pt0_mul125));
     // pt0_mul126 = pt0_angA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul126;
@@ -1310,7 +1438,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[70] = fl_pt0_mul126[1] && ev_q[49];
     assign ev_inv[70] = fl_pt0_mul126[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul126;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul126 (.clk(clk), .d(pt0_mul126), .valid(1'b0), .q(dl_pt0_mul126));
     // pt0_mul127 = pt0_angA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul127;
@@ -1323,7 +1452,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[71] = fl_pt0_mul127[1] && ev_q[49];
     assign ev_inv[71] = fl_pt0_mul127[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul127;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul127 (.clk(clk), .d(pt0_mul127), .valid(1'b0), .q(dl_pt0_mul127));
     // pt0_add128 = wA_x + pt0_mul125   (ready @53/53/53)
     logic [W-1:0] pt0_add128;
@@ -1336,7 +1466,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[72] = fl_pt0_add128[1] && ev_q[53];
     assign ev_inv[72] = fl_pt0_add128[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add128;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add128 (.clk(clk), .d(pt0_add128), .valid(1'b0), .q(dl_pt0_add128));
     // pt0_add129 = wA_y + pt0_mul126   (ready @53/53/53)
     logic [W-1:0] pt0_add129;
@@ -1349,7 +1480,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[73] = fl_pt0_add129[1] && ev_q[53];
     assign ev_inv[73] = fl_pt0_add129[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add129;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add129 (.clk(clk), .d(pt0_add129), .valid(1'b0), .q(dl_pt0_add129));
     // pt0_add130 = wA_z + pt0_mul127   (ready @53/53/53)
     logic [W-1:0] pt0_add130;
@@ -1362,25 +1494,29 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[74] = fl_pt0_add130[1] && ev_q[53];
     assign ev_inv[74] = fl_pt0_add130[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add130;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add130 (.clk(clk), .d(pt0_add130), .valid(1'b0), .q(dl_pt0_add130));
     // pt0_wA_x = pt0_skip ? wA_x : pt0_add128   (ready @53/53/53)
     logic [W-1:0] pt0_wA_x;
     assign pt0_wA_x = dl_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_pt0_add128;
     logic [3*W-1:0] dl_pt0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wA_x (.clk(clk), .d(pt0_wA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_x));
     // pt0_wA_y = pt0_skip ? wA_y : pt0_add129   (ready @53/53/53)
     logic [W-1:0] pt0_wA_y;
     assign pt0_wA_y = dl_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_pt0_add129;
     logic [3*W-1:0] dl_pt0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wA_y (.clk(clk), .d(pt0_wA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_y));
     // pt0_wA_z = pt0_skip ? wA_z : pt0_add130   (ready @53/53/53)
     logic [W-1:0] pt0_wA_z;
     assign pt0_wA_z = dl_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_pt0_add130;
     logic [3*W-1:0] dl_pt0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wA_z (.clk(clk), .d(pt0_wA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_z));
     // pt0_mul134 = linB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul134;
@@ -1393,7 +1529,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[75] = fl_pt0_mul134[1] && ev_q[49];
     assign ev_inv[75] = fl_pt0_mul134[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul134;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul134 (.clk(clk), .d(pt0_mul134), .valid(1'b0), .q(dl_pt0_mul134));
     // pt0_mul135 = linB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul135;
@@ -1406,7 +1543,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[76] = fl_pt0_mul135[1] && ev_q[49];
     assign ev_inv[76] = fl_pt0_mul135[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul135;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul135 (.clk(clk), .d(pt0_mul135), .valid(1'b0), .q(dl_pt0_mul135));
     // pt0_mul136 = linB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul136;
@@ -1419,7 +1557,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[77] = fl_pt0_mul136[1] && ev_q[49];
     assign ev_inv[77] = fl_pt0_mul136[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul136;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul136 (.clk(clk), .d(pt0_mul136), .valid(1'b0), .q(dl_pt0_mul136));
     // pt0_sub137 = vB_x - pt0_mul134   (ready @53/53/53)
     logic [W-1:0] pt0_sub137;
@@ -1432,7 +1571,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[78] = fl_pt0_sub137[1] && ev_q[53];
     assign ev_inv[78] = fl_pt0_sub137[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub137;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub137 (.clk(clk), .d(pt0_sub137), .valid(1'b0), .q(dl_pt0_sub137));
     // pt0_sub138 = vB_y - pt0_mul135   (ready @53/53/53)
     logic [W-1:0] pt0_sub138;
@@ -1445,7 +1585,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[79] = fl_pt0_sub138[1] && ev_q[53];
     assign ev_inv[79] = fl_pt0_sub138[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub138;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub138 (.clk(clk), .d(pt0_sub138), .valid(1'b0), .q(dl_pt0_sub138));
     // pt0_sub139 = vB_z - pt0_mul136   (ready @53/53/53)
     logic [W-1:0] pt0_sub139;
@@ -1458,25 +1599,29 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[80] = fl_pt0_sub139[1] && ev_q[53];
     assign ev_inv[80] = fl_pt0_sub139[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub139;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub139 (.clk(clk), .d(pt0_sub139), .valid(1'b0), .q(dl_pt0_sub139));
     // pt0_vB_x = pt0_skip ? vB_x : pt0_sub137   (ready @53/53/53)
     logic [W-1:0] pt0_vB_x;
     assign pt0_vB_x = dl_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_pt0_sub137;
     logic [3*W-1:0] dl_pt0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vB_x (.clk(clk), .d(pt0_vB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_x));
     // pt0_vB_y = pt0_skip ? vB_y : pt0_sub138   (ready @53/53/53)
     logic [W-1:0] pt0_vB_y;
     assign pt0_vB_y = dl_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_pt0_sub138;
     logic [3*W-1:0] dl_pt0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vB_y (.clk(clk), .d(pt0_vB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_y));
     // pt0_vB_z = pt0_skip ? vB_z : pt0_sub139   (ready @53/53/53)
     logic [W-1:0] pt0_vB_z;
     assign pt0_vB_z = dl_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_pt0_sub139;
     logic [3*W-1:0] dl_pt0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vB_z (.clk(clk), .d(pt0_vB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_z));
     // pt0_mul143 = pt0_angB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul143;
@@ -1489,7 +1634,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[81] = fl_pt0_mul143[1] && ev_q[49];
     assign ev_inv[81] = fl_pt0_mul143[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul143;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul143 (.clk(clk), .d(pt0_mul143), .valid(1'b0), .q(dl_pt0_mul143));
     // pt0_mul144 = pt0_angB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul144;
@@ -1502,7 +1648,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[82] = fl_pt0_mul144[1] && ev_q[49];
     assign ev_inv[82] = fl_pt0_mul144[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul144;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul144 (.clk(clk), .d(pt0_mul144), .valid(1'b0), .q(dl_pt0_mul144));
     // pt0_mul145 = pt0_angB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul145;
@@ -1515,7 +1662,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[83] = fl_pt0_mul145[1] && ev_q[49];
     assign ev_inv[83] = fl_pt0_mul145[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul145;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul145 (.clk(clk), .d(pt0_mul145), .valid(1'b0), .q(dl_pt0_mul145));
     // pt0_sub146 = wB_x - pt0_mul143   (ready @53/53/53)
     logic [W-1:0] pt0_sub146;
@@ -1528,7 +1676,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[84] = fl_pt0_sub146[1] && ev_q[53];
     assign ev_inv[84] = fl_pt0_sub146[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub146;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub146 (.clk(clk), .d(pt0_sub146), .valid(1'b0), .q(dl_pt0_sub146));
     // pt0_sub147 = wB_y - pt0_mul144   (ready @53/53/53)
     logic [W-1:0] pt0_sub147;
@@ -1541,7 +1690,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[85] = fl_pt0_sub147[1] && ev_q[53];
     assign ev_inv[85] = fl_pt0_sub147[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub147;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub147 (.clk(clk), .d(pt0_sub147), .valid(1'b0), .q(dl_pt0_sub147));
     // pt0_sub148 = wB_z - pt0_mul145   (ready @53/53/53)
     logic [W-1:0] pt0_sub148;
@@ -1554,31 +1704,36 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[86] = fl_pt0_sub148[1] && ev_q[53];
     assign ev_inv[86] = fl_pt0_sub148[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub148;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub148 (.clk(clk), .d(pt0_sub148), .valid(1'b0), .q(dl_pt0_sub148));
     // pt0_wB_x = pt0_skip ? wB_x : pt0_sub146   (ready @53/53/53)
     logic [W-1:0] pt0_wB_x;
     assign pt0_wB_x = dl_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_pt0_sub146;
     logic [3*W-1:0] dl_pt0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wB_x (.clk(clk), .d(pt0_wB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_x));
     // pt0_wB_y = pt0_skip ? wB_y : pt0_sub147   (ready @53/53/53)
     logic [W-1:0] pt0_wB_y;
     assign pt0_wB_y = dl_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_pt0_sub147;
     logic [3*W-1:0] dl_pt0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wB_y (.clk(clk), .d(pt0_wB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_y));
     // pt0_wB_z = pt0_skip ? wB_z : pt0_sub148   (ready @53/53/53)
     logic [W-1:0] pt0_wB_z;
     assign pt0_wB_z = dl_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_pt0_sub148;
     logic [3*W-1:0] dl_pt0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wB_z (.clk(clk), .d(pt0_wB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_z));
     // pt1_skip = jac_inv1 == 0   (ready @0/0/0)
     logic pt1_skip;
     assign pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt1_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_skip (.clk(clk), .d(pt1_skip), .valid(valid_q[0 +: 95]), .q(dl_pt1_skip));
     // pt1_rA_x = p1_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt1_rA_x;
@@ -1591,7 +1746,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[87] = fl_pt1_rA_x[1] && ev_q[4];
     assign ev_inv[87] = fl_pt1_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rA_x (.clk(clk), .d(pt1_rA_x), .valid(1'b0), .q(dl_pt1_rA_x));
     // pt1_rA_y = p1_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt1_rA_y;
@@ -1604,7 +1760,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[88] = fl_pt1_rA_y[1] && ev_q[4];
     assign ev_inv[88] = fl_pt1_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rA_y (.clk(clk), .d(pt1_rA_y), .valid(1'b0), .q(dl_pt1_rA_y));
     // pt1_rA_z = p1_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt1_rA_z;
@@ -1617,7 +1774,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[89] = fl_pt1_rA_z[1] && ev_q[4];
     assign ev_inv[89] = fl_pt1_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rA_z (.clk(clk), .d(pt1_rA_z), .valid(1'b0), .q(dl_pt1_rA_z));
     // pt1_mul156 = pt1_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul156;
@@ -1630,7 +1788,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[90] = fl_pt1_mul156[1] && ev_q[7];
     assign ev_inv[90] = fl_pt1_mul156[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul156;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul156 (.clk(clk), .d(pt1_mul156), .valid(1'b0), .q(dl_pt1_mul156));
     // pt1_mul157 = pt1_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul157;
@@ -1643,7 +1802,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[91] = fl_pt1_mul157[1] && ev_q[7];
     assign ev_inv[91] = fl_pt1_mul157[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul157;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul157 (.clk(clk), .d(pt1_mul157), .valid(1'b0), .q(dl_pt1_mul157));
     // pt1_cA_x = pt1_mul156 - pt1_mul157   (ready @11/11/11)
     logic [W-1:0] pt1_cA_x;
@@ -1656,7 +1816,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[92] = fl_pt1_cA_x[1] && ev_q[11];
     assign ev_inv[92] = fl_pt1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cA_x (.clk(clk), .d(pt1_cA_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_x));
     // pt1_mul159 = pt1_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul159;
@@ -1669,7 +1830,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[93] = fl_pt1_mul159[1] && ev_q[7];
     assign ev_inv[93] = fl_pt1_mul159[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul159;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul159 (.clk(clk), .d(pt1_mul159), .valid(1'b0), .q(dl_pt1_mul159));
     // pt1_mul160 = pt1_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul160;
@@ -1682,7 +1844,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[94] = fl_pt1_mul160[1] && ev_q[7];
     assign ev_inv[94] = fl_pt1_mul160[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul160;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul160 (.clk(clk), .d(pt1_mul160), .valid(1'b0), .q(dl_pt1_mul160));
     // pt1_cA_y = pt1_mul159 - pt1_mul160   (ready @11/11/11)
     logic [W-1:0] pt1_cA_y;
@@ -1695,7 +1858,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[95] = fl_pt1_cA_y[1] && ev_q[11];
     assign ev_inv[95] = fl_pt1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cA_y (.clk(clk), .d(pt1_cA_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_y));
     // pt1_mul162 = pt1_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul162;
@@ -1708,7 +1872,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[96] = fl_pt1_mul162[1] && ev_q[7];
     assign ev_inv[96] = fl_pt1_mul162[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul162;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul162 (.clk(clk), .d(pt1_mul162), .valid(1'b0), .q(dl_pt1_mul162));
     // pt1_mul163 = pt1_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul163;
@@ -1721,7 +1886,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[97] = fl_pt1_mul163[1] && ev_q[7];
     assign ev_inv[97] = fl_pt1_mul163[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul163;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul163 (.clk(clk), .d(pt1_mul163), .valid(1'b0), .q(dl_pt1_mul163));
     // pt1_cA_z = pt1_mul162 - pt1_mul163   (ready @11/11/11)
     logic [W-1:0] pt1_cA_z;
@@ -1734,7 +1900,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[98] = fl_pt1_cA_z[1] && ev_q[11];
     assign ev_inv[98] = fl_pt1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cA_z (.clk(clk), .d(pt1_cA_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_z));
     // pt1_rB_x = p1_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt1_rB_x;
@@ -1747,7 +1914,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[99] = fl_pt1_rB_x[1] && ev_q[4];
     assign ev_inv[99] = fl_pt1_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rB_x (.clk(clk), .d(pt1_rB_x), .valid(1'b0), .q(dl_pt1_rB_x));
     // pt1_rB_y = p1_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt1_rB_y;
@@ -1760,7 +1928,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[100] = fl_pt1_rB_y[1] && ev_q[4];
     assign ev_inv[100] = fl_pt1_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rB_y (.clk(clk), .d(pt1_rB_y), .valid(1'b0), .q(dl_pt1_rB_y));
     // pt1_rB_z = p1_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt1_rB_z;
@@ -1773,7 +1942,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[101] = fl_pt1_rB_z[1] && ev_q[4];
     assign ev_inv[101] = fl_pt1_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rB_z (.clk(clk), .d(pt1_rB_z), .valid(1'b0), .q(dl_pt1_rB_z));
     // pt1_mul168 = pt1_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul168;
@@ -1786,7 +1956,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[102] = fl_pt1_mul168[1] && ev_q[7];
     assign ev_inv[102] = fl_pt1_mul168[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul168;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul168 (.clk(clk), .d(pt1_mul168), .valid(1'b0), .q(dl_pt1_mul168));
     // pt1_mul169 = pt1_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul169;
@@ -1799,7 +1970,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[103] = fl_pt1_mul169[1] && ev_q[7];
     assign ev_inv[103] = fl_pt1_mul169[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul169;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul169 (.clk(clk), .d(pt1_mul169), .valid(1'b0), .q(dl_pt1_mul169));
     // pt1_cB_x = pt1_mul168 - pt1_mul169   (ready @11/11/11)
     logic [W-1:0] pt1_cB_x;
@@ -1812,7 +1984,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[104] = fl_pt1_cB_x[1] && ev_q[11];
     assign ev_inv[104] = fl_pt1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cB_x (.clk(clk), .d(pt1_cB_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_x));
     // pt1_mul171 = pt1_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul171;
@@ -1825,7 +1998,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[105] = fl_pt1_mul171[1] && ev_q[7];
     assign ev_inv[105] = fl_pt1_mul171[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul171;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul171 (.clk(clk), .d(pt1_mul171), .valid(1'b0), .q(dl_pt1_mul171));
     // pt1_mul172 = pt1_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul172;
@@ -1838,7 +2012,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[106] = fl_pt1_mul172[1] && ev_q[7];
     assign ev_inv[106] = fl_pt1_mul172[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul172;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul172 (.clk(clk), .d(pt1_mul172), .valid(1'b0), .q(dl_pt1_mul172));
     // pt1_cB_y = pt1_mul171 - pt1_mul172   (ready @11/11/11)
     logic [W-1:0] pt1_cB_y;
@@ -1851,7 +2026,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[107] = fl_pt1_cB_y[1] && ev_q[11];
     assign ev_inv[107] = fl_pt1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cB_y (.clk(clk), .d(pt1_cB_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_y));
     // pt1_mul174 = pt1_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul174;
@@ -1864,7 +2040,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[108] = fl_pt1_mul174[1] && ev_q[7];
     assign ev_inv[108] = fl_pt1_mul174[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul174;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul174 (.clk(clk), .d(pt1_mul174), .valid(1'b0), .q(dl_pt1_mul174));
     // pt1_mul175 = pt1_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul175;
@@ -1877,7 +2054,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[109] = fl_pt1_mul175[1] && ev_q[7];
     assign ev_inv[109] = fl_pt1_mul175[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul175;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul175 (.clk(clk), .d(pt1_mul175), .valid(1'b0), .q(dl_pt1_mul175));
     // pt1_cB_z = pt1_mul174 - pt1_mul175   (ready @11/11/11)
     logic [W-1:0] pt1_cB_z;
@@ -1890,7 +2068,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[110] = fl_pt1_cB_z[1] && ev_q[11];
     assign ev_inv[110] = fl_pt1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cB_z (.clk(clk), .d(pt1_cB_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_z));
     // pt1_mul177 = n_x * pt0_vA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul177;
@@ -1903,7 +2082,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[111] = fl_pt1_mul177[1] && ev_q[56];
     assign ev_inv[111] = fl_pt1_mul177[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul177;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul177 (.clk(clk), .d(pt1_mul177), .valid(1'b0), .q(dl_pt1_mul177));
     // pt1_mul178 = n_y * pt0_vA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul178;
@@ -1916,7 +2096,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[112] = fl_pt1_mul178[1] && ev_q[56];
     assign ev_inv[112] = fl_pt1_mul178[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul178;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul178 (.clk(clk), .d(pt1_mul178), .valid(1'b0), .q(dl_pt1_mul178));
     // pt1_add179 = pt1_mul177 + pt1_mul178   (ready @60/60/60)
     logic [W-1:0] pt1_add179;
@@ -1929,7 +2110,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[113] = fl_pt1_add179[1] && ev_q[60];
     assign ev_inv[113] = fl_pt1_add179[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add179;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add179 (.clk(clk), .d(pt1_add179), .valid(1'b0), .q(dl_pt1_add179));
     // pt1_mul180 = n_z * pt0_vA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul180;
@@ -1942,7 +2124,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[114] = fl_pt1_mul180[1] && ev_q[56];
     assign ev_inv[114] = fl_pt1_mul180[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul180;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul180 (.clk(clk), .d(pt1_mul180), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul180));
     // pt1_add181 = pt1_add179 + pt1_mul180   (ready @64/64/64)
     logic [W-1:0] pt1_add181;
@@ -1955,7 +2138,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[115] = fl_pt1_add181[1] && ev_q[64];
     assign ev_inv[115] = fl_pt1_add181[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add181;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add181 (.clk(clk), .d(pt1_add181), .valid(1'b0), .q(dl_pt1_add181));
     // pt1_mul182 = n_x * pt0_vB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul182;
@@ -1968,7 +2152,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[116] = fl_pt1_mul182[1] && ev_q[56];
     assign ev_inv[116] = fl_pt1_mul182[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul182;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul182 (.clk(clk), .d(pt1_mul182), .valid(1'b0), .q(dl_pt1_mul182));
     // pt1_mul183 = n_y * pt0_vB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul183;
@@ -1981,7 +2166,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[117] = fl_pt1_mul183[1] && ev_q[56];
     assign ev_inv[117] = fl_pt1_mul183[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul183;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul183 (.clk(clk), .d(pt1_mul183), .valid(1'b0), .q(dl_pt1_mul183));
     // pt1_add184 = pt1_mul182 + pt1_mul183   (ready @60/60/60)
     logic [W-1:0] pt1_add184;
@@ -1994,7 +2180,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[118] = fl_pt1_add184[1] && ev_q[60];
     assign ev_inv[118] = fl_pt1_add184[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add184;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add184 (.clk(clk), .d(pt1_add184), .valid(1'b0), .q(dl_pt1_add184));
     // pt1_mul185 = n_z * pt0_vB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul185;
@@ -2007,7 +2194,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[119] = fl_pt1_mul185[1] && ev_q[56];
     assign ev_inv[119] = fl_pt1_mul185[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul185;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul185 (.clk(clk), .d(pt1_mul185), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul185));
     // pt1_add186 = pt1_add184 + pt1_mul185   (ready @64/64/64)
     logic [W-1:0] pt1_add186;
@@ -2020,7 +2208,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[120] = fl_pt1_add186[1] && ev_q[64];
     assign ev_inv[120] = fl_pt1_add186[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add186;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add186 (.clk(clk), .d(pt1_add186), .valid(1'b0), .q(dl_pt1_add186));
     // pt1_sub187 = pt1_add181 - pt1_add186   (ready @68/68/68)
     logic [W-1:0] pt1_sub187;
@@ -2033,7 +2222,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[121] = fl_pt1_sub187[1] && ev_q[68];
     assign ev_inv[121] = fl_pt1_sub187[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub187;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub187 (.clk(clk), .d(pt1_sub187), .valid(1'b0), .q(dl_pt1_sub187));
     // pt1_mul188 = pt1_cA_x * pt0_wA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul188;
@@ -2046,7 +2236,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[122] = fl_pt1_mul188[1] && ev_q[56];
     assign ev_inv[122] = fl_pt1_mul188[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul188;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul188 (.clk(clk), .d(pt1_mul188), .valid(1'b0), .q(dl_pt1_mul188));
     // pt1_mul189 = pt1_cA_y * pt0_wA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul189;
@@ -2059,7 +2250,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[123] = fl_pt1_mul189[1] && ev_q[56];
     assign ev_inv[123] = fl_pt1_mul189[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul189;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul189 (.clk(clk), .d(pt1_mul189), .valid(1'b0), .q(dl_pt1_mul189));
     // pt1_add190 = pt1_mul188 + pt1_mul189   (ready @60/60/60)
     logic [W-1:0] pt1_add190;
@@ -2072,7 +2264,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[124] = fl_pt1_add190[1] && ev_q[60];
     assign ev_inv[124] = fl_pt1_add190[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add190;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add190 (.clk(clk), .d(pt1_add190), .valid(1'b0), .q(dl_pt1_add190));
     // pt1_mul191 = pt1_cA_z * pt0_wA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul191;
@@ -2085,7 +2278,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[125] = fl_pt1_mul191[1] && ev_q[56];
     assign ev_inv[125] = fl_pt1_mul191[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul191;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul191 (.clk(clk), .d(pt1_mul191), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul191));
     // pt1_add192 = pt1_add190 + pt1_mul191   (ready @64/64/64)
     logic [W-1:0] pt1_add192;
@@ -2098,7 +2292,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[126] = fl_pt1_add192[1] && ev_q[64];
     assign ev_inv[126] = fl_pt1_add192[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add192;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add192 (.clk(clk), .d(pt1_add192), .valid(1'b0), .q(dl_pt1_add192));
     // pt1_mul193 = pt1_cB_x * pt0_wB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul193;
@@ -2111,7 +2306,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[127] = fl_pt1_mul193[1] && ev_q[56];
     assign ev_inv[127] = fl_pt1_mul193[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul193;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul193 (.clk(clk), .d(pt1_mul193), .valid(1'b0), .q(dl_pt1_mul193));
     // pt1_mul194 = pt1_cB_y * pt0_wB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul194;
@@ -2124,7 +2320,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[128] = fl_pt1_mul194[1] && ev_q[56];
     assign ev_inv[128] = fl_pt1_mul194[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul194;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul194 (.clk(clk), .d(pt1_mul194), .valid(1'b0), .q(dl_pt1_mul194));
     // pt1_add195 = pt1_mul193 + pt1_mul194   (ready @60/60/60)
     logic [W-1:0] pt1_add195;
@@ -2137,7 +2334,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[129] = fl_pt1_add195[1] && ev_q[60];
     assign ev_inv[129] = fl_pt1_add195[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add195;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add195 (.clk(clk), .d(pt1_add195), .valid(1'b0), .q(dl_pt1_add195));
     // pt1_mul196 = pt1_cB_z * pt0_wB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul196;
@@ -2150,7 +2348,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[130] = fl_pt1_mul196[1] && ev_q[56];
     assign ev_inv[130] = fl_pt1_mul196[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul196;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul196 (.clk(clk), .d(pt1_mul196), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul196));
     // pt1_add197 = pt1_add195 + pt1_mul196   (ready @64/64/64)
     logic [W-1:0] pt1_add197;
@@ -2163,7 +2362,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[131] = fl_pt1_add197[1] && ev_q[64];
     assign ev_inv[131] = fl_pt1_add197[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add197;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add197 (.clk(clk), .d(pt1_add197), .valid(1'b0), .q(dl_pt1_add197));
     // pt1_sub198 = pt1_add192 - pt1_add197   (ready @68/68/68)
     logic [W-1:0] pt1_sub198;
@@ -2176,7 +2376,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[132] = fl_pt1_sub198[1] && ev_q[68];
     assign ev_inv[132] = fl_pt1_sub198[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub198;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub198 (.clk(clk), .d(pt1_sub198), .valid(1'b0), .q(dl_pt1_sub198));
     // pt1_vrel = pt1_sub187 + pt1_sub198   (ready @72/72/72)
     logic [W-1:0] pt1_vrel;
@@ -2189,7 +2390,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[133] = fl_pt1_vrel[1] && ev_q[72];
     assign ev_inv[133] = fl_pt1_vrel[2] && ev_q[72];
     logic [W-1:0] dl_pt1_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vrel (.clk(clk), .d(pt1_vrel), .valid(1'b0), .q(dl_pt1_vrel));
     // pt1_add200 = pt1_vrel + b1   (ready @76/76/76)
     logic [W-1:0] pt1_add200;
@@ -2202,7 +2404,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[134] = fl_pt1_add200[1] && ev_q[76];
     assign ev_inv[134] = fl_pt1_add200[2] && ev_q[76];
     logic [W-1:0] dl_pt1_add200;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add200 (.clk(clk), .d(pt1_add200), .valid(1'b0), .q(dl_pt1_add200));
     // pt1_delta0 = pt1_add200 * jac_inv1   (ready @79/79/79)
     logic [W-1:0] pt1_delta0;
@@ -2215,7 +2418,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[135] = fl_pt1_delta0[1] && ev_q[79];
     assign ev_inv[135] = fl_pt1_delta0[2] && ev_q[79];
     logic [W-1:0] dl_pt1_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_delta0 (.clk(clk), .d(pt1_delta0), .valid(1'b0), .q(dl_pt1_delta0));
     // pt1_add202 = lam1 + pt1_delta0   (ready @83/83/83)
     logic [W-1:0] pt1_add202;
@@ -2228,7 +2432,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[136] = fl_pt1_add202[1] && ev_q[83];
     assign ev_inv[136] = fl_pt1_add202[2] && ev_q[83];
     logic [W-1:0] dl_pt1_add202;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add202 (.clk(clk), .d(pt1_add202), .valid(1'b0), .q(dl_pt1_add202));
     // pt1_lam_new = max(pt1_add202, 0.0)   (ready @84/84/84)
     logic [W-1:0] pt1_lam_new;
@@ -2238,7 +2443,8 @@ module pgs_contact_pipe_scalar #(
         .lt(nc_pt1_lam_new_lt), .eq(nc_pt1_lam_new_eq), .unordered(nc_pt1_lam_new_uo)
     );
     logic [W-1:0] dl_pt1_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_lam_new (.clk(clk), .d(pt1_lam_new), .valid(1'b0), .q(dl_pt1_lam_new));
     // pt1_delta = pt1_lam_new - lam1   (ready @88/88/88)
     logic [W-1:0] pt1_delta;
@@ -2251,13 +2457,15 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[137] = fl_pt1_delta[1] && ev_q[88];
     assign ev_inv[137] = fl_pt1_delta[2] && ev_q[88];
     logic [W-1:0] dl_pt1_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_delta (.clk(clk), .d(pt1_delta), .valid(1'b0), .q(dl_pt1_delta));
     // pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (ready @84/84/84)
     logic [W-1:0] pt1_lam;
     assign pt1_lam = dl_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_pt1_lam_new;
     logic [W-1:0] dl_pt1_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(95))
+    pgs_delay #(.WIDTH(W), .DEPTH(95),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_lam (.clk(clk), .d(pt1_lam), .valid(valid_q[84 +: 95]), .q(dl_pt1_lam));
     // pt1_angA_x = IInvA_s * pt1_cA_x   (ready @14/14/14)
     logic [W-1:0] pt1_angA_x;
@@ -2270,7 +2478,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[138] = fl_pt1_angA_x[1] && ev_q[14];
     assign ev_inv[138] = fl_pt1_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angA_x (.clk(clk), .d(pt1_angA_x), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_x));
     // pt1_angA_y = IInvA_s * pt1_cA_y   (ready @14/14/14)
     logic [W-1:0] pt1_angA_y;
@@ -2283,7 +2492,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[139] = fl_pt1_angA_y[1] && ev_q[14];
     assign ev_inv[139] = fl_pt1_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angA_y (.clk(clk), .d(pt1_angA_y), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_y));
     // pt1_angA_z = IInvA_s * pt1_cA_z   (ready @14/14/14)
     logic [W-1:0] pt1_angA_z;
@@ -2296,7 +2506,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[140] = fl_pt1_angA_z[1] && ev_q[14];
     assign ev_inv[140] = fl_pt1_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angA_z (.clk(clk), .d(pt1_angA_z), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_z));
     // pt1_angB_x = IInvB_s * pt1_cB_x   (ready @14/14/14)
     logic [W-1:0] pt1_angB_x;
@@ -2309,7 +2520,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[141] = fl_pt1_angB_x[1] && ev_q[14];
     assign ev_inv[141] = fl_pt1_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angB_x (.clk(clk), .d(pt1_angB_x), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_x));
     // pt1_angB_y = IInvB_s * pt1_cB_y   (ready @14/14/14)
     logic [W-1:0] pt1_angB_y;
@@ -2322,7 +2534,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[142] = fl_pt1_angB_y[1] && ev_q[14];
     assign ev_inv[142] = fl_pt1_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angB_y (.clk(clk), .d(pt1_angB_y), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_y));
     // pt1_angB_z = IInvB_s * pt1_cB_z   (ready @14/14/14)
     logic [W-1:0] pt1_angB_z;
@@ -2335,7 +2548,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[143] = fl_pt1_angB_z[1] && ev_q[14];
     assign ev_inv[143] = fl_pt1_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angB_z (.clk(clk), .d(pt1_angB_z), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_z));
     // pt1_mul212 = linA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul212;
@@ -2348,7 +2562,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[144] = fl_pt1_mul212[1] && ev_q[91];
     assign ev_inv[144] = fl_pt1_mul212[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul212;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul212 (.clk(clk), .d(pt1_mul212), .valid(1'b0), .q(dl_pt1_mul212));
     // pt1_mul213 = linA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul213;
@@ -2361,7 +2576,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[145] = fl_pt1_mul213[1] && ev_q[91];
     assign ev_inv[145] = fl_pt1_mul213[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul213;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul213 (.clk(clk), .d(pt1_mul213), .valid(1'b0), .q(dl_pt1_mul213));
     // pt1_mul214 = linA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul214;
@@ -2374,7 +2590,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[146] = fl_pt1_mul214[1] && ev_q[91];
     assign ev_inv[146] = fl_pt1_mul214[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul214;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul214 (.clk(clk), .d(pt1_mul214), .valid(1'b0), .q(dl_pt1_mul214));
     // pt1_add215 = pt0_vA_x + pt1_mul212   (ready @95/95/95)
     logic [W-1:0] pt1_add215;
@@ -2387,7 +2604,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[147] = fl_pt1_add215[1] && ev_q[95];
     assign ev_inv[147] = fl_pt1_add215[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add215;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add215 (.clk(clk), .d(pt1_add215), .valid(1'b0), .q(dl_pt1_add215));
     // pt1_add216 = pt0_vA_y + pt1_mul213   (ready @95/95/95)
     logic [W-1:0] pt1_add216;
@@ -2400,7 +2618,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[148] = fl_pt1_add216[1] && ev_q[95];
     assign ev_inv[148] = fl_pt1_add216[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add216;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add216 (.clk(clk), .d(pt1_add216), .valid(1'b0), .q(dl_pt1_add216));
     // pt1_add217 = pt0_vA_z + pt1_mul214   (ready @95/95/95)
     logic [W-1:0] pt1_add217;
@@ -2413,25 +2632,29 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[149] = fl_pt1_add217[1] && ev_q[95];
     assign ev_inv[149] = fl_pt1_add217[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add217;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add217 (.clk(clk), .d(pt1_add217), .valid(1'b0), .q(dl_pt1_add217));
     // pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add215   (ready @95/95/95)
     logic [W-1:0] pt1_vA_x;
     assign pt1_vA_x = dl_pt1_skip[1] ? dl_pt0_vA_x[2*W +: W] : dl_pt1_add215;
     logic [3*W-1:0] dl_pt1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vA_x (.clk(clk), .d(pt1_vA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_x));
     // pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add216   (ready @95/95/95)
     logic [W-1:0] pt1_vA_y;
     assign pt1_vA_y = dl_pt1_skip[1] ? dl_pt0_vA_y[2*W +: W] : dl_pt1_add216;
     logic [3*W-1:0] dl_pt1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vA_y (.clk(clk), .d(pt1_vA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_y));
     // pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add217   (ready @95/95/95)
     logic [W-1:0] pt1_vA_z;
     assign pt1_vA_z = dl_pt1_skip[1] ? dl_pt0_vA_z[2*W +: W] : dl_pt1_add217;
     logic [3*W-1:0] dl_pt1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vA_z (.clk(clk), .d(pt1_vA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_z));
     // pt1_mul221 = pt1_angA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul221;
@@ -2444,7 +2667,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[150] = fl_pt1_mul221[1] && ev_q[91];
     assign ev_inv[150] = fl_pt1_mul221[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul221;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul221 (.clk(clk), .d(pt1_mul221), .valid(1'b0), .q(dl_pt1_mul221));
     // pt1_mul222 = pt1_angA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul222;
@@ -2457,7 +2681,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[151] = fl_pt1_mul222[1] && ev_q[91];
     assign ev_inv[151] = fl_pt1_mul222[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul222;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul222 (.clk(clk), .d(pt1_mul222), .valid(1'b0), .q(dl_pt1_mul222));
     // pt1_mul223 = pt1_angA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul223;
@@ -2470,7 +2695,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[152] = fl_pt1_mul223[1] && ev_q[91];
     assign ev_inv[152] = fl_pt1_mul223[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul223;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul223 (.clk(clk), .d(pt1_mul223), .valid(1'b0), .q(dl_pt1_mul223));
     // pt1_add224 = pt0_wA_x + pt1_mul221   (ready @95/95/95)
     logic [W-1:0] pt1_add224;
@@ -2483,7 +2709,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[153] = fl_pt1_add224[1] && ev_q[95];
     assign ev_inv[153] = fl_pt1_add224[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add224;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add224 (.clk(clk), .d(pt1_add224), .valid(1'b0), .q(dl_pt1_add224));
     // pt1_add225 = pt0_wA_y + pt1_mul222   (ready @95/95/95)
     logic [W-1:0] pt1_add225;
@@ -2496,7 +2723,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[154] = fl_pt1_add225[1] && ev_q[95];
     assign ev_inv[154] = fl_pt1_add225[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add225;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add225 (.clk(clk), .d(pt1_add225), .valid(1'b0), .q(dl_pt1_add225));
     // pt1_add226 = pt0_wA_z + pt1_mul223   (ready @95/95/95)
     logic [W-1:0] pt1_add226;
@@ -2509,25 +2737,29 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[155] = fl_pt1_add226[1] && ev_q[95];
     assign ev_inv[155] = fl_pt1_add226[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add226;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add226 (.clk(clk), .d(pt1_add226), .valid(1'b0), .q(dl_pt1_add226));
     // pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add224   (ready @95/95/95)
     logic [W-1:0] pt1_wA_x;
     assign pt1_wA_x = dl_pt1_skip[1] ? dl_pt0_wA_x[2*W +: W] : dl_pt1_add224;
     logic [3*W-1:0] dl_pt1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wA_x (.clk(clk), .d(pt1_wA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_x));
     // pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add225   (ready @95/95/95)
     logic [W-1:0] pt1_wA_y;
     assign pt1_wA_y = dl_pt1_skip[1] ? dl_pt0_wA_y[2*W +: W] : dl_pt1_add225;
     logic [3*W-1:0] dl_pt1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wA_y (.clk(clk), .d(pt1_wA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_y));
     // pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add226   (ready @95/95/95)
     logic [W-1:0] pt1_wA_z;
     assign pt1_wA_z = dl_pt1_skip[1] ? dl_pt0_wA_z[2*W +: W] : dl_pt1_add226;
     logic [3*W-1:0] dl_pt1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wA_z (.clk(clk), .d(pt1_wA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_z));
     // pt1_mul230 = linB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul230;
@@ -2540,7 +2772,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[156] = fl_pt1_mul230[1] && ev_q[91];
     assign ev_inv[156] = fl_pt1_mul230[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul230;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul230 (.clk(clk), .d(pt1_mul230), .valid(1'b0), .q(dl_pt1_mul230));
     // pt1_mul231 = linB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul231;
@@ -2553,7 +2786,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[157] = fl_pt1_mul231[1] && ev_q[91];
     assign ev_inv[157] = fl_pt1_mul231[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul231;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul231 (.clk(clk), .d(pt1_mul231), .valid(1'b0), .q(dl_pt1_mul231));
     // pt1_mul232 = linB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul232;
@@ -2566,7 +2800,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[158] = fl_pt1_mul232[1] && ev_q[91];
     assign ev_inv[158] = fl_pt1_mul232[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul232;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul232 (.clk(clk), .d(pt1_mul232), .valid(1'b0), .q(dl_pt1_mul232));
     // pt1_sub233 = pt0_vB_x - pt1_mul230   (ready @95/95/95)
     logic [W-1:0] pt1_sub233;
@@ -2579,7 +2814,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[159] = fl_pt1_sub233[1] && ev_q[95];
     assign ev_inv[159] = fl_pt1_sub233[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub233;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub233 (.clk(clk), .d(pt1_sub233), .valid(1'b0), .q(dl_pt1_sub233));
     // pt1_sub234 = pt0_vB_y - pt1_mul231   (ready @95/95/95)
     logic [W-1:0] pt1_sub234;
@@ -2592,7 +2828,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[160] = fl_pt1_sub234[1] && ev_q[95];
     assign ev_inv[160] = fl_pt1_sub234[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub234;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub234 (.clk(clk), .d(pt1_sub234), .valid(1'b0), .q(dl_pt1_sub234));
     // pt1_sub235 = pt0_vB_z - pt1_mul232   (ready @95/95/95)
     logic [W-1:0] pt1_sub235;
@@ -2605,25 +2842,29 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[161] = fl_pt1_sub235[1] && ev_q[95];
     assign ev_inv[161] = fl_pt1_sub235[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub235;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub235 (.clk(clk), .d(pt1_sub235), .valid(1'b0), .q(dl_pt1_sub235));
     // pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub233   (ready @95/95/95)
     logic [W-1:0] pt1_vB_x;
     assign pt1_vB_x = dl_pt1_skip[1] ? dl_pt0_vB_x[2*W +: W] : dl_pt1_sub233;
     logic [3*W-1:0] dl_pt1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vB_x (.clk(clk), .d(pt1_vB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_x));
     // pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub234   (ready @95/95/95)
     logic [W-1:0] pt1_vB_y;
     assign pt1_vB_y = dl_pt1_skip[1] ? dl_pt0_vB_y[2*W +: W] : dl_pt1_sub234;
     logic [3*W-1:0] dl_pt1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vB_y (.clk(clk), .d(pt1_vB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_y));
     // pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub235   (ready @95/95/95)
     logic [W-1:0] pt1_vB_z;
     assign pt1_vB_z = dl_pt1_skip[1] ? dl_pt0_vB_z[2*W +: W] : dl_pt1_sub235;
     logic [3*W-1:0] dl_pt1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vB_z (.clk(clk), .d(pt1_vB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_z));
     // pt1_mul239 = pt1_angB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul239;
@@ -2636,7 +2877,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[162] = fl_pt1_mul239[1] && ev_q[91];
     assign ev_inv[162] = fl_pt1_mul239[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul239;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul239 (.clk(clk), .d(pt1_mul239), .valid(1'b0), .q(dl_pt1_mul239));
     // pt1_mul240 = pt1_angB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul240;
@@ -2649,7 +2891,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[163] = fl_pt1_mul240[1] && ev_q[91];
     assign ev_inv[163] = fl_pt1_mul240[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul240;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul240 (.clk(clk), .d(pt1_mul240), .valid(1'b0), .q(dl_pt1_mul240));
     // pt1_mul241 = pt1_angB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul241;
@@ -2662,7 +2905,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[164] = fl_pt1_mul241[1] && ev_q[91];
     assign ev_inv[164] = fl_pt1_mul241[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul241;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul241 (.clk(clk), .d(pt1_mul241), .valid(1'b0), .q(dl_pt1_mul241));
     // pt1_sub242 = pt0_wB_x - pt1_mul239   (ready @95/95/95)
     logic [W-1:0] pt1_sub242;
@@ -2675,7 +2919,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[165] = fl_pt1_sub242[1] && ev_q[95];
     assign ev_inv[165] = fl_pt1_sub242[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub242;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub242 (.clk(clk), .d(pt1_sub242), .valid(1'b0), .q(dl_pt1_sub242));
     // pt1_sub243 = pt0_wB_y - pt1_mul240   (ready @95/95/95)
     logic [W-1:0] pt1_sub243;
@@ -2688,7 +2933,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[166] = fl_pt1_sub243[1] && ev_q[95];
     assign ev_inv[166] = fl_pt1_sub243[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub243;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub243 (.clk(clk), .d(pt1_sub243), .valid(1'b0), .q(dl_pt1_sub243));
     // pt1_sub244 = pt0_wB_z - pt1_mul241   (ready @95/95/95)
     logic [W-1:0] pt1_sub244;
@@ -2701,31 +2947,36 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[167] = fl_pt1_sub244[1] && ev_q[95];
     assign ev_inv[167] = fl_pt1_sub244[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub244;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub244 (.clk(clk), .d(pt1_sub244), .valid(1'b0), .q(dl_pt1_sub244));
     // pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub242   (ready @95/95/95)
     logic [W-1:0] pt1_wB_x;
     assign pt1_wB_x = dl_pt1_skip[1] ? dl_pt0_wB_x[2*W +: W] : dl_pt1_sub242;
     logic [3*W-1:0] dl_pt1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wB_x (.clk(clk), .d(pt1_wB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_x));
     // pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub243   (ready @95/95/95)
     logic [W-1:0] pt1_wB_y;
     assign pt1_wB_y = dl_pt1_skip[1] ? dl_pt0_wB_y[2*W +: W] : dl_pt1_sub243;
     logic [3*W-1:0] dl_pt1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wB_y (.clk(clk), .d(pt1_wB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_y));
     // pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub244   (ready @95/95/95)
     logic [W-1:0] pt1_wB_z;
     assign pt1_wB_z = dl_pt1_skip[1] ? dl_pt0_wB_z[2*W +: W] : dl_pt1_sub244;
     logic [3*W-1:0] dl_pt1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wB_z (.clk(clk), .d(pt1_wB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_z));
     // pt2_skip = jac_inv2 == 0   (ready @0/0/0)
     logic pt2_skip;
     assign pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt2_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_skip (.clk(clk), .d(pt2_skip), .valid(valid_q[0 +: 137]), .q(dl_pt2_skip));
     // pt2_rA_x = p2_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt2_rA_x;
@@ -2738,7 +2989,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[168] = fl_pt2_rA_x[1] && ev_q[4];
     assign ev_inv[168] = fl_pt2_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rA_x (.clk(clk), .d(pt2_rA_x), .valid(1'b0), .q(dl_pt2_rA_x));
     // pt2_rA_y = p2_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt2_rA_y;
@@ -2751,7 +3003,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[169] = fl_pt2_rA_y[1] && ev_q[4];
     assign ev_inv[169] = fl_pt2_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rA_y (.clk(clk), .d(pt2_rA_y), .valid(1'b0), .q(dl_pt2_rA_y));
     // pt2_rA_z = p2_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt2_rA_z;
@@ -2764,7 +3017,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[170] = fl_pt2_rA_z[1] && ev_q[4];
     assign ev_inv[170] = fl_pt2_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rA_z (.clk(clk), .d(pt2_rA_z), .valid(1'b0), .q(dl_pt2_rA_z));
     // pt2_mul252 = pt2_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul252;
@@ -2777,7 +3031,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[171] = fl_pt2_mul252[1] && ev_q[7];
     assign ev_inv[171] = fl_pt2_mul252[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul252;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul252 (.clk(clk), .d(pt2_mul252), .valid(1'b0), .q(dl_pt2_mul252));
     // pt2_mul253 = pt2_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul253;
@@ -2790,7 +3045,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[172] = fl_pt2_mul253[1] && ev_q[7];
     assign ev_inv[172] = fl_pt2_mul253[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul253;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul253 (.clk(clk), .d(pt2_mul253), .valid(1'b0), .q(dl_pt2_mul253));
     // pt2_cA_x = pt2_mul252 - pt2_mul253   (ready @11/11/11)
     logic [W-1:0] pt2_cA_x;
@@ -2803,7 +3059,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[173] = fl_pt2_cA_x[1] && ev_q[11];
     assign ev_inv[173] = fl_pt2_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cA_x (.clk(clk), .d(pt2_cA_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_x));
     // pt2_mul255 = pt2_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul255;
@@ -2816,7 +3073,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[174] = fl_pt2_mul255[1] && ev_q[7];
     assign ev_inv[174] = fl_pt2_mul255[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul255;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul255 (.clk(clk), .d(pt2_mul255), .valid(1'b0), .q(dl_pt2_mul255));
     // pt2_mul256 = pt2_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul256;
@@ -2829,7 +3087,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[175] = fl_pt2_mul256[1] && ev_q[7];
     assign ev_inv[175] = fl_pt2_mul256[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul256;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul256 (.clk(clk), .d(pt2_mul256), .valid(1'b0), .q(dl_pt2_mul256));
     // pt2_cA_y = pt2_mul255 - pt2_mul256   (ready @11/11/11)
     logic [W-1:0] pt2_cA_y;
@@ -2842,7 +3101,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[176] = fl_pt2_cA_y[1] && ev_q[11];
     assign ev_inv[176] = fl_pt2_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cA_y (.clk(clk), .d(pt2_cA_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_y));
     // pt2_mul258 = pt2_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul258;
@@ -2855,7 +3115,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[177] = fl_pt2_mul258[1] && ev_q[7];
     assign ev_inv[177] = fl_pt2_mul258[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul258;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul258 (.clk(clk), .d(pt2_mul258), .valid(1'b0), .q(dl_pt2_mul258));
     // pt2_mul259 = pt2_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul259;
@@ -2868,7 +3129,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[178] = fl_pt2_mul259[1] && ev_q[7];
     assign ev_inv[178] = fl_pt2_mul259[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul259;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul259 (.clk(clk), .d(pt2_mul259), .valid(1'b0), .q(dl_pt2_mul259));
     // pt2_cA_z = pt2_mul258 - pt2_mul259   (ready @11/11/11)
     logic [W-1:0] pt2_cA_z;
@@ -2881,7 +3143,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[179] = fl_pt2_cA_z[1] && ev_q[11];
     assign ev_inv[179] = fl_pt2_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cA_z (.clk(clk), .d(pt2_cA_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_z));
     // pt2_rB_x = p2_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt2_rB_x;
@@ -2894,7 +3157,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[180] = fl_pt2_rB_x[1] && ev_q[4];
     assign ev_inv[180] = fl_pt2_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rB_x (.clk(clk), .d(pt2_rB_x), .valid(1'b0), .q(dl_pt2_rB_x));
     // pt2_rB_y = p2_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt2_rB_y;
@@ -2907,7 +3171,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[181] = fl_pt2_rB_y[1] && ev_q[4];
     assign ev_inv[181] = fl_pt2_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rB_y (.clk(clk), .d(pt2_rB_y), .valid(1'b0), .q(dl_pt2_rB_y));
     // pt2_rB_z = p2_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt2_rB_z;
@@ -2920,7 +3185,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[182] = fl_pt2_rB_z[1] && ev_q[4];
     assign ev_inv[182] = fl_pt2_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rB_z (.clk(clk), .d(pt2_rB_z), .valid(1'b0), .q(dl_pt2_rB_z));
     // pt2_mul264 = pt2_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul264;
@@ -2933,7 +3199,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[183] = fl_pt2_mul264[1] && ev_q[7];
     assign ev_inv[183] = fl_pt2_mul264[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul264;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul264 (.clk(clk), .d(pt2_mul264), .valid(1'b0), .q(dl_pt2_mul264));
     // pt2_mul265 = pt2_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul265;
@@ -2946,7 +3213,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[184] = fl_pt2_mul265[1] && ev_q[7];
     assign ev_inv[184] = fl_pt2_mul265[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul265;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul265 (.clk(clk), .d(pt2_mul265), .valid(1'b0), .q(dl_pt2_mul265));
     // pt2_cB_x = pt2_mul264 - pt2_mul265   (ready @11/11/11)
     logic [W-1:0] pt2_cB_x;
@@ -2959,7 +3227,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[185] = fl_pt2_cB_x[1] && ev_q[11];
     assign ev_inv[185] = fl_pt2_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cB_x (.clk(clk), .d(pt2_cB_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_x));
     // pt2_mul267 = pt2_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul267;
@@ -2972,7 +3241,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[186] = fl_pt2_mul267[1] && ev_q[7];
     assign ev_inv[186] = fl_pt2_mul267[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul267;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul267 (.clk(clk), .d(pt2_mul267), .valid(1'b0), .q(dl_pt2_mul267));
     // pt2_mul268 = pt2_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul268;
@@ -2985,7 +3255,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[187] = fl_pt2_mul268[1] && ev_q[7];
     assign ev_inv[187] = fl_pt2_mul268[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul268;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul268 (.clk(clk), .d(pt2_mul268), .valid(1'b0), .q(dl_pt2_mul268));
     // pt2_cB_y = pt2_mul267 - pt2_mul268   (ready @11/11/11)
     logic [W-1:0] pt2_cB_y;
@@ -2998,7 +3269,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[188] = fl_pt2_cB_y[1] && ev_q[11];
     assign ev_inv[188] = fl_pt2_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cB_y (.clk(clk), .d(pt2_cB_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_y));
     // pt2_mul270 = pt2_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul270;
@@ -3011,7 +3283,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[189] = fl_pt2_mul270[1] && ev_q[7];
     assign ev_inv[189] = fl_pt2_mul270[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul270;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul270 (.clk(clk), .d(pt2_mul270), .valid(1'b0), .q(dl_pt2_mul270));
     // pt2_mul271 = pt2_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul271;
@@ -3024,7 +3297,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[190] = fl_pt2_mul271[1] && ev_q[7];
     assign ev_inv[190] = fl_pt2_mul271[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul271;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul271 (.clk(clk), .d(pt2_mul271), .valid(1'b0), .q(dl_pt2_mul271));
     // pt2_cB_z = pt2_mul270 - pt2_mul271   (ready @11/11/11)
     logic [W-1:0] pt2_cB_z;
@@ -3037,7 +3311,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[191] = fl_pt2_cB_z[1] && ev_q[11];
     assign ev_inv[191] = fl_pt2_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cB_z (.clk(clk), .d(pt2_cB_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_z));
     // pt2_mul273 = n_x * pt1_vA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul273;
@@ -3050,7 +3325,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[192] = fl_pt2_mul273[1] && ev_q[98];
     assign ev_inv[192] = fl_pt2_mul273[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul273;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul273 (.clk(clk), .d(pt2_mul273), .valid(1'b0), .q(dl_pt2_mul273));
     // pt2_mul274 = n_y * pt1_vA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul274;
@@ -3063,7 +3339,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[193] = fl_pt2_mul274[1] && ev_q[98];
     assign ev_inv[193] = fl_pt2_mul274[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul274;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul274 (.clk(clk), .d(pt2_mul274), .valid(1'b0), .q(dl_pt2_mul274));
     // pt2_add275 = pt2_mul273 + pt2_mul274   (ready @102/102/102)
     logic [W-1:0] pt2_add275;
@@ -3076,7 +3353,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[194] = fl_pt2_add275[1] && ev_q[102];
     assign ev_inv[194] = fl_pt2_add275[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add275;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add275 (.clk(clk), .d(pt2_add275), .valid(1'b0), .q(dl_pt2_add275));
     // pt2_mul276 = n_z * pt1_vA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul276;
@@ -3089,7 +3367,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[195] = fl_pt2_mul276[1] && ev_q[98];
     assign ev_inv[195] = fl_pt2_mul276[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul276;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul276 (.clk(clk), .d(pt2_mul276), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul276));
     // pt2_add277 = pt2_add275 + pt2_mul276   (ready @106/106/106)
     logic [W-1:0] pt2_add277;
@@ -3102,7 +3381,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[196] = fl_pt2_add277[1] && ev_q[106];
     assign ev_inv[196] = fl_pt2_add277[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add277;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add277 (.clk(clk), .d(pt2_add277), .valid(1'b0), .q(dl_pt2_add277));
     // pt2_mul278 = n_x * pt1_vB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul278;
@@ -3115,7 +3395,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[197] = fl_pt2_mul278[1] && ev_q[98];
     assign ev_inv[197] = fl_pt2_mul278[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul278;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul278 (.clk(clk), .d(pt2_mul278), .valid(1'b0), .q(dl_pt2_mul278));
     // pt2_mul279 = n_y * pt1_vB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul279;
@@ -3128,7 +3409,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[198] = fl_pt2_mul279[1] && ev_q[98];
     assign ev_inv[198] = fl_pt2_mul279[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul279;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul279 (.clk(clk), .d(pt2_mul279), .valid(1'b0), .q(dl_pt2_mul279));
     // pt2_add280 = pt2_mul278 + pt2_mul279   (ready @102/102/102)
     logic [W-1:0] pt2_add280;
@@ -3141,7 +3423,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[199] = fl_pt2_add280[1] && ev_q[102];
     assign ev_inv[199] = fl_pt2_add280[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add280;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add280 (.clk(clk), .d(pt2_add280), .valid(1'b0), .q(dl_pt2_add280));
     // pt2_mul281 = n_z * pt1_vB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul281;
@@ -3154,7 +3437,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[200] = fl_pt2_mul281[1] && ev_q[98];
     assign ev_inv[200] = fl_pt2_mul281[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul281;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul281 (.clk(clk), .d(pt2_mul281), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul281));
     // pt2_add282 = pt2_add280 + pt2_mul281   (ready @106/106/106)
     logic [W-1:0] pt2_add282;
@@ -3167,7 +3451,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[201] = fl_pt2_add282[1] && ev_q[106];
     assign ev_inv[201] = fl_pt2_add282[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add282;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add282 (.clk(clk), .d(pt2_add282), .valid(1'b0), .q(dl_pt2_add282));
     // pt2_sub283 = pt2_add277 - pt2_add282   (ready @110/110/110)
     logic [W-1:0] pt2_sub283;
@@ -3180,7 +3465,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[202] = fl_pt2_sub283[1] && ev_q[110];
     assign ev_inv[202] = fl_pt2_sub283[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub283;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub283 (.clk(clk), .d(pt2_sub283), .valid(1'b0), .q(dl_pt2_sub283));
     // pt2_mul284 = pt2_cA_x * pt1_wA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul284;
@@ -3193,7 +3479,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[203] = fl_pt2_mul284[1] && ev_q[98];
     assign ev_inv[203] = fl_pt2_mul284[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul284;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul284 (.clk(clk), .d(pt2_mul284), .valid(1'b0), .q(dl_pt2_mul284));
     // pt2_mul285 = pt2_cA_y * pt1_wA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul285;
@@ -3206,7 +3493,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[204] = fl_pt2_mul285[1] && ev_q[98];
     assign ev_inv[204] = fl_pt2_mul285[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul285;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul285 (.clk(clk), .d(pt2_mul285), .valid(1'b0), .q(dl_pt2_mul285));
     // pt2_add286 = pt2_mul284 + pt2_mul285   (ready @102/102/102)
     logic [W-1:0] pt2_add286;
@@ -3219,7 +3507,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[205] = fl_pt2_add286[1] && ev_q[102];
     assign ev_inv[205] = fl_pt2_add286[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add286;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add286 (.clk(clk), .d(pt2_add286), .valid(1'b0), .q(dl_pt2_add286));
     // pt2_mul287 = pt2_cA_z * pt1_wA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul287;
@@ -3232,7 +3521,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[206] = fl_pt2_mul287[1] && ev_q[98];
     assign ev_inv[206] = fl_pt2_mul287[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul287;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul287 (.clk(clk), .d(pt2_mul287), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul287));
     // pt2_add288 = pt2_add286 + pt2_mul287   (ready @106/106/106)
     logic [W-1:0] pt2_add288;
@@ -3245,7 +3535,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[207] = fl_pt2_add288[1] && ev_q[106];
     assign ev_inv[207] = fl_pt2_add288[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add288;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add288 (.clk(clk), .d(pt2_add288), .valid(1'b0), .q(dl_pt2_add288));
     // pt2_mul289 = pt2_cB_x * pt1_wB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul289;
@@ -3258,7 +3549,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[208] = fl_pt2_mul289[1] && ev_q[98];
     assign ev_inv[208] = fl_pt2_mul289[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul289;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul289 (.clk(clk), .d(pt2_mul289), .valid(1'b0), .q(dl_pt2_mul289));
     // pt2_mul290 = pt2_cB_y * pt1_wB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul290;
@@ -3271,7 +3563,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[209] = fl_pt2_mul290[1] && ev_q[98];
     assign ev_inv[209] = fl_pt2_mul290[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul290;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul290 (.clk(clk), .d(pt2_mul290), .valid(1'b0), .q(dl_pt2_mul290));
     // pt2_add291 = pt2_mul289 + pt2_mul290   (ready @102/102/102)
     logic [W-1:0] pt2_add291;
@@ -3284,7 +3577,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[210] = fl_pt2_add291[1] && ev_q[102];
     assign ev_inv[210] = fl_pt2_add291[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add291;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add291 (.clk(clk), .d(pt2_add291), .valid(1'b0), .q(dl_pt2_add291));
     // pt2_mul292 = pt2_cB_z * pt1_wB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul292;
@@ -3297,7 +3591,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[211] = fl_pt2_mul292[1] && ev_q[98];
     assign ev_inv[211] = fl_pt2_mul292[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul292;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul292 (.clk(clk), .d(pt2_mul292), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul292));
     // pt2_add293 = pt2_add291 + pt2_mul292   (ready @106/106/106)
     logic [W-1:0] pt2_add293;
@@ -3310,7 +3605,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[212] = fl_pt2_add293[1] && ev_q[106];
     assign ev_inv[212] = fl_pt2_add293[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add293;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add293 (.clk(clk), .d(pt2_add293), .valid(1'b0), .q(dl_pt2_add293));
     // pt2_sub294 = pt2_add288 - pt2_add293   (ready @110/110/110)
     logic [W-1:0] pt2_sub294;
@@ -3323,7 +3619,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[213] = fl_pt2_sub294[1] && ev_q[110];
     assign ev_inv[213] = fl_pt2_sub294[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub294;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub294 (.clk(clk), .d(pt2_sub294), .valid(1'b0), .q(dl_pt2_sub294));
     // pt2_vrel = pt2_sub283 + pt2_sub294   (ready @114/114/114)
     logic [W-1:0] pt2_vrel;
@@ -3336,7 +3633,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[214] = fl_pt2_vrel[1] && ev_q[114];
     assign ev_inv[214] = fl_pt2_vrel[2] && ev_q[114];
     logic [W-1:0] dl_pt2_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vrel (.clk(clk), .d(pt2_vrel), .valid(1'b0), .q(dl_pt2_vrel));
     // pt2_add296 = pt2_vrel + b2   (ready @118/118/118)
     logic [W-1:0] pt2_add296;
@@ -3349,7 +3647,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[215] = fl_pt2_add296[1] && ev_q[118];
     assign ev_inv[215] = fl_pt2_add296[2] && ev_q[118];
     logic [W-1:0] dl_pt2_add296;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add296 (.clk(clk), .d(pt2_add296), .valid(1'b0), .q(dl_pt2_add296));
     // pt2_delta0 = pt2_add296 * jac_inv2   (ready @121/121/121)
     logic [W-1:0] pt2_delta0;
@@ -3362,7 +3661,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[216] = fl_pt2_delta0[1] && ev_q[121];
     assign ev_inv[216] = fl_pt2_delta0[2] && ev_q[121];
     logic [W-1:0] dl_pt2_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_delta0 (.clk(clk), .d(pt2_delta0), .valid(1'b0), .q(dl_pt2_delta0));
     // pt2_add298 = lam2 + pt2_delta0   (ready @125/125/125)
     logic [W-1:0] pt2_add298;
@@ -3375,7 +3675,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[217] = fl_pt2_add298[1] && ev_q[125];
     assign ev_inv[217] = fl_pt2_add298[2] && ev_q[125];
     logic [W-1:0] dl_pt2_add298;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add298 (.clk(clk), .d(pt2_add298), .valid(1'b0), .q(dl_pt2_add298));
     // pt2_lam_new = max(pt2_add298, 0.0)   (ready @126/126/126)
     logic [W-1:0] pt2_lam_new;
@@ -3385,7 +3686,8 @@ module pgs_contact_pipe_scalar #(
         .lt(nc_pt2_lam_new_lt), .eq(nc_pt2_lam_new_eq), .unordered(nc_pt2_lam_new_uo)
     );
     logic [W-1:0] dl_pt2_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_lam_new (.clk(clk), .d(pt2_lam_new), .valid(1'b0), .q(dl_pt2_lam_new));
     // pt2_delta = pt2_lam_new - lam2   (ready @130/130/130)
     logic [W-1:0] pt2_delta;
@@ -3398,13 +3700,15 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[218] = fl_pt2_delta[1] && ev_q[130];
     assign ev_inv[218] = fl_pt2_delta[2] && ev_q[130];
     logic [W-1:0] dl_pt2_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_delta (.clk(clk), .d(pt2_delta), .valid(1'b0), .q(dl_pt2_delta));
     // pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (ready @126/126/126)
     logic [W-1:0] pt2_lam;
     assign pt2_lam = dl_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_pt2_lam_new;
     logic [W-1:0] dl_pt2_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(53))
+    pgs_delay #(.WIDTH(W), .DEPTH(53),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_lam (.clk(clk), .d(pt2_lam), .valid(valid_q[126 +: 53]), .q(dl_pt2_lam));
     // pt2_angA_x = IInvA_s * pt2_cA_x   (ready @14/14/14)
     logic [W-1:0] pt2_angA_x;
@@ -3417,7 +3721,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[219] = fl_pt2_angA_x[1] && ev_q[14];
     assign ev_inv[219] = fl_pt2_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angA_x (.clk(clk), .d(pt2_angA_x), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_x));
     // pt2_angA_y = IInvA_s * pt2_cA_y   (ready @14/14/14)
     logic [W-1:0] pt2_angA_y;
@@ -3430,7 +3735,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[220] = fl_pt2_angA_y[1] && ev_q[14];
     assign ev_inv[220] = fl_pt2_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angA_y (.clk(clk), .d(pt2_angA_y), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_y));
     // pt2_angA_z = IInvA_s * pt2_cA_z   (ready @14/14/14)
     logic [W-1:0] pt2_angA_z;
@@ -3443,7 +3749,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[221] = fl_pt2_angA_z[1] && ev_q[14];
     assign ev_inv[221] = fl_pt2_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angA_z (.clk(clk), .d(pt2_angA_z), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_z));
     // pt2_angB_x = IInvB_s * pt2_cB_x   (ready @14/14/14)
     logic [W-1:0] pt2_angB_x;
@@ -3456,7 +3763,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[222] = fl_pt2_angB_x[1] && ev_q[14];
     assign ev_inv[222] = fl_pt2_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angB_x (.clk(clk), .d(pt2_angB_x), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_x));
     // pt2_angB_y = IInvB_s * pt2_cB_y   (ready @14/14/14)
     logic [W-1:0] pt2_angB_y;
@@ -3469,7 +3777,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[223] = fl_pt2_angB_y[1] && ev_q[14];
     assign ev_inv[223] = fl_pt2_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angB_y (.clk(clk), .d(pt2_angB_y), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_y));
     // pt2_angB_z = IInvB_s * pt2_cB_z   (ready @14/14/14)
     logic [W-1:0] pt2_angB_z;
@@ -3482,7 +3791,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[224] = fl_pt2_angB_z[1] && ev_q[14];
     assign ev_inv[224] = fl_pt2_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angB_z (.clk(clk), .d(pt2_angB_z), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_z));
     // pt2_mul308 = linA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul308;
@@ -3495,7 +3805,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[225] = fl_pt2_mul308[1] && ev_q[133];
     assign ev_inv[225] = fl_pt2_mul308[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul308;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul308 (.clk(clk), .d(pt2_mul308), .valid(1'b0), .q(dl_pt2_mul308));
     // pt2_mul309 = linA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul309;
@@ -3508,7 +3819,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[226] = fl_pt2_mul309[1] && ev_q[133];
     assign ev_inv[226] = fl_pt2_mul309[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul309;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul309 (.clk(clk), .d(pt2_mul309), .valid(1'b0), .q(dl_pt2_mul309));
     // pt2_mul310 = linA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul310;
@@ -3521,7 +3833,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[227] = fl_pt2_mul310[1] && ev_q[133];
     assign ev_inv[227] = fl_pt2_mul310[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul310;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul310 (.clk(clk), .d(pt2_mul310), .valid(1'b0), .q(dl_pt2_mul310));
     // pt2_add311 = pt1_vA_x + pt2_mul308   (ready @137/137/137)
     logic [W-1:0] pt2_add311;
@@ -3534,7 +3847,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[228] = fl_pt2_add311[1] && ev_q[137];
     assign ev_inv[228] = fl_pt2_add311[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add311;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add311 (.clk(clk), .d(pt2_add311), .valid(1'b0), .q(dl_pt2_add311));
     // pt2_add312 = pt1_vA_y + pt2_mul309   (ready @137/137/137)
     logic [W-1:0] pt2_add312;
@@ -3547,7 +3861,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[229] = fl_pt2_add312[1] && ev_q[137];
     assign ev_inv[229] = fl_pt2_add312[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add312;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add312 (.clk(clk), .d(pt2_add312), .valid(1'b0), .q(dl_pt2_add312));
     // pt2_add313 = pt1_vA_z + pt2_mul310   (ready @137/137/137)
     logic [W-1:0] pt2_add313;
@@ -3560,25 +3875,29 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[230] = fl_pt2_add313[1] && ev_q[137];
     assign ev_inv[230] = fl_pt2_add313[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add313;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add313 (.clk(clk), .d(pt2_add313), .valid(1'b0), .q(dl_pt2_add313));
     // pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add311   (ready @137/137/137)
     logic [W-1:0] pt2_vA_x;
     assign pt2_vA_x = dl_pt2_skip[1] ? dl_pt1_vA_x[2*W +: W] : dl_pt2_add311;
     logic [3*W-1:0] dl_pt2_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vA_x (.clk(clk), .d(pt2_vA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_x));
     // pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add312   (ready @137/137/137)
     logic [W-1:0] pt2_vA_y;
     assign pt2_vA_y = dl_pt2_skip[1] ? dl_pt1_vA_y[2*W +: W] : dl_pt2_add312;
     logic [3*W-1:0] dl_pt2_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vA_y (.clk(clk), .d(pt2_vA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_y));
     // pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add313   (ready @137/137/137)
     logic [W-1:0] pt2_vA_z;
     assign pt2_vA_z = dl_pt2_skip[1] ? dl_pt1_vA_z[2*W +: W] : dl_pt2_add313;
     logic [3*W-1:0] dl_pt2_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vA_z (.clk(clk), .d(pt2_vA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_z));
     // pt2_mul317 = pt2_angA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul317;
@@ -3591,7 +3910,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[231] = fl_pt2_mul317[1] && ev_q[133];
     assign ev_inv[231] = fl_pt2_mul317[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul317;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul317 (.clk(clk), .d(pt2_mul317), .valid(1'b0), .q(dl_pt2_mul317));
     // pt2_mul318 = pt2_angA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul318;
@@ -3604,7 +3924,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[232] = fl_pt2_mul318[1] && ev_q[133];
     assign ev_inv[232] = fl_pt2_mul318[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul318;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul318 (.clk(clk), .d(pt2_mul318), .valid(1'b0), .q(dl_pt2_mul318));
     // pt2_mul319 = pt2_angA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul319;
@@ -3617,7 +3938,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[233] = fl_pt2_mul319[1] && ev_q[133];
     assign ev_inv[233] = fl_pt2_mul319[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul319;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul319 (.clk(clk), .d(pt2_mul319), .valid(1'b0), .q(dl_pt2_mul319));
     // pt2_add320 = pt1_wA_x + pt2_mul317   (ready @137/137/137)
     logic [W-1:0] pt2_add320;
@@ -3630,7 +3952,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[234] = fl_pt2_add320[1] && ev_q[137];
     assign ev_inv[234] = fl_pt2_add320[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add320;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add320 (.clk(clk), .d(pt2_add320), .valid(1'b0), .q(dl_pt2_add320));
     // pt2_add321 = pt1_wA_y + pt2_mul318   (ready @137/137/137)
     logic [W-1:0] pt2_add321;
@@ -3643,7 +3966,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[235] = fl_pt2_add321[1] && ev_q[137];
     assign ev_inv[235] = fl_pt2_add321[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add321;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add321 (.clk(clk), .d(pt2_add321), .valid(1'b0), .q(dl_pt2_add321));
     // pt2_add322 = pt1_wA_z + pt2_mul319   (ready @137/137/137)
     logic [W-1:0] pt2_add322;
@@ -3656,25 +3980,29 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[236] = fl_pt2_add322[1] && ev_q[137];
     assign ev_inv[236] = fl_pt2_add322[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add322;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add322 (.clk(clk), .d(pt2_add322), .valid(1'b0), .q(dl_pt2_add322));
     // pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add320   (ready @137/137/137)
     logic [W-1:0] pt2_wA_x;
     assign pt2_wA_x = dl_pt2_skip[1] ? dl_pt1_wA_x[2*W +: W] : dl_pt2_add320;
     logic [3*W-1:0] dl_pt2_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wA_x (.clk(clk), .d(pt2_wA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_x));
     // pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add321   (ready @137/137/137)
     logic [W-1:0] pt2_wA_y;
     assign pt2_wA_y = dl_pt2_skip[1] ? dl_pt1_wA_y[2*W +: W] : dl_pt2_add321;
     logic [3*W-1:0] dl_pt2_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wA_y (.clk(clk), .d(pt2_wA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_y));
     // pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add322   (ready @137/137/137)
     logic [W-1:0] pt2_wA_z;
     assign pt2_wA_z = dl_pt2_skip[1] ? dl_pt1_wA_z[2*W +: W] : dl_pt2_add322;
     logic [3*W-1:0] dl_pt2_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wA_z (.clk(clk), .d(pt2_wA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_z));
     // pt2_mul326 = linB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul326;
@@ -3687,7 +4015,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[237] = fl_pt2_mul326[1] && ev_q[133];
     assign ev_inv[237] = fl_pt2_mul326[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul326;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul326 (.clk(clk), .d(pt2_mul326), .valid(1'b0), .q(dl_pt2_mul326));
     // pt2_mul327 = linB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul327;
@@ -3700,7 +4029,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[238] = fl_pt2_mul327[1] && ev_q[133];
     assign ev_inv[238] = fl_pt2_mul327[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul327;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul327 (.clk(clk), .d(pt2_mul327), .valid(1'b0), .q(dl_pt2_mul327));
     // pt2_mul328 = linB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul328;
@@ -3713,7 +4043,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[239] = fl_pt2_mul328[1] && ev_q[133];
     assign ev_inv[239] = fl_pt2_mul328[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul328;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul328 (.clk(clk), .d(pt2_mul328), .valid(1'b0), .q(dl_pt2_mul328));
     // pt2_sub329 = pt1_vB_x - pt2_mul326   (ready @137/137/137)
     logic [W-1:0] pt2_sub329;
@@ -3726,7 +4057,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[240] = fl_pt2_sub329[1] && ev_q[137];
     assign ev_inv[240] = fl_pt2_sub329[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub329;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub329 (.clk(clk), .d(pt2_sub329), .valid(1'b0), .q(dl_pt2_sub329));
     // pt2_sub330 = pt1_vB_y - pt2_mul327   (ready @137/137/137)
     logic [W-1:0] pt2_sub330;
@@ -3739,7 +4071,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[241] = fl_pt2_sub330[1] && ev_q[137];
     assign ev_inv[241] = fl_pt2_sub330[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub330;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub330 (.clk(clk), .d(pt2_sub330), .valid(1'b0), .q(dl_pt2_sub330));
     // pt2_sub331 = pt1_vB_z - pt2_mul328   (ready @137/137/137)
     logic [W-1:0] pt2_sub331;
@@ -3752,25 +4085,29 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[242] = fl_pt2_sub331[1] && ev_q[137];
     assign ev_inv[242] = fl_pt2_sub331[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub331;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub331 (.clk(clk), .d(pt2_sub331), .valid(1'b0), .q(dl_pt2_sub331));
     // pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub329   (ready @137/137/137)
     logic [W-1:0] pt2_vB_x;
     assign pt2_vB_x = dl_pt2_skip[1] ? dl_pt1_vB_x[2*W +: W] : dl_pt2_sub329;
     logic [3*W-1:0] dl_pt2_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vB_x (.clk(clk), .d(pt2_vB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_x));
     // pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub330   (ready @137/137/137)
     logic [W-1:0] pt2_vB_y;
     assign pt2_vB_y = dl_pt2_skip[1] ? dl_pt1_vB_y[2*W +: W] : dl_pt2_sub330;
     logic [3*W-1:0] dl_pt2_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vB_y (.clk(clk), .d(pt2_vB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_y));
     // pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub331   (ready @137/137/137)
     logic [W-1:0] pt2_vB_z;
     assign pt2_vB_z = dl_pt2_skip[1] ? dl_pt1_vB_z[2*W +: W] : dl_pt2_sub331;
     logic [3*W-1:0] dl_pt2_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vB_z (.clk(clk), .d(pt2_vB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_z));
     // pt2_mul335 = pt2_angB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul335;
@@ -3783,7 +4120,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[243] = fl_pt2_mul335[1] && ev_q[133];
     assign ev_inv[243] = fl_pt2_mul335[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul335;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul335 (.clk(clk), .d(pt2_mul335), .valid(1'b0), .q(dl_pt2_mul335));
     // pt2_mul336 = pt2_angB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul336;
@@ -3796,7 +4134,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[244] = fl_pt2_mul336[1] && ev_q[133];
     assign ev_inv[244] = fl_pt2_mul336[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul336;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul336 (.clk(clk), .d(pt2_mul336), .valid(1'b0), .q(dl_pt2_mul336));
     // pt2_mul337 = pt2_angB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul337;
@@ -3809,7 +4148,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[245] = fl_pt2_mul337[1] && ev_q[133];
     assign ev_inv[245] = fl_pt2_mul337[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul337;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul337 (.clk(clk), .d(pt2_mul337), .valid(1'b0), .q(dl_pt2_mul337));
     // pt2_sub338 = pt1_wB_x - pt2_mul335   (ready @137/137/137)
     logic [W-1:0] pt2_sub338;
@@ -3822,7 +4162,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[246] = fl_pt2_sub338[1] && ev_q[137];
     assign ev_inv[246] = fl_pt2_sub338[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub338;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub338 (.clk(clk), .d(pt2_sub338), .valid(1'b0), .q(dl_pt2_sub338));
     // pt2_sub339 = pt1_wB_y - pt2_mul336   (ready @137/137/137)
     logic [W-1:0] pt2_sub339;
@@ -3835,7 +4176,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[247] = fl_pt2_sub339[1] && ev_q[137];
     assign ev_inv[247] = fl_pt2_sub339[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub339;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub339 (.clk(clk), .d(pt2_sub339), .valid(1'b0), .q(dl_pt2_sub339));
     // pt2_sub340 = pt1_wB_z - pt2_mul337   (ready @137/137/137)
     logic [W-1:0] pt2_sub340;
@@ -3848,31 +4190,36 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[248] = fl_pt2_sub340[1] && ev_q[137];
     assign ev_inv[248] = fl_pt2_sub340[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub340;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub340 (.clk(clk), .d(pt2_sub340), .valid(1'b0), .q(dl_pt2_sub340));
     // pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub338   (ready @137/137/137)
     logic [W-1:0] pt2_wB_x;
     assign pt2_wB_x = dl_pt2_skip[1] ? dl_pt1_wB_x[2*W +: W] : dl_pt2_sub338;
     logic [3*W-1:0] dl_pt2_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wB_x (.clk(clk), .d(pt2_wB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_x));
     // pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub339   (ready @137/137/137)
     logic [W-1:0] pt2_wB_y;
     assign pt2_wB_y = dl_pt2_skip[1] ? dl_pt1_wB_y[2*W +: W] : dl_pt2_sub339;
     logic [3*W-1:0] dl_pt2_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wB_y (.clk(clk), .d(pt2_wB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_y));
     // pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub340   (ready @137/137/137)
     logic [W-1:0] pt2_wB_z;
     assign pt2_wB_z = dl_pt2_skip[1] ? dl_pt1_wB_z[2*W +: W] : dl_pt2_sub340;
     logic [3*W-1:0] dl_pt2_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wB_z (.clk(clk), .d(pt2_wB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_z));
     // pt3_skip = jac_inv3 == 0   (ready @0/0/0)
     logic pt3_skip;
     assign pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt3_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_skip (.clk(clk), .d(pt3_skip), .valid(valid_q[0 +: 179]), .q(dl_pt3_skip));
     // pt3_rA_x = p3_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt3_rA_x;
@@ -3885,7 +4232,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[249] = fl_pt3_rA_x[1] && ev_q[4];
     assign ev_inv[249] = fl_pt3_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rA_x (.clk(clk), .d(pt3_rA_x), .valid(1'b0), .q(dl_pt3_rA_x));
     // pt3_rA_y = p3_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt3_rA_y;
@@ -3898,7 +4246,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[250] = fl_pt3_rA_y[1] && ev_q[4];
     assign ev_inv[250] = fl_pt3_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rA_y (.clk(clk), .d(pt3_rA_y), .valid(1'b0), .q(dl_pt3_rA_y));
     // pt3_rA_z = p3_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt3_rA_z;
@@ -3911,7 +4260,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[251] = fl_pt3_rA_z[1] && ev_q[4];
     assign ev_inv[251] = fl_pt3_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rA_z (.clk(clk), .d(pt3_rA_z), .valid(1'b0), .q(dl_pt3_rA_z));
     // pt3_mul348 = pt3_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul348;
@@ -3924,7 +4274,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[252] = fl_pt3_mul348[1] && ev_q[7];
     assign ev_inv[252] = fl_pt3_mul348[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul348;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul348 (.clk(clk), .d(pt3_mul348), .valid(1'b0), .q(dl_pt3_mul348));
     // pt3_mul349 = pt3_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul349;
@@ -3937,7 +4288,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[253] = fl_pt3_mul349[1] && ev_q[7];
     assign ev_inv[253] = fl_pt3_mul349[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul349;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul349 (.clk(clk), .d(pt3_mul349), .valid(1'b0), .q(dl_pt3_mul349));
     // pt3_cA_x = pt3_mul348 - pt3_mul349   (ready @11/11/11)
     logic [W-1:0] pt3_cA_x;
@@ -3950,7 +4302,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[254] = fl_pt3_cA_x[1] && ev_q[11];
     assign ev_inv[254] = fl_pt3_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cA_x (.clk(clk), .d(pt3_cA_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_x));
     // pt3_mul351 = pt3_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul351;
@@ -3963,7 +4316,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[255] = fl_pt3_mul351[1] && ev_q[7];
     assign ev_inv[255] = fl_pt3_mul351[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul351;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul351 (.clk(clk), .d(pt3_mul351), .valid(1'b0), .q(dl_pt3_mul351));
     // pt3_mul352 = pt3_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul352;
@@ -3976,7 +4330,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[256] = fl_pt3_mul352[1] && ev_q[7];
     assign ev_inv[256] = fl_pt3_mul352[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul352;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul352 (.clk(clk), .d(pt3_mul352), .valid(1'b0), .q(dl_pt3_mul352));
     // pt3_cA_y = pt3_mul351 - pt3_mul352   (ready @11/11/11)
     logic [W-1:0] pt3_cA_y;
@@ -3989,7 +4344,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[257] = fl_pt3_cA_y[1] && ev_q[11];
     assign ev_inv[257] = fl_pt3_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cA_y (.clk(clk), .d(pt3_cA_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_y));
     // pt3_mul354 = pt3_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul354;
@@ -4002,7 +4358,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[258] = fl_pt3_mul354[1] && ev_q[7];
     assign ev_inv[258] = fl_pt3_mul354[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul354;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul354 (.clk(clk), .d(pt3_mul354), .valid(1'b0), .q(dl_pt3_mul354));
     // pt3_mul355 = pt3_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul355;
@@ -4015,7 +4372,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[259] = fl_pt3_mul355[1] && ev_q[7];
     assign ev_inv[259] = fl_pt3_mul355[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul355;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul355 (.clk(clk), .d(pt3_mul355), .valid(1'b0), .q(dl_pt3_mul355));
     // pt3_cA_z = pt3_mul354 - pt3_mul355   (ready @11/11/11)
     logic [W-1:0] pt3_cA_z;
@@ -4028,7 +4386,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[260] = fl_pt3_cA_z[1] && ev_q[11];
     assign ev_inv[260] = fl_pt3_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cA_z (.clk(clk), .d(pt3_cA_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_z));
     // pt3_rB_x = p3_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt3_rB_x;
@@ -4041,7 +4400,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[261] = fl_pt3_rB_x[1] && ev_q[4];
     assign ev_inv[261] = fl_pt3_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rB_x (.clk(clk), .d(pt3_rB_x), .valid(1'b0), .q(dl_pt3_rB_x));
     // pt3_rB_y = p3_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt3_rB_y;
@@ -4054,7 +4414,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[262] = fl_pt3_rB_y[1] && ev_q[4];
     assign ev_inv[262] = fl_pt3_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rB_y (.clk(clk), .d(pt3_rB_y), .valid(1'b0), .q(dl_pt3_rB_y));
     // pt3_rB_z = p3_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt3_rB_z;
@@ -4067,7 +4428,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[263] = fl_pt3_rB_z[1] && ev_q[4];
     assign ev_inv[263] = fl_pt3_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rB_z (.clk(clk), .d(pt3_rB_z), .valid(1'b0), .q(dl_pt3_rB_z));
     // pt3_mul360 = pt3_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul360;
@@ -4080,7 +4442,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[264] = fl_pt3_mul360[1] && ev_q[7];
     assign ev_inv[264] = fl_pt3_mul360[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul360;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul360 (.clk(clk), .d(pt3_mul360), .valid(1'b0), .q(dl_pt3_mul360));
     // pt3_mul361 = pt3_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul361;
@@ -4093,7 +4456,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[265] = fl_pt3_mul361[1] && ev_q[7];
     assign ev_inv[265] = fl_pt3_mul361[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul361;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul361 (.clk(clk), .d(pt3_mul361), .valid(1'b0), .q(dl_pt3_mul361));
     // pt3_cB_x = pt3_mul360 - pt3_mul361   (ready @11/11/11)
     logic [W-1:0] pt3_cB_x;
@@ -4106,7 +4470,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[266] = fl_pt3_cB_x[1] && ev_q[11];
     assign ev_inv[266] = fl_pt3_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cB_x (.clk(clk), .d(pt3_cB_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_x));
     // pt3_mul363 = pt3_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul363;
@@ -4119,7 +4484,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[267] = fl_pt3_mul363[1] && ev_q[7];
     assign ev_inv[267] = fl_pt3_mul363[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul363;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul363 (.clk(clk), .d(pt3_mul363), .valid(1'b0), .q(dl_pt3_mul363));
     // pt3_mul364 = pt3_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul364;
@@ -4132,7 +4498,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[268] = fl_pt3_mul364[1] && ev_q[7];
     assign ev_inv[268] = fl_pt3_mul364[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul364;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul364 (.clk(clk), .d(pt3_mul364), .valid(1'b0), .q(dl_pt3_mul364));
     // pt3_cB_y = pt3_mul363 - pt3_mul364   (ready @11/11/11)
     logic [W-1:0] pt3_cB_y;
@@ -4145,7 +4512,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[269] = fl_pt3_cB_y[1] && ev_q[11];
     assign ev_inv[269] = fl_pt3_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cB_y (.clk(clk), .d(pt3_cB_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_y));
     // pt3_mul366 = pt3_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul366;
@@ -4158,7 +4526,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[270] = fl_pt3_mul366[1] && ev_q[7];
     assign ev_inv[270] = fl_pt3_mul366[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul366;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul366 (.clk(clk), .d(pt3_mul366), .valid(1'b0), .q(dl_pt3_mul366));
     // pt3_mul367 = pt3_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul367;
@@ -4171,7 +4540,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[271] = fl_pt3_mul367[1] && ev_q[7];
     assign ev_inv[271] = fl_pt3_mul367[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul367;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul367 (.clk(clk), .d(pt3_mul367), .valid(1'b0), .q(dl_pt3_mul367));
     // pt3_cB_z = pt3_mul366 - pt3_mul367   (ready @11/11/11)
     logic [W-1:0] pt3_cB_z;
@@ -4184,7 +4554,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[272] = fl_pt3_cB_z[1] && ev_q[11];
     assign ev_inv[272] = fl_pt3_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cB_z (.clk(clk), .d(pt3_cB_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_z));
     // pt3_mul369 = n_x * pt2_vA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul369;
@@ -4197,7 +4568,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[273] = fl_pt3_mul369[1] && ev_q[140];
     assign ev_inv[273] = fl_pt3_mul369[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul369;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul369 (.clk(clk), .d(pt3_mul369), .valid(1'b0), .q(dl_pt3_mul369));
     // pt3_mul370 = n_y * pt2_vA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul370;
@@ -4210,7 +4582,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[274] = fl_pt3_mul370[1] && ev_q[140];
     assign ev_inv[274] = fl_pt3_mul370[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul370;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul370 (.clk(clk), .d(pt3_mul370), .valid(1'b0), .q(dl_pt3_mul370));
     // pt3_add371 = pt3_mul369 + pt3_mul370   (ready @144/144/144)
     logic [W-1:0] pt3_add371;
@@ -4223,7 +4596,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[275] = fl_pt3_add371[1] && ev_q[144];
     assign ev_inv[275] = fl_pt3_add371[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add371;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add371 (.clk(clk), .d(pt3_add371), .valid(1'b0), .q(dl_pt3_add371));
     // pt3_mul372 = n_z * pt2_vA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul372;
@@ -4236,7 +4610,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[276] = fl_pt3_mul372[1] && ev_q[140];
     assign ev_inv[276] = fl_pt3_mul372[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul372;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul372 (.clk(clk), .d(pt3_mul372), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul372));
     // pt3_add373 = pt3_add371 + pt3_mul372   (ready @148/148/148)
     logic [W-1:0] pt3_add373;
@@ -4249,7 +4624,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[277] = fl_pt3_add373[1] && ev_q[148];
     assign ev_inv[277] = fl_pt3_add373[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add373;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add373 (.clk(clk), .d(pt3_add373), .valid(1'b0), .q(dl_pt3_add373));
     // pt3_mul374 = n_x * pt2_vB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul374;
@@ -4262,7 +4638,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[278] = fl_pt3_mul374[1] && ev_q[140];
     assign ev_inv[278] = fl_pt3_mul374[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul374;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul374 (.clk(clk), .d(pt3_mul374), .valid(1'b0), .q(dl_pt3_mul374));
     // pt3_mul375 = n_y * pt2_vB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul375;
@@ -4275,7 +4652,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[279] = fl_pt3_mul375[1] && ev_q[140];
     assign ev_inv[279] = fl_pt3_mul375[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul375;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul375 (.clk(clk), .d(pt3_mul375), .valid(1'b0), .q(dl_pt3_mul375));
     // pt3_add376 = pt3_mul374 + pt3_mul375   (ready @144/144/144)
     logic [W-1:0] pt3_add376;
@@ -4288,7 +4666,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[280] = fl_pt3_add376[1] && ev_q[144];
     assign ev_inv[280] = fl_pt3_add376[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add376;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add376 (.clk(clk), .d(pt3_add376), .valid(1'b0), .q(dl_pt3_add376));
     // pt3_mul377 = n_z * pt2_vB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul377;
@@ -4301,7 +4680,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[281] = fl_pt3_mul377[1] && ev_q[140];
     assign ev_inv[281] = fl_pt3_mul377[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul377;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul377 (.clk(clk), .d(pt3_mul377), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul377));
     // pt3_add378 = pt3_add376 + pt3_mul377   (ready @148/148/148)
     logic [W-1:0] pt3_add378;
@@ -4314,7 +4694,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[282] = fl_pt3_add378[1] && ev_q[148];
     assign ev_inv[282] = fl_pt3_add378[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add378;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add378 (.clk(clk), .d(pt3_add378), .valid(1'b0), .q(dl_pt3_add378));
     // pt3_sub379 = pt3_add373 - pt3_add378   (ready @152/152/152)
     logic [W-1:0] pt3_sub379;
@@ -4327,7 +4708,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[283] = fl_pt3_sub379[1] && ev_q[152];
     assign ev_inv[283] = fl_pt3_sub379[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub379;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub379 (.clk(clk), .d(pt3_sub379), .valid(1'b0), .q(dl_pt3_sub379));
     // pt3_mul380 = pt3_cA_x * pt2_wA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul380;
@@ -4340,7 +4722,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[284] = fl_pt3_mul380[1] && ev_q[140];
     assign ev_inv[284] = fl_pt3_mul380[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul380;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul380 (.clk(clk), .d(pt3_mul380), .valid(1'b0), .q(dl_pt3_mul380));
     // pt3_mul381 = pt3_cA_y * pt2_wA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul381;
@@ -4353,7 +4736,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[285] = fl_pt3_mul381[1] && ev_q[140];
     assign ev_inv[285] = fl_pt3_mul381[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul381;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul381 (.clk(clk), .d(pt3_mul381), .valid(1'b0), .q(dl_pt3_mul381));
     // pt3_add382 = pt3_mul380 + pt3_mul381   (ready @144/144/144)
     logic [W-1:0] pt3_add382;
@@ -4366,7 +4750,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[286] = fl_pt3_add382[1] && ev_q[144];
     assign ev_inv[286] = fl_pt3_add382[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add382;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add382 (.clk(clk), .d(pt3_add382), .valid(1'b0), .q(dl_pt3_add382));
     // pt3_mul383 = pt3_cA_z * pt2_wA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul383;
@@ -4379,7 +4764,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[287] = fl_pt3_mul383[1] && ev_q[140];
     assign ev_inv[287] = fl_pt3_mul383[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul383;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul383 (.clk(clk), .d(pt3_mul383), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul383));
     // pt3_add384 = pt3_add382 + pt3_mul383   (ready @148/148/148)
     logic [W-1:0] pt3_add384;
@@ -4392,7 +4778,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[288] = fl_pt3_add384[1] && ev_q[148];
     assign ev_inv[288] = fl_pt3_add384[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add384;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add384 (.clk(clk), .d(pt3_add384), .valid(1'b0), .q(dl_pt3_add384));
     // pt3_mul385 = pt3_cB_x * pt2_wB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul385;
@@ -4405,7 +4792,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[289] = fl_pt3_mul385[1] && ev_q[140];
     assign ev_inv[289] = fl_pt3_mul385[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul385;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul385 (.clk(clk), .d(pt3_mul385), .valid(1'b0), .q(dl_pt3_mul385));
     // pt3_mul386 = pt3_cB_y * pt2_wB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul386;
@@ -4418,7 +4806,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[290] = fl_pt3_mul386[1] && ev_q[140];
     assign ev_inv[290] = fl_pt3_mul386[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul386;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul386 (.clk(clk), .d(pt3_mul386), .valid(1'b0), .q(dl_pt3_mul386));
     // pt3_add387 = pt3_mul385 + pt3_mul386   (ready @144/144/144)
     logic [W-1:0] pt3_add387;
@@ -4431,7 +4820,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[291] = fl_pt3_add387[1] && ev_q[144];
     assign ev_inv[291] = fl_pt3_add387[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add387;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add387 (.clk(clk), .d(pt3_add387), .valid(1'b0), .q(dl_pt3_add387));
     // pt3_mul388 = pt3_cB_z * pt2_wB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul388;
@@ -4444,7 +4834,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[292] = fl_pt3_mul388[1] && ev_q[140];
     assign ev_inv[292] = fl_pt3_mul388[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul388;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul388 (.clk(clk), .d(pt3_mul388), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul388));
     // pt3_add389 = pt3_add387 + pt3_mul388   (ready @148/148/148)
     logic [W-1:0] pt3_add389;
@@ -4457,7 +4848,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[293] = fl_pt3_add389[1] && ev_q[148];
     assign ev_inv[293] = fl_pt3_add389[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add389;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add389 (.clk(clk), .d(pt3_add389), .valid(1'b0), .q(dl_pt3_add389));
     // pt3_sub390 = pt3_add384 - pt3_add389   (ready @152/152/152)
     logic [W-1:0] pt3_sub390;
@@ -4470,7 +4862,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[294] = fl_pt3_sub390[1] && ev_q[152];
     assign ev_inv[294] = fl_pt3_sub390[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub390;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub390 (.clk(clk), .d(pt3_sub390), .valid(1'b0), .q(dl_pt3_sub390));
     // pt3_vrel = pt3_sub379 + pt3_sub390   (ready @156/156/156)
     logic [W-1:0] pt3_vrel;
@@ -4483,7 +4876,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[295] = fl_pt3_vrel[1] && ev_q[156];
     assign ev_inv[295] = fl_pt3_vrel[2] && ev_q[156];
     logic [W-1:0] dl_pt3_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vrel (.clk(clk), .d(pt3_vrel), .valid(1'b0), .q(dl_pt3_vrel));
     // pt3_add392 = pt3_vrel + b3   (ready @160/160/160)
     logic [W-1:0] pt3_add392;
@@ -4496,7 +4890,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[296] = fl_pt3_add392[1] && ev_q[160];
     assign ev_inv[296] = fl_pt3_add392[2] && ev_q[160];
     logic [W-1:0] dl_pt3_add392;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add392 (.clk(clk), .d(pt3_add392), .valid(1'b0), .q(dl_pt3_add392));
     // pt3_delta0 = pt3_add392 * jac_inv3   (ready @163/163/163)
     logic [W-1:0] pt3_delta0;
@@ -4509,7 +4904,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[297] = fl_pt3_delta0[1] && ev_q[163];
     assign ev_inv[297] = fl_pt3_delta0[2] && ev_q[163];
     logic [W-1:0] dl_pt3_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_delta0 (.clk(clk), .d(pt3_delta0), .valid(1'b0), .q(dl_pt3_delta0));
     // pt3_add394 = lam3 + pt3_delta0   (ready @167/167/167)
     logic [W-1:0] pt3_add394;
@@ -4522,7 +4918,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[298] = fl_pt3_add394[1] && ev_q[167];
     assign ev_inv[298] = fl_pt3_add394[2] && ev_q[167];
     logic [W-1:0] dl_pt3_add394;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add394 (.clk(clk), .d(pt3_add394), .valid(1'b0), .q(dl_pt3_add394));
     // pt3_lam_new = max(pt3_add394, 0.0)   (ready @168/168/168)
     logic [W-1:0] pt3_lam_new;
@@ -4532,7 +4929,8 @@ module pgs_contact_pipe_scalar #(
         .lt(nc_pt3_lam_new_lt), .eq(nc_pt3_lam_new_eq), .unordered(nc_pt3_lam_new_uo)
     );
     logic [W-1:0] dl_pt3_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_lam_new (.clk(clk), .d(pt3_lam_new), .valid(1'b0), .q(dl_pt3_lam_new));
     // pt3_delta = pt3_lam_new - lam3   (ready @172/172/172)
     logic [W-1:0] pt3_delta;
@@ -4545,13 +4943,15 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[299] = fl_pt3_delta[1] && ev_q[172];
     assign ev_inv[299] = fl_pt3_delta[2] && ev_q[172];
     logic [W-1:0] dl_pt3_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_delta (.clk(clk), .d(pt3_delta), .valid(1'b0), .q(dl_pt3_delta));
     // pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (ready @168/168/168)
     logic [W-1:0] pt3_lam;
     assign pt3_lam = dl_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_pt3_lam_new;
     logic [W-1:0] dl_pt3_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_lam (.clk(clk), .d(pt3_lam), .valid(valid_q[168 +: 11]), .q(dl_pt3_lam));
     // pt3_angA_x = IInvA_s * pt3_cA_x   (ready @14/14/14)
     logic [W-1:0] pt3_angA_x;
@@ -4564,7 +4964,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[300] = fl_pt3_angA_x[1] && ev_q[14];
     assign ev_inv[300] = fl_pt3_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angA_x (.clk(clk), .d(pt3_angA_x), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_x));
     // pt3_angA_y = IInvA_s * pt3_cA_y   (ready @14/14/14)
     logic [W-1:0] pt3_angA_y;
@@ -4577,7 +4978,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[301] = fl_pt3_angA_y[1] && ev_q[14];
     assign ev_inv[301] = fl_pt3_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angA_y (.clk(clk), .d(pt3_angA_y), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_y));
     // pt3_angA_z = IInvA_s * pt3_cA_z   (ready @14/14/14)
     logic [W-1:0] pt3_angA_z;
@@ -4590,7 +4992,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[302] = fl_pt3_angA_z[1] && ev_q[14];
     assign ev_inv[302] = fl_pt3_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angA_z (.clk(clk), .d(pt3_angA_z), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_z));
     // pt3_angB_x = IInvB_s * pt3_cB_x   (ready @14/14/14)
     logic [W-1:0] pt3_angB_x;
@@ -4603,7 +5006,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[303] = fl_pt3_angB_x[1] && ev_q[14];
     assign ev_inv[303] = fl_pt3_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angB_x (.clk(clk), .d(pt3_angB_x), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_x));
     // pt3_angB_y = IInvB_s * pt3_cB_y   (ready @14/14/14)
     logic [W-1:0] pt3_angB_y;
@@ -4616,7 +5020,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[304] = fl_pt3_angB_y[1] && ev_q[14];
     assign ev_inv[304] = fl_pt3_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angB_y (.clk(clk), .d(pt3_angB_y), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_y));
     // pt3_angB_z = IInvB_s * pt3_cB_z   (ready @14/14/14)
     logic [W-1:0] pt3_angB_z;
@@ -4629,7 +5034,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[305] = fl_pt3_angB_z[1] && ev_q[14];
     assign ev_inv[305] = fl_pt3_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angB_z (.clk(clk), .d(pt3_angB_z), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_z));
     // pt3_mul404 = linA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul404;
@@ -4642,7 +5048,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[306] = fl_pt3_mul404[1] && ev_q[175];
     assign ev_inv[306] = fl_pt3_mul404[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul404;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul404 (.clk(clk), .d(pt3_mul404), .valid(1'b0), .q(dl_pt3_mul404));
     // pt3_mul405 = linA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul405;
@@ -4655,7 +5062,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[307] = fl_pt3_mul405[1] && ev_q[175];
     assign ev_inv[307] = fl_pt3_mul405[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul405;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul405 (.clk(clk), .d(pt3_mul405), .valid(1'b0), .q(dl_pt3_mul405));
     // pt3_mul406 = linA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul406;
@@ -4668,7 +5076,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[308] = fl_pt3_mul406[1] && ev_q[175];
     assign ev_inv[308] = fl_pt3_mul406[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul406;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul406 (.clk(clk), .d(pt3_mul406), .valid(1'b0), .q(dl_pt3_mul406));
     // pt3_add407 = pt2_vA_x + pt3_mul404   (ready @179/179/179)
     logic [W-1:0] pt3_add407;
@@ -4681,7 +5090,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[309] = fl_pt3_add407[1] && ev_q[179];
     assign ev_inv[309] = fl_pt3_add407[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add407;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add407 (.clk(clk), .d(pt3_add407), .valid(1'b0), .q(dl_pt3_add407));
     // pt3_add408 = pt2_vA_y + pt3_mul405   (ready @179/179/179)
     logic [W-1:0] pt3_add408;
@@ -4694,7 +5104,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[310] = fl_pt3_add408[1] && ev_q[179];
     assign ev_inv[310] = fl_pt3_add408[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add408;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add408 (.clk(clk), .d(pt3_add408), .valid(1'b0), .q(dl_pt3_add408));
     // pt3_add409 = pt2_vA_z + pt3_mul406   (ready @179/179/179)
     logic [W-1:0] pt3_add409;
@@ -4707,25 +5118,29 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[311] = fl_pt3_add409[1] && ev_q[179];
     assign ev_inv[311] = fl_pt3_add409[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add409;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add409 (.clk(clk), .d(pt3_add409), .valid(1'b0), .q(dl_pt3_add409));
     // pt3_vA_x = pt3_skip ? pt2_vA_x : pt3_add407   (ready @179/179/179)
     logic [W-1:0] pt3_vA_x;
     assign pt3_vA_x = dl_pt3_skip[1] ? dl_pt2_vA_x[2*W +: W] : dl_pt3_add407;
     logic [W-1:0] dl_pt3_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vA_x (.clk(clk), .d(pt3_vA_x), .valid(1'b0), .q(dl_pt3_vA_x));
     // pt3_vA_y = pt3_skip ? pt2_vA_y : pt3_add408   (ready @179/179/179)
     logic [W-1:0] pt3_vA_y;
     assign pt3_vA_y = dl_pt3_skip[1] ? dl_pt2_vA_y[2*W +: W] : dl_pt3_add408;
     logic [W-1:0] dl_pt3_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vA_y (.clk(clk), .d(pt3_vA_y), .valid(1'b0), .q(dl_pt3_vA_y));
     // pt3_vA_z = pt3_skip ? pt2_vA_z : pt3_add409   (ready @179/179/179)
     logic [W-1:0] pt3_vA_z;
     assign pt3_vA_z = dl_pt3_skip[1] ? dl_pt2_vA_z[2*W +: W] : dl_pt3_add409;
     logic [W-1:0] dl_pt3_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vA_z (.clk(clk), .d(pt3_vA_z), .valid(1'b0), .q(dl_pt3_vA_z));
     // pt3_mul413 = pt3_angA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul413;
@@ -4738,7 +5153,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[312] = fl_pt3_mul413[1] && ev_q[175];
     assign ev_inv[312] = fl_pt3_mul413[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul413;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul413 (.clk(clk), .d(pt3_mul413), .valid(1'b0), .q(dl_pt3_mul413));
     // pt3_mul414 = pt3_angA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul414;
@@ -4751,7 +5167,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[313] = fl_pt3_mul414[1] && ev_q[175];
     assign ev_inv[313] = fl_pt3_mul414[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul414;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul414 (.clk(clk), .d(pt3_mul414), .valid(1'b0), .q(dl_pt3_mul414));
     // pt3_mul415 = pt3_angA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul415;
@@ -4764,7 +5181,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[314] = fl_pt3_mul415[1] && ev_q[175];
     assign ev_inv[314] = fl_pt3_mul415[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul415;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul415 (.clk(clk), .d(pt3_mul415), .valid(1'b0), .q(dl_pt3_mul415));
     // pt3_add416 = pt2_wA_x + pt3_mul413   (ready @179/179/179)
     logic [W-1:0] pt3_add416;
@@ -4777,7 +5195,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[315] = fl_pt3_add416[1] && ev_q[179];
     assign ev_inv[315] = fl_pt3_add416[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add416;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add416 (.clk(clk), .d(pt3_add416), .valid(1'b0), .q(dl_pt3_add416));
     // pt3_add417 = pt2_wA_y + pt3_mul414   (ready @179/179/179)
     logic [W-1:0] pt3_add417;
@@ -4790,7 +5209,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[316] = fl_pt3_add417[1] && ev_q[179];
     assign ev_inv[316] = fl_pt3_add417[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add417;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add417 (.clk(clk), .d(pt3_add417), .valid(1'b0), .q(dl_pt3_add417));
     // pt3_add418 = pt2_wA_z + pt3_mul415   (ready @179/179/179)
     logic [W-1:0] pt3_add418;
@@ -4803,25 +5223,29 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[317] = fl_pt3_add418[1] && ev_q[179];
     assign ev_inv[317] = fl_pt3_add418[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add418;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add418 (.clk(clk), .d(pt3_add418), .valid(1'b0), .q(dl_pt3_add418));
     // pt3_wA_x = pt3_skip ? pt2_wA_x : pt3_add416   (ready @179/179/179)
     logic [W-1:0] pt3_wA_x;
     assign pt3_wA_x = dl_pt3_skip[1] ? dl_pt2_wA_x[2*W +: W] : dl_pt3_add416;
     logic [W-1:0] dl_pt3_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wA_x (.clk(clk), .d(pt3_wA_x), .valid(1'b0), .q(dl_pt3_wA_x));
     // pt3_wA_y = pt3_skip ? pt2_wA_y : pt3_add417   (ready @179/179/179)
     logic [W-1:0] pt3_wA_y;
     assign pt3_wA_y = dl_pt3_skip[1] ? dl_pt2_wA_y[2*W +: W] : dl_pt3_add417;
     logic [W-1:0] dl_pt3_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wA_y (.clk(clk), .d(pt3_wA_y), .valid(1'b0), .q(dl_pt3_wA_y));
     // pt3_wA_z = pt3_skip ? pt2_wA_z : pt3_add418   (ready @179/179/179)
     logic [W-1:0] pt3_wA_z;
     assign pt3_wA_z = dl_pt3_skip[1] ? dl_pt2_wA_z[2*W +: W] : dl_pt3_add418;
     logic [W-1:0] dl_pt3_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wA_z (.clk(clk), .d(pt3_wA_z), .valid(1'b0), .q(dl_pt3_wA_z));
     // pt3_mul422 = linB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul422;
@@ -4834,7 +5258,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[318] = fl_pt3_mul422[1] && ev_q[175];
     assign ev_inv[318] = fl_pt3_mul422[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul422;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul422 (.clk(clk), .d(pt3_mul422), .valid(1'b0), .q(dl_pt3_mul422));
     // pt3_mul423 = linB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul423;
@@ -4847,7 +5272,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[319] = fl_pt3_mul423[1] && ev_q[175];
     assign ev_inv[319] = fl_pt3_mul423[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul423;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul423 (.clk(clk), .d(pt3_mul423), .valid(1'b0), .q(dl_pt3_mul423));
     // pt3_mul424 = linB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul424;
@@ -4860,7 +5286,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[320] = fl_pt3_mul424[1] && ev_q[175];
     assign ev_inv[320] = fl_pt3_mul424[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul424;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul424 (.clk(clk), .d(pt3_mul424), .valid(1'b0), .q(dl_pt3_mul424));
     // pt3_sub425 = pt2_vB_x - pt3_mul422   (ready @179/179/179)
     logic [W-1:0] pt3_sub425;
@@ -4873,7 +5300,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[321] = fl_pt3_sub425[1] && ev_q[179];
     assign ev_inv[321] = fl_pt3_sub425[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub425;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub425 (.clk(clk), .d(pt3_sub425), .valid(1'b0), .q(dl_pt3_sub425));
     // pt3_sub426 = pt2_vB_y - pt3_mul423   (ready @179/179/179)
     logic [W-1:0] pt3_sub426;
@@ -4886,7 +5314,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[322] = fl_pt3_sub426[1] && ev_q[179];
     assign ev_inv[322] = fl_pt3_sub426[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub426;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub426 (.clk(clk), .d(pt3_sub426), .valid(1'b0), .q(dl_pt3_sub426));
     // pt3_sub427 = pt2_vB_z - pt3_mul424   (ready @179/179/179)
     logic [W-1:0] pt3_sub427;
@@ -4899,25 +5328,29 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[323] = fl_pt3_sub427[1] && ev_q[179];
     assign ev_inv[323] = fl_pt3_sub427[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub427;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub427 (.clk(clk), .d(pt3_sub427), .valid(1'b0), .q(dl_pt3_sub427));
     // pt3_vB_x = pt3_skip ? pt2_vB_x : pt3_sub425   (ready @179/179/179)
     logic [W-1:0] pt3_vB_x;
     assign pt3_vB_x = dl_pt3_skip[1] ? dl_pt2_vB_x[2*W +: W] : dl_pt3_sub425;
     logic [W-1:0] dl_pt3_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vB_x (.clk(clk), .d(pt3_vB_x), .valid(1'b0), .q(dl_pt3_vB_x));
     // pt3_vB_y = pt3_skip ? pt2_vB_y : pt3_sub426   (ready @179/179/179)
     logic [W-1:0] pt3_vB_y;
     assign pt3_vB_y = dl_pt3_skip[1] ? dl_pt2_vB_y[2*W +: W] : dl_pt3_sub426;
     logic [W-1:0] dl_pt3_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vB_y (.clk(clk), .d(pt3_vB_y), .valid(1'b0), .q(dl_pt3_vB_y));
     // pt3_vB_z = pt3_skip ? pt2_vB_z : pt3_sub427   (ready @179/179/179)
     logic [W-1:0] pt3_vB_z;
     assign pt3_vB_z = dl_pt3_skip[1] ? dl_pt2_vB_z[2*W +: W] : dl_pt3_sub427;
     logic [W-1:0] dl_pt3_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vB_z (.clk(clk), .d(pt3_vB_z), .valid(1'b0), .q(dl_pt3_vB_z));
     // pt3_mul431 = pt3_angB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul431;
@@ -4930,7 +5363,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[324] = fl_pt3_mul431[1] && ev_q[175];
     assign ev_inv[324] = fl_pt3_mul431[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul431;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul431 (.clk(clk), .d(pt3_mul431), .valid(1'b0), .q(dl_pt3_mul431));
     // pt3_mul432 = pt3_angB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul432;
@@ -4943,7 +5377,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[325] = fl_pt3_mul432[1] && ev_q[175];
     assign ev_inv[325] = fl_pt3_mul432[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul432;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul432 (.clk(clk), .d(pt3_mul432), .valid(1'b0), .q(dl_pt3_mul432));
     // pt3_mul433 = pt3_angB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul433;
@@ -4956,7 +5391,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[326] = fl_pt3_mul433[1] && ev_q[175];
     assign ev_inv[326] = fl_pt3_mul433[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul433;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul433 (.clk(clk), .d(pt3_mul433), .valid(1'b0), .q(dl_pt3_mul433));
     // pt3_sub434 = pt2_wB_x - pt3_mul431   (ready @179/179/179)
     logic [W-1:0] pt3_sub434;
@@ -4969,7 +5405,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[327] = fl_pt3_sub434[1] && ev_q[179];
     assign ev_inv[327] = fl_pt3_sub434[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub434;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub434 (.clk(clk), .d(pt3_sub434), .valid(1'b0), .q(dl_pt3_sub434));
     // pt3_sub435 = pt2_wB_y - pt3_mul432   (ready @179/179/179)
     logic [W-1:0] pt3_sub435;
@@ -4982,7 +5419,8 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[328] = fl_pt3_sub435[1] && ev_q[179];
     assign ev_inv[328] = fl_pt3_sub435[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub435;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub435 (.clk(clk), .d(pt3_sub435), .valid(1'b0), .q(dl_pt3_sub435));
     // pt3_sub436 = pt2_wB_z - pt3_mul433   (ready @179/179/179)
     logic [W-1:0] pt3_sub436;
@@ -4995,25 +5433,29 @@ module pgs_contact_pipe_scalar #(
     assign ev_unf[329] = fl_pt3_sub436[1] && ev_q[179];
     assign ev_inv[329] = fl_pt3_sub436[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub436;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub436 (.clk(clk), .d(pt3_sub436), .valid(1'b0), .q(dl_pt3_sub436));
     // pt3_wB_x = pt3_skip ? pt2_wB_x : pt3_sub434   (ready @179/179/179)
     logic [W-1:0] pt3_wB_x;
     assign pt3_wB_x = dl_pt3_skip[1] ? dl_pt2_wB_x[2*W +: W] : dl_pt3_sub434;
     logic [W-1:0] dl_pt3_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wB_x (.clk(clk), .d(pt3_wB_x), .valid(1'b0), .q(dl_pt3_wB_x));
     // pt3_wB_y = pt3_skip ? pt2_wB_y : pt3_sub435   (ready @179/179/179)
     logic [W-1:0] pt3_wB_y;
     assign pt3_wB_y = dl_pt3_skip[1] ? dl_pt2_wB_y[2*W +: W] : dl_pt3_sub435;
     logic [W-1:0] dl_pt3_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wB_y (.clk(clk), .d(pt3_wB_y), .valid(1'b0), .q(dl_pt3_wB_y));
     // pt3_wB_z = pt3_skip ? pt2_wB_z : pt3_sub436   (ready @179/179/179)
     logic [W-1:0] pt3_wB_z;
     assign pt3_wB_z = dl_pt3_skip[1] ? dl_pt2_wB_z[2*W +: W] : dl_pt3_sub436;
     logic [W-1:0] dl_pt3_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wB_z (.clk(clk), .d(pt3_wB_z), .valid(1'b0), .q(dl_pt3_wB_z));
 
     // Outputs, each delayed to LATENCY.

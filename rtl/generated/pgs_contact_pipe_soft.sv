@@ -32,6 +32,9 @@ module pgs_contact_pipe_soft #(
     parameter  int EXP_BITS = 8,
     parameter  int MAN_BITS = 23,
     parameter  int TAG_W    = 64,
+    // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
+    // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
+    parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 55,
     localparam int N_OUT    = 16,
@@ -84,7 +87,7 @@ module pgs_contact_pipe_soft #(
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
         .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY), .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_tag (
         .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
     );
 
@@ -111,280 +114,336 @@ module pgs_contact_pipe_soft #(
     logic [W-1:0] in_n_x;
     assign in_n_x = in_data[0*W +: W];
     logic [5*W-1:0] dl_in_n_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 137]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [5*W-1:0] dl_in_n_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 137]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [5*W-1:0] dl_in_n_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(137), .N_TAPS(5), .TAPS({32'(137), 32'(95), 32'(53), 32'(4), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 137]), .q(dl_in_n_z));
     logic [W-1:0] in_p0_x;
     assign in_p0_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_p0_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p0_x (.clk(clk), .d(in_p0_x), .valid(1'b0), .q(dl_in_p0_x));
     logic [W-1:0] in_p0_y;
     assign in_p0_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_p0_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p0_y (.clk(clk), .d(in_p0_y), .valid(1'b0), .q(dl_in_p0_y));
     logic [W-1:0] in_p0_z;
     assign in_p0_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_p0_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p0_z (.clk(clk), .d(in_p0_z), .valid(1'b0), .q(dl_in_p0_z));
     logic [W-1:0] in_p1_x;
     assign in_p1_x = in_data[6*W +: W];
     logic [W-1:0] dl_in_p1_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p1_x (.clk(clk), .d(in_p1_x), .valid(1'b0), .q(dl_in_p1_x));
     logic [W-1:0] in_p1_y;
     assign in_p1_y = in_data[7*W +: W];
     logic [W-1:0] dl_in_p1_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p1_y (.clk(clk), .d(in_p1_y), .valid(1'b0), .q(dl_in_p1_y));
     logic [W-1:0] in_p1_z;
     assign in_p1_z = in_data[8*W +: W];
     logic [W-1:0] dl_in_p1_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p1_z (.clk(clk), .d(in_p1_z), .valid(1'b0), .q(dl_in_p1_z));
     logic [W-1:0] in_p2_x;
     assign in_p2_x = in_data[9*W +: W];
     logic [W-1:0] dl_in_p2_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p2_x (.clk(clk), .d(in_p2_x), .valid(1'b0), .q(dl_in_p2_x));
     logic [W-1:0] in_p2_y;
     assign in_p2_y = in_data[10*W +: W];
     logic [W-1:0] dl_in_p2_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p2_y (.clk(clk), .d(in_p2_y), .valid(1'b0), .q(dl_in_p2_y));
     logic [W-1:0] in_p2_z;
     assign in_p2_z = in_data[11*W +: W];
     logic [W-1:0] dl_in_p2_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p2_z (.clk(clk), .d(in_p2_z), .valid(1'b0), .q(dl_in_p2_z));
     logic [W-1:0] in_p3_x;
     assign in_p3_x = in_data[12*W +: W];
     logic [W-1:0] dl_in_p3_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p3_x (.clk(clk), .d(in_p3_x), .valid(1'b0), .q(dl_in_p3_x));
     logic [W-1:0] in_p3_y;
     assign in_p3_y = in_data[13*W +: W];
     logic [W-1:0] dl_in_p3_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p3_y (.clk(clk), .d(in_p3_y), .valid(1'b0), .q(dl_in_p3_y));
     logic [W-1:0] in_p3_z;
     assign in_p3_z = in_data[14*W +: W];
     logic [W-1:0] dl_in_p3_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_p3_z (.clk(clk), .d(in_p3_z), .valid(1'b0), .q(dl_in_p3_z));
     logic [W-1:0] in_jac_inv0;
     assign in_jac_inv0 = in_data[15*W +: W];
     logic [2*W-1:0] dl_in_jac_inv0;
-    pgs_delay #(.WIDTH(W), .DEPTH(34), .N_TAPS(2), .TAPS({32'(34), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(34), .N_TAPS(2), .TAPS({32'(34), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv0 (.clk(clk), .d(in_jac_inv0), .valid(valid_q[0 +: 34]), .q(dl_in_jac_inv0));
     logic [W-1:0] in_jac_inv1;
     assign in_jac_inv1 = in_data[16*W +: W];
     logic [2*W-1:0] dl_in_jac_inv1;
-    pgs_delay #(.WIDTH(W), .DEPTH(76), .N_TAPS(2), .TAPS({32'(76), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(76), .N_TAPS(2), .TAPS({32'(76), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv1 (.clk(clk), .d(in_jac_inv1), .valid(valid_q[0 +: 76]), .q(dl_in_jac_inv1));
     logic [W-1:0] in_jac_inv2;
     assign in_jac_inv2 = in_data[17*W +: W];
     logic [2*W-1:0] dl_in_jac_inv2;
-    pgs_delay #(.WIDTH(W), .DEPTH(118), .N_TAPS(2), .TAPS({32'(118), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(118), .N_TAPS(2), .TAPS({32'(118), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv2 (.clk(clk), .d(in_jac_inv2), .valid(valid_q[0 +: 118]), .q(dl_in_jac_inv2));
     logic [W-1:0] in_jac_inv3;
     assign in_jac_inv3 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_jac_inv3;
-    pgs_delay #(.WIDTH(W), .DEPTH(160), .N_TAPS(2), .TAPS({32'(160), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(160), .N_TAPS(2), .TAPS({32'(160), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_jac_inv3 (.clk(clk), .d(in_jac_inv3), .valid(valid_q[0 +: 160]), .q(dl_in_jac_inv3));
     logic [W-1:0] in_b0;
     assign in_b0 = in_data[19*W +: W];
     logic [2*W-1:0] dl_in_b0;
-    pgs_delay #(.WIDTH(W), .DEPTH(30), .N_TAPS(2), .TAPS({32'(30), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(30), .N_TAPS(2), .TAPS({32'(30), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b0 (.clk(clk), .d(in_b0), .valid(valid_q[0 +: 30]), .q(dl_in_b0));
     logic [W-1:0] in_b1;
     assign in_b1 = in_data[20*W +: W];
     logic [2*W-1:0] dl_in_b1;
-    pgs_delay #(.WIDTH(W), .DEPTH(72), .N_TAPS(2), .TAPS({32'(72), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(72), .N_TAPS(2), .TAPS({32'(72), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b1 (.clk(clk), .d(in_b1), .valid(valid_q[0 +: 72]), .q(dl_in_b1));
     logic [W-1:0] in_b2;
     assign in_b2 = in_data[21*W +: W];
     logic [2*W-1:0] dl_in_b2;
-    pgs_delay #(.WIDTH(W), .DEPTH(114), .N_TAPS(2), .TAPS({32'(114), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(114), .N_TAPS(2), .TAPS({32'(114), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b2 (.clk(clk), .d(in_b2), .valid(valid_q[0 +: 114]), .q(dl_in_b2));
     logic [W-1:0] in_b3;
     assign in_b3 = in_data[22*W +: W];
     logic [2*W-1:0] dl_in_b3;
-    pgs_delay #(.WIDTH(W), .DEPTH(156), .N_TAPS(2), .TAPS({32'(156), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(156), .N_TAPS(2), .TAPS({32'(156), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_b3 (.clk(clk), .d(in_b3), .valid(valid_q[0 +: 156]), .q(dl_in_b3));
     logic [W-1:0] in_lam0;
     assign in_lam0 = in_data[23*W +: W];
     logic [2*W-1:0] dl_in_lam0;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(42), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(42), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam0 (.clk(clk), .d(in_lam0), .valid(valid_q[0 +: 42]), .q(dl_in_lam0));
     logic [W-1:0] in_lam1;
     assign in_lam1 = in_data[24*W +: W];
     logic [2*W-1:0] dl_in_lam1;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(84), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(84), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam1 (.clk(clk), .d(in_lam1), .valid(valid_q[0 +: 84]), .q(dl_in_lam1));
     logic [W-1:0] in_lam2;
     assign in_lam2 = in_data[25*W +: W];
     logic [2*W-1:0] dl_in_lam2;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(126), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(126), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam2 (.clk(clk), .d(in_lam2), .valid(valid_q[0 +: 126]), .q(dl_in_lam2));
     logic [W-1:0] in_lam3;
     assign in_lam3 = in_data[26*W +: W];
     logic [2*W-1:0] dl_in_lam3;
-    pgs_delay #(.WIDTH(W), .DEPTH(168), .N_TAPS(2), .TAPS({32'(168), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(168), .N_TAPS(2), .TAPS({32'(168), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam3 (.clk(clk), .d(in_lam3), .valid(valid_q[0 +: 168]), .q(dl_in_lam3));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[27*W +: W];
     logic [W-1:0] dl_in_xA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[28*W +: W];
     logic [W-1:0] dl_in_xA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[29*W +: W];
     logic [W-1:0] dl_in_xA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[30*W +: W];
     logic [W-1:0] dl_in_xB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[31*W +: W];
     logic [W-1:0] dl_in_xB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[32*W +: W];
     logic [W-1:0] dl_in_xB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 53]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 53]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 53]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 53]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 53]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[38*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 53]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[39*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 53]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[40*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 53]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[41*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 53]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[42*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 53]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[43*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 53]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[44*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 53]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[45*W +: W];
     logic [W-1:0] dl_in_mInvA;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[46*W +: W];
     logic [W-1:0] dl_in_mInvB;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_x;
     assign in_IInvA_x = in_data[47*W +: W];
     logic [W-1:0] dl_in_IInvA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_x (.clk(clk), .d(in_IInvA_x), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_x));
     logic [W-1:0] in_IInvA_y;
     assign in_IInvA_y = in_data[48*W +: W];
     logic [W-1:0] dl_in_IInvA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_y (.clk(clk), .d(in_IInvA_y), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_y));
     logic [W-1:0] in_IInvA_z;
     assign in_IInvA_z = in_data[49*W +: W];
     logic [W-1:0] dl_in_IInvA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_z (.clk(clk), .d(in_IInvA_z), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_z));
     logic [W-1:0] in_IInvB_x;
     assign in_IInvB_x = in_data[50*W +: W];
     logic [W-1:0] dl_in_IInvB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_x (.clk(clk), .d(in_IInvB_x), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_x));
     logic [W-1:0] in_IInvB_y;
     assign in_IInvB_y = in_data[51*W +: W];
     logic [W-1:0] dl_in_IInvB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_y (.clk(clk), .d(in_IInvB_y), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_y));
     logic [W-1:0] in_IInvB_z;
     assign in_IInvB_z = in_data[52*W +: W];
     logic [W-1:0] dl_in_IInvB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_z (.clk(clk), .d(in_IInvB_z), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_z));
     logic [W-1:0] in_keep_dyn;
     assign in_keep_dyn = in_data[53*W +: W];
     logic [W-1:0] dl_in_keep_dyn;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_keep_dyn (.clk(clk), .d(in_keep_dyn), .valid(1'b0), .q(dl_in_keep_dyn));
     logic [W-1:0] in_keep_static;
     assign in_keep_static = in_data[54*W +: W];
     logic [W-1:0] dl_in_keep_static;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_keep_static (.clk(clk), .d(in_keep_static), .valid(1'b0), .q(dl_in_keep_static));
     logic [1-1:0] dl_in_soft;
-    pgs_delay #(.WIDTH(1), .DEPTH(0))
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_soft (.clk(clk), .d(in_soft), .valid(1'b0), .q(dl_in_soft));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
@@ -393,97 +452,113 @@ module pgs_contact_pipe_soft #(
     logic staticA;
     assign staticA = (dl_in_mInvA[W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [1-1:0] dl_staticA;
-    pgs_delay #(.WIDTH(1), .DEPTH(0))
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_staticA (.clk(clk), .d(staticA), .valid(1'b0), .q(dl_staticA));
     // staticB = mInvB == 0   (ready @0/0/0)
     logic staticB;
     assign staticB = (dl_in_mInvB[W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [1-1:0] dl_staticB;
-    pgs_delay #(.WIDTH(1), .DEPTH(0))
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_staticB (.clk(clk), .d(staticB), .valid(1'b0), .q(dl_staticB));
     // select59 = staticB ? keep_static : keep_dyn   (ready @0/0/0)
     logic [W-1:0] select59;
     assign select59 = dl_staticB ? dl_in_keep_static : dl_in_keep_dyn;
     logic [W-1:0] dl_select59;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_select59 (.clk(clk), .d(select59), .valid(1'b0), .q(dl_select59));
     // keep_row = staticA ? keep_static : select59   (ready @0/0/0)
     logic [W-1:0] keep_row;
     assign keep_row = dl_staticA ? dl_in_keep_static : dl_select59;
     logic [W-1:0] dl_keep_row;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_keep_row (.clk(clk), .d(keep_row), .valid(1'b0), .q(dl_keep_row));
     // apart0 = b0 > 0   (ready @0/0/0)
     logic apart0;
     assign apart0 = !dl_in_b0[0*W +: W][W-1] && (dl_in_b0[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
     logic [1-1:0] dl_apart0;
-    pgs_delay #(.WIDTH(1), .DEPTH(0))
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_apart0 (.clk(clk), .d(apart0), .valid(1'b0), .q(dl_apart0));
     // select62 = apart0 ? 1.0 : keep_row   (ready @0/0/0)
     logic [W-1:0] select62;
     assign select62 = dl_apart0 ? K_ONE : dl_keep_row;
     logic [W-1:0] dl_select62;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_select62 (.clk(clk), .d(select62), .valid(1'b0), .q(dl_select62));
     // keep0 = soft ? select62 : 1.0   (ready @0/0/0)
     logic [W-1:0] keep0;
     assign keep0 = dl_in_soft ? dl_select62 : K_ONE;
     logic [W-1:0] dl_keep0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_keep0 (.clk(clk), .d(keep0), .valid(1'b0), .q(dl_keep0));
     // apart1 = b1 > 0   (ready @0/0/0)
     logic apart1;
     assign apart1 = !dl_in_b1[0*W +: W][W-1] && (dl_in_b1[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
     logic [1-1:0] dl_apart1;
-    pgs_delay #(.WIDTH(1), .DEPTH(0))
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_apart1 (.clk(clk), .d(apart1), .valid(1'b0), .q(dl_apart1));
     // select65 = apart1 ? 1.0 : keep_row   (ready @0/0/0)
     logic [W-1:0] select65;
     assign select65 = dl_apart1 ? K_ONE : dl_keep_row;
     logic [W-1:0] dl_select65;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_select65 (.clk(clk), .d(select65), .valid(1'b0), .q(dl_select65));
     // keep1 = soft ? select65 : 1.0   (ready @0/0/0)
     logic [W-1:0] keep1;
     assign keep1 = dl_in_soft ? dl_select65 : K_ONE;
     logic [W-1:0] dl_keep1;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_keep1 (.clk(clk), .d(keep1), .valid(1'b0), .q(dl_keep1));
     // apart2 = b2 > 0   (ready @0/0/0)
     logic apart2;
     assign apart2 = !dl_in_b2[0*W +: W][W-1] && (dl_in_b2[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
     logic [1-1:0] dl_apart2;
-    pgs_delay #(.WIDTH(1), .DEPTH(0))
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_apart2 (.clk(clk), .d(apart2), .valid(1'b0), .q(dl_apart2));
     // select68 = apart2 ? 1.0 : keep_row   (ready @0/0/0)
     logic [W-1:0] select68;
     assign select68 = dl_apart2 ? K_ONE : dl_keep_row;
     logic [W-1:0] dl_select68;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_select68 (.clk(clk), .d(select68), .valid(1'b0), .q(dl_select68));
     // keep2 = soft ? select68 : 1.0   (ready @0/0/0)
     logic [W-1:0] keep2;
     assign keep2 = dl_in_soft ? dl_select68 : K_ONE;
     logic [W-1:0] dl_keep2;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_keep2 (.clk(clk), .d(keep2), .valid(1'b0), .q(dl_keep2));
     // apart3 = b3 > 0   (ready @0/0/0)
     logic apart3;
     assign apart3 = !dl_in_b3[0*W +: W][W-1] && (dl_in_b3[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
     logic [1-1:0] dl_apart3;
-    pgs_delay #(.WIDTH(1), .DEPTH(0))
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_apart3 (.clk(clk), .d(apart3), .valid(1'b0), .q(dl_apart3));
     // select71 = apart3 ? 1.0 : keep_row   (ready @0/0/0)
     logic [W-1:0] select71;
     assign select71 = dl_apart3 ? K_ONE : dl_keep_row;
     logic [W-1:0] dl_select71;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_select71 (.clk(clk), .d(select71), .valid(1'b0), .q(dl_select71));
     // keep3 = soft ? select71 : 1.0   (ready @0/0/0)
     logic [W-1:0] keep3;
     assign keep3 = dl_in_soft ? dl_select71 : K_ONE;
     logic [W-1:0] dl_keep3;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_keep3 (.clk(clk), .d(keep3), .valid(1'b0), .q(dl_keep3));
     // linA_x = n_x * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_x;
@@ -496,7 +571,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[0] = fl_linA_x[1] && ev_q[3];
     assign ev_inv[0] = fl_linA_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linA_x (.clk(clk), .d(linA_x), .valid(valid_q[3 +: 169]), .q(dl_linA_x));
     // linA_y = n_y * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_y;
@@ -509,7 +585,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[1] = fl_linA_y[1] && ev_q[3];
     assign ev_inv[1] = fl_linA_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linA_y (.clk(clk), .d(linA_y), .valid(valid_q[3 +: 169]), .q(dl_linA_y));
     // linA_z = n_z * mInvA   (ready @3/3/3)
     logic [W-1:0] linA_z;
@@ -522,7 +599,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[2] = fl_linA_z[1] && ev_q[3];
     assign ev_inv[2] = fl_linA_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linA_z (.clk(clk), .d(linA_z), .valid(valid_q[3 +: 169]), .q(dl_linA_z));
     // linB_x = n_x * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_x;
@@ -535,7 +613,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[3] = fl_linB_x[1] && ev_q[3];
     assign ev_inv[3] = fl_linB_x[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linB_x (.clk(clk), .d(linB_x), .valid(valid_q[3 +: 169]), .q(dl_linB_x));
     // linB_y = n_y * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_y;
@@ -548,7 +627,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[4] = fl_linB_y[1] && ev_q[3];
     assign ev_inv[4] = fl_linB_y[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linB_y (.clk(clk), .d(linB_y), .valid(valid_q[3 +: 169]), .q(dl_linB_y));
     // linB_z = n_z * mInvB   (ready @3/3/3)
     logic [W-1:0] linB_z;
@@ -561,13 +641,15 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[5] = fl_linB_z[1] && ev_q[3];
     assign ev_inv[5] = fl_linB_z[2] && ev_q[3];
     logic [4*W-1:0] dl_linB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(169), .N_TAPS(4), .TAPS({32'(169), 32'(127), 32'(85), 32'(43)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_linB_z (.clk(clk), .d(linB_z), .valid(valid_q[3 +: 169]), .q(dl_linB_z));
     // pt0_skip = jac_inv0 == 0   (ready @0/0/0)
     logic pt0_skip;
     assign pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt0_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_skip (.clk(clk), .d(pt0_skip), .valid(valid_q[0 +: 53]), .q(dl_pt0_skip));
     // pt0_rA_x = p0_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt0_rA_x;
@@ -580,7 +662,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[6] = fl_pt0_rA_x[1] && ev_q[4];
     assign ev_inv[6] = fl_pt0_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rA_x (.clk(clk), .d(pt0_rA_x), .valid(1'b0), .q(dl_pt0_rA_x));
     // pt0_rA_y = p0_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt0_rA_y;
@@ -593,7 +676,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[7] = fl_pt0_rA_y[1] && ev_q[4];
     assign ev_inv[7] = fl_pt0_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rA_y (.clk(clk), .d(pt0_rA_y), .valid(1'b0), .q(dl_pt0_rA_y));
     // pt0_rA_z = p0_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt0_rA_z;
@@ -606,7 +690,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[8] = fl_pt0_rA_z[1] && ev_q[4];
     assign ev_inv[8] = fl_pt0_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rA_z (.clk(clk), .d(pt0_rA_z), .valid(1'b0), .q(dl_pt0_rA_z));
     // pt0_mul84 = pt0_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul84;
@@ -619,7 +704,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[9] = fl_pt0_mul84[1] && ev_q[7];
     assign ev_inv[9] = fl_pt0_mul84[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul84;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul84 (.clk(clk), .d(pt0_mul84), .valid(1'b0), .q(dl_pt0_mul84));
     // pt0_mul85 = pt0_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul85;
@@ -632,7 +718,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[10] = fl_pt0_mul85[1] && ev_q[7];
     assign ev_inv[10] = fl_pt0_mul85[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul85;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul85 (.clk(clk), .d(pt0_mul85), .valid(1'b0), .q(dl_pt0_mul85));
     // pt0_cA_x = pt0_mul84 - pt0_mul85   (ready @11/11/11)
     logic [W-1:0] pt0_cA_x;
@@ -645,7 +732,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[11] = fl_pt0_cA_x[1] && ev_q[11];
     assign ev_inv[11] = fl_pt0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cA_x (.clk(clk), .d(pt0_cA_x), .valid(1'b0), .q(dl_pt0_cA_x));
     // pt0_mul87 = pt0_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul87;
@@ -658,7 +746,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[12] = fl_pt0_mul87[1] && ev_q[7];
     assign ev_inv[12] = fl_pt0_mul87[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul87;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul87 (.clk(clk), .d(pt0_mul87), .valid(1'b0), .q(dl_pt0_mul87));
     // pt0_mul88 = pt0_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul88;
@@ -671,7 +760,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[13] = fl_pt0_mul88[1] && ev_q[7];
     assign ev_inv[13] = fl_pt0_mul88[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul88;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul88 (.clk(clk), .d(pt0_mul88), .valid(1'b0), .q(dl_pt0_mul88));
     // pt0_cA_y = pt0_mul87 - pt0_mul88   (ready @11/11/11)
     logic [W-1:0] pt0_cA_y;
@@ -684,7 +774,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[14] = fl_pt0_cA_y[1] && ev_q[11];
     assign ev_inv[14] = fl_pt0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cA_y (.clk(clk), .d(pt0_cA_y), .valid(1'b0), .q(dl_pt0_cA_y));
     // pt0_mul90 = pt0_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul90;
@@ -697,7 +788,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[15] = fl_pt0_mul90[1] && ev_q[7];
     assign ev_inv[15] = fl_pt0_mul90[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul90;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul90 (.clk(clk), .d(pt0_mul90), .valid(1'b0), .q(dl_pt0_mul90));
     // pt0_mul91 = pt0_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul91;
@@ -710,7 +802,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[16] = fl_pt0_mul91[1] && ev_q[7];
     assign ev_inv[16] = fl_pt0_mul91[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul91;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul91 (.clk(clk), .d(pt0_mul91), .valid(1'b0), .q(dl_pt0_mul91));
     // pt0_cA_z = pt0_mul90 - pt0_mul91   (ready @11/11/11)
     logic [W-1:0] pt0_cA_z;
@@ -723,7 +816,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[17] = fl_pt0_cA_z[1] && ev_q[11];
     assign ev_inv[17] = fl_pt0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cA_z (.clk(clk), .d(pt0_cA_z), .valid(1'b0), .q(dl_pt0_cA_z));
     // pt0_rB_x = p0_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt0_rB_x;
@@ -736,7 +830,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[18] = fl_pt0_rB_x[1] && ev_q[4];
     assign ev_inv[18] = fl_pt0_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rB_x (.clk(clk), .d(pt0_rB_x), .valid(1'b0), .q(dl_pt0_rB_x));
     // pt0_rB_y = p0_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt0_rB_y;
@@ -749,7 +844,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[19] = fl_pt0_rB_y[1] && ev_q[4];
     assign ev_inv[19] = fl_pt0_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rB_y (.clk(clk), .d(pt0_rB_y), .valid(1'b0), .q(dl_pt0_rB_y));
     // pt0_rB_z = p0_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt0_rB_z;
@@ -762,7 +858,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[20] = fl_pt0_rB_z[1] && ev_q[4];
     assign ev_inv[20] = fl_pt0_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt0_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_rB_z (.clk(clk), .d(pt0_rB_z), .valid(1'b0), .q(dl_pt0_rB_z));
     // pt0_mul96 = pt0_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul96;
@@ -775,7 +872,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[21] = fl_pt0_mul96[1] && ev_q[7];
     assign ev_inv[21] = fl_pt0_mul96[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul96;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul96 (.clk(clk), .d(pt0_mul96), .valid(1'b0), .q(dl_pt0_mul96));
     // pt0_mul97 = pt0_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul97;
@@ -788,7 +886,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[22] = fl_pt0_mul97[1] && ev_q[7];
     assign ev_inv[22] = fl_pt0_mul97[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul97;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul97 (.clk(clk), .d(pt0_mul97), .valid(1'b0), .q(dl_pt0_mul97));
     // pt0_cB_x = pt0_mul96 - pt0_mul97   (ready @11/11/11)
     logic [W-1:0] pt0_cB_x;
@@ -801,7 +900,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[23] = fl_pt0_cB_x[1] && ev_q[11];
     assign ev_inv[23] = fl_pt0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cB_x (.clk(clk), .d(pt0_cB_x), .valid(1'b0), .q(dl_pt0_cB_x));
     // pt0_mul99 = pt0_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul99;
@@ -814,7 +914,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[24] = fl_pt0_mul99[1] && ev_q[7];
     assign ev_inv[24] = fl_pt0_mul99[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul99;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul99 (.clk(clk), .d(pt0_mul99), .valid(1'b0), .q(dl_pt0_mul99));
     // pt0_mul100 = pt0_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt0_mul100;
@@ -827,7 +928,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[25] = fl_pt0_mul100[1] && ev_q[7];
     assign ev_inv[25] = fl_pt0_mul100[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul100;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul100 (.clk(clk), .d(pt0_mul100), .valid(1'b0), .q(dl_pt0_mul100));
     // pt0_cB_y = pt0_mul99 - pt0_mul100   (ready @11/11/11)
     logic [W-1:0] pt0_cB_y;
@@ -840,7 +942,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[26] = fl_pt0_cB_y[1] && ev_q[11];
     assign ev_inv[26] = fl_pt0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cB_y (.clk(clk), .d(pt0_cB_y), .valid(1'b0), .q(dl_pt0_cB_y));
     // pt0_mul102 = pt0_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt0_mul102;
@@ -853,7 +956,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[27] = fl_pt0_mul102[1] && ev_q[7];
     assign ev_inv[27] = fl_pt0_mul102[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul102;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul102 (.clk(clk), .d(pt0_mul102), .valid(1'b0), .q(dl_pt0_mul102));
     // pt0_mul103 = pt0_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt0_mul103;
@@ -866,7 +970,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[28] = fl_pt0_mul103[1] && ev_q[7];
     assign ev_inv[28] = fl_pt0_mul103[2] && ev_q[7];
     logic [W-1:0] dl_pt0_mul103;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul103 (.clk(clk), .d(pt0_mul103), .valid(1'b0), .q(dl_pt0_mul103));
     // pt0_cB_z = pt0_mul102 - pt0_mul103   (ready @11/11/11)
     logic [W-1:0] pt0_cB_z;
@@ -879,7 +984,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[29] = fl_pt0_cB_z[1] && ev_q[11];
     assign ev_inv[29] = fl_pt0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_pt0_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_cB_z (.clk(clk), .d(pt0_cB_z), .valid(1'b0), .q(dl_pt0_cB_z));
     // pt0_mul105 = n_x * vA_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul105;
@@ -892,7 +998,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[30] = fl_pt0_mul105[1] && ev_q[3];
     assign ev_inv[30] = fl_pt0_mul105[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul105;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul105 (.clk(clk), .d(pt0_mul105), .valid(1'b0), .q(dl_pt0_mul105));
     // pt0_mul106 = n_y * vA_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul106;
@@ -905,7 +1012,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[31] = fl_pt0_mul106[1] && ev_q[3];
     assign ev_inv[31] = fl_pt0_mul106[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul106;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul106 (.clk(clk), .d(pt0_mul106), .valid(1'b0), .q(dl_pt0_mul106));
     // pt0_add107 = pt0_mul105 + pt0_mul106   (ready @7/7/7)
     logic [W-1:0] pt0_add107;
@@ -918,7 +1026,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[32] = fl_pt0_add107[1] && ev_q[7];
     assign ev_inv[32] = fl_pt0_add107[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add107;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add107 (.clk(clk), .d(pt0_add107), .valid(1'b0), .q(dl_pt0_add107));
     // pt0_mul108 = n_z * vA_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul108;
@@ -931,7 +1040,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[33] = fl_pt0_mul108[1] && ev_q[3];
     assign ev_inv[33] = fl_pt0_mul108[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul108;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul108 (.clk(clk), .d(pt0_mul108), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul108));
     // pt0_add109 = pt0_add107 + pt0_mul108   (ready @11/11/11)
     logic [W-1:0] pt0_add109;
@@ -944,7 +1054,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[34] = fl_pt0_add109[1] && ev_q[11];
     assign ev_inv[34] = fl_pt0_add109[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add109;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add109 (.clk(clk), .d(pt0_add109), .valid(1'b0), .q(dl_pt0_add109));
     // pt0_mul110 = n_x * vB_x   (ready @3/3/3)
     logic [W-1:0] pt0_mul110;
@@ -957,7 +1068,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[35] = fl_pt0_mul110[1] && ev_q[3];
     assign ev_inv[35] = fl_pt0_mul110[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul110;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul110 (.clk(clk), .d(pt0_mul110), .valid(1'b0), .q(dl_pt0_mul110));
     // pt0_mul111 = n_y * vB_y   (ready @3/3/3)
     logic [W-1:0] pt0_mul111;
@@ -970,7 +1082,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[36] = fl_pt0_mul111[1] && ev_q[3];
     assign ev_inv[36] = fl_pt0_mul111[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul111;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul111 (.clk(clk), .d(pt0_mul111), .valid(1'b0), .q(dl_pt0_mul111));
     // pt0_add112 = pt0_mul110 + pt0_mul111   (ready @7/7/7)
     logic [W-1:0] pt0_add112;
@@ -983,7 +1096,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[37] = fl_pt0_add112[1] && ev_q[7];
     assign ev_inv[37] = fl_pt0_add112[2] && ev_q[7];
     logic [W-1:0] dl_pt0_add112;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add112 (.clk(clk), .d(pt0_add112), .valid(1'b0), .q(dl_pt0_add112));
     // pt0_mul113 = n_z * vB_z   (ready @3/3/3)
     logic [W-1:0] pt0_mul113;
@@ -996,7 +1110,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[38] = fl_pt0_mul113[1] && ev_q[3];
     assign ev_inv[38] = fl_pt0_mul113[2] && ev_q[3];
     logic [W-1:0] dl_pt0_mul113;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul113 (.clk(clk), .d(pt0_mul113), .valid(valid_q[3 +: 4]), .q(dl_pt0_mul113));
     // pt0_add114 = pt0_add112 + pt0_mul113   (ready @11/11/11)
     logic [W-1:0] pt0_add114;
@@ -1009,7 +1124,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[39] = fl_pt0_add114[1] && ev_q[11];
     assign ev_inv[39] = fl_pt0_add114[2] && ev_q[11];
     logic [W-1:0] dl_pt0_add114;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add114 (.clk(clk), .d(pt0_add114), .valid(1'b0), .q(dl_pt0_add114));
     // pt0_sub115 = pt0_add109 - pt0_add114   (ready @15/15/15)
     logic [W-1:0] pt0_sub115;
@@ -1022,7 +1138,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[40] = fl_pt0_sub115[1] && ev_q[15];
     assign ev_inv[40] = fl_pt0_sub115[2] && ev_q[15];
     logic [W-1:0] dl_pt0_sub115;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub115 (.clk(clk), .d(pt0_sub115), .valid(valid_q[15 +: 11]), .q(dl_pt0_sub115));
     // pt0_mul116 = pt0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul116;
@@ -1035,7 +1152,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[41] = fl_pt0_mul116[1] && ev_q[14];
     assign ev_inv[41] = fl_pt0_mul116[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul116;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul116 (.clk(clk), .d(pt0_mul116), .valid(1'b0), .q(dl_pt0_mul116));
     // pt0_mul117 = pt0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul117;
@@ -1048,7 +1166,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[42] = fl_pt0_mul117[1] && ev_q[14];
     assign ev_inv[42] = fl_pt0_mul117[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul117;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul117 (.clk(clk), .d(pt0_mul117), .valid(1'b0), .q(dl_pt0_mul117));
     // pt0_add118 = pt0_mul116 + pt0_mul117   (ready @18/18/18)
     logic [W-1:0] pt0_add118;
@@ -1061,7 +1180,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[43] = fl_pt0_add118[1] && ev_q[18];
     assign ev_inv[43] = fl_pt0_add118[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add118;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add118 (.clk(clk), .d(pt0_add118), .valid(1'b0), .q(dl_pt0_add118));
     // pt0_mul119 = pt0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul119;
@@ -1074,7 +1194,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[44] = fl_pt0_mul119[1] && ev_q[14];
     assign ev_inv[44] = fl_pt0_mul119[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul119;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul119 (.clk(clk), .d(pt0_mul119), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul119));
     // pt0_add120 = pt0_add118 + pt0_mul119   (ready @22/22/22)
     logic [W-1:0] pt0_add120;
@@ -1087,7 +1208,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[45] = fl_pt0_add120[1] && ev_q[22];
     assign ev_inv[45] = fl_pt0_add120[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add120;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add120 (.clk(clk), .d(pt0_add120), .valid(1'b0), .q(dl_pt0_add120));
     // pt0_mul121 = pt0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] pt0_mul121;
@@ -1100,7 +1222,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[46] = fl_pt0_mul121[1] && ev_q[14];
     assign ev_inv[46] = fl_pt0_mul121[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul121;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul121 (.clk(clk), .d(pt0_mul121), .valid(1'b0), .q(dl_pt0_mul121));
     // pt0_mul122 = pt0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] pt0_mul122;
@@ -1113,7 +1236,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[47] = fl_pt0_mul122[1] && ev_q[14];
     assign ev_inv[47] = fl_pt0_mul122[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul122;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul122 (.clk(clk), .d(pt0_mul122), .valid(1'b0), .q(dl_pt0_mul122));
     // pt0_add123 = pt0_mul121 + pt0_mul122   (ready @18/18/18)
     logic [W-1:0] pt0_add123;
@@ -1126,7 +1250,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[48] = fl_pt0_add123[1] && ev_q[18];
     assign ev_inv[48] = fl_pt0_add123[2] && ev_q[18];
     logic [W-1:0] dl_pt0_add123;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add123 (.clk(clk), .d(pt0_add123), .valid(1'b0), .q(dl_pt0_add123));
     // pt0_mul124 = pt0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] pt0_mul124;
@@ -1139,7 +1264,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[49] = fl_pt0_mul124[1] && ev_q[14];
     assign ev_inv[49] = fl_pt0_mul124[2] && ev_q[14];
     logic [W-1:0] dl_pt0_mul124;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul124 (.clk(clk), .d(pt0_mul124), .valid(valid_q[14 +: 4]), .q(dl_pt0_mul124));
     // pt0_add125 = pt0_add123 + pt0_mul124   (ready @22/22/22)
     logic [W-1:0] pt0_add125;
@@ -1152,7 +1278,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[50] = fl_pt0_add125[1] && ev_q[22];
     assign ev_inv[50] = fl_pt0_add125[2] && ev_q[22];
     logic [W-1:0] dl_pt0_add125;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add125 (.clk(clk), .d(pt0_add125), .valid(1'b0), .q(dl_pt0_add125));
     // pt0_sub126 = pt0_add120 - pt0_add125   (ready @26/26/26)
     logic [W-1:0] pt0_sub126;
@@ -1165,7 +1292,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[51] = fl_pt0_sub126[1] && ev_q[26];
     assign ev_inv[51] = fl_pt0_sub126[2] && ev_q[26];
     logic [W-1:0] dl_pt0_sub126;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub126 (.clk(clk), .d(pt0_sub126), .valid(1'b0), .q(dl_pt0_sub126));
     // pt0_vrel = pt0_sub115 + pt0_sub126   (ready @30/30/30)
     logic [W-1:0] pt0_vrel;
@@ -1178,7 +1306,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[52] = fl_pt0_vrel[1] && ev_q[30];
     assign ev_inv[52] = fl_pt0_vrel[2] && ev_q[30];
     logic [W-1:0] dl_pt0_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vrel (.clk(clk), .d(pt0_vrel), .valid(1'b0), .q(dl_pt0_vrel));
     // pt0_add128 = pt0_vrel + b0   (ready @34/34/34)
     logic [W-1:0] pt0_add128;
@@ -1191,7 +1320,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[53] = fl_pt0_add128[1] && ev_q[34];
     assign ev_inv[53] = fl_pt0_add128[2] && ev_q[34];
     logic [W-1:0] dl_pt0_add128;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add128 (.clk(clk), .d(pt0_add128), .valid(1'b0), .q(dl_pt0_add128));
     // pt0_delta0 = pt0_add128 * jac_inv0   (ready @37/37/37)
     logic [W-1:0] pt0_delta0;
@@ -1204,7 +1334,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[54] = fl_pt0_delta0[1] && ev_q[37];
     assign ev_inv[54] = fl_pt0_delta0[2] && ev_q[37];
     logic [W-1:0] dl_pt0_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_delta0 (.clk(clk), .d(pt0_delta0), .valid(1'b0), .q(dl_pt0_delta0));
     // pt0_lam_kept = lam0 * keep0   (ready @3/3/3)
     logic [W-1:0] pt0_lam_kept;
@@ -1217,7 +1348,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[55] = fl_pt0_lam_kept[1] && ev_q[3];
     assign ev_inv[55] = fl_pt0_lam_kept[2] && ev_q[3];
     logic [W-1:0] dl_pt0_lam_kept;
-    pgs_delay #(.WIDTH(W), .DEPTH(34))
+    pgs_delay #(.WIDTH(W), .DEPTH(34),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_lam_kept (.clk(clk), .d(pt0_lam_kept), .valid(valid_q[3 +: 34]), .q(dl_pt0_lam_kept));
     // pt0_add131 = pt0_lam_kept + pt0_delta0   (ready @41/41/41)
     logic [W-1:0] pt0_add131;
@@ -1230,7 +1362,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[56] = fl_pt0_add131[1] && ev_q[41];
     assign ev_inv[56] = fl_pt0_add131[2] && ev_q[41];
     logic [W-1:0] dl_pt0_add131;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add131 (.clk(clk), .d(pt0_add131), .valid(1'b0), .q(dl_pt0_add131));
     // pt0_lam_new = max(pt0_add131, 0.0)   (ready @42/42/42)
     logic [W-1:0] pt0_lam_new;
@@ -1240,7 +1373,8 @@ module pgs_contact_pipe_soft #(
         .lt(nc_pt0_lam_new_lt), .eq(nc_pt0_lam_new_eq), .unordered(nc_pt0_lam_new_uo)
     );
     logic [W-1:0] dl_pt0_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_lam_new (.clk(clk), .d(pt0_lam_new), .valid(1'b0), .q(dl_pt0_lam_new));
     // pt0_delta = pt0_lam_new - lam0   (ready @46/46/46)
     logic [W-1:0] pt0_delta;
@@ -1253,13 +1387,15 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[57] = fl_pt0_delta[1] && ev_q[46];
     assign ev_inv[57] = fl_pt0_delta[2] && ev_q[46];
     logic [W-1:0] dl_pt0_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_delta (.clk(clk), .d(pt0_delta), .valid(1'b0), .q(dl_pt0_delta));
     // pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (ready @42/42/42)
     logic [W-1:0] pt0_lam;
     assign pt0_lam = dl_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_pt0_lam_new;
     logic [W-1:0] dl_pt0_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(137))
+    pgs_delay #(.WIDTH(W), .DEPTH(137),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_lam (.clk(clk), .d(pt0_lam), .valid(valid_q[42 +: 137]), .q(dl_pt0_lam));
     // pt0_angA_x = IInvA_x * pt0_cA_x   (ready @14/14/14)
     logic [W-1:0] pt0_angA_x;
@@ -1272,7 +1408,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[58] = fl_pt0_angA_x[1] && ev_q[14];
     assign ev_inv[58] = fl_pt0_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angA_x (.clk(clk), .d(pt0_angA_x), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_x));
     // pt0_angA_y = IInvA_y * pt0_cA_y   (ready @14/14/14)
     logic [W-1:0] pt0_angA_y;
@@ -1285,7 +1422,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[59] = fl_pt0_angA_y[1] && ev_q[14];
     assign ev_inv[59] = fl_pt0_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angA_y (.clk(clk), .d(pt0_angA_y), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_y));
     // pt0_angA_z = IInvA_z * pt0_cA_z   (ready @14/14/14)
     logic [W-1:0] pt0_angA_z;
@@ -1298,7 +1436,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[60] = fl_pt0_angA_z[1] && ev_q[14];
     assign ev_inv[60] = fl_pt0_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angA_z (.clk(clk), .d(pt0_angA_z), .valid(valid_q[14 +: 32]), .q(dl_pt0_angA_z));
     // pt0_angB_x = IInvB_x * pt0_cB_x   (ready @14/14/14)
     logic [W-1:0] pt0_angB_x;
@@ -1311,7 +1450,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[61] = fl_pt0_angB_x[1] && ev_q[14];
     assign ev_inv[61] = fl_pt0_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angB_x (.clk(clk), .d(pt0_angB_x), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_x));
     // pt0_angB_y = IInvB_y * pt0_cB_y   (ready @14/14/14)
     logic [W-1:0] pt0_angB_y;
@@ -1324,7 +1464,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[62] = fl_pt0_angB_y[1] && ev_q[14];
     assign ev_inv[62] = fl_pt0_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angB_y (.clk(clk), .d(pt0_angB_y), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_y));
     // pt0_angB_z = IInvB_z * pt0_cB_z   (ready @14/14/14)
     logic [W-1:0] pt0_angB_z;
@@ -1337,7 +1478,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[63] = fl_pt0_angB_z[1] && ev_q[14];
     assign ev_inv[63] = fl_pt0_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt0_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_angB_z (.clk(clk), .d(pt0_angB_z), .valid(valid_q[14 +: 32]), .q(dl_pt0_angB_z));
     // pt0_mul141 = linA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul141;
@@ -1350,7 +1492,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[64] = fl_pt0_mul141[1] && ev_q[49];
     assign ev_inv[64] = fl_pt0_mul141[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul141;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul141 (.clk(clk), .d(pt0_mul141), .valid(1'b0), .q(dl_pt0_mul141));
     // pt0_mul142 = linA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul142;
@@ -1363,7 +1506,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[65] = fl_pt0_mul142[1] && ev_q[49];
     assign ev_inv[65] = fl_pt0_mul142[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul142;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul142 (.clk(clk), .d(pt0_mul142), .valid(1'b0), .q(dl_pt0_mul142));
     // pt0_mul143 = linA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul143;
@@ -1376,7 +1520,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[66] = fl_pt0_mul143[1] && ev_q[49];
     assign ev_inv[66] = fl_pt0_mul143[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul143;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul143 (.clk(clk), .d(pt0_mul143), .valid(1'b0), .q(dl_pt0_mul143));
     // pt0_add144 = vA_x + pt0_mul141   (ready @53/53/53)
     logic [W-1:0] pt0_add144;
@@ -1389,7 +1534,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[67] = fl_pt0_add144[1] && ev_q[53];
     assign ev_inv[67] = fl_pt0_add144[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add144;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add144 (.clk(clk), .d(pt0_add144), .valid(1'b0), .q(dl_pt0_add144));
     // pt0_add145 = vA_y + pt0_mul142   (ready @53/53/53)
     logic [W-1:0] pt0_add145;
@@ -1402,7 +1548,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[68] = fl_pt0_add145[1] && ev_q[53];
     assign ev_inv[68] = fl_pt0_add145[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add145;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add145 (.clk(clk), .d(pt0_add145), .valid(1'b0), .q(dl_pt0_add145));
     // pt0_add146 = vA_z + pt0_mul143   (ready @53/53/53)
     logic [W-1:0] pt0_add146;
@@ -1415,25 +1562,29 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[69] = fl_pt0_add146[1] && ev_q[53];
     assign ev_inv[69] = fl_pt0_add146[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add146;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add146 (.clk(clk), .d(pt0_add146), .valid(1'b0), .q(dl_pt0_add146));
     // pt0_vA_x = pt0_skip ? vA_x : pt0_add144   (ready @53/53/53)
     logic [W-1:0] pt0_vA_x;
     assign pt0_vA_x = dl_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_pt0_add144;
     logic [3*W-1:0] dl_pt0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vA_x (.clk(clk), .d(pt0_vA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_x));
     // pt0_vA_y = pt0_skip ? vA_y : pt0_add145   (ready @53/53/53)
     logic [W-1:0] pt0_vA_y;
     assign pt0_vA_y = dl_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_pt0_add145;
     logic [3*W-1:0] dl_pt0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vA_y (.clk(clk), .d(pt0_vA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_y));
     // pt0_vA_z = pt0_skip ? vA_z : pt0_add146   (ready @53/53/53)
     logic [W-1:0] pt0_vA_z;
     assign pt0_vA_z = dl_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_pt0_add146;
     logic [3*W-1:0] dl_pt0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vA_z (.clk(clk), .d(pt0_vA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vA_z));
     // pt0_mul150 = pt0_angA_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul150;
@@ -1446,7 +1597,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[70] = fl_pt0_mul150[1] && ev_q[49];
     assign ev_inv[70] = fl_pt0_mul150[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul150;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul150 (.clk(clk), .d(pt0_mul150), .valid(1'b0), .q(dl_pt0_mul150));
     // pt0_mul151 = pt0_angA_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul151;
@@ -1459,7 +1611,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[71] = fl_pt0_mul151[1] && ev_q[49];
     assign ev_inv[71] = fl_pt0_mul151[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul151;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul151 (.clk(clk), .d(pt0_mul151), .valid(1'b0), .q(dl_pt0_mul151));
     // pt0_mul152 = pt0_angA_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul152;
@@ -1472,7 +1625,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[72] = fl_pt0_mul152[1] && ev_q[49];
     assign ev_inv[72] = fl_pt0_mul152[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul152;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul152 (.clk(clk), .d(pt0_mul152), .valid(1'b0), .q(dl_pt0_mul152));
     // pt0_add153 = wA_x + pt0_mul150   (ready @53/53/53)
     logic [W-1:0] pt0_add153;
@@ -1485,7 +1639,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[73] = fl_pt0_add153[1] && ev_q[53];
     assign ev_inv[73] = fl_pt0_add153[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add153;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add153 (.clk(clk), .d(pt0_add153), .valid(1'b0), .q(dl_pt0_add153));
     // pt0_add154 = wA_y + pt0_mul151   (ready @53/53/53)
     logic [W-1:0] pt0_add154;
@@ -1498,7 +1653,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[74] = fl_pt0_add154[1] && ev_q[53];
     assign ev_inv[74] = fl_pt0_add154[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add154;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add154 (.clk(clk), .d(pt0_add154), .valid(1'b0), .q(dl_pt0_add154));
     // pt0_add155 = wA_z + pt0_mul152   (ready @53/53/53)
     logic [W-1:0] pt0_add155;
@@ -1511,25 +1667,29 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[75] = fl_pt0_add155[1] && ev_q[53];
     assign ev_inv[75] = fl_pt0_add155[2] && ev_q[53];
     logic [W-1:0] dl_pt0_add155;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_add155 (.clk(clk), .d(pt0_add155), .valid(1'b0), .q(dl_pt0_add155));
     // pt0_wA_x = pt0_skip ? wA_x : pt0_add153   (ready @53/53/53)
     logic [W-1:0] pt0_wA_x;
     assign pt0_wA_x = dl_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_pt0_add153;
     logic [3*W-1:0] dl_pt0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wA_x (.clk(clk), .d(pt0_wA_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_x));
     // pt0_wA_y = pt0_skip ? wA_y : pt0_add154   (ready @53/53/53)
     logic [W-1:0] pt0_wA_y;
     assign pt0_wA_y = dl_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_pt0_add154;
     logic [3*W-1:0] dl_pt0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wA_y (.clk(clk), .d(pt0_wA_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_y));
     // pt0_wA_z = pt0_skip ? wA_z : pt0_add155   (ready @53/53/53)
     logic [W-1:0] pt0_wA_z;
     assign pt0_wA_z = dl_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_pt0_add155;
     logic [3*W-1:0] dl_pt0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wA_z (.clk(clk), .d(pt0_wA_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wA_z));
     // pt0_mul159 = linB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul159;
@@ -1542,7 +1702,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[76] = fl_pt0_mul159[1] && ev_q[49];
     assign ev_inv[76] = fl_pt0_mul159[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul159;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul159 (.clk(clk), .d(pt0_mul159), .valid(1'b0), .q(dl_pt0_mul159));
     // pt0_mul160 = linB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul160;
@@ -1555,7 +1716,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[77] = fl_pt0_mul160[1] && ev_q[49];
     assign ev_inv[77] = fl_pt0_mul160[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul160;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul160 (.clk(clk), .d(pt0_mul160), .valid(1'b0), .q(dl_pt0_mul160));
     // pt0_mul161 = linB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul161;
@@ -1568,7 +1730,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[78] = fl_pt0_mul161[1] && ev_q[49];
     assign ev_inv[78] = fl_pt0_mul161[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul161;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul161 (.clk(clk), .d(pt0_mul161), .valid(1'b0), .q(dl_pt0_mul161));
     // pt0_sub162 = vB_x - pt0_mul159   (ready @53/53/53)
     logic [W-1:0] pt0_sub162;
@@ -1581,7 +1744,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[79] = fl_pt0_sub162[1] && ev_q[53];
     assign ev_inv[79] = fl_pt0_sub162[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub162;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub162 (.clk(clk), .d(pt0_sub162), .valid(1'b0), .q(dl_pt0_sub162));
     // pt0_sub163 = vB_y - pt0_mul160   (ready @53/53/53)
     logic [W-1:0] pt0_sub163;
@@ -1594,7 +1758,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[80] = fl_pt0_sub163[1] && ev_q[53];
     assign ev_inv[80] = fl_pt0_sub163[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub163;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub163 (.clk(clk), .d(pt0_sub163), .valid(1'b0), .q(dl_pt0_sub163));
     // pt0_sub164 = vB_z - pt0_mul161   (ready @53/53/53)
     logic [W-1:0] pt0_sub164;
@@ -1607,25 +1772,29 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[81] = fl_pt0_sub164[1] && ev_q[53];
     assign ev_inv[81] = fl_pt0_sub164[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub164;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub164 (.clk(clk), .d(pt0_sub164), .valid(1'b0), .q(dl_pt0_sub164));
     // pt0_vB_x = pt0_skip ? vB_x : pt0_sub162   (ready @53/53/53)
     logic [W-1:0] pt0_vB_x;
     assign pt0_vB_x = dl_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_pt0_sub162;
     logic [3*W-1:0] dl_pt0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vB_x (.clk(clk), .d(pt0_vB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_x));
     // pt0_vB_y = pt0_skip ? vB_y : pt0_sub163   (ready @53/53/53)
     logic [W-1:0] pt0_vB_y;
     assign pt0_vB_y = dl_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_pt0_sub163;
     logic [3*W-1:0] dl_pt0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vB_y (.clk(clk), .d(pt0_vB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_y));
     // pt0_vB_z = pt0_skip ? vB_z : pt0_sub164   (ready @53/53/53)
     logic [W-1:0] pt0_vB_z;
     assign pt0_vB_z = dl_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_pt0_sub164;
     logic [3*W-1:0] dl_pt0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_vB_z (.clk(clk), .d(pt0_vB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_vB_z));
     // pt0_mul168 = pt0_angB_x * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul168;
@@ -1638,7 +1807,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[82] = fl_pt0_mul168[1] && ev_q[49];
     assign ev_inv[82] = fl_pt0_mul168[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul168;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul168 (.clk(clk), .d(pt0_mul168), .valid(1'b0), .q(dl_pt0_mul168));
     // pt0_mul169 = pt0_angB_y * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul169;
@@ -1651,7 +1821,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[83] = fl_pt0_mul169[1] && ev_q[49];
     assign ev_inv[83] = fl_pt0_mul169[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul169;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul169 (.clk(clk), .d(pt0_mul169), .valid(1'b0), .q(dl_pt0_mul169));
     // pt0_mul170 = pt0_angB_z * pt0_delta   (ready @49/49/49)
     logic [W-1:0] pt0_mul170;
@@ -1664,7 +1835,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[84] = fl_pt0_mul170[1] && ev_q[49];
     assign ev_inv[84] = fl_pt0_mul170[2] && ev_q[49];
     logic [W-1:0] dl_pt0_mul170;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_mul170 (.clk(clk), .d(pt0_mul170), .valid(1'b0), .q(dl_pt0_mul170));
     // pt0_sub171 = wB_x - pt0_mul168   (ready @53/53/53)
     logic [W-1:0] pt0_sub171;
@@ -1677,7 +1849,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[85] = fl_pt0_sub171[1] && ev_q[53];
     assign ev_inv[85] = fl_pt0_sub171[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub171;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub171 (.clk(clk), .d(pt0_sub171), .valid(1'b0), .q(dl_pt0_sub171));
     // pt0_sub172 = wB_y - pt0_mul169   (ready @53/53/53)
     logic [W-1:0] pt0_sub172;
@@ -1690,7 +1863,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[86] = fl_pt0_sub172[1] && ev_q[53];
     assign ev_inv[86] = fl_pt0_sub172[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub172;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub172 (.clk(clk), .d(pt0_sub172), .valid(1'b0), .q(dl_pt0_sub172));
     // pt0_sub173 = wB_z - pt0_mul170   (ready @53/53/53)
     logic [W-1:0] pt0_sub173;
@@ -1703,31 +1877,36 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[87] = fl_pt0_sub173[1] && ev_q[53];
     assign ev_inv[87] = fl_pt0_sub173[2] && ev_q[53];
     logic [W-1:0] dl_pt0_sub173;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_sub173 (.clk(clk), .d(pt0_sub173), .valid(1'b0), .q(dl_pt0_sub173));
     // pt0_wB_x = pt0_skip ? wB_x : pt0_sub171   (ready @53/53/53)
     logic [W-1:0] pt0_wB_x;
     assign pt0_wB_x = dl_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_pt0_sub171;
     logic [3*W-1:0] dl_pt0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wB_x (.clk(clk), .d(pt0_wB_x), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_x));
     // pt0_wB_y = pt0_skip ? wB_y : pt0_sub172   (ready @53/53/53)
     logic [W-1:0] pt0_wB_y;
     assign pt0_wB_y = dl_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_pt0_sub172;
     logic [3*W-1:0] dl_pt0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wB_y (.clk(clk), .d(pt0_wB_y), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_y));
     // pt0_wB_z = pt0_skip ? wB_z : pt0_sub173   (ready @53/53/53)
     logic [W-1:0] pt0_wB_z;
     assign pt0_wB_z = dl_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_pt0_sub173;
     logic [3*W-1:0] dl_pt0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt0_wB_z (.clk(clk), .d(pt0_wB_z), .valid(valid_q[53 +: 42]), .q(dl_pt0_wB_z));
     // pt1_skip = jac_inv1 == 0   (ready @0/0/0)
     logic pt1_skip;
     assign pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt1_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_skip (.clk(clk), .d(pt1_skip), .valid(valid_q[0 +: 95]), .q(dl_pt1_skip));
     // pt1_rA_x = p1_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt1_rA_x;
@@ -1740,7 +1919,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[88] = fl_pt1_rA_x[1] && ev_q[4];
     assign ev_inv[88] = fl_pt1_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rA_x (.clk(clk), .d(pt1_rA_x), .valid(1'b0), .q(dl_pt1_rA_x));
     // pt1_rA_y = p1_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt1_rA_y;
@@ -1753,7 +1933,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[89] = fl_pt1_rA_y[1] && ev_q[4];
     assign ev_inv[89] = fl_pt1_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rA_y (.clk(clk), .d(pt1_rA_y), .valid(1'b0), .q(dl_pt1_rA_y));
     // pt1_rA_z = p1_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt1_rA_z;
@@ -1766,7 +1947,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[90] = fl_pt1_rA_z[1] && ev_q[4];
     assign ev_inv[90] = fl_pt1_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rA_z (.clk(clk), .d(pt1_rA_z), .valid(1'b0), .q(dl_pt1_rA_z));
     // pt1_mul181 = pt1_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul181;
@@ -1779,7 +1961,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[91] = fl_pt1_mul181[1] && ev_q[7];
     assign ev_inv[91] = fl_pt1_mul181[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul181;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul181 (.clk(clk), .d(pt1_mul181), .valid(1'b0), .q(dl_pt1_mul181));
     // pt1_mul182 = pt1_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul182;
@@ -1792,7 +1975,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[92] = fl_pt1_mul182[1] && ev_q[7];
     assign ev_inv[92] = fl_pt1_mul182[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul182;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul182 (.clk(clk), .d(pt1_mul182), .valid(1'b0), .q(dl_pt1_mul182));
     // pt1_cA_x = pt1_mul181 - pt1_mul182   (ready @11/11/11)
     logic [W-1:0] pt1_cA_x;
@@ -1805,7 +1989,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[93] = fl_pt1_cA_x[1] && ev_q[11];
     assign ev_inv[93] = fl_pt1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cA_x (.clk(clk), .d(pt1_cA_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_x));
     // pt1_mul184 = pt1_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul184;
@@ -1818,7 +2003,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[94] = fl_pt1_mul184[1] && ev_q[7];
     assign ev_inv[94] = fl_pt1_mul184[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul184;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul184 (.clk(clk), .d(pt1_mul184), .valid(1'b0), .q(dl_pt1_mul184));
     // pt1_mul185 = pt1_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul185;
@@ -1831,7 +2017,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[95] = fl_pt1_mul185[1] && ev_q[7];
     assign ev_inv[95] = fl_pt1_mul185[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul185;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul185 (.clk(clk), .d(pt1_mul185), .valid(1'b0), .q(dl_pt1_mul185));
     // pt1_cA_y = pt1_mul184 - pt1_mul185   (ready @11/11/11)
     logic [W-1:0] pt1_cA_y;
@@ -1844,7 +2031,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[96] = fl_pt1_cA_y[1] && ev_q[11];
     assign ev_inv[96] = fl_pt1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cA_y (.clk(clk), .d(pt1_cA_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_y));
     // pt1_mul187 = pt1_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul187;
@@ -1857,7 +2045,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[97] = fl_pt1_mul187[1] && ev_q[7];
     assign ev_inv[97] = fl_pt1_mul187[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul187;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul187 (.clk(clk), .d(pt1_mul187), .valid(1'b0), .q(dl_pt1_mul187));
     // pt1_mul188 = pt1_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul188;
@@ -1870,7 +2059,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[98] = fl_pt1_mul188[1] && ev_q[7];
     assign ev_inv[98] = fl_pt1_mul188[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul188;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul188 (.clk(clk), .d(pt1_mul188), .valid(1'b0), .q(dl_pt1_mul188));
     // pt1_cA_z = pt1_mul187 - pt1_mul188   (ready @11/11/11)
     logic [W-1:0] pt1_cA_z;
@@ -1883,7 +2073,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[99] = fl_pt1_cA_z[1] && ev_q[11];
     assign ev_inv[99] = fl_pt1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cA_z (.clk(clk), .d(pt1_cA_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cA_z));
     // pt1_rB_x = p1_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt1_rB_x;
@@ -1896,7 +2087,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[100] = fl_pt1_rB_x[1] && ev_q[4];
     assign ev_inv[100] = fl_pt1_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rB_x (.clk(clk), .d(pt1_rB_x), .valid(1'b0), .q(dl_pt1_rB_x));
     // pt1_rB_y = p1_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt1_rB_y;
@@ -1909,7 +2101,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[101] = fl_pt1_rB_y[1] && ev_q[4];
     assign ev_inv[101] = fl_pt1_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rB_y (.clk(clk), .d(pt1_rB_y), .valid(1'b0), .q(dl_pt1_rB_y));
     // pt1_rB_z = p1_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt1_rB_z;
@@ -1922,7 +2115,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[102] = fl_pt1_rB_z[1] && ev_q[4];
     assign ev_inv[102] = fl_pt1_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt1_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_rB_z (.clk(clk), .d(pt1_rB_z), .valid(1'b0), .q(dl_pt1_rB_z));
     // pt1_mul193 = pt1_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul193;
@@ -1935,7 +2129,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[103] = fl_pt1_mul193[1] && ev_q[7];
     assign ev_inv[103] = fl_pt1_mul193[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul193;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul193 (.clk(clk), .d(pt1_mul193), .valid(1'b0), .q(dl_pt1_mul193));
     // pt1_mul194 = pt1_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul194;
@@ -1948,7 +2143,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[104] = fl_pt1_mul194[1] && ev_q[7];
     assign ev_inv[104] = fl_pt1_mul194[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul194;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul194 (.clk(clk), .d(pt1_mul194), .valid(1'b0), .q(dl_pt1_mul194));
     // pt1_cB_x = pt1_mul193 - pt1_mul194   (ready @11/11/11)
     logic [W-1:0] pt1_cB_x;
@@ -1961,7 +2157,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[105] = fl_pt1_cB_x[1] && ev_q[11];
     assign ev_inv[105] = fl_pt1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cB_x (.clk(clk), .d(pt1_cB_x), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_x));
     // pt1_mul196 = pt1_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul196;
@@ -1974,7 +2171,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[106] = fl_pt1_mul196[1] && ev_q[7];
     assign ev_inv[106] = fl_pt1_mul196[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul196;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul196 (.clk(clk), .d(pt1_mul196), .valid(1'b0), .q(dl_pt1_mul196));
     // pt1_mul197 = pt1_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt1_mul197;
@@ -1987,7 +2185,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[107] = fl_pt1_mul197[1] && ev_q[7];
     assign ev_inv[107] = fl_pt1_mul197[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul197;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul197 (.clk(clk), .d(pt1_mul197), .valid(1'b0), .q(dl_pt1_mul197));
     // pt1_cB_y = pt1_mul196 - pt1_mul197   (ready @11/11/11)
     logic [W-1:0] pt1_cB_y;
@@ -2000,7 +2199,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[108] = fl_pt1_cB_y[1] && ev_q[11];
     assign ev_inv[108] = fl_pt1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cB_y (.clk(clk), .d(pt1_cB_y), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_y));
     // pt1_mul199 = pt1_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt1_mul199;
@@ -2013,7 +2213,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[109] = fl_pt1_mul199[1] && ev_q[7];
     assign ev_inv[109] = fl_pt1_mul199[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul199;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul199 (.clk(clk), .d(pt1_mul199), .valid(1'b0), .q(dl_pt1_mul199));
     // pt1_mul200 = pt1_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt1_mul200;
@@ -2026,7 +2227,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[110] = fl_pt1_mul200[1] && ev_q[7];
     assign ev_inv[110] = fl_pt1_mul200[2] && ev_q[7];
     logic [W-1:0] dl_pt1_mul200;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul200 (.clk(clk), .d(pt1_mul200), .valid(1'b0), .q(dl_pt1_mul200));
     // pt1_cB_z = pt1_mul199 - pt1_mul200   (ready @11/11/11)
     logic [W-1:0] pt1_cB_z;
@@ -2039,7 +2241,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[111] = fl_pt1_cB_z[1] && ev_q[11];
     assign ev_inv[111] = fl_pt1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt1_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(2), .TAPS({32'(0), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_cB_z (.clk(clk), .d(pt1_cB_z), .valid(valid_q[11 +: 42]), .q(dl_pt1_cB_z));
     // pt1_mul202 = n_x * pt0_vA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul202;
@@ -2052,7 +2255,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[112] = fl_pt1_mul202[1] && ev_q[56];
     assign ev_inv[112] = fl_pt1_mul202[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul202;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul202 (.clk(clk), .d(pt1_mul202), .valid(1'b0), .q(dl_pt1_mul202));
     // pt1_mul203 = n_y * pt0_vA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul203;
@@ -2065,7 +2269,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[113] = fl_pt1_mul203[1] && ev_q[56];
     assign ev_inv[113] = fl_pt1_mul203[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul203;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul203 (.clk(clk), .d(pt1_mul203), .valid(1'b0), .q(dl_pt1_mul203));
     // pt1_add204 = pt1_mul202 + pt1_mul203   (ready @60/60/60)
     logic [W-1:0] pt1_add204;
@@ -2078,7 +2283,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[114] = fl_pt1_add204[1] && ev_q[60];
     assign ev_inv[114] = fl_pt1_add204[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add204;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add204 (.clk(clk), .d(pt1_add204), .valid(1'b0), .q(dl_pt1_add204));
     // pt1_mul205 = n_z * pt0_vA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul205;
@@ -2091,7 +2297,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[115] = fl_pt1_mul205[1] && ev_q[56];
     assign ev_inv[115] = fl_pt1_mul205[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul205;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul205 (.clk(clk), .d(pt1_mul205), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul205));
     // pt1_add206 = pt1_add204 + pt1_mul205   (ready @64/64/64)
     logic [W-1:0] pt1_add206;
@@ -2104,7 +2311,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[116] = fl_pt1_add206[1] && ev_q[64];
     assign ev_inv[116] = fl_pt1_add206[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add206;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add206 (.clk(clk), .d(pt1_add206), .valid(1'b0), .q(dl_pt1_add206));
     // pt1_mul207 = n_x * pt0_vB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul207;
@@ -2117,7 +2325,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[117] = fl_pt1_mul207[1] && ev_q[56];
     assign ev_inv[117] = fl_pt1_mul207[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul207;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul207 (.clk(clk), .d(pt1_mul207), .valid(1'b0), .q(dl_pt1_mul207));
     // pt1_mul208 = n_y * pt0_vB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul208;
@@ -2130,7 +2339,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[118] = fl_pt1_mul208[1] && ev_q[56];
     assign ev_inv[118] = fl_pt1_mul208[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul208;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul208 (.clk(clk), .d(pt1_mul208), .valid(1'b0), .q(dl_pt1_mul208));
     // pt1_add209 = pt1_mul207 + pt1_mul208   (ready @60/60/60)
     logic [W-1:0] pt1_add209;
@@ -2143,7 +2353,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[119] = fl_pt1_add209[1] && ev_q[60];
     assign ev_inv[119] = fl_pt1_add209[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add209;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add209 (.clk(clk), .d(pt1_add209), .valid(1'b0), .q(dl_pt1_add209));
     // pt1_mul210 = n_z * pt0_vB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul210;
@@ -2156,7 +2367,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[120] = fl_pt1_mul210[1] && ev_q[56];
     assign ev_inv[120] = fl_pt1_mul210[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul210;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul210 (.clk(clk), .d(pt1_mul210), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul210));
     // pt1_add211 = pt1_add209 + pt1_mul210   (ready @64/64/64)
     logic [W-1:0] pt1_add211;
@@ -2169,7 +2381,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[121] = fl_pt1_add211[1] && ev_q[64];
     assign ev_inv[121] = fl_pt1_add211[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add211;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add211 (.clk(clk), .d(pt1_add211), .valid(1'b0), .q(dl_pt1_add211));
     // pt1_sub212 = pt1_add206 - pt1_add211   (ready @68/68/68)
     logic [W-1:0] pt1_sub212;
@@ -2182,7 +2395,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[122] = fl_pt1_sub212[1] && ev_q[68];
     assign ev_inv[122] = fl_pt1_sub212[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub212;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub212 (.clk(clk), .d(pt1_sub212), .valid(1'b0), .q(dl_pt1_sub212));
     // pt1_mul213 = pt1_cA_x * pt0_wA_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul213;
@@ -2195,7 +2409,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[123] = fl_pt1_mul213[1] && ev_q[56];
     assign ev_inv[123] = fl_pt1_mul213[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul213;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul213 (.clk(clk), .d(pt1_mul213), .valid(1'b0), .q(dl_pt1_mul213));
     // pt1_mul214 = pt1_cA_y * pt0_wA_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul214;
@@ -2208,7 +2423,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[124] = fl_pt1_mul214[1] && ev_q[56];
     assign ev_inv[124] = fl_pt1_mul214[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul214;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul214 (.clk(clk), .d(pt1_mul214), .valid(1'b0), .q(dl_pt1_mul214));
     // pt1_add215 = pt1_mul213 + pt1_mul214   (ready @60/60/60)
     logic [W-1:0] pt1_add215;
@@ -2221,7 +2437,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[125] = fl_pt1_add215[1] && ev_q[60];
     assign ev_inv[125] = fl_pt1_add215[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add215;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add215 (.clk(clk), .d(pt1_add215), .valid(1'b0), .q(dl_pt1_add215));
     // pt1_mul216 = pt1_cA_z * pt0_wA_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul216;
@@ -2234,7 +2451,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[126] = fl_pt1_mul216[1] && ev_q[56];
     assign ev_inv[126] = fl_pt1_mul216[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul216;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul216 (.clk(clk), .d(pt1_mul216), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul216));
     // pt1_add217 = pt1_add215 + pt1_mul216   (ready @64/64/64)
     logic [W-1:0] pt1_add217;
@@ -2247,7 +2465,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[127] = fl_pt1_add217[1] && ev_q[64];
     assign ev_inv[127] = fl_pt1_add217[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add217;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add217 (.clk(clk), .d(pt1_add217), .valid(1'b0), .q(dl_pt1_add217));
     // pt1_mul218 = pt1_cB_x * pt0_wB_x   (ready @56/56/56)
     logic [W-1:0] pt1_mul218;
@@ -2260,7 +2479,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[128] = fl_pt1_mul218[1] && ev_q[56];
     assign ev_inv[128] = fl_pt1_mul218[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul218;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul218 (.clk(clk), .d(pt1_mul218), .valid(1'b0), .q(dl_pt1_mul218));
     // pt1_mul219 = pt1_cB_y * pt0_wB_y   (ready @56/56/56)
     logic [W-1:0] pt1_mul219;
@@ -2273,7 +2493,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[129] = fl_pt1_mul219[1] && ev_q[56];
     assign ev_inv[129] = fl_pt1_mul219[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul219;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul219 (.clk(clk), .d(pt1_mul219), .valid(1'b0), .q(dl_pt1_mul219));
     // pt1_add220 = pt1_mul218 + pt1_mul219   (ready @60/60/60)
     logic [W-1:0] pt1_add220;
@@ -2286,7 +2507,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[130] = fl_pt1_add220[1] && ev_q[60];
     assign ev_inv[130] = fl_pt1_add220[2] && ev_q[60];
     logic [W-1:0] dl_pt1_add220;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add220 (.clk(clk), .d(pt1_add220), .valid(1'b0), .q(dl_pt1_add220));
     // pt1_mul221 = pt1_cB_z * pt0_wB_z   (ready @56/56/56)
     logic [W-1:0] pt1_mul221;
@@ -2299,7 +2521,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[131] = fl_pt1_mul221[1] && ev_q[56];
     assign ev_inv[131] = fl_pt1_mul221[2] && ev_q[56];
     logic [W-1:0] dl_pt1_mul221;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul221 (.clk(clk), .d(pt1_mul221), .valid(valid_q[56 +: 4]), .q(dl_pt1_mul221));
     // pt1_add222 = pt1_add220 + pt1_mul221   (ready @64/64/64)
     logic [W-1:0] pt1_add222;
@@ -2312,7 +2535,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[132] = fl_pt1_add222[1] && ev_q[64];
     assign ev_inv[132] = fl_pt1_add222[2] && ev_q[64];
     logic [W-1:0] dl_pt1_add222;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add222 (.clk(clk), .d(pt1_add222), .valid(1'b0), .q(dl_pt1_add222));
     // pt1_sub223 = pt1_add217 - pt1_add222   (ready @68/68/68)
     logic [W-1:0] pt1_sub223;
@@ -2325,7 +2549,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[133] = fl_pt1_sub223[1] && ev_q[68];
     assign ev_inv[133] = fl_pt1_sub223[2] && ev_q[68];
     logic [W-1:0] dl_pt1_sub223;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub223 (.clk(clk), .d(pt1_sub223), .valid(1'b0), .q(dl_pt1_sub223));
     // pt1_vrel = pt1_sub212 + pt1_sub223   (ready @72/72/72)
     logic [W-1:0] pt1_vrel;
@@ -2338,7 +2563,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[134] = fl_pt1_vrel[1] && ev_q[72];
     assign ev_inv[134] = fl_pt1_vrel[2] && ev_q[72];
     logic [W-1:0] dl_pt1_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vrel (.clk(clk), .d(pt1_vrel), .valid(1'b0), .q(dl_pt1_vrel));
     // pt1_add225 = pt1_vrel + b1   (ready @76/76/76)
     logic [W-1:0] pt1_add225;
@@ -2351,7 +2577,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[135] = fl_pt1_add225[1] && ev_q[76];
     assign ev_inv[135] = fl_pt1_add225[2] && ev_q[76];
     logic [W-1:0] dl_pt1_add225;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add225 (.clk(clk), .d(pt1_add225), .valid(1'b0), .q(dl_pt1_add225));
     // pt1_delta0 = pt1_add225 * jac_inv1   (ready @79/79/79)
     logic [W-1:0] pt1_delta0;
@@ -2364,7 +2591,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[136] = fl_pt1_delta0[1] && ev_q[79];
     assign ev_inv[136] = fl_pt1_delta0[2] && ev_q[79];
     logic [W-1:0] dl_pt1_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_delta0 (.clk(clk), .d(pt1_delta0), .valid(1'b0), .q(dl_pt1_delta0));
     // pt1_lam_kept = lam1 * keep1   (ready @3/3/3)
     logic [W-1:0] pt1_lam_kept;
@@ -2377,7 +2605,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[137] = fl_pt1_lam_kept[1] && ev_q[3];
     assign ev_inv[137] = fl_pt1_lam_kept[2] && ev_q[3];
     logic [W-1:0] dl_pt1_lam_kept;
-    pgs_delay #(.WIDTH(W), .DEPTH(76))
+    pgs_delay #(.WIDTH(W), .DEPTH(76),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_lam_kept (.clk(clk), .d(pt1_lam_kept), .valid(valid_q[3 +: 76]), .q(dl_pt1_lam_kept));
     // pt1_add228 = pt1_lam_kept + pt1_delta0   (ready @83/83/83)
     logic [W-1:0] pt1_add228;
@@ -2390,7 +2619,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[138] = fl_pt1_add228[1] && ev_q[83];
     assign ev_inv[138] = fl_pt1_add228[2] && ev_q[83];
     logic [W-1:0] dl_pt1_add228;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add228 (.clk(clk), .d(pt1_add228), .valid(1'b0), .q(dl_pt1_add228));
     // pt1_lam_new = max(pt1_add228, 0.0)   (ready @84/84/84)
     logic [W-1:0] pt1_lam_new;
@@ -2400,7 +2630,8 @@ module pgs_contact_pipe_soft #(
         .lt(nc_pt1_lam_new_lt), .eq(nc_pt1_lam_new_eq), .unordered(nc_pt1_lam_new_uo)
     );
     logic [W-1:0] dl_pt1_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_lam_new (.clk(clk), .d(pt1_lam_new), .valid(1'b0), .q(dl_pt1_lam_new));
     // pt1_delta = pt1_lam_new - lam1   (ready @88/88/88)
     logic [W-1:0] pt1_delta;
@@ -2413,13 +2644,15 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[139] = fl_pt1_delta[1] && ev_q[88];
     assign ev_inv[139] = fl_pt1_delta[2] && ev_q[88];
     logic [W-1:0] dl_pt1_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_delta (.clk(clk), .d(pt1_delta), .valid(1'b0), .q(dl_pt1_delta));
     // pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (ready @84/84/84)
     logic [W-1:0] pt1_lam;
     assign pt1_lam = dl_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_pt1_lam_new;
     logic [W-1:0] dl_pt1_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(95))
+    pgs_delay #(.WIDTH(W), .DEPTH(95),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_lam (.clk(clk), .d(pt1_lam), .valid(valid_q[84 +: 95]), .q(dl_pt1_lam));
     // pt1_angA_x = IInvA_x * pt1_cA_x   (ready @14/14/14)
     logic [W-1:0] pt1_angA_x;
@@ -2432,7 +2665,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[140] = fl_pt1_angA_x[1] && ev_q[14];
     assign ev_inv[140] = fl_pt1_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angA_x (.clk(clk), .d(pt1_angA_x), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_x));
     // pt1_angA_y = IInvA_y * pt1_cA_y   (ready @14/14/14)
     logic [W-1:0] pt1_angA_y;
@@ -2445,7 +2679,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[141] = fl_pt1_angA_y[1] && ev_q[14];
     assign ev_inv[141] = fl_pt1_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angA_y (.clk(clk), .d(pt1_angA_y), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_y));
     // pt1_angA_z = IInvA_z * pt1_cA_z   (ready @14/14/14)
     logic [W-1:0] pt1_angA_z;
@@ -2458,7 +2693,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[142] = fl_pt1_angA_z[1] && ev_q[14];
     assign ev_inv[142] = fl_pt1_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angA_z (.clk(clk), .d(pt1_angA_z), .valid(valid_q[14 +: 74]), .q(dl_pt1_angA_z));
     // pt1_angB_x = IInvB_x * pt1_cB_x   (ready @14/14/14)
     logic [W-1:0] pt1_angB_x;
@@ -2471,7 +2707,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[143] = fl_pt1_angB_x[1] && ev_q[14];
     assign ev_inv[143] = fl_pt1_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angB_x (.clk(clk), .d(pt1_angB_x), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_x));
     // pt1_angB_y = IInvB_y * pt1_cB_y   (ready @14/14/14)
     logic [W-1:0] pt1_angB_y;
@@ -2484,7 +2721,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[144] = fl_pt1_angB_y[1] && ev_q[14];
     assign ev_inv[144] = fl_pt1_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angB_y (.clk(clk), .d(pt1_angB_y), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_y));
     // pt1_angB_z = IInvB_z * pt1_cB_z   (ready @14/14/14)
     logic [W-1:0] pt1_angB_z;
@@ -2497,7 +2735,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[145] = fl_pt1_angB_z[1] && ev_q[14];
     assign ev_inv[145] = fl_pt1_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt1_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(74))
+    pgs_delay #(.WIDTH(W), .DEPTH(74),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_angB_z (.clk(clk), .d(pt1_angB_z), .valid(valid_q[14 +: 74]), .q(dl_pt1_angB_z));
     // pt1_mul238 = linA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul238;
@@ -2510,7 +2749,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[146] = fl_pt1_mul238[1] && ev_q[91];
     assign ev_inv[146] = fl_pt1_mul238[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul238;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul238 (.clk(clk), .d(pt1_mul238), .valid(1'b0), .q(dl_pt1_mul238));
     // pt1_mul239 = linA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul239;
@@ -2523,7 +2763,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[147] = fl_pt1_mul239[1] && ev_q[91];
     assign ev_inv[147] = fl_pt1_mul239[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul239;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul239 (.clk(clk), .d(pt1_mul239), .valid(1'b0), .q(dl_pt1_mul239));
     // pt1_mul240 = linA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul240;
@@ -2536,7 +2777,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[148] = fl_pt1_mul240[1] && ev_q[91];
     assign ev_inv[148] = fl_pt1_mul240[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul240;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul240 (.clk(clk), .d(pt1_mul240), .valid(1'b0), .q(dl_pt1_mul240));
     // pt1_add241 = pt0_vA_x + pt1_mul238   (ready @95/95/95)
     logic [W-1:0] pt1_add241;
@@ -2549,7 +2791,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[149] = fl_pt1_add241[1] && ev_q[95];
     assign ev_inv[149] = fl_pt1_add241[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add241;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add241 (.clk(clk), .d(pt1_add241), .valid(1'b0), .q(dl_pt1_add241));
     // pt1_add242 = pt0_vA_y + pt1_mul239   (ready @95/95/95)
     logic [W-1:0] pt1_add242;
@@ -2562,7 +2805,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[150] = fl_pt1_add242[1] && ev_q[95];
     assign ev_inv[150] = fl_pt1_add242[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add242;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add242 (.clk(clk), .d(pt1_add242), .valid(1'b0), .q(dl_pt1_add242));
     // pt1_add243 = pt0_vA_z + pt1_mul240   (ready @95/95/95)
     logic [W-1:0] pt1_add243;
@@ -2575,25 +2819,29 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[151] = fl_pt1_add243[1] && ev_q[95];
     assign ev_inv[151] = fl_pt1_add243[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add243;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add243 (.clk(clk), .d(pt1_add243), .valid(1'b0), .q(dl_pt1_add243));
     // pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add241   (ready @95/95/95)
     logic [W-1:0] pt1_vA_x;
     assign pt1_vA_x = dl_pt1_skip[1] ? dl_pt0_vA_x[2*W +: W] : dl_pt1_add241;
     logic [3*W-1:0] dl_pt1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vA_x (.clk(clk), .d(pt1_vA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_x));
     // pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add242   (ready @95/95/95)
     logic [W-1:0] pt1_vA_y;
     assign pt1_vA_y = dl_pt1_skip[1] ? dl_pt0_vA_y[2*W +: W] : dl_pt1_add242;
     logic [3*W-1:0] dl_pt1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vA_y (.clk(clk), .d(pt1_vA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_y));
     // pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add243   (ready @95/95/95)
     logic [W-1:0] pt1_vA_z;
     assign pt1_vA_z = dl_pt1_skip[1] ? dl_pt0_vA_z[2*W +: W] : dl_pt1_add243;
     logic [3*W-1:0] dl_pt1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vA_z (.clk(clk), .d(pt1_vA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vA_z));
     // pt1_mul247 = pt1_angA_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul247;
@@ -2606,7 +2854,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[152] = fl_pt1_mul247[1] && ev_q[91];
     assign ev_inv[152] = fl_pt1_mul247[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul247;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul247 (.clk(clk), .d(pt1_mul247), .valid(1'b0), .q(dl_pt1_mul247));
     // pt1_mul248 = pt1_angA_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul248;
@@ -2619,7 +2868,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[153] = fl_pt1_mul248[1] && ev_q[91];
     assign ev_inv[153] = fl_pt1_mul248[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul248;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul248 (.clk(clk), .d(pt1_mul248), .valid(1'b0), .q(dl_pt1_mul248));
     // pt1_mul249 = pt1_angA_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul249;
@@ -2632,7 +2882,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[154] = fl_pt1_mul249[1] && ev_q[91];
     assign ev_inv[154] = fl_pt1_mul249[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul249;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul249 (.clk(clk), .d(pt1_mul249), .valid(1'b0), .q(dl_pt1_mul249));
     // pt1_add250 = pt0_wA_x + pt1_mul247   (ready @95/95/95)
     logic [W-1:0] pt1_add250;
@@ -2645,7 +2896,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[155] = fl_pt1_add250[1] && ev_q[95];
     assign ev_inv[155] = fl_pt1_add250[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add250;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add250 (.clk(clk), .d(pt1_add250), .valid(1'b0), .q(dl_pt1_add250));
     // pt1_add251 = pt0_wA_y + pt1_mul248   (ready @95/95/95)
     logic [W-1:0] pt1_add251;
@@ -2658,7 +2910,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[156] = fl_pt1_add251[1] && ev_q[95];
     assign ev_inv[156] = fl_pt1_add251[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add251;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add251 (.clk(clk), .d(pt1_add251), .valid(1'b0), .q(dl_pt1_add251));
     // pt1_add252 = pt0_wA_z + pt1_mul249   (ready @95/95/95)
     logic [W-1:0] pt1_add252;
@@ -2671,25 +2924,29 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[157] = fl_pt1_add252[1] && ev_q[95];
     assign ev_inv[157] = fl_pt1_add252[2] && ev_q[95];
     logic [W-1:0] dl_pt1_add252;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_add252 (.clk(clk), .d(pt1_add252), .valid(1'b0), .q(dl_pt1_add252));
     // pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add250   (ready @95/95/95)
     logic [W-1:0] pt1_wA_x;
     assign pt1_wA_x = dl_pt1_skip[1] ? dl_pt0_wA_x[2*W +: W] : dl_pt1_add250;
     logic [3*W-1:0] dl_pt1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wA_x (.clk(clk), .d(pt1_wA_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_x));
     // pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add251   (ready @95/95/95)
     logic [W-1:0] pt1_wA_y;
     assign pt1_wA_y = dl_pt1_skip[1] ? dl_pt0_wA_y[2*W +: W] : dl_pt1_add251;
     logic [3*W-1:0] dl_pt1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wA_y (.clk(clk), .d(pt1_wA_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_y));
     // pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add252   (ready @95/95/95)
     logic [W-1:0] pt1_wA_z;
     assign pt1_wA_z = dl_pt1_skip[1] ? dl_pt0_wA_z[2*W +: W] : dl_pt1_add252;
     logic [3*W-1:0] dl_pt1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wA_z (.clk(clk), .d(pt1_wA_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wA_z));
     // pt1_mul256 = linB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul256;
@@ -2702,7 +2959,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[158] = fl_pt1_mul256[1] && ev_q[91];
     assign ev_inv[158] = fl_pt1_mul256[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul256;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul256 (.clk(clk), .d(pt1_mul256), .valid(1'b0), .q(dl_pt1_mul256));
     // pt1_mul257 = linB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul257;
@@ -2715,7 +2973,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[159] = fl_pt1_mul257[1] && ev_q[91];
     assign ev_inv[159] = fl_pt1_mul257[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul257;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul257 (.clk(clk), .d(pt1_mul257), .valid(1'b0), .q(dl_pt1_mul257));
     // pt1_mul258 = linB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul258;
@@ -2728,7 +2987,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[160] = fl_pt1_mul258[1] && ev_q[91];
     assign ev_inv[160] = fl_pt1_mul258[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul258;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul258 (.clk(clk), .d(pt1_mul258), .valid(1'b0), .q(dl_pt1_mul258));
     // pt1_sub259 = pt0_vB_x - pt1_mul256   (ready @95/95/95)
     logic [W-1:0] pt1_sub259;
@@ -2741,7 +3001,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[161] = fl_pt1_sub259[1] && ev_q[95];
     assign ev_inv[161] = fl_pt1_sub259[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub259;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub259 (.clk(clk), .d(pt1_sub259), .valid(1'b0), .q(dl_pt1_sub259));
     // pt1_sub260 = pt0_vB_y - pt1_mul257   (ready @95/95/95)
     logic [W-1:0] pt1_sub260;
@@ -2754,7 +3015,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[162] = fl_pt1_sub260[1] && ev_q[95];
     assign ev_inv[162] = fl_pt1_sub260[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub260;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub260 (.clk(clk), .d(pt1_sub260), .valid(1'b0), .q(dl_pt1_sub260));
     // pt1_sub261 = pt0_vB_z - pt1_mul258   (ready @95/95/95)
     logic [W-1:0] pt1_sub261;
@@ -2767,25 +3029,29 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[163] = fl_pt1_sub261[1] && ev_q[95];
     assign ev_inv[163] = fl_pt1_sub261[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub261;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub261 (.clk(clk), .d(pt1_sub261), .valid(1'b0), .q(dl_pt1_sub261));
     // pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub259   (ready @95/95/95)
     logic [W-1:0] pt1_vB_x;
     assign pt1_vB_x = dl_pt1_skip[1] ? dl_pt0_vB_x[2*W +: W] : dl_pt1_sub259;
     logic [3*W-1:0] dl_pt1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vB_x (.clk(clk), .d(pt1_vB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_x));
     // pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub260   (ready @95/95/95)
     logic [W-1:0] pt1_vB_y;
     assign pt1_vB_y = dl_pt1_skip[1] ? dl_pt0_vB_y[2*W +: W] : dl_pt1_sub260;
     logic [3*W-1:0] dl_pt1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vB_y (.clk(clk), .d(pt1_vB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_y));
     // pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub261   (ready @95/95/95)
     logic [W-1:0] pt1_vB_z;
     assign pt1_vB_z = dl_pt1_skip[1] ? dl_pt0_vB_z[2*W +: W] : dl_pt1_sub261;
     logic [3*W-1:0] dl_pt1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_vB_z (.clk(clk), .d(pt1_vB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_vB_z));
     // pt1_mul265 = pt1_angB_x * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul265;
@@ -2798,7 +3064,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[164] = fl_pt1_mul265[1] && ev_q[91];
     assign ev_inv[164] = fl_pt1_mul265[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul265;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul265 (.clk(clk), .d(pt1_mul265), .valid(1'b0), .q(dl_pt1_mul265));
     // pt1_mul266 = pt1_angB_y * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul266;
@@ -2811,7 +3078,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[165] = fl_pt1_mul266[1] && ev_q[91];
     assign ev_inv[165] = fl_pt1_mul266[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul266;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul266 (.clk(clk), .d(pt1_mul266), .valid(1'b0), .q(dl_pt1_mul266));
     // pt1_mul267 = pt1_angB_z * pt1_delta   (ready @91/91/91)
     logic [W-1:0] pt1_mul267;
@@ -2824,7 +3092,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[166] = fl_pt1_mul267[1] && ev_q[91];
     assign ev_inv[166] = fl_pt1_mul267[2] && ev_q[91];
     logic [W-1:0] dl_pt1_mul267;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_mul267 (.clk(clk), .d(pt1_mul267), .valid(1'b0), .q(dl_pt1_mul267));
     // pt1_sub268 = pt0_wB_x - pt1_mul265   (ready @95/95/95)
     logic [W-1:0] pt1_sub268;
@@ -2837,7 +3106,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[167] = fl_pt1_sub268[1] && ev_q[95];
     assign ev_inv[167] = fl_pt1_sub268[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub268;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub268 (.clk(clk), .d(pt1_sub268), .valid(1'b0), .q(dl_pt1_sub268));
     // pt1_sub269 = pt0_wB_y - pt1_mul266   (ready @95/95/95)
     logic [W-1:0] pt1_sub269;
@@ -2850,7 +3120,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[168] = fl_pt1_sub269[1] && ev_q[95];
     assign ev_inv[168] = fl_pt1_sub269[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub269;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub269 (.clk(clk), .d(pt1_sub269), .valid(1'b0), .q(dl_pt1_sub269));
     // pt1_sub270 = pt0_wB_z - pt1_mul267   (ready @95/95/95)
     logic [W-1:0] pt1_sub270;
@@ -2863,31 +3134,36 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[169] = fl_pt1_sub270[1] && ev_q[95];
     assign ev_inv[169] = fl_pt1_sub270[2] && ev_q[95];
     logic [W-1:0] dl_pt1_sub270;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_sub270 (.clk(clk), .d(pt1_sub270), .valid(1'b0), .q(dl_pt1_sub270));
     // pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub268   (ready @95/95/95)
     logic [W-1:0] pt1_wB_x;
     assign pt1_wB_x = dl_pt1_skip[1] ? dl_pt0_wB_x[2*W +: W] : dl_pt1_sub268;
     logic [3*W-1:0] dl_pt1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wB_x (.clk(clk), .d(pt1_wB_x), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_x));
     // pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub269   (ready @95/95/95)
     logic [W-1:0] pt1_wB_y;
     assign pt1_wB_y = dl_pt1_skip[1] ? dl_pt0_wB_y[2*W +: W] : dl_pt1_sub269;
     logic [3*W-1:0] dl_pt1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wB_y (.clk(clk), .d(pt1_wB_y), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_y));
     // pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub270   (ready @95/95/95)
     logic [W-1:0] pt1_wB_z;
     assign pt1_wB_z = dl_pt1_skip[1] ? dl_pt0_wB_z[2*W +: W] : dl_pt1_sub270;
     logic [3*W-1:0] dl_pt1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt1_wB_z (.clk(clk), .d(pt1_wB_z), .valid(valid_q[95 +: 42]), .q(dl_pt1_wB_z));
     // pt2_skip = jac_inv2 == 0   (ready @0/0/0)
     logic pt2_skip;
     assign pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt2_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_skip (.clk(clk), .d(pt2_skip), .valid(valid_q[0 +: 137]), .q(dl_pt2_skip));
     // pt2_rA_x = p2_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt2_rA_x;
@@ -2900,7 +3176,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[170] = fl_pt2_rA_x[1] && ev_q[4];
     assign ev_inv[170] = fl_pt2_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rA_x (.clk(clk), .d(pt2_rA_x), .valid(1'b0), .q(dl_pt2_rA_x));
     // pt2_rA_y = p2_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt2_rA_y;
@@ -2913,7 +3190,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[171] = fl_pt2_rA_y[1] && ev_q[4];
     assign ev_inv[171] = fl_pt2_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rA_y (.clk(clk), .d(pt2_rA_y), .valid(1'b0), .q(dl_pt2_rA_y));
     // pt2_rA_z = p2_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt2_rA_z;
@@ -2926,7 +3204,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[172] = fl_pt2_rA_z[1] && ev_q[4];
     assign ev_inv[172] = fl_pt2_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rA_z (.clk(clk), .d(pt2_rA_z), .valid(1'b0), .q(dl_pt2_rA_z));
     // pt2_mul278 = pt2_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul278;
@@ -2939,7 +3218,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[173] = fl_pt2_mul278[1] && ev_q[7];
     assign ev_inv[173] = fl_pt2_mul278[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul278;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul278 (.clk(clk), .d(pt2_mul278), .valid(1'b0), .q(dl_pt2_mul278));
     // pt2_mul279 = pt2_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul279;
@@ -2952,7 +3232,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[174] = fl_pt2_mul279[1] && ev_q[7];
     assign ev_inv[174] = fl_pt2_mul279[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul279;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul279 (.clk(clk), .d(pt2_mul279), .valid(1'b0), .q(dl_pt2_mul279));
     // pt2_cA_x = pt2_mul278 - pt2_mul279   (ready @11/11/11)
     logic [W-1:0] pt2_cA_x;
@@ -2965,7 +3246,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[175] = fl_pt2_cA_x[1] && ev_q[11];
     assign ev_inv[175] = fl_pt2_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cA_x (.clk(clk), .d(pt2_cA_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_x));
     // pt2_mul281 = pt2_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul281;
@@ -2978,7 +3260,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[176] = fl_pt2_mul281[1] && ev_q[7];
     assign ev_inv[176] = fl_pt2_mul281[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul281;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul281 (.clk(clk), .d(pt2_mul281), .valid(1'b0), .q(dl_pt2_mul281));
     // pt2_mul282 = pt2_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul282;
@@ -2991,7 +3274,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[177] = fl_pt2_mul282[1] && ev_q[7];
     assign ev_inv[177] = fl_pt2_mul282[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul282;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul282 (.clk(clk), .d(pt2_mul282), .valid(1'b0), .q(dl_pt2_mul282));
     // pt2_cA_y = pt2_mul281 - pt2_mul282   (ready @11/11/11)
     logic [W-1:0] pt2_cA_y;
@@ -3004,7 +3288,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[178] = fl_pt2_cA_y[1] && ev_q[11];
     assign ev_inv[178] = fl_pt2_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cA_y (.clk(clk), .d(pt2_cA_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_y));
     // pt2_mul284 = pt2_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul284;
@@ -3017,7 +3302,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[179] = fl_pt2_mul284[1] && ev_q[7];
     assign ev_inv[179] = fl_pt2_mul284[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul284;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul284 (.clk(clk), .d(pt2_mul284), .valid(1'b0), .q(dl_pt2_mul284));
     // pt2_mul285 = pt2_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul285;
@@ -3030,7 +3316,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[180] = fl_pt2_mul285[1] && ev_q[7];
     assign ev_inv[180] = fl_pt2_mul285[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul285;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul285 (.clk(clk), .d(pt2_mul285), .valid(1'b0), .q(dl_pt2_mul285));
     // pt2_cA_z = pt2_mul284 - pt2_mul285   (ready @11/11/11)
     logic [W-1:0] pt2_cA_z;
@@ -3043,7 +3330,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[181] = fl_pt2_cA_z[1] && ev_q[11];
     assign ev_inv[181] = fl_pt2_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cA_z (.clk(clk), .d(pt2_cA_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cA_z));
     // pt2_rB_x = p2_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt2_rB_x;
@@ -3056,7 +3344,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[182] = fl_pt2_rB_x[1] && ev_q[4];
     assign ev_inv[182] = fl_pt2_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rB_x (.clk(clk), .d(pt2_rB_x), .valid(1'b0), .q(dl_pt2_rB_x));
     // pt2_rB_y = p2_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt2_rB_y;
@@ -3069,7 +3358,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[183] = fl_pt2_rB_y[1] && ev_q[4];
     assign ev_inv[183] = fl_pt2_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rB_y (.clk(clk), .d(pt2_rB_y), .valid(1'b0), .q(dl_pt2_rB_y));
     // pt2_rB_z = p2_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt2_rB_z;
@@ -3082,7 +3372,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[184] = fl_pt2_rB_z[1] && ev_q[4];
     assign ev_inv[184] = fl_pt2_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt2_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_rB_z (.clk(clk), .d(pt2_rB_z), .valid(1'b0), .q(dl_pt2_rB_z));
     // pt2_mul290 = pt2_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul290;
@@ -3095,7 +3386,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[185] = fl_pt2_mul290[1] && ev_q[7];
     assign ev_inv[185] = fl_pt2_mul290[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul290;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul290 (.clk(clk), .d(pt2_mul290), .valid(1'b0), .q(dl_pt2_mul290));
     // pt2_mul291 = pt2_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul291;
@@ -3108,7 +3400,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[186] = fl_pt2_mul291[1] && ev_q[7];
     assign ev_inv[186] = fl_pt2_mul291[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul291;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul291 (.clk(clk), .d(pt2_mul291), .valid(1'b0), .q(dl_pt2_mul291));
     // pt2_cB_x = pt2_mul290 - pt2_mul291   (ready @11/11/11)
     logic [W-1:0] pt2_cB_x;
@@ -3121,7 +3414,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[187] = fl_pt2_cB_x[1] && ev_q[11];
     assign ev_inv[187] = fl_pt2_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cB_x (.clk(clk), .d(pt2_cB_x), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_x));
     // pt2_mul293 = pt2_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul293;
@@ -3134,7 +3428,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[188] = fl_pt2_mul293[1] && ev_q[7];
     assign ev_inv[188] = fl_pt2_mul293[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul293;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul293 (.clk(clk), .d(pt2_mul293), .valid(1'b0), .q(dl_pt2_mul293));
     // pt2_mul294 = pt2_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt2_mul294;
@@ -3147,7 +3442,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[189] = fl_pt2_mul294[1] && ev_q[7];
     assign ev_inv[189] = fl_pt2_mul294[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul294;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul294 (.clk(clk), .d(pt2_mul294), .valid(1'b0), .q(dl_pt2_mul294));
     // pt2_cB_y = pt2_mul293 - pt2_mul294   (ready @11/11/11)
     logic [W-1:0] pt2_cB_y;
@@ -3160,7 +3456,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[190] = fl_pt2_cB_y[1] && ev_q[11];
     assign ev_inv[190] = fl_pt2_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cB_y (.clk(clk), .d(pt2_cB_y), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_y));
     // pt2_mul296 = pt2_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt2_mul296;
@@ -3173,7 +3470,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[191] = fl_pt2_mul296[1] && ev_q[7];
     assign ev_inv[191] = fl_pt2_mul296[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul296;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul296 (.clk(clk), .d(pt2_mul296), .valid(1'b0), .q(dl_pt2_mul296));
     // pt2_mul297 = pt2_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt2_mul297;
@@ -3186,7 +3484,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[192] = fl_pt2_mul297[1] && ev_q[7];
     assign ev_inv[192] = fl_pt2_mul297[2] && ev_q[7];
     logic [W-1:0] dl_pt2_mul297;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul297 (.clk(clk), .d(pt2_mul297), .valid(1'b0), .q(dl_pt2_mul297));
     // pt2_cB_z = pt2_mul296 - pt2_mul297   (ready @11/11/11)
     logic [W-1:0] pt2_cB_z;
@@ -3199,7 +3498,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[193] = fl_pt2_cB_z[1] && ev_q[11];
     assign ev_inv[193] = fl_pt2_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt2_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(84), .N_TAPS(2), .TAPS({32'(0), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_cB_z (.clk(clk), .d(pt2_cB_z), .valid(valid_q[11 +: 84]), .q(dl_pt2_cB_z));
     // pt2_mul299 = n_x * pt1_vA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul299;
@@ -3212,7 +3512,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[194] = fl_pt2_mul299[1] && ev_q[98];
     assign ev_inv[194] = fl_pt2_mul299[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul299;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul299 (.clk(clk), .d(pt2_mul299), .valid(1'b0), .q(dl_pt2_mul299));
     // pt2_mul300 = n_y * pt1_vA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul300;
@@ -3225,7 +3526,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[195] = fl_pt2_mul300[1] && ev_q[98];
     assign ev_inv[195] = fl_pt2_mul300[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul300;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul300 (.clk(clk), .d(pt2_mul300), .valid(1'b0), .q(dl_pt2_mul300));
     // pt2_add301 = pt2_mul299 + pt2_mul300   (ready @102/102/102)
     logic [W-1:0] pt2_add301;
@@ -3238,7 +3540,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[196] = fl_pt2_add301[1] && ev_q[102];
     assign ev_inv[196] = fl_pt2_add301[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add301;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add301 (.clk(clk), .d(pt2_add301), .valid(1'b0), .q(dl_pt2_add301));
     // pt2_mul302 = n_z * pt1_vA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul302;
@@ -3251,7 +3554,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[197] = fl_pt2_mul302[1] && ev_q[98];
     assign ev_inv[197] = fl_pt2_mul302[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul302;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul302 (.clk(clk), .d(pt2_mul302), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul302));
     // pt2_add303 = pt2_add301 + pt2_mul302   (ready @106/106/106)
     logic [W-1:0] pt2_add303;
@@ -3264,7 +3568,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[198] = fl_pt2_add303[1] && ev_q[106];
     assign ev_inv[198] = fl_pt2_add303[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add303;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add303 (.clk(clk), .d(pt2_add303), .valid(1'b0), .q(dl_pt2_add303));
     // pt2_mul304 = n_x * pt1_vB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul304;
@@ -3277,7 +3582,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[199] = fl_pt2_mul304[1] && ev_q[98];
     assign ev_inv[199] = fl_pt2_mul304[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul304;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul304 (.clk(clk), .d(pt2_mul304), .valid(1'b0), .q(dl_pt2_mul304));
     // pt2_mul305 = n_y * pt1_vB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul305;
@@ -3290,7 +3596,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[200] = fl_pt2_mul305[1] && ev_q[98];
     assign ev_inv[200] = fl_pt2_mul305[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul305;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul305 (.clk(clk), .d(pt2_mul305), .valid(1'b0), .q(dl_pt2_mul305));
     // pt2_add306 = pt2_mul304 + pt2_mul305   (ready @102/102/102)
     logic [W-1:0] pt2_add306;
@@ -3303,7 +3610,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[201] = fl_pt2_add306[1] && ev_q[102];
     assign ev_inv[201] = fl_pt2_add306[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add306;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add306 (.clk(clk), .d(pt2_add306), .valid(1'b0), .q(dl_pt2_add306));
     // pt2_mul307 = n_z * pt1_vB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul307;
@@ -3316,7 +3624,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[202] = fl_pt2_mul307[1] && ev_q[98];
     assign ev_inv[202] = fl_pt2_mul307[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul307;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul307 (.clk(clk), .d(pt2_mul307), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul307));
     // pt2_add308 = pt2_add306 + pt2_mul307   (ready @106/106/106)
     logic [W-1:0] pt2_add308;
@@ -3329,7 +3638,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[203] = fl_pt2_add308[1] && ev_q[106];
     assign ev_inv[203] = fl_pt2_add308[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add308;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add308 (.clk(clk), .d(pt2_add308), .valid(1'b0), .q(dl_pt2_add308));
     // pt2_sub309 = pt2_add303 - pt2_add308   (ready @110/110/110)
     logic [W-1:0] pt2_sub309;
@@ -3342,7 +3652,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[204] = fl_pt2_sub309[1] && ev_q[110];
     assign ev_inv[204] = fl_pt2_sub309[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub309;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub309 (.clk(clk), .d(pt2_sub309), .valid(1'b0), .q(dl_pt2_sub309));
     // pt2_mul310 = pt2_cA_x * pt1_wA_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul310;
@@ -3355,7 +3666,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[205] = fl_pt2_mul310[1] && ev_q[98];
     assign ev_inv[205] = fl_pt2_mul310[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul310;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul310 (.clk(clk), .d(pt2_mul310), .valid(1'b0), .q(dl_pt2_mul310));
     // pt2_mul311 = pt2_cA_y * pt1_wA_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul311;
@@ -3368,7 +3680,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[206] = fl_pt2_mul311[1] && ev_q[98];
     assign ev_inv[206] = fl_pt2_mul311[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul311;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul311 (.clk(clk), .d(pt2_mul311), .valid(1'b0), .q(dl_pt2_mul311));
     // pt2_add312 = pt2_mul310 + pt2_mul311   (ready @102/102/102)
     logic [W-1:0] pt2_add312;
@@ -3381,7 +3694,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[207] = fl_pt2_add312[1] && ev_q[102];
     assign ev_inv[207] = fl_pt2_add312[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add312;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add312 (.clk(clk), .d(pt2_add312), .valid(1'b0), .q(dl_pt2_add312));
     // pt2_mul313 = pt2_cA_z * pt1_wA_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul313;
@@ -3394,7 +3708,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[208] = fl_pt2_mul313[1] && ev_q[98];
     assign ev_inv[208] = fl_pt2_mul313[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul313;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul313 (.clk(clk), .d(pt2_mul313), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul313));
     // pt2_add314 = pt2_add312 + pt2_mul313   (ready @106/106/106)
     logic [W-1:0] pt2_add314;
@@ -3407,7 +3722,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[209] = fl_pt2_add314[1] && ev_q[106];
     assign ev_inv[209] = fl_pt2_add314[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add314;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add314 (.clk(clk), .d(pt2_add314), .valid(1'b0), .q(dl_pt2_add314));
     // pt2_mul315 = pt2_cB_x * pt1_wB_x   (ready @98/98/98)
     logic [W-1:0] pt2_mul315;
@@ -3420,7 +3736,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[210] = fl_pt2_mul315[1] && ev_q[98];
     assign ev_inv[210] = fl_pt2_mul315[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul315;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul315 (.clk(clk), .d(pt2_mul315), .valid(1'b0), .q(dl_pt2_mul315));
     // pt2_mul316 = pt2_cB_y * pt1_wB_y   (ready @98/98/98)
     logic [W-1:0] pt2_mul316;
@@ -3433,7 +3750,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[211] = fl_pt2_mul316[1] && ev_q[98];
     assign ev_inv[211] = fl_pt2_mul316[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul316;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul316 (.clk(clk), .d(pt2_mul316), .valid(1'b0), .q(dl_pt2_mul316));
     // pt2_add317 = pt2_mul315 + pt2_mul316   (ready @102/102/102)
     logic [W-1:0] pt2_add317;
@@ -3446,7 +3764,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[212] = fl_pt2_add317[1] && ev_q[102];
     assign ev_inv[212] = fl_pt2_add317[2] && ev_q[102];
     logic [W-1:0] dl_pt2_add317;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add317 (.clk(clk), .d(pt2_add317), .valid(1'b0), .q(dl_pt2_add317));
     // pt2_mul318 = pt2_cB_z * pt1_wB_z   (ready @98/98/98)
     logic [W-1:0] pt2_mul318;
@@ -3459,7 +3778,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[213] = fl_pt2_mul318[1] && ev_q[98];
     assign ev_inv[213] = fl_pt2_mul318[2] && ev_q[98];
     logic [W-1:0] dl_pt2_mul318;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul318 (.clk(clk), .d(pt2_mul318), .valid(valid_q[98 +: 4]), .q(dl_pt2_mul318));
     // pt2_add319 = pt2_add317 + pt2_mul318   (ready @106/106/106)
     logic [W-1:0] pt2_add319;
@@ -3472,7 +3792,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[214] = fl_pt2_add319[1] && ev_q[106];
     assign ev_inv[214] = fl_pt2_add319[2] && ev_q[106];
     logic [W-1:0] dl_pt2_add319;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add319 (.clk(clk), .d(pt2_add319), .valid(1'b0), .q(dl_pt2_add319));
     // pt2_sub320 = pt2_add314 - pt2_add319   (ready @110/110/110)
     logic [W-1:0] pt2_sub320;
@@ -3485,7 +3806,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[215] = fl_pt2_sub320[1] && ev_q[110];
     assign ev_inv[215] = fl_pt2_sub320[2] && ev_q[110];
     logic [W-1:0] dl_pt2_sub320;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub320 (.clk(clk), .d(pt2_sub320), .valid(1'b0), .q(dl_pt2_sub320));
     // pt2_vrel = pt2_sub309 + pt2_sub320   (ready @114/114/114)
     logic [W-1:0] pt2_vrel;
@@ -3498,7 +3820,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[216] = fl_pt2_vrel[1] && ev_q[114];
     assign ev_inv[216] = fl_pt2_vrel[2] && ev_q[114];
     logic [W-1:0] dl_pt2_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vrel (.clk(clk), .d(pt2_vrel), .valid(1'b0), .q(dl_pt2_vrel));
     // pt2_add322 = pt2_vrel + b2   (ready @118/118/118)
     logic [W-1:0] pt2_add322;
@@ -3511,7 +3834,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[217] = fl_pt2_add322[1] && ev_q[118];
     assign ev_inv[217] = fl_pt2_add322[2] && ev_q[118];
     logic [W-1:0] dl_pt2_add322;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add322 (.clk(clk), .d(pt2_add322), .valid(1'b0), .q(dl_pt2_add322));
     // pt2_delta0 = pt2_add322 * jac_inv2   (ready @121/121/121)
     logic [W-1:0] pt2_delta0;
@@ -3524,7 +3848,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[218] = fl_pt2_delta0[1] && ev_q[121];
     assign ev_inv[218] = fl_pt2_delta0[2] && ev_q[121];
     logic [W-1:0] dl_pt2_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_delta0 (.clk(clk), .d(pt2_delta0), .valid(1'b0), .q(dl_pt2_delta0));
     // pt2_lam_kept = lam2 * keep2   (ready @3/3/3)
     logic [W-1:0] pt2_lam_kept;
@@ -3537,7 +3862,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[219] = fl_pt2_lam_kept[1] && ev_q[3];
     assign ev_inv[219] = fl_pt2_lam_kept[2] && ev_q[3];
     logic [W-1:0] dl_pt2_lam_kept;
-    pgs_delay #(.WIDTH(W), .DEPTH(118))
+    pgs_delay #(.WIDTH(W), .DEPTH(118),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_lam_kept (.clk(clk), .d(pt2_lam_kept), .valid(valid_q[3 +: 118]), .q(dl_pt2_lam_kept));
     // pt2_add325 = pt2_lam_kept + pt2_delta0   (ready @125/125/125)
     logic [W-1:0] pt2_add325;
@@ -3550,7 +3876,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[220] = fl_pt2_add325[1] && ev_q[125];
     assign ev_inv[220] = fl_pt2_add325[2] && ev_q[125];
     logic [W-1:0] dl_pt2_add325;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add325 (.clk(clk), .d(pt2_add325), .valid(1'b0), .q(dl_pt2_add325));
     // pt2_lam_new = max(pt2_add325, 0.0)   (ready @126/126/126)
     logic [W-1:0] pt2_lam_new;
@@ -3560,7 +3887,8 @@ module pgs_contact_pipe_soft #(
         .lt(nc_pt2_lam_new_lt), .eq(nc_pt2_lam_new_eq), .unordered(nc_pt2_lam_new_uo)
     );
     logic [W-1:0] dl_pt2_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_lam_new (.clk(clk), .d(pt2_lam_new), .valid(1'b0), .q(dl_pt2_lam_new));
     // pt2_delta = pt2_lam_new - lam2   (ready @130/130/130)
     logic [W-1:0] pt2_delta;
@@ -3573,13 +3901,15 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[221] = fl_pt2_delta[1] && ev_q[130];
     assign ev_inv[221] = fl_pt2_delta[2] && ev_q[130];
     logic [W-1:0] dl_pt2_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_delta (.clk(clk), .d(pt2_delta), .valid(1'b0), .q(dl_pt2_delta));
     // pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (ready @126/126/126)
     logic [W-1:0] pt2_lam;
     assign pt2_lam = dl_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_pt2_lam_new;
     logic [W-1:0] dl_pt2_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(53))
+    pgs_delay #(.WIDTH(W), .DEPTH(53),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_lam (.clk(clk), .d(pt2_lam), .valid(valid_q[126 +: 53]), .q(dl_pt2_lam));
     // pt2_angA_x = IInvA_x * pt2_cA_x   (ready @14/14/14)
     logic [W-1:0] pt2_angA_x;
@@ -3592,7 +3922,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[222] = fl_pt2_angA_x[1] && ev_q[14];
     assign ev_inv[222] = fl_pt2_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angA_x (.clk(clk), .d(pt2_angA_x), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_x));
     // pt2_angA_y = IInvA_y * pt2_cA_y   (ready @14/14/14)
     logic [W-1:0] pt2_angA_y;
@@ -3605,7 +3936,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[223] = fl_pt2_angA_y[1] && ev_q[14];
     assign ev_inv[223] = fl_pt2_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angA_y (.clk(clk), .d(pt2_angA_y), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_y));
     // pt2_angA_z = IInvA_z * pt2_cA_z   (ready @14/14/14)
     logic [W-1:0] pt2_angA_z;
@@ -3618,7 +3950,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[224] = fl_pt2_angA_z[1] && ev_q[14];
     assign ev_inv[224] = fl_pt2_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angA_z (.clk(clk), .d(pt2_angA_z), .valid(valid_q[14 +: 116]), .q(dl_pt2_angA_z));
     // pt2_angB_x = IInvB_x * pt2_cB_x   (ready @14/14/14)
     logic [W-1:0] pt2_angB_x;
@@ -3631,7 +3964,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[225] = fl_pt2_angB_x[1] && ev_q[14];
     assign ev_inv[225] = fl_pt2_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angB_x (.clk(clk), .d(pt2_angB_x), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_x));
     // pt2_angB_y = IInvB_y * pt2_cB_y   (ready @14/14/14)
     logic [W-1:0] pt2_angB_y;
@@ -3644,7 +3978,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[226] = fl_pt2_angB_y[1] && ev_q[14];
     assign ev_inv[226] = fl_pt2_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angB_y (.clk(clk), .d(pt2_angB_y), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_y));
     // pt2_angB_z = IInvB_z * pt2_cB_z   (ready @14/14/14)
     logic [W-1:0] pt2_angB_z;
@@ -3657,7 +3992,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[227] = fl_pt2_angB_z[1] && ev_q[14];
     assign ev_inv[227] = fl_pt2_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt2_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(116))
+    pgs_delay #(.WIDTH(W), .DEPTH(116),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_angB_z (.clk(clk), .d(pt2_angB_z), .valid(valid_q[14 +: 116]), .q(dl_pt2_angB_z));
     // pt2_mul335 = linA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul335;
@@ -3670,7 +4006,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[228] = fl_pt2_mul335[1] && ev_q[133];
     assign ev_inv[228] = fl_pt2_mul335[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul335;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul335 (.clk(clk), .d(pt2_mul335), .valid(1'b0), .q(dl_pt2_mul335));
     // pt2_mul336 = linA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul336;
@@ -3683,7 +4020,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[229] = fl_pt2_mul336[1] && ev_q[133];
     assign ev_inv[229] = fl_pt2_mul336[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul336;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul336 (.clk(clk), .d(pt2_mul336), .valid(1'b0), .q(dl_pt2_mul336));
     // pt2_mul337 = linA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul337;
@@ -3696,7 +4034,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[230] = fl_pt2_mul337[1] && ev_q[133];
     assign ev_inv[230] = fl_pt2_mul337[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul337;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul337 (.clk(clk), .d(pt2_mul337), .valid(1'b0), .q(dl_pt2_mul337));
     // pt2_add338 = pt1_vA_x + pt2_mul335   (ready @137/137/137)
     logic [W-1:0] pt2_add338;
@@ -3709,7 +4048,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[231] = fl_pt2_add338[1] && ev_q[137];
     assign ev_inv[231] = fl_pt2_add338[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add338;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add338 (.clk(clk), .d(pt2_add338), .valid(1'b0), .q(dl_pt2_add338));
     // pt2_add339 = pt1_vA_y + pt2_mul336   (ready @137/137/137)
     logic [W-1:0] pt2_add339;
@@ -3722,7 +4062,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[232] = fl_pt2_add339[1] && ev_q[137];
     assign ev_inv[232] = fl_pt2_add339[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add339;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add339 (.clk(clk), .d(pt2_add339), .valid(1'b0), .q(dl_pt2_add339));
     // pt2_add340 = pt1_vA_z + pt2_mul337   (ready @137/137/137)
     logic [W-1:0] pt2_add340;
@@ -3735,25 +4076,29 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[233] = fl_pt2_add340[1] && ev_q[137];
     assign ev_inv[233] = fl_pt2_add340[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add340;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add340 (.clk(clk), .d(pt2_add340), .valid(1'b0), .q(dl_pt2_add340));
     // pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add338   (ready @137/137/137)
     logic [W-1:0] pt2_vA_x;
     assign pt2_vA_x = dl_pt2_skip[1] ? dl_pt1_vA_x[2*W +: W] : dl_pt2_add338;
     logic [3*W-1:0] dl_pt2_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vA_x (.clk(clk), .d(pt2_vA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_x));
     // pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add339   (ready @137/137/137)
     logic [W-1:0] pt2_vA_y;
     assign pt2_vA_y = dl_pt2_skip[1] ? dl_pt1_vA_y[2*W +: W] : dl_pt2_add339;
     logic [3*W-1:0] dl_pt2_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vA_y (.clk(clk), .d(pt2_vA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_y));
     // pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add340   (ready @137/137/137)
     logic [W-1:0] pt2_vA_z;
     assign pt2_vA_z = dl_pt2_skip[1] ? dl_pt1_vA_z[2*W +: W] : dl_pt2_add340;
     logic [3*W-1:0] dl_pt2_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vA_z (.clk(clk), .d(pt2_vA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vA_z));
     // pt2_mul344 = pt2_angA_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul344;
@@ -3766,7 +4111,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[234] = fl_pt2_mul344[1] && ev_q[133];
     assign ev_inv[234] = fl_pt2_mul344[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul344;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul344 (.clk(clk), .d(pt2_mul344), .valid(1'b0), .q(dl_pt2_mul344));
     // pt2_mul345 = pt2_angA_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul345;
@@ -3779,7 +4125,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[235] = fl_pt2_mul345[1] && ev_q[133];
     assign ev_inv[235] = fl_pt2_mul345[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul345;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul345 (.clk(clk), .d(pt2_mul345), .valid(1'b0), .q(dl_pt2_mul345));
     // pt2_mul346 = pt2_angA_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul346;
@@ -3792,7 +4139,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[236] = fl_pt2_mul346[1] && ev_q[133];
     assign ev_inv[236] = fl_pt2_mul346[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul346;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul346 (.clk(clk), .d(pt2_mul346), .valid(1'b0), .q(dl_pt2_mul346));
     // pt2_add347 = pt1_wA_x + pt2_mul344   (ready @137/137/137)
     logic [W-1:0] pt2_add347;
@@ -3805,7 +4153,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[237] = fl_pt2_add347[1] && ev_q[137];
     assign ev_inv[237] = fl_pt2_add347[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add347;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add347 (.clk(clk), .d(pt2_add347), .valid(1'b0), .q(dl_pt2_add347));
     // pt2_add348 = pt1_wA_y + pt2_mul345   (ready @137/137/137)
     logic [W-1:0] pt2_add348;
@@ -3818,7 +4167,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[238] = fl_pt2_add348[1] && ev_q[137];
     assign ev_inv[238] = fl_pt2_add348[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add348;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add348 (.clk(clk), .d(pt2_add348), .valid(1'b0), .q(dl_pt2_add348));
     // pt2_add349 = pt1_wA_z + pt2_mul346   (ready @137/137/137)
     logic [W-1:0] pt2_add349;
@@ -3831,25 +4181,29 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[239] = fl_pt2_add349[1] && ev_q[137];
     assign ev_inv[239] = fl_pt2_add349[2] && ev_q[137];
     logic [W-1:0] dl_pt2_add349;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_add349 (.clk(clk), .d(pt2_add349), .valid(1'b0), .q(dl_pt2_add349));
     // pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add347   (ready @137/137/137)
     logic [W-1:0] pt2_wA_x;
     assign pt2_wA_x = dl_pt2_skip[1] ? dl_pt1_wA_x[2*W +: W] : dl_pt2_add347;
     logic [3*W-1:0] dl_pt2_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wA_x (.clk(clk), .d(pt2_wA_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_x));
     // pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add348   (ready @137/137/137)
     logic [W-1:0] pt2_wA_y;
     assign pt2_wA_y = dl_pt2_skip[1] ? dl_pt1_wA_y[2*W +: W] : dl_pt2_add348;
     logic [3*W-1:0] dl_pt2_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wA_y (.clk(clk), .d(pt2_wA_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_y));
     // pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add349   (ready @137/137/137)
     logic [W-1:0] pt2_wA_z;
     assign pt2_wA_z = dl_pt2_skip[1] ? dl_pt1_wA_z[2*W +: W] : dl_pt2_add349;
     logic [3*W-1:0] dl_pt2_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wA_z (.clk(clk), .d(pt2_wA_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wA_z));
     // pt2_mul353 = linB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul353;
@@ -3862,7 +4216,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[240] = fl_pt2_mul353[1] && ev_q[133];
     assign ev_inv[240] = fl_pt2_mul353[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul353;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul353 (.clk(clk), .d(pt2_mul353), .valid(1'b0), .q(dl_pt2_mul353));
     // pt2_mul354 = linB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul354;
@@ -3875,7 +4230,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[241] = fl_pt2_mul354[1] && ev_q[133];
     assign ev_inv[241] = fl_pt2_mul354[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul354;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul354 (.clk(clk), .d(pt2_mul354), .valid(1'b0), .q(dl_pt2_mul354));
     // pt2_mul355 = linB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul355;
@@ -3888,7 +4244,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[242] = fl_pt2_mul355[1] && ev_q[133];
     assign ev_inv[242] = fl_pt2_mul355[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul355;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul355 (.clk(clk), .d(pt2_mul355), .valid(1'b0), .q(dl_pt2_mul355));
     // pt2_sub356 = pt1_vB_x - pt2_mul353   (ready @137/137/137)
     logic [W-1:0] pt2_sub356;
@@ -3901,7 +4258,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[243] = fl_pt2_sub356[1] && ev_q[137];
     assign ev_inv[243] = fl_pt2_sub356[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub356;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub356 (.clk(clk), .d(pt2_sub356), .valid(1'b0), .q(dl_pt2_sub356));
     // pt2_sub357 = pt1_vB_y - pt2_mul354   (ready @137/137/137)
     logic [W-1:0] pt2_sub357;
@@ -3914,7 +4272,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[244] = fl_pt2_sub357[1] && ev_q[137];
     assign ev_inv[244] = fl_pt2_sub357[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub357;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub357 (.clk(clk), .d(pt2_sub357), .valid(1'b0), .q(dl_pt2_sub357));
     // pt2_sub358 = pt1_vB_z - pt2_mul355   (ready @137/137/137)
     logic [W-1:0] pt2_sub358;
@@ -3927,25 +4286,29 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[245] = fl_pt2_sub358[1] && ev_q[137];
     assign ev_inv[245] = fl_pt2_sub358[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub358;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub358 (.clk(clk), .d(pt2_sub358), .valid(1'b0), .q(dl_pt2_sub358));
     // pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub356   (ready @137/137/137)
     logic [W-1:0] pt2_vB_x;
     assign pt2_vB_x = dl_pt2_skip[1] ? dl_pt1_vB_x[2*W +: W] : dl_pt2_sub356;
     logic [3*W-1:0] dl_pt2_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vB_x (.clk(clk), .d(pt2_vB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_x));
     // pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub357   (ready @137/137/137)
     logic [W-1:0] pt2_vB_y;
     assign pt2_vB_y = dl_pt2_skip[1] ? dl_pt1_vB_y[2*W +: W] : dl_pt2_sub357;
     logic [3*W-1:0] dl_pt2_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vB_y (.clk(clk), .d(pt2_vB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_y));
     // pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub358   (ready @137/137/137)
     logic [W-1:0] pt2_vB_z;
     assign pt2_vB_z = dl_pt2_skip[1] ? dl_pt1_vB_z[2*W +: W] : dl_pt2_sub358;
     logic [3*W-1:0] dl_pt2_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_vB_z (.clk(clk), .d(pt2_vB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_vB_z));
     // pt2_mul362 = pt2_angB_x * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul362;
@@ -3958,7 +4321,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[246] = fl_pt2_mul362[1] && ev_q[133];
     assign ev_inv[246] = fl_pt2_mul362[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul362;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul362 (.clk(clk), .d(pt2_mul362), .valid(1'b0), .q(dl_pt2_mul362));
     // pt2_mul363 = pt2_angB_y * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul363;
@@ -3971,7 +4335,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[247] = fl_pt2_mul363[1] && ev_q[133];
     assign ev_inv[247] = fl_pt2_mul363[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul363;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul363 (.clk(clk), .d(pt2_mul363), .valid(1'b0), .q(dl_pt2_mul363));
     // pt2_mul364 = pt2_angB_z * pt2_delta   (ready @133/133/133)
     logic [W-1:0] pt2_mul364;
@@ -3984,7 +4349,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[248] = fl_pt2_mul364[1] && ev_q[133];
     assign ev_inv[248] = fl_pt2_mul364[2] && ev_q[133];
     logic [W-1:0] dl_pt2_mul364;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_mul364 (.clk(clk), .d(pt2_mul364), .valid(1'b0), .q(dl_pt2_mul364));
     // pt2_sub365 = pt1_wB_x - pt2_mul362   (ready @137/137/137)
     logic [W-1:0] pt2_sub365;
@@ -3997,7 +4363,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[249] = fl_pt2_sub365[1] && ev_q[137];
     assign ev_inv[249] = fl_pt2_sub365[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub365;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub365 (.clk(clk), .d(pt2_sub365), .valid(1'b0), .q(dl_pt2_sub365));
     // pt2_sub366 = pt1_wB_y - pt2_mul363   (ready @137/137/137)
     logic [W-1:0] pt2_sub366;
@@ -4010,7 +4377,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[250] = fl_pt2_sub366[1] && ev_q[137];
     assign ev_inv[250] = fl_pt2_sub366[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub366;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub366 (.clk(clk), .d(pt2_sub366), .valid(1'b0), .q(dl_pt2_sub366));
     // pt2_sub367 = pt1_wB_z - pt2_mul364   (ready @137/137/137)
     logic [W-1:0] pt2_sub367;
@@ -4023,31 +4391,36 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[251] = fl_pt2_sub367[1] && ev_q[137];
     assign ev_inv[251] = fl_pt2_sub367[2] && ev_q[137];
     logic [W-1:0] dl_pt2_sub367;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_sub367 (.clk(clk), .d(pt2_sub367), .valid(1'b0), .q(dl_pt2_sub367));
     // pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub365   (ready @137/137/137)
     logic [W-1:0] pt2_wB_x;
     assign pt2_wB_x = dl_pt2_skip[1] ? dl_pt1_wB_x[2*W +: W] : dl_pt2_sub365;
     logic [3*W-1:0] dl_pt2_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wB_x (.clk(clk), .d(pt2_wB_x), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_x));
     // pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub366   (ready @137/137/137)
     logic [W-1:0] pt2_wB_y;
     assign pt2_wB_y = dl_pt2_skip[1] ? dl_pt1_wB_y[2*W +: W] : dl_pt2_sub366;
     logic [3*W-1:0] dl_pt2_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wB_y (.clk(clk), .d(pt2_wB_y), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_y));
     // pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub367   (ready @137/137/137)
     logic [W-1:0] pt2_wB_z;
     assign pt2_wB_z = dl_pt2_skip[1] ? dl_pt1_wB_z[2*W +: W] : dl_pt2_sub367;
     logic [3*W-1:0] dl_pt2_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt2_wB_z (.clk(clk), .d(pt2_wB_z), .valid(valid_q[137 +: 42]), .q(dl_pt2_wB_z));
     // pt3_skip = jac_inv3 == 0   (ready @0/0/0)
     logic pt3_skip;
     assign pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [2*1-1:0] dl_pt3_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_skip (.clk(clk), .d(pt3_skip), .valid(valid_q[0 +: 179]), .q(dl_pt3_skip));
     // pt3_rA_x = p3_x - xA_x   (ready @4/4/4)
     logic [W-1:0] pt3_rA_x;
@@ -4060,7 +4433,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[252] = fl_pt3_rA_x[1] && ev_q[4];
     assign ev_inv[252] = fl_pt3_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rA_x (.clk(clk), .d(pt3_rA_x), .valid(1'b0), .q(dl_pt3_rA_x));
     // pt3_rA_y = p3_y - xA_y   (ready @4/4/4)
     logic [W-1:0] pt3_rA_y;
@@ -4073,7 +4447,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[253] = fl_pt3_rA_y[1] && ev_q[4];
     assign ev_inv[253] = fl_pt3_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rA_y (.clk(clk), .d(pt3_rA_y), .valid(1'b0), .q(dl_pt3_rA_y));
     // pt3_rA_z = p3_z - xA_z   (ready @4/4/4)
     logic [W-1:0] pt3_rA_z;
@@ -4086,7 +4461,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[254] = fl_pt3_rA_z[1] && ev_q[4];
     assign ev_inv[254] = fl_pt3_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rA_z (.clk(clk), .d(pt3_rA_z), .valid(1'b0), .q(dl_pt3_rA_z));
     // pt3_mul375 = pt3_rA_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul375;
@@ -4099,7 +4475,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[255] = fl_pt3_mul375[1] && ev_q[7];
     assign ev_inv[255] = fl_pt3_mul375[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul375;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul375 (.clk(clk), .d(pt3_mul375), .valid(1'b0), .q(dl_pt3_mul375));
     // pt3_mul376 = pt3_rA_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul376;
@@ -4112,7 +4489,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[256] = fl_pt3_mul376[1] && ev_q[7];
     assign ev_inv[256] = fl_pt3_mul376[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul376;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul376 (.clk(clk), .d(pt3_mul376), .valid(1'b0), .q(dl_pt3_mul376));
     // pt3_cA_x = pt3_mul375 - pt3_mul376   (ready @11/11/11)
     logic [W-1:0] pt3_cA_x;
@@ -4125,7 +4503,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[257] = fl_pt3_cA_x[1] && ev_q[11];
     assign ev_inv[257] = fl_pt3_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cA_x (.clk(clk), .d(pt3_cA_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_x));
     // pt3_mul378 = pt3_rA_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul378;
@@ -4138,7 +4517,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[258] = fl_pt3_mul378[1] && ev_q[7];
     assign ev_inv[258] = fl_pt3_mul378[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul378;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul378 (.clk(clk), .d(pt3_mul378), .valid(1'b0), .q(dl_pt3_mul378));
     // pt3_mul379 = pt3_rA_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul379;
@@ -4151,7 +4531,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[259] = fl_pt3_mul379[1] && ev_q[7];
     assign ev_inv[259] = fl_pt3_mul379[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul379;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul379 (.clk(clk), .d(pt3_mul379), .valid(1'b0), .q(dl_pt3_mul379));
     // pt3_cA_y = pt3_mul378 - pt3_mul379   (ready @11/11/11)
     logic [W-1:0] pt3_cA_y;
@@ -4164,7 +4545,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[260] = fl_pt3_cA_y[1] && ev_q[11];
     assign ev_inv[260] = fl_pt3_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cA_y (.clk(clk), .d(pt3_cA_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_y));
     // pt3_mul381 = pt3_rA_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul381;
@@ -4177,7 +4559,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[261] = fl_pt3_mul381[1] && ev_q[7];
     assign ev_inv[261] = fl_pt3_mul381[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul381;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul381 (.clk(clk), .d(pt3_mul381), .valid(1'b0), .q(dl_pt3_mul381));
     // pt3_mul382 = pt3_rA_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul382;
@@ -4190,7 +4573,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[262] = fl_pt3_mul382[1] && ev_q[7];
     assign ev_inv[262] = fl_pt3_mul382[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul382;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul382 (.clk(clk), .d(pt3_mul382), .valid(1'b0), .q(dl_pt3_mul382));
     // pt3_cA_z = pt3_mul381 - pt3_mul382   (ready @11/11/11)
     logic [W-1:0] pt3_cA_z;
@@ -4203,7 +4587,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[263] = fl_pt3_cA_z[1] && ev_q[11];
     assign ev_inv[263] = fl_pt3_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cA_z (.clk(clk), .d(pt3_cA_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cA_z));
     // pt3_rB_x = p3_x - xB_x   (ready @4/4/4)
     logic [W-1:0] pt3_rB_x;
@@ -4216,7 +4601,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[264] = fl_pt3_rB_x[1] && ev_q[4];
     assign ev_inv[264] = fl_pt3_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rB_x (.clk(clk), .d(pt3_rB_x), .valid(1'b0), .q(dl_pt3_rB_x));
     // pt3_rB_y = p3_y - xB_y   (ready @4/4/4)
     logic [W-1:0] pt3_rB_y;
@@ -4229,7 +4615,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[265] = fl_pt3_rB_y[1] && ev_q[4];
     assign ev_inv[265] = fl_pt3_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rB_y (.clk(clk), .d(pt3_rB_y), .valid(1'b0), .q(dl_pt3_rB_y));
     // pt3_rB_z = p3_z - xB_z   (ready @4/4/4)
     logic [W-1:0] pt3_rB_z;
@@ -4242,7 +4629,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[266] = fl_pt3_rB_z[1] && ev_q[4];
     assign ev_inv[266] = fl_pt3_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_pt3_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_rB_z (.clk(clk), .d(pt3_rB_z), .valid(1'b0), .q(dl_pt3_rB_z));
     // pt3_mul387 = pt3_rB_y * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul387;
@@ -4255,7 +4643,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[267] = fl_pt3_mul387[1] && ev_q[7];
     assign ev_inv[267] = fl_pt3_mul387[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul387;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul387 (.clk(clk), .d(pt3_mul387), .valid(1'b0), .q(dl_pt3_mul387));
     // pt3_mul388 = pt3_rB_z * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul388;
@@ -4268,7 +4657,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[268] = fl_pt3_mul388[1] && ev_q[7];
     assign ev_inv[268] = fl_pt3_mul388[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul388;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul388 (.clk(clk), .d(pt3_mul388), .valid(1'b0), .q(dl_pt3_mul388));
     // pt3_cB_x = pt3_mul387 - pt3_mul388   (ready @11/11/11)
     logic [W-1:0] pt3_cB_x;
@@ -4281,7 +4671,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[269] = fl_pt3_cB_x[1] && ev_q[11];
     assign ev_inv[269] = fl_pt3_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cB_x (.clk(clk), .d(pt3_cB_x), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_x));
     // pt3_mul390 = pt3_rB_z * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul390;
@@ -4294,7 +4685,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[270] = fl_pt3_mul390[1] && ev_q[7];
     assign ev_inv[270] = fl_pt3_mul390[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul390;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul390 (.clk(clk), .d(pt3_mul390), .valid(1'b0), .q(dl_pt3_mul390));
     // pt3_mul391 = pt3_rB_x * n_z   (ready @7/7/7)
     logic [W-1:0] pt3_mul391;
@@ -4307,7 +4699,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[271] = fl_pt3_mul391[1] && ev_q[7];
     assign ev_inv[271] = fl_pt3_mul391[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul391;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul391 (.clk(clk), .d(pt3_mul391), .valid(1'b0), .q(dl_pt3_mul391));
     // pt3_cB_y = pt3_mul390 - pt3_mul391   (ready @11/11/11)
     logic [W-1:0] pt3_cB_y;
@@ -4320,7 +4713,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[272] = fl_pt3_cB_y[1] && ev_q[11];
     assign ev_inv[272] = fl_pt3_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cB_y (.clk(clk), .d(pt3_cB_y), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_y));
     // pt3_mul393 = pt3_rB_x * n_y   (ready @7/7/7)
     logic [W-1:0] pt3_mul393;
@@ -4333,7 +4727,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[273] = fl_pt3_mul393[1] && ev_q[7];
     assign ev_inv[273] = fl_pt3_mul393[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul393;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul393 (.clk(clk), .d(pt3_mul393), .valid(1'b0), .q(dl_pt3_mul393));
     // pt3_mul394 = pt3_rB_y * n_x   (ready @7/7/7)
     logic [W-1:0] pt3_mul394;
@@ -4346,7 +4741,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[274] = fl_pt3_mul394[1] && ev_q[7];
     assign ev_inv[274] = fl_pt3_mul394[2] && ev_q[7];
     logic [W-1:0] dl_pt3_mul394;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul394 (.clk(clk), .d(pt3_mul394), .valid(1'b0), .q(dl_pt3_mul394));
     // pt3_cB_z = pt3_mul393 - pt3_mul394   (ready @11/11/11)
     logic [W-1:0] pt3_cB_z;
@@ -4359,7 +4755,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[275] = fl_pt3_cB_z[1] && ev_q[11];
     assign ev_inv[275] = fl_pt3_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_pt3_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(126), .N_TAPS(2), .TAPS({32'(0), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_cB_z (.clk(clk), .d(pt3_cB_z), .valid(valid_q[11 +: 126]), .q(dl_pt3_cB_z));
     // pt3_mul396 = n_x * pt2_vA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul396;
@@ -4372,7 +4769,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[276] = fl_pt3_mul396[1] && ev_q[140];
     assign ev_inv[276] = fl_pt3_mul396[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul396;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul396 (.clk(clk), .d(pt3_mul396), .valid(1'b0), .q(dl_pt3_mul396));
     // pt3_mul397 = n_y * pt2_vA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul397;
@@ -4385,7 +4783,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[277] = fl_pt3_mul397[1] && ev_q[140];
     assign ev_inv[277] = fl_pt3_mul397[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul397;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul397 (.clk(clk), .d(pt3_mul397), .valid(1'b0), .q(dl_pt3_mul397));
     // pt3_add398 = pt3_mul396 + pt3_mul397   (ready @144/144/144)
     logic [W-1:0] pt3_add398;
@@ -4398,7 +4797,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[278] = fl_pt3_add398[1] && ev_q[144];
     assign ev_inv[278] = fl_pt3_add398[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add398;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add398 (.clk(clk), .d(pt3_add398), .valid(1'b0), .q(dl_pt3_add398));
     // pt3_mul399 = n_z * pt2_vA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul399;
@@ -4411,7 +4811,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[279] = fl_pt3_mul399[1] && ev_q[140];
     assign ev_inv[279] = fl_pt3_mul399[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul399;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul399 (.clk(clk), .d(pt3_mul399), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul399));
     // pt3_add400 = pt3_add398 + pt3_mul399   (ready @148/148/148)
     logic [W-1:0] pt3_add400;
@@ -4424,7 +4825,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[280] = fl_pt3_add400[1] && ev_q[148];
     assign ev_inv[280] = fl_pt3_add400[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add400;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add400 (.clk(clk), .d(pt3_add400), .valid(1'b0), .q(dl_pt3_add400));
     // pt3_mul401 = n_x * pt2_vB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul401;
@@ -4437,7 +4839,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[281] = fl_pt3_mul401[1] && ev_q[140];
     assign ev_inv[281] = fl_pt3_mul401[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul401;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul401 (.clk(clk), .d(pt3_mul401), .valid(1'b0), .q(dl_pt3_mul401));
     // pt3_mul402 = n_y * pt2_vB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul402;
@@ -4450,7 +4853,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[282] = fl_pt3_mul402[1] && ev_q[140];
     assign ev_inv[282] = fl_pt3_mul402[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul402;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul402 (.clk(clk), .d(pt3_mul402), .valid(1'b0), .q(dl_pt3_mul402));
     // pt3_add403 = pt3_mul401 + pt3_mul402   (ready @144/144/144)
     logic [W-1:0] pt3_add403;
@@ -4463,7 +4867,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[283] = fl_pt3_add403[1] && ev_q[144];
     assign ev_inv[283] = fl_pt3_add403[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add403;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add403 (.clk(clk), .d(pt3_add403), .valid(1'b0), .q(dl_pt3_add403));
     // pt3_mul404 = n_z * pt2_vB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul404;
@@ -4476,7 +4881,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[284] = fl_pt3_mul404[1] && ev_q[140];
     assign ev_inv[284] = fl_pt3_mul404[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul404;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul404 (.clk(clk), .d(pt3_mul404), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul404));
     // pt3_add405 = pt3_add403 + pt3_mul404   (ready @148/148/148)
     logic [W-1:0] pt3_add405;
@@ -4489,7 +4895,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[285] = fl_pt3_add405[1] && ev_q[148];
     assign ev_inv[285] = fl_pt3_add405[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add405;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add405 (.clk(clk), .d(pt3_add405), .valid(1'b0), .q(dl_pt3_add405));
     // pt3_sub406 = pt3_add400 - pt3_add405   (ready @152/152/152)
     logic [W-1:0] pt3_sub406;
@@ -4502,7 +4909,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[286] = fl_pt3_sub406[1] && ev_q[152];
     assign ev_inv[286] = fl_pt3_sub406[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub406;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub406 (.clk(clk), .d(pt3_sub406), .valid(1'b0), .q(dl_pt3_sub406));
     // pt3_mul407 = pt3_cA_x * pt2_wA_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul407;
@@ -4515,7 +4923,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[287] = fl_pt3_mul407[1] && ev_q[140];
     assign ev_inv[287] = fl_pt3_mul407[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul407;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul407 (.clk(clk), .d(pt3_mul407), .valid(1'b0), .q(dl_pt3_mul407));
     // pt3_mul408 = pt3_cA_y * pt2_wA_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul408;
@@ -4528,7 +4937,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[288] = fl_pt3_mul408[1] && ev_q[140];
     assign ev_inv[288] = fl_pt3_mul408[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul408;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul408 (.clk(clk), .d(pt3_mul408), .valid(1'b0), .q(dl_pt3_mul408));
     // pt3_add409 = pt3_mul407 + pt3_mul408   (ready @144/144/144)
     logic [W-1:0] pt3_add409;
@@ -4541,7 +4951,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[289] = fl_pt3_add409[1] && ev_q[144];
     assign ev_inv[289] = fl_pt3_add409[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add409;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add409 (.clk(clk), .d(pt3_add409), .valid(1'b0), .q(dl_pt3_add409));
     // pt3_mul410 = pt3_cA_z * pt2_wA_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul410;
@@ -4554,7 +4965,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[290] = fl_pt3_mul410[1] && ev_q[140];
     assign ev_inv[290] = fl_pt3_mul410[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul410;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul410 (.clk(clk), .d(pt3_mul410), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul410));
     // pt3_add411 = pt3_add409 + pt3_mul410   (ready @148/148/148)
     logic [W-1:0] pt3_add411;
@@ -4567,7 +4979,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[291] = fl_pt3_add411[1] && ev_q[148];
     assign ev_inv[291] = fl_pt3_add411[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add411;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add411 (.clk(clk), .d(pt3_add411), .valid(1'b0), .q(dl_pt3_add411));
     // pt3_mul412 = pt3_cB_x * pt2_wB_x   (ready @140/140/140)
     logic [W-1:0] pt3_mul412;
@@ -4580,7 +4993,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[292] = fl_pt3_mul412[1] && ev_q[140];
     assign ev_inv[292] = fl_pt3_mul412[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul412;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul412 (.clk(clk), .d(pt3_mul412), .valid(1'b0), .q(dl_pt3_mul412));
     // pt3_mul413 = pt3_cB_y * pt2_wB_y   (ready @140/140/140)
     logic [W-1:0] pt3_mul413;
@@ -4593,7 +5007,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[293] = fl_pt3_mul413[1] && ev_q[140];
     assign ev_inv[293] = fl_pt3_mul413[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul413;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul413 (.clk(clk), .d(pt3_mul413), .valid(1'b0), .q(dl_pt3_mul413));
     // pt3_add414 = pt3_mul412 + pt3_mul413   (ready @144/144/144)
     logic [W-1:0] pt3_add414;
@@ -4606,7 +5021,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[294] = fl_pt3_add414[1] && ev_q[144];
     assign ev_inv[294] = fl_pt3_add414[2] && ev_q[144];
     logic [W-1:0] dl_pt3_add414;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add414 (.clk(clk), .d(pt3_add414), .valid(1'b0), .q(dl_pt3_add414));
     // pt3_mul415 = pt3_cB_z * pt2_wB_z   (ready @140/140/140)
     logic [W-1:0] pt3_mul415;
@@ -4619,7 +5035,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[295] = fl_pt3_mul415[1] && ev_q[140];
     assign ev_inv[295] = fl_pt3_mul415[2] && ev_q[140];
     logic [W-1:0] dl_pt3_mul415;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul415 (.clk(clk), .d(pt3_mul415), .valid(valid_q[140 +: 4]), .q(dl_pt3_mul415));
     // pt3_add416 = pt3_add414 + pt3_mul415   (ready @148/148/148)
     logic [W-1:0] pt3_add416;
@@ -4632,7 +5049,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[296] = fl_pt3_add416[1] && ev_q[148];
     assign ev_inv[296] = fl_pt3_add416[2] && ev_q[148];
     logic [W-1:0] dl_pt3_add416;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add416 (.clk(clk), .d(pt3_add416), .valid(1'b0), .q(dl_pt3_add416));
     // pt3_sub417 = pt3_add411 - pt3_add416   (ready @152/152/152)
     logic [W-1:0] pt3_sub417;
@@ -4645,7 +5063,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[297] = fl_pt3_sub417[1] && ev_q[152];
     assign ev_inv[297] = fl_pt3_sub417[2] && ev_q[152];
     logic [W-1:0] dl_pt3_sub417;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub417 (.clk(clk), .d(pt3_sub417), .valid(1'b0), .q(dl_pt3_sub417));
     // pt3_vrel = pt3_sub406 + pt3_sub417   (ready @156/156/156)
     logic [W-1:0] pt3_vrel;
@@ -4658,7 +5077,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[298] = fl_pt3_vrel[1] && ev_q[156];
     assign ev_inv[298] = fl_pt3_vrel[2] && ev_q[156];
     logic [W-1:0] dl_pt3_vrel;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vrel (.clk(clk), .d(pt3_vrel), .valid(1'b0), .q(dl_pt3_vrel));
     // pt3_add419 = pt3_vrel + b3   (ready @160/160/160)
     logic [W-1:0] pt3_add419;
@@ -4671,7 +5091,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[299] = fl_pt3_add419[1] && ev_q[160];
     assign ev_inv[299] = fl_pt3_add419[2] && ev_q[160];
     logic [W-1:0] dl_pt3_add419;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add419 (.clk(clk), .d(pt3_add419), .valid(1'b0), .q(dl_pt3_add419));
     // pt3_delta0 = pt3_add419 * jac_inv3   (ready @163/163/163)
     logic [W-1:0] pt3_delta0;
@@ -4684,7 +5105,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[300] = fl_pt3_delta0[1] && ev_q[163];
     assign ev_inv[300] = fl_pt3_delta0[2] && ev_q[163];
     logic [W-1:0] dl_pt3_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_delta0 (.clk(clk), .d(pt3_delta0), .valid(1'b0), .q(dl_pt3_delta0));
     // pt3_lam_kept = lam3 * keep3   (ready @3/3/3)
     logic [W-1:0] pt3_lam_kept;
@@ -4697,7 +5119,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[301] = fl_pt3_lam_kept[1] && ev_q[3];
     assign ev_inv[301] = fl_pt3_lam_kept[2] && ev_q[3];
     logic [W-1:0] dl_pt3_lam_kept;
-    pgs_delay #(.WIDTH(W), .DEPTH(160))
+    pgs_delay #(.WIDTH(W), .DEPTH(160),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_lam_kept (.clk(clk), .d(pt3_lam_kept), .valid(valid_q[3 +: 160]), .q(dl_pt3_lam_kept));
     // pt3_add422 = pt3_lam_kept + pt3_delta0   (ready @167/167/167)
     logic [W-1:0] pt3_add422;
@@ -4710,7 +5133,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[302] = fl_pt3_add422[1] && ev_q[167];
     assign ev_inv[302] = fl_pt3_add422[2] && ev_q[167];
     logic [W-1:0] dl_pt3_add422;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add422 (.clk(clk), .d(pt3_add422), .valid(1'b0), .q(dl_pt3_add422));
     // pt3_lam_new = max(pt3_add422, 0.0)   (ready @168/168/168)
     logic [W-1:0] pt3_lam_new;
@@ -4720,7 +5144,8 @@ module pgs_contact_pipe_soft #(
         .lt(nc_pt3_lam_new_lt), .eq(nc_pt3_lam_new_eq), .unordered(nc_pt3_lam_new_uo)
     );
     logic [W-1:0] dl_pt3_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_lam_new (.clk(clk), .d(pt3_lam_new), .valid(1'b0), .q(dl_pt3_lam_new));
     // pt3_delta = pt3_lam_new - lam3   (ready @172/172/172)
     logic [W-1:0] pt3_delta;
@@ -4733,13 +5158,15 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[303] = fl_pt3_delta[1] && ev_q[172];
     assign ev_inv[303] = fl_pt3_delta[2] && ev_q[172];
     logic [W-1:0] dl_pt3_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_delta (.clk(clk), .d(pt3_delta), .valid(1'b0), .q(dl_pt3_delta));
     // pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (ready @168/168/168)
     logic [W-1:0] pt3_lam;
     assign pt3_lam = dl_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_pt3_lam_new;
     logic [W-1:0] dl_pt3_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_lam (.clk(clk), .d(pt3_lam), .valid(valid_q[168 +: 11]), .q(dl_pt3_lam));
     // pt3_angA_x = IInvA_x * pt3_cA_x   (ready @14/14/14)
     logic [W-1:0] pt3_angA_x;
@@ -4752,7 +5179,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[304] = fl_pt3_angA_x[1] && ev_q[14];
     assign ev_inv[304] = fl_pt3_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angA_x (.clk(clk), .d(pt3_angA_x), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_x));
     // pt3_angA_y = IInvA_y * pt3_cA_y   (ready @14/14/14)
     logic [W-1:0] pt3_angA_y;
@@ -4765,7 +5193,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[305] = fl_pt3_angA_y[1] && ev_q[14];
     assign ev_inv[305] = fl_pt3_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angA_y (.clk(clk), .d(pt3_angA_y), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_y));
     // pt3_angA_z = IInvA_z * pt3_cA_z   (ready @14/14/14)
     logic [W-1:0] pt3_angA_z;
@@ -4778,7 +5207,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[306] = fl_pt3_angA_z[1] && ev_q[14];
     assign ev_inv[306] = fl_pt3_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angA_z (.clk(clk), .d(pt3_angA_z), .valid(valid_q[14 +: 158]), .q(dl_pt3_angA_z));
     // pt3_angB_x = IInvB_x * pt3_cB_x   (ready @14/14/14)
     logic [W-1:0] pt3_angB_x;
@@ -4791,7 +5221,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[307] = fl_pt3_angB_x[1] && ev_q[14];
     assign ev_inv[307] = fl_pt3_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angB_x (.clk(clk), .d(pt3_angB_x), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_x));
     // pt3_angB_y = IInvB_y * pt3_cB_y   (ready @14/14/14)
     logic [W-1:0] pt3_angB_y;
@@ -4804,7 +5235,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[308] = fl_pt3_angB_y[1] && ev_q[14];
     assign ev_inv[308] = fl_pt3_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angB_y (.clk(clk), .d(pt3_angB_y), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_y));
     // pt3_angB_z = IInvB_z * pt3_cB_z   (ready @14/14/14)
     logic [W-1:0] pt3_angB_z;
@@ -4817,7 +5249,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[309] = fl_pt3_angB_z[1] && ev_q[14];
     assign ev_inv[309] = fl_pt3_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_pt3_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(158))
+    pgs_delay #(.WIDTH(W), .DEPTH(158),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_angB_z (.clk(clk), .d(pt3_angB_z), .valid(valid_q[14 +: 158]), .q(dl_pt3_angB_z));
     // pt3_mul432 = linA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul432;
@@ -4830,7 +5263,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[310] = fl_pt3_mul432[1] && ev_q[175];
     assign ev_inv[310] = fl_pt3_mul432[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul432;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul432 (.clk(clk), .d(pt3_mul432), .valid(1'b0), .q(dl_pt3_mul432));
     // pt3_mul433 = linA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul433;
@@ -4843,7 +5277,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[311] = fl_pt3_mul433[1] && ev_q[175];
     assign ev_inv[311] = fl_pt3_mul433[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul433;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul433 (.clk(clk), .d(pt3_mul433), .valid(1'b0), .q(dl_pt3_mul433));
     // pt3_mul434 = linA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul434;
@@ -4856,7 +5291,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[312] = fl_pt3_mul434[1] && ev_q[175];
     assign ev_inv[312] = fl_pt3_mul434[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul434;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul434 (.clk(clk), .d(pt3_mul434), .valid(1'b0), .q(dl_pt3_mul434));
     // pt3_add435 = pt2_vA_x + pt3_mul432   (ready @179/179/179)
     logic [W-1:0] pt3_add435;
@@ -4869,7 +5305,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[313] = fl_pt3_add435[1] && ev_q[179];
     assign ev_inv[313] = fl_pt3_add435[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add435;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add435 (.clk(clk), .d(pt3_add435), .valid(1'b0), .q(dl_pt3_add435));
     // pt3_add436 = pt2_vA_y + pt3_mul433   (ready @179/179/179)
     logic [W-1:0] pt3_add436;
@@ -4882,7 +5319,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[314] = fl_pt3_add436[1] && ev_q[179];
     assign ev_inv[314] = fl_pt3_add436[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add436;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add436 (.clk(clk), .d(pt3_add436), .valid(1'b0), .q(dl_pt3_add436));
     // pt3_add437 = pt2_vA_z + pt3_mul434   (ready @179/179/179)
     logic [W-1:0] pt3_add437;
@@ -4895,25 +5333,29 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[315] = fl_pt3_add437[1] && ev_q[179];
     assign ev_inv[315] = fl_pt3_add437[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add437;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add437 (.clk(clk), .d(pt3_add437), .valid(1'b0), .q(dl_pt3_add437));
     // pt3_vA_x = pt3_skip ? pt2_vA_x : pt3_add435   (ready @179/179/179)
     logic [W-1:0] pt3_vA_x;
     assign pt3_vA_x = dl_pt3_skip[1] ? dl_pt2_vA_x[2*W +: W] : dl_pt3_add435;
     logic [W-1:0] dl_pt3_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vA_x (.clk(clk), .d(pt3_vA_x), .valid(1'b0), .q(dl_pt3_vA_x));
     // pt3_vA_y = pt3_skip ? pt2_vA_y : pt3_add436   (ready @179/179/179)
     logic [W-1:0] pt3_vA_y;
     assign pt3_vA_y = dl_pt3_skip[1] ? dl_pt2_vA_y[2*W +: W] : dl_pt3_add436;
     logic [W-1:0] dl_pt3_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vA_y (.clk(clk), .d(pt3_vA_y), .valid(1'b0), .q(dl_pt3_vA_y));
     // pt3_vA_z = pt3_skip ? pt2_vA_z : pt3_add437   (ready @179/179/179)
     logic [W-1:0] pt3_vA_z;
     assign pt3_vA_z = dl_pt3_skip[1] ? dl_pt2_vA_z[2*W +: W] : dl_pt3_add437;
     logic [W-1:0] dl_pt3_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vA_z (.clk(clk), .d(pt3_vA_z), .valid(1'b0), .q(dl_pt3_vA_z));
     // pt3_mul441 = pt3_angA_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul441;
@@ -4926,7 +5368,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[316] = fl_pt3_mul441[1] && ev_q[175];
     assign ev_inv[316] = fl_pt3_mul441[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul441;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul441 (.clk(clk), .d(pt3_mul441), .valid(1'b0), .q(dl_pt3_mul441));
     // pt3_mul442 = pt3_angA_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul442;
@@ -4939,7 +5382,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[317] = fl_pt3_mul442[1] && ev_q[175];
     assign ev_inv[317] = fl_pt3_mul442[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul442;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul442 (.clk(clk), .d(pt3_mul442), .valid(1'b0), .q(dl_pt3_mul442));
     // pt3_mul443 = pt3_angA_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul443;
@@ -4952,7 +5396,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[318] = fl_pt3_mul443[1] && ev_q[175];
     assign ev_inv[318] = fl_pt3_mul443[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul443;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul443 (.clk(clk), .d(pt3_mul443), .valid(1'b0), .q(dl_pt3_mul443));
     // pt3_add444 = pt2_wA_x + pt3_mul441   (ready @179/179/179)
     logic [W-1:0] pt3_add444;
@@ -4965,7 +5410,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[319] = fl_pt3_add444[1] && ev_q[179];
     assign ev_inv[319] = fl_pt3_add444[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add444;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add444 (.clk(clk), .d(pt3_add444), .valid(1'b0), .q(dl_pt3_add444));
     // pt3_add445 = pt2_wA_y + pt3_mul442   (ready @179/179/179)
     logic [W-1:0] pt3_add445;
@@ -4978,7 +5424,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[320] = fl_pt3_add445[1] && ev_q[179];
     assign ev_inv[320] = fl_pt3_add445[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add445;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add445 (.clk(clk), .d(pt3_add445), .valid(1'b0), .q(dl_pt3_add445));
     // pt3_add446 = pt2_wA_z + pt3_mul443   (ready @179/179/179)
     logic [W-1:0] pt3_add446;
@@ -4991,25 +5438,29 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[321] = fl_pt3_add446[1] && ev_q[179];
     assign ev_inv[321] = fl_pt3_add446[2] && ev_q[179];
     logic [W-1:0] dl_pt3_add446;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_add446 (.clk(clk), .d(pt3_add446), .valid(1'b0), .q(dl_pt3_add446));
     // pt3_wA_x = pt3_skip ? pt2_wA_x : pt3_add444   (ready @179/179/179)
     logic [W-1:0] pt3_wA_x;
     assign pt3_wA_x = dl_pt3_skip[1] ? dl_pt2_wA_x[2*W +: W] : dl_pt3_add444;
     logic [W-1:0] dl_pt3_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wA_x (.clk(clk), .d(pt3_wA_x), .valid(1'b0), .q(dl_pt3_wA_x));
     // pt3_wA_y = pt3_skip ? pt2_wA_y : pt3_add445   (ready @179/179/179)
     logic [W-1:0] pt3_wA_y;
     assign pt3_wA_y = dl_pt3_skip[1] ? dl_pt2_wA_y[2*W +: W] : dl_pt3_add445;
     logic [W-1:0] dl_pt3_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wA_y (.clk(clk), .d(pt3_wA_y), .valid(1'b0), .q(dl_pt3_wA_y));
     // pt3_wA_z = pt3_skip ? pt2_wA_z : pt3_add446   (ready @179/179/179)
     logic [W-1:0] pt3_wA_z;
     assign pt3_wA_z = dl_pt3_skip[1] ? dl_pt2_wA_z[2*W +: W] : dl_pt3_add446;
     logic [W-1:0] dl_pt3_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wA_z (.clk(clk), .d(pt3_wA_z), .valid(1'b0), .q(dl_pt3_wA_z));
     // pt3_mul450 = linB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul450;
@@ -5022,7 +5473,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[322] = fl_pt3_mul450[1] && ev_q[175];
     assign ev_inv[322] = fl_pt3_mul450[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul450;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul450 (.clk(clk), .d(pt3_mul450), .valid(1'b0), .q(dl_pt3_mul450));
     // pt3_mul451 = linB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul451;
@@ -5035,7 +5487,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[323] = fl_pt3_mul451[1] && ev_q[175];
     assign ev_inv[323] = fl_pt3_mul451[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul451;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul451 (.clk(clk), .d(pt3_mul451), .valid(1'b0), .q(dl_pt3_mul451));
     // pt3_mul452 = linB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul452;
@@ -5048,7 +5501,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[324] = fl_pt3_mul452[1] && ev_q[175];
     assign ev_inv[324] = fl_pt3_mul452[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul452;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul452 (.clk(clk), .d(pt3_mul452), .valid(1'b0), .q(dl_pt3_mul452));
     // pt3_sub453 = pt2_vB_x - pt3_mul450   (ready @179/179/179)
     logic [W-1:0] pt3_sub453;
@@ -5061,7 +5515,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[325] = fl_pt3_sub453[1] && ev_q[179];
     assign ev_inv[325] = fl_pt3_sub453[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub453;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub453 (.clk(clk), .d(pt3_sub453), .valid(1'b0), .q(dl_pt3_sub453));
     // pt3_sub454 = pt2_vB_y - pt3_mul451   (ready @179/179/179)
     logic [W-1:0] pt3_sub454;
@@ -5074,7 +5529,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[326] = fl_pt3_sub454[1] && ev_q[179];
     assign ev_inv[326] = fl_pt3_sub454[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub454;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub454 (.clk(clk), .d(pt3_sub454), .valid(1'b0), .q(dl_pt3_sub454));
     // pt3_sub455 = pt2_vB_z - pt3_mul452   (ready @179/179/179)
     logic [W-1:0] pt3_sub455;
@@ -5087,25 +5543,29 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[327] = fl_pt3_sub455[1] && ev_q[179];
     assign ev_inv[327] = fl_pt3_sub455[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub455;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub455 (.clk(clk), .d(pt3_sub455), .valid(1'b0), .q(dl_pt3_sub455));
     // pt3_vB_x = pt3_skip ? pt2_vB_x : pt3_sub453   (ready @179/179/179)
     logic [W-1:0] pt3_vB_x;
     assign pt3_vB_x = dl_pt3_skip[1] ? dl_pt2_vB_x[2*W +: W] : dl_pt3_sub453;
     logic [W-1:0] dl_pt3_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vB_x (.clk(clk), .d(pt3_vB_x), .valid(1'b0), .q(dl_pt3_vB_x));
     // pt3_vB_y = pt3_skip ? pt2_vB_y : pt3_sub454   (ready @179/179/179)
     logic [W-1:0] pt3_vB_y;
     assign pt3_vB_y = dl_pt3_skip[1] ? dl_pt2_vB_y[2*W +: W] : dl_pt3_sub454;
     logic [W-1:0] dl_pt3_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vB_y (.clk(clk), .d(pt3_vB_y), .valid(1'b0), .q(dl_pt3_vB_y));
     // pt3_vB_z = pt3_skip ? pt2_vB_z : pt3_sub455   (ready @179/179/179)
     logic [W-1:0] pt3_vB_z;
     assign pt3_vB_z = dl_pt3_skip[1] ? dl_pt2_vB_z[2*W +: W] : dl_pt3_sub455;
     logic [W-1:0] dl_pt3_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_vB_z (.clk(clk), .d(pt3_vB_z), .valid(1'b0), .q(dl_pt3_vB_z));
     // pt3_mul459 = pt3_angB_x * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul459;
@@ -5118,7 +5578,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[328] = fl_pt3_mul459[1] && ev_q[175];
     assign ev_inv[328] = fl_pt3_mul459[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul459;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul459 (.clk(clk), .d(pt3_mul459), .valid(1'b0), .q(dl_pt3_mul459));
     // pt3_mul460 = pt3_angB_y * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul460;
@@ -5131,7 +5592,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[329] = fl_pt3_mul460[1] && ev_q[175];
     assign ev_inv[329] = fl_pt3_mul460[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul460;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul460 (.clk(clk), .d(pt3_mul460), .valid(1'b0), .q(dl_pt3_mul460));
     // pt3_mul461 = pt3_angB_z * pt3_delta   (ready @175/175/175)
     logic [W-1:0] pt3_mul461;
@@ -5144,7 +5606,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[330] = fl_pt3_mul461[1] && ev_q[175];
     assign ev_inv[330] = fl_pt3_mul461[2] && ev_q[175];
     logic [W-1:0] dl_pt3_mul461;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_mul461 (.clk(clk), .d(pt3_mul461), .valid(1'b0), .q(dl_pt3_mul461));
     // pt3_sub462 = pt2_wB_x - pt3_mul459   (ready @179/179/179)
     logic [W-1:0] pt3_sub462;
@@ -5157,7 +5620,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[331] = fl_pt3_sub462[1] && ev_q[179];
     assign ev_inv[331] = fl_pt3_sub462[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub462;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub462 (.clk(clk), .d(pt3_sub462), .valid(1'b0), .q(dl_pt3_sub462));
     // pt3_sub463 = pt2_wB_y - pt3_mul460   (ready @179/179/179)
     logic [W-1:0] pt3_sub463;
@@ -5170,7 +5634,8 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[332] = fl_pt3_sub463[1] && ev_q[179];
     assign ev_inv[332] = fl_pt3_sub463[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub463;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub463 (.clk(clk), .d(pt3_sub463), .valid(1'b0), .q(dl_pt3_sub463));
     // pt3_sub464 = pt2_wB_z - pt3_mul461   (ready @179/179/179)
     logic [W-1:0] pt3_sub464;
@@ -5183,25 +5648,29 @@ module pgs_contact_pipe_soft #(
     assign ev_unf[333] = fl_pt3_sub464[1] && ev_q[179];
     assign ev_inv[333] = fl_pt3_sub464[2] && ev_q[179];
     logic [W-1:0] dl_pt3_sub464;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_sub464 (.clk(clk), .d(pt3_sub464), .valid(1'b0), .q(dl_pt3_sub464));
     // pt3_wB_x = pt3_skip ? pt2_wB_x : pt3_sub462   (ready @179/179/179)
     logic [W-1:0] pt3_wB_x;
     assign pt3_wB_x = dl_pt3_skip[1] ? dl_pt2_wB_x[2*W +: W] : dl_pt3_sub462;
     logic [W-1:0] dl_pt3_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wB_x (.clk(clk), .d(pt3_wB_x), .valid(1'b0), .q(dl_pt3_wB_x));
     // pt3_wB_y = pt3_skip ? pt2_wB_y : pt3_sub463   (ready @179/179/179)
     logic [W-1:0] pt3_wB_y;
     assign pt3_wB_y = dl_pt3_skip[1] ? dl_pt2_wB_y[2*W +: W] : dl_pt3_sub463;
     logic [W-1:0] dl_pt3_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wB_y (.clk(clk), .d(pt3_wB_y), .valid(1'b0), .q(dl_pt3_wB_y));
     // pt3_wB_z = pt3_skip ? pt2_wB_z : pt3_sub464   (ready @179/179/179)
     logic [W-1:0] pt3_wB_z;
     assign pt3_wB_z = dl_pt3_skip[1] ? dl_pt2_wB_z[2*W +: W] : dl_pt3_sub464;
     logic [W-1:0] dl_pt3_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pt3_wB_z (.clk(clk), .d(pt3_wB_z), .valid(1'b0), .q(dl_pt3_wB_z));
 
     // Outputs, each delayed to LATENCY.

@@ -28,6 +28,9 @@ module pgs_friction_pipe_full #(
     parameter  int EXP_BITS = 8,
     parameter  int MAN_BITS = 23,
     parameter  int TAG_W    = 64,
+    // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
+    // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
+    parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 52,
     localparam int N_OUT    = 14,
@@ -80,7 +83,7 @@ module pgs_friction_pipe_full #(
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
         .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY), .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_tag (
         .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
     );
 
@@ -107,265 +110,318 @@ module pgs_friction_pipe_full #(
     logic [W-1:0] in_n_x;
     assign in_n_x = in_data[0*W +: W];
     logic [2*W-1:0] dl_in_n_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 103]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [2*W-1:0] dl_in_n_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 103]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [2*W-1:0] dl_in_n_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 103]), .q(dl_in_n_z));
     logic [W-1:0] in_c_x;
     assign in_c_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_c_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_c_x (.clk(clk), .d(in_c_x), .valid(1'b0), .q(dl_in_c_x));
     logic [W-1:0] in_c_y;
     assign in_c_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_c_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_c_y (.clk(clk), .d(in_c_y), .valid(1'b0), .q(dl_in_c_y));
     logic [W-1:0] in_c_z;
     assign in_c_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_c_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_c_z (.clk(clk), .d(in_c_z), .valid(1'b0), .q(dl_in_c_z));
     logic [W-1:0] in_t0_x;
     assign in_t0_x = in_data[6*W +: W];
     logic [2*W-1:0] dl_in_t0_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t0_x (.clk(clk), .d(in_t0_x), .valid(valid_q[0 +: 4]), .q(dl_in_t0_x));
     logic [W-1:0] in_t0_y;
     assign in_t0_y = in_data[7*W +: W];
     logic [2*W-1:0] dl_in_t0_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t0_y (.clk(clk), .d(in_t0_y), .valid(valid_q[0 +: 4]), .q(dl_in_t0_y));
     logic [W-1:0] in_t0_z;
     assign in_t0_z = in_data[8*W +: W];
     logic [2*W-1:0] dl_in_t0_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t0_z (.clk(clk), .d(in_t0_z), .valid(valid_q[0 +: 4]), .q(dl_in_t0_z));
     logic [W-1:0] in_t1_x;
     assign in_t1_x = in_data[9*W +: W];
     logic [3*W-1:0] dl_in_t1_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t1_x (.clk(clk), .d(in_t1_x), .valid(valid_q[0 +: 50]), .q(dl_in_t1_x));
     logic [W-1:0] in_t1_y;
     assign in_t1_y = in_data[10*W +: W];
     logic [3*W-1:0] dl_in_t1_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t1_y (.clk(clk), .d(in_t1_y), .valid(valid_q[0 +: 50]), .q(dl_in_t1_y));
     logic [W-1:0] in_t1_z;
     assign in_t1_z = in_data[11*W +: W];
     logic [3*W-1:0] dl_in_t1_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t1_z (.clk(clk), .d(in_t1_z), .valid(valid_q[0 +: 50]), .q(dl_in_t1_z));
     logic [W-1:0] in_f_jac_inv0;
     assign in_f_jac_inv0 = in_data[12*W +: W];
     logic [2*W-1:0] dl_in_f_jac_inv0;
-    pgs_delay #(.WIDTH(W), .DEPTH(30), .N_TAPS(2), .TAPS({32'(30), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(30), .N_TAPS(2), .TAPS({32'(30), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_f_jac_inv0 (.clk(clk), .d(in_f_jac_inv0), .valid(valid_q[0 +: 30]), .q(dl_in_f_jac_inv0));
     logic [W-1:0] in_f_jac_inv1;
     assign in_f_jac_inv1 = in_data[13*W +: W];
     logic [W-1:0] dl_in_f_jac_inv1;
-    pgs_delay #(.WIDTH(W), .DEPTH(69))
+    pgs_delay #(.WIDTH(W), .DEPTH(69),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_f_jac_inv1 (.clk(clk), .d(in_f_jac_inv1), .valid(valid_q[0 +: 69]), .q(dl_in_f_jac_inv1));
     logic [W-1:0] in_lam_n0;
     assign in_lam_n0 = in_data[14*W +: W];
     logic [W-1:0] dl_in_lam_n0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n0 (.clk(clk), .d(in_lam_n0), .valid(1'b0), .q(dl_in_lam_n0));
     logic [W-1:0] in_lam_n1;
     assign in_lam_n1 = in_data[15*W +: W];
     logic [W-1:0] dl_in_lam_n1;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n1 (.clk(clk), .d(in_lam_n1), .valid(1'b0), .q(dl_in_lam_n1));
     logic [W-1:0] in_lam_n2;
     assign in_lam_n2 = in_data[16*W +: W];
     logic [W-1:0] dl_in_lam_n2;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n2 (.clk(clk), .d(in_lam_n2), .valid(1'b0), .q(dl_in_lam_n2));
     logic [W-1:0] in_lam_n3;
     assign in_lam_n3 = in_data[17*W +: W];
     logic [W-1:0] dl_in_lam_n3;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n3 (.clk(clk), .d(in_lam_n3), .valid(1'b0), .q(dl_in_lam_n3));
     logic [W-1:0] in_lamT0;
     assign in_lamT0 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_lamT0;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(39), 32'(33)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(39), 32'(33)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lamT0 (.clk(clk), .d(in_lamT0), .valid(valid_q[0 +: 39]), .q(dl_in_lamT0));
     logic [W-1:0] in_lamT1;
     assign in_lamT1 = in_data[19*W +: W];
     logic [2*W-1:0] dl_in_lamT1;
-    pgs_delay #(.WIDTH(W), .DEPTH(78), .N_TAPS(2), .TAPS({32'(78), 32'(72)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(78), .N_TAPS(2), .TAPS({32'(78), 32'(72)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lamT1 (.clk(clk), .d(in_lamT1), .valid(valid_q[0 +: 78]), .q(dl_in_lamT1));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[20*W +: W];
     logic [W-1:0] dl_in_xA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[21*W +: W];
     logic [W-1:0] dl_in_xA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[22*W +: W];
     logic [W-1:0] dl_in_xA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[23*W +: W];
     logic [W-1:0] dl_in_xB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[24*W +: W];
     logic [W-1:0] dl_in_xB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[25*W +: W];
     logic [W-1:0] dl_in_xB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[26*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 50]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[27*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 50]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[28*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 50]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[29*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 50]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[30*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 50]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[31*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 50]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[32*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 50]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 50]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 50]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 50]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 50]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 50]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[38*W +: W];
     logic [W-1:0] dl_in_mInvA;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[39*W +: W];
     logic [W-1:0] dl_in_mInvB;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_xx;
     assign in_IInvA_xx = in_data[40*W +: W];
     logic [W-1:0] dl_in_IInvA_xx;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_xx (.clk(clk), .d(in_IInvA_xx), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_xx));
     logic [W-1:0] in_IInvA_yy;
     assign in_IInvA_yy = in_data[41*W +: W];
     logic [W-1:0] dl_in_IInvA_yy;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_yy (.clk(clk), .d(in_IInvA_yy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_yy));
     logic [W-1:0] in_IInvA_zz;
     assign in_IInvA_zz = in_data[42*W +: W];
     logic [W-1:0] dl_in_IInvA_zz;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_zz (.clk(clk), .d(in_IInvA_zz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_zz));
     logic [W-1:0] in_IInvA_xy;
     assign in_IInvA_xy = in_data[43*W +: W];
     logic [W-1:0] dl_in_IInvA_xy;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_xy (.clk(clk), .d(in_IInvA_xy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_xy));
     logic [W-1:0] in_IInvA_xz;
     assign in_IInvA_xz = in_data[44*W +: W];
     logic [W-1:0] dl_in_IInvA_xz;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_xz (.clk(clk), .d(in_IInvA_xz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_xz));
     logic [W-1:0] in_IInvA_yz;
     assign in_IInvA_yz = in_data[45*W +: W];
     logic [W-1:0] dl_in_IInvA_yz;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_yz (.clk(clk), .d(in_IInvA_yz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_yz));
     logic [W-1:0] in_IInvB_xx;
     assign in_IInvB_xx = in_data[46*W +: W];
     logic [W-1:0] dl_in_IInvB_xx;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_xx (.clk(clk), .d(in_IInvB_xx), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_xx));
     logic [W-1:0] in_IInvB_yy;
     assign in_IInvB_yy = in_data[47*W +: W];
     logic [W-1:0] dl_in_IInvB_yy;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_yy (.clk(clk), .d(in_IInvB_yy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_yy));
     logic [W-1:0] in_IInvB_zz;
     assign in_IInvB_zz = in_data[48*W +: W];
     logic [W-1:0] dl_in_IInvB_zz;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_zz (.clk(clk), .d(in_IInvB_zz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_zz));
     logic [W-1:0] in_IInvB_xy;
     assign in_IInvB_xy = in_data[49*W +: W];
     logic [W-1:0] dl_in_IInvB_xy;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_xy (.clk(clk), .d(in_IInvB_xy), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_xy));
     logic [W-1:0] in_IInvB_xz;
     assign in_IInvB_xz = in_data[50*W +: W];
     logic [W-1:0] dl_in_IInvB_xz;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_xz (.clk(clk), .d(in_IInvB_xz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_xz));
     logic [W-1:0] in_IInvB_yz;
     assign in_IInvB_yz = in_data[51*W +: W];
     logic [W-1:0] dl_in_IInvB_yz;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_yz (.clk(clk), .d(in_IInvB_yz), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_yz));
     logic [1-1:0] dl_in_spin_damp;
-    pgs_delay #(.WIDTH(1), .DEPTH(110))
+    pgs_delay #(.WIDTH(1), .DEPTH(110),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_spin_damp (.clk(clk), .d(in_spin_damp), .valid(valid_q[0 +: 110]), .q(dl_in_spin_damp));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
@@ -374,7 +430,8 @@ module pgs_friction_pipe_full #(
     logic skip;
     assign skip = (dl_in_f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [5*1-1:0] dl_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(110), .N_TAPS(5), .TAPS({32'(110), 32'(89), 32'(78), 32'(50), 32'(39)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(110), .N_TAPS(5), .TAPS({32'(110), 32'(89), 32'(78), 32'(50), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_skip (.clk(clk), .d(skip), .valid(valid_q[0 +: 110]), .q(dl_skip));
     // add55 = lam_n0 + lam_n1   (ready @4/4/4)
     logic [W-1:0] add55;
@@ -387,7 +444,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[0] = fl_add55[1] && ev_q[4];
     assign ev_inv[0] = fl_add55[2] && ev_q[4];
     logic [W-1:0] dl_add55;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add55 (.clk(clk), .d(add55), .valid(1'b0), .q(dl_add55));
     // add56 = lam_n2 + lam_n3   (ready @4/4/4)
     logic [W-1:0] add56;
@@ -400,7 +458,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[1] = fl_add56[1] && ev_q[4];
     assign ev_inv[1] = fl_add56[2] && ev_q[4];
     logic [W-1:0] dl_add56;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add56 (.clk(clk), .d(add56), .valid(1'b0), .q(dl_add56));
     // add57 = add55 + add56   (ready @8/8/8)
     logic [W-1:0] add57;
@@ -413,7 +472,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[2] = fl_add57[1] && ev_q[8];
     assign ev_inv[2] = fl_add57[2] && ev_q[8];
     logic [W-1:0] dl_add57;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add57 (.clk(clk), .d(add57), .valid(1'b0), .q(dl_add57));
     // limit = 0.7 * add57   (ready @11/11/11)
     logic [W-1:0] limit;
@@ -426,13 +486,15 @@ module pgs_friction_pipe_full #(
     assign ev_unf[3] = fl_limit[1] && ev_q[11];
     assign ev_inv[3] = fl_limit[2] && ev_q[11];
     logic [3*W-1:0] dl_limit;
-    pgs_delay #(.WIDTH(W), .DEPTH(66), .N_TAPS(3), .TAPS({32'(66), 32'(27), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(66), .N_TAPS(3), .TAPS({32'(66), 32'(27), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_limit (.clk(clk), .d(limit), .valid(valid_q[11 +: 66]), .q(dl_limit));
     // neg_limit = -limit   (ready @11/11/11)
     logic [W-1:0] neg_limit;
     assign neg_limit = {~dl_limit[0*W +: W][W-1], dl_limit[0*W +: W][W-2:0]};
     logic [2*W-1:0] dl_neg_limit;
-    pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(2), .TAPS({32'(65), 32'(26)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(2), .TAPS({32'(65), 32'(26)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_neg_limit (.clk(clk), .d(neg_limit), .valid(valid_q[11 +: 65]), .q(dl_neg_limit));
     // rA_x = c_x - xA_x   (ready @4/4/4)
     logic [W-1:0] rA_x;
@@ -445,7 +507,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[4] = fl_rA_x[1] && ev_q[4];
     assign ev_inv[4] = fl_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rA_x (.clk(clk), .d(rA_x), .valid(1'b0), .q(dl_rA_x));
     // rA_y = c_y - xA_y   (ready @4/4/4)
     logic [W-1:0] rA_y;
@@ -458,7 +521,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[5] = fl_rA_y[1] && ev_q[4];
     assign ev_inv[5] = fl_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rA_y (.clk(clk), .d(rA_y), .valid(1'b0), .q(dl_rA_y));
     // rA_z = c_z - xA_z   (ready @4/4/4)
     logic [W-1:0] rA_z;
@@ -471,7 +535,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[6] = fl_rA_z[1] && ev_q[4];
     assign ev_inv[6] = fl_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rA_z (.clk(clk), .d(rA_z), .valid(1'b0), .q(dl_rA_z));
     // rB_x = c_x - xB_x   (ready @4/4/4)
     logic [W-1:0] rB_x;
@@ -484,7 +549,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[7] = fl_rB_x[1] && ev_q[4];
     assign ev_inv[7] = fl_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rB_x (.clk(clk), .d(rB_x), .valid(1'b0), .q(dl_rB_x));
     // rB_y = c_y - xB_y   (ready @4/4/4)
     logic [W-1:0] rB_y;
@@ -497,7 +563,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[8] = fl_rB_y[1] && ev_q[4];
     assign ev_inv[8] = fl_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rB_y (.clk(clk), .d(rB_y), .valid(1'b0), .q(dl_rB_y));
     // rB_z = c_z - xB_z   (ready @4/4/4)
     logic [W-1:0] rB_z;
@@ -510,7 +577,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[9] = fl_rB_z[1] && ev_q[4];
     assign ev_inv[9] = fl_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rB_z (.clk(clk), .d(rB_z), .valid(1'b0), .q(dl_rB_z));
     // t0_mul66 = rA_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul66;
@@ -523,7 +591,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[10] = fl_t0_mul66[1] && ev_q[7];
     assign ev_inv[10] = fl_t0_mul66[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul66;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul66 (.clk(clk), .d(t0_mul66), .valid(1'b0), .q(dl_t0_mul66));
     // t0_mul67 = rA_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul67;
@@ -536,7 +605,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[11] = fl_t0_mul67[1] && ev_q[7];
     assign ev_inv[11] = fl_t0_mul67[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul67;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul67 (.clk(clk), .d(t0_mul67), .valid(1'b0), .q(dl_t0_mul67));
     // t0_cA_x = t0_mul66 - t0_mul67   (ready @11/11/11)
     logic [W-1:0] t0_cA_x;
@@ -549,7 +619,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[12] = fl_t0_cA_x[1] && ev_q[11];
     assign ev_inv[12] = fl_t0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cA_x (.clk(clk), .d(t0_cA_x), .valid(1'b0), .q(dl_t0_cA_x));
     // t0_mul69 = rA_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul69;
@@ -562,7 +633,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[13] = fl_t0_mul69[1] && ev_q[7];
     assign ev_inv[13] = fl_t0_mul69[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul69;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul69 (.clk(clk), .d(t0_mul69), .valid(1'b0), .q(dl_t0_mul69));
     // t0_mul70 = rA_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul70;
@@ -575,7 +647,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[14] = fl_t0_mul70[1] && ev_q[7];
     assign ev_inv[14] = fl_t0_mul70[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul70;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul70 (.clk(clk), .d(t0_mul70), .valid(1'b0), .q(dl_t0_mul70));
     // t0_cA_y = t0_mul69 - t0_mul70   (ready @11/11/11)
     logic [W-1:0] t0_cA_y;
@@ -588,7 +661,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[15] = fl_t0_cA_y[1] && ev_q[11];
     assign ev_inv[15] = fl_t0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cA_y (.clk(clk), .d(t0_cA_y), .valid(1'b0), .q(dl_t0_cA_y));
     // t0_mul72 = rA_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul72;
@@ -601,7 +675,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[16] = fl_t0_mul72[1] && ev_q[7];
     assign ev_inv[16] = fl_t0_mul72[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul72;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul72 (.clk(clk), .d(t0_mul72), .valid(1'b0), .q(dl_t0_mul72));
     // t0_mul73 = rA_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul73;
@@ -614,7 +689,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[17] = fl_t0_mul73[1] && ev_q[7];
     assign ev_inv[17] = fl_t0_mul73[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul73;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul73 (.clk(clk), .d(t0_mul73), .valid(1'b0), .q(dl_t0_mul73));
     // t0_cA_z = t0_mul72 - t0_mul73   (ready @11/11/11)
     logic [W-1:0] t0_cA_z;
@@ -627,7 +703,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[18] = fl_t0_cA_z[1] && ev_q[11];
     assign ev_inv[18] = fl_t0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cA_z (.clk(clk), .d(t0_cA_z), .valid(1'b0), .q(dl_t0_cA_z));
     // t0_mul75 = rB_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul75;
@@ -640,7 +717,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[19] = fl_t0_mul75[1] && ev_q[7];
     assign ev_inv[19] = fl_t0_mul75[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul75;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul75 (.clk(clk), .d(t0_mul75), .valid(1'b0), .q(dl_t0_mul75));
     // t0_mul76 = rB_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul76;
@@ -653,7 +731,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[20] = fl_t0_mul76[1] && ev_q[7];
     assign ev_inv[20] = fl_t0_mul76[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul76;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul76 (.clk(clk), .d(t0_mul76), .valid(1'b0), .q(dl_t0_mul76));
     // t0_cB_x = t0_mul75 - t0_mul76   (ready @11/11/11)
     logic [W-1:0] t0_cB_x;
@@ -666,7 +745,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[21] = fl_t0_cB_x[1] && ev_q[11];
     assign ev_inv[21] = fl_t0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cB_x (.clk(clk), .d(t0_cB_x), .valid(1'b0), .q(dl_t0_cB_x));
     // t0_mul78 = rB_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul78;
@@ -679,7 +759,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[22] = fl_t0_mul78[1] && ev_q[7];
     assign ev_inv[22] = fl_t0_mul78[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul78;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul78 (.clk(clk), .d(t0_mul78), .valid(1'b0), .q(dl_t0_mul78));
     // t0_mul79 = rB_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul79;
@@ -692,7 +773,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[23] = fl_t0_mul79[1] && ev_q[7];
     assign ev_inv[23] = fl_t0_mul79[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul79;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul79 (.clk(clk), .d(t0_mul79), .valid(1'b0), .q(dl_t0_mul79));
     // t0_cB_y = t0_mul78 - t0_mul79   (ready @11/11/11)
     logic [W-1:0] t0_cB_y;
@@ -705,7 +787,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[24] = fl_t0_cB_y[1] && ev_q[11];
     assign ev_inv[24] = fl_t0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cB_y (.clk(clk), .d(t0_cB_y), .valid(1'b0), .q(dl_t0_cB_y));
     // t0_mul81 = rB_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul81;
@@ -718,7 +801,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[25] = fl_t0_mul81[1] && ev_q[7];
     assign ev_inv[25] = fl_t0_mul81[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul81;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul81 (.clk(clk), .d(t0_mul81), .valid(1'b0), .q(dl_t0_mul81));
     // t0_mul82 = rB_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul82;
@@ -731,7 +815,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[26] = fl_t0_mul82[1] && ev_q[7];
     assign ev_inv[26] = fl_t0_mul82[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul82;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul82 (.clk(clk), .d(t0_mul82), .valid(1'b0), .q(dl_t0_mul82));
     // t0_cB_z = t0_mul81 - t0_mul82   (ready @11/11/11)
     logic [W-1:0] t0_cB_z;
@@ -744,7 +829,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[27] = fl_t0_cB_z[1] && ev_q[11];
     assign ev_inv[27] = fl_t0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cB_z (.clk(clk), .d(t0_cB_z), .valid(1'b0), .q(dl_t0_cB_z));
     // t0_mul84 = t0_x * vA_x   (ready @3/3/3)
     logic [W-1:0] t0_mul84;
@@ -757,7 +843,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[28] = fl_t0_mul84[1] && ev_q[3];
     assign ev_inv[28] = fl_t0_mul84[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul84;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul84 (.clk(clk), .d(t0_mul84), .valid(1'b0), .q(dl_t0_mul84));
     // t0_mul85 = t0_y * vA_y   (ready @3/3/3)
     logic [W-1:0] t0_mul85;
@@ -770,7 +857,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[29] = fl_t0_mul85[1] && ev_q[3];
     assign ev_inv[29] = fl_t0_mul85[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul85;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul85 (.clk(clk), .d(t0_mul85), .valid(1'b0), .q(dl_t0_mul85));
     // t0_add86 = t0_mul84 + t0_mul85   (ready @7/7/7)
     logic [W-1:0] t0_add86;
@@ -783,7 +871,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[30] = fl_t0_add86[1] && ev_q[7];
     assign ev_inv[30] = fl_t0_add86[2] && ev_q[7];
     logic [W-1:0] dl_t0_add86;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add86 (.clk(clk), .d(t0_add86), .valid(1'b0), .q(dl_t0_add86));
     // t0_mul87 = t0_z * vA_z   (ready @3/3/3)
     logic [W-1:0] t0_mul87;
@@ -796,7 +885,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[31] = fl_t0_mul87[1] && ev_q[3];
     assign ev_inv[31] = fl_t0_mul87[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul87;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul87 (.clk(clk), .d(t0_mul87), .valid(valid_q[3 +: 4]), .q(dl_t0_mul87));
     // t0_add88 = t0_add86 + t0_mul87   (ready @11/11/11)
     logic [W-1:0] t0_add88;
@@ -809,7 +899,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[32] = fl_t0_add88[1] && ev_q[11];
     assign ev_inv[32] = fl_t0_add88[2] && ev_q[11];
     logic [W-1:0] dl_t0_add88;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add88 (.clk(clk), .d(t0_add88), .valid(1'b0), .q(dl_t0_add88));
     // t0_mul89 = t0_x * vB_x   (ready @3/3/3)
     logic [W-1:0] t0_mul89;
@@ -822,7 +913,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[33] = fl_t0_mul89[1] && ev_q[3];
     assign ev_inv[33] = fl_t0_mul89[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul89;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul89 (.clk(clk), .d(t0_mul89), .valid(1'b0), .q(dl_t0_mul89));
     // t0_mul90 = t0_y * vB_y   (ready @3/3/3)
     logic [W-1:0] t0_mul90;
@@ -835,7 +927,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[34] = fl_t0_mul90[1] && ev_q[3];
     assign ev_inv[34] = fl_t0_mul90[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul90;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul90 (.clk(clk), .d(t0_mul90), .valid(1'b0), .q(dl_t0_mul90));
     // t0_add91 = t0_mul89 + t0_mul90   (ready @7/7/7)
     logic [W-1:0] t0_add91;
@@ -848,7 +941,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[35] = fl_t0_add91[1] && ev_q[7];
     assign ev_inv[35] = fl_t0_add91[2] && ev_q[7];
     logic [W-1:0] dl_t0_add91;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add91 (.clk(clk), .d(t0_add91), .valid(1'b0), .q(dl_t0_add91));
     // t0_mul92 = t0_z * vB_z   (ready @3/3/3)
     logic [W-1:0] t0_mul92;
@@ -861,7 +955,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[36] = fl_t0_mul92[1] && ev_q[3];
     assign ev_inv[36] = fl_t0_mul92[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul92;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul92 (.clk(clk), .d(t0_mul92), .valid(valid_q[3 +: 4]), .q(dl_t0_mul92));
     // t0_add93 = t0_add91 + t0_mul92   (ready @11/11/11)
     logic [W-1:0] t0_add93;
@@ -874,7 +969,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[37] = fl_t0_add93[1] && ev_q[11];
     assign ev_inv[37] = fl_t0_add93[2] && ev_q[11];
     logic [W-1:0] dl_t0_add93;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add93 (.clk(clk), .d(t0_add93), .valid(1'b0), .q(dl_t0_add93));
     // t0_sub94 = t0_add88 - t0_add93   (ready @15/15/15)
     logic [W-1:0] t0_sub94;
@@ -887,7 +983,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[38] = fl_t0_sub94[1] && ev_q[15];
     assign ev_inv[38] = fl_t0_sub94[2] && ev_q[15];
     logic [W-1:0] dl_t0_sub94;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub94 (.clk(clk), .d(t0_sub94), .valid(valid_q[15 +: 11]), .q(dl_t0_sub94));
     // t0_mul95 = t0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] t0_mul95;
@@ -900,7 +997,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[39] = fl_t0_mul95[1] && ev_q[14];
     assign ev_inv[39] = fl_t0_mul95[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul95;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul95 (.clk(clk), .d(t0_mul95), .valid(1'b0), .q(dl_t0_mul95));
     // t0_mul96 = t0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] t0_mul96;
@@ -913,7 +1011,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[40] = fl_t0_mul96[1] && ev_q[14];
     assign ev_inv[40] = fl_t0_mul96[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul96;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul96 (.clk(clk), .d(t0_mul96), .valid(1'b0), .q(dl_t0_mul96));
     // t0_add97 = t0_mul95 + t0_mul96   (ready @18/18/18)
     logic [W-1:0] t0_add97;
@@ -926,7 +1025,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[41] = fl_t0_add97[1] && ev_q[18];
     assign ev_inv[41] = fl_t0_add97[2] && ev_q[18];
     logic [W-1:0] dl_t0_add97;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add97 (.clk(clk), .d(t0_add97), .valid(1'b0), .q(dl_t0_add97));
     // t0_mul98 = t0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] t0_mul98;
@@ -939,7 +1039,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[42] = fl_t0_mul98[1] && ev_q[14];
     assign ev_inv[42] = fl_t0_mul98[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul98;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul98 (.clk(clk), .d(t0_mul98), .valid(valid_q[14 +: 4]), .q(dl_t0_mul98));
     // t0_add99 = t0_add97 + t0_mul98   (ready @22/22/22)
     logic [W-1:0] t0_add99;
@@ -952,7 +1053,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[43] = fl_t0_add99[1] && ev_q[22];
     assign ev_inv[43] = fl_t0_add99[2] && ev_q[22];
     logic [W-1:0] dl_t0_add99;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add99 (.clk(clk), .d(t0_add99), .valid(1'b0), .q(dl_t0_add99));
     // t0_mul100 = t0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] t0_mul100;
@@ -965,7 +1067,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[44] = fl_t0_mul100[1] && ev_q[14];
     assign ev_inv[44] = fl_t0_mul100[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul100;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul100 (.clk(clk), .d(t0_mul100), .valid(1'b0), .q(dl_t0_mul100));
     // t0_mul101 = t0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] t0_mul101;
@@ -978,7 +1081,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[45] = fl_t0_mul101[1] && ev_q[14];
     assign ev_inv[45] = fl_t0_mul101[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul101;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul101 (.clk(clk), .d(t0_mul101), .valid(1'b0), .q(dl_t0_mul101));
     // t0_add102 = t0_mul100 + t0_mul101   (ready @18/18/18)
     logic [W-1:0] t0_add102;
@@ -991,7 +1095,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[46] = fl_t0_add102[1] && ev_q[18];
     assign ev_inv[46] = fl_t0_add102[2] && ev_q[18];
     logic [W-1:0] dl_t0_add102;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add102 (.clk(clk), .d(t0_add102), .valid(1'b0), .q(dl_t0_add102));
     // t0_mul103 = t0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] t0_mul103;
@@ -1004,7 +1109,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[47] = fl_t0_mul103[1] && ev_q[14];
     assign ev_inv[47] = fl_t0_mul103[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul103;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul103 (.clk(clk), .d(t0_mul103), .valid(valid_q[14 +: 4]), .q(dl_t0_mul103));
     // t0_add104 = t0_add102 + t0_mul103   (ready @22/22/22)
     logic [W-1:0] t0_add104;
@@ -1017,7 +1123,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[48] = fl_t0_add104[1] && ev_q[22];
     assign ev_inv[48] = fl_t0_add104[2] && ev_q[22];
     logic [W-1:0] dl_t0_add104;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add104 (.clk(clk), .d(t0_add104), .valid(1'b0), .q(dl_t0_add104));
     // t0_sub105 = t0_add99 - t0_add104   (ready @26/26/26)
     logic [W-1:0] t0_sub105;
@@ -1030,7 +1137,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[49] = fl_t0_sub105[1] && ev_q[26];
     assign ev_inv[49] = fl_t0_sub105[2] && ev_q[26];
     logic [W-1:0] dl_t0_sub105;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub105 (.clk(clk), .d(t0_sub105), .valid(1'b0), .q(dl_t0_sub105));
     // t0_u = t0_sub94 + t0_sub105   (ready @30/30/30)
     logic [W-1:0] t0_u;
@@ -1043,13 +1151,15 @@ module pgs_friction_pipe_full #(
     assign ev_unf[50] = fl_t0_u[1] && ev_q[30];
     assign ev_inv[50] = fl_t0_u[2] && ev_q[30];
     logic [W-1:0] dl_t0_u;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_u (.clk(clk), .d(t0_u), .valid(1'b0), .q(dl_t0_u));
     // t0_neg107 = -t0_u   (ready @30/30/30)
     logic [W-1:0] t0_neg107;
     assign t0_neg107 = {~dl_t0_u[W-1], dl_t0_u[W-2:0]};
     logic [W-1:0] dl_t0_neg107;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_neg107 (.clk(clk), .d(t0_neg107), .valid(1'b0), .q(dl_t0_neg107));
     // t0_delta0 = t0_neg107 * f_jac_inv0   (ready @33/33/33)
     logic [W-1:0] t0_delta0;
@@ -1062,7 +1172,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[51] = fl_t0_delta0[1] && ev_q[33];
     assign ev_inv[51] = fl_t0_delta0[2] && ev_q[33];
     logic [W-1:0] dl_t0_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_delta0 (.clk(clk), .d(t0_delta0), .valid(1'b0), .q(dl_t0_delta0));
     // t0_add109 = lamT0 + t0_delta0   (ready @37/37/37)
     logic [W-1:0] t0_add109;
@@ -1075,7 +1186,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[52] = fl_t0_add109[1] && ev_q[37];
     assign ev_inv[52] = fl_t0_add109[2] && ev_q[37];
     logic [W-1:0] dl_t0_add109;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add109 (.clk(clk), .d(t0_add109), .valid(1'b0), .q(dl_t0_add109));
     // t0_max110 = max(t0_add109, neg_limit)   (ready @38/38/38)
     logic [W-1:0] t0_max110;
@@ -1085,7 +1197,8 @@ module pgs_friction_pipe_full #(
         .lt(nc_t0_max110_lt), .eq(nc_t0_max110_eq), .unordered(nc_t0_max110_uo)
     );
     logic [W-1:0] dl_t0_max110;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_max110 (.clk(clk), .d(t0_max110), .valid(1'b0), .q(dl_t0_max110));
     // t0_lam_new = min(t0_max110, limit)   (ready @39/39/39)
     logic [W-1:0] t0_lam_new;
@@ -1095,7 +1208,8 @@ module pgs_friction_pipe_full #(
         .lt(nc_t0_lam_new_lt), .eq(nc_t0_lam_new_eq), .unordered(nc_t0_lam_new_uo)
     );
     logic [W-1:0] dl_t0_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_lam_new (.clk(clk), .d(t0_lam_new), .valid(1'b0), .q(dl_t0_lam_new));
     // t0_delta = t0_lam_new - lamT0   (ready @43/43/43)
     logic [W-1:0] t0_delta;
@@ -1108,19 +1222,22 @@ module pgs_friction_pipe_full #(
     assign ev_unf[53] = fl_t0_delta[1] && ev_q[43];
     assign ev_inv[53] = fl_t0_delta[2] && ev_q[43];
     logic [W-1:0] dl_t0_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_delta (.clk(clk), .d(t0_delta), .valid(1'b0), .q(dl_t0_delta));
     // t0_lamT = skip ? lamT0 : t0_lam_new   (ready @39/39/39)
     logic [W-1:0] t0_lamT;
     assign t0_lamT = dl_skip[0] ? dl_in_lamT0[1*W +: W] : dl_t0_lam_new;
     logic [W-1:0] dl_t0_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH(71))
+    pgs_delay #(.WIDTH(W), .DEPTH(71),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_lamT (.clk(clk), .d(t0_lamT), .valid(valid_q[39 +: 71]), .q(dl_t0_lamT));
     // t0_e = -t0_delta   (ready @43/43/43)
     logic [W-1:0] t0_e;
     assign t0_e = {~dl_t0_delta[W-1], dl_t0_delta[W-2:0]};
     logic [W-1:0] dl_t0_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_e (.clk(clk), .d(t0_e), .valid(1'b0), .q(dl_t0_e));
     // t0_linA_x = t0_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_x;
@@ -1133,7 +1250,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[54] = fl_t0_linA_x[1] && ev_q[3];
     assign ev_inv[54] = fl_t0_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linA_x (.clk(clk), .d(t0_linA_x), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_x));
     // t0_linA_y = t0_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_y;
@@ -1146,7 +1264,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[55] = fl_t0_linA_y[1] && ev_q[3];
     assign ev_inv[55] = fl_t0_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linA_y (.clk(clk), .d(t0_linA_y), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_y));
     // t0_linA_z = t0_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_z;
@@ -1159,7 +1278,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[56] = fl_t0_linA_z[1] && ev_q[3];
     assign ev_inv[56] = fl_t0_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_z));
     // t0_mul118 = t0_linA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul118;
@@ -1172,7 +1292,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[57] = fl_t0_mul118[1] && ev_q[46];
     assign ev_inv[57] = fl_t0_mul118[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul118;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul118 (.clk(clk), .d(t0_mul118), .valid(1'b0), .q(dl_t0_mul118));
     // t0_mul119 = t0_linA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul119;
@@ -1185,7 +1306,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[58] = fl_t0_mul119[1] && ev_q[46];
     assign ev_inv[58] = fl_t0_mul119[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul119;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul119 (.clk(clk), .d(t0_mul119), .valid(1'b0), .q(dl_t0_mul119));
     // t0_mul120 = t0_linA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul120;
@@ -1198,7 +1320,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[59] = fl_t0_mul120[1] && ev_q[46];
     assign ev_inv[59] = fl_t0_mul120[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul120;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul120 (.clk(clk), .d(t0_mul120), .valid(1'b0), .q(dl_t0_mul120));
     // t0_add121 = vA_x + t0_mul118   (ready @50/50/50)
     logic [W-1:0] t0_add121;
@@ -1211,7 +1334,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[60] = fl_t0_add121[1] && ev_q[50];
     assign ev_inv[60] = fl_t0_add121[2] && ev_q[50];
     logic [W-1:0] dl_t0_add121;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add121 (.clk(clk), .d(t0_add121), .valid(1'b0), .q(dl_t0_add121));
     // t0_add122 = vA_y + t0_mul119   (ready @50/50/50)
     logic [W-1:0] t0_add122;
@@ -1224,7 +1348,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[61] = fl_t0_add122[1] && ev_q[50];
     assign ev_inv[61] = fl_t0_add122[2] && ev_q[50];
     logic [W-1:0] dl_t0_add122;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add122 (.clk(clk), .d(t0_add122), .valid(1'b0), .q(dl_t0_add122));
     // t0_add123 = vA_z + t0_mul120   (ready @50/50/50)
     logic [W-1:0] t0_add123;
@@ -1237,25 +1362,29 @@ module pgs_friction_pipe_full #(
     assign ev_unf[62] = fl_t0_add123[1] && ev_q[50];
     assign ev_inv[62] = fl_t0_add123[2] && ev_q[50];
     logic [W-1:0] dl_t0_add123;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add123 (.clk(clk), .d(t0_add123), .valid(1'b0), .q(dl_t0_add123));
     // t0_vA_x = skip ? vA_x : t0_add121   (ready @50/50/50)
     logic [W-1:0] t0_vA_x;
     assign t0_vA_x = dl_skip[1] ? dl_in_vA_x[2*W +: W] : dl_t0_add121;
     logic [3*W-1:0] dl_t0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vA_x (.clk(clk), .d(t0_vA_x), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_x));
     // t0_vA_y = skip ? vA_y : t0_add122   (ready @50/50/50)
     logic [W-1:0] t0_vA_y;
     assign t0_vA_y = dl_skip[1] ? dl_in_vA_y[2*W +: W] : dl_t0_add122;
     logic [3*W-1:0] dl_t0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vA_y (.clk(clk), .d(t0_vA_y), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_y));
     // t0_vA_z = skip ? vA_z : t0_add123   (ready @50/50/50)
     logic [W-1:0] t0_vA_z;
     assign t0_vA_z = dl_skip[1] ? dl_in_vA_z[2*W +: W] : dl_t0_add123;
     logic [3*W-1:0] dl_t0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vA_z (.clk(clk), .d(t0_vA_z), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_z));
     // t0_mul127 = IInvA_xx * t0_cA_x   (ready @14/14/14)
     logic [W-1:0] t0_mul127;
@@ -1268,7 +1397,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[63] = fl_t0_mul127[1] && ev_q[14];
     assign ev_inv[63] = fl_t0_mul127[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul127;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul127 (.clk(clk), .d(t0_mul127), .valid(1'b0), .q(dl_t0_mul127));
     // t0_mul128 = IInvA_xy * t0_cA_y   (ready @14/14/14)
     logic [W-1:0] t0_mul128;
@@ -1281,7 +1411,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[64] = fl_t0_mul128[1] && ev_q[14];
     assign ev_inv[64] = fl_t0_mul128[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul128;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul128 (.clk(clk), .d(t0_mul128), .valid(1'b0), .q(dl_t0_mul128));
     // t0_add129 = t0_mul127 + t0_mul128   (ready @18/18/18)
     logic [W-1:0] t0_add129;
@@ -1294,7 +1425,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[65] = fl_t0_add129[1] && ev_q[18];
     assign ev_inv[65] = fl_t0_add129[2] && ev_q[18];
     logic [W-1:0] dl_t0_add129;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add129 (.clk(clk), .d(t0_add129), .valid(1'b0), .q(dl_t0_add129));
     // t0_mul130 = IInvA_xz * t0_cA_z   (ready @14/14/14)
     logic [W-1:0] t0_mul130;
@@ -1307,7 +1439,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[66] = fl_t0_mul130[1] && ev_q[14];
     assign ev_inv[66] = fl_t0_mul130[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul130;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul130 (.clk(clk), .d(t0_mul130), .valid(valid_q[14 +: 4]), .q(dl_t0_mul130));
     // t0_angA_x = t0_add129 + t0_mul130   (ready @22/22/22)
     logic [W-1:0] t0_angA_x;
@@ -1320,7 +1453,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[67] = fl_t0_angA_x[1] && ev_q[22];
     assign ev_inv[67] = fl_t0_angA_x[2] && ev_q[22];
     logic [W-1:0] dl_t0_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angA_x (.clk(clk), .d(t0_angA_x), .valid(valid_q[22 +: 21]), .q(dl_t0_angA_x));
     // t0_mul132 = IInvA_xy * t0_cA_x   (ready @14/14/14)
     logic [W-1:0] t0_mul132;
@@ -1333,7 +1467,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[68] = fl_t0_mul132[1] && ev_q[14];
     assign ev_inv[68] = fl_t0_mul132[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul132;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul132 (.clk(clk), .d(t0_mul132), .valid(1'b0), .q(dl_t0_mul132));
     // t0_mul133 = IInvA_yy * t0_cA_y   (ready @14/14/14)
     logic [W-1:0] t0_mul133;
@@ -1346,7 +1481,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[69] = fl_t0_mul133[1] && ev_q[14];
     assign ev_inv[69] = fl_t0_mul133[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul133;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul133 (.clk(clk), .d(t0_mul133), .valid(1'b0), .q(dl_t0_mul133));
     // t0_add134 = t0_mul132 + t0_mul133   (ready @18/18/18)
     logic [W-1:0] t0_add134;
@@ -1359,7 +1495,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[70] = fl_t0_add134[1] && ev_q[18];
     assign ev_inv[70] = fl_t0_add134[2] && ev_q[18];
     logic [W-1:0] dl_t0_add134;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add134 (.clk(clk), .d(t0_add134), .valid(1'b0), .q(dl_t0_add134));
     // t0_mul135 = IInvA_yz * t0_cA_z   (ready @14/14/14)
     logic [W-1:0] t0_mul135;
@@ -1372,7 +1509,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[71] = fl_t0_mul135[1] && ev_q[14];
     assign ev_inv[71] = fl_t0_mul135[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul135;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul135 (.clk(clk), .d(t0_mul135), .valid(valid_q[14 +: 4]), .q(dl_t0_mul135));
     // t0_angA_y = t0_add134 + t0_mul135   (ready @22/22/22)
     logic [W-1:0] t0_angA_y;
@@ -1385,7 +1523,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[72] = fl_t0_angA_y[1] && ev_q[22];
     assign ev_inv[72] = fl_t0_angA_y[2] && ev_q[22];
     logic [W-1:0] dl_t0_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angA_y (.clk(clk), .d(t0_angA_y), .valid(valid_q[22 +: 21]), .q(dl_t0_angA_y));
     // t0_mul137 = IInvA_xz * t0_cA_x   (ready @14/14/14)
     logic [W-1:0] t0_mul137;
@@ -1398,7 +1537,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[73] = fl_t0_mul137[1] && ev_q[14];
     assign ev_inv[73] = fl_t0_mul137[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul137;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul137 (.clk(clk), .d(t0_mul137), .valid(1'b0), .q(dl_t0_mul137));
     // t0_mul138 = IInvA_yz * t0_cA_y   (ready @14/14/14)
     logic [W-1:0] t0_mul138;
@@ -1411,7 +1551,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[74] = fl_t0_mul138[1] && ev_q[14];
     assign ev_inv[74] = fl_t0_mul138[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul138;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul138 (.clk(clk), .d(t0_mul138), .valid(1'b0), .q(dl_t0_mul138));
     // t0_add139 = t0_mul137 + t0_mul138   (ready @18/18/18)
     logic [W-1:0] t0_add139;
@@ -1424,7 +1565,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[75] = fl_t0_add139[1] && ev_q[18];
     assign ev_inv[75] = fl_t0_add139[2] && ev_q[18];
     logic [W-1:0] dl_t0_add139;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add139 (.clk(clk), .d(t0_add139), .valid(1'b0), .q(dl_t0_add139));
     // t0_mul140 = IInvA_zz * t0_cA_z   (ready @14/14/14)
     logic [W-1:0] t0_mul140;
@@ -1437,7 +1579,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[76] = fl_t0_mul140[1] && ev_q[14];
     assign ev_inv[76] = fl_t0_mul140[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul140;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul140 (.clk(clk), .d(t0_mul140), .valid(valid_q[14 +: 4]), .q(dl_t0_mul140));
     // t0_angA_z = t0_add139 + t0_mul140   (ready @22/22/22)
     logic [W-1:0] t0_angA_z;
@@ -1450,7 +1593,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[77] = fl_t0_angA_z[1] && ev_q[22];
     assign ev_inv[77] = fl_t0_angA_z[2] && ev_q[22];
     logic [W-1:0] dl_t0_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .valid(valid_q[22 +: 21]), .q(dl_t0_angA_z));
     // t0_mul142 = t0_angA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul142;
@@ -1463,7 +1607,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[78] = fl_t0_mul142[1] && ev_q[46];
     assign ev_inv[78] = fl_t0_mul142[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul142;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul142 (.clk(clk), .d(t0_mul142), .valid(1'b0), .q(dl_t0_mul142));
     // t0_mul143 = t0_angA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul143;
@@ -1476,7 +1621,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[79] = fl_t0_mul143[1] && ev_q[46];
     assign ev_inv[79] = fl_t0_mul143[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul143;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul143 (.clk(clk), .d(t0_mul143), .valid(1'b0), .q(dl_t0_mul143));
     // t0_mul144 = t0_angA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul144;
@@ -1489,7 +1635,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[80] = fl_t0_mul144[1] && ev_q[46];
     assign ev_inv[80] = fl_t0_mul144[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul144;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul144 (.clk(clk), .d(t0_mul144), .valid(1'b0), .q(dl_t0_mul144));
     // t0_add145 = wA_x + t0_mul142   (ready @50/50/50)
     logic [W-1:0] t0_add145;
@@ -1502,7 +1649,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[81] = fl_t0_add145[1] && ev_q[50];
     assign ev_inv[81] = fl_t0_add145[2] && ev_q[50];
     logic [W-1:0] dl_t0_add145;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add145 (.clk(clk), .d(t0_add145), .valid(1'b0), .q(dl_t0_add145));
     // t0_add146 = wA_y + t0_mul143   (ready @50/50/50)
     logic [W-1:0] t0_add146;
@@ -1515,7 +1663,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[82] = fl_t0_add146[1] && ev_q[50];
     assign ev_inv[82] = fl_t0_add146[2] && ev_q[50];
     logic [W-1:0] dl_t0_add146;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add146 (.clk(clk), .d(t0_add146), .valid(1'b0), .q(dl_t0_add146));
     // t0_add147 = wA_z + t0_mul144   (ready @50/50/50)
     logic [W-1:0] t0_add147;
@@ -1528,25 +1677,29 @@ module pgs_friction_pipe_full #(
     assign ev_unf[83] = fl_t0_add147[1] && ev_q[50];
     assign ev_inv[83] = fl_t0_add147[2] && ev_q[50];
     logic [W-1:0] dl_t0_add147;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add147 (.clk(clk), .d(t0_add147), .valid(1'b0), .q(dl_t0_add147));
     // t0_wA_x = skip ? wA_x : t0_add145   (ready @50/50/50)
     logic [W-1:0] t0_wA_x;
     assign t0_wA_x = dl_skip[1] ? dl_in_wA_x[2*W +: W] : dl_t0_add145;
     logic [3*W-1:0] dl_t0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wA_x (.clk(clk), .d(t0_wA_x), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_x));
     // t0_wA_y = skip ? wA_y : t0_add146   (ready @50/50/50)
     logic [W-1:0] t0_wA_y;
     assign t0_wA_y = dl_skip[1] ? dl_in_wA_y[2*W +: W] : dl_t0_add146;
     logic [3*W-1:0] dl_t0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wA_y (.clk(clk), .d(t0_wA_y), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_y));
     // t0_wA_z = skip ? wA_z : t0_add147   (ready @50/50/50)
     logic [W-1:0] t0_wA_z;
     assign t0_wA_z = dl_skip[1] ? dl_in_wA_z[2*W +: W] : dl_t0_add147;
     logic [3*W-1:0] dl_t0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wA_z (.clk(clk), .d(t0_wA_z), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_z));
     // t0_linB_x = t0_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_x;
@@ -1559,7 +1712,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[84] = fl_t0_linB_x[1] && ev_q[3];
     assign ev_inv[84] = fl_t0_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linB_x (.clk(clk), .d(t0_linB_x), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_x));
     // t0_linB_y = t0_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_y;
@@ -1572,7 +1726,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[85] = fl_t0_linB_y[1] && ev_q[3];
     assign ev_inv[85] = fl_t0_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linB_y (.clk(clk), .d(t0_linB_y), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_y));
     // t0_linB_z = t0_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_z;
@@ -1585,7 +1740,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[86] = fl_t0_linB_z[1] && ev_q[3];
     assign ev_inv[86] = fl_t0_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_z));
     // t0_mul154 = t0_linB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul154;
@@ -1598,7 +1754,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[87] = fl_t0_mul154[1] && ev_q[46];
     assign ev_inv[87] = fl_t0_mul154[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul154;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul154 (.clk(clk), .d(t0_mul154), .valid(1'b0), .q(dl_t0_mul154));
     // t0_mul155 = t0_linB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul155;
@@ -1611,7 +1768,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[88] = fl_t0_mul155[1] && ev_q[46];
     assign ev_inv[88] = fl_t0_mul155[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul155;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul155 (.clk(clk), .d(t0_mul155), .valid(1'b0), .q(dl_t0_mul155));
     // t0_mul156 = t0_linB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul156;
@@ -1624,7 +1782,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[89] = fl_t0_mul156[1] && ev_q[46];
     assign ev_inv[89] = fl_t0_mul156[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul156;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul156 (.clk(clk), .d(t0_mul156), .valid(1'b0), .q(dl_t0_mul156));
     // t0_sub157 = vB_x - t0_mul154   (ready @50/50/50)
     logic [W-1:0] t0_sub157;
@@ -1637,7 +1796,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[90] = fl_t0_sub157[1] && ev_q[50];
     assign ev_inv[90] = fl_t0_sub157[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub157;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub157 (.clk(clk), .d(t0_sub157), .valid(1'b0), .q(dl_t0_sub157));
     // t0_sub158 = vB_y - t0_mul155   (ready @50/50/50)
     logic [W-1:0] t0_sub158;
@@ -1650,7 +1810,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[91] = fl_t0_sub158[1] && ev_q[50];
     assign ev_inv[91] = fl_t0_sub158[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub158;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub158 (.clk(clk), .d(t0_sub158), .valid(1'b0), .q(dl_t0_sub158));
     // t0_sub159 = vB_z - t0_mul156   (ready @50/50/50)
     logic [W-1:0] t0_sub159;
@@ -1663,25 +1824,29 @@ module pgs_friction_pipe_full #(
     assign ev_unf[92] = fl_t0_sub159[1] && ev_q[50];
     assign ev_inv[92] = fl_t0_sub159[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub159;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub159 (.clk(clk), .d(t0_sub159), .valid(1'b0), .q(dl_t0_sub159));
     // t0_vB_x = skip ? vB_x : t0_sub157   (ready @50/50/50)
     logic [W-1:0] t0_vB_x;
     assign t0_vB_x = dl_skip[1] ? dl_in_vB_x[2*W +: W] : dl_t0_sub157;
     logic [3*W-1:0] dl_t0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vB_x (.clk(clk), .d(t0_vB_x), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_x));
     // t0_vB_y = skip ? vB_y : t0_sub158   (ready @50/50/50)
     logic [W-1:0] t0_vB_y;
     assign t0_vB_y = dl_skip[1] ? dl_in_vB_y[2*W +: W] : dl_t0_sub158;
     logic [3*W-1:0] dl_t0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vB_y (.clk(clk), .d(t0_vB_y), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_y));
     // t0_vB_z = skip ? vB_z : t0_sub159   (ready @50/50/50)
     logic [W-1:0] t0_vB_z;
     assign t0_vB_z = dl_skip[1] ? dl_in_vB_z[2*W +: W] : dl_t0_sub159;
     logic [3*W-1:0] dl_t0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vB_z (.clk(clk), .d(t0_vB_z), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_z));
     // t0_mul163 = IInvB_xx * t0_cB_x   (ready @14/14/14)
     logic [W-1:0] t0_mul163;
@@ -1694,7 +1859,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[93] = fl_t0_mul163[1] && ev_q[14];
     assign ev_inv[93] = fl_t0_mul163[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul163;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul163 (.clk(clk), .d(t0_mul163), .valid(1'b0), .q(dl_t0_mul163));
     // t0_mul164 = IInvB_xy * t0_cB_y   (ready @14/14/14)
     logic [W-1:0] t0_mul164;
@@ -1707,7 +1873,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[94] = fl_t0_mul164[1] && ev_q[14];
     assign ev_inv[94] = fl_t0_mul164[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul164;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul164 (.clk(clk), .d(t0_mul164), .valid(1'b0), .q(dl_t0_mul164));
     // t0_add165 = t0_mul163 + t0_mul164   (ready @18/18/18)
     logic [W-1:0] t0_add165;
@@ -1720,7 +1887,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[95] = fl_t0_add165[1] && ev_q[18];
     assign ev_inv[95] = fl_t0_add165[2] && ev_q[18];
     logic [W-1:0] dl_t0_add165;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add165 (.clk(clk), .d(t0_add165), .valid(1'b0), .q(dl_t0_add165));
     // t0_mul166 = IInvB_xz * t0_cB_z   (ready @14/14/14)
     logic [W-1:0] t0_mul166;
@@ -1733,7 +1901,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[96] = fl_t0_mul166[1] && ev_q[14];
     assign ev_inv[96] = fl_t0_mul166[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul166;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul166 (.clk(clk), .d(t0_mul166), .valid(valid_q[14 +: 4]), .q(dl_t0_mul166));
     // t0_angB_x = t0_add165 + t0_mul166   (ready @22/22/22)
     logic [W-1:0] t0_angB_x;
@@ -1746,7 +1915,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[97] = fl_t0_angB_x[1] && ev_q[22];
     assign ev_inv[97] = fl_t0_angB_x[2] && ev_q[22];
     logic [W-1:0] dl_t0_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angB_x (.clk(clk), .d(t0_angB_x), .valid(valid_q[22 +: 21]), .q(dl_t0_angB_x));
     // t0_mul168 = IInvB_xy * t0_cB_x   (ready @14/14/14)
     logic [W-1:0] t0_mul168;
@@ -1759,7 +1929,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[98] = fl_t0_mul168[1] && ev_q[14];
     assign ev_inv[98] = fl_t0_mul168[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul168;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul168 (.clk(clk), .d(t0_mul168), .valid(1'b0), .q(dl_t0_mul168));
     // t0_mul169 = IInvB_yy * t0_cB_y   (ready @14/14/14)
     logic [W-1:0] t0_mul169;
@@ -1772,7 +1943,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[99] = fl_t0_mul169[1] && ev_q[14];
     assign ev_inv[99] = fl_t0_mul169[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul169;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul169 (.clk(clk), .d(t0_mul169), .valid(1'b0), .q(dl_t0_mul169));
     // t0_add170 = t0_mul168 + t0_mul169   (ready @18/18/18)
     logic [W-1:0] t0_add170;
@@ -1785,7 +1957,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[100] = fl_t0_add170[1] && ev_q[18];
     assign ev_inv[100] = fl_t0_add170[2] && ev_q[18];
     logic [W-1:0] dl_t0_add170;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add170 (.clk(clk), .d(t0_add170), .valid(1'b0), .q(dl_t0_add170));
     // t0_mul171 = IInvB_yz * t0_cB_z   (ready @14/14/14)
     logic [W-1:0] t0_mul171;
@@ -1798,7 +1971,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[101] = fl_t0_mul171[1] && ev_q[14];
     assign ev_inv[101] = fl_t0_mul171[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul171;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul171 (.clk(clk), .d(t0_mul171), .valid(valid_q[14 +: 4]), .q(dl_t0_mul171));
     // t0_angB_y = t0_add170 + t0_mul171   (ready @22/22/22)
     logic [W-1:0] t0_angB_y;
@@ -1811,7 +1985,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[102] = fl_t0_angB_y[1] && ev_q[22];
     assign ev_inv[102] = fl_t0_angB_y[2] && ev_q[22];
     logic [W-1:0] dl_t0_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angB_y (.clk(clk), .d(t0_angB_y), .valid(valid_q[22 +: 21]), .q(dl_t0_angB_y));
     // t0_mul173 = IInvB_xz * t0_cB_x   (ready @14/14/14)
     logic [W-1:0] t0_mul173;
@@ -1824,7 +1999,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[103] = fl_t0_mul173[1] && ev_q[14];
     assign ev_inv[103] = fl_t0_mul173[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul173;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul173 (.clk(clk), .d(t0_mul173), .valid(1'b0), .q(dl_t0_mul173));
     // t0_mul174 = IInvB_yz * t0_cB_y   (ready @14/14/14)
     logic [W-1:0] t0_mul174;
@@ -1837,7 +2013,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[104] = fl_t0_mul174[1] && ev_q[14];
     assign ev_inv[104] = fl_t0_mul174[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul174;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul174 (.clk(clk), .d(t0_mul174), .valid(1'b0), .q(dl_t0_mul174));
     // t0_add175 = t0_mul173 + t0_mul174   (ready @18/18/18)
     logic [W-1:0] t0_add175;
@@ -1850,7 +2027,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[105] = fl_t0_add175[1] && ev_q[18];
     assign ev_inv[105] = fl_t0_add175[2] && ev_q[18];
     logic [W-1:0] dl_t0_add175;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add175 (.clk(clk), .d(t0_add175), .valid(1'b0), .q(dl_t0_add175));
     // t0_mul176 = IInvB_zz * t0_cB_z   (ready @14/14/14)
     logic [W-1:0] t0_mul176;
@@ -1863,7 +2041,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[106] = fl_t0_mul176[1] && ev_q[14];
     assign ev_inv[106] = fl_t0_mul176[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul176;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul176 (.clk(clk), .d(t0_mul176), .valid(valid_q[14 +: 4]), .q(dl_t0_mul176));
     // t0_angB_z = t0_add175 + t0_mul176   (ready @22/22/22)
     logic [W-1:0] t0_angB_z;
@@ -1876,7 +2055,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[107] = fl_t0_angB_z[1] && ev_q[22];
     assign ev_inv[107] = fl_t0_angB_z[2] && ev_q[22];
     logic [W-1:0] dl_t0_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .valid(valid_q[22 +: 21]), .q(dl_t0_angB_z));
     // t0_mul178 = t0_angB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul178;
@@ -1889,7 +2069,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[108] = fl_t0_mul178[1] && ev_q[46];
     assign ev_inv[108] = fl_t0_mul178[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul178;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul178 (.clk(clk), .d(t0_mul178), .valid(1'b0), .q(dl_t0_mul178));
     // t0_mul179 = t0_angB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul179;
@@ -1902,7 +2083,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[109] = fl_t0_mul179[1] && ev_q[46];
     assign ev_inv[109] = fl_t0_mul179[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul179;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul179 (.clk(clk), .d(t0_mul179), .valid(1'b0), .q(dl_t0_mul179));
     // t0_mul180 = t0_angB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul180;
@@ -1915,7 +2097,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[110] = fl_t0_mul180[1] && ev_q[46];
     assign ev_inv[110] = fl_t0_mul180[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul180;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul180 (.clk(clk), .d(t0_mul180), .valid(1'b0), .q(dl_t0_mul180));
     // t0_sub181 = wB_x - t0_mul178   (ready @50/50/50)
     logic [W-1:0] t0_sub181;
@@ -1928,7 +2111,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[111] = fl_t0_sub181[1] && ev_q[50];
     assign ev_inv[111] = fl_t0_sub181[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub181;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub181 (.clk(clk), .d(t0_sub181), .valid(1'b0), .q(dl_t0_sub181));
     // t0_sub182 = wB_y - t0_mul179   (ready @50/50/50)
     logic [W-1:0] t0_sub182;
@@ -1941,7 +2125,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[112] = fl_t0_sub182[1] && ev_q[50];
     assign ev_inv[112] = fl_t0_sub182[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub182;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub182 (.clk(clk), .d(t0_sub182), .valid(1'b0), .q(dl_t0_sub182));
     // t0_sub183 = wB_z - t0_mul180   (ready @50/50/50)
     logic [W-1:0] t0_sub183;
@@ -1954,25 +2139,29 @@ module pgs_friction_pipe_full #(
     assign ev_unf[113] = fl_t0_sub183[1] && ev_q[50];
     assign ev_inv[113] = fl_t0_sub183[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub183;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub183 (.clk(clk), .d(t0_sub183), .valid(1'b0), .q(dl_t0_sub183));
     // t0_wB_x = skip ? wB_x : t0_sub181   (ready @50/50/50)
     logic [W-1:0] t0_wB_x;
     assign t0_wB_x = dl_skip[1] ? dl_in_wB_x[2*W +: W] : dl_t0_sub181;
     logic [3*W-1:0] dl_t0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wB_x (.clk(clk), .d(t0_wB_x), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_x));
     // t0_wB_y = skip ? wB_y : t0_sub182   (ready @50/50/50)
     logic [W-1:0] t0_wB_y;
     assign t0_wB_y = dl_skip[1] ? dl_in_wB_y[2*W +: W] : dl_t0_sub182;
     logic [3*W-1:0] dl_t0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wB_y (.clk(clk), .d(t0_wB_y), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_y));
     // t0_wB_z = skip ? wB_z : t0_sub183   (ready @50/50/50)
     logic [W-1:0] t0_wB_z;
     assign t0_wB_z = dl_skip[1] ? dl_in_wB_z[2*W +: W] : dl_t0_sub183;
     logic [3*W-1:0] dl_t0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wB_z (.clk(clk), .d(t0_wB_z), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_z));
     // t1_mul187 = rA_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul187;
@@ -1985,7 +2174,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[114] = fl_t1_mul187[1] && ev_q[7];
     assign ev_inv[114] = fl_t1_mul187[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul187;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul187 (.clk(clk), .d(t1_mul187), .valid(1'b0), .q(dl_t1_mul187));
     // t1_mul188 = rA_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul188;
@@ -1998,7 +2188,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[115] = fl_t1_mul188[1] && ev_q[7];
     assign ev_inv[115] = fl_t1_mul188[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul188;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul188 (.clk(clk), .d(t1_mul188), .valid(1'b0), .q(dl_t1_mul188));
     // t1_cA_x = t1_mul187 - t1_mul188   (ready @11/11/11)
     logic [W-1:0] t1_cA_x;
@@ -2011,7 +2202,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[116] = fl_t1_cA_x[1] && ev_q[11];
     assign ev_inv[116] = fl_t1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cA_x (.clk(clk), .d(t1_cA_x), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_x));
     // t1_mul190 = rA_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul190;
@@ -2024,7 +2216,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[117] = fl_t1_mul190[1] && ev_q[7];
     assign ev_inv[117] = fl_t1_mul190[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul190;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul190 (.clk(clk), .d(t1_mul190), .valid(1'b0), .q(dl_t1_mul190));
     // t1_mul191 = rA_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul191;
@@ -2037,7 +2230,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[118] = fl_t1_mul191[1] && ev_q[7];
     assign ev_inv[118] = fl_t1_mul191[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul191;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul191 (.clk(clk), .d(t1_mul191), .valid(1'b0), .q(dl_t1_mul191));
     // t1_cA_y = t1_mul190 - t1_mul191   (ready @11/11/11)
     logic [W-1:0] t1_cA_y;
@@ -2050,7 +2244,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[119] = fl_t1_cA_y[1] && ev_q[11];
     assign ev_inv[119] = fl_t1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cA_y (.clk(clk), .d(t1_cA_y), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_y));
     // t1_mul193 = rA_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul193;
@@ -2063,7 +2258,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[120] = fl_t1_mul193[1] && ev_q[7];
     assign ev_inv[120] = fl_t1_mul193[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul193;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul193 (.clk(clk), .d(t1_mul193), .valid(1'b0), .q(dl_t1_mul193));
     // t1_mul194 = rA_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul194;
@@ -2076,7 +2272,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[121] = fl_t1_mul194[1] && ev_q[7];
     assign ev_inv[121] = fl_t1_mul194[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul194;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul194 (.clk(clk), .d(t1_mul194), .valid(1'b0), .q(dl_t1_mul194));
     // t1_cA_z = t1_mul193 - t1_mul194   (ready @11/11/11)
     logic [W-1:0] t1_cA_z;
@@ -2089,7 +2286,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[122] = fl_t1_cA_z[1] && ev_q[11];
     assign ev_inv[122] = fl_t1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cA_z (.clk(clk), .d(t1_cA_z), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_z));
     // t1_mul196 = rB_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul196;
@@ -2102,7 +2300,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[123] = fl_t1_mul196[1] && ev_q[7];
     assign ev_inv[123] = fl_t1_mul196[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul196;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul196 (.clk(clk), .d(t1_mul196), .valid(1'b0), .q(dl_t1_mul196));
     // t1_mul197 = rB_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul197;
@@ -2115,7 +2314,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[124] = fl_t1_mul197[1] && ev_q[7];
     assign ev_inv[124] = fl_t1_mul197[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul197;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul197 (.clk(clk), .d(t1_mul197), .valid(1'b0), .q(dl_t1_mul197));
     // t1_cB_x = t1_mul196 - t1_mul197   (ready @11/11/11)
     logic [W-1:0] t1_cB_x;
@@ -2128,7 +2328,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[125] = fl_t1_cB_x[1] && ev_q[11];
     assign ev_inv[125] = fl_t1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cB_x (.clk(clk), .d(t1_cB_x), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_x));
     // t1_mul199 = rB_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul199;
@@ -2141,7 +2342,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[126] = fl_t1_mul199[1] && ev_q[7];
     assign ev_inv[126] = fl_t1_mul199[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul199;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul199 (.clk(clk), .d(t1_mul199), .valid(1'b0), .q(dl_t1_mul199));
     // t1_mul200 = rB_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul200;
@@ -2154,7 +2356,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[127] = fl_t1_mul200[1] && ev_q[7];
     assign ev_inv[127] = fl_t1_mul200[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul200;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul200 (.clk(clk), .d(t1_mul200), .valid(1'b0), .q(dl_t1_mul200));
     // t1_cB_y = t1_mul199 - t1_mul200   (ready @11/11/11)
     logic [W-1:0] t1_cB_y;
@@ -2167,7 +2370,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[128] = fl_t1_cB_y[1] && ev_q[11];
     assign ev_inv[128] = fl_t1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cB_y (.clk(clk), .d(t1_cB_y), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_y));
     // t1_mul202 = rB_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul202;
@@ -2180,7 +2384,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[129] = fl_t1_mul202[1] && ev_q[7];
     assign ev_inv[129] = fl_t1_mul202[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul202;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul202 (.clk(clk), .d(t1_mul202), .valid(1'b0), .q(dl_t1_mul202));
     // t1_mul203 = rB_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul203;
@@ -2193,7 +2398,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[130] = fl_t1_mul203[1] && ev_q[7];
     assign ev_inv[130] = fl_t1_mul203[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul203;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul203 (.clk(clk), .d(t1_mul203), .valid(1'b0), .q(dl_t1_mul203));
     // t1_cB_z = t1_mul202 - t1_mul203   (ready @11/11/11)
     logic [W-1:0] t1_cB_z;
@@ -2206,7 +2412,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[131] = fl_t1_cB_z[1] && ev_q[11];
     assign ev_inv[131] = fl_t1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cB_z (.clk(clk), .d(t1_cB_z), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_z));
     // t1_mul205 = t1_x * t0_vA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul205;
@@ -2219,7 +2426,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[132] = fl_t1_mul205[1] && ev_q[53];
     assign ev_inv[132] = fl_t1_mul205[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul205;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul205 (.clk(clk), .d(t1_mul205), .valid(1'b0), .q(dl_t1_mul205));
     // t1_mul206 = t1_y * t0_vA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul206;
@@ -2232,7 +2440,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[133] = fl_t1_mul206[1] && ev_q[53];
     assign ev_inv[133] = fl_t1_mul206[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul206;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul206 (.clk(clk), .d(t1_mul206), .valid(1'b0), .q(dl_t1_mul206));
     // t1_add207 = t1_mul205 + t1_mul206   (ready @57/57/57)
     logic [W-1:0] t1_add207;
@@ -2245,7 +2454,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[134] = fl_t1_add207[1] && ev_q[57];
     assign ev_inv[134] = fl_t1_add207[2] && ev_q[57];
     logic [W-1:0] dl_t1_add207;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add207 (.clk(clk), .d(t1_add207), .valid(1'b0), .q(dl_t1_add207));
     // t1_mul208 = t1_z * t0_vA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul208;
@@ -2258,7 +2468,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[135] = fl_t1_mul208[1] && ev_q[53];
     assign ev_inv[135] = fl_t1_mul208[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul208;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul208 (.clk(clk), .d(t1_mul208), .valid(valid_q[53 +: 4]), .q(dl_t1_mul208));
     // t1_add209 = t1_add207 + t1_mul208   (ready @61/61/61)
     logic [W-1:0] t1_add209;
@@ -2271,7 +2482,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[136] = fl_t1_add209[1] && ev_q[61];
     assign ev_inv[136] = fl_t1_add209[2] && ev_q[61];
     logic [W-1:0] dl_t1_add209;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add209 (.clk(clk), .d(t1_add209), .valid(1'b0), .q(dl_t1_add209));
     // t1_mul210 = t1_x * t0_vB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul210;
@@ -2284,7 +2496,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[137] = fl_t1_mul210[1] && ev_q[53];
     assign ev_inv[137] = fl_t1_mul210[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul210;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul210 (.clk(clk), .d(t1_mul210), .valid(1'b0), .q(dl_t1_mul210));
     // t1_mul211 = t1_y * t0_vB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul211;
@@ -2297,7 +2510,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[138] = fl_t1_mul211[1] && ev_q[53];
     assign ev_inv[138] = fl_t1_mul211[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul211;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul211 (.clk(clk), .d(t1_mul211), .valid(1'b0), .q(dl_t1_mul211));
     // t1_add212 = t1_mul210 + t1_mul211   (ready @57/57/57)
     logic [W-1:0] t1_add212;
@@ -2310,7 +2524,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[139] = fl_t1_add212[1] && ev_q[57];
     assign ev_inv[139] = fl_t1_add212[2] && ev_q[57];
     logic [W-1:0] dl_t1_add212;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add212 (.clk(clk), .d(t1_add212), .valid(1'b0), .q(dl_t1_add212));
     // t1_mul213 = t1_z * t0_vB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul213;
@@ -2323,7 +2538,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[140] = fl_t1_mul213[1] && ev_q[53];
     assign ev_inv[140] = fl_t1_mul213[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul213;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul213 (.clk(clk), .d(t1_mul213), .valid(valid_q[53 +: 4]), .q(dl_t1_mul213));
     // t1_add214 = t1_add212 + t1_mul213   (ready @61/61/61)
     logic [W-1:0] t1_add214;
@@ -2336,7 +2552,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[141] = fl_t1_add214[1] && ev_q[61];
     assign ev_inv[141] = fl_t1_add214[2] && ev_q[61];
     logic [W-1:0] dl_t1_add214;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add214 (.clk(clk), .d(t1_add214), .valid(1'b0), .q(dl_t1_add214));
     // t1_sub215 = t1_add209 - t1_add214   (ready @65/65/65)
     logic [W-1:0] t1_sub215;
@@ -2349,7 +2566,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[142] = fl_t1_sub215[1] && ev_q[65];
     assign ev_inv[142] = fl_t1_sub215[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub215;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub215 (.clk(clk), .d(t1_sub215), .valid(1'b0), .q(dl_t1_sub215));
     // t1_mul216 = t1_cA_x * t0_wA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul216;
@@ -2362,7 +2580,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[143] = fl_t1_mul216[1] && ev_q[53];
     assign ev_inv[143] = fl_t1_mul216[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul216;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul216 (.clk(clk), .d(t1_mul216), .valid(1'b0), .q(dl_t1_mul216));
     // t1_mul217 = t1_cA_y * t0_wA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul217;
@@ -2375,7 +2594,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[144] = fl_t1_mul217[1] && ev_q[53];
     assign ev_inv[144] = fl_t1_mul217[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul217;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul217 (.clk(clk), .d(t1_mul217), .valid(1'b0), .q(dl_t1_mul217));
     // t1_add218 = t1_mul216 + t1_mul217   (ready @57/57/57)
     logic [W-1:0] t1_add218;
@@ -2388,7 +2608,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[145] = fl_t1_add218[1] && ev_q[57];
     assign ev_inv[145] = fl_t1_add218[2] && ev_q[57];
     logic [W-1:0] dl_t1_add218;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add218 (.clk(clk), .d(t1_add218), .valid(1'b0), .q(dl_t1_add218));
     // t1_mul219 = t1_cA_z * t0_wA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul219;
@@ -2401,7 +2622,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[146] = fl_t1_mul219[1] && ev_q[53];
     assign ev_inv[146] = fl_t1_mul219[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul219;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul219 (.clk(clk), .d(t1_mul219), .valid(valid_q[53 +: 4]), .q(dl_t1_mul219));
     // t1_add220 = t1_add218 + t1_mul219   (ready @61/61/61)
     logic [W-1:0] t1_add220;
@@ -2414,7 +2636,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[147] = fl_t1_add220[1] && ev_q[61];
     assign ev_inv[147] = fl_t1_add220[2] && ev_q[61];
     logic [W-1:0] dl_t1_add220;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add220 (.clk(clk), .d(t1_add220), .valid(1'b0), .q(dl_t1_add220));
     // t1_mul221 = t1_cB_x * t0_wB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul221;
@@ -2427,7 +2650,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[148] = fl_t1_mul221[1] && ev_q[53];
     assign ev_inv[148] = fl_t1_mul221[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul221;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul221 (.clk(clk), .d(t1_mul221), .valid(1'b0), .q(dl_t1_mul221));
     // t1_mul222 = t1_cB_y * t0_wB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul222;
@@ -2440,7 +2664,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[149] = fl_t1_mul222[1] && ev_q[53];
     assign ev_inv[149] = fl_t1_mul222[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul222;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul222 (.clk(clk), .d(t1_mul222), .valid(1'b0), .q(dl_t1_mul222));
     // t1_add223 = t1_mul221 + t1_mul222   (ready @57/57/57)
     logic [W-1:0] t1_add223;
@@ -2453,7 +2678,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[150] = fl_t1_add223[1] && ev_q[57];
     assign ev_inv[150] = fl_t1_add223[2] && ev_q[57];
     logic [W-1:0] dl_t1_add223;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add223 (.clk(clk), .d(t1_add223), .valid(1'b0), .q(dl_t1_add223));
     // t1_mul224 = t1_cB_z * t0_wB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul224;
@@ -2466,7 +2692,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[151] = fl_t1_mul224[1] && ev_q[53];
     assign ev_inv[151] = fl_t1_mul224[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul224;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul224 (.clk(clk), .d(t1_mul224), .valid(valid_q[53 +: 4]), .q(dl_t1_mul224));
     // t1_add225 = t1_add223 + t1_mul224   (ready @61/61/61)
     logic [W-1:0] t1_add225;
@@ -2479,7 +2706,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[152] = fl_t1_add225[1] && ev_q[61];
     assign ev_inv[152] = fl_t1_add225[2] && ev_q[61];
     logic [W-1:0] dl_t1_add225;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add225 (.clk(clk), .d(t1_add225), .valid(1'b0), .q(dl_t1_add225));
     // t1_sub226 = t1_add220 - t1_add225   (ready @65/65/65)
     logic [W-1:0] t1_sub226;
@@ -2492,7 +2720,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[153] = fl_t1_sub226[1] && ev_q[65];
     assign ev_inv[153] = fl_t1_sub226[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub226;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub226 (.clk(clk), .d(t1_sub226), .valid(1'b0), .q(dl_t1_sub226));
     // t1_u = t1_sub215 + t1_sub226   (ready @69/69/69)
     logic [W-1:0] t1_u;
@@ -2505,13 +2734,15 @@ module pgs_friction_pipe_full #(
     assign ev_unf[154] = fl_t1_u[1] && ev_q[69];
     assign ev_inv[154] = fl_t1_u[2] && ev_q[69];
     logic [W-1:0] dl_t1_u;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_u (.clk(clk), .d(t1_u), .valid(1'b0), .q(dl_t1_u));
     // t1_neg228 = -t1_u   (ready @69/69/69)
     logic [W-1:0] t1_neg228;
     assign t1_neg228 = {~dl_t1_u[W-1], dl_t1_u[W-2:0]};
     logic [W-1:0] dl_t1_neg228;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_neg228 (.clk(clk), .d(t1_neg228), .valid(1'b0), .q(dl_t1_neg228));
     // t1_delta0 = t1_neg228 * f_jac_inv1   (ready @72/72/72)
     logic [W-1:0] t1_delta0;
@@ -2524,7 +2755,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[155] = fl_t1_delta0[1] && ev_q[72];
     assign ev_inv[155] = fl_t1_delta0[2] && ev_q[72];
     logic [W-1:0] dl_t1_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_delta0 (.clk(clk), .d(t1_delta0), .valid(1'b0), .q(dl_t1_delta0));
     // t1_add230 = lamT1 + t1_delta0   (ready @76/76/76)
     logic [W-1:0] t1_add230;
@@ -2537,7 +2769,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[156] = fl_t1_add230[1] && ev_q[76];
     assign ev_inv[156] = fl_t1_add230[2] && ev_q[76];
     logic [W-1:0] dl_t1_add230;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add230 (.clk(clk), .d(t1_add230), .valid(1'b0), .q(dl_t1_add230));
     // t1_max231 = max(t1_add230, neg_limit)   (ready @77/77/77)
     logic [W-1:0] t1_max231;
@@ -2547,7 +2780,8 @@ module pgs_friction_pipe_full #(
         .lt(nc_t1_max231_lt), .eq(nc_t1_max231_eq), .unordered(nc_t1_max231_uo)
     );
     logic [W-1:0] dl_t1_max231;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_max231 (.clk(clk), .d(t1_max231), .valid(1'b0), .q(dl_t1_max231));
     // t1_lam_new = min(t1_max231, limit)   (ready @78/78/78)
     logic [W-1:0] t1_lam_new;
@@ -2557,7 +2791,8 @@ module pgs_friction_pipe_full #(
         .lt(nc_t1_lam_new_lt), .eq(nc_t1_lam_new_eq), .unordered(nc_t1_lam_new_uo)
     );
     logic [W-1:0] dl_t1_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_lam_new (.clk(clk), .d(t1_lam_new), .valid(1'b0), .q(dl_t1_lam_new));
     // t1_delta = t1_lam_new - lamT1   (ready @82/82/82)
     logic [W-1:0] t1_delta;
@@ -2570,19 +2805,22 @@ module pgs_friction_pipe_full #(
     assign ev_unf[157] = fl_t1_delta[1] && ev_q[82];
     assign ev_inv[157] = fl_t1_delta[2] && ev_q[82];
     logic [W-1:0] dl_t1_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_delta (.clk(clk), .d(t1_delta), .valid(1'b0), .q(dl_t1_delta));
     // t1_lamT = skip ? lamT1 : t1_lam_new   (ready @78/78/78)
     logic [W-1:0] t1_lamT;
     assign t1_lamT = dl_skip[2] ? dl_in_lamT1[1*W +: W] : dl_t1_lam_new;
     logic [W-1:0] dl_t1_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_lamT (.clk(clk), .d(t1_lamT), .valid(valid_q[78 +: 32]), .q(dl_t1_lamT));
     // t1_e = -t1_delta   (ready @82/82/82)
     logic [W-1:0] t1_e;
     assign t1_e = {~dl_t1_delta[W-1], dl_t1_delta[W-2:0]};
     logic [W-1:0] dl_t1_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_e (.clk(clk), .d(t1_e), .valid(1'b0), .q(dl_t1_e));
     // t1_linA_x = t1_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_x;
@@ -2595,7 +2833,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[158] = fl_t1_linA_x[1] && ev_q[3];
     assign ev_inv[158] = fl_t1_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linA_x (.clk(clk), .d(t1_linA_x), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_x));
     // t1_linA_y = t1_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_y;
@@ -2608,7 +2847,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[159] = fl_t1_linA_y[1] && ev_q[3];
     assign ev_inv[159] = fl_t1_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linA_y (.clk(clk), .d(t1_linA_y), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_y));
     // t1_linA_z = t1_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_z;
@@ -2621,7 +2861,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[160] = fl_t1_linA_z[1] && ev_q[3];
     assign ev_inv[160] = fl_t1_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_z));
     // t1_mul239 = t1_linA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul239;
@@ -2634,7 +2875,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[161] = fl_t1_mul239[1] && ev_q[85];
     assign ev_inv[161] = fl_t1_mul239[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul239;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul239 (.clk(clk), .d(t1_mul239), .valid(1'b0), .q(dl_t1_mul239));
     // t1_mul240 = t1_linA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul240;
@@ -2647,7 +2889,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[162] = fl_t1_mul240[1] && ev_q[85];
     assign ev_inv[162] = fl_t1_mul240[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul240;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul240 (.clk(clk), .d(t1_mul240), .valid(1'b0), .q(dl_t1_mul240));
     // t1_mul241 = t1_linA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul241;
@@ -2660,7 +2903,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[163] = fl_t1_mul241[1] && ev_q[85];
     assign ev_inv[163] = fl_t1_mul241[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul241;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul241 (.clk(clk), .d(t1_mul241), .valid(1'b0), .q(dl_t1_mul241));
     // t1_add242 = t0_vA_x + t1_mul239   (ready @89/89/89)
     logic [W-1:0] t1_add242;
@@ -2673,7 +2917,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[164] = fl_t1_add242[1] && ev_q[89];
     assign ev_inv[164] = fl_t1_add242[2] && ev_q[89];
     logic [W-1:0] dl_t1_add242;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add242 (.clk(clk), .d(t1_add242), .valid(1'b0), .q(dl_t1_add242));
     // t1_add243 = t0_vA_y + t1_mul240   (ready @89/89/89)
     logic [W-1:0] t1_add243;
@@ -2686,7 +2931,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[165] = fl_t1_add243[1] && ev_q[89];
     assign ev_inv[165] = fl_t1_add243[2] && ev_q[89];
     logic [W-1:0] dl_t1_add243;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add243 (.clk(clk), .d(t1_add243), .valid(1'b0), .q(dl_t1_add243));
     // t1_add244 = t0_vA_z + t1_mul241   (ready @89/89/89)
     logic [W-1:0] t1_add244;
@@ -2699,25 +2945,29 @@ module pgs_friction_pipe_full #(
     assign ev_unf[166] = fl_t1_add244[1] && ev_q[89];
     assign ev_inv[166] = fl_t1_add244[2] && ev_q[89];
     logic [W-1:0] dl_t1_add244;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add244 (.clk(clk), .d(t1_add244), .valid(1'b0), .q(dl_t1_add244));
     // t1_vA_x = skip ? t0_vA_x : t1_add242   (ready @89/89/89)
     logic [W-1:0] t1_vA_x;
     assign t1_vA_x = dl_skip[3] ? dl_t0_vA_x[2*W +: W] : dl_t1_add242;
     logic [W-1:0] dl_t1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vA_x (.clk(clk), .d(t1_vA_x), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_x));
     // t1_vA_y = skip ? t0_vA_y : t1_add243   (ready @89/89/89)
     logic [W-1:0] t1_vA_y;
     assign t1_vA_y = dl_skip[3] ? dl_t0_vA_y[2*W +: W] : dl_t1_add243;
     logic [W-1:0] dl_t1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vA_y (.clk(clk), .d(t1_vA_y), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_y));
     // t1_vA_z = skip ? t0_vA_z : t1_add244   (ready @89/89/89)
     logic [W-1:0] t1_vA_z;
     assign t1_vA_z = dl_skip[3] ? dl_t0_vA_z[2*W +: W] : dl_t1_add244;
     logic [W-1:0] dl_t1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vA_z (.clk(clk), .d(t1_vA_z), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_z));
     // t1_mul248 = IInvA_xx * t1_cA_x   (ready @14/14/14)
     logic [W-1:0] t1_mul248;
@@ -2730,7 +2980,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[167] = fl_t1_mul248[1] && ev_q[14];
     assign ev_inv[167] = fl_t1_mul248[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul248;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul248 (.clk(clk), .d(t1_mul248), .valid(1'b0), .q(dl_t1_mul248));
     // t1_mul249 = IInvA_xy * t1_cA_y   (ready @14/14/14)
     logic [W-1:0] t1_mul249;
@@ -2743,7 +2994,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[168] = fl_t1_mul249[1] && ev_q[14];
     assign ev_inv[168] = fl_t1_mul249[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul249;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul249 (.clk(clk), .d(t1_mul249), .valid(1'b0), .q(dl_t1_mul249));
     // t1_add250 = t1_mul248 + t1_mul249   (ready @18/18/18)
     logic [W-1:0] t1_add250;
@@ -2756,7 +3008,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[169] = fl_t1_add250[1] && ev_q[18];
     assign ev_inv[169] = fl_t1_add250[2] && ev_q[18];
     logic [W-1:0] dl_t1_add250;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add250 (.clk(clk), .d(t1_add250), .valid(1'b0), .q(dl_t1_add250));
     // t1_mul251 = IInvA_xz * t1_cA_z   (ready @14/14/14)
     logic [W-1:0] t1_mul251;
@@ -2769,7 +3022,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[170] = fl_t1_mul251[1] && ev_q[14];
     assign ev_inv[170] = fl_t1_mul251[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul251;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul251 (.clk(clk), .d(t1_mul251), .valid(valid_q[14 +: 4]), .q(dl_t1_mul251));
     // t1_angA_x = t1_add250 + t1_mul251   (ready @22/22/22)
     logic [W-1:0] t1_angA_x;
@@ -2782,7 +3036,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[171] = fl_t1_angA_x[1] && ev_q[22];
     assign ev_inv[171] = fl_t1_angA_x[2] && ev_q[22];
     logic [W-1:0] dl_t1_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(60))
+    pgs_delay #(.WIDTH(W), .DEPTH(60),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angA_x (.clk(clk), .d(t1_angA_x), .valid(valid_q[22 +: 60]), .q(dl_t1_angA_x));
     // t1_mul253 = IInvA_xy * t1_cA_x   (ready @14/14/14)
     logic [W-1:0] t1_mul253;
@@ -2795,7 +3050,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[172] = fl_t1_mul253[1] && ev_q[14];
     assign ev_inv[172] = fl_t1_mul253[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul253;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul253 (.clk(clk), .d(t1_mul253), .valid(1'b0), .q(dl_t1_mul253));
     // t1_mul254 = IInvA_yy * t1_cA_y   (ready @14/14/14)
     logic [W-1:0] t1_mul254;
@@ -2808,7 +3064,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[173] = fl_t1_mul254[1] && ev_q[14];
     assign ev_inv[173] = fl_t1_mul254[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul254;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul254 (.clk(clk), .d(t1_mul254), .valid(1'b0), .q(dl_t1_mul254));
     // t1_add255 = t1_mul253 + t1_mul254   (ready @18/18/18)
     logic [W-1:0] t1_add255;
@@ -2821,7 +3078,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[174] = fl_t1_add255[1] && ev_q[18];
     assign ev_inv[174] = fl_t1_add255[2] && ev_q[18];
     logic [W-1:0] dl_t1_add255;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add255 (.clk(clk), .d(t1_add255), .valid(1'b0), .q(dl_t1_add255));
     // t1_mul256 = IInvA_yz * t1_cA_z   (ready @14/14/14)
     logic [W-1:0] t1_mul256;
@@ -2834,7 +3092,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[175] = fl_t1_mul256[1] && ev_q[14];
     assign ev_inv[175] = fl_t1_mul256[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul256;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul256 (.clk(clk), .d(t1_mul256), .valid(valid_q[14 +: 4]), .q(dl_t1_mul256));
     // t1_angA_y = t1_add255 + t1_mul256   (ready @22/22/22)
     logic [W-1:0] t1_angA_y;
@@ -2847,7 +3106,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[176] = fl_t1_angA_y[1] && ev_q[22];
     assign ev_inv[176] = fl_t1_angA_y[2] && ev_q[22];
     logic [W-1:0] dl_t1_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(60))
+    pgs_delay #(.WIDTH(W), .DEPTH(60),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angA_y (.clk(clk), .d(t1_angA_y), .valid(valid_q[22 +: 60]), .q(dl_t1_angA_y));
     // t1_mul258 = IInvA_xz * t1_cA_x   (ready @14/14/14)
     logic [W-1:0] t1_mul258;
@@ -2860,7 +3120,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[177] = fl_t1_mul258[1] && ev_q[14];
     assign ev_inv[177] = fl_t1_mul258[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul258;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul258 (.clk(clk), .d(t1_mul258), .valid(1'b0), .q(dl_t1_mul258));
     // t1_mul259 = IInvA_yz * t1_cA_y   (ready @14/14/14)
     logic [W-1:0] t1_mul259;
@@ -2873,7 +3134,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[178] = fl_t1_mul259[1] && ev_q[14];
     assign ev_inv[178] = fl_t1_mul259[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul259;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul259 (.clk(clk), .d(t1_mul259), .valid(1'b0), .q(dl_t1_mul259));
     // t1_add260 = t1_mul258 + t1_mul259   (ready @18/18/18)
     logic [W-1:0] t1_add260;
@@ -2886,7 +3148,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[179] = fl_t1_add260[1] && ev_q[18];
     assign ev_inv[179] = fl_t1_add260[2] && ev_q[18];
     logic [W-1:0] dl_t1_add260;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add260 (.clk(clk), .d(t1_add260), .valid(1'b0), .q(dl_t1_add260));
     // t1_mul261 = IInvA_zz * t1_cA_z   (ready @14/14/14)
     logic [W-1:0] t1_mul261;
@@ -2899,7 +3162,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[180] = fl_t1_mul261[1] && ev_q[14];
     assign ev_inv[180] = fl_t1_mul261[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul261;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul261 (.clk(clk), .d(t1_mul261), .valid(valid_q[14 +: 4]), .q(dl_t1_mul261));
     // t1_angA_z = t1_add260 + t1_mul261   (ready @22/22/22)
     logic [W-1:0] t1_angA_z;
@@ -2912,7 +3176,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[181] = fl_t1_angA_z[1] && ev_q[22];
     assign ev_inv[181] = fl_t1_angA_z[2] && ev_q[22];
     logic [W-1:0] dl_t1_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(60))
+    pgs_delay #(.WIDTH(W), .DEPTH(60),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .valid(valid_q[22 +: 60]), .q(dl_t1_angA_z));
     // t1_mul263 = t1_angA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul263;
@@ -2925,7 +3190,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[182] = fl_t1_mul263[1] && ev_q[85];
     assign ev_inv[182] = fl_t1_mul263[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul263;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul263 (.clk(clk), .d(t1_mul263), .valid(1'b0), .q(dl_t1_mul263));
     // t1_mul264 = t1_angA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul264;
@@ -2938,7 +3204,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[183] = fl_t1_mul264[1] && ev_q[85];
     assign ev_inv[183] = fl_t1_mul264[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul264;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul264 (.clk(clk), .d(t1_mul264), .valid(1'b0), .q(dl_t1_mul264));
     // t1_mul265 = t1_angA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul265;
@@ -2951,7 +3218,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[184] = fl_t1_mul265[1] && ev_q[85];
     assign ev_inv[184] = fl_t1_mul265[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul265;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul265 (.clk(clk), .d(t1_mul265), .valid(1'b0), .q(dl_t1_mul265));
     // t1_add266 = t0_wA_x + t1_mul263   (ready @89/89/89)
     logic [W-1:0] t1_add266;
@@ -2964,7 +3232,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[185] = fl_t1_add266[1] && ev_q[89];
     assign ev_inv[185] = fl_t1_add266[2] && ev_q[89];
     logic [W-1:0] dl_t1_add266;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add266 (.clk(clk), .d(t1_add266), .valid(1'b0), .q(dl_t1_add266));
     // t1_add267 = t0_wA_y + t1_mul264   (ready @89/89/89)
     logic [W-1:0] t1_add267;
@@ -2977,7 +3246,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[186] = fl_t1_add267[1] && ev_q[89];
     assign ev_inv[186] = fl_t1_add267[2] && ev_q[89];
     logic [W-1:0] dl_t1_add267;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add267 (.clk(clk), .d(t1_add267), .valid(1'b0), .q(dl_t1_add267));
     // t1_add268 = t0_wA_z + t1_mul265   (ready @89/89/89)
     logic [W-1:0] t1_add268;
@@ -2990,25 +3260,29 @@ module pgs_friction_pipe_full #(
     assign ev_unf[187] = fl_t1_add268[1] && ev_q[89];
     assign ev_inv[187] = fl_t1_add268[2] && ev_q[89];
     logic [W-1:0] dl_t1_add268;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add268 (.clk(clk), .d(t1_add268), .valid(1'b0), .q(dl_t1_add268));
     // t1_wA_x = skip ? t0_wA_x : t1_add266   (ready @89/89/89)
     logic [W-1:0] t1_wA_x;
     assign t1_wA_x = dl_skip[3] ? dl_t0_wA_x[2*W +: W] : dl_t1_add266;
     logic [3*W-1:0] dl_t1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wA_x (.clk(clk), .d(t1_wA_x), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_x));
     // t1_wA_y = skip ? t0_wA_y : t1_add267   (ready @89/89/89)
     logic [W-1:0] t1_wA_y;
     assign t1_wA_y = dl_skip[3] ? dl_t0_wA_y[2*W +: W] : dl_t1_add267;
     logic [3*W-1:0] dl_t1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wA_y (.clk(clk), .d(t1_wA_y), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_y));
     // t1_wA_z = skip ? t0_wA_z : t1_add268   (ready @89/89/89)
     logic [W-1:0] t1_wA_z;
     assign t1_wA_z = dl_skip[3] ? dl_t0_wA_z[2*W +: W] : dl_t1_add268;
     logic [3*W-1:0] dl_t1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wA_z (.clk(clk), .d(t1_wA_z), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_z));
     // t1_linB_x = t1_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_x;
@@ -3021,7 +3295,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[188] = fl_t1_linB_x[1] && ev_q[3];
     assign ev_inv[188] = fl_t1_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linB_x (.clk(clk), .d(t1_linB_x), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_x));
     // t1_linB_y = t1_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_y;
@@ -3034,7 +3309,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[189] = fl_t1_linB_y[1] && ev_q[3];
     assign ev_inv[189] = fl_t1_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linB_y (.clk(clk), .d(t1_linB_y), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_y));
     // t1_linB_z = t1_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_z;
@@ -3047,7 +3323,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[190] = fl_t1_linB_z[1] && ev_q[3];
     assign ev_inv[190] = fl_t1_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_z));
     // t1_mul275 = t1_linB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul275;
@@ -3060,7 +3337,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[191] = fl_t1_mul275[1] && ev_q[85];
     assign ev_inv[191] = fl_t1_mul275[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul275;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul275 (.clk(clk), .d(t1_mul275), .valid(1'b0), .q(dl_t1_mul275));
     // t1_mul276 = t1_linB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul276;
@@ -3073,7 +3351,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[192] = fl_t1_mul276[1] && ev_q[85];
     assign ev_inv[192] = fl_t1_mul276[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul276;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul276 (.clk(clk), .d(t1_mul276), .valid(1'b0), .q(dl_t1_mul276));
     // t1_mul277 = t1_linB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul277;
@@ -3086,7 +3365,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[193] = fl_t1_mul277[1] && ev_q[85];
     assign ev_inv[193] = fl_t1_mul277[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul277;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul277 (.clk(clk), .d(t1_mul277), .valid(1'b0), .q(dl_t1_mul277));
     // t1_sub278 = t0_vB_x - t1_mul275   (ready @89/89/89)
     logic [W-1:0] t1_sub278;
@@ -3099,7 +3379,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[194] = fl_t1_sub278[1] && ev_q[89];
     assign ev_inv[194] = fl_t1_sub278[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub278;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub278 (.clk(clk), .d(t1_sub278), .valid(1'b0), .q(dl_t1_sub278));
     // t1_sub279 = t0_vB_y - t1_mul276   (ready @89/89/89)
     logic [W-1:0] t1_sub279;
@@ -3112,7 +3393,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[195] = fl_t1_sub279[1] && ev_q[89];
     assign ev_inv[195] = fl_t1_sub279[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub279;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub279 (.clk(clk), .d(t1_sub279), .valid(1'b0), .q(dl_t1_sub279));
     // t1_sub280 = t0_vB_z - t1_mul277   (ready @89/89/89)
     logic [W-1:0] t1_sub280;
@@ -3125,25 +3407,29 @@ module pgs_friction_pipe_full #(
     assign ev_unf[196] = fl_t1_sub280[1] && ev_q[89];
     assign ev_inv[196] = fl_t1_sub280[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub280;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub280 (.clk(clk), .d(t1_sub280), .valid(1'b0), .q(dl_t1_sub280));
     // t1_vB_x = skip ? t0_vB_x : t1_sub278   (ready @89/89/89)
     logic [W-1:0] t1_vB_x;
     assign t1_vB_x = dl_skip[3] ? dl_t0_vB_x[2*W +: W] : dl_t1_sub278;
     logic [W-1:0] dl_t1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vB_x (.clk(clk), .d(t1_vB_x), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_x));
     // t1_vB_y = skip ? t0_vB_y : t1_sub279   (ready @89/89/89)
     logic [W-1:0] t1_vB_y;
     assign t1_vB_y = dl_skip[3] ? dl_t0_vB_y[2*W +: W] : dl_t1_sub279;
     logic [W-1:0] dl_t1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vB_y (.clk(clk), .d(t1_vB_y), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_y));
     // t1_vB_z = skip ? t0_vB_z : t1_sub280   (ready @89/89/89)
     logic [W-1:0] t1_vB_z;
     assign t1_vB_z = dl_skip[3] ? dl_t0_vB_z[2*W +: W] : dl_t1_sub280;
     logic [W-1:0] dl_t1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vB_z (.clk(clk), .d(t1_vB_z), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_z));
     // t1_mul284 = IInvB_xx * t1_cB_x   (ready @14/14/14)
     logic [W-1:0] t1_mul284;
@@ -3156,7 +3442,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[197] = fl_t1_mul284[1] && ev_q[14];
     assign ev_inv[197] = fl_t1_mul284[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul284;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul284 (.clk(clk), .d(t1_mul284), .valid(1'b0), .q(dl_t1_mul284));
     // t1_mul285 = IInvB_xy * t1_cB_y   (ready @14/14/14)
     logic [W-1:0] t1_mul285;
@@ -3169,7 +3456,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[198] = fl_t1_mul285[1] && ev_q[14];
     assign ev_inv[198] = fl_t1_mul285[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul285;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul285 (.clk(clk), .d(t1_mul285), .valid(1'b0), .q(dl_t1_mul285));
     // t1_add286 = t1_mul284 + t1_mul285   (ready @18/18/18)
     logic [W-1:0] t1_add286;
@@ -3182,7 +3470,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[199] = fl_t1_add286[1] && ev_q[18];
     assign ev_inv[199] = fl_t1_add286[2] && ev_q[18];
     logic [W-1:0] dl_t1_add286;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add286 (.clk(clk), .d(t1_add286), .valid(1'b0), .q(dl_t1_add286));
     // t1_mul287 = IInvB_xz * t1_cB_z   (ready @14/14/14)
     logic [W-1:0] t1_mul287;
@@ -3195,7 +3484,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[200] = fl_t1_mul287[1] && ev_q[14];
     assign ev_inv[200] = fl_t1_mul287[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul287;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul287 (.clk(clk), .d(t1_mul287), .valid(valid_q[14 +: 4]), .q(dl_t1_mul287));
     // t1_angB_x = t1_add286 + t1_mul287   (ready @22/22/22)
     logic [W-1:0] t1_angB_x;
@@ -3208,7 +3498,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[201] = fl_t1_angB_x[1] && ev_q[22];
     assign ev_inv[201] = fl_t1_angB_x[2] && ev_q[22];
     logic [W-1:0] dl_t1_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(60))
+    pgs_delay #(.WIDTH(W), .DEPTH(60),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angB_x (.clk(clk), .d(t1_angB_x), .valid(valid_q[22 +: 60]), .q(dl_t1_angB_x));
     // t1_mul289 = IInvB_xy * t1_cB_x   (ready @14/14/14)
     logic [W-1:0] t1_mul289;
@@ -3221,7 +3512,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[202] = fl_t1_mul289[1] && ev_q[14];
     assign ev_inv[202] = fl_t1_mul289[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul289;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul289 (.clk(clk), .d(t1_mul289), .valid(1'b0), .q(dl_t1_mul289));
     // t1_mul290 = IInvB_yy * t1_cB_y   (ready @14/14/14)
     logic [W-1:0] t1_mul290;
@@ -3234,7 +3526,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[203] = fl_t1_mul290[1] && ev_q[14];
     assign ev_inv[203] = fl_t1_mul290[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul290;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul290 (.clk(clk), .d(t1_mul290), .valid(1'b0), .q(dl_t1_mul290));
     // t1_add291 = t1_mul289 + t1_mul290   (ready @18/18/18)
     logic [W-1:0] t1_add291;
@@ -3247,7 +3540,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[204] = fl_t1_add291[1] && ev_q[18];
     assign ev_inv[204] = fl_t1_add291[2] && ev_q[18];
     logic [W-1:0] dl_t1_add291;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add291 (.clk(clk), .d(t1_add291), .valid(1'b0), .q(dl_t1_add291));
     // t1_mul292 = IInvB_yz * t1_cB_z   (ready @14/14/14)
     logic [W-1:0] t1_mul292;
@@ -3260,7 +3554,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[205] = fl_t1_mul292[1] && ev_q[14];
     assign ev_inv[205] = fl_t1_mul292[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul292;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul292 (.clk(clk), .d(t1_mul292), .valid(valid_q[14 +: 4]), .q(dl_t1_mul292));
     // t1_angB_y = t1_add291 + t1_mul292   (ready @22/22/22)
     logic [W-1:0] t1_angB_y;
@@ -3273,7 +3568,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[206] = fl_t1_angB_y[1] && ev_q[22];
     assign ev_inv[206] = fl_t1_angB_y[2] && ev_q[22];
     logic [W-1:0] dl_t1_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(60))
+    pgs_delay #(.WIDTH(W), .DEPTH(60),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angB_y (.clk(clk), .d(t1_angB_y), .valid(valid_q[22 +: 60]), .q(dl_t1_angB_y));
     // t1_mul294 = IInvB_xz * t1_cB_x   (ready @14/14/14)
     logic [W-1:0] t1_mul294;
@@ -3286,7 +3582,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[207] = fl_t1_mul294[1] && ev_q[14];
     assign ev_inv[207] = fl_t1_mul294[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul294;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul294 (.clk(clk), .d(t1_mul294), .valid(1'b0), .q(dl_t1_mul294));
     // t1_mul295 = IInvB_yz * t1_cB_y   (ready @14/14/14)
     logic [W-1:0] t1_mul295;
@@ -3299,7 +3596,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[208] = fl_t1_mul295[1] && ev_q[14];
     assign ev_inv[208] = fl_t1_mul295[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul295;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul295 (.clk(clk), .d(t1_mul295), .valid(1'b0), .q(dl_t1_mul295));
     // t1_add296 = t1_mul294 + t1_mul295   (ready @18/18/18)
     logic [W-1:0] t1_add296;
@@ -3312,7 +3610,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[209] = fl_t1_add296[1] && ev_q[18];
     assign ev_inv[209] = fl_t1_add296[2] && ev_q[18];
     logic [W-1:0] dl_t1_add296;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add296 (.clk(clk), .d(t1_add296), .valid(1'b0), .q(dl_t1_add296));
     // t1_mul297 = IInvB_zz * t1_cB_z   (ready @14/14/14)
     logic [W-1:0] t1_mul297;
@@ -3325,7 +3624,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[210] = fl_t1_mul297[1] && ev_q[14];
     assign ev_inv[210] = fl_t1_mul297[2] && ev_q[14];
     logic [W-1:0] dl_t1_mul297;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul297 (.clk(clk), .d(t1_mul297), .valid(valid_q[14 +: 4]), .q(dl_t1_mul297));
     // t1_angB_z = t1_add296 + t1_mul297   (ready @22/22/22)
     logic [W-1:0] t1_angB_z;
@@ -3338,7 +3638,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[211] = fl_t1_angB_z[1] && ev_q[22];
     assign ev_inv[211] = fl_t1_angB_z[2] && ev_q[22];
     logic [W-1:0] dl_t1_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(60))
+    pgs_delay #(.WIDTH(W), .DEPTH(60),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .valid(valid_q[22 +: 60]), .q(dl_t1_angB_z));
     // t1_mul299 = t1_angB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul299;
@@ -3351,7 +3652,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[212] = fl_t1_mul299[1] && ev_q[85];
     assign ev_inv[212] = fl_t1_mul299[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul299;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul299 (.clk(clk), .d(t1_mul299), .valid(1'b0), .q(dl_t1_mul299));
     // t1_mul300 = t1_angB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul300;
@@ -3364,7 +3666,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[213] = fl_t1_mul300[1] && ev_q[85];
     assign ev_inv[213] = fl_t1_mul300[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul300;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul300 (.clk(clk), .d(t1_mul300), .valid(1'b0), .q(dl_t1_mul300));
     // t1_mul301 = t1_angB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul301;
@@ -3377,7 +3680,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[214] = fl_t1_mul301[1] && ev_q[85];
     assign ev_inv[214] = fl_t1_mul301[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul301;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul301 (.clk(clk), .d(t1_mul301), .valid(1'b0), .q(dl_t1_mul301));
     // t1_sub302 = t0_wB_x - t1_mul299   (ready @89/89/89)
     logic [W-1:0] t1_sub302;
@@ -3390,7 +3694,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[215] = fl_t1_sub302[1] && ev_q[89];
     assign ev_inv[215] = fl_t1_sub302[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub302;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub302 (.clk(clk), .d(t1_sub302), .valid(1'b0), .q(dl_t1_sub302));
     // t1_sub303 = t0_wB_y - t1_mul300   (ready @89/89/89)
     logic [W-1:0] t1_sub303;
@@ -3403,7 +3708,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[216] = fl_t1_sub303[1] && ev_q[89];
     assign ev_inv[216] = fl_t1_sub303[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub303;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub303 (.clk(clk), .d(t1_sub303), .valid(1'b0), .q(dl_t1_sub303));
     // t1_sub304 = t0_wB_z - t1_mul301   (ready @89/89/89)
     logic [W-1:0] t1_sub304;
@@ -3416,25 +3722,29 @@ module pgs_friction_pipe_full #(
     assign ev_unf[217] = fl_t1_sub304[1] && ev_q[89];
     assign ev_inv[217] = fl_t1_sub304[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub304;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub304 (.clk(clk), .d(t1_sub304), .valid(1'b0), .q(dl_t1_sub304));
     // t1_wB_x = skip ? t0_wB_x : t1_sub302   (ready @89/89/89)
     logic [W-1:0] t1_wB_x;
     assign t1_wB_x = dl_skip[3] ? dl_t0_wB_x[2*W +: W] : dl_t1_sub302;
     logic [3*W-1:0] dl_t1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wB_x (.clk(clk), .d(t1_wB_x), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_x));
     // t1_wB_y = skip ? t0_wB_y : t1_sub303   (ready @89/89/89)
     logic [W-1:0] t1_wB_y;
     assign t1_wB_y = dl_skip[3] ? dl_t0_wB_y[2*W +: W] : dl_t1_sub303;
     logic [3*W-1:0] dl_t1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wB_y (.clk(clk), .d(t1_wB_y), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_y));
     // t1_wB_z = skip ? t0_wB_z : t1_sub304   (ready @89/89/89)
     logic [W-1:0] t1_wB_z;
     assign t1_wB_z = dl_skip[3] ? dl_t0_wB_z[2*W +: W] : dl_t1_sub304;
     logic [3*W-1:0] dl_t1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wB_z (.clk(clk), .d(t1_wB_z), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_z));
     // spin_mul309 = n_x * t1_wA_x   (ready @92/92/92)
     logic [W-1:0] spin_mul309;
@@ -3447,7 +3757,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[218] = fl_spin_mul309[1] && ev_q[92];
     assign ev_inv[218] = fl_spin_mul309[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul309;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul309 (.clk(clk), .d(spin_mul309), .valid(1'b0), .q(dl_spin_mul309));
     // spin_mul310 = n_y * t1_wA_y   (ready @92/92/92)
     logic [W-1:0] spin_mul310;
@@ -3460,7 +3771,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[219] = fl_spin_mul310[1] && ev_q[92];
     assign ev_inv[219] = fl_spin_mul310[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul310;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul310 (.clk(clk), .d(spin_mul310), .valid(1'b0), .q(dl_spin_mul310));
     // spin_add311 = spin_mul309 + spin_mul310   (ready @96/96/96)
     logic [W-1:0] spin_add311;
@@ -3473,7 +3785,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[220] = fl_spin_add311[1] && ev_q[96];
     assign ev_inv[220] = fl_spin_add311[2] && ev_q[96];
     logic [W-1:0] dl_spin_add311;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add311 (.clk(clk), .d(spin_add311), .valid(1'b0), .q(dl_spin_add311));
     // spin_mul312 = n_z * t1_wA_z   (ready @92/92/92)
     logic [W-1:0] spin_mul312;
@@ -3486,7 +3799,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[221] = fl_spin_mul312[1] && ev_q[92];
     assign ev_inv[221] = fl_spin_mul312[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul312;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul312 (.clk(clk), .d(spin_mul312), .valid(valid_q[92 +: 4]), .q(dl_spin_mul312));
     // spin_add313 = spin_add311 + spin_mul312   (ready @100/100/100)
     logic [W-1:0] spin_add313;
@@ -3499,7 +3813,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[222] = fl_spin_add313[1] && ev_q[100];
     assign ev_inv[222] = fl_spin_add313[2] && ev_q[100];
     logic [W-1:0] dl_spin_add313;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add313 (.clk(clk), .d(spin_add313), .valid(1'b0), .q(dl_spin_add313));
     // spin_sA = spin_add313 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sA;
@@ -3512,7 +3827,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[223] = fl_spin_sA[1] && ev_q[103];
     assign ev_inv[223] = fl_spin_sA[2] && ev_q[103];
     logic [W-1:0] dl_spin_sA;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_sA (.clk(clk), .d(spin_sA), .valid(1'b0), .q(dl_spin_sA));
     // spin_mul315 = n_x * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul315;
@@ -3525,7 +3841,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[224] = fl_spin_mul315[1] && ev_q[106];
     assign ev_inv[224] = fl_spin_mul315[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul315;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul315 (.clk(clk), .d(spin_mul315), .valid(1'b0), .q(dl_spin_mul315));
     // spin_mul316 = n_y * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul316;
@@ -3538,7 +3855,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[225] = fl_spin_mul316[1] && ev_q[106];
     assign ev_inv[225] = fl_spin_mul316[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul316;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul316 (.clk(clk), .d(spin_mul316), .valid(1'b0), .q(dl_spin_mul316));
     // spin_mul317 = n_z * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul317;
@@ -3551,7 +3869,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[226] = fl_spin_mul317[1] && ev_q[106];
     assign ev_inv[226] = fl_spin_mul317[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul317;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul317 (.clk(clk), .d(spin_mul317), .valid(1'b0), .q(dl_spin_mul317));
     // spin_wA_damped_x = t1_wA_x - spin_mul315   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_x;
@@ -3564,7 +3883,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[227] = fl_spin_wA_damped_x[1] && ev_q[110];
     assign ev_inv[227] = fl_spin_wA_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_damped_x (.clk(clk), .d(spin_wA_damped_x), .valid(1'b0), .q(dl_spin_wA_damped_x));
     // spin_wA_damped_y = t1_wA_y - spin_mul316   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_y;
@@ -3577,7 +3897,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[228] = fl_spin_wA_damped_y[1] && ev_q[110];
     assign ev_inv[228] = fl_spin_wA_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_damped_y (.clk(clk), .d(spin_wA_damped_y), .valid(1'b0), .q(dl_spin_wA_damped_y));
     // spin_wA_damped_z = t1_wA_z - spin_mul317   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_z;
@@ -3590,7 +3911,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[229] = fl_spin_wA_damped_z[1] && ev_q[110];
     assign ev_inv[229] = fl_spin_wA_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_damped_z (.clk(clk), .d(spin_wA_damped_z), .valid(1'b0), .q(dl_spin_wA_damped_z));
     // spin_mul321 = n_x * t1_wB_x   (ready @92/92/92)
     logic [W-1:0] spin_mul321;
@@ -3603,7 +3925,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[230] = fl_spin_mul321[1] && ev_q[92];
     assign ev_inv[230] = fl_spin_mul321[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul321;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul321 (.clk(clk), .d(spin_mul321), .valid(1'b0), .q(dl_spin_mul321));
     // spin_mul322 = n_y * t1_wB_y   (ready @92/92/92)
     logic [W-1:0] spin_mul322;
@@ -3616,7 +3939,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[231] = fl_spin_mul322[1] && ev_q[92];
     assign ev_inv[231] = fl_spin_mul322[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul322;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul322 (.clk(clk), .d(spin_mul322), .valid(1'b0), .q(dl_spin_mul322));
     // spin_add323 = spin_mul321 + spin_mul322   (ready @96/96/96)
     logic [W-1:0] spin_add323;
@@ -3629,7 +3953,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[232] = fl_spin_add323[1] && ev_q[96];
     assign ev_inv[232] = fl_spin_add323[2] && ev_q[96];
     logic [W-1:0] dl_spin_add323;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add323 (.clk(clk), .d(spin_add323), .valid(1'b0), .q(dl_spin_add323));
     // spin_mul324 = n_z * t1_wB_z   (ready @92/92/92)
     logic [W-1:0] spin_mul324;
@@ -3642,7 +3967,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[233] = fl_spin_mul324[1] && ev_q[92];
     assign ev_inv[233] = fl_spin_mul324[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul324;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul324 (.clk(clk), .d(spin_mul324), .valid(valid_q[92 +: 4]), .q(dl_spin_mul324));
     // spin_add325 = spin_add323 + spin_mul324   (ready @100/100/100)
     logic [W-1:0] spin_add325;
@@ -3655,7 +3981,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[234] = fl_spin_add325[1] && ev_q[100];
     assign ev_inv[234] = fl_spin_add325[2] && ev_q[100];
     logic [W-1:0] dl_spin_add325;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add325 (.clk(clk), .d(spin_add325), .valid(1'b0), .q(dl_spin_add325));
     // spin_sB = spin_add325 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sB;
@@ -3668,7 +3995,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[235] = fl_spin_sB[1] && ev_q[103];
     assign ev_inv[235] = fl_spin_sB[2] && ev_q[103];
     logic [W-1:0] dl_spin_sB;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_sB (.clk(clk), .d(spin_sB), .valid(1'b0), .q(dl_spin_sB));
     // spin_mul327 = n_x * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul327;
@@ -3681,7 +4009,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[236] = fl_spin_mul327[1] && ev_q[106];
     assign ev_inv[236] = fl_spin_mul327[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul327;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul327 (.clk(clk), .d(spin_mul327), .valid(1'b0), .q(dl_spin_mul327));
     // spin_mul328 = n_y * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul328;
@@ -3694,7 +4023,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[237] = fl_spin_mul328[1] && ev_q[106];
     assign ev_inv[237] = fl_spin_mul328[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul328;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul328 (.clk(clk), .d(spin_mul328), .valid(1'b0), .q(dl_spin_mul328));
     // spin_mul329 = n_z * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul329;
@@ -3707,7 +4037,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[238] = fl_spin_mul329[1] && ev_q[106];
     assign ev_inv[238] = fl_spin_mul329[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul329;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul329 (.clk(clk), .d(spin_mul329), .valid(1'b0), .q(dl_spin_mul329));
     // spin_wB_damped_x = t1_wB_x - spin_mul327   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_x;
@@ -3720,7 +4051,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[239] = fl_spin_wB_damped_x[1] && ev_q[110];
     assign ev_inv[239] = fl_spin_wB_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_damped_x (.clk(clk), .d(spin_wB_damped_x), .valid(1'b0), .q(dl_spin_wB_damped_x));
     // spin_wB_damped_y = t1_wB_y - spin_mul328   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_y;
@@ -3733,7 +4065,8 @@ module pgs_friction_pipe_full #(
     assign ev_unf[240] = fl_spin_wB_damped_y[1] && ev_q[110];
     assign ev_inv[240] = fl_spin_wB_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_damped_y (.clk(clk), .d(spin_wB_damped_y), .valid(1'b0), .q(dl_spin_wB_damped_y));
     // spin_wB_damped_z = t1_wB_z - spin_mul329   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_z;
@@ -3746,79 +4079,92 @@ module pgs_friction_pipe_full #(
     assign ev_unf[241] = fl_spin_wB_damped_z[1] && ev_q[110];
     assign ev_inv[241] = fl_spin_wB_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_damped_z (.clk(clk), .d(spin_wB_damped_z), .valid(1'b0), .q(dl_spin_wB_damped_z));
     // spin_select333 = spin_damp ? spin_wA_damped_x : t1_wA_x   (ready @110/110/110)
     logic [W-1:0] spin_select333;
     assign spin_select333 = dl_in_spin_damp ? dl_spin_wA_damped_x : dl_t1_wA_x[2*W +: W];
     logic [W-1:0] dl_spin_select333;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select333 (.clk(clk), .d(spin_select333), .valid(1'b0), .q(dl_spin_select333));
     // spin_select334 = spin_damp ? spin_wA_damped_y : t1_wA_y   (ready @110/110/110)
     logic [W-1:0] spin_select334;
     assign spin_select334 = dl_in_spin_damp ? dl_spin_wA_damped_y : dl_t1_wA_y[2*W +: W];
     logic [W-1:0] dl_spin_select334;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select334 (.clk(clk), .d(spin_select334), .valid(1'b0), .q(dl_spin_select334));
     // spin_select335 = spin_damp ? spin_wA_damped_z : t1_wA_z   (ready @110/110/110)
     logic [W-1:0] spin_select335;
     assign spin_select335 = dl_in_spin_damp ? dl_spin_wA_damped_z : dl_t1_wA_z[2*W +: W];
     logic [W-1:0] dl_spin_select335;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select335 (.clk(clk), .d(spin_select335), .valid(1'b0), .q(dl_spin_select335));
     // spin_wA_x = skip ? t1_wA_x : spin_select333   (ready @110/110/110)
     logic [W-1:0] spin_wA_x;
     assign spin_wA_x = dl_skip[4] ? dl_t1_wA_x[2*W +: W] : dl_spin_select333;
     logic [W-1:0] dl_spin_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_x (.clk(clk), .d(spin_wA_x), .valid(1'b0), .q(dl_spin_wA_x));
     // spin_wA_y = skip ? t1_wA_y : spin_select334   (ready @110/110/110)
     logic [W-1:0] spin_wA_y;
     assign spin_wA_y = dl_skip[4] ? dl_t1_wA_y[2*W +: W] : dl_spin_select334;
     logic [W-1:0] dl_spin_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_y (.clk(clk), .d(spin_wA_y), .valid(1'b0), .q(dl_spin_wA_y));
     // spin_wA_z = skip ? t1_wA_z : spin_select335   (ready @110/110/110)
     logic [W-1:0] spin_wA_z;
     assign spin_wA_z = dl_skip[4] ? dl_t1_wA_z[2*W +: W] : dl_spin_select335;
     logic [W-1:0] dl_spin_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_z (.clk(clk), .d(spin_wA_z), .valid(1'b0), .q(dl_spin_wA_z));
     // spin_select339 = spin_damp ? spin_wB_damped_x : t1_wB_x   (ready @110/110/110)
     logic [W-1:0] spin_select339;
     assign spin_select339 = dl_in_spin_damp ? dl_spin_wB_damped_x : dl_t1_wB_x[2*W +: W];
     logic [W-1:0] dl_spin_select339;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select339 (.clk(clk), .d(spin_select339), .valid(1'b0), .q(dl_spin_select339));
     // spin_select340 = spin_damp ? spin_wB_damped_y : t1_wB_y   (ready @110/110/110)
     logic [W-1:0] spin_select340;
     assign spin_select340 = dl_in_spin_damp ? dl_spin_wB_damped_y : dl_t1_wB_y[2*W +: W];
     logic [W-1:0] dl_spin_select340;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select340 (.clk(clk), .d(spin_select340), .valid(1'b0), .q(dl_spin_select340));
     // spin_select341 = spin_damp ? spin_wB_damped_z : t1_wB_z   (ready @110/110/110)
     logic [W-1:0] spin_select341;
     assign spin_select341 = dl_in_spin_damp ? dl_spin_wB_damped_z : dl_t1_wB_z[2*W +: W];
     logic [W-1:0] dl_spin_select341;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select341 (.clk(clk), .d(spin_select341), .valid(1'b0), .q(dl_spin_select341));
     // spin_wB_x = skip ? t1_wB_x : spin_select339   (ready @110/110/110)
     logic [W-1:0] spin_wB_x;
     assign spin_wB_x = dl_skip[4] ? dl_t1_wB_x[2*W +: W] : dl_spin_select339;
     logic [W-1:0] dl_spin_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_x (.clk(clk), .d(spin_wB_x), .valid(1'b0), .q(dl_spin_wB_x));
     // spin_wB_y = skip ? t1_wB_y : spin_select340   (ready @110/110/110)
     logic [W-1:0] spin_wB_y;
     assign spin_wB_y = dl_skip[4] ? dl_t1_wB_y[2*W +: W] : dl_spin_select340;
     logic [W-1:0] dl_spin_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_y (.clk(clk), .d(spin_wB_y), .valid(1'b0), .q(dl_spin_wB_y));
     // spin_wB_z = skip ? t1_wB_z : spin_select341   (ready @110/110/110)
     logic [W-1:0] spin_wB_z;
     assign spin_wB_z = dl_skip[4] ? dl_t1_wB_z[2*W +: W] : dl_spin_select341;
     logic [W-1:0] dl_spin_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_z (.clk(clk), .d(spin_wB_z), .valid(1'b0), .q(dl_spin_wB_z));
 
     // Outputs, each delayed to LATENCY.

@@ -28,6 +28,9 @@ module pgs_friction_pipe_mu #(
     parameter  int EXP_BITS = 8,
     parameter  int MAN_BITS = 23,
     parameter  int TAG_W    = 64,
+    // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
+    // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
+    parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 47,
     localparam int N_OUT    = 14,
@@ -79,7 +82,7 @@ module pgs_friction_pipe_mu #(
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
         .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY), .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_tag (
         .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
     );
 
@@ -106,240 +109,288 @@ module pgs_friction_pipe_mu #(
     logic [W-1:0] in_n_x;
     assign in_n_x = in_data[0*W +: W];
     logic [2*W-1:0] dl_in_n_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 103]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [2*W-1:0] dl_in_n_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 103]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [2*W-1:0] dl_in_n_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 103]), .q(dl_in_n_z));
     logic [W-1:0] in_c_x;
     assign in_c_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_c_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_c_x (.clk(clk), .d(in_c_x), .valid(1'b0), .q(dl_in_c_x));
     logic [W-1:0] in_c_y;
     assign in_c_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_c_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_c_y (.clk(clk), .d(in_c_y), .valid(1'b0), .q(dl_in_c_y));
     logic [W-1:0] in_c_z;
     assign in_c_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_c_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_c_z (.clk(clk), .d(in_c_z), .valid(1'b0), .q(dl_in_c_z));
     logic [W-1:0] in_t0_x;
     assign in_t0_x = in_data[6*W +: W];
     logic [2*W-1:0] dl_in_t0_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t0_x (.clk(clk), .d(in_t0_x), .valid(valid_q[0 +: 4]), .q(dl_in_t0_x));
     logic [W-1:0] in_t0_y;
     assign in_t0_y = in_data[7*W +: W];
     logic [2*W-1:0] dl_in_t0_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t0_y (.clk(clk), .d(in_t0_y), .valid(valid_q[0 +: 4]), .q(dl_in_t0_y));
     logic [W-1:0] in_t0_z;
     assign in_t0_z = in_data[8*W +: W];
     logic [2*W-1:0] dl_in_t0_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t0_z (.clk(clk), .d(in_t0_z), .valid(valid_q[0 +: 4]), .q(dl_in_t0_z));
     logic [W-1:0] in_t1_x;
     assign in_t1_x = in_data[9*W +: W];
     logic [3*W-1:0] dl_in_t1_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t1_x (.clk(clk), .d(in_t1_x), .valid(valid_q[0 +: 50]), .q(dl_in_t1_x));
     logic [W-1:0] in_t1_y;
     assign in_t1_y = in_data[10*W +: W];
     logic [3*W-1:0] dl_in_t1_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t1_y (.clk(clk), .d(in_t1_y), .valid(valid_q[0 +: 50]), .q(dl_in_t1_y));
     logic [W-1:0] in_t1_z;
     assign in_t1_z = in_data[11*W +: W];
     logic [3*W-1:0] dl_in_t1_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t1_z (.clk(clk), .d(in_t1_z), .valid(valid_q[0 +: 50]), .q(dl_in_t1_z));
     logic [W-1:0] in_f_jac_inv0;
     assign in_f_jac_inv0 = in_data[12*W +: W];
     logic [2*W-1:0] dl_in_f_jac_inv0;
-    pgs_delay #(.WIDTH(W), .DEPTH(30), .N_TAPS(2), .TAPS({32'(30), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(30), .N_TAPS(2), .TAPS({32'(30), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_f_jac_inv0 (.clk(clk), .d(in_f_jac_inv0), .valid(valid_q[0 +: 30]), .q(dl_in_f_jac_inv0));
     logic [W-1:0] in_f_jac_inv1;
     assign in_f_jac_inv1 = in_data[13*W +: W];
     logic [W-1:0] dl_in_f_jac_inv1;
-    pgs_delay #(.WIDTH(W), .DEPTH(69))
+    pgs_delay #(.WIDTH(W), .DEPTH(69),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_f_jac_inv1 (.clk(clk), .d(in_f_jac_inv1), .valid(valid_q[0 +: 69]), .q(dl_in_f_jac_inv1));
     logic [W-1:0] in_lam_n0;
     assign in_lam_n0 = in_data[14*W +: W];
     logic [W-1:0] dl_in_lam_n0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n0 (.clk(clk), .d(in_lam_n0), .valid(1'b0), .q(dl_in_lam_n0));
     logic [W-1:0] in_lam_n1;
     assign in_lam_n1 = in_data[15*W +: W];
     logic [W-1:0] dl_in_lam_n1;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n1 (.clk(clk), .d(in_lam_n1), .valid(1'b0), .q(dl_in_lam_n1));
     logic [W-1:0] in_lam_n2;
     assign in_lam_n2 = in_data[16*W +: W];
     logic [W-1:0] dl_in_lam_n2;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n2 (.clk(clk), .d(in_lam_n2), .valid(1'b0), .q(dl_in_lam_n2));
     logic [W-1:0] in_lam_n3;
     assign in_lam_n3 = in_data[17*W +: W];
     logic [W-1:0] dl_in_lam_n3;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n3 (.clk(clk), .d(in_lam_n3), .valid(1'b0), .q(dl_in_lam_n3));
     logic [W-1:0] in_lamT0;
     assign in_lamT0 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_lamT0;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(39), 32'(33)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(39), 32'(33)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lamT0 (.clk(clk), .d(in_lamT0), .valid(valid_q[0 +: 39]), .q(dl_in_lamT0));
     logic [W-1:0] in_lamT1;
     assign in_lamT1 = in_data[19*W +: W];
     logic [2*W-1:0] dl_in_lamT1;
-    pgs_delay #(.WIDTH(W), .DEPTH(78), .N_TAPS(2), .TAPS({32'(78), 32'(72)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(78), .N_TAPS(2), .TAPS({32'(78), 32'(72)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lamT1 (.clk(clk), .d(in_lamT1), .valid(valid_q[0 +: 78]), .q(dl_in_lamT1));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[20*W +: W];
     logic [W-1:0] dl_in_xA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[21*W +: W];
     logic [W-1:0] dl_in_xA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[22*W +: W];
     logic [W-1:0] dl_in_xA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[23*W +: W];
     logic [W-1:0] dl_in_xB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[24*W +: W];
     logic [W-1:0] dl_in_xB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[25*W +: W];
     logic [W-1:0] dl_in_xB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[26*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 50]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[27*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 50]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[28*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 50]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[29*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 50]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[30*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 50]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[31*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 50]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[32*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 50]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 50]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 50]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 50]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 50]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 50]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[38*W +: W];
     logic [W-1:0] dl_in_mInvA;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[39*W +: W];
     logic [W-1:0] dl_in_mInvB;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_x;
     assign in_IInvA_x = in_data[40*W +: W];
     logic [W-1:0] dl_in_IInvA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_x (.clk(clk), .d(in_IInvA_x), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_x));
     logic [W-1:0] in_IInvA_y;
     assign in_IInvA_y = in_data[41*W +: W];
     logic [W-1:0] dl_in_IInvA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_y (.clk(clk), .d(in_IInvA_y), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_y));
     logic [W-1:0] in_IInvA_z;
     assign in_IInvA_z = in_data[42*W +: W];
     logic [W-1:0] dl_in_IInvA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_z (.clk(clk), .d(in_IInvA_z), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_z));
     logic [W-1:0] in_IInvB_x;
     assign in_IInvB_x = in_data[43*W +: W];
     logic [W-1:0] dl_in_IInvB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_x (.clk(clk), .d(in_IInvB_x), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_x));
     logic [W-1:0] in_IInvB_y;
     assign in_IInvB_y = in_data[44*W +: W];
     logic [W-1:0] dl_in_IInvB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_y (.clk(clk), .d(in_IInvB_y), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_y));
     logic [W-1:0] in_IInvB_z;
     assign in_IInvB_z = in_data[45*W +: W];
     logic [W-1:0] dl_in_IInvB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_z (.clk(clk), .d(in_IInvB_z), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_z));
     logic [W-1:0] in_mu;
     assign in_mu = in_data[46*W +: W];
     logic [W-1:0] dl_in_mu;
-    pgs_delay #(.WIDTH(W), .DEPTH(8))
+    pgs_delay #(.WIDTH(W), .DEPTH(8),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mu (.clk(clk), .d(in_mu), .valid(valid_q[0 +: 8]), .q(dl_in_mu));
     logic [1-1:0] dl_in_spin_damp;
-    pgs_delay #(.WIDTH(1), .DEPTH(110))
+    pgs_delay #(.WIDTH(1), .DEPTH(110),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_spin_damp (.clk(clk), .d(in_spin_damp), .valid(valid_q[0 +: 110]), .q(dl_in_spin_damp));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
@@ -348,7 +399,8 @@ module pgs_friction_pipe_mu #(
     logic skip;
     assign skip = (dl_in_f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [5*1-1:0] dl_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(110), .N_TAPS(5), .TAPS({32'(110), 32'(89), 32'(78), 32'(50), 32'(39)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(110), .N_TAPS(5), .TAPS({32'(110), 32'(89), 32'(78), 32'(50), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_skip (.clk(clk), .d(skip), .valid(valid_q[0 +: 110]), .q(dl_skip));
     // add49 = lam_n0 + lam_n1   (ready @4/4/4)
     logic [W-1:0] add49;
@@ -361,7 +413,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[0] = fl_add49[1] && ev_q[4];
     assign ev_inv[0] = fl_add49[2] && ev_q[4];
     logic [W-1:0] dl_add49;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add49 (.clk(clk), .d(add49), .valid(1'b0), .q(dl_add49));
     // add50 = lam_n2 + lam_n3   (ready @4/4/4)
     logic [W-1:0] add50;
@@ -374,7 +427,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[1] = fl_add50[1] && ev_q[4];
     assign ev_inv[1] = fl_add50[2] && ev_q[4];
     logic [W-1:0] dl_add50;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add50 (.clk(clk), .d(add50), .valid(1'b0), .q(dl_add50));
     // add51 = add49 + add50   (ready @8/8/8)
     logic [W-1:0] add51;
@@ -387,7 +441,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[2] = fl_add51[1] && ev_q[8];
     assign ev_inv[2] = fl_add51[2] && ev_q[8];
     logic [W-1:0] dl_add51;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add51 (.clk(clk), .d(add51), .valid(1'b0), .q(dl_add51));
     // limit = mu * add51   (ready @11/11/11)
     logic [W-1:0] limit;
@@ -400,13 +455,15 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[3] = fl_limit[1] && ev_q[11];
     assign ev_inv[3] = fl_limit[2] && ev_q[11];
     logic [3*W-1:0] dl_limit;
-    pgs_delay #(.WIDTH(W), .DEPTH(66), .N_TAPS(3), .TAPS({32'(66), 32'(27), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(66), .N_TAPS(3), .TAPS({32'(66), 32'(27), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_limit (.clk(clk), .d(limit), .valid(valid_q[11 +: 66]), .q(dl_limit));
     // neg_limit = -limit   (ready @11/11/11)
     logic [W-1:0] neg_limit;
     assign neg_limit = {~dl_limit[0*W +: W][W-1], dl_limit[0*W +: W][W-2:0]};
     logic [2*W-1:0] dl_neg_limit;
-    pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(2), .TAPS({32'(65), 32'(26)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(2), .TAPS({32'(65), 32'(26)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_neg_limit (.clk(clk), .d(neg_limit), .valid(valid_q[11 +: 65]), .q(dl_neg_limit));
     // rA_x = c_x - xA_x   (ready @4/4/4)
     logic [W-1:0] rA_x;
@@ -419,7 +476,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[4] = fl_rA_x[1] && ev_q[4];
     assign ev_inv[4] = fl_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rA_x (.clk(clk), .d(rA_x), .valid(1'b0), .q(dl_rA_x));
     // rA_y = c_y - xA_y   (ready @4/4/4)
     logic [W-1:0] rA_y;
@@ -432,7 +490,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[5] = fl_rA_y[1] && ev_q[4];
     assign ev_inv[5] = fl_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rA_y (.clk(clk), .d(rA_y), .valid(1'b0), .q(dl_rA_y));
     // rA_z = c_z - xA_z   (ready @4/4/4)
     logic [W-1:0] rA_z;
@@ -445,7 +504,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[6] = fl_rA_z[1] && ev_q[4];
     assign ev_inv[6] = fl_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rA_z (.clk(clk), .d(rA_z), .valid(1'b0), .q(dl_rA_z));
     // rB_x = c_x - xB_x   (ready @4/4/4)
     logic [W-1:0] rB_x;
@@ -458,7 +518,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[7] = fl_rB_x[1] && ev_q[4];
     assign ev_inv[7] = fl_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rB_x (.clk(clk), .d(rB_x), .valid(1'b0), .q(dl_rB_x));
     // rB_y = c_y - xB_y   (ready @4/4/4)
     logic [W-1:0] rB_y;
@@ -471,7 +532,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[8] = fl_rB_y[1] && ev_q[4];
     assign ev_inv[8] = fl_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rB_y (.clk(clk), .d(rB_y), .valid(1'b0), .q(dl_rB_y));
     // rB_z = c_z - xB_z   (ready @4/4/4)
     logic [W-1:0] rB_z;
@@ -484,7 +546,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[9] = fl_rB_z[1] && ev_q[4];
     assign ev_inv[9] = fl_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rB_z (.clk(clk), .d(rB_z), .valid(1'b0), .q(dl_rB_z));
     // t0_mul60 = rA_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul60;
@@ -497,7 +560,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[10] = fl_t0_mul60[1] && ev_q[7];
     assign ev_inv[10] = fl_t0_mul60[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul60;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul60 (.clk(clk), .d(t0_mul60), .valid(1'b0), .q(dl_t0_mul60));
     // t0_mul61 = rA_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul61;
@@ -510,7 +574,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[11] = fl_t0_mul61[1] && ev_q[7];
     assign ev_inv[11] = fl_t0_mul61[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul61;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul61 (.clk(clk), .d(t0_mul61), .valid(1'b0), .q(dl_t0_mul61));
     // t0_cA_x = t0_mul60 - t0_mul61   (ready @11/11/11)
     logic [W-1:0] t0_cA_x;
@@ -523,7 +588,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[12] = fl_t0_cA_x[1] && ev_q[11];
     assign ev_inv[12] = fl_t0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cA_x (.clk(clk), .d(t0_cA_x), .valid(1'b0), .q(dl_t0_cA_x));
     // t0_mul63 = rA_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul63;
@@ -536,7 +602,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[13] = fl_t0_mul63[1] && ev_q[7];
     assign ev_inv[13] = fl_t0_mul63[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul63;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul63 (.clk(clk), .d(t0_mul63), .valid(1'b0), .q(dl_t0_mul63));
     // t0_mul64 = rA_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul64;
@@ -549,7 +616,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[14] = fl_t0_mul64[1] && ev_q[7];
     assign ev_inv[14] = fl_t0_mul64[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul64;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul64 (.clk(clk), .d(t0_mul64), .valid(1'b0), .q(dl_t0_mul64));
     // t0_cA_y = t0_mul63 - t0_mul64   (ready @11/11/11)
     logic [W-1:0] t0_cA_y;
@@ -562,7 +630,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[15] = fl_t0_cA_y[1] && ev_q[11];
     assign ev_inv[15] = fl_t0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cA_y (.clk(clk), .d(t0_cA_y), .valid(1'b0), .q(dl_t0_cA_y));
     // t0_mul66 = rA_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul66;
@@ -575,7 +644,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[16] = fl_t0_mul66[1] && ev_q[7];
     assign ev_inv[16] = fl_t0_mul66[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul66;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul66 (.clk(clk), .d(t0_mul66), .valid(1'b0), .q(dl_t0_mul66));
     // t0_mul67 = rA_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul67;
@@ -588,7 +658,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[17] = fl_t0_mul67[1] && ev_q[7];
     assign ev_inv[17] = fl_t0_mul67[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul67;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul67 (.clk(clk), .d(t0_mul67), .valid(1'b0), .q(dl_t0_mul67));
     // t0_cA_z = t0_mul66 - t0_mul67   (ready @11/11/11)
     logic [W-1:0] t0_cA_z;
@@ -601,7 +672,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[18] = fl_t0_cA_z[1] && ev_q[11];
     assign ev_inv[18] = fl_t0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cA_z (.clk(clk), .d(t0_cA_z), .valid(1'b0), .q(dl_t0_cA_z));
     // t0_mul69 = rB_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul69;
@@ -614,7 +686,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[19] = fl_t0_mul69[1] && ev_q[7];
     assign ev_inv[19] = fl_t0_mul69[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul69;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul69 (.clk(clk), .d(t0_mul69), .valid(1'b0), .q(dl_t0_mul69));
     // t0_mul70 = rB_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul70;
@@ -627,7 +700,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[20] = fl_t0_mul70[1] && ev_q[7];
     assign ev_inv[20] = fl_t0_mul70[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul70;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul70 (.clk(clk), .d(t0_mul70), .valid(1'b0), .q(dl_t0_mul70));
     // t0_cB_x = t0_mul69 - t0_mul70   (ready @11/11/11)
     logic [W-1:0] t0_cB_x;
@@ -640,7 +714,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[21] = fl_t0_cB_x[1] && ev_q[11];
     assign ev_inv[21] = fl_t0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cB_x (.clk(clk), .d(t0_cB_x), .valid(1'b0), .q(dl_t0_cB_x));
     // t0_mul72 = rB_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul72;
@@ -653,7 +728,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[22] = fl_t0_mul72[1] && ev_q[7];
     assign ev_inv[22] = fl_t0_mul72[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul72;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul72 (.clk(clk), .d(t0_mul72), .valid(1'b0), .q(dl_t0_mul72));
     // t0_mul73 = rB_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul73;
@@ -666,7 +742,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[23] = fl_t0_mul73[1] && ev_q[7];
     assign ev_inv[23] = fl_t0_mul73[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul73;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul73 (.clk(clk), .d(t0_mul73), .valid(1'b0), .q(dl_t0_mul73));
     // t0_cB_y = t0_mul72 - t0_mul73   (ready @11/11/11)
     logic [W-1:0] t0_cB_y;
@@ -679,7 +756,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[24] = fl_t0_cB_y[1] && ev_q[11];
     assign ev_inv[24] = fl_t0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cB_y (.clk(clk), .d(t0_cB_y), .valid(1'b0), .q(dl_t0_cB_y));
     // t0_mul75 = rB_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul75;
@@ -692,7 +770,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[25] = fl_t0_mul75[1] && ev_q[7];
     assign ev_inv[25] = fl_t0_mul75[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul75;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul75 (.clk(clk), .d(t0_mul75), .valid(1'b0), .q(dl_t0_mul75));
     // t0_mul76 = rB_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul76;
@@ -705,7 +784,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[26] = fl_t0_mul76[1] && ev_q[7];
     assign ev_inv[26] = fl_t0_mul76[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul76;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul76 (.clk(clk), .d(t0_mul76), .valid(1'b0), .q(dl_t0_mul76));
     // t0_cB_z = t0_mul75 - t0_mul76   (ready @11/11/11)
     logic [W-1:0] t0_cB_z;
@@ -718,7 +798,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[27] = fl_t0_cB_z[1] && ev_q[11];
     assign ev_inv[27] = fl_t0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cB_z (.clk(clk), .d(t0_cB_z), .valid(1'b0), .q(dl_t0_cB_z));
     // t0_mul78 = t0_x * vA_x   (ready @3/3/3)
     logic [W-1:0] t0_mul78;
@@ -731,7 +812,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[28] = fl_t0_mul78[1] && ev_q[3];
     assign ev_inv[28] = fl_t0_mul78[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul78;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul78 (.clk(clk), .d(t0_mul78), .valid(1'b0), .q(dl_t0_mul78));
     // t0_mul79 = t0_y * vA_y   (ready @3/3/3)
     logic [W-1:0] t0_mul79;
@@ -744,7 +826,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[29] = fl_t0_mul79[1] && ev_q[3];
     assign ev_inv[29] = fl_t0_mul79[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul79;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul79 (.clk(clk), .d(t0_mul79), .valid(1'b0), .q(dl_t0_mul79));
     // t0_add80 = t0_mul78 + t0_mul79   (ready @7/7/7)
     logic [W-1:0] t0_add80;
@@ -757,7 +840,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[30] = fl_t0_add80[1] && ev_q[7];
     assign ev_inv[30] = fl_t0_add80[2] && ev_q[7];
     logic [W-1:0] dl_t0_add80;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add80 (.clk(clk), .d(t0_add80), .valid(1'b0), .q(dl_t0_add80));
     // t0_mul81 = t0_z * vA_z   (ready @3/3/3)
     logic [W-1:0] t0_mul81;
@@ -770,7 +854,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[31] = fl_t0_mul81[1] && ev_q[3];
     assign ev_inv[31] = fl_t0_mul81[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul81;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul81 (.clk(clk), .d(t0_mul81), .valid(valid_q[3 +: 4]), .q(dl_t0_mul81));
     // t0_add82 = t0_add80 + t0_mul81   (ready @11/11/11)
     logic [W-1:0] t0_add82;
@@ -783,7 +868,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[32] = fl_t0_add82[1] && ev_q[11];
     assign ev_inv[32] = fl_t0_add82[2] && ev_q[11];
     logic [W-1:0] dl_t0_add82;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add82 (.clk(clk), .d(t0_add82), .valid(1'b0), .q(dl_t0_add82));
     // t0_mul83 = t0_x * vB_x   (ready @3/3/3)
     logic [W-1:0] t0_mul83;
@@ -796,7 +882,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[33] = fl_t0_mul83[1] && ev_q[3];
     assign ev_inv[33] = fl_t0_mul83[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul83;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul83 (.clk(clk), .d(t0_mul83), .valid(1'b0), .q(dl_t0_mul83));
     // t0_mul84 = t0_y * vB_y   (ready @3/3/3)
     logic [W-1:0] t0_mul84;
@@ -809,7 +896,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[34] = fl_t0_mul84[1] && ev_q[3];
     assign ev_inv[34] = fl_t0_mul84[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul84;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul84 (.clk(clk), .d(t0_mul84), .valid(1'b0), .q(dl_t0_mul84));
     // t0_add85 = t0_mul83 + t0_mul84   (ready @7/7/7)
     logic [W-1:0] t0_add85;
@@ -822,7 +910,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[35] = fl_t0_add85[1] && ev_q[7];
     assign ev_inv[35] = fl_t0_add85[2] && ev_q[7];
     logic [W-1:0] dl_t0_add85;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add85 (.clk(clk), .d(t0_add85), .valid(1'b0), .q(dl_t0_add85));
     // t0_mul86 = t0_z * vB_z   (ready @3/3/3)
     logic [W-1:0] t0_mul86;
@@ -835,7 +924,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[36] = fl_t0_mul86[1] && ev_q[3];
     assign ev_inv[36] = fl_t0_mul86[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul86;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul86 (.clk(clk), .d(t0_mul86), .valid(valid_q[3 +: 4]), .q(dl_t0_mul86));
     // t0_add87 = t0_add85 + t0_mul86   (ready @11/11/11)
     logic [W-1:0] t0_add87;
@@ -848,7 +938,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[37] = fl_t0_add87[1] && ev_q[11];
     assign ev_inv[37] = fl_t0_add87[2] && ev_q[11];
     logic [W-1:0] dl_t0_add87;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add87 (.clk(clk), .d(t0_add87), .valid(1'b0), .q(dl_t0_add87));
     // t0_sub88 = t0_add82 - t0_add87   (ready @15/15/15)
     logic [W-1:0] t0_sub88;
@@ -861,7 +952,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[38] = fl_t0_sub88[1] && ev_q[15];
     assign ev_inv[38] = fl_t0_sub88[2] && ev_q[15];
     logic [W-1:0] dl_t0_sub88;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub88 (.clk(clk), .d(t0_sub88), .valid(valid_q[15 +: 11]), .q(dl_t0_sub88));
     // t0_mul89 = t0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] t0_mul89;
@@ -874,7 +966,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[39] = fl_t0_mul89[1] && ev_q[14];
     assign ev_inv[39] = fl_t0_mul89[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul89;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul89 (.clk(clk), .d(t0_mul89), .valid(1'b0), .q(dl_t0_mul89));
     // t0_mul90 = t0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] t0_mul90;
@@ -887,7 +980,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[40] = fl_t0_mul90[1] && ev_q[14];
     assign ev_inv[40] = fl_t0_mul90[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul90;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul90 (.clk(clk), .d(t0_mul90), .valid(1'b0), .q(dl_t0_mul90));
     // t0_add91 = t0_mul89 + t0_mul90   (ready @18/18/18)
     logic [W-1:0] t0_add91;
@@ -900,7 +994,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[41] = fl_t0_add91[1] && ev_q[18];
     assign ev_inv[41] = fl_t0_add91[2] && ev_q[18];
     logic [W-1:0] dl_t0_add91;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add91 (.clk(clk), .d(t0_add91), .valid(1'b0), .q(dl_t0_add91));
     // t0_mul92 = t0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] t0_mul92;
@@ -913,7 +1008,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[42] = fl_t0_mul92[1] && ev_q[14];
     assign ev_inv[42] = fl_t0_mul92[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul92;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul92 (.clk(clk), .d(t0_mul92), .valid(valid_q[14 +: 4]), .q(dl_t0_mul92));
     // t0_add93 = t0_add91 + t0_mul92   (ready @22/22/22)
     logic [W-1:0] t0_add93;
@@ -926,7 +1022,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[43] = fl_t0_add93[1] && ev_q[22];
     assign ev_inv[43] = fl_t0_add93[2] && ev_q[22];
     logic [W-1:0] dl_t0_add93;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add93 (.clk(clk), .d(t0_add93), .valid(1'b0), .q(dl_t0_add93));
     // t0_mul94 = t0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] t0_mul94;
@@ -939,7 +1036,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[44] = fl_t0_mul94[1] && ev_q[14];
     assign ev_inv[44] = fl_t0_mul94[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul94;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul94 (.clk(clk), .d(t0_mul94), .valid(1'b0), .q(dl_t0_mul94));
     // t0_mul95 = t0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] t0_mul95;
@@ -952,7 +1050,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[45] = fl_t0_mul95[1] && ev_q[14];
     assign ev_inv[45] = fl_t0_mul95[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul95;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul95 (.clk(clk), .d(t0_mul95), .valid(1'b0), .q(dl_t0_mul95));
     // t0_add96 = t0_mul94 + t0_mul95   (ready @18/18/18)
     logic [W-1:0] t0_add96;
@@ -965,7 +1064,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[46] = fl_t0_add96[1] && ev_q[18];
     assign ev_inv[46] = fl_t0_add96[2] && ev_q[18];
     logic [W-1:0] dl_t0_add96;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add96 (.clk(clk), .d(t0_add96), .valid(1'b0), .q(dl_t0_add96));
     // t0_mul97 = t0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] t0_mul97;
@@ -978,7 +1078,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[47] = fl_t0_mul97[1] && ev_q[14];
     assign ev_inv[47] = fl_t0_mul97[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul97;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul97 (.clk(clk), .d(t0_mul97), .valid(valid_q[14 +: 4]), .q(dl_t0_mul97));
     // t0_add98 = t0_add96 + t0_mul97   (ready @22/22/22)
     logic [W-1:0] t0_add98;
@@ -991,7 +1092,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[48] = fl_t0_add98[1] && ev_q[22];
     assign ev_inv[48] = fl_t0_add98[2] && ev_q[22];
     logic [W-1:0] dl_t0_add98;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add98 (.clk(clk), .d(t0_add98), .valid(1'b0), .q(dl_t0_add98));
     // t0_sub99 = t0_add93 - t0_add98   (ready @26/26/26)
     logic [W-1:0] t0_sub99;
@@ -1004,7 +1106,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[49] = fl_t0_sub99[1] && ev_q[26];
     assign ev_inv[49] = fl_t0_sub99[2] && ev_q[26];
     logic [W-1:0] dl_t0_sub99;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub99 (.clk(clk), .d(t0_sub99), .valid(1'b0), .q(dl_t0_sub99));
     // t0_u = t0_sub88 + t0_sub99   (ready @30/30/30)
     logic [W-1:0] t0_u;
@@ -1017,13 +1120,15 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[50] = fl_t0_u[1] && ev_q[30];
     assign ev_inv[50] = fl_t0_u[2] && ev_q[30];
     logic [W-1:0] dl_t0_u;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_u (.clk(clk), .d(t0_u), .valid(1'b0), .q(dl_t0_u));
     // t0_neg101 = -t0_u   (ready @30/30/30)
     logic [W-1:0] t0_neg101;
     assign t0_neg101 = {~dl_t0_u[W-1], dl_t0_u[W-2:0]};
     logic [W-1:0] dl_t0_neg101;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_neg101 (.clk(clk), .d(t0_neg101), .valid(1'b0), .q(dl_t0_neg101));
     // t0_delta0 = t0_neg101 * f_jac_inv0   (ready @33/33/33)
     logic [W-1:0] t0_delta0;
@@ -1036,7 +1141,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[51] = fl_t0_delta0[1] && ev_q[33];
     assign ev_inv[51] = fl_t0_delta0[2] && ev_q[33];
     logic [W-1:0] dl_t0_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_delta0 (.clk(clk), .d(t0_delta0), .valid(1'b0), .q(dl_t0_delta0));
     // t0_add103 = lamT0 + t0_delta0   (ready @37/37/37)
     logic [W-1:0] t0_add103;
@@ -1049,7 +1155,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[52] = fl_t0_add103[1] && ev_q[37];
     assign ev_inv[52] = fl_t0_add103[2] && ev_q[37];
     logic [W-1:0] dl_t0_add103;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add103 (.clk(clk), .d(t0_add103), .valid(1'b0), .q(dl_t0_add103));
     // t0_max104 = max(t0_add103, neg_limit)   (ready @38/38/38)
     logic [W-1:0] t0_max104;
@@ -1059,7 +1166,8 @@ module pgs_friction_pipe_mu #(
         .lt(nc_t0_max104_lt), .eq(nc_t0_max104_eq), .unordered(nc_t0_max104_uo)
     );
     logic [W-1:0] dl_t0_max104;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_max104 (.clk(clk), .d(t0_max104), .valid(1'b0), .q(dl_t0_max104));
     // t0_lam_new = min(t0_max104, limit)   (ready @39/39/39)
     logic [W-1:0] t0_lam_new;
@@ -1069,7 +1177,8 @@ module pgs_friction_pipe_mu #(
         .lt(nc_t0_lam_new_lt), .eq(nc_t0_lam_new_eq), .unordered(nc_t0_lam_new_uo)
     );
     logic [W-1:0] dl_t0_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_lam_new (.clk(clk), .d(t0_lam_new), .valid(1'b0), .q(dl_t0_lam_new));
     // t0_delta = t0_lam_new - lamT0   (ready @43/43/43)
     logic [W-1:0] t0_delta;
@@ -1082,19 +1191,22 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[53] = fl_t0_delta[1] && ev_q[43];
     assign ev_inv[53] = fl_t0_delta[2] && ev_q[43];
     logic [W-1:0] dl_t0_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_delta (.clk(clk), .d(t0_delta), .valid(1'b0), .q(dl_t0_delta));
     // t0_lamT = skip ? lamT0 : t0_lam_new   (ready @39/39/39)
     logic [W-1:0] t0_lamT;
     assign t0_lamT = dl_skip[0] ? dl_in_lamT0[1*W +: W] : dl_t0_lam_new;
     logic [W-1:0] dl_t0_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH(71))
+    pgs_delay #(.WIDTH(W), .DEPTH(71),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_lamT (.clk(clk), .d(t0_lamT), .valid(valid_q[39 +: 71]), .q(dl_t0_lamT));
     // t0_e = -t0_delta   (ready @43/43/43)
     logic [W-1:0] t0_e;
     assign t0_e = {~dl_t0_delta[W-1], dl_t0_delta[W-2:0]};
     logic [W-1:0] dl_t0_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_e (.clk(clk), .d(t0_e), .valid(1'b0), .q(dl_t0_e));
     // t0_linA_x = t0_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_x;
@@ -1107,7 +1219,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[54] = fl_t0_linA_x[1] && ev_q[3];
     assign ev_inv[54] = fl_t0_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linA_x (.clk(clk), .d(t0_linA_x), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_x));
     // t0_linA_y = t0_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_y;
@@ -1120,7 +1233,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[55] = fl_t0_linA_y[1] && ev_q[3];
     assign ev_inv[55] = fl_t0_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linA_y (.clk(clk), .d(t0_linA_y), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_y));
     // t0_linA_z = t0_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_z;
@@ -1133,7 +1247,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[56] = fl_t0_linA_z[1] && ev_q[3];
     assign ev_inv[56] = fl_t0_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_z));
     // t0_mul112 = t0_linA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul112;
@@ -1146,7 +1261,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[57] = fl_t0_mul112[1] && ev_q[46];
     assign ev_inv[57] = fl_t0_mul112[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul112;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul112 (.clk(clk), .d(t0_mul112), .valid(1'b0), .q(dl_t0_mul112));
     // t0_mul113 = t0_linA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul113;
@@ -1159,7 +1275,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[58] = fl_t0_mul113[1] && ev_q[46];
     assign ev_inv[58] = fl_t0_mul113[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul113;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul113 (.clk(clk), .d(t0_mul113), .valid(1'b0), .q(dl_t0_mul113));
     // t0_mul114 = t0_linA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul114;
@@ -1172,7 +1289,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[59] = fl_t0_mul114[1] && ev_q[46];
     assign ev_inv[59] = fl_t0_mul114[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul114;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul114 (.clk(clk), .d(t0_mul114), .valid(1'b0), .q(dl_t0_mul114));
     // t0_add115 = vA_x + t0_mul112   (ready @50/50/50)
     logic [W-1:0] t0_add115;
@@ -1185,7 +1303,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[60] = fl_t0_add115[1] && ev_q[50];
     assign ev_inv[60] = fl_t0_add115[2] && ev_q[50];
     logic [W-1:0] dl_t0_add115;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add115 (.clk(clk), .d(t0_add115), .valid(1'b0), .q(dl_t0_add115));
     // t0_add116 = vA_y + t0_mul113   (ready @50/50/50)
     logic [W-1:0] t0_add116;
@@ -1198,7 +1317,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[61] = fl_t0_add116[1] && ev_q[50];
     assign ev_inv[61] = fl_t0_add116[2] && ev_q[50];
     logic [W-1:0] dl_t0_add116;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add116 (.clk(clk), .d(t0_add116), .valid(1'b0), .q(dl_t0_add116));
     // t0_add117 = vA_z + t0_mul114   (ready @50/50/50)
     logic [W-1:0] t0_add117;
@@ -1211,25 +1331,29 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[62] = fl_t0_add117[1] && ev_q[50];
     assign ev_inv[62] = fl_t0_add117[2] && ev_q[50];
     logic [W-1:0] dl_t0_add117;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add117 (.clk(clk), .d(t0_add117), .valid(1'b0), .q(dl_t0_add117));
     // t0_vA_x = skip ? vA_x : t0_add115   (ready @50/50/50)
     logic [W-1:0] t0_vA_x;
     assign t0_vA_x = dl_skip[1] ? dl_in_vA_x[2*W +: W] : dl_t0_add115;
     logic [3*W-1:0] dl_t0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vA_x (.clk(clk), .d(t0_vA_x), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_x));
     // t0_vA_y = skip ? vA_y : t0_add116   (ready @50/50/50)
     logic [W-1:0] t0_vA_y;
     assign t0_vA_y = dl_skip[1] ? dl_in_vA_y[2*W +: W] : dl_t0_add116;
     logic [3*W-1:0] dl_t0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vA_y (.clk(clk), .d(t0_vA_y), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_y));
     // t0_vA_z = skip ? vA_z : t0_add117   (ready @50/50/50)
     logic [W-1:0] t0_vA_z;
     assign t0_vA_z = dl_skip[1] ? dl_in_vA_z[2*W +: W] : dl_t0_add117;
     logic [3*W-1:0] dl_t0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vA_z (.clk(clk), .d(t0_vA_z), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_z));
     // t0_angA_x = IInvA_x * t0_cA_x   (ready @14/14/14)
     logic [W-1:0] t0_angA_x;
@@ -1242,7 +1366,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[63] = fl_t0_angA_x[1] && ev_q[14];
     assign ev_inv[63] = fl_t0_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(29))
+    pgs_delay #(.WIDTH(W), .DEPTH(29),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angA_x (.clk(clk), .d(t0_angA_x), .valid(valid_q[14 +: 29]), .q(dl_t0_angA_x));
     // t0_angA_y = IInvA_y * t0_cA_y   (ready @14/14/14)
     logic [W-1:0] t0_angA_y;
@@ -1255,7 +1380,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[64] = fl_t0_angA_y[1] && ev_q[14];
     assign ev_inv[64] = fl_t0_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(29))
+    pgs_delay #(.WIDTH(W), .DEPTH(29),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angA_y (.clk(clk), .d(t0_angA_y), .valid(valid_q[14 +: 29]), .q(dl_t0_angA_y));
     // t0_angA_z = IInvA_z * t0_cA_z   (ready @14/14/14)
     logic [W-1:0] t0_angA_z;
@@ -1268,7 +1394,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[65] = fl_t0_angA_z[1] && ev_q[14];
     assign ev_inv[65] = fl_t0_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(29))
+    pgs_delay #(.WIDTH(W), .DEPTH(29),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .valid(valid_q[14 +: 29]), .q(dl_t0_angA_z));
     // t0_mul124 = t0_angA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul124;
@@ -1281,7 +1408,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[66] = fl_t0_mul124[1] && ev_q[46];
     assign ev_inv[66] = fl_t0_mul124[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul124;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul124 (.clk(clk), .d(t0_mul124), .valid(1'b0), .q(dl_t0_mul124));
     // t0_mul125 = t0_angA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul125;
@@ -1294,7 +1422,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[67] = fl_t0_mul125[1] && ev_q[46];
     assign ev_inv[67] = fl_t0_mul125[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul125;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul125 (.clk(clk), .d(t0_mul125), .valid(1'b0), .q(dl_t0_mul125));
     // t0_mul126 = t0_angA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul126;
@@ -1307,7 +1436,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[68] = fl_t0_mul126[1] && ev_q[46];
     assign ev_inv[68] = fl_t0_mul126[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul126;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul126 (.clk(clk), .d(t0_mul126), .valid(1'b0), .q(dl_t0_mul126));
     // t0_add127 = wA_x + t0_mul124   (ready @50/50/50)
     logic [W-1:0] t0_add127;
@@ -1320,7 +1450,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[69] = fl_t0_add127[1] && ev_q[50];
     assign ev_inv[69] = fl_t0_add127[2] && ev_q[50];
     logic [W-1:0] dl_t0_add127;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add127 (.clk(clk), .d(t0_add127), .valid(1'b0), .q(dl_t0_add127));
     // t0_add128 = wA_y + t0_mul125   (ready @50/50/50)
     logic [W-1:0] t0_add128;
@@ -1333,7 +1464,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[70] = fl_t0_add128[1] && ev_q[50];
     assign ev_inv[70] = fl_t0_add128[2] && ev_q[50];
     logic [W-1:0] dl_t0_add128;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add128 (.clk(clk), .d(t0_add128), .valid(1'b0), .q(dl_t0_add128));
     // t0_add129 = wA_z + t0_mul126   (ready @50/50/50)
     logic [W-1:0] t0_add129;
@@ -1346,25 +1478,29 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[71] = fl_t0_add129[1] && ev_q[50];
     assign ev_inv[71] = fl_t0_add129[2] && ev_q[50];
     logic [W-1:0] dl_t0_add129;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add129 (.clk(clk), .d(t0_add129), .valid(1'b0), .q(dl_t0_add129));
     // t0_wA_x = skip ? wA_x : t0_add127   (ready @50/50/50)
     logic [W-1:0] t0_wA_x;
     assign t0_wA_x = dl_skip[1] ? dl_in_wA_x[2*W +: W] : dl_t0_add127;
     logic [3*W-1:0] dl_t0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wA_x (.clk(clk), .d(t0_wA_x), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_x));
     // t0_wA_y = skip ? wA_y : t0_add128   (ready @50/50/50)
     logic [W-1:0] t0_wA_y;
     assign t0_wA_y = dl_skip[1] ? dl_in_wA_y[2*W +: W] : dl_t0_add128;
     logic [3*W-1:0] dl_t0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wA_y (.clk(clk), .d(t0_wA_y), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_y));
     // t0_wA_z = skip ? wA_z : t0_add129   (ready @50/50/50)
     logic [W-1:0] t0_wA_z;
     assign t0_wA_z = dl_skip[1] ? dl_in_wA_z[2*W +: W] : dl_t0_add129;
     logic [3*W-1:0] dl_t0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wA_z (.clk(clk), .d(t0_wA_z), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_z));
     // t0_linB_x = t0_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_x;
@@ -1377,7 +1513,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[72] = fl_t0_linB_x[1] && ev_q[3];
     assign ev_inv[72] = fl_t0_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linB_x (.clk(clk), .d(t0_linB_x), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_x));
     // t0_linB_y = t0_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_y;
@@ -1390,7 +1527,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[73] = fl_t0_linB_y[1] && ev_q[3];
     assign ev_inv[73] = fl_t0_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linB_y (.clk(clk), .d(t0_linB_y), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_y));
     // t0_linB_z = t0_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_z;
@@ -1403,7 +1541,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[74] = fl_t0_linB_z[1] && ev_q[3];
     assign ev_inv[74] = fl_t0_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_z));
     // t0_mul136 = t0_linB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul136;
@@ -1416,7 +1555,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[75] = fl_t0_mul136[1] && ev_q[46];
     assign ev_inv[75] = fl_t0_mul136[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul136;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul136 (.clk(clk), .d(t0_mul136), .valid(1'b0), .q(dl_t0_mul136));
     // t0_mul137 = t0_linB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul137;
@@ -1429,7 +1569,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[76] = fl_t0_mul137[1] && ev_q[46];
     assign ev_inv[76] = fl_t0_mul137[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul137;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul137 (.clk(clk), .d(t0_mul137), .valid(1'b0), .q(dl_t0_mul137));
     // t0_mul138 = t0_linB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul138;
@@ -1442,7 +1583,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[77] = fl_t0_mul138[1] && ev_q[46];
     assign ev_inv[77] = fl_t0_mul138[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul138;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul138 (.clk(clk), .d(t0_mul138), .valid(1'b0), .q(dl_t0_mul138));
     // t0_sub139 = vB_x - t0_mul136   (ready @50/50/50)
     logic [W-1:0] t0_sub139;
@@ -1455,7 +1597,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[78] = fl_t0_sub139[1] && ev_q[50];
     assign ev_inv[78] = fl_t0_sub139[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub139;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub139 (.clk(clk), .d(t0_sub139), .valid(1'b0), .q(dl_t0_sub139));
     // t0_sub140 = vB_y - t0_mul137   (ready @50/50/50)
     logic [W-1:0] t0_sub140;
@@ -1468,7 +1611,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[79] = fl_t0_sub140[1] && ev_q[50];
     assign ev_inv[79] = fl_t0_sub140[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub140;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub140 (.clk(clk), .d(t0_sub140), .valid(1'b0), .q(dl_t0_sub140));
     // t0_sub141 = vB_z - t0_mul138   (ready @50/50/50)
     logic [W-1:0] t0_sub141;
@@ -1481,25 +1625,29 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[80] = fl_t0_sub141[1] && ev_q[50];
     assign ev_inv[80] = fl_t0_sub141[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub141;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub141 (.clk(clk), .d(t0_sub141), .valid(1'b0), .q(dl_t0_sub141));
     // t0_vB_x = skip ? vB_x : t0_sub139   (ready @50/50/50)
     logic [W-1:0] t0_vB_x;
     assign t0_vB_x = dl_skip[1] ? dl_in_vB_x[2*W +: W] : dl_t0_sub139;
     logic [3*W-1:0] dl_t0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vB_x (.clk(clk), .d(t0_vB_x), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_x));
     // t0_vB_y = skip ? vB_y : t0_sub140   (ready @50/50/50)
     logic [W-1:0] t0_vB_y;
     assign t0_vB_y = dl_skip[1] ? dl_in_vB_y[2*W +: W] : dl_t0_sub140;
     logic [3*W-1:0] dl_t0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vB_y (.clk(clk), .d(t0_vB_y), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_y));
     // t0_vB_z = skip ? vB_z : t0_sub141   (ready @50/50/50)
     logic [W-1:0] t0_vB_z;
     assign t0_vB_z = dl_skip[1] ? dl_in_vB_z[2*W +: W] : dl_t0_sub141;
     logic [3*W-1:0] dl_t0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vB_z (.clk(clk), .d(t0_vB_z), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_z));
     // t0_angB_x = IInvB_x * t0_cB_x   (ready @14/14/14)
     logic [W-1:0] t0_angB_x;
@@ -1512,7 +1660,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[81] = fl_t0_angB_x[1] && ev_q[14];
     assign ev_inv[81] = fl_t0_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(29))
+    pgs_delay #(.WIDTH(W), .DEPTH(29),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angB_x (.clk(clk), .d(t0_angB_x), .valid(valid_q[14 +: 29]), .q(dl_t0_angB_x));
     // t0_angB_y = IInvB_y * t0_cB_y   (ready @14/14/14)
     logic [W-1:0] t0_angB_y;
@@ -1525,7 +1674,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[82] = fl_t0_angB_y[1] && ev_q[14];
     assign ev_inv[82] = fl_t0_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(29))
+    pgs_delay #(.WIDTH(W), .DEPTH(29),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angB_y (.clk(clk), .d(t0_angB_y), .valid(valid_q[14 +: 29]), .q(dl_t0_angB_y));
     // t0_angB_z = IInvB_z * t0_cB_z   (ready @14/14/14)
     logic [W-1:0] t0_angB_z;
@@ -1538,7 +1688,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[83] = fl_t0_angB_z[1] && ev_q[14];
     assign ev_inv[83] = fl_t0_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(29))
+    pgs_delay #(.WIDTH(W), .DEPTH(29),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .valid(valid_q[14 +: 29]), .q(dl_t0_angB_z));
     // t0_mul148 = t0_angB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul148;
@@ -1551,7 +1702,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[84] = fl_t0_mul148[1] && ev_q[46];
     assign ev_inv[84] = fl_t0_mul148[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul148;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul148 (.clk(clk), .d(t0_mul148), .valid(1'b0), .q(dl_t0_mul148));
     // t0_mul149 = t0_angB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul149;
@@ -1564,7 +1716,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[85] = fl_t0_mul149[1] && ev_q[46];
     assign ev_inv[85] = fl_t0_mul149[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul149;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul149 (.clk(clk), .d(t0_mul149), .valid(1'b0), .q(dl_t0_mul149));
     // t0_mul150 = t0_angB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul150;
@@ -1577,7 +1730,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[86] = fl_t0_mul150[1] && ev_q[46];
     assign ev_inv[86] = fl_t0_mul150[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul150;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul150 (.clk(clk), .d(t0_mul150), .valid(1'b0), .q(dl_t0_mul150));
     // t0_sub151 = wB_x - t0_mul148   (ready @50/50/50)
     logic [W-1:0] t0_sub151;
@@ -1590,7 +1744,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[87] = fl_t0_sub151[1] && ev_q[50];
     assign ev_inv[87] = fl_t0_sub151[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub151;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub151 (.clk(clk), .d(t0_sub151), .valid(1'b0), .q(dl_t0_sub151));
     // t0_sub152 = wB_y - t0_mul149   (ready @50/50/50)
     logic [W-1:0] t0_sub152;
@@ -1603,7 +1758,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[88] = fl_t0_sub152[1] && ev_q[50];
     assign ev_inv[88] = fl_t0_sub152[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub152;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub152 (.clk(clk), .d(t0_sub152), .valid(1'b0), .q(dl_t0_sub152));
     // t0_sub153 = wB_z - t0_mul150   (ready @50/50/50)
     logic [W-1:0] t0_sub153;
@@ -1616,25 +1772,29 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[89] = fl_t0_sub153[1] && ev_q[50];
     assign ev_inv[89] = fl_t0_sub153[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub153;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub153 (.clk(clk), .d(t0_sub153), .valid(1'b0), .q(dl_t0_sub153));
     // t0_wB_x = skip ? wB_x : t0_sub151   (ready @50/50/50)
     logic [W-1:0] t0_wB_x;
     assign t0_wB_x = dl_skip[1] ? dl_in_wB_x[2*W +: W] : dl_t0_sub151;
     logic [3*W-1:0] dl_t0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wB_x (.clk(clk), .d(t0_wB_x), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_x));
     // t0_wB_y = skip ? wB_y : t0_sub152   (ready @50/50/50)
     logic [W-1:0] t0_wB_y;
     assign t0_wB_y = dl_skip[1] ? dl_in_wB_y[2*W +: W] : dl_t0_sub152;
     logic [3*W-1:0] dl_t0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wB_y (.clk(clk), .d(t0_wB_y), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_y));
     // t0_wB_z = skip ? wB_z : t0_sub153   (ready @50/50/50)
     logic [W-1:0] t0_wB_z;
     assign t0_wB_z = dl_skip[1] ? dl_in_wB_z[2*W +: W] : dl_t0_sub153;
     logic [3*W-1:0] dl_t0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wB_z (.clk(clk), .d(t0_wB_z), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_z));
     // t1_mul157 = rA_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul157;
@@ -1647,7 +1807,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[90] = fl_t1_mul157[1] && ev_q[7];
     assign ev_inv[90] = fl_t1_mul157[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul157;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul157 (.clk(clk), .d(t1_mul157), .valid(1'b0), .q(dl_t1_mul157));
     // t1_mul158 = rA_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul158;
@@ -1660,7 +1821,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[91] = fl_t1_mul158[1] && ev_q[7];
     assign ev_inv[91] = fl_t1_mul158[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul158;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul158 (.clk(clk), .d(t1_mul158), .valid(1'b0), .q(dl_t1_mul158));
     // t1_cA_x = t1_mul157 - t1_mul158   (ready @11/11/11)
     logic [W-1:0] t1_cA_x;
@@ -1673,7 +1835,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[92] = fl_t1_cA_x[1] && ev_q[11];
     assign ev_inv[92] = fl_t1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cA_x (.clk(clk), .d(t1_cA_x), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_x));
     // t1_mul160 = rA_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul160;
@@ -1686,7 +1849,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[93] = fl_t1_mul160[1] && ev_q[7];
     assign ev_inv[93] = fl_t1_mul160[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul160;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul160 (.clk(clk), .d(t1_mul160), .valid(1'b0), .q(dl_t1_mul160));
     // t1_mul161 = rA_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul161;
@@ -1699,7 +1863,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[94] = fl_t1_mul161[1] && ev_q[7];
     assign ev_inv[94] = fl_t1_mul161[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul161;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul161 (.clk(clk), .d(t1_mul161), .valid(1'b0), .q(dl_t1_mul161));
     // t1_cA_y = t1_mul160 - t1_mul161   (ready @11/11/11)
     logic [W-1:0] t1_cA_y;
@@ -1712,7 +1877,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[95] = fl_t1_cA_y[1] && ev_q[11];
     assign ev_inv[95] = fl_t1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cA_y (.clk(clk), .d(t1_cA_y), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_y));
     // t1_mul163 = rA_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul163;
@@ -1725,7 +1891,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[96] = fl_t1_mul163[1] && ev_q[7];
     assign ev_inv[96] = fl_t1_mul163[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul163;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul163 (.clk(clk), .d(t1_mul163), .valid(1'b0), .q(dl_t1_mul163));
     // t1_mul164 = rA_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul164;
@@ -1738,7 +1905,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[97] = fl_t1_mul164[1] && ev_q[7];
     assign ev_inv[97] = fl_t1_mul164[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul164;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul164 (.clk(clk), .d(t1_mul164), .valid(1'b0), .q(dl_t1_mul164));
     // t1_cA_z = t1_mul163 - t1_mul164   (ready @11/11/11)
     logic [W-1:0] t1_cA_z;
@@ -1751,7 +1919,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[98] = fl_t1_cA_z[1] && ev_q[11];
     assign ev_inv[98] = fl_t1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cA_z (.clk(clk), .d(t1_cA_z), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_z));
     // t1_mul166 = rB_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul166;
@@ -1764,7 +1933,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[99] = fl_t1_mul166[1] && ev_q[7];
     assign ev_inv[99] = fl_t1_mul166[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul166;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul166 (.clk(clk), .d(t1_mul166), .valid(1'b0), .q(dl_t1_mul166));
     // t1_mul167 = rB_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul167;
@@ -1777,7 +1947,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[100] = fl_t1_mul167[1] && ev_q[7];
     assign ev_inv[100] = fl_t1_mul167[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul167;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul167 (.clk(clk), .d(t1_mul167), .valid(1'b0), .q(dl_t1_mul167));
     // t1_cB_x = t1_mul166 - t1_mul167   (ready @11/11/11)
     logic [W-1:0] t1_cB_x;
@@ -1790,7 +1961,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[101] = fl_t1_cB_x[1] && ev_q[11];
     assign ev_inv[101] = fl_t1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cB_x (.clk(clk), .d(t1_cB_x), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_x));
     // t1_mul169 = rB_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul169;
@@ -1803,7 +1975,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[102] = fl_t1_mul169[1] && ev_q[7];
     assign ev_inv[102] = fl_t1_mul169[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul169;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul169 (.clk(clk), .d(t1_mul169), .valid(1'b0), .q(dl_t1_mul169));
     // t1_mul170 = rB_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul170;
@@ -1816,7 +1989,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[103] = fl_t1_mul170[1] && ev_q[7];
     assign ev_inv[103] = fl_t1_mul170[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul170;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul170 (.clk(clk), .d(t1_mul170), .valid(1'b0), .q(dl_t1_mul170));
     // t1_cB_y = t1_mul169 - t1_mul170   (ready @11/11/11)
     logic [W-1:0] t1_cB_y;
@@ -1829,7 +2003,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[104] = fl_t1_cB_y[1] && ev_q[11];
     assign ev_inv[104] = fl_t1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cB_y (.clk(clk), .d(t1_cB_y), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_y));
     // t1_mul172 = rB_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul172;
@@ -1842,7 +2017,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[105] = fl_t1_mul172[1] && ev_q[7];
     assign ev_inv[105] = fl_t1_mul172[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul172;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul172 (.clk(clk), .d(t1_mul172), .valid(1'b0), .q(dl_t1_mul172));
     // t1_mul173 = rB_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul173;
@@ -1855,7 +2031,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[106] = fl_t1_mul173[1] && ev_q[7];
     assign ev_inv[106] = fl_t1_mul173[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul173;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul173 (.clk(clk), .d(t1_mul173), .valid(1'b0), .q(dl_t1_mul173));
     // t1_cB_z = t1_mul172 - t1_mul173   (ready @11/11/11)
     logic [W-1:0] t1_cB_z;
@@ -1868,7 +2045,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[107] = fl_t1_cB_z[1] && ev_q[11];
     assign ev_inv[107] = fl_t1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cB_z (.clk(clk), .d(t1_cB_z), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_z));
     // t1_mul175 = t1_x * t0_vA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul175;
@@ -1881,7 +2059,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[108] = fl_t1_mul175[1] && ev_q[53];
     assign ev_inv[108] = fl_t1_mul175[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul175;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul175 (.clk(clk), .d(t1_mul175), .valid(1'b0), .q(dl_t1_mul175));
     // t1_mul176 = t1_y * t0_vA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul176;
@@ -1894,7 +2073,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[109] = fl_t1_mul176[1] && ev_q[53];
     assign ev_inv[109] = fl_t1_mul176[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul176;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul176 (.clk(clk), .d(t1_mul176), .valid(1'b0), .q(dl_t1_mul176));
     // t1_add177 = t1_mul175 + t1_mul176   (ready @57/57/57)
     logic [W-1:0] t1_add177;
@@ -1907,7 +2087,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[110] = fl_t1_add177[1] && ev_q[57];
     assign ev_inv[110] = fl_t1_add177[2] && ev_q[57];
     logic [W-1:0] dl_t1_add177;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add177 (.clk(clk), .d(t1_add177), .valid(1'b0), .q(dl_t1_add177));
     // t1_mul178 = t1_z * t0_vA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul178;
@@ -1920,7 +2101,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[111] = fl_t1_mul178[1] && ev_q[53];
     assign ev_inv[111] = fl_t1_mul178[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul178;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul178 (.clk(clk), .d(t1_mul178), .valid(valid_q[53 +: 4]), .q(dl_t1_mul178));
     // t1_add179 = t1_add177 + t1_mul178   (ready @61/61/61)
     logic [W-1:0] t1_add179;
@@ -1933,7 +2115,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[112] = fl_t1_add179[1] && ev_q[61];
     assign ev_inv[112] = fl_t1_add179[2] && ev_q[61];
     logic [W-1:0] dl_t1_add179;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add179 (.clk(clk), .d(t1_add179), .valid(1'b0), .q(dl_t1_add179));
     // t1_mul180 = t1_x * t0_vB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul180;
@@ -1946,7 +2129,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[113] = fl_t1_mul180[1] && ev_q[53];
     assign ev_inv[113] = fl_t1_mul180[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul180;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul180 (.clk(clk), .d(t1_mul180), .valid(1'b0), .q(dl_t1_mul180));
     // t1_mul181 = t1_y * t0_vB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul181;
@@ -1959,7 +2143,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[114] = fl_t1_mul181[1] && ev_q[53];
     assign ev_inv[114] = fl_t1_mul181[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul181;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul181 (.clk(clk), .d(t1_mul181), .valid(1'b0), .q(dl_t1_mul181));
     // t1_add182 = t1_mul180 + t1_mul181   (ready @57/57/57)
     logic [W-1:0] t1_add182;
@@ -1972,7 +2157,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[115] = fl_t1_add182[1] && ev_q[57];
     assign ev_inv[115] = fl_t1_add182[2] && ev_q[57];
     logic [W-1:0] dl_t1_add182;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add182 (.clk(clk), .d(t1_add182), .valid(1'b0), .q(dl_t1_add182));
     // t1_mul183 = t1_z * t0_vB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul183;
@@ -1985,7 +2171,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[116] = fl_t1_mul183[1] && ev_q[53];
     assign ev_inv[116] = fl_t1_mul183[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul183;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul183 (.clk(clk), .d(t1_mul183), .valid(valid_q[53 +: 4]), .q(dl_t1_mul183));
     // t1_add184 = t1_add182 + t1_mul183   (ready @61/61/61)
     logic [W-1:0] t1_add184;
@@ -1998,7 +2185,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[117] = fl_t1_add184[1] && ev_q[61];
     assign ev_inv[117] = fl_t1_add184[2] && ev_q[61];
     logic [W-1:0] dl_t1_add184;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add184 (.clk(clk), .d(t1_add184), .valid(1'b0), .q(dl_t1_add184));
     // t1_sub185 = t1_add179 - t1_add184   (ready @65/65/65)
     logic [W-1:0] t1_sub185;
@@ -2011,7 +2199,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[118] = fl_t1_sub185[1] && ev_q[65];
     assign ev_inv[118] = fl_t1_sub185[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub185;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub185 (.clk(clk), .d(t1_sub185), .valid(1'b0), .q(dl_t1_sub185));
     // t1_mul186 = t1_cA_x * t0_wA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul186;
@@ -2024,7 +2213,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[119] = fl_t1_mul186[1] && ev_q[53];
     assign ev_inv[119] = fl_t1_mul186[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul186;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul186 (.clk(clk), .d(t1_mul186), .valid(1'b0), .q(dl_t1_mul186));
     // t1_mul187 = t1_cA_y * t0_wA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul187;
@@ -2037,7 +2227,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[120] = fl_t1_mul187[1] && ev_q[53];
     assign ev_inv[120] = fl_t1_mul187[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul187;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul187 (.clk(clk), .d(t1_mul187), .valid(1'b0), .q(dl_t1_mul187));
     // t1_add188 = t1_mul186 + t1_mul187   (ready @57/57/57)
     logic [W-1:0] t1_add188;
@@ -2050,7 +2241,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[121] = fl_t1_add188[1] && ev_q[57];
     assign ev_inv[121] = fl_t1_add188[2] && ev_q[57];
     logic [W-1:0] dl_t1_add188;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add188 (.clk(clk), .d(t1_add188), .valid(1'b0), .q(dl_t1_add188));
     // t1_mul189 = t1_cA_z * t0_wA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul189;
@@ -2063,7 +2255,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[122] = fl_t1_mul189[1] && ev_q[53];
     assign ev_inv[122] = fl_t1_mul189[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul189;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul189 (.clk(clk), .d(t1_mul189), .valid(valid_q[53 +: 4]), .q(dl_t1_mul189));
     // t1_add190 = t1_add188 + t1_mul189   (ready @61/61/61)
     logic [W-1:0] t1_add190;
@@ -2076,7 +2269,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[123] = fl_t1_add190[1] && ev_q[61];
     assign ev_inv[123] = fl_t1_add190[2] && ev_q[61];
     logic [W-1:0] dl_t1_add190;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add190 (.clk(clk), .d(t1_add190), .valid(1'b0), .q(dl_t1_add190));
     // t1_mul191 = t1_cB_x * t0_wB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul191;
@@ -2089,7 +2283,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[124] = fl_t1_mul191[1] && ev_q[53];
     assign ev_inv[124] = fl_t1_mul191[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul191;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul191 (.clk(clk), .d(t1_mul191), .valid(1'b0), .q(dl_t1_mul191));
     // t1_mul192 = t1_cB_y * t0_wB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul192;
@@ -2102,7 +2297,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[125] = fl_t1_mul192[1] && ev_q[53];
     assign ev_inv[125] = fl_t1_mul192[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul192;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul192 (.clk(clk), .d(t1_mul192), .valid(1'b0), .q(dl_t1_mul192));
     // t1_add193 = t1_mul191 + t1_mul192   (ready @57/57/57)
     logic [W-1:0] t1_add193;
@@ -2115,7 +2311,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[126] = fl_t1_add193[1] && ev_q[57];
     assign ev_inv[126] = fl_t1_add193[2] && ev_q[57];
     logic [W-1:0] dl_t1_add193;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add193 (.clk(clk), .d(t1_add193), .valid(1'b0), .q(dl_t1_add193));
     // t1_mul194 = t1_cB_z * t0_wB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul194;
@@ -2128,7 +2325,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[127] = fl_t1_mul194[1] && ev_q[53];
     assign ev_inv[127] = fl_t1_mul194[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul194;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul194 (.clk(clk), .d(t1_mul194), .valid(valid_q[53 +: 4]), .q(dl_t1_mul194));
     // t1_add195 = t1_add193 + t1_mul194   (ready @61/61/61)
     logic [W-1:0] t1_add195;
@@ -2141,7 +2339,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[128] = fl_t1_add195[1] && ev_q[61];
     assign ev_inv[128] = fl_t1_add195[2] && ev_q[61];
     logic [W-1:0] dl_t1_add195;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add195 (.clk(clk), .d(t1_add195), .valid(1'b0), .q(dl_t1_add195));
     // t1_sub196 = t1_add190 - t1_add195   (ready @65/65/65)
     logic [W-1:0] t1_sub196;
@@ -2154,7 +2353,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[129] = fl_t1_sub196[1] && ev_q[65];
     assign ev_inv[129] = fl_t1_sub196[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub196;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub196 (.clk(clk), .d(t1_sub196), .valid(1'b0), .q(dl_t1_sub196));
     // t1_u = t1_sub185 + t1_sub196   (ready @69/69/69)
     logic [W-1:0] t1_u;
@@ -2167,13 +2367,15 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[130] = fl_t1_u[1] && ev_q[69];
     assign ev_inv[130] = fl_t1_u[2] && ev_q[69];
     logic [W-1:0] dl_t1_u;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_u (.clk(clk), .d(t1_u), .valid(1'b0), .q(dl_t1_u));
     // t1_neg198 = -t1_u   (ready @69/69/69)
     logic [W-1:0] t1_neg198;
     assign t1_neg198 = {~dl_t1_u[W-1], dl_t1_u[W-2:0]};
     logic [W-1:0] dl_t1_neg198;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_neg198 (.clk(clk), .d(t1_neg198), .valid(1'b0), .q(dl_t1_neg198));
     // t1_delta0 = t1_neg198 * f_jac_inv1   (ready @72/72/72)
     logic [W-1:0] t1_delta0;
@@ -2186,7 +2388,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[131] = fl_t1_delta0[1] && ev_q[72];
     assign ev_inv[131] = fl_t1_delta0[2] && ev_q[72];
     logic [W-1:0] dl_t1_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_delta0 (.clk(clk), .d(t1_delta0), .valid(1'b0), .q(dl_t1_delta0));
     // t1_add200 = lamT1 + t1_delta0   (ready @76/76/76)
     logic [W-1:0] t1_add200;
@@ -2199,7 +2402,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[132] = fl_t1_add200[1] && ev_q[76];
     assign ev_inv[132] = fl_t1_add200[2] && ev_q[76];
     logic [W-1:0] dl_t1_add200;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add200 (.clk(clk), .d(t1_add200), .valid(1'b0), .q(dl_t1_add200));
     // t1_max201 = max(t1_add200, neg_limit)   (ready @77/77/77)
     logic [W-1:0] t1_max201;
@@ -2209,7 +2413,8 @@ module pgs_friction_pipe_mu #(
         .lt(nc_t1_max201_lt), .eq(nc_t1_max201_eq), .unordered(nc_t1_max201_uo)
     );
     logic [W-1:0] dl_t1_max201;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_max201 (.clk(clk), .d(t1_max201), .valid(1'b0), .q(dl_t1_max201));
     // t1_lam_new = min(t1_max201, limit)   (ready @78/78/78)
     logic [W-1:0] t1_lam_new;
@@ -2219,7 +2424,8 @@ module pgs_friction_pipe_mu #(
         .lt(nc_t1_lam_new_lt), .eq(nc_t1_lam_new_eq), .unordered(nc_t1_lam_new_uo)
     );
     logic [W-1:0] dl_t1_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_lam_new (.clk(clk), .d(t1_lam_new), .valid(1'b0), .q(dl_t1_lam_new));
     // t1_delta = t1_lam_new - lamT1   (ready @82/82/82)
     logic [W-1:0] t1_delta;
@@ -2232,19 +2438,22 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[133] = fl_t1_delta[1] && ev_q[82];
     assign ev_inv[133] = fl_t1_delta[2] && ev_q[82];
     logic [W-1:0] dl_t1_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_delta (.clk(clk), .d(t1_delta), .valid(1'b0), .q(dl_t1_delta));
     // t1_lamT = skip ? lamT1 : t1_lam_new   (ready @78/78/78)
     logic [W-1:0] t1_lamT;
     assign t1_lamT = dl_skip[2] ? dl_in_lamT1[1*W +: W] : dl_t1_lam_new;
     logic [W-1:0] dl_t1_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_lamT (.clk(clk), .d(t1_lamT), .valid(valid_q[78 +: 32]), .q(dl_t1_lamT));
     // t1_e = -t1_delta   (ready @82/82/82)
     logic [W-1:0] t1_e;
     assign t1_e = {~dl_t1_delta[W-1], dl_t1_delta[W-2:0]};
     logic [W-1:0] dl_t1_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_e (.clk(clk), .d(t1_e), .valid(1'b0), .q(dl_t1_e));
     // t1_linA_x = t1_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_x;
@@ -2257,7 +2466,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[134] = fl_t1_linA_x[1] && ev_q[3];
     assign ev_inv[134] = fl_t1_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linA_x (.clk(clk), .d(t1_linA_x), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_x));
     // t1_linA_y = t1_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_y;
@@ -2270,7 +2480,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[135] = fl_t1_linA_y[1] && ev_q[3];
     assign ev_inv[135] = fl_t1_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linA_y (.clk(clk), .d(t1_linA_y), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_y));
     // t1_linA_z = t1_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_z;
@@ -2283,7 +2494,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[136] = fl_t1_linA_z[1] && ev_q[3];
     assign ev_inv[136] = fl_t1_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_z));
     // t1_mul209 = t1_linA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul209;
@@ -2296,7 +2508,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[137] = fl_t1_mul209[1] && ev_q[85];
     assign ev_inv[137] = fl_t1_mul209[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul209;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul209 (.clk(clk), .d(t1_mul209), .valid(1'b0), .q(dl_t1_mul209));
     // t1_mul210 = t1_linA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul210;
@@ -2309,7 +2522,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[138] = fl_t1_mul210[1] && ev_q[85];
     assign ev_inv[138] = fl_t1_mul210[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul210;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul210 (.clk(clk), .d(t1_mul210), .valid(1'b0), .q(dl_t1_mul210));
     // t1_mul211 = t1_linA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul211;
@@ -2322,7 +2536,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[139] = fl_t1_mul211[1] && ev_q[85];
     assign ev_inv[139] = fl_t1_mul211[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul211;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul211 (.clk(clk), .d(t1_mul211), .valid(1'b0), .q(dl_t1_mul211));
     // t1_add212 = t0_vA_x + t1_mul209   (ready @89/89/89)
     logic [W-1:0] t1_add212;
@@ -2335,7 +2550,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[140] = fl_t1_add212[1] && ev_q[89];
     assign ev_inv[140] = fl_t1_add212[2] && ev_q[89];
     logic [W-1:0] dl_t1_add212;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add212 (.clk(clk), .d(t1_add212), .valid(1'b0), .q(dl_t1_add212));
     // t1_add213 = t0_vA_y + t1_mul210   (ready @89/89/89)
     logic [W-1:0] t1_add213;
@@ -2348,7 +2564,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[141] = fl_t1_add213[1] && ev_q[89];
     assign ev_inv[141] = fl_t1_add213[2] && ev_q[89];
     logic [W-1:0] dl_t1_add213;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add213 (.clk(clk), .d(t1_add213), .valid(1'b0), .q(dl_t1_add213));
     // t1_add214 = t0_vA_z + t1_mul211   (ready @89/89/89)
     logic [W-1:0] t1_add214;
@@ -2361,25 +2578,29 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[142] = fl_t1_add214[1] && ev_q[89];
     assign ev_inv[142] = fl_t1_add214[2] && ev_q[89];
     logic [W-1:0] dl_t1_add214;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add214 (.clk(clk), .d(t1_add214), .valid(1'b0), .q(dl_t1_add214));
     // t1_vA_x = skip ? t0_vA_x : t1_add212   (ready @89/89/89)
     logic [W-1:0] t1_vA_x;
     assign t1_vA_x = dl_skip[3] ? dl_t0_vA_x[2*W +: W] : dl_t1_add212;
     logic [W-1:0] dl_t1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vA_x (.clk(clk), .d(t1_vA_x), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_x));
     // t1_vA_y = skip ? t0_vA_y : t1_add213   (ready @89/89/89)
     logic [W-1:0] t1_vA_y;
     assign t1_vA_y = dl_skip[3] ? dl_t0_vA_y[2*W +: W] : dl_t1_add213;
     logic [W-1:0] dl_t1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vA_y (.clk(clk), .d(t1_vA_y), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_y));
     // t1_vA_z = skip ? t0_vA_z : t1_add214   (ready @89/89/89)
     logic [W-1:0] t1_vA_z;
     assign t1_vA_z = dl_skip[3] ? dl_t0_vA_z[2*W +: W] : dl_t1_add214;
     logic [W-1:0] dl_t1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vA_z (.clk(clk), .d(t1_vA_z), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_z));
     // t1_angA_x = IInvA_x * t1_cA_x   (ready @14/14/14)
     logic [W-1:0] t1_angA_x;
@@ -2392,7 +2613,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[143] = fl_t1_angA_x[1] && ev_q[14];
     assign ev_inv[143] = fl_t1_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(68))
+    pgs_delay #(.WIDTH(W), .DEPTH(68),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angA_x (.clk(clk), .d(t1_angA_x), .valid(valid_q[14 +: 68]), .q(dl_t1_angA_x));
     // t1_angA_y = IInvA_y * t1_cA_y   (ready @14/14/14)
     logic [W-1:0] t1_angA_y;
@@ -2405,7 +2627,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[144] = fl_t1_angA_y[1] && ev_q[14];
     assign ev_inv[144] = fl_t1_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(68))
+    pgs_delay #(.WIDTH(W), .DEPTH(68),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angA_y (.clk(clk), .d(t1_angA_y), .valid(valid_q[14 +: 68]), .q(dl_t1_angA_y));
     // t1_angA_z = IInvA_z * t1_cA_z   (ready @14/14/14)
     logic [W-1:0] t1_angA_z;
@@ -2418,7 +2641,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[145] = fl_t1_angA_z[1] && ev_q[14];
     assign ev_inv[145] = fl_t1_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(68))
+    pgs_delay #(.WIDTH(W), .DEPTH(68),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .valid(valid_q[14 +: 68]), .q(dl_t1_angA_z));
     // t1_mul221 = t1_angA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul221;
@@ -2431,7 +2655,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[146] = fl_t1_mul221[1] && ev_q[85];
     assign ev_inv[146] = fl_t1_mul221[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul221;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul221 (.clk(clk), .d(t1_mul221), .valid(1'b0), .q(dl_t1_mul221));
     // t1_mul222 = t1_angA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul222;
@@ -2444,7 +2669,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[147] = fl_t1_mul222[1] && ev_q[85];
     assign ev_inv[147] = fl_t1_mul222[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul222;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul222 (.clk(clk), .d(t1_mul222), .valid(1'b0), .q(dl_t1_mul222));
     // t1_mul223 = t1_angA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul223;
@@ -2457,7 +2683,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[148] = fl_t1_mul223[1] && ev_q[85];
     assign ev_inv[148] = fl_t1_mul223[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul223;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul223 (.clk(clk), .d(t1_mul223), .valid(1'b0), .q(dl_t1_mul223));
     // t1_add224 = t0_wA_x + t1_mul221   (ready @89/89/89)
     logic [W-1:0] t1_add224;
@@ -2470,7 +2697,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[149] = fl_t1_add224[1] && ev_q[89];
     assign ev_inv[149] = fl_t1_add224[2] && ev_q[89];
     logic [W-1:0] dl_t1_add224;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add224 (.clk(clk), .d(t1_add224), .valid(1'b0), .q(dl_t1_add224));
     // t1_add225 = t0_wA_y + t1_mul222   (ready @89/89/89)
     logic [W-1:0] t1_add225;
@@ -2483,7 +2711,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[150] = fl_t1_add225[1] && ev_q[89];
     assign ev_inv[150] = fl_t1_add225[2] && ev_q[89];
     logic [W-1:0] dl_t1_add225;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add225 (.clk(clk), .d(t1_add225), .valid(1'b0), .q(dl_t1_add225));
     // t1_add226 = t0_wA_z + t1_mul223   (ready @89/89/89)
     logic [W-1:0] t1_add226;
@@ -2496,25 +2725,29 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[151] = fl_t1_add226[1] && ev_q[89];
     assign ev_inv[151] = fl_t1_add226[2] && ev_q[89];
     logic [W-1:0] dl_t1_add226;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add226 (.clk(clk), .d(t1_add226), .valid(1'b0), .q(dl_t1_add226));
     // t1_wA_x = skip ? t0_wA_x : t1_add224   (ready @89/89/89)
     logic [W-1:0] t1_wA_x;
     assign t1_wA_x = dl_skip[3] ? dl_t0_wA_x[2*W +: W] : dl_t1_add224;
     logic [3*W-1:0] dl_t1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wA_x (.clk(clk), .d(t1_wA_x), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_x));
     // t1_wA_y = skip ? t0_wA_y : t1_add225   (ready @89/89/89)
     logic [W-1:0] t1_wA_y;
     assign t1_wA_y = dl_skip[3] ? dl_t0_wA_y[2*W +: W] : dl_t1_add225;
     logic [3*W-1:0] dl_t1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wA_y (.clk(clk), .d(t1_wA_y), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_y));
     // t1_wA_z = skip ? t0_wA_z : t1_add226   (ready @89/89/89)
     logic [W-1:0] t1_wA_z;
     assign t1_wA_z = dl_skip[3] ? dl_t0_wA_z[2*W +: W] : dl_t1_add226;
     logic [3*W-1:0] dl_t1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wA_z (.clk(clk), .d(t1_wA_z), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_z));
     // t1_linB_x = t1_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_x;
@@ -2527,7 +2760,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[152] = fl_t1_linB_x[1] && ev_q[3];
     assign ev_inv[152] = fl_t1_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linB_x (.clk(clk), .d(t1_linB_x), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_x));
     // t1_linB_y = t1_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_y;
@@ -2540,7 +2774,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[153] = fl_t1_linB_y[1] && ev_q[3];
     assign ev_inv[153] = fl_t1_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linB_y (.clk(clk), .d(t1_linB_y), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_y));
     // t1_linB_z = t1_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_z;
@@ -2553,7 +2788,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[154] = fl_t1_linB_z[1] && ev_q[3];
     assign ev_inv[154] = fl_t1_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_z));
     // t1_mul233 = t1_linB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul233;
@@ -2566,7 +2802,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[155] = fl_t1_mul233[1] && ev_q[85];
     assign ev_inv[155] = fl_t1_mul233[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul233;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul233 (.clk(clk), .d(t1_mul233), .valid(1'b0), .q(dl_t1_mul233));
     // t1_mul234 = t1_linB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul234;
@@ -2579,7 +2816,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[156] = fl_t1_mul234[1] && ev_q[85];
     assign ev_inv[156] = fl_t1_mul234[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul234;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul234 (.clk(clk), .d(t1_mul234), .valid(1'b0), .q(dl_t1_mul234));
     // t1_mul235 = t1_linB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul235;
@@ -2592,7 +2830,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[157] = fl_t1_mul235[1] && ev_q[85];
     assign ev_inv[157] = fl_t1_mul235[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul235;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul235 (.clk(clk), .d(t1_mul235), .valid(1'b0), .q(dl_t1_mul235));
     // t1_sub236 = t0_vB_x - t1_mul233   (ready @89/89/89)
     logic [W-1:0] t1_sub236;
@@ -2605,7 +2844,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[158] = fl_t1_sub236[1] && ev_q[89];
     assign ev_inv[158] = fl_t1_sub236[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub236;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub236 (.clk(clk), .d(t1_sub236), .valid(1'b0), .q(dl_t1_sub236));
     // t1_sub237 = t0_vB_y - t1_mul234   (ready @89/89/89)
     logic [W-1:0] t1_sub237;
@@ -2618,7 +2858,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[159] = fl_t1_sub237[1] && ev_q[89];
     assign ev_inv[159] = fl_t1_sub237[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub237;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub237 (.clk(clk), .d(t1_sub237), .valid(1'b0), .q(dl_t1_sub237));
     // t1_sub238 = t0_vB_z - t1_mul235   (ready @89/89/89)
     logic [W-1:0] t1_sub238;
@@ -2631,25 +2872,29 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[160] = fl_t1_sub238[1] && ev_q[89];
     assign ev_inv[160] = fl_t1_sub238[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub238;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub238 (.clk(clk), .d(t1_sub238), .valid(1'b0), .q(dl_t1_sub238));
     // t1_vB_x = skip ? t0_vB_x : t1_sub236   (ready @89/89/89)
     logic [W-1:0] t1_vB_x;
     assign t1_vB_x = dl_skip[3] ? dl_t0_vB_x[2*W +: W] : dl_t1_sub236;
     logic [W-1:0] dl_t1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vB_x (.clk(clk), .d(t1_vB_x), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_x));
     // t1_vB_y = skip ? t0_vB_y : t1_sub237   (ready @89/89/89)
     logic [W-1:0] t1_vB_y;
     assign t1_vB_y = dl_skip[3] ? dl_t0_vB_y[2*W +: W] : dl_t1_sub237;
     logic [W-1:0] dl_t1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vB_y (.clk(clk), .d(t1_vB_y), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_y));
     // t1_vB_z = skip ? t0_vB_z : t1_sub238   (ready @89/89/89)
     logic [W-1:0] t1_vB_z;
     assign t1_vB_z = dl_skip[3] ? dl_t0_vB_z[2*W +: W] : dl_t1_sub238;
     logic [W-1:0] dl_t1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vB_z (.clk(clk), .d(t1_vB_z), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_z));
     // t1_angB_x = IInvB_x * t1_cB_x   (ready @14/14/14)
     logic [W-1:0] t1_angB_x;
@@ -2662,7 +2907,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[161] = fl_t1_angB_x[1] && ev_q[14];
     assign ev_inv[161] = fl_t1_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(68))
+    pgs_delay #(.WIDTH(W), .DEPTH(68),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angB_x (.clk(clk), .d(t1_angB_x), .valid(valid_q[14 +: 68]), .q(dl_t1_angB_x));
     // t1_angB_y = IInvB_y * t1_cB_y   (ready @14/14/14)
     logic [W-1:0] t1_angB_y;
@@ -2675,7 +2921,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[162] = fl_t1_angB_y[1] && ev_q[14];
     assign ev_inv[162] = fl_t1_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(68))
+    pgs_delay #(.WIDTH(W), .DEPTH(68),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angB_y (.clk(clk), .d(t1_angB_y), .valid(valid_q[14 +: 68]), .q(dl_t1_angB_y));
     // t1_angB_z = IInvB_z * t1_cB_z   (ready @14/14/14)
     logic [W-1:0] t1_angB_z;
@@ -2688,7 +2935,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[163] = fl_t1_angB_z[1] && ev_q[14];
     assign ev_inv[163] = fl_t1_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(68))
+    pgs_delay #(.WIDTH(W), .DEPTH(68),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .valid(valid_q[14 +: 68]), .q(dl_t1_angB_z));
     // t1_mul245 = t1_angB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul245;
@@ -2701,7 +2949,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[164] = fl_t1_mul245[1] && ev_q[85];
     assign ev_inv[164] = fl_t1_mul245[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul245;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul245 (.clk(clk), .d(t1_mul245), .valid(1'b0), .q(dl_t1_mul245));
     // t1_mul246 = t1_angB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul246;
@@ -2714,7 +2963,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[165] = fl_t1_mul246[1] && ev_q[85];
     assign ev_inv[165] = fl_t1_mul246[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul246;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul246 (.clk(clk), .d(t1_mul246), .valid(1'b0), .q(dl_t1_mul246));
     // t1_mul247 = t1_angB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul247;
@@ -2727,7 +2977,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[166] = fl_t1_mul247[1] && ev_q[85];
     assign ev_inv[166] = fl_t1_mul247[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul247;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul247 (.clk(clk), .d(t1_mul247), .valid(1'b0), .q(dl_t1_mul247));
     // t1_sub248 = t0_wB_x - t1_mul245   (ready @89/89/89)
     logic [W-1:0] t1_sub248;
@@ -2740,7 +2991,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[167] = fl_t1_sub248[1] && ev_q[89];
     assign ev_inv[167] = fl_t1_sub248[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub248;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub248 (.clk(clk), .d(t1_sub248), .valid(1'b0), .q(dl_t1_sub248));
     // t1_sub249 = t0_wB_y - t1_mul246   (ready @89/89/89)
     logic [W-1:0] t1_sub249;
@@ -2753,7 +3005,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[168] = fl_t1_sub249[1] && ev_q[89];
     assign ev_inv[168] = fl_t1_sub249[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub249;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub249 (.clk(clk), .d(t1_sub249), .valid(1'b0), .q(dl_t1_sub249));
     // t1_sub250 = t0_wB_z - t1_mul247   (ready @89/89/89)
     logic [W-1:0] t1_sub250;
@@ -2766,25 +3019,29 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[169] = fl_t1_sub250[1] && ev_q[89];
     assign ev_inv[169] = fl_t1_sub250[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub250;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub250 (.clk(clk), .d(t1_sub250), .valid(1'b0), .q(dl_t1_sub250));
     // t1_wB_x = skip ? t0_wB_x : t1_sub248   (ready @89/89/89)
     logic [W-1:0] t1_wB_x;
     assign t1_wB_x = dl_skip[3] ? dl_t0_wB_x[2*W +: W] : dl_t1_sub248;
     logic [3*W-1:0] dl_t1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wB_x (.clk(clk), .d(t1_wB_x), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_x));
     // t1_wB_y = skip ? t0_wB_y : t1_sub249   (ready @89/89/89)
     logic [W-1:0] t1_wB_y;
     assign t1_wB_y = dl_skip[3] ? dl_t0_wB_y[2*W +: W] : dl_t1_sub249;
     logic [3*W-1:0] dl_t1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wB_y (.clk(clk), .d(t1_wB_y), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_y));
     // t1_wB_z = skip ? t0_wB_z : t1_sub250   (ready @89/89/89)
     logic [W-1:0] t1_wB_z;
     assign t1_wB_z = dl_skip[3] ? dl_t0_wB_z[2*W +: W] : dl_t1_sub250;
     logic [3*W-1:0] dl_t1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wB_z (.clk(clk), .d(t1_wB_z), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_z));
     // spin_mul255 = n_x * t1_wA_x   (ready @92/92/92)
     logic [W-1:0] spin_mul255;
@@ -2797,7 +3054,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[170] = fl_spin_mul255[1] && ev_q[92];
     assign ev_inv[170] = fl_spin_mul255[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul255;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul255 (.clk(clk), .d(spin_mul255), .valid(1'b0), .q(dl_spin_mul255));
     // spin_mul256 = n_y * t1_wA_y   (ready @92/92/92)
     logic [W-1:0] spin_mul256;
@@ -2810,7 +3068,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[171] = fl_spin_mul256[1] && ev_q[92];
     assign ev_inv[171] = fl_spin_mul256[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul256;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul256 (.clk(clk), .d(spin_mul256), .valid(1'b0), .q(dl_spin_mul256));
     // spin_add257 = spin_mul255 + spin_mul256   (ready @96/96/96)
     logic [W-1:0] spin_add257;
@@ -2823,7 +3082,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[172] = fl_spin_add257[1] && ev_q[96];
     assign ev_inv[172] = fl_spin_add257[2] && ev_q[96];
     logic [W-1:0] dl_spin_add257;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add257 (.clk(clk), .d(spin_add257), .valid(1'b0), .q(dl_spin_add257));
     // spin_mul258 = n_z * t1_wA_z   (ready @92/92/92)
     logic [W-1:0] spin_mul258;
@@ -2836,7 +3096,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[173] = fl_spin_mul258[1] && ev_q[92];
     assign ev_inv[173] = fl_spin_mul258[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul258;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul258 (.clk(clk), .d(spin_mul258), .valid(valid_q[92 +: 4]), .q(dl_spin_mul258));
     // spin_add259 = spin_add257 + spin_mul258   (ready @100/100/100)
     logic [W-1:0] spin_add259;
@@ -2849,7 +3110,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[174] = fl_spin_add259[1] && ev_q[100];
     assign ev_inv[174] = fl_spin_add259[2] && ev_q[100];
     logic [W-1:0] dl_spin_add259;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add259 (.clk(clk), .d(spin_add259), .valid(1'b0), .q(dl_spin_add259));
     // spin_sA = spin_add259 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sA;
@@ -2862,7 +3124,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[175] = fl_spin_sA[1] && ev_q[103];
     assign ev_inv[175] = fl_spin_sA[2] && ev_q[103];
     logic [W-1:0] dl_spin_sA;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_sA (.clk(clk), .d(spin_sA), .valid(1'b0), .q(dl_spin_sA));
     // spin_mul261 = n_x * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul261;
@@ -2875,7 +3138,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[176] = fl_spin_mul261[1] && ev_q[106];
     assign ev_inv[176] = fl_spin_mul261[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul261;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul261 (.clk(clk), .d(spin_mul261), .valid(1'b0), .q(dl_spin_mul261));
     // spin_mul262 = n_y * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul262;
@@ -2888,7 +3152,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[177] = fl_spin_mul262[1] && ev_q[106];
     assign ev_inv[177] = fl_spin_mul262[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul262;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul262 (.clk(clk), .d(spin_mul262), .valid(1'b0), .q(dl_spin_mul262));
     // spin_mul263 = n_z * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul263;
@@ -2901,7 +3166,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[178] = fl_spin_mul263[1] && ev_q[106];
     assign ev_inv[178] = fl_spin_mul263[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul263;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul263 (.clk(clk), .d(spin_mul263), .valid(1'b0), .q(dl_spin_mul263));
     // spin_wA_damped_x = t1_wA_x - spin_mul261   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_x;
@@ -2914,7 +3180,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[179] = fl_spin_wA_damped_x[1] && ev_q[110];
     assign ev_inv[179] = fl_spin_wA_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_damped_x (.clk(clk), .d(spin_wA_damped_x), .valid(1'b0), .q(dl_spin_wA_damped_x));
     // spin_wA_damped_y = t1_wA_y - spin_mul262   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_y;
@@ -2927,7 +3194,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[180] = fl_spin_wA_damped_y[1] && ev_q[110];
     assign ev_inv[180] = fl_spin_wA_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_damped_y (.clk(clk), .d(spin_wA_damped_y), .valid(1'b0), .q(dl_spin_wA_damped_y));
     // spin_wA_damped_z = t1_wA_z - spin_mul263   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_z;
@@ -2940,7 +3208,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[181] = fl_spin_wA_damped_z[1] && ev_q[110];
     assign ev_inv[181] = fl_spin_wA_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_damped_z (.clk(clk), .d(spin_wA_damped_z), .valid(1'b0), .q(dl_spin_wA_damped_z));
     // spin_mul267 = n_x * t1_wB_x   (ready @92/92/92)
     logic [W-1:0] spin_mul267;
@@ -2953,7 +3222,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[182] = fl_spin_mul267[1] && ev_q[92];
     assign ev_inv[182] = fl_spin_mul267[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul267;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul267 (.clk(clk), .d(spin_mul267), .valid(1'b0), .q(dl_spin_mul267));
     // spin_mul268 = n_y * t1_wB_y   (ready @92/92/92)
     logic [W-1:0] spin_mul268;
@@ -2966,7 +3236,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[183] = fl_spin_mul268[1] && ev_q[92];
     assign ev_inv[183] = fl_spin_mul268[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul268;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul268 (.clk(clk), .d(spin_mul268), .valid(1'b0), .q(dl_spin_mul268));
     // spin_add269 = spin_mul267 + spin_mul268   (ready @96/96/96)
     logic [W-1:0] spin_add269;
@@ -2979,7 +3250,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[184] = fl_spin_add269[1] && ev_q[96];
     assign ev_inv[184] = fl_spin_add269[2] && ev_q[96];
     logic [W-1:0] dl_spin_add269;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add269 (.clk(clk), .d(spin_add269), .valid(1'b0), .q(dl_spin_add269));
     // spin_mul270 = n_z * t1_wB_z   (ready @92/92/92)
     logic [W-1:0] spin_mul270;
@@ -2992,7 +3264,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[185] = fl_spin_mul270[1] && ev_q[92];
     assign ev_inv[185] = fl_spin_mul270[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul270;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul270 (.clk(clk), .d(spin_mul270), .valid(valid_q[92 +: 4]), .q(dl_spin_mul270));
     // spin_add271 = spin_add269 + spin_mul270   (ready @100/100/100)
     logic [W-1:0] spin_add271;
@@ -3005,7 +3278,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[186] = fl_spin_add271[1] && ev_q[100];
     assign ev_inv[186] = fl_spin_add271[2] && ev_q[100];
     logic [W-1:0] dl_spin_add271;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add271 (.clk(clk), .d(spin_add271), .valid(1'b0), .q(dl_spin_add271));
     // spin_sB = spin_add271 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sB;
@@ -3018,7 +3292,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[187] = fl_spin_sB[1] && ev_q[103];
     assign ev_inv[187] = fl_spin_sB[2] && ev_q[103];
     logic [W-1:0] dl_spin_sB;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_sB (.clk(clk), .d(spin_sB), .valid(1'b0), .q(dl_spin_sB));
     // spin_mul273 = n_x * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul273;
@@ -3031,7 +3306,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[188] = fl_spin_mul273[1] && ev_q[106];
     assign ev_inv[188] = fl_spin_mul273[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul273;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul273 (.clk(clk), .d(spin_mul273), .valid(1'b0), .q(dl_spin_mul273));
     // spin_mul274 = n_y * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul274;
@@ -3044,7 +3320,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[189] = fl_spin_mul274[1] && ev_q[106];
     assign ev_inv[189] = fl_spin_mul274[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul274;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul274 (.clk(clk), .d(spin_mul274), .valid(1'b0), .q(dl_spin_mul274));
     // spin_mul275 = n_z * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul275;
@@ -3057,7 +3334,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[190] = fl_spin_mul275[1] && ev_q[106];
     assign ev_inv[190] = fl_spin_mul275[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul275;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul275 (.clk(clk), .d(spin_mul275), .valid(1'b0), .q(dl_spin_mul275));
     // spin_wB_damped_x = t1_wB_x - spin_mul273   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_x;
@@ -3070,7 +3348,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[191] = fl_spin_wB_damped_x[1] && ev_q[110];
     assign ev_inv[191] = fl_spin_wB_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_damped_x (.clk(clk), .d(spin_wB_damped_x), .valid(1'b0), .q(dl_spin_wB_damped_x));
     // spin_wB_damped_y = t1_wB_y - spin_mul274   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_y;
@@ -3083,7 +3362,8 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[192] = fl_spin_wB_damped_y[1] && ev_q[110];
     assign ev_inv[192] = fl_spin_wB_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_damped_y (.clk(clk), .d(spin_wB_damped_y), .valid(1'b0), .q(dl_spin_wB_damped_y));
     // spin_wB_damped_z = t1_wB_z - spin_mul275   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_z;
@@ -3096,79 +3376,92 @@ module pgs_friction_pipe_mu #(
     assign ev_unf[193] = fl_spin_wB_damped_z[1] && ev_q[110];
     assign ev_inv[193] = fl_spin_wB_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_damped_z (.clk(clk), .d(spin_wB_damped_z), .valid(1'b0), .q(dl_spin_wB_damped_z));
     // spin_select279 = spin_damp ? spin_wA_damped_x : t1_wA_x   (ready @110/110/110)
     logic [W-1:0] spin_select279;
     assign spin_select279 = dl_in_spin_damp ? dl_spin_wA_damped_x : dl_t1_wA_x[2*W +: W];
     logic [W-1:0] dl_spin_select279;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select279 (.clk(clk), .d(spin_select279), .valid(1'b0), .q(dl_spin_select279));
     // spin_select280 = spin_damp ? spin_wA_damped_y : t1_wA_y   (ready @110/110/110)
     logic [W-1:0] spin_select280;
     assign spin_select280 = dl_in_spin_damp ? dl_spin_wA_damped_y : dl_t1_wA_y[2*W +: W];
     logic [W-1:0] dl_spin_select280;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select280 (.clk(clk), .d(spin_select280), .valid(1'b0), .q(dl_spin_select280));
     // spin_select281 = spin_damp ? spin_wA_damped_z : t1_wA_z   (ready @110/110/110)
     logic [W-1:0] spin_select281;
     assign spin_select281 = dl_in_spin_damp ? dl_spin_wA_damped_z : dl_t1_wA_z[2*W +: W];
     logic [W-1:0] dl_spin_select281;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select281 (.clk(clk), .d(spin_select281), .valid(1'b0), .q(dl_spin_select281));
     // spin_wA_x = skip ? t1_wA_x : spin_select279   (ready @110/110/110)
     logic [W-1:0] spin_wA_x;
     assign spin_wA_x = dl_skip[4] ? dl_t1_wA_x[2*W +: W] : dl_spin_select279;
     logic [W-1:0] dl_spin_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_x (.clk(clk), .d(spin_wA_x), .valid(1'b0), .q(dl_spin_wA_x));
     // spin_wA_y = skip ? t1_wA_y : spin_select280   (ready @110/110/110)
     logic [W-1:0] spin_wA_y;
     assign spin_wA_y = dl_skip[4] ? dl_t1_wA_y[2*W +: W] : dl_spin_select280;
     logic [W-1:0] dl_spin_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_y (.clk(clk), .d(spin_wA_y), .valid(1'b0), .q(dl_spin_wA_y));
     // spin_wA_z = skip ? t1_wA_z : spin_select281   (ready @110/110/110)
     logic [W-1:0] spin_wA_z;
     assign spin_wA_z = dl_skip[4] ? dl_t1_wA_z[2*W +: W] : dl_spin_select281;
     logic [W-1:0] dl_spin_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_z (.clk(clk), .d(spin_wA_z), .valid(1'b0), .q(dl_spin_wA_z));
     // spin_select285 = spin_damp ? spin_wB_damped_x : t1_wB_x   (ready @110/110/110)
     logic [W-1:0] spin_select285;
     assign spin_select285 = dl_in_spin_damp ? dl_spin_wB_damped_x : dl_t1_wB_x[2*W +: W];
     logic [W-1:0] dl_spin_select285;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select285 (.clk(clk), .d(spin_select285), .valid(1'b0), .q(dl_spin_select285));
     // spin_select286 = spin_damp ? spin_wB_damped_y : t1_wB_y   (ready @110/110/110)
     logic [W-1:0] spin_select286;
     assign spin_select286 = dl_in_spin_damp ? dl_spin_wB_damped_y : dl_t1_wB_y[2*W +: W];
     logic [W-1:0] dl_spin_select286;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select286 (.clk(clk), .d(spin_select286), .valid(1'b0), .q(dl_spin_select286));
     // spin_select287 = spin_damp ? spin_wB_damped_z : t1_wB_z   (ready @110/110/110)
     logic [W-1:0] spin_select287;
     assign spin_select287 = dl_in_spin_damp ? dl_spin_wB_damped_z : dl_t1_wB_z[2*W +: W];
     logic [W-1:0] dl_spin_select287;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select287 (.clk(clk), .d(spin_select287), .valid(1'b0), .q(dl_spin_select287));
     // spin_wB_x = skip ? t1_wB_x : spin_select285   (ready @110/110/110)
     logic [W-1:0] spin_wB_x;
     assign spin_wB_x = dl_skip[4] ? dl_t1_wB_x[2*W +: W] : dl_spin_select285;
     logic [W-1:0] dl_spin_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_x (.clk(clk), .d(spin_wB_x), .valid(1'b0), .q(dl_spin_wB_x));
     // spin_wB_y = skip ? t1_wB_y : spin_select286   (ready @110/110/110)
     logic [W-1:0] spin_wB_y;
     assign spin_wB_y = dl_skip[4] ? dl_t1_wB_y[2*W +: W] : dl_spin_select286;
     logic [W-1:0] dl_spin_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_y (.clk(clk), .d(spin_wB_y), .valid(1'b0), .q(dl_spin_wB_y));
     // spin_wB_z = skip ? t1_wB_z : spin_select287   (ready @110/110/110)
     logic [W-1:0] spin_wB_z;
     assign spin_wB_z = dl_skip[4] ? dl_t1_wB_z[2*W +: W] : dl_spin_select287;
     logic [W-1:0] dl_spin_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_z (.clk(clk), .d(spin_wB_z), .valid(1'b0), .q(dl_spin_wB_z));
 
     // Outputs, each delayed to LATENCY.

@@ -28,6 +28,9 @@ module pgs_friction_pipe_scalar_mu #(
     parameter  int EXP_BITS = 8,
     parameter  int MAN_BITS = 23,
     parameter  int TAG_W    = 64,
+    // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
+    // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
+    parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 43,
     localparam int N_OUT    = 14,
@@ -79,7 +82,7 @@ module pgs_friction_pipe_scalar_mu #(
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
         .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY), .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_tag (
         .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
     );
 
@@ -106,220 +109,264 @@ module pgs_friction_pipe_scalar_mu #(
     logic [W-1:0] in_n_x;
     assign in_n_x = in_data[0*W +: W];
     logic [2*W-1:0] dl_in_n_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: 103]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [2*W-1:0] dl_in_n_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: 103]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [2*W-1:0] dl_in_n_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(103), .N_TAPS(2), .TAPS({32'(103), 32'(89)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: 103]), .q(dl_in_n_z));
     logic [W-1:0] in_c_x;
     assign in_c_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_c_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_c_x (.clk(clk), .d(in_c_x), .valid(1'b0), .q(dl_in_c_x));
     logic [W-1:0] in_c_y;
     assign in_c_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_c_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_c_y (.clk(clk), .d(in_c_y), .valid(1'b0), .q(dl_in_c_y));
     logic [W-1:0] in_c_z;
     assign in_c_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_c_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_c_z (.clk(clk), .d(in_c_z), .valid(1'b0), .q(dl_in_c_z));
     logic [W-1:0] in_t0_x;
     assign in_t0_x = in_data[6*W +: W];
     logic [2*W-1:0] dl_in_t0_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t0_x (.clk(clk), .d(in_t0_x), .valid(valid_q[0 +: 4]), .q(dl_in_t0_x));
     logic [W-1:0] in_t0_y;
     assign in_t0_y = in_data[7*W +: W];
     logic [2*W-1:0] dl_in_t0_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t0_y (.clk(clk), .d(in_t0_y), .valid(valid_q[0 +: 4]), .q(dl_in_t0_y));
     logic [W-1:0] in_t0_z;
     assign in_t0_z = in_data[8*W +: W];
     logic [2*W-1:0] dl_in_t0_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(4), .N_TAPS(2), .TAPS({32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t0_z (.clk(clk), .d(in_t0_z), .valid(valid_q[0 +: 4]), .q(dl_in_t0_z));
     logic [W-1:0] in_t1_x;
     assign in_t1_x = in_data[9*W +: W];
     logic [3*W-1:0] dl_in_t1_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t1_x (.clk(clk), .d(in_t1_x), .valid(valid_q[0 +: 50]), .q(dl_in_t1_x));
     logic [W-1:0] in_t1_y;
     assign in_t1_y = in_data[10*W +: W];
     logic [3*W-1:0] dl_in_t1_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t1_y (.clk(clk), .d(in_t1_y), .valid(valid_q[0 +: 50]), .q(dl_in_t1_y));
     logic [W-1:0] in_t1_z;
     assign in_t1_z = in_data[11*W +: W];
     logic [3*W-1:0] dl_in_t1_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(0), 32'(50), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_t1_z (.clk(clk), .d(in_t1_z), .valid(valid_q[0 +: 50]), .q(dl_in_t1_z));
     logic [W-1:0] in_f_jac_inv0;
     assign in_f_jac_inv0 = in_data[12*W +: W];
     logic [2*W-1:0] dl_in_f_jac_inv0;
-    pgs_delay #(.WIDTH(W), .DEPTH(30), .N_TAPS(2), .TAPS({32'(30), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(30), .N_TAPS(2), .TAPS({32'(30), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_f_jac_inv0 (.clk(clk), .d(in_f_jac_inv0), .valid(valid_q[0 +: 30]), .q(dl_in_f_jac_inv0));
     logic [W-1:0] in_f_jac_inv1;
     assign in_f_jac_inv1 = in_data[13*W +: W];
     logic [W-1:0] dl_in_f_jac_inv1;
-    pgs_delay #(.WIDTH(W), .DEPTH(69))
+    pgs_delay #(.WIDTH(W), .DEPTH(69),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_f_jac_inv1 (.clk(clk), .d(in_f_jac_inv1), .valid(valid_q[0 +: 69]), .q(dl_in_f_jac_inv1));
     logic [W-1:0] in_lam_n0;
     assign in_lam_n0 = in_data[14*W +: W];
     logic [W-1:0] dl_in_lam_n0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n0 (.clk(clk), .d(in_lam_n0), .valid(1'b0), .q(dl_in_lam_n0));
     logic [W-1:0] in_lam_n1;
     assign in_lam_n1 = in_data[15*W +: W];
     logic [W-1:0] dl_in_lam_n1;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n1 (.clk(clk), .d(in_lam_n1), .valid(1'b0), .q(dl_in_lam_n1));
     logic [W-1:0] in_lam_n2;
     assign in_lam_n2 = in_data[16*W +: W];
     logic [W-1:0] dl_in_lam_n2;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n2 (.clk(clk), .d(in_lam_n2), .valid(1'b0), .q(dl_in_lam_n2));
     logic [W-1:0] in_lam_n3;
     assign in_lam_n3 = in_data[17*W +: W];
     logic [W-1:0] dl_in_lam_n3;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n3 (.clk(clk), .d(in_lam_n3), .valid(1'b0), .q(dl_in_lam_n3));
     logic [W-1:0] in_lamT0;
     assign in_lamT0 = in_data[18*W +: W];
     logic [2*W-1:0] dl_in_lamT0;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(39), 32'(33)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(39), 32'(33)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lamT0 (.clk(clk), .d(in_lamT0), .valid(valid_q[0 +: 39]), .q(dl_in_lamT0));
     logic [W-1:0] in_lamT1;
     assign in_lamT1 = in_data[19*W +: W];
     logic [2*W-1:0] dl_in_lamT1;
-    pgs_delay #(.WIDTH(W), .DEPTH(78), .N_TAPS(2), .TAPS({32'(78), 32'(72)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(78), .N_TAPS(2), .TAPS({32'(78), 32'(72)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lamT1 (.clk(clk), .d(in_lamT1), .valid(valid_q[0 +: 78]), .q(dl_in_lamT1));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[20*W +: W];
     logic [W-1:0] dl_in_xA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[21*W +: W];
     logic [W-1:0] dl_in_xA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[22*W +: W];
     logic [W-1:0] dl_in_xA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[23*W +: W];
     logic [W-1:0] dl_in_xB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[24*W +: W];
     logic [W-1:0] dl_in_xB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[25*W +: W];
     logic [W-1:0] dl_in_xB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[26*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: 50]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[27*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: 50]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[28*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: 50]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[29*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: 50]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[30*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: 50]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[31*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: 50]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[32*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: 50]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[33*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: 50]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[34*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: 50]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[35*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: 50]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[36*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: 50]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[37*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(50), .N_TAPS(3), .TAPS({32'(50), 32'(46), 32'(11)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: 50]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[38*W +: W];
     logic [W-1:0] dl_in_mInvA;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(1'b0), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[39*W +: W];
     logic [W-1:0] dl_in_mInvB;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(1'b0), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_s;
     assign in_IInvA_s = in_data[40*W +: W];
     logic [W-1:0] dl_in_IInvA_s;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_s (.clk(clk), .d(in_IInvA_s), .valid(valid_q[0 +: 11]), .q(dl_in_IInvA_s));
     logic [W-1:0] in_IInvB_s;
     assign in_IInvB_s = in_data[41*W +: W];
     logic [W-1:0] dl_in_IInvB_s;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_s (.clk(clk), .d(in_IInvB_s), .valid(valid_q[0 +: 11]), .q(dl_in_IInvB_s));
     logic [W-1:0] in_mu;
     assign in_mu = in_data[42*W +: W];
     logic [W-1:0] dl_in_mu;
-    pgs_delay #(.WIDTH(W), .DEPTH(8))
+    pgs_delay #(.WIDTH(W), .DEPTH(8),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mu (.clk(clk), .d(in_mu), .valid(valid_q[0 +: 8]), .q(dl_in_mu));
     logic [1-1:0] dl_in_spin_damp;
-    pgs_delay #(.WIDTH(1), .DEPTH(110))
+    pgs_delay #(.WIDTH(1), .DEPTH(110),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_spin_damp (.clk(clk), .d(in_spin_damp), .valid(valid_q[0 +: 110]), .q(dl_in_spin_damp));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
@@ -328,7 +375,8 @@ module pgs_friction_pipe_scalar_mu #(
     logic skip;
     assign skip = (dl_in_f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [5*1-1:0] dl_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(110), .N_TAPS(5), .TAPS({32'(110), 32'(89), 32'(78), 32'(50), 32'(39)}))
+    pgs_delay #(.WIDTH(1), .DEPTH(110), .N_TAPS(5), .TAPS({32'(110), 32'(89), 32'(78), 32'(50), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_skip (.clk(clk), .d(skip), .valid(valid_q[0 +: 110]), .q(dl_skip));
     // add45 = lam_n0 + lam_n1   (ready @4/4/4)
     logic [W-1:0] add45;
@@ -341,7 +389,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[0] = fl_add45[1] && ev_q[4];
     assign ev_inv[0] = fl_add45[2] && ev_q[4];
     logic [W-1:0] dl_add45;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add45 (.clk(clk), .d(add45), .valid(1'b0), .q(dl_add45));
     // add46 = lam_n2 + lam_n3   (ready @4/4/4)
     logic [W-1:0] add46;
@@ -354,7 +403,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[1] = fl_add46[1] && ev_q[4];
     assign ev_inv[1] = fl_add46[2] && ev_q[4];
     logic [W-1:0] dl_add46;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add46 (.clk(clk), .d(add46), .valid(1'b0), .q(dl_add46));
     // add47 = add45 + add46   (ready @8/8/8)
     logic [W-1:0] add47;
@@ -367,7 +417,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[2] = fl_add47[1] && ev_q[8];
     assign ev_inv[2] = fl_add47[2] && ev_q[8];
     logic [W-1:0] dl_add47;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add47 (.clk(clk), .d(add47), .valid(1'b0), .q(dl_add47));
     // limit = mu * add47   (ready @11/11/11)
     logic [W-1:0] limit;
@@ -380,13 +431,15 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[3] = fl_limit[1] && ev_q[11];
     assign ev_inv[3] = fl_limit[2] && ev_q[11];
     logic [3*W-1:0] dl_limit;
-    pgs_delay #(.WIDTH(W), .DEPTH(66), .N_TAPS(3), .TAPS({32'(66), 32'(27), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(66), .N_TAPS(3), .TAPS({32'(66), 32'(27), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_limit (.clk(clk), .d(limit), .valid(valid_q[11 +: 66]), .q(dl_limit));
     // neg_limit = -limit   (ready @11/11/11)
     logic [W-1:0] neg_limit;
     assign neg_limit = {~dl_limit[0*W +: W][W-1], dl_limit[0*W +: W][W-2:0]};
     logic [2*W-1:0] dl_neg_limit;
-    pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(2), .TAPS({32'(65), 32'(26)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(2), .TAPS({32'(65), 32'(26)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_neg_limit (.clk(clk), .d(neg_limit), .valid(valid_q[11 +: 65]), .q(dl_neg_limit));
     // rA_x = c_x - xA_x   (ready @4/4/4)
     logic [W-1:0] rA_x;
@@ -399,7 +452,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[4] = fl_rA_x[1] && ev_q[4];
     assign ev_inv[4] = fl_rA_x[2] && ev_q[4];
     logic [W-1:0] dl_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rA_x (.clk(clk), .d(rA_x), .valid(1'b0), .q(dl_rA_x));
     // rA_y = c_y - xA_y   (ready @4/4/4)
     logic [W-1:0] rA_y;
@@ -412,7 +466,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[5] = fl_rA_y[1] && ev_q[4];
     assign ev_inv[5] = fl_rA_y[2] && ev_q[4];
     logic [W-1:0] dl_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rA_y (.clk(clk), .d(rA_y), .valid(1'b0), .q(dl_rA_y));
     // rA_z = c_z - xA_z   (ready @4/4/4)
     logic [W-1:0] rA_z;
@@ -425,7 +480,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[6] = fl_rA_z[1] && ev_q[4];
     assign ev_inv[6] = fl_rA_z[2] && ev_q[4];
     logic [W-1:0] dl_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rA_z (.clk(clk), .d(rA_z), .valid(1'b0), .q(dl_rA_z));
     // rB_x = c_x - xB_x   (ready @4/4/4)
     logic [W-1:0] rB_x;
@@ -438,7 +494,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[7] = fl_rB_x[1] && ev_q[4];
     assign ev_inv[7] = fl_rB_x[2] && ev_q[4];
     logic [W-1:0] dl_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rB_x (.clk(clk), .d(rB_x), .valid(1'b0), .q(dl_rB_x));
     // rB_y = c_y - xB_y   (ready @4/4/4)
     logic [W-1:0] rB_y;
@@ -451,7 +508,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[8] = fl_rB_y[1] && ev_q[4];
     assign ev_inv[8] = fl_rB_y[2] && ev_q[4];
     logic [W-1:0] dl_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rB_y (.clk(clk), .d(rB_y), .valid(1'b0), .q(dl_rB_y));
     // rB_z = c_z - xB_z   (ready @4/4/4)
     logic [W-1:0] rB_z;
@@ -464,7 +522,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[9] = fl_rB_z[1] && ev_q[4];
     assign ev_inv[9] = fl_rB_z[2] && ev_q[4];
     logic [W-1:0] dl_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rB_z (.clk(clk), .d(rB_z), .valid(1'b0), .q(dl_rB_z));
     // t0_mul56 = rA_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul56;
@@ -477,7 +536,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[10] = fl_t0_mul56[1] && ev_q[7];
     assign ev_inv[10] = fl_t0_mul56[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul56;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul56 (.clk(clk), .d(t0_mul56), .valid(1'b0), .q(dl_t0_mul56));
     // t0_mul57 = rA_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul57;
@@ -490,7 +550,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[11] = fl_t0_mul57[1] && ev_q[7];
     assign ev_inv[11] = fl_t0_mul57[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul57;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul57 (.clk(clk), .d(t0_mul57), .valid(1'b0), .q(dl_t0_mul57));
     // t0_cA_x = t0_mul56 - t0_mul57   (ready @11/11/11)
     logic [W-1:0] t0_cA_x;
@@ -503,7 +564,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[12] = fl_t0_cA_x[1] && ev_q[11];
     assign ev_inv[12] = fl_t0_cA_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cA_x (.clk(clk), .d(t0_cA_x), .valid(1'b0), .q(dl_t0_cA_x));
     // t0_mul59 = rA_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul59;
@@ -516,7 +578,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[13] = fl_t0_mul59[1] && ev_q[7];
     assign ev_inv[13] = fl_t0_mul59[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul59;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul59 (.clk(clk), .d(t0_mul59), .valid(1'b0), .q(dl_t0_mul59));
     // t0_mul60 = rA_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul60;
@@ -529,7 +592,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[14] = fl_t0_mul60[1] && ev_q[7];
     assign ev_inv[14] = fl_t0_mul60[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul60;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul60 (.clk(clk), .d(t0_mul60), .valid(1'b0), .q(dl_t0_mul60));
     // t0_cA_y = t0_mul59 - t0_mul60   (ready @11/11/11)
     logic [W-1:0] t0_cA_y;
@@ -542,7 +606,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[15] = fl_t0_cA_y[1] && ev_q[11];
     assign ev_inv[15] = fl_t0_cA_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cA_y (.clk(clk), .d(t0_cA_y), .valid(1'b0), .q(dl_t0_cA_y));
     // t0_mul62 = rA_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul62;
@@ -555,7 +620,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[16] = fl_t0_mul62[1] && ev_q[7];
     assign ev_inv[16] = fl_t0_mul62[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul62;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul62 (.clk(clk), .d(t0_mul62), .valid(1'b0), .q(dl_t0_mul62));
     // t0_mul63 = rA_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul63;
@@ -568,7 +634,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[17] = fl_t0_mul63[1] && ev_q[7];
     assign ev_inv[17] = fl_t0_mul63[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul63;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul63 (.clk(clk), .d(t0_mul63), .valid(1'b0), .q(dl_t0_mul63));
     // t0_cA_z = t0_mul62 - t0_mul63   (ready @11/11/11)
     logic [W-1:0] t0_cA_z;
@@ -581,7 +648,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[18] = fl_t0_cA_z[1] && ev_q[11];
     assign ev_inv[18] = fl_t0_cA_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cA_z (.clk(clk), .d(t0_cA_z), .valid(1'b0), .q(dl_t0_cA_z));
     // t0_mul65 = rB_y * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul65;
@@ -594,7 +662,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[19] = fl_t0_mul65[1] && ev_q[7];
     assign ev_inv[19] = fl_t0_mul65[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul65;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul65 (.clk(clk), .d(t0_mul65), .valid(1'b0), .q(dl_t0_mul65));
     // t0_mul66 = rB_z * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul66;
@@ -607,7 +676,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[20] = fl_t0_mul66[1] && ev_q[7];
     assign ev_inv[20] = fl_t0_mul66[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul66;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul66 (.clk(clk), .d(t0_mul66), .valid(1'b0), .q(dl_t0_mul66));
     // t0_cB_x = t0_mul65 - t0_mul66   (ready @11/11/11)
     logic [W-1:0] t0_cB_x;
@@ -620,7 +690,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[21] = fl_t0_cB_x[1] && ev_q[11];
     assign ev_inv[21] = fl_t0_cB_x[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cB_x (.clk(clk), .d(t0_cB_x), .valid(1'b0), .q(dl_t0_cB_x));
     // t0_mul68 = rB_z * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul68;
@@ -633,7 +704,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[22] = fl_t0_mul68[1] && ev_q[7];
     assign ev_inv[22] = fl_t0_mul68[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul68;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul68 (.clk(clk), .d(t0_mul68), .valid(1'b0), .q(dl_t0_mul68));
     // t0_mul69 = rB_x * t0_z   (ready @7/7/7)
     logic [W-1:0] t0_mul69;
@@ -646,7 +718,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[23] = fl_t0_mul69[1] && ev_q[7];
     assign ev_inv[23] = fl_t0_mul69[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul69;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul69 (.clk(clk), .d(t0_mul69), .valid(1'b0), .q(dl_t0_mul69));
     // t0_cB_y = t0_mul68 - t0_mul69   (ready @11/11/11)
     logic [W-1:0] t0_cB_y;
@@ -659,7 +732,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[24] = fl_t0_cB_y[1] && ev_q[11];
     assign ev_inv[24] = fl_t0_cB_y[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cB_y (.clk(clk), .d(t0_cB_y), .valid(1'b0), .q(dl_t0_cB_y));
     // t0_mul71 = rB_x * t0_y   (ready @7/7/7)
     logic [W-1:0] t0_mul71;
@@ -672,7 +746,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[25] = fl_t0_mul71[1] && ev_q[7];
     assign ev_inv[25] = fl_t0_mul71[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul71;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul71 (.clk(clk), .d(t0_mul71), .valid(1'b0), .q(dl_t0_mul71));
     // t0_mul72 = rB_y * t0_x   (ready @7/7/7)
     logic [W-1:0] t0_mul72;
@@ -685,7 +760,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[26] = fl_t0_mul72[1] && ev_q[7];
     assign ev_inv[26] = fl_t0_mul72[2] && ev_q[7];
     logic [W-1:0] dl_t0_mul72;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul72 (.clk(clk), .d(t0_mul72), .valid(1'b0), .q(dl_t0_mul72));
     // t0_cB_z = t0_mul71 - t0_mul72   (ready @11/11/11)
     logic [W-1:0] t0_cB_z;
@@ -698,7 +774,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[27] = fl_t0_cB_z[1] && ev_q[11];
     assign ev_inv[27] = fl_t0_cB_z[2] && ev_q[11];
     logic [W-1:0] dl_t0_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cB_z (.clk(clk), .d(t0_cB_z), .valid(1'b0), .q(dl_t0_cB_z));
     // t0_mul74 = t0_x * vA_x   (ready @3/3/3)
     logic [W-1:0] t0_mul74;
@@ -711,7 +788,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[28] = fl_t0_mul74[1] && ev_q[3];
     assign ev_inv[28] = fl_t0_mul74[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul74;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul74 (.clk(clk), .d(t0_mul74), .valid(1'b0), .q(dl_t0_mul74));
     // t0_mul75 = t0_y * vA_y   (ready @3/3/3)
     logic [W-1:0] t0_mul75;
@@ -724,7 +802,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[29] = fl_t0_mul75[1] && ev_q[3];
     assign ev_inv[29] = fl_t0_mul75[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul75;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul75 (.clk(clk), .d(t0_mul75), .valid(1'b0), .q(dl_t0_mul75));
     // t0_add76 = t0_mul74 + t0_mul75   (ready @7/7/7)
     logic [W-1:0] t0_add76;
@@ -737,7 +816,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[30] = fl_t0_add76[1] && ev_q[7];
     assign ev_inv[30] = fl_t0_add76[2] && ev_q[7];
     logic [W-1:0] dl_t0_add76;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add76 (.clk(clk), .d(t0_add76), .valid(1'b0), .q(dl_t0_add76));
     // t0_mul77 = t0_z * vA_z   (ready @3/3/3)
     logic [W-1:0] t0_mul77;
@@ -750,7 +830,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[31] = fl_t0_mul77[1] && ev_q[3];
     assign ev_inv[31] = fl_t0_mul77[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul77;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul77 (.clk(clk), .d(t0_mul77), .valid(valid_q[3 +: 4]), .q(dl_t0_mul77));
     // t0_add78 = t0_add76 + t0_mul77   (ready @11/11/11)
     logic [W-1:0] t0_add78;
@@ -763,7 +844,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[32] = fl_t0_add78[1] && ev_q[11];
     assign ev_inv[32] = fl_t0_add78[2] && ev_q[11];
     logic [W-1:0] dl_t0_add78;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add78 (.clk(clk), .d(t0_add78), .valid(1'b0), .q(dl_t0_add78));
     // t0_mul79 = t0_x * vB_x   (ready @3/3/3)
     logic [W-1:0] t0_mul79;
@@ -776,7 +858,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[33] = fl_t0_mul79[1] && ev_q[3];
     assign ev_inv[33] = fl_t0_mul79[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul79;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul79 (.clk(clk), .d(t0_mul79), .valid(1'b0), .q(dl_t0_mul79));
     // t0_mul80 = t0_y * vB_y   (ready @3/3/3)
     logic [W-1:0] t0_mul80;
@@ -789,7 +872,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[34] = fl_t0_mul80[1] && ev_q[3];
     assign ev_inv[34] = fl_t0_mul80[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul80;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul80 (.clk(clk), .d(t0_mul80), .valid(1'b0), .q(dl_t0_mul80));
     // t0_add81 = t0_mul79 + t0_mul80   (ready @7/7/7)
     logic [W-1:0] t0_add81;
@@ -802,7 +886,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[35] = fl_t0_add81[1] && ev_q[7];
     assign ev_inv[35] = fl_t0_add81[2] && ev_q[7];
     logic [W-1:0] dl_t0_add81;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add81 (.clk(clk), .d(t0_add81), .valid(1'b0), .q(dl_t0_add81));
     // t0_mul82 = t0_z * vB_z   (ready @3/3/3)
     logic [W-1:0] t0_mul82;
@@ -815,7 +900,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[36] = fl_t0_mul82[1] && ev_q[3];
     assign ev_inv[36] = fl_t0_mul82[2] && ev_q[3];
     logic [W-1:0] dl_t0_mul82;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul82 (.clk(clk), .d(t0_mul82), .valid(valid_q[3 +: 4]), .q(dl_t0_mul82));
     // t0_add83 = t0_add81 + t0_mul82   (ready @11/11/11)
     logic [W-1:0] t0_add83;
@@ -828,7 +914,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[37] = fl_t0_add83[1] && ev_q[11];
     assign ev_inv[37] = fl_t0_add83[2] && ev_q[11];
     logic [W-1:0] dl_t0_add83;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add83 (.clk(clk), .d(t0_add83), .valid(1'b0), .q(dl_t0_add83));
     // t0_sub84 = t0_add78 - t0_add83   (ready @15/15/15)
     logic [W-1:0] t0_sub84;
@@ -841,7 +928,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[38] = fl_t0_sub84[1] && ev_q[15];
     assign ev_inv[38] = fl_t0_sub84[2] && ev_q[15];
     logic [W-1:0] dl_t0_sub84;
-    pgs_delay #(.WIDTH(W), .DEPTH(11))
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub84 (.clk(clk), .d(t0_sub84), .valid(valid_q[15 +: 11]), .q(dl_t0_sub84));
     // t0_mul85 = t0_cA_x * wA_x   (ready @14/14/14)
     logic [W-1:0] t0_mul85;
@@ -854,7 +942,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[39] = fl_t0_mul85[1] && ev_q[14];
     assign ev_inv[39] = fl_t0_mul85[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul85;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul85 (.clk(clk), .d(t0_mul85), .valid(1'b0), .q(dl_t0_mul85));
     // t0_mul86 = t0_cA_y * wA_y   (ready @14/14/14)
     logic [W-1:0] t0_mul86;
@@ -867,7 +956,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[40] = fl_t0_mul86[1] && ev_q[14];
     assign ev_inv[40] = fl_t0_mul86[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul86;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul86 (.clk(clk), .d(t0_mul86), .valid(1'b0), .q(dl_t0_mul86));
     // t0_add87 = t0_mul85 + t0_mul86   (ready @18/18/18)
     logic [W-1:0] t0_add87;
@@ -880,7 +970,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[41] = fl_t0_add87[1] && ev_q[18];
     assign ev_inv[41] = fl_t0_add87[2] && ev_q[18];
     logic [W-1:0] dl_t0_add87;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add87 (.clk(clk), .d(t0_add87), .valid(1'b0), .q(dl_t0_add87));
     // t0_mul88 = t0_cA_z * wA_z   (ready @14/14/14)
     logic [W-1:0] t0_mul88;
@@ -893,7 +984,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[42] = fl_t0_mul88[1] && ev_q[14];
     assign ev_inv[42] = fl_t0_mul88[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul88;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul88 (.clk(clk), .d(t0_mul88), .valid(valid_q[14 +: 4]), .q(dl_t0_mul88));
     // t0_add89 = t0_add87 + t0_mul88   (ready @22/22/22)
     logic [W-1:0] t0_add89;
@@ -906,7 +998,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[43] = fl_t0_add89[1] && ev_q[22];
     assign ev_inv[43] = fl_t0_add89[2] && ev_q[22];
     logic [W-1:0] dl_t0_add89;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add89 (.clk(clk), .d(t0_add89), .valid(1'b0), .q(dl_t0_add89));
     // t0_mul90 = t0_cB_x * wB_x   (ready @14/14/14)
     logic [W-1:0] t0_mul90;
@@ -919,7 +1012,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[44] = fl_t0_mul90[1] && ev_q[14];
     assign ev_inv[44] = fl_t0_mul90[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul90;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul90 (.clk(clk), .d(t0_mul90), .valid(1'b0), .q(dl_t0_mul90));
     // t0_mul91 = t0_cB_y * wB_y   (ready @14/14/14)
     logic [W-1:0] t0_mul91;
@@ -932,7 +1026,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[45] = fl_t0_mul91[1] && ev_q[14];
     assign ev_inv[45] = fl_t0_mul91[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul91;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul91 (.clk(clk), .d(t0_mul91), .valid(1'b0), .q(dl_t0_mul91));
     // t0_add92 = t0_mul90 + t0_mul91   (ready @18/18/18)
     logic [W-1:0] t0_add92;
@@ -945,7 +1040,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[46] = fl_t0_add92[1] && ev_q[18];
     assign ev_inv[46] = fl_t0_add92[2] && ev_q[18];
     logic [W-1:0] dl_t0_add92;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add92 (.clk(clk), .d(t0_add92), .valid(1'b0), .q(dl_t0_add92));
     // t0_mul93 = t0_cB_z * wB_z   (ready @14/14/14)
     logic [W-1:0] t0_mul93;
@@ -958,7 +1054,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[47] = fl_t0_mul93[1] && ev_q[14];
     assign ev_inv[47] = fl_t0_mul93[2] && ev_q[14];
     logic [W-1:0] dl_t0_mul93;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul93 (.clk(clk), .d(t0_mul93), .valid(valid_q[14 +: 4]), .q(dl_t0_mul93));
     // t0_add94 = t0_add92 + t0_mul93   (ready @22/22/22)
     logic [W-1:0] t0_add94;
@@ -971,7 +1068,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[48] = fl_t0_add94[1] && ev_q[22];
     assign ev_inv[48] = fl_t0_add94[2] && ev_q[22];
     logic [W-1:0] dl_t0_add94;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add94 (.clk(clk), .d(t0_add94), .valid(1'b0), .q(dl_t0_add94));
     // t0_sub95 = t0_add89 - t0_add94   (ready @26/26/26)
     logic [W-1:0] t0_sub95;
@@ -984,7 +1082,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[49] = fl_t0_sub95[1] && ev_q[26];
     assign ev_inv[49] = fl_t0_sub95[2] && ev_q[26];
     logic [W-1:0] dl_t0_sub95;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub95 (.clk(clk), .d(t0_sub95), .valid(1'b0), .q(dl_t0_sub95));
     // t0_u = t0_sub84 + t0_sub95   (ready @30/30/30)
     logic [W-1:0] t0_u;
@@ -997,13 +1096,15 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[50] = fl_t0_u[1] && ev_q[30];
     assign ev_inv[50] = fl_t0_u[2] && ev_q[30];
     logic [W-1:0] dl_t0_u;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_u (.clk(clk), .d(t0_u), .valid(1'b0), .q(dl_t0_u));
     // t0_neg97 = -t0_u   (ready @30/30/30)
     logic [W-1:0] t0_neg97;
     assign t0_neg97 = {~dl_t0_u[W-1], dl_t0_u[W-2:0]};
     logic [W-1:0] dl_t0_neg97;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_neg97 (.clk(clk), .d(t0_neg97), .valid(1'b0), .q(dl_t0_neg97));
     // t0_delta0 = t0_neg97 * f_jac_inv0   (ready @33/33/33)
     logic [W-1:0] t0_delta0;
@@ -1016,7 +1117,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[51] = fl_t0_delta0[1] && ev_q[33];
     assign ev_inv[51] = fl_t0_delta0[2] && ev_q[33];
     logic [W-1:0] dl_t0_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_delta0 (.clk(clk), .d(t0_delta0), .valid(1'b0), .q(dl_t0_delta0));
     // t0_add99 = lamT0 + t0_delta0   (ready @37/37/37)
     logic [W-1:0] t0_add99;
@@ -1029,7 +1131,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[52] = fl_t0_add99[1] && ev_q[37];
     assign ev_inv[52] = fl_t0_add99[2] && ev_q[37];
     logic [W-1:0] dl_t0_add99;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add99 (.clk(clk), .d(t0_add99), .valid(1'b0), .q(dl_t0_add99));
     // t0_max100 = max(t0_add99, neg_limit)   (ready @38/38/38)
     logic [W-1:0] t0_max100;
@@ -1039,7 +1142,8 @@ module pgs_friction_pipe_scalar_mu #(
         .lt(nc_t0_max100_lt), .eq(nc_t0_max100_eq), .unordered(nc_t0_max100_uo)
     );
     logic [W-1:0] dl_t0_max100;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_max100 (.clk(clk), .d(t0_max100), .valid(1'b0), .q(dl_t0_max100));
     // t0_lam_new = min(t0_max100, limit)   (ready @39/39/39)
     logic [W-1:0] t0_lam_new;
@@ -1049,7 +1153,8 @@ module pgs_friction_pipe_scalar_mu #(
         .lt(nc_t0_lam_new_lt), .eq(nc_t0_lam_new_eq), .unordered(nc_t0_lam_new_uo)
     );
     logic [W-1:0] dl_t0_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_lam_new (.clk(clk), .d(t0_lam_new), .valid(1'b0), .q(dl_t0_lam_new));
     // t0_delta = t0_lam_new - lamT0   (ready @43/43/43)
     logic [W-1:0] t0_delta;
@@ -1062,19 +1167,22 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[53] = fl_t0_delta[1] && ev_q[43];
     assign ev_inv[53] = fl_t0_delta[2] && ev_q[43];
     logic [W-1:0] dl_t0_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_delta (.clk(clk), .d(t0_delta), .valid(1'b0), .q(dl_t0_delta));
     // t0_lamT = skip ? lamT0 : t0_lam_new   (ready @39/39/39)
     logic [W-1:0] t0_lamT;
     assign t0_lamT = dl_skip[0] ? dl_in_lamT0[1*W +: W] : dl_t0_lam_new;
     logic [W-1:0] dl_t0_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH(71))
+    pgs_delay #(.WIDTH(W), .DEPTH(71),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_lamT (.clk(clk), .d(t0_lamT), .valid(valid_q[39 +: 71]), .q(dl_t0_lamT));
     // t0_e = -t0_delta   (ready @43/43/43)
     logic [W-1:0] t0_e;
     assign t0_e = {~dl_t0_delta[W-1], dl_t0_delta[W-2:0]};
     logic [W-1:0] dl_t0_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_e (.clk(clk), .d(t0_e), .valid(1'b0), .q(dl_t0_e));
     // t0_linA_x = t0_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_x;
@@ -1087,7 +1195,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[54] = fl_t0_linA_x[1] && ev_q[3];
     assign ev_inv[54] = fl_t0_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linA_x (.clk(clk), .d(t0_linA_x), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_x));
     // t0_linA_y = t0_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_y;
@@ -1100,7 +1209,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[55] = fl_t0_linA_y[1] && ev_q[3];
     assign ev_inv[55] = fl_t0_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linA_y (.clk(clk), .d(t0_linA_y), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_y));
     // t0_linA_z = t0_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t0_linA_z;
@@ -1113,7 +1223,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[56] = fl_t0_linA_z[1] && ev_q[3];
     assign ev_inv[56] = fl_t0_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .valid(valid_q[3 +: 40]), .q(dl_t0_linA_z));
     // t0_mul108 = t0_linA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul108;
@@ -1126,7 +1237,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[57] = fl_t0_mul108[1] && ev_q[46];
     assign ev_inv[57] = fl_t0_mul108[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul108;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul108 (.clk(clk), .d(t0_mul108), .valid(1'b0), .q(dl_t0_mul108));
     // t0_mul109 = t0_linA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul109;
@@ -1139,7 +1251,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[58] = fl_t0_mul109[1] && ev_q[46];
     assign ev_inv[58] = fl_t0_mul109[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul109;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul109 (.clk(clk), .d(t0_mul109), .valid(1'b0), .q(dl_t0_mul109));
     // t0_mul110 = t0_linA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul110;
@@ -1152,7 +1265,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[59] = fl_t0_mul110[1] && ev_q[46];
     assign ev_inv[59] = fl_t0_mul110[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul110;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul110 (.clk(clk), .d(t0_mul110), .valid(1'b0), .q(dl_t0_mul110));
     // t0_add111 = vA_x + t0_mul108   (ready @50/50/50)
     logic [W-1:0] t0_add111;
@@ -1165,7 +1279,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[60] = fl_t0_add111[1] && ev_q[50];
     assign ev_inv[60] = fl_t0_add111[2] && ev_q[50];
     logic [W-1:0] dl_t0_add111;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add111 (.clk(clk), .d(t0_add111), .valid(1'b0), .q(dl_t0_add111));
     // t0_add112 = vA_y + t0_mul109   (ready @50/50/50)
     logic [W-1:0] t0_add112;
@@ -1178,7 +1293,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[61] = fl_t0_add112[1] && ev_q[50];
     assign ev_inv[61] = fl_t0_add112[2] && ev_q[50];
     logic [W-1:0] dl_t0_add112;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add112 (.clk(clk), .d(t0_add112), .valid(1'b0), .q(dl_t0_add112));
     // t0_add113 = vA_z + t0_mul110   (ready @50/50/50)
     logic [W-1:0] t0_add113;
@@ -1191,25 +1307,29 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[62] = fl_t0_add113[1] && ev_q[50];
     assign ev_inv[62] = fl_t0_add113[2] && ev_q[50];
     logic [W-1:0] dl_t0_add113;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add113 (.clk(clk), .d(t0_add113), .valid(1'b0), .q(dl_t0_add113));
     // t0_vA_x = skip ? vA_x : t0_add111   (ready @50/50/50)
     logic [W-1:0] t0_vA_x;
     assign t0_vA_x = dl_skip[1] ? dl_in_vA_x[2*W +: W] : dl_t0_add111;
     logic [3*W-1:0] dl_t0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vA_x (.clk(clk), .d(t0_vA_x), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_x));
     // t0_vA_y = skip ? vA_y : t0_add112   (ready @50/50/50)
     logic [W-1:0] t0_vA_y;
     assign t0_vA_y = dl_skip[1] ? dl_in_vA_y[2*W +: W] : dl_t0_add112;
     logic [3*W-1:0] dl_t0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vA_y (.clk(clk), .d(t0_vA_y), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_y));
     // t0_vA_z = skip ? vA_z : t0_add113   (ready @50/50/50)
     logic [W-1:0] t0_vA_z;
     assign t0_vA_z = dl_skip[1] ? dl_in_vA_z[2*W +: W] : dl_t0_add113;
     logic [3*W-1:0] dl_t0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vA_z (.clk(clk), .d(t0_vA_z), .valid(valid_q[50 +: 39]), .q(dl_t0_vA_z));
     // t0_angA_x = IInvA_s * t0_cA_x   (ready @14/14/14)
     logic [W-1:0] t0_angA_x;
@@ -1222,7 +1342,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[63] = fl_t0_angA_x[1] && ev_q[14];
     assign ev_inv[63] = fl_t0_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(29))
+    pgs_delay #(.WIDTH(W), .DEPTH(29),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angA_x (.clk(clk), .d(t0_angA_x), .valid(valid_q[14 +: 29]), .q(dl_t0_angA_x));
     // t0_angA_y = IInvA_s * t0_cA_y   (ready @14/14/14)
     logic [W-1:0] t0_angA_y;
@@ -1235,7 +1356,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[64] = fl_t0_angA_y[1] && ev_q[14];
     assign ev_inv[64] = fl_t0_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(29))
+    pgs_delay #(.WIDTH(W), .DEPTH(29),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angA_y (.clk(clk), .d(t0_angA_y), .valid(valid_q[14 +: 29]), .q(dl_t0_angA_y));
     // t0_angA_z = IInvA_s * t0_cA_z   (ready @14/14/14)
     logic [W-1:0] t0_angA_z;
@@ -1248,7 +1370,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[65] = fl_t0_angA_z[1] && ev_q[14];
     assign ev_inv[65] = fl_t0_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_t0_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(29))
+    pgs_delay #(.WIDTH(W), .DEPTH(29),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .valid(valid_q[14 +: 29]), .q(dl_t0_angA_z));
     // t0_mul120 = t0_angA_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul120;
@@ -1261,7 +1384,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[66] = fl_t0_mul120[1] && ev_q[46];
     assign ev_inv[66] = fl_t0_mul120[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul120;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul120 (.clk(clk), .d(t0_mul120), .valid(1'b0), .q(dl_t0_mul120));
     // t0_mul121 = t0_angA_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul121;
@@ -1274,7 +1398,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[67] = fl_t0_mul121[1] && ev_q[46];
     assign ev_inv[67] = fl_t0_mul121[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul121;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul121 (.clk(clk), .d(t0_mul121), .valid(1'b0), .q(dl_t0_mul121));
     // t0_mul122 = t0_angA_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul122;
@@ -1287,7 +1412,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[68] = fl_t0_mul122[1] && ev_q[46];
     assign ev_inv[68] = fl_t0_mul122[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul122;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul122 (.clk(clk), .d(t0_mul122), .valid(1'b0), .q(dl_t0_mul122));
     // t0_add123 = wA_x + t0_mul120   (ready @50/50/50)
     logic [W-1:0] t0_add123;
@@ -1300,7 +1426,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[69] = fl_t0_add123[1] && ev_q[50];
     assign ev_inv[69] = fl_t0_add123[2] && ev_q[50];
     logic [W-1:0] dl_t0_add123;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add123 (.clk(clk), .d(t0_add123), .valid(1'b0), .q(dl_t0_add123));
     // t0_add124 = wA_y + t0_mul121   (ready @50/50/50)
     logic [W-1:0] t0_add124;
@@ -1313,7 +1440,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[70] = fl_t0_add124[1] && ev_q[50];
     assign ev_inv[70] = fl_t0_add124[2] && ev_q[50];
     logic [W-1:0] dl_t0_add124;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add124 (.clk(clk), .d(t0_add124), .valid(1'b0), .q(dl_t0_add124));
     // t0_add125 = wA_z + t0_mul122   (ready @50/50/50)
     logic [W-1:0] t0_add125;
@@ -1326,25 +1454,29 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[71] = fl_t0_add125[1] && ev_q[50];
     assign ev_inv[71] = fl_t0_add125[2] && ev_q[50];
     logic [W-1:0] dl_t0_add125;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add125 (.clk(clk), .d(t0_add125), .valid(1'b0), .q(dl_t0_add125));
     // t0_wA_x = skip ? wA_x : t0_add123   (ready @50/50/50)
     logic [W-1:0] t0_wA_x;
     assign t0_wA_x = dl_skip[1] ? dl_in_wA_x[2*W +: W] : dl_t0_add123;
     logic [3*W-1:0] dl_t0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wA_x (.clk(clk), .d(t0_wA_x), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_x));
     // t0_wA_y = skip ? wA_y : t0_add124   (ready @50/50/50)
     logic [W-1:0] t0_wA_y;
     assign t0_wA_y = dl_skip[1] ? dl_in_wA_y[2*W +: W] : dl_t0_add124;
     logic [3*W-1:0] dl_t0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wA_y (.clk(clk), .d(t0_wA_y), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_y));
     // t0_wA_z = skip ? wA_z : t0_add125   (ready @50/50/50)
     logic [W-1:0] t0_wA_z;
     assign t0_wA_z = dl_skip[1] ? dl_in_wA_z[2*W +: W] : dl_t0_add125;
     logic [3*W-1:0] dl_t0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wA_z (.clk(clk), .d(t0_wA_z), .valid(valid_q[50 +: 39]), .q(dl_t0_wA_z));
     // t0_linB_x = t0_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_x;
@@ -1357,7 +1489,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[72] = fl_t0_linB_x[1] && ev_q[3];
     assign ev_inv[72] = fl_t0_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linB_x (.clk(clk), .d(t0_linB_x), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_x));
     // t0_linB_y = t0_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_y;
@@ -1370,7 +1503,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[73] = fl_t0_linB_y[1] && ev_q[3];
     assign ev_inv[73] = fl_t0_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linB_y (.clk(clk), .d(t0_linB_y), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_y));
     // t0_linB_z = t0_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t0_linB_z;
@@ -1383,7 +1517,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[74] = fl_t0_linB_z[1] && ev_q[3];
     assign ev_inv[74] = fl_t0_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t0_linB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(40))
+    pgs_delay #(.WIDTH(W), .DEPTH(40),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .valid(valid_q[3 +: 40]), .q(dl_t0_linB_z));
     // t0_mul132 = t0_linB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul132;
@@ -1396,7 +1531,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[75] = fl_t0_mul132[1] && ev_q[46];
     assign ev_inv[75] = fl_t0_mul132[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul132;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul132 (.clk(clk), .d(t0_mul132), .valid(1'b0), .q(dl_t0_mul132));
     // t0_mul133 = t0_linB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul133;
@@ -1409,7 +1545,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[76] = fl_t0_mul133[1] && ev_q[46];
     assign ev_inv[76] = fl_t0_mul133[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul133;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul133 (.clk(clk), .d(t0_mul133), .valid(1'b0), .q(dl_t0_mul133));
     // t0_mul134 = t0_linB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul134;
@@ -1422,7 +1559,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[77] = fl_t0_mul134[1] && ev_q[46];
     assign ev_inv[77] = fl_t0_mul134[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul134;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul134 (.clk(clk), .d(t0_mul134), .valid(1'b0), .q(dl_t0_mul134));
     // t0_sub135 = vB_x - t0_mul132   (ready @50/50/50)
     logic [W-1:0] t0_sub135;
@@ -1435,7 +1573,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[78] = fl_t0_sub135[1] && ev_q[50];
     assign ev_inv[78] = fl_t0_sub135[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub135;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub135 (.clk(clk), .d(t0_sub135), .valid(1'b0), .q(dl_t0_sub135));
     // t0_sub136 = vB_y - t0_mul133   (ready @50/50/50)
     logic [W-1:0] t0_sub136;
@@ -1448,7 +1587,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[79] = fl_t0_sub136[1] && ev_q[50];
     assign ev_inv[79] = fl_t0_sub136[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub136;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub136 (.clk(clk), .d(t0_sub136), .valid(1'b0), .q(dl_t0_sub136));
     // t0_sub137 = vB_z - t0_mul134   (ready @50/50/50)
     logic [W-1:0] t0_sub137;
@@ -1461,25 +1601,29 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[80] = fl_t0_sub137[1] && ev_q[50];
     assign ev_inv[80] = fl_t0_sub137[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub137;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub137 (.clk(clk), .d(t0_sub137), .valid(1'b0), .q(dl_t0_sub137));
     // t0_vB_x = skip ? vB_x : t0_sub135   (ready @50/50/50)
     logic [W-1:0] t0_vB_x;
     assign t0_vB_x = dl_skip[1] ? dl_in_vB_x[2*W +: W] : dl_t0_sub135;
     logic [3*W-1:0] dl_t0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vB_x (.clk(clk), .d(t0_vB_x), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_x));
     // t0_vB_y = skip ? vB_y : t0_sub136   (ready @50/50/50)
     logic [W-1:0] t0_vB_y;
     assign t0_vB_y = dl_skip[1] ? dl_in_vB_y[2*W +: W] : dl_t0_sub136;
     logic [3*W-1:0] dl_t0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vB_y (.clk(clk), .d(t0_vB_y), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_y));
     // t0_vB_z = skip ? vB_z : t0_sub137   (ready @50/50/50)
     logic [W-1:0] t0_vB_z;
     assign t0_vB_z = dl_skip[1] ? dl_in_vB_z[2*W +: W] : dl_t0_sub137;
     logic [3*W-1:0] dl_t0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vB_z (.clk(clk), .d(t0_vB_z), .valid(valid_q[50 +: 39]), .q(dl_t0_vB_z));
     // t0_angB_x = IInvB_s * t0_cB_x   (ready @14/14/14)
     logic [W-1:0] t0_angB_x;
@@ -1492,7 +1636,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[81] = fl_t0_angB_x[1] && ev_q[14];
     assign ev_inv[81] = fl_t0_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(29))
+    pgs_delay #(.WIDTH(W), .DEPTH(29),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angB_x (.clk(clk), .d(t0_angB_x), .valid(valid_q[14 +: 29]), .q(dl_t0_angB_x));
     // t0_angB_y = IInvB_s * t0_cB_y   (ready @14/14/14)
     logic [W-1:0] t0_angB_y;
@@ -1505,7 +1650,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[82] = fl_t0_angB_y[1] && ev_q[14];
     assign ev_inv[82] = fl_t0_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(29))
+    pgs_delay #(.WIDTH(W), .DEPTH(29),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angB_y (.clk(clk), .d(t0_angB_y), .valid(valid_q[14 +: 29]), .q(dl_t0_angB_y));
     // t0_angB_z = IInvB_s * t0_cB_z   (ready @14/14/14)
     logic [W-1:0] t0_angB_z;
@@ -1518,7 +1664,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[83] = fl_t0_angB_z[1] && ev_q[14];
     assign ev_inv[83] = fl_t0_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_t0_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(29))
+    pgs_delay #(.WIDTH(W), .DEPTH(29),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .valid(valid_q[14 +: 29]), .q(dl_t0_angB_z));
     // t0_mul144 = t0_angB_x * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul144;
@@ -1531,7 +1678,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[84] = fl_t0_mul144[1] && ev_q[46];
     assign ev_inv[84] = fl_t0_mul144[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul144;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul144 (.clk(clk), .d(t0_mul144), .valid(1'b0), .q(dl_t0_mul144));
     // t0_mul145 = t0_angB_y * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul145;
@@ -1544,7 +1692,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[85] = fl_t0_mul145[1] && ev_q[46];
     assign ev_inv[85] = fl_t0_mul145[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul145;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul145 (.clk(clk), .d(t0_mul145), .valid(1'b0), .q(dl_t0_mul145));
     // t0_mul146 = t0_angB_z * t0_e   (ready @46/46/46)
     logic [W-1:0] t0_mul146;
@@ -1557,7 +1706,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[86] = fl_t0_mul146[1] && ev_q[46];
     assign ev_inv[86] = fl_t0_mul146[2] && ev_q[46];
     logic [W-1:0] dl_t0_mul146;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul146 (.clk(clk), .d(t0_mul146), .valid(1'b0), .q(dl_t0_mul146));
     // t0_sub147 = wB_x - t0_mul144   (ready @50/50/50)
     logic [W-1:0] t0_sub147;
@@ -1570,7 +1720,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[87] = fl_t0_sub147[1] && ev_q[50];
     assign ev_inv[87] = fl_t0_sub147[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub147;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub147 (.clk(clk), .d(t0_sub147), .valid(1'b0), .q(dl_t0_sub147));
     // t0_sub148 = wB_y - t0_mul145   (ready @50/50/50)
     logic [W-1:0] t0_sub148;
@@ -1583,7 +1734,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[88] = fl_t0_sub148[1] && ev_q[50];
     assign ev_inv[88] = fl_t0_sub148[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub148;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub148 (.clk(clk), .d(t0_sub148), .valid(1'b0), .q(dl_t0_sub148));
     // t0_sub149 = wB_z - t0_mul146   (ready @50/50/50)
     logic [W-1:0] t0_sub149;
@@ -1596,25 +1748,29 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[89] = fl_t0_sub149[1] && ev_q[50];
     assign ev_inv[89] = fl_t0_sub149[2] && ev_q[50];
     logic [W-1:0] dl_t0_sub149;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub149 (.clk(clk), .d(t0_sub149), .valid(1'b0), .q(dl_t0_sub149));
     // t0_wB_x = skip ? wB_x : t0_sub147   (ready @50/50/50)
     logic [W-1:0] t0_wB_x;
     assign t0_wB_x = dl_skip[1] ? dl_in_wB_x[2*W +: W] : dl_t0_sub147;
     logic [3*W-1:0] dl_t0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wB_x (.clk(clk), .d(t0_wB_x), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_x));
     // t0_wB_y = skip ? wB_y : t0_sub148   (ready @50/50/50)
     logic [W-1:0] t0_wB_y;
     assign t0_wB_y = dl_skip[1] ? dl_in_wB_y[2*W +: W] : dl_t0_sub148;
     logic [3*W-1:0] dl_t0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wB_y (.clk(clk), .d(t0_wB_y), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_y));
     // t0_wB_z = skip ? wB_z : t0_sub149   (ready @50/50/50)
     logic [W-1:0] t0_wB_z;
     assign t0_wB_z = dl_skip[1] ? dl_in_wB_z[2*W +: W] : dl_t0_sub149;
     logic [3*W-1:0] dl_t0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wB_z (.clk(clk), .d(t0_wB_z), .valid(valid_q[50 +: 39]), .q(dl_t0_wB_z));
     // t1_mul153 = rA_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul153;
@@ -1627,7 +1783,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[90] = fl_t1_mul153[1] && ev_q[7];
     assign ev_inv[90] = fl_t1_mul153[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul153;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul153 (.clk(clk), .d(t1_mul153), .valid(1'b0), .q(dl_t1_mul153));
     // t1_mul154 = rA_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul154;
@@ -1640,7 +1797,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[91] = fl_t1_mul154[1] && ev_q[7];
     assign ev_inv[91] = fl_t1_mul154[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul154;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul154 (.clk(clk), .d(t1_mul154), .valid(1'b0), .q(dl_t1_mul154));
     // t1_cA_x = t1_mul153 - t1_mul154   (ready @11/11/11)
     logic [W-1:0] t1_cA_x;
@@ -1653,7 +1811,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[92] = fl_t1_cA_x[1] && ev_q[11];
     assign ev_inv[92] = fl_t1_cA_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cA_x (.clk(clk), .d(t1_cA_x), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_x));
     // t1_mul156 = rA_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul156;
@@ -1666,7 +1825,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[93] = fl_t1_mul156[1] && ev_q[7];
     assign ev_inv[93] = fl_t1_mul156[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul156;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul156 (.clk(clk), .d(t1_mul156), .valid(1'b0), .q(dl_t1_mul156));
     // t1_mul157 = rA_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul157;
@@ -1679,7 +1839,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[94] = fl_t1_mul157[1] && ev_q[7];
     assign ev_inv[94] = fl_t1_mul157[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul157;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul157 (.clk(clk), .d(t1_mul157), .valid(1'b0), .q(dl_t1_mul157));
     // t1_cA_y = t1_mul156 - t1_mul157   (ready @11/11/11)
     logic [W-1:0] t1_cA_y;
@@ -1692,7 +1853,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[95] = fl_t1_cA_y[1] && ev_q[11];
     assign ev_inv[95] = fl_t1_cA_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cA_y (.clk(clk), .d(t1_cA_y), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_y));
     // t1_mul159 = rA_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul159;
@@ -1705,7 +1867,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[96] = fl_t1_mul159[1] && ev_q[7];
     assign ev_inv[96] = fl_t1_mul159[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul159;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul159 (.clk(clk), .d(t1_mul159), .valid(1'b0), .q(dl_t1_mul159));
     // t1_mul160 = rA_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul160;
@@ -1718,7 +1881,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[97] = fl_t1_mul160[1] && ev_q[7];
     assign ev_inv[97] = fl_t1_mul160[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul160;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul160 (.clk(clk), .d(t1_mul160), .valid(1'b0), .q(dl_t1_mul160));
     // t1_cA_z = t1_mul159 - t1_mul160   (ready @11/11/11)
     logic [W-1:0] t1_cA_z;
@@ -1731,7 +1895,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[98] = fl_t1_cA_z[1] && ev_q[11];
     assign ev_inv[98] = fl_t1_cA_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cA_z (.clk(clk), .d(t1_cA_z), .valid(valid_q[11 +: 39]), .q(dl_t1_cA_z));
     // t1_mul162 = rB_y * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul162;
@@ -1744,7 +1909,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[99] = fl_t1_mul162[1] && ev_q[7];
     assign ev_inv[99] = fl_t1_mul162[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul162;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul162 (.clk(clk), .d(t1_mul162), .valid(1'b0), .q(dl_t1_mul162));
     // t1_mul163 = rB_z * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul163;
@@ -1757,7 +1923,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[100] = fl_t1_mul163[1] && ev_q[7];
     assign ev_inv[100] = fl_t1_mul163[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul163;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul163 (.clk(clk), .d(t1_mul163), .valid(1'b0), .q(dl_t1_mul163));
     // t1_cB_x = t1_mul162 - t1_mul163   (ready @11/11/11)
     logic [W-1:0] t1_cB_x;
@@ -1770,7 +1937,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[101] = fl_t1_cB_x[1] && ev_q[11];
     assign ev_inv[101] = fl_t1_cB_x[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cB_x (.clk(clk), .d(t1_cB_x), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_x));
     // t1_mul165 = rB_z * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul165;
@@ -1783,7 +1951,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[102] = fl_t1_mul165[1] && ev_q[7];
     assign ev_inv[102] = fl_t1_mul165[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul165;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul165 (.clk(clk), .d(t1_mul165), .valid(1'b0), .q(dl_t1_mul165));
     // t1_mul166 = rB_x * t1_z   (ready @7/7/7)
     logic [W-1:0] t1_mul166;
@@ -1796,7 +1965,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[103] = fl_t1_mul166[1] && ev_q[7];
     assign ev_inv[103] = fl_t1_mul166[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul166;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul166 (.clk(clk), .d(t1_mul166), .valid(1'b0), .q(dl_t1_mul166));
     // t1_cB_y = t1_mul165 - t1_mul166   (ready @11/11/11)
     logic [W-1:0] t1_cB_y;
@@ -1809,7 +1979,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[104] = fl_t1_cB_y[1] && ev_q[11];
     assign ev_inv[104] = fl_t1_cB_y[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cB_y (.clk(clk), .d(t1_cB_y), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_y));
     // t1_mul168 = rB_x * t1_y   (ready @7/7/7)
     logic [W-1:0] t1_mul168;
@@ -1822,7 +1993,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[105] = fl_t1_mul168[1] && ev_q[7];
     assign ev_inv[105] = fl_t1_mul168[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul168;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul168 (.clk(clk), .d(t1_mul168), .valid(1'b0), .q(dl_t1_mul168));
     // t1_mul169 = rB_y * t1_x   (ready @7/7/7)
     logic [W-1:0] t1_mul169;
@@ -1835,7 +2007,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[106] = fl_t1_mul169[1] && ev_q[7];
     assign ev_inv[106] = fl_t1_mul169[2] && ev_q[7];
     logic [W-1:0] dl_t1_mul169;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul169 (.clk(clk), .d(t1_mul169), .valid(1'b0), .q(dl_t1_mul169));
     // t1_cB_z = t1_mul168 - t1_mul169   (ready @11/11/11)
     logic [W-1:0] t1_cB_z;
@@ -1848,7 +2021,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[107] = fl_t1_cB_z[1] && ev_q[11];
     assign ev_inv[107] = fl_t1_cB_z[2] && ev_q[11];
     logic [2*W-1:0] dl_t1_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(0), 32'(39)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cB_z (.clk(clk), .d(t1_cB_z), .valid(valid_q[11 +: 39]), .q(dl_t1_cB_z));
     // t1_mul171 = t1_x * t0_vA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul171;
@@ -1861,7 +2035,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[108] = fl_t1_mul171[1] && ev_q[53];
     assign ev_inv[108] = fl_t1_mul171[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul171;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul171 (.clk(clk), .d(t1_mul171), .valid(1'b0), .q(dl_t1_mul171));
     // t1_mul172 = t1_y * t0_vA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul172;
@@ -1874,7 +2049,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[109] = fl_t1_mul172[1] && ev_q[53];
     assign ev_inv[109] = fl_t1_mul172[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul172;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul172 (.clk(clk), .d(t1_mul172), .valid(1'b0), .q(dl_t1_mul172));
     // t1_add173 = t1_mul171 + t1_mul172   (ready @57/57/57)
     logic [W-1:0] t1_add173;
@@ -1887,7 +2063,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[110] = fl_t1_add173[1] && ev_q[57];
     assign ev_inv[110] = fl_t1_add173[2] && ev_q[57];
     logic [W-1:0] dl_t1_add173;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add173 (.clk(clk), .d(t1_add173), .valid(1'b0), .q(dl_t1_add173));
     // t1_mul174 = t1_z * t0_vA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul174;
@@ -1900,7 +2077,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[111] = fl_t1_mul174[1] && ev_q[53];
     assign ev_inv[111] = fl_t1_mul174[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul174;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul174 (.clk(clk), .d(t1_mul174), .valid(valid_q[53 +: 4]), .q(dl_t1_mul174));
     // t1_add175 = t1_add173 + t1_mul174   (ready @61/61/61)
     logic [W-1:0] t1_add175;
@@ -1913,7 +2091,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[112] = fl_t1_add175[1] && ev_q[61];
     assign ev_inv[112] = fl_t1_add175[2] && ev_q[61];
     logic [W-1:0] dl_t1_add175;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add175 (.clk(clk), .d(t1_add175), .valid(1'b0), .q(dl_t1_add175));
     // t1_mul176 = t1_x * t0_vB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul176;
@@ -1926,7 +2105,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[113] = fl_t1_mul176[1] && ev_q[53];
     assign ev_inv[113] = fl_t1_mul176[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul176;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul176 (.clk(clk), .d(t1_mul176), .valid(1'b0), .q(dl_t1_mul176));
     // t1_mul177 = t1_y * t0_vB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul177;
@@ -1939,7 +2119,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[114] = fl_t1_mul177[1] && ev_q[53];
     assign ev_inv[114] = fl_t1_mul177[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul177;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul177 (.clk(clk), .d(t1_mul177), .valid(1'b0), .q(dl_t1_mul177));
     // t1_add178 = t1_mul176 + t1_mul177   (ready @57/57/57)
     logic [W-1:0] t1_add178;
@@ -1952,7 +2133,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[115] = fl_t1_add178[1] && ev_q[57];
     assign ev_inv[115] = fl_t1_add178[2] && ev_q[57];
     logic [W-1:0] dl_t1_add178;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add178 (.clk(clk), .d(t1_add178), .valid(1'b0), .q(dl_t1_add178));
     // t1_mul179 = t1_z * t0_vB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul179;
@@ -1965,7 +2147,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[116] = fl_t1_mul179[1] && ev_q[53];
     assign ev_inv[116] = fl_t1_mul179[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul179;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul179 (.clk(clk), .d(t1_mul179), .valid(valid_q[53 +: 4]), .q(dl_t1_mul179));
     // t1_add180 = t1_add178 + t1_mul179   (ready @61/61/61)
     logic [W-1:0] t1_add180;
@@ -1978,7 +2161,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[117] = fl_t1_add180[1] && ev_q[61];
     assign ev_inv[117] = fl_t1_add180[2] && ev_q[61];
     logic [W-1:0] dl_t1_add180;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add180 (.clk(clk), .d(t1_add180), .valid(1'b0), .q(dl_t1_add180));
     // t1_sub181 = t1_add175 - t1_add180   (ready @65/65/65)
     logic [W-1:0] t1_sub181;
@@ -1991,7 +2175,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[118] = fl_t1_sub181[1] && ev_q[65];
     assign ev_inv[118] = fl_t1_sub181[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub181;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub181 (.clk(clk), .d(t1_sub181), .valid(1'b0), .q(dl_t1_sub181));
     // t1_mul182 = t1_cA_x * t0_wA_x   (ready @53/53/53)
     logic [W-1:0] t1_mul182;
@@ -2004,7 +2189,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[119] = fl_t1_mul182[1] && ev_q[53];
     assign ev_inv[119] = fl_t1_mul182[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul182;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul182 (.clk(clk), .d(t1_mul182), .valid(1'b0), .q(dl_t1_mul182));
     // t1_mul183 = t1_cA_y * t0_wA_y   (ready @53/53/53)
     logic [W-1:0] t1_mul183;
@@ -2017,7 +2203,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[120] = fl_t1_mul183[1] && ev_q[53];
     assign ev_inv[120] = fl_t1_mul183[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul183;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul183 (.clk(clk), .d(t1_mul183), .valid(1'b0), .q(dl_t1_mul183));
     // t1_add184 = t1_mul182 + t1_mul183   (ready @57/57/57)
     logic [W-1:0] t1_add184;
@@ -2030,7 +2217,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[121] = fl_t1_add184[1] && ev_q[57];
     assign ev_inv[121] = fl_t1_add184[2] && ev_q[57];
     logic [W-1:0] dl_t1_add184;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add184 (.clk(clk), .d(t1_add184), .valid(1'b0), .q(dl_t1_add184));
     // t1_mul185 = t1_cA_z * t0_wA_z   (ready @53/53/53)
     logic [W-1:0] t1_mul185;
@@ -2043,7 +2231,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[122] = fl_t1_mul185[1] && ev_q[53];
     assign ev_inv[122] = fl_t1_mul185[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul185;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul185 (.clk(clk), .d(t1_mul185), .valid(valid_q[53 +: 4]), .q(dl_t1_mul185));
     // t1_add186 = t1_add184 + t1_mul185   (ready @61/61/61)
     logic [W-1:0] t1_add186;
@@ -2056,7 +2245,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[123] = fl_t1_add186[1] && ev_q[61];
     assign ev_inv[123] = fl_t1_add186[2] && ev_q[61];
     logic [W-1:0] dl_t1_add186;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add186 (.clk(clk), .d(t1_add186), .valid(1'b0), .q(dl_t1_add186));
     // t1_mul187 = t1_cB_x * t0_wB_x   (ready @53/53/53)
     logic [W-1:0] t1_mul187;
@@ -2069,7 +2259,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[124] = fl_t1_mul187[1] && ev_q[53];
     assign ev_inv[124] = fl_t1_mul187[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul187;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul187 (.clk(clk), .d(t1_mul187), .valid(1'b0), .q(dl_t1_mul187));
     // t1_mul188 = t1_cB_y * t0_wB_y   (ready @53/53/53)
     logic [W-1:0] t1_mul188;
@@ -2082,7 +2273,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[125] = fl_t1_mul188[1] && ev_q[53];
     assign ev_inv[125] = fl_t1_mul188[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul188;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul188 (.clk(clk), .d(t1_mul188), .valid(1'b0), .q(dl_t1_mul188));
     // t1_add189 = t1_mul187 + t1_mul188   (ready @57/57/57)
     logic [W-1:0] t1_add189;
@@ -2095,7 +2287,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[126] = fl_t1_add189[1] && ev_q[57];
     assign ev_inv[126] = fl_t1_add189[2] && ev_q[57];
     logic [W-1:0] dl_t1_add189;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add189 (.clk(clk), .d(t1_add189), .valid(1'b0), .q(dl_t1_add189));
     // t1_mul190 = t1_cB_z * t0_wB_z   (ready @53/53/53)
     logic [W-1:0] t1_mul190;
@@ -2108,7 +2301,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[127] = fl_t1_mul190[1] && ev_q[53];
     assign ev_inv[127] = fl_t1_mul190[2] && ev_q[53];
     logic [W-1:0] dl_t1_mul190;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul190 (.clk(clk), .d(t1_mul190), .valid(valid_q[53 +: 4]), .q(dl_t1_mul190));
     // t1_add191 = t1_add189 + t1_mul190   (ready @61/61/61)
     logic [W-1:0] t1_add191;
@@ -2121,7 +2315,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[128] = fl_t1_add191[1] && ev_q[61];
     assign ev_inv[128] = fl_t1_add191[2] && ev_q[61];
     logic [W-1:0] dl_t1_add191;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add191 (.clk(clk), .d(t1_add191), .valid(1'b0), .q(dl_t1_add191));
     // t1_sub192 = t1_add186 - t1_add191   (ready @65/65/65)
     logic [W-1:0] t1_sub192;
@@ -2134,7 +2329,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[129] = fl_t1_sub192[1] && ev_q[65];
     assign ev_inv[129] = fl_t1_sub192[2] && ev_q[65];
     logic [W-1:0] dl_t1_sub192;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub192 (.clk(clk), .d(t1_sub192), .valid(1'b0), .q(dl_t1_sub192));
     // t1_u = t1_sub181 + t1_sub192   (ready @69/69/69)
     logic [W-1:0] t1_u;
@@ -2147,13 +2343,15 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[130] = fl_t1_u[1] && ev_q[69];
     assign ev_inv[130] = fl_t1_u[2] && ev_q[69];
     logic [W-1:0] dl_t1_u;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_u (.clk(clk), .d(t1_u), .valid(1'b0), .q(dl_t1_u));
     // t1_neg194 = -t1_u   (ready @69/69/69)
     logic [W-1:0] t1_neg194;
     assign t1_neg194 = {~dl_t1_u[W-1], dl_t1_u[W-2:0]};
     logic [W-1:0] dl_t1_neg194;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_neg194 (.clk(clk), .d(t1_neg194), .valid(1'b0), .q(dl_t1_neg194));
     // t1_delta0 = t1_neg194 * f_jac_inv1   (ready @72/72/72)
     logic [W-1:0] t1_delta0;
@@ -2166,7 +2364,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[131] = fl_t1_delta0[1] && ev_q[72];
     assign ev_inv[131] = fl_t1_delta0[2] && ev_q[72];
     logic [W-1:0] dl_t1_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_delta0 (.clk(clk), .d(t1_delta0), .valid(1'b0), .q(dl_t1_delta0));
     // t1_add196 = lamT1 + t1_delta0   (ready @76/76/76)
     logic [W-1:0] t1_add196;
@@ -2179,7 +2378,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[132] = fl_t1_add196[1] && ev_q[76];
     assign ev_inv[132] = fl_t1_add196[2] && ev_q[76];
     logic [W-1:0] dl_t1_add196;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add196 (.clk(clk), .d(t1_add196), .valid(1'b0), .q(dl_t1_add196));
     // t1_max197 = max(t1_add196, neg_limit)   (ready @77/77/77)
     logic [W-1:0] t1_max197;
@@ -2189,7 +2389,8 @@ module pgs_friction_pipe_scalar_mu #(
         .lt(nc_t1_max197_lt), .eq(nc_t1_max197_eq), .unordered(nc_t1_max197_uo)
     );
     logic [W-1:0] dl_t1_max197;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_max197 (.clk(clk), .d(t1_max197), .valid(1'b0), .q(dl_t1_max197));
     // t1_lam_new = min(t1_max197, limit)   (ready @78/78/78)
     logic [W-1:0] t1_lam_new;
@@ -2199,7 +2400,8 @@ module pgs_friction_pipe_scalar_mu #(
         .lt(nc_t1_lam_new_lt), .eq(nc_t1_lam_new_eq), .unordered(nc_t1_lam_new_uo)
     );
     logic [W-1:0] dl_t1_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_lam_new (.clk(clk), .d(t1_lam_new), .valid(1'b0), .q(dl_t1_lam_new));
     // t1_delta = t1_lam_new - lamT1   (ready @82/82/82)
     logic [W-1:0] t1_delta;
@@ -2212,19 +2414,22 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[133] = fl_t1_delta[1] && ev_q[82];
     assign ev_inv[133] = fl_t1_delta[2] && ev_q[82];
     logic [W-1:0] dl_t1_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_delta (.clk(clk), .d(t1_delta), .valid(1'b0), .q(dl_t1_delta));
     // t1_lamT = skip ? lamT1 : t1_lam_new   (ready @78/78/78)
     logic [W-1:0] t1_lamT;
     assign t1_lamT = dl_skip[2] ? dl_in_lamT1[1*W +: W] : dl_t1_lam_new;
     logic [W-1:0] dl_t1_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH(32))
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_lamT (.clk(clk), .d(t1_lamT), .valid(valid_q[78 +: 32]), .q(dl_t1_lamT));
     // t1_e = -t1_delta   (ready @82/82/82)
     logic [W-1:0] t1_e;
     assign t1_e = {~dl_t1_delta[W-1], dl_t1_delta[W-2:0]};
     logic [W-1:0] dl_t1_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_e (.clk(clk), .d(t1_e), .valid(1'b0), .q(dl_t1_e));
     // t1_linA_x = t1_x * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_x;
@@ -2237,7 +2442,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[134] = fl_t1_linA_x[1] && ev_q[3];
     assign ev_inv[134] = fl_t1_linA_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linA_x (.clk(clk), .d(t1_linA_x), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_x));
     // t1_linA_y = t1_y * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_y;
@@ -2250,7 +2456,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[135] = fl_t1_linA_y[1] && ev_q[3];
     assign ev_inv[135] = fl_t1_linA_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linA_y (.clk(clk), .d(t1_linA_y), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_y));
     // t1_linA_z = t1_z * mInvA   (ready @3/3/3)
     logic [W-1:0] t1_linA_z;
@@ -2263,7 +2470,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[136] = fl_t1_linA_z[1] && ev_q[3];
     assign ev_inv[136] = fl_t1_linA_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .valid(valid_q[3 +: 79]), .q(dl_t1_linA_z));
     // t1_mul205 = t1_linA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul205;
@@ -2276,7 +2484,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[137] = fl_t1_mul205[1] && ev_q[85];
     assign ev_inv[137] = fl_t1_mul205[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul205;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul205 (.clk(clk), .d(t1_mul205), .valid(1'b0), .q(dl_t1_mul205));
     // t1_mul206 = t1_linA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul206;
@@ -2289,7 +2498,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[138] = fl_t1_mul206[1] && ev_q[85];
     assign ev_inv[138] = fl_t1_mul206[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul206;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul206 (.clk(clk), .d(t1_mul206), .valid(1'b0), .q(dl_t1_mul206));
     // t1_mul207 = t1_linA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul207;
@@ -2302,7 +2512,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[139] = fl_t1_mul207[1] && ev_q[85];
     assign ev_inv[139] = fl_t1_mul207[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul207;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul207 (.clk(clk), .d(t1_mul207), .valid(1'b0), .q(dl_t1_mul207));
     // t1_add208 = t0_vA_x + t1_mul205   (ready @89/89/89)
     logic [W-1:0] t1_add208;
@@ -2315,7 +2526,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[140] = fl_t1_add208[1] && ev_q[89];
     assign ev_inv[140] = fl_t1_add208[2] && ev_q[89];
     logic [W-1:0] dl_t1_add208;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add208 (.clk(clk), .d(t1_add208), .valid(1'b0), .q(dl_t1_add208));
     // t1_add209 = t0_vA_y + t1_mul206   (ready @89/89/89)
     logic [W-1:0] t1_add209;
@@ -2328,7 +2540,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[141] = fl_t1_add209[1] && ev_q[89];
     assign ev_inv[141] = fl_t1_add209[2] && ev_q[89];
     logic [W-1:0] dl_t1_add209;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add209 (.clk(clk), .d(t1_add209), .valid(1'b0), .q(dl_t1_add209));
     // t1_add210 = t0_vA_z + t1_mul207   (ready @89/89/89)
     logic [W-1:0] t1_add210;
@@ -2341,25 +2554,29 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[142] = fl_t1_add210[1] && ev_q[89];
     assign ev_inv[142] = fl_t1_add210[2] && ev_q[89];
     logic [W-1:0] dl_t1_add210;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add210 (.clk(clk), .d(t1_add210), .valid(1'b0), .q(dl_t1_add210));
     // t1_vA_x = skip ? t0_vA_x : t1_add208   (ready @89/89/89)
     logic [W-1:0] t1_vA_x;
     assign t1_vA_x = dl_skip[3] ? dl_t0_vA_x[2*W +: W] : dl_t1_add208;
     logic [W-1:0] dl_t1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vA_x (.clk(clk), .d(t1_vA_x), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_x));
     // t1_vA_y = skip ? t0_vA_y : t1_add209   (ready @89/89/89)
     logic [W-1:0] t1_vA_y;
     assign t1_vA_y = dl_skip[3] ? dl_t0_vA_y[2*W +: W] : dl_t1_add209;
     logic [W-1:0] dl_t1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vA_y (.clk(clk), .d(t1_vA_y), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_y));
     // t1_vA_z = skip ? t0_vA_z : t1_add210   (ready @89/89/89)
     logic [W-1:0] t1_vA_z;
     assign t1_vA_z = dl_skip[3] ? dl_t0_vA_z[2*W +: W] : dl_t1_add210;
     logic [W-1:0] dl_t1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vA_z (.clk(clk), .d(t1_vA_z), .valid(valid_q[89 +: 21]), .q(dl_t1_vA_z));
     // t1_angA_x = IInvA_s * t1_cA_x   (ready @14/14/14)
     logic [W-1:0] t1_angA_x;
@@ -2372,7 +2589,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[143] = fl_t1_angA_x[1] && ev_q[14];
     assign ev_inv[143] = fl_t1_angA_x[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(68))
+    pgs_delay #(.WIDTH(W), .DEPTH(68),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angA_x (.clk(clk), .d(t1_angA_x), .valid(valid_q[14 +: 68]), .q(dl_t1_angA_x));
     // t1_angA_y = IInvA_s * t1_cA_y   (ready @14/14/14)
     logic [W-1:0] t1_angA_y;
@@ -2385,7 +2603,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[144] = fl_t1_angA_y[1] && ev_q[14];
     assign ev_inv[144] = fl_t1_angA_y[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(68))
+    pgs_delay #(.WIDTH(W), .DEPTH(68),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angA_y (.clk(clk), .d(t1_angA_y), .valid(valid_q[14 +: 68]), .q(dl_t1_angA_y));
     // t1_angA_z = IInvA_s * t1_cA_z   (ready @14/14/14)
     logic [W-1:0] t1_angA_z;
@@ -2398,7 +2617,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[145] = fl_t1_angA_z[1] && ev_q[14];
     assign ev_inv[145] = fl_t1_angA_z[2] && ev_q[14];
     logic [W-1:0] dl_t1_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(68))
+    pgs_delay #(.WIDTH(W), .DEPTH(68),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .valid(valid_q[14 +: 68]), .q(dl_t1_angA_z));
     // t1_mul217 = t1_angA_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul217;
@@ -2411,7 +2631,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[146] = fl_t1_mul217[1] && ev_q[85];
     assign ev_inv[146] = fl_t1_mul217[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul217;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul217 (.clk(clk), .d(t1_mul217), .valid(1'b0), .q(dl_t1_mul217));
     // t1_mul218 = t1_angA_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul218;
@@ -2424,7 +2645,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[147] = fl_t1_mul218[1] && ev_q[85];
     assign ev_inv[147] = fl_t1_mul218[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul218;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul218 (.clk(clk), .d(t1_mul218), .valid(1'b0), .q(dl_t1_mul218));
     // t1_mul219 = t1_angA_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul219;
@@ -2437,7 +2659,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[148] = fl_t1_mul219[1] && ev_q[85];
     assign ev_inv[148] = fl_t1_mul219[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul219;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul219 (.clk(clk), .d(t1_mul219), .valid(1'b0), .q(dl_t1_mul219));
     // t1_add220 = t0_wA_x + t1_mul217   (ready @89/89/89)
     logic [W-1:0] t1_add220;
@@ -2450,7 +2673,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[149] = fl_t1_add220[1] && ev_q[89];
     assign ev_inv[149] = fl_t1_add220[2] && ev_q[89];
     logic [W-1:0] dl_t1_add220;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add220 (.clk(clk), .d(t1_add220), .valid(1'b0), .q(dl_t1_add220));
     // t1_add221 = t0_wA_y + t1_mul218   (ready @89/89/89)
     logic [W-1:0] t1_add221;
@@ -2463,7 +2687,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[150] = fl_t1_add221[1] && ev_q[89];
     assign ev_inv[150] = fl_t1_add221[2] && ev_q[89];
     logic [W-1:0] dl_t1_add221;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add221 (.clk(clk), .d(t1_add221), .valid(1'b0), .q(dl_t1_add221));
     // t1_add222 = t0_wA_z + t1_mul219   (ready @89/89/89)
     logic [W-1:0] t1_add222;
@@ -2476,25 +2701,29 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[151] = fl_t1_add222[1] && ev_q[89];
     assign ev_inv[151] = fl_t1_add222[2] && ev_q[89];
     logic [W-1:0] dl_t1_add222;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add222 (.clk(clk), .d(t1_add222), .valid(1'b0), .q(dl_t1_add222));
     // t1_wA_x = skip ? t0_wA_x : t1_add220   (ready @89/89/89)
     logic [W-1:0] t1_wA_x;
     assign t1_wA_x = dl_skip[3] ? dl_t0_wA_x[2*W +: W] : dl_t1_add220;
     logic [3*W-1:0] dl_t1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wA_x (.clk(clk), .d(t1_wA_x), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_x));
     // t1_wA_y = skip ? t0_wA_y : t1_add221   (ready @89/89/89)
     logic [W-1:0] t1_wA_y;
     assign t1_wA_y = dl_skip[3] ? dl_t0_wA_y[2*W +: W] : dl_t1_add221;
     logic [3*W-1:0] dl_t1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wA_y (.clk(clk), .d(t1_wA_y), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_y));
     // t1_wA_z = skip ? t0_wA_z : t1_add222   (ready @89/89/89)
     logic [W-1:0] t1_wA_z;
     assign t1_wA_z = dl_skip[3] ? dl_t0_wA_z[2*W +: W] : dl_t1_add222;
     logic [3*W-1:0] dl_t1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wA_z (.clk(clk), .d(t1_wA_z), .valid(valid_q[89 +: 21]), .q(dl_t1_wA_z));
     // t1_linB_x = t1_x * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_x;
@@ -2507,7 +2736,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[152] = fl_t1_linB_x[1] && ev_q[3];
     assign ev_inv[152] = fl_t1_linB_x[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linB_x (.clk(clk), .d(t1_linB_x), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_x));
     // t1_linB_y = t1_y * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_y;
@@ -2520,7 +2750,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[153] = fl_t1_linB_y[1] && ev_q[3];
     assign ev_inv[153] = fl_t1_linB_y[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linB_y (.clk(clk), .d(t1_linB_y), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_y));
     // t1_linB_z = t1_z * mInvB   (ready @3/3/3)
     logic [W-1:0] t1_linB_z;
@@ -2533,7 +2764,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[154] = fl_t1_linB_z[1] && ev_q[3];
     assign ev_inv[154] = fl_t1_linB_z[2] && ev_q[3];
     logic [W-1:0] dl_t1_linB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(79))
+    pgs_delay #(.WIDTH(W), .DEPTH(79),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .valid(valid_q[3 +: 79]), .q(dl_t1_linB_z));
     // t1_mul229 = t1_linB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul229;
@@ -2546,7 +2778,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[155] = fl_t1_mul229[1] && ev_q[85];
     assign ev_inv[155] = fl_t1_mul229[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul229;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul229 (.clk(clk), .d(t1_mul229), .valid(1'b0), .q(dl_t1_mul229));
     // t1_mul230 = t1_linB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul230;
@@ -2559,7 +2792,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[156] = fl_t1_mul230[1] && ev_q[85];
     assign ev_inv[156] = fl_t1_mul230[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul230;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul230 (.clk(clk), .d(t1_mul230), .valid(1'b0), .q(dl_t1_mul230));
     // t1_mul231 = t1_linB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul231;
@@ -2572,7 +2806,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[157] = fl_t1_mul231[1] && ev_q[85];
     assign ev_inv[157] = fl_t1_mul231[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul231;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul231 (.clk(clk), .d(t1_mul231), .valid(1'b0), .q(dl_t1_mul231));
     // t1_sub232 = t0_vB_x - t1_mul229   (ready @89/89/89)
     logic [W-1:0] t1_sub232;
@@ -2585,7 +2820,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[158] = fl_t1_sub232[1] && ev_q[89];
     assign ev_inv[158] = fl_t1_sub232[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub232;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub232 (.clk(clk), .d(t1_sub232), .valid(1'b0), .q(dl_t1_sub232));
     // t1_sub233 = t0_vB_y - t1_mul230   (ready @89/89/89)
     logic [W-1:0] t1_sub233;
@@ -2598,7 +2834,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[159] = fl_t1_sub233[1] && ev_q[89];
     assign ev_inv[159] = fl_t1_sub233[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub233;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub233 (.clk(clk), .d(t1_sub233), .valid(1'b0), .q(dl_t1_sub233));
     // t1_sub234 = t0_vB_z - t1_mul231   (ready @89/89/89)
     logic [W-1:0] t1_sub234;
@@ -2611,25 +2848,29 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[160] = fl_t1_sub234[1] && ev_q[89];
     assign ev_inv[160] = fl_t1_sub234[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub234;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub234 (.clk(clk), .d(t1_sub234), .valid(1'b0), .q(dl_t1_sub234));
     // t1_vB_x = skip ? t0_vB_x : t1_sub232   (ready @89/89/89)
     logic [W-1:0] t1_vB_x;
     assign t1_vB_x = dl_skip[3] ? dl_t0_vB_x[2*W +: W] : dl_t1_sub232;
     logic [W-1:0] dl_t1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vB_x (.clk(clk), .d(t1_vB_x), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_x));
     // t1_vB_y = skip ? t0_vB_y : t1_sub233   (ready @89/89/89)
     logic [W-1:0] t1_vB_y;
     assign t1_vB_y = dl_skip[3] ? dl_t0_vB_y[2*W +: W] : dl_t1_sub233;
     logic [W-1:0] dl_t1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vB_y (.clk(clk), .d(t1_vB_y), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_y));
     // t1_vB_z = skip ? t0_vB_z : t1_sub234   (ready @89/89/89)
     logic [W-1:0] t1_vB_z;
     assign t1_vB_z = dl_skip[3] ? dl_t0_vB_z[2*W +: W] : dl_t1_sub234;
     logic [W-1:0] dl_t1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21))
+    pgs_delay #(.WIDTH(W), .DEPTH(21),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vB_z (.clk(clk), .d(t1_vB_z), .valid(valid_q[89 +: 21]), .q(dl_t1_vB_z));
     // t1_angB_x = IInvB_s * t1_cB_x   (ready @14/14/14)
     logic [W-1:0] t1_angB_x;
@@ -2642,7 +2883,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[161] = fl_t1_angB_x[1] && ev_q[14];
     assign ev_inv[161] = fl_t1_angB_x[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(68))
+    pgs_delay #(.WIDTH(W), .DEPTH(68),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angB_x (.clk(clk), .d(t1_angB_x), .valid(valid_q[14 +: 68]), .q(dl_t1_angB_x));
     // t1_angB_y = IInvB_s * t1_cB_y   (ready @14/14/14)
     logic [W-1:0] t1_angB_y;
@@ -2655,7 +2897,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[162] = fl_t1_angB_y[1] && ev_q[14];
     assign ev_inv[162] = fl_t1_angB_y[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(68))
+    pgs_delay #(.WIDTH(W), .DEPTH(68),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angB_y (.clk(clk), .d(t1_angB_y), .valid(valid_q[14 +: 68]), .q(dl_t1_angB_y));
     // t1_angB_z = IInvB_s * t1_cB_z   (ready @14/14/14)
     logic [W-1:0] t1_angB_z;
@@ -2668,7 +2911,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[163] = fl_t1_angB_z[1] && ev_q[14];
     assign ev_inv[163] = fl_t1_angB_z[2] && ev_q[14];
     logic [W-1:0] dl_t1_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(68))
+    pgs_delay #(.WIDTH(W), .DEPTH(68),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .valid(valid_q[14 +: 68]), .q(dl_t1_angB_z));
     // t1_mul241 = t1_angB_x * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul241;
@@ -2681,7 +2925,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[164] = fl_t1_mul241[1] && ev_q[85];
     assign ev_inv[164] = fl_t1_mul241[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul241;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul241 (.clk(clk), .d(t1_mul241), .valid(1'b0), .q(dl_t1_mul241));
     // t1_mul242 = t1_angB_y * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul242;
@@ -2694,7 +2939,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[165] = fl_t1_mul242[1] && ev_q[85];
     assign ev_inv[165] = fl_t1_mul242[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul242;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul242 (.clk(clk), .d(t1_mul242), .valid(1'b0), .q(dl_t1_mul242));
     // t1_mul243 = t1_angB_z * t1_e   (ready @85/85/85)
     logic [W-1:0] t1_mul243;
@@ -2707,7 +2953,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[166] = fl_t1_mul243[1] && ev_q[85];
     assign ev_inv[166] = fl_t1_mul243[2] && ev_q[85];
     logic [W-1:0] dl_t1_mul243;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul243 (.clk(clk), .d(t1_mul243), .valid(1'b0), .q(dl_t1_mul243));
     // t1_sub244 = t0_wB_x - t1_mul241   (ready @89/89/89)
     logic [W-1:0] t1_sub244;
@@ -2720,7 +2967,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[167] = fl_t1_sub244[1] && ev_q[89];
     assign ev_inv[167] = fl_t1_sub244[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub244;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub244 (.clk(clk), .d(t1_sub244), .valid(1'b0), .q(dl_t1_sub244));
     // t1_sub245 = t0_wB_y - t1_mul242   (ready @89/89/89)
     logic [W-1:0] t1_sub245;
@@ -2733,7 +2981,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[168] = fl_t1_sub245[1] && ev_q[89];
     assign ev_inv[168] = fl_t1_sub245[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub245;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub245 (.clk(clk), .d(t1_sub245), .valid(1'b0), .q(dl_t1_sub245));
     // t1_sub246 = t0_wB_z - t1_mul243   (ready @89/89/89)
     logic [W-1:0] t1_sub246;
@@ -2746,25 +2995,29 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[169] = fl_t1_sub246[1] && ev_q[89];
     assign ev_inv[169] = fl_t1_sub246[2] && ev_q[89];
     logic [W-1:0] dl_t1_sub246;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub246 (.clk(clk), .d(t1_sub246), .valid(1'b0), .q(dl_t1_sub246));
     // t1_wB_x = skip ? t0_wB_x : t1_sub244   (ready @89/89/89)
     logic [W-1:0] t1_wB_x;
     assign t1_wB_x = dl_skip[3] ? dl_t0_wB_x[2*W +: W] : dl_t1_sub244;
     logic [3*W-1:0] dl_t1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wB_x (.clk(clk), .d(t1_wB_x), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_x));
     // t1_wB_y = skip ? t0_wB_y : t1_sub245   (ready @89/89/89)
     logic [W-1:0] t1_wB_y;
     assign t1_wB_y = dl_skip[3] ? dl_t0_wB_y[2*W +: W] : dl_t1_sub245;
     logic [3*W-1:0] dl_t1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wB_y (.clk(clk), .d(t1_wB_y), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_y));
     // t1_wB_z = skip ? t0_wB_z : t1_sub246   (ready @89/89/89)
     logic [W-1:0] t1_wB_z;
     assign t1_wB_z = dl_skip[3] ? dl_t0_wB_z[2*W +: W] : dl_t1_sub246;
     logic [3*W-1:0] dl_t1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wB_z (.clk(clk), .d(t1_wB_z), .valid(valid_q[89 +: 21]), .q(dl_t1_wB_z));
     // spin_mul251 = n_x * t1_wA_x   (ready @92/92/92)
     logic [W-1:0] spin_mul251;
@@ -2777,7 +3030,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[170] = fl_spin_mul251[1] && ev_q[92];
     assign ev_inv[170] = fl_spin_mul251[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul251;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul251 (.clk(clk), .d(spin_mul251), .valid(1'b0), .q(dl_spin_mul251));
     // spin_mul252 = n_y * t1_wA_y   (ready @92/92/92)
     logic [W-1:0] spin_mul252;
@@ -2790,7 +3044,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[171] = fl_spin_mul252[1] && ev_q[92];
     assign ev_inv[171] = fl_spin_mul252[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul252;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul252 (.clk(clk), .d(spin_mul252), .valid(1'b0), .q(dl_spin_mul252));
     // spin_add253 = spin_mul251 + spin_mul252   (ready @96/96/96)
     logic [W-1:0] spin_add253;
@@ -2803,7 +3058,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[172] = fl_spin_add253[1] && ev_q[96];
     assign ev_inv[172] = fl_spin_add253[2] && ev_q[96];
     logic [W-1:0] dl_spin_add253;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add253 (.clk(clk), .d(spin_add253), .valid(1'b0), .q(dl_spin_add253));
     // spin_mul254 = n_z * t1_wA_z   (ready @92/92/92)
     logic [W-1:0] spin_mul254;
@@ -2816,7 +3072,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[173] = fl_spin_mul254[1] && ev_q[92];
     assign ev_inv[173] = fl_spin_mul254[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul254;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul254 (.clk(clk), .d(spin_mul254), .valid(valid_q[92 +: 4]), .q(dl_spin_mul254));
     // spin_add255 = spin_add253 + spin_mul254   (ready @100/100/100)
     logic [W-1:0] spin_add255;
@@ -2829,7 +3086,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[174] = fl_spin_add255[1] && ev_q[100];
     assign ev_inv[174] = fl_spin_add255[2] && ev_q[100];
     logic [W-1:0] dl_spin_add255;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add255 (.clk(clk), .d(spin_add255), .valid(1'b0), .q(dl_spin_add255));
     // spin_sA = spin_add255 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sA;
@@ -2842,7 +3100,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[175] = fl_spin_sA[1] && ev_q[103];
     assign ev_inv[175] = fl_spin_sA[2] && ev_q[103];
     logic [W-1:0] dl_spin_sA;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_sA (.clk(clk), .d(spin_sA), .valid(1'b0), .q(dl_spin_sA));
     // spin_mul257 = n_x * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul257;
@@ -2855,7 +3114,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[176] = fl_spin_mul257[1] && ev_q[106];
     assign ev_inv[176] = fl_spin_mul257[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul257;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul257 (.clk(clk), .d(spin_mul257), .valid(1'b0), .q(dl_spin_mul257));
     // spin_mul258 = n_y * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul258;
@@ -2868,7 +3128,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[177] = fl_spin_mul258[1] && ev_q[106];
     assign ev_inv[177] = fl_spin_mul258[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul258;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul258 (.clk(clk), .d(spin_mul258), .valid(1'b0), .q(dl_spin_mul258));
     // spin_mul259 = n_z * spin_sA   (ready @106/106/106)
     logic [W-1:0] spin_mul259;
@@ -2881,7 +3142,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[178] = fl_spin_mul259[1] && ev_q[106];
     assign ev_inv[178] = fl_spin_mul259[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul259;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul259 (.clk(clk), .d(spin_mul259), .valid(1'b0), .q(dl_spin_mul259));
     // spin_wA_damped_x = t1_wA_x - spin_mul257   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_x;
@@ -2894,7 +3156,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[179] = fl_spin_wA_damped_x[1] && ev_q[110];
     assign ev_inv[179] = fl_spin_wA_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_damped_x (.clk(clk), .d(spin_wA_damped_x), .valid(1'b0), .q(dl_spin_wA_damped_x));
     // spin_wA_damped_y = t1_wA_y - spin_mul258   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_y;
@@ -2907,7 +3170,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[180] = fl_spin_wA_damped_y[1] && ev_q[110];
     assign ev_inv[180] = fl_spin_wA_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_damped_y (.clk(clk), .d(spin_wA_damped_y), .valid(1'b0), .q(dl_spin_wA_damped_y));
     // spin_wA_damped_z = t1_wA_z - spin_mul259   (ready @110/110/110)
     logic [W-1:0] spin_wA_damped_z;
@@ -2920,7 +3184,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[181] = fl_spin_wA_damped_z[1] && ev_q[110];
     assign ev_inv[181] = fl_spin_wA_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wA_damped_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_damped_z (.clk(clk), .d(spin_wA_damped_z), .valid(1'b0), .q(dl_spin_wA_damped_z));
     // spin_mul263 = n_x * t1_wB_x   (ready @92/92/92)
     logic [W-1:0] spin_mul263;
@@ -2933,7 +3198,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[182] = fl_spin_mul263[1] && ev_q[92];
     assign ev_inv[182] = fl_spin_mul263[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul263;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul263 (.clk(clk), .d(spin_mul263), .valid(1'b0), .q(dl_spin_mul263));
     // spin_mul264 = n_y * t1_wB_y   (ready @92/92/92)
     logic [W-1:0] spin_mul264;
@@ -2946,7 +3212,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[183] = fl_spin_mul264[1] && ev_q[92];
     assign ev_inv[183] = fl_spin_mul264[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul264;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul264 (.clk(clk), .d(spin_mul264), .valid(1'b0), .q(dl_spin_mul264));
     // spin_add265 = spin_mul263 + spin_mul264   (ready @96/96/96)
     logic [W-1:0] spin_add265;
@@ -2959,7 +3226,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[184] = fl_spin_add265[1] && ev_q[96];
     assign ev_inv[184] = fl_spin_add265[2] && ev_q[96];
     logic [W-1:0] dl_spin_add265;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add265 (.clk(clk), .d(spin_add265), .valid(1'b0), .q(dl_spin_add265));
     // spin_mul266 = n_z * t1_wB_z   (ready @92/92/92)
     logic [W-1:0] spin_mul266;
@@ -2972,7 +3240,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[185] = fl_spin_mul266[1] && ev_q[92];
     assign ev_inv[185] = fl_spin_mul266[2] && ev_q[92];
     logic [W-1:0] dl_spin_mul266;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul266 (.clk(clk), .d(spin_mul266), .valid(valid_q[92 +: 4]), .q(dl_spin_mul266));
     // spin_add267 = spin_add265 + spin_mul266   (ready @100/100/100)
     logic [W-1:0] spin_add267;
@@ -2985,7 +3254,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[186] = fl_spin_add267[1] && ev_q[100];
     assign ev_inv[186] = fl_spin_add267[2] && ev_q[100];
     logic [W-1:0] dl_spin_add267;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add267 (.clk(clk), .d(spin_add267), .valid(1'b0), .q(dl_spin_add267));
     // spin_sB = spin_add267 * 0.1   (ready @103/103/103)
     logic [W-1:0] spin_sB;
@@ -2998,7 +3268,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[187] = fl_spin_sB[1] && ev_q[103];
     assign ev_inv[187] = fl_spin_sB[2] && ev_q[103];
     logic [W-1:0] dl_spin_sB;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_sB (.clk(clk), .d(spin_sB), .valid(1'b0), .q(dl_spin_sB));
     // spin_mul269 = n_x * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul269;
@@ -3011,7 +3282,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[188] = fl_spin_mul269[1] && ev_q[106];
     assign ev_inv[188] = fl_spin_mul269[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul269;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul269 (.clk(clk), .d(spin_mul269), .valid(1'b0), .q(dl_spin_mul269));
     // spin_mul270 = n_y * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul270;
@@ -3024,7 +3296,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[189] = fl_spin_mul270[1] && ev_q[106];
     assign ev_inv[189] = fl_spin_mul270[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul270;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul270 (.clk(clk), .d(spin_mul270), .valid(1'b0), .q(dl_spin_mul270));
     // spin_mul271 = n_z * spin_sB   (ready @106/106/106)
     logic [W-1:0] spin_mul271;
@@ -3037,7 +3310,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[190] = fl_spin_mul271[1] && ev_q[106];
     assign ev_inv[190] = fl_spin_mul271[2] && ev_q[106];
     logic [W-1:0] dl_spin_mul271;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul271 (.clk(clk), .d(spin_mul271), .valid(1'b0), .q(dl_spin_mul271));
     // spin_wB_damped_x = t1_wB_x - spin_mul269   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_x;
@@ -3050,7 +3324,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[191] = fl_spin_wB_damped_x[1] && ev_q[110];
     assign ev_inv[191] = fl_spin_wB_damped_x[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_damped_x (.clk(clk), .d(spin_wB_damped_x), .valid(1'b0), .q(dl_spin_wB_damped_x));
     // spin_wB_damped_y = t1_wB_y - spin_mul270   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_y;
@@ -3063,7 +3338,8 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[192] = fl_spin_wB_damped_y[1] && ev_q[110];
     assign ev_inv[192] = fl_spin_wB_damped_y[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_damped_y (.clk(clk), .d(spin_wB_damped_y), .valid(1'b0), .q(dl_spin_wB_damped_y));
     // spin_wB_damped_z = t1_wB_z - spin_mul271   (ready @110/110/110)
     logic [W-1:0] spin_wB_damped_z;
@@ -3076,79 +3352,92 @@ module pgs_friction_pipe_scalar_mu #(
     assign ev_unf[193] = fl_spin_wB_damped_z[1] && ev_q[110];
     assign ev_inv[193] = fl_spin_wB_damped_z[2] && ev_q[110];
     logic [W-1:0] dl_spin_wB_damped_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_damped_z (.clk(clk), .d(spin_wB_damped_z), .valid(1'b0), .q(dl_spin_wB_damped_z));
     // spin_select275 = spin_damp ? spin_wA_damped_x : t1_wA_x   (ready @110/110/110)
     logic [W-1:0] spin_select275;
     assign spin_select275 = dl_in_spin_damp ? dl_spin_wA_damped_x : dl_t1_wA_x[2*W +: W];
     logic [W-1:0] dl_spin_select275;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select275 (.clk(clk), .d(spin_select275), .valid(1'b0), .q(dl_spin_select275));
     // spin_select276 = spin_damp ? spin_wA_damped_y : t1_wA_y   (ready @110/110/110)
     logic [W-1:0] spin_select276;
     assign spin_select276 = dl_in_spin_damp ? dl_spin_wA_damped_y : dl_t1_wA_y[2*W +: W];
     logic [W-1:0] dl_spin_select276;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select276 (.clk(clk), .d(spin_select276), .valid(1'b0), .q(dl_spin_select276));
     // spin_select277 = spin_damp ? spin_wA_damped_z : t1_wA_z   (ready @110/110/110)
     logic [W-1:0] spin_select277;
     assign spin_select277 = dl_in_spin_damp ? dl_spin_wA_damped_z : dl_t1_wA_z[2*W +: W];
     logic [W-1:0] dl_spin_select277;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select277 (.clk(clk), .d(spin_select277), .valid(1'b0), .q(dl_spin_select277));
     // spin_wA_x = skip ? t1_wA_x : spin_select275   (ready @110/110/110)
     logic [W-1:0] spin_wA_x;
     assign spin_wA_x = dl_skip[4] ? dl_t1_wA_x[2*W +: W] : dl_spin_select275;
     logic [W-1:0] dl_spin_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_x (.clk(clk), .d(spin_wA_x), .valid(1'b0), .q(dl_spin_wA_x));
     // spin_wA_y = skip ? t1_wA_y : spin_select276   (ready @110/110/110)
     logic [W-1:0] spin_wA_y;
     assign spin_wA_y = dl_skip[4] ? dl_t1_wA_y[2*W +: W] : dl_spin_select276;
     logic [W-1:0] dl_spin_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_y (.clk(clk), .d(spin_wA_y), .valid(1'b0), .q(dl_spin_wA_y));
     // spin_wA_z = skip ? t1_wA_z : spin_select277   (ready @110/110/110)
     logic [W-1:0] spin_wA_z;
     assign spin_wA_z = dl_skip[4] ? dl_t1_wA_z[2*W +: W] : dl_spin_select277;
     logic [W-1:0] dl_spin_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_z (.clk(clk), .d(spin_wA_z), .valid(1'b0), .q(dl_spin_wA_z));
     // spin_select281 = spin_damp ? spin_wB_damped_x : t1_wB_x   (ready @110/110/110)
     logic [W-1:0] spin_select281;
     assign spin_select281 = dl_in_spin_damp ? dl_spin_wB_damped_x : dl_t1_wB_x[2*W +: W];
     logic [W-1:0] dl_spin_select281;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select281 (.clk(clk), .d(spin_select281), .valid(1'b0), .q(dl_spin_select281));
     // spin_select282 = spin_damp ? spin_wB_damped_y : t1_wB_y   (ready @110/110/110)
     logic [W-1:0] spin_select282;
     assign spin_select282 = dl_in_spin_damp ? dl_spin_wB_damped_y : dl_t1_wB_y[2*W +: W];
     logic [W-1:0] dl_spin_select282;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select282 (.clk(clk), .d(spin_select282), .valid(1'b0), .q(dl_spin_select282));
     // spin_select283 = spin_damp ? spin_wB_damped_z : t1_wB_z   (ready @110/110/110)
     logic [W-1:0] spin_select283;
     assign spin_select283 = dl_in_spin_damp ? dl_spin_wB_damped_z : dl_t1_wB_z[2*W +: W];
     logic [W-1:0] dl_spin_select283;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select283 (.clk(clk), .d(spin_select283), .valid(1'b0), .q(dl_spin_select283));
     // spin_wB_x = skip ? t1_wB_x : spin_select281   (ready @110/110/110)
     logic [W-1:0] spin_wB_x;
     assign spin_wB_x = dl_skip[4] ? dl_t1_wB_x[2*W +: W] : dl_spin_select281;
     logic [W-1:0] dl_spin_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_x (.clk(clk), .d(spin_wB_x), .valid(1'b0), .q(dl_spin_wB_x));
     // spin_wB_y = skip ? t1_wB_y : spin_select282   (ready @110/110/110)
     logic [W-1:0] spin_wB_y;
     assign spin_wB_y = dl_skip[4] ? dl_t1_wB_y[2*W +: W] : dl_spin_select282;
     logic [W-1:0] dl_spin_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_y (.clk(clk), .d(spin_wB_y), .valid(1'b0), .q(dl_spin_wB_y));
     // spin_wB_z = skip ? t1_wB_z : spin_select283   (ready @110/110/110)
     logic [W-1:0] spin_wB_z;
     assign spin_wB_z = dl_skip[4] ? dl_t1_wB_z[2*W +: W] : dl_spin_select283;
     logic [W-1:0] dl_spin_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_z (.clk(clk), .d(spin_wB_z), .valid(1'b0), .q(dl_spin_wB_z));
 
     // Outputs, each delayed to LATENCY.

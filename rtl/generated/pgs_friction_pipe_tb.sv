@@ -25,6 +25,9 @@ module pgs_friction_pipe_tb #(
     parameter  int EXP_BITS = 8,
     parameter  int MAN_BITS = 23,
     parameter  int TAG_W    = 64,
+    // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
+    // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
+    parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 40,
     localparam int N_OUT    = 14,
@@ -84,7 +87,7 @@ module pgs_friction_pipe_tb #(
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
         .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY), .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_tag (
         .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
     );
 
@@ -111,205 +114,246 @@ module pgs_friction_pipe_tb #(
     logic [W-1:0] in_n_x;
     assign in_n_x = in_data[0*W +: W];
     logic [3*W-1:0] dl_in_n_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 118) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 118) - (0)), 32'((2*MAN_BITS + 104) - (0)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 118) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 118) - (0)), 32'((2*MAN_BITS + 104) - (0)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_x (.clk(clk), .d(in_n_x), .valid(valid_q[0 +: (((2*MAN_BITS + 118) - (0)) > 0 ? ((2*MAN_BITS + 118) - (0)) : 1)]), .q(dl_in_n_x));
     logic [W-1:0] in_n_y;
     assign in_n_y = in_data[1*W +: W];
     logic [3*W-1:0] dl_in_n_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 118) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 118) - (0)), 32'((2*MAN_BITS + 104) - (0)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 118) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 118) - (0)), 32'((2*MAN_BITS + 104) - (0)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_y (.clk(clk), .d(in_n_y), .valid(valid_q[0 +: (((2*MAN_BITS + 118) - (0)) > 0 ? ((2*MAN_BITS + 118) - (0)) : 1)]), .q(dl_in_n_y));
     logic [W-1:0] in_n_z;
     assign in_n_z = in_data[2*W +: W];
     logic [3*W-1:0] dl_in_n_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 118) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 118) - (0)), 32'((2*MAN_BITS + 104) - (0)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 118) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 118) - (0)), 32'((2*MAN_BITS + 104) - (0)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_n_z (.clk(clk), .d(in_n_z), .valid(valid_q[0 +: (((2*MAN_BITS + 118) - (0)) > 0 ? ((2*MAN_BITS + 118) - (0)) : 1)]), .q(dl_in_n_z));
     logic [W-1:0] in_c_x;
     assign in_c_x = in_data[3*W +: W];
     logic [W-1:0] dl_in_c_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_c_x (.clk(clk), .d(in_c_x), .valid(1'b0), .q(dl_in_c_x));
     logic [W-1:0] in_c_y;
     assign in_c_y = in_data[4*W +: W];
     logic [W-1:0] dl_in_c_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_c_y (.clk(clk), .d(in_c_y), .valid(1'b0), .q(dl_in_c_y));
     logic [W-1:0] in_c_z;
     assign in_c_z = in_data[5*W +: W];
     logic [W-1:0] dl_in_c_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_c_z (.clk(clk), .d(in_c_z), .valid(1'b0), .q(dl_in_c_z));
     logic [W-1:0] in_f_jac_inv0;
     assign in_f_jac_inv0 = in_data[6*W +: W];
     logic [2*W-1:0] dl_in_f_jac_inv0;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 45) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 45) - (0)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 45) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 45) - (0)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_f_jac_inv0 (.clk(clk), .d(in_f_jac_inv0), .valid(valid_q[0 +: (((2*MAN_BITS + 45) - (0)) > 0 ? ((2*MAN_BITS + 45) - (0)) : 1)]), .q(dl_in_f_jac_inv0));
     logic [W-1:0] in_f_jac_inv1;
     assign in_f_jac_inv1 = in_data[7*W +: W];
     logic [W-1:0] dl_in_f_jac_inv1;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 84) - (0)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 84) - (0)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_f_jac_inv1 (.clk(clk), .d(in_f_jac_inv1), .valid(valid_q[0 +: (((2*MAN_BITS + 84) - (0)) > 0 ? ((2*MAN_BITS + 84) - (0)) : 1)]), .q(dl_in_f_jac_inv1));
     logic [W-1:0] in_lam_n0;
     assign in_lam_n0 = in_data[8*W +: W];
     logic [W-1:0] dl_in_lam_n0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n0 (.clk(clk), .d(in_lam_n0), .valid(1'b0), .q(dl_in_lam_n0));
     logic [W-1:0] in_lam_n1;
     assign in_lam_n1 = in_data[9*W +: W];
     logic [W-1:0] dl_in_lam_n1;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n1 (.clk(clk), .d(in_lam_n1), .valid(1'b0), .q(dl_in_lam_n1));
     logic [W-1:0] in_lam_n2;
     assign in_lam_n2 = in_data[10*W +: W];
     logic [W-1:0] dl_in_lam_n2;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n2 (.clk(clk), .d(in_lam_n2), .valid(1'b0), .q(dl_in_lam_n2));
     logic [W-1:0] in_lam_n3;
     assign in_lam_n3 = in_data[11*W +: W];
     logic [W-1:0] dl_in_lam_n3;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lam_n3 (.clk(clk), .d(in_lam_n3), .valid(1'b0), .q(dl_in_lam_n3));
     logic [W-1:0] in_lamT0;
     assign in_lamT0 = in_data[12*W +: W];
     logic [2*W-1:0] dl_in_lamT0;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 54) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 54) - (0)), 32'((2*MAN_BITS + 48) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 54) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 54) - (0)), 32'((2*MAN_BITS + 48) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lamT0 (.clk(clk), .d(in_lamT0), .valid(valid_q[0 +: (((2*MAN_BITS + 54) - (0)) > 0 ? ((2*MAN_BITS + 54) - (0)) : 1)]), .q(dl_in_lamT0));
     logic [W-1:0] in_lamT1;
     assign in_lamT1 = in_data[13*W +: W];
     logic [2*W-1:0] dl_in_lamT1;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 93) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 93) - (0)), 32'((2*MAN_BITS + 87) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 93) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 93) - (0)), 32'((2*MAN_BITS + 87) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_lamT1 (.clk(clk), .d(in_lamT1), .valid(valid_q[0 +: (((2*MAN_BITS + 93) - (0)) > 0 ? ((2*MAN_BITS + 93) - (0)) : 1)]), .q(dl_in_lamT1));
     logic [W-1:0] in_xA_x;
     assign in_xA_x = in_data[14*W +: W];
     logic [W-1:0] dl_in_xA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_x (.clk(clk), .d(in_xA_x), .valid(1'b0), .q(dl_in_xA_x));
     logic [W-1:0] in_xA_y;
     assign in_xA_y = in_data[15*W +: W];
     logic [W-1:0] dl_in_xA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_y (.clk(clk), .d(in_xA_y), .valid(1'b0), .q(dl_in_xA_y));
     logic [W-1:0] in_xA_z;
     assign in_xA_z = in_data[16*W +: W];
     logic [W-1:0] dl_in_xA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xA_z (.clk(clk), .d(in_xA_z), .valid(1'b0), .q(dl_in_xA_z));
     logic [W-1:0] in_xB_x;
     assign in_xB_x = in_data[17*W +: W];
     logic [W-1:0] dl_in_xB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_x (.clk(clk), .d(in_xB_x), .valid(1'b0), .q(dl_in_xB_x));
     logic [W-1:0] in_xB_y;
     assign in_xB_y = in_data[18*W +: W];
     logic [W-1:0] dl_in_xB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_y (.clk(clk), .d(in_xB_y), .valid(1'b0), .q(dl_in_xB_y));
     logic [W-1:0] in_xB_z;
     assign in_xB_z = in_data[19*W +: W];
     logic [W-1:0] dl_in_xB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_xB_z (.clk(clk), .d(in_xB_z), .valid(1'b0), .q(dl_in_xB_z));
     logic [W-1:0] in_vA_x;
     assign in_vA_x = in_data[20*W +: W];
     logic [3*W-1:0] dl_in_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_x (.clk(clk), .d(in_vA_x), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_vA_x));
     logic [W-1:0] in_vA_y;
     assign in_vA_y = in_data[21*W +: W];
     logic [3*W-1:0] dl_in_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_y (.clk(clk), .d(in_vA_y), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_vA_y));
     logic [W-1:0] in_vA_z;
     assign in_vA_z = in_data[22*W +: W];
     logic [3*W-1:0] dl_in_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vA_z (.clk(clk), .d(in_vA_z), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_vA_z));
     logic [W-1:0] in_wA_x;
     assign in_wA_x = in_data[23*W +: W];
     logic [3*W-1:0] dl_in_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_x (.clk(clk), .d(in_wA_x), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_wA_x));
     logic [W-1:0] in_wA_y;
     assign in_wA_y = in_data[24*W +: W];
     logic [3*W-1:0] dl_in_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_y (.clk(clk), .d(in_wA_y), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_wA_y));
     logic [W-1:0] in_wA_z;
     assign in_wA_z = in_data[25*W +: W];
     logic [3*W-1:0] dl_in_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wA_z (.clk(clk), .d(in_wA_z), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_wA_z));
     logic [W-1:0] in_vB_x;
     assign in_vB_x = in_data[26*W +: W];
     logic [3*W-1:0] dl_in_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_x (.clk(clk), .d(in_vB_x), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_vB_x));
     logic [W-1:0] in_vB_y;
     assign in_vB_y = in_data[27*W +: W];
     logic [3*W-1:0] dl_in_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_y (.clk(clk), .d(in_vB_y), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_vB_y));
     logic [W-1:0] in_vB_z;
     assign in_vB_z = in_data[28*W +: W];
     logic [3*W-1:0] dl_in_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 19) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_vB_z (.clk(clk), .d(in_vB_z), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_vB_z));
     logic [W-1:0] in_wB_x;
     assign in_wB_x = in_data[29*W +: W];
     logic [3*W-1:0] dl_in_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_x (.clk(clk), .d(in_wB_x), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_wB_x));
     logic [W-1:0] in_wB_y;
     assign in_wB_y = in_data[30*W +: W];
     logic [3*W-1:0] dl_in_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_y (.clk(clk), .d(in_wB_y), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_wB_y));
     logic [W-1:0] in_wB_z;
     assign in_wB_z = in_data[31*W +: W];
     logic [3*W-1:0] dl_in_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 61) - (0)), 32'((2*MAN_BITS + 26) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_wB_z (.clk(clk), .d(in_wB_z), .valid(valid_q[0 +: (((2*MAN_BITS + 65) - (0)) > 0 ? ((2*MAN_BITS + 65) - (0)) : 1)]), .q(dl_in_wB_z));
     logic [W-1:0] in_mInvA;
     assign in_mInvA = in_data[32*W +: W];
     logic [2*W-1:0] dl_in_mInvA;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (0)), 32'((2*MAN_BITS + 19) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvA (.clk(clk), .d(in_mInvA), .valid(valid_q[0 +: (((2*MAN_BITS + 22) - (0)) > 0 ? ((2*MAN_BITS + 22) - (0)) : 1)]), .q(dl_in_mInvA));
     logic [W-1:0] in_mInvB;
     assign in_mInvB = in_data[33*W +: W];
     logic [2*W-1:0] dl_in_mInvB;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (0)), 32'((2*MAN_BITS + 19) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (0)), 32'((2*MAN_BITS + 19) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_mInvB (.clk(clk), .d(in_mInvB), .valid(valid_q[0 +: (((2*MAN_BITS + 22) - (0)) > 0 ? ((2*MAN_BITS + 22) - (0)) : 1)]), .q(dl_in_mInvB));
     logic [W-1:0] in_IInvA_x;
     assign in_IInvA_x = in_data[34*W +: W];
     logic [2*W-1:0] dl_in_IInvA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_x (.clk(clk), .d(in_IInvA_x), .valid(valid_q[0 +: (((2*MAN_BITS + 29) - (0)) > 0 ? ((2*MAN_BITS + 29) - (0)) : 1)]), .q(dl_in_IInvA_x));
     logic [W-1:0] in_IInvA_y;
     assign in_IInvA_y = in_data[35*W +: W];
     logic [2*W-1:0] dl_in_IInvA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_y (.clk(clk), .d(in_IInvA_y), .valid(valid_q[0 +: (((2*MAN_BITS + 29) - (0)) > 0 ? ((2*MAN_BITS + 29) - (0)) : 1)]), .q(dl_in_IInvA_y));
     logic [W-1:0] in_IInvA_z;
     assign in_IInvA_z = in_data[36*W +: W];
     logic [2*W-1:0] dl_in_IInvA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvA_z (.clk(clk), .d(in_IInvA_z), .valid(valid_q[0 +: (((2*MAN_BITS + 29) - (0)) > 0 ? ((2*MAN_BITS + 29) - (0)) : 1)]), .q(dl_in_IInvA_z));
     logic [W-1:0] in_IInvB_x;
     assign in_IInvB_x = in_data[37*W +: W];
     logic [2*W-1:0] dl_in_IInvB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_x (.clk(clk), .d(in_IInvB_x), .valid(valid_q[0 +: (((2*MAN_BITS + 29) - (0)) > 0 ? ((2*MAN_BITS + 29) - (0)) : 1)]), .q(dl_in_IInvB_x));
     logic [W-1:0] in_IInvB_y;
     assign in_IInvB_y = in_data[38*W +: W];
     logic [2*W-1:0] dl_in_IInvB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_y (.clk(clk), .d(in_IInvB_y), .valid(valid_q[0 +: (((2*MAN_BITS + 29) - (0)) > 0 ? ((2*MAN_BITS + 29) - (0)) : 1)]), .q(dl_in_IInvB_y));
     logic [W-1:0] in_IInvB_z;
     assign in_IInvB_z = in_data[39*W +: W];
     logic [2*W-1:0] dl_in_IInvB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 29) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 29) - (0)), 32'((2*MAN_BITS + 26) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_IInvB_z (.clk(clk), .d(in_IInvB_z), .valid(valid_q[0 +: (((2*MAN_BITS + 29) - (0)) > 0 ? ((2*MAN_BITS + 29) - (0)) : 1)]), .q(dl_in_IInvB_z));
     logic [1-1:0] dl_in_spin_damp;
-    pgs_delay #(.WIDTH(1), .DEPTH((2*MAN_BITS + 125) - (0)))
+    pgs_delay #(.WIDTH(1), .DEPTH((2*MAN_BITS + 125) - (0)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_spin_damp (.clk(clk), .d(in_spin_damp), .valid(valid_q[0 +: (((2*MAN_BITS + 125) - (0)) > 0 ? ((2*MAN_BITS + 125) - (0)) : 1)]), .q(dl_in_spin_damp));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
@@ -318,25 +362,29 @@ module pgs_friction_pipe_tb #(
     logic [W-1:0] basis_m_x;
     assign basis_m_x = {~dl_in_n_x[0*W +: W][W-1], dl_in_n_x[0*W +: W][W-2:0]};
     logic [3*W-1:0] dl_basis_m_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 19) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'((2*MAN_BITS + 19) - (0)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 19) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'((2*MAN_BITS + 19) - (0)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_m_x (.clk(clk), .d(basis_m_x), .valid(valid_q[0 +: (((2*MAN_BITS + 19) - (0)) > 0 ? ((2*MAN_BITS + 19) - (0)) : 1)]), .q(dl_basis_m_x));
     // basis_m_y = -n_y   (ready @0/0/0)
     logic [W-1:0] basis_m_y;
     assign basis_m_y = {~dl_in_n_y[0*W +: W][W-1], dl_in_n_y[0*W +: W][W-2:0]};
     logic [2*W-1:0] dl_basis_m_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_m_y (.clk(clk), .d(basis_m_y), .valid(valid_q[0 +: (((2*MAN_BITS + 16) - (0)) > 0 ? ((2*MAN_BITS + 16) - (0)) : 1)]), .q(dl_basis_m_y));
     // basis_m_z = -n_z   (ready @0/0/0)
     logic [W-1:0] basis_m_z;
     assign basis_m_z = {~dl_in_n_z[0*W +: W][W-1], dl_in_n_z[0*W +: W][W-2:0]};
     logic [2*W-1:0] dl_basis_m_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 19) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 19) - (0)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 19) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 19) - (0)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_m_z (.clk(clk), .d(basis_m_z), .valid(valid_q[0 +: (((2*MAN_BITS + 19) - (0)) > 0 ? ((2*MAN_BITS + 19) - (0)) : 1)]), .q(dl_basis_m_z));
     // basis_neg48 = -basis_m_z   (ready @0/0/0)
     logic [W-1:0] basis_neg48;
     assign basis_neg48 = {~dl_basis_m_z[0*W +: W][W-1], dl_basis_m_z[0*W +: W][W-2:0]};
     logic [3*W-1:0] dl_basis_neg48;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 19) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 19) - (0)), 32'((2*MAN_BITS + 16) - (0)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 19) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 19) - (0)), 32'((2*MAN_BITS + 16) - (0)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_neg48 (.clk(clk), .d(basis_neg48), .valid(valid_q[0 +: (((2*MAN_BITS + 19) - (0)) > 0 ? ((2*MAN_BITS + 19) - (0)) : 1)]), .q(dl_basis_neg48));
     // basis_max49 = max(basis_m_z, basis_neg48)   (ready @1/1/1)
     logic [W-1:0] basis_max49;
@@ -346,7 +394,8 @@ module pgs_friction_pipe_tb #(
         .lt(nc_basis_max49_lt), .eq(nc_basis_max49_eq), .unordered(nc_basis_max49_uo)
     );
     logic [W-1:0] dl_basis_max49;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_max49 (.clk(clk), .d(basis_max49), .valid(1'b0), .q(dl_basis_max49));
     // basis_use_z = 0.70710678 < basis_max49   (ready @2/2/2)
     logic basis_use_z;
@@ -356,7 +405,8 @@ module pgs_friction_pipe_tb #(
         .lt(basis_use_z), .eq(nc_basis_use_z_eq), .unordered(nc_basis_use_z_uo)
     );
     logic [3*1-1:0] dl_basis_use_z;
-    pgs_delay #(.WIDTH(1), .DEPTH((2*MAN_BITS + 22) - (2)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 22) - (2)), 32'((2*MAN_BITS + 19) - (2)), 32'(5)}))
+    pgs_delay #(.WIDTH(1), .DEPTH((2*MAN_BITS + 22) - (2)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 22) - (2)), 32'((2*MAN_BITS + 19) - (2)), 32'(5)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_use_z (.clk(clk), .d(basis_use_z), .valid(valid_q[2 +: (((2*MAN_BITS + 22) - (2)) > 0 ? ((2*MAN_BITS + 22) - (2)) : 1)]), .q(dl_basis_use_z));
     // basis_mul51 = basis_m_y * basis_m_y   (ready @3/3/3)
     logic [W-1:0] basis_mul51;
@@ -369,7 +419,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[0] = fl_basis_mul51[1] && ev_q[3];
     assign ev_inv[0] = fl_basis_mul51[2] && ev_q[3];
     logic [W-1:0] dl_basis_mul51;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_mul51 (.clk(clk), .d(basis_mul51), .valid(1'b0), .q(dl_basis_mul51));
     // basis_mul52 = basis_m_z * basis_m_z   (ready @3/3/3)
     logic [W-1:0] basis_mul52;
@@ -382,7 +433,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[1] = fl_basis_mul52[1] && ev_q[3];
     assign ev_inv[1] = fl_basis_mul52[2] && ev_q[3];
     logic [W-1:0] dl_basis_mul52;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_mul52 (.clk(clk), .d(basis_mul52), .valid(1'b0), .q(dl_basis_mul52));
     // basis_a_z = basis_mul51 + basis_mul52   (ready @7/7/7)
     logic [W-1:0] basis_a_z;
@@ -395,13 +447,15 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[2] = fl_basis_a_z[1] && ev_q[7];
     assign ev_inv[2] = fl_basis_a_z[2] && ev_q[7];
     logic [2*W-1:0] dl_basis_a_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (7)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 16) - (7)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (7)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 16) - (7)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_a_z (.clk(clk), .d(basis_a_z), .valid(valid_q[7 +: (((2*MAN_BITS + 16) - (7)) > 0 ? ((2*MAN_BITS + 16) - (7)) : 1)]), .q(dl_basis_a_z));
     // basis_select54 = basis_use_z ? basis_a_z : 1.0   (ready @7/7/7)
     logic [W-1:0] basis_select54;
     assign basis_select54 = dl_basis_use_z[0] ? dl_basis_a_z[0*W +: W] : K_ONE;
     logic [W-1:0] dl_basis_select54;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_select54 (.clk(clk), .d(basis_select54), .valid(1'b0), .q(dl_basis_select54));
     // basis_sqrt55 = sqrt(basis_select54)   (ready @34/21/18)
     logic [W-1:0] basis_sqrt55;
@@ -414,7 +468,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[3] = fl_basis_sqrt55[1] && ev_q[MAN_BITS + 11];
     assign ev_inv[3] = fl_basis_sqrt55[2] && ev_q[MAN_BITS + 11];
     logic [W-1:0] dl_basis_sqrt55;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_sqrt55 (.clk(clk), .d(basis_sqrt55), .valid(1'b0), .q(dl_basis_sqrt55));
     // basis_k_z = 1.0 / basis_sqrt55   (ready @62/36/30)
     logic [W-1:0] basis_k_z;
@@ -427,7 +482,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[4] = fl_basis_k_z[1] && ev_q[2*MAN_BITS + 16];
     assign ev_inv[4] = fl_basis_k_z[2] && ev_q[2*MAN_BITS + 16];
     logic [W-1:0] dl_basis_k_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_k_z (.clk(clk), .d(basis_k_z), .valid(1'b0), .q(dl_basis_k_z));
     // basis_pz_y = basis_neg48 * basis_k_z   (ready @65/39/33)
     logic [W-1:0] basis_pz_y;
@@ -440,7 +496,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[5] = fl_basis_pz_y[1] && ev_q[2*MAN_BITS + 19];
     assign ev_inv[5] = fl_basis_pz_y[2] && ev_q[2*MAN_BITS + 19];
     logic [W-1:0] dl_basis_pz_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_pz_y (.clk(clk), .d(basis_pz_y), .valid(1'b0), .q(dl_basis_pz_y));
     // basis_pz_z = basis_m_y * basis_k_z   (ready @65/39/33)
     logic [W-1:0] basis_pz_z;
@@ -453,7 +510,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[6] = fl_basis_pz_z[1] && ev_q[2*MAN_BITS + 19];
     assign ev_inv[6] = fl_basis_pz_z[2] && ev_q[2*MAN_BITS + 19];
     logic [W-1:0] dl_basis_pz_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_pz_z (.clk(clk), .d(basis_pz_z), .valid(1'b0), .q(dl_basis_pz_z));
     // basis_qz_x = basis_a_z * basis_k_z   (ready @65/39/33)
     logic [W-1:0] basis_qz_x;
@@ -466,13 +524,15 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[7] = fl_basis_qz_x[1] && ev_q[2*MAN_BITS + 19];
     assign ev_inv[7] = fl_basis_qz_x[2] && ev_q[2*MAN_BITS + 19];
     logic [W-1:0] dl_basis_qz_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (2*MAN_BITS + 19)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (2*MAN_BITS + 19)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_qz_x (.clk(clk), .d(basis_qz_x), .valid(valid_q[2*MAN_BITS + 19 +: (((2*MAN_BITS + 22) - (2*MAN_BITS + 19)) > 0 ? ((2*MAN_BITS + 22) - (2*MAN_BITS + 19)) : 1)]), .q(dl_basis_qz_x));
     // basis_neg60 = -basis_m_x   (ready @0/0/0)
     logic [W-1:0] basis_neg60;
     assign basis_neg60 = {~dl_basis_m_x[0*W +: W][W-1], dl_basis_m_x[0*W +: W][W-2:0]};
     logic [W-1:0] dl_basis_neg60;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 19) - (0)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 19) - (0)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_neg60 (.clk(clk), .d(basis_neg60), .valid(valid_q[0 +: (((2*MAN_BITS + 19) - (0)) > 0 ? ((2*MAN_BITS + 19) - (0)) : 1)]), .q(dl_basis_neg60));
     // basis_qz_y = basis_neg60 * basis_pz_z   (ready @68/42/36)
     logic [W-1:0] basis_qz_y;
@@ -485,7 +545,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[8] = fl_basis_qz_y[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[8] = fl_basis_qz_y[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_basis_qz_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_qz_y (.clk(clk), .d(basis_qz_y), .valid(1'b0), .q(dl_basis_qz_y));
     // basis_qz_z = basis_m_x * basis_pz_y   (ready @68/42/36)
     logic [W-1:0] basis_qz_z;
@@ -498,7 +559,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[9] = fl_basis_qz_z[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[9] = fl_basis_qz_z[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_basis_qz_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_qz_z (.clk(clk), .d(basis_qz_z), .valid(1'b0), .q(dl_basis_qz_z));
     // basis_mul63 = basis_m_x * basis_m_x   (ready @3/3/3)
     logic [W-1:0] basis_mul63;
@@ -511,7 +573,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[10] = fl_basis_mul63[1] && ev_q[3];
     assign ev_inv[10] = fl_basis_mul63[2] && ev_q[3];
     logic [W-1:0] dl_basis_mul63;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_mul63 (.clk(clk), .d(basis_mul63), .valid(1'b0), .q(dl_basis_mul63));
     // basis_a_x = basis_mul63 + basis_mul51   (ready @7/7/7)
     logic [W-1:0] basis_a_x;
@@ -524,13 +587,15 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[11] = fl_basis_a_x[1] && ev_q[7];
     assign ev_inv[11] = fl_basis_a_x[2] && ev_q[7];
     logic [2*W-1:0] dl_basis_a_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (7)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 16) - (7)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (7)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 16) - (7)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_a_x (.clk(clk), .d(basis_a_x), .valid(valid_q[7 +: (((2*MAN_BITS + 16) - (7)) > 0 ? ((2*MAN_BITS + 16) - (7)) : 1)]), .q(dl_basis_a_x));
     // basis_select65 = basis_use_z ? 1.0 : basis_a_x   (ready @7/7/7)
     logic [W-1:0] basis_select65;
     assign basis_select65 = dl_basis_use_z[0] ? K_ONE : dl_basis_a_x[0*W +: W];
     logic [W-1:0] dl_basis_select65;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_select65 (.clk(clk), .d(basis_select65), .valid(1'b0), .q(dl_basis_select65));
     // basis_sqrt66 = sqrt(basis_select65)   (ready @34/21/18)
     logic [W-1:0] basis_sqrt66;
@@ -543,7 +608,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[12] = fl_basis_sqrt66[1] && ev_q[MAN_BITS + 11];
     assign ev_inv[12] = fl_basis_sqrt66[2] && ev_q[MAN_BITS + 11];
     logic [W-1:0] dl_basis_sqrt66;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_sqrt66 (.clk(clk), .d(basis_sqrt66), .valid(1'b0), .q(dl_basis_sqrt66));
     // basis_k_x = 1.0 / basis_sqrt66   (ready @62/36/30)
     logic [W-1:0] basis_k_x;
@@ -556,13 +622,15 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[13] = fl_basis_k_x[1] && ev_q[2*MAN_BITS + 16];
     assign ev_inv[13] = fl_basis_k_x[2] && ev_q[2*MAN_BITS + 16];
     logic [W-1:0] dl_basis_k_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_k_x (.clk(clk), .d(basis_k_x), .valid(1'b0), .q(dl_basis_k_x));
     // basis_neg68 = -basis_m_y   (ready @0/0/0)
     logic [W-1:0] basis_neg68;
     assign basis_neg68 = {~dl_basis_m_y[0*W +: W][W-1], dl_basis_m_y[0*W +: W][W-2:0]};
     logic [W-1:0] dl_basis_neg68;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_neg68 (.clk(clk), .d(basis_neg68), .valid(valid_q[0 +: (((2*MAN_BITS + 16) - (0)) > 0 ? ((2*MAN_BITS + 16) - (0)) : 1)]), .q(dl_basis_neg68));
     // basis_px_x = basis_neg68 * basis_k_x   (ready @65/39/33)
     logic [W-1:0] basis_px_x;
@@ -575,7 +643,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[14] = fl_basis_px_x[1] && ev_q[2*MAN_BITS + 19];
     assign ev_inv[14] = fl_basis_px_x[2] && ev_q[2*MAN_BITS + 19];
     logic [W-1:0] dl_basis_px_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_px_x (.clk(clk), .d(basis_px_x), .valid(1'b0), .q(dl_basis_px_x));
     // basis_px_y = basis_m_x * basis_k_x   (ready @65/39/33)
     logic [W-1:0] basis_px_y;
@@ -588,7 +657,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[15] = fl_basis_px_y[1] && ev_q[2*MAN_BITS + 19];
     assign ev_inv[15] = fl_basis_px_y[2] && ev_q[2*MAN_BITS + 19];
     logic [W-1:0] dl_basis_px_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_px_y (.clk(clk), .d(basis_px_y), .valid(1'b0), .q(dl_basis_px_y));
     // basis_qx_x = basis_neg48 * basis_px_y   (ready @68/42/36)
     logic [W-1:0] basis_qx_x;
@@ -601,7 +671,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[16] = fl_basis_qx_x[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[16] = fl_basis_qx_x[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_basis_qx_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_qx_x (.clk(clk), .d(basis_qx_x), .valid(1'b0), .q(dl_basis_qx_x));
     // basis_qx_y = basis_m_z * basis_px_x   (ready @68/42/36)
     logic [W-1:0] basis_qx_y;
@@ -614,7 +685,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[17] = fl_basis_qx_y[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[17] = fl_basis_qx_y[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_basis_qx_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_qx_y (.clk(clk), .d(basis_qx_y), .valid(1'b0), .q(dl_basis_qx_y));
     // basis_qx_z = basis_a_x * basis_k_x   (ready @65/39/33)
     logic [W-1:0] basis_qx_z;
@@ -627,49 +699,57 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[18] = fl_basis_qx_z[1] && ev_q[2*MAN_BITS + 19];
     assign ev_inv[18] = fl_basis_qx_z[2] && ev_q[2*MAN_BITS + 19];
     logic [W-1:0] dl_basis_qx_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (2*MAN_BITS + 19)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (2*MAN_BITS + 19)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_qx_z (.clk(clk), .d(basis_qx_z), .valid(valid_q[2*MAN_BITS + 19 +: (((2*MAN_BITS + 22) - (2*MAN_BITS + 19)) > 0 ? ((2*MAN_BITS + 22) - (2*MAN_BITS + 19)) : 1)]), .q(dl_basis_qx_z));
     // basis_t0_x = basis_use_z ? 0.0 : basis_px_x   (ready @65/39/33)
     logic [W-1:0] basis_t0_x;
     assign basis_t0_x = dl_basis_use_z[1] ? K_ZERO : dl_basis_px_x;
     logic [W-1:0] dl_basis_t0_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_t0_x (.clk(clk), .d(basis_t0_x), .valid(1'b0), .q(dl_basis_t0_x));
     // basis_t0_y = basis_use_z ? basis_pz_y : basis_px_y   (ready @65/39/33)
     logic [W-1:0] basis_t0_y;
     assign basis_t0_y = dl_basis_use_z[1] ? dl_basis_pz_y : dl_basis_px_y;
     logic [W-1:0] dl_basis_t0_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_t0_y (.clk(clk), .d(basis_t0_y), .valid(1'b0), .q(dl_basis_t0_y));
     // basis_t0_z = basis_use_z ? basis_pz_z : 0.0   (ready @65/39/33)
     logic [W-1:0] basis_t0_z;
     assign basis_t0_z = dl_basis_use_z[1] ? dl_basis_pz_z : K_ZERO;
     logic [W-1:0] dl_basis_t0_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_t0_z (.clk(clk), .d(basis_t0_z), .valid(1'b0), .q(dl_basis_t0_z));
     // basis_t1_x = basis_use_z ? basis_qz_x : basis_qx_x   (ready @68/42/36)
     logic [W-1:0] basis_t1_x;
     assign basis_t1_x = dl_basis_use_z[2] ? dl_basis_qz_x : dl_basis_qx_x;
     logic [2*W-1:0] dl_basis_t1_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_t1_x (.clk(clk), .d(basis_t1_x), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 22)) : 1)]), .q(dl_basis_t1_x));
     // basis_t1_y = basis_use_z ? basis_qz_y : basis_qx_y   (ready @68/42/36)
     logic [W-1:0] basis_t1_y;
     assign basis_t1_y = dl_basis_use_z[2] ? dl_basis_qz_y : dl_basis_qx_y;
     logic [2*W-1:0] dl_basis_t1_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_t1_y (.clk(clk), .d(basis_t1_y), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 22)) : 1)]), .q(dl_basis_t1_y));
     // basis_t1_z = basis_use_z ? basis_qz_z : basis_qx_z   (ready @68/42/36)
     logic [W-1:0] basis_t1_z;
     assign basis_t1_z = dl_basis_use_z[2] ? dl_basis_qz_z : dl_basis_qx_z;
     logic [2*W-1:0] dl_basis_t1_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 65) - (2*MAN_BITS + 22)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_basis_t1_z (.clk(clk), .d(basis_t1_z), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 22)) : 1)]), .q(dl_basis_t1_z));
     // skip = f_jac_inv0 == 0   (ready @0/0/0)
     logic skip;
     assign skip = (dl_in_f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
     logic [5*1-1:0] dl_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH((2*MAN_BITS + 125) - (0)), .N_TAPS(5), .TAPS({32'((2*MAN_BITS + 125) - (0)), 32'((2*MAN_BITS + 104) - (0)), 32'((2*MAN_BITS + 93) - (0)), 32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 54) - (0))}))
+    pgs_delay #(.WIDTH(1), .DEPTH((2*MAN_BITS + 125) - (0)), .N_TAPS(5), .TAPS({32'((2*MAN_BITS + 125) - (0)), 32'((2*MAN_BITS + 104) - (0)), 32'((2*MAN_BITS + 93) - (0)), 32'((2*MAN_BITS + 65) - (0)), 32'((2*MAN_BITS + 54) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_skip (.clk(clk), .d(skip), .valid(valid_q[0 +: (((2*MAN_BITS + 125) - (0)) > 0 ? ((2*MAN_BITS + 125) - (0)) : 1)]), .q(dl_skip));
     // add81 = lam_n0 + lam_n1   (ready @4/4/4)
     logic [W-1:0] add81;
@@ -682,7 +762,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[19] = fl_add81[1] && ev_q[4];
     assign ev_inv[19] = fl_add81[2] && ev_q[4];
     logic [W-1:0] dl_add81;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add81 (.clk(clk), .d(add81), .valid(1'b0), .q(dl_add81));
     // add82 = lam_n2 + lam_n3   (ready @4/4/4)
     logic [W-1:0] add82;
@@ -695,7 +776,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[20] = fl_add82[1] && ev_q[4];
     assign ev_inv[20] = fl_add82[2] && ev_q[4];
     logic [W-1:0] dl_add82;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add82 (.clk(clk), .d(add82), .valid(1'b0), .q(dl_add82));
     // add83 = add81 + add82   (ready @8/8/8)
     logic [W-1:0] add83;
@@ -708,7 +790,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[21] = fl_add83[1] && ev_q[8];
     assign ev_inv[21] = fl_add83[2] && ev_q[8];
     logic [W-1:0] dl_add83;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add83 (.clk(clk), .d(add83), .valid(1'b0), .q(dl_add83));
     // limit = 0.7 * add83   (ready @11/11/11)
     logic [W-1:0] limit;
@@ -721,13 +804,15 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[22] = fl_limit[1] && ev_q[11];
     assign ev_inv[22] = fl_limit[2] && ev_q[11];
     logic [3*W-1:0] dl_limit;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 92) - (11)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 92) - (11)), 32'((2*MAN_BITS + 53) - (11)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 92) - (11)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 92) - (11)), 32'((2*MAN_BITS + 53) - (11)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_limit (.clk(clk), .d(limit), .valid(valid_q[11 +: (((2*MAN_BITS + 92) - (11)) > 0 ? ((2*MAN_BITS + 92) - (11)) : 1)]), .q(dl_limit));
     // neg_limit = -limit   (ready @11/11/11)
     logic [W-1:0] neg_limit;
     assign neg_limit = {~dl_limit[0*W +: W][W-1], dl_limit[0*W +: W][W-2:0]};
     logic [2*W-1:0] dl_neg_limit;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 91) - (11)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 91) - (11)), 32'((2*MAN_BITS + 52) - (11))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 91) - (11)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 91) - (11)), 32'((2*MAN_BITS + 52) - (11))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_neg_limit (.clk(clk), .d(neg_limit), .valid(valid_q[11 +: (((2*MAN_BITS + 91) - (11)) > 0 ? ((2*MAN_BITS + 91) - (11)) : 1)]), .q(dl_neg_limit));
     // rA_x = c_x - xA_x   (ready @4/4/4)
     logic [W-1:0] rA_x;
@@ -740,7 +825,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[23] = fl_rA_x[1] && ev_q[4];
     assign ev_inv[23] = fl_rA_x[2] && ev_q[4];
     logic [2*W-1:0] dl_rA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rA_x (.clk(clk), .d(rA_x), .valid(valid_q[4 +: (((2*MAN_BITS + 22) - (4)) > 0 ? ((2*MAN_BITS + 22) - (4)) : 1)]), .q(dl_rA_x));
     // rA_y = c_y - xA_y   (ready @4/4/4)
     logic [W-1:0] rA_y;
@@ -753,7 +839,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[24] = fl_rA_y[1] && ev_q[4];
     assign ev_inv[24] = fl_rA_y[2] && ev_q[4];
     logic [2*W-1:0] dl_rA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rA_y (.clk(clk), .d(rA_y), .valid(valid_q[4 +: (((2*MAN_BITS + 22) - (4)) > 0 ? ((2*MAN_BITS + 22) - (4)) : 1)]), .q(dl_rA_y));
     // rA_z = c_z - xA_z   (ready @4/4/4)
     logic [W-1:0] rA_z;
@@ -766,7 +853,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[25] = fl_rA_z[1] && ev_q[4];
     assign ev_inv[25] = fl_rA_z[2] && ev_q[4];
     logic [2*W-1:0] dl_rA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rA_z (.clk(clk), .d(rA_z), .valid(valid_q[4 +: (((2*MAN_BITS + 22) - (4)) > 0 ? ((2*MAN_BITS + 22) - (4)) : 1)]), .q(dl_rA_z));
     // rB_x = c_x - xB_x   (ready @4/4/4)
     logic [W-1:0] rB_x;
@@ -779,7 +867,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[26] = fl_rB_x[1] && ev_q[4];
     assign ev_inv[26] = fl_rB_x[2] && ev_q[4];
     logic [2*W-1:0] dl_rB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rB_x (.clk(clk), .d(rB_x), .valid(valid_q[4 +: (((2*MAN_BITS + 22) - (4)) > 0 ? ((2*MAN_BITS + 22) - (4)) : 1)]), .q(dl_rB_x));
     // rB_y = c_y - xB_y   (ready @4/4/4)
     logic [W-1:0] rB_y;
@@ -792,7 +881,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[27] = fl_rB_y[1] && ev_q[4];
     assign ev_inv[27] = fl_rB_y[2] && ev_q[4];
     logic [2*W-1:0] dl_rB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rB_y (.clk(clk), .d(rB_y), .valid(valid_q[4 +: (((2*MAN_BITS + 22) - (4)) > 0 ? ((2*MAN_BITS + 22) - (4)) : 1)]), .q(dl_rB_y));
     // rB_z = c_z - xB_z   (ready @4/4/4)
     logic [W-1:0] rB_z;
@@ -805,7 +895,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[28] = fl_rB_z[1] && ev_q[4];
     assign ev_inv[28] = fl_rB_z[2] && ev_q[4];
     logic [2*W-1:0] dl_rB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 22) - (4)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 22) - (4)), 32'((2*MAN_BITS + 19) - (4))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_rB_z (.clk(clk), .d(rB_z), .valid(valid_q[4 +: (((2*MAN_BITS + 22) - (4)) > 0 ? ((2*MAN_BITS + 22) - (4)) : 1)]), .q(dl_rB_z));
     // t0_mul92 = rA_y * basis_t0_z   (ready @68/42/36)
     logic [W-1:0] t0_mul92;
@@ -818,7 +909,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[29] = fl_t0_mul92[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[29] = fl_t0_mul92[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul92;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul92 (.clk(clk), .d(t0_mul92), .valid(1'b0), .q(dl_t0_mul92));
     // t0_mul93 = rA_z * basis_t0_y   (ready @68/42/36)
     logic [W-1:0] t0_mul93;
@@ -831,7 +923,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[30] = fl_t0_mul93[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[30] = fl_t0_mul93[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul93;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul93 (.clk(clk), .d(t0_mul93), .valid(1'b0), .q(dl_t0_mul93));
     // t0_cA_x = t0_mul92 - t0_mul93   (ready @72/46/40)
     logic [W-1:0] t0_cA_x;
@@ -844,7 +937,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[31] = fl_t0_cA_x[1] && ev_q[2*MAN_BITS + 26];
     assign ev_inv[31] = fl_t0_cA_x[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cA_x (.clk(clk), .d(t0_cA_x), .valid(1'b0), .q(dl_t0_cA_x));
     // t0_mul95 = rA_z * basis_t0_x   (ready @68/42/36)
     logic [W-1:0] t0_mul95;
@@ -857,7 +951,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[32] = fl_t0_mul95[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[32] = fl_t0_mul95[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul95;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul95 (.clk(clk), .d(t0_mul95), .valid(1'b0), .q(dl_t0_mul95));
     // t0_mul96 = rA_x * basis_t0_z   (ready @68/42/36)
     logic [W-1:0] t0_mul96;
@@ -870,7 +965,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[33] = fl_t0_mul96[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[33] = fl_t0_mul96[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul96;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul96 (.clk(clk), .d(t0_mul96), .valid(1'b0), .q(dl_t0_mul96));
     // t0_cA_y = t0_mul95 - t0_mul96   (ready @72/46/40)
     logic [W-1:0] t0_cA_y;
@@ -883,7 +979,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[34] = fl_t0_cA_y[1] && ev_q[2*MAN_BITS + 26];
     assign ev_inv[34] = fl_t0_cA_y[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cA_y (.clk(clk), .d(t0_cA_y), .valid(1'b0), .q(dl_t0_cA_y));
     // t0_mul98 = rA_x * basis_t0_y   (ready @68/42/36)
     logic [W-1:0] t0_mul98;
@@ -896,7 +993,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[35] = fl_t0_mul98[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[35] = fl_t0_mul98[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul98;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul98 (.clk(clk), .d(t0_mul98), .valid(1'b0), .q(dl_t0_mul98));
     // t0_mul99 = rA_y * basis_t0_x   (ready @68/42/36)
     logic [W-1:0] t0_mul99;
@@ -909,7 +1007,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[36] = fl_t0_mul99[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[36] = fl_t0_mul99[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul99;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul99 (.clk(clk), .d(t0_mul99), .valid(1'b0), .q(dl_t0_mul99));
     // t0_cA_z = t0_mul98 - t0_mul99   (ready @72/46/40)
     logic [W-1:0] t0_cA_z;
@@ -922,7 +1021,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[37] = fl_t0_cA_z[1] && ev_q[2*MAN_BITS + 26];
     assign ev_inv[37] = fl_t0_cA_z[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cA_z (.clk(clk), .d(t0_cA_z), .valid(1'b0), .q(dl_t0_cA_z));
     // t0_mul101 = rB_y * basis_t0_z   (ready @68/42/36)
     logic [W-1:0] t0_mul101;
@@ -935,7 +1035,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[38] = fl_t0_mul101[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[38] = fl_t0_mul101[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul101;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul101 (.clk(clk), .d(t0_mul101), .valid(1'b0), .q(dl_t0_mul101));
     // t0_mul102 = rB_z * basis_t0_y   (ready @68/42/36)
     logic [W-1:0] t0_mul102;
@@ -948,7 +1049,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[39] = fl_t0_mul102[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[39] = fl_t0_mul102[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul102;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul102 (.clk(clk), .d(t0_mul102), .valid(1'b0), .q(dl_t0_mul102));
     // t0_cB_x = t0_mul101 - t0_mul102   (ready @72/46/40)
     logic [W-1:0] t0_cB_x;
@@ -961,7 +1063,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[40] = fl_t0_cB_x[1] && ev_q[2*MAN_BITS + 26];
     assign ev_inv[40] = fl_t0_cB_x[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cB_x (.clk(clk), .d(t0_cB_x), .valid(1'b0), .q(dl_t0_cB_x));
     // t0_mul104 = rB_z * basis_t0_x   (ready @68/42/36)
     logic [W-1:0] t0_mul104;
@@ -974,7 +1077,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[41] = fl_t0_mul104[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[41] = fl_t0_mul104[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul104;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul104 (.clk(clk), .d(t0_mul104), .valid(1'b0), .q(dl_t0_mul104));
     // t0_mul105 = rB_x * basis_t0_z   (ready @68/42/36)
     logic [W-1:0] t0_mul105;
@@ -987,7 +1091,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[42] = fl_t0_mul105[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[42] = fl_t0_mul105[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul105;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul105 (.clk(clk), .d(t0_mul105), .valid(1'b0), .q(dl_t0_mul105));
     // t0_cB_y = t0_mul104 - t0_mul105   (ready @72/46/40)
     logic [W-1:0] t0_cB_y;
@@ -1000,7 +1105,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[43] = fl_t0_cB_y[1] && ev_q[2*MAN_BITS + 26];
     assign ev_inv[43] = fl_t0_cB_y[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cB_y (.clk(clk), .d(t0_cB_y), .valid(1'b0), .q(dl_t0_cB_y));
     // t0_mul107 = rB_x * basis_t0_y   (ready @68/42/36)
     logic [W-1:0] t0_mul107;
@@ -1013,7 +1119,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[44] = fl_t0_mul107[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[44] = fl_t0_mul107[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul107;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul107 (.clk(clk), .d(t0_mul107), .valid(1'b0), .q(dl_t0_mul107));
     // t0_mul108 = rB_y * basis_t0_x   (ready @68/42/36)
     logic [W-1:0] t0_mul108;
@@ -1026,7 +1133,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[45] = fl_t0_mul108[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[45] = fl_t0_mul108[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul108;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul108 (.clk(clk), .d(t0_mul108), .valid(1'b0), .q(dl_t0_mul108));
     // t0_cB_z = t0_mul107 - t0_mul108   (ready @72/46/40)
     logic [W-1:0] t0_cB_z;
@@ -1039,7 +1147,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[46] = fl_t0_cB_z[1] && ev_q[2*MAN_BITS + 26];
     assign ev_inv[46] = fl_t0_cB_z[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_cB_z (.clk(clk), .d(t0_cB_z), .valid(1'b0), .q(dl_t0_cB_z));
     // t0_mul110 = basis_t0_x * vA_x   (ready @68/42/36)
     logic [W-1:0] t0_mul110;
@@ -1052,7 +1161,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[47] = fl_t0_mul110[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[47] = fl_t0_mul110[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul110;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul110 (.clk(clk), .d(t0_mul110), .valid(1'b0), .q(dl_t0_mul110));
     // t0_mul111 = basis_t0_y * vA_y   (ready @68/42/36)
     logic [W-1:0] t0_mul111;
@@ -1065,7 +1175,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[48] = fl_t0_mul111[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[48] = fl_t0_mul111[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul111;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul111 (.clk(clk), .d(t0_mul111), .valid(1'b0), .q(dl_t0_mul111));
     // t0_add112 = t0_mul110 + t0_mul111   (ready @72/46/40)
     logic [W-1:0] t0_add112;
@@ -1078,7 +1189,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[49] = fl_t0_add112[1] && ev_q[2*MAN_BITS + 26];
     assign ev_inv[49] = fl_t0_add112[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_add112;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add112 (.clk(clk), .d(t0_add112), .valid(1'b0), .q(dl_t0_add112));
     // t0_mul113 = basis_t0_z * vA_z   (ready @68/42/36)
     logic [W-1:0] t0_mul113;
@@ -1091,7 +1203,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[50] = fl_t0_mul113[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[50] = fl_t0_mul113[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul113;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 26) - (2*MAN_BITS + 22)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 26) - (2*MAN_BITS + 22)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul113 (.clk(clk), .d(t0_mul113), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 26) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 26) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_mul113));
     // t0_add114 = t0_add112 + t0_mul113   (ready @76/50/44)
     logic [W-1:0] t0_add114;
@@ -1104,7 +1217,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[51] = fl_t0_add114[1] && ev_q[2*MAN_BITS + 30];
     assign ev_inv[51] = fl_t0_add114[2] && ev_q[2*MAN_BITS + 30];
     logic [W-1:0] dl_t0_add114;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add114 (.clk(clk), .d(t0_add114), .valid(1'b0), .q(dl_t0_add114));
     // t0_mul115 = basis_t0_x * vB_x   (ready @68/42/36)
     logic [W-1:0] t0_mul115;
@@ -1117,7 +1231,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[52] = fl_t0_mul115[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[52] = fl_t0_mul115[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul115;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul115 (.clk(clk), .d(t0_mul115), .valid(1'b0), .q(dl_t0_mul115));
     // t0_mul116 = basis_t0_y * vB_y   (ready @68/42/36)
     logic [W-1:0] t0_mul116;
@@ -1130,7 +1245,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[53] = fl_t0_mul116[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[53] = fl_t0_mul116[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul116;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul116 (.clk(clk), .d(t0_mul116), .valid(1'b0), .q(dl_t0_mul116));
     // t0_add117 = t0_mul115 + t0_mul116   (ready @72/46/40)
     logic [W-1:0] t0_add117;
@@ -1143,7 +1259,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[54] = fl_t0_add117[1] && ev_q[2*MAN_BITS + 26];
     assign ev_inv[54] = fl_t0_add117[2] && ev_q[2*MAN_BITS + 26];
     logic [W-1:0] dl_t0_add117;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add117 (.clk(clk), .d(t0_add117), .valid(1'b0), .q(dl_t0_add117));
     // t0_mul118 = basis_t0_z * vB_z   (ready @68/42/36)
     logic [W-1:0] t0_mul118;
@@ -1156,7 +1273,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[55] = fl_t0_mul118[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[55] = fl_t0_mul118[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_mul118;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 26) - (2*MAN_BITS + 22)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 26) - (2*MAN_BITS + 22)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul118 (.clk(clk), .d(t0_mul118), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 26) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 26) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_mul118));
     // t0_add119 = t0_add117 + t0_mul118   (ready @76/50/44)
     logic [W-1:0] t0_add119;
@@ -1169,7 +1287,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[56] = fl_t0_add119[1] && ev_q[2*MAN_BITS + 30];
     assign ev_inv[56] = fl_t0_add119[2] && ev_q[2*MAN_BITS + 30];
     logic [W-1:0] dl_t0_add119;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add119 (.clk(clk), .d(t0_add119), .valid(1'b0), .q(dl_t0_add119));
     // t0_sub120 = t0_add114 - t0_add119   (ready @80/54/48)
     logic [W-1:0] t0_sub120;
@@ -1182,7 +1301,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[57] = fl_t0_sub120[1] && ev_q[2*MAN_BITS + 34];
     assign ev_inv[57] = fl_t0_sub120[2] && ev_q[2*MAN_BITS + 34];
     logic [W-1:0] dl_t0_sub120;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 41) - (2*MAN_BITS + 34)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 41) - (2*MAN_BITS + 34)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub120 (.clk(clk), .d(t0_sub120), .valid(valid_q[2*MAN_BITS + 34 +: (((2*MAN_BITS + 41) - (2*MAN_BITS + 34)) > 0 ? ((2*MAN_BITS + 41) - (2*MAN_BITS + 34)) : 1)]), .q(dl_t0_sub120));
     // t0_mul121 = t0_cA_x * wA_x   (ready @75/49/43)
     logic [W-1:0] t0_mul121;
@@ -1195,7 +1315,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[58] = fl_t0_mul121[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[58] = fl_t0_mul121[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_mul121;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul121 (.clk(clk), .d(t0_mul121), .valid(1'b0), .q(dl_t0_mul121));
     // t0_mul122 = t0_cA_y * wA_y   (ready @75/49/43)
     logic [W-1:0] t0_mul122;
@@ -1208,7 +1329,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[59] = fl_t0_mul122[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[59] = fl_t0_mul122[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_mul122;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul122 (.clk(clk), .d(t0_mul122), .valid(1'b0), .q(dl_t0_mul122));
     // t0_add123 = t0_mul121 + t0_mul122   (ready @79/53/47)
     logic [W-1:0] t0_add123;
@@ -1221,7 +1343,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[60] = fl_t0_add123[1] && ev_q[2*MAN_BITS + 33];
     assign ev_inv[60] = fl_t0_add123[2] && ev_q[2*MAN_BITS + 33];
     logic [W-1:0] dl_t0_add123;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add123 (.clk(clk), .d(t0_add123), .valid(1'b0), .q(dl_t0_add123));
     // t0_mul124 = t0_cA_z * wA_z   (ready @75/49/43)
     logic [W-1:0] t0_mul124;
@@ -1234,7 +1357,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[61] = fl_t0_mul124[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[61] = fl_t0_mul124[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_mul124;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 33) - (2*MAN_BITS + 29)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 33) - (2*MAN_BITS + 29)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul124 (.clk(clk), .d(t0_mul124), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 33) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 33) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_mul124));
     // t0_add125 = t0_add123 + t0_mul124   (ready @83/57/51)
     logic [W-1:0] t0_add125;
@@ -1247,7 +1371,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[62] = fl_t0_add125[1] && ev_q[2*MAN_BITS + 37];
     assign ev_inv[62] = fl_t0_add125[2] && ev_q[2*MAN_BITS + 37];
     logic [W-1:0] dl_t0_add125;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add125 (.clk(clk), .d(t0_add125), .valid(1'b0), .q(dl_t0_add125));
     // t0_mul126 = t0_cB_x * wB_x   (ready @75/49/43)
     logic [W-1:0] t0_mul126;
@@ -1260,7 +1385,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[63] = fl_t0_mul126[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[63] = fl_t0_mul126[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_mul126;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul126 (.clk(clk), .d(t0_mul126), .valid(1'b0), .q(dl_t0_mul126));
     // t0_mul127 = t0_cB_y * wB_y   (ready @75/49/43)
     logic [W-1:0] t0_mul127;
@@ -1273,7 +1399,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[64] = fl_t0_mul127[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[64] = fl_t0_mul127[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_mul127;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul127 (.clk(clk), .d(t0_mul127), .valid(1'b0), .q(dl_t0_mul127));
     // t0_add128 = t0_mul126 + t0_mul127   (ready @79/53/47)
     logic [W-1:0] t0_add128;
@@ -1286,7 +1413,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[65] = fl_t0_add128[1] && ev_q[2*MAN_BITS + 33];
     assign ev_inv[65] = fl_t0_add128[2] && ev_q[2*MAN_BITS + 33];
     logic [W-1:0] dl_t0_add128;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add128 (.clk(clk), .d(t0_add128), .valid(1'b0), .q(dl_t0_add128));
     // t0_mul129 = t0_cB_z * wB_z   (ready @75/49/43)
     logic [W-1:0] t0_mul129;
@@ -1299,7 +1427,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[66] = fl_t0_mul129[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[66] = fl_t0_mul129[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_mul129;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 33) - (2*MAN_BITS + 29)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 33) - (2*MAN_BITS + 29)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul129 (.clk(clk), .d(t0_mul129), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 33) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 33) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_mul129));
     // t0_add130 = t0_add128 + t0_mul129   (ready @83/57/51)
     logic [W-1:0] t0_add130;
@@ -1312,7 +1441,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[67] = fl_t0_add130[1] && ev_q[2*MAN_BITS + 37];
     assign ev_inv[67] = fl_t0_add130[2] && ev_q[2*MAN_BITS + 37];
     logic [W-1:0] dl_t0_add130;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add130 (.clk(clk), .d(t0_add130), .valid(1'b0), .q(dl_t0_add130));
     // t0_sub131 = t0_add125 - t0_add130   (ready @87/61/55)
     logic [W-1:0] t0_sub131;
@@ -1325,7 +1455,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[68] = fl_t0_sub131[1] && ev_q[2*MAN_BITS + 41];
     assign ev_inv[68] = fl_t0_sub131[2] && ev_q[2*MAN_BITS + 41];
     logic [W-1:0] dl_t0_sub131;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub131 (.clk(clk), .d(t0_sub131), .valid(1'b0), .q(dl_t0_sub131));
     // t0_u = t0_sub120 + t0_sub131   (ready @91/65/59)
     logic [W-1:0] t0_u;
@@ -1338,13 +1469,15 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[69] = fl_t0_u[1] && ev_q[2*MAN_BITS + 45];
     assign ev_inv[69] = fl_t0_u[2] && ev_q[2*MAN_BITS + 45];
     logic [W-1:0] dl_t0_u;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_u (.clk(clk), .d(t0_u), .valid(1'b0), .q(dl_t0_u));
     // t0_neg133 = -t0_u   (ready @91/65/59)
     logic [W-1:0] t0_neg133;
     assign t0_neg133 = {~dl_t0_u[W-1], dl_t0_u[W-2:0]};
     logic [W-1:0] dl_t0_neg133;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_neg133 (.clk(clk), .d(t0_neg133), .valid(1'b0), .q(dl_t0_neg133));
     // t0_delta0 = t0_neg133 * f_jac_inv0   (ready @94/68/62)
     logic [W-1:0] t0_delta0;
@@ -1357,7 +1490,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[70] = fl_t0_delta0[1] && ev_q[2*MAN_BITS + 48];
     assign ev_inv[70] = fl_t0_delta0[2] && ev_q[2*MAN_BITS + 48];
     logic [W-1:0] dl_t0_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_delta0 (.clk(clk), .d(t0_delta0), .valid(1'b0), .q(dl_t0_delta0));
     // t0_add135 = lamT0 + t0_delta0   (ready @98/72/66)
     logic [W-1:0] t0_add135;
@@ -1370,7 +1504,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[71] = fl_t0_add135[1] && ev_q[2*MAN_BITS + 52];
     assign ev_inv[71] = fl_t0_add135[2] && ev_q[2*MAN_BITS + 52];
     logic [W-1:0] dl_t0_add135;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add135 (.clk(clk), .d(t0_add135), .valid(1'b0), .q(dl_t0_add135));
     // t0_max136 = max(t0_add135, neg_limit)   (ready @99/73/67)
     logic [W-1:0] t0_max136;
@@ -1380,7 +1515,8 @@ module pgs_friction_pipe_tb #(
         .lt(nc_t0_max136_lt), .eq(nc_t0_max136_eq), .unordered(nc_t0_max136_uo)
     );
     logic [W-1:0] dl_t0_max136;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_max136 (.clk(clk), .d(t0_max136), .valid(1'b0), .q(dl_t0_max136));
     // t0_lam_new = min(t0_max136, limit)   (ready @100/74/68)
     logic [W-1:0] t0_lam_new;
@@ -1390,7 +1526,8 @@ module pgs_friction_pipe_tb #(
         .lt(nc_t0_lam_new_lt), .eq(nc_t0_lam_new_eq), .unordered(nc_t0_lam_new_uo)
     );
     logic [W-1:0] dl_t0_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_lam_new (.clk(clk), .d(t0_lam_new), .valid(1'b0), .q(dl_t0_lam_new));
     // t0_delta = t0_lam_new - lamT0   (ready @104/78/72)
     logic [W-1:0] t0_delta;
@@ -1403,19 +1540,22 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[72] = fl_t0_delta[1] && ev_q[2*MAN_BITS + 58];
     assign ev_inv[72] = fl_t0_delta[2] && ev_q[2*MAN_BITS + 58];
     logic [W-1:0] dl_t0_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_delta (.clk(clk), .d(t0_delta), .valid(1'b0), .q(dl_t0_delta));
     // t0_lamT = skip ? lamT0 : t0_lam_new   (ready @100/74/68)
     logic [W-1:0] t0_lamT;
     assign t0_lamT = dl_skip[0] ? dl_in_lamT0[1*W +: W] : dl_t0_lam_new;
     logic [W-1:0] dl_t0_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 54)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 54)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_lamT (.clk(clk), .d(t0_lamT), .valid(valid_q[2*MAN_BITS + 54 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 54)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 54)) : 1)]), .q(dl_t0_lamT));
     // t0_e = -t0_delta   (ready @104/78/72)
     logic [W-1:0] t0_e;
     assign t0_e = {~dl_t0_delta[W-1], dl_t0_delta[W-2:0]};
     logic [W-1:0] dl_t0_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_e (.clk(clk), .d(t0_e), .valid(1'b0), .q(dl_t0_e));
     // t0_linA_x = basis_t0_x * mInvA   (ready @68/42/36)
     logic [W-1:0] t0_linA_x;
@@ -1428,7 +1568,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[73] = fl_t0_linA_x[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[73] = fl_t0_linA_x[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_linA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linA_x (.clk(clk), .d(t0_linA_x), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_linA_x));
     // t0_linA_y = basis_t0_y * mInvA   (ready @68/42/36)
     logic [W-1:0] t0_linA_y;
@@ -1441,7 +1582,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[74] = fl_t0_linA_y[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[74] = fl_t0_linA_y[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_linA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linA_y (.clk(clk), .d(t0_linA_y), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_linA_y));
     // t0_linA_z = basis_t0_z * mInvA   (ready @68/42/36)
     logic [W-1:0] t0_linA_z;
@@ -1454,7 +1596,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[75] = fl_t0_linA_z[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[75] = fl_t0_linA_z[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_linA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linA_z (.clk(clk), .d(t0_linA_z), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_linA_z));
     // t0_mul144 = t0_linA_x * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul144;
@@ -1467,7 +1610,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[76] = fl_t0_mul144[1] && ev_q[2*MAN_BITS + 61];
     assign ev_inv[76] = fl_t0_mul144[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul144;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul144 (.clk(clk), .d(t0_mul144), .valid(1'b0), .q(dl_t0_mul144));
     // t0_mul145 = t0_linA_y * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul145;
@@ -1480,7 +1624,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[77] = fl_t0_mul145[1] && ev_q[2*MAN_BITS + 61];
     assign ev_inv[77] = fl_t0_mul145[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul145;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul145 (.clk(clk), .d(t0_mul145), .valid(1'b0), .q(dl_t0_mul145));
     // t0_mul146 = t0_linA_z * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul146;
@@ -1493,7 +1638,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[78] = fl_t0_mul146[1] && ev_q[2*MAN_BITS + 61];
     assign ev_inv[78] = fl_t0_mul146[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul146;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul146 (.clk(clk), .d(t0_mul146), .valid(1'b0), .q(dl_t0_mul146));
     // t0_add147 = vA_x + t0_mul144   (ready @111/85/79)
     logic [W-1:0] t0_add147;
@@ -1506,7 +1652,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[79] = fl_t0_add147[1] && ev_q[2*MAN_BITS + 65];
     assign ev_inv[79] = fl_t0_add147[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_add147;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add147 (.clk(clk), .d(t0_add147), .valid(1'b0), .q(dl_t0_add147));
     // t0_add148 = vA_y + t0_mul145   (ready @111/85/79)
     logic [W-1:0] t0_add148;
@@ -1519,7 +1666,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[80] = fl_t0_add148[1] && ev_q[2*MAN_BITS + 65];
     assign ev_inv[80] = fl_t0_add148[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_add148;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add148 (.clk(clk), .d(t0_add148), .valid(1'b0), .q(dl_t0_add148));
     // t0_add149 = vA_z + t0_mul146   (ready @111/85/79)
     logic [W-1:0] t0_add149;
@@ -1532,25 +1680,29 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[81] = fl_t0_add149[1] && ev_q[2*MAN_BITS + 65];
     assign ev_inv[81] = fl_t0_add149[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_add149;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add149 (.clk(clk), .d(t0_add149), .valid(1'b0), .q(dl_t0_add149));
     // t0_vA_x = skip ? vA_x : t0_add147   (ready @111/85/79)
     logic [W-1:0] t0_vA_x;
     assign t0_vA_x = dl_skip[1] ? dl_in_vA_x[2*W +: W] : dl_t0_add147;
     logic [3*W-1:0] dl_t0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vA_x (.clk(clk), .d(t0_vA_x), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_vA_x));
     // t0_vA_y = skip ? vA_y : t0_add148   (ready @111/85/79)
     logic [W-1:0] t0_vA_y;
     assign t0_vA_y = dl_skip[1] ? dl_in_vA_y[2*W +: W] : dl_t0_add148;
     logic [3*W-1:0] dl_t0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vA_y (.clk(clk), .d(t0_vA_y), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_vA_y));
     // t0_vA_z = skip ? vA_z : t0_add149   (ready @111/85/79)
     logic [W-1:0] t0_vA_z;
     assign t0_vA_z = dl_skip[1] ? dl_in_vA_z[2*W +: W] : dl_t0_add149;
     logic [3*W-1:0] dl_t0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vA_z (.clk(clk), .d(t0_vA_z), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_vA_z));
     // t0_angA_x = IInvA_x * t0_cA_x   (ready @75/49/43)
     logic [W-1:0] t0_angA_x;
@@ -1563,7 +1715,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[82] = fl_t0_angA_x[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[82] = fl_t0_angA_x[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angA_x (.clk(clk), .d(t0_angA_x), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_angA_x));
     // t0_angA_y = IInvA_y * t0_cA_y   (ready @75/49/43)
     logic [W-1:0] t0_angA_y;
@@ -1576,7 +1729,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[83] = fl_t0_angA_y[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[83] = fl_t0_angA_y[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angA_y (.clk(clk), .d(t0_angA_y), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_angA_y));
     // t0_angA_z = IInvA_z * t0_cA_z   (ready @75/49/43)
     logic [W-1:0] t0_angA_z;
@@ -1589,7 +1743,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[84] = fl_t0_angA_z[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[84] = fl_t0_angA_z[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angA_z (.clk(clk), .d(t0_angA_z), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_angA_z));
     // t0_mul156 = t0_angA_x * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul156;
@@ -1602,7 +1757,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[85] = fl_t0_mul156[1] && ev_q[2*MAN_BITS + 61];
     assign ev_inv[85] = fl_t0_mul156[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul156;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul156 (.clk(clk), .d(t0_mul156), .valid(1'b0), .q(dl_t0_mul156));
     // t0_mul157 = t0_angA_y * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul157;
@@ -1615,7 +1771,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[86] = fl_t0_mul157[1] && ev_q[2*MAN_BITS + 61];
     assign ev_inv[86] = fl_t0_mul157[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul157;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul157 (.clk(clk), .d(t0_mul157), .valid(1'b0), .q(dl_t0_mul157));
     // t0_mul158 = t0_angA_z * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul158;
@@ -1628,7 +1785,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[87] = fl_t0_mul158[1] && ev_q[2*MAN_BITS + 61];
     assign ev_inv[87] = fl_t0_mul158[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul158;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul158 (.clk(clk), .d(t0_mul158), .valid(1'b0), .q(dl_t0_mul158));
     // t0_add159 = wA_x + t0_mul156   (ready @111/85/79)
     logic [W-1:0] t0_add159;
@@ -1641,7 +1799,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[88] = fl_t0_add159[1] && ev_q[2*MAN_BITS + 65];
     assign ev_inv[88] = fl_t0_add159[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_add159;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add159 (.clk(clk), .d(t0_add159), .valid(1'b0), .q(dl_t0_add159));
     // t0_add160 = wA_y + t0_mul157   (ready @111/85/79)
     logic [W-1:0] t0_add160;
@@ -1654,7 +1813,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[89] = fl_t0_add160[1] && ev_q[2*MAN_BITS + 65];
     assign ev_inv[89] = fl_t0_add160[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_add160;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add160 (.clk(clk), .d(t0_add160), .valid(1'b0), .q(dl_t0_add160));
     // t0_add161 = wA_z + t0_mul158   (ready @111/85/79)
     logic [W-1:0] t0_add161;
@@ -1667,25 +1827,29 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[90] = fl_t0_add161[1] && ev_q[2*MAN_BITS + 65];
     assign ev_inv[90] = fl_t0_add161[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_add161;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_add161 (.clk(clk), .d(t0_add161), .valid(1'b0), .q(dl_t0_add161));
     // t0_wA_x = skip ? wA_x : t0_add159   (ready @111/85/79)
     logic [W-1:0] t0_wA_x;
     assign t0_wA_x = dl_skip[1] ? dl_in_wA_x[2*W +: W] : dl_t0_add159;
     logic [3*W-1:0] dl_t0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wA_x (.clk(clk), .d(t0_wA_x), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_wA_x));
     // t0_wA_y = skip ? wA_y : t0_add160   (ready @111/85/79)
     logic [W-1:0] t0_wA_y;
     assign t0_wA_y = dl_skip[1] ? dl_in_wA_y[2*W +: W] : dl_t0_add160;
     logic [3*W-1:0] dl_t0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wA_y (.clk(clk), .d(t0_wA_y), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_wA_y));
     // t0_wA_z = skip ? wA_z : t0_add161   (ready @111/85/79)
     logic [W-1:0] t0_wA_z;
     assign t0_wA_z = dl_skip[1] ? dl_in_wA_z[2*W +: W] : dl_t0_add161;
     logic [3*W-1:0] dl_t0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wA_z (.clk(clk), .d(t0_wA_z), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_wA_z));
     // t0_linB_x = basis_t0_x * mInvB   (ready @68/42/36)
     logic [W-1:0] t0_linB_x;
@@ -1698,7 +1862,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[91] = fl_t0_linB_x[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[91] = fl_t0_linB_x[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_linB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linB_x (.clk(clk), .d(t0_linB_x), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_linB_x));
     // t0_linB_y = basis_t0_y * mInvB   (ready @68/42/36)
     logic [W-1:0] t0_linB_y;
@@ -1711,7 +1876,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[92] = fl_t0_linB_y[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[92] = fl_t0_linB_y[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_linB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linB_y (.clk(clk), .d(t0_linB_y), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_linB_y));
     // t0_linB_z = basis_t0_z * mInvB   (ready @68/42/36)
     logic [W-1:0] t0_linB_z;
@@ -1724,7 +1890,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[93] = fl_t0_linB_z[1] && ev_q[2*MAN_BITS + 22];
     assign ev_inv[93] = fl_t0_linB_z[2] && ev_q[2*MAN_BITS + 22];
     logic [W-1:0] dl_t0_linB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 22)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_linB_z (.clk(clk), .d(t0_linB_z), .valid(valid_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 22)) : 1)]), .q(dl_t0_linB_z));
     // t0_mul168 = t0_linB_x * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul168;
@@ -1737,7 +1904,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[94] = fl_t0_mul168[1] && ev_q[2*MAN_BITS + 61];
     assign ev_inv[94] = fl_t0_mul168[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul168;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul168 (.clk(clk), .d(t0_mul168), .valid(1'b0), .q(dl_t0_mul168));
     // t0_mul169 = t0_linB_y * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul169;
@@ -1750,7 +1918,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[95] = fl_t0_mul169[1] && ev_q[2*MAN_BITS + 61];
     assign ev_inv[95] = fl_t0_mul169[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul169;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul169 (.clk(clk), .d(t0_mul169), .valid(1'b0), .q(dl_t0_mul169));
     // t0_mul170 = t0_linB_z * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul170;
@@ -1763,7 +1932,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[96] = fl_t0_mul170[1] && ev_q[2*MAN_BITS + 61];
     assign ev_inv[96] = fl_t0_mul170[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul170;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul170 (.clk(clk), .d(t0_mul170), .valid(1'b0), .q(dl_t0_mul170));
     // t0_sub171 = vB_x - t0_mul168   (ready @111/85/79)
     logic [W-1:0] t0_sub171;
@@ -1776,7 +1946,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[97] = fl_t0_sub171[1] && ev_q[2*MAN_BITS + 65];
     assign ev_inv[97] = fl_t0_sub171[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_sub171;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub171 (.clk(clk), .d(t0_sub171), .valid(1'b0), .q(dl_t0_sub171));
     // t0_sub172 = vB_y - t0_mul169   (ready @111/85/79)
     logic [W-1:0] t0_sub172;
@@ -1789,7 +1960,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[98] = fl_t0_sub172[1] && ev_q[2*MAN_BITS + 65];
     assign ev_inv[98] = fl_t0_sub172[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_sub172;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub172 (.clk(clk), .d(t0_sub172), .valid(1'b0), .q(dl_t0_sub172));
     // t0_sub173 = vB_z - t0_mul170   (ready @111/85/79)
     logic [W-1:0] t0_sub173;
@@ -1802,25 +1974,29 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[99] = fl_t0_sub173[1] && ev_q[2*MAN_BITS + 65];
     assign ev_inv[99] = fl_t0_sub173[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_sub173;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub173 (.clk(clk), .d(t0_sub173), .valid(1'b0), .q(dl_t0_sub173));
     // t0_vB_x = skip ? vB_x : t0_sub171   (ready @111/85/79)
     logic [W-1:0] t0_vB_x;
     assign t0_vB_x = dl_skip[1] ? dl_in_vB_x[2*W +: W] : dl_t0_sub171;
     logic [3*W-1:0] dl_t0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vB_x (.clk(clk), .d(t0_vB_x), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_vB_x));
     // t0_vB_y = skip ? vB_y : t0_sub172   (ready @111/85/79)
     logic [W-1:0] t0_vB_y;
     assign t0_vB_y = dl_skip[1] ? dl_in_vB_y[2*W +: W] : dl_t0_sub172;
     logic [3*W-1:0] dl_t0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vB_y (.clk(clk), .d(t0_vB_y), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_vB_y));
     // t0_vB_z = skip ? vB_z : t0_sub173   (ready @111/85/79)
     logic [W-1:0] t0_vB_z;
     assign t0_vB_z = dl_skip[1] ? dl_in_vB_z[2*W +: W] : dl_t0_sub173;
     logic [3*W-1:0] dl_t0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_vB_z (.clk(clk), .d(t0_vB_z), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_vB_z));
     // t0_angB_x = IInvB_x * t0_cB_x   (ready @75/49/43)
     logic [W-1:0] t0_angB_x;
@@ -1833,7 +2009,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[100] = fl_t0_angB_x[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[100] = fl_t0_angB_x[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angB_x (.clk(clk), .d(t0_angB_x), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_angB_x));
     // t0_angB_y = IInvB_y * t0_cB_y   (ready @75/49/43)
     logic [W-1:0] t0_angB_y;
@@ -1846,7 +2023,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[101] = fl_t0_angB_y[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[101] = fl_t0_angB_y[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angB_y (.clk(clk), .d(t0_angB_y), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_angB_y));
     // t0_angB_z = IInvB_z * t0_cB_z   (ready @75/49/43)
     logic [W-1:0] t0_angB_z;
@@ -1859,7 +2037,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[102] = fl_t0_angB_z[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[102] = fl_t0_angB_z[2] && ev_q[2*MAN_BITS + 29];
     logic [W-1:0] dl_t0_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 58) - (2*MAN_BITS + 29)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_angB_z (.clk(clk), .d(t0_angB_z), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 58) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t0_angB_z));
     // t0_mul180 = t0_angB_x * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul180;
@@ -1872,7 +2051,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[103] = fl_t0_mul180[1] && ev_q[2*MAN_BITS + 61];
     assign ev_inv[103] = fl_t0_mul180[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul180;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul180 (.clk(clk), .d(t0_mul180), .valid(1'b0), .q(dl_t0_mul180));
     // t0_mul181 = t0_angB_y * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul181;
@@ -1885,7 +2065,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[104] = fl_t0_mul181[1] && ev_q[2*MAN_BITS + 61];
     assign ev_inv[104] = fl_t0_mul181[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul181;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul181 (.clk(clk), .d(t0_mul181), .valid(1'b0), .q(dl_t0_mul181));
     // t0_mul182 = t0_angB_z * t0_e   (ready @107/81/75)
     logic [W-1:0] t0_mul182;
@@ -1898,7 +2079,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[105] = fl_t0_mul182[1] && ev_q[2*MAN_BITS + 61];
     assign ev_inv[105] = fl_t0_mul182[2] && ev_q[2*MAN_BITS + 61];
     logic [W-1:0] dl_t0_mul182;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_mul182 (.clk(clk), .d(t0_mul182), .valid(1'b0), .q(dl_t0_mul182));
     // t0_sub183 = wB_x - t0_mul180   (ready @111/85/79)
     logic [W-1:0] t0_sub183;
@@ -1911,7 +2093,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[106] = fl_t0_sub183[1] && ev_q[2*MAN_BITS + 65];
     assign ev_inv[106] = fl_t0_sub183[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_sub183;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub183 (.clk(clk), .d(t0_sub183), .valid(1'b0), .q(dl_t0_sub183));
     // t0_sub184 = wB_y - t0_mul181   (ready @111/85/79)
     logic [W-1:0] t0_sub184;
@@ -1924,7 +2107,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[107] = fl_t0_sub184[1] && ev_q[2*MAN_BITS + 65];
     assign ev_inv[107] = fl_t0_sub184[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_sub184;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub184 (.clk(clk), .d(t0_sub184), .valid(1'b0), .q(dl_t0_sub184));
     // t0_sub185 = wB_z - t0_mul182   (ready @111/85/79)
     logic [W-1:0] t0_sub185;
@@ -1937,25 +2121,29 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[108] = fl_t0_sub185[1] && ev_q[2*MAN_BITS + 65];
     assign ev_inv[108] = fl_t0_sub185[2] && ev_q[2*MAN_BITS + 65];
     logic [W-1:0] dl_t0_sub185;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_sub185 (.clk(clk), .d(t0_sub185), .valid(1'b0), .q(dl_t0_sub185));
     // t0_wB_x = skip ? wB_x : t0_sub183   (ready @111/85/79)
     logic [W-1:0] t0_wB_x;
     assign t0_wB_x = dl_skip[1] ? dl_in_wB_x[2*W +: W] : dl_t0_sub183;
     logic [3*W-1:0] dl_t0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wB_x (.clk(clk), .d(t0_wB_x), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_wB_x));
     // t0_wB_y = skip ? wB_y : t0_sub184   (ready @111/85/79)
     logic [W-1:0] t0_wB_y;
     assign t0_wB_y = dl_skip[1] ? dl_in_wB_y[2*W +: W] : dl_t0_sub184;
     logic [3*W-1:0] dl_t0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wB_y (.clk(clk), .d(t0_wB_y), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_wB_y));
     // t0_wB_z = skip ? wB_z : t0_sub185   (ready @111/85/79)
     logic [W-1:0] t0_wB_z;
     assign t0_wB_z = dl_skip[1] ? dl_in_wB_z[2*W +: W] : dl_t0_sub185;
     logic [3*W-1:0] dl_t0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 104) - (2*MAN_BITS + 65)), 32'((2*MAN_BITS + 100) - (2*MAN_BITS + 65)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t0_wB_z (.clk(clk), .d(t0_wB_z), .valid(valid_q[2*MAN_BITS + 65 +: (((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) > 0 ? ((2*MAN_BITS + 104) - (2*MAN_BITS + 65)) : 1)]), .q(dl_t0_wB_z));
     // t1_mul189 = rA_y * basis_t1_z   (ready @71/45/39)
     logic [W-1:0] t1_mul189;
@@ -1968,7 +2156,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[109] = fl_t1_mul189[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[109] = fl_t1_mul189[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul189;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul189 (.clk(clk), .d(t1_mul189), .valid(1'b0), .q(dl_t1_mul189));
     // t1_mul190 = rA_z * basis_t1_y   (ready @71/45/39)
     logic [W-1:0] t1_mul190;
@@ -1981,7 +2170,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[110] = fl_t1_mul190[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[110] = fl_t1_mul190[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul190;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul190 (.clk(clk), .d(t1_mul190), .valid(1'b0), .q(dl_t1_mul190));
     // t1_cA_x = t1_mul189 - t1_mul190   (ready @75/49/43)
     logic [W-1:0] t1_cA_x;
@@ -1994,7 +2184,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[111] = fl_t1_cA_x[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[111] = fl_t1_cA_x[2] && ev_q[2*MAN_BITS + 29];
     logic [2*W-1:0] dl_t1_cA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cA_x (.clk(clk), .d(t1_cA_x), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t1_cA_x));
     // t1_mul192 = rA_z * basis_t1_x   (ready @71/45/39)
     logic [W-1:0] t1_mul192;
@@ -2007,7 +2198,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[112] = fl_t1_mul192[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[112] = fl_t1_mul192[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul192;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul192 (.clk(clk), .d(t1_mul192), .valid(1'b0), .q(dl_t1_mul192));
     // t1_mul193 = rA_x * basis_t1_z   (ready @71/45/39)
     logic [W-1:0] t1_mul193;
@@ -2020,7 +2212,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[113] = fl_t1_mul193[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[113] = fl_t1_mul193[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul193;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul193 (.clk(clk), .d(t1_mul193), .valid(1'b0), .q(dl_t1_mul193));
     // t1_cA_y = t1_mul192 - t1_mul193   (ready @75/49/43)
     logic [W-1:0] t1_cA_y;
@@ -2033,7 +2226,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[114] = fl_t1_cA_y[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[114] = fl_t1_cA_y[2] && ev_q[2*MAN_BITS + 29];
     logic [2*W-1:0] dl_t1_cA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cA_y (.clk(clk), .d(t1_cA_y), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t1_cA_y));
     // t1_mul195 = rA_x * basis_t1_y   (ready @71/45/39)
     logic [W-1:0] t1_mul195;
@@ -2046,7 +2240,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[115] = fl_t1_mul195[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[115] = fl_t1_mul195[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul195;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul195 (.clk(clk), .d(t1_mul195), .valid(1'b0), .q(dl_t1_mul195));
     // t1_mul196 = rA_y * basis_t1_x   (ready @71/45/39)
     logic [W-1:0] t1_mul196;
@@ -2059,7 +2254,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[116] = fl_t1_mul196[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[116] = fl_t1_mul196[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul196;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul196 (.clk(clk), .d(t1_mul196), .valid(1'b0), .q(dl_t1_mul196));
     // t1_cA_z = t1_mul195 - t1_mul196   (ready @75/49/43)
     logic [W-1:0] t1_cA_z;
@@ -2072,7 +2268,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[117] = fl_t1_cA_z[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[117] = fl_t1_cA_z[2] && ev_q[2*MAN_BITS + 29];
     logic [2*W-1:0] dl_t1_cA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cA_z (.clk(clk), .d(t1_cA_z), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t1_cA_z));
     // t1_mul198 = rB_y * basis_t1_z   (ready @71/45/39)
     logic [W-1:0] t1_mul198;
@@ -2085,7 +2282,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[118] = fl_t1_mul198[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[118] = fl_t1_mul198[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul198;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul198 (.clk(clk), .d(t1_mul198), .valid(1'b0), .q(dl_t1_mul198));
     // t1_mul199 = rB_z * basis_t1_y   (ready @71/45/39)
     logic [W-1:0] t1_mul199;
@@ -2098,7 +2296,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[119] = fl_t1_mul199[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[119] = fl_t1_mul199[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul199;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul199 (.clk(clk), .d(t1_mul199), .valid(1'b0), .q(dl_t1_mul199));
     // t1_cB_x = t1_mul198 - t1_mul199   (ready @75/49/43)
     logic [W-1:0] t1_cB_x;
@@ -2111,7 +2310,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[120] = fl_t1_cB_x[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[120] = fl_t1_cB_x[2] && ev_q[2*MAN_BITS + 29];
     logic [2*W-1:0] dl_t1_cB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cB_x (.clk(clk), .d(t1_cB_x), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t1_cB_x));
     // t1_mul201 = rB_z * basis_t1_x   (ready @71/45/39)
     logic [W-1:0] t1_mul201;
@@ -2124,7 +2324,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[121] = fl_t1_mul201[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[121] = fl_t1_mul201[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul201;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul201 (.clk(clk), .d(t1_mul201), .valid(1'b0), .q(dl_t1_mul201));
     // t1_mul202 = rB_x * basis_t1_z   (ready @71/45/39)
     logic [W-1:0] t1_mul202;
@@ -2137,7 +2338,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[122] = fl_t1_mul202[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[122] = fl_t1_mul202[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul202;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul202 (.clk(clk), .d(t1_mul202), .valid(1'b0), .q(dl_t1_mul202));
     // t1_cB_y = t1_mul201 - t1_mul202   (ready @75/49/43)
     logic [W-1:0] t1_cB_y;
@@ -2150,7 +2352,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[123] = fl_t1_cB_y[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[123] = fl_t1_cB_y[2] && ev_q[2*MAN_BITS + 29];
     logic [2*W-1:0] dl_t1_cB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cB_y (.clk(clk), .d(t1_cB_y), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t1_cB_y));
     // t1_mul204 = rB_x * basis_t1_y   (ready @71/45/39)
     logic [W-1:0] t1_mul204;
@@ -2163,7 +2366,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[124] = fl_t1_mul204[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[124] = fl_t1_mul204[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul204;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul204 (.clk(clk), .d(t1_mul204), .valid(1'b0), .q(dl_t1_mul204));
     // t1_mul205 = rB_y * basis_t1_x   (ready @71/45/39)
     logic [W-1:0] t1_mul205;
@@ -2176,7 +2380,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[125] = fl_t1_mul205[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[125] = fl_t1_mul205[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_mul205;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul205 (.clk(clk), .d(t1_mul205), .valid(1'b0), .q(dl_t1_mul205));
     // t1_cB_z = t1_mul204 - t1_mul205   (ready @75/49/43)
     logic [W-1:0] t1_cB_z;
@@ -2189,7 +2394,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[126] = fl_t1_cB_z[1] && ev_q[2*MAN_BITS + 29];
     assign ev_inv[126] = fl_t1_cB_z[2] && ev_q[2*MAN_BITS + 29];
     logic [2*W-1:0] dl_t1_cB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 65) - (2*MAN_BITS + 29)), .N_TAPS(2), .TAPS({32'(0), 32'((2*MAN_BITS + 65) - (2*MAN_BITS + 29))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_cB_z (.clk(clk), .d(t1_cB_z), .valid(valid_q[2*MAN_BITS + 29 +: (((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) > 0 ? ((2*MAN_BITS + 65) - (2*MAN_BITS + 29)) : 1)]), .q(dl_t1_cB_z));
     // t1_mul207 = basis_t1_x * t0_vA_x   (ready @114/88/82)
     logic [W-1:0] t1_mul207;
@@ -2202,7 +2408,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[127] = fl_t1_mul207[1] && ev_q[2*MAN_BITS + 68];
     assign ev_inv[127] = fl_t1_mul207[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul207;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul207 (.clk(clk), .d(t1_mul207), .valid(1'b0), .q(dl_t1_mul207));
     // t1_mul208 = basis_t1_y * t0_vA_y   (ready @114/88/82)
     logic [W-1:0] t1_mul208;
@@ -2215,7 +2422,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[128] = fl_t1_mul208[1] && ev_q[2*MAN_BITS + 68];
     assign ev_inv[128] = fl_t1_mul208[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul208;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul208 (.clk(clk), .d(t1_mul208), .valid(1'b0), .q(dl_t1_mul208));
     // t1_add209 = t1_mul207 + t1_mul208   (ready @118/92/86)
     logic [W-1:0] t1_add209;
@@ -2228,7 +2436,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[129] = fl_t1_add209[1] && ev_q[2*MAN_BITS + 72];
     assign ev_inv[129] = fl_t1_add209[2] && ev_q[2*MAN_BITS + 72];
     logic [W-1:0] dl_t1_add209;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add209 (.clk(clk), .d(t1_add209), .valid(1'b0), .q(dl_t1_add209));
     // t1_mul210 = basis_t1_z * t0_vA_z   (ready @114/88/82)
     logic [W-1:0] t1_mul210;
@@ -2241,7 +2450,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[130] = fl_t1_mul210[1] && ev_q[2*MAN_BITS + 68];
     assign ev_inv[130] = fl_t1_mul210[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul210;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 72) - (2*MAN_BITS + 68)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 72) - (2*MAN_BITS + 68)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul210 (.clk(clk), .d(t1_mul210), .valid(valid_q[2*MAN_BITS + 68 +: (((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) > 0 ? ((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) : 1)]), .q(dl_t1_mul210));
     // t1_add211 = t1_add209 + t1_mul210   (ready @122/96/90)
     logic [W-1:0] t1_add211;
@@ -2254,7 +2464,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[131] = fl_t1_add211[1] && ev_q[2*MAN_BITS + 76];
     assign ev_inv[131] = fl_t1_add211[2] && ev_q[2*MAN_BITS + 76];
     logic [W-1:0] dl_t1_add211;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add211 (.clk(clk), .d(t1_add211), .valid(1'b0), .q(dl_t1_add211));
     // t1_mul212 = basis_t1_x * t0_vB_x   (ready @114/88/82)
     logic [W-1:0] t1_mul212;
@@ -2267,7 +2478,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[132] = fl_t1_mul212[1] && ev_q[2*MAN_BITS + 68];
     assign ev_inv[132] = fl_t1_mul212[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul212;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul212 (.clk(clk), .d(t1_mul212), .valid(1'b0), .q(dl_t1_mul212));
     // t1_mul213 = basis_t1_y * t0_vB_y   (ready @114/88/82)
     logic [W-1:0] t1_mul213;
@@ -2280,7 +2492,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[133] = fl_t1_mul213[1] && ev_q[2*MAN_BITS + 68];
     assign ev_inv[133] = fl_t1_mul213[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul213;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul213 (.clk(clk), .d(t1_mul213), .valid(1'b0), .q(dl_t1_mul213));
     // t1_add214 = t1_mul212 + t1_mul213   (ready @118/92/86)
     logic [W-1:0] t1_add214;
@@ -2293,7 +2506,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[134] = fl_t1_add214[1] && ev_q[2*MAN_BITS + 72];
     assign ev_inv[134] = fl_t1_add214[2] && ev_q[2*MAN_BITS + 72];
     logic [W-1:0] dl_t1_add214;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add214 (.clk(clk), .d(t1_add214), .valid(1'b0), .q(dl_t1_add214));
     // t1_mul215 = basis_t1_z * t0_vB_z   (ready @114/88/82)
     logic [W-1:0] t1_mul215;
@@ -2306,7 +2520,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[135] = fl_t1_mul215[1] && ev_q[2*MAN_BITS + 68];
     assign ev_inv[135] = fl_t1_mul215[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul215;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 72) - (2*MAN_BITS + 68)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 72) - (2*MAN_BITS + 68)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul215 (.clk(clk), .d(t1_mul215), .valid(valid_q[2*MAN_BITS + 68 +: (((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) > 0 ? ((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) : 1)]), .q(dl_t1_mul215));
     // t1_add216 = t1_add214 + t1_mul215   (ready @122/96/90)
     logic [W-1:0] t1_add216;
@@ -2319,7 +2534,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[136] = fl_t1_add216[1] && ev_q[2*MAN_BITS + 76];
     assign ev_inv[136] = fl_t1_add216[2] && ev_q[2*MAN_BITS + 76];
     logic [W-1:0] dl_t1_add216;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add216 (.clk(clk), .d(t1_add216), .valid(1'b0), .q(dl_t1_add216));
     // t1_sub217 = t1_add211 - t1_add216   (ready @126/100/94)
     logic [W-1:0] t1_sub217;
@@ -2332,7 +2548,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[137] = fl_t1_sub217[1] && ev_q[2*MAN_BITS + 80];
     assign ev_inv[137] = fl_t1_sub217[2] && ev_q[2*MAN_BITS + 80];
     logic [W-1:0] dl_t1_sub217;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub217 (.clk(clk), .d(t1_sub217), .valid(1'b0), .q(dl_t1_sub217));
     // t1_mul218 = t1_cA_x * t0_wA_x   (ready @114/88/82)
     logic [W-1:0] t1_mul218;
@@ -2345,7 +2562,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[138] = fl_t1_mul218[1] && ev_q[2*MAN_BITS + 68];
     assign ev_inv[138] = fl_t1_mul218[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul218;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul218 (.clk(clk), .d(t1_mul218), .valid(1'b0), .q(dl_t1_mul218));
     // t1_mul219 = t1_cA_y * t0_wA_y   (ready @114/88/82)
     logic [W-1:0] t1_mul219;
@@ -2358,7 +2576,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[139] = fl_t1_mul219[1] && ev_q[2*MAN_BITS + 68];
     assign ev_inv[139] = fl_t1_mul219[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul219;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul219 (.clk(clk), .d(t1_mul219), .valid(1'b0), .q(dl_t1_mul219));
     // t1_add220 = t1_mul218 + t1_mul219   (ready @118/92/86)
     logic [W-1:0] t1_add220;
@@ -2371,7 +2590,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[140] = fl_t1_add220[1] && ev_q[2*MAN_BITS + 72];
     assign ev_inv[140] = fl_t1_add220[2] && ev_q[2*MAN_BITS + 72];
     logic [W-1:0] dl_t1_add220;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add220 (.clk(clk), .d(t1_add220), .valid(1'b0), .q(dl_t1_add220));
     // t1_mul221 = t1_cA_z * t0_wA_z   (ready @114/88/82)
     logic [W-1:0] t1_mul221;
@@ -2384,7 +2604,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[141] = fl_t1_mul221[1] && ev_q[2*MAN_BITS + 68];
     assign ev_inv[141] = fl_t1_mul221[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul221;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 72) - (2*MAN_BITS + 68)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 72) - (2*MAN_BITS + 68)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul221 (.clk(clk), .d(t1_mul221), .valid(valid_q[2*MAN_BITS + 68 +: (((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) > 0 ? ((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) : 1)]), .q(dl_t1_mul221));
     // t1_add222 = t1_add220 + t1_mul221   (ready @122/96/90)
     logic [W-1:0] t1_add222;
@@ -2397,7 +2618,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[142] = fl_t1_add222[1] && ev_q[2*MAN_BITS + 76];
     assign ev_inv[142] = fl_t1_add222[2] && ev_q[2*MAN_BITS + 76];
     logic [W-1:0] dl_t1_add222;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add222 (.clk(clk), .d(t1_add222), .valid(1'b0), .q(dl_t1_add222));
     // t1_mul223 = t1_cB_x * t0_wB_x   (ready @114/88/82)
     logic [W-1:0] t1_mul223;
@@ -2410,7 +2632,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[143] = fl_t1_mul223[1] && ev_q[2*MAN_BITS + 68];
     assign ev_inv[143] = fl_t1_mul223[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul223;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul223 (.clk(clk), .d(t1_mul223), .valid(1'b0), .q(dl_t1_mul223));
     // t1_mul224 = t1_cB_y * t0_wB_y   (ready @114/88/82)
     logic [W-1:0] t1_mul224;
@@ -2423,7 +2646,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[144] = fl_t1_mul224[1] && ev_q[2*MAN_BITS + 68];
     assign ev_inv[144] = fl_t1_mul224[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul224;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul224 (.clk(clk), .d(t1_mul224), .valid(1'b0), .q(dl_t1_mul224));
     // t1_add225 = t1_mul223 + t1_mul224   (ready @118/92/86)
     logic [W-1:0] t1_add225;
@@ -2436,7 +2660,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[145] = fl_t1_add225[1] && ev_q[2*MAN_BITS + 72];
     assign ev_inv[145] = fl_t1_add225[2] && ev_q[2*MAN_BITS + 72];
     logic [W-1:0] dl_t1_add225;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add225 (.clk(clk), .d(t1_add225), .valid(1'b0), .q(dl_t1_add225));
     // t1_mul226 = t1_cB_z * t0_wB_z   (ready @114/88/82)
     logic [W-1:0] t1_mul226;
@@ -2449,7 +2674,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[146] = fl_t1_mul226[1] && ev_q[2*MAN_BITS + 68];
     assign ev_inv[146] = fl_t1_mul226[2] && ev_q[2*MAN_BITS + 68];
     logic [W-1:0] dl_t1_mul226;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 72) - (2*MAN_BITS + 68)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 72) - (2*MAN_BITS + 68)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul226 (.clk(clk), .d(t1_mul226), .valid(valid_q[2*MAN_BITS + 68 +: (((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) > 0 ? ((2*MAN_BITS + 72) - (2*MAN_BITS + 68)) : 1)]), .q(dl_t1_mul226));
     // t1_add227 = t1_add225 + t1_mul226   (ready @122/96/90)
     logic [W-1:0] t1_add227;
@@ -2462,7 +2688,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[147] = fl_t1_add227[1] && ev_q[2*MAN_BITS + 76];
     assign ev_inv[147] = fl_t1_add227[2] && ev_q[2*MAN_BITS + 76];
     logic [W-1:0] dl_t1_add227;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add227 (.clk(clk), .d(t1_add227), .valid(1'b0), .q(dl_t1_add227));
     // t1_sub228 = t1_add222 - t1_add227   (ready @126/100/94)
     logic [W-1:0] t1_sub228;
@@ -2475,7 +2702,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[148] = fl_t1_sub228[1] && ev_q[2*MAN_BITS + 80];
     assign ev_inv[148] = fl_t1_sub228[2] && ev_q[2*MAN_BITS + 80];
     logic [W-1:0] dl_t1_sub228;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub228 (.clk(clk), .d(t1_sub228), .valid(1'b0), .q(dl_t1_sub228));
     // t1_u = t1_sub217 + t1_sub228   (ready @130/104/98)
     logic [W-1:0] t1_u;
@@ -2488,13 +2716,15 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[149] = fl_t1_u[1] && ev_q[2*MAN_BITS + 84];
     assign ev_inv[149] = fl_t1_u[2] && ev_q[2*MAN_BITS + 84];
     logic [W-1:0] dl_t1_u;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_u (.clk(clk), .d(t1_u), .valid(1'b0), .q(dl_t1_u));
     // t1_neg230 = -t1_u   (ready @130/104/98)
     logic [W-1:0] t1_neg230;
     assign t1_neg230 = {~dl_t1_u[W-1], dl_t1_u[W-2:0]};
     logic [W-1:0] dl_t1_neg230;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_neg230 (.clk(clk), .d(t1_neg230), .valid(1'b0), .q(dl_t1_neg230));
     // t1_delta0 = t1_neg230 * f_jac_inv1   (ready @133/107/101)
     logic [W-1:0] t1_delta0;
@@ -2507,7 +2737,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[150] = fl_t1_delta0[1] && ev_q[2*MAN_BITS + 87];
     assign ev_inv[150] = fl_t1_delta0[2] && ev_q[2*MAN_BITS + 87];
     logic [W-1:0] dl_t1_delta0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_delta0 (.clk(clk), .d(t1_delta0), .valid(1'b0), .q(dl_t1_delta0));
     // t1_add232 = lamT1 + t1_delta0   (ready @137/111/105)
     logic [W-1:0] t1_add232;
@@ -2520,7 +2751,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[151] = fl_t1_add232[1] && ev_q[2*MAN_BITS + 91];
     assign ev_inv[151] = fl_t1_add232[2] && ev_q[2*MAN_BITS + 91];
     logic [W-1:0] dl_t1_add232;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add232 (.clk(clk), .d(t1_add232), .valid(1'b0), .q(dl_t1_add232));
     // t1_max233 = max(t1_add232, neg_limit)   (ready @138/112/106)
     logic [W-1:0] t1_max233;
@@ -2530,7 +2762,8 @@ module pgs_friction_pipe_tb #(
         .lt(nc_t1_max233_lt), .eq(nc_t1_max233_eq), .unordered(nc_t1_max233_uo)
     );
     logic [W-1:0] dl_t1_max233;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_max233 (.clk(clk), .d(t1_max233), .valid(1'b0), .q(dl_t1_max233));
     // t1_lam_new = min(t1_max233, limit)   (ready @139/113/107)
     logic [W-1:0] t1_lam_new;
@@ -2540,7 +2773,8 @@ module pgs_friction_pipe_tb #(
         .lt(nc_t1_lam_new_lt), .eq(nc_t1_lam_new_eq), .unordered(nc_t1_lam_new_uo)
     );
     logic [W-1:0] dl_t1_lam_new;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_lam_new (.clk(clk), .d(t1_lam_new), .valid(1'b0), .q(dl_t1_lam_new));
     // t1_delta = t1_lam_new - lamT1   (ready @143/117/111)
     logic [W-1:0] t1_delta;
@@ -2553,19 +2787,22 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[152] = fl_t1_delta[1] && ev_q[2*MAN_BITS + 97];
     assign ev_inv[152] = fl_t1_delta[2] && ev_q[2*MAN_BITS + 97];
     logic [W-1:0] dl_t1_delta;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_delta (.clk(clk), .d(t1_delta), .valid(1'b0), .q(dl_t1_delta));
     // t1_lamT = skip ? lamT1 : t1_lam_new   (ready @139/113/107)
     logic [W-1:0] t1_lamT;
     assign t1_lamT = dl_skip[2] ? dl_in_lamT1[1*W +: W] : dl_t1_lam_new;
     logic [W-1:0] dl_t1_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 93)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 93)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_lamT (.clk(clk), .d(t1_lamT), .valid(valid_q[2*MAN_BITS + 93 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 93)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 93)) : 1)]), .q(dl_t1_lamT));
     // t1_e = -t1_delta   (ready @143/117/111)
     logic [W-1:0] t1_e;
     assign t1_e = {~dl_t1_delta[W-1], dl_t1_delta[W-2:0]};
     logic [W-1:0] dl_t1_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_e (.clk(clk), .d(t1_e), .valid(1'b0), .q(dl_t1_e));
     // t1_linA_x = basis_t1_x * mInvA   (ready @71/45/39)
     logic [W-1:0] t1_linA_x;
@@ -2578,7 +2815,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[153] = fl_t1_linA_x[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[153] = fl_t1_linA_x[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_linA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linA_x (.clk(clk), .d(t1_linA_x), .valid(valid_q[2*MAN_BITS + 25 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) : 1)]), .q(dl_t1_linA_x));
     // t1_linA_y = basis_t1_y * mInvA   (ready @71/45/39)
     logic [W-1:0] t1_linA_y;
@@ -2591,7 +2829,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[154] = fl_t1_linA_y[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[154] = fl_t1_linA_y[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_linA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linA_y (.clk(clk), .d(t1_linA_y), .valid(valid_q[2*MAN_BITS + 25 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) : 1)]), .q(dl_t1_linA_y));
     // t1_linA_z = basis_t1_z * mInvA   (ready @71/45/39)
     logic [W-1:0] t1_linA_z;
@@ -2604,7 +2843,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[155] = fl_t1_linA_z[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[155] = fl_t1_linA_z[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_linA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linA_z (.clk(clk), .d(t1_linA_z), .valid(valid_q[2*MAN_BITS + 25 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) : 1)]), .q(dl_t1_linA_z));
     // t1_mul241 = t1_linA_x * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul241;
@@ -2617,7 +2857,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[156] = fl_t1_mul241[1] && ev_q[2*MAN_BITS + 100];
     assign ev_inv[156] = fl_t1_mul241[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul241;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul241 (.clk(clk), .d(t1_mul241), .valid(1'b0), .q(dl_t1_mul241));
     // t1_mul242 = t1_linA_y * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul242;
@@ -2630,7 +2871,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[157] = fl_t1_mul242[1] && ev_q[2*MAN_BITS + 100];
     assign ev_inv[157] = fl_t1_mul242[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul242;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul242 (.clk(clk), .d(t1_mul242), .valid(1'b0), .q(dl_t1_mul242));
     // t1_mul243 = t1_linA_z * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul243;
@@ -2643,7 +2885,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[158] = fl_t1_mul243[1] && ev_q[2*MAN_BITS + 100];
     assign ev_inv[158] = fl_t1_mul243[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul243;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul243 (.clk(clk), .d(t1_mul243), .valid(1'b0), .q(dl_t1_mul243));
     // t1_add244 = t0_vA_x + t1_mul241   (ready @150/124/118)
     logic [W-1:0] t1_add244;
@@ -2656,7 +2899,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[159] = fl_t1_add244[1] && ev_q[2*MAN_BITS + 104];
     assign ev_inv[159] = fl_t1_add244[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_add244;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add244 (.clk(clk), .d(t1_add244), .valid(1'b0), .q(dl_t1_add244));
     // t1_add245 = t0_vA_y + t1_mul242   (ready @150/124/118)
     logic [W-1:0] t1_add245;
@@ -2669,7 +2913,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[160] = fl_t1_add245[1] && ev_q[2*MAN_BITS + 104];
     assign ev_inv[160] = fl_t1_add245[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_add245;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add245 (.clk(clk), .d(t1_add245), .valid(1'b0), .q(dl_t1_add245));
     // t1_add246 = t0_vA_z + t1_mul243   (ready @150/124/118)
     logic [W-1:0] t1_add246;
@@ -2682,25 +2927,29 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[161] = fl_t1_add246[1] && ev_q[2*MAN_BITS + 104];
     assign ev_inv[161] = fl_t1_add246[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_add246;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add246 (.clk(clk), .d(t1_add246), .valid(1'b0), .q(dl_t1_add246));
     // t1_vA_x = skip ? t0_vA_x : t1_add244   (ready @150/124/118)
     logic [W-1:0] t1_vA_x;
     assign t1_vA_x = dl_skip[3] ? dl_t0_vA_x[2*W +: W] : dl_t1_add244;
     logic [W-1:0] dl_t1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vA_x (.clk(clk), .d(t1_vA_x), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_vA_x));
     // t1_vA_y = skip ? t0_vA_y : t1_add245   (ready @150/124/118)
     logic [W-1:0] t1_vA_y;
     assign t1_vA_y = dl_skip[3] ? dl_t0_vA_y[2*W +: W] : dl_t1_add245;
     logic [W-1:0] dl_t1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vA_y (.clk(clk), .d(t1_vA_y), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_vA_y));
     // t1_vA_z = skip ? t0_vA_z : t1_add246   (ready @150/124/118)
     logic [W-1:0] t1_vA_z;
     assign t1_vA_z = dl_skip[3] ? dl_t0_vA_z[2*W +: W] : dl_t1_add246;
     logic [W-1:0] dl_t1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vA_z (.clk(clk), .d(t1_vA_z), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_vA_z));
     // t1_angA_x = IInvA_x * t1_cA_x   (ready @78/52/46)
     logic [W-1:0] t1_angA_x;
@@ -2713,7 +2962,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[162] = fl_t1_angA_x[1] && ev_q[2*MAN_BITS + 32];
     assign ev_inv[162] = fl_t1_angA_x[2] && ev_q[2*MAN_BITS + 32];
     logic [W-1:0] dl_t1_angA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angA_x (.clk(clk), .d(t1_angA_x), .valid(valid_q[2*MAN_BITS + 32 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) : 1)]), .q(dl_t1_angA_x));
     // t1_angA_y = IInvA_y * t1_cA_y   (ready @78/52/46)
     logic [W-1:0] t1_angA_y;
@@ -2726,7 +2976,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[163] = fl_t1_angA_y[1] && ev_q[2*MAN_BITS + 32];
     assign ev_inv[163] = fl_t1_angA_y[2] && ev_q[2*MAN_BITS + 32];
     logic [W-1:0] dl_t1_angA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angA_y (.clk(clk), .d(t1_angA_y), .valid(valid_q[2*MAN_BITS + 32 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) : 1)]), .q(dl_t1_angA_y));
     // t1_angA_z = IInvA_z * t1_cA_z   (ready @78/52/46)
     logic [W-1:0] t1_angA_z;
@@ -2739,7 +2990,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[164] = fl_t1_angA_z[1] && ev_q[2*MAN_BITS + 32];
     assign ev_inv[164] = fl_t1_angA_z[2] && ev_q[2*MAN_BITS + 32];
     logic [W-1:0] dl_t1_angA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angA_z (.clk(clk), .d(t1_angA_z), .valid(valid_q[2*MAN_BITS + 32 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) : 1)]), .q(dl_t1_angA_z));
     // t1_mul253 = t1_angA_x * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul253;
@@ -2752,7 +3004,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[165] = fl_t1_mul253[1] && ev_q[2*MAN_BITS + 100];
     assign ev_inv[165] = fl_t1_mul253[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul253;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul253 (.clk(clk), .d(t1_mul253), .valid(1'b0), .q(dl_t1_mul253));
     // t1_mul254 = t1_angA_y * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul254;
@@ -2765,7 +3018,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[166] = fl_t1_mul254[1] && ev_q[2*MAN_BITS + 100];
     assign ev_inv[166] = fl_t1_mul254[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul254;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul254 (.clk(clk), .d(t1_mul254), .valid(1'b0), .q(dl_t1_mul254));
     // t1_mul255 = t1_angA_z * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul255;
@@ -2778,7 +3032,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[167] = fl_t1_mul255[1] && ev_q[2*MAN_BITS + 100];
     assign ev_inv[167] = fl_t1_mul255[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul255;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul255 (.clk(clk), .d(t1_mul255), .valid(1'b0), .q(dl_t1_mul255));
     // t1_add256 = t0_wA_x + t1_mul253   (ready @150/124/118)
     logic [W-1:0] t1_add256;
@@ -2791,7 +3046,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[168] = fl_t1_add256[1] && ev_q[2*MAN_BITS + 104];
     assign ev_inv[168] = fl_t1_add256[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_add256;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add256 (.clk(clk), .d(t1_add256), .valid(1'b0), .q(dl_t1_add256));
     // t1_add257 = t0_wA_y + t1_mul254   (ready @150/124/118)
     logic [W-1:0] t1_add257;
@@ -2804,7 +3060,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[169] = fl_t1_add257[1] && ev_q[2*MAN_BITS + 104];
     assign ev_inv[169] = fl_t1_add257[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_add257;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add257 (.clk(clk), .d(t1_add257), .valid(1'b0), .q(dl_t1_add257));
     // t1_add258 = t0_wA_z + t1_mul255   (ready @150/124/118)
     logic [W-1:0] t1_add258;
@@ -2817,25 +3074,29 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[170] = fl_t1_add258[1] && ev_q[2*MAN_BITS + 104];
     assign ev_inv[170] = fl_t1_add258[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_add258;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_add258 (.clk(clk), .d(t1_add258), .valid(1'b0), .q(dl_t1_add258));
     // t1_wA_x = skip ? t0_wA_x : t1_add256   (ready @150/124/118)
     logic [W-1:0] t1_wA_x;
     assign t1_wA_x = dl_skip[3] ? dl_t0_wA_x[2*W +: W] : dl_t1_add256;
     logic [3*W-1:0] dl_t1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wA_x (.clk(clk), .d(t1_wA_x), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_wA_x));
     // t1_wA_y = skip ? t0_wA_y : t1_add257   (ready @150/124/118)
     logic [W-1:0] t1_wA_y;
     assign t1_wA_y = dl_skip[3] ? dl_t0_wA_y[2*W +: W] : dl_t1_add257;
     logic [3*W-1:0] dl_t1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wA_y (.clk(clk), .d(t1_wA_y), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_wA_y));
     // t1_wA_z = skip ? t0_wA_z : t1_add258   (ready @150/124/118)
     logic [W-1:0] t1_wA_z;
     assign t1_wA_z = dl_skip[3] ? dl_t0_wA_z[2*W +: W] : dl_t1_add258;
     logic [3*W-1:0] dl_t1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wA_z (.clk(clk), .d(t1_wA_z), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_wA_z));
     // t1_linB_x = basis_t1_x * mInvB   (ready @71/45/39)
     logic [W-1:0] t1_linB_x;
@@ -2848,7 +3109,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[171] = fl_t1_linB_x[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[171] = fl_t1_linB_x[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_linB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linB_x (.clk(clk), .d(t1_linB_x), .valid(valid_q[2*MAN_BITS + 25 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) : 1)]), .q(dl_t1_linB_x));
     // t1_linB_y = basis_t1_y * mInvB   (ready @71/45/39)
     logic [W-1:0] t1_linB_y;
@@ -2861,7 +3123,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[172] = fl_t1_linB_y[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[172] = fl_t1_linB_y[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_linB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linB_y (.clk(clk), .d(t1_linB_y), .valid(valid_q[2*MAN_BITS + 25 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) : 1)]), .q(dl_t1_linB_y));
     // t1_linB_z = basis_t1_z * mInvB   (ready @71/45/39)
     logic [W-1:0] t1_linB_z;
@@ -2874,7 +3137,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[173] = fl_t1_linB_z[1] && ev_q[2*MAN_BITS + 25];
     assign ev_inv[173] = fl_t1_linB_z[2] && ev_q[2*MAN_BITS + 25];
     logic [W-1:0] dl_t1_linB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 25)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_linB_z (.clk(clk), .d(t1_linB_z), .valid(valid_q[2*MAN_BITS + 25 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 25)) : 1)]), .q(dl_t1_linB_z));
     // t1_mul265 = t1_linB_x * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul265;
@@ -2887,7 +3151,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[174] = fl_t1_mul265[1] && ev_q[2*MAN_BITS + 100];
     assign ev_inv[174] = fl_t1_mul265[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul265;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul265 (.clk(clk), .d(t1_mul265), .valid(1'b0), .q(dl_t1_mul265));
     // t1_mul266 = t1_linB_y * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul266;
@@ -2900,7 +3165,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[175] = fl_t1_mul266[1] && ev_q[2*MAN_BITS + 100];
     assign ev_inv[175] = fl_t1_mul266[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul266;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul266 (.clk(clk), .d(t1_mul266), .valid(1'b0), .q(dl_t1_mul266));
     // t1_mul267 = t1_linB_z * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul267;
@@ -2913,7 +3179,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[176] = fl_t1_mul267[1] && ev_q[2*MAN_BITS + 100];
     assign ev_inv[176] = fl_t1_mul267[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul267;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul267 (.clk(clk), .d(t1_mul267), .valid(1'b0), .q(dl_t1_mul267));
     // t1_sub268 = t0_vB_x - t1_mul265   (ready @150/124/118)
     logic [W-1:0] t1_sub268;
@@ -2926,7 +3193,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[177] = fl_t1_sub268[1] && ev_q[2*MAN_BITS + 104];
     assign ev_inv[177] = fl_t1_sub268[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_sub268;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub268 (.clk(clk), .d(t1_sub268), .valid(1'b0), .q(dl_t1_sub268));
     // t1_sub269 = t0_vB_y - t1_mul266   (ready @150/124/118)
     logic [W-1:0] t1_sub269;
@@ -2939,7 +3207,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[178] = fl_t1_sub269[1] && ev_q[2*MAN_BITS + 104];
     assign ev_inv[178] = fl_t1_sub269[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_sub269;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub269 (.clk(clk), .d(t1_sub269), .valid(1'b0), .q(dl_t1_sub269));
     // t1_sub270 = t0_vB_z - t1_mul267   (ready @150/124/118)
     logic [W-1:0] t1_sub270;
@@ -2952,25 +3221,29 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[179] = fl_t1_sub270[1] && ev_q[2*MAN_BITS + 104];
     assign ev_inv[179] = fl_t1_sub270[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_sub270;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub270 (.clk(clk), .d(t1_sub270), .valid(1'b0), .q(dl_t1_sub270));
     // t1_vB_x = skip ? t0_vB_x : t1_sub268   (ready @150/124/118)
     logic [W-1:0] t1_vB_x;
     assign t1_vB_x = dl_skip[3] ? dl_t0_vB_x[2*W +: W] : dl_t1_sub268;
     logic [W-1:0] dl_t1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vB_x (.clk(clk), .d(t1_vB_x), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_vB_x));
     // t1_vB_y = skip ? t0_vB_y : t1_sub269   (ready @150/124/118)
     logic [W-1:0] t1_vB_y;
     assign t1_vB_y = dl_skip[3] ? dl_t0_vB_y[2*W +: W] : dl_t1_sub269;
     logic [W-1:0] dl_t1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vB_y (.clk(clk), .d(t1_vB_y), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_vB_y));
     // t1_vB_z = skip ? t0_vB_z : t1_sub270   (ready @150/124/118)
     logic [W-1:0] t1_vB_z;
     assign t1_vB_z = dl_skip[3] ? dl_t0_vB_z[2*W +: W] : dl_t1_sub270;
     logic [W-1:0] dl_t1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_vB_z (.clk(clk), .d(t1_vB_z), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_vB_z));
     // t1_angB_x = IInvB_x * t1_cB_x   (ready @78/52/46)
     logic [W-1:0] t1_angB_x;
@@ -2983,7 +3256,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[180] = fl_t1_angB_x[1] && ev_q[2*MAN_BITS + 32];
     assign ev_inv[180] = fl_t1_angB_x[2] && ev_q[2*MAN_BITS + 32];
     logic [W-1:0] dl_t1_angB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angB_x (.clk(clk), .d(t1_angB_x), .valid(valid_q[2*MAN_BITS + 32 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) : 1)]), .q(dl_t1_angB_x));
     // t1_angB_y = IInvB_y * t1_cB_y   (ready @78/52/46)
     logic [W-1:0] t1_angB_y;
@@ -2996,7 +3270,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[181] = fl_t1_angB_y[1] && ev_q[2*MAN_BITS + 32];
     assign ev_inv[181] = fl_t1_angB_y[2] && ev_q[2*MAN_BITS + 32];
     logic [W-1:0] dl_t1_angB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angB_y (.clk(clk), .d(t1_angB_y), .valid(valid_q[2*MAN_BITS + 32 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) : 1)]), .q(dl_t1_angB_y));
     // t1_angB_z = IInvB_z * t1_cB_z   (ready @78/52/46)
     logic [W-1:0] t1_angB_z;
@@ -3009,7 +3284,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[182] = fl_t1_angB_z[1] && ev_q[2*MAN_BITS + 32];
     assign ev_inv[182] = fl_t1_angB_z[2] && ev_q[2*MAN_BITS + 32];
     logic [W-1:0] dl_t1_angB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 97) - (2*MAN_BITS + 32)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_angB_z (.clk(clk), .d(t1_angB_z), .valid(valid_q[2*MAN_BITS + 32 +: (((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 97) - (2*MAN_BITS + 32)) : 1)]), .q(dl_t1_angB_z));
     // t1_mul277 = t1_angB_x * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul277;
@@ -3022,7 +3298,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[183] = fl_t1_mul277[1] && ev_q[2*MAN_BITS + 100];
     assign ev_inv[183] = fl_t1_mul277[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul277;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul277 (.clk(clk), .d(t1_mul277), .valid(1'b0), .q(dl_t1_mul277));
     // t1_mul278 = t1_angB_y * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul278;
@@ -3035,7 +3312,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[184] = fl_t1_mul278[1] && ev_q[2*MAN_BITS + 100];
     assign ev_inv[184] = fl_t1_mul278[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul278;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul278 (.clk(clk), .d(t1_mul278), .valid(1'b0), .q(dl_t1_mul278));
     // t1_mul279 = t1_angB_z * t1_e   (ready @146/120/114)
     logic [W-1:0] t1_mul279;
@@ -3048,7 +3326,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[185] = fl_t1_mul279[1] && ev_q[2*MAN_BITS + 100];
     assign ev_inv[185] = fl_t1_mul279[2] && ev_q[2*MAN_BITS + 100];
     logic [W-1:0] dl_t1_mul279;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_mul279 (.clk(clk), .d(t1_mul279), .valid(1'b0), .q(dl_t1_mul279));
     // t1_sub280 = t0_wB_x - t1_mul277   (ready @150/124/118)
     logic [W-1:0] t1_sub280;
@@ -3061,7 +3340,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[186] = fl_t1_sub280[1] && ev_q[2*MAN_BITS + 104];
     assign ev_inv[186] = fl_t1_sub280[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_sub280;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub280 (.clk(clk), .d(t1_sub280), .valid(1'b0), .q(dl_t1_sub280));
     // t1_sub281 = t0_wB_y - t1_mul278   (ready @150/124/118)
     logic [W-1:0] t1_sub281;
@@ -3074,7 +3354,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[187] = fl_t1_sub281[1] && ev_q[2*MAN_BITS + 104];
     assign ev_inv[187] = fl_t1_sub281[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_sub281;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub281 (.clk(clk), .d(t1_sub281), .valid(1'b0), .q(dl_t1_sub281));
     // t1_sub282 = t0_wB_z - t1_mul279   (ready @150/124/118)
     logic [W-1:0] t1_sub282;
@@ -3087,25 +3368,29 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[188] = fl_t1_sub282[1] && ev_q[2*MAN_BITS + 104];
     assign ev_inv[188] = fl_t1_sub282[2] && ev_q[2*MAN_BITS + 104];
     logic [W-1:0] dl_t1_sub282;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_sub282 (.clk(clk), .d(t1_sub282), .valid(1'b0), .q(dl_t1_sub282));
     // t1_wB_x = skip ? t0_wB_x : t1_sub280   (ready @150/124/118)
     logic [W-1:0] t1_wB_x;
     assign t1_wB_x = dl_skip[3] ? dl_t0_wB_x[2*W +: W] : dl_t1_sub280;
     logic [3*W-1:0] dl_t1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wB_x (.clk(clk), .d(t1_wB_x), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_wB_x));
     // t1_wB_y = skip ? t0_wB_y : t1_sub281   (ready @150/124/118)
     logic [W-1:0] t1_wB_y;
     assign t1_wB_y = dl_skip[3] ? dl_t0_wB_y[2*W +: W] : dl_t1_sub281;
     logic [3*W-1:0] dl_t1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wB_y (.clk(clk), .d(t1_wB_y), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_wB_y));
     // t1_wB_z = skip ? t0_wB_z : t1_sub282   (ready @150/124/118)
     logic [W-1:0] t1_wB_z;
     assign t1_wB_z = dl_skip[3] ? dl_t0_wB_z[2*W +: W] : dl_t1_sub282;
     logic [3*W-1:0] dl_t1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 125) - (2*MAN_BITS + 104)), 32'((2*MAN_BITS + 121) - (2*MAN_BITS + 104)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_t1_wB_z (.clk(clk), .d(t1_wB_z), .valid(valid_q[2*MAN_BITS + 104 +: (((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) > 0 ? ((2*MAN_BITS + 125) - (2*MAN_BITS + 104)) : 1)]), .q(dl_t1_wB_z));
     // spin_mul287 = n_x * t1_wA_x   (ready @153/127/121)
     logic [W-1:0] spin_mul287;
@@ -3118,7 +3403,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[189] = fl_spin_mul287[1] && ev_q[2*MAN_BITS + 107];
     assign ev_inv[189] = fl_spin_mul287[2] && ev_q[2*MAN_BITS + 107];
     logic [W-1:0] dl_spin_mul287;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul287 (.clk(clk), .d(spin_mul287), .valid(1'b0), .q(dl_spin_mul287));
     // spin_mul288 = n_y * t1_wA_y   (ready @153/127/121)
     logic [W-1:0] spin_mul288;
@@ -3131,7 +3417,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[190] = fl_spin_mul288[1] && ev_q[2*MAN_BITS + 107];
     assign ev_inv[190] = fl_spin_mul288[2] && ev_q[2*MAN_BITS + 107];
     logic [W-1:0] dl_spin_mul288;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul288 (.clk(clk), .d(spin_mul288), .valid(1'b0), .q(dl_spin_mul288));
     // spin_add289 = spin_mul287 + spin_mul288   (ready @157/131/125)
     logic [W-1:0] spin_add289;
@@ -3144,7 +3431,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[191] = fl_spin_add289[1] && ev_q[2*MAN_BITS + 111];
     assign ev_inv[191] = fl_spin_add289[2] && ev_q[2*MAN_BITS + 111];
     logic [W-1:0] dl_spin_add289;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add289 (.clk(clk), .d(spin_add289), .valid(1'b0), .q(dl_spin_add289));
     // spin_mul290 = n_z * t1_wA_z   (ready @153/127/121)
     logic [W-1:0] spin_mul290;
@@ -3157,7 +3445,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[192] = fl_spin_mul290[1] && ev_q[2*MAN_BITS + 107];
     assign ev_inv[192] = fl_spin_mul290[2] && ev_q[2*MAN_BITS + 107];
     logic [W-1:0] dl_spin_mul290;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 111) - (2*MAN_BITS + 107)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 111) - (2*MAN_BITS + 107)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul290 (.clk(clk), .d(spin_mul290), .valid(valid_q[2*MAN_BITS + 107 +: (((2*MAN_BITS + 111) - (2*MAN_BITS + 107)) > 0 ? ((2*MAN_BITS + 111) - (2*MAN_BITS + 107)) : 1)]), .q(dl_spin_mul290));
     // spin_add291 = spin_add289 + spin_mul290   (ready @161/135/129)
     logic [W-1:0] spin_add291;
@@ -3170,7 +3459,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[193] = fl_spin_add291[1] && ev_q[2*MAN_BITS + 115];
     assign ev_inv[193] = fl_spin_add291[2] && ev_q[2*MAN_BITS + 115];
     logic [W-1:0] dl_spin_add291;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add291 (.clk(clk), .d(spin_add291), .valid(1'b0), .q(dl_spin_add291));
     // spin_sA = spin_add291 * 0.1   (ready @164/138/132)
     logic [W-1:0] spin_sA;
@@ -3183,7 +3473,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[194] = fl_spin_sA[1] && ev_q[2*MAN_BITS + 118];
     assign ev_inv[194] = fl_spin_sA[2] && ev_q[2*MAN_BITS + 118];
     logic [W-1:0] dl_spin_sA;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_sA (.clk(clk), .d(spin_sA), .valid(1'b0), .q(dl_spin_sA));
     // spin_mul293 = n_x * spin_sA   (ready @167/141/135)
     logic [W-1:0] spin_mul293;
@@ -3196,7 +3487,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[195] = fl_spin_mul293[1] && ev_q[2*MAN_BITS + 121];
     assign ev_inv[195] = fl_spin_mul293[2] && ev_q[2*MAN_BITS + 121];
     logic [W-1:0] dl_spin_mul293;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul293 (.clk(clk), .d(spin_mul293), .valid(1'b0), .q(dl_spin_mul293));
     // spin_mul294 = n_y * spin_sA   (ready @167/141/135)
     logic [W-1:0] spin_mul294;
@@ -3209,7 +3501,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[196] = fl_spin_mul294[1] && ev_q[2*MAN_BITS + 121];
     assign ev_inv[196] = fl_spin_mul294[2] && ev_q[2*MAN_BITS + 121];
     logic [W-1:0] dl_spin_mul294;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul294 (.clk(clk), .d(spin_mul294), .valid(1'b0), .q(dl_spin_mul294));
     // spin_mul295 = n_z * spin_sA   (ready @167/141/135)
     logic [W-1:0] spin_mul295;
@@ -3222,7 +3515,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[197] = fl_spin_mul295[1] && ev_q[2*MAN_BITS + 121];
     assign ev_inv[197] = fl_spin_mul295[2] && ev_q[2*MAN_BITS + 121];
     logic [W-1:0] dl_spin_mul295;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul295 (.clk(clk), .d(spin_mul295), .valid(1'b0), .q(dl_spin_mul295));
     // spin_wA_damped_x = t1_wA_x - spin_mul293   (ready @171/145/139)
     logic [W-1:0] spin_wA_damped_x;
@@ -3235,7 +3529,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[198] = fl_spin_wA_damped_x[1] && ev_q[2*MAN_BITS + 125];
     assign ev_inv[198] = fl_spin_wA_damped_x[2] && ev_q[2*MAN_BITS + 125];
     logic [W-1:0] dl_spin_wA_damped_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_damped_x (.clk(clk), .d(spin_wA_damped_x), .valid(1'b0), .q(dl_spin_wA_damped_x));
     // spin_wA_damped_y = t1_wA_y - spin_mul294   (ready @171/145/139)
     logic [W-1:0] spin_wA_damped_y;
@@ -3248,7 +3543,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[199] = fl_spin_wA_damped_y[1] && ev_q[2*MAN_BITS + 125];
     assign ev_inv[199] = fl_spin_wA_damped_y[2] && ev_q[2*MAN_BITS + 125];
     logic [W-1:0] dl_spin_wA_damped_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_damped_y (.clk(clk), .d(spin_wA_damped_y), .valid(1'b0), .q(dl_spin_wA_damped_y));
     // spin_wA_damped_z = t1_wA_z - spin_mul295   (ready @171/145/139)
     logic [W-1:0] spin_wA_damped_z;
@@ -3261,7 +3557,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[200] = fl_spin_wA_damped_z[1] && ev_q[2*MAN_BITS + 125];
     assign ev_inv[200] = fl_spin_wA_damped_z[2] && ev_q[2*MAN_BITS + 125];
     logic [W-1:0] dl_spin_wA_damped_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_damped_z (.clk(clk), .d(spin_wA_damped_z), .valid(1'b0), .q(dl_spin_wA_damped_z));
     // spin_mul299 = n_x * t1_wB_x   (ready @153/127/121)
     logic [W-1:0] spin_mul299;
@@ -3274,7 +3571,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[201] = fl_spin_mul299[1] && ev_q[2*MAN_BITS + 107];
     assign ev_inv[201] = fl_spin_mul299[2] && ev_q[2*MAN_BITS + 107];
     logic [W-1:0] dl_spin_mul299;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul299 (.clk(clk), .d(spin_mul299), .valid(1'b0), .q(dl_spin_mul299));
     // spin_mul300 = n_y * t1_wB_y   (ready @153/127/121)
     logic [W-1:0] spin_mul300;
@@ -3287,7 +3585,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[202] = fl_spin_mul300[1] && ev_q[2*MAN_BITS + 107];
     assign ev_inv[202] = fl_spin_mul300[2] && ev_q[2*MAN_BITS + 107];
     logic [W-1:0] dl_spin_mul300;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul300 (.clk(clk), .d(spin_mul300), .valid(1'b0), .q(dl_spin_mul300));
     // spin_add301 = spin_mul299 + spin_mul300   (ready @157/131/125)
     logic [W-1:0] spin_add301;
@@ -3300,7 +3599,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[203] = fl_spin_add301[1] && ev_q[2*MAN_BITS + 111];
     assign ev_inv[203] = fl_spin_add301[2] && ev_q[2*MAN_BITS + 111];
     logic [W-1:0] dl_spin_add301;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add301 (.clk(clk), .d(spin_add301), .valid(1'b0), .q(dl_spin_add301));
     // spin_mul302 = n_z * t1_wB_z   (ready @153/127/121)
     logic [W-1:0] spin_mul302;
@@ -3313,7 +3613,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[204] = fl_spin_mul302[1] && ev_q[2*MAN_BITS + 107];
     assign ev_inv[204] = fl_spin_mul302[2] && ev_q[2*MAN_BITS + 107];
     logic [W-1:0] dl_spin_mul302;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 111) - (2*MAN_BITS + 107)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 111) - (2*MAN_BITS + 107)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul302 (.clk(clk), .d(spin_mul302), .valid(valid_q[2*MAN_BITS + 107 +: (((2*MAN_BITS + 111) - (2*MAN_BITS + 107)) > 0 ? ((2*MAN_BITS + 111) - (2*MAN_BITS + 107)) : 1)]), .q(dl_spin_mul302));
     // spin_add303 = spin_add301 + spin_mul302   (ready @161/135/129)
     logic [W-1:0] spin_add303;
@@ -3326,7 +3627,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[205] = fl_spin_add303[1] && ev_q[2*MAN_BITS + 115];
     assign ev_inv[205] = fl_spin_add303[2] && ev_q[2*MAN_BITS + 115];
     logic [W-1:0] dl_spin_add303;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_add303 (.clk(clk), .d(spin_add303), .valid(1'b0), .q(dl_spin_add303));
     // spin_sB = spin_add303 * 0.1   (ready @164/138/132)
     logic [W-1:0] spin_sB;
@@ -3339,7 +3641,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[206] = fl_spin_sB[1] && ev_q[2*MAN_BITS + 118];
     assign ev_inv[206] = fl_spin_sB[2] && ev_q[2*MAN_BITS + 118];
     logic [W-1:0] dl_spin_sB;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_sB (.clk(clk), .d(spin_sB), .valid(1'b0), .q(dl_spin_sB));
     // spin_mul305 = n_x * spin_sB   (ready @167/141/135)
     logic [W-1:0] spin_mul305;
@@ -3352,7 +3655,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[207] = fl_spin_mul305[1] && ev_q[2*MAN_BITS + 121];
     assign ev_inv[207] = fl_spin_mul305[2] && ev_q[2*MAN_BITS + 121];
     logic [W-1:0] dl_spin_mul305;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul305 (.clk(clk), .d(spin_mul305), .valid(1'b0), .q(dl_spin_mul305));
     // spin_mul306 = n_y * spin_sB   (ready @167/141/135)
     logic [W-1:0] spin_mul306;
@@ -3365,7 +3669,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[208] = fl_spin_mul306[1] && ev_q[2*MAN_BITS + 121];
     assign ev_inv[208] = fl_spin_mul306[2] && ev_q[2*MAN_BITS + 121];
     logic [W-1:0] dl_spin_mul306;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul306 (.clk(clk), .d(spin_mul306), .valid(1'b0), .q(dl_spin_mul306));
     // spin_mul307 = n_z * spin_sB   (ready @167/141/135)
     logic [W-1:0] spin_mul307;
@@ -3378,7 +3683,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[209] = fl_spin_mul307[1] && ev_q[2*MAN_BITS + 121];
     assign ev_inv[209] = fl_spin_mul307[2] && ev_q[2*MAN_BITS + 121];
     logic [W-1:0] dl_spin_mul307;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_mul307 (.clk(clk), .d(spin_mul307), .valid(1'b0), .q(dl_spin_mul307));
     // spin_wB_damped_x = t1_wB_x - spin_mul305   (ready @171/145/139)
     logic [W-1:0] spin_wB_damped_x;
@@ -3391,7 +3697,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[210] = fl_spin_wB_damped_x[1] && ev_q[2*MAN_BITS + 125];
     assign ev_inv[210] = fl_spin_wB_damped_x[2] && ev_q[2*MAN_BITS + 125];
     logic [W-1:0] dl_spin_wB_damped_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_damped_x (.clk(clk), .d(spin_wB_damped_x), .valid(1'b0), .q(dl_spin_wB_damped_x));
     // spin_wB_damped_y = t1_wB_y - spin_mul306   (ready @171/145/139)
     logic [W-1:0] spin_wB_damped_y;
@@ -3404,7 +3711,8 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[211] = fl_spin_wB_damped_y[1] && ev_q[2*MAN_BITS + 125];
     assign ev_inv[211] = fl_spin_wB_damped_y[2] && ev_q[2*MAN_BITS + 125];
     logic [W-1:0] dl_spin_wB_damped_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_damped_y (.clk(clk), .d(spin_wB_damped_y), .valid(1'b0), .q(dl_spin_wB_damped_y));
     // spin_wB_damped_z = t1_wB_z - spin_mul307   (ready @171/145/139)
     logic [W-1:0] spin_wB_damped_z;
@@ -3417,79 +3725,92 @@ module pgs_friction_pipe_tb #(
     assign ev_unf[212] = fl_spin_wB_damped_z[1] && ev_q[2*MAN_BITS + 125];
     assign ev_inv[212] = fl_spin_wB_damped_z[2] && ev_q[2*MAN_BITS + 125];
     logic [W-1:0] dl_spin_wB_damped_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_damped_z (.clk(clk), .d(spin_wB_damped_z), .valid(1'b0), .q(dl_spin_wB_damped_z));
     // spin_select311 = spin_damp ? spin_wA_damped_x : t1_wA_x   (ready @171/145/139)
     logic [W-1:0] spin_select311;
     assign spin_select311 = dl_in_spin_damp ? dl_spin_wA_damped_x : dl_t1_wA_x[2*W +: W];
     logic [W-1:0] dl_spin_select311;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select311 (.clk(clk), .d(spin_select311), .valid(1'b0), .q(dl_spin_select311));
     // spin_select312 = spin_damp ? spin_wA_damped_y : t1_wA_y   (ready @171/145/139)
     logic [W-1:0] spin_select312;
     assign spin_select312 = dl_in_spin_damp ? dl_spin_wA_damped_y : dl_t1_wA_y[2*W +: W];
     logic [W-1:0] dl_spin_select312;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select312 (.clk(clk), .d(spin_select312), .valid(1'b0), .q(dl_spin_select312));
     // spin_select313 = spin_damp ? spin_wA_damped_z : t1_wA_z   (ready @171/145/139)
     logic [W-1:0] spin_select313;
     assign spin_select313 = dl_in_spin_damp ? dl_spin_wA_damped_z : dl_t1_wA_z[2*W +: W];
     logic [W-1:0] dl_spin_select313;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select313 (.clk(clk), .d(spin_select313), .valid(1'b0), .q(dl_spin_select313));
     // spin_wA_x = skip ? t1_wA_x : spin_select311   (ready @171/145/139)
     logic [W-1:0] spin_wA_x;
     assign spin_wA_x = dl_skip[4] ? dl_t1_wA_x[2*W +: W] : dl_spin_select311;
     logic [W-1:0] dl_spin_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_x (.clk(clk), .d(spin_wA_x), .valid(1'b0), .q(dl_spin_wA_x));
     // spin_wA_y = skip ? t1_wA_y : spin_select312   (ready @171/145/139)
     logic [W-1:0] spin_wA_y;
     assign spin_wA_y = dl_skip[4] ? dl_t1_wA_y[2*W +: W] : dl_spin_select312;
     logic [W-1:0] dl_spin_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_y (.clk(clk), .d(spin_wA_y), .valid(1'b0), .q(dl_spin_wA_y));
     // spin_wA_z = skip ? t1_wA_z : spin_select313   (ready @171/145/139)
     logic [W-1:0] spin_wA_z;
     assign spin_wA_z = dl_skip[4] ? dl_t1_wA_z[2*W +: W] : dl_spin_select313;
     logic [W-1:0] dl_spin_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wA_z (.clk(clk), .d(spin_wA_z), .valid(1'b0), .q(dl_spin_wA_z));
     // spin_select317 = spin_damp ? spin_wB_damped_x : t1_wB_x   (ready @171/145/139)
     logic [W-1:0] spin_select317;
     assign spin_select317 = dl_in_spin_damp ? dl_spin_wB_damped_x : dl_t1_wB_x[2*W +: W];
     logic [W-1:0] dl_spin_select317;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select317 (.clk(clk), .d(spin_select317), .valid(1'b0), .q(dl_spin_select317));
     // spin_select318 = spin_damp ? spin_wB_damped_y : t1_wB_y   (ready @171/145/139)
     logic [W-1:0] spin_select318;
     assign spin_select318 = dl_in_spin_damp ? dl_spin_wB_damped_y : dl_t1_wB_y[2*W +: W];
     logic [W-1:0] dl_spin_select318;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select318 (.clk(clk), .d(spin_select318), .valid(1'b0), .q(dl_spin_select318));
     // spin_select319 = spin_damp ? spin_wB_damped_z : t1_wB_z   (ready @171/145/139)
     logic [W-1:0] spin_select319;
     assign spin_select319 = dl_in_spin_damp ? dl_spin_wB_damped_z : dl_t1_wB_z[2*W +: W];
     logic [W-1:0] dl_spin_select319;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_select319 (.clk(clk), .d(spin_select319), .valid(1'b0), .q(dl_spin_select319));
     // spin_wB_x = skip ? t1_wB_x : spin_select317   (ready @171/145/139)
     logic [W-1:0] spin_wB_x;
     assign spin_wB_x = dl_skip[4] ? dl_t1_wB_x[2*W +: W] : dl_spin_select317;
     logic [W-1:0] dl_spin_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_x (.clk(clk), .d(spin_wB_x), .valid(1'b0), .q(dl_spin_wB_x));
     // spin_wB_y = skip ? t1_wB_y : spin_select318   (ready @171/145/139)
     logic [W-1:0] spin_wB_y;
     assign spin_wB_y = dl_skip[4] ? dl_t1_wB_y[2*W +: W] : dl_spin_select318;
     logic [W-1:0] dl_spin_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_y (.clk(clk), .d(spin_wB_y), .valid(1'b0), .q(dl_spin_wB_y));
     // spin_wB_z = skip ? t1_wB_z : spin_select319   (ready @171/145/139)
     logic [W-1:0] spin_wB_z;
     assign spin_wB_z = dl_skip[4] ? dl_t1_wB_z[2*W +: W] : dl_spin_select319;
     logic [W-1:0] dl_spin_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_spin_wB_z (.clk(clk), .d(spin_wB_z), .valid(1'b0), .q(dl_spin_wB_z));
 
     // Outputs, each delayed to LATENCY.

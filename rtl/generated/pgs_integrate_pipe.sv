@@ -22,6 +22,9 @@ module pgs_integrate_pipe #(
     parameter  int EXP_BITS = 8,
     parameter  int MAN_BITS = 23,
     parameter  int TAG_W    = 64,
+    // delay lines at least this deep keep their words in block RAM, shallower ones in LUT RAM (0: none in
+    // block RAM; pgs_delay's BLOCK_MIN_DEPTH; the same results either way)
+    parameter  int DELAY_BLOCK_MIN_DEPTH = 0,
     localparam int W        = 1 + EXP_BITS + MAN_BITS,
     localparam int N_IN     = 18,
     localparam int N_OUT    = 13,
@@ -79,7 +82,7 @@ module pgs_integrate_pipe #(
     fp_valid_pipe #(.LATENCY(LATENCY)) u_valid (
         .clk(clk), .rst(rst), .in_valid(in_valid), .stage_valid(valid_q), .out_valid(out_valid)
     );
-    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY)) u_tag (
+    pgs_delay #(.WIDTH(TAG_W), .DEPTH(LATENCY), .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_tag (
         .clk(clk), .d(in_tag), .valid(valid_q[LATENCY-1:0]), .q(out_tag)
     );
 
@@ -106,92 +109,110 @@ module pgs_integrate_pipe #(
     logic [W-1:0] in_pos_x;
     assign in_pos_x = in_data[0*W +: W];
     logic [W-1:0] dl_in_pos_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(3))
+    pgs_delay #(.WIDTH(W), .DEPTH(3),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_pos_x (.clk(clk), .d(in_pos_x), .valid(valid_q[0 +: 3]), .q(dl_in_pos_x));
     logic [W-1:0] in_pos_y;
     assign in_pos_y = in_data[1*W +: W];
     logic [W-1:0] dl_in_pos_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(3))
+    pgs_delay #(.WIDTH(W), .DEPTH(3),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_pos_y (.clk(clk), .d(in_pos_y), .valid(valid_q[0 +: 3]), .q(dl_in_pos_y));
     logic [W-1:0] in_pos_z;
     assign in_pos_z = in_data[2*W +: W];
     logic [W-1:0] dl_in_pos_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(3))
+    pgs_delay #(.WIDTH(W), .DEPTH(3),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_pos_z (.clk(clk), .d(in_pos_z), .valid(valid_q[0 +: 3]), .q(dl_in_pos_z));
     logic [W-1:0] in_q_x;
     assign in_q_x = in_data[3*W +: W];
     logic [2*W-1:0] dl_in_q_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 60) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 60) - (0)), 32'((MAN_BITS + 56) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 60) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 60) - (0)), 32'((MAN_BITS + 56) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_q_x (.clk(clk), .d(in_q_x), .valid(valid_q[0 +: (((2*MAN_BITS + 60) - (0)) > 0 ? ((2*MAN_BITS + 60) - (0)) : 1)]), .q(dl_in_q_x));
     logic [W-1:0] in_q_y;
     assign in_q_y = in_data[4*W +: W];
     logic [2*W-1:0] dl_in_q_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 60) - (0)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 56) - (0)), 32'((2*MAN_BITS + 60) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 60) - (0)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 56) - (0)), 32'((2*MAN_BITS + 60) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_q_y (.clk(clk), .d(in_q_y), .valid(valid_q[0 +: (((2*MAN_BITS + 60) - (0)) > 0 ? ((2*MAN_BITS + 60) - (0)) : 1)]), .q(dl_in_q_y));
     logic [W-1:0] in_q_z;
     assign in_q_z = in_data[5*W +: W];
     logic [2*W-1:0] dl_in_q_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 60) - (0)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 56) - (0)), 32'((2*MAN_BITS + 60) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 60) - (0)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 56) - (0)), 32'((2*MAN_BITS + 60) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_q_z (.clk(clk), .d(in_q_z), .valid(valid_q[0 +: (((2*MAN_BITS + 60) - (0)) > 0 ? ((2*MAN_BITS + 60) - (0)) : 1)]), .q(dl_in_q_z));
     logic [W-1:0] in_q_w;
     assign in_q_w = in_data[6*W +: W];
     logic [2*W-1:0] dl_in_q_w;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 60) - (0)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 56) - (0)), 32'((2*MAN_BITS + 60) - (0))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 60) - (0)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 56) - (0)), 32'((2*MAN_BITS + 60) - (0))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_q_w (.clk(clk), .d(in_q_w), .valid(valid_q[0 +: (((2*MAN_BITS + 60) - (0)) > 0 ? ((2*MAN_BITS + 60) - (0)) : 1)]), .q(dl_in_q_w));
     logic [W-1:0] in_v_x;
     assign in_v_x = in_data[7*W +: W];
     logic [2*W-1:0] dl_in_v_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(3), .N_TAPS(2), .TAPS({32'(3), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(3), .N_TAPS(2), .TAPS({32'(3), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_v_x (.clk(clk), .d(in_v_x), .valid(valid_q[0 +: 3]), .q(dl_in_v_x));
     logic [W-1:0] in_v_y;
     assign in_v_y = in_data[8*W +: W];
     logic [2*W-1:0] dl_in_v_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(3), .N_TAPS(2), .TAPS({32'(3), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(3), .N_TAPS(2), .TAPS({32'(3), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_v_y (.clk(clk), .d(in_v_y), .valid(valid_q[0 +: 3]), .q(dl_in_v_y));
     logic [W-1:0] in_v_z;
     assign in_v_z = in_data[9*W +: W];
     logic [2*W-1:0] dl_in_v_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(3), .N_TAPS(2), .TAPS({32'(3), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH(3), .N_TAPS(2), .TAPS({32'(3), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_v_z (.clk(clk), .d(in_v_z), .valid(valid_q[0 +: 3]), .q(dl_in_v_z));
     logic [W-1:0] in_w_x;
     assign in_w_x = in_data[10*W +: W];
     logic [W-1:0] dl_in_w_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_w_x (.clk(clk), .d(in_w_x), .valid(1'b0), .q(dl_in_w_x));
     logic [W-1:0] in_w_y;
     assign in_w_y = in_data[11*W +: W];
     logic [W-1:0] dl_in_w_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_w_y (.clk(clk), .d(in_w_y), .valid(1'b0), .q(dl_in_w_y));
     logic [W-1:0] in_w_z;
     assign in_w_z = in_data[12*W +: W];
     logic [W-1:0] dl_in_w_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_w_z (.clk(clk), .d(in_w_z), .valid(1'b0), .q(dl_in_w_z));
     logic [W-1:0] in_dt;
     assign in_dt = in_data[13*W +: W];
     logic [3*W-1:0] dl_in_dt;
-    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 18) - (0)), .N_TAPS(3), .TAPS({32'((MAN_BITS + 18) - (0)), 32'(3), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 18) - (0)), .N_TAPS(3), .TAPS({32'((MAN_BITS + 18) - (0)), 32'(3), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_dt (.clk(clk), .d(in_dt), .valid(valid_q[0 +: (((MAN_BITS + 18) - (0)) > 0 ? ((MAN_BITS + 18) - (0)) : 1)]), .q(dl_in_dt));
     logic [W-1:0] in_damping;
     assign in_damping = in_data[14*W +: W];
     logic [W-1:0] dl_in_damping;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_damping (.clk(clk), .d(in_damping), .valid(1'b0), .q(dl_in_damping));
     logic [W-1:0] in_g_x;
     assign in_g_x = in_data[15*W +: W];
     logic [W-1:0] dl_in_g_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_g_x (.clk(clk), .d(in_g_x), .valid(1'b0), .q(dl_in_g_x));
     logic [W-1:0] in_g_y;
     assign in_g_y = in_data[16*W +: W];
     logic [W-1:0] dl_in_g_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_g_y (.clk(clk), .d(in_g_y), .valid(1'b0), .q(dl_in_g_y));
     logic [W-1:0] in_g_z;
     assign in_g_z = in_data[17*W +: W];
     logic [W-1:0] dl_in_g_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_in_g_z (.clk(clk), .d(in_g_z), .valid(1'b0), .q(dl_in_g_z));
 
     // Datapath in schedule order. Each value: cycle it is ready (after the input) for fp32 / fp16 /
@@ -207,7 +228,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[0] = fl_half_dt[1] && ev_q[3];
     assign ev_inv[0] = fl_half_dt[2] && ev_q[3];
     logic [2*W-1:0] dl_half_dt;
-    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 28) - (3)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 28) - (3)), 32'((MAN_BITS + 22) - (3))}))
+    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 28) - (3)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 28) - (3)), 32'((MAN_BITS + 22) - (3))}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_half_dt (.clk(clk), .d(half_dt), .valid(valid_q[3 +: (((MAN_BITS + 28) - (3)) > 0 ? ((MAN_BITS + 28) - (3)) : 1)]), .q(dl_half_dt));
     // mul20 = dt * dt   (ready @3/3/3)
     logic [W-1:0] mul20;
@@ -220,7 +242,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[1] = fl_mul20[1] && ev_q[3];
     assign ev_inv[1] = fl_mul20[2] && ev_q[3];
     logic [W-1:0] dl_mul20;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul20 (.clk(clk), .d(mul20), .valid(1'b0), .q(dl_mul20));
     // mul21 = mul20 * dt   (ready @6/6/6)
     logic [W-1:0] mul21;
@@ -233,7 +256,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[2] = fl_mul21[1] && ev_q[6];
     assign ev_inv[2] = fl_mul21[2] && ev_q[6];
     logic [W-1:0] dl_mul21;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul21 (.clk(clk), .d(mul21), .valid(1'b0), .q(dl_mul21));
     // dt3c = mul21 * 0.020833333333   (ready @9/9/9)
     logic [W-1:0] dt3c;
@@ -246,7 +270,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[3] = fl_dt3c[1] && ev_q[9];
     assign ev_inv[3] = fl_dt3c[2] && ev_q[9];
     logic [W-1:0] dl_dt3c;
-    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 22) - (9)))
+    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 22) - (9)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_dt3c (.clk(clk), .d(dt3c), .valid(valid_q[9 +: (((MAN_BITS + 22) - (9)) > 0 ? ((MAN_BITS + 22) - (9)) : 1)]), .q(dl_dt3c));
     // g_dt_x = g_x * dt   (ready @3/3/3)
     logic [W-1:0] g_dt_x;
@@ -259,7 +284,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[4] = fl_g_dt_x[1] && ev_q[3];
     assign ev_inv[4] = fl_g_dt_x[2] && ev_q[3];
     logic [W-1:0] dl_g_dt_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_g_dt_x (.clk(clk), .d(g_dt_x), .valid(1'b0), .q(dl_g_dt_x));
     // g_dt_y = g_y * dt   (ready @3/3/3)
     logic [W-1:0] g_dt_y;
@@ -272,7 +298,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[5] = fl_g_dt_y[1] && ev_q[3];
     assign ev_inv[5] = fl_g_dt_y[2] && ev_q[3];
     logic [W-1:0] dl_g_dt_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_g_dt_y (.clk(clk), .d(g_dt_y), .valid(1'b0), .q(dl_g_dt_y));
     // g_dt_z = g_z * dt   (ready @3/3/3)
     logic [W-1:0] g_dt_z;
@@ -285,7 +312,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[6] = fl_g_dt_z[1] && ev_q[3];
     assign ev_inv[6] = fl_g_dt_z[2] && ev_q[3];
     logic [W-1:0] dl_g_dt_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_g_dt_z (.clk(clk), .d(g_dt_z), .valid(1'b0), .q(dl_g_dt_z));
     // w_x = w_x * damping   (ready @3/3/3)
     logic [W-1:0] w_x;
@@ -298,7 +326,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[7] = fl_w_x[1] && ev_q[3];
     assign ev_inv[7] = fl_w_x[2] && ev_q[3];
     logic [3*W-1:0] dl_w_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (3)), .N_TAPS(3), .TAPS({32'((4*MAN_BITS + 94) - (3)), 32'((2*MAN_BITS + 57) - (3)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (3)), .N_TAPS(3), .TAPS({32'((4*MAN_BITS + 94) - (3)), 32'((2*MAN_BITS + 57) - (3)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_w_x (.clk(clk), .d(w_x), .valid(valid_q[3 +: (((4*MAN_BITS + 94) - (3)) > 0 ? ((4*MAN_BITS + 94) - (3)) : 1)]), .q(dl_w_x));
     // w_y = w_y * damping   (ready @3/3/3)
     logic [W-1:0] w_y;
@@ -311,7 +340,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[8] = fl_w_y[1] && ev_q[3];
     assign ev_inv[8] = fl_w_y[2] && ev_q[3];
     logic [3*W-1:0] dl_w_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (3)), .N_TAPS(3), .TAPS({32'((4*MAN_BITS + 94) - (3)), 32'((2*MAN_BITS + 57) - (3)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (3)), .N_TAPS(3), .TAPS({32'((4*MAN_BITS + 94) - (3)), 32'((2*MAN_BITS + 57) - (3)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_w_y (.clk(clk), .d(w_y), .valid(valid_q[3 +: (((4*MAN_BITS + 94) - (3)) > 0 ? ((4*MAN_BITS + 94) - (3)) : 1)]), .q(dl_w_y));
     // w_z = w_z * damping   (ready @3/3/3)
     logic [W-1:0] w_z;
@@ -324,7 +354,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[9] = fl_w_z[1] && ev_q[3];
     assign ev_inv[9] = fl_w_z[2] && ev_q[3];
     logic [3*W-1:0] dl_w_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (3)), .N_TAPS(3), .TAPS({32'((4*MAN_BITS + 94) - (3)), 32'((2*MAN_BITS + 57) - (3)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (3)), .N_TAPS(3), .TAPS({32'((4*MAN_BITS + 94) - (3)), 32'((2*MAN_BITS + 57) - (3)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_w_z (.clk(clk), .d(w_z), .valid(valid_q[3 +: (((4*MAN_BITS + 94) - (3)) > 0 ? ((4*MAN_BITS + 94) - (3)) : 1)]), .q(dl_w_z));
     // mul31 = w_x * w_x   (ready @6/6/6)
     logic [W-1:0] mul31;
@@ -337,7 +368,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[10] = fl_mul31[1] && ev_q[6];
     assign ev_inv[10] = fl_mul31[2] && ev_q[6];
     logic [W-1:0] dl_mul31;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul31 (.clk(clk), .d(mul31), .valid(1'b0), .q(dl_mul31));
     // mul32 = w_y * w_y   (ready @6/6/6)
     logic [W-1:0] mul32;
@@ -350,7 +382,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[11] = fl_mul32[1] && ev_q[6];
     assign ev_inv[11] = fl_mul32[2] && ev_q[6];
     logic [W-1:0] dl_mul32;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul32 (.clk(clk), .d(mul32), .valid(1'b0), .q(dl_mul32));
     // add33 = mul31 + mul32   (ready @10/10/10)
     logic [W-1:0] add33;
@@ -363,7 +396,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[12] = fl_add33[1] && ev_q[10];
     assign ev_inv[12] = fl_add33[2] && ev_q[10];
     logic [W-1:0] dl_add33;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add33 (.clk(clk), .d(add33), .valid(1'b0), .q(dl_add33));
     // mul34 = w_z * w_z   (ready @6/6/6)
     logic [W-1:0] mul34;
@@ -376,7 +410,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[13] = fl_mul34[1] && ev_q[6];
     assign ev_inv[13] = fl_mul34[2] && ev_q[6];
     logic [W-1:0] dl_mul34;
-    pgs_delay #(.WIDTH(W), .DEPTH(4))
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul34 (.clk(clk), .d(mul34), .valid(valid_q[6 +: 4]), .q(dl_mul34));
     // add35 = add33 + mul34   (ready @14/14/14)
     logic [W-1:0] add35;
@@ -389,7 +424,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[14] = fl_add35[1] && ev_q[14];
     assign ev_inv[14] = fl_add35[2] && ev_q[14];
     logic [W-1:0] dl_add35;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add35 (.clk(clk), .d(add35), .valid(1'b0), .q(dl_add35));
     // theta0 = sqrt(add35)   (ready @41/28/25)
     logic [W-1:0] theta0;
@@ -402,7 +438,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[15] = fl_theta0[1] && ev_q[MAN_BITS + 18];
     assign ev_inv[15] = fl_theta0[2] && ev_q[MAN_BITS + 18];
     logic [2*W-1:0] dl_theta0;
-    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 22) - (MAN_BITS + 18)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 22) - (MAN_BITS + 18)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 22) - (MAN_BITS + 18)), .N_TAPS(2), .TAPS({32'((MAN_BITS + 22) - (MAN_BITS + 18)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_theta0 (.clk(clk), .d(theta0), .valid(valid_q[MAN_BITS + 18 +: (((MAN_BITS + 22) - (MAN_BITS + 18)) > 0 ? ((MAN_BITS + 22) - (MAN_BITS + 18)) : 1)]), .q(dl_theta0));
     // mul37 = theta0 * dt   (ready @44/31/28)
     logic [W-1:0] mul37;
@@ -415,7 +452,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[16] = fl_mul37[1] && ev_q[MAN_BITS + 21];
     assign ev_inv[16] = fl_mul37[2] && ev_q[MAN_BITS + 21];
     logic [W-1:0] dl_mul37;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul37 (.clk(clk), .d(mul37), .valid(1'b0), .q(dl_mul37));
     // clamp = 0.785398135 < mul37   (ready @45/32/29)
     logic clamp;
@@ -425,7 +463,8 @@ module pgs_integrate_pipe #(
         .lt(clamp), .eq(nc_clamp_eq), .unordered(nc_clamp_uo)
     );
     logic [1-1:0] dl_clamp;
-    pgs_delay #(.WIDTH(1), .DEPTH(0))
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_clamp (.clk(clk), .d(clamp), .valid(1'b0), .q(dl_clamp));
     // theta_max = 0.785398135 / dt   (ready @28/15/12)
     logic [W-1:0] theta_max;
@@ -438,13 +477,15 @@ module pgs_integrate_pipe #(
     assign ev_unf[17] = fl_theta_max[1] && ev_q[MAN_BITS + 5];
     assign ev_inv[17] = fl_theta_max[2] && ev_q[MAN_BITS + 5];
     logic [W-1:0] dl_theta_max;
-    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 22) - (MAN_BITS + 5)))
+    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 22) - (MAN_BITS + 5)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_theta_max (.clk(clk), .d(theta_max), .valid(valid_q[MAN_BITS + 5 +: (((MAN_BITS + 22) - (MAN_BITS + 5)) > 0 ? ((MAN_BITS + 22) - (MAN_BITS + 5)) : 1)]), .q(dl_theta_max));
     // theta = clamp ? theta_max : theta0   (ready @45/32/29)
     logic [W-1:0] theta;
     assign theta = dl_clamp ? dl_theta_max : dl_theta0[1*W +: W];
     logic [3*W-1:0] dl_theta;
-    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 52) - (MAN_BITS + 22)), .N_TAPS(3), .TAPS({32'((MAN_BITS + 52) - (MAN_BITS + 22)), 32'((MAN_BITS + 25) - (MAN_BITS + 22)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 52) - (MAN_BITS + 22)), .N_TAPS(3), .TAPS({32'((MAN_BITS + 52) - (MAN_BITS + 22)), 32'((MAN_BITS + 25) - (MAN_BITS + 22)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_theta (.clk(clk), .d(theta), .valid(valid_q[MAN_BITS + 22 +: (((MAN_BITS + 52) - (MAN_BITS + 22)) > 0 ? ((MAN_BITS + 52) - (MAN_BITS + 22)) : 1)]), .q(dl_theta));
     // x = theta * half_dt   (ready @48/35/32)
     logic [W-1:0] x;
@@ -457,7 +498,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[18] = fl_x[1] && ev_q[MAN_BITS + 25];
     assign ev_inv[18] = fl_x[2] && ev_q[MAN_BITS + 25];
     logic [3*W-1:0] dl_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 48) - (MAN_BITS + 25)), .N_TAPS(3), .TAPS({32'((MAN_BITS + 48) - (MAN_BITS + 25)), 32'((MAN_BITS + 45) - (MAN_BITS + 25)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 48) - (MAN_BITS + 25)), .N_TAPS(3), .TAPS({32'((MAN_BITS + 48) - (MAN_BITS + 25)), 32'((MAN_BITS + 45) - (MAN_BITS + 25)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_x (.clk(clk), .d(x), .valid(valid_q[MAN_BITS + 25 +: (((MAN_BITS + 48) - (MAN_BITS + 25)) > 0 ? ((MAN_BITS + 48) - (MAN_BITS + 25)) : 1)]), .q(dl_x));
     // v_small = theta < 0.001   (ready @46/33/30)
     logic v_small;
@@ -467,7 +509,8 @@ module pgs_integrate_pipe #(
         .lt(v_small), .eq(nc_v_small_eq), .unordered(nc_v_small_uo)
     );
     logic [1-1:0] dl_v_small;
-    pgs_delay #(.WIDTH(1), .DEPTH((2*MAN_BITS + 57) - (MAN_BITS + 23)))
+    pgs_delay #(.WIDTH(1), .DEPTH((2*MAN_BITS + 57) - (MAN_BITS + 23)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_v_small (.clk(clk), .d(v_small), .valid(valid_q[MAN_BITS + 23 +: (((2*MAN_BITS + 57) - (MAN_BITS + 23)) > 0 ? ((2*MAN_BITS + 57) - (MAN_BITS + 23)) : 1)]), .q(dl_v_small));
     // mul44 = dt3c * theta   (ready @48/35/32)
     logic [W-1:0] mul44;
@@ -480,7 +523,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[19] = fl_mul44[1] && ev_q[MAN_BITS + 25];
     assign ev_inv[19] = fl_mul44[2] && ev_q[MAN_BITS + 25];
     logic [W-1:0] dl_mul44;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul44 (.clk(clk), .d(mul44), .valid(1'b0), .q(dl_mul44));
     // mul45 = mul44 * theta   (ready @51/38/35)
     logic [W-1:0] mul45;
@@ -493,7 +537,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[20] = fl_mul45[1] && ev_q[MAN_BITS + 28];
     assign ev_inv[20] = fl_mul45[2] && ev_q[MAN_BITS + 28];
     logic [W-1:0] dl_mul45;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul45 (.clk(clk), .d(mul45), .valid(1'b0), .q(dl_mul45));
     // s_small = half_dt - mul45   (ready @55/42/39)
     logic [W-1:0] s_small;
@@ -506,7 +551,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[21] = fl_s_small[1] && ev_q[MAN_BITS + 32];
     assign ev_inv[21] = fl_s_small[2] && ev_q[MAN_BITS + 32];
     logic [W-1:0] dl_s_small;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 57) - (MAN_BITS + 32)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 57) - (MAN_BITS + 32)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_s_small (.clk(clk), .d(s_small), .valid(valid_q[MAN_BITS + 32 +: (((2*MAN_BITS + 57) - (MAN_BITS + 32)) > 0 ? ((2*MAN_BITS + 57) - (MAN_BITS + 32)) : 1)]), .q(dl_s_small));
     // x2 = x * x   (ready @51/38/35)
     logic [W-1:0] x2;
@@ -519,7 +565,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[22] = fl_x2[1] && ev_q[MAN_BITS + 28];
     assign ev_inv[22] = fl_x2[2] && ev_q[MAN_BITS + 28];
     logic [4*W-1:0] dl_x2;
-    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 49) - (MAN_BITS + 28)), .N_TAPS(4), .TAPS({32'((MAN_BITS + 49) - (MAN_BITS + 28)), 32'((MAN_BITS + 42) - (MAN_BITS + 28)), 32'((MAN_BITS + 35) - (MAN_BITS + 28)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((MAN_BITS + 49) - (MAN_BITS + 28)), .N_TAPS(4), .TAPS({32'((MAN_BITS + 49) - (MAN_BITS + 28)), 32'((MAN_BITS + 42) - (MAN_BITS + 28)), 32'((MAN_BITS + 35) - (MAN_BITS + 28)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_x2 (.clk(clk), .d(x2), .valid(valid_q[MAN_BITS + 28 +: (((MAN_BITS + 49) - (MAN_BITS + 28)) > 0 ? ((MAN_BITS + 49) - (MAN_BITS + 28)) : 1)]), .q(dl_x2));
     // mul50 = x2 * -0.0001984126984126984   (ready @54/41/38)
     logic [W-1:0] mul50;
@@ -532,7 +579,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[23] = fl_mul50[1] && ev_q[MAN_BITS + 31];
     assign ev_inv[23] = fl_mul50[2] && ev_q[MAN_BITS + 31];
     logic [W-1:0] dl_mul50;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul50 (.clk(clk), .d(mul50), .valid(1'b0), .q(dl_mul50));
     // add51 = 0.008333333333333333 + mul50   (ready @58/45/42)
     logic [W-1:0] add51;
@@ -545,7 +593,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[24] = fl_add51[1] && ev_q[MAN_BITS + 35];
     assign ev_inv[24] = fl_add51[2] && ev_q[MAN_BITS + 35];
     logic [W-1:0] dl_add51;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add51 (.clk(clk), .d(add51), .valid(1'b0), .q(dl_add51));
     // mul53 = x2 * add51   (ready @61/48/45)
     logic [W-1:0] mul53;
@@ -558,7 +607,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[25] = fl_mul53[1] && ev_q[MAN_BITS + 38];
     assign ev_inv[25] = fl_mul53[2] && ev_q[MAN_BITS + 38];
     logic [W-1:0] dl_mul53;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul53 (.clk(clk), .d(mul53), .valid(1'b0), .q(dl_mul53));
     // add54 = -0.16666666666666666 + mul53   (ready @65/52/49)
     logic [W-1:0] add54;
@@ -571,7 +621,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[26] = fl_add54[1] && ev_q[MAN_BITS + 42];
     assign ev_inv[26] = fl_add54[2] && ev_q[MAN_BITS + 42];
     logic [W-1:0] dl_add54;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add54 (.clk(clk), .d(add54), .valid(1'b0), .q(dl_add54));
     // mul55 = x2 * add54   (ready @68/55/52)
     logic [W-1:0] mul55;
@@ -584,7 +635,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[27] = fl_mul55[1] && ev_q[MAN_BITS + 45];
     assign ev_inv[27] = fl_mul55[2] && ev_q[MAN_BITS + 45];
     logic [W-1:0] dl_mul55;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul55 (.clk(clk), .d(mul55), .valid(1'b0), .q(dl_mul55));
     // mul56 = x * mul55   (ready @71/58/55)
     logic [W-1:0] mul56;
@@ -597,7 +649,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[28] = fl_mul56[1] && ev_q[MAN_BITS + 48];
     assign ev_inv[28] = fl_mul56[2] && ev_q[MAN_BITS + 48];
     logic [W-1:0] dl_mul56;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul56 (.clk(clk), .d(mul56), .valid(1'b0), .q(dl_mul56));
     // sin_x = x + mul56   (ready @75/62/59)
     logic [W-1:0] sin_x;
@@ -610,7 +663,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[29] = fl_sin_x[1] && ev_q[MAN_BITS + 52];
     assign ev_inv[29] = fl_sin_x[2] && ev_q[MAN_BITS + 52];
     logic [W-1:0] dl_sin_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_sin_x (.clk(clk), .d(sin_x), .valid(1'b0), .q(dl_sin_x));
     // s_large = sin_x / theta   (ready @103/77/71)
     logic [W-1:0] s_large;
@@ -623,13 +677,15 @@ module pgs_integrate_pipe #(
     assign ev_unf[30] = fl_s_large[1] && ev_q[2*MAN_BITS + 57];
     assign ev_inv[30] = fl_s_large[2] && ev_q[2*MAN_BITS + 57];
     logic [W-1:0] dl_s_large;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_s_large (.clk(clk), .d(s_large), .valid(1'b0), .q(dl_s_large));
     // s = v_small ? s_small : s_large   (ready @103/77/71)
     logic [W-1:0] s;
     assign s = dl_v_small ? dl_s_small : dl_s_large;
     logic [W-1:0] dl_s;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_s (.clk(clk), .d(s), .valid(1'b0), .q(dl_s));
     // mul63 = x2 * 2.48015873015873e-05   (ready @54/41/38)
     logic [W-1:0] mul63;
@@ -642,7 +698,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[31] = fl_mul63[1] && ev_q[MAN_BITS + 31];
     assign ev_inv[31] = fl_mul63[2] && ev_q[MAN_BITS + 31];
     logic [W-1:0] dl_mul63;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul63 (.clk(clk), .d(mul63), .valid(1'b0), .q(dl_mul63));
     // add64 = -0.001388888888888889 + mul63   (ready @58/45/42)
     logic [W-1:0] add64;
@@ -655,7 +712,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[32] = fl_add64[1] && ev_q[MAN_BITS + 35];
     assign ev_inv[32] = fl_add64[2] && ev_q[MAN_BITS + 35];
     logic [W-1:0] dl_add64;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add64 (.clk(clk), .d(add64), .valid(1'b0), .q(dl_add64));
     // mul66 = x2 * add64   (ready @61/48/45)
     logic [W-1:0] mul66;
@@ -668,7 +726,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[33] = fl_mul66[1] && ev_q[MAN_BITS + 38];
     assign ev_inv[33] = fl_mul66[2] && ev_q[MAN_BITS + 38];
     logic [W-1:0] dl_mul66;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul66 (.clk(clk), .d(mul66), .valid(1'b0), .q(dl_mul66));
     // add67 = 0.041666666666666664 + mul66   (ready @65/52/49)
     logic [W-1:0] add67;
@@ -681,7 +740,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[34] = fl_add67[1] && ev_q[MAN_BITS + 42];
     assign ev_inv[34] = fl_add67[2] && ev_q[MAN_BITS + 42];
     logic [W-1:0] dl_add67;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add67 (.clk(clk), .d(add67), .valid(1'b0), .q(dl_add67));
     // mul69 = x2 * add67   (ready @68/55/52)
     logic [W-1:0] mul69;
@@ -694,7 +754,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[35] = fl_mul69[1] && ev_q[MAN_BITS + 45];
     assign ev_inv[35] = fl_mul69[2] && ev_q[MAN_BITS + 45];
     logic [W-1:0] dl_mul69;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul69 (.clk(clk), .d(mul69), .valid(1'b0), .q(dl_mul69));
     // add70 = -0.5 + mul69   (ready @72/59/56)
     logic [W-1:0] add70;
@@ -707,7 +768,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[36] = fl_add70[1] && ev_q[MAN_BITS + 49];
     assign ev_inv[36] = fl_add70[2] && ev_q[MAN_BITS + 49];
     logic [W-1:0] dl_add70;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add70 (.clk(clk), .d(add70), .valid(1'b0), .q(dl_add70));
     // mul71 = x2 * add70   (ready @75/62/59)
     logic [W-1:0] mul71;
@@ -720,7 +782,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[37] = fl_mul71[1] && ev_q[MAN_BITS + 52];
     assign ev_inv[37] = fl_mul71[2] && ev_q[MAN_BITS + 52];
     logic [W-1:0] dl_mul71;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul71 (.clk(clk), .d(mul71), .valid(1'b0), .q(dl_mul71));
     // cos_x = 1.0 + mul71   (ready @79/66/63)
     logic [W-1:0] cos_x;
@@ -733,7 +796,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[38] = fl_cos_x[1] && ev_q[MAN_BITS + 56];
     assign ev_inv[38] = fl_cos_x[2] && ev_q[MAN_BITS + 56];
     logic [W-1:0] dl_cos_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_cos_x (.clk(clk), .d(cos_x), .valid(1'b0), .q(dl_cos_x));
     // dq_x = w_x * s   (ready @106/80/74)
     logic [W-1:0] dq_x;
@@ -746,7 +810,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[39] = fl_dq_x[1] && ev_q[2*MAN_BITS + 60];
     assign ev_inv[39] = fl_dq_x[2] && ev_q[2*MAN_BITS + 60];
     logic [W-1:0] dl_dq_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_dq_x (.clk(clk), .d(dq_x), .valid(1'b0), .q(dl_dq_x));
     // dq_y = w_y * s   (ready @106/80/74)
     logic [W-1:0] dq_y;
@@ -759,7 +824,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[40] = fl_dq_y[1] && ev_q[2*MAN_BITS + 60];
     assign ev_inv[40] = fl_dq_y[2] && ev_q[2*MAN_BITS + 60];
     logic [W-1:0] dl_dq_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_dq_y (.clk(clk), .d(dq_y), .valid(1'b0), .q(dl_dq_y));
     // dq_z = w_z * s   (ready @106/80/74)
     logic [W-1:0] dq_z;
@@ -772,7 +838,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[41] = fl_dq_z[1] && ev_q[2*MAN_BITS + 60];
     assign ev_inv[41] = fl_dq_z[2] && ev_q[2*MAN_BITS + 60];
     logic [W-1:0] dl_dq_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_dq_z (.clk(clk), .d(dq_z), .valid(1'b0), .q(dl_dq_z));
     // mul76 = cos_x * q_x   (ready @82/69/66)
     logic [W-1:0] mul76;
@@ -785,7 +852,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[42] = fl_mul76[1] && ev_q[MAN_BITS + 59];
     assign ev_inv[42] = fl_mul76[2] && ev_q[MAN_BITS + 59];
     logic [W-1:0] dl_mul76;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 63) - (MAN_BITS + 59)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 63) - (MAN_BITS + 59)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul76 (.clk(clk), .d(mul76), .valid(valid_q[MAN_BITS + 59 +: (((2*MAN_BITS + 63) - (MAN_BITS + 59)) > 0 ? ((2*MAN_BITS + 63) - (MAN_BITS + 59)) : 1)]), .q(dl_mul76));
     // mul77 = dq_x * q_w   (ready @109/83/77)
     logic [W-1:0] mul77;
@@ -798,7 +866,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[43] = fl_mul77[1] && ev_q[2*MAN_BITS + 63];
     assign ev_inv[43] = fl_mul77[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul77;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul77 (.clk(clk), .d(mul77), .valid(1'b0), .q(dl_mul77));
     // add78 = mul76 + mul77   (ready @113/87/81)
     logic [W-1:0] add78;
@@ -811,7 +880,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[44] = fl_add78[1] && ev_q[2*MAN_BITS + 67];
     assign ev_inv[44] = fl_add78[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_add78;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add78 (.clk(clk), .d(add78), .valid(1'b0), .q(dl_add78));
     // mul79 = dq_y * q_z   (ready @109/83/77)
     logic [W-1:0] mul79;
@@ -824,7 +894,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[45] = fl_mul79[1] && ev_q[2*MAN_BITS + 63];
     assign ev_inv[45] = fl_mul79[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul79;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul79 (.clk(clk), .d(mul79), .valid(1'b0), .q(dl_mul79));
     // mul80 = dq_z * q_y   (ready @109/83/77)
     logic [W-1:0] mul80;
@@ -837,7 +908,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[46] = fl_mul80[1] && ev_q[2*MAN_BITS + 63];
     assign ev_inv[46] = fl_mul80[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul80;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul80 (.clk(clk), .d(mul80), .valid(1'b0), .q(dl_mul80));
     // sub81 = mul79 - mul80   (ready @113/87/81)
     logic [W-1:0] sub81;
@@ -850,7 +922,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[47] = fl_sub81[1] && ev_q[2*MAN_BITS + 67];
     assign ev_inv[47] = fl_sub81[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_sub81;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_sub81 (.clk(clk), .d(sub81), .valid(1'b0), .q(dl_sub81));
     // qn_x = add78 + sub81   (ready @117/91/85)
     logic [W-1:0] qn_x;
@@ -863,7 +936,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[48] = fl_qn_x[1] && ev_q[2*MAN_BITS + 71];
     assign ev_inv[48] = fl_qn_x[2] && ev_q[2*MAN_BITS + 71];
     logic [2*W-1:0] dl_qn_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), .N_TAPS(2), .TAPS({32'((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), .N_TAPS(2), .TAPS({32'((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_qn_x (.clk(clk), .d(qn_x), .valid(valid_q[2*MAN_BITS + 71 +: (((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) > 0 ? ((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) : 1)]), .q(dl_qn_x));
     // mul83 = cos_x * q_y   (ready @82/69/66)
     logic [W-1:0] mul83;
@@ -876,7 +950,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[49] = fl_mul83[1] && ev_q[MAN_BITS + 59];
     assign ev_inv[49] = fl_mul83[2] && ev_q[MAN_BITS + 59];
     logic [W-1:0] dl_mul83;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 63) - (MAN_BITS + 59)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 63) - (MAN_BITS + 59)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul83 (.clk(clk), .d(mul83), .valid(valid_q[MAN_BITS + 59 +: (((2*MAN_BITS + 63) - (MAN_BITS + 59)) > 0 ? ((2*MAN_BITS + 63) - (MAN_BITS + 59)) : 1)]), .q(dl_mul83));
     // mul84 = dq_y * q_w   (ready @109/83/77)
     logic [W-1:0] mul84;
@@ -889,7 +964,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[50] = fl_mul84[1] && ev_q[2*MAN_BITS + 63];
     assign ev_inv[50] = fl_mul84[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul84;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul84 (.clk(clk), .d(mul84), .valid(1'b0), .q(dl_mul84));
     // add85 = mul83 + mul84   (ready @113/87/81)
     logic [W-1:0] add85;
@@ -902,7 +978,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[51] = fl_add85[1] && ev_q[2*MAN_BITS + 67];
     assign ev_inv[51] = fl_add85[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_add85;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add85 (.clk(clk), .d(add85), .valid(1'b0), .q(dl_add85));
     // mul86 = dq_z * q_x   (ready @109/83/77)
     logic [W-1:0] mul86;
@@ -915,7 +992,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[52] = fl_mul86[1] && ev_q[2*MAN_BITS + 63];
     assign ev_inv[52] = fl_mul86[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul86;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul86 (.clk(clk), .d(mul86), .valid(1'b0), .q(dl_mul86));
     // mul87 = dq_x * q_z   (ready @109/83/77)
     logic [W-1:0] mul87;
@@ -928,7 +1006,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[53] = fl_mul87[1] && ev_q[2*MAN_BITS + 63];
     assign ev_inv[53] = fl_mul87[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul87;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul87 (.clk(clk), .d(mul87), .valid(1'b0), .q(dl_mul87));
     // sub88 = mul86 - mul87   (ready @113/87/81)
     logic [W-1:0] sub88;
@@ -941,7 +1020,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[54] = fl_sub88[1] && ev_q[2*MAN_BITS + 67];
     assign ev_inv[54] = fl_sub88[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_sub88;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_sub88 (.clk(clk), .d(sub88), .valid(1'b0), .q(dl_sub88));
     // qn_y = add85 + sub88   (ready @117/91/85)
     logic [W-1:0] qn_y;
@@ -954,7 +1034,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[55] = fl_qn_y[1] && ev_q[2*MAN_BITS + 71];
     assign ev_inv[55] = fl_qn_y[2] && ev_q[2*MAN_BITS + 71];
     logic [2*W-1:0] dl_qn_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), .N_TAPS(2), .TAPS({32'((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), .N_TAPS(2), .TAPS({32'((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_qn_y (.clk(clk), .d(qn_y), .valid(valid_q[2*MAN_BITS + 71 +: (((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) > 0 ? ((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) : 1)]), .q(dl_qn_y));
     // mul90 = cos_x * q_z   (ready @82/69/66)
     logic [W-1:0] mul90;
@@ -967,7 +1048,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[56] = fl_mul90[1] && ev_q[MAN_BITS + 59];
     assign ev_inv[56] = fl_mul90[2] && ev_q[MAN_BITS + 59];
     logic [W-1:0] dl_mul90;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 63) - (MAN_BITS + 59)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 63) - (MAN_BITS + 59)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul90 (.clk(clk), .d(mul90), .valid(valid_q[MAN_BITS + 59 +: (((2*MAN_BITS + 63) - (MAN_BITS + 59)) > 0 ? ((2*MAN_BITS + 63) - (MAN_BITS + 59)) : 1)]), .q(dl_mul90));
     // mul91 = dq_z * q_w   (ready @109/83/77)
     logic [W-1:0] mul91;
@@ -980,7 +1062,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[57] = fl_mul91[1] && ev_q[2*MAN_BITS + 63];
     assign ev_inv[57] = fl_mul91[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul91;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul91 (.clk(clk), .d(mul91), .valid(1'b0), .q(dl_mul91));
     // add92 = mul90 + mul91   (ready @113/87/81)
     logic [W-1:0] add92;
@@ -993,7 +1076,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[58] = fl_add92[1] && ev_q[2*MAN_BITS + 67];
     assign ev_inv[58] = fl_add92[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_add92;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add92 (.clk(clk), .d(add92), .valid(1'b0), .q(dl_add92));
     // mul93 = dq_x * q_y   (ready @109/83/77)
     logic [W-1:0] mul93;
@@ -1006,7 +1090,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[59] = fl_mul93[1] && ev_q[2*MAN_BITS + 63];
     assign ev_inv[59] = fl_mul93[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul93;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul93 (.clk(clk), .d(mul93), .valid(1'b0), .q(dl_mul93));
     // mul94 = dq_y * q_x   (ready @109/83/77)
     logic [W-1:0] mul94;
@@ -1019,7 +1104,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[60] = fl_mul94[1] && ev_q[2*MAN_BITS + 63];
     assign ev_inv[60] = fl_mul94[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul94;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul94 (.clk(clk), .d(mul94), .valid(1'b0), .q(dl_mul94));
     // sub95 = mul93 - mul94   (ready @113/87/81)
     logic [W-1:0] sub95;
@@ -1032,7 +1118,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[61] = fl_sub95[1] && ev_q[2*MAN_BITS + 67];
     assign ev_inv[61] = fl_sub95[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_sub95;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_sub95 (.clk(clk), .d(sub95), .valid(1'b0), .q(dl_sub95));
     // qn_z = add92 + sub95   (ready @117/91/85)
     logic [W-1:0] qn_z;
@@ -1045,7 +1132,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[62] = fl_qn_z[1] && ev_q[2*MAN_BITS + 71];
     assign ev_inv[62] = fl_qn_z[2] && ev_q[2*MAN_BITS + 71];
     logic [2*W-1:0] dl_qn_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), .N_TAPS(2), .TAPS({32'((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), .N_TAPS(2), .TAPS({32'((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_qn_z (.clk(clk), .d(qn_z), .valid(valid_q[2*MAN_BITS + 71 +: (((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) > 0 ? ((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) : 1)]), .q(dl_qn_z));
     // mul97 = cos_x * q_w   (ready @82/69/66)
     logic [W-1:0] mul97;
@@ -1058,7 +1146,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[63] = fl_mul97[1] && ev_q[MAN_BITS + 59];
     assign ev_inv[63] = fl_mul97[2] && ev_q[MAN_BITS + 59];
     logic [W-1:0] dl_mul97;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 63) - (MAN_BITS + 59)))
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 63) - (MAN_BITS + 59)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul97 (.clk(clk), .d(mul97), .valid(valid_q[MAN_BITS + 59 +: (((2*MAN_BITS + 63) - (MAN_BITS + 59)) > 0 ? ((2*MAN_BITS + 63) - (MAN_BITS + 59)) : 1)]), .q(dl_mul97));
     // mul98 = dq_x * q_x   (ready @109/83/77)
     logic [W-1:0] mul98;
@@ -1071,7 +1160,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[64] = fl_mul98[1] && ev_q[2*MAN_BITS + 63];
     assign ev_inv[64] = fl_mul98[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul98;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul98 (.clk(clk), .d(mul98), .valid(1'b0), .q(dl_mul98));
     // sub99 = mul97 - mul98   (ready @113/87/81)
     logic [W-1:0] sub99;
@@ -1084,7 +1174,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[65] = fl_sub99[1] && ev_q[2*MAN_BITS + 67];
     assign ev_inv[65] = fl_sub99[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_sub99;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_sub99 (.clk(clk), .d(sub99), .valid(1'b0), .q(dl_sub99));
     // mul100 = dq_y * q_y   (ready @109/83/77)
     logic [W-1:0] mul100;
@@ -1097,7 +1188,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[66] = fl_mul100[1] && ev_q[2*MAN_BITS + 63];
     assign ev_inv[66] = fl_mul100[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul100;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul100 (.clk(clk), .d(mul100), .valid(1'b0), .q(dl_mul100));
     // mul101 = dq_z * q_z   (ready @109/83/77)
     logic [W-1:0] mul101;
@@ -1110,7 +1202,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[67] = fl_mul101[1] && ev_q[2*MAN_BITS + 63];
     assign ev_inv[67] = fl_mul101[2] && ev_q[2*MAN_BITS + 63];
     logic [W-1:0] dl_mul101;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul101 (.clk(clk), .d(mul101), .valid(1'b0), .q(dl_mul101));
     // add102 = mul100 + mul101   (ready @113/87/81)
     logic [W-1:0] add102;
@@ -1123,7 +1216,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[68] = fl_add102[1] && ev_q[2*MAN_BITS + 67];
     assign ev_inv[68] = fl_add102[2] && ev_q[2*MAN_BITS + 67];
     logic [W-1:0] dl_add102;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add102 (.clk(clk), .d(add102), .valid(1'b0), .q(dl_add102));
     // qn_w = sub99 - add102   (ready @117/91/85)
     logic [W-1:0] qn_w;
@@ -1136,7 +1230,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[69] = fl_qn_w[1] && ev_q[2*MAN_BITS + 71];
     assign ev_inv[69] = fl_qn_w[2] && ev_q[2*MAN_BITS + 71];
     logic [2*W-1:0] dl_qn_w;
-    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), .N_TAPS(2), .TAPS({32'((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), 32'(0)}))
+    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), .N_TAPS(2), .TAPS({32'((4*MAN_BITS + 91) - (2*MAN_BITS + 71)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_qn_w (.clk(clk), .d(qn_w), .valid(valid_q[2*MAN_BITS + 71 +: (((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) > 0 ? ((4*MAN_BITS + 91) - (2*MAN_BITS + 71)) : 1)]), .q(dl_qn_w));
     // mul104 = qn_x * qn_x   (ready @120/94/88)
     logic [W-1:0] mul104;
@@ -1149,7 +1244,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[70] = fl_mul104[1] && ev_q[2*MAN_BITS + 74];
     assign ev_inv[70] = fl_mul104[2] && ev_q[2*MAN_BITS + 74];
     logic [W-1:0] dl_mul104;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul104 (.clk(clk), .d(mul104), .valid(1'b0), .q(dl_mul104));
     // mul105 = qn_y * qn_y   (ready @120/94/88)
     logic [W-1:0] mul105;
@@ -1162,7 +1258,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[71] = fl_mul105[1] && ev_q[2*MAN_BITS + 74];
     assign ev_inv[71] = fl_mul105[2] && ev_q[2*MAN_BITS + 74];
     logic [W-1:0] dl_mul105;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul105 (.clk(clk), .d(mul105), .valid(1'b0), .q(dl_mul105));
     // add106 = mul104 + mul105   (ready @124/98/92)
     logic [W-1:0] add106;
@@ -1175,7 +1272,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[72] = fl_add106[1] && ev_q[2*MAN_BITS + 78];
     assign ev_inv[72] = fl_add106[2] && ev_q[2*MAN_BITS + 78];
     logic [W-1:0] dl_add106;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add106 (.clk(clk), .d(add106), .valid(1'b0), .q(dl_add106));
     // mul107 = qn_z * qn_z   (ready @120/94/88)
     logic [W-1:0] mul107;
@@ -1188,7 +1286,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[73] = fl_mul107[1] && ev_q[2*MAN_BITS + 74];
     assign ev_inv[73] = fl_mul107[2] && ev_q[2*MAN_BITS + 74];
     logic [W-1:0] dl_mul107;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul107 (.clk(clk), .d(mul107), .valid(1'b0), .q(dl_mul107));
     // mul108 = qn_w * qn_w   (ready @120/94/88)
     logic [W-1:0] mul108;
@@ -1201,7 +1300,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[74] = fl_mul108[1] && ev_q[2*MAN_BITS + 74];
     assign ev_inv[74] = fl_mul108[2] && ev_q[2*MAN_BITS + 74];
     logic [W-1:0] dl_mul108;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul108 (.clk(clk), .d(mul108), .valid(1'b0), .q(dl_mul108));
     // add109 = mul107 + mul108   (ready @124/98/92)
     logic [W-1:0] add109;
@@ -1214,7 +1314,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[75] = fl_add109[1] && ev_q[2*MAN_BITS + 78];
     assign ev_inv[75] = fl_add109[2] && ev_q[2*MAN_BITS + 78];
     logic [W-1:0] dl_add109;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_add109 (.clk(clk), .d(add109), .valid(1'b0), .q(dl_add109));
     // norm2 = add106 + add109   (ready @128/102/96)
     logic [W-1:0] norm2;
@@ -1227,7 +1328,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[76] = fl_norm2[1] && ev_q[2*MAN_BITS + 82];
     assign ev_inv[76] = fl_norm2[2] && ev_q[2*MAN_BITS + 82];
     logic [W-1:0] dl_norm2;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_norm2 (.clk(clk), .d(norm2), .valid(1'b0), .q(dl_norm2));
     // norm = sqrt(norm2)   (ready @155/116/107)
     logic [W-1:0] norm;
@@ -1240,7 +1342,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[77] = fl_norm[1] && ev_q[3*MAN_BITS + 86];
     assign ev_inv[77] = fl_norm[2] && ev_q[3*MAN_BITS + 86];
     logic [W-1:0] dl_norm;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_norm (.clk(clk), .d(norm), .valid(1'b0), .q(dl_norm));
     // inv_norm = 1.0 / norm   (ready @183/131/119)
     logic [W-1:0] inv_norm;
@@ -1253,7 +1356,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[78] = fl_inv_norm[1] && ev_q[4*MAN_BITS + 91];
     assign ev_inv[78] = fl_inv_norm[2] && ev_q[4*MAN_BITS + 91];
     logic [W-1:0] dl_inv_norm;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_inv_norm (.clk(clk), .d(inv_norm), .valid(1'b0), .q(dl_inv_norm));
     // q_x = qn_x * inv_norm   (ready @186/134/122)
     logic [W-1:0] q_x;
@@ -1266,7 +1370,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[79] = fl_q_x[1] && ev_q[4*MAN_BITS + 94];
     assign ev_inv[79] = fl_q_x[2] && ev_q[4*MAN_BITS + 94];
     logic [W-1:0] dl_q_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_q_x (.clk(clk), .d(q_x), .valid(1'b0), .q(dl_q_x));
     // q_y = qn_y * inv_norm   (ready @186/134/122)
     logic [W-1:0] q_y;
@@ -1279,7 +1384,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[80] = fl_q_y[1] && ev_q[4*MAN_BITS + 94];
     assign ev_inv[80] = fl_q_y[2] && ev_q[4*MAN_BITS + 94];
     logic [W-1:0] dl_q_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_q_y (.clk(clk), .d(q_y), .valid(1'b0), .q(dl_q_y));
     // q_z = qn_z * inv_norm   (ready @186/134/122)
     logic [W-1:0] q_z;
@@ -1292,7 +1398,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[81] = fl_q_z[1] && ev_q[4*MAN_BITS + 94];
     assign ev_inv[81] = fl_q_z[2] && ev_q[4*MAN_BITS + 94];
     logic [W-1:0] dl_q_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_q_z (.clk(clk), .d(q_z), .valid(1'b0), .q(dl_q_z));
     // q_w = qn_w * inv_norm   (ready @186/134/122)
     logic [W-1:0] q_w;
@@ -1305,7 +1412,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[82] = fl_q_w[1] && ev_q[4*MAN_BITS + 94];
     assign ev_inv[82] = fl_q_w[2] && ev_q[4*MAN_BITS + 94];
     logic [W-1:0] dl_q_w;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_q_w (.clk(clk), .d(q_w), .valid(1'b0), .q(dl_q_w));
     // mul117 = v_x * dt   (ready @3/3/3)
     logic [W-1:0] mul117;
@@ -1318,7 +1426,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[83] = fl_mul117[1] && ev_q[3];
     assign ev_inv[83] = fl_mul117[2] && ev_q[3];
     logic [W-1:0] dl_mul117;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul117 (.clk(clk), .d(mul117), .valid(1'b0), .q(dl_mul117));
     // mul118 = v_y * dt   (ready @3/3/3)
     logic [W-1:0] mul118;
@@ -1331,7 +1440,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[84] = fl_mul118[1] && ev_q[3];
     assign ev_inv[84] = fl_mul118[2] && ev_q[3];
     logic [W-1:0] dl_mul118;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul118 (.clk(clk), .d(mul118), .valid(1'b0), .q(dl_mul118));
     // mul119 = v_z * dt   (ready @3/3/3)
     logic [W-1:0] mul119;
@@ -1344,7 +1454,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[85] = fl_mul119[1] && ev_q[3];
     assign ev_inv[85] = fl_mul119[2] && ev_q[3];
     logic [W-1:0] dl_mul119;
-    pgs_delay #(.WIDTH(W), .DEPTH(0))
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_mul119 (.clk(clk), .d(mul119), .valid(1'b0), .q(dl_mul119));
     // pos_x = pos_x + mul117   (ready @7/7/7)
     logic [W-1:0] pos_x;
@@ -1357,7 +1468,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[86] = fl_pos_x[1] && ev_q[7];
     assign ev_inv[86] = fl_pos_x[2] && ev_q[7];
     logic [W-1:0] dl_pos_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)))
+    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pos_x (.clk(clk), .d(pos_x), .valid(valid_q[7 +: (((4*MAN_BITS + 94) - (7)) > 0 ? ((4*MAN_BITS + 94) - (7)) : 1)]), .q(dl_pos_x));
     // pos_y = pos_y + mul118   (ready @7/7/7)
     logic [W-1:0] pos_y;
@@ -1370,7 +1482,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[87] = fl_pos_y[1] && ev_q[7];
     assign ev_inv[87] = fl_pos_y[2] && ev_q[7];
     logic [W-1:0] dl_pos_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)))
+    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pos_y (.clk(clk), .d(pos_y), .valid(valid_q[7 +: (((4*MAN_BITS + 94) - (7)) > 0 ? ((4*MAN_BITS + 94) - (7)) : 1)]), .q(dl_pos_y));
     // pos_z = pos_z + mul119   (ready @7/7/7)
     logic [W-1:0] pos_z;
@@ -1383,7 +1496,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[88] = fl_pos_z[1] && ev_q[7];
     assign ev_inv[88] = fl_pos_z[2] && ev_q[7];
     logic [W-1:0] dl_pos_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)))
+    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_pos_z (.clk(clk), .d(pos_z), .valid(valid_q[7 +: (((4*MAN_BITS + 94) - (7)) > 0 ? ((4*MAN_BITS + 94) - (7)) : 1)]), .q(dl_pos_z));
     // v_x = v_x + g_dt_x   (ready @7/7/7)
     logic [W-1:0] v_x;
@@ -1396,7 +1510,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[89] = fl_v_x[1] && ev_q[7];
     assign ev_inv[89] = fl_v_x[2] && ev_q[7];
     logic [W-1:0] dl_v_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)))
+    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_v_x (.clk(clk), .d(v_x), .valid(valid_q[7 +: (((4*MAN_BITS + 94) - (7)) > 0 ? ((4*MAN_BITS + 94) - (7)) : 1)]), .q(dl_v_x));
     // v_y = v_y + g_dt_y   (ready @7/7/7)
     logic [W-1:0] v_y;
@@ -1409,7 +1524,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[90] = fl_v_y[1] && ev_q[7];
     assign ev_inv[90] = fl_v_y[2] && ev_q[7];
     logic [W-1:0] dl_v_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)))
+    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_v_y (.clk(clk), .d(v_y), .valid(valid_q[7 +: (((4*MAN_BITS + 94) - (7)) > 0 ? ((4*MAN_BITS + 94) - (7)) : 1)]), .q(dl_v_y));
     // v_z = v_z + g_dt_z   (ready @7/7/7)
     logic [W-1:0] v_z;
@@ -1422,7 +1538,8 @@ module pgs_integrate_pipe #(
     assign ev_unf[91] = fl_v_z[1] && ev_q[7];
     assign ev_inv[91] = fl_v_z[2] && ev_q[7];
     logic [W-1:0] dl_v_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)))
+    pgs_delay #(.WIDTH(W), .DEPTH((4*MAN_BITS + 94) - (7)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_v_z (.clk(clk), .d(v_z), .valid(valid_q[7 +: (((4*MAN_BITS + 94) - (7)) > 0 ? ((4*MAN_BITS + 94) - (7)) : 1)]), .q(dl_v_z));
 
     // Outputs, each delayed to LATENCY.

@@ -188,11 +188,13 @@ def friction_coefficient_cases(config: str) -> list[Case]:
 # configuration -> its regression (a new configuration: its row in CONFIGURATIONS and its cases here)
 CASES_OF: dict[str, list[Case]] = {
     "stream-fp16-records": records_cases("stream-fp16-records"),
+    "stream-fp16-records-b256": records_cases("stream-fp16-records-b256"),
     "stream-fp32-records": records_cases("stream-fp32-records"),
     "stream-fp32": streaming_cases("stream-fp32") + [
         Case("stream-fp32-stack-wide-index", "stream-fp32", "stack", edit=edit_wide_index)],
     "stream-fp16": streaming_cases("stream-fp16"),
     "stream-fp32-records-tangents": records_cases("stream-fp32-records-tangents"),
+    "stream-fp32-records-tangents-b256": records_cases("stream-fp32-records-tangents-b256"),
     "stream-fp32-soft": records_cases("stream-fp32-soft") + [
         Case("stream-fp32-soft-pile-hazard-zcu102-rigid-call", "stream-fp32-soft", "pile", job_edit=rigid_call)],
     "window-fp32-l2": window_cases("window-fp32-l2"),

@@ -19,6 +19,7 @@ from typing import Any
 
 from models import stream_format as sf
 from models.body_banks import default_body_banks
+from models.delay_lines import default_delay_block_min_depth
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from models.frame import Frame
@@ -62,7 +63,9 @@ class Configuration:
                          window_ctx=DEFAULT_CTX, lanes=self.lanes, inertia_words=self.inertia_words,
                          impulses_in_records=self.impulses_in_records, friction_words=self.friction_words,
                          tangents_on_chip=self.tangents_on_chip, soft_contact=self.soft_keep is not None,
-                         body_banks=default_body_banks(self.fmt, self.impulses_in_records, bool(self.record_window)))
+                         body_banks=default_body_banks(self.fmt, self.impulses_in_records, bool(self.record_window)),
+                         delay_block_min_depth=default_delay_block_min_depth(self.fmt, self.impulses_in_records,
+                                                                             bool(self.record_window)))
         return dataclasses.replace(kb, **dict(self.build_options))
 
     def job(self, frame: Frame, params: SolverParams, schedule: str, fetch_passes: int | None = None) -> KernelJob:
@@ -93,6 +96,9 @@ CONFIGURATIONS: tuple[Configuration, ...] = (
     Configuration("stream-fp16-records", FP16, impulses_in_records=True,
                   readme="streaming kernel, fp16, impulses in the records: the fitting headline "
                          "(`make sim FORMAT=fp16 IMPULSE_STORE=records`)"),
+    Configuration("stream-fp16-records-b256", FP16, impulses_in_records=True, body_bits=256,
+                  readme="the same with 256-bit body streams: the fastest fitting fp16 design "
+                         "(`make sim FORMAT=fp16 IMPULSE_STORE=records BODY_BITS=256`)"),
     Configuration("stream-fp32-records", FP32, impulses_in_records=True,
                   readme="streaming kernel, fp32, impulses in the records, body velocities in 2 banks "
                          "(`make sim IMPULSE_STORE=records`)"),
@@ -105,6 +111,9 @@ CONFIGURATIONS: tuple[Configuration, ...] = (
     Configuration("stream-fp32-records-tangents", FP32, impulses_in_records=True, tangents_on_chip=True,
                   readme="fp32 records design with the tangent basis derived on chip "
                          "(`make sim IMPULSE_STORE=records TANGENTS=chip`)"),
+    Configuration("stream-fp32-records-tangents-b256", FP32, impulses_in_records=True, tangents_on_chip=True,
+                  body_bits=256, readme="the same with 256-bit body streams: the fastest fitting fp32 design "
+                                        "(`make sim IMPULSE_STORE=records TANGENTS=chip BODY_BITS=256`)"),
     Configuration("stream-fp32-soft", FP32, impulses_in_records=True, soft_keep=SOFT_KEEP,
                   readme="Box2D's soft step through the RTL (`SOFT_CONTACT = 1`, impulses in the records: the soft "
                          "closed loop's build, `python -m sim.soft_rtl_loop`)"),

@@ -57,6 +57,57 @@ def test_delay_lines() -> None:
     assert deep.lut == 8 * 3 * math.ceil(96 / 7) + 96 * 1 + 8 and deep.ff == 96 + 8
 
 
+def test_delay_lines_in_block_ram() -> None:
+    """From the build's DELAY_BLOCK_MIN_DEPTH on, a RAM line is one simple dual-port block RAM array per tap of delay
+    >= 2 (the array's output latch is the tap's register) and no LUT RAM; shallower lines and shift registers are
+    as before."""
+    line = rm.DelayLine(0, 137, (1, 53, 137))
+    assert rm.delay_line_resources(line, 32, 65) == rm.Resources(lut=8, ff=32 + 8, bram36=2 * 0.5)  # 2 RAMB18
+    assert rm.delay_line_resources(rm.DelayLine(64, 137, (137,)), 32, 65).bram36 == 1  # 512 x 72: one RAMB36
+    assert rm.delay_line_resources(line, 32, 138) == rm.delay_line_resources(line, 32)
+    assert rm.delay_line_resources(rm.DelayLine(0, 3, (3,)), 32, 4) == rm.Resources(ff=96)
+    with pytest.raises(ValueError, match="at least 4"):
+        rm.KernelConfig(FP32, 1, 1, delay_block_min_depth=3)
+
+
+def test_the_records_design_keeps_its_long_delay_lines_in_block_ram() -> None:
+    """The fp32 records design's build puts its delay lines from 65 deep in block RAM (models/delay_lines.py), the
+    estimate counts them there, and with the tangent basis derived on chip that is what makes it fit the zcu102
+    (87.6% of the LUTs with every line in LUT RAM); the fp16 records design keeps them in LUT RAM."""
+    from models.delay_lines import BLOCK_MIN_DEPTH
+    from models.dma_model import get_preset
+    from models.tests.test_body_banks import pile_job
+    from sim.kernel_build import KernelBuild
+
+    job = pile_job().tangents_derived()
+    assert job.delay_block_min_depth == BLOCK_MIN_DEPTH == rm.config_for_job(job).delay_block_min_depth
+    kb = KernelBuild.for_job(job, get_preset("zcu102"))
+    assert kb.parameters["DELAY_BLOCK_MIN_DEPTH"] == BLOCK_MIN_DEPTH and kb.name.endswith(f"_dl{BLOCK_MIN_DEPTH}")
+    fp16 = dataclasses.replace(pile_job(), fmt=FP16)
+    assert fp16.delay_block_min_depth == 0 and "DELAY_BLOCK_MIN_DEPTH" not in KernelBuild.for_job(
+        fp16, get_preset("zcu102")).parameters
+    lutram = rm.KernelConfig(FP32, *THESIS, impulses_resident=False, body_ports="banked", body_banks=2,
+                             tangents_on_chip=True)
+    block = dataclasses.replace(lutram, delay_block_min_depth=BLOCK_MIN_DEPTH)
+    v0, v1 = rm.fit(lutram, ZCU102), rm.fit(block, ZCU102)
+    assert not v0.fits and v0.overflows == ["LUT"]
+    assert v1.fits and v1.shares["LUT"] < v0.shares["LUT"] - 0.05 and v1.shares["BRAM36"] > v0.shares["BRAM36"]
+    assert "delay lines from 65 deep in block RAM" in v1.config
+
+
+def test_control_of_the_body_stream_width() -> None:
+    """The control's figure is Yosys's of the build's body-stream width (BODY_BITS=256 has its own run); a width no
+    run has takes the 128-bit one and says so."""
+    data = rm.figures()
+    base = rm.KernelConfig(FP32, *THESIS, impulses_resident=False, body_ports="banked", body_banks=2)
+    parts = {b: rm.control_resources(dataclasses.replace(base, body_bits=b), data) for b in (128, 256, 512)}
+    assert parts[128].resources == rm.Resources.from_dict(data["units"]["fp32"]["control"])
+    assert parts[256].resources == rm.Resources.from_dict(data["units"]["fp32"]["control_b256"])
+    assert parts[256].source == "Yosys" and parts[256].resources != parts[128].resources
+    assert parts[512].resources == parts[128].resources and "128-bit body streams (none of 512" in parts[512].source
+    assert "256-bit body streams" in dataclasses.replace(base, body_bits=256).describe()
+
+
 def test_pipe_shapes_follow_the_generator() -> None:
     contact = rm.pipe_shape("pgs_contact_pipe", FP32.man_bits)
     assert contact.operators == {"fp_add": 152, "fp_mul": 178, "fp_minmax": 4} and contact.latency == 179

@@ -1,0 +1,33 @@
+"""Where the datapaths' long delay lines live on a board (``DELAY_BLOCK_MIN_DEPTH`` of ``rtl/pgs_kernel.sv``, passed
+to every ``rtl/pgs_delay.sv`` of the generated pipes): which builds keep them in block RAM.
+
+A delay line at least as deep as the threshold keeps its words in block RAM (``ram_style = "block"``: one simple
+dual-port RAMB18/36 per read tap), a shallower one in LUT RAM (``"distributed"``). The choice moves LUTs into block
+RAM and changes nothing a simulation sees (the same registered reads, the same cycles and bits), so the threshold
+is chosen per build by the resource that binds it: ``sim/resource_model.py`` counts it, ``sim/kernel_build.py``
+passes it to the build.
+"""
+
+from __future__ import annotations
+
+from .number_format import NumberFormat
+
+# lines longer than one 64-deep LUT RAM (RAM64M8: 8 LUTs per 7 bit-reads and 64 words, plus a depth multiplexer
+# for each further 64 words) go to block RAM: the lines whose LUTs per bit grow with their depth
+BLOCK_MIN_DEPTH = 65
+
+
+def default_delay_block_min_depth(fmt: NumberFormat, impulses_in_records: bool, window: bool) -> int:
+    """The threshold of the build that runs a step: the streaming kernel with the impulses in the records in a format
+    of 32 bits or more keeps its lines from :data:`BLOCK_MIN_DEPTH` deep in block RAM (its LUTs bind it: with the
+    tangent basis derived on chip it needs 87.6% of the ZCU102's LUTs with every line in LUT RAM, against 85%
+    usable, while a third of the block RAM is free); every other build keeps them in LUT RAM (0)."""
+    return BLOCK_MIN_DEPTH if impulses_in_records and not window and fmt.width >= 32 else 0
+
+
+def check_block_min_depth(depth: int) -> int:
+    """``depth``, or a ValueError unless it is 0 (no line in block RAM) or at least pgs_delay's RAM form (4)."""
+    if depth != 0 and depth < 4:
+        raise ValueError(f"delay lines in block RAM from {depth} deep: expected 0 (none) or at least 4 (pgs_delay's "
+                         "circular buffers; shorter lines are registers)")
+    return depth
