@@ -20,7 +20,7 @@ from models.scenes.kernel_scenes import KERNEL_TEST_SCENES, MAKE_SIM_PILE
 from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
 from sim.coverage.input_edits import (BAD_INPUT_EDITS, RECORDS_BAD_INPUT_EDITS, WINDOW_BAD_INPUT_EDITS, Edit,
                                       HarnessEdit, edit_argument_bits, edit_gravity, edit_huge_sliding,
-                                      edit_huge_velocity, edit_spin, edit_wide_index)
+                                      edit_huge_velocity, edit_mass_spread, edit_spin, edit_wide_index)
 from sim.verilator_build import REPO_ROOT
 
 # world files of Bullet 2's convention (rotated non-cube boxes; boxes, spheres, capsules, cylinders and a cone):
@@ -150,7 +150,8 @@ def records_cases(config: str) -> list[Case]:
     ``cocotb_tests/test_kernel_impulses_in_records.py`` as harness runs, and the streaming kernel's others): cold
     and warm-started, interleaved (warm), random gaps and backpressure on every stream (the impulse-out stream
     included), the 10 independent manifolds (each pass waits for its predecessor's writes), the pybullet order,
-    the 217-body pile, other integration registers, spin and the bad-input edits (the constraint stream's TLAST
+    the 217-body pile, other integration registers, spin, a spread of body masses and inertias, the body indices
+    spread over the whole index range, and the bad-input edits (the constraint stream's TLAST
     errors as a moved TLAST: the harness pairs every record with its slot and pass)."""
     c = config
     return [
@@ -167,6 +168,8 @@ def records_cases(config: str) -> list[Case]:
         Case(f"{c}-pile217-hazard-zcu102", c, "pile217"),
         Case(f"{c}-stack-gravity-dt-damping", c, "stack", edit=edit_gravity),
         Case(f"{c}-stack-spin", c, "stack", "pybullet", edit=edit_spin),
+        Case(f"{c}-pile-mass-spread", c, "pile", edit=edit_mass_spread),
+        Case(f"{c}-stack-wide-index", c, "stack", edit=edit_wide_index),
         *stimulus_cases(c, "stack"),
     ] + bad_input_cases(c, "stack", "hazard", RECORDS_BAD_INPUT_EDITS)
 

@@ -4,7 +4,7 @@ body and constraint streams with their TLAST files), for the coverage regression
 Each :class:`HarnessEdit` names the cases of the bad-input catalogue (``models/bad_input.py``) it makes (the
 bracketed numbers in the edits' descriptions are the error codes, ``models.register_map.ErrorCode``);
 :data:`BAD_INPUT_EDITS` makes every catalogue case the harness can make. The other edits (:func:`edit_gravity`,
-:func:`edit_wide_index`, :func:`edit_spin`) are not bad input: register operands, body indices and body state the
+:func:`edit_wide_index`, :func:`edit_spin`, :func:`edit_mass_spread`) are not bad input: register operands, body indices and body state the
 test scenes never reach.
 """
 
@@ -279,6 +279,27 @@ def edit_spin(f: HarnessFiles, kb: KernelBuild) -> None:
     w = kb.fmt.width
     f.set_word("body", 0, f.reg("num_bodies") - 1, (BODY_ANGULAR_VELOCITY + 1) * w, w,  # angular velocity y
                int(kb.fmt.encode(2000.0)))
+
+
+MASS_SPREAD_SEED = 20261204  # the factors of edit_mass_spread (fixed: a coverage run is reproducible)
+
+
+def edit_mass_spread(f: HarnessFiles, kb: KernelBuild) -> None:
+    """Every dynamic body's inverse mass and inverse inertia words scaled by its own factor in [1/4, 4) (seeded,
+    :data:`MASS_SPREAD_SEED`): the test scenes' cubes all have one mass and one inertia, so the words (and the delay
+    lines that carry them through the pipes) take a single value; a spread of positive finite masses is good
+    input whose words differ in every mantissa bit."""
+    w, rng = kb.fmt.width, np.random.default_rng(MASS_SPREAD_SEED)
+    words = [BODY_INV_MASS, *(BODY_INV_INERTIA + k for k in range(kb.inertia_words))]
+    for b in range(f.reg("num_bodies")):
+        factors = 2.0 ** rng.uniform(-2.0, 2.0, len(words))
+        if kb.inertia_words == 6:  # the symmetric 3x3: one factor for all six words keeps it positive definite
+            factors[1:] = factors[1]
+        if not is_dynamic(f, kb, b):
+            continue
+        for word, factor in zip(words, factors):
+            value = float(kb.fmt.decode(np.uint64(f.word("body", 0, b, word * w, w))))
+            f.set_word("body", 0, b, word * w, w, int(kb.fmt.encode(value * factor)))
 
 
 def edit_window_lag(f: HarnessFiles, kb: KernelBuild) -> None:

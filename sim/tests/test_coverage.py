@@ -127,6 +127,34 @@ def test_bit_editing_of_harness_records(tmp_path: Path) -> None:
     assert input_edits.nonfinite_bits(kb, sign=1, payload=0) == 0xFF800000
 
 
+def test_mass_spread_edit_keeps_good_input(tmp_path: Path) -> None:
+    """The mass-spread edit of the records regression: every dynamic body's inverse mass and inertia words scaled
+    by a factor in [1/4, 4), distinct per body, positive and finite; the static bodies (inverse mass 0) untouched."""
+    from models.stream_format import BODY_INV_INERTIA, BODY_INV_MASS
+
+    case = next(c for c in cases.CASES if c.label == "stream-fp32-records-pile-mass-spread")
+    kb = case.configuration.build()
+    plain = dataclasses.replace(case, edit=None, label="plain")
+    runs.prepare_case(plain, tmp_path / "plain")
+    runs.prepare_case(case, tmp_path / "edited")
+    before, after = input_edits.HarnessFiles(tmp_path / "plain", kb), input_edits.HarnessFiles(tmp_path / "edited", kb)
+    w = kb.fmt.width
+
+    def value(f: input_edits.HarnessFiles, b: int, word: int) -> float:
+        return float(kb.fmt.decode(np.uint64(f.word("body", 0, b, word * w, w))))
+
+    ratios = []
+    for b in range(before.reg("num_bodies")):
+        for word in (BODY_INV_MASS, BODY_INV_INERTIA, BODY_INV_INERTIA + 2):
+            old, new = value(before, b, word), value(after, b, word)
+            if old == 0:
+                assert new == 0
+            else:
+                ratios.append(new / old)
+    assert ratios and all(0.25 * (1 - 1e-6) <= r <= 4.0 * (1 + 1e-6) for r in ratios)  # within fp32's rounding
+    assert len(set(np.round(ratios, 6))) > len(ratios) // 2  # a factor per body and word, not one for all
+
+
 def test_bad_input_edits_make_the_catalogue() -> None:
     """Every catalogue case the harness can make is made by exactly one edit, each a run of the regression."""
     made = [name for e in input_edits.BAD_INPUT_EDITS for name in e.cases]
