@@ -54,7 +54,7 @@ from rtl.gen.file_list import kernel_sources
 from rtl.gen.operator_timing import MINMAX_LATENCY
 from sim.executor import parse_executor, run_points
 from models.delay_lines import BLOCK_MIN_DEPTH
-from sim.resource_model import (CAM_UNIT, FIGURES_FILE, OPERATOR_MODULES, VENDOR_OPERATORS, DelayLine, KernelConfig,
+from sim.resource_model import (CAM_UNIT, FIGURES_FILE, WINDOW_CONTROL_UNIT, OPERATOR_MODULES, VENDOR_OPERATORS, DelayLine, KernelConfig,
                                 Resources, control_unit, delay_line_resources, memories, pipe_resources,
                                 rtl_latency)
 from sim.verilator_build import REPO_ROOT
@@ -134,7 +134,8 @@ class Unit:
     format_params: bool = True  # the top takes EXP_BITS / MAN_BITS (the hazard CAM does not)
 
 
-CONTROL_BLACKBOXES = ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe", "pgs_body_ram", "pgs_impulse_ram")
+CONTROL_BLACKBOXES = ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe", "pgs_body_ram", "pgs_impulse_ram",
+                      "pgs_ring_ram")
 UNITS = {
     "contact": Unit("contact", "pgs_contact_pipe"),
     "friction": Unit("friction", "pgs_friction_pipe"),
@@ -144,6 +145,11 @@ UNITS = {
     # to the 128-bit one the totals count
     control_unit(256): Unit(control_unit(256), "pgs_kernel", CONTROL_BLACKBOXES, classic_abc=True,
                             params=(("BODY_IN_W", 256), ("BODY_OUT_W", 256))),
+    # the window kernel's control with the impulses in the records, one lane, banked body velocities (its ring
+    # memories black boxes like the others: the resource model maps them): the record window, the pass contexts,
+    # the impulse-out FIFOs; the ring depth only widens its counters
+    WINDOW_CONTROL_UNIT: Unit(WINDOW_CONTROL_UNIT, "pgs_kernel", CONTROL_BLACKBOXES, classic_abc=True,
+                              params=(("WINDOW", 16384), ("IMPULSES_IN_RECORDS", 1), ("BODY_BANKS", 2))),
     # the hazard CAM alone at one lane's two body ports: the share of the control the resource model scales
     CAM_UNIT: Unit(CAM_UNIT, "pgs_hazard_cam", classic_abc=True, format_params=False),
 }
@@ -160,7 +166,8 @@ DELAY_CHECKS = {block: Unit(f"delay_line_check_{'block' if block else 'lutram'}"
 CHECK_UNITS = (IMPULSE_CHECK, *DELAY_CHECKS.values())
 UNIT_LABELS = {"contact": "pgs_contact_pipe", "friction": "pgs_friction_pipe", "integrate": "pgs_integrate_pipe",
                "control": "control (pgs_kernel less pipes and RAMs)",
-               control_unit(256): "control with 256-bit body streams (not in the totals)", CAM_UNIT: "pgs_hazard_cam (inside the control)"}
+               control_unit(256): "control with 256-bit body streams (not in the totals)", CAM_UNIT: "pgs_hazard_cam (inside the control)",
+               WINDOW_CONTROL_UNIT: "control of the window kernel with the impulses in the records (not in the totals)"}
 # each floating-point operator alone, once per format (its latency is the RTL's, fp_minmax's the generator's):
 # the per-operator figures of the resource model (sim/resource_model.py), written to sim/generated/
 OPERATOR_UNITS = {mod: Unit(f"op_{mod}", mod, params=(("LATENCY", MINMAX_LATENCY),) if mod == "fp_minmax" else ())
@@ -318,7 +325,7 @@ def report(fmt: NumberFormat, results: list[UnitResult]) -> list[str]:
     rows = []
     logic = Resources()
     for r in results:
-        if r.unit.name not in (CAM_UNIT, control_unit(256)):  # inside the control's figure / an alternative to it
+        if r.unit.name not in (CAM_UNIT, control_unit(256), WINDOW_CONTROL_UNIT):  # inside the control / alternatives
             logic = logic + r.resources
         src = "cached" if r.cached else "run"
         rows.append([fmt.name, f"{UNIT_LABELS[r.unit.name]} (Yosys, {r.seconds:.0f} s, {src})",

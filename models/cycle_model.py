@@ -188,7 +188,7 @@ def _job_shape(job: "KernelJob", preset: DmaPreset, body_bits: int) -> KernelSha
 
 
 def _job_timing(job: "KernelJob", preset: DmaPreset, prefetched: bool) -> DmaTiming:
-    return DmaTiming.of(preset, prefetched, job.stream_layout(preset.stream_bits).ddr_read_share(job.params))
+    return DmaTiming.of(preset, prefetched, job.ddr_read_share(preset.stream_bits))
 
 
 def predict_job(job: "KernelJob", preset: DmaPreset, prefetched: bool = False, body_bits: int = 128) -> Prediction:

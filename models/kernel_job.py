@@ -74,23 +74,27 @@ class KernelJob:
 
     def windowed(self, depth: int, ctx: int = 8, fetch_passes: int | None = None, lanes: int = 1) -> "KernelJob":
         """This step on the window kernel with a ring of ``depth`` records of ``lanes`` slots
-        (``models.record_window.plan_window``)."""
+        (``models.record_window.plan_window``; with the impulses in the records every fetch serves passes of one
+        kind)."""
         plan = plan_window(self.cons, self.bodies.dynamic, self.schedule, self.params, depth, ctx, fetch_passes,
-                           lanes)
-        if self.impulses_in_records:
-            raise ValueError("the window kernel holds its impulses on chip: no impulses in the records")
+                           lanes, one_kind=self.impulses_in_records)
         if self.params.shock_contact or self.params.shock_friction:
             raise ValueError("a shock pass is marked in its records' headers, and the window kernel reads a record "
                              "once for several passes: shock propagation runs on the streaming kernel")
         if self.tangents_on_chip:
             raise ValueError("the window kernel streams the friction tangents: no tangents derived on chip")
-        return KernelJob(self.fmt, self.bodies, self.cons, self.schedule, self.params, self.iparams, plan)
+        if self.record_bits is not None:
+            raise ValueError("mixed storage is a record layout of the streaming kernel")
+        return dataclasses.replace(self, record_window=plan)
 
     def impulses_travelling(self, initial: Impulses | None = None) -> "KernelJob":
-        """This step on the streaming kernel whose impulses travel with the records, starting from ``initial``
-        (per manifold, rounded to the format; None: zeros, the same solve as the on-chip kernel's)."""
-        if self.record_window is not None:
-            raise ValueError("impulses in the records are a configuration of the streaming kernel, not the window's")
+        """This step on the kernel whose impulses travel with the records, starting from ``initial`` (per manifold,
+        rounded to the format; None: zeros, the same solve as the on-chip kernel's): the streaming kernel, or the
+        window kernel whose fetches each serve passes of one kind (plan it with :meth:`windowed` after this, or
+        before with such fetches)."""
+        plan = self.record_window
+        if plan is not None:
+            sf.window_fetch_kinds(self.params, plan.fetch_passes, one_kind=True)
         return dataclasses.replace(self, impulses_in_records=True, initial=initial)
 
     def tangents_derived(self) -> "KernelJob":
@@ -141,6 +145,21 @@ class KernelJob:
                                impulses_in_records=self.impulses_in_records, friction_words=self.friction_words,
                                tangents_on_chip=self.tangents_on_chip, record_bits=self.record_bits)
 
+    def ddr_read_share(self, cons_bits: int = sf.DEFAULT_CONS_BEAT_BITS) -> float:
+        """The share of the DDR bandwidth this step's constraint reads get beside its impulse writes
+        (``StreamLayout.ddr_read_share``: per pass, or per fetch of the window kernel)."""
+        plan = self.record_window
+        return self.stream_layout(cons_bits).ddr_read_share(self.params, plan.fetch_passes if plan else 0)
+
+    @property
+    def block_kinds(self) -> list[int]:
+        """The pass kind of each block of the constraint stream whose impulses travel with the records: a pass of
+        the streaming kernel, a fetch of the window kernel (each serving passes of one kind)."""
+        plan = self.record_window
+        if plan is None:
+            return [kind for kind, _ in pass_sequence(self.params)]
+        return [int(k) for k in sf.window_fetch_kinds(self.params, plan.fetch_passes, one_kind=True) if k is not None]
+
     @property
     def inertia_words(self) -> int:
         """Inverse-inertia words per body of the kernel build that runs this step (``sf.kernel_inertia_words``)."""
@@ -150,7 +169,8 @@ class KernelJob:
     def body_banks(self) -> int:
         """Body-velocity banks of the kernel build that runs this step (``models.body_banks``: 0 the multiport
         memory)."""
-        return default_body_banks(self.fmt, self.impulses_in_records, self.record_window is not None)
+        plan = self.record_window
+        return default_body_banks(self.fmt, self.impulses_in_records, plan is not None, plan.lanes if plan else 1)
 
     @property
     def delay_block_min_depth(self) -> int:

@@ -27,7 +27,7 @@ import numpy as np
 from .constraints import ConstraintSet
 from .contact_solver import SolverParams, pass_sequence
 from .schedule import band_width
-from .stream_format import schedule_manifolds, window_fetches
+from .stream_format import schedule_manifolds, window_fetch_kinds, window_fetches
 
 DEFAULT_DEPTH = 16384  # records in the ring of the window builds make sim uses
 DEFAULT_CTX = 8  # passes active at a time (pgs_window CTX)
@@ -90,10 +90,11 @@ def lane_slots(slots: np.ndarray, cons: ConstraintSet, dynamic: np.ndarray, lane
 
 def plan_window(cons: ConstraintSet, dynamic: np.ndarray, schedule: np.ndarray, params: SolverParams,
                 depth: int = DEFAULT_DEPTH, ctx: int = DEFAULT_CTX, fetch_passes: int | None = None,
-                lanes: int = 1) -> WindowPlan:
+                lanes: int = 1, one_kind: bool = False) -> WindowPlan:
     """The plan of one step: the kernel's slots (bubbles dropped, :func:`lane_slots`), lag = D of its records,
     and ``fetch_passes`` as given or the most passes (every pass of the step at best) whose trailing fits the
-    ring."""
+    ring. ``one_kind`` (the kernel whose impulses travel with the records): every fetch serves passes of one kind
+    (``models.stream_format.window_fetch_kinds``), the most passes per fetch that allows."""
     if depth < 2 or depth & (depth - 1) or ctx < 2 or ctx & (ctx - 1):
         raise ValueError(f"window depth and contexts must be powers of two >= 2, got {depth}, {ctx}")
     if lanes < 1 or lanes & (lanes - 1):
@@ -102,9 +103,14 @@ def plan_window(cons: ConstraintSet, dynamic: np.ndarray, schedule: np.ndarray, 
     band = band_width(slots, cons, dynamic, lanes)
     lag = max(1, band)
     passes = len(pass_sequence(params))
-    if fetch_passes is None:  # the fewest fetches, each serving as few passes as that allows
+    if fetch_passes is None and one_kind:  # the most passes of one kind per fetch
+        fetch_passes = max((f for f in range(1, min(ctx, max(passes, 1)) + 1) if fits(depth, ctx, lag, f)
+                            and None not in window_fetch_kinds(params, f)), default=0)
+    elif fetch_passes is None:  # the fewest fetches, each serving as few passes as that allows
         most = max((f for f in range(1, min(ctx, max(passes, 1)) + 1) if fits(depth, ctx, lag, f)), default=0)
         fetch_passes = -(-passes // -(-passes // most)) if most and passes else most
+    if one_kind and fetch_passes:
+        window_fetch_kinds(params, fetch_passes, one_kind=True)  # a ValueError where a fetch mixes the kinds
     if not fits(depth, ctx, lag, fetch_passes):
         raise ValueError(f"a window of {depth} records cannot hold {fetch_passes} passes trailing by {lag} slots "
                          f"(needs (fetch_passes - 1) * lag + 2 <= depth and 1 <= fetch_passes <= {ctx})")

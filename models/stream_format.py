@@ -21,13 +21,16 @@ friction           64-bit header, then 14 + F words: n(3), c(3), t0(3), t1(3), f
                    coefficient, its build without the word) -> 64 + (14 + F) W bits; with the tangents derived on
                    chip (TANGENTS_ON_CHIP) without t0, t1: n(3), c(3), f_jac_inv(2), mu(F) -> 64 + (8 + F) W bits
 window             64-bit header, then the 23 contact words and the 14 + F friction words -> 64 + (37 + F) W bits
-(window kernel)
+(window kernel)    (with the impulses in the records: each fetch serves passes of one kind and streams that kind's
+                   record with its impulses, below, every one padded to the longer kind's beats)
 contact, impulses  the contact record, then lam[0..3] (4 words at word 23) -> 64 + 27 W bits
 in the records     (the streaming kernel built with IMPULSES_IN_RECORDS: no impulse RAM on chip)
 friction, impulses the friction record, then lam[0..3] (word 14, the friction limit) and lamT[0..1] (word 18)
 in the records     -> 64 + 20 W bits
 impulse-out        4 words: contact lam[0..3]; friction lamT[0..1], then two zero words; a rejected slot all
 (m_axis_imp)       zeros -> 4 W bits rounded up to whole bytes; one per slot of every pass, TLAST on a pass's last
+                   (the window kernel: one per window record of the last pass of every fetch, its L lanes' 4 words
+                   one after the other -> 4 L W bits rounded up to whole bytes, TLAST on the fetch's last)
 header             bits 31:0 body_a, bits 59:32 body_b, bit 60 frozen A, bit 61 frozen B, bit 62 linear shock, bit 63
                    spin_damp (all record kinds; the three shock bits are set only in a shock pass's records of the
                    streaming kernel, models/shock_propagation.py: the frozen body enters the pipe with inverse mass
@@ -62,7 +65,10 @@ rest.
 
 The window kernel (``rtl/pgs_window.sv``, ``models/record_window.py``) reads each manifold's record once per
 *fetch* instead: the constraint stream is ``ceil(passes / fetch_passes)`` fetches of one window record per
-manifold in schedule order, TLAST on the last beat of each fetch (:func:`pack_window_stream`).
+manifold in schedule order, TLAST on the last beat of each fetch (:func:`pack_window_stream`). With the impulses in
+the records every fetch serves passes of one kind (:func:`window_fetch_kinds`) and its records are that kind's records
+with the impulses the fetch starts from; the last pass of each fetch writes its impulse-out records, which the next
+fetch's records are read with (the same read-after-write rule, fetch by fetch).
 """
 
 from __future__ import annotations
@@ -72,7 +78,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .constraints import BodyTable, ConstraintSet
-from .contact_solver import CONTACT_PASS, Impulses, SolverParams, is_shock_pass, pass_sequence
+from .contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, is_shock_pass, pass_sequence
 from .inertia import InertiaMode, inertia_mode
 from .number_format import NumberFormat
 from .shock_propagation import ShockConstraintSet
@@ -283,18 +289,19 @@ def trace_record_bytes(fmt: NumberFormat) -> int:
     return TRACE_WORDS * fmt.width // 8 + TRACE_TAIL_BITS // 8
 
 
-def impulse_out_bytes(fmt: NumberFormat) -> int:
-    """Bytes of one impulse-out record (the m_axis_imp TDATA): 4 words rounded up to whole bytes."""
-    return -(-IMPULSE_OUT_WORDS * fmt.width // 8)
+def impulse_out_bytes(fmt: NumberFormat, lanes: int = 1) -> int:
+    """Bytes of one impulse-out record (the m_axis_imp TDATA): 4 words per lane rounded up to whole bytes."""
+    return -(-lanes * IMPULSE_OUT_WORDS * fmt.width // 8)
 
 
-def unpack_impulse_out(fmt: NumberFormat, data: bytes | np.ndarray) -> np.ndarray:
-    """Impulse-out records -> (R, 4) uint64 bit patterns."""
-    nbytes = impulse_out_bytes(fmt)
+def unpack_impulse_out(fmt: NumberFormat, data: bytes | np.ndarray, lanes: int = 1) -> np.ndarray:
+    """Impulse-out records -> (R * lanes, 4) uint64 bit patterns, one row per slot (lane)."""
+    nbytes, nwords = impulse_out_bytes(fmt, lanes), lanes * IMPULSE_OUT_WORDS
     raw = np.frombuffer(bytes(data), dtype=np.uint8).reshape(-1, nbytes)
-    bits = np.unpackbits(raw, axis=1, bitorder="little").astype(np.uint64)[:, :IMPULSE_OUT_WORDS * fmt.width]
+    bits = np.unpackbits(raw, axis=1, bitorder="little").astype(np.uint64)[:, :nwords * fmt.width]
     weights = np.uint64(1) << np.arange(fmt.width, dtype=np.uint64)
-    return (bits.reshape(-1, IMPULSE_OUT_WORDS, fmt.width) * weights).sum(axis=2, dtype=np.uint64)
+    words = (bits.reshape(-1, nwords, fmt.width) * weights).sum(axis=2, dtype=np.uint64)
+    return words.reshape(-1, IMPULSE_OUT_WORDS)
 
 
 # --- sizes --------------------------------------------------------------------------------------------
@@ -379,17 +386,30 @@ class StreamLayout:
             return -(-(rb.impulse_out_contact if kind == CONTACT_PASS else rb.impulse_out_friction) // 8)
         return -(-(4 if kind == CONTACT_PASS else 2) * self.word_bits // 8)
 
-    def ddr_read_share(self, params: SolverParams) -> float:
+    def ddr_read_share(self, params: SolverParams, fetch_passes: int = 0) -> float:
         """The share of the DDR bandwidth the constraint reads get while the impulse writes take the rest (their
-        bytes per step over all bytes per step; 1 with on-chip impulses)."""
-        reads = self.bytes_per_manifold(params)
-        writes = sum(self.impulse_write_bytes(kind) for kind, _ in pass_sequence(params))
+        bytes per step over all bytes per step; 1 with on-chip impulses). ``fetch_passes`` > 0: the window kernel's
+        stream of fetches (:func:`window_fetch_kinds`), each slot's record read and its impulses written once per
+        fetch."""
+        if fetch_passes:
+            kinds = window_fetch_kinds(params, fetch_passes, self.impulses_in_records)
+            reads = len(kinds) * self.window_bytes
+            writes = sum(self.impulse_write_bytes(kind) for kind in kinds if kind is not None)
+        else:
+            reads = self.bytes_per_manifold(params)
+            writes = sum(self.impulse_write_bytes(kind) for kind, _ in pass_sequence(params))
         return reads / (reads + writes) if reads + writes else 1.0
 
     @property
     def window_bits(self) -> int:
+        """Bits of one lane's window record: the contact and friction words together; with the impulses in the
+        records the longer of the contact and friction records with their impulses (a fetch streams one kind)."""
         if self.record_bits is not None:
             raise ValueError("mixed storage (record_bits) is a layout of the streaming kernel, not the window's")
+        if self.tangents_on_chip:
+            raise ValueError("the window kernel streams the friction tangents (no tangents_on_chip)")
+        if self.impulses_in_records:
+            return max(self.contact_bits, self.friction_bits)
         return HEADER_BITS + (WINDOW_WORDS + self.friction_words) * self.word_bits
 
     @property
@@ -532,24 +552,61 @@ def window_fetches(params: SolverParams, fetch_passes: int) -> int:
     return -(-len(pass_sequence(params)) // fetch_passes)
 
 
+def window_fetch_kinds(params: SolverParams, fetch_passes: int, one_kind: bool = False) -> list[int | None]:
+    """The pass kind of each fetch of the window kernel (None: a fetch serving both kinds). ``one_kind``: every
+    fetch must serve passes of one kind (the window kernel with the impulses in the records: fetch_passes divides
+    the iterations, or 1 with the kinds interleaved; the kernel refuses other arguments, error code 3)."""
+    seq = pass_sequence(params)
+    kinds: list[int | None] = []
+    for f in range(window_fetches(params, fetch_passes)):
+        served = {kind for kind, _ in seq[f * fetch_passes:(f + 1) * fetch_passes]}
+        kinds.append(served.pop() if len(served) == 1 else None)
+    if one_kind and None in kinds:
+        raise ValueError(f"{fetch_passes} passes per fetch mix contact and friction passes of {params.iterations} "
+                         f"iteration(s){' (interleaved)' if params.interleaved else ''}: with the impulses in the "
+                         "records each fetch serves passes of one kind (fetch_passes must divide the iterations, or "
+                         "be 1 with the kinds interleaved)")
+    return kinds
+
+
 EMPTY_HEADER = np.uint64(0xFFFF_FFFF_FFFF_FFFF)  # an empty lane of the window kernel (padding; zero words)
 
 
 def pack_window_stream(fmt: NumberFormat, cons: ConstraintSet, slots: np.ndarray, params: SolverParams,
-                       fetch_passes: int, beat_bits: int = DEFAULT_CONS_BEAT_BITS) -> Stream:
+                       fetch_passes: int, beat_bits: int = DEFAULT_CONS_BEAT_BITS,
+                       impulses: Impulses | None = None) -> Stream:
     """The window kernel's constraint stream: one combined record per slot of ``slots`` (manifold indices; -1 an
     empty lane: all-ones header, zero words), once per fetch. With LANES lanes, window record k is the
     combined records of slots k * LANES .. k * LANES + LANES - 1 one after the other, so the beats are the
-    same: ``slots`` (``models.record_window.lane_slots``) only needs a multiple of LANES entries."""
+    same: ``slots`` (``models.record_window.lane_slots``) only needs a multiple of LANES entries.
+    ``impulses`` (per manifold, values of ``fmt``): the kernel whose impulses travel with the records; every fetch
+    serves passes of one kind (:func:`window_fetch_kinds`) and streams that kind's records with the impulses the
+    step starts from (the DMA replaces what earlier fetches wrote), each padded to the longer kind's beats."""
     slots = np.asarray(slots, dtype=np.int64)
     real = slots >= 0
     idx = np.where(real, slots, 0)
-    words = np.concatenate([contact_words(fmt, cons, idx), friction_words(fmt, cons, idx)], axis=1)
-    words[~real] = 0
     header = np.where(real, constraint_header(cons, idx), EMPTY_HEADER)
-    records = pack_records(header, words, fmt.width, beat_bits)
-    fetches = window_fetches(params, fetch_passes) if len(slots) else 0
-    return _transfers([records] * fetches, beat_bits)
+    if not len(slots):
+        return _transfers([], beat_bits)
+    if impulses is None:
+        words = np.concatenate([contact_words(fmt, cons, idx), friction_words(fmt, cons, idx)], axis=1)
+        words[~real] = 0
+        return _transfers([pack_records(header, words, fmt.width, beat_bits)]
+                          * window_fetches(params, fetch_passes), beat_bits)
+    lam, lam_t = fmt.encode(impulses.normal[idx]), fmt.encode(impulses.friction[idx])
+    kind_words = {CONTACT_PASS: [contact_words(fmt, cons, idx), lam],
+                  FRICTION_PASS: [friction_words(fmt, cons, idx), lam, lam_t]}
+    layout = StreamLayout(fmt, beat_bits, impulses_in_records=True, friction_words=kernel_friction_words(cons))
+    packed: dict[int, np.ndarray] = {}
+    for kind, parts in kind_words.items():
+        words = np.concatenate(parts, axis=1)
+        words[~real] = 0
+        beats = pack_records(header, words, fmt.width, beat_bits).reshape(len(slots), -1, beat_bits // 8)
+        padded = np.zeros((len(slots), layout.window_beats, beat_bits // 8), np.uint8)
+        padded[:, :beats.shape[1]] = beats
+        packed[kind] = padded.reshape(-1, beat_bits // 8)
+    kinds = window_fetch_kinds(params, fetch_passes, one_kind=True)
+    return _transfers([packed[kind] for kind in kinds if kind is not None], beat_bits)
 
 
 def unpack_constraint_records(fmt: NumberFormat, beats: np.ndarray, kind: int,

@@ -42,6 +42,7 @@ pgs_body_ram.sv
 pgs_impulse_ram.sv
 pgs_hazard_cam.sv
 pgs_record_asm.sv
+pgs_ring_ram.sv
 pgs_window.sv
 pgs_run_counters.sv
 pgs_error_flags.sv

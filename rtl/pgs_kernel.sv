@@ -53,7 +53,7 @@ module pgs_kernel #(
     parameter int C_S_AXI_CONTROL_DATA_WIDTH = 32,
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64,
-    localparam int IMP_OUT_W     = (4 * W + 7) / 8 * 8,
+    localparam int IMP_OUT_W     = (LANES * 4 * W + 7) / 8 * 8,   // one impulse-out record: LANES x 4 words
     localparam int AW            = C_S_AXI_CONTROL_ADDR_WIDTH,
     localparam int DW            = C_S_AXI_CONTROL_DATA_WIDTH
 ) (

@@ -16,7 +16,11 @@
 //          manifold's combined record is streamed once per fetch of arg_fetch_passes passes and the passes
 //          trail each other by arg_lag slots over the on-chip ring (see pgs_window); records of several
 //          passes interleave at issue, and the friction pipe's output is delayed to the contact pipe's
-//          latency so that retire stays in issue order without draining at a kind change.
+//          latency so that retire stays in issue order without draining at a kind change. With
+//          IMPULSES_IN_RECORDS each fetch serves passes of one kind and streams that kind's records with the
+//          impulses the fetch starts from; an impulse ring (per lane, at the record's ring address) carries the
+//          updated impulses from pass to pass within the fetch, and the fetch's last pass writes them to m_imp
+//          (rtl/README.md "Impulses in the records" under the window kernel).
 //          With LANES > 1 (window kernel only) each window record holds LANES manifolds' combined records
 //          (slots k * LANES .. k * LANES + LANES - 1, the host's lane plan: body-disjoint, an all-ones
 //          header pads an empty lane); they issue together into LANES copies of the pipes, with 2 x LANES
@@ -53,7 +57,8 @@
 //     TLAST. Every pass stays in step with the host's transfers, so the step always ends.
 //   * 0x03 bad argument (num_bodies > MAX_BODIES, num_manifolds > MAX_MANIFOLDS or iterations >= 2^16; with
 //     WINDOW > 0 also fetch_passes = 0, fetch_passes > WINDOW_CTX, lag = 0 or (fetch_passes - 1) * lag + 2 >
-//     WINDOW): the step ends at once, streams untouched.
+//     WINDOW, and with IMPULSES_IN_RECORDS a fetch that would serve contact and friction passes): the step ends at
+//     once, streams untouched.
 `default_nettype none
 
 module pgs_sequencer #(
@@ -80,7 +85,7 @@ module pgs_sequencer #(
     parameter int DELAY_BLOCK_MIN_DEPTH = 0, // the pipes' delay lines at least this deep in block RAM (0: LUT RAM)
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64,
-    localparam int IMP_OUT_W     = (4 * W + 7) / 8 * 8
+    localparam int IMP_OUT_W     = (LANES * 4 * W + 7) / 8 * 8
 ) (
     input  wire                   clk,
     input  wire                   rst,
@@ -151,14 +156,20 @@ module pgs_sequencer #(
     localparam int C_BEATS   = (64 + C_WORDS * W + CONS_W - 1) / CONS_W;   // contact record
     localparam int F_BEATS   = (64 + F_WORDS * W + CONS_W - 1) / CONS_W;   // friction record
     localparam int CM_BEATS  = C_BEATS > F_BEATS ? C_BEATS : F_BEATS;
-    localparam int WR_BEATS  = (64 + (23 + F_COEFF) * W + CONS_W - 1) / CONS_W;  // window record (contact + friction)
+    // one lane's window record: the contact and friction words together (on-chip impulses), or with the impulses in
+    // the records the record of its fetch's one pass kind (each fetch serves passes of one kind), padded to CM_BEATS
+    localparam int WR_BEATS  = IMPULSES_IN_RECORDS ? CM_BEATS : (64 + (23 + F_COEFF) * W + CONS_W - 1) / CONS_W;
     localparam int C_LAT     = pgs_pipe_latency_pkg::contact_latency(MAN_BITS);
     localparam int F_LAT     = TANGENTS_ON_CHIP ? pgs_pipe_latency_pkg::friction_pipe_tb_latency(MAN_BITS)
                                                 : pgs_pipe_latency_pkg::friction_latency(MAN_BITS);
     localparam int CREC_W    = CM_BEATS * CONS_W;
     localparam int CNEED_W   = $clog2(CM_BEATS + 1);
     localparam int BNEED_W   = $clog2(B_BEATS + 1);
-    localparam int STAG_W    = SLOT_W + ITER_W + 2 * IDX_W + 2;        // solver pipes' tag
+    // the window kernel with the impulses in the records: each retire also carries its ring address and whether its
+    // pass is the last of its fetch (the impulse ring's write, the impulse-out record)
+    localparam int RA_W      = WINDOW > 1 ? $clog2(WINDOW) : 1;
+    localparam int WTAG_W    = WINDOW > 0 && IMPULSES_IN_RECORDS ? RA_W + 1 : 0;
+    localparam int STAG_W    = WTAG_W + SLOT_W + ITER_W + 2 * IDX_W + 2;  // solver pipes' tag
     localparam int ITAG_W    = 1 + OREC_W;                              // integrate pipe's tag
     localparam int OBEAT_W   = $clog2(O_BEATS + 1);
     localparam int EV_W      = 16;                                      // the datapaths' event counts
@@ -170,8 +181,8 @@ module pgs_sequencer #(
     if (LANES < 1 || (LANES & (LANES - 1)) != 0 || (LANES > 1 && WINDOW == 0)) begin : g_bad_lanes
         $error("pgs_sequencer: LANES must be a power of two, and LANES > 1 needs the window kernel (WINDOW > 0)");
     end
-    if (IMPULSES_IN_RECORDS && (WINDOW > 0 || LANES > 1)) begin : g_bad_iir
-        $error("pgs_sequencer: IMPULSES_IN_RECORDS is a configuration of the streaming kernel (WINDOW = 0, LANES = 1)");
+    if (BODY_BANKS > 0 && LANES > 1) begin : g_bad_banks
+        $error("pgs_sequencer: BODY_BANKS (banked body velocities) is built for one lane (LANES = 1)");
     end
     if (IINV_W != 1 && IINV_W != 3 && IINV_W != 6) begin : g_bad_iinv
         $error("pgs_sequencer: IINV_W (inverse-inertia words per body) must be 1, 3 or 6");
@@ -198,8 +209,18 @@ module pgs_sequencer #(
     logic         r_soft;                 // SOFT_CONTACT: opt_soft and the keep factors of the run
     logic [W-1:0] r_keep_d, r_keep_s;
     localparam int SOFT_WORDS = SOFT_CONTACT ? 2 : 0;   // the soft contact pipe's keep_dyn, keep_static words
+    // with the impulses in the records every fetch of the window kernel serves passes of one kind: fetch_passes
+    // divides the iterations (contact passes, then friction passes), or 1 with the kinds interleaved
+    logic mixed_fetch;
+    always_comb begin
+        mixed_fetch = 1'b0;
+        for (int d = 1; d <= WINDOW_CTX; d++)
+            if (arg_fetch_passes == 32'(d))
+                mixed_fetch = opt_interleaved ? d != 1 : arg_iterations[ITER_W-1:0] % ITER_W'(d) != '0;
+    end
     wire  bad_window = WINDOW > 0 && (arg_fetch_passes == 0 || arg_fetch_passes > 32'(WINDOW_CTX) || arg_lag == 0
-                       || 64'(arg_fetch_passes - 1) * 64'(arg_lag) + 64'd2 > 64'(WINDOW));
+                       || 64'(arg_fetch_passes - 1) * 64'(arg_lag) + 64'd2 > 64'(WINDOW)
+                       || (IMPULSES_IN_RECORDS && mixed_fetch));
     wire  bad_args = arg_num_bodies > 32'(MAX_BODIES) || arg_num_manifolds > 32'(MAX_MANIFOLDS)
                      || arg_iterations >= 32'(1 << ITER_W) || bad_window
                      || (arg_num_manifolds & 32'(LANES - 1)) != 0;
@@ -276,8 +297,47 @@ module pgs_sequencer #(
 
     // ---------------- constraint records: the stream pass by pass, or the record window ----------------
     // The record offered holds LANES manifold records of one pass (lane l: slot i_slot * LANES + l; the
-    // streaming kernel has one lane). lrec[l]: the 64-bit header, then the pass kind's words.
-    logic [CREC_W-1:0] lrec [LANES];
+    // streaming kernel has one lane). Per lane the issue logic reads bodies A and B, the spin-damping and shock
+    // bits and the record's checks; stage 1 feeds the pass kind's words to the pipes (l_words).
+    localparam int LREC_W = WR_BEATS * CONS_W;  // one lane's window record
+    localparam int HL_W   = 2 * IDX_W + 5;      // one lane's head in the window's ring (head_of)
+
+    // the full body indices of a header: out of range, or the same body twice
+    localparam int HIDX_W = pgs_stream_layout_pkg::HEADER_BODY_B_LSB + pgs_stream_layout_pkg::HEADER_BODY_B_BITS;
+    function automatic logic index_bad(input logic [HIDX_W-1:0] hdr, input logic [31:0] n_bodies);
+        logic [31:0] ha = hdr[31:0];
+        logic [31:0] hb = 32'(hdr[pgs_stream_layout_pkg::HEADER_BODY_B_LSB +: pgs_stream_layout_pkg::HEADER_BODY_B_BITS]);
+        return ha >= n_bodies || hb >= n_bodies || ha == hb;
+    endfunction
+    // a non-finite word (exponent all ones) in a record of pass kind k (the header, then the kind's words): the
+    // contact record's 23 words, the friction record's F_WORDS (the impulses it carries included)
+    function automatic logic nonfinite_of(input logic [CREC_W-1:0] r, input logic k);
+        logic nf = 1'b0;
+        for (int j = 0; j < 23; j++)
+            if (j < F_WORDS || k == CONTACT) nf = nf || r[64 + j*W + MAN_BITS +: EXP_BITS] == '1;
+        return nf;
+    endfunction
+    // the record of pass kind k in one lane's window record: the header, then the kind's words from bit 64 (with the
+    // impulses in the records a fetch streams the records of its passes' one kind, so its words are there; else the
+    // friction words follow the contact words)
+    localparam int FRIC_AT = IMPULSES_IN_RECORDS ? 64 : 64 + 23 * W;
+    /* verilator lint_off UNUSEDSIGNAL */  // r: the record's padding bits and the other kind's words
+    function automatic logic [CREC_W-1:0] kind_view(input logic [LREC_W-1:0] r, input logic k);
+        logic [CREC_W-1:0] v = '0;
+        v[0 +: 64] = r[0 +: 64];
+        if (k == FRICTION) v[64 +: F_WORDS*W] = r[FRIC_AT +: F_WORDS*W];
+        else               v[64 +: C_WORDS*W] = r[64 +: C_WORDS*W];
+        return v;
+    endfunction
+    /* verilator lint_on UNUSEDSIGNAL */
+    // what the window keeps of a lane's record for the cycle it is offered: {non-finite as a friction record,
+    // non-finite as a contact record, index_bad, empty lane (header all ones), spin damping, body B, body A}
+    function automatic logic [HL_W-1:0] head_of(input logic [LREC_W-1:0] r, input logic [31:0] n_bodies);
+        return {nonfinite_of(kind_view(r, FRICTION), FRICTION), nonfinite_of(kind_view(r, CONTACT), CONTACT),
+                index_bad(r[HIDX_W-1:0], n_bodies), r[63:0] == '1, r[pgs_stream_layout_pkg::HEADER_SPIN_DAMP_BIT],
+                r[32 +: IDX_W], r[IDX_W-1:0]};
+    endfunction
+
     logic            crec_tag;    // the record's pass kind
     logic            crec_valid, crec_trunc, take;
     logic            c_flush;     // discarding beats up to a TLAST
@@ -289,6 +349,16 @@ module pgs_sequencer #(
     wire  slot_step;              // record i_slot of pass i_pass is done
     wire  [31:0] nm_rec = nm >> LG_L;  // records per pass
     wire  slot_last = i_slot == nm_rec - 1;
+
+    logic [IDX_W-1:0]      la [LANES], lb [LANES];   // bodies A, B of each lane
+    logic [LANES-1:0]      l_sd, l_empty_hdr, l_index, l_nonfinite;
+    // a shock pass's header bits (the streaming kernel; the window kernel's records serve several passes: none)
+    logic [LANES-1:0]      l_fa, l_fb, l_lin;
+    logic [S1_WORDS*W-1:0] l_words [LANES];  // the pass kind's words (streaming: at issue; window: at stage 1)
+    logic                  s1_kind;          // stage 1's pass kind (the lanes issue together)
+    // window kernel: the candidate's ring address, whether its pass is the first / last of its fetch
+    logic [RA_W-1:0]       w_addr;
+    logic                  w_first, w_lastg;
 
     generate
         if (WINDOW == 0) begin : g_stream
@@ -304,11 +374,24 @@ module pgs_sequencer #(
                 .s_tdata(s_cons_tdata), .s_tvalid(s_cons_tvalid), .s_tlast(s_cons_tlast), .s_tready(c_asm_ready),
                 .done(c_done), .done_trunc(c_done_trunc), .rec_data(crec), .rec_tag(crec_tag), .rec_last(crec_last),
                 .rec_trunc(crec_trunc), .rec_valid(crec_valid), .rec_ready(take));
-            assign lrec[0] = crec;
             assign s_cons_tready = c_asm_ready || c_flush;
             wire c_pass_end = c_done && (a_last || s_cons_tlast);   // the assembler moves on to the next pass
             assign c_tlast_err = c_done && (s_cons_tlast != a_last || c_done_trunc);
-            wire unused_stream = ^{r_lag, r_fetch};   // the window kernel's arguments
+            wire [63:0] hdr = crec[63:0];
+            assign la[0]          = hdr[IDX_W-1:0];
+            assign lb[0]          = hdr[32 +: IDX_W];
+            assign l_sd[0]        = hdr[pgs_stream_layout_pkg::HEADER_SPIN_DAMP_BIT];
+            assign l_empty_hdr[0] = 1'b0;
+            assign l_index[0]     = index_bad(hdr[HIDX_W-1:0], nb);
+            assign l_nonfinite[0] = nonfinite_of(crec, crec_tag);
+            assign l_fa[0]        = hdr[pgs_stream_layout_pkg::HEADER_FROZEN_A_BIT];
+            assign l_fb[0]        = hdr[pgs_stream_layout_pkg::HEADER_FROZEN_B_BIT];
+            assign l_lin[0]       = hdr[pgs_stream_layout_pkg::HEADER_SHOCK_LINEAR_BIT];
+            assign l_words[0]     = crec[64 +: S1_WORDS*W];
+            assign w_addr  = '0;
+            assign w_first = 1'b0;
+            assign w_lastg = 1'b1;
+            wire unused_stream = ^{r_lag, r_fetch, crec[CREC_W-1:64 + S1_WORDS*W]};   // the window's arguments, padding
 
             always_ff @(posedge clk) begin
                 if (phase == S_IDLE) begin
@@ -342,27 +425,37 @@ module pgs_sequencer #(
                 end
             end
         end else begin : g_window
-            localparam int LREC_W = WR_BEATS * CONS_W;   // one lane's combined record
-            logic [LANES*LREC_W-1:0] wrec;
+            logic [LANES*LREC_W-1:0] wr_rec, rd_rec;
+            logic [LANES*HL_W-1:0]   wr_head, whead;
             logic [ITER_W:0]   w_pass;
             logic              w_done, w_flush;
+            logic [$clog2(WINDOW)-1:0] cand_addr;
             pgs_window #(.CONS_W(CONS_W), .REC_BEATS(LANES * WR_BEATS), .DEPTH(WINDOW), .CTX(WINDOW_CTX),
-                         .PASS_W(ITER_W + 1)) u_window (
+                         .PASS_W(ITER_W + 1), .HEAD_W(LANES * HL_W)) u_window (
                 .clk, .rst, .init(phase == S_IDLE), .nm(nm_rec), .passes, .fetch_passes(r_fetch[ITER_W:0]),
                 .lag(r_lag), .fetch_en(phase == S_LOAD || phase == S_SOLVE), .s_tdata(s_cons_tdata),
-                .s_tvalid(s_cons_tvalid), .s_tready(s_cons_tready), .s_tlast(s_cons_tlast), .cand_valid(crec_valid),
-                .cand_rec(wrec), .cand_trunc(crec_trunc), .cand_pass(w_pass), .cand_slot(i_slot), .take,
+                .s_tvalid(s_cons_tvalid), .s_tready(s_cons_tready), .s_tlast(s_cons_tlast), .wr_rec, .wr_head,
+                .cand_valid(crec_valid), .cand_head(whead), .cand_addr, .cand_first(w_first), .cand_lastg(w_lastg),
+                .cand_trunc(crec_trunc), .rd_rec, .cand_pass(w_pass), .cand_slot(i_slot), .take,
                 .all_done(w_done), .flushing(w_flush), .tlast_err(c_tlast_err));
-            // a contact pass reads the header and the contact words, a friction pass the header and the
-            // friction words (which follow the contact words in the lane's combined record)
+            assign w_addr = RA_W'(cand_addr);
             always_comb begin
                 for (int l = 0; l < LANES; l++) begin
-                    lrec[l] = '0;
-                    lrec[l][0 +: 64] = wrec[l*LREC_W +: 64];
-                    if (crec_tag == FRICTION) lrec[l][64 +: F_COEFF*W] = wrec[l*LREC_W + 64 + 23*W +: F_COEFF*W];
-                    else                      lrec[l][64 +: 23*W] = wrec[l*LREC_W + 64 +: 23*W];
+                    automatic logic [HL_W-1:0] h = whead[l*HL_W +: HL_W];
+                    wr_head[l*HL_W +: HL_W] = head_of(wr_rec[l*LREC_W +: LREC_W], nb);
+                    la[l]          = h[IDX_W-1:0];
+                    lb[l]          = h[IDX_W +: IDX_W];
+                    l_sd[l]        = h[2*IDX_W];
+                    l_empty_hdr[l] = h[2*IDX_W + 1];
+                    l_index[l]     = h[2*IDX_W + 2];
+                    l_nonfinite[l] = crec_tag == FRICTION ? h[2*IDX_W + 4] : h[2*IDX_W + 3];
+                    // stage 1: the words of the record taken in the issue cycle (the ring's registered read)
+                    l_words[l]     = kind_view(rd_rec[l*LREC_W +: LREC_W], s1_kind)[64 +: S1_WORDS*W];
                 end
             end
+            assign l_fa      = '0;
+            assign l_fb      = '0;
+            assign l_lin     = '0;
             assign crec_tag  = kind_of(w_pass, ilv, iters);
             assign i_pass    = w_pass;
             assign i_fill    = 1'b0;
@@ -373,7 +466,7 @@ module pgs_sequencer #(
             always_comb begin
                 unused_window = ^{w_done, r_fetch[31:ITER_W+1]};
                 for (int l = 0; l < LANES; l++)
-                    unused_window ^= ^wrec[l*LREC_W + 64 + (23 + F_COEFF)*W +: LREC_W - 64 - (23 + F_COEFF)*W];
+                    unused_window ^= ^kind_view(rd_rec[l*LREC_W +: LREC_W], s1_kind)[CREC_W-1:64 + S1_WORDS*W];
             end
         end
     endgenerate
@@ -392,42 +485,21 @@ module pgs_sequencer #(
     // the pipes' latencies instead) and waits while a body-velocity bank is busy with the retire (BODY_BANKS > 0)
     wire  issue_ok  = (WINDOW > 0 || rkind == last_kind || cam_empty) && !body_busy;
 
-    logic [IDX_W-1:0]  la [LANES], lb [LANES];   // bodies A, B of each lane
-    logic [63:0]       lhdr [LANES];
-    // a shock pass's header bits (the streaming kernel; the window kernel's records serve several passes: ignored)
-    logic [LANES-1:0]  l_fa, l_fb, l_lin;
     logic [31:0]       lslot [LANES];            // manifold slot of each lane
     always_comb begin
-        for (int l = 0; l < LANES; l++) begin
-            lhdr[l]  = lrec[l][63:0];
-            la[l]    = lhdr[l][IDX_W-1:0];
-            lb[l]    = lhdr[l][32 +: IDX_W];
-            l_fa[l]  = WINDOW == 0 && lhdr[l][pgs_stream_layout_pkg::HEADER_FROZEN_A_BIT];
-            l_fb[l]  = WINDOW == 0 && lhdr[l][pgs_stream_layout_pkg::HEADER_FROZEN_B_BIT];
-            l_lin[l] = WINDOW == 0 && lhdr[l][pgs_stream_layout_pkg::HEADER_SHOCK_LINEAR_BIT];
-            lslot[l] = i_slot * LANES + 32'(l);
-        end
+        for (int l = 0; l < LANES; l++) lslot[l] = i_slot * LANES + 32'(l);
     end
 
-    // checks of each lane's record (contact: 23 words, friction: F_WORDS after the 64-bit header). An
-    // all-ones header in the window kernel is an empty lane (the host's padding): never issued, never
-    // rejected, no error.
+    // the issue checks of each lane's record. An all-ones header in the window kernel is an empty lane (the host's
+    // padding): never issued, never rejected, no error.
     logic slot_rej [MAX_MANIFOLDS];   // slots rejected earlier in the step (written for every slot in pass 0)
-    logic [LANES-1:0] l_empty, l_index, l_nonfinite, l_static, l_collide, l_rej, l_go;
+    logic [LANES-1:0] l_empty, l_static, l_collide, l_rej, l_go;
     always_comb begin
         automatic logic [LANES-1:0] go = '0;   // the lanes so far that issue
         for (int l = 0; l < LANES; l++) begin
-            automatic logic [31:0] ha = lhdr[l][31:0];
-            automatic logic [31:0] hb = 32'(lhdr[l][pgs_stream_layout_pkg::HEADER_BODY_B_LSB +: pgs_stream_layout_pkg::HEADER_BODY_B_BITS]);
             automatic logic rej_prev = i_pass != '0 && slot_rej[lslot[l][SLOT_W-1:0]];
             automatic logic rej_bad;
-            l_nonfinite[l] = 1'b0;
-            for (int k = 0; k < 23; k++) begin
-                if (k < F_WORDS || rkind == CONTACT)
-                    l_nonfinite[l] = l_nonfinite[l] || lrec[l][64 + k*W + MAN_BITS +: EXP_BITS] == '1;
-            end
-            l_empty[l]  = WINDOW > 0 && !crec_trunc && lhdr[l] == '1;
-            l_index[l]  = ha >= nb || hb >= nb || ha == hb;
+            l_empty[l]  = WINDOW > 0 && !crec_trunc && l_empty_hdr[l];
             rej_bad     = !l_index[l] && (bad[2*l] || bad[2*l+1]);
             l_static[l] = !l_index[l] && !rej_bad && !dyn[2*l] && !dyn[2*l+1];
             l_collide[l] = 1'b0;
@@ -483,7 +555,12 @@ module pgs_sequencer #(
     logic [4*W-1:0]         l_imp [LANES];
     logic [SLOT_W-1:0]      l_rslot [LANES];
     logic [ITER_W-1:0]      l_riter [LANES];
+    logic [RA_W-1:0]        l_raddr [LANES];           // window kernel: the retiring record's ring address
+    logic [LANES-1:0]       l_rlastg;                  // ... its pass is the last of its fetch
     logic [3*EV_W-1:0]      l_ev [LANES];              // {invalid, underflow, overflow} of the lane's two pipes
+    always_ff @(posedge clk) begin
+        if (issue) s1_kind <= rkind;
+    end
     for (genvar l = 0; l < LANES; l++) begin : g_lane
         logic [4*W-1:0] rd_lam;
         logic [2*W-1:0] rd_lamT;
@@ -496,13 +573,37 @@ module pgs_sequencer #(
         // one: its inverse mass and inertia enter the pipe as 0 and its tag's dynamic bit is clear, so retire does
         // not write it (the CAM holds it as issued: the hazards, and so the cycles, are those of the same schedule
         // without the bits); a linear row's inverse inertias enter as 0 and its spin damping is off.
-        logic              s1_valid, s1_kind, s1_sd, s1_fa, s1_fb, s1_lin;
+        logic              s1_valid, s1_sd, s1_fa, s1_fb, s1_lin;
         logic [S1_WORDS*W-1:0] s1_words;
         if (IMPULSES_IN_RECORDS) begin : g_imp_rec
-            // the impulses the pass starts from are the record's last words (host-given or last pass's)
-            assign rd_lam  = s1_kind == CONTACT ? s1_words[pgs_stream_layout_pkg::CONTACT_LAM_WORD*W +: 4*W]
-                                                : s1_words[F_COEFF*W +: 4*W];
-            assign rd_lamT = s1_words[(F_COEFF + pgs_stream_layout_pkg::FRICTION_LAMT_AFTER_LAM)*W +: 2*W];
+            // the impulses the pass starts from are the record's last words (host-given or the last pass's). The
+            // window kernel's record serves every pass of its fetch (of one kind): the fetch's first pass reads the
+            // record's, every later pass what the pass before wrote into the impulse ring (the ring address's
+            // lam[0..3] after a contact pass, lamT[0..1] after a friction pass: read at issue, written at retire,
+            // a record of a later pass issuing only after that retire); a friction pass's lam (its friction limit,
+            // the contact passes' result) is the record's.
+            logic [4*W-1:0] rec_lam;
+            logic [2*W-1:0] rec_lamT, ring_lamT;
+            logic [4*W-1:0] ring_imp;   // the impulse ring's word at the issue's ring address (window kernel)
+            logic           s1_first;   // stage 1's pass is the first of its fetch (window kernel)
+            assign rec_lam  = s1_kind == CONTACT ? s1_words[pgs_stream_layout_pkg::CONTACT_LAM_WORD*W +: 4*W]
+                                                 : s1_words[F_COEFF*W +: 4*W];
+            assign rec_lamT = s1_words[(F_COEFF + pgs_stream_layout_pkg::FRICTION_LAMT_AFTER_LAM)*W +: 2*W];
+            assign ring_lamT = ring_imp[0 +: 2*W];
+            if (WINDOW > 0) begin : g_imp_ring
+                pgs_ring_ram #(.WIDTH(4*W), .DEPTH(WINDOW), .SYNC_READ(1'b1)) u_imp_ring (
+                    .clk, .wr_en(l_retire[l]), .wr_addr(l_raddr[l]), .wr_data(l_imp[l]), .rd_en(l_issue[l]),
+                    .rd_addr(w_addr), .rd_data(ring_imp));
+                always_ff @(posedge clk) begin
+                    if (l_issue[l]) s1_first <= w_first;
+                end
+            end else begin : g_no_imp_ring
+                assign ring_imp = '0;
+                assign s1_first = 1'b1;
+            end
+            assign rd_lam  = s1_kind == CONTACT && !s1_first ? ring_imp : rec_lam;
+            assign rd_lamT = s1_first ? rec_lamT : ring_lamT;
+            wire unused_ring = ^ring_imp[4*W-1:2*W];
         end else begin : g_imp_ram
             wire [BSLOT_W-1:0] wr_rec = BSLOT_W'(l_rslot[l] >> LG_L);
             pgs_impulse_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_MANIFOLDS(MAX_MANIFOLDS / LANES)) u_imp_ram (
@@ -517,14 +618,22 @@ module pgs_sequencer #(
         end
         always_ff @(posedge clk) begin
             if (l_issue[l]) begin
-                s1_kind  <= rkind;
-                s1_sd    <= lhdr[l][pgs_stream_layout_pkg::HEADER_SPIN_DAMP_BIT] && !l_lin[l];
+                s1_sd    <= l_sd[l] && !l_lin[l];
                 s1_fa    <= l_fa[l];
                 s1_fb    <= l_fb[l];
                 s1_lin   <= l_lin[l];
-                s1_words <= lrec[l][64 +: S1_WORDS*W];
-                s1_tag   <= {lslot[l][SLOT_W-1:0], i_iter, la[l], lb[l], dyn[2*l] && !l_fa[l], dyn[2*l+1] && !l_fb[l]};
+                s1_tag   <= STAG_W'({w_lastg, w_addr, lslot[l][SLOT_W-1:0], i_iter, la[l], lb[l], dyn[2*l] && !l_fa[l],
+                                     dyn[2*l+1] && !l_fb[l]});
             end
+        end
+        // the pass kind's words: the streaming kernel registers the record at issue, the window kernel's ring read
+        // of the record taken at issue is registered already
+        if (WINDOW == 0) begin : g_s1_words
+            always_ff @(posedge clk) begin
+                if (l_issue[l]) s1_words <= l_words[l];
+            end
+        end else begin : g_s1_ring
+            assign s1_words = l_words[l];
         end
 
         // body fields of the stage-1 reads (A on port 2l, B on port 2l + 1)
@@ -678,6 +787,13 @@ module pgs_sequencer #(
         assign l_ra[l]     = r_tag[2 + IDX_W +: IDX_W];
         assign l_riter[l]  = r_tag[2 + 2*IDX_W +: ITER_W];
         assign l_rslot[l]  = r_tag[2 + 2*IDX_W + ITER_W +: SLOT_W];
+        if (WTAG_W > 0) begin : g_rtag_window
+            assign l_raddr[l]  = r_tag[2 + 2*IDX_W + ITER_W + SLOT_W +: RA_W];
+            assign l_rlastg[l] = r_tag[STAG_W-1];
+        end else begin : g_rtag_stream
+            assign l_raddr[l]  = '0;
+            assign l_rlastg[l] = 1'b1;   // the streaming kernel: every pass writes its impulses out
+        end
         assign l_ev[l]     = {c_ev_inv + f_ev_inv, c_ev_unf + f_ev_unf, c_ev_ovf + f_ev_ovf};
         // the lane's slot bits of the record index, body B's orientation and the padding are not needed here
         wire unused_lane = ^{l_rslot[l], ra[7*W-1:3*W], rb[7*W-1:3*W]};
@@ -685,26 +801,31 @@ module pgs_sequencer #(
     assign retire = l_retire != '0;
 
     // ---------------- impulse-out stream (IMPULSES_IN_RECORDS) ----------------
-    // One record per slot of every pass, in slot order, TLAST on each pass's last slot: the updated impulses
-    // of a retired manifold-pass (contact: lam[0..3]; friction: lamT[0..1], then two zero words; the trace
-    // record's first four words), all zeros for a rejected slot. The order FIFO takes every slot at its take
-    // ({last, rejected}), the data FIFO every retire; a record leaves when its order entry is at the head and,
-    // unless rejected, its retire has arrived. A slot is taken only with room in the order FIFO (the pipes
-    // have no backpressure), so a stalled stream stalls the issue.
+    // One record per slot of every pass (the window kernel: of the last pass of every fetch, which pgs_window keeps
+    // from overlapping the next fetch's last pass; one record per window record, its lanes' words one after the
+    // other), in slot order, TLAST on each pass's last slot: the updated
+    // impulses of a retired manifold-pass (contact: lam[0..3]; friction: lamT[0..1], then two zero words; the
+    // trace record's first four words), all zeros for a rejected slot or lane and an empty lane. The order FIFO
+    // takes every such slot at its take ({last, rejected}), the data FIFO every such retire; a record leaves
+    // when its order entry is at the head and, unless rejected, its retire has arrived. A slot is taken only with
+    // room in the order FIFO (the pipes have no backpressure), so a stalled stream stalls the issue.
     logic imp_idle;   // no impulse-out record pending
     generate
         if (IMPULSES_IN_RECORDS) begin : g_imp_out
             logic [1:0]     ord_head;
-            logic [4*W-1:0] dat_head;
+            logic [LANES*4*W-1:0] dat_head, dat_in;
             logic           ord_empty, ord_full, dat_empty, dat_full;
             wire            imp_hs  = m_imp_tvalid && m_imp_tready;
             wire            ord_rej = ord_head[0];
+            always_comb begin
+                for (int l = 0; l < LANES; l++) dat_in[l*4*W +: 4*W] = l_retire[l] ? l_imp[l] : '0;
+            end
             pgs_fifo #(.DATA_W(2), .DEPTH(IMP_FIFO_DEPTH)) u_imp_order (
-                .clk, .rst, .push(slot_step), .push_data({slot_last, !issue}), .pop(imp_hs), .head(ord_head),
-                .empty(ord_empty), .full(ord_full));
-            pgs_fifo #(.DATA_W(4*W), .DEPTH(IMP_FIFO_DEPTH)) u_imp_data (
-                .clk, .rst, .push(l_retire[0]), .push_data(l_imp[0]), .pop(imp_hs && !ord_rej), .head(dat_head),
-                .empty(dat_empty), .full(dat_full));
+                .clk, .rst, .push(slot_step && w_lastg), .push_data({slot_last, !issue}), .pop(imp_hs),
+                .head(ord_head), .empty(ord_empty), .full(ord_full));
+            pgs_fifo #(.DATA_W(LANES*4*W), .DEPTH(IMP_FIFO_DEPTH)) u_imp_data (
+                .clk, .rst, .push(retire && (l_rlastg & l_retire) != '0), .push_data(dat_in),
+                .pop(imp_hs && !ord_rej), .head(dat_head), .empty(dat_empty), .full(dat_full));
             assign m_imp_tvalid = !ord_empty && (ord_rej || !dat_empty);
             assign m_imp_tdata  = IMP_OUT_W'(ord_rej ? '0 : dat_head);
             assign m_imp_tlast  = ord_head[1];
@@ -899,7 +1020,8 @@ module pgs_sequencer #(
     always_comb begin
         unused_seq = ^{i_iter_full[ITER_W], ofifo_full, b_unused_tag, brec, rd0_data, bad};
         if (!SOFT_CONTACT) unused_seq ^= ^{r_soft, r_keep_d, r_keep_s};   // the rigid kernel reads no keep factor
-        for (int l = 0; l < LANES; l++) unused_seq ^= ^{lrec[l][CREC_W-1:64 + S1_WORDS*W], lslot[l][31:SLOT_W]};
+        if (!IMPULSES_IN_RECORDS) unused_seq ^= w_first;   // the impulse ring's source select
+        for (int l = 0; l < LANES; l++) unused_seq ^= ^{lslot[l][31:SLOT_W], l_raddr[l], l_rlastg[l]};
     end
 endmodule
 

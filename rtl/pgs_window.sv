@@ -8,7 +8,10 @@
 // models.contact_solver.pass_sequence. Record k of a fetch is manifold slot k.
 //
 // Passes: pass j steps its slots in order 0 .. nm-1, one slot per `take`. Up to CTX passes are active at a
-// time (pass contexts, pass j in context j mod CTX). A slot s of pass j is a candidate when its record is in
+// time (pass contexts, pass j in context j mod CTX). The last pass of a fetch starts only once every pass of the
+// earlier fetches is done: the last passes of two fetches never interleave their takes, so records leave the ring
+// in the order they were written (the room rule below counts on it) and, with the impulses in the records, the
+// last passes' impulse-out records leave fetch by fetch. A slot s of pass j is a candidate when its record is in
 // the ring and pass j-1 is done or has stepped at least s + lag slots. With lag >= the schedule's band width D
 // (every dynamic body's manifolds lie within D consecutive slots) pass j-1 has issued every update of the bodies
 // of slot s before pass j reads them, and pass j's updates of a body all come before pass j+1's: every body sees
@@ -18,9 +21,17 @@
 // offered and not taken since the last take (a hazard stall), so that another pass can fill the cycle.
 //
 // Ring: a fetched record is written in arrival order (global record index = fetch * nm + slot); it is freed
-// when the last pass of its fetch steps its slot. Beats are accepted only while the ring has room. The
+// when the last pass of its fetch steps its slot, in the order of the global index (the pass rule above). Beats
+// are accepted only while the ring has room. The
 // host's argument check (sequencer) guarantees progress: 1 <= fetch_passes <= CTX, lag >= 1 and
 // (fetch_passes - 1) * lag + 2 <= DEPTH.
+// The ring is two arrays with one write port each (the record written, at ring address = global index mod
+// DEPTH): the *heads* (HEAD_W bits per record, `wr_head`, which the sequencer derives from the record `wr_rec`
+// being written: body indices, flags, the checks that depend only on the record) are read in the cycle a
+// candidate is offered (`cand_head`: distributed RAM on a board), the whole records are read one cycle after the
+// take (`rd_rec`, a registered read of the taken candidate's address: block RAM), when the sequencer's stage 1
+// needs the words. `cand_addr` is the candidate's ring address, `cand_first` / `cand_lastg` whether its pass is
+// the first / the last of its fetch.
 //
 // Stream errors (code 1, tlast_err): a fetch whose TLAST comes early -- the record cut short is kept with its
 // trunc bit, the slots the fetch lacks enter the ring as truncated records (one per cycle), and the sequencer
@@ -34,6 +45,7 @@ module pgs_window #(
     parameter int DEPTH     = 16384,   // records in the ring, a power of two
     parameter int CTX       = 8,       // pass contexts, a power of two
     parameter int PASS_W    = 17,
+    parameter int HEAD_W    = 64,      // bits of a record read in the cycle it is offered (wr_head, cand_head)
     localparam int REC_W    = REC_BEATS * CONS_W,
     localparam int AW       = $clog2(DEPTH),
     localparam int CW       = $clog2(CTX),
@@ -51,9 +63,15 @@ module pgs_window #(
     input  wire                s_tvalid,
     output logic               s_tready,
     input  wire                s_tlast,
+    output logic [REC_W-1:0]   wr_rec,        // the record being written into the ring (zeros: a truncated slot)
+    input  wire  [HEAD_W-1:0]  wr_head,       // its head (combinational from wr_rec)
     output logic               cand_valid,
-    output logic [REC_W-1:0]   cand_rec,
+    output logic [HEAD_W-1:0]  cand_head,
+    output logic [AW-1:0]      cand_addr,
+    output logic               cand_first,    // the candidate's pass is the first pass of its fetch
+    output logic               cand_lastg,    // ... the last pass of its fetch
     output logic               cand_trunc,
+    output logic [REC_W-1:0]   rd_rec,        // the record taken in the previous cycle
     output logic [PASS_W-1:0]  cand_pass,
     output logic [31:0]        cand_slot,
     input  wire                take,          // the candidate is consumed (issued or rejected)
@@ -64,8 +82,7 @@ module pgs_window #(
     localparam int NEED_W = $clog2(REC_BEATS + 1);
 
     // ---------------- fetch into the ring ----------------
-    logic [REC_W-1:0] ring [DEPTH];
-    logic             ring_trunc [DEPTH];
+    logic [HEAD_W:0] cand_head_trunc;   // {truncated, head} of the candidate
     logic [GI_W-1:0]  wr_cnt, res_cnt, free_cnt;   // records written / reserved (assembling) / freed
     logic [PASS_W:0]  f_base;                      // first pass of the fetch being assembled
     logic [31:0]      f_slot;
@@ -90,25 +107,28 @@ module pgs_window #(
     wire wr_step   = arec_valid || fill_step;
     assign tlast_err = a_done && (s_tlast != f_last || a_done_trunc);
 
-    always_ff @(posedge clk) begin
-        if (wr_step) begin
-            ring[wr_cnt[AW-1:0]]       <= arec_valid ? arec : '0;
-            ring_trunc[wr_cnt[AW-1:0]] <= arec_valid ? arec_trunc : 1'b1;
-        end
-    end
+    assign wr_rec = arec_valid ? arec : '0;
+    // the records (read one cycle after the take) and their heads with the truncated bit (read when offered)
+    pgs_ring_ram #(.WIDTH(REC_W), .DEPTH(DEPTH), .SYNC_READ(1'b1)) u_records (
+        .clk, .wr_en(wr_step), .wr_addr(wr_cnt[AW-1:0]), .wr_data(wr_rec), .rd_en(take), .rd_addr(cand_addr),
+        .rd_data(rd_rec));
+    pgs_ring_ram #(.WIDTH(HEAD_W + 1), .DEPTH(DEPTH), .SYNC_READ(1'b0)) u_heads (
+        .clk, .wr_en(wr_step), .wr_addr(wr_cnt[AW-1:0]), .wr_data({arec_valid ? arec_trunc : 1'b1, wr_head}),
+        .rd_en(1'b0), .rd_addr(cand_addr), .rd_data(cand_head_trunc));
 
     // ---------------- pass contexts ----------------
     logic [PASS_W-1:0] c_pass  [CTX];
     logic [31:0]       c_slot  [CTX];
     logic [GI_W-1:0]   c_gidx  [CTX];
-    logic [CTX-1:0]    c_active, c_lastg, skip;
+    logic [CTX-1:0]    c_active, c_lastg, c_first, skip;
     logic [PASS_W:0]   st_pass, jlo;      // next pass to start; oldest pass not done
     logic [PASS_W-1:0] st_k;              // st_pass's place in its fetch
     logic [GI_W-1:0]   st_base;           // global index of slot 0 of st_pass's fetch
 
     wire [CW-1:0] jlo_ctx = jlo[CW-1:0];
-    wire start_pass = st_pass < (PASS_W+1)'(passes) && st_pass - jlo < (PASS_W+1)'(CTX) && nm != 0;
     wire st_lastg   = st_k == fetch_passes - 1'b1 || st_pass == (PASS_W+1)'(passes) - 1'b1;
+    wire start_pass = st_pass < (PASS_W+1)'(passes) && st_pass - jlo < (PASS_W+1)'(CTX) && nm != 0
+                      && (!st_lastg || jlo >= st_pass - (PASS_W+1)'(st_k));
 
     // a context's slot is a candidate: its record is in the ring, and the pass before it is done or far enough
     logic [CTX-1:0] elig;
@@ -145,8 +165,11 @@ module pgs_window #(
     end
 
     assign cand_valid = any_elig;
-    assign cand_rec   = ring[c_gidx[sel][AW-1:0]];
-    assign cand_trunc = ring_trunc[c_gidx[sel][AW-1:0]];
+    assign cand_addr  = c_gidx[sel][AW-1:0];
+    assign cand_head  = cand_head_trunc[HEAD_W-1:0];
+    assign cand_trunc = cand_head_trunc[HEAD_W];
+    assign cand_first = c_first[sel];
+    assign cand_lastg = c_lastg[sel];
     assign cand_pass  = c_pass[sel];
     assign cand_slot  = c_slot[sel];
     assign all_done   = jlo == (PASS_W+1)'(passes);
@@ -192,6 +215,7 @@ module pgs_window #(
                 c_slot[st_pass[CW-1:0]]   <= '0;
                 c_gidx[st_pass[CW-1:0]]   <= st_base;
                 c_lastg[st_pass[CW-1:0]]  <= st_lastg;
+                c_first[st_pass[CW-1:0]]  <= st_k == '0;
                 st_pass <= st_pass + 1'b1;
                 st_k    <= st_lastg ? '0 : st_k + 1'b1;
                 if (st_lastg) st_base <= st_base + GI_W'(nm);

@@ -49,7 +49,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     job = KernelJob.from_frame(frame, fmt, SolverParams(args.iters), "hazard",
                                default_window(fmt, preset.stream_bits)).impulses_travelling()
     step = StepShape.of_job(job)
-    dma = DmaTiming.of(preset, False, job.stream_layout(preset.stream_bits).ddr_read_share(job.params))
+    dma = DmaTiming.of(preset, False, job.ddr_read_share(preset.stream_bits))
     base = rm.config_for_job(job)
     print(f"{label}: {job.bodies.num_bodies:,} bodies, {job.manifolds:,} manifolds, {fmt.name}, {args.iters} "
           f"iterations, {args.dma}, impulses in the records (the build's banks: {job.body_banks})\n")

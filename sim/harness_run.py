@@ -62,10 +62,17 @@ def register_writes(job: KernelJob) -> list[tuple[int, int]]:
     return [(OFFSET[name], value) for name, value in values.items()]
 
 
-def impulse_plan(job: KernelJob, turnaround: int) -> bytes:
-    """The harness's ``impulse_plan.bin``: slots per pass, the read-after-write turnaround, each pass's kind."""
-    head = np.asarray([len(job.slots), turnaround], dtype="<u4").tobytes()
-    return head + bytes(kind for kind, _ in pass_sequence(job.params))
+def impulse_plan(job: KernelJob, kb: KernelBuild, turnaround: int) -> bytes:
+    """The harness's ``impulse_plan.bin``: records per block (a pass of the streaming kernel, a fetch of the window
+    kernel), the read-after-write turnaround, the beats of a record (0: by its block's kind; the window kernel's
+    records of ``LANES`` lanes all have the same), each block's kind."""
+    plan = job.record_window
+    if plan is None:
+        records, beats, kinds = len(job.slots), 0, [kind for kind, _ in pass_sequence(job.params)]
+    else:
+        records, beats = len(job.slots) // plan.lanes, plan.lanes * kb.layout.window_beats
+        kinds = [int(k) for k in sf.window_fetch_kinds(job.params, plan.fetch_passes, one_kind=True) if k is not None]
+    return np.asarray([records, turnaround, beats], dtype="<u4").tobytes() + bytes(kinds)
 
 
 def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild, turnaround: int = 1) -> dict[str, int]:
@@ -89,19 +96,19 @@ def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild, turnaround: int
                                          job.tangents_on_chip)
     else:
         cons = sf.pack_window_stream(job.fmt, job.cons, job.slots, job.params, job.record_window.fetch_passes,
-                                     kb.cons_bits)
+                                     kb.cons_bits, job.start_impulses if job.impulses_in_records else None)
     (run_dir / "regs.bin").write_bytes(np.asarray(register_writes(job), dtype="<u4").tobytes())
     (run_dir / "body_in.bin").write_bytes(body.to_bytes())
     (run_dir / "body_in_last.bin").write_bytes(body.last.astype(np.uint8).tobytes())
     (run_dir / "cons.bin").write_bytes(cons.to_bytes())
     (run_dir / "cons_last.bin").write_bytes(cons.last.astype(np.uint8).tobytes())
     if job.impulses_in_records:
-        (run_dir / "impulse_plan.bin").write_bytes(impulse_plan(job, turnaround))
+        (run_dir / "impulse_plan.bin").write_bytes(impulse_plan(job, kb, turnaround))
     out_bytes = job.bodies.num_bodies * sf.StreamLayout(job.fmt, kb.cons_bits, kb.body_out_bits).body_out_bytes
     sizes = {"body_in": body.data.size, "constraints": cons.data.size, "body_out": out_bytes}
     if job.impulses_in_records:
         lay = job.stream_layout(kb.cons_bits)
-        sizes["impulses_out"] = len(job.slots) * sum(lay.impulse_write_bytes(k) for k, _ in pass_sequence(job.params))
+        sizes["impulses_out"] = len(job.slots) * sum(lay.impulse_write_bytes(k) for k in job.block_kinds)
     return sizes
 
 

@@ -92,8 +92,8 @@ class KernelBuild:
         sf.body_in_word_count(self.inertia_words)  # 1, 3 or 6, else a ValueError
         if self.friction_words not in (0, 1):
             raise ValueError(f"a friction record carries 0 or 1 friction-coefficient words, got {self.friction_words}")
-        if check_banks(self.body_banks) and (self.window or self.lanes > 1):
-            raise ValueError("banked body velocities (body_banks > 0) are a configuration of the streaming kernel")
+        if check_banks(self.body_banks) and self.lanes > 1:
+            raise ValueError("banked body velocities (body_banks > 0) are built for one lane")
         if self.tangents_on_chip and (self.window or self.inertia_words != sf.KERNEL_INERTIA_WORDS
                                       or self.friction_words or self.friction_sign_bug):
             raise ValueError("the tangent basis derived on chip (tangents_on_chip) is a configuration of the streaming "
@@ -174,7 +174,7 @@ class KernelBuild:
                "BODY_OUT_BYTES": self.body_out_bits // 8, "TRACE_BYTES": self.trace_bytes, "LANES": self.lanes}
         if self.impulses_in_records:
             w, lay = self.fmt.width, self.layout
-            out |= {"IMPULSES_IN_RECORDS": 1, "WORD_BITS": w, "IMP_OUT_BYTES": sf.impulse_out_bytes(self.fmt),
+            out |= {"IMPULSES_IN_RECORDS": 1, "WORD_BITS": w, "IMP_OUT_BYTES": sf.impulse_out_bytes(self.fmt, self.lanes),
                     "CONTACT_BEATS": lay.contact_beats, "FRICTION_BEATS": lay.friction_beats,
                     "CONTACT_LAM_BIT": sf.HEADER_BITS + sf.CONTACT_LAM_WORD * w,
                     "FRICTION_LAM_BIT": sf.HEADER_BITS + lay.friction_lam_word * w,

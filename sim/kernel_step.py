@@ -91,7 +91,7 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
     exe, build_s = build_kernel(kb)
     env = None if waves is None else dict(os.environ, PGS_WAVES=str(waves), PGS_WAVE_CYCLES=str(wave_cycles))
     regs = run_harness(exe, run_dir, seed, preset, harness_cycle_limit(job), gap_permille, backpressure_permille,
-                       progress, env=env, read_share=job.stream_layout(kb.cons_bits).ddr_read_share(job.params))
+                       progress, env=env, read_share=job.ddr_read_share(kb.cons_bits))
     cmp = Comparison()
     trace = read_trace(run_dir / "trace.bin", job.fmt, kb.trace_bytes)
     compare_trace(trace, golden.records, job, cmp)

@@ -51,7 +51,7 @@ from models.kernel_job import KernelJob
 from models.mixed_layout import Converters
 from models.number_format import KERNEL_FORMATS, NumberFormat
 from models.kernel_shape import IMPULSE_FIFO_DEPTH
-from models.stream_format import BODY_IN_WORDS, HEADER_BITS, IMPULSE_OUT_WORDS, WINDOW_WORDS
+from models.stream_format import CONTACT_WORDS, FRICTION_WORDS, BODY_IN_WORDS, IMPULSE_OUT_WORDS, WINDOW_WORDS
 from rtl.gen.dataflow import BOOL, OP_SIGNATURES
 from rtl.gen.kernel_graphs import GRAPHS, MODE_GRAPHS
 from rtl.gen.operator_timing import MINMAX_LATENCY, operator_latencies
@@ -207,13 +207,18 @@ def delay_line_resources(line: DelayLine, word_bits: int, block_min_depth: int =
     if 0 < block_min_depth <= line.depth:
         return Resources(lut=pointer, ff=width * len(reg_taps) + pointer,
                          bram36=len(ram_taps) * bram36_for(line.depth, width))
-    bit_reads = width * len(ram_taps)
-    if line.depth <= 32:
-        luts = 8 * math.ceil(bit_reads / 14)
-    else:
-        blocks = math.ceil(line.depth / 64)
-        luts = 8 * blocks * math.ceil(bit_reads / 7) + bit_reads * math.ceil((blocks - 1) / 3)  # + depth mux
+    luts = distributed_ram_luts(line.depth, width * len(ram_taps))
     return Resources(lut=luts + pointer, ff=width * (len(ram_taps) + len(reg_taps)) + pointer)
+
+
+def distributed_ram_luts(depth: int, bit_reads: int) -> int:
+    """LUTs of a LUT RAM ``depth`` words deep read ``bit_reads`` bits at a time (width x read ports), simple
+    dual-port: RAM32M16 / RAM64M8 (8 LUTs hold 32 x 14 or 64 x 7 bit-reads), a depth multiplexer for each further
+    64 words (a LUT6 selects among 3 blocks, F7/F8 muxes beside it)."""
+    if depth <= 32:
+        return 8 * math.ceil(bit_reads / 14)
+    blocks = math.ceil(depth / 64)
+    return 8 * blocks * math.ceil(bit_reads / 7) + bit_reads * math.ceil((blocks - 1) / 3)
 
 
 # --- memories ---------------------------------------------------------------------------------------------------
@@ -247,9 +252,12 @@ class MemoryArray:
     width: int  # bits
     copies: int  # replicas / banks for the ports
     true_dual_port: bool = False  # each copy serves two ports
+    distributed: bool = False  # read in the cycle it is addressed: LUT RAM (the window's ring heads)
 
     def resources(self, uram: bool = False) -> Resources:
-        """One copy per port pair: in UltraRAM (``uram``, deep arrays) or block RAM."""
+        """One copy per port pair: in LUT RAM (``distributed``), UltraRAM (``uram``, deep arrays) or block RAM."""
+        if self.distributed:
+            return Resources(lut=self.copies * distributed_ram_luts(self.depth, self.width))
         if uram and self.depth >= URAM_MIN_DEPTH:
             return Resources(uram=self.copies * uram_for(self.depth, self.width))
         return Resources(bram36=self.copies * bram36_for(self.depth, self.width, self.true_dual_port))
@@ -338,14 +346,32 @@ def memories(cfg: KernelConfig) -> list[MemoryArray]:
         depth = math.ceil(cfg.max_manifolds / cfg.lanes)
         out += [MemoryArray(f"normal impulses lam[4] per slot, {cfg.lanes} bank(s)", depth, 4 * w, cfg.lanes),
                 MemoryArray(f"friction impulses lamT[2] per slot, {cfg.lanes} bank(s)", depth, 2 * w, cfg.lanes)]
-    if not cfg.impulses_resident and not cfg.window:  # the streaming kernel's impulse-out stream (pgs_sequencer)
-        out.append(MemoryArray(f"impulse-out FIFO ({IMPULSE_OUT_WORDS} words per record, {IMPULSE_FIFO_DEPTH} deep)",
-                               IMPULSE_FIFO_DEPTH, IMPULSE_OUT_WORDS * w, 1))
+    if not cfg.impulses_resident:  # the impulse-out stream (pgs_sequencer: a record per slot / per window record)
+        out.append(MemoryArray(f"impulse-out FIFO ({cfg.lanes} x {IMPULSE_OUT_WORDS} words per record, "
+                               f"{IMPULSE_FIFO_DEPTH} deep)", IMPULSE_FIFO_DEPTH, cfg.lanes * IMPULSE_OUT_WORDS * w, 1))
     if cfg.window:
-        rec = cfg.record_bits or w
-        words = WINDOW_WORDS + (0 if cfg.impulses_resident else IMPULSE_WORDS)
-        out.append(MemoryArray(f"record ring ({words} words of {rec} bits + header per lane)", cfg.window,
-                               cfg.lanes * (HEADER_BITS + words * rec), 1))
+        out += window_memories(cfg)
+    return out
+
+
+WINDOW_HEAD_FLAGS = 6  # a lane's head beside its two body indices: 5 flags (pgs_sequencer head_of), the truncated bit
+
+
+def window_memories(cfg: KernelConfig) -> list[MemoryArray]:
+    """The window kernel's rings (``rtl/pgs_window.sv``, ``rtl/pgs_ring_ram.sv``): the records' words in block RAM
+    (read the cycle after the take; a fetch of the impulses-in-records design streams its one kind's records:
+    the contact record with lam[4] is the longer), their heads in LUT RAM (read when offered: two body indices and
+    the flags per lane), and with the impulses in the records the impulse ring (4 words per lane, written at retire,
+    read at issue)."""
+    rec = cfg.record_bits or cfg.fmt.width
+    words = WINDOW_WORDS if cfg.impulses_resident else max(CONTACT_WORDS + 4, FRICTION_WORDS + IMPULSE_WORDS)
+    idx = max(1, math.ceil(math.log2(max(cfg.max_bodies, 2))))
+    out = [MemoryArray(f"record ring ({words} words of {rec} bits per lane)", cfg.window, cfg.lanes * words * rec, 1),
+           MemoryArray(f"record ring heads (2 x {idx}-bit body indices and {WINDOW_HEAD_FLAGS} flag bits per lane, "
+                       "LUT RAM)", cfg.window, cfg.lanes * (2 * idx + WINDOW_HEAD_FLAGS), 1, distributed=True)]
+    if not cfg.impulses_resident:
+        out.append(MemoryArray(f"impulse ring ({IMPULSE_OUT_WORDS} words per lane)", cfg.window,
+                               IMPULSE_OUT_WORDS * rec, cfg.lanes))
     return out
 
 
@@ -383,6 +409,7 @@ def pipe_resources(name: str, cfg: KernelConfig, data: dict[str, Any]) -> tuple[
 
 
 CAM_UNIT = "hazard_cam"  # the figure of pgs_hazard_cam alone (2 body ports), to scale with lanes
+WINDOW_CONTROL_UNIT = "control_window"  # the window kernel's control (impulses in the records, one lane, banked)
 
 
 def control_unit(body_bits: int) -> str:
@@ -390,14 +417,21 @@ def control_unit(body_bits: int) -> str:
     return "control" if body_bits == DEFAULT_BODY_BITS else f"control_b{body_bits}"
 
 
-def _control_figure(fmt: NumberFormat, data: dict[str, Any], body_bits: int = DEFAULT_BODY_BITS
-                    ) -> tuple[Resources, str]:
+def _control_figure(fmt: NumberFormat, data: dict[str, Any], body_bits: int = DEFAULT_BODY_BITS,
+                    window: bool = False) -> tuple[Resources, str]:
     """Yosys's control of ``fmt`` with body streams of ``body_bits``, else of a kernel format with the same word
     width (the control moves words and does no arithmetic on them); where no run has that body width, the 128-bit
-    streams' control, marked so (the body assemblers' registers and multiplexers differ)."""
+    streams' control, marked so (the body assemblers' registers and multiplexers differ). ``window``: the window
+    kernel's control (:data:`WINDOW_CONTROL_UNIT`, 128-bit body streams) where a run has it, else the streaming
+    kernel's, marked so (without the record window and its pass contexts)."""
     units = data["units"]
-    for unit, note in ((control_unit(body_bits), ""),
-                       ("control", f" with {DEFAULT_BODY_BITS}-bit body streams (none of {body_bits} bits)")):
+    choices = [(control_unit(body_bits), ""),
+               ("control", f" with {DEFAULT_BODY_BITS}-bit body streams (none of {body_bits} bits)")]
+    if window:
+        note = f" with {DEFAULT_BODY_BITS}-bit body streams" if body_bits != DEFAULT_BODY_BITS else ""
+        choices = ([(WINDOW_CONTROL_UNIT, f" of the window kernel's control{note}")]
+                   + [(u, n + "; the streaming kernel's control: no figure of the window's") for u, n in choices])
+    for unit, note in choices:
         if unit in units.get(fmt.name, {}):
             return Resources.from_dict(units[fmt.name][unit]), "Yosys" + note
         for other in KERNEL_FORMATS.values():
@@ -408,7 +442,7 @@ def _control_figure(fmt: NumberFormat, data: dict[str, Any], body_bits: int = DE
 
 
 def control_resources(cfg: KernelConfig, data: dict[str, Any]) -> Part:
-    ctrl, source = _control_figure(cfg.fmt, data, cfg.body_bits)
+    ctrl, source = _control_figure(cfg.fmt, data, cfg.body_bits, cfg.window > 0)
     if cfg.lanes == 1:
         return Part("control (register file, sequencer, assemblers, hazard CAM, FIFOs)", ctrl, source)
     # the CAM has no format parameter: its figure from whichever format's run has it

@@ -153,8 +153,9 @@ def add_kernel_args(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--body-bits", type=int, default=128,
                     help="beat width of the body-in and body-out streams (128, 256 or 512)")
     ap.add_argument("--impulse-store", choices=("onchip", "records"), default="onchip",
-                    help="streaming kernel: accumulated impulses in the on-chip RAM, or travelling with the records "
-                         "through DDR (IMPULSES_IN_RECORDS build parameter)")
+                    help="accumulated impulses in the on-chip RAM, or travelling with the records through DDR "
+                         "(IMPULSES_IN_RECORDS build parameter; the window kernel: each fetch of one pass kind, an "
+                         "impulse ring as deep as the record ring)")
 
 
 def kernel_label(args: argparse.Namespace) -> str:
@@ -174,9 +175,7 @@ def kernel_job(job: KernelJob, args: argparse.Namespace) -> KernelJob:
             raise ValueError("--tangents chip is a configuration of the streaming kernel (no --record-window)")
         job = job.tangents_derived()
     if getattr(args, "impulse_store", "onchip") == "records":
-        if args.record_window:
-            raise ValueError("--impulse-store records is a configuration of the streaming kernel (no --record-window)")
-        return job.impulses_travelling()
+        job = job.impulses_travelling()
     if not args.record_window:
         return job
     return job.windowed(args.record_window, fetch_passes=args.fetch_passes or None, lanes=args.lanes)

@@ -155,31 +155,47 @@ def compare_body_out(run_dir: Path, job: KernelJob, kb: KernelBuild, final: Body
                  f"{_hex(int(got[b, j]), fmt)} != golden {_hex(int(want[b, j]), fmt)}")
 
 
+def writing_passes(job: KernelJob) -> list[int]:
+    """The passes (indices of ``pass_sequence``) whose impulses go out on the impulse-out stream: every pass of the
+    streaming kernel, the last pass of every fetch of the window kernel."""
+    passes = len(pass_sequence(job.params))
+    plan = job.record_window
+    if plan is None:
+        return list(range(passes))
+    return [min(f + plan.fetch_passes, passes) - 1 for f in range(0, passes, plan.fetch_passes)]
+
+
 def expected_impulse_out(job: KernelJob, golden: list[PassRecord]) -> np.ndarray:
-    """(passes * slots, 4) bit patterns of the impulse-out stream: per pass, per slot, the golden impulses after
-    the manifold-pass (the trace record's first four words), zeros for a slot the kernel rejects."""
+    """(writing passes * slots, 4) bit patterns of the impulse-out stream: per writing pass (:func:`writing_passes`),
+    per slot (the window kernel's empty lanes included), the golden impulses after the manifold-pass (the trace
+    record's first four words), zeros for a slot the kernel rejects and an empty lane."""
     nm = len(job.slots)
-    order = {pk: p for p, pk in enumerate(pass_sequence(job.params))}
+    row_of = {pass_sequence(job.params)[p]: r for r, p in enumerate(writing_passes(job))}
     slot_of = np.empty(job.cons.num_manifolds, dtype=np.int64)
-    slot_of[job.slots] = np.arange(nm)
-    out = np.zeros((len(order) * nm, sf.IMPULSE_OUT_WORDS), dtype=np.uint64)
+    real = job.slots >= 0
+    slot_of[job.slots[real]] = np.flatnonzero(real)
+    out = np.zeros((len(row_of) * nm, sf.IMPULSE_OUT_WORDS), dtype=np.uint64)
     for rec in golden:
-        rows = order[(rec.kind, rec.iteration)] * nm + slot_of[rec.manifold]
-        out[rows] = expected_trace_words(job.fmt, rec)[:, :sf.IMPULSE_OUT_WORDS]
+        if (rec.kind, rec.iteration) in row_of:
+            rows = row_of[(rec.kind, rec.iteration)] * nm + slot_of[rec.manifold]
+            out[rows] = expected_trace_words(job.fmt, rec)[:, :sf.IMPULSE_OUT_WORDS]
     return out
 
 
 def compare_impulse_out(run_dir: Path, job: KernelJob, golden: list[PassRecord], cmp: Comparison) -> None:
-    """The impulse-out stream (impulses in the records): one record per slot and pass, TLAST on each pass's last,
-    bit for bit the golden impulses (what the DMA wrote back and the next passes read)."""
-    got = sf.unpack_impulse_out(job.fmt, (run_dir / "imp_out.bin").read_bytes())
+    """The impulse-out stream (impulses in the records): one record per slot and writing pass (the window kernel:
+    per window record of its lanes' slots), TLAST on each such pass's last, bit for bit the golden impulses (what
+    the DMA wrote back and the next passes or fetches read)."""
+    lanes = job.record_window.lanes if job.record_window is not None else 1
+    got = sf.unpack_impulse_out(job.fmt, (run_dir / "imp_out.bin").read_bytes(), lanes)
     last = np.frombuffer((run_dir / "imp_out_last.bin").read_bytes(), dtype=np.uint8).astype(bool)
     want = expected_impulse_out(job, golden)
     if got.shape[0] != want.shape[0]:
-        cmp.fail(f"{got.shape[0]} impulse-out records, expected {want.shape[0]} (one per slot and pass)")
+        cmp.fail(f"{got.shape[0]} impulse-out records, expected {want.shape[0]} (one per slot and writing pass)")
         return
     nm = max(len(job.slots), 1)
-    if not np.array_equal(last, np.arange(want.shape[0]) % nm == nm - 1):
+    last_slot = np.arange(want.shape[0]) % nm >= nm - lanes
+    if not np.array_equal(np.repeat(last, lanes), last_slot):
         cmp.fail(f"impulse-out TLAST on records {np.flatnonzero(last).tolist()[:4]}, expected on each pass's last")
     diff = got ^ want
     cmp.differing_bits += _popcount(diff)

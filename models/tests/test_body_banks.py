@@ -56,7 +56,10 @@ def test_port_rule() -> None:
 def test_the_records_design_in_fp32_uses_the_banks() -> None:
     assert default_body_banks(FP32, True, False) == RECORDS_BANKS
     assert default_body_banks(FP16, True, False) == 0  # its live-value table fits: unchanged
-    assert default_body_banks(FP32, False, False) == 0 and default_body_banks(FP32, True, True) == 0
+    assert default_body_banks(FP32, False, False) == 0 and default_body_banks(FP32, False, True) == 0
+    # the one-lane window kernel with the impulses in the records banks them in every format; with lanes it cannot
+    assert default_body_banks(FP16, True, True) == default_body_banks(FP32, True, True) == RECORDS_BANKS
+    assert default_body_banks(FP16, True, True, lanes=2) == 0
     assert pile_job().body_banks == RECORDS_BANKS and pile_job(FP16).body_banks == 0
 
 
@@ -72,7 +75,7 @@ def test_a_busy_bank_stalls_the_issue_in_the_model() -> None:
     shape = dataclasses.replace(KernelShape.of(FP32, PRESET.stream_bits, impulses_in_records=True),
                                 body_banks=0)
     step = StepShape.of_job(spread)
-    dma = DmaTiming.of(PRESET, False, spread.stream_layout(PRESET.stream_bits).ddr_read_share(job.params))
+    dma = DmaTiming.of(PRESET, False, spread.ddr_read_share(PRESET.stream_bits))
     multiport = cycle_model.predict(shape, dma, step)
     assert "body bank busy with a retire write" not in multiport.stall_cycles_by_cause()
     assert multiport.cycles < packed.cycles

@@ -44,6 +44,23 @@ def test_plan_lag_is_the_band_of_the_slots() -> None:
         plan_window(cons, dyn, shuffled, SolverParams(4), depth=64, fetch_passes=8)
 
 
+def test_plan_of_one_kind_fetches() -> None:
+    """With the impulses in the records every fetch serves passes of one kind: the most passes per fetch that
+    divides the iterations and fits the ring (not the evenly split most of the plan above); a given fetch_passes
+    that mixes the kinds is refused."""
+    cons, dyn = _chain(50)
+    order = np.arange(50)
+    assert plan_window(cons, dyn, order, SolverParams(4), depth=64, one_kind=True).fetch_passes == 4
+    assert plan_window(cons, dyn, order, SolverParams(3), depth=64, one_kind=True).fetch_passes == 3
+    assert plan_window(cons, dyn, order, SolverParams(2, interleaved=True), depth=64, one_kind=True).fetch_passes == 1
+    shuffled = np.random.default_rng(1).permutation(50)
+    wide = plan_window(cons, dyn, shuffled, SolverParams(4), depth=64, one_kind=True)
+    assert 4 % wide.fetch_passes == 0 and fits(64, 8, wide.lag, wide.fetch_passes)
+    assert not any(fits(64, 8, wide.lag, f) for f in range(wide.fetch_passes + 1, 5) if 4 % f == 0)
+    with pytest.raises(ValueError, match="one kind"):
+        plan_window(cons, dyn, order, SolverParams(4), depth=64, fetch_passes=3, one_kind=True)
+
+
 @pytest.mark.parametrize("lanes", [2, 4])
 def test_lane_slots(lanes: int) -> None:
     """Records of ``lanes`` slots: the sequential order kept, no dynamic body twice in a record, and a record padded

@@ -7,7 +7,7 @@ import pytest
 
 from models import stream_format as sf
 from models.constraints import BodyTable, ConstraintSet
-from models.contact_solver import CONTACT_PASS, FRICTION_PASS, SolverParams
+from models.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams
 from models.number_format import BF16, FP16, FP32, NumberFormat
 
 FORMATS = [FP32, FP16, BF16, NumberFormat("e6m9", 6, 9)]
@@ -220,3 +220,57 @@ def test_friction_record_with_the_coefficient_word(fmt: NumberFormat) -> None:
     words = sf.friction_words(fmt, cons, schedule)
     assert words.shape == (9, sf.FRICTION_WORDS + 1)
     assert np.array_equal(words[:, -1], fmt.encode(cons.friction[schedule, 0]))
+
+
+@pytest.mark.parametrize("fmt", [FP32, FP16], ids=lambda f: f.name)
+@pytest.mark.parametrize("fetch_passes", [1, 3])
+def test_window_stream_with_impulses(fmt: NumberFormat, fetch_passes: int) -> None:
+    """The window kernel whose impulses travel with the records: each fetch serves passes of one kind and streams
+    that kind's record with the impulses the step starts from (the streaming kernel's records with their
+    impulses), every record padded to the longer kind's beats, TLAST on each fetch's last beat; an empty lane
+    all-ones header and zero words."""
+    rng = np.random.default_rng(5)
+    cons = _cons(rng, 17, 30).rounded(fmt)
+    slots = np.insert(rng.permutation(17), 5, -1)
+    params = SolverParams(iterations=3)
+    initial = Impulses(fmt.round(rng.uniform(0, 1, (17, 4))), fmt.round(rng.uniform(-0.1, 0.1, (17, 2))))
+    layout = sf.StreamLayout(fmt, impulses_in_records=True)
+    assert layout.window_bits == max(layout.contact_bits, layout.friction_bits) == 64 + 27 * fmt.width
+    stream = sf.pack_window_stream(fmt, cons, slots, params, fetch_passes, impulses=initial)
+    kinds = sf.window_fetch_kinds(params, fetch_passes, one_kind=True)
+    assert kinds == [CONTACT_PASS] * (3 // fetch_passes) + [FRICTION_PASS] * (3 // fetch_passes)
+    per_fetch = 18 * layout.window_beats
+    assert stream.num_beats == len(kinds) * per_fetch
+    assert np.flatnonzero(stream.last).tolist() == [(f + 1) * per_fetch - 1 for f in range(len(kinds))]
+    real = slots >= 0
+    for f, kind in enumerate(kinds):
+        beats = stream.data[f * per_fetch:(f + 1) * per_fetch]
+        nwords = layout.contact_record_words if kind == CONTACT_PASS else layout.friction_record_words
+        hdr, words = sf.unpack_records(beats, nwords, fmt.width, 512, header=True)
+        assert hdr[5] == sf.EMPTY_HEADER and not words[5].any()
+        assert np.array_equal(hdr[real], sf.constraint_header(cons, slots[real]))
+        lam = fmt.encode(initial.normal[slots[real]])
+        if kind == CONTACT_PASS:
+            want = np.concatenate([sf.contact_words(fmt, cons, slots[real]), lam], axis=1)
+        else:
+            want = np.concatenate([sf.friction_words(fmt, cons, slots[real]), lam,
+                                   fmt.encode(initial.friction[slots[real]])], axis=1)
+        assert np.array_equal(words[real], want)
+
+
+def test_window_fetch_kinds_and_read_share() -> None:
+    """Fetches of one kind: fetch_passes must divide the iterations (or be 1 with the kinds interleaved); the DDR
+    read share counts each fetch's records read and its one kind's impulses written, per slot."""
+    four = SolverParams(iterations=4)
+    assert sf.window_fetch_kinds(four, 4) == [CONTACT_PASS, FRICTION_PASS]
+    assert sf.window_fetch_kinds(four, 3) == [CONTACT_PASS, None, FRICTION_PASS]
+    assert sf.window_fetch_kinds(SolverParams(iterations=2, interleaved=True), 2) == [None, None]
+    for params, fetch in ((four, 3), (four, 8), (SolverParams(iterations=2, interleaved=True), 2)):
+        with pytest.raises(ValueError, match="one kind"):
+            sf.window_fetch_kinds(params, fetch, one_kind=True)
+    lay = sf.StreamLayout(FP32, impulses_in_records=True)
+    reads, writes = 2 * lay.window_bytes, 16 + 8  # a contact fetch writes lam[4], a friction fetch lamT[2]
+    assert lay.window_bytes == 128
+    assert lay.ddr_read_share(four, 4) == pytest.approx(reads / (reads + writes))
+    assert sf.StreamLayout(FP32).ddr_read_share(four, 4) == 1.0  # on-chip impulses: nothing written
+    assert sf.unpack_impulse_out(FP16, bytes(range(32)), lanes=2).shape == (4, 4)

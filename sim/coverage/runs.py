@@ -81,7 +81,7 @@ def prepare_case(case: Case, run_dir: Path) -> PreparedRun:
         files.save()
         extra_bodies = max(0, files.reg("num_bodies") - job.bodies.num_bodies)
     return PreparedRun(harness_cycle_limit(job) + TIMEOUT_PER_ITEM * extra_bodies,
-                       job.stream_layout(kb.cons_bits).ddr_read_share(job.params))
+                       job.ddr_read_share(kb.cons_bits))
 
 
 def run_case(case: Case, exe: Path, run_dir: Path, seed: int = 1) -> CaseResult:

@@ -23,14 +23,17 @@
 // PROGRESS > 0 a line "progress CYCLE TRACE_RECORDS" goes to stdout every PROGRESS cycles.
 // Impulses in the records (built with IMPULSES_IN_RECORDS=1; IMP_OUT_BYTES, WORD_BITS, CONTACT_BEATS, FRICTION_BEATS,
 // CONTACT_LAM_BIT, FRICTION_LAM_BIT, FRICTION_LAMT_BIT from models/stream_format.py): DIR/impulse_plan.bin holds
-// uint32 slots per pass, uint32 TURNAROUND, then one byte per pass (0 contact, 1 friction). The harness keeps the
-// DDR impulse buffer (lam[4], lamT[2] per slot): every m_axis_imp record (TREADY with the BP_PERMILLE backpressure)
-// writes its pass's field of its slot (contact lam, friction lamT); a record of a later pass carries the buffer's
-// words in place of those cons.bin holds (the host-given impulses the step starts from) for every field an
-// earlier pass of the step wrote. Read after write: record k of pass p > 0 is offered no earlier than TURNAROUND
-// cycles after pass p - 1's impulse-out record of slot k was taken (the write's path to DDR and the read's back;
-// every pass reads what its predecessor wrote or older). The DDR bucket's rate is the read share the host
-// reserved (sim/harness_run.py); the impulse writes do not spend from it. Writes DIR/imp_out.bin (the records).
+// uint32 records per block, uint32 TURNAROUND, uint32 beats per record (0: CONTACT_BEATS or FRICTION_BEATS by the
+// block's kind), then one byte per block (0 contact, 1 friction). A block is a pass of the streaming kernel, a fetch
+// of the window kernel (its records hold LANES lane records of equal beats; an impulse-out record holds the LANES
+// lanes' 4 words). The harness keeps the DDR impulse buffer (lam[4], lamT[2] per slot): every m_axis_imp record
+// (TREADY with the BP_PERMILLE backpressure) writes its block's field of its slots (contact lam, friction lamT); a
+// record of a later block carries the buffer's words in place of those cons.bin holds (the host-given impulses the
+// step starts from) for every field an earlier block of the step wrote. Read after write: record k of block p > 0
+// is offered no earlier than TURNAROUND cycles after block p - 1's impulse-out record k was taken (the write's path
+// to DDR and the read's back; every block reads what its predecessor wrote or older). The DDR bucket's rate is the
+// read share the host reserved (sim/harness_run.py); the impulse writes do not spend from it. Writes
+// DIR/imp_out.bin (the records).
 // Waveforms: built with --trace-fst (VM_TRACE), the harness writes an FST to $PGS_WAVES (when set) for the first
 // $PGS_WAVE_CYCLES cycles (default 20000; 0 = the whole run). Its time is in ps (the model's time precision, checked):
 // cycle N's falling edge at N * CLOCK_PS, its rising edge CLOCK_PS / 2 later (CLOCK_PS: the platform's clock period,
@@ -119,35 +122,42 @@ void set_bits(uint8_t* p, size_t pos, unsigned nbits, uint64_t v) {
 
 // The DDR impulse buffer and the read-after-write rule across passes (see the header comment).
 struct ImpulseBuffer {
-    size_t slots = 0;
+    size_t slots = 0;                           // records per block (a record holds LANES slots)
     unsigned turnaround = 1;
-    std::vector<uint8_t> kinds;                 // per pass
+    size_t record_beats = 0;                    // 0: by the block's kind
+    std::vector<uint8_t> kinds;                 // per block
     std::vector<size_t> rec_first;              // per record of the stream: its first beat
-    std::vector<uint64_t> lam, lamT;            // 4 and 2 words per slot
-    std::vector<uint8_t> have_lam, have_lamT;   // written by a pass of this step
-    std::vector<int64_t> written_pass;          // per slot: the last pass whose record was taken, -1 none
+    std::vector<uint64_t> lam, lamT;            // 4 and 2 words per slot (record * LANES + lane)
+    std::vector<uint8_t> have_lam, have_lamT;   // per record: written by a block of this step
+    std::vector<int64_t> written_pass;          // per record: the last block whose record was taken, -1 none
     std::vector<uint64_t> written_at;           // and the harness cycle it was taken
     size_t n_out = 0;                           // impulse-out records taken
     std::vector<uint8_t> rec;                   // the record being offered, patched
     size_t rec_index = ~size_t(0);
 
+    size_t beats_of(size_t block) const {
+        return record_beats ? record_beats : kinds[block] ? FRICTION_BEATS : CONTACT_BEATS;
+    }
     void load(const std::vector<uint8_t>& plan, size_t n_cons) {
-        if (plan.size() < 8) fail("impulse_plan.bin: too short");
-        uint32_t s32, t32;
+        if (plan.size() < 12) fail("impulse_plan.bin: too short");
+        uint32_t s32, t32, b32;
         std::memcpy(&s32, &plan[0], 4);
         std::memcpy(&t32, &plan[4], 4);
+        std::memcpy(&b32, &plan[8], 4);
         slots = s32;
         turnaround = t32 ? t32 : 1;
-        kinds.assign(plan.begin() + 8, plan.end());
+        record_beats = b32;
+        if (record_beats % LANES) fail("impulse_plan.bin: record beats not a multiple of the lanes");
+        kinds.assign(plan.begin() + 12, plan.end());
         size_t beat = 0;
-        for (uint8_t k : kinds)
+        for (size_t p = 0; p < kinds.size(); p++)
             for (size_t s = 0; s < slots; s++) {
                 rec_first.push_back(beat);
-                beat += k ? FRICTION_BEATS : CONTACT_BEATS;
+                beat += beats_of(p);
             }
         if (beat != n_cons) fail("constraint stream does not match impulse_plan.bin");
-        lam.assign(4 * slots, 0);
-        lamT.assign(2 * slots, 0);
+        lam.assign(4 * LANES * slots, 0);
+        lamT.assign(2 * LANES * slots, 0);
         have_lam.assign(slots, 0);
         have_lamT.assign(slots, 0);
         written_pass.assign(slots, -1);
@@ -164,30 +174,35 @@ struct ImpulseBuffer {
         if (pass == 0) return true;
         return written_pass[slot] >= int64_t(pass) - 1 && now >= written_at[slot] + turnaround;
     }
-    // the beats of record r with the buffer's impulses patched in
+    // the beats of record r with the buffer's impulses patched in (lane l's record at l * beats / LANES beats)
     void compose(size_t r, const std::vector<uint8_t>& cons) {
-        const size_t pass = r / slots, slot = r % slots, beats = kinds[pass] ? FRICTION_BEATS : CONTACT_BEATS;
+        const size_t pass = r / slots, slot = r % slots, beats = beats_of(pass);
         rec.assign(cons.begin() + rec_first[r] * CONS_BYTES, cons.begin() + (rec_first[r] + beats) * CONS_BYTES);
         const size_t lam_bit = kinds[pass] ? FRICTION_LAM_BIT : CONTACT_LAM_BIT;
-        if (have_lam[slot])
-            for (unsigned w = 0; w < 4; w++) set_bits(rec.data(), lam_bit + w * WORD_BITS, WORD_BITS, lam[4 * slot + w]);
-        if (kinds[pass] && have_lamT[slot])
-            for (unsigned w = 0; w < 2; w++)
-                set_bits(rec.data(), FRICTION_LAMT_BIT + w * WORD_BITS, WORD_BITS, lamT[2 * slot + w]);
+        for (size_t l = 0; l < LANES; l++) {
+            const size_t base = l * beats / LANES * CONS_BYTES * 8, k = slot * LANES + l;
+            if (have_lam[slot])
+                for (unsigned w = 0; w < 4; w++)
+                    set_bits(rec.data(), base + lam_bit + w * WORD_BITS, WORD_BITS, lam[4 * k + w]);
+            if (kinds[pass] && have_lamT[slot])
+                for (unsigned w = 0; w < 2; w++)
+                    set_bits(rec.data(), base + FRICTION_LAMT_BIT + w * WORD_BITS, WORD_BITS, lamT[2 * k + w]);
+        }
         rec_index = r;
     }
     const uint8_t* beat(size_t ci) const { return &rec[(ci - rec_first[rec_index]) * CONS_BYTES]; }
-    // an impulse-out record taken in harness cycle `now`
+    // an impulse-out record taken in harness cycle `now` (lane l's 4 words at bit 4 * l * WORD_BITS)
     void write(const uint8_t* data, uint64_t now) {
         const size_t pass = n_out / slots, slot = n_out % slots;
-        if (pass >= kinds.size()) fail("more impulse-out records than the passes have slots");
-        if (kinds[pass]) {
-            for (unsigned w = 0; w < 2; w++) lamT[2 * slot + w] = get_bits(data, w * WORD_BITS, WORD_BITS);
-            have_lamT[slot] = 1;
-        } else {
-            for (unsigned w = 0; w < 4; w++) lam[4 * slot + w] = get_bits(data, w * WORD_BITS, WORD_BITS);
-            have_lam[slot] = 1;
+        if (pass >= kinds.size()) fail("more impulse-out records than the blocks have records");
+        for (size_t l = 0; l < LANES; l++) {
+            const size_t k = slot * LANES + l, base = 4 * l * WORD_BITS;
+            if (kinds[pass])
+                for (unsigned w = 0; w < 2; w++) lamT[2 * k + w] = get_bits(data, base + w * WORD_BITS, WORD_BITS);
+            else
+                for (unsigned w = 0; w < 4; w++) lam[4 * k + w] = get_bits(data, base + w * WORD_BITS, WORD_BITS);
         }
+        (kinds[pass] ? have_lamT : have_lam)[slot] = 1;
         written_pass[slot] = int64_t(pass);
         written_at[slot] = now;
         n_out++;

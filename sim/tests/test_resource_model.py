@@ -38,8 +38,26 @@ def test_levers_shrink_the_memories() -> None:
         return sum(m.resources().bram36 for m in rm.memories(cfg))
 
     names = [m.name for m in rm.memories(lean)]
-    assert not any("impulses" in n for n in names) and "43 words" in names[-1]  # the ring carries them
+    assert not any("impulses lam" in n for n in names) and "impulse ring" in names[-1]  # the ring carries them
     assert bram(lean) < bram(base)
+
+
+def test_window_rings() -> None:
+    """The window kernel's rings (rtl/pgs_ring_ram.sv): the records' words in block RAM (a fetch of the records
+    design streams one kind: the contact record with lam[4], 27 words; on-chip impulses: both kinds' 37), their
+    heads in LUT RAM (two 16-bit body indices for the thesis's bodies and 6 flag bits per lane), the impulse ring
+    (4 words per lane) with the impulses in the records."""
+    by_name = lambda cfg: {m.name.split(" (")[0]: m for m in rm.memories(cfg)}  # noqa: E731
+    records = by_name(rm.KernelConfig(FP16, *THESIS, lanes=2, window=8192, impulses_resident=False))
+    resident = by_name(rm.KernelConfig(FP16, *THESIS, lanes=2, window=8192))
+    assert records["record ring"].width == 2 * 27 * 16 and resident["record ring"].width == 2 * 37 * 16
+    heads = records["record ring heads"]
+    assert heads.distributed and heads.width == 2 * (2 * 16 + 6) and heads.depth == 8192
+    assert heads.resources().lut == rm.distributed_ram_luts(8192, 76) > 0 and heads.resources().bram36 == 0
+    assert (records["impulse ring"].width, records["impulse ring"].copies) == (64, 2) and "impulse ring" not in resident
+    # the control of the window kernel: Yosys's run of it (with the impulses in the records) where there is one
+    part = rm.control_resources(rm.KernelConfig(FP32, *THESIS, window=8192, impulses_resident=False), rm.figures())
+    assert "window kernel's control" in part.source
 
 
 def test_uram_takes_the_deep_arrays_where_the_platform_has_it() -> None:

@@ -1,0 +1,113 @@
+"""The window kernel whose impulses travel with the records (``WINDOW`` > 0 and ``IMPULSES_IN_RECORDS = 1``: no
+impulse RAM for every manifold slot; each fetch serves passes of one kind and streams that kind's records with the
+impulses the fetch starts from, an on-chip impulse ring as deep as the record ring carries them from pass to pass
+within the fetch, and the last pass of each fetch writes them to ``m_axis_imp``, which the harness's DMA model
+writes to the DDR impulse buffer the next fetch's records are read with).
+
+Two Verilator builds, each with a ring of 1,024 records and the zcu102 preset's 512-bit beats: fp32 with one lane
+and the body velocities in two banks (``pgs_kernel_e8m23_c512_w1024x8_ir_bk2``, the build of ``make sim
+RECORD_WINDOW=... IMPULSE_STORE=records``), and fp16 with two lanes (``..._e5m10_c512_w1024x8_l2_ir``).
+``sim.kernel_step`` compares bit for bit the trace (put back into pass order), the body-out stream and the
+impulse-out stream (one record per window record and fetch, TLAST per fetch) with the golden model of the same step:
+
+* the pile and the stack, random stream gaps and backpressure on every stream (the impulse-out stream included;
+  the seed is printed, ``SEED=<int>`` overrides it), one, two and four passes per fetch (8, 4 and 2 fetches);
+* a warm start (random non-negative normal impulses and friction impulses within the limit), one lane and two;
+* the argument check: fetches that would serve contact and friction passes together (3 passes per fetch of 4
+  iterations; 2 per fetch with the kinds interleaved) end the step at once with error code 3.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from models import scenes
+from models.contact_solver import SolverParams
+from models.dma_model import get_preset
+from models.kernel_job import KernelJob
+from models.number_format import FP16, FP32, NumberFormat
+from models.register_map import OFFSET
+from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
+from sim.harness_run import harness_cycle_limit, register_writes, run_harness, write_inputs
+from sim.kernel_build import KernelBuild, build_kernel, default_window
+from sim.kernel_step import KernelResult, run_kernel_step
+
+from cocotb_tests.test_kernel_impulses_in_records import warm_start
+
+DEPTH = 1024
+GAP_PERMILLE, BP_PERMILLE = 100, 200
+PRESET = get_preset("zcu102")
+
+
+def _seed() -> int:
+    return int(os.environ.get("SEED", "12345"))
+
+
+def window_records_job(scene: str, fmt: NumberFormat = FP32, lanes: int = 1, fetch_passes: int | None = None,
+                       interleaved: bool = False, warm: bool = False) -> KernelJob:
+    frame = scenes.load_or_capture(scene, **KERNEL_TEST_SCENES[scene])
+    job = KernelJob.from_frame(frame, fmt, SolverParams(4, interleaved=interleaved), "hazard",
+                               default_window(fmt, PRESET.stream_bits)).impulses_travelling()
+    if warm:
+        job = job.impulses_travelling(warm_start(job, _seed()))
+    return job.windowed(DEPTH, fetch_passes=fetch_passes, lanes=lanes)
+
+
+def run(job: KernelJob, tmp: Path, label: str) -> KernelResult:
+    seed, plan = _seed(), job.record_window
+    assert plan is not None
+    print(f"\n[{label}] seed {seed} (SEED={seed} reproduces); {len(job.slots)} slots, {plan.fetch_passes} passes per "
+          f"fetch, {plan.fetches(job.params)} fetches, lag {plan.lag}, {job.body_banks} body banks")
+    res = run_kernel_step(job, PRESET, tmp, seed, GAP_PERMILLE, BP_PERMILLE)
+    print(f"  {res.cycles:,} cycles, stalls {int(res.registers['stalls']):,}, impulse-out records "
+          f"{int(res.registers['impulse_out_records'])}")
+    return res
+
+
+@pytest.mark.parametrize("scene,fetch", [("pile", None), ("pile", 2), ("pile", 1), ("stack", None)],
+                         ids=["pile-fetch4", "pile-fetch2", "pile-fetch1", "stack-fetch4"])
+def test_bit_exact_one_lane_banked(scene: str, fetch: int | None, tmp_path: Path) -> None:
+    job = window_records_job(scene, fetch_passes=fetch)
+    plan = job.record_window
+    assert plan is not None and job.body_banks == 2 and plan.fetch_passes == (fetch or 4)
+    res = run(job, tmp_path, f"{scene}/fp32/window records/{plan.fetch_passes} passes per fetch")
+    assert res.bit_exact, res.comparison.first_mismatch
+    # one impulse-out record per slot and fetch: the last pass of each fetch writes, no other
+    assert int(res.registers["impulse_out_records"]) == plan.fetches(job.params) * len(job.slots)
+    assert res.stream_bytes["constraints"] == plan.fetches(job.params) * len(job.slots) * 128  # 2 beats a record
+
+
+@pytest.mark.parametrize("fmt,lanes", [(FP32, 1), (FP16, 2)], ids=["fp32-1lane", "fp16-2lanes"])
+def test_warm_start(fmt: NumberFormat, lanes: int, tmp_path: Path) -> None:
+    job = window_records_job("pile", fmt, lanes, warm=True)
+    res = run(job, tmp_path, f"pile/{fmt.name}/window records/{lanes} lane(s)/warm start")
+    assert res.bit_exact, res.comparison.first_mismatch
+
+
+def test_two_lanes_stack(tmp_path: Path) -> None:
+    job = window_records_job("stack", FP16, 2, fetch_passes=2)
+    plan = job.record_window
+    assert plan is not None
+    res = run(job, tmp_path, "stack/fp16/window records/2 lanes")
+    assert res.bit_exact, res.comparison.first_mismatch
+    assert int(res.registers["impulse_out_records"]) == plan.fetches(job.params) * len(job.slots) // 2
+
+
+@pytest.mark.parametrize("fetch,interleaved", [(3, False), (2, True)], ids=["fetch3-of-4", "fetch2-interleaved"])
+def test_mixed_fetch_refused(fetch: int, interleaved: bool, tmp_path: Path) -> None:
+    """A fetch that would serve both kinds: the kernel's argument check (error code 3), no stream read."""
+    job = window_records_job("pile", interleaved=interleaved, fetch_passes=1)
+    kb = KernelBuild.for_job(job, PRESET)
+    write_inputs(tmp_path, job, kb, PRESET.impulse_turnaround_cycles)
+    regs = [(a, fetch if a == OFFSET["fetch_passes"] else v) for a, v in register_writes(job)]
+    (tmp_path / "regs.bin").write_bytes(np.asarray(regs, dtype="<u4").tobytes())
+    exe, _ = build_kernel(kb)
+    r = run_harness(exe, tmp_path, _seed(), PRESET, harness_cycle_limit(job))
+    assert int(r["status"]) & 0xFF == 1 << 2, f"status 0x{int(r['status']):x}: expected error code 3 alone"
+    assert int(r["issued"]) == 0 and int(r["cycles"]) < 100
+    with pytest.raises(ValueError, match="one kind"):
+        window_records_job("pile", interleaved=interleaved, fetch_passes=fetch)
