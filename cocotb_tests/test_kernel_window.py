@@ -21,7 +21,13 @@ the lane logic as well.
 * an early TLAST in a fetch (error code 1): the missing record's slots are rejected in every pass, the step ends;
 * lanes that collide (the host groups manifolds sharing a dynamic body into one record, error code 4): the later
   lane is rejected in every pass, and the step equals the golden model's with that manifold left out, bit for
-  bit.
+  bit;
+* the cycle model (``models/window_cycle_model.py``): with deterministic streams (gap 0, backpressure 0) every retire
+  cycle, the stall and bubble counters, the rejected count and the total cycles are the model's, on the two-lane
+  build and on a one-lane build (``build/verilator/pgs_kernel_e8m23_c512_w1024x8``, DEPTH 1024): the pile with the
+  sweep and hazard orders, one and several fetches, both pass orders, the stack; a larger pile whose fetch is
+  DDR-bound (bubbles), one with more records than the ring (ring room), rejected lanes (colliding, static pairs),
+  12 passes over 8 contexts with a lag below the band (the pass-start rule; timing only), the ideal DMA.
 """
 
 from __future__ import annotations
@@ -33,7 +39,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models import scenes
+from models import cycle_model, scenes
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from models.number_format import FP32
@@ -59,10 +65,11 @@ def _seed() -> int:
 
 
 def window_job(scene: str, schedule: str, hazard_window: int, interleaved: bool = False,
-               fetch_passes: int | None = None) -> KernelJob:
-    frame = scenes.load_or_capture(scene, **KERNEL_TEST_SCENES[scene])
-    job = KernelJob.from_frame(frame, FP32, SolverParams(4, interleaved=interleaved), schedule, hazard_window)
-    return job.windowed(DEPTH, fetch_passes=fetch_passes, lanes=LANES)
+               fetch_passes: int | None = None, lanes: int = LANES, iterations: int = 4,
+               scene_params: dict[str, int] | None = None) -> KernelJob:
+    frame = scenes.load_or_capture(scene, **(KERNEL_TEST_SCENES[scene] if scene_params is None else scene_params))
+    job = KernelJob.from_frame(frame, FP32, SolverParams(iterations, interleaved=interleaved), schedule, hazard_window)
+    return job.windowed(DEPTH, fetch_passes=fetch_passes, lanes=lanes)
 
 
 def run_window(job: KernelJob, tmp: Path, label: str) -> KernelResult:
@@ -226,3 +233,92 @@ def _assert_golden_without(sent: KernelJob, kept: np.ndarray, run: Path) -> None
     compare_trace(read_trace(run / "trace.bin", FP32, kb.trace_bytes), golden.records, expected, cmp)
     compare_body_out(run, expected, kb, golden.final, cmp)
     assert cmp.first_mismatch is None and cmp.differing_bits == 0, cmp.first_mismatch
+
+
+# --- the cycle model: every retire cycle of deterministic runs ---------------------------------------------------
+BIG_PILE = {"nx": 8, "ny": 8, "nz": 5, "seed": 3}  # 971 manifolds: the DDR-bound fetch leaves bubbles
+ROOM_PILE = {"nx": 10, "ny": 10, "nz": 5, "seed": 4}  # 1,582 manifolds: more records than the ring of 1,024
+
+
+@dataclasses.dataclass(frozen=True)
+class CycleCase:
+    """A window kernel step for the cycle comparison: ``window_job``'s arguments, then what differs from the plan."""
+
+    scene: str
+    schedule: str
+    hazard_window: int
+    interleaved: bool = False
+    fetch_passes: int | None = None
+    lanes: int = LANES
+    iterations: int = 4
+    scene_params: dict[str, int] | None = None
+    lag: int | None = None  # in place of the plan's (below the band: the timing holds, the result is not the golden's)
+    edit: str = ""  # "collide": records of consecutive manifolds; "static": 5 dynamic bodies made static
+    preset: str = "zcu102"
+
+    def job(self) -> KernelJob:
+        job = window_job(self.scene, self.schedule, self.hazard_window, self.interleaved, None, self.lanes,
+                         self.iterations, self.scene_params)
+        plan = job.record_window
+        assert plan is not None
+        lag = self.lag or plan.lag
+        slots = plan.slots
+        if self.edit == "collide":  # the lane plan skipped: consecutive manifolds, colliding lanes rejected
+            order = job.slots[job.slots >= 0]
+            slots = np.concatenate([order, np.full(-len(order) % self.lanes, -1)])
+            lag = band_width(slots, job.cons, job.bodies.dynamic, self.lanes)
+        if self.edit == "static":  # their manifolds with the ground join two static bodies: rejected
+            inv = job.bodies.inv_mass.copy()
+            inv[np.flatnonzero(job.bodies.dynamic)[::7][:5]] = 0.0
+            job = dataclasses.replace(job, bodies=dataclasses.replace(job.bodies, inv_mass=inv))
+        fetch = self.fetch_passes or plan.fetch_passes
+        if not fits(DEPTH, plan.ctx, lag, fetch):  # the plan's passes per fetch trail too far at this lag
+            fetch = max(f for f in range(1, plan.ctx + 1) if fits(DEPTH, plan.ctx, lag, f))
+        return dataclasses.replace(job, record_window=dataclasses.replace(plan, lag=lag, fetch_passes=fetch,
+                                                                          slots=slots))
+
+
+CYCLE_CASES = {
+    "pile-sweep-1fetch": CycleCase("pile", "sweep", 1),
+    "pile-sweep-2fetches": CycleCase("pile", "sweep", 1, fetch_passes=2),
+    "pile-sweep-interleaved-3": CycleCase("pile", "sweep", 1, True, 3),
+    "pile-hazard-1fetch": CycleCase("pile", "hazard", 181),
+    "pile-hazard-interleaved-2": CycleCase("pile", "hazard", 181, True, 2),
+    "pile-hazard-3": CycleCase("pile", "hazard", 181, fetch_passes=3),
+    "stack-hazard": CycleCase("stack", "hazard", 181),
+    "stack-sweep-interleaved-2": CycleCase("stack", "sweep", 1, True, 2),
+    "big-hazard-8fetches": CycleCase("pile", "hazard", 181, fetch_passes=1, scene_params=BIG_PILE),
+    "big-hazard-ideal-dma": CycleCase("pile", "hazard", 181, scene_params=BIG_PILE, preset="ideal"),
+    "ring-room-sweep": CycleCase("pile", "sweep", 1, fetch_passes=8, scene_params=ROOM_PILE),
+    "lanes-collide": CycleCase("pile", "sweep", 1, edit="collide"),
+    "static-pairs": CycleCase("pile", "hazard", 181, fetch_passes=2, scene_params=BIG_PILE, edit="static"),
+    "12-passes-lag1": CycleCase("pile", "hazard", 181, fetch_passes=4, iterations=6, lag=1),
+    "l1-pile-hazard-interleaved-2": CycleCase("pile", "hazard", 181, True, 2, lanes=1),
+    "l1-stack-hazard-3": CycleCase("stack", "hazard", 181, fetch_passes=3, lanes=1),
+    "l1-12-passes-lag2": CycleCase("pile", "hazard", 181, True, 2, lanes=1, iterations=6, lag=2),
+    "l1-ring-room-hazard-lag3": CycleCase("pile", "hazard", 181, fetch_passes=8, lanes=1, scene_params=ROOM_PILE,
+                                          lag=3),
+}
+
+
+@pytest.mark.parametrize("name", list(CYCLE_CASES))
+def test_window_cycles_match_model(name: str, tmp_path: Path) -> None:
+    """Deterministic streams: every retire cycle (in the trace's retire order, lanes of a cycle lane by lane), the
+    stall and bubble counters, the rejected count and the total cycles equal the cycle model's; on a difference the
+    message names the first differing record and the model's reasons for its cycle."""
+    case = CYCLE_CASES[name]
+    job = case.job()
+    preset = get_preset(case.preset)
+    pred = cycle_model.predict_job(job, preset)
+    assert pred.overwritten == 0, "the ring would lose records (the model's precondition for an exact comparison)"
+    res = run_kernel_step(job, preset, tmp_path, _seed(), 0, 0, keep_trace=True)
+    agree = cycle_model.compare_run(pred, res, job.slots)
+    print(f"\n[{name}] {agree.describe()}; stalls {pred.stalls:,}, bubbles {pred.bubbles:,}, rejected {pred.rejected}, "
+          f"ring room waits {int(np.count_nonzero(pred.room_wait))}")
+    assert agree.ok, agree.first_mismatch
+    assert agree.exact == agree.records == int(res.registers["issued"])
+    assert int(res.registers["rejected"]) == pred.rejected
+    plan = job.record_window
+    assert plan is not None
+    if not case.edit and plan.lag >= plan.band:
+        assert res.bit_exact, res.comparison.first_mismatch

@@ -68,6 +68,7 @@ class KernelShape:
 
     impulses_in_records: bool = False  # IMPULSES_IN_RECORDS: the read-after-write rule across passes applies
     body_banks: int = 0  # BODY_BANKS: banked body velocities, a busy bank stalls the issue (models.body_banks)
+    window_beats: int = 0  # beats of one lane's combined record of the window kernel (WR_BEATS; 0: no such layout)
 
     @staticmethod
     def of(fmt: NumberFormat, cons_bits: int = 512, body_bits: int = 128,
@@ -87,7 +88,8 @@ class KernelShape:
         return KernelShape(rtl_latency("pgs_contact_pipe", fmt), rtl_latency(friction, fmt),
                            rtl_latency("pgs_integrate_pipe", fmt), lay.contact_beats, lay.friction_beats,
                            lay.body_in_beats, lay.body_out_beats, cons_bits // 8, body_bits // 8,
-                           impulses_in_records=impulses_in_records, body_banks=check_banks(body_banks))
+                           impulses_in_records=impulses_in_records, body_banks=check_banks(body_banks),
+                           window_beats=lay.window_beats if record_bits is None else 0)
 
     def latency(self, kind: int) -> int:
         return self.contact_latency if kind == CONTACT_PASS else self.friction_latency
@@ -149,10 +151,13 @@ class StepShape:
 
     @staticmethod
     def of_job(job: "KernelJob") -> "StepShape":
+        """The step of ``job``'s slots; an empty lane of the window kernel (slot -1) names no body (-1, -1)."""
         slots = job.slots
-        frozen = job.cons.frozen[slots] if isinstance(job.cons, ShockConstraintSet) else None
-        return StepShape.of(job.fmt, job.bodies.inv_mass, job.cons.body_a[slots], job.cons.body_b[slots],
-                            job.params, frozen)
+        real = slots >= 0
+        idx = np.where(real, slots, 0)
+        frozen = job.cons.frozen[idx] if isinstance(job.cons, ShockConstraintSet) else None
+        return StepShape.of(job.fmt, job.bodies.inv_mass, np.where(real, job.cons.body_a[idx], -1),
+                            np.where(real, job.cons.body_b[idx], -1), job.params, frozen)
 
     @property
     def num_slots(self) -> int:

@@ -2,9 +2,8 @@
 
 For every format, the streaming kernel with the impulses on chip and with them in the records (``make sim
 IMPULSE_STORE=``), and the window kernel with a ring of ``--ring`` records and 1, 2 or 4 lanes (``RECORD_WINDOW=
-LANES=``): the cycle model's cycles of the ``--iters``-iteration step at the DMA preset (``models/cycle_model.py``;
-the window kernel has no cycle model: its cycles come from the RTL, ``make sim RECORD_WINDOW=...``), and the
-resource model's shares of the preset's platform with the verdict (``sim/resource_model.py``, the configuration
+LANES=``): the cycle model's cycles of the ``--iters``-iteration step at the DMA preset (``models/cycle_model.py``,
+the window kernel's ``models/window_cycle_model.py``), and the resource model's shares of the preset's platform with the verdict (``sim/resource_model.py``, the configuration
 as built: the figures ``make sim`` prints). No golden model runs: seconds per configuration.
 
     python -m sim.platform_fit --scene thesis --dma u280 [--formats fp32,fp16,bf16 --iters 4 --ring 16384]
@@ -56,11 +55,8 @@ def table(args: argparse.Namespace) -> list[str]:
         base = KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, SolverParams(args.iters), ip)
         for design, job in configurations(base, args.ring, args.ring > 0):
             v = kernel_fit(job, args.dma)
-            if job.record_window is None:
-                cycles = cycle_model.predict_job(job, preset).cycles
-                speed = f"{cycles:,} | {cycles / job.manifold_passes:.3f}"
-            else:
-                speed = "RTL only | -"
+            cycles = cycle_model.predict_job(job, preset).cycles
+            speed = f"{cycles:,} | {cycles / job.manifold_passes:.3f}"
             if isinstance(v, FitVerdict):
                 shares = " | ".join(f"{100 * v.shares[k]:.1f}%" for k in KEYS)
                 verdict = v.headline()

@@ -284,9 +284,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     params = SolverParams(iterations=args.iters)
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
     job = kernel_job(KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip), args)
-    if args.record_window and args.mode == "model":
-        raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
-    if not args.record_window and (args.mode == "model" or not args.no_kernel):
+    if args.mode == "model" or not args.no_kernel:
         cycle_model.check_body_beats(job, preset, args.body_bits)  # a body beat the model cannot take: before the build
     if args.mode == "model":  # MODE=model: the cycle model's estimate, the golden model's errors vs the exact reference
         golden = timer.run(f"{fmt.name} golden model solve + integrate", golden_step, job)
@@ -347,9 +345,8 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
                                    cmp.first_mismatch or "", res.seed)
         if res.cycles:  # a run that failed before ap_done has no speed to report
             result.speed = kernel_speed(res, job, preset, sched_stats.bubbles, args.driver)
-        if job.record_window is None:
-            result.cycle_model = model_section(job, preset, res, args.stall_permille, args.body_bits)
-        else:
+        result.cycle_model = model_section(job, preset, res, args.stall_permille, args.body_bits)
+        if job.record_window is not None:
             result.window = window_facts(job, preset)
     return result, kb
 

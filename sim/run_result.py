@@ -294,7 +294,7 @@ def _window(w: WindowFacts) -> dict[str, Any]:
         "band width D of the record order": p.band, "lag (records a pass trails the one before)": p.lag,
         "passes per fetch": p.fetch_passes, "fetches of the records per step": w.fetches,
         "ring records in use at most": p.ring_records,
-        "cycle model": "streaming kernel only (no prediction for the window kernel)"}
+        "cycle model": "models/window_cycle_model.py (the cycle model section)"}
     b = w.budget
     if b is not None:
         out[f"on-chip bytes on {b.platform.name}: body state + impulses + window"] = (

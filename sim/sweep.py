@@ -300,14 +300,15 @@ PER_PASS_STREAMS = ("constraints", "impulses_out")  # the streams write_inputs s
 
 
 def model_stream_bytes(job: KernelJob, kb: KernelBuild, run_dir: Path) -> int:
-    """The bytes the streaming kernel's step streams (MODE=model), from the input files of the same step with one
-    iteration (``write_inputs``): each iteration streams the same contact and friction records (and impulse
-    writes) once more, the body streams once per step; ~1/N of writing the N-iteration files."""
-    if job.record_window is not None:
-        raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
+    """The bytes the kernel's step streams (MODE=model), from the input files of the same step with one iteration
+    (``write_inputs``): each iteration streams the same contact and friction records (and impulse writes) once
+    more (the window kernel: each fetch the same window records), the body streams once per step; ~1/N of writing
+    the N-iteration files."""
     one = dataclasses.replace(job, params=dataclasses.replace(job.params, iterations=1))
     sizes = write_inputs(run_dir, one, kb)
-    return sum(v * job.params.iterations if k in PER_PASS_STREAMS else v for k, v in sizes.items())
+    plan = job.record_window
+    per, of_one = (plan.fetches(job.params), plan.fetches(one.params)) if plan else (job.params.iterations, 1)
+    return sum(v // of_one * per if k in PER_PASS_STREAMS else v for k, v in sizes.items())
 
 
 def fit_columns(job: KernelJob, dma: str) -> dict[str, Any]:
@@ -352,8 +353,6 @@ def plan(args: argparse.Namespace) -> tuple[list[SweepPoint], str, dict[str, byt
         raise ValueError(f"--exact-budget must be >= 0, got {args.exact_budget}")
     check_kernel_args(args)
     designs = impulse_stores(args)
-    if args.record_window and args.mode == "model":
-        raise ValueError("MODE=model predicts the streaming kernel; the window kernel runs in RTL only")
     frame, label = load_frame(args)
     print(frame.summary(), flush=True)
     data = frame_bytes(frame)
