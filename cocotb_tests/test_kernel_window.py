@@ -301,6 +301,19 @@ CYCLE_CASES = {
 }
 
 
+def assert_cycles_match(name: str, pred: cycle_model.Prediction, res: KernelResult, job: KernelJob,
+                        extra: str = "") -> None:
+    """A deterministic run against the cycle model: every retire cycle (the trace's retire order, lanes of a cycle lane
+    by lane), the stall and bubble counters, the total cycles and the rejected count; on a difference the message
+    names the first differing record and the model's reasons for its cycle. ``extra``: printed with the figures."""
+    agree = cycle_model.compare_run(pred, res, job.slots)
+    print(f"\n[{name}] {agree.describe()}; stalls {pred.stall_cycles_by_cause()}, bubbles {pred.bubbles:,}, rejected "
+          f"{pred.rejected}; {extra}")
+    assert agree.ok, agree.first_mismatch
+    assert agree.exact == agree.records == int(res.registers["issued"])
+    assert int(res.registers["rejected"]) == pred.rejected
+
+
 @pytest.mark.parametrize("name", list(CYCLE_CASES))
 def test_window_cycles_match_model(name: str, tmp_path: Path) -> None:
     """Deterministic streams: every retire cycle (in the trace's retire order, lanes of a cycle lane by lane), the
@@ -312,12 +325,7 @@ def test_window_cycles_match_model(name: str, tmp_path: Path) -> None:
     pred = cycle_model.predict_job(job, preset)
     assert pred.overwritten == 0, "the ring would lose records (the model's precondition for an exact comparison)"
     res = run_kernel_step(job, preset, tmp_path, _seed(), 0, 0, keep_trace=True)
-    agree = cycle_model.compare_run(pred, res, job.slots)
-    print(f"\n[{name}] {agree.describe()}; stalls {pred.stalls:,}, bubbles {pred.bubbles:,}, rejected {pred.rejected}, "
-          f"ring room waits {int(np.count_nonzero(pred.room_wait))}")
-    assert agree.ok, agree.first_mismatch
-    assert agree.exact == agree.records == int(res.registers["issued"])
-    assert int(res.registers["rejected"]) == pred.rejected
+    assert_cycles_match(name, pred, res, job, f"ring room waits {int(np.count_nonzero(pred.room_wait))}")
     plan = job.record_window
     assert plan is not None
     if not case.edit and plan.lag >= plan.band:

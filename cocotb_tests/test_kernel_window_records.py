@@ -14,18 +14,24 @@ impulse-out stream (one record per window record and fetch, TLAST per fetch) wit
   the seed is printed, ``SEED=<int>`` overrides it), one, two and four passes per fetch (8, 4 and 2 fetches);
 * a warm start (random non-negative normal impulses and friction impulses within the limit), one lane and two;
 * the argument check: fetches that would serve contact and friction passes together (3 passes per fetch of 4
-  iterations; 2 per fetch with the kinds interleaved) end the step at once with error code 3.
+  iterations; 2 per fetch with the kinds interleaved) end the step at once with error code 3;
+* the cycle model (``models/window_cycle_model.py``: the last-pass start rule, the impulse-out FIFO, the fetches'
+  read-after-write turnaround, the banks' busy rule): with deterministic streams (gap 0, backpressure 0) every retire
+  cycle, the stall and bubble counters, the rejected and impulse-out counts and the total cycles are the model's, on
+  both builds (the pile with 4, 2 and 1 passes per fetch, the stack, a warm start, larger piles: 971 manifolds, and
+  1,582, more than the ring holds; manifolds that share no body, whose next fetch waits for the turnaround).
 """
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import pytest
 
-from models import scenes
+from models import cycle_model, scenes
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from models.kernel_job import KernelJob
@@ -37,6 +43,8 @@ from sim.kernel_build import KernelBuild, build_kernel, default_window
 from sim.kernel_step import KernelResult, run_kernel_step
 
 from cocotb_tests.test_kernel_impulses_in_records import warm_start
+from cocotb_tests.test_kernel_window import BIG_PILE, ROOM_PILE, assert_cycles_match
+from models.tests.test_impulses_in_records import independent_stack_job
 
 DEPTH = 1024
 GAP_PERMILLE, BP_PERMILLE = 100, 200
@@ -48,8 +56,9 @@ def _seed() -> int:
 
 
 def window_records_job(scene: str, fmt: NumberFormat = FP32, lanes: int = 1, fetch_passes: int | None = None,
-                       interleaved: bool = False, warm: bool = False) -> KernelJob:
-    frame = scenes.load_or_capture(scene, **KERNEL_TEST_SCENES[scene])
+                       interleaved: bool = False, warm: bool = False,
+                       scene_params: dict[str, int] | None = None) -> KernelJob:
+    frame = scenes.load_or_capture(scene, **(KERNEL_TEST_SCENES[scene] if scene_params is None else scene_params))
     job = KernelJob.from_frame(frame, fmt, SolverParams(4, interleaved=interleaved), "hazard",
                                default_window(fmt, PRESET.stream_bits)).impulses_travelling()
     if warm:
@@ -111,3 +120,42 @@ def test_mixed_fetch_refused(fetch: int, interleaved: bool, tmp_path: Path) -> N
     assert int(r["issued"]) == 0 and int(r["cycles"]) < 100
     with pytest.raises(ValueError, match="one kind"):
         window_records_job("pile", interleaved=interleaved, fetch_passes=fetch)
+
+
+# --- the cycle model: every retire cycle of deterministic runs ---------------------------------------------------
+def independent_window_job(fmt: NumberFormat, lanes: int, fetch_passes: int) -> KernelJob:
+    """The stack's 10 manifolds re-pointed at the ground and one cube each (no two share a dynamic body,
+    ``models.tests.test_impulses_in_records``): no hazard between the manifolds, so the next fetch's records wait
+    on the critical path for the turnaround after the fetch before's impulse-out records."""
+    return independent_stack_job(fmt).impulses_travelling().windowed(DEPTH, fetch_passes=fetch_passes, lanes=lanes)
+
+
+CYCLE_CASES: dict[str, Callable[[], KernelJob]] = {
+    "fp32-pile-fetch4": lambda: window_records_job("pile"),
+    "fp32-pile-fetch2": lambda: window_records_job("pile", fetch_passes=2),
+    "fp32-pile-fetch1": lambda: window_records_job("pile", fetch_passes=1),
+    "fp32-stack-fetch4": lambda: window_records_job("stack"),
+    "fp32-pile-warm": lambda: window_records_job("pile", warm=True),
+    "fp32-more-records-than-the-ring": lambda: window_records_job("pile", fetch_passes=1, scene_params=ROOM_PILE),
+    "fp32-big-fetch4": lambda: window_records_job("pile", scene_params=BIG_PILE),
+    "fp32-independent-fetch4": lambda: independent_window_job(FP32, 1, 4),
+    "fp32-independent-fetch1": lambda: independent_window_job(FP32, 1, 1),
+    "fp16-2lanes-pile": lambda: window_records_job("pile", FP16, 2),
+    "fp16-2lanes-stack-fetch2": lambda: window_records_job("stack", FP16, 2, fetch_passes=2),
+    "fp16-2lanes-big-fetch1": lambda: window_records_job("pile", FP16, 2, fetch_passes=1, scene_params=BIG_PILE),
+    "fp16-2lanes-independent-fetch2": lambda: independent_window_job(FP16, 2, 2),
+}
+
+
+@pytest.mark.parametrize("name", list(CYCLE_CASES))
+def test_cycles_match_model(name: str, tmp_path: Path) -> None:
+    """Deterministic streams: every retire cycle (the trace's retire order), the stall and bubble counters, the
+    rejected count, the impulse-out records and the total cycles equal the cycle model's; the step stays the golden
+    model's bit for bit. On a difference the message names the first differing record and the model's reasons."""
+    job = CYCLE_CASES[name]()
+    pred = cycle_model.predict_job(job, PRESET)
+    res = run_kernel_step(job, PRESET, tmp_path, _seed(), 0, 0, keep_trace=True)
+    assert res.bit_exact, res.comparison.first_mismatch
+    assert_cycles_match(name, pred, res, job, "manifold-passes whose record the turnaround held back: "
+                        f"{int(np.count_nonzero(pred.raw_wait)):,}")
+    assert int(res.registers["impulse_out_records"]) == pred.impulse_out.size

@@ -26,9 +26,15 @@ Kernel
       (``retire of the last issued + 1``), fewer than ``HAZARD_DEPTH`` in flight. It retires at
       ``issue + 1 + LATENCY`` of its pipe (``LATENCY`` from ``rtl/generated/pipe_latency.json``).
       With banked body velocities (``BODY_BANKS``, :mod:`models.body_banks`) it also waits while a bank cannot
-      serve the reads of its bodies A and B beside the writes of the manifold retiring in that cycle.
+      serve the reads of its bodies A and B beside the writes of the manifold retiring in that cycle
+      (:class:`BankWrites`).
       Records the kernel rejects (a body index >= num_bodies, the same body twice, two static bodies; such a
       slot stays rejected for the whole step) are consumed at their valid cycle without issuing.
+    * Impulses in the records (:class:`ImpulseOut`): every take queues an impulse-out record, taken the cycle after
+      its retire (a rejected record's: after its take) and after the one before; a take waits while the order FIFO
+      (``IMP_FIFO_DEPTH``) is full, which with TREADY up never happens (a record leaves at most LATENCY + 2 cycles
+      after its take). Record s of pass p > 0 is offered no earlier than the turnaround after pass p - 1's
+      impulse-out record of slot s was taken; DONE waits for the last impulse-out record.
     * DRAIN until the last retire ``R``; INTEG from ``R + 2``: body ``k`` issues one per cycle while fewer than
       ``OUT_FIFO_DEPTH`` bodies are in the pipe or the output FIFO, leaves the integrate pipe ``LATENCY + 1``
       cycles later, and its ``body_out_beats`` beats follow one per cycle (the first at ``issue + 2 +
@@ -67,11 +73,17 @@ from .kernel_shape import DmaTiming, KernelShape, StepShape
 from .shock_propagation import FREEZE_A, FREEZE_B
 
 # why a record issued later than it was assembled (Prediction.cause)
-READY, SOLVE_START, HAZARD, SWITCH, CAM_FULL, BANK_BUSY = range(6)
+READY, SOLVE_START, HAZARD, SWITCH, CAM_FULL, BANK_BUSY, IMP_FULL = range(7)
 CAUSES = {READY: "none", SOLVE_START: "waiting for SOLVE (body load)", HAZARD: "hazard",
           SWITCH: "contact/friction pipe switch", CAM_FULL: "hazard CAM full",
-          BANK_BUSY: "body bank busy with a retire write"}
+          BANK_BUSY: "body bank busy with a retire write", IMP_FULL: "impulse-out FIFO full"}
 _KIND = {CONTACT_PASS: "contact", FRICTION_PASS: "friction"}
+
+
+def build_causes(shape: KernelShape) -> tuple[int, ...]:
+    """The stall causes a build adds to the hazards and the CAM: a busy body bank (``BODY_BANKS``), a full
+    impulse-out FIFO (impulses in the records)."""
+    return ((BANK_BUSY,) if shape.body_banks else ()) + ((IMP_FULL,) if shape.impulses_in_records else ())
 
 
 # --- the prediction -------------------------------------------------------------------------------------
@@ -88,7 +100,7 @@ class Prediction:
     ready: np.ndarray  # cycle the record became valid (assembled) in the record register
     issue: np.ndarray
     retire: np.ndarray  # the trace cycle
-    cause: np.ndarray  # READY, SOLVE_START, HAZARD, SWITCH, CAM_FULL or BANK_BUSY: what set the issue cycle
+    cause: np.ndarray  # READY, SOLVE_START, HAZARD, SWITCH, CAM_FULL, BANK_BUSY or IMP_FULL: what set the issue cycle
     blocker: np.ndarray  # the retire index whose retire released a HAZARD / SWITCH / CAM_FULL wait, else -1
     bubble: np.ndarray  # SOLVE cycles without a valid record just before this one became valid
     first_offer: np.ndarray  # cycle the record's first beat was offered by the DMA
@@ -148,6 +160,8 @@ class Prediction:
             elif cause == SWITCH:
                 parts.append(f"{stall}-cycle stall: pipe switch, waits for the last {_KIND[int(self.kind[b])]} "
                              f"pass record, {who}")
+            elif cause == IMP_FULL:
+                parts.append(f"{stall}-cycle stall: {self.imp_full_wait()}")
             else:
                 parts.append(f"{stall}-cycle stall: hazard CAM full ({self.shape.hazard_depth} in flight) until {who}")
         return "; ".join(parts)
@@ -160,10 +174,15 @@ class Prediction:
         """What a record ready during LOAD waited for."""
         return f"waited for SOLVE, which starts at cycle {self.solve_start:,} after the body load"
 
+    def imp_full_wait(self) -> str:
+        """What a record held by the impulse-out FIFO waited for."""
+        return (f"impulse-out FIFO full ({self.shape.impulse_fifo_depth} records taken and not yet out) until its "
+                "oldest record left")
+
     def stall_cycles_by_cause(self) -> dict[str, int]:
         """Stall cycles (the kernel's counter) split by what the waiting record waited for."""
         waited = self.issue - np.maximum(self.ready, self.solve_start)
-        causes = (HAZARD, SWITCH, CAM_FULL) + ((BANK_BUSY,) if self.shape.body_banks else ())
+        causes = (HAZARD, SWITCH, CAM_FULL) + build_causes(self.shape)
         return {CAUSES[c]: int(waited[self.cause == c].sum()) for c in causes}
 
     def summary(self) -> dict[str, int | float]:
@@ -367,15 +386,15 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
     issue_prev = -1  # the take cycle of record r-2, then r-1
     prev = None  # record r-1: (stream index, kind, first offer, last beat, DDR wait)
     last_kind, last_retire, n_iss, stalls = CONTACT_PASS, -1, 0, 0
-    # impulses in the records: each take (issued or rejected) queues an impulse-out record, taken (TREADY always up)
-    # the cycle after its retire (a rejected one: after its take), in take order; record s of the next pass is
-    # offered no earlier than `turnaround` cycles after slot s's record was taken (the read-after-write rule)
+    # impulses in the records: each take (issued or rejected) queues an impulse-out record (ImpulseOut); record s of
+    # the next pass is offered no earlier than `turnaround` cycles after slot s's record was taken (the
+    # read-after-write rule)
     in_records, turnaround = shape.impulses_in_records, dma.turnaround
+    imp = ImpulseOut(shape.impulse_fifo_depth) if in_records else None
     out_taken = [0] * nm  # per slot: the cycle its latest impulse-out record was taken
-    out_last = -1
-    # banked body velocities: per slot the bodies read at issue and the dynamic ones written at retire; the
-    # issued manifolds not yet retired (retire cycle, bodies written, retire index), in retire order
+    # banked body velocities: per slot the bodies read at issue and the dynamic ones written at retire (BankWrites)
     banks = shape.body_banks
+    bank_writes = BankWrites(banks)
     reads = list(zip(step.body_a.tolist(), step.body_b.tolist()))
     writes = [tuple(x for x in (a, b) if x >= 0) for a, b in zip(dyn_a.tolist(), dyn_b.tolist())]
     # a shock pass does not write its rows' frozen bodies (the hazards stay: the CAM holds both)
@@ -383,7 +402,6 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
         tuple(x for x, frozen in ((a, f == FREEZE_A), (b, f == FREEZE_B)) if x >= 0 and not frozen)
         for a, b, f in zip(dyn_a.tolist(), dyn_b.tolist(), step.frozen.tolist())]
     shock_pass = step.shock_passes or (False,) * len(step.passes)
-    pending: deque[tuple[int, tuple[int, ...], int]] = deque()
     stream = ((p * nm + s, kind, s) for p, (kind, _) in enumerate(step.passes) for s in range(nm))
     for rec in chain(stream, (None,)):
         if prev is not None:  # take record r-1: valid from m_prev + 1
@@ -393,6 +411,8 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
             t = ready if ready >= solve_start else solve_start
             if rej[s]:
                 rejected.append(r_idx)
+                if imp is not None and imp.room_from() > t:
+                    t = imp.room_from()
                 ret = t
             else:
                 cause = READY if ready >= solve_start else SOLVE_START
@@ -405,11 +425,13 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
                     t, cause, who = last_retire + 1, SWITCH, n_iss - 1
                 if n_iss >= depth and retired[n_iss - depth] + 1 > t:
                     t, cause, who = retired[n_iss - depth] + 1, CAM_FULL, n_iss - depth
-                if banks:  # the writes retiring at t are served first (models.body_banks)
-                    while pending and pending[0][0] < t:
-                        pending.popleft()
-                    while pending and pending[0][0] == t and bank_busy(banks, reads[s], pending[0][1]):
-                        t, cause, who = t + 1, BANK_BUSY, pending.popleft()[2]
+                if imp is not None and imp.room_from() > t:
+                    t, cause, who = imp.room_from(), IMP_FULL, -1
+                while banks:  # the writes retiring at t are served first (models.body_banks)
+                    writer = bank_writes.blocker(t, reads[s])
+                    if writer < 0:
+                        break
+                    t, cause, who = t + 1, BANK_BUSY, writer
                 if cause != READY:
                     waits[n_iss] = (cause, who)
                 ret = t + 1 + lat[kind]
@@ -419,7 +441,7 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
                 last_kind, last_retire = kind, ret
                 retired.append(ret)
                 if banks:
-                    pending.append((ret, shock_writes[s] if shock_pass[r_idx // nm] else writes[s], n_iss))
+                    bank_writes.add(ret, shock_writes[s] if shock_pass[r_idx // nm] else writes[s], n_iss)
                 ready_a(ready)
                 issue_a(t)
                 off_a(f_off)
@@ -428,9 +450,8 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
                 n_iss += 1
             stalls += t - (ready if ready >= solve_start else solve_start)
             issue_prev = t
-            if in_records:
-                out_last = ret + 1 if ret + 1 > out_last + 1 else out_last + 1
-                out_taken[s] = out_last
+            if imp is not None:
+                out_taken[s] = imp.push(ret)
         if rec is None:
             break
         r_idx, kind, s = rec
@@ -458,8 +479,61 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
     out.stalls = stalls
     out.end = issue_prev
     out.last_retire = last_retire
-    out.last_impulse_out = out_last
+    out.last_impulse_out = imp.last if imp is not None else -1
     return out
+
+
+class ImpulseOut:
+    """The impulse-out stream of a kernel with the impulses in the records (``g_imp_out`` of ``pgs_sequencer``)
+    with TREADY always up: each take that writes a record (every take of the streaming kernel, the takes of a fetch's
+    last pass on the window kernel) pushes an entry into the order FIFO of ``depth`` entries, and the record is taken
+    (the m_axis_imp handshake) the cycle after its data is in (its retire; a take without an issuing lane: the take)
+    and after the record before it. A take waits while the order FIFO is full (a record taken frees its entry from
+    the next cycle)."""
+
+    __slots__ = ("depth", "left", "last")
+
+    def __init__(self, depth: int) -> None:
+        self.depth = depth
+        self.left = array("q")  # per entry: the cycle its record was taken
+        self.last = -1
+
+    def push(self, data_in: int) -> int:
+        """An entry whose data is in at cycle ``data_in``: the cycle its record is taken."""
+        out = data_in + 1 if data_in >= self.last else self.last + 1
+        self.left.append(out)
+        self.last = out
+        return out
+
+    def room_from(self) -> int:
+        """The first cycle the order FIFO has room for one more entry."""
+        n = len(self.left)
+        return self.left[n - self.depth] + 1 if n >= self.depth else 0
+
+
+class BankWrites:
+    """Banked body velocities (:mod:`models.body_banks`) over time: the dynamic bodies the issued manifolds write at
+    their retire, in retire order; a record's reads of bodies A and B are served in a cycle only beside the writes of
+    the manifold retiring then. Ask in time order: the writes retired before the cycle asked for are dropped."""
+
+    __slots__ = ("banks", "pending")
+
+    def __init__(self, banks: int) -> None:
+        self.banks = banks
+        self.pending: deque[tuple[int, tuple[int, ...], int]] = deque()  # (retire cycle, bodies written, retire index)
+
+    def add(self, retire: int, writes: tuple[int, ...], who: int) -> None:
+        """Manifold ``who`` (a retire index) writes ``writes`` at cycle ``retire``."""
+        self.pending.append((retire, writes, who))
+
+    def blocker(self, t: int, reads: tuple[int, ...]) -> int:
+        """The retire index whose writes at cycle ``t`` leave a bank no port for ``reads``, else -1."""
+        pending = self.pending
+        while pending and pending[0][0] < t:
+            pending.popleft()
+        if pending and pending[0][0] == t and bank_busy(self.banks, reads, pending[0][1]):
+            return pending[0][2]
+        return -1
 
 
 def first_offer_cycle(dma: DmaTiming) -> int:

@@ -65,6 +65,7 @@ class KernelShape:
     body_beat_bytes: int = 16  # BODY_IN_W = BODY_OUT_W = 128
     hazard_depth: int = HAZARD_DEPTH
     out_fifo_depth: int = OUT_FIFO_DEPTH
+    impulse_fifo_depth: int = IMPULSE_FIFO_DEPTH
 
     impulses_in_records: bool = False  # IMPULSES_IN_RECORDS: the read-after-write rule across passes applies
     body_banks: int = 0  # BODY_BANKS: banked body velocities, a busy bank stalls the issue (models.body_banks)

@@ -1,11 +1,13 @@
 """The window kernel's cycle model (models/window_cycle_model.py) on a hand-derived timeline and on the rules it must
-keep on random steps; the RTL comparison (every retire cycle) is in cocotb_tests/test_kernel_window.py
-(test_window_cycles_match_model)."""
+keep on random steps (with the impulses on chip, and in the records with and without banked body velocities); the RTL
+comparisons (every retire cycle) are in cocotb_tests/test_kernel_window.py (test_window_cycles_match_model) and
+cocotb_tests/test_kernel_window_records.py (test_cycles_match_model)."""
 
 from __future__ import annotations
 
 import dataclasses
 import time
+from array import array
 
 import numpy as np
 import pytest
@@ -14,6 +16,7 @@ from models import cycle_model as cm
 from models import kernel_shape as ks
 from models import scenes
 from models import window_cycle_model as wm
+from models.body_banks import busy as bank_busy
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from models.kernel_job import KernelJob
@@ -24,6 +27,7 @@ from models.schedule import band_width
 from models.tests.test_record_window import _chain
 
 SHAPE = ks.KernelShape.of(FP32, 512)
+RECORDS = ks.KernelShape.of(FP32, 512, impulses_in_records=True)  # the window kernel with the impulses in the records
 IDEAL, ZCU102 = ks.DmaTiming.of(get_preset("ideal")), ks.DmaTiming.of(get_preset("zcu102"))
 C_LAT = SHAPE.contact_latency
 
@@ -71,6 +75,16 @@ class Case:
     naive_lanes: bool = False  # consecutive manifolds in a record (colliding lanes are rejected)
     bad: int = 0  # manifolds with a body index out of range or the same body twice
     dma: str = "zcu102"
+    records: bool = False  # the impulses in the records (the fetches each serve passes of one kind)
+    banks: int = 0  # banked body velocities (one lane)
+    imp_fifo: int = ks.IMPULSE_FIFO_DEPTH  # the impulse-out FIFO's entries
+
+    @property
+    def shape(self) -> ks.KernelShape:
+        """The build the case runs on."""
+        if not self.records:
+            return SHAPE
+        return dataclasses.replace(RECORDS, body_banks=self.banks, impulse_fifo_depth=self.imp_fifo)
 
 
 def random_step(case: Case, m: int = 240, nb: int = 70) -> tuple[ks.StepShape, WindowPlan]:
@@ -97,16 +111,26 @@ def random_step(case: Case, m: int = 240, nb: int = 70) -> tuple[ks.StepShape, W
     return step, WindowPlan(case.depth, 8, lag, fp, band, lanes, slots)
 
 
+# the impulses in the records: 2 iterations, so 1 or 2 passes per fetch (1 interleaved)
+RECORD_CASES = [Case(21, lanes=1, depth=1024, fetch_passes=2, records=True, banks=2),
+                Case(22, lanes=1, depth=1024, fetch_passes=1, records=True, banks=2, bad=10),
+                Case(23, lanes=1, fetch_passes=1, records=True, banks=2, interleaved=True, dma="ideal"),
+                Case(24, lanes=2, depth=1024, fetch_passes=2, records=True),
+                Case(25, lanes=4, fetch_passes=1, records=True, lag=2, depth=16),
+                Case(26, lanes=1, depth=1024, fetch_passes=2, records=True, imp_fifo=2),
+                Case(27, lanes=1, fetch_passes=1, records=True, banks=2, imp_fifo=3, bad=6),
+                Case(28, lanes=2, fetch_passes=1, records=True, imp_fifo=2, naive_lanes=True)]
 CASES = [Case(1), Case(2, lanes=1), Case(3, lanes=4), Case(4, fetch_passes=1), Case(5, fetch_passes=3),
          Case(6, lag=1, fetch_passes=8), Case(7, interleaved=True, fetch_passes=2), Case(8, naive_lanes=True),
          Case(9, bad=12), Case(10, dma="ideal"), Case(11, depth=16, lag=2, fetch_passes=2),
-         Case(12, depth=1024, lanes=1, dma="ideal"), Case(13, lanes=2, depth=32, fetch_passes=8, lag=4)]
+         Case(12, depth=1024, lanes=1, dma="ideal"), Case(13, lanes=2, depth=32, fetch_passes=8, lag=4),
+         *RECORD_CASES]
 
 
 def predict_case(case: Case, jumps: bool = True) -> tuple[wm.WindowPrediction, ks.StepShape, WindowPlan]:
     step, plan = random_step(case)
     dma = ks.DmaTiming.of(get_preset(case.dma))
-    return wm.predict_window(SHAPE, dma, step, plan, jumps), step, plan
+    return wm.predict_window(case.shape, dma, step, plan, jumps), step, plan
 
 
 @pytest.mark.parametrize("case", CASES, ids=lambda c: f"seed{c.seed}")
@@ -148,7 +172,8 @@ def test_stretch_jumps_change_nothing(case: Case) -> None:
     time); stepping every cycle gives the same prediction."""
     fast, _, _ = predict_case(case)
     slow, _, _ = predict_case(case, jumps=False)
-    for name in ("issue", "slot", "kind", "iteration", "ready", "eligible", "cause", "blocker", "took"):
+    for name in ("issue", "slot", "kind", "iteration", "ready", "eligible", "cause", "blocker", "took", "started",
+                 "first_beat", "impulse_out", "raw_wait"):
         assert np.array_equal(getattr(fast, name), getattr(slow, name)), name
     assert (fast.cycles, fast.stalls, fast.bubbles, fast.rejected, fast.stall_causes) == \
         (slow.cycles, slow.stalls, slow.bubbles, slow.rejected, slow.stall_causes)
@@ -192,15 +217,115 @@ def test_rejected_and_colliding_lanes() -> None:
     assert q.manifold_passes + q.rejected == int(np.count_nonzero(plan.slots >= 0)) * len(step.passes)
 
 
-def test_ring_room_and_overwritten_entries() -> None:
-    """A ring of 16 records: one fetch of 8 passes waits for room (the last pass frees in slot order, nothing is
-    overwritten); with several fetches in the ring at once the fetches' last passes free out of order, and the
-    fetch writes over entries a pass still needs (the model counts them: the kernel would read the wrong record)."""
+def _last_passes(p: wm.WindowPrediction) -> list[int]:
+    """The last pass of each fetch."""
+    assert p.plan is not None
+    passes, fp = len(p.started), p.plan.fetch_passes
+    return [min(f + fp, passes) - 1 for f in range(0, passes, fp)]
+
+
+def test_ring_room_and_the_last_pass_start_rule() -> None:
+    """A ring of 16 records: one fetch of 8 passes waits for room (the last pass frees in slot order), and so do
+    several fetches in the ring at once, whose last passes start only once every pass of the earlier fetches is
+    done (jlo, one cycle after a pass's last take, then its register): the frees stay in ring order and no record is
+    written over one a pass still needs. The check itself counts a free that comes after the write over it."""
     one, _, _ = predict_case(Case(11, depth=16, lag=2, fetch_passes=8))
     assert one.room_wait.max() > 0 and one.overwritten == 0
-    several, _, _ = predict_case(Case(11, depth=16, lag=2, fetch_passes=2))
-    assert several.room_wait.max() > 0 and several.overwritten > 0
-    assert "ring records overwritten" in " ".join(several.summary())
+    for case in (Case(11, depth=16, lag=2, fetch_passes=2), Case(25, lanes=4, fetch_passes=1, records=True, lag=2,
+                                                                  depth=16)):
+        several, _, _ = predict_case(case)
+        assert several.room_wait.max() > 0 and several.overwritten == 0
+        assert "ring records overwritten" not in " ".join(several.summary())
+        lasts, fp, binds = _last_passes(several), case.fetch_passes or 0, 0
+        for f, last in enumerate(lasts[1:], 1):
+            done = int(several.took[:f * fp, -1].max())  # the last take of the earlier fetches' passes
+            assert several.started[last] >= done + 2
+            binds += int(several.started[last] == done + 2)
+        assert binds > 0  # the rule holds the start back (the contexts alone would allow it earlier)
+    fetch = wm._Fetch(None, 1, 4, 2, 4, 0, 1)
+    fetch.last_beat = array("q", [0, 1, 2, 3, 10, 11, 12, 13])  # records 4.. written at 12, 13, 14, 15
+    assert fetch.overwritten(np.array([5, 20, 6, 16, 30, 31, 32, 33])) == 2  # records 1 and 3 freed after
+
+
+def test_impulses_out_and_the_read_after_write_rule() -> None:
+    """The impulses in the records: the last pass of each fetch sends one impulse-out record per window record, in
+    order, the cycle after its retire (a record without an issuing lane: after its take) at the earliest; the
+    harness offers record k of fetch f > 0 no earlier than the turnaround after fetch f - 1's record k left (and the
+    rule holds some records back); DONE after the last one; the DDR's rate is the read share."""
+    turnaround, binds = get_preset("zcu102").impulse_turnaround_cycles, 0
+    for case in RECORD_CASES:
+        p, step, plan = predict_case(case)
+        nrec = len(plan.slots) // plan.lanes
+        lasts = _last_passes(p)
+        out = p.impulse_out
+        assert out.shape == p.first_beat.shape == (len(lasts), nrec)
+        assert np.all(np.diff(out.ravel()) > 0) and np.all(out > p.took[lasts])
+        issued = np.isin(p.pass_index, lasts)
+        fetch = p.pass_index[issued] // plan.fetch_passes
+        assert np.all(out[fetch, p.slot[issued] // plan.lanes] > p.retire[issued])
+        if case.dma == "zcu102":
+            gap = p.first_beat[1:] - (out[:-1] + turnaround)
+            assert gap.min() >= 0
+            binds += int(np.count_nonzero(gap == 0))
+            assert (p.raw_wait.max() > 0) == (case.depth >= nrec)  # a smaller ring holds the next fetch back longer
+        assert p.phases["DONE"] >= out.max() + 2
+    assert binds > 0
+    wide = wm.predict_window(SHAPE, ZCU102, *random_step(Case(24, lanes=2, fetch_passes=2)))
+    assert wide.impulse_out.size == 0 and wide.raw_wait.max() == 0
+    job = _records_job(2)
+    share = job.ddr_read_share(512)
+    assert 0 < share < 1 and cm._job_timing(job, get_preset("zcu102"), False).rate == \
+        ks.DmaTiming.of(get_preset("zcu102"), read_share=share).rate
+
+
+def test_no_take_while_the_impulse_out_fifo_is_full() -> None:
+    """The order FIFO (an entry from the take of a fetch's last pass to its record's handshake) holds every take of
+    every pass while full: with 2 or 3 entries it fills (the records leave after the pipe's latency) and holds
+    takes back; with the kernel's 256 it never fills (a record leaves at most C_LAT + 2 cycles after its take)."""
+    for case in RECORD_CASES:
+        p, _, _ = predict_case(case)
+        lasts = _last_passes(p)
+        pushed = np.sort(p.took[lasts].ravel())
+        popped = np.sort(p.impulse_out.ravel())
+        takes = p.took.ravel()
+        held = np.searchsorted(pushed, takes) - np.searchsorted(popped, takes)  # entries before the take's cycle
+        assert held.max() <= case.imp_fifo - 1
+        full = p.stall_cycles_by_cause()["impulse-out FIFO full"]
+        if case.imp_fifo <= 3:
+            assert held.max() == case.imp_fifo - 1 and full > 0 and np.any(p.cause == cm.IMP_FULL)
+            assert "impulse-out FIFO full (" in p.explain(int(np.flatnonzero(p.cause == cm.IMP_FULL)[0]))
+        else:
+            assert full == 0 and held.max() <= C_LAT + 2
+
+
+def test_banked_body_velocities() -> None:
+    """One lane, two banks: no record issues in a cycle where the writes of the manifold retiring then and its reads
+    of bodies A and B need a third access to a bank; the rule holds takes back (stalls, BANK_BUSY causes) that the
+    multiport memory would have issued. A record without an issuing lane is consumed whatever the banks."""
+    for case in (c for c in RECORD_CASES if c.banks):
+        p, step, plan = predict_case(case)
+        writes = {int(r): tuple(int(b) for b in (p.body_a[k], p.body_b[k]) if b >= 0) for k, r in enumerate(p.retire)}
+        for k, t in enumerate(p.issue.tolist()):
+            s = int(p.slot[k])
+            reads = (int(step.body_a[s]), int(step.body_b[s]))
+            assert not bank_busy(2, reads, writes.get(t, ())), f"retire #{k} issued with a bank busy"
+        busy = p.stall_cycles_by_cause()["body bank busy with a retire write"]
+        assert busy > 0 and np.any(p.cause == cm.BANK_BUSY)
+        k = int(np.flatnonzero(p.cause == cm.BANK_BUSY)[0])
+        assert "a body-velocity bank busy with the writes of retire #" in p.explain(k)
+        multiport, _, _ = predict_case(dataclasses.replace(case, banks=0))
+        hit = [any(bank_busy(2, (int(step.body_a[s]), int(step.body_b[s])),
+                             tuple(int(b) for b in (multiport.body_a[x], multiport.body_b[x]) if b >= 0))
+                   for x in np.flatnonzero(multiport.retire == t)) for s, t in zip(multiport.slot, multiport.issue)]
+        assert any(hit) and "body bank busy with a retire write" not in multiport.stall_cycles_by_cause()
+    rejected, _, _ = predict_case(RECORD_CASES[1])
+    assert rejected.rejected > 0
+
+
+def _records_job(lanes: int) -> KernelJob:
+    frame = scenes.load_or_capture("pile", **KERNEL_TEST_SCENES["pile"])
+    return KernelJob.from_frame(frame, FP32, SolverParams(4), "hazard", 181).impulses_travelling().windowed(
+        1024, lanes=lanes)
 
 
 def test_predict_job_dispatches_to_the_window_model() -> None:
@@ -237,8 +362,8 @@ def test_bad_input() -> None:
         wm.predict_window(SHAPE, IDEAL, step, dataclasses.replace(plan, lag=3))  # (2 - 1) * 3 + 2 > 4
     with pytest.raises(ValueError, match="same slots"):
         wm.predict_window(SHAPE, IDEAL, step, dataclasses.replace(plan, slots=np.array([0, -1])))
-    with pytest.raises(ValueError, match="not modeled"):
-        wm.predict_window(dataclasses.replace(SHAPE, impulses_in_records=True), IDEAL, step, plan)
+    with pytest.raises(ValueError, match="one lane"):
+        wm.predict_window(dataclasses.replace(RECORDS, body_banks=2), IDEAL, *random_step(Case(24, fetch_passes=2)))
     with pytest.raises(ValueError, match="no window record layout"):
         wm.predict_window(dataclasses.replace(SHAPE, window_beats=0), IDEAL, step, plan)
 
