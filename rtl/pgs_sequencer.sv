@@ -174,6 +174,7 @@ module pgs_sequencer #(
     localparam int OBEAT_W   = $clog2(O_BEATS + 1);
     localparam int EV_W      = 16;                                      // the datapaths' event counts
     localparam int LG_L      = $clog2(LANES);
+    localparam int BSLOT_W   = $clog2(MAX_MANIFOLDS / LANES);              // a record index (slot of lane 0 / LANES)
 
     localparam bit CONTACT  = 1'b0;
     localparam bit FRICTION = 1'b1;
@@ -300,7 +301,10 @@ module pgs_sequencer #(
     // streaming kernel has one lane). Per lane the issue logic reads bodies A and B, the spin-damping and shock
     // bits and the record's checks; stage 1 feeds the pass kind's words to the pipes (l_words).
     localparam int LREC_W = WR_BEATS * CONS_W;  // one lane's window record
-    localparam int HL_W   = 2 * IDX_W + 5;      // one lane's head in the window's ring (head_of)
+    localparam int HB_W   = 2 * IDX_W + 5;      // head_of: what a lane's record gives its head
+    // one lane's head in the window's ring: with the impulses in the records also whether its slot was rejected in
+    // an earlier fetch (read from the rejected-slot flags as the record is written, below)
+    localparam int HL_W   = HB_W + (IMPULSES_IN_RECORDS ? 1 : 0);
 
     // the full body indices of a header: out of range, or the same body twice
     localparam int HIDX_W = pgs_stream_layout_pkg::HEADER_BODY_B_LSB + pgs_stream_layout_pkg::HEADER_BODY_B_BITS;
@@ -332,7 +336,7 @@ module pgs_sequencer #(
     /* verilator lint_on UNUSEDSIGNAL */
     // what the window keeps of a lane's record for the cycle it is offered: {non-finite as a friction record,
     // non-finite as a contact record, index_bad, empty lane (header all ones), spin damping, body B, body A}
-    function automatic logic [HL_W-1:0] head_of(input logic [LREC_W-1:0] r, input logic [31:0] n_bodies);
+    function automatic logic [HB_W-1:0] head_of(input logic [LREC_W-1:0] r, input logic [31:0] n_bodies);
         return {nonfinite_of(kind_view(r, FRICTION), FRICTION), nonfinite_of(kind_view(r, CONTACT), CONTACT),
                 index_bad(r[HIDX_W-1:0], n_bodies), r[63:0] == '1, r[pgs_stream_layout_pkg::HEADER_SPIN_DAMP_BIT],
                 r[32 +: IDX_W], r[IDX_W-1:0]};
@@ -356,9 +360,14 @@ module pgs_sequencer #(
     logic [LANES-1:0]      l_fa, l_fb, l_lin;
     logic [S1_WORDS*W-1:0] l_words [LANES];  // the pass kind's words (streaming: at issue; window: at stage 1)
     logic                  s1_kind;          // stage 1's pass kind (the lanes issue together)
-    // window kernel: the candidate's ring address, whether its pass is the first / last of its fetch
+    // window kernel: the candidate's ring address, whether its pass is the first / last of its fetch; the record
+    // entering the ring's write (the next cycle): its slot, whether it is of the first fetch, and (impulses in the
+    // records) per lane whether that slot was rejected in an earlier fetch; the candidate's head's such bit
     logic [RA_W-1:0]       w_addr;
     logic                  w_first, w_lastg;
+    logic                  w_asm_move, w_asm_first;
+    logic [31:0]           w_asm_slot;
+    logic [LANES-1:0]      w_rej_q, w_head_seen;
 
     generate
         if (WINDOW == 0) begin : g_stream
@@ -391,7 +400,11 @@ module pgs_sequencer #(
             assign w_addr  = '0;
             assign w_first = 1'b0;
             assign w_lastg = 1'b1;
-            wire unused_stream = ^{r_lag, r_fetch, crec[CREC_W-1:64 + S1_WORDS*W]};   // the window's arguments, padding
+            assign w_asm_move  = 1'b0;
+            assign w_asm_first = 1'b1;
+            assign w_asm_slot  = '0;
+            assign w_head_seen = '0;
+            wire unused_stream = ^{r_lag, r_fetch, crec[CREC_W-1:64 + S1_WORDS*W], w_rej_q};   // the window's, padding
 
             always_ff @(posedge clk) begin
                 if (phase == S_IDLE) begin
@@ -434,15 +447,22 @@ module pgs_sequencer #(
                          .PASS_W(ITER_W + 1), .HEAD_W(LANES * HL_W)) u_window (
                 .clk, .rst, .init(phase == S_IDLE), .nm(nm_rec), .passes, .fetch_passes(r_fetch[ITER_W:0]),
                 .lag(r_lag), .fetch_en(phase == S_LOAD || phase == S_SOLVE), .s_tdata(s_cons_tdata),
-                .s_tvalid(s_cons_tvalid), .s_tready(s_cons_tready), .s_tlast(s_cons_tlast), .wr_rec, .wr_head,
+                .s_tvalid(s_cons_tvalid), .s_tready(s_cons_tready), .s_tlast(s_cons_tlast), .asm_move(w_asm_move),
+                .asm_slot(w_asm_slot), .asm_first(w_asm_first), .wr_rec, .wr_head,
                 .cand_valid(crec_valid), .cand_head(whead), .cand_addr, .cand_first(w_first), .cand_lastg(w_lastg),
                 .cand_trunc(crec_trunc), .rd_rec, .cand_pass(w_pass), .cand_slot(i_slot), .take,
                 .all_done(w_done), .flushing(w_flush), .tlast_err(c_tlast_err));
             assign w_addr = RA_W'(cand_addr);
+            logic w_first_q;   // the record being written belongs to the first fetch
+            always_ff @(posedge clk) begin
+                if (w_asm_move) w_first_q <= w_asm_first;
+            end
             always_comb begin
                 for (int l = 0; l < LANES; l++) begin
                     automatic logic [HL_W-1:0] h = whead[l*HL_W +: HL_W];
-                    wr_head[l*HL_W +: HL_W] = head_of(wr_rec[l*LREC_W +: LREC_W], nb);
+                    // (the seen bit: of a later fetch only; its read is the registered one of the record's move)
+                    wr_head[l*HL_W +: HL_W] = HL_W'({w_rej_q[l] && !w_first_q, head_of(wr_rec[l*LREC_W +: LREC_W], nb)});
+                    w_head_seen[l] = IMPULSES_IN_RECORDS && h[HL_W-1];
                     la[l]          = h[IDX_W-1:0];
                     lb[l]          = h[IDX_W +: IDX_W];
                     l_sd[l]        = h[2*IDX_W];
@@ -492,12 +512,12 @@ module pgs_sequencer #(
 
     // the issue checks of each lane's record. An all-ones header in the window kernel is an empty lane (the host's
     // padding): never issued, never rejected, no error.
-    logic slot_rej [MAX_MANIFOLDS];   // slots rejected earlier in the step (written for every slot in pass 0)
+    logic [LANES-1:0] l_rej_seen;   // slots rejected earlier in the step (written for every slot in pass 0)
     logic [LANES-1:0] l_empty, l_static, l_collide, l_rej, l_go;
     always_comb begin
         automatic logic [LANES-1:0] go = '0;   // the lanes so far that issue
         for (int l = 0; l < LANES; l++) begin
-            automatic logic rej_prev = i_pass != '0 && slot_rej[lslot[l][SLOT_W-1:0]];
+            automatic logic rej_prev = i_pass != '0 && l_rej_seen[l];
             automatic logic rej_bad;
             l_empty[l]  = WINDOW > 0 && !crec_trunc && l_empty_hdr[l];
             rej_bad     = !l_index[l] && (bad[2*l] || bad[2*l+1]);
@@ -520,11 +540,38 @@ module pgs_sequencer #(
     wire  issue      = l_issue != '0;
     wire  fill       = in_solve && i_fill && imp_room;
     assign slot_step = take || fill;
-    always_ff @(posedge clk) begin
-        for (int l = 0; l < LANES; l++) begin
-            if (slot_step && (i_pass == '0 || l_reject[l] || fill)) slot_rej[lslot[l][SLOT_W-1:0]] <= l_reject[l] || fill;
+    // the rejected-slot flags: one bit per slot, written at its take in pass 0 and when a later pass rejects it, read
+    // for the record offered. The streaming kernel reads them at a registered slot index (block RAM on a board). The
+    // window kernel (per lane, indexed by the record index): with the impulses in the records, as each record is
+    // written into the ring (a registered read, block RAM; the bit rides in the record's head): every pass of the
+    // slot's earlier fetches has taken it by then (the DMA reads fetch f's record only after fetch f - 1's last pass
+    // wrote its impulses), and the passes of one fetch read the same record, so they decide alike; with the impulses
+    // on chip at the offered pass's slot, a selection of the pass contexts (an asynchronous read, LUT RAM).
+    generate
+        if (WINDOW == 0) begin : g_rej_stream
+            logic slot_rej [MAX_MANIFOLDS];
+            assign l_rej_seen[0] = slot_rej[i_slot[SLOT_W-1:0]];
+            always_ff @(posedge clk) begin
+                if (slot_step && (i_pass == '0 || l_reject[0] || fill)) slot_rej[i_slot[SLOT_W-1:0]] <= l_reject[0] || fill;
+            end
+            assign w_rej_q = '0;
+        end else if (IMPULSES_IN_RECORDS) begin : g_rej_ring
+            for (genvar l = 0; l < LANES; l++) begin : g_lane_rej
+                pgs_ring_ram #(.WIDTH(1), .DEPTH(MAX_MANIFOLDS / LANES), .SYNC_READ(1'b1)) u_slot_rej (
+                    .clk, .wr_en(slot_step && (i_pass == '0 || l_reject[l])), .wr_addr(i_slot[BSLOT_W-1:0]),
+                    .wr_data(l_reject[l]), .rd_en(w_asm_move), .rd_addr(w_asm_slot[BSLOT_W-1:0]),
+                    .rd_data(w_rej_q[l]));
+            end
+            assign l_rej_seen = w_head_seen;
+        end else begin : g_rej_window
+            for (genvar l = 0; l < LANES; l++) begin : g_lane_rej
+                pgs_ring_ram #(.WIDTH(1), .DEPTH(MAX_MANIFOLDS / LANES), .SYNC_READ(1'b0)) u_slot_rej (
+                    .clk, .wr_en(slot_step && (i_pass == '0 || l_reject[l])), .wr_addr(i_slot[BSLOT_W-1:0]),
+                    .wr_data(l_reject[l]), .rd_en(1'b0), .rd_addr(i_slot[BSLOT_W-1:0]), .rd_data(l_rej_seen[l]));
+            end
+            assign w_rej_q = '0;
         end
-    end
+    endgenerate
 
     logic [2*LANES*IDX_W-1:0] cand;
     logic [2*LANES-1:0]       cand_dyn;
@@ -548,7 +595,6 @@ module pgs_sequencer #(
     if (F_ALIGN < 0) begin : g_bad_align
         $error("pgs_sequencer: the window kernel needs the friction pipe no deeper than the contact pipe");
     end
-    localparam int BSLOT_W = $clog2(MAX_MANIFOLDS / LANES);
     logic [LANES-1:0]       l_retire, l_fret, l_dyn_a, l_dyn_b;
     logic [IDX_W-1:0]       l_ra [LANES], l_rb [LANES];
     logic [12*W-1:0]        l_vel [LANES];             // vA wA vB wB
@@ -1021,6 +1067,9 @@ module pgs_sequencer #(
         unused_seq = ^{i_iter_full[ITER_W], ofifo_full, b_unused_tag, brec, rd0_data, bad};
         if (!SOFT_CONTACT) unused_seq ^= ^{r_soft, r_keep_d, r_keep_s};   // the rigid kernel reads no keep factor
         if (!IMPULSES_IN_RECORDS) unused_seq ^= w_first;   // the impulse ring's source select
+        // the ring write's slot and the rejected bit of the heads: the window kernel with the impulses in the records
+        if (WINDOW == 0 || !IMPULSES_IN_RECORDS) unused_seq ^= ^{w_asm_move, w_asm_first, w_asm_slot, w_head_seen};
+        else unused_seq ^= ^w_asm_slot[31:BSLOT_W];
         for (int l = 0; l < LANES; l++) unused_seq ^= ^{lslot[l][31:SLOT_W], l_raddr[l], l_rlastg[l]};
     end
 endmodule

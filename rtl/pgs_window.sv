@@ -63,6 +63,9 @@ module pgs_window #(
     input  wire                s_tvalid,
     output logic               s_tready,
     input  wire                s_tlast,
+    output logic               asm_move,      // a record enters the assembler's output: it is written next cycle
+    output logic [31:0]        asm_slot,      // ... its slot
+    output logic               asm_first,     // ... it belongs to the step's first fetch
     output logic [REC_W-1:0]   wr_rec,        // the record being written into the ring (zeros: a truncated slot)
     input  wire  [HEAD_W-1:0]  wr_head,       // its head (combinational from wr_rec)
     output logic               cand_valid,
@@ -106,6 +109,16 @@ module pgs_window #(
     wire fill_step = fill && !a_pending && room;    // the record that carried TLAST goes in first
     wire wr_step   = arec_valid || fill_step;
     assign tlast_err = a_done && (s_tlast != f_last || a_done_trunc);
+    // the record whose last beat was taken in the previous cycle enters the assembler's output register now
+    // (pgs_record_asm: its output is always taken) and is written into the ring in the next cycle
+    always_ff @(posedge clk) begin
+        if (rst || init) asm_move <= 1'b0;
+        else             asm_move <= a_done;
+        if (a_done) begin
+            asm_slot  <= f_slot;
+            asm_first <= f_base == '0;
+        end
+    end
 
     assign wr_rec = arec_valid ? arec : '0;
     // the records (read one cycle after the take) and their heads with the truncated bit (read when offered)

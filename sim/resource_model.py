@@ -211,14 +211,16 @@ def delay_line_resources(line: DelayLine, word_bits: int, block_min_depth: int =
     return Resources(lut=luts + pointer, ff=width * (len(ram_taps) + len(reg_taps)) + pointer)
 
 
-def distributed_ram_luts(depth: int, bit_reads: int) -> int:
+def distributed_ram_luts(depth: int, bit_reads: int, narrow: bool = False) -> int:
     """LUTs of a LUT RAM ``depth`` words deep read ``bit_reads`` bits at a time (width x read ports), simple
     dual-port: RAM32M16 / RAM64M8 (8 LUTs hold 32 x 14 or 64 x 7 bit-reads), a depth multiplexer for each further
-    64 words (a LUT6 selects among 3 blocks, F7/F8 muxes beside it)."""
+    64 words (a LUT6 selects among 3 blocks, F7/F8 muxes beside it). ``narrow``: RAM64X1D too where it is cheaper
+    (2 LUTs a 64 x 1 bit-read: a memory of a few bits per word; the delay lines' rule keeps RAM64M8)."""
     if depth <= 32:
-        return 8 * math.ceil(bit_reads / 14)
+        return min(8 * math.ceil(bit_reads / 14), 2 * bit_reads if narrow else math.inf)
     blocks = math.ceil(depth / 64)
-    return 8 * blocks * math.ceil(bit_reads / 7) + bit_reads * math.ceil((blocks - 1) / 3)
+    per_block = min(8 * math.ceil(bit_reads / 7), 2 * bit_reads if narrow else math.inf)
+    return int(per_block * blocks + bit_reads * math.ceil((blocks - 1) / 3))
 
 
 # --- memories ---------------------------------------------------------------------------------------------------
@@ -257,7 +259,7 @@ class MemoryArray:
     def resources(self, uram: bool = False) -> Resources:
         """One copy per port pair: in LUT RAM (``distributed``), UltraRAM (``uram``, deep arrays) or block RAM."""
         if self.distributed:
-            return Resources(lut=self.copies * distributed_ram_luts(self.depth, self.width))
+            return Resources(lut=self.copies * distributed_ram_luts(self.depth, self.width, narrow=True))
         if uram and self.depth >= URAM_MIN_DEPTH:
             return Resources(uram=self.copies * uram_for(self.depth, self.width))
         return Resources(bram36=self.copies * bram36_for(self.depth, self.width, self.true_dual_port))
@@ -372,6 +374,9 @@ def window_memories(cfg: KernelConfig) -> list[MemoryArray]:
     if not cfg.impulses_resident:
         out.append(MemoryArray(f"impulse ring ({IMPULSE_OUT_WORDS} words per lane)", cfg.window,
                                IMPULSE_OUT_WORDS * rec, cfg.lanes))
+    # the rejected-slot flags, read at the offered pass's slot in the cycle it is offered (pgs_sequencer)
+    out.append(MemoryArray("rejected-slot flags (a bit per slot, LUT RAM)", math.ceil(cfg.max_manifolds / cfg.lanes), 1,
+                           cfg.lanes, distributed=True))
     return out
 
 

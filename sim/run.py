@@ -390,7 +390,10 @@ def model_section(job: KernelJob, preset: DmaPreset, res: KernelResult | None = 
     """The cycle model's estimate (body streams of ``body_bits``-bit beats); beside an RTL run, every retire cycle
     compared (deterministic streams) or the model as a lower bound (random stalls)."""
     t0 = time.process_time()
-    pred = cycle_model.predict_job(job, preset, body_bits=body_bits)
+    try:
+        pred = cycle_model.predict_job(job, preset, body_bits=body_bits)
+    except ValueError as exc:  # a configuration the model does not take: the run's other sections stand
+        return {"cycle model": f"none ({exc})"}
     seconds = time.process_time() - t0
     if res is None or res.trace is None or stall_permille:
         return cycle_model.report_section(pred, preset, seconds, None if res is None else res.cycles)

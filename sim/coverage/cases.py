@@ -18,7 +18,8 @@ from models.kernel_job import KernelJob
 from models.number_format import FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES, MAKE_SIM_PILE
 from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
-from sim.coverage.input_edits import (BAD_INPUT_EDITS, RECORDS_BAD_INPUT_EDITS, WINDOW_BAD_INPUT_EDITS, Edit,
+from sim.coverage.input_edits import (BAD_INPUT_EDITS, RECORDS_BAD_INPUT_EDITS, WINDOW_BAD_INPUT_EDITS,
+                                      WINDOW_RECORDS_BAD_INPUT_EDITS, Edit,
                                       HarnessEdit, edit_argument_bits, edit_gravity, edit_huge_sliding,
                                       edit_huge_velocity, edit_mass_spread, edit_spin, edit_wide_index)
 from sim.verilator_build import REPO_ROOT
@@ -174,6 +175,30 @@ def records_cases(config: str) -> list[Case]:
     ] + bad_input_cases(c, "stack", "hazard", RECORDS_BAD_INPUT_EDITS)
 
 
+def window_records_cases(config: str) -> list[Case]:
+    """The regression of the one-lane window kernel with the impulses in the records (the fitting window designs):
+    the sweep order of its README rows and the hazard order, 4, 2 and 1 passes per fetch (2, 4 and 8 fetches),
+    cold and warm-started, stalls on every stream (the impulse-out stream included), interleaved passes (a fetch
+    per pass), the 217-body pile, other integration registers, spin, a spread of masses and inertias, the body
+    indices over the whole index range, and the records design's and the window's bad-input edits."""
+    c = config
+    return [
+        Case(f"{c}-pile-sweep-zcu102-stalls", c, "pile", "sweep", stalls=150),
+        Case(f"{c}-pile-hazard-ideal-fetch2-warm", c, "pile", dma="ideal", fetch_passes=2, job_edit=warm_start),
+        Case(f"{c}-pile-hazard-zcu102-fetch1-warm-stalls", c, "pile", stalls=200, fetch_passes=1,
+             job_edit=warm_start),
+        Case(f"{c}-stack-sweep-zcu102-fetch2-stalls", c, "stack", "sweep", stalls=300, fetch_passes=2),
+        Case(f"{c}-stack-pybullet-zcu102-interleaved", c, "stack", "pybullet", interleaved=True, fetch_passes=1),
+        Case(f"{c}-incline-sweep-zcu102", c, "incline", "sweep"),
+        Case(f"{c}-pile217-sweep-zcu102", c, "pile217", "sweep"),
+        Case(f"{c}-stack-gravity-dt-damping", c, "stack", "sweep", edit=edit_gravity),
+        Case(f"{c}-stack-spin", c, "stack", "sweep", edit=edit_spin),
+        Case(f"{c}-pile-mass-spread", c, "pile", "sweep", edit=edit_mass_spread),
+        Case(f"{c}-stack-wide-index", c, "stack", "sweep", edit=edit_wide_index),
+        *stimulus_cases(c, "stack"),
+    ] + bad_input_cases(c, "stack", "sweep", WINDOW_RECORDS_BAD_INPUT_EDITS)
+
+
 def friction_coefficient_cases(config: str) -> list[Case]:
     """The regression of the friction coefficient per manifold (MU_W = 1, the 6-word inverse inertia): the
     rotated boxes and the mixed shapes world, both orders, with stalls and without, other integration registers,
@@ -202,6 +227,8 @@ CASES_OF: dict[str, list[Case]] = {
         Case("stream-fp32-soft-pile-hazard-zcu102-rigid-call", "stream-fp32-soft", "pile", job_edit=rigid_call)],
     "window-fp32-l2": window_cases("window-fp32-l2"),
     "window-fp16-l4": window_cases("window-fp16-l4"),
+    "window-fp32-records": window_records_cases("window-fp32-records"),
+    "window-fp16-records": window_records_cases("window-fp16-records"),
     "stream-fp32-inertia1": inertia_cases("stream-fp32-inertia1", ("stack", "pile")),
     "stream-fp32-inertia6": inertia_cases("stream-fp32-inertia6", ("rotated", "pile")),
     "stream-fp32-mu": friction_coefficient_cases("stream-fp32-mu"),

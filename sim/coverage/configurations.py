@@ -47,7 +47,7 @@ class Configuration:
     fetch_passes: int = 0  # FETCH_PASSES: 0 as many passes per fetch as the ring holds
     body_bits: int = 128  # BODY_BITS
     inertia_words: int = sf.KERNEL_INERTIA_WORDS  # IINV_W: 1, 3 or 6
-    impulses_in_records: bool = False  # IMPULSE_STORE=records (IMPULSES_IN_RECORDS = 1): streaming kernel only
+    impulses_in_records: bool = False  # IMPULSE_STORE=records (IMPULSES_IN_RECORDS = 1)
     friction_words: int = 0  # MU_W: 1 a friction coefficient per manifold (the Bullet 2 worlds' build)
     tangents_on_chip: bool = False  # TANGENTS=chip (TANGENTS_ON_CHIP = 1): friction records without t0, t1
     soft_keep: tuple[float, float] | None = None  # SOFT_CONTACT = 1: the runs solve Box2D's soft rows with this keep
@@ -63,7 +63,8 @@ class Configuration:
                          window_ctx=DEFAULT_CTX, lanes=self.lanes, inertia_words=self.inertia_words,
                          impulses_in_records=self.impulses_in_records, friction_words=self.friction_words,
                          tangents_on_chip=self.tangents_on_chip, soft_contact=self.soft_keep is not None,
-                         body_banks=default_body_banks(self.fmt, self.impulses_in_records, bool(self.record_window)),
+                         body_banks=default_body_banks(self.fmt, self.impulses_in_records, bool(self.record_window),
+                                                       self.lanes),
                          delay_block_min_depth=default_delay_block_min_depth(self.fmt, self.impulses_in_records,
                                                                              bool(self.record_window)))
         return dataclasses.replace(kb, **dict(self.build_options))
@@ -86,7 +87,8 @@ class Configuration:
             job = dataclasses.replace(job, cons=dataclasses.replace(job.cons, friction=job.cons.friction[:, :0]))
         if self.impulses_in_records:
             job = job.impulses_travelling()
-            return job.tangents_derived() if self.tangents_on_chip else job
+            if self.tangents_on_chip:
+                return job.tangents_derived()
         if not self.record_window:
             return job
         return job.windowed(self.record_window, DEFAULT_CTX, fetch_passes or self.fetch_passes or None, self.lanes)
@@ -108,6 +110,14 @@ CONFIGURATIONS: tuple[Configuration, ...] = (
                   readme="window kernel, fp32, 2 lanes (`RECORD_WINDOW=16384 LANES=2 BODY_BITS=512`)"),
     Configuration("window-fp16-l4", FP16, record_window=DEFAULT_DEPTH, lanes=4, body_bits=512,
                   readme="window kernel, fp16, 4 lanes (`FORMAT=fp16 RECORD_WINDOW=16384 LANES=4 BODY_BITS=512`)"),
+    Configuration("window-fp32-records", FP32, record_window=8192, impulses_in_records=True, body_bits=256,
+                  readme="window kernel, fp32, one lane, impulses in the records, body velocities in 2 banks: the "
+                         "fitting fp32 headline (`make sim SCENE=thesis SCHEDULE=sweep RECORD_WINDOW=8192 "
+                         "IMPULSE_STORE=records BODY_BITS=256`)"),
+    Configuration("window-fp16-records", FP16, record_window=DEFAULT_DEPTH, impulses_in_records=True, body_bits=256,
+                  readme="the same in fp16 with a ring of 16,384 records: the fitting fp16 headline "
+                         "(`make sim SCENE=thesis SCHEDULE=sweep FORMAT=fp16 RECORD_WINDOW=16384 "
+                         "IMPULSE_STORE=records BODY_BITS=256`)"),
     Configuration("stream-fp32-records-tangents", FP32, impulses_in_records=True, tangents_on_chip=True,
                   readme="fp32 records design with the tangent basis derived on chip "
                          "(`make sim IMPULSE_STORE=records TANGENTS=chip`)"),

@@ -317,6 +317,12 @@ def edit_window_fetch(f: HarnessFiles, kb: KernelBuild) -> None:
     f.set_reg("fetch_passes", kb.window_ctx + 1)
 
 
+def edit_window_mixed_fetch(f: HarnessFiles, kb: KernelBuild) -> None:
+    """[3] window kernel with the impulses in the records: 3 passes per fetch of 4 iterations (a fetch would serve
+    contact and friction passes)."""
+    f.set_reg("fetch_passes", 3)
+
+
 def edit_window_partial_record(f: HarnessFiles, kb: KernelBuild) -> None:
     """[3] window kernel: num_manifolds (slots) not a multiple of the lanes."""
     f.set_reg("num_manifolds", f.reg("num_manifolds") - 1)
@@ -371,6 +377,15 @@ BAD_INPUT_EDITS: tuple[HarnessEdit, ...] = (
 RECORDS_BAD_INPUT_EDITS: tuple[HarnessEdit, ...] = (
     *(e for e in BAD_INPUT_EDITS if e.name not in ("tlast_early", "tlast_late")),
     HarnessEdit("tlast_moved", edit_tlast_moved),
+)
+# the window kernel with the impulses in the records, one lane: the records design's edits (its stream's beats kept)
+# and the window's argument errors, a fetch of both kinds among them
+WINDOW_RECORDS_BAD_INPUT_EDITS: tuple[HarnessEdit, ...] = (
+    *RECORDS_BAD_INPUT_EDITS,
+    HarnessEdit("window_lag", edit_window_lag),
+    HarnessEdit("window_ring", edit_window_ring),
+    HarnessEdit("window_fetch", edit_window_fetch),
+    HarnessEdit("window_mixed_fetch", edit_window_mixed_fetch),
 )
 # the window kernel's own bad input (its arguments, its lane plan), beside BAD_INPUT_EDITS on its builds
 WINDOW_BAD_INPUT_EDITS: tuple[HarnessEdit, ...] = (
