@@ -5,8 +5,9 @@ within the fetch, and the last pass of each fetch writes them to ``m_axis_imp``,
 writes to the DDR impulse buffer the next fetch's records are read with).
 
 Two Verilator builds, each with a ring of 1,024 records and the zcu102 preset's 512-bit beats: fp32 with one lane
-and the body velocities in two banks (``pgs_kernel_e8m23_c512_w1024x8_ir_bk2``, the build of ``make sim
-RECORD_WINDOW=... IMPULSE_STORE=records``), and fp16 with two lanes (``..._e5m10_c512_w1024x8_l2_ir``).
+and the body velocities in eight banks, its long delay lines marked for block RAM
+(``pgs_kernel_e8m23_c512_w1024x8_ir_bk8_dl129``, the build of ``make sim RECORD_WINDOW=... IMPULSE_STORE=records``),
+and fp16 with two lanes (``..._e5m10_c512_w1024x8_l2_ir``).
 ``sim.kernel_step`` compares bit for bit the trace (put back into pass order), the body-out stream and the
 impulse-out stream (one record per window record and fetch, TLAST per fetch) with the golden model of the same step:
 
@@ -19,7 +20,8 @@ impulse-out stream (one record per window record and fetch, TLAST per fetch) wit
   read-after-write turnaround, the banks' busy rule): with deterministic streams (gap 0, backpressure 0) every retire
   cycle, the stall and bubble counters, the rejected and impulse-out counts and the total cycles are the model's, on
   both builds (the pile with 4, 2 and 1 passes per fetch, the stack, a warm start, larger piles: 971 manifolds, and
-  1,582, more than the ring holds; manifolds that share no body, whose next fetch waits for the turnaround).
+  1,582, more than the ring holds; manifolds that share no body, whose next fetch waits for the turnaround; every
+  body moved into bank 0, where each retire's writes keep the offered record's reads waiting).
 """
 
 from __future__ import annotations
@@ -44,6 +46,8 @@ from sim.kernel_step import KernelResult, run_kernel_step
 
 from cocotb_tests.test_kernel_impulses_in_records import warm_start
 from cocotb_tests.test_kernel_window import BIG_PILE, ROOM_PILE, assert_cycles_match
+from models.body_banks import WINDOW_BANKS
+from models.tests.test_body_banks import spread_bodies
 from models.tests.test_impulses_in_records import independent_stack_job
 
 DEPTH = 1024
@@ -57,10 +61,13 @@ def _seed() -> int:
 
 def window_records_job(scene: str, fmt: NumberFormat = FP32, lanes: int = 1, fetch_passes: int | None = None,
                        interleaved: bool = False, warm: bool = False,
-                       scene_params: dict[str, int] | None = None) -> KernelJob:
+                       scene_params: dict[str, int] | None = None, one_bank: bool = False) -> KernelJob:
+    """``one_bank``: every body moved into bank 0 (``spread_bodies``): the busy-bank rule on every retire."""
     frame = scenes.load_or_capture(scene, **(KERNEL_TEST_SCENES[scene] if scene_params is None else scene_params))
     job = KernelJob.from_frame(frame, fmt, SolverParams(4, interleaved=interleaved), "hazard",
                                default_window(fmt, PRESET.stream_bits)).impulses_travelling()
+    if one_bank:
+        job = spread_bodies(job, WINDOW_BANKS)
     if warm:
         job = job.impulses_travelling(warm_start(job, _seed()))
     return job.windowed(DEPTH, fetch_passes=fetch_passes, lanes=lanes)
@@ -82,7 +89,7 @@ def run(job: KernelJob, tmp: Path, label: str) -> KernelResult:
 def test_bit_exact_one_lane_banked(scene: str, fetch: int | None, tmp_path: Path) -> None:
     job = window_records_job(scene, fetch_passes=fetch)
     plan = job.record_window
-    assert plan is not None and job.body_banks == 2 and plan.fetch_passes == (fetch or 4)
+    assert plan is not None and job.body_banks == WINDOW_BANKS and plan.fetch_passes == (fetch or 4)
     res = run(job, tmp_path, f"{scene}/fp32/window records/{plan.fetch_passes} passes per fetch")
     assert res.bit_exact, res.comparison.first_mismatch
     # one impulse-out record per slot and fetch: the last pass of each fetch writes, no other
@@ -135,6 +142,7 @@ CYCLE_CASES: dict[str, Callable[[], KernelJob]] = {
     "fp32-pile-fetch2": lambda: window_records_job("pile", fetch_passes=2),
     "fp32-pile-fetch1": lambda: window_records_job("pile", fetch_passes=1),
     "fp32-stack-fetch4": lambda: window_records_job("stack"),
+    "fp32-pile-one-bank": lambda: window_records_job("pile", one_bank=True),
     "fp32-pile-warm": lambda: window_records_job("pile", warm=True),
     "fp32-more-records-than-the-ring": lambda: window_records_job("pile", fetch_passes=1, scene_params=ROOM_PILE),
     "fp32-big-fetch4": lambda: window_records_job("pile", scene_params=BIG_PILE),

@@ -15,17 +15,24 @@ from .number_format import NumberFormat
 
 PORTS_PER_BANK = 2  # a true dual-port RAMB36E2 / URAM
 RECORDS_BANKS = 2  # the records design's banks (docs/resources.md: cycles and LUTs per bank count)
+# the one-lane window kernel's banks with the impulses in the records: it issues a manifold-pass every cycle, so a
+# bank's two ports meet a retire's two writes and the offered record's two reads each cycle; on the thesis frame
+# (fp32, ring 8,192, the cycle model) 2 banks stall 0.65 cycles per manifold-pass, 4 banks 0.32, 8 banks 0.0003
+# (docs/results.md)
+WINDOW_BANKS = 8
 
 
 def default_body_banks(fmt: NumberFormat, impulses_in_records: bool, window: bool, lanes: int = 1) -> int:
     """The banks of the build that runs a step: the streaming kernel with the impulses in the records in a format of
     32 bits or more banks its velocities (its live-value table's four copies overflow the ZCU102's block RAM there:
     134% of it on the thesis frame in fp32), and so does the one-lane window kernel with the impulses in the records
-    in every format (beside its ring, the four copies overflow the block RAM on the thesis frame); every other build
-    keeps the multiport memory (0)."""
+    in every format (beside its ring, the four copies overflow the block RAM on the thesis frame) in
+    :data:`WINDOW_BANKS` banks; every other build keeps the multiport memory (0)."""
     if not impulses_in_records or lanes > 1:
         return 0
-    return RECORDS_BANKS if window or fmt.width >= 32 else 0
+    if window:
+        return WINDOW_BANKS
+    return RECORDS_BANKS if fmt.width >= 32 else 0
 
 
 def check_banks(banks: int) -> int:

@@ -374,9 +374,12 @@ def window_memories(cfg: KernelConfig) -> list[MemoryArray]:
     if not cfg.impulses_resident:
         out.append(MemoryArray(f"impulse ring ({IMPULSE_OUT_WORDS} words per lane)", cfg.window,
                                IMPULSE_OUT_WORDS * rec, cfg.lanes))
-    # the rejected-slot flags, read at the offered pass's slot in the cycle it is offered (pgs_sequencer)
-    out.append(MemoryArray("rejected-slot flags (a bit per slot, LUT RAM)", math.ceil(cfg.max_manifolds / cfg.lanes), 1,
-                           cfg.lanes, distributed=True))
+    # the rejected-slot flags (pgs_sequencer): with the impulses in the records read as each record is written into
+    # the ring (block RAM), else at the offered pass's slot in the cycle it is offered (LUT RAM)
+    slots = math.ceil(cfg.max_manifolds / cfg.lanes)
+    out.append(MemoryArray("rejected-slot flags (a bit per slot, block RAM)", slots, 1, cfg.lanes)
+               if not cfg.impulses_resident else
+               MemoryArray("rejected-slot flags (a bit per slot, LUT RAM)", slots, 1, cfg.lanes, distributed=True))
     return out
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from models import cycle_model, scenes
-from models.body_banks import RECORDS_BANKS, busy, check_banks, default_body_banks
+from models.body_banks import WINDOW_BANKS, RECORDS_BANKS, busy, check_banks, default_body_banks
 from models.constraints import BodyTable
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
@@ -58,7 +58,7 @@ def test_the_records_design_in_fp32_uses_the_banks() -> None:
     assert default_body_banks(FP16, True, False) == 0  # its live-value table fits: unchanged
     assert default_body_banks(FP32, False, False) == 0 and default_body_banks(FP32, False, True) == 0
     # the one-lane window kernel with the impulses in the records banks them in every format; with lanes it cannot
-    assert default_body_banks(FP16, True, True) == default_body_banks(FP32, True, True) == RECORDS_BANKS
+    assert default_body_banks(FP16, True, True) == default_body_banks(FP32, True, True) == WINDOW_BANKS == 8
     assert default_body_banks(FP16, True, True, lanes=2) == 0
     assert pile_job().body_banks == RECORDS_BANKS and pile_job(FP16).body_banks == 0
 

@@ -81,10 +81,11 @@ def test_each_configuration_has_a_build_and_runs() -> None:
         assert get_preset(case.dma).stream_bits == case.configuration.build().cons_bits, case.label
     banks = {c.name: c.build().body_banks for c in configurations.CONFIGURATIONS if c.impulses_in_records}
     assert banks == {"stream-fp16-records": 0, "stream-fp16-records-b256": 0, "stream-fp32-records": 2, "stream-fp32-records-tangents": 2,
-                     "stream-fp32-records-tangents-b256": 2, "stream-fp32-soft": 2, "window-fp32-records": 2,
-                     "window-fp16-records": 2}  # the builds make sim runs
+                     "stream-fp32-records-tangents-b256": 2, "stream-fp32-soft": 2, "window-fp32-records": 8,
+                     "window-fp16-records": 8}  # the builds make sim runs
     delay = {c.name: c.build().delay_block_min_depth for c in configurations.CONFIGURATIONS}
-    assert {n for n, d in delay.items() if d} == {n for n in banks if banks[n] and n.startswith("stream")}  # fp32
+    assert {n: d for n, d in delay.items() if d} == {**{n: 65 for n in banks if banks[n] == 2},
+                                                     "window-fp32-records": 129}  # the fp32 records designs
     window = configurations.BY_NAME["window-fp16-l4"]
     assert (window.build().window, window.build().lanes, window.build().body_in_bits) == (16384, 4, 512)
     fp16_shared = [s.label for s in [cases.REGISTER_CASE, *cases.FP_OPERATOR_CASES] if s.counts_for(window)]
