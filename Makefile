@@ -120,7 +120,7 @@ stability: $(STAMP)
 sweep: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.sweep --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --formats $(FORMATS) --iters $(SWEEP_ITERS) --dma $(DMA) --seed $(SEED) \
 		--record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) --lanes $(LANES) --body-bits $(BODY_BITS) \
-		--impulse-stores $(IMPULSE_STORES) --mode $(MODE) --executor $(or $(EXECUTOR),local:1)
+		--impulse-stores $(IMPULSE_STORES) --schedule $(SCHEDULE) --mode $(MODE) --executor $(or $(EXECUTOR),local:1)
 
 # every kernel configuration of sim/coverage/configurations.py, each on its own (COVERAGE_CONFIGS=a,b: some)
 coverage: $(STAMP)

@@ -406,8 +406,6 @@ class StreamLayout:
         records the longer of the contact and friction records with their impulses (a fetch streams one kind)."""
         if self.record_bits is not None:
             raise ValueError("mixed storage (record_bits) is a layout of the streaming kernel, not the window's")
-        if self.tangents_on_chip:
-            raise ValueError("the window kernel streams the friction tangents (no tangents_on_chip)")
         if self.impulses_in_records:
             return max(self.contact_bits, self.friction_bits)
         return HEADER_BITS + (WINDOW_WORDS + self.friction_words) * self.word_bits

@@ -1,8 +1,9 @@
 """Which built kernel configurations fit a platform, and how fast the cycle model says they are, on one scene.
 
 For every format, the streaming kernel with the impulses on chip and with them in the records (``make sim
-IMPULSE_STORE=``), and the window kernel with a ring of ``--ring`` records and 1, 2 or 4 lanes (``RECORD_WINDOW=
-LANES=``): the cycle model's cycles of the ``--iters``-iteration step at the DMA preset (``models/cycle_model.py``,
+IMPULSE_STORE=``) in the hazard order, and the window kernel with a ring of ``--ring`` records, 1, 2 or 4 lanes
+(``RECORD_WINDOW= LANES=``) and, on one lane, with the impulses in the records too, in the sweep order (its band
+width sets the ring's trailing passes): the cycle model's cycles of the ``--iters``-iteration step at the DMA preset (``models/cycle_model.py``,
 the window kernel's ``models/window_cycle_model.py``), and the resource model's shares of the preset's platform with the verdict (``sim/resource_model.py``, the configuration
 as built: the figures ``make sim`` prints). No golden model runs: seconds per configuration.
 
@@ -29,13 +30,16 @@ from sim.run import hardware_format, load_frame
 LANES = (1, 2, 4)
 
 
-def configurations(base: KernelJob, ring: int, window: bool) -> Iterator[tuple[str, KernelJob]]:
-    """The built designs of ``base``'s step: the two streaming ones, then the window kernel's lane counts."""
+def configurations(base: KernelJob, swept: KernelJob, ring: int) -> Iterator[tuple[str, KernelJob]]:
+    """The built designs of ``base``'s step: the two streaming ones, then on ``swept`` (the same step in the sweep
+    order; ``ring`` > 0) the window kernel's lane counts and its one-lane design with the impulses in the
+    records."""
     yield "streaming, impulses on chip", base
     yield "streaming, impulses in the records", base.impulses_travelling()
-    if window:
+    if ring:
         for lanes in LANES:
-            yield f"window {ring:,} x{lanes}", base.windowed(ring, lanes=lanes)
+            yield f"window {ring:,} x{lanes}", swept.windowed(ring, lanes=lanes)
+        yield f"window {ring:,} x1, impulses in the records", swept.impulses_travelling().windowed(ring)
 
 
 def table(args: argparse.Namespace) -> list[str]:
@@ -46,16 +50,18 @@ def table(args: argparse.Namespace) -> list[str]:
     cons = setup_constraints(frame, bodies)
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
     lines = [f"{label}, {args.dma}, {args.iters} iterations ({frame.num_bodies:,} bodies, {frame.num_manifolds:,} "
-             "manifolds)", "",
+             f"manifolds), {args.body_bits}-bit body streams", "",
              "| design | cycles | cycles per manifold-pass | " + " | ".join(KEYS) + " | verdict |",
              "|---|---|---|" + "---|" * len(KEYS) + "---|"]
     for name in (f.strip() for f in args.formats.split(",") if f.strip()):
         fmt = hardware_format(name)
-        schedule = make_schedule("hazard", cons, bodies.dynamic, default_window(fmt, preset.stream_bits))
-        base = KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, SolverParams(args.iters), ip)
-        for design, job in configurations(base, args.ring, args.ring > 0):
-            v = kernel_fit(job, args.dma)
-            cycles = cycle_model.predict_job(job, preset).cycles
+        w = default_window(fmt, preset.stream_bits)
+        base, swept = (KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt),
+                                 make_schedule(kind, cons, bodies.dynamic, w), SolverParams(args.iters), ip)
+                       for kind in ("hazard", "sweep"))
+        for design, job in configurations(base, swept, args.ring):
+            v = kernel_fit(job, args.dma, args.body_bits)
+            cycles = cycle_model.predict_job(job, preset, body_bits=args.body_bits).cycles
             speed = f"{cycles:,} | {cycles / job.manifold_passes:.3f}"
             if isinstance(v, FitVerdict):
                 shares = " | ".join(f"{100 * v.shares[k]:.1f}%" for k in KEYS)
@@ -78,6 +84,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--formats", default="fp32,fp16,bf16")
     ap.add_argument("--iters", type=int, default=4)
     ap.add_argument("--ring", type=int, default=16384, help="the window kernel's ring (0: no window kernel rows)")
+    ap.add_argument("--body-bits", type=int, default=128, help="the body streams' beat (make sim BODY_BITS)")
     args = ap.parse_args(argv)
     try:
         if args.iters < 1:

@@ -409,7 +409,8 @@ def window_facts(job: KernelJob, preset: DmaPreset) -> WindowFacts:
     bud = None
     if preset.name in ob.PLATFORMS:
         bud = ob.budget(ob.get_platform(preset.name), job.fmt, job.bodies.num_bodies, len(job.slots),
-                        plan.lag * plan.lanes, trailing=max(plan.fetch_passes - 1, 1))
+                        plan.lag * plan.lanes, trailing=max(plan.fetch_passes - 1, 1),
+                        impulses_resident=not job.impulses_in_records)
     return WindowFacts(plan, plan.fetches(job.params), bud)
 
 

@@ -83,7 +83,7 @@ from models.integrator import IntegrationParams
 from models.number_format import FLOAT64
 from models.kernel_job import KernelJob
 from models.scenes.frame_cache import FRAME_CACHE_DIR
-from models.schedule import make_schedule
+from models.schedule import SCHEDULE_KINDS, make_schedule
 from models.solution_error import SolutionError, solution_error
 from sim import exact_error
 from sim.analyze import auto_format
@@ -135,6 +135,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--impulse-stores", default="",
                     help="comma-separated designs of the streaming kernel to sweep, each a point of its own: onchip "
                          "(the impulse RAM), records (impulses travelling with the records); default: --impulse-store")
+    ap.add_argument("--schedule", default="hazard", choices=SCHEDULE_KINDS,
+                    help="the manifold order of every point (the window kernel's rows: sweep, a banded order)")
     ap.add_argument("--out", default="build/sweep", help="parent directory of the sweep directory")
     ap.add_argument("--replot", default="",
                     help="a finished sweep's directory: draw its sweep.png, pareto.png and pareto.txt again from its "
@@ -175,7 +177,8 @@ class SweepPoint:
     lanes: int
     body_bits: int
     sources: str  # sim.artefacts.source_digest() when planned
-    impulse_store: str = "onchip"  # the streaming kernel's design: "onchip" or "records"
+    impulse_store: str = "onchip"  # the kernel's design: "onchip" or "records"
+    schedule: str = "hazard"  # the manifold order (models.schedule; the window kernel's rows: sweep)
     # every iteration count of the sweep: the worker solves them in one ladder (sim/iteration_ladder.py) and keeps
     # it for the other points of the format; the rows do not depend on it (bit-identical), so the key leaves it out
     ladder: tuple[int, ...] = dataclasses.field(default=(), compare=False)
@@ -189,6 +192,8 @@ class SweepPoint:
         desc = {k: v for k, v in dataclasses.asdict(self).items() if k not in ("exact", "ladder", "rank")}
         if self.impulse_store == "onchip":  # the key of a sweep of one design is what it was before designs
             desc.pop("impulse_store")
+        if self.schedule == "hazard":  # and of the hazard order what it was before schedules
+            desc.pop("schedule")
         digest = hashlib.sha256(json.dumps(desc, sort_keys=True).encode()).hexdigest()[:12]
         design = "" if self.impulse_store == "onchip" else f"-{self.impulse_store}"
         return f"{self.fmt}{design}-it{self.iterations}-{self.mode}-{digest}"
@@ -205,7 +210,8 @@ class SweepPoint:
         return (f".venv/bin/python -m sim.sweep {shlex.join(self.source)} --formats {self.fmt} --iters {self.iterations}"
                 f" --mode {self.mode} --dma {self.dma} --exact-budget {self.exact_budget:g}"
                 f" --record-window {self.record_window} --fetch-passes {self.fetch_passes} --lanes {self.lanes}"
-                f" --body-bits {self.body_bits} --impulse-stores {self.impulse_store} --out {ALONE_DIR}")
+                f" --body-bits {self.body_bits} --impulse-stores {self.impulse_store} --schedule {self.schedule}"
+                f" --out {ALONE_DIR}")
 
     def run(self) -> dict[str, Any]:
         use_kernel_store(KernelStore(kernel_store_root()))
@@ -221,10 +227,10 @@ def _frame_setup(digest: str) -> tuple[BodyTable, ConstraintSet, IntegrationPara
 
 
 @lru_cache(maxsize=8)
-def _schedule(digest: str, fmt_name: str, dma: str) -> np.ndarray:
+def _schedule(digest: str, fmt_name: str, dma: str, kind: str = "hazard") -> np.ndarray:
     bodies, cons, _ = _frame_setup(digest)
-    return make_schedule("hazard", cons, bodies.dynamic, default_window(hardware_format(fmt_name),
-                                                                        get_preset(dma).stream_bits))
+    return make_schedule(kind, cons, bodies.dynamic, default_window(hardware_format(fmt_name),
+                                                                    get_preset(dma).stream_bits))
 
 
 # the golden model's ladders this process holds: (frame, schedule, arithmetic, counts) -> final step per count
@@ -236,7 +242,7 @@ def golden_finals(point: "SweepPoint", arithmetic: str) -> BodyTable:
     """The golden model's integrated step of ``point`` in ``arithmetic`` (the point's format, or "float64" on the
     unrounded frame) over the point's schedule, from the ladder of all the sweep's counts (computed once, kept)."""
     bodies, cons, ip = _frame_setup(point.frame)
-    schedule = _schedule(point.frame, point.fmt, point.dma)
+    schedule = _schedule(point.frame, point.fmt, point.dma, point.schedule)
     counts = tuple(sorted({*point.ladder, point.iterations}))
     key = (point.frame, hashlib.sha256(schedule.tobytes()).hexdigest(), arithmetic, counts)
     if key not in _LADDERS:
@@ -261,14 +267,14 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
     preset = get_preset(point.dma)
     fmt = hardware_format(point.fmt)
     bodies, cons, ip = _frame_setup(point.frame)
-    schedule = _schedule(point.frame, point.fmt, point.dma)
+    schedule = _schedule(point.frame, point.fmt, point.dma, point.schedule)
     exact = point.exact if point.exact is not None else frame_exact(point.frame, FRAME_CACHE_DIR, point.exact_budget)
     dyn = bodies.dynamic
     params = SolverParams(iterations=point.iterations)
     job = kernel_job(KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip), point)
     kb = KernelBuild.for_job(job, preset, body_bits=point.body_bits)
     if point.mode == "model":  # the cycle model's cycles; the golden model's numbers (the kernel's, bit for bit)
-        pred = cycle_model.predict_job(job, preset)
+        pred = cycle_model.predict_job(job, preset, body_bits=point.body_bits)
         cycles, stalls, bubbles, differing = pred.cycles, pred.stalls, pred.bubbles, ""
         streamed = model_stream_bytes(job, kb, run_dir)
         ours = golden_finals(point, point.fmt)
@@ -364,11 +370,12 @@ def plan(args: argparse.Namespace) -> tuple[list[SweepPoint], str, dict[str, byt
     ladder = tuple(sorted(set(iter_list)))
     points = [SweepPoint(digest, source, fmt.name, how, iters, args.mode, args.dma, args.seed, args.exact_budget,
                          args.record_window, args.fetch_passes, args.lanes, args.body_bits, source_digest(), design,
-                         ladder, len(formats) - rank)
+                         args.schedule, ladder, len(formats) - rank)
               for rank, (fmt, how) in enumerate(formats) for design in designs for iters in iter_list]
     mode = "-model" if args.mode == "model" else ""
     kernel = kernel_label(argparse.Namespace(**{**vars(args), "impulse_store": "onchip"}))  # designs: below
-    return points, f"{label}-{args.dma}{kernel}{designs_label(designs)}{mode}", {digest: data}
+    order = "" if args.schedule == "hazard" else f"-{args.schedule}"
+    return points, f"{label}-{args.dma}{order}{kernel}{designs_label(designs)}{mode}", {digest: data}
 
 
 def impulse_stores(args: argparse.Namespace) -> tuple[str, ...]:
@@ -378,9 +385,6 @@ def impulse_stores(args: argparse.Namespace) -> tuple[str, ...]:
     bad = [d for d in designs if d not in IMPULSE_STORES]
     if not designs or bad:
         raise ValueError(f"IMPULSE_STORES must be a comma-separated list of {', '.join(IMPULSE_STORES)}, got {text!r}")
-    if args.record_window and designs != ("onchip",):
-        raise ValueError("IMPULSE_STORES=records is a design of the streaming kernel (no RECORD_WINDOW): the window "
-                         "kernel holds its impulses on chip")
     return designs
 
 

@@ -7,6 +7,7 @@ by how much it beats the thesis's designs."""
 from __future__ import annotations
 
 import dataclasses
+import json
 from pathlib import Path
 from typing import Any
 
@@ -105,11 +106,18 @@ def test_bad_designs_are_refused(frame_file: Path, stores: str, message: str) ->
         _plan(frame_file, "--formats", "fp32", "--iters", "1", "--impulse-stores", stores)
 
 
-def test_records_design_needs_the_streaming_kernel(frame_file: Path) -> None:
+def test_window_designs_and_the_schedule(frame_file: Path) -> None:
+    """The window kernel's two designs (impulses on chip, in the records) in one sweep, in the sweep order: each a
+    point, the order in the sweep's name and in the points' keys (the hazard order keeps the keys it had)."""
     args = sim_sweep.parse_args(["--frame", str(frame_file), "--formats", "fp32", "--iters", "1",
-                                 "--record-window", "64", "--impulse-stores", "onchip,records"])
-    with pytest.raises(ValueError, match="streaming kernel"):
-        sim_sweep.plan(args)
+                                 "--record-window", "64", "--impulse-stores", "onchip,records", "--schedule", "sweep"])
+    points, name, _ = sim_sweep.plan(args)
+    assert [p.impulse_store for p in points] == ["onchip", "records"] and {p.schedule for p in points} == {"sweep"}
+    assert "-sweep-ring64" in name and "--schedule sweep" in points[0].command
+    hazard = dataclasses.replace(points[0], schedule="hazard")
+    assert hazard.key != points[0].key and "schedule" not in json.dumps(dataclasses.asdict(hazard)["source"])
+    with pytest.raises(SystemExit):
+        sim_sweep.parse_args(["--frame", str(frame_file), "--schedule", "spiral"])
 
 
 def _row(fmt: str, design: str, iterations: int, x: float, dv: float, fits: bool) -> dict[str, Any]:
