@@ -299,7 +299,7 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
             "bytes_streamed": streamed, "differing_bits": differing,
             **exact_columns(e_exact), "max_dv_vs_float64_same_iters": e_same.max_dv,
             "max_dv_rounding": e_rounding.max_dv, "max_dw_rounding": e_rounding.max_dw,
-            **float64_columns(e_iteration), **fit_columns(job, point.dma)}
+            **float64_columns(e_iteration), **fit_columns(job, point.dma, point.body_bits)}
 
 
 PER_PASS_STREAMS = ("constraints", "impulses_out")  # the streams write_inputs sizes that each pass streams again
@@ -310,16 +310,18 @@ def model_stream_bytes(job: KernelJob, kb: KernelBuild, run_dir: Path) -> int:
     (``write_inputs``): each iteration streams the same contact and friction records (and impulse writes) once
     more (the window kernel: each fetch the same window records), the body streams once per step; ~1/N of writing
     the N-iteration files."""
-    one = dataclasses.replace(job, params=dataclasses.replace(job.params, iterations=1))
-    sizes = write_inputs(run_dir, one, kb)
     plan = job.record_window
-    per, of_one = (plan.fetches(job.params), plan.fetches(one.params)) if plan else (job.params.iterations, 1)
+    one = dataclasses.replace(job, params=dataclasses.replace(job.params, iterations=1),
+                              record_window=plan and dataclasses.replace(plan, fetch_passes=1))  # a fetch per pass
+    sizes = write_inputs(run_dir, one, kb)
+    per, of_one = ((plan.fetches(job.params), one.record_window.fetches(one.params)) if plan and one.record_window
+                   else (job.params.iterations, 1))
     return sum(v // of_one * per if k in PER_PASS_STREAMS else v for k, v in sizes.items())
 
 
-def fit_columns(job: KernelJob, dma: str) -> dict[str, Any]:
+def fit_columns(job: KernelJob, dma: str, body_bits: int = 128) -> dict[str, Any]:
     """Whether the point's kernel fits its DMA preset's platform (sim.resource_model; "" without an estimate)."""
-    v = kernel_fit(job, dma)
+    v = kernel_fit(job, dma, body_bits)
     if isinstance(v, FitVerdict):
         return {"fits": v.fits, "fit": f"{v.headline()} ({v.shares_text()})"}
     return {"fits": "", "fit": short_verdict(v)}

@@ -69,13 +69,14 @@ def test_two_designs_share_the_solve_and_differ_in_cycles(frame_file: Path, tmp_
     assert sim_sweep.main(["--replot", str(tmp_path / "nothing")]) == 2
 
 
-@pytest.mark.parametrize("design", ["onchip", "records", "window-0", "window-4", "window-1"])
+@pytest.mark.parametrize("design", ["onchip", "records", "window-0", "window-4", "window-1", "window-records-5",
+                                    "window-records-1"])
 def test_stream_bytes_from_one_iteration(frame_file: Path, tmp_path: Path, design: str) -> None:
     frame = scenes.load_or_capture("pile", **KERNEL_TEST_SCENES["pile"])
     job = KernelJob.from_frame(frame, FP16, SolverParams(5))
-    job = job.impulses_travelling() if design == "records" else job
+    job = job.impulses_travelling() if "records" in design else job
     if design.startswith("window"):  # each fetch streams the window records again: 10 passes in 2, 3 or 10 fetches
-        job = job.windowed(1024, fetch_passes=int(design[7:]) or None, lanes=2)
+        job = job.windowed(1024, fetch_passes=int(design.rsplit("-", 1)[1]) or None, lanes=2)
     kb = KernelBuild.for_job(job, get_preset("zcu102"))
     assert sim_sweep.model_stream_bytes(job, kb, tmp_path / "one") == sum(write_inputs(tmp_path / "all", job,
                                                                                       kb).values())
