@@ -24,7 +24,7 @@
 //    take ~1.5 k BRAM36 / 384 URAM for the full 65536 bodies (the thesis's 38,880 bodies fit a 48 k-entry
 //    variant); PORTS = 4 needs 16 banks (URAM on an Alveo-class part);
 //  * the dynamic and bad flags in distributed RAM (2 bits x MAX_BODIES, asynchronous read).
-// BODY_BANKS > 0 (PORTS = 2 only) replaces the behavioural velocity part by pgs_body_vel_banks: one copy of the
+// BODY_BANKS > 0 replaces the behavioural velocity part by pgs_body_vel_banks (PORTS reads enabled by rd_en): one copy of the
 // velocities in BODY_BANKS true dual-port banks (body k in bank k mod BODY_BANKS); `busy` is high in a cycle in
 // which a bank is asked for more than its two ports (the writes served first, a read then goes unserved): the
 // sequencer issues no record then. BODY_BANKS = 0: `busy` is always low.
@@ -36,12 +36,13 @@ module pgs_body_ram #(
     parameter int MAX_BODIES = 65536,
     parameter int PORTS      = 2,
     parameter int IINV_W     = 3,
-    parameter int BODY_BANKS = 0,      // 0: the velocities as one multiport array; > 0: banked (PORTS = 2)
+    parameter int BODY_BANKS = 0,      // 0: the velocities as one multiport array; > 0: banked
     localparam int W         = 1 + EXP_BITS + MAN_BITS,
     localparam int REC_W     = (14 + IINV_W) * W,
     localparam int IDX_W     = $clog2(MAX_BODIES)
 ) (
     input  wire                    clk,
+    input  wire  [PORTS-1:0]       rd_en,     // BODY_BANKS > 0: the reads the banks must serve this cycle
     input  wire  [PORTS*IDX_W-1:0] rd_addr,
     output logic [PORTS*REC_W-1:0] rd_data,
     output logic                   rd0_bad,
@@ -89,12 +90,9 @@ module pgs_body_ram #(
     end
     generate
         if (BODY_BANKS > 0) begin : g_banked
-            logic [2*VEL_W-1:0] rd_vel;
-            if (PORTS != 2) begin : g_bad_ports
-                $error("pgs_body_ram: BODY_BANKS > 0 needs PORTS = 2 (one lane)");
-            end
-            pgs_body_vel_banks #(.VEL_W(VEL_W), .MAX_BODIES(MAX_BODIES), .BANKS(BODY_BANKS)) u_vel (
-                .clk, .rd_addr, .rd_data(rd_vel), .wr_en, .wr_addr, .wr_data(wr_vel), .busy);
+            logic [PORTS*VEL_W-1:0] rd_vel;
+            pgs_body_vel_banks #(.VEL_W(VEL_W), .MAX_BODIES(MAX_BODIES), .BANKS(BODY_BANKS), .PORTS(PORTS)) u_vel (
+                .clk, .rd_en, .rd_addr, .rd_data(rd_vel), .wr_en, .wr_addr, .wr_data(wr_vel), .busy);
             always_comb begin
                 for (int k = 0; k < PORTS; k++) q_vel[k] = rd_vel[k*VEL_W +: VEL_W];
             end
@@ -107,6 +105,7 @@ module pgs_body_ram #(
                 end
             end
             assign busy = 1'b0;
+            wire unused_rd_en = ^rd_en;   // every read is served
         end
     endgenerate
     always_comb begin

@@ -3,33 +3,37 @@
 // ports a board build's RAMB36E2 / URAM has. One copy of the table in all (the live-value table of
 // pgs_body_ram's behavioural model needs PORTS x PORTS).
 //
-// Accesses per cycle: up to two writes (wr_en[k], wr_addr[k], wr_data[k]: the retiring manifold's dynamic
-// bodies, or a load) and two reads (rd_addr[k], always: the offered record's bodies A and B). A bank serves
-// its first two accesses in the order write 0, write 1, read 0, read 1; `busy` is high when some bank is asked
-// for more than two, i.e. a read goes unserved (the writes always are: no bank is written more than twice).
-// The sequencer does not issue a record in a busy cycle (models/body_banks.py, the same rule for the cycle
-// model). rd_data[k] one cycle after rd_addr[k], read-before-write as pgs_body_ram (the hazard CAM never lets a
-// body in flight be read), meaningful only where `busy` was low.
+// Accesses per cycle: up to PORTS writes (wr_en[k], wr_addr[k], wr_data[k]: the dynamic bodies of the retiring
+// manifold, or of its lanes' manifolds, or a load) and up to PORTS reads (rd_en[k], rd_addr[k]: bodies A and B of
+// the offered record's issuing lanes, or the integration's body); PORTS = 2 x lanes. A bank serves its first two
+// accesses in the order write 0 .. write PORTS-1, read 0 .. read PORTS-1; `busy` is high when some bank is asked
+// for more than two, i.e. a read goes unserved. The writes always are served: a retire writes the dynamic bodies
+// its issue read, and the sequencer issues no record whose lanes read some bank more than twice (one lane reads
+// two bodies). The sequencer does not issue a record in a busy cycle (models/body_banks.py, the same rule for the
+// cycle model). rd_data[k] one cycle after rd_addr[k], read-before-write as pgs_body_ram (the hazard CAM never
+// lets a body in flight be read), meaningful only where `busy` was low and rd_en[k] high.
 `default_nettype none
 
 module pgs_body_vel_banks #(
     parameter int VEL_W      = 192,
     parameter int MAX_BODIES = 65536,
     parameter int BANKS      = 4,      // a power of two dividing MAX_BODIES
+    parameter int PORTS      = 2,      // reads and writes a cycle: 2 x the sequencer's lanes
     localparam int IDX_W     = $clog2(MAX_BODIES),
     localparam int DEPTH     = MAX_BODIES / BANKS,
     localparam int ROW_W     = DEPTH > 1 ? $clog2(DEPTH) : 1
 ) (
-    input  wire                  clk,
-    input  wire  [2*IDX_W-1:0]   rd_addr,
-    output logic [2*VEL_W-1:0]   rd_data,
-    input  wire  [1:0]           wr_en,
-    input  wire  [2*IDX_W-1:0]   wr_addr,
-    input  wire  [2*VEL_W-1:0]   wr_data,
-    output logic                 busy
+    input  wire                    clk,
+    input  wire  [PORTS-1:0]       rd_en,
+    input  wire  [PORTS*IDX_W-1:0] rd_addr,
+    output logic [PORTS*VEL_W-1:0] rd_data,
+    input  wire  [PORTS-1:0]       wr_en,
+    input  wire  [PORTS*IDX_W-1:0] wr_addr,
+    input  wire  [PORTS*VEL_W-1:0] wr_data,
+    output logic                   busy
 );
-    localparam int N_ACC = 4;   // accesses 0, 1: the writes; 2, 3: the reads
-    localparam int SEL_W = 2;
+    localparam int N_ACC = 2 * PORTS;   // accesses 0 .. PORTS-1: the writes; PORTS .. 2 PORTS-1: the reads
+    localparam int SEL_W = $clog2(N_ACC);
 
     function automatic int bank_of(input logic [IDX_W-1:0] a);
         return int'(a) % BANKS;
@@ -41,11 +45,11 @@ module pgs_body_vel_banks #(
     logic [IDX_W-1:0] acc_addr [N_ACC];
     logic             acc_on   [N_ACC];
     always_comb begin
-        for (int j = 0; j < 2; j++) begin
-            acc_addr[j]     = wr_addr[j*IDX_W +: IDX_W];
-            acc_on[j]       = wr_en[j];
-            acc_addr[2 + j] = rd_addr[j*IDX_W +: IDX_W];
-            acc_on[2 + j]   = 1'b1;
+        for (int j = 0; j < PORTS; j++) begin
+            acc_addr[j]         = wr_addr[j*IDX_W +: IDX_W];
+            acc_on[j]           = wr_en[j];
+            acc_addr[PORTS + j] = rd_addr[j*IDX_W +: IDX_W];
+            acc_on[PORTS + j]   = rd_en[j];
         end
     end
 
@@ -86,9 +90,9 @@ module pgs_body_vel_banks #(
         logic [VEL_W-1:0] din [2];
         always_comb begin
             for (int p = 0; p < 2; p++) begin
-                we[p]  = p_on[b][p] && !p_sel[b][p][1];
+                we[p]  = p_on[b][p] && int'(p_sel[b][p]) < PORTS;
                 row[p] = row_of(acc_addr[p_sel[b][p]]);
-                din[p] = wr_data[p_sel[b][p][0]*VEL_W +: VEL_W];
+                din[p] = wr_data[(int'(p_sel[b][p]) % PORTS)*VEL_W +: VEL_W];
             end
         end
         always_ff @(posedge clk) begin
@@ -101,16 +105,17 @@ module pgs_body_vel_banks #(
     end
 
     // each read's bank and port, registered, select its data
-    int          r_bank [2];
-    logic        r_port [2];
+    int          r_bank [PORTS];
+    logic        r_port [PORTS];
     always_ff @(posedge clk) begin
-        for (int k = 0; k < 2; k++) begin
-            r_bank[k] <= bank_of(acc_addr[2 + k]);
-            r_port[k] <= p_on[bank_of(acc_addr[2 + k])][1] && p_sel[bank_of(acc_addr[2 + k])][1] == SEL_W'(2 + k);
+        for (int k = 0; k < PORTS; k++) begin
+            r_bank[k] <= bank_of(acc_addr[PORTS + k]);
+            r_port[k] <= p_on[bank_of(acc_addr[PORTS + k])][1]
+                         && p_sel[bank_of(acc_addr[PORTS + k])][1] == SEL_W'(PORTS + k);
         end
     end
     always_comb begin
-        for (int k = 0; k < 2; k++) rd_data[k*VEL_W +: VEL_W] = q[r_bank[k]][32'(r_port[k])*VEL_W +: VEL_W];
+        for (int k = 0; k < PORTS; k++) rd_data[k*VEL_W +: VEL_W] = q[r_bank[k]][32'(r_port[k])*VEL_W +: VEL_W];
     end
 endmodule
 

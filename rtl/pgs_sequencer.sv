@@ -182,9 +182,6 @@ module pgs_sequencer #(
     if (LANES < 1 || (LANES & (LANES - 1)) != 0 || (LANES > 1 && WINDOW == 0)) begin : g_bad_lanes
         $error("pgs_sequencer: LANES must be a power of two, and LANES > 1 needs the window kernel (WINDOW > 0)");
     end
-    if (BODY_BANKS > 0 && LANES > 1) begin : g_bad_banks
-        $error("pgs_sequencer: BODY_BANKS (banked body velocities) is built for one lane (LANES = 1)");
-    end
     if (IINV_W != 1 && IINV_W != 3 && IINV_W != 6) begin : g_bad_iinv
         $error("pgs_sequencer: IINV_W (inverse-inertia words per body) must be 1, 3 or 6");
     end
@@ -254,11 +251,12 @@ module pgs_sequencer #(
     // port 2l: body A of lane l, port 2l + 1: body B (flat vectors, port k at [k*width +: width])
     localparam int PORTS = 2 * LANES;
     logic [PORTS*IDX_W-1:0]  rd_addr, wr_addr, dyn_addr;
+    logic [PORTS-1:0]        rd_en;
     logic [PORTS*BREC_W-1:0] rd_data, wr_data;
     logic [PORTS-1:0]        wr_en, dyn, bad;
     logic                    wr0_full, wr0_bad, rd0_bad, body_busy;
     pgs_body_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_BODIES(MAX_BODIES), .PORTS(PORTS),
-                   .IINV_W(IINV_W), .BODY_BANKS(BODY_BANKS)) u_body_ram (.clk, .rd_addr, .rd_data, .rd0_bad, .wr_en,
+                   .IINV_W(IINV_W), .BODY_BANKS(BODY_BANKS)) u_body_ram (.clk, .rd_en, .rd_addr, .rd_data, .rd0_bad, .wr_en,
         .wr0_full, .wr0_bad, .wr_addr, .wr_data, .dyn_addr, .dyn, .bad, .busy(body_busy));
 
     // ---------------- body-in stream ----------------
@@ -511,7 +509,16 @@ module pgs_sequencer #(
     end
 
     // the issue checks of each lane's record. An all-ones header in the window kernel is an empty lane (the host's
-    // padding): never issued, never rejected, no error.
+    // padding): never issued, never rejected, no error. With banked body velocities and lanes, a lane that would
+    // have the issuing lanes read some bank more than twice (its ports) is rejected like a lane sharing a dynamic
+    // body (error 4; the host's lane plan keeps apart the manifolds that would: models/record_window.py): a record's
+    // reads then fit the banks' ports, and so do its retire's writes (its dynamic bodies).
+    localparam int BANK_W = BODY_BANKS > 1 ? $clog2(BODY_BANKS) : 1;
+    /* verilator lint_off UNUSEDSIGNAL */  // b: a body's bank is its index's low bits
+    function automatic logic [BANK_W-1:0] bank_of(input logic [IDX_W-1:0] b);
+        return BODY_BANKS > 1 ? b[BANK_W-1:0] : '0;
+    endfunction
+    /* verilator lint_on UNUSEDSIGNAL */
     logic [LANES-1:0] l_rej_seen;   // slots rejected earlier in the step (written for every slot in pass 0)
     logic [LANES-1:0] l_empty, l_static, l_collide, l_rej, l_go;
     always_comb begin
@@ -526,6 +533,17 @@ module pgs_sequencer #(
             for (int k = 0; k < l; k++) begin
                 if (go[k] && ((dyn[2*l] && (la[l] == la[k] || la[l] == lb[k]))
                               || (dyn[2*l+1] && (lb[l] == la[k] || lb[l] == lb[k])))) l_collide[l] = 1'b1;
+            end
+            if (BODY_BANKS > 0 && LANES > 1) begin   // the reads of bodies A and B in their banks, earlier lanes'
+                automatic int in_a = bank_of(la[l]) == bank_of(lb[l]) ? 2 : 1;
+                automatic int in_b = in_a;
+                for (int k = 0; k < l; k++) begin
+                    if (go[k]) begin
+                        in_a += int'(bank_of(la[k]) == bank_of(la[l])) + int'(bank_of(lb[k]) == bank_of(la[l]));
+                        in_b += int'(bank_of(la[k]) == bank_of(lb[l])) + int'(bank_of(lb[k]) == bank_of(lb[l]));
+                    end
+                end
+                if (in_a > 2 || in_b > 2) l_collide[l] = 1'b1;
             end
             l_rej[l] = rej_prev || l_index[l] || rej_bad || l_static[l] || l_nonfinite[l] || crec_trunc
                        || l_collide[l];
@@ -889,7 +907,7 @@ module pgs_sequencer #(
     endgenerate
 
     // body RAM ports: LOAD writes whole records on port 0; SOLVE retire writes v/w of lane l's A (port 2l)
-    // and B (port 2l + 1); INTEG reads on port 0
+    // and B (port 2l + 1), and reads the bodies of the offered record's issuing lanes; INTEG reads on port 0
     logic [31:0] int_idx;
     always_comb begin
         wr_en    = '0;
@@ -897,6 +915,8 @@ module pgs_sequencer #(
         wr0_bad  = 1'b0;
         wr_data  = '0;
         rd_addr  = cand;
+        for (int l = 0; l < LANES; l++) rd_en[2*l +: 2] = {2{l_go[l]}};
+        if (phase == S_INTEG) rd_en[0] = 1'b1;
         for (int l = 0; l < LANES; l++) begin
             wr_en[2*l]   = l_retire[l] && l_dyn_a[l];
             wr_en[2*l+1] = l_retire[l] && l_dyn_b[l];

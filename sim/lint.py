@@ -69,7 +69,8 @@ IMPULSE_PARAM_SETS: dict[str, dict[str, int]] = {
     "impulses-in-records-fp16": {"IMPULSES_IN_RECORDS": 1, **format_params(FP16)},
     # the window kernel whose impulses travel with the records (its impulse ring): one lane banked, fp16 two lanes
     "window-records-banked": {"IMPULSES_IN_RECORDS": 1, "WINDOW": 1024, "BODY_BANKS": 2},
-    "window-records-2lanes-fp16": {"IMPULSES_IN_RECORDS": 1, "WINDOW": 1024, "LANES": 2, **format_params(FP16)},
+    "window-records-2lanes-fp16": {"IMPULSES_IN_RECORDS": 1, "WINDOW": 1024, "LANES": 2, "BODY_BANKS": 8,
+                                   **format_params(FP16)},
 }
 
 # The banked body velocities (one copy in true dual-port banks): modules with a BODY_BANKS parameter are also linted

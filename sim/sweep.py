@@ -75,6 +75,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from models import cycle_model, scenes
+from models import stream_format as sf
 from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.contact_solver import SolverParams
 from models.dma_model import PRESETS, get_preset
@@ -98,7 +99,7 @@ from sim.trace_compare import kernel_bodies
 from sim.report import StagedDirectory
 from sim.resource_model import FitVerdict, kernel_fit, short_verdict
 from sim.run_result import NoExactReference
-from sim.sweep_plot import write_plots
+from sim.sweep_plot import series, write_plots
 from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label, load_frame, \
     velocity_error
 
@@ -361,6 +362,9 @@ def plan(args: argparse.Namespace) -> tuple[list[SweepPoint], str, dict[str, byt
         raise ValueError(f"--exact-budget must be >= 0, got {args.exact_budget}")
     check_kernel_args(args)
     designs = impulse_stores(args)
+    if args.record_window and args.fetch_passes and "records" in designs:  # fetches of one kind, every count
+        for iters in iter_list:
+            sf.window_fetch_kinds(SolverParams(iters), args.fetch_passes, one_kind=True)
     frame, label = load_frame(args)
     print(frame.summary(), flush=True)
     data = frame_bytes(frame)
