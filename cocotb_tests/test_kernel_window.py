@@ -230,7 +230,7 @@ def _assert_golden_without(sent: KernelJob, kept: np.ndarray, run: Path) -> None
     golden = golden_step(expected)
     kb = KernelBuild.for_job(sent, PRESET)
     cmp = Comparison()
-    compare_trace(read_trace(run / "trace.bin", FP32, kb.trace_bytes), golden.records, expected, cmp)
+    compare_trace(read_trace(run / "trace.bin", sent.fmt, kb.trace_bytes), golden.records, expected, cmp)
     compare_body_out(run, expected, kb, golden.final, cmp)
     assert cmp.first_mismatch is None and cmp.differing_bits == 0, cmp.first_mismatch
 

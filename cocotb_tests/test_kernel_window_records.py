@@ -26,6 +26,7 @@ impulse-out stream (one record per window record and fetch, TLAST per fetch) wit
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
 from typing import Callable
@@ -39,13 +40,14 @@ from models.dma_model import get_preset
 from models.kernel_job import KernelJob
 from models.number_format import FP16, FP32, NumberFormat
 from models.register_map import OFFSET
+from models.schedule import band_width
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from sim.harness_run import harness_cycle_limit, register_writes, run_harness, write_inputs
 from sim.kernel_build import KernelBuild, build_kernel, default_window
 from sim.kernel_step import KernelResult, run_kernel_step
 
 from cocotb_tests.test_kernel_impulses_in_records import warm_start
-from cocotb_tests.test_kernel_window import BIG_PILE, ROOM_PILE, assert_cycles_match
+from cocotb_tests.test_kernel_window import BIG_PILE, ROOM_PILE, _assert_golden_without, _run_raw, assert_cycles_match
 from models.body_banks import WINDOW_BANKS
 from models.tests.test_body_banks import spread_bodies
 from models.tests.test_impulses_in_records import independent_stack_job
@@ -67,7 +69,7 @@ def window_records_job(scene: str, fmt: NumberFormat = FP32, lanes: int = 1, fet
     job = KernelJob.from_frame(frame, fmt, SolverParams(4, interleaved=interleaved), "hazard",
                                default_window(fmt, PRESET.stream_bits)).impulses_travelling()
     if one_bank:
-        job = spread_bodies(job, WINDOW_BANKS)
+        job = spread_bodies(job, WINDOW_BANKS * lanes)  # a multiple of the build's banks: bank 0
     if warm:
         job = job.impulses_travelling(warm_start(job, _seed()))
     return job.windowed(DEPTH, fetch_passes=fetch_passes, lanes=lanes)
@@ -152,6 +154,7 @@ CYCLE_CASES: dict[str, Callable[[], KernelJob]] = {
     "fp16-2lanes-stack-fetch2": lambda: window_records_job("stack", FP16, 2, fetch_passes=2),
     "fp16-2lanes-big-fetch1": lambda: window_records_job("pile", FP16, 2, fetch_passes=1, scene_params=BIG_PILE),
     "fp16-2lanes-independent-fetch2": lambda: independent_window_job(FP16, 2, 2),
+    "fp16-2lanes-one-bank": lambda: window_records_job("pile", FP16, 2, one_bank=True),
 }
 
 
@@ -167,3 +170,26 @@ def test_cycles_match_model(name: str, tmp_path: Path) -> None:
     assert_cycles_match(name, pred, res, job, "manifold-passes whose record the turnaround held back: "
                         f"{int(np.count_nonzero(pred.raw_wait)):,}")
     assert int(res.registers["impulse_out_records"]) == pred.impulse_out.size
+
+
+def test_two_lanes_over_a_banks_ports(tmp_path: Path) -> None:
+    """Two lanes on banked body velocities, the host pairing consecutive manifolds without the lane plan (every body
+    moved into bank 0, so a record's second manifold would have its lanes read that bank four times; some pairs
+    also share a dynamic body): the kernel rejects the later lane of each such record in every pass (error code 4),
+    and the step equals the golden model's with those manifolds left out, bit for bit."""
+    job = window_records_job("pile", FP16, 2, one_bank=True)
+    plan = job.record_window
+    assert plan is not None and job.body_banks == 2 * WINDOW_BANKS and np.all(plan.slots[1::2] == -1)
+    order = job.slots[job.slots >= 0]
+    naive = np.concatenate([order, np.full(-len(order) % 2, -1)])  # consecutive manifolds, no padding
+    kept = naive.copy()
+    kept[1::2] = -1  # every second lane would read bank 0 a third and fourth time
+    lag = band_width(naive, job.cons, job.bodies.dynamic, 2)
+    sent = dataclasses.replace(job, record_window=dataclasses.replace(plan, slots=naive, lag=lag, band=lag))
+    r = _run_raw(sent, tmp_path, register_writes(sent))
+    rejected = int(np.count_nonzero(kept != naive))
+    print(f"\n[two lanes over a bank's ports] {rejected} of {len(naive) // 2} records; status "
+          f"0x{int(r['status']):x}, rejected {int(r['rejected'])}")
+    assert int(r["status"]) & 0xFF == 1 << 3, f"status 0x{int(r['status']):x}: expected error code 4 alone"
+    assert int(r["rejected"]) == rejected * 8 and int(r["issued"]) == 8 * int(np.count_nonzero(kept >= 0))
+    _assert_golden_without(sent, kept, tmp_path)

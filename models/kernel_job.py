@@ -77,7 +77,8 @@ class KernelJob:
         (``models.record_window.plan_window``; with the impulses in the records every fetch serves passes of one
         kind)."""
         plan = plan_window(self.cons, self.bodies.dynamic, self.schedule, self.params, depth, ctx, fetch_passes,
-                           lanes, one_kind=self.impulses_in_records)
+                           lanes, one_kind=self.impulses_in_records,
+                           banks=default_body_banks(self.fmt, self.impulses_in_records, True, lanes))
         if self.params.shock_contact or self.params.shock_friction:
             raise ValueError("a shock pass is marked in its records' headers, and the window kernel reads a record "
                              "once for several passes: shock propagation runs on the streaming kernel")
@@ -93,9 +94,11 @@ class KernelJob:
         window kernel whose fetches each serve passes of one kind (plan it with :meth:`windowed` after this, or
         before with such fetches)."""
         plan = self.record_window
-        if plan is not None:
-            sf.window_fetch_kinds(self.params, plan.fetch_passes, one_kind=True)
-        return dataclasses.replace(self, impulses_in_records=True, initial=initial)
+        out = dataclasses.replace(self, impulses_in_records=True, initial=initial, record_window=None)
+        if plan is None:
+            return out
+        # planned again: its fetches must serve one kind each, and its lanes fit the build's body banks
+        return out.windowed(plan.depth, plan.ctx, plan.fetch_passes, plan.lanes)
 
     def tangents_derived(self) -> "KernelJob":
         """This step with the friction tangents derived from the normals in the job's format
@@ -175,7 +178,9 @@ class KernelJob:
     @property
     def delay_block_min_depth(self) -> int:
         """The depth from which the build's delay lines are in block RAM (``models.delay_lines``: 0 none)."""
-        return default_delay_block_min_depth(self.fmt, self.impulses_in_records, self.record_window is not None)
+        plan = self.record_window
+        return default_delay_block_min_depth(self.fmt, self.impulses_in_records, plan is not None,
+                                             plan.lanes if plan else 1)
 
     @property
     def friction_words(self) -> int:

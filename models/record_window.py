@@ -26,6 +26,7 @@ import numpy as np
 
 from .constraints import ConstraintSet
 from .contact_solver import SolverParams, pass_sequence
+from .body_banks import over_ports
 from .schedule import band_width
 from .stream_format import schedule_manifolds, window_fetch_kinds, window_fetches
 
@@ -64,33 +65,38 @@ def fits(depth: int, ctx: int, lag: int, fetch_passes: int) -> bool:
     return 1 <= fetch_passes <= ctx and lag >= 1 and (fetch_passes - 1) * lag + 2 <= depth
 
 
-def lane_slots(slots: np.ndarray, cons: ConstraintSet, dynamic: np.ndarray, lanes: int) -> np.ndarray:
+def lane_slots(slots: np.ndarray, cons: ConstraintSet, dynamic: np.ndarray, lanes: int,
+               banks: int = 0) -> np.ndarray:
     """``slots`` (manifold indices in the sequential order) grouped into records of ``lanes`` slots whose
     manifolds share no dynamic body: the order is kept, and a record is closed with empty lanes (-1) where the
-    next manifold shares a dynamic body with one already in it. The result has a multiple of ``lanes``
-    entries."""
+    next manifold shares a dynamic body with one already in it, or (``banks`` > 0: the body velocities in banks,
+    ``models.body_banks``) where its bodies A and B would have the record read some bank more than twice. The
+    result has a multiple of ``lanes`` entries."""
     if lanes == 1:
         return np.asarray(slots, dtype=np.int64)
     slots = np.asarray(slots, dtype=np.int64)
     a = np.where(dynamic[cons.body_a[slots]], cons.body_a[slots], -1).tolist()
     b = np.where(dynamic[cons.body_b[slots]], cons.body_b[slots], -1).tolist()
+    reads = list(zip(cons.body_a[slots].tolist(), cons.body_b[slots].tolist()))
     out: list[int] = []
     used: set[int] = set()  # dynamic bodies of the record being filled
-    for m, ma, mb in zip(slots.tolist(), a, b):
+    read: tuple[int, ...] = ()  # and the bodies its lanes read
+    for m, ma, mb, ab in zip(slots.tolist(), a, b, reads):
         mine = {x for x in (ma, mb) if x >= 0}
-        if len(out) % lanes and mine & used:
+        if len(out) % lanes and (mine & used or (banks and over_ports(banks, read + ab))):
             out.extend([-1] * (lanes - len(out) % lanes))
         if len(out) % lanes == 0:
-            used = set()
+            used, read = set(), ()
         out.append(m)
         used |= mine
+        read += ab
     out.extend([-1] * (-len(out) % lanes))
     return np.asarray(out, dtype=np.int64)
 
 
 def plan_window(cons: ConstraintSet, dynamic: np.ndarray, schedule: np.ndarray, params: SolverParams,
                 depth: int = DEFAULT_DEPTH, ctx: int = DEFAULT_CTX, fetch_passes: int | None = None,
-                lanes: int = 1, one_kind: bool = False) -> WindowPlan:
+                lanes: int = 1, one_kind: bool = False, banks: int = 0) -> WindowPlan:
     """The plan of one step: the kernel's slots (bubbles dropped, :func:`lane_slots`), lag = D of its records,
     and ``fetch_passes`` as given or the most passes (every pass of the step at best) whose trailing fits the
     ring. ``one_kind`` (the kernel whose impulses travel with the records): every fetch serves passes of one kind
@@ -99,7 +105,7 @@ def plan_window(cons: ConstraintSet, dynamic: np.ndarray, schedule: np.ndarray, 
         raise ValueError(f"window depth and contexts must be powers of two >= 2, got {depth}, {ctx}")
     if lanes < 1 or lanes & (lanes - 1):
         raise ValueError(f"lanes must be a power of two, got {lanes}")
-    slots = lane_slots(schedule_manifolds(schedule), cons, dynamic, lanes)
+    slots = lane_slots(schedule_manifolds(schedule), cons, dynamic, lanes, banks)
     band = band_width(slots, cons, dynamic, lanes)
     lag = max(1, band)
     passes = len(pass_sequence(params))

@@ -37,10 +37,12 @@ Take (``pgs_sequencer``)
       whose lanes are all rejected or empty is consumed in one cycle.
     * A take steps its pass; the take of a fetch's last pass frees the record's ring entry (from the next cycle).
       SOLVE ends with the last pass's last slot; DRAIN, INTEG and DONE follow as in the streaming kernel.
-Banked body velocities (``BODY_BANKS``, one lane: :class:`models.cycle_model.BankWrites`)
-    * In a cycle the banks serve the writes of the manifold retiring then (its dynamic bodies) first, then the
-      reads of the *offered* record's bodies A and B; where a bank would need a third access the record is not
-      taken (a stall: the skip marks treat it as any offered record not taken).
+Banked body velocities (``BODY_BANKS``: :class:`models.cycle_model.BankWrites`)
+    * In a cycle the banks serve the writes of the manifold(s) retiring then (the dynamic bodies of its issuing
+      lanes) first, then the reads of the *offered* record's issuing lanes' bodies A and B; where a bank would need a
+      third access the record is not taken (a stall: the skip marks treat it as any offered record not taken).
+    * With lanes, a lane whose bodies A and B would have the record's issuing lanes read a bank more than twice is
+      rejected (error 4, like a lane sharing a dynamic body; the host's plan never makes one).
 Impulses in the records (``IMPULSES_IN_RECORDS``: :class:`models.cycle_model.ImpulseOut`)
     * Each fetch serves passes of one kind and streams that kind's records with impulses (``window_beats`` per lane,
       the same for both kinds); the DDR bucket's rate is the read share (``StreamLayout.ddr_read_share``).
@@ -80,6 +82,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from .body_banks import over_ports
 from .contact_solver import CONTACT_PASS
 from .cycle_model import (BANK_BUSY, CAM_FULL, CAUSES, HAZARD, IMP_FULL, READY, SOLVE_START, BankWrites, DdrBucket,
                           ImpulseOut, Prediction, Tail, _dynamic_bodies, _load_end, body_beat_cycles, build_causes,
@@ -212,8 +215,6 @@ def _check(shape: KernelShape, step: StepShape, plan: WindowPlan) -> None:
                          f"(a multiple of {plan.lanes} lanes) are needed")
     if shape.window_beats < 1:
         raise ValueError("the kernel shape has no window record layout (KernelShape.of without record_bits)")
-    if shape.body_banks and plan.lanes > 1:
-        raise ValueError("banked body velocities (BODY_BANKS) are built for one lane")
     if shape.friction_latency > shape.contact_latency:
         raise ValueError("the window kernel needs the friction pipe no deeper than the contact pipe")
 
@@ -227,36 +228,42 @@ class _Records:
     # the bodies its retire writes)
     go: list[tuple[tuple[int, tuple[int, ...]], ...]]  # its issuing lanes in lane order: (slot, dynamic bodies)
     rejected: list[int]  # its rejected lanes (not empty, not issuing)
-    reads: list[tuple[int, ...]]  # bodies A and B of each lane (the body banks' reads while it is offered)
+    reads: list[tuple[int, ...]]  # bodies A and B of its issuing lanes (the body banks' reads while it is offered)
 
     @staticmethod
-    def of(step: StepShape, plan: WindowPlan) -> "_Records":
+    def of(step: StepShape, plan: WindowPlan, banks: int = 0) -> "_Records":
+        """``banks`` > 0 (banked body velocities): a lane whose bodies A and B would have the issuing lanes read a
+        bank more than twice is rejected like a lane sharing a dynamic body with an earlier one."""
         lanes = plan.lanes
+        a, b = step.body_a.tolist(), step.body_b.tolist()
         empty = np.asarray(plan.slots) < 0
         bad = (step.rejected_slots() & ~empty).tolist()
         dyn_a, dyn_b = (d.tolist() for d in _dynamic_bodies(step))
         bodies: list[tuple[int, ...]] = []
         go: list[tuple[tuple[int, tuple[int, ...]], ...]] = []
         rejected: list[int] = []
+        reads: list[tuple[int, ...]] = []
         for r in range(step.num_slots // lanes):
             mine: list[int] = []
             issuing: list[tuple[int, tuple[int, ...]]] = []
+            read: tuple[int, ...] = ()
             nrej = 0
             for s in range(r * lanes, r * lanes + lanes):
                 if empty[s]:
                     continue
-                own = tuple(b for b in (dyn_a[s], dyn_b[s]) if b >= 0)
-                if bad[s] or any(b in mine for b in own):  # or a dynamic body of an earlier issuing lane (error 4)
+                own = tuple(x for x in (dyn_a[s], dyn_b[s]) if x >= 0)
+                # rejected: bad, a dynamic body of an earlier issuing lane, or a bank's ports (error 4)
+                if bad[s] or any(x in mine for x in own) or (lanes > 1 and banks
+                                                             and over_ports(banks, read + (a[s], b[s]))):
                     nrej += 1
                     continue
                 mine += own
+                read += (a[s], b[s])
                 issuing.append((s, own))
             bodies.append(tuple(mine))
             go.append(tuple(issuing))
             rejected.append(nrej)
-        a, b = step.body_a.tolist(), step.body_b.tolist()
-        reads = [tuple(x for s in range(r * lanes, r * lanes + lanes) for x in (a[s], b[s]))
-                 for r in range(step.num_slots // lanes)]
+            reads.append(read)
         return _Records(bodies, go, rejected, reads)
 
 
@@ -457,7 +464,7 @@ class _WindowSolve:
     def __init__(self, shape: KernelShape, dma: DmaTiming, step: StepShape, plan: WindowPlan,
                  body_beats: tuple[int, int], solve_start: int, jumps: bool = True) -> None:
         self.plan, self.solve_start, self.jumps = plan, solve_start, jumps
-        self.recs = _Records.of(step, plan)
+        self.recs = _Records.of(step, plan, shape.body_banks)
         self.nrec = step.num_slots // plan.lanes  # records per pass
         self.passes = len(step.passes)
         fp = plan.fetch_passes

@@ -92,8 +92,7 @@ class KernelBuild:
         sf.body_in_word_count(self.inertia_words)  # 1, 3 or 6, else a ValueError
         if self.friction_words not in (0, 1):
             raise ValueError(f"a friction record carries 0 or 1 friction-coefficient words, got {self.friction_words}")
-        if check_banks(self.body_banks) and self.lanes > 1:
-            raise ValueError("banked body velocities (body_banks > 0) are built for one lane")
+        check_banks(self.body_banks)
         if self.tangents_on_chip and (self.window or self.inertia_words != sf.KERNEL_INERTIA_WORDS
                                       or self.friction_words or self.friction_sign_bug):
             raise ValueError("the tangent basis derived on chip (tangents_on_chip) is a configuration of the streaming "

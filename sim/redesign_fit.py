@@ -5,13 +5,14 @@ For every format, kernel (the streaming kernel; the window kernel with 1, 2 or 4
 (impulses resident or travelling with the records; the whole body record or only velocities and mass properties
 on chip; body ports as a live-value table or banks: for the streaming kernel the built ``BODY_BANKS`` memory of
 ``models.body_banks`` (2 true dual-port banks, a busy bank stalls the issue: measured by the cycle model, not in
-the floor), for the window kernel's lanes banks the schedule keeps apart (not built); operator figures from Yosys or, where
+the floor), for the window kernel 8 banks (``models.body_banks.WINDOW_BANKS``, any lanes, a record's reads kept
+within their ports by the lane plan); operator figures from Yosys or, where
 published, from Vitis HLS; the pipes' delay lines from 65 deep in LUT RAM or in block RAM, ``models.delay_lines``) it
 prints the estimated LUT, FF, DSP, BRAM36 and URAM as shares of the platform, the
 verdict, and the DDR / compute floor in cycles per manifold-pass of the kernel's fetch schedule
 (``models.onchip_budget.floors``: the streaming kernel reads every record every pass, the window kernel once per
 step, as the README's window runs with FETCH_PASSES=0 do). Body words and ports change the resources, not the
-floor (banks the schedule keeps apart may cost issue slots the floor does not count). Sizes default to the thesis frame (38,881 bodies, 147,485 manifolds) and the README's ring of 16,384
+floor (busy banks may cost issue slots the floor does not count). Sizes default to the thesis frame (38,881 bodies, 147,485 manifolds) and the README's ring of 16,384
 records.
 
     python -m sim.redesign_fit --platform zcu102 [--bodies 38881 --manifolds 147485 --ring 16384 --iters 4
@@ -27,6 +28,7 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 from models import onchip_budget as ob
+from models.body_banks import RECORDS_BANKS, WINDOW_BANKS
 from models.delay_lines import BLOCK_MIN_DEPTH
 from models.number_format import FP16, FP32, NumberFormat
 from sim import resource_model as rm
@@ -55,7 +57,8 @@ def rows(platform: ob.Platform, formats: Sequence[NumberFormat], bodies: int, ma
         if source == "vendor" and not any(f == fmt.name for _, f in rm.VENDOR_OPERATORS):
             continue  # no published figure in this format: the same as Yosys's
         cfg = rm.KernelConfig(fmt, bodies, manifolds, lanes=lanes, window=window, impulses_resident=resident,
-                              body_words=body, body_ports=ports, operator_source=source, delay_block_min_depth=delay)
+                              body_words=body, body_ports=ports, operator_source=source, delay_block_min_depth=delay,
+                              body_banks=WINDOW_BANKS if window else RECORDS_BANKS)
         fl = ob.floors(platform, fmt, bodies, manifolds, iters, (fetch_every or iters) if window else 0, lanes,
                        resident)
         out.append(Row(cfg, rm.verdict(rm.estimate(cfg, platform, data), platform), fl))

@@ -26,7 +26,8 @@ accumulated impulses on chip, or travelling with the records, held only in the r
 the whole body-in record; ``"solve"``: only velocities and mass properties, positions and orientations streamed
 through at integration), ``body_ports`` (``"lvt"``: every write port a bank replicated per read port;
 ``"banked"``: one copy of the velocities in ``body_banks`` true dual-port banks, a busy bank stalling the issue:
-``rtl/pgs_body_vel_banks.sv``, built for one lane; for more lanes an estimate of banks the schedule keeps apart),
+``rtl/pgs_body_vel_banks.sv``, 2 x lanes reads and writes a cycle, the lane plan keeping a record's reads within
+the banks' ports),
 ``delay_block_min_depth`` (the delay lines from that depth in block RAM instead of LUT RAM), and
 ``record_bits`` (word width of the record fields stored in the ring: a storage format per field group).
 
@@ -337,13 +338,10 @@ def memories(cfg: KernelConfig) -> list[MemoryArray]:
     if cfg.body_ports == "lvt":
         out.append(MemoryArray(f"body velocities (v, w), {ports}W{ports}R: {ports * ports} banks (live-value table)",
                                nb, BODY_VEL_WORDS * w, ports * ports))
-    elif cfg.lanes == 1:  # the built banks: one copy, body k in bank k mod banks, two ports each
+    else:  # the built banks: one copy, body k in bank k mod banks, two ports each (a record's lanes fit them)
         out.append(MemoryArray(f"body velocities (v, w): one copy in {cfg.body_banks} true dual-port banks "
                                "(BODY_BANKS)", math.ceil(nb / cfg.body_banks), BODY_VEL_WORDS * w, cfg.body_banks,
                                True))
-    else:
-        out.append(MemoryArray(f"body velocities (v, w) in {ports} banks the schedule keeps apart",
-                               math.ceil(nb / ports), BODY_VEL_WORDS * w, ports))
     if cfg.impulses_resident:
         depth = math.ceil(cfg.max_manifolds / cfg.lanes)
         out += [MemoryArray(f"normal impulses lam[4] per slot, {cfg.lanes} bank(s)", depth, 4 * w, cfg.lanes),
@@ -462,14 +460,16 @@ def control_resources(cfg: KernelConfig, data: dict[str, Any]) -> Part:
                 f"{source} (one lane) + Yosys of the CAM per extra lane")
 
 
-def bank_mux_resources(banks: int, width: int, bodies: int) -> Resources:
+def bank_mux_resources(banks: int, width: int, bodies: int, ports: int = 2) -> Resources:
     """The multiplexers of ``rtl/pgs_body_vel_banks.sv`` beside the control's Yosys figure (which has the body RAM
-    as a black box): per bank port, the write data from two writes (a LUT6 holds two 2:1 bits) and the row from
-    four accesses (one LUT6 per bit); per read, its word from the 2 x ``banks`` port outputs (a LUT6 per 4:1 bit)
-    and the registered bank and port; the port selection a few LUTs per bank."""
+    as a black box), ``ports`` reads and ``ports`` writes a cycle (2 x lanes): per bank port, the write data from the
+    writes (two: a LUT6 holds two 2:1 bits; more: a LUT6 per 4:1 bit of the tree) and the row from the 2 x
+    ``ports`` accesses (a LUT6 per 4:1 bit); per read, its word from the 2 x ``banks`` port outputs and the
+    registered bank and port; the port selection a few LUTs per bank."""
     row = max(1, math.ceil(math.log2(max(2, math.ceil(bodies / banks)))))
-    per_port = math.ceil(width / 2) + row
-    read = 2 * width * math.ceil((2 * banks - 1) / 3)
+    data = math.ceil(width / 2) if ports == 2 else width * math.ceil((ports - 1) / 3)
+    per_port = data + row * math.ceil((2 * ports - 1) / 3)
+    read = ports * width * math.ceil((2 * banks - 1) / 3)
     sel = 2 * (math.ceil(math.log2(banks)) + 1) if banks > 1 else 2
     return Resources(lut=2 * banks * per_port + read + 8 * banks, ff=sel)
 
@@ -513,10 +513,10 @@ def estimate(cfg: KernelConfig, platform: Optional[ob.Platform] = None,
         parts.append(Part(f"{name} x {per}", res.scaled(per), "operators: " + ", ".join(src)
                           + "; delay lines: distributed RAM rule"))
     parts.append(control_resources(cfg, data))
-    if cfg.body_ports == "banked" and cfg.lanes == 1:
-        parts.append(Part(f"body bank port multiplexers ({cfg.body_banks} banks)",
-                          bank_mux_resources(cfg.body_banks, BODY_VEL_WORDS * cfg.fmt.width, cfg.max_bodies),
-                          "computed (LUT6 mux rule)"))
+    if cfg.body_ports == "banked":
+        parts.append(Part(f"body bank port multiplexers ({cfg.body_banks} banks, {2 * cfg.lanes} reads and writes)",
+                          bank_mux_resources(cfg.body_banks, BODY_VEL_WORDS * cfg.fmt.width, cfg.max_bodies,
+                                             2 * cfg.lanes), "computed (LUT6 mux rule)"))
     if cfg.converters:
         conv = Resources()
         for c in cfg.converters:

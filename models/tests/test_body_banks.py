@@ -57,9 +57,9 @@ def test_the_records_design_in_fp32_uses_the_banks() -> None:
     assert default_body_banks(FP32, True, False) == RECORDS_BANKS
     assert default_body_banks(FP16, True, False) == 0  # its live-value table fits: unchanged
     assert default_body_banks(FP32, False, False) == 0 and default_body_banks(FP32, False, True) == 0
-    # the one-lane window kernel with the impulses in the records banks them in every format; with lanes it cannot
+    # the window kernel with the impulses in the records banks them in every format, with any lanes
     assert default_body_banks(FP16, True, True) == default_body_banks(FP32, True, True) == WINDOW_BANKS == 8
-    assert default_body_banks(FP16, True, True, lanes=2) == 0
+    assert default_body_banks(FP16, True, True, lanes=2) == 2 * WINDOW_BANKS and default_body_banks(FP16, False, True, 2) == 0
     assert pile_job().body_banks == RECORDS_BANKS and pile_job(FP16).body_banks == 0
 
 

@@ -3,9 +3,12 @@ trace order."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
+from models.body_banks import over_ports
 from models.constraints import ConstraintSet
 from models.contact_solver import CONTACT_PASS, FRICTION_PASS, SolverParams, pass_sequence
 from models.record_window import fits, lane_slots, plan_window, sequential_order
@@ -113,3 +116,22 @@ def test_sequential_order(interleaved: bool) -> None:
     assert np.array_equal(kind[perm][order], kind) and np.array_equal(it[perm][order], it)
     assert np.array_equal(slot[perm][order], slot)
     assert {CONTACT_PASS, FRICTION_PASS} == set(kind.tolist())
+
+
+def test_lane_slots_keep_a_records_reads_within_the_banks_ports() -> None:
+    """With banked body velocities a record of lanes reads at most two bodies of a bank (A and B of its lanes): the
+    plan closes a record before a manifold would make a third. Manifold k joins bodies 4k + 1 and 4k + 3 (no body
+    shared): with 2 banks each reads bank 1 twice, so every record holds one; with 4 banks bodies 1 and 3 of two
+    manifolds still fill banks 1 and 3 twice each (two per record); without banks every record is full."""
+    m = 16
+    cons, _ = _chain(m)
+    cons = dataclasses.replace(cons, body_a=4 * np.arange(m) + 1, body_b=4 * np.arange(m) + 3)
+    dyn = np.ones(4 * m + 4, bool)
+    order = np.arange(m)
+    assert np.all(lane_slots(order, cons, dyn, 2) >= 0)
+    two_banks = lane_slots(order, cons, dyn, 2, banks=2)
+    assert np.all(two_banks[1::2] == -1) and np.all(two_banks[0::2] == order)
+    four = lane_slots(order, cons, dyn, 4, banks=4)
+    for r in range(0, len(four), 4):
+        reads = tuple(x for s in four[r:r + 4] if s >= 0 for x in (cons.body_a[s], cons.body_b[s]))
+        assert not over_ports(4, reads) and np.count_nonzero(four[r:r + 4] >= 0) == 2

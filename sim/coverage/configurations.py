@@ -66,7 +66,7 @@ class Configuration:
                          body_banks=default_body_banks(self.fmt, self.impulses_in_records, bool(self.record_window),
                                                        self.lanes),
                          delay_block_min_depth=default_delay_block_min_depth(self.fmt, self.impulses_in_records,
-                                                                             bool(self.record_window)))
+                                                                             bool(self.record_window), self.lanes))
         return dataclasses.replace(kb, **dict(self.build_options))
 
     def job(self, frame: Frame, params: SolverParams, schedule: str, fetch_passes: int | None = None) -> KernelJob:

@@ -22,8 +22,8 @@ def test_true_dual_port_serves_two_reads_and_lvt_banks_grow_with_ports() -> None
     four = rm.memories(rm.KernelConfig(FP32, 1024, 1024, lanes=4, window=1024))
     assert (one[0].copies, one[0].true_dual_port, one[1].copies) == (1, True, 4)
     assert (four[0].copies, four[1].copies) == (4, 64)  # 8 read ports: 4 TDP copies; 8W8R: 64 banks
-    banked = rm.memories(rm.KernelConfig(FP32, 1024, 1024, lanes=4, window=1024, body_ports="banked"))
-    assert banked[1].copies == 8 and banked[1].depth == 128
+    banked = rm.memories(rm.KernelConfig(FP32, 1024, 1024, lanes=4, window=1024, body_ports="banked", body_banks=8))
+    assert banked[1].copies == 8 and banked[1].depth == 128 and banked[1].true_dual_port  # one copy in 8 banks
     # a true dual-port block is at most 36 bits wide: 1K x 72 takes two RAMB36, simple dual-port one
     assert rm.bram36_for(512, 72) == 1 and rm.bram36_for(512, 72, true_dual_port=True) == 2
     assert rm.bram36_for(1024, 72) == 2 and rm.bram36_for(1024, 72, true_dual_port=True) == 2
