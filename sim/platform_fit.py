@@ -2,7 +2,7 @@
 
 For every format, the streaming kernel with the impulses on chip and with them in the records (``make sim
 IMPULSE_STORE=``) in the hazard order, and the window kernel with a ring of ``--ring`` records, 1, 2 or 4 lanes
-(``RECORD_WINDOW= LANES=``) and, on one lane, with the impulses in the records too, in the sweep order (its band
+(``RECORD_WINDOW= LANES=``), also with the impulses in the records, in the sweep order (its band
 width sets the ring's trailing passes): the cycle model's cycles of the ``--iters``-iteration step at the DMA preset (``models/cycle_model.py``,
 the window kernel's ``models/window_cycle_model.py``), and the resource model's shares of the preset's platform with the verdict (``sim/resource_model.py``, the configuration
 as built: the figures ``make sim`` prints). No golden model runs: seconds per configuration.
@@ -39,7 +39,9 @@ def configurations(base: KernelJob, swept: KernelJob, ring: int) -> Iterator[tup
     if ring:
         for lanes in LANES:
             yield f"window {ring:,} x{lanes}", swept.windowed(ring, lanes=lanes)
-        yield f"window {ring:,} x1, impulses in the records", swept.impulses_travelling().windowed(ring)
+        for lanes in LANES:
+            yield f"window {ring:,} x{lanes}, impulses in the records", swept.impulses_travelling().windowed(
+                ring, lanes=lanes)
 
 
 def table(args: argparse.Namespace) -> list[str]:

@@ -21,7 +21,8 @@ from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
 from sim.coverage.input_edits import (BAD_INPUT_EDITS, RECORDS_BAD_INPUT_EDITS, WINDOW_BAD_INPUT_EDITS,
                                       WINDOW_RECORDS_BAD_INPUT_EDITS, Edit,
                                       HarnessEdit, edit_argument_bits, edit_gravity, edit_huge_sliding,
-                                      edit_huge_velocity, edit_mass_spread, edit_spin, edit_wide_index)
+                                      edit_huge_velocity, edit_lanes_collide, edit_mass_spread, edit_spin,
+                                      edit_wide_index)
 from sim.verilator_build import REPO_ROOT
 
 # world files of Bullet 2's convention (rotated non-cube boxes; boxes, spheres, capsules, cylinders and a cone):
@@ -228,7 +229,9 @@ CASES_OF: dict[str, list[Case]] = {
     "window-fp32-l2": window_cases("window-fp32-l2"),
     "window-fp16-l4": window_cases("window-fp16-l4"),
     "window-fp32-records": window_records_cases("window-fp32-records"),
-    "window-fp16-records": window_records_cases("window-fp16-records"),
+    "window-fp16-records-l2": window_records_cases("window-fp16-records-l2") + [
+        Case("window-fp16-records-l2-pile-bad-lanes_collide", "window-fp16-records-l2", "pile", "sweep",
+             edit=edit_lanes_collide)],
     "stream-fp32-inertia1": inertia_cases("stream-fp32-inertia1", ("stack", "pile")),
     "stream-fp32-inertia6": inertia_cases("stream-fp32-inertia6", ("rotated", "pile")),
     "stream-fp32-mu": friction_coefficient_cases("stream-fp32-mu"),

@@ -114,10 +114,11 @@ CONFIGURATIONS: tuple[Configuration, ...] = (
                   readme="window kernel, fp32, one lane, impulses in the records, body velocities in 2 banks: the "
                          "fitting fp32 headline (`make sim SCENE=thesis SCHEDULE=sweep RECORD_WINDOW=8192 "
                          "IMPULSE_STORE=records BODY_BITS=256`)"),
-    Configuration("window-fp16-records", FP16, record_window=DEFAULT_DEPTH, impulses_in_records=True, body_bits=256,
-                  readme="the same in fp16 with a ring of 16,384 records: the fitting fp16 headline "
-                         "(`make sim SCENE=thesis SCHEDULE=sweep FORMAT=fp16 RECORD_WINDOW=16384 "
-                         "IMPULSE_STORE=records BODY_BITS=256`)"),
+    Configuration("window-fp16-records-l2", FP16, record_window=8192, lanes=2, impulses_in_records=True,
+                  body_bits=256,
+                  readme="window kernel, fp16, two lanes, impulses in the records, body velocities in 16 banks: the "
+                         "fitting fp16 headline (`make sim SCENE=thesis SCHEDULE=sweep FORMAT=fp16 "
+                         "RECORD_WINDOW=8192 LANES=2 IMPULSE_STORE=records BODY_BITS=256`)"),
     Configuration("stream-fp32-records-tangents", FP32, impulses_in_records=True, tangents_on_chip=True,
                   readme="fp32 records design with the tangent basis derived on chip "
                          "(`make sim IMPULSE_STORE=records TANGENTS=chip`)"),

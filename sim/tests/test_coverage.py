@@ -82,10 +82,10 @@ def test_each_configuration_has_a_build_and_runs() -> None:
     banks = {c.name: c.build().body_banks for c in configurations.CONFIGURATIONS if c.impulses_in_records}
     assert banks == {"stream-fp16-records": 0, "stream-fp16-records-b256": 0, "stream-fp32-records": 2, "stream-fp32-records-tangents": 2,
                      "stream-fp32-records-tangents-b256": 2, "stream-fp32-soft": 2, "window-fp32-records": 8,
-                     "window-fp16-records": 8}  # the builds make sim runs
+                     "window-fp16-records-l2": 16}  # the builds make sim runs
     delay = {c.name: c.build().delay_block_min_depth for c in configurations.CONFIGURATIONS}
     assert {n: d for n, d in delay.items() if d} == {**{n: 65 for n in banks if banks[n] == 2},
-                                                     "window-fp32-records": 129}  # the fp32 records designs
+                                                     "window-fp32-records": 129, "window-fp16-records-l2": 129}
     window = configurations.BY_NAME["window-fp16-l4"]
     assert (window.build().window, window.build().lanes, window.build().body_in_bits) == (16384, 4, 512)
     fp16_shared = [s.label for s in [cases.REGISTER_CASE, *cases.FP_OPERATOR_CASES] if s.counts_for(window)]
