@@ -193,3 +193,28 @@ def test_two_lanes_over_a_banks_ports(tmp_path: Path) -> None:
     assert int(r["status"]) & 0xFF == 1 << 3, f"status 0x{int(r['status']):x}: expected error code 4 alone"
     assert int(r["rejected"]) == rejected * 8 and int(r["issued"]) == 8 * int(np.count_nonzero(kept >= 0))
     _assert_golden_without(sent, kept, tmp_path)
+
+
+def test_rejected_in_an_earlier_fetch(tmp_path: Path) -> None:
+    """A contact record with a non-finite word (error 5) in the first fetch: the kernel rejects the slot in the
+    contact passes, and in every pass of the friction fetch although that fetch's record is finite (the
+    rejected-slot flag read as the record was written into the ring): the step equals the golden model's without
+    that manifold, bit for bit."""
+    job = window_records_job("pile", fetch_passes=4)
+    plan = job.record_window
+    assert plan is not None and plan.fetches(job.params) == 2
+    k = 17  # the slot whose contact record is broken
+    beat_bytes, beats = PRESET.stream_bits // 8, KernelBuild.for_job(job, PRESET).layout.window_beats
+
+    def nan_in_first_fetch(run: Path) -> None:
+        data = bytearray((run / "cons.bin").read_bytes())
+        at = k * beats * beat_bytes + 8  # the record's first word (n.x), after the 64-bit header
+        data[at:at + 4] = np.float32(np.nan).tobytes()
+        (run / "cons.bin").write_bytes(bytes(data))
+
+    r = _run_raw(job, tmp_path, register_writes(job), nan_in_first_fetch)
+    assert int(r["status"]) & 0xFF == 1 << 4, f"status 0x{int(r['status']):x}: expected error code 5 alone"
+    assert int(r["rejected"]) == 8 and int(r["issued"]) == 8 * (len(job.slots) - 1)
+    kept = job.slots.copy()
+    kept[k] = -1
+    _assert_golden_without(job, kept, tmp_path)
