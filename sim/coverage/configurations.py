@@ -111,7 +111,7 @@ CONFIGURATIONS: tuple[Configuration, ...] = (
     Configuration("window-fp16-l4", FP16, record_window=DEFAULT_DEPTH, lanes=4, body_bits=512,
                   readme="window kernel, fp16, 4 lanes (`FORMAT=fp16 RECORD_WINDOW=16384 LANES=4 BODY_BITS=512`)"),
     Configuration("window-fp32-records", FP32, record_window=8192, impulses_in_records=True, body_bits=256,
-                  readme="window kernel, fp32, one lane, impulses in the records, body velocities in 2 banks: the "
+                  readme="window kernel, fp32, one lane, impulses in the records, body velocities in 8 banks: the "
                          "fitting fp32 headline (`make sim SCENE=thesis SCHEDULE=sweep RECORD_WINDOW=8192 "
                          "IMPULSE_STORE=records BODY_BITS=256`)"),
     Configuration("window-fp16-records-l2", FP16, record_window=8192, lanes=2, impulses_in_records=True,
