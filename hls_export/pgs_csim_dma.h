@@ -9,8 +9,9 @@
 // impulse-out record of slot k was taken (every pass reads what its predecessor wrote, or older). The kernel runs
 // in another thread; the DMA feeds s_axis_cons record by record, waiting on m_axis_imp where the rule says so.
 // The layout: generated/pgs_stream_layout.h through pgs_stream.h (kContactLamWord, kFrictionLamAt, ...); the pass
-// plan: DIR/impulse_plan.bin (uint32 slots per pass, uint32 turnaround (ignored: untimed), one byte per pass,
-// 0 contact, 1 friction), as sim/harness_run.py writes it for the RTL harness.
+// plan: DIR/impulse_plan.bin (uint32 slots per pass, uint32 turnaround (ignored: untimed), uint32 beats per record
+// (0 here: by the pass's kind; the window kernel's records are refused), one byte per pass, 0 contact, 1
+// friction), as sim/harness_run.py writes it for the RTL harness.
 #ifndef PGS_CSIM_DMA_H
 #define PGS_CSIM_DMA_H
 
@@ -47,14 +48,19 @@ class RecordsDma {
     RecordsDma(const std::vector<uint8_t>& plan, const std::vector<uint8_t>& cons, const std::vector<uint8_t>& last,
                double wait_s)
         : cons_(cons), last_(last), wait_s_(wait_s) {
-        if (plan.size() < 8) {
+        if (plan.size() < 12) {
             error_ = "impulse_plan.bin: too short";
             return;
         }
-        uint32_t s32;
+        uint32_t s32, b32;
         std::memcpy(&s32, &plan[0], 4);
+        std::memcpy(&b32, &plan[8], 4);
+        if (b32 != 0) {  // the window kernel's records: the HLS kernel is the streaming one
+            error_ = "impulse_plan.bin: records of the window kernel (the HLS kernel streams every pass's records)";
+            return;
+        }
         slots_ = s32;
-        kinds_.assign(plan.begin() + 8, plan.end());
+        kinds_.assign(plan.begin() + 12, plan.end());
         size_t beats = 0;
         for (uint8_t k : kinds_) beats += slots_ * beats_of(k);
         if (beats != last.size()) error_ = "constraint stream does not match impulse_plan.bin";
