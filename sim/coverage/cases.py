@@ -122,7 +122,8 @@ def streaming_cases(config: str) -> list[Case]:
 
 def window_cases(config: str) -> list[Case]:
     """The regression of a window configuration: the sweep order of the README rows and the hazard order, one
-    fetch per step and several (2 and 3 passes per fetch), stalls, interleaved passes, the 217-body pile, and the
+    fetch per step and several (2 and 3 passes per fetch), stalls, interleaved passes, the 217-body pile, a spread
+    of masses and inertias, the body indices over the whole index range, the argument and stimulus edits, and the
     bad-input edits (the stream and argument errors of the window, lanes that collide)."""
     c = config
     return [
@@ -134,6 +135,9 @@ def window_cases(config: str) -> list[Case]:
         Case(f"{c}-pile217-sweep-zcu102", c, "pile217", "sweep"),
         Case(f"{c}-stack-gravity-dt-damping", c, "stack", "sweep", edit=edit_gravity),
         Case(f"{c}-stack-spin", c, "stack", "sweep", edit=edit_spin),
+        Case(f"{c}-pile-mass-spread", c, "pile", "sweep", edit=edit_mass_spread),
+        Case(f"{c}-stack-wide-index", c, "stack", "sweep", edit=edit_wide_index),
+        *stimulus_cases(c, "stack"),
     ] + bad_input_cases(c, "pile", "sweep", BAD_INPUT_EDITS + WINDOW_BAD_INPUT_EDITS)
 
 

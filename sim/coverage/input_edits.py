@@ -18,7 +18,7 @@ import numpy as np
 
 from models.register_map import AP_START, ARG_NAMES, AUTO_RESTART, OFFSET
 from models.stream_format import (BODY_ANGULAR_VELOCITY, BODY_INV_INERTIA, BODY_INV_MASS, BODY_LINEAR_VELOCITY,
-                                  BODY_POSITION)
+                                  BODY_POSITION, EMPTY_HEADER)
 from sim.kernel_build import KernelBuild
 
 UNMAPPED_ADDRESS = 0xF4  # no register there (rtl/README.md: reads 0, ignores writes, SLVERR, error 9)
@@ -268,6 +268,8 @@ def edit_wide_index(f: HarnessFiles, kb: KernelBuild) -> None:
     for p in range(f.passes):
         for k in range(f.reg("num_manifolds")):
             head = int.from_bytes(data[f.record("cons", p, k)[0], 0:8].tobytes(), "little")
+            if head == int(EMPTY_HEADER):  # an empty lane of the window kernel: no bodies
+                continue
             f.set_word("cons", p, k, 0, 32, int(new_index[head & 0xFFFFFFFF]))
             f.set_word("cons", p, k, 32, 31, int(new_index[(head >> 32) & 0x7FFFFFFF]))
     f.set_reg("num_bodies", n)
