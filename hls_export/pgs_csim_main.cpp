@@ -11,17 +11,21 @@
 // C simulation is untimed: SEED, GAP_PERMILLE, BP_PERMILLE, MAX_CYCLES and the DMA arguments are accepted and
 // ignored, and result.txt has no cycle counters. Its keys: status, issued (the kernel's outputs at 0x58 and
 // 0x78), trace_records, body_out_beats, body_in_beats_taken, cons_beats_taken, body_in_beats_left,
-// cons_beats_left, empty_reads (reads of an empty input stream; shims only), wall_s, hazard_window,
-// window_hazards.
+// cons_beats_left, cons_beats_unsent (the records design: beats the DMA did not stream because the kernel ended
+// first), empty_reads (reads of an empty input stream; shims only), wall_s, hazard_window, window_hazards.
 // Built with PGS_IMPULSES_IN_RECORDS = 1 the testbench plays the DMA of the records design (pgs_csim_dma.h): it also
 // reads DIR/impulse_plan.bin, runs the kernel in a second thread, streams each record with the impulse buffer
 // applied, and writes DIR/imp_out.bin + imp_out_last.bin (the m_axis_imp records and their TLAST) and
 // impulse_out_records in result.txt. $PGS_CSIM_WAIT_S (default 60): seconds the DMA waits for an impulse-out record
 // before it stops the run (exit 2) as stuck.
+// The window kernel's build (PGS_WINDOW > 0) also takes lag and fetch_passes from regs.bin, and its DMA streams
+// fetches of window records (impulse_plan.bin's beats per record).
 // window_hazards: records that name a dynamic body also named by one of the hazard_window records before them
-// in the same pass (hazard_window from $PGS_HAZARD_WINDOW, default 128). The synthesized kernel declares the
-// velocity dependence false (pgs_kernel.cpp), so it matches this sequential C simulation only when that count
-// is 0 for a window of at least the records its pipeline holds.
+// in the same pipelined loop (hazard_window from $PGS_HAZARD_WINDOW, default 128): a pass of the streaming kernel, in
+// slot order; a fetch of the window kernel, in its pass schedule's order (a window record's lanes count as one). The
+// synthesized kernel declares the velocity dependence false (pgs_kernel.cpp), so it matches this sequential C
+// simulation only when that count is 0 for a window of at least the records its pipeline holds.
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -105,37 +109,102 @@ void feed(hls::stream<ap_axiu<D, 0, 0, 0> >& s, const std::vector<uint8_t>& data
     }
 }
 
-// Records of a pass that would read a velocity still in flight in a pipeline holding `window` records.
-uint64_t count_window_hazards(const std::vector<uint8_t>& body_in, const std::vector<uint8_t>& cons, uint32_t nb,
-                              uint32_t nm, uint32_t iterations, bool interleaved, uint32_t window) {
+// Records that would read a velocity still in flight in a pipeline holding `window` records: fed the kernel's records
+// in its order, loop by loop (the records of one loop may overlap in the pipeline, those of two never do).
+class HazardCount {
+  public:
+    HazardCount(const std::vector<bool>& dynamic, uint32_t window)
+        : dynamic_(dynamic), seen_loop_(dynamic.size(), -1), seen_at_(dynamic.size(), 0), window_(window) {}
+    void next_loop() {
+        loop_++;
+        at_ = 0;
+    }
+    // the next record of the loop, its bodies (`n` of them)
+    void record(const uint32_t* bodies, int n) {
+        bool hazard = false;
+        for (int i = 0; i < n; i++)
+            if (is_dynamic(bodies[i]) && seen_loop_[bodies[i]] == loop_ && at_ - seen_at_[bodies[i]] < window_)
+                hazard = true;
+        for (int i = 0; i < n; i++)
+            if (is_dynamic(bodies[i])) {
+                seen_loop_[bodies[i]] = loop_;
+                seen_at_[bodies[i]] = at_;
+            }
+        hazards_ += hazard;
+        at_++;
+    }
+    uint64_t hazards() const { return hazards_; }
+
+  private:
+    bool is_dynamic(uint32_t body) const { return body < dynamic_.size() && dynamic_[body]; }
+    std::vector<bool> dynamic_;
+    std::vector<int64_t> seen_loop_, seen_at_;
+    int64_t loop_ = 0, at_ = 0, window_;
+    uint64_t hazards_ = 0;
+};
+
+// The dynamic flags of the body-in records.
+std::vector<bool> dynamic_bodies(const std::vector<uint8_t>& body_in, uint32_t nb) {
     const size_t body_bytes = kBodyInBeats * kBodyInW / 8;
     std::vector<bool> dynamic(nb, false);
     for (uint32_t i = 0; i < nb && (i + 1) * body_bytes <= body_in.size(); i++)
         dynamic[i] = decode_body_in(from_bytes<kBodyInBeats * kBodyInW>(&body_in[i * body_bytes])).inv_mass != 0.0f;
-    std::vector<int64_t> seen_pass(nb, -1), seen_slot(nb, 0);
-    uint64_t hazards = 0;
+    return dynamic;
+}
+
+// the body indices of the record header at byte `offset` of the constraint stream (the first beat of either kind)
+void header_bodies(const std::vector<uint8_t>& cons, size_t offset, uint32_t* bodies) {
+    const Header h = header_at(from_bytes<kConsW>(&cons[offset]));
+    bodies[0] = h.body_a;
+    bodies[1] = h.body_b;
+}
+
+#if !PGS_WINDOW
+// The streaming kernel: pass after pass, the records in slot order.
+uint64_t count_window_hazards(const std::vector<uint8_t>& body_in, const std::vector<uint8_t>& cons, uint32_t nb,
+                              uint32_t nm, uint32_t iterations, bool interleaved, uint32_t window) {
+    HazardCount count(dynamic_bodies(body_in, nb), window);
     size_t offset = 0;
-    for (uint32_t p = 0; p < 2 * iterations; p++) {
-        const bool friction = pass_is_friction(p, iterations, interleaved);
-        const size_t rec_bytes = (friction ? kFrictionBeats : kContactBeats) * kConsW / 8;
+    for (uint32_t p = 0; p < 2 * iterations; p++, count.next_loop()) {
+        const size_t rec_bytes = (pass_is_friction(p, iterations, interleaved) ? kFrictionBeats : kContactBeats) *
+                                 kConsW / 8;
         for (uint32_t k = 0; k < nm && offset + rec_bytes <= cons.size(); k++, offset += rec_bytes) {
-            // the header is in the first beat of either record kind
-            const Header h = header_at(from_bytes<kConsW>(&cons[offset]));
-            const uint32_t bodies[2] = {h.body_a, h.body_b};
-            bool hazard = false;
-            for (uint32_t body : bodies)
-                if (body < nb && dynamic[body] && seen_pass[body] == int64_t(p) && int64_t(k) - seen_slot[body] < window)
-                    hazard = true;
-            for (uint32_t body : bodies)
-                if (body < nb && dynamic[body]) {
-                    seen_pass[body] = p;
-                    seen_slot[body] = k;
-                }
-            hazards += hazard;
+            uint32_t bodies[2];
+            header_bodies(cons, offset, bodies);
+            count.record(bodies, 2);
         }
     }
-    return hazards;
+    return count.hazards();
 }
+#else
+// The window kernel: fetch after fetch, its passes' records in the order of its pass schedule (pgs_kernel.cpp
+// window_passes: at time t pass k processes record t - k lag), each window record's lanes together (empty lanes
+// skipped). Refused arguments count nothing.
+uint64_t count_window_hazards(const std::vector<uint8_t>& body_in, const std::vector<uint8_t>& cons, uint32_t nb,
+                              uint32_t nm, uint32_t iterations, uint32_t lag, uint32_t fetch_passes, uint32_t window) {
+    HazardCount count(dynamic_bodies(body_in, nb), window);
+    const size_t nrec = nm / kLanes, rec_bytes = size_t(kWindowRecBeats) * kConsW / 8;
+    if (fetch_passes == 0 || lag == 0) return 0;
+    for (uint32_t f = 0, p0 = 0; p0 < 2 * iterations; f++, p0 += fetch_passes, count.next_loop()) {
+        const uint32_t np = std::min(fetch_passes, 2 * iterations - p0);
+        for (size_t t = 0; nrec && t < nrec + size_t(np - 1) * lag; t++)
+            for (uint32_t k = 0; k < np; k++) {
+                const size_t offset = (f * nrec + t - k * size_t(lag)) * rec_bytes;
+                if (t < k * size_t(lag) || t - k * size_t(lag) >= nrec || offset + rec_bytes > cons.size()) continue;
+                uint32_t bodies[2 * kLanes];
+                int n = 0;
+                for (int l = 0; l < kLanes; l++) {
+                    const size_t lane = offset + size_t(l) * kWindowBeats * kConsW / 8;
+                    uint64_t header;
+                    std::memcpy(&header, &cons[lane], 8);
+                    if (header != ~uint64_t(0)) header_bodies(cons, lane, bodies + 2 * n++);  // not an empty lane
+                }
+                count.record(bodies, 2 * n);
+            }
+    }
+    return count.hazards();
+}
+#endif
 
 }  // namespace
 
@@ -165,6 +234,11 @@ int main(int argc, char** argv) {
         reg[a] = v;
     }
     const uint32_t nb = reg[kRegNumBodies], nm = reg[kRegNumManifolds], iters = reg[kRegIterations];
+#if PGS_WINDOW  // the window kernel's arguments (the harness writes them for a window job only)
+#define PGS_WINDOW_CALL reg[kRegLag], reg[kRegFetchPasses],
+#else
+#define PGS_WINDOW_CALL
+#endif
 #if PGS_SOFT_CONTACT  // the soft contact build's keep factors (the harness writes them for a soft job only)
 #define PGS_SOFT_CALL reg[kRegKeepDyn], reg[kRegKeepStatic],
 #else
@@ -189,15 +263,17 @@ int main(int argc, char** argv) {
     m_imp.open_producer();
     std::thread kernel([&] {
         pgs_kernel(s_body, s_cons, m_body, trace, m_imp, nb, nm, iters, reg[kRegDt], reg[kRegGravityX],
-                   reg[kRegGravityY], reg[kRegGravityZ], reg[kRegDamping], reg[kRegOptions], PGS_SOFT_CALL &status,
-                   &issued);
+                   reg[kRegGravityY], reg[kRegGravityZ], reg[kRegDamping], reg[kRegOptions], PGS_SOFT_CALL
+                   PGS_WINDOW_CALL &status, &issued);
         m_imp.close_producer();
     });
     if (!dma.stream_records(s_cons, m_imp)) fail(dma.error());  // exits with the kernel thread still waiting
     kernel.join();
     dma.drain(m_imp);
+    const size_t cons_fed = dma.beats_fed();
 #else
     feed(s_cons, cons, cons_last);
+    const size_t cons_fed = cons_last.size();
     pgs_kernel(s_body, s_cons, m_body, trace, nb, nm, iters, reg[kRegDt], reg[kRegGravityX], reg[kRegGravityY],
                reg[kRegGravityZ], reg[kRegDamping], reg[kRegOptions], PGS_SOFT_CALL &status, &issued);
 #endif
@@ -243,16 +319,21 @@ int main(int argc, char** argv) {
 #else
     const unsigned long long empty_reads = 0;
 #endif
+#if PGS_WINDOW
+    const uint64_t hazards = count_window_hazards(body_in, cons, nb, nm, iters, reg[kRegLag], reg[kRegFetchPasses],
+                                                  window);
+#else
     const uint64_t hazards = count_window_hazards(body_in, cons, nb, nm, iters, (reg[kRegOptions] & kOptInterleaved) != 0,
                                                   window);
+#endif
     std::FILE* fr = create(dir + "/result.txt");
     std::fprintf(fr, "status %u\nissued %u\n", status, issued);
     std::fprintf(fr, "trace_records %llu\nbody_out_beats %llu\n", (unsigned long long)n_trace,
                  (unsigned long long)n_out);
     std::fprintf(fr, "body_in_beats_taken %zu\ncons_beats_taken %zu\n", body_in_last.size() - s_body.size(),
-                 cons_last.size() - s_cons.size());
-    std::fprintf(fr, "body_in_beats_left %zu\ncons_beats_left %zu\nempty_reads %llu\n", s_body.size(), s_cons.size(),
-                 empty_reads);
+                 cons_fed - s_cons.size());
+    std::fprintf(fr, "body_in_beats_left %zu\ncons_beats_left %zu\ncons_beats_unsent %zu\nempty_reads %llu\n",
+                 s_body.size(), s_cons.size(), cons_last.size() - cons_fed, empty_reads);
     std::fprintf(fr, "wall_s %.6f\nhazard_window %u\nwindow_hazards %llu\n", wall, window,
                  (unsigned long long)hazards);
 #if PGS_IMPULSES_IN_RECORDS

@@ -11,6 +11,11 @@
 //     m_axis_imp, one record per slot and pass (the DMA writes them to the DDR buffer the next passes read); with
 //     PGS_TANGENTS_ON_CHIP = 1 as well (the RTL's TANGENTS_ON_CHIP) the friction records carry no t0, t1 and the
 //     friction pass derives them from n (pgs_solver.h plane_space, models/tangent_basis.py);
+//   * built with PGS_WINDOW = N > 0 (the RTL's window kernel with the impulses in the records, the fitting window
+//     design) each fetch of the records serves several passes of one kind: the fetch's window records (PGS_LANES
+//     slots each) go into an on-chip ring of N records, its passes trail each other by `lag` records over it, an
+//     impulse ring carries each slot's impulses from pass to pass, and the fetch's last pass writes them to
+//     m_axis_imp (window_passes below);
 //   * one pipelined loop per pass kind (PIPELINE, the fixed-size inner loops unrolled), ARRAY_PARTITION of the
 //     per-body and per-slot words so that a record reads and writes all of them at once, and DEPENDENCE
 //     inter false on the body velocities and the impulses (below).
@@ -140,6 +145,37 @@ LOAD:
     }
 }
 
+// --- one manifold-pass (the streaming kernel's passes and the window kernel's) --------------------------------
+// One contact manifold-pass of record r in slot `slot`: its bodies gathered, lam[0..3] updated from the impulses
+// the pass starts from, the dynamic bodies' velocities written back; returns its trace record.
+trace_t contact_update(const ContactRec& r, uint32_t slot, uint32_t iteration, uint32_t num_bodies,
+                       const float body_ref[kMaxBodies][kRefWords], float body_vel[kMaxBodies][6], float lam[4],
+                       const SoftKeep& soft, Errors& err) {
+    BodyPair p = gather(r.h, num_bodies, body_ref, body_vel, err);
+    solve_contact(r, p.A, p.B, p.va, p.vb, lam, soft);
+    retire(body_vel, p);
+    return encode_trace(lam, p.va.v, p.va.w, p.vb.v, p.vb.w, slot, iteration, false);
+}
+
+// One friction manifold-pass of record r: lam_n the manifold's normal impulses (its friction limit); impulses[0..1]
+// the lamT the pass starts from, on return {lamT[0], lamT[1], 0, 0} (the trace's and the impulse-out record's words).
+trace_t friction_update(FrictionRec r, uint32_t slot, uint32_t iteration, uint32_t num_bodies,
+                        const float body_ref[kMaxBodies][kRefWords], float body_vel[kMaxBodies][6],
+                        const float lam_n[4], float impulses[4], Errors& err) {
+    if (kTangentsOnChip) plane_space(r.n, r.t);  // the record carries no t0, t1: derived from n
+    BodyPair p = gather(r.h, num_bodies, body_ref, body_vel, err);
+    float lam_t[2] = {impulses[0], impulses[1]};
+    solve_friction(r, p.A, p.B, p.va, p.vb, lam_n, lam_t);
+    impulses[0] = lam_t[0];
+    impulses[1] = lam_t[1];
+    impulses[2] = 0.0f;
+    impulses[3] = 0.0f;
+    retire(body_vel, p);
+    return encode_trace(impulses, p.va.v, p.va.w, p.vb.v, p.vb.w, slot, iteration, true);
+}
+
+#if !PGS_WINDOW
+// --- the streaming kernel: every pass streams its records ----------------------------------------------------
 // The impulses of the passes: on chip (imp_n, imp_t: one entry per slot) or, with PGS_IMPULSES_IN_RECORDS = 1, in
 // the records (each carries the impulses its pass starts from) and out on m_axis_imp (one record per slot and pass,
 // TLAST on the pass's last), which the DMA writes to the DDR impulse buffer the next passes' records are read with.
@@ -172,21 +208,18 @@ CONTACT:
 #pragma HLS DEPENDENCE variable=imp_n type=inter dependent=false
 #endif
         const ContactRec r = decode_contact(read_cons<kContactBeats>(s_axis_cons, k == num_manifolds - 1, err));
-        BodyPair p = gather(r.h, num_bodies, body_ref, body_vel, err);
         float lam[4];
 #if PGS_IMPULSES_IN_RECORDS
         for (int i = 0; i < 4; i++) lam[i] = r.lam[i];
 #else
         for (int i = 0; i < 4; i++) lam[i] = zero_lam ? 0.0f : imp_n[k][i];
 #endif
-        solve_contact(r, p.A, p.B, p.va, p.vb, lam, soft);
+        trace.write(contact_update(r, k, iteration, num_bodies, body_ref, body_vel, lam, soft, err));
 #if PGS_IMPULSES_IN_RECORDS
         write_impulses(m_axis_imp, lam, k == num_manifolds - 1);
 #else
         for (int i = 0; i < 4; i++) imp_n[k][i] = lam[i];
 #endif
-        retire(body_vel, p);
-        trace.write(encode_trace(lam, p.va.v, p.va.w, p.vb.v, p.vb.w, k, iteration, false));
     }
 }
 
@@ -204,28 +237,178 @@ FRICTION:
 #if !PGS_IMPULSES_IN_RECORDS
 #pragma HLS DEPENDENCE variable=imp_t type=inter dependent=false
 #endif
-        FrictionRec r = decode_friction(read_cons<kFrictionBeats>(s_axis_cons, k == num_manifolds - 1, err));
-        if (kTangentsOnChip) plane_space(r.n, r.t);  // the record carries no t0, t1: derived from n
-        BodyPair p = gather(r.h, num_bodies, body_ref, body_vel, err);
-        float lam_n[4], lam_t[2];
+        const FrictionRec r = decode_friction(read_cons<kFrictionBeats>(s_axis_cons, k == num_manifolds - 1, err));
+        float lam_n[4], impulses[4] = {0.0f, 0.0f, 0.0f, 0.0f};
 #if PGS_IMPULSES_IN_RECORDS
         for (int i = 0; i < 4; i++) lam_n[i] = r.lam[i];
-        for (int j = 0; j < 2; j++) lam_t[j] = r.lam_t[j];
+        for (int j = 0; j < 2; j++) impulses[j] = r.lam_t[j];
 #else
         for (int i = 0; i < 4; i++) lam_n[i] = imp_n[k][i];
-        for (int j = 0; j < 2; j++) lam_t[j] = zero_lam ? 0.0f : imp_t[k][j];
+        for (int j = 0; j < 2; j++) impulses[j] = zero_lam ? 0.0f : imp_t[k][j];
 #endif
-        solve_friction(r, p.A, p.B, p.va, p.vb, lam_n, lam_t);
-        const float impulses[4] = {lam_t[0], lam_t[1], 0.0f, 0.0f};
+        trace.write(friction_update(r, k, iteration, num_bodies, body_ref, body_vel, lam_n, impulses, err));
 #if PGS_IMPULSES_IN_RECORDS
         write_impulses(m_axis_imp, impulses, k == num_manifolds - 1);
 #else
-        for (int j = 0; j < 2; j++) imp_t[k][j] = lam_t[j];
+        for (int j = 0; j < 2; j++) imp_t[k][j] = impulses[j];
 #endif
-        retire(body_vel, p);
-        trace.write(encode_trace(impulses, p.va.v, p.va.w, p.vb.v, p.vb.w, k, iteration, true));
     }
 }
+
+#else
+// --- the window kernel (PGS_WINDOW > 0): one fetch of the records serves several passes -------------------------
+// The window arguments refused (error 3, the RTL's argument check): fetch_passes outside 1..kWindowCtx, lag 0, a
+// ring too small for the fetch's passes trailing each other ((fetch_passes - 1) lag + 2 > kWindow), num_manifolds
+// not a multiple of the lanes, or a fetch that would serve contact and friction passes together (fetch_passes must
+// divide the iterations, or be 1 with the kinds interleaved: models.stream_format.window_fetch_kinds).
+bool window_args_ok(uint32_t num_manifolds, uint32_t iterations, bool interleaved, uint32_t lag,
+                    uint32_t fetch_passes) {
+    if (fetch_passes < 1 || fetch_passes > uint32_t(kWindowCtx) || lag < 1) return false;
+    if (uint64_t(fetch_passes - 1) * lag + 2 > uint64_t(kWindow) || num_manifolds % kLanes != 0) return false;
+    return interleaved ? fetch_passes == 1 : iterations % fetch_passes == 0;
+}
+
+// BEATS beats of a wide record, from beat `at` (a window record's lane, a lane's record of the fetch's kind).
+template <int BEATS, int N>
+ap_uint<BEATS * kConsW> beats_at(const ap_uint<N>& rec, int at) {
+    return rec.range((at + BEATS) * kConsW - 1, at * kConsW);
+}
+
+// The window kernel reads a record once for several passes: a shock pass's header bits are ignored (as the RTL's).
+Header without_shock(Header h) {
+    h.frozen_a = false;
+    h.frozen_b = false;
+    h.shock_linear = false;
+    return h;
+}
+
+// The impulse a pass of the fetch starts from: the record's (the fetch's first pass) or the one the pass before it
+// left in the impulse ring.
+float start_impulse(bool first, float from_record, float from_ring) { return first ? from_record : from_ring; }
+
+// One pass of the fetch over a window record, and where it stands in the step.
+struct WindowPass {
+    uint32_t pass, iteration;
+    bool friction;  // the fetch's kind
+    bool first;     // the fetch's first pass: the impulses are the record's
+    bool last;      // the fetch's last pass: it writes the impulse-out record
+};
+
+// Pass wp of window record r (ring address `at`): every lane that issues is solved, one after the other (the lanes
+// share no dynamic body: the same as together), and leaves its impulses in the impulse ring for the fetch's next
+// pass; the fetch's last pass writes the record's impulse-out record (lane l's 4 words at 4 l; zeros for a lane that
+// does not issue), TLAST on the fetch's last record. An empty lane (header all ones) never issues. A lane that shares
+// a dynamic body with an earlier issuing lane of its record is rejected (error 4), and a slot rejected in an earlier
+// pass of the step stays rejected (`rejected`, written for every slot in pass 0): no trace, no velocity write.
+void window_record_pass(const window_bits_t& rec, uint32_t at, uint32_t r, uint32_t nrec, const WindowPass& wp,
+                        uint32_t num_bodies, const float body_ref[kMaxBodies][kRefWords], float body_vel[kMaxBodies][6],
+                        float imp_ring[kWindow][kLanes][4], bool rejected[kMaxManifolds],
+                        hls::stream<trace_t>& trace, hls::stream<imp_beat_t>& m_axis_imp, const SoftKeep& soft,
+                        Errors& err, uint32_t& issued) {
+    float out[kLanes * kImpulseOutWords];
+    bool go[kLanes];
+    uint32_t go_a[kLanes], go_b[kLanes];  // the issuing lanes' bodies
+LANES:
+    for (int l = 0; l < kLanes; l++) {
+#pragma HLS UNROLL
+        go[l] = false;
+        go_a[l] = go_b[l] = 0;
+        for (int i = 0; i < 4; i++) out[4 * l + i] = 0.0f;
+        const ap_uint<kWindowBeats * kConsW> lane = beats_at<kWindowBeats>(rec, l * kWindowBeats);
+        if (lane.range(kHeaderBits - 1, 0).to_uint64() == ~0ull) continue;  // an empty lane
+        const Header h = header_at(lane);
+        const uint32_t a = h.body_a & (kMaxBodies - 1), b = h.body_b & (kMaxBodies - 1);
+        const bool dyn_a = body_ref[a][3] != 0.0f, dyn_b = body_ref[b][3] != 0.0f;
+        bool collide = false;
+        for (int k = 0; k < l; k++) {
+#pragma HLS UNROLL
+            if (go[k] && ((dyn_a && (a == go_a[k] || a == go_b[k])) || (dyn_b && (b == go_a[k] || b == go_b[k]))))
+                collide = true;
+        }
+        const uint32_t slot = r * kLanes + l;
+        const bool rej = (wp.pass != 0 && rejected[slot]) || collide;
+        rejected[slot] = rej;
+        if (collide) err.raise(kErrBodyIndex);
+        if (rej) continue;
+        go[l] = true;
+        go_a[l] = a;
+        go_b[l] = b;
+        float imp[4];
+        trace_t t;
+        if (wp.friction) {
+            FrictionRec f = decode_friction(beats_at<kFrictionBeats>(lane, 0));
+            f.h = without_shock(f.h);
+            for (int j = 0; j < 2; j++) imp[j] = start_impulse(wp.first, f.lam_t[j], imp_ring[at][l][j]);
+            t = friction_update(f, slot, wp.iteration, num_bodies, body_ref, body_vel, f.lam, imp, err);
+        } else {
+            ContactRec c = decode_contact(beats_at<kContactBeats>(lane, 0));
+            c.h = without_shock(c.h);
+            for (int i = 0; i < 4; i++) imp[i] = start_impulse(wp.first, c.lam[i], imp_ring[at][l][i]);
+            t = contact_update(c, slot, wp.iteration, num_bodies, body_ref, body_vel, imp, soft, err);
+        }
+        for (int i = 0; i < 4; i++) {
+            imp_ring[at][l][i] = imp[i];
+            out[4 * l + i] = imp[i];
+        }
+        trace.write(t);
+        issued++;
+    }
+    if (wp.last) write_record<1, kImpOutW>(m_axis_imp, encode_impulse_out(out), r == nrec - 1);
+}
+
+// The window kernel's passes (models/record_window.py): ceil(passes / fetch_passes) fetches, each of one kind, each
+// reading num_manifolds / kLanes window records into the ring and running its np passes over them, pass k trailing
+// pass k - 1 by `lag` records: at time t the fetch reads record t (t < nrec) and pass k processes record t - k lag,
+// the passes in ascending order. With lag >= D (the band width of the slot order) every body sees its updates in the
+// sequential solve's order, and every pass reads the slot's impulses after the pass before it wrote them. A fetch's
+// passes end before the next fetch starts, so the DMA reads the next fetch's records with every impulse it wrote.
+// DEPENDENCE false on the velocities and the impulse ring (as the streaming passes'): the records of the pass
+// schedule follow each other in the pipelined PASSES loop, exact only while no two of them within the pipeline's
+// depth share a dynamic body (the testbench's window_hazards counts the others). Returns the manifold-passes issued.
+uint32_t window_passes(hls::stream<cons_beat_t>& s_axis_cons, hls::stream<trace_t>& trace,
+                       hls::stream<imp_beat_t>& m_axis_imp, uint32_t num_bodies, uint32_t num_manifolds,
+                       uint32_t iterations, bool interleaved, uint32_t lag, uint32_t fetch_passes,
+                       const float body_ref[kMaxBodies][kRefWords], float body_vel[kMaxBodies][6],
+                       const SoftKeep& soft, Errors& err) {
+    // the ring of window records (block RAM), the impulse ring (4 words per lane at the record's ring address), and
+    // one bit per slot: rejected earlier in the step
+    static window_bits_t ring[kWindow];
+    static float imp_ring[kWindow][kLanes][4];
+    static bool rejected[kMaxManifolds];
+#pragma HLS BIND_STORAGE variable=ring type=ram_t2p impl=bram
+#pragma HLS ARRAY_PARTITION variable=imp_ring type=complete dim=2
+#pragma HLS ARRAY_PARTITION variable=imp_ring type=complete dim=3
+#pragma HLS BIND_STORAGE variable=imp_ring type=ram_t2p impl=bram
+#pragma HLS BIND_STORAGE variable=rejected type=ram_t2p impl=bram
+    const uint32_t nrec = num_manifolds / kLanes, passes = 2 * iterations;
+    uint32_t issued = 0;
+FETCHES:
+    for (uint32_t p0 = 0; p0 < passes; p0 += fetch_passes) {
+#pragma HLS LOOP_TRIPCOUNT min=1 max=64 avg=2
+        const uint32_t np = passes - p0 < fetch_passes ? passes - p0 : fetch_passes;
+        const bool friction = pass_is_friction(p0, iterations, interleaved);  // every pass of the fetch's
+        const uint32_t span = nrec == 0 ? 0 : nrec + (np - 1) * lag;
+    TIME:
+        for (uint32_t t = 0; t < span; t++) {
+#pragma HLS LOOP_TRIPCOUNT min=1 max=131072 avg=64000
+            if (t < nrec) ring[t & (kWindow - 1)] = read_cons<kWindowRecBeats>(s_axis_cons, t == nrec - 1, err);
+        PASSES:
+            for (uint32_t k = 0; k < np; k++) {
+#pragma HLS PIPELINE II=1
+#pragma HLS LOOP_TRIPCOUNT min=1 max=8 avg=4
+#pragma HLS DEPENDENCE variable=body_vel type=inter dependent=false
+#pragma HLS DEPENDENCE variable=imp_ring type=inter dependent=false
+                if (t < k * lag || t - k * lag >= nrec) continue;  // pass k has not started, or is done
+                const uint32_t r = t - k * lag, p = p0 + k;
+                const WindowPass wp = {p, pass_iteration(p, iterations, interleaved), friction, k == 0, k == np - 1};
+                window_record_pass(ring[r & (kWindow - 1)], r & (kWindow - 1), r, nrec, wp, num_bodies, body_ref,
+                                   body_vel, imp_ring, rejected, trace, m_axis_imp, soft, err, issued);
+            }
+        }
+    }
+    return issued;
+}
+#endif
 
 // Every body in index order: dynamic bodies integrated, static ones unchanged, out as body-out records.
 void integrate_out(hls::stream<body_out_beat_t>& m_axis_body, uint32_t num_bodies, const IntegConsts& kc,
@@ -255,7 +438,7 @@ void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_
                 hls::stream<body_out_beat_t>& m_axis_body, hls::stream<trace_t>& trace, PGS_IMP_OUT_PORT
                 uint32_t num_bodies, uint32_t num_manifolds, uint32_t iterations, uint32_t dt, uint32_t gravity_x,
                 uint32_t gravity_y, uint32_t gravity_z, uint32_t damping, uint32_t options, PGS_SOFT_PORTS
-                uint32_t* status, uint32_t* issued) {
+                PGS_WINDOW_PORTS uint32_t* status, uint32_t* issued) {
 #pragma HLS INTERFACE mode=axis port=s_axis_body
 #pragma HLS INTERFACE mode=axis port=s_axis_cons
 #pragma HLS INTERFACE mode=axis port=m_axis_body
@@ -276,6 +459,10 @@ void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_
 #if PGS_SOFT_CONTACT
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=keep_dyn bundle=control offset=PGS_REG_KEEP_DYN)
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=keep_static bundle=control offset=PGS_REG_KEEP_STATIC)
+#endif
+#if PGS_WINDOW
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=lag bundle=control offset=PGS_REG_LAG)
+    PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=fetch_passes bundle=control offset=PGS_REG_FETCH_PASSES)
 #endif
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=status bundle=control offset=PGS_REG_STATUS)
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=issued bundle=control offset=PGS_REG_ISSUED)
@@ -300,16 +487,25 @@ void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_
 
     Errors err = {0, 0};
     uint32_t count = 0;
-    if (num_bodies > kMaxBodies || num_manifolds > kMaxManifolds || iterations > kMaxIterations) {
+    const bool interleaved = (options & kOptInterleaved) != 0;
+#if PGS_WINDOW
+    const bool window_ok = window_args_ok(num_manifolds, iterations, interleaved, lag, fetch_passes);
+#else
+    const bool window_ok = true;
+#endif
+    if (num_bodies > kMaxBodies || num_manifolds > kMaxManifolds || iterations > kMaxIterations || !window_ok) {
         err.raise(kErrBadArgs);  // the step ends at once, streams untouched
     } else if (num_bodies != 0) {  // no bodies: nothing to load, solve or integrate (as the RTL)
         load_bodies(s_axis_body, num_bodies, body_ref, body_vel, body_q, err);
-        const bool interleaved = (options & kOptInterleaved) != 0;
 #if PGS_SOFT_CONTACT
         const SoftKeep soft = {(options & kOptSoftContact) != 0, from_bits(keep_dyn), from_bits(keep_static)};
 #else
         const SoftKeep soft = {false, 1.0f, 1.0f};
 #endif
+#if PGS_WINDOW
+        count = window_passes(s_axis_cons, trace, m_axis_imp, num_bodies, num_manifolds, iterations, interleaved, lag,
+                              fetch_passes, body_ref, body_vel, soft, err);
+#else
     PASSES:
         for (uint32_t p = 0; p < 2 * iterations; p++) {
 #pragma HLS LOOP_TRIPCOUNT min=2 max=64 avg=8
@@ -322,6 +518,7 @@ void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_
                              soft, err);
             count += num_manifolds;
         }
+#endif
         const Vec3 gravity = vec3(from_bits(gravity_x), from_bits(gravity_y), from_bits(gravity_z));
         const IntegConsts kc = integ_consts(from_bits(dt), gravity, from_bits(damping));
         integrate_out(m_axis_body, num_bodies, kc, body_ref, body_vel, body_q);

@@ -11,6 +11,9 @@
 //                      TANGENTS_ON_CHIP; only with PGS_IMPULSES_IN_RECORDS = 1, PGS_IINV_W = 3, PGS_MU_W = 0)
 //   PGS_SOFT_CONTACT   1: Box2D's soft contact row (the RTL's SOFT_CONTACT): lam * keep before the add, with the
 //                      options bit kOptSoftContact and the arguments keep_dyn, keep_static; 0: the rigid row only
+//   PGS_WINDOW         > 0: the window kernel (the RTL's WINDOW with IMPULSES_IN_RECORDS = 1; a power of two): each
+//                      fetch of the records serves up to PGS_WINDOW_CTX (8) passes of one kind over a ring of that
+//                      many records of PGS_LANES (1, 2 or 4) slots, the arguments lag and fetch_passes; 0: streaming
 //   PGS_EXP_BITS, PGS_MAN_BITS  the number format (8, 23: binary32; C simulation also 5, 10 and 8, 7; pgs_fp.h)
 #ifndef PGS_KERNEL_H
 #define PGS_KERNEL_H
@@ -35,6 +38,8 @@ namespace pgs {
 constexpr uint32_t kMaxBodies = PGS_MAX_BODIES;
 constexpr uint32_t kMaxManifolds = PGS_MAX_MANIFOLDS;
 static_assert((kMaxBodies & (kMaxBodies - 1)) == 0, "PGS_MAX_BODIES must be a power of two");
+static_assert(PGS_WINDOW == 0 || PGS_SOFT_CONTACT == 0,
+              "the soft contact row is a configuration of the streaming kernel (PGS_WINDOW = 0), as the RTL's");
 
 // The s_axi_control offsets (kReg*, pinned with offset= in the INTERFACE pragmas: the Vitis HLS defaults for
 // this argument order), kMaxIterations, the options bits (kOptInterleaved: interleaved pass order) and the
@@ -63,10 +68,17 @@ inline uint32_t pass_iteration(uint32_t p, uint32_t iterations, bool interleaved
 #define PGS_SOFT_PORTS
 #endif
 
+// the window kernel's arguments (the RTL's lag and fetch_passes registers), of the window build only
+#if PGS_WINDOW
+#define PGS_WINDOW_PORTS uint32_t lag, uint32_t fetch_passes,
+#else
+#define PGS_WINDOW_PORTS
+#endif
+
 void pgs_kernel(hls::stream<pgs::body_in_beat_t>& s_axis_body, hls::stream<pgs::cons_beat_t>& s_axis_cons,
                 hls::stream<pgs::body_out_beat_t>& m_axis_body, hls::stream<pgs::trace_t>& trace,
                 PGS_IMP_OUT_PORT uint32_t num_bodies, uint32_t num_manifolds, uint32_t iterations, uint32_t dt,
                 uint32_t gravity_x, uint32_t gravity_y, uint32_t gravity_z, uint32_t damping, uint32_t options,
-                PGS_SOFT_PORTS uint32_t* status, uint32_t* issued);
+                PGS_SOFT_PORTS PGS_WINDOW_PORTS uint32_t* status, uint32_t* issued);
 
 #endif  // PGS_KERNEL_H

@@ -12,6 +12,10 @@
 //             t1 (the kernel derives them from n, pgs_solver.h plane_space): n, c, f_jac_inv, lam, lamT  64 + 14 W bits
 //   impulse-out (m_axis_imp, PGS_IMPULSES_IN_RECORDS = 1)  contact lam[0..3]; friction lamT[0..1], 0, 0
 //             4 W bits rounded up to whole bytes, one per slot of every pass, TLAST on a pass's last
+//   window    (PGS_WINDOW > 0, with PGS_IMPULSES_IN_RECORDS = 1) PGS_LANES lane records one after the other, each
+//             its fetch's kind's record above (with its impulses) padded to kWindowBeats beats (the longer kind's);
+//             an empty lane: header all ones, zero words. Impulse-out: one per window record of a fetch's last
+//             pass, its lanes' 4 words one after the other, 4 L W bits rounded up to whole bytes
 //   header    bits 31:0 body_a, 59:32 body_b, 60 frozen A, 61 frozen B, 62 linear shock, 63 spin_damp (the three
 //             shock bits only in a shock pass's records, models/shock_propagation.py; positions kHeader*Bit)
 //   body-in   pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass, inv_inertia(PGS_IINV_W)   (14 + PGS_IINV_W) W bits
@@ -43,6 +47,15 @@
 #endif
 #ifndef PGS_TANGENTS_ON_CHIP
 #define PGS_TANGENTS_ON_CHIP 0  // 1: friction records without t0, t1, derived from n (the RTL's TANGENTS_ON_CHIP)
+#endif
+#ifndef PGS_WINDOW
+#define PGS_WINDOW 0  // > 0: the window kernel with a ring of that many records (the RTL's WINDOW; a power of two)
+#endif
+#ifndef PGS_WINDOW_CTX
+#define PGS_WINDOW_CTX 8  // the window kernel's most passes per fetch (the RTL's WINDOW_CTX)
+#endif
+#ifndef PGS_LANES
+#define PGS_LANES 1  // slots per window record, solved together (the RTL's LANES; > 1 with PGS_WINDOW > 0 only)
 #endif
 #ifndef PGS_BODY_IN_W
 #define PGS_BODY_IN_W 128
@@ -88,11 +101,28 @@ constexpr int kFrictionLamAt = kFrictionLamWord - kTangentWords + kFrictionTange
 constexpr int kFrictionLamtAt = kFrictionLamtWord - kTangentWords + kFrictionTangentWords + kMuWords;
 constexpr int kContactBeats = beats_for(kHeaderBits + kContactRecordWords * kWordBits, kConsW);
 constexpr int kFrictionBeats = beats_for(kHeaderBits + kFrictionRecordWords * kWordBits, kConsW);
-constexpr int kImpOutW = (kImpulseOutWords * kWordBits + 7) / 8 * 8;  // m_axis_imp TDATA: whole bytes
+// the window kernel (models/record_window.py): ring depth, passes per fetch at most, lanes per record
+constexpr int kWindow = PGS_WINDOW;
+constexpr int kWindowCtx = PGS_WINDOW_CTX;
+constexpr int kLanes = PGS_LANES;
+static_assert(kWindow == 0 || (kWindow >= 2 && (kWindow & (kWindow - 1)) == 0),
+              "PGS_WINDOW must be 0 (the streaming kernel) or a power of two >= 2 (the ring's records)");
+static_assert(kWindowCtx >= 2 && (kWindowCtx & (kWindowCtx - 1)) == 0, "PGS_WINDOW_CTX must be a power of two >= 2");
+static_assert(kLanes == 1 || kLanes == 2 || kLanes == 4, "PGS_LANES must be 1, 2 or 4");
+static_assert(kLanes == 1 || kWindow > 0, "PGS_LANES > 1 is a configuration of the window kernel (PGS_WINDOW > 0)");
+static_assert(kWindow == 0 || kImpulsesInRecords,
+              "the window kernel is written with the impulses in the records only (PGS_IMPULSES_IN_RECORDS = 1): "
+              "no on-chip impulse RAM");
+static_assert(kWindow == 0 || !kTangentsOnChip,
+              "the window kernel streams the friction tangents (PGS_TANGENTS_ON_CHIP = 0)");
+constexpr int kImpOutW = (kLanes * kImpulseOutWords * kWordBits + 7) / 8 * 8;  // m_axis_imp TDATA: whole bytes
 constexpr int kIInvWords = PGS_IINV_W;
 static_assert(kIInvWords == 1 || kIInvWords == 3 || kIInvWords == 6, "PGS_IINV_W must be 1, 3 or 6");
 static_assert(kBodyInInvInertia + 3 == kBodyInWords, "the default body-in record carries 3 inverse-inertia words");
 constexpr int kBodyInRecordWords = kBodyInInvInertia + kIInvWords;
+// a lane record of the window kernel: the longer kind's beats (StreamLayout.window_beats); a window record: L of them
+constexpr int kWindowBeats = kContactBeats > kFrictionBeats ? kContactBeats : kFrictionBeats;
+constexpr int kWindowRecBeats = kLanes * kWindowBeats;
 constexpr int kBodyInBeats = beats_for(kBodyInRecordWords * kWordBits, kBodyInW);
 constexpr int kBodyOutBeats = beats_for(kBodyOutWords * kWordBits, kBodyOutW);
 
@@ -108,6 +138,7 @@ typedef ap_uint<kTraceBits> trace_t;
 
 typedef ap_uint<kContactBeats * kConsW> contact_bits_t;
 typedef ap_uint<kFrictionBeats * kConsW> friction_bits_t;
+typedef ap_uint<kWindowRecBeats * kConsW> window_bits_t;
 typedef ap_uint<kBodyInBeats * kBodyInW> body_in_bits_t;
 typedef ap_uint<kBodyOutBeats * kBodyOutW> body_out_bits_t;
 
@@ -309,10 +340,11 @@ inline body_out_bits_t encode_body_out(const BodyState& b) {
     return r;
 }
 
-// The impulse-out record of one manifold-pass (m_axis_imp TDATA): impulses[0..3], padding bits zero.
-inline ap_uint<kImpOutW> encode_impulse_out(const float impulses[4]) {
+// The impulse-out record (m_axis_imp TDATA) of one manifold-pass, or of a window record's lanes: impulses[0..4 L - 1]
+// (lane l's 4 words at 4 l), padding bits zero.
+inline ap_uint<kImpOutW> encode_impulse_out(const float impulses[kLanes * kImpulseOutWords]) {
     ap_uint<kImpOutW> r = 0;
-    for (int i = 0; i < kImpulseOutWords; i++) {
+    for (int i = 0; i < kLanes * kImpulseOutWords; i++) {
 #pragma HLS UNROLL
         put_word(r, 0, i, impulses[i]);
     }

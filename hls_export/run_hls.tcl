@@ -17,6 +17,10 @@
 #   PGS_SOFT_CONTACT                     0 (default); 1: Box2D's soft contact row (the RTL's SOFT_CONTACT)
 #   PGS_TANGENTS_ON_CHIP                 0 (default); 1: friction records without t0, t1, derived from the normal
 #                                        (the RTL's TANGENTS_ON_CHIP; only with PGS_IMPULSES_IN_RECORDS = 1)
+#   PGS_WINDOW, PGS_WINDOW_CTX, PGS_LANES  0, 8, 1 (default: the streaming kernel); PGS_WINDOW = N (a power of two):
+#                                        the window kernel with a ring of N records of PGS_LANES (1, 2, 4) slots,
+#                                        up to PGS_WINDOW_CTX passes per fetch (the RTL's WINDOW, WINDOW_CTX, LANES;
+#                                        only with PGS_IMPULSES_IN_RECORDS = 1)
 #   PGS_CSIM_DIR                         a run directory written by sim.harness_run.write_inputs for a job of
 #                                        the same design (the records design: with impulse_plan.bin): run the
 #                                        C simulation testbench on it first (csim_design)
@@ -37,7 +41,7 @@ proc env_or {name default} {
 set defines [list]
 foreach {name default} {PGS_MAX_BODIES 65536 PGS_MAX_MANIFOLDS 262144 PGS_CONS_W 512 PGS_BODY_IN_W 128
                         PGS_BODY_OUT_W 128 PGS_IINV_W 3 PGS_MU_W 0 PGS_IMPULSES_IN_RECORDS 1
-                        PGS_SOFT_CONTACT 0 PGS_TANGENTS_ON_CHIP 0} {
+                        PGS_SOFT_CONTACT 0 PGS_TANGENTS_ON_CHIP 0 PGS_WINDOW 0 PGS_WINDOW_CTX 8 PGS_LANES 1} {
     lappend defines "-D$name=[env_or $name $default]"
 }
 # the golden operation order: nothing fused, no fast-math reassociation

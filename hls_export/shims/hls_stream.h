@@ -91,6 +91,11 @@ class stream {
         std::lock_guard<std::mutex> lock(m_);
         producer_open_ = true;
     }
+    // whether a producer opened the stream and has not closed it yet
+    bool producer_open() const {
+        std::lock_guard<std::mutex> lock(m_);
+        return producer_open_;
+    }
     void close_producer() {
         {
             std::lock_guard<std::mutex> lock(m_);
