@@ -93,6 +93,9 @@ class KernelBuild:
         if self.friction_words not in (0, 1):
             raise ValueError(f"a friction record carries 0 or 1 friction-coefficient words, got {self.friction_words}")
         check_banks(self.body_banks)
+        if self.lanes < 1 or self.lanes & (self.lanes - 1) or (self.lanes > 1 and not self.window):
+            raise ValueError(f"lanes must be a power of two, and above 1 only with the window kernel (window > 0), "
+                             f"got {self.lanes}")
         if self.tangents_on_chip and (self.window or self.inertia_words != sf.KERNEL_INERTIA_WORDS
                                       or self.friction_words or self.friction_sign_bug):
             raise ValueError("the tangent basis derived on chip (tangents_on_chip) is a configuration of the streaming "

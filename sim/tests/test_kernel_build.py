@@ -44,6 +44,9 @@ def test_names_are_distinct_per_description() -> None:
         KernelBuild(FP32, inertia_words=4)
     with pytest.raises(ValueError, match="0 or 1 friction-coefficient words"):
         KernelBuild(FP32, friction_words=2)
+    for lanes, window in ((2, 0), (3, 1024)):
+        with pytest.raises(ValueError, match="lanes must be a power of two"):
+            KernelBuild(FP32, window=window, lanes=lanes)
     tb = KernelBuild(FP32, impulses_in_records=True, body_banks=2, tangents_on_chip=True, delay_block_min_depth=65)
     assert tb.name == "pgs_kernel_e8m23_c512_ir_bk2_tb_dl65" and tb.parameters["TANGENTS_ON_CHIP"] == 1
     assert "TANGENTS_ON_CHIP" not in KernelBuild(FP32, impulses_in_records=True, body_banks=2).parameters
