@@ -537,7 +537,7 @@ module pgs_sequencer #(
             if (BODY_BANKS > 0 && LANES > 1) begin   // the reads of bodies A and B in their banks, earlier lanes'
                 automatic int in_a = bank_of(la[l]) == bank_of(lb[l]) ? 2 : 1;
                 automatic int in_b = in_a;
-                for (int k = 0; k < l; k++) begin
+                for (int k = 0; k < l; k++) begin   // the earlier issuing lanes' reads
                     if (go[k]) begin
                         in_a += int'(bank_of(la[k]) == bank_of(la[l])) + int'(bank_of(lb[k]) == bank_of(la[l]));
                         in_b += int'(bank_of(la[k]) == bank_of(lb[l])) + int'(bank_of(lb[k]) == bank_of(lb[l]));

@@ -43,6 +43,11 @@ def rigid_pipe(config: Configuration) -> bool:
     return config.soft_keep is None
 
 
+def no_bank_check(config: Configuration) -> bool:
+    """Builds whose lanes never meet in the body banks: one lane, or the velocities as a multiport memory."""
+    return config.lanes == 1 or config.build().body_banks == 0
+
+
 INLINED_FUNCTION = ("an arm of the function mapped(), which Verilator inlines into the expressions that call it "
                     "and then never counts; both arms run (the register test reads every mapped register and "
                     "unmapped addresses, and the bad-input run `registers` writes an unmapped address: error 9)")
@@ -58,6 +63,12 @@ WAIVERS: tuple[Waiver, ...] = (
     Waiver("rtl/pgs_sequencer.sv", "for (int k = 0; k < l; k++) begin",
            "the lane-collision loop over the lanes before lane l: with one lane (LANES = 1) it has no iteration "
            "(the window kernel's lanes run it: `lanes_collide` edit)", one_lane),
+    Waiver("rtl/pgs_sequencer.sv", "function automatic logic [BANK_W-1:0] bank_of(",
+           "a body's bank, called only by the lanes' bank-port check, which a build with one lane or without body "
+           "banks (BODY_BANKS = 0) never runs (window-fp16-records-l2 runs it)", no_bank_check),
+    Waiver("rtl/pgs_sequencer.sv", "for (int k = 0; k < l; k++) begin   // the earlier issuing lanes' reads",
+           "the bank-port check's loop over the lanes before lane l: a build with one lane or without body banks "
+           "(BODY_BANKS = 0) never runs it (window-fp16-records-l2 runs it)", no_bank_check),
     Waiver("rtl/pgs_sequencer.sv", "for (int k = 0; k < MU_W; k++) f_in[",
            "the friction coefficient word's copy into the friction pipe: with MU_W = 0 the loop has no iteration "
            "(the MU_W = 1 build, stream-fp32-mu, runs it)", no_friction_word),
