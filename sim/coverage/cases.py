@@ -120,6 +120,22 @@ def streaming_cases(config: str) -> list[Case]:
     ] + bad_input_cases(c, "stack", "hazard", BAD_INPUT_EDITS)
 
 
+def window_scene_cases(config: str) -> list[Case]:
+    """The window kernels' runs in the sweep order beyond the pile and the stack: the incline, the 217-body pile,
+    other integration registers, spin, a spread of masses and inertias, the body indices over the whole range, and
+    the stimulus edits."""
+    c = config
+    return [
+        Case(f"{c}-incline-sweep-zcu102", c, "incline", "sweep"),
+        Case(f"{c}-pile217-sweep-zcu102", c, "pile217", "sweep"),
+        Case(f"{c}-stack-gravity-dt-damping", c, "stack", "sweep", edit=edit_gravity),
+        Case(f"{c}-stack-spin", c, "stack", "sweep", edit=edit_spin),
+        Case(f"{c}-pile-mass-spread", c, "pile", "sweep", edit=edit_mass_spread),
+        Case(f"{c}-stack-wide-index", c, "stack", "sweep", edit=edit_wide_index),
+        *stimulus_cases(c, "stack"),
+    ]
+
+
 def window_cases(config: str) -> list[Case]:
     """The regression of a window configuration: the sweep order of the README rows and the hazard order, one
     fetch per step and several (2 and 3 passes per fetch), stalls, interleaved passes, the 217-body pile, a spread
@@ -131,13 +147,7 @@ def window_cases(config: str) -> list[Case]:
         Case(f"{c}-pile-hazard-ideal-fetch2", c, "pile", dma="ideal", fetch_passes=2),
         Case(f"{c}-stack-sweep-zcu102-fetch3-stalls", c, "stack", "sweep", stalls=300, fetch_passes=3),
         Case(f"{c}-stack-pybullet-zcu102-interleaved", c, "stack", "pybullet", interleaved=True),
-        Case(f"{c}-incline-sweep-zcu102", c, "incline", "sweep"),
-        Case(f"{c}-pile217-sweep-zcu102", c, "pile217", "sweep"),
-        Case(f"{c}-stack-gravity-dt-damping", c, "stack", "sweep", edit=edit_gravity),
-        Case(f"{c}-stack-spin", c, "stack", "sweep", edit=edit_spin),
-        Case(f"{c}-pile-mass-spread", c, "pile", "sweep", edit=edit_mass_spread),
-        Case(f"{c}-stack-wide-index", c, "stack", "sweep", edit=edit_wide_index),
-        *stimulus_cases(c, "stack"),
+        *window_scene_cases(c),
     ] + bad_input_cases(c, "pile", "sweep", BAD_INPUT_EDITS + WINDOW_BAD_INPUT_EDITS)
 
 
@@ -194,13 +204,7 @@ def window_records_cases(config: str) -> list[Case]:
              job_edit=warm_start),
         Case(f"{c}-stack-sweep-zcu102-fetch2-stalls", c, "stack", "sweep", stalls=300, fetch_passes=2),
         Case(f"{c}-stack-pybullet-zcu102-interleaved", c, "stack", "pybullet", interleaved=True, fetch_passes=1),
-        Case(f"{c}-incline-sweep-zcu102", c, "incline", "sweep"),
-        Case(f"{c}-pile217-sweep-zcu102", c, "pile217", "sweep"),
-        Case(f"{c}-stack-gravity-dt-damping", c, "stack", "sweep", edit=edit_gravity),
-        Case(f"{c}-stack-spin", c, "stack", "sweep", edit=edit_spin),
-        Case(f"{c}-pile-mass-spread", c, "pile", "sweep", edit=edit_mass_spread),
-        Case(f"{c}-stack-wide-index", c, "stack", "sweep", edit=edit_wide_index),
-        *stimulus_cases(c, "stack"),
+        *window_scene_cases(c),
     ] + bad_input_cases(c, "stack", "sweep", WINDOW_RECORDS_BAD_INPUT_EDITS)
 
 
