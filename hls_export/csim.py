@@ -158,8 +158,8 @@ def csim_defines(kb: KernelBuild) -> list[str]:
     if kb.window and not kb.impulses_in_records:  # the C++'s static_assert, before a compile
         raise ValueError("the HLS window kernel is written with the impulses in the records only "
                          "(PGS_IMPULSES_IN_RECORDS = 1): no on-chip impulse RAM")
-    if kb.lanes not in (1, 2, 4) or (kb.lanes > 1 and not kb.window):
-        raise ValueError(f"{kb.lanes} lanes: the HLS window kernel has 1, 2 or 4, the streaming kernel 1")
+    if kb.lanes > 4:  # KernelBuild keeps lanes a power of two, above 1 only in the window kernel
+        raise ValueError(f"{kb.lanes} lanes: the HLS window kernel has 1, 2 or 4")
     if kb.fmt.exp_bits > 8 or kb.fmt.man_bits > 23:
         raise ValueError(f"the HLS kernel holds values in a C++ float: {kb.fmt.name} does not fit")
     if kb.tangents_on_chip and not kb.impulses_in_records:  # the C++'s static_assert, before a compile
@@ -342,7 +342,7 @@ def main(argv: list[str] | None = None) -> int:
                     "tangents (records with the tangents derived on chip, PGS_TANGENTS_ON_CHIP=1), soft (records with "
                     "the soft contact row, PGS_SOFT_CONTACT=1; not in the default), shock (records with shock passes, "
                     "1 and --iters iterations), window (the window kernel with the impulses in the records, "
-                    "PGS_WINDOW=1024, PGS_LANES 1 in fp32 and 2 in fp16)")
+                    "PGS_WINDOW=--window-ring, PGS_LANES 1 in fp32 and 2 in fp16)")
     ap.add_argument("--scenes", default=",".join(SCENES),
                     help="on-chip design, comma-separated, from " + ", ".join(SCENES))
     ap.add_argument("--schedules", default=",".join(SCHEDULES))
@@ -351,6 +351,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--records-formats", default=",".join(RECORDS_FORMATS))
     ap.add_argument("--window-schedules", default=",".join(WINDOW_SCHEDULES),
                     help="window design: the slot orders, comma-separated, from " + ", ".join(WINDOW_SCHEDULES))
+    ap.add_argument("--window-ring", type=int, default=WINDOW_DEPTH,
+                    help="window design: the ring's records (PGS_WINDOW; the fitting thesis designs' is 8192)")
     ap.add_argument("--iters", type=int, default=4)
     ap.add_argument("--body-bits", type=int, default=128, choices=(128, 256),
                     help="records and tangents designs: the body streams' beat (make sim's BODY_BITS)")
@@ -389,7 +391,7 @@ def main(argv: list[str] | None = None) -> int:
             fmt, lanes = RECORDS_FORMATS[fname], WINDOW_LANES[fname]
             for scene in args.records_scenes.split(","):
                 for schedule in args.window_schedules.split(","):
-                    cold = window_job(scene, fmt, lanes, schedule, args.iters)
+                    cold = window_job(scene, fmt, lanes, schedule, args.iters, depth=args.window_ring)
                     out = args.out / f"window-{fname}-{scene}-{schedule}"
                     case = f"window {fname} l{lanes} {scene}/{schedule}"
                     bad += _cold_and_warm_rows(cold, window_build(cold), out, case)

@@ -239,11 +239,17 @@ def test_the_cpp_refuses_unsupported_windows(defines: list[str], message: str) -
 
 
 @pytest.mark.parametrize("kb,match", [(KernelBuild(FP32, window=1024), "impulses in the records only"),
-                                      (KernelBuild(FP32, lanes=2, impulses_in_records=True), "lanes")],
-                         ids=["impulses-on-chip", "lanes-without-window"])
+                                      (KernelBuild(FP16, window=1024, lanes=8, impulses_in_records=True),
+                                       "1, 2 or 4")],
+                         ids=["impulses-on-chip", "eight-lanes"])
 def test_build_csim_refuses_unsupported_windows(kb: KernelBuild, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         build_csim(kb)
+
+
+def test_lanes_without_the_window_are_refused_before_a_build() -> None:
+    with pytest.raises(ValueError, match="above 1 only with the window kernel"):
+        KernelBuild(FP32, lanes=2, impulses_in_records=True)
 
 
 def test_window_formats_are_the_fitting_designs() -> None:
