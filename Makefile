@@ -35,6 +35,9 @@ TANGENTS ?= host
 SEEDS ?= 4
 # what drives the kernel in make sim: harness (compiled Verilator harness) or cocotb (DMA models, batch scoreboard)
 DRIVER ?= harness
+# how make sim compiles the harness's C++ (sim/kernel_build.py COMPILE_PROFILES): quick, or pgo (profile-guided:
+# trained on the run's first cycles; two builds the first time)
+COMPILE ?= quick
 # where independent points run (sim/executor.py): local:N processes, dask:local:N, dask:tcp://host:port;
 # empty: make sweep runs its points one at a time (local:1), the others on local:$(JOBS)
 EXECUTOR ?=
@@ -54,6 +57,7 @@ help:
 	@echo "               the window kernel: RECORD_WINDOW=16384 LANES=1|2|4 FETCH_PASSES=0 BODY_BITS=128|512"
 	@echo "               IMPULSE_STORE=records: the streaming kernel's impulses travel with the records (no RAM)"
 	@echo "               TANGENTS=chip: the kernel derives the friction tangents from the normal (one-beat record)"
+	@echo "               COMPILE=pgo: the harness built profile-guided (g++ -fprofile-generate, a training run, -use)"
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=,"
 	@echo "               and the window kernel's RECORD_WINDOW= LANES= FETCH_PASSES= BODY_BITS=; MODE=model;"
 	@echo "               IMPULSE_STORES=onchip,records: both streaming designs; also the fitting designs' Pareto front)"
@@ -72,7 +76,7 @@ help:
 	@echo "               written to sim/generated/resource_figures.json for the resource model (docs/resources.md)"
 	@echo "make lint      verilator --lint-only -Wall on every RTL top"
 	@echo "make bench     simulated cycles per second of the kernel harness, compile profiles side by side"
-	@echo "               (SCENE= SCENE_ARGS= FORMAT= DMA= PROFILES=quick,o2 RUNS=3 MAX_CYCLES=0; a new profile builds"
+	@echo "               (SCENE= SCENE_ARGS= FORMAT= DMA= PROFILES=quick,pgo RUNS=3 MAX_CYCLES=0; a new profile builds"
 	@echo "               first, minutes; BASELINE_EXE= a harness from another tree, e.g. a worktree of an older commit)"
 	@echo "make rtl       regenerate the kernel datapaths and generated contracts (rtl/generated/, hls_export/generated/) from rtl/gen"
 	@echo "make clean     remove build outputs (keeps .venv and cached frames)"
@@ -104,7 +108,7 @@ sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
 		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE) \
-		--tangents $(TANGENTS)
+		--tangents $(TANGENTS) --compile-profile $(COMPILE)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
@@ -145,7 +149,7 @@ resources: $(STAMP)
 lint: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.lint
 
-PROFILES ?= quick,o2
+PROFILES ?= quick,pgo
 RUNS ?= 3
 MAX_CYCLES ?= 0
 BASELINE_EXE ?=

@@ -13,10 +13,13 @@ the first profile's. ``--max-cycles`` stops every run at that many cycles (a pre
 same for every profile; the outputs compared are then the prefix's). ``--baseline-exe`` adds a harness built
 elsewhere (the same kernel build from another tree, for example a git worktree of the commit before an RTL
 change) as the first, reference column: the same runs, the same inputs, byte-identical outputs, and each
-profile's speed as a ratio against it, measured side by side.
+profile's speed as a ratio against it, measured side by side. A profile-guided profile (``pgo``) builds an
+instrumented harness, trains it on the first cycles of the bench's own run (``sim.harness_run.TRAINING_CYCLES``)
+and builds again from that profile; its build figures count both builds and the training.
 
     python -m sim.bench_sim_speed --scene pile --profiles quick,o2 --runs 3
     python -m sim.bench_sim_speed --scene thesis --profiles quick,os --runs 3 --max-cycles 300000
+    python -m sim.bench_sim_speed --scene thesis --profiles quick,pgo --runs 2
     python -m sim.bench_sim_speed --scene pile --profiles quick --runs 5 \
         --baseline-exe ../old/build/verilator/pgs_kernel_e8m23_c512/pgs_kernel_e8m23_c512
 """
@@ -39,8 +42,8 @@ from models.contact_solver import SolverParams
 from models.dma_model import DmaPreset, get_preset
 from models.kernel_job import KernelJob
 from models.number_format import NumberFormat, parse_format
-from sim.harness_run import KernelRunError, harness_cycle_limit, run_harness, write_inputs
-from sim.kernel_build import COMPILE_PROFILES, KernelBuild, build_kernel, default_window
+from sim.harness_run import KernelRunError, harness_cycle_limit, run_harness, training_run, write_inputs
+from sim.kernel_build import COMPILE_PROFILES, PROFILE_GUIDED, KernelBuild, build_kernel, default_window
 from sim.verilator_build import REPO_ROOT
 
 OUTPUTS = ("trace.bin", "body_out.bin", "body_out_last.bin")
@@ -71,7 +74,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--format", default="fp32")
     ap.add_argument("--dma", default="zcu102")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--profiles", default="quick,o2",
+    ap.add_argument("--profiles", default="quick,pgo",
                     help=f"compile profiles, the first is the reference (of {', '.join(COMPILE_PROFILES)})")
     ap.add_argument("--runs", type=int, default=3, help="runs of each profile")
     ap.add_argument("--max-cycles", type=int, default=0,
@@ -145,7 +148,9 @@ def report(results: list[ProfileRuns], label: str) -> str:
         ratio = pr.cycles_per_s(pr.cpu_s) / ref.cycles_per_s(ref.cpu_s)
         build_ratio = f"{pr.build_cpu_s / ref.build_cpu_s:11.2f}x" if ref.build_cpu_s >= 1.0 else f"{'-':>12}"
         flags = (f"built elsewhere: {pr.exe}" if pr.profile == BASELINE else
-                 " ".join(a for a in COMPILE_PROFILES[pr.profile] if a != "-MAKEFLAGS"))
+                 " ".join(a for a in COMPILE_PROFILES[pr.profile] if a != "-MAKEFLAGS")
+                 + (" + profile-guided (trained on the first cycles of the run that built it; build: both stages and the training)"
+                    if pr.profile in PROFILE_GUIDED else ""))
         lines.append(f"{pr.profile:<8} {pr.build_s:8.1f} {pr.build_cpu_s:12.1f} {build_ratio} "
                      f"{pr.cycles_per_s(pr.wall_s) / 1e3:12.1f} {pr.cycles_per_s(pr.cpu_s) / 1e3:11.1f} "
                      f"{ratio:9.2f}x  {flags}")
@@ -172,12 +177,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         results.append(ProfileRuns(BASELINE, Path(args.baseline_exe).resolve(), 0.0, 0.0))
     for profile in profiles:
         profile_kb = replace(kb, compile_profile=profile)
-        cpu0 = child_cpu_s()
-        exe, build_s = build_kernel(profile_kb)
-        build_cpu_s = child_cpu_s() - cpu0
         run_dir = base / profile
         shutil.rmtree(run_dir, ignore_errors=True)
         write_inputs(run_dir, job, profile_kb)
+        cpu0 = child_cpu_s()
+        exe, build_s = build_kernel(profile_kb, training_run(run_dir, job, preset, profile_kb, args.seed))
+        build_cpu_s = child_cpu_s() - cpu0
         results.append(ProfileRuns(profile, exe, build_s, build_cpu_s))
     max_cycles = args.max_cycles or harness_cycle_limit(job)
     for _ in range(args.runs):

@@ -114,6 +114,28 @@ def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild, turnaround: int
 
 ProgressSink = Callable[[int, int], None]  # (cycle, trace records so far)
 
+# a profile-guided build's training: the first this many cycles of a run (the whole run when shorter). Measured on
+# the thesis frame (docs/results.md section 52): a profile of the pile's whole step (14,011 cycles) gives that
+# step's harness almost the speed-up of one trained on its own first 300,000 cycles
+TRAINING_CYCLES = 300_000
+
+
+def training_run(run_dir: Path, job: KernelJob, preset: DmaPreset, kb: KernelBuild, seed: int = 1,
+                 cycles: int = TRAINING_CYCLES) -> Callable[[Path], None]:
+    """The training run of a profile-guided build (``sim.kernel_build.verilate_kernel``'s ``train``): the harness
+    on the inputs :func:`write_inputs` wrote into ``run_dir`` for ``job`` and ``kb``, stopped after ``cycles``
+    cycles. Its outputs land in ``run_dir``; the run that follows writes them again."""
+    limit = min(cycles, harness_cycle_limit(job))
+
+    def train(exe: Path) -> None:
+        try:
+            run_harness(exe, run_dir, seed, preset, limit, read_share=job.ddr_read_share(kb.cons_bits))
+        except KernelRunError as exc:  # stopped at the cycle limit: the harness exits with a timeout
+            if f"TIMEOUT after {limit} cycles" not in str(exc):
+                raise
+
+    return train
+
 
 def run_harness(exe: Path, run_dir: Path, seed: int, preset: DmaPreset, max_cycles: int, gap_permille: int = 0,
                 backpressure_permille: int = 0, progress: ProgressSink | None = None, progress_every: int = 65536,

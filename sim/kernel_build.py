@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -30,7 +30,7 @@ from models.kernel_shape import KernelShape
 from models.number_format import NumberFormat
 from rtl.gen import friction_sign_bug_sources
 from sim.lint import rtl_files
-from sim.verilator_build import DEBUG_COMPILE_ARGS, QUICK_COMPILE_ARGS, REPO_ROOT, build
+from sim.verilator_build import DEBUG_COMPILE_ARGS, QUICK_COMPILE_ARGS, REPO_ROOT, build, profile_guided_build
 
 TOP = "pgs_kernel"
 HARNESS_DIR = REPO_ROOT / "sim" / "harness"
@@ -58,7 +58,11 @@ COMPILE_PROFILES: dict[str, tuple[str, ...]] = {
     "o2native": ("-CFLAGS", "-march=native", "-MAKEFLAGS", "OPT_FAST=-O2 OPT_SLOW=-O0 OPT_GLOBAL=-O1"),
     # two Verilator threads: faster in wall time on an idle 2-core machine, slower in CPU time (make bench)
     "t2": ("--threads", "2", "-MAKEFLAGS", "OPT_FAST=-O1 OPT_SLOW=-O0 OPT_GLOBAL=-O1"),
+    # "quick" with g++'s profile-guided optimization (sim.verilator_build.profile_guided_build): built twice, with a
+    # training run between (the caller's: build_kernel's ``train``)
+    "pgo": tuple(QUICK_COMPILE_ARGS),
 }
+PROFILE_GUIDED = frozenset({"pgo"})  # the profiles built with a training run
 WAVE_ARGS = ("--trace-fst", "--trace-structs")
 
 
@@ -209,12 +213,23 @@ def kernel_build_args(kb: KernelBuild, build_dir: Path | None = None, extra_sour
             "extra_args": ["-Wno-fatal", *kb.compile_args, *extra_args]}
 
 
+Trainer = Callable[[Path], None]  # runs a profile-guided build's instrumented harness (its argument) once
+
+
 def verilate_kernel(kb: KernelBuild, build_dir: Path | None = None, extra_sources: Sequence[Path] = (),
-                    extra_cpp_files: Sequence[Path] = (), extra_args: Sequence[str] = (), lock: bool = True) -> Path:
+                    extra_cpp_files: Sequence[Path] = (), extra_args: Sequence[str] = (), lock: bool = True,
+                    train: Trainer | None = None) -> Path:
     """Build the compiled harness of ``kb`` (plus ``extra_*``, e.g. coverage hooks) into ``build_dir`` (default
     ``build/verilator/<kb.name>``); return the executable. Verilator skips an unchanged build. ``lock=False``: no
-    lock file beside ``build_dir`` (a directory no other process uses)."""
-    return build(**kernel_build_args(kb, build_dir, extra_sources, extra_cpp_files, extra_args), lock=lock)
+    lock file beside ``build_dir`` (a directory no other process uses). A profile-guided compile profile
+    (:data:`PROFILE_GUIDED`) needs ``train`` (e.g. ``sim.harness_run.training_run``): the harness it trains on."""
+    args = kernel_build_args(kb, build_dir, extra_sources, extra_cpp_files, extra_args)
+    if kb.compile_profile not in PROFILE_GUIDED:
+        return build(**args, lock=lock)
+    if train is None:
+        raise ValueError(f"compile profile {kb.compile_profile!r} is profile-guided: its build needs a training run "
+                         "(train=sim.harness_run.training_run(...))")
+    return profile_guided_build(args, train, lock=lock)
 
 
 class KernelExecutables(Protocol):
@@ -234,12 +249,16 @@ def use_kernel_store(store: KernelExecutables | None) -> None:
     _store = store
 
 
-def build_kernel(kb: KernelBuild) -> tuple[Path, float]:
+def build_kernel(kb: KernelBuild, train: Trainer | None = None) -> tuple[Path, float]:
     """The harness executable of ``kb`` (built once per process; Verilator skips unchanged builds, or from the
-    store set by :func:`use_kernel_store`) and the seconds the build took."""
+    store set by :func:`use_kernel_store`) and the seconds the build took. ``train``: the training run of a
+    profile-guided compile profile (:func:`verilate_kernel`)."""
     if kb not in _built:
         t0 = time.monotonic()
-        exe = verilate_kernel(kb) if _store is None else _store.executable(kb)[0]
+        if _store is not None and kb.compile_profile in PROFILE_GUIDED:
+            raise ValueError(f"compile profile {kb.compile_profile!r}: a profile-guided build is not taken from a "
+                             "kernel store (its training run is the caller's)")
+        exe = verilate_kernel(kb, train=train) if _store is None else _store.executable(kb)[0]
         _built[kb] = (exe, time.monotonic() - t0)
     return _built[kb]
 

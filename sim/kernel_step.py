@@ -22,7 +22,7 @@ from models.contact_solver import PassRecord, SolveResult, solve
 from models.dma_model import DmaPreset
 from models.integrator import integrate
 from models.kernel_job import KernelJob
-from sim.harness_run import ProgressSink, harness_cycle_limit, run_harness, write_inputs
+from sim.harness_run import ProgressSink, harness_cycle_limit, run_harness, training_run, write_inputs
 from sim.kernel_build import KernelBuild, build_kernel
 from sim.trace_compare import Comparison, Trace, compare_body_out, compare_impulse_out, compare_trace, read_trace
 
@@ -73,12 +73,14 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
                     backpressure_permille: int = 0, progress: ProgressSink | None = None,
                     golden: Golden | None = None, waves: Path | None = None, wave_cycles: int = 20000,
                     keep_trace: bool = False, body_bits: int = 128, inertia_words: int | None = None,
-                    soft_contact: bool = False) -> KernelResult:
+                    soft_contact: bool = False, compile_profile: str = "quick") -> KernelResult:
     """Build (once), run and check one step of the kernel; never raises on a mismatch (see ``comparison``).
     ``inertia_words``: the build's inverse-inertia words per body in place of the job's (1, 3 or 6; a body table
     whose mode needs more is refused when its record is packed). ``soft_contact``: run on the soft contact build
-    even where the job is rigid (its options bit clear: the rigid update, e.g. a soft step's relax call)."""
-    kb = KernelBuild.for_job(job, preset, waves is not None, body_bits)
+    even where the job is rigid (its options bit clear: the rigid update, e.g. a soft step's relax call).
+    ``compile_profile``: how the harness's C++ is compiled (``sim.kernel_build.COMPILE_PROFILES``; a profile-guided
+    one trains on this run's first cycles when it builds)."""
+    kb = replace(KernelBuild.for_job(job, preset, waves is not None, body_bits), compile_profile=compile_profile)
     if inertia_words is not None:
         kb = replace(kb, inertia_words=inertia_words)
     if soft_contact:
@@ -88,7 +90,7 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
                          f"MAX_BODIES {kb.max_bodies} / MAX_MANIFOLDS {kb.max_manifolds}")
     stream_bytes = write_inputs(run_dir, job, kb, preset.impulse_turnaround_cycles)
     golden = golden or golden_step(job)
-    exe, build_s = build_kernel(kb)
+    exe, build_s = build_kernel(kb, training_run(run_dir, job, preset, kb, seed))
     env = None if waves is None else dict(os.environ, PGS_WAVES=str(waves), PGS_WAVE_CYCLES=str(wave_cycles))
     regs = run_harness(exe, run_dir, seed, preset, harness_cycle_limit(job), gap_permille, backpressure_permille,
                        progress, env=env, read_share=job.ddr_read_share(kb.cons_bits))

@@ -49,7 +49,7 @@ from models.schedule import SCHEDULE_KINDS, make_schedule, stats
 from sim import exact_error
 from sim.analyze import auto_format
 from sim.harness_run import KernelRunError, text_progress
-from sim.kernel_build import KernelBuild, default_window
+from sim.kernel_build import COMPILE_PROFILES, KernelBuild, default_window
 from sim.kernel_step import Golden, KernelResult, golden_step, run_kernel_step
 from sim.report import StagedDirectory, print_summary, write_report
 from sim.resource_model import kernel_fit
@@ -90,6 +90,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--driver", choices=("harness", "cocotb"), default="harness",
                     help="harness: the compiled Verilator harness; cocotb: the host driver, AXI DMA models and batch "
                          "scoreboard in cocotb on the transaction-level bench (sim/cocotb_step.py)")
+    ap.add_argument("--compile-profile", choices=tuple(COMPILE_PROFILES), default="quick",
+                    help="how the compiled harness's C++ is built (sim/kernel_build.py COMPILE_PROFILES): quick -O1; "
+                         "pgo the same, profile-guided (an instrumented build trained on this run's first cycles, "
+                         "then the build from its profile)")
     ap.add_argument("--mode", choices=("rtl", "model"), default="rtl",
                     help="rtl: the whole run, the cycle model beside the RTL; model: the cycle model's estimate alone "
                          "(models/cycle_model.py: no Verilator, no reference solves)")
@@ -127,6 +131,8 @@ def check_args(args: argparse.Namespace) -> None:
     if getattr(args, "tangents", "host") == "chip" and (args.record_window or args.driver == "cocotb"):
         raise ValueError("TANGENTS=chip is a configuration of the streaming kernel through the compiled harness (no "
                          "RECORD_WINDOW, DRIVER=harness)")
+    if args.driver == "cocotb" and getattr(args, "compile_profile", "quick") != "quick":
+        raise ValueError("COMPILE= is the compiled harness's (DRIVER=harness); the cocotb bench has its own build")
     if args.driver == "cocotb" and (args.record_window or args.body_bits != 128 or args.waves or args.stall_permille):
         raise ValueError("DRIVER=cocotb runs the streaming kernel with 128-bit body streams, without waveforms or "
                          "random stalls (RECORD_WINDOW=0 BODY_BITS=128 WAVES=0; the cycle-level cocotb tests cover "
@@ -307,7 +313,8 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     res: KernelResult | None = None
     kb: KernelBuild | None = None
     if not args.no_kernel:
-        kb = KernelBuild.for_job(job, preset, args.waves, args.body_bits)
+        kb = dataclasses.replace(KernelBuild.for_job(job, preset, args.waves, args.body_bits),
+                                 compile_profile=args.compile_profile)
         print(f"kernel: {kb.name} ({'building, first time a few minutes' if not _built(kb) else 'built'})", flush=True)
         progress = text_progress(job.manifold_passes)
         waves = run_dir / "waves.fst" if args.waves else None
@@ -319,7 +326,8 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         else:
             res = timer.run("RTL kernel in Verilator (build, run, compare)", run_kernel_step, job, preset, run_dir,
                             args.seed, args.stall_permille, args.stall_permille, progress, golden=golden,
-                            waves=waves, wave_cycles=args.wave_cycles, keep_trace=True, body_bits=args.body_bits)
+                            waves=waves, wave_cycles=args.wave_cycles, keep_trace=True, body_bits=args.body_bits,
+                            compile_profile=args.compile_profile)
         print(file=sys.stderr)
 
     rtl_ours = res is not None and res.bit_exact  # the kernel's own numbers (identical to the golden model's)

@@ -11,17 +11,23 @@ calling :func:`build` again is cheap. Example::
 
     exe = build(sources=[...], top="fp_ops_tb", parameters={"EXP_BITS": 5, "MAN_BITS": 10},
                 cpp_files=[Path("sim/harness/fp_ops_main.cpp")], name="fp_ops_tb_e5m10")
+
+:func:`profile_guided_build` builds the same executable with g++'s profile-guided optimization: an instrumented
+build (``-fprofile-generate``), a training run of it, and the build again from the profile it wrote
+(``-fprofile-use``); a stamp of the inputs' digest marks the finished build, so it too runs once per change.
 """
 
 from __future__ import annotations
 
 import fcntl
+import hashlib
+import json
 import os
 import re
 import shutil
 import subprocess
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
@@ -40,6 +46,11 @@ _MAKEFLAGS = "CFG_CXXFLAGS_PCH_I=-include CFG_LDLIBS_THREADS=-pthread"
 QUICK_COMPILE_MAKE_VARS = "OPT_FAST=-O1 OPT_SLOW=-O0 OPT_GLOBAL=-O1"
 QUICK_COMPILE_ARGS = ["-MAKEFLAGS", QUICK_COMPILE_MAKE_VARS]
 DEBUG_COMPILE_ARGS = ["-fno-inline", "-MAKEFLAGS", "OPT_FAST=-O0 OPT_SLOW=-O0 OPT_GLOBAL=-O0"]
+# g++'s profile-guided optimization, as make variables beside a compile profile's OPT_* (verilated.mk adds OPT to
+# every compile and USER_LDFLAGS to the link): the instrumented build writes a .gcda profile beside each object
+# when it exits, the final build reads them (a function the training never ran is optimized as without a profile)
+PGO_GENERATE_MAKE_VARS = "OPT=-fprofile-generate USER_LDFLAGS=-fprofile-generate"
+PGO_USE_MAKE_VARS = "OPT=-fprofile-use USER_CPPFLAGS=-Wno-missing-profile"
 # Verilator's own optimization of the model (-O3: every module inlined) and X handling, on every build
 MODEL_OPT_ARGS = ("-O3", "--x-assign", "fast", "--x-initial", "fast")
 
@@ -193,6 +204,68 @@ def build(
     if not quiet:
         shown = exe.relative_to(REPO_ROOT) if exe.is_relative_to(REPO_ROOT) else exe
         print(f"verilator build {name}: {elapsed:.1f} s -> {shown}", flush=True)
+    return exe
+
+
+def _build_dir(build_args: Mapping[str, object]) -> tuple[Path, str]:
+    """The ``--Mdir`` and executable name :func:`build` takes for these keywords."""
+    name = str(build_args.get("name") or build_name(str(build_args["top"]), dict(build_args.get("parameters") or {})))
+    mdir = Path(build_args["build_dir"]) if build_args.get("build_dir") is not None else BUILD_ROOT / name  # type: ignore[arg-type]
+    return (mdir if mdir.is_absolute() else REPO_ROOT / mdir), name
+
+
+def inputs_digest(build_args: Mapping[str, object]) -> str:
+    """A hash of :func:`build`'s keywords with every SystemVerilog source, C++ file and the headers beside the C++
+    files by content (what a profile-guided build's stamp records)."""
+    h = hashlib.sha256()
+    files = [Path(p) for p in build_args["sources"]]  # type: ignore[union-attr]
+    for cpp in build_args.get("cpp_files") or ():  # type: ignore[union-attr]
+        files += [Path(cpp), *sorted(Path(cpp).resolve().parent.glob("*.h"))]
+    for f in files:
+        h.update(str(f).encode())
+        h.update(Path(f).read_bytes())
+    rest = {k: v for k, v in build_args.items() if k not in ("sources", "cpp_files", "build_dir")}
+    h.update(json.dumps(rest, sort_keys=True, default=str).encode())
+    h.update(str(verilator_root()).encode())
+    return h.hexdigest()
+
+
+def _drop_objects(mdir: Path, name: str, profiles: bool) -> None:
+    """Delete the compiled objects, archives, precompiled headers and the executable in ``mdir`` (make rebuilds
+    them with the next stage's flags), and with ``profiles`` the .gcda profiles too."""
+    for pattern in ("*.o", "*.a", "*.gch", *(("*.gcda",) if profiles else ())):
+        for f in mdir.glob(pattern):
+            f.unlink()
+    (mdir / name).unlink(missing_ok=True)
+
+
+def profile_guided_build(build_args: Mapping[str, object], train: Callable[[Path], None], lock: bool = True) -> Path:
+    """:func:`build` with g++'s profile-guided optimization: build with ``-fprofile-generate``, run ``train`` on
+    that executable (it writes the profile), then build again with ``-fprofile-use``; return the executable.
+
+    ``build_args`` are :func:`build`'s keywords of the final build (its compile profile's flags; this adds the
+    make variables of each stage). A stamp beside the objects holds :func:`inputs_digest` of the finished build:
+    while it matches, the executable is returned as it is; any change of an input builds both stages again (a
+    profile of other code would not match it). ``train`` must run the instrumented executable to a normal exit
+    (a run cut short by its cycle limit is fine); a failure leaves no stamp, so the next call starts over."""
+    mdir, name = _build_dir(build_args)
+    digest = inputs_digest(build_args)
+    stamp = mdir / "profile_guided.stamp"
+    exe = mdir / name
+    mdir.mkdir(parents=True, exist_ok=True)
+    with build_lock(mdir) if lock else nullcontext():
+        if exe.is_file() and stamp.is_file() and stamp.read_text() == digest:
+            return exe
+        stamp.unlink(missing_ok=True)
+        extra = list(build_args.get("extra_args") or ())  # type: ignore[call-overload]
+        _drop_objects(mdir, name, profiles=True)
+        build(**{**build_args, "extra_args": [*extra, "-MAKEFLAGS", PGO_GENERATE_MAKE_VARS]}, lock=False)  # type: ignore[arg-type]
+        train(exe)
+        if not any(mdir.glob("*.gcda")):
+            raise VerilatorError(f"profile-guided build of {name}: the training run wrote no profile (.gcda) in {mdir}")
+        _drop_objects(mdir, name, profiles=False)
+        exe = build(**{**build_args, "extra_args": [*extra, "-MAKEFLAGS", PGO_USE_MAKE_VARS]}, lock=False)  # type: ignore[arg-type]
+        stamp.write_text(digest)
     return exe
 
 

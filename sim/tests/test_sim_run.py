@@ -103,6 +103,7 @@ RUN_CASES = [
     (["--record-window", "1024", "--tangents", "chip"], "TANGENTS=chip is a configuration of the streaming kernel"),
     (["--dma", "zcu999"], "unknown DMA preset 'zcu999'"),
     (["--frame", "/nonexistent/frame.npz"], "does not exist"),
+    (["--driver", "cocotb", "--compile-profile", "pgo"], "COMPILE= is the compiled harness's"),
 ]
 SWEEP_CASES = [
     (["--formats", "fp32,fp33"], "unknown number format 'fp33'"),
