@@ -14,7 +14,7 @@ from sim.coverage.data import PointKey, add_counts, merge, parse
 from sim.coverage.report import summarize, write_report
 from sim.coverage.runs import previous_results, run_all
 from sim.coverage.waivers import toggle_waivers_for, waivers_for
-from sim.kernel_build import COMPILE_PROFILES
+from sim.kernel_build import COMPILE_PROFILES, PROFILE_GUIDED
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -25,9 +25,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--cases", default="", help="comma-separated case labels (default: all, and the shared runs)")
     ap.add_argument("--configurations", default="",
                     help=f"comma-separated configurations (default: all of {', '.join(BY_NAME)})")
-    ap.add_argument("--compile-profile", default=COVERAGE_COMPILE_PROFILE, choices=sorted(COMPILE_PROFILES),
+    ap.add_argument("--compile-profile", default=COVERAGE_COMPILE_PROFILE,
+                    choices=sorted(set(COMPILE_PROFILES) - PROFILE_GUIDED),
                     help="C++ optimization of the instrumented kernel builds (sim.kernel_build.COMPILE_PROFILES; "
-                         "quick: -O1 on the model's fast path, o0: -O0 everywhere)")
+                         "quick: -O1 on the model's fast path, o0: -O0 everywhere; not the profile-guided ones, "
+                         "whose training run is a kernel run's own)")
     ap.add_argument("--report-only", action="store_true",
                     help="no build, no run: summarize the coverage.dat files the last runs left")
     args = ap.parse_args(argv)

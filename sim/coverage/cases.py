@@ -140,13 +140,17 @@ def window_cases(config: str) -> list[Case]:
     """The regression of a window configuration: the sweep order of the README rows and the hazard order, one
     fetch per step and several (2 and 3 passes per fetch), stalls, interleaved passes, the 217-body pile, a spread
     of masses and inertias, the body indices over the whole index range, the argument and stimulus edits, and the
-    bad-input edits (the stream and argument errors of the window, lanes that collide)."""
+    bad-input edits (the stream and argument errors of the window, lanes that collide); and the stimulus edits on
+    the 217-body pile, whose hundreds of records keep every lane's pipes full of overflowing operations (the event
+    counts' higher bits: several operators raising an event in one cycle, in each lane)."""
     c = config
     return [
         Case(f"{c}-pile-sweep-zcu102-stalls", c, "pile", "sweep", stalls=150),
         Case(f"{c}-pile-hazard-ideal-fetch2", c, "pile", dma="ideal", fetch_passes=2),
         Case(f"{c}-stack-sweep-zcu102-fetch3-stalls", c, "stack", "sweep", stalls=300, fetch_passes=3),
         Case(f"{c}-stack-pybullet-zcu102-interleaved", c, "stack", "pybullet", interleaved=True),
+        Case(f"{c}-pile217-huge-velocity", c, "pile217", "sweep", edit=edit_huge_velocity),
+        Case(f"{c}-pile217-huge-sliding", c, "pile217", "sweep", edit=edit_huge_sliding),
         *window_scene_cases(c),
     ] + bad_input_cases(c, "pile", "sweep", BAD_INPUT_EDITS + WINDOW_BAD_INPUT_EDITS)
 
