@@ -20,9 +20,7 @@ from __future__ import annotations
 
 import fcntl
 import hashlib
-import json
 import os
-import re
 import shutil
 import tempfile
 import time
@@ -32,7 +30,7 @@ from pathlib import Path
 
 from models.frame import Frame, load, save
 from sim.kernel_build import KernelBuild, kernel_build_args, verilate_kernel
-from sim.verilator_build import REPO_ROOT, verilator_root
+from sim.verilator_build import REPO_ROOT, inputs_digest
 
 FRAME_DIR = Path("build") / "frames" / "by-hash"  # relative to the working directory, like build/frames
 # the sources a point's result depends on (test files excluded)
@@ -107,47 +105,10 @@ def kernel_store_root() -> Path:
     return Path(env) if env else REPO_ROOT / "build" / "kernels"
 
 
-_FILE_DIGESTS: dict[tuple[str, int, int, int], str] = {}  # (path, inode, size, mtime) -> sha256 of the bytes
-
-
-def _file_digest(path: Path) -> str:
-    """The sha256 of a file's bytes, hashed again only when its inode, size or modification time changed (every
-    point of a sweep asks for its build's key: the Verilator binary alone is some 16 MB)."""
-    st = os.stat(path)
-    stamp = (str(path), st.st_ino, st.st_size, st.st_mtime_ns)
-    if stamp not in _FILE_DIGESTS:
-        _FILE_DIGESTS[stamp] = sha256_bytes(Path(path).read_bytes())
-    return _FILE_DIGESTS[stamp]
-
-
-_QUOTED_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.MULTILINE)
-
-
-def _harness_files(cpp_files: list[Path]) -> list[Path]:
-    """The C++ files and the headers of the repository they include (``#include "..."`` beside the including file,
-    followed through the headers); Verilator's own headers are covered by the Verilator binary's hash."""
-    seen: list[Path] = []
-    todo = [Path(p) for p in cpp_files]
-    while todo:
-        path = todo.pop(0)
-        if path in seen:
-            continue
-        seen.append(path)
-        todo += [path.parent / name for name in _QUOTED_INCLUDE.findall(path.read_text())
-                 if (path.parent / name).is_file()]
-    return seen
-
-
 def build_key(kb: KernelBuild) -> str:
     """A hash of ``kb``'s build (first 16 hex digits): its ``build`` keywords with every input file by content,
-    and the Verilator binary."""
-    args = kernel_build_args(kb)
-    desc = {k: v for k, v in args.items() if k not in ("sources", "cpp_files", "build_dir")}
-    desc["sources"] = [(Path(p).name, _file_digest(p)) for p in args["sources"]]
-    desc["cpp_files"] = [(p.name, _file_digest(p)) for p in _harness_files(args["cpp_files"])]
-    binary = verilator_root() / "bin" / "verilator_bin"
-    desc["verilator"] = _file_digest(binary) if binary.is_file() else str(verilator_root())
-    return sha256_bytes(json.dumps(desc, sort_keys=True, default=str).encode())[:16]
+    and the Verilator binary (``sim.verilator_build.inputs_digest``)."""
+    return inputs_digest(kernel_build_args(kb))[:16]
 
 
 @dataclass(frozen=True)

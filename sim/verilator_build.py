@@ -163,9 +163,7 @@ def build(
     build directory (for a directory no other process uses, e.g. a temporary one on a shared file system).
     """
     params = dict(parameters or {})
-    name = name or build_name(top, params)
-    mdir = Path(build_dir) if build_dir is not None else BUILD_ROOT / name
-    mdir = mdir if mdir.is_absolute() else REPO_ROOT / mdir
+    mdir, name = build_paths(top, params, build_dir, name)
     mdir.mkdir(parents=True, exist_ok=True)
     drop_stale_dependencies(mdir)
     verilator = ensure_verilator_env()
@@ -207,27 +205,55 @@ def build(
     return exe
 
 
-def _build_dir(build_args: Mapping[str, object]) -> tuple[Path, str]:
-    """The ``--Mdir`` and executable name :func:`build` takes for these keywords."""
-    name = str(build_args.get("name") or build_name(str(build_args["top"]), dict(build_args.get("parameters") or {})))
-    mdir = Path(build_args["build_dir"]) if build_args.get("build_dir") is not None else BUILD_ROOT / name  # type: ignore[arg-type]
+def build_paths(top: str, parameters: Mapping[str, ParamValue] | None, build_dir: Path | str | None,
+                name: str | None) -> tuple[Path, str]:
+    """The ``--Mdir`` (absolute) and the executable's name :func:`build` uses for these keywords."""
+    name = name or build_name(top, dict(parameters or {}))
+    mdir = Path(build_dir) if build_dir is not None else BUILD_ROOT / name
     return (mdir if mdir.is_absolute() else REPO_ROOT / mdir), name
 
 
+_FILE_DIGESTS: dict[tuple[str, int, int, int], str] = {}  # (path, inode, size, mtime) -> sha256 of the bytes
+
+
+def file_digest(path: Path | str) -> str:
+    """The sha256 of a file's bytes, hashed again only when its inode, size or modification time changed (every
+    point of a sweep asks for its build's key: the Verilator binary alone is some 16 MB)."""
+    st = os.stat(path)
+    stamp = (str(path), st.st_ino, st.st_size, st.st_mtime_ns)
+    if stamp not in _FILE_DIGESTS:
+        _FILE_DIGESTS[stamp] = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    return _FILE_DIGESTS[stamp]
+
+
+_QUOTED_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.MULTILINE)
+
+
+def included_files(cpp_files: Sequence[Path | str]) -> list[Path]:
+    """The C++ files and the headers of the repository they include (``#include "..."`` beside the including file,
+    followed through the headers); Verilator's own headers are covered by the Verilator binary's hash."""
+    seen: list[Path] = []
+    todo = [Path(p) for p in cpp_files]
+    while todo:
+        path = todo.pop(0)
+        if path in seen:
+            continue
+        seen.append(path)
+        todo += [path.parent / name for name in _QUOTED_INCLUDE.findall(path.read_text())
+                 if (path.parent / name).is_file()]
+    return seen
+
+
 def inputs_digest(build_args: Mapping[str, object]) -> str:
-    """A hash of :func:`build`'s keywords with every SystemVerilog source, C++ file and the headers beside the C++
-    files by content (what a profile-guided build's stamp records)."""
-    h = hashlib.sha256()
-    files = [Path(p) for p in build_args["sources"]]  # type: ignore[union-attr]
-    for cpp in build_args.get("cpp_files") or ():  # type: ignore[union-attr]
-        files += [Path(cpp), *sorted(Path(cpp).resolve().parent.glob("*.h"))]
-    for f in files:
-        h.update(str(f).encode())
-        h.update(Path(f).read_bytes())
-    rest = {k: v for k, v in build_args.items() if k not in ("sources", "cpp_files", "build_dir")}
-    h.update(json.dumps(rest, sort_keys=True, default=str).encode())
-    h.update(str(verilator_root()).encode())
-    return h.hexdigest()
+    """A sha256 (hex) of :func:`build`'s keywords with every input file by content: the SystemVerilog sources, the
+    C++ files and the headers they include, and the Verilator binary (the build directory left out). What
+    ``sim.artefacts.build_key`` and a profile-guided build's stamp record."""
+    desc = {k: v for k, v in build_args.items() if k not in ("sources", "cpp_files", "build_dir")}
+    desc["sources"] = [(Path(p).name, file_digest(p)) for p in build_args["sources"]]  # type: ignore[attr-defined]
+    desc["cpp_files"] = [(p.name, file_digest(p)) for p in included_files(build_args["cpp_files"])]  # type: ignore[arg-type]
+    binary = verilator_root() / "bin" / "verilator_bin"
+    desc["verilator"] = file_digest(binary) if binary.is_file() else str(verilator_root())
+    return hashlib.sha256(json.dumps(desc, sort_keys=True, default=str).encode()).hexdigest()
 
 
 def _drop_objects(mdir: Path, name: str, profiles: bool) -> None:
@@ -248,7 +274,8 @@ def profile_guided_build(build_args: Mapping[str, object], train: Callable[[Path
     while it matches, the executable is returned as it is; any change of an input builds both stages again (a
     profile of other code would not match it). ``train`` must run the instrumented executable to a normal exit
     (a run cut short by its cycle limit is fine); a failure leaves no stamp, so the next call starts over."""
-    mdir, name = _build_dir(build_args)
+    mdir, name = build_paths(build_args["top"], build_args.get("parameters"), build_args.get("build_dir"),  # type: ignore[arg-type]
+                             build_args.get("name"))  # type: ignore[arg-type]
     digest = inputs_digest(build_args)
     stamp = mdir / "profile_guided.stamp"
     exe = mdir / name

@@ -32,6 +32,7 @@ from sim.artefacts import FRAME_DIR, FrameStore, build_key
 from sim.executor import LOCAL_CLUSTER_CONFIG, LocalPool, Outcome, Task, WorkerDied, Workers, parse_executor, \
     run_points
 from sim.kernel_build import KernelBuild
+from sim.verilator_build import file_digest
 from sim.point_results import PointLog
 
 distributed = pytest.importorskip("distributed")
@@ -278,11 +279,11 @@ def test_file_digest_follows_the_file(tmp_path: Path) -> None:
     """The kernel store's file hashes are kept between points, and hashed again once a file changes."""
     path = tmp_path / "source.sv"
     path.write_text("module a; endmodule\n")
-    first = artefacts._file_digest(path)
-    assert artefacts._file_digest(path) == first == artefacts.sha256_bytes(path.read_bytes())
+    first = file_digest(path)
+    assert file_digest(path) == first == artefacts.sha256_bytes(path.read_bytes())
     path.write_text("module b; endmodule\n")
     os.utime(path, ns=(time.time_ns(), time.time_ns() + 1_000_000))
-    assert artefacts._file_digest(path) == artefacts.sha256_bytes(path.read_bytes()) != first
+    assert file_digest(path) == artefacts.sha256_bytes(path.read_bytes()) != first
 
 
 @pytest.mark.parametrize("text", ["local:0", "local:x", "dask:", "dask:local:", "dask:http://h:1", "dask:host",
