@@ -17,8 +17,9 @@ words) is built once with Verilator ``--coverage-line --coverage-toggle`` into i
   kernel test scenes (``models/scenes/kernel_scenes.py``), hazard, pybullet and sweep orders, the zcu102 and ideal
   DMA models, with and without random gaps and backpressure, the interleaved pass order, ``make sim``'s pile of
   217 bodies (more than the output FIFO's 64 credits), other gravity / time step / damping registers, spin, body
-  indices over the whole MAX_BODIES range (streaming fp32), one fetch per step and several (window kernel), the
-  rotated boxes of the full inverse inertia, and the bad-input edits; then the runs the configurations share: the
+  indices over the whole MAX_BODIES range (streaming fp32), one fetch per step and several and every real word at
+  extreme magnitudes (window kernel, ``models.extreme_stimulus``), the rotated boxes of the full inverse inertia,
+  and the bad-input edits; then the runs the configurations share: the
   fp-operator vectors (``sim/fp_operator_vectors.py``) through a coverage build of their harness per format, and
   the register file's cocotb test;
 * :mod:`sim.coverage.runs`: building and running the cases;

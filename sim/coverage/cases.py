@@ -6,6 +6,7 @@ vectors) and every configuration shares (the register file's cocotb test)."""
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from models.contact_solver import Impulses
+from models.extreme_stimulus import extreme_magnitudes
 from models.kernel_job import KernelJob
 from models.number_format import FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES, MAKE_SIM_PILE
@@ -58,6 +60,15 @@ def independent_manifolds(job: KernelJob) -> KernelJob:
         raise ValueError(f"{m} manifolds need more than {job.bodies.num_bodies} bodies to have one each")
     cons = dataclasses.replace(job.cons, body_a=np.zeros(m, np.int64), body_b=np.arange(1, m + 1, dtype=np.int64))
     return dataclasses.replace(job, cons=cons, schedule=np.arange(m, dtype=np.int64))
+
+
+EXTREMES_SEED = 20261205  # the values of the extremes cases (fixed: a coverage run is reproducible)
+
+
+def extremes(seed: int) -> JobEdit:
+    """The step with every real word drawn over its format's whole range (``models.extreme_stimulus``), from
+    ``seed``: most operators of every pipe raise each exception flag in some record."""
+    return functools.partial(extreme_magnitudes, seed=seed)
 
 
 def rigid_call(job: KernelJob) -> KernelJob:
@@ -122,8 +133,10 @@ def streaming_cases(config: str) -> list[Case]:
 
 def window_scene_cases(config: str) -> list[Case]:
     """The window kernels' runs in the sweep order beyond the pile and the stack: the incline, the 217-body pile,
-    other integration registers, spin, a spread of masses and inertias, the body indices over the whole range, and
-    the stimulus edits."""
+    other integration registers, spin, a spread of masses and inertias, the body indices over the whole range, the
+    stimulus edits, and the pile and the 217-body pile with every real word at extreme magnitudes (:func:`extremes`:
+    the exception flags of the operators the forced velocities leave quiet, and several operators of a lane's pipes
+    raising one in the same cycle)."""
     c = config
     return [
         Case(f"{c}-incline-sweep-zcu102", c, "incline", "sweep"),
@@ -133,6 +146,8 @@ def window_scene_cases(config: str) -> list[Case]:
         Case(f"{c}-pile-mass-spread", c, "pile", "sweep", edit=edit_mass_spread),
         Case(f"{c}-stack-wide-index", c, "stack", "sweep", edit=edit_wide_index),
         *stimulus_cases(c, "stack"),
+        Case(f"{c}-pile-extremes", c, "pile", "sweep", job_edit=extremes(EXTREMES_SEED)),
+        Case(f"{c}-pile217-extremes", c, "pile217", "sweep", job_edit=extremes(EXTREMES_SEED + 1)),
     ]
 
 
