@@ -9,14 +9,23 @@ must still be bit-exact with the golden model (the trace, NaN payloads included,
 kernel's three event counters must equal the golden model's count of every operator's flags
 (``tb.fp_events.predicted_events``), each of them in the hundreds or thousands.
 
-Three builds the suite already makes (no build of their own): the streaming kernel in fp32
-(``build/verilator/pgs_kernel_e8m23_c512``) and fp16 (``..._e5m10_c512``), and the two-lane fp32 window kernel
-(``..._e8m23_c512_w1024x8_l2``), each on the pile through the zcu102 DMA model with random stream gaps and output
-backpressure. The seed draws the values and the stream timing; it is printed, and ``SEED=<int>`` reruns one.
+The kernels whose impulses travel with the records check the impulse words they read back like any record word:
+a manifold whose record carries a non-finite impulse is rejected from that pass (the streaming kernel) or fetch (the
+window kernel) on, error 5 (``rtl/README.md``, "Bad input"). The golden model makes the same check
+(``KernelJob.record_checks``), so their steps are bit-exact too, with the rejected manifold-passes, the status and
+the issue counters predicted (``sim.kernel_step.check_counters``); their event counters are not compared (the
+prediction does not follow rejections or start impulses). The kernel checks a friction record's impulse words,
+not a contact record's, so the rejections come at the friction passes: all of them where the contact passes run
+first (nearly every normal impulse is non-finite by then), some in the interleaved order, where each friction
+pass of the fp16 two-lane run is a fetch of its own.
 
-The kernels whose impulses travel with the records are not run here: they check the impulse words they read back
-as a record's words, so a non-finite impulse rejects its manifold in the next pass (error 5), which the golden
-model's solve does not do (``rtl/README.md``, "Bad input").
+Five builds the suite already makes (no build of their own): the streaming kernel in fp32
+(``build/verilator/pgs_kernel_e8m23_c512``) and fp16 (``..._e5m10_c512``), the two-lane fp32 window kernel
+(``..._e8m23_c512_w1024x8_l2``) and the window kernels with the impulses in the records, the fitting designs'
+RTL with a ring of 1,024 (fp32 one lane, ``..._e8m23_c512_w1024x8_ir_bk8_dl129``; fp16 two lanes,
+``..._e5m10_c512_w1024x8_l2_ir_bk16_dl129``, in the interleaved order), each on the pile through the zcu102 DMA model with random stream
+gaps and output backpressure. The seed draws the values and the stream timing; it is printed, and ``SEED=<int>``
+reruns one.
 """
 
 from __future__ import annotations
@@ -53,21 +62,27 @@ class Case:
     fmt: NumberFormat
     window: int = 0  # 0: the streaming kernel (hazard order); else the window kernel's ring (sweep order)
     lanes: int = 1
+    records: bool = False  # the impulses travel with the records (a cold start; the extremes draw a warm one)
+    interleaved: bool = False  # the pass order (with the impulses in the records: a fetch per pass)
 
     @property
     def label(self) -> str:
-        return f"{self.fmt.name}-" + (f"window{self.window}-l{self.lanes}" if self.window else "stream")
+        return f"{self.fmt.name}-" + (f"window{self.window}-l{self.lanes}" if self.window else "stream") + \
+            ("-records" if self.records else "") + ("-interleaved" if self.interleaved else "")
 
     def job(self, seed: int) -> KernelJob:
         frame = scenes.load_or_capture("pile", **KERNEL_TEST_SCENES["pile"])
-        job = KernelJob.from_frame(frame, self.fmt, SolverParams(4), "sweep" if self.window else "hazard",
-                                   default_window(self.fmt, PRESET.stream_bits))
+        job = KernelJob.from_frame(frame, self.fmt, SolverParams(4, interleaved=self.interleaved),
+                                   "sweep" if self.window else "hazard", default_window(self.fmt, PRESET.stream_bits))
+        if self.records:
+            job = job.impulses_travelling()
         if self.window:
             job = job.windowed(self.window, lanes=self.lanes)
         return extreme_magnitudes(job, seed)
 
 
-CASES = [Case(FP32), Case(FP16), Case(FP32, window=1024, lanes=2)]
+CASES = [Case(FP32), Case(FP16), Case(FP32, window=1024, lanes=2), Case(FP32, window=1024, records=True),
+         Case(FP16, window=1024, lanes=2, records=True, interleaved=True)]
 
 
 @pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")  # the golden model's NaNs: the point
@@ -80,11 +95,15 @@ def test_kernel_at_extremes(case: Case, tmp_path: Path) -> None:
     r = res.registers
     got = {name: int(r[f"fp_{name}"]) for name in EVENT_NAMES}
     want = predicted_events(job).as_dict()
-    print(f"\n[{case.label}] seed {seed} (SEED= overrides): {res.cycles} cycles, status {int(r['status']):#x}; "
-          f"floating-point events: kernel {got}, golden model {want}; {res.comparison.records} trace records, "
-          f"{res.comparison.bodies} bodies, {res.comparison.differing_bits} differing bits")
-    assert res.comparison.first_mismatch is None, res.comparison.first_mismatch
+    print(f"\n[{case.label}] seed {seed} (SEED= overrides): {res.cycles} cycles, status {int(r['status']):#x}, "
+          f"{int(r['rejected'])} manifold-passes rejected; floating-point events: kernel {got}, golden model "
+          f"{want}; {res.comparison.records} trace records, {res.comparison.bodies} bodies, "
+          f"{res.comparison.differing_bits} differing bits")
+    assert res.comparison.first_mismatch is None, res.comparison.first_mismatch  # status and counters included
     assert res.bit_exact
+    if case.records:  # the extremes' impulses turn non-finite: rejections the golden model predicted
+        assert int(r["rejected"]) > 0
+        return
     assert int(r["rejected"]) == 0  # good input: every word finite, every dynamic body's masses positive
     assert got == want, "the kernel's floating-point event counters differ from the golden model's count"
     assert min(got.values()) >= MIN_EVENTS, got

@@ -16,7 +16,7 @@ evaluating level by level is bit-identical to the sequential loop (``solve_seque
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Optional
+from typing import Callable, Optional, Sequence
 
 import numpy as np
 
@@ -300,20 +300,30 @@ class SolveResult:
     impulses: Impulses
     levels: int = 0
     records: list[PassRecord] = field(default_factory=list)
+    rejected_passes: int = 0  # manifold-passes skipped by the record check (``solve``'s ``record_checks``)
 
 
 def solve(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arithmetic,
           params: SolverParams = SolverParams(), trace: Optional[TraceSink] = None,
-          levels: Optional[list[np.ndarray]] = None, initial: Optional[Impulses] = None) -> SolveResult:
+          levels: Optional[list[np.ndarray]] = None, initial: Optional[Impulses] = None,
+          record_checks: Optional[Sequence[bool]] = None) -> SolveResult:
     """All passes of one step over ``schedule`` (level-vectorized, bit-identical to sequential order).
 
     ``bodies`` and ``cons`` must already hold values of the arithmetic's format (``.rounded(ar)``).
     Only velocities change; positions and orientations are integrated separately. ``initial`` holds the
     accumulated impulses the first pass of each kind starts from (zeros when None, as Bullet's GPU solver
     does; a warm start otherwise, already rounded to the format and already applied to the velocities).
+    ``record_checks`` (one flag per pass of ``pass_sequence``; None: no check) is the kernel whose impulses travel
+    with the records (``KernelJob.record_checks``): at a flagged friction pass a manifold whose record carries a
+    non-finite impulse word is rejected for the rest of the step (``run_pass``).
     """
     out = bodies.copy()
     imp = Impulses.zeros(cons.num_manifolds) if initial is None else initial.copy()
+    passes = pass_sequence(params)
+    if record_checks is not None and len(record_checks) != len(passes):
+        raise ValueError(f"record_checks has {len(record_checks)} flags for {len(passes)} passes")
+    rejected = None if record_checks is None else np.zeros(cons.num_manifolds, dtype=bool)
+    skipped = 0
     if imp.normal.shape != (cons.num_manifolds, 4) or imp.friction.shape != (cons.num_manifolds, 2):
         raise ValueError(f"initial impulses must be ({cons.num_manifolds},4) and ({cons.num_manifolds},2), got "
                          f"{imp.normal.shape} and {imp.friction.shape}")
@@ -324,16 +334,17 @@ def solve(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arit
     if levels is None:
         levels = schedule_levels(schedule, cons, bodies.dynamic)
     before: Optional[Impulses] = None  # "return": the impulses before the first shock pass
-    for kind, it in pass_sequence(params):
+    for p, (kind, it) in enumerate(passes):
         if before is None and params.shock_impulses == "return" and is_shock_pass(params, kind, it):
             before = imp.copy()
-        run_pass(out, imp, cons, levels, ar, kind, it, params, schedule, trace)
+        skipped += run_pass(out, imp, cons, levels, ar, kind, it, params, schedule, trace, rejected,
+                            record_checks is not None and bool(record_checks[p]))
     if before is not None:
         assert isinstance(cons, ShockConstraintSet)
         rows = cons.frozen != FREEZE_NONE
         imp.normal[rows] = before.normal[rows] if params.shock_contact else imp.normal[rows]
         imp.friction[rows] = before.friction[rows] if params.shock_friction else imp.friction[rows]
-    return SolveResult(bodies=out, impulses=imp, levels=len(levels))
+    return SolveResult(bodies=out, impulses=imp, levels=len(levels), rejected_passes=skipped)
 
 
 SHOCK_IMPULSES = ("keep", "drop", "return")
@@ -346,11 +357,29 @@ def is_shock_pass(params: SolverParams, kind: int, iteration: int) -> bool:
 
 
 def run_pass(out: BodyTable, imp: Impulses, cons: ConstraintSet, levels: list[np.ndarray], ar: Arithmetic, kind: int,
-             iteration: int, params: SolverParams, schedule: np.ndarray, trace: Optional[TraceSink] = None) -> None:
-    """One pass of ``kind`` over all manifolds, updating ``out``'s velocities and ``imp`` in place."""
+             iteration: int, params: SolverParams, schedule: np.ndarray, trace: Optional[TraceSink] = None,
+             rejected: Optional[np.ndarray] = None, check: bool = False) -> int:
+    """One pass of ``kind`` over all manifolds, updating ``out``'s velocities and ``imp`` in place.
+
+    ``rejected`` ((M,) bool, updated in place; None: every manifold is solved) holds the manifolds the kernel
+    rejects: they are skipped (no update, no trace record). With ``check`` the pass reads its records with the
+    impulse words they carry as it starts (the kernel whose impulses travel with the records), and in a friction
+    pass a manifold with a non-finite lam[0..3] or lamT[0..1] joins ``rejected`` (error 5; a rejected slot stays
+    rejected for the rest of the step). The kernel checks a friction record's words with the impulses it carries,
+    a contact record's 23 words without its 4 impulse words (``rtl/README.md``, error 5), so a contact pass takes
+    a non-finite lam into its pipe. Returns the manifold-passes skipped."""
     pass_records: list[PassRecord] = []
     shock = is_shock_pass(params, kind, iteration)
+    skipped = 0
     for idx in levels:
+        if rejected is not None:
+            if check and kind == FRICTION_PASS:
+                carried = np.concatenate([imp.normal[idx], imp.friction[idx]], axis=1)
+                rejected[idx] |= ~np.all(np.isfinite(carried), axis=1)
+            skipped += int(np.count_nonzero(rejected[idx]))
+            idx = idx[~rejected[idx]]
+            if idx.size == 0:
+                continue
         a, b = cons.body_a[idx], cons.body_b[idx]
         g = _Gathered(out, a, b)
         frozen: Optional[np.ndarray] = None  # a shock pass: the rows with a frozen body
@@ -375,6 +404,7 @@ def run_pass(out: BodyTable, imp: Impulses, cons: ConstraintSet, levels: list[np
             pass_records.append(PassRecord(idx, kind, iteration, new_imp, g.va, g.wa, g.vb, g.wb))
     if trace is not None and pass_records:
         trace(_in_schedule_order(pass_records, schedule))
+    return skipped
 
 
 @dataclass

@@ -142,6 +142,17 @@ class KernelJob:
         """The impulses the step starts from, per manifold (zeros unless a warm start was given)."""
         return self.initial if self.initial is not None else Impulses.zeros(self.cons.num_manifolds)
 
+    def record_checks(self) -> list[bool] | None:
+        """Per pass (``pass_sequence`` order), whether the kernel reads the pass's records with their impulse words
+        from memory and checks them (``contact_solver.solve``): every pass of the streaming kernel whose impulses
+        travel with the records, the first pass of each fetch of such a window kernel (its later passes take the
+        impulses from the ring); None where the impulses stay on chip (never read back from a record)."""
+        if not self.impulses_in_records:
+            return None
+        passes = len(pass_sequence(self.params))
+        per_fetch = self.record_window.fetch_passes if self.record_window is not None else 1
+        return [p % per_fetch == 0 for p in range(passes)]
+
     def stream_layout(self, cons_bits: int = sf.DEFAULT_CONS_BEAT_BITS) -> sf.StreamLayout:
         """The record sizes this step streams with constraint beats of ``cons_bits``."""
         return sf.StreamLayout(self.fmt, cons_beat_bits=cons_bits, inertia_words=self.inertia_words,

@@ -22,6 +22,7 @@ from models.contact_solver import PassRecord, SolveResult, solve
 from models.dma_model import DmaPreset
 from models.integrator import integrate
 from models.kernel_job import KernelJob
+from models.register_map import ErrorCode, status_flag
 from sim.harness_run import ProgressSink, harness_cycle_limit, run_harness, training_run, write_inputs
 from sim.kernel_build import KernelBuild, build_kernel
 from sim.trace_compare import Comparison, Trace, compare_body_out, compare_impulse_out, compare_trace, read_trace
@@ -39,7 +40,8 @@ def golden_step(job: KernelJob) -> Golden:
     """The golden model's trace (every manifold-pass in retire order) and final body table."""
     t0 = time.perf_counter()
     records: list[PassRecord] = []
-    solved = solve(job.bodies, job.cons, job.schedule, job.fmt, job.params, trace=records.append, initial=job.initial)
+    solved = solve(job.bodies, job.cons, job.schedule, job.fmt, job.params, trace=records.append, initial=job.initial,
+                   record_checks=job.record_checks())
     final = integrate(solved.bodies, job.fmt, job.iparams)
     return Golden(records, solved, final, time.perf_counter() - t0)
 
@@ -67,6 +69,19 @@ class KernelResult:
     @property
     def bit_exact(self) -> bool:
         return self.comparison.first_mismatch is None and self.comparison.differing_bits == 0
+
+
+def check_counters(regs: dict[str, float], job: KernelJob, rejected: int, cmp: Comparison) -> None:
+    """The status register and the issue counters against the golden model's step: no error and every
+    manifold-pass issued, or, where the golden model rejects ``rejected`` manifold-passes (non-finite impulse
+    words read back with the records), exactly those rejected and the non-finite flag (error 5) the first error."""
+    want_status = 0 if rejected == 0 else status_flag(ErrorCode.NON_FINITE) | (int(ErrorCode.NON_FINITE) << 8)
+    if int(regs["status"]) != want_status:
+        cmp.fail(f"kernel status register 0x{int(regs['status']):x}, expected 0x{want_status:x} "
+                 f"({rejected} manifold-passes rejected for non-finite impulse words)")
+    if int(regs["issued"]) != job.manifold_passes - rejected or int(regs["rejected"]) != rejected:
+        cmp.fail(f"kernel issued {int(regs['issued'])} and rejected {int(regs['rejected'])} manifold-passes, "
+                 f"expected {job.manifold_passes - rejected} and {rejected}")
 
 
 def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int, gap_permille: int = 0,
@@ -100,8 +115,5 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
     compare_body_out(run_dir, job, kb, golden.final, cmp)
     if job.impulses_in_records:
         compare_impulse_out(run_dir, job, golden.records, cmp)
-    if int(regs["status"]) != 0:
-        cmp.fail(f"kernel status register 0x{int(regs['status']):x} (sticky error) after a good frame")
-    if int(regs["issued"]) != job.manifold_passes:
-        cmp.fail(f"kernel issued {int(regs['issued'])} manifold-passes, expected {job.manifold_passes}")
+    check_counters(regs, job, golden.solved.rejected_passes, cmp)
     return KernelResult(regs, stream_bytes, cmp, build_s, golden.seconds, seed, trace if keep_trace else None)

@@ -127,3 +127,31 @@ def test_on_chip_configuration_unchanged() -> None:
     lay = job.stream_layout()
     assert (lay.contact_bits, lay.friction_bits) == (64 + 23 * 32, 64 + 14 * 32)
     assert DmaTiming.of(get_preset("zcu102")) == DmaTiming.of(get_preset("zcu102"), read_share=1.0)
+
+
+def test_record_checks_follow_the_reads() -> None:
+    """The passes at which the kernel reads the impulse words back with the records: every pass of the streaming
+    kernel, the first pass of each window fetch, none where the impulses stay on chip."""
+    job = _job(FP32, "pile")
+    assert job.record_checks() is None
+    assert job.impulses_travelling().record_checks() == [True] * 8
+    window = job.impulses_travelling().windowed(1024, fetch_passes=2)
+    assert window.record_checks() == [True, False] * 4
+
+
+def test_nonfinite_carried_impulse_rejects_the_manifold_for_the_rest_of_the_step() -> None:
+    """A manifold whose friction record carries a non-finite impulse word (here the start's lamT, which the contact
+    passes do not use) is rejected from the first friction pass on: no trace record, no update, and no other
+    manifold rejected; the contact passes solve it (the kernel does not check a contact record's impulse words)."""
+    job = _job(FP32, "pile").impulses_travelling()
+    m, bad = job.cons.num_manifolds, 5
+    start = Impulses(np.zeros((m, 4)), np.zeros((m, 2)))
+    start.friction[bad, 1] = np.nan
+    records: list = []
+    res = solve(job.bodies, job.cons, job.schedule, job.fmt, job.params, records.append, initial=start,
+                record_checks=job.record_checks())
+    assert res.rejected_passes == 4  # the four friction passes
+    for rec in records:
+        assert (bad in rec.manifold) == (rec.kind == CONTACT_PASS)
+    with pytest.raises(ValueError, match="record_checks has 3 flags for 8 passes"):
+        solve(job.bodies, job.cons, job.schedule, job.fmt, job.params, record_checks=[True] * 3)
