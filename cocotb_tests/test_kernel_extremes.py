@@ -13,8 +13,8 @@ The kernels whose impulses travel with the records check the impulse words they 
 a manifold whose record carries a non-finite impulse is rejected from that pass (the streaming kernel) or fetch (the
 window kernel) on, error 5 (``rtl/README.md``, "Bad input"). The golden model makes the same check
 (``KernelJob.record_checks``), so their steps are bit-exact too, with the rejected manifold-passes, the status and
-the issue counters predicted (``sim.kernel_step.check_counters``); their event counters are not compared (the
-prediction does not follow rejections or start impulses). The kernel checks a friction record's impulse words,
+the issue counters predicted (``sim.kernel_step.check_counters``), and the event counters count only the issued
+manifold-passes, as the prediction does. The kernel checks a friction record's impulse words,
 not a contact record's, so the rejections come at the friction passes: all of them where the contact passes run
 first (nearly every normal impulse is non-finite by then), some in the interleaved order, where each friction
 pass of the fp16 two-lane run is a fetch of its own.
@@ -50,7 +50,7 @@ from tb.fp_events import predicted_events
 PRESET = get_preset("zcu102")
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 EVENT_NAMES = ("overflow", "underflow", "invalid")
-MIN_EVENTS = 100  # each counter's floor on the pile (seeds 1 to 40: at least 313 invalid, 2,082 underflow)
+MIN_EVENTS = 50  # each counter's floor on the pile (seeds 1 to 40: at least 133 invalid, 277 underflow)
 
 
 def _seed() -> int:
@@ -101,10 +101,9 @@ def test_kernel_at_extremes(case: Case, tmp_path: Path) -> None:
           f"{res.comparison.differing_bits} differing bits")
     assert res.comparison.first_mismatch is None, res.comparison.first_mismatch  # status and counters included
     assert res.bit_exact
-    if case.records:  # the extremes' impulses turn non-finite: rejections the golden model predicted
-        assert int(r["rejected"]) > 0
-        return
-    assert int(r["rejected"]) == 0  # good input: every word finite, every dynamic body's masses positive
+    # good input: every word finite, every dynamic body's masses positive; with the impulses in the records the
+    # extremes' impulses turn non-finite, and the rejections are the golden model's (checked above)
+    assert (int(r["rejected"]) > 0) == case.records
     assert got == want, "the kernel's floating-point event counters differ from the golden model's count"
     assert min(got.values()) >= MIN_EVENTS, got
     assert int(r["fp_status"]) == 0b111

@@ -105,6 +105,9 @@ class PassRecord:
 
 
 TraceSink = Callable[[PassRecord], None]
+# (kind, manifolds, their gathered bodies, the accumulated impulses) as a level of a pass is about to be solved: what
+# the manifold-passes' datapath reads (models.kernel_vectors.scene_vectors)
+InputSink = Callable[[int, np.ndarray, "_Gathered", "Impulses"], None]
 
 
 def pass_sequence(params: SolverParams) -> list[tuple[int, int]]:
@@ -306,7 +309,7 @@ class SolveResult:
 def solve(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arithmetic,
           params: SolverParams = SolverParams(), trace: Optional[TraceSink] = None,
           levels: Optional[list[np.ndarray]] = None, initial: Optional[Impulses] = None,
-          record_checks: Optional[Sequence[bool]] = None) -> SolveResult:
+          record_checks: Optional[Sequence[bool]] = None, inputs: Optional[InputSink] = None) -> SolveResult:
     """All passes of one step over ``schedule`` (level-vectorized, bit-identical to sequential order).
 
     ``bodies`` and ``cons`` must already hold values of the arithmetic's format (``.rounded(ar)``).
@@ -315,7 +318,8 @@ def solve(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arit
     does; a warm start otherwise, already rounded to the format and already applied to the velocities).
     ``record_checks`` (one flag per pass of ``pass_sequence``; None: no check) is the kernel whose impulses travel
     with the records (``KernelJob.record_checks``): at a flagged friction pass a manifold whose record carries a
-    non-finite impulse word is rejected for the rest of the step (``run_pass``).
+    non-finite impulse word is rejected for the rest of the step (``run_pass``). ``inputs`` sees every level of
+    every pass before it is solved (``run_pass``).
     """
     out = bodies.copy()
     imp = Impulses.zeros(cons.num_manifolds) if initial is None else initial.copy()
@@ -338,7 +342,7 @@ def solve(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arit
         if before is None and params.shock_impulses == "return" and is_shock_pass(params, kind, it):
             before = imp.copy()
         skipped += run_pass(out, imp, cons, levels, ar, kind, it, params, schedule, trace, rejected,
-                            record_checks is not None and bool(record_checks[p]))
+                            record_checks is not None and bool(record_checks[p]), inputs)
     if before is not None:
         assert isinstance(cons, ShockConstraintSet)
         rows = cons.frozen != FREEZE_NONE
@@ -358,7 +362,7 @@ def is_shock_pass(params: SolverParams, kind: int, iteration: int) -> bool:
 
 def run_pass(out: BodyTable, imp: Impulses, cons: ConstraintSet, levels: list[np.ndarray], ar: Arithmetic, kind: int,
              iteration: int, params: SolverParams, schedule: np.ndarray, trace: Optional[TraceSink] = None,
-             rejected: Optional[np.ndarray] = None, check: bool = False) -> int:
+             rejected: Optional[np.ndarray] = None, check: bool = False, inputs: Optional[InputSink] = None) -> int:
     """One pass of ``kind`` over all manifolds, updating ``out``'s velocities and ``imp`` in place.
 
     ``rejected`` ((M,) bool, updated in place; None: every manifold is solved) holds the manifolds the kernel
@@ -367,7 +371,9 @@ def run_pass(out: BodyTable, imp: Impulses, cons: ConstraintSet, levels: list[np
     pass a manifold with a non-finite lam[0..3] or lamT[0..1] joins ``rejected`` (error 5; a rejected slot stays
     rejected for the rest of the step). The kernel checks a friction record's words with the impulses it carries,
     a contact record's 23 words without its 4 impulse words (``rtl/README.md``, error 5), so a contact pass takes
-    a non-finite lam into its pipe. Returns the manifold-passes skipped."""
+    a non-finite lam into its pipe. ``inputs`` sees each level's manifolds (those not rejected), their gathered
+    bodies (before a shock pass freezes some) and the impulses, before they are solved. Returns the
+    manifold-passes skipped."""
     pass_records: list[PassRecord] = []
     shock = is_shock_pass(params, kind, iteration)
     skipped = 0
@@ -382,6 +388,8 @@ def run_pass(out: BodyTable, imp: Impulses, cons: ConstraintSet, levels: list[np
                 continue
         a, b = cons.body_a[idx], cons.body_b[idx]
         g = _Gathered(out, a, b)
+        if inputs is not None:
+            inputs(kind, idx, g, imp)
         frozen: Optional[np.ndarray] = None  # a shock pass: the rows with a frozen body
         linear: Optional[np.ndarray] = None
         if shock:

@@ -29,13 +29,13 @@ gathered state (the solver never writes them back), which is what the RTL comput
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from .constraints import FRICTION_COEFF, BodyTable, ConstraintSet
-from .contact_solver import (CONTACT_PASS, SolverParams, _Gathered, contact_solve, friction_solve, pass_sequence,
-                             schedule_levels)
+from .contact_solver import CONTACT_PASS, Impulses, SolverParams, _Gathered, contact_solve, friction_solve, solve
 from .inertia import inertia_mode
 from .integrator import ANGULAR_DAMPING, IntegrationParams, integrate
 from .number_format import Arithmetic
@@ -203,30 +203,27 @@ class SceneVectors:
 def scene_vectors(bodies: BodyTable, cons: ConstraintSet, ar: Arithmetic, params: SolverParams = SolverParams(),
                   dt: float = 1.0 / 60.0, gravity: tuple[float, float, float] = (0.0, -9.8, 0.0),
                   damping: float = ANGULAR_DAMPING, schedule: np.ndarray | None = None,
-                  inertia_words: int = 3) -> SceneVectors:
-    """The inputs of every manifold-pass of a golden solve (manifolds in ``schedule`` order, default index
-    order; evaluated level by level exactly like :func:`models.contact_solver.solve`, which is bit-identical
-    to the sequential loop), and of the integration of every dynamic body afterwards. ``bodies``/``cons``
-    must be in the format; the friction words end with mu where ``cons`` carries a coefficient per manifold."""
+                  inertia_words: int = 3, initial: Impulses | None = None,
+                  record_checks: Sequence[bool] | None = None) -> SceneVectors:
+    """The inputs of every manifold-pass of a golden solve (:func:`models.contact_solver.solve` with an input
+    sink: manifolds in ``schedule`` order, default index order; from the impulses ``initial``, zeros when None;
+    without the manifold-passes the kernel rejects under ``record_checks``, ``KernelJob.record_checks``), and of
+    the integration of every dynamic body afterwards. ``bodies``/``cons`` must be in the format; the friction
+    words end with mu where ``cons`` carries a coefficient per manifold."""
     mu = cons.per_manifold_friction
-    out = bodies.copy()
-    m = cons.num_manifolds
-    lam_n, lam_t = np.zeros((m, 4)), np.zeros((m, 2))
     cw, fw, fs = [], [], []
-    levels = schedule_levels(np.arange(m) if schedule is None else schedule, cons, bodies.dynamic)
-    for kind, _ in pass_sequence(params):
-        for idx in levels:
-            a, b = cons.body_a[idx], cons.body_b[idx]
-            g = _Gathered(out, a, b)
-            if kind == CONTACT_PASS:
-                cw.append(contact_words(cons, idx, lam_n[idx], g, inertia_words))
-                lam_n[idx] = contact_solve(ar, g, cons, idx, lam_n[idx])
-            else:
-                words, spin = friction_words(cons, idx, lam_n[idx], lam_t[idx], g, inertia_words, mu)
-                fw.append(words)
-                fs.append(spin)
-                lam_t[idx] = friction_solve(ar, g, cons, idx, lam_n, lam_t[idx], params.friction_coeff)
-            g.scatter(out, a, b)
+
+    def collect(kind: int, idx: np.ndarray, g: _Gathered, imp: Impulses) -> None:
+        if kind == CONTACT_PASS:
+            cw.append(contact_words(cons, idx, imp.normal[idx], g, inertia_words))
+        else:
+            words, spin = friction_words(cons, idx, imp.normal[idx], imp.friction[idx], g, inertia_words, mu)
+            fw.append(words)
+            fs.append(spin)
+
+    order = np.arange(cons.num_manifolds) if schedule is None else schedule
+    out = solve(bodies, cons, order, ar, params, initial=initial, record_checks=record_checks,
+                inputs=collect).bodies
     dyn = np.flatnonzero(out.dynamic)
     iw = integrate_words(out, dyn, float(ar.const(dt)), float(ar.const(damping)), ar.const(np.asarray(gravity)))
     empty = lambda n: np.zeros((0, n))  # noqa: E731
