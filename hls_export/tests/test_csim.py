@@ -4,7 +4,11 @@ sim/trace_compare.py): every trace record (one per retired manifold-pass, in ret
 stream, binary32, 4 iterations, on the
 stack, the incline and a 4x3x4 pile, in the hazard and the pybullet schedules; plus the status and issued
 outputs and the stream accounting (no beat left over, none read from an empty stream); the interleaved pass
-order; and the status register's error codes 3 (bad argument) and 1 (constraint TLAST).
+order; and the status register's error codes 3 (bad argument) and 1 (constraint TLAST). At extremes: every real word of
+the pile's step drawn over its format's whole range (``models.extreme_stimulus``, seed printed, SEED= overrides),
+binary32 and binary16, bit for bit through thousands of overflows, NaNs and flushed results. (The records designs
+are not run at extremes: their impulses turn non-finite, and the C++ does not follow the RTL's rejection of such
+records, error 5; see hls_export/README.md.)
 
 The records design (PGS_IMPULSES_IN_RECORDS=1: the impulses travel with the records, the kernel writes them to
 m_axis_imp, the testbench's DMA writes them to the impulse buffer the next passes' records are read with): binary16 and
@@ -33,10 +37,11 @@ from models import scenes
 from models import stream_format as sf
 from models.contact_solver import SolverParams
 from models.dma_model import get_preset
+from models.extreme_stimulus import extreme_magnitudes
 from models.format_analyzer import inertia_mode_of
 from models.kernel_job import KernelJob
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from models.number_format import FP32
+from models.number_format import FP16, FP32
 from models.register_map import OFFSET
 from sim.harness_run import run_harness, write_inputs
 from sim.kernel_build import KernelBuild, default_window
@@ -68,6 +73,22 @@ def test_csim_bit_exact(scene: str, schedule: str, csim_exe: Path, tmp_path: Pat
         pytest.fail(c.first_mismatch)
     assert res.bit_exact
     assert c.records == job.manifold_passes and c.bodies == job.bodies.num_bodies
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")  # the golden model's NaNs: the point
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")
+@pytest.mark.parametrize("fmt_name", ["fp32", "fp16"])
+def test_csim_at_extremes(fmt_name: str, tmp_path: Path) -> None:
+    kb = KernelBuild({"fp32": FP32, "fp16": FP16}[fmt_name])
+    seed = int(os.environ.get("SEED", "20261205"))
+    job = extreme_magnitudes(scene_job("pile", "hazard", 4, kb), seed)
+    res = run_csim_step(job, tmp_path, build_csim(kb), kb)
+    c = res.comparison
+    print(f"\n[pile/hazard at extremes, {fmt_name}] seed {seed} (SEED= overrides): {c.records} trace records and "
+          f"{c.bodies} bodies compared, {c.differing_bits} differing bits")
+    if c.first_mismatch is not None:
+        pytest.fail(c.first_mismatch)
+    assert res.bit_exact and c.records == job.manifold_passes
 
 
 @pytest.mark.parametrize("scene,inertia_words", [(ROTATED_WORLD, 6), ("stack", 1)], ids=["rotated_boxes-full", "stack-scalar"])
