@@ -33,6 +33,7 @@ import os
 
 from hls_export.csim import (RECORDS_FORMATS, RECORDS_SCENES, SCENES, SCHEDULES, build_csim, records_build,
                              run_csim_step, run_written_step, scene_job, warm_start)
+from hls_export.tests.csim_checks import assert_bit_exact
 from models import scenes
 from models import stream_format as sf
 from models.contact_solver import SolverParams
@@ -83,12 +84,7 @@ def test_csim_at_extremes(fmt_name: str, tmp_path: Path) -> None:
     seed = int(os.environ.get("SEED", "20261205"))
     job = extreme_magnitudes(scene_job("pile", "hazard", 4, kb), seed)
     res = run_csim_step(job, tmp_path, build_csim(kb), kb)
-    c = res.comparison
-    print(f"\n[pile/hazard at extremes, {fmt_name}] seed {seed} (SEED= overrides): {c.records} trace records and "
-          f"{c.bodies} bodies compared, {c.differing_bits} differing bits")
-    if c.first_mismatch is not None:
-        pytest.fail(c.first_mismatch)
-    assert res.bit_exact and c.records == job.manifold_passes
+    assert_bit_exact(res, job, f"pile/hazard at extremes, {fmt_name}, seed {seed} (SEED= overrides)")
 
 
 @pytest.mark.parametrize("scene,inertia_words", [(ROTATED_WORLD, 6), ("stack", 1)], ids=["rotated_boxes-full", "stack-scalar"])
@@ -106,11 +102,7 @@ def test_csim_inverse_inertia_modes(scene: str, inertia_words: int, tmp_path: Pa
     if inertia_words == 6:
         assert KernelBuild.for_job(job, get_preset("zcu102")) == kb
     res = run_csim_step(job, tmp_path, build_csim(kb), kb, default_window(FP32, kb.cons_bits))
-    c = res.comparison
-    print(f"\n[{Path(scene).stem}/{inertia_words} words] {c.records} trace records and {c.bodies} bodies compared")
-    if c.first_mismatch is not None:
-        pytest.fail(c.first_mismatch)
-    assert res.bit_exact and c.records == job.manifold_passes and c.bodies == job.bodies.num_bodies
+    assert_bit_exact(res, job, f"{Path(scene).stem}/{inertia_words} words")
 
 
 def test_csim_interleaved(csim_exe: Path, tmp_path: Path) -> None:
@@ -166,13 +158,8 @@ def _records_job(scene: str, fmt_name: str, start: str, interleaved: bool = Fals
 def _check_records(job: KernelJob, tmp_path: Path, label: str) -> None:
     kb = records_build(job.fmt, job)
     res = run_csim_step(job, tmp_path, build_csim(kb), kb, default_window(job.fmt, kb.cons_bits))
-    c = res.comparison
-    print(f"\n[records {label}] {c.records} trace records, {c.bodies} bodies, "
-          f"{int(res.registers['impulse_out_records'])} impulse-out records compared, {c.differing_bits} differing "
-          f"bits; csim {res.registers['wall_s']:.3f} s, golden {res.golden_seconds:.2f} s")
-    if c.first_mismatch is not None:
-        pytest.fail(c.first_mismatch)
-    assert res.bit_exact and c.records == job.manifold_passes and c.bodies == job.bodies.num_bodies
+    assert_bit_exact(res, job, f"records {label}", f"{int(res.registers['impulse_out_records'])} impulse-out records "
+                     f"compared; csim {res.registers['wall_s']:.3f} s, golden {res.golden_seconds:.2f} s")
     assert int(res.registers["impulse_out_records"]) == job.manifold_passes
 
 

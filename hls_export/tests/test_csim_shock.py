@@ -29,6 +29,7 @@ import pytest
 
 from hls_export.csim import (RECORDS_FORMATS, RECORDS_SCENES, SHOCKS, build_csim, records_build, run_csim_step,
                              scene_job, shock_job)
+from hls_export.tests.csim_checks import assert_bit_exact
 from models.number_format import FP32
 from models.shock_propagation import FREEZE_NONE
 from sim.kernel_build import KernelBuild, default_window
@@ -50,13 +51,9 @@ def test_csim_shock_bit_exact(fmt_name: str, scene: str, shock: str, iterations:
     assert frozen.any() and job.cons.linear == linear
     kb = records_build(fmt, job)
     res = run_csim_step(job, tmp_path, build_csim(kb), kb, default_window(fmt, kb.cons_bits))
-    c = res.comparison
-    print(f"\n[shock {shock} {fmt_name} {scene} {iterations} it, warm] {int(frozen.sum())} of {frozen.size} rows "
-          f"frozen; {c.records} trace records, {c.bodies} bodies, {int(res.registers['impulse_out_records'])} "
-          f"impulse-out records compared, {c.differing_bits} differing bits")
-    if c.first_mismatch is not None:
-        pytest.fail(c.first_mismatch)
-    assert res.bit_exact and c.records == job.manifold_passes and c.bodies == job.bodies.num_bodies
+    assert_bit_exact(res, job, f"shock {shock} {fmt_name} {scene} {iterations} it, warm",
+                     f"{int(frozen.sum())} of {frozen.size} rows frozen; "
+                     f"{int(res.registers['impulse_out_records'])} impulse-out records compared")
     assert int(res.registers["impulse_out_records"]) == job.manifold_passes
     # the test can fail: the shock passes change the step
     plain = golden_step(job.unshocked()).final.linear_velocity
@@ -71,9 +68,4 @@ def test_csim_shock_on_chip_design(shock: str, tmp_path: Path) -> None:
     linear, friction = SHOCKS[shock]
     job = scene_job("pile", "hazard", 4, kb).shocked(linear=linear, friction=friction, impulses="return")
     res = run_csim_step(job, tmp_path, build_csim(kb), kb, default_window(FP32, kb.cons_bits))
-    c = res.comparison
-    print(f"\n[shock {shock} on chip fp32 pile 4 it] {c.records} trace records, {c.bodies} bodies, {c.differing_bits} "
-          f"differing bits")
-    if c.first_mismatch is not None:
-        pytest.fail(c.first_mismatch)
-    assert res.bit_exact and c.records == job.manifold_passes
+    assert_bit_exact(res, job, f"shock {shock} on chip fp32 pile 4 it")

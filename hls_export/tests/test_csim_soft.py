@@ -14,6 +14,7 @@ import pytest
 
 from hls_export.csim import (RECORDS_FORMATS, SOFT_KEEP, build_csim, records_build, run_csim_step, scene_job,
                              soft_jobs)
+from hls_export.tests.csim_checks import assert_bit_exact
 from sim.harness_run import write_inputs
 from sim.kernel_build import default_window
 from sim.kernel_step import golden_step
@@ -27,12 +28,7 @@ def test_csim_soft_build_bit_exact(fmt_name: str, row: str, tmp_path: Path) -> N
     job = soft_jobs(cold)[row]
     kb = records_build(fmt, cold, soft_contact=True)
     res = run_csim_step(job, tmp_path, build_csim(kb), kb, default_window(fmt, kb.cons_bits))
-    c = res.comparison
-    print(f"\n[soft build {fmt_name} pile {row}] {c.records} trace records, {c.bodies} bodies, {c.differing_bits} "
-          f"differing bits")
-    if c.first_mismatch is not None:
-        pytest.fail(c.first_mismatch)
-    assert res.bit_exact and c.records == job.manifold_passes
+    assert_bit_exact(res, job, f"soft build {fmt_name} pile {row}")
     if row == "soft":  # the test can fail: the soft row's step is not the rigid one
         assert job.params.soft_keep == SOFT_KEEP
         rigid = golden_step(soft_jobs(cold)["rigid"]).final

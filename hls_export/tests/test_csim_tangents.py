@@ -30,6 +30,7 @@ import pytest
 
 from hls_export.csim import (BUILD_ROOT, CXXFLAGS, HLS_DIR, RECORDS_FORMATS, RECORDS_SCENES, SOURCES, build_csim,
                              compile_cpp, records_build, run_csim_step, run_written_step, scene_job, warm_start)
+from hls_export.tests.csim_checks import assert_bit_exact
 from models.kernel_job import KernelJob
 from models.number_format import FP16, FP32, NumberFormat
 from models.tangent_basis import PLANE_SPACE_SPLIT, plane_space_in
@@ -61,14 +62,10 @@ def test_csim_tangents_bit_exact(fmt_name: str, scene: str, start: str, tmp_path
     kb = records_build(job.fmt, job)
     assert job.tangents_on_chip and job.impulses_in_records and kb.tangents_on_chip and kb.impulses_in_records
     res = run_csim_step(job, tmp_path, build_csim(kb), kb, default_window(job.fmt, kb.cons_bits))
-    c = res.comparison
-    print(f"\n[tangents on chip {fmt_name} {scene} {start}] {c.records} trace records, {c.bodies} bodies, "
-          f"{int(res.registers['impulse_out_records'])} impulse-out records compared, {c.differing_bits} differing "
-          f"bits; friction record {kb.layout.friction_bits} bits, {kb.layout.friction_beats} beat(s); csim "
-          f"{res.registers['wall_s']:.3f} s, golden {res.golden_seconds:.2f} s")
-    if c.first_mismatch is not None:
-        pytest.fail(c.first_mismatch)
-    assert res.bit_exact and c.records == job.manifold_passes and c.bodies == job.bodies.num_bodies
+    assert_bit_exact(res, job, f"tangents on chip {fmt_name} {scene} {start}",
+                     f"{int(res.registers['impulse_out_records'])} impulse-out records compared; friction record "
+                     f"{kb.layout.friction_bits} bits, {kb.layout.friction_beats} beat(s); csim "
+                     f"{res.registers['wall_s']:.3f} s, golden {res.golden_seconds:.2f} s")
     assert int(res.registers["impulse_out_records"]) == job.manifold_passes
 
 
