@@ -23,8 +23,8 @@ Five builds the suite already makes (no build of their own): the streaming kerne
 (``build/verilator/pgs_kernel_e8m23_c512``) and fp16 (``..._e5m10_c512``), the two-lane fp32 window kernel
 (``..._e8m23_c512_w1024x8_l2``) and the window kernels with the impulses in the records, the fitting designs'
 RTL with a ring of 1,024 (fp32 one lane, ``..._e8m23_c512_w1024x8_ir_bk8_dl129``; fp16 two lanes,
-``..._e5m10_c512_w1024x8_l2_ir_bk16_dl129``, in the interleaved order), each on the pile through the zcu102 DMA model with random stream
-gaps and output backpressure. The seed draws the values and the stream timing; it is printed, and ``SEED=<int>``
+``..._e5m10_c512_w1024x8_l2_ir_bk16_dl129``, in the interleaved order), each on the pile through the zcu102 DMA
+model with random stream gaps and output backpressure. The seed draws the values and the stream timing; it is printed, and ``SEED=<int>``
 reruns one.
 """
 
@@ -41,7 +41,7 @@ from models.contact_solver import SolverParams
 from models.dma_model import get_preset
 from models.extreme_stimulus import extreme_magnitudes
 from models.kernel_job import KernelJob
-from models.number_format import FP16, FP32, NumberFormat
+from models.number_format import EVENT_NAMES, FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from sim.kernel_build import default_window
 from sim.kernel_step import run_kernel_step
@@ -49,7 +49,6 @@ from tb.fp_events import predicted_events
 
 PRESET = get_preset("zcu102")
 GAP_PERMILLE, BP_PERMILLE = 100, 200
-EVENT_NAMES = ("overflow", "underflow", "invalid")
 MIN_EVENTS = 50  # each counter's floor on the pile (seeds 1 to 40: at least 133 invalid, 277 underflow)
 
 

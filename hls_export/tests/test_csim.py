@@ -65,15 +65,9 @@ def test_csim_bit_exact(scene: str, schedule: str, csim_exe: Path, tmp_path: Pat
     job = scene_job(scene, schedule, 4, KB)
     window = default_window(FP32, KB.cons_bits)
     res = run_csim_step(job, tmp_path, csim_exe, KB, window)
-    c = res.comparison
-    print(f"\n[{scene}/{schedule}] {job.bodies.num_bodies} bodies, {len(job.slots)} manifolds: {c.records} trace "
-          f"records and {c.bodies} bodies compared, {c.differing_bits} differing bits; csim {res.registers['wall_s']:.3f} "
-          f"s, golden {res.golden_seconds:.2f} s; {res.window_hazards} of {job.manifold_passes} records within "
-          f"{window} of a record sharing a dynamic body")
-    if c.first_mismatch is not None:
-        pytest.fail(c.first_mismatch)
-    assert res.bit_exact
-    assert c.records == job.manifold_passes and c.bodies == job.bodies.num_bodies
+    assert_bit_exact(res, job, f"{scene}/{schedule}, {job.bodies.num_bodies} bodies, {len(job.slots)} manifolds",
+                     f"csim {res.registers['wall_s']:.3f} s, golden {res.golden_seconds:.2f} s; {res.window_hazards} "
+                     f"of {job.manifold_passes} records within {window} of a record sharing a dynamic body")
 
 
 @pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")  # the golden model's NaNs: the point
