@@ -31,7 +31,7 @@ from models.soft_contact import SoftContact
 from sim.kernel_build import default_window
 from sim.kernel_step import run_kernel_step
 
-from .test_kernel_impulses_in_records import warm_start
+from cocotb_tests.test_kernel_impulses_in_records import warm_start
 
 PRESET = get_preset("zcu102")
 KEEP = SoftContact(hertz=15.0, damping_ratio=1.0).keep(1.0 / 120.0)

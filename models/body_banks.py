@@ -13,7 +13,7 @@ two accesses (it stalls one cycle and tries again; the retire writes of that cyc
 
 from __future__ import annotations
 
-from .number_format import NumberFormat
+from models.number_format import NumberFormat
 
 PORTS_PER_BANK = 2  # a true dual-port RAMB36E2 / URAM
 RECORDS_BANKS = 2  # the records design's banks (docs/resources.md: cycles and LUTs per bank count)

@@ -25,7 +25,7 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from .sparse_spd_factor import SpdFactor, SpdFactorError
+from models.sparse_spd_factor import SpdFactor, SpdFactorError
 
 STEP_TO_BOUNDARY = 0.995  # fraction of the largest step that keeps every slack and multiplier > 0
 MAX_ITERATIONS = 80

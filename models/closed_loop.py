@@ -30,18 +30,18 @@ from typing import Any, Callable, Optional
 
 import numpy as np
 
-from . import scenes
-from .constraints import BodyTable, ConstraintSet, body_table_from_state, setup_constraints
-from .contact_solver import Impulses, SolverParams, solve
-from .frame import Frame
-from .inertia import CONVENTION_KEY, DEFAULT_CONVENTION, BulletConvention, convention_inverse_inertia, quat_to_matrix
-from .integrator import IntegrationParams, integrate
-from .number_format import FLOAT64, Arithmetic
-from .schedule import make_schedule
-from .shock_propagation import shock_step
-from .soft_contact import SoftContact, add_gravity, relax_constraints, soft_constraints
-from .substep import ContactPoints, substep_constraints
-from .warm_start import ContactMemory, Contacts, WarmStartReport, apply_impulses, warm_start
+from models import scenes
+from models.constraints import BodyTable, ConstraintSet, body_table_from_state, setup_constraints
+from models.contact_solver import Impulses, SolverParams, solve
+from models.frame import Frame
+from models.inertia import CONVENTION_KEY, DEFAULT_CONVENTION, BulletConvention, convention_inverse_inertia, quat_to_matrix
+from models.integrator import IntegrationParams, integrate
+from models.number_format import FLOAT64, Arithmetic
+from models.schedule import make_schedule
+from models.shock_propagation import shock_step
+from models.soft_contact import SoftContact, add_gravity, relax_constraints, soft_constraints
+from models.substep import ContactPoints, substep_constraints
+from models.warm_start import ContactMemory, Contacts, WarmStartReport, apply_impulses, warm_start
 
 
 # one kernel call: (bodies, constraints, schedule, initial impulses or None: zeros) -> (bodies after solve and

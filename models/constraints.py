@@ -42,10 +42,10 @@ from typing import Mapping
 
 import numpy as np
 
-from .frame import Frame
-from .inertia import (AABB_MARGIN, BulletConvention, convention_inverse_inertia, convention_of, gpu_inverse_inertia,
+from models.frame import Frame
+from models.inertia import (AABB_MARGIN, BulletConvention, convention_inverse_inertia, convention_of, gpu_inverse_inertia,
                       quadratic_form)
-from .number_format import Arithmetic
+from models.number_format import Arithmetic
 
 __all__ = ["AABB_MARGIN", "FRICTION_COEFF", "MAX_FRICTION", "BodyTable", "ConstraintSet", "body_table",
            "body_table_from_state", "combined_friction", "gpu_inverse_inertia", "plane_space",

@@ -20,10 +20,10 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from .constraints import FRICTION_COEFF, BodyTable, ConstraintSet
-from .inertia import inertia_product
-from .number_format import Arithmetic
-from .shock_propagation import FREEZE_NONE, ShockConstraintSet
+from models.constraints import FRICTION_COEFF, BodyTable, ConstraintSet
+from models.inertia import inertia_product
+from models.number_format import Arithmetic
+from models.shock_propagation import FREEZE_NONE, ShockConstraintSet
 
 SPIN_DAMP_FACTOR = 0.1
 

@@ -65,12 +65,12 @@ from typing import Any, ClassVar, Protocol, Sequence
 
 import numpy as np
 
-from .body_banks import busy as bank_busy
-from .contact_solver import CONTACT_PASS, FRICTION_PASS
-from .dma_model import DmaPreset
-from .kernel_job import KernelJob
-from .kernel_shape import DmaTiming, KernelShape, StepShape
-from .shock_propagation import FREEZE_A, FREEZE_B
+from models.body_banks import busy as bank_busy
+from models.contact_solver import CONTACT_PASS, FRICTION_PASS
+from models.dma_model import DmaPreset
+from models.kernel_job import KernelJob
+from models.kernel_shape import DmaTiming, KernelShape, StepShape
+from models.shock_propagation import FREEZE_A, FREEZE_B
 
 # why a record issued later than it was assembled (Prediction.cause)
 READY, SOLVE_START, HAZARD, SWITCH, CAM_FULL, BANK_BUSY, IMP_FULL = range(7)
@@ -249,7 +249,7 @@ def predict_job(job: "KernelJob", preset: DmaPreset, prefetched: bool = False, b
     (``job.record_window``) runs on the window kernel (``models.window_cycle_model``)."""
     shape, dma, step = _job_shape(job, preset, body_bits), _job_timing(job, preset, prefetched), StepShape.of_job(job)
     if job.record_window is not None:
-        from .window_cycle_model import predict_window  # it builds on this module
+        from models.window_cycle_model import predict_window  # it builds on this module
 
         return predict_window(shape, dma, step, job.record_window)
     return predict(shape, dma, step)

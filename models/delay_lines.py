@@ -10,7 +10,7 @@ passes it to the build.
 
 from __future__ import annotations
 
-from .number_format import NumberFormat
+from models.number_format import NumberFormat
 
 # lines longer than one 64-deep LUT RAM (RAM64M8: 8 LUTs per 7 bit-reads and 64 words, plus a depth multiplexer
 # for each further 64 words) go to block RAM: the lines whose LUTs per bit grow with their depth

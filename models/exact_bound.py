@@ -25,8 +25,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .constraints import BodyTable, ConstraintSet
-from .exact_reference_assembly import ExactReferenceError, Layout, Mass, contact_rows
+from models.constraints import BodyTable, ConstraintSet
+from models.exact_reference_assembly import ExactReferenceError, Layout, Mass, contact_rows
 
 SEPARATION_MARGIN = 1.0 + 1e-9  # the expansion rate just above the one that closes every violation
 

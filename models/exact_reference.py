@@ -72,13 +72,13 @@ from typing import Any, Callable
 import numpy as np
 import scipy.sparse as sp
 
-from .constraints import BodyTable, ConstraintSet
-from .contact_solver import Impulses, SolverParams
-from .exact_reference_assembly import (EIGEN_TOLERANCE, ExactReferenceError, Layout, Rows, contact_rows,
+from models.constraints import BodyTable, ConstraintSet
+from models.contact_solver import Impulses, SolverParams
+from models.exact_reference_assembly import (EIGEN_TOLERANCE, ExactReferenceError, Layout, Rows, contact_rows,
                                       friction_limits, friction_rows, islands, island_of_rows, not_a_qp_message,
                                       spin_rows, spin_rows_off_eigen)
-from .exact_reference_damped_friction import damped_friction_phase, regularized_solve
-from .exact_reference_large_island import (certify, large_contact_phase, large_friction_phase, large_island_solver,
+from models.exact_reference_damped_friction import damped_friction_phase, regularized_solve
+from models.exact_reference_large_island import (certify, large_contact_phase, large_friction_phase, large_island_solver,
                                            needs_certificate)
 
 DEFAULT_TIME_BUDGET_S = 600.0
@@ -390,7 +390,7 @@ def exact_reference(bodies: BodyTable, cons: ConstraintSet, params: SolverParams
     _check_finite(bodies, cons)
     clock = _Clock(budget)
     if params.interleaved:
-        from .exact_reference_interleaved import interleaved_reference
+        from models.exact_reference_interleaved import interleaved_reference
 
         t0 = time.perf_counter()
         final, imp, residuals, info, count = interleaved_reference(bodies, cons, params, clock, solver)

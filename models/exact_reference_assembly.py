@@ -15,7 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from .constraints import BodyTable, ConstraintSet
+from models.constraints import BodyTable, ConstraintSet
 
 EIGEN_TOLERANCE = 1e-9  # relative: n is an eigenvector of the inverse inertia
 SPAN_TOLERANCE = 1e-6  # relative singular value below which a body's damped normals add no spin row

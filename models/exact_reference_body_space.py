@@ -22,8 +22,8 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from .body_space_ipm import IpmResult, IpmTimeout, QpData, solve_ipm
-from .exact_reference_assembly import ExactReferenceError, Mass
+from models.body_space_ipm import IpmResult, IpmTimeout, QpData, solve_ipm
+from models.exact_reference_assembly import ExactReferenceError, Mass
 
 PROGRESS_ROWS = 100_000  # problems with more constraint rows print a line per iteration (stderr)
 SPIN_COMPLEMENT = 0.5  # eigenvalue of I - N^T N above which a direction is free of the spin rows (exactly 0 or 1)
@@ -95,7 +95,7 @@ def spin_multipliers(J: sp.csc_matrix, N: sp.csc_matrix, mass: Mass, u1: np.ndar
 
 
 def _run(qp: QpData, x0: np.ndarray, time_s: float, info: dict[str, float], phase: str) -> IpmResult:
-    from .sparse_spd_factor import SpdFactorError
+    from models.sparse_spd_factor import SpdFactorError
 
     try:
         big = qp.A.shape[0] + qp.C.shape[0] > PROGRESS_ROWS

@@ -22,12 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .constraints import BodyTable, ConstraintSet
-from .contact_solver import Impulses, SolverParams
-from . import exact_reference_large_island as large_island
-from .exact_reference import (DIRECT_ROWS_LIMIT, SOLVER_TOLERANCE, Budget, ExactReference, ExactReferenceError,
+from models.constraints import BodyTable, ConstraintSet
+from models.contact_solver import Impulses, SolverParams
+from models import exact_reference_large_island as large_island
+from models.exact_reference import (DIRECT_ROWS_LIMIT, SOLVER_TOLERANCE, Budget, ExactReference, ExactReferenceError,
                               ExactReferenceInterrupted, exact_reference_bounded)
-from .exact_reference_large_island import ITERATIVE_TOLERANCE
+from models.exact_reference_large_island import ITERATIVE_TOLERANCE
 
 CACHE_VERSION = 3  # bump whenever the reference computation changes
 _VELOCITIES = ("contact_linear", "contact_angular", "linear", "angular", "normal", "friction")

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .exact_reference_assembly import ExactReferenceError, Mass
+from models.exact_reference_assembly import ExactReferenceError, Mass
 
 DAMPED_MAX_ITERATIONS = 60
 DAMPED_TARGET = 1e-13  # m/s: the Newton iteration stops at this natural residual

@@ -23,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from .constraints import BodyTable, ConstraintSet
-from .contact_solver import Impulses, SolverParams
-from .exact_reference_assembly import ExactReferenceError, Layout, contact_rows, island_of_rows, islands
+from models.constraints import BodyTable, ConstraintSet
+from models.contact_solver import Impulses, SolverParams
+from models.exact_reference_assembly import ExactReferenceError, Layout, contact_rows, island_of_rows, islands
 
 MAX_ALTERNATIONS = 1000
 ALTERNATION_TOLERANCE = 1e-13  # m/s, rad/s: the alternation stops when an alternation moves velocities less
@@ -39,7 +39,7 @@ def interleaved_reference(bodies: BodyTable, cons: ConstraintSet, params: Solver
                           solver: Any) -> tuple[BodyTable, Impulses, dict[str, float], dict[str, float], int]:
     """(final state, impulses, natural residuals of the coupled problem, details, islands), or ExactReferenceError
     when the alternation does not reach a certified fixed point."""
-    from . import exact_reference as er
+    from models import exact_reference as er
 
     layout = Layout(bodies)
     count, labels = islands(layout, cons)

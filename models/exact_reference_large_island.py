@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .constraints import BodyTable, ConstraintSet
-from .exact_reference_assembly import ExactReferenceError, Mass
+from models.constraints import BodyTable, ConstraintSet
+from models.exact_reference_assembly import ExactReferenceError, Mass
 
 LARGE_ISLAND_METHOD = "ipm"  # "ipm" or "mprgp"
 ITERATIVE_TOLERANCE = 1e-11  # MPRGP's projected-gradient tolerance (Jacobi-scaled rows)
@@ -30,7 +30,7 @@ def large_contact_phase(J: sp.csc_matrix, c: np.ndarray, mass: Mass, u0: np.ndar
     certificate (the interior point's primal iterate; MPRGP's u(lam) itself)."""
     info[f"contact phase: {SOLVED_KEY} {LARGE_ISLAND_METHOD}"] = 1.0
     if LARGE_ISLAND_METHOD == "ipm":
-        from .exact_reference_body_space import contact_phase_ipm
+        from models.exact_reference_body_space import contact_phase_ipm
 
         return contact_phase_ipm(J, c, mass, u0, time_s * CONTACT_TIME_SHARE, info)
     rows = J.shape[0]
@@ -46,7 +46,7 @@ def large_friction_phase(J: sp.csc_matrix, c: np.ndarray, N: sp.csc_matrix, mass
     info[f"friction phase: {SOLVED_KEY} {LARGE_ISLAND_METHOD}"] = 1.0
     time_s -= ITERATIVE_MARGIN_S
     if LARGE_ISLAND_METHOD == "ipm":
-        from .exact_reference_body_space import friction_phase_ipm
+        from models.exact_reference_body_space import friction_phase_ipm
 
         y = friction_phase_ipm(J, c, N, mass, u1, limit, time_s, info)
     else:
@@ -62,7 +62,7 @@ def large_friction_phase(J: sp.csc_matrix, c: np.ndarray, N: sp.csc_matrix, mass
 def _mprgp(G: sp.csc_matrix, mass: Mass, g: np.ndarray, lo: np.ndarray, hi: np.ndarray, time_s: float,
            info: dict[str, float], phase: str) -> np.ndarray:
     """minimise 1/2 y^T G M^-1 G^T y + g^T y over lo <= y <= hi by MPRGP (products with G and G^T only)."""
-    from .mprgp import mprgp
+    from models.mprgp import mprgp
 
     Gr = G.tocsr()
     Gr.eliminate_zeros()
@@ -84,7 +84,7 @@ FRICTION_BOUND_KEY = "certified |u - u*|_M of the friction phase, given its boxe
 
 def _certify_friction(G: sp.csc_matrix, N: sp.csc_matrix, mass: Mass, u1: np.ndarray, y: np.ndarray,
                       c: np.ndarray, limit: np.ndarray, info: dict[str, float]) -> None:
-    from .exact_bound import friction_phase_bound
+    from models.exact_bound import friction_phase_bound
 
     bound = friction_phase_bound(G.tocsr(), N.tocsr(), mass, u1, y, c, limit)
     info[FRICTION_BOUND_KEY] = float(np.hypot(info.get(FRICTION_BOUND_KEY, 0.0), bound))  # islands: squares add
@@ -110,7 +110,7 @@ def certify(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarray, info: di
     valid); the friction phase's map u1 -> u2 is the M-proximal map of a convex function
     (boxes fixed), hence non-expansive, so the final state's distance is at most the sum of both phases' bounds.
     Raises ExactReferenceError when it exceeds CERTIFIED_ACCEPT."""
-    from .exact_bound import contact_phase_bound, per_body_bounds
+    from models.exact_bound import contact_phase_bound, per_body_bounds
 
     key = "certified |u - u*|_M (sqrt(kg) m/s)"
     contact = min(contact_phase_bound(bodies, cons, normal)[key], contact_phase_bound(bodies, cons, normal, primal)[key])

@@ -33,12 +33,12 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from .constraints import BodyTable, ConstraintSet
-from .contact_solver import SolverParams, solve
-from .inertia import InertiaMode, inertia_mode
-from .integrator import IntegrationParams, integrate
-from .number_format import FLOAT64, Arithmetic, NumberFormat
-from .stream_format import BODY_IN_WORDS, HEADER_BITS
+from models.constraints import BodyTable, ConstraintSet
+from models.contact_solver import SolverParams, solve
+from models.inertia import InertiaMode, inertia_mode
+from models.integrator import IntegrationParams, integrate
+from models.number_format import FLOAT64, Arithmetic, NumberFormat
+from models.stream_format import BODY_IN_WORDS, HEADER_BITS
 
 # field group -> (table, fields); "impulses" are computed, not streamed (the kernel keeps them on chip)
 GROUPS: dict[str, tuple[str, tuple[str, ...]]] = {

@@ -35,7 +35,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .number_format import Arithmetic
+from models.number_format import Arithmetic
 
 AABB_MARGIN = 0.01  # m, added to each side of the local AABB before Bullet GPU's inertia computation
 FULL_ORDER = ("xx", "yy", "zz", "xy", "xz", "yz")

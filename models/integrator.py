@@ -30,8 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .constraints import BodyTable
-from .number_format import Arithmetic
+from models.constraints import BodyTable
+from models.number_format import Arithmetic
 
 ANGULAR_DAMPING = 0.99
 MAX_ANGLE = 0.25 * 3.14159254  # Bullet's BT_GPU_ANGULAR_MOTION_THRESHOLD (sic)

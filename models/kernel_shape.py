@@ -12,13 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .contact_solver import CONTACT_PASS, SolverParams, is_shock_pass, pass_sequence
-from .body_banks import check_banks
-from .dma_model import DmaPreset
-from .kernel_job import KernelJob
-from .number_format import NumberFormat
-from .shock_propagation import ShockConstraintSet
-from .stream_format import KERNEL_INERTIA_WORDS, RecordBits, StreamLayout
+from models.contact_solver import CONTACT_PASS, SolverParams, is_shock_pass, pass_sequence
+from models.body_banks import check_banks
+from models.dma_model import DmaPreset
+from models.kernel_job import KernelJob
+from models.number_format import NumberFormat
+from models.shock_propagation import ShockConstraintSet
+from models.stream_format import KERNEL_INERTIA_WORDS, RecordBits, StreamLayout
 
 RTL_DIR = Path(__file__).resolve().parents[1] / "rtl"
 HAZARD_DEPTH = 256  # pgs_kernel defaults

@@ -34,11 +34,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .constraints import FRICTION_COEFF, BodyTable, ConstraintSet
-from .contact_solver import CONTACT_PASS, Impulses, SolverParams, _Gathered, contact_solve, friction_solve, solve
-from .inertia import inertia_mode
-from .integrator import ANGULAR_DAMPING, IntegrationParams, integrate
-from .number_format import Arithmetic
+from models.constraints import FRICTION_COEFF, BodyTable, ConstraintSet
+from models.contact_solver import CONTACT_PASS, Impulses, SolverParams, _Gathered, contact_solve, friction_solve, solve
+from models.inertia import inertia_mode
+from models.integrator import ANGULAR_DAMPING, IntegrationParams, integrate
+from models.number_format import Arithmetic
 
 CONTACT_N_OUT = 16
 FRICTION_N_OUT = 14

@@ -27,8 +27,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Mapping
 
-from . import stream_format as sf
-from .number_format import NumberFormat
+from models import stream_format as sf
+from models.number_format import NumberFormat
 
 POSITIONS, ORIENTATIONS, VELOCITIES, MASS = "positions", "orientations", "velocities", "mass properties"
 GEOMETRY, COEFFICIENTS, IMPULSES = "contact geometry", "solver coefficients", "impulses"

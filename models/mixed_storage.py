@@ -31,13 +31,13 @@ from typing import Mapping
 
 import numpy as np
 
-from . import format_analyzer as fa
-from .constraints import BodyTable, ConstraintSet
-from .contact_solver import Impulses, SolverParams, pass_sequence, run_pass, schedule_levels, solve
-from .integrator import integrate
-from .mixed_layout import IMPULSES, ORIENTATIONS, POSITIONS, STORED_GROUPS, VELOCITIES
-from .number_format import FLOAT64, Arithmetic, NumberFormat
-from .tangent_basis import derive_tangents
+from models import format_analyzer as fa
+from models.constraints import BodyTable, ConstraintSet
+from models.contact_solver import Impulses, SolverParams, pass_sequence, run_pass, schedule_levels, solve
+from models.integrator import integrate
+from models.mixed_layout import IMPULSES, ORIENTATIONS, POSITIONS, STORED_GROUPS, VELOCITIES
+from models.number_format import FLOAT64, Arithmetic, NumberFormat
+from models.tangent_basis import derive_tangents
 
 DEFAULT_FACTOR = 10.0
 STATE_PARTS = ("dv", "dw", "dx", "dq")

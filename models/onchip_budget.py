@@ -33,10 +33,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .contact_solver import CONTACT_PASS, FRICTION_PASS
-from .dma_model import DmaPreset, get_preset
-from .number_format import NumberFormat
-from .stream_format import BODY_IN_WORDS, StreamLayout
+from models.contact_solver import CONTACT_PASS, FRICTION_PASS
+from models.dma_model import DmaPreset, get_preset
+from models.number_format import NumberFormat
+from models.stream_format import BODY_IN_WORDS, StreamLayout
 
 IMPULSE_WORDS = 6  # lam[0..3] and lamT[0..1] per manifold (rtl/pgs_impulse_ram.sv)
 KIB = 1024 // 8  # bytes per Kib

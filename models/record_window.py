@@ -24,11 +24,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .constraints import ConstraintSet
-from .contact_solver import SolverParams, pass_sequence
-from .body_banks import over_ports
-from .schedule import band_width
-from .stream_format import schedule_manifolds, window_fetch_kinds, window_fetches
+from models.constraints import ConstraintSet
+from models.contact_solver import SolverParams, pass_sequence
+from models.body_banks import over_ports
+from models.schedule import band_width
+from models.stream_format import schedule_manifolds, window_fetch_kinds, window_fetches
 
 DEFAULT_DEPTH = 16384  # records in the ring of the window builds make sim uses
 DEFAULT_CTX = 8  # passes active at a time (pgs_window CTX)

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .constraints import BodyTable, ConstraintSet
+from models.constraints import BodyTable, ConstraintSet
 
 
 def contact_error(bodies: BodyTable, cons: ConstraintSet) -> tuple[np.ndarray, np.ndarray]:

@@ -21,7 +21,7 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from .constraints import ConstraintSet
+from models.constraints import ConstraintSet
 
 BUBBLE = -1
 UP_AXIS = 1  # frames are y-up (models/frame.py)

@@ -25,10 +25,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .constraints import BodyTable, ConstraintSet
-from .inertia import quadratic_form
-from .number_format import Arithmetic
-from .schedule import hazard_order_of
+from models.constraints import BodyTable, ConstraintSet
+from models.inertia import quadratic_form
+from models.number_format import Arithmetic
+from models.schedule import hazard_order_of
 
 UNREACHED = np.iinfo(np.int64).max // 4  # the layer of a body no static body reaches
 FREEZE_NONE, FREEZE_A, FREEZE_B = 0, 1, 2

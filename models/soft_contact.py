@@ -36,8 +36,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .constraints import BodyTable, ConstraintSet
-from .number_format import Arithmetic
+from models.constraints import BodyTable, ConstraintSet
+from models.number_format import Arithmetic
 
 CONTACT_HERTZ = 30.0  # b2WorldDef.contactHertz
 DAMPING_RATIO = 10.0  # b2WorldDef.contactDampingRatio

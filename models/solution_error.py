@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .constraints import BodyTable
+from models.constraints import BodyTable
 
 
 @dataclass(frozen=True)

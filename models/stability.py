@@ -27,19 +27,19 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .closed_loop import COLD, LoopResult, Remedy, Stepper, StepperFactory, golden_stepper, run_closed_loop
-from .constraints import POSITION_COEFF, POSITION_DRIFT, BodyTable, ConstraintSet
-from .contact_solver import Impulses, SolverParams
-from .cycle_model import predict_job
-from .dma_model import DmaPreset, get_preset
-from .integrator import IntegrationParams
-from .kernel_job import KernelJob
-from .number_format import Arithmetic, NumberFormat
-from .soft_contact import SoftContact
-from .warm_start import WARMSTART_FACTOR
-from .scenes import GRAVITY
-from .scenes.world import DEFAULT_DT
-from .trajectory import Trajectory, TrajectoryRecorder
+from models.closed_loop import COLD, LoopResult, Remedy, Stepper, StepperFactory, golden_stepper, run_closed_loop
+from models.constraints import POSITION_COEFF, POSITION_DRIFT, BodyTable, ConstraintSet
+from models.contact_solver import Impulses, SolverParams
+from models.cycle_model import predict_job
+from models.dma_model import DmaPreset, get_preset
+from models.integrator import IntegrationParams
+from models.kernel_job import KernelJob
+from models.number_format import Arithmetic, NumberFormat
+from models.soft_contact import SoftContact
+from models.warm_start import WARMSTART_FACTOR
+from models.scenes import GRAVITY
+from models.scenes.world import DEFAULT_DT
+from models.trajectory import Trajectory, TrajectoryRecorder
 
 G = float(np.linalg.norm(GRAVITY))  # m/s^2
 

@@ -77,11 +77,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .constraints import BodyTable, ConstraintSet
-from .contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, is_shock_pass, pass_sequence
-from .inertia import InertiaMode, inertia_mode
-from .number_format import NumberFormat
-from .shock_propagation import ShockConstraintSet
+from models.constraints import BodyTable, ConstraintSet
+from models.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, is_shock_pass, pass_sequence
+from models.inertia import InertiaMode, inertia_mode
+from models.number_format import NumberFormat
+from models.shock_propagation import ShockConstraintSet
 
 HEADER_BITS = 64
 CONTACT_WORDS = 23

@@ -28,9 +28,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .constraints import POSITION_COEFF, POSITION_DRIFT, BodyTable, ConstraintSet
-from .inertia import quat_to_matrix
-from .number_format import Arithmetic
+from models.constraints import POSITION_COEFF, POSITION_DRIFT, BodyTable, ConstraintSet
+from models.inertia import quat_to_matrix
+from models.number_format import Arithmetic
 
 
 @dataclass(frozen=True)

@@ -24,8 +24,8 @@ import dataclasses
 
 import numpy as np
 
-from .constraints import ConstraintSet
-from .number_format import Arithmetic
+from models.constraints import ConstraintSet
+from models.number_format import Arithmetic
 
 PLANE_SPACE_SPLIT = 0.70710678  # models.constraints.plane_space's |n_z| threshold (Bullet's SIMDSQRT12)
 

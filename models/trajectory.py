@@ -17,11 +17,11 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .closed_loop import LoopResult, Stepper, StepperFactory, golden_stepper
-from .constraints import BodyTable
-from .contact_solver import Impulses, SolverParams
-from .integrator import IntegrationParams
-from .number_format import Arithmetic
+from models.closed_loop import LoopResult, Stepper, StepperFactory, golden_stepper
+from models.constraints import BodyTable
+from models.contact_solver import Impulses, SolverParams
+from models.integrator import IntegrationParams
+from models.number_format import Arithmetic
 
 
 @dataclass(frozen=True)

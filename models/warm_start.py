@@ -35,10 +35,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .constraints import BodyTable, ConstraintSet
-from .contact_solver import Impulses
-from .inertia import quat_to_matrix
-from .number_format import Arithmetic
+from models.constraints import BodyTable, ConstraintSet
+from models.contact_solver import Impulses
+from models.inertia import quat_to_matrix
+from models.number_format import Arithmetic
 
 WARMSTART_FACTOR = 0.85  # btContactSolverInfo::m_warmstartingFactor
 MATCH_THRESHOLD = 0.02  # m, Bullet's contact breaking threshold (gContactBreakingThreshold): getCacheEntry's radius

@@ -82,13 +82,13 @@ from typing import ClassVar
 
 import numpy as np
 
-from .body_banks import over_ports
-from .contact_solver import CONTACT_PASS
-from .cycle_model import (BANK_BUSY, CAM_FULL, CAUSES, HAZARD, IMP_FULL, READY, SOLVE_START, BankWrites, DdrBucket,
+from models.body_banks import over_ports
+from models.contact_solver import CONTACT_PASS
+from models.cycle_model import (BANK_BUSY, CAM_FULL, CAUSES, HAZARD, IMP_FULL, READY, SOLVE_START, BankWrites, DdrBucket,
                           ImpulseOut, Prediction, Tail, _dynamic_bodies, _load_end, body_beat_cycles, build_causes,
                           first_offer_cycle)
-from .kernel_shape import DmaTiming, KernelShape, StepShape
-from .record_window import WindowPlan, fits
+from models.kernel_shape import DmaTiming, KernelShape, StepShape
+from models.record_window import WindowPlan, fits
 
 SELECT = max(CAUSES) + 1  # eligible, but the window offered other passes' records (the skip rotation) until this cycle
 # what made a record a candidate last (WindowPrediction.held): its arrival in the ring, its pass's take of the slot

@@ -46,8 +46,8 @@ from cocotbext.axi import Region
 
 from models.dma_model import DmaPreset
 
-from .axis_words import AxisWordSink, AxisWordSource, Gate
-from .burst_streams import BurstSink, BurstSource
+from cocotb_tests.tb.axis_words import AxisWordSink, AxisWordSource, Gate
+from cocotb_tests.tb.burst_streams import BurstSink, BurstSource
 
 MM2S, S2MM = 0x00, 0x30
 DMACR, DMASR, ADDR, ADDR_MSB, LENGTH = 0x00, 0x04, 0x18, 0x1C, 0x28

@@ -34,7 +34,7 @@ from models.contact_solver import CONTACT_PASS, Impulses, PassRecord, pass_seque
 from models.integrator import integrate
 from models.kernel_job import KernelJob
 
-from .scoreboard import ExpectedTrace, expected_trace
+from cocotb_tests.tb.scoreboard import ExpectedTrace, expected_trace
 
 NEVER = 1 << 30  # "rejected from pass NEVER": accepted in every pass
 

@@ -18,7 +18,7 @@ from typing import Any, Callable
 
 from cocotb.triggers import FallingEdge, ValueChange
 
-from .axis_words import Gate
+from cocotb_tests.tb.axis_words import Gate
 
 
 def _int(handle: Any) -> int:

@@ -31,7 +31,7 @@ from models import register_map as rm
 from models.dma_model import DmaPreset
 from models.number_format import NumberFormat
 
-from .axi_dma import AxiDmaEngine, BurstDmaStreamPort, DdrBandwidth, DmaStreamPort, split_lanes
+from cocotb_tests.tb.axi_dma import AxiDmaEngine, BurstDmaStreamPort, DdrBandwidth, DmaStreamPort, split_lanes
 
 # the kernel's registers (models/register_map.py)
 AP_CTRL, GIE, IER, ISR = (rm.OFFSET[n] for n in ("ap_ctrl", "gie", "ier", "isr"))

@@ -31,13 +31,13 @@ from pathlib import Path
 
 from models.kernel_shape import PIPE_LATENCY_FILE
 
-from .file_list import RTL_DIR, kernel_sources, swap_sources
-from .kernel_graphs import GRAPHS, MAN_BITS_OF, MODE_GRAPHS, friction_graph
-from .pipe_latency import LATENCY_PKG, emit_latency_json, emit_latency_pkg
-from .register_map_emit import REGS_HEADER, REGS_PKG, emit_regs_header, emit_regs_pkg
-from .repo_paths import REPO_ROOT
-from .stream_layout_emit import STREAM_LAYOUT_HEADER, STREAM_LAYOUT_PKG, emit_stream_layout_header, emit_stream_layout_pkg
-from .sv_emit import emit_sv
+from rtl.gen.file_list import RTL_DIR, kernel_sources, swap_sources
+from rtl.gen.kernel_graphs import GRAPHS, MAN_BITS_OF, MODE_GRAPHS, friction_graph
+from rtl.gen.pipe_latency import LATENCY_PKG, emit_latency_json, emit_latency_pkg
+from rtl.gen.register_map_emit import REGS_HEADER, REGS_PKG, emit_regs_header, emit_regs_pkg
+from rtl.gen.repo_paths import REPO_ROOT
+from rtl.gen.stream_layout_emit import STREAM_LAYOUT_HEADER, STREAM_LAYOUT_PKG, emit_stream_layout_header, emit_stream_layout_pkg
+from rtl.gen.sv_emit import emit_sv
 
 GENERATED_DIR = RTL_DIR / "generated"
 HLS_GENERATED_DIR = REPO_ROOT / "hls_export" / "generated"

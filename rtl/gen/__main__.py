@@ -3,8 +3,8 @@
 import argparse
 import sys
 
-from . import generate, latencies
-from .repo_paths import REPO_ROOT
+from rtl.gen import generate, latencies
+from rtl.gen.repo_paths import REPO_ROOT
 
 
 def main() -> int:

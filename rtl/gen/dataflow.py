@@ -41,10 +41,10 @@ import numpy as np
 
 from models.number_format import FpEvents, NumberFormat
 
-from .operator_timing import Time, operator_latencies
+from rtl.gen.operator_timing import Time, operator_latencies
 
 if TYPE_CHECKING:
-    from .schedule import Schedule
+    from rtl.gen.schedule import Schedule
 
 FLOAT = "float"
 BOOL = "bool"
@@ -262,7 +262,7 @@ class Graph:
         return [v for v in self.nodes if v.id in live]
 
     def schedule(self, lat: Optional[dict[str, Time]] = None) -> "Schedule":
-        from .schedule import Schedule  # the scheduler reads graphs: imported here, not at the top
+        from rtl.gen.schedule import Schedule  # the scheduler reads graphs: imported here, not at the top
 
         return Schedule(self, lat or operator_latencies())
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from .repo_paths import REPO_ROOT
+from rtl.gen.repo_paths import REPO_ROOT
 
 RTL_DIR = REPO_ROOT / "rtl"
 KERNEL_FILE_LIST = RTL_DIR / "pgs_kernel.f"

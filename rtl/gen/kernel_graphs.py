@@ -29,7 +29,7 @@ from models.integrator import COS_COEFFS, MAX_ANGLE, SIN_COEFFS, SMALL_ANGLE, TA
 from models.number_format import KERNEL_FORMATS
 from models.tangent_basis import PLANE_SPACE_SPLIT
 
-from .dataflow import Graph, Value
+from rtl.gen.dataflow import Graph, Value
 
 # The mantissa width of each kernel format (models.number_format.KERNEL_FORMATS). The golden model's constants
 # above (float64 values) are rounded to the format in the RTL.

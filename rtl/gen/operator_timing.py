@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
-from .repo_paths import FP_DIR
+from rtl.gen.repo_paths import FP_DIR
 
 MINMAX_LATENCY = 1  # the LATENCY parameter given to every fp_minmax instance
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .dataflow import FLOAT, OP_SIGNATURES, Graph, Value
-from .operator_timing import Time
+from rtl.gen.dataflow import FLOAT, OP_SIGNATURES, Graph, Value
+from rtl.gen.operator_timing import Time
 
 
 @dataclass

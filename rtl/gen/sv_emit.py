@@ -14,8 +14,8 @@ from typing import Optional
 
 from models.number_format import KERNEL_FORMATS
 
-from .dataflow import FLOAT, OP_SIGNATURES, Graph, Value
-from .operator_timing import Time
+from rtl.gen.dataflow import FLOAT, OP_SIGNATURES, Graph, Value
+from rtl.gen.operator_timing import Time
 
 _FLAGGED = ("fp_add", "fp_mul", "fp_div", "fp_sqrt")  # operators with event flags
 _SYMBOL = {"add": "+", "sub": "-", "mul": "*", "div": "/"}
