@@ -35,10 +35,10 @@ TANGENTS ?= host
 SEEDS ?= 4
 # what drives the kernel in make sim: harness (compiled Verilator harness) or cocotb (DMA models, batch scoreboard)
 DRIVER ?= harness
-# how make sim compiles the harness's C++ (sim/kernel_build.py COMPILE_PROFILES): quick, or pgo (profile-guided:
+# how make sim compiles the harness's C++ (sim/compile/kernel_build.py COMPILE_PROFILES): quick, or pgo (profile-guided:
 # trained on the run's first cycles; two builds the first time)
 COMPILE ?= quick
-# where independent points run (sim/executor.py): local:N processes, dask:local:N, dask:tcp://host:port;
+# where independent points run (sim/parallel/executor.py): local:N processes, dask:local:N, dask:tcp://host:port;
 # empty: make sweep runs its points one at a time (local:1), the others on local:$(JOBS)
 EXECUTOR ?=
 # pytest-xdist workers of make test (tests of one module stay on one worker: their module fixtures run once)
@@ -73,7 +73,7 @@ help:
 	@echo "make csim      the HLS kernel (hls_export/) in C simulation, bit for bit against the golden model"
 	@echo "make hls       Vitis HLS synthesis + Verilog export into hls_export/verilog/ (needs vitis_hls)"
 	@echo "make resources LUT/FF/DSP/BRAM per operator and unit of the RTL kernel (Yosys; FORMATS= RESOURCE_UNITS=),"
-	@echo "               written to sim/generated/resource_figures.json for the resource model (docs/resources.md)"
+	@echo "               written to sim/fit/generated/resource_figures.json for the resource model (docs/resources.md)"
 	@echo "make lint      verilator --lint-only -Wall on every RTL top"
 	@echo "make bench     simulated cycles per second of the kernel harness, compile profiles side by side"
 	@echo "               (SCENE= SCENE_ARGS= FORMAT= DMA= PROFILES=quick,pgo RUNS=3 MAX_CYCLES=0; a new profile builds"
@@ -141,10 +141,10 @@ hls:
 	@if command -v vitis_hls >/dev/null 2>&1; then vitis_hls -f hls_export/run_hls.tcl; \
 	else echo "make hls: vitis_hls is not installed (not on PATH); nothing synthesized (see hls_export/README.md)"; fi
 
-# every operator alone and the whole units (RESOURCE_UNITS=): figures into sim/generated/resource_figures.json
+# every operator alone and the whole units (RESOURCE_UNITS=): figures into sim/fit/generated/resource_figures.json
 RESOURCE_UNITS ?= contact,friction,integrate,control,hazard_cam
 resources: $(STAMP)
-	$(TOOLENV) $(VPY) -m hls_export.resources --formats $(FORMATS) --units "$(RESOURCE_UNITS)" --executor "$(EXECUTOR)"
+	$(TOOLENV) $(VPY) -m sim.fit.yosys_figures --formats $(FORMATS) --units "$(RESOURCE_UNITS)" --executor "$(EXECUTOR)"
 
 lint: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.lint
@@ -154,7 +154,7 @@ RUNS ?= 3
 MAX_CYCLES ?= 0
 BASELINE_EXE ?=
 bench: $(STAMP)
-	$(TOOLENV) $(VPY) -m sim.bench_sim_speed --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) \
+	$(TOOLENV) $(VPY) -m sim.bench --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) \
 		--profiles $(PROFILES) --runs $(RUNS) --max-cycles $(MAX_CYCLES) --baseline-exe "$(BASELINE_EXE)"
 
 rtl: $(STAMP)

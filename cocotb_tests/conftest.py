@@ -1,5 +1,5 @@
 """Put ``cocotb_tests/`` on the path so that the test benches import as ``tb`` from pytest too: the cocotb test
-modules run inside the simulator under that short name (``sim.cocotb_run`` puts this folder on its PYTHONPATH),
+modules run inside the simulator under that short name (``sim.drive.cocotb_run`` puts this folder on its PYTHONPATH),
 and the pytest-side helpers of ``test_kernel_bad_input.py`` share their code with it. Modules that import the
 benches as ``cocotb_tests.tb`` do not need this."""
 

@@ -16,7 +16,7 @@ from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, RisingEdge
 from cocotbext.axi import SparseMemoryRegion
 
-from models.dma_model import DmaPreset, get_preset
+from models.timing.platforms import DmaPreset, get_preset
 
 THIS = Path(__file__).resolve().parent
 GUARD = b"\xaa" * 64
@@ -155,7 +155,7 @@ async def run_register_errors(dut) -> None:
 
 @pytest.mark.parametrize("preset_name,idle", [("zcu102", 0.0), ("zcu102", 0.3), ("zcu102_1", 0.0), ("ideal", 0.0)])
 def test_axi_dma(preset_name: str, idle: float) -> None:
-    from sim.cocotb_run import run_cocotb, test_seed
+    from sim.drive.cocotb_run import run_cocotb, test_seed
 
     preset = get_preset(preset_name)
     seed = test_seed()

@@ -1,8 +1,8 @@
-"""Bit-exact tests of the rtl/fp operators against the golden arithmetic (models/number_format.py).
+"""Bit-exact tests of the rtl/fp operators against the golden arithmetic (models/formats/number_format.py).
 
-For each format (fp32, fp16, bf16) the harness of ``sim/fp_operator_harness.py`` (every operator for that
+For each format (fp32, fp16, bf16) the harness of ``sim/drive/fp_operator_harness.py`` (every operator for that
 format, ``sim/harness/fp_ops_tb.sv`` driven by ``sim/harness/fp_ops_main.cpp``, one operand pair per cycle with
-random idle cycles) is compiled once with Verilator; ``sim/fp_operator_vectors.py`` generates the vectors and the
+random idle cycles) is compiled once with Verilator; ``sim/drive/fp_operator_vectors.py`` generates the vectors and the
 golden results, and every result of every operator must match ``encode(golden_op(decode(a), decode(b)))`` bit
 for bit: a + b, a - b, a * b, a / b, sqrt(a), minimum, maximum, the compare flags lt / eq / unordered, and the
 event flags (overflow, underflow, invalid) of add, sub, mul, div and sqrt (every flag that can occur must occur
@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.fp_operator_harness import MINMAX_LATENCY, build_fp_operator_harness, run_fp_operator_harness
-from sim.fp_operator_vectors import FORMATS, OPS, event_bits, golden, make_vectors, seed_for
+from sim.drive.fp_operator_harness import MINMAX_LATENCY, build_fp_operator_harness, run_fp_operator_harness
+from sim.drive.fp_operator_vectors import FORMATS, OPS, event_bits, golden, make_vectors, seed_for
 
 # Expected LATENCY of each operator as documented in rtl/fp/README.md.
 EXPECTED_LATENCY = {

@@ -1,6 +1,6 @@
 """Bad input to the RTL kernel, in cocotb through the host driver and the AXI DMA model.
 
-One scenario per case of the bad-input catalogue (``models/bad_input.py``) that a co-simulation can make. Each
+One scenario per case of the bad-input catalogue (``models/kernel/bad_input.py``) that a co-simulation can make. Each
 scenario is a list of steps run one after the other on one kernel *without a reset in between* (after a
 step the host only clears the sticky status flags it has read, W1C): one or more bad steps, then a good one.
 Every step must end (ap_done within a cycle budget, else the host raises), and its trace (lock-step
@@ -29,7 +29,7 @@ import cocotb
 import numpy as np
 import pytest
 
-from models.bad_input import CATALOGUE, BadInputCase
+from models.kernel.bad_input import CATALOGUE, BadInputCase
 
 FMT, DMA, ITERATIONS = "fp32", "zcu102", 2
 TIMEOUT_CYCLES = 100_000
@@ -42,7 +42,7 @@ SCENARIOS: dict[str, BadInputCase] = {c.name: c for c in CATALOGUE if c.cosim}
 
 
 def _case_dir() -> Path:
-    from sim.cocotb_run import BUILD_ROOT
+    from sim.drive.cocotb_run import BUILD_ROOT
 
     return BUILD_ROOT / "cases"
 
@@ -60,8 +60,8 @@ async def _run(dut: Any, name: str) -> list[dict]:
     from tb.host_driver import AP_CTRL, STATUS, KernelHost
     from tb.scoreboard import TraceScoreboard
 
-    from models.dma_model import get_preset
-    from models.number_format import parse_format
+    from models.timing.platforms import get_preset
+    from models.formats.number_format import parse_format
 
     steps, meta = bi.load_steps(_case_file(name))
     fmt = parse_format(meta["format"])
@@ -157,7 +157,7 @@ def _scenario_steps(case: BadInputCase, job: Any, sb: Any) -> list[Any]:
     from tb import bad_input as bi
     from tb.scoreboard import expected_trace
 
-    from models.constraints import ConstraintSet
+    from models.setup.constraints import ConstraintSet
 
     good = sb.step("good")
     nb = job.bodies.num_bodies
@@ -242,12 +242,12 @@ def _prepare(seed: int) -> dict[str, Path]:
     from tb import bad_input as bi
 
     from models import scenes
-    from models import stream_format as sf
-    from models.contact_solver import SolverParams
-    from models.dma_model import get_preset
-    from models.number_format import parse_format
-    from models.kernel_job import KernelJob
-    from sim.kernel_build import default_window
+    from models.kernel import stream_format as sf
+    from models.golden.contact_solver import SolverParams
+    from models.timing.platforms import get_preset
+    from models.formats.number_format import parse_format
+    from models.kernel.kernel_job import KernelJob
+    from sim.compile.kernel_build import default_window
 
     fmt, preset = parse_format(FMT), get_preset(DMA)
     frame = scenes.load_or_capture("stack", n=10)
@@ -268,7 +268,7 @@ def _prepare(seed: int) -> dict[str, Path]:
 @pytest.fixture(scope="module")
 def scenario_results() -> dict[str, dict | None]:
     """Prepare every scenario and run them all in one simulator process; each one's result JSON (None: none)."""
-    from sim.cocotb_run import run_kernel_cocotb, test_seed
+    from sim.drive.cocotb_run import run_kernel_cocotb, test_seed
 
     seed = test_seed()
     t0 = time.monotonic()

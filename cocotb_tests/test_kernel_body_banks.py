@@ -1,6 +1,6 @@
 """The records design in fp32 with its body velocities in true dual-port banks (``BODY_BANKS = 2``,
 ``rtl/pgs_body_vel_banks.sv``): one Verilator build (``pgs_kernel_e8m23_c512_ir_bk2_dl65``, the zcu102 preset's
-512-bit beats) for every test here. ``sim.kernel_step`` compares bit for bit the trace, the body-out stream and the
+512-bit beats) for every test here. ``sim.drive.kernel_step`` compares bit for bit the trace, the body-out stream and the
 impulse-out stream with the golden model of the same step:
 
 * the pile and the 10-cube stack with random stream gaps and backpressure on every stream (the seed is printed,
@@ -17,16 +17,17 @@ from pathlib import Path
 
 import pytest
 
-from models import cycle_model, scenes
-from models.body_banks import RECORDS_BANKS
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.kernel_job import KernelJob
-from models.number_format import FP32
+from models import scenes
+from models.timing import cycle_model
+from models.kernel.body_banks import RECORDS_BANKS
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP32
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from models.tests.test_body_banks import spread_bodies
-from sim.kernel_build import KernelBuild, default_window
-from sim.kernel_step import run_kernel_step
+from sim.compile.kernel_build import KernelBuild, default_window
+from sim.drive.kernel_step import run_kernel_step
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")

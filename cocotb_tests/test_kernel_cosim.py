@@ -1,6 +1,6 @@
 """Co-simulation of one step: pybullet contacts through the AXI DMA model into the RTL kernel, in cocotb.
 
-pytest prepares a case (scene frame, constraints, schedule, the packed streams of ``models/stream_format.py``
+pytest prepares a case (scene frame, constraints, schedule, the packed streams of ``models/kernel/stream_format.py``
 and the golden model's expected trace and body table) into an ``.npz``; the cocotb test ``run_step`` loads
 DDR, programs the DMAs and the kernel over AXI4-Lite (``cocotb_tests/tb/host_driver.py``), starts it, and the
 scoreboard (``cocotb_tests/tb/scoreboard.py``) compares every retired manifold-pass as it appears; the final body
@@ -10,7 +10,7 @@ stalls.
 The status register must read 0, no manifold-pass may be rejected, and the floating-point event counters must
 equal the golden model's prediction (``cocotb_tests/tb/fp_events.py``; zero for these fp32 scenes).
 
-The kernel's cycles must not beat the cycle model's lower bound (``models/cycle_model.py``, with the first body and
+The kernel's cycles must not beat the cycle model's lower bound (``models/timing/cycle_model.py``, with the first body and
 constraint transfers armed before ap_start, as this host arms them).
 
 ``test_scoreboard_catches_friction_sign_bug`` checks the checker: the kernel built with the friction-sign bug
@@ -52,7 +52,7 @@ import cocotb
 import numpy as np
 import pytest
 
-from models.number_format import EVENT_NAMES, parse_format
+from models.formats.number_format import EVENT_NAMES, parse_format
 
 TIMEOUT_CYCLES = 2_000_000
 
@@ -103,9 +103,9 @@ async def _start_step(dut, transaction_level: bool = False) -> _Step:
     from cocotb_tests.tb.host_driver import KernelHost
     from cocotb_tests.tb.scoreboard import BatchTraceScoreboard, ExpectedTrace, TraceScoreboard
 
-    from models.dma_model import get_preset
-    from models.stream_format import trace_record_bytes
-    from sim.cocotb_run import BURST_BEATS, TRACE_BATCH
+    from models.timing.platforms import get_preset
+    from models.kernel.stream_format import trace_record_bytes
+    from sim.drive.cocotb_run import BURST_BEATS, TRACE_BATCH
 
     with np.load(os.environ["CASE_FILE"], allow_pickle=False) as npz:
         case = dict(npz)
@@ -141,7 +141,7 @@ async def run_step_bursts(dut) -> None:
     st = await _start_step(dut, transaction_level=True)
     try:
         await _run_and_check(dut, st)
-    except (AssertionError, TimeoutError) as err:  # for make sim's report (sim/cocotb_step.py)
+    except (AssertionError, TimeoutError) as err:  # for make sim's report (sim/drive/cocotb_step.py)
         Path(os.environ["CASE_FILE"]).with_suffix(".failure.txt").write_text(str(err))
         raise
 
@@ -224,19 +224,19 @@ async def _expect_mismatch(dut, st: _Step) -> None:
 
 def _prepare_case(path: Path, scene: str, params: dict, fmt_name: str, schedule_kind: str, dma: str,
                   seed: int, idle: float, backpressure: float, iterations: int = 4) -> dict:
-    """Capture the scene, run the golden model and write the case (``sim.cocotb_step.write_case``) with the
+    """Capture the scene, run the golden model and write the case (``sim.drive.cocotb_step.write_case``) with the
     stall probabilities and the floating-point events the golden model predicts."""
     from cocotb_tests.tb.fp_events import predicted_events
 
     from models import scenes
-    from models.constraints import body_table, setup_constraints
-    from models.dma_model import get_preset
-    from models.integrator import IntegrationParams
-    from models.kernel_job import KernelJob
-    from models.contact_solver import SolverParams
-    from models.schedule import make_schedule
-    from sim.cocotb_step import write_case
-    from sim.kernel_step import golden_step
+    from models.setup.constraints import body_table, setup_constraints
+    from models.timing.platforms import get_preset
+    from models.golden.integrator import IntegrationParams
+    from models.kernel.kernel_job import KernelJob
+    from models.golden.contact_solver import SolverParams
+    from models.order.manifold_schedule import make_schedule
+    from sim.drive.cocotb_step import write_case
+    from sim.drive.kernel_step import golden_step
 
     fmt = parse_format(fmt_name)
     frame = scenes.capture_frame(scene, **params)
@@ -260,10 +260,10 @@ def _cosim(testcase: str, scene: str, params: dict, fmt_name: str, schedule_kind
            bp: float, friction_sign_bug: bool = False, compile_profile: str = "quick", bursts: bool = False,
            corrupt: tuple[int, int] | None = None) -> Path:
     """Prepare the case, build the kernel for it (``friction_sign_bug``: the friction pipe with the wrong sign,
-    in a build of its own; ``compile_profile``: a key of ``sim.kernel_build.COMPILE_PROFILES``, "o0" for a short
+    in a build of its own; ``compile_profile``: a key of ``sim.compile.kernel_build.COMPILE_PROFILES``, "o0" for a short
     run) and run the cocotb test ``testcase``; returns the case file. With ``WAVES=1`` the FST and its GTKWave
     save file are ``build/cocotb/<build>_waves/<case>.fst`` / ``.gtkw`` (printed)."""
-    from sim.cocotb_run import BUILD_ROOT, run_kernel_cocotb, run_kernel_cocotb_bursts, test_seed
+    from sim.drive.cocotb_run import BUILD_ROOT, run_kernel_cocotb, run_kernel_cocotb_bursts, test_seed
 
     seed = test_seed()
     case_name = f"{Path(scene).stem}-{fmt_name}-{schedule_kind}-{dma}" + ("-bursts" if bursts else "")
@@ -321,9 +321,9 @@ def test_kernel_cosim_bursts(scene, params, fmt_name, schedule_kind, dma, inerti
     as the cycle-level test, every record against the golden model, and every record retired once; the kernel
     build is the case's (``inertia_words`` per body-in record: 6 for the rotated boxes, whose off-diagonal inverse
     inertia is non-zero)."""
-    from sim.trace_compare import read_trace
+    from sim.compare.trace_bits import read_trace
 
-    from models.stream_format import trace_record_bytes, unpack_body_table
+    from models.kernel.stream_format import trace_record_bytes, unpack_body_table
 
     case_file = _cosim("run_step_bursts", scene, params, fmt_name, schedule_kind, dma, 0.0, 0.0, bursts=True)
     result = json.loads(case_file.with_suffix(".result.json").read_text())
@@ -345,10 +345,10 @@ def test_batch_scoreboard_names_record_field_and_cycle() -> None:
     """A mismatch injected into the expected trace (one bit of one word of a record in the middle of the run): the
     batch scoreboard must stop there and name the record, its field and the cycle it retired in (the cycle stamped
     beside that record in the bench's trace, written to the trace file)."""
-    from sim.trace_compare import read_trace
+    from sim.compare.trace_bits import read_trace
 
     from cocotb_tests.tb.scoreboard import FIELDS
-    from models.stream_format import trace_record_bytes
+    from models.kernel.stream_format import trace_record_bytes
 
     record, field = 2345, FIELDS.index("wB.y")
     case_file = _cosim("run_step_bursts_expect_mismatch", "pile", {"nx": 6, "ny": 6, "nz": 6}, "fp32", "hazard",
@@ -373,7 +373,7 @@ def test_batch_scoreboard_checks_every_record() -> None:
     raises with that record, field and its retire cycle; identical records pass and are all counted."""
     from cocotb_tests.tb.scoreboard import FIELDS, BatchTraceScoreboard, ExpectedTrace
 
-    from models.number_format import FP32
+    from models.formats.number_format import FP32
 
     rng = np.random.default_rng(7)
     n = 200
@@ -448,9 +448,9 @@ def test_scoreboard_catches_friction_sign_bug() -> None:
 def test_gtkwave_save_file_names_design_signals(tmp_path, fmt_name, dma) -> None:
     """Every trace of the kernel's ``.gtkw`` is a signal the RTL declares in that scope, with the range it has
     in that build (e.g. s_axis_cons_TDATA follows CONS_W), and the file reads back trace for trace."""
-    from sim import gtkwave_save as gs
+    from sim.report import gtkwave_save as gs
 
-    from sim.cocotb_run import kernel_cocotb_build
+    from sim.drive.cocotb_run import kernel_cocotb_build
 
     params = kernel_cocotb_build(fmt_name, dma).parameters
     groups = gs.kernel_groups(params)
@@ -480,8 +480,8 @@ def test_gtkwave_save_file_names_design_signals(tmp_path, fmt_name, dma) -> None
 def test_gtkwave_save_file_matches_fst() -> None:
     """Against a real dump, when there is one (a ``WAVES=1`` run of the fp32 kernel) and ``fst2vcd`` (gtkwave
     package) is installed: every trace of the save file is in the FST's hierarchy."""
-    from sim import gtkwave_save as gs
-    from sim.cocotb_run import BUILD_ROOT, kernel_cocotb_build
+    from sim.report import gtkwave_save as gs
+    from sim.drive.cocotb_run import BUILD_ROOT, kernel_cocotb_build
 
     fsts = sorted((BUILD_ROOT / "pgs_kernel_e8m23_c512_waves").glob("*.fst"), key=lambda f: f.stat().st_mtime)
     if not fsts:

@@ -1,4 +1,4 @@
-"""The kernel on steps whose every real word spans its format's whole range (``models.extreme_stimulus``).
+"""The kernel on steps whose every real word spans its format's whole range (``models.kernel.extreme_stimulus``).
 
 The test scenes keep values within a few orders of magnitude of 1, so they reach the operators' exception paths
 only where one value is forced (a spinning cube). Here every word of the body and constraint records and every
@@ -13,7 +13,7 @@ The kernels whose impulses travel with the records check the impulse words they 
 a manifold whose record carries a non-finite impulse is rejected from that pass (the streaming kernel) or fetch (the
 window kernel) on, error 5 (``rtl/README.md``, "Bad input"). The golden model makes the same check
 (``KernelJob.record_checks``), so their steps are bit-exact too, with the rejected manifold-passes, the status and
-the issue counters predicted (``sim.kernel_step.check_counters``), and the event counters count only the issued
+the issue counters predicted (``sim.drive.kernel_step.check_counters``), and the event counters count only the issued
 manifold-passes, as the prediction does. The kernel checks a friction record's impulse words,
 not a contact record's, so the rejections come at the friction passes: all of them where the contact passes run
 first (nearly every normal impulse is non-finite by then), some in the interleaved order, where each friction
@@ -37,14 +37,14 @@ from pathlib import Path
 import pytest
 
 from models import scenes
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.extreme_stimulus import extreme_magnitudes
-from models.kernel_job import KernelJob
-from models.number_format import EVENT_NAMES, FP16, FP32, NumberFormat
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.kernel.extreme_stimulus import extreme_magnitudes
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import EVENT_NAMES, FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from sim.kernel_build import default_window
-from sim.kernel_step import run_kernel_step
+from sim.compile.kernel_build import default_window
+from sim.drive.kernel_step import run_kernel_step
 from tb.fp_events import predicted_events
 
 PRESET = get_preset("zcu102")

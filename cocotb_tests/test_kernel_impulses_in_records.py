@@ -2,7 +2,7 @@
 records carry the impulses their pass starts from, the kernel writes the updated ones to ``m_axis_imp``, and the
 harness's DMA model writes them to the DDR impulse buffer the next passes' records read).
 
-One Verilator build for every test here (fp16, 512-bit constraint beats: the zcu102 preset's): ``sim.kernel_step``
+One Verilator build for every test here (fp16, 512-bit constraint beats: the zcu102 preset's): ``sim.drive.kernel_step``
 compares bit for bit the trace, the body-out stream and the impulse-out stream (one record per slot and pass,
 TLAST per pass) with the golden model of the same step:
 
@@ -27,15 +27,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models import cycle_model, scenes
-from models.contact_solver import Impulses, SolverParams
-from models.dma_model import get_preset
-from models.kernel_job import KernelJob
-from models.number_format import FP16
+from models import scenes
+from models.timing import cycle_model
+from models.golden.contact_solver import Impulses, SolverParams
+from models.timing.platforms import get_preset
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP16
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from models.tests.test_impulses_in_records import independent_stack_job
-from sim.kernel_build import default_window
-from sim.kernel_step import run_kernel_step
+from sim.compile.kernel_build import default_window
+from sim.drive.kernel_step import run_kernel_step
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")

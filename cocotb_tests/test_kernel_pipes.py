@@ -5,7 +5,7 @@ C++ executable (``cocotb_tests/pipes/pipe_main.cpp``: one input record per cycle
 cycles with junk inputs (the operators and delay lines take a word only with its valid bit, so idle cycles
 between records are what checks those enables), checks of LATENCY, order, tag pass-through and reset). Every output word
 must equal, bit for bit, the golden model (``contact_solve`` / ``friction_solve`` / ``integrate``
-through ``models/kernel_vectors.py``) evaluated on the same input words.
+through ``models/kernel/kernel_vectors.py``) evaluated on the same input words.
 
 Inputs: the real inputs of every manifold-pass (and of the integration of every dynamic body) of a
 4-iteration golden solve of the pile (4x3x4), stack and incline scenes, in the format, plus seeded
@@ -40,19 +40,19 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from models import kernel_vectors as kv  # noqa: E402
+from models.kernel import kernel_vectors as kv  # noqa: E402
 from models import scenes  # noqa: E402
-from models.constraints import body_table, setup_constraints  # noqa: E402
-from models.contact_solver import FRICTION_COEFF  # noqa: E402
-from models.integrator import MAX_ANGLE  # noqa: E402
-from models.number_format import EVENT_NAMES, KERNEL_FORMATS, NumberFormat  # noqa: E402
+from models.setup.constraints import body_table, setup_constraints  # noqa: E402
+from models.golden.contact_solver import FRICTION_COEFF  # noqa: E402
+from models.golden.integrator import MAX_ANGLE  # noqa: E402
+from models.formats.number_format import EVENT_NAMES, KERNEL_FORMATS, NumberFormat  # noqa: E402
 from models.scenes.kernel_scenes import PIPE_VECTOR_SCENES  # noqa: E402
 from rtl.gen import friction_sign_bug_sources, generate, generate_friction_sign_bug, render  # noqa: E402
 from rtl.gen.file_list import FileListError, kernel_sources, read_file_list, swap_sources  # noqa: E402
 from rtl.gen.kernel_graphs import (CONTACT_IN, CONTACT_OUT, FRICTION_IN, FRICTION_OUT, GRAPHS,  # noqa: E402
                                    INTEGRATE_IN, INTEGRATE_OUT, MAN_BITS_OF, friction_graph)
 from sim.lint import rtl_files  # noqa: E402
-from sim.verilator_build import DEBUG_COMPILE_ARGS, build  # noqa: E402
+from sim.compile.verilator_build import DEBUG_COMPILE_ARGS, build  # noqa: E402
 
 HERE = Path(__file__).resolve().parent / "pipes"
 RTL = REPO / "rtl"

@@ -1,7 +1,7 @@
-"""Shock propagation on the RTL kernel (``models/shock_propagation.py``): in a shock pass each record's header marks
+"""Shock propagation on the RTL kernel (``models/golden/shock_propagation.py``): in a shock pass each record's header marks
 the row's frozen body (bits 60, 61) and a linear row (bit 62), and the record carries the shock row's coefficients.
 The sequencer feeds the frozen body's inverse mass and inertia to the pipe as 0 and does not write it back; a linear
-row's inverse inertias enter as 0 and its spin damping is off. ``sim.kernel_step`` compares bit for bit the trace,
+row's inverse inertias enter as 0 and its spin damping is off. ``sim.drive.kernel_step`` compares bit for bit the trace,
 the body-out stream (and the impulse-out stream) with the golden model of the same step. Two builds that other
 tests build too:
 
@@ -24,16 +24,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models import cycle_model, scenes
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.kernel_job import KernelJob
-from models.kernel_shape import StepShape
-from models.number_format import FP32
+from models import scenes
+from models.timing import cycle_model
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.kernel.kernel_job import KernelJob
+from models.timing.kernel_shape import StepShape
+from models.formats.number_format import FP32
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from models.shock_propagation import FREEZE_NONE
-from sim.kernel_build import KernelBuild, default_window
-from sim.kernel_step import golden_step, run_kernel_step
+from models.golden.shock_propagation import FREEZE_NONE
+from sim.compile.kernel_build import KernelBuild, default_window
+from sim.drive.kernel_step import golden_step, run_kernel_step
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")

@@ -1,11 +1,11 @@
 """The streaming kernel with the soft contact pipe (``SOFT_CONTACT = 1``, Box2D's soft row of
-``models/soft_contact.py``: each point's accumulated impulse times a per-call keep factor before the add), with the
+``models/golden/soft_contact.py``: each point's accumulated impulse times a per-call keep factor before the add), with the
 impulses in the records (``IMPULSES_IN_RECORDS = 1``: the build the soft closed loop runs on, its relax call
 continuing the solve call's impulses).
 
-One Verilator build for every test here (fp32, 512-bit constraint beats: the zcu102 preset's). ``sim.kernel_step``
+One Verilator build for every test here (fp32, 512-bit constraint beats: the zcu102 preset's). ``sim.drive.kernel_step``
 compares bit for bit the trace, the body-out stream and the impulse-out stream with the golden model of the same
-step (``solve`` with ``SolverParams.soft_keep``), and ``models.cycle_model.compare_run`` every retire cycle, the total
+step (``solve`` with ``SolverParams.soft_keep``), and ``models.timing.cycle_model.compare_run`` every retire cycle, the total
 and the stall and bubble counters with the cycle model's:
 
 * the pile warm-started (non-zero impulses from the first pass on), keep factors of Box2D's 15 Hz critically
@@ -21,15 +21,16 @@ from pathlib import Path
 
 import numpy as np
 
-from models import cycle_model, scenes
-from models.contact_solver import SolverParams, solve
-from models.dma_model import get_preset
-from models.kernel_job import KernelJob
-from models.number_format import FP32
+from models import scenes
+from models.timing import cycle_model
+from models.golden.contact_solver import SolverParams, solve
+from models.timing.platforms import get_preset
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP32
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from models.soft_contact import SoftContact
-from sim.kernel_build import default_window
-from sim.kernel_step import run_kernel_step
+from models.golden.soft_contact import SoftContact
+from sim.compile.kernel_build import default_window
+from sim.drive.kernel_step import run_kernel_step
 
 from cocotb_tests.test_kernel_impulses_in_records import warm_start
 

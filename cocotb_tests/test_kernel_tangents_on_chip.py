@@ -1,7 +1,7 @@
 """The fp32 records design (impulses in the records, two body banks) with the tangent basis derived on chip
 (``TANGENTS_ON_CHIP = 1``): the friction record carries no t0, t1 (512 bits, one 512-bit beat instead of two) and
-``pgs_friction_pipe_tb`` derives them from the normal (``models/tangent_basis.py``). One Verilator build
-(``pgs_kernel_e8m23_c512_ir_bk2_tb_dl65``, the zcu102 preset's 512-bit beats) for every test here; ``sim.kernel_step``
+``pgs_friction_pipe_tb`` derives them from the normal (``models/setup/tangent_basis.py``). One Verilator build
+(``pgs_kernel_e8m23_c512_ir_bk2_tb_dl65``, the zcu102 preset's 512-bit beats) for every test here; ``sim.drive.kernel_step``
 compares bit for bit the trace, the body-out stream and the impulse-out stream with the golden model of the same
 step, which solves with the derived tangents (``KernelJob.tangents_derived``):
 
@@ -24,16 +24,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models import cycle_model, scenes
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.constraints import BodyTable
-from models.kernel_job import KernelJob
-from models.number_format import FP16, FP32, NumberFormat
+from models import scenes
+from models.timing import cycle_model
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.setup.constraints import BodyTable
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from models.tangent_basis import PLANE_SPACE_SPLIT
-from sim.kernel_build import KernelBuild, default_window
-from sim.kernel_step import run_kernel_step
+from models.setup.tangent_basis import PLANE_SPACE_SPLIT
+from sim.compile.kernel_build import KernelBuild, default_window
+from sim.drive.kernel_step import run_kernel_step
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")

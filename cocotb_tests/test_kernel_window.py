@@ -2,11 +2,11 @@
 
 The window kernel reads each manifold's combined record once per fetch and lets the passes of a fetch trail each
 other over an on-chip ring; records of several passes interleave at issue and retire. With the lag at least the
-slot order's band width D (``models.record_window``), every body sees its updates in the sequential solve's order,
+slot order's band width D (``models.kernel.record_window``), every body sees its updates in the sequential solve's order,
 so the trace (put back into pass order) and the body-out stream must equal the golden model's bit for bit. Built
 once (fp32, a ring of 1,024 records of two issue lanes, ``build/verilator/pgs_kernel_e8m23_c512_w1024x8_l2/``:
 every manifold-pass of a record issues in the same cycle into its lane's pipes) and run in the compiled harness
-(``sim.kernel_step``) through the zcu102 DMA model with random stream gaps and output backpressure (seeded: the
+(``sim.drive.kernel_step``) through the zcu102 DMA model with random stream gaps and output backpressure (seeded: the
 seed is printed, ``SEED=<int>`` overrides it). The one-lane window kernel is the same RTL with ``LANES`` = 1
 (linted by ``make lint``; ``make sim RECORD_WINDOW=...`` runs it); CI builds the two-lane one, which exercises
 the lane logic as well.
@@ -14,7 +14,7 @@ the lane logic as well.
 * bit-exact: a 4x3x4 pile (108 manifolds) and the stack, Bullet's pass order and the interleaved one, one fetch
   per step (all 8 passes trailing each other: the sweep order and the hazard order) and several fetches (2 passes
   per fetch: 4 fetches; 3 passes per fetch: fetches of 3, 3 and 2), records padded with empty lanes where the
-  next manifold shares a body (``models.record_window.lane_slots``);
+  next manifold shares a body (``models.kernel.record_window.lane_slots``);
 * a lag below D must break the order (the comparison sees it: the check is not vacuous);
 * the argument check (error code 3: fetch_passes 0 or above the contexts, lag 0, a trailing the ring cannot hold,
   num_manifolds not a multiple of the lanes): the step ends at once without reading a stream;
@@ -22,7 +22,7 @@ the lane logic as well.
 * lanes that collide (the host groups manifolds sharing a dynamic body into one record, error code 4): the later
   lane is rejected in every pass, and the step equals the golden model's with that manifold left out, bit for
   bit;
-* the cycle model (``models/window_cycle_model.py``): with deterministic streams (gap 0, backpressure 0) every retire
+* the cycle model (``models/timing/window_cycle_model.py``): with deterministic streams (gap 0, backpressure 0) every retire
   cycle, the stall and bubble counters, the rejected count and the total cycles are the model's, on the two-lane
   build and on a one-lane build (``build/verilator/pgs_kernel_e8m23_c512_w1024x8``, DEPTH 1024): the pile with the
   sweep and hazard orders, one and several fetches, both pass orders, the stack; a larger pile whose fetch is
@@ -39,19 +39,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models import cycle_model, scenes
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.number_format import FP32
-from models.stream_format import StreamLayout
-from models.record_window import fits
-from models.schedule import band_width
-from models.kernel_job import KernelJob
+from models import scenes
+from models.timing import cycle_model
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.formats.number_format import FP32
+from models.kernel.stream_format import StreamLayout
+from models.kernel.record_window import fits
+from models.order.manifold_schedule import band_width
+from models.kernel.kernel_job import KernelJob
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from sim.harness_run import register_writes, run_harness, write_inputs
-from sim.kernel_build import KernelBuild, build_kernel
-from sim.kernel_step import KernelResult, golden_step, run_kernel_step
-from sim.trace_compare import Comparison, compare_body_out, compare_trace, read_trace
+from sim.drive.harness_run import register_writes, run_harness, write_inputs
+from sim.compile.kernel_build import KernelBuild, build_kernel
+from sim.drive.kernel_step import KernelResult, golden_step, run_kernel_step
+from sim.compare.trace_bits import Comparison, compare_body_out, compare_trace, read_trace
 
 DEPTH = 1024
 LANES = 2

@@ -8,7 +8,7 @@ Two Verilator builds, each with a ring of 1,024 records and the zcu102 preset's 
 and the body velocities in eight banks, its long delay lines marked for block RAM
 (``pgs_kernel_e8m23_c512_w1024x8_ir_bk8_dl129``, the build of ``make sim RECORD_WINDOW=... IMPULSE_STORE=records``),
 and fp16 with two lanes (``..._e5m10_c512_w1024x8_l2_ir``).
-``sim.kernel_step`` compares bit for bit the trace (put back into pass order), the body-out stream and the
+``sim.drive.kernel_step`` compares bit for bit the trace (put back into pass order), the body-out stream and the
 impulse-out stream (one record per window record and fetch, TLAST per fetch) with the golden model of the same step:
 
 * the pile and the stack, random stream gaps and backpressure on every stream (the impulse-out stream included;
@@ -16,7 +16,7 @@ impulse-out stream (one record per window record and fetch, TLAST per fetch) wit
 * a warm start (random non-negative normal impulses and friction impulses within the limit), one lane and two;
 * the argument check: fetches that would serve contact and friction passes together (3 passes per fetch of 4
   iterations; 2 per fetch with the kinds interleaved) end the step at once with error code 3;
-* the cycle model (``models/window_cycle_model.py``: the last-pass start rule, the impulse-out FIFO, the fetches'
+* the cycle model (``models/timing/window_cycle_model.py``: the last-pass start rule, the impulse-out FIFO, the fetches'
   read-after-write turnaround, the banks' busy rule): with deterministic streams (gap 0, backpressure 0) every retire
   cycle, the stall and bubble counters, the rejected and impulse-out counts and the total cycles are the model's, on
   both builds (the pile with 4, 2 and 1 passes per fetch, the stack, a warm start, larger piles: 971 manifolds, and
@@ -34,21 +34,22 @@ from typing import Callable
 import numpy as np
 import pytest
 
-from models import cycle_model, scenes
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.kernel_job import KernelJob
-from models.number_format import FP16, FP32, NumberFormat
-from models.register_map import OFFSET
-from models.schedule import band_width
+from models import scenes
+from models.timing import cycle_model
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP16, FP32, NumberFormat
+from models.kernel.register_map import OFFSET
+from models.order.manifold_schedule import band_width
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from sim.harness_run import harness_cycle_limit, register_writes, run_harness, write_inputs
-from sim.kernel_build import KernelBuild, build_kernel, default_window
-from sim.kernel_step import KernelResult, run_kernel_step
+from sim.drive.harness_run import harness_cycle_limit, register_writes, run_harness, write_inputs
+from sim.compile.kernel_build import KernelBuild, build_kernel, default_window
+from sim.drive.kernel_step import KernelResult, run_kernel_step
 
 from cocotb_tests.test_kernel_impulses_in_records import warm_start
 from cocotb_tests.test_kernel_window import BIG_PILE, ROOM_PILE, _assert_golden_without, _run_raw, assert_cycles_match
-from models.body_banks import WINDOW_BANKS
+from models.kernel.body_banks import WINDOW_BANKS
 from models.tests.test_body_banks import spread_bodies
 from models.tests.test_impulses_in_records import independent_stack_job
 

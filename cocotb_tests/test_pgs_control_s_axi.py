@@ -20,7 +20,7 @@ import cocotb
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, RisingEdge
 
-from models import register_map as rm
+from models.kernel import register_map as rm
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -260,7 +260,7 @@ async def register_file(dut) -> None:
 def test_pgs_control_s_axi() -> None:
     from cocotb_tools.runner import get_runner
 
-    from sim.verilator_build import ensure_verilator_env
+    from sim.compile.verilator_build import ensure_verilator_env
 
     ensure_verilator_env()
     runner = get_runner("verilator")

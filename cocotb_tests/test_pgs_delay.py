@@ -18,7 +18,7 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from sim.verilator_build import DEBUG_COMPILE_ARGS, build  # noqa: E402
+from sim.compile.verilator_build import DEBUG_COMPILE_ARGS, build  # noqa: E402
 
 HERE = Path(__file__).resolve().parent / "delay"
 

@@ -2,7 +2,7 @@
 
 The kernel is built once per parameter set with Verilator into the compiled C++ harness
 (``sim/harness/pgs_kernel_main.cpp``, ``build/verilator/pgs_kernel_e8m23_c512/``, the same build
-``make sim`` uses). Per case (scene, format, schedule) ``sim.kernel_step`` packs the body table and the
+``make sim`` uses). Per case (scene, format, schedule) ``sim.drive.kernel_step`` packs the body table and the
 constraint stream of one step, runs the harness through the zcu102 DMA model with random stream gaps and
 output backpressure on top (seeded: the seed is printed, ``SEED=<int>`` overrides it), and compares bit for bit:
 
@@ -15,7 +15,7 @@ It prints cycles, cycles per manifold-pass, stall and bubble cycles, the build t
 cycles per second. Schedules: ``hazard`` (window = pipeline depth in records, few stalls) and ``pybullet``
 (frame order: many hazards; the CAM's stalls must keep it exact).
 
-Cycles (``models/cycle_model.py``): the random runs must not beat the cycle model's deterministic prediction (a
+Cycles (``models/timing/cycle_model.py``): the random runs must not beat the cycle model's deterministic prediction (a
 lower bound); ``test_kernel_cycles_match_model`` runs each case with deterministic streams (no gap, no
 backpressure) and requires every retire cycle, the total and the stall and bubble counters to equal the model's.
 
@@ -25,7 +25,7 @@ exactly for the non-zero ones; every fp32 and bf16 scene leaves them at zero (fp
 zero: underflows). ``test_pgs_kernel_fp16_overflow`` spins the top cube of the stack at 2000 rad/s in fp16:
 its squared angular velocity overflows in the integration (and the step stays bit-exact).
 
-Inverse inertia (``models/inertia.py``): ``test_pgs_kernel_full_inverse_inertia`` runs a user world of rotated
+Inverse inertia (``models/setup/inertia.py``): ``test_pgs_kernel_full_inverse_inertia`` runs a user world of rotated
 non-cube boxes in Bullet 2's convention (``docs/rotated_boxes_world.py``): the symmetric 3x3 per body, the kernel
 built with the 6-word body record (``IINV_W = 6``), bit-exact, and its cycles are the cycle model's;
 ``test_pgs_kernel_scalar_inverse_inertia`` runs the stack's cubes on the 1-word build (``IINV_W = 1``).
@@ -46,17 +46,18 @@ import numpy as np
 import pytest
 
 from cocotb_tests.tb.fp_events import predicted_events
-from models import cycle_model, scenes
+from models import scenes
+from models.timing import cycle_model
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from models.constraints import FRICTION_COEFF
-from models.contact_solver import SolverParams, solve
-from models.dma_model import DmaPreset, get_preset
-from models.format_analyzer import inertia_mode_of
-from models.inertia import InertiaMode
-from models.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat
-from models.kernel_job import KernelJob
-from sim.kernel_build import KernelBuild, default_window
-from sim.kernel_step import KernelResult, run_kernel_step
+from models.setup.constraints import FRICTION_COEFF
+from models.golden.contact_solver import SolverParams, solve
+from models.timing.platforms import DmaPreset, get_preset
+from models.sizing.format_analyzer import inertia_mode_of
+from models.setup.inertia import InertiaMode
+from models.formats.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat
+from models.kernel.kernel_job import KernelJob
+from sim.compile.kernel_build import KernelBuild, default_window
+from sim.drive.kernel_step import KernelResult, run_kernel_step
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 ITERATIONS = 4
@@ -179,7 +180,7 @@ def test_pgs_kernel_scalar_inverse_inertia(tmp_path: Path) -> None:
 
 def check_cycle_bound(job: KernelJob, preset: DmaPreset, cycles: int) -> None:
     """Random stream gaps and backpressure only add cycles: the kernel never beats the cycle model's
-    deterministic prediction (models/cycle_model.py)."""
+    deterministic prediction (models/timing/cycle_model.py)."""
     bound = cycle_model.lower_bound(job, preset)
     print(f"  cycle model lower bound {bound:,} cycles (measured {cycles / bound - 1:+.1%} above it)")
     assert cycles >= bound, f"{cycles:,} kernel cycles beat the cycle model's lower bound of {bound:,}"

@@ -8,12 +8,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models import kernel_vectors as kv
+from models.kernel import kernel_vectors as kv
 from models import scenes
-from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
-from models.format_analyzer import friction_words_of, inertia_mode_of
-from models.inertia import BulletConvention, InertiaMode, world_inverse_inertia
-from models.number_format import FP16, FP32, NumberFormat
+from models.setup.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
+from models.sizing.format_analyzer import friction_words_of, inertia_mode_of
+from models.setup.inertia import BulletConvention, InertiaMode, world_inverse_inertia
+from models.formats.number_format import FP16, FP32, NumberFormat
 from rtl.gen.kernel_graphs import (GRAPHS, contact_graph, contact_in, friction_graph, friction_in, inertia_ports,
                                    pipe_module)
 

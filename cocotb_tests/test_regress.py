@@ -1,19 +1,19 @@
-"""``make regress SEEDS=N``: the kernel co-simulation over N seeds and more scenes, in parallel (``sim.executor``).
+"""``make regress SEEDS=N``: the kernel co-simulation over N seeds and more scenes, in parallel (``sim.parallel.executor``).
 
 Every case (scene x format x schedule x DMA model, :data:`CASES`) and seed runs the compiled harness
-(``sim.kernel_step``) twice:
+(``sim.drive.kernel_step``) twice:
 
 * with the seed's random stream gaps and output backpressure (rates drawn from the seed): every trace record
   and the body table bit-exact with the golden model, status 0, and the cycles no fewer than the cycle model's
-  lower bound (``models/cycle_model.py``);
+  lower bound (``models/timing/cycle_model.py``);
 * with deterministic streams: every retire cycle, the total and the stall / bubble counters equal to the cycle
   model's (once per frame: the pile's jitter follows the seed, the other scenes are the same for every seed).
 
 The tests are skipped unless ``REGRESS_SEEDS`` (a count: seeds 1..N) or ``REGRESS_SEED`` (one seed) is set, so
 ``make test`` only collects them (and runs ``test_failure_report``, the summary's parser of a pytest-xdist junit
 report). ``make regress`` runs this file as a script: it builds the kernels and captures the frames first, runs
-every (seed, case) point on ``EXECUTOR`` (``sim/executor.py``: ``local:JOBS`` by default, ``dask:local:N``,
-``dask:tcp://host:port``; kernels from the hash-keyed store ``sim.artefacts.KernelStore``), and prints every failing
+every (seed, case) point on ``EXECUTOR`` (``sim/parallel/executor.py``: ``local:JOBS`` by default, ``dask:local:N``,
+``dask:tcp://host:port``; kernels from the hash-keyed store ``sim.compile.artefacts.KernelStore``), and prints every failing
 seed with the command that reproduces it alone::
 
     make regress SEEDS=8 JOBS=2
@@ -41,17 +41,18 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:  # run as a script (make regress)
     sys.path.insert(0, str(REPO))
 
-from models import cycle_model, scenes  # noqa: E402
+from models import scenes  # noqa: E402
+from models.timing import cycle_model  # noqa: E402
 from models.scenes.kernel_scenes import REGRESS_SCENES, SEEDED, regress_params  # noqa: E402
-from models.contact_solver import SolverParams  # noqa: E402
-from models.dma_model import get_preset  # noqa: E402
-from models.frame import Frame  # noqa: E402
-from models.number_format import BF16, FP16, FP32, NumberFormat  # noqa: E402
-from models.kernel_job import KernelJob  # noqa: E402
-from sim.artefacts import KernelStore, kernel_store_root  # noqa: E402
-from sim.executor import parse_executor, run_points  # noqa: E402
-from sim.kernel_build import KernelBuild, build_kernel, default_window, use_kernel_store  # noqa: E402
-from sim.kernel_step import run_kernel_step  # noqa: E402
+from models.golden.contact_solver import SolverParams  # noqa: E402
+from models.timing.platforms import get_preset  # noqa: E402
+from models.formats.frame import Frame  # noqa: E402
+from models.formats.number_format import BF16, FP16, FP32, NumberFormat  # noqa: E402
+from models.kernel.kernel_job import KernelJob  # noqa: E402
+from sim.compile.artefacts import KernelStore, kernel_store_root  # noqa: E402
+from sim.parallel.executor import parse_executor, run_points  # noqa: E402
+from sim.compile.kernel_build import KernelBuild, build_kernel, default_window, use_kernel_store  # noqa: E402
+from sim.drive.kernel_step import run_kernel_step  # noqa: E402
 
 ITERATIONS = 4
 OUT = REPO / "build" / "regress"
@@ -158,7 +159,7 @@ def test_failure_report(tmp_path: Path) -> None:
 # --- make regress ----------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class RegressPoint:
-    """One (seed, case) of the regression as a ``sim.executor`` point: the report comes back, not the traces."""
+    """One (seed, case) of the regression as a ``sim.parallel.executor`` point: the report comes back, not the traces."""
 
     seed: int
     case: Case
@@ -208,7 +209,7 @@ def main(argv: list[str] | None = None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, default=4, help="seeds 1..N")
     ap.add_argument("--jobs", type=int, default=2, help="worker processes of the default executor local:<jobs>")
-    ap.add_argument("--executor", default="", help="local:N, dask:local:N or dask:tcp://host:port (sim/executor.py)")
+    ap.add_argument("--executor", default="", help="local:N, dask:local:N or dask:tcp://host:port (sim/parallel/executor.py)")
     args = ap.parse_args(argv)
     try:
         spec = parse_executor(args.executor or f"local:{args.jobs}")

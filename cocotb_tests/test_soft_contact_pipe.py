@@ -1,6 +1,6 @@
 """The soft contact pipe (``pgs_contact_pipe_soft``, the kernel's SOFT_CONTACT = 1) interpreted in Python
 (``Graph.evaluate``, the software twin of the emitted RTL) against the golden model's soft row
-(``models.contact_solver.contact_solve`` with ``soft_keep``) bit for bit, in every kernel format, on the vectors of
+(``models.golden.contact_solver.contact_solve`` with ``soft_keep``) bit for bit, in every kernel format, on the vectors of
 a golden solve of a stack with speculative points, static and dynamic rows and impulses from earlier passes; with
 ``in_soft`` clear it is the rigid pipe bit for bit; its latency is the rigid pipe's. No RTL needed."""
 
@@ -9,12 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models import kernel_vectors as kv
+from models.kernel import kernel_vectors as kv
 from models import scenes
-from models.constraints import body_table, setup_constraints
-from models.contact_solver import SolverParams
-from models.number_format import BF16, FP16, FP32, NumberFormat
-from models.soft_contact import SoftContact
+from models.setup.constraints import body_table, setup_constraints
+from models.golden.contact_solver import SolverParams
+from models.formats.number_format import BF16, FP16, FP32, NumberFormat
+from models.golden.soft_contact import SoftContact
 from rtl.gen.kernel_graphs import GRAPHS, SOFT_KEEP_WORDS, contact_graph, contact_in
 
 SOFT = SoftContact(hertz=15.0, damping_ratio=1.0)

@@ -1,8 +1,8 @@
 """C simulation of the HLS kernel (``hls_export/pgs_kernel.cpp``), checked bit for bit against the golden model.
 
 The testbench ``hls_export/pgs_csim_main.cpp`` is a drop-in for the RTL kernel's Verilator harness: the same
-command line and the same files. So one step runs exactly as ``sim.kernel_step.run_kernel_step`` runs the RTL,
-with the same pieces (``sim.harness_run``, ``sim.trace_compare``): ``write_inputs`` packs the streams (``models/stream_format.py``),
+command line and the same files. So one step runs exactly as ``sim.drive.kernel_step.run_kernel_step`` runs the RTL,
+with the same pieces (``sim.drive.harness_run``, ``sim.compare.trace_bits``): ``write_inputs`` packs the streams (``models/kernel/stream_format.py``),
 ``run_harness`` runs the executable, ``read_trace`` / ``compare_trace`` / ``compare_body_out`` compare every
 retired manifold-pass and the body-out stream with ``golden_step``. The trace's cycle field holds the record
 index (C simulation is untimed).
@@ -19,17 +19,17 @@ plays the DMA (``hls_export/pgs_csim_dma.h``) and writes the impulse-out records
 checks too. Formats: ``KernelBuild.fmt``'s exponent and mantissa bits (``PGS_EXP_BITS``, ``PGS_MAN_BITS``).
 
 The soft contact build (``PGS_SOFT_CONTACT=1``, the RTL's ``SOFT_CONTACT``: Box2D's soft row, ``lam * keep`` before
-the add, ``models/soft_contact.py``) is built for a ``KernelBuild`` with ``soft_contact``; ``--designs soft`` runs the
+the add, ``models/golden/soft_contact.py``) is built for a ``KernelBuild`` with ``soft_contact``; ``--designs soft`` runs the
 records design with it on the records scenes and formats, warm-started, each step once with the soft row (keep
 factors of :data:`SOFT_KEEP`, the options bit set) and once rigid (the bit clear), against the golden model of each.
 
 The records design with the tangent basis derived on chip (``PGS_TANGENTS_ON_CHIP=1``, the RTL's
 ``TANGENTS_ON_CHIP``: the friction record carries no t0, t1, the friction pass derives them from n in the format,
-``models/tangent_basis.py``) is built for a ``KernelBuild`` with ``tangents_on_chip`` (and ``impulses_in_records``:
+``models/setup/tangent_basis.py``) is built for a ``KernelBuild`` with ``tangents_on_chip`` (and ``impulses_in_records``:
 the C++ refuses it without); ``--designs tangents`` runs it on the records scenes and formats, cold and warm-started,
 against the golden model of ``KernelJob.tangents_derived()``.
 
-Shock propagation (``models/shock_propagation.py``: in a shock pass each manifold row may have one body frozen, a
+Shock propagation (``models/golden/shock_propagation.py``: in a shock pass each manifold row may have one body frozen, a
 static body for that row, and a linear row has no inverse inertia and no spin damping) needs no build option: the
 host sets the header's frozen-A, frozen-B and linear bits in a shock pass's records and streams that pass's shock
 rows' jac_inv / f_jac_inv, and the kernel reads the bits (``pgs_kernel.cpp`` ``shock_row``). ``--designs shock`` runs
@@ -68,20 +68,20 @@ from typing import Any
 import numpy as np
 
 from models import scenes
-from models import stream_format as sf
-from models.contact_solver import Impulses, SolverParams
-from models.dma_model import get_preset
-from models.frame import Frame
-from models.number_format import FP16, FP32, NumberFormat
-from models.kernel_job import KernelJob
+from models.kernel import stream_format as sf
+from models.golden.contact_solver import Impulses, SolverParams
+from models.timing.platforms import get_preset
+from models.formats.frame import Frame
+from models.formats.number_format import FP16, FP32, NumberFormat
+from models.kernel.kernel_job import KernelJob
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from models.soft_contact import SoftContact
-from sim.harness_run import run_harness, write_inputs
-from sim.kernel_build import KernelBuild, default_window
-from sim.kernel_step import golden_step
-from sim.trace_compare import (Comparison, compare_body_out, compare_impulse_out, compare_trace, read_trace,
+from models.golden.soft_contact import SoftContact
+from sim.drive.harness_run import run_harness, write_inputs
+from sim.compile.kernel_build import KernelBuild, default_window
+from sim.drive.kernel_step import golden_step
+from sim.compare.trace_bits import (Comparison, compare_body_out, compare_impulse_out, compare_trace, read_trace,
                                writing_passes)
-from sim.verilator_build import REPO_ROOT, build_lock
+from sim.compile.verilator_build import REPO_ROOT, build_lock
 
 HLS_DIR = Path(__file__).resolve().parent
 BUILD_ROOT = REPO_ROOT / "build" / "hls_csim"

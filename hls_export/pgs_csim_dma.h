@@ -1,5 +1,5 @@
 // pgs_csim_dma.h: the DMA of the records designs (PGS_IMPULSES_IN_RECORDS = 1) for the C simulation testbench,
-// the model of models/dma_model.py and of the RTL harness (sim/harness/pgs_kernel_main.cpp, ImpulseBuffer) without
+// the model of models/timing/platforms.py and of the RTL harness (sim/harness/pgs_kernel_main.cpp, ImpulseBuffer) without
 // its timing.
 //
 // The host writes the impulses the step starts from (zeros or a warm start) into the DDR impulse buffer (lam[4],
@@ -14,7 +14,7 @@
 // plan: DIR/impulse_plan.bin (uint32 records per block, uint32 turnaround (ignored: untimed), uint32 beats per
 // record: 0 by the block's kind (the streaming kernel), > 0 every record that many beats (the window kernel:
 // kLanes lane records of beats / kLanes beats, lane l's impulse words l beats / kLanes beats into the record; an
-// impulse-out record holds kLanes x 4 words), one byte per block, 0 contact, 1 friction), as sim/harness_run.py
+// impulse-out record holds kLanes x 4 words), one byte per block, 0 contact, 1 friction), as sim/drive/harness_run.py
 // writes it for the RTL harness.
 #ifndef PGS_CSIM_DMA_H
 #define PGS_CSIM_DMA_H

@@ -1,6 +1,6 @@
 // pgs_csim_main.cpp: C simulation testbench of the HLS kernel, a drop-in for the Verilator harness of the RTL
 // kernel (sim/harness/pgs_kernel_main.cpp): the same command line and the same files, so that
-// sim/harness_run.py and sim/trace_compare.py (write_inputs, run_harness, read_trace, compare_trace,
+// sim/drive/harness_run.py and sim/compare/trace_bits.py (write_inputs, run_harness, read_trace, compare_trace,
 // compare_body_out) check it against the golden model unchanged.
 //
 // Usage: pgs_csim DIR SEED GAP_PERMILLE BP_PERMILLE MAX_CYCLES [DDR_MILLIBYTES STARTUP PROGRESS]

@@ -1,6 +1,6 @@
 // pgs_fp.h: the arithmetic of the kernel in its number format (PGS_EXP_BITS exponent and PGS_MAN_BITS mantissa
 // bits, as the RTL's EXP_BITS / MAN_BITS: binary32 8/23 by default, binary16 5/10, bfloat16 8/7), with the rules of
-// the golden model (models/number_format.py, whose module docstring is the contract; rtl/fp implements the same):
+// the golden model (models/formats/number_format.py, whose module docstring is the contract; rtl/fp implements the same):
 //
 //  * inputs: a subnormal bit pattern reads as a zero of its sign (from_bits);
 //  * every +, -, *, /, sqrt is rounded once, to nearest even, with an unbounded exponent; a rounded
@@ -12,7 +12,7 @@
 //
 // A value of the format is held in a C++ float (exact: at most 8 exponent and 23 mantissa bits). C simulation
 // computes each operation as the golden model does: in double precision (exact for +, -, * of the format's
-// operands up to the final rounding, and a harmless double rounding for / and sqrt, see models/number_format.py),
+// operands up to the final rounding, and a harmless double rounding for / and sqrt, see models/formats/number_format.py),
 // then rounds to the format with the flush rule above (round_ftz, the golden's round_bitwise on the double's bits).
 // The host's own float operations would differ from the golden in binary32 in one place: a product whose exact
 // magnitude lies in [2^-126 (1 - 2^-24), 2^-126 (1 - 2^-25)) rounds to 2^-126 on the host's gradual-underflow grid
@@ -90,7 +90,7 @@ inline uint32_t to_bits(float x) {
 }
 
 #ifndef __SYNTHESIS__
-// Round a double-precision result to the format as models/number_format.py NumberFormat.round_bitwise does: round
+// Round a double-precision result to the format as models/formats/number_format.py NumberFormat.round_bitwise does: round
 // the double's significand to kManBits bits (nearest, ties to even) with an unbounded exponent, then a magnitude
 // below the smallest normal becomes a zero of the result's sign and one above the largest finite an infinity.
 inline float round_ftz(double x) {

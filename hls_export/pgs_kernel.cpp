@@ -2,7 +2,7 @@
 // holding the Projected Gauss-Seidel contact and friction solvers and the integration):
 //
 //   * AXI4-Stream arguments (s_axis_body, s_axis_cons in, m_axis_body out, with TLAST; trace out) in the record
-//     layouts of models/stream_format.py (pgs_stream.h), and an s_axilite bundle `control` with the register
+//     layouts of models/kernel/stream_format.py (pgs_stream.h), and an s_axilite bundle `control` with the register
 //     map of rtl/README.md;
 //   * the body table and the accumulated impulses in on-chip arrays (BRAM): the body-in records are streamed
 //     in once, each pass streams one constraint record per manifold, the integration streams the bodies out;
@@ -10,7 +10,7 @@
 //     is no impulse array: each record carries the impulses its pass starts from and the updated ones leave on
 //     m_axis_imp, one record per slot and pass (the DMA writes them to the DDR buffer the next passes read); with
 //     PGS_TANGENTS_ON_CHIP = 1 as well (the RTL's TANGENTS_ON_CHIP) the friction records carry no t0, t1 and the
-//     friction pass derives them from n (pgs_solver.h plane_space, models/tangent_basis.py);
+//     friction pass derives them from n (pgs_solver.h plane_space, models/setup/tangent_basis.py);
 //   * built with PGS_WINDOW = N > 0 (the RTL's window kernel with the impulses in the records, the fitting window
 //     design) each fetch of the records serves several passes of one kind: the fetch's window records (PGS_LANES
 //     slots each) go into an on-chip ring of N records, its passes trail each other by `lag` records over it, an
@@ -25,7 +25,7 @@
 // bodies, which a manifold still in the pipeline may be about to write. Like the thesis (and the GPU code) the
 // kernel declares that dependence false; the results equal the sequential (golden) order only when no two
 // manifolds within the pipeline's depth share a dynamic body, which the host's hazard schedule
-// (models/schedule.py, window >= records in flight) guarantees. The RTL kernel's hazard CAM, which makes any
+// (models/order/manifold_schedule.py, window >= records in flight) guarantees. The RTL kernel's hazard CAM, which makes any
 // order exact, has no counterpart here. Passes do not overlap: each pass loop drains before the next starts.
 // C simulation is sequential and therefore exact for every order; its testbench counts the records that
 // would read a velocity still in flight (hls_export/README.md).
@@ -92,7 +92,7 @@ struct BodyPair {
     Velocity va, vb;
 };
 
-// A body's constants as a shock pass's row takes them (the header bits; models/contact_solver.py _Gathered.freeze):
+// A body's constants as a shock pass's row takes them (the header bits; models/golden/contact_solver.py _Gathered.freeze):
 // a frozen body's inverse mass and inertia +0 (a static body for this record: its velocities are read, not written
 // back), a linear row's inverse inertia +0.
 BodyRef shock_row(const BodyRef& r, bool frozen, bool linear) {
@@ -260,7 +260,7 @@ FRICTION:
 // The window arguments refused (error 3, the RTL's argument check): fetch_passes outside 1..kWindowCtx, lag 0, a
 // ring too small for the fetch's passes trailing each other ((fetch_passes - 1) lag + 2 > kWindow), num_manifolds
 // not a multiple of the lanes, or a fetch that would serve contact and friction passes together (fetch_passes must
-// divide the iterations, or be 1 with the kinds interleaved: models.stream_format.window_fetch_kinds).
+// divide the iterations, or be 1 with the kinds interleaved: models.kernel.stream_format.window_fetch_kinds).
 bool window_args_ok(uint32_t num_manifolds, uint32_t iterations, bool interleaved, uint32_t lag,
                     uint32_t fetch_passes) {
     if (fetch_passes < 1 || fetch_passes > uint32_t(kWindowCtx) || lag < 1) return false;
@@ -356,7 +356,7 @@ LANES:
     if (wp.last) write_record<1, kImpOutW>(m_axis_imp, encode_impulse_out(out), r == nrec - 1);
 }
 
-// The window kernel's passes (models/record_window.py): ceil(passes / fetch_passes) fetches, each of one kind, each
+// The window kernel's passes (models/kernel/record_window.py): ceil(passes / fetch_passes) fetches, each of one kind, each
 // reading num_manifolds / kLanes window records into the ring and running its np passes over them, pass k trailing
 // pass k - 1 by `lag` records: at time t the fetch reads record t (t < nrec) and pass k processes record t - k lag,
 // the passes in ascending order. With lag >= D (the band width of the slot order) every body sees its updates in the
@@ -446,7 +446,7 @@ void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_
 #if PGS_IMPULSES_IN_RECORDS
 #pragma HLS INTERFACE mode=axis port=m_axis_imp
 #endif
-    // the argument offsets of models/register_map.py (generated/pgs_regs.h: PGS_PRAGMA expands PGS_REG_*)
+    // the argument offsets of models/kernel/register_map.py (generated/pgs_regs.h: PGS_PRAGMA expands PGS_REG_*)
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=num_bodies bundle=control offset=PGS_REG_NUM_BODIES)
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=num_manifolds bundle=control offset=PGS_REG_NUM_MANIFOLDS)
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=iterations bundle=control offset=PGS_REG_ITERATIONS)

@@ -43,9 +43,9 @@ static_assert(PGS_WINDOW == 0 || PGS_SOFT_CONTACT == 0,
 
 // The s_axi_control offsets (kReg*, pinned with offset= in the INTERFACE pragmas: the Vitis HLS defaults for
 // this argument order), kMaxIterations, the options bits (kOptInterleaved: interleaved pass order) and the
-// error codes (kErr*) are in generated/pgs_regs.h, from models/register_map.py.
+// error codes (kErr*) are in generated/pgs_regs.h, from models/kernel/register_map.py.
 
-// Pass p of a step: friction or contact, and its iteration (models.contact_solver.pass_sequence).
+// Pass p of a step: friction or contact, and its iteration (models.golden.contact_solver.pass_sequence).
 inline bool pass_is_friction(uint32_t p, uint32_t iterations, bool interleaved) {
     return interleaved ? (p & 1u) != 0 : p >= iterations;
 }

@@ -1,6 +1,6 @@
 // pgs_solver.h: the arithmetic of one manifold-pass and of one body's integration, operation for operation in
-// the golden order of models/OPERATION_ORDER.md (models/contact_solver.py contact_solve / friction_solve,
-// models/integrator.py integrate). Every operation goes through pgs_fp.h (rounded once, flush to zero).
+// the golden order of models/OPERATION_ORDER.md (models/golden/contact_solver.py contact_solve / friction_solve,
+// models/golden/integrator.py integrate). Every operation goes through pgs_fp.h (rounded once, flush to zero).
 // Branches on data are selects (the thesis's "branchless" form): every point and tangent row is computed,
 // and an inactive one keeps the previous impulse and velocities.
 #ifndef PGS_SOLVER_H
@@ -12,9 +12,9 @@
 namespace pgs {
 
 // constants of the datapath (rounded once to binary32 from these double values, as the golden's ar.const)
-constexpr double kFrictionCoeff = 0.7;   // models.constraints.FRICTION_COEFF (Bullet's hard-coded mu)
-constexpr double kSpinDampFactor = 0.1;  // models.contact_solver.SPIN_DAMP_FACTOR
-constexpr double kMaxAngle = 0.25 * 3.14159254;  // models.integrator.MAX_ANGLE (Bullet's value, sic)
+constexpr double kFrictionCoeff = 0.7;   // models.setup.constraints.FRICTION_COEFF (Bullet's hard-coded mu)
+constexpr double kSpinDampFactor = 0.1;  // models.golden.contact_solver.SPIN_DAMP_FACTOR
+constexpr double kMaxAngle = 0.25 * 3.14159254;  // models.golden.integrator.MAX_ANGLE (Bullet's value, sic)
 constexpr double kSmallAngle = 0.001;
 constexpr double kTaylorSinc = 0.020833333333;
 constexpr double kSinCoeffs[3] = {-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0};
@@ -28,7 +28,7 @@ struct BodyRef {
     InvInertia i_inv;
 };
 
-// The soft contact row's per-call constants (models/soft_contact.py, SolverParams.soft_keep): with `on`, each point's
+// The soft contact row's per-call constants (models/golden/soft_contact.py, SolverParams.soft_keep): with `on`, each point's
 // accumulated impulse is multiplied by its keep factor before the add (1 where b > 0, `stat` for a row with a static
 // body, `dyn` otherwise); off: the rigid row (a build with PGS_SOFT_CONTACT = 0 never multiplies).
 struct SoftKeep {
@@ -54,7 +54,7 @@ inline Vec3 v_add(const Vec3& a, const Vec3& b) { return vec3(add(a.x, b.x), add
 inline Vec3 v_sub(const Vec3& a, const Vec3& b) { return vec3(sub(a.x, b.x), sub(a.y, b.y), sub(a.z, b.z)); }
 inline Vec3 v_scale(const Vec3& v, float s) { return vec3(mul(v.x, s), mul(v.y, s), mul(v.z, s)); }
 
-// I^-1 c in models.inertia.inertia_product's order: one multiply per component for the scalar and the diagonal,
+// I^-1 c in models.setup.inertia.inertia_product's order: one multiply per component for the scalar and the diagonal,
 // ((Ixx cx + Ixy cy) + Ixz cz, (Ixy cx + Iyy cy) + Iyz cz, (Ixz cx + Iyz cy) + Izz cz) for the symmetric 3x3
 template <int WORDS>
 inline Vec3 inertia_mul_words(const float (&i)[WORDS], const Vec3& c);
@@ -116,10 +116,10 @@ POINTS:
 }
 
 // --- the friction tangent basis derived from the normal (PGS_TANGENTS_ON_CHIP = 1) ------------------------------
-// models/tangent_basis.py plane_space_in, operation for operation (the RTL's pgs_friction_pipe_tb, rtl/gen
+// models/setup/tangent_basis.py plane_space_in, operation for operation (the RTL's pgs_friction_pipe_tb, rtl/gen
 // kernel_graphs.py plane_space): Bullet's btPlaneSpace1 of m = -n, every operation rounded to the format, the
 // square root and the division each once; the branch on |m_z| is a select (both bases are computed).
-constexpr double kPlaneSpaceSplit = 0.70710678;  // models.tangent_basis.PLANE_SPACE_SPLIT (Bullet's SIMDSQRT12)
+constexpr double kPlaneSpaceSplit = 0.70710678;  // models.setup.tangent_basis.PLANE_SPACE_SPLIT (Bullet's SIMDSQRT12)
 
 inline void plane_space(const Vec3& n, Vec3 t[2]) {
     const float mx = -n.x, my = -n.y, mz = -n.z;  // sign flips: exact

@@ -1,4 +1,4 @@
-// pgs_stream.h: the kernel's AXI4-Stream records, bit for bit as models/stream_format.py packs them, and the
+// pgs_stream.h: the kernel's AXI4-Stream records, bit for bit as models/kernel/stream_format.py packs them, and the
 // trace record of rtl/README.md.
 //
 // Every record is little-endian from bit 0 and padded to whole beats (beat j holds record bits
@@ -17,7 +17,7 @@
 //             an empty lane: header all ones, zero words. Impulse-out: one per window record of a fetch's last
 //             pass, its lanes' 4 words one after the other, 4 L W bits rounded up to whole bytes
 //   header    bits 31:0 body_a, 59:32 body_b, 60 frozen A, 61 frozen B, 62 linear shock, 63 spin_damp (the three
-//             shock bits only in a shock pass's records, models/shock_propagation.py; positions kHeader*Bit)
+//             shock bits only in a shock pass's records, models/golden/shock_propagation.py; positions kHeader*Bit)
 //   body-in   pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass, inv_inertia(PGS_IINV_W)   (14 + PGS_IINV_W) W bits
 //   body-out  pos(3), q(4), v(3), w(3)                                           13 W bits
 //   trace     impulses[0..3] (friction: lamT[0..1], 0, 0), vA, wA, vB, wB (16 W bits), then slot (32 bits),
@@ -67,7 +67,7 @@
 namespace pgs {
 
 // the record sizes and the impulse words' offsets (kHeaderBits, k*Words, k*LamWord, kTraceTailBits) are
-// generated/pgs_stream_layout.h, from models/stream_format.py; the words are those of the format (pgs_fp.h)
+// generated/pgs_stream_layout.h, from models/kernel/stream_format.py; the words are those of the format (pgs_fp.h)
 constexpr int kWordBits = kFormatBits;
 constexpr int kTraceBits = kTraceWords * kWordBits + kTraceTailBits;
 
@@ -93,7 +93,7 @@ static_assert(!kTangentsOnChip || (kMuWords == 0 && PGS_IINV_W == 3),
 constexpr int kFrictionTangentWords = kTangentsOnChip ? 0 : kTangentWords;
 constexpr int kFrictionStaticWords = kFrictionWords - kTangentWords + kFrictionTangentWords;
 constexpr int kFrictionJacInvAt = kFrictionStaticWords - 2;  // f_jac_inv[0..1], the last two of them
-// words after the header (models.stream_format.StreamLayout.contact_record_words / friction_record_words)
+// words after the header (models.kernel.stream_format.StreamLayout.contact_record_words / friction_record_words)
 constexpr int kContactRecordWords = kContactWords + (kImpulsesInRecords ? kContactImpulseWords : 0);
 constexpr int kFrictionRecordWords = kFrictionStaticWords + kMuWords + (kImpulsesInRecords ? kFrictionImpulseWords : 0);
 // StreamLayout.friction_lam_word, friction_lamt_word
@@ -101,7 +101,7 @@ constexpr int kFrictionLamAt = kFrictionLamWord - kTangentWords + kFrictionTange
 constexpr int kFrictionLamtAt = kFrictionLamtWord - kTangentWords + kFrictionTangentWords + kMuWords;
 constexpr int kContactBeats = beats_for(kHeaderBits + kContactRecordWords * kWordBits, kConsW);
 constexpr int kFrictionBeats = beats_for(kHeaderBits + kFrictionRecordWords * kWordBits, kConsW);
-// the window kernel (models/record_window.py): ring depth, passes per fetch at most, lanes per record
+// the window kernel (models/kernel/record_window.py): ring depth, passes per fetch at most, lanes per record
 constexpr int kWindow = PGS_WINDOW;
 constexpr int kWindowCtx = PGS_WINDOW_CTX;
 constexpr int kLanes = PGS_LANES;
@@ -146,7 +146,7 @@ struct Vec3 {
     float x, y, z;
 };
 
-// A constraint record's header. A shock pass's row (models/shock_propagation.py) may have one body frozen: the
+// A constraint record's header. A shock pass's row (models/golden/shock_propagation.py) may have one body frozen: the
 // contact and friction update take it as a static body (inverse mass and inertia +0, velocities not written back);
 // a linear shock row takes both bodies' inverse inertia as +0 and is not spin-damped (pgs_kernel.cpp shock_row).
 struct Header {

@@ -21,7 +21,7 @@
 #                                        the window kernel with a ring of N records of PGS_LANES (1, 2, 4) slots,
 #                                        up to PGS_WINDOW_CTX passes per fetch (the RTL's WINDOW, WINDOW_CTX, LANES;
 #                                        only with PGS_IMPULSES_IN_RECORDS = 1)
-#   PGS_CSIM_DIR                         a run directory written by sim.harness_run.write_inputs for a job of
+#   PGS_CSIM_DIR                         a run directory written by sim.drive.harness_run.write_inputs for a job of
 #                                        the same design (the records design: with impulse_plan.bin): run the
 #                                        C simulation testbench on it first (csim_design)
 #   PGS_HLS_STEPS                        "csynth export" by default; add "cosim" for Vitis's own C/RTL

@@ -9,7 +9,7 @@
 // accesses in the order write 0 .. write PORTS-1, read 0 .. read PORTS-1; `busy` is high when some bank is asked
 // for more than two, i.e. a read goes unserved. The writes always are served: a retire writes the dynamic bodies
 // its issue read, and the sequencer issues no record whose lanes read some bank more than twice (one lane reads
-// two bodies). The sequencer does not issue a record in a busy cycle (models/body_banks.py, the same rule for the
+// two bodies). The sequencer does not issue a record in a busy cycle (models/kernel/body_banks.py, the same rule for the
 // cycle model). rd_data[k] one cycle after rd_addr[k], read-before-write as pgs_body_ram (the hazard CAM never
 // lets a body in flight be read), meaningful only where `busy` was low and rd_en[k] high.
 `default_nettype none

@@ -2,7 +2,7 @@
 // `s_axilite port=return bundle=control` export (ap_ctrl_hs in register 0x00).
 //
 // Register map (byte addresses; every register 32 bits; the full table is in rtl/README.md). The offsets, bit
-// positions and error codes come from pgs_regs_pkg (generated from models/register_map.py, the one definition):
+// positions and error codes come from pgs_regs_pkg (generated from models/kernel/register_map.py, the one definition):
 //   0x00 AP_CTRL  bit0 ap_start (R/W/COH: set by writing 1, cleared when the kernel asserts ap_ready,
 //                 unless auto_restart), bit1 ap_done (R/COR), bit2 ap_idle (R), bit3 ap_ready (R/COR),
 //                 bit7 auto_restart (R/W), bit9 interrupt (R)

@@ -24,7 +24,7 @@
 // DEPTH >= BLOCK_MIN_DEPTH, else "distributed" (LUT RAM). Block RAM takes a long line's LUTs away at
 // one RAMB18/36 per tap of delay >= 2 (each tap is one read port; the registered read is the block
 // RAM's output latch); which lines go there is a kernel build parameter (the generated pipes'
-// DELAY_BLOCK_MIN_DEPTH), counted the same way by sim/resource_model.py. Simulation is the same for
+// DELAY_BLOCK_MIN_DEPTH), counted the same way by sim/fit/resource_model.py. Simulation is the same for
 // every value: the attribute only tells synthesis where the array lives.
 `default_nettype none
 

@@ -1,7 +1,7 @@
 // pgs_fp_pkg: elaboration-time helpers of the generated kernel datapaths (rtl/gen).
 //
 // * fp_const / fp_from_real: a float64 value (bit pattern, or a `real`) rounded to the format with
-//   EXP_BITS exponent and MAN_BITS mantissa bits exactly as models/number_format.py
+//   EXP_BITS exponent and MAN_BITS mantissa bits exactly as models/formats/number_format.py
 //   NumberFormat.round does: round to nearest, ties to even, with an unbounded exponent; a rounded
 //   magnitude below the smallest normal becomes a signed zero (flush after rounding); overflow gives
 //   +-inf; NaN gives the canonical quiet NaN. The result is in the low 1+EXP_BITS+MAN_BITS bits.

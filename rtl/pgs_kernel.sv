@@ -4,8 +4,8 @@
 //   ap_clk, ap_rst_n (synchronous, active low)
 //   s_axi_control_*   AXI4-Lite slave: the register file (pgs_control_s_axi, map in rtl/README.md)
 //   interrupt         GIE && (ISR != 0)
-//   s_axis_body_*     body-in records (models/stream_format.py), num_bodies of them, TLAST on the last beat;
-//                     14 + IINV_W words each (the inverse-inertia mode, models/inertia.py)
+//   s_axis_body_*     body-in records (models/kernel/stream_format.py), num_bodies of them, TLAST on the last beat;
+//                     14 + IINV_W words each (the inverse-inertia mode, models/setup/inertia.py)
 //   s_axis_cons_*     constraint records, every pass of the step, TLAST on the last beat of each pass; a
 //                     friction record carries 14 + MU_W words (MU_W = 1: the manifold's friction coefficient last;
 //                     TANGENTS_ON_CHIP = 1: 8 + MU_W, without t0, t1, which the friction pipe derives from n)
@@ -16,7 +16,7 @@
 //                     per manifold slot of every pass, in slot order, TLAST on each pass's last: the updated
 //                     impulses, IMP_OUT_W = 4 W bits rounded up to bytes (contact: lam[0..3]; friction: lamT[0..1],
 //                     two zero words; a rejected slot all zeros), which the DMA writes to the DDR impulse buffer
-//                     that the next passes' records read (models/stream_format.py). Idle (TVALID 0) otherwise.
+//                     that the next passes' records read (models/kernel/stream_format.py). Idle (TVALID 0) otherwise.
 //   trace_valid, trace_data (TRACE = 1; tied to 0 otherwise): one record per retired manifold-pass,
 //     little-endian from bit 0: words 0..15 (W bits each) = impulses[0..3] (contact: lam[0..3];
 //     friction: lamT[0..1], then two zero words), vA(3), wA(3), vB(3), wB(3) (the pipe's outputs,

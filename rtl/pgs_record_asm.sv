@@ -1,5 +1,5 @@
 // pgs_record_asm: assembles AXI4-Stream beats into records of `need` beats (beat j of a record at
-// record bits [j*BEAT_W +: BEAT_W], the packing of models/stream_format.py) and hands complete
+// record bits [j*BEAT_W +: BEAT_W], the packing of models/kernel/stream_format.py) and hands complete
 // records on through a valid/ready register.
 //
 // Beats are accepted only while `enable`; `need` (1..MAX_BEATS) may change between records (the

@@ -3,7 +3,7 @@
 // Phases after `start` (arguments sampled then):
 //   LOAD   num_bodies body-in records from s_body into the body RAM (the constraint stream is already
 //          being assembled meanwhile);
-//   SOLVE  the passes of models.contact_solver.pass_sequence (contact passes then friction passes, or
+//   SOLVE  the passes of models.golden.contact_solver.pass_sequence (contact passes then friction passes, or
 //          interleaved when opt_interleaved): num_manifolds records per pass, record k of a pass =
 //          manifold slot k. A record issues (one per cycle at most, II = 1) when it is assembled and
 //          no manifold in flight shares a dynamic body with it (pgs_hazard_cam), and -- when the pass
@@ -144,7 +144,7 @@ module pgs_sequencer #(
     localparam int B_BEATS   = (BREC_W + BODY_IN_W - 1) / BODY_IN_W;
     localparam int O_BEATS   = (OREC_W + BODY_OUT_W - 1) / BODY_OUT_W;
     // words of a contact / friction record after the header (pgs_stream_layout_pkg, generated from
-    // models/stream_format.py): the friction record's 14 words (8 without t0, t1 when TANGENTS_ON_CHIP), then with
+    // models/kernel/stream_format.py): the friction record's 14 words (8 without t0, t1 when TANGENTS_ON_CHIP), then with
     // MU_W = 1 the manifold's coefficient; with IMPULSES_IN_RECORDS the contact record ends with lam[0..3], the
     // friction record with lam[0..3] and lamT[0..1] (the impulses its pass starts from)
     localparam int C_WORDS   = pgs_stream_layout_pkg::CONTACT_WORDS
@@ -493,7 +493,7 @@ module pgs_sequencer #(
     // Every lane of the record offered issues in the same cycle, or none does: the record is taken when no
     // lane has to issue (all rejected or empty) or when no issuing lane's dynamic body is in flight
     // (pgs_hazard_cam). The lanes' manifolds must not share a dynamic body (the host's lane plan,
-    // models/record_window.py, guarantees it); a lane that shares one with an earlier issuing lane is
+    // models/kernel/record_window.py, guarantees it); a lane that shares one with an earlier issuing lane is
     // rejected (error 4), so that no two lanes ever write one body.
     wire             rkind  = crec_tag;
     logic hazard, cam_full, cam_empty, retire, last_kind;
@@ -511,7 +511,7 @@ module pgs_sequencer #(
     // the issue checks of each lane's record. An all-ones header in the window kernel is an empty lane (the host's
     // padding): never issued, never rejected, no error. With banked body velocities and lanes, a lane that would
     // have the issuing lanes read some bank more than twice (its ports) is rejected like a lane sharing a dynamic
-    // body (error 4; the host's lane plan keeps apart the manifolds that would: models/record_window.py): a record's
+    // body (error 4; the host's lane plan keeps apart the manifolds that would: models/kernel/record_window.py): a record's
     // reads then fit the banks' ports, and so do its retire's writes (its dynamic bodies).
     localparam int BANK_W = BODY_BANKS > 1 ? $clog2(BODY_BANKS) : 1;
     /* verilator lint_off UNUSEDSIGNAL */  // b: a body's bank is its index's low bits
@@ -633,7 +633,7 @@ module pgs_sequencer #(
         logic [16*W-1:0]   c_out;
         logic [14*W-1:0]   f_out, f_pipe;
         // stage 1: the record and tag of the manifold issued in the previous cycle. A shock pass's row (header bits
-        // frozen A / B, linear; models/shock_propagation.py, streaming kernel only) takes its frozen body as a static
+        // frozen A / B, linear; models/golden/shock_propagation.py, streaming kernel only) takes its frozen body as a static
         // one: its inverse mass and inertia enter the pipe as 0 and its tag's dynamic bit is clear, so retire does
         // not write it (the CAM holds it as issued: the hazards, and so the cycles, are those of the same schedule
         // without the bits); a linear row's inverse inertias enter as 0 and its spin damping is off.

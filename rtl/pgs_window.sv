@@ -2,10 +2,10 @@
 // record (contact and friction words) is read from the constraint stream once per *fetch* and serves the
 // `fetch_passes` passes of that fetch from an on-chip ring of DEPTH records, the passes trailing each other.
 //
-// Stream: ceil(passes / fetch_passes) fetches of nm combined records each (models/stream_format.py
+// Stream: ceil(passes / fetch_passes) fetches of nm combined records each (models/kernel/stream_format.py
 // pack_window_stream: 64-bit header, 23 contact words, 14 friction words, padded to REC_BEATS beats),
 // TLAST on the last beat of each fetch. Fetch f serves passes f*fetch_passes .. (f+1)*fetch_passes - 1 of
-// models.contact_solver.pass_sequence. Record k of a fetch is manifold slot k.
+// models.golden.contact_solver.pass_sequence. Record k of a fetch is manifold slot k.
 //
 // Passes: pass j steps its slots in order 0 .. nm-1, one slot per `take`. Up to CTX passes are active at a
 // time (pass contexts, pass j in context j mod CTX). The last pass of a fetch starts only once every pass of the

@@ -1,4 +1,4 @@
-"""``make analyze``: which number formats a scene needs (``models/format_analyzer.py``).
+"""``make analyze``: which number formats a scene needs (``models/sizing/format_analyzer.py``).
 
 Prints the range of every field group, the narrowest single format for the kernel that keeps the step's
 velocity error against float64 within the budget (what ``FORMAT=auto`` runs), and a storage format per group
@@ -16,15 +16,15 @@ import time
 from pathlib import Path
 from typing import Any, Sequence
 
-from models import format_analyzer as fa
+from models.sizing import format_analyzer as fa
 from models import scenes
-from models.constraints import body_table, setup_constraints
-from models.contact_solver import SolverParams, solve
-from models.frame import Frame, FrameError
-from models.integrator import IntegrationParams
-from models.number_format import FLOAT64, FP16, FP32, NumberFormat
-from models.schedule import make_schedule
-from sim.report import format_value
+from models.setup.constraints import body_table, setup_constraints
+from models.golden.contact_solver import SolverParams, solve
+from models.formats.frame import Frame, FrameError
+from models.golden.integrator import IntegrationParams
+from models.formats.number_format import FLOAT64, FP16, FP32, NumberFormat
+from models.order.manifold_schedule import make_schedule
+from sim.report.run_report import format_value
 
 DEFAULT_BUDGET = 0.01
 
@@ -87,7 +87,7 @@ def analyze(args: argparse.Namespace) -> dict[str, Any]:
     widths = {g: chosen[g].width if g in chosen else fmt.width for g in fa.GROUPS}
     return {
         "scene": {"scene": label, "bodies": frame.num_bodies, "manifolds": frame.num_manifolds,
-                  "iterations": args.iters, "error budget (relative, see models/format_analyzer.py)": args.budget},
+                  "iterations": args.iters, "error budget (relative, see models/sizing/format_analyzer.py)": args.budget},
         "ranges (smallest and largest non-zero magnitude; exponent bits that hold them)": {
             r.group: f"{r.min_abs:.3g} .. {r.max_abs:.3g}, {r.zeros}/{r.values} zeros -> {r.exp_bits} exponent bits"
             for r in ranges},

@@ -1,16 +1,16 @@
 """``make band``: band width D of every schedule on every scene, and the on-chip budget it implies.
 
 For every scene (``models.scenes.SCENES``, the frame ``make sim`` uses: cached in ``build/frames/`` or captured)
-prints the manifold count and D (``models.schedule.band_width``: the longest run of slots over which one dynamic
+prints the manifold count and D (``models.order.manifold_schedule.band_width``: the longest run of slots over which one dynamic
 body's manifolds spread) for pybullet's order, the hazard order, and every banded order
-(``models.schedule.BANDED_ORDERS``) before and after the hazard reordering with the kernel's hazard window W of
-each format on the ZCU102 preset (``sim.kernel_build.default_window``). Then, for the budget scene (the thesis
-frame unless ``--budget-scene``), the on-chip bytes (``models.onchip_budget``) of body state, accumulated impulses
+(``models.order.manifold_schedule.BANDED_ORDERS``) before and after the hazard reordering with the kernel's hazard window W of
+each format on the ZCU102 preset (``sim.compile.kernel_build.default_window``). Then, for the budget scene (the thesis
+frame unless ``--budget-scene``), the on-chip bytes (``models.sizing.onchip_budget``) of body state, accumulated impulses
 and the record window of the best banded schedule after hazard reordering, per platform, format, number of passes
 trailing the streaming pass (fetch once per 1, 2 or ITERS iterations) and impulse placement, whether the bytes
-are within the blocks' data bytes, and whether the whole window kernel fits (``sim.resource_model``: its logic, and
+are within the blocks' data bytes, and whether the whole window kernel fits (``sim.fit.resource_model``: its logic, and
 its memories as block RAM with the copies their ports need, which bytes alone do not count).
-Last, the DDR and compute floors per manifold-pass of the budget scene (``models.onchip_budget.floors``): records
+Last, the DDR and compute floors per manifold-pass of the budget scene (``models.sizing.onchip_budget.floors``): records
 streamed every pass as today, or fetched once per 1, 2 or ITERS iterations, with 1, 2 or 4 lanes; which floor
 binds, and whether that fetch period's whole kernel with that many lanes fits. Writes the figures to ``build/band/band-s<seed>.json``.
 
@@ -28,14 +28,14 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from models import onchip_budget as ob
+from models.sizing import onchip_budget as ob
 from models import scenes
-from models.constraints import body_table, setup_constraints
-from models.frame import FrameError
-from models.number_format import BF16, FP16, FP32, NumberFormat
-from models.schedule import BANDED_ORDERS, band_width, hazard_order, pybullet_order
-from sim import resource_model as rm
-from sim.kernel_build import default_window
+from models.setup.constraints import body_table, setup_constraints
+from models.formats.frame import FrameError
+from models.formats.number_format import BF16, FP16, FP32, NumberFormat
+from models.order.manifold_schedule import BANDED_ORDERS, band_width, hazard_order, pybullet_order
+from sim.fit import resource_model as rm
+from sim.compile.kernel_build import default_window
 
 FORMATS: tuple[NumberFormat, ...] = (FP32, FP16, BF16)
 

@@ -28,9 +28,9 @@ from dataclasses import dataclass
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from models.number_format import FP16, KERNEL_FORMATS, NumberFormat
+from models.formats.number_format import FP16, KERNEL_FORMATS, NumberFormat
 from rtl.gen.file_list import kernel_sources
-from sim.verilator_build import REPO_ROOT, ensure_verilator_env, param_args
+from sim.compile.verilator_build import REPO_ROOT, ensure_verilator_env, param_args
 
 RTL_ROOT = REPO_ROOT / "rtl"
 
@@ -98,7 +98,7 @@ TANGENT_PARAM_SETS: dict[str, dict[str, int]] = {
     "tangents-records-fp16": {"TANGENTS_ON_CHIP": 1, "IMPULSES_IN_RECORDS": 1, **format_params(FP16)},
     "tangents-onchip-impulses": {"TANGENTS_ON_CHIP": 1},
 }
-# The soft contact pipe (Box2D's soft step, models/soft_contact.py): modules with a SOFT_CONTACT parameter are also
+# The soft contact pipe (Box2D's soft step, models/golden/soft_contact.py): modules with a SOFT_CONTACT parameter are also
 # linted with it, alone, in fp16 and with the impulses in the records (the build the soft closed loop runs on).
 SOFT_PARAM_SETS: dict[str, dict[str, int]] = {
     "soft-contact": {"SOFT_CONTACT": 1},

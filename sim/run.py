@@ -4,20 +4,20 @@ The run captures (or loads from ``build/frames/``) the scene's busiest frame wit
 into constraints, orders them (hazard schedule by default), and runs the step three ways:
 
 * the RTL kernel (``rtl/pgs_kernel.sv``) in the compiled Verilator harness behind the DMA preset's bandwidth
-  model (``sim/kernel_step.py``), its trace and body-out stream compared bit for bit with
-* the golden model in the same number format (``models/contact_solver.py``), and
+  model (``sim/drive/kernel_step.py``), its trace and body-out stream compared bit for bit with
+* the golden model in the same number format (``models/golden/contact_solver.py``), and
 * float64 references: the same schedule and iterations, PGS run until a pass changes little (labelled "float64
-  PGS after N contact and N friction passes"), and the exact limit of the scheme (``models/exact_reference.py``,
-  cached beside the frame), against which the errors are measured (``sim/exact_error.py``).
+  PGS after N contact and N friction passes"), and the exact limit of the scheme (``models/exact/reference.py``,
+  cached beside the frame), against which the errors are measured (``sim/compare/exact_error.py``).
 
-The run's findings are typed (``sim.run_result.RunResult``) and rendered once (``sim.run_result.sections``):
+The run's findings are typed (``sim.report.run_result.RunResult``) and rendered once (``sim.report.run_result.sections``):
 it prints a summary and writes ``report.md``/``report.json`` (and, with ``--waves``, ``waves.fst`` plus a
 GTKWave save file) into ``build/sim/<scene>-<format>-it<iters>-s<seed>-<dma>/``. ``--frame FILE`` runs a saved
-frame (``models.frame.save``) instead of the scene's (the run directory is named after the file).
+frame (``models.formats.frame.save``) instead of the scene's (the run directory is named after the file).
 
 Bad input (an unknown scene, format or DMA preset, bad parameters, a corrupt, truncated or other-version frame
 file) ends the run with one line ``error: ...`` naming the problem and exit status 2; the run directory is
-written under a temporary name and appears only once complete (``sim.report.StagedDirectory``), so a failed
+written under a temporary name and appears only once complete (``sim.report.run_report.StagedDirectory``), so a failed
 run leaves nothing behind.
 
     python -m sim.run --scene pile --iters 4 --format fp32 --dma zcu102 --seed 1
@@ -36,26 +36,27 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from models import cycle_model, scenes
-from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
-from models.contact_solver import SolverParams, solve, solve_converged
-from models.dma_model import PRESETS, DmaPreset, get_preset
-from models.frame import Frame, FrameError, load
-from models.integrator import IntegrationParams, integrate
-from models.kernel_job import KernelJob
-from models.number_format import FLOAT64, FP32, NumberFormat, parse_format
-from models.residual import contact_residual
-from models.schedule import SCHEDULE_KINDS, make_schedule, stats
-from sim import exact_error
+from models import scenes
+from models.timing import cycle_model
+from models.setup.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
+from models.golden.contact_solver import SolverParams, solve, solve_converged
+from models.timing.platforms import PRESETS, DmaPreset, get_preset
+from models.formats.frame import Frame, FrameError, load
+from models.golden.integrator import IntegrationParams, integrate
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FLOAT64, FP32, NumberFormat, parse_format
+from models.exact.residual import contact_residual
+from models.order.manifold_schedule import SCHEDULE_KINDS, make_schedule, stats
+from sim.compare import exact_error
 from sim.analyze import auto_format
-from sim.harness_run import KernelRunError, text_progress
-from sim.kernel_build import COMPILE_PROFILES, KernelBuild, default_window
-from sim.kernel_step import Golden, KernelResult, golden_step, run_kernel_step
-from sim.report import StagedDirectory, print_summary, write_report
-from sim.resource_model import kernel_fit
-from sim.run_result import AnyRunResult, BitExactness, KernelSpeed, ModelRunResult, RunResult, SceneFacts, \
+from sim.drive.harness_run import KernelRunError, text_progress
+from sim.compile.kernel_build import COMPILE_PROFILES, KernelBuild, default_window
+from sim.drive.kernel_step import Golden, KernelResult, golden_step, run_kernel_step
+from sim.report.run_report import StagedDirectory, print_summary, write_report
+from sim.fit.resource_model import kernel_fit
+from sim.report.run_result import AnyRunResult, BitExactness, KernelSpeed, ModelRunResult, RunResult, SceneFacts, \
     ScheduleFacts, StepErrors, ThesisComparison, VelocityError, WindowFacts, sections
-from sim.trace_compare import kernel_bodies
+from sim.compare.trace_bits import kernel_bodies
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -65,7 +66,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help=f"scene name ({', '.join(sorted([*scenes.SCENES, *scenes.ASSET_SCENES]))}), a world file "
                          "(.py, models/scenes/user_world.py) or a URDF file (.urdf: copies dropped on the ground)")
     ap.add_argument("--scene-args", default="", help='scene parameters, e.g. "nx=20 ny=5 nz=20 friction=0.4"')
-    ap.add_argument("--frame", default="", help="a frame file (.npz, models.frame.save) to run instead of --scene")
+    ap.add_argument("--frame", default="", help="a frame file (.npz, models.formats.frame.save) to run instead of --scene")
     ap.add_argument("--iters", type=int, default=4, help="PGS iterations per pass type (Bullet GPU: 4)")
     ap.add_argument("--format", default="fp32",
                     help="number format: fp32, fp16, bf16, eXmY, or auto (the narrowest within 1%% error, sim.analyze)")
@@ -89,14 +90,14 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--no-kernel", action="store_true", help="reference models only (no Verilator)")
     ap.add_argument("--driver", choices=("harness", "cocotb"), default="harness",
                     help="harness: the compiled Verilator harness; cocotb: the host driver, AXI DMA models and batch "
-                         "scoreboard in cocotb on the transaction-level bench (sim/cocotb_step.py)")
+                         "scoreboard in cocotb on the transaction-level bench (sim/drive/cocotb_step.py)")
     ap.add_argument("--compile-profile", choices=tuple(COMPILE_PROFILES), default="quick",
-                    help="how the compiled harness's C++ is built (sim/kernel_build.py COMPILE_PROFILES): quick -O1; "
+                    help="how the compiled harness's C++ is built (sim/compile/kernel_build.py COMPILE_PROFILES): quick -O1; "
                          "pgo the same, profile-guided (an instrumented build trained on this run's first cycles, "
                          "then the build from its profile)")
     ap.add_argument("--mode", choices=("rtl", "model"), default="rtl",
                     help="rtl: the whole run, the cycle model beside the RTL; model: the cycle model's estimate alone "
-                         "(models/cycle_model.py: no Verilator, no reference solves)")
+                         "(models/timing/cycle_model.py: no Verilator, no reference solves)")
     ap.add_argument("--waves", action="store_true", help="write waves.fst (first --wave-cycles cycles) + .gtkw")
     ap.add_argument("--wave-cycles", type=int, default=20000, help="cycles of waveform to keep (0: all)")
     ap.add_argument("--out", default="build/sim", help="parent directory of the run directory")
@@ -319,7 +320,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         progress = text_progress(job.manifold_passes)
         waves = run_dir / "waves.fst" if args.waves else None
         if args.driver == "cocotb":
-            from sim.cocotb_step import run_cocotb_step
+            from sim.drive.cocotb_step import run_cocotb_step
 
             res, kb = timer.run("RTL kernel through cocotb (build, run, compare)", run_cocotb_step, job, preset,
                                 run_dir, args.seed, golden, label, args.schedule)
@@ -410,7 +411,7 @@ def model_section(job: KernelJob, preset: DmaPreset, res: KernelResult | None = 
 
 def window_facts(job: KernelJob, preset: DmaPreset) -> WindowFacts:
     """The window kernel's plan and its on-chip bytes against the platform of the DMA preset (if there is one)."""
-    from models import onchip_budget as ob
+    from models.sizing import onchip_budget as ob
 
     plan = job.record_window
     assert plan is not None
@@ -436,13 +437,13 @@ def _solve_and_integrate(bodies: BodyTable, cons: ConstraintSet, schedule: np.nd
 
 
 def _built(kb: KernelBuild) -> bool:
-    from sim.verilator_build import BUILD_ROOT
+    from sim.compile.verilator_build import BUILD_ROOT
 
     return (BUILD_ROOT / kb.name / kb.name).exists()
 
 
 def _write_gtkw(fst: Path, kb: KernelBuild) -> None:
-    from sim.gtkwave_save import write_kernel_save_file
+    from sim.report.gtkwave_save import write_kernel_save_file
 
     # the compiled harness names its model "pgs_kernel": the design sits one scope below it
     save = write_kernel_save_file(fst, top="pgs_kernel.pgs_kernel", parameters=kb.parameters)

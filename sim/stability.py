@@ -1,18 +1,18 @@
-"""``make stability``: the hard-case suite (``models/stability.py``) over number formats and iteration counts.
+"""``make stability``: the hard-case suite (``models/closed_loop/hard_cases.py``) over number formats and iteration counts.
 
 Runs every case closed loop (pybullet collision detection, the bit-accurate golden model of each format, which
 the RTL kernel matches bit for bit) at 1, 4, 10 and 30 iterations, judges it on physical quantities against the
-case's thresholds (``models/stability.py``: penetration against Bullet's slop, each body's largest excursion and
+case's thresholds (``models/closed_loop/hard_cases.py``: penetration against Bullet's slop, each body's largest excursion and
 path length, speeds net of the stored g*dt; every limit with its reason), under each remedy (``--remedies``:
 cold = Bullet GPU, warm = Bullet 2's warm start, warm+subN = warm start and N substeps, ...+soft... = Box2D v3's
-soft step, models/soft_contact.py, every solve and relax call counted; ...shock... = shock propagation,
-models/shock_propagation.py; each priced in kernel
+soft step, models/golden/soft_contact.py, every solve and relax call counted; ...shock... = shock propagation,
+models/golden/shock_propagation.py; each priced in kernel
 cycles per step by the cycle model) and writes ``build/stability/stability.md``
 (the limits and the table), ``stability.csv`` and one plot per case (kinetic energy and penetration over the
 steps, ``<case>.png``). Failing rows are findings, reported, not errors: the command exits
 non-zero only when a run crashes.
 
-The runs are independent points on ``--executor`` (``sim/executor.py``: ``local:N``, the default ``local:<jobs>``,
+The runs are independent points on ``--executor`` (``sim/parallel/executor.py``: ``local:N``, the default ``local:<jobs>``,
 ``dask:local:N`` or ``dask:tcp://host:port``); each finished run is recorded in ``<out>/.points/stability.jsonl``
 and a rerun after a failure resumes from them (the file is removed once the table is written).
 
@@ -31,12 +31,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from models.number_format import parse_format
-from models.stability import CASES, FIGURES, ITERATIONS, LIMITS, REMEDIES, Thresholds, Verdict, judge
-from sim.artefacts import source_digest
-from sim.executor import parse_executor, run_points
-from sim.point_results import PointLog
-from sim.report import format_value
+from models.formats.number_format import parse_format
+from models.closed_loop.hard_cases import CASES, FIGURES, ITERATIONS, LIMITS, REMEDIES, Thresholds, Verdict, judge
+from sim.compile.artefacts import source_digest
+from sim.parallel.executor import parse_executor, run_points
+from sim.parallel.point_results import PointLog
+from sim.report.run_report import format_value
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="python -m sim.stability", description=__doc__,
@@ -46,23 +46,23 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--iters", default=",".join(map(str, ITERATIONS)),
                     help="comma-separated iteration counts per step (a remedy's substeps share them)")
     ap.add_argument("--remedies", default="cold,warm,warm+sub2,warm1+soft15z1+sub2+relax,warm+sub4+shocklrh",
-                    help=f"comma-separated remedies ({', '.join(REMEDIES)}; models/stability.py REMEDIES)")
+                    help=f"comma-separated remedies ({', '.join(REMEDIES)}; models/closed_loop/hard_cases.py REMEDIES)")
     ap.add_argument("--steps", type=int, default=0, help="override every case's step count (0: the case's own)")
     ap.add_argument("--jobs", type=int, default=2, help="parallel runs (the default executor local:<jobs>)")
-    ap.add_argument("--executor", default="", help="local:N, dask:local:N or dask:tcp://host:port (sim/executor.py)")
+    ap.add_argument("--executor", default="", help="local:N, dask:local:N or dask:tcp://host:port (sim/parallel/executor.py)")
     ap.add_argument("--out", default="build/stability", help="output directory")
     return ap.parse_args(argv)
 
 
 @dataclass(frozen=True)
 class StabilityPoint:
-    """One closed-loop run of a hard case (``sim.executor`` point): the verdict and the plotted series come back."""
+    """One closed-loop run of a hard case (``sim.parallel.executor`` point): the verdict and the plotted series come back."""
 
     case: str
     fmt: str
     iterations: int
     steps: int
-    sources: str  # sim.artefacts.source_digest() when planned
+    sources: str  # sim.compile.artefacts.source_digest() when planned
     remedy: str = "cold"
 
     @property
@@ -135,7 +135,7 @@ def remedy_table(verdicts: list[Verdict]) -> list[str]:
 
 def warm_start_table(runs: list[tuple[Verdict, dict[str, int]]]) -> list[str]:
     """Per warm-started run, the points that inherited an impulse, those that started from zero, and every dropped
-    entry by its reason (``models.warm_start.WarmStartReport``), over all steps of the run."""
+    entry by its reason (``models.golden.warm_start.WarmStartReport``), over all steps of the run."""
     warm = [(v, r) for v, r in runs if r.get("matched points", 0) or any(k.startswith("dropped") for k in r)]
     if not warm:
         return []
@@ -202,7 +202,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     lines += [f"- **{c.name}** ({steps or c.steps} steps after {c.warmup_steps} unmeasured): {c.description}; "
               f"thresholds {_thresholds(c.thresholds(steps))}" for c in CASES.values()
               if any(v.case == c.name for v in verdicts)]
-    lines += ["", *limits_table(), "", "Which remedy passes (kernel cycles per step: models/cycle_model.py, the "
+    lines += ["", *limits_table(), "", "Which remedy passes (kernel cycles per step: models/timing/cycle_model.py, the "
               "streaming kernel on zcu102, every kernel call of the step):", "", *remedy_table(verdicts), "",
               *table(verdicts), "", *warm_start_table(matching), ""]
     (out / "stability.md").write_text("\n".join(lines))
@@ -224,7 +224,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def limits_table() -> list[str]:
-    """The limits every case is judged with, each with its reason (``models.stability.LIMITS``)."""
+    """The limits every case is judged with, each with its reason (``models.closed_loop.hard_cases.LIMITS``)."""
     return ["| limit | value | reason |", "|---|---|---|",
             *(f"| {name} | {limit} | {limit.reason} |" for name, limit in LIMITS.items())]
 

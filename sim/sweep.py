@@ -1,15 +1,15 @@
 """``make sweep``: kernel time against error, over iteration counts and number formats, on one scene.
 
-For every format and iteration count the RTL kernel runs the step in Verilator (``sim.kernel_step``, DMA preset
+For every format and iteration count the RTL kernel runs the step in Verilator (``sim.drive.kernel_step``, DMA preset
 bandwidth model, trace and body-out compared bit for bit with the golden model) and the kernel's result is
-compared with the exact limit of the scheme on the same frame (``models/exact_reference.py``, cached beside the
+compared with the exact limit of the scheme on the same frame (``models/exact/reference.py``, cached beside the
 frame; it depends on no format or schedule, so the driver computes it once and sends it with the points;
-``sim/exact_error.py``: per-body |dv| and |dw|, max, median and p99; without an exact reference those columns say
+``sim/compare/exact_error.py``: per-body |dv| and |dw|, max, median and p99; without an exact reference those columns say
 ``no exact reference`` and why, and the plot has no points).
-``--mode model`` replaces the RTL run by the cycle model's cycles (``models/cycle_model.py``) and the golden model's
+``--mode model`` replaces the RTL run by the cycle model's cycles (``models/timing/cycle_model.py``) and the golden model's
 numbers (bit-identical to the kernel's): no Verilator, directory ``build/sweep/<scene>-<dma>-model/``.
 
-Every (format, iteration count) is a point (:class:`SweepPoint`) run on ``--executor`` (``sim/executor.py``:
+Every (format, iteration count) is a point (:class:`SweepPoint`) run on ``--executor`` (``sim/parallel/executor.py``:
 ``local:1`` by default, ``local:N``, ``dask:local:N``, ``dask:tcp://host:port``; ``docs/cluster.md``): the workers
 get the frame by its hash and return rows, not the kernel runs' files (those stay in a temporary directory). Each
 finished point is appended to ``build/sweep/.points/<sweep>.jsonl``; after a failed point (reported with the command
@@ -31,21 +31,21 @@ DDR (``IMPULSE_STORE=records`` of ``make sim``); the ``design`` column names eac
 that design fits its platform (``fits``, ``fit``: the first resource that overflows; the plots draw a design that
 does not fit hollow). Both designs solve the same step (bit for bit); their cycles and resources differ.
 
-The golden model's steps are computed once per format for all iteration counts (``sim/iteration_ladder.py``: one
+The golden model's steps are computed once per format for all iteration counts (``models/golden/iteration_ladder.py``: one
 contact run with a snapshot at each count, a friction phase from each, bit-identical to separate runs), and the
 float64 steps once per schedule; a worker keeps them for the next point of the same format, so that ``--executor
 local:1`` (the default) solves each format's ladder once. The cycle model runs per (design, format, iterations):
 its cycles depend on the format's record widths and the design's streams, not on the values.
 
-The sweep also writes ``pareto.png`` and ``pareto.txt`` (``sim/pareto_front.py``): cycles per manifold-pass against
+The sweep also writes ``pareto.png`` and ``pareto.txt`` (``sim/report/pareto_front.py``): cycles per manifold-pass against
 the error from the exact reference, the fitting designs' front drawn as a line, the thesis's two designs on the
 same axes (their published cycles, our golden model's error at their format and 4 iterations), and by how much
 the front dominates them; on the thesis frame (147,485 manifolds) the two frames are of the same kind.
 
-``--frame FILE`` sweeps a saved frame (``models.frame.save``) instead of the scene's. Bad input (an unknown scene,
+``--frame FILE`` sweeps a saved frame (``models.formats.frame.save``) instead of the scene's. Bad input (an unknown scene,
 format or DMA preset, bad iteration counts, a corrupt, truncated or other-version frame file) ends the sweep with
 one line ``error: ...`` and exit status 2, and the sweep directory appears only once complete
-(``sim.report.StagedDirectory``): a failed sweep leaves nothing behind.
+(``sim.report.run_report.StagedDirectory``): a failed sweep leaves nothing behind.
 
 The csv's error columns (per dynamic body, |dv| the norm of the linear velocity difference in m/s, |dw| that of the
 angular one in rad/s, absolute, not normalised): ``*_vs_exact`` the kernel's step against the exact limit;
@@ -74,32 +74,33 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from models import cycle_model, scenes
-from models import stream_format as sf
-from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
-from models.contact_solver import SolverParams
-from models.dma_model import PRESETS, get_preset
-from models.frame import FrameError
-from models.integrator import IntegrationParams
-from models.number_format import FLOAT64
-from models.kernel_job import KernelJob
+from models import scenes
+from models.timing import cycle_model
+from models.kernel import stream_format as sf
+from models.setup.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import PRESETS, get_preset
+from models.formats.frame import FrameError
+from models.golden.integrator import IntegrationParams
+from models.formats.number_format import FLOAT64
+from models.kernel.kernel_job import KernelJob
 from models.scenes.frame_cache import FRAME_CACHE_DIR
-from models.schedule import SCHEDULE_KINDS, make_schedule
-from models.solution_error import SolutionError, solution_error
-from sim import exact_error
+from models.order.manifold_schedule import SCHEDULE_KINDS, make_schedule
+from models.exact.solution_error import SolutionError, solution_error
+from sim.compare import exact_error
 from sim.analyze import auto_format
-from sim.artefacts import FrameStore, KernelStore, frame_bytes, kernel_store_root, source_digest
-from sim.executor import ExecutorSpec, PointsFailed, Workers, parse_executor, run_points
-from sim.harness_run import KernelRunError, write_inputs
-from sim.iteration_ladder import solve_ladder
-from sim.kernel_build import KernelBuild, default_window, use_kernel_store
-from sim.kernel_step import run_kernel_step
-from sim.point_results import PointLog
-from sim.trace_compare import kernel_bodies
-from sim.report import StagedDirectory
-from sim.resource_model import FitVerdict, kernel_fit, short_verdict
-from sim.run_result import NoExactReference
-from sim.sweep_plot import series, write_plots
+from sim.compile.artefacts import FrameStore, KernelStore, frame_bytes, kernel_store_root, source_digest
+from sim.parallel.executor import ExecutorSpec, PointsFailed, Workers, parse_executor, run_points
+from sim.drive.harness_run import KernelRunError, write_inputs
+from models.golden.iteration_ladder import solve_ladder
+from sim.compile.kernel_build import KernelBuild, default_window, use_kernel_store
+from sim.drive.kernel_step import run_kernel_step
+from sim.parallel.point_results import PointLog
+from sim.compare.trace_bits import kernel_bodies
+from sim.report.run_report import StagedDirectory
+from sim.fit.resource_model import FitVerdict, kernel_fit, short_verdict
+from sim.report.run_result import NoExactReference
+from sim.report.sweep_plot import series, write_plots
 from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label, load_frame, \
     velocity_error
 
@@ -119,7 +120,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help=f"scene name ({', '.join(sorted([*scenes.SCENES, *scenes.ASSET_SCENES]))}), a world file "
                          "(.py) or a URDF file, as for sim.run")
     ap.add_argument("--scene-args", default="", help='scene parameters, e.g. "nx=20 ny=5 nz=20 friction=0.4"')
-    ap.add_argument("--frame", default="", help="a frame file (.npz, models.frame.save) to sweep instead of --scene")
+    ap.add_argument("--frame", default="", help="a frame file (.npz, models.formats.frame.save) to sweep instead of --scene")
     ap.add_argument("--formats", default="fp32,fp16,bf16",
                     help="comma-separated number formats (fp32, fp16, bf16, eXmY, auto: the analyzer's choice)")
     ap.add_argument("--iters", default=",".join(map(str, ITERATIONS)), help="comma-separated iteration counts")
@@ -131,7 +132,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                          "golden model's numbers (no Verilator)")
     ap.add_argument("--executor", default="local:1",
                     help="where the points run: local:N (N processes), dask:local:N (a Dask LocalCluster), "
-                         "dask:tcp://host:port (a Dask scheduler); sim/executor.py")
+                         "dask:tcp://host:port (a Dask scheduler); sim/parallel/executor.py")
     add_kernel_args(ap)
     ap.add_argument("--impulse-stores", default="",
                     help="comma-separated designs of the streaming kernel to sweep, each a point of its own: onchip "
@@ -161,8 +162,8 @@ ALONE_DIR = "build/sweep/alone"
 
 @dataclass(frozen=True)
 class SweepPoint:
-    """One point of the sweep (a format, an iteration count, rtl or the cycle model), run by ``sim.executor``:
-    the frame travels by its hash (``sim.artefacts.FrameStore``), the row comes back."""
+    """One point of the sweep (a format, an iteration count, rtl or the cycle model), run by ``sim.parallel.executor``:
+    the frame travels by its hash (``sim.compile.artefacts.FrameStore``), the row comes back."""
 
     frame: str  # the frame file's sha256
     source: tuple[str, ...]  # the options that name the frame: --scene/--seed or --frame
@@ -177,10 +178,10 @@ class SweepPoint:
     fetch_passes: int
     lanes: int
     body_bits: int
-    sources: str  # sim.artefacts.source_digest() when planned
+    sources: str  # sim.compile.artefacts.source_digest() when planned
     impulse_store: str = "onchip"  # the kernel's design: "onchip" or "records"
-    schedule: str = "hazard"  # the manifold order (models.schedule; the window kernel's rows: sweep)
-    # every iteration count of the sweep: the worker solves them in one ladder (sim/iteration_ladder.py) and keeps
+    schedule: str = "hazard"  # the manifold order (models.order.manifold_schedule; the window kernel's rows: sweep)
+    # every iteration count of the sweep: the worker solves them in one ladder (models/golden/iteration_ladder.py) and keeps
     # it for the other points of the format; the rows do not depend on it (bit-identical), so the key leaves it out
     ladder: tuple[int, ...] = dataclasses.field(default=(), compare=False)
     # the format's rank in the sweep (the first format highest): its points run one format after the other
@@ -201,7 +202,7 @@ class SweepPoint:
 
     @property
     def cost(self) -> float:
-        """Relative run time (``sim.executor`` starts the costliest first): the solver passes, plus a start; the
+        """Relative run time (``sim.parallel.executor`` starts the costliest first): the solver passes, plus a start; the
         format's rank first, so that a worker finishes one format's points (which share its golden ladder) before
         the next format's, and an interrupted sweep leaves whole formats done."""
         return self.rank * 1e6 + self.iterations + 1.0
@@ -321,7 +322,7 @@ def model_stream_bytes(job: KernelJob, kb: KernelBuild, run_dir: Path) -> int:
 
 
 def fit_columns(job: KernelJob, dma: str, body_bits: int = 128) -> dict[str, Any]:
-    """Whether the point's kernel fits its DMA preset's platform (sim.resource_model; "" without an estimate)."""
+    """Whether the point's kernel fits its DMA preset's platform (sim.fit.resource_model; "" without an estimate)."""
     v = kernel_fit(job, dma, body_bits)
     if isinstance(v, FitVerdict):
         return {"fits": v.fits, "fit": f"{v.headline()} ({v.shares_text()})"}

@@ -44,7 +44,7 @@ import numpy as np
 from cocotb.triggers import ClockCycles, Event, RisingEdge
 from cocotbext.axi import Region
 
-from models.dma_model import DmaPreset
+from models.timing.platforms import DmaPreset
 
 from cocotb_tests.tb.axis_words import AxisWordSink, AxisWordSource, Gate
 from cocotb_tests.tb.burst_streams import BurstSink, BurstSource

@@ -1,6 +1,6 @@
 """Bad input to the kernel: steps whose streams break the rules, and what the kernel must do with them.
 
-The cases are catalogued in ``models/bad_input.py`` (name, error code, response); the kernel's documented
+The cases are catalogued in ``models/kernel/bad_input.py`` (name, error code, response); the kernel's documented
 response (``rtl/README.md``, "Bad input") is modelled here on top of the golden model:
 
 * a body-in record with a non-finite word or a negative inverse mass / inertia, or cut short, makes a *frozen*
@@ -11,7 +11,7 @@ response (``rtl/README.md``, "Bad input") is modelled here on top of the golden 
   the step; so are the slots a pass is missing (TLAST early) and a record cut short by TLAST.
 
 The golden model then solves the step with every rejected manifold-pass left out (the passes run one by one
-over the slots still accepted, :func:`models.contact_solver.run_pass`), frozen bodies static, and integrates:
+over the slots still accepted, :func:`models.golden.contact_solver.run_pass`), frozen bodies static, and integrates:
 its trace (slots numbered as in the stream), body-out stream, issued and rejected counts are what the kernel
 must produce, bit for bit. :class:`StepBuilder` makes such steps from one good job; :func:`save_steps` /
 :func:`load_steps` carry a scenario (a list of steps run one after the other without a reset) to the cocotb
@@ -28,11 +28,11 @@ from typing import Any, Optional
 
 import numpy as np
 
-from models import stream_format as sf
-from models.constraints import BodyTable, ConstraintSet
-from models.contact_solver import CONTACT_PASS, Impulses, PassRecord, pass_sequence, run_pass, schedule_levels
-from models.integrator import integrate
-from models.kernel_job import KernelJob
+from models.kernel import stream_format as sf
+from models.setup.constraints import BodyTable, ConstraintSet
+from models.golden.contact_solver import CONTACT_PASS, Impulses, PassRecord, pass_sequence, run_pass, schedule_levels
+from models.golden.integrator import integrate
+from models.kernel.kernel_job import KernelJob
 
 from cocotb_tests.tb.scoreboard import ExpectedTrace, expected_trace
 

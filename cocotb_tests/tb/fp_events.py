@@ -4,7 +4,7 @@ The kernel counts the overflow, underflow and invalid (NaN) flags of every opera
 datapaths, for every issued manifold-pass and every dynamic body's integration (``rtl/README.md``). The
 prediction evaluates the datapaths' graphs (``rtl/gen``, the software twin of the generated RTL, proven equal
 to the golden model by ``test_kernel_pipes.py``) with a counting format on the inputs each issued manifold-pass
-and each body really sees in the golden step (``models.kernel_vectors.scene_vectors`` in the job's schedule order), the
+and each body really sees in the golden step (``models.kernel.kernel_vectors.scene_vectors`` in the job's schedule order), the
 contact and friction graphs in the inverse-inertia mode of the job's kernel build (``KernelJob.inertia_words``),
 the friction graph with the coefficient word where the build has it (``KernelJob.friction_words``).
 """
@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.kernel_vectors import scene_vectors
-from models.number_format import FpEvents
+from models.kernel.kernel_vectors import scene_vectors
+from models.formats.number_format import FpEvents
 from rtl.gen.kernel_graphs import GRAPHS, contact_graph, friction_graph
-from models.kernel_job import KernelJob
+from models.kernel.kernel_job import KernelJob
 
 
 def predicted_events(job: KernelJob) -> FpEvents:

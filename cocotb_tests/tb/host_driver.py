@@ -3,7 +3,7 @@
 :class:`KernelHost` owns the DDR model (cocotbext-axi ``SparseMemoryRegion``), the DMA engines
 (``tb.axi_dma``) that feed ``s_axis_cons`` (the preset's channels), ``s_axis_body`` and drain ``m_axis_body``
 (one 128-bit engine), and an ``AxiLiteMaster`` on ``s_axi_control``. :meth:`run_step` writes exactly the
-packed streams of ``models/stream_format.py`` into DDR, arms S2MM, programs the kernel's arguments, starts it,
+packed streams of ``models/kernel/stream_format.py`` into DDR, arms S2MM, programs the kernel's arguments, starts it,
 issues one MM2S transfer per pass on the constraint engines (each pass ends with TLAST), waits for ap_done
 with a cycle timeout, and returns the body-out bytes read back from DDR with the kernel's status and counter
 registers. :meth:`begin_step` / :meth:`finish_step` are its two halves (something can happen in between, e.g.
@@ -27,13 +27,13 @@ from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, First, RisingEdge, Timer
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster, SparseMemoryRegion
 
-from models import register_map as rm
-from models.dma_model import DmaPreset
-from models.number_format import NumberFormat
+from models.kernel import register_map as rm
+from models.timing.platforms import DmaPreset
+from models.formats.number_format import NumberFormat
 
 from cocotb_tests.tb.axi_dma import AxiDmaEngine, BurstDmaStreamPort, DdrBandwidth, DmaStreamPort, split_lanes
 
-# the kernel's registers (models/register_map.py)
+# the kernel's registers (models/kernel/register_map.py)
 AP_CTRL, GIE, IER, ISR = (rm.OFFSET[n] for n in ("ap_ctrl", "gie", "ier", "isr"))
 ARGS = {name: rm.OFFSET[name] for name in rm.ARG_NAMES}
 STATUS, CYCLES_LO, CYCLES_HI, STALLS, BUBBLES, ISSUED = (rm.OFFSET[n] for n in ("status", "cycles_lo", "cycles_hi",

@@ -19,10 +19,10 @@ from typing import Any, Callable, Optional
 import numpy as np
 from cocotb.triggers import RisingEdge
 
-from models.contact_solver import CONTACT_PASS, PassRecord
-from models.number_format import NumberFormat
-from models.stream_format import trace_record_bytes
-from sim.trace_compare import read_trace
+from models.golden.contact_solver import CONTACT_PASS, PassRecord
+from models.formats.number_format import NumberFormat
+from models.kernel.stream_format import trace_record_bytes
+from sim.compare.trace_bits import read_trace
 
 FIELDS = ["impulse0", "impulse1", "impulse2", "impulse3", "vA.x", "vA.y", "vA.z", "wA.x", "wA.y", "wA.z",
           "vB.x", "vB.y", "vB.z", "wB.x", "wB.y", "wB.z"]
@@ -113,7 +113,7 @@ class TraceScoreboard:
 
 
 class _RawTrace:
-    """Trace records already in memory, read by ``sim.trace_compare.read_trace`` as if from a ``trace.bin``."""
+    """Trace records already in memory, read by ``sim.compare.trace_bits.read_trace`` as if from a ``trace.bin``."""
 
     def __init__(self, raw: bytes):
         self.raw = raw

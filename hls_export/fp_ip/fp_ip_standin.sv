@@ -3,7 +3,7 @@
 // co-simulating the export with Verilator (hls_export/README.md, "Floating-point stand-ins").
 //
 // Same ports as the IP configured by Vitis HLS (NonBlocking flow control, aclken, no aresetn, no tready, no
-// tuser / tlast). The arithmetic is the matching rtl/fp operator, bit-exact with models/number_format.py (not
+// tuser / tlast). The arithmetic is the matching rtl/fp operator, bit-exact with models/formats/number_format.py (not
 // Xilinx's rounding: subnormals flush to zero, canonical NaN), so the co-simulation checks the HLS schedule and
 // control, not the IP's numerics:
 //   OPERATION "add"  fp_add (sub = 0)      "sub"  fp_add (sub = 1)     "mul" fp_mul

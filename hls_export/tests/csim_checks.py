@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from hls_export.csim import CsimResult
-from models.kernel_job import KernelJob
+from models.kernel.kernel_job import KernelJob
 
 
 def assert_bit_exact(res: CsimResult, job: KernelJob, label: str, detail: str = "") -> None:

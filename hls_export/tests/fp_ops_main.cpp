@@ -1,5 +1,5 @@
 // fp_ops_main.cpp: applies the HLS kernel's binary32 operations (hls_export/pgs_fp.h) to vectors, for
-// hls_export/tests/test_fp_ops.py, which compares the results with models/number_format.py.
+// hls_export/tests/test_fp_ops.py, which compares the results with models/formats/number_format.py.
 // Usage: fp_ops IN OUT. IN: uint32 LE triples {op, a bits, b bits}; OUT: one uint32 LE result per triple.
 // op: 0 add, 1 sub, 2 mul, 3 div, 4 sqrt (of a), 5 minimum, 6 maximum. Operands are read with from_bits
 // (subnormals as signed zeros) and results written with to_bits (canonical NaN).

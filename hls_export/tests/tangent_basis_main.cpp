@@ -1,6 +1,6 @@
 // tangent_basis_main.cpp: the HLS kernel's tangent basis (hls_export/pgs_solver.h plane_space, the friction pass of
 // the build with PGS_TANGENTS_ON_CHIP = 1) of normals from a file, for hls_export/tests/test_csim_tangents.py, which
-// compares the results with models/tangent_basis.py plane_space_in bit for bit.
+// compares the results with models/setup/tangent_basis.py plane_space_in bit for bit.
 // Usage: tangent_basis IN OUT. IN: uint32 LE triples, a normal's n_x, n_y, n_z words of the format
 // (PGS_EXP_BITS / PGS_MAN_BITS); OUT: six uint32 LE words per normal, t0 xyz then t1 xyz. Words are read with
 // from_bits (subnormals as signed zeros) and written with to_bits (canonical NaN).

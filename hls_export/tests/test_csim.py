@@ -1,11 +1,11 @@
 """C simulation of the HLS kernel (hls_export/pgs_kernel.cpp, g++ with the local shims) against the golden model,
-bit for bit, through the RTL harness's own file interface and comparison code (sim/harness_run.py,
-sim/trace_compare.py): every trace record (one per retired manifold-pass, in retire order) and the body-out
+bit for bit, through the RTL harness's own file interface and comparison code (sim/drive/harness_run.py,
+sim/compare/trace_bits.py): every trace record (one per retired manifold-pass, in retire order) and the body-out
 stream, binary32, 4 iterations, on the
 stack, the incline and a 4x3x4 pile, in the hazard and the pybullet schedules; plus the status and issued
 outputs and the stream accounting (no beat left over, none read from an empty stream); the interleaved pass
 order; and the status register's error codes 3 (bad argument) and 1 (constraint TLAST). At extremes: every real word of
-the pile's step drawn over its format's whole range (``models.extreme_stimulus``, seed printed, SEED= overrides),
+the pile's step drawn over its format's whole range (``models.kernel.extreme_stimulus``, seed printed, SEED= overrides),
 binary32 and binary16, bit for bit through thousands of overflows, NaNs and flushed results. (The records designs
 are not run at extremes: their impulses turn non-finite, and the C++ does not follow the RTL's rejection of such
 records, error 5; see hls_export/README.md.)
@@ -35,20 +35,20 @@ from hls_export.csim import (RECORDS_FORMATS, RECORDS_SCENES, SCENES, SCHEDULES,
                              run_csim_step, run_written_step, scene_job, warm_start)
 from hls_export.tests.csim_checks import assert_bit_exact
 from models import scenes
-from models import stream_format as sf
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.extreme_stimulus import extreme_magnitudes
-from models.format_analyzer import inertia_mode_of
-from models.kernel_job import KernelJob
+from models.kernel import stream_format as sf
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.kernel.extreme_stimulus import extreme_magnitudes
+from models.sizing.format_analyzer import inertia_mode_of
+from models.kernel.kernel_job import KernelJob
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from models.number_format import FP16, FP32
-from models.register_map import OFFSET
-from sim.harness_run import run_harness, write_inputs
-from sim.kernel_build import KernelBuild, default_window
-from sim.kernel_step import golden_step
-from sim.trace_compare import Comparison, compare_impulse_out
-from sim.verilator_build import REPO_ROOT
+from models.formats.number_format import FP16, FP32
+from models.kernel.register_map import OFFSET
+from sim.drive.harness_run import run_harness, write_inputs
+from sim.compile.kernel_build import KernelBuild, default_window
+from sim.drive.kernel_step import golden_step
+from sim.compare.trace_bits import Comparison, compare_impulse_out
+from sim.compile.verilator_build import REPO_ROOT
 
 KB = KernelBuild(FP32)
 ROTATED_WORLD = str(REPO_ROOT / "docs" / "rotated_boxes_world.py")  # rotated non-cube boxes, Bullet 2's convention

@@ -1,5 +1,5 @@
 """C simulation of the HLS kernel's records design (PGS_IMPULSES_IN_RECORDS=1) on shock propagation steps
-(models/shock_propagation.py, ``KernelJob.shocked``): in a shock pass each manifold row may have one body frozen,
+(models/golden/shock_propagation.py, ``KernelJob.shocked``): in a shock pass each manifold row may have one body frozen,
 marked in its record's header (bit 60 frozen A, bit 61 frozen B, bit 62 linear; body_b in bits 59:32), and the kernel
 takes the frozen body as a static one for that row (inverse mass and inertia +0, its velocities not written back) and
 a linear row's bodies without inverse inertia and without spin damping (pgs_kernel.cpp shock_row, pgs_solver.h
@@ -30,10 +30,10 @@ import pytest
 from hls_export.csim import (RECORDS_FORMATS, RECORDS_SCENES, SHOCKS, build_csim, records_build, run_csim_step,
                              scene_job, shock_job)
 from hls_export.tests.csim_checks import assert_bit_exact
-from models.number_format import FP32
-from models.shock_propagation import FREEZE_NONE
-from sim.kernel_build import KernelBuild, default_window
-from sim.kernel_step import golden_step
+from models.formats.number_format import FP32
+from models.golden.shock_propagation import FREEZE_NONE
+from sim.compile.kernel_build import KernelBuild, default_window
+from sim.drive.kernel_step import golden_step
 
 
 @pytest.mark.parametrize("iterations", [1, 4])

@@ -1,8 +1,8 @@
 """C simulation of the HLS kernel's records design with the tangent basis derived on chip (PGS_TANGENTS_ON_CHIP=1
 with PGS_IMPULSES_IN_RECORDS=1, the RTL's TANGENTS_ON_CHIP): the friction record carries no t0, t1 (n, c,
 f_jac_inv, then lam[0..3], lamT[0..1]: the word offsets of generated/pgs_stream_layout.h, from
-models/stream_format.py), and the friction pass derives them from n in the format (pgs_solver.h plane_space,
-models/tangent_basis.py plane_space_in operation for operation). Against the golden model of
+models/kernel/stream_format.py), and the friction pass derives them from n in the format (pgs_solver.h plane_space,
+models/setup/tangent_basis.py plane_space_in operation for operation). Against the golden model of
 ``KernelJob.tangents_derived()`` bit for bit in the trace, the body-out stream and the impulse-out records: binary16
 and binary32 on the pile and the stack, cold and warm-started (random initial impulses, seed printed, SEED=
 overrides).
@@ -31,13 +31,13 @@ import pytest
 from hls_export.csim import (BUILD_ROOT, CXXFLAGS, HLS_DIR, RECORDS_FORMATS, RECORDS_SCENES, SOURCES, build_csim,
                              compile_cpp, records_build, run_csim_step, run_written_step, scene_job, warm_start)
 from hls_export.tests.csim_checks import assert_bit_exact
-from models.kernel_job import KernelJob
-from models.number_format import FP16, FP32, NumberFormat
-from models.tangent_basis import PLANE_SPACE_SPLIT, plane_space_in
-from sim.harness_run import write_inputs
-from sim.kernel_build import KernelBuild, default_window
-from sim.kernel_step import golden_step
-from sim.trace_compare import Comparison, compare_impulse_out, compare_trace, read_trace
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP16, FP32, NumberFormat
+from models.setup.tangent_basis import PLANE_SPACE_SPLIT, plane_space_in
+from sim.drive.harness_run import write_inputs
+from sim.compile.kernel_build import KernelBuild, default_window
+from sim.drive.kernel_step import golden_step
+from sim.compare.trace_bits import Comparison, compare_impulse_out, compare_trace, read_trace
 
 
 def _seed() -> int:

@@ -5,7 +5,7 @@ each slot's impulses from pass to pass, the fetch's last pass writing them to m_
 record), which the testbench's DMA writes to the impulse buffer the next fetch's records are read with.
 
 Against the golden model bit for bit in the trace (sorted into the sequential order), the body-out stream and the
-impulse-out records (``sim.trace_compare``): fp32 with one lane and fp16 with two (the RTL's fitting designs), on the
+impulse-out records (``sim.compare.trace_bits``): fp32 with one lane and fp16 with two (the RTL's fitting designs), on the
 pile and the stack in the hazard order, cold and warm-started (random initial impulses, seed printed, SEED=
 overrides), 4 and 2 passes per fetch; the sweep order (a banded order: a small lag, many empty lanes); a ring
 smaller than a fetch (the records wrap around it); four lanes (fp16); the kinds interleaved (1 pass per fetch). The argument check: fetches that would serve contact and friction
@@ -32,15 +32,15 @@ from hls_export.csim import (CXXFLAGS, HLS_DIR, SOURCES, WINDOW_LANES, build_csi
                              impulse_out_records, run_csim_step, run_written_step, warm_start, window_build,
                              window_job)
 from hls_export.tests.csim_checks import assert_bit_exact
-from models.dma_model import get_preset
-from models.kernel_job import KernelJob
-from models.number_format import FP16, FP32
-from models.register_map import OFFSET
-from models.schedule import band_width
-from sim.harness_run import run_harness, write_inputs
-from sim.kernel_build import KernelBuild
-from sim.kernel_step import golden_step
-from sim.trace_compare import Comparison, compare_body_out, compare_impulse_out, compare_trace, read_trace
+from models.timing.platforms import get_preset
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP16, FP32
+from models.kernel.register_map import OFFSET
+from models.order.manifold_schedule import band_width
+from sim.drive.harness_run import run_harness, write_inputs
+from sim.compile.kernel_build import KernelBuild
+from sim.drive.kernel_step import golden_step
+from sim.compare.trace_bits import Comparison, compare_body_out, compare_impulse_out, compare_trace, read_trace
 
 DESIGNS = {"fp32-1lane": (FP32, 1), "fp16-2lanes": (FP16, 2)}
 assert all(WINDOW_LANES[fmt.name] == lanes for fmt, lanes in DESIGNS.values())

@@ -3,11 +3,11 @@
 ``test_standins_simulated`` builds ``fp_ip_standins_tb.sv`` (one stand-in per operation behind an HLS
 wrapper's input buffer, C_LATENCY above the rtl/fp latencies, and equal to it on one channel) with Verilator
 for binary32 and binary16 and drives it from ``fp_ip_standins_main.cpp``: every special pair of
-``sim.fp_operator_vectors.special_values``, its ``directed_pairs`` and random bit patterns, one vector
+``sim.drive.fp_operator_vectors.special_values``, its ``directed_pairs`` and random bit patterns, one vector
 per enabled cycle (3 % idle), ``aclken`` = 0 on 30 % of the cycles (seeded: ``SEED=<int>`` overrides, printed).
 The driver checks that each result leaves exactly C_LATENCY enabled cycles after its operands, that nothing
 moves on a disabled cycle, and that no stray tvalid appears; this test checks every result bit for bit
-against ``sim.fp_operator_vectors.golden`` (models/number_format.py), the compare for all 8 predicate codes.
+against ``sim.drive.fp_operator_vectors.golden`` (models/formats/number_format.py), the compare for all 8 predicate codes.
 ``test_too_short_latency_fails*`` check the elaboration error (and, built with -Wno-fatal, the same message
 from the simulation at time 0); ``test_generator_*`` run
 ``hls_export/fp_ip/standins.py`` on a small hand-written fake export (no real export exists here) and lint the
@@ -25,9 +25,9 @@ import numpy as np
 import pytest
 
 from hls_export.fp_ip.standins import StandinError, find_ip_cores, standin_sources, write_standins
-from models.number_format import FP16, FP32, NumberFormat
-from sim import fp_operator_vectors as fpv
-from sim.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT, build, ensure_verilator_env, rtl_sources
+from models.formats.number_format import FP16, FP32, NumberFormat
+from sim.drive import fp_operator_vectors as fpv
+from sim.compile.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT, build, ensure_verilator_env, rtl_sources
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_SEED = 20250708

@@ -1,5 +1,5 @@
 """The HLS kernel's binary32 operations (hls_export/pgs_fp.h, as C simulation compiles them) against the golden
-arithmetic of models/number_format.py, bit for bit: every pair of special operands, random bit patterns, ordinary
+arithmetic of models/formats/number_format.py, bit for bit: every pair of special operands, random bit patterns, ordinary
 magnitudes, and products whose exact value lies in the flush window just below the smallest normal number (where
 the host's own float arithmetic, with gradual underflow, rounds to 2^-126 and the golden flushes to zero).
 """
@@ -15,7 +15,7 @@ import numpy as np
 from hls_export.csim import BUILD_ROOT, HLS_DIR, compile_cpp
 import pytest
 
-from models.number_format import BF16, FP16, FP32, NumberFormat
+from models.formats.number_format import BF16, FP16, FP32, NumberFormat
 
 OPS = ("add", "sub", "mul", "div", "sqrt", "min", "max")
 MIN_NORMAL = 2.0**-126
@@ -106,7 +106,7 @@ def _specials(fmt: NumberFormat) -> np.ndarray:
 def test_fp_ops_other_formats_match_golden(fmt: NumberFormat, tmp_path: Path) -> None:
     """The C simulation's other formats (PGS_EXP_BITS / PGS_MAN_BITS: the values held in a float, every result
     rounded to the format): every pair of special operands, random bit patterns and ordinary magnitudes, bit for bit
-    against models/number_format.py."""
+    against models/formats/number_format.py."""
     exe = compile_cpp([HLS_DIR / "tests" / "fp_ops_main.cpp"], BUILD_ROOT / f"fp_ops_{fmt.name}" / "fp_ops",
                       [f"-DPGS_EXP_BITS={fmt.exp_bits}", f"-DPGS_MAN_BITS={fmt.man_bits}"])
     seed = int(os.environ.get("SEED", "8"))

@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from models.frame import FRAME_VERSION, Frame, FrameError, load, save
+from models.formats.frame import FRAME_VERSION, Frame, FrameError, load, save
 from models.scenes.scene_args import split_scene_args
 from models.scenes.specs import DEFAULT_CAPTURE_STEP, make_spec
 from models.scenes.user_world import WorldFileSource, is_world_scene, scene_label

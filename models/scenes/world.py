@@ -3,10 +3,10 @@
 A world comes from a source (``models.scenes.world_source``): a built-in box scene (:class:`SpecSource`,
 ``models.scenes.specs``) or a file world (``models.scenes.user_world``: a Python world file, a URDF, an asset
 scene). Every body is created with ``useMaximalCoordinates=True`` (a btRigidBody, so that pybullet runs Bullet
-2's ``btSequentialImpulseConstraintSolver`` rows, see ``models/bullet2_solver.py``): frame body index i is the
+2's ``btSequentialImpulseConstraintSolver`` rows, see ``models/golden/bullet2_solver.py``): frame body index i is the
 i-th body created and ``SceneWorld.body_ids[i]`` its pybullet unique id. Gravity is (0, -9.8, 0) unless a world
 file sets another. Mass, inertia diagonal and lateral friction come from ``getDynamicsInfo``
-(``models.frame``'s body contract).
+(``models.formats.frame``'s body contract).
 
 Friction: pybullet combines the two bodies' lateral friction as the product muA*muB, so in a built-in scene every
 body is given ``sqrt(friction)`` (``Frame.friction``) and a pair gets ``sqrt(f)*sqrt(f)`` (= f to one rounding);
@@ -33,8 +33,8 @@ from typing import Any
 import numpy as np
 import pybullet as p
 
-from models.bullet_profile import profiled_step
-from models.frame import Frame, validate
+from models.scenes.bullet_profile import profiled_step
+from models.formats.frame import Frame, validate
 from models.scenes.contact_capture import FrameBodies, Manifolds, query_plan, read_manifolds
 from models.scenes.world_source import Population, WorldSource
 from models.scenes.specs import DEFAULT_CAPTURE_STEP, SceneError, SceneSpec, float_param, int_param, make_spec
@@ -42,7 +42,7 @@ from models.scenes.user_world import is_world_scene, scene_label, world_source
 
 GRAVITY = (0.0, -9.8, 0.0)
 DEFAULT_DT = 1.0 / 60.0
-# pybullet settings the Bullet 2 reference solver (models/bullet2_solver.py) needs; recorded in the metadata.
+# pybullet settings the Bullet 2 reference solver (models/golden/bullet2_solver.py) needs; recorded in the metadata.
 CONTACT_ERP = 0.08
 CONTACT_SLOP = 1e-5
 SPLIT_IMPULSE = 1

@@ -1,10 +1,10 @@
-"""The bad-input catalogue (models/bad_input.py): one entry per case, each with the status word its error code
-makes (models/register_map.py) and made by at least one of the two places that run bad input."""
+"""The bad-input catalogue (models/kernel/bad_input.py): one entry per case, each with the status word its error code
+makes (models/kernel/register_map.py) and made by at least one of the two places that run bad input."""
 
 from __future__ import annotations
 
-from models.bad_input import CASES, CATALOGUE
-from models.register_map import ErrorCode, first_error, status_codes
+from models.kernel.bad_input import CASES, CATALOGUE
+from models.kernel.register_map import ErrorCode, first_error, status_codes
 
 
 def test_cases_are_named_once_and_made_somewhere() -> None:

@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models import onchip_budget as ob
+from models.sizing import onchip_budget as ob
 from models import scenes
-from models.constraints import ConstraintSet, body_table, setup_constraints
-from models.number_format import FP16, FP32
-from models.schedule import (BANDED_ORDERS, SCHEDULE_KINDS, band_width, banded_order, body_spans, hazard_distances,
+from models.setup.constraints import ConstraintSet, body_table, setup_constraints
+from models.formats.number_format import FP16, FP32
+from models.order.manifold_schedule import (BANDED_ORDERS, SCHEDULE_KINDS, band_width, banded_order, body_spans, hazard_distances,
                              hazard_order, make_schedule, pybullet_order, rcm_order, stats)
 
 
@@ -158,7 +158,7 @@ def test_budget_by_hand() -> None:
 
 def test_floors_by_hand() -> None:
     """zcu102 (16 GB/s DDR at 275 MHz: 58.18 B/cycle), fp32, 1,000 manifolds, 10 bodies, 4 iterations."""
-    from models.stream_format import StreamLayout
+    from models.kernel.stream_format import StreamLayout
 
     p = ob.get_platform("zcu102")
     lay = StreamLayout(FP32)

@@ -1,4 +1,4 @@
-"""The banked body velocities (models/body_banks.py): the port rule, which builds use the banks, and the cycle
+"""The banked body velocities (models/kernel/body_banks.py): the port rule, which builds use the banks, and the cycle
 model's stall when a bank is busy (the RTL side: cocotb_tests/test_kernel_body_banks.py)."""
 
 from __future__ import annotations
@@ -8,14 +8,15 @@ import dataclasses
 import numpy as np
 import pytest
 
-from models import cycle_model, scenes
-from models.body_banks import WINDOW_BANKS, RECORDS_BANKS, busy, check_banks, default_body_banks
-from models.constraints import BodyTable
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.kernel_job import KernelJob
-from models.kernel_shape import DmaTiming, KernelShape, StepShape
-from models.number_format import FP16, FP32
+from models import scenes
+from models.timing import cycle_model
+from models.kernel.body_banks import WINDOW_BANKS, RECORDS_BANKS, busy, check_banks, default_body_banks
+from models.setup.constraints import BodyTable
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.kernel.kernel_job import KernelJob
+from models.timing.kernel_shape import DmaTiming, KernelShape, StepShape
+from models.formats.number_format import FP16, FP32
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 
 PRESET = get_preset("zcu102")

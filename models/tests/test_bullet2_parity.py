@@ -12,12 +12,12 @@ import pytest
 import pybullet as p
 
 from models import scenes
-from models.bullet2_solver import (SolverSettings, compare_with_pybullet, plane_space, quat_to_matrix, solve_frame,
+from models.golden.bullet2_solver import (SolverSettings, compare_with_pybullet, plane_space, quat_to_matrix, solve_frame,
                                    solver_order)
-from models.constraints import body_table, setup_constraints
-from models.format_analyzer import friction_words_of, inertia_mode_of
-from models.frame import Frame
-from models.inertia import InertiaMode
+from models.setup.constraints import body_table, setup_constraints
+from models.sizing.format_analyzer import friction_words_of, inertia_mode_of
+from models.formats.frame import Frame
+from models.setup.inertia import InertiaMode
 from models.scenes.specs import BoxSpec, SceneSpec
 from models.scenes.world import SpecSource
 

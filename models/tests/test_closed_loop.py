@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.closed_loop import run_closed_loop
+from models.closed_loop.loop import run_closed_loop
 
 G_DT = 9.8 / 60.0
 
@@ -40,7 +40,7 @@ def test_thesis_geometry_interior_rests() -> None:
 
 
 def _recording_stepper(seen: list[tuple[np.ndarray, np.ndarray]]):  # noqa: ANN202 (a StepperFactory)
-    from models.closed_loop import golden_stepper
+    from models.closed_loop.loop import golden_stepper
 
     def factory(ar, solver, ip):  # noqa: ANN001, ANN202
         step = golden_stepper(ar, solver, ip)
@@ -55,8 +55,8 @@ def _recording_stepper(seen: list[tuple[np.ndarray, np.ndarray]]):  # noqa: ANN2
 def test_bullet2_convention_recomputes_the_inertia_every_step_and_bullet_gpu_freezes_it() -> None:
     """A thin box spinning on a slope: in the bullet2 convention each step's inverse inertia is R diag R^T of that
     step's orientation (the full 3x3); in the bullet_gpu convention it stays the one of the first state."""
-    from models.inertia import BulletConvention, convention_inverse_inertia
-    from models.number_format import FP32
+    from models.setup.inertia import BulletConvention, convention_inverse_inertia
+    from models.formats.number_format import FP32
     from models.scenes import build_world
 
     kw = dict(angle_deg=10.0, box_half_extents=(0.8, 0.1, 0.3))

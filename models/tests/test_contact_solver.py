@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from models import scenes
-from models.constraints import body_table, gpu_inverse_inertia, setup_constraints
-from models.contact_solver import SolverParams, solve, solve_sequential
-from models.integrator import IntegrationParams, cos_poly, integrate, sin_poly
-from models.number_format import BF16, FLOAT64, FP16, FP32
-from models.schedule import make_schedule
+from models.setup.constraints import body_table, gpu_inverse_inertia, setup_constraints
+from models.golden.contact_solver import SolverParams, solve, solve_sequential
+from models.golden.integrator import IntegrationParams, cos_poly, integrate, sin_poly
+from models.formats.number_format import BF16, FLOAT64, FP16, FP32
+from models.order.manifold_schedule import make_schedule
 
 FIELDS = ("linear_velocity", "angular_velocity")
 

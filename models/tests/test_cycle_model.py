@@ -1,4 +1,4 @@
-"""The kernel's cycle model (models/cycle_model.py, its timing structure models/kernel_shape.py) on hand-derived
+"""The kernel's cycle model (models/timing/cycle_model.py, its timing structure models/timing/kernel_shape.py) on hand-derived
 timelines; the RTL comparison is in cocotb_tests/test_pgs_kernel.py (test_kernel_cycles_match_model)."""
 
 from __future__ import annotations
@@ -8,11 +8,11 @@ import time
 import numpy as np
 import pytest
 
-from models import cycle_model as cm
-from models import kernel_shape as ks
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.number_format import BF16, FP16, FP32, NumberFormat
+from models.timing import cycle_model as cm
+from models.timing import kernel_shape as ks
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.formats.number_format import BF16, FP16, FP32, NumberFormat
 
 FP32_C512 = ks.KernelShape.of(FP32, 512)
 IDEAL, ZCU102 = ks.DmaTiming.of(get_preset("ideal")), ks.DmaTiming.of(get_preset("zcu102"))

@@ -2,7 +2,7 @@
 
 import pytest
 
-from models.dma_model import PRESETS, get_preset
+from models.timing.platforms import PRESETS, get_preset
 
 
 def test_zcu102_is_ddr_bound() -> None:

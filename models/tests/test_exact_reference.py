@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 
 from models import scenes
-from models.constraints import body_table, setup_constraints
-from models.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, run_pass, schedule_levels, solve
-from models.exact_reference import Budget, ExactReferenceError, exact_reference
-from models.exact_reference_cache import cache_key, cached_exact_reference
-from models.number_format import FLOAT64
-from models.schedule import make_schedule
-from models.solution_error import solution_error
+from models.setup.constraints import body_table, setup_constraints
+from models.golden.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, run_pass, schedule_levels, solve
+from models.exact.reference import Budget, ExactReferenceError, exact_reference
+from models.exact.cache import cache_key, cached_exact_reference
+from models.formats.number_format import FLOAT64
+from models.order.manifold_schedule import make_schedule
+from models.exact.solution_error import solution_error
 
 # one pass from the exact state moves no velocity by more than this (m/s, rad/s); measured: 1e-14 on the pile
 FIXED_POINT_TOLERANCE = 1e-9
@@ -151,7 +151,7 @@ def test_solution_error_metrics(pile) -> None:
 
 def test_contact_phase_bound_holds_and_vanishes_at_the_limit(pile) -> None:
     """The certificate bounds the true distance of a PGS iterate and is small at the exact contact state."""
-    from models.exact_bound import contact_phase_bound
+    from models.exact.bound import contact_phase_bound
 
     bodies, cons, schedule, ref = pile
     at_limit = contact_phase_bound(bodies, cons, ref.impulses.normal)
@@ -170,7 +170,7 @@ def test_contact_phase_bound_holds_and_vanishes_at_the_limit(pile) -> None:
 
 def test_bounded_solve_enforces_the_budget_from_outside(pile, monkeypatch: pytest.MonkeyPatch) -> None:
     """The bounded solve returns the same reference, and stops a solve that outlasts its time or memory budget."""
-    from models import exact_reference as er
+    from models.exact import reference as er
 
     bodies, cons, _, ref = pile
     got = er.exact_reference_bounded(bodies, cons)
@@ -198,9 +198,9 @@ def test_large_island_path_reaches_the_direct_reference_and_certifies_it(pile, m
     pile (forced onto that path) it agrees with Clarabel's dual solve, is a fixed point of both passes, its
     certificate bounds the true distance, and a solve stopped early is refused (its certificate exceeds what is
     accepted)."""
-    from models import body_space_ipm
-    from models import exact_reference as er
-    from models import exact_reference_large_island as li
+    from models.exact import body_space_ipm
+    from models.exact import reference as er
+    from models.exact import large_island as li
 
     bodies, cons, schedule, ref = pile
     monkeypatch.setattr(er, "DIRECT_ROWS_LIMIT", 0)
@@ -225,7 +225,7 @@ def test_large_island_path_reaches_the_direct_reference_and_certifies_it(pile, m
 def test_body_space_path_agrees_with_clarabel_on_the_stack(monkeypatch: pytest.MonkeyPatch) -> None:
     """The stack (one column of cubes, every manifold spin-damped) through the body-space interior point: the same
     exact state as Clarabel's dual QPs, a fixed point of both passes."""
-    from models import exact_reference as er
+    from models.exact import reference as er
 
     frame = scenes.capture_frame("stack")
     bodies = body_table(frame)
@@ -246,8 +246,8 @@ def test_body_space_path_agrees_with_clarabel_on_the_stack(monkeypatch: pytest.M
 def test_body_space_time_budget_gives_no_reference(pile, monkeypatch: pytest.MonkeyPatch) -> None:
     """A large island's interior point that runs out of time gives ExactReferenceError (rendered "no exact
     reference (reason)"), not a number."""
-    from models import exact_reference as er
-    from models import exact_reference_large_island as li
+    from models.exact import reference as er
+    from models.exact import large_island as li
 
     bodies, cons, _, _ = pile
     monkeypatch.setattr(er, "DIRECT_ROWS_LIMIT", 0)
@@ -258,7 +258,7 @@ def test_body_space_time_budget_gives_no_reference(pile, monkeypatch: pytest.Mon
 
 def test_mprgp_solves_a_small_box_qp() -> None:
     """MPRGP against the optimality conditions of a random box QP with a singular Hessian."""
-    from models.mprgp import mprgp
+    from models.exact.mprgp import mprgp
 
     rng = np.random.default_rng(3)
     B = rng.standard_normal((12, 20))
@@ -281,8 +281,8 @@ def test_a_solve_killed_from_outside_is_reported_and_not_recorded(pile, tmp_path
     import os
     import signal
 
-    from models import exact_reference as er
-    from models import exact_reference_cache as erc
+    from models.exact import reference as er
+    from models.exact import cache as erc
 
     bodies, cons, _, _ = pile
 
@@ -305,8 +305,8 @@ def test_a_solve_killed_from_outside_is_reported_and_not_recorded(pile, tmp_path
 def test_contact_phase_bound_from_a_primal_point(pile) -> None:
     """The bound from a primal point (the interior point's path) holds for perturbed impulses and primal points, and
     is far tighter than the bound from u(lam) alone when the primal point is the exact one."""
-    from models.exact_bound import contact_phase_bound
-    from models.exact_reference_assembly import Layout, contact_rows
+    from models.exact.bound import contact_phase_bound
+    from models.exact.assembly import Layout, contact_rows
 
     bodies, cons, _, ref = pile
     layout = Layout(bodies)
@@ -354,9 +354,9 @@ def _distance(a, b) -> float:
 def test_full_inverse_inertia_reference_is_the_passes_limit(mixed_shapes, monkeypatch: pytest.MonkeyPatch) -> None:
     """Full 3x3 inverse inertia: the reference is a fixed point of one pass of each kind, and the friction passes
     from its contact state reach it (the damping moves w along n, so the limit is the non-symmetric box problem's
-    solution, models/exact_reference_damped_friction.py); the convex QP that damps along I^-1 n is a fixed point of
+    solution, models/exact/damped_friction.py); the convex QP that damps along I^-1 n is a fixed point of
     one pass too, but not what the passes reach: the check can fail."""
-    from models import exact_reference as er
+    from models.exact import reference as er
 
     bodies, cons, schedule, ref = mixed_shapes
     assert bodies.inv_inertia.shape[1] == 6 and cons.per_manifold_friction
@@ -376,7 +376,7 @@ def test_full_inverse_inertia_reference_is_the_passes_limit(mixed_shapes, monkey
 def test_almost_solved_qp_that_the_polish_does_not_certify_gives_no_reference(pile,
                                                                              monkeypatch: pytest.MonkeyPatch) -> None:
     """A solver that ends only "almost solved" and a polish that cannot sharpen it: no reference, with the residual."""
-    from models import exact_reference as er
+    from models.exact import reference as er
 
     bodies, cons, _, _ = pile
 
@@ -393,7 +393,7 @@ def test_damped_friction_that_does_not_certify_gives_no_reference(mixed_shapes,
                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     """The non-symmetric box problem's Newton iteration stopped before its natural residual certifies: no
     reference, with the spin row that made it no QP and the residual reached."""
-    from models import exact_reference_damped_friction as df
+    from models.exact import damped_friction as df
 
     bodies, cons, _, _ = mixed_shapes
     monkeypatch.setattr(df, "DAMPED_MAX_ITERATIONS", 0)
@@ -404,7 +404,7 @@ def test_damped_friction_that_does_not_certify_gives_no_reference(mixed_shapes,
 
 def test_diagonal_tables_take_the_same_path_through_3x3_blocks(pile, monkeypatch: pytest.MonkeyPatch) -> None:
     """The block (3x3) mass matrix on a diagonal scene gives the diagonal path's reference to 1e-12."""
-    from models import exact_reference_assembly as asm
+    from models.exact import assembly as asm
 
     bodies, cons, _, ref = pile
     monkeypatch.setattr(asm.Layout, "_mass", lambda self, inv_mass: asm.block_mass(inv_mass, self.inertia_inv))
@@ -417,8 +417,8 @@ def test_full_inertia_on_the_body_space_path(monkeypatch: pytest.MonkeyPatch) ->
     """The body-space interior point with 3x3 blocks: the stack with its cubes' inverse inertia rotated (full 3x3)
     and no spin damping agrees with Clarabel's dual solve and is a fixed point of both passes; with the damping (its
     directions no eigenvectors of the rotated inertia) a large island is refused by name."""
-    from models import exact_reference as er
-    from models.inertia import rotate_diagonal
+    from models.exact import reference as er
+    from models.setup.inertia import rotate_diagonal
 
     frame = scenes.capture_frame("stack")
     bodies = body_table(frame)
@@ -456,7 +456,7 @@ def _interleaved_moved(state, imp: Impulses, cons, schedule) -> float:
 
 
 def test_interleaved_reference_is_a_fixed_point_of_the_interleaved_passes() -> None:
-    """The interleaved order's coupled fixed point (alternation, models/exact_reference_interleaved.py) on a small
+    """The interleaved order's coupled fixed point (alternation, models/exact/interleaved.py) on a small
     pile: certified by the coupled natural residuals, and one interleaved iteration from it moves nothing; the
     sequential order's limit is no fixed point of the interleaved passes (the check can fail)."""
     frame = scenes.capture_frame("pile", nx=3, ny=2, nz=3, seed=2)
@@ -477,7 +477,7 @@ def test_interleaved_reference_is_a_fixed_point_of_the_interleaved_passes() -> N
 def test_interleaved_alternation_that_does_not_certify_gives_no_reference(monkeypatch: pytest.MonkeyPatch) -> None:
     """On the stack the alternation stalls (measured: coupled residual 1.4e-3 m/s after 300 alternations): no
     certified fixed point, so no reference, with the reason."""
-    from models import exact_reference_interleaved as ei
+    from models.exact import interleaved as ei
 
     frame = scenes.capture_frame("stack")
     bodies = body_table(frame)

@@ -1,4 +1,4 @@
-"""The extreme-magnitude step (``models/extreme_stimulus.py``): good input over the format's whole range, the
+"""The extreme-magnitude step (``models/kernel/extreme_stimulus.py``): good input over the format's whole range, the
 step's structure kept, reproducible from its seed."""
 
 from __future__ import annotations
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from models import scenes
-from models.contact_solver import SolverParams
-from models.extreme_stimulus import extreme_magnitudes
-from models.kernel_job import KernelJob
-from models.number_format import FP16, FP32, NumberFormat
+from models.golden.contact_solver import SolverParams
+from models.kernel.extreme_stimulus import extreme_magnitudes
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 
 

@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from models import format_analyzer as fa
+from models.sizing import format_analyzer as fa
 from models import scenes
-from models.contact_solver import solve
-from models.number_format import FLOAT64, FP32, NumberFormat
+from models.golden.contact_solver import solve
+from models.formats.number_format import FLOAT64, FP32, NumberFormat
 from sim.analyze import main as analyze_main
 from sim.analyze import problem_of
 

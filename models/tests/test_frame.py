@@ -1,6 +1,6 @@
 """Frame files that are not good frames and frame files that carry pickles.
 
-``models.frame.load`` must refuse each with a ``FrameError`` of one line naming the problem; a crafted ``.npz``
+``models.formats.frame.load`` must refuse each with a ``FrameError`` of one line naming the problem; a crafted ``.npz``
 holding a pickled object whose unpickling would run code is refused without running it (a positive control
 shows that numpy's pickle loading would have run it). The frame cache (``models.scenes.load_or_capture``)
 replaces an unusable cached frame by a new capture, atomically (``save`` writes a temporary file and renames
@@ -19,9 +19,9 @@ from typing import Callable
 import numpy as np
 import pytest
 
-from models import frame as frame_mod
+from models.formats import frame as frame_mod
 from models import scenes
-from models.frame import Frame, FrameError, load, save
+from models.formats.frame import Frame, FrameError, load, save
 
 
 def tiny_frame() -> Frame:

@@ -9,13 +9,14 @@ import dataclasses
 import numpy as np
 import pytest
 
-from models import cycle_model, scenes
-from models import stream_format as sf
-from models.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, solve
-from models.dma_model import get_preset
-from models.kernel_job import KernelJob
-from models.kernel_shape import DmaTiming, KernelShape, StepShape
-from models.number_format import FP16, FP32
+from models import scenes
+from models.timing import cycle_model
+from models.kernel import stream_format as sf
+from models.golden.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, solve
+from models.timing.platforms import get_preset
+from models.kernel.kernel_job import KernelJob
+from models.timing.kernel_shape import DmaTiming, KernelShape, StepShape
+from models.formats.number_format import FP16, FP32
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 
 

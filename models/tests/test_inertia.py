@@ -1,18 +1,18 @@
-"""World-frame inverse inertia (models/inertia.py), its modes, and the golden solver in the full mode."""
+"""World-frame inverse inertia (models/setup/inertia.py), its modes, and the golden solver in the full mode."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from models.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
-from models.contact_solver import (SolverParams, _Gathered, contact_solve, cross3, dot3, friction_solve, solve,
+from models.setup.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
+from models.golden.contact_solver import (SolverParams, _Gathered, contact_solve, cross3, dot3, friction_solve, solve,
                                    solve_sequential)
-from models.format_analyzer import friction_words_of, inertia_mode_of
-from models.frame import Frame
-from models.inertia import (BulletConvention, InertiaMode, convention_inverse_inertia, convention_of,
+from models.sizing.format_analyzer import friction_words_of, inertia_mode_of
+from models.formats.frame import Frame
+from models.setup.inertia import (BulletConvention, InertiaMode, convention_inverse_inertia, convention_of,
                             inertia_product, quat_to_matrix, world_inverse_inertia)
-from models.number_format import FLOAT64, FP32
+from models.formats.number_format import FLOAT64, FP32
 
 SYM = ((0, 3, 4), (3, 1, 5), (4, 5, 2))  # FULL_ORDER word of each matrix entry
 

@@ -9,25 +9,25 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models import mixed_layout as ml
-from models import mixed_storage as ms
-from models import onchip_budget as ob
+from models.sizing import mixed_layout as ml
+from models.sizing import mixed_storage as ms
+from models.sizing import onchip_budget as ob
 from models import scenes
-from models import stream_format as sf
-from models.constraints import body_table, setup_constraints
-from models.contact_solver import SolverParams
-from models.cycle_model import predict_job
-from models.dma_model import get_preset
-from models.integrator import IntegrationParams
-from models.kernel_job import KernelJob
-from models.number_format import FP32, NumberFormat
-from models.schedule import make_schedule
-from sim import resource_model as rm
-from sim.harness_run import write_inputs
-from sim.kernel_build import KernelBuild, default_window
-from sim.kernel_step import golden_step
-from sim.mixed_storage_report import main as report_main
-from sim.mixed_storage_report import parse_storage
+from models.kernel import stream_format as sf
+from models.setup.constraints import body_table, setup_constraints
+from models.golden.contact_solver import SolverParams
+from models.timing.cycle_model import predict_job
+from models.timing.platforms import get_preset
+from models.golden.integrator import IntegrationParams
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP32, NumberFormat
+from models.order.manifold_schedule import make_schedule
+from sim.fit import resource_model as rm
+from sim.drive.harness_run import write_inputs
+from sim.compile.kernel_build import KernelBuild, default_window
+from sim.drive.kernel_step import golden_step
+from sim.fit.mixed_storage_report import main as report_main
+from sim.fit.mixed_storage_report import parse_storage
 
 ZCU102 = get_preset("zcu102")
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from models.number_format import BF16, FP16, FP32, FpEvents, NumberFormat, ieee_maximum, ieee_minimum, parse_format
+from models.formats.number_format import BF16, FP16, FP32, FpEvents, NumberFormat, ieee_maximum, ieee_minimum, parse_format
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -129,7 +129,7 @@ def test_parse_format() -> None:
 
 
 def test_op_events() -> None:
-    """The event flags of models/number_format.py's docstring, one operation at a time (fp16: max 65504,
+    """The event flags of models/formats/number_format.py's docstring, one operation at a time (fp16: max 65504,
     min normal 2^-14)."""
     f = FP16
     cases = [  # op, a, b, (overflow, underflow, invalid)

@@ -1,4 +1,4 @@
-"""The window kernel's plan (models/record_window.py): lag, passes per fetch, the kernel's argument check, and the
+"""The window kernel's plan (models/kernel/record_window.py): lag, passes per fetch, the kernel's argument check, and the
 trace order."""
 
 from __future__ import annotations
@@ -8,11 +8,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from models.body_banks import over_ports
-from models.constraints import ConstraintSet
-from models.contact_solver import CONTACT_PASS, FRICTION_PASS, SolverParams, pass_sequence
-from models.record_window import fits, lane_slots, plan_window, sequential_order
-from models.schedule import band_width
+from models.kernel.body_banks import over_ports
+from models.setup.constraints import ConstraintSet
+from models.golden.contact_solver import CONTACT_PASS, FRICTION_PASS, SolverParams, pass_sequence
+from models.kernel.record_window import fits, lane_slots, plan_window, sequential_order
+from models.order.manifold_schedule import band_width
 
 
 def _chain(m: int) -> tuple[ConstraintSet, np.ndarray]:

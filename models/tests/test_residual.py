@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from models import scenes
-from models.bullet_profile import parse_chrome_trace
-from models.constraints import body_table, setup_constraints
-from models.contact_solver import CONTACT_PASS, Impulses, SolverParams, run_pass, schedule_levels, solve, \
+from models.scenes.bullet_profile import parse_chrome_trace
+from models.setup.constraints import body_table, setup_constraints
+from models.golden.contact_solver import CONTACT_PASS, Impulses, SolverParams, run_pass, schedule_levels, solve, \
     solve_converged
-from models.number_format import FLOAT64
-from models.residual import contact_error, contact_residual
-from models.schedule import make_schedule
+from models.formats.number_format import FLOAT64
+from models.exact.residual import contact_error, contact_residual
+from models.order.manifold_schedule import make_schedule
 
 
 @pytest.fixture(scope="module")

@@ -10,10 +10,10 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from models import frame as frame_mod
+from models.formats import frame as frame_mod
 from models import scenes
 from models.scenes import frame_cache
-from models.frame import Frame, load, save, validate
+from models.formats.frame import Frame, load, save, validate
 
 SMALL: dict[str, dict] = {
     "thesis": dict(nx=3, ny=3, nz=3),

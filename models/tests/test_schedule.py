@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from models import scenes
-from models.constraints import body_table, setup_constraints
-from models.schedule import BUBBLE, hazard_distances, hazard_order, make_schedule, stats
+from models.setup.constraints import body_table, setup_constraints
+from models.order.manifold_schedule import BUBBLE, hazard_distances, hazard_order, make_schedule, stats
 
 
 @pytest.fixture(scope="module", params=[(6, 6, 6), (8, 4, 8)], ids=lambda p: "pile%dx%dx%d" % p)

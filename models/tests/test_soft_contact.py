@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from models.closed_loop import Remedy
-from models.contact_solver import Impulses, SolverParams, solve
-from models.number_format import BF16, FLOAT64, FP16, FP32
-from models.soft_contact import SoftContact, Softness, relax_constraints, soft_constraints
-from models.stability import REMEDIES, call_iterations
+from models.closed_loop.loop import Remedy
+from models.golden.contact_solver import Impulses, SolverParams, solve
+from models.formats.number_format import BF16, FLOAT64, FP16, FP32
+from models.golden.soft_contact import SoftContact, Softness, relax_constraints, soft_constraints
+from models.closed_loop.hard_cases import REMEDIES, call_iterations
 from models.tests.test_substep import _two_boxes
 
 H = 1.0 / 120.0

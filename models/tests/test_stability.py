@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.closed_loop import LoopResult
-from models.constraints import POSITION_DRIFT, BodyTable
-from models.integrator import IntegrationParams
-from models.number_format import FLOAT64, Arithmetic
-from models.contact_solver import SolverParams
-from models.stability import CASES, LIMITS, judge, slide_distance
-from models.trajectory import Trajectory, TrajectoryRecorder
+from models.closed_loop.loop import LoopResult
+from models.setup.constraints import POSITION_DRIFT, BodyTable
+from models.golden.integrator import IntegrationParams
+from models.formats.number_format import FLOAT64, Arithmetic
+from models.golden.contact_solver import SolverParams
+from models.closed_loop.hard_cases import CASES, LIMITS, judge, slide_distance
+from models.closed_loop.trajectory import Trajectory, TrajectoryRecorder
 
 IP = IntegrationParams()
 G_DT = np.asarray(IP.gravity) * IP.dt  # what a body at rest stores (gravity is added after the position update)

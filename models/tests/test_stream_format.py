@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models import stream_format as sf
-from models.constraints import BodyTable, ConstraintSet
-from models.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams
-from models.number_format import BF16, FP16, FP32, NumberFormat
+from models.kernel import stream_format as sf
+from models.setup.constraints import BodyTable, ConstraintSet
+from models.golden.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams
+from models.formats.number_format import BF16, FP16, FP32, NumberFormat
 
 FORMATS = [FP32, FP16, BF16, NumberFormat("e6m9", 6, 9)]
 
@@ -164,7 +164,7 @@ def test_window_stream(fmt: NumberFormat, fetch_passes: int) -> None:
 def test_body_record_per_inertia_mode(fmt: NumberFormat) -> None:
     """The body-in record carries 1, 3 or 6 inverse-inertia words; each mode round-trips, a table whose mode
     needs more words than the record carries is refused."""
-    from models.inertia import world_inverse_inertia
+    from models.setup.inertia import world_inverse_inertia
 
     rng = np.random.default_rng(7)
     n = 11

@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.closed_loop import Remedy
-from models.constraints import POSITION_COEFF, POSITION_DRIFT, BodyTable, ConstraintSet, plane_space
-from models.number_format import FLOAT64, FP32
-from models.stability import CASES, call_iterations
-from models.substep import ContactPoints, substep_constraints
+from models.closed_loop.loop import Remedy
+from models.setup.constraints import POSITION_COEFF, POSITION_DRIFT, BodyTable, ConstraintSet, plane_space
+from models.formats.number_format import FLOAT64, FP32
+from models.closed_loop.hard_cases import CASES, call_iterations
+from models.golden.substep import ContactPoints, substep_constraints
 
 
 def _two_boxes() -> tuple[BodyTable, ConstraintSet, ContactPoints]:

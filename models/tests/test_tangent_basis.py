@@ -1,4 +1,4 @@
-"""The tangent basis derived from the normal in the kernel's format (models/tangent_basis.py): the friction pipe
+"""The tangent basis derived from the normal in the kernel's format (models/setup/tangent_basis.py): the friction pipe
 that derives it (rtl/gen pgs_friction_pipe_tb) is the golden model's twin bit for bit, the basis is Bullet's
 planeSpace to rounding, and the record layout and the cycle model know the option (the resource model:
 sim/tests/test_resource_model.py)."""
@@ -10,11 +10,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from models import stream_format as sf
-from models.constraints import plane_space
-from models.kernel_shape import KernelShape
-from models.number_format import FP16, FP32
-from models.tangent_basis import derive_tangents, plane_space_in
+from models.kernel import stream_format as sf
+from models.setup.constraints import plane_space
+from models.timing.kernel_shape import KernelShape
+from models.formats.number_format import FP16, FP32
+from models.setup.tangent_basis import derive_tangents, plane_space_in
 from models.tests.test_body_banks import pile_job
 from rtl.gen.kernel_graphs import GRAPHS, friction_in
 

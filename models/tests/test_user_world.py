@@ -1,5 +1,5 @@
 """Worlds from files (models/scenes/user_world.py), SCENE_ARGS, the contact capture's cover and forked readers,
-and the world bad-input catalogue (models/bad_input.py); small worlds only."""
+and the world bad-input catalogue (models/kernel/bad_input.py); small worlds only."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from models import scenes
-from models.bad_input import WORLD_CASES, WORLD_CATALOGUE
-from models.frame import Frame, validate
+from models.kernel.bad_input import WORLD_CASES, WORLD_CATALOGUE
+from models.formats.frame import Frame, validate
 from models.scenes import contact_capture, frame_cache, world as world_mod
 from models.scenes.scene_args import split_scene_args
 

@@ -7,13 +7,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.closed_loop import COLD, Remedy, run_closed_loop
-from models.constraints import BodyTable, ConstraintSet, plane_space
-from models.contact_solver import Impulses, SolverParams, solve
-from models.exact_reference import exact_reference
-from models.number_format import FLOAT64
-from models.solution_error import solution_error
-from models.warm_start import (MANIFOLD_GONE, NEGATIVE_NORMAL, NONFINITE, POINT_GONE, WARMSTART_FACTOR, ContactMemory,
+from models.closed_loop.loop import COLD, Remedy, run_closed_loop
+from models.setup.constraints import BodyTable, ConstraintSet, plane_space
+from models.golden.contact_solver import Impulses, SolverParams, solve
+from models.exact.reference import exact_reference
+from models.formats.number_format import FLOAT64
+from models.exact.solution_error import solution_error
+from models.golden.warm_start import (MANIFOLD_GONE, NEGATIVE_NORMAL, NONFINITE, POINT_GONE, WARMSTART_FACTOR, ContactMemory,
                                Contacts, apply_impulses, check_impulses, warm_start)
 
 SEED = 20261202

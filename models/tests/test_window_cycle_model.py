@@ -1,4 +1,4 @@
-"""The window kernel's cycle model (models/window_cycle_model.py) on a hand-derived timeline and on the rules it must
+"""The window kernel's cycle model (models/timing/window_cycle_model.py) on a hand-derived timeline and on the rules it must
 keep on random steps (with the impulses on chip, and in the records with and without banked body velocities); the RTL
 comparisons (every retire cycle) are in cocotb_tests/test_kernel_window.py (test_window_cycles_match_model) and
 cocotb_tests/test_kernel_window_records.py (test_cycles_match_model)."""
@@ -12,18 +12,18 @@ from array import array
 import numpy as np
 import pytest
 
-from models import cycle_model as cm
-from models import kernel_shape as ks
+from models.timing import cycle_model as cm
+from models.timing import kernel_shape as ks
 from models import scenes
-from models import window_cycle_model as wm
-from models.body_banks import busy as bank_busy, over_ports
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.kernel_job import KernelJob
-from models.number_format import FP32
-from models.record_window import WindowPlan, fits, lane_slots
+from models.timing import window_cycle_model as wm
+from models.kernel.body_banks import busy as bank_busy, over_ports
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP32
+from models.kernel.record_window import WindowPlan, fits, lane_slots
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from models.schedule import band_width
+from models.order.manifold_schedule import band_width
 from models.tests.test_record_window import _chain
 
 SHAPE = ks.KernelShape.of(FP32, 512)

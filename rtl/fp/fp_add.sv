@@ -1,6 +1,6 @@
 // fp_add: pipelined floating-point adder / subtractor (y = a + b, or a - b when `sub` is 1).
 //
-// Arithmetic contract (models/number_format.py): subnormal inputs read as signed zero; the exact
+// Arithmetic contract (models/formats/number_format.py): subnormal inputs read as signed zero; the exact
 // sum is rounded to nearest, ties to even, at MAN_BITS+1 bits with an unbounded exponent; a rounded
 // result below the smallest normal flushes to a zero with the sign of the exact result; overflow
 // gives +-inf.
@@ -9,7 +9,7 @@
 //   * +-inf operand (otherwise)                                            -> that infinity
 //   * exact zero result: x + (-x) = +0, (-0) + (-0) = -0, (+0) + (-0) = +0
 //   * overflow -> +-inf, result below min normal after rounding -> +-0
-// Event flags (models/number_format.py, registered with y): flags = {invalid, underflow, overflow};
+// Event flags (models/formats/number_format.py, registered with y): flags = {invalid, underflow, overflow};
 //   overflow / underflow: the rounding overflowed to +-inf / flushed a non-zero result to +-0 (from
 //   fp_result_stage), invalid: a NaN made from non-NaN operands (inf - inf).
 // Latency: LATENCY = 4 cycles, one operation accepted per cycle (II = 1).

@@ -5,7 +5,7 @@
 // quotient q = floor(ma * 2^(P+1) / mb) and its remainder; q lies in [2^P, 2^(P+2)), so after a
 // 1-bit normalization there are P significant bits, a round bit, and the sticky bit
 // (lower quotient bit | remainder != 0) for round to nearest, ties to even.
-// Arithmetic contract (models/number_format.py): subnormal inputs read as signed zero; the exact
+// Arithmetic contract (models/formats/number_format.py): subnormal inputs read as signed zero; the exact
 // quotient is rounded at P bits with an unbounded exponent; a rounded result below the smallest
 // normal flushes to a zero with the sign of the quotient; overflow gives +-inf. The result sign is
 // always sign(a) XOR sign(b).
@@ -14,7 +14,7 @@
 //   * inf / finite, non-zero finite / 0       -> +-inf (division by zero; subnormal divisors are 0)
 //   * 0 / non-zero, finite / inf              -> +-0
 //   * overflow -> +-inf, result below min normal after rounding -> +-0
-// Event flags (models/number_format.py, registered with y): flags = {invalid, underflow, overflow};
+// Event flags (models/formats/number_format.py, registered with y): flags = {invalid, underflow, overflow};
 //   overflow / underflow: the rounding overflowed to +-inf / flushed a non-zero result to +-0 (from
 //   fp_result_stage), invalid: a NaN made from non-NaN operands (0 / 0, inf / inf).
 // Latency: LATENCY = MAN_BITS + 5 cycles (binary32: 28, binary16: 15, bfloat16: 12), II = 1.

@@ -1,7 +1,7 @@
 // fp_minmax: IEEE 754-2019 minimum / maximum and quiet comparison flags.
 //
 // A combinational core followed by LATENCY (>= 1) pipeline register stages.
-// Arithmetic contract (models/number_format.py): subnormal inputs read as signed zero, so a
+// Arithmetic contract (models/formats/number_format.py): subnormal inputs read as signed zero, so a
 // subnormal operand that is selected comes out as +-0.
 // Outputs and exceptions handled:
 //   * y_min / y_max: IEEE 754-2019 minimum / maximum. A NaN operand (quiet or signalling, either

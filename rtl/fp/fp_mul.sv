@@ -1,6 +1,6 @@
 // fp_mul: pipelined floating-point multiplier (y = a * b).
 //
-// Arithmetic contract (models/number_format.py): subnormal inputs read as signed zero; the exact
+// Arithmetic contract (models/formats/number_format.py): subnormal inputs read as signed zero; the exact
 // product is rounded to nearest, ties to even, at MAN_BITS+1 bits with an unbounded exponent; a
 // rounded result below the smallest normal flushes to a zero with the sign of the product;
 // overflow gives +-inf. The result sign is always sign(a) XOR sign(b).
@@ -9,7 +9,7 @@
 //   * inf * non-zero                     -> +-inf
 //   * 0 * finite (incl. flushed subnormals) -> +-0
 //   * overflow -> +-inf, result below min normal after rounding -> +-0
-// Event flags (models/number_format.py, registered with y): flags = {invalid, underflow, overflow};
+// Event flags (models/formats/number_format.py, registered with y): flags = {invalid, underflow, overflow};
 //   overflow / underflow: the rounding overflowed to +-inf / flushed a non-zero result to +-0 (from
 //   fp_result_stage), invalid: a NaN made from non-NaN operands (0 * inf).
 // Latency: LATENCY = 3 cycles, one operation accepted per cycle (II = 1).

@@ -15,7 +15,7 @@
 // sig_in (hidden bit first), round_bit and sticky.
 // Rounding: a carry out of the significand (all ones rounded up) moves the exponent up by one; a
 // rounded exponent >= 2^EXP_BITS - 1 overflows to +-inf, one <= 0 flushes to +-0.
-// Event flags (models/number_format.py): flags = {invalid, underflow, overflow}, registered with y;
+// Event flags (models/formats/number_format.py): flags = {invalid, underflow, overflow}, registered with y;
 // overflow / underflow only for a finite non-zero exact result.
 // Latency: the y / flags register (1 cycle after the inputs); out_valid: LATENCY after in_valid.
 // Only the valid bits are reset.

@@ -6,13 +6,13 @@
 // P+1 bit root R = floor(sqrt(N)) in [2^P, 2^(P+1)) and the remainder N - R^2. R's top P bits are
 // the significand, its LSB the round bit, and remainder != 0 the sticky bit (round to nearest even;
 // an exact tie cannot occur for a square root, the rounding is the shared RNE logic anyway).
-// Arithmetic contract (models/number_format.py): subnormal inputs read as signed zero. The result
+// Arithmetic contract (models/formats/number_format.py): subnormal inputs read as signed zero. The result
 // of a normal input is always normal (no overflow or underflow is possible).
 // Exceptions handled:
 //   * NaN, -inf, any negative non-zero number -> canonical quiet NaN
 //   * +-0 (and +-subnormal, flushed)           -> +-0 (sqrt(-0) = -0)
 //   * +inf                                     -> +inf
-// Event flags (models/number_format.py, registered with y): flags = {invalid, underflow, overflow};
+// Event flags (models/formats/number_format.py, registered with y): flags = {invalid, underflow, overflow};
 //   overflow / underflow: the rounding overflowed to +-inf / flushed a non-zero result to +-0 (from
 //   fp_result_stage), invalid: a NaN made from non-NaN operands (a negative non-zero operand, -inf included; overflow and underflow
 //   cannot happen).

@@ -1,6 +1,6 @@
 """Generator of the kernel's pipelined datapath modules and of the contracts' generated copies (``python -m rtl.gen``).
 
-``rtl/gen/dataflow.py`` is the dataflow DSL, ``rtl/gen/schedule.py`` its ASAP scheduler (operator latencies:
+``rtl/gen/dataflow.py`` is the dataflow DSL, ``rtl/gen/operator_schedule.py`` its ASAP scheduler (operator latencies:
 ``rtl/gen/operator_timing.py``), ``rtl/gen/sv_emit.py`` the SystemVerilog emitter;
 ``rtl/gen/kernel_graphs.py`` holds the contact, friction and integration graphs. :func:`generate` writes, into
 ``rtl/generated/`` (never edited by hand; ``python -m rtl.gen --check`` and the test suite check that the committed
@@ -13,12 +13,12 @@ copies are current):
   ``pgs_friction_pipe_scalar_mu.sv``, ``pgs_friction_pipe_full_mu.sv``: the kernel's ``MU_W`` = 1);
 * ``pgs_pipe_latency_pkg.sv`` and ``pipe_latency.json``: each module's LATENCY as a function of MAN_BITS, for the
   sequencer and for the cycle model (``rtl/gen/pipe_latency.py``);
-* ``pgs_regs_pkg.sv``: the register map of ``models/register_map.py`` (``rtl/gen/register_map_emit.py``),
-* ``pgs_stream_layout_pkg.sv``: the constraint records' layout of ``models/stream_format.py`` for the sequencer
+* ``pgs_regs_pkg.sv``: the register map of ``models/kernel/register_map.py`` (``rtl/gen/register_map_emit.py``),
+* ``pgs_stream_layout_pkg.sv``: the constraint records' layout of ``models/kernel/stream_format.py`` for the sequencer
   (``rtl/gen/stream_layout_emit.py``),
 
 and ``hls_export/generated/pgs_regs.h``, the same register map for the HLS kernel, and
-``hls_export/generated/pgs_stream_layout.h``, the record sizes of ``models/stream_format.py``
+``hls_export/generated/pgs_stream_layout.h``, the record sizes of ``models/kernel/stream_format.py``
 (``rtl/gen/stream_layout_emit.py``).
 
 The co-simulation test's injected bug is a variant of the friction pipe that only :func:`generate_friction_sign_bug`
@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from models.kernel_shape import PIPE_LATENCY_FILE
+from models.timing.kernel_shape import PIPE_LATENCY_FILE
 
 from rtl.gen.file_list import RTL_DIR, kernel_sources, swap_sources
 from rtl.gen.kernel_graphs import GRAPHS, MAN_BITS_OF, MODE_GRAPHS, friction_graph

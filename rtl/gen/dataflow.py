@@ -23,10 +23,10 @@ DSL                meaning                     RTL              latency
 A graph has no test-only switches: a variant with an injected bug is a graph of its own (e.g.
 ``kernel_graphs.friction_graph(sign_bug=True)``), generated into a build directory only.
 
-The graph is scheduled by :mod:`rtl.gen.schedule` (operator latencies: :mod:`rtl.gen.operator_timing`) and
+The graph is scheduled by :mod:`rtl.gen.operator_schedule` (operator latencies: :mod:`rtl.gen.operator_timing`) and
 written as a SystemVerilog module by :mod:`rtl.gen.sv_emit`.
 
-:meth:`Graph.evaluate` interprets the graph with a :class:`models.number_format.Arithmetic`
+:meth:`Graph.evaluate` interprets the graph with a :class:`models.formats.number_format.Arithmetic`
 (vectorized over numpy arrays), the software twin of the emitted RTL.
 """
 
@@ -39,12 +39,12 @@ from typing import TYPE_CHECKING, Iterator, Optional
 
 import numpy as np
 
-from models.number_format import FpEvents, NumberFormat
+from models.formats.number_format import FpEvents, NumberFormat
 
 from rtl.gen.operator_timing import Time, operator_latencies
 
 if TYPE_CHECKING:
-    from rtl.gen.schedule import Schedule
+    from rtl.gen.operator_schedule import Schedule
 
 FLOAT = "float"
 BOOL = "bool"
@@ -262,7 +262,7 @@ class Graph:
         return [v for v in self.nodes if v.id in live]
 
     def schedule(self, lat: Optional[dict[str, Time]] = None) -> "Schedule":
-        from rtl.gen.schedule import Schedule  # the scheduler reads graphs: imported here, not at the top
+        from rtl.gen.operator_schedule import Schedule  # the scheduler reads graphs: imported here, not at the top
 
         return Schedule(self, lat or operator_latencies())
 
@@ -301,7 +301,7 @@ class Graph:
 
 
     def count_events(self, fmt: NumberFormat, inputs: np.ndarray, bool_inputs: Optional[np.ndarray] = None) -> FpEvents:
-        """The floating-point events (``models/number_format.py``) of the RTL's operators over these inputs:
+        """The floating-point events (``models/formats/number_format.py``) of the RTL's operators over these inputs:
         what the module's ``ev_*`` outputs add up to for them (taken with ``in_count``)."""
         ar = fmt.counting()
         self.evaluate(ar, inputs, bool_inputs)

@@ -1,18 +1,18 @@
 """The kernel's three datapaths as dataflow graphs, in the operation order of models/OPERATION_ORDER.md.
 
-Each function mirrors the golden Python line by line (``models/contact_solver.py``:
+Each function mirrors the golden Python line by line (``models/golden/contact_solver.py``:
 ``contact_solve``, ``friction_solve``, ``dot3``, ``cross3``, ``scale3``, ``_apply``;
-``models/integrator.py``: ``integrate``, ``sin_poly``, ``cos_poly``, ``quat_mul``): the same
+``models/golden/integrator.py``: ``integrate``, ``sin_poly``, ``cos_poly``, ``quat_mul``): the same
 operations with the same association order, so the generated RTL is bit-identical to it. The
 golden's masked updates (``np.where(active, new, old)``) become selects.
 
 Word layouts (``in_data`` / ``out_data``) are the port contract of the generated modules; the test
-harness packs them with ``models/kernel_vectors.py``.
+harness packs them with ``models/kernel/kernel_vectors.py``.
 
-The contact and friction graphs come in the inverse-inertia modes of ``models/inertia.py``: ``inertia_words`` 3
+The contact and friction graphs come in the inverse-inertia modes of ``models/setup/inertia.py``: ``inertia_words`` 3
 (the kernel's build, ports ``IInvA_x..z``: one multiply per component), 1 (``IInvA_s``: the body's one value
 times each component) or 6 (``IInvA_xx, _yy, _zz, _xy, _xz, _yz``: the symmetric 3x3 product,
-``models.inertia.inertia_product``); the friction graph with ``manifold_friction`` takes the manifold's
+``models.setup.inertia.inertia_product``); the friction graph with ``manifold_friction`` takes the manifold's
 coefficient as a word ``mu`` after the bodies' words in place of the constant. The 3-word builds without a
 friction word are the kernel's default pipes (:data:`GRAPHS`); the 1- and 6-word builds (:data:`MODE_GRAPHS`), which
 the kernel instantiates for its ``IINV_W`` parameter, are generated into ``rtl/generated`` beside them.
@@ -23,15 +23,15 @@ from __future__ import annotations
 from functools import partial
 from typing import Callable
 
-from models.contact_solver import FRICTION_COEFF, SPIN_DAMP_FACTOR
-from models.inertia import FULL_ORDER, InertiaMode
-from models.integrator import COS_COEFFS, MAX_ANGLE, SIN_COEFFS, SMALL_ANGLE, TAYLOR_SINC
-from models.number_format import KERNEL_FORMATS
-from models.tangent_basis import PLANE_SPACE_SPLIT
+from models.golden.contact_solver import FRICTION_COEFF, SPIN_DAMP_FACTOR
+from models.setup.inertia import FULL_ORDER, InertiaMode
+from models.golden.integrator import COS_COEFFS, MAX_ANGLE, SIN_COEFFS, SMALL_ANGLE, TAYLOR_SINC
+from models.formats.number_format import KERNEL_FORMATS
+from models.setup.tangent_basis import PLANE_SPACE_SPLIT
 
 from rtl.gen.dataflow import Graph, Value
 
-# The mantissa width of each kernel format (models.number_format.KERNEL_FORMATS). The golden model's constants
+# The mantissa width of each kernel format (models.formats.number_format.KERNEL_FORMATS). The golden model's constants
 # above (float64 values) are rounded to the format in the RTL.
 MAN_BITS_OF = {name: fmt.man_bits for name, fmt in KERNEL_FORMATS.items()}
 
@@ -91,7 +91,7 @@ def inertia_inputs(g: Graph, body: str, inertia_words: int) -> list[Value]:
 
 
 def inertia_mul(i: list[Value], c: Vec) -> Vec:
-    """I^-1 c in models.inertia.inertia_product's order: per component for a scalar or a diagonal,
+    """I^-1 c in models.setup.inertia.inertia_product's order: per component for a scalar or a diagonal,
     ((Ixx cx + Ixy cy) + Ixz cz, (Ixy cx + Iyy cy) + Iyz cz, (Ixz cx + Iyz cy) + Izz cz) for the full matrix."""
     if len(i) == 1:
         return [i[0] * c[k] for k in range(3)]
@@ -119,12 +119,12 @@ def contact_in(inertia_words: int = 3, soft: bool = False) -> list[str]:
             + ["mInvA", "mInvB"] + inertia_ports(inertia_words) + (list(SOFT_KEEP_WORDS) if soft else []))
 
 
-# the soft contact pipe's two per-call constants (models.contact_solver.SolverParams.soft_keep's order: a row
+# the soft contact pipe's two per-call constants (models.golden.contact_solver.SolverParams.soft_keep's order: a row
 # between two dynamic bodies, a row with a static body), words after the inverse inertia
 SOFT_KEEP_WORDS = ("keep_dyn", "keep_static")
 SOFT_DOC = """
 
-Soft contact (models/soft_contact.py, SolverParams.soft_keep): with in_soft set, each point's accumulated
+Soft contact (models/golden/soft_contact.py, SolverParams.soft_keep): with in_soft set, each point's accumulated
 impulse is multiplied by its keep factor before the add, lam' = max(lam * keep + delta0, 0): keep is 1 where
 b > 0 (a speculative point), else keep_static for a row with a static body (mInvA or mInvB zero) and keep_dyn
 otherwise. With in_soft clear keep is 1 (a multiply by 1 is exact: the rigid update, bit for bit)."""
@@ -135,7 +135,7 @@ CONTACT_OUT = ([f"lam{i}" for i in range(4)] + [f"{v}_{c}" for v in ("vA", "wA",
 
 
 def _soft_keeps(g: Graph, bias: list[Value], ma: Value, mb: Value) -> list[Value]:
-    """Each point's keep factor (``models.contact_solver._row_keep``), 1 where ``in_soft`` is clear."""
+    """Each point's keep factor (``models.golden.contact_solver._row_keep``), 1 where ``in_soft`` is clear."""
     kd, ks = (g.input(w) for w in SOFT_KEEP_WORDS)
     soft = g.bool_input("soft")
     one = g.const(1.0, "one")
@@ -152,7 +152,7 @@ def contact_graph(inertia_words: int = 3, soft: bool = False) -> Graph:
         raise ValueError(f"the soft contact pipe is built for 3 inverse-inertia words per body, got {inertia_words}")
     module = pipe_module("pgs_contact_pipe", inertia_words) + ("_soft" if soft else "")
     g = Graph(module, doc=f"""\
-{module}: one contact pass of one manifold (models/contact_solver.py contact_solve for a
+{module}: one contact pass of one manifold (models/golden/contact_solver.py contact_solve for a
 single manifold; models/OPERATION_ORDER.md "Contact pass"). The four points are solved in order,
 point i+1 seeing point i's velocity update; a point with jac_inv == 0 is skipped (its lam and the
 velocities keep their previous values: selects). The velocities of a static body are computed the
@@ -213,7 +213,7 @@ def _inertia_doc(inertia_words: int, manifold_friction: bool = False) -> str:
     if inertia_words == 3 and not manifold_friction:
         return ""
     mode = _MODE_OF_WORDS[inertia_words].value
-    return (f"\n\nInverse inertia: the {mode} mode ({inertia_words} words per body, models/inertia.py)"
+    return (f"\n\nInverse inertia: the {mode} mode ({inertia_words} words per body, models/setup/inertia.py)"
             + ("; the friction coefficient is the input word mu." if manifold_friction else "."))
 
 
@@ -226,7 +226,7 @@ FRICTION_OUT = ["lamT0", "lamT1"] + [f"{v}_{c}" for v in ("vA", "wA", "vB", "wB"
 
 
 def plane_space(g: Graph, n: Vec) -> tuple[Vec, Vec]:
-    """The tangent basis of the normal n, ``models/tangent_basis.py`` ``plane_space_in`` operation by operation."""
+    """The tangent basis of the normal n, ``models/setup/tangent_basis.py`` ``plane_space_in`` operation by operation."""
     m = [(-x).named(f"m_{'xyz'[k]}") for k, x in enumerate(n)]
     one, zero = g.const(1.0, "one"), g.const(0.0, "zero")
     use_z = g.lt(g.const(PLANE_SPACE_SPLIT, "split"), g.max(m[2], -m[2]), name="use_z")
@@ -249,7 +249,7 @@ def friction_graph(sign_bug: bool = False, inertia_words: int = 3, manifold_fric
     module = pipe_module("pgs_friction_pipe", inertia_words, manifold_friction) + ("_tb" if tangents_on_chip else "")
     mu_doc = "mu the input word" if manifold_friction else f"mu = {FRICTION_COEFF}"
     g = Graph(module, doc=f"""\
-{module}: one friction pass of one manifold (models/contact_solver.py friction_solve for
+{module}: one friction pass of one manifold (models/golden/contact_solver.py friction_solve for
 a single manifold; models/OPERATION_ORDER.md "Friction pass"), {mu_doc}. A manifold with
 f_jac_inv[0] == 0 is skipped (lamT and the velocities pass through unchanged: selects); otherwise
 spin damping (factor {SPIN_DAMP_FACTOR}) is applied when in_spin_damp is set. The velocities of a static body are
@@ -318,7 +318,7 @@ INTEGRATE_OUT = ["pos_x", "pos_y", "pos_z", "q_x", "q_y", "q_z", "q_w", "v_x", "
 
 
 def _horner(g: Graph, x2: Value, coeffs: tuple[float, ...], name: str) -> Value:
-    """c0 + x2*(c1 + x2*(c2 + ...)) (models.integrator._horner)."""
+    """c0 + x2*(c1 + x2*(c2 + ...)) (models.golden.integrator._horner)."""
     acc = g.const(coeffs[-1], f"{name}{len(coeffs) - 1}")
     for i in range(len(coeffs) - 2, -1, -1):
         acc = g.const(coeffs[i], f"{name}{i}") + x2 * acc
@@ -327,7 +327,7 @@ def _horner(g: Graph, x2: Value, coeffs: tuple[float, ...], name: str) -> Value:
 
 def integrate_graph() -> Graph:
     g = Graph("pgs_integrate_pipe", doc=f"""\
-pgs_integrate_pipe: integration of one body (models/integrator.py integrate for a single dynamic
+pgs_integrate_pipe: integration of one body (models/golden/integrator.py integrate for a single dynamic
 body; models/OPERATION_ORDER.md "Integration"). The run constants half_dt = 0.5*dt,
 dt3c = ((dt*dt)*dt)*{TAYLOR_SINC} and g_dt = g*dt are computed here from the dt / g inputs, as the
 golden computes them. sin / cos are the golden's Taylor polynomials; the angle is clamped to
@@ -390,7 +390,7 @@ GRAPHS = {
     "pgs_friction_pipe": friction_graph,
     "pgs_integrate_pipe": integrate_graph,
     # the friction pipe that derives the tangent basis from the normal (a record layout without t0, t1): its own
-    # latency, instantiated by the kernel built with TANGENTS_ON_CHIP (models/tangent_basis.py)
+    # latency, instantiated by the kernel built with TANGENTS_ON_CHIP (models/setup/tangent_basis.py)
     "pgs_friction_pipe_tb": partial(friction_graph, tangents_on_chip=True),
 }
 

@@ -1,6 +1,6 @@
 """The LATENCY of each generated datapath, written twice by ``python -m rtl.gen``: the SystemVerilog package
 ``pgs_pipe_latency_pkg`` (for the sequencer) and ``rtl/generated/pipe_latency.json`` (for the cycle model,
-``models/kernel_shape.py``).
+``models/timing/kernel_shape.py``).
 
 A latency is a maximum of terms ``cycles + per_man_bit * MAN_BITS`` (``operator_timing.Time``): the divider and the
 square root take MAN_BITS-dependent cycles, so one schedule serves every format. The JSON keeps the terms, which give
@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 from typing import Callable
 
-from models.number_format import KERNEL_FORMATS
+from models.formats.number_format import KERNEL_FORMATS
 
 from rtl.gen.dataflow import Graph
 from rtl.gen.operator_timing import Time

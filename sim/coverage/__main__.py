@@ -14,7 +14,7 @@ from sim.coverage.data import PointKey, add_counts, merge, parse
 from sim.coverage.report import summarize, write_report
 from sim.coverage.runs import previous_results, run_all
 from sim.coverage.waivers import toggle_waivers_for, waivers_for
-from sim.kernel_build import COMPILE_PROFILES, PROFILE_GUIDED
+from sim.compile.kernel_build import COMPILE_PROFILES, PROFILE_GUIDED
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -27,7 +27,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help=f"comma-separated configurations (default: all of {', '.join(BY_NAME)})")
     ap.add_argument("--compile-profile", default=COVERAGE_COMPILE_PROFILE,
                     choices=sorted(set(COMPILE_PROFILES) - PROFILE_GUIDED),
-                    help="C++ optimization of the instrumented kernel builds (sim.kernel_build.COMPILE_PROFILES; "
+                    help="C++ optimization of the instrumented kernel builds (sim.compile.kernel_build.COMPILE_PROFILES; "
                          "quick: -O1 on the model's fast path, o0: -O0 everywhere; not the profile-guided ones, "
                          "whose training run is a kernel run's own)")
     ap.add_argument("--report-only", action="store_true",

@@ -15,17 +15,17 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from models.number_format import NumberFormat
-from sim.fp_operator_harness import TOP as FP_OPS_TOP
-from sim.fp_operator_harness import build_fp_operator_harness, harness_name
-from sim.kernel_build import TOP, KernelBuild, verilate_kernel
-from sim.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT
+from models.formats.number_format import NumberFormat
+from sim.drive.fp_operator_harness import TOP as FP_OPS_TOP
+from sim.drive.fp_operator_harness import build_fp_operator_harness, harness_name
+from sim.compile.kernel_build import TOP, KernelBuild, verilate_kernel
+from sim.compile.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT
 
 COVERAGE_ROOT = REPO_ROOT / "build" / "coverage"
 HOOK_SV = Path(__file__).resolve().parent / "coverage_hook.sv"
 HOOK_CPP = Path(__file__).resolve().parent / "coverage_hook.cpp"
 COVERAGE_ARGS = ["--coverage-line", "--coverage-toggle"]
-COVERAGE_COMPILE_PROFILE = "quick"  # a key of sim.kernel_build.COMPILE_PROFILES ("o0": -O0 everywhere)
+COVERAGE_COMPILE_PROFILE = "quick"  # a key of sim.compile.kernel_build.COMPILE_PROFILES ("o0": -O0 everywhere)
 
 
 def coverage_bind(top: str, build_dir: Path) -> Path:
@@ -55,7 +55,7 @@ def build_coverage_kernel(kb: KernelBuild, root: Path = COVERAGE_ROOT,
 
 
 def build_coverage_fp_ops(fmt: NumberFormat, root: Path = COVERAGE_ROOT) -> Path:
-    """The floating-point operator harness (``sim.fp_operator_harness``: every rtl/fp operator of ``fmt``) with
+    """The floating-point operator harness (``sim.drive.fp_operator_harness``: every rtl/fp operator of ``fmt``) with
     coverage counters, in ``root/fp_ops_tb_<format>/``."""
     build_dir = root / harness_name(fmt.name)
     return build_fp_operator_harness(fmt.name, build_dir, extra_sources=[HOOK_SV, coverage_bind(FP_OPS_TOP, build_dir)],

@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from models.contact_solver import Impulses
-from models.extreme_stimulus import extreme_magnitudes
-from models.kernel_job import KernelJob
-from models.number_format import FP16, FP32, NumberFormat
+from models.golden.contact_solver import Impulses
+from models.kernel.extreme_stimulus import extreme_magnitudes
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES, MAKE_SIM_PILE
 from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
 from sim.coverage.input_edits import (BAD_INPUT_EDITS, RECORDS_BAD_INPUT_EDITS, WINDOW_BAD_INPUT_EDITS,
@@ -25,7 +25,7 @@ from sim.coverage.input_edits import (BAD_INPUT_EDITS, RECORDS_BAD_INPUT_EDITS, 
                                       HarnessEdit, edit_argument_bits, edit_gravity, edit_huge_sliding,
                                       edit_huge_velocity, edit_lanes_collide, edit_mass_spread, edit_spin,
                                       edit_wide_index)
-from sim.verilator_build import REPO_ROOT
+from sim.compile.verilator_build import REPO_ROOT
 
 # world files of Bullet 2's convention (rotated non-cube boxes; boxes, spheres, capsules, cylinders and a cone):
 # the full inverse-inertia mode, 6 words per body, and a friction coefficient per manifold
@@ -66,7 +66,7 @@ EXTREMES_SEED = 20261205  # the values of the extremes cases (fixed: a coverage 
 
 
 def extremes(seed: int) -> JobEdit:
-    """The step with every real word drawn over its format's whole range (``models.extreme_stimulus``), from
+    """The step with every real word drawn over its format's whole range (``models.kernel.extreme_stimulus``), from
     ``seed``: most operators of every pipe raise each exception flag in some record."""
     return functools.partial(extreme_magnitudes, seed=seed)
 

@@ -17,17 +17,17 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
-from models import stream_format as sf
-from models.body_banks import default_body_banks
-from models.delay_lines import default_delay_block_min_depth
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.frame import Frame
-from models.kernel_job import KernelJob
-from models.number_format import FP16, FP32, NumberFormat
-from models.record_window import DEFAULT_CTX, DEFAULT_DEPTH
-from models.soft_contact import SoftContact
-from sim.kernel_build import KernelBuild, default_window
+from models.kernel import stream_format as sf
+from models.kernel.body_banks import default_body_banks
+from models.kernel.delay_lines import default_delay_block_min_depth
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.formats.frame import Frame
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP16, FP32, NumberFormat
+from models.kernel.record_window import DEFAULT_CTX, DEFAULT_DEPTH
+from models.golden.soft_contact import SoftContact
+from sim.compile.kernel_build import KernelBuild, default_window
 
 # the soft rows of the soft build's runs: Box2D's contact hertz and damping ratio of the soft closed loop, at a
 # 120 Hz substep (the keep factors differ from 1 in both words, so the keep multiply's operand bits toggle)
@@ -127,7 +127,7 @@ CONFIGURATIONS: tuple[Configuration, ...] = (
                                         "(`make sim IMPULSE_STORE=records TANGENTS=chip BODY_BITS=256`)"),
     Configuration("stream-fp32-soft", FP32, impulses_in_records=True, soft_keep=SOFT_KEEP,
                   readme="Box2D's soft step through the RTL (`SOFT_CONTACT = 1`, impulses in the records: the soft "
-                         "closed loop's build, `python -m sim.soft_rtl_loop`)"),
+                         "closed loop's build, `python -m sim.remedies.soft_rtl_loop`)"),
     Configuration("stream-fp32-inertia1", FP32, inertia_words=1,
                   readme="scalar inverse inertia, 1 word per body (IINV_W=1)"),
     Configuration("stream-fp32-inertia6", FP32, inertia_words=6,

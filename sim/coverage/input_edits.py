@@ -1,8 +1,8 @@
-"""Bad input made by editing the compiled harness's input files (``sim.harness_run.write_inputs``: registers,
+"""Bad input made by editing the compiled harness's input files (``sim.drive.harness_run.write_inputs``: registers,
 body and constraint streams with their TLAST files), for the coverage regression.
 
-Each :class:`HarnessEdit` names the cases of the bad-input catalogue (``models/bad_input.py``) it makes (the
-bracketed numbers in the edits' descriptions are the error codes, ``models.register_map.ErrorCode``);
+Each :class:`HarnessEdit` names the cases of the bad-input catalogue (``models/kernel/bad_input.py``) it makes (the
+bracketed numbers in the edits' descriptions are the error codes, ``models.kernel.register_map.ErrorCode``);
 :data:`BAD_INPUT_EDITS` makes every catalogue case the harness can make. The other edits (:func:`edit_gravity`,
 :func:`edit_wide_index`, :func:`edit_spin`, :func:`edit_mass_spread`) are not bad input: register operands, body indices and body state the
 test scenes never reach.
@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from models.register_map import AP_START, ARG_NAMES, AUTO_RESTART, OFFSET
-from models.stream_format import (BODY_ANGULAR_VELOCITY, BODY_INV_INERTIA, BODY_INV_MASS, BODY_LINEAR_VELOCITY,
+from models.kernel.register_map import AP_START, ARG_NAMES, AUTO_RESTART, OFFSET
+from models.kernel.stream_format import (BODY_ANGULAR_VELOCITY, BODY_INV_INERTIA, BODY_INV_MASS, BODY_LINEAR_VELOCITY,
                                   BODY_POSITION, EMPTY_HEADER)
-from sim.kernel_build import KernelBuild
+from sim.compile.kernel_build import KernelBuild
 
 UNMAPPED_ADDRESS = 0xF4  # no register there (rtl/README.md: reads 0, ignores writes, SLVERR, error 9)
 
@@ -33,7 +33,7 @@ def set_bits(rows: np.ndarray, bit: int, nbits: int, value: int) -> None:
 
 
 class HarnessFiles:
-    """The harness's input files of one run (``sim.harness_run.write_inputs``) as arrays, to make bad input."""
+    """The harness's input files of one run (``sim.drive.harness_run.write_inputs``) as arrays, to make bad input."""
 
     def __init__(self, run_dir: Path, kb: KernelBuild):
         self.dir, self.w = run_dir, kb.fmt.width

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 from sim.coverage.data import BRANCH_COMMENTS, PointKey
 from sim.coverage.waivers import TOGGLE_WAIVERS, WAIVERS, ToggleWaiver, Waiver, waiver_for
-from sim.verilator_build import REPO_ROOT
+from sim.compile.verilator_build import REPO_ROOT
 
 if TYPE_CHECKING:
     from sim.coverage.configurations import Configuration

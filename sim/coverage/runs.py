@@ -12,18 +12,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from models import scenes
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from sim.cocotb_run import BUILD_ROOT as COCOTB_BUILD_ROOT
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from sim.drive.cocotb_run import BUILD_ROOT as COCOTB_BUILD_ROOT
 from sim.coverage.build import (COVERAGE_ARGS, COVERAGE_COMPILE_PROFILE, build_coverage_fp_ops, build_coverage_kernel,
                                 coverage_kernel_build)
 from sim.coverage.cases import CASES, FP_OPERATOR_CASES, REGISTER_CASE, SCENES, Case, SharedCase, case_dir
 from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
 from sim.coverage.input_edits import HarnessFiles
-from sim.fp_operator_harness import run_fp_operator_harness
-from sim.fp_operator_vectors import make_vectors, seed_for
-from sim.harness_run import TIMEOUT_PER_ITEM, KernelRunError, harness_cycle_limit, run_harness, write_inputs
-from sim.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT
+from sim.drive.fp_operator_harness import run_fp_operator_harness
+from sim.drive.fp_operator_vectors import make_vectors, seed_for
+from sim.drive.harness_run import TIMEOUT_PER_ITEM, KernelRunError, harness_cycle_limit, run_harness, write_inputs
+from sim.compile.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT
 
 
 @dataclass
@@ -100,7 +100,7 @@ def run_case(case: Case, exe: Path, run_dir: Path, seed: int = 1) -> CaseResult:
 
 
 def register_coverage_file() -> Path:
-    """Where the register test's coverage build (``sim.cocotb_run``) leaves coverage.dat."""
+    """Where the register test's coverage build (``sim.drive.cocotb_run``) leaves coverage.dat."""
     return COCOTB_BUILD_ROOT / "pgs_control_s_axi_coverage" / "coverage.dat"
 
 
@@ -109,7 +109,7 @@ def run_register_test() -> CaseResult:
     ``pgs_control_s_axi`` (``build/cocotb/pgs_control_s_axi_coverage/``): the register paths the harness never
     takes (reads of every register, byte strobes, auto_restart, the ap_ready interrupt). cocotb's Verilator main
     writes ``coverage.dat`` into the build directory when the simulation ends."""
-    from sim.cocotb_run import TESTS_DIR, run_cocotb
+    from sim.drive.cocotb_run import TESTS_DIR, run_cocotb
 
     t0 = time.monotonic()
     cov = register_coverage_file()
@@ -133,7 +133,7 @@ def run_register_test() -> CaseResult:
 
 
 def run_fp_operator_case(case: SharedCase, out: Path) -> CaseResult:
-    """The fp-operator vectors (``sim.fp_operator_vectors``) through a coverage build of their harness."""
+    """The fp-operator vectors (``sim.drive.fp_operator_vectors``) through a coverage build of their harness."""
     t0 = time.monotonic()
     assert case.fmt is not None
     run_dir = case_dir(out, case.label)

@@ -15,14 +15,14 @@
 // per cycle; TVALID stays up until the handshake, as AXI4-Stream demands) and deasserts
 // m_axis_body_TREADY with probability BP_PERMILLE/1000 per cycle, until `interrupt` rises. Exceeding
 // MAX_CYCLES is a failure (exit 3) with a message naming what was still pending.
-// DMA model (models/dma_model.py presets): DDR_MILLIBYTES is the DDR bandwidth in 1/1000 bytes per kernel
+// DMA model (models/timing/platforms.py presets): DDR_MILLIBYTES is the DDR bandwidth in 1/1000 bytes per kernel
 // cycle (0: uncapped), a token bucket shared by all three streams (refilled every cycle, capped at two
 // constraint beats, spent when a beat is offered or accepted), the same model as the cocotb DdrBandwidth;
 // STARTUP is the start-up latency of each MM2S transfer: the body-in transfer and each pass's constraint
 // transfer (one per pass, as the host issues them) wait STARTUP cycles before their first beat. With
 // PROGRESS > 0 a line "progress CYCLE TRACE_RECORDS" goes to stdout every PROGRESS cycles.
 // Impulses in the records (built with IMPULSES_IN_RECORDS=1; IMP_OUT_BYTES, WORD_BITS, CONTACT_BEATS, FRICTION_BEATS,
-// CONTACT_LAM_BIT, FRICTION_LAM_BIT, FRICTION_LAMT_BIT from models/stream_format.py): DIR/impulse_plan.bin holds
+// CONTACT_LAM_BIT, FRICTION_LAM_BIT, FRICTION_LAMT_BIT from models/kernel/stream_format.py): DIR/impulse_plan.bin holds
 // uint32 records per block, uint32 TURNAROUND, uint32 beats per record (0: CONTACT_BEATS or FRICTION_BEATS by the
 // block's kind), then one byte per block (0 contact, 1 friction). A block is a pass of the streaming kernel, a fetch
 // of the window kernel (its records hold LANES lane records of equal beats; an impulse-out record holds the LANES
@@ -32,7 +32,7 @@
 // step starts from) for every field an earlier block of the step wrote. Read after write: record k of block p > 0
 // is offered no earlier than TURNAROUND cycles after block p - 1's impulse-out record k was taken (the write's path
 // to DDR and the read's back; every block reads what its predecessor wrote or older). The DDR bucket's rate is the
-// read share the host reserved (sim/harness_run.py); the impulse writes do not spend from it. Writes
+// read share the host reserved (sim/drive/harness_run.py); the impulse writes do not spend from it. Writes
 // DIR/imp_out.bin (the records).
 // Waveforms: built with --trace-fst (VM_TRACE), the harness writes an FST to $PGS_WAVES (when set) for the first
 // $PGS_WAVE_CYCLES cycles (default 20000; 0 = the whole run). Its time is in ps (the model's time precision, checked):

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from models.onchip_budget import PLATFORMS
-from models.schedule import BANDED_ORDERS
+from models.sizing.onchip_budget import PLATFORMS
+from models.order.manifold_schedule import BANDED_ORDERS
 from sim import band
 
 

@@ -1,4 +1,4 @@
-"""``make bench`` option checks (sim/bench_sim_speed.py): bad options end with one clear error, exit status 2."""
+"""``make bench`` option checks (sim/bench.py): bad options end with one clear error, exit status 2."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from models.number_format import FP32
-from sim import bench_sim_speed as bench
-from sim.kernel_build import COMPILE_PROFILES, KernelBuild
+from models.formats.number_format import FP32
+from sim import bench
+from sim.compile.kernel_build import COMPILE_PROFILES, KernelBuild
 
 
 def test_default_profiles_are_known_and_distinct() -> None:

@@ -12,14 +12,14 @@ import numpy as np
 import pytest
 
 from models import scenes
-from models.bad_input import CATALOGUE
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.number_format import FP32
+from models.kernel.bad_input import CATALOGUE
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.formats.number_format import FP32
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from sim.coverage import build, cases, configurations, data, input_edits, report, runs, waivers
-from sim.kernel_build import KernelBuild
-from sim.verilator_build import REPO_ROOT
+from sim.compile.kernel_build import KernelBuild
+from sim.compile.verilator_build import REPO_ROOT
 
 CANNED = Path(__file__).resolve().parent / "data" / "coverage_canned.dat"
 
@@ -132,7 +132,7 @@ def test_bit_editing_of_harness_records(tmp_path: Path) -> None:
 def test_mass_spread_edit_keeps_good_input(tmp_path: Path) -> None:
     """The mass-spread edit of the records regression: every dynamic body's inverse mass and inertia words scaled
     by a factor in [1/4, 4), distinct per body, positive and finite; the static bodies (inverse mass 0) untouched."""
-    from models.stream_format import BODY_INV_INERTIA, BODY_INV_MASS
+    from models.kernel.stream_format import BODY_INV_INERTIA, BODY_INV_MASS
 
     case = next(c for c in cases.CASES if c.label == "stream-fp32-records-pile-mass-spread")
     kb = case.configuration.build()

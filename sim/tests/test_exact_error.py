@@ -5,15 +5,15 @@ from __future__ import annotations
 import pytest
 
 from models import scenes
-from models.constraints import body_table, setup_constraints
-from models.exact_reference import exact_reference
-from sim.exact_error import PRIMAL_POINT_KEY, contact_certificate
+from models.setup.constraints import body_table, setup_constraints
+from models.exact.reference import exact_reference
+from sim.compare.exact_error import PRIMAL_POINT_KEY, contact_certificate
 
 
 def test_the_certificate_line_is_the_one_used(monkeypatch: pytest.MonkeyPatch) -> None:
     """On the large-island path (forced on a small pile) the report states the primal-point bound the reference was
     accepted with, in m/s and rad/s, not the impulse-only one; on Clarabel's path, the impulse-only bound, named."""
-    from models import exact_reference as er
+    from models.exact import reference as er
 
     frame = scenes.capture_frame("pile", nx=3, ny=2, nz=3, seed=2)
     bodies = body_table(frame)
@@ -34,7 +34,7 @@ def test_the_certificate_line_is_the_one_used(monkeypatch: pytest.MonkeyPatch) -
 def test_the_interleaved_reference_claims_no_distance_certificate() -> None:
     """The interleaved order's reference is certified by its coupled residuals only: the report says so instead of
     a sequential contact-phase bound that does not apply to it."""
-    from models.contact_solver import SolverParams
+    from models.golden.contact_solver import SolverParams
 
     frame = scenes.capture_frame("spin")
     bodies = body_table(frame)

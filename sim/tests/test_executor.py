@@ -1,4 +1,4 @@
-"""sim.executor: a sweep on two Dask worker processes (each in its own working directory) gives the serial run's rows,
+"""sim.parallel.executor: a sweep on two Dask worker processes (each in its own working directory) gives the serial run's rows,
 row for row; a failing point and a killed worker (local pool, a LocalCluster without retries, and dask:local:2
 with them) are reported with their commands while the other points finish, with progress lines (done, running,
 failed) and the dashboard's address (also a point the local pool takes after a worker died unseen); a rerun resumes
@@ -24,16 +24,17 @@ from typing import Any, ClassVar, Iterator
 import pytest
 
 from models import scenes
-from models.frame import save
-from models.number_format import FP16, FP32
-from sim import artefacts, kernel_build
+from models.formats.frame import save
+from models.formats.number_format import FP16, FP32
+from sim.compile import artefacts
+from sim.compile import kernel_build
 from sim import sweep as sim_sweep
-from sim.artefacts import FRAME_DIR, FrameStore, build_key
-from sim.executor import LOCAL_CLUSTER_CONFIG, LocalPool, Outcome, Task, WorkerDied, Workers, parse_executor, \
+from sim.compile.artefacts import FRAME_DIR, FrameStore, build_key
+from sim.parallel.executor import LOCAL_CLUSTER_CONFIG, LocalPool, Outcome, Task, WorkerDied, Workers, parse_executor, \
     run_points
-from sim.kernel_build import KernelBuild
-from sim.verilator_build import file_digest
-from sim.point_results import PointLog
+from sim.compile.kernel_build import KernelBuild
+from sim.compile.verilator_build import file_digest
+from sim.parallel.point_results import PointLog
 
 distributed = pytest.importorskip("distributed")
 

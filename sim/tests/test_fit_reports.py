@@ -1,11 +1,12 @@
 """The two report commands of the fp32 records design on a small scene: the body banks per count
-(sim.body_banks_report) and the tangent basis derived on chip (sim.tangent_basis_report)."""
+(sim.fit.body_banks_report) and the tangent basis derived on chip (sim.fit.tangent_basis_report)."""
 
 from __future__ import annotations
 
 import pytest
 
-from sim import body_banks_report, tangent_basis_report
+from sim.fit import body_banks_report
+from sim.fit import tangent_basis_report
 
 
 def _rows(out: str) -> list[list[str]]:

@@ -1,4 +1,4 @@
-"""The kernel build description (sim/kernel_build.py) and the harness's register writes (sim/harness_run.py),
+"""The kernel build description (sim/compile/kernel_build.py) and the harness's register writes (sim/drive/harness_run.py),
 without building anything."""
 
 from __future__ import annotations
@@ -9,15 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models import register_map
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.integrator import IntegrationParams
-from models.kernel_job import KernelJob
-from models.number_format import FP16, FP32
-from sim.cocotb_run import kernel_cocotb_build
-from sim.harness_run import register_writes, write_inputs
-from sim.kernel_build import HARNESS, PUBLIC_VLT, VARIANT_ROOT, KernelBuild
+from models.kernel import register_map
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.golden.integrator import IntegrationParams
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP16, FP32
+from sim.drive.cocotb_run import kernel_cocotb_build
+from sim.drive.harness_run import register_writes, write_inputs
+from sim.compile.kernel_build import HARNESS, PUBLIC_VLT, VARIANT_ROOT, KernelBuild
 
 
 def test_names_are_distinct_per_description() -> None:
@@ -93,7 +93,7 @@ def test_cocotb_build_is_the_harness_build(monkeypatch: pytest.MonkeyPatch) -> N
 
 
 def test_register_writes_use_the_register_map() -> None:
-    """The harness programs every scalar argument at its offset of models/register_map.py, in argument order;
+    """The harness programs every scalar argument at its offset of models/kernel/register_map.py, in argument order;
     the window kernel's two registers only for a window job, the soft contact kernel's two only for a soft job."""
     from types import SimpleNamespace
 
@@ -139,7 +139,7 @@ def test_soft_contact_build() -> None:
 
 def test_stale_dependency_files_are_dropped(tmp_path) -> None:
     """A build folder whose .d files name a moved source loses those .d files and their objects, nothing else."""
-    from sim.verilator_build import drop_stale_dependencies
+    from sim.compile.verilator_build import drop_stale_dependencies
     source = tmp_path / "main.cpp"
     source.write_text("int main() {}\n")
     (tmp_path / "kept.d").write_text(f"kept.o: {source} \\\n {source}\n")

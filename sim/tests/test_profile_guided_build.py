@@ -1,4 +1,4 @@
-"""The profile-guided build (``sim.verilator_build.profile_guided_build``) on a small top of its own: both stages
+"""The profile-guided build (``sim.compile.verilator_build.profile_guided_build``) on a small top of its own: both stages
 run, the training writes the profile, the finished build is reused until an input changes, a training that writes
 no profile fails without a stamp, and the result computes what the plain build computes."""
 
@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from models.number_format import FP32
-from sim.kernel_build import PROFILE_GUIDED, KernelBuild, verilate_kernel
-from sim.verilator_build import VerilatorError, build, profile_guided_build
+from models.formats.number_format import FP32
+from sim.compile.kernel_build import PROFILE_GUIDED, KernelBuild, verilate_kernel
+from sim.compile.verilator_build import VerilatorError, build, profile_guided_build
 
 COUNTER_SV = """module pgo_counter #(parameter int STEP = 3) (input logic clk, input logic rst, output logic [31:0] q);
     always_ff @(posedge clk) begin

@@ -9,18 +9,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models.closed_loop import run_closed_loop
-from models.contact_solver import Impulses, SolverParams
-from models.exact_reference import exact_reference
-from models.number_format import FLOAT64, FP16, FP32
-from models.contact_solver import solve
-from models.schedule import make_schedule
-from models.warm_start import apply_impulses
+from models.closed_loop.loop import run_closed_loop
+from models.golden.contact_solver import Impulses, SolverParams
+from models.exact.reference import exact_reference
+from models.formats.number_format import FLOAT64, FP16, FP32
+from models.golden.contact_solver import solve
+from models.order.manifold_schedule import make_schedule
+from models.golden.warm_start import apply_impulses
 from models.scenes.frame_cache import load_or_capture
-from models.cycle_model import predict_job
-from models.dma_model import get_preset
-from sim.kernel_build import default_window
-from sim.remedy_price import (ERROR_KEYS, SHOCK_HAZARD_SUFFIX, SHOCK_SUFFIX, capture, capture_from_frames, main, price, shock_job,
+from models.timing.cycle_model import predict_job
+from models.timing.platforms import get_preset
+from sim.compile.kernel_build import default_window
+from sim.remedies.remedy_price import (ERROR_KEYS, SHOCK_HAZARD_SUFFIX, SHOCK_SUFFIX, capture, capture_from_frames, main, price, shock_job,
                               solve_series, verdict)
 
 TINY = ["--scene", "stack", "--scene-args", "n=4", "--settle", "0", "--steps", "12", "--iters", "1,4"]
@@ -177,7 +177,7 @@ def test_the_captured_frame_warm_started_from_the_step_before(tmp_path: Path) ->
 
 def test_a_cached_step_with_bad_impulses_is_refused_before_the_exact_reference(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from sim.remedy_step_cache import load_step, save_step
+    from sim.remedies.remedy_step_cache import load_step, save_step
 
     assert main(TINY + ["--cache-dir", str(tmp_path)]) == 0
     path = next(tmp_path.glob("remedy_step_*.npz"))

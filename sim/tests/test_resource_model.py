@@ -8,10 +8,10 @@ import math
 
 import pytest
 
-from models import onchip_budget as ob
-from models.number_format import FP16, FP32
-from sim import resource_model as rm
-from sim.run_result import FIT_SECTION, ModelRunResult, sections
+from models.sizing import onchip_budget as ob
+from models.formats.number_format import FP16, FP32
+from sim.fit import resource_model as rm
+from sim.report.run_result import FIT_SECTION, ModelRunResult, sections
 
 ZCU102, U280 = ob.get_platform("zcu102"), ob.get_platform("u280")
 THESIS = (38_881, 147_485)
@@ -94,13 +94,13 @@ def test_delay_lines_in_block_ram() -> None:
 
 
 def test_the_records_design_keeps_its_long_delay_lines_in_block_ram() -> None:
-    """The fp32 records design's build puts its delay lines from 65 deep in block RAM (models/delay_lines.py), the
+    """The fp32 records design's build puts its delay lines from 65 deep in block RAM (models/kernel/delay_lines.py), the
     estimate counts them there, and with the tangent basis derived on chip that is what makes it fit the zcu102
     (87.6% of the LUTs with every line in LUT RAM); the fp16 records design keeps them in LUT RAM."""
-    from models.delay_lines import BLOCK_MIN_DEPTH
-    from models.dma_model import get_preset
+    from models.kernel.delay_lines import BLOCK_MIN_DEPTH
+    from models.timing.platforms import get_preset
     from models.tests.test_body_banks import pile_job
-    from sim.kernel_build import KernelBuild
+    from sim.compile.kernel_build import KernelBuild
 
     job = pile_job().tangents_derived()
     assert job.delay_block_min_depth == BLOCK_MIN_DEPTH == rm.config_for_job(job).delay_block_min_depth
@@ -183,7 +183,7 @@ def test_fit_section_of_a_run() -> None:
 
 
 def test_redesign_table(capsys: pytest.CaptureFixture[str]) -> None:
-    from sim import redesign_fit
+    from sim.fit import redesign_fit
 
     assert redesign_fit.main(["--formats", "fp16", "--platform", "u280"]) == 0
     out = capsys.readouterr().out
@@ -211,9 +211,9 @@ def test_banked_body_velocities_of_the_records_design() -> None:
 def test_tangent_basis_on_chip_in_the_estimate() -> None:
     """The job with the tangents derived on chip: the friction pipe that derives them in the estimate, and the build
     that instantiates it (TANGENTS_ON_CHIP)."""
-    from models.dma_model import get_preset
+    from models.timing.platforms import get_preset
     from models.tests.test_body_banks import pile_job
-    from sim.kernel_build import KernelBuild
+    from sim.compile.kernel_build import KernelBuild
 
     derived = pile_job().tangents_derived()
     cfg = rm.config_for_job(derived)

@@ -1,12 +1,12 @@
-"""make sim's typed result (sim/run_result.py): what decides the exit status, and the sections it renders into
+"""make sim's typed result (sim/report/run_result.py): what decides the exit status, and the sections it renders into
 (the one form the summary and report.md/json are written from), in order."""
 
 from __future__ import annotations
 
 from typing import Union
 
-from models.solution_error import SolutionError
-from sim.run_result import BITS_SECTION, ERROR_SECTION, MODEL_SECTION, BitExactness, ExactErrors, \
+from models.exact.solution_error import SolutionError
+from sim.report.run_result import BITS_SECTION, ERROR_SECTION, MODEL_SECTION, BitExactness, ExactErrors, \
     ExactReferenceFacts, KernelSpeed, ModelRunResult, NoExactReference, RunResult, SceneFacts, ScheduleFacts, \
     StepErrors, ThesisComparison, VelocityError, sections
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from sim import analyze
-from sim import bench_sim_speed as bench
+from sim import bench
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -38,7 +38,7 @@ def test_bench_refuses_a_bad_scene_arg(capsys: pytest.CaptureFixture[str]) -> No
     assert "parameter n of scene 'stack' must be an integer" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("target, module", [("analyze", "sim.analyze"), ("bench", "sim.bench_sim_speed")])
+@pytest.mark.parametrize("target, module", [("analyze", "sim.analyze"), ("bench", "sim.bench")])
 def test_make_passes_scene_args(target: str, module: str) -> None:
     dry = subprocess.run(["make", "-n", target, 'SCENE_ARGS=n=3 mass=2'], cwd=REPO, text=True,
                          capture_output=True, check=True).stdout

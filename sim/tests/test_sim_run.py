@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 
 from models import scenes
-from models.frame import load, save
+from models.formats.frame import load, save
 from sim import run as sim_run
-from sim import pareto_front
+from sim.report import pareto_front
 from sim import sweep as sim_sweep
-from sim import sweep_plot
-from sim.harness_run import KernelRunError
+from sim.report import sweep_plot
+from sim.drive.harness_run import KernelRunError
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -206,8 +206,8 @@ def test_sim_run_frame_file(tmp_path: Path) -> None:
 def test_sweep_columns_and_plot_without_an_exact_reference(tmp_path: Path) -> None:
     """make sweep's error columns against the exact reference, and its csv and plot when there is none: every such
     column says why, and the plot is still written."""
-    from models.solution_error import SolutionError
-    from sim.run_result import NoExactReference
+    from models.exact.solution_error import SolutionError
+    from sim.report.run_result import NoExactReference
 
     base: dict[str, Any] = {col: 1.0 for col in sim_sweep.COLUMNS}
     base.update(format="fp32", iterations=1, differing_bits=0)

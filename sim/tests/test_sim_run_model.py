@@ -1,5 +1,5 @@
 """`make sim MODE=model` (the cycle model's estimate without Verilator) and the cycle model's section beside an
-RTL run of `make sim` (models/cycle_model.py against the kernel, every retire cycle)."""
+RTL run of `make sim` (models/timing/cycle_model.py against the kernel, every retire cycle)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
-SECTION = "cycle model (models/cycle_model.py)"
+SECTION = "cycle model (models/timing/cycle_model.py)"
 
 
 def _run(tmp: Path, *extra: str) -> dict:

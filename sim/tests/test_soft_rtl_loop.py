@@ -1,4 +1,4 @@
-"""``python -m sim.soft_rtl_loop``: a hard case's soft closed loop with the warm-up on the golden model and the
+"""``python -m sim.remedies.soft_rtl_loop``: a hard case's soft closed loop with the warm-up on the golden model and the
 measured steps on the RTL's soft contact build (the build of ``cocotb_tests/test_kernel_soft_contact.py``)."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from sim.soft_rtl_loop import main, run_remedy
+from sim.remedies.soft_rtl_loop import main, run_remedy
 
 
 def test_measured_steps_run_on_the_rtl(tmp_path: Path) -> None:

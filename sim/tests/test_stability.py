@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models.closed_loop import Remedy, run_closed_loop
-from models.dma_model import get_preset
-from models.number_format import FP16, FP32
-from models.stability import CASES, REMEDIES, call_iterations, judge
-from sim.rtl_stepper import RtlCall, ShockUnsupported, SoftContactUnsupported, WarmStartUnsupported, rtl_stepper
+from models.closed_loop.loop import Remedy, run_closed_loop
+from models.timing.platforms import get_preset
+from models.formats.number_format import FP16, FP32
+from models.closed_loop.hard_cases import CASES, REMEDIES, call_iterations, judge
+from sim.drive.rtl_stepper import RtlCall, ShockUnsupported, SoftContactUnsupported, WarmStartUnsupported, rtl_stepper
 from sim.stability import main as stability_main
 
 

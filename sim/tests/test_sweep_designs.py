@@ -13,19 +13,22 @@ from typing import Any
 
 import pytest
 
-from models import cycle_model, scenes
-from models.contact_solver import SolverParams
-from models.dma_model import get_preset
-from models.frame import save
-from models.kernel_job import KernelJob
-from models.number_format import FP16
+from models import scenes
+from models.timing import cycle_model
+from models.golden.contact_solver import SolverParams
+from models.timing.platforms import get_preset
+from models.formats.frame import save
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FP16
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from sim import baselines, pareto_front, sweep_plot
+from sim.report import thesis_figures as baselines
+from sim.report import pareto_front
+from sim.report import sweep_plot
 from sim import sweep as sim_sweep
-from sim.executor import parse_executor
-from sim.harness_run import write_inputs
-from sim.kernel_build import KernelBuild, default_window
-from sim.point_results import PointLog
+from sim.parallel.executor import parse_executor
+from sim.drive.harness_run import write_inputs
+from sim.compile.kernel_build import KernelBuild, default_window
+from sim.parallel.point_results import PointLog
 
 
 @pytest.fixture(scope="module")

@@ -1,5 +1,5 @@
-"""sim.iteration_ladder: one contact run with snapshots, and a friction phase from each, gives every iteration
-count's step bit for bit as a separate golden run (sim.kernel_step.golden_step) does, in both pass orders and in a
+"""models.golden.iteration_ladder: one contact run with snapshots, and a friction phase from each, gives every iteration
+count's step bit for bit as a separate golden run (sim.drive.kernel_step.golden_step) does, in both pass orders and in a
 rounding format; bad counts are refused."""
 
 from __future__ import annotations
@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from models import scenes
-from models.contact_solver import SolverParams
-from models.kernel_job import KernelJob
-from models.number_format import FLOAT64, FP16, FP32
+from models.golden.contact_solver import SolverParams
+from models.kernel.kernel_job import KernelJob
+from models.formats.number_format import FLOAT64, FP16, FP32
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from sim.iteration_ladder import solve_ladder
-from sim.kernel_step import golden_step
+from models.golden.iteration_ladder import solve_ladder
+from sim.drive.kernel_step import golden_step
 
 COUNTS = (1, 2, 3, 4, 8)
 

@@ -1,0 +1,42 @@
+"""Where the datapaths' long delay lines live on a board (``DELAY_BLOCK_MIN_DEPTH`` of ``rtl/pgs_kernel.sv``, passed
+to every ``rtl/pgs_delay.sv`` of the generated pipes): which builds keep them in block RAM.
+
+A delay line at least as deep as the threshold keeps its words in block RAM (``ram_style = "block"``: one simple
+dual-port RAMB18/36 per read tap), a shallower one in LUT RAM (``"distributed"``). The choice moves LUTs into block
+RAM and changes nothing a simulation sees (the same registered reads, the same cycles and bits), so the threshold
+is chosen per build by the resource that binds it: ``sim/fit/resource_model.py`` counts it, ``sim/compile/kernel_build.py``
+passes it to the build.
+"""
+
+from __future__ import annotations
+
+from models.formats.number_format import NumberFormat
+
+# lines longer than one 64-deep LUT RAM (RAM64M8: 8 LUTs per 7 bit-reads and 64 words, plus a depth multiplexer
+# for each further 64 words) go to block RAM: the lines whose LUTs per bit grow with their depth
+BLOCK_MIN_DEPTH = 65
+# the window kernel with the impulses in the records, fp32 or two lanes, binds on LUTs and block RAM together (its
+# ring and body banks take block RAM): its lines from 129 deep, the longest, in block RAM (thesis frame, ring 8,192:
+# fp32 one lane LUT 84.2%, BRAM36 94.8%, fp16 two lanes 83.2% and 89.1%; from 65 deep the block RAM overflows)
+WINDOW_BLOCK_MIN_DEPTH = 129
+
+
+def default_delay_block_min_depth(fmt: NumberFormat, impulses_in_records: bool, window: bool, lanes: int = 1) -> int:
+    """The threshold of the build that runs a step: the streaming kernel with the impulses in the records in a format
+    of 32 bits or more keeps its lines from :data:`BLOCK_MIN_DEPTH` deep in block RAM (its LUTs bind it: with the
+    tangent basis derived on chip it needs 87.6% of the ZCU102's LUTs with every line in LUT RAM, against 85%
+    usable, while a third of the block RAM is free), the window kernel with the impulses in the records from
+    :data:`WINDOW_BLOCK_MIN_DEPTH` deep in fp32 or with lanes; every other build keeps them in LUT RAM (0)."""
+    if not impulses_in_records:
+        return 0
+    if window:
+        return WINDOW_BLOCK_MIN_DEPTH if fmt.width >= 32 or lanes > 1 else 0
+    return BLOCK_MIN_DEPTH if fmt.width >= 32 else 0
+
+
+def check_block_min_depth(depth: int) -> int:
+    """``depth``, or a ValueError unless it is 0 (no line in block RAM) or at least pgs_delay's RAM form (4)."""
+    if depth != 0 and depth < 4:
+        raise ValueError(f"delay lines in block RAM from {depth} deep: expected 0 (none) or at least 4 (pgs_delay's "
+                         "circular buffers; shorter lines are registers)")
+    return depth

@@ -1,0 +1,644 @@
+"""Resource model of a kernel configuration: LUT, FF, DSP48E2, BRAM36 and UltraRAM in seconds, without Yosys.
+
+What a configuration (:class:`KernelConfig`: number format, lanes, window ring, body and record beat widths,
+scene sizes that set the memory depths, and the redesign levers below) costs is summed from parts, each with
+the source of its figure:
+
+* **operators**: the floating-point operators of every datapath (``rtl/gen`` graphs: contact and friction pipe
+  per lane, one integrate pipe), each operator's figure synthesized once per format and latency with Yosys
+  (``synth_xilinx -family xcup``, hierarchy kept) and committed in ``sim/fit/generated/resource_figures.json``
+  (``make resources`` regenerates it). Where a published Vitis HLS / Floating-Point Operator figure exists
+  (:data:`VENDOR_OPERATORS`) it is shown beside Yosys's, and ``operator_source="vendor"`` uses it;
+* **delay lines** of the datapaths (``rtl/pgs_delay.sv``, from the generator's schedule): lines shorter than 4
+  stages are registers; longer ones are circular buffers in distributed RAM (RAM32M16 / RAM64M8 in simple
+  dual-port use: 8 LUTs hold 32 x 14 or 64 x 7 bit-reads, a tap is a read port), plus a register per tap; or,
+  from ``delay_block_min_depth`` deep (the build's DELAY_BLOCK_MIN_DEPTH, ``models/kernel/delay_lines.py``), in block
+  RAM: one simple dual-port array per tap, in its cheapest BRAM36 / BRAM18 aspect ratio;
+* **memories**, mapped as a board build maps them: each array in the cheapest BRAM36 / BRAM18 aspect ratio,
+  with the replicas or banks its ports need (true dual-port blocks give two ports), and in UltraRAM (4K x 72,
+  two ports) on a platform that has it when the array is at least 4K deep;
+* **control**: the register file, sequencer, record assemblers, hazard CAM and FIFOs as Yosys synthesized
+  ``pgs_kernel`` with the pipes and RAMs as black boxes (the streaming one-lane kernel of the format); for more
+  lanes the hazard CAM's share is scaled with its body ports (a scaled figure, marked so).
+
+Levers a redesign can pull, each a parameter of :class:`KernelConfig`: ``impulses_resident`` (every manifold's
+accumulated impulses on chip, or travelling with the records, held only in the ring), ``body_words`` (``"full"``:
+the whole body-in record; ``"solve"``: only velocities and mass properties, positions and orientations streamed
+through at integration), ``body_ports`` (``"lvt"``: every write port a bank replicated per read port;
+``"banked"``: one copy of the velocities in ``body_banks`` true dual-port banks, a busy bank stalling the issue:
+``rtl/pgs_body_vel_banks.sv``, 2 x lanes reads and writes a cycle, the lane plan keeping a record's reads within
+the banks' ports),
+``delay_block_min_depth`` (the delay lines from that depth in block RAM instead of LUT RAM), and
+``record_bits`` (word width of the record fields stored in the ring: a storage format per field group).
+
+The estimate is a sum of parts: Yosys of the whole pipes (cached under ``build/resources``) is printed beside it
+by ``make resources``, and ``docs/resources.md`` gives how far apart they lie. Timing closure and the final
+utilisation need Vivado.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, Optional, Union
+
+from models.sizing import onchip_budget as ob
+from models.kernel.body_banks import RECORDS_BANKS
+from models.kernel.delay_lines import check_block_min_depth
+from models.kernel.kernel_job import KernelJob
+from models.sizing.mixed_layout import Converters
+from models.formats.number_format import KERNEL_FORMATS, NumberFormat
+from models.timing.kernel_shape import IMPULSE_FIFO_DEPTH
+from models.kernel.stream_format import CONTACT_WORDS, FRICTION_WORDS, BODY_IN_WORDS, IMPULSE_OUT_WORDS, WINDOW_WORDS
+from rtl.gen.dataflow import BOOL, OP_SIGNATURES
+from rtl.gen.kernel_graphs import GRAPHS, MODE_GRAPHS
+from rtl.gen.operator_timing import MINMAX_LATENCY, operator_latencies
+
+FIGURES_FILE = Path(__file__).parent / "generated" / "resource_figures.json"
+DEFAULT_BODY_BITS = 128  # the body streams' beat of the default build (BODY_IN_W, BODY_OUT_W of rtl/pgs_kernel.sv)
+REGENERATE = "make resources"  # the command that rewrites FIGURES_FILE
+OPERATOR_MODULES = tuple(sorted({mod for _, _, mod in OP_SIGNATURES.values() if mod}))
+KEYS = ("LUT", "FF", "DSP", "BRAM36", "URAM")
+
+
+@dataclass
+class Resources:
+    lut: float = 0
+    ff: float = 0
+    dsp: float = 0
+    bram36: float = 0
+    uram: float = 0
+
+    def __add__(self, other: "Resources") -> "Resources":
+        return Resources(self.lut + other.lut, self.ff + other.ff, self.dsp + other.dsp, self.bram36 + other.bram36,
+                         self.uram + other.uram)
+
+    def scaled(self, k: float) -> "Resources":
+        return Resources(self.lut * k, self.ff * k, self.dsp * k, self.bram36 * k, self.uram * k)
+
+    def as_dict(self) -> dict[str, float]:
+        return {"LUT": self.lut, "FF": self.ff, "DSP": self.dsp, "BRAM36": self.bram36, "URAM": self.uram}
+
+    @staticmethod
+    def from_dict(d: dict[str, Any]) -> "Resources":
+        return Resources(d.get("LUT", 0), d.get("FF", 0), d.get("DSP", 0), d.get("BRAM36", 0), d.get("URAM", 0))
+
+
+# --- published operator figures ---------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class VendorFigure:
+    label: str
+    latency: int
+    resources: Resources
+    source: str
+
+
+# Vitis HLS fp32 adders in a public HLS report on UltraScale+ (Alveo U280; ../shared research facts, section 1)
+_FANNS = "Vitis HLS report, Alveo U280 (WenqiJiang/SIGMOD-2022-submission-Fanns)"
+VENDOR_OPERATORS: dict[tuple[str, str], tuple[VendorFigure, ...]] = {
+    ("fp_add", "fp32"): (VendorFigure("fadd full_dsp", 3, Resources(lut=226, ff=177, dsp=2), _FANNS),
+                         VendorFigure("fadd no_dsp", 5, Resources(lut=338, ff=243, dsp=0), _FANNS)),
+}
+
+
+# --- the generated figures --------------------------------------------------------------------------------------
+@lru_cache(maxsize=None)
+def _figures_text(path: Path) -> str:
+    return path.read_text()
+
+
+def figures(path: Path = FIGURES_FILE) -> dict[str, Any]:
+    """The committed Yosys figures (operators and whole units per format)."""
+    if not path.is_file():
+        raise FileNotFoundError(f"{path} is missing: `{REGENERATE}` writes it")
+    return json.loads(_figures_text(path))
+
+
+@dataclass(frozen=True)
+class OperatorFigure:
+    module: str
+    fmt: str
+    latency: int
+    resources: Resources
+    source: str  # "Yosys" or the vendor figure's label and source
+
+
+def operator_figure(module: str, fmt: NumberFormat, source: str = "yosys",
+                    data: Optional[dict[str, Any]] = None) -> OperatorFigure:
+    """One operator's figure in ``fmt``: Yosys's (committed), or with ``source="vendor"`` the published one where
+    there is one (the first listed)."""
+    if source == "vendor" and (module, fmt.name) in VENDOR_OPERATORS:
+        v = VENDOR_OPERATORS[(module, fmt.name)][0]
+        return OperatorFigure(module, fmt.name, v.latency, v.resources, f"{v.label} ({v.source})")
+    if source not in ("yosys", "vendor"):
+        raise ValueError(f"operator source {source!r}: expected yosys or vendor")
+    ops = (data or figures())["operators"].get(fmt.name, {})
+    if module not in ops:
+        raise KeyError(f"no Yosys figure of {module} in {fmt.name} in {FIGURES_FILE}: `{REGENERATE} "
+                       f"FORMATS={fmt.name}` adds it")
+    row = ops[module]
+    return OperatorFigure(module, fmt.name, row["latency"], Resources.from_dict(row), "Yosys")
+
+
+def rtl_latency(module: str, fmt: NumberFormat) -> int:
+    """The operator's latency in the RTL (``fp_minmax``: the generator's LATENCY parameter)."""
+    if module == "fp_minmax":
+        return MINMAX_LATENCY
+    return operator_latencies()[module].eval(fmt.man_bits)
+
+
+# --- datapaths: operator counts and delay lines from the generator's schedule -----------------------------------
+@dataclass(frozen=True)
+class DelayLine:
+    width: int
+    depth: int
+    taps: tuple[int, ...]  # delay of each tap
+
+
+@dataclass(frozen=True)
+class PipeShape:
+    name: str
+    latency: int
+    operators: dict[str, int]  # RTL module -> instances
+    lines: tuple[DelayLine, ...]
+
+
+TAG_BITS = 64  # the pass-through tag of every pipe (its TAG_W default)
+
+
+@lru_cache(maxsize=None)
+def pipe_shape(name: str, man_bits: int) -> PipeShape:
+    """Operators and delay lines of one generated datapath at ``man_bits`` (the emitted RTL's structure)."""
+    graph = {**GRAPHS, **MODE_GRAPHS}[name]()
+    sched = graph.schedule()
+    ops: dict[str, int] = {}
+    for v in sched.nodes:
+        mod = OP_SIGNATURES.get(v.op, (None, None, None))[2]
+        if mod and v.id in sched.issue:
+            ops[mod] = ops.get(mod, 0) + 1
+    lines = []
+    for vid, line in sched.lines.items():
+        v = graph.nodes[vid]
+        ready = sched.ready[vid].eval(man_bits)
+        taps = tuple(sorted({t.eval(man_bits) - ready for t in line.taps}))
+        width = 1 if v.type == BOOL else 0  # 0: a format word (filled in by the format's width)
+        if max(taps) > 0:
+            lines.append(DelayLine(width, max(taps), taps))
+    latency = sched.latency_for(man_bits)
+    lines.append(DelayLine(TAG_BITS, latency, (latency,)))  # the tag line (the valid pipe counts with it)
+    return PipeShape(name, latency, ops, tuple(lines))
+
+
+SHIFT_MAX_DEPTH = 3  # pgs_delay: lines shorter than RAM_MIN_DEPTH = 4 are shift registers
+
+
+def delay_line_resources(line: DelayLine, word_bits: int, block_min_depth: int = 0) -> Resources:
+    """A tapped delay line as a board build maps ``rtl/pgs_delay.sv``: registers, distributed RAM, or (a RAM line
+    at least ``block_min_depth`` deep, when that is > 0: the pipes' DELAY_BLOCK_MIN_DEPTH) block RAM, one simple
+    dual-port array per tap of delay >= 2 whose output latch is the tap's register."""
+    width = line.width or word_bits
+    if line.depth <= SHIFT_MAX_DEPTH:
+        return Resources(ff=width * line.depth)
+    ram_taps = [t for t in line.taps if t >= 2]
+    reg_taps = [t for t in line.taps if t == 1]
+    pointer = math.ceil(math.log2(line.depth))
+    if 0 < block_min_depth <= line.depth:
+        return Resources(lut=pointer, ff=width * len(reg_taps) + pointer,
+                         bram36=len(ram_taps) * bram36_for(line.depth, width))
+    luts = distributed_ram_luts(line.depth, width * len(ram_taps))
+    return Resources(lut=luts + pointer, ff=width * (len(ram_taps) + len(reg_taps)) + pointer)
+
+
+def distributed_ram_luts(depth: int, bit_reads: int, narrow: bool = False) -> int:
+    """LUTs of a LUT RAM ``depth`` words deep read ``bit_reads`` bits at a time (width x read ports), simple
+    dual-port: RAM32M16 / RAM64M8 (8 LUTs hold 32 x 14 or 64 x 7 bit-reads), a depth multiplexer for each further
+    64 words (a LUT6 selects among 3 blocks, F7/F8 muxes beside it). ``narrow``: RAM64X1D too where it is cheaper
+    (2 LUTs a 64 x 1 bit-read: a memory of a few bits per word; the delay lines' rule keeps RAM64M8)."""
+    if depth <= 32:
+        return min(8 * math.ceil(bit_reads / 14), 2 * bit_reads if narrow else math.inf)
+    blocks = math.ceil(depth / 64)
+    per_block = min(8 * math.ceil(bit_reads / 7), 2 * bit_reads if narrow else math.inf)
+    return int(per_block * blocks + bit_reads * math.ceil((blocks - 1) / 3))
+
+
+# --- memories ---------------------------------------------------------------------------------------------------
+# (depth, width) aspect ratios: simple dual-port (one read, one write port) and true dual-port (two ports)
+_SDP36 = [(512, 72), (1024, 36), (2048, 18), (4096, 9), (8192, 4), (16384, 2), (32768, 1)]
+_SDP18 = [(512, 36), (1024, 18), (2048, 9), (4096, 4), (8192, 2), (16384, 1)]
+_TDP36 = _SDP36[1:]
+_TDP18 = _SDP18[1:]
+URAM_DEPTH, URAM_WIDTH = 4096, 72
+URAM_MIN_DEPTH = 4096  # arrays at least this deep go to UltraRAM where the platform has it
+
+
+def bram36_for(depth: int, width: int, true_dual_port: bool = False) -> float:
+    """Block RAMs (in RAMB36E2 units, a RAMB18E2 = 0.5) of one depth x width array."""
+    if depth <= 0 or width <= 0:
+        return 0.0
+    s36, s18 = (_TDP36, _TDP18) if true_dual_port else (_SDP36, _SDP18)
+    full = min(math.ceil(depth / d) * math.ceil(width / w) for d, w in s36)
+    half = min(math.ceil(depth / d) * math.ceil(width / w) for d, w in s18) * 0.5
+    return min(float(full), half)
+
+
+def uram_for(depth: int, width: int) -> int:
+    return 0 if depth <= 0 or width <= 0 else math.ceil(depth / URAM_DEPTH) * math.ceil(width / URAM_WIDTH)
+
+
+@dataclass(frozen=True)
+class MemoryArray:
+    name: str
+    depth: int
+    width: int  # bits
+    copies: int  # replicas / banks for the ports
+    true_dual_port: bool = False  # each copy serves two ports
+    distributed: bool = False  # read in the cycle it is addressed: LUT RAM (the window's ring heads)
+
+    def resources(self, uram: bool = False) -> Resources:
+        """One copy per port pair: in LUT RAM (``distributed``), UltraRAM (``uram``, deep arrays) or block RAM."""
+        if self.distributed:
+            return Resources(lut=self.copies * distributed_ram_luts(self.depth, self.width, narrow=True))
+        if uram and self.depth >= URAM_MIN_DEPTH:
+            return Resources(uram=self.copies * uram_for(self.depth, self.width))
+        return Resources(bram36=self.copies * bram36_for(self.depth, self.width, self.true_dual_port))
+
+
+BODY_CONST_WORDS = {"full": BODY_IN_WORDS - 6, "solve": 4}  # pos, q, 1/m, I^-1 | 1/m, I^-1
+BODY_VEL_WORDS = 6
+IMPULSE_WORDS = ob.IMPULSE_WORDS
+
+
+# --- a configuration --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class KernelConfig:
+    """A kernel build and the scene sizes that set its memory depths."""
+
+    fmt: NumberFormat
+    max_bodies: int
+    max_manifolds: int
+    lanes: int = 1
+    window: int = 0  # records in the ring (0: the streaming kernel)
+    impulses_resident: bool = True
+    body_words: str = "full"  # "full" | "solve"
+    body_ports: str = "lvt"  # "lvt" | "banked"
+    body_banks: int = RECORDS_BANKS  # banked, one lane: the banks of rtl/pgs_body_vel_banks.sv (BODY_BANKS)
+    record_bits: Optional[int] = None  # ring word width (None: the format's)
+    operator_source: str = "yosys"  # "yosys" | "vendor"
+    tangents_on_chip: bool = False  # the friction pipe derives t0, t1 from n (pgs_friction_pipe_tb)
+    converters: tuple[Converters, ...] = ()  # mixed storage: format converters at unpack and pack (mixed_layout)
+    soft_contact: bool = False  # the soft contact pipe (pgs_contact_pipe_soft, SOFT_CONTACT: lam * keep per point)
+    delay_block_min_depth: int = 0  # the pipes' delay lines at least this deep in block RAM (DELAY_BLOCK_MIN_DEPTH)
+    body_bits: int = DEFAULT_BODY_BITS  # the body streams' beat (BODY_IN_W = BODY_OUT_W): the control's figure
+
+    def __post_init__(self) -> None:
+        if self.lanes < 1 or self.lanes & (self.lanes - 1):
+            raise ValueError(f"lanes must be a power of two, not {self.lanes}")
+        if self.lanes > 1 and self.window == 0:
+            raise ValueError("lanes > 1 needs the window kernel (window > 0)")
+        if self.body_words not in BODY_CONST_WORDS or self.body_ports not in ("lvt", "banked"):
+            raise ValueError(f"body_words {self.body_words!r} / body_ports {self.body_ports!r}: expected "
+                             f"{'|'.join(BODY_CONST_WORDS)} / lvt|banked")
+        if self.body_banks < 1 or self.body_banks & (self.body_banks - 1):
+            raise ValueError(f"body_banks must be a power of two, got {self.body_banks}")
+        if min(self.max_bodies, self.max_manifolds, self.window) < 0:
+            raise ValueError("memory depths must not be negative")
+        check_block_min_depth(self.delay_block_min_depth)
+
+    def describe(self) -> str:
+        kind = f"window kernel, ring {self.window:,}, {self.lanes} lane(s)" if self.window else "streaming kernel"
+        levers = [f"impulses {'resident' if self.impulses_resident else 'with the records'}",
+                  f"body words {self.body_words}", f"body ports {self.body_ports}"
+                  + (f" ({self.body_banks} true dual-port banks)" if self.body_ports == "banked" and self.lanes == 1
+                     else "")]
+        if self.tangents_on_chip:
+            levers.append("tangent basis derived on chip")
+        if self.soft_contact:
+            levers.append("soft contact pipe")
+        if self.body_bits != DEFAULT_BODY_BITS:
+            levers.append(f"{self.body_bits}-bit body streams")
+        if self.delay_block_min_depth:
+            levers.append(f"delay lines from {self.delay_block_min_depth} deep in block RAM")
+        if self.record_bits:
+            levers.append(f"ring words {self.record_bits} bits")
+        if self.converters:
+            levers.append(f"mixed storage, {sum(c.count for c in self.converters)} format converters")
+        return (f"{self.fmt.name}, {kind}, {self.max_bodies:,} bodies, {self.max_manifolds:,} manifold slots; "
+                + ", ".join(levers))
+
+
+def memories(cfg: KernelConfig) -> list[MemoryArray]:
+    """The configuration's on-chip arrays with the copies their ports need."""
+    w, ports, nb = cfg.fmt.width, 2 * cfg.lanes, cfg.max_bodies
+    const_w = BODY_CONST_WORDS[cfg.body_words] * w
+    out = [MemoryArray(f"body constant words ({BODY_CONST_WORDS[cfg.body_words]}), {ports} read ports: "
+                       f"{math.ceil(ports / 2)} true dual-port copies", nb, const_w, math.ceil(ports / 2), True)]
+    if cfg.body_ports == "lvt":
+        out.append(MemoryArray(f"body velocities (v, w), {ports}W{ports}R: {ports * ports} banks (live-value table)",
+                               nb, BODY_VEL_WORDS * w, ports * ports))
+    else:  # the built banks: one copy, body k in bank k mod banks, two ports each (a record's lanes fit them)
+        out.append(MemoryArray(f"body velocities (v, w): one copy in {cfg.body_banks} true dual-port banks "
+                               "(BODY_BANKS)", math.ceil(nb / cfg.body_banks), BODY_VEL_WORDS * w, cfg.body_banks,
+                               True))
+    if cfg.impulses_resident:
+        depth = math.ceil(cfg.max_manifolds / cfg.lanes)
+        out += [MemoryArray(f"normal impulses lam[4] per slot, {cfg.lanes} bank(s)", depth, 4 * w, cfg.lanes),
+                MemoryArray(f"friction impulses lamT[2] per slot, {cfg.lanes} bank(s)", depth, 2 * w, cfg.lanes)]
+    if not cfg.impulses_resident:  # the impulse-out stream (pgs_sequencer: a record per slot / per window record)
+        out.append(MemoryArray(f"impulse-out FIFO ({cfg.lanes} x {IMPULSE_OUT_WORDS} words per record, "
+                               f"{IMPULSE_FIFO_DEPTH} deep)", IMPULSE_FIFO_DEPTH, cfg.lanes * IMPULSE_OUT_WORDS * w, 1))
+    if cfg.window:
+        out += window_memories(cfg)
+    return out
+
+
+WINDOW_HEAD_FLAGS = 6  # a lane's head beside its two body indices: 5 flags (pgs_sequencer head_of), the truncated bit
+
+
+def window_memories(cfg: KernelConfig) -> list[MemoryArray]:
+    """The window kernel's rings (``rtl/pgs_window.sv``, ``rtl/pgs_ring_ram.sv``): the records' words in block RAM
+    (read the cycle after the take; a fetch of the impulses-in-records design streams its one kind's records:
+    the contact record with lam[4] is the longer), their heads in LUT RAM (read when offered: two body indices and
+    the flags per lane), and with the impulses in the records the impulse ring (4 words per lane, written at retire,
+    read at issue)."""
+    rec = cfg.record_bits or cfg.fmt.width
+    words = WINDOW_WORDS if cfg.impulses_resident else max(CONTACT_WORDS + 4, FRICTION_WORDS + IMPULSE_WORDS)
+    idx = max(1, math.ceil(math.log2(max(cfg.max_bodies, 2))))
+    out = [MemoryArray(f"record ring ({words} words of {rec} bits per lane)", cfg.window, cfg.lanes * words * rec, 1),
+           MemoryArray(f"record ring heads (2 x {idx}-bit body indices and {WINDOW_HEAD_FLAGS} flag bits per lane, "
+                       "LUT RAM)", cfg.window, cfg.lanes * (2 * idx + WINDOW_HEAD_FLAGS), 1, distributed=True)]
+    if not cfg.impulses_resident:
+        out.append(MemoryArray(f"impulse ring ({IMPULSE_OUT_WORDS} words per lane)", cfg.window,
+                               IMPULSE_OUT_WORDS * rec, cfg.lanes))
+    # the rejected-slot flags (pgs_sequencer): with the impulses in the records read as each record is written into
+    # the ring (block RAM), else at the offered pass's slot in the cycle it is offered (LUT RAM)
+    slots = math.ceil(cfg.max_manifolds / cfg.lanes)
+    out.append(MemoryArray("rejected-slot flags (a bit per slot, block RAM)", slots, 1, cfg.lanes)
+               if not cfg.impulses_resident else
+               MemoryArray("rejected-slot flags (a bit per slot, LUT RAM)", slots, 1, cfg.lanes, distributed=True))
+    return out
+
+
+@dataclass(frozen=True)
+class Part:
+    name: str
+    resources: Resources
+    source: str
+
+
+@dataclass(frozen=True)
+class Estimate:
+    config: KernelConfig
+    parts: tuple[Part, ...]
+
+    @property
+    def total(self) -> Resources:
+        t = Resources()
+        for p in self.parts:
+            t = t + p.resources
+        return t
+
+
+def pipe_resources(name: str, cfg: KernelConfig, data: dict[str, Any]) -> tuple[Resources, list[str]]:
+    """Operators plus delay lines of one pipe, and the source of each operator's figure."""
+    shape = pipe_shape(name, cfg.fmt.man_bits)
+    total, sources = Resources(), []
+    for mod, n in sorted(shape.operators.items()):
+        fig = operator_figure(mod, cfg.fmt, cfg.operator_source, data)
+        total = total + fig.resources.scaled(n)
+        sources.append(f"{n} {mod} ({fig.source})")
+    for line in shape.lines:
+        total = total + delay_line_resources(line, cfg.fmt.width, cfg.delay_block_min_depth)
+    return total, sources
+
+
+CAM_UNIT = "hazard_cam"  # the figure of pgs_hazard_cam alone (2 body ports), to scale with lanes
+WINDOW_CONTROL_UNIT = "control_window"  # the window kernel's control (impulses in the records, one lane, banked)
+
+
+def control_unit(body_bits: int) -> str:
+    """The name of Yosys's control unit with body streams of ``body_bits`` (sim/fit/yosys_figures.py UNITS)."""
+    return "control" if body_bits == DEFAULT_BODY_BITS else f"control_b{body_bits}"
+
+
+def _control_figure(fmt: NumberFormat, data: dict[str, Any], body_bits: int = DEFAULT_BODY_BITS,
+                    window: bool = False) -> tuple[Resources, str]:
+    """Yosys's control of ``fmt`` with body streams of ``body_bits``, else of a kernel format with the same word
+    width (the control moves words and does no arithmetic on them); where no run has that body width, the 128-bit
+    streams' control, marked so (the body assemblers' registers and multiplexers differ). ``window``: the window
+    kernel's control (:data:`WINDOW_CONTROL_UNIT`, 128-bit body streams) where a run has it, else the streaming
+    kernel's, marked so (without the record window and its pass contexts)."""
+    units = data["units"]
+    choices = [(control_unit(body_bits), ""),
+               ("control", f" with {DEFAULT_BODY_BITS}-bit body streams (none of {body_bits} bits)")]
+    if window:
+        note = f" with {DEFAULT_BODY_BITS}-bit body streams" if body_bits != DEFAULT_BODY_BITS else ""
+        choices = ([(WINDOW_CONTROL_UNIT, f" of the window kernel's control{note}")]
+                   + [(u, n + "; the streaming kernel's control: no figure of the window's") for u, n in choices])
+    for unit, note in choices:
+        if unit in units.get(fmt.name, {}):
+            return Resources.from_dict(units[fmt.name][unit]), "Yosys" + note
+        for other in KERNEL_FORMATS.values():
+            if other.width == fmt.width and unit in units.get(other.name, {}):
+                return (Resources.from_dict(units[other.name][unit]),
+                        f"Yosys of the {other.name} control (same width){note}")
+    raise KeyError(f"no Yosys figure of the control in {fmt.name} in {FIGURES_FILE}: `{REGENERATE}`")
+
+
+def control_resources(cfg: KernelConfig, data: dict[str, Any]) -> Part:
+    ctrl, source = _control_figure(cfg.fmt, data, cfg.body_bits, cfg.window > 0)
+    if cfg.lanes == 1:
+        return Part("control (register file, sequencer, assemblers, hazard CAM, FIFOs)", ctrl, source)
+    # the CAM has no format parameter: its figure from whichever format's run has it
+    cam_row = next((u[CAM_UNIT] for u in data["units"].values() if CAM_UNIT in u), None)
+    if cam_row is None:
+        raise KeyError(f"no Yosys figure of {CAM_UNIT} in {FIGURES_FILE}: `{REGENERATE}` adds it")
+    cam = Resources.from_dict(cam_row)
+    return Part(f"control, hazard CAM scaled to {2 * cfg.lanes} body ports", ctrl + cam.scaled(cfg.lanes - 1),
+                f"{source} (one lane) + Yosys of the CAM per extra lane")
+
+
+def bank_mux_resources(banks: int, width: int, bodies: int, ports: int = 2) -> Resources:
+    """The multiplexers of ``rtl/pgs_body_vel_banks.sv`` beside the control's Yosys figure (which has the body RAM
+    as a black box), ``ports`` reads and ``ports`` writes a cycle (2 x lanes): per bank port, the write data from the
+    writes (two: a LUT6 holds two 2:1 bits; more: a LUT6 per 4:1 bit of the tree) and the row from the 2 x
+    ``ports`` accesses (a LUT6 per 4:1 bit); per read, its word from the 2 x ``banks`` port outputs and the
+    registered bank and port; the port selection a few LUTs per bank."""
+    row = max(1, math.ceil(math.log2(max(2, math.ceil(bodies / banks)))))
+    data = math.ceil(width / 2) if ports == 2 else width * math.ceil((ports - 1) / 3)
+    per_port = data + row * math.ceil((2 * ports - 1) / 3)
+    read = ports * width * math.ceil((2 * banks - 1) / 3)
+    sel = 2 * (math.ceil(math.log2(banks)) + 1) if banks > 1 else 2
+    return Resources(lut=2 * banks * per_port + read + 8 * banks, ff=sel)
+
+
+def converter_resources(conv: Converters, compute: NumberFormat) -> Resources:
+    """One converter's LUT6 and FF rule (computed, not synthesized; subnormals flush to zero, as every operator
+    reads them), times ``conv.count``, each with a register of its output word:
+
+    * unpack (stored eSmT -> kernel eEmM): the exponent re-biased by a constant where eS < eE (an eE-bit carry
+      chain, one LUT per bit) with the zero and all-ones codes kept (their detection, a LUT per 6 bits each),
+      the mantissa zero-padded (wires; with the kernel's exponent nothing else, and no register);
+    * pack (kernel -> stored, round to nearest even): the sticky OR of the dropped mantissa bits (a LUT per 6),
+      the round decision (1), an incrementer over the stored exponent and mantissa (a LUT per bit), and where
+      eS < eE the range check (a LUT per 6 exponent bits, twice) and the clamp to zero or infinity (a LUT per
+      stored bit)."""
+    s_fmt = conv.stored
+    narrower_exp = s_fmt.exp_bits < compute.exp_bits
+    if conv.direction == "unpack":  # with the kernel's exponent: the mantissa zero-padded, wires only
+        lut = (compute.exp_bits + 2 * math.ceil(s_fmt.exp_bits / 6)) if narrower_exp else 0
+        ff = compute.width if narrower_exp else 0
+    elif conv.direction == "pack":
+        dropped = compute.man_bits - s_fmt.man_bits
+        lut = math.ceil(max(dropped - 1, 0) / 6) + 1 + s_fmt.exp_bits + s_fmt.man_bits
+        if narrower_exp:
+            lut += 2 * math.ceil(compute.exp_bits / 6) + s_fmt.width
+        ff = s_fmt.width
+    else:
+        raise ValueError(f"converter direction must be unpack or pack, got {conv.direction!r}")
+    return Resources(lut=lut * conv.count, ff=ff * conv.count)
+
+
+def estimate(cfg: KernelConfig, platform: Optional[ob.Platform] = None,
+             data: Optional[dict[str, Any]] = None) -> Estimate:
+    """The configuration's resources, part by part (memories mapped for ``platform``: UltraRAM where it has)."""
+    data = data or figures()
+    parts = []
+    friction = "pgs_friction_pipe_tb" if cfg.tangents_on_chip else "pgs_friction_pipe"
+    contact = "pgs_contact_pipe_soft" if cfg.soft_contact else "pgs_contact_pipe"
+    for name, per in ((contact, cfg.lanes), (friction, cfg.lanes), ("pgs_integrate_pipe", 1)):
+        res, src = pipe_resources(name, cfg, data)
+        parts.append(Part(f"{name} x {per}", res.scaled(per), "operators: " + ", ".join(src)
+                          + "; delay lines: distributed RAM rule"))
+    parts.append(control_resources(cfg, data))
+    if cfg.body_ports == "banked":
+        parts.append(Part(f"body bank port multiplexers ({cfg.body_banks} banks, {2 * cfg.lanes} reads and writes)",
+                          bank_mux_resources(cfg.body_banks, BODY_VEL_WORDS * cfg.fmt.width, cfg.max_bodies,
+                                             2 * cfg.lanes), "computed (LUT6 mux rule)"))
+    if cfg.converters:
+        conv = Resources()
+        for c in cfg.converters:
+            conv = conv + converter_resources(c, cfg.fmt)
+        parts.append(Part(f"storage format converters ({sum(c.count for c in cfg.converters)} words)", conv,
+                          "computed (converter rule, not synthesized)"))
+    uram = platform is not None and platform.uram > 0
+    for m in memories(cfg):
+        parts.append(Part(m.name, m.resources(uram), f"{m.depth:,} x {m.width} bits, computed"))
+    return Estimate(cfg, tuple(parts))
+
+
+# --- the verdict ------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class FitVerdict:
+    platform: ob.Platform
+    total: Resources
+    shares: dict[str, float]  # of the device, by KEYS
+    limits: dict[str, float]
+    config: str
+    operator_sources: str = ""  # where each operator's figure came from
+
+    @property
+    def overflows(self) -> list[str]:
+        """Resources above their usable share, worst first."""
+        over = [k for k in KEYS if self.shares[k] > self.limits[k]]
+        return sorted(over, key=lambda k: self.shares[k] / self.limits[k] if self.limits[k] else math.inf,
+                      reverse=True)
+
+    @property
+    def fits(self) -> bool:
+        return not self.overflows
+
+    def headline(self) -> str:
+        if self.fits:
+            return f"FITS the {self.platform.name}"
+        k = self.overflows[0]
+        return f"DOES NOT FIT the {self.platform.name}: {k} {_share(self.shares[k])} (usable {_share(self.limits[k])})"
+
+    def shares_text(self) -> str:
+        return ", ".join(f"{k} {_share(self.shares[k])}" for k in KEYS if self.platform.capacity(k) or self.shares[k])
+
+
+def _share(x: float) -> str:
+    return "inf" if math.isinf(x) else f"{100 * x:.1f}%"
+
+
+def verdict(est: Estimate, platform: ob.Platform) -> FitVerdict:
+    total = est.total.as_dict()
+    shares = {k: (total[k] / platform.capacity(k) if platform.capacity(k) else (math.inf if total[k] else 0.0))
+              for k in KEYS}
+    return FitVerdict(platform, est.total, shares, dict(ob.USABLE_SHARE), est.config.describe(),
+                      operator_sources(est.config))
+
+
+def operator_sources(cfg: KernelConfig) -> str:
+    """Which figure each operator's count was multiplied by: Yosys's, or a published one."""
+    by: dict[str, list[str]] = {}
+    for mod in OPERATOR_MODULES:
+        vendor = cfg.operator_source == "vendor" and (mod, cfg.fmt.name) in VENDOR_OPERATORS
+        label = VENDOR_OPERATORS[(mod, cfg.fmt.name)][0].label if vendor else "Yosys"
+        by.setdefault(label, []).append(mod)
+    return "; ".join(f"{label}: {', '.join(mods)}" for label, mods in by.items())
+
+
+def fit(cfg: KernelConfig, platform: ob.Platform) -> FitVerdict:
+    return verdict(estimate(cfg, platform), platform)
+
+
+@dataclass(frozen=True)
+class NoEstimate:
+    """No fit verdict for a run: no platform behind its DMA preset, or no figures for its format."""
+
+    reason: str
+
+
+def config_for_job(job: KernelJob, body_bits: int = DEFAULT_BODY_BITS) -> KernelConfig:
+    """The configuration a run built: its format, lanes and ring, memories as deep as its scene needs, body streams
+    of ``body_bits``."""
+    plan = job.record_window
+    return KernelConfig(job.fmt, job.bodies.num_bodies, len(job.slots), lanes=plan.lanes if plan else 1,
+                        window=plan.depth if plan else 0, impulses_resident=not job.impulses_in_records,
+                        body_ports="banked" if job.body_banks else "lvt", body_banks=job.body_banks or RECORDS_BANKS,
+                        tangents_on_chip=job.tangents_on_chip, soft_contact=job.params.soft_keep is not None,
+                        delay_block_min_depth=job.delay_block_min_depth, body_bits=body_bits)
+
+
+def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: int, lanes: int = 1,
+                  impulses_resident: bool = True) -> KernelConfig:
+    """The window kernel whose ring holds ``ring_records`` records (rounded up to the power of two pgs_window
+    needs)."""
+    return KernelConfig(fmt, bodies, manifolds, lanes=lanes, window=1 << max(ring_records - 1, 1).bit_length(),
+                        impulses_resident=impulses_resident)
+
+
+def fit_or_reason(cfg: KernelConfig, platform: ob.Platform) -> Union[FitVerdict, NoEstimate]:
+    try:
+        return fit(cfg, platform)
+    except (KeyError, FileNotFoundError) as exc:
+        return NoEstimate(str(exc).strip("'\""))
+
+
+def short_verdict(v: Union[FitVerdict, NoEstimate]) -> str:
+    """One table cell: FITS, or DOES NOT FIT with the worst overflowing resource's share."""
+    if isinstance(v, NoEstimate):
+        return "no estimate"
+    return "FITS" if v.fits else f"DOES NOT FIT ({v.overflows[0]} {_share(v.shares[v.overflows[0]])})"
+
+
+def kernel_fit(job: KernelJob, dma: str, body_bits: int = DEFAULT_BODY_BITS) -> Union[FitVerdict, NoEstimate]:
+    """The fit verdict of a run's configuration (body streams of ``body_bits``) on its DMA preset's platform."""
+    if dma not in ob.PLATFORMS:
+        return NoEstimate(f"no platform behind the DMA preset {dma!r} (platforms: {', '.join(ob.PLATFORMS)})")
+    return fit_or_reason(config_for_job(job, body_bits), ob.get_platform(dma))
+
+
+def fit_rows(v: Union[FitVerdict, NoEstimate]) -> dict[str, str]:
+    """What ``make sim`` / ``sweep`` / ``band`` print for one configuration."""
+    if isinstance(v, NoEstimate):
+        return {"verdict": f"no estimate ({v.reason})"}
+    return {"configuration": v.config, "platform": f"{v.platform.name} ({v.platform.describe()})",
+            "LUT, FF, DSP, BRAM36, URAM (share of the device)": v.shares_text(),
+            f"verdict (usable: {ob.describe_usable()})": v.headline(),
+            "operator figures": v.operator_sources,
+            "estimate": "sim/fit/resource_model.py: per-operator Yosys figures, memories computed (docs/resources.md)"}

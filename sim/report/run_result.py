@@ -1,0 +1,394 @@
+"""What one ``make sim`` run found, typed (:class:`RunResult`, :class:`ModelRunResult`), and its rendering:
+:func:`sections` turns a result into the report's sections (title -> quantity -> value), the one form the
+console summary and ``report.md`` / ``report.json`` are written from (``sim.report.run_report``)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Optional, Union
+
+from models.sizing.onchip_budget import Budget
+from models.kernel.record_window import WindowPlan
+from models.exact.solution_error import SolutionError
+from sim.report import thesis_figures as baselines
+from sim.fit.resource_model import FitVerdict, NoEstimate, fit_rows
+
+BITS_SECTION = "bit-exactness (RTL kernel against the golden model, same format)"
+MODEL_SECTION = "cycle model (models/timing/cycle_model.py)"
+ERROR_SECTION = "error (velocities after the step; dynamic bodies)"
+NO_REFERENCE = "no exact reference"
+FIT_SECTION = "fit on the platform (resource estimate of this configuration)"
+FitReport = Union[FitVerdict, NoEstimate]
+Sections = dict[str, dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class VelocityError:
+    """Velocities of a step against a reference (dynamic bodies)."""
+
+    max_dv: float  # m/s
+    max_dw: float  # rad/s
+    relative: float  # max |dv| / max |v| of the reference
+
+
+@dataclass(frozen=True)
+class SceneFacts:
+    label: str
+    bodies: int
+    dynamic_bodies: int
+    manifolds: int
+    contact_points: int
+    step: Any  # the captured step (from the frame's metadata; "?" when not recorded)
+    seed: int
+
+
+@dataclass(frozen=True)
+class ScheduleFacts:
+    kind: str
+    window: int  # hazard window W in issue slots
+    slots: int  # per pass
+    bubbles: int  # per pass
+    wrap_hazards: int
+    levels: Any  # dependency levels per pass (the golden solve's)
+    manifold_passes: int
+
+
+@dataclass(frozen=True)
+class BitExactness:
+    differing_bits: int
+    differing_words: int
+    records: int  # trace records compared
+    bodies: int  # body-out records compared
+    first_mismatch: str  # "" when none
+    stall_seed: int
+
+    @property
+    def ok(self) -> bool:
+        return self.differing_bits == 0 and not self.first_mismatch
+
+
+@dataclass(frozen=True)
+class KernelSpeed:
+    """The RTL kernel's speed, the stream traffic, and the roofline's lower bounds."""
+
+    fmt: str
+    dma: str  # the preset, described
+    cycles: int
+    manifold_passes: int
+    stalls: int
+    bubbles: int
+    schedule_bubbles: int  # per pass
+    bytes_in: int  # bodies + constraints
+    bytes_out: int
+    cons_bytes_per_manifold: int
+    ddr_utilisation: Optional[float]  # None: uncapped DDR
+    sim_cycles_per_s: float
+    wall_s: float
+    build_s: float
+    floors: dict[str, float]  # lower bound (cycles) by what bounds it
+    driver: str = "compiled harness"  # what drove the kernel: the compiled harness or cocotb (make sim DRIVER=)
+    cpu_s: Optional[float] = None  # CPU seconds of the kernel run, where the driver measures them
+
+    @property
+    def bound(self) -> str:
+        return max(self.floors, key=self.floors.__getitem__)
+
+
+@dataclass(frozen=True)
+class WindowFacts:
+    """The window kernel's plan, and its on-chip bytes on the DMA preset's platform (None: no platform)."""
+
+    plan: WindowPlan
+    fetches: int  # fetches of the records per step
+    budget: Optional[Budget] = None
+
+
+@dataclass(frozen=True)
+class NoExactReference:
+    """The exact reference could not be computed (solver failure, infeasible or degenerate problem, time or memory
+    budget): every error against it is this, with the reason."""
+
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{NO_REFERENCE} ({self.reason})"
+
+
+@dataclass(frozen=True)
+class ExactReferenceFacts:
+    """The exact reference's own figures (``models/exact/reference.py``) and where it is cached."""
+
+    solver: str
+    islands: int
+    seconds: dict[str, float]  # solve time by phase
+    details: dict[str, float]
+    residuals: dict[str, float]  # its natural residuals
+    contact_bound: dict[str, Any]  # the certificate the reference was accepted with, named (sim.compare.exact_error)
+    cache_file: str
+    from_cache: bool
+
+
+@dataclass(frozen=True)
+class ExactErrors:
+    """Velocities after the step against the exact limit of the scheme (``models.exact.solution_error``)."""
+
+    reference: ExactReferenceFacts
+    ours: SolutionError  # the step's source: rounding + iteration error
+    iteration_only: SolutionError  # float64 with these iterations
+    converged: Optional[SolutionError] = None  # float64 PGS after the converged solve's passes (not in MODE=model)
+
+
+@dataclass(frozen=True)
+class StepErrors:
+    """The step's velocities against the references (float64 with the same iterations, the exact reference, float64
+    PGS run until a pass changes little), the residuals."""
+
+    source: str  # what the errors are of: the RTL kernel, or the golden model when the kernel did not run
+    vs_same_iterations: VelocityError  # against float64 with the same schedule and iterations
+    vs_converged: VelocityError  # against float64 PGS after the converged solve's passes
+    vs_exact: Union[ExactErrors, NoExactReference]
+    converged_passes: tuple[int, int]  # contact, friction
+    converged_last_change: float
+    converged: bool
+    residual_after_solve: dict[str, float]  # models.exact.residual.contact_residual
+    residual_converged: dict[str, float]
+    vs_pybullet: VelocityError
+    thesis_within_1pct: Optional[float] = None  # the thesis's fp16 statistic (formats other than fp32)
+    thesis_mean_relative: Optional[float] = None
+
+
+@dataclass(frozen=True)
+class ThesisComparison:
+    fmt: str
+    manifolds: int
+    iterations: int
+    manifold_passes: int
+    rtl_cycles: Optional[int]  # None: no kernel run
+    pybullet_timing_s: dict[str, float]  # pybullet's own timers of the captured step (empty: not recorded)
+    pybullet_iterations: Any
+    software_seconds: dict[str, float]  # the numpy solves of this run
+
+
+@dataclass
+class RunResult:
+    """A whole ``make sim`` run (``MODE=rtl``)."""
+
+    name: str  # the run directory's name
+    scene: SceneFacts
+    schedule: ScheduleFacts
+    errors: StepErrors
+    thesis: ThesisComparison
+    seconds: dict[str, float]  # wall time of each part of the run
+    bits: Optional[BitExactness] = None  # None: no kernel run
+    speed: Optional[KernelSpeed] = None
+    cycle_model: Optional[dict[str, Any]] = None  # models.timing.cycle_model.report_section beside the RTL
+    window: Optional[WindowFacts] = None
+    fit: Optional[FitReport] = None  # sim.fit.resource_model.kernel_fit of the configuration run
+
+    @property
+    def label(self) -> str:
+        return self.scene.label
+
+    @property
+    def ok(self) -> bool:
+        """The kernel agreed with the golden model bit for bit (or did not run)."""
+        return self.bits is None or self.bits.ok
+
+
+@dataclass
+class ModelRunResult:
+    """``make sim MODE=model``: the cycle model's estimate alone."""
+
+    name: str
+    label: str
+    bodies: int
+    manifolds: int
+    schedule: str  # described
+    dma: str  # described
+    cycle_model: dict[str, Any] = field(default_factory=dict)  # models.timing.cycle_model.report_section
+    fit: Optional[FitReport] = None  # sim.fit.resource_model.kernel_fit of the configuration predicted
+    errors: Union[ExactErrors, NoExactReference, None] = None  # the golden model's step against the exact reference
+    error_source: str = ""  # what ``errors.ours`` is of
+
+    @property
+    def ok(self) -> bool:
+        return True  # nothing compared
+
+
+AnyRunResult = Union[RunResult, ModelRunResult]
+
+
+def sections(result: AnyRunResult) -> Sections:
+    """The report's sections of a run, in order."""
+    if isinstance(result, ModelRunResult):
+        model: Sections = {"scene": {"scene": result.label, "bodies": result.bodies, "manifolds": result.manifolds,
+                                     "schedule": result.schedule, "DMA preset": result.dma},
+                           MODEL_SECTION: result.cycle_model}
+        if result.fit is not None:
+            model[FIT_SECTION] = fit_rows(result.fit)
+        if result.errors is not None:
+            model[ERROR_SECTION] = {**_exact_rows(_exact_labels(result.error_source, ""), result.errors),
+                                    **_reference_rows(result.errors)}
+        return model
+    s, k = result.scene, result.schedule
+    out: Sections = {
+        "scene": {"scene": s.label, "bodies": s.bodies, "dynamic bodies": s.dynamic_bodies, "manifolds": s.manifolds,
+                  "contact points": s.contact_points, "step": s.step, "seed": s.seed},
+        "schedule": {"kind": k.kind, "window W (issue slots)": k.window, "slots per pass": k.slots,
+                     "bubbles per pass": k.bubbles, "wrap hazards": k.wrap_hazards, "levels per pass": k.levels,
+                     "manifold-passes": k.manifold_passes},
+    }
+    if result.bits is not None:
+        out[BITS_SECTION] = _bits(result.bits)
+    if result.speed is not None:
+        out["kernel speed (RTL in Verilator)"] = _speed(result.speed)
+        out["roofline (lower bounds for this configuration)"] = _roofline(result.speed)
+    if result.cycle_model is not None:
+        out[f"{MODEL_SECTION} vs RTL"] = result.cycle_model
+    if result.window is not None:
+        out["record window (rtl/pgs_window.sv)"] = _window(result.window)
+    if result.fit is not None:
+        out[FIT_SECTION] = fit_rows(result.fit)
+    out[ERROR_SECTION] = _errors(result.errors)
+    out["comparison with the thesis and with software solvers"] = _thesis(result.thesis)
+    out["wall time of this run (s)"] = dict(result.seconds)
+    return out
+
+
+def _bits(b: BitExactness) -> dict[str, Any]:
+    return {"bits differing from the golden model (must be 0)": b.differing_bits, "words differing": b.differing_words,
+            "trace records compared": b.records, "body-out records compared": b.bodies,
+            "first mismatch": b.first_mismatch or "none", "random stall seed": b.stall_seed}
+
+
+def _speed(v: KernelSpeed) -> dict[str, Any]:
+    return {
+        "driver": v.driver, "format": v.fmt, "DMA preset": v.dma,
+        "kernel cycles (ap_start to ap_done)": v.cycles, "cycles per manifold-pass": v.cycles / v.manifold_passes,
+        "stall cycles (hazard and stream waits)": v.stalls, "bubble cycles (no record to issue)": v.bubbles,
+        "schedule bubbles per pass": v.schedule_bubbles,
+        **{f"latency at {f / 1e6:g} MHz (ms)": v.cycles / f * 1e3 for f in baselines.REPORT_CLOCKS_HZ},
+        "bytes streamed in (bodies + constraints)": v.bytes_in, "bytes streamed out (bodies)": v.bytes_out,
+        "constraint bytes per manifold per step": v.cons_bytes_per_manifold,
+        "DDR bandwidth utilisation": "uncapped" if v.ddr_utilisation is None else v.ddr_utilisation,
+        "co-simulation speed (simulated cycles per wall second)": v.sim_cycles_per_s,
+        "kernel run wall time (s)": v.wall_s, "Verilator build time this run (s)": v.build_s,
+        **({} if v.cpu_s is None else {"kernel run CPU time (s)": v.cpu_s}),
+    }
+
+
+def _roofline(v: KernelSpeed) -> dict[str, Any]:
+    out: dict[str, Any] = {f"{k} floor (cycles)": f for k, f in v.floors.items()}
+    out["measured cycles"] = v.cycles
+    out["bound by"] = v.bound
+    out["measured / highest floor"] = v.cycles / max(v.floors[v.bound], 1.0)
+    return out
+
+
+def _window(w: WindowFacts) -> dict[str, Any]:
+    p = w.plan
+    out: dict[str, Any] = {
+        "ring (records, build parameter WINDOW)": p.depth, "pass contexts (WINDOW_CTX)": p.ctx,
+        "issue lanes (LANES)": p.lanes, "empty lanes (padding)": p.empty_lanes,
+        "band width D of the record order": p.band, "lag (records a pass trails the one before)": p.lag,
+        "passes per fetch": p.fetch_passes, "fetches of the records per step": w.fetches,
+        "ring records in use at most": p.ring_records,
+        "cycle model": "models/timing/window_cycle_model.py (the cycle model section)"}
+    b = w.budget
+    if b is not None:
+        out[f"on-chip bytes on {b.platform.name}: body state + impulses + window"] = (
+            f"{b.body_bytes:,} + {b.impulse_bytes:,} + {b.window_bytes:,} = {b.total_bytes:,} of "
+            f"{b.platform.data_bytes:,} data bytes ({'within' if b.fits else 'beyond'} them, counted as bytes; "
+            f"blocks with their port copies: {FIT_SECTION})")
+    return out
+
+
+def _velocity_rows(label: str, e: VelocityError) -> dict[str, float]:
+    return {f"{label}: max |dv| (m/s)": e.max_dv, f"{label}: max |dw| (rad/s)": e.max_dw,
+            f"{label}: max |dv| / max |v|": e.relative}
+
+
+def _solution_rows(label: str, e: SolutionError) -> dict[str, float]:
+    return {f"{label}: max |dv| (m/s)": e.max_dv, f"{label}: median |dv| (m/s)": e.median_dv,
+            f"{label}: p99 |dv| (m/s)": e.p99_dv, f"{label}: max |dv| / max |v_ref|": e.relative_dv,
+            f"{label}: max |dw| (rad/s)": e.max_dw, f"{label}: median |dw| (rad/s)": e.median_dw,
+            f"{label}: p99 |dw| (rad/s)": e.p99_dw, f"{label}: max |dw| / max |w_ref|": e.relative_dw}
+
+
+def _exact_rows(labels: tuple[str, ...], x: Union[ExactErrors, NoExactReference]) -> dict[str, Any]:
+    """The three errors against the exact reference (or, without one, why not) under ``labels``."""
+    if isinstance(x, NoExactReference):
+        return {label: str(x) for label in labels}
+    out: dict[str, Any] = {}
+    for label, err in zip(labels, (x.ours, x.iteration_only, x.converged)):
+        if err is not None:
+            out.update(_solution_rows(label, err))
+    return out
+
+
+def _exact_labels(source: str, pgs: str) -> tuple[str, ...]:
+    """The rows' labels: ``source``, float64 with the same iterations, and (unless ``pgs`` is empty) the PGS iterate."""
+    return (f"{source} vs exact reference (rounding + iteration error)",
+            "float64 with these iterations vs exact reference (iteration error alone)") + (
+        (f"{pgs} vs exact reference",) if pgs else ())
+
+
+def _reference_rows(x: Union[ExactErrors, NoExactReference]) -> dict[str, Any]:
+    """The exact reference's solver, islands, solve times, natural residuals, contact-phase bound, cache file."""
+    if isinstance(x, NoExactReference):
+        return {"exact reference": str(x)}
+    r = x.reference
+    out: dict[str, Any] = {"exact reference: solver": r.solver, "exact reference: islands": r.islands}
+    out.update({f"exact reference: {k} solve time (s)": v for k, v in r.seconds.items()})
+    out.update({f"exact reference: {k}": v for k, v in r.details.items()})
+    out.update({f"exact reference residual, {k}": v for k, v in r.residuals.items()})
+    out.update({f"exact reference, contact phase, {k}": v for k, v in r.contact_bound.items()})
+    out["exact reference: cache file"] = r.cache_file + (" (read from the cache)" if r.from_cache else "")
+    return out
+
+
+def _errors(e: StepErrors) -> dict[str, Any]:
+    pgs = f"float64 PGS after {e.converged_passes[0]} contact and {e.converged_passes[1]} friction passes"
+    out: dict[str, Any] = {}
+    out.update(_velocity_rows(f"{e.source} vs float64, same schedule and iterations (rounding error)",
+                              e.vs_same_iterations))
+    out.update(_exact_rows(_exact_labels(e.source, pgs), e.vs_exact))
+    out.update(_velocity_rows(f"{e.source} vs {pgs}", e.vs_converged))
+    out[f"{pgs}: last pass max velocity change"] = e.converged_last_change
+    out[f"{pgs}: per-pass change below 1e-9 within budget"] = str(e.converged)
+    out.update(_reference_rows(e.vs_exact))
+    out.update({f"residual after the {e.source}'s solve: {k}": v for k, v in e.residual_after_solve.items()})
+    out.update({f"residual after the converged solve ({pgs}): {k}": v for k, v in e.residual_converged.items()})
+    if e.thesis_within_1pct is not None:
+        out["thesis statistic: share of position values within 1% of the fp32 result"] = e.thesis_within_1pct
+        out["thesis statistic: average relative position difference from fp32"] = e.thesis_mean_relative
+    out.update(_velocity_rows(f"{e.source} vs pybullet's own step (a different solver: Bullet 2 sequential impulse)",
+                              e.vs_pybullet))
+    return out
+
+
+def _thesis(t: ThesisComparison) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for fig in baselines.THESIS_FPGA.values():
+        out[f"{fig.label} ({baselines.THESIS_MANIFOLDS:,} manifolds, {fig.clock_hz / 1e6:g} MHz)"] = (
+            f"{fig.cycles:,} cycles, {fig.ms} ms, {fig.cycles_per_manifold_pass:.2f} cycles/manifold-pass")
+    out["thesis GTX 980 (Bullet3 OpenCL)"] = f"{baselines.THESIS_GPU_MS} ms"
+    out["thesis i7-3770 (Bullet3)"] = f"{baselines.THESIS_CPU_MS} ms"
+    if t.rtl_cycles is not None:
+        cpmp = t.rtl_cycles / t.manifold_passes
+        out[f"this run: RTL {t.fmt}, {t.manifolds:,} manifolds, {t.iterations} iterations"] = (
+            f"{t.rtl_cycles:,} cycles, {t.rtl_cycles / 275e6 * 1e3:.2f} ms at 275 MHz, {cpmp:.2f} cycles/manifold-pass")
+        scaled = cpmp * baselines.THESIS_MANIFOLDS * 2 * t.iterations
+        out[f"this run scaled to {baselines.THESIS_MANIFOLDS:,} manifolds"] = (
+            f"{scaled:,.0f} cycles, {scaled / 275e6 * 1e3:.2f} ms at 275 MHz")
+    timing = t.pybullet_timing_s
+    if timing:
+        out[f"pybullet's own solver on this frame (this machine, {t.pybullet_iterations} iterations, solveGroup)"] = (
+            f"{timing.get('solveGroup', math.nan) * 1e3:.2f} ms (whole step "
+            f"{timing.get('internalSingleStepSimulation', math.nan) * 1e3:.2f} ms)")
+    else:
+        out["pybullet's own solver on this frame"] = "not recorded (frame cached before timings were kept)"
+    for name, sec in t.software_seconds.items():
+        out[f"{name} (this machine)"] = f"{sec * 1e3:.1f} ms"
+    return out
