@@ -28,6 +28,7 @@ from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from models.tests.test_body_banks import spread_bodies
 from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import run_kernel_step
+from sim.compare import retire_cycles
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")
@@ -69,7 +70,7 @@ def test_cycles_match_model(which: str, tmp_path: Path) -> None:
     pred = cycle_model.predict_job(job, PRESET)
     res = run_kernel_step(job, PRESET, tmp_path, seed=1, keep_trace=True)
     assert res.bit_exact, res.comparison.first_mismatch
-    agree = cycle_model.compare_run(pred, res, job.slots)
+    agree = retire_cycles.compare_run(pred, res, job.slots)
     busy = pred.stall_cycles_by_cause()["body bank busy with a retire write"]
     print(f"\n[{which}/fp32/impulses in records/{RECORDS_BANKS} body banks] {agree.describe()}; stalls "
           f"{pred.stalls:,} ({busy:,} on a busy bank), bubbles {pred.bubbles:,}")

@@ -37,6 +37,7 @@ from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from models.tests.test_impulses_in_records import independent_stack_job
 from sim.compile.kernel_build import default_window
 from sim.drive.kernel_step import run_kernel_step
+from sim.compare import retire_cycles
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")
@@ -85,7 +86,7 @@ def test_cycles_match_model(which: str, tmp_path: Path) -> None:
     pred = cycle_model.predict_job(job, PRESET)
     res = run_kernel_step(job, PRESET, tmp_path, seed=1, keep_trace=True)
     assert res.bit_exact, res.comparison.first_mismatch
-    agree = cycle_model.compare_run(pred, res, job.slots)
+    agree = retire_cycles.compare_run(pred, res, job.slots)
     print(f"\n[{which}/fp16/impulses in records] {agree.describe()}; stalls {pred.stalls:,}, bubbles {pred.bubbles:,}")
     assert agree.ok, agree.first_mismatch
 
@@ -97,7 +98,7 @@ def test_wide_body_streams_cycle_exact(tmp_path: Path) -> None:
     pred = cycle_model.predict_job(job, PRESET, body_bits=256)
     res = run_kernel_step(job, PRESET, tmp_path, seed=1, keep_trace=True, body_bits=256)
     assert res.bit_exact, res.comparison.first_mismatch
-    agree = cycle_model.compare_run(pred, res, job.slots)
+    agree = retire_cycles.compare_run(pred, res, job.slots)
     narrow = cycle_model.predict_job(job, PRESET).cycles
     print(f"\n[pile/fp16/impulses in records/256-bit body beats] {agree.describe()}; 128-bit beats: {narrow:,} cycles")
     assert agree.ok, agree.first_mismatch

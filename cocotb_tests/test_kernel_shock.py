@@ -35,6 +35,9 @@ from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from models.golden.shock_propagation import FREEZE_NONE
 from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import golden_step, run_kernel_step
+from models.timing import prediction
+from models.timing import stream_cycle_model
+from sim.compare import retire_cycles
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")
@@ -57,7 +60,7 @@ def records_shock_job() -> KernelJob:
 def _cycles_without_the_bank_rule(job: KernelJob) -> int:
     """The cycle model of ``job`` as if its shock passes wrote every dynamic body (the banks busy with them)."""
     step = dataclasses.replace(StepShape.of_job(job), frozen=None, shock_passes=())
-    return cycle_model.predict(cycle_model._job_shape(job, PRESET, 128), cycle_model._job_timing(job, PRESET, False),
+    return stream_cycle_model.predict(cycle_model.job_shape(job, PRESET, 128), cycle_model.job_timing(job, PRESET, False),
                                step).cycles
 
 
@@ -80,12 +83,12 @@ def test_records_build_bit_exact_with_random_backpressure(tmp_path: Path) -> Non
     assert res.cycles >= bound
 
 
-def _deterministic_run(job: KernelJob, tmp_path: Path, label: str, note: str = "") -> cycle_model.Prediction:
+def _deterministic_run(job: KernelJob, tmp_path: Path, label: str, note: str = "") -> prediction.Prediction:
     """``job`` with deterministic streams: bit-exact, and every retire cycle the cycle model's."""
     pred = cycle_model.predict_job(job, PRESET)
     res = run_kernel_step(job, PRESET, tmp_path, seed=1, keep_trace=True)
     assert res.bit_exact, res.comparison.first_mismatch
-    agree = cycle_model.compare_run(pred, res, job.slots)
+    agree = retire_cycles.compare_run(pred, res, job.slots)
     print(f"\n[{label}] {agree.describe()}{note}")
     assert agree.ok, agree.first_mismatch
     return pred

@@ -5,7 +5,7 @@ continuing the solve call's impulses).
 
 One Verilator build for every test here (fp32, 512-bit constraint beats: the zcu102 preset's). ``sim.drive.kernel_step``
 compares bit for bit the trace, the body-out stream and the impulse-out stream with the golden model of the same
-step (``solve`` with ``SolverParams.soft_keep``), and ``models.timing.cycle_model.compare_run`` every retire cycle, the total
+step (``solve`` with ``SolverParams.soft_keep``), and ``sim.compare.retire_cycles.compare_run`` every retire cycle, the total
 and the stall and bubble counters with the cycle model's:
 
 * the pile warm-started (non-zero impulses from the first pass on), keep factors of Box2D's 15 Hz critically
@@ -33,6 +33,7 @@ from sim.compile.kernel_build import default_window
 from sim.drive.kernel_step import run_kernel_step
 
 from cocotb_tests.test_kernel_impulses_in_records import warm_start
+from sim.compare import retire_cycles
 
 PRESET = get_preset("zcu102")
 KEEP = SoftContact(hertz=15.0, damping_ratio=1.0).keep(1.0 / 120.0)
@@ -49,7 +50,7 @@ def _run(job: KernelJob, tmp_path: Path):  # noqa: ANN202
     pred = cycle_model.predict_job(job, PRESET)
     res = run_kernel_step(job, PRESET, tmp_path, seed=1, keep_trace=True, soft_contact=True)
     assert res.bit_exact, res.comparison.first_mismatch
-    agree = cycle_model.compare_run(pred, res, job.slots)
+    agree = retire_cycles.compare_run(pred, res, job.slots)
     assert agree.ok, agree.first_mismatch
     return res, agree
 

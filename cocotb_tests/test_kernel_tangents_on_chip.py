@@ -35,6 +35,7 @@ from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from models.setup.tangent_basis import PLANE_SPACE_SPLIT
 from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import run_kernel_step
+from sim.compare import retire_cycles
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")
@@ -111,7 +112,7 @@ def test_cycles_match_model(scene: str, tmp_path: Path) -> None:
     pred = cycle_model.predict_job(job, PRESET)
     res = run_kernel_step(job, PRESET, tmp_path, seed=1, keep_trace=True)
     assert res.bit_exact, res.comparison.first_mismatch
-    agree = cycle_model.compare_run(pred, res, job.slots)
+    agree = retire_cycles.compare_run(pred, res, job.slots)
     streamed = cycle_model.predict_job(streamed_job(scene), PRESET).cycles
     print(f"\n[{scene}/fp32/impulses in records/tangents on chip] {agree.describe()}; stalls {pred.stalls:,}, "
           f"bubbles {pred.bubbles:,}; streamed tangents {streamed:,} cycles (model)")
@@ -129,7 +130,7 @@ def test_fp16_pile_bit_exact_and_cycle_exact(tmp_path: Path) -> None:
     pred = cycle_model.predict_job(job, PRESET)
     det = run_kernel_step(job, PRESET, tmp_path / "deterministic", seed=1, keep_trace=True)
     assert det.bit_exact, det.comparison.first_mismatch
-    agree = cycle_model.compare_run(pred, det, job.slots)
+    agree = retire_cycles.compare_run(pred, det, job.slots)
     print(f"[pile/fp16/impulses in records/tangents on chip] random stalls {res.cycles:,} cycles; {agree.describe()}")
     assert agree.ok, agree.first_mismatch
 
@@ -148,7 +149,7 @@ def test_z_up_world_takes_the_other_branch(tmp_path: Path) -> None:
     assert res.bit_exact, res.comparison.first_mismatch
     det = run_kernel_step(job, PRESET, tmp_path / "deterministic", seed=1, keep_trace=True)
     assert det.bit_exact, det.comparison.first_mismatch
-    agree = cycle_model.compare_run(cycle_model.predict_job(job, PRESET), det, job.slots)
+    agree = retire_cycles.compare_run(cycle_model.predict_job(job, PRESET), det, job.slots)
     print(f"[pile z-up/fp32/impulses in records/tangents on chip] random stalls {res.cycles:,} cycles; "
           f"{agree.describe()}")
     assert agree.ok, agree.first_mismatch

@@ -52,7 +52,9 @@ from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from sim.drive.harness_run import register_writes, run_harness, write_inputs
 from sim.compile.kernel_build import KernelBuild, build_kernel
 from sim.drive.kernel_step import KernelResult, golden_step, run_kernel_step
-from sim.compare.trace_bits import Comparison, compare_body_out, compare_trace, read_trace
+from sim.compare.trace_bits import Comparison, compare_body_out, compare_trace_bits, read_trace
+from models.timing import prediction
+from sim.compare import retire_cycles
 
 DEPTH = 1024
 LANES = 2
@@ -231,7 +233,7 @@ def _assert_golden_without(sent: KernelJob, kept: np.ndarray, run: Path) -> None
     golden = golden_step(expected)
     kb = KernelBuild.for_job(sent, PRESET)
     cmp = Comparison()
-    compare_trace(read_trace(run / "trace.bin", sent.fmt, kb.trace_bytes), golden.records, expected, cmp)
+    compare_trace_bits(read_trace(run / "trace.bin", sent.fmt, kb.trace_bytes), golden.records, expected, cmp)
     compare_body_out(run, expected, kb, golden.final, cmp)
     assert cmp.first_mismatch is None and cmp.differing_bits == 0, cmp.first_mismatch
 
@@ -302,12 +304,12 @@ CYCLE_CASES = {
 }
 
 
-def assert_cycles_match(name: str, pred: cycle_model.Prediction, res: KernelResult, job: KernelJob,
+def assert_cycles_match(name: str, pred: prediction.Prediction, res: KernelResult, job: KernelJob,
                         extra: str = "") -> None:
     """A deterministic run against the cycle model: every retire cycle (the trace's retire order, lanes of a cycle lane
     by lane), the stall and bubble counters, the total cycles and the rejected count; on a difference the message
     names the first differing record and the model's reasons for its cycle. ``extra``: printed with the figures."""
-    agree = cycle_model.compare_run(pred, res, job.slots)
+    agree = retire_cycles.compare_run(pred, res, job.slots)
     print(f"\n[{name}] {agree.describe()}; stalls {pred.stall_cycles_by_cause()}, bubbles {pred.bubbles:,}, rejected "
           f"{pred.rejected}; {extra}")
     assert agree.ok, agree.first_mismatch

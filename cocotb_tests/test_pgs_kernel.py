@@ -52,12 +52,13 @@ from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from models.setup.constraints import FRICTION_COEFF
 from models.golden.contact_solver import SolverParams, solve
 from models.timing.platforms import DmaPreset, get_preset
-from models.sizing.format_analyzer import inertia_mode_of
 from models.setup.inertia import InertiaMode
 from models.formats.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat
 from models.kernel.kernel_job import KernelJob
 from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import KernelResult, run_kernel_step
+from models.timing import prediction
+from sim.compare import retire_cycles
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 ITERATIONS = 4
@@ -142,7 +143,7 @@ def test_pgs_kernel_full_inverse_inertia(tmp_path: Path) -> None:
     model's symmetric product (checked in run_case, with random stream gaps and backpressure)."""
     frame = scenes.load_or_capture(ROTATED_WORLD)
     job = KernelJob.from_frame(frame, FP32, SolverParams(ITERATIONS), "hazard", default_window(FP32, 512))
-    assert frame.meta["bullet_convention"] == "bullet2" and inertia_mode_of(job.bodies) is InertiaMode.FULL
+    assert frame.meta["bullet_convention"] == "bullet2" and job.bodies.inertia_mode is InertiaMode.FULL
     assert job.inertia_words == 6 and np.all(np.any(job.bodies.inv_inertia[job.bodies.dynamic, 3:] != 0.0, axis=1))
     assert np.any(job.bodies.dynamic[job.cons.body_a] & job.bodies.dynamic[job.cons.body_b])  # a box on a box
     run_case(Case(ROTATED_WORLD, FP32, "hazard"), tmp_path)
@@ -170,7 +171,7 @@ def test_pgs_kernel_scalar_inverse_inertia(tmp_path: Path) -> None:
     15-word body record), with random stream gaps and backpressure: bit-exact with the golden model."""
     frame = scenes.load_or_capture("stack", **SCENES["stack"])
     job = KernelJob.from_frame(frame, FP32, SolverParams(ITERATIONS), "pybullet", default_window(FP32, 512))
-    assert inertia_mode_of(job.bodies) is InertiaMode.SCALAR
+    assert job.bodies.inertia_mode is InertiaMode.SCALAR
     res = run_kernel_step(job, get_preset("zcu102"), tmp_path, _seed(), GAP_PERMILLE, BP_PERMILLE, inertia_words=1)
     assert res.bit_exact, res.comparison.first_mismatch
     assert res.comparison.records == job.manifold_passes and res.comparison.bodies == job.bodies.num_bodies
@@ -216,13 +217,13 @@ def test_kernel_cycles_match_model(case: Case, dma: str, interleaved: bool, tmp_
     assert agree.ok, agree.first_mismatch
 
 
-def run_deterministic(job: KernelJob, preset: DmaPreset, pred: cycle_model.Prediction,
-                      tmp: Path) -> cycle_model.Agreement:
+def run_deterministic(job: KernelJob, preset: DmaPreset, pred: prediction.Prediction,
+                      tmp: Path) -> retire_cycles.Agreement:
     """Run ``job`` with deterministic streams (no gap, no backpressure): bit-exact, and its trace, cycles and
     counters against the cycle model's prediction ``pred``."""
     res = run_kernel_step(job, preset, tmp, seed=1, keep_trace=True)
     assert res.bit_exact, res.comparison.first_mismatch
-    return cycle_model.compare_run(pred, res, job.slots)
+    return retire_cycles.compare_run(pred, res, job.slots)
 
 
 # Every kind of hazard-CAM match, on the stack's 10 manifolds re-pointed at these body pairs (ground = 0, static)
@@ -248,10 +249,10 @@ def test_kernel_hazard_cases(tmp_path: Path) -> None:
     first = (pred.kind == 0) & (pred.iteration == 0)
     for slot, _, waits_for, what in HAZARD_CASES:
         k = int(np.flatnonzero(first & (pred.slot == slot))[0])
-        got = (int(pred.blocker[k]) if pred.cause[k] == cycle_model.HAZARD else None)
+        got = (int(pred.blocker[k]) if pred.cause[k] == prediction.HAZARD else None)
         assert got == waits_for, f"slot {slot} ({what}): the model waits for {got}, expected {waits_for}"
     k = int(np.flatnonzero((pred.kind == 0) & (pred.iteration == 1) & (pred.slot == 0))[0])
-    assert pred.cause[k] == cycle_model.HAZARD and pred.iteration[pred.blocker[k]] == 0  # across the pass wrap
+    assert pred.cause[k] == prediction.HAZARD and pred.iteration[pred.blocker[k]] == 0  # across the pass wrap
     agree = run_deterministic(job, preset, pred, tmp_path)
     print(f"\n[hazard cases] {agree.describe()}; stalls {pred.stall_cycles_by_cause()}")
     assert agree.ok, agree.first_mismatch

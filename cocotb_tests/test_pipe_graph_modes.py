@@ -11,8 +11,8 @@ import pytest
 from models.kernel import kernel_vectors as kv
 from models import scenes
 from models.setup.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
-from models.sizing.format_analyzer import friction_words_of, inertia_mode_of
-from models.setup.inertia import BulletConvention, InertiaMode, world_inverse_inertia
+from models.formats.frame import BulletConvention
+from models.setup.inertia import InertiaMode, world_inverse_inertia
 from models.formats.number_format import FP16, FP32, NumberFormat
 from rtl.gen.kernel_graphs import (GRAPHS, contact_graph, contact_in, friction_graph, friction_in, inertia_ports,
                                    pipe_module)
@@ -40,7 +40,7 @@ def incline_frame():  # noqa: ANN201
 def test_full_mode_graphs_match_the_golden_on_a_rotated_box(incline_frame, fmt: NumberFormat) -> None:  # noqa: ANN001
     bodies = body_table(incline_frame)
     cons = setup_constraints(incline_frame, bodies)
-    assert inertia_mode_of(bodies) is InertiaMode.FULL and cons.num_manifolds > 0
+    assert bodies.inertia_mode is InertiaMode.FULL and cons.num_manifolds > 0
     b, c = bodies.rounded(fmt), cons.rounded(fmt)
     vec = kv.scene_vectors(b, c, fmt, inertia_words=6)
     assert vec.contact.shape[1] == kv.contact_n_in(6) == len(contact_in(6)) == 59
@@ -49,7 +49,7 @@ def test_full_mode_graphs_match_the_golden_on_a_rotated_box(incline_frame, fmt: 
            kv.friction_golden(fmt, vec.friction, vec.spin_damp, inertia_words=6), fmt, "friction, full")
     # the frame's friction varies from pair to pair: the friction pipe takes it as a word
     per = setup_constraints(incline_frame, bodies, friction_coeff=0.7).rounded(fmt)
-    assert friction_words_of(per) == 1
+    assert per.friction_words == 1
     vec_mu = kv.scene_vectors(b, per, fmt, inertia_words=6)
     assert vec_mu.friction.shape[1] == kv.friction_n_in(6, True) == len(friction_in(6, True))
     _check(_twin(friction_graph(inertia_words=6, manifold_friction=True), fmt, vec_mu.friction, vec_mu.spin_damp),
@@ -95,7 +95,7 @@ def _synthetic_cons(rng: np.random.Generator, m: int, n: int, bodies: BodyTable)
 def test_every_mode_matches_the_golden_on_synthetic_tables(mode: InertiaMode) -> None:
     rng = np.random.default_rng(list(InertiaMode).index(mode) + 11)
     bodies = _synthetic(rng, 40, mode).rounded(FP32)
-    assert inertia_mode_of(bodies) is mode
+    assert bodies.inertia_mode is mode
     cons = _synthetic_cons(rng, 60, 40, bodies).rounded(FP32)
     vec = kv.scene_vectors(bodies, cons, FP32, inertia_words=mode.words)
     assert np.all(np.isfinite(vec.contact)) and np.all(np.isfinite(vec.friction))

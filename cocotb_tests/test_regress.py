@@ -53,6 +53,7 @@ from sim.compile.artefacts import KernelStore, kernel_store_root  # noqa: E402
 from sim.parallel.executor import parse_executor, run_points  # noqa: E402
 from sim.compile.kernel_build import KernelBuild, build_kernel, default_window, use_kernel_store  # noqa: E402
 from sim.drive.kernel_step import run_kernel_step  # noqa: E402
+from sim.compare import retire_cycles
 
 ITERATIONS = 4
 OUT = REPO / "build" / "regress"
@@ -133,7 +134,7 @@ def check(seed: int, case: Case, tmp_path: Path, deterministic: bool) -> str:
     if deterministic:
         det = run_kernel_step(job, preset, tmp_path / "deterministic", seed, keep_trace=True)
         assert det.bit_exact, f"{where}: {det.comparison.first_mismatch}"
-        agree = cycle_model.compare_run(pred, det, job.slots)
+        agree = retire_cycles.compare_run(pred, det, job.slots)
         report += f"\n  deterministic: {agree.describe()}"
         assert agree.ok, f"{where}: {agree.first_mismatch}"
     return report

@@ -3,7 +3,7 @@
 The testbench ``hls_export/pgs_csim_main.cpp`` is a drop-in for the RTL kernel's Verilator harness: the same
 command line and the same files. So one step runs exactly as ``sim.drive.kernel_step.run_kernel_step`` runs the RTL,
 with the same pieces (``sim.drive.harness_run``, ``sim.compare.trace_bits``): ``write_inputs`` packs the streams (``models/kernel/stream_format.py``),
-``run_harness`` runs the executable, ``read_trace`` / ``compare_trace`` / ``compare_body_out`` compare every
+``run_harness`` runs the executable, ``read_trace`` / ``compare_trace_bits`` / ``compare_body_out`` compare every
 retired manifold-pass and the body-out stream with ``golden_step``. The trace's cycle field holds the record
 index (C simulation is untimed).
 
@@ -79,7 +79,7 @@ from models.golden.soft_contact import SoftContact
 from sim.drive.harness_run import run_harness, write_inputs
 from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import golden_step
-from sim.compare.trace_bits import (Comparison, compare_body_out, compare_impulse_out, compare_trace, read_trace,
+from sim.compare.trace_bits import (Comparison, compare_body_out, compare_impulse_out, compare_trace_bits, read_trace,
                                writing_passes)
 from sim.compile.verilator_build import REPO_ROOT, build_lock
 
@@ -212,7 +212,7 @@ def run_written_step(job: KernelJob, run_dir: Path, exe: Path, kb: KernelBuild, 
     env = dict(os.environ, PGS_HAZARD_WINDOW=str(window))
     regs = run_harness(exe, run_dir, seed=1, preset=get_preset("ideal"), max_cycles=0, env=env)
     cmp = Comparison()
-    compare_trace(read_trace(run_dir / "trace.bin", job.fmt, kb.trace_bytes), golden.records, job, cmp)
+    compare_trace_bits(read_trace(run_dir / "trace.bin", job.fmt, kb.trace_bytes), golden.records, job, cmp)
     compare_body_out(run_dir, job, kb, golden.final, cmp)
     if job.impulses_in_records:
         compare_impulse_out(run_dir, job, golden.records, cmp)

@@ -36,6 +36,7 @@ from models.formats.number_format import BF16, FP16, FP32, NumberFormat
 from models.order.manifold_schedule import BANDED_ORDERS, band_width, hazard_order, pybullet_order
 from sim.fit import resource_model as rm
 from sim.compile.kernel_build import default_window
+from models.timing.platforms import PLATFORMS, Platform
 
 FORMATS: tuple[NumberFormat, ...] = (FP32, FP16, BF16)
 
@@ -51,7 +52,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     return ap.parse_args(argv)
 
 
-def hazard_windows(platforms: Sequence[ob.Platform]) -> dict[tuple[str, str], int]:
+def hazard_windows(platforms: Sequence[Platform]) -> dict[tuple[str, str], int]:
     """The kernel's hazard window W per (platform, format): its DMA preset's stream width sets the beats."""
     return {(p.name, f.name): default_window(f, p.preset.stream_bits) for p in platforms for f in FORMATS}
 
@@ -91,7 +92,7 @@ def best_band(row: dict[str, Any], window: int) -> int:
     return row["bands"][row["best"]][f"W={window}"]
 
 
-def budget_rows(row: dict[str, Any], platforms: Sequence[ob.Platform], windows: dict[tuple[str, str], int],
+def budget_rows(row: dict[str, Any], platforms: Sequence[Platform], windows: dict[tuple[str, str], int],
                 iters: int) -> list[ob.Budget]:
     """Budgets of the best banded schedule (after hazard reordering with the platform's W) of one scene."""
     periods = sorted({1, min(2, iters), iters})
@@ -128,8 +129,8 @@ def budget_fit(b: ob.Budget, lanes: int = 1) -> rm.FitVerdict | rm.NoEstimate:
     return rm.fit_or_reason(cfg, b.platform)
 
 
-def floor_rows(row: dict[str, Any], platforms: Sequence[ob.Platform], windows: dict[tuple[str, str], int],
-               iters: int) -> list[tuple[ob.Floors, ob.Budget | None, ob.Platform, NumberFormat]]:
+def floor_rows(row: dict[str, Any], platforms: Sequence[Platform], windows: dict[tuple[str, str], int],
+               iters: int) -> list[tuple[ob.Floors, ob.Budget | None, Platform, NumberFormat]]:
     """DDR and compute floors of the scene per platform, format, fetch period (0: every pass, today's kernel)
     and lanes, each with the on-chip budget of its window (impulses travelling with the records)."""
     out = []
@@ -146,7 +147,7 @@ def floor_rows(row: dict[str, Any], platforms: Sequence[ob.Platform], windows: d
     return out
 
 
-def floor_fit(fl: ob.Floors, bud: ob.Budget | None, p: ob.Platform, f: NumberFormat, bodies: int,
+def floor_fit(fl: ob.Floors, bud: ob.Budget | None, p: Platform, f: NumberFormat, bodies: int,
               manifolds: int) -> str:
     """The on-chip bytes of a floor row's window, and the resource model's verdict of its whole kernel."""
     if bud is None:  # every pass streams its records: today's one-lane streaming kernel
@@ -157,7 +158,7 @@ def floor_fit(fl: ob.Floors, bud: ob.Budget | None, p: ob.Platform, f: NumberFor
             + rm.short_verdict(budget_fit(bud, fl.lanes)))
 
 
-def floor_table(rows: Sequence[tuple[ob.Floors, ob.Budget | None, ob.Platform, NumberFormat]], bodies: int,
+def floor_table(rows: Sequence[tuple[ob.Floors, ob.Budget | None, Platform, NumberFormat]], bodies: int,
                 manifolds: int) -> list[str]:
     head = (f"{'platform':<9}{'format':<7}{'fetch':>14}{'lanes':>6}{'MB/step':>9}{'DDR c/mp':>9}{'compute c/mp':>13}"
             f"{'floor c/mp':>11}  {'bound':<8}window bytes and whole-kernel fit (resource model)")
@@ -178,7 +179,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         raise ValueError(f"unknown scene {unknown[0]!r}" if unknown else f"ITERS must be >= 1, got {args.iters}")
     if args.budget_scene not in names:
         names.append(args.budget_scene)
-    platforms = list(ob.PLATFORMS.values())
+    platforms = list(PLATFORMS.values())
     windows = hazard_windows(platforms)
     distinct = sorted(set(windows.values()))
     t0 = time.perf_counter()

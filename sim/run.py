@@ -57,6 +57,8 @@ from sim.fit.resource_model import kernel_fit
 from sim.report.run_result import AnyRunResult, BitExactness, KernelSpeed, ModelRunResult, RunResult, SceneFacts, \
     ScheduleFacts, StepErrors, ThesisComparison, VelocityError, WindowFacts, sections
 from sim.compare.trace_bits import kernel_bodies
+from sim.compare import retire_cycles
+from models.timing import platforms
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -405,8 +407,8 @@ def model_section(job: KernelJob, preset: DmaPreset, res: KernelResult | None = 
         return {"cycle model": f"none ({exc})"}
     seconds = time.process_time() - t0
     if res is None or res.trace is None or stall_permille:
-        return cycle_model.report_section(pred, preset, seconds, None if res is None else res.cycles)
-    return cycle_model.report_section(pred, preset, seconds, agreement=cycle_model.compare_run(pred, res, job.slots))
+        return retire_cycles.report_section(pred, preset, seconds, None if res is None else res.cycles)
+    return retire_cycles.report_section(pred, preset, seconds, agreement=retire_cycles.compare_run(pred, res, job.slots))
 
 
 def window_facts(job: KernelJob, preset: DmaPreset) -> WindowFacts:
@@ -416,8 +418,8 @@ def window_facts(job: KernelJob, preset: DmaPreset) -> WindowFacts:
     plan = job.record_window
     assert plan is not None
     bud = None
-    if preset.name in ob.PLATFORMS:
-        bud = ob.budget(ob.get_platform(preset.name), job.fmt, job.bodies.num_bodies, len(job.slots),
+    if preset.name in platforms.PLATFORMS:
+        bud = ob.budget(platforms.get_platform(preset.name), job.fmt, job.bodies.num_bodies, len(job.slots),
                         plan.lag * plan.lanes, trailing=max(plan.fetch_passes - 1, 1),
                         impulses_resident=not job.impulses_in_records)
     return WindowFacts(plan, plan.fetches(job.params), bud)

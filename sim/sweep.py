@@ -76,7 +76,6 @@ import numpy as np
 
 from models import scenes
 from models.timing import cycle_model
-from models.kernel import stream_format as sf
 from models.setup.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.golden.contact_solver import SolverParams
 from models.timing.platforms import PRESETS, get_preset
@@ -103,6 +102,7 @@ from sim.report.run_result import NoExactReference
 from sim.report.sweep_plot import series, write_plots
 from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label, load_frame, \
     velocity_error
+from models.kernel import record_window
 
 ITERATIONS = (1, 2, 4, 8, 16, 32, 64, 128)  # to 128: the pile's iteration error has stopped falling by 32
 IMPULSE_STORES = ("onchip", "records")  # the streaming kernel's designs (make sim's IMPULSE_STORE)
@@ -365,7 +365,7 @@ def plan(args: argparse.Namespace) -> tuple[list[SweepPoint], str, dict[str, byt
     designs = impulse_stores(args)
     if args.record_window and args.fetch_passes and "records" in designs:  # fetches of one kind, every count
         for iters in iter_list:
-            sf.window_fetch_kinds(SolverParams(iters), args.fetch_passes, one_kind=True)
+            record_window.window_fetch_kinds(SolverParams(iters), args.fetch_passes, one_kind=True)
     frame, label = load_frame(args)
     print(frame.summary(), flush=True)
     data = frame_bytes(frame)

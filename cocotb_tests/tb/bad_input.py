@@ -35,6 +35,7 @@ from models.golden.integrator import integrate
 from models.kernel.kernel_job import KernelJob
 
 from cocotb_tests.tb.scoreboard import ExpectedTrace, expected_trace
+from models.order import manifold_schedule
 
 NEVER = 1 << 30  # "rejected from pass NEVER": accepted in every pass
 
@@ -64,7 +65,7 @@ class StepBuilder:
         self.fmt = job.fmt
         self.beat_bits = cons_beat_bits
         self.layout = sf.StreamLayout(job.fmt, cons_beat_bits=cons_beat_bits)
-        self.slots = sf.schedule_manifolds(job.schedule)
+        self.slots = manifold_schedule.schedule_manifolds(job.schedule)
         self.passes = pass_sequence(job.params)
 
     # --- streams ----------------------------------------------------------------------------------------

@@ -39,7 +39,6 @@ from models.kernel import stream_format as sf
 from models.golden.contact_solver import SolverParams
 from models.timing.platforms import get_preset
 from models.kernel.extreme_stimulus import extreme_magnitudes
-from models.sizing.format_analyzer import inertia_mode_of
 from models.kernel.kernel_job import KernelJob
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from models.formats.number_format import FP16, FP32
@@ -92,7 +91,7 @@ def test_csim_inverse_inertia_modes(scene: str, inertia_words: int, tmp_path: Pa
     job = KernelJob.from_frame(frame, FP32, SolverParams(4), "hazard", default_window(FP32, KB.cons_bits))
     kb = KernelBuild(FP32, inertia_words=inertia_words, friction_words=job.friction_words)
     assert job.friction_words == (inertia_words == 6)
-    assert inertia_mode_of(job.bodies).words == inertia_words
+    assert job.bodies.inertia_mode.words == inertia_words
     if inertia_words == 6:
         assert KernelBuild.for_job(job, get_preset("zcu102")) == kb
     res = run_csim_step(job, tmp_path, build_csim(kb), kb, default_window(FP32, kb.cons_bits))

@@ -37,7 +37,7 @@ from models.setup.tangent_basis import PLANE_SPACE_SPLIT, plane_space_in
 from sim.drive.harness_run import write_inputs
 from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import golden_step
-from sim.compare.trace_bits import Comparison, compare_impulse_out, compare_trace, read_trace
+from sim.compare.trace_bits import Comparison, compare_impulse_out, compare_trace_bits, read_trace
 
 
 def _seed() -> int:
@@ -109,7 +109,7 @@ def test_the_derived_basis_differs_from_the_host_one(fmt_name: str, tmp_path: Pa
     assert res.bit_exact
     host = golden_step(streamed)
     cmp = Comparison()
-    compare_trace(read_trace(tmp_path / "trace.bin", derived.fmt, kb.trace_bytes), host.records, streamed, cmp)
+    compare_trace_bits(read_trace(tmp_path / "trace.bin", derived.fmt, kb.trace_bytes), host.records, streamed, cmp)
     compare_impulse_out(tmp_path, streamed, host.records, cmp)
     print(f"\n[{fmt_name} pile, this build against the streamed tangents' golden model] {cmp.differing_bits} differing "
           f"bits; first: {cmp.first_mismatch}")

@@ -40,7 +40,7 @@ from models.order.manifold_schedule import band_width
 from sim.drive.harness_run import run_harness, write_inputs
 from sim.compile.kernel_build import KernelBuild
 from sim.drive.kernel_step import golden_step
-from sim.compare.trace_bits import Comparison, compare_body_out, compare_impulse_out, compare_trace, read_trace
+from sim.compare.trace_bits import Comparison, compare_body_out, compare_impulse_out, compare_trace_bits, read_trace
 
 DESIGNS = {"fp32-1lane": (FP32, 1), "fp16-2lanes": (FP16, 2)}
 assert all(WINDOW_LANES[fmt.name] == lanes for fmt, lanes in DESIGNS.values())
@@ -170,7 +170,7 @@ def test_csim_window_lanes_collide(tmp_path: Path) -> None:
                                                                                           slots=kept))
     golden = golden_step(expected)
     cmp = Comparison()
-    compare_trace(read_trace(tmp_path / "trace.bin", job.fmt, kb.trace_bytes), golden.records, expected, cmp)
+    compare_trace_bits(read_trace(tmp_path / "trace.bin", job.fmt, kb.trace_bytes), golden.records, expected, cmp)
     compare_body_out(tmp_path, expected, kb, golden.final, cmp)
     compare_impulse_out(tmp_path, expected, golden.records, cmp)
     assert cmp.first_mismatch is None and cmp.differing_bits == 0, cmp.first_mismatch

@@ -34,7 +34,8 @@ from models import scenes
 from models.setup.constraints import BodyTable, ConstraintSet, body_table_from_state, setup_constraints
 from models.golden.contact_solver import Impulses, SolverParams, solve
 from models.formats.frame import Frame
-from models.setup.inertia import CONVENTION_KEY, DEFAULT_CONVENTION, BulletConvention, convention_inverse_inertia, quat_to_matrix
+from models.formats.frame import CONVENTION_KEY, DEFAULT_CONVENTION, BulletConvention
+from models.setup.inertia import convention_inverse_inertia, quat_to_matrix
 from models.golden.integrator import IntegrationParams, integrate
 from models.formats.number_format import FLOAT64, Arithmetic
 from models.order.manifold_schedule import make_schedule

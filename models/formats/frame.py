@@ -46,10 +46,35 @@ import json
 import os
 import tempfile
 from dataclasses import dataclass, field, fields
+from enum import Enum
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
+
+# A frame names the convention its bodies' inverse inertia follows in meta["bullet_convention"]
+# (models/setup/inertia.py defines each convention).
+CONVENTION_KEY = "bullet_convention"
+
+
+class BulletConvention(str, Enum):
+    BULLET2 = "bullet2"
+    BULLET_GPU = "bullet_gpu"
+    WORLD_AXES = "world_axes"
+
+
+DEFAULT_CONVENTION = BulletConvention.WORLD_AXES
+
+
+def convention_of(meta: Mapping[str, Any]) -> BulletConvention:
+    """The convention a frame's metadata names (``bullet_convention``), or :data:`DEFAULT_CONVENTION`."""
+    name = meta.get(CONVENTION_KEY, DEFAULT_CONVENTION.value)
+    try:
+        return BulletConvention(name)
+    except ValueError:
+        known = ", ".join(c.value for c in BulletConvention)
+        raise ValueError(f"unknown Bullet convention {name!r} (known: {known})") from None
+
 
 FRAME_VERSION = 1
 

@@ -28,6 +28,8 @@ from models.kernel.record_window import WindowPlan, plan_window
 from models.order.manifold_schedule import make_schedule
 from models.golden.shock_propagation import shock_step
 from models.setup.tangent_basis import derive_tangents
+from models.kernel import record_window
+from models.order import manifold_schedule
 
 
 @dataclass
@@ -172,7 +174,7 @@ class KernelJob:
         plan = self.record_window
         if plan is None:
             return [kind for kind, _ in pass_sequence(self.params)]
-        return [int(k) for k in sf.window_fetch_kinds(self.params, plan.fetch_passes, one_kind=True) if k is not None]
+        return [int(k) for k in record_window.window_fetch_kinds(self.params, plan.fetch_passes, one_kind=True) if k is not None]
 
     @property
     def inertia_words(self) -> int:
@@ -196,15 +198,15 @@ class KernelJob:
     @property
     def friction_words(self) -> int:
         """Friction-coefficient words per friction record of the kernel build that runs this step
-        (``sf.kernel_friction_words``: 1 where the manifolds carry their own coefficient)."""
-        return sf.kernel_friction_words(self.cons)
+        (``ConstraintSet.friction_words``: 1 where the manifolds carry their own coefficient)."""
+        return self.cons.friction_words
 
     @property
     def slots(self) -> np.ndarray:
         """The kernel's manifold slots in order (-1: an empty lane of the window kernel)."""
         if self.record_window is not None:
             return self.record_window.slots
-        return sf.schedule_manifolds(self.schedule)
+        return manifold_schedule.schedule_manifolds(self.schedule)
 
     @property
     def manifolds(self) -> int:

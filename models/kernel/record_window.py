@@ -27,11 +27,35 @@ import numpy as np
 from models.setup.constraints import ConstraintSet
 from models.golden.contact_solver import SolverParams, pass_sequence
 from models.kernel.body_banks import over_ports
-from models.order.manifold_schedule import band_width
-from models.kernel.stream_format import schedule_manifolds, window_fetch_kinds, window_fetches
+from models.order.manifold_schedule import band_width, schedule_manifolds
 
 DEFAULT_DEPTH = 16384  # records in the ring of the window builds make sim uses
 DEFAULT_CTX = 8  # passes active at a time (pgs_window CTX)
+
+
+
+def window_fetches(params: SolverParams, fetch_passes: int) -> int:
+    """How many times the window kernel reads the records in one step (each fetch serves ``fetch_passes``)."""
+    if fetch_passes < 1:
+        raise ValueError(f"fetch_passes must be >= 1, got {fetch_passes}")
+    return -(-len(pass_sequence(params)) // fetch_passes)
+
+
+def window_fetch_kinds(params: SolverParams, fetch_passes: int, one_kind: bool = False) -> list[int | None]:
+    """The pass kind of each fetch of the window kernel (None: a fetch serving both kinds). ``one_kind``: every
+    fetch must serve passes of one kind (the window kernel with the impulses in the records: fetch_passes divides
+    the iterations, or 1 with the kinds interleaved; the kernel refuses other arguments, error code 3)."""
+    seq = pass_sequence(params)
+    kinds: list[int | None] = []
+    for f in range(window_fetches(params, fetch_passes)):
+        served = {kind for kind, _ in seq[f * fetch_passes:(f + 1) * fetch_passes]}
+        kinds.append(served.pop() if len(served) == 1 else None)
+    if one_kind and None in kinds:
+        raise ValueError(f"{fetch_passes} passes per fetch mix contact and friction passes of {params.iterations} "
+                         f"iteration(s){' (interleaved)' if params.interleaved else ''}: with the impulses in the "
+                         "records each fetch serves passes of one kind (fetch_passes must divide the iterations, or "
+                         "be 1 with the kinds interleaved)")
+    return kinds
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,7 +124,7 @@ def plan_window(cons: ConstraintSet, dynamic: np.ndarray, schedule: np.ndarray, 
     """The plan of one step: the kernel's slots (bubbles dropped, :func:`lane_slots`), lag = D of its records,
     and ``fetch_passes`` as given or the most passes (every pass of the step at best) whose trailing fits the
     ring. ``one_kind`` (the kernel whose impulses travel with the records): every fetch serves passes of one kind
-    (``models.kernel.stream_format.window_fetch_kinds``), the most passes per fetch that allows."""
+    (``models.kernel.record_window.window_fetch_kinds``), the most passes per fetch that allows."""
     if depth < 2 or depth & (depth - 1) or ctx < 2 or ctx & (ctx - 1):
         raise ValueError(f"window depth and contexts must be powers of two >= 2, got {depth}, {ctx}")
     if lanes < 1 or lanes & (lanes - 1):

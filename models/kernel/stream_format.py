@@ -82,6 +82,8 @@ from models.golden.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, 
 from models.setup.inertia import InertiaMode, inertia_mode
 from models.formats.number_format import NumberFormat
 from models.golden.shock_propagation import ShockConstraintSet
+from models.kernel.record_window import window_fetch_kinds, window_fetches
+from models.order.manifold_schedule import schedule_manifolds
 
 HEADER_BITS = 64
 CONTACT_WORDS = 23
@@ -116,17 +118,11 @@ def body_in_word_count(inertia_words: int = KERNEL_INERTIA_WORDS) -> int:
 BODY_IN_WORDS = body_in_word_count()
 
 
-def kernel_friction_words(cons: ConstraintSet) -> int:
-    """The friction-coefficient words per friction record of the kernel build that runs ``cons`` (its ``MU_W``): 1
-    where the manifolds carry their own coefficient (``ConstraintSet.per_manifold_friction``), else 0."""
-    return 1 if cons.per_manifold_friction else 0
-
-
 def kernel_inertia_words(bodies: BodyTable) -> int:
     """The inverse-inertia words of the kernel build that runs ``bodies`` (its ``IINV_W``): 6 where the table is in
     the full mode (a rotated non-cube body), else the default build's 3 (a scalar body repeats its value there), so
     that the built-in scenes and the thesis frame keep their build, their body records and their cycles."""
-    full = inertia_mode(bodies.inv_inertia, bodies.dynamic) is InertiaMode.FULL
+    full = bodies.inertia_mode is InertiaMode.FULL
     return InertiaMode.FULL.words if full else KERNEL_INERTIA_WORDS
 TRACE_WORDS = 16
 TRACE_TAIL_BITS = 64
@@ -246,7 +242,7 @@ def contact_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray) -> np
 
 def friction_words(fmt: NumberFormat, cons: ConstraintSet, idx: np.ndarray,
                    tangents_on_chip: bool = False) -> np.ndarray:
-    """(K, 14 + F) bit patterns: n(3), c(3), t0(3), t1(3), f_jac_inv(2), then (F = :func:`kernel_friction_words`
+    """(K, 14 + F) bit patterns: n(3), c(3), t0(3), t1(3), f_jac_inv(2), then (F = ``ConstraintSet.friction_words``
     = 1) the manifold's friction coefficient; ``tangents_on_chip``: without t0, t1 (K, 8 + F), the kernel derives
     them from n (``models/setup/tangent_basis.py``)."""
     tangents = [] if tangents_on_chip else [cons.tangent[idx, 0], cons.tangent[idx, 1]]
@@ -332,7 +328,7 @@ class StreamLayout:
     body_beat_bits: int = DEFAULT_BODY_BEAT_BITS
     inertia_words: int = KERNEL_INERTIA_WORDS
     impulses_in_records: bool = False  # the records carry the impulses their pass starts from
-    friction_words: int = 0  # the friction-coefficient words of a friction record (kernel_friction_words)
+    friction_words: int = 0  # the friction-coefficient words of a friction record (ConstraintSet.friction_words)
     tangents_on_chip: bool = False  # the friction record omits t0, t1: the kernel derives them from n
     record_bits: RecordBits | None = None  # mixed storage: the records' bits (None: every word fmt.width bits)
 
@@ -490,12 +486,6 @@ class Stream:
         return self.data.tobytes()
 
 
-def schedule_manifolds(schedule: np.ndarray) -> np.ndarray:
-    """The schedule without bubbles: slot k of a pass holds manifold ``schedule_manifolds(s)[k]``."""
-    s = np.asarray(schedule, dtype=np.int64)
-    return s[s >= 0]
-
-
 def _transfers(blocks: list[np.ndarray], beat_bits: int) -> Stream:
     """The beats of ``blocks`` one after the other, TLAST on the last beat of each block (one DMA transfer each)."""
     if not blocks:
@@ -543,30 +533,6 @@ def pack_constraint_stream(fmt: NumberFormat, cons: ConstraintSet, schedule: np.
     return _transfers(blocks, beat_bits)
 
 
-def window_fetches(params: SolverParams, fetch_passes: int) -> int:
-    """How many times the window kernel reads the records in one step (each fetch serves ``fetch_passes``)."""
-    if fetch_passes < 1:
-        raise ValueError(f"fetch_passes must be >= 1, got {fetch_passes}")
-    return -(-len(pass_sequence(params)) // fetch_passes)
-
-
-def window_fetch_kinds(params: SolverParams, fetch_passes: int, one_kind: bool = False) -> list[int | None]:
-    """The pass kind of each fetch of the window kernel (None: a fetch serving both kinds). ``one_kind``: every
-    fetch must serve passes of one kind (the window kernel with the impulses in the records: fetch_passes divides
-    the iterations, or 1 with the kinds interleaved; the kernel refuses other arguments, error code 3)."""
-    seq = pass_sequence(params)
-    kinds: list[int | None] = []
-    for f in range(window_fetches(params, fetch_passes)):
-        served = {kind for kind, _ in seq[f * fetch_passes:(f + 1) * fetch_passes]}
-        kinds.append(served.pop() if len(served) == 1 else None)
-    if one_kind and None in kinds:
-        raise ValueError(f"{fetch_passes} passes per fetch mix contact and friction passes of {params.iterations} "
-                         f"iteration(s){' (interleaved)' if params.interleaved else ''}: with the impulses in the "
-                         "records each fetch serves passes of one kind (fetch_passes must divide the iterations, or "
-                         "be 1 with the kinds interleaved)")
-    return kinds
-
-
 EMPTY_HEADER = np.uint64(0xFFFF_FFFF_FFFF_FFFF)  # an empty lane of the window kernel (padding; zero words)
 
 
@@ -594,7 +560,7 @@ def pack_window_stream(fmt: NumberFormat, cons: ConstraintSet, slots: np.ndarray
     lam, lam_t = fmt.encode(impulses.normal[idx]), fmt.encode(impulses.friction[idx])
     kind_words = {CONTACT_PASS: [contact_words(fmt, cons, idx), lam],
                   FRICTION_PASS: [friction_words(fmt, cons, idx), lam, lam_t]}
-    layout = StreamLayout(fmt, beat_bits, impulses_in_records=True, friction_words=kernel_friction_words(cons))
+    layout = StreamLayout(fmt, beat_bits, impulses_in_records=True, friction_words=cons.friction_words)
     packed: dict[int, np.ndarray] = {}
     for kind, parts in kind_words.items():
         words = np.concatenate(parts, axis=1)

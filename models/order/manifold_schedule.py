@@ -399,3 +399,9 @@ def make_schedule(kind: str, cons: ConstraintSet, dynamic: np.ndarray, window: i
         order = banded_order(cons, dynamic)[1] if kind == "banded" else BANDED_ORDERS[kind](cons, dynamic)
         return hazard_order(cons, dynamic, window, order)
     raise ValueError(f"unknown schedule {kind!r} (expected one of {', '.join(SCHEDULE_KINDS)})")
+
+
+def schedule_manifolds(schedule: np.ndarray) -> np.ndarray:
+    """The schedule without bubbles: slot k of a pass holds manifold ``schedule_manifolds(s)[k]``."""
+    s = np.asarray(schedule, dtype=np.int64)
+    return s[s >= 0]

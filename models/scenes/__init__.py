@@ -14,7 +14,8 @@ The names callers use are importable from ``models.scenes`` itself.
 from models.scenes.contact_capture import Manifolds
 from models.scenes.frame_cache import cache_key, load_or_capture, load_scene
 from models.scenes.scene_args import split_scene_args
-from models.scenes.specs import DEFAULT_CAPTURE_STEP, SCENES, SceneError, make_spec
+from models.scenes.specs import DEFAULT_CAPTURE_STEP, SCENES, make_spec
+from models.scenes.scene_error import SceneError
 from models.scenes.user_world import ASSET_SCENES, is_world_scene, scene_label
 from models.scenes.world import GRAVITY, SceneWorld, build_world, capture_frame
 

@@ -18,11 +18,10 @@ from typing import Any, Callable
 
 import numpy as np
 
+from models.scenes.scene_args import typed_params
+from models.scenes.scene_error import SceneError
+
 DEFAULT_FRICTION = 0.7
-
-
-class SceneError(ValueError):
-    """A bad scene name or parameter."""
 
 
 @dataclass(frozen=True)
@@ -328,8 +327,6 @@ def make_spec(scene: str, seed: int = 0, **params: Any) -> SceneSpec:
     _check(scene in SCENES, f"unknown scene {scene!r}; known: {', '.join(SCENES)}")
     _check(isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0,
            f"seed must be a non-negative integer, got {seed!r}")
-    from models.scenes.scene_args import typed_params  # scene_args needs SceneError from here
-
     builder = SCENES[scene]
     params = typed_params(builder, params, scene, lead=1)  # SCENE_ARGS strings typed; an unknown key named
     try:

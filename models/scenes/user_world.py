@@ -32,7 +32,7 @@ import or build that fails (pybullet's load errors: a missing or unloadable mesh
 loaded in a scratch client in reduced coordinates and its joints read there; a negative mass, a static
 (zero-mass) body given a velocity, a dynamic body with a non-positive inertia, NaN or Inf in a pose or velocity, a
 body without a collision shape, a world without a dynamic body, and a capture step without contact
-(``models.scenes.world``). The catalogue of these cases is ``models.kernel.bad_input.WORLD_CATALOGUE``.
+(``models.scenes.world``). The catalogue of these cases is ``models.scenes.bad_worlds.WORLD_CATALOGUE``.
 
 The frame cache key of a file world covers the content of the world file and of every file it loads (URDF, SDF,
 MJCF, meshes named in them or given to ``createCollisionShape``).
@@ -53,11 +53,11 @@ import numpy as np
 import pybullet as p
 import pybullet_data
 
-from models.setup.inertia import CONVENTION_KEY, BulletConvention
+from models.formats.frame import CONVENTION_KEY, BulletConvention
 from models.scenes.contact_capture import FrameBodies
 from models.scenes.world_source import Population
 from models.scenes.scene_args import typed_params
-from models.scenes.specs import SceneError
+from models.scenes.scene_error import SceneError
 
 WORLD_FUNCTION = "build"
 DEFAULT_WORLD_STEP = 60

@@ -37,7 +37,8 @@ from models.scenes.bullet_profile import profiled_step
 from models.formats.frame import Frame, validate
 from models.scenes.contact_capture import FrameBodies, Manifolds, query_plan, read_manifolds
 from models.scenes.world_source import Population, WorldSource
-from models.scenes.specs import DEFAULT_CAPTURE_STEP, SceneError, SceneSpec, float_param, int_param, make_spec
+from models.scenes.specs import DEFAULT_CAPTURE_STEP, SceneSpec, float_param, int_param, make_spec
+from models.scenes.scene_error import SceneError
 from models.scenes.user_world import is_world_scene, scene_label, world_source
 
 GRAVITY = (0.0, -9.8, 0.0)

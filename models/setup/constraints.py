@@ -43,8 +43,9 @@ from typing import Mapping
 import numpy as np
 
 from models.formats.frame import Frame
-from models.setup.inertia import (AABB_MARGIN, BulletConvention, convention_inverse_inertia, convention_of, gpu_inverse_inertia,
-                      quadratic_form)
+from models.setup.inertia import (AABB_MARGIN, InertiaMode, convention_inverse_inertia, gpu_inverse_inertia,
+                                  inertia_mode, quadratic_form)
+from models.formats.frame import BulletConvention, convention_of
 from models.formats.number_format import Arithmetic
 
 __all__ = ["AABB_MARGIN", "FRICTION_COEFF", "MAX_FRICTION", "BodyTable", "ConstraintSet", "body_table",
@@ -76,6 +77,12 @@ class BodyTable:
     @property
     def dynamic(self) -> np.ndarray:
         return self.inv_mass != 0.0
+
+    @property
+    def inertia_mode(self) -> InertiaMode:
+        """The inverse-inertia mode a kernel build needs for these bodies: ``scalar`` where every dynamic body is
+        isotropic, ``diagonal`` where every world matrix is diagonal (axis-aligned principal axes), else ``full``."""
+        return inertia_mode(self.inv_inertia, self.dynamic)
 
     def copy(self) -> "BodyTable":
         return BodyTable(**{f.name: getattr(self, f.name).copy() for f in fields(self)})
@@ -114,6 +121,12 @@ class ConstraintSet:
         return self.friction.shape[-1] == 1
 
     @property
+    def friction_words(self) -> int:
+        """Friction-coefficient words per friction record (the kernel build's ``MU_W``): 1 where the manifolds carry
+        their own coefficient (the scene's friction varies), 0 where the kernel's one coefficient serves all."""
+        return 1 if self.per_manifold_friction else 0
+
+    @property
     def num_manifolds(self) -> int:
         return int(self.body_a.shape[0])
 
@@ -123,7 +136,7 @@ class ConstraintSet:
 
 def body_table(frame: Frame, gravity_preapplied: bool = True, convention: BulletConvention | None = None) -> BodyTable:
     """The kernel's body table from a pybullet frame (see :func:`body_table_from_state`); the inverse inertia in
-    ``convention``, by default the one the frame names (``models.setup.inertia.convention_of``), registered at the
+    ``convention``, by default the one the frame names (``models.formats.frame.convention_of``), registered at the
     frame's orientation."""
     return body_table_from_state(
         {"position": frame.position, "orientation": frame.orientation, "linear_velocity": frame.linear_velocity,

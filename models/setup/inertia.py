@@ -31,24 +31,14 @@ prefix of the next one's).
 from __future__ import annotations
 
 from enum import Enum
-from typing import Any, Mapping
 
 import numpy as np
 
+from models.formats.frame import BulletConvention
 from models.formats.number_format import Arithmetic
 
 AABB_MARGIN = 0.01  # m, added to each side of the local AABB before Bullet GPU's inertia computation
 FULL_ORDER = ("xx", "yy", "zz", "xy", "xz", "yz")
-CONVENTION_KEY = "bullet_convention"
-
-
-class BulletConvention(str, Enum):
-    BULLET2 = "bullet2"
-    BULLET_GPU = "bullet_gpu"
-    WORLD_AXES = "world_axes"
-
-
-DEFAULT_CONVENTION = BulletConvention.WORLD_AXES
 
 
 class InertiaMode(str, Enum):
@@ -60,16 +50,6 @@ class InertiaMode(str, Enum):
     def words(self) -> int:
         """Inverse-inertia words a body record carries in this mode."""
         return {InertiaMode.SCALAR: 1, InertiaMode.DIAGONAL: 3, InertiaMode.FULL: 6}[self]
-
-
-def convention_of(meta: Mapping[str, Any]) -> BulletConvention:
-    """The convention a frame's metadata names (``bullet_convention``), or :data:`DEFAULT_CONVENTION`."""
-    name = meta.get(CONVENTION_KEY, DEFAULT_CONVENTION.value)
-    try:
-        return BulletConvention(name)
-    except ValueError:
-        known = ", ".join(c.value for c in BulletConvention)
-        raise ValueError(f"unknown Bullet convention {name!r} (known: {known})") from None
 
 
 def _reciprocal(values: np.ndarray) -> np.ndarray:

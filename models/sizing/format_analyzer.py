@@ -17,10 +17,6 @@ quaternion change; :meth:`StepProblem.error_parts`):
    once more (:func:`mixed_error`). The RTL does not implement mixed storage: this part is a proposal, with the
    record bytes it would save.
 
-It also decides the kernel build's inverse-inertia mode (:func:`inertia_mode_of`: 1, 3 or 6 words per body; cubes
-and spheres stay on the scalar path) and whether the friction coefficient travels per manifold
-(:func:`friction_words_of`).
-
 The error is not strictly monotone in the mantissa width (rounding can cancel), so a bisection result is
 confirmed by evaluating it; the search assumes monotonicity only to pick candidates.
 """
@@ -35,7 +31,6 @@ import numpy as np
 
 from models.setup.constraints import BodyTable, ConstraintSet
 from models.golden.contact_solver import SolverParams, solve
-from models.setup.inertia import InertiaMode, inertia_mode
 from models.golden.integrator import IntegrationParams, integrate
 from models.formats.number_format import FLOAT64, Arithmetic, NumberFormat
 from models.kernel.stream_format import BODY_IN_WORDS, HEADER_BITS
@@ -58,18 +53,6 @@ RECORD_WORDS = {
 }
 MAN_RANGE = (2, 23)
 HEADROOM = 4.0  # largest values times this must stay finite (sums of a few terms)
-
-
-def inertia_mode_of(bodies: BodyTable) -> InertiaMode:
-    """The inverse-inertia mode a kernel build needs for ``bodies``: ``scalar`` where every dynamic body is
-    isotropic, ``diagonal`` where every world matrix is diagonal (axis-aligned principal axes), else ``full``."""
-    return inertia_mode(bodies.inv_inertia, bodies.dynamic)
-
-
-def friction_words_of(cons: ConstraintSet) -> int:
-    """Friction words per manifold record: 1 where the scene's friction varies, 0 (the kernel's one coefficient)
-    where it does not."""
-    return 1 if cons.per_manifold_friction else 0
 
 
 @dataclass

@@ -1,4 +1,4 @@
-"""The platforms' resources (one table), and the on-chip memory budget of a banded kernel against them.
+"""The on-chip memory budget of a banded kernel against a platform's block RAM and UltraRAM.
 
 A banded kernel (``models/order/manifold_schedule.py``, band width D) reads each manifold record from DDR once and runs the
 passes that trail it over an on-chip window of the last D records per trailing pass. What it keeps on chip:
@@ -11,22 +11,7 @@ passes that trail it over an on-chip window of the last D records per trailing p
   ``models/kernel/stream_format.py``, headers included) in their unpadded bits: on chip a record takes its bits,
   not the stream beats it was padded to.
 
-Capacity counts the data bits of a block at the word widths the kernel uses (16 and 32 bits): 32 Kib per
-BRAM36 (the 4 Kib of parity per block hold no data at these widths; raw 36 Kib) and 256 Kib per UltraRAM
-(4K x 72 bits, of which a 64-bit pair of words uses 64; raw 288 Kib).
-
-=========  =========  =========  =====  ===========  ==============  =====================  ==========================
-platform   LUT        FF         DSP    block RAM    UltraRAM        data (raw)             source
-=========  =========  =========  =====  ===========  ==============  =====================  ==========================
-zcu102     274,080    548,160    2,520  912 BRAM36   none            3.5625 MiB (4.01 MiB)  XCZU9EG, AMD DS891
-u280       1,303,680  2,607,360  9,024  4,032 BRAM18 960 x 288 Kib   37.9 MiB (42.6 MiB)    Alveo U280, a public Vitis
-                                                                                            HLS report ("Available")
-=========  =========  =========  =====  ===========  ==============  =====================  ==========================
-
-A design *fits* when every resource stays within its usable share of the device (:data:`USABLE_SHARE`: 85% of
-the LUT, FF and DSP, 95% of the block RAM and UltraRAM, the headroom placement and routing need).
-
-Each platform names its DMA preset (``models/timing/platforms.py``) for the off-chip side.
+The platforms (devices and their DMA) are ``models/timing/platforms.py``.
 """
 
 from __future__ import annotations
@@ -34,74 +19,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from models.golden.contact_solver import CONTACT_PASS, FRICTION_PASS
-from models.timing.platforms import DmaPreset, get_preset
+from models.timing.platforms import Platform
 from models.formats.number_format import NumberFormat
 from models.kernel.stream_format import BODY_IN_WORDS, StreamLayout
 
 IMPULSE_WORDS = 6  # lam[0..3] and lamT[0..1] per manifold (rtl/pgs_impulse_ram.sv)
-KIB = 1024 // 8  # bytes per Kib
-BRAM36_DATA_KIB = 32
-BRAM36_RAW_KIB = 36
-URAM_DATA_KIB = 256
-URAM_RAW_KIB = 288
-
-
-USABLE_SHARE = {"LUT": 0.85, "FF": 0.85, "DSP": 0.85, "BRAM36": 0.95, "URAM": 0.95}
-
-
-def describe_usable() -> str:
-    return ", ".join(f"{k} {100 * v:g}%" for k, v in USABLE_SHARE.items())
-
-
-@dataclass(frozen=True)
-class Platform:
-    """A board's device: its logic (LUT, FF, DSP48E2), its on-chip RAM (BRAM36 blocks, a BRAM18 pair counting as
-    one, and UltraRAM blocks) and the DMA preset of its off-chip side."""
-
-    name: str
-    dma: str  # DMA preset name (models.timing.platforms.PRESETS)
-    bram36: int
-    uram: int
-    lut: int = 0
-    ff: int = 0
-    dsp: int = 0
-
-    @property
-    def data_bytes(self) -> int:
-        """Bytes of data the blocks hold at 16/32-bit word widths (the figure budgets are checked against)."""
-        return (self.bram36 * BRAM36_DATA_KIB + self.uram * URAM_DATA_KIB) * KIB
-
-    @property
-    def raw_bytes(self) -> int:
-        """Bytes including the parity / 72-bit-word bits that such words leave unused."""
-        return (self.bram36 * BRAM36_RAW_KIB + self.uram * URAM_RAW_KIB) * KIB
-
-    @property
-    def preset(self) -> DmaPreset:
-        return get_preset(self.dma)
-
-    def capacity(self, resource: str) -> int:
-        """The device's count of ``resource`` (a key of USABLE_SHARE)."""
-        return {"LUT": self.lut, "FF": self.ff, "DSP": self.dsp, "BRAM36": self.bram36, "URAM": self.uram}[resource]
-
-    def describe(self) -> str:
-        uram = f", {self.uram:,} URAM" if self.uram else ", no URAM"
-        return f"{self.lut:,} LUT, {self.ff:,} FF, {self.dsp:,} DSP, {self.bram36:,} BRAM36{uram}"
-
-
-PLATFORMS: dict[str, Platform] = {
-    "zcu102": Platform("zcu102", "zcu102", bram36=912, uram=0, lut=274_080, ff=548_160, dsp=2_520),
-    "u280": Platform("u280", "u280", bram36=4032 // 2, uram=960, lut=1_303_680, ff=2_607_360, dsp=9_024),
-}
-
-
-def get_platform(name: str) -> Platform:
-    try:
-        return PLATFORMS[name]
-    except KeyError:
-        raise ValueError(f"unknown platform {name!r} (expected one of {', '.join(PLATFORMS)})") from None
-
-
 def record_bytes(fmt: NumberFormat) -> int:
     """On-chip bytes of one manifold's records: contact + friction record bits (headers included), in bytes."""
     layout = StreamLayout(fmt)

@@ -12,6 +12,7 @@ from models.setup.constraints import ConstraintSet, body_table, setup_constraint
 from models.formats.number_format import FP16, FP32
 from models.order.manifold_schedule import (BANDED_ORDERS, SCHEDULE_KINDS, band_width, banded_order, body_spans, hazard_distances,
                              hazard_order, make_schedule, pybullet_order, rcm_order, stats)
+from models.timing import platforms
 
 
 def toy(pairs: list[tuple[int, int]], centers: np.ndarray | None = None) -> ConstraintSet:
@@ -137,21 +138,21 @@ def test_hazard_priority(pile) -> None:
 def test_budget_by_hand() -> None:
     # fp32 records: contact 64 + 23 x 32 = 800 bits, friction 64 + 14 x 32 = 512 bits -> 164 B; fp16 90 B
     assert ob.record_bytes(FP32) == 164 and ob.record_bytes(FP16) == 90
-    zcu = ob.get_platform("zcu102")
+    zcu = platforms.get_platform("zcu102")
     assert zcu.data_bytes == 912 * 4096 and zcu.raw_bytes == 912 * 4608 == 4104 * 1024
-    assert ob.get_platform("u280").data_bytes == 2016 * 4096 + 960 * 32768
-    assert [zcu.capacity(k) for k in ob.USABLE_SHARE] == [274_080, 548_160, 2_520, 912, 0]
-    assert [ob.get_platform("u280").capacity(k) for k in ob.USABLE_SHARE] == [1_303_680, 2_607_360, 9_024, 2016, 960]
+    assert platforms.get_platform("u280").data_bytes == 2016 * 4096 + 960 * 32768
+    assert [zcu.capacity(k) for k in platforms.USABLE_SHARE] == [274_080, 548_160, 2_520, 912, 0]
+    assert [platforms.get_platform("u280").capacity(k) for k in platforms.USABLE_SHARE] == [1_303_680, 2_607_360, 9_024, 2016, 960]
     b = ob.budget(zcu, FP32, num_bodies=10, num_manifolds=100, band=7, trailing=3)
     assert (b.body_bytes, b.impulse_bytes, b.window_bytes) == (10 * 17 * 4, 100 * 6 * 4, 21 * 164)
     assert b.total_bytes == 6524 and b.fits
     b = ob.budget(zcu, FP16, num_bodies=3, num_manifolds=100, band=7, trailing=1, impulses_resident=False)
     assert (b.body_bytes, b.impulse_bytes, b.window_bytes) == (102, 7 * 6 * 2, 7 * 90)
-    one_block = ob.Platform("one", "zcu102", bram36=1, uram=0)
+    one_block = platforms.Platform("one", "zcu102", bram36=1, uram=0)
     assert ob.budget(one_block, FP32, 60, 0, 0).fits  # 4,080 B of 4,096
     assert not ob.budget(one_block, FP32, 61, 0, 0).fits  # 4,148 B
     with pytest.raises(ValueError, match="unknown platform"):
-        ob.get_platform("zcu999")
+        platforms.get_platform("zcu999")
     with pytest.raises(ValueError, match="trailing"):
         ob.budget(zcu, FP32, 1, 1, 1, trailing=0)
 
@@ -160,7 +161,7 @@ def test_floors_by_hand() -> None:
     """zcu102 (16 GB/s DDR at 275 MHz: 58.18 B/cycle), fp32, 1,000 manifolds, 10 bodies, 4 iterations."""
     from models.kernel.stream_format import StreamLayout
 
-    p = ob.get_platform("zcu102")
+    p = platforms.get_platform("zcu102")
     lay = StreamLayout(FP32)
     per_cycle = 16e9 / 275e6
     bodies = 10 * (lay.body_in_bytes + lay.body_out_bytes)

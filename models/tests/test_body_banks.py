@@ -18,6 +18,8 @@ from models.kernel.kernel_job import KernelJob
 from models.timing.kernel_shape import DmaTiming, KernelShape, StepShape
 from models.formats.number_format import FP16, FP32
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
+from models.timing import prediction
+from models.timing import stream_cycle_model
 
 PRESET = get_preset("zcu102")
 
@@ -77,10 +79,10 @@ def test_a_busy_bank_stalls_the_issue_in_the_model() -> None:
                                 body_banks=0)
     step = StepShape.of_job(spread)
     dma = DmaTiming.of(PRESET, False, spread.ddr_read_share(PRESET.stream_bits))
-    multiport = cycle_model.predict(shape, dma, step)
+    multiport = stream_cycle_model.predict(shape, dma, step)
     assert "body bank busy with a retire write" not in multiport.stall_cycles_by_cause()
     assert multiport.cycles < packed.cycles
-    k = int(np.flatnonzero(packed.cause == cycle_model.BANK_BUSY)[0])
+    k = int(np.flatnonzero(packed.cause == prediction.BANK_BUSY)[0])
     assert "body-velocity bank busy" in packed.explain(k)
     # the stalled record issues in the first cycle no manifold retires with a write into its bank
     assert not np.isin(packed.issue, packed.retire).any()

@@ -15,7 +15,6 @@ from models import scenes
 from models.golden.bullet2_solver import (SolverSettings, compare_with_pybullet, plane_space, quat_to_matrix, solve_frame,
                                    solver_order)
 from models.setup.constraints import body_table, setup_constraints
-from models.sizing.format_analyzer import friction_words_of, inertia_mode_of
 from models.formats.frame import Frame
 from models.setup.inertia import InertiaMode
 from models.scenes.specs import BoxSpec, SceneSpec
@@ -189,8 +188,8 @@ def test_parity_rotated_boxes_mixed_masses_and_friction(mixed_frames: list[Frame
     assert np.all(np.ptp(f.inertia_local[dyn], axis=1) > 0)
     # and the golden model takes it in the full mode with a friction coefficient per manifold
     bodies = body_table(f)
-    assert inertia_mode_of(bodies) is InertiaMode.FULL
-    assert friction_words_of(setup_constraints(f, bodies)) == 1
+    assert bodies.inertia_mode is InertiaMode.FULL
+    assert setup_constraints(f, bodies).friction_words == 1
     # the inertia and the friction matter: dropping the rotation or the per-pair friction breaks the parity
     unrotated = dataclasses.replace(f, orientation=np.tile([0.0, 0.0, 0.0, 1.0], (f.num_bodies, 1)))
     bad = solve_frame(unrotated)
@@ -247,8 +246,8 @@ def test_parity_spheres_capsules_cylinders_meshes_mixed_masses_and_friction(
     assert np.any(dyn[f.body_a] & dyn[f.body_b])
     assert np.ptp(np.log10(f.inv_mass[dyn])) > 1.0 and np.unique(f.friction).size == f.num_bodies
     bodies = body_table(f)
-    assert inertia_mode_of(bodies) is InertiaMode.FULL
-    assert friction_words_of(setup_constraints(f, bodies)) == 1
+    assert bodies.inertia_mode is InertiaMode.FULL
+    assert setup_constraints(f, bodies).friction_words == 1
 
 
 def test_the_solver_order_matters(shape_frames: tuple[list[Frame], list[str]]) -> None:

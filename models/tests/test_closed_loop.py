@@ -55,7 +55,8 @@ def _recording_stepper(seen: list[tuple[np.ndarray, np.ndarray]]):  # noqa: ANN2
 def test_bullet2_convention_recomputes_the_inertia_every_step_and_bullet_gpu_freezes_it() -> None:
     """A thin box spinning on a slope: in the bullet2 convention each step's inverse inertia is R diag R^T of that
     step's orientation (the full 3x3); in the bullet_gpu convention it stays the one of the first state."""
-    from models.setup.inertia import BulletConvention, convention_inverse_inertia
+    from models.formats.frame import BulletConvention
+    from models.setup.inertia import convention_inverse_inertia
     from models.formats.number_format import FP32
     from models.scenes import build_world
 

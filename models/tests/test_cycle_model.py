@@ -8,11 +8,13 @@ import time
 import numpy as np
 import pytest
 
-from models.timing import cycle_model as cm
 from models.timing import kernel_shape as ks
 from models.golden.contact_solver import SolverParams
 from models.timing.platforms import get_preset
 from models.formats.number_format import BF16, FP16, FP32, NumberFormat
+from models.timing import prediction
+from models.timing import stream_cycle_model
+from sim.compare import retire_cycles
 
 FP32_C512 = ks.KernelShape.of(FP32, 512)
 IDEAL, ZCU102 = ks.DmaTiming.of(get_preset("ideal")), ks.DmaTiming.of(get_preset("zcu102"))
@@ -60,9 +62,9 @@ def test_one_manifold_ideal_timeline() -> None:
     that retire (193, retires at 304);
     INTEG from 306: bodies issue at 306, 307, their 4 body-out beats at 494..497 and 498..501; DONE 502;
     cycles register = DONE + 2."""
-    p = cm.predict(FP32_C512, IDEAL, step_of([(0, 1)], 2))
+    p = stream_cycle_model.predict(FP32_C512, IDEAL, step_of([(0, 1)], 2))
     assert p.retire.tolist() == [192, 304] and p.issue.tolist() == [12, 193] and p.ready.tolist() == [3, 13]
-    assert p.cause.tolist() == [cm.SOLVE_START, cm.HAZARD] and p.blocker.tolist() == [-1, 0]
+    assert p.cause.tolist() == [prediction.SOLVE_START, prediction.HAZARD] and p.blocker.tolist() == [-1, 0]
     assert p.phases == {"LOAD": 0, "SOLVE": 12, "DRAIN": 194, "INTEG": 306, "DONE": 502} and p.cycles == 504
     assert (p.stalls, p.bubbles) == (180, 0)  # SOLVE 12..193: 2 issues, the friction record stalls from 13
     assert p.stall_cycles_by_cause() == {"hazard": 180, "contact/friction pipe switch": 0, "hazard CAM full": 0}
@@ -71,8 +73,8 @@ def test_one_manifold_ideal_timeline() -> None:
 def test_load_counts_the_body_record_beats() -> None:
     """The same step with a scalar body record (4 beats at fp32): LOAD ends 2 beats earlier, everything after it
     shifts by 2 cycles."""
-    base = cm.predict(FP32_C512, IDEAL, step_of([(0, 1)], 2))
-    scalar = cm.predict(ks.KernelShape.of(FP32, 512, inertia_words=1), IDEAL, step_of([(0, 1)], 2))
+    base = stream_cycle_model.predict(FP32_C512, IDEAL, step_of([(0, 1)], 2))
+    scalar = stream_cycle_model.predict(ks.KernelShape.of(FP32, 512, inertia_words=1), IDEAL, step_of([(0, 1)], 2))
     assert scalar.phases["SOLVE"] == base.phases["SOLVE"] - 2 and scalar.cycles == base.cycles - 2
 
 
@@ -80,7 +82,7 @@ def test_one_manifold_zcu102_timeline() -> None:
     """The same step through the zcu102 model: start-up latency 40 (first beats at 39), the DDR bucket (capped
     at 128 B, 58.182 B per cycle, the body-in beat spends first), the friction pass's transfer 40 cycles after
     the contact pass's last beat (taken at 40)."""
-    p = cm.predict(FP32_C512, ZCU102, step_of([(0, 1)], 2))
+    p = stream_cycle_model.predict(FP32_C512, ZCU102, step_of([(0, 1)], 2))
     assert p.first_offer.tolist() == [39, 80] and p.last_beat.tolist() == [40, 80]
     assert p.issue.tolist() == [51, 232] and p.retire.tolist() == [231, 343]
     assert p.phases["INTEG"] == 345 and p.cycles == 543
@@ -89,8 +91,8 @@ def test_one_manifold_zcu102_timeline() -> None:
 def test_hazard_waits_for_retire() -> None:
     """Two manifolds on body 2: the second may issue one cycle after the first retires (CAM entry live through
     its retire cycle); the explanation names the body and the blocking record."""
-    p = cm.predict(FP32_C512, IDEAL, step_of([(1, 2), (0, 2)], 3))
-    assert p.issue[1] == p.retire[0] + 1 and p.cause[1] == cm.HAZARD and p.blocker[1] == 0
+    p = stream_cycle_model.predict(FP32_C512, IDEAL, step_of([(1, 2), (0, 2)], 3))
+    assert p.issue[1] == p.retire[0] + 1 and p.cause[1] == prediction.HAZARD and p.blocker[1] == 0
     text = p.explain(1)
     assert "hazard on body 2 with retire #0" in text and f"cycle {p.retire[0]:,}" in text
     assert "no stall: no hazard" in p.explain(0) or "waited for SOLVE" in p.explain(0)
@@ -101,33 +103,33 @@ def test_static_bodies_never_conflict_and_rejected_slots() -> None:
     and accumulation registers) at once, then one 2-beat contact record every other cycle. A manifold between two
     static bodies (0, 5) is consumed without issuing, in every pass (its beats still take their two cycles)."""
     pairs = [(0, 1), (0, 2), (0, 5), (0, 3), (5, 0), (0, 4)]
-    p = cm.predict(FP32_C512, IDEAL, step_of(pairs, 6, static=(0, 5), iterations=2))
+    p = stream_cycle_model.predict(FP32_C512, IDEAL, step_of(pairs, 6, static=(0, 5), iterations=2))
     assert p.rejected == 2 * 2 * 2 and p.manifold_passes == 4 * 2 * 2
     first = (p.kind == 0) & (p.iteration == 0)
     assert (p.issue[first] - p.solve_start).tolist() == [0, 1, 5, 9]
-    assert set(p.slot.tolist()) == {0, 1, 3, 5} and set(p.cause[first].tolist()) <= {cm.READY, cm.SOLVE_START}
+    assert set(p.slot.tolist()) == {0, 1, 3, 5} and set(p.cause[first].tolist()) <= {prediction.READY, prediction.SOLVE_START}
 
 
 def test_cam_full_throttles_issue() -> None:
     """With HAZARD_DEPTH = 4 the fifth independent manifold waits for the first to retire."""
     shape = ks.KernelShape(**{**FP32_C512.__dict__, "hazard_depth": 4})
-    p = cm.predict(shape, IDEAL, step_of([(0, k) for k in range(1, 7)], 7))
-    assert p.issue[4] == p.retire[0] + 1 and p.cause[4] == cm.CAM_FULL and p.blocker[4] == 0
+    p = stream_cycle_model.predict(shape, IDEAL, step_of([(0, k) for k in range(1, 7)], 7))
+    assert p.issue[4] == p.retire[0] + 1 and p.cause[4] == prediction.CAM_FULL and p.blocker[4] == 0
     assert "hazard CAM full (4 in flight)" in p.explain(4)
 
 
 def test_interleaved_passes_drain_at_every_switch() -> None:
-    p = cm.predict(FP32_C512, IDEAL, step_of([(0, 1), (0, 2)], 3, iterations=3, interleaved=True))
+    p = stream_cycle_model.predict(FP32_C512, IDEAL, step_of([(0, 1), (0, 2)], 3, iterations=3, interleaved=True))
     assert p.kind.tolist() == [0, 0, 1, 1] * 3
     firsts = np.flatnonzero(np.diff(p.kind) != 0) + 1
-    assert all(p.issue[k] == p.retire[k - 1] + 1 and p.cause[k] == cm.SWITCH for k in firsts)
+    assert all(p.issue[k] == p.retire[k - 1] + 1 and p.cause[k] == prediction.SWITCH for k in firsts)
 
 
 def test_ddr_bound_streaming_rate() -> None:
     """Independent manifolds through zcu102: a friction record (64 B) every 64 / 58.182 cycles, a contact record
     (128 B) every 128 / 58.182: the DDR bucket sets the pace (the kernel would take one beat per cycle)."""
     n = 4000
-    p = cm.predict(FP32_C512, ZCU102, step_of([(0, k) for k in range(1, n + 1)], n + 1))
+    p = stream_cycle_model.predict(FP32_C512, ZCU102, step_of([(0, k) for k in range(1, n + 1)], n + 1))
     for kind, nbytes in ((0, 128), (1, 64)):
         sel = p.issue[(p.kind == kind) & (p.iteration == 0)]
         slope = (sel[-1] - sel[n // 4]) / (len(sel) - 1 - n // 4)
@@ -137,19 +139,19 @@ def test_ddr_bound_streaming_rate() -> None:
 
 def test_prefetched_is_a_lower_bound() -> None:
     step = step_of([(k % 7 + 1, (k * 3) % 7 + 1) for k in range(60) if k % 7 != (k * 3) % 7], 8, iterations=2)
-    normal = cm.predict(FP32_C512, ZCU102, step)
-    early = cm.predict(FP32_C512, ks.DmaTiming.of(get_preset("zcu102"), prefetched=True), step)
+    normal = stream_cycle_model.predict(FP32_C512, ZCU102, step)
+    early = stream_cycle_model.predict(FP32_C512, ks.DmaTiming.of(get_preset("zcu102"), prefetched=True), step)
     assert early.cycles < normal.cycles and np.all(early.retire <= normal.retire)
 
 
 def test_compare_trace_names_the_unexpected_stall() -> None:
-    p = cm.predict(FP32_C512, IDEAL, step_of([(0, 1), (0, 2), (1, 2)], 3))
+    p = stream_cycle_model.predict(FP32_C512, IDEAL, step_of([(0, 1), (0, 2), (1, 2)], 3))
     counters = {"stalls": p.stalls, "bubbles": p.bubbles}
-    ok = cm.compare_trace(p, p.retire, p.kind, p.iteration, p.slot, p.cycles, counters=counters)
+    ok = retire_cycles.compare_retire_cycles(p, p.retire, p.kind, p.iteration, p.slot, p.cycles, counters=counters)
     assert ok.ok and ok.exact == p.manifold_passes and "+0" in ok.describe()
     late = p.retire.copy()
     late[1:] += 1
-    bad = cm.compare_trace(p, late, p.kind, p.iteration, p.slot, p.cycles + 1, manifolds=[10, 11, 12])
+    bad = retire_cycles.compare_retire_cycles(p, late, p.kind, p.iteration, p.slot, p.cycles + 1, manifolds=[10, 11, 12])
     assert not bad.ok and bad.exact == 1 and bad.max_abs_diff == 1
     assert bad.first_mismatch is not None
     assert bad.first_mismatch.startswith(f"manifold 11 (contact pass, iteration 0, slot 1; retire #1) retired at "
@@ -158,20 +160,20 @@ def test_compare_trace_names_the_unexpected_stall() -> None:
     assert "no stall: no hazard, no pipe switch" in bad.first_mismatch
     early = p.retire.copy()
     early[2] -= 3
-    msg = cm.compare_trace(p, early, p.kind, p.iteration, p.slot, p.cycles).first_mismatch
+    msg = retire_cycles.compare_retire_cycles(p, early, p.kind, p.iteration, p.slot, p.cycles).first_mismatch
     assert msg is not None and "3 cycles earlier than the model" in msg and "hazard on body" in msg
-    swapped = cm.compare_trace(p, p.retire, p.kind, p.iteration, p.slot[::-1], p.cycles).first_mismatch
+    swapped = retire_cycles.compare_retire_cycles(p, p.retire, p.kind, p.iteration, p.slot[::-1], p.cycles).first_mismatch
     assert swapped is not None and "the model expects" in swapped
-    total = cm.compare_trace(p, p.retire, p.kind, p.iteration, p.slot, p.cycles + 2).first_mismatch
+    total = retire_cycles.compare_retire_cycles(p, p.retire, p.kind, p.iteration, p.slot, p.cycles + 2).first_mismatch
     assert total is not None and "every retire cycle matched" in total
-    stalls = cm.compare_trace(p, p.retire, p.kind, p.iteration, p.slot, p.cycles,
+    stalls = retire_cycles.compare_retire_cycles(p, p.retire, p.kind, p.iteration, p.slot, p.cycles,
                               counters={"stalls": p.stalls + 1, "bubbles": p.bubbles}).first_mismatch
     assert stalls == f"stalls counter {p.stalls + 1:,}, model {p.stalls:,}"
 
 
 def test_empty_steps() -> None:
-    assert cm.predict(FP32_C512, IDEAL, step_of([], 0, static=())).cycles == 3  # IDLE -> INTEG -> DONE
-    p = cm.predict(FP32_C512, IDEAL, step_of([], 2))  # LOAD -> INTEG: no manifold
+    assert stream_cycle_model.predict(FP32_C512, IDEAL, step_of([], 0, static=())).cycles == 3  # IDLE -> INTEG -> DONE
+    p = stream_cycle_model.predict(FP32_C512, IDEAL, step_of([], 2))  # LOAD -> INTEG: no manifold
     assert p.manifold_passes == 0 and p.phases["INTEG"] == p.solve_start == 12
 
 
@@ -180,7 +182,7 @@ def test_model_speed() -> None:
     n = 20000
     step = step_of([(1 + k % 5000, 1 + (k * 7 + 1) % 5000) for k in range(n)], 5001, iterations=4)
     t0 = time.perf_counter()
-    p = cm.predict(FP32_C512, ZCU102, step)
+    p = stream_cycle_model.predict(FP32_C512, ZCU102, step)
     dt = time.perf_counter() - t0
     print(f"\ncycle model: {p.manifold_passes:,} manifold-passes, {p.cycles:,} cycles in {dt:.2f} s "
           f"({p.manifold_passes / dt / 1e3:.0f} k manifold-passes/s)")

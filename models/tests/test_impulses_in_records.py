@@ -18,6 +18,8 @@ from models.kernel.kernel_job import KernelJob
 from models.timing.kernel_shape import DmaTiming, KernelShape, StepShape
 from models.formats.number_format import FP16, FP32
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
+from models.timing import stream_cycle_model
+from models.order import manifold_schedule
 
 
 def _job(fmt=FP16, scene: str = "stack") -> KernelJob:
@@ -62,7 +64,7 @@ def test_records_carry_the_initial_impulses() -> None:
     init = Impulses(FP32.round(rng.uniform(0, 1, (m, 4))), FP32.round(rng.uniform(-0.1, 0.1, (m, 2))))
     stream = sf.pack_constraint_stream(FP32, job.cons, job.schedule, job.params, impulses=init)
     lay = sf.StreamLayout(FP32, impulses_in_records=True)
-    idx = sf.schedule_manifolds(job.schedule)
+    idx = manifold_schedule.schedule_manifolds(job.schedule)
     rec_bytes = lay.contact_bytes
     contact = stream.data[:len(idx) * lay.contact_beats].reshape(len(idx), rec_bytes)
     _, words = sf.unpack_records(contact, lay.contact_record_words, 32, rec_bytes * 8, header=True)
@@ -114,8 +116,8 @@ def test_read_after_write_rule_bites_on_a_short_pass() -> None:
         shape = KernelShape.of(FP16, preset.stream_bits, impulses_in_records=True)
         dma = DmaTiming.of(preset, read_share=job.stream_layout().ddr_read_share(job.params))
         step = StepShape.of_job(job)
-        full = cycle_model.predict(shape, dma, step).cycles
-        free = cycle_model.predict(shape, dataclasses.replace(dma, turnaround=1), step).cycles
+        full = stream_cycle_model.predict(shape, dma, step).cycles
+        free = stream_cycle_model.predict(shape, dataclasses.replace(dma, turnaround=1), step).cycles
         assert dma.turnaround == 2 * preset.startup_cycles
         assert (full > free) == bites, (job.cons.num_manifolds, full, free)
         assert cycle_model.predict_job(job, preset).cycles == full

@@ -8,10 +8,10 @@ import pytest
 from models.setup.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.golden.contact_solver import (SolverParams, _Gathered, contact_solve, cross3, dot3, friction_solve, solve,
                                    solve_sequential)
-from models.sizing.format_analyzer import friction_words_of, inertia_mode_of
 from models.formats.frame import Frame
-from models.setup.inertia import (BulletConvention, InertiaMode, convention_inverse_inertia, convention_of,
-                            inertia_product, quat_to_matrix, world_inverse_inertia)
+from models.formats.frame import BulletConvention, convention_of
+from models.setup.inertia import (InertiaMode, convention_inverse_inertia, inertia_product, quat_to_matrix,
+                                  world_inverse_inertia)
 from models.formats.number_format import FLOAT64, FP32
 
 SYM = ((0, 3, 4), (3, 1, 5), (4, 5, 2))  # FULL_ORDER word of each matrix entry
@@ -46,13 +46,13 @@ def test_modes_cubes_scalar_axis_aligned_diagonal_rotated_full() -> None:
     cube = np.tile([0.4, 0.4, 0.4], (4, 1))
     box = np.tile([0.4, 1.0, 2.5], (4, 1))
     # a rotated cube keeps exact zeros off the diagonal: scalar
-    assert inertia_mode_of(_table(world_inverse_inertia(q, cube), dyn)) is InertiaMode.SCALAR
-    assert inertia_mode_of(_table(world_inverse_inertia(ident, box), dyn)) is InertiaMode.DIAGONAL
-    assert inertia_mode_of(_table(world_inverse_inertia(q, box), dyn)) is InertiaMode.FULL
+    assert _table(world_inverse_inertia(q, cube), dyn).inertia_mode is InertiaMode.SCALAR
+    assert _table(world_inverse_inertia(ident, box), dyn).inertia_mode is InertiaMode.DIAGONAL
+    assert _table(world_inverse_inertia(q, box), dyn).inertia_mode is InertiaMode.FULL
     assert [m.words for m in InertiaMode] == [1, 3, 6]
     # a static body's values do not count
     mixed = world_inverse_inertia(np.concatenate([q[:1], ident[1:]]), box)
-    assert inertia_mode_of(_table(mixed, dyn)) is InertiaMode.DIAGONAL
+    assert _table(mixed, dyn).inertia_mode is InertiaMode.DIAGONAL
 
 
 def _table(inv_inertia: np.ndarray, dynamic: np.ndarray) -> BodyTable:
@@ -109,7 +109,7 @@ def test_full_mode_contact_row_reaches_its_target(convention: BulletConvention) 
     q /= np.linalg.norm(q)
     frame = _one_point_frame(q, np.array([0.3, 0.1, 0.5]), convention)
     bodies = body_table(frame)
-    assert convention_of(frame.meta) is convention and inertia_mode_of(bodies) is InertiaMode.FULL
+    assert convention_of(frame.meta) is convention and bodies.inertia_mode is InertiaMode.FULL
     cons = setup_constraints(frame, bodies)
     g = _Gathered(bodies, cons.body_a, cons.body_b)
     lam = contact_solve(FLOAT64, g, cons, np.arange(1), np.zeros((1, 4)))
@@ -160,21 +160,21 @@ def test_per_manifold_friction_where_it_varies_and_the_register_where_not() -> N
     frame = _two_manifolds(frame)
     bodies = body_table(frame)
     cons = setup_constraints(frame, bodies)
-    assert friction_words_of(cons) == 1
+    assert cons.friction_words == 1
     np.testing.assert_array_equal(cons.friction[:, 0], [0.6 * 0.9, 0.6 * 0.4])
     # one friction for every pair, but not the solver's one coefficient: still a word per manifold
     frame.friction[:] = 0.8
     one = setup_constraints(frame, bodies)
-    assert friction_words_of(one) == 1
+    assert one.friction_words == 1
     np.testing.assert_array_equal(one.friction[:, 0], [0.8 * 0.8] * 2)
     # every pair's combined friction is the solver's coefficient (0.7): no per-manifold words
     frame.friction[:] = (1.0, 0.7, 1.0)
     uniform = setup_constraints(frame, bodies)
-    assert friction_words_of(uniform) == 0 and uniform.friction.shape == (2, 0)
+    assert uniform.friction_words == 0 and uniform.friction.shape == (2, 0)
     # the bullet_gpu convention ignores the bodies' friction (Bullet GPU's 0.7)
     frame.friction[:] = (0.9, 0.6, 0.4)
     frame.meta["bullet_convention"] = "bullet_gpu"
-    assert friction_words_of(setup_constraints(frame, body_table(frame))) == 0
+    assert setup_constraints(frame, body_table(frame)).friction_words == 0
     # a per-manifold coefficient equal to the register gives the register path's values bit for bit
     bodies_r = bodies.rounded(FP32)
     lam_n = np.array([[2.0, 0, 0, 0], [3.0, 0, 0, 0]])
@@ -224,7 +224,7 @@ def test_full_mode_level_solve_is_the_sequential_solve() -> None:
                                             BulletConvention.BULLET2))
     bodies = body_table(frame).rounded(FP32)
     cons = setup_constraints(frame, body_table(frame)).rounded(FP32)
-    assert inertia_mode_of(bodies) is InertiaMode.FULL and friction_words_of(cons) == 1
+    assert bodies.inertia_mode is InertiaMode.FULL and cons.friction_words == 1
     sched = np.array([1, 0])
     a = solve(bodies, cons, sched, FP32, SolverParams())
     b = solve_sequential(bodies, cons, sched, FP32, SolverParams())

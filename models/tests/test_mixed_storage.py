@@ -11,7 +11,6 @@ import pytest
 
 from models.sizing import mixed_layout as ml
 from models.sizing import mixed_storage as ms
-from models.sizing import onchip_budget as ob
 from models import scenes
 from models.kernel import stream_format as sf
 from models.setup.constraints import body_table, setup_constraints
@@ -28,6 +27,7 @@ from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import golden_step
 from sim.fit.mixed_storage_report import main as report_main
 from sim.fit.mixed_storage_report import parse_storage
+from models.timing import platforms
 
 ZCU102 = get_preset("zcu102")
 
@@ -127,9 +127,9 @@ def test_converters_are_counted_and_cost_luts(pile: ms.MixedStepProblem) -> None
     # unpack: body-in v, w (6) and the records' impulses (4 + 6); pack: body-out v, w (6) and lam (4)
     assert conv == {("unpack", "e6m18"): 6, ("unpack", "e8m15"): 10, ("pack", "e6m18"): 6, ("pack", "e8m15"): 4}
     cfg = rm.config_for_job(job_of(pile))
-    plain = rm.estimate(cfg, ob.get_platform("zcu102")).total
+    plain = rm.estimate(cfg, platforms.get_platform("zcu102")).total
     with_conv = rm.estimate(dataclasses.replace(cfg, converters=ml.converters(storage, FP32, shape)),
-                            ob.get_platform("zcu102")).total
+                            platforms.get_platform("zcu102")).total
     assert with_conv.lut > plain.lut and with_conv.ff > plain.ff
 
 

@@ -9,6 +9,8 @@ from models.kernel import stream_format as sf
 from models.setup.constraints import BodyTable, ConstraintSet
 from models.golden.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams
 from models.formats.number_format import BF16, FP16, FP32, NumberFormat
+from models.kernel import record_window
+from models.order import manifold_schedule
 
 FORMATS = [FP32, FP16, BF16, NumberFormat("e6m9", 6, 9)]
 
@@ -61,7 +63,7 @@ def test_constraint_stream_round_trip(fmt: NumberFormat, interleaved: bool) -> N
     params = SolverParams(iterations=3, interleaved=interleaved)
     layout = sf.StreamLayout(fmt)
     stream = sf.pack_constraint_stream(fmt, cons, schedule, params)
-    idx = sf.schedule_manifolds(schedule)
+    idx = manifold_schedule.schedule_manifolds(schedule)
     kinds = [CONTACT_PASS] * 3 + [FRICTION_PASS] * 3 if not interleaved else [CONTACT_PASS, FRICTION_PASS] * 3
     pos = 0
     for kind in kinds:
@@ -145,7 +147,7 @@ def test_window_stream(fmt: NumberFormat, fetch_passes: int) -> None:
     layout = sf.StreamLayout(fmt)
     stream = sf.pack_window_stream(fmt, cons, slots, params, fetch_passes)
     fetches = -(-6 // fetch_passes)
-    assert sf.window_fetches(params, fetch_passes) == fetches
+    assert record_window.window_fetches(params, fetch_passes) == fetches
     per_fetch = 18 * layout.window_beats
     assert stream.num_beats == fetches * per_fetch and stream.data.nbytes == fetches * 18 * layout.window_bytes
     assert np.flatnonzero(stream.last).tolist() == [(f + 1) * per_fetch - 1 for f in range(fetches)]
@@ -157,7 +159,7 @@ def test_window_stream(fmt: NumberFormat, fetch_passes: int) -> None:
     assert not words[5].any()
     assert np.array_equal(stream.data[per_fetch:], np.tile(stream.data[:per_fetch], (fetches - 1, 1)))
     with pytest.raises(ValueError):
-        sf.window_fetches(params, 0)
+        record_window.window_fetches(params, 0)
 
 
 @pytest.mark.parametrize("fmt", [FP32, FP16], ids=lambda f: f.name)
@@ -202,10 +204,10 @@ def test_friction_record_with_the_coefficient_word(fmt: NumberFormat) -> None:
     friction records grow by it, the contact records do not; the kernel build takes it (MU_W = 1)."""
     rng = np.random.default_rng(7)
     cons = _cons(rng, 9, 12)
-    assert sf.kernel_friction_words(cons) == 0
+    assert cons.friction_words == 0
     cons.friction = rng.uniform(0.1, 1.2, (9, 1))
     cons = cons.rounded(fmt)
-    assert sf.kernel_friction_words(cons) == 1
+    assert cons.friction_words == 1
     params = SolverParams(iterations=2)
     layout = sf.StreamLayout(fmt, friction_words=1)
     assert layout.friction_bits == sf.StreamLayout(fmt).friction_bits + fmt.width
@@ -237,7 +239,7 @@ def test_window_stream_with_impulses(fmt: NumberFormat, fetch_passes: int) -> No
     layout = sf.StreamLayout(fmt, impulses_in_records=True)
     assert layout.window_bits == max(layout.contact_bits, layout.friction_bits) == 64 + 27 * fmt.width
     stream = sf.pack_window_stream(fmt, cons, slots, params, fetch_passes, impulses=initial)
-    kinds = sf.window_fetch_kinds(params, fetch_passes, one_kind=True)
+    kinds = record_window.window_fetch_kinds(params, fetch_passes, one_kind=True)
     assert kinds == [CONTACT_PASS] * (3 // fetch_passes) + [FRICTION_PASS] * (3 // fetch_passes)
     per_fetch = 18 * layout.window_beats
     assert stream.num_beats == len(kinds) * per_fetch
@@ -262,12 +264,12 @@ def test_window_fetch_kinds_and_read_share() -> None:
     """Fetches of one kind: fetch_passes must divide the iterations (or be 1 with the kinds interleaved); the DDR
     read share counts each fetch's records read and its one kind's impulses written, per slot."""
     four = SolverParams(iterations=4)
-    assert sf.window_fetch_kinds(four, 4) == [CONTACT_PASS, FRICTION_PASS]
-    assert sf.window_fetch_kinds(four, 3) == [CONTACT_PASS, None, FRICTION_PASS]
-    assert sf.window_fetch_kinds(SolverParams(iterations=2, interleaved=True), 2) == [None, None]
+    assert record_window.window_fetch_kinds(four, 4) == [CONTACT_PASS, FRICTION_PASS]
+    assert record_window.window_fetch_kinds(four, 3) == [CONTACT_PASS, None, FRICTION_PASS]
+    assert record_window.window_fetch_kinds(SolverParams(iterations=2, interleaved=True), 2) == [None, None]
     for params, fetch in ((four, 3), (four, 8), (SolverParams(iterations=2, interleaved=True), 2)):
         with pytest.raises(ValueError, match="one kind"):
-            sf.window_fetch_kinds(params, fetch, one_kind=True)
+            record_window.window_fetch_kinds(params, fetch, one_kind=True)
     lay = sf.StreamLayout(FP32, impulses_in_records=True)
     reads, writes = 2 * lay.window_bytes, 16 + 8  # a contact fetch writes lam[4], a friction fetch lamT[2]
     assert lay.window_bytes == 128

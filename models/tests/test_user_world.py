@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from models import scenes
-from models.kernel.bad_input import WORLD_CASES, WORLD_CATALOGUE
+from models.scenes.bad_worlds import WORLD_CASES, WORLD_CATALOGUE
 from models.formats.frame import Frame, validate
 from models.scenes import contact_capture, frame_cache, world as world_mod
 from models.scenes.scene_args import split_scene_args

@@ -25,6 +25,9 @@ from models.kernel.record_window import WindowPlan, fits, lane_slots
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from models.order.manifold_schedule import band_width
 from models.tests.test_record_window import _chain
+from models.timing import cycle_model
+from models.timing import prediction
+from sim.compare import retire_cycles
 
 SHAPE = ks.KernelShape.of(FP32, 512)
 RECORDS = ks.KernelShape.of(FP32, 512, impulses_in_records=True)  # the window kernel with the impulses in the records
@@ -47,7 +50,7 @@ def test_one_manifold_ideal_timeline() -> None:
     p = wm.predict_window(SHAPE, IDEAL, *one_manifold())
     assert p.issue.tolist() == [12, 193] and p.retire.tolist() == [192, 373] and p.ready.tolist() == [5, 5]
     assert p.eligible.tolist() == [5, 13] and p.kind.tolist() == [0, 1] and p.took.tolist() == [[12], [193]]
-    assert p.cause.tolist() == [cm.SOLVE_START, cm.HAZARD] and p.blocker.tolist() == [-1, 0]
+    assert p.cause.tolist() == [prediction.SOLVE_START, prediction.HAZARD] and p.blocker.tolist() == [-1, 0]
     assert p.phases == {"LOAD": 0, "SOLVE": 12, "DRAIN": 194, "INTEG": 375, "DONE": 571} and p.cycles == 573
     assert (p.stalls, p.bubbles) == (180, 0) and p.stall_cycles_by_cause()["hazard"] == 180
     assert "waited 180 cycles for the hazard on the record's body 1 with retire #0" in p.explain(1)
@@ -281,7 +284,7 @@ def test_impulses_out_and_the_read_after_write_rule() -> None:
     assert wide.impulse_out.size == 0 and wide.raw_wait.max() == 0
     job = _records_job(2)
     share = job.ddr_read_share(512)
-    assert 0 < share < 1 and cm._job_timing(job, get_preset("zcu102"), False).rate == \
+    assert 0 < share < 1 and cycle_model.job_timing(job, get_preset("zcu102"), False).rate == \
         ks.DmaTiming.of(get_preset("zcu102"), read_share=share).rate
 
 
@@ -299,8 +302,8 @@ def test_no_take_while_the_impulse_out_fifo_is_full() -> None:
         assert held.max() <= case.imp_fifo - 1
         full = p.stall_cycles_by_cause()["impulse-out FIFO full"]
         if case.imp_fifo <= 3:
-            assert held.max() == case.imp_fifo - 1 and full > 0 and np.any(p.cause == cm.IMP_FULL)
-            assert "impulse-out FIFO full (" in p.explain(int(np.flatnonzero(p.cause == cm.IMP_FULL)[0]))
+            assert held.max() == case.imp_fifo - 1 and full > 0 and np.any(p.cause == prediction.IMP_FULL)
+            assert "impulse-out FIFO full (" in p.explain(int(np.flatnonzero(p.cause == prediction.IMP_FULL)[0]))
         else:
             assert full == 0 and held.max() <= C_LAT + 2
 
@@ -324,8 +327,8 @@ def test_banked_body_velocities() -> None:
             assert case.naive_lanes <= (p.rejected > predict_case(dataclasses.replace(case, banks=0))[0].rejected)
             continue
         busy = p.stall_cycles_by_cause()["body bank busy with a retire write"]
-        assert busy > 0 and np.any(p.cause == cm.BANK_BUSY)
-        k = int(np.flatnonzero(p.cause == cm.BANK_BUSY)[0])
+        assert busy > 0 and np.any(p.cause == prediction.BANK_BUSY)
+        k = int(np.flatnonzero(p.cause == prediction.BANK_BUSY)[0])
         assert "a body-velocity bank busy with the writes of retire #" in p.explain(k)
         multiport, _, _ = predict_case(dataclasses.replace(case, banks=0))
         hit = [any(bank_busy(2, (int(step.body_a[s]), int(step.body_b[s])),
@@ -353,20 +356,20 @@ def test_predict_job_dispatches_to_the_window_model() -> None:
     assert win.record_window is not None and p.plan == win.record_window
     step = ks.StepShape.of_job(win)
     assert np.array_equal(step.body_a < 0, win.slots < 0)  # empty lanes name no body
-    direct = wm.predict_window(cm._job_shape(win, preset, 128), cm._job_timing(win, preset, False), step,
+    direct = wm.predict_window(cycle_model.job_shape(win, preset, 128), cycle_model.job_timing(win, preset, False), step,
                                win.record_window)
     assert np.array_equal(p.retire, direct.retire) and p.cycles == direct.cycles
     assert p.manifold_passes == win.manifold_passes and p.overwritten == 0
-    # compare_trace on the window's retire order, and its message names the window's reasons
+    # compare_retire_cycles on the window's retire order, and its message names the window's reasons
     counters = {"stalls": p.stalls, "bubbles": p.bubbles}
-    assert cm.compare_trace(p, p.retire, p.kind, p.iteration, p.slot, p.cycles, win.slots, counters).ok
+    assert retire_cycles.compare_retire_cycles(p, p.retire, p.kind, p.iteration, p.slot, p.cycles, win.slots, counters).ok
     late = p.retire.copy()
     late[50:] += 2
-    msg = cm.compare_trace(p, late, p.kind, p.iteration, p.slot, p.cycles + 2, win.slots).first_mismatch
+    msg = retire_cycles.compare_retire_cycles(p, late, p.kind, p.iteration, p.slot, p.cycles + 2, win.slots).first_mismatch
     assert msg is not None and "retire #50) retired at cycle" in msg and "a candidate from cycle" in msg
     with pytest.raises(ValueError, match="not bounded"):
         cm.lower_bound(win, preset)
-    section = cm.report_section(p, preset, 0.1, measured=p.cycles - 5)
+    section = retire_cycles.report_section(p, preset, 0.1, measured=p.cycles - 5)
     assert "not a bound" in str(section["model vs RTL cycles"])
 
 

@@ -10,7 +10,7 @@ Fetch (``pgs_window``, during LOAD and SOLVE)
     * The stream is ``ceil(passes / fetch_passes)`` fetches of ``nm / LANES`` window records of ``REC_BEATS`` =
       LANES x (beats of one lane's window record) beats, TLAST on each fetch's last beat: the harness starts the
       next transfer then (its first beat offered ``startup`` cycles after that TLAST), and the DDR bucket is the
-      streaming model's (:class:`models.timing.cycle_model.DdrBucket`: body-in beats spend first).
+      streaming model's (:class:`models.timing.prediction.DdrBucket`: body-in beats spend first).
     * The assembler takes one beat a cycle while the ring has room: ``res_cnt - free_cnt < DEPTH``, where
       ``res_cnt`` counts the records whose final beat was taken in an earlier cycle and ``free_cnt`` the takes of
       a fetch's last pass in earlier cycles. Global record ``g`` (fetch x records + record) whose final beat is
@@ -37,13 +37,13 @@ Take (``pgs_sequencer``)
       whose lanes are all rejected or empty is consumed in one cycle.
     * A take steps its pass; the take of a fetch's last pass frees the record's ring entry (from the next cycle).
       SOLVE ends with the last pass's last slot; DRAIN, INTEG and DONE follow as in the streaming kernel.
-Banked body velocities (``BODY_BANKS``: :class:`models.timing.cycle_model.BankWrites`)
+Banked body velocities (``BODY_BANKS``: :class:`models.timing.prediction.BankWrites`)
     * In a cycle the banks serve the writes of the manifold(s) retiring then (the dynamic bodies of its issuing
       lanes) first, then the reads of the *offered* record's issuing lanes' bodies A and B; where a bank would need a
       third access the record is not taken (a stall: the skip marks treat it as any offered record not taken).
     * With lanes, a lane whose bodies A and B would have the record's issuing lanes read a bank more than twice is
       rejected (error 4, like a lane sharing a dynamic body; the host's plan never makes one).
-Impulses in the records (``IMPULSES_IN_RECORDS``: :class:`models.timing.cycle_model.ImpulseOut`)
+Impulses in the records (``IMPULSES_IN_RECORDS``: :class:`models.timing.prediction.ImpulseOut`)
     * Each fetch serves passes of one kind and streams that kind's records with impulses (``window_beats`` per lane,
       the same for both kinds); the DDR bucket's rate is the read share (``StreamLayout.ddr_read_share``).
     * The take of a fetch's last pass pushes an entry into the impulse-out order FIFO (``IMP_FIFO_DEPTH``) and its
@@ -84,9 +84,9 @@ import numpy as np
 
 from models.kernel.body_banks import over_ports
 from models.golden.contact_solver import CONTACT_PASS
-from models.timing.cycle_model import (BANK_BUSY, CAM_FULL, CAUSES, HAZARD, IMP_FULL, READY, SOLVE_START, BankWrites, DdrBucket,
-                          ImpulseOut, Prediction, Tail, _dynamic_bodies, _load_end, body_beat_cycles, build_causes,
-                          first_offer_cycle)
+from models.timing.prediction import (BANK_BUSY, CAM_FULL, CAUSES, HAZARD, IMP_FULL, READY, SOLVE_START, BankWrites,
+                                      DdrBucket, ImpulseOut, Prediction, Tail, body_beat_cycles, build_causes,
+                                      dynamic_bodies, first_offer_cycle, load_end_cycle)
 from models.timing.kernel_shape import DmaTiming, KernelShape, StepShape
 from models.kernel.record_window import WindowPlan, fits
 
@@ -100,7 +100,7 @@ NEVER = 1 << 62  # an event that does not come (a record not in the ring yet)
 # --- the prediction -------------------------------------------------------------------------------------
 @dataclass
 class WindowPrediction(Prediction):
-    """:class:`~models.timing.cycle_model.Prediction` of the window kernel: one entry per issued manifold-pass in retire
+    """:class:`~models.timing.prediction.Prediction` of the window kernel: one entry per issued manifold-pass in retire
     order (takes in order, the lanes of a take in lane order). ``ready``: the cycle the record entered the ring;
     ``first_offer`` / ``last_beat`` / ``ddr_wait``: its fetch's beats."""
 
@@ -193,7 +193,7 @@ def predict_window(shape: KernelShape, dma: DmaTiming, step: StepShape, plan: Wi
     nb = step.num_bodies
     if nb == 0:  # IDLE -> INTEG -> DONE: nothing is streamed
         return _prediction(shape, step, plan, _Takes(), 0, Tail(0, 1, {}), _Fetch.none(), [])
-    load_end = _load_end(shape, dma, nb)
+    load_end = load_end_cycle(shape, dma, nb)
     solve_start = load_end + 3
     solve = _WindowSolve(shape, dma, step, plan, body_beat_cycles(shape, nb, load_end), solve_start, jumps)
     takes = solve.run()
@@ -238,7 +238,7 @@ class _Records:
         a, b = step.body_a.tolist(), step.body_b.tolist()
         empty = np.asarray(plan.slots) < 0
         bad = (step.rejected_slots() & ~empty).tolist()
-        dyn_a, dyn_b = (d.tolist() for d in _dynamic_bodies(step))
+        dyn_a, dyn_b = (d.tolist() for d in dynamic_bodies(step))
         bodies: list[tuple[int, ...]] = []
         go: list[tuple[tuple[int, tuple[int, ...]], ...]] = []
         rejected: list[int] = []
@@ -681,7 +681,7 @@ def _prediction(shape: KernelShape, step: StepShape, plan: WindowPlan, takes: _T
         return np.frombuffer(a, np.int64)[g] if len(a) else np.zeros(0, np.int64)
 
     bubble = np.diff(col["bubble"], prepend=0)  # bubble cycles since the take before (the first lane of a take)
-    dyn_a, dyn_b = _dynamic_bodies(step)
+    dyn_a, dyn_b = dynamic_bodies(step)
     took = np.frombuffer(takes.took, np.int64).reshape(len(step.passes), -1) if len(takes.took) else \
         np.zeros((len(step.passes), 0), np.int64)
     span = takes.end - solve_start + 1 if takes.count else 0

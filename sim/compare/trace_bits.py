@@ -6,7 +6,7 @@ the sequential solve's order): the result is the same as the cocotb scoreboard's
 The first difference is described for a human (cycle, pass, iteration, slot, manifold, bodies, field, both values).
 
     cmp = Comparison()
-    compare_trace(read_trace(run_dir / "trace.bin", job.fmt, kb.trace_bytes), golden.records, job, cmp)
+    compare_trace_bits(read_trace(run_dir / "trace.bin", job.fmt, kb.trace_bytes), golden.records, job, cmp)
     compare_body_out(run_dir, job, kb, golden.final, cmp)
     cmp.first_mismatch  # None when bit-exact
 """
@@ -87,7 +87,7 @@ def in_sequential_order(trace: Trace, params: SolverParams) -> Trace:
     return Trace(trace.cycle[order], trace.kind[order], trace.iteration[order], trace.slot[order], trace.words[order])
 
 
-def compare_trace(trace: Trace, golden: list[PassRecord], job: KernelJob, cmp: Comparison) -> None:
+def compare_trace_bits(trace: Trace, golden: list[PassRecord], job: KernelJob, cmp: Comparison) -> None:
     """Compare every trace record with the golden pass records, in retire order (the window kernel's: in the
     sequential order, :func:`in_sequential_order`)."""
     fmt = job.fmt

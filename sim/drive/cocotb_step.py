@@ -32,7 +32,7 @@ from sim.drive.cocotb_run import BurstBench, kernel_cocotb_build
 from sim.drive.harness_run import register_writes
 from sim.compile.kernel_build import KernelBuild
 from sim.drive.kernel_step import Golden, KernelResult
-from sim.compare.trace_bits import Comparison, compare_body_out, compare_trace, expected_trace_words, read_trace
+from sim.compare.trace_bits import Comparison, compare_body_out, compare_trace_bits, expected_trace_words, read_trace
 
 # by its package path: cocotb's runner hands the simulator this process's sys.path, which has the repository
 COCOTB_TEST_MODULE = "cocotb_tests.test_kernel_cosim"
@@ -116,7 +116,7 @@ def run_cocotb_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
     if not summary and cmp.first_mismatch is None:
         cmp.fail(f"cocotb test {COCOTB_TEST} wrote no result (see the simulator's log above)")
     if trace_file.exists():
-        compare_trace(read_trace(trace_file, job.fmt, kb.trace_bytes), golden.records, job, cmp)
+        compare_trace_bits(read_trace(trace_file, job.fmt, kb.trace_bytes), golden.records, job, cmp)
     if body_out_file.exists():
         beats = body_out_file.stat().st_size // (kb.body_out_bits // 8)
         last = np.zeros(beats, np.uint8)

@@ -27,6 +27,7 @@ from models.timing.kernel_shape import harness_ddr_millibytes
 from models.kernel.kernel_job import KernelJob
 from models.kernel.register_map import OFFSET, OPT_SOFT_CONTACT
 from sim.compile.kernel_build import KernelBuild
+from models.kernel import record_window
 
 # cycles allowed per manifold-pass and per body before the harness declares a hang
 TIMEOUT_PER_ITEM, TIMEOUT_SLACK = 400, 20000
@@ -71,7 +72,7 @@ def impulse_plan(job: KernelJob, kb: KernelBuild, turnaround: int) -> bytes:
         records, beats, kinds = len(job.slots), 0, [kind for kind, _ in pass_sequence(job.params)]
     else:
         records, beats = len(job.slots) // plan.lanes, plan.lanes * kb.layout.window_beats
-        kinds = [int(k) for k in sf.window_fetch_kinds(job.params, plan.fetch_passes, one_kind=True) if k is not None]
+        kinds = [int(k) for k in record_window.window_fetch_kinds(job.params, plan.fetch_passes, one_kind=True) if k is not None]
     return np.asarray([records, turnaround, beats], dtype="<u4").tobytes() + bytes(kinds)
 
 

@@ -25,7 +25,7 @@ from models.kernel.kernel_job import KernelJob
 from models.kernel.register_map import ErrorCode, status_flag
 from sim.drive.harness_run import ProgressSink, harness_cycle_limit, run_harness, training_run, write_inputs
 from sim.compile.kernel_build import KernelBuild, build_kernel
-from sim.compare.trace_bits import Comparison, Trace, compare_body_out, compare_impulse_out, compare_trace, read_trace
+from sim.compare.trace_bits import Comparison, Trace, compare_body_out, compare_impulse_out, compare_trace_bits, read_trace
 
 
 @dataclass
@@ -111,7 +111,7 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
                        progress, env=env, read_share=job.ddr_read_share(kb.cons_bits))
     cmp = Comparison()
     trace = read_trace(run_dir / "trace.bin", job.fmt, kb.trace_bytes)
-    compare_trace(trace, golden.records, job, cmp)
+    compare_trace_bits(trace, golden.records, job, cmp)
     compare_body_out(run_dir, job, kb, golden.final, cmp)
     if job.impulses_in_records:
         compare_impulse_out(run_dir, job, golden.records, cmp)

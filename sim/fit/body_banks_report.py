@@ -14,9 +14,8 @@ import dataclasses
 import sys
 from collections.abc import Sequence
 
-from models.sizing import onchip_budget as ob
 from models.golden.contact_solver import SolverParams
-from models.timing.cycle_model import predict
+from models.timing.stream_cycle_model import predict
 from models.timing.platforms import get_preset
 from models.kernel.kernel_job import KernelJob
 from models.timing.kernel_shape import DmaTiming, KernelShape, StepShape
@@ -24,6 +23,7 @@ from models.formats.number_format import KERNEL_FORMATS
 from models.scenes.frame_cache import load_scene
 from sim.fit import resource_model as rm
 from sim.compile.kernel_build import default_window
+from models.timing import platforms
 
 BUSY = "body bank busy with a retire write"
 
@@ -32,14 +32,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m sim.fit.body_banks_report", description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="thesis")
     ap.add_argument("--format", default="fp32", choices=list(KERNEL_FORMATS))
-    ap.add_argument("--dma", default="zcu102", choices=list(ob.PLATFORMS))
+    ap.add_argument("--dma", default="zcu102", choices=list(platforms.PLATFORMS))
     ap.add_argument("--iters", type=int, default=4)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--banks", default="0,1,2,4,8")
     args = ap.parse_args(argv)
     try:
         banks = [int(b) for b in args.banks.split(",")]
-        fmt, preset, platform = KERNEL_FORMATS[args.format], get_preset(args.dma), ob.get_platform(args.dma)
+        fmt, preset, platform = KERNEL_FORMATS[args.format], get_preset(args.dma), platforms.get_platform(args.dma)
         frame, label = load_scene(args.scene, "", args.seed)
         for b in banks:
             KernelShape.of(fmt, body_banks=b)  # 0 or a power of two, else a ValueError

@@ -30,10 +30,10 @@ from typing import Any, Sequence
 
 from models.sizing import mixed_layout as ml
 from models.sizing import mixed_storage as ms
-from models.sizing import onchip_budget as ob
 from models.setup.constraints import BodyTable, body_table, setup_constraints
 from models.golden.contact_solver import CONTACT_PASS, SolverParams, pass_sequence
-from models.timing.cycle_model import Prediction, predict_job
+from models.timing.prediction import Prediction
+from models.timing.cycle_model import predict_job
 from models.timing.platforms import DmaPreset, get_preset
 from models.golden.integrator import IntegrationParams
 from models.kernel.kernel_job import KernelJob
@@ -46,6 +46,7 @@ from sim.compare.exact_error import error_vs_exact, exact_step
 from sim.compile.kernel_build import default_window
 from sim.report.run_report import print_summary
 from sim.report.run_result import NoExactReference
+from models.timing import platforms
 
 TARGET = 0.7  # cycles per manifold-pass the board-fit target asks of mixed storage
 
@@ -111,9 +112,9 @@ def design(name: str, job: KernelJob, storage: dict[str, NumberFormat], preset: 
     cfg = dataclasses.replace(rm.config_for_job(job), converters=conv)
 
     def fit(source: str) -> rm.FitVerdict | rm.NoEstimate:
-        if dma not in ob.PLATFORMS:
+        if dma not in platforms.PLATFORMS:
             return rm.NoEstimate(f"no platform behind the DMA preset {dma!r}")
-        return rm.fit_or_reason(dataclasses.replace(cfg, operator_source=source), ob.get_platform(dma))
+        return rm.fit_or_reason(dataclasses.replace(cfg, operator_source=source), platforms.get_platform(dma))
 
     return Design(name, job, predict_job(job, preset), fit("yosys"), fit("vendor"), sum(c.count for c in conv))
 

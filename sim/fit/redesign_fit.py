@@ -32,6 +32,7 @@ from models.kernel.body_banks import RECORDS_BANKS, WINDOW_BANKS
 from models.kernel.delay_lines import BLOCK_MIN_DEPTH
 from models.formats.number_format import FP16, FP32, NumberFormat
 from sim.fit import resource_model as rm
+from models.timing import platforms
 
 THESIS_BODIES, THESIS_MANIFOLDS, README_RING = 38_881, 147_485, 16_384
 
@@ -43,7 +44,7 @@ class Row:
     floor: ob.Floors
 
 
-def rows(platform: ob.Platform, formats: Sequence[NumberFormat], bodies: int, manifolds: int, ring: int,
+def rows(platform: platforms.Platform, formats: Sequence[NumberFormat], bodies: int, manifolds: int, ring: int,
          iters: int, fetch_every: int = 0, data: dict[str, Any] | None = None) -> list[Row]:
     """Every lever setting; the window kernel fetches its records once per ``fetch_every`` iterations (0: once per
     step)."""
@@ -87,7 +88,7 @@ def table(found: Sequence[Row], only_fitting: bool) -> list[str]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m sim.fit.redesign_fit", description=__doc__.splitlines()[0])
-    ap.add_argument("--platform", default="zcu102", choices=list(ob.PLATFORMS))
+    ap.add_argument("--platform", default="zcu102", choices=list(platforms.PLATFORMS))
     ap.add_argument("--formats", default="fp32,fp16")
     ap.add_argument("--bodies", type=int, default=THESIS_BODIES)
     ap.add_argument("--manifolds", type=int, default=THESIS_MANIFOLDS)
@@ -100,7 +101,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     by_name = {f.name: f for f in (FP32, FP16)}
     try:
         fmts = [by_name[f] for f in args.formats.split(",")]
-        platform = ob.get_platform(args.platform)
+        platform = platforms.get_platform(args.platform)
         if args.fetch_every < 0 or args.iters < 1:
             raise ValueError("--fetch-every must be >= 0 and --iters >= 1")
         found = rows(platform, fmts, args.bodies, args.manifolds, args.ring, args.iters, args.fetch_every)
@@ -109,7 +110,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     print(f"{platform.name} ({platform.describe()}); {args.bodies:,} bodies, {args.manifolds:,} manifolds, ring "
           f"{args.ring:,} records fetched once per {args.fetch_every or args.iters} iteration(s), {args.iters} "
-          f"iterations; usable: {ob.describe_usable()}\n")
+          f"iterations; usable: {platforms.describe_usable()}\n")
     print("fitting designs, fastest floor first:\n")
     print("\n".join(table(found, True)))
     print("\ndesigns that do not fit:\n")

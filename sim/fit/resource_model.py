@@ -56,6 +56,7 @@ from models.kernel.stream_format import CONTACT_WORDS, FRICTION_WORDS, BODY_IN_W
 from rtl.gen.dataflow import BOOL, OP_SIGNATURES
 from rtl.gen.kernel_graphs import GRAPHS, MODE_GRAPHS
 from rtl.gen.operator_timing import MINMAX_LATENCY, operator_latencies
+from models.timing import platforms
 
 FIGURES_FILE = Path(__file__).parent / "generated" / "resource_figures.json"
 DEFAULT_BODY_BITS = 128  # the body streams' beat of the default build (BODY_IN_W, BODY_OUT_W of rtl/pgs_kernel.sv)
@@ -501,7 +502,7 @@ def converter_resources(conv: Converters, compute: NumberFormat) -> Resources:
     return Resources(lut=lut * conv.count, ff=ff * conv.count)
 
 
-def estimate(cfg: KernelConfig, platform: Optional[ob.Platform] = None,
+def estimate(cfg: KernelConfig, platform: Optional[platforms.Platform] = None,
              data: Optional[dict[str, Any]] = None) -> Estimate:
     """The configuration's resources, part by part (memories mapped for ``platform``: UltraRAM where it has)."""
     data = data or figures()
@@ -532,7 +533,7 @@ def estimate(cfg: KernelConfig, platform: Optional[ob.Platform] = None,
 # --- the verdict ------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class FitVerdict:
-    platform: ob.Platform
+    platform: platforms.Platform
     total: Resources
     shares: dict[str, float]  # of the device, by KEYS
     limits: dict[str, float]
@@ -564,11 +565,11 @@ def _share(x: float) -> str:
     return "inf" if math.isinf(x) else f"{100 * x:.1f}%"
 
 
-def verdict(est: Estimate, platform: ob.Platform) -> FitVerdict:
+def verdict(est: Estimate, platform: platforms.Platform) -> FitVerdict:
     total = est.total.as_dict()
     shares = {k: (total[k] / platform.capacity(k) if platform.capacity(k) else (math.inf if total[k] else 0.0))
               for k in KEYS}
-    return FitVerdict(platform, est.total, shares, dict(ob.USABLE_SHARE), est.config.describe(),
+    return FitVerdict(platform, est.total, shares, dict(platforms.USABLE_SHARE), est.config.describe(),
                       operator_sources(est.config))
 
 
@@ -582,7 +583,7 @@ def operator_sources(cfg: KernelConfig) -> str:
     return "; ".join(f"{label}: {', '.join(mods)}" for label, mods in by.items())
 
 
-def fit(cfg: KernelConfig, platform: ob.Platform) -> FitVerdict:
+def fit(cfg: KernelConfig, platform: platforms.Platform) -> FitVerdict:
     return verdict(estimate(cfg, platform), platform)
 
 
@@ -612,7 +613,7 @@ def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: 
                         impulses_resident=impulses_resident)
 
 
-def fit_or_reason(cfg: KernelConfig, platform: ob.Platform) -> Union[FitVerdict, NoEstimate]:
+def fit_or_reason(cfg: KernelConfig, platform: platforms.Platform) -> Union[FitVerdict, NoEstimate]:
     try:
         return fit(cfg, platform)
     except (KeyError, FileNotFoundError) as exc:
@@ -628,9 +629,9 @@ def short_verdict(v: Union[FitVerdict, NoEstimate]) -> str:
 
 def kernel_fit(job: KernelJob, dma: str, body_bits: int = DEFAULT_BODY_BITS) -> Union[FitVerdict, NoEstimate]:
     """The fit verdict of a run's configuration (body streams of ``body_bits``) on its DMA preset's platform."""
-    if dma not in ob.PLATFORMS:
-        return NoEstimate(f"no platform behind the DMA preset {dma!r} (platforms: {', '.join(ob.PLATFORMS)})")
-    return fit_or_reason(config_for_job(job, body_bits), ob.get_platform(dma))
+    if dma not in platforms.PLATFORMS:
+        return NoEstimate(f"no platform behind the DMA preset {dma!r} (platforms: {', '.join(platforms.PLATFORMS)})")
+    return fit_or_reason(config_for_job(job, body_bits), platforms.get_platform(dma))
 
 
 def fit_rows(v: Union[FitVerdict, NoEstimate]) -> dict[str, str]:
@@ -639,6 +640,6 @@ def fit_rows(v: Union[FitVerdict, NoEstimate]) -> dict[str, str]:
         return {"verdict": f"no estimate ({v.reason})"}
     return {"configuration": v.config, "platform": f"{v.platform.name} ({v.platform.describe()})",
             "LUT, FF, DSP, BRAM36, URAM (share of the device)": v.shares_text(),
-            f"verdict (usable: {ob.describe_usable()})": v.headline(),
+            f"verdict (usable: {platforms.describe_usable()})": v.headline(),
             "operator figures": v.operator_sources,
             "estimate": "sim/fit/resource_model.py: per-operator Yosys figures, memories computed (docs/resources.md)"}

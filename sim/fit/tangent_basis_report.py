@@ -22,7 +22,6 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from models.sizing import onchip_budget as ob
 from models.setup.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.golden.contact_solver import SolverParams, solve
 from models.timing.cycle_model import predict_job
@@ -36,6 +35,7 @@ from models.order.manifold_schedule import make_schedule
 from sim.fit import resource_model as rm
 from sim.compile.kernel_build import default_window
 from sim.drive.kernel_step import golden_step
+from models.timing import platforms
 
 
 def max_velocity_error(ours: BodyTable, ref: BodyTable, dyn: np.ndarray) -> tuple[float, float]:
@@ -57,7 +57,7 @@ def rows(job: KernelJob, bodies: BodyTable, cons: ConstraintSet, dma: str) -> li
     """The table rows: the tangents streamed; derived on chip on the same schedule (the tangents' rounding alone:
     the last row, how far its golden result lies from the first); derived on chip on the hazard schedule of its own
     window. Errors against the float64 solve (``bodies``, ``cons`` unrounded) of the row's schedule."""
-    preset, platform = get_preset(dma), ob.get_platform(dma)
+    preset, platform = get_preset(dma), platforms.get_platform(dma)
     dyn = job.bodies.dynamic
     derived = job.tangents_derived()
     own = issue_window(derived, preset.stream_bits)
@@ -88,7 +88,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m sim.fit.tangent_basis_report", description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="thesis")
     ap.add_argument("--format", default="fp32", choices=list(KERNEL_FORMATS))
-    ap.add_argument("--dma", default="zcu102", choices=list(ob.PLATFORMS))
+    ap.add_argument("--dma", default="zcu102", choices=list(platforms.PLATFORMS))
     ap.add_argument("--iters", type=int, default=4)
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args(argv)

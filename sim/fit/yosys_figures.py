@@ -49,7 +49,7 @@ from typing import Any
 from pathlib import Path
 
 from models.formats.number_format import NumberFormat, parse_format
-from models.sizing.onchip_budget import get_platform
+from models.timing.platforms import get_platform
 from rtl.gen.file_list import kernel_sources
 from rtl.gen.operator_timing import MINMAX_LATENCY
 from sim.parallel.executor import parse_executor, run_points

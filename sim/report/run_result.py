@@ -182,7 +182,7 @@ class RunResult:
     seconds: dict[str, float]  # wall time of each part of the run
     bits: Optional[BitExactness] = None  # None: no kernel run
     speed: Optional[KernelSpeed] = None
-    cycle_model: Optional[dict[str, Any]] = None  # models.timing.cycle_model.report_section beside the RTL
+    cycle_model: Optional[dict[str, Any]] = None  # sim.compare.retire_cycles.report_section beside the RTL
     window: Optional[WindowFacts] = None
     fit: Optional[FitReport] = None  # sim.fit.resource_model.kernel_fit of the configuration run
 
@@ -206,7 +206,7 @@ class ModelRunResult:
     manifolds: int
     schedule: str  # described
     dma: str  # described
-    cycle_model: dict[str, Any] = field(default_factory=dict)  # models.timing.cycle_model.report_section
+    cycle_model: dict[str, Any] = field(default_factory=dict)  # sim.compare.retire_cycles.report_section
     fit: Optional[FitReport] = None  # sim.fit.resource_model.kernel_fit of the configuration predicted
     errors: Union[ExactErrors, NoExactReference, None] = None  # the golden model's step against the exact reference
     error_source: str = ""  # what ``errors.ours`` is of

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from models.sizing.onchip_budget import PLATFORMS
+from models.timing.platforms import PLATFORMS
 from models.order.manifold_schedule import BANDED_ORDERS
 from sim import band
 

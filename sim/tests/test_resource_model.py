@@ -8,12 +8,12 @@ import math
 
 import pytest
 
-from models.sizing import onchip_budget as ob
 from models.formats.number_format import FP16, FP32
 from sim.fit import resource_model as rm
 from sim.report.run_result import FIT_SECTION, ModelRunResult, sections
+from models.timing import platforms
 
-ZCU102, U280 = ob.get_platform("zcu102"), ob.get_platform("u280")
+ZCU102, U280 = platforms.get_platform("zcu102"), platforms.get_platform("u280")
 THESIS = (38_881, 147_485)
 
 
