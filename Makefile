@@ -131,7 +131,7 @@ coverage: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.coverage --jobs $(JOBS) $(if $(COVERAGE_CONFIGS),--configurations $(COVERAGE_CONFIGS))
 
 regress: $(STAMP)
-	$(TOOLENV) $(VPY) cocotb_tests/test_regress.py --seeds $(SEEDS) --jobs $(JOBS) --executor "$(EXECUTOR)"
+	$(TOOLENV) $(VPY) -m sim.regress --seeds $(SEEDS) --jobs $(JOBS) --executor "$(EXECUTOR)"
 
 csim: $(STAMP)
 	$(TOOLENV) $(VPY) -m hls_export.csim
@@ -144,7 +144,7 @@ hls:
 # every operator alone and the whole units (RESOURCE_UNITS=): figures into sim/fit/generated/resource_figures.json
 RESOURCE_UNITS ?= contact,friction,integrate,control,hazard_cam
 resources: $(STAMP)
-	$(TOOLENV) $(VPY) -m sim.fit.yosys_figures --formats $(FORMATS) --units "$(RESOURCE_UNITS)" --executor "$(EXECUTOR)"
+	$(TOOLENV) $(VPY) -m sim.resources --formats $(FORMATS) --units "$(RESOURCE_UNITS)" --executor "$(EXECUTOR)"
 
 lint: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.lint

@@ -448,7 +448,7 @@ def test_scoreboard_catches_friction_sign_bug() -> None:
 def test_gtkwave_save_file_names_design_signals(tmp_path, fmt_name, dma) -> None:
     """Every trace of the kernel's ``.gtkw`` is a signal the RTL declares in that scope, with the range it has
     in that build (e.g. s_axis_cons_TDATA follows CONS_W), and the file reads back trace for trace."""
-    from sim.report import gtkwave_save as gs
+    from sim.drive import gtkwave_save as gs
 
     from sim.drive.cocotb_run import kernel_cocotb_build
 
@@ -480,7 +480,7 @@ def test_gtkwave_save_file_names_design_signals(tmp_path, fmt_name, dma) -> None
 def test_gtkwave_save_file_matches_fst() -> None:
     """Against a real dump, when there is one (a ``WAVES=1`` run of the fp32 kernel) and ``fst2vcd`` (gtkwave
     package) is installed: every trace of the save file is in the FST's hierarchy."""
-    from sim.report import gtkwave_save as gs
+    from sim.drive import gtkwave_save as gs
     from sim.drive.cocotb_run import BUILD_ROOT, kernel_cocotb_build
 
     fsts = sorted((BUILD_ROOT / "pgs_kernel_e8m23_c512_waves").glob("*.fst"), key=lambda f: f.stat().st_mtime)

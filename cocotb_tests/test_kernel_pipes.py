@@ -51,8 +51,9 @@ from rtl.gen import friction_sign_bug_sources, generate, generate_friction_sign_
 from rtl.gen.file_list import FileListError, kernel_sources, read_file_list, swap_sources  # noqa: E402
 from rtl.gen.kernel_graphs import (CONTACT_IN, CONTACT_OUT, FRICTION_IN, FRICTION_OUT, GRAPHS,  # noqa: E402
                                    INTEGRATE_IN, INTEGRATE_OUT, MAN_BITS_OF, friction_graph)
-from sim.lint import rtl_files  # noqa: E402
+from rtl.gen.file_list import rtl_files  # noqa: E402
 from sim.compile.verilator_build import DEBUG_COMPILE_ARGS, build  # noqa: E402
+from rtl.gen.operator_schedule import schedule  # noqa: E402
 
 HERE = Path(__file__).resolve().parent / "pipes"
 RTL = REPO / "rtl"
@@ -263,7 +264,7 @@ def harness(request: pytest.FixtureRequest) -> Harness:
                 f"-DFMT_W={fmt.width}", f"-DHAS_SPIN_DAMP={int(spec.spin)}"],
         extra_args=BUILD_ARGS,
     )
-    latency = GRAPHS[spec.module]().schedule().latency_for(MAN_BITS_OF[fmt_name])
+    latency = schedule(GRAPHS[spec.module]()).latency_for(MAN_BITS_OF[fmt_name])
     return Harness(pipe, fmt_name, exe, latency, time.monotonic() - t0)
 
 

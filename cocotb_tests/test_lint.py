@@ -6,7 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from sim.lint import rtl_files
+from rtl.gen.file_list import rtl_files
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -16,6 +16,7 @@ from models.setup.inertia import InertiaMode, world_inverse_inertia
 from models.formats.number_format import FP16, FP32, NumberFormat
 from rtl.gen.kernel_graphs import (GRAPHS, contact_graph, contact_in, friction_graph, friction_in, inertia_ports,
                                    pipe_module)
+from rtl.gen.operator_schedule import schedule
 
 
 def _check(graph_out: np.ndarray, golden: np.ndarray, fmt: NumberFormat, what: str) -> None:
@@ -122,8 +123,8 @@ def test_kernel_build_graphs_and_names_are_unchanged() -> None:
     # the symmetric product (two more adds per component) is off the critical path: every mode has the kernel's
     # pipe latencies, so the cycle model (which reads those) counts only the body record's beats per mode
     for man_bits in (5, 10, 23):
-        assert {contact_graph(w).schedule().latency_for(man_bits) for w in (1, 3, 6)} == {
-            GRAPHS["pgs_contact_pipe"]().schedule().latency_for(man_bits)}
-        assert {friction_graph(inertia_words=w, manifold_friction=f).schedule().latency_for(man_bits)
+        assert {schedule(contact_graph(w)).latency_for(man_bits) for w in (1, 3, 6)} == {
+            schedule(GRAPHS["pgs_contact_pipe"]()).latency_for(man_bits)}
+        assert {schedule(friction_graph(inertia_words=w, manifold_friction=f)).latency_for(man_bits)
                 for w in (1, 3, 6) for f in (False, True)} == {
-            GRAPHS["pgs_friction_pipe"]().schedule().latency_for(man_bits)}
+            schedule(GRAPHS["pgs_friction_pipe"]()).latency_for(man_bits)}

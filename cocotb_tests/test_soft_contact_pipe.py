@@ -16,6 +16,7 @@ from models.golden.contact_solver import SolverParams
 from models.formats.number_format import BF16, FP16, FP32, NumberFormat
 from models.golden.soft_contact import SoftContact
 from rtl.gen.kernel_graphs import GRAPHS, SOFT_KEEP_WORDS, contact_graph, contact_in
+from rtl.gen.operator_schedule import schedule
 
 SOFT = SoftContact(hertz=15.0, damping_ratio=1.0)
 
@@ -90,6 +91,6 @@ def test_soft_pipe_layout_and_latency() -> None:
     # the multiply lam * keep is off the critical path: the rigid pipe's latency in every format, so the cycle
     # model (which reads the rigid pipe's latency) is the soft kernel's too
     for man_bits in (5, 7, 10, 23):
-        assert g.schedule().latency_for(man_bits) == GRAPHS["pgs_contact_pipe"]().schedule().latency_for(man_bits)
+        assert schedule(g).latency_for(man_bits) == schedule(GRAPHS["pgs_contact_pipe"]()).latency_for(man_bits)
     with pytest.raises(ValueError, match="3 inverse-inertia words"):
         contact_graph(6, soft=True)

@@ -1,5 +1,5 @@
 // pgs_solver.h: the arithmetic of one manifold-pass and of one body's integration, operation for operation in
-// the golden order of models/OPERATION_ORDER.md (models/golden/contact_solver.py contact_solve / friction_solve,
+// the golden order of models/golden/OPERATION_ORDER.md (models/golden/contact_solver.py contact_solve / friction_solve,
 // models/golden/integrator.py integrate). Every operation goes through pgs_fp.h (rounded once, flush to zero).
 // Branches on data are selects (the thesis's "branchless" form): every point and tangent row is computed,
 // and an inactive one keeps the previous impulse and velocities.

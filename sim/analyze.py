@@ -17,17 +17,11 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from models.sizing import format_analyzer as fa
+from models.sizing.format_analyzer import DEFAULT_BUDGET, kernel_format, problem_of
 from models import scenes
-from models.setup.constraints import body_table, setup_constraints
-from models.golden.contact_solver import SolverParams, solve
-from models.formats.frame import Frame, FrameError
-from models.golden.integrator import IntegrationParams
-from models.formats.number_format import FLOAT64, FP16, FP32, NumberFormat
-from models.order.manifold_schedule import make_schedule
+from models.formats.frame import FrameError
+from models.formats.number_format import FP16, FP32
 from sim.report.run_report import format_value
-
-DEFAULT_BUDGET = 0.01
-
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="python -m sim.analyze", description=__doc__,
@@ -40,34 +34,6 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                     help="allowed relative error of the step against float64 (0.01 = 1%%)")
     ap.add_argument("--out", default="build/analyze", help="parent directory of the analysis directory")
     return ap.parse_args(argv)
-
-
-def problem_of(frame: Frame, iters: int) -> fa.StepProblem:
-    bodies = body_table(frame)
-    cons = setup_constraints(frame, bodies)
-    schedule = make_schedule("hazard", cons, bodies.dynamic, 64)
-    return fa.StepProblem(bodies, cons, schedule, SolverParams(iterations=iters),
-                          IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity)))
-
-
-def kernel_format(problem: fa.StepProblem, budget: float) -> tuple[NumberFormat, float, list[fa.GroupRange]]:
-    """The narrowest single format for the kernel (FORMAT=auto), its error, and the measured ranges."""
-    solved = solve(problem.bodies, problem.cons, problem.schedule, FLOAT64, problem.params)
-    ranges = fa.measure_ranges(problem.bodies, problem.cons, solved.impulses.normal, solved.impulses.friction)
-    e = max(r.exp_bits for r in ranges)
-    fmt, err = fa.narrowest_uniform(problem, e, budget)
-    if fmt is None:
-        raise ValueError(f"no format with {e} exponent bits and up to {fa.MAN_RANGE[1]} mantissa bits keeps the "
-                         f"error within {budget:g} (best {err:.3g})")
-    return fmt, err, ranges
-
-
-def auto_format(frame: Frame, iters: int) -> NumberFormat:
-    """FORMAT=auto: the narrowest single kernel format whose ``iters``-iteration step of ``frame`` stays within
-    the default error budget; prints the choice."""
-    fmt, err, _ = kernel_format(problem_of(frame, iters), DEFAULT_BUDGET)
-    print(f"FORMAT=auto: {fmt.name} (step error {err:.3g} against float64, budget {DEFAULT_BUDGET})", flush=True)
-    return fmt
 
 
 def analyze(args: argparse.Namespace) -> dict[str, Any]:

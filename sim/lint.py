@@ -29,7 +29,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from models.formats.number_format import FP16, KERNEL_FORMATS, NumberFormat
-from rtl.gen.file_list import kernel_sources
+from rtl.gen.file_list import rtl_files
 from sim.compile.verilator_build import REPO_ROOT, ensure_verilator_env, param_args
 
 RTL_ROOT = REPO_ROOT / "rtl"
@@ -120,7 +120,6 @@ DELAY_PARAM_SETS: dict[str, dict[str, int]] = {
 ELABORATED_BY_PARENT: dict[str, str] = {"pgs_sequencer": "pgs_kernel"}
 
 _PARAM_RE = re.compile(r"\bparameter\s+(?:(?:int|integer|logic|bit)\b[^=;,)]*?\s)?\s*(\w+)\s*=")
-_PACKAGE_RE = re.compile(r"^\s*package\s+\w+", re.MULTILINE)
 
 
 @dataclass(frozen=True)
@@ -136,14 +135,6 @@ class LintResult:
     ok: bool
     output: str
     seconds: float
-
-
-def rtl_files(sources: Sequence[Path] | None = None) -> tuple[list[Path], list[Path]]:
-    """(package files, module files) of ``sources`` (default: the kernel's, ``rtl/pgs_kernel.f``), in list order."""
-    files = list(kernel_sources() if sources is None else sources)
-    packages = [f for f in files if _PACKAGE_RE.search(f.read_text())]
-    modules = [f for f in files if f not in packages]
-    return packages, modules
 
 
 def forwarded_params(parent_file: Path, child: str) -> set[str]:

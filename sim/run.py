@@ -41,21 +41,23 @@ from models.timing import cycle_model
 from models.setup.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.golden.contact_solver import SolverParams, solve, solve_converged
 from models.timing.platforms import PRESETS, DmaPreset, get_preset
-from models.formats.frame import Frame, FrameError, load
+from models.formats.frame import Frame, FrameError
 from models.golden.integrator import IntegrationParams, integrate
 from models.kernel.kernel_job import KernelJob
-from models.formats.number_format import FLOAT64, FP32, NumberFormat, parse_format
+from models.formats.number_format import FLOAT64, FP32, NumberFormat
 from models.exact.residual import contact_residual
 from models.order.manifold_schedule import SCHEDULE_KINDS, make_schedule, stats
 from sim.compare import exact_error
-from sim.analyze import auto_format
+from models.sizing.format_analyzer import auto_format
 from sim.drive.harness_run import KernelRunError, text_progress
 from sim.compile.kernel_build import COMPILE_PROFILES, KernelBuild, default_window
+from sim.drive.run_options import (add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label,
+                                   load_frame)
 from sim.drive.kernel_step import Golden, KernelResult, golden_step, run_kernel_step
 from sim.report.run_report import StagedDirectory, print_summary, write_report
 from sim.fit.resource_model import kernel_fit
 from sim.report.run_result import AnyRunResult, BitExactness, KernelSpeed, ModelRunResult, RunResult, SceneFacts, \
-    ScheduleFacts, StepErrors, ThesisComparison, VelocityError, WindowFacts, sections
+    ScheduleFacts, StepErrors, ThesisComparison, VelocityError, WindowFacts, sections, velocity_error
 from sim.compare.trace_bits import kernel_bodies
 from sim.compare import retire_cycles
 from models.timing import platforms
@@ -109,15 +111,6 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 TANGENT_SOURCES = ("host", "chip")  # make sim's TANGENTS: who computes the friction tangent basis
 
 
-def hardware_format(name: str) -> NumberFormat:
-    """A number format the kernel can be built for (``parse_format`` also knows float64, the reference)."""
-    fmt = parse_format(name)
-    if not isinstance(fmt, NumberFormat):
-        raise ValueError(f"number format {name!r} is the float64 reference, not a kernel format (fp32, fp16, bf16 "
-                         "or eXmY)")
-    return fmt
-
-
 def check_args(args: argparse.Namespace) -> None:
     """The arguments that need no frame: raise ValueError naming the first bad one."""
     get_preset(args.dma)
@@ -148,72 +141,6 @@ def check_args(args: argparse.Namespace) -> None:
         if not (value >= lo and (hi is None or value <= hi)) or not math.isfinite(value):
             raise ValueError(f"{name} must be {'in ' + str(lo) + '..' + str(hi) if hi else '>= ' + str(lo)}, "
                              f"got {value}")
-
-
-def add_kernel_args(ap: argparse.ArgumentParser) -> None:
-    """The kernel options shared by ``make sim`` and ``make sweep``: ring, passes per fetch, lanes, body beats."""
-    ap.add_argument("--record-window", type=int, default=0,
-                    help="0: the streaming kernel; N (a power of two): the window kernel with a ring of N records "
-                         "(rtl/pgs_window.sv)")
-    ap.add_argument("--fetch-passes", type=int, default=0,
-                    help="window kernel: passes per fetch of the records (0: as many as the ring holds)")
-    ap.add_argument("--lanes", type=int, default=1,
-                    help="window kernel: manifolds issued per cycle (a power of two; LANES build parameter)")
-    ap.add_argument("--body-bits", type=int, default=128,
-                    help="beat width of the body-in and body-out streams (128, 256 or 512)")
-    ap.add_argument("--impulse-store", choices=("onchip", "records"), default="onchip",
-                    help="accumulated impulses in the on-chip RAM, or travelling with the records through DDR "
-                         "(IMPULSES_IN_RECORDS build parameter; the window kernel: each fetch of one pass kind, an "
-                         "impulse ring as deep as the record ring)")
-
-
-def kernel_label(args: argparse.Namespace) -> str:
-    """The kernel options in a run's name: empty for the streaming kernel with 128-bit body streams."""
-    return ((f"-ring{args.record_window}" if args.record_window else "")
-            + (f"-lanes{args.lanes}" if args.lanes > 1 else "")
-            + (f"-body{args.body_bits}" if args.body_bits != 128 else "")
-            + ("-impulses-in-records" if getattr(args, "impulse_store", "onchip") == "records" else "")
-            + ("-tangents-on-chip" if getattr(args, "tangents", "host") == "chip" else ""))
-
-
-def kernel_job(job: KernelJob, args: argparse.Namespace) -> KernelJob:
-    """``job`` on the kernel the options name: the window kernel's plan with ``--record-window``, the impulses in
-    the records with ``--impulse-store records``, the tangent basis derived on chip with ``--tangents chip``."""
-    if getattr(args, "tangents", "host") == "chip":
-        if args.record_window:
-            raise ValueError("--tangents chip is a configuration of the streaming kernel (no --record-window)")
-        job = job.tangents_derived()
-    if getattr(args, "impulse_store", "onchip") == "records":
-        job = job.impulses_travelling()
-    if not args.record_window:
-        return job
-    return job.windowed(args.record_window, fetch_passes=args.fetch_passes or None, lanes=args.lanes)
-
-
-def check_kernel_args(args: argparse.Namespace) -> None:
-    """The kernel options shared by ``make sim`` and ``make sweep``: ring, lanes, passes per fetch, body beats."""
-    if args.record_window and (args.record_window < 2 or args.record_window & (args.record_window - 1)):
-        raise ValueError(f"--record-window must be 0 or a power of two >= 2, got {args.record_window}")
-    if args.lanes < 1 or args.lanes & (args.lanes - 1) or (args.lanes > 1 and not args.record_window):
-        raise ValueError(f"--lanes must be a power of two, and above 1 only with --record-window, got {args.lanes}")
-    if args.body_bits not in (128, 256, 512):
-        raise ValueError(f"--body-bits must be 128, 256 or 512, got {args.body_bits}")
-    if not 0 <= args.fetch_passes <= 8:
-        raise ValueError(f"--fetch-passes must be in 0..8, got {args.fetch_passes}")
-
-
-def load_frame(args: argparse.Namespace) -> tuple[Frame, str]:
-    """The frame to run (``--frame`` or the scene's, captured or cached) and the name of the runs made of it."""
-    if args.frame:
-        return load(args.frame), Path(args.frame).stem
-    return scenes.load_scene(args.scene, args.scene_args, args.seed)
-
-
-def velocity_error(ours: BodyTable, ref_lin: np.ndarray, ref_ang: np.ndarray, dynamic: np.ndarray) -> VelocityError:
-    dv = np.abs(ours.linear_velocity[dynamic] - ref_lin[dynamic])
-    dw = np.abs(ours.angular_velocity[dynamic] - ref_ang[dynamic])
-    scale = max(float(np.max(np.abs(ref_lin[dynamic]), initial=0.0)), 1e-12)
-    return VelocityError(float(dv.max(initial=0.0)), float(dw.max(initial=0.0)), float(dv.max(initial=0.0)) / scale)
 
 
 def _error(ours: BodyTable, ref: BodyTable, dyn: np.ndarray) -> VelocityError:
@@ -445,7 +372,7 @@ def _built(kb: KernelBuild) -> bool:
 
 
 def _write_gtkw(fst: Path, kb: KernelBuild) -> None:
-    from sim.report.gtkwave_save import write_kernel_save_file
+    from sim.drive.gtkwave_save import write_kernel_save_file
 
     # the compiled harness names its model "pgs_kernel": the design sits one scope below it
     save = write_kernel_save_file(fst, top="pgs_kernel.pgs_kernel", parameters=kb.parameters)

@@ -87,7 +87,7 @@ from models.scenes.frame_cache import FRAME_CACHE_DIR
 from models.order.manifold_schedule import SCHEDULE_KINDS, make_schedule
 from models.exact.solution_error import SolutionError, solution_error
 from sim.compare import exact_error
-from sim.analyze import auto_format
+from models.sizing.format_analyzer import auto_format
 from sim.compile.artefacts import FrameStore, KernelStore, frame_bytes, kernel_store_root, source_digest
 from sim.parallel.executor import ExecutorSpec, PointsFailed, Workers, parse_executor, run_points
 from sim.drive.harness_run import KernelRunError, write_inputs
@@ -98,10 +98,11 @@ from sim.parallel.point_results import PointLog
 from sim.compare.trace_bits import kernel_bodies
 from sim.report.run_report import StagedDirectory
 from sim.fit.resource_model import FitVerdict, kernel_fit, short_verdict
-from sim.report.run_result import NoExactReference
+from sim.compare.exact_error import NoExactReference
 from sim.report.sweep_plot import series, write_plots
-from sim.run import add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label, load_frame, \
-    velocity_error
+from sim.drive.run_options import (add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label,
+                                   load_frame)
+from sim.report.run_result import velocity_error
 from models.kernel import record_window
 
 ITERATIONS = (1, 2, 4, 8, 16, 32, 64, 128)  # to 128: the pile's iteration error has stopped falling by 32

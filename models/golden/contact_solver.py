@@ -2,7 +2,7 @@
 
 This module *is* the golden model of the kernel. Every arithmetic operation goes through an
 :class:`~models.formats.number_format.Arithmetic` (float64, or a format that rounds every result), in exactly the
-order written here and in ``models/OPERATION_ORDER.md``; the RTL follows the same order so that its
+order written here and in ``models/golden/OPERATION_ORDER.md``; the RTL follows the same order so that its
 results are bit-identical.
 
 The order in which manifolds are solved is an explicit schedule (an array of manifold indices; -1 is a

@@ -29,7 +29,9 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from models.setup.constraints import BodyTable, ConstraintSet
+from models.formats.frame import Frame
+from models.order.manifold_schedule import make_schedule
+from models.setup.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.golden.contact_solver import SolverParams, solve
 from models.golden.integrator import IntegrationParams, integrate
 from models.formats.number_format import FLOAT64, Arithmetic, NumberFormat
@@ -233,3 +235,34 @@ def record_bits(word_bits: dict[str, int]) -> dict[str, int]:
         out[record] = header + sum(n * word_bits[g] for g, n in words.items())
     assert sum(RECORD_WORDS["body-in"].values()) == BODY_IN_WORDS
     return out
+
+
+DEFAULT_BUDGET = 0.01  # FORMAT=auto: the step's relative error against float64 allowed
+
+
+def problem_of(frame: Frame, iters: int) -> StepProblem:
+    bodies = body_table(frame)
+    cons = setup_constraints(frame, bodies)
+    schedule = make_schedule("hazard", cons, bodies.dynamic, 64)
+    return StepProblem(bodies, cons, schedule, SolverParams(iterations=iters),
+                          IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity)))
+
+
+def kernel_format(problem: StepProblem, budget: float) -> tuple[NumberFormat, float, list[GroupRange]]:
+    """The narrowest single format for the kernel (FORMAT=auto), its error, and the measured ranges."""
+    solved = solve(problem.bodies, problem.cons, problem.schedule, FLOAT64, problem.params)
+    ranges = measure_ranges(problem.bodies, problem.cons, solved.impulses.normal, solved.impulses.friction)
+    e = max(r.exp_bits for r in ranges)
+    fmt, err = narrowest_uniform(problem, e, budget)
+    if fmt is None:
+        raise ValueError(f"no format with {e} exponent bits and up to {MAN_RANGE[1]} mantissa bits keeps the "
+                         f"error within {budget:g} (best {err:.3g})")
+    return fmt, err, ranges
+
+
+def auto_format(frame: Frame, iters: int) -> NumberFormat:
+    """FORMAT=auto: the narrowest single kernel format whose ``iters``-iteration step of ``frame`` stays within
+    the default error budget; prints the choice."""
+    fmt, err, _ = kernel_format(problem_of(frame, iters), DEFAULT_BUDGET)
+    print(f"FORMAT=auto: {fmt.name} (step error {err:.3g} against float64, budget {DEFAULT_BUDGET})", flush=True)
+    return fmt

@@ -15,6 +15,7 @@ from models.formats.number_format import BF16, FP16, FP32, NumberFormat
 from models.timing import prediction
 from models.timing import stream_cycle_model
 from sim.compare import retire_cycles
+from rtl.gen.operator_schedule import schedule
 
 FP32_C512 = ks.KernelShape.of(FP32, 512)
 IDEAL, ZCU102 = ks.DmaTiming.of(get_preset("ideal")), ks.DmaTiming.of(get_preset("zcu102"))
@@ -36,7 +37,7 @@ def test_latencies_read_from_rtl(fmt: NumberFormat, latencies: tuple[int, int, i
 
     got = tuple(ks.rtl_latency(m, fmt) for m in ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe"))
     assert got == latencies
-    gen = tuple(GRAPHS[m]().schedule().latency_for(fmt.man_bits)
+    gen = tuple(schedule(GRAPHS[m]()).latency_for(fmt.man_bits)
                 for m in ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe"))
     assert got == gen
 

@@ -12,7 +12,7 @@ from models import scenes
 from models.golden.contact_solver import solve
 from models.formats.number_format import FLOAT64, FP32, NumberFormat
 from sim.analyze import main as analyze_main
-from sim.analyze import problem_of
+from models.sizing.format_analyzer import problem_of
 
 
 def test_exp_bits_for() -> None:

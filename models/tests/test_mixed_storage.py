@@ -25,8 +25,8 @@ from sim.fit import resource_model as rm
 from sim.drive.harness_run import write_inputs
 from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import golden_step
-from sim.fit.mixed_storage_report import main as report_main
-from sim.fit.mixed_storage_report import parse_storage
+from sim.studies.mixed_storage_report import main as report_main
+from sim.studies.mixed_storage_report import parse_storage
 from models.timing import platforms
 
 ZCU102 = get_preset("zcu102")

@@ -17,6 +17,7 @@ from models.formats.number_format import FP16, FP32
 from models.setup.tangent_basis import derive_tangents, plane_space_in
 from models.tests.test_body_banks import pile_job
 from rtl.gen.kernel_graphs import GRAPHS, friction_in
+from rtl.gen.operator_schedule import schedule
 
 
 def _normals(fmt, k: int, seed: int) -> np.ndarray:
@@ -62,7 +63,7 @@ def test_layout_and_cycle_model_know_the_option() -> None:
     assert (default.friction_bits, default.friction_beats) == (704, 2)
     assert (lay.friction_bits, lay.friction_beats, lay.friction_lam_word, lay.friction_lamt_word) == (512, 1, 8, 12)
     shape = KernelShape.of(FP32, 512, impulses_in_records=True, tangents_on_chip=True)
-    assert shape.friction_latency == GRAPHS["pgs_friction_pipe_tb"]().schedule().latency_for(FP32.man_bits)
+    assert shape.friction_latency == schedule(GRAPHS["pgs_friction_pipe_tb"]()).latency_for(FP32.man_bits)
     assert shape.friction_latency > KernelShape.of(FP32, 512).friction_latency and shape.friction_beats == 1
     job = pile_job()
     derived = job.tangents_derived()

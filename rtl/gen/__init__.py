@@ -38,6 +38,7 @@ from rtl.gen.register_map_emit import REGS_HEADER, REGS_PKG, emit_regs_header, e
 from rtl.gen.repo_paths import REPO_ROOT
 from rtl.gen.stream_layout_emit import STREAM_LAYOUT_HEADER, STREAM_LAYOUT_PKG, emit_stream_layout_header, emit_stream_layout_pkg
 from rtl.gen.sv_emit import emit_sv
+from rtl.gen.operator_schedule import schedule
 
 GENERATED_DIR = RTL_DIR / "generated"
 HLS_GENERATED_DIR = REPO_ROOT / "hls_export" / "generated"
@@ -74,7 +75,7 @@ def latencies() -> dict[str, dict[str, int]]:
     """LATENCY of each generated module for each kernel format."""
     out = {}
     for name, make in GRAPHS.items():
-        sch = make().schedule()
+        sch = schedule(make())
         out[name] = {fmt: sch.latency_for(mb) for fmt, mb in MAN_BITS_OF.items()}
     return out
 

@@ -35,16 +35,11 @@ from __future__ import annotations
 import re
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Iterator, Optional
+from typing import Iterator, Optional
 
 import numpy as np
 
 from models.formats.number_format import FpEvents, NumberFormat
-
-from rtl.gen.operator_timing import Time, operator_latencies
-
-if TYPE_CHECKING:
-    from rtl.gen.operator_schedule import Schedule
 
 FLOAT = "float"
 BOOL = "bool"
@@ -260,11 +255,6 @@ class Graph:
             live.add(v.id)
             stack.extend(v.args)
         return [v for v in self.nodes if v.id in live]
-
-    def schedule(self, lat: Optional[dict[str, Time]] = None) -> "Schedule":
-        from rtl.gen.operator_schedule import Schedule  # the scheduler reads graphs: imported here, not at the top
-
-        return Schedule(self, lat or operator_latencies())
 
     # software twin -----------------------------------------------------------------------------------
     def evaluate(self, ar, inputs: np.ndarray, bool_inputs: Optional[np.ndarray] = None) -> np.ndarray:

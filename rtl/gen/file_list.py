@@ -9,6 +9,7 @@ A test build with an injected bug swaps one file for a variant generated into a 
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -16,6 +17,7 @@ from rtl.gen.repo_paths import REPO_ROOT
 
 RTL_DIR = REPO_ROOT / "rtl"
 KERNEL_FILE_LIST = RTL_DIR / "pgs_kernel.f"
+_PACKAGE_RE = re.compile(r"^\s*package\s+\w+", re.MULTILINE)
 
 
 class FileListError(ValueError):
@@ -55,3 +57,11 @@ def swap_sources(sources: Sequence[Path], replacements: Sequence[Path]) -> list[
     if unknown:
         raise FileListError(f"no source to replace with {sorted(unknown)}")
     return [by_name.get(p.name, Path(p)) for p in sources]
+
+
+def rtl_files(sources: Sequence[Path] | None = None) -> tuple[list[Path], list[Path]]:
+    """(package files, module files) of ``sources`` (default: the kernel's, ``rtl/pgs_kernel.f``), in list order."""
+    files = list(kernel_sources() if sources is None else sources)
+    packages = [f for f in files if _PACKAGE_RE.search(f.read_text())]
+    modules = [f for f in files if f not in packages]
+    return packages, modules

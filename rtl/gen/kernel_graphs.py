@@ -1,4 +1,4 @@
-"""The kernel's three datapaths as dataflow graphs, in the operation order of models/OPERATION_ORDER.md.
+"""The kernel's three datapaths as dataflow graphs, in the operation order of models/golden/OPERATION_ORDER.md.
 
 Each function mirrors the golden Python line by line (``models/golden/contact_solver.py``:
 ``contact_solve``, ``friction_solve``, ``dot3``, ``cross3``, ``scale3``, ``_apply``;
@@ -153,7 +153,7 @@ def contact_graph(inertia_words: int = 3, soft: bool = False) -> Graph:
     module = pipe_module("pgs_contact_pipe", inertia_words) + ("_soft" if soft else "")
     g = Graph(module, doc=f"""\
 {module}: one contact pass of one manifold (models/golden/contact_solver.py contact_solve for a
-single manifold; models/OPERATION_ORDER.md "Contact pass"). The four points are solved in order,
+single manifold; models/golden/OPERATION_ORDER.md "Contact pass"). The four points are solved in order,
 point i+1 seeing point i's velocity update; a point with jac_inv == 0 is skipped (its lam and the
 velocities keep their previous values: selects). The velocities of a static body are computed the
 same way; the caller must not write them back.""" + _inertia_doc(inertia_words) + (SOFT_DOC if soft else ""))
@@ -250,7 +250,7 @@ def friction_graph(sign_bug: bool = False, inertia_words: int = 3, manifold_fric
     mu_doc = "mu the input word" if manifold_friction else f"mu = {FRICTION_COEFF}"
     g = Graph(module, doc=f"""\
 {module}: one friction pass of one manifold (models/golden/contact_solver.py friction_solve for
-a single manifold; models/OPERATION_ORDER.md "Friction pass"), {mu_doc}. A manifold with
+a single manifold; models/golden/OPERATION_ORDER.md "Friction pass"), {mu_doc}. A manifold with
 f_jac_inv[0] == 0 is skipped (lamT and the velocities pass through unchanged: selects); otherwise
 spin damping (factor {SPIN_DAMP_FACTOR}) is applied when in_spin_damp is set. The velocities of a static body are
 computed the same way; the caller must not write them back.""" + _inertia_doc(inertia_words, manifold_friction)
@@ -328,7 +328,7 @@ def _horner(g: Graph, x2: Value, coeffs: tuple[float, ...], name: str) -> Value:
 def integrate_graph() -> Graph:
     g = Graph("pgs_integrate_pipe", doc=f"""\
 pgs_integrate_pipe: integration of one body (models/golden/integrator.py integrate for a single dynamic
-body; models/OPERATION_ORDER.md "Integration"). The run constants half_dt = 0.5*dt,
+body; models/golden/OPERATION_ORDER.md "Integration"). The run constants half_dt = 0.5*dt,
 dt3c = ((dt*dt)*dt)*{TAYLOR_SINC} and g_dt = g*dt are computed here from the dt / g inputs, as the
 golden computes them. sin / cos are the golden's Taylor polynomials; the angle is clamped to
 MAX_ANGLE / dt when theta*dt > MAX_ANGLE, and theta < {SMALL_ANGLE} selects the small-angle sinc.""")

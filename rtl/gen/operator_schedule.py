@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from rtl.gen.dataflow import FLOAT, OP_SIGNATURES, Graph, Value
-from rtl.gen.operator_timing import Time
+from rtl.gen.operator_timing import Time, operator_latencies
 
 
 @dataclass
@@ -89,3 +89,8 @@ class Schedule:
             words += depth if v.type == FLOAT else 0
         ops["delay_words"] = words
         return ops
+
+
+def schedule(graph: Graph, lat: dict[str, Time] | None = None) -> Schedule:
+    """The ASAP schedule of ``graph`` with the operators' latencies (default: read from ``rtl/fp``)."""
+    return Schedule(graph, lat or operator_latencies())

@@ -16,6 +16,7 @@ from models.formats.number_format import KERNEL_FORMATS
 
 from rtl.gen.dataflow import FLOAT, OP_SIGNATURES, Graph, Value
 from rtl.gen.operator_timing import Time
+from rtl.gen.operator_schedule import schedule
 
 _FLAGGED = ("fp_add", "fp_mul", "fp_div", "fp_sqrt")  # operators with event flags
 _SYMBOL = {"add": "+", "sub": "-", "mul": "*", "div": "/"}
@@ -54,7 +55,7 @@ def _wrap(text: str, prefix: str = "// ", width: int = 100) -> list[str]:
 
 def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
     """The SystemVerilog module of a graph (its structure: this module's and rtl/gen/operator_schedule.py's docstrings)."""
-    sch = graph.schedule(lat)
+    sch = schedule(graph, lat)
     lat = sch.lat
     nodes = sch.nodes
     n_in, n_out = len(graph.inputs), len(graph.outputs)

@@ -5,7 +5,7 @@ The exact limit of the scheme (``models/exact/reference.py``) is computed once p
 ``models.exact.solution_error.solution_error``: per-body |dv| (m/s) and |dw| (rad/s), their maximum, median and 99th
 percentile over the dynamic bodies, and the maxima relative to the reference's largest speeds. When there is no
 exact reference (solver failure, infeasible or degenerate problem, time or memory budget), the step's errors are
-``sim.report.run_result.NoExactReference`` with the reason, rendered ``no exact reference (reason)`` instead of numbers.
+:class:`NoExactReference` with the reason, rendered ``no exact reference (reason)`` instead of numbers.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Union
+from typing import Any, Optional, Union
 
 import numpy as np
 
@@ -26,7 +26,44 @@ from models.golden.integrator import IntegrationParams, integrate
 from models.formats.number_format import FLOAT64
 from models.scenes.frame_cache import FRAME_CACHE_DIR
 from models.exact.solution_error import SolutionError, solution_error
-from sim.report.run_result import ExactErrors, ExactReferenceFacts, NoExactReference
+
+
+NO_REFERENCE = "no exact reference"
+
+
+@dataclass(frozen=True)
+class NoExactReference:
+    """The exact reference could not be computed (solver failure, infeasible or degenerate problem, time or memory
+    budget): every error against it is this, with the reason."""
+
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{NO_REFERENCE} ({self.reason})"
+
+
+@dataclass(frozen=True)
+class ExactReferenceFacts:
+    """The exact reference's own figures (``models/exact/reference.py``) and where it is cached."""
+
+    solver: str
+    islands: int
+    seconds: dict[str, float]  # solve time by phase
+    details: dict[str, float]
+    residuals: dict[str, float]  # its natural residuals
+    contact_bound: dict[str, Any]  # the certificate the reference was accepted with, named (sim.compare.exact_error)
+    cache_file: str
+    from_cache: bool
+
+
+@dataclass(frozen=True)
+class ExactErrors:
+    """Velocities after the step against the exact limit of the scheme (``models.exact.solution_error``)."""
+
+    reference: ExactReferenceFacts
+    ours: SolutionError  # the step's source: rounding + iteration error
+    iteration_only: SolutionError  # float64 with these iterations
+    converged: Optional[SolutionError] = None  # float64 PGS after the converged solve's passes (not in MODE=model)
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ from models.kernel.kernel_job import KernelJob
 from models.timing.kernel_shape import KernelShape
 from models.formats.number_format import NumberFormat
 from rtl.gen import friction_sign_bug_sources
-from sim.lint import rtl_files
+from rtl.gen.file_list import rtl_files
 from sim.compile.verilator_build import DEBUG_COMPILE_ARGS, QUICK_COMPILE_ARGS, REPO_ROOT, build, profile_guided_build
 
 TOP = "pgs_kernel"

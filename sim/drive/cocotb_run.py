@@ -5,7 +5,7 @@ gets its own build directory under ``build/cocotb/``; a build is reused when not
 random seed. ``WAVES=1`` in the environment builds with FST tracing (into ``build/cocotb/<build>_waves/``) and
 writes the waveform to ``build/cocotb/<build>_waves/<waves_name>.fst`` (``waves_name`` defaults to the top),
 next to a GTKWave save file ``<waves_name>.gtkw`` when the caller gives the signal groups
-(``sim.report.gtkwave_save``); both paths are printed at the end of the run.
+(``sim.drive.gtkwave_save``); both paths are printed at the end of the run.
 
 :func:`run_kernel_cocotb` runs a cocotb test module of ``cocotb_tests/`` on the RTL kernel, built from the same
 description as the compiled harness (``sim.compile.kernel_build.KernelBuild``: parameters, sources, compile profile), one
@@ -28,7 +28,7 @@ from typing import Mapping, Sequence
 from models.timing.platforms import get_preset
 from models.formats.number_format import parse_format
 from models.kernel.stream_format import KERNEL_INERTIA_WORDS
-from sim.report.gtkwave_save import Group, kernel_groups, write_save_file
+from sim.drive.gtkwave_save import Group, kernel_groups, write_save_file
 from sim.compile.kernel_build import PUBLIC_VLT, TOP, WAVE_ARGS, KernelBuild
 from sim.compile.verilator_build import MODEL_OPT_ARGS, QUICK_COMPILE_ARGS, REPO_ROOT, build_lock, ensure_verilator_env
 

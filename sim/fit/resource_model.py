@@ -57,6 +57,7 @@ from rtl.gen.dataflow import BOOL, OP_SIGNATURES
 from rtl.gen.kernel_graphs import GRAPHS, MODE_GRAPHS
 from rtl.gen.operator_timing import MINMAX_LATENCY, operator_latencies
 from models.timing import platforms
+from rtl.gen.operator_schedule import schedule
 
 FIGURES_FILE = Path(__file__).parent / "generated" / "resource_figures.json"
 DEFAULT_BODY_BITS = 128  # the body streams' beat of the default build (BODY_IN_W, BODY_OUT_W of rtl/pgs_kernel.sv)
@@ -174,7 +175,7 @@ TAG_BITS = 64  # the pass-through tag of every pipe (its TAG_W default)
 def pipe_shape(name: str, man_bits: int) -> PipeShape:
     """Operators and delay lines of one generated datapath at ``man_bits`` (the emitted RTL's structure)."""
     graph = {**GRAPHS, **MODE_GRAPHS}[name]()
-    sched = graph.schedule()
+    sched = schedule(graph)
     ops: dict[str, int] = {}
     for v in sched.nodes:
         mod = OP_SIGNATURES.get(v.op, (None, None, None))[2]

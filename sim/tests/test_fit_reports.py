@@ -1,12 +1,12 @@
 """The two report commands of the fp32 records design on a small scene: the body banks per count
-(sim.fit.body_banks_report) and the tangent basis derived on chip (sim.fit.tangent_basis_report)."""
+(sim.studies.body_banks_report) and the tangent basis derived on chip (sim.studies.tangent_basis_report)."""
 
 from __future__ import annotations
 
 import pytest
 
-from sim.fit import body_banks_report
-from sim.fit import tangent_basis_report
+from sim.studies import body_banks_report
+from sim.studies import tangent_basis_report
 
 
 def _rows(out: str) -> list[list[str]]:

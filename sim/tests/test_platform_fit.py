@@ -1,4 +1,4 @@
-"""sim.fit.platform_fit: a row per built design with the cycle model's cycles (the streaming and the window kernel's) and
+"""sim.studies.platform_fit: a row per built design with the cycle model's cycles (the streaming and the window kernel's) and
 the resource model's verdict on the preset's platform; bad options end with status 2."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pytest
 from models import scenes
 from models.formats.frame import save
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from sim.fit import platform_fit
+from sim.studies import platform_fit
 
 
 def test_table_rows(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -183,7 +183,7 @@ def test_fit_section_of_a_run() -> None:
 
 
 def test_redesign_table(capsys: pytest.CaptureFixture[str]) -> None:
-    from sim.fit import redesign_fit
+    from sim.studies import redesign_fit
 
     assert redesign_fit.main(["--formats", "fp16", "--platform", "u280"]) == 0
     out = capsys.readouterr().out

@@ -6,9 +6,10 @@ from __future__ import annotations
 from typing import Union
 
 from models.exact.solution_error import SolutionError
-from sim.report.run_result import BITS_SECTION, ERROR_SECTION, MODEL_SECTION, BitExactness, ExactErrors, \
-    ExactReferenceFacts, KernelSpeed, ModelRunResult, NoExactReference, RunResult, SceneFacts, ScheduleFacts, \
-    StepErrors, ThesisComparison, VelocityError, sections
+from sim.report.run_result import (BITS_SECTION, ERROR_SECTION, MODEL_SECTION, BitExactness, KernelSpeed,
+                                   ModelRunResult, RunResult, SceneFacts, ScheduleFacts, StepErrors, ThesisComparison,
+                                   VelocityError, sections)
+from sim.compare.exact_error import ExactErrors, ExactReferenceFacts, NoExactReference
 
 ERR = VelocityError(1e-3, 2e-3, 0.5)
 FACTS = ExactReferenceFacts("clarabel 0.11.1", 3, {"contact": 0.2, "friction": 0.3}, {}, {"max |dv| (m/s)": 1e-9},

@@ -207,7 +207,7 @@ def test_sweep_columns_and_plot_without_an_exact_reference(tmp_path: Path) -> No
     """make sweep's error columns against the exact reference, and its csv and plot when there is none: every such
     column says why, and the plot is still written."""
     from models.exact.solution_error import SolutionError
-    from sim.report.run_result import NoExactReference
+    from sim.compare.exact_error import NoExactReference
 
     base: dict[str, Any] = {col: 1.0 for col in sim_sweep.COLUMNS}
     base.update(format="fp32", iterations=1, differing_bits=0)

@@ -21,7 +21,7 @@ from models.formats.frame import save
 from models.kernel.kernel_job import KernelJob
 from models.formats.number_format import FP16
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
-from sim.report import thesis_figures as baselines
+from models.published import thesis as baselines
 from sim.report import pareto_front
 from sim.report import sweep_plot
 from sim import sweep as sim_sweep

@@ -1,5 +1,5 @@
 """Mixed storage with fp32 arithmetic on the streaming kernel with the impulses in the records: what the storage
-formats within the budget buy (``python -m sim.fit.mixed_storage_report``; models only, no RTL).
+formats within the budget buy (``python -m sim.studies.mixed_storage_report``; models only, no RTL).
 
 1. The budget: ``--factor`` (10) times fp32's own rounding error against float64 on the same schedule (max |dv|,
    |dw| as ``make sim`` reports it, and max |dx|, |dq|), on the scene the formats are searched on and on the
@@ -13,8 +13,8 @@ formats within the budget buy (``python -m sim.fit.mixed_storage_report``; model
 5. The mixed design's error against the exact reference where one is cached or solved within
    ``--exact-budget`` seconds, else "no exact reference (reason)".
 
-    python -m sim.fit.mixed_storage_report --scene thesis --search-scene thesis --search-scene-args "nx=12 ny=30 nz=12"
-    python -m sim.fit.mixed_storage_report --scene pile --storage "positions=e5m20,velocities=e6m19"
+    python -m sim.studies.mixed_storage_report --scene thesis --search-scene thesis --search-scene-args "nx=12 ny=30 nz=12"
+    python -m sim.studies.mixed_storage_report --scene pile --storage "positions=e5m20,velocities=e6m19"
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ from sim.fit import resource_model as rm
 from sim.compare.exact_error import error_vs_exact, exact_step
 from sim.compile.kernel_build import default_window
 from sim.report.run_report import print_summary
-from sim.report.run_result import NoExactReference
+from sim.compare.exact_error import NoExactReference
 from models.timing import platforms
 
 TARGET = 0.7  # cycles per manifold-pass the board-fit target asks of mixed storage
@@ -198,7 +198,7 @@ def exact_text(err: SolutionError | NoExactReference) -> str:
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(prog="python -m sim.fit.mixed_storage_report", description=__doc__,
+    ap = argparse.ArgumentParser(prog="python -m sim.studies.mixed_storage_report", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="thesis", help="the scene the design is checked on")
     ap.add_argument("--scene-args", default="")

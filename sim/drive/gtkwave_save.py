@@ -92,7 +92,7 @@ class View:
 def save_file_text(dumpfile: Path, savefile: Path, groups: Sequence[Group], view: View | None = None) -> str:
     """The text of a save file showing ``groups`` of ``dumpfile`` (the hierarchy tree opened down to the scopes
     of the traces), opening on ``view`` (default: from time 0 at GTKWave's own zoom)."""
-    lines = ["[*] GTKWave save file written by sim/report/gtkwave_save.py",
+    lines = ["[*] GTKWave save file written by sim/drive/gtkwave_save.py",
              f'[dumpfile] "{Path(dumpfile).resolve()}"', f'[savefile] "{Path(savefile).resolve()}"',
              *(view.lines() if view else []), f"[timestart] {view.start if view else 0}", "[sst_expanded] 1",
              f"[signals_width] {SIGNALS_WIDTH}", f"[sst_width] {SST_WIDTH}"]

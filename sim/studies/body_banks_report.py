@@ -1,7 +1,7 @@
 """Kernel cycles of a scene's step for each count of body-velocity banks (``BODY_BANKS``, models/kernel/body_banks.py),
-with the fit verdict of each (``python -m sim.fit.body_banks_report``; cycle and resource models, no RTL).
+with the fit verdict of each (``python -m sim.studies.body_banks_report``; cycle and resource models, no RTL).
 
-    python -m sim.fit.body_banks_report [--scene thesis --format fp32 --dma zcu102 --iters 4 --seed 1 --banks 0,1,2,4,8]
+    python -m sim.studies.body_banks_report [--scene thesis --format fp32 --dma zcu102 --iters 4 --seed 1 --banks 0,1,2,4,8]
 
 The streaming kernel with the impulses in the records (the design that banks its velocities). "stall cycles on
 a busy bank" are the stall cycles of the records whose last wait was a busy bank (the cycle model's cause split).
@@ -29,7 +29,7 @@ BUSY = "body bank busy with a retire write"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m sim.fit.body_banks_report", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m sim.studies.body_banks_report", description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="thesis")
     ap.add_argument("--format", default="fp32", choices=list(KERNEL_FORMATS))
     ap.add_argument("--dma", default="zcu102", choices=list(platforms.PLATFORMS))

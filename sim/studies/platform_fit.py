@@ -7,7 +7,7 @@ width sets the ring's trailing passes): the cycle model's cycles of the ``--iter
 the window kernel's ``models/timing/window_cycle_model.py``), and the resource model's shares of the preset's platform with the verdict (``sim/fit/resource_model.py``, the configuration
 as built: the figures ``make sim`` prints). No golden model runs: seconds per configuration.
 
-    python -m sim.fit.platform_fit --scene thesis --dma u280 [--formats fp32,fp16,bf16 --iters 4 --ring 16384]
+    python -m sim.studies.platform_fit --scene thesis --dma u280 [--formats fp32,fp16,bf16 --iters 4 --ring 16384]
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from models.kernel.kernel_job import KernelJob
 from models.order.manifold_schedule import make_schedule
 from sim.compile.kernel_build import default_window
 from sim.fit.resource_model import KEYS, FitVerdict, kernel_fit
-from sim.run import hardware_format, load_frame
+from sim.drive.run_options import hardware_format, load_frame
 
 LANES = (1, 2, 4)
 
@@ -76,7 +76,7 @@ def table(args: argparse.Namespace) -> list[str]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m sim.fit.platform_fit", description=__doc__,
+    ap = argparse.ArgumentParser(prog="python -m sim.studies.platform_fit", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="thesis")
     ap.add_argument("--scene-args", default="")

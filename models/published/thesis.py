@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+THESIS_BODIES = 38_880  # cubes (the ground plane not counted)
 THESIS_MANIFOLDS = 127_000
 THESIS_ITERATIONS = 4
 THESIS_PASSES = 2 * THESIS_ITERATIONS  # contact and friction
@@ -20,6 +21,8 @@ class FpgaFigure:
     cycles: int
     clock_hz: float
     ms: float  # as reported
+    utilisation: dict[str, int]  # percent of the XCZU9EG, Vivado HLS (LUT, FF, DSP, BRAM36)
+    table: str  # the thesis's table of the utilisation
 
     @property
     def cycles_per_manifold_pass(self) -> float:
@@ -27,8 +30,10 @@ class FpgaFigure:
 
 
 THESIS_FPGA = {
-    "fp32": FpgaFigure("thesis ZCU102 fp32", 2_062_697, 275e6, 7.49),
-    "fp16": FpgaFigure("thesis ZCU102 fp16", 1_557_317, 250e6, 6.23),
+    "fp32": FpgaFigure("thesis ZCU102 fp32", 2_062_697, 275e6, 7.49, {"LUT": 47, "FF": 32, "DSP": 42, "BRAM36": 70},
+                       "6.4"),
+    "fp16": FpgaFigure("thesis ZCU102 fp16", 1_557_317, 250e6, 6.23, {"LUT": 49, "FF": 29, "DSP": 42, "BRAM36": 48},
+                       "6.8"),
 }
 THESIS_GPU_MS = 13.64  # GTX 980, Bullet3 OpenCL
 THESIS_CPU_MS = 53.01  # i7-3770

@@ -1,6 +1,6 @@
 """The streaming kernel with the impulses in the records, with and without the tangent basis derived on chip: what
 the record layout, the cycle model, the resource model and the golden model say (``python -m
-sim.fit.tangent_basis_report``; the RTL run of the derived layout: ``make sim IMPULSE_STORE=records TANGENTS=chip``).
+sim.studies.tangent_basis_report``; the RTL run of the derived layout: ``make sim IMPULSE_STORE=records TANGENTS=chip``).
 
 For each layout: the friction record's bits and beats, the kernel cycles and cycles per manifold-pass on the
 preset, the fit verdict with Yosys's and the published vendor operator figures, and the golden model's error
@@ -8,7 +8,7 @@ against the float64 solve of the same iterations (max |dv|, |dw| over the dynami
 how far the two golden results lie apart. Each layout runs the hazard schedule of its own window (its pipes'
 latencies over its records' beats), so the float64 reference is the solve of the streamed layout's schedule.
 
-    python -m sim.fit.tangent_basis_report [--scene thesis --format fp32 --dma zcu102 --iters 4 --seed 1]
+    python -m sim.studies.tangent_basis_report [--scene thesis --format fp32 --dma zcu102 --iters 4 --seed 1]
 """
 
 from __future__ import annotations
@@ -85,7 +85,7 @@ def rows(job: KernelJob, bodies: BodyTable, cons: ConstraintSet, dma: str) -> li
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m sim.fit.tangent_basis_report", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m sim.studies.tangent_basis_report", description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="thesis")
     ap.add_argument("--format", default="fp32", choices=list(KERNEL_FORMATS))
     ap.add_argument("--dma", default="zcu102", choices=list(platforms.PLATFORMS))

@@ -1,5 +1,5 @@
 """What the resource model says of the redesign levers on a scene's sizes: which kernels fit a platform, at what
-estimated cost (``python -m sim.fit.redesign_fit``; the table of docs/resources.md).
+estimated cost (``python -m sim.studies.redesign_fit``; the table of docs/resources.md).
 
 For every format, kernel (the streaming kernel; the window kernel with 1, 2 or 4 lanes) and lever setting
 (impulses resident or travelling with the records; the whole body record or only velocities and mass properties
@@ -15,7 +15,7 @@ step, as the README's window runs with FETCH_PASSES=0 do). Body words and ports 
 floor (busy banks may cost issue slots the floor does not count). Sizes default to the thesis frame (38,881 bodies, 147,485 manifolds) and the README's ring of 16,384
 records.
 
-    python -m sim.fit.redesign_fit --platform zcu102 [--bodies 38881 --manifolds 147485 --ring 16384 --iters 4
+    python -m sim.studies.redesign_fit --platform zcu102 [--bodies 38881 --manifolds 147485 --ring 16384 --iters 4
                                --fetch-every 0]
 """
 
@@ -87,7 +87,7 @@ def table(found: Sequence[Row], only_fitting: bool) -> list[str]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m sim.fit.redesign_fit", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m sim.studies.redesign_fit", description=__doc__.splitlines()[0])
     ap.add_argument("--platform", default="zcu102", choices=list(platforms.PLATFORMS))
     ap.add_argument("--formats", default="fp32,fp16")
     ap.add_argument("--bodies", type=int, default=THESIS_BODIES)
