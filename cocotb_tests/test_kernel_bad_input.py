@@ -7,8 +7,8 @@ Every step must end (ap_done within a cycle budget, else the host raises), and i
 scoreboard), body-out stream, status register (the case's error code), issued and rejected counts must equal
 the kernel's documented response (``rtl/README.md``, "Bad input") as the golden model predicts it
 (``tb.bad_input``): the rejected manifold-passes left out, frozen bodies passed through, every other body
-bit-exact; the good step after the error bit-exact with the plain golden model. The scenes are the 10-cube stack (11 bodies, 10 manifolds) in
-fp32, hazard order, 2 iterations.
+bit-exact; the good step after the error bit-exact with the plain golden model. The scenes are the 10-cube stack (11
+bodies, 10 manifolds) in fp32, hazard order, 2 iterations.
 
 The scenarios run in one simulator process (one cocotb test each, ``bad_input_scenario``, parametrized) on the
 kernel build of ``test_kernel_cosim.py`` (``build/cocotb/pgs_kernel_e8m23_c512``); each pytest case reports

@@ -1,7 +1,7 @@
 """The records design in fp32 with its body velocities in true dual-port banks (``BODY_BANKS = 2``,
 ``rtl/pgs_body_vel_banks.sv``): one Verilator build (``pgs_kernel_e8m23_c512_ir_bk2_dl65``, the zcu102 preset's
-512-bit beats) for every test here. ``sim.drive.kernel_step`` compares bit for bit the trace, the body-out stream and the
-impulse-out stream with the golden model of the same step:
+512-bit beats) for every test here. ``sim.drive.kernel_step`` compares bit for bit the trace, the body-out stream and
+the impulse-out stream with the golden model of the same step:
 
 * the pile and the 10-cube stack with random stream gaps and backpressure on every stream (the seed is printed,
   ``SEED=<int>`` overrides it): bit-exact, never faster than the cycle model's lower bound;

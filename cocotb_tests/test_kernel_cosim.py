@@ -10,8 +10,8 @@ stalls.
 The status register must read 0, no manifold-pass may be rejected, and the floating-point event counters must
 equal the golden model's prediction (``cocotb_tests/tb/fp_events.py``; zero for these fp32 scenes).
 
-The kernel's cycles must not beat the cycle model's lower bound (``models/timing/cycle_model.py``, with the first body and
-constraint transfers armed before ap_start, as this host arms them).
+The kernel's cycles must not beat the cycle model's lower bound (``models/timing/cycle_model.py``, with the first body
+and constraint transfers armed before ap_start, as this host arms them).
 
 ``test_scoreboard_catches_friction_sign_bug`` checks the checker: the kernel built with the friction-sign bug
 (``KernelBuild(friction_sign_bug=True)``, a build of its own) must be stopped by the scoreboard at the first

@@ -49,8 +49,8 @@ from models.formats.number_format import EVENT_NAMES, KERNEL_FORMATS, NumberForm
 from models.scenes.kernel_scenes import PIPE_VECTOR_SCENES  # noqa: E402
 from rtl.gen import friction_sign_bug_sources, generate, generate_friction_sign_bug, render  # noqa: E402
 from rtl.gen.file_list import FileListError, kernel_sources, read_file_list, swap_sources  # noqa: E402
-from rtl.gen.kernel_graphs import (CONTACT_IN, CONTACT_OUT, FRICTION_IN, FRICTION_OUT, GRAPHS,  # noqa: E402
-                                   INTEGRATE_IN, INTEGRATE_OUT, MAN_BITS_OF, friction_graph)
+from rtl.gen.kernel_graphs import (CONTACT_IN, CONTACT_OUT, FRICTION_IN, FRICTION_OUT, GRAPHS, INTEGRATE_IN,
+                                   INTEGRATE_OUT, MAN_BITS_OF, friction_graph)  # noqa: E402
 from rtl.gen.file_list import rtl_files  # noqa: E402
 from sim.compile.verilator_build import DEBUG_COMPILE_ARGS, build  # noqa: E402
 from rtl.gen.operator_schedule import schedule  # noqa: E402
@@ -327,8 +327,9 @@ def test_kernel_pipe_bit_exact(harness: Harness, tmp_path: Path) -> None:
 
 
 def test_generated_rtl_up_to_date() -> None:
-    """Every generated copy (the datapaths, those of the other inverse-inertia modes, the latency package and JSON, the register and stream layout packages and the HLS headers
-    of the register map and the stream layout) equals what the generator writes now."""
+    """Every generated copy (the datapaths, those of the other inverse-inertia modes, the latency package and JSON,
+    the register and stream layout packages and the HLS headers of the register map and the stream layout) equals
+    what the generator writes now."""
     rendered = {p.relative_to(REPO).as_posix() for p in render()}
     assert rendered == {"rtl/generated/pgs_contact_pipe.sv", "rtl/generated/pgs_friction_pipe.sv",
                         "rtl/generated/pgs_contact_pipe_scalar.sv", "rtl/generated/pgs_friction_pipe_scalar.sv",

@@ -1,9 +1,9 @@
-"""Shock propagation on the RTL kernel (``models/golden/shock_propagation.py``): in a shock pass each record's header marks
-the row's frozen body (bits 60, 61) and a linear row (bit 62), and the record carries the shock row's coefficients.
-The sequencer feeds the frozen body's inverse mass and inertia to the pipe as 0 and does not write it back; a linear
-row's inverse inertias enter as 0 and its spin damping is off. ``sim.drive.kernel_step`` compares bit for bit the trace,
-the body-out stream (and the impulse-out stream) with the golden model of the same step. Two builds that other
-tests build too:
+"""Shock propagation on the RTL kernel (``models/golden/shock_propagation.py``): in a shock pass each record's header
+marks the row's frozen body (bits 60, 61) and a linear row (bit 62), and the record carries the shock row's
+coefficients. The sequencer feeds the frozen body's inverse mass and inertia to the pipe as 0 and does not write it
+back; a linear row's inverse inertias enter as 0 and its spin damping is off. ``sim.drive.kernel_step`` compares bit for
+bit the trace, the body-out stream (and the impulse-out stream) with the golden model of the same step. Two builds that
+other tests build too:
 
 * the fp32 records design (impulses in the records, two body banks, ``pgs_kernel_e8m23_c512_ir_bk2_dl65``) on a pile of
   256 cubes, one iteration (every pass a shock pass, linear, the friction pass too, the frozen rows' impulses

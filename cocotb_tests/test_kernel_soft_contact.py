@@ -1,12 +1,12 @@
 """The streaming kernel with the soft contact pipe (``SOFT_CONTACT = 1``, Box2D's soft row of
-``models/golden/soft_contact.py``: each point's accumulated impulse times a per-call keep factor before the add), with the
-impulses in the records (``IMPULSES_IN_RECORDS = 1``: the build the soft closed loop runs on, its relax call
+``models/golden/soft_contact.py``: each point's accumulated impulse times a per-call keep factor before the add), with
+the impulses in the records (``IMPULSES_IN_RECORDS = 1``: the build the soft closed loop runs on, its relax call
 continuing the solve call's impulses).
 
 One Verilator build for every test here (fp32, 512-bit constraint beats: the zcu102 preset's). ``sim.drive.kernel_step``
 compares bit for bit the trace, the body-out stream and the impulse-out stream with the golden model of the same
-step (``solve`` with ``SolverParams.soft_keep``), and ``sim.compare.retire_cycles.compare_run`` every retire cycle, the total
-and the stall and bubble counters with the cycle model's:
+step (``solve`` with ``SolverParams.soft_keep``), and ``sim.compare.retire_cycles.compare_run`` every retire cycle, the
+total and the stall and bubble counters with the cycle model's:
 
 * the pile warm-started (non-zero impulses from the first pass on), keep factors of Box2D's 15 Hz critically
   damped contact at substeps of 1/120 s (two values, neither 1), the options bit set: bit-exact, cycle-exact, and

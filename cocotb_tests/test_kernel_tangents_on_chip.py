@@ -1,9 +1,9 @@
 """The fp32 records design (impulses in the records, two body banks) with the tangent basis derived on chip
 (``TANGENTS_ON_CHIP = 1``): the friction record carries no t0, t1 (512 bits, one 512-bit beat instead of two) and
 ``pgs_friction_pipe_tb`` derives them from the normal (``models/setup/tangent_basis.py``). One Verilator build
-(``pgs_kernel_e8m23_c512_ir_bk2_tb_dl65``, the zcu102 preset's 512-bit beats) for every test here; ``sim.drive.kernel_step``
-compares bit for bit the trace, the body-out stream and the impulse-out stream with the golden model of the same
-step, which solves with the derived tangents (``KernelJob.tangents_derived``):
+(``pgs_kernel_e8m23_c512_ir_bk2_tb_dl65``, the zcu102 preset's 512-bit beats) for every test here;
+``sim.drive.kernel_step`` compares bit for bit the trace, the body-out stream and the impulse-out stream with the golden
+model of the same step, which solves with the derived tangents (``KernelJob.tangents_derived``):
 
 * the pile and the 10-cube stack with random stream gaps and backpressure on every stream (the seed is printed,
   ``SEED=<int>`` overrides it): bit-exact, never faster than the cycle model's lower bound;

@@ -2,14 +2,14 @@
 
 The window kernel reads each manifold's combined record once per fetch and lets the passes of a fetch trail each
 other over an on-chip ring; records of several passes interleave at issue and retire. With the lag at least the
-slot order's band width D (``models.kernel.record_window``), every body sees its updates in the sequential solve's order,
-so the trace (put back into pass order) and the body-out stream must equal the golden model's bit for bit. Built
-once (fp32, a ring of 1,024 records of two issue lanes, ``build/verilator/pgs_kernel_e8m23_c512_w1024x8_l2/``:
-every manifold-pass of a record issues in the same cycle into its lane's pipes) and run in the compiled harness
+slot order's band width D (``models.kernel.record_window``), every body sees its updates in the sequential solve's
+order, so the trace (put back into pass order) and the body-out stream must equal the golden model's bit for bit. Built
+once (fp32, a ring of 1,024 records of two issue lanes, ``build/verilator/pgs_kernel_e8m23_c512_w1024x8_l2/``: every
+manifold-pass of a record issues in the same cycle into its lane's pipes) and run in the compiled harness
 (``sim.drive.kernel_step``) through the zcu102 DMA model with random stream gaps and output backpressure (seeded: the
-seed is printed, ``SEED=<int>`` overrides it). The one-lane window kernel is the same RTL with ``LANES`` = 1
-(linted by ``make lint``; ``make sim RECORD_WINDOW=...`` runs it); CI builds the two-lane one, which exercises
-the lane logic as well.
+seed is printed, ``SEED=<int>`` overrides it). The one-lane window kernel is the same RTL with ``LANES`` = 1 (linted by
+``make lint``; ``make sim RECORD_WINDOW=...`` runs it); CI builds the two-lane one, which exercises the lane logic as
+well.
 
 * bit-exact: a 4x3x4 pile (108 manifolds) and the stack, Bullet's pass order and the interleaved one, one fetch
   per step (all 8 passes trailing each other: the sweep order and the hazard order) and several fetches (2 passes
@@ -22,7 +22,8 @@ the lane logic as well.
 * lanes that collide (the host groups manifolds sharing a dynamic body into one record, error code 4): the later
   lane is rejected in every pass, and the step equals the golden model's with that manifold left out, bit for
   bit;
-* the cycle model (``models/timing/window_cycle_model.py``): with deterministic streams (gap 0, backpressure 0) every retire
+* the cycle model (``models/timing/window_cycle_model.py``): with deterministic streams (gap 0, backpressure 0) every
+retire
   cycle, the stall and bubble counters, the rejected count and the total cycles are the model's, on the two-lane
   build and on a one-lane build (``build/verilator/pgs_kernel_e8m23_c512_w1024x8``, DEPTH 1024): the pile with the
   sweep and hazard orders, one and several fetches, both pass orders, the stack; a larger pile whose fetch is

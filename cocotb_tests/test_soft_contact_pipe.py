@@ -1,8 +1,8 @@
 """The soft contact pipe (``pgs_contact_pipe_soft``, the kernel's SOFT_CONTACT = 1) interpreted in Python
 (``Graph.evaluate``, the software twin of the emitted RTL) against the golden model's soft row
-(``models.golden.contact_solver.contact_solve`` with ``soft_keep``) bit for bit, in every kernel format, on the vectors of
-a golden solve of a stack with speculative points, static and dynamic rows and impulses from earlier passes; with
-``in_soft`` clear it is the rigid pipe bit for bit; its latency is the rigid pipe's. No RTL needed."""
+(``models.golden.contact_solver.contact_solve`` with ``soft_keep``) bit for bit, in every kernel format, on the
+vectors of a golden solve of a stack with speculative points, static and dynamic rows and impulses from earlier
+passes; with ``in_soft`` clear it is the rigid pipe bit for bit; its latency is the rigid pipe's. No RTL needed."""
 
 from __future__ import annotations
 

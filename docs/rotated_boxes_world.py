@@ -3,7 +3,8 @@
 On a static slab, boxes of different extents and masses turned about the vertical and about a tilted axis, and one
 lying across two others: their world inverse inertia ``R diag(1/I) R^T`` is a full symmetric 3x3, so the kernel is
 built with the 6-word body record (``IINV_W = 6``). Every body keeps pybullet's default friction (0.5), so every pair's
-is 0.25, not the kernel's constant 0.7: each friction record carries it (``MU_W = 1``). ``SCENE_ARGS="yaw=0.3 mass=2"`` turns and weighs the boxes."""
+is 0.25, not the kernel's constant 0.7: each friction record carries it (``MU_W = 1``). ``SCENE_ARGS="yaw=0.3
+mass=2"`` turns and weighs the boxes."""
 
 from typing import Any
 

@@ -2,10 +2,10 @@
 
 The testbench ``hls_export/pgs_csim_main.cpp`` is a drop-in for the RTL kernel's Verilator harness: the same
 command line and the same files. So one step runs exactly as ``sim.drive.kernel_step.run_kernel_step`` runs the RTL,
-with the same pieces (``sim.drive.harness_run``, ``sim.compare.trace_bits``): ``write_inputs`` packs the streams (``models/kernel/stream_format.py``),
-``run_harness`` runs the executable, ``read_trace`` / ``compare_trace_bits`` / ``compare_body_out`` compare every
-retired manifold-pass and the body-out stream with ``golden_step``. The trace's cycle field holds the record
-index (C simulation is untimed).
+with the same pieces (``sim.drive.harness_run``, ``sim.compare.trace_bits``): ``write_inputs`` packs the streams
+(``models/kernel/stream_format.py``), ``run_harness`` runs the executable, ``read_trace`` / ``compare_trace_bits`` /
+``compare_body_out`` compare every retired manifold-pass and the body-out stream with ``golden_step``. The trace's cycle
+field holds the record index (C simulation is untimed).
 
 The executable is built with g++ (``-ffp-contract=off``, no ``-ffast-math``) against the Vitis HLS headers
 when they are on the include path (the records design: always the shims, whose streams block across threads), else
@@ -19,15 +19,15 @@ plays the DMA (``hls_export/pgs_csim_dma.h``) and writes the impulse-out records
 checks too. Formats: ``KernelBuild.fmt``'s exponent and mantissa bits (``PGS_EXP_BITS``, ``PGS_MAN_BITS``).
 
 The soft contact build (``PGS_SOFT_CONTACT=1``, the RTL's ``SOFT_CONTACT``: Box2D's soft row, ``lam * keep`` before
-the add, ``models/golden/soft_contact.py``) is built for a ``KernelBuild`` with ``soft_contact``; ``--designs soft`` runs the
-records design with it on the records scenes and formats, warm-started, each step once with the soft row (keep
+the add, ``models/golden/soft_contact.py``) is built for a ``KernelBuild`` with ``soft_contact``; ``--designs soft``
+runs the records design with it on the records scenes and formats, warm-started, each step once with the soft row (keep
 factors of :data:`SOFT_KEEP`, the options bit set) and once rigid (the bit clear), against the golden model of each.
 
 The records design with the tangent basis derived on chip (``PGS_TANGENTS_ON_CHIP=1``, the RTL's
 ``TANGENTS_ON_CHIP``: the friction record carries no t0, t1, the friction pass derives them from n in the format,
-``models/setup/tangent_basis.py``) is built for a ``KernelBuild`` with ``tangents_on_chip`` (and ``impulses_in_records``:
-the C++ refuses it without); ``--designs tangents`` runs it on the records scenes and formats, cold and warm-started,
-against the golden model of ``KernelJob.tangents_derived()``.
+``models/setup/tangent_basis.py``) is built for a ``KernelBuild`` with ``tangents_on_chip`` (and
+``impulses_in_records``: the C++ refuses it without); ``--designs tangents`` runs it on the records scenes and formats,
+cold and warm-started, against the golden model of ``KernelJob.tangents_derived()``.
 
 Shock propagation (``models/golden/shock_propagation.py``: in a shock pass each manifold row may have one body frozen, a
 static body for that row, and a linear row has no inverse inertia and no spin damping) needs no build option: the
@@ -80,7 +80,7 @@ from sim.drive.harness_run import run_harness, write_inputs
 from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import golden_step
 from sim.compare.trace_bits import (Comparison, compare_body_out, compare_impulse_out, compare_trace_bits, read_trace,
-                               writing_passes)
+                                    writing_passes)
 from sim.compile.verilator_build import REPO_ROOT, build_lock
 
 HLS_DIR = Path(__file__).resolve().parent

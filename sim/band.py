@@ -1,18 +1,18 @@
 """``make band``: band width D of every schedule on every scene, and the on-chip budget it implies.
 
 For every scene (``models.scenes.SCENES``, the frame ``make sim`` uses: cached in ``build/frames/`` or captured)
-prints the manifold count and D (``models.order.manifold_schedule.band_width``: the longest run of slots over which one dynamic
-body's manifolds spread) for pybullet's order, the hazard order, and every banded order
-(``models.order.manifold_schedule.BANDED_ORDERS``) before and after the hazard reordering with the kernel's hazard window W of
-each format on the ZCU102 preset (``sim.compile.kernel_build.default_window``). Then, for the budget scene (the thesis
-frame unless ``--budget-scene``), the on-chip bytes (``models.sizing.onchip_budget``) of body state, accumulated impulses
-and the record window of the best banded schedule after hazard reordering, per platform, format, number of passes
-trailing the streaming pass (fetch once per 1, 2 or ITERS iterations) and impulse placement, whether the bytes
-are within the blocks' data bytes, and whether the whole window kernel fits (``sim.fit.resource_model``: its logic, and
-its memories as block RAM with the copies their ports need, which bytes alone do not count).
-Last, the DDR and compute floors per manifold-pass of the budget scene (``models.sizing.onchip_budget.floors``): records
-streamed every pass as today, or fetched once per 1, 2 or ITERS iterations, with 1, 2 or 4 lanes; which floor
-binds, and whether that fetch period's whole kernel with that many lanes fits. Writes the figures to ``build/band/band-s<seed>.json``.
+prints the manifold count and D (``models.order.manifold_schedule.band_width``: the longest run of slots over which one
+dynamic body's manifolds spread) for pybullet's order, the hazard order, and every banded order
+(``models.order.manifold_schedule.BANDED_ORDERS``) before and after the hazard reordering with the kernel's hazard
+window W of each format on the ZCU102 preset (``sim.compile.kernel_build.default_window``). Then, for the budget scene
+(the thesis frame unless ``--budget-scene``), the on-chip bytes (``models.sizing.onchip_budget``) of body state,
+accumulated impulses and the record window of the best banded schedule after hazard reordering, per platform, format,
+number of passes trailing the streaming pass (fetch once per 1, 2 or ITERS iterations) and impulse placement, whether
+the bytes are within the blocks' data bytes, and whether the whole window kernel fits (``sim.fit.resource_model``: its
+logic, and its memories as block RAM with the copies their ports need, which bytes alone do not count). Last, the DDR
+and compute floors per manifold-pass of the budget scene (``models.sizing.onchip_budget.floors``): records streamed
+every pass as today, or fetched once per 1, 2 or ITERS iterations, with 1, 2 or 4 lanes; which floor binds, and whether
+that fetch period's whole kernel with that many lanes fits. Writes the figures to ``build/band/band-s<seed>.json``.
 
     python -m sim.band --seed 1 --iters 4
 """

@@ -6,12 +6,12 @@ being found by file name in the list's folders (``-y``), two runs at a time. A m
 ``EXP_BITS`` / ``MAN_BITS`` parameters is linted with its default parameters and again with the
 binary16 and bfloat16 parameter sets; one with a ``WINDOW`` parameter also as a window kernel; one with an
 ``IINV_W`` parameter also with the 1- and 6-word inverse inertia; one with ``IMPULSES_IN_RECORDS`` also with the
-impulses in the records; one with a ``MU_W`` parameter also with the per-manifold friction word (and both together); one with
-``BODY_BANKS`` also with banked body velocities; one with ``TANGENTS_ON_CHIP`` also with the tangent basis derived on
-chip; one with ``SOFT_CONTACT`` also with the soft contact pipe. A module that its parent instantiates
+impulses in the records; one with a ``MU_W`` parameter also with the per-manifold friction word (and both together); one
+with ``BODY_BANKS`` also with banked body velocities; one with ``TANGENTS_ON_CHIP`` also with the tangent basis derived
+on chip; one with ``SOFT_CONTACT`` also with the soft contact pipe. A module that its parent instantiates
 unconditionally with every one of its parameters passed through (``ELABORATED_BY_PARENT``: the sequencer inside the
-kernel top) is linted as a top with its defaults only: the parent's runs elaborate it with each parameter set.
-Any warning or error makes the exit status non-zero.
+kernel top) is linted as a top with its defaults only: the parent's runs elaborate it with each parameter set. Any
+warning or error makes the exit status non-zero.
 
 Usage: ``python -m sim.lint [-v] [TOP ...]`` (default: every top).
 """
@@ -98,8 +98,8 @@ TANGENT_PARAM_SETS: dict[str, dict[str, int]] = {
     "tangents-records-fp16": {"TANGENTS_ON_CHIP": 1, "IMPULSES_IN_RECORDS": 1, **format_params(FP16)},
     "tangents-onchip-impulses": {"TANGENTS_ON_CHIP": 1},
 }
-# The soft contact pipe (Box2D's soft step, models/golden/soft_contact.py): modules with a SOFT_CONTACT parameter are also
-# linted with it, alone, in fp16 and with the impulses in the records (the build the soft closed loop runs on).
+# The soft contact pipe (Box2D's soft step, models/golden/soft_contact.py): modules with a SOFT_CONTACT parameter are
+# also linted with it, alone, in fp16 and with the impulses in the records (the build the soft closed loop runs on).
 SOFT_PARAM_SETS: dict[str, dict[str, int]] = {
     "soft-contact": {"SOFT_CONTACT": 1},
     "soft-contact-impulses-in-records-fp16": {"SOFT_CONTACT": 1, "IMPULSES_IN_RECORDS": 1, **format_params(FP16)},
@@ -115,8 +115,8 @@ DELAY_PARAM_SETS: dict[str, dict[str, int]] = {
 }
 
 # Modules linted as tops with their default parameters only, because the parent named here instantiates them
-# outside any generate block and passes every parameter the sets vary through (``.P(P)``; checked by :func:`forwarded_params`),
-# so each of the parent's parameter-set runs elaborates them with that set.
+# outside any generate block and passes every parameter the sets vary through (``.P(P)``; checked by
+# :func:`forwarded_params`), so each of the parent's parameter-set runs elaborates them with that set.
 ELABORATED_BY_PARENT: dict[str, str] = {"pgs_sequencer": "pgs_kernel"}
 
 _PARAM_RE = re.compile(r"\bparameter\s+(?:(?:int|integer|logic|bit)\b[^=;,)]*?\s)?\s*(\w+)\s*=")

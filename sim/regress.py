@@ -1,4 +1,5 @@
-"""``make regress SEEDS=N``: the kernel co-simulation over N seeds and more scenes, in parallel (``sim.parallel.executor``).
+"""``make regress SEEDS=N``: the kernel co-simulation over N seeds and more scenes, in parallel
+(``sim.parallel.executor``).
 
 Every case (scene x format x schedule x DMA model, :data:`CASES`) and seed runs the compiled harness
 (``sim.drive.kernel_step``) twice:
@@ -13,8 +14,8 @@ Each point is also a pytest test (``cocotb_tests/test_regress.py``, skipped unle
 1..N, or ``REGRESS_SEED``, one seed, is set), so one failing point reruns alone. ``make regress`` builds the kernels
 and captures the frames first, runs
 every (seed, case) point on ``EXECUTOR`` (``sim/parallel/executor.py``: ``local:JOBS`` by default, ``dask:local:N``,
-``dask:tcp://host:port``; kernels from the hash-keyed store ``sim.compile.artefacts.KernelStore``), and prints every failing
-seed with the command that reproduces it alone::
+``dask:tcp://host:port``; kernels from the hash-keyed store ``sim.compile.artefacts.KernelStore``), and prints every
+failing seed with the command that reproduces it alone::
 
     make regress SEEDS=8 JOBS=2
     make regress SEEDS=8 EXECUTOR=dask:tcp://scheduler:8786

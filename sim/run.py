@@ -10,10 +10,11 @@ into constraints, orders them (hazard schedule by default), and runs the step th
   PGS after N contact and N friction passes"), and the exact limit of the scheme (``models/exact/reference.py``,
   cached beside the frame), against which the errors are measured (``sim/compare/exact_error.py``).
 
-The run's findings are typed (``sim.report.run_result.RunResult``) and rendered once (``sim.report.run_result.sections``):
-it prints a summary and writes ``report.md``/``report.json`` (and, with ``--waves``, ``waves.fst`` plus a
-GTKWave save file) into ``build/sim/<scene>-<format>-it<iters>-s<seed>-<dma>/``. ``--frame FILE`` runs a saved
-frame (``models.formats.frame.save``) instead of the scene's (the run directory is named after the file).
+The run's findings are typed (``sim.report.run_result.RunResult``) and rendered once
+(``sim.report.run_result.sections``): it prints a summary and writes ``report.md``/``report.json`` (and, with
+``--waves``, ``waves.fst`` plus a GTKWave save file) into ``build/sim/<scene>-<format>-it<iters>-s<seed>-<dma>/``.
+``--frame FILE`` runs a saved frame (``models.formats.frame.save``) instead of the scene's (the run directory is named
+after the file).
 
 Bad input (an unknown scene, format or DMA preset, bad parameters, a corrupt, truncated or other-version frame
 file) ends the run with one line ``error: ...`` naming the problem and exit status 2; the run directory is
@@ -56,8 +57,9 @@ from sim.drive.run_options import (add_kernel_args, check_kernel_args, hardware_
 from sim.drive.kernel_step import Golden, KernelResult, golden_step, run_kernel_step
 from sim.report.run_report import StagedDirectory, print_summary, write_report
 from sim.fit.resource_model import kernel_fit
-from sim.report.run_result import AnyRunResult, BitExactness, KernelSpeed, ModelRunResult, RunResult, SceneFacts, \
-    ScheduleFacts, StepErrors, ThesisComparison, VelocityError, WindowFacts, sections, velocity_error
+from sim.report.run_result import (AnyRunResult, BitExactness, KernelSpeed, ModelRunResult, RunResult, SceneFacts,
+                                   ScheduleFacts, StepErrors, ThesisComparison, VelocityError, WindowFacts, sections,
+                                   velocity_error)
 from sim.compare.trace_bits import kernel_bodies
 from sim.compare import retire_cycles
 from models.timing import platforms

@@ -1,20 +1,21 @@
-"""``make stability``: the hard-case suite (``models/closed_loop/hard_cases.py``) over number formats and iteration counts.
+"""``make stability``: the hard-case suite (``models/closed_loop/hard_cases.py``) over number formats and iteration
+counts.
 
 Runs every case closed loop (pybullet collision detection, the bit-accurate golden model of each format, which
 the RTL kernel matches bit for bit) at 1, 4, 10 and 30 iterations, judges it on physical quantities against the
-case's thresholds (``models/closed_loop/hard_cases.py``: penetration against Bullet's slop, each body's largest excursion and
-path length, speeds net of the stored g*dt; every limit with its reason), under each remedy (``--remedies``:
-cold = Bullet GPU, warm = Bullet 2's warm start, warm+subN = warm start and N substeps, ...+soft... = Box2D v3's
-soft step, models/golden/soft_contact.py, every solve and relax call counted; ...shock... = shock propagation,
-models/golden/shock_propagation.py; each priced in kernel
-cycles per step by the cycle model) and writes ``build/stability/stability.md``
-(the limits and the table), ``stability.csv`` and one plot per case (kinetic energy and penetration over the
-steps, ``<case>.png``). Failing rows are findings, reported, not errors: the command exits
-non-zero only when a run crashes.
+case's thresholds (``models/closed_loop/hard_cases.py``: penetration against Bullet's slop, each body's largest
+excursion and path length, speeds net of the stored g*dt; every limit with its reason), under each remedy
+(``--remedies``: cold = Bullet GPU, warm = Bullet 2's warm start, warm+subN = warm start and N substeps, ...+soft... =
+Box2D v3's soft step, models/golden/soft_contact.py, every solve and relax call counted; ...shock... = shock
+propagation, models/golden/shock_propagation.py; each priced in kernel cycles per step by the cycle model) and writes
+``build/stability/stability.md`` (the limits and the table), ``stability.csv`` and one plot per case (kinetic energy and
+penetration over the steps, ``<case>.png``). Failing rows are findings, reported, not errors: the command exits non-zero
+only when a run crashes.
 
-The runs are independent points on ``--executor`` (``sim/parallel/executor.py``: ``local:N``, the default ``local:<jobs>``,
-``dask:local:N`` or ``dask:tcp://host:port``); each finished run is recorded in ``<out>/.points/stability.jsonl``
-and a rerun after a failure resumes from them (the file is removed once the table is written).
+The runs are independent points on ``--executor`` (``sim/parallel/executor.py``: ``local:N``, the default
+``local:<jobs>``, ``dask:local:N`` or ``dask:tcp://host:port``); each finished run is recorded in
+``<out>/.points/stability.jsonl`` and a rerun after a failure resumes from them (the file is removed once the table is
+written).
 
     python -m sim.stability --cases stack20,incline40 --formats fp32,fp16 --iters 4,30 --jobs 2
 """

@@ -4,10 +4,10 @@ For every format and iteration count the RTL kernel runs the step in Verilator (
 bandwidth model, trace and body-out compared bit for bit with the golden model) and the kernel's result is
 compared with the exact limit of the scheme on the same frame (``models/exact/reference.py``, cached beside the
 frame; it depends on no format or schedule, so the driver computes it once and sends it with the points;
-``sim/compare/exact_error.py``: per-body |dv| and |dw|, max, median and p99; without an exact reference those columns say
-``no exact reference`` and why, and the plot has no points).
-``--mode model`` replaces the RTL run by the cycle model's cycles (``models/timing/cycle_model.py``) and the golden model's
-numbers (bit-identical to the kernel's): no Verilator, directory ``build/sweep/<scene>-<dma>-model/``.
+``sim/compare/exact_error.py``: per-body |dv| and |dw|, max, median and p99; without an exact reference those columns
+say ``no exact reference`` and why, and the plot has no points). ``--mode model`` replaces the RTL run by the cycle
+model's cycles (``models/timing/cycle_model.py``) and the golden model's numbers (bit-identical to the kernel's): no
+Verilator, directory ``build/sweep/<scene>-<dma>-model/``.
 
 Every (format, iteration count) is a point (:class:`SweepPoint`) run on ``--executor`` (``sim/parallel/executor.py``:
 ``local:1`` by default, ``local:N``, ``dask:local:N``, ``dask:tcp://host:port``; ``docs/cluster.md``): the workers
@@ -31,19 +31,19 @@ DDR (``IMPULSE_STORE=records`` of ``make sim``); the ``design`` column names eac
 that design fits its platform (``fits``, ``fit``: the first resource that overflows; the plots draw a design that
 does not fit hollow). Both designs solve the same step (bit for bit); their cycles and resources differ.
 
-The golden model's steps are computed once per format for all iteration counts (``models/golden/iteration_ladder.py``: one
-contact run with a snapshot at each count, a friction phase from each, bit-identical to separate runs), and the
+The golden model's steps are computed once per format for all iteration counts (``models/golden/iteration_ladder.py``:
+one contact run with a snapshot at each count, a friction phase from each, bit-identical to separate runs), and the
 float64 steps once per schedule; a worker keeps them for the next point of the same format, so that ``--executor
-local:1`` (the default) solves each format's ladder once. The cycle model runs per (design, format, iterations):
-its cycles depend on the format's record widths and the design's streams, not on the values.
+local:1`` (the default) solves each format's ladder once. The cycle model runs per (design, format, iterations): its
+cycles depend on the format's record widths and the design's streams, not on the values.
 
-The sweep also writes ``pareto.png`` and ``pareto.txt`` (``sim/report/pareto_front.py``): cycles per manifold-pass against
-the error from the exact reference, the fitting designs' front drawn as a line, the thesis's two designs on the
-same axes (their published cycles, our golden model's error at their format and 4 iterations), and by how much
-the front dominates them; on the thesis frame (147,485 manifolds) the two frames are of the same kind.
+The sweep also writes ``pareto.png`` and ``pareto.txt`` (``sim/report/pareto_front.py``): cycles per manifold-pass
+against the error from the exact reference, the fitting designs' front drawn as a line, the thesis's two designs on the
+same axes (their published cycles, our golden model's error at their format and 4 iterations), and by how much the front
+dominates them; on the thesis frame (147,485 manifolds) the two frames are of the same kind.
 
-``--frame FILE`` sweeps a saved frame (``models.formats.frame.save``) instead of the scene's. Bad input (an unknown scene,
-format or DMA preset, bad iteration counts, a corrupt, truncated or other-version frame file) ends the sweep with
+``--frame FILE`` sweeps a saved frame (``models.formats.frame.save``) instead of the scene's. Bad input (an unknown
+scene, format or DMA preset, bad iteration counts, a corrupt, truncated or other-version frame file) ends the sweep with
 one line ``error: ...`` and exit status 2, and the sweep directory appears only once complete
 (``sim.report.run_report.StagedDirectory``): a failed sweep leaves nothing behind.
 
@@ -182,8 +182,9 @@ class SweepPoint:
     sources: str  # sim.compile.artefacts.source_digest() when planned
     impulse_store: str = "onchip"  # the kernel's design: "onchip" or "records"
     schedule: str = "hazard"  # the manifold order (models.order.manifold_schedule; the window kernel's rows: sweep)
-    # every iteration count of the sweep: the worker solves them in one ladder (models/golden/iteration_ladder.py) and keeps
-    # it for the other points of the format; the rows do not depend on it (bit-identical), so the key leaves it out
+    # every iteration count of the sweep: the worker solves them in one ladder (models/golden/iteration_ladder.py) and
+    # keeps it for the other points of the format; the rows do not depend on it (bit-identical), so the key leaves it
+    # out
     ladder: tuple[int, ...] = dataclasses.field(default=(), compare=False)
     # the format's rank in the sweep (the first format highest): its points run one format after the other
     rank: int = dataclasses.field(default=0, compare=False)
@@ -203,8 +204,8 @@ class SweepPoint:
 
     @property
     def cost(self) -> float:
-        """Relative run time (``sim.parallel.executor`` starts the costliest first): the solver passes, plus a start; the
-        format's rank first, so that a worker finishes one format's points (which share its golden ladder) before
+        """Relative run time (``sim.parallel.executor`` starts the costliest first): the solver passes, plus a start;
+        the format's rank first, so that a worker finishes one format's points (which share its golden ladder) before
         the next format's, and an interrupted sweep leaves whole formats done."""
         return self.rank * 1e6 + self.iterations + 1.0
 

@@ -4,9 +4,10 @@ The kernel counts the overflow, underflow and invalid (NaN) flags of every opera
 datapaths, for every issued manifold-pass and every dynamic body's integration (``rtl/README.md``). The
 prediction evaluates the datapaths' graphs (``rtl/gen``, the software twin of the generated RTL, proven equal
 to the golden model by ``test_kernel_pipes.py``) with a counting format on the inputs each issued manifold-pass
-and each body really sees in the golden step (``models.kernel.kernel_vectors.scene_vectors`` in the job's schedule order), the
-contact and friction graphs in the inverse-inertia mode of the job's kernel build (``KernelJob.inertia_words``),
-the friction graph with the coefficient word where the build has it (``KernelJob.friction_words``).
+and each body really sees in the golden step (``models.kernel.kernel_vectors.scene_vectors`` in the job's schedule
+order), the contact and friction graphs in the inverse-inertia mode of the job's kernel build
+(``KernelJob.inertia_words``), the friction graph with the coefficient word where the build has it
+(``KernelJob.friction_words``).
 """
 
 from __future__ import annotations

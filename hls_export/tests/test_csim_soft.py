@@ -1,7 +1,7 @@
 """C simulation of the HLS kernel's soft contact build (PGS_SOFT_CONTACT=1, the RTL's SOFT_CONTACT: Box2D's soft
-row of models/golden/soft_contact.py, each point's accumulated impulse times a per-call keep factor before the add) with the
-impulses in the records, against the golden model (``solve`` with ``SolverParams.soft_keep``) bit for bit in the
-trace, the body-out stream and the impulse-out records: binary16 and binary32 on the pile, warm-started (non-zero
+row of models/golden/soft_contact.py, each point's accumulated impulse times a per-call keep factor before the add)
+with the impulses in the records, against the golden model (``solve`` with ``SolverParams.soft_keep``) bit for bit in
+the trace, the body-out stream and the impulse-out records: binary16 and binary32 on the pile, warm-started (non-zero
 impulses from the first pass on), once with the soft row (two keep factors, neither 1) and once rigid on the same
 build (the options bit clear); a soft job is refused by a build without the soft row."""
 
@@ -12,8 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hls_export.csim import (RECORDS_FORMATS, SOFT_KEEP, build_csim, records_build, run_csim_step, scene_job,
-                             soft_jobs)
+from hls_export.csim import RECORDS_FORMATS, SOFT_KEEP, build_csim, records_build, run_csim_step, scene_job, soft_jobs
 from hls_export.tests.csim_checks import assert_bit_exact
 from sim.drive.harness_run import write_inputs
 from sim.compile.kernel_build import default_window

@@ -9,8 +9,8 @@ overrides).
 
 The derivation alone (hls_export/tests/tangent_basis_main.cpp, pgs_solver.h plane_space) against plane_space_in
 bit for bit in binary16 and binary32 on normals the scenes do not reach: the pile's and the stack's normals all take
-the x branch (|n_z| below the split), so random unit normals of both branches, normals at the split, axis-aligned ones with signed
-zeros, unnormalised ones, random bit patterns and the specials (zero normal, infinities, NaN).
+the x branch (|n_z| below the split), so random unit normals of both branches, normals at the split, axis-aligned ones
+with signed zeros, unnormalised ones, random bit patterns and the specials (zero normal, infinities, NaN).
 
 The tests can fail: the derived basis is not the host's float64 one rounded to the format, and this build's run on
 the pile differs from the golden model of the same step with the host's streamed tangents; the records build

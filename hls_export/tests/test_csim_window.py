@@ -5,13 +5,13 @@ each slot's impulses from pass to pass, the fetch's last pass writing them to m_
 record), which the testbench's DMA writes to the impulse buffer the next fetch's records are read with.
 
 Against the golden model bit for bit in the trace (sorted into the sequential order), the body-out stream and the
-impulse-out records (``sim.compare.trace_bits``): fp32 with one lane and fp16 with two (the RTL's fitting designs), on the
-pile and the stack in the hazard order, cold and warm-started (random initial impulses, seed printed, SEED=
-overrides), 4 and 2 passes per fetch; the sweep order (a banded order: a small lag, many empty lanes); a ring
-smaller than a fetch (the records wrap around it); four lanes (fp16); the kinds interleaved (1 pass per fetch). The argument check: fetches that would serve contact and friction
-passes together end the step at once (error 3, nothing issued, no stream read). Lanes that share a dynamic body (a
-host without the lane plan): the later lane is rejected in every pass (error 4), and the step equals the golden
-model's without those manifolds.
+impulse-out records (``sim.compare.trace_bits``): fp32 with one lane and fp16 with two (the RTL's fitting designs), on
+the pile and the stack in the hazard order, cold and warm-started (random initial impulses, seed printed, SEED=
+overrides), 4 and 2 passes per fetch; the sweep order (a banded order: a small lag, many empty lanes); a ring smaller
+than a fetch (the records wrap around it); four lanes (fp16); the kinds interleaved (1 pass per fetch). The argument
+check: fetches that would serve contact and friction passes together end the step at once (error 3, nothing issued, no
+stream read). Lanes that share a dynamic body (a host without the lane plan): the later lane is rejected in every pass
+(error 4), and the step equals the golden model's without those manifolds.
 
 The tests can fail: the kernel with the impulse ring's read skipped (every pass starting from the record's impulses:
 a variant of pgs_kernel.cpp built in the test's directory) differs, and so does a lag below the band width D (the
@@ -29,8 +29,7 @@ import numpy as np
 import pytest
 
 from hls_export.csim import (CXXFLAGS, HLS_DIR, SOURCES, WINDOW_LANES, build_csim, compile_cpp, csim_defines,
-                             impulse_out_records, run_csim_step, run_written_step, warm_start, window_build,
-                             window_job)
+                             impulse_out_records, run_csim_step, run_written_step, warm_start, window_build, window_job)
 from hls_export.tests.csim_checks import assert_bit_exact
 from models.timing.platforms import get_preset
 from models.kernel.kernel_job import KernelJob

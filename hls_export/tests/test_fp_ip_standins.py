@@ -7,11 +7,10 @@ for binary32 and binary16 and drives it from ``fp_ip_standins_main.cpp``: every 
 per enabled cycle (3 % idle), ``aclken`` = 0 on 30 % of the cycles (seeded: ``SEED=<int>`` overrides, printed).
 The driver checks that each result leaves exactly C_LATENCY enabled cycles after its operands, that nothing
 moves on a disabled cycle, and that no stray tvalid appears; this test checks every result bit for bit
-against ``sim.drive.fp_operator_vectors.golden`` (models/formats/number_format.py), the compare for all 8 predicate codes.
-``test_too_short_latency_fails*`` check the elaboration error (and, built with -Wno-fatal, the same message
-from the simulation at time 0); ``test_generator_*`` run
-``hls_export/fp_ip/standins.py`` on a small hand-written fake export (no real export exists here) and lint the
-wrappers it writes.
+against ``sim.drive.fp_operator_vectors.golden`` (models/formats/number_format.py), the compare for all 8 predicate
+codes. ``test_too_short_latency_fails*`` check the elaboration error (and, built with -Wno-fatal, the same message from
+the simulation at time 0); ``test_generator_*`` run ``hls_export/fp_ip/standins.py`` on a small hand-written fake export
+(no real export exists here) and lint the wrappers it writes.
 """
 
 from __future__ import annotations

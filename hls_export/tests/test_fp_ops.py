@@ -1,7 +1,7 @@
 """The HLS kernel's binary32 operations (hls_export/pgs_fp.h, as C simulation compiles them) against the golden
-arithmetic of models/formats/number_format.py, bit for bit: every pair of special operands, random bit patterns, ordinary
-magnitudes, and products whose exact value lies in the flush window just below the smallest normal number (where
-the host's own float arithmetic, with gradual underflow, rounds to 2^-126 and the golden flushes to zero).
+arithmetic of models/formats/number_format.py, bit for bit: every pair of special operands, random bit patterns,
+ordinary magnitudes, and products whose exact value lies in the flush window just below the smallest normal number
+(where the host's own float arithmetic, with gradual underflow, rounds to 2^-126 and the golden flushes to zero).
 """
 
 from __future__ import annotations

@@ -153,8 +153,9 @@ def call_iterations(iterations: int, remedy: Remedy) -> int:
 
 
 class KernelPricer:
-    """Wraps a stepper factory and prices every kernel call with the exact cycle model (``models/timing/cycle_model.py``,
-    the streaming kernel on ``preset``: body streams in and out of every call included; a float64 loop: NaN)."""
+    """Wraps a stepper factory and prices every kernel call with the exact cycle model
+    (``models/timing/cycle_model.py``, the streaming kernel on ``preset``: body streams in and out of every call
+    included; a float64 loop: NaN)."""
 
     def __init__(self, preset: DmaPreset | None = None) -> None:
         self.preset = preset or get_preset("zcu102")
@@ -183,14 +184,15 @@ class KernelPricer:
 
 
 # the remedies the suite compares (models.closed_loop.loop.Remedy): Bullet GPU's cold start, Bullet 2's warm start,
-# the warm start with Box2D-style substeps (models/golden/substep.py), the last substep relaxed; warm1: Box2D's full warm
-# start (factor 1)
+# the warm start with Box2D-style substeps (models/golden/substep.py), the last substep relaxed; warm1: Box2D's full
+# warm start (factor 1)
 REMEDIES: dict[str, Remedy] = {r.name: r for r in (
     COLD, Remedy("warm", WARMSTART_FACTOR), Remedy("warm+sub2", WARMSTART_FACTOR, 2),
     Remedy("warm+sub4", WARMSTART_FACTOR, 4), Remedy("warm+sub2+relax", WARMSTART_FACTOR, 2, relax=True),
     Remedy("warm1+sub2+relax", 1.0, 2, relax=True),
-    # Box2D v3's soft step (models/golden/soft_contact.py): per substep a soft solve call, the position update and a relax
-    # call (2 substeps x 2 calls x 1 iteration = 8 manifold-passes at 4 iterations), or 4 soft substeps without relax
+    # Box2D v3's soft step (models/golden/soft_contact.py): per substep a soft solve call, the position update and a
+    # relax call (2 substeps x 2 calls x 1 iteration = 8 manifold-passes at 4 iterations), or 4 soft substeps without
+    # relax
     Remedy("soft+sub2+relax", 0.0, 2, relax=True, soft=SoftContact()),
     Remedy("warm+soft+sub2+relax", WARMSTART_FACTOR, 2, relax=True, soft=SoftContact()),
     Remedy("warm1+soft+sub2+relax", 1.0, 2, relax=True, soft=SoftContact()),
@@ -199,8 +201,9 @@ REMEDIES: dict[str, Remedy] = {r.name: r for r in (
     # damping ratio 10, and 15 Hz critically damped (ratio 1), which holds the plank and the pyramid
     Remedy("warm1+soft15+sub2+relax", 1.0, 2, relax=True, soft=SoftContact(hertz=15.0)),
     Remedy("warm1+soft15z1+sub2+relax", 1.0, 2, relax=True, soft=SoftContact(hertz=15.0, damping_ratio=1.0)),
-    # shock propagation (models/golden/shock_propagation.py): ground-up layer order, the last contact pass of each kernel
-    # call (of a soft substep: its relax call) freezes each contact's lower body; "shockf": the last friction pass too
+    # shock propagation (models/golden/shock_propagation.py): ground-up layer order, the last contact pass of each
+    # kernel call (of a soft substep: its relax call) freezes each contact's lower body; "shockf": the last friction
+    # pass too
     Remedy("shock", 0.0, shock=True), Remedy("warm+shock", WARMSTART_FACTOR, shock=True),
     Remedy("warm+shockf", WARMSTART_FACTOR, shock=True, shock_friction=True),
     Remedy("warm1+shock", 1.0, shock=True), Remedy("warm1+shockf", 1.0, shock=True, shock_friction=True),

@@ -14,11 +14,11 @@ friction (per manifold where it differs from the solver's one coefficient); ``bu
 the loop's first state and never updates it; ``world_axes`` (the default) keeps the unrotated diagonal.
 
 A :class:`Remedy` changes how a step is solved, never the contacts: ``warm_factor`` > 0 warm starts every step
-from the previous one's impulses (``models/golden/warm_start.py``: points matched as Bullet 2 matches them, applied on the
-host at setup, the loop carrying the :class:`~models.golden.warm_start.ContactMemory` step to step); ``substeps`` > 1 solves
-a step as that many kernel calls of dt / n (``models/golden/substep.py``); ``soft`` runs Box2D v3's soft step, each substep a
-soft solve call and (``relax``) a relax call (``models/golden/soft_contact.py``); ``shock`` solves ground-up in layers and
-makes the last contact pass of each kernel call (of a soft substep: its relax call) a shock pass
+from the previous one's impulses (``models/golden/warm_start.py``: points matched as Bullet 2 matches them, applied on
+the host at setup, the loop carrying the :class:`~models.golden.warm_start.ContactMemory` step to step); ``substeps`` >
+1 solves a step as that many kernel calls of dt / n (``models/golden/substep.py``); ``soft`` runs Box2D v3's soft step,
+each substep a soft solve call and (``relax``) a relax call (``models/golden/soft_contact.py``); ``shock`` solves
+ground-up in layers and makes the last contact pass of each kernel call (of a soft substep: its relax call) a shock pass
 (``models/golden/shock_propagation.py``), ``shock_friction`` the last friction pass too. :data:`COLD` (the default) is
 Bullet's GPU scheme.
 """

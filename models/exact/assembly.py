@@ -3,8 +3,8 @@ phase over the dynamic bodies' velocities (6 columns per body: v then w), the sp
 and the islands (bodies connected through manifolds between dynamic bodies: independent problems).
 
 The mass matrix M is block diagonal per dynamic body: ``m I3`` on v and the world inertia on w, which is diagonal
-(3 words per body) or the full symmetric 3x3 (6 words, ``models/setup/inertia.py``: rotated non-cube bodies in Bullet 2's
-convention). :class:`Mass` holds M and M^-1 as sparse matrices; for a diagonal table both are ``diags`` of the
+(3 words per body) or the full symmetric 3x3 (6 words, ``models/setup/inertia.py``: rotated non-cube bodies in Bullet
+2's convention). :class:`Mass` holds M and M^-1 as sparse matrices; for a diagonal table both are ``diags`` of the
 per-column values, so the diagonal path's arithmetic (and its cached references) is unchanged."""
 
 from __future__ import annotations
@@ -59,7 +59,8 @@ class Mass:
 
 
 def inverse_inertia_matrices(inv_inertia: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) symmetric matrices of a body table's (N, 3) diagonal or (N, 6) words (``models.setup.inertia.FULL_ORDER``)."""
+    """(N, 3, 3) symmetric matrices of a body table's (N, 3) diagonal or (N, 6) words
+    (``models.setup.inertia.FULL_ORDER``)."""
     v = np.asarray(inv_inertia, dtype=np.float64)
     out = np.zeros((v.shape[0], 3, 3))
     out[:, [0, 1, 2], [0, 1, 2]] = v[:, :3]

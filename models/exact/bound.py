@@ -64,8 +64,9 @@ def contact_phase_bound(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarr
 
 
 def per_body_bounds(bodies: BodyTable, bound: float) -> tuple[float, float]:
-    """(max |dv|, max |dw|) per body from an M-norm bound B: ``|dv| <= B sqrt(1/m)``, ``|dw| <= B sqrt(lambda_max(I^-1))``
-    (the largest eigenvalue of a body's world inverse inertia; its largest diagonal entry when diagonal)."""
+    """(max |dv|, max |dw|) per body from an M-norm bound B: ``|dv| <= B sqrt(1/m)``, ``|dw| <= B
+    sqrt(lambda_max(I^-1))`` (the largest eigenvalue of a body's world inverse inertia; its largest diagonal entry
+    when diagonal)."""
     layout = Layout(bodies)
     return (bound * float(np.sqrt(bodies.inv_mass[bodies.dynamic].max(initial=0.0))),
             bound * float(np.sqrt(layout.max_inv_inertia)))

@@ -26,7 +26,7 @@ from models.setup.constraints import BodyTable, ConstraintSet
 from models.golden.contact_solver import Impulses, SolverParams
 from models.exact import large_island
 from models.exact.reference import (DIRECT_ROWS_LIMIT, SOLVER_TOLERANCE, Budget, ExactReference, ExactReferenceError,
-                              ExactReferenceInterrupted, exact_reference_bounded)
+                                    ExactReferenceInterrupted, exact_reference_bounded)
 from models.exact.large_island import ITERATIVE_TOLERANCE
 
 CACHE_VERSION = 3  # bump whenever the reference computation changes

@@ -74,12 +74,12 @@ import scipy.sparse as sp
 
 from models.setup.constraints import BodyTable, ConstraintSet
 from models.golden.contact_solver import Impulses, SolverParams
-from models.exact.assembly import (EIGEN_TOLERANCE, ExactReferenceError, Layout, Rows, contact_rows,
-                                      friction_limits, friction_rows, islands, island_of_rows, not_a_qp_message,
-                                      spin_rows, spin_rows_off_eigen)
+from models.exact.assembly import (EIGEN_TOLERANCE, ExactReferenceError, Layout, Rows, contact_rows, friction_limits,
+                                   friction_rows, islands, island_of_rows, not_a_qp_message, spin_rows,
+                                   spin_rows_off_eigen)
 from models.exact.damped_friction import damped_friction_phase, regularized_solve
 from models.exact.large_island import (certify, large_contact_phase, large_friction_phase, large_island_solver,
-                                           needs_certificate)
+                                       needs_certificate)
 
 DEFAULT_TIME_BUDGET_S = 600.0
 DEFAULT_MEMORY_BUDGET_BYTES = 8 * 1024 ** 3

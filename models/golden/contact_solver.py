@@ -158,9 +158,10 @@ class _Gathered:
         self.ia, self.ib = bodies.inv_inertia[a], bodies.inv_inertia[b]
 
     def freeze(self, frozen_a: np.ndarray, frozen_b: np.ndarray, linear: np.ndarray) -> None:
-        """A shock pass's rows (models/golden/shock_propagation.py): the frozen body reads as a static one (inverse mass and
-        inertia 0, so it is never written back), and a linear row's bodies have no inverse inertia (no angular
-        write). The kernel does the same: the frozen side's mass words enter its pipe as 0, its write is dropped."""
+        """A shock pass's rows (models/golden/shock_propagation.py): the frozen body reads as a static one (inverse
+        mass and inertia 0, so it is never written back), and a linear row's bodies have no inverse inertia (no
+        angular write). The kernel does the same: the frozen side's mass words enter its pipe as 0, its write is
+        dropped."""
         self.ma = np.where(frozen_a, 0.0, self.ma)
         self.mb = np.where(frozen_b, 0.0, self.mb)
         self.ia = np.where((frozen_a | linear)[:, None], 0.0, self.ia)

@@ -14,8 +14,8 @@ but not written, so the weight of a heavy upper body cannot push lighter lower b
 * the **shock rows**: ``jac_inv`` and ``f_jac_inv`` recomputed on the host (float64, rounded once to the format)
   with the frozen body's inverse mass and inverse inertia 0, ``-1 / K`` with K the other body's terms only.
 
-The solver (``models.golden.contact_solver``, ``SolverParams.shock_contact`` / ``shock_friction``) reads the shock rows and
-the frozen flags of a :class:`ShockConstraintSet` in the last pass of each kind it is asked to shock, and masks the
+The solver (``models.golden.contact_solver``, ``SolverParams.shock_contact`` / ``shock_friction``) reads the shock rows
+and the frozen flags of a :class:`ShockConstraintSet` in the last pass of each kind it is asked to shock, and masks the
 frozen body's velocity write-back there. Every other pass is today's update, bit for bit.
 """
 

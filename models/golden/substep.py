@@ -2,8 +2,8 @@
 
 Box2D v3's soft step (``b2SolverStage``: substeps with the contact bias recomputed from the current separation, warm
 starting across substeps) without its spring-damper mass and impulse scales (those, with the kernel's one added
-multiply, are ``models/golden/soft_contact.py``): here the host only sets, per call, what the kernel already reads, so no
-RTL change is needed:
+multiply, are ``models/golden/soft_contact.py``): here the host only sets, per call, what the kernel already reads, so
+no RTL change is needed:
 
 * the time step of the call (``IntegrationParams.dt`` = dt / n: the kernel integrates positions and adds g dt / n),
 * each point's bias from its separation *now*, Bullet's ``(d + positionDrift) * positionCoeff / (dt / n)``, where

@@ -1,6 +1,6 @@
 """The kernel's catalogue of bad input, defined once (the world files' is ``models/scenes/bad_worlds.py``): each
-case's name, what it makes bad, the error code it raises (``models.kernel.register_map.ErrorCode``) and the kernel's documented response (``rtl/README.md``, "Error
-codes" and "Bad input").
+case's name, what it makes bad, the error code it raises (``models.kernel.register_map.ErrorCode``) and the kernel's
+documented response (``rtl/README.md``, "Error codes" and "Bad input").
 
 Two places make these cases and check them: the bad-input co-simulation (``cocotb_tests/test_kernel_bad_input.py``:
 one scenario per case with :attr:`BadInputCase.cosim`, bit for bit against the golden model's prediction of the

@@ -4,8 +4,8 @@ to every ``rtl/pgs_delay.sv`` of the generated pipes): which builds keep them in
 A delay line at least as deep as the threshold keeps its words in block RAM (``ram_style = "block"``: one simple
 dual-port RAMB18/36 per read tap), a shallower one in LUT RAM (``"distributed"``). The choice moves LUTs into block
 RAM and changes nothing a simulation sees (the same registered reads, the same cycles and bits), so the threshold
-is chosen per build by the resource that binds it: ``sim/fit/resource_model.py`` counts it, ``sim/compile/kernel_build.py``
-passes it to the build.
+is chosen per build by the resource that binds it: ``sim/fit/resource_model.py`` counts it,
+``sim/compile/kernel_build.py`` passes it to the build.
 """
 
 from __future__ import annotations

@@ -35,7 +35,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.setup.constraints import FRICTION_COEFF, BodyTable, ConstraintSet
-from models.golden.contact_solver import CONTACT_PASS, Impulses, SolverParams, _Gathered, contact_solve, friction_solve, solve
+from models.golden.contact_solver import (CONTACT_PASS, Impulses, SolverParams, _Gathered, contact_solve,
+                                          friction_solve, solve)
 from models.setup.inertia import inertia_mode
 from models.golden.integrator import ANGULAR_DAMPING, IntegrationParams, integrate
 from models.formats.number_format import Arithmetic

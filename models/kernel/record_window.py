@@ -4,10 +4,10 @@ one fetch of the records serves.
 The window kernel (``rtl/pgs_window.sv``, a ``pgs_kernel`` built with ``WINDOW`` > 0) reads each manifold's window
 record (``models/kernel/stream_format.py``: contact and friction words together) once per fetch and runs the fetch's
 passes over an on-chip ring of ``depth`` records, pass j trailing pass j-1 by at least ``lag`` slots. With
-``lag`` >= the band width D of the kernel's slot order (``models.order.manifold_schedule.band_width``: every dynamic body's
-manifolds within D consecutive slots), every body sees its updates in the order of the sequential solve, so the
-kernel's result is the golden model's bit for bit while the passes overlap. The kernel checks at ap_start that the
-plan can always progress: ``1 <= fetch_passes <= ctx``, ``lag >= 1`` and ``(fetch_passes - 1) * lag + 2 <= depth``.
+``lag`` >= the band width D of the kernel's slot order (``models.order.manifold_schedule.band_width``: every dynamic
+body's manifolds within D consecutive slots), every body sees its updates in the order of the sequential solve, so the
+kernel's result is the golden model's bit for bit while the passes overlap. The kernel checks at ap_start that the plan
+can always progress: ``1 <= fetch_passes <= ctx``, ``lag >= 1`` and ``(fetch_passes - 1) * lag + 2 <= depth``.
 
 With ``lanes`` > 1 (a kernel built with ``LANES``) each ring record holds the combined records of ``lanes``
 consecutive slots, issued together into ``lanes`` copies of the pipes. The lanes of a record must not share a

@@ -33,8 +33,8 @@ impulse-out        4 words: contact lam[0..3]; friction lamT[0..1], then two zer
                    one after the other -> 4 L W bits rounded up to whole bytes, TLAST on the fetch's last)
 header             bits 31:0 body_a, bits 59:32 body_b, bit 60 frozen A, bit 61 frozen B, bit 62 linear shock, bit 63
                    spin_damp (all record kinds; the three shock bits are set only in a shock pass's records of the
-                   streaming kernel, models/golden/shock_propagation.py: the frozen body enters the pipe with inverse mass
-                   and inertia 0 and is not written; a linear row's bodies with inverse inertia 0, no spin damping)
+                   streaming kernel, models/golden/shock_propagation.py: the frozen body enters the pipe with inverse
+                   mass and inertia 0 and is not written; a linear row's bodies with inverse inertia 0, no spin damping)
 body-in            14 + I words: pos(3), q(4) (x, y, z, w), v(3), w(3), inv_mass(1), inv_inertia(I): I = 1
                    (scalar), 3 (diagonal xx, yy, zz) or 6 (symmetric: xx, yy, zz, xy, xz, yz), the inverse-inertia
                    mode (models/setup/inertia.py); the kernel's build today: I = 3 (17 words)
@@ -78,7 +78,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from models.setup.constraints import BodyTable, ConstraintSet
-from models.golden.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, is_shock_pass, pass_sequence
+from models.golden.contact_solver import (CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, is_shock_pass,
+                                          pass_sequence)
 from models.setup.inertia import InertiaMode, inertia_mode
 from models.formats.number_format import NumberFormat
 from models.golden.shock_propagation import ShockConstraintSet

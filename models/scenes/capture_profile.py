@@ -4,8 +4,8 @@
 Builds the scene, runs its steps, then reads the manifolds four ways in the same world: a query of every body
 (the old capture), a query of a vertex cover of the broadphase, the cover read by forked readers, and by one
 consuming reader; prints the seconds of each, the queries, the manifold count M and the cost of one query, and
-checks that all agree byte for byte. Extrapolation to the thesis frame: a query costs about (M / measured M) times the measured
-query (the server scans every manifold per query), times the number of queries."""
+checks that all agree byte for byte. Extrapolation to the thesis frame: a query costs about (M / measured M) times
+the measured query (the server scans every manifold per query), times the number of queries."""
 
 from __future__ import annotations
 

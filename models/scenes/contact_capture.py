@@ -163,8 +163,8 @@ def _read_rows(client: int, bodies: FrameBodies, in_plan: np.ndarray, share: np.
 
 def _read_forked(client: int, bodies: FrameBodies, in_plan: np.ndarray, queried: np.ndarray,
                  workers: int, consume: bool) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_read_rows` over the pybullet bodies ``queried`` split into ``workers`` contiguous shares, each read by a forked copy of
-    this process (the DIRECT world is in-process memory, copied on write), merged in query order."""
+    """:func:`_read_rows` over the pybullet bodies ``queried`` split into ``workers`` contiguous shares, each read by
+    a forked copy of this process (the DIRECT world is in-process memory, copied on write), merged in query order."""
     shares = np.array_split(queried, workers)
     readers: list[tuple[int, int]] = []
     for share in shares:

@@ -15,10 +15,11 @@ kernel and the Bullet 2 reference assume; passing False is refused). ``data_path
 names the convention of the world's frames (``meta["bullet_convention"]``): ``bullet2``, the default, Bullet 2's
 and pybullet's (the true inertia rotated by the body's orientation, each pair's combined friction: the kernel's
 6-word body record where a body is turned and non-isotropic, its friction word where a pair's friction is not
-0.7), ``bullet_gpu`` or ``world_axes`` (the built-in scenes': the unrotated AABB diagonal and 0.7). ``params`` are ``SCENE_ARGS``, typed by the
-defaults of ``build``'s keyword parameters. The world is y-up with gravity (0, -9.8, 0) unless ``build`` sets
-another; the capture's solver settings (time step, iterations, ...) are applied after ``build``. Bodies become
-frame bodies in creation order (frame body 0 is the first body created: the ground, in the shipped worlds).
+0.7), ``bullet_gpu`` or ``world_axes`` (the built-in scenes': the unrotated AABB diagonal and 0.7). ``params`` are
+``SCENE_ARGS``, typed by the defaults of ``build``'s keyword parameters. The world is y-up with gravity (0, -9.8, 0)
+unless ``build`` sets another; the capture's solver settings (time step, iterations, ...) are applied after ``build``.
+Bodies become frame bodies in creation order (frame body 0 is the first body created: the ground, in the shipped
+worlds).
 
 A **URDF file** ``SCENE=obj.urdf`` is the world: a static ground box (half extent 50, top at y = 0, friction 1)
 and ``count`` copies of the object (default 4) in a row along x, ``pitch`` times the object's size apart

@@ -1,7 +1,7 @@
 """The on-chip memory budget of a banded kernel against a platform's block RAM and UltraRAM.
 
-A banded kernel (``models/order/manifold_schedule.py``, band width D) reads each manifold record from DDR once and runs the
-passes that trail it over an on-chip window of the last D records per trailing pass. What it keeps on chip:
+A banded kernel (``models/order/manifold_schedule.py``, band width D) reads each manifold record from DDR once and runs
+the passes that trail it over an on-chip window of the last D records per trailing pass. What it keeps on chip:
 
 * body state: the body-in record of every body (``BODY_IN_WORDS`` words: pos, q, v, w, 1/m, I^-1), what
   ``rtl/pgs_body_ram.sv`` holds, counted once (a board build replicates it per read/write port; not counted);
@@ -98,9 +98,10 @@ def floors(platform: Platform, fmt: NumberFormat, num_bodies: int, num_manifolds
     ``fetch_every`` = 0 is today's kernel: every pass streams its records as the DMA beats carry them (padding
     included, ``StreamLayout``); when the impulses are not resident they travel in the records (the streaming
     kernel built with IMPULSES_IN_RECORDS: the contact record 4, the friction record 6 words longer, in whole
-    beats) and each pass writes its own back (the contact pass 4, the friction pass 2 words per manifold). ``fetch_every`` = k >= 1 streams a manifold's contact and friction record together
-    once per k iterations, packed back to back (:func:`record_bytes`); when the impulses are not resident they
-    are read and written back with each fetch. Body records go in and out once per step, in stream beats."""
+    beats) and each pass writes its own back (the contact pass 4, the friction pass 2 words per manifold).
+    ``fetch_every`` = k >= 1 streams a manifold's contact and friction record together once per k iterations, packed
+    back to back (:func:`record_bytes`); when the impulses are not resident they are read and written back with each
+    fetch. Body records go in and out once per step, in stream beats."""
     if iterations < 1 or fetch_every < 0 or lanes < 1 or min(num_bodies, num_manifolds) < 0:
         raise ValueError("floors need iterations >= 1, fetch_every >= 0, lanes >= 1 and non-negative counts")
     layout = StreamLayout(fmt)

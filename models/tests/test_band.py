@@ -10,8 +10,9 @@ from models.sizing import onchip_budget as ob
 from models import scenes
 from models.setup.constraints import ConstraintSet, body_table, setup_constraints
 from models.formats.number_format import FP16, FP32
-from models.order.manifold_schedule import (BANDED_ORDERS, SCHEDULE_KINDS, band_width, banded_order, body_spans, hazard_distances,
-                             hazard_order, make_schedule, pybullet_order, rcm_order, stats)
+from models.order.manifold_schedule import (BANDED_ORDERS, SCHEDULE_KINDS, band_width, banded_order, body_spans,
+                                            hazard_distances, hazard_order, make_schedule, pybullet_order, rcm_order,
+                                            stats)
 from models.timing import platforms
 
 

@@ -12,8 +12,8 @@ import pytest
 import pybullet as p
 
 from models import scenes
-from models.golden.bullet2_solver import (SolverSettings, compare_with_pybullet, plane_space, quat_to_matrix, solve_frame,
-                                   solver_order)
+from models.golden.bullet2_solver import (SolverSettings, compare_with_pybullet, plane_space, quat_to_matrix,
+                                          solve_frame, solver_order)
 from models.setup.constraints import body_table, setup_constraints
 from models.formats.frame import Frame
 from models.setup.inertia import InertiaMode

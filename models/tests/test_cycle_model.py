@@ -1,5 +1,5 @@
-"""The kernel's cycle model (models/timing/cycle_model.py, its timing structure models/timing/kernel_shape.py) on hand-derived
-timelines; the RTL comparison is in cocotb_tests/test_pgs_kernel.py (test_kernel_cycles_match_model)."""
+"""The kernel's cycle model (models/timing/cycle_model.py, its timing structure models/timing/kernel_shape.py) on
+hand-derived timelines; the RTL comparison is in cocotb_tests/test_pgs_kernel.py (test_kernel_cycles_match_model)."""
 
 from __future__ import annotations
 

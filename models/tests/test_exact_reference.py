@@ -11,7 +11,8 @@ import pytest
 
 from models import scenes
 from models.setup.constraints import body_table, setup_constraints
-from models.golden.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, run_pass, schedule_levels, solve
+from models.golden.contact_solver import (CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, run_pass,
+                                          schedule_levels, solve)
 from models.exact.reference import Budget, ExactReferenceError, exact_reference
 from models.exact.cache import cache_key, cached_exact_reference
 from models.formats.number_format import FLOAT64

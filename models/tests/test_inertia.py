@@ -7,7 +7,7 @@ import pytest
 
 from models.setup.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.golden.contact_solver import (SolverParams, _Gathered, contact_solve, cross3, dot3, friction_solve, solve,
-                                   solve_sequential)
+                                          solve_sequential)
 from models.formats.frame import Frame
 from models.formats.frame import BulletConvention, convention_of
 from models.setup.inertia import (InertiaMode, convention_inverse_inertia, inertia_product, quat_to_matrix,

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from models.formats.number_format import BF16, FP16, FP32, FpEvents, NumberFormat, ieee_maximum, ieee_minimum, parse_format
+from models.formats.number_format import (BF16, FP16, FP32, FpEvents, NumberFormat, ieee_maximum, ieee_minimum,
+                                          parse_format)
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -1,5 +1,5 @@
-"""The window kernel's plan (models/kernel/record_window.py): lag, passes per fetch, the kernel's argument check, and the
-trace order."""
+"""The window kernel's plan (models/kernel/record_window.py): lag, passes per fetch, the kernel's argument check, and
+the trace order."""
 
 from __future__ import annotations
 

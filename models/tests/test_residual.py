@@ -8,8 +8,8 @@ import pytest
 from models import scenes
 from models.scenes.bullet_profile import parse_chrome_trace
 from models.setup.constraints import body_table, setup_constraints
-from models.golden.contact_solver import CONTACT_PASS, Impulses, SolverParams, run_pass, schedule_levels, solve, \
-    solve_converged
+from models.golden.contact_solver import (CONTACT_PASS, Impulses, SolverParams, run_pass, schedule_levels, solve,
+                                          solve_converged)
 from models.formats.number_format import FLOAT64
 from models.exact.residual import contact_error, contact_residual
 from models.order.manifold_schedule import make_schedule

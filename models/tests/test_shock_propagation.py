@@ -1,5 +1,5 @@
-"""Shock propagation (models/golden/shock_propagation.py): layers and frozen sides on a small stack, the ground-up order,
-the shock rows' coefficients, a frozen body's velocity untouched by a shock row (contact and friction), the
+"""Shock propagation (models/golden/shock_propagation.py): layers and frozen sides on a small stack, the ground-up
+order, the shock rows' coefficients, a frozen body's velocity untouched by a shock row (contact and friction), the
 impulse modes, level vectorization still bit-identical to the sequential loop, and the option off = today's solve,
 bit for bit."""
 
@@ -15,8 +15,8 @@ from models.golden.contact_solver import Impulses, SolverParams, solve, solve_se
 from models.setup.inertia import quadratic_form
 from models.formats.number_format import FLOAT64, FP16, FP32
 from models.order.manifold_schedule import make_schedule
-from models.golden.shock_propagation import (FREEZE_A, FREEZE_B, FREEZE_NONE, UNREACHED, ShockConstraintSet, body_layers,
-                                      frozen_side, layer_order, shock_constraints)
+from models.golden.shock_propagation import (FREEZE_A, FREEZE_B, FREEZE_NONE, UNREACHED, ShockConstraintSet,
+                                             body_layers, frozen_side, layer_order, shock_constraints)
 
 SEED = 20261203
 

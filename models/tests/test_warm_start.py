@@ -13,8 +13,8 @@ from models.golden.contact_solver import Impulses, SolverParams, solve
 from models.exact.reference import exact_reference
 from models.formats.number_format import FLOAT64
 from models.exact.solution_error import solution_error
-from models.golden.warm_start import (MANIFOLD_GONE, NEGATIVE_NORMAL, NONFINITE, POINT_GONE, WARMSTART_FACTOR, ContactMemory,
-                               Contacts, apply_impulses, check_impulses, warm_start)
+from models.golden.warm_start import (MANIFOLD_GONE, NEGATIVE_NORMAL, NONFINITE, POINT_GONE, WARMSTART_FACTOR,
+                                      ContactMemory, Contacts, apply_impulses, check_impulses, warm_start)
 
 SEED = 20261202
 

@@ -1,7 +1,7 @@
-"""The window kernel's cycle model (models/timing/window_cycle_model.py) on a hand-derived timeline and on the rules it must
-keep on random steps (with the impulses on chip, and in the records with and without banked body velocities); the RTL
-comparisons (every retire cycle) are in cocotb_tests/test_kernel_window.py (test_window_cycles_match_model) and
-cocotb_tests/test_kernel_window_records.py (test_cycles_match_model)."""
+"""The window kernel's cycle model (models/timing/window_cycle_model.py) on a hand-derived timeline and on the rules
+it must keep on random steps (with the impulses on chip, and in the records with and without banked body velocities);
+the RTL comparisons (every retire cycle) are in cocotb_tests/test_kernel_window.py (test_window_cycles_match_model)
+and cocotb_tests/test_kernel_window_records.py (test_cycles_match_model)."""
 
 from __future__ import annotations
 
@@ -46,7 +46,8 @@ def test_one_manifold_ideal_timeline() -> None:
     from 5 (accumulator, record register, ring write); passes 0 and 1 start at cycles 0 and 1. Pass 0 takes at 12
     (SOLVE), retires at 12 + 1 + 179; pass 1 is a candidate from 13 (pass 0 done) but the cube is in flight: it
     stalls until one cycle after that retire (193) and retires 180 cycles later, although friction (the friction
-    pipe is delayed to the contact pipe's latency). INTEG from 375, the bodies' 4 body-out beats end at 570, DONE 571."""
+    pipe is delayed to the contact pipe's latency). INTEG from 375, the bodies' 4 body-out beats end at 570, DONE
+    571."""
     p = wm.predict_window(SHAPE, IDEAL, *one_manifold())
     assert p.issue.tolist() == [12, 193] and p.retire.tolist() == [192, 373] and p.ready.tolist() == [5, 5]
     assert p.eligible.tolist() == [5, 13] and p.kind.tolist() == [0, 1] and p.took.tolist() == [[12], [193]]

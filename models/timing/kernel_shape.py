@@ -135,8 +135,8 @@ class StepShape:
     body_b: np.ndarray
     dynamic: np.ndarray  # (N,) the body RAM's flag: the inverse mass's exponent is not zero (after rounding)
     passes: tuple[tuple[int, int], ...]  # (kind, iteration) in stream order
-    # shock propagation (models/golden/shock_propagation.py): per pass whether it is a shock pass, and per slot the body a
-    # shock pass does not write (FREEZE_NONE / FREEZE_A / FREEZE_B); the hazards are those of the other passes
+    # shock propagation (models/golden/shock_propagation.py): per pass whether it is a shock pass, and per slot the body
+    # a shock pass does not write (FREEZE_NONE / FREEZE_A / FREEZE_B); the hazards are those of the other passes
     shock_passes: tuple[bool, ...] = ()
     frozen: np.ndarray | None = None
 

@@ -3,10 +3,10 @@
 :class:`Prediction` holds, per issued manifold-pass, the cycle it became ready, issued and retired and why it waited
 (``CAUSES``), and per step the phase boundaries and the stall and bubble counters. The streaming kernel's model
 (``models/timing/stream_cycle_model.py``) and the window kernel's (``models/timing/window_cycle_model.py``) fill one
-from the same pieces: the harness's DDR token bucket (:class:`DdrBucket`), LOAD (:func:`load_end_cycle`), the banked body
-velocities (:class:`BankWrites`), the impulse-out stream (:class:`ImpulseOut`) and the phases after SOLVE
-(:class:`Tail`: DRAIN, INTEG and the body-out stream, DONE). The conventions (cycle 0, the harness's DMA model) are
-the streaming model's docstring's.
+from the same pieces: the harness's DDR token bucket (:class:`DdrBucket`), LOAD (:func:`load_end_cycle`), the banked
+body velocities (:class:`BankWrites`), the impulse-out stream (:class:`ImpulseOut`) and the phases after SOLVE
+(:class:`Tail`: DRAIN, INTEG and the body-out stream, DONE). The conventions (cycle 0, the harness's DMA model) are the
+streaming model's docstring's.
 """
 
 from __future__ import annotations
@@ -237,9 +237,10 @@ class ImpulseOut:
 
 
 class BankWrites:
-    """Banked body velocities (:mod:`models.kernel.body_banks`) over time: the dynamic bodies the issued manifolds write at
-    their retire, in retire order; a record's reads of bodies A and B are served in a cycle only beside the writes of
-    the manifold retiring then. Ask in time order: the writes retired before the cycle asked for are dropped."""
+    """Banked body velocities (:mod:`models.kernel.body_banks`) over time: the dynamic bodies the issued manifolds
+    write at their retire, in retire order; a record's reads of bodies A and B are served in a cycle only beside the
+    writes of the manifold retiring then. Ask in time order: the writes retired before the cycle asked for are
+    dropped."""
 
     __slots__ = ("banks", "pending")
 

@@ -1,4 +1,5 @@
-"""Cycle model of the streaming PGS kernel (``rtl/pgs_kernel.sv`` without a record window) behind the compiled harness's DMA model.
+"""Cycle model of the streaming PGS kernel (``rtl/pgs_kernel.sv`` without a record window) behind the compiled harness's
+DMA model.
 
 It predicts, without running Verilator, the cycle at which every manifold-pass retires (the ``trace.bin`` cycle
 of ``sim/harness/pgs_kernel_main.cpp``), the kernel's stall and bubble counters and its total cycles

@@ -36,7 +36,8 @@ from rtl.gen.kernel_graphs import GRAPHS, MAN_BITS_OF, MODE_GRAPHS, friction_gra
 from rtl.gen.pipe_latency import LATENCY_PKG, emit_latency_json, emit_latency_pkg
 from rtl.gen.register_map_emit import REGS_HEADER, REGS_PKG, emit_regs_header, emit_regs_pkg
 from rtl.gen.repo_paths import REPO_ROOT
-from rtl.gen.stream_layout_emit import STREAM_LAYOUT_HEADER, STREAM_LAYOUT_PKG, emit_stream_layout_header, emit_stream_layout_pkg
+from rtl.gen.stream_layout_emit import (STREAM_LAYOUT_HEADER, STREAM_LAYOUT_PKG, emit_stream_layout_header,
+                                        emit_stream_layout_pkg)
 from rtl.gen.sv_emit import emit_sv
 from rtl.gen.operator_schedule import schedule
 

@@ -226,7 +226,8 @@ FRICTION_OUT = ["lamT0", "lamT1"] + [f"{v}_{c}" for v in ("vA", "wA", "vB", "wB"
 
 
 def plane_space(g: Graph, n: Vec) -> tuple[Vec, Vec]:
-    """The tangent basis of the normal n, ``models/setup/tangent_basis.py`` ``plane_space_in`` operation by operation."""
+    """The tangent basis of the normal n, ``models/setup/tangent_basis.py`` ``plane_space_in`` operation by
+    operation."""
     m = [(-x).named(f"m_{'xyz'[k]}") for k, x in enumerate(n)]
     one, zero = g.const(1.0, "one"), g.const(0.0, "zero")
     use_z = g.lt(g.const(PLANE_SPACE_SPLIT, "split"), g.max(m[2], -m[2]), name="use_z")

@@ -54,7 +54,8 @@ def _wrap(text: str, prefix: str = "// ", width: int = 100) -> list[str]:
 
 
 def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
-    """The SystemVerilog module of a graph (its structure: this module's and rtl/gen/operator_schedule.py's docstrings)."""
+    """The SystemVerilog module of a graph (its structure: this module's and rtl/gen/operator_schedule.py's
+    docstrings)."""
     sch = schedule(graph, lat)
     lat = sch.lat
     nodes = sch.nodes

@@ -5,8 +5,8 @@ arguments from a :class:`KernelBuild`: the harness of ``make sim``, ``make sweep
 (:func:`build_kernel`), the coverage builds (:func:`verilate_kernel` with the coverage hooks added) and the
 cocotb benches (``sim.drive.cocotb_run.run_kernel_cocotb``). A description is frozen and hashable; its
 :attr:`KernelBuild.name` names its build directory, so two descriptions that differ build apart. A process that
-calls :func:`use_kernel_store` (the executor's points: ``sim/parallel/executor.py``) takes :func:`build_kernel`'s executables
-from a store keyed by the hash of the description instead (``sim.compile.artefacts.KernelStore``).
+calls :func:`use_kernel_store` (the executor's points: ``sim/parallel/executor.py``) takes :func:`build_kernel`'s
+executables from a store keyed by the hash of the description instead (``sim.compile.artefacts.KernelStore``).
 
     kb = KernelBuild.for_job(job, get_preset("zcu102"))
     exe, seconds = build_kernel(kb)  # build/verilator/pgs_kernel_e8m23_c512/pgs_kernel_e8m23_c512
@@ -58,8 +58,8 @@ COMPILE_PROFILES: dict[str, tuple[str, ...]] = {
     "o2native": ("-CFLAGS", "-march=native", "-MAKEFLAGS", "OPT_FAST=-O2 OPT_SLOW=-O0 OPT_GLOBAL=-O1"),
     # two Verilator threads: faster in wall time on an idle 2-core machine, slower in CPU time (make bench)
     "t2": ("--threads", "2", "-MAKEFLAGS", "OPT_FAST=-O1 OPT_SLOW=-O0 OPT_GLOBAL=-O1"),
-    # "quick" with g++'s profile-guided optimization (sim.compile.verilator_build.profile_guided_build): built twice, with a
-    # training run between (the caller's: build_kernel's ``train``)
+    # "quick" with g++'s profile-guided optimization (sim.compile.verilator_build.profile_guided_build): built twice,
+    # with a training run between (the caller's: build_kernel's ``train``)
     "pgo": tuple(QUICK_COMPILE_ARGS),
 }
 PROFILE_GUIDED = frozenset({"pgo"})  # the profiles built with a training run
@@ -206,8 +206,8 @@ class KernelBuild:
 
 def kernel_build_args(kb: KernelBuild, build_dir: Path | None = None, extra_sources: Sequence[Path] = (),
                       extra_cpp_files: Sequence[Path] = (), extra_args: Sequence[str] = ()) -> dict[str, Any]:
-    """The ``sim.compile.verilator_build.build`` keywords of ``kb``'s compiled harness (plus ``extra_*``): what every kernel
-    build runs, and what ``sim.compile.artefacts.build_key`` hashes."""
+    """The ``sim.compile.verilator_build.build`` keywords of ``kb``'s compiled harness (plus ``extra_*``): what every
+    kernel build runs, and what ``sim.compile.artefacts.build_key`` hashes."""
     return {"sources": [*([WAVES_VLT] if kb.waves else []), *kb.sources(), *extra_sources], "top": TOP, "parameters": kb.parameters,
             "cpp_files": [HARNESS, *extra_cpp_files], "build_dir": build_dir, "name": kb.name, "cflags": kb.cflags,
             "extra_args": ["-Wno-fatal", *kb.compile_args, *extra_args]}
@@ -233,8 +233,8 @@ def verilate_kernel(kb: KernelBuild, build_dir: Path | None = None, extra_source
 
 
 class KernelExecutables(Protocol):
-    """Where :func:`build_kernel` takes executables from instead of ``build/verilator`` (``sim.compile.artefacts.KernelStore``:
-    keyed by the hash of the build description)."""
+    """Where :func:`build_kernel` takes executables from instead of ``build/verilator``
+    (``sim.compile.artefacts.KernelStore``: keyed by the hash of the build description)."""
 
     def executable(self, kb: KernelBuild) -> tuple[Path, float]: ...
 

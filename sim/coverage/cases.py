@@ -21,10 +21,9 @@ from models.formats.number_format import FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES, MAKE_SIM_PILE
 from sim.coverage.configurations import BY_NAME, CONFIGURATIONS, Configuration
 from sim.coverage.input_edits import (BAD_INPUT_EDITS, RECORDS_BAD_INPUT_EDITS, WINDOW_BAD_INPUT_EDITS,
-                                      WINDOW_RECORDS_BAD_INPUT_EDITS, Edit,
-                                      HarnessEdit, edit_argument_bits, edit_gravity, edit_huge_sliding,
-                                      edit_huge_velocity, edit_lanes_collide, edit_mass_spread, edit_spin,
-                                      edit_wide_index)
+                                      WINDOW_RECORDS_BAD_INPUT_EDITS, Edit, HarnessEdit, edit_argument_bits,
+                                      edit_gravity, edit_huge_sliding, edit_huge_velocity, edit_lanes_collide,
+                                      edit_mass_spread, edit_spin, edit_wide_index)
 from sim.compile.verilator_build import REPO_ROOT
 
 # world files of Bullet 2's convention (rotated non-cube boxes; boxes, spheres, capsules, cylinders and a cone):

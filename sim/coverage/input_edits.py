@@ -4,8 +4,8 @@ body and constraint streams with their TLAST files), for the coverage regression
 Each :class:`HarnessEdit` names the cases of the bad-input catalogue (``models/kernel/bad_input.py``) it makes (the
 bracketed numbers in the edits' descriptions are the error codes, ``models.kernel.register_map.ErrorCode``);
 :data:`BAD_INPUT_EDITS` makes every catalogue case the harness can make. The other edits (:func:`edit_gravity`,
-:func:`edit_wide_index`, :func:`edit_spin`, :func:`edit_mass_spread`) are not bad input: register operands, body indices and body state the
-test scenes never reach.
+:func:`edit_wide_index`, :func:`edit_spin`, :func:`edit_mass_spread`) are not bad input: register operands, body indices
+and body state the test scenes never reach.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np
 
 from models.kernel.register_map import AP_START, ARG_NAMES, AUTO_RESTART, OFFSET
 from models.kernel.stream_format import (BODY_ANGULAR_VELOCITY, BODY_INV_INERTIA, BODY_INV_MASS, BODY_LINEAR_VELOCITY,
-                                  BODY_POSITION, EMPTY_HEADER)
+                                         BODY_POSITION, EMPTY_HEADER)
 from sim.compile.kernel_build import KernelBuild
 
 UNMAPPED_ADDRESS = 0xF4  # no register there (rtl/README.md: reads 0, ignores writes, SLVERR, error 9)

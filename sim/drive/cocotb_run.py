@@ -8,8 +8,8 @@ next to a GTKWave save file ``<waves_name>.gtkw`` when the caller gives the sign
 (``sim.drive.gtkwave_save``); both paths are printed at the end of the run.
 
 :func:`run_kernel_cocotb` runs a cocotb test module of ``cocotb_tests/`` on the RTL kernel, built from the same
-description as the compiled harness (``sim.compile.kernel_build.KernelBuild``: parameters, sources, compile profile), one
-build per description in ``build/cocotb/<KernelBuild.name>/`` (e.g. ``pgs_kernel_e8m23_c512``), shared by every
+description as the compiled harness (``sim.compile.kernel_build.KernelBuild``: parameters, sources, compile profile),
+one build per description in ``build/cocotb/<KernelBuild.name>/`` (e.g. ``pgs_kernel_e8m23_c512``), shared by every
 kernel test module. The test modules run inside the simulator with the repository and ``cocotb_tests/`` on its
 ``PYTHONPATH``.
 """
@@ -50,9 +50,9 @@ def waves_enabled() -> bool:
 
 
 def split_compile_args(compile_args: Sequence[str]) -> tuple[list[str], list[str]]:
-    """(Verilator options, make variables) of a compile profile of ``sim.compile.verilator_build`` (``QUICK_COMPILE_ARGS``,
-    ``DEBUG_COMPILE_ARGS``): cocotb's runner runs make itself, so the ``-MAKEFLAGS`` value must reach it through
-    the MAKEFLAGS environment variable instead."""
+    """(Verilator options, make variables) of a compile profile of ``sim.compile.verilator_build``
+    (``QUICK_COMPILE_ARGS``, ``DEBUG_COMPILE_ARGS``): cocotb's runner runs make itself, so the ``-MAKEFLAGS`` value
+    must reach it through the MAKEFLAGS environment variable instead."""
     opts, make_vars, args = [], [], list(compile_args)
     while args:
         arg = args.pop(0)

@@ -3,8 +3,8 @@
 The harness streams the packed body table and constraint stream of ``models/kernel/stream_format.py`` into
 ``rtl/pgs_kernel.sv`` through a model of the DMA preset (DDR token bucket shared by the streams, start-up latency
 per MM2S transfer, optional random gaps and backpressure), after programming the kernel with the register writes
-of ``regs.bin`` (offsets from ``models/kernel/register_map.py``). It logs every retired manifold-pass from the trace port
-and the body-out stream to files, and writes the kernel's status and counter registers to ``result.txt``.
+of ``regs.bin`` (offsets from ``models/kernel/register_map.py``). It logs every retired manifold-pass from the trace
+port and the body-out stream to files, and writes the kernel's status and counter registers to ``result.txt``.
 
     sizes = write_inputs(run_dir, job, kb)
     regs = run_harness(exe, run_dir, seed=1, preset=get_preset("zcu102"), max_cycles=harness_cycle_limit(job))
@@ -123,9 +123,9 @@ TRAINING_CYCLES = 300_000
 
 def training_run(run_dir: Path, job: KernelJob, preset: DmaPreset, kb: KernelBuild, seed: int = 1,
                  cycles: int = TRAINING_CYCLES) -> Callable[[Path], None]:
-    """The training run of a profile-guided build (``sim.compile.kernel_build.verilate_kernel``'s ``train``): the harness
-    on the inputs :func:`write_inputs` wrote into ``run_dir`` for ``job`` and ``kb``, stopped after ``cycles``
-    cycles. Its outputs land in ``run_dir``; the run that follows writes them again."""
+    """The training run of a profile-guided build (``sim.compile.kernel_build.verilate_kernel``'s ``train``): the
+    harness on the inputs :func:`write_inputs` wrote into ``run_dir`` for ``job`` and ``kb``, stopped after
+    ``cycles`` cycles. Its outputs land in ``run_dir``; the run that follows writes them again."""
     limit = min(cycles, harness_cycle_limit(job))
 
     def train(exe: Path) -> None:

@@ -25,7 +25,8 @@ from models.kernel.kernel_job import KernelJob
 from models.kernel.register_map import ErrorCode, status_flag
 from sim.drive.harness_run import ProgressSink, harness_cycle_limit, run_harness, training_run, write_inputs
 from sim.compile.kernel_build import KernelBuild, build_kernel
-from sim.compare.trace_bits import Comparison, Trace, compare_body_out, compare_impulse_out, compare_trace_bits, read_trace
+from sim.compare.trace_bits import (Comparison, Trace, compare_body_out, compare_impulse_out, compare_trace_bits,
+                                    read_trace)
 
 
 @dataclass
@@ -93,8 +94,8 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
     ``inertia_words``: the build's inverse-inertia words per body in place of the job's (1, 3 or 6; a body table
     whose mode needs more is refused when its record is packed). ``soft_contact``: run on the soft contact build
     even where the job is rigid (its options bit clear: the rigid update, e.g. a soft step's relax call).
-    ``compile_profile``: how the harness's C++ is compiled (``sim.compile.kernel_build.COMPILE_PROFILES``; a profile-guided
-    one trains on this run's first cycles when it builds)."""
+    ``compile_profile``: how the harness's C++ is compiled (``sim.compile.kernel_build.COMPILE_PROFILES``; a
+    profile-guided one trains on this run's first cycles when it builds)."""
     kb = replace(KernelBuild.for_job(job, preset, waves is not None, body_bits), compile_profile=compile_profile)
     if inertia_words is not None:
         kb = replace(kb, inertia_words=inertia_words)

@@ -1,19 +1,20 @@
 """The RTL kernel as the stepper of a closed loop (``models.closed_loop.loop``): every step runs in the compiled harness
 and must equal the golden model's bit for bit. The default kernel keeps its impulses on chip and starts every step
-from zero: a warm-started loop (``models.closed_loop.loop.Remedy``) is refused on it (:class:`WarmStartUnsupported`). With
-``impulses_in_records=True`` every step runs on the streaming kernel whose impulses travel with the records
+from zero: a warm-started loop (``models.closed_loop.loop.Remedy``) is refused on it (:class:`WarmStartUnsupported`).
+With ``impulses_in_records=True`` every step runs on the streaming kernel whose impulses travel with the records
 (IMPULSES_IN_RECORDS), and a warm start's impulses are the ones the records of each kind's first pass carry.
 
-Shock propagation (``models/golden/shock_propagation.py``) runs on every streaming build: the shock passes' records carry
-the frozen-body bits in their headers and the shock rows' words (``models.kernel.stream_format.pack_constraint_stream``);
-the impulses a ``"return"`` call puts back on its frozen rows are the golden model's, after the kernel's every pass
-matched it. A ``"drop"`` call is refused (:class:`ShockUnsupported`).
+Shock propagation (``models/golden/shock_propagation.py``) runs on every streaming build: the shock passes' records
+carry the frozen-body bits in their headers and the shock rows' words
+(``models.kernel.stream_format.pack_constraint_stream``); the impulses a ``"return"`` call puts back on its frozen rows
+are the golden model's, after the kernel's every pass matched it. A ``"drop"`` call is refused
+(:class:`ShockUnsupported`).
 
-Box2D's soft step (``models/golden/soft_contact.py``: a soft solve call with ``SolverParams.soft_keep``, then a relax call
-that continues its impulses) runs with ``soft_contact=True``: every call on the SOFT_CONTACT build, the solve call
-with the options bit and the keep factors set, the relax call (rigid, the same kernel and records with the relax
-bias) with the bit clear. A soft call asked of a stepper without it is refused (:class:`SoftContactUnsupported`); a
-relax call, which starts from the solve's impulses, needs ``impulses_in_records=True`` too.
+Box2D's soft step (``models/golden/soft_contact.py``: a soft solve call with ``SolverParams.soft_keep``, then a relax
+call that continues its impulses) runs with ``soft_contact=True``: every call on the SOFT_CONTACT build, the solve call
+with the options bit and the keep factors set, the relax call (rigid, the same kernel and records with the relax bias)
+with the bit clear. A soft call asked of a stepper without it is refused (:class:`SoftContactUnsupported`); a relax
+call, which starts from the solve's impulses, needs ``impulses_in_records=True`` too.
 
     run_closed_loop("incline", 5, FP32, 4, stepper=rtl_stepper(get_preset("zcu102"), Path("build/rtl_loop")))
 """
@@ -44,12 +45,14 @@ class WarmStartUnsupported(ValueError):
 
 
 class SoftContactUnsupported(ValueError):
-    """A soft contact call (``SolverParams.soft_keep``, models/golden/soft_contact.py) asked of a kernel build without the
+    """A soft contact call (``SolverParams.soft_keep``, models/golden/soft_contact.py) asked of a kernel build without
+    the
     soft contact pipe, or of a job the soft build does not run (another inverse-inertia mode)."""
 
 
 class ShockUnsupported(ValueError):
-    """A shock pass (``SolverParams.shock_contact`` / ``shock_friction``, models/golden/shock_propagation.py) the RTL kernel
+    """A shock pass (``SolverParams.shock_contact`` / ``shock_friction``, models/golden/shock_propagation.py) the RTL
+    kernel
     does not run: one whose frozen rows keep the impulses they held (``shock_impulses="drop"``; the kernel writes every
     row's new impulses)."""
 

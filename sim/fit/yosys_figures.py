@@ -29,8 +29,8 @@ resource model reads, so a fresh clone answers without Yosys.
 
 Module runs are cached in ``build/resources/<format>/<unit>/`` by a hash of the sources and the script, so a
 second ``make resources`` only prints. The Yosys runs (unit x format) are independent points on ``--executor``
-(``sim/parallel/executor.py``: ``local:N``, by default ``local:<jobs>``, ``dask:local:N`` or ``dask:tcp://host:port``); each
-worker synthesizes from its own checkout's sources and sends back the cell counts. The command is ``make
+(``sim/parallel/executor.py``: ``local:N``, by default ``local:<jobs>``, ``dask:local:N`` or ``dask:tcp://host:port``);
+each worker synthesizes from its own checkout's sources and sends back the cell counts. The command is ``make
 resources`` (``sim/resources.py``).
 """
 
@@ -52,9 +52,9 @@ from rtl.gen.file_list import kernel_sources
 from rtl.gen.operator_timing import MINMAX_LATENCY
 from models.kernel.delay_lines import BLOCK_MIN_DEPTH
 from models.published.thesis import THESIS_BODIES, THESIS_FPGA, THESIS_MANIFOLDS
-from sim.fit.resource_model import (CAM_UNIT, FIGURES_FILE, WINDOW_CONTROL_UNIT, OPERATOR_MODULES, DelayLine, KernelConfig,
-                                Resources, control_unit, delay_line_resources, memories, pipe_resources,
-                                rtl_latency)
+from sim.fit.resource_model import (CAM_UNIT, FIGURES_FILE, WINDOW_CONTROL_UNIT, OPERATOR_MODULES, DelayLine,
+                                    KernelConfig, Resources, control_unit, delay_line_resources, memories,
+                                    pipe_resources, rtl_latency)
 from sim.compile.verilator_build import REPO_ROOT
 
 BUILD = REPO_ROOT / "build" / "resources"

@@ -10,8 +10,9 @@
 A point is a small picklable description (:class:`Point`: a ``key`` that names everything its result depends on, the
 shell ``command`` that reproduces it alone, ``run()`` returning its row: a JSON-serialisable dict, and optionally
 ``cost``, a relative estimate of its run time: the costliest points start first, so that no large point is left to
-run alone at the end while the other workers idle). Workers return rows and small reports, never trace files. What a point needs travels by hash (``sim.compile.artefacts``): a worker
-that lacks a frame answers with its hash and the driver sends the bytes with the point again.
+run alone at the end while the other workers idle). Workers return rows and small reports, never trace files. What a
+point needs travels by hash (``sim.compile.artefacts``): a worker that lacks a frame answers with its hash and the
+driver sends the bytes with the point again.
 
 Faults: a point that raises, or whose worker dies, is reported with its command; the other points finish. With a
 results file (``sim.parallel.point_results.PointLog``) every finished point is recorded as it finishes and a rerun skips

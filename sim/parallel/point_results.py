@@ -1,9 +1,10 @@
 """A results file keyed by point: one JSON line per finished point, so that a rerun resumes from them.
 
-The driver (``sim.parallel.executor.run_points``) appends a line ``{"key": ..., "row": ...}`` as each point finishes, in one
-``write`` on a file opened for appending and flushed to disk: an interrupted run leaves whole lines and at most one
+The driver (``sim.parallel.executor.run_points``) appends a line ``{"key": ..., "row": ...}`` as each point finishes, in
+one ``write`` on a file opened for appending and flushed to disk: an interrupted run leaves whole lines and at most one
 torn last line, which :meth:`PointLog.load` skips (that point runs again). A point's key names everything its row
-depends on (``sim.compile.artefacts.source_digest`` included), so a rerun after a change of sources runs every point again.
+depends on (``sim.compile.artefacts.source_digest`` included), so a rerun after a change of sources runs every point
+again.
 """
 
 from __future__ import annotations

@@ -16,9 +16,9 @@ frames (``models/exact/cache.py``).
 
 The remedies: ``cold`` (the thesis scheme), ``warm`` (``--factor``, Bullet 2's 0.85) and, per ``--more-factors``
 value f, ``warm<f>`` (the same matched impulses at factor f; 1 is Box2D's full warm start), each its own curve;
-with ``--shock`` each warm remedy's shock variant ``<remedy>+shocklr`` (``models/golden/shock_propagation.py``: one call, its
-last contact pass a linear shock pass with the frozen rows' impulses returned, in the step's ground-up layer order,
-priced by the cycle model in that order), and ``<remedy>+shocklrh``, each layer pair of that order in the hazard
+with ``--shock`` each warm remedy's shock variant ``<remedy>+shocklr`` (``models/golden/shock_propagation.py``: one
+call, its last contact pass a linear shock pass with the frozen rows' impulses returned, in the step's ground-up layer
+order, priced by the cycle model in that order), and ``<remedy>+shocklrh``, each layer pair of that order in the hazard
 order of the format's window, each its own curve too.
 
 Each format is solved and priced in ``make sim``'s hazard schedule with the format's window
@@ -26,8 +26,10 @@ Each format is solved and priced in ``make sim``'s hazard schedule with the form
 (``IMPULSE_STORE=records``, ``KernelJob.impulses_travelling``): its first pass reads the host-given impulses, so the
 cold and the warm step stream the same records, one cycle prediction for both (the model reads no impulse value).
 
-    python -m sim.remedies.remedy_price --scene pile --settle 200 --steps 30 --format fp32,fp16 --plot docs/remedy_price_pile.png
-    python -m sim.remedies.remedy_price --scene thesis --from-frames --format fp32,fp16 --plot docs/remedy_price_thesis.png
+    python -m sim.remedies.remedy_price --scene pile --settle 200 --steps 30 --format fp32,fp16 --plot
+    docs/remedy_price_pile.png
+    python -m sim.remedies.remedy_price --scene thesis --from-frames --format fp32,fp16 --plot
+    docs/remedy_price_thesis.png
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ import numpy as np
 from models.closed_loop.loop import Remedy, StepInput, run_closed_loop
 from models.setup.constraints import BodyTable, ConstraintSet, body_table, setup_constraints
 from models.golden.contact_solver import (CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, run_pass,
-                                   schedule_levels, solve)
+                                          schedule_levels, solve)
 from models.timing.cycle_model import predict_job
 from models.timing.platforms import get_preset
 from models.exact.reference import Budget, ExactReference, ExactReferenceError
@@ -59,7 +61,7 @@ from models.scenes.specs import DEFAULT_CAPTURE_STEP
 from models.order.manifold_schedule import make_schedule
 from models.exact.solution_error import solution_error
 from models.golden.warm_start import (WARMSTART_FACTOR, ContactMemory, Contacts, apply_impulses, check_impulses,
-                               warm_start)
+                                      warm_start)
 from sim.compile.kernel_build import default_window
 from sim.remedies.remedy_step_cache import load_step, save_step, step_path
 

@@ -1,6 +1,7 @@
-"""A hard case's closed loop through the RTL kernel (``sim.drive.rtl_stepper``), every call bit-exact with the golden model
-and priced by the kernel's cycle counter beside the cycle model's prediction: Box2D's soft step on the soft contact
-build (SOFT_CONTACT, the impulses in the records), or any other remedy of ``models.closed_loop.hard_cases.REMEDIES``.
+"""A hard case's closed loop through the RTL kernel (``sim.drive.rtl_stepper``), every call bit-exact with the golden
+model and priced by the kernel's cycle counter beside the cycle model's prediction: Box2D's soft step on the soft
+contact build (SOFT_CONTACT, the impulses in the records), or any other remedy of
+``models.closed_loop.hard_cases.REMEDIES``.
 
     python -m sim.remedies.soft_rtl_loop --case incline20 --steps 3 --remedies warm1+soft15z1+sub2+relax,warm1
 
@@ -8,8 +9,9 @@ Per remedy it prints the kernel calls run, the trace and body records compared a
 stepper stops at the first mismatch), the RTL's cycles per measured step against the cycle model's (and the calls
 where they differ), whether the final state equals the golden loop's, and the hard-case judge's verdict over the
 measured steps. The case's warm-up steps run on the golden model (bit-identical to the kernel, and the kernel's
-figures are those of the measured steps; ``--warmup-on-rtl`` runs them through the RTL too). Every remedy runs on the SOFT_CONTACT build with the impulses in the records (one build): a rigid
-call with the soft bit clear, which is the rigid kernel bit for bit and cycle for cycle.
+figures are those of the measured steps; ``--warmup-on-rtl`` runs them through the RTL too). Every remedy runs on the
+SOFT_CONTACT build with the impulses in the records (one build): a rigid call with the soft bit clear, which is the
+rigid kernel bit for bit and cycle for cycle.
 """
 
 from __future__ import annotations

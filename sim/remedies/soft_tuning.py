@@ -1,11 +1,12 @@
 """Tune Box2D's soft contact on the hard cases: a sweep of contact hertz, damping ratio and static stiffness.
 
-Each setting runs the case closed loop (``models.closed_loop.hard_cases.HardCase.run``) under a soft remedy (``--substeps`` n,
-``--relax``: a solve and a relax call per substep; ``--warm-factor``: the warm start between steps, by default in
-full as Box2D's) and prints the verdict with the judged figures, so a setting that passes can be registered in
-``models.closed_loop.hard_cases.REMEDIES``.
+Each setting runs the case closed loop (``models.closed_loop.hard_cases.HardCase.run``) under a soft remedy
+(``--substeps`` n, ``--relax``: a solve and a relax call per substep; ``--warm-factor``: the warm start between steps,
+by default in full as Box2D's) and prints the verdict with the judged figures, so a setting that passes can be
+registered in ``models.closed_loop.hard_cases.REMEDIES``.
 
-    python -m sim.remedies.soft_tuning --cases plank,stack20 --substeps 2 --relax --settings 30:10:2,15:10:2 --format float64
+    python -m sim.remedies.soft_tuning --cases plank,stack20 --substeps 2 --relax --settings 30:10:2,15:10:2 --format
+    float64
 """
 
 from __future__ import annotations

@@ -2,10 +2,10 @@
 
 Each sweep row is a design point (format, design, iterations): x its cycles per manifold-pass (the cycle model's or
 the RTL kernel's), y its error against the exact limit of the scheme (max over dynamic bodies of |dv|, and of
-|dw|: ``sim/compare/exact_error.py``). The front is the fitting points (``fits`` true: ``sim/fit/resource_model.py``) that no
-other fitting point beats on both axes. The thesis's two ZCU102 designs (``models/published/thesis.py``: fp32 and fp16, 4
-iterations) go on the same axes at their published cycles per manifold-pass (their 127,000-manifold frame); their
-error is not published, so theirs is our golden model's of the same format and iteration count on the swept frame
+|dw|: ``sim/compare/exact_error.py``). The front is the fitting points (``fits`` true: ``sim/fit/resource_model.py``)
+that no other fitting point beats on both axes. The thesis's two ZCU102 designs (``models/published/thesis.py``: fp32
+and fp16, 4 iterations) go on the same axes at their published cycles per manifold-pass (their 127,000-manifold frame);
+their error is not published, so theirs is our golden model's of the same format and iteration count on the swept frame
 (the thesis's scheme: contact passes, then friction passes), labelled as such.
 
 :func:`dominance` says by how much the front beats each thesis design: the front's fewest cycles per manifold-pass

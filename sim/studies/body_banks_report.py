@@ -1,7 +1,8 @@
 """Kernel cycles of a scene's step for each count of body-velocity banks (``BODY_BANKS``, models/kernel/body_banks.py),
 with the fit verdict of each (``python -m sim.studies.body_banks_report``; cycle and resource models, no RTL).
 
-    python -m sim.studies.body_banks_report [--scene thesis --format fp32 --dma zcu102 --iters 4 --seed 1 --banks 0,1,2,4,8]
+    python -m sim.studies.body_banks_report [--scene thesis --format fp32 --dma zcu102 --iters 4 --seed 1 --banks
+    0,1,2,4,8]
 
 The streaming kernel with the impulses in the records (the design that banks its velocities). "stall cycles on
 a busy bank" are the stall cycles of the records whose last wait was a busy bank (the cycle model's cause split).

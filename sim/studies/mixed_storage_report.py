@@ -13,7 +13,8 @@ formats within the budget buy (``python -m sim.studies.mixed_storage_report``; m
 5. The mixed design's error against the exact reference where one is cached or solved within
    ``--exact-budget`` seconds, else "no exact reference (reason)".
 
-    python -m sim.studies.mixed_storage_report --scene thesis --search-scene thesis --search-scene-args "nx=12 ny=30 nz=12"
+    python -m sim.studies.mixed_storage_report --scene thesis --search-scene thesis --search-scene-args "nx=12 ny=30
+    nz=12"
     python -m sim.studies.mixed_storage_report --scene pile --storage "positions=e5m20,velocities=e6m19"
 """
 

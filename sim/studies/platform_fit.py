@@ -3,9 +3,10 @@
 For every format, the streaming kernel with the impulses on chip and with them in the records (``make sim
 IMPULSE_STORE=``) in the hazard order, and the window kernel with a ring of ``--ring`` records, 1, 2 or 4 lanes
 (``RECORD_WINDOW= LANES=``), also with the impulses in the records, in the sweep order (its band
-width sets the ring's trailing passes): the cycle model's cycles of the ``--iters``-iteration step at the DMA preset (``models/timing/cycle_model.py``,
-the window kernel's ``models/timing/window_cycle_model.py``), and the resource model's shares of the preset's platform with the verdict (``sim/fit/resource_model.py``, the configuration
-as built: the figures ``make sim`` prints). No golden model runs: seconds per configuration.
+width sets the ring's trailing passes): the cycle model's cycles of the ``--iters``-iteration step at the DMA preset
+(``models/timing/cycle_model.py``, the window kernel's ``models/timing/window_cycle_model.py``), and the resource
+model's shares of the preset's platform with the verdict (``sim/fit/resource_model.py``, the configuration as built: the
+figures ``make sim`` prints). No golden model runs: seconds per configuration.
 
     python -m sim.studies.platform_fit --scene thesis --dma u280 [--formats fp32,fp16,bf16 --iters 4 --ring 16384]
 """

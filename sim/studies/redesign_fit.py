@@ -7,13 +7,13 @@ on chip; body ports as a live-value table or banks: for the streaming kernel the
 ``models.kernel.body_banks`` (2 true dual-port banks, a busy bank stalls the issue: measured by the cycle model, not in
 the floor), for the window kernel 8 banks (``models.kernel.body_banks.WINDOW_BANKS``, any lanes, a record's reads kept
 within their ports by the lane plan); operator figures from Yosys or, where
-published, from Vitis HLS; the pipes' delay lines from 65 deep in LUT RAM or in block RAM, ``models.kernel.delay_lines``) it
-prints the estimated LUT, FF, DSP, BRAM36 and URAM as shares of the platform, the
+published, from Vitis HLS; the pipes' delay lines from 65 deep in LUT RAM or in block RAM,
+``models.kernel.delay_lines``) it prints the estimated LUT, FF, DSP, BRAM36 and URAM as shares of the platform, the
 verdict, and the DDR / compute floor in cycles per manifold-pass of the kernel's fetch schedule
 (``models.sizing.onchip_budget.floors``: the streaming kernel reads every record every pass, the window kernel once per
-step, as the README's window runs with FETCH_PASSES=0 do). Body words and ports change the resources, not the
-floor (busy banks may cost issue slots the floor does not count). Sizes default to the thesis frame (38,881 bodies, 147,485 manifolds) and the README's ring of 16,384
-records.
+step, as the README's window runs with FETCH_PASSES=0 do). Body words and ports change the resources, not the floor
+(busy banks may cost issue slots the floor does not count). Sizes default to the thesis frame (38,881 bodies, 147,485
+manifolds) and the README's ring of 16,384 records.
 
     python -m sim.studies.redesign_fit --platform zcu102 [--bodies 38881 --manifolds 147485 --ring 16384 --iters 4
                                --fetch-every 0]

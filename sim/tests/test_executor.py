@@ -1,8 +1,8 @@
-"""sim.parallel.executor: a sweep on two Dask worker processes (each in its own working directory) gives the serial run's rows,
-row for row; a failing point and a killed worker (local pool, a LocalCluster without retries, and dask:local:2
-with them) are reported with their commands while the other points finish, with progress lines (done, running,
-failed) and the dashboard's address (also a point the local pool takes after a worker died unseen); a rerun resumes
-from the results file; a sweep point's command plans that point alone; the costliest points start first; the
+"""sim.parallel.executor: a sweep on two Dask worker processes (each in its own working directory) gives the serial
+run's rows, row for row; a failing point and a killed worker (local pool, a LocalCluster without retries, and
+dask:local:2 with them) are reported with their commands while the other points finish, with progress lines (done,
+running, failed) and the dashboard's address (also a point the local pool takes after a worker died unseen); a rerun
+resumes from the results file; a sweep point's command plans that point alone; the costliest points start first; the
 kernel store's key is the hash of the kernel build description, its file hashes follow the files."""
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ from sim.compile import artefacts
 from sim.compile import kernel_build
 from sim import sweep as sim_sweep
 from sim.compile.artefacts import FRAME_DIR, FrameStore, build_key
-from sim.parallel.executor import LOCAL_CLUSTER_CONFIG, LocalPool, Outcome, Task, WorkerDied, Workers, parse_executor, \
-    run_points
+from sim.parallel.executor import (LOCAL_CLUSTER_CONFIG, LocalPool, Outcome, Task, WorkerDied, Workers, parse_executor,
+                                   run_points)
 from sim.compile.kernel_build import KernelBuild
 from sim.compile.verilator_build import file_digest
 from sim.parallel.point_results import PointLog

@@ -14,7 +14,7 @@ from models.timing.platforms import get_preset
 from models.kernel.kernel_job import KernelJob
 from models.formats.number_format import FP32
 from sim.drive.gtkwave_save import (NAMED_MARKERS, VIEW_CYCLES, VIEW_LEAD_CYCLES, View, fst_times, kernel_view,
-                              read_phases, save_file_traces, save_file_view, write_kernel_save_file)
+                                    read_phases, save_file_traces, save_file_view, write_kernel_save_file)
 from sim.drive.harness_run import clock_period_ps, harness_cycle_limit, run_harness, write_inputs
 from sim.compile.kernel_build import KernelBuild, build_kernel, default_window
 

@@ -1,5 +1,5 @@
-"""The kernel build description (sim/compile/kernel_build.py) and the harness's register writes (sim/drive/harness_run.py),
-without building anything."""
+"""The kernel build description (sim/compile/kernel_build.py) and the harness's register writes
+(sim/drive/harness_run.py), without building anything."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""sim.studies.platform_fit: a row per built design with the cycle model's cycles (the streaming and the window kernel's) and
-the resource model's verdict on the preset's platform; bad options end with status 2."""
+"""sim.studies.platform_fit: a row per built design with the cycle model's cycles (the streaming and the window
+kernel's) and the resource model's verdict on the preset's platform; bad options end with status 2."""
 
 from __future__ import annotations
 

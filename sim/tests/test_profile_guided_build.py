@@ -1,6 +1,6 @@
-"""The profile-guided build (``sim.compile.verilator_build.profile_guided_build``) on a small top of its own: both stages
-run, the training writes the profile, the finished build is reused until an input changes, a training that writes
-no profile fails without a stamp, and the result computes what the plain build computes."""
+"""The profile-guided build (``sim.compile.verilator_build.profile_guided_build``) on a small top of its own: both
+stages run, the training writes the profile, the finished build is reused until an input changes, a training that
+writes no profile fails without a stamp, and the result computes what the plain build computes."""
 
 from __future__ import annotations
 

@@ -20,8 +20,8 @@ from models.scenes.frame_cache import load_or_capture
 from models.timing.cycle_model import predict_job
 from models.timing.platforms import get_preset
 from sim.compile.kernel_build import default_window
-from sim.remedies.remedy_price import (ERROR_KEYS, SHOCK_HAZARD_SUFFIX, SHOCK_SUFFIX, capture, capture_from_frames, main, price, shock_job,
-                              solve_series, verdict)
+from sim.remedies.remedy_price import (ERROR_KEYS, SHOCK_HAZARD_SUFFIX, SHOCK_SUFFIX, capture, capture_from_frames,
+                                       main, price, shock_job, solve_series, verdict)
 
 TINY = ["--scene", "stack", "--scene-args", "n=4", "--settle", "0", "--steps", "12", "--iters", "1,4"]
 

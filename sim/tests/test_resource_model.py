@@ -94,8 +94,8 @@ def test_delay_lines_in_block_ram() -> None:
 
 
 def test_the_records_design_keeps_its_long_delay_lines_in_block_ram() -> None:
-    """The fp32 records design's build puts its delay lines from 65 deep in block RAM (models/kernel/delay_lines.py), the
-    estimate counts them there, and with the tangent basis derived on chip that is what makes it fit the zcu102
+    """The fp32 records design's build puts its delay lines from 65 deep in block RAM (models/kernel/delay_lines.py),
+    the estimate counts them there, and with the tangent basis derived on chip that is what makes it fit the zcu102
     (87.6% of the LUTs with every line in LUT RAM); the fp16 records design keeps them in LUT RAM."""
     from models.kernel.delay_lines import BLOCK_MIN_DEPTH
     from models.timing.platforms import get_preset

@@ -1,8 +1,8 @@
 """make sweep with several designs: IMPULSE_STORES=onchip,records gives a row per design with the same golden
 errors (the same solve) and each design's own cycles (the cycle model's of that job) and fit; bytes streamed from
 the 1-iteration files equal the N-iteration files'; a resumed sweep's ladders solve only the counts still to do;
-bad designs are refused before any work; --replot draws a finished sweep's csv again; the Pareto front keeps exactly the non-dominated fitting points and says
-by how much it beats the thesis's designs."""
+bad designs are refused before any work; --replot draws a finished sweep's csv again; the Pareto front keeps exactly
+the non-dominated fitting points and says by how much it beats the thesis's designs."""
 
 from __future__ import annotations
 

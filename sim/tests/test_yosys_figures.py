@@ -9,11 +9,11 @@ import re
 from pathlib import Path
 
 from sim.fit.yosys_figures import (DELAY_CHECK_DEPTH, DELAY_CHECK_WIDTH, DELAY_CHECKS, OPERATOR_UNITS, UNITS,
-                                  delay_check_line, memory_resources, parse_stat, prepare_sources, run_unit, summarize,
-                                  yosys_script)
+                                   delay_check_line, memory_resources, parse_stat, prepare_sources, run_unit, summarize,
+                                   yosys_script)
 from models.formats.number_format import BF16, FP16, FP32
 from sim.fit.resource_model import (DelayLine, KernelConfig, bram36_for, delay_line_resources, figures, memories,
-                                rtl_latency)
+                                    rtl_latency)
 
 DATA = Path(__file__).parent / "data"
 
