@@ -101,7 +101,7 @@ def exact_step(bodies: BodyTable, cons: ConstraintSet, ip: IntegrationParams, ca
     return ExactStep(integrate(ref.bodies, FLOAT64, ip), facts)
 
 
-PRIMAL_POINT_KEY = "certified |u - u*|_M of the contact phase (sqrt(kg) m/s)"  # models/exact_reference_large_island
+PRIMAL_POINT_KEY = "certified |u - u*|_M of the contact phase (sqrt(kg) m/s)"  # models/exact/large_island.py
 
 
 def contact_certificate(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarray,
@@ -125,11 +125,11 @@ def contact_certificate(bodies: BodyTable, cons: ConstraintSet, normal: np.ndarr
     if used is None:
         if "reason" in impulse_only:
             return {"certificate": f"none ({impulse_only['reason']})"}
-        return {"certificate": "impulse-only bound, from u(lam) (models/exact_bound.contact_phase_bound)",
+        return {"certificate": "impulse-only bound, from u(lam) (models.exact.bound.contact_phase_bound)",
                 **{k: v for k, v in impulse_only.items() if k.startswith("certified")}}
     dv, dw = per_body_bounds(bodies, used)
     return {"certificate": "primal-point bound, at the interior point's primal iterate (the smaller of it and the "
-                           "impulse-only bound; models/exact_bound._primal_gap), the one the reference was accepted "
+                           "impulse-only bound; models.exact.bound._primal_gap), the one the reference was accepted "
                            "with",
             "certified |u - u*|_M (sqrt(kg) m/s)": used, "certified max |dv| (m/s)": dv,
             "certified max |dw| (rad/s)": dw,
