@@ -19,7 +19,7 @@ PORTS_PER_BANK = 2  # a true dual-port RAMB36E2 / URAM
 RECORDS_BANKS = 2  # the records design's banks (docs/resources.md: cycles and LUTs per bank count)
 # the window kernel's banks per lane with the impulses in the records: it issues a record every cycle, so the banks'
 # ports meet a retire's writes and the offered record's reads (2 each per lane) every cycle; on the thesis frame
-# (cycle model, docs/results.md section 51) one lane in fp32 (ring 8,192) stalls 0.65 cycles per manifold-pass on
+# (cycle model, docs/results/kernel_speed.md) one lane in fp32 (ring 8,192) stalls 0.65 cycles per manifold-pass on
 # a busy bank with 2 banks, 0.32 with 4, 0.0003 with 8; two lanes in fp16 (ring 8,192) 0.24 with 8 banks, 0.034
 # with 16, 0.0075 with 32 (which do not fit the ZCU102's LUTs)
 WINDOW_BANKS = 8

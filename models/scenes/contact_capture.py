@@ -13,7 +13,7 @@ the scan per query is pybullet's floor. What can be cut is the number of queries
 * **forked readers** (``workers`` > 1, for a machine with idle cores): after the step the process forks
   ``workers`` times; each copy of the (single-threaded, in-process) DIRECT world answers a share of the queries
   and the rows are merged in query order. On the shared 2-core machine under load (load average 19) two readers
-  gained nothing (``docs/results.md``), so the default is one;
+  gained nothing (``docs/results/cosim_speed.md``, contact capture at scale), so the default is one;
 * **consuming readers** (worlds whose pairs have one manifold each, as boxes do: the built-in scenes): a forked
   reader removes each body from its copy of the world once queried, so the manifolds already read leave the
   scan and later queries get cheaper (the parent's world is untouched). Where a pair has several manifolds

@@ -46,7 +46,7 @@ VARIANT_ROOT = REPO_ROOT / "build" / "rtl_variants"
 # -fno-inline, which would split the kernel into ~330 C++ files and take longer to build than -O1); "o2" (-O2 for
 # the model's hot code) and "os" (-Os, Verilator's own default: smaller code for a model limited by the
 # instruction cache; faster than "quick" on the thesis frame for several times its C++ compile time, measured in
-# docs/results.md section 15), "o2native" (-O2 -march=native on every file: an
+# docs/results/cosim_speed.md), "o2native" (-O2 -march=native on every file: an
 # executable for this CPU only, never for a shared kernel store) to be measured against "quick" with `make bench`
 # (sim/bench.py) on an idle machine (their two unity-built translation units compile several times
 # longer than at -O1)

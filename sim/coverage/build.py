@@ -6,7 +6,7 @@ The instrumented C++ (161-306 MB per configuration) is compiled with the kernel 
 the model's fast path, -O0 on its slow path: the constructors and the coverage points' registration) by default
 (``COVERAGE_COMPILE_PROFILE``; ``python -m sim.coverage --compile-profile o0``: -O0 everywhere): an -O0 build
 takes less time, but its harness runs about ten times slower, which the regression pays back several times
-(measured in docs/results.md, section "Coverage of the headline configurations"). Verilator splits the C++ into
+(measured in docs/results/test_suite.md). Verilator splits the C++ into
 two groups per path (``-j 2``), each its own compiler process; ccache (``OBJCACHE``, where installed)
 keeps the objects of an unchanged build."""
 

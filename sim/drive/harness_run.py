@@ -116,7 +116,7 @@ def write_inputs(run_dir: Path, job: KernelJob, kb: KernelBuild, turnaround: int
 ProgressSink = Callable[[int, int], None]  # (cycle, trace records so far)
 
 # a profile-guided build's training: the first this many cycles of a run (the whole run when shorter). Measured on
-# the thesis frame (docs/results.md section 52): a profile of the pile's whole step (14,011 cycles) gives that
+# the thesis frame (docs/results/cosim_speed.md): a profile of the pile's whole step (14,011 cycles) gives that
 # step's harness almost the speed-up of one trained on its own first 300,000 cycles
 TRAINING_CYCLES = 300_000
 
