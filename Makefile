@@ -46,7 +46,7 @@ TEST_JOBS ?= 2
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test sim sweep analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
+.PHONY: help venv sysdeps test sim sweep peers analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
 
 help:
 	@echo "make test      run the whole test suite (what CI runs; TEST_JOBS=2 pytest workers)"
@@ -63,6 +63,9 @@ help:
 	@echo "               IMPULSE_STORES=onchip,records: both streaming designs; also the fitting designs' Pareto front)"
 	@echo "               EXECUTOR=local:N|dask:local:N|dask:tcp://host:port spreads the points of sweep,"
 	@echo "               stability, resources and regress (docs/cluster.md); a rerun resumes a failed sweep"
+	@echo "make peers     the FPGA designs against the peers a user would pick instead, on one frame: Bullet's batched"
+	@echo "               GPU scheme in Warp (CPU 1 thread; CUDA where present), MuJoCo PGS, published anchors; time per"
+	@echo "               step, error vs the exact reference, ratios; build/peers/<scene>/peers.md + .png (SCENE= ITERS= PEER_RUNS=7)"
 	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= SCENE_ARGS= ITERS= BUDGET=0.01)"
 	@echo "make band      band width D of every schedule on every scene, on-chip budget of the thesis frame (SEED= ITERS=)"
 	@echo "make stability the hard-case suite closed loop: cases x formats x iterations (CASES= FORMATS= JOBS=2)"
@@ -109,6 +112,10 @@ sim: $(STAMP)
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
 		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE) \
 		--tangents $(TANGENTS) --compile-profile $(COMPILE)
+
+PEER_RUNS ?= 7
+peers: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.peers --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --runs $(PEER_RUNS)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
