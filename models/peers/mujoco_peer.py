@@ -215,13 +215,15 @@ class MujocoFrame:
         return integrate(solved, FLOAT64, ip)
 
     def timed(self, runs: int, ip: IntegrationParams) -> MujocoStep:
-        """The step's timers, median of ``runs`` steps from the frame's state (after one warm-up step)."""
+        """The step's timers, median of ``runs`` steps from the frame's state (after one warm-up step when ``runs`` >
+        1; a single run is the first step, as a user of a model this large gets it)."""
         if runs < 1:
             raise ValueError(f"runs must be >= 1, got {runs}")
         previous = mujoco.get_mjcb_time()
         mujoco.set_mjcb_time(time.perf_counter)
         try:
-            self.step()
+            if runs > 1:
+                self.step()
             samples = []
             for _ in range(runs):
                 self.step()
