@@ -65,7 +65,8 @@ help:
 	@echo "               stability, resources and regress (docs/cluster.md); a rerun resumes a failed sweep"
 	@echo "make peers     the FPGA designs against the peers a user would pick instead, on one frame: Bullet's batched"
 	@echo "               GPU scheme in Warp (CPU 1 thread; CUDA where present), MuJoCo PGS, published anchors; time per"
-	@echo "               step, error vs the exact reference, ratios; build/peers/<scene>/peers.md + .png (SCENE= ITERS= PEER_RUNS=7)"
+	@echo "               step, error vs the exact reference, ratios; build/peers/<scene>/peers.md + .png (SCENE= ITERS= PEER_RUNS=7"
+	@echo "               MUJOCO_BUDGET=600 MUJOCO_MEMORY_GB=12: each MuJoCo model's seconds and address space)"
 	@echo "make analyze   which number formats a scene needs; FORMAT=auto uses it (SCENE= SCENE_ARGS= ITERS= BUDGET=0.01)"
 	@echo "make band      band width D of every schedule on every scene, on-chip budget of the thesis frame (SEED= ITERS=)"
 	@echo "make stability the hard-case suite closed loop: cases x formats x iterations (CASES= FORMATS= JOBS=2)"
@@ -114,8 +115,12 @@ sim: $(STAMP)
 		--tangents $(TANGENTS) --compile-profile $(COMPILE)
 
 PEER_RUNS ?= 7
+# each MuJoCo model runs in a child process within these (the thesis frame needs MUJOCO_BUDGET=2400 MUJOCO_MEMORY_GB=16)
+MUJOCO_BUDGET ?= 600
+MUJOCO_MEMORY_GB ?= 12
 peers: $(STAMP)
-	$(TOOLENV) $(VPY) -m sim.peers --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --runs $(PEER_RUNS)
+	$(TOOLENV) $(VPY) -m sim.peers --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --runs $(PEER_RUNS) \
+		--mujoco-budget $(MUJOCO_BUDGET) --mujoco-memory-gb $(MUJOCO_MEMORY_GB)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)

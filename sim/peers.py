@@ -67,6 +67,7 @@ RING = 8192
 BODY_BITS = 256
 MUJOCO_BLOCKS = (100, 300, 1000, 3000, 10000)  # the scaling study's block sizes (below the frame's own)
 MUJOCO_BLOCKS_FROM = 1000  # frames with more dynamic bodies than this get the scaling study
+CHILD_BASE_BYTES = 3 << 30  # the MuJoCo child's address space besides the arena (Python, numpy, the frame, the model)
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -297,6 +298,14 @@ class MujocoOutcome:
 def run_mujoco_point(point: MujocoPoint, step: Step, budget_s: float, memory_gb: float) -> MujocoOutcome:
     """One MuJoCo model in a child process under ``budget_s`` seconds and ``memory_gb`` of address space."""
     limit = int(memory_gb * (1 << 30))
+    from models.peers.mujoco_peer import arena_bytes
+
+    bodies = point.count or int(step.bodies.dynamic.sum())
+    arena = arena_bytes(bodies, bodies + int(np.count_nonzero(~step.bodies.dynamic)))
+    if arena + CHILD_BASE_BYTES > limit:
+        return MujocoOutcome(point, None, None, 0.0, f"not run: its arena needs {arena / (1 << 30):.1f} GB of address "
+                                                     f"space (the broadphase's share quadratic in the bodies), above the "
+                                                     f"{memory_gb:g} GB cap (--mujoco-memory-gb)")
 
     def cap() -> None:
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))

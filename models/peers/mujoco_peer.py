@@ -26,7 +26,7 @@ difference as well as the iteration error; the converged MuJoCo row shows the mo
   the scheme's bookkeeping by the scheme's own integrator (v + g dt, w * 0.99) before they are compared.
 
 Its limits on large scenes are measured by :func:`scaling` (``sim/peers.py`` reports them): every body in one MJCF
-model, one ``mjData`` arena (``memory``) sized for the contacts.
+model, one ``mjData`` arena (``memory``) sized for the contacts and the broadphase (:func:`arena_bytes`).
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from __future__ import annotations
 import statistics
 import time
 from dataclasses import dataclass
-from typing import Optional, Sequence
+from typing import Optional
 
 import numpy as np
 
@@ -118,10 +118,16 @@ def geom_friction(cons: ConstraintSet, num_bodies: int, friction_coeff: float) -
     return per_body, int(np.count_nonzero(~np.isclose(mujoco_mu, mu, rtol=0, atol=1e-12)))
 
 
-def arena_bytes(dynamic_bodies: int) -> int:
-    """The mjData arena asked for: room for ~8 contacts of 4 pyramid rows per body pair and their Jacobians
-    (measured: 85 to 91 kB a body on blocks of 1,000 and 3,000 bodies of the thesis frame; pages are only touched on use)."""
-    return int(max(64 << 20, dynamic_bodies * (128 << 10)))
+ARENA_PER_BODY = 128 << 10  # contacts, rows and their Jacobians: 85 to 91 kB a body measured on the thesis frame
+BROADPHASE_BYTES_PER_PAIR = 4  # mj_broadphase takes about 2 n^2 bytes of the arena, twice (38,881 geoms: 3.02 GB each)
+
+
+def arena_bytes(dynamic_bodies: int, geoms: int) -> int:
+    """The mjData arena a frame needs (``<size memory>``): the contacts' share per dynamic body (measured: 85 to 91 kB
+    a body on blocks of 1,000 and 3,000 bodies of the thesis frame) and the broadphase's, quadratic in the geoms
+    (``mj_stackAlloc`` asked 3.02 GB for the 38,881 geoms of the thesis frame, with as much already taken). Pages are
+    only touched on use, but the address space is reserved."""
+    return int(max(64 << 20, dynamic_bodies * ARENA_PER_BODY + BROADPHASE_BYTES_PER_PAIR * geoms * geoms))
 
 
 def frame_mjcf(frame: Frame, bodies: BodyTable, geom_mu: np.ndarray, settings: MujocoSettings,
@@ -142,7 +148,7 @@ def frame_mjcf(frame: Frame, bodies: BodyTable, geom_mu: np.ndarray, settings: M
              f'  <option timestep="{float(frame.dt)!r}" gravity="{vec(g)}" solver="PGS" '
              f'iterations="{settings.iterations}" tolerance="{float(settings.tolerance)!r}" cone="{settings.cone}">',
              '    <flag warmstart="disable"/>', '  </option>',
-             f'  <size memory="{arena_bytes(int(dyn.sum()))}"/>', '  <worldbody>']
+             f'  <size memory="{arena_bytes(int(dyn.sum()), int(idx.shape[0]))}"/>', '  <worldbody>']
 
     k_dyn = 0
     for k, body in enumerate(idx.tolist()):
@@ -255,5 +261,3 @@ def nearest_bodies(frame: Frame, dynamic: np.ndarray, count: int) -> np.ndarray:
     chosen = dyn[np.argsort(dist, kind="stable")[:count]]
     return np.sort(np.concatenate([np.flatnonzero(~dynamic), chosen]))
 
-
-SCALING_COUNTS: Sequence[int] = (100, 300, 1000, 3000, 10000, 38880)

@@ -77,3 +77,22 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path: Path) -> None:
                            str(tmp_path / "p")], cwd=REPO, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and proc.stderr.strip().splitlines()[-1] == "error: --iters must be >= 1, got 0"
     assert not (tmp_path / "p").exists()
+
+
+def test_a_mujoco_model_beyond_the_memory_cap_is_not_started() -> None:
+    """The arena a MuJoCo model needs (its broadphase's share quadratic in the bodies) is checked against the child's
+    address-space cap before any child starts."""
+    from models import scenes
+    from models.constraints import body_table, setup_constraints
+    from models.contact_solver import SolverParams
+    from models.integrator import IntegrationParams
+    from sim import peers
+    from sim.run_result import NoExactReference
+
+    frame, label = scenes.load_scene("stack", "", 1)
+    bodies = body_table(frame)
+    step = peers.Step(frame, label, bodies, setup_constraints(frame, bodies), SolverParams(), IntegrationParams(),
+                      NoExactReference("not needed"))
+    out = peers.run_mujoco_point(peers.MujocoPoint("unused.npz", 0, 4, 0.0, 1), step, 60.0, 1.0)
+    assert out.facts is None and out.final is None
+    assert out.failure.startswith("not run: its arena needs 0.1 GB") and "above the 1 GB cap" in out.failure
