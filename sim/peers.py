@@ -62,6 +62,7 @@ from sim.resource_model import FitVerdict, kernel_fit, short_verdict
 from sim.run import load_frame
 from sim.run_result import NoExactReference
 
+REPO = Path(__file__).resolve().parents[1]
 DMA = "zcu102"
 RING = 8192
 BODY_BITS = 256
@@ -315,7 +316,9 @@ def run_mujoco_point(point: MujocoPoint, step: Step, budget_s: float, memory_gb:
         spec.write_text(json.dumps({"point": dataclasses.asdict(point), "out": str(out)}))
         t0 = time.perf_counter()
         try:
-            proc = subprocess.run([sys.executable, "-m", "sim.peers", "--mujoco-child", str(spec)], cwd=Path.cwd(),
+            # in the temporary directory: MuJoCo writes its warnings to MUJOCO_LOG.TXT in the working directory
+            env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))}
+            proc = subprocess.run([sys.executable, "-m", "sim.peers", "--mujoco-child", str(spec)], cwd=tmp, env=env,
                                   capture_output=True, text=True, timeout=budget_s, preexec_fn=cap)
         except subprocess.TimeoutExpired:
             return MujocoOutcome(point, None, None, budget_s, f"did not finish within {budget_s:.0f} s")
@@ -518,7 +521,7 @@ def peers(args: argparse.Namespace, out_dir: Path) -> tuple[list[Row], list[dict
     print("Warp rows done", flush=True)
     scaling: list[dict[str, Any]] = []
     if not args.no_mujoco:
-        frame_path = out_dir / "frame.npz"
+        frame_path = (out_dir / "frame.npz").resolve()  # the child runs in a directory of its own
         save(step.frame, frame_path)
         mj_rows, scaling = mujoco_rows(step, str(frame_path), args)
         frame_path.unlink()

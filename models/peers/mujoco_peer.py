@@ -50,6 +50,13 @@ STEP_TIMER = mujoco.mjtTimer.mjTIMER_STEP
 COLLISION_TIMER = mujoco.mjtTimer.mjTIMER_POS_COLLISION
 MAKE_TIMER = mujoco.mjtTimer.mjTIMER_POS_MAKE
 DEFAULT_ITERATIONS = 100  # MuJoCo's defaults (mjOption)
+# warnings after which a step is not the frame's (contacts or rows left out for want of arena memory)
+DROPPING_WARNINGS = (mujoco.mjtWarning.mjWARN_CONTACTFULL, mujoco.mjtWarning.mjWARN_CNSTRFULL)
+
+
+class MujocoCapacityError(RuntimeError):
+    """A MuJoCo step that left contacts or constraint rows out (its arena was too small)."""
+
 DEFAULT_TOLERANCE = 1e-8
 
 
@@ -210,6 +217,15 @@ class MujocoFrame:
         self.reset()
         mujoco.mj_step(self.model, self.data)
 
+    def _step_within_arena(self) -> None:
+        try:
+            self.step()
+        except mujoco.FatalError as exc:
+            if "out of memory" not in str(exc):
+                raise
+            raise MujocoCapacityError(f"MuJoCo's arena of {self.model.narena:,} bytes is too small for this model: "
+                                      f"{str(exc).splitlines()[0]}") from exc
+
     def final(self, ip: IntegrationParams) -> BodyTable:
         """MuJoCo's post-step velocities (angular ones to world axes at the frame's orientation) for every frame
         body (the others keep the frame's, as the scheme's table holds them), integrated by the scheme's integrator
@@ -229,15 +245,19 @@ class MujocoFrame:
         mujoco.set_mjcb_time(time.perf_counter)
         try:
             if runs > 1:
-                self.step()
+                self._step_within_arena()
             samples = []
             for _ in range(runs):
-                self.step()
+                self._step_within_arena()
                 t = self.data.timer
                 samples.append([t[k].duration * 1e3 for k in (CONSTRAINT_TIMER, STEP_TIMER, COLLISION_TIMER,
                                                                  MAKE_TIMER)])
         finally:
             mujoco.set_mjcb_time(previous)
+        dropped = {w.name: self.data.warning[w].number for w in DROPPING_WARNINGS if self.data.warning[w].number}
+        if dropped:
+            raise MujocoCapacityError(f"MuJoCo dropped contacts or constraint rows ({dropped}): its arena of "
+                                      f"{self.model.narena:,} bytes is too small for this model")
         med = [statistics.median(col) for col in zip(*samples)]
         return MujocoStep(self.settings, int(self.dynamic.shape[0]), int(self.data.ncon), int(self.data.nefc), runs,
                           *med, self.compile_s, self.friction_mismatches, self.final(ip))

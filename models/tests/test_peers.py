@@ -201,3 +201,15 @@ def test_mujoco_model_carries_the_schemes_inertia_and_friction(jenga) -> None:
     per_body, mismatches = mujoco_peer.geom_friction(cons, frame.num_bodies, 0.7)
     assert mismatches == 0  # MuJoCo's max rule gives every manifold the scheme's mu (0.25 block-block, 0.5 ground)
     assert np.allclose(np.maximum(per_body[cons.body_a], per_body[cons.body_b]), cons.friction[:, 0])
+
+
+@pytest.mark.parametrize("arena, says", [(300 << 10, "too small for this model: mj_stackAlloc"),
+                                         (600 << 10, "dropped contacts or constraint rows")])
+def test_a_mujoco_step_beyond_its_arena_is_refused(pile, monkeypatch, tmp_path, arena, says) -> None:
+    """An arena too small for the step makes MuJoCo stop (stack overflow) or leave rows out (only a warning): the peer
+    refuses both instead of timing a step that is not the frame's."""
+    frame, bodies, cons, ip = pile
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warnings to MUJOCO_LOG.TXT here
+    monkeypatch.setattr(mujoco_peer, "arena_bytes", lambda bodies, geoms: arena)
+    with pytest.raises(mujoco_peer.MujocoCapacityError, match=says):
+        mujoco_peer.step_frame(frame, bodies, cons, mujoco_peer.MujocoSettings(4, 0.0), 0.7, ip, runs=1)
