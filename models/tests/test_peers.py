@@ -13,6 +13,7 @@ from models.constraints import body_table, setup_constraints
 from models.contact_solver import SolverParams
 from models.integrator import IntegrationParams
 from models.number_format import FP32
+from models.peers import mujoco_peer, warp_pgs
 from models.peers.batching import (B3_MAX_NUM_BATCHES, BatchingError, Batches, check_batches, determinism_order,
                                    greedy_batches)
 
@@ -99,7 +100,6 @@ def test_determinism_order_sorts_by_signed_bodies_as_unsigned_words() -> None:
 
 
 # --- Warp against the golden model ---------------------------------------------------------------------------------
-warp_pgs = pytest.importorskip("models.peers.warp_pgs")
 
 
 def _warp_and_golden(step, cons32=None):
@@ -171,7 +171,6 @@ def test_cpu_timing_splits_kernels_and_launches(pile) -> None:
 
 
 # --- MuJoCo ---------------------------------------------------------------------------------------------------------
-mujoco_peer = pytest.importorskip("models.peers.mujoco_peer")
 
 
 def test_mujoco_steps_the_frame_with_its_pgs_solver(pile) -> None:
