@@ -46,7 +46,7 @@ TEST_JOBS ?= 2
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test sim sweep analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
+.PHONY: help venv sysdeps test sim sweep peers analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
 
 help:
 	@echo "pgs-cosim: run a PGS kernel's step on a scene, compare it bit for bit, measure its cycles, error and fit."
@@ -61,6 +61,7 @@ help:
 	@echo "                   the fitting designs: SCENE=thesis SCHEDULE=sweep RECORD_WINDOW=8192 IMPULSE_STORE=records"
 	@echo "                   BODY_BITS=256 (fp32), plus FORMAT=fp16 LANES=2"
 	@echo "  make sweep       kernel time against error over SWEEP_ITERS x FORMATS (IMPULSE_STORES=onchip,records, MODE=model)"
+	@echo "  make peers       the same frame on the engines a user could pick instead (Warp, MuJoCo), beside our designs"
 	@echo "  make csim        the HLS C++ kernel (hls_export/) in C simulation, bit for bit against the golden model"
 	@echo ""
 	@echo "verify"
@@ -111,6 +112,14 @@ sim: $(STAMP)
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
 		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE) \
 		--tangents $(TANGENTS) --compile-profile $(COMPILE)
+
+PEER_RUNS ?= 7
+# each MuJoCo model runs in a child process within these (the thesis frame needs MUJOCO_BUDGET=2400 MUJOCO_MEMORY_GB=16)
+MUJOCO_BUDGET ?= 600
+MUJOCO_MEMORY_GB ?= 12
+peers: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.peers --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --runs $(PEER_RUNS) \
+		--mujoco-budget $(MUJOCO_BUDGET) --mujoco-memory-gb $(MUJOCO_MEMORY_GB)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
