@@ -23,12 +23,11 @@ well.
   lane is rejected in every pass, and the step equals the golden model's with that manifold left out, bit for
   bit;
 * the cycle model (``models/timing/window_cycle_model.py``): with deterministic streams (gap 0, backpressure 0) every
-retire
-  cycle, the stall and bubble counters, the rejected count and the total cycles are the model's, on the two-lane
-  build and on a one-lane build (``build/verilator/pgs_kernel_e8m23_c512_w1024x8``, DEPTH 1024): the pile with the
-  sweep and hazard orders, one and several fetches, both pass orders, the stack; a larger pile whose fetch is
-  DDR-bound (bubbles), one with more records than the ring (ring room), rejected lanes (colliding, static pairs),
-  12 passes over 8 contexts with a lag below the band (the pass-start rule; timing only), the ideal DMA.
+  retire cycle, the stall and bubble counters, the rejected count and the total cycles are the model's, on the two-lane
+  build and on a one-lane build (``build/verilator/pgs_kernel_e8m23_c512_w1024x8``, DEPTH 1024): the pile with the sweep
+  and hazard orders, one and several fetches, both pass orders, the stack; a larger pile whose fetch is DDR-bound
+  (bubbles), one with more records than the ring (ring room), rejected lanes (colliding, static pairs), 12 passes over 8
+  contexts with a lag below the band (the pass-start rule; timing only), the ideal DMA.
 """
 
 from __future__ import annotations
