@@ -434,13 +434,15 @@ RATE_WINDOW = 250  # passes over which solve_converged measures the rate at whic
 
 def solve_converged(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arithmetic,
                     tolerance: float = 1e-9, max_passes: int = 1000, time_budget_s: float | None = None,
-                    params: SolverParams = SolverParams()) -> ConvergedResult:
+                    params: SolverParams = SolverParams(), hopeless_after: int = 1000) -> ConvergedResult:
     """The limit of the GPU scheme (contact passes, then friction passes) as the iteration count grows.
 
     Contact passes run until one changes no velocity by more than ``tolerance`` (or ``max_passes``, or the
     time budget, spent evenly between the two kinds), then friction passes likewise. With a time budget a kind
-    also stops once the rate of the last RATE_WINDOW passes says it cannot reach ``tolerance`` within its share
-    (``projected``: the passes it would still need). ``converged`` is False when a limit stopped either loop first.
+    also stops, once past ``hopeless_after`` passes, when the rate of the last RATE_WINDOW passes says it cannot reach
+    ``tolerance`` within its share (``projected``: the passes it would still need; ``make sim`` lifts max_passes
+    and keeps the former cap of 1,000 as ``hopeless_after``, so its iterate is never one of fewer passes than
+    before). ``converged`` is False when a limit stopped either loop first.
     """
     import time
 
@@ -468,7 +470,7 @@ def solve_converged(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray
             if n % RATE_WINDOW == 0 and change > tolerance:
                 need = _passes_needed(history[-RATE_WINDOW - 1] if n > RATE_WINDOW else history[0], change,
                                       RATE_WINDOW if n > RATE_WINDOW else RATE_WINDOW - 1, tolerance)
-                if deadline is not None:
+                if deadline is not None and n >= hopeless_after:
                     left = (deadline - time.monotonic()) / ((time.monotonic() - start) / n)
                     if need > min(left, max_passes - n):
                         break

@@ -87,10 +87,14 @@ def test_converged_solve_stops_when_its_rate_cannot_reach_the_tolerance(pile) ->
 
     bodies, cons, schedule = pile
     t0 = time.monotonic()
-    conv = solve_converged(bodies, cons, schedule, FLOAT64, tolerance=1e-30, max_passes=10 ** 6, time_budget_s=30.0)
+    conv = solve_converged(bodies, cons, schedule, FLOAT64, tolerance=1e-30, max_passes=10 ** 6, time_budget_s=30.0,
+                           hopeless_after=RATE_WINDOW)
     assert time.monotonic() - t0 < 25.0  # stopped by the projection, not the budget
     assert not conv.converged
     assert conv.contact_passes % RATE_WINDOW == 0 and conv.friction_passes % RATE_WINDOW == 0
     assert conv.projected[0] > 0 and conv.projected[1] > 0
     capped = solve_converged(bodies, cons, schedule, FLOAT64, tolerance=1e-30, max_passes=RATE_WINDOW + 7)
     assert capped.contact_passes == RATE_WINDOW + 7  # no budget: no projection stops it
+    patient = solve_converged(bodies, cons, schedule, FLOAT64, tolerance=1e-30, max_passes=2 * RATE_WINDOW + 3,
+                              time_budget_s=30.0, hopeless_after=2 * RATE_WINDOW + 3)
+    assert patient.contact_passes == 2 * RATE_WINDOW + 3  # not judged hopeless before hopeless_after
