@@ -110,6 +110,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     return ap.parse_args(argv)
 
 
+CONVERGED_MAX_PASSES = 1_000_000  # the float64 PGS runs until converged, out of budget or hopeless at its rate
 TANGENT_SOURCES = ("host", "chip")  # make sim's TANGENTS: who computes the friction tangent basis
 
 
@@ -238,7 +239,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     ref = timer.run("float64 reference solve + integrate", _solve_and_integrate, bodies, cons, schedule, params, ip)
     golden = timer.run(f"{fmt.name} golden model solve + integrate", golden_step, job)
     conv = timer.run("converged float64 solve", solve_converged, bodies, cons, schedule, FLOAT64,
-                     time_budget_s=args.converged_budget)
+                     max_passes=CONVERGED_MAX_PASSES, time_budget_s=args.converged_budget)
     exact = timer.run("exact reference (solve or cache)", exact_error.exact_step, bodies, cons, ip,
                       exact_error.reference_dir(args), args.exact_budget, params)
 
@@ -322,7 +323,8 @@ def step_errors(source: str, ours: BodyTable, step: StepInputs, fmt: NumberForma
         exact_error.exact_errors(exact, ours, ref, conv_final, dyn),
         (conv.contact_passes, conv.friction_passes), conv.last_change, bool(conv.converged),
         contact_residual(golden.solved.bodies, step.cons, golden.solved.impulses.normal),
-        contact_residual(conv.result.bodies, step.cons, conv.result.impulses.normal), _error(ours, pb, dyn), *stat)
+        contact_residual(conv.result.bodies, step.cons, conv.result.impulses.normal), _error(ours, pb, dyn), *stat,
+        converged_projected=conv.projected)
 
 
 def model_section(job: KernelJob, preset: DmaPreset, res: KernelResult | None = None,

@@ -77,7 +77,9 @@ from models.golden.contact_solver import Impulses, SolverParams
 from models.exact.assembly import (EIGEN_TOLERANCE, ExactReferenceError, Layout, Rows, contact_rows, friction_limits,
                                    friction_rows, islands, island_of_rows, not_a_qp_message, spin_rows,
                                    spin_rows_off_eigen)
-from models.exact.damped_friction import damped_friction_phase, regularized_solve
+from models.exact.box_lcp import METHODS as BOX_METHODS, BoxProblem, regularized_solve, solve_box
+from models.exact.box_lemke import one_blas_thread
+from models.exact.damped_friction import damped_friction_phase, describe
 from models.exact.large_island import (certify, large_contact_phase, large_friction_phase, large_island_solver,
                                        needs_certificate)
 
@@ -139,6 +141,44 @@ class QpSolution:
 QpSolver = Callable[[QpProblem, float], QpSolution]
 
 
+class InfeasibleQp(ExactReferenceError):
+    """The QP has no feasible point; ``certificate`` is the solver's (``z >= 0`` with ``A^T z = 0``, ``b.z < 0``)."""
+
+    def __init__(self, message: str, certificate: np.ndarray) -> None:
+        super().__init__(message)
+        self.certificate = certificate
+
+
+CERTIFICATE_TOLERANCE = 1e-8  # relative: |J^T y| against |J|^T y, and c.y against |c|.y
+
+
+def no_contact_fixed_point(exc: InfeasibleQp, J: sp.csr_matrix, c: np.ndarray, body_a: np.ndarray,
+                           body_b: np.ndarray) -> ExactReferenceError:
+    """The contact phase's infeasible QP, named: its normal LCP has no solution, so the contact passes have no fixed
+    point (their impulses grow without bound), certified when the solver's Farkas vector verifies: weights
+    ``y >= 0`` on the rows with ``J^T y = 0`` (they cancel in every velocity) and ``c.y < 0`` (their demands do
+    not), so no velocities meet every row's ``J u + c >= 0``. The bodies named are those of the rows with most
+    weight (interlocked or interpenetrating bodies: a compound's children on both sides of another body)."""
+    y = np.maximum(exc.certificate, 0.0)
+    scale = float((abs(J).T @ y).sum())
+    residual = float(np.abs(J.T @ y).sum())
+    demand = float(c @ y)
+    verified = y.size > 0 and demand < -CERTIFICATE_TOLERANCE * float(np.abs(c) @ y) and \
+        residual <= CERTIFICATE_TOLERANCE * max(scale, 1e-300)
+    heavy = np.flatnonzero(y > 1e-3 * float(y.max(initial=0.0)))
+    pairs: dict[tuple[int, int], float] = {}
+    for r in heavy:
+        key = (int(body_a[r]), int(body_b[r]))
+        pairs[key] = pairs.get(key, 0.0) + float(y[r])
+    named = ", ".join(f"{a}-{b}" for (a, b), _ in sorted(pairs.items(), key=lambda kv: -kv[1])[:4])
+    how = (f"certified: weights y >= 0 on {heavy.size} rows that cancel in every velocity (|J^T y| / |J|^T y = "
+           f"{residual / max(scale, 1e-300):.1e}) while their demands do not (c.y / sum(y) = "
+           f"{demand / max(float(y.sum()), 1e-300):.2e} m/s)"
+           if verified else "the solver's certificate does not verify")
+    return ExactReferenceError(f"{exc}: the contact phase has no fixed point (no velocities separate every contact "
+                               f"of the bodies {named}: interlocked or interpenetrating; {how})")
+
+
 def clarabel_solve(prob: QpProblem, time_limit_s: float) -> QpSolution:
     """Solve with Clarabel (interior point, direct sparse LDL); raise ExactReferenceError unless Solved."""
     import clarabel
@@ -161,8 +201,11 @@ def clarabel_solve(prob: QpProblem, time_limit_s: float) -> QpSolution:
                                   f"{sol.iterations} iterations")
     almost = status in ("AlmostSolved", "SolverStatus.AlmostSolved")
     if status not in ("Solved", "SolverStatus.Solved") and not almost:
-        raise ExactReferenceError(f"QP solver stopped with status {status} after {sol.iterations} iterations "
-                                  f"({prob.A.shape[0]} rows, {prob.P.shape[0]} unknowns)")
+        message = (f"QP solver stopped with status {status} after {sol.iterations} iterations ({prob.A.shape[0]} "
+                   f"rows, {prob.P.shape[0]} unknowns)")
+        if "PrimalInfeasible" in status:
+            raise InfeasibleQp(message, np.asarray(sol.z))
+        raise ExactReferenceError(message)
     return QpSolution(np.asarray(sol.x), np.asarray(sol.z), int(sol.iterations), seconds, almost)
 
 
@@ -207,6 +250,9 @@ def _sub(rows: Rows, sel: np.ndarray, cols: np.ndarray) -> tuple[sp.csc_matrix, 
 
 
 # --- active-set polish --------------------------------------------------------------------------------------
+PIVOT_TARGET = 1e-12  # m/s: a contact-phase component above this after the polish is re-solved (models/exact/box_lcp.py)
+SHARPEN_ACCEPT = 1e-10  # m/s: a re-solved component stops trying further methods at this residual
+SHARPEN_KEY = f"contact phase: components above {PIVOT_TARGET:g} m/s after the polish, re-solved"
 POLISH_ROUNDS = 3
 POLISH_REFINEMENTS = 8
 POLISH_REGULARIZATION = 1e-11  # relative to the largest diagonal entry of the reduced system
@@ -244,6 +290,26 @@ def polish_box_qp(H: sp.csc_matrix, g: np.ndarray, y: np.ndarray, lo: np.ndarray
     return best
 
 
+def _sharpen(H: sp.csc_matrix, g: np.ndarray, lam: np.ndarray, clock: _Clock, info: dict[str, float]) -> np.ndarray:
+    """The contact LCP's polished solution with every component still above ``PIVOT_TARGET`` re-solved from it by
+    ``models/exact/box_lcp.py`` (Gauss-Seidel, semismooth Newton, complementary pivoting; H is symmetric positive
+    semidefinite, so Lemke's method ends at a solution), each kept only where it lowers the residual: Clarabel's
+    point carries about 1e-6 relative, which rows of a large effective inverse mass (light, small bodies: 1/I near
+    7e4) turn into residuals of 1e-4 m/s that the active-set polish, on the singular H of coplanar points, does
+    not remove."""
+    lo, hi = np.zeros(g.shape[0]), np.full(g.shape[0], np.inf)
+    if float(box_residual(H, g, lam, lo, hi).max(initial=0.0)) <= PIVOT_TARGET:
+        return lam
+    with one_blas_thread():
+        out, _, how = solve_box(BoxProblem(H.tocsr(), -g, H.diagonal(), lo, hi), lam, SHARPEN_ACCEPT,
+                                time.monotonic() + clock.left(), target=PIVOT_TARGET)
+    for k, name in enumerate(BOX_METHODS):
+        key = f"{SHARPEN_KEY} by {name}"
+        info[key] = info.get(key, 0) + sum(m == k for m in how.methods)
+    info[f"{SHARPEN_KEY}: pivots"] = info.get(f"{SHARPEN_KEY}: pivots", 0) + how.pivots
+    return out
+
+
 def _check_almost(sol: QpSolution, residual: np.ndarray, phase: str) -> None:
     worst = float(residual.max(initial=0.0))
     if sol.almost and not worst <= ALMOST_SOLVED_ACCEPT:
@@ -273,9 +339,13 @@ def _contact_phase(layout: Layout, cons: ConstraintSet, u0: np.ndarray, labels: 
         mass = layout.mass.sub(cols)
         prob = QpProblem(mass.mass.tocsc(), -(mass.mass @ u0[cols]), -J, c, 0, sel.shape[0])
         clock.check_memory(prob)
-        sol = solver(prob, clock.left())
+        try:
+            sol = solver(prob, clock.left())
+        except InfeasibleQp as exc:
+            raise no_contact_fixed_point(exc, J, c, rows.body_a[sel], rows.body_b[sel]) from None
         H = (J @ mass.inv @ J.T).tocsc()
         lam[sel] = polish_box_qp(H, J @ u0[cols] + c, np.maximum(sol.z, 0.0), np.zeros(sel.shape[0]), inf)
+        lam[sel] = _sharpen(H, J @ u0[cols] + c, lam[sel], clock, info)
         _check_almost(sol, box_residual(H, J @ u0[cols] + c, lam[sel], np.zeros(sel.shape[0]), inf), "contact")
         info["contact QP iterations (largest island)"] = max(info.get("contact QP iterations (largest island)", 0),
                                                              sol.iterations)
@@ -324,6 +394,12 @@ def _friction_phase(layout: Layout, cons: ConstraintSet, u1: np.ndarray, normal:
             lam_rows[sel] = y[:nr]
             spin[ssel] = y[nr:]
             continue
+        if not qp:  # the non-symmetric box problem (its own methods, from the kernel's start)
+            lam_rows[sel], damped_u = damped_friction_phase(J, c, Ns, mass, u1[cols], L[sel], info,
+                                                            not_a_qp_message(layout, N, off_eigen, ssel),
+                                                            clock.left())
+            damped[int(group[0])] = (cols, damped_u)
+            continue
         P = (G @ mass.inv @ G.T).tocsc()
         eye = sp.identity(nr, format="csc")
         A = sp.vstack([sp.hstack([eye, sp.csc_matrix((nr, ns))]), sp.hstack([-eye, sp.csc_matrix((nr, ns))])],
@@ -333,11 +409,6 @@ def _friction_phase(layout: Layout, cons: ConstraintSet, u1: np.ndarray, normal:
         sol = solver(prob, clock.left())
         info["friction QP iterations (largest island)"] = max(
             info.get("friction QP iterations (largest island)", 0), sol.iterations)
-        if not qp:  # the QP's solution starts the non-symmetric problem's Newton iteration
-            lam_rows[sel], damped_u = damped_friction_phase(J, c, Ns, mass, u1[cols], L[sel], sol.x[:nr], info,
-                                                            not_a_qp_message(layout, N, off_eigen, ssel))
-            damped[int(group[0])] = (cols, damped_u)
-            continue
         y = polish_box_qp(P, q, sol.x, lo, hi)
         _check_almost(sol, box_residual(P, q, y, lo, hi), "friction")
         lam_rows[sel] = y[:nr]
@@ -421,6 +492,8 @@ def exact_reference(bodies: BodyTable, cons: ConstraintSet, params: SolverParams
     name = solver_name or f"clarabel {_clarabel_version()}"
     if needs_certificate(info):
         name += f"; an island above {DIRECT_ROWS_LIMIT:,} rows: {large_island_solver()}"
+    if describe(info):
+        name += f"; {describe(info)}"
     return ExactReference(contact_bodies, final, imp, residuals, seconds, count, name, info)
 
 

@@ -10,6 +10,7 @@ from typing import Any, Optional, Union
 
 import numpy as np
 
+from models.golden.contact_solver import RATE_WINDOW
 from models.setup.constraints import BodyTable
 from models.sizing.onchip_budget import Budget
 from models.kernel.record_window import WindowPlan
@@ -131,6 +132,8 @@ class StepErrors:
     vs_pybullet: VelocityError
     thesis_within_1pct: Optional[float] = None  # the thesis's fp16 statistic (formats other than fp32)
     thesis_mean_relative: Optional[float] = None
+    # contact, friction: passes still needed at the rate of the last models.golden.contact_solver.RATE_WINDOW (0: converged)
+    converged_projected: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -203,7 +206,8 @@ def sections(result: AnyRunResult) -> Sections:
         if result.fit is not None:
             model[FIT_SECTION] = fit_rows(result.fit)
         if result.errors is not None:
-            model[ERROR_SECTION] = {**_exact_rows(_exact_labels(result.error_source, ""), result.errors),
+            model[ERROR_SECTION] = {**_exact_rows(_exact_labels(result.error_source, "", _name(result.errors)),
+                                                  result.errors),
                                     **_reference_rows(result.errors)}
         return model
     s, k = result.scene, result.schedule
@@ -302,11 +306,16 @@ def _exact_rows(labels: tuple[str, ...], x: Union[ExactErrors, NoExactReference]
     return out
 
 
-def _exact_labels(source: str, pgs: str) -> tuple[str, ...]:
-    """The rows' labels: ``source``, float64 with the same iterations, and (unless ``pgs`` is empty) the PGS iterate."""
-    return (f"{source} vs exact reference (rounding + iteration error)",
-            "float64 with these iterations vs exact reference (iteration error alone)") + (
-        (f"{pgs} vs exact reference",) if pgs else ())
+def _exact_labels(source: str, pgs: str, reference: str = "exact reference") -> tuple[str, ...]:
+    """The rows' labels: ``source``, float64 with the same iterations, and (unless ``pgs`` is empty) the PGS iterate,
+    each against ``reference`` (what the reference is: ``ExactReferenceFacts.name``)."""
+    return (f"{source} vs {reference} (rounding + iteration error)",
+            f"float64 with these iterations vs {reference} (iteration error alone)") + (
+        (f"{pgs} vs {reference}",) if pgs else ())
+
+
+def _name(x: Union[ExactErrors, NoExactReference]) -> str:
+    return x.reference.name if isinstance(x, ExactErrors) else "exact reference"
 
 
 def _reference_rows(x: Union[ExactErrors, NoExactReference]) -> dict[str, Any]:
@@ -323,15 +332,26 @@ def _reference_rows(x: Union[ExactErrors, NoExactReference]) -> dict[str, Any]:
     return out
 
 
+def _projection(passes: float) -> str:
+    if passes == 0:
+        return "converged"
+    if math.isnan(passes):
+        return f"unknown (stopped within {RATE_WINDOW} passes)"
+    return "no progress" if math.isinf(passes) else f"{passes:.2g}"
+
+
 def _errors(e: StepErrors) -> dict[str, Any]:
     pgs = f"float64 PGS after {e.converged_passes[0]} contact and {e.converged_passes[1]} friction passes"
     out: dict[str, Any] = {}
     out.update(_velocity_rows(f"{e.source} vs float64, same schedule and iterations (rounding error)",
                               e.vs_same_iterations))
-    out.update(_exact_rows(_exact_labels(e.source, pgs), e.vs_exact))
+    out.update(_exact_rows(_exact_labels(e.source, pgs, _name(e.vs_exact)), e.vs_exact))
     out.update(_velocity_rows(f"{e.source} vs {pgs}", e.vs_converged))
     out[f"{pgs}: last pass max velocity change"] = e.converged_last_change
     out[f"{pgs}: per-pass change below 1e-9 within budget"] = str(e.converged)
+    if not e.converged:
+        out[f"{pgs}: passes still needed at the last {RATE_WINDOW} passes' rate (contact, friction)"] = ", ".join(
+            _projection(p) for p in e.converged_projected)
     out.update(_reference_rows(e.vs_exact))
     out.update({f"residual after the {e.source}'s solve: {k}": v for k, v in e.residual_after_solve.items()})
     out.update({f"residual after the converged solve ({pgs}): {k}": v for k, v in e.residual_converged.items()})

@@ -95,3 +95,36 @@ def test_model_mode_reports_the_errors_against_the_exact_reference() -> None:
     assert missing == {"fp32 golden model vs exact reference (rounding + iteration error)": why,
                        "float64 with these iterations vs exact reference (iteration error alone)": why,
                        "exact reference": why}
+
+
+def test_a_reference_not_certified_unique_is_named_on_every_error_line() -> None:
+    """Where the friction phase's non-symmetric problem holds a component whose solution is not certified unique,
+    the error lines measure against "the fixed point reached from the kernel's start", named so, not "exact
+    reference"; sim.compare.exact_error.reference_name decides from the reference's details."""
+    import dataclasses
+
+    from models.exact.damped_friction import DAMPED_KEY, NOT_UNIQUE
+    from sim.compare.exact_error import NOT_UNIQUE_NAME, reference_name
+
+    assert reference_name({f"{DAMPED_KEY} {NOT_UNIQUE}": 2.0}) == NOT_UNIQUE_NAME
+    assert reference_name({f"{DAMPED_KEY} {NOT_UNIQUE}": 0.0}) == "exact reference" == reference_name({})
+    named = dataclasses.replace(EXACT, reference=dataclasses.replace(FACTS, name=NOT_UNIQUE_NAME))
+    err = sections(_result(None, named))[ERROR_SECTION]
+    assert err[f"RTL kernel vs {NOT_UNIQUE_NAME} (rounding + iteration error): max |dv| (m/s)"] == 4e-3
+    assert err[f"float64 PGS after 10 contact and 4 friction passes vs {NOT_UNIQUE_NAME}: max |dv| (m/s)"] == 8e-3
+    assert not any(k.startswith("RTL kernel vs exact reference") for k in err)
+    model = sections(ModelRunResult("p", "pile", 217, 900, "hazard", "zcu102", {}, errors=named,
+                                    error_source="fp32 golden model"))[ERROR_SECTION]
+    assert f"fp32 golden model vs {NOT_UNIQUE_NAME} (rounding + iteration error): max |dv| (m/s)" in model
+
+
+def test_an_unconverged_pgs_line_says_how_many_passes_it_would_still_need() -> None:
+    import dataclasses
+
+    result = _result(None)
+    result.errors = dataclasses.replace(result.errors, converged=False, converged_projected=(0.0, 2.5e5))
+    err = sections(result)[ERROR_SECTION]
+    key = ("float64 PGS after 10 contact and 4 friction passes: passes still needed at the last 250 passes' rate "
+           "(contact, friction)")
+    assert err[key] == "converged, 2.5e+05"
+    assert key not in sections(_result(None))[ERROR_SECTION]  # converged: no such line
