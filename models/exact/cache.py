@@ -25,8 +25,9 @@ import numpy as np
 from models.setup.constraints import BodyTable, ConstraintSet
 from models.golden.contact_solver import Impulses, SolverParams
 from models.exact import large_island
-from models.exact.reference import (DIRECT_ROWS_LIMIT, PIVOT_TARGET, SOLVER_TOLERANCE, Budget, ExactReference,
-                                    ExactReferenceError, ExactReferenceInterrupted, exact_reference_bounded)
+from models.exact.phases import DIRECT_ROWS_LIMIT, PIVOT_TARGET, SOLVER_TOLERANCE, Budget
+from models.exact.reference import ExactReference, ExactReferenceInterrupted, exact_reference_bounded
+from models.exact.assembly import ExactReferenceError
 from models.exact.large_island import ITERATIVE_TOLERANCE
 
 CACHE_VERSION = 3  # bump whenever the reference computation changes

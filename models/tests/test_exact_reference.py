@@ -13,11 +13,14 @@ from models import scenes
 from models.setup.constraints import body_table, setup_constraints
 from models.golden.contact_solver import (CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, run_pass,
                                           schedule_levels, solve)
-from models.exact.reference import Budget, ExactReferenceError, exact_reference
+from models.exact.phases import Budget
+from models.exact.assembly import ExactReferenceError
+from models.exact.reference import exact_reference
 from models.exact.cache import cache_key, cached_exact_reference
 from models.formats.number_format import FLOAT64
 from models.order.manifold_schedule import make_schedule
 from models.exact.solution_error import solution_error
+from models.exact import phases
 
 # one pass from the exact state moves no velocity by more than this (m/s, rad/s); measured: 1e-14 on the pile
 FIXED_POINT_TOLERANCE = 1e-9
@@ -180,10 +183,10 @@ def test_bounded_solve_enforces_the_budget_from_outside(pile, monkeypatch: pytes
     with pytest.raises(ExactReferenceError, match="memory"):  # the estimate refuses before solving
         er.exact_reference_bounded(bodies, cons, budget=Budget(memory_bytes=1000))
 
-    def hang(prob: er.QpProblem, limit: float) -> er.QpSolution:  # a solver that never checks its time limit
+    def hang(prob: phases.QpProblem, limit: float) -> phases.QpSolution:  # a solver that never checks its time limit
         import time
         time.sleep(60)
-        return er.clarabel_solve(prob, limit)
+        return phases.clarabel_solve(prob, limit)
 
     monkeypatch.setattr(er, "BUDGET_GRACE_S", 0.0)
     with pytest.raises(ExactReferenceError, match="was stopped"):
@@ -201,11 +204,10 @@ def test_large_island_path_reaches_the_direct_reference_and_certifies_it(pile, m
     certificate bounds the true distance, and a solve stopped early is refused (its certificate exceeds what is
     accepted)."""
     from models.exact import body_space_ipm
-    from models.exact import reference as er
     from models.exact import large_island as li
 
     bodies, cons, schedule, ref = pile
-    monkeypatch.setattr(er, "DIRECT_ROWS_LIMIT", 0)
+    monkeypatch.setattr(phases, "DIRECT_ROWS_LIMIT", 0)
     monkeypatch.setattr(li, "LARGE_ISLAND_METHOD", method)
     it = exact_reference(bodies, cons)
     assert it.details[f"contact phase: {ITERATION_KEYS[method]}"] > 0
@@ -227,14 +229,13 @@ def test_large_island_path_reaches_the_direct_reference_and_certifies_it(pile, m
 def test_body_space_path_agrees_with_clarabel_on_the_stack(monkeypatch: pytest.MonkeyPatch) -> None:
     """The stack (one column of cubes, every manifold spin-damped) through the body-space interior point: the same
     exact state as Clarabel's dual QPs, a fixed point of both passes."""
-    from models.exact import reference as er
 
     frame = scenes.capture_frame("stack")
     bodies = body_table(frame)
     cons = setup_constraints(frame, bodies)
     schedule = make_schedule("hazard", cons, bodies.dynamic, window=8)
     ref = exact_reference(bodies, cons)
-    monkeypatch.setattr(er, "DIRECT_ROWS_LIMIT", 0)
+    monkeypatch.setattr(phases, "DIRECT_ROWS_LIMIT", 0)
     it = exact_reference(bodies, cons)
     assert it.details["contact phase: large island solved by ipm"] == 1.0
     for a, b in ((it.contact_bodies, ref.contact_bodies), (it.bodies, ref.bodies)):
@@ -248,11 +249,10 @@ def test_body_space_path_agrees_with_clarabel_on_the_stack(monkeypatch: pytest.M
 def test_body_space_time_budget_gives_no_reference(pile, monkeypatch: pytest.MonkeyPatch) -> None:
     """A large island's interior point that runs out of time gives ExactReferenceError (rendered "no exact
     reference (reason)"), not a number."""
-    from models.exact import reference as er
     from models.exact import large_island as li
 
     bodies, cons, _, _ = pile
-    monkeypatch.setattr(er, "DIRECT_ROWS_LIMIT", 0)
+    monkeypatch.setattr(phases, "DIRECT_ROWS_LIMIT", 0)
     monkeypatch.setattr(li, "CONTACT_TIME_SHARE", 1e-12)
     with pytest.raises(ExactReferenceError, match="contact phase: body-space interior point hit the time budget"):
         exact_reference(bodies, cons)
@@ -288,7 +288,7 @@ def test_a_solve_killed_from_outside_is_reported_and_not_recorded(pile, tmp_path
 
     bodies, cons, _, _ = pile
 
-    def killed(prob: er.QpProblem, limit: float) -> er.QpSolution:
+    def killed(prob: phases.QpProblem, limit: float) -> phases.QpSolution:
         os.kill(os.getpid(), signal.SIGKILL)
         raise AssertionError("unreachable")
 
@@ -358,7 +358,6 @@ def test_full_inverse_inertia_reference_is_the_passes_limit(mixed_shapes, monkey
     from its contact state reach it (the damping moves w along n, so the limit is the non-symmetric box problem's
     solution, models/exact/damped_friction.py); the convex QP that damps along I^-1 n is a fixed point of
     one pass too, but not what the passes reach: the check can fail."""
-    from models.exact import reference as er
 
     bodies, cons, schedule, ref = mixed_shapes
     assert bodies.inv_inertia.shape[1] == 6 and cons.per_manifold_friction
@@ -369,7 +368,7 @@ def test_full_inverse_inertia_reference_is_the_passes_limit(mixed_shapes, monkey
     assert np.all(np.abs(ref.impulses.friction) <= limit[:, None] + 1e-12)
     reached = _friction_passes(ref, cons, schedule, 4000)
     assert _distance(reached, ref.bodies) <= REACHED_TOLERANCE
-    monkeypatch.setattr(er, "EIGEN_TOLERANCE", np.inf)  # the convex QP, as if the damping moved w along I^-1 n
+    monkeypatch.setattr(phases, "EIGEN_TOLERANCE", np.inf)  # the convex QP, as if the damping moved w along I^-1 n
     qp = exact_reference(bodies, cons)
     assert _moved(qp.bodies, qp.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
     assert _distance(reached, qp.bodies) > 1e-3
@@ -378,16 +377,15 @@ def test_full_inverse_inertia_reference_is_the_passes_limit(mixed_shapes, monkey
 def test_almost_solved_qp_that_the_polish_does_not_certify_gives_no_reference(pile,
                                                                              monkeypatch: pytest.MonkeyPatch) -> None:
     """A solver that ends only "almost solved" and a polish that cannot sharpen it: no reference, with the residual."""
-    from models.exact import reference as er
 
     bodies, cons, _, _ = pile
 
-    def almost(prob: er.QpProblem, limit: float) -> er.QpSolution:
-        sol = er.clarabel_solve(prob, limit)
-        return er.QpSolution(sol.x, sol.z * 1.01 + 1e-3, sol.iterations, sol.seconds, almost=True)
+    def almost(prob: phases.QpProblem, limit: float) -> phases.QpSolution:
+        sol = phases.clarabel_solve(prob, limit)
+        return phases.QpSolution(sol.x, sol.z * 1.01 + 1e-3, sol.iterations, sol.seconds, almost=True)
 
-    monkeypatch.setattr(er, "POLISH_ROUNDS", 0)
-    monkeypatch.setattr(er, "PIVOT_TARGET", np.inf)  # nor does pivoting re-solve it
+    monkeypatch.setattr(phases, "POLISH_ROUNDS", 0)
+    monkeypatch.setattr(phases, "PIVOT_TARGET", np.inf)  # nor does pivoting re-solve it
     with pytest.raises(ExactReferenceError, match="contact QP only almost solved and its natural residual"):
         exact_reference(bodies, cons, solver=almost)
 
@@ -422,7 +420,6 @@ def test_full_inertia_on_the_body_space_path(monkeypatch: pytest.MonkeyPatch) ->
     """The body-space interior point with 3x3 blocks: the stack with its cubes' inverse inertia rotated (full 3x3)
     and no spin damping agrees with Clarabel's dual solve and is a fixed point of both passes; with the damping (its
     directions no eigenvectors of the rotated inertia) a large island is refused by name."""
-    from models.exact import reference as er
     from models.setup.inertia import rotate_diagonal
 
     frame = scenes.capture_frame("stack")
@@ -438,7 +435,7 @@ def test_full_inertia_on_the_body_space_path(monkeypatch: pytest.MonkeyPatch) ->
     cons = dataclasses.replace(damped, spin_damp=np.zeros_like(damped.spin_damp))
     schedule = make_schedule("hazard", cons, full.dynamic, window=8)
     ref = exact_reference(full, cons)
-    monkeypatch.setattr(er, "DIRECT_ROWS_LIMIT", 0)
+    monkeypatch.setattr(phases, "DIRECT_ROWS_LIMIT", 0)
     it = exact_reference(full, cons)
     assert it.details["contact phase: large island solved by ipm"] == 1.0
     assert _distance(it.bodies, ref.bodies) <= 1e-8 and _distance(it.contact_bodies, ref.contact_bodies) <= 1e-8
