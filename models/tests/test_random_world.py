@@ -14,7 +14,8 @@ import pytest
 from models import scenes
 from models.setup.constraints import body_table, setup_constraints
 from models.golden.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, run_pass, schedule_levels
-from models.exact.reference import ExactReferenceError, exact_reference
+from models.exact.assembly import ExactReferenceError
+from models.exact.reference import exact_reference
 from models.formats.number_format import FLOAT64
 from models.scenes import frame_cache, random_world
 from models.order.manifold_schedule import make_schedule

@@ -20,7 +20,8 @@ import numpy as np
 from models.setup.constraints import BodyTable, ConstraintSet
 from models.golden.contact_solver import SolverParams
 from models.exact.bound import contact_phase_bound, per_body_bounds
-from models.exact.reference import Budget, ExactReferenceError
+from models.exact.phases import Budget
+from models.exact.assembly import ExactReferenceError
 from models.exact.cache import cached_exact_reference
 from models.exact.damped_friction import not_certified_unique
 from models.golden.integrator import IntegrationParams, integrate

@@ -21,7 +21,9 @@ from typing import Sequence
 
 from models import scenes
 from models.setup.constraints import body_table, setup_constraints
-from models.exact.reference import Budget, ExactReference, ExactReferenceError, exact_reference_bounded
+from models.exact.phases import Budget
+from models.exact.reference import ExactReference, exact_reference_bounded
+from models.exact.assembly import ExactReferenceError
 from models.exact.damped_friction import DAMPED_KEY, METHODS, not_certified_unique
 from models.scenes.random_world import parse_seeds
 from models.scenes.specs import SCENES
