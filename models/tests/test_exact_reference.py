@@ -21,6 +21,7 @@ from models.formats.number_format import FLOAT64
 from models.order.manifold_schedule import make_schedule
 from models.exact.solution_error import solution_error
 from models.exact import phases
+from models.exact.residual import pass_change
 
 # one pass from the exact state moves no velocity by more than this (m/s, rad/s); measured: 1e-14 on the pile
 FIXED_POINT_TOLERANCE = 1e-9
@@ -38,21 +39,12 @@ def pile():
     return bodies, cons, schedule, exact_reference(bodies, cons)
 
 
-def _moved(state, imp: Impulses, cons, schedule, kind: int) -> float:
-    out = state.copy()
-    imp = Impulses(imp.normal.copy(), imp.friction.copy())
-    run_pass(out, imp, cons, schedule_levels(schedule, cons, state.dynamic), FLOAT64, kind, 0, SolverParams(),
-             schedule)
-    return float(max(np.abs(out.linear_velocity - state.linear_velocity).max(),
-                     np.abs(out.angular_velocity - state.angular_velocity).max()))
-
-
 def _assert_fixed_point_and_small_residuals(ref, cons, schedule) -> None:
     """One contact pass from the contact state and one friction pass from the final state move nothing; the
     natural residuals are small."""
     no_friction = Impulses(ref.impulses.normal, np.zeros_like(ref.impulses.friction))
-    assert _moved(ref.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
-    assert _moved(ref.bodies, ref.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
+    assert pass_change(ref.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
+    assert pass_change(ref.bodies, ref.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
     for key in ("contact phase: normal LCP |min(lam K, e)| max (m/s)", "friction phase: box residual max (m/s)",
                 "friction phase: spin |n.w| max (rad/s)"):
         assert ref.residuals[key] <= RESIDUAL_TOLERANCE, (key, ref.residuals[key])
@@ -61,11 +53,11 @@ def _assert_fixed_point_and_small_residuals(ref, cons, schedule) -> None:
 def test_exact_state_is_a_fixed_point_of_one_contact_and_one_friction_pass(pile) -> None:
     bodies, cons, schedule, ref = pile
     no_friction = Impulses(ref.impulses.normal, np.zeros_like(ref.impulses.friction))
-    assert _moved(ref.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
-    assert _moved(ref.bodies, ref.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
+    assert pass_change(ref.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
+    assert pass_change(ref.bodies, ref.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
     # the check can fail: from the 4-iteration state both passes still move velocities by far more
     four = solve(bodies, cons, schedule, FLOAT64, SolverParams(iterations=4))
-    assert _moved(four.bodies, four.impulses, cons, schedule, FRICTION_PASS) > 100 * FIXED_POINT_TOLERANCE
+    assert pass_change(four.bodies, four.impulses, cons, schedule, FRICTION_PASS) > 100 * FIXED_POINT_TOLERANCE
     assert np.abs(four.bodies.linear_velocity - ref.bodies.linear_velocity).max() > 1e-3
     # and the exact state really differs from the start
     assert np.abs(ref.bodies.linear_velocity - bodies.linear_velocity).max() > 0.1
@@ -242,8 +234,8 @@ def test_body_space_path_agrees_with_clarabel_on_the_stack(monkeypatch: pytest.M
         assert np.abs(a.linear_velocity - b.linear_velocity).max() <= 1e-8
         assert np.abs(a.angular_velocity - b.angular_velocity).max() <= 1e-8
     no_friction = Impulses(it.impulses.normal, np.zeros_like(it.impulses.friction))
-    assert _moved(it.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
-    assert _moved(it.bodies, it.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
+    assert pass_change(it.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
+    assert pass_change(it.bodies, it.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
 
 
 def test_body_space_time_budget_gives_no_reference(pile, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -370,7 +362,7 @@ def test_full_inverse_inertia_reference_is_the_passes_limit(mixed_shapes, monkey
     assert _distance(reached, ref.bodies) <= REACHED_TOLERANCE
     monkeypatch.setattr(phases, "EIGEN_TOLERANCE", np.inf)  # the convex QP, as if the damping moved w along I^-1 n
     qp = exact_reference(bodies, cons)
-    assert _moved(qp.bodies, qp.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
+    assert pass_change(qp.bodies, qp.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
     assert _distance(reached, qp.bodies) > 1e-3
 
 
@@ -440,14 +432,14 @@ def test_full_inertia_on_the_body_space_path(monkeypatch: pytest.MonkeyPatch) ->
     assert it.details["contact phase: large island solved by ipm"] == 1.0
     assert _distance(it.bodies, ref.bodies) <= 1e-8 and _distance(it.contact_bodies, ref.contact_bodies) <= 1e-8
     no_friction = Impulses(it.impulses.normal, np.zeros_like(it.impulses.friction))
-    assert _moved(it.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
-    assert _moved(it.bodies, it.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
-    assert _moved(ref.bodies, ref.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
+    assert pass_change(it.contact_bodies, no_friction, cons, schedule, CONTACT_PASS) <= FIXED_POINT_TOLERANCE
+    assert pass_change(it.bodies, it.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
+    assert pass_change(ref.bodies, ref.impulses, cons, schedule, FRICTION_PASS) <= FIXED_POINT_TOLERANCE
     with pytest.raises(ExactReferenceError, match="no eigenvector.*non-symmetric"):
         exact_reference(full, damped)
 
 
-def _interleaved_moved(state, imp: Impulses, cons, schedule) -> float:
+def _interleavedpass_change(state, imp: Impulses, cons, schedule) -> float:
     """How far one interleaved iteration (a contact pass, then a friction pass) moves the velocities."""
     params = SolverParams(interleaved=True)
     out, imp = state.copy(), imp.copy()
@@ -470,9 +462,9 @@ def test_interleaved_reference_is_a_fixed_point_of_the_interleaved_passes() -> N
     for key in ("contact phase: normal LCP |min(lam K, e)| max (m/s)", "friction phase: box residual max (m/s)",
                 "friction phase: spin |n.w| max (rad/s)"):
         assert ref.residuals[key] <= RESIDUAL_TOLERANCE, (key, ref.residuals[key])
-    assert _interleaved_moved(ref.bodies, ref.impulses, cons, schedule) <= FIXED_POINT_TOLERANCE
+    assert _interleavedpass_change(ref.bodies, ref.impulses, cons, schedule) <= FIXED_POINT_TOLERANCE
     sequential = exact_reference(bodies, cons)
-    assert _interleaved_moved(sequential.bodies, sequential.impulses, cons, schedule) > 1e-4
+    assert _interleavedpass_change(sequential.bodies, sequential.impulses, cons, schedule) > 1e-4
     assert cache_key(bodies, cons, SolverParams(interleaved=True)) != cache_key(bodies, cons, SolverParams())
 
 

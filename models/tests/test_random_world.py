@@ -13,12 +13,12 @@ import pytest
 
 from models import scenes
 from models.setup.constraints import body_table, setup_constraints
-from models.golden.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses, SolverParams, run_pass, schedule_levels
+from models.golden.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses
 from models.exact.assembly import ExactReferenceError
 from models.exact.reference import exact_reference
-from models.formats.number_format import FLOAT64
 from models.scenes import frame_cache, random_world
 from models.order.manifold_schedule import make_schedule
+from models.exact.residual import pass_change
 
 WORLDS = 10
 # one pass from the reference moves a velocity by at most this (m/s, rad/s): a row's residual r (m/s) moves its
@@ -75,15 +75,6 @@ def _seeds() -> list[int]:
     return list(range(WORLDS * base, WORLDS * base + WORLDS))
 
 
-def _moved(state, imp: Impulses, cons, schedule, kind: int) -> float:
-    out = state.copy()
-    imp = Impulses(imp.normal.copy(), imp.friction.copy())
-    run_pass(out, imp, cons, schedule_levels(schedule, cons, state.dynamic), FLOAT64, kind, 0, SolverParams(),
-             schedule)
-    return float(max(np.abs(out.linear_velocity - state.linear_velocity).max(),
-                     np.abs(out.angular_velocity - state.angular_velocity).max()))
-
-
 def test_exact_reference_on_random_worlds(tmp_path: Path) -> None:
     """Ten random worlds of 50 to 150 bodies (seeds 10 SEED .. 10 SEED + 9): each has an exact reference, whose
     natural residuals are at most 1e-9 m/s and from which one contact pass and one friction pass move no velocity by
@@ -103,8 +94,8 @@ def test_exact_reference_on_random_worlds(tmp_path: Path) -> None:
         schedule = make_schedule("hazard", cons, bodies.dynamic, window=8)
         worst = max(ref.residuals[k] for k in RESIDUALS)
         no_friction = Impulses(ref.impulses.normal, np.zeros_like(ref.impulses.friction))
-        moved = max(_moved(ref.contact_bodies, no_friction, cons, schedule, CONTACT_PASS),
-                    _moved(ref.bodies, ref.impulses, cons, schedule, FRICTION_PASS))
+        moved = max(pass_change(ref.contact_bodies, no_friction, cons, schedule, CONTACT_PASS),
+                    pass_change(ref.bodies, ref.impulses, cons, schedule, FRICTION_PASS))
         print(f"random world seed {seed}: {frame.num_bodies} bodies, {frame.num_manifolds} manifolds, residual "
               f"{worst:.1e}, one pass moves {moved:.1e}, {ref.solver}")
         if not (worst <= 1e-9 and moved <= MOVE_TOLERANCE):
