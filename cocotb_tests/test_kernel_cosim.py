@@ -8,7 +8,7 @@ table read back over S2MM is compared too. Random idle cycles on every MM2S stre
 S2MM are seeded (the seed is printed; ``SEED=<n>`` reproduces a run); results must be bit-identical whatever the
 stalls.
 The status register must read 0, no manifold-pass may be rejected, and the floating-point event counters must
-equal the golden model's prediction (``cocotb_tests/tb/fp_events.py``; zero for these fp32 scenes).
+equal the golden model's own count (``sim.drive.kernel_step.golden_step``; zero for these fp32 scenes).
 
 The kernel's cycles must not beat the cycle model's lower bound (``models/timing/cycle_model.py``, with the first body
 and constraint transfers armed before ap_start, as this host arms them).
@@ -225,9 +225,7 @@ async def _expect_mismatch(dut, st: _Step) -> None:
 def _prepare_case(path: Path, scene: str, params: dict, fmt_name: str, schedule_kind: str, dma: str,
                   seed: int, idle: float, backpressure: float, iterations: int = 4) -> dict:
     """Capture the scene, run the golden model and write the case (``sim.drive.cocotb_step.write_case``) with the
-    stall probabilities and the floating-point events the golden model predicts."""
-    from cocotb_tests.tb.fp_events import predicted_events
-
+    stall probabilities (and the floating-point events the golden model counts)."""
     from models import scenes
     from models.setup.constraints import body_table, setup_constraints
     from models.timing.platforms import get_preset
@@ -246,7 +244,7 @@ def _prepare_case(path: Path, scene: str, params: dict, fmt_name: str, schedule_
     job = KernelJob(fmt, bodies, cons, schedule, SolverParams(iterations=iterations),
                     IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity)))
     return write_case(path, job, golden_step(job), get_preset(dma), Path(scene).stem, seed, schedule_kind,
-                      {"idle": idle, "backpressure": backpressure, "fp_events": predicted_events(job).as_dict()})
+                      {"idle": idle, "backpressure": backpressure})
 
 
 CASES = [

@@ -20,7 +20,8 @@ lower bound); ``test_kernel_cycles_match_model`` runs each case with determinist
 backpressure) and requires every retire cycle, the total and the stall and bubble counters to equal the model's.
 
 Floating-point events (``rtl/README.md``): the overflow / underflow / invalid counters the harness reads
-(result.txt) must equal the golden model's prediction (``tb.fp_events``) and the fp_status flags must be set
+(result.txt) must equal the golden model's count of its own operations' events (``Golden.events`` of
+``sim.drive.kernel_step.golden_step``) and the fp_status flags must be set
 exactly for the non-zero ones; every fp32 and bf16 scene leaves them at zero (fp16 flushes tiny velocity terms to
 zero: underflows). ``test_pgs_kernel_fp16_overflow`` spins the top cube of the stack at 2000 rad/s in fp16:
 its squared angular velocity overflows in the integration (and the step stays bit-exact).
@@ -45,7 +46,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cocotb_tests.tb.fp_events import predicted_events
 from models import scenes
 from models.timing import cycle_model
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
@@ -56,7 +56,7 @@ from models.setup.inertia import InertiaMode
 from models.formats.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat
 from models.kernel.kernel_job import KernelJob
 from sim.compile.kernel_build import KernelBuild, default_window
-from sim.drive.kernel_step import KernelResult, run_kernel_step
+from sim.drive.kernel_step import KernelResult, golden_step, run_kernel_step
 from models.timing import prediction
 from sim.compare import retire_cycles
 
@@ -98,7 +98,8 @@ def run_case(case: Case, tmp: Path, spin: tuple[int, float] | None = None) -> Ke
     print(f"\n[{case.label}/{case.fmt.name}/{case.schedule_kind}] seed {seed} (SEED= overrides); "
           f"{job.bodies.num_bodies} bodies, {len(job.slots)} manifolds, {len(job.schedule) - len(job.slots)} bubbles "
           f"in the schedule (W={window})")
-    res = run_kernel_step(job, get_preset("zcu102"), tmp, seed, GAP_PERMILLE, BP_PERMILLE)
+    golden = golden_step(job)
+    res = run_kernel_step(job, get_preset("zcu102"), tmp, seed, GAP_PERMILLE, BP_PERMILLE, golden=golden)
     if res.comparison.first_mismatch is not None:
         pytest.fail(res.comparison.first_mismatch)
     assert res.bit_exact
@@ -108,10 +109,10 @@ def run_case(case: Case, tmp: Path, spin: tuple[int, float] | None = None) -> Ke
           f"{int(r['stalls'])}, bubbles {int(r['bubbles'])}; build {res.build_seconds:.1f} s; simulated "
           f"{res.sim_cycles_per_s / 1e3:.1f} kcycles/s ({r['wall_s']:.2f} s); bit-exact: "
           f"{res.comparison.records} trace records, {res.comparison.bodies} bodies")
-    want = predicted_events(job).as_dict()
+    want = golden.events.as_dict()
     got = {name: int(r[f"fp_{name}"]) for name in EVENT_NAMES}
     print(f"  floating-point events: kernel {got}, golden model {want}, fp_status {int(r['fp_status']):#x}")
-    assert got == want, "the kernel's floating-point event counters differ from the golden model's prediction"
+    assert got == want, "the kernel's floating-point event counters differ from the golden model's count"
     assert int(r["fp_status"]) == sum(1 << k for k, name in enumerate(EVENT_NAMES) if got[name])
     assert int(r["rejected"]) == 0
     if case.fmt.name != "fp16":
