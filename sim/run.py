@@ -230,7 +230,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         exact = timer.run("exact reference (solve or cache)", exact_error.exact_step, bodies, cons, ip,
                           exact_error.reference_dir(args), args.exact_budget, params)
         return ModelRunResult(name, label, frame.num_bodies, frame.num_manifolds, sched_stats.describe(),
-                              preset.describe(), model_section(job, preset, body_bits=args.body_bits),
+                              preset.describe(), model_section(job, preset, body_bits=args.body_bits)[0],
                               fit=kernel_fit(job, args.dma, args.body_bits),
                               errors=exact_error.exact_errors(exact, golden.final, ref, None, bodies.dynamic),
                               error_source=f"{fmt.name} golden model"), None
@@ -285,7 +285,8 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
                                    cmp.first_mismatch or "", res.seed)
         if res.cycles:  # a run that failed before ap_done has no speed to report
             result.speed = kernel_speed(res, job, preset, sched_stats.bubbles, args.driver)
-        result.cycle_model = model_section(job, preset, res, args.stall_permille, args.body_bits)
+        result.cycle_model, result.model_agrees = model_section(job, preset, res, args.stall_permille,
+                                                                args.body_bits)
         if job.record_window is not None:
             result.window = window_facts(job, preset)
     return result, kb
@@ -326,18 +327,23 @@ def step_errors(source: str, ours: BodyTable, step: StepInputs, fmt: NumberForma
 
 
 def model_section(job: KernelJob, preset: DmaPreset, res: KernelResult | None = None,
-                  stall_permille: int = 0, body_bits: int = 128) -> dict[str, Any]:
-    """The cycle model's estimate (body streams of ``body_bits``-bit beats); beside an RTL run, every retire cycle
-    compared (deterministic streams) or the model as a lower bound (random stalls)."""
+                  stall_permille: int = 0, body_bits: int = 128) -> tuple[dict[str, Any], bool | None]:
+    """The cycle model's estimate (body streams of ``body_bits``-bit beats) and whether it agrees with the RTL run
+    ``res``: every retire cycle and the counters (deterministic streams), or the model as a lower bound (random
+    stalls, where the model is one); None where nothing was compared (no run, or a configuration the model does not
+    take)."""
     t0 = time.process_time()
     try:
         pred = cycle_model.predict_job(job, preset, body_bits=body_bits)
     except ValueError as exc:  # a configuration the model does not take: the run's other sections stand
-        return {"cycle model": f"none ({exc})"}
+        return {"cycle model": f"none ({exc})"}, None
     seconds = time.process_time() - t0
     if res is None or res.trace is None or stall_permille:
-        return retire_cycles.report_section(pred, preset, seconds, None if res is None else res.cycles)
-    return retire_cycles.report_section(pred, preset, seconds, agreement=retire_cycles.compare_run(pred, res, job.slots))
+        measured = None if res is None or not res.cycles else res.cycles
+        bound = None if measured is None or not pred.BOUNDS_RANDOM_RUNS else measured >= pred.cycles
+        return retire_cycles.report_section(pred, preset, seconds, measured), bound
+    agreement = retire_cycles.compare_run(pred, res, job.slots)
+    return retire_cycles.report_section(pred, preset, seconds, agreement=agreement), agreement.ok
 
 
 def window_facts(job: KernelJob, preset: DmaPreset) -> WindowFacts:
