@@ -46,7 +46,7 @@ TEST_JOBS ?= 2
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test sim sweep analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
+.PHONY: help venv sysdeps test claims sim sweep analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
 
 help:
 	@echo "pgs-cosim: run a PGS kernel's step on a scene, compare it bit for bit, measure its cycles, error and fit."
@@ -66,6 +66,8 @@ help:
 	@echo "verify"
 	@echo "  make test        the whole test suite (what CI runs; TEST_JOBS=2 pytest workers)"
 	@echo "  make regress     the co-simulation over SEEDS=4 seeds and more scenes on JOBS=2 workers"
+	@echo "  make claims      rerun every figure of the README's headline results against docs/claims.toml (long:"
+	@echo "                   five thesis-frame runs; CLAIMS=run,run picks some); PASS / FAIL per figure"
 	@echo "  make coverage    line/branch/toggle coverage of rtl/ per kernel configuration (COVERAGE_CONFIGS=a,b)"
 	@echo "  make lint        verilator --lint-only -Wall on every RTL top"
 	@echo ""
@@ -111,6 +113,11 @@ sim: $(STAMP)
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
 		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE) \
 		--tangents $(TANGENTS) --compile-profile $(COMPILE)
+
+# every figure of the README's headline results, rerun and compared (docs/claims.toml; not in make test: minutes each)
+CLAIMS ?=
+claims: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.claims --runs "$(CLAIMS)"
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)

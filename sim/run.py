@@ -387,15 +387,44 @@ def _write_gtkw(fst: Path, kb: KernelBuild) -> None:
     print(f"waveform: {fst} (open with: gtkwave {save})")
 
 
+def run_and_report(args: argparse.Namespace) -> tuple[AnyRunResult, KernelBuild | None, Path]:
+    """The whole run of ``args``: its result and kernel build, the summary printed and the report written into its
+    run directory (returned); a failed run leaves no directory behind."""
+    with StagedDirectory(Path(args.out)) as out:
+        result, kb = run(args, out.path)
+        report = sections(result)
+        print_summary(f"pgs-cosim: {result.label}, {args.format}, {args.iters} iterations, {args.dma}", report)
+        write_report(out.path, f"pgs-cosim run: {result.label}", report)
+        return result, kb, out.commit(result.name)
+
+
+# make sim's variables and the options of this command they set (the Makefile's sim recipe); WAVES=1 sets --waves
+MAKE_SIM_OPTIONS = {"SCENE": "--scene", "SCENE_ARGS": "--scene-args", "ITERS": "--iters", "FORMAT": "--format",
+                    "DMA": "--dma", "SEED": "--seed", "MODE": "--mode", "SCHEDULE": "--schedule",
+                    "RECORD_WINDOW": "--record-window", "FETCH_PASSES": "--fetch-passes", "LANES": "--lanes",
+                    "BODY_BITS": "--body-bits", "DRIVER": "--driver", "IMPULSE_STORE": "--impulse-store",
+                    "TANGENTS": "--tangents", "COMPILE": "--compile-profile"}
+
+
+def make_sim_argv(command: str) -> list[str]:
+    """The options of this command that ``make sim VAR=value ...`` passes (``command`` as a reader types it)."""
+    words = command.split()
+    if words[:2] != ["make", "sim"]:
+        raise ValueError(f"not a make sim command: {command!r}")
+    argv: list[str] = []
+    for word in words[2:]:
+        var, eq, value = word.partition("=")
+        if not eq or (var not in MAKE_SIM_OPTIONS and var != "WAVES"):
+            raise ValueError(f"{command!r}: {word!r} is not one of make sim's variables "
+                             f"({', '.join([*MAKE_SIM_OPTIONS, 'WAVES'])})")
+        argv += (["--waves"] if value not in ("", "0") else []) if var == "WAVES" else [MAKE_SIM_OPTIONS[var], value]
+    return argv
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     try:
-        with StagedDirectory(Path(args.out)) as out:
-            result, kb = run(args, out.path)
-            report = sections(result)
-            print_summary(f"pgs-cosim: {result.label}, {args.format}, {args.iters} iterations, {args.dma}", report)
-            write_report(out.path, f"pgs-cosim run: {result.label}", report)
-            run_dir = out.commit(result.name)
+        result, kb, run_dir = run_and_report(args)
     except (ValueError, FrameError, scenes.SceneError, KernelRunError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
