@@ -81,7 +81,8 @@ help:
 	@echo "  make analyze     which number formats a scene needs within BUDGET=0.01 (FORMAT=auto uses it)"
 	@echo "  make band        band width of every schedule on every scene; on-chip budget of the thesis frame"
 	@echo "  make stability   the hard cases closed loop: CASES= x FORMATS= x remedies (JOBS=2)"
-	@echo "  make bench       simulated cycles per second of the harness, PROFILES=quick,pgo side by side (RUNS=3)"
+	@echo "  make bench       simulated cycles per second of the harness, PROFILES=quick,pgo side by side (RUNS=3);"
+	@echo "                   CYCLE_MODEL=1: the cycle models' predictions per second on a synthetic step"
 	@echo ""
 	@echo "EXECUTOR=local:N|dask:local:N|dask:tcp://host:port spreads sweep, stability, resources and regress points."
 
@@ -162,9 +163,12 @@ PROFILES ?= quick,pgo
 RUNS ?= 3
 MAX_CYCLES ?= 0
 BASELINE_EXE ?=
+# CYCLE_MODEL=1: the cycle models' speed on a synthetic step instead (no kernel build)
+CYCLE_MODEL ?= 0
 bench: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.bench --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) \
-		--profiles $(PROFILES) --runs $(RUNS) --max-cycles $(MAX_CYCLES) --baseline-exe "$(BASELINE_EXE)"
+		--profiles $(PROFILES) --runs $(RUNS) --max-cycles $(MAX_CYCLES) --baseline-exe "$(BASELINE_EXE)" \
+		$(if $(filter-out 0,$(CYCLE_MODEL)),--cycle-model,)
 
 rtl: $(STAMP)
 	$(TOOLENV) $(VPY) -m rtl.gen

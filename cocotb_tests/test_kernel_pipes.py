@@ -45,7 +45,8 @@ from models import scenes  # noqa: E402
 from models.setup.constraints import body_table, setup_constraints  # noqa: E402
 from models.golden.contact_solver import FRICTION_COEFF  # noqa: E402
 from models.golden.integrator import MAX_ANGLE  # noqa: E402
-from models.formats.number_format import EVENT_NAMES, KERNEL_FORMATS, NumberFormat  # noqa: E402
+from models.formats.number_format import EVENT_NAMES, KERNEL_FORMATS, FpEvents, NumberFormat  # noqa: E402
+from models.kernel.kernel_job import KernelJob  # noqa: E402
 from models.scenes.kernel_scenes import PIPE_VECTOR_SCENES  # noqa: E402
 from rtl.gen import friction_sign_bug_sources, generate, generate_friction_sign_bug, render  # noqa: E402
 from rtl.gen.file_list import FileListError, kernel_sources, read_file_list, swap_sources  # noqa: E402
@@ -416,10 +417,9 @@ def test_graph_twin_matches_golden(fmt_name: str) -> None:
         assert not len(bad), f"{spec.module} {fmt_name}: graph twin differs at {bad[:8].tolist()}"
 
 
-def _graph_events(job) -> "FpEvents":
+def _graph_events(job: KernelJob) -> FpEvents:
     """The events of the datapath graphs (the generated pipes' software twin) on the inputs every issued
     manifold-pass and dynamic body sees in the golden step: the RTL's operators, counted."""
-    from models.formats.number_format import FpEvents
     from rtl.gen.kernel_graphs import contact_graph
 
     ip, words = job.iparams, job.inertia_words
@@ -455,7 +455,6 @@ def test_golden_event_count_equals_the_datapaths(name: str) -> None:
     (``models.kernel.extreme_stimulus``, seed ``SEED``) where each counter reaches the thousands."""
     from models.golden.contact_solver import SolverParams
     from models.kernel.extreme_stimulus import extreme_magnitudes
-    from models.kernel.kernel_job import KernelJob
     from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
     from sim.drive.cocotb_run import test_seed
     from sim.drive.kernel_step import golden_step

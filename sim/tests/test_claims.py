@@ -13,7 +13,7 @@ import pytest
 from models.published import thesis
 from sim import claims as cl
 from sim.fit import resource_model as rm
-from sim.report.run_result import BitExactness, KernelSpeed, RunResult
+from sim.report.run_result import BitExactness, RunResult
 from sim.run import MAKE_SIM_OPTIONS, make_sim_argv, parse_args
 from sim.tests.test_run_result import EXACT, _result
 
