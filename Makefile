@@ -16,6 +16,7 @@ SCENE_ARGS ?=
 ITERS ?= 4
 FORMAT ?= fp32
 DMA ?= zcu102
+# the seed of every randomised run and test (sim/seed.py's DEFAULT_SEED; CI derives one from the commit, .ci/run)
 SEED ?= 1
 WAVES ?= 0
 FORMATS ?= fp32,fp16,bf16
@@ -106,8 +107,10 @@ sysdeps:
 	  else echo "warning: missing$$missing; install with: sudo apt-get install$$missing"; fi; \
 	fi
 
+# more pytest options for make test, e.g. PYTEST_ARGS="--junitxml=build/junit.xml" or "--lf"
+PYTEST_ARGS ?=
 test: $(STAMP)
-	$(TOOLENV) $(VPY) -m pytest -n $(TEST_JOBS) --dist loadscope
+	$(TOOLENV) $(VPY) -m pytest -n $(TEST_JOBS) --dist loadscope $(PYTEST_ARGS)
 
 sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \

@@ -31,7 +31,6 @@ and ``SEED=<int>`` reruns one.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -46,6 +45,7 @@ from models.formats.number_format import EVENT_NAMES, FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from sim.compile.kernel_build import default_window
 from sim.drive.kernel_step import golden_step, run_kernel_step
+from sim.seed import run_seed
 
 PRESET = get_preset("zcu102")
 GAP_PERMILLE, BP_PERMILLE = 100, 200
@@ -53,7 +53,7 @@ MIN_EVENTS = 50  # each counter's floor on the pile (seeds 1 to 40: at least 133
 
 
 def _seed() -> int:
-    return int(os.environ.get("SEED", "20261205"))
+    return run_seed()
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,6 @@ matches the golden model.
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import time
@@ -54,11 +53,11 @@ from rtl.gen.kernel_graphs import (CONTACT_IN, CONTACT_OUT, FRICTION_IN, FRICTIO
                                    INTEGRATE_OUT, MAN_BITS_OF, friction_graph)  # noqa: E402
 from rtl.gen.file_list import rtl_files  # noqa: E402
 from sim.compile.verilator_build import DEBUG_COMPILE_ARGS, build  # noqa: E402
+from sim.seed import run_seed  # noqa: E402
 from rtl.gen.operator_schedule import schedule  # noqa: E402
 
 HERE = Path(__file__).resolve().parent / "pipes"
 RTL = REPO / "rtl"
-DEFAULT_SEED = 20240615
 IDLE_PERMILLE = 250  # idle cycles between the records, per mille
 FORMATS = KERNEL_FORMATS
 # Verilator: keep every operator instance a separate function (-fno-inline) and compile without C++
@@ -82,7 +81,7 @@ PIPES = {
 
 
 def seed_for(fmt_name: str, pipe: str) -> int:
-    base = int(os.environ.get("SEED", DEFAULT_SEED))
+    base = run_seed()
     return base + 10 * list(FORMATS).index(fmt_name) + list(PIPES).index(pipe)
 
 

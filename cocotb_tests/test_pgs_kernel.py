@@ -38,7 +38,6 @@ Friction: ``test_pgs_kernel_manifold_friction`` runs a world of mixed shapes and
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -59,6 +58,7 @@ from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import KernelResult, golden_step, run_kernel_step
 from models.timing import prediction
 from sim.compare import retire_cycles
+from sim.seed import run_seed
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 ITERATIONS = 4
@@ -84,7 +84,7 @@ class Case:
 
 
 def _seed() -> int:
-    return int(os.environ.get("SEED", "12345"))
+    return run_seed()
 
 
 def run_case(case: Case, tmp: Path, spin: tuple[int, float] | None = None) -> KernelResult:
