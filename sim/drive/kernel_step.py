@@ -27,6 +27,7 @@ from models.golden.integrator import integrate
 from models.kernel.kernel_job import KernelJob
 from models.kernel.register_map import ErrorCode, status_flag
 from models.setup.tangent_basis import plane_space_in
+from sim.drive.cocotb_run import waves_enabled
 from sim.drive.harness_run import ProgressSink, harness_cycle_limit, run_harness, training_run, write_inputs
 from sim.compile.kernel_build import KernelBuild, build_kernel
 from sim.compare.trace_bits import (Comparison, Trace, compare_body_out, compare_impulse_out, compare_trace_bits,
@@ -138,7 +139,11 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
     whose mode needs more is refused when its record is packed). ``soft_contact``: run on the soft contact build
     even where the job is rigid (its options bit clear: the rigid update, e.g. a soft step's relax call).
     ``compile_profile``: how the harness's C++ is compiled (``sim.compile.kernel_build.COMPILE_PROFILES``; a
-    profile-guided one trains on this run's first cycles when it builds)."""
+    profile-guided one trains on this run's first cycles when it builds). ``waves``: the FST to write (the first
+    ``wave_cycles`` cycles); None writes ``run_dir/waves.fst`` where ``WAVES=1`` is set (a failed test run again with
+    its waveform), else none."""
+    if waves is None and waves_enabled():
+        waves = Path(run_dir) / "waves.fst"
     kb = replace(KernelBuild.for_job(job, preset, waves is not None, body_bits), compile_profile=compile_profile)
     if inertia_words is not None:
         kb = replace(kb, inertia_words=inertia_words)
