@@ -167,6 +167,30 @@ def test_pgs_kernel_manifold_friction(tmp_path: Path) -> None:
     run_case(Case(MIXED_FRICTION_WORLD, FP32, "hazard"), tmp_path)
 
 
+ASSET_WORLDS = ("jenga_tower", "duck_lego_pile")
+
+
+@pytest.mark.parametrize("world", ASSET_WORLDS)
+def test_asset_worlds_through_the_rtl(world: str, tmp_path: Path) -> None:
+    """The shipped asset worlds as ``make sim SCENE=<world>`` runs them (seed, hazard order, zcu102; Bullet 2's
+    inertia and each pair's friction: the 6-word, coefficient-carrying build the mixed-shapes test makes): 0 bits
+    differ, the counters are the golden model's, every retire cycle is the cycle model's, and the kernel's cycles are
+    the README's (``docs/claims.toml``, the user-worlds row)."""
+    from sim.claims import load_claims
+    from sim.seed import DEFAULT_SEED
+
+    frame, _ = scenes.load_scene(world, "", DEFAULT_SEED)  # make sim's frame (deterministic streams: no other seed)
+    job = KernelJob.from_frame(frame, FP32, SolverParams(ITERATIONS), "hazard", default_window(FP32, 512))
+    assert KernelBuild.for_job(job, get_preset("zcu102")).name == "pgs_kernel_e8m23_c512_i6_mu"
+    pred = cycle_model.predict_job(job, get_preset("zcu102"))
+    agree = run_deterministic(job, get_preset("zcu102"), pred, tmp_path)
+    print(f"\n[{world}] {job.bodies.num_bodies} bodies, {len(job.slots)} manifolds: {agree.describe()}")
+    assert agree.ok, agree.first_mismatch
+    [row] = [c for c in load_claims().rows if c.claim == "user worlds"]
+    stated = {f.runs[0]: f.value for f in row.figures if f.measure == "cycles"}
+    assert agree.cycles_rtl == stated[{"jenga_tower": "jenga", "duck_lego_pile": "duck-lego"}[world]]
+
+
 def test_pgs_kernel_scalar_inverse_inertia(tmp_path: Path) -> None:
     """The stack's cubes (the scalar mode: one inverse-inertia value per body) on the 1-word build (IINV_W = 1, the
     15-word body record), with random stream gaps and backpressure: bit-exact with the golden model."""
