@@ -299,8 +299,17 @@ def _cosim(testcase: str, scene: str, params: dict, fmt_name: str, schedule_kind
 @pytest.mark.parametrize("scene,params,fmt_name,schedule_kind,dma,idle,bp", CASES,
                          ids=[f"{c[0]}-{c[2]}-{c[3]}-{c[4]}" for c in CASES])
 def test_kernel_cosim(scene, params, fmt_name, schedule_kind, dma, idle, bp) -> None:
+    """The checks the cocotb test made, read back from its result: every record compared, status 0, the golden
+    model's event counts, no fewer cycles than the cycle model's lower bound."""
     case_file = _cosim("run_step", scene, params, fmt_name, schedule_kind, dma, idle, bp)
-    print(case_file.with_suffix(".result.json").read_text())
+    result = json.loads(case_file.with_suffix(".result.json").read_text())
+    print(json.dumps(result, indent=1))
+    with np.load(case_file, allow_pickle=False) as case:
+        meta = json.loads(str(case["meta"]))
+    assert result["records_compared"] == meta["num_manifolds"] * meta["passes"] > 0
+    assert result["status"] == 0 and result["rejected"] == 0 and result["issued"] == result["records_compared"]
+    assert result["fp_events"] == meta["fp_events"] == dict.fromkeys(EVENT_NAMES, 0)  # fp32: no event
+    assert result["cycles"] >= meta["cycle_lower_bound"] > 0
 
 
 # a world file of rotated non-cube boxes in Bullet 2's convention: every dynamic body's R diag(1/I) R^T a full

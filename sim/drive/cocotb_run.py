@@ -138,7 +138,17 @@ def _test(top: str, test_module: str, build_dir: Path, waves: bool, seed: int | 
             print(f"waveform: {fst.relative_to(REPO_ROOT)}", flush=True)
             if save_file is not None:
                 print(f"view it:  gtkwave {save_file.relative_to(REPO_ROOT)}", flush=True)
+    ran, failed = cocotb_results(Path(results))
+    if ran == 0 or failed:  # the runner raises on a failure under pytest; a filter that matched nothing passes it
+        raise RuntimeError(f"cocotb {test_module}: {ran} tests ran, {failed} failed (testcase {testcase})")
     return Path(results)
+
+
+def cocotb_results(results_xml: Path) -> tuple[int, int]:
+    """(tests run, tests failed) of a cocotb results file."""
+    from cocotb_tools.check_results import get_results
+
+    return get_results(Path(results_xml))
 
 
 def kernel_cocotb_build(fmt_name: str, dma: str, friction_sign_bug: bool = False,
