@@ -130,6 +130,7 @@ MEASURES: dict[str, Callable[[Optional[AnyRunResult]], Any]] = {
     "max_dv_vs_exact": _max_dv,
     "fits": lambda r: _fit(r).fits,
     "lut_share": lambda r: _fit(r).shares["LUT"],
+    "bram_share": lambda r: _fit(r).shares["BRAM36"],
     "binding_resource": _binding,
     "manifolds": lambda r: _rtl(r).scene.manifolds,
     # published figures (no run): the thesis's cycles per manifold-pass
@@ -173,7 +174,8 @@ def load_claims(path: Path = CLAIMS_FILE) -> Claims:
 
 def readme_lines(claims: Claims) -> list[str]:
     """The headline table and the lines under it, as README.md has them."""
-    return [*TABLE_HEADER, *(c.row() for c in claims.rows), "", *(c.rendered() for c in claims.notes)]
+    return [*TABLE_HEADER, *(c.row() for c in claims.rows), "",
+            *(line for c in claims.notes for line in c.rendered().split("\n"))]
 
 
 # --- running --------------------------------------------------------------------------------------------------
@@ -212,7 +214,7 @@ def check(claims: Claims, results: dict[str, AnyRunResult | Exception]) -> list[
     published figure."""
     out: list[Check] = []
     for c in claims.all:
-        label = c.claim or c.text.split("(")[0].strip()
+        label = c.claim or re.split(r"[(:,{]", c.text)[0].strip()
         for f in c.figures:
             for run in f.runs or ("",):
                 if run and run not in results:
