@@ -16,6 +16,7 @@ SCENE_ARGS ?=
 ITERS ?= 4
 FORMAT ?= fp32
 DMA ?= zcu102
+# the seed of every randomised run and test (sim/seed.py's DEFAULT_SEED; CI derives one from the commit, .ci/run)
 SEED ?= 1
 WAVES ?= 0
 FORMATS ?= fp32,fp16,bf16
@@ -46,7 +47,7 @@ TEST_JOBS ?= 2
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test sim sweep peers analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
+.PHONY: help venv sysdeps test claims sim sweep peers analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
 
 help:
 	@echo "pgs-cosim: run a PGS kernel's step on a scene, compare it bit for bit, measure its cycles, error and fit."
@@ -67,6 +68,8 @@ help:
 	@echo "verify"
 	@echo "  make test        the whole test suite (what CI runs; TEST_JOBS=2 pytest workers)"
 	@echo "  make regress     the co-simulation over SEEDS=4 seeds and more scenes on JOBS=2 workers"
+	@echo "  make claims      rerun every figure of the README's headline results against docs/claims.toml (long:"
+	@echo "                   five thesis-frame runs; CLAIMS=run,run picks some); PASS / FAIL per figure"
 	@echo "  make coverage    line/branch/toggle coverage of rtl/ per kernel configuration (COVERAGE_CONFIGS=a,b)"
 	@echo "  make lint        verilator --lint-only -Wall on every RTL top"
 	@echo ""
@@ -80,7 +83,8 @@ help:
 	@echo "  make analyze     which number formats a scene needs within BUDGET=0.01 (FORMAT=auto uses it)"
 	@echo "  make band        band width of every schedule on every scene; on-chip budget of the thesis frame"
 	@echo "  make stability   the hard cases closed loop: CASES= x FORMATS= x remedies (JOBS=2)"
-	@echo "  make bench       simulated cycles per second of the harness, PROFILES=quick,pgo side by side (RUNS=3)"
+	@echo "  make bench       simulated cycles per second of the harness, PROFILES=quick,pgo side by side (RUNS=3);"
+	@echo "                   CYCLE_MODEL=1: the cycle models' predictions per second on a synthetic step"
 	@echo ""
 	@echo "EXECUTOR=local:N|dask:local:N|dask:tcp://host:port spreads sweep, stability, resources and regress points."
 
@@ -104,8 +108,10 @@ sysdeps:
 	  else echo "warning: missing$$missing; install with: sudo apt-get install$$missing"; fi; \
 	fi
 
+# more pytest options for make test, e.g. PYTEST_ARGS="--junitxml=build/junit.xml" or "--lf"
+PYTEST_ARGS ?=
 test: $(STAMP)
-	$(TOOLENV) $(VPY) -m pytest -n $(TEST_JOBS) --dist loadscope
+	$(TOOLENV) $(VPY) -m pytest -n $(TEST_JOBS) --dist loadscope $(PYTEST_ARGS)
 
 sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
@@ -120,6 +126,11 @@ MUJOCO_MEMORY_GB ?= 12
 peers: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.peers --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --runs $(PEER_RUNS) \
 		--mujoco-budget $(MUJOCO_BUDGET) --mujoco-memory-gb $(MUJOCO_MEMORY_GB)
+
+# every figure of the README's headline results, rerun and compared (docs/claims.toml; not in make test: minutes each)
+CLAIMS ?=
+claims: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.claims --runs "$(CLAIMS)"
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
@@ -164,9 +175,12 @@ PROFILES ?= quick,pgo
 RUNS ?= 3
 MAX_CYCLES ?= 0
 BASELINE_EXE ?=
+# CYCLE_MODEL=1: the cycle models' speed on a synthetic step instead (no kernel build)
+CYCLE_MODEL ?= 0
 bench: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.bench --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) \
-		--profiles $(PROFILES) --runs $(RUNS) --max-cycles $(MAX_CYCLES) --baseline-exe "$(BASELINE_EXE)"
+		--profiles $(PROFILES) --runs $(RUNS) --max-cycles $(MAX_CYCLES) --baseline-exe "$(BASELINE_EXE)" \
+		$(if $(filter-out 0,$(CYCLE_MODEL)),--cycle-model,)
 
 rtl: $(STAMP)
 	$(TOOLENV) $(VPY) -m rtl.gen

@@ -33,7 +33,6 @@ well.
 from __future__ import annotations
 
 import dataclasses
-import os
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +54,7 @@ from sim.drive.kernel_step import KernelResult, golden_step, run_kernel_step
 from sim.compare.trace_bits import Comparison, compare_body_out, compare_trace_bits, read_trace
 from models.timing import prediction
 from sim.compare import retire_cycles
+from sim.seed import run_seed
 
 DEPTH = 1024
 LANES = 2
@@ -64,7 +64,7 @@ RECORD_BYTES = StreamLayout(FP32).window_bytes  # one lane's combined record (3 
 
 
 def _seed() -> int:
-    return int(os.environ.get("SEED", "12345"))
+    return run_seed()
 
 
 def window_job(scene: str, schedule: str, hazard_window: int, interleaved: bool = False,

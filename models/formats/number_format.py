@@ -111,6 +111,20 @@ def _exact(op: str, a: ArrayLike, b: Optional[ArrayLike]) -> np.ndarray:
         return fn(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
 
 
+def _operands(a: ArrayLike, b: Optional[ArrayLike]) -> list[np.ndarray]:
+    return [np.asarray(a, dtype=np.float64)] + ([] if b is None else [np.asarray(b, dtype=np.float64)])
+
+
+def _event_flags(exact: np.ndarray, r: np.ndarray, operands: list[np.ndarray]) -> EventFlags:
+    """The event flags of results ``r`` rounded from ``exact`` (see the module docstring)."""
+    nan_in = np.zeros(r.shape, dtype=bool)
+    for x in operands:
+        nan_in = nan_in | np.isnan(x)
+    finite = np.isfinite(exact)
+    return EventFlags(overflow=finite & np.isinf(r), underflow=finite & (exact != 0.0) & (r == 0.0),
+                      invalid=np.isnan(r) & ~nan_in)
+
+
 @dataclass(frozen=True)
 class NumberFormat:
     """A binary floating-point format (sign, ``exp_bits``, ``man_bits``)."""
@@ -283,13 +297,7 @@ class NumberFormat:
         """``op`` ('add', 'sub', 'mul', 'div' or 'sqrt') of format values, and its per-element event flags."""
         exact = _exact(op, a, b)
         r = self.round(exact)
-        operands = [np.asarray(a, dtype=np.float64)] + ([] if b is None else [np.asarray(b, dtype=np.float64)])
-        nan_in = np.zeros(r.shape, dtype=bool)
-        for x in operands:
-            nan_in = nan_in | np.isnan(x)
-        finite = np.isfinite(exact)
-        return r, EventFlags(overflow=finite & np.isinf(r), underflow=finite & (exact != 0.0) & (r == 0.0),
-                             invalid=np.isnan(r) & ~nan_in)
+        return r, _event_flags(exact, r, _operands(a, b))
 
     def counting(self) -> "CountingFormat":
         """This format, counting the events of every +, -, x, /, sqrt into a fresh ``events`` total."""
@@ -303,8 +311,12 @@ class CountingFormat(NumberFormat):
     events: FpEvents = field(default_factory=FpEvents, compare=False, repr=False)
 
     def _counted(self, op: str, a: ArrayLike, b: Optional[ArrayLike] = None) -> np.ndarray:
-        r, flags = self.op_with_events(op, a, b)
-        self.events.add(flags)
+        exact = _exact(op, a, b)
+        r = self.round(exact)
+        odd = ~np.isfinite(r) | (r == 0.0)  # only an infinite, NaN or zero result can raise an event
+        if odd.any():
+            operands = [np.broadcast_to(x, r.shape)[odd] for x in _operands(a, b)]
+            self.events.add(_event_flags(np.broadcast_to(exact, r.shape)[odd], r[odd], operands))
         return r
 
     def add(self, a: ArrayLike, b: ArrayLike) -> np.ndarray:

@@ -230,9 +230,7 @@ def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nda
     zero = ar.const(0.0)
     for i in range(4):
         jac = jac_all[idx, i]
-        active = jac != 0.0
-        if not np.any(active):
-            continue
+        active = jac != 0.0  # every point is computed, as the kernel's pipe does, and kept where active
         p = cons.points[idx, i]
         ca = cross3(ar, ar.sub(p, g.xa), n)
         cb = cross3(ar, ar.sub(p, g.xb), n)
@@ -287,14 +285,14 @@ def friction_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nd
         # the friction impulse acts along -t on A and +t on B: negate delta and reuse _apply's signs
         _apply(ar, g, scale3(ar, t, g.ma), inertia_product(ar, g.ia, ca), scale3(ar, t, g.mb),
                inertia_product(ar, g.ib, cb), -delta, active)
+    # the damped spin of every manifold is computed, as the kernel's pipe does, and kept where damped
     damp = active & cons.spin_damp[idx] & (True if no_spin is None else ~no_spin)
-    if np.any(damp):
-        n = cons.normal[idx]
-        k = ar.const(SPIN_DAMP_FACTOR)
-        wa = ar.sub(g.wa, scale3(ar, n, ar.mul(dot3(ar, n, g.wa), k)))
-        wb = ar.sub(g.wb, scale3(ar, n, ar.mul(dot3(ar, n, g.wb), k)))
-        g.wa = np.where(damp[:, None], wa, g.wa)
-        g.wb = np.where(damp[:, None], wb, g.wb)
+    n = cons.normal[idx]
+    k = ar.const(SPIN_DAMP_FACTOR)
+    wa = ar.sub(g.wa, scale3(ar, n, ar.mul(dot3(ar, n, g.wa), k)))
+    wb = ar.sub(g.wb, scale3(ar, n, ar.mul(dot3(ar, n, g.wb), k)))
+    g.wa = np.where(damp[:, None], wa, g.wa)
+    g.wb = np.where(damp[:, None], wb, g.wb)
     return lam_t
 
 

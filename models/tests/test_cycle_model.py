@@ -3,7 +3,6 @@ hand-derived timelines; the RTL comparison is in cocotb_tests/test_pgs_kernel.py
 
 from __future__ import annotations
 
-import time
 
 import numpy as np
 import pytest
@@ -176,14 +175,3 @@ def test_empty_steps() -> None:
     assert stream_cycle_model.predict(FP32_C512, IDEAL, step_of([], 0, static=())).cycles == 3  # IDLE -> INTEG -> DONE
     p = stream_cycle_model.predict(FP32_C512, IDEAL, step_of([], 2))  # LOAD -> INTEG: no manifold
     assert p.manifold_passes == 0 and p.phases["INTEG"] == p.solve_start == 12
-
-
-def test_model_speed() -> None:
-    """Prints the model's speed on a synthetic step (a figure, not a check)."""
-    n = 20000
-    step = step_of([(1 + k % 5000, 1 + (k * 7 + 1) % 5000) for k in range(n)], 5001, iterations=4)
-    t0 = time.perf_counter()
-    p = stream_cycle_model.predict(FP32_C512, ZCU102, step)
-    dt = time.perf_counter() - t0
-    print(f"\ncycle model: {p.manifold_passes:,} manifold-passes, {p.cycles:,} cycles in {dt:.2f} s "
-          f"({p.manifold_passes / dt / 1e3:.0f} k manifold-passes/s)")

@@ -19,6 +19,7 @@ from models.published import thesis as baselines
 from sim.compare.exact_error import ExactErrors, NoExactReference
 from sim.fit.resource_model import FitVerdict, NoEstimate, fit_rows
 
+VERDICT_SECTION = "verdict (what decides the exit status)"
 BITS_SECTION = "bit-exactness (RTL kernel against the golden model, same format)"
 MODEL_SECTION = "cycle model (models/timing/cycle_model.py)"
 ERROR_SECTION = "error (velocities after the step; dynamic bodies)"
@@ -163,6 +164,9 @@ class RunResult:
     cycle_model: Optional[dict[str, Any]] = None  # sim.compare.retire_cycles.report_section beside the RTL
     window: Optional[WindowFacts] = None
     fit: Optional[FitReport] = None  # sim.fit.resource_model.kernel_fit of the configuration run
+    # the cycle model against the RTL run: every retire cycle and the counters (deterministic streams) or its lower
+    # bound (random stalls); None: not compared (no kernel run, or a configuration the model does not take)
+    model_agrees: Optional[bool] = None
 
     @property
     def label(self) -> str:
@@ -170,8 +174,18 @@ class RunResult:
 
     @property
     def ok(self) -> bool:
-        """The kernel agreed with the golden model bit for bit (or did not run)."""
-        return self.bits is None or self.bits.ok
+        """The kernel agreed with the golden model bit for bit, its counters included (or did not run), and the
+        cycle model agreed with the kernel (or was not compared): what make sim's exit status 0 says."""
+        return (self.bits is None or self.bits.ok) and self.model_agrees is not False
+
+    def verdict(self) -> dict[str, str]:
+        """What decides the exit status, one line per check (the report's first section)."""
+        bits = ("not run" if self.bits is None else "agree (0 bits differ, counters equal)" if self.bits.ok
+                else f"DIFFER: {self.bits.first_mismatch or f'{self.bits.differing_bits} bits'}")
+        model = {None: "not compared", True: "agree", False: "DISAGREE (see the cycle model section)"}
+        return {"RTL kernel against the golden model": bits,
+                "cycle model against the RTL kernel": model[self.model_agrees],
+                "exit status": "0" if self.ok else "1 (a check above failed)"}
 
 
 @dataclass
@@ -212,6 +226,7 @@ def sections(result: AnyRunResult) -> Sections:
         return model
     s, k = result.scene, result.schedule
     out: Sections = {
+        VERDICT_SECTION: result.verdict(),
         "scene": {"scene": s.label, "bodies": s.bodies, "dynamic bodies": s.dynamic_bodies, "manifolds": s.manifolds,
                   "contact points": s.contact_points, "step": s.step, "seed": s.seed},
         "schedule": {"kind": k.kind, "window W (issue slots)": k.window, "slots per pass": k.slots,

@@ -26,8 +26,8 @@ def test_band_figures(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Non
     assert len(figures["budget"]) == len(PLATFORMS) * 3 * 2 * 2 and all(b["fits"] for b in figures["budget"])
     out = capsys.readouterr().out
     assert "does not fit" not in out and "whole kernel (resource model, 1 lane)" in out
-    assert all(b["kernel_fit"] in ("FITS", "no estimate") or b["kernel_fit"].startswith("DOES NOT FIT (")
-               for b in figures["budget"])
+    # the pyramid's 55 cubes: every window (one lane, the impulses on chip or in the records) fits both devices
+    assert [b["kernel_fit"] for b in figures["budget"]] == ["FITS"] * len(figures["budget"])
 
 
 def test_band_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

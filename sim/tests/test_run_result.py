@@ -6,7 +6,8 @@ from __future__ import annotations
 from typing import Union
 
 from models.exact.solution_error import SolutionError
-from sim.report.run_result import (BITS_SECTION, ERROR_SECTION, MODEL_SECTION, BitExactness, KernelSpeed,
+from sim.report.run_result import (BITS_SECTION, ERROR_SECTION, MODEL_SECTION, VERDICT_SECTION, BitExactness,
+                                   KernelSpeed,
                                    ModelRunResult, RunResult, SceneFacts, ScheduleFacts, StepErrors, ThesisComparison,
                                    VelocityError, sections)
 from sim.compare.exact_error import ExactErrors, ExactReferenceFacts, NoExactReference
@@ -40,9 +41,26 @@ def test_exit_status_follows_bit_exactness() -> None:
     assert ModelRunResult("pile-fp32-it4-s1-zcu102", "pile", 217, 900, "hazard", "zcu102").ok
 
 
+def test_exit_status_follows_the_cycle_model() -> None:
+    """make sim exits 1 when the cycle model disagrees with the RTL kernel, even with every bit equal, and says so in
+    the report's first section; a run the model was not compared with (None) does not fail for it."""
+    good = BitExactness(0, 0, 40, 11, "", 1)
+    for agrees, ok in ((True, True), (None, True), (False, False)):
+        result = _result(good)
+        result.model_agrees = agrees
+        assert result.ok is ok
+        verdict = sections(result)[VERDICT_SECTION]
+        assert verdict["exit status"] == ("0" if ok else "1 (a check above failed)")
+        assert verdict["cycle model against the RTL kernel"] == {True: "agree", None: "not compared",
+                                                                False: "DISAGREE (see the cycle model section)"}[agrees]
+    bad = _result(BitExactness(2, 1, 40, 11, "body 3", 1))
+    bad.model_agrees = True
+    assert sections(bad)[VERDICT_SECTION]["RTL kernel against the golden model"] == "DIFFER: body 3"
+
+
 def test_sections_in_order() -> None:
     rtl = sections(_result(BitExactness(0, 0, 40, 11, "", 1)))
-    assert list(rtl) == ["scene", "schedule", BITS_SECTION, "kernel speed (RTL in Verilator)",
+    assert list(rtl) == [VERDICT_SECTION, "scene", "schedule", BITS_SECTION, "kernel speed (RTL in Verilator)",
                          "roofline (lower bounds for this configuration)",
                          "error (velocities after the step; dynamic bodies)",
                          "comparison with the thesis and with software solvers", "wall time of this run (s)"]
@@ -53,6 +71,7 @@ def test_sections_in_order() -> None:
     assert "thesis statistic: average relative position difference from fp32" not in err
     plain = sections(_result(None))
     assert BITS_SECTION not in plain and "kernel speed (RTL in Verilator)" not in plain
+    assert plain[VERDICT_SECTION]["RTL kernel against the golden model"] == "not run"
     model = sections(ModelRunResult("p", "pile", 217, 900, "hazard", "zcu102", {"model: kernel cycles": 5}))
     assert list(model) == ["scene", MODEL_SECTION] and model["scene"]["bodies"] == 217
 
