@@ -20,7 +20,8 @@ fp/fp_div.sv
 fp/fp_sqrt.sv
 fp/fp_minmax.sv
 
-// datapaths (generated) and their delay lines
+// datapaths (generated) and their delay lines: the contact and friction pipes, the shared datapaths of both
+// passes (SHARED_DATAPATH), the integration
 pgs_delay.sv
 generated/pgs_contact_pipe.sv
 generated/pgs_friction_pipe.sv
@@ -33,6 +34,16 @@ generated/pgs_friction_pipe_mu.sv
 generated/pgs_friction_pipe_scalar_mu.sv
 generated/pgs_friction_pipe_full_mu.sv
 generated/pgs_friction_pipe_tb.sv
+generated/pgs_shared_pipe.sv
+generated/pgs_shared_pipe_mu.sv
+generated/pgs_shared_pipe_scalar.sv
+generated/pgs_shared_pipe_scalar_mu.sv
+generated/pgs_shared_pipe_full.sv
+generated/pgs_shared_pipe_full_mu.sv
+generated/pgs_shared_pipe_soft.sv
+generated/pgs_shared_pipe_mu_soft.sv
+generated/pgs_shared_pipe_tb.sv
+generated/pgs_shared_pipe_soft_tb.sv
 generated/pgs_integrate_pipe.sv
 
 // memories, queues and control
