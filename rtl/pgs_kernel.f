@@ -57,6 +57,7 @@ pgs_ring_ram.sv
 pgs_window.sv
 pgs_run_counters.sv
 pgs_error_flags.sv
+pgs_lane_datapath.sv
 pgs_sequencer.sv
 pgs_control_s_axi.sv
 pgs_kernel.sv

@@ -6,12 +6,13 @@
 //   SOLVE  the passes of models.golden.contact_solver.pass_sequence (contact passes then friction passes, or
 //          interleaved when opt_interleaved): num_manifolds records per pass, record k of a pass =
 //          manifold slot k. A record issues (one per cycle at most, II = 1) when it is assembled and
-//          no manifold in flight shares a dynamic body with it (pgs_hazard_cam), and -- when the pass
-//          kind changes -- when the other pipe has drained (retire stays in order, one write per
-//          body port per cycle). Issue cycle t: read bodies A, B and the slot's impulses (registered
-//          RAMs); t+1: the contact or friction pipe takes the record; at retire (t+1+LATENCY) the
-//          impulses are written to the slot and the velocities of the dynamic bodies to the body RAM;
-//          the trace record leaves then.
+//          no manifold in flight shares a dynamic body with it (pgs_hazard_cam), and -- with two pipes
+//          per lane (SHARED_DATAPATH = 0), when the pass kind changes -- when the other pipe has drained
+//          (retire stays in order, one write per body port per cycle). Issue cycle t: read bodies A, B
+//          and the slot's impulses (registered RAMs); t+1: the lane's datapath (pgs_lane_datapath: one
+//          shared datapath for both kinds, or the kind's pipe) takes the record; at retire
+//          (t+1+LATENCY) the impulses are written to the slot and the velocities of the dynamic bodies to
+//          the body RAM; the trace record leaves then.
 //          With WINDOW > 0 (the window kernel) the records come from pgs_window instead: each
 //          manifold's combined record is streamed once per fetch of arg_fetch_passes passes and the passes
 //          trail each other by arg_lag slots over the on-chip ring (see pgs_window); records of several
@@ -33,7 +34,7 @@
 //          beat of the last body;
 //   DONE   one cycle: done (= ap_done and ap_ready).
 // Counters (pgs_run_counters; cleared at start, frozen after done): cycles (start .. done inclusive), stall cycles
-// (SOLVE, a record is assembled but may not issue: hazard, CAM full, pipe switch drain or a busy body bank), bubble
+// (SOLVE, a record is assembled but may not issue: hazard, CAM full, two pipes' switch drain or a busy body bank), bubble
 // cycles (SOLVE, no record assembled), issued manifold-passes, rejected manifold-passes (issued +
 // rejected + empty lanes = num_manifolds * 2 * iterations), and the floating-point events of the three datapaths
 // (overflow, underflow, invalid: every operator result of an issued manifold-pass or of a dynamic body's
@@ -83,6 +84,7 @@ module pgs_sequencer #(
     parameter bit TANGENTS_ON_CHIP = 1'b0, // 1: friction records without t0, t1; pgs_friction_pipe_tb derives them
     parameter bit SOFT_CONTACT   = 1'b0,   // 1 (IINV_W = 3): the soft contact pipe, lam * keep before the add
     parameter int DELAY_BLOCK_MIN_DEPTH = 0, // the pipes' delay lines at least this deep in block RAM (0: LUT RAM)
+    parameter bit SHARED_DATAPATH = 1'b1,  // 1: one datapath per lane for both passes; 0: a contact and a friction pipe
     localparam int W             = 1 + EXP_BITS + MAN_BITS,
     localparam int TRACE_W       = 16 * W + 64,
     localparam int IMP_OUT_W     = (LANES * 4 * W + 7) / 8 * 8
@@ -150,7 +152,6 @@ module pgs_sequencer #(
     localparam int C_WORDS   = pgs_stream_layout_pkg::CONTACT_WORDS
                                + (IMPULSES_IN_RECORDS ? pgs_stream_layout_pkg::CONTACT_IMPULSE_WORDS : 0);
     localparam int F_COEFF   = pgs_stream_layout_pkg::friction_words(MU_W, TANGENTS_ON_CHIP);  // words up to the impulses
-    localparam int F_PIPE    = pgs_stream_layout_pkg::friction_pipe_words(MU_W, TANGENTS_ON_CHIP);  // the pipe's words
     localparam int F_WORDS   = F_COEFF + (IMPULSES_IN_RECORDS ? pgs_stream_layout_pkg::FRICTION_IMPULSE_WORDS : 0);
     localparam int S1_WORDS  = C_WORDS > F_WORDS ? C_WORDS : F_WORDS;   // the record words stage 1 holds
     localparam int C_BEATS   = (64 + C_WORDS * W + CONS_W - 1) / CONS_W;   // contact record
@@ -159,9 +160,6 @@ module pgs_sequencer #(
     // one lane's window record: the contact and friction words together (on-chip impulses), or with the impulses in
     // the records the record of its fetch's one pass kind (each fetch serves passes of one kind), padded to CM_BEATS
     localparam int WR_BEATS  = IMPULSES_IN_RECORDS ? CM_BEATS : (64 + (23 + F_COEFF) * W + CONS_W - 1) / CONS_W;
-    localparam int C_LAT     = pgs_pipe_latency_pkg::contact_latency(MAN_BITS);
-    localparam int F_LAT     = TANGENTS_ON_CHIP ? pgs_pipe_latency_pkg::friction_pipe_tb_latency(MAN_BITS)
-                                                : pgs_pipe_latency_pkg::friction_latency(MAN_BITS);
     localparam int CREC_W    = CM_BEATS * CONS_W;
     localparam int CNEED_W   = $clog2(CM_BEATS + 1);
     localparam int BNEED_W   = $clog2(B_BEATS + 1);
@@ -206,7 +204,6 @@ module pgs_sequencer #(
     logic [W-1:0] r_dt, r_gx, r_gy, r_gz, r_damp;
     logic         r_soft;                 // SOFT_CONTACT: opt_soft and the keep factors of the run
     logic [W-1:0] r_keep_d, r_keep_s;
-    localparam int SOFT_WORDS = SOFT_CONTACT ? 2 : 0;   // the soft contact pipe's keep_dyn, keep_static words
     // with the impulses in the records every fetch of the window kernel serves passes of one kind: fetch_passes
     // divides the iterations (contact passes, then friction passes), or 1 with the kinds interleaved
     logic mixed_fetch;
@@ -499,9 +496,10 @@ module pgs_sequencer #(
     logic hazard, cam_full, cam_empty, retire, last_kind;
     wire  [ITER_W:0]   i_iter_full = ilv ? (i_pass >> 1) : (i_pass >= iters ? i_pass - iters : i_pass);
     wire  [ITER_W-1:0] i_iter = i_iter_full[ITER_W-1:0];
-    // the streaming kernel drains a pipe before it switches kinds (retire in issue order; the window kernel aligns
-    // the pipes' latencies instead) and waits while a body-velocity bank is busy with the retire (BODY_BANKS > 0)
-    wire  issue_ok  = (WINDOW > 0 || rkind == last_kind || cam_empty) && !body_busy;
+    // the streaming kernel with two pipes per lane drains a pipe before it switches kinds (retire in issue order; the
+    // shared datapath takes both kinds at one latency, the window kernel aligns the two pipes' latencies) and every
+    // kernel waits while a body-velocity bank is busy with the retire (BODY_BANKS > 0)
+    wire  issue_ok  = (SHARED_DATAPATH || WINDOW > 0 || rkind == last_kind || cam_empty) && !body_busy;
 
     logic [31:0]       lslot [LANES];            // manifold slot of each lane
     always_comb begin
@@ -605,14 +603,11 @@ module pgs_sequencer #(
         .clk, .rst, .cand, .cand_dyn, .hazard, .push(issue), .pop(retire), .full(cam_full), .empty(cam_empty));
     assign dyn_addr = cand;
 
-    // ---------------- the lanes: impulse RAM bank, stage 1, contact and friction pipes, retire ----------------
+    // ---------------- the lanes: impulse RAM bank, stage 1, the datapath (pgs_lane_datapath), retire ----------------
     // Lane l holds the slots l, l + LANES, ...: its impulse RAM bank is indexed by the record index.
-    // Every manifold retires C_LAT + 1 cycles after its issue in the window kernel (below), so the lanes of
-    // an issue retire together and one CAM entry leaves.
-    localparam int F_ALIGN = WINDOW > 0 ? C_LAT - F_LAT : 0;
-    if (F_ALIGN < 0) begin : g_bad_align
-        $error("pgs_sequencer: the window kernel needs the friction pipe no deeper than the contact pipe");
-    end
+    // Every manifold retires the lane datapath's LATENCY + 1 cycles after its issue with the shared datapath and in
+    // the window kernel (its two pipes aligned to the contact pipe's latency), so the lanes of an issue retire
+    // together and one CAM entry leaves.
     logic [LANES-1:0]       l_retire, l_fret, l_dyn_a, l_dyn_b;
     logic [IDX_W-1:0]       l_ra [LANES], l_rb [LANES];
     logic [12*W-1:0]        l_vel [LANES];             // vA wA vB wB
@@ -621,17 +616,13 @@ module pgs_sequencer #(
     logic [ITER_W-1:0]      l_riter [LANES];
     logic [RA_W-1:0]        l_raddr [LANES];           // window kernel: the retiring record's ring address
     logic [LANES-1:0]       l_rlastg;                  // ... its pass is the last of its fetch
-    logic [3*EV_W-1:0]      l_ev [LANES];              // {invalid, underflow, overflow} of the lane's two pipes
+    logic [3*EV_W-1:0]      l_ev [LANES];              // {invalid, underflow, overflow} of the lane's datapath
     always_ff @(posedge clk) begin
         if (issue) s1_kind <= rkind;
     end
     for (genvar l = 0; l < LANES; l++) begin : g_lane
         logic [4*W-1:0] rd_lam;
         logic [2*W-1:0] rd_lamT;
-        logic              c_out_valid, f_out_valid, f_pipe_valid;
-        logic [STAG_W-1:0] c_out_tag, f_out_tag, f_pipe_tag;
-        logic [16*W-1:0]   c_out;
-        logic [14*W-1:0]   f_out, f_pipe;
         // stage 1: the record and tag of the manifold issued in the previous cycle. A shock pass's row (header bits
         // frozen A / B, linear; models/golden/shock_propagation.py, streaming kernel only) takes its frozen body as a static
         // one: its inverse mass and inertia enter the pipe as 0 and its tag's dynamic bit is clear, so retire does
@@ -673,7 +664,8 @@ module pgs_sequencer #(
             pgs_impulse_ram #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .MAX_MANIFOLDS(MAX_MANIFOLDS / LANES)) u_imp_ram (
                 .clk, .rd_addr(i_slot[BSLOT_W-1:0]), .rd_zero_lam(rkind == CONTACT && i_iter == '0),
                 .rd_zero_lamT(rkind == FRICTION && i_iter == '0), .rd_lam, .rd_lamT, .wr_addr(wr_rec),
-                .wr_lam_en(c_out_valid), .wr_lam(c_out[0 +: 4*W]), .wr_lamT_en(f_out_valid), .wr_lamT(f_out[0 +: 2*W]));
+                .wr_lam_en(l_retire[l] && l_fret[l] == CONTACT), .wr_lam(l_imp[l]),
+                .wr_lamT_en(l_retire[l] && l_fret[l] == FRICTION), .wr_lamT(l_imp[l][0 +: 2*W]));
         end
         logic [STAG_W-1:0] s1_tag;
         always_ff @(posedge clk) begin
@@ -703,148 +695,32 @@ module pgs_sequencer #(
         // body fields of the stage-1 reads (A on port 2l, B on port 2l + 1)
         wire [BREC_W-1:0] ra = rd_data[2*l*BREC_W +: BREC_W];
         wire [BREC_W-1:0] rb = rd_data[(2*l+1)*BREC_W +: BREC_W];
-        // the bodies' mass words as the pipes take them: 0 for a frozen body, no inverse inertia on a linear row
+        // the bodies' mass words as the datapath takes them: 0 for a frozen body, no inverse inertia on a linear row
         wire [W-1:0]        m_a = s1_fa ? '0 : ra[13*W +: W];
         wire [W-1:0]        m_b = s1_fb ? '0 : rb[13*W +: W];
         wire [IINV_W*W-1:0] i_a = s1_fa || s1_lin ? '0 : ra[14*W +: IINV_W*W];
         wire [IINV_W*W-1:0] i_b = s1_fb || s1_lin ? '0 : rb[14*W +: IINV_W*W];
-        logic [(47 + 2*IINV_W + SOFT_WORDS)*W-1:0] c_in;
-        // the friction pipe's inputs: its F_PIPE record words, lam[4], lamT[2], xA, xB, vA wA vB wB, mInvA/B, IInvA/B,
-        // then (MU_W = 1) the coefficient
-        localparam int FB = F_PIPE + 6;   // word of the bodies' fields
-        logic [(FB + 20 + 2*IINV_W + MU_W)*W-1:0] f_in;
-        always_comb begin
-            c_in = '0;
-            c_in[0 +: 23*W] = s1_words[0 +: 23*W];
-            c_in[23*W +: 4*W] = rd_lam;
-            c_in[27*W +: 3*W] = ra[0 +: 3*W];      // xA
-            c_in[30*W +: 3*W] = rb[0 +: 3*W];      // xB
-            c_in[33*W +: 6*W] = ra[7*W +: 6*W];    // vA, wA
-            c_in[39*W +: 6*W] = rb[7*W +: 6*W];    // vB, wB
-            c_in[45*W +: W]   = m_a;               // mInvA
-            c_in[46*W +: W]   = m_b;               // mInvB
-            c_in[47*W +: IINV_W*W] = i_a;                               // IInvA
-            c_in[(47 + IINV_W)*W +: IINV_W*W] = i_b;                    // IInvB
-            for (int k = 0; k < SOFT_WORDS; k++)                                   // keep_dyn, keep_static
-                c_in[(47 + 2*IINV_W + k)*W +: W] = k == 0 ? r_keep_d : r_keep_s;
-            f_in = '0;
-            f_in[0 +: F_PIPE*W]       = s1_words[0 +: F_PIPE*W];
-            f_in[F_PIPE*W +: 4*W]     = rd_lam;
-            f_in[(F_PIPE + 4)*W +: 2*W] = rd_lamT;
-            f_in[FB*W +: 3*W]         = ra[0 +: 3*W];
-            f_in[(FB + 3)*W +: 3*W]   = rb[0 +: 3*W];
-            f_in[(FB + 6)*W +: 6*W]   = ra[7*W +: 6*W];
-            f_in[(FB + 12)*W +: 6*W]  = rb[7*W +: 6*W];
-            f_in[(FB + 18)*W +: W]    = m_a;
-            f_in[(FB + 19)*W +: W]    = m_b;
-            f_in[(FB + 20)*W +: IINV_W*W] = i_a;
-            f_in[(FB + 20 + IINV_W)*W +: IINV_W*W] = i_b;
-            for (int k = 0; k < MU_W; k++) f_in[(FB + 20 + 2*IINV_W + k)*W +: W] = s1_words[(F_PIPE + k)*W +: W];   // mu
-        end
-
-        logic [EV_W-1:0]   c_ev_ovf, c_ev_unf, c_ev_inv, f_ev_ovf, f_ev_unf, f_ev_inv;
-        // the pipes of the inverse-inertia mode (rtl/generated: one module per mode, the same ports and latency);
-        // with MU_W = 1 the friction pipe takes the manifold's coefficient as its last word (the *_mu modules)
-        wire c_in_valid = s1_valid && s1_kind == CONTACT;
-        wire f_in_valid = s1_valid && s1_kind == FRICTION;
-        if (IINV_W == 1) begin : g_scalar
-            pgs_contact_pipe_scalar #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
-                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_contact (
-                .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
-                .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
-                .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
-            if (MU_W == 1) begin : g_mu
-                pgs_friction_pipe_scalar_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
-                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
-                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
-                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
-            end else begin : g_mu_const
-                pgs_friction_pipe_scalar #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
-                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
-                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
-                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
-            end
-        end else if (IINV_W == 6) begin : g_full
-            pgs_contact_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
-                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_contact (
-                .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
-                .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
-                .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
-            if (MU_W == 1) begin : g_mu
-                pgs_friction_pipe_full_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
-                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
-                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
-                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
-            end else begin : g_mu_const
-                pgs_friction_pipe_full #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
-                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
-                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
-                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
-            end
-        end else begin : g_diagonal
-            // SOFT_CONTACT: the soft contact pipe (the same latency; keep_dyn, keep_static its last words)
-            if (SOFT_CONTACT) begin : g_soft
-                pgs_contact_pipe_soft #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
-                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_contact (
-                    .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_soft(r_soft),
-                    .in_count(1'b1), .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out),
-                    .ev_overflow(c_ev_ovf), .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
-            end else begin : g_rigid
-                pgs_contact_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
-                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_contact (
-                    .clk, .rst, .in_valid(c_in_valid), .in_tag(s1_tag), .in_data(c_in), .in_count(1'b1),
-                    .out_valid(c_out_valid), .out_tag(c_out_tag), .out_data(c_out), .ev_overflow(c_ev_ovf),
-                    .ev_underflow(c_ev_unf), .ev_invalid(c_ev_inv));
-            end
-            if (MU_W == 1) begin : g_mu
-                pgs_friction_pipe_mu #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
-                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
-                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
-                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
-            end else if (TANGENTS_ON_CHIP) begin : g_tangents
-                // the friction record carries no t0, t1: the pipe derives them from n (planeSpace of -n)
-                pgs_friction_pipe_tb #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
-                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
-                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
-                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
-            end else begin : g_mu_const
-                pgs_friction_pipe #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W),
-                .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_friction (
-                    .clk, .rst, .in_valid(f_in_valid), .in_tag(s1_tag), .in_data(f_in), .in_spin_damp(s1_sd),
-                    .in_count(1'b1), .out_valid(f_pipe_valid), .out_tag(f_pipe_tag), .out_data(f_pipe),
-                    .ev_overflow(f_ev_ovf), .ev_underflow(f_ev_unf), .ev_invalid(f_ev_inv));
-            end
-        end
-
-        // the window kernel issues contact and friction records back to back: the friction results wait for
-        // the contact pipe's latency, so that every manifold retires C_LAT + 1 cycles after its issue, in
-        // issue order
-        if (F_ALIGN > 0) begin : g_f_align
-            /* verilator lint_off UNUSEDSIGNAL */
-            logic [F_ALIGN:0] f_align_valid;   // the line keeps the valid results: [F_ALIGN-1:0]
-            /* verilator lint_on UNUSEDSIGNAL */
-            fp_valid_pipe #(.LATENCY(F_ALIGN)) u_f_valid (.clk, .rst, .in_valid(f_pipe_valid),
-                                                          .stage_valid(f_align_valid), .out_valid(f_out_valid));
-            pgs_delay #(.WIDTH(STAG_W + 14*W), .DEPTH(F_ALIGN), .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_f_data (
-                .clk, .d({f_pipe_tag, f_pipe}), .valid(f_align_valid[F_ALIGN-1:0]), .q({f_out_tag, f_out}));
-        end else begin : g_f_direct
-            assign f_out_valid = f_pipe_valid;
-            assign f_out_tag   = f_pipe_tag;
-            assign f_out       = f_pipe;
-        end
+        logic              r_valid, r_kind;
+        logic [STAG_W-1:0] r_tag;
+        logic [4*W-1:0]    r_imp;
+        logic [12*W-1:0]   r_vel;
+        logic [EV_W-1:0]   ev_ovf, ev_unf, ev_inv;
+        pgs_lane_datapath #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .TAG_W(STAG_W), .IINV_W(IINV_W), .MU_W(MU_W),
+                            .TANGENTS_ON_CHIP(TANGENTS_ON_CHIP), .SOFT_CONTACT(SOFT_CONTACT),
+                            .SHARED_DATAPATH(SHARED_DATAPATH), .ALIGN(WINDOW > 0),
+                            .DELAY_BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH)) u_datapath (
+            .clk, .rst, .in_valid(s1_valid), .in_kind(s1_kind), .in_tag(s1_tag), .in_rec(s1_words[0 +: 23*W]),
+            .in_lam(rd_lam), .in_lamT(rd_lamT), .in_xa(ra[0 +: 3*W]), .in_xb(rb[0 +: 3*W]), .in_vwa(ra[7*W +: 6*W]),
+            .in_vwb(rb[7*W +: 6*W]), .in_ma(m_a), .in_mb(m_b), .in_ia(i_a), .in_ib(i_b), .in_spin_damp(s1_sd),
+            .in_soft(r_soft), .in_keep_dyn(r_keep_d), .in_keep_static(r_keep_s), .out_valid(r_valid),
+            .out_kind(r_kind), .out_tag(r_tag), .out_imp(r_imp), .out_vel(r_vel), .ev_overflow(ev_ovf),
+            .ev_underflow(ev_unf), .ev_invalid(ev_inv));
 
         // retire
-        wire [STAG_W-1:0] r_tag = c_out_valid ? c_out_tag : f_out_tag;
-        assign l_retire[l] = c_out_valid || f_out_valid;
-        assign l_fret[l]   = f_out_valid;
-        assign l_vel[l]    = c_out_valid ? c_out[4*W +: 12*W] : f_out[2*W +: 12*W];
-        assign l_imp[l]    = c_out_valid ? c_out[0 +: 4*W] : {(2*W)'(0), f_out[0 +: 2*W]};
+        assign l_retire[l] = r_valid;
+        assign l_fret[l]   = r_kind;
+        assign l_vel[l]    = r_vel;
+        assign l_imp[l]    = r_imp;
         assign l_dyn_b[l]  = r_tag[0];
         assign l_dyn_a[l]  = r_tag[1];
         assign l_rb[l]     = r_tag[2 +: IDX_W];
@@ -858,7 +734,7 @@ module pgs_sequencer #(
             assign l_raddr[l]  = '0;
             assign l_rlastg[l] = 1'b1;   // the streaming kernel: every pass writes its impulses out
         end
-        assign l_ev[l]     = {c_ev_inv + f_ev_inv, c_ev_unf + f_ev_unf, c_ev_ovf + f_ev_ovf};
+        assign l_ev[l]     = {ev_inv, ev_unf, ev_ovf};
         // the lane's slot bits of the record index, body B's orientation and the padding are not needed here
         wire unused_lane = ^{l_rslot[l], ra[7*W-1:3*W], rb[7*W-1:3*W]};
     end
