@@ -8,6 +8,7 @@ pgs_fp_pkg.sv
 generated/pgs_regs_pkg.sv
 generated/pgs_stream_layout_pkg.sv
 generated/pgs_pipe_latency_pkg.sv
+pgs_seq_pkg.sv
 
 // floating-point operators
 fp/fp_unpack.sv
@@ -58,6 +59,13 @@ pgs_window.sv
 pgs_run_counters.sv
 pgs_error_flags.sv
 pgs_lane_datapath.sv
+pgs_seq_load.sv
+pgs_seq_records.sv
+pgs_seq_issue.sv
+pgs_seq_hazards.sv
+pgs_seq_lane.sv
+pgs_seq_retire.sv
+pgs_seq_integrate.sv
 pgs_sequencer.sv
 pgs_control_s_axi.sv
 pgs_kernel.sv
