@@ -269,10 +269,15 @@ def build_kernel(kb: KernelBuild, train: Trainer | None = None) -> tuple[Path, f
     return _built[kb]
 
 
-def default_window(fmt: NumberFormat, cons_bits: int, shared_datapath: bool = True) -> int:
-    """Issue slots a manifold must wait before its bodies come back: the deeper pipe's latency in records
-    (latencies from the generated ``rtl/generated/pipe_latency.json``, through ``models.timing.kernel_shape``; the
-    shared datapath's for both kinds, else each kind's pipe's)."""
-    shape = KernelShape.of(fmt, cons_bits, shared_datapath=shared_datapath)
+def default_window(fmt: NumberFormat, cons_bits: int, shared_datapath: bool = True, window_kernel: bool = False) -> int:
+    """Issue slots a manifold must wait before its bodies come back, the hazard schedule's window: the deeper pipe's
+    latency in records (latencies from the generated ``rtl/generated/pipe_latency.json``, through
+    ``models.timing.kernel_shape``; the shared datapath's for both kinds, else each kind's pipe's).
+
+    ``window_kernel``: the schedule of a window kernel's step, whose banded orders keep the two pipes' window whatever
+    the datapath (a wider one widens the band and the passes' lag: on the thesis frame, fp32 one lane, the sweep order
+    at W = 181 takes 1.3935 cycles per manifold-pass against 1.2175 at the two pipes' 112; the window kernel had both
+    kinds at the contact pipe's latency already)."""
+    shape = KernelShape.of(fmt, cons_bits, shared_datapath=shared_datapath and not window_kernel)
     return max(math.ceil(shape.contact_latency / shape.contact_beats),
                math.ceil(shape.friction_latency / shape.friction_beats)) + 2
