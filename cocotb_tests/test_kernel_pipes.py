@@ -424,7 +424,7 @@ def test_kernel_file_list_names_every_rtl_source() -> None:
     packages, modules = rtl_files()
     assert sources[:len(packages)] == packages and sources[-1].name == "pgs_kernel.sv"
     assert [p.name for p in packages] == ["pgs_fp_pkg.sv", "pgs_regs_pkg.sv", "pgs_stream_layout_pkg.sv",
-                                           "pgs_pipe_latency_pkg.sv"]
+                                           "pgs_pipe_latency_pkg.sv", "pgs_seq_pkg.sv"]
     assert not [p.name for p in sources if "TEST_" in p.read_text()]
 
 

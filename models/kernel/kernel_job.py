@@ -200,7 +200,7 @@ class KernelJob:
         """The depth from which the build's delay lines are in block RAM (``models.kernel.delay_lines``: 0 none)."""
         plan = self.record_window
         return default_delay_block_min_depth(self.fmt, self.impulses_in_records, plan is not None,
-                                             plan.lanes if plan else 1)
+                                             plan.lanes if plan else 1, self.shared_datapath)
 
     @property
     def friction_words(self) -> int:
