@@ -84,8 +84,9 @@ def test_each_configuration_has_a_build_and_runs() -> None:
                      "stream-fp32-records-tangents-b256": 2, "stream-fp32-soft": 2, "window-fp32-records": 8,
                      "window-fp16-records-l2": 16}  # the builds make sim runs
     delay = {c.name: c.build().delay_block_min_depth for c in configurations.CONFIGURATIONS}
-    assert {n: d for n, d in delay.items() if d} == {**{n: 65 for n in banks if banks[n] == 2},
-                                                     "window-fp32-records": 129, "window-fp16-records-l2": 129}
+    # (the window kernel's lines in LUT RAM: its shared datapath leaves the LUTs to hold them)
+    assert {n: d for n, d in delay.items() if d} == {n: 65 for n in banks if banks[n] == 2}
+    assert all(c.build().shared_datapath for c in configurations.CONFIGURATIONS)
     window = configurations.BY_NAME["window-fp16-l4"]
     assert (window.build().window, window.build().lanes, window.build().body_in_bits) == (16384, 4, 512)
     fp16_shared = [s.label for s in [cases.REGISTER_CASE, *cases.FP_OPERATOR_CASES] if s.counts_for(window)]
