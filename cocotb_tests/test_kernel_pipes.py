@@ -406,7 +406,8 @@ def test_generated_rtl_up_to_date() -> None:
                         *(f"rtl/generated/{name}.sv" for name in SHARED_GRAPHS),
                         "rtl/generated/pipe_latency.json", "rtl/generated/pgs_regs_pkg.sv",
                         "rtl/generated/pgs_stream_layout_pkg.sv",
-                        "hls_export/generated/pgs_regs.h", "hls_export/generated/pgs_stream_layout.h"}
+                        "hls_export/generated/pgs_regs.h", "hls_export/generated/pgs_stream_layout.h",
+                        "hls_export/generated/pgs_shared_datapath.h"}
     stale = generate(check=True)
     assert not stale, f"regenerate with `python -m rtl.gen`: {[str(p) for p in stale]}"
     written = {p.relative_to(REPO).as_posix() for p in (RTL / "generated").iterdir()}

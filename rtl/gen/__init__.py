@@ -20,9 +20,10 @@ copies are current):
 * ``pgs_stream_layout_pkg.sv``: the constraint records' layout of ``models/kernel/stream_format.py`` for the sequencer
   (``rtl/gen/stream_layout_emit.py``),
 
-and ``hls_export/generated/pgs_regs.h``, the same register map for the HLS kernel, and
+and ``hls_export/generated/pgs_regs.h``, the same register map for the HLS kernel,
 ``hls_export/generated/pgs_stream_layout.h``, the record sizes of ``models/kernel/stream_format.py``
-(``rtl/gen/stream_layout_emit.py``).
+(``rtl/gen/stream_layout_emit.py``), and ``hls_export/generated/pgs_shared_datapath.h``, the shared datapaths as C++
+(``rtl/gen/shared_hls_emit.py``).
 
 The co-simulation test's injected bug is a variant of the friction pipe (and of the shared datapath with that friction
 pass) that only :func:`generate_friction_sign_bug` writes, into a build directory; :func:`friction_sign_bug_sources` is
@@ -44,6 +45,7 @@ from rtl.gen.stream_layout_emit import (STREAM_LAYOUT_HEADER, STREAM_LAYOUT_PKG,
                                         emit_stream_layout_pkg)
 from rtl.gen.sv_emit import emit_sv
 from rtl.gen.shared_emit import emit_shared_sv
+from rtl.gen.shared_hls_emit import HEADER_FILE as SHARED_HEADER, emit_shared_header
 from rtl.gen.operator_schedule import schedule
 from rtl.gen.operator_timing import Time
 
@@ -57,18 +59,20 @@ __all__ = ["GENERATED_DIR", "HLS_GENERATED_DIR", "LATENCY_PKG", "REGS_PKG", "SHA
 SHARED_PIPE = "pgs_shared_pipe"  # the shared datapath whose latency the package and the JSON give (every variant's)
 
 
-def pipe_latencies() -> dict[str, Time]:
+def pipe_latencies(shared_latency: Time | None = None) -> dict[str, Time]:
     """The LATENCY of each pipe the latency package and JSON give: the default pipes, the shared datapath."""
     out = {name: schedule(make()).latency for name, make in GRAPHS.items()}
-    out[SHARED_PIPE] = SHARED_GRAPHS[SHARED_PIPE]().latency
+    out[SHARED_PIPE] = shared_latency or SHARED_GRAPHS[SHARED_PIPE]().latency
     return out
 
 
 def render() -> dict[Path, str]:
     """The text of every generated file, by path."""
     files = {GENERATED_DIR / f"{name}.sv": emit_sv(make()) for name, make in {**GRAPHS, **MODE_GRAPHS}.items()}
-    files |= {GENERATED_DIR / f"{name}.sv": emit_shared_sv(make()) for name, make in SHARED_GRAPHS.items()}
-    lats = pipe_latencies()
+    shared = {name: make() for name, make in SHARED_GRAPHS.items()}
+    files |= {GENERATED_DIR / f"{name}.sv": emit_shared_sv(dp) for name, dp in shared.items()}
+    files[HLS_GENERATED_DIR / SHARED_HEADER] = emit_shared_header(list(shared.values()))
+    lats = pipe_latencies(shared[SHARED_PIPE].latency)
     files[GENERATED_DIR / f"{LATENCY_PKG}.sv"] = emit_latency_pkg(lats)
     files[PIPE_LATENCY_FILE] = emit_latency_json(lats)
     files[GENERATED_DIR / f"{REGS_PKG}.sv"] = emit_regs_pkg()
