@@ -33,6 +33,9 @@ IMPULSE_STORES ?= $(IMPULSE_STORE)
 BODY_BITS ?= 128
 # who computes the friction tangent basis in make sim: host (in the records) or chip (TANGENTS_ON_CHIP)
 TANGENTS ?= host
+# the lanes' datapath in make sim: 1 one datapath for the contact and friction passes (every design's default), 0 a
+# contact and a friction pipe per lane
+SHARED_DATAPATH ?= 1
 SEEDS ?= 4
 # what drives the kernel in make sim: harness (compiled Verilator harness) or cocotb (DMA models, batch scoreboard)
 DRIVER ?= harness
@@ -58,7 +61,7 @@ help:
 	@echo "                   SCENE=pile|thesis|stack|...|world.py|obj.urdf SCENE_ARGS=\"k=v ...\" ITERS=4 FORMAT=fp32|fp16|bf16|auto"
 	@echo "                   DMA=zcu102|zcu102_1|u280|ideal SEED=1 WAVES=1 MODE=rtl|model DRIVER=harness|cocotb COMPILE=quick|pgo"
 	@echo "                   the design: SCHEDULE=hazard|sweep|... RECORD_WINDOW=0|8192 LANES=1|2|4 FETCH_PASSES=0"
-	@echo "                   BODY_BITS=128|256|512 IMPULSE_STORE=onchip|records TANGENTS=host|chip"
+	@echo "                   BODY_BITS=128|256|512 IMPULSE_STORE=onchip|records TANGENTS=host|chip SHARED_DATAPATH=1|0"
 	@echo "                   the fitting designs: SCENE=thesis SCHEDULE=sweep RECORD_WINDOW=8192 IMPULSE_STORE=records"
 	@echo "                   BODY_BITS=256 (fp32), plus FORMAT=fp16 LANES=2"
 	@echo "  make sweep       kernel time against error over SWEEP_ITERS x FORMATS (IMPULSE_STORES=onchip,records, MODE=model)"
@@ -117,7 +120,7 @@ sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
 		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE) \
-		--tangents $(TANGENTS) --compile-profile $(COMPILE)
+		--tangents $(TANGENTS) --compile-profile $(COMPILE) --shared-datapath $(SHARED_DATAPATH)
 
 PEER_RUNS ?= 7
 # each MuJoCo model runs in a child process within these (the thesis frame needs MUJOCO_BUDGET=2400 MUJOCO_MEMORY_GB=16)

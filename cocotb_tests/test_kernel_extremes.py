@@ -72,7 +72,8 @@ class Case:
     def job(self, seed: int) -> KernelJob:
         frame = scenes.load_or_capture("pile", **KERNEL_TEST_SCENES["pile"])
         job = KernelJob.from_frame(frame, self.fmt, SolverParams(4, interleaved=self.interleaved),
-                                   "sweep" if self.window else "hazard", default_window(self.fmt, PRESET.stream_bits))
+                                   "sweep" if self.window else "hazard",
+                                   default_window(self.fmt, PRESET.stream_bits, window_kernel=self.window > 0))
         if self.records:
             job = job.impulses_travelling()
         if self.window:

@@ -216,7 +216,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
 
     bodies = body_table(frame)
     cons = timer.run("constraint setup", setup_constraints, frame, bodies)
-    window = args.window or default_window(fmt, preset.stream_bits)
+    window = args.window or default_window(fmt, preset.stream_bits, bool(args.shared_datapath), args.record_window > 0)
     schedule = timer.run(f"{args.schedule} schedule", make_schedule, args.schedule, cons, bodies.dynamic, window)
     sched_stats = timer.run("schedule statistics", stats, args.schedule, schedule, cons, bodies.dynamic, window)
     print(sched_stats.describe(), flush=True)

@@ -97,6 +97,18 @@ def test_csim_inverse_inertia_modes(scene: str, inertia_words: int, tmp_path: Pa
     assert_bit_exact(res, job, f"{Path(scene).stem}/{inertia_words} words")
 
 
+@pytest.mark.parametrize("fmt_name", ["fp32", "fp16"])
+def test_csim_each_kind_on_its_own_arithmetic(fmt_name: str, tmp_path: Path) -> None:
+    """PGS_SHARED_DATAPATH = 0 (the RTL's two pipes per lane): each kind's manifold-pass on pgs_solver.h's own
+    arithmetic instead of the generated shared datapath; bit for bit the golden model's too (and so the shared one's),
+    interleaved passes, with the impulses in the records as the fitting designs."""
+    kb = KernelBuild({"fp32": FP32, "fp16": FP16}[fmt_name], impulses_in_records=True, shared_datapath=False)
+    job = scene_job("pile", "hazard", 3, kb, interleaved=True)
+    res = run_csim_step(job, tmp_path, build_csim(kb), kb, default_window(kb.fmt, kb.cons_bits, shared_datapath=False))
+    assert "_split" in str(build_csim(kb))
+    assert_bit_exact(res, job, f"pile/hazard, {fmt_name}, each kind on its own arithmetic")
+
+
 def test_csim_interleaved(csim_exe: Path, tmp_path: Path) -> None:
     """options bit 0: contact and friction passes alternate per iteration."""
     job = scene_job("pile", "hazard", 3, KB, interleaved=True)

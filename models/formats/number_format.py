@@ -125,6 +125,9 @@ def _event_flags(exact: np.ndarray, r: np.ndarray, operands: list[np.ndarray]) -
                       invalid=np.isnan(r) & ~nan_in)
 
 
+MAX_MAN_BITS = 24  # the widest mantissa of a format (a significand of at most 25 bits)
+
+
 @dataclass(frozen=True)
 class NumberFormat:
     """A binary floating-point format (sign, ``exp_bits``, ``man_bits``)."""
@@ -139,8 +142,9 @@ class NumberFormat:
         # already rounded on a coarser grid, and the flush decision near min normal goes wrong.
         if not (2 <= self.exp_bits <= 10):
             raise ValueError(f"exponent width {self.exp_bits} out of range 2..10")
-        if not (1 <= self.man_bits <= 24):
-            raise ValueError(f"mantissa width {self.man_bits} out of range 1..24 (significand <= 25 bits)")
+        if not (1 <= self.man_bits <= MAX_MAN_BITS):
+            raise ValueError(f"mantissa width {self.man_bits} out of range 1..{MAX_MAN_BITS} (significand <= "
+                             f"{MAX_MAN_BITS + 1} bits)")
 
     # --- format constants -------------------------------------------------------------------
     @property
