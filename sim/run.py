@@ -181,7 +181,8 @@ def kernel_speed(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_bub
     capped = math.isfinite(preset.ddr_bytes_per_cycle)
     cons_beats = res.stream_bytes["constraints"] // (preset.stream_bits // 8)
     floors = {"DDR bandwidth": total_bytes / preset.ddr_bytes_per_cycle if capped else 0.0,
-              "constraint stream port": float(cons_beats), "compute (II=1)": float(mp + 2 * job.bodies.num_bodies)}
+              "constraint stream port": float(cons_beats),
+              f"compute (II=1, {job.lanes} lane{'s' if job.lanes > 1 else ''})": job.compute_floor_cycles}
     return KernelSpeed(
         job.fmt.name, preset.describe(), res.cycles, mp, int(r["stalls"]), int(r["bubbles"]), sched_bubbles,
         res.stream_bytes["body_in"] + res.stream_bytes["constraints"], res.stream_bytes["body_out"],
