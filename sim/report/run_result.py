@@ -387,8 +387,12 @@ def _thesis(t: ThesisComparison) -> dict[str, Any]:
     out["thesis i7-3770 (Bullet3)"] = f"{baselines.THESIS_CPU_MS} ms"
     if t.rtl_cycles is not None:
         cpmp = t.rtl_cycles / t.manifold_passes
+        same = baselines.THESIS_FPGA.get(t.fmt)  # the thesis's design of this format, at its own clock
+        at_thesis_clock = "" if same is None or same.clock_hz == 275e6 else (
+            f" ({t.rtl_cycles / same.clock_hz * 1e3:.2f} ms at the thesis {t.fmt} design's {same.clock_hz / 1e6:g} MHz)")
         out[f"this run: RTL {t.fmt}, {t.manifolds:,} manifolds, {t.iterations} iterations"] = (
-            f"{t.rtl_cycles:,} cycles, {t.rtl_cycles / 275e6 * 1e3:.2f} ms at 275 MHz, {cpmp:.2f} cycles/manifold-pass")
+            f"{t.rtl_cycles:,} cycles, {t.rtl_cycles / 275e6 * 1e3:.2f} ms at 275 MHz{at_thesis_clock}, "
+            f"{cpmp:.2f} cycles/manifold-pass")
         scaled = cpmp * baselines.THESIS_MANIFOLDS * 2 * t.iterations
         out[f"this run scaled to {baselines.THESIS_MANIFOLDS:,} manifolds"] = (
             f"{scaled:,.0f} cycles, {scaled / 275e6 * 1e3:.2f} ms at 275 MHz")

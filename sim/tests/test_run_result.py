@@ -10,6 +10,7 @@ from sim.report.run_result import (BITS_SECTION, ERROR_SECTION, MODEL_SECTION, V
                                    KernelSpeed,
                                    ModelRunResult, RunResult, SceneFacts, ScheduleFacts, StepErrors, ThesisComparison,
                                    VelocityError, sections)
+from sim.report.run_result import ThesisComparison, _thesis
 from sim.compare.exact_error import ExactErrors, ExactReferenceFacts, NoExactReference
 
 ERR = VelocityError(1e-3, 2e-3, 0.5)
@@ -147,3 +148,12 @@ def test_an_unconverged_pgs_line_says_how_many_passes_it_would_still_need() -> N
            "(contact, friction)")
     assert err[key] == "converged, 2.5e+05"
     assert key not in sections(_result(None))[ERROR_SECTION]  # converged: no such line
+
+
+def test_the_thesis_comparison_gives_a_design_at_the_thesis_clock_of_its_format() -> None:
+    fp16 = _thesis(ThesisComparison("fp16", 147_485, 4, 1_179_880, 822_865, {}, 10, {}))
+    line = fp16["this run: RTL fp16, 147,485 manifolds, 4 iterations"]
+    assert line == ("822,865 cycles, 2.99 ms at 275 MHz (3.29 ms at the thesis fp16 design's 250 MHz), "
+                    "0.70 cycles/manifold-pass")
+    fp32 = _thesis(ThesisComparison("fp32", 147_485, 4, 1_179_880, 1_436_467, {}, 10, {}))
+    assert fp32["this run: RTL fp32, 147,485 manifolds, 4 iterations"].startswith("1,436,467 cycles, 5.22 ms at 275 MHz, ")
