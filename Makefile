@@ -35,6 +35,9 @@ TANGENTS ?= host
 SEEDS ?= 4
 # what drives the kernel in make sim: harness (compiled Verilator harness) or cocotb (DMA models, batch scoreboard)
 DRIVER ?= harness
+# whose pipes make sim runs: rtl (the hand-scheduled ones of rtl/generated/) or xls (compiled by Google XLS from the
+# same graphs' DSLX: rtl/generated/xls/, written by make xls)
+DATAPATH ?= rtl
 # how make sim compiles the harness's C++ (sim/kernel_build.py COMPILE_PROFILES): quick, or pgo (profile-guided:
 # trained on the run's first cycles; two builds the first time)
 COMPILE ?= quick
@@ -46,7 +49,7 @@ TEST_JOBS ?= 2
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test sim sweep analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
+.PHONY: help venv sysdeps test sim sweep xls xls-compare analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
 
 help:
 	@echo "make test      run the whole test suite (what CI runs; TEST_JOBS=2 pytest workers)"
@@ -57,6 +60,7 @@ help:
 	@echo "               the window kernel: RECORD_WINDOW=16384 LANES=1|2|4 FETCH_PASSES=0 BODY_BITS=128|512"
 	@echo "               IMPULSE_STORE=records: the streaming kernel's impulses travel with the records (no RAM)"
 	@echo "               TANGENTS=chip: the kernel derives the friction tangents from the normal (one-beat record)"
+	@echo "               DATAPATH=xls: the pipes Google XLS compiled from the graphs' DSLX (rtl/generated/xls/; fp32, fp16)"
 	@echo "               COMPILE=pgo: the harness built profile-guided (g++ -fprofile-generate, a training run, -use)"
 	@echo "make sweep     kernel time against error over iterations x formats (SCENE= FORMATS= SWEEP_ITERS= DMA=,"
 	@echo "               and the window kernel's RECORD_WINDOW= LANES= FETCH_PASSES= BODY_BITS=; MODE=model;"
@@ -79,6 +83,9 @@ help:
 	@echo "               (SCENE= SCENE_ARGS= FORMAT= DMA= PROFILES=quick,pgo RUNS=3 MAX_CYCLES=0; a new profile builds"
 	@echo "               first, minutes; BASELINE_EXE= a harness from another tree, e.g. a worktree of an older commit)"
 	@echo "make rtl       regenerate the kernel datapaths and generated contracts (rtl/generated/, hls_export/generated/) from rtl/gen"
+	@echo "make xls       regenerate the XLS datapath (rtl/generated/xls/: DSLX, XLS-scheduled Verilog, pipe modules) where"
+	@echo "               stale (XLS_JOBS=1 workers, XLS_MEMORY_GB=16 each; minutes); make xls-compare: XLS's pipes beside"
+	@echo "               the hand-scheduled ones (latency at 275 MHz per delay model, generation time and memory, Yosys)"
 	@echo "make clean     remove build outputs (keeps .venv and cached frames)"
 
 venv: $(STAMP)
@@ -108,7 +115,7 @@ sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
 		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE) \
-		--tangents $(TANGENTS) --compile-profile $(COMPILE)
+		--tangents $(TANGENTS) --compile-profile $(COMPILE) --datapath $(DATAPATH)
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
@@ -159,6 +166,14 @@ bench: $(STAMP)
 
 rtl: $(STAMP)
 	$(TOOLENV) $(VPY) -m rtl.gen
+
+XLS_JOBS ?= 1
+XLS_MEMORY_GB ?= 16
+xls: $(STAMP)
+	$(TOOLENV) $(VPY) -m rtl.gen.xls_flow --jobs $(XLS_JOBS) --memory-gb $(XLS_MEMORY_GB)
+
+xls-compare: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.xls_compare --jobs $(XLS_JOBS) --memory-gb $(XLS_MEMORY_GB)
 
 clean:
 	rm -rf build sim_build .pytest_cache

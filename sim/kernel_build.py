@@ -29,6 +29,8 @@ from models.kernel_job import KernelJob
 from models.kernel_shape import KernelShape
 from models.number_format import NumberFormat
 from rtl.gen import friction_sign_bug_sources
+from rtl.gen.file_list import kernel_sources
+from rtl.gen.xls_flow import check_xls_build, xls_sources
 from sim.lint import rtl_files
 from sim.verilator_build import DEBUG_COMPILE_ARGS, QUICK_COMPILE_ARGS, REPO_ROOT, build, profile_guided_build
 
@@ -63,6 +65,7 @@ COMPILE_PROFILES: dict[str, tuple[str, ...]] = {
     "pgo": tuple(QUICK_COMPILE_ARGS),
 }
 PROFILE_GUIDED = frozenset({"pgo"})  # the profiles built with a training run
+DATAPATHS = ("rtl", "xls")  # whose pipes a build takes (KernelBuild.datapath)
 WAVE_ARGS = ("--trace-fst", "--trace-structs")
 
 
@@ -91,6 +94,9 @@ class KernelBuild:
     delay_block_min_depth: int = 0
     friction_sign_bug: bool = False  # the friction pipe with the wrong sign (the scoreboard must catch it)
     compile_profile: str = "quick"  # a key of COMPILE_PROFILES
+    # whose pipes: "rtl" the hand-scheduled ones of rtl/generated/, "xls" those Google XLS compiled from their DSLX
+    # (rtl/generated/xls/, rtl/gen/xls_flow.py: the same module names, ports and latencies)
+    datapath: str = "rtl"
 
     def __post_init__(self) -> None:
         sf.body_in_word_count(self.inertia_words)  # 1, 3 or 6, else a ValueError
@@ -112,13 +118,22 @@ class KernelBuild:
         check_block_min_depth(self.delay_block_min_depth)
         if self.compile_profile not in COMPILE_PROFILES:
             raise ValueError(f"compile profile {self.compile_profile!r}: expected one of {sorted(COMPILE_PROFILES)}")
+        if self.datapath not in DATAPATHS:
+            raise ValueError(f"datapath {self.datapath!r}: expected one of {', '.join(DATAPATHS)}")
+        if self.datapath == "xls":
+            check_xls_build(self.fmt, **{f"IINV_W = {self.inertia_words}": self.inertia_words != sf.KERNEL_INERTIA_WORDS,
+                                         "MU_W = 1 (the friction coefficient per manifold)": bool(self.friction_words),
+                                         "TANGENTS_ON_CHIP (the tangents derived on chip)": self.tangents_on_chip,
+                                         "SOFT_CONTACT (the soft contact pipe)": self.soft_contact,
+                                         "the injected friction sign bug": self.friction_sign_bug})
 
     @staticmethod
-    def for_job(job: KernelJob, preset: DmaPreset, waves: bool = False, body_bits: int = 128) -> "KernelBuild":
+    def for_job(job: KernelJob, preset: DmaPreset, waves: bool = False, body_bits: int = 128,
+                datapath: str = "rtl") -> "KernelBuild":
         """The build that runs ``job``: the preset's constraint beat, the window plan's ring, contexts and lanes,
         body streams of ``body_bits``, the job's inverse-inertia and friction-coefficient words, its friction
         record layout (the tangents derived on chip) and the soft contact pipe for a soft job
-        (``SolverParams.soft_keep``)."""
+        (``SolverParams.soft_keep``); ``datapath``: whose pipes (:data:`DATAPATHS`)."""
         plan = job.record_window
         return KernelBuild(job.fmt, cons_bits=preset.stream_bits, body_in_bits=body_bits, body_out_bits=body_bits,
                            waves=waves, window=0 if plan is None else plan.depth,
@@ -127,7 +142,7 @@ class KernelBuild:
                            friction_words=job.friction_words, body_banks=job.body_banks,
                            tangents_on_chip=job.tangents_on_chip,
                            soft_contact=job.params.soft_keep is not None,
-                           delay_block_min_depth=job.delay_block_min_depth)
+                           delay_block_min_depth=job.delay_block_min_depth, datapath=datapath)
 
     @property
     def name(self) -> str:
@@ -145,6 +160,7 @@ class KernelBuild:
                 + (f"_dl{self.delay_block_min_depth}" if self.delay_block_min_depth else "")
                 + ("_friction_sign_bug" if self.friction_sign_bug else "")
                 + (f"_{self.compile_profile}" if self.compile_profile != "quick" else "")
+                + ("_xls" if self.datapath == "xls" else "")
                 + ("_waves" if self.waves else ""))
 
     @property
@@ -198,9 +214,15 @@ class KernelBuild:
 
     def sources(self) -> list[Path]:
         """The SystemVerilog files of the kernel (``rtl/pgs_kernel.f``), packages first; with ``friction_sign_bug``
-        the friction pipe is the variant ``rtl.gen`` generates into ``build/rtl_variants/friction_sign_bug/``."""
-        packages, modules = rtl_files(friction_sign_bug_sources(VARIANT_ROOT / "friction_sign_bug")
-                                      if self.friction_sign_bug else None)
+        the friction pipe is the variant ``rtl.gen`` generates into ``build/rtl_variants/friction_sign_bug/``; with
+        the XLS datapath the pipes are those of ``rtl/generated/xls/`` (``rtl.gen.xls_flow.xls_sources``)."""
+        if self.friction_sign_bug:
+            base = friction_sign_bug_sources(VARIANT_ROOT / "friction_sign_bug")
+        elif self.datapath == "xls":
+            base = xls_sources(kernel_sources())
+        else:
+            base = None
+        packages, modules = rtl_files(base)
         return packages + modules
 
 

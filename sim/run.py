@@ -46,10 +46,11 @@ from models.kernel_job import KernelJob
 from models.number_format import FLOAT64, FP32, NumberFormat, parse_format
 from models.residual import contact_residual
 from models.schedule import SCHEDULE_KINDS, make_schedule, stats
+from rtl.gen.xls_flow import check_xls_build
 from sim import exact_error
 from sim.analyze import auto_format
 from sim.harness_run import KernelRunError, text_progress
-from sim.kernel_build import COMPILE_PROFILES, KernelBuild, default_window
+from sim.kernel_build import COMPILE_PROFILES, DATAPATHS, KernelBuild, default_window
 from sim.kernel_step import Golden, KernelResult, golden_step, run_kernel_step
 from sim.report import StagedDirectory, print_summary, write_report
 from sim.resource_model import kernel_fit
@@ -87,6 +88,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                          "reference, so this iterate is only a labelled comparison)")
     exact_error.add_exact_args(ap)
     ap.add_argument("--no-kernel", action="store_true", help="reference models only (no Verilator)")
+    ap.add_argument("--datapath", choices=DATAPATHS, default="rtl",
+                    help="the kernel's pipes: rtl, the hand-scheduled ones (rtl/generated/); xls, those Google XLS "
+                         "compiled from the same graphs' DSLX (rtl/generated/xls/: the same ports and latencies; fp32 "
+                         "and fp16, the default pipes)")
     ap.add_argument("--driver", choices=("harness", "cocotb"), default="harness",
                     help="harness: the compiled Verilator harness; cocotb: the host driver, AXI DMA models and batch "
                          "scoreboard in cocotb on the transaction-level bench (sim/cocotb_step.py)")
@@ -131,6 +136,9 @@ def check_args(args: argparse.Namespace) -> None:
     if getattr(args, "tangents", "host") == "chip" and (args.record_window or args.driver == "cocotb"):
         raise ValueError("TANGENTS=chip is a configuration of the streaming kernel through the compiled harness (no "
                          "RECORD_WINDOW, DRIVER=harness)")
+    if getattr(args, "datapath", "rtl") == "xls" and args.format.strip().lower() != "auto":
+        check_xls_build(hardware_format(args.format),
+                        **{"TANGENTS=chip (the tangents derived on chip)": getattr(args, "tangents", "host") == "chip"})
     if args.driver == "cocotb" and getattr(args, "compile_profile", "quick") != "quick":
         raise ValueError("COMPILE= is the compiled harness's (DRIVER=harness); the cocotb bench has its own build")
     if args.driver == "cocotb" and (args.record_window or args.body_bits != 128 or args.waves or args.stall_permille):
@@ -165,12 +173,14 @@ def add_kernel_args(ap: argparse.ArgumentParser) -> None:
 
 
 def kernel_label(args: argparse.Namespace) -> str:
-    """The kernel options in a run's name: empty for the streaming kernel with 128-bit body streams."""
+    """The kernel options in a run's name: empty for the streaming kernel with 128-bit body streams and the
+    hand-scheduled pipes."""
     return ((f"-ring{args.record_window}" if args.record_window else "")
             + (f"-lanes{args.lanes}" if args.lanes > 1 else "")
             + (f"-body{args.body_bits}" if args.body_bits != 128 else "")
             + ("-impulses-in-records" if getattr(args, "impulse_store", "onchip") == "records" else "")
-            + ("-tangents-on-chip" if getattr(args, "tangents", "host") == "chip" else ""))
+            + ("-tangents-on-chip" if getattr(args, "tangents", "host") == "chip" else "")
+            + ("-xls" if getattr(args, "datapath", "rtl") == "xls" else ""))
 
 
 def kernel_job(job: KernelJob, args: argparse.Namespace) -> KernelJob:
@@ -313,7 +323,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     res: KernelResult | None = None
     kb: KernelBuild | None = None
     if not args.no_kernel:
-        kb = dataclasses.replace(KernelBuild.for_job(job, preset, args.waves, args.body_bits),
+        kb = dataclasses.replace(KernelBuild.for_job(job, preset, args.waves, args.body_bits, args.datapath),
                                  compile_profile=args.compile_profile)
         print(f"kernel: {kb.name} ({'building, first time a few minutes' if not _built(kb) else 'built'})", flush=True)
         progress = text_progress(job.manifold_passes)
@@ -322,12 +332,12 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
             from sim.cocotb_step import run_cocotb_step
 
             res, kb = timer.run("RTL kernel through cocotb (build, run, compare)", run_cocotb_step, job, preset,
-                                run_dir, args.seed, golden, label, args.schedule)
+                                run_dir, args.seed, golden, label, args.schedule, args.datapath)
         else:
             res = timer.run("RTL kernel in Verilator (build, run, compare)", run_kernel_step, job, preset, run_dir,
                             args.seed, args.stall_permille, args.stall_permille, progress, golden=golden,
                             waves=waves, wave_cycles=args.wave_cycles, keep_trace=True, body_bits=args.body_bits,
-                            compile_profile=args.compile_profile)
+                            compile_profile=args.compile_profile, datapath=args.datapath)
         print(file=sys.stderr)
 
     rtl_ours = res is not None and res.bit_exact  # the kernel's own numbers (identical to the golden model's)
