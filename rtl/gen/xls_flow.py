@@ -15,7 +15,8 @@ per format of :data:`XLS_FORMATS`:
    pipe's name, parameters, ports and LATENCY, so the kernel takes it in place of ``rtl/generated/<pipe>.sv``
    (:func:`xls_sources`; ``KernelBuild(datapath="xls")``, ``make sim DATAPATH=xls``).
 
-Scheduling takes minutes (about 16 modules of 30 to 80 s and 2 to 4 GB each), so the Verilog is committed and
+Scheduling takes minutes (16 modules of 6 to 210 s and 0.2 to 3.6 GB each: 17 minutes one at a time on a 2-core
+machine), so the Verilog is committed and
 ``xls_flow.json`` records each module's digest, stages, time and peak memory; :func:`stale` (and the test suite)
 says which files are not what the current graphs, operators, XLS version and options give, and ``make xls``
 (``python -m rtl.gen.xls_flow``) regenerates those. Other builds (bf16 and other formats, the inverse-inertia
@@ -41,6 +42,8 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Sequence
+
+import numpy as np
 
 from models.number_format import FP16, FP32, NumberFormat
 
@@ -222,10 +225,9 @@ def schedule(ir: str, dslx_module: str, function: str, module_name: str, stages:
                      "schedule_s": t2 - t1, "stages": got, "latency": latency, "verilog_lines": verilog.count("\n")}
 
 
-def jit_words(ir: str, dslx_module: str, function: str, words: "np.ndarray", width: int, n_out: int) -> "np.ndarray":
+def jit_words(ir: str, dslx_module: str, function: str, words: np.ndarray, width: int, n_out: int) -> np.ndarray:
     """Run ``function`` (``uN[width][K] -> uN[width][n_out]``) of an IR package in the XLS JIT on each row of
     ``words`` (unsigned bit patterns, (N, K)); returns the (N, n_out) outputs as uint64."""
-    import numpy as np
     import xls
 
     fn = xls.parse_ir_package(ir).get_function(xls.mangle_dslx_name(dslx_module, function))
@@ -280,22 +282,21 @@ def _limit_memory(gb: float) -> Callable[[], None]:
 
 
 def run_job(job: Job, memory_gb: float = DEFAULT_MEMORY_GB) -> JobResult:
-    """Run one job in a fresh process whose address space is capped at ``memory_gb`` (niced); its peak memory is
-    measured by the kernel (``wait4``)."""
+    """Run one job in a fresh process whose address space is capped at ``memory_gb`` (niced); the worker reports its
+    own peak resident memory (``getrusage``)."""
     cmd = [sys.executable, "-m", "rtl.gen.xls_flow", "--worker", json.dumps(asdict(job))]
     t0 = time.monotonic()
     proc = subprocess.Popen(cmd, cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=_limit_memory(memory_gb))
     out, err = proc.communicate()
     seconds = time.monotonic() - t0
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)  # cumulative: the peak of every child so far
     if proc.returncode != 0:
         tail = (err.strip().splitlines() or ["(no output)"])[-1]
         hint = f" (memory cap {memory_gb} GB: raise it with --memory-gb)" if "alloc" in err.lower() or \
             proc.returncode in (-9, -6, 134, 137) else ""
         raise XlsFlowError(f"XLS failed on {job.module_name}{hint}: {tail}")
     figures = json.loads(out.strip().splitlines()[-1])
-    return JobResult(job, seconds, figures.pop("peak_mb", usage.ru_maxrss / 1024), figures)
+    return JobResult(job, seconds, figures.pop("peak_mb"), figures)
 
 
 def worker(job_json: str) -> int:
