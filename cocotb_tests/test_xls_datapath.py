@@ -149,3 +149,35 @@ def test_xls_sources_replace_the_three_pipes() -> None:
         assert all(src.index(m) < src.index(wrapper_path(pipe)) for m in mods)
     assert len(src) == len(base) + len(modules()) and len(set(names)) == len(names)
     assert KernelBuild(FP16, datapath="xls").sources()[-1].name == "pgs_kernel.sv"
+
+
+def test_split_graph_segments_and_refusal() -> None:
+    """A graph splits at its top-level scopes: each segment reads the pipe inputs it needs and the values earlier
+    segments computed, and is as deep as the hand pipe's cycles for it; scopes that do not end in order are
+    refused."""
+    from rtl.gen.dataflow import Graph
+    from rtl.gen.dslx_emit import DslxError, split_graph
+
+    g = Graph("toy")
+    a, b = g.input("a"), g.input("b")
+    with g.scope("s0"):
+        x = (a * b).named("x")
+    with g.scope("s1"):
+        y = (x + a).named("y")
+    g.output("y", y)
+    split = split_graph(g)
+    s0, s1 = split.segments
+    assert [s.name for s in split.segments] == ["toy_s0", "toy_s1"]
+    assert (s0.depth(23), s1.depth(23), split.latency(23)) == (3, 4, 7)  # fp_mul 3, fp_add 4
+    assert s1.inputs == (a,) and s1.carried_in == (x,) and s0.carried_out == (x,) and s1.carried_out == (y,)
+    g = Graph("late")
+    a, b = g.input("a"), g.input("b")
+    with g.scope("long"):
+        x = ((a * b) * a).named("x")
+    with g.scope("short"):
+        y = (a + b).named("y")
+    with g.scope("last"):
+        z = (x + y).named("z")
+    g.output("z", z)
+    with pytest.raises(DslxError, match="scope 'short' ends at cycle 4, not after the previous one \\(6\\)"):
+        split_graph(g)

@@ -36,7 +36,8 @@ from models.number_format import NumberFormat, parse_format
 from rtl.gen.kernel_graphs import GRAPHS
 from rtl.gen.operator_timing import MINMAX_LATENCY, operator_latencies
 from rtl.gen.xls_flow import (DELAY_MODELS, GOLDEN_FLOAT, IR_DIR, MANIFEST, PLATFORM_CLOCK_PS, XLS_FORMATS, Job,
-                              XlsModule, convert, dslx_path, module_digest, modules, run_jobs, splits, xls_version)
+                              JobResult, XlsModule, convert, dslx_path, ir_file, module_digest, modules, run_jobs,
+                              splits, xls_version)
 from sim.resource_model import FIGURES_FILE, DelayLine, KernelConfig, Resources, delay_line_resources, pipe_resources
 
 CACHE = IR_DIR / "compare"
@@ -63,14 +64,12 @@ def natural_stages(mods: Sequence[XlsModule], models: Sequence[str], workers: in
             if cached.is_file():
                 out[(m.name, model)] = json.loads(cached.read_text())["stages"]
                 continue
-            from rtl.gen.xls_flow import ir_file
-
             job = Job(str(ir_file(m.pipe, texts[m.pipe])), m.pipe, m.function, f"{m.name}_{model}",
                       str(CACHE / f"{m.name}-{model}.sv"), clock_ps=clock_ps, delay_model=model)
             jobs.append(job)
             keys[job.module_name] = (m.name, model, cached)
 
-    def done(r: Any) -> None:
+    def done(r: JobResult) -> None:
         name, model, cached = keys[r.job.module_name]
         cached.write_text(json.dumps({**r.figures, "seconds": r.seconds, "peak_mb": r.peak_mb}))
         Path(r.job.out_path).unlink(missing_ok=True)

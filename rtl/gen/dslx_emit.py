@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.number_format import NumberFormat
+from models.number_format import KERNEL_FORMATS, NumberFormat
 
 from .dataflow import BOOL, Graph, Value
 from .operator_timing import Time
@@ -142,7 +142,7 @@ def split_graph(graph: Graph) -> PipeSplit:
         mine = [v for v in ops if seg_of[v.id] == k]
         end = sch.latency if k == n_seg - 1 else Time.max([sch.ready[v.id] for v in mine])
         start = ends[-1] if ends else Time.const(0)
-        for man_bits in (7, 10, 23):
+        for man_bits in sorted({f.man_bits for f in KERNEL_FORMATS.values()}):
             if end.eval(man_bits) <= start.eval(man_bits):
                 raise DslxError(f"{graph.name}: scope {scope!r} ends at cycle {end.eval(man_bits)}, not after the "
                                 f"previous one ({start.eval(man_bits)})")
