@@ -41,12 +41,21 @@ def add_kernel_args(ap: argparse.ArgumentParser) -> None:
 
 
 def kernel_label(args: argparse.Namespace) -> str:
-    """The kernel options in a run's name: empty for the streaming kernel with 128-bit body streams."""
+    """The kernel options in a run's name: empty for the streaming kernel with 128-bit body streams and the
+    hand-scheduled pipes."""
     return ((f"-ring{args.record_window}" if args.record_window else "")
             + (f"-lanes{args.lanes}" if args.lanes > 1 else "")
             + (f"-body{args.body_bits}" if args.body_bits != 128 else "")
             + ("-impulses-in-records" if getattr(args, "impulse_store", "onchip") == "records" else "")
-            + ("-tangents-on-chip" if getattr(args, "tangents", "host") == "chip" else ""))
+            + ("-tangents-on-chip" if getattr(args, "tangents", "host") == "chip" else "")
+            + ("-xls" if getattr(args, "datapath", "rtl") == "xls" else ""))
+
+
+def datapath_options(args: argparse.Namespace) -> dict[str, bool]:
+    """The build options the command line fixes before the frame is read, by ``KernelBuild`` field: what
+    ``sim.compile.kernel_build.check_datapath`` refuses early for a datapath that does not cover them (the frame's
+    own, such as its inverse-inertia words, are checked when the build is made)."""
+    return {"tangents_on_chip": getattr(args, "tangents", "host") == "chip"}
 
 
 def kernel_job(job: KernelJob, args: argparse.Namespace) -> KernelJob:
