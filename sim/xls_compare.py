@@ -29,7 +29,7 @@ import json
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Sequence
 
 from models.formats.number_format import NumberFormat, parse_format
 from rtl.gen.kernel_graphs import GRAPHS

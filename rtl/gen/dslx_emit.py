@@ -290,7 +290,7 @@ def _words_fn(split: PipeSplit) -> list[str]:
     L = [f"// The whole pass as one function of words (what the XLS JIT runs against the golden model): words "
          f"0..{n_in - 1}",
          f"// in_data, {n_in}..{n_in + n_bool - 1} the 1-bit inputs (bit 0)" if n_bool else
-         f"// in_data",
+         "// in_data",
          f"// in; out_data words 0..{n_out - 1}, then the overflow, underflow and invalid counts out.",
          f"pub fn {p}_pipe_words<E: u32, M: u32, W: u32 = {{u32:1 + E + M}}>(x: uN[W][{n_in + n_bool}]) -> "
          f"uN[W][{n_out + 3}] {{"]

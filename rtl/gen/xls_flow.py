@@ -15,13 +15,12 @@ per format of :data:`XLS_FORMATS`:
    pipe's name, parameters, ports and LATENCY, so the kernel takes it in place of ``rtl/generated/<pipe>.sv``
    (:func:`xls_sources`; ``KernelBuild(datapath="xls")``, ``make sim DATAPATH=xls``).
 
-Scheduling takes minutes (16 modules of 6 to 210 s and 0.2 to 3.6 GB each: 17 minutes one at a time on a 2-core
-machine), so the Verilog is committed and
-``xls_flow.json`` records each module's digest, stages, time and peak memory; :func:`stale` (and the test suite)
+Scheduling takes minutes (16 modules of 3 to 65 s and 0.6 to 3.6 GB each: 9 minutes one at a time on a 2-core
+machine, ``docs/results/xls.md``), so the Verilog is committed and ``xls_flow.json`` records each module's digest, stages, time and peak memory; :func:`stale` (and the test suite)
 says which files are not what the current graphs, operators, XLS version and options give, and ``make xls``
 (``python -m rtl.gen.xls_flow``) regenerates those. Other builds (bf16 and other formats, the inverse-inertia
 modes, the per-manifold friction coefficient, the tangents derived on chip, the soft contact pipe) are refused
-by :func:`check_xls_build` with one line naming what is not covered yet.
+by ``sim.compile.kernel_build.check_datapath`` with one line naming what is not covered yet.
 """
 
 from __future__ import annotations
@@ -430,20 +429,6 @@ def generate(only_stale: bool = True, workers: int = 2, memory_gb: float = DEFAU
 
 
 # --- the kernel's sources with the XLS datapath -----------------------------------------------------------------------
-def check_xls_build(fmt: NumberFormat, **unsupported: bool) -> None:
-    """Raise ValueError (one line) unless XLS pipes exist for ``fmt``; ``unsupported``: the build's options that have
-    no XLS pipes yet, by a readable name (``{"IINV_W = 1": True}``)."""
-    if (fmt.exp_bits, fmt.man_bits) not in {(f.exp_bits, f.man_bits) for f in XLS_FORMATS}:
-        names = ", ".join(f.name for f in XLS_FORMATS)
-        raise ValueError(f"DATAPATH=xls: XLS pipes are generated for {names}, not {fmt.name} (E = {fmt.exp_bits}, "
-                         f"M = {fmt.man_bits}); that format is not covered by the XLS datapath yet")
-    missing = [name for name, on in unsupported.items() if on]
-    if missing:
-        raise ValueError(f"DATAPATH=xls: the XLS datapath has the default pipes only (contact, friction, integration "
-                         f"with the diagonal inverse inertia and the constant friction coefficient); "
-                         f"{', '.join(missing)} is not covered yet")
-
-
 def xls_sources(sources: Sequence[Path]) -> list[Path]:
     """``sources`` (the kernel's, compile order) with each pipe of :data:`XLS_PIPES` replaced by its XLS pipe module,
     the XLS modules it instantiates just before it."""
