@@ -265,11 +265,25 @@ class Declarations:
         return (_sv_int(rng[0], self.params), _sv_int(rng[1], self.params)) if rng else None
 
 
+def _package_params(module_file: Path, text: str) -> dict[str, str]:
+    """The constants of the packages ``text`` imports from (``import pkg::NAME, ...;`` or ``pkg::*``), read from the
+    files beside ``module_file`` named after them (``rtl/pgs_seq_pkg.sv``)."""
+    out: dict[str, str] = {}
+    imports = " ".join(re.findall(r"\bimport\s+([^;]+);", text))
+    for pkg in dict.fromkeys(re.findall(r"(\w+)::", imports)):
+        path = module_file.parent / f"{pkg}.sv"
+        if path.is_file():
+            body = _FUNCTION_RE.sub("", _COMMENT_RE.sub("", path.read_text()))
+            out.update({m.group(1): m.group(2).strip() for m in _PARAM_RE.finditer(body)})
+    return out
+
+
 def rtl_signals(module_file: Path, parameters: Mapping[str, int] | None = None) -> Declarations:
     """The ports and nets ``module_file`` declares; ranges with the module's parameters (its defaults,
     overridden by ``parameters``)."""
     text = _FUNCTION_RE.sub("", _COMMENT_RE.sub("", Path(module_file).read_text()))
-    params = _Params({m.group(1): m.group(2).strip() for m in _PARAM_RE.finditer(text)}, parameters or {})
+    params = _Params({**_package_params(Path(module_file), text),
+                      **{m.group(1): m.group(2).strip() for m in _PARAM_RE.finditer(text)}}, parameters or {})
     types = {m.group(3): (m.group(1), m.group(2)) for m in _ENUM_RE.finditer(text)}
     ranges: dict[str, tuple[str, str] | None] = {}
     for m in _DECL_RE.finditer(text):
@@ -311,8 +325,11 @@ KERNEL_TOP = "pgs_kernel"  # the kernel's scope in an FST of Verilator 5.48 (coc
 KERNEL_LAYOUT: list[tuple[str, list[tuple[str, str, list[str]]]]] = [
     ("Control", [("", "pgs_kernel.sv", ["ap_clk", "ap_rst_n", "ap_start", "ap_done", "ap_idle", "interrupt"])]),
     ("Pipeline", [("u_seq", "pgs_sequencer.sv",
-                   ["phase", "crec_valid", "rkind", "hazard", "cam_full", "issue_ok", "issue", "i_pass", "i_slot",
-                    "l_go", "l_issue", "l_reject", "retire", "l_retire", "int_issue", "io_valid", "credits"]),
+                   ["phase", "crec_valid", "rkind", "hazard"]),
+                  ("u_seq.u_hazards", "pgs_seq_hazards.sv", ["cam_full", "may_issue"]),
+                  ("u_seq", "pgs_sequencer.sv",
+                   ["issue", "i_pass", "i_slot", "l_go", "l_issue", "l_reject", "retire", "l_retire"]),
+                  ("u_seq.u_integrate", "pgs_seq_integrate.sv", ["int_issue", "io_valid", "credits"]),
                   ("", "pgs_kernel.sv",
                    ["trace_valid", "stat_cycles", "stat_stalls", "stat_bubbles", "stat_issued", "err_set"])]),
     ("DMA streams", [("", "pgs_kernel.sv", ["s_axis_body_*", "s_axis_cons_*", "m_axis_body_*"])]),

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from models.setup.constraints import BodyTable
-from models.formats.number_format import EVENT_NAMES, FpEvents
+from models.formats.number_format import EVENT_NAMES, FpEvents, NumberFormat
 from models.golden.contact_solver import FRICTION_PASS, PassRecord, SolveResult, solve
 from models.timing.platforms import DmaPreset
 from models.golden.integrator import integrate
@@ -55,7 +55,8 @@ def golden_step(job: KernelJob) -> Golden:
     (``KernelJob.tangents_on_chip``) the kernel's friction pipe derives them in every friction manifold-pass it issues,
     where the golden model's job holds them derived once (``models.setup.tangent_basis.derive_tangents``)."""
     t0 = time.perf_counter()
-    ar = job.fmt.counting()
+    # a hardware format counts its events; the float64 reference mode (no kernel runs it) has none to count
+    ar = job.fmt.counting() if isinstance(job.fmt, NumberFormat) else job.fmt
     records: list[PassRecord] = []
 
     def derive_tangents_per_pass(kind: int, idx: np.ndarray, g: object, imp: object) -> None:
@@ -67,7 +68,7 @@ def golden_step(job: KernelJob) -> Golden:
                        initial=job.initial, record_checks=job.record_checks(),
                        inputs=derive_tangents_per_pass if job.tangents_on_chip else None)
         final = integrate(solved.bodies, ar, job.iparams)
-    return Golden(records, solved, final, time.perf_counter() - t0, ar.events)
+    return Golden(records, solved, final, time.perf_counter() - t0, getattr(ar, "events", FpEvents()))
 
 
 @dataclass
