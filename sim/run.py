@@ -56,7 +56,9 @@ from sim.drive.run_options import (add_kernel_args, check_kernel_args, hardware_
                                    load_frame)
 from sim.drive.kernel_step import Golden, KernelResult, golden_step, run_kernel_step
 from sim.report.run_report import StagedDirectory, print_summary, write_report
+from sim.fit.estimate_band import kernel_band
 from sim.fit.resource_model import kernel_fit
+from sim.fit.timing_estimate import clock_note, kernel_timing
 from sim.report.run_result import (AnyRunResult, BitExactness, KernelSpeed, ModelRunResult, RunResult, SceneFacts,
                                    ScheduleFacts, StepErrors, ThesisComparison, VelocityError, WindowFacts, sections,
                                    velocity_error)
@@ -180,7 +182,7 @@ def kernel_speed(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_bub
     capped = math.isfinite(preset.ddr_bytes_per_cycle)
     cons_beats = res.stream_bytes["constraints"] // (preset.stream_bits // 8)
     floors = {"DDR bandwidth": total_bytes / preset.ddr_bytes_per_cycle if capped else 0.0,
-              "constraint stream port": float(cons_beats), "compute (II=1)": float(mp + 2 * job.bodies.num_bodies)}
+              "constraint stream port": float(cons_beats), compute_floor_name(job): compute_floor(job)}
     return KernelSpeed(
         job.fmt.name, preset.describe(), res.cycles, mp, int(r["stalls"]), int(r["bubbles"]), sched_bubbles,
         res.stream_bytes["body_in"] + res.stream_bytes["constraints"], res.stream_bytes["body_out"],
@@ -190,11 +192,24 @@ def kernel_speed(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_bub
         "cocotb (transaction-level bench)" if driver == "cocotb" else "compiled harness", r.get("cpu_s"))
 
 
-def thesis_comparison(res: KernelResult | None, job: KernelJob, frame: Frame,
-                      seconds: dict[str, float]) -> ThesisComparison:
+def compute_floor(job: KernelJob) -> float:
+    """The compute floor (II = 1): each lane issues a manifold-pass a cycle, and each body is loaded and integrated
+    once (a cycle each, one body stream and one integrate pipe)."""
+    lanes = job.record_window.lanes if job.record_window is not None else 1
+    return float(math.ceil(job.manifold_passes / lanes) + 2 * job.bodies.num_bodies)
+
+
+def compute_floor_name(job: KernelJob) -> str:
+    lanes = job.record_window.lanes if job.record_window is not None else 1
+    return f"compute (II=1, {lanes} lane{'s' if lanes > 1 else ''})"
+
+
+def thesis_comparison(res: KernelResult | None, job: KernelJob, frame: Frame, seconds: dict[str, float],
+                      clock: tuple[float, str] = (0.0, "")) -> ThesisComparison:
+    """The thesis's figures beside this run's, its latency at ``clock`` (hertz and why: timing_estimate.clock_note)."""
     return ThesisComparison(job.fmt.name, job.manifolds, job.params.iterations, job.manifold_passes,
                             None if res is None else res.cycles, dict(frame.meta.get("pybullet_timing_s") or {}),
-                            frame.meta.get("solver", {}).get("numSolverIterations", "?"), seconds)
+                            frame.meta.get("solver", {}).get("numSolverIterations", "?"), seconds, *clock)
 
 
 def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBuild | None]:
@@ -232,6 +247,8 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         return ModelRunResult(name, label, frame.num_bodies, frame.num_manifolds, sched_stats.describe(),
                               preset.describe(), model_section(job, preset, body_bits=args.body_bits),
                               fit=kernel_fit(job, args.dma, args.body_bits),
+                              band=kernel_band(job, args.dma, args.body_bits),
+                              timing=kernel_timing(job, args.dma, args.body_bits),
                               errors=exact_error.exact_errors(exact, golden.final, ref, None, bodies.dynamic),
                               error_source=f"{fmt.name} golden model"), None
 
@@ -267,6 +284,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     source = "RTL kernel" if rtl_ours else f"{fmt.name} golden model"
     errors = step_errors(source, ours, StepInputs(frame, bodies, cons, schedule, params, ip), fmt, golden, ref, conv,
                          exact)
+    timing = kernel_timing(job, args.dma, args.body_bits)
     result = RunResult(
         name,
         SceneFacts(label, frame.num_bodies, int(bodies.dynamic.sum()), frame.num_manifolds, frame.num_points_total,
@@ -276,9 +294,12 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         errors,
         thesis_comparison(res, job, frame, {
             "float64 reference (numpy)": timer.seconds["float64 reference solve + integrate"],
-            f"{fmt.name} golden model (numpy)": timer.seconds[f"{fmt.name} golden model solve + integrate"]}),
+            f"{fmt.name} golden model (numpy)": timer.seconds[f"{fmt.name} golden model solve + integrate"]},
+            clock_note(timing, preset.clock_hz)),
         timer.seconds)
     result.fit = kernel_fit(job, args.dma, args.body_bits)
+    result.band = kernel_band(job, args.dma, args.body_bits)
+    result.timing = timing
     if res is not None:
         cmp = res.comparison
         result.bits = BitExactness(cmp.differing_bits, cmp.differing_words, cmp.records, cmp.bodies,

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Union
 
 from models.exact.solution_error import SolutionError
@@ -95,3 +96,38 @@ def test_model_mode_reports_the_errors_against_the_exact_reference() -> None:
     assert missing == {"fp32 golden model vs exact reference (rounding + iteration error)": why,
                        "float64 with these iterations vs exact reference (iteration error alone)": why,
                        "exact reference": why}
+
+
+def test_thesis_comparison_at_the_clock_the_timing_estimate_supports() -> None:
+    base = ThesisComparison("fp16", 147485, 4, 1179880, 822865, {}, 10, {})
+    at_275 = sections_thesis(dataclasses.replace(base, clock_hz=275e6, clock_why="275 MHz (meets)"))
+    assert at_275["this run: RTL fp16, 147,485 manifolds, 4 iterations"].startswith("822,865 cycles, 2.99 ms at 275 MHz")
+    slow = sections_thesis(dataclasses.replace(base, clock_hz=71e6, clock_why="71 MHz (the estimate's highest)"))
+    assert slow["this run: RTL fp16, 147,485 manifolds, 4 iterations"].startswith("822,865 cycles, 11.59 ms at 71 MHz")
+    assert slow["clock of this run's latency"] == "71 MHz (the estimate's highest)"
+    # the thesis's own designs keep their clocks
+    assert "250 MHz" in next(k for k in slow if k.startswith("thesis ZCU102 fp16"))
+    assert not any(k.startswith("this run") for k in sections_thesis(base))  # no clock, no latency
+
+
+def sections_thesis(t: ThesisComparison) -> dict[str, object]:
+    from sim.report.run_result import _thesis
+
+    return _thesis(t)
+
+
+def test_compute_floor_counts_the_lanes() -> None:
+    """The roofline's II = 1 floor: each lane issues a manifold-pass a cycle (the fp16 two-lane thesis run: 1,179,880
+    manifold-passes in 589,940 cycles, not 1,179,880), plus a cycle per body loaded and integrated."""
+    from types import SimpleNamespace
+
+    from sim.run import compute_floor, compute_floor_name
+
+    bodies = SimpleNamespace(num_bodies=38881)
+    two = SimpleNamespace(manifold_passes=1_179_880, bodies=bodies, record_window=SimpleNamespace(lanes=2))
+    one = SimpleNamespace(manifold_passes=1_179_880, bodies=bodies, record_window=None)
+    assert compute_floor(two) == 589_940 + 2 * 38881 and compute_floor(one) == 1_179_880 + 2 * 38881  # type: ignore
+    assert 822_865 / compute_floor(two) > 1 > 822_865 / compute_floor(one)  # type: ignore[arg-type]
+    assert compute_floor_name(two) == "compute (II=1, 2 lanes)" and compute_floor_name(one) == "compute (II=1, 1 lane)"  # type: ignore
+    odd = SimpleNamespace(manifold_passes=7, bodies=SimpleNamespace(num_bodies=0), record_window=SimpleNamespace(lanes=2))
+    assert compute_floor(odd) == 4  # type: ignore[arg-type]
