@@ -16,6 +16,7 @@ SCENE_ARGS ?=
 ITERS ?= 4
 FORMAT ?= fp32
 DMA ?= zcu102
+# the seed of every randomised run and test (sim/seed.py's DEFAULT_SEED; CI derives one from the commit, .ci/run)
 SEED ?= 1
 WAVES ?= 0
 FORMATS ?= fp32,fp16,bf16
@@ -32,6 +33,9 @@ IMPULSE_STORES ?= $(IMPULSE_STORE)
 BODY_BITS ?= 128
 # who computes the friction tangent basis in make sim: host (in the records) or chip (TANGENTS_ON_CHIP)
 TANGENTS ?= host
+# the lanes' datapath in make sim: 1 one datapath for the contact and friction passes (every design's default), 0 a
+# contact and a friction pipe per lane
+SHARED_DATAPATH ?= 1
 SEEDS ?= 4
 # what drives the kernel in make sim: harness (compiled Verilator harness) or cocotb (DMA models, batch scoreboard)
 DRIVER ?= harness
@@ -46,7 +50,7 @@ TEST_JOBS ?= 2
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test sim sweep analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
+.PHONY: help venv sysdeps test claims sim sweep peers analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
 
 help:
 	@echo "pgs-cosim: run a PGS kernel's step on a scene, compare it bit for bit, measure its cycles, error and fit."
@@ -57,15 +61,18 @@ help:
 	@echo "                   SCENE=pile|thesis|stack|...|world.py|obj.urdf SCENE_ARGS=\"k=v ...\" ITERS=4 FORMAT=fp32|fp16|bf16|auto"
 	@echo "                   DMA=zcu102|zcu102_1|u280|ideal SEED=1 WAVES=1 MODE=rtl|model DRIVER=harness|cocotb COMPILE=quick|pgo"
 	@echo "                   the design: SCHEDULE=hazard|sweep|... RECORD_WINDOW=0|8192 LANES=1|2|4 FETCH_PASSES=0"
-	@echo "                   BODY_BITS=128|256|512 IMPULSE_STORE=onchip|records TANGENTS=host|chip"
+	@echo "                   BODY_BITS=128|256|512 IMPULSE_STORE=onchip|records TANGENTS=host|chip SHARED_DATAPATH=1|0"
 	@echo "                   the fitting designs: SCENE=thesis SCHEDULE=sweep RECORD_WINDOW=8192 IMPULSE_STORE=records"
 	@echo "                   BODY_BITS=256 (fp32), plus FORMAT=fp16 LANES=2"
 	@echo "  make sweep       kernel time against error over SWEEP_ITERS x FORMATS (IMPULSE_STORES=onchip,records, MODE=model)"
+	@echo "  make peers       the same frame on the engines a user could pick instead (Warp, MuJoCo), beside our designs"
 	@echo "  make csim        the HLS C++ kernel (hls_export/) in C simulation, bit for bit against the golden model"
 	@echo ""
 	@echo "verify"
 	@echo "  make test        the whole test suite (what CI runs; TEST_JOBS=2 pytest workers)"
 	@echo "  make regress     the co-simulation over SEEDS=4 seeds and more scenes on JOBS=2 workers"
+	@echo "  make claims      rerun every figure of the README's headline results against docs/claims.toml (long:"
+	@echo "                   five thesis-frame runs; CLAIMS=run,run picks some); PASS / FAIL per figure"
 	@echo "  make coverage    line/branch/toggle coverage of rtl/ per kernel configuration (COVERAGE_CONFIGS=a,b)"
 	@echo "  make lint        verilator --lint-only -Wall on every RTL top"
 	@echo ""
@@ -79,7 +86,8 @@ help:
 	@echo "  make analyze     which number formats a scene needs within BUDGET=0.01 (FORMAT=auto uses it)"
 	@echo "  make band        band width of every schedule on every scene; on-chip budget of the thesis frame"
 	@echo "  make stability   the hard cases closed loop: CASES= x FORMATS= x remedies (JOBS=2)"
-	@echo "  make bench       simulated cycles per second of the harness, PROFILES=quick,pgo side by side (RUNS=3)"
+	@echo "  make bench       simulated cycles per second of the harness, PROFILES=quick,pgo side by side (RUNS=3);"
+	@echo "                   CYCLE_MODEL=1: the cycle models' predictions per second on a synthetic step"
 	@echo ""
 	@echo "EXECUTOR=local:N|dask:local:N|dask:tcp://host:port spreads sweep, stability, resources and regress points."
 
@@ -103,14 +111,29 @@ sysdeps:
 	  else echo "warning: missing$$missing; install with: sudo apt-get install$$missing"; fi; \
 	fi
 
+# more pytest options for make test, e.g. PYTEST_ARGS="--junitxml=build/junit.xml" or "--lf"
+PYTEST_ARGS ?=
 test: $(STAMP)
-	$(TOOLENV) $(VPY) -m pytest -n $(TEST_JOBS) --dist loadscope
+	$(TOOLENV) $(VPY) -m pytest -n $(TEST_JOBS) --dist loadscope $(PYTEST_ARGS)
 
 sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
 		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE) \
-		--tangents $(TANGENTS) --compile-profile $(COMPILE)
+		--tangents $(TANGENTS) --compile-profile $(COMPILE) --shared-datapath $(SHARED_DATAPATH)
+
+PEER_RUNS ?= 7
+# each MuJoCo model runs in a child process within these (the thesis frame needs MUJOCO_BUDGET=2400 MUJOCO_MEMORY_GB=16)
+MUJOCO_BUDGET ?= 600
+MUJOCO_MEMORY_GB ?= 12
+peers: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.peers --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --runs $(PEER_RUNS) \
+		--mujoco-budget $(MUJOCO_BUDGET) --mujoco-memory-gb $(MUJOCO_MEMORY_GB)
+
+# every figure of the README's headline results, rerun and compared (docs/claims.toml; not in make test: minutes each)
+CLAIMS ?=
+claims: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.claims --runs "$(CLAIMS)"
 
 analyze: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.analyze --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --seed $(SEED) --budget $(BUDGET)
@@ -144,7 +167,7 @@ hls:
 	else echo "make hls: vitis_hls is not installed (not on PATH); nothing synthesized (see hls_export/README.md)"; fi
 
 # every operator alone and the whole units (RESOURCE_UNITS=): figures into sim/fit/generated/resource_figures.json
-RESOURCE_UNITS ?= contact,friction,integrate,control,control_b256,control_window,hazard_cam
+RESOURCE_UNITS ?= contact,friction,integrate,shared,control,control_b256,control_window,hazard_cam
 resources: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.resources --formats $(FORMATS) --units "$(RESOURCE_UNITS)" --executor "$(EXECUTOR)"
 
@@ -155,9 +178,12 @@ PROFILES ?= quick,pgo
 RUNS ?= 3
 MAX_CYCLES ?= 0
 BASELINE_EXE ?=
+# CYCLE_MODEL=1: the cycle models' speed on a synthetic step instead (no kernel build)
+CYCLE_MODEL ?= 0
 bench: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.bench --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) \
-		--profiles $(PROFILES) --runs $(RUNS) --max-cycles $(MAX_CYCLES) --baseline-exe "$(BASELINE_EXE)"
+		--profiles $(PROFILES) --runs $(RUNS) --max-cycles $(MAX_CYCLES) --baseline-exe "$(BASELINE_EXE)" \
+		$(if $(filter-out 0,$(CYCLE_MODEL)),--cycle-model,)
 
 rtl: $(STAMP)
 	$(TOOLENV) $(VPY) -m rtl.gen

@@ -155,10 +155,11 @@ async def run_register_errors(dut) -> None:
 
 @pytest.mark.parametrize("preset_name,idle", [("zcu102", 0.0), ("zcu102", 0.3), ("zcu102_1", 0.0), ("ideal", 0.0)])
 def test_axi_dma(preset_name: str, idle: float) -> None:
-    from sim.drive.cocotb_run import run_cocotb, test_seed
+    from sim.drive.cocotb_run import cocotb_results, run_cocotb, test_seed
 
     preset = get_preset(preset_name)
     seed = test_seed()
-    run_cocotb("axis_loopback", [THIS / "dma" / "axis_loopback.sv"], "test_axi_dma",
+    results = run_cocotb("axis_loopback", [THIS / "dma" / "axis_loopback.sv"], "test_axi_dma",
                parameters={"W": preset.stream_bits}, seed=seed,
                extra_env={"DMA_PRESET": preset_name, "TB_SEED": str(seed), "TB_IDLE": str(idle)})
+    assert cocotb_results(results) == (2, 0)  # run_stream_through and run_register_errors, both passed

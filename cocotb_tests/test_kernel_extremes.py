@@ -7,7 +7,8 @@ finite value: thousands of operator results overflow, underflow or turn invalid 
 operators in different records, and infinities and NaNs flow into the next passes and into integration. The step
 must still be bit-exact with the golden model (the trace, NaN payloads included, and the body-out stream), and the
 kernel's three event counters must equal the golden model's count of every operator's flags
-(``tb.fp_events.predicted_events``), each of them in the hundreds or thousands.
+(``sim.drive.kernel_step.golden_step``'s ``events``: the golden model's count through its own arithmetic), each of
+them in the hundreds or thousands.
 
 The kernels whose impulses travel with the records check the impulse words they read back like any record word:
 a manifold whose record carries a non-finite impulse is rejected from that pass (the streaming kernel) or fetch (the
@@ -30,7 +31,6 @@ and ``SEED=<int>`` reruns one.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -44,8 +44,8 @@ from models.kernel.kernel_job import KernelJob
 from models.formats.number_format import EVENT_NAMES, FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from sim.compile.kernel_build import default_window
-from sim.drive.kernel_step import run_kernel_step
-from tb.fp_events import predicted_events
+from sim.drive.kernel_step import golden_step, run_kernel_step
+from sim.seed import run_seed
 
 PRESET = get_preset("zcu102")
 GAP_PERMILLE, BP_PERMILLE = 100, 200
@@ -53,7 +53,7 @@ MIN_EVENTS = 50  # each counter's floor on the pile (seeds 1 to 40: at least 133
 
 
 def _seed() -> int:
-    return int(os.environ.get("SEED", "20261205"))
+    return run_seed()
 
 
 @dataclass(frozen=True)
@@ -72,7 +72,8 @@ class Case:
     def job(self, seed: int) -> KernelJob:
         frame = scenes.load_or_capture("pile", **KERNEL_TEST_SCENES["pile"])
         job = KernelJob.from_frame(frame, self.fmt, SolverParams(4, interleaved=self.interleaved),
-                                   "sweep" if self.window else "hazard", default_window(self.fmt, PRESET.stream_bits))
+                                   "sweep" if self.window else "hazard",
+                                   default_window(self.fmt, PRESET.stream_bits, window_kernel=self.window > 0))
         if self.records:
             job = job.impulses_travelling()
         if self.window:
@@ -90,10 +91,11 @@ CASES = [Case(FP32), Case(FP16), Case(FP32, window=1024, lanes=2), Case(FP32, wi
 def test_kernel_at_extremes(case: Case, tmp_path: Path) -> None:
     seed = _seed()
     job = case.job(seed)
-    res = run_kernel_step(job, PRESET, tmp_path, seed, GAP_PERMILLE, BP_PERMILLE)
+    golden = golden_step(job)
+    res = run_kernel_step(job, PRESET, tmp_path, seed, GAP_PERMILLE, BP_PERMILLE, golden=golden)
     r = res.registers
     got = {name: int(r[f"fp_{name}"]) for name in EVENT_NAMES}
-    want = predicted_events(job).as_dict()
+    want = golden.events.as_dict()
     print(f"\n[{case.label}] seed {seed} (SEED= overrides): {res.cycles} cycles, status {int(r['status']):#x}, "
           f"{int(r['rejected'])} manifold-passes rejected; floating-point events: kernel {got}, golden model "
           f"{want}; {res.comparison.records} trace records, {res.comparison.bodies} bodies, "

@@ -21,7 +21,6 @@ TLAST per pass) with the golden model of the same step:
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -38,13 +37,14 @@ from models.tests.test_impulses_in_records import independent_stack_job
 from sim.compile.kernel_build import default_window
 from sim.drive.kernel_step import run_kernel_step
 from sim.compare import retire_cycles
+from sim.seed import run_seed
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")
 
 
 def _seed() -> int:
-    return int(os.environ.get("SEED", "12345"))
+    return run_seed()
 
 
 def pile_job(interleaved: bool = False) -> KernelJob:

@@ -18,7 +18,6 @@ other tests build too:
 from __future__ import annotations
 
 import dataclasses
-import os
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +37,7 @@ from sim.drive.kernel_step import golden_step, run_kernel_step
 from models.timing import prediction
 from models.timing import stream_cycle_model
 from sim.compare import retire_cycles
+from sim.seed import run_seed
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")
@@ -45,7 +45,7 @@ BIG_PILE = {"nx": 8, "ny": 4, "nz": 8, "seed": 3}  # 256 cubes, 734 manifolds: a
 
 
 def _seed() -> int:
-    return int(os.environ.get("SEED", "12345"))
+    return run_seed()
 
 
 def pile_job(iterations: int, pile: dict[str, int] = KERNEL_TEST_SCENES["pile"]) -> KernelJob:

@@ -18,7 +18,6 @@ model of the same step, which solves with the derived tangents (``KernelJob.tang
 from __future__ import annotations
 
 import dataclasses
-import os
 from pathlib import Path
 
 import numpy as np
@@ -36,13 +35,14 @@ from models.setup.tangent_basis import PLANE_SPACE_SPLIT
 from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import run_kernel_step
 from sim.compare import retire_cycles
+from sim.seed import run_seed
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")
 
 
 def _seed() -> int:
-    return int(os.environ.get("SEED", "12345"))
+    return run_seed()
 
 
 def streamed_job(scene: str, fmt: NumberFormat = FP32) -> KernelJob:

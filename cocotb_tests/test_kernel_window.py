@@ -23,18 +23,16 @@ well.
   lane is rejected in every pass, and the step equals the golden model's with that manifold left out, bit for
   bit;
 * the cycle model (``models/timing/window_cycle_model.py``): with deterministic streams (gap 0, backpressure 0) every
-retire
-  cycle, the stall and bubble counters, the rejected count and the total cycles are the model's, on the two-lane
-  build and on a one-lane build (``build/verilator/pgs_kernel_e8m23_c512_w1024x8``, DEPTH 1024): the pile with the
-  sweep and hazard orders, one and several fetches, both pass orders, the stack; a larger pile whose fetch is
-  DDR-bound (bubbles), one with more records than the ring (ring room), rejected lanes (colliding, static pairs),
-  12 passes over 8 contexts with a lag below the band (the pass-start rule; timing only), the ideal DMA.
+  retire cycle, the stall and bubble counters, the rejected count and the total cycles are the model's, on the two-lane
+  build and on a one-lane build (``build/verilator/pgs_kernel_e8m23_c512_w1024x8``, DEPTH 1024): the pile with the sweep
+  and hazard orders, one and several fetches, both pass orders, the stack; a larger pile whose fetch is DDR-bound
+  (bubbles), one with more records than the ring (ring room), rejected lanes (colliding, static pairs), 12 passes over 8
+  contexts with a lag below the band (the pass-start rule; timing only), the ideal DMA.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import os
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +54,7 @@ from sim.drive.kernel_step import KernelResult, golden_step, run_kernel_step
 from sim.compare.trace_bits import Comparison, compare_body_out, compare_trace_bits, read_trace
 from models.timing import prediction
 from sim.compare import retire_cycles
+from sim.seed import run_seed
 
 DEPTH = 1024
 LANES = 2
@@ -65,7 +64,7 @@ RECORD_BYTES = StreamLayout(FP32).window_bytes  # one lane's combined record (3 
 
 
 def _seed() -> int:
-    return int(os.environ.get("SEED", "12345"))
+    return run_seed()
 
 
 def window_job(scene: str, schedule: str, hazard_window: int, interleaved: bool = False,

@@ -27,7 +27,6 @@ impulse-out stream (one record per window record and fetch, TLAST per fetch) wit
 from __future__ import annotations
 
 import dataclasses
-import os
 from pathlib import Path
 from typing import Callable
 
@@ -52,6 +51,7 @@ from cocotb_tests.test_kernel_window import BIG_PILE, ROOM_PILE, _assert_golden_
 from models.kernel.body_banks import WINDOW_BANKS
 from models.tests.test_body_banks import spread_bodies
 from models.tests.test_impulses_in_records import independent_stack_job
+from sim.seed import run_seed
 
 DEPTH = 1024
 GAP_PERMILLE, BP_PERMILLE = 100, 200
@@ -59,7 +59,7 @@ PRESET = get_preset("zcu102")
 
 
 def _seed() -> int:
-    return int(os.environ.get("SEED", "12345"))
+    return run_seed()
 
 
 def window_records_job(scene: str, fmt: NumberFormat = FP32, lanes: int = 1, fetch_passes: int | None = None,

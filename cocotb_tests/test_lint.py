@@ -12,7 +12,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def test_rtl_lints_clean() -> None:
-    proc = subprocess.run([sys.executable, "-m", "sim.lint"], cwd=REPO, capture_output=True, text=True, timeout=600)
+    proc = subprocess.run([sys.executable, "-m", "sim.lint"], cwd=REPO, capture_output=True, text=True, timeout=1800)
     print(proc.stdout[-4000:])
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-4000:]
     summary = re.search(r"lint: (\d+) runs over (\d+) tops, 0 with warnings/errors", proc.stdout)
@@ -21,19 +21,26 @@ def test_rtl_lints_clean() -> None:
 
 
 def test_sequencer_is_linted_through_the_kernel_with_every_parameter_set() -> None:
-    """The sequencer's parameter-set runs are the kernel's (it passes them through); a parent that drops one, or
-    holds the instance inside a generate block, makes the pruning an error instead of a silent gap."""
+    """The sequencer's parameter-set runs are the kernel's (it passes them through), and so are its phase modules' and
+    a lane's datapath's, through their parents; a parent that drops one, or holds the instance inside a generate
+    block, makes the pruning an error instead of a silent gap."""
     from sim.lint import _PARAM_RE, ELABORATED_BY_PARENT, forwarded_params, param_sets, runs_for
 
     _, modules = rtl_files()
     by_name = {m.stem: m for m in modules}
+    assert ELABORATED_BY_PARENT["pgs_sequencer"] == "pgs_kernel"
     for child, parent in ELABORATED_BY_PARENT.items():
         assert [r.label for r in runs_for(by_name[child])] == ["default"]
         varied = {name for pset in param_sets().values() for name in pset}
         declared = set(_PARAM_RE.findall(by_name[child].read_text()))
         assert varied & declared <= forwarded_params(by_name[parent], child)
-        assert len(runs_for(by_name[parent])) == 1 + sum(
-            set(p) <= forwarded_params(by_name[parent], child) for p in param_sets().values())
+        root = parent
+        while root in ELABORATED_BY_PARENT:
+            root = ELABORATED_BY_PARENT[root]
+        root_runs = {r.label for r in runs_for(by_name[root])}
+        assert {label for label, pset in param_sets().items() if set(pset) <= declared} <= root_runs, child
+    assert len(runs_for(by_name["pgs_kernel"])) == 1 + sum(
+        set(p) <= forwarded_params(by_name["pgs_kernel"], "pgs_sequencer") for p in param_sets().values())
 
 
 def test_pruning_refuses_a_parent_that_does_not_pass_a_parameter(tmp_path: Path) -> None:

@@ -261,6 +261,7 @@ def test_pgs_control_s_axi() -> None:
     from cocotb_tools.runner import get_runner
 
     from sim.compile.verilator_build import ensure_verilator_env
+    from sim.drive.cocotb_run import cocotb_results
 
     ensure_verilator_env()
     runner = get_runner("verilator")
@@ -270,6 +271,7 @@ def test_pgs_control_s_axi() -> None:
                  build_dir=build_dir, always=False,
                  build_args=["-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include CFG_LDLIBS_THREADS=-pthread",
                              "-Wno-fatal"])
-    runner.test(hdl_toplevel="pgs_control_s_axi", test_module="test_pgs_control_s_axi",
+    results = runner.test(hdl_toplevel="pgs_control_s_axi", test_module="test_pgs_control_s_axi",
                 hdl_toplevel_lang="verilog", build_dir=build_dir, test_dir=Path(__file__).parent,
                 extra_env={"PYTHONPATH": os.pathsep.join([str(REPO), str(Path(__file__).parent)])})
+    assert cocotb_results(Path(results)) == (1, 0)  # register_file ran and passed

@@ -20,7 +20,8 @@ lower bound); ``test_kernel_cycles_match_model`` runs each case with determinist
 backpressure) and requires every retire cycle, the total and the stall and bubble counters to equal the model's.
 
 Floating-point events (``rtl/README.md``): the overflow / underflow / invalid counters the harness reads
-(result.txt) must equal the golden model's prediction (``tb.fp_events``) and the fp_status flags must be set
+(result.txt) must equal the golden model's count of its own operations' events (``Golden.events`` of
+``sim.drive.kernel_step.golden_step``) and the fp_status flags must be set
 exactly for the non-zero ones; every fp32 and bf16 scene leaves them at zero (fp16 flushes tiny velocity terms to
 zero: underflows). ``test_pgs_kernel_fp16_overflow`` spins the top cube of the stack at 2000 rad/s in fp16:
 its squared angular velocity overflows in the integration (and the step stays bit-exact).
@@ -37,7 +38,6 @@ Friction: ``test_pgs_kernel_manifold_friction`` runs a world of mixed shapes and
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -45,7 +45,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cocotb_tests.tb.fp_events import predicted_events
 from models import scenes
 from models.timing import cycle_model
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
@@ -56,9 +55,10 @@ from models.setup.inertia import InertiaMode
 from models.formats.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat
 from models.kernel.kernel_job import KernelJob
 from sim.compile.kernel_build import KernelBuild, default_window
-from sim.drive.kernel_step import KernelResult, run_kernel_step
+from sim.drive.kernel_step import KernelResult, golden_step, run_kernel_step
 from models.timing import prediction
 from sim.compare import retire_cycles
+from sim.seed import run_seed
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 ITERATIONS = 4
@@ -84,7 +84,7 @@ class Case:
 
 
 def _seed() -> int:
-    return int(os.environ.get("SEED", "12345"))
+    return run_seed()
 
 
 def run_case(case: Case, tmp: Path, spin: tuple[int, float] | None = None) -> KernelResult:
@@ -98,7 +98,8 @@ def run_case(case: Case, tmp: Path, spin: tuple[int, float] | None = None) -> Ke
     print(f"\n[{case.label}/{case.fmt.name}/{case.schedule_kind}] seed {seed} (SEED= overrides); "
           f"{job.bodies.num_bodies} bodies, {len(job.slots)} manifolds, {len(job.schedule) - len(job.slots)} bubbles "
           f"in the schedule (W={window})")
-    res = run_kernel_step(job, get_preset("zcu102"), tmp, seed, GAP_PERMILLE, BP_PERMILLE)
+    golden = golden_step(job)
+    res = run_kernel_step(job, get_preset("zcu102"), tmp, seed, GAP_PERMILLE, BP_PERMILLE, golden=golden)
     if res.comparison.first_mismatch is not None:
         pytest.fail(res.comparison.first_mismatch)
     assert res.bit_exact
@@ -108,10 +109,10 @@ def run_case(case: Case, tmp: Path, spin: tuple[int, float] | None = None) -> Ke
           f"{int(r['stalls'])}, bubbles {int(r['bubbles'])}; build {res.build_seconds:.1f} s; simulated "
           f"{res.sim_cycles_per_s / 1e3:.1f} kcycles/s ({r['wall_s']:.2f} s); bit-exact: "
           f"{res.comparison.records} trace records, {res.comparison.bodies} bodies")
-    want = predicted_events(job).as_dict()
+    want = golden.events.as_dict()
     got = {name: int(r[f"fp_{name}"]) for name in EVENT_NAMES}
     print(f"  floating-point events: kernel {got}, golden model {want}, fp_status {int(r['fp_status']):#x}")
-    assert got == want, "the kernel's floating-point event counters differ from the golden model's prediction"
+    assert got == want, "the kernel's floating-point event counters differ from the golden model's count"
     assert int(r["fp_status"]) == sum(1 << k for k, name in enumerate(EVENT_NAMES) if got[name])
     assert int(r["rejected"]) == 0
     if case.fmt.name != "fp16":
@@ -164,6 +165,30 @@ def test_pgs_kernel_manifold_friction(tmp_path: Path) -> None:
     per, const = (solve(job.bodies, c, job.schedule, job.fmt, job.params).bodies for c in (job.cons, one))
     assert np.any(per.linear_velocity != const.linear_velocity)  # the coefficient word matters
     run_case(Case(MIXED_FRICTION_WORLD, FP32, "hazard"), tmp_path)
+
+
+ASSET_WORLDS = ("jenga_tower", "duck_lego_pile")
+
+
+@pytest.mark.parametrize("world", ASSET_WORLDS)
+def test_asset_worlds_through_the_rtl(world: str, tmp_path: Path) -> None:
+    """The shipped asset worlds as ``make sim SCENE=<world>`` runs them (seed, hazard order, zcu102; Bullet 2's
+    inertia and each pair's friction: the 6-word, coefficient-carrying build the mixed-shapes test makes): 0 bits
+    differ, the counters are the golden model's, every retire cycle is the cycle model's, and the kernel's cycles are
+    the README's (``docs/claims.toml``, the user-worlds row)."""
+    from sim.claims import load_claims
+    from sim.seed import DEFAULT_SEED
+
+    frame, _ = scenes.load_scene(world, "", DEFAULT_SEED)  # make sim's frame (deterministic streams: no other seed)
+    job = KernelJob.from_frame(frame, FP32, SolverParams(ITERATIONS), "hazard", default_window(FP32, 512))
+    assert KernelBuild.for_job(job, get_preset("zcu102")).name == "pgs_kernel_e8m23_c512_i6_mu"
+    pred = cycle_model.predict_job(job, get_preset("zcu102"))
+    agree = run_deterministic(job, get_preset("zcu102"), pred, tmp_path)
+    print(f"\n[{world}] {job.bodies.num_bodies} bodies, {len(job.slots)} manifolds: {agree.describe()}")
+    assert agree.ok, agree.first_mismatch
+    [row] = [c for c in load_claims().rows if c.claim == "user worlds"]
+    stated = {f.runs[0]: f.value for f in row.figures if f.measure == "cycles"}
+    assert agree.cycles_rtl == stated[{"jenga_tower": "jenga", "duck_lego_pile": "duck-lego"}[world]]
 
 
 def test_pgs_kernel_scalar_inverse_inertia(tmp_path: Path) -> None:

@@ -124,7 +124,8 @@ def csim_name(kb: KernelBuild) -> str:
             + ("_ir" if kb.impulses_in_records else "")
             + ("_mu" if kb.friction_words else "")
             + ("_tb" if kb.tangents_on_chip else "")
-            + ("_soft" if kb.soft_contact else ""))
+            + ("_soft" if kb.soft_contact else "")
+            + ("" if kb.shared_datapath else "_split"))
 
 
 def compile_cpp(sources: Sequence[Path], exe: Path, defines: Sequence[str] = (), cxx: str = "g++") -> Path:
@@ -170,7 +171,8 @@ def csim_defines(kb: KernelBuild) -> list[str]:
                f"-DPGS_CONS_W={kb.cons_bits}", f"-DPGS_BODY_IN_W={kb.body_in_bits}",
                f"-DPGS_BODY_OUT_W={kb.body_out_bits}", f"-DPGS_IINV_W={kb.inertia_words}",
                f"-DPGS_MU_W={kb.friction_words}", f"-DPGS_IMPULSES_IN_RECORDS={int(kb.impulses_in_records)}",
-               f"-DPGS_SOFT_CONTACT={int(kb.soft_contact)}", f"-DPGS_TANGENTS_ON_CHIP={int(kb.tangents_on_chip)}"]
+               f"-DPGS_SOFT_CONTACT={int(kb.soft_contact)}", f"-DPGS_TANGENTS_ON_CHIP={int(kb.tangents_on_chip)}",
+               f"-DPGS_SHARED_DATAPATH={int(kb.shared_datapath)}"]
     if kb.window:
         defines += [f"-DPGS_WINDOW={kb.window}", f"-DPGS_WINDOW_CTX={kb.window_ctx}", f"-DPGS_LANES={kb.lanes}"]
     if kb.impulses_in_records:  # the testbench's DMA thread needs the blocking, thread-safe local streams

@@ -18,7 +18,10 @@
 //     m_axis_imp (window_passes below);
 //   * one pipelined loop per pass kind (PIPELINE, the fixed-size inner loops unrolled), ARRAY_PARTITION of the
 //     per-body and per-slot words so that a record reads and writes all of them at once, and DEPENDENCE
-//     inter false on the body velocities and the impulses (below).
+//     inter false on the body velocities and the impulses (below);
+//   * with PGS_SHARED_DATAPATH = 1 (the default, the RTL's SHARED_DATAPATH) both kinds' manifold-passes run on one
+//     datapath (lane_pass: generated/pgs_shared_datapath.h, each operator once with its operands chosen by the
+//     record's kind; INLINE off and one instance allocated), else each kind on its own (pgs_solver.h).
 //
 // DEPENDENCE: within a pass every impulse slot is read and written by one record only, so the false
 // dependence on imp_n / imp_t is exact. The velocities are not: a manifold reads the velocities of its
@@ -34,6 +37,9 @@
 #include "pgs_kernel.h"
 
 #include "pgs_solver.h"
+#if PGS_SHARED_DATAPATH
+#include "generated/pgs_shared_datapath.h"
+#endif
 
 using namespace pgs;
 
@@ -148,11 +154,100 @@ LOAD:
 // --- one manifold-pass (the streaming kernel's passes and the window kernel's) --------------------------------
 // One contact manifold-pass of record r in slot `slot`: its bodies gathered, lam[0..3] updated from the impulses
 // the pass starts from, the dynamic bodies' velocities written back; returns its trace record.
+#if PGS_SHARED_DATAPATH
+// --- the shared datapath of a lane (the RTL's SHARED_DATAPATH = 1): one datapath for both kinds ---------------------
+// generated/pgs_shared_datapath.h holds the datapath of every option set (rtl/gen/shared_datapath.py binds the friction
+// pass onto the contact pass's operators); the kernel's options pick one. Its inputs (rtl/gen/kernel_graphs.py
+// shared_in): the record's words after the header (23 slots: a contact record's n, p[4], jac_inv, b; a friction
+// record's n, c, t0, t1 (not with the tangents derived on chip), f_jac_inv, the coefficient word), lam[4], lamT[2],
+// xA, xB, vA, wA, vB, wB, mInvA, mInvB, IInvA, IInvB, (soft contact) keep_dyn, keep_static.
+#if PGS_SOFT_CONTACT && PGS_TANGENTS_ON_CHIP
+#define PGS_LANE_DATAPATH shared::pgs_shared_pipe_soft_tb
+#elif PGS_SOFT_CONTACT && PGS_MU_W
+#define PGS_LANE_DATAPATH shared::pgs_shared_pipe_mu_soft
+#elif PGS_SOFT_CONTACT
+#define PGS_LANE_DATAPATH shared::pgs_shared_pipe_soft
+#elif PGS_TANGENTS_ON_CHIP
+#define PGS_LANE_DATAPATH shared::pgs_shared_pipe_tb
+#elif PGS_IINV_W == 1 && PGS_MU_W
+#define PGS_LANE_DATAPATH shared::pgs_shared_pipe_scalar_mu
+#elif PGS_IINV_W == 1
+#define PGS_LANE_DATAPATH shared::pgs_shared_pipe_scalar
+#elif PGS_IINV_W == 6 && PGS_MU_W
+#define PGS_LANE_DATAPATH shared::pgs_shared_pipe_full_mu
+#elif PGS_IINV_W == 6
+#define PGS_LANE_DATAPATH shared::pgs_shared_pipe_full
+#elif PGS_MU_W
+#define PGS_LANE_DATAPATH shared::pgs_shared_pipe_mu
+#else
+#define PGS_LANE_DATAPATH shared::pgs_shared_pipe
+#endif
+constexpr int kRecordSlots = 23;  // the shared layout's record words
+constexpr int kLaneIn = kRecordSlots + 6 + 20 + 2 * kIInvWords + (kSoftContact ? 2 : 0);
+
+// One manifold-pass of either kind on the lane's datapath: rec the kind's record words, lam / lam_t the impulses the
+// pass starts from (a friction pass's lam: its friction limit); on return imp the pass's impulses (contact lam[0..3];
+// friction lamT[0..1], 0, 0) and the bodies' velocities in p.
+void lane_pass(bool friction, const float rec[kRecordSlots], BodyPair& p, const float lam[4], const float lam_t[2],
+               bool spin_damp, const SoftKeep& soft, float imp[4]) {
+#pragma HLS INLINE off
+    float in[kLaneIn];
+#pragma HLS ARRAY_PARTITION variable=in type=complete
+    for (int k = 0; k < kRecordSlots; k++) in[k] = rec[k];
+    for (int i = 0; i < 4; i++) in[kRecordSlots + i] = lam[i];
+    for (int j = 0; j < 2; j++) in[kRecordSlots + 4 + j] = lam_t[j];
+    const Vec3 body[6] = {p.A.x, p.B.x, p.va.v, p.va.w, p.vb.v, p.vb.w};
+    int at = kRecordSlots + 6;
+    for (int b = 0; b < 6; b++) {
+        in[at++] = body[b].x;
+        in[at++] = body[b].y;
+        in[at++] = body[b].z;
+    }
+    in[at++] = p.A.m_inv;
+    in[at++] = p.B.m_inv;
+    for (int k = 0; k < kIInvWords; k++) in[at++] = p.A.i_inv.k[k];
+    for (int k = 0; k < kIInvWords; k++) in[at++] = p.B.i_inv.k[k];
+    if (kSoftContact) {
+        in[at++] = soft.dyn;
+        in[at++] = soft.stat;
+    }
+    float out[16];
+#if PGS_SOFT_CONTACT
+    PGS_LANE_DATAPATH(friction, in, spin_damp, soft.on, out);
+#else
+    (void)soft;
+    PGS_LANE_DATAPATH(friction, in, spin_damp, out);
+#endif
+    for (int i = 0; i < 4; i++) imp[i] = out[i];
+    p.va.v = vec3(out[4], out[5], out[6]);
+    p.va.w = vec3(out[7], out[8], out[9]);
+    p.vb.v = vec3(out[10], out[11], out[12]);
+    p.vb.w = vec3(out[13], out[14], out[15]);
+}
+#endif
+
 trace_t contact_update(const ContactRec& r, uint32_t slot, uint32_t iteration, uint32_t num_bodies,
                        const float body_ref[kMaxBodies][kRefWords], float body_vel[kMaxBodies][6], float lam[4],
                        const SoftKeep& soft, Errors& err) {
     BodyPair p = gather(r.h, num_bodies, body_ref, body_vel, err);
+#if PGS_SHARED_DATAPATH
+    float rec[kRecordSlots];
+    rec[0] = r.n.x;
+    rec[1] = r.n.y;
+    rec[2] = r.n.z;
+    for (int i = 0; i < 4; i++) {
+        rec[3 + 3 * i] = r.p[i].x;
+        rec[4 + 3 * i] = r.p[i].y;
+        rec[5 + 3 * i] = r.p[i].z;
+        rec[15 + i] = r.jac_inv[i];
+        rec[19 + i] = r.bias[i];
+    }
+    const float lam_t[2] = {0.0f, 0.0f};
+    float start[4] = {lam[0], lam[1], lam[2], lam[3]};
+    lane_pass(false, rec, p, start, lam_t, false, soft, lam);
+#else
     solve_contact(r, p.A, p.B, p.va, p.vb, lam, soft);
+#endif
     retire(body_vel, p);
     return encode_trace(lam, p.va.v, p.va.w, p.vb.v, p.vb.w, slot, iteration, false);
 }
@@ -162,14 +257,31 @@ trace_t contact_update(const ContactRec& r, uint32_t slot, uint32_t iteration, u
 trace_t friction_update(FrictionRec r, uint32_t slot, uint32_t iteration, uint32_t num_bodies,
                         const float body_ref[kMaxBodies][kRefWords], float body_vel[kMaxBodies][6],
                         const float lam_n[4], float impulses[4], Errors& err) {
-    if (kTangentsOnChip) plane_space(r.n, r.t);  // the record carries no t0, t1: derived from n
     BodyPair p = gather(r.h, num_bodies, body_ref, body_vel, err);
     float lam_t[2] = {impulses[0], impulses[1]};
+#if PGS_SHARED_DATAPATH
+    // the record's words: n, c, t0, t1 (the datapath derives them with the tangents on chip), f_jac_inv, the coefficient
+    float rec[kRecordSlots] = {};
+    int at = 0;
+    const Vec3 vecs[4] = {r.n, r.c, r.t[0], r.t[1]};
+    for (int v = 0; v < (kTangentsOnChip ? 2 : 4); v++) {
+        rec[at++] = vecs[v].x;
+        rec[at++] = vecs[v].y;
+        rec[at++] = vecs[v].z;
+    }
+    rec[at++] = r.f_jac_inv[0];
+    rec[at++] = r.f_jac_inv[1];
+    if (kMuWords) rec[at] = r.mu;
+    const SoftKeep rigid = {false, 0.0f, 0.0f};
+    lane_pass(true, rec, p, lam_n, lam_t, r.h.spin_damp && !r.h.shock_linear, rigid, impulses);
+#else
+    if (kTangentsOnChip) plane_space(r.n, r.t);  // the record carries no t0, t1: derived from n
     solve_friction(r, p.A, p.B, p.va, p.vb, lam_n, lam_t);
     impulses[0] = lam_t[0];
     impulses[1] = lam_t[1];
     impulses[2] = 0.0f;
     impulses[3] = 0.0f;
+#endif
     retire(body_vel, p);
     return encode_trace(impulses, p.va.v, p.va.w, p.vb.v, p.vb.w, slot, iteration, true);
 }
@@ -467,6 +579,11 @@ void pgs_kernel(hls::stream<body_in_beat_t>& s_axis_body, hls::stream<cons_beat_
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=status bundle=control offset=PGS_REG_STATUS)
     PGS_PRAGMA(HLS INTERFACE mode=s_axilite port=issued bundle=control offset=PGS_REG_ISSUED)
 #pragma HLS INTERFACE mode=s_axilite port=return bundle=control
+#if PGS_SHARED_DATAPATH
+    // one datapath for the contact and the friction manifold-passes (they never run in the same cycle: the passes are
+    // loops one after the other, the window design's records of one kind per fetch)
+#pragma HLS ALLOCATION function instances=lane_pass limit=1
+#endif
 
     // On-chip memories (BRAM). Each per-body / per-slot word is its own array (ARRAY_PARTITION of dim 2), so a
     // record reads or writes all words of a body in one access of each array.

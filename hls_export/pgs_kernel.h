@@ -14,6 +14,9 @@
 //   PGS_WINDOW         > 0: the window kernel (the RTL's WINDOW with IMPULSES_IN_RECORDS = 1; a power of two): each
 //                      fetch of the records serves up to PGS_WINDOW_CTX (8) passes of one kind over a ring of that
 //                      many records of PGS_LANES (1, 2 or 4) slots, the arguments lag and fetch_passes; 0: streaming
+//   PGS_SHARED_DATAPATH  1 (the default): a contact and a friction manifold-pass run on one datapath, the RTL's
+//                      SHARED_DATAPATH (generated/pgs_shared_datapath.h: each operator once, its operands chosen by
+//                      the record's kind); 0: each kind's own arithmetic (pgs_solver.h solve_contact, solve_friction)
 //   PGS_EXP_BITS, PGS_MAN_BITS  the number format (8, 23: binary32; C simulation also 5, 10 and 8, 7; pgs_fp.h)
 #ifndef PGS_KERNEL_H
 #define PGS_KERNEL_H
@@ -31,6 +34,9 @@
 #endif
 #ifndef PGS_SOFT_CONTACT
 #define PGS_SOFT_CONTACT 0
+#endif
+#ifndef PGS_SHARED_DATAPATH
+#define PGS_SHARED_DATAPATH 1
 #endif
 
 namespace pgs {

@@ -8,6 +8,7 @@ pgs_fp_pkg.sv
 generated/pgs_regs_pkg.sv
 generated/pgs_stream_layout_pkg.sv
 generated/pgs_pipe_latency_pkg.sv
+pgs_seq_pkg.sv
 
 // floating-point operators
 fp/fp_unpack.sv
@@ -20,7 +21,8 @@ fp/fp_div.sv
 fp/fp_sqrt.sv
 fp/fp_minmax.sv
 
-// datapaths (generated) and their delay lines
+// datapaths (generated) and their delay lines: the contact and friction pipes, the shared datapaths of both
+// passes (SHARED_DATAPATH), the integration
 pgs_delay.sv
 generated/pgs_contact_pipe.sv
 generated/pgs_friction_pipe.sv
@@ -33,6 +35,16 @@ generated/pgs_friction_pipe_mu.sv
 generated/pgs_friction_pipe_scalar_mu.sv
 generated/pgs_friction_pipe_full_mu.sv
 generated/pgs_friction_pipe_tb.sv
+generated/pgs_shared_pipe.sv
+generated/pgs_shared_pipe_mu.sv
+generated/pgs_shared_pipe_scalar.sv
+generated/pgs_shared_pipe_scalar_mu.sv
+generated/pgs_shared_pipe_full.sv
+generated/pgs_shared_pipe_full_mu.sv
+generated/pgs_shared_pipe_soft.sv
+generated/pgs_shared_pipe_mu_soft.sv
+generated/pgs_shared_pipe_tb.sv
+generated/pgs_shared_pipe_soft_tb.sv
 generated/pgs_integrate_pipe.sv
 
 // memories, queues and control
@@ -46,6 +58,14 @@ pgs_ring_ram.sv
 pgs_window.sv
 pgs_run_counters.sv
 pgs_error_flags.sv
+pgs_lane_datapath.sv
+pgs_seq_load.sv
+pgs_seq_records.sv
+pgs_seq_issue.sv
+pgs_seq_hazards.sv
+pgs_seq_lane.sv
+pgs_seq_retire.sv
+pgs_seq_integrate.sv
 pgs_sequencer.sv
 pgs_control_s_axi.sv
 pgs_kernel.sv

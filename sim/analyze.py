@@ -50,7 +50,6 @@ def analyze(args: argparse.Namespace) -> dict[str, Any]:
     alone = {g: f for g, (f, _) in storage.items()}
     chosen, mixed = fa.fit_mixed(problem, fmt, alone, args.budget)
     named = {name: problem.error(problem.step(f)) for name, f in (("fp32", FP32), ("fp16", FP16))}
-    widths = {g: chosen[g].width if g in chosen else fmt.width for g in fa.GROUPS}
     return {
         "scene": {"scene": label, "bodies": frame.num_bodies, "manifolds": frame.num_manifolds,
                   "iterations": args.iters, "error budget (relative, see models/sizing/format_analyzer.py)": args.budget},
@@ -66,9 +65,9 @@ def analyze(args: argparse.Namespace) -> dict[str, Any]:
         "storage formats together, arithmetic in the kernel format (a proposal: the RTL stores one format)": {
             **{g: f.name for g, f in chosen.items()},
             "error": mixed, "within budget": str(mixed <= args.budget),
-            **{f"{rec} record bits (unpadded)": bits for rec, bits in fa.record_bits(widths).items()},
+            **{f"{rec} record bits (unpadded)": bits for rec, bits in fa.record_bits(chosen, fmt).items()},
             **{f"{rec} record bits in {fmt.name} (unpadded)": bits
-               for rec, bits in fa.record_bits({g: fmt.width for g in fa.GROUPS}).items()}},
+               for rec, bits in fa.record_bits({}, fmt).items()}},
     }
 
 

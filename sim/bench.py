@@ -22,6 +22,10 @@ and builds again from that profile; its build figures count both builds and the 
     python -m sim.bench --scene thesis --profiles quick,pgo --runs 2
     python -m sim.bench --scene pile --profiles quick --runs 5 \
         --baseline-exe ../old/build/verilator/pgs_kernel_e8m23_c512/pgs_kernel_e8m23_c512
+
+``--cycle-model`` prints instead how fast the two cycle models (``models/timing``) predict a synthetic step of 20,000
+manifolds over 5,001 bodies, 4 iterations (manifold-passes predicted per second; ``--runs`` runs, the median), and
+builds nothing (``make bench CYCLE_MODEL=1``).
 """
 
 from __future__ import annotations
@@ -37,7 +41,15 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Sequence
 
+import numpy as np
+
 from models import scenes
+from models.formats.number_format import FP32
+from models.kernel.record_window import WindowPlan, fits, lane_slots
+from models.order.manifold_schedule import band_width
+from models.setup.constraints import ConstraintSet
+from models.timing import stream_cycle_model, window_cycle_model
+from models.timing.kernel_shape import DmaTiming, KernelShape, StepShape
 from models.golden.contact_solver import SolverParams
 from models.timing.platforms import DmaPreset, get_preset
 from models.kernel.kernel_job import KernelJob
@@ -82,7 +94,65 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     ap.add_argument("--out", default="build/bench", help="parent directory of the run directories")
     ap.add_argument("--baseline-exe", default="",
                     help="a harness of the same kernel build from another tree: the reference column")
+    ap.add_argument("--cycle-model", action="store_true",
+                    help="the cycle models' speed on a synthetic step instead (no kernel build)")
     return ap.parse_args(argv)
+
+
+# --- the cycle models' speed (--cycle-model) ----------------------------------------------------------------------
+SYNTHETIC_MANIFOLDS, SYNTHETIC_BODIES = 20_000, 5_001
+
+
+def synthetic_streaming_step() -> StepShape:
+    """Manifold k joins bodies 1 + k % 5000 and 1 + (7k + 1) % 5000 (body 0 static), 4 iterations."""
+    k = np.arange(SYNTHETIC_MANIFOLDS)
+    inv_mass = np.ones(SYNTHETIC_BODIES)
+    inv_mass[0] = 0.0
+    return StepShape.of(FP32, inv_mass, 1 + k % 5000, 1 + (k * 7 + 1) % 5000, SolverParams(4))
+
+
+def synthetic_window_step(seed: int = 3) -> tuple[StepShape, WindowPlan]:
+    """Random bodies (a tenth of the manifolds on the static body 0), ordered by the lower body, two lanes, a ring
+    of 16,384 records: the step and the window plan."""
+    rng = np.random.default_rng(seed)
+    m, nb = SYNTHETIC_MANIFOLDS, SYNTHETIC_BODIES
+    body_a = rng.integers(1, nb, m)
+    body_b = np.where(rng.random(m) < 0.1, 0, (body_a + rng.integers(1, 40, m)) % nb)
+    z = np.zeros
+    cons = ConstraintSet(body_a=body_a, body_b=body_b, num_points=np.ones(m, int), normal=z((m, 3)),
+                         points=z((m, 4, 3)), jac_inv=z((m, 4)), bias=z((m, 4)), center=z((m, 3)),
+                         tangent=z((m, 2, 3)), f_jac_inv=z((m, 2)), spin_damp=z(m, bool))
+    dyn = np.ones(nb, bool)
+    dyn[0] = False
+    slots = lane_slots(np.argsort(np.minimum(body_a, body_b), kind="stable"), cons, dyn, 2)
+    lag = band_width(slots, cons, dyn, 2)
+    real = np.maximum(slots, 0)
+    step = StepShape.of(FP32, dyn.astype(float), np.where(slots >= 0, body_a[real], -1),
+                        np.where(slots >= 0, body_b[real], -1), SolverParams(4))
+    fetch = max(f for f in range(1, 9) if fits(16384, 8, lag, f))
+    return step, WindowPlan(16384, 8, lag, fetch, lag, 2, slots)
+
+
+def cycle_model_speed(runs: int) -> str:
+    """The streaming and the window cycle model on their synthetic steps (zcu102): predictions per second."""
+    zcu102 = DmaTiming.of(get_preset("zcu102"))
+    shape = KernelShape.of(FP32, 512)
+    stream, (window, plan) = synthetic_streaming_step(), synthetic_window_step()
+    models = (("streaming cycle model", lambda: stream_cycle_model.predict(shape, zcu102, stream)),
+              ("window cycle model (2 lanes, ring 16,384)", lambda: window_cycle_model.predict_window(
+                  shape, zcu102, window, plan)))
+    lines = [f"cycle models, synthetic step: {SYNTHETIC_MANIFOLDS:,} manifolds, {SYNTHETIC_BODIES:,} bodies, "
+             f"4 iterations, zcu102; median of {runs} runs"]
+    for name, predict in models:
+        seconds = []
+        for _ in range(runs):
+            t0 = time.perf_counter()
+            p = predict()
+            seconds.append(time.perf_counter() - t0)
+        dt = statistics.median(seconds)
+        lines.append(f"{name}: {p.manifold_passes:,} manifold-passes, {p.cycles:,} cycles in {dt:.2f} s "
+                     f"({p.manifold_passes / dt / 1e3:.0f} k manifold-passes/s)")
+    return "\n".join(lines)
 
 
 def check_args(args: argparse.Namespace) -> list[str]:
@@ -159,6 +229,12 @@ def report(results: list[ProfileRuns], label: str) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
+    if args.cycle_model:
+        if not 1 <= args.runs <= 100:
+            print(f"error: --runs must be in 1..100, got {args.runs}", file=sys.stderr)
+            return 2
+        print(cycle_model_speed(args.runs))
+        return 0
     try:
         profiles = check_args(args)
         preset = get_preset(args.dma)

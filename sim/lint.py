@@ -8,9 +8,10 @@ binary16 and bfloat16 parameter sets; one with a ``WINDOW`` parameter also as a 
 ``IINV_W`` parameter also with the 1- and 6-word inverse inertia; one with ``IMPULSES_IN_RECORDS`` also with the
 impulses in the records; one with a ``MU_W`` parameter also with the per-manifold friction word (and both together); one
 with ``BODY_BANKS`` also with banked body velocities; one with ``TANGENTS_ON_CHIP`` also with the tangent basis derived
-on chip; one with ``SOFT_CONTACT`` also with the soft contact pipe. A module that its parent instantiates
-unconditionally with every one of its parameters passed through (``ELABORATED_BY_PARENT``: the sequencer inside the
-kernel top) is linted as a top with its defaults only: the parent's runs elaborate it with each parameter set. Any
+on chip; one with ``SOFT_CONTACT`` also with the soft contact pipe; one with ``SHARED_DATAPATH`` also with two pipes per
+lane. A module that its parent instantiates unconditionally with every one of its parameters passed through
+(``ELABORATED_BY_PARENT``: the sequencer inside the kernel top, the sequencer's phase modules inside it, a lane's datapath
+inside the lane) is linted as a top with its defaults only: the parent's runs elaborate it with each parameter set. Any
 warning or error makes the exit status non-zero.
 
 Usage: ``python -m sim.lint [-v] [TOP ...]`` (default: every top).
@@ -114,10 +115,24 @@ DELAY_PARAM_SETS: dict[str, dict[str, int]] = {
     "delay-line-block-ram": {"DEPTH": 100, "BLOCK_MIN_DEPTH": 64},
 }
 
+# The lanes' datapath: modules with a SHARED_DATAPATH parameter are also linted with a contact and a friction pipe per
+# lane (0), on the streaming kernel (the drain at a switch) and on the window kernel in fp16 (the friction results
+# aligned to the contact pipe's latency).
+DATAPATH_PARAM_SETS: dict[str, dict[str, int]] = {
+    "two-pipes": {"SHARED_DATAPATH": 0},
+    "two-pipes-window-fp16": {"SHARED_DATAPATH": 0, "WINDOW": 1024, **format_params(FP16)},
+}
+
 # Modules linted as tops with their default parameters only, because the parent named here instantiates them
 # outside any generate block and passes every parameter the sets vary through (``.P(P)``; checked by
 # :func:`forwarded_params`), so each of the parent's parameter-set runs elaborates them with that set.
-ELABORATED_BY_PARENT: dict[str, str] = {"pgs_sequencer": "pgs_kernel"}
+ELABORATED_BY_PARENT: dict[str, str] = {
+    "pgs_sequencer": "pgs_kernel",
+    # (pgs_seq_lane: in the sequencer's loop over the lanes, which always builds lane 0)
+    **{m: "pgs_sequencer" for m in ("pgs_seq_load", "pgs_seq_records", "pgs_seq_issue", "pgs_seq_hazards",
+                                   "pgs_seq_lane", "pgs_seq_retire", "pgs_seq_integrate")},
+    "pgs_lane_datapath": "pgs_seq_lane",
+}
 
 _PARAM_RE = re.compile(r"\bparameter\s+(?:(?:int|integer|logic|bit)\b[^=;,)]*?\s)?\s*(\w+)\s*=")
 
@@ -151,7 +166,7 @@ def forwarded_params(parent_file: Path, child: str) -> set[str]:
 def param_sets() -> dict[str, dict[str, int]]:
     """Every extra parameter set, by label."""
     return (FORMAT_PARAM_SETS | WINDOW_PARAM_SETS | INERTIA_PARAM_SETS | IMPULSE_PARAM_SETS | FRICTION_PARAM_SETS
-            | BANK_PARAM_SETS | TANGENT_PARAM_SETS | SOFT_PARAM_SETS | DELAY_PARAM_SETS)
+            | BANK_PARAM_SETS | TANGENT_PARAM_SETS | SOFT_PARAM_SETS | DELAY_PARAM_SETS | DATAPATH_PARAM_SETS)
 
 
 def runs_for(module_file: Path) -> list[LintRun]:

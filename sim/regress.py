@@ -71,6 +71,17 @@ CASES = ([Case(s, FP32, k, "zcu102") for s in REGRESS_SCENES for k in ("hazard",
          + [Case(s, FP32, "hazard", "ideal") for s in ("pile", "stack", "impact", "plank")])
 
 
+def ci_slice(seed: int, points: int) -> list[Case]:
+    """The ``points`` cases CI runs with its seed (``REGRESS_SLICE``, ``.ci/run``): one fp16 or bf16 case in frame order
+    (pybullet: every manifold a hazard), the rest drawn from every case; the seed picks them, so successive commits
+    cover the regression."""
+    if not 1 <= points <= len(CASES):
+        raise ValueError(f"a slice of 1 to {len(CASES)} make regress points, got {points}")
+    rng = random.Random(seed)
+    narrow = rng.choice([c for c in CASES if c.fmt is not FP32 and c.schedule == "pybullet"])
+    return [narrow, *rng.sample([c for c in CASES if c != narrow], points - 1)]
+
+
 def stall_rates(seed: int) -> tuple[int, int]:
     """(gap, backpressure) per mille of ``seed``'s random run."""
     rng = random.Random(seed)

@@ -112,6 +112,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     return ap.parse_args(argv)
 
 
+CONVERGED_MAX_PASSES = 1_000_000  # the float64 PGS runs until converged, out of budget or hopeless at its rate
 TANGENT_SOURCES = ("host", "chip")  # make sim's TANGENTS: who computes the friction tangent basis
 
 
@@ -230,7 +231,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
 
     bodies = body_table(frame)
     cons = timer.run("constraint setup", setup_constraints, frame, bodies)
-    window = args.window or default_window(fmt, preset.stream_bits)
+    window = args.window or default_window(fmt, preset.stream_bits, bool(args.shared_datapath), args.record_window > 0)
     schedule = timer.run(f"{args.schedule} schedule", make_schedule, args.schedule, cons, bodies.dynamic, window)
     sched_stats = timer.run("schedule statistics", stats, args.schedule, schedule, cons, bodies.dynamic, window)
     print(sched_stats.describe(), flush=True)
@@ -245,7 +246,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         exact = timer.run("exact reference (solve or cache)", exact_error.exact_step, bodies, cons, ip,
                           exact_error.reference_dir(args), args.exact_budget, params)
         return ModelRunResult(name, label, frame.num_bodies, frame.num_manifolds, sched_stats.describe(),
-                              preset.describe(), model_section(job, preset, body_bits=args.body_bits),
+                              preset.describe(), model_section(job, preset, body_bits=args.body_bits)[0],
                               fit=kernel_fit(job, args.dma, args.body_bits),
                               band=kernel_band(job, args.dma, args.body_bits),
                               timing=kernel_timing(job, args.dma, args.body_bits),
@@ -255,7 +256,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     ref = timer.run("float64 reference solve + integrate", _solve_and_integrate, bodies, cons, schedule, params, ip)
     golden = timer.run(f"{fmt.name} golden model solve + integrate", golden_step, job)
     conv = timer.run("converged float64 solve", solve_converged, bodies, cons, schedule, FLOAT64,
-                     time_budget_s=args.converged_budget)
+                     max_passes=CONVERGED_MAX_PASSES, time_budget_s=args.converged_budget)
     exact = timer.run("exact reference (solve or cache)", exact_error.exact_step, bodies, cons, ip,
                       exact_error.reference_dir(args), args.exact_budget, params)
 
@@ -306,7 +307,8 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
                                    cmp.first_mismatch or "", res.seed)
         if res.cycles:  # a run that failed before ap_done has no speed to report
             result.speed = kernel_speed(res, job, preset, sched_stats.bubbles, args.driver)
-        result.cycle_model = model_section(job, preset, res, args.stall_permille, args.body_bits)
+        result.cycle_model, result.model_agrees = model_section(job, preset, res, args.stall_permille,
+                                                                args.body_bits)
         if job.record_window is not None:
             result.window = window_facts(job, preset)
     return result, kb
@@ -343,22 +345,28 @@ def step_errors(source: str, ours: BodyTable, step: StepInputs, fmt: NumberForma
         exact_error.exact_errors(exact, ours, ref, conv_final, dyn),
         (conv.contact_passes, conv.friction_passes), conv.last_change, bool(conv.converged),
         contact_residual(golden.solved.bodies, step.cons, golden.solved.impulses.normal),
-        contact_residual(conv.result.bodies, step.cons, conv.result.impulses.normal), _error(ours, pb, dyn), *stat)
+        contact_residual(conv.result.bodies, step.cons, conv.result.impulses.normal), _error(ours, pb, dyn), *stat,
+        converged_projected=conv.projected)
 
 
 def model_section(job: KernelJob, preset: DmaPreset, res: KernelResult | None = None,
-                  stall_permille: int = 0, body_bits: int = 128) -> dict[str, Any]:
-    """The cycle model's estimate (body streams of ``body_bits``-bit beats); beside an RTL run, every retire cycle
-    compared (deterministic streams) or the model as a lower bound (random stalls)."""
+                  stall_permille: int = 0, body_bits: int = 128) -> tuple[dict[str, Any], bool | None]:
+    """The cycle model's estimate (body streams of ``body_bits``-bit beats) and whether it agrees with the RTL run
+    ``res``: every retire cycle and the counters (deterministic streams), or the model as a lower bound (random
+    stalls, where the model is one); None where nothing was compared (no run, or a configuration the model does not
+    take)."""
     t0 = time.process_time()
     try:
         pred = cycle_model.predict_job(job, preset, body_bits=body_bits)
     except ValueError as exc:  # a configuration the model does not take: the run's other sections stand
-        return {"cycle model": f"none ({exc})"}
+        return {"cycle model": f"none ({exc})"}, None
     seconds = time.process_time() - t0
     if res is None or res.trace is None or stall_permille:
-        return retire_cycles.report_section(pred, preset, seconds, None if res is None else res.cycles)
-    return retire_cycles.report_section(pred, preset, seconds, agreement=retire_cycles.compare_run(pred, res, job.slots))
+        measured = None if res is None or not res.cycles else res.cycles
+        bound = None if measured is None or not pred.BOUNDS_RANDOM_RUNS else measured >= pred.cycles
+        return retire_cycles.report_section(pred, preset, seconds, measured), bound
+    agreement = retire_cycles.compare_run(pred, res, job.slots)
+    return retire_cycles.report_section(pred, preset, seconds, agreement=agreement), agreement.ok
 
 
 def window_facts(job: KernelJob, preset: DmaPreset) -> WindowFacts:
@@ -402,15 +410,44 @@ def _write_gtkw(fst: Path, kb: KernelBuild) -> None:
     print(f"waveform: {fst} (open with: gtkwave {save})")
 
 
+def run_and_report(args: argparse.Namespace) -> tuple[AnyRunResult, KernelBuild | None, Path]:
+    """The whole run of ``args``: its result and kernel build, the summary printed and the report written into its
+    run directory (returned); a failed run leaves no directory behind."""
+    with StagedDirectory(Path(args.out)) as out:
+        result, kb = run(args, out.path)
+        report = sections(result)
+        print_summary(f"pgs-cosim: {result.label}, {args.format}, {args.iters} iterations, {args.dma}", report)
+        write_report(out.path, f"pgs-cosim run: {result.label}", report)
+        return result, kb, out.commit(result.name)
+
+
+# make sim's variables and the options of this command they set (the Makefile's sim recipe); WAVES=1 sets --waves
+MAKE_SIM_OPTIONS = {"SCENE": "--scene", "SCENE_ARGS": "--scene-args", "ITERS": "--iters", "FORMAT": "--format",
+                    "DMA": "--dma", "SEED": "--seed", "MODE": "--mode", "SCHEDULE": "--schedule",
+                    "RECORD_WINDOW": "--record-window", "FETCH_PASSES": "--fetch-passes", "LANES": "--lanes",
+                    "BODY_BITS": "--body-bits", "DRIVER": "--driver", "IMPULSE_STORE": "--impulse-store",
+                    "TANGENTS": "--tangents", "COMPILE": "--compile-profile"}
+
+
+def make_sim_argv(command: str) -> list[str]:
+    """The options of this command that ``make sim VAR=value ...`` passes (``command`` as a reader types it)."""
+    words = command.split()
+    if words[:2] != ["make", "sim"]:
+        raise ValueError(f"not a make sim command: {command!r}")
+    argv: list[str] = []
+    for word in words[2:]:
+        var, eq, value = word.partition("=")
+        if not eq or (var not in MAKE_SIM_OPTIONS and var != "WAVES"):
+            raise ValueError(f"{command!r}: {word!r} is not one of make sim's variables "
+                             f"({', '.join([*MAKE_SIM_OPTIONS, 'WAVES'])})")
+        argv += (["--waves"] if value not in ("", "0") else []) if var == "WAVES" else [MAKE_SIM_OPTIONS[var], value]
+    return argv
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     try:
-        with StagedDirectory(Path(args.out)) as out:
-            result, kb = run(args, out.path)
-            report = sections(result)
-            print_summary(f"pgs-cosim: {result.label}, {args.format}, {args.iters} iterations, {args.dma}", report)
-            write_report(out.path, f"pgs-cosim run: {result.label}", report)
-            run_dir = out.commit(result.name)
+        result, kb, run_dir = run_and_report(args)
     except (ValueError, FrameError, scenes.SceneError, KernelRunError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -234,10 +234,11 @@ def _frame_setup(digest: str) -> tuple[BodyTable, ConstraintSet, IntegrationPara
 
 
 @lru_cache(maxsize=8)
-def _schedule(digest: str, fmt_name: str, dma: str, kind: str = "hazard") -> np.ndarray:
+def _schedule(digest: str, fmt_name: str, dma: str, kind: str = "hazard", window_kernel: bool = False) -> np.ndarray:
     bodies, cons, _ = _frame_setup(digest)
     return make_schedule(kind, cons, bodies.dynamic, default_window(hardware_format(fmt_name),
-                                                                    get_preset(dma).stream_bits))
+                                                                    get_preset(dma).stream_bits,
+                                                                    window_kernel=window_kernel))
 
 
 # the golden model's ladders this process holds: (frame, schedule, arithmetic, counts) -> final step per count
@@ -249,7 +250,7 @@ def golden_finals(point: "SweepPoint", arithmetic: str) -> BodyTable:
     """The golden model's integrated step of ``point`` in ``arithmetic`` (the point's format, or "float64" on the
     unrounded frame) over the point's schedule, from the ladder of all the sweep's counts (computed once, kept)."""
     bodies, cons, ip = _frame_setup(point.frame)
-    schedule = _schedule(point.frame, point.fmt, point.dma, point.schedule)
+    schedule = _schedule(point.frame, point.fmt, point.dma, point.schedule, point.record_window > 0)
     counts = tuple(sorted({*point.ladder, point.iterations}))
     key = (point.frame, hashlib.sha256(schedule.tobytes()).hexdigest(), arithmetic, counts)
     if key not in _LADDERS:
@@ -274,7 +275,7 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
     preset = get_preset(point.dma)
     fmt = hardware_format(point.fmt)
     bodies, cons, ip = _frame_setup(point.frame)
-    schedule = _schedule(point.frame, point.fmt, point.dma, point.schedule)
+    schedule = _schedule(point.frame, point.fmt, point.dma, point.schedule, point.record_window > 0)
     exact = point.exact if point.exact is not None else frame_exact(point.frame, FRAME_CACHE_DIR, point.exact_budget)
     dyn = bodies.dynamic
     params = SolverParams(iterations=point.iterations)

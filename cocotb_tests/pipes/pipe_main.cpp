@@ -2,16 +2,17 @@
 //
 // Build-time macros (-CFLAGS -D...): PIPE_CLASS (the Verilated class, e.g. Vpgs_contact_pipe),
 // N_IN, N_OUT (words of in_data / out_data), FMT_W (format width), HAS_SPIN_DAMP (0/1: the module
-// has the in_spin_damp port).
+// has the in_spin_damp port), HAS_KIND (0/1: a shared datapath, rtl/gen/shared_emit.py: the in_kind and
+// out_kind ports).
 //
 // Usage: pipe_sim IN.bin OUT.bin LATENCY [SEED [IDLE_PERMILLE]]
 //   IN.bin : N records of N_IN + 1 little-endian uint32: the N_IN words (bit patterns in the low
-//            FMT_W bits) and a flags word (bit 0: in_spin_damp, bit 1: in_count).
+//            FMT_W bits) and a flags word (bit 0: in_spin_damp, bit 1: in_count, bit 2: in_kind).
 //   OUT.bin: N records of N_OUT little-endian uint32 (out_data words).
 // One record is offered per cycle; with probability IDLE_PERMILLE/1000 (default 50) a cycle is
 // left idle instead (in_valid = 0, random junk on every input). The tag of record i is i (with a
 // random upper half); every output must carry the tag of the next expected record and appear
-// exactly LATENCY cycles after it went in. Any violation, a missing or extra output, or a valid
+// exactly LATENCY cycles after it went in (a shared datapath's with its kind on out_kind). Any violation, a missing or extra output, or a valid
 // output during / right after reset is an error (exit status 2). Prints counts on stdout, with the
 // floating-point events summed over every cycle: "events=OVERFLOW,UNDERFLOW,INVALID".
 #include <cstdint>
@@ -85,6 +86,9 @@ int main(int argc, char** argv) {
 #if HAS_SPIN_DAMP
         top->in_spin_damp = rng.next() & 1u;
 #endif
+#if HAS_KIND
+        top->in_kind = rng.next() & 1u;
+#endif
     };
     auto tick = [&]() {
         harness::clock_cycle(*top);
@@ -113,6 +117,13 @@ int main(int argc, char** argv) {
                          static_cast<unsigned long long>(tag_hi | idx));
             std::exit(2);
         }
+#if HAS_KIND
+        if (top->out_kind != ((in[idx * kInRec + N_IN] >> 2) & 1u)) {
+            std::fprintf(stderr, "pipe_sim: output %zu leaves with kind %u, it went in with the other\n", idx,
+                         static_cast<unsigned>(top->out_kind));
+            std::exit(2);
+        }
+#endif
         for (int k = 0; k < N_OUT; ++k) out[idx * N_OUT + k] = get_bits(out_words, k * FMT_W, FMT_W);
     };
 
@@ -145,6 +156,9 @@ int main(int argc, char** argv) {
             top->in_count = (rec[N_IN] >> 1) & 1u;
 #if HAS_SPIN_DAMP
             top->in_spin_damp = rec[N_IN] & 1u;
+#endif
+#if HAS_KIND
+            top->in_kind = (rec[N_IN] >> 2) & 1u;
 #endif
             in_cycle[next++] = cycle;
         } else {

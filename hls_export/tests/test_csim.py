@@ -7,8 +7,8 @@ outputs and the stream accounting (no beat left over, none read from an empty st
 order; and the status register's error codes 3 (bad argument) and 1 (constraint TLAST). At extremes: every real word of
 the pile's step drawn over its format's whole range (``models.kernel.extreme_stimulus``, seed printed, SEED= overrides),
 binary32 and binary16, bit for bit through thousands of overflows, NaNs and flushed results. (The records designs
-are not run at extremes: their impulses turn non-finite, and the C++ does not follow the RTL's rejection of such
-records, error 5; see hls_export/README.md.)
+at extremes are known failures, ``test_csim_window.py::test_csim_window_at_extremes``, marked strict: their impulses
+turn non-finite, and the C++ does not follow the RTL's rejection of such records, error 5; see hls_export/README.md.)
 
 The records design (PGS_IMPULSES_IN_RECORDS=1: the impulses travel with the records, the kernel writes them to
 m_axis_imp, the testbench's DMA writes them to the impulse buffer the next passes' records are read with): binary16 and
@@ -29,8 +29,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import os
-
 from hls_export.csim import (RECORDS_FORMATS, RECORDS_SCENES, SCENES, SCHEDULES, build_csim, records_build,
                              run_csim_step, run_written_step, scene_job, warm_start)
 from hls_export.tests.csim_checks import assert_bit_exact
@@ -48,6 +46,7 @@ from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import golden_step
 from sim.compare.trace_bits import Comparison, compare_impulse_out
 from sim.compile.verilator_build import REPO_ROOT
+from sim.seed import run_seed
 
 KB = KernelBuild(FP32)
 ROTATED_WORLD = str(REPO_ROOT / "docs" / "rotated_boxes_world.py")  # rotated non-cube boxes, Bullet 2's convention
@@ -74,7 +73,7 @@ def test_csim_bit_exact(scene: str, schedule: str, csim_exe: Path, tmp_path: Pat
 @pytest.mark.parametrize("fmt_name", ["fp32", "fp16"])
 def test_csim_at_extremes(fmt_name: str, tmp_path: Path) -> None:
     kb = KernelBuild({"fp32": FP32, "fp16": FP16}[fmt_name])
-    seed = int(os.environ.get("SEED", "20261205"))
+    seed = run_seed()
     job = extreme_magnitudes(scene_job("pile", "hazard", 4, kb), seed)
     res = run_csim_step(job, tmp_path, build_csim(kb), kb)
     assert_bit_exact(res, job, f"pile/hazard at extremes, {fmt_name}, seed {seed} (SEED= overrides)")
@@ -96,6 +95,18 @@ def test_csim_inverse_inertia_modes(scene: str, inertia_words: int, tmp_path: Pa
         assert KernelBuild.for_job(job, get_preset("zcu102")) == kb
     res = run_csim_step(job, tmp_path, build_csim(kb), kb, default_window(FP32, kb.cons_bits))
     assert_bit_exact(res, job, f"{Path(scene).stem}/{inertia_words} words")
+
+
+@pytest.mark.parametrize("fmt_name", ["fp32", "fp16"])
+def test_csim_each_kind_on_its_own_arithmetic(fmt_name: str, tmp_path: Path) -> None:
+    """PGS_SHARED_DATAPATH = 0 (the RTL's two pipes per lane): each kind's manifold-pass on pgs_solver.h's own
+    arithmetic instead of the generated shared datapath; bit for bit the golden model's too (and so the shared one's),
+    interleaved passes, with the impulses in the records as the fitting designs."""
+    kb = KernelBuild({"fp32": FP32, "fp16": FP16}[fmt_name], impulses_in_records=True, shared_datapath=False)
+    job = scene_job("pile", "hazard", 3, kb, interleaved=True)
+    res = run_csim_step(job, tmp_path, build_csim(kb), kb, default_window(kb.fmt, kb.cons_bits, shared_datapath=False))
+    assert "_split" in str(build_csim(kb))
+    assert_bit_exact(res, job, f"pile/hazard, {fmt_name}, each kind on its own arithmetic")
 
 
 def test_csim_interleaved(csim_exe: Path, tmp_path: Path) -> None:
@@ -136,7 +147,7 @@ def test_csim_status_cons_tlast(csim_exe: Path, tmp_path: Path) -> None:
 
 # --- the records design ---------------------------------------------------------------------------------------
 def _seed() -> int:
-    return int(os.environ.get("SEED", "12345"))
+    return run_seed()
 
 
 def _records_job(scene: str, fmt_name: str, start: str, interleaved: bool = False) -> KernelJob:

@@ -15,7 +15,6 @@ the simulation at time 0); ``test_generator_*`` run ``hls_export/fp_ip/standins.
 
 from __future__ import annotations
 
-import os
 import subprocess
 import time
 from pathlib import Path
@@ -27,9 +26,9 @@ from hls_export.fp_ip.standins import StandinError, find_ip_cores, standin_sourc
 from models.formats.number_format import FP16, FP32, NumberFormat
 from sim.drive import fp_operator_vectors as fpv
 from sim.compile.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT, build, ensure_verilator_env, rtl_sources
+from sim.seed import run_seed
 
 HERE = Path(__file__).resolve().parent
-DEFAULT_SEED = 20250708
 CHANNELS = ("add", "sub", "mul", "div", "sqrt", "cmp")
 # C_LATENCY per format: above the rtl/fp operator's latency, except one channel exactly at it (no padding)
 LATENCIES = {"fp32": {"add": 11, "sub": 4, "mul": 8, "div": 30, "sqrt": 29, "cmp": 2},
@@ -65,7 +64,7 @@ def golden_cmp(flags: np.ndarray, pred: np.ndarray) -> np.ndarray:
 def test_standins_simulated(fmt_name: str, tmp_path: Path) -> None:
     fmt = FORMATS[fmt_name]
     lat = LATENCIES[fmt_name]
-    seed = int(os.environ.get("SEED", DEFAULT_SEED)) + (0 if fmt_name == "fp32" else 1)
+    seed = run_seed() + (0 if fmt_name == "fp32" else 1)
     t0 = time.monotonic()
     exe = build(
         sources=rtl_sources("rtl/fp") + standin_sources() + [HERE / "fp_ip_standins_tb.sv"],

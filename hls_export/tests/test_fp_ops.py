@@ -6,7 +6,6 @@ ordinary magnitudes, and products whose exact value lies in the flush window jus
 
 from __future__ import annotations
 
-import os
 import subprocess
 from pathlib import Path
 
@@ -16,6 +15,7 @@ from hls_export.csim import BUILD_ROOT, HLS_DIR, compile_cpp
 import pytest
 
 from models.formats.number_format import BF16, FP16, FP32, NumberFormat
+from sim.seed import run_seed
 
 OPS = ("add", "sub", "mul", "div", "sqrt", "min", "max")
 MIN_NORMAL = 2.0**-126
@@ -53,7 +53,7 @@ def _window_products(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.n
 
 def test_fp_ops_match_golden(tmp_path: Path) -> None:
     exe = compile_cpp([HLS_DIR / "tests" / "fp_ops_main.cpp"], BUILD_ROOT / "fp_ops" / "fp_ops")
-    seed = int(os.environ.get("SEED", "8"))
+    seed = run_seed()
     rng = np.random.default_rng(seed)
     rows = []
     sa, sb = np.meshgrid(SPECIALS, SPECIALS)
@@ -109,7 +109,7 @@ def test_fp_ops_other_formats_match_golden(fmt: NumberFormat, tmp_path: Path) ->
     against models/formats/number_format.py."""
     exe = compile_cpp([HLS_DIR / "tests" / "fp_ops_main.cpp"], BUILD_ROOT / f"fp_ops_{fmt.name}" / "fp_ops",
                       [f"-DPGS_EXP_BITS={fmt.exp_bits}", f"-DPGS_MAN_BITS={fmt.man_bits}"])
-    seed = int(os.environ.get("SEED", "8"))
+    seed = run_seed()
     rng = np.random.default_rng(seed)
     sa, sb = np.meshgrid(_specials(fmt), _specials(fmt))
     rand = rng.integers(0, 1 << fmt.width, (2, 20000), dtype=np.uint64).astype(np.uint32)

@@ -18,7 +18,7 @@ from scipy.sparse.csgraph import connected_components
 from models.setup.constraints import BodyTable, ConstraintSet
 
 EIGEN_TOLERANCE = 1e-9  # relative: n is an eigenvector of the inverse inertia
-SPAN_TOLERANCE = 1e-6  # relative singular value below which a body's damped normals add no spin row
+SPAN_TOLERANCE = 1e-12  # relative singular value below which a body's damped normals add no spin row
 
 
 class ExactReferenceError(RuntimeError):

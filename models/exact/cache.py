@@ -25,8 +25,9 @@ import numpy as np
 from models.setup.constraints import BodyTable, ConstraintSet
 from models.golden.contact_solver import Impulses, SolverParams
 from models.exact import large_island
-from models.exact.reference import (DIRECT_ROWS_LIMIT, SOLVER_TOLERANCE, Budget, ExactReference, ExactReferenceError,
-                                    ExactReferenceInterrupted, exact_reference_bounded)
+from models.exact.phases import DIRECT_ROWS_LIMIT, PIVOT_TARGET, SOLVER_TOLERANCE, Budget
+from models.exact.reference import ExactReference, ExactReferenceInterrupted, exact_reference_bounded
+from models.exact.assembly import ExactReferenceError
 from models.exact.large_island import ITERATIVE_TOLERANCE
 
 CACHE_VERSION = 3  # bump whenever the reference computation changes
@@ -55,11 +56,17 @@ def cache_key(bodies: BodyTable, cons: ConstraintSet, params: SolverParams) -> s
 def _later_settings(bodies: BodyTable, cons: ConstraintSet, params: SolverParams) -> dict[str, str]:
     """Key entries only for problems whose reference the version-3 computation got wrong or refused, so that the
     keys (and cached references) of every other problem stay as they were: a full 3x3 inverse inertia (refused
-    before, and a failure may be recorded under the old key), per-manifold friction coefficients (solved with
-    ``params.friction_coeff`` before), the interleaved order (refused before)."""
+    before, then solved by Newton from the convex QP's solution, which gave up on stacked turned blocks: a failure
+    may be recorded under the older keys), per-manifold friction coefficients (solved with ``params.friction_coeff``
+    before), the interleaved order (refused before), and every problem without an island above
+    ``DIRECT_ROWS_LIMIT`` (fewer active contact points than that) since the contact phase's components above
+    ``PIVOT_TARGET`` are re-solved by pivoting (the thesis frame's key, and its reference, stay)."""
     out = {}
     if bodies.inv_inertia.shape[1] == 6:
-        out["inertia"] = "full 3x3, damping off the eigenvectors as a non-symmetric box problem"
+        out["inertia"] = ("full 3x3, damping off the eigenvectors as a non-symmetric box problem from the kernel's "
+                          "start: Gauss-Seidel, Newton, pivoting")
+    if int(np.count_nonzero(cons.jac_inv)) <= DIRECT_ROWS_LIMIT:
+        out["contact polish"] = f"components above {PIVOT_TARGET:g} m/s re-solved by pivoting"
     if cons.per_manifold_friction:
         out["friction"] = "per manifold"
     if params.interleaved:

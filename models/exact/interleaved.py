@@ -25,6 +25,7 @@ import numpy as np
 
 from models.setup.constraints import BodyTable, ConstraintSet
 from models.golden.contact_solver import Impulses, SolverParams
+from models.exact import phases
 from models.exact.assembly import ExactReferenceError, Layout, contact_rows, island_of_rows, islands
 
 MAX_ALTERNATIONS = 1000
@@ -39,15 +40,13 @@ def interleaved_reference(bodies: BodyTable, cons: ConstraintSet, params: Solver
                           solver: Any) -> tuple[BodyTable, Impulses, dict[str, float], dict[str, float], int]:
     """(final state, impulses, natural residuals of the coupled problem, details, islands), or ExactReferenceError
     when the alternation does not reach a certified fixed point."""
-    from models.exact import reference as er
-
     layout = Layout(bodies)
     count, labels = islands(layout, cons)
     rows, _ = contact_rows(layout, cons)
     per_island = np.bincount(island_of_rows(layout, labels, rows.body_a, rows.body_b), minlength=count)
-    if per_island.size and int(per_island.max()) > er.DIRECT_ROWS_LIMIT:
+    if per_island.size and int(per_island.max()) > phases.DIRECT_ROWS_LIMIT:
         raise ExactReferenceError(f"interleaved order: an island of {int(per_island.max()):,} contact rows, above "
-                                  f"the {er.DIRECT_ROWS_LIMIT:,} its alternation solves directly")
+                                  f"the {phases.DIRECT_ROWS_LIMIT:,} its alternation solves directly")
     u0 = layout.velocity(bodies)
     shift = np.zeros_like(u0)  # what the friction impulses and the damping add to the velocities
     info: dict[str, float] = {}
@@ -57,9 +56,9 @@ def interleaved_reference(bodies: BodyTable, cons: ConstraintSet, params: Solver
     for k in range(1, MAX_ALTERNATIONS + 1):
         base = u0 + shift
         try:
-            u1, normal, _ = er._contact_phase(layout, cons, base, labels, count, solver, clock, info)
+            u1, normal, _ = phases.contact_phase(layout, cons, base, labels, count, solver, clock, info)
             u_n = u0 + (u1 - base)
-            u2, friction = er._friction_phase(layout, cons, u_n, normal, params.friction_coeff, labels, count,
+            u2, friction = phases.friction_phase(layout, cons, u_n, normal, params.friction_coeff, labels, count,
                                               solver, clock, info)
         except ExactReferenceError as exc:
             raise ExactReferenceError(f"interleaved order, alternation {k} (last change {last:.1e}): {exc}") from None
@@ -73,7 +72,7 @@ def interleaved_reference(bodies: BodyTable, cons: ConstraintSet, params: Solver
     info["interleaved: alternation seconds"] = time.perf_counter() - t0
     final = layout.with_velocity(bodies, u2)
     imp = Impulses(normal=normal, friction=friction)
-    residuals = er.natural_residuals(final, final, cons, imp, params.friction_coeff)
+    residuals = phases.natural_residuals(final, final, cons, imp, params.friction_coeff)
     worst = max(residuals[key] for key in COUPLED_KEYS)
     if not worst <= COUPLED_ACCEPT:
         raise ExactReferenceError(

@@ -5,8 +5,7 @@
 * ``"ipm"`` (default): both phases over body velocities by an interior-point method whose Newton matrices are
   factorised by PARDISO (``models/exact/body_space.py``);
 * ``"mprgp"``: both phases' dual QPs by MPRGP (``models/exact/mprgp.py``, products with J and J^T only): cheap steps,
-but
-  on the thesis frame its residual stalls near 5e-3 m/s, far above what the certificate needs.
+  but on the thesis frame its residual stalls near 5e-3 m/s, far above what the certificate needs.
 """
 
 from __future__ import annotations

@@ -111,6 +111,23 @@ def _exact(op: str, a: ArrayLike, b: Optional[ArrayLike]) -> np.ndarray:
         return fn(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
 
 
+def _operands(a: ArrayLike, b: Optional[ArrayLike]) -> list[np.ndarray]:
+    return [np.asarray(a, dtype=np.float64)] + ([] if b is None else [np.asarray(b, dtype=np.float64)])
+
+
+def _event_flags(exact: np.ndarray, r: np.ndarray, operands: list[np.ndarray]) -> EventFlags:
+    """The event flags of results ``r`` rounded from ``exact`` (see the module docstring)."""
+    nan_in = np.zeros(r.shape, dtype=bool)
+    for x in operands:
+        nan_in = nan_in | np.isnan(x)
+    finite = np.isfinite(exact)
+    return EventFlags(overflow=finite & np.isinf(r), underflow=finite & (exact != 0.0) & (r == 0.0),
+                      invalid=np.isnan(r) & ~nan_in)
+
+
+MAX_MAN_BITS = 24  # the widest mantissa of a format (a significand of at most 25 bits)
+
+
 @dataclass(frozen=True)
 class NumberFormat:
     """A binary floating-point format (sign, ``exp_bits``, ``man_bits``)."""
@@ -125,8 +142,9 @@ class NumberFormat:
         # already rounded on a coarser grid, and the flush decision near min normal goes wrong.
         if not (2 <= self.exp_bits <= 10):
             raise ValueError(f"exponent width {self.exp_bits} out of range 2..10")
-        if not (1 <= self.man_bits <= 24):
-            raise ValueError(f"mantissa width {self.man_bits} out of range 1..24 (significand <= 25 bits)")
+        if not (1 <= self.man_bits <= MAX_MAN_BITS):
+            raise ValueError(f"mantissa width {self.man_bits} out of range 1..{MAX_MAN_BITS} (significand <= "
+                             f"{MAX_MAN_BITS + 1} bits)")
 
     # --- format constants -------------------------------------------------------------------
     @property
@@ -283,13 +301,7 @@ class NumberFormat:
         """``op`` ('add', 'sub', 'mul', 'div' or 'sqrt') of format values, and its per-element event flags."""
         exact = _exact(op, a, b)
         r = self.round(exact)
-        operands = [np.asarray(a, dtype=np.float64)] + ([] if b is None else [np.asarray(b, dtype=np.float64)])
-        nan_in = np.zeros(r.shape, dtype=bool)
-        for x in operands:
-            nan_in = nan_in | np.isnan(x)
-        finite = np.isfinite(exact)
-        return r, EventFlags(overflow=finite & np.isinf(r), underflow=finite & (exact != 0.0) & (r == 0.0),
-                             invalid=np.isnan(r) & ~nan_in)
+        return r, _event_flags(exact, r, _operands(a, b))
 
     def counting(self) -> "CountingFormat":
         """This format, counting the events of every +, -, x, /, sqrt into a fresh ``events`` total."""
@@ -303,8 +315,12 @@ class CountingFormat(NumberFormat):
     events: FpEvents = field(default_factory=FpEvents, compare=False, repr=False)
 
     def _counted(self, op: str, a: ArrayLike, b: Optional[ArrayLike] = None) -> np.ndarray:
-        r, flags = self.op_with_events(op, a, b)
-        self.events.add(flags)
+        exact = _exact(op, a, b)
+        r = self.round(exact)
+        odd = ~np.isfinite(r) | (r == 0.0)  # only an infinite, NaN or zero result can raise an event
+        if odd.any():
+            operands = [np.broadcast_to(x, r.shape)[odd] for x in _operands(a, b)]
+            self.events.add(_event_flags(np.broadcast_to(exact, r.shape)[odd], r[odd], operands))
         return r
 
     def add(self, a: ArrayLike, b: ArrayLike) -> np.ndarray:

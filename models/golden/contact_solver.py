@@ -230,9 +230,7 @@ def contact_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nda
     zero = ar.const(0.0)
     for i in range(4):
         jac = jac_all[idx, i]
-        active = jac != 0.0
-        if not np.any(active):
-            continue
+        active = jac != 0.0  # every point is computed, as the kernel's pipe does, and kept where active
         p = cons.points[idx, i]
         ca = cross3(ar, ar.sub(p, g.xa), n)
         cb = cross3(ar, ar.sub(p, g.xb), n)
@@ -287,14 +285,14 @@ def friction_solve(ar: Arithmetic, g: _Gathered, cons: ConstraintSet, idx: np.nd
         # the friction impulse acts along -t on A and +t on B: negate delta and reuse _apply's signs
         _apply(ar, g, scale3(ar, t, g.ma), inertia_product(ar, g.ia, ca), scale3(ar, t, g.mb),
                inertia_product(ar, g.ib, cb), -delta, active)
+    # the damped spin of every manifold is computed, as the kernel's pipe does, and kept where damped
     damp = active & cons.spin_damp[idx] & (True if no_spin is None else ~no_spin)
-    if np.any(damp):
-        n = cons.normal[idx]
-        k = ar.const(SPIN_DAMP_FACTOR)
-        wa = ar.sub(g.wa, scale3(ar, n, ar.mul(dot3(ar, n, g.wa), k)))
-        wb = ar.sub(g.wb, scale3(ar, n, ar.mul(dot3(ar, n, g.wb), k)))
-        g.wa = np.where(damp[:, None], wa, g.wa)
-        g.wb = np.where(damp[:, None], wb, g.wb)
+    n = cons.normal[idx]
+    k = ar.const(SPIN_DAMP_FACTOR)
+    wa = ar.sub(g.wa, scale3(ar, n, ar.mul(dot3(ar, n, g.wa), k)))
+    wb = ar.sub(g.wb, scale3(ar, n, ar.mul(dot3(ar, n, g.wb), k)))
+    g.wa = np.where(damp[:, None], wa, g.wa)
+    g.wb = np.where(damp[:, None], wb, g.wb)
     return lam_t
 
 
@@ -425,16 +423,25 @@ class ConvergedResult:
     friction_passes: int
     last_change: float  # max |dv|, |dw| of the last pass (m/s, rad/s)
     converged: bool
+    # per kind (contact, friction): the passes still needed at the rate of the last RATE_WINDOW passes (0: converged;
+    # inf: no progress over the window; nan: stopped before a window's rate was known)
+    projected: tuple[float, float] = (0.0, 0.0)
+
+
+RATE_WINDOW = 250  # passes over which solve_converged measures the rate at which the per-pass change falls
 
 
 def solve_converged(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray, ar: Arithmetic,
                     tolerance: float = 1e-9, max_passes: int = 1000, time_budget_s: float | None = None,
-                    params: SolverParams = SolverParams()) -> ConvergedResult:
+                    params: SolverParams = SolverParams(), hopeless_after: int = 1000) -> ConvergedResult:
     """The limit of the GPU scheme (contact passes, then friction passes) as the iteration count grows.
 
     Contact passes run until one changes no velocity by more than ``tolerance`` (or ``max_passes``, or the
-    time budget, spent evenly between the two kinds), then friction passes likewise. ``converged`` is False
-    when a limit stopped either loop first.
+    time budget, spent evenly between the two kinds), then friction passes likewise. With a time budget a kind
+    also stops, once past ``hopeless_after`` passes, when the rate of the last RATE_WINDOW passes says it cannot reach
+    ``tolerance`` within its share (``projected``: the passes it would still need; ``make sim`` lifts max_passes
+    and keeps the former cap of 1,000 as ``hopeless_after``, so its iterate is never one of fewer passes than
+    before). ``converged`` is False when a limit stopped either loop first.
     """
     import time
 
@@ -442,11 +449,15 @@ def solve_converged(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray
     out = bodies.copy()
     imp = Impulses.zeros(cons.num_manifolds)
     levels = schedule_levels(schedule, cons, bodies.dynamic)
-    counts = []
+    counts: list[int] = []
+    projected: list[float] = []
     change = 0.0
     converged = True
     for k, kind in enumerate((CONTACT_PASS, FRICTION_PASS)):
         n, change = 0, np.inf
+        history: list[float] = []
+        need = float("nan")
+        start = time.monotonic()
         deadline = None if time_budget_s is None else t0 + time_budget_s * (k + 1) / 2
         while change > tolerance and n < max_passes and (deadline is None or time.monotonic() < deadline):
             v0, w0 = out.linear_velocity.copy(), out.angular_velocity.copy()
@@ -454,9 +465,28 @@ def solve_converged(bodies: BodyTable, cons: ConstraintSet, schedule: np.ndarray
             change = float(max(np.abs(out.linear_velocity - v0).max(initial=0.0),
                                np.abs(out.angular_velocity - w0).max(initial=0.0)))
             n += 1
+            history.append(change)
+            if n % RATE_WINDOW == 0 and change > tolerance:
+                need = _passes_needed(history[-RATE_WINDOW - 1] if n > RATE_WINDOW else history[0], change,
+                                      RATE_WINDOW if n > RATE_WINDOW else RATE_WINDOW - 1, tolerance)
+                if deadline is not None and n >= hopeless_after:
+                    left = (deadline - time.monotonic()) / ((time.monotonic() - start) / n)
+                    if need > min(left, max_passes - n):
+                        break
         converged = converged and change <= tolerance
         counts.append(n)
-    return ConvergedResult(SolveResult(out, imp, len(levels)), counts[0], counts[1], change, converged)
+        projected.append(0.0 if change <= tolerance else need)
+    return ConvergedResult(SolveResult(out, imp, len(levels)), counts[0], counts[1], change, converged,
+                           (projected[0], projected[1]))
+
+
+def _passes_needed(before: float, now: float, passes: int, tolerance: float) -> float:
+    """Passes until the per-pass change reaches ``tolerance`` if it keeps falling geometrically as it fell from
+    ``before`` to ``now`` over ``passes`` passes (inf: it did not fall)."""
+    if not (0.0 < now < before):
+        return float("inf")
+    rate = (now / before) ** (1.0 / passes)
+    return float(np.log(tolerance / now) / np.log(rate))
 
 
 def _in_schedule_order(records: list[PassRecord], schedule: np.ndarray) -> PassRecord:

@@ -20,8 +20,9 @@ Per dynamic body (static bodies, inverse mass 0, are untouched):
     q      = q' * (1 / sqrt((q'x*q'x + q'y*q'y) + (q'z*q'z + q'w*q'w)))
     x_pos  = x_pos + v * dt
     v      = v + g_dt
-with the run constants half_dt = 0.5 * dt, dt3c = ((dt * dt) * dt) * 0.020833333333, g_dt = g * dt, each
-computed once in the format.
+with the run constants half_dt = 0.5 * dt, dt3c = ((dt * dt) * dt) * 0.020833333333, g_dt = g * dt and
+MAX_ANGLE / dt computed in the format for every body, as the kernel's integration pipe computes them (the same value
+each time, and the same floating-point events: ``OPERATION_ORDER.md``, "Events").
 """
 
 from __future__ import annotations
@@ -56,13 +57,16 @@ def _horner(ar: Arithmetic, x2: np.ndarray, coeffs: tuple[float, ...]) -> np.nda
     return acc
 
 
-def sin_poly(ar: Arithmetic, x: np.ndarray) -> np.ndarray:
-    x2 = ar.mul(x, x)
+def sin_poly(ar: Arithmetic, x: np.ndarray, x2: np.ndarray | None = None) -> np.ndarray:
+    """x + x*(x2*(S3 + x2*(S5 + x2*S7))); ``x2`` = x*x where the caller has it (the kernel computes it once for
+    sin and cos)."""
+    x2 = ar.mul(x, x) if x2 is None else x2
     return ar.add(x, ar.mul(x, ar.mul(x2, _horner(ar, x2, SIN_COEFFS))))
 
 
-def cos_poly(ar: Arithmetic, x: np.ndarray) -> np.ndarray:
-    x2 = ar.mul(x, x)
+def cos_poly(ar: Arithmetic, x: np.ndarray, x2: np.ndarray | None = None) -> np.ndarray:
+    """1 + x2*(C2 + x2*(C4 + x2*(C6 + x2*C8))), ``x2`` as in :func:`sin_poly`."""
+    x2 = ar.mul(x, x) if x2 is None else x2
     return ar.add(ar.const(1.0), ar.mul(x2, _horner(ar, x2, COS_COEFFS)))
 
 
@@ -84,10 +88,11 @@ def integrate(bodies: BodyTable, ar: Arithmetic, params: IntegrationParams = Int
     dyn = np.flatnonzero(bodies.dynamic)
     if dyn.size == 0:
         return out
-    dt = ar.const(params.dt)
+    # the run constants are computed for every body, as the kernel's integration pipe does (the same values)
+    dt = np.full(dyn.size, ar.const(params.dt))
     half_dt = ar.mul(ar.const(0.5), dt)
     dt3c = ar.mul(ar.mul(ar.mul(dt, dt), dt), ar.const(TAYLOR_SINC))
-    g_dt = ar.mul(ar.const(np.asarray(params.gravity, dtype=np.float64)), dt)
+    g_dt = ar.mul(ar.const(np.asarray(params.gravity, dtype=np.float64)), dt[:, None])
     max_angle = ar.const(MAX_ANGLE)
 
     w = ar.mul(bodies.angular_velocity[dyn], ar.const(params.damping))
@@ -95,17 +100,18 @@ def integrate(bodies: BodyTable, ar: Arithmetic, params: IntegrationParams = Int
     clamp = ar.mul(theta, dt) > max_angle
     theta = np.where(clamp, ar.div(max_angle, dt), theta)
     x = ar.mul(theta, half_dt)
+    x2 = ar.mul(x, x)
     small = theta < ar.const(SMALL_ANGLE)
     s_small = ar.sub(half_dt, ar.mul(ar.mul(dt3c, theta), theta))
-    s_large = ar.div(sin_poly(ar, x), theta)
+    s_large = ar.div(sin_poly(ar, x, x2), theta)
     s = np.where(small, s_small, s_large)
-    dq = np.concatenate([ar.mul(w, s[:, None]), cos_poly(ar, x)[:, None]], axis=1)
+    dq = np.concatenate([ar.mul(w, s[:, None]), cos_poly(ar, x, x2)[:, None]], axis=1)
     q = quat_mul(ar, dq, bodies.orientation[dyn])
     norm2 = ar.add(ar.add(ar.mul(q[:, 0], q[:, 0]), ar.mul(q[:, 1], q[:, 1])),
                    ar.add(ar.mul(q[:, 2], q[:, 2]), ar.mul(q[:, 3], q[:, 3])))
     inv_norm = ar.div(ar.const(1.0), ar.sqrt(norm2))
     out.orientation[dyn] = ar.mul(q, inv_norm[:, None])
     out.angular_velocity[dyn] = w
-    out.position[dyn] = ar.add(bodies.position[dyn], ar.mul(bodies.linear_velocity[dyn], dt))
+    out.position[dyn] = ar.add(bodies.position[dyn], ar.mul(bodies.linear_velocity[dyn], dt[:, None]))
     out.linear_velocity[dyn] = ar.add(bodies.linear_velocity[dyn], g_dt)
     return out

@@ -24,10 +24,9 @@ What the kernel does and what the host does (the contract the RTL must follow, b
   float64, rounded once), and the row's ``jac_inv`` word times ``massScale`` (rounded once from the format's
   ``jac_inv``): no new record word, no new kernel operation;
 * kernel, per contact row (``models.golden.contact_solver.contact_solve`` with ``SolverParams.soft_keep``): one
-multiply,
-  before the add of the accumulated impulse: ``lam' = max(lam * keep + (vrel + b) * jac_inv, 0)``, with
-  ``keep = 1 - impulseScale``, a per-call constant of two values (a row with a static body, a row between two
-  dynamic ones) and 1 where ``b > 0`` (speculative). In exact arithmetic this is Box2D's update.
+  multiply, before the add of the accumulated impulse: ``lam' = max(lam * keep + (vrel + b) * jac_inv, 0)``, with ``keep
+  = 1 - impulseScale``, a per-call constant of two values (a row with a static body, a row between two dynamic ones) and
+  1 where ``b > 0`` (speculative). In exact arithmetic this is Box2D's update.
 """
 
 from __future__ import annotations

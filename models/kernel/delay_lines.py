@@ -15,22 +15,28 @@ from models.formats.number_format import NumberFormat
 # lines longer than one 64-deep LUT RAM (RAM64M8: 8 LUTs per 7 bit-reads and 64 words, plus a depth multiplexer
 # for each further 64 words) go to block RAM: the lines whose LUTs per bit grow with their depth
 BLOCK_MIN_DEPTH = 65
-# the window kernel with the impulses in the records, fp32 or two lanes, binds on LUTs and block RAM together (its
-# ring and body banks take block RAM): its lines from 129 deep, the longest, in block RAM (thesis frame, ring 8,192:
-# fp32 one lane LUT 84.2%, BRAM36 94.8%, fp16 two lanes 83.2% and 89.1%; from 65 deep the block RAM overflows)
+# the window kernel with the impulses in the records and two pipes per lane, fp32 or two lanes, binds on LUTs and
+# block RAM together (its ring and body banks take block RAM): its lines from 129 deep, the longest, in block RAM
+# (thesis frame, ring 8,192: fp32 one lane LUT 84.2%, BRAM36 94.8%, fp16 two lanes 83.2% and 89.1%; from 65 deep the
+# block RAM overflows). With the shared datapath (one per lane) the LUTs leave room for every line in LUT RAM, and the
+# block RAM binds: fp32 one lane LUT 74.8%, BRAM36 91.1% (from 129 deep in block RAM: 70.5% and 96.3%, over the 95%
+# usable), fp16 two lanes 74.7% and 82.9% (sim/fit/resource_model.py, 2026-12-06)
 WINDOW_BLOCK_MIN_DEPTH = 129
 
 
-def default_delay_block_min_depth(fmt: NumberFormat, impulses_in_records: bool, window: bool, lanes: int = 1) -> int:
+def default_delay_block_min_depth(fmt: NumberFormat, impulses_in_records: bool, window: bool, lanes: int = 1,
+                                  shared_datapath: bool = True) -> int:
     """The threshold of the build that runs a step: the streaming kernel with the impulses in the records in a format
     of 32 bits or more keeps its lines from :data:`BLOCK_MIN_DEPTH` deep in block RAM (its LUTs bind it: with the
-    tangent basis derived on chip it needs 87.6% of the ZCU102's LUTs with every line in LUT RAM, against 85%
-    usable, while a third of the block RAM is free), the window kernel with the impulses in the records from
-    :data:`WINDOW_BLOCK_MIN_DEPTH` deep in fp32 or with lanes; every other build keeps them in LUT RAM (0)."""
+    tangent basis derived on chip and two pipes per lane it needs 87.6% of the ZCU102's LUTs with every line in LUT
+    RAM, against 85% usable, while a third of the block RAM is free; with the shared datapath 82.7%, and 71.8% from
+    65 deep in block RAM), the window kernel with the impulses in the records and two pipes per lane from
+    :data:`WINDOW_BLOCK_MIN_DEPTH` deep in fp32 or with lanes; every other build keeps them in LUT RAM (0), the window
+    kernel with the shared datapath included."""
     if not impulses_in_records:
         return 0
     if window:
-        return WINDOW_BLOCK_MIN_DEPTH if fmt.width >= 32 or lanes > 1 else 0
+        return WINDOW_BLOCK_MIN_DEPTH if not shared_datapath and (fmt.width >= 32 or lanes > 1) else 0
     return BLOCK_MIN_DEPTH if fmt.width >= 32 else 0
 
 

@@ -47,6 +47,9 @@ class KernelJob:
     initial: Impulses | None = None  # per manifold, values of fmt: the impulses the step starts from (None: zeros)
     tangents_on_chip: bool = False  # the friction records omit t0, t1; cons.tangent holds the kernel's derived ones
     record_bits: sf.RecordBits | None = None  # mixed storage's record sizes (models/sizing/mixed_layout.py; no RTL)
+    # the kernel's lanes: one datapath for both passes (SHARED_DATAPATH = 1, every configuration's default: the area
+    # of one datapath at the cycles of two) or a contact and a friction pipe each (0)
+    shared_datapath: bool = True
 
     def __post_init__(self) -> None:
         if self.initial is None:
@@ -89,6 +92,10 @@ class KernelJob:
         if self.record_bits is not None:
             raise ValueError("mixed storage is a record layout of the streaming kernel")
         return dataclasses.replace(self, record_window=plan)
+
+    def with_datapath(self, shared: bool) -> "KernelJob":
+        """This step on lanes of one shared datapath (``shared``) or of a contact and a friction pipe each."""
+        return dataclasses.replace(self, shared_datapath=shared)
 
     def impulses_travelling(self, initial: Impulses | None = None) -> "KernelJob":
         """This step on the kernel whose impulses travel with the records, starting from ``initial`` (per manifold,
@@ -193,7 +200,7 @@ class KernelJob:
         """The depth from which the build's delay lines are in block RAM (``models.kernel.delay_lines``: 0 none)."""
         plan = self.record_window
         return default_delay_block_min_depth(self.fmt, self.impulses_in_records, plan is not None,
-                                             plan.lanes if plan else 1)
+                                             plan.lanes if plan else 1, self.shared_datapath)
 
     @property
     def friction_words(self) -> int:

@@ -25,6 +25,12 @@ class FpgaFigure:
     table: str  # the thesis's table of the utilisation
 
     @property
+    def fit(self) -> str:
+        """The published fit, e.g. ``fits (published: LUT 47%, FF 32%, DSP 42%, BRAM 70%)``."""
+        shares = ", ".join(f"{'BRAM' if k == 'BRAM36' else k} {v}%" for k, v in self.utilisation.items())
+        return f"fits (published: {shares})"
+
+    @property
     def cycles_per_manifold_pass(self) -> float:
         return self.cycles / (THESIS_MANIFOLDS * THESIS_PASSES)
 

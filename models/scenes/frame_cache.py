@@ -17,7 +17,7 @@ from typing import Any
 from models.formats.frame import FRAME_VERSION, Frame, FrameError, load, save
 from models.scenes.scene_args import split_scene_args
 from models.scenes.specs import DEFAULT_CAPTURE_STEP, make_spec
-from models.scenes.user_world import WorldFileSource, is_world_scene, scene_label
+from models.scenes.user_world import WORLD_SEED, WorldFileSource, is_world_scene, scene_label
 from models.scenes.world import DEFAULT_DT, SceneWorld, build_world, capture_frame, capture_in
 
 FRAME_CACHE_DIR = Path("build/frames")  # where frames (and their exact references) are cached
@@ -96,4 +96,6 @@ def load_scene(scene: str, scene_args: str = "", seed: int = 0) -> tuple[Frame, 
     parameter as ``<key><value>``."""
     params = split_scene_args(scene_args)
     label = "-".join([scene_label(scene), *(f"{k}{v}".replace("/", "_") for k, v in params.items())])
+    if is_world_scene(scene) and "seed" in params:  # the world's own seed parameter (random_world, duck_lego_pile)
+        params[WORLD_SEED] = params.pop("seed")
     return load_or_capture(scene, seed=seed, **params), label

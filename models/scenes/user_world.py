@@ -69,6 +69,7 @@ WORLDS_DIR = Path(__file__).parent / "worlds"
 ASSET_SCENES: dict[str, Path] = {
     "duck_lego_pile": WORLDS_DIR / "duck_lego_pile.py",
     "jenga_tower": WORLDS_DIR / "jenga_tower.py",
+    "random_world": Path(__file__).parent / "random_world.py",  # SCENE_ARGS="seed=N": a random pybullet_data world
 }
 WORLD_PARTS_FILE = Path(__file__).parent / "world_parts.py"  # what the shipped world files share (in their key)
 URDF_DROP_FILE = WORLDS_DIR / "urdf_drop.py"  # the world of SCENE=obj.urdf (its build takes the URDF as a parameter)
@@ -342,9 +343,15 @@ def _check_link(client: int, uid: int, link: int, label: str) -> None:
                          "inertia)")
 
 
+WORLD_SEED = "world_seed"  # how a world's own ``seed`` parameter travels beside the capture's seed (load_scene)
+
+
 def world_source(scene: str, **params: Any) -> WorldFileSource:
     """The source of a file scene (``.py`` world file, ``.urdf`` object, or a built-in asset scene's name), its
-    parameters typed by ``build``'s defaults (a SceneError names an unknown or bad one)."""
+    parameters typed by ``build``'s defaults (a SceneError names an unknown or bad one). ``world_seed`` is handed to
+    ``build`` as its ``seed`` (the capture functions take a ``seed`` of their own)."""
+    if WORLD_SEED in params:
+        params = {("seed" if k == WORLD_SEED else k): v for k, v in params.items()}
     if scene.endswith(".urdf"):
         urdf = Path(scene)
         if not urdf.is_file():

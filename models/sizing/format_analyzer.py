@@ -35,7 +35,7 @@ from models.setup.constraints import BodyTable, ConstraintSet, body_table, setup
 from models.golden.contact_solver import SolverParams, solve
 from models.golden.integrator import IntegrationParams, integrate
 from models.formats.number_format import FLOAT64, Arithmetic, NumberFormat
-from models.kernel.stream_format import BODY_IN_WORDS, HEADER_BITS
+from models.sizing import mixed_layout
 
 # field group -> (table, fields); "impulses" are computed, not streamed (the kernel keeps them on chip)
 GROUPS: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -47,12 +47,6 @@ GROUPS: dict[str, tuple[str, tuple[str, ...]]] = {
     "solver coefficients": ("cons", ("jac_inv", "f_jac_inv", "bias")),
 }
 IMPULSES = "impulses"
-# words per record of each group (models/kernel/stream_format.py layouts): contact, friction, body-in
-RECORD_WORDS = {
-    "contact": {"contact geometry": 15, "solver coefficients": 8},
-    "friction": {"contact geometry": 12, "solver coefficients": 2},
-    "body-in": {"positions": 3, "orientations": 4, "velocities": 6, "mass properties": 4},
-}
 MAN_RANGE = (2, 23)
 HEADROOM = 4.0  # largest values times this must stay finite (sums of a few terms)
 
@@ -227,14 +221,11 @@ def fit_mixed(problem: StepProblem, compute: NumberFormat, storage: dict[str, Nu
     return cur, err
 
 
-def record_bits(word_bits: dict[str, int]) -> dict[str, int]:
-    """Unpadded bits of a contact, friction and body-in record with the given word width per group."""
-    out = {}
-    for record, words in RECORD_WORDS.items():
-        header = HEADER_BITS if record != "body-in" else 0
-        out[record] = header + sum(n * word_bits[g] for g, n in words.items())
-    assert sum(RECORD_WORDS["body-in"].values()) == BODY_IN_WORDS
-    return out
+def record_bits(storage: Mapping[str, NumberFormat], compute: NumberFormat) -> dict[str, int]:
+    """Unpadded bits of the contact, friction and body-in records of the kernel with its impulses on chip, every group
+    in its storage format (``compute``'s where none is given): ``models/sizing/mixed_layout.py``'s layout."""
+    rb = mixed_layout.record_bits(storage, compute, mixed_layout.RecordShape(impulses_in_records=False))
+    return {"contact": rb.contact, "friction": rb.friction, "body-in": rb.body_in}
 
 
 DEFAULT_BUDGET = 0.01  # FORMAT=auto: the step's relative error against float64 allowed

@@ -65,8 +65,16 @@ def test_projection_and_statics(pile) -> None:
     static = ~bodies.dynamic
     for f in FIELDS:
         assert np.array_equal(getattr(res.bodies, f)[static], getattr(bodies, f)[static])
-    # contacts only push: no manifold approaches faster after the solve than before (GPU convention v)
-    assert np.all(np.isfinite(res.bodies.linear_velocity))
+    # contacts only push: every body's change of linear velocity is the sum of its manifolds' impulses (the normal
+    # ones non-negative, above) applied along +n to body A and -n to body B, friction along -t on A and +t on B;
+    # the tolerance is float64's: the solver adds the impulses one point at a time, this sums them per body first
+    lam_n, lam_t = res.impulses.normal.sum(axis=1), res.impulses.friction
+    impulse = (cons.normal * lam_n[:, None] - cons.tangent[:, 0] * lam_t[:, :1] - cons.tangent[:, 1] * lam_t[:, 1:])
+    dv = np.zeros_like(bodies.linear_velocity)
+    np.add.at(dv, cons.body_a, impulse * bodies.inv_mass[cons.body_a, None])
+    np.add.at(dv, cons.body_b, -impulse * bodies.inv_mass[cons.body_b, None])
+    assert np.abs(lam_n).max() > 0.01  # the pile's contacts push
+    np.testing.assert_allclose(res.bodies.linear_velocity - bodies.linear_velocity, dv, rtol=0, atol=1e-12)
 
 
 def test_interleaved_order_differs(pile) -> None:

@@ -3,7 +3,6 @@ hand-derived timelines; the RTL comparison is in cocotb_tests/test_pgs_kernel.py
 
 from __future__ import annotations
 
-import time
 
 import numpy as np
 import pytest
@@ -17,7 +16,8 @@ from models.timing import stream_cycle_model
 from sim.compare import retire_cycles
 from rtl.gen.operator_schedule import schedule
 
-FP32_C512 = ks.KernelShape.of(FP32, 512)
+FP32_C512 = ks.KernelShape.of(FP32, 512)  # one shared datapath per lane (the default build)
+FP32_C512_TWO_PIPES = ks.KernelShape.of(FP32, 512, shared_datapath=False)  # a contact and a friction pipe
 IDEAL, ZCU102 = ks.DmaTiming.of(get_preset("ideal")), ks.DmaTiming.of(get_preset("zcu102"))
 
 
@@ -59,16 +59,26 @@ def test_shape_of_formats_and_presets() -> None:
 def test_one_manifold_ideal_timeline() -> None:
     """Ground + one cube, one manifold, one iteration, no DDR cap and no start-up latency, by hand from the RTL:
     body-in beats 0..9 (2 x 5), SOLVE from 12; the contact record's beats at 0, 1, assembled at 3, issued at 12,
-    retires at 12 + 1 + 179; the friction record (same bodies: a hazard, and a pipe switch) issues one cycle after
-    that retire (193, retires at 304);
-    INTEG from 306: bodies issue at 306, 307, their 4 body-out beats at 494..497 and 498..501; DONE 502;
+    retires at 12 + 1 + 179; the friction record (same bodies: a hazard) issues one cycle after that retire (193) and
+    retires 1 + 179 (the shared datapath's latency, both kinds) later, at 373;
+    INTEG from 375: bodies issue at 375, 376, their 4 body-out beats at 563..566 and 567..570; DONE 571;
     cycles register = DONE + 2."""
     p = stream_cycle_model.predict(FP32_C512, IDEAL, step_of([(0, 1)], 2))
+    assert p.retire.tolist() == [192, 373] and p.issue.tolist() == [12, 193] and p.ready.tolist() == [3, 13]
+    assert p.cause.tolist() == [prediction.SOLVE_START, prediction.HAZARD] and p.blocker.tolist() == [-1, 0]
+    assert p.phases == {"LOAD": 0, "SOLVE": 12, "DRAIN": 194, "INTEG": 375, "DONE": 571} and p.cycles == 573
+    assert (p.stalls, p.bubbles) == (180, 0)  # SOLVE 12..193: 2 issues, the friction record stalls from 13
+    assert p.stall_cycles_by_cause() == {"hazard": 180, "contact/friction pipe switch": 0, "hazard CAM full": 0}
+
+
+def test_one_manifold_ideal_timeline_two_pipes() -> None:
+    """The same step with a contact and a friction pipe per lane: the friction record issues at 193 too (a hazard,
+    and a pipe switch), and retires 1 + 110 later (304); INTEG from 306, body-out beats at 494..501, DONE 502."""
+    p = stream_cycle_model.predict(FP32_C512_TWO_PIPES, IDEAL, step_of([(0, 1)], 2))
     assert p.retire.tolist() == [192, 304] and p.issue.tolist() == [12, 193] and p.ready.tolist() == [3, 13]
     assert p.cause.tolist() == [prediction.SOLVE_START, prediction.HAZARD] and p.blocker.tolist() == [-1, 0]
     assert p.phases == {"LOAD": 0, "SOLVE": 12, "DRAIN": 194, "INTEG": 306, "DONE": 502} and p.cycles == 504
-    assert (p.stalls, p.bubbles) == (180, 0)  # SOLVE 12..193: 2 issues, the friction record stalls from 13
-    assert p.stall_cycles_by_cause() == {"hazard": 180, "contact/friction pipe switch": 0, "hazard CAM full": 0}
+    assert (p.stalls, p.bubbles) == (180, 0)
 
 
 def test_load_counts_the_body_record_beats() -> None:
@@ -85,8 +95,10 @@ def test_one_manifold_zcu102_timeline() -> None:
     the contact pass's last beat (taken at 40)."""
     p = stream_cycle_model.predict(FP32_C512, ZCU102, step_of([(0, 1)], 2))
     assert p.first_offer.tolist() == [39, 80] and p.last_beat.tolist() == [40, 80]
-    assert p.issue.tolist() == [51, 232] and p.retire.tolist() == [231, 343]
-    assert p.phases["INTEG"] == 345 and p.cycles == 543
+    assert p.issue.tolist() == [51, 232] and p.retire.tolist() == [231, 412]
+    assert p.phases["INTEG"] == 414 and p.cycles == 612
+    two = stream_cycle_model.predict(FP32_C512_TWO_PIPES, ZCU102, step_of([(0, 1)], 2))
+    assert two.retire.tolist() == [231, 343] and two.phases["INTEG"] == 345 and two.cycles == 543
 
 
 def test_hazard_waits_for_retire() -> None:
@@ -120,10 +132,18 @@ def test_cam_full_throttles_issue() -> None:
 
 
 def test_interleaved_passes_drain_at_every_switch() -> None:
-    p = stream_cycle_model.predict(FP32_C512, IDEAL, step_of([(0, 1), (0, 2)], 3, iterations=3, interleaved=True))
+    """Two pipes per lane drain at every switch of kinds; the shared datapath never: its first record of a pass waits
+    for its hazards only (here: the body the pass before updated first), every record retiring 1 + 179 cycles after
+    its issue."""
+    step = step_of([(0, 1), (0, 2)], 3, iterations=3, interleaved=True)
+    p = stream_cycle_model.predict(FP32_C512_TWO_PIPES, IDEAL, step)
     assert p.kind.tolist() == [0, 0, 1, 1] * 3
     firsts = np.flatnonzero(np.diff(p.kind) != 0) + 1
     assert all(p.issue[k] == p.retire[k - 1] + 1 and p.cause[k] == prediction.SWITCH for k in firsts)
+    shared = stream_cycle_model.predict(FP32_C512, IDEAL, step)
+    assert prediction.SWITCH not in shared.cause.tolist()
+    assert all(shared.cause[k] == prediction.HAZARD and shared.issue[k] == shared.retire[k - 2] + 1 for k in firsts)
+    assert np.all(shared.retire - shared.issue == FP32_C512.contact_latency + 1)
 
 
 def test_ddr_bound_streaming_rate() -> None:
@@ -176,14 +196,3 @@ def test_empty_steps() -> None:
     assert stream_cycle_model.predict(FP32_C512, IDEAL, step_of([], 0, static=())).cycles == 3  # IDLE -> INTEG -> DONE
     p = stream_cycle_model.predict(FP32_C512, IDEAL, step_of([], 2))  # LOAD -> INTEG: no manifold
     assert p.manifold_passes == 0 and p.phases["INTEG"] == p.solve_start == 12
-
-
-def test_model_speed() -> None:
-    """Prints the model's speed on a synthetic step (a figure, not a check)."""
-    n = 20000
-    step = step_of([(1 + k % 5000, 1 + (k * 7 + 1) % 5000) for k in range(n)], 5001, iterations=4)
-    t0 = time.perf_counter()
-    p = stream_cycle_model.predict(FP32_C512, ZCU102, step)
-    dt = time.perf_counter() - t0
-    print(f"\ncycle model: {p.manifold_passes:,} manifold-passes, {p.cycles:,} cycles in {dt:.2f} s "
-          f"({p.manifold_passes / dt / 1e3:.0f} k manifold-passes/s)")

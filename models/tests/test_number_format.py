@@ -67,6 +67,42 @@ def test_cast_rounding_chunks_match_bitwise_rule(fmt: NumberFormat, chunk: int) 
     assert near_min_normal.any() and (want == 0).any() and np.isinf(want).any()
 
 
+def _bf16_oracle(x: np.ndarray) -> np.ndarray:
+    """bfloat16 rounding by ml_dtypes (an implementation of its own: RNE from float32, its subnormals kept), with
+    the format's flush: below min normal * (1 - 2^-9) a zero of the value's sign (tininess after rounding at 8
+    significant bits). ``x`` must be float32 values, so that ml_dtypes's cast is the only rounding."""
+    import ml_dtypes
+
+    x32 = np.asarray(x, dtype=np.float64).astype(np.float32)
+    assert np.array_equal(x32.astype(np.float64), x, equal_nan=True), "the oracle takes float32 values"
+    with np.errstate(over="ignore"):
+        r = x32.astype(ml_dtypes.bfloat16).astype(np.float64)
+    tiny = np.abs(x) < BF16.min_normal * (1 - 2.0 ** -9)
+    return np.where(tiny, np.where(np.signbit(x), -0.0, 0.0), r)
+
+
+def test_bf16_rounding_against_ml_dtypes() -> None:
+    """bf16, which no numpy cast rounds (the golden model uses the bit-level rule), against an independent
+    bfloat16: every float32 binade edge and tie (``_cast_format_edges`` read as float32) and random float32 values
+    over the whole exponent range, then +, -, x of random bf16 operands wherever the exact result is a float32 value
+    (products always; sums up to an exponent gap of 16), so that ml_dtypes rounds it once."""
+    rng = np.random.default_rng(13)
+    edges = _cast_format_edges(BF16)
+    edges = edges[np.isnan(edges) | (edges.astype(np.float32).astype(np.float64) == edges)]
+    bits = rng.integers(0, 1 << 32, 300_000, dtype=np.uint64).astype(np.uint32)
+    x = np.concatenate([edges, bits.view(np.float32).astype(np.float64)])
+    got, want = BF16.round(x), _bf16_oracle(x)
+    bad = ~_same(got, want)
+    assert not bad.any(), f"{np.count_nonzero(bad)} differ, first x={x[bad][0]!r}: {got[bad][0]!r} vs {want[bad][0]!r}"
+    assert (got == 0).any() and np.isinf(got).any() and (np.abs(got) == BF16.min_normal).any()
+    a, b = (BF16.round(v) for v in rng.standard_normal((2, 200_000)) * np.exp2(rng.uniform(-130, 130, (2, 200_000))))
+    for op in (BF16.add, BF16.sub, BF16.mul):
+        exact = {BF16.add: np.add, BF16.sub: np.subtract, BF16.mul: np.multiply}[op](a, b)
+        keep = exact.astype(np.float32).astype(np.float64) == exact
+        assert keep.mean() > 0.5, keep.mean()  # most results are float32 values
+        assert np.all(_same(op(a[keep], b[keep]), _bf16_oracle(exact[keep]))), op.__name__
+
+
 @pytest.mark.filterwarnings("error")
 @pytest.mark.parametrize("fmt", [FP32, FP16], ids=lambda f: f.name)
 def test_cast_rounding_of_single_values(fmt: NumberFormat) -> None:

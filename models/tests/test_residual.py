@@ -74,3 +74,27 @@ def test_parse_chrome_trace() -> None:
             '{"cat":"timing","pid":1,"tid":0,"ts":210.000 ,"ph":"E","name":"solveGroup31","args":{}}\n]}')
     t = parse_chrome_trace(text)
     assert t["solveGroup"] == pytest.approx(83e-6) and t["inner"] == pytest.approx(39.5e-6)
+
+
+def test_converged_solve_stops_when_its_rate_cannot_reach_the_tolerance(pile) -> None:
+    """With a time budget, a kind stops once the last RATE_WINDOW passes' rate says the tolerance is out of reach
+    within its share, and says how many passes it would still need; without one it runs to max_passes."""
+    from models.golden.contact_solver import RATE_WINDOW, _passes_needed
+
+    assert _passes_needed(1e-3, 1e-4, 100, 1e-9) == pytest.approx(500.0)
+    assert _passes_needed(1e-4, 1e-4, 100, 1e-9) == float("inf")
+    import time
+
+    bodies, cons, schedule = pile
+    t0 = time.monotonic()
+    conv = solve_converged(bodies, cons, schedule, FLOAT64, tolerance=1e-30, max_passes=10 ** 6, time_budget_s=30.0,
+                           hopeless_after=RATE_WINDOW)
+    assert time.monotonic() - t0 < 25.0  # stopped by the projection, not the budget
+    assert not conv.converged
+    assert conv.contact_passes % RATE_WINDOW == 0 and conv.friction_passes % RATE_WINDOW == 0
+    assert conv.projected[0] > 0 and conv.projected[1] > 0
+    capped = solve_converged(bodies, cons, schedule, FLOAT64, tolerance=1e-30, max_passes=RATE_WINDOW + 7)
+    assert capped.contact_passes == RATE_WINDOW + 7  # no budget: no projection stops it
+    patient = solve_converged(bodies, cons, schedule, FLOAT64, tolerance=1e-30, max_passes=2 * RATE_WINDOW + 3,
+                              time_budget_s=30.0, hopeless_after=2 * RATE_WINDOW + 3)
+    assert patient.contact_passes == 2 * RATE_WINDOW + 3  # not judged hopeless before hopeless_after

@@ -16,7 +16,7 @@ from models.timing.kernel_shape import KernelShape
 from models.formats.number_format import FP16, FP32
 from models.setup.tangent_basis import derive_tangents, plane_space_in
 from models.tests.test_body_banks import pile_job
-from rtl.gen.kernel_graphs import GRAPHS, friction_in
+from rtl.gen.kernel_graphs import GRAPHS, SHARED_GRAPHS, friction_in
 from rtl.gen.operator_schedule import schedule
 
 
@@ -62,9 +62,15 @@ def test_layout_and_cycle_model_know_the_option() -> None:
     lay = sf.StreamLayout(FP32, impulses_in_records=True, tangents_on_chip=True)
     assert (default.friction_bits, default.friction_beats) == (704, 2)
     assert (lay.friction_bits, lay.friction_beats, lay.friction_lam_word, lay.friction_lamt_word) == (512, 1, 8, 12)
-    shape = KernelShape.of(FP32, 512, impulses_in_records=True, tangents_on_chip=True)
+    # two pipes per lane: the friction pipe that derives the tangents has its own, longer latency
+    shape = KernelShape.of(FP32, 512, impulses_in_records=True, tangents_on_chip=True, shared_datapath=False)
     assert shape.friction_latency == schedule(GRAPHS["pgs_friction_pipe_tb"]()).latency_for(FP32.man_bits)
-    assert shape.friction_latency > KernelShape.of(FP32, 512).friction_latency and shape.friction_beats == 1
+    assert shape.friction_latency > KernelShape.of(FP32, 512, shared_datapath=False).friction_latency
+    assert shape.friction_beats == 1
+    # the shared datapath binds it within the contact pass's latency, as every other option's
+    shared = KernelShape.of(FP32, 512, impulses_in_records=True, tangents_on_chip=True)
+    assert shared.friction_latency == shared.contact_latency == SHARED_GRAPHS["pgs_shared_pipe_tb"]().latency_for(
+        FP32.man_bits) == KernelShape.of(FP32, 512).friction_latency
     job = pile_job()
     derived = job.tangents_derived()
     assert derived.tangents_on_chip and derived.stream_layout(512).friction_beats == 1

@@ -181,7 +181,7 @@ def test_asset_scenes(tmp_path: Path) -> None:
         np.allclose(np.sort(jenga.half_extents[1:], axis=1), [0.015, 0.025, 0.075], atol=2e-3)
     pile = scenes.capture_frame("duck_lego_pile", nx=2, nz=1, layers=1, step=30)
     assert pile.num_bodies == 3 and pile.num_manifolds >= 2
-    assert set(scenes.ASSET_SCENES) == {"duck_lego_pile", "jenga_tower"}
+    assert set(scenes.ASSET_SCENES) == {"duck_lego_pile", "jenga_tower", "random_world"}
 
 
 @pytest.mark.parametrize("scene, params", [("thesis", dict(nx=3, ny=4, nz=3)), ("pile", dict(nx=3, ny=2, nz=3)),

@@ -6,7 +6,6 @@ and cocotb_tests/test_kernel_window_records.py (test_cycles_match_model)."""
 from __future__ import annotations
 
 import dataclasses
-import time
 from array import array
 
 import numpy as np
@@ -382,26 +381,3 @@ def test_bad_input() -> None:
         wm.predict_window(SHAPE, IDEAL, step, dataclasses.replace(plan, slots=np.array([0, -1])))
     with pytest.raises(ValueError, match="no window record layout"):
         wm.predict_window(dataclasses.replace(SHAPE, window_beats=0), IDEAL, step, plan)
-
-
-def test_model_speed() -> None:
-    """Prints the model's speed on a synthetic step (a figure, not a check)."""
-    rng = np.random.default_rng(3)
-    m, nb = 20000, 5001
-    cons, _ = _chain(m)
-    cons.body_a[:] = rng.integers(1, nb, m)
-    cons.body_b[:] = np.where(rng.random(m) < 0.1, 0, (cons.body_a + rng.integers(1, 40, m)) % nb)
-    dyn = np.ones(nb, bool)
-    dyn[0] = False
-    order = np.argsort(np.minimum(cons.body_a, cons.body_b), kind="stable")
-    slots = lane_slots(order, cons, dyn, 2)
-    lag = band_width(slots, cons, dyn, 2)
-    real = np.maximum(slots, 0)
-    step = ks.StepShape.of(FP32, dyn.astype(float), np.where(slots >= 0, cons.body_a[real], -1),
-                           np.where(slots >= 0, cons.body_b[real], -1), SolverParams(4))
-    plan = WindowPlan(16384, 8, lag, max(f for f in range(1, 9) if fits(16384, 8, lag, f)), lag, 2, slots)
-    t0 = time.perf_counter()
-    p = wm.predict_window(SHAPE, ZCU102, step, plan)
-    dt = time.perf_counter() - t0
-    print(f"\nwindow cycle model: {p.manifold_passes:,} manifold-passes, {p.cycles:,} cycles in {dt:.2f} s "
-          f"({p.manifold_passes / dt / 1e3:.0f} k manifold-passes/s)")

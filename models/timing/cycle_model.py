@@ -20,7 +20,8 @@ from models.timing.window_cycle_model import predict_window
 def job_shape(job: "KernelJob", preset: DmaPreset, body_bits: int) -> KernelShape:
     return KernelShape.of(job.fmt, preset.stream_bits, body_bits, inertia_words=job.inertia_words,
                           impulses_in_records=job.impulses_in_records, friction_words=job.friction_words,
-                          body_banks=job.body_banks, tangents_on_chip=job.tangents_on_chip, record_bits=job.record_bits)
+                          body_banks=job.body_banks, tangents_on_chip=job.tangents_on_chip, record_bits=job.record_bits,
+                          shared_datapath=job.shared_datapath)
 
 
 def job_timing(job: "KernelJob", preset: DmaPreset, prefetched: bool) -> DmaTiming:

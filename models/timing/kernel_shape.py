@@ -27,6 +27,7 @@ IMPULSE_FIFO_DEPTH = 256  # IMP_FIFO_DEPTH: impulse-out records between take and
 
 # written by `python -m rtl.gen` with the datapaths (rtl/gen/pipe_latency.py)
 PIPE_LATENCY_FILE = RTL_DIR / "generated" / "pipe_latency.json"
+SHARED_PIPE = "pgs_shared_pipe"  # the shared datapath of a lane (every variant has its latency: rtl/gen/kernel_graphs.py)
 
 
 @functools.lru_cache(maxsize=None)
@@ -70,27 +71,34 @@ class KernelShape:
     impulses_in_records: bool = False  # IMPULSES_IN_RECORDS: the read-after-write rule across passes applies
     body_banks: int = 0  # BODY_BANKS: banked body velocities, a busy bank stalls the issue (models.kernel.body_banks)
     window_beats: int = 0  # beats of one lane's combined record of the window kernel (WR_BEATS; 0: no such layout)
+    # SHARED_DATAPATH: one datapath per lane takes both kinds at one latency (no drain at a switch of kinds); else a
+    # contact and a friction pipe, drained at a switch in the streaming kernel
+    shared_datapath: bool = True
 
     @staticmethod
     def of(fmt: NumberFormat, cons_bits: int = 512, body_bits: int = 128,
            inertia_words: int = KERNEL_INERTIA_WORDS, impulses_in_records: bool = False,
            friction_words: int = 0, body_banks: int = 0, tangents_on_chip: bool = False,
-           record_bits: RecordBits | None = None) -> "KernelShape":
+           record_bits: RecordBits | None = None, shared_datapath: bool = True) -> "KernelShape":
         """The shape of a build; ``inertia_words`` (1, 3 or 6) sets the body-in record's beats,
         ``impulses_in_records`` the records' (with the impulses they carry), ``friction_words`` (0 or 1, the
         build's MU_W) the friction record's (every friction pipe has the same latency), ``body_banks`` the
         build's BODY_BANKS, ``tangents_on_chip`` the friction record without t0, t1 and the friction pipe that
         derives them (``pgs_friction_pipe_tb``, its own latency), ``record_bits`` the records' bits of mixed
-        storage (``models/sizing/mixed_layout.py``; the pipes' latencies stay the format's)."""
+        storage (``models/sizing/mixed_layout.py``; the pipes' latencies stay the format's), ``shared_datapath`` the
+        build's SHARED_DATAPATH (both kinds at the shared datapath's latency, ``pgs_shared_pipe``; else each kind at
+        its pipe's)."""
         lay = StreamLayout(fmt, cons_beat_bits=cons_bits, body_beat_bits=body_bits, inertia_words=inertia_words,
                            impulses_in_records=impulses_in_records, friction_words=friction_words,
                            tangents_on_chip=tangents_on_chip, record_bits=record_bits)
         friction = "pgs_friction_pipe_tb" if tangents_on_chip else "pgs_friction_pipe"
-        return KernelShape(rtl_latency("pgs_contact_pipe", fmt), rtl_latency(friction, fmt),
+        contact, friction = (SHARED_PIPE, SHARED_PIPE) if shared_datapath else ("pgs_contact_pipe", friction)
+        return KernelShape(rtl_latency(contact, fmt), rtl_latency(friction, fmt),
                            rtl_latency("pgs_integrate_pipe", fmt), lay.contact_beats, lay.friction_beats,
                            lay.body_in_beats, lay.body_out_beats, cons_bits // 8, body_bits // 8,
                            impulses_in_records=impulses_in_records, body_banks=check_banks(body_banks),
-                           window_beats=lay.window_beats if record_bits is None else 0)
+                           window_beats=lay.window_beats if record_bits is None else 0,
+                           shared_datapath=shared_datapath)
 
     def latency(self, kind: int) -> int:
         return self.contact_latency if kind == CONTACT_PASS else self.friction_latency

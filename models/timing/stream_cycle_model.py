@@ -23,9 +23,10 @@ Kernel
       ``m(r) + 1``. A contact record of two beats thus issues at most every other cycle.
     * Issue of record ``r`` at the first cycle >= its valid cycle and SOLVE's start with: no dynamic body in
       flight (a manifold is in the hazard CAM from its issue to its retire cycle inclusive: a conflicting
-      record issues at ``retire + 1`` at the earliest), at a contact/friction switch the other pipe drained
-      (``retire of the last issued + 1``), fewer than ``HAZARD_DEPTH`` in flight. It retires at
-      ``issue + 1 + LATENCY`` of its pipe (``LATENCY`` from ``rtl/generated/pipe_latency.json``).
+      record issues at ``retire + 1`` at the earliest), with two pipes per lane (``SHARED_DATAPATH = 0``) at a
+      contact/friction switch the other pipe drained (``retire of the last issued + 1``), fewer than
+      ``HAZARD_DEPTH`` in flight. It retires at ``issue + 1 + LATENCY`` of the lane's datapath (the shared
+      datapath's for both kinds, else its kind's pipe's; ``LATENCY`` from ``rtl/generated/pipe_latency.json``).
       With banked body velocities (``BODY_BANKS``, :mod:`models.kernel.body_banks`) it also waits while a bank cannot
       serve the reads of its bodies A and B beside the writes of the manifold retiring in that cycle
       (:class:`BankWrites`).
@@ -154,6 +155,7 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
     last_ret = [-1] * (nb + 1)  # per body: retire cycle of the last manifold naming it
     last_who = [-1] * (nb + 1)  # and its retire index
     lat = {CONTACT_PASS: shape.contact_latency, FRICTION_PASS: shape.friction_latency}
+    drains = not shape.shared_datapath  # two pipes per lane: the other pipe drains at a switch of kinds
     nbeats = {CONTACT_PASS: shape.contact_beats, FRICTION_PASS: shape.friction_beats}
     depth = shape.hazard_depth
     pass_gap = max(1, dma.startup)  # after a pass's last beat: the next transfer's start-up latency
@@ -202,7 +204,7 @@ def _solve(shape: KernelShape, dma: DmaTiming, step: StepShape, body_beats: tupl
                 ha, hb = last_ret[a] + 1, last_ret[b] + 1
                 if ha > t or hb > t:
                     t, cause, who = (ha, HAZARD, last_who[a]) if ha >= hb else (hb, HAZARD, last_who[b])
-                if kind != last_kind and last_retire + 1 > t:
+                if drains and kind != last_kind and last_retire + 1 > t:
                     t, cause, who = last_retire + 1, SWITCH, n_iss - 1
                 if n_iss >= depth and retired[n_iss - depth] + 1 > t:
                     t, cause, who = retired[n_iss - depth] + 1, CAM_FULL, n_iss - depth

@@ -33,7 +33,8 @@ Take (``pgs_sequencer``)
       index out of range, the same body twice, two static bodies, or a dynamic body shared with an earlier issuing
       lane of the record; such a slot is rejected in every pass). A hazard is a dynamic body of an issuing lane in
       flight (from its issue to its retire cycle inclusive). Every issued lane retires ``C_LAT + 1`` cycles after
-      the issue (the friction pipe is delayed to the contact pipe's latency), lane by lane in the trace. A record
+      the issue (the shared datapath's latency, ``shape.contact_latency``, for both kinds; with two pipes per lane
+      the friction pipe is delayed to the contact pipe's), lane by lane in the trace. A record
       whose lanes are all rejected or empty is consumed in one cycle.
     * A take steps its pass; the take of a fetch's last pass frees the record's ring entry (from the next cycle).
       SOLVE ends with the last pass's last slot; DRAIN, INTEG and DONE follow as in the streaming kernel.
@@ -131,8 +132,11 @@ class WindowPrediction(Prediction):
         j, lanes = int(self.pass_index[k]), plan.lanes
         rec = int(self.slot[k]) // lanes
         what = f"record {rec}" + (f": slots {rec * lanes}..{rec * lanes + lanes - 1}" if lanes > 1 else "")
-        parts = [f"issue at cycle {iss:,} (pass {j}, {what}), retire at {int(self.retire[k]):,} (contact pipe "
-                 f"latency {self.shape.contact_latency} + 1: the friction pipe is aligned to it)"]
+        lane = ("the shared datapath's latency" if self.shape.shared_datapath
+                else "contact pipe latency")
+        parts = [f"issue at cycle {iss:,} (pass {j}, {what}), retire at {int(self.retire[k]):,} ({lane} "
+                 f"{self.shape.contact_latency} + 1" + ("" if self.shape.shared_datapath
+                                                        else ": the friction pipe is aligned to it") + ")"]
         arrival = (f"in the ring from cycle {rdy:,} (its {lanes * self.shape.window_beats} beats offered from "
                    f"{int(self.first_offer[k]):,}, last taken at {int(self.last_beat[k]):,}")
         waits = ((int(self.raw_wait[k]), "the fetch before's impulse-out record of it (+ turnaround)"),

@@ -72,6 +72,26 @@ wor xnor xor q d
 _COMMUTATIVE = {"add", "mul", "max", "min"}
 
 
+def apply(ar, op: str, a: list[np.ndarray]) -> np.ndarray:  # noqa: ANN001 (an Arithmetic)
+    """The result of operation ``op`` (not an input or constant) on operand arrays ``a`` with arithmetic ``ar``."""
+    with np.errstate(all="ignore"):
+        if op in ("add", "sub", "mul", "div", "max", "min"):
+            return np.asarray(getattr(ar, op)(a[0], a[1]))
+        if op == "sqrt":
+            return np.asarray(ar.sqrt(a[0]))
+        if op == "lt":
+            return np.asarray(a[0] < a[1])
+        if op == "is_zero":
+            return np.asarray(a[0] == 0.0)
+        if op == "is_pos":
+            return np.asarray(a[0] > 0.0)
+        if op == "select":
+            return np.where(a[0], a[1], a[2])
+        if op == "neg":
+            return np.asarray(-a[0])
+    raise AssertionError(op)  # pragma: no cover
+
+
 class Value:
     """A node of a :class:`Graph` (the result of an input, constant or operation)."""
 
@@ -263,29 +283,14 @@ class Graph:
         val: dict[int, np.ndarray] = {}
         for v in self.live_nodes():
             a = [val[x.id] for x in v.args]
-            with np.errstate(all="ignore"):
-                if v.op == "input":
-                    r = inputs[:, v.index]
-                elif v.op == "bool_input":
-                    r = np.asarray(bool_inputs, dtype=bool)[:, self.bool_inputs.index(v)]
-                elif v.op == "const":
-                    r = ar.const(v.const) * np.ones(inputs.shape[0])
-                elif v.op in ("add", "sub", "mul", "div", "max", "min"):
-                    r = getattr(ar, v.op)(a[0], a[1])
-                elif v.op == "sqrt":
-                    r = ar.sqrt(a[0])
-                elif v.op == "lt":
-                    r = a[0] < a[1]
-                elif v.op == "is_zero":
-                    r = a[0] == 0.0
-                elif v.op == "is_pos":
-                    r = a[0] > 0.0
-                elif v.op == "select":
-                    r = np.where(a[0], a[1], a[2])
-                elif v.op == "neg":
-                    r = -a[0]
-                else:  # pragma: no cover
-                    raise AssertionError(v.op)
+            if v.op == "input":
+                r = inputs[:, v.index]
+            elif v.op == "bool_input":
+                r = np.asarray(bool_inputs, dtype=bool)[:, self.bool_inputs.index(v)]
+            elif v.op == "const":
+                r = ar.const(v.const) * np.ones(inputs.shape[0])
+            else:
+                r = apply(ar, v.op, a)
             val[v.id] = np.asarray(r)
         return np.stack([val[o.value.id] for o in self.outputs], axis=1) if self.outputs else np.zeros((0, 0))
 

@@ -30,6 +30,7 @@ from models.formats.number_format import KERNEL_FORMATS
 from models.setup.tangent_basis import PLANE_SPACE_SPLIT
 
 from rtl.gen.dataflow import Graph, Value
+from rtl.gen.shared_datapath import SharedDatapath, SharedLayout
 
 # The mantissa width of each kernel format (models.formats.number_format.KERNEL_FORMATS). The golden model's constants
 # above (float64 values) are rounded to the format in the RTL.
@@ -408,3 +409,79 @@ MODE_GRAPHS: dict[str, Callable[[], Graph]] = {
     # critical path, cocotb_tests/test_soft_contact_pipe.py)
     "pgs_contact_pipe_soft": partial(contact_graph, soft=True),
 }
+
+
+# --- the shared datapath: one lane's contact and friction passes on one set of operators ------------------------------
+SHARED_IMPULSE_OUT = [f"imp{i}" for i in range(4)]  # contact: lam0..3; friction: lamT0, lamT1, then two zero words
+SHARED_OUT = SHARED_IMPULSE_OUT + CONTACT_OUT[4:]
+SHARED_DOC = """\
+{module}: one lane's contact pass ({contact}) and friction pass ({friction}) on one datapath
+(rtl/gen/shared_datapath.py): the record's kind
+(in_kind: 0 contact, 1 friction) travels down the pipe with it, the friction pass's operations run on the contact
+pass's operators where one is free at their stage (an operand multiplexer selects by the kind where the two read
+different words), and out_kind says which pass a result is of. Both kinds take LATENCY cycles.
+
+Inputs: the contact record's words, or the friction record's from word 0 (its coefficient, with a word of its own,
+after its tangents' Jacobians), then lam[4] (a friction pass's normal impulses), lamT[2] (friction only), the bodies'
+words; outputs: imp0..3 (contact lam0..3; friction lamT0, lamT1, 0, 0), then vA, wA, vB, wB."""
+
+
+def shared_module(inertia_words: int = 3, soft: bool = False, manifold_friction: bool = False,
+                  tangents_on_chip: bool = False) -> str:
+    """The shared datapath's module name: ``pgs_shared_pipe`` suffixed like the pipes it binds."""
+    return (pipe_module("pgs_shared_pipe", inertia_words, manifold_friction)
+            + ("_soft" if soft else "") + ("_tb" if tangents_on_chip else ""))
+
+
+def shared_in(inertia_words: int = 3, soft: bool = False, manifold_friction: bool = False,
+              tangents_on_chip: bool = False) -> tuple[list[str], list[int], list[int]]:
+    """The shared datapath's input words and where each graph's input words go (contact's, friction's): the record
+    words (a word the two name alike keeps the name, else ``<contact>__<friction>``), lam[4], lamT[2], the bodies,
+    the soft pipe's keep factors."""
+    c_names = contact_in(inertia_words, soft)
+    f_names = friction_in(inertia_words, manifold_friction, tangents_on_chip)
+    c_rec, f_rec = c_names.index("lam0"), f_names.index("lam_n0")
+    f_record = f_names[:f_rec] + (["mu"] if manifold_friction else [])
+    bodies = f_names[f_rec + 6:len(f_names) - (1 if manifold_friction else 0)]
+    assert bodies == c_names[c_rec + 4:c_rec + 4 + len(bodies)] and len(f_record) <= c_rec
+    words = [c if k >= len(f_record) or f_record[k] == c else f"{c}__{f_record[k]}"
+             for k, c in enumerate(c_names[:c_rec])]
+    words += [f"lam{i}" for i in range(4)] + ["lamT0", "lamT1"] + c_names[c_rec + 4:]
+    c_slot = [k if k < c_rec + 4 else k + 2 for k in range(len(c_names))]
+    at = {name: k for k, name in enumerate(words)}
+    f_slot = []
+    for k, name in enumerate(f_names):
+        if k < f_rec:
+            f_slot.append(k)
+        elif name == "mu":
+            f_slot.append(f_rec)
+        elif name.startswith("lam_n"):
+            f_slot.append(c_rec + int(name[-1]))
+        else:
+            f_slot.append(at[name])
+    return words, c_slot, f_slot
+
+
+def shared_graph(inertia_words: int = 3, soft: bool = False, manifold_friction: bool = False,
+                 tangents_on_chip: bool = False, sign_bug: bool = False) -> SharedDatapath:
+    """The shared datapath of the contact and friction pipes of these options (:mod:`rtl.gen.shared_datapath`);
+    ``sign_bug``: with the injected-bug friction pass (:func:`friction_graph`), for a test build only."""
+    contact = contact_graph(inertia_words, soft)
+    friction = friction_graph(sign_bug, inertia_words=inertia_words, manifold_friction=manifold_friction,
+                              tangents_on_chip=tangents_on_chip)
+    words, c_slot, f_slot = shared_in(inertia_words, soft, manifold_friction, tangents_on_chip)
+    c_out = list(range(len(CONTACT_OUT)))
+    f_out = [0, 1, None, None] + list(range(2, len(FRICTION_OUT)))
+    layout = SharedLayout(tuple(words), (tuple(c_slot), tuple(f_slot)), tuple(SHARED_OUT), (tuple(c_out), tuple(f_out)))
+    module = shared_module(inertia_words, soft, manifold_friction, tangents_on_chip)
+    doc = (SHARED_DOC.format(module=module, contact=contact.name, friction=friction.name)
+           + ("\n\n" + FRICTION_SIGN_BUG_DOC if sign_bug else ""))
+    return SharedDatapath(module, doc, (contact, friction), layout)
+
+
+# the shared datapaths of every lane the kernel builds (its IINV_W, MU_W, SOFT_CONTACT and TANGENTS_ON_CHIP), by module
+# name; every one has the contact pipe's latency (the friction pass is bound within it: rtl/gen/shared_datapath.py)
+SHARED_GRAPHS: dict[str, Callable[[], SharedDatapath]] = {
+    shared_module(w, soft, mu, tb): partial(shared_graph, w, soft, mu, tb)
+    for w, soft, mu, tb in [(w, False, mu, False) for w in (1, 3, 6) for mu in (False, True)]
+    + [(3, True, mu, False) for mu in (False, True)] + [(3, soft, False, True) for soft in (False, True)]}

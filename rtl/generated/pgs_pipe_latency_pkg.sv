@@ -27,6 +27,13 @@ package pgs_pipe_latency_pkg;
         return 2*MAN_BITS + 125;
     endfunction
 
+    // constant for every format (the argument keeps one signature for all modules)
+    /* verilator lint_off UNUSEDSIGNAL */
+    function automatic int shared_latency(input int man_bits);
+        return 179;
+    endfunction
+    /* verilator lint_on UNUSEDSIGNAL */
+
 endpackage
 
 `default_nettype wire

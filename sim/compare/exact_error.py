@@ -20,8 +20,10 @@ import numpy as np
 from models.setup.constraints import BodyTable, ConstraintSet
 from models.golden.contact_solver import SolverParams
 from models.exact.bound import contact_phase_bound, per_body_bounds
-from models.exact.reference import Budget, ExactReferenceError
+from models.exact.phases import Budget
+from models.exact.assembly import ExactReferenceError
 from models.exact.cache import cached_exact_reference
+from models.exact.damped_friction import not_certified_unique
 from models.golden.integrator import IntegrationParams, integrate
 from models.formats.number_format import FLOAT64
 from models.scenes.frame_cache import FRAME_CACHE_DIR
@@ -54,6 +56,9 @@ class ExactReferenceFacts:
     contact_bound: dict[str, Any]  # the certificate the reference was accepted with, named (sim.compare.exact_error)
     cache_file: str
     from_cache: bool
+    # what the error lines measure against: the exact limit, or (friction phase not certified unique) the fixed point
+    # reached from the kernel's start (reference_name)
+    name: str = "exact reference"
 
 
 @dataclass(frozen=True)
@@ -97,8 +102,19 @@ def exact_step(bodies: BodyTable, cons: ConstraintSet, ip: IntegrationParams, ca
         print(missing, flush=True)
         return missing
     facts = ExactReferenceFacts(ref.solver, ref.islands, dict(ref.seconds), dict(ref.details), dict(ref.residuals),
-                                contact_certificate(bodies, cons, ref.impulses.normal, ref.details), str(path), hit)
+                                contact_certificate(bodies, cons, ref.impulses.normal, ref.details), str(path), hit,
+                                reference_name(ref.details))
     return ExactStep(integrate(ref.bodies, FLOAT64, ip), facts)
+
+
+NOT_UNIQUE_NAME = "the fixed point reached from the kernel's start (exact reference; the limit is not certified unique)"
+
+
+def reference_name(details: dict[str, float]) -> str:
+    """What the error lines measure against: the exact limit, or, where the friction phase's non-symmetric problem
+    holds a component whose solution is not certified unique (``models/exact/damped_friction.py``), the
+    fixed point reached from the kernel's start, named so."""
+    return NOT_UNIQUE_NAME if not_certified_unique(details) else "exact reference"
 
 
 PRIMAL_POINT_KEY = "certified |u - u*|_M of the contact phase (sqrt(kg) m/s)"  # models/exact/large_island.py

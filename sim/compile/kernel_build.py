@@ -90,6 +90,9 @@ class KernelBuild:
     # attribute, the same simulation, but the parameter set of the design a run reports (models/kernel/delay_lines.py)
     delay_block_min_depth: int = 0
     friction_sign_bug: bool = False  # the friction pipe with the wrong sign (the scoreboard must catch it)
+    # SHARED_DATAPATH: one datapath per lane for both passes (rtl/pgs_lane_datapath.sv), else a contact and a friction
+    # pipe per lane (the streaming kernel drains the other pipe at a switch of kinds)
+    shared_datapath: bool = True
     compile_profile: str = "quick"  # a key of COMPILE_PROFILES
 
     def __post_init__(self) -> None:
@@ -117,8 +120,8 @@ class KernelBuild:
     def for_job(job: KernelJob, preset: DmaPreset, waves: bool = False, body_bits: int = 128) -> "KernelBuild":
         """The build that runs ``job``: the preset's constraint beat, the window plan's ring, contexts and lanes,
         body streams of ``body_bits``, the job's inverse-inertia and friction-coefficient words, its friction
-        record layout (the tangents derived on chip) and the soft contact pipe for a soft job
-        (``SolverParams.soft_keep``)."""
+        record layout (the tangents derived on chip), the soft contact pipe for a soft job
+        (``SolverParams.soft_keep``) and its lanes' datapath (``KernelJob.shared_datapath``)."""
         plan = job.record_window
         return KernelBuild(job.fmt, cons_bits=preset.stream_bits, body_in_bits=body_bits, body_out_bits=body_bits,
                            waves=waves, window=0 if plan is None else plan.depth,
@@ -127,7 +130,7 @@ class KernelBuild:
                            friction_words=job.friction_words, body_banks=job.body_banks,
                            tangents_on_chip=job.tangents_on_chip,
                            soft_contact=job.params.soft_keep is not None,
-                           delay_block_min_depth=job.delay_block_min_depth)
+                           delay_block_min_depth=job.delay_block_min_depth, shared_datapath=job.shared_datapath)
 
     @property
     def name(self) -> str:
@@ -143,6 +146,7 @@ class KernelBuild:
                 + ("_tb" if self.tangents_on_chip else "")
                 + ("_soft" if self.soft_contact else "")
                 + (f"_dl{self.delay_block_min_depth}" if self.delay_block_min_depth else "")
+                + ("" if self.shared_datapath else "_split")
                 + ("_friction_sign_bug" if self.friction_sign_bug else "")
                 + (f"_{self.compile_profile}" if self.compile_profile != "quick" else "")
                 + ("_waves" if self.waves else ""))
@@ -165,7 +169,8 @@ class KernelBuild:
                     {"BODY_BANKS": self.body_banks} if self.body_banks else {}) | (
                     {"TANGENTS_ON_CHIP": 1} if self.tangents_on_chip else {}) | (
                     {"SOFT_CONTACT": 1} if self.soft_contact else {}) | (
-                    {"DELAY_BLOCK_MIN_DEPTH": self.delay_block_min_depth} if self.delay_block_min_depth else {})
+                    {"DELAY_BLOCK_MIN_DEPTH": self.delay_block_min_depth} if self.delay_block_min_depth else {}) | (
+                    {} if self.shared_datapath else {"SHARED_DATAPATH": 0})
 
     @property
     def layout(self) -> sf.StreamLayout:
@@ -198,7 +203,8 @@ class KernelBuild:
 
     def sources(self) -> list[Path]:
         """The SystemVerilog files of the kernel (``rtl/pgs_kernel.f``), packages first; with ``friction_sign_bug``
-        the friction pipe is the variant ``rtl.gen`` generates into ``build/rtl_variants/friction_sign_bug/``."""
+        the friction pipe and the shared datapath are the variants ``rtl.gen`` generates into
+        ``build/rtl_variants/friction_sign_bug/``."""
         packages, modules = rtl_files(friction_sign_bug_sources(VARIANT_ROOT / "friction_sign_bug")
                                       if self.friction_sign_bug else None)
         return packages + modules
@@ -263,9 +269,15 @@ def build_kernel(kb: KernelBuild, train: Trainer | None = None) -> tuple[Path, f
     return _built[kb]
 
 
-def default_window(fmt: NumberFormat, cons_bits: int) -> int:
-    """Issue slots a manifold must wait before its bodies come back: the deeper pipe's latency in records
-    (latencies from the generated ``rtl/generated/pipe_latency.json``, through ``models.timing.kernel_shape``)."""
-    shape = KernelShape.of(fmt, cons_bits)
+def default_window(fmt: NumberFormat, cons_bits: int, shared_datapath: bool = True, window_kernel: bool = False) -> int:
+    """Issue slots a manifold must wait before its bodies come back, the hazard schedule's window: the deeper pipe's
+    latency in records (latencies from the generated ``rtl/generated/pipe_latency.json``, through
+    ``models.timing.kernel_shape``; the shared datapath's for both kinds, else each kind's pipe's).
+
+    ``window_kernel``: the schedule of a window kernel's step, whose banded orders keep the two pipes' window whatever
+    the datapath (a wider one widens the band and the passes' lag: on the thesis frame, fp32 one lane, the sweep order
+    at W = 181 takes 1.3935 cycles per manifold-pass against 1.2175 at the two pipes' 112; the window kernel had both
+    kinds at the contact pipe's latency already)."""
+    shape = KernelShape.of(fmt, cons_bits, shared_datapath=shared_datapath and not window_kernel)
     return max(math.ceil(shape.contact_latency / shape.contact_beats),
                math.ceil(shape.friction_latency / shape.friction_beats)) + 2

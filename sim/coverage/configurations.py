@@ -76,7 +76,7 @@ class Configuration:
         layout; on the soft build with the configuration's keep factors). A scene whose manifolds carry their own
         friction coefficient runs on a build without the coefficient word (MU_W = 0) with the kernel's one
         coefficient; a configuration with the word takes only such scenes."""
-        hazard = default_window(self.fmt, get_preset(self.beat_preset).stream_bits)
+        hazard = default_window(self.fmt, get_preset(self.beat_preset).stream_bits, window_kernel=self.record_window > 0)
         if self.soft_keep is not None:
             params = dataclasses.replace(params, soft_keep=self.soft_keep)
         job = KernelJob.from_frame(frame, self.fmt, params, schedule, hazard)

@@ -35,14 +35,6 @@ def one_lane(config: Configuration) -> bool:
     return config.lanes == 1
 
 
-def no_friction_word(config: Configuration) -> bool:
-    return config.friction_words == 0
-
-
-def rigid_pipe(config: Configuration) -> bool:
-    return config.soft_keep is None
-
-
 def no_bank_check(config: Configuration) -> bool:
     """Builds whose lanes never meet in the body banks: one lane, or the velocities as a multiport memory."""
     return config.lanes == 1 or config.build().body_banks == 0
@@ -60,21 +52,15 @@ WAIVERS: tuple[Waiver, ...] = (
     Waiver("rtl/pgs_control_s_axi.sv", "default: wstate <= WR_IDLE;", UNUSED_STATE + " (write channel, 3 states)"),
     Waiver("rtl/pgs_control_s_axi.sv", "default: rstate <= RD_IDLE;", UNUSED_STATE + " (read channel, 3 states)"),
     Waiver("rtl/pgs_sequencer.sv", "default: phase <= S_IDLE;", UNUSED_STATE + " (the sequencer's phases)"),
-    Waiver("rtl/pgs_sequencer.sv", "for (int k = 0; k < l; k++) begin",
+    Waiver("rtl/pgs_seq_issue.sv", "for (int k = 0; k < l; k++) begin",
            "the lane-collision loop over the lanes before lane l: with one lane (LANES = 1) it has no iteration "
            "(the window kernel's lanes run it: `lanes_collide` edit)", one_lane),
-    Waiver("rtl/pgs_sequencer.sv", "function automatic logic [BANK_W-1:0] bank_of(",
+    Waiver("rtl/pgs_seq_issue.sv", "function automatic logic [BANK_W-1:0] bank_of(",
            "a body's bank, called only by the lanes' bank-port check, which a build with one lane or without body "
            "banks (BODY_BANKS = 0) never runs (window-fp16-records-l2 runs it)", no_bank_check),
-    Waiver("rtl/pgs_sequencer.sv", "for (int k = 0; k < l; k++) begin   // the earlier issuing lanes' reads",
+    Waiver("rtl/pgs_seq_issue.sv", "for (int k = 0; k < l; k++) begin   // the earlier issuing lanes' reads",
            "the bank-port check's loop over the lanes before lane l: a build with one lane or without body banks "
            "(BODY_BANKS = 0) never runs it (window-fp16-records-l2 runs it)", no_bank_check),
-    Waiver("rtl/pgs_sequencer.sv", "for (int k = 0; k < MU_W; k++) f_in[",
-           "the friction coefficient word's copy into the friction pipe: with MU_W = 0 the loop has no iteration "
-           "(the MU_W = 1 build, stream-fp32-mu, runs it)", no_friction_word),
-    Waiver("rtl/pgs_sequencer.sv", "for (int k = 0; k < SOFT_WORDS; k++)",
-           "the keep factors' copy into the soft contact pipe: with SOFT_CONTACT = 0 the loop has no iteration "
-           "(the soft build, stream-fp32-soft, runs it)", rigid_pipe),
 )
 
 

@@ -17,7 +17,6 @@ kernel test module. The test modules run inside the simulator with the repositor
 from __future__ import annotations
 
 import os
-import random
 import re
 import shutil
 import time
@@ -30,6 +29,7 @@ from models.formats.number_format import parse_format
 from models.kernel.stream_format import KERNEL_INERTIA_WORDS
 from sim.drive.gtkwave_save import Group, kernel_groups, write_save_file
 from sim.compile.kernel_build import PUBLIC_VLT, TOP, WAVE_ARGS, KernelBuild
+from sim.seed import run_seed
 from sim.compile.verilator_build import MODEL_OPT_ARGS, QUICK_COMPILE_ARGS, REPO_ROOT, build_lock, ensure_verilator_env
 
 BUILD_ROOT = REPO_ROOT / "build" / "cocotb"
@@ -39,8 +39,8 @@ _MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include CFG_LDLIBS_THREADS=-pthread"
 
 
 def test_seed() -> int:
-    """The seed of this run: ``SEED`` from the environment, else a fresh random one (always printed)."""
-    seed = int(os.environ["SEED"]) if os.environ.get("SEED") else random.SystemRandom().randrange(1 << 31)
+    """The seed of this run (``sim.seed.run_seed``: ``SEED`` from the environment, else the one default), printed."""
+    seed = run_seed()
     print(f"SEED={seed} (rerun with SEED={seed} to reproduce)")
     return seed
 
@@ -138,7 +138,17 @@ def _test(top: str, test_module: str, build_dir: Path, waves: bool, seed: int | 
             print(f"waveform: {fst.relative_to(REPO_ROOT)}", flush=True)
             if save_file is not None:
                 print(f"view it:  gtkwave {save_file.relative_to(REPO_ROOT)}", flush=True)
+    ran, failed = cocotb_results(Path(results))
+    if ran == 0 or failed:  # the runner raises on a failure under pytest; a filter that matched nothing passes it
+        raise RuntimeError(f"cocotb {test_module}: {ran} tests ran, {failed} failed (testcase {testcase})")
     return Path(results)
+
+
+def cocotb_results(results_xml: Path) -> tuple[int, int]:
+    """(tests run, tests failed) of a cocotb results file."""
+    from cocotb_tools.check_results import get_results
+
+    return get_results(Path(results_xml))
 
 
 def kernel_cocotb_build(fmt_name: str, dma: str, friction_sign_bug: bool = False,

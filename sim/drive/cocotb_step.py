@@ -56,7 +56,7 @@ def expected_records(job: KernelJob, records: list[PassRecord]) -> dict[str, np.
 def write_case(path: Path, job: KernelJob, golden: Golden, preset: DmaPreset, label: str, seed: int,
                schedule: str, extra_meta: dict[str, Any] | None = None) -> dict[str, Any]:
     """Write the co-simulation case of ``job`` to ``path`` (``.npz``; read by ``cocotb_tests/test_kernel_cosim.py``);
-    returns its metadata (``extra_meta`` overrides: the stall probabilities, the predicted fp events)."""
+    returns its metadata (``extra_meta`` overrides: the stall probabilities)."""
     fmt = job.fmt
     layout = job.stream_layout(preset.stream_bits)
     cons = sf.pack_constraint_stream(fmt, job.cons, job.schedule, job.params, beat_bits=preset.stream_bits)
@@ -72,7 +72,7 @@ def write_case(path: Path, job: KernelJob, golden: Golden, preset: DmaPreset, la
             "passes": len(pass_sequence(job.params)), "dt": ip.dt,
             "gravity": list(ip.gravity), "damping": ip.damping, "options": int(job.params.interleaved),
             "body_out_record_bytes": layout.body_out_bytes, "bytes_per_manifold": layout.bytes_per_manifold(job.params),
-            "fp_events": None, "cycle_lower_bound": lower_bound(job, preset, prefetched=True),
+            "fp_events": golden.events.as_dict(), "cycle_lower_bound": lower_bound(job, preset, prefetched=True),
             "stream_bytes": {"body_in": int(body_in.size), "constraints": int(cons.data.size),
                              "body_out": job.bodies.num_bodies * layout.body_out_bytes}} | (extra_meta or {})
     np.savez(path, meta=np.array(json.dumps(meta)), **expected_records(job, golden.records), body_in=body_in,

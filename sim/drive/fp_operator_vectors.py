@@ -19,22 +19,21 @@ regression and the HLS operator stand-ins' test.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from models.formats.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat
+from sim.seed import run_seed
 
-DEFAULT_SEED = 20240601
 # the operator results of one vector, in the order the harness writes them
 OPS = ("add", "sub", "mul", "div", "sqrt", "min", "max", "flags")
 FORMATS = {"fp32": FP32, "fp16": FP16, "bf16": BF16}
 
 
 def seed_for(fmt_name: str) -> int:
-    """The vector seed of a format: ``SEED`` from the environment (default :data:`DEFAULT_SEED`) plus its index."""
-    base = int(os.environ.get("SEED", DEFAULT_SEED))
+    """The vector seed of a format: the run seed (``sim.seed.run_seed``) plus its index."""
+    base = run_seed()
     return base + {"fp32": 0, "fp16": 1, "bf16": 2}[fmt_name]
 
 

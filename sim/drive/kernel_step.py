@@ -17,12 +17,17 @@ import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import numpy as np
+
 from models.setup.constraints import BodyTable
-from models.golden.contact_solver import PassRecord, SolveResult, solve
+from models.formats.number_format import EVENT_NAMES, FpEvents
+from models.golden.contact_solver import FRICTION_PASS, PassRecord, SolveResult, solve
 from models.timing.platforms import DmaPreset
 from models.golden.integrator import integrate
 from models.kernel.kernel_job import KernelJob
 from models.kernel.register_map import ErrorCode, status_flag
+from models.setup.tangent_basis import plane_space_in
+from sim.drive.cocotb_run import waves_enabled
 from sim.drive.harness_run import ProgressSink, harness_cycle_limit, run_harness, training_run, write_inputs
 from sim.compile.kernel_build import KernelBuild, build_kernel
 from sim.compare.trace_bits import (Comparison, Trace, compare_body_out, compare_impulse_out, compare_trace_bits,
@@ -35,16 +40,34 @@ class Golden:
     solved: SolveResult  # velocities and accumulated impulses after the last pass
     final: BodyTable  # after the solve and the integration
     seconds: float
+    # the floating-point events of every operation the kernel computes in the step, counted by the golden model's own
+    # arithmetic (``NumberFormat.counting``): what the kernel's three event counters must hold
+    events: FpEvents = field(default_factory=FpEvents)
 
 
 def golden_step(job: KernelJob) -> Golden:
-    """The golden model's trace (every manifold-pass in retire order) and final body table."""
+    """The golden model's trace (every manifold-pass in retire order), final body table and floating-point events.
+
+    The events are the golden model's count of its own operations: every point of every contact manifold-pass, the
+    spin damping of every friction manifold-pass and the run constants of every body's integration, which the
+    golden model computes as the kernel's pipes do (``models/golden/OPERATION_ORDER.md``, "Events"). One operation
+    of the kernel is not in the golden model's step and is counted here: with the tangents derived on chip
+    (``KernelJob.tangents_on_chip``) the kernel's friction pipe derives them in every friction manifold-pass it issues,
+    where the golden model's job holds them derived once (``models.setup.tangent_basis.derive_tangents``)."""
     t0 = time.perf_counter()
+    ar = job.fmt.counting()
     records: list[PassRecord] = []
-    solved = solve(job.bodies, job.cons, job.schedule, job.fmt, job.params, trace=records.append, initial=job.initial,
-                   record_checks=job.record_checks())
-    final = integrate(solved.bodies, job.fmt, job.iparams)
-    return Golden(records, solved, final, time.perf_counter() - t0)
+
+    def derive_tangents_per_pass(kind: int, idx: np.ndarray, g: object, imp: object) -> None:
+        if kind == FRICTION_PASS:
+            plane_space_in(ar, job.cons.normal[idx])  # the values are the job's tangents; the events are counted
+
+    with np.errstate(all="ignore"):
+        solved = solve(job.bodies, job.cons, job.schedule, ar, job.params, trace=records.append,
+                       initial=job.initial, record_checks=job.record_checks(),
+                       inputs=derive_tangents_per_pass if job.tangents_on_chip else None)
+        final = integrate(solved.bodies, ar, job.iparams)
+    return Golden(records, solved, final, time.perf_counter() - t0, ar.events)
 
 
 @dataclass
@@ -72,10 +95,13 @@ class KernelResult:
         return self.comparison.first_mismatch is None and self.comparison.differing_bits == 0
 
 
-def check_counters(regs: dict[str, float], job: KernelJob, rejected: int, cmp: Comparison) -> None:
+def check_counters(regs: dict[str, float], job: KernelJob, rejected: int, cmp: Comparison,
+                   events: FpEvents | None = None) -> None:
     """The status register and the issue counters against the golden model's step: no error and every
     manifold-pass issued, or, where the golden model rejects ``rejected`` manifold-passes (non-finite impulse
-    words read back with the records), exactly those rejected and the non-finite flag (error 5) the first error."""
+    words read back with the records), exactly those rejected and the non-finite flag (error 5) the first error;
+    the three floating-point event counters equal to the golden model's ``events`` and the sticky ``fp_status``
+    flags set for exactly the kinds that occurred."""
     want_status = 0 if rejected == 0 else status_flag(ErrorCode.NON_FINITE) | (int(ErrorCode.NON_FINITE) << 8)
     if int(regs["status"]) != want_status:
         cmp.fail(f"kernel status register 0x{int(regs['status']):x}, expected 0x{want_status:x} "
@@ -83,6 +109,24 @@ def check_counters(regs: dict[str, float], job: KernelJob, rejected: int, cmp: C
     if int(regs["issued"]) != job.manifold_passes - rejected or int(regs["rejected"]) != rejected:
         cmp.fail(f"kernel issued {int(regs['issued'])} and rejected {int(regs['rejected'])} manifold-passes, "
                  f"expected {job.manifold_passes - rejected} and {rejected}")
+    if events is not None:
+        got = {name: int(regs[f"fp_{name}"]) for name in EVENT_NAMES}
+        if got != events.as_dict():
+            cmp.fail(f"kernel floating-point event counters {got}, the golden model counts {events.as_dict()}")
+        flags = sum(1 << k for k, name in enumerate(EVENT_NAMES) if got[name])
+        if int(regs["fp_status"]) != flags:
+            cmp.fail(f"kernel fp_status 0x{int(regs['fp_status']):x}, expected 0x{flags:x} for the events {got}")
+
+
+def _build_events(job: KernelJob, kb: KernelBuild, golden: Golden) -> FpEvents:
+    """The events the kernel build counts on ``job``: the golden model's, or, on a build with the full 3x3 inverse
+    inertia (6 words) running a diagonal job, those of the golden step with the job's diagonal written as the full
+    matrix (zeros off the diagonal), whose products the build computes."""
+    ii = job.bodies.inv_inertia
+    if kb.inertia_words != 6 or ii.shape[1] == 6:
+        return golden.events
+    full = np.concatenate([ii, np.zeros_like(ii)], axis=1)  # models.setup.inertia.FULL_ORDER: xx, yy, zz first
+    return golden_step(replace(job, bodies=replace(job.bodies, inv_inertia=full))).events
 
 
 def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int, gap_permille: int = 0,
@@ -95,7 +139,11 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
     whose mode needs more is refused when its record is packed). ``soft_contact``: run on the soft contact build
     even where the job is rigid (its options bit clear: the rigid update, e.g. a soft step's relax call).
     ``compile_profile``: how the harness's C++ is compiled (``sim.compile.kernel_build.COMPILE_PROFILES``; a
-    profile-guided one trains on this run's first cycles when it builds)."""
+    profile-guided one trains on this run's first cycles when it builds). ``waves``: the FST to write (the first
+    ``wave_cycles`` cycles); None writes ``run_dir/waves.fst`` where ``WAVES=1`` is set (a failed test run again with
+    its waveform), else none."""
+    if waves is None and waves_enabled():
+        waves = Path(run_dir) / "waves.fst"
     kb = replace(KernelBuild.for_job(job, preset, waves is not None, body_bits), compile_profile=compile_profile)
     if inertia_words is not None:
         kb = replace(kb, inertia_words=inertia_words)
@@ -116,5 +164,5 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
     compare_body_out(run_dir, job, kb, golden.final, cmp)
     if job.impulses_in_records:
         compare_impulse_out(run_dir, job, golden.records, cmp)
-    check_counters(regs, job, golden.solved.rejected_passes, cmp)
+    check_counters(regs, job, golden.solved.rejected_passes, cmp, _build_events(job, kb, golden))
     return KernelResult(regs, stream_bytes, cmp, build_s, golden.seconds, seed, trace if keep_trace else None)

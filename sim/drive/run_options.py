@@ -34,6 +34,9 @@ def add_kernel_args(ap: argparse.ArgumentParser) -> None:
                     help="window kernel: manifolds issued per cycle (a power of two; LANES build parameter)")
     ap.add_argument("--body-bits", type=int, default=128,
                     help="beat width of the body-in and body-out streams (128, 256 or 512)")
+    ap.add_argument("--shared-datapath", type=int, choices=(0, 1), default=1,
+                    help="1: one datapath per lane for the contact and the friction passes (SHARED_DATAPATH build "
+                         "parameter, every design's default); 0: a contact and a friction pipe per lane")
     ap.add_argument("--impulse-store", choices=("onchip", "records"), default="onchip",
                     help="accumulated impulses in the on-chip RAM, or travelling with the records through DDR "
                          "(IMPULSES_IN_RECORDS build parameter; the window kernel: each fetch of one pass kind, an "
@@ -46,12 +49,15 @@ def kernel_label(args: argparse.Namespace) -> str:
             + (f"-lanes{args.lanes}" if args.lanes > 1 else "")
             + (f"-body{args.body_bits}" if args.body_bits != 128 else "")
             + ("-impulses-in-records" if getattr(args, "impulse_store", "onchip") == "records" else "")
-            + ("-tangents-on-chip" if getattr(args, "tangents", "host") == "chip" else ""))
+            + ("-tangents-on-chip" if getattr(args, "tangents", "host") == "chip" else "")
+            + ("" if getattr(args, "shared_datapath", 1) else "-two-pipes"))
 
 
 def kernel_job(job: KernelJob, args: argparse.Namespace) -> KernelJob:
     """``job`` on the kernel the options name: the window kernel's plan with ``--record-window``, the impulses in
-    the records with ``--impulse-store records``, the tangent basis derived on chip with ``--tangents chip``."""
+    the records with ``--impulse-store records``, the tangent basis derived on chip with ``--tangents chip``, a
+    contact and a friction pipe per lane with ``--shared-datapath 0``."""
+    job = job.with_datapath(bool(getattr(args, "shared_datapath", 1)))
     if getattr(args, "tangents", "host") == "chip":
         if args.record_window:
             raise ValueError("--tangents chip is a configuration of the streaming kernel (no --record-window)")

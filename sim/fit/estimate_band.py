@@ -44,6 +44,7 @@ from typing import Any, Optional, Union
 from models.kernel.kernel_job import KernelJob
 from models.timing import platforms
 from sim.fit import resource_model as rm
+from sim.fit.timing_estimate import PIPE_UNITS
 
 
 @dataclass(frozen=True)
@@ -68,7 +69,6 @@ def logic_lut_band(data: Optional[dict[str, Any]] = None) -> BandFactor:
                       f"{yosys:g} (like for like); x{PESSIMISTIC}: replication, route-throughs, AXI DMA (assumed)")
 
 
-WHOLE_PIPE_UNITS = {"pgs_contact_pipe": "contact", "pgs_friction_pipe": "friction", "pgs_integrate_pipe": "integrate"}
 
 
 def whole_pipe_gap(cfg: rm.KernelConfig, data: dict[str, Any]) -> rm.Resources:
@@ -76,11 +76,9 @@ def whole_pipe_gap(cfg: rm.KernelConfig, data: dict[str, Any]) -> rm.Resources:
     synthesizes them), times the pipes of ``cfg``; pipes without a whole run count nothing."""
     gap = rm.Resources()
     units = data.get("units", {}).get(cfg.fmt.name, {})
-    contact = "pgs_contact_pipe_soft" if cfg.soft_contact else "pgs_contact_pipe"
-    friction = "pgs_friction_pipe_tb" if cfg.tangents_on_chip else "pgs_friction_pipe"
     plain = rm.KernelConfig(cfg.fmt, 0, 0)
-    for module, count in ((contact, cfg.lanes), (friction, cfg.lanes), ("pgs_integrate_pipe", 1)):
-        whole = units.get(WHOLE_PIPE_UNITS.get(module, ""))
+    for module, count in rm.lane_pipes(cfg) + [("pgs_integrate_pipe", 1)]:
+        whole = units.get(PIPE_UNITS.get(module, ""))
         if whole is None:
             continue
         parts, _ = rm.pipe_resources(module, plain, data)

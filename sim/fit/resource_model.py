@@ -4,11 +4,16 @@ What a configuration (:class:`KernelConfig`: number format, lanes, window ring, 
 scene sizes that set the memory depths, and the redesign levers below) costs is summed from parts, each with
 the source of its figure:
 
-* **operators**: the floating-point operators of every datapath (``rtl/gen`` graphs: contact and friction pipe
-  per lane, one integrate pipe), each operator's figure synthesized once per format and latency with Yosys
+* **operators**: the floating-point operators of every datapath (``rtl/gen`` graphs: per lane the shared datapath of
+  the contact and friction passes, ``rtl/gen/shared_datapath.py``, or with ``shared_datapath=False`` a contact and a
+  friction pipe; one integrate pipe), each operator's figure synthesized once per format and latency with Yosys
   (``synth_xilinx -family xcup``, hierarchy kept) and committed in ``sim/fit/generated/resource_figures.json``
   (``make resources`` regenerates it). Where a published Vitis HLS / Floating-Point Operator figure exists
   (:data:`VENDOR_OPERATORS`) it is shown beside Yosys's, and ``operator_source="vendor"`` uses it;
+* **multiplexers** of the shared datapath: an operand of a shared operator that the two kinds read from different
+  words, and an output word the two kinds leave from different words, a W-bit 2:1 multiplexer on the record's kind:
+  W LUTs each (computed: a LUT per bit, as Yosys maps a mux between two module boundaries; Vivado can pack two bits
+  of one select into a LUT6_2); the kind's shift register, a flip-flop per stage;
 * **delay lines** of the datapaths (``rtl/pgs_delay.sv``, from the generator's schedule): lines shorter than 4
   stages are registers; longer ones are circular buffers in distributed RAM (RAM32M16 / RAM64M8 in simple
   dual-port use: 8 LUTs hold 32 x 14 or 64 x 7 bit-reads, a tap is a read port), plus a register per tap; or,
@@ -54,7 +59,7 @@ from models.formats.number_format import KERNEL_FORMATS, NumberFormat
 from models.timing.kernel_shape import IMPULSE_FIFO_DEPTH
 from models.kernel.stream_format import CONTACT_WORDS, FRICTION_WORDS, BODY_IN_WORDS, IMPULSE_OUT_WORDS, WINDOW_WORDS
 from rtl.gen.dataflow import BOOL, OP_SIGNATURES
-from rtl.gen.kernel_graphs import GRAPHS, MODE_GRAPHS
+from rtl.gen.kernel_graphs import GRAPHS, MODE_GRAPHS, SHARED_GRAPHS, shared_module
 from rtl.gen.operator_timing import MINMAX_LATENCY, operator_latencies
 from models.timing import platforms
 from rtl.gen.operator_schedule import schedule
@@ -182,6 +187,8 @@ class PipeShape:
     latency: int
     operators: dict[str, int]  # RTL module -> instances
     lines: tuple[DelayLine, ...]
+    muxes: int = 0  # word-wide 2:1 multiplexers on the record's kind (a shared datapath's operands and outputs)
+    kind_stages: int = 0  # the kind's shift register (a shared datapath: a flip-flop per stage)
 
 
 TAG_BITS = 64  # the pass-through tag of every pipe (its TAG_W default)
@@ -189,7 +196,10 @@ TAG_BITS = 64  # the pass-through tag of every pipe (its TAG_W default)
 
 @lru_cache(maxsize=None)
 def pipe_shape(name: str, man_bits: int) -> PipeShape:
-    """Operators and delay lines of one generated datapath at ``man_bits`` (the emitted RTL's structure)."""
+    """Operators and delay lines of one generated datapath at ``man_bits`` (the emitted RTL's structure); a shared
+    datapath's also its multiplexers (:func:`shared_pipe_shape`)."""
+    if name in SHARED_GRAPHS:
+        return shared_pipe_shape(name, man_bits)
     graph = {**GRAPHS, **MODE_GRAPHS}[name]()
     sched = schedule(graph)
     ops: dict[str, int] = {}
@@ -208,6 +218,25 @@ def pipe_shape(name: str, man_bits: int) -> PipeShape:
     latency = sched.latency_for(man_bits)
     lines.append(DelayLine(TAG_BITS, latency, (latency,)))  # the tag line (the valid pipe counts with it)
     return PipeShape(name, latency, ops, tuple(lines))
+
+
+def shared_pipe_shape(name: str, man_bits: int) -> PipeShape:
+    """The shared datapath ``name`` (``rtl/gen/shared_datapath.py``) as the emitted module has it: its operator
+    instances (a shared operator once), a delay line per source with its distinct taps, the tag line, the operand and
+    output multiplexers and the kind's shift register."""
+    dp = SHARED_GRAPHS[name]()
+    stats = dp.stats(man_bits)
+    ops = {mod: stats[mod] for mod in OPERATOR_MODULES if stats.get(mod)}
+    lines = []
+    for src in dp.sources:
+        ready = src.ready.eval(man_bits)
+        taps = tuple(sorted({t.eval(man_bits) - ready for t in src.taps}))
+        if max(taps) > 0:
+            lines.append(DelayLine(1 if src.type == BOOL else 0, max(taps), taps))
+    latency = dp.latency_for(man_bits)
+    lines.append(DelayLine(TAG_BITS, latency, (latency,)))
+    return PipeShape(name, latency, ops, tuple(lines), muxes=stats["operand_muxes"] + stats["output_muxes"],
+                     kind_stages=latency)
 
 
 SHIFT_MAX_DEPTH = 3  # pgs_delay: lines shorter than RAM_MIN_DEPTH = 4 are shift registers
@@ -310,6 +339,7 @@ class KernelConfig:
     soft_contact: bool = False  # the soft contact pipe (pgs_contact_pipe_soft, SOFT_CONTACT: lam * keep per point)
     delay_block_min_depth: int = 0  # the pipes' delay lines at least this deep in block RAM (DELAY_BLOCK_MIN_DEPTH)
     body_bits: int = DEFAULT_BODY_BITS  # the body streams' beat (BODY_IN_W = BODY_OUT_W): the control's figure
+    shared_datapath: bool = True  # SHARED_DATAPATH: one datapath per lane for both passes, else two pipes per lane
 
     def __post_init__(self) -> None:
         if self.lanes < 1 or self.lanes & (self.lanes - 1):
@@ -331,6 +361,7 @@ class KernelConfig:
                   f"body words {self.body_words}", f"body ports {self.body_ports}"
                   + (f" ({self.body_banks} true dual-port banks)" if self.body_ports == "banked" and self.lanes == 1
                      else "")]
+        levers.append("one datapath per lane" if self.shared_datapath else "a contact and a friction pipe per lane")
         if self.tangents_on_chip:
             levers.append("tangent basis derived on chip")
         if self.soft_contact:
@@ -430,6 +461,9 @@ def pipe_resources(name: str, cfg: KernelConfig, data: dict[str, Any]) -> tuple[
         sources.append(f"{n} {mod} ({fig.source})")
     for line in shape.lines:
         total = total + delay_line_resources(line, cfg.fmt.width, cfg.delay_block_min_depth)
+    if shape.muxes or shape.kind_stages:
+        total = total + Resources(lut=shape.muxes * cfg.fmt.width, ff=shape.kind_stages)
+        sources.append(f"{shape.muxes} {cfg.fmt.width}-bit kind multiplexers (a LUT per bit, computed)")
     return total, sources
 
 
@@ -526,14 +560,22 @@ def converter_resources(conv: Converters, compute: NumberFormat) -> Resources:
     return Resources(lut=lut * conv.count, ff=ff * conv.count)
 
 
+def lane_pipes(cfg: KernelConfig) -> list[tuple[str, int]]:
+    """The datapath modules of the configuration's lanes and how many of each: the shared datapath of its options per
+    lane, or a contact and a friction pipe per lane."""
+    if cfg.shared_datapath:
+        return [(shared_module(soft=cfg.soft_contact, tangents_on_chip=cfg.tangents_on_chip), cfg.lanes)]
+    friction = "pgs_friction_pipe_tb" if cfg.tangents_on_chip else "pgs_friction_pipe"
+    contact = "pgs_contact_pipe_soft" if cfg.soft_contact else "pgs_contact_pipe"
+    return [(contact, cfg.lanes), (friction, cfg.lanes)]
+
+
 def estimate(cfg: KernelConfig, platform: Optional[platforms.Platform] = None,
              data: Optional[dict[str, Any]] = None) -> Estimate:
     """The configuration's resources, part by part (memories mapped for ``platform``: UltraRAM where it has)."""
     data = data or figures()
     parts = []
-    friction = "pgs_friction_pipe_tb" if cfg.tangents_on_chip else "pgs_friction_pipe"
-    contact = "pgs_contact_pipe_soft" if cfg.soft_contact else "pgs_contact_pipe"
-    for name, per in ((contact, cfg.lanes), (friction, cfg.lanes), ("pgs_integrate_pipe", 1)):
+    for name, per in lane_pipes(cfg) + [("pgs_integrate_pipe", 1)]:
         res, src = pipe_resources(name, cfg, data)
         parts.append(Part(f"{name} x {per}", res.scaled(per), "operators: " + ", ".join(src)
                           + "; delay lines: distributed RAM rule", lutram=per * pipe_lutram(name, cfg)))
@@ -627,7 +669,8 @@ def config_for_job(job: KernelJob, body_bits: int = DEFAULT_BODY_BITS) -> Kernel
                         window=plan.depth if plan else 0, impulses_resident=not job.impulses_in_records,
                         body_ports="banked" if job.body_banks else "lvt", body_banks=job.body_banks or RECORDS_BANKS,
                         tangents_on_chip=job.tangents_on_chip, soft_contact=job.params.soft_keep is not None,
-                        delay_block_min_depth=job.delay_block_min_depth, body_bits=body_bits)
+                        delay_block_min_depth=job.delay_block_min_depth, body_bits=body_bits,
+                        shared_datapath=job.shared_datapath)
 
 
 def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: int, lanes: int = 1,

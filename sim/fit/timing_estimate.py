@@ -34,6 +34,7 @@ from typing import Any, Optional, Union
 
 from models.kernel.kernel_job import KernelJob
 from models.timing import platforms
+from rtl.gen.kernel_graphs import shared_module
 from sim.fit import delays
 from sim.fit import resource_model as rm
 
@@ -44,7 +45,10 @@ TIMING_CODE = (Path(__file__).parent / "logic_depth.py", Path(__file__).parent /
 def code_digest() -> str:
     """A hash of the walk and the delay figures' source: the committed timing names the code that computed it."""
     return hashlib.sha256(b"".join(p.read_bytes() for p in TIMING_CODE)).hexdigest()[:12]
-PIPE_UNITS = {"pgs_contact_pipe": "contact", "pgs_friction_pipe": "friction", "pgs_integrate_pipe": "integrate"}
+SHARED_PIPE = shared_module()  # a lane's shared datapath of the default options
+# the pipes ``make resources`` synthesizes whole (module -> unit name): their netlists' depth, their Yosys figures
+PIPE_UNITS = {"pgs_contact_pipe": "contact", "pgs_friction_pipe": "friction", "pgs_integrate_pipe": "integrate",
+              SHARED_PIPE: "shared"}
 BLOCK_RAM_BOXES = {"pgs_impulse_ram", "pgs_body_ram"}
 
 
@@ -178,9 +182,7 @@ class NoTiming:
 def _units(cfg: rm.KernelConfig) -> tuple[dict[str, str], list[str]]:
     """The units a configuration builds (module -> unit name) and the parts without a unit of their own."""
     units, missing = {}, []
-    contact = "pgs_contact_pipe_soft" if cfg.soft_contact else "pgs_contact_pipe"
-    friction = "pgs_friction_pipe_tb" if cfg.tangents_on_chip else "pgs_friction_pipe"
-    for module in (contact, friction, "pgs_integrate_pipe"):
+    for module, _ in rm.lane_pipes(cfg) + [("pgs_integrate_pipe", 1)]:
         if module in PIPE_UNITS:
             units[module] = PIPE_UNITS[module]
         else:

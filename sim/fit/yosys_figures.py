@@ -12,9 +12,9 @@ What is synthesized, and what is computed:
 * every floating-point operator of ``rtl/fp`` alone (``fp_add``, ``fp_mul``, ``fp_div``, ``fp_sqrt``, ``fp_minmax``),
   once per format at its RTL latency: the per-operator figures of the resource model (``sim/fit/resource_model.py``),
   printed beside the published Vitis HLS figures where there are some;
-* the three datapaths ``pgs_contact_pipe``, ``pgs_friction_pipe``, ``pgs_integrate_pipe`` (each on its own), printed
-  beside the resource model's per-operator sum of the same pipe;
-* the control: ``pgs_kernel`` with those three and the two RAMs as black boxes (AXI4-Lite register file,
+* the datapaths ``pgs_contact_pipe``, ``pgs_friction_pipe``, ``pgs_integrate_pipe`` and a lane's shared datapath
+  ``pgs_shared_pipe`` (each on its own), printed beside the resource model's per-operator sum of the same pipe;
+* the control: ``pgs_kernel`` with the datapaths and the RAMs as black boxes (AXI4-Lite register file,
   sequencer, record assemblers, hazard CAM, output FIFO, counters), and the hazard CAM alone (the model scales
   it with the lanes' body ports);
 * the memories are **computed** from their sizes by the resource model (``sim.fit.resource_model.memories``), not
@@ -50,11 +50,12 @@ from models.formats.number_format import NumberFormat, parse_format
 from models.timing.platforms import get_platform
 from rtl.gen.file_list import kernel_sources
 from rtl.gen.operator_timing import MINMAX_LATENCY
+from rtl.gen.kernel_graphs import SHARED_GRAPHS
 from models.kernel.delay_lines import BLOCK_MIN_DEPTH, WINDOW_BLOCK_MIN_DEPTH
 from models.kernel.register_map import ARG_NAMES
 from sim.fit import delays, logic_depth
 from models.published.thesis import THESIS_BODIES, THESIS_FPGA, THESIS_MANIFOLDS
-from sim.fit.timing_estimate import TIMING_FILE, code_digest
+from sim.fit.timing_estimate import PIPE_UNITS, SHARED_PIPE, TIMING_FILE, code_digest
 from sim.fit.resource_model import (CAM_UNIT, FIGURES_FILE, WINDOW_CONTROL_UNIT, OPERATOR_MODULES, DelayLine,
                                     KernelConfig, Resources, control_unit, delay_line_resources, memories,
                                     figures, pipe_resources, rtl_latency, vendor_rows)
@@ -132,12 +133,15 @@ class Unit:
     format_params: bool = True  # the top takes EXP_BITS / MAN_BITS (the hazard CAM does not)
 
 
-CONTROL_BLACKBOXES = ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe", "pgs_body_ram", "pgs_impulse_ram",
-                      "pgs_ring_ram")
+# the datapaths (the two pipes, or a lane's shared datapath of any options) and the memories
+CONTROL_BLACKBOXES = ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe", *sorted(SHARED_GRAPHS),
+                      "pgs_body_ram", "pgs_impulse_ram", "pgs_ring_ram")
 UNITS = {
     "contact": Unit("contact", "pgs_contact_pipe"),
     "friction": Unit("friction", "pgs_friction_pipe"),
     "integrate": Unit("integrate", "pgs_integrate_pipe"),
+    # a lane's shared datapath of the default options (SHARED_DATAPATH = 1: rtl/gen/shared_datapath.py)
+    "shared": Unit("shared", SHARED_PIPE),
     "control": Unit("control", "pgs_kernel", CONTROL_BLACKBOXES, classic_abc=True),
     # the control with 256-bit body streams (BODY_BITS=256: wider body assemblers, fewer beats), an alternative
     # to the 128-bit one the totals count
@@ -163,6 +167,7 @@ DELAY_CHECKS = {block: Unit(f"delay_line_check_{'block' if block else 'lutram'}"
                 for block in (0, BLOCK_MIN_DEPTH)}
 CHECK_UNITS = (IMPULSE_CHECK, *DELAY_CHECKS.values())
 UNIT_LABELS = {"contact": "pgs_contact_pipe", "friction": "pgs_friction_pipe", "integrate": "pgs_integrate_pipe",
+               "shared": SHARED_PIPE,
                "control": "control (pgs_kernel less pipes and RAMs)",
                control_unit(256): "control with 256-bit body streams (not in the totals)", CAM_UNIT: "pgs_hazard_cam (inside the control)",
                WINDOW_CONTROL_UNIT: "control of the window kernel with the impulses in the records (not in the totals)"}
@@ -213,7 +218,10 @@ _GENVAR = re.compile(r"\bgenvar\s+(\w+)")  # slang keeps generate loop variables
 def yosys_script(unit: Unit, fmt: NumberFormat, sources: list[Path]) -> str:
     fmt_params = [("EXP_BITS", fmt.exp_bits), ("MAN_BITS", fmt.man_bits)] if unit.format_params else []
     params = [*fmt_params, *unit.params]
-    read = ["read_slang", "-j", "1", "--top", unit.top, *(f"-G {k}={v}" for k, v in params),
+    # the generated shared datapaths read some delay-line outputs above their declarations, which Verilator takes and
+    # slang refuses by default
+    read = ["read_slang", "-j", "1", "--allow-use-before-declare", "--top", unit.top,
+            *(f"-G {k}={v}" for k, v in params),
             *(f"--blackboxed-module {b}" for b in unit.blackboxes), *(p.name for p in sources)]
     lines = [" ".join(read)]
     by_name = {p.stem: p for p in sources}
@@ -278,7 +286,7 @@ def run_unit(unit: Unit, fmt: NumberFormat, sources: list[Path], build: Path = B
 
 
 # --- timing: the register-to-register depth of each run's netlist (sim/fit/logic_depth.py) ------------------------
-PIPE_TOPS = {"pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe"}
+PIPE_TOPS = set(PIPE_UNITS)
 # the delay-line thresholds the builds use (models/kernel/delay_lines.py): a pipe's depth is kept for each
 PIPE_THRESHOLDS = (0, BLOCK_MIN_DEPTH, WINDOW_BLOCK_MIN_DEPTH)
 
@@ -376,7 +384,7 @@ def report(fmt: NumberFormat, results: list[UnitResult]) -> list[str]:
     return ["| " + " | ".join(r) + " |" for r in rows]
 
 
-PIPE_UNITS = {"contact": "pgs_contact_pipe", "friction": "pgs_friction_pipe", "integrate": "pgs_integrate_pipe"}
+PIPE_UNIT_MODULES = {unit: module for module, unit in PIPE_UNITS.items()}  # unit name -> pipe module
 
 
 def figure_row(r: UnitResult) -> dict[str, Any]:
@@ -471,14 +479,14 @@ def sum_against_whole(done: list[UnitResult]) -> list[str]:
     operators of this run, else the committed ones: a run of the pipes alone, ``--no-operators``)."""
     lines = []
     for r in done:
-        if r.unit.name not in PIPE_UNITS:
+        if r.unit.name not in PIPE_UNIT_MODULES:
             continue
         committed = figures()["operators"].get(r.fmt.name, {}) if FIGURES_FILE.is_file() else {}
         ops = {**committed, **{u.unit.top: figure_row(u) for u in done
                                if u.fmt == r.fmt and u.unit.name.startswith("op_")}}
-        model, _ = pipe_resources(PIPE_UNITS[r.unit.name], KernelConfig(r.fmt, 0, 0), {"operators": {r.fmt.name: ops}})
+        model, _ = pipe_resources(PIPE_UNIT_MODULES[r.unit.name], KernelConfig(r.fmt, 0, 0), {"operators": {r.fmt.name: ops}})
         whole = r.resources.as_dict()
         diffs = ", ".join(f"{k} {m:,.0f} vs {whole[k]:,.0f} ({100 * (m - whole[k]) / whole[k]:+.1f}%)"
                           for k, m in model.as_dict().items() if whole[k])
-        lines.append(f"per-operator sum vs whole {PIPE_UNITS[r.unit.name]}, {r.fmt.name}: {diffs}")
+        lines.append(f"per-operator sum vs whole {PIPE_UNIT_MODULES[r.unit.name]}, {r.fmt.name}: {diffs}")
     return lines

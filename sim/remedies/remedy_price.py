@@ -49,7 +49,9 @@ from models.golden.contact_solver import (CONTACT_PASS, FRICTION_PASS, Impulses,
                                           schedule_levels, solve)
 from models.timing.cycle_model import predict_job
 from models.timing.platforms import get_preset
-from models.exact.reference import Budget, ExactReference, ExactReferenceError
+from models.exact.phases import Budget
+from models.exact.reference import ExactReference
+from models.exact.assembly import ExactReferenceError
 from models.exact.cache import cached_exact_reference
 from models.formats.frame import Frame
 from models.golden.integrator import IntegrationParams

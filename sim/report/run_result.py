@@ -10,6 +10,7 @@ from typing import Any, Optional, Union
 
 import numpy as np
 
+from models.golden.contact_solver import RATE_WINDOW
 from models.setup.constraints import BodyTable
 from models.sizing.onchip_budget import Budget
 from models.kernel.record_window import WindowPlan
@@ -20,6 +21,7 @@ from sim.fit.estimate_band import BandVerdict, band_basis
 from sim.fit.resource_model import FitVerdict, NoEstimate, fit_rows
 from sim.fit.timing_estimate import NoTiming, TimingVerdict, histogram_text
 
+VERDICT_SECTION = "verdict (what decides the exit status)"
 BITS_SECTION = "bit-exactness (RTL kernel against the golden model, same format)"
 MODEL_SECTION = "cycle model (models/timing/cycle_model.py)"
 ERROR_SECTION = "error (velocities after the step; dynamic bodies)"
@@ -136,6 +138,8 @@ class StepErrors:
     vs_pybullet: VelocityError
     thesis_within_1pct: Optional[float] = None  # the thesis's fp16 statistic (formats other than fp32)
     thesis_mean_relative: Optional[float] = None
+    # contact, friction: passes still needed at the rate of the last models.golden.contact_solver.RATE_WINDOW (0: converged)
+    converged_projected: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -169,6 +173,9 @@ class RunResult:
     fit: Optional[FitReport] = None  # sim.fit.resource_model.kernel_fit of the configuration run
     band: Optional[BandReport] = None  # sim.fit.estimate_band.kernel_band: the verdict with the estimate's band
     timing: Optional[TimingReport] = None  # sim.fit.timing_estimate.kernel_timing
+    # the cycle model against the RTL run: every retire cycle and the counters (deterministic streams) or its lower
+    # bound (random stalls); None: not compared (no kernel run, or a configuration the model does not take)
+    model_agrees: Optional[bool] = None
 
     @property
     def label(self) -> str:
@@ -176,8 +183,18 @@ class RunResult:
 
     @property
     def ok(self) -> bool:
-        """The kernel agreed with the golden model bit for bit (or did not run)."""
-        return self.bits is None or self.bits.ok
+        """The kernel agreed with the golden model bit for bit, its counters included (or did not run), and the
+        cycle model agreed with the kernel (or was not compared): what make sim's exit status 0 says."""
+        return (self.bits is None or self.bits.ok) and self.model_agrees is not False
+
+    def verdict(self) -> dict[str, str]:
+        """What decides the exit status, one line per check (the report's first section)."""
+        bits = ("not run" if self.bits is None else "agree (0 bits differ, counters equal)" if self.bits.ok
+                else f"DIFFER: {self.bits.first_mismatch or f'{self.bits.differing_bits} bits'}")
+        model = {None: "not compared", True: "agree", False: "DISAGREE (see the cycle model section)"}
+        return {"RTL kernel against the golden model": bits,
+                "cycle model against the RTL kernel": model[self.model_agrees],
+                "exit status": "0" if self.ok else "1 (a check above failed)"}
 
 
 @dataclass
@@ -216,11 +233,13 @@ def sections(result: AnyRunResult) -> Sections:
         if result.timing is not None:
             model[TIMING_SECTION] = timing_rows(result.timing)
         if result.errors is not None:
-            model[ERROR_SECTION] = {**_exact_rows(_exact_labels(result.error_source, ""), result.errors),
+            model[ERROR_SECTION] = {**_exact_rows(_exact_labels(result.error_source, "", _name(result.errors)),
+                                                  result.errors),
                                     **_reference_rows(result.errors)}
         return model
     s, k = result.scene, result.schedule
     out: Sections = {
+        VERDICT_SECTION: result.verdict(),
         "scene": {"scene": s.label, "bodies": s.bodies, "dynamic bodies": s.dynamic_bodies, "manifolds": s.manifolds,
                   "contact points": s.contact_points, "step": s.step, "seed": s.seed},
         "schedule": {"kind": k.kind, "window W (issue slots)": k.window, "slots per pass": k.slots,
@@ -368,11 +387,16 @@ def _exact_rows(labels: tuple[str, ...], x: Union[ExactErrors, NoExactReference]
     return out
 
 
-def _exact_labels(source: str, pgs: str) -> tuple[str, ...]:
-    """The rows' labels: ``source``, float64 with the same iterations, and (unless ``pgs`` is empty) the PGS iterate."""
-    return (f"{source} vs exact reference (rounding + iteration error)",
-            "float64 with these iterations vs exact reference (iteration error alone)") + (
-        (f"{pgs} vs exact reference",) if pgs else ())
+def _exact_labels(source: str, pgs: str, reference: str = "exact reference") -> tuple[str, ...]:
+    """The rows' labels: ``source``, float64 with the same iterations, and (unless ``pgs`` is empty) the PGS iterate,
+    each against ``reference`` (what the reference is: ``ExactReferenceFacts.name``)."""
+    return (f"{source} vs {reference} (rounding + iteration error)",
+            f"float64 with these iterations vs {reference} (iteration error alone)") + (
+        (f"{pgs} vs {reference}",) if pgs else ())
+
+
+def _name(x: Union[ExactErrors, NoExactReference]) -> str:
+    return x.reference.name if isinstance(x, ExactErrors) else "exact reference"
 
 
 def _reference_rows(x: Union[ExactErrors, NoExactReference]) -> dict[str, Any]:
@@ -389,15 +413,26 @@ def _reference_rows(x: Union[ExactErrors, NoExactReference]) -> dict[str, Any]:
     return out
 
 
+def _projection(passes: float) -> str:
+    if passes == 0:
+        return "converged"
+    if math.isnan(passes):
+        return f"unknown (stopped within {RATE_WINDOW} passes)"
+    return "no progress" if math.isinf(passes) else f"{passes:.2g}"
+
+
 def _errors(e: StepErrors) -> dict[str, Any]:
     pgs = f"float64 PGS after {e.converged_passes[0]} contact and {e.converged_passes[1]} friction passes"
     out: dict[str, Any] = {}
     out.update(_velocity_rows(f"{e.source} vs float64, same schedule and iterations (rounding error)",
                               e.vs_same_iterations))
-    out.update(_exact_rows(_exact_labels(e.source, pgs), e.vs_exact))
+    out.update(_exact_rows(_exact_labels(e.source, pgs, _name(e.vs_exact)), e.vs_exact))
     out.update(_velocity_rows(f"{e.source} vs {pgs}", e.vs_converged))
     out[f"{pgs}: last pass max velocity change"] = e.converged_last_change
     out[f"{pgs}: per-pass change below 1e-9 within budget"] = str(e.converged)
+    if not e.converged:
+        out[f"{pgs}: passes still needed at the last {RATE_WINDOW} passes' rate (contact, friction)"] = ", ".join(
+            _projection(p) for p in e.converged_projected)
     out.update(_reference_rows(e.vs_exact))
     out.update({f"residual after the {e.source}'s solve: {k}": v for k, v in e.residual_after_solve.items()})
     out.update({f"residual after the converged solve ({pgs}): {k}": v for k, v in e.residual_converged.items()})

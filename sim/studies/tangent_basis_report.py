@@ -46,9 +46,10 @@ def max_velocity_error(ours: BodyTable, ref: BodyTable, dyn: np.ndarray) -> tupl
 
 def issue_window(job: KernelJob, cons_bits: int) -> int:
     """The hazard schedule's window for the job's pipes and record beats (``sim.compile.kernel_build.default_window``'s
-    rule on the job's layout: the friction pipe that derives the tangents is deeper, its record one beat)."""
+    rule on the job's layout: with two pipes per lane the friction pipe that derives the tangents is deeper, its record
+    one beat; the shared datapath binds it within the contact latency)."""
     shape = KernelShape.of(job.fmt, cons_bits, impulses_in_records=job.impulses_in_records,
-                           tangents_on_chip=job.tangents_on_chip)
+                           tangents_on_chip=job.tangents_on_chip, shared_datapath=job.shared_datapath)
     return max(math.ceil(shape.contact_latency / shape.contact_beats),
                math.ceil(shape.friction_latency / shape.friction_beats)) + 2
 
@@ -61,7 +62,7 @@ def rows(job: KernelJob, bodies: BodyTable, cons: ConstraintSet, dma: str) -> li
     dyn = job.bodies.dynamic
     derived = job.tangents_derived()
     own = issue_window(derived, preset.stream_bits)
-    base = default_window(job.fmt, preset.stream_bits)  # make sim's window
+    base = default_window(job.fmt, preset.stream_bits, job.shared_datapath)  # make sim's window
     variants = [("in the record", job, base), ("derived on chip, the same schedule", derived, base),
                 ("derived on chip, its own schedule window", derived, own)]
     out, finals = [], []
@@ -91,6 +92,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--dma", default="zcu102", choices=list(platforms.PLATFORMS))
     ap.add_argument("--iters", type=int, default=4)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--shared-datapath", type=int, default=1, choices=(0, 1),
+                    help="1: one datapath per lane (the builds' default); 0: a contact and a friction pipe per lane")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     fmt, preset = KERNEL_FORMATS[args.format], get_preset(args.dma)
@@ -104,10 +107,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     schedule = np.arange(cons.num_manifolds)  # each row makes its own hazard schedule
     params = SolverParams(iterations=args.iters)
     ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
-    job = KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip).impulses_travelling()
+    job = KernelJob(fmt, bodies.rounded(fmt), cons.rounded(fmt), schedule, params, ip,
+                    shared_datapath=bool(args.shared_datapath)).impulses_travelling()
     table = rows(job, bodies, cons, args.dma)
     print(f"{label}: {frame.num_bodies:,} bodies, {frame.num_manifolds:,} manifolds, {fmt.name}, {args.iters} "
-          f"iterations, {args.dma}, impulses in the records, {job.body_banks} body banks\n")
+          f"iterations, {args.dma}, impulses in the records, {job.body_banks} body banks, "
+          + ("one datapath per lane" if job.shared_datapath else "a contact and a friction pipe per lane") + "\n")
     head = ["tangent basis", "schedule window", "friction record bits (beats)", "cycles", "cycles per manifold-pass", "fit",
             f"max |dv| / |dw| vs float64 ({args.iters} iterations)"]
     print("| " + " | ".join(head) + " |\n|" + "---|" * len(head))

@@ -5,6 +5,7 @@ and the published operator figures written beside Yosys's."""
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 
 import pytest
@@ -13,6 +14,7 @@ from models.formats.number_format import FP16, FP32
 from models.timing.platforms import USABLE_SHARE, get_platform
 from sim.fit import estimate_band as eb
 from sim.fit import resource_model as rm
+from sim.fit import timing_estimate as te
 
 ZCU102 = get_platform("zcu102")
 THESIS = (38881, 147485)
@@ -55,22 +57,23 @@ def test_band_ends_from_the_parts() -> None:
 
 def test_whole_pipe_runs_widen_the_band() -> None:
     """A whole pipe synthesized bigger than its per-operator sum raises the pessimistic end by the difference per pipe
-    of the configuration (two lanes: two contact and two friction pipes); smaller, it lowers the optimistic end."""
+    of the configuration (two lanes of two pipes: two contact and two friction pipes; two lanes of one shared
+    datapath: two shared datapaths); smaller, it lowers the optimistic end."""
     data = copy.deepcopy(rm.figures())
-    cfg = window(FP16, lanes=2, banks=16)
+    shared = window(FP16, lanes=2, banks=16)
+    two_pipes = dataclasses.replace(shared, shared_datapath=False)
     plain = rm.KernelConfig(FP16, 0, 0)
-    sums = {u: rm.pipe_resources(m, plain, data)[0] for m, u in eb.WHOLE_PIPE_UNITS.items()}
-    data["units"]["fp16"].update({
-        "contact": {**sums["contact"].as_dict(), "LUT": sums["contact"].lut + 1000},
-        "friction": {**sums["friction"].as_dict(), "LUT": sums["friction"].lut + 500},
-        "integrate": {**sums["integrate"].as_dict(), "LUT": sums["integrate"].lut - 300}})
-    gap = eb.whole_pipe_gap(cfg, data)
+    sums = {u: rm.pipe_resources(m, plain, data)[0] for m, u in te.PIPE_UNITS.items()}
+    extra = {"contact": 1000, "friction": 500, "integrate": -300, "shared": 700}
+    data["units"]["fp16"].update({u: {**sums[u].as_dict(), "LUT": sums[u].lut + d} for u, d in extra.items()})
+    gap = eb.whole_pipe_gap(two_pipes, data)
     assert gap.lut == pytest.approx(2 * 1000 + 2 * 500 - 300) and gap.ff == pytest.approx(0)
-    wide = eb.band_verdict(cfg, ZCU102, data).shares["LUT"]
-    for u in ("contact", "friction", "integrate"):
+    assert eb.whole_pipe_gap(shared, data).lut == pytest.approx(2 * 700 - 300)
+    wide = eb.band_verdict(two_pipes, ZCU102, data).shares["LUT"]
+    for u in extra:
         del data["units"]["fp16"][u]
-    assert eb.whole_pipe_gap(cfg, data) == rm.Resources()
-    plain_band = eb.band_verdict(cfg, ZCU102, data).shares["LUT"]
+    assert eb.whole_pipe_gap(two_pipes, data) == rm.Resources() == eb.whole_pipe_gap(shared, data)
+    plain_band = eb.band_verdict(two_pipes, ZCU102, data).shares["LUT"]
     assert wide.high - plain_band.high == pytest.approx(2700 * 1.10 / ZCU102.lut)
     assert wide.low == pytest.approx(plain_band.low)  # the gap points up: the optimistic end stays
 

@@ -6,6 +6,7 @@ import pytest
 
 from models import scenes
 from models.setup.constraints import body_table, setup_constraints
+from models.exact import phases
 from models.exact.reference import exact_reference
 from sim.compare.exact_error import PRIMAL_POINT_KEY, contact_certificate
 
@@ -13,7 +14,6 @@ from sim.compare.exact_error import PRIMAL_POINT_KEY, contact_certificate
 def test_the_certificate_line_is_the_one_used(monkeypatch: pytest.MonkeyPatch) -> None:
     """On the large-island path (forced on a small pile) the report states the primal-point bound the reference was
     accepted with, in m/s and rad/s, not the impulse-only one; on Clarabel's path, the impulse-only bound, named."""
-    from models.exact import reference as er
 
     frame = scenes.capture_frame("pile", nx=3, ny=2, nz=3, seed=2)
     bodies = body_table(frame)
@@ -22,7 +22,7 @@ def test_the_certificate_line_is_the_one_used(monkeypatch: pytest.MonkeyPatch) -
     plain = contact_certificate(bodies, cons, direct.impulses.normal, direct.details)
     assert plain["certificate"].startswith("impulse-only bound")
     assert plain["certified max |dv| (m/s)"] >= 0 and "certified max |dw| (rad/s)" in plain
-    monkeypatch.setattr(er, "DIRECT_ROWS_LIMIT", 0)
+    monkeypatch.setattr(phases, "DIRECT_ROWS_LIMIT", 0)
     large = exact_reference(bodies, cons)
     used = contact_certificate(bodies, cons, large.impulses.normal, large.details)
     assert used["certificate"].startswith("primal-point bound")

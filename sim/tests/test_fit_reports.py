@@ -23,8 +23,12 @@ def test_body_banks_report(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_tangent_basis_report(capsys: pytest.CaptureFixture[str]) -> None:
-    assert tangent_basis_report.main(["--scene", "stack"]) == 0
+    assert tangent_basis_report.main(["--scene", "stack", "--shared-datapath", "0"]) == 0
     rows = _rows(capsys.readouterr().out)
     assert rows[0][0] == "in the record" and rows[0][2] == "704 (2)" and rows[1][2] == rows[2][2] == "512 (1)"
     assert int(rows[2][1]) > int(rows[1][1]) == int(rows[0][1])  # the deeper friction pipe: a wider window
     assert rows[3][0].startswith("the tangents' rounding alone")
+    # one datapath per lane binds the deeper friction pass within the contact latency: every row the same window
+    assert tangent_basis_report.main(["--scene", "stack"]) == 0
+    shared = _rows(capsys.readouterr().out)
+    assert int(shared[2][1]) == int(shared[1][1]) == int(shared[0][1]) == 179 + 2  # 179 cycles, one-beat records

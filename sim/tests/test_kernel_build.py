@@ -74,14 +74,14 @@ def test_parameters_defines_and_args() -> None:
 
 
 def test_friction_sign_bug_swaps_the_friction_pipe() -> None:
-    """The bug build has the product parameters and sources except the friction pipe, a variant generated outside
-    rtl/."""
+    """The bug build has the product parameters and sources except the friction pipe and the shared datapath (the
+    friction pass of either lane form), variants generated outside rtl/."""
     good, bad = KernelBuild(FP32), KernelBuild(FP32, friction_sign_bug=True)
     assert bad.parameters == good.parameters
     swapped = [(g, b) for g, b in zip(good.sources(), bad.sources(), strict=True) if g != b]
-    assert len(swapped) == 1 and swapped[0][0].name == swapped[0][1].name == "pgs_friction_pipe.sv"
-    assert swapped[0][0].parent.name == "generated" and VARIANT_ROOT in swapped[0][1].parents
-    assert swapped[0][0].read_text() != swapped[0][1].read_text()
+    assert [(g.name, b.name) for g, b in swapped] == [("pgs_friction_pipe.sv",) * 2, ("pgs_shared_pipe.sv",) * 2]
+    for g, b in swapped:
+        assert g.parent.name == "generated" and VARIANT_ROOT in b.parents and g.read_text() != b.read_text()
 
 
 def test_cocotb_build_is_the_harness_build(monkeypatch: pytest.MonkeyPatch) -> None:

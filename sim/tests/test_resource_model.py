@@ -110,12 +110,15 @@ def test_the_records_design_keeps_its_long_delay_lines_in_block_ram() -> None:
     assert fp16.delay_block_min_depth == 0 and "DELAY_BLOCK_MIN_DEPTH" not in KernelBuild.for_job(
         fp16, get_preset("zcu102")).parameters
     lutram = rm.KernelConfig(FP32, *THESIS, impulses_resident=False, body_ports="banked", body_banks=2,
-                             tangents_on_chip=True)
+                             tangents_on_chip=True, shared_datapath=False)
     block = dataclasses.replace(lutram, delay_block_min_depth=BLOCK_MIN_DEPTH)
     v0, v1 = rm.fit(lutram, ZCU102), rm.fit(block, ZCU102)
     assert not v0.fits and v0.overflows == ["LUT"]
     assert v1.fits and v1.shares["LUT"] < v0.shares["LUT"] - 0.05 and v1.shares["BRAM36"] > v0.shares["BRAM36"]
     assert "delay lines from 65 deep in block RAM" in v1.config
+    # the shared datapath (one per lane, the build's default) fits with every line in LUT RAM too
+    shared = rm.fit(dataclasses.replace(lutram, shared_datapath=True), ZCU102)
+    assert shared.fits and shared.shares["LUT"] < v0.shares["LUT"] - 0.04
 
 
 def test_control_of_the_body_stream_width() -> None:
@@ -136,6 +139,38 @@ def test_pipe_shapes_follow_the_generator() -> None:
     assert contact.operators == {"fp_add": 152, "fp_mul": 178, "fp_minmax": 4} and contact.latency == 179
     integ16, integ32 = (rm.pipe_shape("pgs_integrate_pipe", f.man_bits) for f in (FP16, FP32))
     assert integ32.latency - integ16.latency == 4 * (FP32.man_bits - FP16.man_bits)
+
+
+def test_the_shared_datapath_counts_its_operators_once() -> None:
+    """A lane's shared datapath (rtl/gen/shared_datapath.py): its operators are the contact pipe's and the few the
+    friction pass needs of its own, its delay lines one per source, its multiplexers a LUT per bit; per lane it costs
+    well under the two pipes (LUT and DSP), at the contact pipe's latency. The thesis frame's fitting designs with it,
+    their lines in LUT RAM: below the two pipes' LUT and block RAM."""
+    from rtl.gen.kernel_graphs import SHARED_GRAPHS
+
+    shared = rm.pipe_shape("pgs_shared_pipe", FP32.man_bits)
+    contact, friction = (rm.pipe_shape(n, FP32.man_bits) for n in ("pgs_contact_pipe", "pgs_friction_pipe"))
+    stats = SHARED_GRAPHS["pgs_shared_pipe"]().stats(FP32.man_bits)
+    assert shared.latency == contact.latency == 179 and shared.kind_stages == 179
+    assert shared.operators == {m: stats[m] for m in ("fp_add", "fp_minmax", "fp_mul")}
+    assert all(contact.operators[m] <= n < contact.operators[m] + friction.operators[m]
+               for m, n in shared.operators.items())
+    assert shared.muxes == stats["operand_muxes"] + stats["output_muxes"] > 0
+    cfg = rm.KernelConfig(FP32, 0, 0)
+    one, _ = rm.pipe_resources("pgs_shared_pipe", cfg, rm.figures())
+    two = rm.pipe_resources("pgs_contact_pipe", cfg, rm.figures())[0] + rm.pipe_resources("pgs_friction_pipe", cfg,
+                                                                                         rm.figures())[0]
+    assert one.lut < 0.85 * two.lut and one.dsp < 0.7 * two.dsp
+    assert rm.lane_pipes(dataclasses.replace(cfg, lanes=1)) == [("pgs_shared_pipe", 1)]
+    assert rm.lane_pipes(dataclasses.replace(cfg, shared_datapath=False)) == [("pgs_contact_pipe", 1),
+                                                                              ("pgs_friction_pipe", 1)]
+    for fmt, lanes in ((FP32, 1), (FP16, 2)):
+        window = rm.KernelConfig(fmt, *THESIS, lanes=lanes, window=8192, impulses_resident=False, body_ports="banked",
+                                 body_banks=8 * lanes, body_bits=256)
+        old = rm.fit(dataclasses.replace(window, shared_datapath=False, delay_block_min_depth=129), ZCU102)
+        new = rm.fit(window, ZCU102)
+        assert new.fits and new.shares["LUT"] < old.shares["LUT"] - 0.05 and new.shares["BRAM36"] < old.shares["BRAM36"]
+        assert "one datapath per lane" in new.config
 
 
 def test_per_operator_sum_uses_the_committed_figures_and_vendor_where_published() -> None:
@@ -222,7 +257,10 @@ def test_tangent_basis_on_chip_in_the_estimate() -> None:
     assert cfg.tangents_on_chip and "tangent basis derived on chip" in cfg.describe()
     parts = {p.name: p.resources for p in rm.estimate(cfg).parts}
     base = {p.name: p.resources for p in rm.estimate(rm.config_for_job(pile_job())).parts}
-    assert parts["pgs_friction_pipe_tb x 1"].lut > base["pgs_friction_pipe x 1"].lut
+    assert parts["pgs_shared_pipe_tb x 1"].lut > base["pgs_shared_pipe x 1"].lut
+    two = {p.name: p.resources for p in rm.estimate(dataclasses.replace(cfg, shared_datapath=False)).parts}
+    two_base = {p.name: p.resources for p in rm.estimate(rm.config_for_job(pile_job().with_datapath(False))).parts}
+    assert two["pgs_friction_pipe_tb x 1"].lut > two_base["pgs_friction_pipe x 1"].lut
     assert KernelBuild.for_job(derived, get_preset("zcu102")).parameters["TANGENTS_ON_CHIP"] == 1
 
 
@@ -233,7 +271,8 @@ def test_soft_contact_pipe_adds_four_multipliers() -> None:
     assert soft.latency == rigid.latency
     assert {k: soft.operators[k] - rigid.operators.get(k, 0) for k in soft.operators} == {
         "fp_add": 0, "fp_minmax": 0, "fp_mul": 4}
-    base = rm.KernelConfig(FP32, 38_881, 147_485, impulses_resident=False, body_ports="banked", body_banks=2)
+    base = rm.KernelConfig(FP32, 38_881, 147_485, impulses_resident=False, body_ports="banked", body_banks=2,
+                           shared_datapath=False)
     a, b = rm.estimate(base).total, rm.estimate(dataclasses.replace(base, soft_contact=True)).total
     assert b.dsp - a.dsp == 8 and b.bram36 == a.bram36 and b.lut > a.lut
     assert "soft contact pipe" in dataclasses.replace(base, soft_contact=True).describe()

@@ -7,7 +7,8 @@ import dataclasses
 from typing import Union
 
 from models.exact.solution_error import SolutionError
-from sim.report.run_result import (BITS_SECTION, ERROR_SECTION, MODEL_SECTION, BitExactness, KernelSpeed,
+from sim.report.run_result import (BITS_SECTION, ERROR_SECTION, MODEL_SECTION, VERDICT_SECTION, BitExactness,
+                                   KernelSpeed,
                                    ModelRunResult, RunResult, SceneFacts, ScheduleFacts, StepErrors, ThesisComparison,
                                    VelocityError, sections)
 from sim.compare.exact_error import ExactErrors, ExactReferenceFacts, NoExactReference
@@ -41,9 +42,26 @@ def test_exit_status_follows_bit_exactness() -> None:
     assert ModelRunResult("pile-fp32-it4-s1-zcu102", "pile", 217, 900, "hazard", "zcu102").ok
 
 
+def test_exit_status_follows_the_cycle_model() -> None:
+    """make sim exits 1 when the cycle model disagrees with the RTL kernel, even with every bit equal, and says so in
+    the report's first section; a run the model was not compared with (None) does not fail for it."""
+    good = BitExactness(0, 0, 40, 11, "", 1)
+    for agrees, ok in ((True, True), (None, True), (False, False)):
+        result = _result(good)
+        result.model_agrees = agrees
+        assert result.ok is ok
+        verdict = sections(result)[VERDICT_SECTION]
+        assert verdict["exit status"] == ("0" if ok else "1 (a check above failed)")
+        assert verdict["cycle model against the RTL kernel"] == {True: "agree", None: "not compared",
+                                                                False: "DISAGREE (see the cycle model section)"}[agrees]
+    bad = _result(BitExactness(2, 1, 40, 11, "body 3", 1))
+    bad.model_agrees = True
+    assert sections(bad)[VERDICT_SECTION]["RTL kernel against the golden model"] == "DIFFER: body 3"
+
+
 def test_sections_in_order() -> None:
     rtl = sections(_result(BitExactness(0, 0, 40, 11, "", 1)))
-    assert list(rtl) == ["scene", "schedule", BITS_SECTION, "kernel speed (RTL in Verilator)",
+    assert list(rtl) == [VERDICT_SECTION, "scene", "schedule", BITS_SECTION, "kernel speed (RTL in Verilator)",
                          "roofline (lower bounds for this configuration)",
                          "error (velocities after the step; dynamic bodies)",
                          "comparison with the thesis and with software solvers", "wall time of this run (s)"]
@@ -54,6 +72,7 @@ def test_sections_in_order() -> None:
     assert "thesis statistic: average relative position difference from fp32" not in err
     plain = sections(_result(None))
     assert BITS_SECTION not in plain and "kernel speed (RTL in Verilator)" not in plain
+    assert plain[VERDICT_SECTION]["RTL kernel against the golden model"] == "not run"
     model = sections(ModelRunResult("p", "pile", 217, 900, "hazard", "zcu102", {"model: kernel cycles": 5}))
     assert list(model) == ["scene", MODEL_SECTION] and model["scene"]["bodies"] == 217
 
@@ -131,3 +150,36 @@ def test_compute_floor_counts_the_lanes() -> None:
     assert compute_floor_name(two) == "compute (II=1, 2 lanes)" and compute_floor_name(one) == "compute (II=1, 1 lane)"  # type: ignore
     odd = SimpleNamespace(manifold_passes=7, bodies=SimpleNamespace(num_bodies=0), record_window=SimpleNamespace(lanes=2))
     assert compute_floor(odd) == 4  # type: ignore[arg-type]
+
+
+def test_a_reference_not_certified_unique_is_named_on_every_error_line() -> None:
+    """Where the friction phase's non-symmetric problem holds a component whose solution is not certified unique,
+    the error lines measure against "the fixed point reached from the kernel's start", named so, not "exact
+    reference"; sim.compare.exact_error.reference_name decides from the reference's details."""
+    import dataclasses
+
+    from models.exact.damped_friction import DAMPED_KEY, NOT_UNIQUE
+    from sim.compare.exact_error import NOT_UNIQUE_NAME, reference_name
+
+    assert reference_name({f"{DAMPED_KEY} {NOT_UNIQUE}": 2.0}) == NOT_UNIQUE_NAME
+    assert reference_name({f"{DAMPED_KEY} {NOT_UNIQUE}": 0.0}) == "exact reference" == reference_name({})
+    named = dataclasses.replace(EXACT, reference=dataclasses.replace(FACTS, name=NOT_UNIQUE_NAME))
+    err = sections(_result(None, named))[ERROR_SECTION]
+    assert err[f"RTL kernel vs {NOT_UNIQUE_NAME} (rounding + iteration error): max |dv| (m/s)"] == 4e-3
+    assert err[f"float64 PGS after 10 contact and 4 friction passes vs {NOT_UNIQUE_NAME}: max |dv| (m/s)"] == 8e-3
+    assert not any(k.startswith("RTL kernel vs exact reference") for k in err)
+    model = sections(ModelRunResult("p", "pile", 217, 900, "hazard", "zcu102", {}, errors=named,
+                                    error_source="fp32 golden model"))[ERROR_SECTION]
+    assert f"fp32 golden model vs {NOT_UNIQUE_NAME} (rounding + iteration error): max |dv| (m/s)" in model
+
+
+def test_an_unconverged_pgs_line_says_how_many_passes_it_would_still_need() -> None:
+    import dataclasses
+
+    result = _result(None)
+    result.errors = dataclasses.replace(result.errors, converged=False, converged_projected=(0.0, 2.5e5))
+    err = sections(result)[ERROR_SECTION]
+    key = ("float64 PGS after 10 contact and 4 friction passes: passes still needed at the last 250 passes' rate "
+           "(contact, friction)")
+    assert err[key] == "converged, 2.5e+05"
+    assert key not in sections(_result(None))[ERROR_SECTION]  # converged: no such line

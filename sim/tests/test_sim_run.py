@@ -15,6 +15,15 @@ import pytest
 
 from models import scenes
 from models.formats.frame import load, save
+from models.formats.number_format import FLOAT64, FP32
+from models.golden.contact_solver import SolverParams, solve
+from models.golden.integrator import IntegrationParams, integrate
+from models.kernel.kernel_job import KernelJob
+from models.order.manifold_schedule import make_schedule
+from models.setup.constraints import body_table, setup_constraints
+from models.timing.platforms import get_preset
+from sim.compile.kernel_build import default_window
+from sim.drive.kernel_step import golden_step
 from sim import run as sim_run
 from sim.report import pareto_front
 from sim import sweep as sim_sweep
@@ -44,10 +53,29 @@ def test_sim_run_reports(tmp_path: Path) -> None:
     assert speed["co-simulation speed (simulated cycles per wall second)"] > 0
     roof = report["roofline (lower bounds for this configuration)"]
     assert roof["measured cycles"] >= max(v for k, v in roof.items() if k.endswith("floor (cycles)"))
+    verdict = report["verdict (what decides the exit status)"]
+    assert verdict == {"RTL kernel against the golden model": "agree (0 bits differ, counters equal)",
+                       "cycle model against the RTL kernel": "agree", "exit status": "0"}
+    # the errors, recomputed here: the kernel's step (= the golden model's, bit for bit) against float64 with the
+    # same schedule and iterations; against the exact reference within that rounding error of float64's own error
     err = report["error (velocities after the step; dynamic bodies)"]
-    assert any(k.startswith("RTL kernel vs float64") for k in err)
-    assert any("residual after the converged solve" in k for k in err)
-    assert any(k.startswith("RTL kernel vs exact reference") for k in err)
+    frame, _ = scenes.load_scene("stack", "", 1)
+    bodies, cons = body_table(frame), setup_constraints(frame, body_table(frame))
+    schedule = make_schedule("hazard", cons, bodies.dynamic, default_window(FP32, get_preset("zcu102").stream_bits))
+    ip = IntegrationParams(dt=frame.dt, gravity=tuple(frame.gravity))
+    ours = golden_step(KernelJob(FP32, bodies.rounded(FP32), cons.rounded(FP32), schedule, SolverParams(2), ip)).final
+    ref = integrate(solve(bodies, cons, schedule, FLOAT64, SolverParams(2)).bodies, FLOAT64, ip)
+    dv = ours.linear_velocity[bodies.dynamic] - ref.linear_velocity[bodies.dynamic]
+    label = "RTL kernel vs float64, same schedule and iterations (rounding error)"
+    assert err[f"{label}: max |dv| (m/s)"] == np.abs(dv).max()  # the largest component, exactly
+    assert 0 < np.abs(dv).max() < 1e-5  # fp32 against float64 after 2 iterations on the 10-cube stack
+    # the exact reference's errors are per-body norms: the two differ by at most the largest rounding norm
+    exact = err["RTL kernel vs exact reference (rounding + iteration error): max |dv| (m/s)"]
+    iteration = err["float64 with these iterations vs exact reference (iteration error alone): max |dv| (m/s)"]
+    rounding = np.linalg.norm(dv, axis=1).max()
+    assert iteration > 0.01 and abs(exact - iteration) <= rounding * (1 + 1e-9)  # 2 iterations are far from the limit
+    residuals = [v for k, v in err.items() if k.startswith("residual after the RTL kernel's solve")]
+    assert residuals and all(np.isfinite(v) and v >= 0 for v in residuals)
     assert "thesis ZCU102 fp32 (127,000 manifolds, 275 MHz)" in report["comparison with the thesis and with software solvers"]
     assert (next(out.glob("*/report.md"))).read_text().startswith("# pgs-cosim run")
     assert [p.name for p in out.iterdir()] == [next(out.glob("*/report.json")).parent.name]  # nothing staged left

@@ -34,6 +34,31 @@ def test_hard_case_quick_subset(case: str, fmt, iters: int, failing: tuple[str, 
     assert v.failed_checks == list(failing), v.failures
 
 
+# docs/stability.md's verdicts on the two hardest cases, each decided within 10 measured steps after the case's 30
+# warm-up steps (the full runs measure 120): shock propagation passes in fp32 where the cold scheme and the warm
+# start fail on every check at rest; fp16 misses on speed (the positions do not move: v h is below half an fp16 ulp
+# of them). stack20 in fp16 misses too (speed, and 3.1 cm deep), measured, not run here: 90 s more.
+AT_REST_FAILURES = ["max_penetration", "max_excursion", "max_path", "max_speed"]
+HARD_CASE_VERDICTS = [
+    ("mass_ratio", FP32, "cold", AT_REST_FAILURES), ("mass_ratio", FP32, "warm", AT_REST_FAILURES),
+    ("mass_ratio", FP32, "warm+sub4+shocklrh", []), ("mass_ratio", FP16, "warm+sub4+shocklrh", ["max_speed"]),
+    ("stack20", FP32, "cold", AT_REST_FAILURES), ("stack20", FP32, "warm", AT_REST_FAILURES),
+    ("stack20", FP32, "warm+sub4+shocklrh", []),
+]
+
+
+@pytest.mark.parametrize("case,fmt,remedy,failing", HARD_CASE_VERDICTS,
+                         ids=[f"{c}-{f.name}-{r}" for c, f, r, _ in HARD_CASE_VERDICTS])
+def test_hard_case_verdicts_of_the_remedies(case: str, fmt, remedy: str, failing: list[str]) -> None:
+    """The judge's limits (``models.closed_loop.hard_cases.LIMITS``) on 10 measured steps at 4 iterations (8
+    manifold-passes) per step: the checks each remedy fails, exactly."""
+    v = judge(CASES[case], *CASES[case].run(fmt, 4, steps=10, remedy=REMEDIES[remedy]), iterations=4)
+    print(case, fmt.name, remedy, v.failures,
+          {k: v.figures[k] for k in ("max penetration (m)", "max speed net of g dt (m/s)")})
+    assert v.figures["NaN/Inf values"] == 0 and v.figures["passes per step"] == 8
+    assert v.failed_checks == failing, v.failures
+
+
 def test_closed_loop_on_the_rtl_kernel(tmp_path: Path) -> None:
     """Five closed-loop steps of the sliding box with the RTL kernel doing the dynamics: every step bit-exact with
     the golden model (the stepper fails otherwise), and the final state equal to the golden loop's."""

@@ -56,8 +56,9 @@ def test_two_designs_share_the_solve_and_differ_in_cycles(frame_file: Path, tmp_
                 assert onchip[col] == records[col], col  # the same solve, bit for bit
         assert isinstance(onchip["max_dv_vs_exact"], float)
         assert "impulses in records" in sweep_plot.series(records) and sweep_plot.series(onchip) == "fp16"
-        for row in (onchip, records):
-            assert row["fits"] in (True, False) and ("FITS" in row["fit"] or "DOES NOT FIT" in row["fit"])
+        for row in (onchip, records):  # the small pile's memories: both streaming designs fit, by the same figures
+            assert row["fits"] is True
+            assert row["fit"] == "FITS the zcu102 (LUT 41.8%, FF 15.3%, DSP 13.8%, BRAM36 2.2%)", row["fit"]
     job = KernelJob.from_frame(scenes.load_or_capture("pile", **KERNEL_TEST_SCENES["pile"]), FP16, SolverParams(3),
                                window=default_window(FP16, get_preset("zcu102").stream_bits))
     preset = get_preset("zcu102")

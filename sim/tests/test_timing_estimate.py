@@ -4,6 +4,7 @@ design's latency is quoted at; and the committed timing figures against the code
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -39,7 +40,8 @@ def data(control: dict[str, Any], pipes: float = 2.0) -> dict[str, Any]:
     return {"code": te.code_digest(), "figures": F.digest(), "units": {"fp32": units}}
 
 
-CFG = rm.KernelConfig(FP32, 100, 100)  # the streaming kernel: its control unit is "control"
+# the streaming kernel with a contact and a friction pipe per lane: its control unit is "control"
+CFG = rm.KernelConfig(FP32, 100, 100, shared_datapath=False)
 
 
 def test_meets_and_fails_the_clock() -> None:
@@ -69,6 +71,22 @@ def test_pipe_boundary_joined() -> None:
     assert v.worst is into and v.meets
 
 
+def test_shared_datapath_takes_the_place_of_both_pipes() -> None:
+    """One datapath per lane (the default): its own unit's paths, neither pipe's; without a run of it, named missing."""
+    shared = dataclasses.replace(CFG, shared_datapath=True)
+    d = data(unit(1.0))
+    d["units"]["fp32"]["contact"]["0"] = unit(3.4, 12)  # a two-pipe build's worst: not the shared build's
+    d["units"]["fp32"]["shared"] = {"0": unit(2.6, 9)}
+    v = te.timing(shared, ZCU102, d)
+    assert isinstance(v, te.TimingVerdict) and v.worst.where == "shared" and v.worst.delay_ns == 2.6
+    assert not any(p.where in ("contact", "friction") for p in v.paths) and not v.missing
+    assert te.timing(CFG, ZCU102, d).worst.where == "contact"  # type: ignore[union-attr]
+    del d["units"]["fp32"]["shared"]
+    gone = te.timing(shared, ZCU102, d)
+    assert isinstance(gone, te.TimingVerdict) and gone.missing == ["shared in fp32 (`make resources FORMATS=fp32` "
+                                                                   "adds it)"]
+
+
 def test_ring_heads_read_through_the_lut_ram_tree() -> None:
     cfg = rm.KernelConfig(FP32, 100, 100, window=8192, impulses_resident=False, body_ports="banked")
     control = unit(1.0, 2, boxes={"u_seq.u_window.u_heads": "pgs_ring_ram", "u_seq.u_window.u_records": "pgs_ring_ram"},
@@ -93,8 +111,8 @@ def test_ring_heads_read_through_the_lut_ram_tree() -> None:
 def test_delay_line_threshold_picks_the_pipe_analysis() -> None:
     d = data(unit(1.0))
     d["units"]["fp32"]["contact"]["129"] = unit(3.3, 9)
-    lutram = te.timing(rm.KernelConfig(FP32, 100, 100), ZCU102, d)
-    block = te.timing(rm.KernelConfig(FP32, 100, 100, delay_block_min_depth=129), ZCU102, d)
+    lutram = te.timing(CFG, ZCU102, d)
+    block = te.timing(dataclasses.replace(CFG, delay_block_min_depth=129), ZCU102, d)
     assert isinstance(lutram, te.TimingVerdict) and isinstance(block, te.TimingVerdict)
     assert lutram.worst.delay_ns == 2.0 and block.worst.delay_ns == 3.3
 
@@ -105,7 +123,7 @@ def test_missing_units_and_stale_figures() -> None:
     v = te.timing(CFG, ZCU102, d)
     assert isinstance(v, te.TimingVerdict) and any(m.startswith("friction in fp32") for m in v.missing)
     assert "not covered: friction in fp32" in v.headline()
-    tb = te.timing(rm.KernelConfig(FP32, 100, 100, tangents_on_chip=True), ZCU102, data(unit(1.0)))
+    tb = te.timing(dataclasses.replace(CFG, tangents_on_chip=True), ZCU102, data(unit(1.0)))
     assert isinstance(tb, te.TimingVerdict) and any("pgs_friction_pipe_tb" in m for m in tb.missing)
     stale = data(unit(1.0))
     stale["figures"] = "0" * 12
@@ -156,7 +174,8 @@ def test_make_sim_sections_print_the_band_and_the_timing() -> None:
     rows = sections(result)
     fit = rows[FIT_SECTION]
     verdict = next(v for k, v in fit.items() if k.startswith("verdict at the band's pessimistic end"))
-    assert verdict.startswith(("FITS", "DOES NOT FIT")) and "LUT" in verdict
+    band = eb.band_verdict(cfg, ZCU102)
+    assert isinstance(band, eb.BandVerdict) and verdict == band.headline() and band.binding.resource in verdict
     assert "band" in fit["LUT, FF, DSP, BRAM36, URAM (share of the device: Yosys estimate, band, vendor-anchored)"]
     assert fit["margin per resource (points of the device at the pessimistic end)"].startswith("LUT ")
     timing = rows[TIMING_SECTION]

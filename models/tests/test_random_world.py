@@ -1,0 +1,103 @@
+"""Random worlds from pybullet_data (models/scenes/random_world.py): what a seed builds, that SCENE_ARGS="seed=N"
+reaches it, and the exact reference on ten of them that no test was tuned to (seeds from the SEED environment
+variable, printed): every one has a reference, with natural residuals at most 1e-9 m/s and one pass of each kind
+moving nothing."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from models import scenes
+from models.setup.constraints import body_table, setup_constraints
+from models.golden.contact_solver import CONTACT_PASS, FRICTION_PASS, Impulses
+from models.exact.assembly import ExactReferenceError
+from models.exact.reference import exact_reference
+from models.scenes import frame_cache, random_world
+from models.order.manifold_schedule import make_schedule
+from models.exact.residual import pass_change
+
+WORLDS = 10
+# one pass from the reference moves a velocity by at most this (m/s, rad/s): a row's residual r (m/s) moves its
+# bodies' w by up to |I^-1 c| / (c.I^-1 c) r >= r / |c| (c the lever arm), 100 r for the centimetre arms of these
+# small bodies (measured: 2.2e-9 rad/s from a residual of 1.8e-10 m/s)
+MOVE_TOLERANCE = 1e-8
+RESIDUALS = ("contact phase: normal LCP |min(lam K, e)| max (m/s)", "friction phase: box residual max (m/s)",
+             "friction phase: spin |n.w| max (rad/s)")
+
+
+def test_a_seed_plans_its_world() -> None:
+    """The same seed plans the same world; bodies between 50 and 500 unless given; both up axes and both grounds
+    over a few seeds; every group kind appears."""
+    plans = [random_world.plan(s) for s in range(12)]
+    assert plans[3] == random_world.plan(3)
+    assert all(50 <= p.bodies - 1 <= 500 for p in plans)
+    assert {p.up for p in plans} == {"y", "z"} and {p.ground for p in plans} == {"plane", "box"}
+    assert {k for p in plans for k, _ in p.groups} == set(random_world.GROUP_KINDS)
+    assert random_world.plan(3, bodies=77).bodies == 78
+    assert random_world.parse_seeds("0-2,7") == [0, 1, 2, 7]
+    with pytest.raises(ValueError, match="seeds must be"):
+        random_world.parse_seeds("x")
+
+
+def test_scene_args_seed_reaches_the_world(monkeypatch: pytest.MonkeyPatch) -> None:
+    """SCENE_ARGS="seed=N" gives a world file its own seed parameter (the capture functions take a seed of their
+    own: before, the two collided)."""
+    seen: dict = {}
+    monkeypatch.setattr(frame_cache, "load_or_capture", lambda scene, **kw: seen.update(kw, scene=scene))
+    _, label = scenes.load_scene("random_world", "seed=7 bodies=60", seed=1)
+    assert seen["world_seed"] == "7" and seen["bodies"] == "60" and seen["seed"] == 1
+    assert label == "random_world-seed7-bodies60"
+    scenes.load_scene("duck_lego_pile", "seed=3")
+    assert seen["world_seed"] == "3"
+    seen.clear()
+    scenes.load_scene("pile", "nx=2")  # a built-in scene's seed stays the capture's
+    assert "world_seed" not in seen and seen["nx"] == "2"
+
+
+def test_a_world_is_built_as_planned_in_either_up_axis() -> None:
+    """A z-up and a y-up world: the bodies planned, the world's gravity along its up axis, bodies resting on the
+    ground and on each other at the capture step."""
+    ups = {random_world.plan(s).up: s for s in range(10)}
+    for up, seed in ups.items():
+        frame = scenes.capture_frame("random_world", world_seed=seed, bodies=50)
+        assert frame.num_bodies == 51 and frame.num_manifolds >= 20
+        g = np.asarray(frame.gravity)
+        assert np.allclose(g, [0, 0, -9.8] if up == "z" else [0, -9.8, 0]), (up, g)
+        assert body_table(frame).inv_inertia.shape[1] == 6  # turned non-cube bodies: Bullet 2's full 3x3 inverse inertia
+
+
+def _seeds() -> list[int]:
+    base = int(os.environ.get("SEED", "1"))
+    return list(range(WORLDS * base, WORLDS * base + WORLDS))
+
+
+def test_exact_reference_on_random_worlds(tmp_path: Path) -> None:
+    """Ten random worlds of 50 to 150 bodies (seeds 10 SEED .. 10 SEED + 9): each has an exact reference, whose
+    natural residuals are at most 1e-9 m/s and from which one contact pass and one friction pass move no velocity by
+    more than MOVE_TOLERANCE. Any "no exact reference" fails the test, naming the seed."""
+    failures = []
+    for seed in _seeds():
+        bodies_wanted = 50 + (seed * 7919) % 101
+        frame = scenes.load_or_capture("random_world", cache_dir=tmp_path, world_seed=seed, bodies=bodies_wanted)
+        bodies = body_table(frame)
+        cons = setup_constraints(frame, bodies)
+        try:
+            ref = exact_reference(bodies, cons)
+        except ExactReferenceError as exc:
+            print(f"random world seed {seed}: no exact reference ({exc})")
+            failures.append(seed)
+            continue
+        schedule = make_schedule("hazard", cons, bodies.dynamic, window=8)
+        worst = max(ref.residuals[k] for k in RESIDUALS)
+        no_friction = Impulses(ref.impulses.normal, np.zeros_like(ref.impulses.friction))
+        moved = max(pass_change(ref.contact_bodies, no_friction, cons, schedule, CONTACT_PASS),
+                    pass_change(ref.bodies, ref.impulses, cons, schedule, FRICTION_PASS))
+        print(f"random world seed {seed}: {frame.num_bodies} bodies, {frame.num_manifolds} manifolds, residual "
+              f"{worst:.1e}, one pass moves {moved:.1e}, {ref.solver}")
+        if not (worst <= 1e-9 and moved <= MOVE_TOLERANCE):
+            failures.append(seed)
+    assert not failures, f"random worlds without a certified exact reference: seeds {failures}"
