@@ -643,30 +643,22 @@ def analyze(nl: Netlist, f: DelayFigures = FIGURES, bram_taps: tuple[str, ...] =
     outputs = _port_paths(nl, walk, reg, nl.outputs, "output")
     box_in = _box_in_paths(nl, walk, reg)
     # 2. from the input ports (arrival 0 at the port) to registers
-    inputs = {}
-    for port, nets in nl.inputs.items():
-        if port in ("clk", "clock", "ap_clk"):
-            continue
-        s = {n: _Arrival(0.0, 0, 0.0, 0, 0, -1, -1, f"{port}") for n in nets if n >= 0}
-        if not s:
-            continue
-        arr = walk.run(s)
-        best = max((p for p, _ in _endpoints(nl, walk, arr)), key=lambda p: p.delay_ns, default=None)
-        if best is not None:
-            inputs[port] = best
+    inputs = {port: best for port, nets in nl.inputs.items() if port not in ("clk", "clock", "ap_clk")
+              for best in [_worst_from(nl, walk, nets, port)] if best is not None}
     # 3. from black-box outputs (arrival 0) to registers
-    box_out = {}
-    for b in nl.boxes:
-        for pin, nets in b.outputs.items():
-            s = {n: _Arrival(0.0, 0, 0.0, 0, 0, -1, -1, f"{b.name}:{pin}") for n in nets if n >= 0}
-            if not s:
-                continue
-            arr = walk.run(s)
-            best = max((p for p, _ in _endpoints(nl, walk, arr)), key=lambda p: p.delay_ns, default=None)
-            if best is not None:
-                box_out[f"{b.name}:{pin}"] = best
+    box_out = {f"{b.name}:{pin}": best for b in nl.boxes for pin, nets in b.outputs.items()
+               for best in [_worst_from(nl, walk, nets, f"{b.name}:{pin}")] if best is not None}
     return Analysis(len(ends), dict(histogram), worst, by_module, inputs, outputs, box_in, box_out, walk.loops,
                     sorted(notes), {b.name: _display(b.type) for b in nl.boxes}, from_arguments)
+
+
+def _worst_from(nl: Netlist, walk: _Walk, nets: list[int], start: str) -> Optional[LogicPath]:
+    """The worst path from ``nets`` (a port or a black box's output bus, arrival 0) to a register; None: none."""
+    s = {n: _Arrival(0.0, 0, 0.0, 0, 0, -1, -1, start) for n in nets if n >= 0}
+    if not s:
+        return None
+    arr = walk.run(s)
+    return max((p for p, _ in _endpoints(nl, walk, arr)), key=lambda p: p.delay_ns, default=None)
 
 
 def _endpoints(nl: Netlist, walk: _Walk, arr: list[Optional[_Arrival]]) -> Iterable[tuple[LogicPath, int]]:
@@ -683,15 +675,21 @@ def _endpoints(nl: Netlist, walk: _Walk, arr: list[Optional[_Arrival]]) -> Itera
                             a.start, end, c.module), n)
 
 
+def _latest(arr: list[Optional[_Arrival]], nets: list[int]) -> Optional[tuple[_Arrival, int]]:
+    """The latest arrival among ``nets`` (a bus's bits) and its net; None when none has one."""
+    best: Optional[tuple[_Arrival, int]] = None
+    for n in nets:
+        a = arr[n] if n >= 0 else None
+        if a is not None and (best is None or a.delay > best[0].delay):
+            best = (a, n)
+    return best
+
+
 def _port_paths(nl: Netlist, walk: _Walk, arr: list[Optional[_Arrival]], ports: dict[str, list[int]],
                 kind: str) -> dict[str, LogicPath]:
     out = {}
     for port, nets in ports.items():
-        best = None
-        for n in nets:
-            a = arr[n] if n >= 0 else None
-            if a is not None and (best is None or a.delay > best[0].delay):
-                best = (a, n)
+        best = _latest(arr, nets)
         if best is not None:
             a, n = best
             out[port] = LogicPath(a.delay, a.luts, a.carry8, a.muxf, a.dsp, a.start, f"{kind} {port}", "",
@@ -705,11 +703,7 @@ def _box_in_paths(nl: Netlist, walk: _Walk, arr: list[Optional[_Arrival]]) -> di
         for pin, nets in b.inputs.items():
             if pin in CLOCK_PINS or pin == "clk":
                 continue
-            best = None
-            for n in nets:
-                a = arr[n] if n >= 0 else None
-                if a is not None and (best is None or a.delay > best[0].delay):
-                    best = (a, n)
+            best = _latest(arr, nets)
             if best is not None:
                 a, n = best
                 out[f"{b.name}:{pin}"] = LogicPath(a.delay, a.luts, a.carry8, a.muxf, a.dsp, a.start,

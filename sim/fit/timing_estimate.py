@@ -25,10 +25,8 @@ one-lane control's figure (the lanes' crossbar and second issue checks were not 
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
 from typing import Any, Optional, Union
 
@@ -52,15 +50,9 @@ PIPE_UNITS = {"pgs_contact_pipe": "contact", "pgs_friction_pipe": "friction", "p
 BLOCK_RAM_BOXES = {"pgs_impulse_ram", "pgs_body_ram"}
 
 
-@lru_cache(maxsize=None)
-def _timing_text(path: Path) -> str:
-    return path.read_text()
-
-
 def timing_figures(path: Path = TIMING_FILE) -> dict[str, Any]:
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} is missing: `{rm.REGENERATE}` writes it")
-    return json.loads(_timing_text(path))
+    """The committed timing figures (read once, like the resource figures: ``rm.figures``)."""
+    return rm.figures(path)
 
 
 @dataclass(frozen=True)
@@ -261,11 +253,8 @@ def _boundaries(cfg: rm.KernelConfig, control: dict[str, Any], analyses: dict[st
     for key, p in control["box_in"].items():  # into a box
         inst, pin = _box(key)
         btype = boxes.get(inst, "")
-        unit = PIPE_UNITS.get(btype)
-        if unit is not None:
-            pipe = analyses.get(unit)
-            if pipe is not None and pin in pipe["inputs"]:
-                out.append(_join(f"control -> {unit}", p, pipe["inputs"][pin]))
+        if btype in PIPE_UNITS:
+            out += _pipe_join(btype, pin, p, analyses, into=True)
             continue
         end = {"delay_ns": 0.0, "luts": 0, "carry8": 0, "muxf": 0, "dsp": 0, "start": "", "end": key}
         if btype == "pgs_ring_ram" and _distributed_ring(inst):
@@ -281,11 +270,8 @@ def _boundaries(cfg: rm.KernelConfig, control: dict[str, Any], analyses: dict[st
     for key, p in control["box_out"].items():  # out of a box
         inst, pin = _box(key)
         btype = boxes.get(inst, "")
-        unit = PIPE_UNITS.get(btype)
-        if unit is not None:
-            pipe = analyses.get(unit)
-            if pipe is not None and pin in pipe["outputs"]:
-                out.append(_join(f"{unit} -> control", pipe["outputs"][pin], p))
+        if btype in PIPE_UNITS:
+            out += _pipe_join(btype, pin, p, analyses, into=False)
             continue
         if btype == "pgs_ring_ram" and _distributed_ring(inst):
             addr = control["box_in"].get(f"{inst}:rd_addr")
@@ -302,6 +288,20 @@ def _boundaries(cfg: rm.KernelConfig, control: dict[str, Any], analyses: dict[st
         else:
             notes.add(f"{btype or inst} outputs: no timing of the box itself")
     return out
+
+
+def _pipe_join(btype: str, pin: str, control_path: dict[str, Any], analyses: dict[str, dict[str, Any]],
+               into: bool) -> list[TimedPath]:
+    """The control's path to (``into``) or from a pipe's port joined with the pipe's own path from or to it; none
+    when the pipe has no analysis or the port no path."""
+    unit = PIPE_UNITS[btype]
+    pipe = analyses.get(unit)
+    ports = pipe["inputs" if into else "outputs"] if pipe is not None else {}
+    if pin not in ports:
+        return []
+    if into:
+        return [_join(f"control -> {unit}", control_path, ports[pin])]
+    return [_join(f"{unit} -> control", ports[pin], control_path)]
 
 
 def _distributed_ring(inst: str) -> bool:
