@@ -183,7 +183,8 @@ def kernel_speed(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_bub
     capped = math.isfinite(preset.ddr_bytes_per_cycle)
     cons_beats = res.stream_bytes["constraints"] // (preset.stream_bits // 8)
     floors = {"DDR bandwidth": total_bytes / preset.ddr_bytes_per_cycle if capped else 0.0,
-              "constraint stream port": float(cons_beats), compute_floor_name(job): compute_floor(job)}
+              "constraint stream port": float(cons_beats),
+              f"compute (II=1, {job.lanes} lane{'s' if job.lanes > 1 else ''})": job.compute_floor_cycles}
     return KernelSpeed(
         job.fmt.name, preset.describe(), res.cycles, mp, int(r["stalls"]), int(r["bubbles"]), sched_bubbles,
         res.stream_bytes["body_in"] + res.stream_bytes["constraints"], res.stream_bytes["body_out"],
@@ -191,18 +192,6 @@ def kernel_speed(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_bub
         total_bytes / (res.cycles * preset.ddr_bytes_per_cycle) if capped else None, res.sim_cycles_per_s,
         r["wall_s"], res.build_seconds, floors,
         "cocotb (transaction-level bench)" if driver == "cocotb" else "compiled harness", r.get("cpu_s"))
-
-
-def compute_floor(job: KernelJob) -> float:
-    """The compute floor (II = 1): each lane issues a manifold-pass a cycle, and each body is loaded and integrated
-    once (a cycle each, one body stream and one integrate pipe)."""
-    lanes = job.record_window.lanes if job.record_window is not None else 1
-    return float(math.ceil(job.manifold_passes / lanes) + 2 * job.bodies.num_bodies)
-
-
-def compute_floor_name(job: KernelJob) -> str:
-    lanes = job.record_window.lanes if job.record_window is not None else 1
-    return f"compute (II=1, {lanes} lane{'s' if lanes > 1 else ''})"
 
 
 def thesis_comparison(res: KernelResult | None, job: KernelJob, frame: Frame, seconds: dict[str, float],

@@ -223,3 +223,14 @@ class KernelJob:
     @property
     def manifold_passes(self) -> int:
         return self.manifolds * len(pass_sequence(self.params))
+
+    @property
+    def lanes(self) -> int:
+        """Lanes of the kernel build that runs this step (the streaming kernel has one)."""
+        return self.record_window.lanes if self.record_window is not None else 1
+
+    @property
+    def compute_floor_cycles(self) -> float:
+        """The roofline's compute floor: each lane issues one manifold-pass a cycle (II = 1), and the body load and
+        store take a cycle a body."""
+        return self.manifold_passes / self.lanes + 2 * self.bodies.num_bodies

@@ -345,6 +345,16 @@ def _records_job(lanes: int) -> KernelJob:
         1024, lanes=lanes)
 
 
+def test_the_compute_floor_counts_the_lanes() -> None:
+    one, two = _records_job(1), _records_job(2)
+    assert (one.lanes, two.lanes) == (1, 2)
+    bodies = 2 * one.bodies.num_bodies
+    assert one.compute_floor_cycles == one.manifold_passes + bodies
+    assert two.compute_floor_cycles == one.manifold_passes / 2 + bodies
+    preset = get_preset("zcu102")
+    assert cm.predict_job(two, preset).cycles >= two.compute_floor_cycles  # a floor, not a prediction
+
+
 def test_predict_job_dispatches_to_the_window_model() -> None:
     frame = scenes.load_or_capture("pile", **KERNEL_TEST_SCENES["pile"])
     job = KernelJob.from_frame(frame, FP32, SolverParams(4), "hazard", 181)

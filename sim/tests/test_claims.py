@@ -67,12 +67,12 @@ def _band(shares: dict[str, float], high: float) -> eb.BandVerdict:
         k: eb.BandedShare(k, v, v, 0.9 * v, high * v, usable[k]) for k, v in shares.items()}, "window")
 
 
-RUNS = {"thesis-fp32": _run("fp32", 2_298_889, 147_485, 0.5, 0.0939),
+RUNS = {"thesis-fp32": _run("fp32", 2_299_084, 147_485, 0.5, 0.0939),
         "thesis-fp16": _run("fp16", 1_500_581, 147_485, 0.5, 0.0939),
         "thesis-bf16": _run("bf16", 1_494_499, 147_485, 0.5, 0.0939),
-        "fitting-fp32": _run("fp32", 1_436_467, 147_485, 0.8421, 0.08364, bram=0.9481),
-        "fitting-fp16": _run("fp16", 822_865, 147_485, 0.8318, 0.08346, bram=0.8912),
-        "jenga": _run("fp32", 8_715, 100, 0.1, 0.01), "duck-lego": _run("fp32", 4_093, 100, 0.1, 0.01)}
+        "fitting-fp32": _run("fp32", 1_436_467, 147_485, 0.7481, 0.08364, bram=0.9114),
+        "fitting-fp16": _run("fp16", 822_865, 147_485, 0.7472, 0.08346, bram=0.8293),
+        "jenga": _run("fp32", 10_633, 100, 0.1, 0.01), "duck-lego": _run("fp32", 4_906, 100, 0.1, 0.01)}
 
 
 def test_every_figure_passes_on_the_stated_runs(capsys: pytest.CaptureFixture[str]) -> None:
@@ -88,7 +88,7 @@ def test_every_figure_passes_on_the_stated_runs(capsys: pytest.CaptureFixture[st
 
 def test_a_figure_off_by_its_last_digit_or_a_broken_run_fails(capsys: pytest.CaptureFixture[str]) -> None:
     runs = dict(RUNS)
-    runs["fitting-fp16"] = _run("fp16", 822_866, 147_485, 0.8318, 0.08346, bram=0.8912)  # one cycle more
+    runs["fitting-fp16"] = _run("fp16", 822_866, 147_485, 0.7472, 0.08346, bram=0.8293)  # one cycle more
     runs["thesis-bf16"] = _run("bf16", 1_494_499, 147_485, 0.5, 0.0939, bits=3)
 
     def source(name: str, command: str) -> RunResult:

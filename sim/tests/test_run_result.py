@@ -11,6 +11,7 @@ from sim.report.run_result import (BITS_SECTION, ERROR_SECTION, MODEL_SECTION, V
                                    KernelSpeed,
                                    ModelRunResult, RunResult, SceneFacts, ScheduleFacts, StepErrors, ThesisComparison,
                                    VelocityError, sections)
+from sim.report.run_result import ThesisComparison, _thesis
 from sim.compare.exact_error import ExactErrors, ExactReferenceFacts, NoExactReference
 
 ERR = VelocityError(1e-3, 2e-3, 0.5)
@@ -126,30 +127,16 @@ def test_thesis_comparison_at_the_clock_the_timing_estimate_supports() -> None:
     assert slow["clock of this run's latency"] == "71 MHz (the estimate's highest)"
     # the thesis's own designs keep their clocks
     assert "250 MHz" in next(k for k in slow if k.startswith("thesis ZCU102 fp16"))
-    assert not any(k.startswith("this run") for k in sections_thesis(base))  # no clock, no latency
+    # no timing estimate given: the platform's 275 MHz, no line on why
+    assert sections_thesis(base)["this run: RTL fp16, 147,485 manifolds, 4 iterations"].startswith(
+        "822,865 cycles, 2.99 ms at 275 MHz (3.29 ms at the thesis fp16 design's 250 MHz)")
+    assert "clock of this run's latency" not in sections_thesis(base)
 
 
 def sections_thesis(t: ThesisComparison) -> dict[str, object]:
     from sim.report.run_result import _thesis
 
     return _thesis(t)
-
-
-def test_compute_floor_counts_the_lanes() -> None:
-    """The roofline's II = 1 floor: each lane issues a manifold-pass a cycle (the fp16 two-lane thesis run: 1,179,880
-    manifold-passes in 589,940 cycles, not 1,179,880), plus a cycle per body loaded and integrated."""
-    from types import SimpleNamespace
-
-    from sim.run import compute_floor, compute_floor_name
-
-    bodies = SimpleNamespace(num_bodies=38881)
-    two = SimpleNamespace(manifold_passes=1_179_880, bodies=bodies, record_window=SimpleNamespace(lanes=2))
-    one = SimpleNamespace(manifold_passes=1_179_880, bodies=bodies, record_window=None)
-    assert compute_floor(two) == 589_940 + 2 * 38881 and compute_floor(one) == 1_179_880 + 2 * 38881  # type: ignore
-    assert 822_865 / compute_floor(two) > 1 > 822_865 / compute_floor(one)  # type: ignore[arg-type]
-    assert compute_floor_name(two) == "compute (II=1, 2 lanes)" and compute_floor_name(one) == "compute (II=1, 1 lane)"  # type: ignore
-    odd = SimpleNamespace(manifold_passes=7, bodies=SimpleNamespace(num_bodies=0), record_window=SimpleNamespace(lanes=2))
-    assert compute_floor(odd) == 4  # type: ignore[arg-type]
 
 
 def test_a_reference_not_certified_unique_is_named_on_every_error_line() -> None:
@@ -183,3 +170,12 @@ def test_an_unconverged_pgs_line_says_how_many_passes_it_would_still_need() -> N
            "(contact, friction)")
     assert err[key] == "converged, 2.5e+05"
     assert key not in sections(_result(None))[ERROR_SECTION]  # converged: no such line
+
+
+def test_the_thesis_comparison_gives_a_design_at_the_thesis_clock_of_its_format() -> None:
+    fp16 = _thesis(ThesisComparison("fp16", 147_485, 4, 1_179_880, 822_865, {}, 10, {}))
+    line = fp16["this run: RTL fp16, 147,485 manifolds, 4 iterations"]
+    assert line == ("822,865 cycles, 2.99 ms at 275 MHz (3.29 ms at the thesis fp16 design's 250 MHz), "
+                    "0.70 cycles/manifold-pass")
+    fp32 = _thesis(ThesisComparison("fp32", 147_485, 4, 1_179_880, 1_436_467, {}, 10, {}))
+    assert fp32["this run: RTL fp32, 147,485 manifolds, 4 iterations"].startswith("1,436,467 cycles, 5.22 ms at 275 MHz, ")
