@@ -234,11 +234,13 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         ref = timer.run("float64 reference solve + integrate", _solve_and_integrate, bodies, cons, schedule, params, ip)
         exact = timer.run("exact reference (solve or cache)", exact_error.exact_step, bodies, cons, ip,
                           exact_error.reference_dir(args), args.exact_budget, params)
+        timing = kernel_timing(job, args.dma, args.body_bits)
         return ModelRunResult(name, label, frame.num_bodies, frame.num_manifolds, sched_stats.describe(),
-                              preset.describe(), model_section(job, preset, body_bits=args.body_bits)[0],
+                              preset.describe(), at_estimated_clock(model_section(job, preset, body_bits=args.body_bits)[0],
+                                                                    timing, preset.clock_hz),
                               fit=kernel_fit(job, args.dma, args.body_bits),
                               band=kernel_band(job, args.dma, args.body_bits),
-                              timing=kernel_timing(job, args.dma, args.body_bits),
+                              timing=timing,
                               errors=exact_error.exact_errors(exact, golden.final, ref, None, bodies.dynamic),
                               error_source=f"{fmt.name} golden model"), None
 
@@ -356,6 +358,16 @@ def model_section(job: KernelJob, preset: DmaPreset, res: KernelResult | None = 
         return retire_cycles.report_section(pred, preset, seconds, measured), bound
     agreement = retire_cycles.compare_run(pred, res, job.slots)
     return retire_cycles.report_section(pred, preset, seconds, agreement=agreement), agreement.ok
+
+
+def at_estimated_clock(section: dict[str, Any], timing: Any, platform_hz: float) -> dict[str, Any]:
+    """The cycle model's section with the latency at the clock the timing estimate supports (``clock_note``) where
+    that is not the platform's."""
+    hz, why = clock_note(timing, platform_hz)
+    cycles = section.get("model: kernel cycles")
+    if not isinstance(cycles, int) or hz == platform_hz:
+        return section
+    return {**section, f"model: latency at {hz / 1e6:.0f} MHz (ms; {why})": cycles / hz * 1e3}
 
 
 def window_facts(job: KernelJob, preset: DmaPreset) -> WindowFacts:

@@ -183,3 +183,17 @@ def test_make_sim_sections_print_the_band_and_the_timing() -> None:
     assert timing["clock the estimate supports"] == f"{1e3 / (5.0 + F.clock_uncertainty):.0f} MHz"
     none = sections(ModelRunResult("r", "x", 1, 1, "hazard", "zcu102", {}, timing=te.NoTiming("no figures")))
     assert none[TIMING_SECTION] == {"timing": "no estimate (no figures)"}
+
+
+def test_model_latency_at_the_clock_the_estimate_supports() -> None:
+    """make sim MODE=model adds the latency at the estimate's clock where the platform's fails, and nothing where it
+    meets."""
+    from sim.run import at_estimated_clock
+
+    section = {"model: kernel cycles": 822_865}
+    hz = 1e9 / (7.0 + F.clock_uncertainty)
+    slow = at_estimated_clock(section, te.timing(CFG, ZCU102, data(unit(7.0))), 275e6)
+    key = next(k for k in slow if k.startswith("model: latency at"))
+    assert key.startswith(f"model: latency at {hz / 1e6:.0f} MHz (ms; ") and "275 fails" in key
+    assert slow[key] == pytest.approx(822_865 / hz * 1e3)
+    assert at_estimated_clock(section, te.timing(CFG, ZCU102, data(unit(3.0))), 275e6) == section
