@@ -33,12 +33,15 @@ IMPULSE_STORES ?= $(IMPULSE_STORE)
 BODY_BITS ?= 128
 # who computes the friction tangent basis in make sim: host (in the records) or chip (TANGENTS_ON_CHIP)
 TANGENTS ?= host
-# the lanes' datapath in make sim: 1 one datapath for the contact and friction passes (every design's default), 0 a
-# contact and a friction pipe per lane
-SHARED_DATAPATH ?= 1
+# the lanes' datapath in make sim: 1 one datapath for the contact and friction passes (every design's default with
+# DATAPATH=rtl), 0 a contact and a friction pipe per lane (DATAPATH=xls's default: XLS compiles the two pipes)
+SHARED_DATAPATH ?= $(if $(filter xls,$(DATAPATH)),0,1)
 SEEDS ?= 4
 # what drives the kernel in make sim: harness (compiled Verilator harness) or cocotb (DMA models, batch scoreboard)
 DRIVER ?= harness
+# whose pipes make sim runs: rtl (the hand-scheduled ones of rtl/generated/) or xls (compiled by Google XLS from the
+# same graphs' DSLX: rtl/generated/xls/, written by make xls)
+DATAPATH ?= rtl
 # how make sim compiles the harness's C++ (sim/compile/kernel_build.py COMPILE_PROFILES): quick, or pgo (profile-guided:
 # trained on the run's first cycles; two builds the first time)
 COMPILE ?= quick
@@ -50,7 +53,7 @@ TEST_JOBS ?= 2
 export WAVES SEED
 SIM_WAVES = $(if $(filter-out 0,$(WAVES)),--waves,)
 
-.PHONY: help venv sysdeps test claims sim sweep peers analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
+.PHONY: help venv sysdeps test claims sim sweep peers xls xls-compare analyze band stability coverage regress csim hls resources lint rtl bench clean distclean
 
 help:
 	@echo "pgs-cosim: run a PGS kernel's step on a scene, compare it bit for bit, measure its cycles, error and fit."
@@ -60,6 +63,7 @@ help:
 	@echo "  make sim         one step of SCENE through the RTL kernel, compared bit for bit; report in build/sim/"
 	@echo "                   SCENE=pile|thesis|stack|...|world.py|obj.urdf SCENE_ARGS=\"k=v ...\" ITERS=4 FORMAT=fp32|fp16|bf16|auto"
 	@echo "                   DMA=zcu102|zcu102_1|u280|ideal SEED=1 WAVES=1 MODE=rtl|model DRIVER=harness|cocotb COMPILE=quick|pgo"
+	@echo "                   DATAPATH=rtl|xls: the pipes hand-scheduled, or compiled by Google XLS (fp32, fp16)"
 	@echo "                   the design: SCHEDULE=hazard|sweep|... RECORD_WINDOW=0|8192 LANES=1|2|4 FETCH_PASSES=0"
 	@echo "                   BODY_BITS=128|256|512 IMPULSE_STORE=onchip|records TANGENTS=host|chip SHARED_DATAPATH=1|0"
 	@echo "                   the fitting designs: SCENE=thesis SCHEDULE=sweep RECORD_WINDOW=8192 IMPULSE_STORE=records"
@@ -74,10 +78,12 @@ help:
 	@echo "  make claims      rerun every figure of the README's headline results against docs/claims.toml (long:"
 	@echo "                   five thesis-frame runs; CLAIMS=run,run picks some); PASS / FAIL per figure"
 	@echo "  make coverage    line/branch/toggle coverage of rtl/ per kernel configuration (COVERAGE_CONFIGS=a,b)"
-	@echo "  make lint        verilator --lint-only -Wall on every RTL top"
+	@echo "  make lint        verilator --lint-only -Wall on every RTL top and the XLS datapath's pipes"
 	@echo ""
 	@echo "build"
 	@echo "  make rtl         regenerate rtl/generated/ and hls_export/generated/ from rtl/gen"
+	@echo "  make xls         regenerate the XLS datapath (rtl/generated/xls/) where stale (XLS_JOBS=1 workers,"
+	@echo "                   XLS_MEMORY_GB=16 each; minutes); make xls-compare: XLS's pipes beside the hand ones"
 	@echo "  make resources   Yosys figures and timing depth of every operator and unit into sim/fit/generated/"
 	@echo "  make hls         Vitis HLS synthesis and export (only where vitis_hls is installed)"
 	@echo "  make clean       remove build outputs (keeps .venv and cached frames); make distclean also .venv"
@@ -120,7 +126,7 @@ sim: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.run --scene $(SCENE) --scene-args "$(SCENE_ARGS)" --iters $(ITERS) --format $(FORMAT) --dma $(DMA) --seed $(SEED) $(SIM_WAVES) \
 		--mode $(MODE) --schedule $(SCHEDULE) --record-window $(RECORD_WINDOW) --fetch-passes $(FETCH_PASSES) \
 		--lanes $(LANES) --body-bits $(BODY_BITS) --driver $(DRIVER) --impulse-store $(IMPULSE_STORE) \
-		--tangents $(TANGENTS) --compile-profile $(COMPILE) --shared-datapath $(SHARED_DATAPATH)
+		--tangents $(TANGENTS) --compile-profile $(COMPILE) --shared-datapath $(SHARED_DATAPATH) --datapath $(DATAPATH)
 
 PEER_RUNS ?= 7
 # each MuJoCo model runs in a child process within these (the thesis frame needs MUJOCO_BUDGET=2400 MUJOCO_MEMORY_GB=16)
@@ -187,6 +193,14 @@ bench: $(STAMP)
 
 rtl: $(STAMP)
 	$(TOOLENV) $(VPY) -m rtl.gen
+
+XLS_JOBS ?= 1
+XLS_MEMORY_GB ?= 16
+xls: $(STAMP)
+	$(TOOLENV) $(VPY) -m rtl.gen.xls_flow --jobs $(XLS_JOBS) --memory-gb $(XLS_MEMORY_GB)
+
+xls-compare: $(STAMP)
+	$(TOOLENV) $(VPY) -m sim.xls_compare --jobs $(XLS_JOBS) --memory-gb $(XLS_MEMORY_GB)
 
 clean:
 	rm -rf build sim_build .pytest_cache

@@ -306,19 +306,17 @@ class Harness:
 PARAMS = [(p, f) for f in FORMATS for p in PIPES]
 
 
-@pytest.fixture(scope="module", params=PARAMS, ids=[f"{p}-{f}" for p, f in PARAMS])
-def harness(request: pytest.FixtureRequest) -> Harness:
-    pipe, fmt_name = request.param
+def build_harness(pipe: str, fmt_name: str, sources: list[Path], name: str) -> Harness:
+    """The compiled pipe_main.cpp driver of one pipe module (``sources``: its files, top last) in one format."""
     spec = PIPES[pipe]
     fmt = FORMATS[fmt_name]
     t0 = time.monotonic()
     exe = build(
-        sources=[RTL / "pgs_fp_pkg.sv", RTL / "pgs_delay.sv"] + sorted((RTL / "fp").glob("*.sv"))
-        + [RTL / "generated" / f"{spec.module}.sv"],
+        sources=sources,
         top=spec.module,
         parameters={"EXP_BITS": fmt.exp_bits, "MAN_BITS": fmt.man_bits},
         cpp_files=[HERE / "pipe_main.cpp"],
-        name=f"{spec.module}_{fmt_name}",
+        name=name,
         cflags=[f"-DPIPE_CLASS=V{spec.module}", f"-DN_IN={len(spec.in_names)}", f"-DN_OUT={len(spec.out_names)}",
                 f"-DFMT_W={fmt.width}", f"-DHAS_SPIN_DAMP={int(spec.spin)}", f"-DHAS_KIND={int(spec.kind)}"],
         extra_args=BUILD_ARGS,
@@ -326,6 +324,15 @@ def harness(request: pytest.FixtureRequest) -> Harness:
     latency = (SHARED_GRAPHS[spec.module]().latency_for(MAN_BITS_OF[fmt_name]) if spec.kind
                else schedule(GRAPHS[spec.module]()).latency_for(MAN_BITS_OF[fmt_name]))
     return Harness(pipe, fmt_name, exe, latency, time.monotonic() - t0)
+
+
+@pytest.fixture(scope="module", params=PARAMS, ids=[f"{p}-{f}" for p, f in PARAMS])
+def harness(request: pytest.FixtureRequest) -> Harness:
+    pipe, fmt_name = request.param
+    module = PIPES[pipe].module
+    return build_harness(pipe, fmt_name, [RTL / "pgs_fp_pkg.sv", RTL / "pgs_delay.sv"]
+                         + sorted((RTL / "fp").glob("*.sv")) + [RTL / "generated" / f"{module}.sv"],
+                         f"{module}_{fmt_name}")
 
 
 def run_harness(h: Harness, bits: np.ndarray, flags: np.ndarray, count: np.ndarray, tmp: Path,
@@ -344,6 +351,12 @@ def run_harness(h: Harness, bits: np.ndarray, flags: np.ndarray, count: np.ndarr
 
 
 def test_kernel_pipe_bit_exact(harness: Harness, tmp_path: Path) -> None:
+    check_pipe_bit_exact(harness, tmp_path)
+
+
+def check_pipe_bit_exact(harness: Harness, tmp_path: Path) -> None:
+    """Run the pipe's vectors through its harness: every output word equals the golden model's, bit for bit, the
+    LATENCY and order hold, and the event counts equal the graph twin's over the counted vectors."""
     fmt = FORMATS[harness.fmt_name]
     spec = PIPES[harness.pipe]
     seed = seed_for(harness.fmt_name, harness.pipe)
@@ -411,6 +424,7 @@ def test_generated_rtl_up_to_date() -> None:
     stale = generate(check=True)
     assert not stale, f"regenerate with `python -m rtl.gen`: {[str(p) for p in stale]}"
     written = {p.relative_to(REPO).as_posix() for p in (RTL / "generated").iterdir()}
+    written.discard("rtl/generated/xls")  # the XLS datapath's folder (rtl/gen/xls_flow.py; test_xls_datapath.py)
     assert written <= rendered, f"files in rtl/generated/ the generator does not write: {sorted(written - rendered)}"
     for path in render():  # the first line says the file is generated (JSON: its "about" key)
         head = path.read_text().splitlines()[0 if path.suffix != ".json" else 1]
@@ -418,10 +432,12 @@ def test_generated_rtl_up_to_date() -> None:
 
 
 def test_kernel_file_list_names_every_rtl_source() -> None:
-    """rtl/pgs_kernel.f lists every SystemVerilog file under rtl/ once, packages first, pgs_kernel last; no file of
-    the product RTL has a test-only parameter."""
+    """rtl/pgs_kernel.f lists every SystemVerilog file under rtl/ once (but the XLS datapath's, which
+    rtl.gen.xls_flow.xls_sources swaps in), packages first, pgs_kernel last; no file of the product RTL has a
+    test-only parameter."""
     sources = kernel_sources()
-    assert set(sources) == set(RTL.resolve().rglob("*.sv")), "a file under rtl/ is missing from rtl/pgs_kernel.f"
+    xls = set((RTL / "generated" / "xls").resolve().glob("*.sv"))
+    assert set(sources) == set(RTL.resolve().rglob("*.sv")) - xls, "a file under rtl/ is missing from rtl/pgs_kernel.f"
     packages, modules = rtl_files()
     assert sources[:len(packages)] == packages and sources[-1].name == "pgs_kernel.sv"
     assert [p.name for p in packages] == ["pgs_fp_pkg.sv", "pgs_regs_pkg.sv", "pgs_stream_layout_pkg.sv",

@@ -1,5 +1,6 @@
-"""`make lint` runs in `make test` too: every RTL top of the kernel's source list (rtl/pgs_kernel.f) is
-`verilator --lint-only -Wall` clean."""
+"""`make lint` runs in `make test` too: every RTL top of the kernel's source list (rtl/pgs_kernel.f), and the XLS
+datapath's pipe modules and the kernel with them (under rtl/xls/xls_lint.vlt), are `verilator --lint-only -Wall`
+clean."""
 
 import re
 import subprocess
@@ -7,17 +8,22 @@ import sys
 from pathlib import Path
 
 from rtl.gen.file_list import rtl_files
+from sim.lint import runs_for, xls_runs
 
 REPO = Path(__file__).resolve().parents[1]
 
 
 def test_rtl_lints_clean() -> None:
-    proc = subprocess.run([sys.executable, "-m", "sim.lint"], cwd=REPO, capture_output=True, text=True, timeout=1800)
+    proc = subprocess.run([sys.executable, "-m", "sim.lint"], cwd=REPO, capture_output=True, text=True, timeout=3600)
     print(proc.stdout[-4000:])
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-4000:]
     summary = re.search(r"lint: (\d+) runs over (\d+) tops, 0 with warnings/errors", proc.stdout)
     _, modules = rtl_files()
     assert summary and int(summary.group(2)) == len(modules), f"not every module of rtl/pgs_kernel.f linted: {summary}"
+    packages, _ = rtl_files()
+    hand = sum(len(runs_for(m)) for m in modules)
+    assert int(summary.group(1)) == hand + len(xls_runs(packages, [])) == hand + 7, \
+        "not every run of the XLS datapath's pipe modules (3 pipes x 2 formats) and kernel linted"
 
 
 def test_sequencer_is_linted_through_the_kernel_with_every_parameter_set() -> None:

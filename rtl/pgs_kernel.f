@@ -1,7 +1,8 @@
 // pgs_kernel.f: every source of the kernel (pgs_kernel), in compile order: packages first, then each module
 // after the modules it instantiates. Paths relative to this folder (verilator -F rtl/pgs_kernel.f); read by
 // make lint, every Verilator build of the kernel and the Yosys estimate (rtl/gen/file_list.py). A new .sv file
-// under rtl/ goes here (a test checks that every one is listed). generated/: written by `make rtl`.
+// under rtl/ goes here (a test checks that every one is listed). generated/: written by `make rtl`; generated/xls/
+// (the XLS datapath, `make xls`) is not listed: rtl/gen/xls_flow.py swaps its pipes in for a DATAPATH=xls build.
 
 // packages
 pgs_fp_pkg.sv

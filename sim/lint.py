@@ -11,7 +11,10 @@ with ``BODY_BANKS`` also with banked body velocities; one with ``TANGENTS_ON_CHI
 on chip; one with ``SOFT_CONTACT`` also with the soft contact pipe; one with ``SHARED_DATAPATH`` also with two pipes per
 lane. A module that its parent instantiates unconditionally with every one of its parameters passed through
 (``ELABORATED_BY_PARENT``: the sequencer inside the kernel top, the sequencer's phase modules inside it, a lane's datapath
-inside the lane) is linted as a top with its defaults only: the parent's runs elaborate it with each parameter set. Any
+inside the lane) is linted as a top with its defaults only: the parent's runs elaborate it with each parameter set.
+The XLS datapath (``rtl/generated/xls/``, ``rtl/gen/xls_flow.py``) is linted too: each of its pipe modules as a top in
+every format XLS built it for, and the kernel with those pipes (two pipes per lane) in binary32, under
+``rtl/xls/xls_lint.vlt`` (the waivers of XLS's own Verilog: the bits of its internal values it does not read). Any
 warning or error makes the exit status non-zero.
 
 Usage: ``python -m sim.lint [-v] [TOP ...]`` (default: every top).
@@ -31,6 +34,7 @@ from pathlib import Path
 
 from models.formats.number_format import FP16, KERNEL_FORMATS, NumberFormat
 from rtl.gen.file_list import rtl_files
+from rtl.gen.xls_flow import LINT_WAIVERS, XLS_DIR, XLS_FORMATS, XLS_PIPES, wrapper_path
 from sim.compile.verilator_build import REPO_ROOT, ensure_verilator_env, param_args
 
 RTL_ROOT = REPO_ROOT / "rtl"
@@ -187,6 +191,24 @@ def runs_for(module_file: Path) -> list[LintRun]:
     return out
 
 
+def xls_runs(packages: Sequence[Path], include_dirs: Sequence[Path]) -> list[tuple[LintRun, list[Path], list[Path]]]:
+    """The XLS datapath's runs (label ``xls-<format>``), under the waiver file: each pipe module of
+    ``rtl/generated/xls/`` in every XLS format, and the kernel with them in the first (every format's pipe module has
+    the ports the kernel connects; Verilator reads about 20 MB of XLS Verilog per pipe and format, a minute a run);
+    (run, sources, include folders) each."""
+    dirs = [*include_dirs, XLS_DIR]
+    pipes = [wrapper_path(p) for p in XLS_PIPES]
+    kernel = RTL_ROOT / "pgs_kernel.sv"
+    out = []
+    for k, fmt in enumerate(XLS_FORMATS):
+        tops = [*((p.stem, [p]) for p in pipes)] + ([("pgs_kernel", [*pipes, kernel])] if k == 0 else [])
+        for top, files in tops:
+            # the kernel takes XLS's contact and friction pipes with two pipes per lane (SHARED_DATAPATH = 0)
+            params = format_params(fmt) | ({"SHARED_DATAPATH": 0} if top == "pgs_kernel" else {})
+            out.append((LintRun(top, f"xls-{fmt.name}", params), [LINT_WAIVERS, *packages, *files], dirs))
+    return out
+
+
 def lint_one(run: LintRun, sources: Sequence[Path], include_dirs: Sequence[Path]) -> LintResult:
     """One lint run: the packages and the top's file; other modules are found by name in the -y folders."""
     verilator = ensure_verilator_env()
@@ -219,9 +241,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"lint: unknown top(s): {', '.join(sorted(unknown))}", file=sys.stderr)
             return 1
         modules = [m for m in modules if m.stem in args.tops]
-    runs = [(r, packages + [m]) for m in modules for r in runs_for(m)]
+    runs = [(r, packages + [m], include_dirs) for m in modules for r in runs_for(m)]
+    runs += [job for job in xls_runs(packages, include_dirs) if job[0].top in {m.stem for m in modules}]
     with ThreadPoolExecutor(max_workers=2) as pool:
-        results = list(pool.map(lambda job: lint_one(job[0], job[1], include_dirs), runs))
+        results = list(pool.map(lambda job: lint_one(*job), runs))
     failed = [r for r in results if not r.ok]
     for r in results:
         if args.verbose or not r.ok:

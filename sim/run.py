@@ -51,9 +51,9 @@ from models.order.manifold_schedule import SCHEDULE_KINDS, make_schedule, stats
 from sim.compare import exact_error
 from models.sizing.format_analyzer import auto_format
 from sim.drive.harness_run import KernelRunError, text_progress
-from sim.compile.kernel_build import COMPILE_PROFILES, KernelBuild, default_window
-from sim.drive.run_options import (add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label,
-                                   load_frame)
+from sim.compile.kernel_build import COMPILE_PROFILES, DATAPATHS, KernelBuild, check_datapath, default_window
+from sim.drive.run_options import (add_kernel_args, check_kernel_args, datapath_options, hardware_format, kernel_job,
+                                   kernel_label, load_frame)
 from sim.drive.kernel_step import Golden, KernelResult, golden_step, run_kernel_step
 from sim.report.run_report import StagedDirectory, print_summary, write_report
 from sim.fit.estimate_band import kernel_band
@@ -96,6 +96,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                          "reference, so this iterate is only a labelled comparison)")
     exact_error.add_exact_args(ap)
     ap.add_argument("--no-kernel", action="store_true", help="reference models only (no Verilator)")
+    ap.add_argument("--datapath", choices=DATAPATHS, default="rtl",
+                    help="the kernel's pipes: rtl, the hand-scheduled ones (rtl/generated/); xls, those Google XLS "
+                         "compiled from the same graphs' DSLX (rtl/generated/xls/: the same ports and latencies; fp32 "
+                         "and fp16, the default pipes)")
     ap.add_argument("--driver", choices=("harness", "cocotb"), default="harness",
                     help="harness: the compiled Verilator harness; cocotb: the host driver, AXI DMA models and batch "
                          "scoreboard in cocotb on the transaction-level bench (sim/drive/cocotb_step.py)")
@@ -132,6 +136,8 @@ def check_args(args: argparse.Namespace) -> None:
     if getattr(args, "tangents", "host") == "chip" and (args.record_window or args.driver == "cocotb"):
         raise ValueError("TANGENTS=chip is a configuration of the streaming kernel through the compiled harness (no "
                          "RECORD_WINDOW, DRIVER=harness)")
+    if args.format.strip().lower() != "auto":  # FORMAT=auto: the kernel build checks the format it picks
+        check_datapath(args.datapath, hardware_format(args.format), datapath_options(args))
     if args.driver == "cocotb" and getattr(args, "compile_profile", "quick") != "quick":
         raise ValueError("COMPILE= is the compiled harness's (DRIVER=harness); the cocotb bench has its own build")
     if args.driver == "cocotb" and (args.record_window or args.body_bits != 128 or args.waves or args.stall_permille):
@@ -254,7 +260,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     res: KernelResult | None = None
     kb: KernelBuild | None = None
     if not args.no_kernel:
-        kb = dataclasses.replace(KernelBuild.for_job(job, preset, args.waves, args.body_bits),
+        kb = dataclasses.replace(KernelBuild.for_job(job, preset, args.waves, args.body_bits, args.datapath),
                                  compile_profile=args.compile_profile)
         print(f"kernel: {kb.name} ({'building, first time a few minutes' if not _built(kb) else 'built'})", flush=True)
         progress = text_progress(job.manifold_passes)
@@ -263,12 +269,12 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
             from sim.drive.cocotb_step import run_cocotb_step
 
             res, kb = timer.run("RTL kernel through cocotb (build, run, compare)", run_cocotb_step, job, preset,
-                                run_dir, args.seed, golden, label, args.schedule)
+                                run_dir, args.seed, golden, label, args.schedule, args.datapath)
         else:
             res = timer.run("RTL kernel in Verilator (build, run, compare)", run_kernel_step, job, preset, run_dir,
                             args.seed, args.stall_permille, args.stall_permille, progress, golden=golden,
                             waves=waves, wave_cycles=args.wave_cycles, keep_trace=True, body_bits=args.body_bits,
-                            compile_profile=args.compile_profile)
+                            compile_profile=args.compile_profile, datapath=args.datapath)
         print(file=sys.stderr)
 
     rtl_ours = res is not None and res.bit_exact  # the kernel's own numbers (identical to the golden model's)

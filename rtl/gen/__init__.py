@@ -25,6 +25,11 @@ and ``hls_export/generated/pgs_regs.h``, the same register map for the HLS kerne
 (``rtl/gen/stream_layout_emit.py``), and ``hls_export/generated/pgs_shared_datapath.h``, the shared datapaths as C++
 (``rtl/gen/shared_hls_emit.py``).
 
+The HLS back end (Google XLS) writes the same graphs as DSLX (``rtl/gen/dslx_emit.py``, one function per point update),
+compiles them into pipelined Verilog of the hand pipes' depths and wraps them in the hand pipes' module names and
+ports (``rtl/gen/xls_wrap_emit.py``, ``rtl/gen/xls_flow.py``: ``python -m rtl.gen.xls_flow``, ``make xls``), into
+``rtl/generated/xls/``; a kernel build with ``datapath="xls"`` takes them in place of the hand pipes.
+
 The co-simulation test's injected bug is a variant of the friction pipe (and of the shared datapath with that friction
 pass) that only :func:`generate_friction_sign_bug` writes, into a build directory; :func:`friction_sign_bug_sources` is
 the kernel's source list with them swapped in.

@@ -101,6 +101,7 @@ class Value:
         self.const = const
         self.index = index  # input word index (FLOAT inputs) or None
         self.auto_named = False
+        self.scope: tuple[str, ...] = tuple(graph._scope)  # the graph.scope() blocks it was created in
 
     # arithmetic sugar ---------------------------------------------------------------------------
     def __add__(self, o: "Value") -> "Value":

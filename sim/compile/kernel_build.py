@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -29,7 +29,8 @@ from models.kernel.kernel_job import KernelJob
 from models.timing.kernel_shape import KernelShape
 from models.formats.number_format import NumberFormat
 from rtl.gen import friction_sign_bug_sources
-from rtl.gen.file_list import rtl_files
+from rtl.gen.file_list import kernel_sources, rtl_files
+from rtl.gen.xls_flow import XLS_FORMATS, xls_sources
 from sim.compile.verilator_build import DEBUG_COMPILE_ARGS, QUICK_COMPILE_ARGS, REPO_ROOT, build, profile_guided_build
 
 TOP = "pgs_kernel"
@@ -63,6 +64,19 @@ COMPILE_PROFILES: dict[str, tuple[str, ...]] = {
     "pgo": tuple(QUICK_COMPILE_ARGS),
 }
 PROFILE_GUIDED = frozenset({"pgo"})  # the profiles built with a training run
+DATAPATHS = ("rtl", "xls")  # whose pipes a build takes (KernelBuild.datapath)
+# The build options the XLS datapath has no pipes for yet, by KernelBuild field: (the option as a user names it,
+# whether a value needs it). The one table of check_datapath's refusals: a pipe variant XLS does not compile (or a
+# datapath of another shape) adds its row here, and every caller refuses it with the same line.
+XLS_UNCOVERED: dict[str, tuple[str, Callable[[Any], bool]]] = {
+    "inertia_words": ("IINV_W = 1 or 6 (the scalar or full inverse inertia)", lambda v: v != sf.KERNEL_INERTIA_WORDS),
+    "friction_words": ("MU_W = 1 (the friction coefficient per manifold)", bool),
+    "tangents_on_chip": ("TANGENTS=chip (the tangents derived on chip)", bool),
+    "soft_contact": ("SOFT_CONTACT (the soft contact pipe)", bool),
+    "friction_sign_bug": ("the injected friction sign bug", bool),
+    # XLS compiles the contact and the friction pipe; the lane's shared datapath is not emitted as DSLX yet
+    "shared_datapath": ("SHARED_DATAPATH=1 (one datapath per lane; DATAPATH=xls takes SHARED_DATAPATH=0)", bool),
+}
 WAVE_ARGS = ("--trace-fst", "--trace-structs")
 
 
@@ -94,6 +108,9 @@ class KernelBuild:
     # pipe per lane (the streaming kernel drains the other pipe at a switch of kinds)
     shared_datapath: bool = True
     compile_profile: str = "quick"  # a key of COMPILE_PROFILES
+    # whose pipes: "rtl" the hand-scheduled ones of rtl/generated/, "xls" those Google XLS compiled from their DSLX
+    # (rtl/generated/xls/, rtl/gen/xls_flow.py: the same module names, ports and latencies)
+    datapath: str = "rtl"
 
     def __post_init__(self) -> None:
         sf.body_in_word_count(self.inertia_words)  # 1, 3 or 6, else a ValueError
@@ -115,13 +132,16 @@ class KernelBuild:
         check_block_min_depth(self.delay_block_min_depth)
         if self.compile_profile not in COMPILE_PROFILES:
             raise ValueError(f"compile profile {self.compile_profile!r}: expected one of {sorted(COMPILE_PROFILES)}")
+        check_datapath(self.datapath, self.fmt, {field: getattr(self, field) for field in XLS_UNCOVERED})
 
     @staticmethod
-    def for_job(job: KernelJob, preset: DmaPreset, waves: bool = False, body_bits: int = 128) -> "KernelBuild":
+    def for_job(job: KernelJob, preset: DmaPreset, waves: bool = False, body_bits: int = 128,
+                datapath: str = "rtl") -> "KernelBuild":
         """The build that runs ``job``: the preset's constraint beat, the window plan's ring, contexts and lanes,
         body streams of ``body_bits``, the job's inverse-inertia and friction-coefficient words, its friction
         record layout (the tangents derived on chip), the soft contact pipe for a soft job
-        (``SolverParams.soft_keep``) and its lanes' datapath (``KernelJob.shared_datapath``)."""
+        (``SolverParams.soft_keep``) and its lanes' datapath (``KernelJob.shared_datapath``); ``datapath``: whose pipes
+        (:data:`DATAPATHS`)."""
         plan = job.record_window
         return KernelBuild(job.fmt, cons_bits=preset.stream_bits, body_in_bits=body_bits, body_out_bits=body_bits,
                            waves=waves, window=0 if plan is None else plan.depth,
@@ -130,7 +150,8 @@ class KernelBuild:
                            friction_words=job.friction_words, body_banks=job.body_banks,
                            tangents_on_chip=job.tangents_on_chip,
                            soft_contact=job.params.soft_keep is not None,
-                           delay_block_min_depth=job.delay_block_min_depth, shared_datapath=job.shared_datapath)
+                           delay_block_min_depth=job.delay_block_min_depth, shared_datapath=job.shared_datapath,
+                           datapath=datapath)
 
     @property
     def name(self) -> str:
@@ -149,6 +170,7 @@ class KernelBuild:
                 + ("" if self.shared_datapath else "_split")
                 + ("_friction_sign_bug" if self.friction_sign_bug else "")
                 + (f"_{self.compile_profile}" if self.compile_profile != "quick" else "")
+                + ("_xls" if self.datapath == "xls" else "")
                 + ("_waves" if self.waves else ""))
 
     @property
@@ -204,9 +226,15 @@ class KernelBuild:
     def sources(self) -> list[Path]:
         """The SystemVerilog files of the kernel (``rtl/pgs_kernel.f``), packages first; with ``friction_sign_bug``
         the friction pipe and the shared datapath are the variants ``rtl.gen`` generates into
-        ``build/rtl_variants/friction_sign_bug/``."""
-        packages, modules = rtl_files(friction_sign_bug_sources(VARIANT_ROOT / "friction_sign_bug")
-                                      if self.friction_sign_bug else None)
+        ``build/rtl_variants/friction_sign_bug/``; with the XLS datapath the pipes are those of ``rtl/generated/xls/``
+        (``rtl.gen.xls_flow.xls_sources``)."""
+        if self.friction_sign_bug:
+            base = friction_sign_bug_sources(VARIANT_ROOT / "friction_sign_bug")
+        elif self.datapath == "xls":
+            base = xls_sources(kernel_sources())
+        else:
+            base = None
+        packages, modules = rtl_files(base)
         return packages + modules
 
 
@@ -267,6 +295,23 @@ def build_kernel(kb: KernelBuild, train: Trainer | None = None) -> tuple[Path, f
         exe = verilate_kernel(kb, train=train) if _store is None else _store.executable(kb)[0]
         _built[kb] = (exe, time.monotonic() - t0)
     return _built[kb]
+
+
+def check_datapath(datapath: str, fmt: NumberFormat, options: Mapping[str, Any]) -> None:
+    """Raise ValueError (one line) unless ``datapath`` (:data:`DATAPATHS`) has pipes for ``fmt`` and ``options``
+    (KernelBuild fields and their values; a caller leaves out those it does not know yet): the XLS datapath covers
+    the formats of ``rtl.gen.xls_flow.XLS_FORMATS`` and none of :data:`XLS_UNCOVERED`."""
+    if datapath not in DATAPATHS:
+        raise ValueError(f"datapath {datapath!r}: expected one of {', '.join(DATAPATHS)}")
+    if datapath == "rtl":
+        return
+    uncovered = [] if any((f.exp_bits, f.man_bits) == (fmt.exp_bits, fmt.man_bits) for f in XLS_FORMATS) else [
+        f"FORMAT={fmt.name} (E = {fmt.exp_bits}, M = {fmt.man_bits})"]
+    uncovered += [name for field, (name, needs) in XLS_UNCOVERED.items() if field in options and needs(options[field])]
+    if uncovered:
+        raise ValueError(f"DATAPATH=xls does not cover {'; '.join(uncovered)} yet: XLS compiled the default pipes "
+                         f"(diagonal inverse inertia, constant friction coefficient, tangents from the host) in "
+                         f"{', '.join(f.name for f in XLS_FORMATS)}")
 
 
 def default_window(fmt: NumberFormat, cons_bits: int, shared_datapath: bool = True, window_kernel: bool = False) -> int:

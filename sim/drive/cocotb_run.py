@@ -153,14 +153,14 @@ def cocotb_results(results_xml: Path) -> tuple[int, int]:
 
 def kernel_cocotb_build(fmt_name: str, dma: str, friction_sign_bug: bool = False,
                         compile_profile: str = "quick", inertia_words: int = KERNEL_INERTIA_WORDS,
-                        friction_words: int = 0) -> KernelBuild:
+                        friction_words: int = 0, datapath: str = "rtl") -> KernelBuild:
     """The kernel build of the cocotb benches for a number format, a DMA preset (its constraint stream width), the
     inverse-inertia words of its body-in record (1, 3 or 6: ``KernelJob.inertia_words``) and the friction
-    coefficient words of its friction record (0 or 1: ``KernelJob.friction_words``), with FST tracing when
-    ``WAVES=1``."""
+    coefficient words of its friction record (0 or 1: ``KernelJob.friction_words``), whose pipes (``datapath``:
+    ``sim.kernel_build.DATAPATHS``), with FST tracing when ``WAVES=1``."""
     return KernelBuild(parse_format(fmt_name), cons_bits=get_preset(dma).stream_bits, waves=waves_enabled(),
                        friction_sign_bug=friction_sign_bug, compile_profile=compile_profile,
-                       inertia_words=inertia_words, friction_words=friction_words)
+                       inertia_words=inertia_words, friction_words=friction_words, datapath=datapath)
 
 
 def run_kernel_cocotb(test_module: str, fmt_name: str, dma: str, seed: int, extra_env: Mapping[str, str],

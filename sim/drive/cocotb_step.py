@@ -82,13 +82,14 @@ def write_case(path: Path, job: KernelJob, golden: Golden, preset: DmaPreset, la
 
 
 def run_cocotb_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int, golden: Golden, label: str,
-                    schedule: str) -> tuple[KernelResult, KernelBuild]:
+                    schedule: str, datapath: str = "rtl") -> tuple[KernelResult, KernelBuild]:
     """Build the bench (once), run ``job`` through cocotb and compare; never raises on a mismatch (see the
-    result's ``comparison``; a failure inside cocotb is its first mismatch)."""
+    result's ``comparison``; a failure inside cocotb is its first mismatch). ``datapath``: whose pipes
+    (``sim.kernel_build.DATAPATHS``)."""
     if job.record_window is not None:
         raise ValueError("DRIVER=cocotb runs the streaming kernel (no --record-window)")
     bench = BurstBench(kernel_cocotb_build(job.fmt.name, preset.name, inertia_words=job.inertia_words,
-                                           friction_words=job.friction_words))
+                                           friction_words=job.friction_words, datapath=datapath))
     kb = bench.kernel
     if job.bodies.num_bodies > kb.max_bodies or job.manifolds > kb.max_manifolds:
         raise ValueError(f"{job.bodies.num_bodies} bodies / {job.manifolds} manifolds exceed the kernel's "

@@ -133,7 +133,7 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
                     backpressure_permille: int = 0, progress: ProgressSink | None = None,
                     golden: Golden | None = None, waves: Path | None = None, wave_cycles: int = 20000,
                     keep_trace: bool = False, body_bits: int = 128, inertia_words: int | None = None,
-                    soft_contact: bool = False, compile_profile: str = "quick") -> KernelResult:
+                    soft_contact: bool = False, compile_profile: str = "quick", datapath: str = "rtl") -> KernelResult:
     """Build (once), run and check one step of the kernel; never raises on a mismatch (see ``comparison``).
     ``inertia_words``: the build's inverse-inertia words per body in place of the job's (1, 3 or 6; a body table
     whose mode needs more is refused when its record is packed). ``soft_contact``: run on the soft contact build
@@ -141,10 +141,12 @@ def run_kernel_step(job: KernelJob, preset: DmaPreset, run_dir: Path, seed: int,
     ``compile_profile``: how the harness's C++ is compiled (``sim.compile.kernel_build.COMPILE_PROFILES``; a
     profile-guided one trains on this run's first cycles when it builds). ``waves``: the FST to write (the first
     ``wave_cycles`` cycles); None writes ``run_dir/waves.fst`` where ``WAVES=1`` is set (a failed test run again with
-    its waveform), else none."""
+    its waveform), else none. ``datapath``: the hand-scheduled pipes ("rtl") or those Google XLS compiled ("xls",
+    ``sim.compile.kernel_build.DATAPATHS``)."""
     if waves is None and waves_enabled():
         waves = Path(run_dir) / "waves.fst"
-    kb = replace(KernelBuild.for_job(job, preset, waves is not None, body_bits), compile_profile=compile_profile)
+    kb = replace(KernelBuild.for_job(job, preset, waves is not None, body_bits, datapath),
+                 compile_profile=compile_profile)
     if inertia_words is not None:
         kb = replace(kb, inertia_words=inertia_words)
     if soft_contact:

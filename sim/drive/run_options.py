@@ -34,9 +34,10 @@ def add_kernel_args(ap: argparse.ArgumentParser) -> None:
                     help="window kernel: manifolds issued per cycle (a power of two; LANES build parameter)")
     ap.add_argument("--body-bits", type=int, default=128,
                     help="beat width of the body-in and body-out streams (128, 256 or 512)")
-    ap.add_argument("--shared-datapath", type=int, choices=(0, 1), default=1,
+    ap.add_argument("--shared-datapath", type=int, choices=(0, 1), default=None,
                     help="1: one datapath per lane for the contact and the friction passes (SHARED_DATAPATH build "
-                         "parameter, every design's default); 0: a contact and a friction pipe per lane")
+                         "parameter, every design's default); 0: a contact and a friction pipe per lane (the default "
+                         "with --datapath xls, whose pipes XLS compiles)")
     ap.add_argument("--impulse-store", choices=("onchip", "records"), default="onchip",
                     help="accumulated impulses in the on-chip RAM, or travelling with the records through DDR "
                          "(IMPULSES_IN_RECORDS build parameter; the window kernel: each fetch of one pass kind, an "
@@ -44,13 +45,23 @@ def add_kernel_args(ap: argparse.ArgumentParser) -> None:
 
 
 def kernel_label(args: argparse.Namespace) -> str:
-    """The kernel options in a run's name: empty for the streaming kernel with 128-bit body streams."""
+    """The kernel options in a run's name: empty for the streaming kernel with 128-bit body streams and the
+    hand-scheduled pipes."""
     return ((f"-ring{args.record_window}" if args.record_window else "")
             + (f"-lanes{args.lanes}" if args.lanes > 1 else "")
             + (f"-body{args.body_bits}" if args.body_bits != 128 else "")
             + ("-impulses-in-records" if getattr(args, "impulse_store", "onchip") == "records" else "")
             + ("-tangents-on-chip" if getattr(args, "tangents", "host") == "chip" else "")
-            + ("" if getattr(args, "shared_datapath", 1) else "-two-pipes"))
+            + ("" if getattr(args, "shared_datapath", 1) else "-two-pipes")
+            + ("-xls" if getattr(args, "datapath", "rtl") == "xls" else ""))
+
+
+def datapath_options(args: argparse.Namespace) -> dict[str, bool]:
+    """The build options the command line fixes before the frame is read, by ``KernelBuild`` field: what
+    ``sim.compile.kernel_build.check_datapath`` refuses early for a datapath that does not cover them (the frame's
+    own, such as its inverse-inertia words, are checked when the build is made)."""
+    return {"tangents_on_chip": getattr(args, "tangents", "host") == "chip",
+            "shared_datapath": bool(getattr(args, "shared_datapath", 1))}
 
 
 def kernel_job(job: KernelJob, args: argparse.Namespace) -> KernelJob:
@@ -70,7 +81,10 @@ def kernel_job(job: KernelJob, args: argparse.Namespace) -> KernelJob:
 
 
 def check_kernel_args(args: argparse.Namespace) -> None:
-    """The kernel options shared by ``make sim`` and ``make sweep``: ring, lanes, passes per fetch, body beats."""
+    """The kernel options shared by ``make sim`` and ``make sweep``: ring, lanes, passes per fetch, body beats; an
+    unset ``--shared-datapath`` becomes its default (0 with the XLS datapath, else 1)."""
+    if args.shared_datapath is None:
+        args.shared_datapath = 0 if getattr(args, "datapath", "rtl") == "xls" else 1
     if args.record_window and (args.record_window < 2 or args.record_window & (args.record_window - 1)):
         raise ValueError(f"--record-window must be 0 or a power of two >= 2, got {args.record_window}")
     if args.lanes < 1 or args.lanes & (args.lanes - 1) or (args.lanes > 1 and not args.record_window):

@@ -132,6 +132,8 @@ RUN_CASES = [
     (["--dma", "zcu999"], "unknown DMA preset 'zcu999'"),
     (["--frame", "/nonexistent/frame.npz"], "does not exist"),
     (["--driver", "cocotb", "--compile-profile", "pgo"], "COMPILE= is the compiled harness's"),
+    (["--datapath", "xls", "--format", "bf16"], "DATAPATH=xls does not cover FORMAT=bf16"),
+    (["--datapath", "xls", "--tangents", "chip"], "DATAPATH=xls does not cover TANGENTS=chip"),
 ]
 SWEEP_CASES = [
     (["--formats", "fp32,fp33"], "unknown number format 'fp33'"),
