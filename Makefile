@@ -84,7 +84,7 @@ help:
 	@echo "  make rtl         regenerate rtl/generated/ and hls_export/generated/ from rtl/gen"
 	@echo "  make xls         regenerate the XLS datapath (rtl/generated/xls/) where stale (XLS_JOBS=1 workers,"
 	@echo "                   XLS_MEMORY_GB=16 each; minutes); make xls-compare: XLS's pipes beside the hand ones"
-	@echo "  make resources   Yosys figures of every operator and unit into sim/fit/generated/resource_figures.json"
+	@echo "  make resources   Yosys figures and timing depth of every operator and unit into sim/fit/generated/"
 	@echo "  make hls         Vitis HLS synthesis and export (only where vitis_hls is installed)"
 	@echo "  make clean       remove build outputs (keeps .venv and cached frames); make distclean also .venv"
 	@echo ""
@@ -173,7 +173,7 @@ hls:
 	else echo "make hls: vitis_hls is not installed (not on PATH); nothing synthesized (see hls_export/README.md)"; fi
 
 # every operator alone and the whole units (RESOURCE_UNITS=): figures into sim/fit/generated/resource_figures.json
-RESOURCE_UNITS ?= contact,friction,integrate,control,hazard_cam
+RESOURCE_UNITS ?= contact,friction,integrate,shared,control,control_b256,control_window,hazard_cam
 resources: $(STAMP)
 	$(TOOLENV) $(VPY) -m sim.resources --formats $(FORMATS) --units "$(RESOURCE_UNITS)" --executor "$(EXECUTOR)"
 

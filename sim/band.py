@@ -9,7 +9,8 @@ window W of each format on the ZCU102 preset (``sim.compile.kernel_build.default
 accumulated impulses and the record window of the best banded schedule after hazard reordering, per platform, format,
 number of passes trailing the streaming pass (fetch once per 1, 2 or ITERS iterations) and impulse placement, whether
 the bytes are within the blocks' data bytes, and whether the whole window kernel fits (``sim.fit.resource_model``: its
-logic, and its memories as block RAM with the copies their ports need, which bytes alone do not count). Last, the DDR
+logic, and its memories as block RAM with the copies their ports need, which bytes alone do not count; the verdict
+with the estimate's band against a vendor flow and its margin, ``sim.fit.estimate_band``). Last, the DDR
 and compute floors per manifold-pass of the budget scene (``models.sizing.onchip_budget.floors``): records streamed
 every pass as today, or fetched once per 1, 2 or ITERS iterations, with 1, 2 or 4 lanes; which floor binds, and whether
 that fetch period's whole kernel with that many lanes fits. Writes the figures to ``build/band/band-s<seed>.json``.
@@ -34,6 +35,7 @@ from models.setup.constraints import body_table, setup_constraints
 from models.formats.frame import FrameError
 from models.formats.number_format import BF16, FP16, FP32, NumberFormat
 from models.order.manifold_schedule import BANDED_ORDERS, band_width, hazard_order, pybullet_order
+from sim.fit import estimate_band as eb
 from sim.fit import resource_model as rm
 from sim.compile.kernel_build import default_window
 from models.timing.platforms import PLATFORMS, Platform
@@ -111,22 +113,22 @@ def budget_table(budgets: Sequence[ob.Budget]) -> list[str]:
     mib = 1 << 20
     head = (f"{'platform':<9}{'format':<7}{'D':>7}{'trailing':>9}  {'impulses':<9}{'bodies MiB':>11}"
             f"{'impulses MiB':>13}{'window MiB':>11}{'total MiB':>10}{'capacity MiB':>13}  {'bytes':<7}"
-            "whole kernel (resource model, 1 lane)")
+            "whole kernel (resource model, 1 lane; band and margin at its pessimistic end)")
     lines = [head, "-" * len(head)]
     for b in budgets:
         lines.append(f"{b.platform.name:<9}{b.fmt.name:<7}{b.band:>7,}{b.trailing:>9}  "
                      f"{'resident' if b.impulses_resident else 'in window':<9}{b.body_bytes / mib:>11.3f}"
                      f"{b.impulse_bytes / mib:>13.3f}{b.window_bytes / mib:>11.3f}{b.total_bytes / mib:>10.3f}"
                      f"{b.platform.data_bytes / mib:>13.3f}  {'within' if b.fits else 'beyond':<7}"
-                     f"{rm.short_verdict(budget_fit(b))}")
+                     f"{eb.short_band(budget_fit(b))}")
     return lines
 
 
-def budget_fit(b: ob.Budget, lanes: int = 1) -> rm.FitVerdict | rm.NoEstimate:
-    """The resource model's verdict of the window kernel a budget row describes (its ring and impulse placement)."""
+def budget_fit(b: ob.Budget, lanes: int = 1) -> eb.BandVerdict | rm.NoEstimate:
+    """The verdict with band of the window kernel a budget row describes (its ring and impulse placement)."""
     cfg = rm.window_config(b.fmt, b.num_bodies, b.num_manifolds, b.trailing * b.band + 2, lanes,
                            b.impulses_resident)
-    return rm.fit_or_reason(cfg, b.platform)
+    return eb.band_or_reason(cfg, b.platform)
 
 
 def floor_rows(row: dict[str, Any], platforms: Sequence[Platform], windows: dict[tuple[str, str], int],
@@ -153,9 +155,9 @@ def floor_fit(fl: ob.Floors, bud: ob.Budget | None, p: Platform, f: NumberFormat
     if bud is None:  # every pass streams its records: today's one-lane streaming kernel
         if fl.lanes > 1:
             return "- (lanes need the window kernel)"
-        return "streaming kernel: " + rm.short_verdict(rm.fit_or_reason(rm.KernelConfig(f, bodies, manifolds), p))
+        return "streaming kernel: " + eb.short_band(eb.band_or_reason(rm.KernelConfig(f, bodies, manifolds), p))
     return (f"{bud.total_bytes / (1 << 20):.2f} MiB {'within' if bud.fits else 'beyond'} the data bytes; kernel: "
-            + rm.short_verdict(budget_fit(bud, fl.lanes)))
+            + eb.short_band(budget_fit(bud, fl.lanes)))
 
 
 def floor_table(rows: Sequence[tuple[ob.Floors, ob.Budget | None, Platform, NumberFormat]], bodies: int,
@@ -206,13 +208,14 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
           "fetch period's trailing window")
     print("\n".join(floor_table(fl_rows, budget_row["bodies"], budget_row["manifolds"])))
     seconds = time.perf_counter() - t0
-    print(f"\nmeasured in {seconds:.1f} s")
+    print(f"\nband of the resource estimate: {eb.band_basis()}")
+    print(f"measured in {seconds:.1f} s")
     return {"seed": args.seed, "windows": {f"{p}/{f}": w for (p, f), w in windows.items()}, "scenes": rows,
             "budget": [{"platform": b.platform.name, "format": b.fmt.name, "D": b.band, "trailing": b.trailing,
                         "impulses_resident": b.impulses_resident, "body_bytes": b.body_bytes,
                         "impulse_bytes": b.impulse_bytes, "window_bytes": b.window_bytes,
                         "capacity_bytes": b.platform.data_bytes, "fits": b.fits,
-                        "kernel_fit": rm.short_verdict(budget_fit(b))} for b in budgets],
+                        "kernel_fit": eb.short_band(budget_fit(b))} for b in budgets],
             "floors": [{"platform": p.name, "format": f.name, "fetch_every": fl.fetch_every, "lanes": fl.lanes,
                         "bytes_per_step": fl.bytes_per_step, "ddr_cycles": fl.ddr_cycles,
                         "compute_cycles": fl.compute_cycles, "bound": fl.bound,

@@ -15,9 +15,10 @@ import time
 from models.formats.number_format import NumberFormat, parse_format
 from sim.compile.verilator_build import REPO_ROOT
 from sim.fit.resource_model import FIGURES_FILE, VENDOR_OPERATORS, rtl_latency
+from sim.fit.timing_estimate import TIMING_FILE
 from sim.fit.yosys_figures import (BUILD, CHECK_SLOTS, DELAY_CHECKS, IMPULSE_CHECK, OPERATOR_UNITS, UNITS, ZCU102,
                                    ResourcePoint, delay_check_line, memory_resources, prepare_sources, report,
-                                   sum_against_whole, unit_result, write_figures)
+                                   sum_against_whole, timing_lines, unit_result, write_figures, write_timing)
 from sim.parallel.executor import parse_executor, run_points
 
 def main(argv: list[str] | None = None) -> int:
@@ -78,9 +79,12 @@ def main(argv: list[str] | None = None) -> int:
     for block, unit in DELAY_CHECKS.items():
         for r in (r for r in done if r.unit == unit):
             print(delay_check_line(block, r))
+    for line in timing_lines(done):
+        print(line)
     if not args.no_write:
         write_figures(done)
-        print(f"figures written to {FIGURES_FILE.relative_to(REPO_ROOT)}")
+        write_timing(done)
+        print(f"figures written to {FIGURES_FILE.relative_to(REPO_ROOT)} and {TIMING_FILE.relative_to(REPO_ROOT)}")
     print(f"\nXCZU9EG: {ZCU102.describe()}. Yosys synth_xilinx -family xcup, hierarchy kept: an estimate; timing "
           "closure and the final utilisation need Vivado. Memories computed from their sizes (sim/fit/resource_model.py).")
     print(f"make resources: {time.monotonic() - t0:.0f} s")

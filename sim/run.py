@@ -56,7 +56,9 @@ from sim.drive.run_options import (add_kernel_args, check_kernel_args, datapath_
                                    kernel_label, load_frame)
 from sim.drive.kernel_step import Golden, KernelResult, golden_step, run_kernel_step
 from sim.report.run_report import StagedDirectory, print_summary, write_report
+from sim.fit.estimate_band import kernel_band
 from sim.fit.resource_model import kernel_fit
+from sim.fit.timing_estimate import clock_note, kernel_timing
 from sim.report.run_result import (AnyRunResult, BitExactness, KernelSpeed, ModelRunResult, RunResult, SceneFacts,
                                    ScheduleFacts, StepErrors, ThesisComparison, VelocityError, WindowFacts, sections,
                                    velocity_error)
@@ -198,11 +200,12 @@ def kernel_speed(res: KernelResult, job: KernelJob, preset: DmaPreset, sched_bub
         "cocotb (transaction-level bench)" if driver == "cocotb" else "compiled harness", r.get("cpu_s"))
 
 
-def thesis_comparison(res: KernelResult | None, job: KernelJob, frame: Frame,
-                      seconds: dict[str, float]) -> ThesisComparison:
+def thesis_comparison(res: KernelResult | None, job: KernelJob, frame: Frame, seconds: dict[str, float],
+                      clock: tuple[float, str] = (0.0, "")) -> ThesisComparison:
+    """The thesis's figures beside this run's, its latency at ``clock`` (hertz and why: timing_estimate.clock_note)."""
     return ThesisComparison(job.fmt.name, job.manifolds, job.params.iterations, job.manifold_passes,
                             None if res is None else res.cycles, dict(frame.meta.get("pybullet_timing_s") or {}),
-                            frame.meta.get("solver", {}).get("numSolverIterations", "?"), seconds)
+                            frame.meta.get("solver", {}).get("numSolverIterations", "?"), seconds, *clock)
 
 
 def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBuild | None]:
@@ -237,9 +240,13 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         ref = timer.run("float64 reference solve + integrate", _solve_and_integrate, bodies, cons, schedule, params, ip)
         exact = timer.run("exact reference (solve or cache)", exact_error.exact_step, bodies, cons, ip,
                           exact_error.reference_dir(args), args.exact_budget, params)
+        timing = kernel_timing(job, args.dma, args.body_bits)
         return ModelRunResult(name, label, frame.num_bodies, frame.num_manifolds, sched_stats.describe(),
-                              preset.describe(), model_section(job, preset, body_bits=args.body_bits)[0],
+                              preset.describe(), at_estimated_clock(model_section(job, preset, body_bits=args.body_bits)[0],
+                                                                    timing, preset.clock_hz),
                               fit=kernel_fit(job, args.dma, args.body_bits),
+                              band=kernel_band(job, args.dma, args.body_bits),
+                              timing=timing,
                               errors=exact_error.exact_errors(exact, golden.final, ref, None, bodies.dynamic),
                               error_source=f"{fmt.name} golden model"), None
 
@@ -275,6 +282,7 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
     source = "RTL kernel" if rtl_ours else f"{fmt.name} golden model"
     errors = step_errors(source, ours, StepInputs(frame, bodies, cons, schedule, params, ip), fmt, golden, ref, conv,
                          exact)
+    timing = kernel_timing(job, args.dma, args.body_bits)
     result = RunResult(
         name,
         SceneFacts(label, frame.num_bodies, int(bodies.dynamic.sum()), frame.num_manifolds, frame.num_points_total,
@@ -284,9 +292,12 @@ def run(args: argparse.Namespace, run_dir: Path) -> tuple[AnyRunResult, KernelBu
         errors,
         thesis_comparison(res, job, frame, {
             "float64 reference (numpy)": timer.seconds["float64 reference solve + integrate"],
-            f"{fmt.name} golden model (numpy)": timer.seconds[f"{fmt.name} golden model solve + integrate"]}),
+            f"{fmt.name} golden model (numpy)": timer.seconds[f"{fmt.name} golden model solve + integrate"]},
+            clock_note(timing, preset.clock_hz)),
         timer.seconds)
     result.fit = kernel_fit(job, args.dma, args.body_bits)
+    result.band = kernel_band(job, args.dma, args.body_bits)
+    result.timing = timing
     if res is not None:
         cmp = res.comparison
         result.bits = BitExactness(cmp.differing_bits, cmp.differing_words, cmp.records, cmp.bodies,
@@ -360,6 +371,16 @@ def model_section(job: KernelJob, preset: DmaPreset, res: KernelResult | None = 
         return retire_cycles.report_section(pred, preset, seconds, measured), bound
     agreement = retire_cycles.compare_run(pred, res, job.slots)
     return retire_cycles.report_section(pred, preset, seconds, agreement=agreement), agreement.ok
+
+
+def at_estimated_clock(section: dict[str, Any], timing: Any, platform_hz: float) -> dict[str, Any]:
+    """The cycle model's section with the latency at the clock the timing estimate supports (``clock_note``) where
+    that is not the platform's."""
+    hz, why = clock_note(timing, platform_hz)
+    cycles = section.get("model: kernel cycles")
+    if not isinstance(cycles, int) or hz == platform_hz:
+        return section
+    return {**section, f"model: latency at {hz / 1e6:.0f} MHz (ms; {why})": cycles / hz * 1e3}
 
 
 def window_facts(job: KernelJob, preset: DmaPreset) -> WindowFacts:

@@ -28,8 +28,10 @@ on our frame is unknown: the thesis did not measure it).
 ``--impulse-stores onchip,records`` (``make sweep IMPULSE_STORES=onchip,records``) sweeps several designs of the
 streaming kernel in one run: the accumulated impulses in the on-chip RAM, or travelling with the records through
 DDR (``IMPULSE_STORE=records`` of ``make sim``); the ``design`` column names each row's, and every row says whether
-that design fits its platform (``fits``, ``fit``: the first resource that overflows; the plots draw a design that
-does not fit hollow). Both designs solve the same step (bit for bit); their cycles and resources differ.
+that design fits its platform at the pessimistic end of the estimate's band (``fits``; ``fit``: the verdict with the
+binding resource's band and margin, ``sim/fit/estimate_band.py``; the plots draw a design that does not fit hollow),
+and its timing estimate (``timing``: ``sim/fit/timing_estimate.py``; ``clock_mhz`` the clock it supports, at most the
+preset's, and ``ms_at_estimated_clock`` the step's latency at that clock). Both designs solve the same step (bit for bit); their cycles and resources differ.
 
 The golden model's steps are computed once per format for all iteration counts (``models/golden/iteration_ladder.py``:
 one contact run with a snapshot at each count, a friction phase from each, bit-identical to separate runs), and the
@@ -97,7 +99,8 @@ from sim.drive.kernel_step import run_kernel_step
 from sim.parallel.point_results import PointLog
 from sim.compare.trace_bits import kernel_bodies
 from sim.report.run_report import StagedDirectory
-from sim.fit.resource_model import FitVerdict, kernel_fit, short_verdict
+from sim.fit.estimate_band import BandVerdict, kernel_band, short_band
+from sim.fit.timing_estimate import TimingVerdict, clock_note, kernel_timing
 from sim.compare.exact_error import NoExactReference
 from sim.report.sweep_plot import series, write_plots
 from sim.drive.run_options import (add_kernel_args, check_kernel_args, hardware_format, kernel_job, kernel_label,
@@ -111,7 +114,7 @@ COLUMNS = ["format", "design", "iterations", "mode", "manifolds", "manifold_pass
            "ms_at_clock", "ns_per_manifold_pass", "stalls", "bubbles", "bytes_streamed", "differing_bits",
            "max_dv_vs_exact", "max_dw_vs_exact", "median_dv_vs_exact", "p99_dv_vs_exact", "median_dw_vs_exact",
            "p99_dw_vs_exact", "max_dv_vs_float64_same_iters", "max_dv_rounding", "max_dw_rounding",
-           "max_dv_iteration", "max_dw_iteration", "fits", "fit"]
+           "max_dv_iteration", "max_dw_iteration", "fits", "fit", "timing", "clock_mhz", "ms_at_estimated_clock"]
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -304,7 +307,8 @@ def sweep_row(point: SweepPoint, run_dir: Path) -> dict[str, Any]:
             "bytes_streamed": streamed, "differing_bits": differing,
             **exact_columns(e_exact), "max_dv_vs_float64_same_iters": e_same.max_dv,
             "max_dv_rounding": e_rounding.max_dv, "max_dw_rounding": e_rounding.max_dw,
-            **float64_columns(e_iteration), **fit_columns(job, point.dma, point.body_bits)}
+            **float64_columns(e_iteration), **fit_columns(job, point.dma, point.body_bits),
+            **timing_columns(job, point.dma, cycles, preset.clock_hz, point.body_bits)}
 
 
 PER_PASS_STREAMS = ("constraints", "impulses_out")  # the streams write_inputs sizes that each pass streams again
@@ -325,11 +329,23 @@ def model_stream_bytes(job: KernelJob, kb: KernelBuild, run_dir: Path) -> int:
 
 
 def fit_columns(job: KernelJob, dma: str, body_bits: int = 128) -> dict[str, Any]:
-    """Whether the point's kernel fits its DMA preset's platform (sim.fit.resource_model; "" without an estimate)."""
-    v = kernel_fit(job, dma, body_bits)
-    if isinstance(v, FitVerdict):
+    """Whether the point's kernel fits its DMA preset's platform at the pessimistic end of the estimate's band
+    (sim.fit.estimate_band; "" without an estimate), with the shares and the band."""
+    v = kernel_band(job, dma, body_bits)
+    if isinstance(v, BandVerdict):
         return {"fits": v.fits, "fit": f"{v.headline()} ({v.shares_text()})"}
-    return {"fits": "", "fit": short_verdict(v)}
+    return {"fits": "", "fit": short_band(v)}
+
+
+def timing_columns(job: KernelJob, dma: str, cycles: int, preset_hz: float, body_bits: int = 128) -> dict[str, Any]:
+    """The timing estimate of the point's kernel (sim.fit.timing_estimate) and its latency at the clock the estimate
+    supports ("" without a platform)."""
+    v = kernel_timing(job, dma, body_bits)
+    if v is None:
+        return {"timing": "", "clock_mhz": "", "ms_at_estimated_clock": ""}
+    hz, _ = clock_note(v, preset_hz)
+    text = v.headline() if isinstance(v, TimingVerdict) else f"no timing estimate ({v.reason})"
+    return {"timing": text, "clock_mhz": round(hz / 1e6, 1), "ms_at_estimated_clock": cycles / hz * 1e3}
 
 
 def exact_columns(e: SolutionError | NoExactReference) -> dict[str, Any]:

@@ -103,12 +103,28 @@ class VendorFigure:
     source: str
 
 
-# Vitis HLS fp32 adders in a public HLS report on UltraScale+ (Alveo U280; ../shared research facts, section 1)
+# Published Vitis HLS figures of the Floating-Point Operator cores Vitis binds on UltraScale+ parts (its synthesis
+# estimates of the cores, not post-route figures; the research notes fit_accuracy_speed_facts.md section 1 and
+# fit_audit_turn3.md section 2). The first figure of an operator is the one ``operator_source="vendor"`` takes (the
+# form Vitis binds by default: full_dsp adders, max_dsp multipliers); ``make resources`` writes every figure into
+# sim/fit/generated/resource_figures.json beside the operator's Yosys figure.
 _FANNS = "Vitis HLS report, Alveo U280 (WenqiJiang/SIGMOD-2022-submission-Fanns)"
+_FMUL = ("Vitis HLS reports, Alveo U280 and xcvu35p (ZTTTX/scalehls_vitis_test, gct02/AHLS): 78-123 LUT, 143-197 FF, "
+         "3 DSP across them; the upper ends")
+_UPCONV = "Vitis HLS report, xczu7ev-2 at 300 MHz (hijoouzc/UpConv_Block_HLS)"
 VENDOR_OPERATORS: dict[tuple[str, str], tuple[VendorFigure, ...]] = {
     ("fp_add", "fp32"): (VendorFigure("fadd full_dsp", 3, Resources(lut=226, ff=177, dsp=2), _FANNS),
                          VendorFigure("fadd no_dsp", 5, Resources(lut=338, ff=243, dsp=0), _FANNS)),
+    ("fp_mul", "fp32"): (VendorFigure("fmul max_dsp", 3, Resources(lut=123, ff=197, dsp=3), _FMUL),),
+    ("fp_add", "fp16"): (VendorFigure("hadd full_dsp", 4, Resources(lut=113, ff=109, dsp=2), _UPCONV),),
+    ("fp_mul", "fp16"): (VendorFigure("hmul max_dsp", 3, Resources(lut=34, ff=91, dsp=2), _UPCONV),),
 }
+
+
+def vendor_rows(module: str, fmt_name: str) -> list[dict[str, Any]]:
+    """The published figures of one operator in one format, as ``make resources`` writes them beside Yosys's."""
+    return [{"label": v.label, "latency": v.latency, "LUT": v.resources.lut, "FF": v.resources.ff,
+             "DSP": v.resources.dsp, "source": v.source} for v in VENDOR_OPERATORS.get((module, fmt_name), ())]
 
 
 # --- the generated figures --------------------------------------------------------------------------------------
@@ -419,6 +435,7 @@ class Part:
     name: str
     resources: Resources
     source: str
+    lutram: float = 0.0  # of resources.lut, the LUTs used as distributed RAM (delay lines, LUT-RAM arrays)
 
 
 @dataclass(frozen=True)
@@ -448,6 +465,12 @@ def pipe_resources(name: str, cfg: KernelConfig, data: dict[str, Any]) -> tuple[
         total = total + Resources(lut=shape.muxes * cfg.fmt.width, ff=shape.kind_stages)
         sources.append(f"{shape.muxes} {cfg.fmt.width}-bit kind multiplexers (a LUT per bit, computed)")
     return total, sources
+
+
+def pipe_lutram(name: str, cfg: KernelConfig) -> float:
+    """The LUTs of one pipe's delay lines that are distributed RAM (with their pointers: the rule's LUTs)."""
+    shape = pipe_shape(name, cfg.fmt.man_bits)
+    return sum(delay_line_resources(line, cfg.fmt.width, cfg.delay_block_min_depth).lut for line in shape.lines)
 
 
 CAM_UNIT = "hazard_cam"  # the figure of pgs_hazard_cam alone (2 body ports), to scale with lanes
@@ -555,7 +578,7 @@ def estimate(cfg: KernelConfig, platform: Optional[platforms.Platform] = None,
     for name, per in lane_pipes(cfg) + [("pgs_integrate_pipe", 1)]:
         res, src = pipe_resources(name, cfg, data)
         parts.append(Part(f"{name} x {per}", res.scaled(per), "operators: " + ", ".join(src)
-                          + "; delay lines: distributed RAM rule"))
+                          + "; delay lines: distributed RAM rule", lutram=per * pipe_lutram(name, cfg)))
     parts.append(control_resources(cfg, data))
     if cfg.body_ports == "banked":
         parts.append(Part(f"body bank port multiplexers ({cfg.body_banks} banks, {2 * cfg.lanes} reads and writes)",
@@ -569,7 +592,8 @@ def estimate(cfg: KernelConfig, platform: Optional[platforms.Platform] = None,
                           "computed (converter rule, not synthesized)"))
     uram = platform is not None and platform.uram > 0
     for m in memories(cfg):
-        parts.append(Part(m.name, m.resources(uram), f"{m.depth:,} x {m.width} bits, computed"))
+        res = m.resources(uram)
+        parts.append(Part(m.name, res, f"{m.depth:,} x {m.width} bits, computed", lutram=res.lut))
     return Estimate(cfg, tuple(parts))
 
 

@@ -12,9 +12,9 @@ What is synthesized, and what is computed:
 * every floating-point operator of ``rtl/fp`` alone (``fp_add``, ``fp_mul``, ``fp_div``, ``fp_sqrt``, ``fp_minmax``),
   once per format at its RTL latency: the per-operator figures of the resource model (``sim/fit/resource_model.py``),
   printed beside the published Vitis HLS figures where there are some;
-* the three datapaths ``pgs_contact_pipe``, ``pgs_friction_pipe``, ``pgs_integrate_pipe`` (each on its own), printed
-  beside the resource model's per-operator sum of the same pipe;
-* the control: ``pgs_kernel`` with those three and the two RAMs as black boxes (AXI4-Lite register file,
+* the datapaths ``pgs_contact_pipe``, ``pgs_friction_pipe``, ``pgs_integrate_pipe`` and a lane's shared datapath
+  ``pgs_shared_pipe`` (each on its own), printed beside the resource model's per-operator sum of the same pipe;
+* the control: ``pgs_kernel`` with the datapaths and the RAMs as black boxes (AXI4-Lite register file,
   sequencer, record assemblers, hazard CAM, output FIFO, counters), and the hazard CAM alone (the model scales
   it with the lanes' body ports);
 * the memories are **computed** from their sizes by the resource model (``sim.fit.resource_model.memories``), not
@@ -50,11 +50,15 @@ from models.formats.number_format import NumberFormat, parse_format
 from models.timing.platforms import get_platform
 from rtl.gen.file_list import kernel_sources
 from rtl.gen.operator_timing import MINMAX_LATENCY
-from models.kernel.delay_lines import BLOCK_MIN_DEPTH
+from rtl.gen.kernel_graphs import SHARED_GRAPHS
+from models.kernel.delay_lines import BLOCK_MIN_DEPTH, WINDOW_BLOCK_MIN_DEPTH
+from models.kernel.register_map import ARG_NAMES
+from sim.fit import delays, logic_depth
 from models.published.thesis import THESIS_BODIES, THESIS_FPGA, THESIS_MANIFOLDS
+from sim.fit.timing_estimate import PIPE_UNITS, SHARED_PIPE, TIMING_FILE, code_digest
 from sim.fit.resource_model import (CAM_UNIT, FIGURES_FILE, WINDOW_CONTROL_UNIT, OPERATOR_MODULES, DelayLine,
                                     KernelConfig, Resources, control_unit, delay_line_resources, memories,
-                                    pipe_resources, rtl_latency)
+                                    figures, pipe_resources, rtl_latency, vendor_rows)
 from sim.compile.verilator_build import REPO_ROOT
 
 BUILD = REPO_ROOT / "build" / "resources"
@@ -69,6 +73,7 @@ LUT_CELLS = {"INV": 1, "LUT1": 1, "LUT2": 1, "LUT3": 1, "LUT4": 1, "LUT5": 1, "L
              "SRLC16E": 1, "SRLC32E": 1, "RAM32X1S": 1, "RAM64X1S": 1, "RAM32X1D": 2, "RAM64X1D": 2, "RAM128X1S": 2,
              "RAM128X1D": 4, "RAM256X1S": 4, "RAM256X1D": 8, "RAM32M": 4, "RAM64M": 4, "RAM32M16": 8, "RAM64M8": 8}
 FF_CELLS = {"FDRE", "FDSE", "FDCE", "FDPE", "LDCE", "LDPE"}
+NETLIST = "netlist.json"  # each run's synthesized netlist (hierarchy kept): the timing estimate walks it
 
 
 # --- Yosys stat output ------------------------------------------------------------------------------------------
@@ -128,12 +133,15 @@ class Unit:
     format_params: bool = True  # the top takes EXP_BITS / MAN_BITS (the hazard CAM does not)
 
 
-CONTROL_BLACKBOXES = ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe", "pgs_body_ram", "pgs_impulse_ram",
-                      "pgs_ring_ram")
+# the datapaths (the two pipes, or a lane's shared datapath of any options) and the memories
+CONTROL_BLACKBOXES = ("pgs_contact_pipe", "pgs_friction_pipe", "pgs_integrate_pipe", *sorted(SHARED_GRAPHS),
+                      "pgs_body_ram", "pgs_impulse_ram", "pgs_ring_ram")
 UNITS = {
     "contact": Unit("contact", "pgs_contact_pipe"),
     "friction": Unit("friction", "pgs_friction_pipe"),
     "integrate": Unit("integrate", "pgs_integrate_pipe"),
+    # a lane's shared datapath of the default options (SHARED_DATAPATH = 1: rtl/gen/shared_datapath.py)
+    "shared": Unit("shared", SHARED_PIPE),
     "control": Unit("control", "pgs_kernel", CONTROL_BLACKBOXES, classic_abc=True),
     # the control with 256-bit body streams (BODY_BITS=256: wider body assemblers, fewer beats), an alternative
     # to the 128-bit one the totals count
@@ -159,6 +167,7 @@ DELAY_CHECKS = {block: Unit(f"delay_line_check_{'block' if block else 'lutram'}"
                 for block in (0, BLOCK_MIN_DEPTH)}
 CHECK_UNITS = (IMPULSE_CHECK, *DELAY_CHECKS.values())
 UNIT_LABELS = {"contact": "pgs_contact_pipe", "friction": "pgs_friction_pipe", "integrate": "pgs_integrate_pipe",
+               "shared": SHARED_PIPE,
                "control": "control (pgs_kernel less pipes and RAMs)",
                control_unit(256): "control with 256-bit body streams (not in the totals)", CAM_UNIT: "pgs_hazard_cam (inside the control)",
                WINDOW_CONTROL_UNIT: "control of the window kernel with the impulses in the records (not in the totals)"}
@@ -209,7 +218,10 @@ _GENVAR = re.compile(r"\bgenvar\s+(\w+)")  # slang keeps generate loop variables
 def yosys_script(unit: Unit, fmt: NumberFormat, sources: list[Path]) -> str:
     fmt_params = [("EXP_BITS", fmt.exp_bits), ("MAN_BITS", fmt.man_bits)] if unit.format_params else []
     params = [*fmt_params, *unit.params]
-    read = ["read_slang", "-j", "1", "--top", unit.top, *(f"-G {k}={v}" for k, v in params),
+    # the generated shared datapaths read some delay-line outputs above their declarations, which Verilator takes and
+    # slang refuses by default
+    read = ["read_slang", "-j", "1", "--allow-use-before-declare", "--top", unit.top,
+            *(f"-G {k}={v}" for k, v in params),
             *(f"--blackboxed-module {b}" for b in unit.blackboxes), *(p.name for p in sources)]
     lines = [" ".join(read)]
     by_name = {p.stem: p for p in sources}
@@ -225,7 +237,8 @@ def yosys_script(unit: Unit, fmt: NumberFormat, sources: list[Path]) -> str:
                   "opt_lut_ins -tech xilinx", f"{synth} -run finalize:"]
     else:
         lines.append(synth)
-    lines += ["tee -q -o stat.txt stat", ""]
+    # the netlist for the timing estimate (sim/fit/logic_depth.py): the design's modules only, not the cell library
+    lines += ["tee -q -o stat.txt stat", "select -none", "select =A:blackbox %n", f"write_json -selected {NETLIST}", ""]
     return "\n".join(lines)
 
 
@@ -237,6 +250,7 @@ class UnitResult:
     seconds: float  # of the Yosys run (0 when cached)
     cached: bool
     cells: dict[str, int] = field(default_factory=dict)
+    timing: dict[str, Any] = field(default_factory=dict)  # delay-line threshold -> logic_depth analysis
 
 
 def run_unit(unit: Unit, fmt: NumberFormat, sources: list[Path], build: Path = BUILD) -> UnitResult:
@@ -247,7 +261,7 @@ def run_unit(unit: Unit, fmt: NumberFormat, sources: list[Path], build: Path = B
     script = yosys_script(unit, fmt, sources)
     digest = hashlib.sha256(script.encode() + b"".join(p.read_bytes() for p in sources)).hexdigest()
     stat, key = work / "stat.txt", work / "inputs.sha256"
-    cached = stat.is_file() and key.is_file() and key.read_text() == digest
+    cached = stat.is_file() and (work / NETLIST).is_file() and key.is_file() and key.read_text() == digest
     seconds = 0.0
     if not cached:
         for p in sources:  # Yosys (WebAssembly) sees the working directory only
@@ -267,7 +281,39 @@ def run_unit(unit: Unit, fmt: NumberFormat, sources: list[Path], build: Path = B
     elif (work / "seconds.txt").is_file():
         seconds = float((work / "seconds.txt").read_text())
     cells = parse_stat(stat.read_text())
-    return UnitResult(unit, fmt, summarize(cells), seconds, cached, cells)
+    timing = {} if unit in CHECK_UNITS else unit_timing(unit, work)
+    return UnitResult(unit, fmt, summarize(cells), seconds, cached, cells, timing)
+
+
+# --- timing: the register-to-register depth of each run's netlist (sim/fit/logic_depth.py) ------------------------
+PIPE_TOPS = set(PIPE_UNITS)
+# the delay-line thresholds the builds use (models/kernel/delay_lines.py): a pipe's depth is kept for each
+PIPE_THRESHOLDS = (0, BLOCK_MIN_DEPTH, WINDOW_BLOCK_MIN_DEPTH)
+
+
+def unit_timing(unit: Unit, work: Path) -> dict[str, Any]:
+    """The logic depth of the netlist in ``work`` (cached there beside it: ``timing.json``), per delay-line threshold
+    for the pipes."""
+    cache = work / "timing.json"
+    key = (work / "inputs.sha256").read_text() + code_digest()
+    if cache.is_file():
+        stored = json.loads(cache.read_text())
+        if stored.get("key") == key:
+            return stored["timing"]
+    netlist = logic_depth.load(work / NETLIST, unit.top)
+    thresholds: tuple[int, ...] = (0,)
+    depths: dict[str, int] = {}
+    if unit.top in PIPE_TOPS:
+        thresholds = PIPE_THRESHOLDS
+        depths = logic_depth.delay_line_depths((work / f"{unit.top}.sv").read_text())
+    types = logic_depth.instance_types({p.name: p.read_text() for p in sorted(work.glob("*.sv"))})
+    timing = {str(t): logic_depth.analyze(netlist, bram_taps=logic_depth.block_ram_taps(depths, t),
+                                          arguments=ARG_NAMES, types=types, top=unit.top).as_dict()
+              for t in thresholds}
+    tmp = cache.with_suffix(".tmp")
+    tmp.write_text(json.dumps({"key": key, "timing": timing}))
+    tmp.replace(cache)
+    return timing
 
 
 @dataclass(frozen=True)
@@ -294,14 +340,16 @@ class ResourcePoint:
         fmt = parse_format(self.fmt)
         assert isinstance(fmt, NumberFormat)
         r = run_unit(unit, fmt, prepare_sources(BUILD / "src"))
-        return {"resources": asdict(r.resources), "seconds": r.seconds, "cached": r.cached, "cells": r.cells}
+        return {"resources": asdict(r.resources), "seconds": r.seconds, "cached": r.cached, "cells": r.cells,
+                "timing": r.timing}
 
 
 def unit_result(point: ResourcePoint, row: dict[str, Any]) -> UnitResult:
     unit = unit_named(point.unit)
     fmt = parse_format(point.fmt)
     assert isinstance(fmt, NumberFormat)
-    return UnitResult(unit, fmt, Resources(**row["resources"]), row["seconds"], row["cached"], row["cells"])
+    return UnitResult(unit, fmt, Resources(**row["resources"]), row["seconds"], row["cached"], row["cells"],
+                      row.get("timing", {}))
 
 
 # --- report -------------------------------------------------------------------------------------------------------
@@ -336,7 +384,7 @@ def report(fmt: NumberFormat, results: list[UnitResult]) -> list[str]:
     return ["| " + " | ".join(r) + " |" for r in rows]
 
 
-PIPE_UNITS = {"contact": "pgs_contact_pipe", "friction": "pgs_friction_pipe", "integrate": "pgs_integrate_pipe"}
+PIPE_UNIT_MODULES = {unit: module for module, unit in PIPE_UNITS.items()}  # unit name -> pipe module
 
 
 def figure_row(r: UnitResult) -> dict[str, Any]:
@@ -370,7 +418,10 @@ def write_figures(done: list[UnitResult], path: Path = FIGURES_FILE) -> None:
             continue
         section = "operators" if r.unit.name.startswith("op_") else "units"
         name = r.unit.top if section == "operators" else r.unit.name
-        data.setdefault(section, {}).setdefault(r.fmt.name, {})[name] = figure_row(r)
+        row = figure_row(r)
+        if section == "operators" and vendor_rows(name, r.fmt.name):
+            row["vendor"] = vendor_rows(name, r.fmt.name)
+        data.setdefault(section, {}).setdefault(r.fmt.name, {})[name] = row
     for section in ("operators", "units"):
         data.setdefault(section, {})
         data[section] = {f: dict(sorted(v.items())) for f, v in sorted(data[section].items())}
@@ -380,16 +431,62 @@ def write_figures(done: list[UnitResult], path: Path = FIGURES_FILE) -> None:
     tmp.replace(path)
 
 
+def timing_lines(done: list[UnitResult]) -> list[str]:
+    """Each run's deepest register-to-register path against the ZCU102's clock (sim/fit/delays.py)."""
+    bud = delays.budget(ZCU102.preset.clock_hz)
+    required = bud.period_ns - delays.FIGURES.clock_uncertainty
+    lines = [f"timing budget: {bud.describe()}"] if any(r.timing for r in done) else []
+    for r in done:
+        for threshold, a in r.timing.items():
+            if not a["worst"]:
+                lines.append(f"timing, {r.fmt.name} {r.unit.name}: no register-to-register path")
+                continue
+            w = a["worst"][0]
+            where = f" (delay lines from {threshold} deep in block RAM)" if threshold != "0" else ""
+            verdict = "meets" if w["delay_ns"] <= required else "FAILS"
+            lines.append(f"timing, {r.fmt.name} {r.unit.name}{where}: deepest {w['levels']} levels ({w['luts']} LUT, "
+                         f"{w['carry8']} CARRY8, {w['muxf']} MUXF, {w['dsp']} DSP48E2), {w['delay_ns']:.2f} ns: "
+                         f"{w['start']} -> {w['end']}; {verdict} {bud.clock_hz / 1e6:g} MHz (estimate)")
+    return lines
+
+
+def write_timing(done: list[UnitResult], path: Path = TIMING_FILE) -> None:
+    """Merge the runs' logic depth into the committed timing figures (sim/fit/timing_estimate.py reads them); figures
+    computed by other code or delay figures are dropped (every unit must then be run again)."""
+    data: dict[str, Any] = json.loads(path.read_text()) if path.is_file() else {}
+    code = code_digest()
+    if data.get("code") != code or data.get("figures") != delays.FIGURES.digest():
+        data = {}
+    data.update({"about": "generated by `make resources` (python -m sim.resources), do not edit: the register-to-"
+                          "register depth of each Yosys run's netlist (sim/fit/logic_depth.py), path delays with "
+                          f"{delays.FIGURES.name} figures (sim/fit/delays.py); per unit and format, per delay-line "
+                          "threshold (DELAY_BLOCK_MIN_DEPTH) for the pipes",
+                 "code": code, "figures": delays.FIGURES.digest()})
+    for r in done:
+        if not r.timing:
+            continue
+        name = r.unit.top if r.unit.name.startswith("op_") else r.unit.name
+        data.setdefault("units", {}).setdefault(r.fmt.name, {})[name] = r.timing
+    data["units"] = {f: dict(sorted(v.items())) for f, v in sorted(data.get("units", {}).items())}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data, indent=1, sort_keys=False) + "\n")
+    tmp.replace(path)
+
+
 def sum_against_whole(done: list[UnitResult]) -> list[str]:
-    """The resource model's per-operator sum of each synthesized pipe beside Yosys's run of the whole pipe."""
+    """The resource model's per-operator sum of each synthesized pipe beside Yosys's run of the whole pipe (the
+    operators of this run, else the committed ones: a run of the pipes alone, ``--no-operators``)."""
     lines = []
     for r in done:
-        if r.unit.name not in PIPE_UNITS:
+        if r.unit.name not in PIPE_UNIT_MODULES:
             continue
-        model, _ = pipe_resources(PIPE_UNITS[r.unit.name], KernelConfig(r.fmt, 0, 0), {"operators": {
-            r.fmt.name: {u.unit.top: figure_row(u) for u in done if u.fmt == r.fmt and u.unit.name.startswith("op_")}}})
+        committed = figures()["operators"].get(r.fmt.name, {}) if FIGURES_FILE.is_file() else {}
+        ops = {**committed, **{u.unit.top: figure_row(u) for u in done
+                               if u.fmt == r.fmt and u.unit.name.startswith("op_")}}
+        model, _ = pipe_resources(PIPE_UNIT_MODULES[r.unit.name], KernelConfig(r.fmt, 0, 0), {"operators": {r.fmt.name: ops}})
         whole = r.resources.as_dict()
         diffs = ", ".join(f"{k} {m:,.0f} vs {whole[k]:,.0f} ({100 * (m - whole[k]) / whole[k]:+.1f}%)"
                           for k, m in model.as_dict().items() if whole[k])
-        lines.append(f"per-operator sum vs whole {PIPE_UNITS[r.unit.name]}, {r.fmt.name}: {diffs}")
+        lines.append(f"per-operator sum vs whole {PIPE_UNIT_MODULES[r.unit.name]}, {r.fmt.name}: {diffs}")
     return lines

@@ -2,7 +2,8 @@
 
 Each sweep row is a design point (format, design, iterations): x its cycles per manifold-pass (the cycle model's or
 the RTL kernel's), y its error against the exact limit of the scheme (max over dynamic bodies of |dv|, and of
-|dw|: ``sim/compare/exact_error.py``). The front is the fitting points (``fits`` true: ``sim/fit/resource_model.py``)
+|dw|: ``sim/compare/exact_error.py``). The front is the fitting points (``fits`` true: at the pessimistic end of the
+estimate's band, ``sim/fit/estimate_band.py``)
 that no other fitting point beats on both axes. The thesis's two ZCU102 designs (``models/published/thesis.py``: fp32
 and fp16, 4 iterations) go on the same axes at their published cycles per manifold-pass (their 127,000-manifold frame);
 their error is not published, so theirs is our golden model's of the same format and iteration count on the swept frame
@@ -203,7 +204,8 @@ def plot(rows: Sequence[dict[str, Any]], path: Path, title: str) -> None:
     for row_axes, x in zip(axes, AXES):
         for ax, (error, ylabel, _unit) in zip(row_axes, ERRORS):
             _panel(ax, rows, error, ylabel, x)
-    fig.suptitle(f"{title}\nsolid: fits the platform, hollow: does not, or no resource estimate (sim/fit/resource_model.py; "
+    fig.suptitle(f"{title}\nsolid: fits the platform at the band's pessimistic end, hollow: does not, or no resource "
+                 f"estimate (sim/fit/estimate_band.py; "
                  f"not on the front); thesis designs: black (they fit; their 127,000-manifold frame)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=100)

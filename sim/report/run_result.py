@@ -17,14 +17,19 @@ from models.kernel.record_window import WindowPlan
 from models.exact.solution_error import SolutionError
 from models.published import thesis as baselines
 from sim.compare.exact_error import ExactErrors, NoExactReference
+from sim.fit.estimate_band import BandVerdict, band_basis
 from sim.fit.resource_model import FitVerdict, NoEstimate, fit_rows
+from sim.fit.timing_estimate import NoTiming, TimingVerdict, histogram_text
 
 VERDICT_SECTION = "verdict (what decides the exit status)"
 BITS_SECTION = "bit-exactness (RTL kernel against the golden model, same format)"
 MODEL_SECTION = "cycle model (models/timing/cycle_model.py)"
 ERROR_SECTION = "error (velocities after the step; dynamic bodies)"
 FIT_SECTION = "fit on the platform (resource estimate of this configuration)"
+TIMING_SECTION = "timing (estimate: register-to-register depth of the Yosys netlists, sim/fit/timing_estimate.py)"
 FitReport = Union[FitVerdict, NoEstimate]
+BandReport = Union[BandVerdict, NoEstimate]
+TimingReport = Union[TimingVerdict, NoTiming]
 Sections = dict[str, dict[str, Any]]
 
 
@@ -147,6 +152,8 @@ class ThesisComparison:
     pybullet_timing_s: dict[str, float]  # pybullet's own timers of the captured step (empty: not recorded)
     pybullet_iterations: Any
     software_seconds: dict[str, float]  # the numpy solves of this run
+    clock_hz: float = 0.0  # the clock this run's latency is quoted at (timing_estimate.clock_note; 0: none)
+    clock_why: str = ""
 
 
 @dataclass
@@ -164,6 +171,8 @@ class RunResult:
     cycle_model: Optional[dict[str, Any]] = None  # sim.compare.retire_cycles.report_section beside the RTL
     window: Optional[WindowFacts] = None
     fit: Optional[FitReport] = None  # sim.fit.resource_model.kernel_fit of the configuration run
+    band: Optional[BandReport] = None  # sim.fit.estimate_band.kernel_band: the verdict with the estimate's band
+    timing: Optional[TimingReport] = None  # sim.fit.timing_estimate.kernel_timing
     # the cycle model against the RTL run: every retire cycle and the counters (deterministic streams) or its lower
     # bound (random stalls); None: not compared (no kernel run, or a configuration the model does not take)
     model_agrees: Optional[bool] = None
@@ -200,6 +209,8 @@ class ModelRunResult:
     dma: str  # described
     cycle_model: dict[str, Any] = field(default_factory=dict)  # sim.compare.retire_cycles.report_section
     fit: Optional[FitReport] = None  # sim.fit.resource_model.kernel_fit of the configuration predicted
+    band: Optional[BandReport] = None  # sim.fit.estimate_band.kernel_band
+    timing: Optional[TimingReport] = None  # sim.fit.timing_estimate.kernel_timing
     errors: Union[ExactErrors, NoExactReference, None] = None  # the golden model's step against the exact reference
     error_source: str = ""  # what ``errors.ours`` is of
 
@@ -218,7 +229,9 @@ def sections(result: AnyRunResult) -> Sections:
                                      "schedule": result.schedule, "DMA preset": result.dma},
                            MODEL_SECTION: result.cycle_model}
         if result.fit is not None:
-            model[FIT_SECTION] = fit_rows(result.fit)
+            model[FIT_SECTION] = fit_section(result.fit, result.band)
+        if result.timing is not None:
+            model[TIMING_SECTION] = timing_rows(result.timing)
         if result.errors is not None:
             model[ERROR_SECTION] = {**_exact_rows(_exact_labels(result.error_source, "", _name(result.errors)),
                                                   result.errors),
@@ -243,10 +256,63 @@ def sections(result: AnyRunResult) -> Sections:
     if result.window is not None:
         out["record window (rtl/pgs_window.sv)"] = _window(result.window)
     if result.fit is not None:
-        out[FIT_SECTION] = fit_rows(result.fit)
+        out[FIT_SECTION] = fit_section(result.fit, result.band)
+    if result.timing is not None:
+        out[TIMING_SECTION] = timing_rows(result.timing)
     out[ERROR_SECTION] = _errors(result.errors)
     out["comparison with the thesis and with software solvers"] = _thesis(result.thesis)
     out["wall time of this run (s)"] = dict(result.seconds)
+    return out
+
+
+def fit_section(fit: FitReport, band: Optional[BandReport]) -> dict[str, Any]:
+    """The resource model's rows, the shares replaced by the banded ones and the verdict by the one with margin."""
+    rows = fit_rows(fit)
+    if not isinstance(band, BandVerdict):
+        return rows
+    out: dict[str, Any] = {}
+    for key, value in rows.items():
+        if key.startswith("LUT, FF, DSP"):
+            out["LUT, FF, DSP, BRAM36, URAM (share of the device: Yosys estimate, band, vendor-anchored)"] = \
+                band.shares_text()
+        elif key.startswith("verdict"):
+            out[key.replace("verdict", "verdict at the band's pessimistic end")] = band.headline()
+            out["margin per resource (points of the device at the pessimistic end)"] = ", ".join(
+                f"{s.resource} {s.margin_points:+.1f}" for k, s in band.shares.items()
+                if band.platform.capacity(k) or s.high)
+        else:
+            out[key] = value
+    out["band of the estimate against a vendor flow"] = band_basis()
+    gap = band.whole_pipe_gap
+    if gap.lut or gap.ff:
+        out["Yosys of the whole pipes less their per-operator sums (this configuration's pipes)"] = (
+            f"LUT {gap.lut:+,.0f}, FF {gap.ff:+,.0f}")
+    return out
+
+
+def timing_rows(t: TimingReport) -> dict[str, Any]:
+    """``timing: meets 275 MHz (estimate)`` or the failing path, the budget, the deepest paths, the distribution."""
+    if isinstance(t, NoTiming):
+        return {"timing": f"no estimate ({t.reason})"}
+    out: dict[str, Any] = {"timing": t.headline(), "budget": t.budget.describe(),
+                           "clock the estimate supports": f"{t.clock_hz / 1e6:.0f} MHz"}
+    for i, p in enumerate(t.paths[:5], 1):
+        over = " (over)" if p.delay_ns > t.required_ns else ""
+        out[f"deepest path {i}{over}"] = p.describe()
+    for unit, hist in t.histograms.items():
+        deepest = next((p for p in t.paths if p.where == unit), None)
+        if deepest is not None:
+            over = " (over)" if deepest.delay_ns > t.required_ns else ""
+            out[f"deepest in {unit}{over}"] = deepest.describe()
+        out[f"logic levels of {unit} (register-to-register endpoints)"] = histogram_text(hist)
+    if t.argument_paths:
+        a = t.argument_paths[0]
+        out["from kernel argument registers (static through a step: multicycle, not in the verdict)"] = (
+            f"{a.describe()}{' (over one cycle)' if a.delay_ns > t.required_ns else ''}")
+    if t.missing:
+        out["not covered"] = "; ".join(t.missing)
+    if t.notes:
+        out["assumptions on these paths"] = "; ".join(t.notes)
     return out
 
 
@@ -387,15 +453,19 @@ def _thesis(t: ThesisComparison) -> dict[str, Any]:
     out["thesis i7-3770 (Bullet3)"] = f"{baselines.THESIS_CPU_MS} ms"
     if t.rtl_cycles is not None:
         cpmp = t.rtl_cycles / t.manifold_passes
+        hz = t.clock_hz or 275e6  # the clock the timing estimate supports (none given: the platform's 275 MHz)
+        mhz = f"{hz / 1e6:.0f} MHz"
+        if t.clock_why:
+            out["clock of this run's latency"] = t.clock_why
         same = baselines.THESIS_FPGA.get(t.fmt)  # the thesis's design of this format, at its own clock
-        at_thesis_clock = "" if same is None or same.clock_hz == 275e6 else (
+        at_thesis_clock = "" if same is None or same.clock_hz == hz else (
             f" ({t.rtl_cycles / same.clock_hz * 1e3:.2f} ms at the thesis {t.fmt} design's {same.clock_hz / 1e6:g} MHz)")
         out[f"this run: RTL {t.fmt}, {t.manifolds:,} manifolds, {t.iterations} iterations"] = (
-            f"{t.rtl_cycles:,} cycles, {t.rtl_cycles / 275e6 * 1e3:.2f} ms at 275 MHz{at_thesis_clock}, "
+            f"{t.rtl_cycles:,} cycles, {t.rtl_cycles / hz * 1e3:.2f} ms at {mhz}{at_thesis_clock}, "
             f"{cpmp:.2f} cycles/manifold-pass")
         scaled = cpmp * baselines.THESIS_MANIFOLDS * 2 * t.iterations
         out[f"this run scaled to {baselines.THESIS_MANIFOLDS:,} manifolds"] = (
-            f"{scaled:,.0f} cycles, {scaled / 275e6 * 1e3:.2f} ms at 275 MHz")
+            f"{scaled:,.0f} cycles, {scaled / hz * 1e3:.2f} ms at {mhz}")
     timing = t.pybullet_timing_s
     if timing:
         out[f"pybullet's own solver on this frame (this machine, {t.pybullet_iterations} iterations, solveGroup)"] = (

@@ -4,6 +4,7 @@ bad input ends it with one error line and exit status 2."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -25,9 +26,14 @@ def test_band_figures(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Non
     # platforms x 3 formats x fetch periods {1, 2} x impulse placements
     assert len(figures["budget"]) == len(PLATFORMS) * 3 * 2 * 2 and all(b["fits"] for b in figures["budget"])
     out = capsys.readouterr().out
-    assert "does not fit" not in out and "whole kernel (resource model, 1 lane)" in out
+    assert "does not fit" not in out and "whole kernel (resource model, 1 lane; band and margin" in out
+    assert "band of the resource estimate: LUT logic x0.763" in out
+    verdicts = [b["kernel_fit"] for b in figures["budget"]]
+    assert all(v == "no estimate" or re.match(r"(FITS|FITS at the optimistic end only|DOES NOT FIT) \(\w+ [\d.]+%-"
+                                             r"[\d.]+%, margin [+-][\d.]+ pt\)$", v) for v in verdicts), verdicts
     # the pyramid's 55 cubes: every window (one lane, the impulses on chip or in the records) fits both devices
-    assert [b["kernel_fit"] for b in figures["budget"]] == ["FITS"] * len(figures["budget"])
+    # at the pessimistic end of the band, with room to spare
+    assert all(v.startswith("FITS (") and "margin +" in v for v in verdicts), verdicts
 
 
 def test_band_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -12,6 +12,7 @@ import pytest
 
 from models.published import thesis
 from sim import claims as cl
+from sim.fit import estimate_band as eb
 from sim.fit import resource_model as rm
 from sim.report.run_result import BitExactness, RunResult
 from sim.run import MAKE_SIM_OPTIONS, make_sim_argv, parse_args
@@ -43,8 +44,9 @@ def test_every_run_is_a_make_sim_command_and_the_makefile_passes_each_variable()
 
 
 def _run(fmt: str, cycles: int, manifolds: int, lut: float, max_dv: float, bits: int = 0,
-         bram: float = 0.1) -> RunResult:
-    """A make sim result whose figures are these (the rest from test_run_result's example)."""
+         bram: float = 0.1, lut_high: float | None = None) -> RunResult:
+    """A make sim result whose figures are these (the rest from test_run_result's example); the band's pessimistic
+    ends are the estimate's, the LUT's ``lut_high`` where given."""
     result = _result(BitExactness(bits, bits, manifolds * 8, 11, "record 3" if bits else "", 1))
     result.speed = dataclasses.replace(result.speed, fmt=fmt, cycles=cycles, manifold_passes=manifolds * 8)
     result.scene = dataclasses.replace(result.scene, manifolds=manifolds)
@@ -52,16 +54,28 @@ def _run(fmt: str, cycles: int, manifolds: int, lut: float, max_dv: float, bits:
     shares = dict.fromkeys(rm.KEYS, 0.1) | {"LUT": lut, "BRAM36": bram}
     result.fit = rm.FitVerdict(rm.platforms.get_platform("zcu102"), rm.Resources(), shares, dict(rm.platforms.USABLE_SHARE),
                                "window")
+    result.band = _band(shares, high=1.0, lut_high=lut_high)
     ours = dataclasses.replace(EXACT.ours, max_dv=max_dv)
     result.errors = dataclasses.replace(result.errors, vs_exact=dataclasses.replace(EXACT, ours=ours))
     return result
 
 
+def _band(shares: dict[str, float], high: float, lut_high: float | None = None) -> eb.BandVerdict:
+    """A band verdict around ``shares``: each optimistic end 10% below the estimate, each pessimistic end ``high``
+    times it (the LUT's ``lut_high`` where given)."""
+    usable = rm.platforms.USABLE_SHARE
+    ends = {k: high * v for k, v in shares.items()} | ({"LUT": lut_high} if lut_high is not None else {})
+    return eb.BandVerdict(rm.platforms.get_platform("zcu102"), {
+        k: eb.BandedShare(k, v, v, 0.9 * v, ends[k], usable[k]) for k, v in shares.items()}, "window")
+
+
 RUNS = {"thesis-fp32": _run("fp32", 2_299_084, 147_485, 0.5, 0.0939),
         "thesis-fp16": _run("fp16", 1_500_581, 147_485, 0.5, 0.0939),
         "thesis-bf16": _run("bf16", 1_494_499, 147_485, 0.5, 0.0939),
-        "fitting-fp32": _run("fp32", 1_436_467, 147_485, 0.7481, 0.08364, bram=0.9114),
-        "fitting-fp16": _run("fp16", 822_865, 147_485, 0.7472, 0.08346, bram=0.8293),
+        "fitting-fp32": _run("fp32", 1_436_467, 147_485, 0.7402, 0.08364, bram=0.9114,
+                              lut_high=0.829),
+        "fitting-fp16": _run("fp16", 822_865, 147_485, 0.7452, 0.08346, bram=0.8293,
+                              lut_high=0.878),
         "jenga": _run("fp32", 10_633, 100, 0.1, 0.01), "duck-lego": _run("fp32", 4_906, 100, 0.1, 0.01)}
 
 
@@ -78,7 +92,7 @@ def test_every_figure_passes_on_the_stated_runs(capsys: pytest.CaptureFixture[st
 
 def test_a_figure_off_by_its_last_digit_or_a_broken_run_fails(capsys: pytest.CaptureFixture[str]) -> None:
     runs = dict(RUNS)
-    runs["fitting-fp16"] = _run("fp16", 822_866, 147_485, 0.7472, 0.08346, bram=0.8293)  # one cycle more
+    runs["fitting-fp16"] = _run("fp16", 822_866, 147_485, 0.7452, 0.08346, bram=0.8293, lut_high=0.878)  # a cycle more
     runs["thesis-bf16"] = _run("bf16", 1_494_499, 147_485, 0.5, 0.0939, bits=3)
 
     def source(name: str, command: str) -> RunResult:
@@ -111,3 +125,18 @@ def test_a_bad_claims_file_or_run_name_is_refused(tmp_path: Path, capsys: pytest
         assert word in capsys.readouterr().err
     assert cl.main(["--runs", "nope", "--list"]) == 2
     assert cl.main(["--list"]) == 0 and "fitting-fp16: make sim SCENE=thesis" in capsys.readouterr().out
+
+
+def test_fits_is_the_band_verdict_at_its_pessimistic_end() -> None:
+    """"fits" in a claim means what make sim's verdict says: every resource's pessimistic end within its usable share,
+    not the Yosys estimate alone; a run without the band has no "fits" figure."""
+    run = _run("fp32", 1_436_467, 147_485, 0.80, 0.08364, bram=0.90)
+    assert run.fit.fits and cl.MEASURES["fits"](run) is True  # type: ignore[union-attr]
+    assert cl.MEASURES["fit_margin_points"](run) == pytest.approx(100 * (0.95 - 0.90))
+    run.band = _band(run.fit.shares, high=1.10)  # type: ignore[union-attr]
+    # the Yosys estimate still fits (LUT 80%, BRAM36 90%); the pessimistic end does not (LUT 88%, BRAM36 99%)
+    assert run.fit.fits and cl.MEASURES["fits"](run) is False  # type: ignore[union-attr]
+    assert cl.MEASURES["fit_margin_points"](run) == pytest.approx(100 * (0.95 - 0.99))
+    run.band = None
+    with pytest.raises(ValueError, match="no fit verdict with the estimate's band"):
+        cl.MEASURES["fits"](run)

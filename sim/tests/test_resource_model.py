@@ -183,7 +183,9 @@ def test_per_operator_sum_uses_the_committed_figures_and_vendor_where_published(
     assert any(s.startswith("152 fp_add (Yosys)") for s in sources)
     vendor, vsources = rm.pipe_resources("pgs_contact_pipe", rm.KernelConfig(FP32, 0, 0, operator_source="vendor"),
                                          data)
-    assert vendor.dsp - yosys.dsp == 152 * (2 - add.dsp) and any("fadd full_dsp" in s for s in vsources)
+    # the published forms: fadd full_dsp (2 DSP48E2) for each adder, fmul max_dsp (3) for each multiplier
+    assert vendor.dsp - yosys.dsp == 152 * (2 - add.dsp) + 178 * (3 - mul.dsp)
+    assert any("fadd full_dsp" in s for s in vsources) and any("178 fp_mul (fmul max_dsp" in s for s in vsources)
     with pytest.raises(KeyError, match="e6m9"):
         rm.operator_figure("fp_add", rm.NumberFormat("e6m9", 6, 9), data=data)
 

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Union
 
 from models.exact.solution_error import SolutionError
@@ -115,6 +116,27 @@ def test_model_mode_reports_the_errors_against_the_exact_reference() -> None:
     assert missing == {"fp32 golden model vs exact reference (rounding + iteration error)": why,
                        "float64 with these iterations vs exact reference (iteration error alone)": why,
                        "exact reference": why}
+
+
+def test_thesis_comparison_at_the_clock_the_timing_estimate_supports() -> None:
+    base = ThesisComparison("fp16", 147485, 4, 1179880, 822865, {}, 10, {})
+    at_275 = sections_thesis(dataclasses.replace(base, clock_hz=275e6, clock_why="275 MHz (meets)"))
+    assert at_275["this run: RTL fp16, 147,485 manifolds, 4 iterations"].startswith("822,865 cycles, 2.99 ms at 275 MHz")
+    slow = sections_thesis(dataclasses.replace(base, clock_hz=71e6, clock_why="71 MHz (the estimate's highest)"))
+    assert slow["this run: RTL fp16, 147,485 manifolds, 4 iterations"].startswith("822,865 cycles, 11.59 ms at 71 MHz")
+    assert slow["clock of this run's latency"] == "71 MHz (the estimate's highest)"
+    # the thesis's own designs keep their clocks
+    assert "250 MHz" in next(k for k in slow if k.startswith("thesis ZCU102 fp16"))
+    # no timing estimate given: the platform's 275 MHz, no line on why
+    assert sections_thesis(base)["this run: RTL fp16, 147,485 manifolds, 4 iterations"].startswith(
+        "822,865 cycles, 2.99 ms at 275 MHz (3.29 ms at the thesis fp16 design's 250 MHz)")
+    assert "clock of this run's latency" not in sections_thesis(base)
+
+
+def sections_thesis(t: ThesisComparison) -> dict[str, object]:
+    from sim.report.run_result import _thesis
+
+    return _thesis(t)
 
 
 def test_a_reference_not_certified_unique_is_named_on_every_error_line() -> None:

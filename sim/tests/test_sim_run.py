@@ -26,6 +26,7 @@ from sim.compile.kernel_build import default_window
 from sim.drive.kernel_step import golden_step
 from sim import run as sim_run
 from sim.report import pareto_front
+from sim.report.run_result import FIT_SECTION, TIMING_SECTION
 from sim import sweep as sim_sweep
 from sim.report import sweep_plot
 from sim.drive.harness_run import KernelRunError
@@ -77,6 +78,14 @@ def test_sim_run_reports(tmp_path: Path) -> None:
     residuals = [v for k, v in err.items() if k.startswith("residual after the RTL kernel's solve")]
     assert residuals and all(np.isfinite(v) and v >= 0 for v in residuals)
     assert "thesis ZCU102 fp32 (127,000 manifolds, 275 MHz)" in report["comparison with the thesis and with software solvers"]
+    # the fit verdict at the band's pessimistic end, with its margin, and the timing estimate against 275 MHz
+    fit = report[FIT_SECTION]
+    verdict = next(v for k, v in fit.items() if k.startswith("verdict at the band's pessimistic end"))
+    assert verdict.startswith("FITS the zcu102: ") and "points to spare at the pessimistic end" in verdict
+    assert "(band " in fit["LUT, FF, DSP, BRAM36, URAM (share of the device: Yosys estimate, band, vendor-anchored)"]
+    timing = report[TIMING_SECTION]["timing"]
+    assert timing.startswith(("meets 275 MHz (estimate)", "fails 275 MHz (estimate)")), timing
+    assert report[TIMING_SECTION]["clock the estimate supports"].endswith(" MHz")
     assert (next(out.glob("*/report.md"))).read_text().startswith("# pgs-cosim run")
     assert [p.name for p in out.iterdir()] == [next(out.glob("*/report.json")).parent.name]  # nothing staged left
 

@@ -14,6 +14,7 @@ from sim.fit.yosys_figures import (DELAY_CHECK_DEPTH, DELAY_CHECK_WIDTH, DELAY_C
 from models.formats.number_format import BF16, FP16, FP32
 from sim.fit.resource_model import (DelayLine, KernelConfig, bram36_for, delay_line_resources, figures, memories,
                                     rtl_latency)
+from sim.fit.timing_estimate import timing_figures
 
 DATA = Path(__file__).parent / "data"
 
@@ -63,13 +64,15 @@ def test_memories_of_the_rtl_defaults() -> None:
 
 def test_operator_figure_against_a_fresh_yosys_run(tmp_path: Path) -> None:
     """fp_minmax in bf16 (the quickest operator) synthesized now, in a fresh directory, equals the committed figure
-    the resource model sums; its latency is the RTL's."""
+    the resource model sums, and its netlist's depth the committed timing figure; its latency is the RTL's."""
     unit = OPERATOR_UNITS["fp_minmax"]
     fresh = run_unit(unit, BF16, prepare_sources(tmp_path / "src"), build=tmp_path)
     assert not fresh.cached and fresh.seconds > 0
     committed = figures()["operators"]["bf16"]["fp_minmax"]
     assert {k: committed[k] for k in ("LUT", "FF", "DSP", "BRAM36", "URAM")} == fresh.resources.as_dict()
     assert committed["latency"] == rtl_latency("fp_minmax", BF16)
+    assert fresh.timing == timing_figures()["units"]["bf16"]["fp_minmax"]
+    assert fresh.timing["0"]["inputs"]["a"]["levels"] > 0  # its compare: a path from the operands to the register
 
 
 def test_delay_line_mapping_against_yosys(tmp_path: Path) -> None:
