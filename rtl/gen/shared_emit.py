@@ -14,10 +14,10 @@ from typing import Optional
 
 from models.formats.number_format import KERNEL_FORMATS
 
-from rtl.gen.dataflow import FLOAT, Value
+from rtl.gen.dataflow import FLOAT
 from rtl.gen.operator_timing import Time
 from rtl.gen.shared_datapath import CONTACT, FRICTION, KIND_NAMES, Comb, Operator, Ref, SharedDatapath, Source, _const_key
-from rtl.gen.sv_emit import HEADER, _FLAGGED, _sv_diff, _wrap
+from rtl.gen.sv_emit import HEADER, _FLAGGED, _sv_diff, _wrap, expr_text
 
 _VALID = {frozenset({CONTACT}): "valid_c_q", frozenset({FRICTION}): "valid_f_q",
           frozenset({CONTACT, FRICTION}): "valid_q"}
@@ -88,7 +88,7 @@ class _Emitter:
 
     def comb(self, c: Comb) -> list[str]:
         v, ops, out = c.node, [self.tap(r) for r in c.operands], c.out
-        L = [f"    // {out.name} = {_expr(v)}   ({KIND_NAMES[c.kind]}; ready @{_cycles(out.ready)})",
+        L = [f"    // {out.name} = {expr_text(v)}   ({KIND_NAMES[c.kind]}; ready @{_cycles(out.ready)})",
              f"    logic [W-1:0] {out.name};" if out.type == FLOAT else f"    logic {out.name};"]
         if v.op == "neg":
             L.append(f"    assign {out.name} = {{~{ops[0]}[W-1], {ops[0]}[W-2:0]}};")
@@ -104,7 +104,7 @@ class _Emitter:
 
     def operator(self, op: Operator, k_op: int, ev_index: Optional[int]) -> list[str]:
         kinds = frozenset(op.ops)
-        uses = "; ".join(f"{KIND_NAMES[k]}: {op.ops[k].name} = {_expr(op.ops[k])}" for k in sorted(op.ops))
+        uses = "; ".join(f"{KIND_NAMES[k]}: {op.ops[k].name} = {expr_text(op.ops[k])}" for k in sorted(op.ops))
         L = [f"    // {op.name}: {op.module} @{_cycles(op.issue)} -> @{_cycles(next(iter(op.outputs.values())).ready)}"
              f" ({uses})"]
         n_operands = len(next(iter(op.operands.values())))
@@ -149,24 +149,6 @@ class _Emitter:
 
 def _cycles(t: Time) -> str:
     return "/".join(str(t.eval(fmt.man_bits)) for fmt in KERNEL_FORMATS.values())
-
-
-def _expr(v: Value) -> str:
-    names = [a.name.removeprefix("in_") if a.op != "const" else f"{a.const!r}" for a in v.args]
-    sym = {"add": "+", "sub": "-", "mul": "*", "div": "/"}
-    if v.op in sym:
-        return f"{names[0]} {sym[v.op]} {names[1]}"
-    if v.op == "neg":
-        return f"-{names[0]}"
-    if v.op == "select":
-        return f"{names[0]} ? {names[1]} : {names[2]}"
-    if v.op == "lt":
-        return f"{names[0]} < {names[1]}"
-    if v.op == "is_zero":
-        return f"{names[0]} == 0"
-    if v.op == "is_pos":
-        return f"{names[0]} > 0"
-    return f"{v.op}({', '.join(names)})"
 
 
 def emit_shared_sv(dp: SharedDatapath) -> str:

@@ -22,6 +22,24 @@ _FLAGGED = ("fp_add", "fp_mul", "fp_div", "fp_sqrt")  # operators with event fla
 _SYMBOL = {"add": "+", "sub": "-", "mul": "*", "div": "/"}
 
 
+def expr_text(v: Value) -> str:
+    """An operation as the comment of the value it gives (operands by name, the inputs without their ``in_``)."""
+    names = [a.name.removeprefix("in_") if a.op != "const" else f"{a.const!r}" for a in v.args]
+    if v.op in _SYMBOL:
+        return f"{names[0]} {_SYMBOL[v.op]} {names[1]}"
+    if v.op == "neg":
+        return f"-{names[0]}"
+    if v.op == "select":
+        return f"{names[0]} ? {names[1]} : {names[2]}"
+    if v.op == "lt":
+        return f"{names[0]} < {names[1]}"
+    if v.op == "is_zero":
+        return f"{names[0]} == 0"
+    if v.op == "is_pos":
+        return f"{names[0]} > 0"
+    return f"{v.op}({', '.join(names)})"
+
+
 def _sv_diff(a: Time, b: Time) -> str:
     """a - b as an SV expression (folded to an int when both are constant)."""
     if a.is_const and b.is_const:
@@ -82,22 +100,6 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
         if a.op == "const":
             return a.name
         return tap_ref(a, sch.operand_tap[(cons.id, pos)])
-
-    def expr_text(v: Value) -> str:
-        names = [a.name.removeprefix("in_") if a.op != "const" else f"{a.const!r}" for a in v.args]
-        if v.op in _SYMBOL:
-            return f"{names[0]} {_SYMBOL[v.op]} {names[1]}"
-        if v.op == "neg":
-            return f"-{names[0]}"
-        if v.op == "select":
-            return f"{names[0]} ? {names[1]} : {names[2]}"
-        if v.op == "lt":
-            return f"{names[0]} < {names[1]}"
-        if v.op == "is_zero":
-            return f"{names[0]} == 0"
-        if v.op == "is_pos":
-            return f"{names[0]} > 0"
-        return f"{v.op}({', '.join(names)})"
 
     L: list[str] = [HEADER]
     L += _wrap(graph.doc)
