@@ -469,8 +469,9 @@ def test_gtkwave_save_file_names_design_signals(tmp_path, fmt_name, dma) -> None
     assert traces == [t.path for g in groups for t in g.traces]
     assert [g.name for g in groups] == ["Control", "Pipeline", "DMA streams", "Registers (AXI4-Lite)"]
     top = gs.KERNEL_TOP
-    declared = {top: gs.rtl_signals(gs.RTL_DIR / "pgs_kernel.sv", params),
-                f"{top}.u_seq": gs.rtl_signals(gs.RTL_DIR / "pgs_sequencer.sv", params)}
+    declared = {f"{top}.{inst}" if inst else top: gs.rtl_signals(gs.RTL_DIR / rtl_file, params)
+                for _, parts in gs.KERNEL_LAYOUT for inst, rtl_file, _ in parts}
+    assert {f"{top}.u_seq", f"{top}.u_seq.u_hazards", f"{top}.u_seq.u_integrate"} <= set(declared)
     for path in traces:
         scope, leaf = path.split("[")[0].rsplit(".", 1)
         rng = declared[scope].range(leaf)
