@@ -86,13 +86,14 @@ async def hazards_follow_the_model(dut) -> None:
 @pytest.mark.parametrize("lanes,window,shared", [(1, 0, 0), (1, 0, 1), (2, 1024, 1)],
                          ids=["stream-two-pipes", "stream-shared", "window-2lanes"])
 def test_seq_hazards(lanes: int, window: int, shared: int) -> None:
-    from sim.drive.cocotb_run import run_cocotb, test_seed
+    from sim.drive.cocotb_run import cocotb_results, run_cocotb, test_seed
 
     seed = test_seed()
     rtl = REPO / "rtl"
-    run_cocotb("pgs_seq_hazards", [rtl / "generated" / "pgs_stream_layout_pkg.sv", rtl / "pgs_seq_pkg.sv",
-                                   rtl / "pgs_hazard_cam.sv", rtl / "pgs_seq_hazards.sv"], "test_seq_hazards",
-               parameters={"MAX_BODIES": 1 << IDX_W, "HAZARD_DEPTH": DEPTH, "LANES": lanes, "WINDOW": window,
-                           "SHARED_DATAPATH": shared}, seed=seed,
-               extra_env={"TB_SEED": str(seed), "TB_LANES": str(lanes), "TB_WINDOW": str(window),
-                          "TB_SHARED": str(shared)})
+    results = run_cocotb("pgs_seq_hazards", [rtl / "generated" / "pgs_stream_layout_pkg.sv", rtl / "pgs_seq_pkg.sv",
+                                             rtl / "pgs_hazard_cam.sv", rtl / "pgs_seq_hazards.sv"], "test_seq_hazards",
+                         parameters={"MAX_BODIES": 1 << IDX_W, "HAZARD_DEPTH": DEPTH, "LANES": lanes, "WINDOW": window,
+                                     "SHARED_DATAPATH": shared}, seed=seed,
+                         extra_env={"TB_SEED": str(seed), "TB_LANES": str(lanes), "TB_WINDOW": str(window),
+                                    "TB_SHARED": str(shared)})
+    assert cocotb_results(results) == (1, 0)  # hazards_follow_the_model ran and passed

@@ -109,12 +109,13 @@ async def integrate_follows_the_golden(dut) -> None:
 
 
 def test_seq_integrate() -> None:
-    from sim.drive.cocotb_run import run_cocotb, test_seed
+    from sim.drive.cocotb_run import cocotb_results, run_cocotb, test_seed
 
     seed = test_seed()
     rtl = REPO / "rtl"
     sources = [rtl / "pgs_fp_pkg.sv", rtl / "generated" / "pgs_stream_layout_pkg.sv", rtl / "pgs_seq_pkg.sv",
                *sorted((rtl / "fp").glob("*.sv")), rtl / "pgs_delay.sv", rtl / "generated" / "pgs_integrate_pipe.sv",
                rtl / "pgs_fifo.sv", rtl / "pgs_seq_integrate.sv"]
-    run_cocotb("pgs_seq_integrate", sources, "test_seq_integrate", parameters={"OUT_FIFO_DEPTH": FIFO_DEPTH}, seed=seed,
-               extra_env={"TB_SEED": str(seed)})
+    results = run_cocotb("pgs_seq_integrate", sources, "test_seq_integrate",
+                         parameters={"OUT_FIFO_DEPTH": FIFO_DEPTH}, seed=seed, extra_env={"TB_SEED": str(seed)})
+    assert cocotb_results(results) == (1, 0)  # integrate_follows_the_golden ran and passed

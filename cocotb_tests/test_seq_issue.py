@@ -141,13 +141,14 @@ async def issue_follows_the_model(dut) -> None:
 @pytest.mark.parametrize("lanes,window,imp,banks", [(1, 0, 0, 0), (2, 1024, 0, 0), (4, 1024, 1, 8)],
                          ids=["stream", "window-2lanes", "window-4lanes-records-banked"])
 def test_seq_issue(lanes: int, window: int, imp: int, banks: int) -> None:
-    from sim.drive.cocotb_run import run_cocotb, test_seed
+    from sim.drive.cocotb_run import cocotb_results, run_cocotb, test_seed
 
     seed = test_seed()
     rtl = REPO / "rtl"
-    run_cocotb("pgs_seq_issue", [rtl / "generated" / "pgs_stream_layout_pkg.sv", rtl / "pgs_seq_pkg.sv",
-                                 rtl / "pgs_ring_ram.sv", rtl / "pgs_seq_issue.sv"], "test_seq_issue",
-               parameters={"MAX_BODIES": 1 << IDX_W, "MAX_MANIFOLDS": 1 << SLOT_W, "LANES": lanes, "WINDOW": window,
-                           "IMPULSES_IN_RECORDS": imp, "BODY_BANKS": banks}, seed=seed,
-               extra_env={"TB_SEED": str(seed), "TB_LANES": str(lanes), "TB_WINDOW": str(window), "TB_IMP": str(imp),
-                          "TB_BANKS": str(banks)})
+    results = run_cocotb("pgs_seq_issue", [rtl / "generated" / "pgs_stream_layout_pkg.sv", rtl / "pgs_seq_pkg.sv",
+                                           rtl / "pgs_ring_ram.sv", rtl / "pgs_seq_issue.sv"], "test_seq_issue",
+                         parameters={"MAX_BODIES": 1 << IDX_W, "MAX_MANIFOLDS": 1 << SLOT_W, "LANES": lanes,
+                                     "WINDOW": window, "IMPULSES_IN_RECORDS": imp, "BODY_BANKS": banks}, seed=seed,
+                         extra_env={"TB_SEED": str(seed), "TB_LANES": str(lanes), "TB_WINDOW": str(window),
+                                    "TB_IMP": str(imp), "TB_BANKS": str(banks)})
+    assert cocotb_results(results) == (1, 0)  # issue_follows_the_model ran and passed

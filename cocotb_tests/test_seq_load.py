@@ -138,9 +138,11 @@ async def load_every_scenario(dut) -> None:
 
 @pytest.mark.parametrize("iinv_w,beat_w", [(3, 128), (6, 256)])
 def test_seq_load(iinv_w: int, beat_w: int) -> None:
-    from sim.drive.cocotb_run import run_cocotb, test_seed
+    from sim.drive.cocotb_run import cocotb_results, run_cocotb, test_seed
 
     seed = test_seed()
-    run_cocotb("pgs_seq_load", [REPO / "rtl" / "pgs_record_asm.sv", REPO / "rtl" / "pgs_seq_load.sv"], "test_seq_load",
-               parameters={"IINV_W": iinv_w, "BODY_IN_W": beat_w}, seed=seed,
-               extra_env={"TB_SEED": str(seed), "TB_IINV_W": str(iinv_w), "TB_BODY_IN_W": str(beat_w)})
+    results = run_cocotb("pgs_seq_load", [REPO / "rtl" / "pgs_record_asm.sv", REPO / "rtl" / "pgs_seq_load.sv"],
+                         "test_seq_load",
+                         parameters={"IINV_W": iinv_w, "BODY_IN_W": beat_w}, seed=seed,
+                         extra_env={"TB_SEED": str(seed), "TB_IINV_W": str(iinv_w), "TB_BODY_IN_W": str(beat_w)})
+    assert cocotb_results(results) == (1, 0)  # load_every_scenario ran and passed

@@ -140,11 +140,12 @@ async def records_follow_the_model(dut) -> None:
 
 
 def test_seq_records() -> None:
-    from sim.drive.cocotb_run import run_cocotb, test_seed
+    from sim.drive.cocotb_run import cocotb_results, run_cocotb, test_seed
 
     seed = test_seed()
     rtl = REPO / "rtl"
-    run_cocotb("pgs_seq_records", [rtl / "generated" / "pgs_stream_layout_pkg.sv", rtl / "pgs_seq_pkg.sv",
-                                   rtl / "pgs_record_asm.sv", rtl / "pgs_ring_ram.sv", rtl / "pgs_window.sv",
-                                   rtl / "pgs_seq_records.sv"], "test_seq_records",
-               parameters={"MAX_BODIES": 1 << IDX_W}, seed=seed, extra_env={"TB_SEED": str(seed)})
+    results = run_cocotb("pgs_seq_records", [rtl / "generated" / "pgs_stream_layout_pkg.sv", rtl / "pgs_seq_pkg.sv",
+                                             rtl / "pgs_record_asm.sv", rtl / "pgs_ring_ram.sv", rtl / "pgs_window.sv",
+                                             rtl / "pgs_seq_records.sv"], "test_seq_records",
+                         parameters={"MAX_BODIES": 1 << IDX_W}, seed=seed, extra_env={"TB_SEED": str(seed)})
+    assert cocotb_results(results) == (1, 0)  # records_follow_the_model ran and passed

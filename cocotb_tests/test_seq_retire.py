@@ -101,12 +101,13 @@ async def retire_follows_the_model(dut) -> None:
 
 @pytest.mark.parametrize("lanes,imp", [(1, 1), (4, 1), (2, 0)], ids=["records", "records-4lanes", "onchip-2lanes"])
 def test_seq_retire(lanes: int, imp: int) -> None:
-    from sim.drive.cocotb_run import run_cocotb, test_seed
+    from sim.drive.cocotb_run import cocotb_results, run_cocotb, test_seed
 
     seed = test_seed()
     rtl = REPO / "rtl"
-    run_cocotb("pgs_seq_retire", [rtl / "generated" / "pgs_stream_layout_pkg.sv", rtl / "pgs_seq_pkg.sv",
-                                  rtl / "pgs_fifo.sv", rtl / "pgs_seq_retire.sv"], "test_seq_retire",
-               parameters={"MAX_MANIFOLDS": 1 << SLOT_W, "LANES": lanes, "IMPULSES_IN_RECORDS": imp,
-                           "IMP_FIFO_DEPTH": FIFO_DEPTH}, seed=seed,
-               extra_env={"TB_SEED": str(seed), "TB_LANES": str(lanes), "TB_IMP": str(imp)})
+    results = run_cocotb("pgs_seq_retire", [rtl / "generated" / "pgs_stream_layout_pkg.sv", rtl / "pgs_seq_pkg.sv",
+                                            rtl / "pgs_fifo.sv", rtl / "pgs_seq_retire.sv"], "test_seq_retire",
+                         parameters={"MAX_MANIFOLDS": 1 << SLOT_W, "LANES": lanes, "IMPULSES_IN_RECORDS": imp,
+                                     "IMP_FIFO_DEPTH": FIFO_DEPTH}, seed=seed,
+                         extra_env={"TB_SEED": str(seed), "TB_LANES": str(lanes), "TB_IMP": str(imp)})
+    assert cocotb_results(results) == (1, 0)  # retire_follows_the_model ran and passed
