@@ -16,7 +16,7 @@ SCENE_ARGS ?=
 ITERS ?= 4
 FORMAT ?= fp32
 DMA ?= zcu102
-# the seed of every randomised run and test (sim/seed.py's DEFAULT_SEED; CI derives one from the commit, .ci/run)
+# the seed of every randomised run and test (sim/drive/seed.py's DEFAULT_SEED; CI derives one from the commit, .ci/run)
 SEED ?= 1
 WAVES ?= 0
 FORMATS ?= fp32,fp16,bf16

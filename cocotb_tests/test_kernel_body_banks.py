@@ -28,7 +28,7 @@ from models.tests.test_body_banks import spread_bodies
 from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import run_kernel_step
 from sim.compare import retire_cycles
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")

@@ -45,7 +45,7 @@ from models.formats.number_format import EVENT_NAMES, FP16, FP32, NumberFormat
 from models.scenes.kernel_scenes import KERNEL_TEST_SCENES
 from sim.compile.kernel_build import default_window
 from sim.drive.kernel_step import golden_step, run_kernel_step
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 PRESET = get_preset("zcu102")
 GAP_PERMILLE, BP_PERMILLE = 100, 200

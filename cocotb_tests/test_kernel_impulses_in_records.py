@@ -37,7 +37,7 @@ from models.tests.test_impulses_in_records import independent_stack_job
 from sim.compile.kernel_build import default_window
 from sim.drive.kernel_step import run_kernel_step
 from sim.compare import retire_cycles
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")

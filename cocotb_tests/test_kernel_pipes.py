@@ -60,7 +60,7 @@ from rtl.gen.kernel_graphs import (CONTACT_IN, CONTACT_OUT, FRICTION_IN, FRICTIO
                                    friction_graph, shared_graph, shared_in)  # noqa: E402
 from rtl.gen.file_list import rtl_files  # noqa: E402
 from sim.compile.verilator_build import DEBUG_COMPILE_ARGS, build  # noqa: E402
-from sim.seed import run_seed  # noqa: E402
+from sim.drive.seed import run_seed  # noqa: E402
 from rtl.gen.operator_schedule import schedule  # noqa: E402
 
 HERE = Path(__file__).resolve().parent / "pipes"

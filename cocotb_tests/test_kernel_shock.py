@@ -37,7 +37,7 @@ from sim.drive.kernel_step import golden_step, run_kernel_step
 from models.timing import prediction
 from models.timing import stream_cycle_model
 from sim.compare import retire_cycles
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")

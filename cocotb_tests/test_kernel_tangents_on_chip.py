@@ -35,7 +35,7 @@ from models.setup.tangent_basis import PLANE_SPACE_SPLIT
 from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import run_kernel_step
 from sim.compare import retire_cycles
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 PRESET = get_preset("zcu102")

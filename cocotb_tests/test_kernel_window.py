@@ -54,7 +54,7 @@ from sim.drive.kernel_step import KernelResult, golden_step, run_kernel_step
 from sim.compare.trace_bits import Comparison, compare_body_out, compare_trace_bits, read_trace
 from models.timing import prediction
 from sim.compare import retire_cycles
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 DEPTH = 1024
 LANES = 2

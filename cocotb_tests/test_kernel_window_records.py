@@ -51,7 +51,7 @@ from cocotb_tests.test_kernel_window import BIG_PILE, ROOM_PILE, _assert_golden_
 from models.kernel.body_banks import WINDOW_BANKS
 from models.tests.test_body_banks import spread_bodies
 from models.tests.test_impulses_in_records import independent_stack_job
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 DEPTH = 1024
 GAP_PERMILLE, BP_PERMILLE = 100, 200

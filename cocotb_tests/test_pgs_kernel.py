@@ -58,7 +58,7 @@ from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import KernelResult, golden_step, run_kernel_step
 from models.timing import prediction
 from sim.compare import retire_cycles
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 GAP_PERMILLE, BP_PERMILLE = 100, 200
 ITERATIONS = 4
@@ -177,7 +177,7 @@ def test_asset_worlds_through_the_rtl(world: str, tmp_path: Path) -> None:
     differ, the counters are the golden model's, every retire cycle is the cycle model's, and the kernel's cycles are
     the README's (``docs/claims.toml``, the user-worlds row)."""
     from sim.claims import load_claims
-    from sim.seed import DEFAULT_SEED
+    from sim.drive.seed import DEFAULT_SEED
 
     frame, _ = scenes.load_scene(world, "", DEFAULT_SEED)  # make sim's frame (deterministic streams: no other seed)
     job = KernelJob.from_frame(frame, FP32, SolverParams(ITERATIONS), "hazard", default_window(FP32, 512))

@@ -5,7 +5,7 @@ point reruns alone with the command the regression prints::
 
 They are skipped unless ``REGRESS_SEEDS`` (a count: seeds 1..N) or ``REGRESS_SEED`` (one seed) is set, so ``make
 test`` only collects them (and runs ``test_failure_report``, the summary's parser of a junit report). CI sets
-``REGRESS_SLICE`` (``.ci/run``): that many points with the run seed (``sim.seed.run_seed``, CI's from the commit),
+``REGRESS_SLICE`` (``.ci/run``): that many points with the run seed (``sim.drive.seed.run_seed``, CI's from the commit),
 the cases picked by the seed (``sim.regress.ci_slice``), each with its random stalls and deterministic streams.
 """
 
@@ -22,7 +22,7 @@ from models.scenes.kernel_scenes import SEEDED
 from models.timing.platforms import get_preset
 from sim.compile.kernel_build import KernelBuild, build_kernel
 from sim.regress import CASES, OUT, Case, check, ci_slice, failures, reproduce
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 
 def seeds() -> list[int]:

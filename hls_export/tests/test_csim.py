@@ -46,7 +46,7 @@ from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import golden_step
 from sim.compare.trace_bits import Comparison, compare_impulse_out
 from sim.compile.verilator_build import REPO_ROOT
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 KB = KernelBuild(FP32)
 ROTATED_WORLD = str(REPO_ROOT / "docs" / "rotated_boxes_world.py")  # rotated non-cube boxes, Bullet 2's convention

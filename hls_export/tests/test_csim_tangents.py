@@ -37,7 +37,7 @@ from sim.drive.harness_run import write_inputs
 from sim.compile.kernel_build import KernelBuild, default_window
 from sim.drive.kernel_step import golden_step
 from sim.compare.trace_bits import Comparison, compare_impulse_out, compare_trace_bits, read_trace
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 
 def _seed() -> int:

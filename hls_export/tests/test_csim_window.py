@@ -39,7 +39,7 @@ from sim.drive.harness_run import run_harness, write_inputs
 from sim.compile.kernel_build import KernelBuild
 from sim.drive.kernel_step import golden_step
 from sim.compare.trace_bits import Comparison, compare_body_out, compare_impulse_out, compare_trace_bits, read_trace
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 DESIGNS = {"fp32-1lane": (FP32, 1), "fp16-2lanes": (FP16, 2)}
 assert all(WINDOW_LANES[fmt.name] == lanes for fmt, lanes in DESIGNS.values())

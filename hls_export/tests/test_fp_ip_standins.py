@@ -26,7 +26,7 @@ from hls_export.fp_ip.standins import StandinError, find_ip_cores, standin_sourc
 from models.formats.number_format import FP16, FP32, NumberFormat
 from sim.drive import fp_operator_vectors as fpv
 from sim.compile.verilator_build import QUICK_COMPILE_ARGS, REPO_ROOT, build, ensure_verilator_env, rtl_sources
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 HERE = Path(__file__).resolve().parent
 CHANNELS = ("add", "sub", "mul", "div", "sqrt", "cmp")

@@ -15,7 +15,7 @@ from hls_export.csim import BUILD_ROOT, HLS_DIR, compile_cpp
 import pytest
 
 from models.formats.number_format import BF16, FP16, FP32, NumberFormat
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 OPS = ("add", "sub", "mul", "div", "sqrt", "min", "max")
 MIN_NORMAL = 2.0**-126

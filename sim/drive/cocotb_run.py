@@ -29,7 +29,7 @@ from models.formats.number_format import parse_format
 from models.kernel.stream_format import KERNEL_INERTIA_WORDS
 from sim.drive.gtkwave_save import Group, kernel_groups, write_save_file
 from sim.compile.kernel_build import PUBLIC_VLT, TOP, WAVE_ARGS, KernelBuild
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 from sim.compile.verilator_build import MODEL_OPT_ARGS, QUICK_COMPILE_ARGS, REPO_ROOT, build_lock, ensure_verilator_env
 
 BUILD_ROOT = REPO_ROOT / "build" / "cocotb"
@@ -39,7 +39,8 @@ _MAKE_VARS = "CFG_CXXFLAGS_PCH_I=-include CFG_LDLIBS_THREADS=-pthread"
 
 
 def test_seed() -> int:
-    """The seed of this run (``sim.seed.run_seed``: ``SEED`` from the environment, else the one default), printed."""
+    """The seed of this run (``sim.drive.seed.run_seed``: ``SEED`` from the environment, else the one default),
+    printed."""
     seed = run_seed()
     print(f"SEED={seed} (rerun with SEED={seed} to reproduce)")
     return seed

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.formats.number_format import BF16, EVENT_NAMES, FP16, FP32, NumberFormat
-from sim.seed import run_seed
+from sim.drive.seed import run_seed
 
 # the operator results of one vector, in the order the harness writes them
 OPS = ("add", "sub", "mul", "div", "sqrt", "min", "max", "flags")
@@ -32,7 +32,7 @@ FORMATS = {"fp32": FP32, "fp16": FP16, "bf16": BF16}
 
 
 def seed_for(fmt_name: str) -> int:
-    """The vector seed of a format: the run seed (``sim.seed.run_seed``) plus its index."""
+    """The vector seed of a format: the run seed (``sim.drive.seed.run_seed``) plus its index."""
     base = run_seed()
     return base + {"fp32": 0, "fp16": 1, "bf16": 2}[fmt_name]
 

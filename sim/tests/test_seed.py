@@ -1,5 +1,5 @@
-"""One default seed everywhere (sim/seed.py): a test run alone, make test and make sim agree; SEED overrides it and a
-bad one is refused; CI derives its seed from the commit (.ci/run) and prints it."""
+"""One default seed everywhere (sim/drive/seed.py): a test run alone, make test and make sim agree; SEED overrides it
+and a bad one is refused; CI derives its seed from the commit (.ci/run) and prints it."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from sim.seed import DEFAULT_SEED, run_seed
+from sim.drive.seed import DEFAULT_SEED, run_seed
 
 REPO = Path(__file__).resolve().parents[2]
 
