@@ -17,7 +17,7 @@ from models.formats.number_format import KERNEL_FORMATS
 from rtl.gen.dataflow import FLOAT
 from rtl.gen.operator_timing import Time
 from rtl.gen.shared_datapath import CONTACT, FRICTION, KIND_NAMES, Comb, Operator, Ref, SharedDatapath, Source, _const_key
-from rtl.gen.sv_emit import HEADER, _FLAGGED, _sv_diff, _wrap, expr_text
+from rtl.gen.sv_emit import HEADER, _FLAGGED, _sv_diff, _wrap, comb_assign, expr_text, ready_cycles
 
 _VALID = {frozenset({CONTACT}): "valid_c_q", frozenset({FRICTION}): "valid_f_q",
           frozenset({CONTACT, FRICTION}): "valid_q"}
@@ -88,25 +88,16 @@ class _Emitter:
 
     def comb(self, c: Comb) -> list[str]:
         v, ops, out = c.node, [self.tap(r) for r in c.operands], c.out
-        L = [f"    // {out.name} = {expr_text(v)}   ({KIND_NAMES[c.kind]}; ready @{_cycles(out.ready)})",
-             f"    logic [W-1:0] {out.name};" if out.type == FLOAT else f"    logic {out.name};"]
-        if v.op == "neg":
-            L.append(f"    assign {out.name} = {{~{ops[0]}[W-1], {ops[0]}[W-2:0]}};")
-        elif v.op == "select":
-            L.append(f"    assign {out.name} = {ops[0]} ? {ops[1]} : {ops[2]};")
-        elif v.op == "is_zero":
-            L.append(f"    assign {out.name} = ({ops[0]}[W-2:MAN_BITS] == '0);   // subnormals read as zero")
-        elif v.op == "is_pos":
-            L.append(f"    assign {out.name} = !{ops[0]}[W-1] && ({ops[0]}[W-2:MAN_BITS] != '0);   // not NaN: a > 0")
-        else:  # pragma: no cover
-            raise AssertionError(v.op)
+        L = [f"    // {out.name} = {expr_text(v)}   ({KIND_NAMES[c.kind]}; ready @{ready_cycles(out.ready)})",
+             f"    logic [W-1:0] {out.name};" if out.type == FLOAT else f"    logic {out.name};",
+             comb_assign(v.op, out.name, ops)]
         return L + self.line(out)
 
     def operator(self, op: Operator, k_op: int, ev_index: Optional[int]) -> list[str]:
         kinds = frozenset(op.ops)
         uses = "; ".join(f"{KIND_NAMES[k]}: {op.ops[k].name} = {expr_text(op.ops[k])}" for k in sorted(op.ops))
-        L = [f"    // {op.name}: {op.module} @{_cycles(op.issue)} -> @{_cycles(next(iter(op.outputs.values())).ready)}"
-             f" ({uses})"]
+        ready = next(iter(op.outputs.values())).ready
+        L = [f"    // {op.name}: {op.module} @{ready_cycles(op.issue)} -> @{ready_cycles(ready)} ({uses})"]
         n_operands = len(next(iter(op.operands.values())))
         operands = []
         for i, port in enumerate("ab"[:n_operands]):
@@ -145,10 +136,6 @@ class _Emitter:
             for s in (mn, mx, lt):
                 L += self.line(s)
         return L
-
-
-def _cycles(t: Time) -> str:
-    return "/".join(str(t.eval(fmt.man_bits)) for fmt in KERNEL_FORMATS.values())
 
 
 def emit_shared_sv(dp: SharedDatapath) -> str:

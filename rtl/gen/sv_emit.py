@@ -22,6 +22,26 @@ _FLAGGED = ("fp_add", "fp_mul", "fp_div", "fp_sqrt")  # operators with event fla
 _SYMBOL = {"add": "+", "sub": "-", "mul": "*", "div": "/"}
 
 
+def ready_cycles(t: Time) -> str:
+    """A time in cycles in each kernel format, ``fp32/fp16/bf16`` (the generated comments' ``@`` figures)."""
+    return "/".join(str(t.eval(fmt.man_bits)) for fmt in KERNEL_FORMATS.values())
+
+
+COMB_OPS = ("neg", "select", "is_zero", "is_pos")  # the operations written as an assign, not an operator instance
+
+
+def comb_assign(op: str, name: str, ops: list[str]) -> str:
+    """The assign of a combinational operation (:data:`COMB_OPS`) of operands ``ops`` into ``name``."""
+    if op == "neg":
+        return f"    assign {name} = {{~{ops[0]}[W-1], {ops[0]}[W-2:0]}};"
+    if op == "select":
+        return f"    assign {name} = {ops[0]} ? {ops[1]} : {ops[2]};"
+    if op == "is_zero":
+        return f"    assign {name} = ({ops[0]}[W-2:MAN_BITS] == '0);   // subnormals read as zero"
+    if op == "is_pos":
+        return f"    assign {name} = !{ops[0]}[W-1] && ({ops[0]}[W-2:MAN_BITS] != '0);   // not NaN: a > 0"
+    raise ValueError(f"{op!r} is not a combinational operation ({', '.join(COMB_OPS)})")
+
 def expr_text(v: Value) -> str:
     """An operation as the comment of the value it gives (operands by name, the inputs without their ``in_``)."""
     names = [a.name.removeprefix("in_") if a.op != "const" else f"{a.const!r}" for a in v.args]
@@ -267,19 +287,12 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
             continue
         w = width(v)
         r = sch.ready[v.id]
-        cyc = "/".join(str(r.eval(fmt.man_bits)) for fmt in KERNEL_FORMATS.values())
-        L.append(f"    // {v.name} = {expr_text(v)}   (ready @{cyc})")
+        L.append(f"    // {v.name} = {expr_text(v)}   (ready @{ready_cycles(r)})")
         L.append(f"    logic [{w}-1:0] {v.name};" if w != "1" else f"    logic {v.name};")
         ops = [operand(v, i) for i in range(len(v.args))]
         mod = OP_SIGNATURES[v.op][2]
-        if v.op == "neg":
-            L.append(f"    assign {v.name} = {{~{ops[0]}[W-1], {ops[0]}[W-2:0]}};")
-        elif v.op == "select":
-            L.append(f"    assign {v.name} = {ops[0]} ? {ops[1]} : {ops[2]};")
-        elif v.op == "is_zero":
-            L.append(f"    assign {v.name} = ({ops[0]}[W-2:MAN_BITS] == '0);   // subnormals read as zero")
-        elif v.op == "is_pos":
-            L.append(f"    assign {v.name} = !{ops[0]}[W-1] && ({ops[0]}[W-2:MAN_BITS] != '0);   // not NaN: a > 0")
+        if v.op in COMB_OPS:
+            L.append(comb_assign(v.op, v.name, ops))
         elif mod in _FLAGGED:
             operands = f".a({ops[0]})" + (f", .b({ops[1]})" if mod != "fp_sqrt" else "")
             extra = f", .sub(1'b{1 if v.op == 'sub' else 0})" if mod == "fp_add" else ""
