@@ -10,6 +10,7 @@ operator's flags count for every counted record, a one-kind operator's for its k
 
 from __future__ import annotations
 
+import heapq
 from typing import Optional
 
 from models.formats.number_format import KERNEL_FORMATS
@@ -136,6 +137,49 @@ class _Emitter:
             for s in (mn, mx, lt):
                 L += self.line(s)
         return L
+
+
+def _reads(item: Operator | Comb) -> set[int]:
+    """The sources (by id) whose delay lines ``item`` reads."""
+    refs = [r for rs in item.operands.values() for r in rs] if isinstance(item, Operator) else item.operands
+    return {id(r.source) for r in refs if r.source is not None}
+
+
+def _writes(item: Operator | Comb) -> list[Source]:
+    return list(item.outputs.values()) if isinstance(item, Operator) else [item.out]
+
+
+def emit_order(dp: SharedDatapath) -> list[Operator | Comb]:
+    """The operators and combinational nodes in schedule order (issue cycle of an operator, ready cycle of a node,
+    for fp32; nodes before operators of the same cycle), each after the items whose outputs it reads, so that every
+    signal is declared above its first use (which slang requires, Verilator does not)."""
+    items: list[Operator | Comb] = [*dp.operators, *dp.combs]
+    producer = {id(s): k for k, item in enumerate(items) for s in _writes(item)}
+    deps = [{producer[s] for s in _reads(item) if s in producer} - {k} for k, item in enumerate(items)]
+    users: list[list[int]] = [[] for _ in items]
+    for k, ds in enumerate(deps):
+        for d in ds:
+            users[d].append(k)
+
+    def key(k: int) -> tuple[int, int, int]:
+        item = items[k]
+        at = item.issue if isinstance(item, Operator) else item.out.ready
+        return at.eval(23), isinstance(item, Operator), k
+
+    waiting = [len(ds) for ds in deps]
+    ready = [key(k) for k in range(len(items)) if not waiting[k]]
+    heapq.heapify(ready)
+    out: list[Operator | Comb] = []
+    while ready:
+        k = heapq.heappop(ready)[2]
+        out.append(items[k])
+        for u in users[k]:
+            waiting[u] -= 1
+            if not waiting[u]:
+                heapq.heappush(ready, key(u))
+    if len(out) != len(items):
+        raise ValueError(f"{dp.name}: a cycle among the datapath's combinational nodes and operators")
+    return out
 
 
 def emit_shared_sv(dp: SharedDatapath) -> str:
@@ -266,14 +310,9 @@ def emit_shared_sv(dp: SharedDatapath) -> str:
                "cycles it issues and is ready at, for " + " / ".join(KERNEL_FORMATS) + ") and the combinational "
                "nodes of each kind; a value's delay line feeds every consumer at the consumer's issue cycle.",
                prefix="    // ")
-    items: list[tuple[int, int, object]] = []
-    for i, op in enumerate(dp.operators):
-        items.append((op.issue.eval(23), i, op))
-    for i, c in enumerate(dp.combs):
-        items.append((c.out.ready.eval(23), len(dp.operators) + i, c))
     ev_index = {id(op): k for k, op in enumerate(flagged)}
     k_op = {id(op): k for k, op in enumerate(dp.operators)}
-    for _, _, item in sorted(items, key=lambda t: (t[0], t[1])):
+    for item in emit_order(dp):
         if isinstance(item, Operator):
             L += e.operator(item, k_op[id(item)], ev_index.get(id(item)))
         else:

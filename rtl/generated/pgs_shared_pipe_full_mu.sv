@@ -500,6 +500,41 @@ module pgs_shared_pipe_full_mu #(
     // Datapath in schedule order: the operators (each with the operation of every kind that uses it
     // and the cycles it issues and is ready at, for fp32 / fp16 / bf16) and the combinational nodes
     // of each kind; a value's delay line feeds every consumer at the consumer's issue cycle.
+    // c_pt0_skip = jac_inv0 == 0   (contact; ready @0/0/0)
+    logic c_pt0_skip;
+    assign c_pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt0_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_skip (.clk(clk), .d(c_pt0_skip), .valid(valid_c_q[0 +: 53]), .q(dl_c_pt0_skip));
+    // c_pt1_skip = jac_inv1 == 0   (contact; ready @0/0/0)
+    logic c_pt1_skip;
+    assign c_pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt1_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_skip (.clk(clk), .d(c_pt1_skip), .valid(valid_c_q[0 +: 95]), .q(dl_c_pt1_skip));
+    // c_pt2_skip = jac_inv2 == 0   (contact; ready @0/0/0)
+    logic c_pt2_skip;
+    assign c_pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt2_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_skip (.clk(clk), .d(c_pt2_skip), .valid(valid_c_q[0 +: 137]), .q(dl_c_pt2_skip));
+    // c_pt3_skip = jac_inv3 == 0   (contact; ready @0/0/0)
+    logic c_pt3_skip;
+    assign c_pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt3_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt3_skip (.clk(clk), .d(c_pt3_skip), .valid(valid_c_q[0 +: 179]), .q(dl_c_pt3_skip));
+    // f_skip = f_jac_inv0 == 0   (friction; ready @0/0/0)
+    logic f_skip;
+    assign f_skip = (dl_in_p3_x__f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [9*1-1:0] dl_f_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(9), .TAPS({32'(179), 32'(160), 32'(156), 32'(152), 32'(148), 32'(144), 32'(127), 32'(95), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_skip (.clk(clk), .d(f_skip), .valid(valid_f_q[0 +: 179]), .q(dl_f_skip));
     // c_linA_x: fp_mul @0/0/0 -> @3/3/3 (contact: linA_x = n_x * mInvA; friction: t0_linA_x = t0_x * mInvA)
     logic [W-1:0] c_linA_x_a;
     assign c_linA_x_a = kind_q[0] ? dl_in_p1_x__t0_x[0*W +: W] : dl_in_n_x[0*W +: W];
@@ -1044,41 +1079,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_rB_z (.clk(clk), .d(c_pt3_rB_z), .valid(1'b0), .q(dl_c_pt3_rB_z));
-    // c_pt0_skip = jac_inv0 == 0   (contact; ready @0/0/0)
-    logic c_pt0_skip;
-    assign c_pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt0_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_skip (.clk(clk), .d(c_pt0_skip), .valid(valid_c_q[0 +: 53]), .q(dl_c_pt0_skip));
-    // c_pt1_skip = jac_inv1 == 0   (contact; ready @0/0/0)
-    logic c_pt1_skip;
-    assign c_pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt1_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_skip (.clk(clk), .d(c_pt1_skip), .valid(valid_c_q[0 +: 95]), .q(dl_c_pt1_skip));
-    // c_pt2_skip = jac_inv2 == 0   (contact; ready @0/0/0)
-    logic c_pt2_skip;
-    assign c_pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt2_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_skip (.clk(clk), .d(c_pt2_skip), .valid(valid_c_q[0 +: 137]), .q(dl_c_pt2_skip));
-    // c_pt3_skip = jac_inv3 == 0   (contact; ready @0/0/0)
-    logic c_pt3_skip;
-    assign c_pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt3_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt3_skip (.clk(clk), .d(c_pt3_skip), .valid(valid_c_q[0 +: 179]), .q(dl_c_pt3_skip));
-    // f_skip = f_jac_inv0 == 0   (friction; ready @0/0/0)
-    logic f_skip;
-    assign f_skip = (dl_in_p3_x__f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [9*1-1:0] dl_f_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(9), .TAPS({32'(179), 32'(160), 32'(156), 32'(152), 32'(148), 32'(144), 32'(127), 32'(95), 32'(84)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_skip (.clk(clk), .d(f_skip), .valid(valid_f_q[0 +: 179]), .q(dl_f_skip));
     // c_pt0_add93: fp_add @3/3/3 -> @7/7/7 (contact: pt0_add93 = pt0_mul91 + pt0_mul92; friction: t0_add86 = t0_mul84 + t0_mul85)
     logic [W-1:0] c_pt0_add93;
     logic [2:0] fl_c_pt0_add93;
@@ -3431,6 +3431,13 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_mul508 (.clk(clk), .d(c_pt3_mul508), .valid(valid_c_q[14 +: 4]), .q(dl_c_pt3_mul508));
+    // f_neg_limit = -limit   (friction; ready @14/14/14)
+    logic [W-1:0] f_neg_limit;
+    assign f_neg_limit = {~dl_c_pt0_mul102[0*W +: W][W-1], dl_c_pt0_mul102[0*W +: W][W-2:0]};
+    logic [2*W-1:0] dl_f_neg_limit;
+    pgs_delay #(.WIDTH(W), .DEPTH(111), .N_TAPS(2), .TAPS({32'(111), 32'(27)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_neg_limit (.clk(clk), .d(f_neg_limit), .valid(valid_f_q[14 +: 111]), .q(dl_f_neg_limit));
     // c_pt0_add104: fp_add @14/14/14 -> @18/18/18 (contact: pt0_add104 = pt0_mul102 + pt0_mul103; friction: t0_add97 = t0_mul95 + t0_mul96)
     logic [W-1:0] c_pt0_add104_a;
     assign c_pt0_add104_a = kind_q[14] ? dl_c_pt0_mul107 : dl_c_pt0_mul102[0*W +: W];
@@ -3817,13 +3824,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_add507 (.clk(clk), .d(c_pt3_add507), .valid(1'b0), .q(dl_c_pt3_add507));
-    // f_neg_limit = -limit   (friction; ready @14/14/14)
-    logic [W-1:0] f_neg_limit;
-    assign f_neg_limit = {~dl_c_pt0_mul102[0*W +: W][W-1], dl_c_pt0_mul102[0*W +: W][W-2:0]};
-    logic [2*W-1:0] dl_f_neg_limit;
-    pgs_delay #(.WIDTH(W), .DEPTH(111), .N_TAPS(2), .TAPS({32'(111), 32'(27)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_neg_limit (.clk(clk), .d(f_neg_limit), .valid(valid_f_q[14 +: 111]), .q(dl_f_neg_limit));
     // c_pt0_add106: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add106 = pt0_add104 + pt0_mul105; friction: t0_add99 = t0_add97 + t0_mul98)
     logic [W-1:0] c_pt0_add106;
     logic [2:0] fl_c_pt0_add106;
@@ -4232,6 +4232,13 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_vrel (.clk(clk), .d(c_pt0_vrel), .valid(1'b0), .q(dl_c_pt0_vrel));
+    // f_t0_neg107 = -t0_u   (friction; ready @30/30/30)
+    logic [W-1:0] f_t0_neg107;
+    assign f_t0_neg107 = {~dl_c_pt0_vrel[W-1], dl_c_pt0_vrel[W-2:0]};
+    logic [W-1:0] dl_f_t0_neg107;
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_neg107 (.clk(clk), .d(f_t0_neg107), .valid(valid_f_q[30 +: 4]), .q(dl_f_t0_neg107));
     // c_pt0_add114: fp_add @30/30/30 -> @34/34/34 (contact: pt0_add114 = pt0_vrel + b0)
     logic [W-1:0] c_pt0_add114;
     logic [2:0] fl_c_pt0_add114;
@@ -4246,13 +4253,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_add114 (.clk(clk), .d(c_pt0_add114), .valid(1'b0), .q(dl_c_pt0_add114));
-    // f_t0_neg107 = -t0_u   (friction; ready @30/30/30)
-    logic [W-1:0] f_t0_neg107;
-    assign f_t0_neg107 = {~dl_c_pt0_vrel[W-1], dl_c_pt0_vrel[W-2:0]};
-    logic [W-1:0] dl_f_t0_neg107;
-    pgs_delay #(.WIDTH(W), .DEPTH(4),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_neg107 (.clk(clk), .d(f_t0_neg107), .valid(valid_f_q[30 +: 4]), .q(dl_f_t0_neg107));
     // c_pt0_delta0: fp_mul @34/34/34 -> @37/37/37 (contact: pt0_delta0 = pt0_add114 * jac_inv0; friction: t0_delta0 = t0_neg107 * f_jac_inv0)
     logic [W-1:0] c_pt0_delta0_a;
     assign c_pt0_delta0_a = kind_q[34] ? dl_f_t0_neg107 : dl_c_pt0_add114;
@@ -4299,6 +4299,13 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(41), .N_TAPS(2), .TAPS({32'(41), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_lam_new_max (.clk(clk), .d(c_pt0_lam_new_max), .valid(valid_q[42 +: 41]), .q(dl_c_pt0_lam_new_max));
+    // c_pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (contact; ready @42/42/42)
+    logic [W-1:0] c_pt0_lam;
+    assign c_pt0_lam = dl_c_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_c_pt0_lam_new_max[0*W +: W];
+    logic [W-1:0] dl_c_pt0_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(137),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_lam (.clk(clk), .d(c_pt0_lam), .valid(valid_c_q[42 +: 137]), .q(dl_c_pt0_lam));
     // c_pt0_delta: fp_add @42/42/42 -> @46/46/46 (contact: pt0_delta = pt0_lam_new - lam0)
     logic [W-1:0] c_pt0_delta;
     logic [2:0] fl_c_pt0_delta;
@@ -4313,13 +4320,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_delta (.clk(clk), .d(c_pt0_delta), .valid(1'b0), .q(dl_c_pt0_delta));
-    // c_pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (contact; ready @42/42/42)
-    logic [W-1:0] c_pt0_lam;
-    assign c_pt0_lam = dl_c_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_c_pt0_lam_new_max[0*W +: W];
-    logic [W-1:0] dl_c_pt0_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(137),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_lam (.clk(clk), .d(c_pt0_lam), .valid(valid_c_q[42 +: 137]), .q(dl_c_pt0_lam));
     // c_pt0_mul150: fp_mul @46/46/46 -> @49/49/49 (contact: pt0_mul150 = linA_x * pt0_delta)
     logic [W-1:0] c_pt0_mul150;
     logic [2:0] fl_c_pt0_mul150;
@@ -4656,6 +4656,90 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_sub182 (.clk(clk), .d(c_pt0_sub182), .valid(1'b0), .q(dl_c_pt0_sub182));
+    // c_pt0_vA_x = pt0_skip ? vA_x : pt0_add153   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_x;
+    assign c_pt0_vA_x = dl_c_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_c_pt0_add153;
+    logic [3*W-1:0] dl_c_pt0_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_x (.clk(clk), .d(c_pt0_vA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_x));
+    // c_pt0_vA_y = pt0_skip ? vA_y : pt0_add154   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_y;
+    assign c_pt0_vA_y = dl_c_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_c_pt0_add154;
+    logic [3*W-1:0] dl_c_pt0_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_y (.clk(clk), .d(c_pt0_vA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_y));
+    // c_pt0_vA_z = pt0_skip ? vA_z : pt0_add155   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_z;
+    assign c_pt0_vA_z = dl_c_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_c_pt0_add155;
+    logic [3*W-1:0] dl_c_pt0_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_z (.clk(clk), .d(c_pt0_vA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_z));
+    // c_pt0_wA_x = pt0_skip ? wA_x : pt0_add162   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_x;
+    assign c_pt0_wA_x = dl_c_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_c_pt0_add162;
+    logic [3*W-1:0] dl_c_pt0_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_x (.clk(clk), .d(c_pt0_wA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_x));
+    // c_pt0_wA_y = pt0_skip ? wA_y : pt0_add163   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_y;
+    assign c_pt0_wA_y = dl_c_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_c_pt0_add163;
+    logic [3*W-1:0] dl_c_pt0_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_y (.clk(clk), .d(c_pt0_wA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_y));
+    // c_pt0_wA_z = pt0_skip ? wA_z : pt0_add164   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_z;
+    assign c_pt0_wA_z = dl_c_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_c_pt0_add164;
+    logic [3*W-1:0] dl_c_pt0_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_z (.clk(clk), .d(c_pt0_wA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_z));
+    // c_pt0_vB_x = pt0_skip ? vB_x : pt0_sub171   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_x;
+    assign c_pt0_vB_x = dl_c_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_c_pt0_sub171;
+    logic [3*W-1:0] dl_c_pt0_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_x (.clk(clk), .d(c_pt0_vB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_x));
+    // c_pt0_vB_y = pt0_skip ? vB_y : pt0_sub172   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_y;
+    assign c_pt0_vB_y = dl_c_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_c_pt0_sub172;
+    logic [3*W-1:0] dl_c_pt0_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_y (.clk(clk), .d(c_pt0_vB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_y));
+    // c_pt0_vB_z = pt0_skip ? vB_z : pt0_sub173   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_z;
+    assign c_pt0_vB_z = dl_c_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_c_pt0_sub173;
+    logic [3*W-1:0] dl_c_pt0_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_z (.clk(clk), .d(c_pt0_vB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_z));
+    // c_pt0_wB_x = pt0_skip ? wB_x : pt0_sub180   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_x;
+    assign c_pt0_wB_x = dl_c_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_c_pt0_sub180;
+    logic [3*W-1:0] dl_c_pt0_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_x (.clk(clk), .d(c_pt0_wB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_x));
+    // c_pt0_wB_y = pt0_skip ? wB_y : pt0_sub181   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_y;
+    assign c_pt0_wB_y = dl_c_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_c_pt0_sub181;
+    logic [3*W-1:0] dl_c_pt0_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_y (.clk(clk), .d(c_pt0_wB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_y));
+    // c_pt0_wB_z = pt0_skip ? wB_z : pt0_sub182   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_z;
+    assign c_pt0_wB_z = dl_c_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_c_pt0_sub182;
+    logic [3*W-1:0] dl_c_pt0_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_z (.clk(clk), .d(c_pt0_wB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_z));
     // c_pt1_mul211: fp_mul @53/53/53 -> @56/56/56 (contact: pt1_mul211 = n_x * pt0_vA_x)
     logic [W-1:0] c_pt1_mul211;
     logic [2:0] fl_c_pt1_mul211;
@@ -4824,90 +4908,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_mul230 (.clk(clk), .d(c_pt1_mul230), .valid(valid_c_q[56 +: 4]), .q(dl_c_pt1_mul230));
-    // c_pt0_vA_x = pt0_skip ? vA_x : pt0_add153   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_x;
-    assign c_pt0_vA_x = dl_c_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_c_pt0_add153;
-    logic [3*W-1:0] dl_c_pt0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_x (.clk(clk), .d(c_pt0_vA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_x));
-    // c_pt0_vA_y = pt0_skip ? vA_y : pt0_add154   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_y;
-    assign c_pt0_vA_y = dl_c_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_c_pt0_add154;
-    logic [3*W-1:0] dl_c_pt0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_y (.clk(clk), .d(c_pt0_vA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_y));
-    // c_pt0_vA_z = pt0_skip ? vA_z : pt0_add155   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_z;
-    assign c_pt0_vA_z = dl_c_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_c_pt0_add155;
-    logic [3*W-1:0] dl_c_pt0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_z (.clk(clk), .d(c_pt0_vA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_z));
-    // c_pt0_wA_x = pt0_skip ? wA_x : pt0_add162   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_x;
-    assign c_pt0_wA_x = dl_c_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_c_pt0_add162;
-    logic [3*W-1:0] dl_c_pt0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_x (.clk(clk), .d(c_pt0_wA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_x));
-    // c_pt0_wA_y = pt0_skip ? wA_y : pt0_add163   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_y;
-    assign c_pt0_wA_y = dl_c_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_c_pt0_add163;
-    logic [3*W-1:0] dl_c_pt0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_y (.clk(clk), .d(c_pt0_wA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_y));
-    // c_pt0_wA_z = pt0_skip ? wA_z : pt0_add164   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_z;
-    assign c_pt0_wA_z = dl_c_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_c_pt0_add164;
-    logic [3*W-1:0] dl_c_pt0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_z (.clk(clk), .d(c_pt0_wA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_z));
-    // c_pt0_vB_x = pt0_skip ? vB_x : pt0_sub171   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_x;
-    assign c_pt0_vB_x = dl_c_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_c_pt0_sub171;
-    logic [3*W-1:0] dl_c_pt0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_x (.clk(clk), .d(c_pt0_vB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_x));
-    // c_pt0_vB_y = pt0_skip ? vB_y : pt0_sub172   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_y;
-    assign c_pt0_vB_y = dl_c_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_c_pt0_sub172;
-    logic [3*W-1:0] dl_c_pt0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_y (.clk(clk), .d(c_pt0_vB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_y));
-    // c_pt0_vB_z = pt0_skip ? vB_z : pt0_sub173   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_z;
-    assign c_pt0_vB_z = dl_c_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_c_pt0_sub173;
-    logic [3*W-1:0] dl_c_pt0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_z (.clk(clk), .d(c_pt0_vB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_z));
-    // c_pt0_wB_x = pt0_skip ? wB_x : pt0_sub180   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_x;
-    assign c_pt0_wB_x = dl_c_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_c_pt0_sub180;
-    logic [3*W-1:0] dl_c_pt0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_x (.clk(clk), .d(c_pt0_wB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_x));
-    // c_pt0_wB_y = pt0_skip ? wB_y : pt0_sub181   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_y;
-    assign c_pt0_wB_y = dl_c_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_c_pt0_sub181;
-    logic [3*W-1:0] dl_c_pt0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_y (.clk(clk), .d(c_pt0_wB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_y));
-    // c_pt0_wB_z = pt0_skip ? wB_z : pt0_sub182   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_z;
-    assign c_pt0_wB_z = dl_c_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_c_pt0_sub182;
-    logic [3*W-1:0] dl_c_pt0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_z (.clk(clk), .d(c_pt0_wB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_z));
     // c_pt1_add213: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add213 = pt1_mul211 + pt1_mul212)
     logic [W-1:0] c_pt1_add213;
     logic [2:0] fl_c_pt1_add213;
@@ -5122,6 +5122,20 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_lam_new_max (.clk(clk), .d(c_pt1_lam_new_max), .valid(1'b0), .q(dl_c_pt1_lam_new_max));
+    // c_pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (contact; ready @84/84/84)
+    logic [W-1:0] c_pt1_lam;
+    assign c_pt1_lam = dl_c_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_c_pt1_lam_new_max;
+    logic [W-1:0] dl_c_pt1_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(95),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_lam (.clk(clk), .d(c_pt1_lam), .valid(valid_c_q[84 +: 95]), .q(dl_c_pt1_lam));
+    // f_t0_lamT = skip ? lamT0 : t0_lam_new   (friction; ready @84/84/84)
+    logic [W-1:0] f_t0_lamT;
+    assign f_t0_lamT = dl_f_skip[0] ? dl_in_lamT0[1*W +: W] : dl_c_pt1_lam_new_min;
+    logic [W-1:0] dl_f_t0_lamT;
+    pgs_delay #(.WIDTH(W), .DEPTH(95),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_lamT (.clk(clk), .d(f_t0_lamT), .valid(valid_f_q[84 +: 95]), .q(dl_f_t0_lamT));
     // c_pt1_delta: fp_add @84/84/84 -> @88/88/88 (contact: pt1_delta = pt1_lam_new - lam1; friction: t0_delta = t0_lam_new - lamT0)
     logic [W-1:0] c_pt1_delta_a;
     assign c_pt1_delta_a = kind_q[84] ? dl_c_pt1_lam_new_min : dl_c_pt1_lam_new_max;
@@ -5140,20 +5154,13 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_delta (.clk(clk), .d(c_pt1_delta), .valid(1'b0), .q(dl_c_pt1_delta));
-    // c_pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (contact; ready @84/84/84)
-    logic [W-1:0] c_pt1_lam;
-    assign c_pt1_lam = dl_c_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_c_pt1_lam_new_max;
-    logic [W-1:0] dl_c_pt1_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(95),
+    // f_t0_e = -t0_delta   (friction; ready @88/88/88)
+    logic [W-1:0] f_t0_e;
+    assign f_t0_e = {~dl_c_pt1_delta[W-1], dl_c_pt1_delta[W-2:0]};
+    logic [W-1:0] dl_f_t0_e;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_lam (.clk(clk), .d(c_pt1_lam), .valid(valid_c_q[84 +: 95]), .q(dl_c_pt1_lam));
-    // f_t0_lamT = skip ? lamT0 : t0_lam_new   (friction; ready @84/84/84)
-    logic [W-1:0] f_t0_lamT;
-    assign f_t0_lamT = dl_f_skip[0] ? dl_in_lamT0[1*W +: W] : dl_c_pt1_lam_new_min;
-    logic [W-1:0] dl_f_t0_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH(95),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_lamT (.clk(clk), .d(f_t0_lamT), .valid(valid_f_q[84 +: 95]), .q(dl_f_t0_lamT));
+        u_dl_f_t0_e (.clk(clk), .d(f_t0_e), .valid(1'b0), .q(dl_f_t0_e));
     // c_pt1_mul270: fp_mul @88/88/88 -> @91/91/91 (contact: pt1_mul270 = linA_x * pt1_delta; friction: t0_mul118 = t0_linA_x * t0_e)
     logic [W-1:0] c_pt1_mul270_b;
     assign c_pt1_mul270_b = kind_q[88] ? dl_f_t0_e : dl_c_pt1_delta;
@@ -5358,13 +5365,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_mul299 (.clk(clk), .d(c_pt1_mul299), .valid(1'b0), .q(dl_c_pt1_mul299));
-    // f_t0_e = -t0_delta   (friction; ready @88/88/88)
-    logic [W-1:0] f_t0_e;
-    assign f_t0_e = {~dl_c_pt1_delta[W-1], dl_c_pt1_delta[W-2:0]};
-    logic [W-1:0] dl_f_t0_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_e (.clk(clk), .d(f_t0_e), .valid(1'b0), .q(dl_f_t0_e));
     // c_pt1_add273: fp_add @91/91/91 -> @95/95/95 (contact: pt1_add273 = pt0_vA_x + pt1_mul270; friction: t0_add121 = vA_x + t0_mul118)
     logic [W-1:0] c_pt1_add273_a;
     assign c_pt1_add273_a = kind_q[91] ? dl_in_vA_x[3*W +: W] : dl_c_pt0_vA_x[1*W +: W];
@@ -5557,6 +5557,174 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_sub302 (.clk(clk), .d(c_pt1_sub302), .valid(1'b0), .q(dl_c_pt1_sub302));
+    // c_pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add273   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_x;
+    assign c_pt1_vA_x = dl_c_pt1_skip[1] ? dl_c_pt0_vA_x[2*W +: W] : dl_c_pt1_add273;
+    logic [3*W-1:0] dl_c_pt1_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vA_x (.clk(clk), .d(c_pt1_vA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_x));
+    // c_pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add274   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_y;
+    assign c_pt1_vA_y = dl_c_pt1_skip[1] ? dl_c_pt0_vA_y[2*W +: W] : dl_c_pt1_add274;
+    logic [3*W-1:0] dl_c_pt1_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vA_y (.clk(clk), .d(c_pt1_vA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_y));
+    // c_pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add275   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_z;
+    assign c_pt1_vA_z = dl_c_pt1_skip[1] ? dl_c_pt0_vA_z[2*W +: W] : dl_c_pt1_add275;
+    logic [3*W-1:0] dl_c_pt1_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vA_z (.clk(clk), .d(c_pt1_vA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_z));
+    // c_pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add282   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_x;
+    assign c_pt1_wA_x = dl_c_pt1_skip[1] ? dl_c_pt0_wA_x[2*W +: W] : dl_c_pt1_add282;
+    logic [3*W-1:0] dl_c_pt1_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_x (.clk(clk), .d(c_pt1_wA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_x));
+    // c_pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add283   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_y;
+    assign c_pt1_wA_y = dl_c_pt1_skip[1] ? dl_c_pt0_wA_y[2*W +: W] : dl_c_pt1_add283;
+    logic [3*W-1:0] dl_c_pt1_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_y (.clk(clk), .d(c_pt1_wA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_y));
+    // c_pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add284   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_z;
+    assign c_pt1_wA_z = dl_c_pt1_skip[1] ? dl_c_pt0_wA_z[2*W +: W] : dl_c_pt1_add284;
+    logic [3*W-1:0] dl_c_pt1_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_z (.clk(clk), .d(c_pt1_wA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_z));
+    // c_pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub291   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_x;
+    assign c_pt1_vB_x = dl_c_pt1_skip[1] ? dl_c_pt0_vB_x[2*W +: W] : dl_c_pt1_sub291;
+    logic [3*W-1:0] dl_c_pt1_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_x (.clk(clk), .d(c_pt1_vB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_x));
+    // c_pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub292   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_y;
+    assign c_pt1_vB_y = dl_c_pt1_skip[1] ? dl_c_pt0_vB_y[2*W +: W] : dl_c_pt1_sub292;
+    logic [3*W-1:0] dl_c_pt1_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_y (.clk(clk), .d(c_pt1_vB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_y));
+    // c_pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub293   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_z;
+    assign c_pt1_vB_z = dl_c_pt1_skip[1] ? dl_c_pt0_vB_z[2*W +: W] : dl_c_pt1_sub293;
+    logic [3*W-1:0] dl_c_pt1_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_z (.clk(clk), .d(c_pt1_vB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_z));
+    // c_pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub300   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_x;
+    assign c_pt1_wB_x = dl_c_pt1_skip[1] ? dl_c_pt0_wB_x[2*W +: W] : dl_c_pt1_sub300;
+    logic [3*W-1:0] dl_c_pt1_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_x (.clk(clk), .d(c_pt1_wB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_x));
+    // c_pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub301   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_y;
+    assign c_pt1_wB_y = dl_c_pt1_skip[1] ? dl_c_pt0_wB_y[2*W +: W] : dl_c_pt1_sub301;
+    logic [3*W-1:0] dl_c_pt1_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_y (.clk(clk), .d(c_pt1_wB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_y));
+    // c_pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub302   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_z;
+    assign c_pt1_wB_z = dl_c_pt1_skip[1] ? dl_c_pt0_wB_z[2*W +: W] : dl_c_pt1_sub302;
+    logic [3*W-1:0] dl_c_pt1_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_z (.clk(clk), .d(c_pt1_wB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_z));
+    // f_t0_vA_x = skip ? vA_x : t0_add121   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vA_x;
+    assign f_t0_vA_x = dl_f_skip[1] ? dl_in_vA_x[4*W +: W] : dl_c_pt1_add273;
+    logic [3*W-1:0] dl_f_t0_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_x (.clk(clk), .d(f_t0_vA_x), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_vA_x));
+    // f_t0_vA_y = skip ? vA_y : t0_add122   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vA_y;
+    assign f_t0_vA_y = dl_f_skip[1] ? dl_in_vA_y[4*W +: W] : dl_c_pt1_add274;
+    logic [3*W-1:0] dl_f_t0_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_y (.clk(clk), .d(f_t0_vA_y), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_vA_y));
+    // f_t0_vA_z = skip ? vA_z : t0_add123   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vA_z;
+    assign f_t0_vA_z = dl_f_skip[1] ? dl_in_vA_z[4*W +: W] : dl_c_pt1_add275;
+    logic [3*W-1:0] dl_f_t0_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_z (.clk(clk), .d(f_t0_vA_z), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vA_z));
+    // f_t0_wA_x = skip ? wA_x : t0_add145   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wA_x;
+    assign f_t0_wA_x = dl_f_skip[1] ? dl_in_wA_x[4*W +: W] : dl_c_pt1_add282;
+    logic [3*W-1:0] dl_f_t0_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_x (.clk(clk), .d(f_t0_wA_x), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_wA_x));
+    // f_t0_wA_y = skip ? wA_y : t0_add146   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wA_y;
+    assign f_t0_wA_y = dl_f_skip[1] ? dl_in_wA_y[4*W +: W] : dl_c_pt1_add283;
+    logic [3*W-1:0] dl_f_t0_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_y (.clk(clk), .d(f_t0_wA_y), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_wA_y));
+    // f_t0_wA_z = skip ? wA_z : t0_add147   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wA_z;
+    assign f_t0_wA_z = dl_f_skip[1] ? dl_in_wA_z[4*W +: W] : dl_c_pt1_add284;
+    logic [3*W-1:0] dl_f_t0_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_z (.clk(clk), .d(f_t0_wA_z), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_wA_z));
+    // f_t0_vB_x = skip ? vB_x : t0_sub157   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vB_x;
+    assign f_t0_vB_x = dl_f_skip[1] ? dl_in_vB_x[4*W +: W] : dl_c_pt1_sub291;
+    logic [3*W-1:0] dl_f_t0_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_x (.clk(clk), .d(f_t0_vB_x), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vB_x));
+    // f_t0_vB_y = skip ? vB_y : t0_sub158   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vB_y;
+    assign f_t0_vB_y = dl_f_skip[1] ? dl_in_vB_y[4*W +: W] : dl_c_pt1_sub292;
+    logic [3*W-1:0] dl_f_t0_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_y (.clk(clk), .d(f_t0_vB_y), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vB_y));
+    // f_t0_vB_z = skip ? vB_z : t0_sub159   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vB_z;
+    assign f_t0_vB_z = dl_f_skip[1] ? dl_in_vB_z[4*W +: W] : dl_c_pt1_sub293;
+    logic [3*W-1:0] dl_f_t0_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(57), .N_TAPS(3), .TAPS({32'(57), 32'(53), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_z (.clk(clk), .d(f_t0_vB_z), .valid(valid_f_q[95 +: 57]), .q(dl_f_t0_vB_z));
+    // f_t0_wB_x = skip ? wB_x : t0_sub181   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wB_x;
+    assign f_t0_wB_x = dl_f_skip[1] ? dl_in_wB_x[4*W +: W] : dl_c_pt1_sub300;
+    logic [3*W-1:0] dl_f_t0_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(57), .N_TAPS(3), .TAPS({32'(57), 32'(53), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_x (.clk(clk), .d(f_t0_wB_x), .valid(valid_f_q[95 +: 57]), .q(dl_f_t0_wB_x));
+    // f_t0_wB_y = skip ? wB_y : t0_sub182   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wB_y;
+    assign f_t0_wB_y = dl_f_skip[1] ? dl_in_wB_y[4*W +: W] : dl_c_pt1_sub301;
+    logic [3*W-1:0] dl_f_t0_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(61), .N_TAPS(3), .TAPS({32'(61), 32'(57), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_y (.clk(clk), .d(f_t0_wB_y), .valid(valid_f_q[95 +: 61]), .q(dl_f_t0_wB_y));
+    // f_t0_wB_z = skip ? wB_z : t0_sub183   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wB_z;
+    assign f_t0_wB_z = dl_f_skip[1] ? dl_in_wB_z[4*W +: W] : dl_c_pt1_sub302;
+    logic [3*W-1:0] dl_f_t0_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(3), .TAPS({32'(65), 32'(61), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_z (.clk(clk), .d(f_t0_wB_z), .valid(valid_f_q[95 +: 65]), .q(dl_f_t0_wB_z));
     // c_pt2_mul331: fp_mul @95/95/95 -> @98/98/98 (contact: pt2_mul331 = n_x * pt1_vA_x; friction: t1_mul205 = t1_x * t0_vA_x)
     logic [W-1:0] c_pt2_mul331_a;
     assign c_pt2_mul331_a = kind_q[95] ? dl_in_p2_x__t1_x[2*W +: W] : dl_in_n_x[3*W +: W];
@@ -5773,174 +5941,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_mul350 (.clk(clk), .d(c_pt2_mul350), .valid(valid_q[98 +: 4]), .q(dl_c_pt2_mul350));
-    // c_pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add273   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_x;
-    assign c_pt1_vA_x = dl_c_pt1_skip[1] ? dl_c_pt0_vA_x[2*W +: W] : dl_c_pt1_add273;
-    logic [3*W-1:0] dl_c_pt1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_x (.clk(clk), .d(c_pt1_vA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_x));
-    // c_pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add274   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_y;
-    assign c_pt1_vA_y = dl_c_pt1_skip[1] ? dl_c_pt0_vA_y[2*W +: W] : dl_c_pt1_add274;
-    logic [3*W-1:0] dl_c_pt1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_y (.clk(clk), .d(c_pt1_vA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_y));
-    // c_pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add275   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_z;
-    assign c_pt1_vA_z = dl_c_pt1_skip[1] ? dl_c_pt0_vA_z[2*W +: W] : dl_c_pt1_add275;
-    logic [3*W-1:0] dl_c_pt1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_z (.clk(clk), .d(c_pt1_vA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_z));
-    // c_pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add282   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_x;
-    assign c_pt1_wA_x = dl_c_pt1_skip[1] ? dl_c_pt0_wA_x[2*W +: W] : dl_c_pt1_add282;
-    logic [3*W-1:0] dl_c_pt1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_x (.clk(clk), .d(c_pt1_wA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_x));
-    // c_pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add283   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_y;
-    assign c_pt1_wA_y = dl_c_pt1_skip[1] ? dl_c_pt0_wA_y[2*W +: W] : dl_c_pt1_add283;
-    logic [3*W-1:0] dl_c_pt1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_y (.clk(clk), .d(c_pt1_wA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_y));
-    // c_pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add284   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_z;
-    assign c_pt1_wA_z = dl_c_pt1_skip[1] ? dl_c_pt0_wA_z[2*W +: W] : dl_c_pt1_add284;
-    logic [3*W-1:0] dl_c_pt1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_z (.clk(clk), .d(c_pt1_wA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_z));
-    // c_pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub291   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_x;
-    assign c_pt1_vB_x = dl_c_pt1_skip[1] ? dl_c_pt0_vB_x[2*W +: W] : dl_c_pt1_sub291;
-    logic [3*W-1:0] dl_c_pt1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_x (.clk(clk), .d(c_pt1_vB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_x));
-    // c_pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub292   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_y;
-    assign c_pt1_vB_y = dl_c_pt1_skip[1] ? dl_c_pt0_vB_y[2*W +: W] : dl_c_pt1_sub292;
-    logic [3*W-1:0] dl_c_pt1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_y (.clk(clk), .d(c_pt1_vB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_y));
-    // c_pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub293   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_z;
-    assign c_pt1_vB_z = dl_c_pt1_skip[1] ? dl_c_pt0_vB_z[2*W +: W] : dl_c_pt1_sub293;
-    logic [3*W-1:0] dl_c_pt1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_z (.clk(clk), .d(c_pt1_vB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_z));
-    // c_pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub300   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_x;
-    assign c_pt1_wB_x = dl_c_pt1_skip[1] ? dl_c_pt0_wB_x[2*W +: W] : dl_c_pt1_sub300;
-    logic [3*W-1:0] dl_c_pt1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_x (.clk(clk), .d(c_pt1_wB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_x));
-    // c_pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub301   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_y;
-    assign c_pt1_wB_y = dl_c_pt1_skip[1] ? dl_c_pt0_wB_y[2*W +: W] : dl_c_pt1_sub301;
-    logic [3*W-1:0] dl_c_pt1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_y (.clk(clk), .d(c_pt1_wB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_y));
-    // c_pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub302   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_z;
-    assign c_pt1_wB_z = dl_c_pt1_skip[1] ? dl_c_pt0_wB_z[2*W +: W] : dl_c_pt1_sub302;
-    logic [3*W-1:0] dl_c_pt1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_z (.clk(clk), .d(c_pt1_wB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_z));
-    // f_t0_vA_x = skip ? vA_x : t0_add121   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vA_x;
-    assign f_t0_vA_x = dl_f_skip[1] ? dl_in_vA_x[4*W +: W] : dl_c_pt1_add273;
-    logic [3*W-1:0] dl_f_t0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_x (.clk(clk), .d(f_t0_vA_x), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_vA_x));
-    // f_t0_vA_y = skip ? vA_y : t0_add122   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vA_y;
-    assign f_t0_vA_y = dl_f_skip[1] ? dl_in_vA_y[4*W +: W] : dl_c_pt1_add274;
-    logic [3*W-1:0] dl_f_t0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_y (.clk(clk), .d(f_t0_vA_y), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_vA_y));
-    // f_t0_vA_z = skip ? vA_z : t0_add123   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vA_z;
-    assign f_t0_vA_z = dl_f_skip[1] ? dl_in_vA_z[4*W +: W] : dl_c_pt1_add275;
-    logic [3*W-1:0] dl_f_t0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_z (.clk(clk), .d(f_t0_vA_z), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vA_z));
-    // f_t0_wA_x = skip ? wA_x : t0_add145   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wA_x;
-    assign f_t0_wA_x = dl_f_skip[1] ? dl_in_wA_x[4*W +: W] : dl_c_pt1_add282;
-    logic [3*W-1:0] dl_f_t0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_x (.clk(clk), .d(f_t0_wA_x), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_wA_x));
-    // f_t0_wA_y = skip ? wA_y : t0_add146   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wA_y;
-    assign f_t0_wA_y = dl_f_skip[1] ? dl_in_wA_y[4*W +: W] : dl_c_pt1_add283;
-    logic [3*W-1:0] dl_f_t0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_y (.clk(clk), .d(f_t0_wA_y), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_wA_y));
-    // f_t0_wA_z = skip ? wA_z : t0_add147   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wA_z;
-    assign f_t0_wA_z = dl_f_skip[1] ? dl_in_wA_z[4*W +: W] : dl_c_pt1_add284;
-    logic [3*W-1:0] dl_f_t0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_z (.clk(clk), .d(f_t0_wA_z), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_wA_z));
-    // f_t0_vB_x = skip ? vB_x : t0_sub157   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vB_x;
-    assign f_t0_vB_x = dl_f_skip[1] ? dl_in_vB_x[4*W +: W] : dl_c_pt1_sub291;
-    logic [3*W-1:0] dl_f_t0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_x (.clk(clk), .d(f_t0_vB_x), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vB_x));
-    // f_t0_vB_y = skip ? vB_y : t0_sub158   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vB_y;
-    assign f_t0_vB_y = dl_f_skip[1] ? dl_in_vB_y[4*W +: W] : dl_c_pt1_sub292;
-    logic [3*W-1:0] dl_f_t0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_y (.clk(clk), .d(f_t0_vB_y), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vB_y));
-    // f_t0_vB_z = skip ? vB_z : t0_sub159   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vB_z;
-    assign f_t0_vB_z = dl_f_skip[1] ? dl_in_vB_z[4*W +: W] : dl_c_pt1_sub293;
-    logic [3*W-1:0] dl_f_t0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(57), .N_TAPS(3), .TAPS({32'(57), 32'(53), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_z (.clk(clk), .d(f_t0_vB_z), .valid(valid_f_q[95 +: 57]), .q(dl_f_t0_vB_z));
-    // f_t0_wB_x = skip ? wB_x : t0_sub181   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wB_x;
-    assign f_t0_wB_x = dl_f_skip[1] ? dl_in_wB_x[4*W +: W] : dl_c_pt1_sub300;
-    logic [3*W-1:0] dl_f_t0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(57), .N_TAPS(3), .TAPS({32'(57), 32'(53), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_x (.clk(clk), .d(f_t0_wB_x), .valid(valid_f_q[95 +: 57]), .q(dl_f_t0_wB_x));
-    // f_t0_wB_y = skip ? wB_y : t0_sub182   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wB_y;
-    assign f_t0_wB_y = dl_f_skip[1] ? dl_in_wB_y[4*W +: W] : dl_c_pt1_sub301;
-    logic [3*W-1:0] dl_f_t0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(61), .N_TAPS(3), .TAPS({32'(61), 32'(57), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_y (.clk(clk), .d(f_t0_wB_y), .valid(valid_f_q[95 +: 61]), .q(dl_f_t0_wB_y));
-    // f_t0_wB_z = skip ? wB_z : t0_sub183   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wB_z;
-    assign f_t0_wB_z = dl_f_skip[1] ? dl_in_wB_z[4*W +: W] : dl_c_pt1_sub302;
-    logic [3*W-1:0] dl_f_t0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(3), .TAPS({32'(65), 32'(61), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_z (.clk(clk), .d(f_t0_wB_z), .valid(valid_f_q[95 +: 65]), .q(dl_f_t0_wB_z));
     // c_pt2_add333: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add333 = pt2_mul331 + pt2_mul332; friction: t1_add207 = t1_mul205 + t1_mul206)
     logic [W-1:0] c_pt2_add333;
     logic [2:0] fl_c_pt2_add333;
@@ -6095,6 +6095,13 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_vrel (.clk(clk), .d(c_pt2_vrel), .valid(1'b0), .q(dl_c_pt2_vrel));
+    // f_t1_neg228 = -t1_u   (friction; ready @114/114/114)
+    logic [W-1:0] f_t1_neg228;
+    assign f_t1_neg228 = {~dl_c_pt2_vrel[W-1], dl_c_pt2_vrel[W-2:0]};
+    logic [W-1:0] dl_f_t1_neg228;
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_neg228 (.clk(clk), .d(f_t1_neg228), .valid(valid_f_q[114 +: 4]), .q(dl_f_t1_neg228));
     // c_pt2_add354: fp_add @114/114/114 -> @118/118/118 (contact: pt2_add354 = pt2_vrel + b2)
     logic [W-1:0] c_pt2_add354;
     logic [2:0] fl_c_pt2_add354;
@@ -6109,13 +6116,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_add354 (.clk(clk), .d(c_pt2_add354), .valid(1'b0), .q(dl_c_pt2_add354));
-    // f_t1_neg228 = -t1_u   (friction; ready @114/114/114)
-    logic [W-1:0] f_t1_neg228;
-    assign f_t1_neg228 = {~dl_c_pt2_vrel[W-1], dl_c_pt2_vrel[W-2:0]};
-    logic [W-1:0] dl_f_t1_neg228;
-    pgs_delay #(.WIDTH(W), .DEPTH(4),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_neg228 (.clk(clk), .d(f_t1_neg228), .valid(valid_f_q[114 +: 4]), .q(dl_f_t1_neg228));
     // c_pt2_delta0: fp_mul @118/118/118 -> @121/121/121 (contact: pt2_delta0 = pt2_add354 * jac_inv2; friction: t1_delta0 = t1_neg228 * f_jac_inv1)
     logic [W-1:0] c_pt2_delta0_a;
     assign c_pt2_delta0_a = kind_q[118] ? dl_f_t1_neg228 : dl_c_pt2_add354;
@@ -6162,6 +6162,13 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_lam_new_max (.clk(clk), .d(c_pt2_lam_new_max), .valid(1'b0), .q(dl_c_pt2_lam_new_max));
+    // c_pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (contact; ready @126/126/126)
+    logic [W-1:0] c_pt2_lam;
+    assign c_pt2_lam = dl_c_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_c_pt2_lam_new_max;
+    logic [W-1:0] dl_c_pt2_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(53),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_lam (.clk(clk), .d(c_pt2_lam), .valid(valid_c_q[126 +: 53]), .q(dl_c_pt2_lam));
     // c_pt2_delta: fp_add @126/126/126 -> @130/130/130 (contact: pt2_delta = pt2_lam_new - lam2)
     logic [W-1:0] c_pt2_delta;
     logic [2:0] fl_c_pt2_delta;
@@ -6186,13 +6193,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(6), .N_TAPS(2), .TAPS({32'(0), 32'(6)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_lam_new_min (.clk(clk), .d(f_t1_lam_new_min), .valid(valid_f_q[127 +: 6]), .q(dl_f_t1_lam_new_min));
-    // c_pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (contact; ready @126/126/126)
-    logic [W-1:0] c_pt2_lam;
-    assign c_pt2_lam = dl_c_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_c_pt2_lam_new_max;
-    logic [W-1:0] dl_c_pt2_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(53),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_lam (.clk(clk), .d(c_pt2_lam), .valid(valid_c_q[126 +: 53]), .q(dl_c_pt2_lam));
     // f_t1_lamT = skip ? lamT1 : t1_lam_new   (friction; ready @127/127/127)
     logic [W-1:0] f_t1_lamT;
     assign f_t1_lamT = dl_f_skip[2] ? dl_in_lamT1[2*W +: W] : dl_f_t1_lam_new_min[1*W +: W];
@@ -6540,6 +6540,97 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_sub422 (.clk(clk), .d(c_pt2_sub422), .valid(1'b0), .q(dl_c_pt2_sub422));
+    // c_pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add393   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_x;
+    assign c_pt2_vA_x = dl_c_pt2_skip[1] ? dl_c_pt1_vA_x[2*W +: W] : dl_c_pt2_add393;
+    logic [3*W-1:0] dl_c_pt2_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_x (.clk(clk), .d(c_pt2_vA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_x));
+    // c_pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add394   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_y;
+    assign c_pt2_vA_y = dl_c_pt2_skip[1] ? dl_c_pt1_vA_y[2*W +: W] : dl_c_pt2_add394;
+    logic [3*W-1:0] dl_c_pt2_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_y (.clk(clk), .d(c_pt2_vA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_y));
+    // c_pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add395   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_z;
+    assign c_pt2_vA_z = dl_c_pt2_skip[1] ? dl_c_pt1_vA_z[2*W +: W] : dl_c_pt2_add395;
+    logic [3*W-1:0] dl_c_pt2_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_z (.clk(clk), .d(c_pt2_vA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_z));
+    // c_pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add402   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_x;
+    assign c_pt2_wA_x = dl_c_pt2_skip[1] ? dl_c_pt1_wA_x[2*W +: W] : dl_c_pt2_add402;
+    logic [3*W-1:0] dl_c_pt2_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_x (.clk(clk), .d(c_pt2_wA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_x));
+    // c_pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add403   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_y;
+    assign c_pt2_wA_y = dl_c_pt2_skip[1] ? dl_c_pt1_wA_y[2*W +: W] : dl_c_pt2_add403;
+    logic [3*W-1:0] dl_c_pt2_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_y (.clk(clk), .d(c_pt2_wA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_y));
+    // c_pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add404   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_z;
+    assign c_pt2_wA_z = dl_c_pt2_skip[1] ? dl_c_pt1_wA_z[2*W +: W] : dl_c_pt2_add404;
+    logic [3*W-1:0] dl_c_pt2_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_z (.clk(clk), .d(c_pt2_wA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_z));
+    // c_pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub411   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_x;
+    assign c_pt2_vB_x = dl_c_pt2_skip[1] ? dl_c_pt1_vB_x[2*W +: W] : dl_c_pt2_sub411;
+    logic [3*W-1:0] dl_c_pt2_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_x (.clk(clk), .d(c_pt2_vB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_x));
+    // c_pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub412   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_y;
+    assign c_pt2_vB_y = dl_c_pt2_skip[1] ? dl_c_pt1_vB_y[2*W +: W] : dl_c_pt2_sub412;
+    logic [3*W-1:0] dl_c_pt2_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_y (.clk(clk), .d(c_pt2_vB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_y));
+    // c_pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub413   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_z;
+    assign c_pt2_vB_z = dl_c_pt2_skip[1] ? dl_c_pt1_vB_z[2*W +: W] : dl_c_pt2_sub413;
+    logic [3*W-1:0] dl_c_pt2_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_z (.clk(clk), .d(c_pt2_vB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_z));
+    // c_pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub420   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_x;
+    assign c_pt2_wB_x = dl_c_pt2_skip[1] ? dl_c_pt1_wB_x[2*W +: W] : dl_c_pt2_sub420;
+    logic [3*W-1:0] dl_c_pt2_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_x (.clk(clk), .d(c_pt2_wB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_x));
+    // c_pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub421   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_y;
+    assign c_pt2_wB_y = dl_c_pt2_skip[1] ? dl_c_pt1_wB_y[2*W +: W] : dl_c_pt2_sub421;
+    logic [3*W-1:0] dl_c_pt2_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_y (.clk(clk), .d(c_pt2_wB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_y));
+    // c_pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub422   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_z;
+    assign c_pt2_wB_z = dl_c_pt2_skip[1] ? dl_c_pt1_wB_z[2*W +: W] : dl_c_pt2_sub422;
+    logic [3*W-1:0] dl_c_pt2_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_z (.clk(clk), .d(c_pt2_wB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_z));
+    // f_t1_e = -t1_delta   (friction; ready @137/137/137)
+    logic [W-1:0] f_t1_e;
+    assign f_t1_e = {~dl_c_pt2_add393[W-1], dl_c_pt2_add393[W-2:0]};
+    logic [W-1:0] dl_f_t1_e;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_e (.clk(clk), .d(f_t1_e), .valid(1'b0), .q(dl_f_t1_e));
     // c_pt3_mul451: fp_mul @137/137/137 -> @140/140/140 (contact: pt3_mul451 = n_x * pt2_vA_x; friction: t1_mul239 = t1_linA_x * t1_e)
     logic [W-1:0] c_pt3_mul451_a;
     assign c_pt3_mul451_a = kind_q[137] ? dl_c_pt2_mul310[1*W +: W] : dl_in_n_x[4*W +: W];
@@ -6756,97 +6847,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(16), .N_TAPS(2), .TAPS({32'(16), 32'(4)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_mul470 (.clk(clk), .d(c_pt3_mul470), .valid(valid_q[140 +: 16]), .q(dl_c_pt3_mul470));
-    // c_pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add393   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_x;
-    assign c_pt2_vA_x = dl_c_pt2_skip[1] ? dl_c_pt1_vA_x[2*W +: W] : dl_c_pt2_add393;
-    logic [3*W-1:0] dl_c_pt2_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_x (.clk(clk), .d(c_pt2_vA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_x));
-    // c_pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add394   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_y;
-    assign c_pt2_vA_y = dl_c_pt2_skip[1] ? dl_c_pt1_vA_y[2*W +: W] : dl_c_pt2_add394;
-    logic [3*W-1:0] dl_c_pt2_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_y (.clk(clk), .d(c_pt2_vA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_y));
-    // c_pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add395   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_z;
-    assign c_pt2_vA_z = dl_c_pt2_skip[1] ? dl_c_pt1_vA_z[2*W +: W] : dl_c_pt2_add395;
-    logic [3*W-1:0] dl_c_pt2_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_z (.clk(clk), .d(c_pt2_vA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_z));
-    // c_pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add402   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_x;
-    assign c_pt2_wA_x = dl_c_pt2_skip[1] ? dl_c_pt1_wA_x[2*W +: W] : dl_c_pt2_add402;
-    logic [3*W-1:0] dl_c_pt2_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_x (.clk(clk), .d(c_pt2_wA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_x));
-    // c_pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add403   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_y;
-    assign c_pt2_wA_y = dl_c_pt2_skip[1] ? dl_c_pt1_wA_y[2*W +: W] : dl_c_pt2_add403;
-    logic [3*W-1:0] dl_c_pt2_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_y (.clk(clk), .d(c_pt2_wA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_y));
-    // c_pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add404   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_z;
-    assign c_pt2_wA_z = dl_c_pt2_skip[1] ? dl_c_pt1_wA_z[2*W +: W] : dl_c_pt2_add404;
-    logic [3*W-1:0] dl_c_pt2_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_z (.clk(clk), .d(c_pt2_wA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_z));
-    // c_pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub411   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_x;
-    assign c_pt2_vB_x = dl_c_pt2_skip[1] ? dl_c_pt1_vB_x[2*W +: W] : dl_c_pt2_sub411;
-    logic [3*W-1:0] dl_c_pt2_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_x (.clk(clk), .d(c_pt2_vB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_x));
-    // c_pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub412   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_y;
-    assign c_pt2_vB_y = dl_c_pt2_skip[1] ? dl_c_pt1_vB_y[2*W +: W] : dl_c_pt2_sub412;
-    logic [3*W-1:0] dl_c_pt2_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_y (.clk(clk), .d(c_pt2_vB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_y));
-    // c_pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub413   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_z;
-    assign c_pt2_vB_z = dl_c_pt2_skip[1] ? dl_c_pt1_vB_z[2*W +: W] : dl_c_pt2_sub413;
-    logic [3*W-1:0] dl_c_pt2_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_z (.clk(clk), .d(c_pt2_vB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_z));
-    // c_pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub420   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_x;
-    assign c_pt2_wB_x = dl_c_pt2_skip[1] ? dl_c_pt1_wB_x[2*W +: W] : dl_c_pt2_sub420;
-    logic [3*W-1:0] dl_c_pt2_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_x (.clk(clk), .d(c_pt2_wB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_x));
-    // c_pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub421   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_y;
-    assign c_pt2_wB_y = dl_c_pt2_skip[1] ? dl_c_pt1_wB_y[2*W +: W] : dl_c_pt2_sub421;
-    logic [3*W-1:0] dl_c_pt2_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_y (.clk(clk), .d(c_pt2_wB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_y));
-    // c_pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub422   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_z;
-    assign c_pt2_wB_z = dl_c_pt2_skip[1] ? dl_c_pt1_wB_z[2*W +: W] : dl_c_pt2_sub422;
-    logic [3*W-1:0] dl_c_pt2_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_z (.clk(clk), .d(c_pt2_wB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_z));
-    // f_t1_e = -t1_delta   (friction; ready @137/137/137)
-    logic [W-1:0] f_t1_e;
-    assign f_t1_e = {~dl_c_pt2_add393[W-1], dl_c_pt2_add393[W-2:0]};
-    logic [W-1:0] dl_f_t1_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_e (.clk(clk), .d(f_t1_e), .valid(1'b0), .q(dl_f_t1_e));
     // c_pt3_add453: fp_add @140/140/140 -> @144/144/144 (contact: pt3_add453 = pt3_mul451 + pt3_mul452; friction: t1_add242 = t0_vA_x + t1_mul239)
     logic [W-1:0] c_pt3_add453_b;
     assign c_pt3_add453_b = kind_q[140] ? dl_f_t0_vA_x[1*W +: W] : dl_c_pt3_mul452;
@@ -6917,6 +6917,34 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_add469 (.clk(clk), .d(c_pt3_add469), .valid(1'b0), .q(dl_c_pt3_add469));
+    // f_t1_vA_x = skip ? t0_vA_x : t1_add242   (friction; ready @144/144/144)
+    logic [W-1:0] f_t1_vA_x;
+    assign f_t1_vA_x = dl_f_skip[3] ? dl_f_t0_vA_x[2*W +: W] : dl_c_pt3_add453;
+    logic [W-1:0] dl_f_t1_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(35),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vA_x (.clk(clk), .d(f_t1_vA_x), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_vA_x));
+    // f_t1_vA_y = skip ? t0_vA_y : t1_add243   (friction; ready @144/144/144)
+    logic [W-1:0] f_t1_vA_y;
+    assign f_t1_vA_y = dl_f_skip[3] ? dl_f_t0_vA_y[2*W +: W] : dl_c_pt3_add458;
+    logic [W-1:0] dl_f_t1_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(35),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vA_y (.clk(clk), .d(f_t1_vA_y), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_vA_y));
+    // f_t1_wA_x = skip ? t0_wA_x : t1_add266   (friction; ready @144/144/144)
+    logic [W-1:0] f_t1_wA_x;
+    assign f_t1_wA_x = dl_f_skip[3] ? dl_f_t0_wA_x[2*W +: W] : dl_c_pt3_add464;
+    logic [3*W-1:0] dl_f_t1_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(35), .N_TAPS(3), .TAPS({32'(35), 32'(31), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wA_x (.clk(clk), .d(f_t1_wA_x), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_wA_x));
+    // f_t1_wA_y = skip ? t0_wA_y : t1_add267   (friction; ready @144/144/144)
+    logic [W-1:0] f_t1_wA_y;
+    assign f_t1_wA_y = dl_f_skip[3] ? dl_f_t0_wA_y[2*W +: W] : dl_c_pt3_add469;
+    logic [3*W-1:0] dl_f_t1_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(35), .N_TAPS(3), .TAPS({32'(35), 32'(31), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wA_y (.clk(clk), .d(f_t1_wA_y), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_wA_y));
     // c_pt3_add455: fp_add @144/144/144 -> @148/148/148 (contact: pt3_add455 = pt3_add453 + pt3_mul454; friction: t1_add244 = t0_vA_z + t1_mul241)
     logic [W-1:0] c_pt3_add455_a;
     assign c_pt3_add455_a = kind_q[144] ? dl_f_t0_vA_z[1*W +: W] : dl_c_pt3_add453;
@@ -7013,34 +7041,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul310 (.clk(clk), .d(f_spin_mul310), .valid(1'b0), .q(dl_f_spin_mul310));
-    // f_t1_vA_x = skip ? t0_vA_x : t1_add242   (friction; ready @144/144/144)
-    logic [W-1:0] f_t1_vA_x;
-    assign f_t1_vA_x = dl_f_skip[3] ? dl_f_t0_vA_x[2*W +: W] : dl_c_pt3_add453;
-    logic [W-1:0] dl_f_t1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(35),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vA_x (.clk(clk), .d(f_t1_vA_x), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_vA_x));
-    // f_t1_vA_y = skip ? t0_vA_y : t1_add243   (friction; ready @144/144/144)
-    logic [W-1:0] f_t1_vA_y;
-    assign f_t1_vA_y = dl_f_skip[3] ? dl_f_t0_vA_y[2*W +: W] : dl_c_pt3_add458;
-    logic [W-1:0] dl_f_t1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(35),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vA_y (.clk(clk), .d(f_t1_vA_y), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_vA_y));
-    // f_t1_wA_x = skip ? t0_wA_x : t1_add266   (friction; ready @144/144/144)
-    logic [W-1:0] f_t1_wA_x;
-    assign f_t1_wA_x = dl_f_skip[3] ? dl_f_t0_wA_x[2*W +: W] : dl_c_pt3_add464;
-    logic [3*W-1:0] dl_f_t1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(35), .N_TAPS(3), .TAPS({32'(35), 32'(31), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_x (.clk(clk), .d(f_t1_wA_x), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_wA_x));
-    // f_t1_wA_y = skip ? t0_wA_y : t1_add267   (friction; ready @144/144/144)
-    logic [W-1:0] f_t1_wA_y;
-    assign f_t1_wA_y = dl_f_skip[3] ? dl_f_t0_wA_y[2*W +: W] : dl_c_pt3_add469;
-    logic [3*W-1:0] dl_f_t1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(35), .N_TAPS(3), .TAPS({32'(35), 32'(31), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_y (.clk(clk), .d(f_t1_wA_y), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_wA_y));
     // f_spin_add311: fp_add @147/147/147 -> @151/151/151 (friction: spin_add311 = spin_mul309 + spin_mul310)
     logic [W-1:0] f_spin_add311;
     logic [2:0] fl_f_spin_add311;
@@ -7055,6 +7055,34 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(12),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_add311 (.clk(clk), .d(f_spin_add311), .valid(valid_f_q[151 +: 12]), .q(dl_f_spin_add311));
+    // f_t1_vA_z = skip ? t0_vA_z : t1_add244   (friction; ready @148/148/148)
+    logic [W-1:0] f_t1_vA_z;
+    assign f_t1_vA_z = dl_f_skip[4] ? dl_f_t0_vA_z[2*W +: W] : dl_c_pt3_add455;
+    logic [W-1:0] dl_f_t1_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(31),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vA_z (.clk(clk), .d(f_t1_vA_z), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vA_z));
+    // f_t1_wA_z = skip ? t0_wA_z : t1_add268   (friction; ready @148/148/148)
+    logic [W-1:0] f_t1_wA_z;
+    assign f_t1_wA_z = dl_f_skip[4] ? dl_f_t0_wA_z[2*W +: W] : dl_c_pt3_add460;
+    logic [3*W-1:0] dl_f_t1_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(31), .N_TAPS(3), .TAPS({32'(31), 32'(27), 32'(12)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wA_z (.clk(clk), .d(f_t1_wA_z), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_wA_z));
+    // f_t1_vB_x = skip ? t0_vB_x : t1_sub278   (friction; ready @148/148/148)
+    logic [W-1:0] f_t1_vB_x;
+    assign f_t1_vB_x = dl_f_skip[4] ? dl_f_t0_vB_x[2*W +: W] : dl_c_pt3_add466;
+    logic [W-1:0] dl_f_t1_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(31),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vB_x (.clk(clk), .d(f_t1_vB_x), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vB_x));
+    // f_t1_vB_y = skip ? t0_vB_y : t1_sub279   (friction; ready @148/148/148)
+    logic [W-1:0] f_t1_vB_y;
+    assign f_t1_vB_y = dl_f_skip[4] ? dl_f_t0_vB_y[2*W +: W] : dl_c_pt3_add471;
+    logic [W-1:0] dl_f_t1_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(31),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vB_y (.clk(clk), .d(f_t1_vB_y), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vB_y));
     // c_pt3_sub461: fp_add @148/148/148 -> @152/152/152 (contact: pt3_sub461 = pt3_add455 - pt3_add460; friction: t1_sub280 = t0_vB_z - t1_mul277)
     logic [W-1:0] c_pt3_sub461_a;
     assign c_pt3_sub461_a = kind_q[148] ? dl_f_t0_vB_z[1*W +: W] : dl_c_pt3_add455;
@@ -7091,34 +7119,20 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_sub472 (.clk(clk), .d(c_pt3_sub472), .valid(1'b0), .q(dl_c_pt3_sub472));
-    // f_t1_vA_z = skip ? t0_vA_z : t1_add244   (friction; ready @148/148/148)
-    logic [W-1:0] f_t1_vA_z;
-    assign f_t1_vA_z = dl_f_skip[4] ? dl_f_t0_vA_z[2*W +: W] : dl_c_pt3_add455;
-    logic [W-1:0] dl_f_t1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(31),
+    // f_t1_vB_z = skip ? t0_vB_z : t1_sub280   (friction; ready @152/152/152)
+    logic [W-1:0] f_t1_vB_z;
+    assign f_t1_vB_z = dl_f_skip[5] ? dl_f_t0_vB_z[2*W +: W] : dl_c_pt3_sub461;
+    logic [W-1:0] dl_f_t1_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(27),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vA_z (.clk(clk), .d(f_t1_vA_z), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vA_z));
-    // f_t1_wA_z = skip ? t0_wA_z : t1_add268   (friction; ready @148/148/148)
-    logic [W-1:0] f_t1_wA_z;
-    assign f_t1_wA_z = dl_f_skip[4] ? dl_f_t0_wA_z[2*W +: W] : dl_c_pt3_add460;
-    logic [3*W-1:0] dl_f_t1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(31), .N_TAPS(3), .TAPS({32'(31), 32'(27), 32'(12)}),
+        u_dl_f_t1_vB_z (.clk(clk), .d(f_t1_vB_z), .valid(valid_f_q[152 +: 27]), .q(dl_f_t1_vB_z));
+    // f_t1_wB_x = skip ? t0_wB_x : t1_sub302   (friction; ready @152/152/152)
+    logic [W-1:0] f_t1_wB_x;
+    assign f_t1_wB_x = dl_f_skip[5] ? dl_f_t0_wB_x[2*W +: W] : dl_c_pt3_sub472;
+    logic [3*W-1:0] dl_f_t1_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(27), .N_TAPS(3), .TAPS({32'(27), 32'(23), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_z (.clk(clk), .d(f_t1_wA_z), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_wA_z));
-    // f_t1_vB_x = skip ? t0_vB_x : t1_sub278   (friction; ready @148/148/148)
-    logic [W-1:0] f_t1_vB_x;
-    assign f_t1_vB_x = dl_f_skip[4] ? dl_f_t0_vB_x[2*W +: W] : dl_c_pt3_add466;
-    logic [W-1:0] dl_f_t1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(31),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vB_x (.clk(clk), .d(f_t1_vB_x), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vB_x));
-    // f_t1_vB_y = skip ? t0_vB_y : t1_sub279   (friction; ready @148/148/148)
-    logic [W-1:0] f_t1_vB_y;
-    assign f_t1_vB_y = dl_f_skip[4] ? dl_f_t0_vB_y[2*W +: W] : dl_c_pt3_add471;
-    logic [W-1:0] dl_f_t1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(31),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vB_y (.clk(clk), .d(f_t1_vB_y), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vB_y));
+        u_dl_f_t1_wB_x (.clk(clk), .d(f_t1_wB_x), .valid(valid_f_q[152 +: 27]), .q(dl_f_t1_wB_x));
     // c_pt3_vrel: fp_add @152/152/152 -> @156/156/156 (contact: pt3_vrel = pt3_sub461 + pt3_sub472; friction: t1_sub303 = t0_wB_y - t1_mul300)
     logic [W-1:0] c_pt3_vrel_a;
     assign c_pt3_vrel_a = kind_q[152] ? dl_f_t0_wB_y[1*W +: W] : dl_c_pt3_sub461;
@@ -7151,20 +7165,13 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul321 (.clk(clk), .d(f_spin_mul321), .valid(valid_f_q[155 +: 4]), .q(dl_f_spin_mul321));
-    // f_t1_vB_z = skip ? t0_vB_z : t1_sub280   (friction; ready @152/152/152)
-    logic [W-1:0] f_t1_vB_z;
-    assign f_t1_vB_z = dl_f_skip[5] ? dl_f_t0_vB_z[2*W +: W] : dl_c_pt3_sub461;
-    logic [W-1:0] dl_f_t1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(27),
+    // f_t1_wB_y = skip ? t0_wB_y : t1_sub303   (friction; ready @156/156/156)
+    logic [W-1:0] f_t1_wB_y;
+    assign f_t1_wB_y = dl_f_skip[6] ? dl_f_t0_wB_y[2*W +: W] : dl_c_pt3_vrel;
+    logic [3*W-1:0] dl_f_t1_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(23), .N_TAPS(3), .TAPS({32'(23), 32'(19), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vB_z (.clk(clk), .d(f_t1_vB_z), .valid(valid_f_q[152 +: 27]), .q(dl_f_t1_vB_z));
-    // f_t1_wB_x = skip ? t0_wB_x : t1_sub302   (friction; ready @152/152/152)
-    logic [W-1:0] f_t1_wB_x;
-    assign f_t1_wB_x = dl_f_skip[5] ? dl_f_t0_wB_x[2*W +: W] : dl_c_pt3_sub472;
-    logic [3*W-1:0] dl_f_t1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(27), .N_TAPS(3), .TAPS({32'(27), 32'(23), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_x (.clk(clk), .d(f_t1_wB_x), .valid(valid_f_q[152 +: 27]), .q(dl_f_t1_wB_x));
+        u_dl_f_t1_wB_y (.clk(clk), .d(f_t1_wB_y), .valid(valid_f_q[156 +: 23]), .q(dl_f_t1_wB_y));
     // c_pt3_add474: fp_add @156/156/156 -> @160/160/160 (contact: pt3_add474 = pt3_vrel + b3; friction: t1_sub304 = t0_wB_z - t1_mul301)
     logic [W-1:0] c_pt3_add474_a;
     assign c_pt3_add474_a = kind_q[156] ? dl_f_t0_wB_z[1*W +: W] : dl_c_pt3_vrel;
@@ -7197,13 +7204,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul322 (.clk(clk), .d(f_spin_mul322), .valid(1'b0), .q(dl_f_spin_mul322));
-    // f_t1_wB_y = skip ? t0_wB_y : t1_sub303   (friction; ready @156/156/156)
-    logic [W-1:0] f_t1_wB_y;
-    assign f_t1_wB_y = dl_f_skip[6] ? dl_f_t0_wB_y[2*W +: W] : dl_c_pt3_vrel;
-    logic [3*W-1:0] dl_f_t1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(23), .N_TAPS(3), .TAPS({32'(23), 32'(19), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_y (.clk(clk), .d(f_t1_wB_y), .valid(valid_f_q[156 +: 23]), .q(dl_f_t1_wB_y));
     // f_spin_add323: fp_add @159/159/159 -> @163/163/163 (friction: spin_add323 = spin_mul321 + spin_mul322)
     logic [W-1:0] f_spin_add323;
     logic [2:0] fl_f_spin_add323;
@@ -7218,6 +7218,13 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_add323 (.clk(clk), .d(f_spin_add323), .valid(1'b0), .q(dl_f_spin_add323));
+    // f_t1_wB_z = skip ? t0_wB_z : t1_sub304   (friction; ready @160/160/160)
+    logic [W-1:0] f_t1_wB_z;
+    assign f_t1_wB_z = dl_f_skip[7] ? dl_f_t0_wB_z[2*W +: W] : dl_c_pt3_add474;
+    logic [3*W-1:0] dl_f_t1_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(19), .N_TAPS(3), .TAPS({32'(19), 32'(15), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wB_z (.clk(clk), .d(f_t1_wB_z), .valid(valid_f_q[160 +: 19]), .q(dl_f_t1_wB_z));
     // c_pt3_delta0: fp_mul @160/160/160 -> @163/163/163 (contact: pt3_delta0 = pt3_add474 * jac_inv3; friction: spin_mul312 = n_z * t1_wA_z)
     logic [W-1:0] c_pt3_delta0_a;
     assign c_pt3_delta0_a = kind_q[160] ? dl_in_n_z[5*W +: W] : dl_c_pt3_add474;
@@ -7250,13 +7257,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul324 (.clk(clk), .d(f_spin_mul324), .valid(1'b0), .q(dl_f_spin_mul324));
-    // f_t1_wB_z = skip ? t0_wB_z : t1_sub304   (friction; ready @160/160/160)
-    logic [W-1:0] f_t1_wB_z;
-    assign f_t1_wB_z = dl_f_skip[7] ? dl_f_t0_wB_z[2*W +: W] : dl_c_pt3_add474;
-    logic [3*W-1:0] dl_f_t1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(19), .N_TAPS(3), .TAPS({32'(19), 32'(15), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_z (.clk(clk), .d(f_t1_wB_z), .valid(valid_f_q[160 +: 19]), .q(dl_f_t1_wB_z));
     // c_pt3_add476: fp_add @163/163/163 -> @167/167/167 (contact: pt3_add476 = lam3 + pt3_delta0; friction: spin_add313 = spin_add311 + spin_mul312)
     logic [W-1:0] c_pt3_add476_a;
     assign c_pt3_add476_a = kind_q[163] ? dl_f_spin_add311 : dl_in_lam3[0*W +: W];
@@ -7325,6 +7325,13 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(2),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_sB (.clk(clk), .d(f_spin_sB), .valid(valid_f_q[170 +: 2]), .q(dl_f_spin_sB));
+    // c_pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (contact; ready @168/168/168)
+    logic [W-1:0] c_pt3_lam;
+    assign c_pt3_lam = dl_c_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_c_pt3_lam_new_max;
+    logic [W-1:0] dl_c_pt3_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt3_lam (.clk(clk), .d(c_pt3_lam), .valid(valid_c_q[168 +: 11]), .q(dl_c_pt3_lam));
     // c_pt3_delta: fp_add @168/168/168 -> @172/172/172 (contact: pt3_delta = pt3_lam_new - lam3)
     logic [W-1:0] c_pt3_delta;
     logic [2:0] fl_c_pt3_delta;
@@ -7339,13 +7346,6 @@ module pgs_shared_pipe_full_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_delta (.clk(clk), .d(c_pt3_delta), .valid(1'b0), .q(dl_c_pt3_delta));
-    // c_pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (contact; ready @168/168/168)
-    logic [W-1:0] c_pt3_lam;
-    assign c_pt3_lam = dl_c_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_c_pt3_lam_new_max;
-    logic [W-1:0] dl_c_pt3_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(11),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt3_lam (.clk(clk), .d(c_pt3_lam), .valid(valid_c_q[168 +: 11]), .q(dl_c_pt3_lam));
     // c_pt3_mul510: fp_mul @172/172/172 -> @175/175/175 (contact: pt3_mul510 = linA_x * pt3_delta; friction: spin_mul315 = n_x * spin_sA)
     logic [W-1:0] c_pt3_mul510_a;
     assign c_pt3_mul510_a = kind_q[172] ? dl_in_n_x[6*W +: W] : dl_c_linA_x[3*W +: W];

@@ -481,6 +481,153 @@ module pgs_shared_pipe_mu_soft #(
     // Datapath in schedule order: the operators (each with the operation of every kind that uses it
     // and the cycles it issues and is ready at, for fp32 / fp16 / bf16) and the combinational nodes
     // of each kind; a value's delay line feeds every consumer at the consumer's issue cycle.
+    // c_staticA = mInvA == 0   (contact; ready @0/0/0)
+    logic c_staticA;
+    assign c_staticA = (dl_in_mInvA[W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [1-1:0] dl_c_staticA;
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_staticA (.clk(clk), .d(c_staticA), .valid(1'b0), .q(dl_c_staticA));
+    // c_staticB = mInvB == 0   (contact; ready @0/0/0)
+    logic c_staticB;
+    assign c_staticB = (dl_in_mInvB[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [1-1:0] dl_c_staticB;
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_staticB (.clk(clk), .d(c_staticB), .valid(1'b0), .q(dl_c_staticB));
+    // c_select59 = staticB ? keep_static : keep_dyn   (contact; ready @0/0/0)
+    logic [W-1:0] c_select59;
+    assign c_select59 = dl_c_staticB ? dl_in_keep_static : dl_in_keep_dyn;
+    logic [W-1:0] dl_c_select59;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_select59 (.clk(clk), .d(c_select59), .valid(1'b0), .q(dl_c_select59));
+    // c_keep_row = staticA ? keep_static : select59   (contact; ready @0/0/0)
+    logic [W-1:0] c_keep_row;
+    assign c_keep_row = dl_c_staticA ? dl_in_keep_static : dl_c_select59;
+    logic [W-1:0] dl_c_keep_row;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_keep_row (.clk(clk), .d(c_keep_row), .valid(1'b0), .q(dl_c_keep_row));
+    // c_apart0 = b0 > 0   (contact; ready @0/0/0)
+    logic c_apart0;
+    assign c_apart0 = !dl_in_b0[0*W +: W][W-1] && (dl_in_b0[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
+    logic [1-1:0] dl_c_apart0;
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_apart0 (.clk(clk), .d(c_apart0), .valid(1'b0), .q(dl_c_apart0));
+    // c_select62 = apart0 ? 1.0 : keep_row   (contact; ready @0/0/0)
+    logic [W-1:0] c_select62;
+    assign c_select62 = dl_c_apart0 ? K_ONE : dl_c_keep_row;
+    logic [W-1:0] dl_c_select62;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_select62 (.clk(clk), .d(c_select62), .valid(1'b0), .q(dl_c_select62));
+    // c_keep0 = soft ? select62 : 1.0   (contact; ready @0/0/0)
+    logic [W-1:0] c_keep0;
+    assign c_keep0 = dl_in_soft ? dl_c_select62 : K_ONE;
+    logic [W-1:0] dl_c_keep0;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_keep0 (.clk(clk), .d(c_keep0), .valid(1'b0), .q(dl_c_keep0));
+    // c_apart1 = b1 > 0   (contact; ready @0/0/0)
+    logic c_apart1;
+    assign c_apart1 = !dl_in_b1[0*W +: W][W-1] && (dl_in_b1[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
+    logic [1-1:0] dl_c_apart1;
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_apart1 (.clk(clk), .d(c_apart1), .valid(1'b0), .q(dl_c_apart1));
+    // c_select65 = apart1 ? 1.0 : keep_row   (contact; ready @0/0/0)
+    logic [W-1:0] c_select65;
+    assign c_select65 = dl_c_apart1 ? K_ONE : dl_c_keep_row;
+    logic [W-1:0] dl_c_select65;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_select65 (.clk(clk), .d(c_select65), .valid(1'b0), .q(dl_c_select65));
+    // c_keep1 = soft ? select65 : 1.0   (contact; ready @0/0/0)
+    logic [W-1:0] c_keep1;
+    assign c_keep1 = dl_in_soft ? dl_c_select65 : K_ONE;
+    logic [W-1:0] dl_c_keep1;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_keep1 (.clk(clk), .d(c_keep1), .valid(1'b0), .q(dl_c_keep1));
+    // c_apart2 = b2 > 0   (contact; ready @0/0/0)
+    logic c_apart2;
+    assign c_apart2 = !dl_in_b2[0*W +: W][W-1] && (dl_in_b2[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
+    logic [1-1:0] dl_c_apart2;
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_apart2 (.clk(clk), .d(c_apart2), .valid(1'b0), .q(dl_c_apart2));
+    // c_select68 = apart2 ? 1.0 : keep_row   (contact; ready @0/0/0)
+    logic [W-1:0] c_select68;
+    assign c_select68 = dl_c_apart2 ? K_ONE : dl_c_keep_row;
+    logic [W-1:0] dl_c_select68;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_select68 (.clk(clk), .d(c_select68), .valid(1'b0), .q(dl_c_select68));
+    // c_keep2 = soft ? select68 : 1.0   (contact; ready @0/0/0)
+    logic [W-1:0] c_keep2;
+    assign c_keep2 = dl_in_soft ? dl_c_select68 : K_ONE;
+    logic [W-1:0] dl_c_keep2;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_keep2 (.clk(clk), .d(c_keep2), .valid(1'b0), .q(dl_c_keep2));
+    // c_apart3 = b3 > 0   (contact; ready @0/0/0)
+    logic c_apart3;
+    assign c_apart3 = !dl_in_b3[0*W +: W][W-1] && (dl_in_b3[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
+    logic [1-1:0] dl_c_apart3;
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_apart3 (.clk(clk), .d(c_apart3), .valid(1'b0), .q(dl_c_apart3));
+    // c_select71 = apart3 ? 1.0 : keep_row   (contact; ready @0/0/0)
+    logic [W-1:0] c_select71;
+    assign c_select71 = dl_c_apart3 ? K_ONE : dl_c_keep_row;
+    logic [W-1:0] dl_c_select71;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_select71 (.clk(clk), .d(c_select71), .valid(1'b0), .q(dl_c_select71));
+    // c_keep3 = soft ? select71 : 1.0   (contact; ready @0/0/0)
+    logic [W-1:0] c_keep3;
+    assign c_keep3 = dl_in_soft ? dl_c_select71 : K_ONE;
+    logic [W-1:0] dl_c_keep3;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_keep3 (.clk(clk), .d(c_keep3), .valid(1'b0), .q(dl_c_keep3));
+    // c_pt0_skip = jac_inv0 == 0   (contact; ready @0/0/0)
+    logic c_pt0_skip;
+    assign c_pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt0_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_skip (.clk(clk), .d(c_pt0_skip), .valid(valid_c_q[0 +: 53]), .q(dl_c_pt0_skip));
+    // c_pt1_skip = jac_inv1 == 0   (contact; ready @0/0/0)
+    logic c_pt1_skip;
+    assign c_pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt1_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_skip (.clk(clk), .d(c_pt1_skip), .valid(valid_c_q[0 +: 95]), .q(dl_c_pt1_skip));
+    // c_pt2_skip = jac_inv2 == 0   (contact; ready @0/0/0)
+    logic c_pt2_skip;
+    assign c_pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt2_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_skip (.clk(clk), .d(c_pt2_skip), .valid(valid_c_q[0 +: 137]), .q(dl_c_pt2_skip));
+    // c_pt3_skip = jac_inv3 == 0   (contact; ready @0/0/0)
+    logic c_pt3_skip;
+    assign c_pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt3_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt3_skip (.clk(clk), .d(c_pt3_skip), .valid(valid_c_q[0 +: 179]), .q(dl_c_pt3_skip));
+    // f_skip = f_jac_inv0 == 0   (friction; ready @0/0/0)
+    logic f_skip;
+    assign f_skip = (dl_in_p3_x__f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [9*1-1:0] dl_f_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(9), .TAPS({32'(179), 32'(160), 32'(156), 32'(152), 32'(148), 32'(144), 32'(127), 32'(95), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_skip (.clk(clk), .d(f_skip), .valid(valid_f_q[0 +: 179]), .q(dl_f_skip));
     // c_linA_x: fp_mul @0/0/0 -> @3/3/3 (contact: linA_x = n_x * mInvA; friction: t0_linA_x = t0_x * mInvA)
     logic [W-1:0] c_linA_x_a;
     assign c_linA_x_a = kind_q[0] ? dl_in_p1_x__t0_x[0*W +: W] : dl_in_n_x[0*W +: W];
@@ -1097,153 +1244,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(160), .N_TAPS(2), .TAPS({32'(134), 32'(160)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_lam_kept (.clk(clk), .d(c_pt3_lam_kept), .valid(valid_q[3 +: 160]), .q(dl_c_pt3_lam_kept));
-    // c_staticA = mInvA == 0   (contact; ready @0/0/0)
-    logic c_staticA;
-    assign c_staticA = (dl_in_mInvA[W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [1-1:0] dl_c_staticA;
-    pgs_delay #(.WIDTH(1), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_staticA (.clk(clk), .d(c_staticA), .valid(1'b0), .q(dl_c_staticA));
-    // c_staticB = mInvB == 0   (contact; ready @0/0/0)
-    logic c_staticB;
-    assign c_staticB = (dl_in_mInvB[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [1-1:0] dl_c_staticB;
-    pgs_delay #(.WIDTH(1), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_staticB (.clk(clk), .d(c_staticB), .valid(1'b0), .q(dl_c_staticB));
-    // c_select59 = staticB ? keep_static : keep_dyn   (contact; ready @0/0/0)
-    logic [W-1:0] c_select59;
-    assign c_select59 = dl_c_staticB ? dl_in_keep_static : dl_in_keep_dyn;
-    logic [W-1:0] dl_c_select59;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_select59 (.clk(clk), .d(c_select59), .valid(1'b0), .q(dl_c_select59));
-    // c_keep_row = staticA ? keep_static : select59   (contact; ready @0/0/0)
-    logic [W-1:0] c_keep_row;
-    assign c_keep_row = dl_c_staticA ? dl_in_keep_static : dl_c_select59;
-    logic [W-1:0] dl_c_keep_row;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_keep_row (.clk(clk), .d(c_keep_row), .valid(1'b0), .q(dl_c_keep_row));
-    // c_apart0 = b0 > 0   (contact; ready @0/0/0)
-    logic c_apart0;
-    assign c_apart0 = !dl_in_b0[0*W +: W][W-1] && (dl_in_b0[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
-    logic [1-1:0] dl_c_apart0;
-    pgs_delay #(.WIDTH(1), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_apart0 (.clk(clk), .d(c_apart0), .valid(1'b0), .q(dl_c_apart0));
-    // c_select62 = apart0 ? 1.0 : keep_row   (contact; ready @0/0/0)
-    logic [W-1:0] c_select62;
-    assign c_select62 = dl_c_apart0 ? K_ONE : dl_c_keep_row;
-    logic [W-1:0] dl_c_select62;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_select62 (.clk(clk), .d(c_select62), .valid(1'b0), .q(dl_c_select62));
-    // c_keep0 = soft ? select62 : 1.0   (contact; ready @0/0/0)
-    logic [W-1:0] c_keep0;
-    assign c_keep0 = dl_in_soft ? dl_c_select62 : K_ONE;
-    logic [W-1:0] dl_c_keep0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_keep0 (.clk(clk), .d(c_keep0), .valid(1'b0), .q(dl_c_keep0));
-    // c_apart1 = b1 > 0   (contact; ready @0/0/0)
-    logic c_apart1;
-    assign c_apart1 = !dl_in_b1[0*W +: W][W-1] && (dl_in_b1[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
-    logic [1-1:0] dl_c_apart1;
-    pgs_delay #(.WIDTH(1), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_apart1 (.clk(clk), .d(c_apart1), .valid(1'b0), .q(dl_c_apart1));
-    // c_select65 = apart1 ? 1.0 : keep_row   (contact; ready @0/0/0)
-    logic [W-1:0] c_select65;
-    assign c_select65 = dl_c_apart1 ? K_ONE : dl_c_keep_row;
-    logic [W-1:0] dl_c_select65;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_select65 (.clk(clk), .d(c_select65), .valid(1'b0), .q(dl_c_select65));
-    // c_keep1 = soft ? select65 : 1.0   (contact; ready @0/0/0)
-    logic [W-1:0] c_keep1;
-    assign c_keep1 = dl_in_soft ? dl_c_select65 : K_ONE;
-    logic [W-1:0] dl_c_keep1;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_keep1 (.clk(clk), .d(c_keep1), .valid(1'b0), .q(dl_c_keep1));
-    // c_apart2 = b2 > 0   (contact; ready @0/0/0)
-    logic c_apart2;
-    assign c_apart2 = !dl_in_b2[0*W +: W][W-1] && (dl_in_b2[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
-    logic [1-1:0] dl_c_apart2;
-    pgs_delay #(.WIDTH(1), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_apart2 (.clk(clk), .d(c_apart2), .valid(1'b0), .q(dl_c_apart2));
-    // c_select68 = apart2 ? 1.0 : keep_row   (contact; ready @0/0/0)
-    logic [W-1:0] c_select68;
-    assign c_select68 = dl_c_apart2 ? K_ONE : dl_c_keep_row;
-    logic [W-1:0] dl_c_select68;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_select68 (.clk(clk), .d(c_select68), .valid(1'b0), .q(dl_c_select68));
-    // c_keep2 = soft ? select68 : 1.0   (contact; ready @0/0/0)
-    logic [W-1:0] c_keep2;
-    assign c_keep2 = dl_in_soft ? dl_c_select68 : K_ONE;
-    logic [W-1:0] dl_c_keep2;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_keep2 (.clk(clk), .d(c_keep2), .valid(1'b0), .q(dl_c_keep2));
-    // c_apart3 = b3 > 0   (contact; ready @0/0/0)
-    logic c_apart3;
-    assign c_apart3 = !dl_in_b3[0*W +: W][W-1] && (dl_in_b3[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
-    logic [1-1:0] dl_c_apart3;
-    pgs_delay #(.WIDTH(1), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_apart3 (.clk(clk), .d(c_apart3), .valid(1'b0), .q(dl_c_apart3));
-    // c_select71 = apart3 ? 1.0 : keep_row   (contact; ready @0/0/0)
-    logic [W-1:0] c_select71;
-    assign c_select71 = dl_c_apart3 ? K_ONE : dl_c_keep_row;
-    logic [W-1:0] dl_c_select71;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_select71 (.clk(clk), .d(c_select71), .valid(1'b0), .q(dl_c_select71));
-    // c_keep3 = soft ? select71 : 1.0   (contact; ready @0/0/0)
-    logic [W-1:0] c_keep3;
-    assign c_keep3 = dl_in_soft ? dl_c_select71 : K_ONE;
-    logic [W-1:0] dl_c_keep3;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_keep3 (.clk(clk), .d(c_keep3), .valid(1'b0), .q(dl_c_keep3));
-    // c_pt0_skip = jac_inv0 == 0   (contact; ready @0/0/0)
-    logic c_pt0_skip;
-    assign c_pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt0_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_skip (.clk(clk), .d(c_pt0_skip), .valid(valid_c_q[0 +: 53]), .q(dl_c_pt0_skip));
-    // c_pt1_skip = jac_inv1 == 0   (contact; ready @0/0/0)
-    logic c_pt1_skip;
-    assign c_pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt1_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_skip (.clk(clk), .d(c_pt1_skip), .valid(valid_c_q[0 +: 95]), .q(dl_c_pt1_skip));
-    // c_pt2_skip = jac_inv2 == 0   (contact; ready @0/0/0)
-    logic c_pt2_skip;
-    assign c_pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt2_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_skip (.clk(clk), .d(c_pt2_skip), .valid(valid_c_q[0 +: 137]), .q(dl_c_pt2_skip));
-    // c_pt3_skip = jac_inv3 == 0   (contact; ready @0/0/0)
-    logic c_pt3_skip;
-    assign c_pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt3_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt3_skip (.clk(clk), .d(c_pt3_skip), .valid(valid_c_q[0 +: 179]), .q(dl_c_pt3_skip));
-    // f_skip = f_jac_inv0 == 0   (friction; ready @0/0/0)
-    logic f_skip;
-    assign f_skip = (dl_in_p3_x__f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [9*1-1:0] dl_f_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(9), .TAPS({32'(179), 32'(160), 32'(156), 32'(152), 32'(148), 32'(144), 32'(127), 32'(95), 32'(84)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_skip (.clk(clk), .d(f_skip), .valid(valid_f_q[0 +: 179]), .q(dl_f_skip));
     // c_pt0_add107: fp_add @3/3/3 -> @7/7/7 (contact: pt0_add107 = pt0_mul105 + pt0_mul106; friction: t0_add80 = t0_mul78 + t0_mul79)
     logic [W-1:0] c_pt0_add107;
     logic [2:0] fl_c_pt0_add107;
@@ -2884,6 +2884,13 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(158),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_angB_z (.clk(clk), .d(c_pt3_angB_z), .valid(valid_c_q[14 +: 158]), .q(dl_c_pt3_angB_z));
+    // f_neg_limit = -limit   (friction; ready @14/14/14)
+    logic [W-1:0] f_neg_limit;
+    assign f_neg_limit = {~dl_c_pt0_mul116[0*W +: W][W-1], dl_c_pt0_mul116[0*W +: W][W-2:0]};
+    logic [2*W-1:0] dl_f_neg_limit;
+    pgs_delay #(.WIDTH(W), .DEPTH(111), .N_TAPS(2), .TAPS({32'(111), 32'(27)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_neg_limit (.clk(clk), .d(f_neg_limit), .valid(valid_f_q[14 +: 111]), .q(dl_f_neg_limit));
     // c_pt0_add118: fp_add @14/14/14 -> @18/18/18 (contact: pt0_add118 = pt0_mul116 + pt0_mul117; friction: t0_add91 = t0_mul89 + t0_mul90)
     logic [W-1:0] c_pt0_add118_a;
     assign c_pt0_add118_a = kind_q[14] ? dl_c_pt0_mul121 : dl_c_pt0_mul116[0*W +: W];
@@ -2916,13 +2923,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_add123 (.clk(clk), .d(c_pt0_add123), .valid(1'b0), .q(dl_c_pt0_add123));
-    // f_neg_limit = -limit   (friction; ready @14/14/14)
-    logic [W-1:0] f_neg_limit;
-    assign f_neg_limit = {~dl_c_pt0_mul116[0*W +: W][W-1], dl_c_pt0_mul116[0*W +: W][W-2:0]};
-    logic [2*W-1:0] dl_f_neg_limit;
-    pgs_delay #(.WIDTH(W), .DEPTH(111), .N_TAPS(2), .TAPS({32'(111), 32'(27)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_neg_limit (.clk(clk), .d(f_neg_limit), .valid(valid_f_q[14 +: 111]), .q(dl_f_neg_limit));
     // c_pt0_add120: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add120 = pt0_add118 + pt0_mul119; friction: t0_add93 = t0_add91 + t0_mul92)
     logic [W-1:0] c_pt0_add120;
     logic [2:0] fl_c_pt0_add120;
@@ -2979,6 +2979,13 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_vrel (.clk(clk), .d(c_pt0_vrel), .valid(1'b0), .q(dl_c_pt0_vrel));
+    // f_t0_neg101 = -t0_u   (friction; ready @30/30/30)
+    logic [W-1:0] f_t0_neg101;
+    assign f_t0_neg101 = {~dl_c_pt0_vrel[W-1], dl_c_pt0_vrel[W-2:0]};
+    logic [W-1:0] dl_f_t0_neg101;
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_neg101 (.clk(clk), .d(f_t0_neg101), .valid(valid_f_q[30 +: 4]), .q(dl_f_t0_neg101));
     // c_pt0_add128: fp_add @30/30/30 -> @34/34/34 (contact: pt0_add128 = pt0_vrel + b0)
     logic [W-1:0] c_pt0_add128;
     logic [2:0] fl_c_pt0_add128;
@@ -2993,13 +3000,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_add128 (.clk(clk), .d(c_pt0_add128), .valid(1'b0), .q(dl_c_pt0_add128));
-    // f_t0_neg101 = -t0_u   (friction; ready @30/30/30)
-    logic [W-1:0] f_t0_neg101;
-    assign f_t0_neg101 = {~dl_c_pt0_vrel[W-1], dl_c_pt0_vrel[W-2:0]};
-    logic [W-1:0] dl_f_t0_neg101;
-    pgs_delay #(.WIDTH(W), .DEPTH(4),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_neg101 (.clk(clk), .d(f_t0_neg101), .valid(valid_f_q[30 +: 4]), .q(dl_f_t0_neg101));
     // c_pt0_delta0: fp_mul @34/34/34 -> @37/37/37 (contact: pt0_delta0 = pt0_add128 * jac_inv0; friction: t0_delta0 = t0_neg101 * f_jac_inv0)
     logic [W-1:0] c_pt0_delta0_a;
     assign c_pt0_delta0_a = kind_q[34] ? dl_f_t0_neg101 : dl_c_pt0_add128;
@@ -3046,6 +3046,13 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(41), .N_TAPS(2), .TAPS({32'(41), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_lam_new_max (.clk(clk), .d(c_pt0_lam_new_max), .valid(valid_q[42 +: 41]), .q(dl_c_pt0_lam_new_max));
+    // c_pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (contact; ready @42/42/42)
+    logic [W-1:0] c_pt0_lam;
+    assign c_pt0_lam = dl_c_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_c_pt0_lam_new_max[0*W +: W];
+    logic [W-1:0] dl_c_pt0_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(137),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_lam (.clk(clk), .d(c_pt0_lam), .valid(valid_c_q[42 +: 137]), .q(dl_c_pt0_lam));
     // c_pt0_delta: fp_add @42/42/42 -> @46/46/46 (contact: pt0_delta = pt0_lam_new - lam0)
     logic [W-1:0] c_pt0_delta;
     logic [2:0] fl_c_pt0_delta;
@@ -3060,13 +3067,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_delta (.clk(clk), .d(c_pt0_delta), .valid(1'b0), .q(dl_c_pt0_delta));
-    // c_pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (contact; ready @42/42/42)
-    logic [W-1:0] c_pt0_lam;
-    assign c_pt0_lam = dl_c_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_c_pt0_lam_new_max[0*W +: W];
-    logic [W-1:0] dl_c_pt0_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(137),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_lam (.clk(clk), .d(c_pt0_lam), .valid(valid_c_q[42 +: 137]), .q(dl_c_pt0_lam));
     // c_pt0_mul141: fp_mul @46/46/46 -> @49/49/49 (contact: pt0_mul141 = linA_x * pt0_delta)
     logic [W-1:0] c_pt0_mul141;
     logic [2:0] fl_c_pt0_mul141;
@@ -3403,6 +3403,90 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_sub173 (.clk(clk), .d(c_pt0_sub173), .valid(1'b0), .q(dl_c_pt0_sub173));
+    // c_pt0_vA_x = pt0_skip ? vA_x : pt0_add144   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_x;
+    assign c_pt0_vA_x = dl_c_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_c_pt0_add144;
+    logic [3*W-1:0] dl_c_pt0_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_x (.clk(clk), .d(c_pt0_vA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_x));
+    // c_pt0_vA_y = pt0_skip ? vA_y : pt0_add145   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_y;
+    assign c_pt0_vA_y = dl_c_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_c_pt0_add145;
+    logic [3*W-1:0] dl_c_pt0_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_y (.clk(clk), .d(c_pt0_vA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_y));
+    // c_pt0_vA_z = pt0_skip ? vA_z : pt0_add146   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_z;
+    assign c_pt0_vA_z = dl_c_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_c_pt0_add146;
+    logic [3*W-1:0] dl_c_pt0_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_z (.clk(clk), .d(c_pt0_vA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_z));
+    // c_pt0_wA_x = pt0_skip ? wA_x : pt0_add153   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_x;
+    assign c_pt0_wA_x = dl_c_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_c_pt0_add153;
+    logic [3*W-1:0] dl_c_pt0_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_x (.clk(clk), .d(c_pt0_wA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_x));
+    // c_pt0_wA_y = pt0_skip ? wA_y : pt0_add154   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_y;
+    assign c_pt0_wA_y = dl_c_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_c_pt0_add154;
+    logic [3*W-1:0] dl_c_pt0_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_y (.clk(clk), .d(c_pt0_wA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_y));
+    // c_pt0_wA_z = pt0_skip ? wA_z : pt0_add155   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_z;
+    assign c_pt0_wA_z = dl_c_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_c_pt0_add155;
+    logic [3*W-1:0] dl_c_pt0_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_z (.clk(clk), .d(c_pt0_wA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_z));
+    // c_pt0_vB_x = pt0_skip ? vB_x : pt0_sub162   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_x;
+    assign c_pt0_vB_x = dl_c_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_c_pt0_sub162;
+    logic [3*W-1:0] dl_c_pt0_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_x (.clk(clk), .d(c_pt0_vB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_x));
+    // c_pt0_vB_y = pt0_skip ? vB_y : pt0_sub163   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_y;
+    assign c_pt0_vB_y = dl_c_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_c_pt0_sub163;
+    logic [3*W-1:0] dl_c_pt0_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_y (.clk(clk), .d(c_pt0_vB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_y));
+    // c_pt0_vB_z = pt0_skip ? vB_z : pt0_sub164   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_z;
+    assign c_pt0_vB_z = dl_c_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_c_pt0_sub164;
+    logic [3*W-1:0] dl_c_pt0_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_z (.clk(clk), .d(c_pt0_vB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_z));
+    // c_pt0_wB_x = pt0_skip ? wB_x : pt0_sub171   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_x;
+    assign c_pt0_wB_x = dl_c_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_c_pt0_sub171;
+    logic [3*W-1:0] dl_c_pt0_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_x (.clk(clk), .d(c_pt0_wB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_x));
+    // c_pt0_wB_y = pt0_skip ? wB_y : pt0_sub172   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_y;
+    assign c_pt0_wB_y = dl_c_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_c_pt0_sub172;
+    logic [3*W-1:0] dl_c_pt0_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_y (.clk(clk), .d(c_pt0_wB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_y));
+    // c_pt0_wB_z = pt0_skip ? wB_z : pt0_sub173   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_z;
+    assign c_pt0_wB_z = dl_c_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_c_pt0_sub173;
+    logic [3*W-1:0] dl_c_pt0_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_z (.clk(clk), .d(c_pt0_wB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_z));
     // c_pt1_mul202: fp_mul @53/53/53 -> @56/56/56 (contact: pt1_mul202 = n_x * pt0_vA_x)
     logic [W-1:0] c_pt1_mul202;
     logic [2:0] fl_c_pt1_mul202;
@@ -3571,90 +3655,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_mul221 (.clk(clk), .d(c_pt1_mul221), .valid(valid_c_q[56 +: 4]), .q(dl_c_pt1_mul221));
-    // c_pt0_vA_x = pt0_skip ? vA_x : pt0_add144   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_x;
-    assign c_pt0_vA_x = dl_c_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_c_pt0_add144;
-    logic [3*W-1:0] dl_c_pt0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_x (.clk(clk), .d(c_pt0_vA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_x));
-    // c_pt0_vA_y = pt0_skip ? vA_y : pt0_add145   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_y;
-    assign c_pt0_vA_y = dl_c_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_c_pt0_add145;
-    logic [3*W-1:0] dl_c_pt0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_y (.clk(clk), .d(c_pt0_vA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_y));
-    // c_pt0_vA_z = pt0_skip ? vA_z : pt0_add146   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_z;
-    assign c_pt0_vA_z = dl_c_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_c_pt0_add146;
-    logic [3*W-1:0] dl_c_pt0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_z (.clk(clk), .d(c_pt0_vA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_z));
-    // c_pt0_wA_x = pt0_skip ? wA_x : pt0_add153   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_x;
-    assign c_pt0_wA_x = dl_c_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_c_pt0_add153;
-    logic [3*W-1:0] dl_c_pt0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_x (.clk(clk), .d(c_pt0_wA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_x));
-    // c_pt0_wA_y = pt0_skip ? wA_y : pt0_add154   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_y;
-    assign c_pt0_wA_y = dl_c_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_c_pt0_add154;
-    logic [3*W-1:0] dl_c_pt0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_y (.clk(clk), .d(c_pt0_wA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_y));
-    // c_pt0_wA_z = pt0_skip ? wA_z : pt0_add155   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_z;
-    assign c_pt0_wA_z = dl_c_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_c_pt0_add155;
-    logic [3*W-1:0] dl_c_pt0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_z (.clk(clk), .d(c_pt0_wA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_z));
-    // c_pt0_vB_x = pt0_skip ? vB_x : pt0_sub162   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_x;
-    assign c_pt0_vB_x = dl_c_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_c_pt0_sub162;
-    logic [3*W-1:0] dl_c_pt0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_x (.clk(clk), .d(c_pt0_vB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_x));
-    // c_pt0_vB_y = pt0_skip ? vB_y : pt0_sub163   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_y;
-    assign c_pt0_vB_y = dl_c_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_c_pt0_sub163;
-    logic [3*W-1:0] dl_c_pt0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_y (.clk(clk), .d(c_pt0_vB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_y));
-    // c_pt0_vB_z = pt0_skip ? vB_z : pt0_sub164   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_z;
-    assign c_pt0_vB_z = dl_c_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_c_pt0_sub164;
-    logic [3*W-1:0] dl_c_pt0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_z (.clk(clk), .d(c_pt0_vB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_z));
-    // c_pt0_wB_x = pt0_skip ? wB_x : pt0_sub171   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_x;
-    assign c_pt0_wB_x = dl_c_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_c_pt0_sub171;
-    logic [3*W-1:0] dl_c_pt0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_x (.clk(clk), .d(c_pt0_wB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_x));
-    // c_pt0_wB_y = pt0_skip ? wB_y : pt0_sub172   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_y;
-    assign c_pt0_wB_y = dl_c_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_c_pt0_sub172;
-    logic [3*W-1:0] dl_c_pt0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_y (.clk(clk), .d(c_pt0_wB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_y));
-    // c_pt0_wB_z = pt0_skip ? wB_z : pt0_sub173   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_z;
-    assign c_pt0_wB_z = dl_c_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_c_pt0_sub173;
-    logic [3*W-1:0] dl_c_pt0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_z (.clk(clk), .d(c_pt0_wB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_z));
     // c_pt1_add204: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add204 = pt1_mul202 + pt1_mul203)
     logic [W-1:0] c_pt1_add204;
     logic [2:0] fl_c_pt1_add204;
@@ -3869,6 +3869,20 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_lam_new_max (.clk(clk), .d(c_pt1_lam_new_max), .valid(1'b0), .q(dl_c_pt1_lam_new_max));
+    // c_pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (contact; ready @84/84/84)
+    logic [W-1:0] c_pt1_lam;
+    assign c_pt1_lam = dl_c_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_c_pt1_lam_new_max;
+    logic [W-1:0] dl_c_pt1_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(95),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_lam (.clk(clk), .d(c_pt1_lam), .valid(valid_c_q[84 +: 95]), .q(dl_c_pt1_lam));
+    // f_t0_lamT = skip ? lamT0 : t0_lam_new   (friction; ready @84/84/84)
+    logic [W-1:0] f_t0_lamT;
+    assign f_t0_lamT = dl_f_skip[0] ? dl_in_lamT0[1*W +: W] : dl_c_pt1_lam_new_min;
+    logic [W-1:0] dl_f_t0_lamT;
+    pgs_delay #(.WIDTH(W), .DEPTH(95),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_lamT (.clk(clk), .d(f_t0_lamT), .valid(valid_f_q[84 +: 95]), .q(dl_f_t0_lamT));
     // c_pt1_delta: fp_add @84/84/84 -> @88/88/88 (contact: pt1_delta = pt1_lam_new - lam1; friction: t0_delta = t0_lam_new - lamT0)
     logic [W-1:0] c_pt1_delta_a;
     assign c_pt1_delta_a = kind_q[84] ? dl_c_pt1_lam_new_min : dl_c_pt1_lam_new_max;
@@ -3887,20 +3901,13 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_delta (.clk(clk), .d(c_pt1_delta), .valid(1'b0), .q(dl_c_pt1_delta));
-    // c_pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (contact; ready @84/84/84)
-    logic [W-1:0] c_pt1_lam;
-    assign c_pt1_lam = dl_c_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_c_pt1_lam_new_max;
-    logic [W-1:0] dl_c_pt1_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(95),
+    // f_t0_e = -t0_delta   (friction; ready @88/88/88)
+    logic [W-1:0] f_t0_e;
+    assign f_t0_e = {~dl_c_pt1_delta[W-1], dl_c_pt1_delta[W-2:0]};
+    logic [W-1:0] dl_f_t0_e;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_lam (.clk(clk), .d(c_pt1_lam), .valid(valid_c_q[84 +: 95]), .q(dl_c_pt1_lam));
-    // f_t0_lamT = skip ? lamT0 : t0_lam_new   (friction; ready @84/84/84)
-    logic [W-1:0] f_t0_lamT;
-    assign f_t0_lamT = dl_f_skip[0] ? dl_in_lamT0[1*W +: W] : dl_c_pt1_lam_new_min;
-    logic [W-1:0] dl_f_t0_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH(95),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_lamT (.clk(clk), .d(f_t0_lamT), .valid(valid_f_q[84 +: 95]), .q(dl_f_t0_lamT));
+        u_dl_f_t0_e (.clk(clk), .d(f_t0_e), .valid(1'b0), .q(dl_f_t0_e));
     // c_pt1_mul238: fp_mul @88/88/88 -> @91/91/91 (contact: pt1_mul238 = linA_x * pt1_delta; friction: t0_mul112 = t0_linA_x * t0_e)
     logic [W-1:0] c_pt1_mul238_b;
     assign c_pt1_mul238_b = kind_q[88] ? dl_f_t0_e : dl_c_pt1_delta;
@@ -4103,13 +4110,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_mul267 (.clk(clk), .d(c_pt1_mul267), .valid(1'b0), .q(dl_c_pt1_mul267));
-    // f_t0_e = -t0_delta   (friction; ready @88/88/88)
-    logic [W-1:0] f_t0_e;
-    assign f_t0_e = {~dl_c_pt1_delta[W-1], dl_c_pt1_delta[W-2:0]};
-    logic [W-1:0] dl_f_t0_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_e (.clk(clk), .d(f_t0_e), .valid(1'b0), .q(dl_f_t0_e));
     // c_pt1_add241: fp_add @91/91/91 -> @95/95/95 (contact: pt1_add241 = pt0_vA_x + pt1_mul238; friction: t0_add115 = vA_x + t0_mul112)
     logic [W-1:0] c_pt1_add241_a;
     assign c_pt1_add241_a = kind_q[91] ? dl_in_vA_x[3*W +: W] : dl_c_pt0_vA_x[1*W +: W];
@@ -4302,6 +4302,174 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_sub270 (.clk(clk), .d(c_pt1_sub270), .valid(1'b0), .q(dl_c_pt1_sub270));
+    // c_pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add241   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_x;
+    assign c_pt1_vA_x = dl_c_pt1_skip[1] ? dl_c_pt0_vA_x[2*W +: W] : dl_c_pt1_add241;
+    logic [3*W-1:0] dl_c_pt1_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vA_x (.clk(clk), .d(c_pt1_vA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_x));
+    // c_pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add242   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_y;
+    assign c_pt1_vA_y = dl_c_pt1_skip[1] ? dl_c_pt0_vA_y[2*W +: W] : dl_c_pt1_add242;
+    logic [3*W-1:0] dl_c_pt1_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vA_y (.clk(clk), .d(c_pt1_vA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_y));
+    // c_pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add243   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_z;
+    assign c_pt1_vA_z = dl_c_pt1_skip[1] ? dl_c_pt0_vA_z[2*W +: W] : dl_c_pt1_add243;
+    logic [3*W-1:0] dl_c_pt1_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vA_z (.clk(clk), .d(c_pt1_vA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_z));
+    // c_pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add250   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_x;
+    assign c_pt1_wA_x = dl_c_pt1_skip[1] ? dl_c_pt0_wA_x[2*W +: W] : dl_c_pt1_add250;
+    logic [3*W-1:0] dl_c_pt1_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_x (.clk(clk), .d(c_pt1_wA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_x));
+    // c_pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add251   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_y;
+    assign c_pt1_wA_y = dl_c_pt1_skip[1] ? dl_c_pt0_wA_y[2*W +: W] : dl_c_pt1_add251;
+    logic [3*W-1:0] dl_c_pt1_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_y (.clk(clk), .d(c_pt1_wA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_y));
+    // c_pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add252   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_z;
+    assign c_pt1_wA_z = dl_c_pt1_skip[1] ? dl_c_pt0_wA_z[2*W +: W] : dl_c_pt1_add252;
+    logic [3*W-1:0] dl_c_pt1_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_z (.clk(clk), .d(c_pt1_wA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_z));
+    // c_pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub259   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_x;
+    assign c_pt1_vB_x = dl_c_pt1_skip[1] ? dl_c_pt0_vB_x[2*W +: W] : dl_c_pt1_sub259;
+    logic [3*W-1:0] dl_c_pt1_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_x (.clk(clk), .d(c_pt1_vB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_x));
+    // c_pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub260   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_y;
+    assign c_pt1_vB_y = dl_c_pt1_skip[1] ? dl_c_pt0_vB_y[2*W +: W] : dl_c_pt1_sub260;
+    logic [3*W-1:0] dl_c_pt1_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_y (.clk(clk), .d(c_pt1_vB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_y));
+    // c_pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub261   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_z;
+    assign c_pt1_vB_z = dl_c_pt1_skip[1] ? dl_c_pt0_vB_z[2*W +: W] : dl_c_pt1_sub261;
+    logic [3*W-1:0] dl_c_pt1_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_z (.clk(clk), .d(c_pt1_vB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_z));
+    // c_pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub268   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_x;
+    assign c_pt1_wB_x = dl_c_pt1_skip[1] ? dl_c_pt0_wB_x[2*W +: W] : dl_c_pt1_sub268;
+    logic [3*W-1:0] dl_c_pt1_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_x (.clk(clk), .d(c_pt1_wB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_x));
+    // c_pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub269   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_y;
+    assign c_pt1_wB_y = dl_c_pt1_skip[1] ? dl_c_pt0_wB_y[2*W +: W] : dl_c_pt1_sub269;
+    logic [3*W-1:0] dl_c_pt1_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_y (.clk(clk), .d(c_pt1_wB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_y));
+    // c_pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub270   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_z;
+    assign c_pt1_wB_z = dl_c_pt1_skip[1] ? dl_c_pt0_wB_z[2*W +: W] : dl_c_pt1_sub270;
+    logic [3*W-1:0] dl_c_pt1_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_z (.clk(clk), .d(c_pt1_wB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_z));
+    // f_t0_vA_x = skip ? vA_x : t0_add115   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vA_x;
+    assign f_t0_vA_x = dl_f_skip[1] ? dl_in_vA_x[4*W +: W] : dl_c_pt1_add241;
+    logic [3*W-1:0] dl_f_t0_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_x (.clk(clk), .d(f_t0_vA_x), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_vA_x));
+    // f_t0_vA_y = skip ? vA_y : t0_add116   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vA_y;
+    assign f_t0_vA_y = dl_f_skip[1] ? dl_in_vA_y[4*W +: W] : dl_c_pt1_add242;
+    logic [3*W-1:0] dl_f_t0_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_y (.clk(clk), .d(f_t0_vA_y), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_vA_y));
+    // f_t0_vA_z = skip ? vA_z : t0_add117   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vA_z;
+    assign f_t0_vA_z = dl_f_skip[1] ? dl_in_vA_z[4*W +: W] : dl_c_pt1_add243;
+    logic [3*W-1:0] dl_f_t0_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_z (.clk(clk), .d(f_t0_vA_z), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vA_z));
+    // f_t0_wA_x = skip ? wA_x : t0_add127   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wA_x;
+    assign f_t0_wA_x = dl_f_skip[1] ? dl_in_wA_x[4*W +: W] : dl_c_pt1_add250;
+    logic [3*W-1:0] dl_f_t0_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_x (.clk(clk), .d(f_t0_wA_x), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_wA_x));
+    // f_t0_wA_y = skip ? wA_y : t0_add128   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wA_y;
+    assign f_t0_wA_y = dl_f_skip[1] ? dl_in_wA_y[4*W +: W] : dl_c_pt1_add251;
+    logic [3*W-1:0] dl_f_t0_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_y (.clk(clk), .d(f_t0_wA_y), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_wA_y));
+    // f_t0_wA_z = skip ? wA_z : t0_add129   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wA_z;
+    assign f_t0_wA_z = dl_f_skip[1] ? dl_in_wA_z[4*W +: W] : dl_c_pt1_add252;
+    logic [3*W-1:0] dl_f_t0_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_z (.clk(clk), .d(f_t0_wA_z), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_wA_z));
+    // f_t0_vB_x = skip ? vB_x : t0_sub139   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vB_x;
+    assign f_t0_vB_x = dl_f_skip[1] ? dl_in_vB_x[4*W +: W] : dl_c_pt1_sub259;
+    logic [3*W-1:0] dl_f_t0_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_x (.clk(clk), .d(f_t0_vB_x), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vB_x));
+    // f_t0_vB_y = skip ? vB_y : t0_sub140   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vB_y;
+    assign f_t0_vB_y = dl_f_skip[1] ? dl_in_vB_y[4*W +: W] : dl_c_pt1_sub260;
+    logic [3*W-1:0] dl_f_t0_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_y (.clk(clk), .d(f_t0_vB_y), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vB_y));
+    // f_t0_vB_z = skip ? vB_z : t0_sub141   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vB_z;
+    assign f_t0_vB_z = dl_f_skip[1] ? dl_in_vB_z[4*W +: W] : dl_c_pt1_sub261;
+    logic [3*W-1:0] dl_f_t0_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(57), .N_TAPS(3), .TAPS({32'(57), 32'(53), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_z (.clk(clk), .d(f_t0_vB_z), .valid(valid_f_q[95 +: 57]), .q(dl_f_t0_vB_z));
+    // f_t0_wB_x = skip ? wB_x : t0_sub151   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wB_x;
+    assign f_t0_wB_x = dl_f_skip[1] ? dl_in_wB_x[4*W +: W] : dl_c_pt1_sub268;
+    logic [3*W-1:0] dl_f_t0_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(57), .N_TAPS(3), .TAPS({32'(57), 32'(53), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_x (.clk(clk), .d(f_t0_wB_x), .valid(valid_f_q[95 +: 57]), .q(dl_f_t0_wB_x));
+    // f_t0_wB_y = skip ? wB_y : t0_sub152   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wB_y;
+    assign f_t0_wB_y = dl_f_skip[1] ? dl_in_wB_y[4*W +: W] : dl_c_pt1_sub269;
+    logic [3*W-1:0] dl_f_t0_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(61), .N_TAPS(3), .TAPS({32'(61), 32'(57), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_y (.clk(clk), .d(f_t0_wB_y), .valid(valid_f_q[95 +: 61]), .q(dl_f_t0_wB_y));
+    // f_t0_wB_z = skip ? wB_z : t0_sub153   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wB_z;
+    assign f_t0_wB_z = dl_f_skip[1] ? dl_in_wB_z[4*W +: W] : dl_c_pt1_sub270;
+    logic [3*W-1:0] dl_f_t0_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(3), .TAPS({32'(65), 32'(61), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_z (.clk(clk), .d(f_t0_wB_z), .valid(valid_f_q[95 +: 65]), .q(dl_f_t0_wB_z));
     // c_pt2_mul299: fp_mul @95/95/95 -> @98/98/98 (contact: pt2_mul299 = n_x * pt1_vA_x; friction: t1_mul175 = t1_x * t0_vA_x)
     logic [W-1:0] c_pt2_mul299_a;
     assign c_pt2_mul299_a = kind_q[95] ? dl_in_p2_x__t1_x[2*W +: W] : dl_in_n_x[3*W +: W];
@@ -4518,174 +4686,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_mul318 (.clk(clk), .d(c_pt2_mul318), .valid(valid_q[98 +: 4]), .q(dl_c_pt2_mul318));
-    // c_pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add241   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_x;
-    assign c_pt1_vA_x = dl_c_pt1_skip[1] ? dl_c_pt0_vA_x[2*W +: W] : dl_c_pt1_add241;
-    logic [3*W-1:0] dl_c_pt1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_x (.clk(clk), .d(c_pt1_vA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_x));
-    // c_pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add242   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_y;
-    assign c_pt1_vA_y = dl_c_pt1_skip[1] ? dl_c_pt0_vA_y[2*W +: W] : dl_c_pt1_add242;
-    logic [3*W-1:0] dl_c_pt1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_y (.clk(clk), .d(c_pt1_vA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_y));
-    // c_pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add243   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_z;
-    assign c_pt1_vA_z = dl_c_pt1_skip[1] ? dl_c_pt0_vA_z[2*W +: W] : dl_c_pt1_add243;
-    logic [3*W-1:0] dl_c_pt1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_z (.clk(clk), .d(c_pt1_vA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_z));
-    // c_pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add250   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_x;
-    assign c_pt1_wA_x = dl_c_pt1_skip[1] ? dl_c_pt0_wA_x[2*W +: W] : dl_c_pt1_add250;
-    logic [3*W-1:0] dl_c_pt1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_x (.clk(clk), .d(c_pt1_wA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_x));
-    // c_pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add251   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_y;
-    assign c_pt1_wA_y = dl_c_pt1_skip[1] ? dl_c_pt0_wA_y[2*W +: W] : dl_c_pt1_add251;
-    logic [3*W-1:0] dl_c_pt1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_y (.clk(clk), .d(c_pt1_wA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_y));
-    // c_pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add252   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_z;
-    assign c_pt1_wA_z = dl_c_pt1_skip[1] ? dl_c_pt0_wA_z[2*W +: W] : dl_c_pt1_add252;
-    logic [3*W-1:0] dl_c_pt1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_z (.clk(clk), .d(c_pt1_wA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_z));
-    // c_pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub259   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_x;
-    assign c_pt1_vB_x = dl_c_pt1_skip[1] ? dl_c_pt0_vB_x[2*W +: W] : dl_c_pt1_sub259;
-    logic [3*W-1:0] dl_c_pt1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_x (.clk(clk), .d(c_pt1_vB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_x));
-    // c_pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub260   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_y;
-    assign c_pt1_vB_y = dl_c_pt1_skip[1] ? dl_c_pt0_vB_y[2*W +: W] : dl_c_pt1_sub260;
-    logic [3*W-1:0] dl_c_pt1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_y (.clk(clk), .d(c_pt1_vB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_y));
-    // c_pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub261   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_z;
-    assign c_pt1_vB_z = dl_c_pt1_skip[1] ? dl_c_pt0_vB_z[2*W +: W] : dl_c_pt1_sub261;
-    logic [3*W-1:0] dl_c_pt1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_z (.clk(clk), .d(c_pt1_vB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_z));
-    // c_pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub268   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_x;
-    assign c_pt1_wB_x = dl_c_pt1_skip[1] ? dl_c_pt0_wB_x[2*W +: W] : dl_c_pt1_sub268;
-    logic [3*W-1:0] dl_c_pt1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_x (.clk(clk), .d(c_pt1_wB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_x));
-    // c_pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub269   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_y;
-    assign c_pt1_wB_y = dl_c_pt1_skip[1] ? dl_c_pt0_wB_y[2*W +: W] : dl_c_pt1_sub269;
-    logic [3*W-1:0] dl_c_pt1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_y (.clk(clk), .d(c_pt1_wB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_y));
-    // c_pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub270   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_z;
-    assign c_pt1_wB_z = dl_c_pt1_skip[1] ? dl_c_pt0_wB_z[2*W +: W] : dl_c_pt1_sub270;
-    logic [3*W-1:0] dl_c_pt1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_z (.clk(clk), .d(c_pt1_wB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_z));
-    // f_t0_vA_x = skip ? vA_x : t0_add115   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vA_x;
-    assign f_t0_vA_x = dl_f_skip[1] ? dl_in_vA_x[4*W +: W] : dl_c_pt1_add241;
-    logic [3*W-1:0] dl_f_t0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_x (.clk(clk), .d(f_t0_vA_x), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_vA_x));
-    // f_t0_vA_y = skip ? vA_y : t0_add116   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vA_y;
-    assign f_t0_vA_y = dl_f_skip[1] ? dl_in_vA_y[4*W +: W] : dl_c_pt1_add242;
-    logic [3*W-1:0] dl_f_t0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_y (.clk(clk), .d(f_t0_vA_y), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_vA_y));
-    // f_t0_vA_z = skip ? vA_z : t0_add117   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vA_z;
-    assign f_t0_vA_z = dl_f_skip[1] ? dl_in_vA_z[4*W +: W] : dl_c_pt1_add243;
-    logic [3*W-1:0] dl_f_t0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_z (.clk(clk), .d(f_t0_vA_z), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vA_z));
-    // f_t0_wA_x = skip ? wA_x : t0_add127   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wA_x;
-    assign f_t0_wA_x = dl_f_skip[1] ? dl_in_wA_x[4*W +: W] : dl_c_pt1_add250;
-    logic [3*W-1:0] dl_f_t0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_x (.clk(clk), .d(f_t0_wA_x), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_wA_x));
-    // f_t0_wA_y = skip ? wA_y : t0_add128   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wA_y;
-    assign f_t0_wA_y = dl_f_skip[1] ? dl_in_wA_y[4*W +: W] : dl_c_pt1_add251;
-    logic [3*W-1:0] dl_f_t0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_y (.clk(clk), .d(f_t0_wA_y), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_wA_y));
-    // f_t0_wA_z = skip ? wA_z : t0_add129   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wA_z;
-    assign f_t0_wA_z = dl_f_skip[1] ? dl_in_wA_z[4*W +: W] : dl_c_pt1_add252;
-    logic [3*W-1:0] dl_f_t0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_z (.clk(clk), .d(f_t0_wA_z), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_wA_z));
-    // f_t0_vB_x = skip ? vB_x : t0_sub139   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vB_x;
-    assign f_t0_vB_x = dl_f_skip[1] ? dl_in_vB_x[4*W +: W] : dl_c_pt1_sub259;
-    logic [3*W-1:0] dl_f_t0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_x (.clk(clk), .d(f_t0_vB_x), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vB_x));
-    // f_t0_vB_y = skip ? vB_y : t0_sub140   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vB_y;
-    assign f_t0_vB_y = dl_f_skip[1] ? dl_in_vB_y[4*W +: W] : dl_c_pt1_sub260;
-    logic [3*W-1:0] dl_f_t0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_y (.clk(clk), .d(f_t0_vB_y), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vB_y));
-    // f_t0_vB_z = skip ? vB_z : t0_sub141   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vB_z;
-    assign f_t0_vB_z = dl_f_skip[1] ? dl_in_vB_z[4*W +: W] : dl_c_pt1_sub261;
-    logic [3*W-1:0] dl_f_t0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(57), .N_TAPS(3), .TAPS({32'(57), 32'(53), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_z (.clk(clk), .d(f_t0_vB_z), .valid(valid_f_q[95 +: 57]), .q(dl_f_t0_vB_z));
-    // f_t0_wB_x = skip ? wB_x : t0_sub151   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wB_x;
-    assign f_t0_wB_x = dl_f_skip[1] ? dl_in_wB_x[4*W +: W] : dl_c_pt1_sub268;
-    logic [3*W-1:0] dl_f_t0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(57), .N_TAPS(3), .TAPS({32'(57), 32'(53), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_x (.clk(clk), .d(f_t0_wB_x), .valid(valid_f_q[95 +: 57]), .q(dl_f_t0_wB_x));
-    // f_t0_wB_y = skip ? wB_y : t0_sub152   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wB_y;
-    assign f_t0_wB_y = dl_f_skip[1] ? dl_in_wB_y[4*W +: W] : dl_c_pt1_sub269;
-    logic [3*W-1:0] dl_f_t0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(61), .N_TAPS(3), .TAPS({32'(61), 32'(57), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_y (.clk(clk), .d(f_t0_wB_y), .valid(valid_f_q[95 +: 61]), .q(dl_f_t0_wB_y));
-    // f_t0_wB_z = skip ? wB_z : t0_sub153   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wB_z;
-    assign f_t0_wB_z = dl_f_skip[1] ? dl_in_wB_z[4*W +: W] : dl_c_pt1_sub270;
-    logic [3*W-1:0] dl_f_t0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(3), .TAPS({32'(65), 32'(61), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_z (.clk(clk), .d(f_t0_wB_z), .valid(valid_f_q[95 +: 65]), .q(dl_f_t0_wB_z));
     // c_pt2_add301: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add301 = pt2_mul299 + pt2_mul300; friction: t1_add177 = t1_mul175 + t1_mul176)
     logic [W-1:0] c_pt2_add301;
     logic [2:0] fl_c_pt2_add301;
@@ -4840,6 +4840,13 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_vrel (.clk(clk), .d(c_pt2_vrel), .valid(1'b0), .q(dl_c_pt2_vrel));
+    // f_t1_neg198 = -t1_u   (friction; ready @114/114/114)
+    logic [W-1:0] f_t1_neg198;
+    assign f_t1_neg198 = {~dl_c_pt2_vrel[W-1], dl_c_pt2_vrel[W-2:0]};
+    logic [W-1:0] dl_f_t1_neg198;
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_neg198 (.clk(clk), .d(f_t1_neg198), .valid(valid_f_q[114 +: 4]), .q(dl_f_t1_neg198));
     // c_pt2_add322: fp_add @114/114/114 -> @118/118/118 (contact: pt2_add322 = pt2_vrel + b2)
     logic [W-1:0] c_pt2_add322;
     logic [2:0] fl_c_pt2_add322;
@@ -4854,13 +4861,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_add322 (.clk(clk), .d(c_pt2_add322), .valid(1'b0), .q(dl_c_pt2_add322));
-    // f_t1_neg198 = -t1_u   (friction; ready @114/114/114)
-    logic [W-1:0] f_t1_neg198;
-    assign f_t1_neg198 = {~dl_c_pt2_vrel[W-1], dl_c_pt2_vrel[W-2:0]};
-    logic [W-1:0] dl_f_t1_neg198;
-    pgs_delay #(.WIDTH(W), .DEPTH(4),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_neg198 (.clk(clk), .d(f_t1_neg198), .valid(valid_f_q[114 +: 4]), .q(dl_f_t1_neg198));
     // c_pt2_delta0: fp_mul @118/118/118 -> @121/121/121 (contact: pt2_delta0 = pt2_add322 * jac_inv2; friction: t1_delta0 = t1_neg198 * f_jac_inv1)
     logic [W-1:0] c_pt2_delta0_a;
     assign c_pt2_delta0_a = kind_q[118] ? dl_f_t1_neg198 : dl_c_pt2_add322;
@@ -4907,6 +4907,13 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_lam_new_max (.clk(clk), .d(c_pt2_lam_new_max), .valid(1'b0), .q(dl_c_pt2_lam_new_max));
+    // c_pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (contact; ready @126/126/126)
+    logic [W-1:0] c_pt2_lam;
+    assign c_pt2_lam = dl_c_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_c_pt2_lam_new_max;
+    logic [W-1:0] dl_c_pt2_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(53),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_lam (.clk(clk), .d(c_pt2_lam), .valid(valid_c_q[126 +: 53]), .q(dl_c_pt2_lam));
     // c_pt2_delta: fp_add @126/126/126 -> @130/130/130 (contact: pt2_delta = pt2_lam_new - lam2)
     logic [W-1:0] c_pt2_delta;
     logic [2:0] fl_c_pt2_delta;
@@ -4931,13 +4938,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(6), .N_TAPS(2), .TAPS({32'(0), 32'(6)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_lam_new_min (.clk(clk), .d(f_t1_lam_new_min), .valid(valid_f_q[127 +: 6]), .q(dl_f_t1_lam_new_min));
-    // c_pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (contact; ready @126/126/126)
-    logic [W-1:0] c_pt2_lam;
-    assign c_pt2_lam = dl_c_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_c_pt2_lam_new_max;
-    logic [W-1:0] dl_c_pt2_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(53),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_lam (.clk(clk), .d(c_pt2_lam), .valid(valid_c_q[126 +: 53]), .q(dl_c_pt2_lam));
     // f_t1_lamT = skip ? lamT1 : t1_lam_new   (friction; ready @127/127/127)
     logic [W-1:0] f_t1_lamT;
     assign f_t1_lamT = dl_f_skip[2] ? dl_in_lamT1[2*W +: W] : dl_f_t1_lam_new_min[1*W +: W];
@@ -5285,6 +5285,97 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_sub367 (.clk(clk), .d(c_pt2_sub367), .valid(1'b0), .q(dl_c_pt2_sub367));
+    // c_pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add338   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_x;
+    assign c_pt2_vA_x = dl_c_pt2_skip[1] ? dl_c_pt1_vA_x[2*W +: W] : dl_c_pt2_add338;
+    logic [3*W-1:0] dl_c_pt2_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_x (.clk(clk), .d(c_pt2_vA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_x));
+    // c_pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add339   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_y;
+    assign c_pt2_vA_y = dl_c_pt2_skip[1] ? dl_c_pt1_vA_y[2*W +: W] : dl_c_pt2_add339;
+    logic [3*W-1:0] dl_c_pt2_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_y (.clk(clk), .d(c_pt2_vA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_y));
+    // c_pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add340   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_z;
+    assign c_pt2_vA_z = dl_c_pt2_skip[1] ? dl_c_pt1_vA_z[2*W +: W] : dl_c_pt2_add340;
+    logic [3*W-1:0] dl_c_pt2_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_z (.clk(clk), .d(c_pt2_vA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_z));
+    // c_pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add347   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_x;
+    assign c_pt2_wA_x = dl_c_pt2_skip[1] ? dl_c_pt1_wA_x[2*W +: W] : dl_c_pt2_add347;
+    logic [3*W-1:0] dl_c_pt2_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_x (.clk(clk), .d(c_pt2_wA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_x));
+    // c_pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add348   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_y;
+    assign c_pt2_wA_y = dl_c_pt2_skip[1] ? dl_c_pt1_wA_y[2*W +: W] : dl_c_pt2_add348;
+    logic [3*W-1:0] dl_c_pt2_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_y (.clk(clk), .d(c_pt2_wA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_y));
+    // c_pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add349   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_z;
+    assign c_pt2_wA_z = dl_c_pt2_skip[1] ? dl_c_pt1_wA_z[2*W +: W] : dl_c_pt2_add349;
+    logic [3*W-1:0] dl_c_pt2_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_z (.clk(clk), .d(c_pt2_wA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_z));
+    // c_pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub356   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_x;
+    assign c_pt2_vB_x = dl_c_pt2_skip[1] ? dl_c_pt1_vB_x[2*W +: W] : dl_c_pt2_sub356;
+    logic [3*W-1:0] dl_c_pt2_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_x (.clk(clk), .d(c_pt2_vB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_x));
+    // c_pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub357   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_y;
+    assign c_pt2_vB_y = dl_c_pt2_skip[1] ? dl_c_pt1_vB_y[2*W +: W] : dl_c_pt2_sub357;
+    logic [3*W-1:0] dl_c_pt2_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_y (.clk(clk), .d(c_pt2_vB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_y));
+    // c_pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub358   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_z;
+    assign c_pt2_vB_z = dl_c_pt2_skip[1] ? dl_c_pt1_vB_z[2*W +: W] : dl_c_pt2_sub358;
+    logic [3*W-1:0] dl_c_pt2_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_z (.clk(clk), .d(c_pt2_vB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_z));
+    // c_pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub365   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_x;
+    assign c_pt2_wB_x = dl_c_pt2_skip[1] ? dl_c_pt1_wB_x[2*W +: W] : dl_c_pt2_sub365;
+    logic [3*W-1:0] dl_c_pt2_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_x (.clk(clk), .d(c_pt2_wB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_x));
+    // c_pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub366   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_y;
+    assign c_pt2_wB_y = dl_c_pt2_skip[1] ? dl_c_pt1_wB_y[2*W +: W] : dl_c_pt2_sub366;
+    logic [3*W-1:0] dl_c_pt2_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_y (.clk(clk), .d(c_pt2_wB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_y));
+    // c_pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub367   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_z;
+    assign c_pt2_wB_z = dl_c_pt2_skip[1] ? dl_c_pt1_wB_z[2*W +: W] : dl_c_pt2_sub367;
+    logic [3*W-1:0] dl_c_pt2_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_z (.clk(clk), .d(c_pt2_wB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_z));
+    // f_t1_e = -t1_delta   (friction; ready @137/137/137)
+    logic [W-1:0] f_t1_e;
+    assign f_t1_e = {~dl_c_pt2_add338[W-1], dl_c_pt2_add338[W-2:0]};
+    logic [W-1:0] dl_f_t1_e;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_e (.clk(clk), .d(f_t1_e), .valid(1'b0), .q(dl_f_t1_e));
     // c_pt3_mul396: fp_mul @137/137/137 -> @140/140/140 (contact: pt3_mul396 = n_x * pt2_vA_x; friction: t1_mul209 = t1_linA_x * t1_e)
     logic [W-1:0] c_pt3_mul396_a;
     assign c_pt3_mul396_a = kind_q[137] ? dl_c_pt0_lam_kept[1*W +: W] : dl_in_n_x[4*W +: W];
@@ -5501,97 +5592,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(16), .N_TAPS(2), .TAPS({32'(16), 32'(4)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_mul415 (.clk(clk), .d(c_pt3_mul415), .valid(valid_q[140 +: 16]), .q(dl_c_pt3_mul415));
-    // c_pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add338   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_x;
-    assign c_pt2_vA_x = dl_c_pt2_skip[1] ? dl_c_pt1_vA_x[2*W +: W] : dl_c_pt2_add338;
-    logic [3*W-1:0] dl_c_pt2_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_x (.clk(clk), .d(c_pt2_vA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_x));
-    // c_pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add339   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_y;
-    assign c_pt2_vA_y = dl_c_pt2_skip[1] ? dl_c_pt1_vA_y[2*W +: W] : dl_c_pt2_add339;
-    logic [3*W-1:0] dl_c_pt2_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_y (.clk(clk), .d(c_pt2_vA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_y));
-    // c_pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add340   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_z;
-    assign c_pt2_vA_z = dl_c_pt2_skip[1] ? dl_c_pt1_vA_z[2*W +: W] : dl_c_pt2_add340;
-    logic [3*W-1:0] dl_c_pt2_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_z (.clk(clk), .d(c_pt2_vA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_z));
-    // c_pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add347   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_x;
-    assign c_pt2_wA_x = dl_c_pt2_skip[1] ? dl_c_pt1_wA_x[2*W +: W] : dl_c_pt2_add347;
-    logic [3*W-1:0] dl_c_pt2_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_x (.clk(clk), .d(c_pt2_wA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_x));
-    // c_pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add348   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_y;
-    assign c_pt2_wA_y = dl_c_pt2_skip[1] ? dl_c_pt1_wA_y[2*W +: W] : dl_c_pt2_add348;
-    logic [3*W-1:0] dl_c_pt2_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_y (.clk(clk), .d(c_pt2_wA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_y));
-    // c_pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add349   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_z;
-    assign c_pt2_wA_z = dl_c_pt2_skip[1] ? dl_c_pt1_wA_z[2*W +: W] : dl_c_pt2_add349;
-    logic [3*W-1:0] dl_c_pt2_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_z (.clk(clk), .d(c_pt2_wA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_z));
-    // c_pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub356   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_x;
-    assign c_pt2_vB_x = dl_c_pt2_skip[1] ? dl_c_pt1_vB_x[2*W +: W] : dl_c_pt2_sub356;
-    logic [3*W-1:0] dl_c_pt2_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_x (.clk(clk), .d(c_pt2_vB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_x));
-    // c_pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub357   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_y;
-    assign c_pt2_vB_y = dl_c_pt2_skip[1] ? dl_c_pt1_vB_y[2*W +: W] : dl_c_pt2_sub357;
-    logic [3*W-1:0] dl_c_pt2_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_y (.clk(clk), .d(c_pt2_vB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_y));
-    // c_pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub358   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_z;
-    assign c_pt2_vB_z = dl_c_pt2_skip[1] ? dl_c_pt1_vB_z[2*W +: W] : dl_c_pt2_sub358;
-    logic [3*W-1:0] dl_c_pt2_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_z (.clk(clk), .d(c_pt2_vB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_z));
-    // c_pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub365   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_x;
-    assign c_pt2_wB_x = dl_c_pt2_skip[1] ? dl_c_pt1_wB_x[2*W +: W] : dl_c_pt2_sub365;
-    logic [3*W-1:0] dl_c_pt2_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_x (.clk(clk), .d(c_pt2_wB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_x));
-    // c_pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub366   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_y;
-    assign c_pt2_wB_y = dl_c_pt2_skip[1] ? dl_c_pt1_wB_y[2*W +: W] : dl_c_pt2_sub366;
-    logic [3*W-1:0] dl_c_pt2_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_y (.clk(clk), .d(c_pt2_wB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_y));
-    // c_pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub367   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_z;
-    assign c_pt2_wB_z = dl_c_pt2_skip[1] ? dl_c_pt1_wB_z[2*W +: W] : dl_c_pt2_sub367;
-    logic [3*W-1:0] dl_c_pt2_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_z (.clk(clk), .d(c_pt2_wB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_z));
-    // f_t1_e = -t1_delta   (friction; ready @137/137/137)
-    logic [W-1:0] f_t1_e;
-    assign f_t1_e = {~dl_c_pt2_add338[W-1], dl_c_pt2_add338[W-2:0]};
-    logic [W-1:0] dl_f_t1_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_e (.clk(clk), .d(f_t1_e), .valid(1'b0), .q(dl_f_t1_e));
     // c_pt3_add398: fp_add @140/140/140 -> @144/144/144 (contact: pt3_add398 = pt3_mul396 + pt3_mul397; friction: t1_add212 = t0_vA_x + t1_mul209)
     logic [W-1:0] c_pt3_add398_b;
     assign c_pt3_add398_b = kind_q[140] ? dl_f_t0_vA_x[1*W +: W] : dl_c_pt3_mul397;
@@ -5662,6 +5662,34 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_add414 (.clk(clk), .d(c_pt3_add414), .valid(1'b0), .q(dl_c_pt3_add414));
+    // f_t1_vA_x = skip ? t0_vA_x : t1_add212   (friction; ready @144/144/144)
+    logic [W-1:0] f_t1_vA_x;
+    assign f_t1_vA_x = dl_f_skip[3] ? dl_f_t0_vA_x[2*W +: W] : dl_c_pt3_add398;
+    logic [W-1:0] dl_f_t1_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(35),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vA_x (.clk(clk), .d(f_t1_vA_x), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_vA_x));
+    // f_t1_vA_y = skip ? t0_vA_y : t1_add213   (friction; ready @144/144/144)
+    logic [W-1:0] f_t1_vA_y;
+    assign f_t1_vA_y = dl_f_skip[3] ? dl_f_t0_vA_y[2*W +: W] : dl_c_pt3_add403;
+    logic [W-1:0] dl_f_t1_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(35),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vA_y (.clk(clk), .d(f_t1_vA_y), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_vA_y));
+    // f_t1_wA_x = skip ? t0_wA_x : t1_add224   (friction; ready @144/144/144)
+    logic [W-1:0] f_t1_wA_x;
+    assign f_t1_wA_x = dl_f_skip[3] ? dl_f_t0_wA_x[2*W +: W] : dl_c_pt3_add409;
+    logic [3*W-1:0] dl_f_t1_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(35), .N_TAPS(3), .TAPS({32'(35), 32'(31), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wA_x (.clk(clk), .d(f_t1_wA_x), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_wA_x));
+    // f_t1_wA_y = skip ? t0_wA_y : t1_add225   (friction; ready @144/144/144)
+    logic [W-1:0] f_t1_wA_y;
+    assign f_t1_wA_y = dl_f_skip[3] ? dl_f_t0_wA_y[2*W +: W] : dl_c_pt3_add414;
+    logic [3*W-1:0] dl_f_t1_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(35), .N_TAPS(3), .TAPS({32'(35), 32'(31), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wA_y (.clk(clk), .d(f_t1_wA_y), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_wA_y));
     // c_pt3_add400: fp_add @144/144/144 -> @148/148/148 (contact: pt3_add400 = pt3_add398 + pt3_mul399; friction: t1_add214 = t0_vA_z + t1_mul211)
     logic [W-1:0] c_pt3_add400_a;
     assign c_pt3_add400_a = kind_q[144] ? dl_f_t0_vA_z[1*W +: W] : dl_c_pt3_add398;
@@ -5758,34 +5786,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul256 (.clk(clk), .d(f_spin_mul256), .valid(1'b0), .q(dl_f_spin_mul256));
-    // f_t1_vA_x = skip ? t0_vA_x : t1_add212   (friction; ready @144/144/144)
-    logic [W-1:0] f_t1_vA_x;
-    assign f_t1_vA_x = dl_f_skip[3] ? dl_f_t0_vA_x[2*W +: W] : dl_c_pt3_add398;
-    logic [W-1:0] dl_f_t1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(35),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vA_x (.clk(clk), .d(f_t1_vA_x), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_vA_x));
-    // f_t1_vA_y = skip ? t0_vA_y : t1_add213   (friction; ready @144/144/144)
-    logic [W-1:0] f_t1_vA_y;
-    assign f_t1_vA_y = dl_f_skip[3] ? dl_f_t0_vA_y[2*W +: W] : dl_c_pt3_add403;
-    logic [W-1:0] dl_f_t1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(35),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vA_y (.clk(clk), .d(f_t1_vA_y), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_vA_y));
-    // f_t1_wA_x = skip ? t0_wA_x : t1_add224   (friction; ready @144/144/144)
-    logic [W-1:0] f_t1_wA_x;
-    assign f_t1_wA_x = dl_f_skip[3] ? dl_f_t0_wA_x[2*W +: W] : dl_c_pt3_add409;
-    logic [3*W-1:0] dl_f_t1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(35), .N_TAPS(3), .TAPS({32'(35), 32'(31), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_x (.clk(clk), .d(f_t1_wA_x), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_wA_x));
-    // f_t1_wA_y = skip ? t0_wA_y : t1_add225   (friction; ready @144/144/144)
-    logic [W-1:0] f_t1_wA_y;
-    assign f_t1_wA_y = dl_f_skip[3] ? dl_f_t0_wA_y[2*W +: W] : dl_c_pt3_add414;
-    logic [3*W-1:0] dl_f_t1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(35), .N_TAPS(3), .TAPS({32'(35), 32'(31), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_y (.clk(clk), .d(f_t1_wA_y), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_wA_y));
     // f_spin_add257: fp_add @147/147/147 -> @151/151/151 (friction: spin_add257 = spin_mul255 + spin_mul256)
     logic [W-1:0] f_spin_add257;
     logic [2:0] fl_f_spin_add257;
@@ -5800,6 +5800,34 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(12),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_add257 (.clk(clk), .d(f_spin_add257), .valid(valid_f_q[151 +: 12]), .q(dl_f_spin_add257));
+    // f_t1_vA_z = skip ? t0_vA_z : t1_add214   (friction; ready @148/148/148)
+    logic [W-1:0] f_t1_vA_z;
+    assign f_t1_vA_z = dl_f_skip[4] ? dl_f_t0_vA_z[2*W +: W] : dl_c_pt3_add400;
+    logic [W-1:0] dl_f_t1_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(31),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vA_z (.clk(clk), .d(f_t1_vA_z), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vA_z));
+    // f_t1_wA_z = skip ? t0_wA_z : t1_add226   (friction; ready @148/148/148)
+    logic [W-1:0] f_t1_wA_z;
+    assign f_t1_wA_z = dl_f_skip[4] ? dl_f_t0_wA_z[2*W +: W] : dl_c_pt3_add405;
+    logic [3*W-1:0] dl_f_t1_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(31), .N_TAPS(3), .TAPS({32'(31), 32'(27), 32'(12)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wA_z (.clk(clk), .d(f_t1_wA_z), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_wA_z));
+    // f_t1_vB_x = skip ? t0_vB_x : t1_sub236   (friction; ready @148/148/148)
+    logic [W-1:0] f_t1_vB_x;
+    assign f_t1_vB_x = dl_f_skip[4] ? dl_f_t0_vB_x[2*W +: W] : dl_c_pt3_add411;
+    logic [W-1:0] dl_f_t1_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(31),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vB_x (.clk(clk), .d(f_t1_vB_x), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vB_x));
+    // f_t1_vB_y = skip ? t0_vB_y : t1_sub237   (friction; ready @148/148/148)
+    logic [W-1:0] f_t1_vB_y;
+    assign f_t1_vB_y = dl_f_skip[4] ? dl_f_t0_vB_y[2*W +: W] : dl_c_pt3_add416;
+    logic [W-1:0] dl_f_t1_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(31),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vB_y (.clk(clk), .d(f_t1_vB_y), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vB_y));
     // c_pt3_sub406: fp_add @148/148/148 -> @152/152/152 (contact: pt3_sub406 = pt3_add400 - pt3_add405; friction: t1_sub238 = t0_vB_z - t1_mul235)
     logic [W-1:0] c_pt3_sub406_a;
     assign c_pt3_sub406_a = kind_q[148] ? dl_f_t0_vB_z[1*W +: W] : dl_c_pt3_add400;
@@ -5836,34 +5864,20 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_sub417 (.clk(clk), .d(c_pt3_sub417), .valid(1'b0), .q(dl_c_pt3_sub417));
-    // f_t1_vA_z = skip ? t0_vA_z : t1_add214   (friction; ready @148/148/148)
-    logic [W-1:0] f_t1_vA_z;
-    assign f_t1_vA_z = dl_f_skip[4] ? dl_f_t0_vA_z[2*W +: W] : dl_c_pt3_add400;
-    logic [W-1:0] dl_f_t1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(31),
+    // f_t1_vB_z = skip ? t0_vB_z : t1_sub238   (friction; ready @152/152/152)
+    logic [W-1:0] f_t1_vB_z;
+    assign f_t1_vB_z = dl_f_skip[5] ? dl_f_t0_vB_z[2*W +: W] : dl_c_pt3_sub406;
+    logic [W-1:0] dl_f_t1_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(27),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vA_z (.clk(clk), .d(f_t1_vA_z), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vA_z));
-    // f_t1_wA_z = skip ? t0_wA_z : t1_add226   (friction; ready @148/148/148)
-    logic [W-1:0] f_t1_wA_z;
-    assign f_t1_wA_z = dl_f_skip[4] ? dl_f_t0_wA_z[2*W +: W] : dl_c_pt3_add405;
-    logic [3*W-1:0] dl_f_t1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(31), .N_TAPS(3), .TAPS({32'(31), 32'(27), 32'(12)}),
+        u_dl_f_t1_vB_z (.clk(clk), .d(f_t1_vB_z), .valid(valid_f_q[152 +: 27]), .q(dl_f_t1_vB_z));
+    // f_t1_wB_x = skip ? t0_wB_x : t1_sub248   (friction; ready @152/152/152)
+    logic [W-1:0] f_t1_wB_x;
+    assign f_t1_wB_x = dl_f_skip[5] ? dl_f_t0_wB_x[2*W +: W] : dl_c_pt3_sub417;
+    logic [3*W-1:0] dl_f_t1_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(27), .N_TAPS(3), .TAPS({32'(27), 32'(23), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_z (.clk(clk), .d(f_t1_wA_z), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_wA_z));
-    // f_t1_vB_x = skip ? t0_vB_x : t1_sub236   (friction; ready @148/148/148)
-    logic [W-1:0] f_t1_vB_x;
-    assign f_t1_vB_x = dl_f_skip[4] ? dl_f_t0_vB_x[2*W +: W] : dl_c_pt3_add411;
-    logic [W-1:0] dl_f_t1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(31),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vB_x (.clk(clk), .d(f_t1_vB_x), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vB_x));
-    // f_t1_vB_y = skip ? t0_vB_y : t1_sub237   (friction; ready @148/148/148)
-    logic [W-1:0] f_t1_vB_y;
-    assign f_t1_vB_y = dl_f_skip[4] ? dl_f_t0_vB_y[2*W +: W] : dl_c_pt3_add416;
-    logic [W-1:0] dl_f_t1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(31),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vB_y (.clk(clk), .d(f_t1_vB_y), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vB_y));
+        u_dl_f_t1_wB_x (.clk(clk), .d(f_t1_wB_x), .valid(valid_f_q[152 +: 27]), .q(dl_f_t1_wB_x));
     // c_pt3_vrel: fp_add @152/152/152 -> @156/156/156 (contact: pt3_vrel = pt3_sub406 + pt3_sub417; friction: t1_sub249 = t0_wB_y - t1_mul246)
     logic [W-1:0] c_pt3_vrel_a;
     assign c_pt3_vrel_a = kind_q[152] ? dl_f_t0_wB_y[1*W +: W] : dl_c_pt3_sub406;
@@ -5896,20 +5910,13 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul267 (.clk(clk), .d(f_spin_mul267), .valid(valid_f_q[155 +: 4]), .q(dl_f_spin_mul267));
-    // f_t1_vB_z = skip ? t0_vB_z : t1_sub238   (friction; ready @152/152/152)
-    logic [W-1:0] f_t1_vB_z;
-    assign f_t1_vB_z = dl_f_skip[5] ? dl_f_t0_vB_z[2*W +: W] : dl_c_pt3_sub406;
-    logic [W-1:0] dl_f_t1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(27),
+    // f_t1_wB_y = skip ? t0_wB_y : t1_sub249   (friction; ready @156/156/156)
+    logic [W-1:0] f_t1_wB_y;
+    assign f_t1_wB_y = dl_f_skip[6] ? dl_f_t0_wB_y[2*W +: W] : dl_c_pt3_vrel;
+    logic [3*W-1:0] dl_f_t1_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(23), .N_TAPS(3), .TAPS({32'(23), 32'(19), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vB_z (.clk(clk), .d(f_t1_vB_z), .valid(valid_f_q[152 +: 27]), .q(dl_f_t1_vB_z));
-    // f_t1_wB_x = skip ? t0_wB_x : t1_sub248   (friction; ready @152/152/152)
-    logic [W-1:0] f_t1_wB_x;
-    assign f_t1_wB_x = dl_f_skip[5] ? dl_f_t0_wB_x[2*W +: W] : dl_c_pt3_sub417;
-    logic [3*W-1:0] dl_f_t1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(27), .N_TAPS(3), .TAPS({32'(27), 32'(23), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_x (.clk(clk), .d(f_t1_wB_x), .valid(valid_f_q[152 +: 27]), .q(dl_f_t1_wB_x));
+        u_dl_f_t1_wB_y (.clk(clk), .d(f_t1_wB_y), .valid(valid_f_q[156 +: 23]), .q(dl_f_t1_wB_y));
     // c_pt3_add419: fp_add @156/156/156 -> @160/160/160 (contact: pt3_add419 = pt3_vrel + b3; friction: t1_sub250 = t0_wB_z - t1_mul247)
     logic [W-1:0] c_pt3_add419_a;
     assign c_pt3_add419_a = kind_q[156] ? dl_f_t0_wB_z[1*W +: W] : dl_c_pt3_vrel;
@@ -5942,13 +5949,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul268 (.clk(clk), .d(f_spin_mul268), .valid(1'b0), .q(dl_f_spin_mul268));
-    // f_t1_wB_y = skip ? t0_wB_y : t1_sub249   (friction; ready @156/156/156)
-    logic [W-1:0] f_t1_wB_y;
-    assign f_t1_wB_y = dl_f_skip[6] ? dl_f_t0_wB_y[2*W +: W] : dl_c_pt3_vrel;
-    logic [3*W-1:0] dl_f_t1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(23), .N_TAPS(3), .TAPS({32'(23), 32'(19), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_y (.clk(clk), .d(f_t1_wB_y), .valid(valid_f_q[156 +: 23]), .q(dl_f_t1_wB_y));
     // f_spin_add269: fp_add @159/159/159 -> @163/163/163 (friction: spin_add269 = spin_mul267 + spin_mul268)
     logic [W-1:0] f_spin_add269;
     logic [2:0] fl_f_spin_add269;
@@ -5963,6 +5963,13 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_add269 (.clk(clk), .d(f_spin_add269), .valid(1'b0), .q(dl_f_spin_add269));
+    // f_t1_wB_z = skip ? t0_wB_z : t1_sub250   (friction; ready @160/160/160)
+    logic [W-1:0] f_t1_wB_z;
+    assign f_t1_wB_z = dl_f_skip[7] ? dl_f_t0_wB_z[2*W +: W] : dl_c_pt3_add419;
+    logic [3*W-1:0] dl_f_t1_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(19), .N_TAPS(3), .TAPS({32'(19), 32'(15), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wB_z (.clk(clk), .d(f_t1_wB_z), .valid(valid_f_q[160 +: 19]), .q(dl_f_t1_wB_z));
     // c_pt3_delta0: fp_mul @160/160/160 -> @163/163/163 (contact: pt3_delta0 = pt3_add419 * jac_inv3; friction: spin_mul258 = n_z * t1_wA_z)
     logic [W-1:0] c_pt3_delta0_a;
     assign c_pt3_delta0_a = kind_q[160] ? dl_in_n_z[5*W +: W] : dl_c_pt3_add419;
@@ -5995,13 +6002,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul270 (.clk(clk), .d(f_spin_mul270), .valid(1'b0), .q(dl_f_spin_mul270));
-    // f_t1_wB_z = skip ? t0_wB_z : t1_sub250   (friction; ready @160/160/160)
-    logic [W-1:0] f_t1_wB_z;
-    assign f_t1_wB_z = dl_f_skip[7] ? dl_f_t0_wB_z[2*W +: W] : dl_c_pt3_add419;
-    logic [3*W-1:0] dl_f_t1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(19), .N_TAPS(3), .TAPS({32'(19), 32'(15), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_z (.clk(clk), .d(f_t1_wB_z), .valid(valid_f_q[160 +: 19]), .q(dl_f_t1_wB_z));
     // c_pt3_add422: fp_add @163/163/163 -> @167/167/167 (contact: pt3_add422 = pt3_lam_kept + pt3_delta0; friction: spin_add259 = spin_add257 + spin_mul258)
     logic [W-1:0] c_pt3_add422_a;
     assign c_pt3_add422_a = kind_q[163] ? dl_f_spin_add257 : dl_c_pt3_lam_kept[0*W +: W];
@@ -6070,6 +6070,13 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(2),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_sB (.clk(clk), .d(f_spin_sB), .valid(valid_f_q[170 +: 2]), .q(dl_f_spin_sB));
+    // c_pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (contact; ready @168/168/168)
+    logic [W-1:0] c_pt3_lam;
+    assign c_pt3_lam = dl_c_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_c_pt3_lam_new_max;
+    logic [W-1:0] dl_c_pt3_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt3_lam (.clk(clk), .d(c_pt3_lam), .valid(valid_c_q[168 +: 11]), .q(dl_c_pt3_lam));
     // c_pt3_delta: fp_add @168/168/168 -> @172/172/172 (contact: pt3_delta = pt3_lam_new - lam3)
     logic [W-1:0] c_pt3_delta;
     logic [2:0] fl_c_pt3_delta;
@@ -6084,13 +6091,6 @@ module pgs_shared_pipe_mu_soft #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_delta (.clk(clk), .d(c_pt3_delta), .valid(1'b0), .q(dl_c_pt3_delta));
-    // c_pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (contact; ready @168/168/168)
-    logic [W-1:0] c_pt3_lam;
-    assign c_pt3_lam = dl_c_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_c_pt3_lam_new_max;
-    logic [W-1:0] dl_c_pt3_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(11),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt3_lam (.clk(clk), .d(c_pt3_lam), .valid(valid_c_q[168 +: 11]), .q(dl_c_pt3_lam));
     // c_pt3_mul432: fp_mul @172/172/172 -> @175/175/175 (contact: pt3_mul432 = linA_x * pt3_delta; friction: spin_mul261 = n_x * spin_sA)
     logic [W-1:0] c_pt3_mul432_a;
     assign c_pt3_mul432_a = kind_q[172] ? dl_in_n_x[6*W +: W] : dl_c_linA_x[3*W +: W];

@@ -438,6 +438,41 @@ module pgs_shared_pipe_scalar_mu #(
     // Datapath in schedule order: the operators (each with the operation of every kind that uses it
     // and the cycles it issues and is ready at, for fp32 / fp16 / bf16) and the combinational nodes
     // of each kind; a value's delay line feeds every consumer at the consumer's issue cycle.
+    // c_pt0_skip = jac_inv0 == 0   (contact; ready @0/0/0)
+    logic c_pt0_skip;
+    assign c_pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt0_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_skip (.clk(clk), .d(c_pt0_skip), .valid(valid_c_q[0 +: 53]), .q(dl_c_pt0_skip));
+    // c_pt1_skip = jac_inv1 == 0   (contact; ready @0/0/0)
+    logic c_pt1_skip;
+    assign c_pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt1_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_skip (.clk(clk), .d(c_pt1_skip), .valid(valid_c_q[0 +: 95]), .q(dl_c_pt1_skip));
+    // c_pt2_skip = jac_inv2 == 0   (contact; ready @0/0/0)
+    logic c_pt2_skip;
+    assign c_pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt2_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_skip (.clk(clk), .d(c_pt2_skip), .valid(valid_c_q[0 +: 137]), .q(dl_c_pt2_skip));
+    // c_pt3_skip = jac_inv3 == 0   (contact; ready @0/0/0)
+    logic c_pt3_skip;
+    assign c_pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt3_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt3_skip (.clk(clk), .d(c_pt3_skip), .valid(valid_c_q[0 +: 179]), .q(dl_c_pt3_skip));
+    // f_skip = f_jac_inv0 == 0   (friction; ready @0/0/0)
+    logic f_skip;
+    assign f_skip = (dl_in_p3_x__f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [9*1-1:0] dl_f_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(9), .TAPS({32'(179), 32'(160), 32'(156), 32'(152), 32'(148), 32'(144), 32'(127), 32'(95), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_skip (.clk(clk), .d(f_skip), .valid(valid_f_q[0 +: 179]), .q(dl_f_skip));
     // c_linA_x: fp_mul @0/0/0 -> @3/3/3 (contact: linA_x = n_x * mInvA; friction: t0_linA_x = t0_x * mInvA)
     logic [W-1:0] c_linA_x_a;
     assign c_linA_x_a = kind_q[0] ? dl_in_p1_x__t0_x[0*W +: W] : dl_in_n_x[0*W +: W];
@@ -982,41 +1017,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_rB_z (.clk(clk), .d(c_pt3_rB_z), .valid(1'b0), .q(dl_c_pt3_rB_z));
-    // c_pt0_skip = jac_inv0 == 0   (contact; ready @0/0/0)
-    logic c_pt0_skip;
-    assign c_pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt0_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_skip (.clk(clk), .d(c_pt0_skip), .valid(valid_c_q[0 +: 53]), .q(dl_c_pt0_skip));
-    // c_pt1_skip = jac_inv1 == 0   (contact; ready @0/0/0)
-    logic c_pt1_skip;
-    assign c_pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt1_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_skip (.clk(clk), .d(c_pt1_skip), .valid(valid_c_q[0 +: 95]), .q(dl_c_pt1_skip));
-    // c_pt2_skip = jac_inv2 == 0   (contact; ready @0/0/0)
-    logic c_pt2_skip;
-    assign c_pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt2_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_skip (.clk(clk), .d(c_pt2_skip), .valid(valid_c_q[0 +: 137]), .q(dl_c_pt2_skip));
-    // c_pt3_skip = jac_inv3 == 0   (contact; ready @0/0/0)
-    logic c_pt3_skip;
-    assign c_pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt3_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt3_skip (.clk(clk), .d(c_pt3_skip), .valid(valid_c_q[0 +: 179]), .q(dl_c_pt3_skip));
-    // f_skip = f_jac_inv0 == 0   (friction; ready @0/0/0)
-    logic f_skip;
-    assign f_skip = (dl_in_p3_x__f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [9*1-1:0] dl_f_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(9), .TAPS({32'(179), 32'(160), 32'(156), 32'(152), 32'(148), 32'(144), 32'(127), 32'(95), 32'(84)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_skip (.clk(clk), .d(f_skip), .valid(valid_f_q[0 +: 179]), .q(dl_f_skip));
     // c_pt0_add83: fp_add @3/3/3 -> @7/7/7 (contact: pt0_add83 = pt0_mul81 + pt0_mul82; friction: t0_add76 = t0_mul74 + t0_mul75)
     logic [W-1:0] c_pt0_add83;
     logic [2:0] fl_c_pt0_add83;
@@ -2673,6 +2673,13 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(158),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_angB_z (.clk(clk), .d(c_pt3_angB_z), .valid(valid_c_q[14 +: 158]), .q(dl_c_pt3_angB_z));
+    // f_neg_limit = -limit   (friction; ready @14/14/14)
+    logic [W-1:0] f_neg_limit;
+    assign f_neg_limit = {~dl_c_pt0_mul92[0*W +: W][W-1], dl_c_pt0_mul92[0*W +: W][W-2:0]};
+    logic [2*W-1:0] dl_f_neg_limit;
+    pgs_delay #(.WIDTH(W), .DEPTH(111), .N_TAPS(2), .TAPS({32'(111), 32'(27)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_neg_limit (.clk(clk), .d(f_neg_limit), .valid(valid_f_q[14 +: 111]), .q(dl_f_neg_limit));
     // c_pt0_add94: fp_add @14/14/14 -> @18/18/18 (contact: pt0_add94 = pt0_mul92 + pt0_mul93; friction: t0_add87 = t0_mul85 + t0_mul86)
     logic [W-1:0] c_pt0_add94_a;
     assign c_pt0_add94_a = kind_q[14] ? dl_c_pt0_mul97 : dl_c_pt0_mul92[0*W +: W];
@@ -2705,13 +2712,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_add99 (.clk(clk), .d(c_pt0_add99), .valid(1'b0), .q(dl_c_pt0_add99));
-    // f_neg_limit = -limit   (friction; ready @14/14/14)
-    logic [W-1:0] f_neg_limit;
-    assign f_neg_limit = {~dl_c_pt0_mul92[0*W +: W][W-1], dl_c_pt0_mul92[0*W +: W][W-2:0]};
-    logic [2*W-1:0] dl_f_neg_limit;
-    pgs_delay #(.WIDTH(W), .DEPTH(111), .N_TAPS(2), .TAPS({32'(111), 32'(27)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_neg_limit (.clk(clk), .d(f_neg_limit), .valid(valid_f_q[14 +: 111]), .q(dl_f_neg_limit));
     // c_pt0_add96: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add96 = pt0_add94 + pt0_mul95; friction: t0_add89 = t0_add87 + t0_mul88)
     logic [W-1:0] c_pt0_add96;
     logic [2:0] fl_c_pt0_add96;
@@ -2768,6 +2768,13 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_vrel (.clk(clk), .d(c_pt0_vrel), .valid(1'b0), .q(dl_c_pt0_vrel));
+    // f_t0_neg97 = -t0_u   (friction; ready @30/30/30)
+    logic [W-1:0] f_t0_neg97;
+    assign f_t0_neg97 = {~dl_c_pt0_vrel[W-1], dl_c_pt0_vrel[W-2:0]};
+    logic [W-1:0] dl_f_t0_neg97;
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_neg97 (.clk(clk), .d(f_t0_neg97), .valid(valid_f_q[30 +: 4]), .q(dl_f_t0_neg97));
     // c_pt0_add104: fp_add @30/30/30 -> @34/34/34 (contact: pt0_add104 = pt0_vrel + b0)
     logic [W-1:0] c_pt0_add104;
     logic [2:0] fl_c_pt0_add104;
@@ -2782,13 +2789,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_add104 (.clk(clk), .d(c_pt0_add104), .valid(1'b0), .q(dl_c_pt0_add104));
-    // f_t0_neg97 = -t0_u   (friction; ready @30/30/30)
-    logic [W-1:0] f_t0_neg97;
-    assign f_t0_neg97 = {~dl_c_pt0_vrel[W-1], dl_c_pt0_vrel[W-2:0]};
-    logic [W-1:0] dl_f_t0_neg97;
-    pgs_delay #(.WIDTH(W), .DEPTH(4),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_neg97 (.clk(clk), .d(f_t0_neg97), .valid(valid_f_q[30 +: 4]), .q(dl_f_t0_neg97));
     // c_pt0_delta0: fp_mul @34/34/34 -> @37/37/37 (contact: pt0_delta0 = pt0_add104 * jac_inv0; friction: t0_delta0 = t0_neg97 * f_jac_inv0)
     logic [W-1:0] c_pt0_delta0_a;
     assign c_pt0_delta0_a = kind_q[34] ? dl_f_t0_neg97 : dl_c_pt0_add104;
@@ -2835,6 +2835,13 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(41), .N_TAPS(2), .TAPS({32'(41), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_lam_new_max (.clk(clk), .d(c_pt0_lam_new_max), .valid(valid_q[42 +: 41]), .q(dl_c_pt0_lam_new_max));
+    // c_pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (contact; ready @42/42/42)
+    logic [W-1:0] c_pt0_lam;
+    assign c_pt0_lam = dl_c_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_c_pt0_lam_new_max[0*W +: W];
+    logic [W-1:0] dl_c_pt0_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(137),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_lam (.clk(clk), .d(c_pt0_lam), .valid(valid_c_q[42 +: 137]), .q(dl_c_pt0_lam));
     // c_pt0_delta: fp_add @42/42/42 -> @46/46/46 (contact: pt0_delta = pt0_lam_new - lam0)
     logic [W-1:0] c_pt0_delta;
     logic [2:0] fl_c_pt0_delta;
@@ -2849,13 +2856,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_delta (.clk(clk), .d(c_pt0_delta), .valid(1'b0), .q(dl_c_pt0_delta));
-    // c_pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (contact; ready @42/42/42)
-    logic [W-1:0] c_pt0_lam;
-    assign c_pt0_lam = dl_c_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_c_pt0_lam_new_max[0*W +: W];
-    logic [W-1:0] dl_c_pt0_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(137),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_lam (.clk(clk), .d(c_pt0_lam), .valid(valid_c_q[42 +: 137]), .q(dl_c_pt0_lam));
     // c_pt0_mul116: fp_mul @46/46/46 -> @49/49/49 (contact: pt0_mul116 = linA_x * pt0_delta)
     logic [W-1:0] c_pt0_mul116;
     logic [2:0] fl_c_pt0_mul116;
@@ -3192,6 +3192,90 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_sub148 (.clk(clk), .d(c_pt0_sub148), .valid(1'b0), .q(dl_c_pt0_sub148));
+    // c_pt0_vA_x = pt0_skip ? vA_x : pt0_add119   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_x;
+    assign c_pt0_vA_x = dl_c_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_c_pt0_add119;
+    logic [3*W-1:0] dl_c_pt0_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_x (.clk(clk), .d(c_pt0_vA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_x));
+    // c_pt0_vA_y = pt0_skip ? vA_y : pt0_add120   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_y;
+    assign c_pt0_vA_y = dl_c_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_c_pt0_add120;
+    logic [3*W-1:0] dl_c_pt0_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_y (.clk(clk), .d(c_pt0_vA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_y));
+    // c_pt0_vA_z = pt0_skip ? vA_z : pt0_add121   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_z;
+    assign c_pt0_vA_z = dl_c_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_c_pt0_add121;
+    logic [3*W-1:0] dl_c_pt0_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_z (.clk(clk), .d(c_pt0_vA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_z));
+    // c_pt0_wA_x = pt0_skip ? wA_x : pt0_add128   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_x;
+    assign c_pt0_wA_x = dl_c_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_c_pt0_add128;
+    logic [3*W-1:0] dl_c_pt0_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_x (.clk(clk), .d(c_pt0_wA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_x));
+    // c_pt0_wA_y = pt0_skip ? wA_y : pt0_add129   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_y;
+    assign c_pt0_wA_y = dl_c_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_c_pt0_add129;
+    logic [3*W-1:0] dl_c_pt0_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_y (.clk(clk), .d(c_pt0_wA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_y));
+    // c_pt0_wA_z = pt0_skip ? wA_z : pt0_add130   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_z;
+    assign c_pt0_wA_z = dl_c_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_c_pt0_add130;
+    logic [3*W-1:0] dl_c_pt0_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_z (.clk(clk), .d(c_pt0_wA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_z));
+    // c_pt0_vB_x = pt0_skip ? vB_x : pt0_sub137   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_x;
+    assign c_pt0_vB_x = dl_c_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_c_pt0_sub137;
+    logic [3*W-1:0] dl_c_pt0_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_x (.clk(clk), .d(c_pt0_vB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_x));
+    // c_pt0_vB_y = pt0_skip ? vB_y : pt0_sub138   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_y;
+    assign c_pt0_vB_y = dl_c_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_c_pt0_sub138;
+    logic [3*W-1:0] dl_c_pt0_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_y (.clk(clk), .d(c_pt0_vB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_y));
+    // c_pt0_vB_z = pt0_skip ? vB_z : pt0_sub139   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_z;
+    assign c_pt0_vB_z = dl_c_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_c_pt0_sub139;
+    logic [3*W-1:0] dl_c_pt0_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_z (.clk(clk), .d(c_pt0_vB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_z));
+    // c_pt0_wB_x = pt0_skip ? wB_x : pt0_sub146   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_x;
+    assign c_pt0_wB_x = dl_c_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_c_pt0_sub146;
+    logic [3*W-1:0] dl_c_pt0_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_x (.clk(clk), .d(c_pt0_wB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_x));
+    // c_pt0_wB_y = pt0_skip ? wB_y : pt0_sub147   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_y;
+    assign c_pt0_wB_y = dl_c_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_c_pt0_sub147;
+    logic [3*W-1:0] dl_c_pt0_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_y (.clk(clk), .d(c_pt0_wB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_y));
+    // c_pt0_wB_z = pt0_skip ? wB_z : pt0_sub148   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_z;
+    assign c_pt0_wB_z = dl_c_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_c_pt0_sub148;
+    logic [3*W-1:0] dl_c_pt0_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_z (.clk(clk), .d(c_pt0_wB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_z));
     // c_pt1_mul177: fp_mul @53/53/53 -> @56/56/56 (contact: pt1_mul177 = n_x * pt0_vA_x)
     logic [W-1:0] c_pt1_mul177;
     logic [2:0] fl_c_pt1_mul177;
@@ -3360,90 +3444,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_mul196 (.clk(clk), .d(c_pt1_mul196), .valid(valid_c_q[56 +: 4]), .q(dl_c_pt1_mul196));
-    // c_pt0_vA_x = pt0_skip ? vA_x : pt0_add119   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_x;
-    assign c_pt0_vA_x = dl_c_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_c_pt0_add119;
-    logic [3*W-1:0] dl_c_pt0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_x (.clk(clk), .d(c_pt0_vA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_x));
-    // c_pt0_vA_y = pt0_skip ? vA_y : pt0_add120   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_y;
-    assign c_pt0_vA_y = dl_c_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_c_pt0_add120;
-    logic [3*W-1:0] dl_c_pt0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_y (.clk(clk), .d(c_pt0_vA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_y));
-    // c_pt0_vA_z = pt0_skip ? vA_z : pt0_add121   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_z;
-    assign c_pt0_vA_z = dl_c_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_c_pt0_add121;
-    logic [3*W-1:0] dl_c_pt0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_z (.clk(clk), .d(c_pt0_vA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_z));
-    // c_pt0_wA_x = pt0_skip ? wA_x : pt0_add128   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_x;
-    assign c_pt0_wA_x = dl_c_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_c_pt0_add128;
-    logic [3*W-1:0] dl_c_pt0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_x (.clk(clk), .d(c_pt0_wA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_x));
-    // c_pt0_wA_y = pt0_skip ? wA_y : pt0_add129   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_y;
-    assign c_pt0_wA_y = dl_c_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_c_pt0_add129;
-    logic [3*W-1:0] dl_c_pt0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_y (.clk(clk), .d(c_pt0_wA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_y));
-    // c_pt0_wA_z = pt0_skip ? wA_z : pt0_add130   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_z;
-    assign c_pt0_wA_z = dl_c_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_c_pt0_add130;
-    logic [3*W-1:0] dl_c_pt0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_z (.clk(clk), .d(c_pt0_wA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_z));
-    // c_pt0_vB_x = pt0_skip ? vB_x : pt0_sub137   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_x;
-    assign c_pt0_vB_x = dl_c_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_c_pt0_sub137;
-    logic [3*W-1:0] dl_c_pt0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_x (.clk(clk), .d(c_pt0_vB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_x));
-    // c_pt0_vB_y = pt0_skip ? vB_y : pt0_sub138   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_y;
-    assign c_pt0_vB_y = dl_c_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_c_pt0_sub138;
-    logic [3*W-1:0] dl_c_pt0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_y (.clk(clk), .d(c_pt0_vB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_y));
-    // c_pt0_vB_z = pt0_skip ? vB_z : pt0_sub139   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_z;
-    assign c_pt0_vB_z = dl_c_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_c_pt0_sub139;
-    logic [3*W-1:0] dl_c_pt0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_z (.clk(clk), .d(c_pt0_vB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_z));
-    // c_pt0_wB_x = pt0_skip ? wB_x : pt0_sub146   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_x;
-    assign c_pt0_wB_x = dl_c_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_c_pt0_sub146;
-    logic [3*W-1:0] dl_c_pt0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_x (.clk(clk), .d(c_pt0_wB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_x));
-    // c_pt0_wB_y = pt0_skip ? wB_y : pt0_sub147   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_y;
-    assign c_pt0_wB_y = dl_c_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_c_pt0_sub147;
-    logic [3*W-1:0] dl_c_pt0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_y (.clk(clk), .d(c_pt0_wB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_y));
-    // c_pt0_wB_z = pt0_skip ? wB_z : pt0_sub148   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_z;
-    assign c_pt0_wB_z = dl_c_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_c_pt0_sub148;
-    logic [3*W-1:0] dl_c_pt0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_z (.clk(clk), .d(c_pt0_wB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_z));
     // c_pt1_add179: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add179 = pt1_mul177 + pt1_mul178)
     logic [W-1:0] c_pt1_add179;
     logic [2:0] fl_c_pt1_add179;
@@ -3658,6 +3658,20 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_lam_new_max (.clk(clk), .d(c_pt1_lam_new_max), .valid(1'b0), .q(dl_c_pt1_lam_new_max));
+    // c_pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (contact; ready @84/84/84)
+    logic [W-1:0] c_pt1_lam;
+    assign c_pt1_lam = dl_c_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_c_pt1_lam_new_max;
+    logic [W-1:0] dl_c_pt1_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(95),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_lam (.clk(clk), .d(c_pt1_lam), .valid(valid_c_q[84 +: 95]), .q(dl_c_pt1_lam));
+    // f_t0_lamT = skip ? lamT0 : t0_lam_new   (friction; ready @84/84/84)
+    logic [W-1:0] f_t0_lamT;
+    assign f_t0_lamT = dl_f_skip[0] ? dl_in_lamT0[1*W +: W] : dl_c_pt1_lam_new_min;
+    logic [W-1:0] dl_f_t0_lamT;
+    pgs_delay #(.WIDTH(W), .DEPTH(95),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_lamT (.clk(clk), .d(f_t0_lamT), .valid(valid_f_q[84 +: 95]), .q(dl_f_t0_lamT));
     // c_pt1_delta: fp_add @84/84/84 -> @88/88/88 (contact: pt1_delta = pt1_lam_new - lam1; friction: t0_delta = t0_lam_new - lamT0)
     logic [W-1:0] c_pt1_delta_a;
     assign c_pt1_delta_a = kind_q[84] ? dl_c_pt1_lam_new_min : dl_c_pt1_lam_new_max;
@@ -3676,20 +3690,13 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_delta (.clk(clk), .d(c_pt1_delta), .valid(1'b0), .q(dl_c_pt1_delta));
-    // c_pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (contact; ready @84/84/84)
-    logic [W-1:0] c_pt1_lam;
-    assign c_pt1_lam = dl_c_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_c_pt1_lam_new_max;
-    logic [W-1:0] dl_c_pt1_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(95),
+    // f_t0_e = -t0_delta   (friction; ready @88/88/88)
+    logic [W-1:0] f_t0_e;
+    assign f_t0_e = {~dl_c_pt1_delta[W-1], dl_c_pt1_delta[W-2:0]};
+    logic [W-1:0] dl_f_t0_e;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_lam (.clk(clk), .d(c_pt1_lam), .valid(valid_c_q[84 +: 95]), .q(dl_c_pt1_lam));
-    // f_t0_lamT = skip ? lamT0 : t0_lam_new   (friction; ready @84/84/84)
-    logic [W-1:0] f_t0_lamT;
-    assign f_t0_lamT = dl_f_skip[0] ? dl_in_lamT0[1*W +: W] : dl_c_pt1_lam_new_min;
-    logic [W-1:0] dl_f_t0_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH(95),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_lamT (.clk(clk), .d(f_t0_lamT), .valid(valid_f_q[84 +: 95]), .q(dl_f_t0_lamT));
+        u_dl_f_t0_e (.clk(clk), .d(f_t0_e), .valid(1'b0), .q(dl_f_t0_e));
     // c_pt1_mul212: fp_mul @88/88/88 -> @91/91/91 (contact: pt1_mul212 = linA_x * pt1_delta; friction: t0_mul108 = t0_linA_x * t0_e)
     logic [W-1:0] c_pt1_mul212_b;
     assign c_pt1_mul212_b = kind_q[88] ? dl_f_t0_e : dl_c_pt1_delta;
@@ -3892,13 +3899,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_mul241 (.clk(clk), .d(c_pt1_mul241), .valid(1'b0), .q(dl_c_pt1_mul241));
-    // f_t0_e = -t0_delta   (friction; ready @88/88/88)
-    logic [W-1:0] f_t0_e;
-    assign f_t0_e = {~dl_c_pt1_delta[W-1], dl_c_pt1_delta[W-2:0]};
-    logic [W-1:0] dl_f_t0_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_e (.clk(clk), .d(f_t0_e), .valid(1'b0), .q(dl_f_t0_e));
     // c_pt1_add215: fp_add @91/91/91 -> @95/95/95 (contact: pt1_add215 = pt0_vA_x + pt1_mul212; friction: t0_add111 = vA_x + t0_mul108)
     logic [W-1:0] c_pt1_add215_a;
     assign c_pt1_add215_a = kind_q[91] ? dl_in_vA_x[3*W +: W] : dl_c_pt0_vA_x[1*W +: W];
@@ -4091,6 +4091,174 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_sub244 (.clk(clk), .d(c_pt1_sub244), .valid(1'b0), .q(dl_c_pt1_sub244));
+    // c_pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add215   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_x;
+    assign c_pt1_vA_x = dl_c_pt1_skip[1] ? dl_c_pt0_vA_x[2*W +: W] : dl_c_pt1_add215;
+    logic [3*W-1:0] dl_c_pt1_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vA_x (.clk(clk), .d(c_pt1_vA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_x));
+    // c_pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add216   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_y;
+    assign c_pt1_vA_y = dl_c_pt1_skip[1] ? dl_c_pt0_vA_y[2*W +: W] : dl_c_pt1_add216;
+    logic [3*W-1:0] dl_c_pt1_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vA_y (.clk(clk), .d(c_pt1_vA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_y));
+    // c_pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add217   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_z;
+    assign c_pt1_vA_z = dl_c_pt1_skip[1] ? dl_c_pt0_vA_z[2*W +: W] : dl_c_pt1_add217;
+    logic [3*W-1:0] dl_c_pt1_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vA_z (.clk(clk), .d(c_pt1_vA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_z));
+    // c_pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add224   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_x;
+    assign c_pt1_wA_x = dl_c_pt1_skip[1] ? dl_c_pt0_wA_x[2*W +: W] : dl_c_pt1_add224;
+    logic [3*W-1:0] dl_c_pt1_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_x (.clk(clk), .d(c_pt1_wA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_x));
+    // c_pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add225   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_y;
+    assign c_pt1_wA_y = dl_c_pt1_skip[1] ? dl_c_pt0_wA_y[2*W +: W] : dl_c_pt1_add225;
+    logic [3*W-1:0] dl_c_pt1_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_y (.clk(clk), .d(c_pt1_wA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_y));
+    // c_pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add226   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_z;
+    assign c_pt1_wA_z = dl_c_pt1_skip[1] ? dl_c_pt0_wA_z[2*W +: W] : dl_c_pt1_add226;
+    logic [3*W-1:0] dl_c_pt1_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_z (.clk(clk), .d(c_pt1_wA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_z));
+    // c_pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub233   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_x;
+    assign c_pt1_vB_x = dl_c_pt1_skip[1] ? dl_c_pt0_vB_x[2*W +: W] : dl_c_pt1_sub233;
+    logic [3*W-1:0] dl_c_pt1_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_x (.clk(clk), .d(c_pt1_vB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_x));
+    // c_pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub234   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_y;
+    assign c_pt1_vB_y = dl_c_pt1_skip[1] ? dl_c_pt0_vB_y[2*W +: W] : dl_c_pt1_sub234;
+    logic [3*W-1:0] dl_c_pt1_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_y (.clk(clk), .d(c_pt1_vB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_y));
+    // c_pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub235   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_z;
+    assign c_pt1_vB_z = dl_c_pt1_skip[1] ? dl_c_pt0_vB_z[2*W +: W] : dl_c_pt1_sub235;
+    logic [3*W-1:0] dl_c_pt1_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_z (.clk(clk), .d(c_pt1_vB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_z));
+    // c_pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub242   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_x;
+    assign c_pt1_wB_x = dl_c_pt1_skip[1] ? dl_c_pt0_wB_x[2*W +: W] : dl_c_pt1_sub242;
+    logic [3*W-1:0] dl_c_pt1_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_x (.clk(clk), .d(c_pt1_wB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_x));
+    // c_pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub243   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_y;
+    assign c_pt1_wB_y = dl_c_pt1_skip[1] ? dl_c_pt0_wB_y[2*W +: W] : dl_c_pt1_sub243;
+    logic [3*W-1:0] dl_c_pt1_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_y (.clk(clk), .d(c_pt1_wB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_y));
+    // c_pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub244   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_z;
+    assign c_pt1_wB_z = dl_c_pt1_skip[1] ? dl_c_pt0_wB_z[2*W +: W] : dl_c_pt1_sub244;
+    logic [3*W-1:0] dl_c_pt1_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_z (.clk(clk), .d(c_pt1_wB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_z));
+    // f_t0_vA_x = skip ? vA_x : t0_add111   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vA_x;
+    assign f_t0_vA_x = dl_f_skip[1] ? dl_in_vA_x[4*W +: W] : dl_c_pt1_add215;
+    logic [3*W-1:0] dl_f_t0_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_x (.clk(clk), .d(f_t0_vA_x), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_vA_x));
+    // f_t0_vA_y = skip ? vA_y : t0_add112   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vA_y;
+    assign f_t0_vA_y = dl_f_skip[1] ? dl_in_vA_y[4*W +: W] : dl_c_pt1_add216;
+    logic [3*W-1:0] dl_f_t0_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_y (.clk(clk), .d(f_t0_vA_y), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_vA_y));
+    // f_t0_vA_z = skip ? vA_z : t0_add113   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vA_z;
+    assign f_t0_vA_z = dl_f_skip[1] ? dl_in_vA_z[4*W +: W] : dl_c_pt1_add217;
+    logic [3*W-1:0] dl_f_t0_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_z (.clk(clk), .d(f_t0_vA_z), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vA_z));
+    // f_t0_wA_x = skip ? wA_x : t0_add123   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wA_x;
+    assign f_t0_wA_x = dl_f_skip[1] ? dl_in_wA_x[4*W +: W] : dl_c_pt1_add224;
+    logic [3*W-1:0] dl_f_t0_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_x (.clk(clk), .d(f_t0_wA_x), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_wA_x));
+    // f_t0_wA_y = skip ? wA_y : t0_add124   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wA_y;
+    assign f_t0_wA_y = dl_f_skip[1] ? dl_in_wA_y[4*W +: W] : dl_c_pt1_add225;
+    logic [3*W-1:0] dl_f_t0_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_y (.clk(clk), .d(f_t0_wA_y), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_wA_y));
+    // f_t0_wA_z = skip ? wA_z : t0_add125   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wA_z;
+    assign f_t0_wA_z = dl_f_skip[1] ? dl_in_wA_z[4*W +: W] : dl_c_pt1_add226;
+    logic [3*W-1:0] dl_f_t0_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_z (.clk(clk), .d(f_t0_wA_z), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_wA_z));
+    // f_t0_vB_x = skip ? vB_x : t0_sub135   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vB_x;
+    assign f_t0_vB_x = dl_f_skip[1] ? dl_in_vB_x[4*W +: W] : dl_c_pt1_sub233;
+    logic [3*W-1:0] dl_f_t0_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_x (.clk(clk), .d(f_t0_vB_x), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vB_x));
+    // f_t0_vB_y = skip ? vB_y : t0_sub136   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vB_y;
+    assign f_t0_vB_y = dl_f_skip[1] ? dl_in_vB_y[4*W +: W] : dl_c_pt1_sub234;
+    logic [3*W-1:0] dl_f_t0_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_y (.clk(clk), .d(f_t0_vB_y), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vB_y));
+    // f_t0_vB_z = skip ? vB_z : t0_sub137   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_vB_z;
+    assign f_t0_vB_z = dl_f_skip[1] ? dl_in_vB_z[4*W +: W] : dl_c_pt1_sub235;
+    logic [3*W-1:0] dl_f_t0_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(57), .N_TAPS(3), .TAPS({32'(57), 32'(53), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_z (.clk(clk), .d(f_t0_vB_z), .valid(valid_f_q[95 +: 57]), .q(dl_f_t0_vB_z));
+    // f_t0_wB_x = skip ? wB_x : t0_sub147   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wB_x;
+    assign f_t0_wB_x = dl_f_skip[1] ? dl_in_wB_x[4*W +: W] : dl_c_pt1_sub242;
+    logic [3*W-1:0] dl_f_t0_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(57), .N_TAPS(3), .TAPS({32'(57), 32'(53), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_x (.clk(clk), .d(f_t0_wB_x), .valid(valid_f_q[95 +: 57]), .q(dl_f_t0_wB_x));
+    // f_t0_wB_y = skip ? wB_y : t0_sub148   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wB_y;
+    assign f_t0_wB_y = dl_f_skip[1] ? dl_in_wB_y[4*W +: W] : dl_c_pt1_sub243;
+    logic [3*W-1:0] dl_f_t0_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(61), .N_TAPS(3), .TAPS({32'(61), 32'(57), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_y (.clk(clk), .d(f_t0_wB_y), .valid(valid_f_q[95 +: 61]), .q(dl_f_t0_wB_y));
+    // f_t0_wB_z = skip ? wB_z : t0_sub149   (friction; ready @95/95/95)
+    logic [W-1:0] f_t0_wB_z;
+    assign f_t0_wB_z = dl_f_skip[1] ? dl_in_wB_z[4*W +: W] : dl_c_pt1_sub244;
+    logic [3*W-1:0] dl_f_t0_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(3), .TAPS({32'(65), 32'(61), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_z (.clk(clk), .d(f_t0_wB_z), .valid(valid_f_q[95 +: 65]), .q(dl_f_t0_wB_z));
     // c_pt2_mul273: fp_mul @95/95/95 -> @98/98/98 (contact: pt2_mul273 = n_x * pt1_vA_x; friction: t1_mul171 = t1_x * t0_vA_x)
     logic [W-1:0] c_pt2_mul273_a;
     assign c_pt2_mul273_a = kind_q[95] ? dl_in_p2_x__t1_x[2*W +: W] : dl_in_n_x[3*W +: W];
@@ -4307,174 +4475,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_mul292 (.clk(clk), .d(c_pt2_mul292), .valid(valid_q[98 +: 4]), .q(dl_c_pt2_mul292));
-    // c_pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add215   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_x;
-    assign c_pt1_vA_x = dl_c_pt1_skip[1] ? dl_c_pt0_vA_x[2*W +: W] : dl_c_pt1_add215;
-    logic [3*W-1:0] dl_c_pt1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_x (.clk(clk), .d(c_pt1_vA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_x));
-    // c_pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add216   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_y;
-    assign c_pt1_vA_y = dl_c_pt1_skip[1] ? dl_c_pt0_vA_y[2*W +: W] : dl_c_pt1_add216;
-    logic [3*W-1:0] dl_c_pt1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_y (.clk(clk), .d(c_pt1_vA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_y));
-    // c_pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add217   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_z;
-    assign c_pt1_vA_z = dl_c_pt1_skip[1] ? dl_c_pt0_vA_z[2*W +: W] : dl_c_pt1_add217;
-    logic [3*W-1:0] dl_c_pt1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_z (.clk(clk), .d(c_pt1_vA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_z));
-    // c_pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add224   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_x;
-    assign c_pt1_wA_x = dl_c_pt1_skip[1] ? dl_c_pt0_wA_x[2*W +: W] : dl_c_pt1_add224;
-    logic [3*W-1:0] dl_c_pt1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_x (.clk(clk), .d(c_pt1_wA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_x));
-    // c_pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add225   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_y;
-    assign c_pt1_wA_y = dl_c_pt1_skip[1] ? dl_c_pt0_wA_y[2*W +: W] : dl_c_pt1_add225;
-    logic [3*W-1:0] dl_c_pt1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_y (.clk(clk), .d(c_pt1_wA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_y));
-    // c_pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add226   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_z;
-    assign c_pt1_wA_z = dl_c_pt1_skip[1] ? dl_c_pt0_wA_z[2*W +: W] : dl_c_pt1_add226;
-    logic [3*W-1:0] dl_c_pt1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_z (.clk(clk), .d(c_pt1_wA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_z));
-    // c_pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub233   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_x;
-    assign c_pt1_vB_x = dl_c_pt1_skip[1] ? dl_c_pt0_vB_x[2*W +: W] : dl_c_pt1_sub233;
-    logic [3*W-1:0] dl_c_pt1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_x (.clk(clk), .d(c_pt1_vB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_x));
-    // c_pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub234   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_y;
-    assign c_pt1_vB_y = dl_c_pt1_skip[1] ? dl_c_pt0_vB_y[2*W +: W] : dl_c_pt1_sub234;
-    logic [3*W-1:0] dl_c_pt1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_y (.clk(clk), .d(c_pt1_vB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_y));
-    // c_pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub235   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_z;
-    assign c_pt1_vB_z = dl_c_pt1_skip[1] ? dl_c_pt0_vB_z[2*W +: W] : dl_c_pt1_sub235;
-    logic [3*W-1:0] dl_c_pt1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_z (.clk(clk), .d(c_pt1_vB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_z));
-    // c_pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub242   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_x;
-    assign c_pt1_wB_x = dl_c_pt1_skip[1] ? dl_c_pt0_wB_x[2*W +: W] : dl_c_pt1_sub242;
-    logic [3*W-1:0] dl_c_pt1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_x (.clk(clk), .d(c_pt1_wB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_x));
-    // c_pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub243   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_y;
-    assign c_pt1_wB_y = dl_c_pt1_skip[1] ? dl_c_pt0_wB_y[2*W +: W] : dl_c_pt1_sub243;
-    logic [3*W-1:0] dl_c_pt1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_y (.clk(clk), .d(c_pt1_wB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_y));
-    // c_pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub244   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_z;
-    assign c_pt1_wB_z = dl_c_pt1_skip[1] ? dl_c_pt0_wB_z[2*W +: W] : dl_c_pt1_sub244;
-    logic [3*W-1:0] dl_c_pt1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_z (.clk(clk), .d(c_pt1_wB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_z));
-    // f_t0_vA_x = skip ? vA_x : t0_add111   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vA_x;
-    assign f_t0_vA_x = dl_f_skip[1] ? dl_in_vA_x[4*W +: W] : dl_c_pt1_add215;
-    logic [3*W-1:0] dl_f_t0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_x (.clk(clk), .d(f_t0_vA_x), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_vA_x));
-    // f_t0_vA_y = skip ? vA_y : t0_add112   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vA_y;
-    assign f_t0_vA_y = dl_f_skip[1] ? dl_in_vA_y[4*W +: W] : dl_c_pt1_add216;
-    logic [3*W-1:0] dl_f_t0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_y (.clk(clk), .d(f_t0_vA_y), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_vA_y));
-    // f_t0_vA_z = skip ? vA_z : t0_add113   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vA_z;
-    assign f_t0_vA_z = dl_f_skip[1] ? dl_in_vA_z[4*W +: W] : dl_c_pt1_add217;
-    logic [3*W-1:0] dl_f_t0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_z (.clk(clk), .d(f_t0_vA_z), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vA_z));
-    // f_t0_wA_x = skip ? wA_x : t0_add123   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wA_x;
-    assign f_t0_wA_x = dl_f_skip[1] ? dl_in_wA_x[4*W +: W] : dl_c_pt1_add224;
-    logic [3*W-1:0] dl_f_t0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_x (.clk(clk), .d(f_t0_wA_x), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_wA_x));
-    // f_t0_wA_y = skip ? wA_y : t0_add124   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wA_y;
-    assign f_t0_wA_y = dl_f_skip[1] ? dl_in_wA_y[4*W +: W] : dl_c_pt1_add225;
-    logic [3*W-1:0] dl_f_t0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(49), .N_TAPS(3), .TAPS({32'(49), 32'(45), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_y (.clk(clk), .d(f_t0_wA_y), .valid(valid_f_q[95 +: 49]), .q(dl_f_t0_wA_y));
-    // f_t0_wA_z = skip ? wA_z : t0_add125   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wA_z;
-    assign f_t0_wA_z = dl_f_skip[1] ? dl_in_wA_z[4*W +: W] : dl_c_pt1_add226;
-    logic [3*W-1:0] dl_f_t0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_z (.clk(clk), .d(f_t0_wA_z), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_wA_z));
-    // f_t0_vB_x = skip ? vB_x : t0_sub135   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vB_x;
-    assign f_t0_vB_x = dl_f_skip[1] ? dl_in_vB_x[4*W +: W] : dl_c_pt1_sub233;
-    logic [3*W-1:0] dl_f_t0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_x (.clk(clk), .d(f_t0_vB_x), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vB_x));
-    // f_t0_vB_y = skip ? vB_y : t0_sub136   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vB_y;
-    assign f_t0_vB_y = dl_f_skip[1] ? dl_in_vB_y[4*W +: W] : dl_c_pt1_sub234;
-    logic [3*W-1:0] dl_f_t0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(53), .N_TAPS(3), .TAPS({32'(53), 32'(49), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_y (.clk(clk), .d(f_t0_vB_y), .valid(valid_f_q[95 +: 53]), .q(dl_f_t0_vB_y));
-    // f_t0_vB_z = skip ? vB_z : t0_sub137   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_vB_z;
-    assign f_t0_vB_z = dl_f_skip[1] ? dl_in_vB_z[4*W +: W] : dl_c_pt1_sub235;
-    logic [3*W-1:0] dl_f_t0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(57), .N_TAPS(3), .TAPS({32'(57), 32'(53), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_z (.clk(clk), .d(f_t0_vB_z), .valid(valid_f_q[95 +: 57]), .q(dl_f_t0_vB_z));
-    // f_t0_wB_x = skip ? wB_x : t0_sub147   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wB_x;
-    assign f_t0_wB_x = dl_f_skip[1] ? dl_in_wB_x[4*W +: W] : dl_c_pt1_sub242;
-    logic [3*W-1:0] dl_f_t0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(57), .N_TAPS(3), .TAPS({32'(57), 32'(53), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_x (.clk(clk), .d(f_t0_wB_x), .valid(valid_f_q[95 +: 57]), .q(dl_f_t0_wB_x));
-    // f_t0_wB_y = skip ? wB_y : t0_sub148   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wB_y;
-    assign f_t0_wB_y = dl_f_skip[1] ? dl_in_wB_y[4*W +: W] : dl_c_pt1_sub243;
-    logic [3*W-1:0] dl_f_t0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(61), .N_TAPS(3), .TAPS({32'(61), 32'(57), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_y (.clk(clk), .d(f_t0_wB_y), .valid(valid_f_q[95 +: 61]), .q(dl_f_t0_wB_y));
-    // f_t0_wB_z = skip ? wB_z : t0_sub149   (friction; ready @95/95/95)
-    logic [W-1:0] f_t0_wB_z;
-    assign f_t0_wB_z = dl_f_skip[1] ? dl_in_wB_z[4*W +: W] : dl_c_pt1_sub244;
-    logic [3*W-1:0] dl_f_t0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(65), .N_TAPS(3), .TAPS({32'(65), 32'(61), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_z (.clk(clk), .d(f_t0_wB_z), .valid(valid_f_q[95 +: 65]), .q(dl_f_t0_wB_z));
     // c_pt2_add275: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add275 = pt2_mul273 + pt2_mul274; friction: t1_add173 = t1_mul171 + t1_mul172)
     logic [W-1:0] c_pt2_add275;
     logic [2:0] fl_c_pt2_add275;
@@ -4629,6 +4629,13 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_vrel (.clk(clk), .d(c_pt2_vrel), .valid(1'b0), .q(dl_c_pt2_vrel));
+    // f_t1_neg194 = -t1_u   (friction; ready @114/114/114)
+    logic [W-1:0] f_t1_neg194;
+    assign f_t1_neg194 = {~dl_c_pt2_vrel[W-1], dl_c_pt2_vrel[W-2:0]};
+    logic [W-1:0] dl_f_t1_neg194;
+    pgs_delay #(.WIDTH(W), .DEPTH(4),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_neg194 (.clk(clk), .d(f_t1_neg194), .valid(valid_f_q[114 +: 4]), .q(dl_f_t1_neg194));
     // c_pt2_add296: fp_add @114/114/114 -> @118/118/118 (contact: pt2_add296 = pt2_vrel + b2)
     logic [W-1:0] c_pt2_add296;
     logic [2:0] fl_c_pt2_add296;
@@ -4643,13 +4650,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_add296 (.clk(clk), .d(c_pt2_add296), .valid(1'b0), .q(dl_c_pt2_add296));
-    // f_t1_neg194 = -t1_u   (friction; ready @114/114/114)
-    logic [W-1:0] f_t1_neg194;
-    assign f_t1_neg194 = {~dl_c_pt2_vrel[W-1], dl_c_pt2_vrel[W-2:0]};
-    logic [W-1:0] dl_f_t1_neg194;
-    pgs_delay #(.WIDTH(W), .DEPTH(4),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_neg194 (.clk(clk), .d(f_t1_neg194), .valid(valid_f_q[114 +: 4]), .q(dl_f_t1_neg194));
     // c_pt2_delta0: fp_mul @118/118/118 -> @121/121/121 (contact: pt2_delta0 = pt2_add296 * jac_inv2; friction: t1_delta0 = t1_neg194 * f_jac_inv1)
     logic [W-1:0] c_pt2_delta0_a;
     assign c_pt2_delta0_a = kind_q[118] ? dl_f_t1_neg194 : dl_c_pt2_add296;
@@ -4696,6 +4696,13 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_lam_new_max (.clk(clk), .d(c_pt2_lam_new_max), .valid(1'b0), .q(dl_c_pt2_lam_new_max));
+    // c_pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (contact; ready @126/126/126)
+    logic [W-1:0] c_pt2_lam;
+    assign c_pt2_lam = dl_c_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_c_pt2_lam_new_max;
+    logic [W-1:0] dl_c_pt2_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(53),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_lam (.clk(clk), .d(c_pt2_lam), .valid(valid_c_q[126 +: 53]), .q(dl_c_pt2_lam));
     // c_pt2_delta: fp_add @126/126/126 -> @130/130/130 (contact: pt2_delta = pt2_lam_new - lam2)
     logic [W-1:0] c_pt2_delta;
     logic [2:0] fl_c_pt2_delta;
@@ -4720,13 +4727,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(6), .N_TAPS(2), .TAPS({32'(0), 32'(6)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_lam_new_min (.clk(clk), .d(f_t1_lam_new_min), .valid(valid_f_q[127 +: 6]), .q(dl_f_t1_lam_new_min));
-    // c_pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (contact; ready @126/126/126)
-    logic [W-1:0] c_pt2_lam;
-    assign c_pt2_lam = dl_c_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_c_pt2_lam_new_max;
-    logic [W-1:0] dl_c_pt2_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(53),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_lam (.clk(clk), .d(c_pt2_lam), .valid(valid_c_q[126 +: 53]), .q(dl_c_pt2_lam));
     // f_t1_lamT = skip ? lamT1 : t1_lam_new   (friction; ready @127/127/127)
     logic [W-1:0] f_t1_lamT;
     assign f_t1_lamT = dl_f_skip[2] ? dl_in_lamT1[2*W +: W] : dl_f_t1_lam_new_min[1*W +: W];
@@ -5074,6 +5074,97 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_sub340 (.clk(clk), .d(c_pt2_sub340), .valid(1'b0), .q(dl_c_pt2_sub340));
+    // c_pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add311   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_x;
+    assign c_pt2_vA_x = dl_c_pt2_skip[1] ? dl_c_pt1_vA_x[2*W +: W] : dl_c_pt2_add311;
+    logic [3*W-1:0] dl_c_pt2_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_x (.clk(clk), .d(c_pt2_vA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_x));
+    // c_pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add312   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_y;
+    assign c_pt2_vA_y = dl_c_pt2_skip[1] ? dl_c_pt1_vA_y[2*W +: W] : dl_c_pt2_add312;
+    logic [3*W-1:0] dl_c_pt2_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_y (.clk(clk), .d(c_pt2_vA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_y));
+    // c_pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add313   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_z;
+    assign c_pt2_vA_z = dl_c_pt2_skip[1] ? dl_c_pt1_vA_z[2*W +: W] : dl_c_pt2_add313;
+    logic [3*W-1:0] dl_c_pt2_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_z (.clk(clk), .d(c_pt2_vA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_z));
+    // c_pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add320   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_x;
+    assign c_pt2_wA_x = dl_c_pt2_skip[1] ? dl_c_pt1_wA_x[2*W +: W] : dl_c_pt2_add320;
+    logic [3*W-1:0] dl_c_pt2_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_x (.clk(clk), .d(c_pt2_wA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_x));
+    // c_pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add321   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_y;
+    assign c_pt2_wA_y = dl_c_pt2_skip[1] ? dl_c_pt1_wA_y[2*W +: W] : dl_c_pt2_add321;
+    logic [3*W-1:0] dl_c_pt2_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_y (.clk(clk), .d(c_pt2_wA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_y));
+    // c_pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add322   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_z;
+    assign c_pt2_wA_z = dl_c_pt2_skip[1] ? dl_c_pt1_wA_z[2*W +: W] : dl_c_pt2_add322;
+    logic [3*W-1:0] dl_c_pt2_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_z (.clk(clk), .d(c_pt2_wA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_z));
+    // c_pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub329   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_x;
+    assign c_pt2_vB_x = dl_c_pt2_skip[1] ? dl_c_pt1_vB_x[2*W +: W] : dl_c_pt2_sub329;
+    logic [3*W-1:0] dl_c_pt2_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_x (.clk(clk), .d(c_pt2_vB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_x));
+    // c_pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub330   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_y;
+    assign c_pt2_vB_y = dl_c_pt2_skip[1] ? dl_c_pt1_vB_y[2*W +: W] : dl_c_pt2_sub330;
+    logic [3*W-1:0] dl_c_pt2_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_y (.clk(clk), .d(c_pt2_vB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_y));
+    // c_pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub331   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_z;
+    assign c_pt2_vB_z = dl_c_pt2_skip[1] ? dl_c_pt1_vB_z[2*W +: W] : dl_c_pt2_sub331;
+    logic [3*W-1:0] dl_c_pt2_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_z (.clk(clk), .d(c_pt2_vB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_z));
+    // c_pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub338   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_x;
+    assign c_pt2_wB_x = dl_c_pt2_skip[1] ? dl_c_pt1_wB_x[2*W +: W] : dl_c_pt2_sub338;
+    logic [3*W-1:0] dl_c_pt2_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_x (.clk(clk), .d(c_pt2_wB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_x));
+    // c_pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub339   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_y;
+    assign c_pt2_wB_y = dl_c_pt2_skip[1] ? dl_c_pt1_wB_y[2*W +: W] : dl_c_pt2_sub339;
+    logic [3*W-1:0] dl_c_pt2_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_y (.clk(clk), .d(c_pt2_wB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_y));
+    // c_pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub340   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_z;
+    assign c_pt2_wB_z = dl_c_pt2_skip[1] ? dl_c_pt1_wB_z[2*W +: W] : dl_c_pt2_sub340;
+    logic [3*W-1:0] dl_c_pt2_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_z (.clk(clk), .d(c_pt2_wB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_z));
+    // f_t1_e = -t1_delta   (friction; ready @137/137/137)
+    logic [W-1:0] f_t1_e;
+    assign f_t1_e = {~dl_c_pt2_add311[W-1], dl_c_pt2_add311[W-2:0]};
+    logic [W-1:0] dl_f_t1_e;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_e (.clk(clk), .d(f_t1_e), .valid(1'b0), .q(dl_f_t1_e));
     // c_pt3_mul369: fp_mul @137/137/137 -> @140/140/140 (contact: pt3_mul369 = n_x * pt2_vA_x; friction: t1_mul205 = t1_linA_x * t1_e)
     logic [W-1:0] c_pt3_mul369_a;
     assign c_pt3_mul369_a = kind_q[137] ? dl_c_pt2_mul252[1*W +: W] : dl_in_n_x[4*W +: W];
@@ -5290,97 +5381,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(16), .N_TAPS(2), .TAPS({32'(16), 32'(4)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_mul388 (.clk(clk), .d(c_pt3_mul388), .valid(valid_q[140 +: 16]), .q(dl_c_pt3_mul388));
-    // c_pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add311   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_x;
-    assign c_pt2_vA_x = dl_c_pt2_skip[1] ? dl_c_pt1_vA_x[2*W +: W] : dl_c_pt2_add311;
-    logic [3*W-1:0] dl_c_pt2_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_x (.clk(clk), .d(c_pt2_vA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_x));
-    // c_pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add312   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_y;
-    assign c_pt2_vA_y = dl_c_pt2_skip[1] ? dl_c_pt1_vA_y[2*W +: W] : dl_c_pt2_add312;
-    logic [3*W-1:0] dl_c_pt2_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_y (.clk(clk), .d(c_pt2_vA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_y));
-    // c_pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add313   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_z;
-    assign c_pt2_vA_z = dl_c_pt2_skip[1] ? dl_c_pt1_vA_z[2*W +: W] : dl_c_pt2_add313;
-    logic [3*W-1:0] dl_c_pt2_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_z (.clk(clk), .d(c_pt2_vA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_z));
-    // c_pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add320   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_x;
-    assign c_pt2_wA_x = dl_c_pt2_skip[1] ? dl_c_pt1_wA_x[2*W +: W] : dl_c_pt2_add320;
-    logic [3*W-1:0] dl_c_pt2_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_x (.clk(clk), .d(c_pt2_wA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_x));
-    // c_pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add321   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_y;
-    assign c_pt2_wA_y = dl_c_pt2_skip[1] ? dl_c_pt1_wA_y[2*W +: W] : dl_c_pt2_add321;
-    logic [3*W-1:0] dl_c_pt2_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_y (.clk(clk), .d(c_pt2_wA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_y));
-    // c_pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add322   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_z;
-    assign c_pt2_wA_z = dl_c_pt2_skip[1] ? dl_c_pt1_wA_z[2*W +: W] : dl_c_pt2_add322;
-    logic [3*W-1:0] dl_c_pt2_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_z (.clk(clk), .d(c_pt2_wA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_z));
-    // c_pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub329   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_x;
-    assign c_pt2_vB_x = dl_c_pt2_skip[1] ? dl_c_pt1_vB_x[2*W +: W] : dl_c_pt2_sub329;
-    logic [3*W-1:0] dl_c_pt2_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_x (.clk(clk), .d(c_pt2_vB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_x));
-    // c_pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub330   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_y;
-    assign c_pt2_vB_y = dl_c_pt2_skip[1] ? dl_c_pt1_vB_y[2*W +: W] : dl_c_pt2_sub330;
-    logic [3*W-1:0] dl_c_pt2_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_y (.clk(clk), .d(c_pt2_vB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_y));
-    // c_pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub331   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_z;
-    assign c_pt2_vB_z = dl_c_pt2_skip[1] ? dl_c_pt1_vB_z[2*W +: W] : dl_c_pt2_sub331;
-    logic [3*W-1:0] dl_c_pt2_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_z (.clk(clk), .d(c_pt2_vB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_z));
-    // c_pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub338   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_x;
-    assign c_pt2_wB_x = dl_c_pt2_skip[1] ? dl_c_pt1_wB_x[2*W +: W] : dl_c_pt2_sub338;
-    logic [3*W-1:0] dl_c_pt2_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_x (.clk(clk), .d(c_pt2_wB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_x));
-    // c_pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub339   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_y;
-    assign c_pt2_wB_y = dl_c_pt2_skip[1] ? dl_c_pt1_wB_y[2*W +: W] : dl_c_pt2_sub339;
-    logic [3*W-1:0] dl_c_pt2_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_y (.clk(clk), .d(c_pt2_wB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_y));
-    // c_pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub340   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_z;
-    assign c_pt2_wB_z = dl_c_pt2_skip[1] ? dl_c_pt1_wB_z[2*W +: W] : dl_c_pt2_sub340;
-    logic [3*W-1:0] dl_c_pt2_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_z (.clk(clk), .d(c_pt2_wB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_z));
-    // f_t1_e = -t1_delta   (friction; ready @137/137/137)
-    logic [W-1:0] f_t1_e;
-    assign f_t1_e = {~dl_c_pt2_add311[W-1], dl_c_pt2_add311[W-2:0]};
-    logic [W-1:0] dl_f_t1_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_e (.clk(clk), .d(f_t1_e), .valid(1'b0), .q(dl_f_t1_e));
     // c_pt3_add371: fp_add @140/140/140 -> @144/144/144 (contact: pt3_add371 = pt3_mul369 + pt3_mul370; friction: t1_add208 = t0_vA_x + t1_mul205)
     logic [W-1:0] c_pt3_add371_b;
     assign c_pt3_add371_b = kind_q[140] ? dl_f_t0_vA_x[1*W +: W] : dl_c_pt3_mul370;
@@ -5451,6 +5451,34 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_add387 (.clk(clk), .d(c_pt3_add387), .valid(1'b0), .q(dl_c_pt3_add387));
+    // f_t1_vA_x = skip ? t0_vA_x : t1_add208   (friction; ready @144/144/144)
+    logic [W-1:0] f_t1_vA_x;
+    assign f_t1_vA_x = dl_f_skip[3] ? dl_f_t0_vA_x[2*W +: W] : dl_c_pt3_add371;
+    logic [W-1:0] dl_f_t1_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(35),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vA_x (.clk(clk), .d(f_t1_vA_x), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_vA_x));
+    // f_t1_vA_y = skip ? t0_vA_y : t1_add209   (friction; ready @144/144/144)
+    logic [W-1:0] f_t1_vA_y;
+    assign f_t1_vA_y = dl_f_skip[3] ? dl_f_t0_vA_y[2*W +: W] : dl_c_pt3_add376;
+    logic [W-1:0] dl_f_t1_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(35),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vA_y (.clk(clk), .d(f_t1_vA_y), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_vA_y));
+    // f_t1_wA_x = skip ? t0_wA_x : t1_add220   (friction; ready @144/144/144)
+    logic [W-1:0] f_t1_wA_x;
+    assign f_t1_wA_x = dl_f_skip[3] ? dl_f_t0_wA_x[2*W +: W] : dl_c_pt3_add382;
+    logic [3*W-1:0] dl_f_t1_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(35), .N_TAPS(3), .TAPS({32'(35), 32'(31), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wA_x (.clk(clk), .d(f_t1_wA_x), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_wA_x));
+    // f_t1_wA_y = skip ? t0_wA_y : t1_add221   (friction; ready @144/144/144)
+    logic [W-1:0] f_t1_wA_y;
+    assign f_t1_wA_y = dl_f_skip[3] ? dl_f_t0_wA_y[2*W +: W] : dl_c_pt3_add387;
+    logic [3*W-1:0] dl_f_t1_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(35), .N_TAPS(3), .TAPS({32'(35), 32'(31), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wA_y (.clk(clk), .d(f_t1_wA_y), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_wA_y));
     // c_pt3_add373: fp_add @144/144/144 -> @148/148/148 (contact: pt3_add373 = pt3_add371 + pt3_mul372; friction: t1_add210 = t0_vA_z + t1_mul207)
     logic [W-1:0] c_pt3_add373_a;
     assign c_pt3_add373_a = kind_q[144] ? dl_f_t0_vA_z[1*W +: W] : dl_c_pt3_add371;
@@ -5547,34 +5575,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul252 (.clk(clk), .d(f_spin_mul252), .valid(1'b0), .q(dl_f_spin_mul252));
-    // f_t1_vA_x = skip ? t0_vA_x : t1_add208   (friction; ready @144/144/144)
-    logic [W-1:0] f_t1_vA_x;
-    assign f_t1_vA_x = dl_f_skip[3] ? dl_f_t0_vA_x[2*W +: W] : dl_c_pt3_add371;
-    logic [W-1:0] dl_f_t1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(35),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vA_x (.clk(clk), .d(f_t1_vA_x), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_vA_x));
-    // f_t1_vA_y = skip ? t0_vA_y : t1_add209   (friction; ready @144/144/144)
-    logic [W-1:0] f_t1_vA_y;
-    assign f_t1_vA_y = dl_f_skip[3] ? dl_f_t0_vA_y[2*W +: W] : dl_c_pt3_add376;
-    logic [W-1:0] dl_f_t1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(35),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vA_y (.clk(clk), .d(f_t1_vA_y), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_vA_y));
-    // f_t1_wA_x = skip ? t0_wA_x : t1_add220   (friction; ready @144/144/144)
-    logic [W-1:0] f_t1_wA_x;
-    assign f_t1_wA_x = dl_f_skip[3] ? dl_f_t0_wA_x[2*W +: W] : dl_c_pt3_add382;
-    logic [3*W-1:0] dl_f_t1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(35), .N_TAPS(3), .TAPS({32'(35), 32'(31), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_x (.clk(clk), .d(f_t1_wA_x), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_wA_x));
-    // f_t1_wA_y = skip ? t0_wA_y : t1_add221   (friction; ready @144/144/144)
-    logic [W-1:0] f_t1_wA_y;
-    assign f_t1_wA_y = dl_f_skip[3] ? dl_f_t0_wA_y[2*W +: W] : dl_c_pt3_add387;
-    logic [3*W-1:0] dl_f_t1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(35), .N_TAPS(3), .TAPS({32'(35), 32'(31), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_y (.clk(clk), .d(f_t1_wA_y), .valid(valid_f_q[144 +: 35]), .q(dl_f_t1_wA_y));
     // f_spin_add253: fp_add @147/147/147 -> @151/151/151 (friction: spin_add253 = spin_mul251 + spin_mul252)
     logic [W-1:0] f_spin_add253;
     logic [2:0] fl_f_spin_add253;
@@ -5589,6 +5589,34 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(12),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_add253 (.clk(clk), .d(f_spin_add253), .valid(valid_f_q[151 +: 12]), .q(dl_f_spin_add253));
+    // f_t1_vA_z = skip ? t0_vA_z : t1_add210   (friction; ready @148/148/148)
+    logic [W-1:0] f_t1_vA_z;
+    assign f_t1_vA_z = dl_f_skip[4] ? dl_f_t0_vA_z[2*W +: W] : dl_c_pt3_add373;
+    logic [W-1:0] dl_f_t1_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(31),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vA_z (.clk(clk), .d(f_t1_vA_z), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vA_z));
+    // f_t1_wA_z = skip ? t0_wA_z : t1_add222   (friction; ready @148/148/148)
+    logic [W-1:0] f_t1_wA_z;
+    assign f_t1_wA_z = dl_f_skip[4] ? dl_f_t0_wA_z[2*W +: W] : dl_c_pt3_add378;
+    logic [3*W-1:0] dl_f_t1_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(31), .N_TAPS(3), .TAPS({32'(31), 32'(27), 32'(12)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wA_z (.clk(clk), .d(f_t1_wA_z), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_wA_z));
+    // f_t1_vB_x = skip ? t0_vB_x : t1_sub232   (friction; ready @148/148/148)
+    logic [W-1:0] f_t1_vB_x;
+    assign f_t1_vB_x = dl_f_skip[4] ? dl_f_t0_vB_x[2*W +: W] : dl_c_pt3_add384;
+    logic [W-1:0] dl_f_t1_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(31),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vB_x (.clk(clk), .d(f_t1_vB_x), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vB_x));
+    // f_t1_vB_y = skip ? t0_vB_y : t1_sub233   (friction; ready @148/148/148)
+    logic [W-1:0] f_t1_vB_y;
+    assign f_t1_vB_y = dl_f_skip[4] ? dl_f_t0_vB_y[2*W +: W] : dl_c_pt3_add389;
+    logic [W-1:0] dl_f_t1_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(31),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vB_y (.clk(clk), .d(f_t1_vB_y), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vB_y));
     // c_pt3_sub379: fp_add @148/148/148 -> @152/152/152 (contact: pt3_sub379 = pt3_add373 - pt3_add378; friction: t1_sub234 = t0_vB_z - t1_mul231)
     logic [W-1:0] c_pt3_sub379_a;
     assign c_pt3_sub379_a = kind_q[148] ? dl_f_t0_vB_z[1*W +: W] : dl_c_pt3_add373;
@@ -5625,34 +5653,20 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_sub390 (.clk(clk), .d(c_pt3_sub390), .valid(1'b0), .q(dl_c_pt3_sub390));
-    // f_t1_vA_z = skip ? t0_vA_z : t1_add210   (friction; ready @148/148/148)
-    logic [W-1:0] f_t1_vA_z;
-    assign f_t1_vA_z = dl_f_skip[4] ? dl_f_t0_vA_z[2*W +: W] : dl_c_pt3_add373;
-    logic [W-1:0] dl_f_t1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(31),
+    // f_t1_vB_z = skip ? t0_vB_z : t1_sub234   (friction; ready @152/152/152)
+    logic [W-1:0] f_t1_vB_z;
+    assign f_t1_vB_z = dl_f_skip[5] ? dl_f_t0_vB_z[2*W +: W] : dl_c_pt3_sub379;
+    logic [W-1:0] dl_f_t1_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(27),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vA_z (.clk(clk), .d(f_t1_vA_z), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vA_z));
-    // f_t1_wA_z = skip ? t0_wA_z : t1_add222   (friction; ready @148/148/148)
-    logic [W-1:0] f_t1_wA_z;
-    assign f_t1_wA_z = dl_f_skip[4] ? dl_f_t0_wA_z[2*W +: W] : dl_c_pt3_add378;
-    logic [3*W-1:0] dl_f_t1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(31), .N_TAPS(3), .TAPS({32'(31), 32'(27), 32'(12)}),
+        u_dl_f_t1_vB_z (.clk(clk), .d(f_t1_vB_z), .valid(valid_f_q[152 +: 27]), .q(dl_f_t1_vB_z));
+    // f_t1_wB_x = skip ? t0_wB_x : t1_sub244   (friction; ready @152/152/152)
+    logic [W-1:0] f_t1_wB_x;
+    assign f_t1_wB_x = dl_f_skip[5] ? dl_f_t0_wB_x[2*W +: W] : dl_c_pt3_sub390;
+    logic [3*W-1:0] dl_f_t1_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(27), .N_TAPS(3), .TAPS({32'(27), 32'(23), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_z (.clk(clk), .d(f_t1_wA_z), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_wA_z));
-    // f_t1_vB_x = skip ? t0_vB_x : t1_sub232   (friction; ready @148/148/148)
-    logic [W-1:0] f_t1_vB_x;
-    assign f_t1_vB_x = dl_f_skip[4] ? dl_f_t0_vB_x[2*W +: W] : dl_c_pt3_add384;
-    logic [W-1:0] dl_f_t1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(31),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vB_x (.clk(clk), .d(f_t1_vB_x), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vB_x));
-    // f_t1_vB_y = skip ? t0_vB_y : t1_sub233   (friction; ready @148/148/148)
-    logic [W-1:0] f_t1_vB_y;
-    assign f_t1_vB_y = dl_f_skip[4] ? dl_f_t0_vB_y[2*W +: W] : dl_c_pt3_add389;
-    logic [W-1:0] dl_f_t1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(31),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vB_y (.clk(clk), .d(f_t1_vB_y), .valid(valid_f_q[148 +: 31]), .q(dl_f_t1_vB_y));
+        u_dl_f_t1_wB_x (.clk(clk), .d(f_t1_wB_x), .valid(valid_f_q[152 +: 27]), .q(dl_f_t1_wB_x));
     // c_pt3_vrel: fp_add @152/152/152 -> @156/156/156 (contact: pt3_vrel = pt3_sub379 + pt3_sub390; friction: t1_sub245 = t0_wB_y - t1_mul242)
     logic [W-1:0] c_pt3_vrel_a;
     assign c_pt3_vrel_a = kind_q[152] ? dl_f_t0_wB_y[1*W +: W] : dl_c_pt3_sub379;
@@ -5685,20 +5699,13 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul263 (.clk(clk), .d(f_spin_mul263), .valid(valid_f_q[155 +: 4]), .q(dl_f_spin_mul263));
-    // f_t1_vB_z = skip ? t0_vB_z : t1_sub234   (friction; ready @152/152/152)
-    logic [W-1:0] f_t1_vB_z;
-    assign f_t1_vB_z = dl_f_skip[5] ? dl_f_t0_vB_z[2*W +: W] : dl_c_pt3_sub379;
-    logic [W-1:0] dl_f_t1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(27),
+    // f_t1_wB_y = skip ? t0_wB_y : t1_sub245   (friction; ready @156/156/156)
+    logic [W-1:0] f_t1_wB_y;
+    assign f_t1_wB_y = dl_f_skip[6] ? dl_f_t0_wB_y[2*W +: W] : dl_c_pt3_vrel;
+    logic [3*W-1:0] dl_f_t1_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(23), .N_TAPS(3), .TAPS({32'(23), 32'(19), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vB_z (.clk(clk), .d(f_t1_vB_z), .valid(valid_f_q[152 +: 27]), .q(dl_f_t1_vB_z));
-    // f_t1_wB_x = skip ? t0_wB_x : t1_sub244   (friction; ready @152/152/152)
-    logic [W-1:0] f_t1_wB_x;
-    assign f_t1_wB_x = dl_f_skip[5] ? dl_f_t0_wB_x[2*W +: W] : dl_c_pt3_sub390;
-    logic [3*W-1:0] dl_f_t1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(27), .N_TAPS(3), .TAPS({32'(27), 32'(23), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_x (.clk(clk), .d(f_t1_wB_x), .valid(valid_f_q[152 +: 27]), .q(dl_f_t1_wB_x));
+        u_dl_f_t1_wB_y (.clk(clk), .d(f_t1_wB_y), .valid(valid_f_q[156 +: 23]), .q(dl_f_t1_wB_y));
     // c_pt3_add392: fp_add @156/156/156 -> @160/160/160 (contact: pt3_add392 = pt3_vrel + b3; friction: t1_sub246 = t0_wB_z - t1_mul243)
     logic [W-1:0] c_pt3_add392_a;
     assign c_pt3_add392_a = kind_q[156] ? dl_f_t0_wB_z[1*W +: W] : dl_c_pt3_vrel;
@@ -5731,13 +5738,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul264 (.clk(clk), .d(f_spin_mul264), .valid(1'b0), .q(dl_f_spin_mul264));
-    // f_t1_wB_y = skip ? t0_wB_y : t1_sub245   (friction; ready @156/156/156)
-    logic [W-1:0] f_t1_wB_y;
-    assign f_t1_wB_y = dl_f_skip[6] ? dl_f_t0_wB_y[2*W +: W] : dl_c_pt3_vrel;
-    logic [3*W-1:0] dl_f_t1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(23), .N_TAPS(3), .TAPS({32'(23), 32'(19), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_y (.clk(clk), .d(f_t1_wB_y), .valid(valid_f_q[156 +: 23]), .q(dl_f_t1_wB_y));
     // f_spin_add265: fp_add @159/159/159 -> @163/163/163 (friction: spin_add265 = spin_mul263 + spin_mul264)
     logic [W-1:0] f_spin_add265;
     logic [2:0] fl_f_spin_add265;
@@ -5752,6 +5752,13 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_add265 (.clk(clk), .d(f_spin_add265), .valid(1'b0), .q(dl_f_spin_add265));
+    // f_t1_wB_z = skip ? t0_wB_z : t1_sub246   (friction; ready @160/160/160)
+    logic [W-1:0] f_t1_wB_z;
+    assign f_t1_wB_z = dl_f_skip[7] ? dl_f_t0_wB_z[2*W +: W] : dl_c_pt3_add392;
+    logic [3*W-1:0] dl_f_t1_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(19), .N_TAPS(3), .TAPS({32'(19), 32'(15), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wB_z (.clk(clk), .d(f_t1_wB_z), .valid(valid_f_q[160 +: 19]), .q(dl_f_t1_wB_z));
     // c_pt3_delta0: fp_mul @160/160/160 -> @163/163/163 (contact: pt3_delta0 = pt3_add392 * jac_inv3; friction: spin_mul254 = n_z * t1_wA_z)
     logic [W-1:0] c_pt3_delta0_a;
     assign c_pt3_delta0_a = kind_q[160] ? dl_in_n_z[5*W +: W] : dl_c_pt3_add392;
@@ -5784,13 +5791,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul266 (.clk(clk), .d(f_spin_mul266), .valid(1'b0), .q(dl_f_spin_mul266));
-    // f_t1_wB_z = skip ? t0_wB_z : t1_sub246   (friction; ready @160/160/160)
-    logic [W-1:0] f_t1_wB_z;
-    assign f_t1_wB_z = dl_f_skip[7] ? dl_f_t0_wB_z[2*W +: W] : dl_c_pt3_add392;
-    logic [3*W-1:0] dl_f_t1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(19), .N_TAPS(3), .TAPS({32'(19), 32'(15), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_z (.clk(clk), .d(f_t1_wB_z), .valid(valid_f_q[160 +: 19]), .q(dl_f_t1_wB_z));
     // c_pt3_add394: fp_add @163/163/163 -> @167/167/167 (contact: pt3_add394 = lam3 + pt3_delta0; friction: spin_add255 = spin_add253 + spin_mul254)
     logic [W-1:0] c_pt3_add394_a;
     assign c_pt3_add394_a = kind_q[163] ? dl_f_spin_add253 : dl_in_lam3[0*W +: W];
@@ -5859,6 +5859,13 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(2),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_sB (.clk(clk), .d(f_spin_sB), .valid(valid_f_q[170 +: 2]), .q(dl_f_spin_sB));
+    // c_pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (contact; ready @168/168/168)
+    logic [W-1:0] c_pt3_lam;
+    assign c_pt3_lam = dl_c_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_c_pt3_lam_new_max;
+    logic [W-1:0] dl_c_pt3_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt3_lam (.clk(clk), .d(c_pt3_lam), .valid(valid_c_q[168 +: 11]), .q(dl_c_pt3_lam));
     // c_pt3_delta: fp_add @168/168/168 -> @172/172/172 (contact: pt3_delta = pt3_lam_new - lam3)
     logic [W-1:0] c_pt3_delta;
     logic [2:0] fl_c_pt3_delta;
@@ -5873,13 +5880,6 @@ module pgs_shared_pipe_scalar_mu #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_delta (.clk(clk), .d(c_pt3_delta), .valid(1'b0), .q(dl_c_pt3_delta));
-    // c_pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (contact; ready @168/168/168)
-    logic [W-1:0] c_pt3_lam;
-    assign c_pt3_lam = dl_c_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_c_pt3_lam_new_max;
-    logic [W-1:0] dl_c_pt3_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(11),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt3_lam (.clk(clk), .d(c_pt3_lam), .valid(valid_c_q[168 +: 11]), .q(dl_c_pt3_lam));
     // c_pt3_mul404: fp_mul @172/172/172 -> @175/175/175 (contact: pt3_mul404 = linA_x * pt3_delta; friction: spin_mul257 = n_x * spin_sA)
     logic [W-1:0] c_pt3_mul404_a;
     assign c_pt3_mul404_a = kind_q[172] ? dl_in_n_x[6*W +: W] : dl_c_linA_x[3*W +: W];

@@ -493,6 +493,195 @@ module pgs_shared_pipe_soft_tb #(
     // Datapath in schedule order: the operators (each with the operation of every kind that uses it
     // and the cycles it issues and is ready at, for fp32 / fp16 / bf16) and the combinational nodes
     // of each kind; a value's delay line feeds every consumer at the consumer's issue cycle.
+    // c_staticA = mInvA == 0   (contact; ready @0/0/0)
+    logic c_staticA;
+    assign c_staticA = (dl_in_mInvA[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [1-1:0] dl_c_staticA;
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_staticA (.clk(clk), .d(c_staticA), .valid(1'b0), .q(dl_c_staticA));
+    // c_staticB = mInvB == 0   (contact; ready @0/0/0)
+    logic c_staticB;
+    assign c_staticB = (dl_in_mInvB[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [1-1:0] dl_c_staticB;
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_staticB (.clk(clk), .d(c_staticB), .valid(1'b0), .q(dl_c_staticB));
+    // c_select59 = staticB ? keep_static : keep_dyn   (contact; ready @0/0/0)
+    logic [W-1:0] c_select59;
+    assign c_select59 = dl_c_staticB ? dl_in_keep_static : dl_in_keep_dyn;
+    logic [W-1:0] dl_c_select59;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_select59 (.clk(clk), .d(c_select59), .valid(1'b0), .q(dl_c_select59));
+    // c_keep_row = staticA ? keep_static : select59   (contact; ready @0/0/0)
+    logic [W-1:0] c_keep_row;
+    assign c_keep_row = dl_c_staticA ? dl_in_keep_static : dl_c_select59;
+    logic [W-1:0] dl_c_keep_row;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_keep_row (.clk(clk), .d(c_keep_row), .valid(1'b0), .q(dl_c_keep_row));
+    // c_apart0 = b0 > 0   (contact; ready @0/0/0)
+    logic c_apart0;
+    assign c_apart0 = !dl_in_b0[0*W +: W][W-1] && (dl_in_b0[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
+    logic [1-1:0] dl_c_apart0;
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_apart0 (.clk(clk), .d(c_apart0), .valid(1'b0), .q(dl_c_apart0));
+    // c_select62 = apart0 ? 1.0 : keep_row   (contact; ready @0/0/0)
+    logic [W-1:0] c_select62;
+    assign c_select62 = dl_c_apart0 ? K_ONE : dl_c_keep_row;
+    logic [W-1:0] dl_c_select62;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_select62 (.clk(clk), .d(c_select62), .valid(1'b0), .q(dl_c_select62));
+    // c_keep0 = soft ? select62 : 1.0   (contact; ready @0/0/0)
+    logic [W-1:0] c_keep0;
+    assign c_keep0 = dl_in_soft ? dl_c_select62 : K_ONE;
+    logic [W-1:0] dl_c_keep0;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_keep0 (.clk(clk), .d(c_keep0), .valid(1'b0), .q(dl_c_keep0));
+    // c_apart1 = b1 > 0   (contact; ready @0/0/0)
+    logic c_apart1;
+    assign c_apart1 = !dl_in_b1[0*W +: W][W-1] && (dl_in_b1[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
+    logic [1-1:0] dl_c_apart1;
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_apart1 (.clk(clk), .d(c_apart1), .valid(1'b0), .q(dl_c_apart1));
+    // c_select65 = apart1 ? 1.0 : keep_row   (contact; ready @0/0/0)
+    logic [W-1:0] c_select65;
+    assign c_select65 = dl_c_apart1 ? K_ONE : dl_c_keep_row;
+    logic [W-1:0] dl_c_select65;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_select65 (.clk(clk), .d(c_select65), .valid(1'b0), .q(dl_c_select65));
+    // c_keep1 = soft ? select65 : 1.0   (contact; ready @0/0/0)
+    logic [W-1:0] c_keep1;
+    assign c_keep1 = dl_in_soft ? dl_c_select65 : K_ONE;
+    logic [W-1:0] dl_c_keep1;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_keep1 (.clk(clk), .d(c_keep1), .valid(1'b0), .q(dl_c_keep1));
+    // c_apart2 = b2 > 0   (contact; ready @0/0/0)
+    logic c_apart2;
+    assign c_apart2 = !dl_in_b2[0*W +: W][W-1] && (dl_in_b2[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
+    logic [1-1:0] dl_c_apart2;
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_apart2 (.clk(clk), .d(c_apart2), .valid(1'b0), .q(dl_c_apart2));
+    // c_select68 = apart2 ? 1.0 : keep_row   (contact; ready @0/0/0)
+    logic [W-1:0] c_select68;
+    assign c_select68 = dl_c_apart2 ? K_ONE : dl_c_keep_row;
+    logic [W-1:0] dl_c_select68;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_select68 (.clk(clk), .d(c_select68), .valid(1'b0), .q(dl_c_select68));
+    // c_keep2 = soft ? select68 : 1.0   (contact; ready @0/0/0)
+    logic [W-1:0] c_keep2;
+    assign c_keep2 = dl_in_soft ? dl_c_select68 : K_ONE;
+    logic [W-1:0] dl_c_keep2;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_keep2 (.clk(clk), .d(c_keep2), .valid(1'b0), .q(dl_c_keep2));
+    // c_apart3 = b3 > 0   (contact; ready @0/0/0)
+    logic c_apart3;
+    assign c_apart3 = !dl_in_b3[0*W +: W][W-1] && (dl_in_b3[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
+    logic [1-1:0] dl_c_apart3;
+    pgs_delay #(.WIDTH(1), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_apart3 (.clk(clk), .d(c_apart3), .valid(1'b0), .q(dl_c_apart3));
+    // c_select71 = apart3 ? 1.0 : keep_row   (contact; ready @0/0/0)
+    logic [W-1:0] c_select71;
+    assign c_select71 = dl_c_apart3 ? K_ONE : dl_c_keep_row;
+    logic [W-1:0] dl_c_select71;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_select71 (.clk(clk), .d(c_select71), .valid(1'b0), .q(dl_c_select71));
+    // c_keep3 = soft ? select71 : 1.0   (contact; ready @0/0/0)
+    logic [W-1:0] c_keep3;
+    assign c_keep3 = dl_in_soft ? dl_c_select71 : K_ONE;
+    logic [W-1:0] dl_c_keep3;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_keep3 (.clk(clk), .d(c_keep3), .valid(1'b0), .q(dl_c_keep3));
+    // c_pt0_skip = jac_inv0 == 0   (contact; ready @0/0/0)
+    logic c_pt0_skip;
+    assign c_pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt0_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_skip (.clk(clk), .d(c_pt0_skip), .valid(valid_c_q[0 +: 53]), .q(dl_c_pt0_skip));
+    // c_pt1_skip = jac_inv1 == 0   (contact; ready @0/0/0)
+    logic c_pt1_skip;
+    assign c_pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt1_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_skip (.clk(clk), .d(c_pt1_skip), .valid(valid_c_q[0 +: 95]), .q(dl_c_pt1_skip));
+    // c_pt2_skip = jac_inv2 == 0   (contact; ready @0/0/0)
+    logic c_pt2_skip;
+    assign c_pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt2_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_skip (.clk(clk), .d(c_pt2_skip), .valid(valid_c_q[0 +: 137]), .q(dl_c_pt2_skip));
+    // c_pt3_skip = jac_inv3 == 0   (contact; ready @0/0/0)
+    logic c_pt3_skip;
+    assign c_pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt3_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt3_skip (.clk(clk), .d(c_pt3_skip), .valid(valid_c_q[0 +: 179]), .q(dl_c_pt3_skip));
+    // f_basis_m_x = -n_x   (friction; ready @0/0/0)
+    logic [W-1:0] f_basis_m_x;
+    assign f_basis_m_x = {~dl_in_n_x[0*W +: W][W-1], dl_in_n_x[0*W +: W][W-2:0]};
+    logic [3*W-1:0] dl_f_basis_m_x;
+    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'(88), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_m_x (.clk(clk), .d(f_basis_m_x), .valid(valid_f_q[0 +: (((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) > 0 ? ((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) : 1)]), .q(dl_f_basis_m_x));
+    // f_basis_m_y = -n_y   (friction; ready @0/0/0)
+    logic [W-1:0] f_basis_m_y;
+    assign f_basis_m_y = {~dl_in_n_y[0*W +: W][W-1], dl_in_n_y[0*W +: W][W-2:0]};
+    logic [2*W-1:0] dl_f_basis_m_y;
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_m_y (.clk(clk), .d(f_basis_m_y), .valid(valid_f_q[0 +: (((2*MAN_BITS + 16) - (0)) > 0 ? ((2*MAN_BITS + 16) - (0)) : 1)]), .q(dl_f_basis_m_y));
+    // f_basis_m_z = -n_z   (friction; ready @0/0/0)
+    logic [W-1:0] f_basis_m_z;
+    assign f_basis_m_z = {~dl_in_n_z[0*W +: W][W-1], dl_in_n_z[0*W +: W][W-2:0]};
+    logic [2*W-1:0] dl_f_basis_m_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(88), .N_TAPS(2), .TAPS({32'(88), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_m_z (.clk(clk), .d(f_basis_m_z), .valid(valid_f_q[0 +: 88]), .q(dl_f_basis_m_z));
+    // f_basis_neg48 = -basis_m_z   (friction; ready @0/0/0)
+    logic [W-1:0] f_basis_neg48;
+    assign f_basis_neg48 = {~dl_f_basis_m_z[0*W +: W][W-1], dl_f_basis_m_z[0*W +: W][W-2:0]};
+    logic [3*W-1:0] dl_f_basis_neg48;
+    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)), .N_TAPS(3), .TAPS({32'(88), 32'((2*MAN_BITS + 16) - (0)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_neg48 (.clk(clk), .d(f_basis_neg48), .valid(valid_f_q[0 +: (((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) > 0 ? ((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) : 1)]), .q(dl_f_basis_neg48));
+    // f_basis_neg60 = -basis_m_x   (friction; ready @0/0/0)
+    logic [W-1:0] f_basis_neg60;
+    assign f_basis_neg60 = {~dl_f_basis_m_x[0*W +: W][W-1], dl_f_basis_m_x[0*W +: W][W-2:0]};
+    logic [W-1:0] dl_f_basis_neg60;
+    pgs_delay #(.WIDTH(W), .DEPTH(88),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_neg60 (.clk(clk), .d(f_basis_neg60), .valid(valid_f_q[0 +: 88]), .q(dl_f_basis_neg60));
+    // f_basis_neg68 = -basis_m_y   (friction; ready @0/0/0)
+    logic [W-1:0] f_basis_neg68;
+    assign f_basis_neg68 = {~dl_f_basis_m_y[0*W +: W][W-1], dl_f_basis_m_y[0*W +: W][W-2:0]};
+    logic [W-1:0] dl_f_basis_neg68;
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_neg68 (.clk(clk), .d(f_basis_neg68), .valid(valid_f_q[0 +: (((2*MAN_BITS + 16) - (0)) > 0 ? ((2*MAN_BITS + 16) - (0)) : 1)]), .q(dl_f_basis_neg68));
+    // f_skip = f_jac_inv0 == 0   (friction; ready @0/0/0)
+    logic f_skip;
+    assign f_skip = (dl_in_p1_x__f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [7*1-1:0] dl_f_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(7), .TAPS({32'(160), 32'(158), 32'(179), 32'(167), 32'(147), 32'(119), 32'(108)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_skip (.clk(clk), .d(f_skip), .valid(valid_f_q[0 +: 179]), .q(dl_f_skip));
     // c_linA_x: fp_mul @0/0/0 -> @3/3/3 (contact: linA_x = n_x * mInvA; friction: basis_mul51 = basis_m_y * basis_m_y)
     logic [W-1:0] c_linA_x_a;
     assign c_linA_x_a = kind_q[0] ? dl_f_basis_m_y[0*W +: W] : dl_in_n_x[0*W +: W];
@@ -1091,195 +1280,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_basis_max49_max (.clk(clk), .d(f_basis_max49_max), .valid(1'b0), .q(dl_f_basis_max49_max));
-    // c_staticA = mInvA == 0   (contact; ready @0/0/0)
-    logic c_staticA;
-    assign c_staticA = (dl_in_mInvA[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [1-1:0] dl_c_staticA;
-    pgs_delay #(.WIDTH(1), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_staticA (.clk(clk), .d(c_staticA), .valid(1'b0), .q(dl_c_staticA));
-    // c_staticB = mInvB == 0   (contact; ready @0/0/0)
-    logic c_staticB;
-    assign c_staticB = (dl_in_mInvB[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [1-1:0] dl_c_staticB;
-    pgs_delay #(.WIDTH(1), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_staticB (.clk(clk), .d(c_staticB), .valid(1'b0), .q(dl_c_staticB));
-    // c_select59 = staticB ? keep_static : keep_dyn   (contact; ready @0/0/0)
-    logic [W-1:0] c_select59;
-    assign c_select59 = dl_c_staticB ? dl_in_keep_static : dl_in_keep_dyn;
-    logic [W-1:0] dl_c_select59;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_select59 (.clk(clk), .d(c_select59), .valid(1'b0), .q(dl_c_select59));
-    // c_keep_row = staticA ? keep_static : select59   (contact; ready @0/0/0)
-    logic [W-1:0] c_keep_row;
-    assign c_keep_row = dl_c_staticA ? dl_in_keep_static : dl_c_select59;
-    logic [W-1:0] dl_c_keep_row;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_keep_row (.clk(clk), .d(c_keep_row), .valid(1'b0), .q(dl_c_keep_row));
-    // c_apart0 = b0 > 0   (contact; ready @0/0/0)
-    logic c_apart0;
-    assign c_apart0 = !dl_in_b0[0*W +: W][W-1] && (dl_in_b0[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
-    logic [1-1:0] dl_c_apart0;
-    pgs_delay #(.WIDTH(1), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_apart0 (.clk(clk), .d(c_apart0), .valid(1'b0), .q(dl_c_apart0));
-    // c_select62 = apart0 ? 1.0 : keep_row   (contact; ready @0/0/0)
-    logic [W-1:0] c_select62;
-    assign c_select62 = dl_c_apart0 ? K_ONE : dl_c_keep_row;
-    logic [W-1:0] dl_c_select62;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_select62 (.clk(clk), .d(c_select62), .valid(1'b0), .q(dl_c_select62));
-    // c_keep0 = soft ? select62 : 1.0   (contact; ready @0/0/0)
-    logic [W-1:0] c_keep0;
-    assign c_keep0 = dl_in_soft ? dl_c_select62 : K_ONE;
-    logic [W-1:0] dl_c_keep0;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_keep0 (.clk(clk), .d(c_keep0), .valid(1'b0), .q(dl_c_keep0));
-    // c_apart1 = b1 > 0   (contact; ready @0/0/0)
-    logic c_apart1;
-    assign c_apart1 = !dl_in_b1[0*W +: W][W-1] && (dl_in_b1[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
-    logic [1-1:0] dl_c_apart1;
-    pgs_delay #(.WIDTH(1), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_apart1 (.clk(clk), .d(c_apart1), .valid(1'b0), .q(dl_c_apart1));
-    // c_select65 = apart1 ? 1.0 : keep_row   (contact; ready @0/0/0)
-    logic [W-1:0] c_select65;
-    assign c_select65 = dl_c_apart1 ? K_ONE : dl_c_keep_row;
-    logic [W-1:0] dl_c_select65;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_select65 (.clk(clk), .d(c_select65), .valid(1'b0), .q(dl_c_select65));
-    // c_keep1 = soft ? select65 : 1.0   (contact; ready @0/0/0)
-    logic [W-1:0] c_keep1;
-    assign c_keep1 = dl_in_soft ? dl_c_select65 : K_ONE;
-    logic [W-1:0] dl_c_keep1;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_keep1 (.clk(clk), .d(c_keep1), .valid(1'b0), .q(dl_c_keep1));
-    // c_apart2 = b2 > 0   (contact; ready @0/0/0)
-    logic c_apart2;
-    assign c_apart2 = !dl_in_b2[0*W +: W][W-1] && (dl_in_b2[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
-    logic [1-1:0] dl_c_apart2;
-    pgs_delay #(.WIDTH(1), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_apart2 (.clk(clk), .d(c_apart2), .valid(1'b0), .q(dl_c_apart2));
-    // c_select68 = apart2 ? 1.0 : keep_row   (contact; ready @0/0/0)
-    logic [W-1:0] c_select68;
-    assign c_select68 = dl_c_apart2 ? K_ONE : dl_c_keep_row;
-    logic [W-1:0] dl_c_select68;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_select68 (.clk(clk), .d(c_select68), .valid(1'b0), .q(dl_c_select68));
-    // c_keep2 = soft ? select68 : 1.0   (contact; ready @0/0/0)
-    logic [W-1:0] c_keep2;
-    assign c_keep2 = dl_in_soft ? dl_c_select68 : K_ONE;
-    logic [W-1:0] dl_c_keep2;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_keep2 (.clk(clk), .d(c_keep2), .valid(1'b0), .q(dl_c_keep2));
-    // c_apart3 = b3 > 0   (contact; ready @0/0/0)
-    logic c_apart3;
-    assign c_apart3 = !dl_in_b3[0*W +: W][W-1] && (dl_in_b3[0*W +: W][W-2:MAN_BITS] != '0);   // not NaN: a > 0
-    logic [1-1:0] dl_c_apart3;
-    pgs_delay #(.WIDTH(1), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_apart3 (.clk(clk), .d(c_apart3), .valid(1'b0), .q(dl_c_apart3));
-    // c_select71 = apart3 ? 1.0 : keep_row   (contact; ready @0/0/0)
-    logic [W-1:0] c_select71;
-    assign c_select71 = dl_c_apart3 ? K_ONE : dl_c_keep_row;
-    logic [W-1:0] dl_c_select71;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_select71 (.clk(clk), .d(c_select71), .valid(1'b0), .q(dl_c_select71));
-    // c_keep3 = soft ? select71 : 1.0   (contact; ready @0/0/0)
-    logic [W-1:0] c_keep3;
-    assign c_keep3 = dl_in_soft ? dl_c_select71 : K_ONE;
-    logic [W-1:0] dl_c_keep3;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_keep3 (.clk(clk), .d(c_keep3), .valid(1'b0), .q(dl_c_keep3));
-    // c_pt0_skip = jac_inv0 == 0   (contact; ready @0/0/0)
-    logic c_pt0_skip;
-    assign c_pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt0_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_skip (.clk(clk), .d(c_pt0_skip), .valid(valid_c_q[0 +: 53]), .q(dl_c_pt0_skip));
-    // c_pt1_skip = jac_inv1 == 0   (contact; ready @0/0/0)
-    logic c_pt1_skip;
-    assign c_pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt1_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_skip (.clk(clk), .d(c_pt1_skip), .valid(valid_c_q[0 +: 95]), .q(dl_c_pt1_skip));
-    // c_pt2_skip = jac_inv2 == 0   (contact; ready @0/0/0)
-    logic c_pt2_skip;
-    assign c_pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt2_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_skip (.clk(clk), .d(c_pt2_skip), .valid(valid_c_q[0 +: 137]), .q(dl_c_pt2_skip));
-    // c_pt3_skip = jac_inv3 == 0   (contact; ready @0/0/0)
-    logic c_pt3_skip;
-    assign c_pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt3_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt3_skip (.clk(clk), .d(c_pt3_skip), .valid(valid_c_q[0 +: 179]), .q(dl_c_pt3_skip));
-    // f_basis_m_x = -n_x   (friction; ready @0/0/0)
-    logic [W-1:0] f_basis_m_x;
-    assign f_basis_m_x = {~dl_in_n_x[0*W +: W][W-1], dl_in_n_x[0*W +: W][W-2:0]};
-    logic [3*W-1:0] dl_f_basis_m_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'(88), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_m_x (.clk(clk), .d(f_basis_m_x), .valid(valid_f_q[0 +: (((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) > 0 ? ((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) : 1)]), .q(dl_f_basis_m_x));
-    // f_basis_m_y = -n_y   (friction; ready @0/0/0)
-    logic [W-1:0] f_basis_m_y;
-    assign f_basis_m_y = {~dl_in_n_y[0*W +: W][W-1], dl_in_n_y[0*W +: W][W-2:0]};
-    logic [2*W-1:0] dl_f_basis_m_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_m_y (.clk(clk), .d(f_basis_m_y), .valid(valid_f_q[0 +: (((2*MAN_BITS + 16) - (0)) > 0 ? ((2*MAN_BITS + 16) - (0)) : 1)]), .q(dl_f_basis_m_y));
-    // f_basis_m_z = -n_z   (friction; ready @0/0/0)
-    logic [W-1:0] f_basis_m_z;
-    assign f_basis_m_z = {~dl_in_n_z[0*W +: W][W-1], dl_in_n_z[0*W +: W][W-2:0]};
-    logic [2*W-1:0] dl_f_basis_m_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(88), .N_TAPS(2), .TAPS({32'(88), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_m_z (.clk(clk), .d(f_basis_m_z), .valid(valid_f_q[0 +: 88]), .q(dl_f_basis_m_z));
-    // f_basis_neg48 = -basis_m_z   (friction; ready @0/0/0)
-    logic [W-1:0] f_basis_neg48;
-    assign f_basis_neg48 = {~dl_f_basis_m_z[0*W +: W][W-1], dl_f_basis_m_z[0*W +: W][W-2:0]};
-    logic [3*W-1:0] dl_f_basis_neg48;
-    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)), .N_TAPS(3), .TAPS({32'(88), 32'((2*MAN_BITS + 16) - (0)), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_neg48 (.clk(clk), .d(f_basis_neg48), .valid(valid_f_q[0 +: (((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) > 0 ? ((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) : 1)]), .q(dl_f_basis_neg48));
-    // f_basis_neg60 = -basis_m_x   (friction; ready @0/0/0)
-    logic [W-1:0] f_basis_neg60;
-    assign f_basis_neg60 = {~dl_f_basis_m_x[0*W +: W][W-1], dl_f_basis_m_x[0*W +: W][W-2:0]};
-    logic [W-1:0] dl_f_basis_neg60;
-    pgs_delay #(.WIDTH(W), .DEPTH(88),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_neg60 (.clk(clk), .d(f_basis_neg60), .valid(valid_f_q[0 +: 88]), .q(dl_f_basis_neg60));
-    // f_basis_neg68 = -basis_m_y   (friction; ready @0/0/0)
-    logic [W-1:0] f_basis_neg68;
-    assign f_basis_neg68 = {~dl_f_basis_m_y[0*W +: W][W-1], dl_f_basis_m_y[0*W +: W][W-2:0]};
-    logic [W-1:0] dl_f_basis_neg68;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_neg68 (.clk(clk), .d(f_basis_neg68), .valid(valid_f_q[0 +: (((2*MAN_BITS + 16) - (0)) > 0 ? ((2*MAN_BITS + 16) - (0)) : 1)]), .q(dl_f_basis_neg68));
-    // f_skip = f_jac_inv0 == 0   (friction; ready @0/0/0)
-    logic f_skip;
-    assign f_skip = (dl_in_p1_x__f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [7*1-1:0] dl_f_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(7), .TAPS({32'(160), 32'(158), 32'(179), 32'(167), 32'(147), 32'(119), 32'(108)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_skip (.clk(clk), .d(f_skip), .valid(valid_f_q[0 +: 179]), .q(dl_f_skip));
     // f_basis_use_z: fp_minmax @1/1/1 -> @2/2/2 (friction: basis_use_z = 0.70710678 < basis_max49)
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_f_basis_use_z (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[1]), .a(K_SPLIT), .b(dl_f_basis_max49_max),
@@ -1998,6 +1998,20 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_mul394 (.clk(clk), .d(c_pt3_mul394), .valid(1'b0), .q(dl_c_pt3_mul394));
+    // f_basis_select54 = basis_use_z ? basis_a_z : 1.0   (friction; ready @7/7/7)
+    logic [W-1:0] f_basis_select54;
+    assign f_basis_select54 = dl_f_basis_use_z_lt[0] ? dl_c_pt0_add107[0*W +: W] : K_ONE;
+    logic [W-1:0] dl_f_basis_select54;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_select54 (.clk(clk), .d(f_basis_select54), .valid(1'b0), .q(dl_f_basis_select54));
+    // f_basis_select65 = basis_use_z ? 1.0 : basis_a_x   (friction; ready @7/7/7)
+    logic [W-1:0] f_basis_select65;
+    assign f_basis_select65 = dl_f_basis_use_z_lt[0] ? K_ONE : dl_c_pt0_add112[0*W +: W];
+    logic [W-1:0] dl_f_basis_select65;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_select65 (.clk(clk), .d(f_basis_select65), .valid(1'b0), .q(dl_f_basis_select65));
     // c_pt0_cA_x: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cA_x = pt0_mul84 - pt0_mul85; friction: add83 = add81 + add82)
     logic [W-1:0] c_pt0_cA_x_a;
     assign c_pt0_cA_x_a = kind_q[7] ? dl_c_pt0_rA_x[1*W +: W] : dl_c_pt0_mul84;
@@ -2394,20 +2408,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_basis_sqrt66 (.clk(clk), .d(f_basis_sqrt66), .valid(1'b0), .q(dl_f_basis_sqrt66));
-    // f_basis_select54 = basis_use_z ? basis_a_z : 1.0   (friction; ready @7/7/7)
-    logic [W-1:0] f_basis_select54;
-    assign f_basis_select54 = dl_f_basis_use_z_lt[0] ? dl_c_pt0_add107[0*W +: W] : K_ONE;
-    logic [W-1:0] dl_f_basis_select54;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_select54 (.clk(clk), .d(f_basis_select54), .valid(1'b0), .q(dl_f_basis_select54));
-    // f_basis_select65 = basis_use_z ? 1.0 : basis_a_x   (friction; ready @7/7/7)
-    logic [W-1:0] f_basis_select65;
-    assign f_basis_select65 = dl_f_basis_use_z_lt[0] ? K_ONE : dl_c_pt0_add112[0*W +: W];
-    logic [W-1:0] dl_f_basis_select65;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_select65 (.clk(clk), .d(f_basis_select65), .valid(1'b0), .q(dl_f_basis_select65));
     // c_pt0_sub115: fp_add @11/11/11 -> @15/15/15 (contact: pt0_sub115 = pt0_add109 - pt0_add114)
     logic [W-1:0] c_pt0_sub115;
     logic [2:0] fl_c_pt0_sub115;
@@ -2844,6 +2844,13 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(158),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_angB_z (.clk(clk), .d(c_pt3_angB_z), .valid(valid_c_q[14 +: 158]), .q(dl_c_pt3_angB_z));
+    // f_neg_limit = -limit   (friction; ready @14/14/14)
+    logic [W-1:0] f_neg_limit;
+    assign f_neg_limit = {~dl_c_pt0_mul116[0*W +: W][W-1], dl_c_pt0_mul116[0*W +: W][W-2:0]};
+    logic [2*W-1:0] dl_f_neg_limit;
+    pgs_delay #(.WIDTH(W), .DEPTH(131), .N_TAPS(2), .TAPS({32'(131), 32'(92)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_neg_limit (.clk(clk), .d(f_neg_limit), .valid(valid_f_q[14 +: 131]), .q(dl_f_neg_limit));
     // c_pt0_add118: fp_add @14/14/14 -> @18/18/18 (contact: pt0_add118 = pt0_mul116 + pt0_mul117)
     logic [W-1:0] c_pt0_add118;
     logic [2:0] fl_c_pt0_add118;
@@ -2872,13 +2879,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_add123 (.clk(clk), .d(c_pt0_add123), .valid(1'b0), .q(dl_c_pt0_add123));
-    // f_neg_limit = -limit   (friction; ready @14/14/14)
-    logic [W-1:0] f_neg_limit;
-    assign f_neg_limit = {~dl_c_pt0_mul116[0*W +: W][W-1], dl_c_pt0_mul116[0*W +: W][W-2:0]};
-    logic [2*W-1:0] dl_f_neg_limit;
-    pgs_delay #(.WIDTH(W), .DEPTH(131), .N_TAPS(2), .TAPS({32'(131), 32'(92)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_neg_limit (.clk(clk), .d(f_neg_limit), .valid(valid_f_q[14 +: 131]), .q(dl_f_neg_limit));
     // c_pt0_add120: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add120 = pt0_add118 + pt0_mul119)
     logic [W-1:0] c_pt0_add120;
     logic [2:0] fl_c_pt0_add120;
@@ -3015,6 +3015,13 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_lam_new_max (.clk(clk), .d(c_pt0_lam_new_max), .valid(1'b0), .q(dl_c_pt0_lam_new_max));
+    // c_pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (contact; ready @42/42/42)
+    logic [W-1:0] c_pt0_lam;
+    assign c_pt0_lam = dl_c_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_c_pt0_lam_new_max;
+    logic [W-1:0] dl_c_pt0_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(137),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_lam (.clk(clk), .d(c_pt0_lam), .valid(valid_c_q[42 +: 137]), .q(dl_c_pt0_lam));
     // c_pt0_delta: fp_add @42/42/42 -> @46/46/46 (contact: pt0_delta = pt0_lam_new - lam0)
     logic [W-1:0] c_pt0_delta;
     logic [2:0] fl_c_pt0_delta;
@@ -3029,13 +3036,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_delta (.clk(clk), .d(c_pt0_delta), .valid(1'b0), .q(dl_c_pt0_delta));
-    // c_pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (contact; ready @42/42/42)
-    logic [W-1:0] c_pt0_lam;
-    assign c_pt0_lam = dl_c_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_c_pt0_lam_new_max;
-    logic [W-1:0] dl_c_pt0_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(137),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_lam (.clk(clk), .d(c_pt0_lam), .valid(valid_c_q[42 +: 137]), .q(dl_c_pt0_lam));
     // c_pt0_mul141: fp_mul @46/46/46 -> @49/49/49 (contact: pt0_mul141 = linA_x * pt0_delta)
     logic [W-1:0] c_pt0_mul141;
     logic [2:0] fl_c_pt0_mul141;
@@ -3372,6 +3372,90 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_sub173 (.clk(clk), .d(c_pt0_sub173), .valid(1'b0), .q(dl_c_pt0_sub173));
+    // c_pt0_vA_x = pt0_skip ? vA_x : pt0_add144   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_x;
+    assign c_pt0_vA_x = dl_c_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_c_pt0_add144;
+    logic [3*W-1:0] dl_c_pt0_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_x (.clk(clk), .d(c_pt0_vA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_x));
+    // c_pt0_vA_y = pt0_skip ? vA_y : pt0_add145   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_y;
+    assign c_pt0_vA_y = dl_c_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_c_pt0_add145;
+    logic [3*W-1:0] dl_c_pt0_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_y (.clk(clk), .d(c_pt0_vA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_y));
+    // c_pt0_vA_z = pt0_skip ? vA_z : pt0_add146   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_z;
+    assign c_pt0_vA_z = dl_c_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_c_pt0_add146;
+    logic [3*W-1:0] dl_c_pt0_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_z (.clk(clk), .d(c_pt0_vA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_z));
+    // c_pt0_wA_x = pt0_skip ? wA_x : pt0_add153   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_x;
+    assign c_pt0_wA_x = dl_c_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_c_pt0_add153;
+    logic [3*W-1:0] dl_c_pt0_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_x (.clk(clk), .d(c_pt0_wA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_x));
+    // c_pt0_wA_y = pt0_skip ? wA_y : pt0_add154   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_y;
+    assign c_pt0_wA_y = dl_c_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_c_pt0_add154;
+    logic [3*W-1:0] dl_c_pt0_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_y (.clk(clk), .d(c_pt0_wA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_y));
+    // c_pt0_wA_z = pt0_skip ? wA_z : pt0_add155   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_z;
+    assign c_pt0_wA_z = dl_c_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_c_pt0_add155;
+    logic [3*W-1:0] dl_c_pt0_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_z (.clk(clk), .d(c_pt0_wA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_z));
+    // c_pt0_vB_x = pt0_skip ? vB_x : pt0_sub162   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_x;
+    assign c_pt0_vB_x = dl_c_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_c_pt0_sub162;
+    logic [3*W-1:0] dl_c_pt0_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_x (.clk(clk), .d(c_pt0_vB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_x));
+    // c_pt0_vB_y = pt0_skip ? vB_y : pt0_sub163   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_y;
+    assign c_pt0_vB_y = dl_c_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_c_pt0_sub163;
+    logic [3*W-1:0] dl_c_pt0_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_y (.clk(clk), .d(c_pt0_vB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_y));
+    // c_pt0_vB_z = pt0_skip ? vB_z : pt0_sub164   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_z;
+    assign c_pt0_vB_z = dl_c_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_c_pt0_sub164;
+    logic [3*W-1:0] dl_c_pt0_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_z (.clk(clk), .d(c_pt0_vB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_z));
+    // c_pt0_wB_x = pt0_skip ? wB_x : pt0_sub171   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_x;
+    assign c_pt0_wB_x = dl_c_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_c_pt0_sub171;
+    logic [3*W-1:0] dl_c_pt0_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_x (.clk(clk), .d(c_pt0_wB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_x));
+    // c_pt0_wB_y = pt0_skip ? wB_y : pt0_sub172   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_y;
+    assign c_pt0_wB_y = dl_c_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_c_pt0_sub172;
+    logic [3*W-1:0] dl_c_pt0_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_y (.clk(clk), .d(c_pt0_wB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_y));
+    // c_pt0_wB_z = pt0_skip ? wB_z : pt0_sub173   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_z;
+    assign c_pt0_wB_z = dl_c_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_c_pt0_sub173;
+    logic [3*W-1:0] dl_c_pt0_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_z (.clk(clk), .d(c_pt0_wB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_z));
     // c_pt1_mul202: fp_mul @53/53/53 -> @56/56/56 (contact: pt1_mul202 = n_x * pt0_vA_x)
     logic [W-1:0] c_pt1_mul202;
     logic [2:0] fl_c_pt1_mul202;
@@ -3540,90 +3624,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_mul221 (.clk(clk), .d(c_pt1_mul221), .valid(valid_c_q[56 +: 4]), .q(dl_c_pt1_mul221));
-    // c_pt0_vA_x = pt0_skip ? vA_x : pt0_add144   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_x;
-    assign c_pt0_vA_x = dl_c_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_c_pt0_add144;
-    logic [3*W-1:0] dl_c_pt0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_x (.clk(clk), .d(c_pt0_vA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_x));
-    // c_pt0_vA_y = pt0_skip ? vA_y : pt0_add145   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_y;
-    assign c_pt0_vA_y = dl_c_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_c_pt0_add145;
-    logic [3*W-1:0] dl_c_pt0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_y (.clk(clk), .d(c_pt0_vA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_y));
-    // c_pt0_vA_z = pt0_skip ? vA_z : pt0_add146   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_z;
-    assign c_pt0_vA_z = dl_c_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_c_pt0_add146;
-    logic [3*W-1:0] dl_c_pt0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_z (.clk(clk), .d(c_pt0_vA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_z));
-    // c_pt0_wA_x = pt0_skip ? wA_x : pt0_add153   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_x;
-    assign c_pt0_wA_x = dl_c_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_c_pt0_add153;
-    logic [3*W-1:0] dl_c_pt0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_x (.clk(clk), .d(c_pt0_wA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_x));
-    // c_pt0_wA_y = pt0_skip ? wA_y : pt0_add154   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_y;
-    assign c_pt0_wA_y = dl_c_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_c_pt0_add154;
-    logic [3*W-1:0] dl_c_pt0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_y (.clk(clk), .d(c_pt0_wA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_y));
-    // c_pt0_wA_z = pt0_skip ? wA_z : pt0_add155   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_z;
-    assign c_pt0_wA_z = dl_c_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_c_pt0_add155;
-    logic [3*W-1:0] dl_c_pt0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_z (.clk(clk), .d(c_pt0_wA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_z));
-    // c_pt0_vB_x = pt0_skip ? vB_x : pt0_sub162   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_x;
-    assign c_pt0_vB_x = dl_c_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_c_pt0_sub162;
-    logic [3*W-1:0] dl_c_pt0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_x (.clk(clk), .d(c_pt0_vB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_x));
-    // c_pt0_vB_y = pt0_skip ? vB_y : pt0_sub163   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_y;
-    assign c_pt0_vB_y = dl_c_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_c_pt0_sub163;
-    logic [3*W-1:0] dl_c_pt0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_y (.clk(clk), .d(c_pt0_vB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_y));
-    // c_pt0_vB_z = pt0_skip ? vB_z : pt0_sub164   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_z;
-    assign c_pt0_vB_z = dl_c_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_c_pt0_sub164;
-    logic [3*W-1:0] dl_c_pt0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_z (.clk(clk), .d(c_pt0_vB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_z));
-    // c_pt0_wB_x = pt0_skip ? wB_x : pt0_sub171   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_x;
-    assign c_pt0_wB_x = dl_c_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_c_pt0_sub171;
-    logic [3*W-1:0] dl_c_pt0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_x (.clk(clk), .d(c_pt0_wB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_x));
-    // c_pt0_wB_y = pt0_skip ? wB_y : pt0_sub172   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_y;
-    assign c_pt0_wB_y = dl_c_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_c_pt0_sub172;
-    logic [3*W-1:0] dl_c_pt0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_y (.clk(clk), .d(c_pt0_wB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_y));
-    // c_pt0_wB_z = pt0_skip ? wB_z : pt0_sub173   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_z;
-    assign c_pt0_wB_z = dl_c_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_c_pt0_sub173;
-    logic [3*W-1:0] dl_c_pt0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_z (.clk(clk), .d(c_pt0_wB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_z));
     // c_pt1_add204: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add204 = pt1_mul202 + pt1_mul203)
     logic [W-1:0] c_pt1_add204;
     logic [2:0] fl_c_pt1_add204;
@@ -3820,6 +3820,27 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_sub223 (.clk(clk), .d(c_pt1_sub223), .valid(1'b0), .q(dl_c_pt1_sub223));
+    // f_basis_t0_x = basis_use_z ? 0.0 : basis_px_x   (friction; ready @65/39/33)
+    logic [W-1:0] f_basis_t0_x;
+    assign f_basis_t0_x = dl_f_basis_use_z_lt[1] ? K_ZERO : dl_f_basis_px_x[1*W +: W];
+    logic [2*W-1:0] dl_f_basis_t0_x;
+    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)), .N_TAPS(2), .TAPS({32'((88) - (2*MAN_BITS + 19)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_t0_x (.clk(clk), .d(f_basis_t0_x), .valid(valid_f_q[2*MAN_BITS + 19 +: (((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) > 0 ? ((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) : 1)]), .q(dl_f_basis_t0_x));
+    // f_basis_t0_y = basis_use_z ? basis_pz_y : basis_px_y   (friction; ready @65/39/33)
+    logic [W-1:0] f_basis_t0_y;
+    assign f_basis_t0_y = dl_f_basis_use_z_lt[1] ? dl_f_basis_pz_y[1*W +: W] : dl_f_basis_px_y[1*W +: W];
+    logic [3*W-1:0] dl_f_basis_t0_y;
+    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)), .N_TAPS(3), .TAPS({32'((95) - (2*MAN_BITS + 19)), 32'((88) - (2*MAN_BITS + 19)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_t0_y (.clk(clk), .d(f_basis_t0_y), .valid(valid_f_q[2*MAN_BITS + 19 +: (((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) > 0 ? ((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) : 1)]), .q(dl_f_basis_t0_y));
+    // f_basis_t0_z = basis_use_z ? basis_pz_z : 0.0   (friction; ready @65/39/33)
+    logic [W-1:0] f_basis_t0_z;
+    assign f_basis_t0_z = dl_f_basis_use_z_lt[1] ? dl_f_basis_pz_z[1*W +: W] : K_ZERO;
+    logic [3*W-1:0] dl_f_basis_t0_z;
+    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)), .N_TAPS(3), .TAPS({32'((95) - (2*MAN_BITS + 19)), 32'((88) - (2*MAN_BITS + 19)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_t0_z (.clk(clk), .d(f_basis_t0_z), .valid(valid_f_q[2*MAN_BITS + 19 +: (((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) > 0 ? ((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) : 1)]), .q(dl_f_basis_t0_z));
     // f_t0_mul92: fp_mul @65/39/33 -> @68/42/36 (friction: t0_mul92 = rA_y * basis_t0_z)
     logic [W-1:0] f_t0_mul92;
     logic [2:0] fl_f_t0_mul92;
@@ -4072,27 +4093,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 26) - (2*MAN_BITS + 22)),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_mul118 (.clk(clk), .d(f_t0_mul118), .valid(valid_f_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 26) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 26) - (2*MAN_BITS + 22)) : 1)]), .q(dl_f_t0_mul118));
-    // f_basis_t0_x = basis_use_z ? 0.0 : basis_px_x   (friction; ready @65/39/33)
-    logic [W-1:0] f_basis_t0_x;
-    assign f_basis_t0_x = dl_f_basis_use_z_lt[1] ? K_ZERO : dl_f_basis_px_x[1*W +: W];
-    logic [2*W-1:0] dl_f_basis_t0_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)), .N_TAPS(2), .TAPS({32'((88) - (2*MAN_BITS + 19)), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_t0_x (.clk(clk), .d(f_basis_t0_x), .valid(valid_f_q[2*MAN_BITS + 19 +: (((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) > 0 ? ((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) : 1)]), .q(dl_f_basis_t0_x));
-    // f_basis_t0_y = basis_use_z ? basis_pz_y : basis_px_y   (friction; ready @65/39/33)
-    logic [W-1:0] f_basis_t0_y;
-    assign f_basis_t0_y = dl_f_basis_use_z_lt[1] ? dl_f_basis_pz_y[1*W +: W] : dl_f_basis_px_y[1*W +: W];
-    logic [3*W-1:0] dl_f_basis_t0_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)), .N_TAPS(3), .TAPS({32'((95) - (2*MAN_BITS + 19)), 32'((88) - (2*MAN_BITS + 19)), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_t0_y (.clk(clk), .d(f_basis_t0_y), .valid(valid_f_q[2*MAN_BITS + 19 +: (((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) > 0 ? ((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) : 1)]), .q(dl_f_basis_t0_y));
-    // f_basis_t0_z = basis_use_z ? basis_pz_z : 0.0   (friction; ready @65/39/33)
-    logic [W-1:0] f_basis_t0_z;
-    assign f_basis_t0_z = dl_f_basis_use_z_lt[1] ? dl_f_basis_pz_z[1*W +: W] : K_ZERO;
-    logic [3*W-1:0] dl_f_basis_t0_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)), .N_TAPS(3), .TAPS({32'((95) - (2*MAN_BITS + 19)), 32'((88) - (2*MAN_BITS + 19)), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_t0_z (.clk(clk), .d(f_basis_t0_z), .valid(valid_f_q[2*MAN_BITS + 19 +: (((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) > 0 ? ((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) : 1)]), .q(dl_f_basis_t0_z));
     // c_pt1_vrel: fp_add @68/68/68 -> @72/72/72 (contact: pt1_vrel = pt1_sub212 + pt1_sub223)
     logic [W-1:0] c_pt1_vrel;
     logic [2:0] fl_c_pt1_vrel;
@@ -4395,6 +4395,13 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(86, 2*MAN_BITS + 33)) - (86)),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_mul124 (.clk(clk), .d(f_t0_mul124), .valid(valid_f_q[86 +: (((pgs_fp_pkg::tmax(86, 2*MAN_BITS + 33)) - (86)) > 0 ? ((pgs_fp_pkg::tmax(86, 2*MAN_BITS + 33)) - (86)) : 1)]), .q(dl_f_t0_mul124));
+    // c_pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (contact; ready @84/84/84)
+    logic [W-1:0] c_pt1_lam;
+    assign c_pt1_lam = dl_c_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_c_pt1_lam_new_max;
+    logic [W-1:0] dl_c_pt1_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(95),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_lam (.clk(clk), .d(c_pt1_lam), .valid(valid_c_q[84 +: 95]), .q(dl_c_pt1_lam));
     // c_pt1_delta: fp_add @84/84/84 -> @88/88/88 (contact: pt1_delta = pt1_lam_new - lam1; friction: t0_add114 = t0_add112 + t0_mul113)
     logic [W-1:0] c_pt1_delta_a;
     assign c_pt1_delta_a = kind_q[84] ? dl_f_t0_add112 : dl_c_pt1_lam_new_max;
@@ -4413,13 +4420,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(3), .N_TAPS(2), .TAPS({32'(3), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_delta (.clk(clk), .d(c_pt1_delta), .valid(valid_q[88 +: 3]), .q(dl_c_pt1_delta));
-    // c_pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (contact; ready @84/84/84)
-    logic [W-1:0] c_pt1_lam;
-    assign c_pt1_lam = dl_c_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_c_pt1_lam_new_max;
-    logic [W-1:0] dl_c_pt1_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(95),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_lam (.clk(clk), .d(c_pt1_lam), .valid(valid_c_q[84 +: 95]), .q(dl_c_pt1_lam));
     // f_t0_add125: fp_add @86/86/86 -> @90/90/90 (friction: t0_add125 = t0_add123 + t0_mul124)
     logic [W-1:0] f_t0_add125;
     logic [2:0] fl_f_t0_add125;
@@ -4650,6 +4650,27 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(2), .TAPS({32'(21), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_mul267 (.clk(clk), .d(c_pt1_mul267), .valid(valid_q[91 +: 21]), .q(dl_c_pt1_mul267));
+    // f_basis_t1_x = basis_use_z ? basis_qz_x : basis_qx_x   (friction; ready @91/91/91)
+    logic [W-1:0] f_basis_t1_x;
+    assign f_basis_t1_x = dl_f_basis_use_z_lt[2] ? dl_c_pt1_delta0[1*W +: W] : dl_c_pt1_mul240;
+    logic [5*W-1:0] dl_f_basis_t1_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(5), .TAPS({32'(39), 32'(27), 32'(28), 32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_t1_x (.clk(clk), .d(f_basis_t1_x), .valid(valid_f_q[91 +: 39]), .q(dl_f_basis_t1_x));
+    // f_basis_t1_y = basis_use_z ? basis_qz_y : basis_qx_y   (friction; ready @91/91/91)
+    logic [W-1:0] f_basis_t1_y;
+    assign f_basis_t1_y = dl_f_basis_use_z_lt[2] ? dl_c_pt1_mul238 : dl_c_pt1_mul247;
+    logic [4*W-1:0] dl_f_basis_t1_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(4), .TAPS({32'(39), 32'(28), 32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_t1_y (.clk(clk), .d(f_basis_t1_y), .valid(valid_f_q[91 +: 39]), .q(dl_f_basis_t1_y));
+    // f_basis_t1_z = basis_use_z ? basis_qz_z : basis_qx_z   (friction; ready @91/91/91)
+    logic [W-1:0] f_basis_t1_z;
+    assign f_basis_t1_z = dl_f_basis_use_z_lt[2] ? dl_c_pt1_mul239 : dl_c_pt1_mul248;
+    logic [4*W-1:0] dl_f_basis_t1_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(4), .TAPS({32'(39), 32'(28), 32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_t1_z (.clk(clk), .d(f_basis_t1_z), .valid(valid_f_q[91 +: 39]), .q(dl_f_basis_t1_z));
     // c_pt1_add241: fp_add @91/91/91 -> @95/95/95 (contact: pt1_add241 = pt0_vA_x + pt1_mul238; friction: t0_sub120 = t0_add114 - t0_add119)
     logic [W-1:0] c_pt1_add241_a;
     assign c_pt1_add241_a = kind_q[91] ? dl_c_pt1_delta[1*W +: W] : dl_c_pt0_vA_x[1*W +: W];
@@ -4896,27 +4917,90 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(8),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_mul205 (.clk(clk), .d(f_t1_mul205), .valid(valid_f_q[94 +: 8]), .q(dl_f_t1_mul205));
-    // f_basis_t1_x = basis_use_z ? basis_qz_x : basis_qx_x   (friction; ready @91/91/91)
-    logic [W-1:0] f_basis_t1_x;
-    assign f_basis_t1_x = dl_f_basis_use_z_lt[2] ? dl_c_pt1_delta0[1*W +: W] : dl_c_pt1_mul240;
-    logic [5*W-1:0] dl_f_basis_t1_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(5), .TAPS({32'(39), 32'(27), 32'(28), 32'(0), 32'(4)}),
+    // c_pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add241   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_x;
+    assign c_pt1_vA_x = dl_c_pt1_skip[1] ? dl_c_pt0_vA_x[2*W +: W] : dl_c_pt1_add241;
+    logic [3*W-1:0] dl_c_pt1_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_t1_x (.clk(clk), .d(f_basis_t1_x), .valid(valid_f_q[91 +: 39]), .q(dl_f_basis_t1_x));
-    // f_basis_t1_y = basis_use_z ? basis_qz_y : basis_qx_y   (friction; ready @91/91/91)
-    logic [W-1:0] f_basis_t1_y;
-    assign f_basis_t1_y = dl_f_basis_use_z_lt[2] ? dl_c_pt1_mul238 : dl_c_pt1_mul247;
-    logic [4*W-1:0] dl_f_basis_t1_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(4), .TAPS({32'(39), 32'(28), 32'(0), 32'(4)}),
+        u_dl_c_pt1_vA_x (.clk(clk), .d(c_pt1_vA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_x));
+    // c_pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add242   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_y;
+    assign c_pt1_vA_y = dl_c_pt1_skip[1] ? dl_c_pt0_vA_y[2*W +: W] : dl_c_pt1_add242;
+    logic [3*W-1:0] dl_c_pt1_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_t1_y (.clk(clk), .d(f_basis_t1_y), .valid(valid_f_q[91 +: 39]), .q(dl_f_basis_t1_y));
-    // f_basis_t1_z = basis_use_z ? basis_qz_z : basis_qx_z   (friction; ready @91/91/91)
-    logic [W-1:0] f_basis_t1_z;
-    assign f_basis_t1_z = dl_f_basis_use_z_lt[2] ? dl_c_pt1_mul239 : dl_c_pt1_mul248;
-    logic [4*W-1:0] dl_f_basis_t1_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(4), .TAPS({32'(39), 32'(28), 32'(0), 32'(4)}),
+        u_dl_c_pt1_vA_y (.clk(clk), .d(c_pt1_vA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_y));
+    // c_pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add243   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_z;
+    assign c_pt1_vA_z = dl_c_pt1_skip[1] ? dl_c_pt0_vA_z[2*W +: W] : dl_c_pt1_add243;
+    logic [3*W-1:0] dl_c_pt1_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_t1_z (.clk(clk), .d(f_basis_t1_z), .valid(valid_f_q[91 +: 39]), .q(dl_f_basis_t1_z));
+        u_dl_c_pt1_vA_z (.clk(clk), .d(c_pt1_vA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_z));
+    // c_pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add250   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_x;
+    assign c_pt1_wA_x = dl_c_pt1_skip[1] ? dl_c_pt0_wA_x[2*W +: W] : dl_c_pt1_add250;
+    logic [3*W-1:0] dl_c_pt1_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_x (.clk(clk), .d(c_pt1_wA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_x));
+    // c_pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add251   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_y;
+    assign c_pt1_wA_y = dl_c_pt1_skip[1] ? dl_c_pt0_wA_y[2*W +: W] : dl_c_pt1_add251;
+    logic [3*W-1:0] dl_c_pt1_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_y (.clk(clk), .d(c_pt1_wA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_y));
+    // c_pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add252   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_z;
+    assign c_pt1_wA_z = dl_c_pt1_skip[1] ? dl_c_pt0_wA_z[2*W +: W] : dl_c_pt1_add252;
+    logic [3*W-1:0] dl_c_pt1_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_z (.clk(clk), .d(c_pt1_wA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_z));
+    // c_pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub259   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_x;
+    assign c_pt1_vB_x = dl_c_pt1_skip[1] ? dl_c_pt0_vB_x[2*W +: W] : dl_c_pt1_sub259;
+    logic [3*W-1:0] dl_c_pt1_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_x (.clk(clk), .d(c_pt1_vB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_x));
+    // c_pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub260   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_y;
+    assign c_pt1_vB_y = dl_c_pt1_skip[1] ? dl_c_pt0_vB_y[2*W +: W] : dl_c_pt1_sub260;
+    logic [3*W-1:0] dl_c_pt1_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_y (.clk(clk), .d(c_pt1_vB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_y));
+    // c_pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub261   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_z;
+    assign c_pt1_vB_z = dl_c_pt1_skip[1] ? dl_c_pt0_vB_z[2*W +: W] : dl_c_pt1_sub261;
+    logic [3*W-1:0] dl_c_pt1_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_z (.clk(clk), .d(c_pt1_vB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_z));
+    // c_pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub268   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_x;
+    assign c_pt1_wB_x = dl_c_pt1_skip[1] ? dl_c_pt0_wB_x[2*W +: W] : dl_c_pt1_sub268;
+    logic [3*W-1:0] dl_c_pt1_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_x (.clk(clk), .d(c_pt1_wB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_x));
+    // c_pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub269   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_y;
+    assign c_pt1_wB_y = dl_c_pt1_skip[1] ? dl_c_pt0_wB_y[2*W +: W] : dl_c_pt1_sub269;
+    logic [3*W-1:0] dl_c_pt1_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_y (.clk(clk), .d(c_pt1_wB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_y));
+    // c_pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub270   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_z;
+    assign c_pt1_wB_z = dl_c_pt1_skip[1] ? dl_c_pt0_wB_z[2*W +: W] : dl_c_pt1_sub270;
+    logic [3*W-1:0] dl_c_pt1_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_z (.clk(clk), .d(c_pt1_wB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_z));
     // c_pt2_mul299: fp_mul @95/95/95 -> @98/98/98 (contact: pt2_mul299 = n_x * pt1_vA_x; friction: t0_linB_y = basis_t0_y * mInvB)
     logic [W-1:0] c_pt2_mul299_a;
     assign c_pt2_mul299_a = kind_q[95] ? dl_f_basis_t0_y[2*W +: W] : dl_in_n_x[3*W +: W];
@@ -5147,90 +5231,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_u (.clk(clk), .d(f_t0_u), .valid(1'b0), .q(dl_f_t0_u));
-    // c_pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add241   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_x;
-    assign c_pt1_vA_x = dl_c_pt1_skip[1] ? dl_c_pt0_vA_x[2*W +: W] : dl_c_pt1_add241;
-    logic [3*W-1:0] dl_c_pt1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_x (.clk(clk), .d(c_pt1_vA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_x));
-    // c_pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add242   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_y;
-    assign c_pt1_vA_y = dl_c_pt1_skip[1] ? dl_c_pt0_vA_y[2*W +: W] : dl_c_pt1_add242;
-    logic [3*W-1:0] dl_c_pt1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_y (.clk(clk), .d(c_pt1_vA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_y));
-    // c_pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add243   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_z;
-    assign c_pt1_vA_z = dl_c_pt1_skip[1] ? dl_c_pt0_vA_z[2*W +: W] : dl_c_pt1_add243;
-    logic [3*W-1:0] dl_c_pt1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_z (.clk(clk), .d(c_pt1_vA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_z));
-    // c_pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add250   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_x;
-    assign c_pt1_wA_x = dl_c_pt1_skip[1] ? dl_c_pt0_wA_x[2*W +: W] : dl_c_pt1_add250;
-    logic [3*W-1:0] dl_c_pt1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_x (.clk(clk), .d(c_pt1_wA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_x));
-    // c_pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add251   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_y;
-    assign c_pt1_wA_y = dl_c_pt1_skip[1] ? dl_c_pt0_wA_y[2*W +: W] : dl_c_pt1_add251;
-    logic [3*W-1:0] dl_c_pt1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_y (.clk(clk), .d(c_pt1_wA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_y));
-    // c_pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add252   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_z;
-    assign c_pt1_wA_z = dl_c_pt1_skip[1] ? dl_c_pt0_wA_z[2*W +: W] : dl_c_pt1_add252;
-    logic [3*W-1:0] dl_c_pt1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_z (.clk(clk), .d(c_pt1_wA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_z));
-    // c_pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub259   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_x;
-    assign c_pt1_vB_x = dl_c_pt1_skip[1] ? dl_c_pt0_vB_x[2*W +: W] : dl_c_pt1_sub259;
-    logic [3*W-1:0] dl_c_pt1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_x (.clk(clk), .d(c_pt1_vB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_x));
-    // c_pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub260   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_y;
-    assign c_pt1_vB_y = dl_c_pt1_skip[1] ? dl_c_pt0_vB_y[2*W +: W] : dl_c_pt1_sub260;
-    logic [3*W-1:0] dl_c_pt1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_y (.clk(clk), .d(c_pt1_vB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_y));
-    // c_pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub261   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_z;
-    assign c_pt1_vB_z = dl_c_pt1_skip[1] ? dl_c_pt0_vB_z[2*W +: W] : dl_c_pt1_sub261;
-    logic [3*W-1:0] dl_c_pt1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_z (.clk(clk), .d(c_pt1_vB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_z));
-    // c_pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub268   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_x;
-    assign c_pt1_wB_x = dl_c_pt1_skip[1] ? dl_c_pt0_wB_x[2*W +: W] : dl_c_pt1_sub268;
-    logic [3*W-1:0] dl_c_pt1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_x (.clk(clk), .d(c_pt1_wB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_x));
-    // c_pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub269   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_y;
-    assign c_pt1_wB_y = dl_c_pt1_skip[1] ? dl_c_pt0_wB_y[2*W +: W] : dl_c_pt1_sub269;
-    logic [3*W-1:0] dl_c_pt1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_y (.clk(clk), .d(c_pt1_wB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_y));
-    // c_pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub270   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_z;
-    assign c_pt1_wB_z = dl_c_pt1_skip[1] ? dl_c_pt0_wB_z[2*W +: W] : dl_c_pt1_sub270;
-    logic [3*W-1:0] dl_c_pt1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_z (.clk(clk), .d(c_pt1_wB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_z));
     // c_pt2_add301: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add301 = pt2_mul299 + pt2_mul300; friction: t1_cA_x = t1_mul189 - t1_mul190)
     logic [W-1:0] c_pt2_add301_a;
     assign c_pt2_add301_a = kind_q[98] ? dl_c_pt2_mul307[1*W +: W] : dl_c_pt2_mul299[0*W +: W];
@@ -5299,6 +5299,13 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(28), .N_TAPS(3), .TAPS({32'(28), 32'(17), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_add317 (.clk(clk), .d(c_pt2_add317), .valid(valid_q[102 +: 28]), .q(dl_c_pt2_add317));
+    // f_t0_neg133 = -t0_u   (friction; ready @99/99/99)
+    logic [W-1:0] f_t0_neg133;
+    assign f_t0_neg133 = {~dl_f_t0_u[W-1], dl_f_t0_u[W-2:0]};
+    logic [W-1:0] dl_f_t0_neg133;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_neg133 (.clk(clk), .d(f_t0_neg133), .valid(1'b0), .q(dl_f_t0_neg133));
     // f_t0_delta0: fp_mul @99/99/99 -> @102/102/102 (friction: t0_delta0 = t0_neg133 * f_jac_inv0)
     logic [W-1:0] f_t0_delta0;
     logic [2:0] fl_f_t0_delta0;
@@ -5313,13 +5320,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_delta0 (.clk(clk), .d(f_t0_delta0), .valid(1'b0), .q(dl_f_t0_delta0));
-    // f_t0_neg133 = -t0_u   (friction; ready @99/99/99)
-    logic [W-1:0] f_t0_neg133;
-    assign f_t0_neg133 = {~dl_f_t0_u[W-1], dl_f_t0_u[W-2:0]};
-    logic [W-1:0] dl_f_t0_neg133;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_neg133 (.clk(clk), .d(f_t0_neg133), .valid(1'b0), .q(dl_f_t0_neg133));
     // c_pt2_add303: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add303 = pt2_add301 + pt2_mul302; friction: t0_add135 = lamT0 + t0_delta0)
     logic [W-1:0] c_pt2_add303_a;
     assign c_pt2_add303_a = kind_q[102] ? dl_in_lamT0[0*W +: W] : dl_c_pt2_add301[0*W +: W];
@@ -5434,6 +5434,13 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_lam_new_min (.clk(clk), .d(f_t0_lam_new_min), .valid(1'b0), .q(dl_f_t0_lam_new_min));
+    // f_t0_lamT = skip ? lamT0 : t0_lam_new   (friction; ready @108/108/108)
+    logic [W-1:0] f_t0_lamT;
+    assign f_t0_lamT = dl_f_skip[0] ? dl_in_lamT0[1*W +: W] : dl_f_t0_lam_new_min;
+    logic [W-1:0] dl_f_t0_lamT;
+    pgs_delay #(.WIDTH(W), .DEPTH(71),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_lamT (.clk(clk), .d(f_t0_lamT), .valid(valid_f_q[108 +: 71]), .q(dl_f_t0_lamT));
     // f_t0_delta: fp_add @108/108/108 -> @112/112/112 (friction: t0_delta = t0_lam_new - lamT0)
     logic [W-1:0] f_t0_delta;
     logic [2:0] fl_f_t0_delta;
@@ -5448,13 +5455,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_delta (.clk(clk), .d(f_t0_delta), .valid(1'b0), .q(dl_f_t0_delta));
-    // f_t0_lamT = skip ? lamT0 : t0_lam_new   (friction; ready @108/108/108)
-    logic [W-1:0] f_t0_lamT;
-    assign f_t0_lamT = dl_f_skip[0] ? dl_in_lamT0[1*W +: W] : dl_f_t0_lam_new_min;
-    logic [W-1:0] dl_f_t0_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH(71),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_lamT (.clk(clk), .d(f_t0_lamT), .valid(valid_f_q[108 +: 71]), .q(dl_f_t0_lamT));
     // c_pt2_vrel: fp_add @110/110/110 -> @114/114/114 (contact: pt2_vrel = pt2_sub309 + pt2_sub320)
     logic [W-1:0] c_pt2_vrel;
     logic [2:0] fl_c_pt2_vrel;
@@ -5469,6 +5469,13 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_vrel (.clk(clk), .d(c_pt2_vrel), .valid(1'b0), .q(dl_c_pt2_vrel));
+    // f_t0_e = -t0_delta   (friction; ready @112/112/112)
+    logic [W-1:0] f_t0_e;
+    assign f_t0_e = {~dl_f_t0_delta[W-1], dl_f_t0_delta[W-2:0]};
+    logic [W-1:0] dl_f_t0_e;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_e (.clk(clk), .d(f_t0_e), .valid(1'b0), .q(dl_f_t0_e));
     // f_t0_mul144: fp_mul @112/112/112 -> @115/115/115 (friction: t0_mul144 = t0_linA_x * t0_e)
     logic [W-1:0] f_t0_mul144;
     logic [2:0] fl_f_t0_mul144;
@@ -5637,13 +5644,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_mul182 (.clk(clk), .d(f_t0_mul182), .valid(1'b0), .q(dl_f_t0_mul182));
-    // f_t0_e = -t0_delta   (friction; ready @112/112/112)
-    logic [W-1:0] f_t0_e;
-    assign f_t0_e = {~dl_f_t0_delta[W-1], dl_f_t0_delta[W-2:0]};
-    logic [W-1:0] dl_f_t0_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_e (.clk(clk), .d(f_t0_e), .valid(1'b0), .q(dl_f_t0_e));
     // c_pt2_add322: fp_add @114/114/114 -> @118/118/118 (contact: pt2_add322 = pt2_vrel + b2)
     logic [W-1:0] c_pt2_add322;
     logic [2:0] fl_c_pt2_add322;
@@ -5844,6 +5844,90 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(39), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_delta0 (.clk(clk), .d(c_pt2_delta0), .valid(valid_q[121 +: 39]), .q(dl_c_pt2_delta0));
+    // f_t0_vA_x = skip ? vA_x : t0_add147   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_vA_x;
+    assign f_t0_vA_x = dl_f_skip[1] ? dl_in_vA_x[5*W +: W] : dl_f_t0_add147;
+    logic [3*W-1:0] dl_f_t0_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(48), .N_TAPS(3), .TAPS({32'(48), 32'(44), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_x (.clk(clk), .d(f_t0_vA_x), .valid(valid_f_q[119 +: 48]), .q(dl_f_t0_vA_x));
+    // f_t0_vA_y = skip ? vA_y : t0_add148   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_vA_y;
+    assign f_t0_vA_y = dl_f_skip[1] ? dl_in_vA_y[5*W +: W] : dl_f_t0_add148;
+    logic [3*W-1:0] dl_f_t0_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_y (.clk(clk), .d(f_t0_vA_y), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vA_y));
+    // f_t0_vA_z = skip ? vA_z : t0_add149   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_vA_z;
+    assign f_t0_vA_z = dl_f_skip[1] ? dl_in_vA_z[5*W +: W] : dl_f_t0_add149;
+    logic [3*W-1:0] dl_f_t0_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_z (.clk(clk), .d(f_t0_vA_z), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vA_z));
+    // f_t0_wA_x = skip ? wA_x : t0_add159   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_wA_x;
+    assign f_t0_wA_x = dl_f_skip[1] ? dl_in_wA_x[5*W +: W] : dl_f_t0_add159;
+    logic [3*W-1:0] dl_f_t0_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_x (.clk(clk), .d(f_t0_wA_x), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wA_x));
+    // f_t0_wA_y = skip ? wA_y : t0_add160   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_wA_y;
+    assign f_t0_wA_y = dl_f_skip[1] ? dl_in_wA_y[5*W +: W] : dl_f_t0_add160;
+    logic [3*W-1:0] dl_f_t0_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_y (.clk(clk), .d(f_t0_wA_y), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wA_y));
+    // f_t0_wA_z = skip ? wA_z : t0_add161   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_wA_z;
+    assign f_t0_wA_z = dl_f_skip[1] ? dl_in_wA_z[5*W +: W] : dl_f_t0_add161;
+    logic [3*W-1:0] dl_f_t0_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(41), .N_TAPS(3), .TAPS({32'(41), 32'(37), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_z (.clk(clk), .d(f_t0_wA_z), .valid(valid_f_q[119 +: 41]), .q(dl_f_t0_wA_z));
+    // f_t0_vB_x = skip ? vB_x : t0_sub171   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_vB_x;
+    assign f_t0_vB_x = dl_f_skip[1] ? dl_in_vB_x[5*W +: W] : dl_f_t0_sub171;
+    logic [3*W-1:0] dl_f_t0_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_x (.clk(clk), .d(f_t0_vB_x), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vB_x));
+    // f_t0_vB_y = skip ? vB_y : t0_sub172   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_vB_y;
+    assign f_t0_vB_y = dl_f_skip[1] ? dl_in_vB_y[5*W +: W] : dl_f_t0_sub172;
+    logic [3*W-1:0] dl_f_t0_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_y (.clk(clk), .d(f_t0_vB_y), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vB_y));
+    // f_t0_vB_z = skip ? vB_z : t0_sub173   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_vB_z;
+    assign f_t0_vB_z = dl_f_skip[1] ? dl_in_vB_z[5*W +: W] : dl_f_t0_sub173;
+    logic [3*W-1:0] dl_f_t0_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_z (.clk(clk), .d(f_t0_vB_z), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vB_z));
+    // f_t0_wB_x = skip ? wB_x : t0_sub183   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_wB_x;
+    assign f_t0_wB_x = dl_f_skip[1] ? dl_in_wB_x[5*W +: W] : dl_f_t0_sub183;
+    logic [3*W-1:0] dl_f_t0_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_x (.clk(clk), .d(f_t0_wB_x), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wB_x));
+    // f_t0_wB_y = skip ? wB_y : t0_sub184   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_wB_y;
+    assign f_t0_wB_y = dl_f_skip[1] ? dl_in_wB_y[5*W +: W] : dl_f_t0_sub184;
+    logic [3*W-1:0] dl_f_t0_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_y (.clk(clk), .d(f_t0_wB_y), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wB_y));
+    // f_t0_wB_z = skip ? wB_z : t0_sub185   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_wB_z;
+    assign f_t0_wB_z = dl_f_skip[1] ? dl_in_wB_z[5*W +: W] : dl_f_t0_sub185;
+    logic [3*W-1:0] dl_f_t0_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_z (.clk(clk), .d(f_t0_wB_z), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wB_z));
     // f_t1_mul207: fp_mul @119/119/119 -> @122/122/122 (friction: t1_mul207 = basis_t1_x * t0_vA_x)
     logic [W-1:0] f_t1_mul207;
     logic [2:0] fl_f_t1_mul207;
@@ -6012,90 +6096,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_mul226 (.clk(clk), .d(f_t1_mul226), .valid(valid_f_q[122 +: 4]), .q(dl_f_t1_mul226));
-    // f_t0_vA_x = skip ? vA_x : t0_add147   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_vA_x;
-    assign f_t0_vA_x = dl_f_skip[1] ? dl_in_vA_x[5*W +: W] : dl_f_t0_add147;
-    logic [3*W-1:0] dl_f_t0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(48), .N_TAPS(3), .TAPS({32'(48), 32'(44), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_x (.clk(clk), .d(f_t0_vA_x), .valid(valid_f_q[119 +: 48]), .q(dl_f_t0_vA_x));
-    // f_t0_vA_y = skip ? vA_y : t0_add148   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_vA_y;
-    assign f_t0_vA_y = dl_f_skip[1] ? dl_in_vA_y[5*W +: W] : dl_f_t0_add148;
-    logic [3*W-1:0] dl_f_t0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_y (.clk(clk), .d(f_t0_vA_y), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vA_y));
-    // f_t0_vA_z = skip ? vA_z : t0_add149   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_vA_z;
-    assign f_t0_vA_z = dl_f_skip[1] ? dl_in_vA_z[5*W +: W] : dl_f_t0_add149;
-    logic [3*W-1:0] dl_f_t0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_z (.clk(clk), .d(f_t0_vA_z), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vA_z));
-    // f_t0_wA_x = skip ? wA_x : t0_add159   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_wA_x;
-    assign f_t0_wA_x = dl_f_skip[1] ? dl_in_wA_x[5*W +: W] : dl_f_t0_add159;
-    logic [3*W-1:0] dl_f_t0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_x (.clk(clk), .d(f_t0_wA_x), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wA_x));
-    // f_t0_wA_y = skip ? wA_y : t0_add160   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_wA_y;
-    assign f_t0_wA_y = dl_f_skip[1] ? dl_in_wA_y[5*W +: W] : dl_f_t0_add160;
-    logic [3*W-1:0] dl_f_t0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_y (.clk(clk), .d(f_t0_wA_y), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wA_y));
-    // f_t0_wA_z = skip ? wA_z : t0_add161   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_wA_z;
-    assign f_t0_wA_z = dl_f_skip[1] ? dl_in_wA_z[5*W +: W] : dl_f_t0_add161;
-    logic [3*W-1:0] dl_f_t0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(41), .N_TAPS(3), .TAPS({32'(41), 32'(37), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_z (.clk(clk), .d(f_t0_wA_z), .valid(valid_f_q[119 +: 41]), .q(dl_f_t0_wA_z));
-    // f_t0_vB_x = skip ? vB_x : t0_sub171   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_vB_x;
-    assign f_t0_vB_x = dl_f_skip[1] ? dl_in_vB_x[5*W +: W] : dl_f_t0_sub171;
-    logic [3*W-1:0] dl_f_t0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_x (.clk(clk), .d(f_t0_vB_x), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vB_x));
-    // f_t0_vB_y = skip ? vB_y : t0_sub172   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_vB_y;
-    assign f_t0_vB_y = dl_f_skip[1] ? dl_in_vB_y[5*W +: W] : dl_f_t0_sub172;
-    logic [3*W-1:0] dl_f_t0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_y (.clk(clk), .d(f_t0_vB_y), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vB_y));
-    // f_t0_vB_z = skip ? vB_z : t0_sub173   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_vB_z;
-    assign f_t0_vB_z = dl_f_skip[1] ? dl_in_vB_z[5*W +: W] : dl_f_t0_sub173;
-    logic [3*W-1:0] dl_f_t0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_z (.clk(clk), .d(f_t0_vB_z), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vB_z));
-    // f_t0_wB_x = skip ? wB_x : t0_sub183   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_wB_x;
-    assign f_t0_wB_x = dl_f_skip[1] ? dl_in_wB_x[5*W +: W] : dl_f_t0_sub183;
-    logic [3*W-1:0] dl_f_t0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_x (.clk(clk), .d(f_t0_wB_x), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wB_x));
-    // f_t0_wB_y = skip ? wB_y : t0_sub184   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_wB_y;
-    assign f_t0_wB_y = dl_f_skip[1] ? dl_in_wB_y[5*W +: W] : dl_f_t0_sub184;
-    logic [3*W-1:0] dl_f_t0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_y (.clk(clk), .d(f_t0_wB_y), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wB_y));
-    // f_t0_wB_z = skip ? wB_z : t0_sub185   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_wB_z;
-    assign f_t0_wB_z = dl_f_skip[1] ? dl_in_wB_z[5*W +: W] : dl_f_t0_sub185;
-    logic [3*W-1:0] dl_f_t0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_z (.clk(clk), .d(f_t0_wB_z), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wB_z));
     // c_pt2_add325: fp_add @121/121/121 -> @125/125/125 (contact: pt2_add325 = pt2_lam_kept + pt2_delta0)
     logic [W-1:0] c_pt2_add325;
     logic [2:0] fl_c_pt2_add325;
@@ -6176,6 +6176,13 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_lam_new_max (.clk(clk), .d(c_pt2_lam_new_max), .valid(1'b0), .q(dl_c_pt2_lam_new_max));
+    // c_pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (contact; ready @126/126/126)
+    logic [W-1:0] c_pt2_lam;
+    assign c_pt2_lam = dl_c_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_c_pt2_lam_new_max;
+    logic [W-1:0] dl_c_pt2_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(53),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_lam (.clk(clk), .d(c_pt2_lam), .valid(valid_c_q[126 +: 53]), .q(dl_c_pt2_lam));
     // c_pt2_delta: fp_add @126/126/126 -> @130/130/130 (contact: pt2_delta = pt2_lam_new - lam2; friction: t1_add211 = t1_add209 + t1_mul210)
     logic [W-1:0] c_pt2_delta_a;
     assign c_pt2_delta_a = kind_q[126] ? dl_f_t1_add209 : dl_c_pt2_lam_new_max;
@@ -6236,13 +6243,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_add227 (.clk(clk), .d(f_t1_add227), .valid(1'b0), .q(dl_f_t1_add227));
-    // c_pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (contact; ready @126/126/126)
-    logic [W-1:0] c_pt2_lam;
-    assign c_pt2_lam = dl_c_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_c_pt2_lam_new_max;
-    logic [W-1:0] dl_c_pt2_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(53),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_lam (.clk(clk), .d(c_pt2_lam), .valid(valid_c_q[126 +: 53]), .q(dl_c_pt2_lam));
     // c_pt2_mul335: fp_mul @130/130/130 -> @133/133/133 (contact: pt2_mul335 = linA_x * pt2_delta; friction: t1_linA_y = basis_t1_y * mInvA)
     logic [W-1:0] c_pt2_mul335_a;
     assign c_pt2_mul335_a = kind_q[130] ? dl_f_basis_t1_y[3*W +: W] : dl_c_linA_x[2*W +: W];
@@ -6665,6 +6665,90 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_u (.clk(clk), .d(f_t1_u), .valid(1'b0), .q(dl_f_t1_u));
+    // c_pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add338   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_x;
+    assign c_pt2_vA_x = dl_c_pt2_skip[1] ? dl_c_pt1_vA_x[2*W +: W] : dl_c_pt2_add338;
+    logic [3*W-1:0] dl_c_pt2_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_x (.clk(clk), .d(c_pt2_vA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_x));
+    // c_pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add339   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_y;
+    assign c_pt2_vA_y = dl_c_pt2_skip[1] ? dl_c_pt1_vA_y[2*W +: W] : dl_c_pt2_add339;
+    logic [3*W-1:0] dl_c_pt2_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_y (.clk(clk), .d(c_pt2_vA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_y));
+    // c_pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add340   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_z;
+    assign c_pt2_vA_z = dl_c_pt2_skip[1] ? dl_c_pt1_vA_z[2*W +: W] : dl_c_pt2_add340;
+    logic [3*W-1:0] dl_c_pt2_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_z (.clk(clk), .d(c_pt2_vA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_z));
+    // c_pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add347   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_x;
+    assign c_pt2_wA_x = dl_c_pt2_skip[1] ? dl_c_pt1_wA_x[2*W +: W] : dl_c_pt2_add347;
+    logic [3*W-1:0] dl_c_pt2_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_x (.clk(clk), .d(c_pt2_wA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_x));
+    // c_pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add348   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_y;
+    assign c_pt2_wA_y = dl_c_pt2_skip[1] ? dl_c_pt1_wA_y[2*W +: W] : dl_c_pt2_add348;
+    logic [3*W-1:0] dl_c_pt2_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_y (.clk(clk), .d(c_pt2_wA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_y));
+    // c_pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add349   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_z;
+    assign c_pt2_wA_z = dl_c_pt2_skip[1] ? dl_c_pt1_wA_z[2*W +: W] : dl_c_pt2_add349;
+    logic [3*W-1:0] dl_c_pt2_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_z (.clk(clk), .d(c_pt2_wA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_z));
+    // c_pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub356   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_x;
+    assign c_pt2_vB_x = dl_c_pt2_skip[1] ? dl_c_pt1_vB_x[2*W +: W] : dl_c_pt2_sub356;
+    logic [3*W-1:0] dl_c_pt2_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_x (.clk(clk), .d(c_pt2_vB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_x));
+    // c_pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub357   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_y;
+    assign c_pt2_vB_y = dl_c_pt2_skip[1] ? dl_c_pt1_vB_y[2*W +: W] : dl_c_pt2_sub357;
+    logic [3*W-1:0] dl_c_pt2_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_y (.clk(clk), .d(c_pt2_vB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_y));
+    // c_pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub358   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_z;
+    assign c_pt2_vB_z = dl_c_pt2_skip[1] ? dl_c_pt1_vB_z[2*W +: W] : dl_c_pt2_sub358;
+    logic [3*W-1:0] dl_c_pt2_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_z (.clk(clk), .d(c_pt2_vB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_z));
+    // c_pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub365   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_x;
+    assign c_pt2_wB_x = dl_c_pt2_skip[1] ? dl_c_pt1_wB_x[2*W +: W] : dl_c_pt2_sub365;
+    logic [3*W-1:0] dl_c_pt2_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_x (.clk(clk), .d(c_pt2_wB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_x));
+    // c_pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub366   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_y;
+    assign c_pt2_wB_y = dl_c_pt2_skip[1] ? dl_c_pt1_wB_y[2*W +: W] : dl_c_pt2_sub366;
+    logic [3*W-1:0] dl_c_pt2_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_y (.clk(clk), .d(c_pt2_wB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_y));
+    // c_pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub367   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_z;
+    assign c_pt2_wB_z = dl_c_pt2_skip[1] ? dl_c_pt1_wB_z[2*W +: W] : dl_c_pt2_sub367;
+    logic [3*W-1:0] dl_c_pt2_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_z (.clk(clk), .d(c_pt2_wB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_z));
     // c_pt3_mul396: fp_mul @137/137/137 -> @140/140/140 (contact: pt3_mul396 = n_x * pt2_vA_x)
     logic [W-1:0] c_pt3_mul396;
     logic [2:0] fl_c_pt3_mul396;
@@ -6833,90 +6917,13 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_mul415 (.clk(clk), .d(c_pt3_mul415), .valid(valid_c_q[140 +: 4]), .q(dl_c_pt3_mul415));
-    // c_pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add338   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_x;
-    assign c_pt2_vA_x = dl_c_pt2_skip[1] ? dl_c_pt1_vA_x[2*W +: W] : dl_c_pt2_add338;
-    logic [3*W-1:0] dl_c_pt2_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+    // f_t1_neg230 = -t1_u   (friction; ready @138/138/138)
+    logic [W-1:0] f_t1_neg230;
+    assign f_t1_neg230 = {~dl_f_t1_u[W-1], dl_f_t1_u[W-2:0]};
+    logic [W-1:0] dl_f_t1_neg230;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_x (.clk(clk), .d(c_pt2_vA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_x));
-    // c_pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add339   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_y;
-    assign c_pt2_vA_y = dl_c_pt2_skip[1] ? dl_c_pt1_vA_y[2*W +: W] : dl_c_pt2_add339;
-    logic [3*W-1:0] dl_c_pt2_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_y (.clk(clk), .d(c_pt2_vA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_y));
-    // c_pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add340   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_z;
-    assign c_pt2_vA_z = dl_c_pt2_skip[1] ? dl_c_pt1_vA_z[2*W +: W] : dl_c_pt2_add340;
-    logic [3*W-1:0] dl_c_pt2_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_z (.clk(clk), .d(c_pt2_vA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_z));
-    // c_pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add347   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_x;
-    assign c_pt2_wA_x = dl_c_pt2_skip[1] ? dl_c_pt1_wA_x[2*W +: W] : dl_c_pt2_add347;
-    logic [3*W-1:0] dl_c_pt2_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_x (.clk(clk), .d(c_pt2_wA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_x));
-    // c_pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add348   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_y;
-    assign c_pt2_wA_y = dl_c_pt2_skip[1] ? dl_c_pt1_wA_y[2*W +: W] : dl_c_pt2_add348;
-    logic [3*W-1:0] dl_c_pt2_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_y (.clk(clk), .d(c_pt2_wA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_y));
-    // c_pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add349   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_z;
-    assign c_pt2_wA_z = dl_c_pt2_skip[1] ? dl_c_pt1_wA_z[2*W +: W] : dl_c_pt2_add349;
-    logic [3*W-1:0] dl_c_pt2_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_z (.clk(clk), .d(c_pt2_wA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_z));
-    // c_pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub356   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_x;
-    assign c_pt2_vB_x = dl_c_pt2_skip[1] ? dl_c_pt1_vB_x[2*W +: W] : dl_c_pt2_sub356;
-    logic [3*W-1:0] dl_c_pt2_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_x (.clk(clk), .d(c_pt2_vB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_x));
-    // c_pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub357   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_y;
-    assign c_pt2_vB_y = dl_c_pt2_skip[1] ? dl_c_pt1_vB_y[2*W +: W] : dl_c_pt2_sub357;
-    logic [3*W-1:0] dl_c_pt2_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_y (.clk(clk), .d(c_pt2_vB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_y));
-    // c_pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub358   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_z;
-    assign c_pt2_vB_z = dl_c_pt2_skip[1] ? dl_c_pt1_vB_z[2*W +: W] : dl_c_pt2_sub358;
-    logic [3*W-1:0] dl_c_pt2_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_z (.clk(clk), .d(c_pt2_vB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_z));
-    // c_pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub365   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_x;
-    assign c_pt2_wB_x = dl_c_pt2_skip[1] ? dl_c_pt1_wB_x[2*W +: W] : dl_c_pt2_sub365;
-    logic [3*W-1:0] dl_c_pt2_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_x (.clk(clk), .d(c_pt2_wB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_x));
-    // c_pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub366   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_y;
-    assign c_pt2_wB_y = dl_c_pt2_skip[1] ? dl_c_pt1_wB_y[2*W +: W] : dl_c_pt2_sub366;
-    logic [3*W-1:0] dl_c_pt2_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_y (.clk(clk), .d(c_pt2_wB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_y));
-    // c_pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub367   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_z;
-    assign c_pt2_wB_z = dl_c_pt2_skip[1] ? dl_c_pt1_wB_z[2*W +: W] : dl_c_pt2_sub367;
-    logic [3*W-1:0] dl_c_pt2_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_z (.clk(clk), .d(c_pt2_wB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_z));
+        u_dl_f_t1_neg230 (.clk(clk), .d(f_t1_neg230), .valid(1'b0), .q(dl_f_t1_neg230));
     // f_t1_delta0: fp_mul @138/138/138 -> @141/141/141 (friction: t1_delta0 = t1_neg230 * f_jac_inv1)
     logic [W-1:0] f_t1_delta0;
     logic [2:0] fl_f_t1_delta0;
@@ -6931,13 +6938,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_delta0 (.clk(clk), .d(f_t1_delta0), .valid(1'b0), .q(dl_f_t1_delta0));
-    // f_t1_neg230 = -t1_u   (friction; ready @138/138/138)
-    logic [W-1:0] f_t1_neg230;
-    assign f_t1_neg230 = {~dl_f_t1_u[W-1], dl_f_t1_u[W-2:0]};
-    logic [W-1:0] dl_f_t1_neg230;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_neg230 (.clk(clk), .d(f_t1_neg230), .valid(1'b0), .q(dl_f_t1_neg230));
     // c_pt3_add398: fp_add @140/140/140 -> @144/144/144 (contact: pt3_add398 = pt3_mul396 + pt3_mul397)
     logic [W-1:0] c_pt3_add398;
     logic [2:0] fl_c_pt3_add398;
@@ -7084,6 +7084,13 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_lam_new_min (.clk(clk), .d(f_t1_lam_new_min), .valid(1'b0), .q(dl_f_t1_lam_new_min));
+    // f_t1_lamT = skip ? lamT1 : t1_lam_new   (friction; ready @147/147/147)
+    logic [W-1:0] f_t1_lamT;
+    assign f_t1_lamT = dl_f_skip[2] ? dl_in_lamT1[1*W +: W] : dl_f_t1_lam_new_min;
+    logic [W-1:0] dl_f_t1_lamT;
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_lamT (.clk(clk), .d(f_t1_lamT), .valid(valid_f_q[147 +: 32]), .q(dl_f_t1_lamT));
     // f_t1_delta: fp_add @147/147/147 -> @151/151/151 (friction: t1_delta = t1_lam_new - lamT1)
     logic [W-1:0] f_t1_delta;
     logic [2:0] fl_f_t1_delta;
@@ -7098,13 +7105,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_delta (.clk(clk), .d(f_t1_delta), .valid(1'b0), .q(dl_f_t1_delta));
-    // f_t1_lamT = skip ? lamT1 : t1_lam_new   (friction; ready @147/147/147)
-    logic [W-1:0] f_t1_lamT;
-    assign f_t1_lamT = dl_f_skip[2] ? dl_in_lamT1[1*W +: W] : dl_f_t1_lam_new_min;
-    logic [W-1:0] dl_f_t1_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH(32),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_lamT (.clk(clk), .d(f_t1_lamT), .valid(valid_f_q[147 +: 32]), .q(dl_f_t1_lamT));
     // c_pt3_sub406: fp_add @148/148/148 -> @152/152/152 (contact: pt3_sub406 = pt3_add400 - pt3_add405)
     logic [W-1:0] c_pt3_sub406;
     logic [2:0] fl_c_pt3_sub406;
@@ -7133,6 +7133,13 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_sub417 (.clk(clk), .d(c_pt3_sub417), .valid(1'b0), .q(dl_c_pt3_sub417));
+    // f_t1_e = -t1_delta   (friction; ready @151/151/151)
+    logic [W-1:0] f_t1_e;
+    assign f_t1_e = {~dl_f_t1_delta[W-1], dl_f_t1_delta[W-2:0]};
+    logic [3*W-1:0] dl_f_t1_e;
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(0), 32'(21), 32'(9)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_e (.clk(clk), .d(f_t1_e), .valid(valid_f_q[151 +: 21]), .q(dl_f_t1_e));
     // f_t1_mul253: fp_mul @151/151/151 -> @154/154/154 (friction: t1_mul253 = t1_angA_x * t1_e)
     logic [W-1:0] f_t1_mul253;
     logic [2:0] fl_f_t1_mul253;
@@ -7217,13 +7224,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_mul279 (.clk(clk), .d(f_t1_mul279), .valid(1'b0), .q(dl_f_t1_mul279));
-    // f_t1_e = -t1_delta   (friction; ready @151/151/151)
-    logic [W-1:0] f_t1_e;
-    assign f_t1_e = {~dl_f_t1_delta[W-1], dl_f_t1_delta[W-2:0]};
-    logic [3*W-1:0] dl_f_t1_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(0), 32'(21), 32'(9)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_e (.clk(clk), .d(f_t1_e), .valid(valid_f_q[151 +: 21]), .q(dl_f_t1_e));
     // c_pt3_vrel: fp_add @152/152/152 -> @156/156/156 (contact: pt3_vrel = pt3_sub406 + pt3_sub417)
     logic [W-1:0] c_pt3_vrel;
     logic [2:0] fl_c_pt3_vrel;
@@ -7326,6 +7326,41 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_add419 (.clk(clk), .d(c_pt3_add419), .valid(1'b0), .q(dl_c_pt3_add419));
+    // f_t1_wA_x = skip ? t0_wA_x : t1_add256   (friction; ready @158/158/158)
+    logic [W-1:0] f_t1_wA_x;
+    assign f_t1_wA_x = dl_f_skip[5] ? dl_f_t0_wA_x[2*W +: W] : dl_f_t1_add256;
+    logic [3*W-1:0] dl_f_t1_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wA_x (.clk(clk), .d(f_t1_wA_x), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wA_x));
+    // f_t1_wA_y = skip ? t0_wA_y : t1_add257   (friction; ready @158/158/158)
+    logic [W-1:0] f_t1_wA_y;
+    assign f_t1_wA_y = dl_f_skip[5] ? dl_f_t0_wA_y[2*W +: W] : dl_f_t1_add257;
+    logic [3*W-1:0] dl_f_t1_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wA_y (.clk(clk), .d(f_t1_wA_y), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wA_y));
+    // f_t1_wB_x = skip ? t0_wB_x : t1_sub280   (friction; ready @158/158/158)
+    logic [W-1:0] f_t1_wB_x;
+    assign f_t1_wB_x = dl_f_skip[5] ? dl_f_t0_wB_x[2*W +: W] : dl_f_t1_sub280;
+    logic [3*W-1:0] dl_f_t1_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wB_x (.clk(clk), .d(f_t1_wB_x), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wB_x));
+    // f_t1_wB_y = skip ? t0_wB_y : t1_sub281   (friction; ready @158/158/158)
+    logic [W-1:0] f_t1_wB_y;
+    assign f_t1_wB_y = dl_f_skip[5] ? dl_f_t0_wB_y[2*W +: W] : dl_f_t1_sub281;
+    logic [3*W-1:0] dl_f_t1_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wB_y (.clk(clk), .d(f_t1_wB_y), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wB_y));
+    // f_t1_wB_z = skip ? t0_wB_z : t1_sub282   (friction; ready @158/158/158)
+    logic [W-1:0] f_t1_wB_z;
+    assign f_t1_wB_z = dl_f_skip[5] ? dl_f_t0_wB_z[2*W +: W] : dl_f_t1_sub282;
+    logic [3*W-1:0] dl_f_t1_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wB_z (.clk(clk), .d(f_t1_wB_z), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wB_z));
     // f_spin_mul287: fp_mul @158/158/158 -> @161/161/161 (friction: spin_mul287 = n_x * t1_wA_x)
     logic [W-1:0] f_spin_mul287;
     logic [2:0] fl_f_spin_mul287;
@@ -7396,41 +7431,13 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul302 (.clk(clk), .d(f_spin_mul302), .valid(valid_f_q[161 +: 4]), .q(dl_f_spin_mul302));
-    // f_t1_wA_x = skip ? t0_wA_x : t1_add256   (friction; ready @158/158/158)
-    logic [W-1:0] f_t1_wA_x;
-    assign f_t1_wA_x = dl_f_skip[5] ? dl_f_t0_wA_x[2*W +: W] : dl_f_t1_add256;
-    logic [3*W-1:0] dl_f_t1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+    // f_t1_wA_z = skip ? t0_wA_z : t1_add258   (friction; ready @160/160/160)
+    logic [W-1:0] f_t1_wA_z;
+    assign f_t1_wA_z = dl_f_skip[6] ? dl_f_t0_wA_z[2*W +: W] : dl_c_pt3_add419;
+    logic [3*W-1:0] dl_f_t1_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(19), .N_TAPS(3), .TAPS({32'(19), 32'(15), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_x (.clk(clk), .d(f_t1_wA_x), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wA_x));
-    // f_t1_wA_y = skip ? t0_wA_y : t1_add257   (friction; ready @158/158/158)
-    logic [W-1:0] f_t1_wA_y;
-    assign f_t1_wA_y = dl_f_skip[5] ? dl_f_t0_wA_y[2*W +: W] : dl_f_t1_add257;
-    logic [3*W-1:0] dl_f_t1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_y (.clk(clk), .d(f_t1_wA_y), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wA_y));
-    // f_t1_wB_x = skip ? t0_wB_x : t1_sub280   (friction; ready @158/158/158)
-    logic [W-1:0] f_t1_wB_x;
-    assign f_t1_wB_x = dl_f_skip[5] ? dl_f_t0_wB_x[2*W +: W] : dl_f_t1_sub280;
-    logic [3*W-1:0] dl_f_t1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_x (.clk(clk), .d(f_t1_wB_x), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wB_x));
-    // f_t1_wB_y = skip ? t0_wB_y : t1_sub281   (friction; ready @158/158/158)
-    logic [W-1:0] f_t1_wB_y;
-    assign f_t1_wB_y = dl_f_skip[5] ? dl_f_t0_wB_y[2*W +: W] : dl_f_t1_sub281;
-    logic [3*W-1:0] dl_f_t1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_y (.clk(clk), .d(f_t1_wB_y), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wB_y));
-    // f_t1_wB_z = skip ? t0_wB_z : t1_sub282   (friction; ready @158/158/158)
-    logic [W-1:0] f_t1_wB_z;
-    assign f_t1_wB_z = dl_f_skip[5] ? dl_f_t0_wB_z[2*W +: W] : dl_f_t1_sub282;
-    logic [3*W-1:0] dl_f_t1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_z (.clk(clk), .d(f_t1_wB_z), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wB_z));
+        u_dl_f_t1_wA_z (.clk(clk), .d(f_t1_wA_z), .valid(valid_f_q[160 +: 19]), .q(dl_f_t1_wA_z));
     // c_pt3_delta0: fp_mul @160/160/160 -> @163/163/163 (contact: pt3_delta0 = pt3_add419 * jac_inv3; friction: t1_mul241 = t1_linA_x * t1_e)
     logic [W-1:0] c_pt3_delta0_a;
     assign c_pt3_delta0_a = kind_q[160] ? dl_c_pt2_delta0[1*W +: W] : dl_c_pt3_add419;
@@ -7463,13 +7470,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(2),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul290 (.clk(clk), .d(f_spin_mul290), .valid(valid_f_q[163 +: 2]), .q(dl_f_spin_mul290));
-    // f_t1_wA_z = skip ? t0_wA_z : t1_add258   (friction; ready @160/160/160)
-    logic [W-1:0] f_t1_wA_z;
-    assign f_t1_wA_z = dl_f_skip[6] ? dl_f_t0_wA_z[2*W +: W] : dl_c_pt3_add419;
-    logic [3*W-1:0] dl_f_t1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(19), .N_TAPS(3), .TAPS({32'(19), 32'(15), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_z (.clk(clk), .d(f_t1_wA_z), .valid(valid_f_q[160 +: 19]), .q(dl_f_t1_wA_z));
     // f_spin_add289: fp_add @161/161/161 -> @165/165/165 (friction: spin_add289 = spin_mul287 + spin_mul288)
     logic [W-1:0] f_spin_add289;
     logic [2:0] fl_f_spin_add289;
@@ -7542,6 +7542,13 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_add303 (.clk(clk), .d(f_spin_add303), .valid(1'b0), .q(dl_f_spin_add303));
+    // f_t1_vA_x = skip ? t0_vA_x : t1_add244   (friction; ready @167/167/167)
+    logic [W-1:0] f_t1_vA_x;
+    assign f_t1_vA_x = dl_f_skip[3] ? dl_f_t0_vA_x[2*W +: W] : dl_c_pt3_add422;
+    logic [W-1:0] dl_f_t1_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(12),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vA_x (.clk(clk), .d(f_t1_vA_x), .valid(valid_f_q[167 +: 12]), .q(dl_f_t1_vA_x));
     // c_pt3_lam_new: fp_minmax @167/167/167 -> @168/168/168 (contact: pt3_lam_new = max(pt3_add422, 0.0))
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_c_pt3_lam_new (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[167]), .a(dl_c_pt3_add422), .b(K_ZERO),
@@ -7552,13 +7559,13 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_lam_new_max (.clk(clk), .d(c_pt3_lam_new_max), .valid(1'b0), .q(dl_c_pt3_lam_new_max));
-    // f_t1_vA_x = skip ? t0_vA_x : t1_add244   (friction; ready @167/167/167)
-    logic [W-1:0] f_t1_vA_x;
-    assign f_t1_vA_x = dl_f_skip[3] ? dl_f_t0_vA_x[2*W +: W] : dl_c_pt3_add422;
-    logic [W-1:0] dl_f_t1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(12),
+    // c_pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (contact; ready @168/168/168)
+    logic [W-1:0] c_pt3_lam;
+    assign c_pt3_lam = dl_c_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_c_pt3_lam_new_max;
+    logic [W-1:0] dl_c_pt3_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vA_x (.clk(clk), .d(f_t1_vA_x), .valid(valid_f_q[167 +: 12]), .q(dl_f_t1_vA_x));
+        u_dl_c_pt3_lam (.clk(clk), .d(c_pt3_lam), .valid(valid_c_q[168 +: 11]), .q(dl_c_pt3_lam));
     // c_pt3_delta: fp_add @168/168/168 -> @172/172/172 (contact: pt3_delta = pt3_lam_new - lam3)
     logic [W-1:0] c_pt3_delta;
     logic [2:0] fl_c_pt3_delta;
@@ -7573,13 +7580,6 @@ module pgs_shared_pipe_soft_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_delta (.clk(clk), .d(c_pt3_delta), .valid(1'b0), .q(dl_c_pt3_delta));
-    // c_pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (contact; ready @168/168/168)
-    logic [W-1:0] c_pt3_lam;
-    assign c_pt3_lam = dl_c_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_c_pt3_lam_new_max;
-    logic [W-1:0] dl_c_pt3_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(11),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt3_lam (.clk(clk), .d(c_pt3_lam), .valid(valid_c_q[168 +: 11]), .q(dl_c_pt3_lam));
     // f_spin_sA: fp_mul @169/169/169 -> @172/172/172 (friction: spin_sA = spin_add291 * 0.1)
     logic [W-1:0] f_spin_sA;
     logic [2:0] fl_f_spin_sA;

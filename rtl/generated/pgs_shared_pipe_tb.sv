@@ -475,6 +475,83 @@ module pgs_shared_pipe_tb #(
     // Datapath in schedule order: the operators (each with the operation of every kind that uses it
     // and the cycles it issues and is ready at, for fp32 / fp16 / bf16) and the combinational nodes
     // of each kind; a value's delay line feeds every consumer at the consumer's issue cycle.
+    // c_pt0_skip = jac_inv0 == 0   (contact; ready @0/0/0)
+    logic c_pt0_skip;
+    assign c_pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt0_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_skip (.clk(clk), .d(c_pt0_skip), .valid(valid_c_q[0 +: 53]), .q(dl_c_pt0_skip));
+    // c_pt1_skip = jac_inv1 == 0   (contact; ready @0/0/0)
+    logic c_pt1_skip;
+    assign c_pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt1_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_skip (.clk(clk), .d(c_pt1_skip), .valid(valid_c_q[0 +: 95]), .q(dl_c_pt1_skip));
+    // c_pt2_skip = jac_inv2 == 0   (contact; ready @0/0/0)
+    logic c_pt2_skip;
+    assign c_pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt2_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_skip (.clk(clk), .d(c_pt2_skip), .valid(valid_c_q[0 +: 137]), .q(dl_c_pt2_skip));
+    // c_pt3_skip = jac_inv3 == 0   (contact; ready @0/0/0)
+    logic c_pt3_skip;
+    assign c_pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [2*1-1:0] dl_c_pt3_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt3_skip (.clk(clk), .d(c_pt3_skip), .valid(valid_c_q[0 +: 179]), .q(dl_c_pt3_skip));
+    // f_basis_m_x = -n_x   (friction; ready @0/0/0)
+    logic [W-1:0] f_basis_m_x;
+    assign f_basis_m_x = {~dl_in_n_x[0*W +: W][W-1], dl_in_n_x[0*W +: W][W-2:0]};
+    logic [3*W-1:0] dl_f_basis_m_x;
+    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'(88), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_m_x (.clk(clk), .d(f_basis_m_x), .valid(valid_f_q[0 +: (((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) > 0 ? ((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) : 1)]), .q(dl_f_basis_m_x));
+    // f_basis_m_y = -n_y   (friction; ready @0/0/0)
+    logic [W-1:0] f_basis_m_y;
+    assign f_basis_m_y = {~dl_in_n_y[0*W +: W][W-1], dl_in_n_y[0*W +: W][W-2:0]};
+    logic [2*W-1:0] dl_f_basis_m_y;
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_m_y (.clk(clk), .d(f_basis_m_y), .valid(valid_f_q[0 +: (((2*MAN_BITS + 16) - (0)) > 0 ? ((2*MAN_BITS + 16) - (0)) : 1)]), .q(dl_f_basis_m_y));
+    // f_basis_m_z = -n_z   (friction; ready @0/0/0)
+    logic [W-1:0] f_basis_m_z;
+    assign f_basis_m_z = {~dl_in_n_z[0*W +: W][W-1], dl_in_n_z[0*W +: W][W-2:0]};
+    logic [2*W-1:0] dl_f_basis_m_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(88), .N_TAPS(2), .TAPS({32'(88), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_m_z (.clk(clk), .d(f_basis_m_z), .valid(valid_f_q[0 +: 88]), .q(dl_f_basis_m_z));
+    // f_basis_neg48 = -basis_m_z   (friction; ready @0/0/0)
+    logic [W-1:0] f_basis_neg48;
+    assign f_basis_neg48 = {~dl_f_basis_m_z[0*W +: W][W-1], dl_f_basis_m_z[0*W +: W][W-2:0]};
+    logic [3*W-1:0] dl_f_basis_neg48;
+    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)), .N_TAPS(3), .TAPS({32'(88), 32'((2*MAN_BITS + 16) - (0)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_neg48 (.clk(clk), .d(f_basis_neg48), .valid(valid_f_q[0 +: (((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) > 0 ? ((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) : 1)]), .q(dl_f_basis_neg48));
+    // f_basis_neg60 = -basis_m_x   (friction; ready @0/0/0)
+    logic [W-1:0] f_basis_neg60;
+    assign f_basis_neg60 = {~dl_f_basis_m_x[0*W +: W][W-1], dl_f_basis_m_x[0*W +: W][W-2:0]};
+    logic [W-1:0] dl_f_basis_neg60;
+    pgs_delay #(.WIDTH(W), .DEPTH(88),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_neg60 (.clk(clk), .d(f_basis_neg60), .valid(valid_f_q[0 +: 88]), .q(dl_f_basis_neg60));
+    // f_basis_neg68 = -basis_m_y   (friction; ready @0/0/0)
+    logic [W-1:0] f_basis_neg68;
+    assign f_basis_neg68 = {~dl_f_basis_m_y[0*W +: W][W-1], dl_f_basis_m_y[0*W +: W][W-2:0]};
+    logic [W-1:0] dl_f_basis_neg68;
+    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_neg68 (.clk(clk), .d(f_basis_neg68), .valid(valid_f_q[0 +: (((2*MAN_BITS + 16) - (0)) > 0 ? ((2*MAN_BITS + 16) - (0)) : 1)]), .q(dl_f_basis_neg68));
+    // f_skip = f_jac_inv0 == 0   (friction; ready @0/0/0)
+    logic f_skip;
+    assign f_skip = (dl_in_p1_x__f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
+    logic [7*1-1:0] dl_f_skip;
+    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(7), .TAPS({32'(160), 32'(158), 32'(179), 32'(167), 32'(147), 32'(119), 32'(108)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_skip (.clk(clk), .d(f_skip), .valid(valid_f_q[0 +: 179]), .q(dl_f_skip));
     // c_linA_x: fp_mul @0/0/0 -> @3/3/3 (contact: linA_x = n_x * mInvA; friction: basis_mul51 = basis_m_y * basis_m_y)
     logic [W-1:0] c_linA_x_a;
     assign c_linA_x_a = kind_q[0] ? dl_f_basis_m_y[0*W +: W] : dl_in_n_x[0*W +: W];
@@ -1017,83 +1094,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_basis_max49_max (.clk(clk), .d(f_basis_max49_max), .valid(1'b0), .q(dl_f_basis_max49_max));
-    // c_pt0_skip = jac_inv0 == 0   (contact; ready @0/0/0)
-    logic c_pt0_skip;
-    assign c_pt0_skip = (dl_in_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt0_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(53), .N_TAPS(2), .TAPS({32'(53), 32'(42)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_skip (.clk(clk), .d(c_pt0_skip), .valid(valid_c_q[0 +: 53]), .q(dl_c_pt0_skip));
-    // c_pt1_skip = jac_inv1 == 0   (contact; ready @0/0/0)
-    logic c_pt1_skip;
-    assign c_pt1_skip = (dl_in_jac_inv1[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt1_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(95), .N_TAPS(2), .TAPS({32'(95), 32'(84)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_skip (.clk(clk), .d(c_pt1_skip), .valid(valid_c_q[0 +: 95]), .q(dl_c_pt1_skip));
-    // c_pt2_skip = jac_inv2 == 0   (contact; ready @0/0/0)
-    logic c_pt2_skip;
-    assign c_pt2_skip = (dl_in_jac_inv2[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt2_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(137), .N_TAPS(2), .TAPS({32'(137), 32'(126)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_skip (.clk(clk), .d(c_pt2_skip), .valid(valid_c_q[0 +: 137]), .q(dl_c_pt2_skip));
-    // c_pt3_skip = jac_inv3 == 0   (contact; ready @0/0/0)
-    logic c_pt3_skip;
-    assign c_pt3_skip = (dl_in_jac_inv3[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [2*1-1:0] dl_c_pt3_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(2), .TAPS({32'(179), 32'(168)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt3_skip (.clk(clk), .d(c_pt3_skip), .valid(valid_c_q[0 +: 179]), .q(dl_c_pt3_skip));
-    // f_basis_m_x = -n_x   (friction; ready @0/0/0)
-    logic [W-1:0] f_basis_m_x;
-    assign f_basis_m_x = {~dl_in_n_x[0*W +: W][W-1], dl_in_n_x[0*W +: W][W-2:0]};
-    logic [3*W-1:0] dl_f_basis_m_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)), .N_TAPS(3), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'(88), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_m_x (.clk(clk), .d(f_basis_m_x), .valid(valid_f_q[0 +: (((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) > 0 ? ((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) : 1)]), .q(dl_f_basis_m_x));
-    // f_basis_m_y = -n_y   (friction; ready @0/0/0)
-    logic [W-1:0] f_basis_m_y;
-    assign f_basis_m_y = {~dl_in_n_y[0*W +: W][W-1], dl_in_n_y[0*W +: W][W-2:0]};
-    logic [2*W-1:0] dl_f_basis_m_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)), .N_TAPS(2), .TAPS({32'((2*MAN_BITS + 16) - (0)), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_m_y (.clk(clk), .d(f_basis_m_y), .valid(valid_f_q[0 +: (((2*MAN_BITS + 16) - (0)) > 0 ? ((2*MAN_BITS + 16) - (0)) : 1)]), .q(dl_f_basis_m_y));
-    // f_basis_m_z = -n_z   (friction; ready @0/0/0)
-    logic [W-1:0] f_basis_m_z;
-    assign f_basis_m_z = {~dl_in_n_z[0*W +: W][W-1], dl_in_n_z[0*W +: W][W-2:0]};
-    logic [2*W-1:0] dl_f_basis_m_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(88), .N_TAPS(2), .TAPS({32'(88), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_m_z (.clk(clk), .d(f_basis_m_z), .valid(valid_f_q[0 +: 88]), .q(dl_f_basis_m_z));
-    // f_basis_neg48 = -basis_m_z   (friction; ready @0/0/0)
-    logic [W-1:0] f_basis_neg48;
-    assign f_basis_neg48 = {~dl_f_basis_m_z[0*W +: W][W-1], dl_f_basis_m_z[0*W +: W][W-2:0]};
-    logic [3*W-1:0] dl_f_basis_neg48;
-    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)), .N_TAPS(3), .TAPS({32'(88), 32'((2*MAN_BITS + 16) - (0)), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_neg48 (.clk(clk), .d(f_basis_neg48), .valid(valid_f_q[0 +: (((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) > 0 ? ((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 16)) - (0)) : 1)]), .q(dl_f_basis_neg48));
-    // f_basis_neg60 = -basis_m_x   (friction; ready @0/0/0)
-    logic [W-1:0] f_basis_neg60;
-    assign f_basis_neg60 = {~dl_f_basis_m_x[0*W +: W][W-1], dl_f_basis_m_x[0*W +: W][W-2:0]};
-    logic [W-1:0] dl_f_basis_neg60;
-    pgs_delay #(.WIDTH(W), .DEPTH(88),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_neg60 (.clk(clk), .d(f_basis_neg60), .valid(valid_f_q[0 +: 88]), .q(dl_f_basis_neg60));
-    // f_basis_neg68 = -basis_m_y   (friction; ready @0/0/0)
-    logic [W-1:0] f_basis_neg68;
-    assign f_basis_neg68 = {~dl_f_basis_m_y[0*W +: W][W-1], dl_f_basis_m_y[0*W +: W][W-2:0]};
-    logic [W-1:0] dl_f_basis_neg68;
-    pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 16) - (0)),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_neg68 (.clk(clk), .d(f_basis_neg68), .valid(valid_f_q[0 +: (((2*MAN_BITS + 16) - (0)) > 0 ? ((2*MAN_BITS + 16) - (0)) : 1)]), .q(dl_f_basis_neg68));
-    // f_skip = f_jac_inv0 == 0   (friction; ready @0/0/0)
-    logic f_skip;
-    assign f_skip = (dl_in_p1_x__f_jac_inv0[0*W +: W][W-2:MAN_BITS] == '0);   // subnormals read as zero
-    logic [7*1-1:0] dl_f_skip;
-    pgs_delay #(.WIDTH(1), .DEPTH(179), .N_TAPS(7), .TAPS({32'(160), 32'(158), 32'(179), 32'(167), 32'(147), 32'(119), 32'(108)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_skip (.clk(clk), .d(f_skip), .valid(valid_f_q[0 +: 179]), .q(dl_f_skip));
     // f_basis_use_z: fp_minmax @1/1/1 -> @2/2/2 (friction: basis_use_z = 0.70710678 < basis_max49)
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_f_basis_use_z (
         .clk(clk), .rst(rst), .in_valid(valid_f_q[1]), .a(K_SPLIT), .b(dl_f_basis_max49_max),
@@ -1812,6 +1812,20 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_mul371 (.clk(clk), .d(c_pt3_mul371), .valid(1'b0), .q(dl_c_pt3_mul371));
+    // f_basis_select54 = basis_use_z ? basis_a_z : 1.0   (friction; ready @7/7/7)
+    logic [W-1:0] f_basis_select54;
+    assign f_basis_select54 = dl_f_basis_use_z_lt[0] ? dl_c_pt0_add87[0*W +: W] : K_ONE;
+    logic [W-1:0] dl_f_basis_select54;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_select54 (.clk(clk), .d(f_basis_select54), .valid(1'b0), .q(dl_f_basis_select54));
+    // f_basis_select65 = basis_use_z ? 1.0 : basis_a_x   (friction; ready @7/7/7)
+    logic [W-1:0] f_basis_select65;
+    assign f_basis_select65 = dl_f_basis_use_z_lt[0] ? K_ONE : dl_c_pt0_add92[0*W +: W];
+    logic [W-1:0] dl_f_basis_select65;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_select65 (.clk(clk), .d(f_basis_select65), .valid(1'b0), .q(dl_f_basis_select65));
     // c_pt0_cA_x: fp_add @7/7/7 -> @11/11/11 (contact: pt0_cA_x = pt0_mul64 - pt0_mul65; friction: add83 = add81 + add82)
     logic [W-1:0] c_pt0_cA_x_a;
     assign c_pt0_cA_x_a = kind_q[7] ? dl_c_pt0_rA_x[1*W +: W] : dl_c_pt0_mul64;
@@ -2208,20 +2222,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_basis_sqrt66 (.clk(clk), .d(f_basis_sqrt66), .valid(1'b0), .q(dl_f_basis_sqrt66));
-    // f_basis_select54 = basis_use_z ? basis_a_z : 1.0   (friction; ready @7/7/7)
-    logic [W-1:0] f_basis_select54;
-    assign f_basis_select54 = dl_f_basis_use_z_lt[0] ? dl_c_pt0_add87[0*W +: W] : K_ONE;
-    logic [W-1:0] dl_f_basis_select54;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_select54 (.clk(clk), .d(f_basis_select54), .valid(1'b0), .q(dl_f_basis_select54));
-    // f_basis_select65 = basis_use_z ? 1.0 : basis_a_x   (friction; ready @7/7/7)
-    logic [W-1:0] f_basis_select65;
-    assign f_basis_select65 = dl_f_basis_use_z_lt[0] ? K_ONE : dl_c_pt0_add92[0*W +: W];
-    logic [W-1:0] dl_f_basis_select65;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_select65 (.clk(clk), .d(f_basis_select65), .valid(1'b0), .q(dl_f_basis_select65));
     // c_pt0_sub95: fp_add @11/11/11 -> @15/15/15 (contact: pt0_sub95 = pt0_add89 - pt0_add94)
     logic [W-1:0] c_pt0_sub95;
     logic [2:0] fl_c_pt0_sub95;
@@ -2658,6 +2658,13 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(158),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_angB_z (.clk(clk), .d(c_pt3_angB_z), .valid(valid_c_q[14 +: 158]), .q(dl_c_pt3_angB_z));
+    // f_neg_limit = -limit   (friction; ready @14/14/14)
+    logic [W-1:0] f_neg_limit;
+    assign f_neg_limit = {~dl_c_pt0_mul96[0*W +: W][W-1], dl_c_pt0_mul96[0*W +: W][W-2:0]};
+    logic [2*W-1:0] dl_f_neg_limit;
+    pgs_delay #(.WIDTH(W), .DEPTH(131), .N_TAPS(2), .TAPS({32'(131), 32'(92)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_neg_limit (.clk(clk), .d(f_neg_limit), .valid(valid_f_q[14 +: 131]), .q(dl_f_neg_limit));
     // c_pt0_add98: fp_add @14/14/14 -> @18/18/18 (contact: pt0_add98 = pt0_mul96 + pt0_mul97)
     logic [W-1:0] c_pt0_add98;
     logic [2:0] fl_c_pt0_add98;
@@ -2686,13 +2693,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_add103 (.clk(clk), .d(c_pt0_add103), .valid(1'b0), .q(dl_c_pt0_add103));
-    // f_neg_limit = -limit   (friction; ready @14/14/14)
-    logic [W-1:0] f_neg_limit;
-    assign f_neg_limit = {~dl_c_pt0_mul96[0*W +: W][W-1], dl_c_pt0_mul96[0*W +: W][W-2:0]};
-    logic [2*W-1:0] dl_f_neg_limit;
-    pgs_delay #(.WIDTH(W), .DEPTH(131), .N_TAPS(2), .TAPS({32'(131), 32'(92)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_neg_limit (.clk(clk), .d(f_neg_limit), .valid(valid_f_q[14 +: 131]), .q(dl_f_neg_limit));
     // c_pt0_add100: fp_add @18/18/18 -> @22/22/22 (contact: pt0_add100 = pt0_add98 + pt0_mul99)
     logic [W-1:0] c_pt0_add100;
     logic [2:0] fl_c_pt0_add100;
@@ -2829,6 +2829,13 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_lam_new_max (.clk(clk), .d(c_pt0_lam_new_max), .valid(1'b0), .q(dl_c_pt0_lam_new_max));
+    // c_pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (contact; ready @42/42/42)
+    logic [W-1:0] c_pt0_lam;
+    assign c_pt0_lam = dl_c_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_c_pt0_lam_new_max;
+    logic [W-1:0] dl_c_pt0_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(137),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_lam (.clk(clk), .d(c_pt0_lam), .valid(valid_c_q[42 +: 137]), .q(dl_c_pt0_lam));
     // c_pt0_delta: fp_add @42/42/42 -> @46/46/46 (contact: pt0_delta = pt0_lam_new - lam0)
     logic [W-1:0] c_pt0_delta;
     logic [2:0] fl_c_pt0_delta;
@@ -2843,13 +2850,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_delta (.clk(clk), .d(c_pt0_delta), .valid(1'b0), .q(dl_c_pt0_delta));
-    // c_pt0_lam = pt0_skip ? lam0 : pt0_lam_new   (contact; ready @42/42/42)
-    logic [W-1:0] c_pt0_lam;
-    assign c_pt0_lam = dl_c_pt0_skip[0] ? dl_in_lam0[1*W +: W] : dl_c_pt0_lam_new_max;
-    logic [W-1:0] dl_c_pt0_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(137),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_lam (.clk(clk), .d(c_pt0_lam), .valid(valid_c_q[42 +: 137]), .q(dl_c_pt0_lam));
     // c_pt0_mul120: fp_mul @46/46/46 -> @49/49/49 (contact: pt0_mul120 = linA_x * pt0_delta)
     logic [W-1:0] c_pt0_mul120;
     logic [2:0] fl_c_pt0_mul120;
@@ -3186,6 +3186,90 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt0_sub152 (.clk(clk), .d(c_pt0_sub152), .valid(1'b0), .q(dl_c_pt0_sub152));
+    // c_pt0_vA_x = pt0_skip ? vA_x : pt0_add123   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_x;
+    assign c_pt0_vA_x = dl_c_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_c_pt0_add123;
+    logic [3*W-1:0] dl_c_pt0_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_x (.clk(clk), .d(c_pt0_vA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_x));
+    // c_pt0_vA_y = pt0_skip ? vA_y : pt0_add124   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_y;
+    assign c_pt0_vA_y = dl_c_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_c_pt0_add124;
+    logic [3*W-1:0] dl_c_pt0_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_y (.clk(clk), .d(c_pt0_vA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_y));
+    // c_pt0_vA_z = pt0_skip ? vA_z : pt0_add125   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vA_z;
+    assign c_pt0_vA_z = dl_c_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_c_pt0_add125;
+    logic [3*W-1:0] dl_c_pt0_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vA_z (.clk(clk), .d(c_pt0_vA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_z));
+    // c_pt0_wA_x = pt0_skip ? wA_x : pt0_add132   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_x;
+    assign c_pt0_wA_x = dl_c_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_c_pt0_add132;
+    logic [3*W-1:0] dl_c_pt0_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_x (.clk(clk), .d(c_pt0_wA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_x));
+    // c_pt0_wA_y = pt0_skip ? wA_y : pt0_add133   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_y;
+    assign c_pt0_wA_y = dl_c_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_c_pt0_add133;
+    logic [3*W-1:0] dl_c_pt0_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_y (.clk(clk), .d(c_pt0_wA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_y));
+    // c_pt0_wA_z = pt0_skip ? wA_z : pt0_add134   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wA_z;
+    assign c_pt0_wA_z = dl_c_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_c_pt0_add134;
+    logic [3*W-1:0] dl_c_pt0_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wA_z (.clk(clk), .d(c_pt0_wA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_z));
+    // c_pt0_vB_x = pt0_skip ? vB_x : pt0_sub141   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_x;
+    assign c_pt0_vB_x = dl_c_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_c_pt0_sub141;
+    logic [3*W-1:0] dl_c_pt0_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_x (.clk(clk), .d(c_pt0_vB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_x));
+    // c_pt0_vB_y = pt0_skip ? vB_y : pt0_sub142   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_y;
+    assign c_pt0_vB_y = dl_c_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_c_pt0_sub142;
+    logic [3*W-1:0] dl_c_pt0_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_y (.clk(clk), .d(c_pt0_vB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_y));
+    // c_pt0_vB_z = pt0_skip ? vB_z : pt0_sub143   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_vB_z;
+    assign c_pt0_vB_z = dl_c_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_c_pt0_sub143;
+    logic [3*W-1:0] dl_c_pt0_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_vB_z (.clk(clk), .d(c_pt0_vB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_z));
+    // c_pt0_wB_x = pt0_skip ? wB_x : pt0_sub150   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_x;
+    assign c_pt0_wB_x = dl_c_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_c_pt0_sub150;
+    logic [3*W-1:0] dl_c_pt0_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_x (.clk(clk), .d(c_pt0_wB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_x));
+    // c_pt0_wB_y = pt0_skip ? wB_y : pt0_sub151   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_y;
+    assign c_pt0_wB_y = dl_c_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_c_pt0_sub151;
+    logic [3*W-1:0] dl_c_pt0_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_y (.clk(clk), .d(c_pt0_wB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_y));
+    // c_pt0_wB_z = pt0_skip ? wB_z : pt0_sub152   (contact; ready @53/53/53)
+    logic [W-1:0] c_pt0_wB_z;
+    assign c_pt0_wB_z = dl_c_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_c_pt0_sub152;
+    logic [3*W-1:0] dl_c_pt0_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt0_wB_z (.clk(clk), .d(c_pt0_wB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_z));
     // c_pt1_mul181: fp_mul @53/53/53 -> @56/56/56 (contact: pt1_mul181 = n_x * pt0_vA_x)
     logic [W-1:0] c_pt1_mul181;
     logic [2:0] fl_c_pt1_mul181;
@@ -3354,90 +3438,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_mul200 (.clk(clk), .d(c_pt1_mul200), .valid(valid_c_q[56 +: 4]), .q(dl_c_pt1_mul200));
-    // c_pt0_vA_x = pt0_skip ? vA_x : pt0_add123   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_x;
-    assign c_pt0_vA_x = dl_c_pt0_skip[1] ? dl_in_vA_x[2*W +: W] : dl_c_pt0_add123;
-    logic [3*W-1:0] dl_c_pt0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_x (.clk(clk), .d(c_pt0_vA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_x));
-    // c_pt0_vA_y = pt0_skip ? vA_y : pt0_add124   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_y;
-    assign c_pt0_vA_y = dl_c_pt0_skip[1] ? dl_in_vA_y[2*W +: W] : dl_c_pt0_add124;
-    logic [3*W-1:0] dl_c_pt0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_y (.clk(clk), .d(c_pt0_vA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_y));
-    // c_pt0_vA_z = pt0_skip ? vA_z : pt0_add125   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vA_z;
-    assign c_pt0_vA_z = dl_c_pt0_skip[1] ? dl_in_vA_z[2*W +: W] : dl_c_pt0_add125;
-    logic [3*W-1:0] dl_c_pt0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vA_z (.clk(clk), .d(c_pt0_vA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vA_z));
-    // c_pt0_wA_x = pt0_skip ? wA_x : pt0_add132   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_x;
-    assign c_pt0_wA_x = dl_c_pt0_skip[1] ? dl_in_wA_x[2*W +: W] : dl_c_pt0_add132;
-    logic [3*W-1:0] dl_c_pt0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_x (.clk(clk), .d(c_pt0_wA_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_x));
-    // c_pt0_wA_y = pt0_skip ? wA_y : pt0_add133   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_y;
-    assign c_pt0_wA_y = dl_c_pt0_skip[1] ? dl_in_wA_y[2*W +: W] : dl_c_pt0_add133;
-    logic [3*W-1:0] dl_c_pt0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_y (.clk(clk), .d(c_pt0_wA_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_y));
-    // c_pt0_wA_z = pt0_skip ? wA_z : pt0_add134   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wA_z;
-    assign c_pt0_wA_z = dl_c_pt0_skip[1] ? dl_in_wA_z[2*W +: W] : dl_c_pt0_add134;
-    logic [3*W-1:0] dl_c_pt0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wA_z (.clk(clk), .d(c_pt0_wA_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wA_z));
-    // c_pt0_vB_x = pt0_skip ? vB_x : pt0_sub141   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_x;
-    assign c_pt0_vB_x = dl_c_pt0_skip[1] ? dl_in_vB_x[2*W +: W] : dl_c_pt0_sub141;
-    logic [3*W-1:0] dl_c_pt0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_x (.clk(clk), .d(c_pt0_vB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_x));
-    // c_pt0_vB_y = pt0_skip ? vB_y : pt0_sub142   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_y;
-    assign c_pt0_vB_y = dl_c_pt0_skip[1] ? dl_in_vB_y[2*W +: W] : dl_c_pt0_sub142;
-    logic [3*W-1:0] dl_c_pt0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_y (.clk(clk), .d(c_pt0_vB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_y));
-    // c_pt0_vB_z = pt0_skip ? vB_z : pt0_sub143   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_vB_z;
-    assign c_pt0_vB_z = dl_c_pt0_skip[1] ? dl_in_vB_z[2*W +: W] : dl_c_pt0_sub143;
-    logic [3*W-1:0] dl_c_pt0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_vB_z (.clk(clk), .d(c_pt0_vB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_vB_z));
-    // c_pt0_wB_x = pt0_skip ? wB_x : pt0_sub150   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_x;
-    assign c_pt0_wB_x = dl_c_pt0_skip[1] ? dl_in_wB_x[2*W +: W] : dl_c_pt0_sub150;
-    logic [3*W-1:0] dl_c_pt0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_x (.clk(clk), .d(c_pt0_wB_x), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_x));
-    // c_pt0_wB_y = pt0_skip ? wB_y : pt0_sub151   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_y;
-    assign c_pt0_wB_y = dl_c_pt0_skip[1] ? dl_in_wB_y[2*W +: W] : dl_c_pt0_sub151;
-    logic [3*W-1:0] dl_c_pt0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_y (.clk(clk), .d(c_pt0_wB_y), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_y));
-    // c_pt0_wB_z = pt0_skip ? wB_z : pt0_sub152   (contact; ready @53/53/53)
-    logic [W-1:0] c_pt0_wB_z;
-    assign c_pt0_wB_z = dl_c_pt0_skip[1] ? dl_in_wB_z[2*W +: W] : dl_c_pt0_sub152;
-    logic [3*W-1:0] dl_c_pt0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt0_wB_z (.clk(clk), .d(c_pt0_wB_z), .valid(valid_c_q[53 +: 42]), .q(dl_c_pt0_wB_z));
     // c_pt1_add183: fp_add @56/56/56 -> @60/60/60 (contact: pt1_add183 = pt1_mul181 + pt1_mul182)
     logic [W-1:0] c_pt1_add183;
     logic [2:0] fl_c_pt1_add183;
@@ -3634,6 +3634,27 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_sub202 (.clk(clk), .d(c_pt1_sub202), .valid(1'b0), .q(dl_c_pt1_sub202));
+    // f_basis_t0_x = basis_use_z ? 0.0 : basis_px_x   (friction; ready @65/39/33)
+    logic [W-1:0] f_basis_t0_x;
+    assign f_basis_t0_x = dl_f_basis_use_z_lt[1] ? K_ZERO : dl_f_basis_px_x[1*W +: W];
+    logic [2*W-1:0] dl_f_basis_t0_x;
+    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)), .N_TAPS(2), .TAPS({32'((88) - (2*MAN_BITS + 19)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_t0_x (.clk(clk), .d(f_basis_t0_x), .valid(valid_f_q[2*MAN_BITS + 19 +: (((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) > 0 ? ((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) : 1)]), .q(dl_f_basis_t0_x));
+    // f_basis_t0_y = basis_use_z ? basis_pz_y : basis_px_y   (friction; ready @65/39/33)
+    logic [W-1:0] f_basis_t0_y;
+    assign f_basis_t0_y = dl_f_basis_use_z_lt[1] ? dl_f_basis_pz_y[1*W +: W] : dl_f_basis_px_y[1*W +: W];
+    logic [3*W-1:0] dl_f_basis_t0_y;
+    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)), .N_TAPS(3), .TAPS({32'((95) - (2*MAN_BITS + 19)), 32'((88) - (2*MAN_BITS + 19)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_t0_y (.clk(clk), .d(f_basis_t0_y), .valid(valid_f_q[2*MAN_BITS + 19 +: (((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) > 0 ? ((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) : 1)]), .q(dl_f_basis_t0_y));
+    // f_basis_t0_z = basis_use_z ? basis_pz_z : 0.0   (friction; ready @65/39/33)
+    logic [W-1:0] f_basis_t0_z;
+    assign f_basis_t0_z = dl_f_basis_use_z_lt[1] ? dl_f_basis_pz_z[1*W +: W] : K_ZERO;
+    logic [3*W-1:0] dl_f_basis_t0_z;
+    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)), .N_TAPS(3), .TAPS({32'((95) - (2*MAN_BITS + 19)), 32'((88) - (2*MAN_BITS + 19)), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_t0_z (.clk(clk), .d(f_basis_t0_z), .valid(valid_f_q[2*MAN_BITS + 19 +: (((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) > 0 ? ((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) : 1)]), .q(dl_f_basis_t0_z));
     // f_t0_mul92: fp_mul @65/39/33 -> @68/42/36 (friction: t0_mul92 = rA_y * basis_t0_z)
     logic [W-1:0] f_t0_mul92;
     logic [2:0] fl_f_t0_mul92;
@@ -3886,27 +3907,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH((2*MAN_BITS + 26) - (2*MAN_BITS + 22)),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_mul118 (.clk(clk), .d(f_t0_mul118), .valid(valid_f_q[2*MAN_BITS + 22 +: (((2*MAN_BITS + 26) - (2*MAN_BITS + 22)) > 0 ? ((2*MAN_BITS + 26) - (2*MAN_BITS + 22)) : 1)]), .q(dl_f_t0_mul118));
-    // f_basis_t0_x = basis_use_z ? 0.0 : basis_px_x   (friction; ready @65/39/33)
-    logic [W-1:0] f_basis_t0_x;
-    assign f_basis_t0_x = dl_f_basis_use_z_lt[1] ? K_ZERO : dl_f_basis_px_x[1*W +: W];
-    logic [2*W-1:0] dl_f_basis_t0_x;
-    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)), .N_TAPS(2), .TAPS({32'((88) - (2*MAN_BITS + 19)), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_t0_x (.clk(clk), .d(f_basis_t0_x), .valid(valid_f_q[2*MAN_BITS + 19 +: (((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) > 0 ? ((pgs_fp_pkg::tmax(88, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) : 1)]), .q(dl_f_basis_t0_x));
-    // f_basis_t0_y = basis_use_z ? basis_pz_y : basis_px_y   (friction; ready @65/39/33)
-    logic [W-1:0] f_basis_t0_y;
-    assign f_basis_t0_y = dl_f_basis_use_z_lt[1] ? dl_f_basis_pz_y[1*W +: W] : dl_f_basis_px_y[1*W +: W];
-    logic [3*W-1:0] dl_f_basis_t0_y;
-    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)), .N_TAPS(3), .TAPS({32'((95) - (2*MAN_BITS + 19)), 32'((88) - (2*MAN_BITS + 19)), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_t0_y (.clk(clk), .d(f_basis_t0_y), .valid(valid_f_q[2*MAN_BITS + 19 +: (((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) > 0 ? ((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) : 1)]), .q(dl_f_basis_t0_y));
-    // f_basis_t0_z = basis_use_z ? basis_pz_z : 0.0   (friction; ready @65/39/33)
-    logic [W-1:0] f_basis_t0_z;
-    assign f_basis_t0_z = dl_f_basis_use_z_lt[1] ? dl_f_basis_pz_z[1*W +: W] : K_ZERO;
-    logic [3*W-1:0] dl_f_basis_t0_z;
-    pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)), .N_TAPS(3), .TAPS({32'((95) - (2*MAN_BITS + 19)), 32'((88) - (2*MAN_BITS + 19)), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_t0_z (.clk(clk), .d(f_basis_t0_z), .valid(valid_f_q[2*MAN_BITS + 19 +: (((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) > 0 ? ((pgs_fp_pkg::tmax(95, 2*MAN_BITS + 19)) - (2*MAN_BITS + 19)) : 1)]), .q(dl_f_basis_t0_z));
     // c_pt1_vrel: fp_add @68/68/68 -> @72/72/72 (contact: pt1_vrel = pt1_sub191 + pt1_sub202)
     logic [W-1:0] c_pt1_vrel;
     logic [2:0] fl_c_pt1_vrel;
@@ -4209,6 +4209,13 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH((pgs_fp_pkg::tmax(86, 2*MAN_BITS + 33)) - (86)),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_mul124 (.clk(clk), .d(f_t0_mul124), .valid(valid_f_q[86 +: (((pgs_fp_pkg::tmax(86, 2*MAN_BITS + 33)) - (86)) > 0 ? ((pgs_fp_pkg::tmax(86, 2*MAN_BITS + 33)) - (86)) : 1)]), .q(dl_f_t0_mul124));
+    // c_pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (contact; ready @84/84/84)
+    logic [W-1:0] c_pt1_lam;
+    assign c_pt1_lam = dl_c_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_c_pt1_lam_new_max;
+    logic [W-1:0] dl_c_pt1_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(95),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_lam (.clk(clk), .d(c_pt1_lam), .valid(valid_c_q[84 +: 95]), .q(dl_c_pt1_lam));
     // c_pt1_delta: fp_add @84/84/84 -> @88/88/88 (contact: pt1_delta = pt1_lam_new - lam1; friction: t0_add114 = t0_add112 + t0_mul113)
     logic [W-1:0] c_pt1_delta_a;
     assign c_pt1_delta_a = kind_q[84] ? dl_f_t0_add112 : dl_c_pt1_lam_new_max;
@@ -4227,13 +4234,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(3), .N_TAPS(2), .TAPS({32'(3), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_delta (.clk(clk), .d(c_pt1_delta), .valid(valid_q[88 +: 3]), .q(dl_c_pt1_delta));
-    // c_pt1_lam = pt1_skip ? lam1 : pt1_lam_new   (contact; ready @84/84/84)
-    logic [W-1:0] c_pt1_lam;
-    assign c_pt1_lam = dl_c_pt1_skip[0] ? dl_in_lam1[1*W +: W] : dl_c_pt1_lam_new_max;
-    logic [W-1:0] dl_c_pt1_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(95),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_lam (.clk(clk), .d(c_pt1_lam), .valid(valid_c_q[84 +: 95]), .q(dl_c_pt1_lam));
     // f_t0_add125: fp_add @86/86/86 -> @90/90/90 (friction: t0_add125 = t0_add123 + t0_mul124)
     logic [W-1:0] f_t0_add125;
     logic [2:0] fl_f_t0_add125;
@@ -4464,6 +4464,27 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(2), .TAPS({32'(21), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt1_mul245 (.clk(clk), .d(c_pt1_mul245), .valid(valid_q[91 +: 21]), .q(dl_c_pt1_mul245));
+    // f_basis_t1_x = basis_use_z ? basis_qz_x : basis_qx_x   (friction; ready @91/91/91)
+    logic [W-1:0] f_basis_t1_x;
+    assign f_basis_t1_x = dl_f_basis_use_z_lt[2] ? dl_c_pt1_delta0[1*W +: W] : dl_c_pt1_mul218;
+    logic [5*W-1:0] dl_f_basis_t1_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(5), .TAPS({32'(39), 32'(27), 32'(28), 32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_t1_x (.clk(clk), .d(f_basis_t1_x), .valid(valid_f_q[91 +: 39]), .q(dl_f_basis_t1_x));
+    // f_basis_t1_y = basis_use_z ? basis_qz_y : basis_qx_y   (friction; ready @91/91/91)
+    logic [W-1:0] f_basis_t1_y;
+    assign f_basis_t1_y = dl_f_basis_use_z_lt[2] ? dl_c_pt1_mul216 : dl_c_pt1_mul225;
+    logic [4*W-1:0] dl_f_basis_t1_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(4), .TAPS({32'(39), 32'(28), 32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_t1_y (.clk(clk), .d(f_basis_t1_y), .valid(valid_f_q[91 +: 39]), .q(dl_f_basis_t1_y));
+    // f_basis_t1_z = basis_use_z ? basis_qz_z : basis_qx_z   (friction; ready @91/91/91)
+    logic [W-1:0] f_basis_t1_z;
+    assign f_basis_t1_z = dl_f_basis_use_z_lt[2] ? dl_c_pt1_mul217 : dl_c_pt1_mul226;
+    logic [4*W-1:0] dl_f_basis_t1_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(4), .TAPS({32'(39), 32'(28), 32'(0), 32'(4)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_basis_t1_z (.clk(clk), .d(f_basis_t1_z), .valid(valid_f_q[91 +: 39]), .q(dl_f_basis_t1_z));
     // c_pt1_add219: fp_add @91/91/91 -> @95/95/95 (contact: pt1_add219 = pt0_vA_x + pt1_mul216; friction: t0_sub120 = t0_add114 - t0_add119)
     logic [W-1:0] c_pt1_add219_a;
     assign c_pt1_add219_a = kind_q[91] ? dl_c_pt1_delta[1*W +: W] : dl_c_pt0_vA_x[1*W +: W];
@@ -4710,27 +4731,90 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(8),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_mul205 (.clk(clk), .d(f_t1_mul205), .valid(valid_f_q[94 +: 8]), .q(dl_f_t1_mul205));
-    // f_basis_t1_x = basis_use_z ? basis_qz_x : basis_qx_x   (friction; ready @91/91/91)
-    logic [W-1:0] f_basis_t1_x;
-    assign f_basis_t1_x = dl_f_basis_use_z_lt[2] ? dl_c_pt1_delta0[1*W +: W] : dl_c_pt1_mul218;
-    logic [5*W-1:0] dl_f_basis_t1_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(5), .TAPS({32'(39), 32'(27), 32'(28), 32'(0), 32'(4)}),
+    // c_pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add219   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_x;
+    assign c_pt1_vA_x = dl_c_pt1_skip[1] ? dl_c_pt0_vA_x[2*W +: W] : dl_c_pt1_add219;
+    logic [3*W-1:0] dl_c_pt1_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_t1_x (.clk(clk), .d(f_basis_t1_x), .valid(valid_f_q[91 +: 39]), .q(dl_f_basis_t1_x));
-    // f_basis_t1_y = basis_use_z ? basis_qz_y : basis_qx_y   (friction; ready @91/91/91)
-    logic [W-1:0] f_basis_t1_y;
-    assign f_basis_t1_y = dl_f_basis_use_z_lt[2] ? dl_c_pt1_mul216 : dl_c_pt1_mul225;
-    logic [4*W-1:0] dl_f_basis_t1_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(4), .TAPS({32'(39), 32'(28), 32'(0), 32'(4)}),
+        u_dl_c_pt1_vA_x (.clk(clk), .d(c_pt1_vA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_x));
+    // c_pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add220   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_y;
+    assign c_pt1_vA_y = dl_c_pt1_skip[1] ? dl_c_pt0_vA_y[2*W +: W] : dl_c_pt1_add220;
+    logic [3*W-1:0] dl_c_pt1_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_t1_y (.clk(clk), .d(f_basis_t1_y), .valid(valid_f_q[91 +: 39]), .q(dl_f_basis_t1_y));
-    // f_basis_t1_z = basis_use_z ? basis_qz_z : basis_qx_z   (friction; ready @91/91/91)
-    logic [W-1:0] f_basis_t1_z;
-    assign f_basis_t1_z = dl_f_basis_use_z_lt[2] ? dl_c_pt1_mul217 : dl_c_pt1_mul226;
-    logic [4*W-1:0] dl_f_basis_t1_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(4), .TAPS({32'(39), 32'(28), 32'(0), 32'(4)}),
+        u_dl_c_pt1_vA_y (.clk(clk), .d(c_pt1_vA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_y));
+    // c_pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add221   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vA_z;
+    assign c_pt1_vA_z = dl_c_pt1_skip[1] ? dl_c_pt0_vA_z[2*W +: W] : dl_c_pt1_add221;
+    logic [3*W-1:0] dl_c_pt1_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_basis_t1_z (.clk(clk), .d(f_basis_t1_z), .valid(valid_f_q[91 +: 39]), .q(dl_f_basis_t1_z));
+        u_dl_c_pt1_vA_z (.clk(clk), .d(c_pt1_vA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_z));
+    // c_pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add228   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_x;
+    assign c_pt1_wA_x = dl_c_pt1_skip[1] ? dl_c_pt0_wA_x[2*W +: W] : dl_c_pt1_add228;
+    logic [3*W-1:0] dl_c_pt1_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_x (.clk(clk), .d(c_pt1_wA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_x));
+    // c_pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add229   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_y;
+    assign c_pt1_wA_y = dl_c_pt1_skip[1] ? dl_c_pt0_wA_y[2*W +: W] : dl_c_pt1_add229;
+    logic [3*W-1:0] dl_c_pt1_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_y (.clk(clk), .d(c_pt1_wA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_y));
+    // c_pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add230   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wA_z;
+    assign c_pt1_wA_z = dl_c_pt1_skip[1] ? dl_c_pt0_wA_z[2*W +: W] : dl_c_pt1_add230;
+    logic [3*W-1:0] dl_c_pt1_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wA_z (.clk(clk), .d(c_pt1_wA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_z));
+    // c_pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub237   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_x;
+    assign c_pt1_vB_x = dl_c_pt1_skip[1] ? dl_c_pt0_vB_x[2*W +: W] : dl_c_pt1_sub237;
+    logic [3*W-1:0] dl_c_pt1_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_x (.clk(clk), .d(c_pt1_vB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_x));
+    // c_pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub238   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_y;
+    assign c_pt1_vB_y = dl_c_pt1_skip[1] ? dl_c_pt0_vB_y[2*W +: W] : dl_c_pt1_sub238;
+    logic [3*W-1:0] dl_c_pt1_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_y (.clk(clk), .d(c_pt1_vB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_y));
+    // c_pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub239   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_vB_z;
+    assign c_pt1_vB_z = dl_c_pt1_skip[1] ? dl_c_pt0_vB_z[2*W +: W] : dl_c_pt1_sub239;
+    logic [3*W-1:0] dl_c_pt1_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_vB_z (.clk(clk), .d(c_pt1_vB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_z));
+    // c_pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub246   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_x;
+    assign c_pt1_wB_x = dl_c_pt1_skip[1] ? dl_c_pt0_wB_x[2*W +: W] : dl_c_pt1_sub246;
+    logic [3*W-1:0] dl_c_pt1_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_x (.clk(clk), .d(c_pt1_wB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_x));
+    // c_pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub247   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_y;
+    assign c_pt1_wB_y = dl_c_pt1_skip[1] ? dl_c_pt0_wB_y[2*W +: W] : dl_c_pt1_sub247;
+    logic [3*W-1:0] dl_c_pt1_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_y (.clk(clk), .d(c_pt1_wB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_y));
+    // c_pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub248   (contact; ready @95/95/95)
+    logic [W-1:0] c_pt1_wB_z;
+    assign c_pt1_wB_z = dl_c_pt1_skip[1] ? dl_c_pt0_wB_z[2*W +: W] : dl_c_pt1_sub248;
+    logic [3*W-1:0] dl_c_pt1_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt1_wB_z (.clk(clk), .d(c_pt1_wB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_z));
     // c_pt2_mul277: fp_mul @95/95/95 -> @98/98/98 (contact: pt2_mul277 = n_x * pt1_vA_x; friction: t0_linB_y = basis_t0_y * mInvB)
     logic [W-1:0] c_pt2_mul277_a;
     assign c_pt2_mul277_a = kind_q[95] ? dl_f_basis_t0_y[2*W +: W] : dl_in_n_x[3*W +: W];
@@ -4961,90 +5045,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_u (.clk(clk), .d(f_t0_u), .valid(1'b0), .q(dl_f_t0_u));
-    // c_pt1_vA_x = pt1_skip ? pt0_vA_x : pt1_add219   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_x;
-    assign c_pt1_vA_x = dl_c_pt1_skip[1] ? dl_c_pt0_vA_x[2*W +: W] : dl_c_pt1_add219;
-    logic [3*W-1:0] dl_c_pt1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_x (.clk(clk), .d(c_pt1_vA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_x));
-    // c_pt1_vA_y = pt1_skip ? pt0_vA_y : pt1_add220   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_y;
-    assign c_pt1_vA_y = dl_c_pt1_skip[1] ? dl_c_pt0_vA_y[2*W +: W] : dl_c_pt1_add220;
-    logic [3*W-1:0] dl_c_pt1_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_y (.clk(clk), .d(c_pt1_vA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_y));
-    // c_pt1_vA_z = pt1_skip ? pt0_vA_z : pt1_add221   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vA_z;
-    assign c_pt1_vA_z = dl_c_pt1_skip[1] ? dl_c_pt0_vA_z[2*W +: W] : dl_c_pt1_add221;
-    logic [3*W-1:0] dl_c_pt1_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vA_z (.clk(clk), .d(c_pt1_vA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vA_z));
-    // c_pt1_wA_x = pt1_skip ? pt0_wA_x : pt1_add228   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_x;
-    assign c_pt1_wA_x = dl_c_pt1_skip[1] ? dl_c_pt0_wA_x[2*W +: W] : dl_c_pt1_add228;
-    logic [3*W-1:0] dl_c_pt1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_x (.clk(clk), .d(c_pt1_wA_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_x));
-    // c_pt1_wA_y = pt1_skip ? pt0_wA_y : pt1_add229   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_y;
-    assign c_pt1_wA_y = dl_c_pt1_skip[1] ? dl_c_pt0_wA_y[2*W +: W] : dl_c_pt1_add229;
-    logic [3*W-1:0] dl_c_pt1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_y (.clk(clk), .d(c_pt1_wA_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_y));
-    // c_pt1_wA_z = pt1_skip ? pt0_wA_z : pt1_add230   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wA_z;
-    assign c_pt1_wA_z = dl_c_pt1_skip[1] ? dl_c_pt0_wA_z[2*W +: W] : dl_c_pt1_add230;
-    logic [3*W-1:0] dl_c_pt1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wA_z (.clk(clk), .d(c_pt1_wA_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wA_z));
-    // c_pt1_vB_x = pt1_skip ? pt0_vB_x : pt1_sub237   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_x;
-    assign c_pt1_vB_x = dl_c_pt1_skip[1] ? dl_c_pt0_vB_x[2*W +: W] : dl_c_pt1_sub237;
-    logic [3*W-1:0] dl_c_pt1_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_x (.clk(clk), .d(c_pt1_vB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_x));
-    // c_pt1_vB_y = pt1_skip ? pt0_vB_y : pt1_sub238   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_y;
-    assign c_pt1_vB_y = dl_c_pt1_skip[1] ? dl_c_pt0_vB_y[2*W +: W] : dl_c_pt1_sub238;
-    logic [3*W-1:0] dl_c_pt1_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_y (.clk(clk), .d(c_pt1_vB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_y));
-    // c_pt1_vB_z = pt1_skip ? pt0_vB_z : pt1_sub239   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_vB_z;
-    assign c_pt1_vB_z = dl_c_pt1_skip[1] ? dl_c_pt0_vB_z[2*W +: W] : dl_c_pt1_sub239;
-    logic [3*W-1:0] dl_c_pt1_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_vB_z (.clk(clk), .d(c_pt1_vB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_vB_z));
-    // c_pt1_wB_x = pt1_skip ? pt0_wB_x : pt1_sub246   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_x;
-    assign c_pt1_wB_x = dl_c_pt1_skip[1] ? dl_c_pt0_wB_x[2*W +: W] : dl_c_pt1_sub246;
-    logic [3*W-1:0] dl_c_pt1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_x (.clk(clk), .d(c_pt1_wB_x), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_x));
-    // c_pt1_wB_y = pt1_skip ? pt0_wB_y : pt1_sub247   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_y;
-    assign c_pt1_wB_y = dl_c_pt1_skip[1] ? dl_c_pt0_wB_y[2*W +: W] : dl_c_pt1_sub247;
-    logic [3*W-1:0] dl_c_pt1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_y (.clk(clk), .d(c_pt1_wB_y), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_y));
-    // c_pt1_wB_z = pt1_skip ? pt0_wB_z : pt1_sub248   (contact; ready @95/95/95)
-    logic [W-1:0] c_pt1_wB_z;
-    assign c_pt1_wB_z = dl_c_pt1_skip[1] ? dl_c_pt0_wB_z[2*W +: W] : dl_c_pt1_sub248;
-    logic [3*W-1:0] dl_c_pt1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt1_wB_z (.clk(clk), .d(c_pt1_wB_z), .valid(valid_c_q[95 +: 42]), .q(dl_c_pt1_wB_z));
     // c_pt2_add279: fp_add @98/98/98 -> @102/102/102 (contact: pt2_add279 = pt2_mul277 + pt2_mul278; friction: t1_cA_x = t1_mul189 - t1_mul190)
     logic [W-1:0] c_pt2_add279_a;
     assign c_pt2_add279_a = kind_q[98] ? dl_c_pt2_mul285[1*W +: W] : dl_c_pt2_mul277[0*W +: W];
@@ -5113,6 +5113,13 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(28), .N_TAPS(3), .TAPS({32'(28), 32'(17), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_add295 (.clk(clk), .d(c_pt2_add295), .valid(valid_q[102 +: 28]), .q(dl_c_pt2_add295));
+    // f_t0_neg133 = -t0_u   (friction; ready @99/99/99)
+    logic [W-1:0] f_t0_neg133;
+    assign f_t0_neg133 = {~dl_f_t0_u[W-1], dl_f_t0_u[W-2:0]};
+    logic [W-1:0] dl_f_t0_neg133;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_neg133 (.clk(clk), .d(f_t0_neg133), .valid(1'b0), .q(dl_f_t0_neg133));
     // f_t0_delta0: fp_mul @99/99/99 -> @102/102/102 (friction: t0_delta0 = t0_neg133 * f_jac_inv0)
     logic [W-1:0] f_t0_delta0;
     logic [2:0] fl_f_t0_delta0;
@@ -5127,13 +5134,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_delta0 (.clk(clk), .d(f_t0_delta0), .valid(1'b0), .q(dl_f_t0_delta0));
-    // f_t0_neg133 = -t0_u   (friction; ready @99/99/99)
-    logic [W-1:0] f_t0_neg133;
-    assign f_t0_neg133 = {~dl_f_t0_u[W-1], dl_f_t0_u[W-2:0]};
-    logic [W-1:0] dl_f_t0_neg133;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_neg133 (.clk(clk), .d(f_t0_neg133), .valid(1'b0), .q(dl_f_t0_neg133));
     // c_pt2_add281: fp_add @102/102/102 -> @106/106/106 (contact: pt2_add281 = pt2_add279 + pt2_mul280; friction: t0_add135 = lamT0 + t0_delta0)
     logic [W-1:0] c_pt2_add281_a;
     assign c_pt2_add281_a = kind_q[102] ? dl_in_lamT0[0*W +: W] : dl_c_pt2_add279[0*W +: W];
@@ -5248,6 +5248,13 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_lam_new_min (.clk(clk), .d(f_t0_lam_new_min), .valid(1'b0), .q(dl_f_t0_lam_new_min));
+    // f_t0_lamT = skip ? lamT0 : t0_lam_new   (friction; ready @108/108/108)
+    logic [W-1:0] f_t0_lamT;
+    assign f_t0_lamT = dl_f_skip[0] ? dl_in_lamT0[1*W +: W] : dl_f_t0_lam_new_min;
+    logic [W-1:0] dl_f_t0_lamT;
+    pgs_delay #(.WIDTH(W), .DEPTH(71),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_lamT (.clk(clk), .d(f_t0_lamT), .valid(valid_f_q[108 +: 71]), .q(dl_f_t0_lamT));
     // f_t0_delta: fp_add @108/108/108 -> @112/112/112 (friction: t0_delta = t0_lam_new - lamT0)
     logic [W-1:0] f_t0_delta;
     logic [2:0] fl_f_t0_delta;
@@ -5262,13 +5269,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_delta (.clk(clk), .d(f_t0_delta), .valid(1'b0), .q(dl_f_t0_delta));
-    // f_t0_lamT = skip ? lamT0 : t0_lam_new   (friction; ready @108/108/108)
-    logic [W-1:0] f_t0_lamT;
-    assign f_t0_lamT = dl_f_skip[0] ? dl_in_lamT0[1*W +: W] : dl_f_t0_lam_new_min;
-    logic [W-1:0] dl_f_t0_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH(71),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_lamT (.clk(clk), .d(f_t0_lamT), .valid(valid_f_q[108 +: 71]), .q(dl_f_t0_lamT));
     // c_pt2_vrel: fp_add @110/110/110 -> @114/114/114 (contact: pt2_vrel = pt2_sub287 + pt2_sub298)
     logic [W-1:0] c_pt2_vrel;
     logic [2:0] fl_c_pt2_vrel;
@@ -5283,6 +5283,13 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_vrel (.clk(clk), .d(c_pt2_vrel), .valid(1'b0), .q(dl_c_pt2_vrel));
+    // f_t0_e = -t0_delta   (friction; ready @112/112/112)
+    logic [W-1:0] f_t0_e;
+    assign f_t0_e = {~dl_f_t0_delta[W-1], dl_f_t0_delta[W-2:0]};
+    logic [W-1:0] dl_f_t0_e;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_e (.clk(clk), .d(f_t0_e), .valid(1'b0), .q(dl_f_t0_e));
     // f_t0_mul144: fp_mul @112/112/112 -> @115/115/115 (friction: t0_mul144 = t0_linA_x * t0_e)
     logic [W-1:0] f_t0_mul144;
     logic [2:0] fl_f_t0_mul144;
@@ -5451,13 +5458,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t0_mul182 (.clk(clk), .d(f_t0_mul182), .valid(1'b0), .q(dl_f_t0_mul182));
-    // f_t0_e = -t0_delta   (friction; ready @112/112/112)
-    logic [W-1:0] f_t0_e;
-    assign f_t0_e = {~dl_f_t0_delta[W-1], dl_f_t0_delta[W-2:0]};
-    logic [W-1:0] dl_f_t0_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_e (.clk(clk), .d(f_t0_e), .valid(1'b0), .q(dl_f_t0_e));
     // c_pt2_add300: fp_add @114/114/114 -> @118/118/118 (contact: pt2_add300 = pt2_vrel + b2)
     logic [W-1:0] c_pt2_add300;
     logic [2:0] fl_c_pt2_add300;
@@ -5658,6 +5658,90 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(2), .TAPS({32'(39), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_delta0 (.clk(clk), .d(c_pt2_delta0), .valid(valid_q[121 +: 39]), .q(dl_c_pt2_delta0));
+    // f_t0_vA_x = skip ? vA_x : t0_add147   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_vA_x;
+    assign f_t0_vA_x = dl_f_skip[1] ? dl_in_vA_x[5*W +: W] : dl_f_t0_add147;
+    logic [3*W-1:0] dl_f_t0_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(48), .N_TAPS(3), .TAPS({32'(48), 32'(44), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_x (.clk(clk), .d(f_t0_vA_x), .valid(valid_f_q[119 +: 48]), .q(dl_f_t0_vA_x));
+    // f_t0_vA_y = skip ? vA_y : t0_add148   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_vA_y;
+    assign f_t0_vA_y = dl_f_skip[1] ? dl_in_vA_y[5*W +: W] : dl_f_t0_add148;
+    logic [3*W-1:0] dl_f_t0_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_y (.clk(clk), .d(f_t0_vA_y), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vA_y));
+    // f_t0_vA_z = skip ? vA_z : t0_add149   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_vA_z;
+    assign f_t0_vA_z = dl_f_skip[1] ? dl_in_vA_z[5*W +: W] : dl_f_t0_add149;
+    logic [3*W-1:0] dl_f_t0_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vA_z (.clk(clk), .d(f_t0_vA_z), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vA_z));
+    // f_t0_wA_x = skip ? wA_x : t0_add159   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_wA_x;
+    assign f_t0_wA_x = dl_f_skip[1] ? dl_in_wA_x[5*W +: W] : dl_f_t0_add159;
+    logic [3*W-1:0] dl_f_t0_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_x (.clk(clk), .d(f_t0_wA_x), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wA_x));
+    // f_t0_wA_y = skip ? wA_y : t0_add160   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_wA_y;
+    assign f_t0_wA_y = dl_f_skip[1] ? dl_in_wA_y[5*W +: W] : dl_f_t0_add160;
+    logic [3*W-1:0] dl_f_t0_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_y (.clk(clk), .d(f_t0_wA_y), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wA_y));
+    // f_t0_wA_z = skip ? wA_z : t0_add161   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_wA_z;
+    assign f_t0_wA_z = dl_f_skip[1] ? dl_in_wA_z[5*W +: W] : dl_f_t0_add161;
+    logic [3*W-1:0] dl_f_t0_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(41), .N_TAPS(3), .TAPS({32'(41), 32'(37), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wA_z (.clk(clk), .d(f_t0_wA_z), .valid(valid_f_q[119 +: 41]), .q(dl_f_t0_wA_z));
+    // f_t0_vB_x = skip ? vB_x : t0_sub171   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_vB_x;
+    assign f_t0_vB_x = dl_f_skip[1] ? dl_in_vB_x[5*W +: W] : dl_f_t0_sub171;
+    logic [3*W-1:0] dl_f_t0_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_x (.clk(clk), .d(f_t0_vB_x), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vB_x));
+    // f_t0_vB_y = skip ? vB_y : t0_sub172   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_vB_y;
+    assign f_t0_vB_y = dl_f_skip[1] ? dl_in_vB_y[5*W +: W] : dl_f_t0_sub172;
+    logic [3*W-1:0] dl_f_t0_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_y (.clk(clk), .d(f_t0_vB_y), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vB_y));
+    // f_t0_vB_z = skip ? vB_z : t0_sub173   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_vB_z;
+    assign f_t0_vB_z = dl_f_skip[1] ? dl_in_vB_z[5*W +: W] : dl_f_t0_sub173;
+    logic [3*W-1:0] dl_f_t0_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_vB_z (.clk(clk), .d(f_t0_vB_z), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vB_z));
+    // f_t0_wB_x = skip ? wB_x : t0_sub183   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_wB_x;
+    assign f_t0_wB_x = dl_f_skip[1] ? dl_in_wB_x[5*W +: W] : dl_f_t0_sub183;
+    logic [3*W-1:0] dl_f_t0_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_x (.clk(clk), .d(f_t0_wB_x), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wB_x));
+    // f_t0_wB_y = skip ? wB_y : t0_sub184   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_wB_y;
+    assign f_t0_wB_y = dl_f_skip[1] ? dl_in_wB_y[5*W +: W] : dl_f_t0_sub184;
+    logic [3*W-1:0] dl_f_t0_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_y (.clk(clk), .d(f_t0_wB_y), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wB_y));
+    // f_t0_wB_z = skip ? wB_z : t0_sub185   (friction; ready @119/119/119)
+    logic [W-1:0] f_t0_wB_z;
+    assign f_t0_wB_z = dl_f_skip[1] ? dl_in_wB_z[5*W +: W] : dl_f_t0_sub185;
+    logic [3*W-1:0] dl_f_t0_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t0_wB_z (.clk(clk), .d(f_t0_wB_z), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wB_z));
     // f_t1_mul207: fp_mul @119/119/119 -> @122/122/122 (friction: t1_mul207 = basis_t1_x * t0_vA_x)
     logic [W-1:0] f_t1_mul207;
     logic [2:0] fl_f_t1_mul207;
@@ -5826,90 +5910,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_mul226 (.clk(clk), .d(f_t1_mul226), .valid(valid_f_q[122 +: 4]), .q(dl_f_t1_mul226));
-    // f_t0_vA_x = skip ? vA_x : t0_add147   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_vA_x;
-    assign f_t0_vA_x = dl_f_skip[1] ? dl_in_vA_x[5*W +: W] : dl_f_t0_add147;
-    logic [3*W-1:0] dl_f_t0_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(48), .N_TAPS(3), .TAPS({32'(48), 32'(44), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_x (.clk(clk), .d(f_t0_vA_x), .valid(valid_f_q[119 +: 48]), .q(dl_f_t0_vA_x));
-    // f_t0_vA_y = skip ? vA_y : t0_add148   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_vA_y;
-    assign f_t0_vA_y = dl_f_skip[1] ? dl_in_vA_y[5*W +: W] : dl_f_t0_add148;
-    logic [3*W-1:0] dl_f_t0_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_y (.clk(clk), .d(f_t0_vA_y), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vA_y));
-    // f_t0_vA_z = skip ? vA_z : t0_add149   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_vA_z;
-    assign f_t0_vA_z = dl_f_skip[1] ? dl_in_vA_z[5*W +: W] : dl_f_t0_add149;
-    logic [3*W-1:0] dl_f_t0_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vA_z (.clk(clk), .d(f_t0_vA_z), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vA_z));
-    // f_t0_wA_x = skip ? wA_x : t0_add159   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_wA_x;
-    assign f_t0_wA_x = dl_f_skip[1] ? dl_in_wA_x[5*W +: W] : dl_f_t0_add159;
-    logic [3*W-1:0] dl_f_t0_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_x (.clk(clk), .d(f_t0_wA_x), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wA_x));
-    // f_t0_wA_y = skip ? wA_y : t0_add160   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_wA_y;
-    assign f_t0_wA_y = dl_f_skip[1] ? dl_in_wA_y[5*W +: W] : dl_f_t0_add160;
-    logic [3*W-1:0] dl_f_t0_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_y (.clk(clk), .d(f_t0_wA_y), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wA_y));
-    // f_t0_wA_z = skip ? wA_z : t0_add161   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_wA_z;
-    assign f_t0_wA_z = dl_f_skip[1] ? dl_in_wA_z[5*W +: W] : dl_f_t0_add161;
-    logic [3*W-1:0] dl_f_t0_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(41), .N_TAPS(3), .TAPS({32'(41), 32'(37), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wA_z (.clk(clk), .d(f_t0_wA_z), .valid(valid_f_q[119 +: 41]), .q(dl_f_t0_wA_z));
-    // f_t0_vB_x = skip ? vB_x : t0_sub171   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_vB_x;
-    assign f_t0_vB_x = dl_f_skip[1] ? dl_in_vB_x[5*W +: W] : dl_f_t0_sub171;
-    logic [3*W-1:0] dl_f_t0_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_x (.clk(clk), .d(f_t0_vB_x), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vB_x));
-    // f_t0_vB_y = skip ? vB_y : t0_sub172   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_vB_y;
-    assign f_t0_vB_y = dl_f_skip[1] ? dl_in_vB_y[5*W +: W] : dl_f_t0_sub172;
-    logic [3*W-1:0] dl_f_t0_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_y (.clk(clk), .d(f_t0_vB_y), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vB_y));
-    // f_t0_vB_z = skip ? vB_z : t0_sub173   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_vB_z;
-    assign f_t0_vB_z = dl_f_skip[1] ? dl_in_vB_z[5*W +: W] : dl_f_t0_sub173;
-    logic [3*W-1:0] dl_f_t0_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(60), .N_TAPS(3), .TAPS({32'(60), 32'(56), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_vB_z (.clk(clk), .d(f_t0_vB_z), .valid(valid_f_q[119 +: 60]), .q(dl_f_t0_vB_z));
-    // f_t0_wB_x = skip ? wB_x : t0_sub183   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_wB_x;
-    assign f_t0_wB_x = dl_f_skip[1] ? dl_in_wB_x[5*W +: W] : dl_f_t0_sub183;
-    logic [3*W-1:0] dl_f_t0_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_x (.clk(clk), .d(f_t0_wB_x), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wB_x));
-    // f_t0_wB_y = skip ? wB_y : t0_sub184   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_wB_y;
-    assign f_t0_wB_y = dl_f_skip[1] ? dl_in_wB_y[5*W +: W] : dl_f_t0_sub184;
-    logic [3*W-1:0] dl_f_t0_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_y (.clk(clk), .d(f_t0_wB_y), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wB_y));
-    // f_t0_wB_z = skip ? wB_z : t0_sub185   (friction; ready @119/119/119)
-    logic [W-1:0] f_t0_wB_z;
-    assign f_t0_wB_z = dl_f_skip[1] ? dl_in_wB_z[5*W +: W] : dl_f_t0_sub185;
-    logic [3*W-1:0] dl_f_t0_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(39), .N_TAPS(3), .TAPS({32'(39), 32'(35), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t0_wB_z (.clk(clk), .d(f_t0_wB_z), .valid(valid_f_q[119 +: 39]), .q(dl_f_t0_wB_z));
     // c_pt2_add302: fp_add @121/121/121 -> @125/125/125 (contact: pt2_add302 = lam2 + pt2_delta0)
     logic [W-1:0] c_pt2_add302;
     logic [2:0] fl_c_pt2_add302;
@@ -5990,6 +5990,13 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt2_lam_new_max (.clk(clk), .d(c_pt2_lam_new_max), .valid(1'b0), .q(dl_c_pt2_lam_new_max));
+    // c_pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (contact; ready @126/126/126)
+    logic [W-1:0] c_pt2_lam;
+    assign c_pt2_lam = dl_c_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_c_pt2_lam_new_max;
+    logic [W-1:0] dl_c_pt2_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(53),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_lam (.clk(clk), .d(c_pt2_lam), .valid(valid_c_q[126 +: 53]), .q(dl_c_pt2_lam));
     // c_pt2_delta: fp_add @126/126/126 -> @130/130/130 (contact: pt2_delta = pt2_lam_new - lam2; friction: t1_add211 = t1_add209 + t1_mul210)
     logic [W-1:0] c_pt2_delta_a;
     assign c_pt2_delta_a = kind_q[126] ? dl_f_t1_add209 : dl_c_pt2_lam_new_max;
@@ -6050,13 +6057,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_add227 (.clk(clk), .d(f_t1_add227), .valid(1'b0), .q(dl_f_t1_add227));
-    // c_pt2_lam = pt2_skip ? lam2 : pt2_lam_new   (contact; ready @126/126/126)
-    logic [W-1:0] c_pt2_lam;
-    assign c_pt2_lam = dl_c_pt2_skip[0] ? dl_in_lam2[1*W +: W] : dl_c_pt2_lam_new_max;
-    logic [W-1:0] dl_c_pt2_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(53),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_lam (.clk(clk), .d(c_pt2_lam), .valid(valid_c_q[126 +: 53]), .q(dl_c_pt2_lam));
     // c_pt2_mul312: fp_mul @130/130/130 -> @133/133/133 (contact: pt2_mul312 = linA_x * pt2_delta; friction: t1_linA_y = basis_t1_y * mInvA)
     logic [W-1:0] c_pt2_mul312_a;
     assign c_pt2_mul312_a = kind_q[130] ? dl_f_basis_t1_y[3*W +: W] : dl_c_linA_x[2*W +: W];
@@ -6479,6 +6479,90 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_u (.clk(clk), .d(f_t1_u), .valid(1'b0), .q(dl_f_t1_u));
+    // c_pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add315   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_x;
+    assign c_pt2_vA_x = dl_c_pt2_skip[1] ? dl_c_pt1_vA_x[2*W +: W] : dl_c_pt2_add315;
+    logic [3*W-1:0] dl_c_pt2_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_x (.clk(clk), .d(c_pt2_vA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_x));
+    // c_pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add316   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_y;
+    assign c_pt2_vA_y = dl_c_pt2_skip[1] ? dl_c_pt1_vA_y[2*W +: W] : dl_c_pt2_add316;
+    logic [3*W-1:0] dl_c_pt2_vA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_y (.clk(clk), .d(c_pt2_vA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_y));
+    // c_pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add317   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vA_z;
+    assign c_pt2_vA_z = dl_c_pt2_skip[1] ? dl_c_pt1_vA_z[2*W +: W] : dl_c_pt2_add317;
+    logic [3*W-1:0] dl_c_pt2_vA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vA_z (.clk(clk), .d(c_pt2_vA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_z));
+    // c_pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add324   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_x;
+    assign c_pt2_wA_x = dl_c_pt2_skip[1] ? dl_c_pt1_wA_x[2*W +: W] : dl_c_pt2_add324;
+    logic [3*W-1:0] dl_c_pt2_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_x (.clk(clk), .d(c_pt2_wA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_x));
+    // c_pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add325   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_y;
+    assign c_pt2_wA_y = dl_c_pt2_skip[1] ? dl_c_pt1_wA_y[2*W +: W] : dl_c_pt2_add325;
+    logic [3*W-1:0] dl_c_pt2_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_y (.clk(clk), .d(c_pt2_wA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_y));
+    // c_pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add326   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wA_z;
+    assign c_pt2_wA_z = dl_c_pt2_skip[1] ? dl_c_pt1_wA_z[2*W +: W] : dl_c_pt2_add326;
+    logic [3*W-1:0] dl_c_pt2_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wA_z (.clk(clk), .d(c_pt2_wA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_z));
+    // c_pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub333   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_x;
+    assign c_pt2_vB_x = dl_c_pt2_skip[1] ? dl_c_pt1_vB_x[2*W +: W] : dl_c_pt2_sub333;
+    logic [3*W-1:0] dl_c_pt2_vB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_x (.clk(clk), .d(c_pt2_vB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_x));
+    // c_pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub334   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_y;
+    assign c_pt2_vB_y = dl_c_pt2_skip[1] ? dl_c_pt1_vB_y[2*W +: W] : dl_c_pt2_sub334;
+    logic [3*W-1:0] dl_c_pt2_vB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_y (.clk(clk), .d(c_pt2_vB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_y));
+    // c_pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub335   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_vB_z;
+    assign c_pt2_vB_z = dl_c_pt2_skip[1] ? dl_c_pt1_vB_z[2*W +: W] : dl_c_pt2_sub335;
+    logic [3*W-1:0] dl_c_pt2_vB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_vB_z (.clk(clk), .d(c_pt2_vB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_z));
+    // c_pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub342   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_x;
+    assign c_pt2_wB_x = dl_c_pt2_skip[1] ? dl_c_pt1_wB_x[2*W +: W] : dl_c_pt2_sub342;
+    logic [3*W-1:0] dl_c_pt2_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_x (.clk(clk), .d(c_pt2_wB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_x));
+    // c_pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub343   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_y;
+    assign c_pt2_wB_y = dl_c_pt2_skip[1] ? dl_c_pt1_wB_y[2*W +: W] : dl_c_pt2_sub343;
+    logic [3*W-1:0] dl_c_pt2_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_y (.clk(clk), .d(c_pt2_wB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_y));
+    // c_pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub344   (contact; ready @137/137/137)
+    logic [W-1:0] c_pt2_wB_z;
+    assign c_pt2_wB_z = dl_c_pt2_skip[1] ? dl_c_pt1_wB_z[2*W +: W] : dl_c_pt2_sub344;
+    logic [3*W-1:0] dl_c_pt2_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_c_pt2_wB_z (.clk(clk), .d(c_pt2_wB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_z));
     // c_pt3_mul373: fp_mul @137/137/137 -> @140/140/140 (contact: pt3_mul373 = n_x * pt2_vA_x)
     logic [W-1:0] c_pt3_mul373;
     logic [2:0] fl_c_pt3_mul373;
@@ -6647,90 +6731,13 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_mul392 (.clk(clk), .d(c_pt3_mul392), .valid(valid_c_q[140 +: 4]), .q(dl_c_pt3_mul392));
-    // c_pt2_vA_x = pt2_skip ? pt1_vA_x : pt2_add315   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_x;
-    assign c_pt2_vA_x = dl_c_pt2_skip[1] ? dl_c_pt1_vA_x[2*W +: W] : dl_c_pt2_add315;
-    logic [3*W-1:0] dl_c_pt2_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
+    // f_t1_neg230 = -t1_u   (friction; ready @138/138/138)
+    logic [W-1:0] f_t1_neg230;
+    assign f_t1_neg230 = {~dl_f_t1_u[W-1], dl_f_t1_u[W-2:0]};
+    logic [W-1:0] dl_f_t1_neg230;
+    pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_x (.clk(clk), .d(c_pt2_vA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_x));
-    // c_pt2_vA_y = pt2_skip ? pt1_vA_y : pt2_add316   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_y;
-    assign c_pt2_vA_y = dl_c_pt2_skip[1] ? dl_c_pt1_vA_y[2*W +: W] : dl_c_pt2_add316;
-    logic [3*W-1:0] dl_c_pt2_vA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_y (.clk(clk), .d(c_pt2_vA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_y));
-    // c_pt2_vA_z = pt2_skip ? pt1_vA_z : pt2_add317   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vA_z;
-    assign c_pt2_vA_z = dl_c_pt2_skip[1] ? dl_c_pt1_vA_z[2*W +: W] : dl_c_pt2_add317;
-    logic [3*W-1:0] dl_c_pt2_vA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vA_z (.clk(clk), .d(c_pt2_vA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vA_z));
-    // c_pt2_wA_x = pt2_skip ? pt1_wA_x : pt2_add324   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_x;
-    assign c_pt2_wA_x = dl_c_pt2_skip[1] ? dl_c_pt1_wA_x[2*W +: W] : dl_c_pt2_add324;
-    logic [3*W-1:0] dl_c_pt2_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_x (.clk(clk), .d(c_pt2_wA_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_x));
-    // c_pt2_wA_y = pt2_skip ? pt1_wA_y : pt2_add325   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_y;
-    assign c_pt2_wA_y = dl_c_pt2_skip[1] ? dl_c_pt1_wA_y[2*W +: W] : dl_c_pt2_add325;
-    logic [3*W-1:0] dl_c_pt2_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_y (.clk(clk), .d(c_pt2_wA_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_y));
-    // c_pt2_wA_z = pt2_skip ? pt1_wA_z : pt2_add326   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wA_z;
-    assign c_pt2_wA_z = dl_c_pt2_skip[1] ? dl_c_pt1_wA_z[2*W +: W] : dl_c_pt2_add326;
-    logic [3*W-1:0] dl_c_pt2_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wA_z (.clk(clk), .d(c_pt2_wA_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wA_z));
-    // c_pt2_vB_x = pt2_skip ? pt1_vB_x : pt2_sub333   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_x;
-    assign c_pt2_vB_x = dl_c_pt2_skip[1] ? dl_c_pt1_vB_x[2*W +: W] : dl_c_pt2_sub333;
-    logic [3*W-1:0] dl_c_pt2_vB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_x (.clk(clk), .d(c_pt2_vB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_x));
-    // c_pt2_vB_y = pt2_skip ? pt1_vB_y : pt2_sub334   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_y;
-    assign c_pt2_vB_y = dl_c_pt2_skip[1] ? dl_c_pt1_vB_y[2*W +: W] : dl_c_pt2_sub334;
-    logic [3*W-1:0] dl_c_pt2_vB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_y (.clk(clk), .d(c_pt2_vB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_y));
-    // c_pt2_vB_z = pt2_skip ? pt1_vB_z : pt2_sub335   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_vB_z;
-    assign c_pt2_vB_z = dl_c_pt2_skip[1] ? dl_c_pt1_vB_z[2*W +: W] : dl_c_pt2_sub335;
-    logic [3*W-1:0] dl_c_pt2_vB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_vB_z (.clk(clk), .d(c_pt2_vB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_vB_z));
-    // c_pt2_wB_x = pt2_skip ? pt1_wB_x : pt2_sub342   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_x;
-    assign c_pt2_wB_x = dl_c_pt2_skip[1] ? dl_c_pt1_wB_x[2*W +: W] : dl_c_pt2_sub342;
-    logic [3*W-1:0] dl_c_pt2_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_x (.clk(clk), .d(c_pt2_wB_x), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_x));
-    // c_pt2_wB_y = pt2_skip ? pt1_wB_y : pt2_sub343   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_y;
-    assign c_pt2_wB_y = dl_c_pt2_skip[1] ? dl_c_pt1_wB_y[2*W +: W] : dl_c_pt2_sub343;
-    logic [3*W-1:0] dl_c_pt2_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_y (.clk(clk), .d(c_pt2_wB_y), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_y));
-    // c_pt2_wB_z = pt2_skip ? pt1_wB_z : pt2_sub344   (contact; ready @137/137/137)
-    logic [W-1:0] c_pt2_wB_z;
-    assign c_pt2_wB_z = dl_c_pt2_skip[1] ? dl_c_pt1_wB_z[2*W +: W] : dl_c_pt2_sub344;
-    logic [3*W-1:0] dl_c_pt2_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(42), .N_TAPS(3), .TAPS({32'(42), 32'(38), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt2_wB_z (.clk(clk), .d(c_pt2_wB_z), .valid(valid_c_q[137 +: 42]), .q(dl_c_pt2_wB_z));
+        u_dl_f_t1_neg230 (.clk(clk), .d(f_t1_neg230), .valid(1'b0), .q(dl_f_t1_neg230));
     // f_t1_delta0: fp_mul @138/138/138 -> @141/141/141 (friction: t1_delta0 = t1_neg230 * f_jac_inv1)
     logic [W-1:0] f_t1_delta0;
     logic [2:0] fl_f_t1_delta0;
@@ -6745,13 +6752,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_delta0 (.clk(clk), .d(f_t1_delta0), .valid(1'b0), .q(dl_f_t1_delta0));
-    // f_t1_neg230 = -t1_u   (friction; ready @138/138/138)
-    logic [W-1:0] f_t1_neg230;
-    assign f_t1_neg230 = {~dl_f_t1_u[W-1], dl_f_t1_u[W-2:0]};
-    logic [W-1:0] dl_f_t1_neg230;
-    pgs_delay #(.WIDTH(W), .DEPTH(0),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_neg230 (.clk(clk), .d(f_t1_neg230), .valid(1'b0), .q(dl_f_t1_neg230));
     // c_pt3_add375: fp_add @140/140/140 -> @144/144/144 (contact: pt3_add375 = pt3_mul373 + pt3_mul374)
     logic [W-1:0] c_pt3_add375;
     logic [2:0] fl_c_pt3_add375;
@@ -6898,6 +6898,13 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_lam_new_min (.clk(clk), .d(f_t1_lam_new_min), .valid(1'b0), .q(dl_f_t1_lam_new_min));
+    // f_t1_lamT = skip ? lamT1 : t1_lam_new   (friction; ready @147/147/147)
+    logic [W-1:0] f_t1_lamT;
+    assign f_t1_lamT = dl_f_skip[2] ? dl_in_lamT1[1*W +: W] : dl_f_t1_lam_new_min;
+    logic [W-1:0] dl_f_t1_lamT;
+    pgs_delay #(.WIDTH(W), .DEPTH(32),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_lamT (.clk(clk), .d(f_t1_lamT), .valid(valid_f_q[147 +: 32]), .q(dl_f_t1_lamT));
     // f_t1_delta: fp_add @147/147/147 -> @151/151/151 (friction: t1_delta = t1_lam_new - lamT1)
     logic [W-1:0] f_t1_delta;
     logic [2:0] fl_f_t1_delta;
@@ -6912,13 +6919,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_delta (.clk(clk), .d(f_t1_delta), .valid(1'b0), .q(dl_f_t1_delta));
-    // f_t1_lamT = skip ? lamT1 : t1_lam_new   (friction; ready @147/147/147)
-    logic [W-1:0] f_t1_lamT;
-    assign f_t1_lamT = dl_f_skip[2] ? dl_in_lamT1[1*W +: W] : dl_f_t1_lam_new_min;
-    logic [W-1:0] dl_f_t1_lamT;
-    pgs_delay #(.WIDTH(W), .DEPTH(32),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_lamT (.clk(clk), .d(f_t1_lamT), .valid(valid_f_q[147 +: 32]), .q(dl_f_t1_lamT));
     // c_pt3_sub383: fp_add @148/148/148 -> @152/152/152 (contact: pt3_sub383 = pt3_add377 - pt3_add382)
     logic [W-1:0] c_pt3_sub383;
     logic [2:0] fl_c_pt3_sub383;
@@ -6947,6 +6947,13 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_sub394 (.clk(clk), .d(c_pt3_sub394), .valid(1'b0), .q(dl_c_pt3_sub394));
+    // f_t1_e = -t1_delta   (friction; ready @151/151/151)
+    logic [W-1:0] f_t1_e;
+    assign f_t1_e = {~dl_f_t1_delta[W-1], dl_f_t1_delta[W-2:0]};
+    logic [3*W-1:0] dl_f_t1_e;
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(0), 32'(21), 32'(9)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_e (.clk(clk), .d(f_t1_e), .valid(valid_f_q[151 +: 21]), .q(dl_f_t1_e));
     // f_t1_mul253: fp_mul @151/151/151 -> @154/154/154 (friction: t1_mul253 = t1_angA_x * t1_e)
     logic [W-1:0] f_t1_mul253;
     logic [2:0] fl_f_t1_mul253;
@@ -7031,13 +7038,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_t1_mul279 (.clk(clk), .d(f_t1_mul279), .valid(1'b0), .q(dl_f_t1_mul279));
-    // f_t1_e = -t1_delta   (friction; ready @151/151/151)
-    logic [W-1:0] f_t1_e;
-    assign f_t1_e = {~dl_f_t1_delta[W-1], dl_f_t1_delta[W-2:0]};
-    logic [3*W-1:0] dl_f_t1_e;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(0), 32'(21), 32'(9)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_e (.clk(clk), .d(f_t1_e), .valid(valid_f_q[151 +: 21]), .q(dl_f_t1_e));
     // c_pt3_vrel: fp_add @152/152/152 -> @156/156/156 (contact: pt3_vrel = pt3_sub383 + pt3_sub394)
     logic [W-1:0] c_pt3_vrel;
     logic [2:0] fl_c_pt3_vrel;
@@ -7140,6 +7140,41 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_add396 (.clk(clk), .d(c_pt3_add396), .valid(1'b0), .q(dl_c_pt3_add396));
+    // f_t1_wA_x = skip ? t0_wA_x : t1_add256   (friction; ready @158/158/158)
+    logic [W-1:0] f_t1_wA_x;
+    assign f_t1_wA_x = dl_f_skip[5] ? dl_f_t0_wA_x[2*W +: W] : dl_f_t1_add256;
+    logic [3*W-1:0] dl_f_t1_wA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wA_x (.clk(clk), .d(f_t1_wA_x), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wA_x));
+    // f_t1_wA_y = skip ? t0_wA_y : t1_add257   (friction; ready @158/158/158)
+    logic [W-1:0] f_t1_wA_y;
+    assign f_t1_wA_y = dl_f_skip[5] ? dl_f_t0_wA_y[2*W +: W] : dl_f_t1_add257;
+    logic [3*W-1:0] dl_f_t1_wA_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wA_y (.clk(clk), .d(f_t1_wA_y), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wA_y));
+    // f_t1_wB_x = skip ? t0_wB_x : t1_sub280   (friction; ready @158/158/158)
+    logic [W-1:0] f_t1_wB_x;
+    assign f_t1_wB_x = dl_f_skip[5] ? dl_f_t0_wB_x[2*W +: W] : dl_f_t1_sub280;
+    logic [3*W-1:0] dl_f_t1_wB_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wB_x (.clk(clk), .d(f_t1_wB_x), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wB_x));
+    // f_t1_wB_y = skip ? t0_wB_y : t1_sub281   (friction; ready @158/158/158)
+    logic [W-1:0] f_t1_wB_y;
+    assign f_t1_wB_y = dl_f_skip[5] ? dl_f_t0_wB_y[2*W +: W] : dl_f_t1_sub281;
+    logic [3*W-1:0] dl_f_t1_wB_y;
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wB_y (.clk(clk), .d(f_t1_wB_y), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wB_y));
+    // f_t1_wB_z = skip ? t0_wB_z : t1_sub282   (friction; ready @158/158/158)
+    logic [W-1:0] f_t1_wB_z;
+    assign f_t1_wB_z = dl_f_skip[5] ? dl_f_t0_wB_z[2*W +: W] : dl_f_t1_sub282;
+    logic [3*W-1:0] dl_f_t1_wB_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_wB_z (.clk(clk), .d(f_t1_wB_z), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wB_z));
     // f_spin_mul287: fp_mul @158/158/158 -> @161/161/161 (friction: spin_mul287 = n_x * t1_wA_x)
     logic [W-1:0] f_spin_mul287;
     logic [2:0] fl_f_spin_mul287;
@@ -7210,41 +7245,13 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(4),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul302 (.clk(clk), .d(f_spin_mul302), .valid(valid_f_q[161 +: 4]), .q(dl_f_spin_mul302));
-    // f_t1_wA_x = skip ? t0_wA_x : t1_add256   (friction; ready @158/158/158)
-    logic [W-1:0] f_t1_wA_x;
-    assign f_t1_wA_x = dl_f_skip[5] ? dl_f_t0_wA_x[2*W +: W] : dl_f_t1_add256;
-    logic [3*W-1:0] dl_f_t1_wA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
+    // f_t1_wA_z = skip ? t0_wA_z : t1_add258   (friction; ready @160/160/160)
+    logic [W-1:0] f_t1_wA_z;
+    assign f_t1_wA_z = dl_f_skip[6] ? dl_f_t0_wA_z[2*W +: W] : dl_c_pt3_add396;
+    logic [3*W-1:0] dl_f_t1_wA_z;
+    pgs_delay #(.WIDTH(W), .DEPTH(19), .N_TAPS(3), .TAPS({32'(19), 32'(15), 32'(0)}),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_x (.clk(clk), .d(f_t1_wA_x), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wA_x));
-    // f_t1_wA_y = skip ? t0_wA_y : t1_add257   (friction; ready @158/158/158)
-    logic [W-1:0] f_t1_wA_y;
-    assign f_t1_wA_y = dl_f_skip[5] ? dl_f_t0_wA_y[2*W +: W] : dl_f_t1_add257;
-    logic [3*W-1:0] dl_f_t1_wA_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_y (.clk(clk), .d(f_t1_wA_y), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wA_y));
-    // f_t1_wB_x = skip ? t0_wB_x : t1_sub280   (friction; ready @158/158/158)
-    logic [W-1:0] f_t1_wB_x;
-    assign f_t1_wB_x = dl_f_skip[5] ? dl_f_t0_wB_x[2*W +: W] : dl_f_t1_sub280;
-    logic [3*W-1:0] dl_f_t1_wB_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_x (.clk(clk), .d(f_t1_wB_x), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wB_x));
-    // f_t1_wB_y = skip ? t0_wB_y : t1_sub281   (friction; ready @158/158/158)
-    logic [W-1:0] f_t1_wB_y;
-    assign f_t1_wB_y = dl_f_skip[5] ? dl_f_t0_wB_y[2*W +: W] : dl_f_t1_sub281;
-    logic [3*W-1:0] dl_f_t1_wB_y;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_y (.clk(clk), .d(f_t1_wB_y), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wB_y));
-    // f_t1_wB_z = skip ? t0_wB_z : t1_sub282   (friction; ready @158/158/158)
-    logic [W-1:0] f_t1_wB_z;
-    assign f_t1_wB_z = dl_f_skip[5] ? dl_f_t0_wB_z[2*W +: W] : dl_f_t1_sub282;
-    logic [3*W-1:0] dl_f_t1_wB_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(21), .N_TAPS(3), .TAPS({32'(21), 32'(17), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wB_z (.clk(clk), .d(f_t1_wB_z), .valid(valid_f_q[158 +: 21]), .q(dl_f_t1_wB_z));
+        u_dl_f_t1_wA_z (.clk(clk), .d(f_t1_wA_z), .valid(valid_f_q[160 +: 19]), .q(dl_f_t1_wA_z));
     // c_pt3_delta0: fp_mul @160/160/160 -> @163/163/163 (contact: pt3_delta0 = pt3_add396 * jac_inv3; friction: t1_mul241 = t1_linA_x * t1_e)
     logic [W-1:0] c_pt3_delta0_a;
     assign c_pt3_delta0_a = kind_q[160] ? dl_c_pt2_delta0[1*W +: W] : dl_c_pt3_add396;
@@ -7277,13 +7284,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(2),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_mul290 (.clk(clk), .d(f_spin_mul290), .valid(valid_f_q[163 +: 2]), .q(dl_f_spin_mul290));
-    // f_t1_wA_z = skip ? t0_wA_z : t1_add258   (friction; ready @160/160/160)
-    logic [W-1:0] f_t1_wA_z;
-    assign f_t1_wA_z = dl_f_skip[6] ? dl_f_t0_wA_z[2*W +: W] : dl_c_pt3_add396;
-    logic [3*W-1:0] dl_f_t1_wA_z;
-    pgs_delay #(.WIDTH(W), .DEPTH(19), .N_TAPS(3), .TAPS({32'(19), 32'(15), 32'(0)}),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_wA_z (.clk(clk), .d(f_t1_wA_z), .valid(valid_f_q[160 +: 19]), .q(dl_f_t1_wA_z));
     // f_spin_add289: fp_add @161/161/161 -> @165/165/165 (friction: spin_add289 = spin_mul287 + spin_mul288)
     logic [W-1:0] f_spin_add289;
     logic [2:0] fl_f_spin_add289;
@@ -7356,6 +7356,13 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_f_spin_add303 (.clk(clk), .d(f_spin_add303), .valid(1'b0), .q(dl_f_spin_add303));
+    // f_t1_vA_x = skip ? t0_vA_x : t1_add244   (friction; ready @167/167/167)
+    logic [W-1:0] f_t1_vA_x;
+    assign f_t1_vA_x = dl_f_skip[3] ? dl_f_t0_vA_x[2*W +: W] : dl_c_pt3_add398;
+    logic [W-1:0] dl_f_t1_vA_x;
+    pgs_delay #(.WIDTH(W), .DEPTH(12),
+                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
+        u_dl_f_t1_vA_x (.clk(clk), .d(f_t1_vA_x), .valid(valid_f_q[167 +: 12]), .q(dl_f_t1_vA_x));
     // c_pt3_lam_new: fp_minmax @167/167/167 -> @168/168/168 (contact: pt3_lam_new = max(pt3_add398, 0.0))
     fp_minmax #(.EXP_BITS(EXP_BITS), .MAN_BITS(MAN_BITS), .LATENCY(LAT_MINMAX)) u_c_pt3_lam_new (
         .clk(clk), .rst(rst), .in_valid(valid_c_q[167]), .a(dl_c_pt3_add398), .b(K_ZERO),
@@ -7366,13 +7373,13 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_lam_new_max (.clk(clk), .d(c_pt3_lam_new_max), .valid(1'b0), .q(dl_c_pt3_lam_new_max));
-    // f_t1_vA_x = skip ? t0_vA_x : t1_add244   (friction; ready @167/167/167)
-    logic [W-1:0] f_t1_vA_x;
-    assign f_t1_vA_x = dl_f_skip[3] ? dl_f_t0_vA_x[2*W +: W] : dl_c_pt3_add398;
-    logic [W-1:0] dl_f_t1_vA_x;
-    pgs_delay #(.WIDTH(W), .DEPTH(12),
+    // c_pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (contact; ready @168/168/168)
+    logic [W-1:0] c_pt3_lam;
+    assign c_pt3_lam = dl_c_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_c_pt3_lam_new_max;
+    logic [W-1:0] dl_c_pt3_lam;
+    pgs_delay #(.WIDTH(W), .DEPTH(11),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_f_t1_vA_x (.clk(clk), .d(f_t1_vA_x), .valid(valid_f_q[167 +: 12]), .q(dl_f_t1_vA_x));
+        u_dl_c_pt3_lam (.clk(clk), .d(c_pt3_lam), .valid(valid_c_q[168 +: 11]), .q(dl_c_pt3_lam));
     // c_pt3_delta: fp_add @168/168/168 -> @172/172/172 (contact: pt3_delta = pt3_lam_new - lam3)
     logic [W-1:0] c_pt3_delta;
     logic [2:0] fl_c_pt3_delta;
@@ -7387,13 +7394,6 @@ module pgs_shared_pipe_tb #(
     pgs_delay #(.WIDTH(W), .DEPTH(0),
                 .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
         u_dl_c_pt3_delta (.clk(clk), .d(c_pt3_delta), .valid(1'b0), .q(dl_c_pt3_delta));
-    // c_pt3_lam = pt3_skip ? lam3 : pt3_lam_new   (contact; ready @168/168/168)
-    logic [W-1:0] c_pt3_lam;
-    assign c_pt3_lam = dl_c_pt3_skip[0] ? dl_in_lam3[1*W +: W] : dl_c_pt3_lam_new_max;
-    logic [W-1:0] dl_c_pt3_lam;
-    pgs_delay #(.WIDTH(W), .DEPTH(11),
-                .BLOCK_MIN_DEPTH(DELAY_BLOCK_MIN_DEPTH))
-        u_dl_c_pt3_lam (.clk(clk), .d(c_pt3_lam), .valid(valid_c_q[168 +: 11]), .q(dl_c_pt3_lam));
     // f_spin_sA: fp_mul @169/169/169 -> @172/172/172 (friction: spin_sA = spin_add291 * 0.1)
     logic [W-1:0] f_spin_sA;
     logic [2:0] fl_f_spin_sA;

@@ -218,9 +218,7 @@ _GENVAR = re.compile(r"\bgenvar\s+(\w+)")  # slang keeps generate loop variables
 def yosys_script(unit: Unit, fmt: NumberFormat, sources: list[Path]) -> str:
     fmt_params = [("EXP_BITS", fmt.exp_bits), ("MAN_BITS", fmt.man_bits)] if unit.format_params else []
     params = [*fmt_params, *unit.params]
-    # the generated shared datapaths read some delay-line outputs above their declarations, which Verilator takes and
-    # slang refuses by default
-    read = ["read_slang", "-j", "1", "--allow-use-before-declare", "--top", unit.top,
+    read = ["read_slang", "-j", "1", "--top", unit.top,
             *(f"-G {k}={v}" for k, v in params),
             *(f"--blackboxed-module {b}" for b in unit.blackboxes), *(p.name for p in sources)]
     lines = [" ".join(read)]

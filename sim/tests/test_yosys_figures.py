@@ -6,15 +6,16 @@ lines' LUT RAM / block RAM mapping against Yosys."""
 from __future__ import annotations
 
 import re
+import subprocess
 from pathlib import Path
 
-from sim.fit.yosys_figures import (DELAY_CHECK_DEPTH, DELAY_CHECK_WIDTH, DELAY_CHECKS, OPERATOR_UNITS, UNITS,
+from sim.fit.yosys_figures import (DELAY_CHECK_DEPTH, DELAY_CHECK_WIDTH, DELAY_CHECKS, OPERATOR_UNITS, UNITS, YOSYS,
                                    delay_check_line, memory_resources, parse_stat, prepare_sources, run_unit, summarize,
                                    yosys_script)
 from models.formats.number_format import BF16, FP16, FP32
 from sim.fit.resource_model import (DelayLine, KernelConfig, bram36_for, delay_line_resources, figures, memories,
                                     rtl_latency)
-from sim.fit.timing_estimate import timing_figures
+from sim.fit.timing_estimate import SHARED_PIPE, timing_figures
 
 DATA = Path(__file__).parent / "data"
 
@@ -104,3 +105,16 @@ def test_yosys_script_reads_all_sources_and_blackboxes(tmp_path: Path) -> None:
     script = yosys_script(UNITS["control"], FP16, sources)
     assert "--top pgs_kernel" in script and "-G EXP_BITS=5 -G MAN_BITS=10" in script
     assert "--blackboxed-module pgs_body_ram" in script and "synth_xilinx -family xcup" in script
+    assert "--allow-use-before-declare" not in script  # slang's default: every signal declared above its first use
+
+
+def test_slang_elaborates_the_generated_shared_datapaths_as_the_lrm_has_it(tmp_path: Path) -> None:
+    """Every generated shared datapath (the emitter's order: each operator and node after what it reads) passes
+    slang's elaboration without --allow-use-before-declare, which an emitter declaring a delay line below a reader
+    of it fails."""
+    sources = prepare_sources(tmp_path)
+    tops = [p.stem for p in sources if p.stem.startswith("pgs_shared_pipe")]
+    assert len(tops) >= 10 and SHARED_PIPE in tops
+    read = " ".join(["read_slang -j 1", *(f"--top {t}" for t in tops), *(p.name for p in sources)])
+    proc = subprocess.run([str(YOSYS), "-q", "-p", read], cwd=tmp_path, capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, (proc.stdout + proc.stderr)[-3000:]
