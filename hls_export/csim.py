@@ -172,9 +172,7 @@ def csim_defines(kb: KernelBuild) -> list[str]:
                f"-DPGS_BODY_OUT_W={kb.body_out_bits}", f"-DPGS_IINV_W={kb.inertia_words}",
                f"-DPGS_MU_W={kb.friction_words}", f"-DPGS_IMPULSES_IN_RECORDS={int(kb.impulses_in_records)}",
                f"-DPGS_SOFT_CONTACT={int(kb.soft_contact)}", f"-DPGS_TANGENTS_ON_CHIP={int(kb.tangents_on_chip)}",
-               # the soft build keeps the per-kind arithmetic: its shared datapath as C++ differs from the golden model
-               # (the pile: a soft contact pass's impulse at trace record 7, a friction pass's wB at 432), not found yet
-               f"-DPGS_SHARED_DATAPATH={int(kb.shared_datapath and not kb.soft_contact)}"]
+               f"-DPGS_SHARED_DATAPATH={int(kb.shared_datapath)}"]
     if kb.window:
         defines += [f"-DPGS_WINDOW={kb.window}", f"-DPGS_WINDOW_CTX={kb.window_ctx}", f"-DPGS_LANES={kb.lanes}"]
     if kb.impulses_in_records:  # the testbench's DMA thread needs the blocking, thread-safe local streams

@@ -5707,7 +5707,7 @@ inline void pgs_shared_pipe_full_mu(bool friction, const float in[61], bool in_s
 
 // pgs_shared_pipe_soft: 349 operators for both passes; inputs in the shared layout: 0 n_x, 1 n_y, 2 n_z, 3 p0_x__c_x, 4 p0_y__c_y, 5 p0_z__c_z, 6 p1_x__t0_x, 7 p1_y__t0_y, 8 p1_z__t0_z, 9 p2_x__t1_x, 10 p2_y__t1_y, 11 p2_z__t1_z, 12 p3_x__f_jac_inv0, 13 p3_y__f_jac_inv1, 14 p3_z, 15 jac_inv0, 16 jac_inv1, 17 jac_inv2, 18 jac_inv3, 19 b0, 20 b1, 21 b2, 22 b3, 23 lam0, 24 lam1, 25 lam2, 26 lam3, 27 lamT0, 28 lamT1, 29 xA_x, 30 xA_y, 31 xA_z, 32 xB_x, 33 xB_y, 34 xB_z, 35 vA_x, 36 vA_y, 37 vA_z, 38 wA_x, 39 wA_y, 40 wA_z, 41 vB_x, 42 vB_y, 43 vB_z, 44 wB_x, 45 wB_y, 46 wB_z, 47 mInvA, 48 mInvB, 49 IInvA_x, 50 IInvA_y, 51 IInvA_z, 52 IInvB_x, 53 IInvB_y, 54 IInvB_z, 55 keep_dyn, 56 keep_static
 constexpr int pgs_shared_pipe_soft_in = 57;
-inline void pgs_shared_pipe_soft(bool friction, const float in[57], bool in_soft, bool in_spin_damp, float out[16]) {
+inline void pgs_shared_pipe_soft(bool friction, const float in[57], bool in_spin_damp, bool in_soft, float out[16]) {
 #pragma HLS INLINE off
     const float K0 = constant(1.0);   // K_ONE
     const float K1 = constant(0.0);   // K_ZERO
@@ -6619,7 +6619,7 @@ inline void pgs_shared_pipe_soft(bool friction, const float in[57], bool in_soft
 
 // pgs_shared_pipe_mu_soft: 349 operators for both passes; inputs in the shared layout: 0 n_x, 1 n_y, 2 n_z, 3 p0_x__c_x, 4 p0_y__c_y, 5 p0_z__c_z, 6 p1_x__t0_x, 7 p1_y__t0_y, 8 p1_z__t0_z, 9 p2_x__t1_x, 10 p2_y__t1_y, 11 p2_z__t1_z, 12 p3_x__f_jac_inv0, 13 p3_y__f_jac_inv1, 14 p3_z__mu, 15 jac_inv0, 16 jac_inv1, 17 jac_inv2, 18 jac_inv3, 19 b0, 20 b1, 21 b2, 22 b3, 23 lam0, 24 lam1, 25 lam2, 26 lam3, 27 lamT0, 28 lamT1, 29 xA_x, 30 xA_y, 31 xA_z, 32 xB_x, 33 xB_y, 34 xB_z, 35 vA_x, 36 vA_y, 37 vA_z, 38 wA_x, 39 wA_y, 40 wA_z, 41 vB_x, 42 vB_y, 43 vB_z, 44 wB_x, 45 wB_y, 46 wB_z, 47 mInvA, 48 mInvB, 49 IInvA_x, 50 IInvA_y, 51 IInvA_z, 52 IInvB_x, 53 IInvB_y, 54 IInvB_z, 55 keep_dyn, 56 keep_static
 constexpr int pgs_shared_pipe_mu_soft_in = 57;
-inline void pgs_shared_pipe_mu_soft(bool friction, const float in[57], bool in_soft, bool in_spin_damp, float out[16]) {
+inline void pgs_shared_pipe_mu_soft(bool friction, const float in[57], bool in_spin_damp, bool in_soft, float out[16]) {
 #pragma HLS INLINE off
     const float K0 = constant(1.0);   // K_ONE
     const float K1 = constant(0.0);   // K_ZERO
@@ -8671,7 +8671,7 @@ inline void pgs_shared_pipe_tb(bool friction, const float in[55], bool in_spin_d
 
 // pgs_shared_pipe_soft_tb: 467 operators for both passes; inputs in the shared layout: 0 n_x, 1 n_y, 2 n_z, 3 p0_x__c_x, 4 p0_y__c_y, 5 p0_z__c_z, 6 p1_x__f_jac_inv0, 7 p1_y__f_jac_inv1, 8 p1_z, 9 p2_x, 10 p2_y, 11 p2_z, 12 p3_x, 13 p3_y, 14 p3_z, 15 jac_inv0, 16 jac_inv1, 17 jac_inv2, 18 jac_inv3, 19 b0, 20 b1, 21 b2, 22 b3, 23 lam0, 24 lam1, 25 lam2, 26 lam3, 27 lamT0, 28 lamT1, 29 xA_x, 30 xA_y, 31 xA_z, 32 xB_x, 33 xB_y, 34 xB_z, 35 vA_x, 36 vA_y, 37 vA_z, 38 wA_x, 39 wA_y, 40 wA_z, 41 vB_x, 42 vB_y, 43 vB_z, 44 wB_x, 45 wB_y, 46 wB_z, 47 mInvA, 48 mInvB, 49 IInvA_x, 50 IInvA_y, 51 IInvA_z, 52 IInvB_x, 53 IInvB_y, 54 IInvB_z, 55 keep_dyn, 56 keep_static
 constexpr int pgs_shared_pipe_soft_tb_in = 57;
-inline void pgs_shared_pipe_soft_tb(bool friction, const float in[57], bool in_soft, bool in_spin_damp, float out[16]) {
+inline void pgs_shared_pipe_soft_tb(bool friction, const float in[57], bool in_spin_damp, bool in_soft, float out[16]) {
 #pragma HLS INLINE off
     const float K0 = constant(1.0);   // K_ONE
     const float K1 = constant(0.0);   // K_ZERO

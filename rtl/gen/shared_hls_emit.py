@@ -17,6 +17,10 @@ from rtl.gen.dataflow import FLOAT, Value
 from rtl.gen.shared_datapath import CONTACT, FRICTION, KIND_NAMES, Comb, Operator, Ref, SharedDatapath, _const_key
 
 HEADER_FILE = "pgs_shared_datapath.h"
+# the bool parameters, in the order every function takes them whichever graph reads them (the RTL's ports are
+# connected by name, a C++ call by position): the order hls_export/pgs_kernel.cpp's lane_pass passes them in, the
+# friction pass's spin damping, then the contact pass's soft row
+BOOL_PARAMS = ("in_spin_damp", "in_soft")
 _CALL = {"fp_add": "add", "fp_mul": "mul", "fp_div": "div", "fp_sqrt": "sqrt"}
 
 
@@ -97,9 +101,17 @@ def _order(dp: SharedDatapath) -> list[Operator | Comb]:
     return [item for _, item in sorted(items, key=lambda t: t[0])]
 
 
+def bool_params(dp: SharedDatapath) -> list[str]:
+    """``dp``'s bool ports in :data:`BOOL_PARAMS` order (not the order the binding met them in)."""
+    unknown = sorted(set(dp.bool_ports) - set(BOOL_PARAMS))
+    if unknown:
+        raise ValueError(f"{dp.name}: bool ports {unknown} have no place in the C++ parameters {BOOL_PARAMS}")
+    return [b for b in BOOL_PARAMS if b in dp.bool_ports]
+
+
 def emit_shared_function(dp: SharedDatapath) -> list[str]:
     w = _Writer(dp)
-    bools = list(dp.bool_ports)
+    bools = bool_params(dp)
     params = ", ".join(["bool friction", f"const float in[{len(dp.layout.inputs)}]"]
                        + [f"bool {b}" for b in bools] + [f"float out[{len(dp.layout.outputs)}]"])
     L = [f"// {dp.name}: {len(dp.operators)} operators for both passes; inputs in the shared layout: "
