@@ -20,7 +20,6 @@ from pathlib import Path
 
 import cocotb
 import numpy as np
-import pytest
 
 from tb.cycles import cycle, start, val
 

@@ -18,7 +18,6 @@ import random
 from pathlib import Path
 
 import cocotb
-import pytest
 
 from tb.cycles import cycle, respond, start, val
 

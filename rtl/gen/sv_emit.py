@@ -125,7 +125,7 @@ def emit_sv(graph: Graph, lat: Optional[dict[str, Time]] = None) -> str:
     L += _wrap(graph.doc)
     L += [
         "//",
-        f"// Ports: in_data word k = in_data[k*W +: W], out_data word k = out_data[k*W +: W]; one input per",
+        "// Ports: in_data word k = in_data[k*W +: W], out_data word k = out_data[k*W +: W]; one input per",
         "// cycle (no back-pressure), results exactly LATENCY cycles later, in order; in_tag travels",
         "// with the data. rst (synchronous, active high) clears only the valid pipeline.",
         "// Latencies for the default operators: " + ", ".join(

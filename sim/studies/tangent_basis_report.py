@@ -96,7 +96,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="1: one datapath per lane (the builds' default); 0: a contact and a friction pipe per lane")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
-    fmt, preset = KERNEL_FORMATS[args.format], get_preset(args.dma)
+    fmt = KERNEL_FORMATS[args.format]
     try:
         frame, label = load_scene(args.scene, "", args.seed)
     except (KeyError, ValueError, FileNotFoundError) as exc:

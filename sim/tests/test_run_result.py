@@ -8,10 +8,8 @@ from typing import Union
 
 from models.exact.solution_error import SolutionError
 from sim.report.run_result import (BITS_SECTION, ERROR_SECTION, MODEL_SECTION, VERDICT_SECTION, BitExactness,
-                                   KernelSpeed,
-                                   ModelRunResult, RunResult, SceneFacts, ScheduleFacts, StepErrors, ThesisComparison,
-                                   VelocityError, sections)
-from sim.report.run_result import ThesisComparison, _thesis
+                                   KernelSpeed, ModelRunResult, RunResult, SceneFacts, ScheduleFacts, StepErrors,
+                                   ThesisComparison, VelocityError, _thesis, sections)
 from sim.compare.exact_error import ExactErrors, ExactReferenceFacts, NoExactReference
 
 ERR = VelocityError(1e-3, 2e-3, 0.5)
