@@ -110,6 +110,21 @@ def inertia_mul(inv_inertia: wp.array2d(dtype=float), body: int, c: wp.vec3, ful
                    (xz * c[0] + yz * c[1]) + zz * c[2])
 
 
+@wp.func
+def load_velocities(lin_vel: wp.array(dtype=wp.vec3), ang_vel: wp.array(dtype=wp.vec3), a: int, b: int):
+    """A manifold's read of its bodies' velocities: vA, wA, vB, wB."""
+    return lin_vel[a], ang_vel[a], lin_vel[b], ang_vel[b]
+
+
+@wp.func
+def store_velocities(lin_vel: wp.array(dtype=wp.vec3), ang_vel: wp.array(dtype=wp.vec3), body: int,
+                     inv_mass: float, v: wp.vec3, w: wp.vec3):
+    """A manifold's write-back of one body: a dynamic body's new velocities (a static body is read, never written)."""
+    if inv_mass != 0.0:
+        lin_vel[body] = v
+        ang_vel[body] = w
+
+
 @wp.kernel
 def contact_batch(offset: int, body_a: wp.array(dtype=int), body_b: wp.array(dtype=int),
                   normal: wp.array(dtype=wp.vec3), points: wp.array2d(dtype=wp.vec3), jac_inv: wp.array2d(dtype=float),
@@ -123,10 +138,7 @@ def contact_batch(offset: int, body_a: wp.array(dtype=int), body_b: wp.array(dty
     n = normal[m]
     xa = position[a]
     xb = position[b]
-    va = lin_vel[a]
-    wa = ang_vel[a]
-    vb = lin_vel[b]
-    wb = ang_vel[b]
+    va, wa, vb, wb = load_velocities(lin_vel, ang_vel, a, b)
     ma = inv_mass[a]
     mb = inv_mass[b]
     lin_a = n * ma
@@ -147,12 +159,8 @@ def contact_batch(offset: int, body_a: wp.array(dtype=int), body_b: wp.array(dty
             wa = wa + inertia_mul(inv_inertia, a, ca, full) * delta
             vb = vb - lin_b * delta
             wb = wb - inertia_mul(inv_inertia, b, cb, full) * delta
-    if ma != 0.0:
-        lin_vel[a] = va
-        ang_vel[a] = wa
-    if mb != 0.0:
-        lin_vel[b] = vb
-        ang_vel[b] = wb
+    store_velocities(lin_vel, ang_vel, a, ma, va, wa)
+    store_velocities(lin_vel, ang_vel, b, mb, vb, wb)
 
 
 @wp.kernel
@@ -169,10 +177,7 @@ def friction_batch(offset: int, body_a: wp.array(dtype=int), body_b: wp.array(dt
         return
     a = body_a[m]
     b = body_b[m]
-    va = lin_vel[a]
-    wa = ang_vel[a]
-    vb = lin_vel[b]
-    wb = ang_vel[b]
+    va, wa, vb, wb = load_velocities(lin_vel, ang_vel, a, b)
     ma = inv_mass[a]
     mb = inv_mass[b]
     limit = mu[m] * ((lam[m, 0] + lam[m, 1]) + (lam[m, 2] + lam[m, 3]))
@@ -199,12 +204,8 @@ def friction_batch(offset: int, body_a: wp.array(dtype=int), body_b: wp.array(dt
         n = normal[m]
         wa = wa - n * (dot3(n, wa) * spin_k)
         wb = wb - n * (dot3(n, wb) * spin_k)
-    if ma != 0.0:
-        lin_vel[a] = va
-        ang_vel[a] = wa
-    if mb != 0.0:
-        lin_vel[b] = vb
-        ang_vel[b] = wb
+    store_velocities(lin_vel, ang_vel, a, ma, va, wa)
+    store_velocities(lin_vel, ang_vel, b, mb, vb, wb)
 
 
 @wp.struct
