@@ -252,23 +252,42 @@ class StepInput:
     initial: Optional[Impulses]
 
 
-def _remedy_step(remedy: Remedy, advance: Stepper, bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,
-                 mf: scenes.Manifolds, ar: Arithmetic, solver: SolverParams, call_dt: float,
-                 state: _RemedyState) -> BodyTable:
-    """One step: the warm start from the carried memory (if warm), then the remedy's kernel calls."""
+def _step_start(remedy: Remedy, bodies: BodyTable, cons: ConstraintSet, order: np.ndarray, mf: scenes.Manifolds,
+                ar: Arithmetic, solver: SolverParams,
+                state: _RemedyState) -> tuple[Optional[Impulses], Optional[Contacts]]:
+    """A step's start: a warm remedy's initial impulses from the carried memory and the step's contacts (which the
+    next step's memory is kept of), else (None, None); what the step is solved from recorded in ``state.last``."""
     initial: Optional[Impulses] = None
+    contacts: Optional[Contacts] = None
     if remedy.warm:
         contacts = Contacts.of(mf.body_a, mf.body_b, mf.num_points, mf.point_on_a, bodies)
         ws = warm_start(state.memory, contacts, cons, solver.friction_coeff, remedy.warm_factor)
         state.report.add(ws.report)
         initial = Impulses(ar.round(ws.impulses.normal), ar.round(ws.impulses.friction))
     state.last = StepInput(bodies, cons, order, initial)
-    points = None
-    if remedy.substeps > 1:
-        valid = np.arange(4)[None, :] < mf.num_points[:, None]
-        points = ContactPoints(cons.body_a, cons.body_b, valid, mf.normal_on_b[:, 0, :], mf.point_on_a,
-                               mf.point_on_b, bodies.position.astype(np.float64),
-                               bodies.orientation.astype(np.float64))
+    return initial, contacts
+
+
+def _contact_points(cons: ConstraintSet, mf: scenes.Manifolds, bodies: BodyTable) -> tuple[np.ndarray, ContactPoints]:
+    """The step's valid points (K, 4) and the contact points the substeps' separations are measured at."""
+    valid = np.arange(4)[None, :] < mf.num_points[:, None]
+    return valid, ContactPoints(cons.body_a, cons.body_b, valid, mf.normal_on_b[:, 0, :], mf.point_on_a,
+                                mf.point_on_b, bodies.position.astype(np.float64),
+                                bodies.orientation.astype(np.float64))
+
+
+def _remember(state: _RemedyState, contacts: Optional[Contacts], cons: ConstraintSet, impulses: Impulses) -> None:
+    """A warm remedy's memory for the next step: the step's contacts and its last call's impulses."""
+    if contacts is not None:
+        state.memory = ContactMemory.of(contacts, cons, impulses)
+
+
+def _remedy_step(remedy: Remedy, advance: Stepper, bodies: BodyTable, cons: ConstraintSet, order: np.ndarray,
+                 mf: scenes.Manifolds, ar: Arithmetic, solver: SolverParams, call_dt: float,
+                 state: _RemedyState) -> BodyTable:
+    """One step: the warm start from the carried memory (if warm), then the remedy's kernel calls."""
+    initial, contacts = _step_start(remedy, bodies, cons, order, mf, ar, solver, state)
+    points = _contact_points(cons, mf, bodies)[1] if remedy.substeps > 1 else None
     for k in range(remedy.substeps):
         call = cons if points is None else substep_constraints(
             cons, points, bodies, call_dt, ar, relax=remedy.relax and k == remedy.substeps - 1)
@@ -278,8 +297,7 @@ def _remedy_step(remedy: Remedy, advance: Stepper, bodies: BodyTable, cons: Cons
         state.calls += 1
         if remedy.warm:
             initial = impulses  # Box2D's warm start between substeps: the accumulated impulses in full
-    if remedy.warm:
-        state.memory = ContactMemory.of(contacts, cons, impulses)
+    _remember(state, contacts, cons, impulses)
     return bodies
 
 
@@ -318,16 +336,8 @@ def _soft_step(remedy: Remedy, calls: Any, bodies: BodyTable, cons: ConstraintSe
     at the substep's start): the solve call sees what Box2D's solve sees, the relax call sees the velocities after
     the position update without the next substep's gravity, as in Box2D."""
     assert remedy.soft is not None
-    initial: Optional[Impulses] = None
-    if remedy.warm:
-        contacts = Contacts.of(mf.body_a, mf.body_b, mf.num_points, mf.point_on_a, bodies)
-        ws = warm_start(state.memory, contacts, cons, solver.friction_coeff, remedy.warm_factor)
-        state.report.add(ws.report)
-        initial = Impulses(ar.round(ws.impulses.normal), ar.round(ws.impulses.friction))
-    state.last = StepInput(bodies, cons, order, initial)
-    valid = np.arange(4)[None, :] < mf.num_points[:, None]
-    points = ContactPoints(cons.body_a, cons.body_b, valid, mf.normal_on_b[:, 0, :], mf.point_on_a, mf.point_on_b,
-                           bodies.position.astype(np.float64), bodies.orientation.astype(np.float64))
+    initial, contacts = _step_start(remedy, bodies, cons, order, mf, ar, solver, state)
+    valid, points = _contact_points(cons, mf, bodies)
     impulses = Impulses.zeros(cons.num_manifolds)
     for _ in range(remedy.substeps):
         call = soft_constraints(cons, points.separation(bodies), valid, bodies, calls.h, remedy.soft, ar)
@@ -341,6 +351,5 @@ def _soft_step(remedy: Remedy, calls: Any, bodies: BodyTable, cons: ConstraintSe
             bodies = add_gravity(bodies, ar, calls.gravity, calls.h)
             state.calls += 1
         initial = impulses if remedy.warm else None
-    if remedy.warm:
-        state.memory = ContactMemory.of(contacts, cons, impulses)
+    _remember(state, contacts, cons, impulses)
     return bodies
