@@ -8,6 +8,9 @@
 //   * stat_fp_overflow / underflow / invalid: the events of the lanes' solver pipes (`lane_ev`, lane l at
 //     [3*EV_W*l +: 3*EV_W], {invalid, underflow, overflow} of EV_W bits each) and of the integrate pipe
 //     (`int_ev_*`), counted every cycle (the pipes report after their last input), saturating at 2^32 - 1.
+// The stall, bubble, issue and reject counts enter through a register (the take decides them late in its cycle):
+// each counter has its cycle's count one cycle later, which a run never sees (those come only in SOLVE, and the
+// counters are read once the run is done, cycles after the solve).
 // fp_set: {invalid, underflow, overflow} raised this cycle (combinational).
 // All are reset by `rst`.
 `default_nettype none
@@ -40,6 +43,24 @@ module pgs_run_counters #(
     output logic [31:0]            stat_fp_underflow,
     output logic [31:0]            stat_fp_invalid
 );
+    logic             stall_q, bubble_q, fill_rejected_q;
+    logic [LANES-1:0] issued_q, rejected_q;
+    always_ff @(posedge clk) begin
+        if (rst || idle) begin
+            stall_q         <= 1'b0;
+            bubble_q        <= 1'b0;
+            fill_rejected_q <= 1'b0;
+            issued_q        <= '0;
+            rejected_q      <= '0;
+        end else begin
+            stall_q         <= stall;
+            bubble_q        <= bubble;
+            fill_rejected_q <= fill_rejected;
+            issued_q        <= issued;
+            rejected_q      <= rejected;
+        end
+    end
+
     always_ff @(posedge clk) begin
         if (rst) begin
             stat_cycles   <= '0;
@@ -57,10 +78,10 @@ module pgs_run_counters #(
             end
         end else begin
             stat_cycles <= stat_cycles + 1'b1;
-            if (stall)  stat_stalls  <= stat_stalls + 1'b1;
-            if (bubble) stat_bubbles <= stat_bubbles + 1'b1;
-            stat_issued   <= stat_issued + 32'($countones(issued));
-            stat_rejected <= stat_rejected + 32'($countones(rejected)) + 32'(fill_rejected);
+            if (stall_q)  stat_stalls  <= stat_stalls + 1'b1;
+            if (bubble_q) stat_bubbles <= stat_bubbles + 1'b1;
+            stat_issued   <= stat_issued + 32'($countones(issued_q));
+            stat_rejected <= stat_rejected + 32'($countones(rejected_q)) + 32'(fill_rejected_q);
         end
     end
 

@@ -215,6 +215,8 @@ module pgs_seq_records #(
             logic [LANES*HL_W-1:0]   wr_head, whead;
             logic              w_done, w_asm_first;
             logic [$clog2(WINDOW)-1:0] cand_addr;
+            logic [ITER_W+1:0] w_start_pass;   // the pass the window starts next, and its kind (rec_kind: the
+                                               // candidate's, kept with its pass context)
             pgs_window #(.CONS_W(CONS_W), .REC_BEATS(LANES * WR_BEATS), .DEPTH(WINDOW), .CTX(WINDOW_CTX),
                          .PASS_W(ITER_W + 1), .HEAD_W(LANES * HL_W)) u_window (
                 .clk, .rst, .init, .nm(nm_rec), .passes, .fetch_passes(fetch[ITER_W:0]),
@@ -222,7 +224,9 @@ module pgs_seq_records #(
                 .s_tvalid(s_cons_tvalid), .s_tready(s_cons_tready), .s_tlast(s_cons_tlast), .asm_move(w_asm_move),
                 .asm_slot(w_asm_slot), .asm_first(w_asm_first), .wr_rec, .wr_head,
                 .cand_valid(rec_valid), .cand_head(whead), .cand_addr, .cand_first(w_first), .cand_lastg(w_lastg),
-                .cand_trunc(rec_trunc), .rd_rec, .cand_pass(pass), .cand_slot(slot), .take,
+                .cand_trunc(rec_trunc), .rd_rec, .cand_pass(pass), .start_pass_no(w_start_pass),
+                .start_kind(pgs_seq_pkg::kind_of(w_start_pass[ITER_W:0], ilv, iters)), .cand_kind(rec_kind),
+                .cand_slot(slot), .take,
                 .all_done(w_done), .flushing(flush), .tlast_err(err_tlast));
             assign w_addr = RA_W'(cand_addr);
             logic w_first_q;   // the record being written belongs to the first fetch
@@ -248,13 +252,12 @@ module pgs_seq_records #(
             assign l_fa     = '0;
             assign l_fb     = '0;
             assign l_lin    = '0;
-            assign rec_kind = pgs_seq_pkg::kind_of(pass, ilv, iters);
             assign fill     = 1'b0;
             // the window ends the solve with the last pass's last record (the sequencer's solve_last); the padding of
             // the lanes' records, its all-done flag, the step's slot stepping (the window's own) are not needed here
             logic unused_window;
             always_comb begin
-                unused_window = ^{w_done, fetch[31:ITER_W+1], slot_step};
+                unused_window = ^{w_done, fetch[31:ITER_W+1], slot_step, w_start_pass[ITER_W+1]};
                 for (int l = 0; l < LANES; l++)
                     unused_window ^= ^kind_view(rd_rec[l*LREC_W +: LREC_W], s1_kind)[CREC_W-1:64 + S1_WORDS*W];
             end

@@ -76,6 +76,9 @@ module pgs_window #(
     output logic               cand_trunc,
     output logic [REC_W-1:0]   rd_rec,        // the record taken in the previous cycle
     output logic [PASS_W-1:0]  cand_pass,
+    output logic [PASS_W:0]    start_pass_no,  // the pass started next ...
+    input  wire                start_kind,     // ... its kind (a pass's kind is kept with its context)
+    output logic               cand_kind,      // the candidate's pass's kind
     output logic [31:0]        cand_slot,
     input  wire                take,          // the candidate is consumed (issued or rejected)
     output logic               all_done,      // every pass has stepped every slot
@@ -133,7 +136,7 @@ module pgs_window #(
     logic [PASS_W-1:0] c_pass  [CTX];
     logic [31:0]       c_slot  [CTX];
     logic [GI_W-1:0]   c_gidx  [CTX];
-    logic [CTX-1:0]    c_active, c_lastg, c_first, skip;
+    logic [CTX-1:0]    c_active, c_lastg, c_first, c_kind, skip;
     logic [PASS_W:0]   st_pass, jlo;      // next pass to start; oldest pass not done
     logic [PASS_W-1:0] st_k;              // st_pass's place in its fetch
     logic [GI_W-1:0]   st_base;           // global index of slot 0 of st_pass's fetch
@@ -144,37 +147,39 @@ module pgs_window #(
                       && (!st_lastg || jlo >= st_pass - (PASS_W+1)'(st_k));
 
     // a context's slot is a candidate: its record is in the ring, and the pass before it is done or far enough
-    logic [CTX-1:0] elig;
+    // ahead. The two comparisons are registered (`in_ring`, `ahead`): each cycle they are computed for the next
+    // cycle's counters from this cycle's, once per way the take and the pass start can change them, and the take
+    // picks one at the end (the same values as comparing the next cycle's counters: no cycle changes).
+    logic [CTX-1:0] elig, in_ring, ahead;
     always_comb begin
         for (int k = 0; k < CTX; k++) begin
             automatic logic [CW-1:0] p = CW'(k - 1);
-            automatic logic lag_ok = (PASS_W+1)'(c_pass[k]) == jlo || !c_active[p]
-                                     || {1'b0, c_slot[p]} >= {1'b0, c_slot[k]} + {1'b0, lag};
-            elig[k] = c_active[k] && c_gidx[k] < wr_cnt && lag_ok;
+            // (an active context holds a pass from jlo on, pass j in context j mod CTX: it holds jlo when it is
+            // jlo's context)
+            automatic logic lag_ok = CW'(k) == jlo_ctx || !c_active[p] || ahead[k];
+            elig[k] = c_active[k] && in_ring[k] && lag_ok;
         end
     end
 
-    // the oldest eligible context not skipped; else the oldest eligible one
+    // the oldest eligible context not skipped; else the oldest eligible one (the contexts rotated to start at the
+    // oldest pass's, the first set bit found, rotated back)
+    function automatic logic [CTX-1:0] rotate_down(input logic [CTX-1:0] v, input logic [CW-1:0] by);
+        return CTX'({v, v} >> by);
+    endfunction
+    function automatic logic [CW-1:0] first_set(input logic [CTX-1:0] v);
+        logic [CW-1:0] i = '0;
+        for (int off = CTX - 1; off >= 0; off--)
+            if (v[off]) i = CW'(off);
+        return i;
+    endfunction
     logic [CW-1:0] sel;
     logic          any_fresh, any_elig;
     always_comb begin
-        sel       = '0;
-        any_fresh = 1'b0;
-        any_elig  = 1'b0;
-        for (int off = CTX - 1; off >= 0; off--) begin
-            automatic logic [CW-1:0] k = jlo_ctx + CW'(off);
-            if (elig[k]) begin
-                any_elig = 1'b1;
-                sel = k;
-            end
-        end
-        for (int off = CTX - 1; off >= 0; off--) begin
-            automatic logic [CW-1:0] k = jlo_ctx + CW'(off);
-            if (elig[k] && !skip[k]) begin
-                any_fresh = 1'b1;
-                sel = k;
-            end
-        end
+        automatic logic [CTX-1:0] r_elig  = rotate_down(elig, jlo_ctx);
+        automatic logic [CTX-1:0] r_fresh = rotate_down(elig & ~skip, jlo_ctx);
+        any_elig  = r_elig != '0;
+        any_fresh = r_fresh != '0;
+        sel = jlo_ctx + (any_fresh ? first_set(r_fresh) : first_set(r_elig));
     end
 
     assign cand_valid = any_elig;
@@ -182,11 +187,50 @@ module pgs_window #(
     assign cand_head  = cand_head_trunc[HEAD_W-1:0];
     assign cand_trunc = cand_head_trunc[HEAD_W];
     assign cand_first = c_first[sel];
+    assign cand_kind  = c_kind[sel];
+    assign start_pass_no = st_pass;
     assign cand_lastg = c_lastg[sel];
     assign cand_pass  = c_pass[sel];
     assign cand_slot  = c_slot[sel];
     assign all_done   = jlo == (PASS_W+1)'(passes);
     wire   step_last  = c_slot[sel] == nm - 1;
+
+    // the registered comparisons of the next cycle (see elig): a context k started now (slot 0, record st_base),
+    // taken now (its slot and record one on) or neither; the context p before it likewise; a record written now
+    // (wr_cnt one on). d: slots pass p is ahead of k beyond the lag; g: records in the ring beyond k's.
+    localparam int DW = 34;
+    localparam int GW = GI_W + 1;
+    wire [CW-1:0] st_ctx = st_pass[CW-1:0];
+    logic [CTX-1:0] ahead_next, in_ring_next;
+    always_comb begin
+        automatic logic signed [GW-1:0] st_room = $signed({1'b0, wr_cnt}) - $signed({1'b0, st_base});
+        for (int k = 0; k < CTX; k++) begin
+            automatic logic [CW-1:0] p = CW'(k - 1);
+            automatic logic take_k = take && sel == CW'(k);
+            automatic logic take_p = take && sel == p;
+            automatic logic signed [DW-1:0] d = $signed(DW'(c_slot[p])) - $signed(DW'(c_slot[k]))
+                                                 - $signed(DW'(lag));
+            automatic logic signed [DW-1:0] e = $signed(DW'(c_slot[p])) - $signed(DW'(lag));
+            automatic logic signed [GW-1:0] g = $signed({1'b0, wr_cnt}) - $signed({1'b0, c_gidx[k]});
+            // c_slot[p] + take_p >= c_slot[k] + take_k + lag, c_gidx[k] + take_k < wr_cnt + wr_step
+            if (start_pass && st_ctx == CW'(k)) begin
+                ahead_next[k]   = take_p ? e >= -1 : e >= 0;
+                in_ring_next[k] = wr_step ? st_room >= 0 : st_room > 0;
+            end else begin
+                if (start_pass && st_ctx == p) ahead_next[k] = 1'b0;   // slot 0 is never lag >= 1 ahead
+                else if (take_p)               ahead_next[k] = d >= -1;
+                else if (take_k)               ahead_next[k] = d >= 1;
+                else                           ahead_next[k] = d >= 0;
+                // (each comparison from the registers; the write and the take only choose one)
+                if (take_k) in_ring_next[k] = wr_step ? g > 0 : g > 1;
+                else        in_ring_next[k] = wr_step ? g >= 0 : g > 0;
+            end
+        end
+    end
+    always_ff @(posedge clk) begin
+        ahead   <= ahead_next;
+        in_ring <= in_ring_next;
+    end
 
     always_ff @(posedge clk) begin
         if (rst || init) begin
@@ -229,6 +273,7 @@ module pgs_window #(
                 c_gidx[st_pass[CW-1:0]]   <= st_base;
                 c_lastg[st_pass[CW-1:0]]  <= st_lastg;
                 c_first[st_pass[CW-1:0]]  <= st_k == '0;
+                c_kind[st_pass[CW-1:0]]   <= start_kind;
                 st_pass <= st_pass + 1'b1;
                 st_k    <= st_lastg ? '0 : st_k + 1'b1;
                 if (st_lastg) st_base <= st_base + GI_W'(nm);

@@ -31,6 +31,7 @@ from typing import Any, Callable, Optional, Sequence
 from models.published import thesis
 from sim.compile.verilator_build import REPO_ROOT
 from sim.fit.estimate_band import BandVerdict
+from sim.fit.timing_estimate import TimingVerdict
 from sim.report.run_result import AnyRunResult, RunResult
 from sim.run import make_sim_argv, parse_args as sim_args, run_and_report
 
@@ -123,6 +124,14 @@ def _thesis_speedup(result: Optional[AnyRunResult]) -> float:
     return thesis.THESIS_FPGA[speed.fmt].cycles_per_manifold_pass / (speed.cycles / speed.manifold_passes)
 
 
+def _timing_mhz(result: Optional[AnyRunResult]) -> int:
+    """The clock the run's timing estimate supports, in whole MHz (the platform's where it meets it)."""
+    t = _rtl(result).timing
+    if not isinstance(t, TimingVerdict):
+        raise ValueError(f"the run has no timing estimate ({t})")
+    return round(t.clock_hz / 1e6)
+
+
 def _binding(result: Optional[AnyRunResult]) -> str:
     fit = _fit(result)
     return max(fit.limits, key=lambda k: fit.shares[k] / fit.limits[k])
@@ -144,6 +153,7 @@ MEASURES: dict[str, Callable[[Optional[AnyRunResult]], Any]] = {
     "lut_share": lambda r: _fit(r).shares["LUT"],
     "bram_share": lambda r: _fit(r).shares["BRAM36"],
     "binding_resource": _binding,
+    "timing_mhz": _timing_mhz,
     "manifolds": lambda r: _rtl(r).scene.manifolds,
     # published figures (no run): the thesis's cycles per manifold-pass
     "thesis_fp32_cycles_per_manifold_pass": lambda r: thesis.THESIS_FPGA["fp32"].cycles_per_manifold_pass,

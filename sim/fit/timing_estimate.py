@@ -14,7 +14,11 @@ of its kernel) and those that cross between them, joined here at the control's b
   distributed RAM (the window's ring heads, read in the cycle they are addressed; the rejected-slot flags with the
   impulses on chip) is a read tree: the LUT RAM read and a 4:1 LUT per level of the depth multiplexer; the body RAM's
   banked reads add the multiplexer from the 2 x banks port outputs, its writes the one from the 2 x lanes writes
-  (``resource_model.bank_mux_resources``: computed, not synthesized).
+  (``resource_model.bank_mux_resources``: computed, not synthesized);
+* the body RAM's dynamic and bad flags (distributed RAM, a bit per body, read asynchronously at the offered record's
+  bodies: ``rtl/pgs_body_ram.sv`` dyn_addr) are a read tree of the scene's bodies after the address: in the window
+  kernel the address is the ring heads' read (the heads' address arrival, the heads' read tree, then the flags'),
+  in the streaming kernel a register (the record assembler's).
 
 The delay lines a build keeps in block RAM (``delay_block_min_depth``) start their taps' paths at the block RAM's
 clock-to-out: each pipe's depth is committed for the thresholds the builds use. The control of two lanes is the
@@ -273,6 +277,9 @@ def _boundaries(cfg: rm.KernelConfig, control: dict[str, Any], analyses: dict[st
         if btype in PIPE_UNITS:
             out += _pipe_join(btype, pin, p, analyses, into=False)
             continue
+        if btype == "pgs_body_ram" and pin in ("dyn", "bad"):
+            out.append(_body_flags_read(cfg, control, p, f))
+            continue
         if btype == "pgs_ring_ram" and _distributed_ring(inst):
             addr = control["box_in"].get(f"{inst}:rd_addr")
             depth = cfg.window if "u_heads" in inst else math.ceil(cfg.max_manifolds / cfg.lanes)
@@ -288,6 +295,23 @@ def _boundaries(cfg: rm.KernelConfig, control: dict[str, Any], analyses: dict[st
         else:
             notes.add(f"{btype or inst} outputs: no timing of the box itself")
     return out
+
+
+def _body_flags_read(cfg: rm.KernelConfig, control: dict[str, Any], flag_path: dict[str, Any],
+                     f: delays.DelayFigures) -> TimedPath:
+    """The body RAM's flag read at the offered record's bodies, then the control's path from the flag (see the module
+    docstring)."""
+    flags = read_tree(cfg.max_bodies, f)
+    heads = next((p for k, p in control["box_in"].items() if k.endswith(":rd_addr") and "u_heads" in k), None)
+    if cfg.window and heads is not None:
+        ring = read_tree(cfg.window, f)
+        both = _piece(f"{ring.where}, then the body flags' {flags.where}", ring.delay_ns + flags.delay_ns,
+                      luts=ring.luts + flags.luts)
+        return _join("control -> LUT RAM read (ring heads) -> LUT RAM read (body flags) -> control", heads,
+                     flag_path, both)
+    start = {"delay_ns": f.ff_clock_to_q, "luts": 0, "carry8": 0, "muxf": 0, "dsp": 0,
+             "start": "the offered record's body indices (a register)", "cells": ""}
+    return _join("register -> LUT RAM read (body flags) -> control", start, flag_path, flags)
 
 
 def _pipe_join(btype: str, pin: str, control_path: dict[str, Any], analyses: dict[str, dict[str, Any]],

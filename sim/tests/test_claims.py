@@ -13,7 +13,9 @@ import pytest
 from models.published import thesis
 from sim import claims as cl
 from sim.fit import estimate_band as eb
+from sim.fit import delays
 from sim.fit import resource_model as rm
+from sim.fit import timing_estimate as te
 from sim.report.run_result import BitExactness, RunResult
 from sim.run import MAKE_SIM_OPTIONS, make_sim_argv, parse_args
 from sim.tests.test_run_result import EXACT, _result
@@ -43,8 +45,14 @@ def test_every_run_is_a_make_sim_command_and_the_makefile_passes_each_variable()
             make_sim_argv(bad)
 
 
+def _timing(mhz: float) -> te.TimingVerdict:
+    """A timing estimate of the ZCU102 whose deepest path allows ``mhz``."""
+    worst = te.TimedPath("control", 1e3 / mhz - delays.FIGURES.clock_uncertainty, 30, 0, 0, 0, "a", "b", "")
+    return te.TimingVerdict("zcu102", delays.budget(275e6), [worst], {})
+
+
 def _run(fmt: str, cycles: int, manifolds: int, lut: float, max_dv: float, bits: int = 0,
-         bram: float = 0.1, lut_high: float | None = None) -> RunResult:
+         bram: float = 0.1, lut_high: float | None = None, mhz: float = 275.0) -> RunResult:
     """A make sim result whose figures are these (the rest from test_run_result's example); the band's pessimistic
     ends are the estimate's, the LUT's ``lut_high`` where given."""
     result = _result(BitExactness(bits, bits, manifolds * 8, 11, "record 3" if bits else "", 1))
@@ -55,6 +63,7 @@ def _run(fmt: str, cycles: int, manifolds: int, lut: float, max_dv: float, bits:
     result.fit = rm.FitVerdict(rm.platforms.get_platform("zcu102"), rm.Resources(), shares, dict(rm.platforms.USABLE_SHARE),
                                "window")
     result.band = _band(shares, high=1.0, lut_high=lut_high)
+    result.timing = _timing(mhz)
     ours = dataclasses.replace(EXACT.ours, max_dv=max_dv)
     result.errors = dataclasses.replace(result.errors, vs_exact=dataclasses.replace(EXACT, ours=ours))
     return result
@@ -69,13 +78,14 @@ def _band(shares: dict[str, float], high: float, lut_high: float | None = None) 
         k: eb.BandedShare(k, v, v, 0.9 * v, ends[k], usable[k]) for k, v in shares.items()}, "window")
 
 
+MHZ = {"fp32": 80.2, "fp16": 84.9}  # the clock each headline design's timing estimate supports (docs/claims.toml)
 RUNS = {"thesis-fp32": _run("fp32", 2_299_084, 147_485, 0.5, 0.0939),
         "thesis-fp16": _run("fp16", 1_500_581, 147_485, 0.5, 0.0939),
         "thesis-bf16": _run("bf16", 1_494_499, 147_485, 0.5, 0.0939),
-        "fitting-fp32": _run("fp32", 1_436_467, 147_485, 0.7402, 0.08364, bram=0.9114,
-                              lut_high=0.829),
-        "fitting-fp16": _run("fp16", 822_865, 147_485, 0.7452, 0.08346, bram=0.8293,
-                              lut_high=0.878),
+        "fitting-fp32": _run("fp32", 1_436_467, 147_485, 0.7421, 0.08364, bram=0.9114,
+                              lut_high=0.831, mhz=MHZ["fp32"]),
+        "fitting-fp16": _run("fp16", 822_865, 147_485, 0.7462, 0.08346, bram=0.8293,
+                              lut_high=0.880, mhz=MHZ["fp16"]),
         "jenga": _run("fp32", 10_633, 100, 0.1, 0.01), "duck-lego": _run("fp32", 4_906, 100, 0.1, 0.01)}
 
 
@@ -92,7 +102,8 @@ def test_every_figure_passes_on_the_stated_runs(capsys: pytest.CaptureFixture[st
 
 def test_a_figure_off_by_its_last_digit_or_a_broken_run_fails(capsys: pytest.CaptureFixture[str]) -> None:
     runs = dict(RUNS)
-    runs["fitting-fp16"] = _run("fp16", 822_866, 147_485, 0.7452, 0.08346, bram=0.8293, lut_high=0.878)  # a cycle more
+    runs["fitting-fp16"] = _run("fp16", 822_866, 147_485, 0.7462, 0.08346, bram=0.8293, lut_high=0.880,
+                                 mhz=MHZ["fp16"])  # a cycle more
     runs["thesis-bf16"] = _run("bf16", 1_494_499, 147_485, 0.5, 0.0939, bits=3)
 
     def source(name: str, command: str) -> RunResult:
@@ -140,3 +151,14 @@ def test_fits_is_the_band_verdict_at_its_pessimistic_end() -> None:
     run.band = None
     with pytest.raises(ValueError, match="no fit verdict with the estimate's band"):
         cl.MEASURES["fits"](run)
+
+
+def test_timing_is_the_clock_the_estimate_supports() -> None:
+    """A design that fails its clock is quoted at the clock its deepest path allows, one that meets it at the
+    platform's; a run without an estimate has no timing figure."""
+    assert cl.MEASURES["timing_mhz"](_run("fp32", 1, 1, 0.5, 0.1, mhz=80.4)) == 80
+    assert cl.MEASURES["timing_mhz"](_run("fp32", 1, 1, 0.5, 0.1, mhz=300.0)) == 275
+    run = _run("fp32", 1, 1, 0.5, 0.1)
+    run.timing = te.NoTiming("no figures")
+    with pytest.raises(ValueError, match="no timing estimate"):
+        cl.MEASURES["timing_mhz"](run)

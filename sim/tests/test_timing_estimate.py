@@ -108,6 +108,32 @@ def test_ring_heads_read_through_the_lut_ram_tree() -> None:
                for p in v.paths)
 
 
+def test_body_flags_read_after_the_ring_heads() -> None:
+    """The body RAM's dynamic / bad flags are read at the offered record's bodies: in the window kernel after the ring
+    heads' read (both read trees on the path), in the streaming kernel from the assembler's register."""
+    window = rm.KernelConfig(FP32, 40000, 100, window=8192, impulses_resident=False, body_ports="banked")
+    control = unit(1.0, 2, boxes={"u_seq.u_window.u_heads": "pgs_ring_ram", "u_seq.u_body_ram": "pgs_body_ram"},
+                   box_in={"u_seq.u_window.u_heads:rd_addr": path(1.0, 3, "jlo")},
+                   box_out={"u_seq.u_window.u_heads:rd_data": path(0.5, 2, end="issue"),
+                            "u_seq.u_body_ram:dyn": path(0.7, 4, end="cam")})
+    d = data(control)
+    d["units"]["fp32"]["control_window"] = d["units"]["fp32"].pop("control")
+    v = te.timing(window, ZCU102, d)
+    assert isinstance(v, te.TimingVerdict)
+    heads, flags = te.read_tree(8192), te.read_tree(40000)
+    assert flags.luts == 1 + math.ceil(math.log(math.ceil(40000 / 64), 4)) == 6
+    both = next(p for p in v.paths if "body flags" in p.where)
+    assert both.delay_ns == pytest.approx(1.0 + heads.delay_ns + flags.delay_ns + 0.7)
+    assert both.luts == 3 + heads.luts + flags.luts + 4 and (both.start, both.end) == ("jlo", "cam")
+    assert v.worst is both  # the deepest path of this kernel
+    stream = te.timing(dataclasses.replace(CFG, max_bodies=40000), ZCU102,
+                       data(unit(1.0, 2, boxes={"u_seq.u_body_ram": "pgs_body_ram"},
+                                 box_out={"u_seq.u_body_ram:bad": path(0.7, 4, end="take")})))
+    assert isinstance(stream, te.TimingVerdict)
+    reg = next(p for p in stream.paths if "body flags" in p.where)
+    assert reg.delay_ns == pytest.approx(F.ff_clock_to_q + flags.delay_ns + 0.7) and reg.end == "take"
+
+
 def test_delay_line_threshold_picks_the_pipe_analysis() -> None:
     d = data(unit(1.0))
     d["units"]["fp32"]["contact"]["129"] = unit(3.3, 9)
