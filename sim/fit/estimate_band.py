@@ -190,8 +190,9 @@ def band_verdict(cfg: rm.KernelConfig, platform: platforms.Platform,
 
 
 def band_or_reason(cfg: rm.KernelConfig, platform: platforms.Platform) -> Union[BandVerdict, rm.NoEstimate]:
+    """The band of ``cfg`` with the adder form the fit chooses (``rm.with_chosen_adders``), or why there is none."""
     try:
-        return band_verdict(cfg, platform)
+        return band_verdict(rm.with_chosen_adders(cfg, platform), platform)
     except (KeyError, FileNotFoundError) as exc:
         return rm.NoEstimate(str(exc).strip("'\""))
 

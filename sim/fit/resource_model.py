@@ -34,7 +34,12 @@ through at integration), ``body_ports`` (``"lvt"``: every write port a bank repl
 ``rtl/pgs_body_vel_banks.sv``, 2 x lanes reads and writes a cycle, the lane plan keeping a record's reads within
 the banks' ports),
 ``delay_block_min_depth`` (the delay lines from that depth in block RAM instead of LUT RAM), and
-``record_bits`` (word width of the record fields stored in the ring: a storage format per field group).
+``record_bits`` (word width of the record fields stored in the ring: a storage format per field group), and
+``adders`` (``"fabric"``: every ``fp_add`` in LUTs and carry chains; ``"dsp"``: in its DSP48E2 form, ``fp_add_dsp``,
+the alignment and normalization shifts as multiplications by a power of two and the add in the DSP). The fit
+chooses the adder form per configuration (:func:`choose_adders`): the DSP form where its DSP share stays within the
+usable share and it lowers the configuration's highest share-to-usable ratio of LUT, FF and DSP (LUT is then the
+tighter resource), else the fabric form.
 
 The estimate is a sum of parts: Yosys of the whole pipes (cached under ``build/resources``) is printed beside it
 by ``make resources``, and ``docs/resources.md`` gives how far apart they lie. Timing closure and the final
@@ -43,6 +48,7 @@ utilisation need Vivado.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass
@@ -68,6 +74,12 @@ FIGURES_FILE = Path(__file__).parent / "generated" / "resource_figures.json"
 DEFAULT_BODY_BITS = 128  # the body streams' beat of the default build (BODY_IN_W, BODY_OUT_W of rtl/pgs_kernel.sv)
 REGENERATE = "make resources"  # the command that rewrites FIGURES_FILE
 OPERATOR_MODULES = tuple(sorted({mod for _, _, mod in OP_SIGNATURES.values() if mod}))
+# further forms of an operator, each synthesized and figured under its own name: name -> (RTL module, parameters)
+OPERATOR_FORMS: dict[str, tuple[str, tuple[tuple[str, int], ...]]] = {
+    "fp_add_dsp": ("fp_add", (("SHIFT_DSP", 1),)),  # the shifts as multiplications, the add in the DSP48E2
+}
+# the adder forms a configuration can choose (KernelConfig.adders): the figure each form's fp_add instances take
+ADDER_FORMS = {"fabric": "fp_add", "dsp": "fp_add_dsp"}
 KEYS = ("LUT", "FF", "DSP", "BRAM36", "URAM")
 
 
@@ -117,6 +129,9 @@ VENDOR_OPERATORS: dict[tuple[str, str], tuple[VendorFigure, ...]] = {
                          VendorFigure("fadd no_dsp", 5, Resources(lut=338, ff=243, dsp=0), _FANNS)),
     ("fp_mul", "fp32"): (VendorFigure("fmul max_dsp", 3, Resources(lut=123, ff=197, dsp=3), _FMUL),),
     ("fp_add", "fp16"): (VendorFigure("hadd full_dsp", 4, Resources(lut=113, ff=109, dsp=2), _UPCONV),),
+    # the DSP48E2 form beside the vendor's full-DSP adders (the same cores as fp_add's first figure)
+    ("fp_add_dsp", "fp32"): (VendorFigure("fadd full_dsp", 3, Resources(lut=226, ff=177, dsp=2), _FANNS),),
+    ("fp_add_dsp", "fp16"): (VendorFigure("hadd full_dsp", 4, Resources(lut=113, ff=109, dsp=2), _UPCONV),),
     ("fp_mul", "fp16"): (VendorFigure("hmul max_dsp", 3, Resources(lut=34, ff=91, dsp=2), _UPCONV),),
 }
 
@@ -340,8 +355,11 @@ class KernelConfig:
     delay_block_min_depth: int = 0  # the pipes' delay lines at least this deep in block RAM (DELAY_BLOCK_MIN_DEPTH)
     body_bits: int = DEFAULT_BODY_BITS  # the body streams' beat (BODY_IN_W = BODY_OUT_W): the control's figure
     shared_datapath: bool = True  # SHARED_DATAPATH: one datapath per lane for both passes, else two pipes per lane
+    adders: str = "fabric"  # "fabric" | "dsp": the figure of every fp_add instance (ADDER_FORMS)
 
     def __post_init__(self) -> None:
+        if self.adders not in ADDER_FORMS:
+            raise ValueError(f"adders {self.adders!r}: expected {' | '.join(ADDER_FORMS)}")
         if self.lanes < 1 or self.lanes & (self.lanes - 1):
             raise ValueError(f"lanes must be a power of two, not {self.lanes}")
         if self.lanes > 1 and self.window == 0:
@@ -362,6 +380,7 @@ class KernelConfig:
                   + (f" ({self.body_banks} true dual-port banks)" if self.body_ports == "banked" and self.lanes == 1
                      else "")]
         levers.append("one datapath per lane" if self.shared_datapath else "a contact and a friction pipe per lane")
+        levers.append("DSP48E2 adders (fp_add_dsp)" if self.adders == "dsp" else "fabric adders (fp_add)")
         if self.tangents_on_chip:
             levers.append("tangent basis derived on chip")
         if self.soft_contact:
@@ -451,14 +470,20 @@ class Estimate:
         return t
 
 
+def adder_figure_name(cfg: KernelConfig) -> str:
+    """The figure the configuration's fp_add instances take: fp_add (fabric) or fp_add_dsp."""
+    return ADDER_FORMS[cfg.adders]
+
+
 def pipe_resources(name: str, cfg: KernelConfig, data: dict[str, Any]) -> tuple[Resources, list[str]]:
     """Operators plus delay lines of one pipe, and the source of each operator's figure."""
     shape = pipe_shape(name, cfg.fmt.man_bits)
     total, sources = Resources(), []
     for mod, n in sorted(shape.operators.items()):
-        fig = operator_figure(mod, cfg.fmt, cfg.operator_source, data)
+        name = adder_figure_name(cfg) if mod == "fp_add" else mod
+        fig = operator_figure(name, cfg.fmt, cfg.operator_source, data)
         total = total + fig.resources.scaled(n)
-        sources.append(f"{n} {mod} ({fig.source})")
+        sources.append(f"{n} {name} ({fig.source})")
     for line in shape.lines:
         total = total + delay_line_resources(line, cfg.fmt.width, cfg.delay_block_min_depth)
     if shape.muxes or shape.kind_stages:
@@ -606,6 +631,7 @@ class FitVerdict:
     limits: dict[str, float]
     config: str
     operator_sources: str = ""  # where each operator's figure came from
+    adders: str = "fabric"  # the adder form the estimate counted (KernelConfig.adders)
 
     @property
     def overflows(self) -> list[str]:
@@ -637,13 +663,14 @@ def verdict(est: Estimate, platform: platforms.Platform) -> FitVerdict:
     shares = {k: (total[k] / platform.capacity(k) if platform.capacity(k) else (math.inf if total[k] else 0.0))
               for k in KEYS}
     return FitVerdict(platform, est.total, shares, dict(platforms.USABLE_SHARE), est.config.describe(),
-                      operator_sources(est.config))
+                      operator_sources(est.config), est.config.adders)
 
 
 def operator_sources(cfg: KernelConfig) -> str:
     """Which figure each operator's count was multiplied by: Yosys's, or a published one."""
     by: dict[str, list[str]] = {}
     for mod in OPERATOR_MODULES:
+        mod = adder_figure_name(cfg) if mod == "fp_add" else mod
         vendor = cfg.operator_source == "vendor" and (mod, cfg.fmt.name) in VENDOR_OPERATORS
         label = VENDOR_OPERATORS[(mod, cfg.fmt.name)][0].label if vendor else "Yosys"
         by.setdefault(label, []).append(mod)
@@ -652,6 +679,26 @@ def operator_sources(cfg: KernelConfig) -> str:
 
 def fit(cfg: KernelConfig, platform: platforms.Platform) -> FitVerdict:
     return verdict(estimate(cfg, platform), platform)
+
+
+def _pressure(v: FitVerdict) -> float:
+    """The highest share-to-usable ratio of LUT, FF and DSP (the resources the adder form trades)."""
+    return max(v.shares[k] / v.limits[k] for k in ("LUT", "FF", "DSP"))
+
+
+def with_chosen_adders(cfg: KernelConfig, platform: platforms.Platform) -> KernelConfig:
+    """``cfg`` with the adder form the fit chooses: the DSP form where its DSP share stays within the usable share
+    and it lowers the highest share-to-usable ratio of LUT, FF and DSP (so LUT, or FF, was the tighter resource),
+    else the fabric form."""
+    fabric = fit(dataclasses.replace(cfg, adders="fabric"), platform)
+    dsp = fit(dataclasses.replace(cfg, adders="dsp"), platform)
+    chosen = "dsp" if dsp.shares["DSP"] <= dsp.limits["DSP"] and _pressure(dsp) < _pressure(fabric) else "fabric"
+    return dataclasses.replace(cfg, adders=chosen)
+
+
+def choose_adders(cfg: KernelConfig, platform: platforms.Platform) -> FitVerdict:
+    """The verdict of ``cfg`` with the adder form the fit chooses (:func:`with_chosen_adders`)."""
+    return fit(with_chosen_adders(cfg, platform), platform)
 
 
 @dataclass(frozen=True)
@@ -682,8 +729,9 @@ def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: 
 
 
 def fit_or_reason(cfg: KernelConfig, platform: platforms.Platform) -> Union[FitVerdict, NoEstimate]:
+    """The verdict with the adder form the fit chooses (:func:`choose_adders`), or why there is none."""
     try:
-        return fit(cfg, platform)
+        return choose_adders(cfg, platform)
     except (KeyError, FileNotFoundError) as exc:
         return NoEstimate(str(exc).strip("'\""))
 
@@ -710,4 +758,6 @@ def fit_rows(v: Union[FitVerdict, NoEstimate]) -> dict[str, str]:
             "LUT, FF, DSP, BRAM36, URAM (share of the device)": v.shares_text(),
             f"verdict (usable: {platforms.describe_usable()})": v.headline(),
             "operator figures": v.operator_sources,
+            "adders": f"{ADDER_FORMS[v.adders]} ({v.adders}), chosen by the fit: the DSP form where its DSP share stays "
+                      "within the usable share and it lowers the highest share-to-usable ratio of LUT, FF and DSP",
             "estimate": "sim/fit/resource_model.py: per-operator Yosys figures, memories computed (docs/resources.md)"}

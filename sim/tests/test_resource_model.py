@@ -276,3 +276,49 @@ def test_soft_contact_pipe_adds_four_multipliers() -> None:
     a, b = rm.estimate(base).total, rm.estimate(dataclasses.replace(base, soft_contact=True)).total
     assert b.dsp - a.dsp == 8 and b.bram36 == a.bram36 and b.lut > a.lut
     assert "soft contact pipe" in dataclasses.replace(base, soft_contact=True).describe()
+
+
+def _operator_data(fmt_name: str, fabric: rm.Resources, dsp: rm.Resources) -> dict:
+    """The committed figures with fp_add and fp_add_dsp of ``fmt_name`` replaced."""
+    data = rm.figures()
+    ops = dict(data["operators"][fmt_name])
+    for name, r in (("fp_add", fabric), ("fp_add_dsp", dsp)):
+        ops[name] = {**ops[name], "LUT": r.lut, "FF": r.ff, "DSP": r.dsp}
+    return {**data, "operators": {**data["operators"], fmt_name: ops}}
+
+
+def test_adder_form_counts_each_fp_add_with_its_figure() -> None:
+    cfg = rm.KernelConfig(FP32, *THESIS, window=16384)
+    data = _operator_data("fp32", rm.Resources(lut=400, ff=200), rm.Resources(lut=100, ff=220, dsp=2))
+    fabric = rm.estimate(cfg, ZCU102, data).total
+    dsp = rm.estimate(dataclasses.replace(cfg, adders="dsp"), ZCU102, data).total
+    adders = sum(n * rm.pipe_shape(name, FP32.man_bits).operators.get("fp_add", 0)
+                 for name, n in rm.lane_pipes(cfg) + [("pgs_integrate_pipe", 1)])
+    assert adders > 100  # every fp_add instance of the lane's datapath and the integrate pipe
+    assert fabric.lut - dsp.lut == pytest.approx(300 * adders)
+    assert dsp.dsp - fabric.dsp == pytest.approx(2 * adders)
+    assert dsp.ff - fabric.ff == pytest.approx(20 * adders)
+    assert "fp_add_dsp" in rm.operator_sources(dataclasses.replace(cfg, adders="dsp"))
+    assert "DSP48E2 adders" in dataclasses.replace(cfg, adders="dsp").describe()
+    with pytest.raises(ValueError, match="adders"):
+        rm.KernelConfig(FP32, 1, 1, adders="carry")
+
+
+def test_the_fit_chooses_the_dsp_adders_only_where_they_ease_the_tighter_resource(monkeypatch) -> None:
+    cfg = rm.KernelConfig(FP32, *THESIS, window=16384)
+    # LUT the tighter resource, the DSPs within the usable share: the DSP form
+    cheap = _operator_data("fp32", rm.Resources(lut=443, ff=192), rm.Resources(lut=226, ff=177, dsp=2))
+    monkeypatch.setattr(rm, "figures", lambda path=rm.FIGURES_FILE: cheap)
+    assert rm.with_chosen_adders(cfg, ZCU102).adders == "dsp"
+    v = rm.fit_or_reason(cfg, ZCU102)
+    assert isinstance(v, rm.FitVerdict) and v.adders == "dsp" and "fp_add_dsp" in rm.fit_rows(v)["adders"]
+    # a DSP form that saves no LUT: fabric
+    same = _operator_data("fp32", rm.Resources(lut=443, ff=192), rm.Resources(lut=443, ff=192, dsp=2))
+    monkeypatch.setattr(rm, "figures", lambda path=rm.FIGURES_FILE: same)
+    assert rm.with_chosen_adders(cfg, ZCU102).adders == "fabric"
+    # a DSP form that would take the DSPs past their usable share: fabric
+    hungry = _operator_data("fp32", rm.Resources(lut=443, ff=192), rm.Resources(lut=10, ff=10, dsp=20))
+    monkeypatch.setattr(rm, "figures", lambda path=rm.FIGURES_FILE: hungry)
+    over = rm.fit(dataclasses.replace(cfg, adders="dsp"), ZCU102)
+    assert over.shares["DSP"] > over.limits["DSP"]
+    assert rm.with_chosen_adders(cfg, ZCU102).adders == "fabric"
