@@ -36,10 +36,11 @@ the banks' ports),
 ``delay_block_min_depth`` (the delay lines from that depth in block RAM instead of LUT RAM), and
 ``record_bits`` (word width of the record fields stored in the ring: a storage format per field group), and
 ``adders`` (``"fabric"``: every ``fp_add`` in LUTs and carry chains; ``"dsp"``: in its DSP48E2 form, ``fp_add_dsp``,
-the alignment and normalization shifts as multiplications by a power of two and the add in the DSP). The fit
-chooses the adder form per configuration (:func:`choose_adders`): the DSP form where its DSP share stays within the
-usable share and it lowers the configuration's highest share-to-usable ratio of LUT, FF and DSP (LUT is then the
-tighter resource), else the fabric form.
+the alignment and normalization shifts as multiplications by a power of two and the add in the DSP; the build's
+ADD_SHIFT_DSP, ``make sim ADD_DSP=1``). The verdict of a run counts the form it built (:func:`kernel_fit`) and names
+the form the fit picks (:func:`prefers_dsp`: the DSP form where its DSP share stays within the usable share and it
+lowers the configuration's highest share-to-usable ratio of LUT, FF and DSP, LUT then being the tighter resource;
+else the fabric form); the model-only studies (``make band``) take the fit's pick (:func:`with_chosen_adders`).
 
 The estimate is a sum of parts: Yosys of the whole pipes (cached under ``build/resources``) is printed beside it
 by ``make resources``, and ``docs/resources.md`` gives how far apart they lie. Timing closure and the final
@@ -632,6 +633,8 @@ class FitVerdict:
     config: str
     operator_sources: str = ""  # where each operator's figure came from
     adders: str = "fabric"  # the adder form the estimate counted (KernelConfig.adders)
+    # the same configuration with the other adder form (None: not asked, or that form cannot be built for the run)
+    other_adders: Optional["FitVerdict"] = None
 
     @property
     def overflows(self) -> list[str]:
@@ -686,19 +689,50 @@ def _pressure(v: FitVerdict) -> float:
     return max(v.shares[k] / v.limits[k] for k in ("LUT", "FF", "DSP"))
 
 
+def prefers_dsp(fabric: FitVerdict, dsp: FitVerdict) -> bool:
+    """Whether the fit picks the DSP adders over the fabric ones for one configuration: where the DSP form's DSP
+    share stays within the usable share and it lowers the highest share-to-usable ratio of LUT, FF and DSP (so LUT,
+    or FF, was the tighter resource)."""
+    return dsp.shares["DSP"] <= dsp.limits["DSP"] and _pressure(dsp) < _pressure(fabric)
+
+
 def with_chosen_adders(cfg: KernelConfig, platform: platforms.Platform) -> KernelConfig:
-    """``cfg`` with the adder form the fit chooses: the DSP form where its DSP share stays within the usable share
-    and it lowers the highest share-to-usable ratio of LUT, FF and DSP (so LUT, or FF, was the tighter resource),
-    else the fabric form."""
+    """``cfg`` with the adder form the fit picks (:func:`prefers_dsp`)."""
     fabric = fit(dataclasses.replace(cfg, adders="fabric"), platform)
     dsp = fit(dataclasses.replace(cfg, adders="dsp"), platform)
-    chosen = "dsp" if dsp.shares["DSP"] <= dsp.limits["DSP"] and _pressure(dsp) < _pressure(fabric) else "fabric"
-    return dataclasses.replace(cfg, adders=chosen)
+    return dataclasses.replace(cfg, adders="dsp" if prefers_dsp(fabric, dsp) else "fabric")
 
 
-def choose_adders(cfg: KernelConfig, platform: platforms.Platform) -> FitVerdict:
-    """The verdict of ``cfg`` with the adder form the fit chooses (:func:`with_chosen_adders`)."""
-    return fit(with_chosen_adders(cfg, platform), platform)
+def with_other_adders(cfg: KernelConfig, platform: platforms.Platform) -> FitVerdict:
+    """The verdict of ``cfg`` as built (its own adder form), beside it that of the other form."""
+    other = "fabric" if cfg.adders == "dsp" else "dsp"
+    return dataclasses.replace(fit(cfg, platform), other_adders=fit(dataclasses.replace(cfg, adders=other), platform))
+
+
+def picked_adders(v: FitVerdict) -> str:
+    """The adder form the fit picks for ``v``'s configuration (``v.adders`` when the other form was not figured)."""
+    if v.other_adders is None:
+        return v.adders
+    fabric, dsp = (v, v.other_adders) if v.adders == "fabric" else (v.other_adders, v)
+    return "dsp" if prefers_dsp(fabric, dsp) else "fabric"
+
+
+def adders_text(v: FitVerdict) -> str:
+    """The adder form built and the one the fit picks, with the shares that decide (the built form's tighter
+    resource among LUT, FF, DSP, and DSP) and the option that builds the pick."""
+    built = f"{ADDER_FORMS[v.adders]} ({v.adders}) built"
+    o = v.other_adders
+    if o is None:
+        return built + " (the other form not figured: it is not built for this datapath)"
+    tight = max(("LUT", "FF", "DSP"), key=lambda k: v.shares[k] / v.limits[k])
+    keys = [tight] + (["DSP"] if tight != "DSP" else [])
+    pick = picked_adders(v)
+    if pick == v.adders:
+        cmp = ", ".join(f"{k} {_share(v.shares[k])} against {_share(o.shares[k])}" for k in keys)
+        return f"{built}, the fit's pick too: {cmp} with {ADDER_FORMS[o.adders]}"
+    cmp = ", ".join(f"{k} {_share(o.shares[k])} against {_share(v.shares[k])}" for k in keys)
+    return (f"{built}; the fit picks {ADDER_FORMS[pick]} ({pick}): {cmp} built; command: the same run with "
+            f"ADD_DSP={int(pick == 'dsp')} (--add-dsp {int(pick == 'dsp')})")
 
 
 @dataclass(frozen=True)
@@ -710,14 +744,14 @@ class NoEstimate:
 
 def config_for_job(job: KernelJob, body_bits: int = DEFAULT_BODY_BITS) -> KernelConfig:
     """The configuration a run built: its format, lanes and ring, memories as deep as its scene needs, body streams
-    of ``body_bits``."""
+    of ``body_bits``, its adders' form (``KernelJob.add_dsp``)."""
     plan = job.record_window
     return KernelConfig(job.fmt, job.bodies.num_bodies, len(job.slots), lanes=plan.lanes if plan else 1,
                         window=plan.depth if plan else 0, impulses_resident=not job.impulses_in_records,
                         body_ports="banked" if job.body_banks else "lvt", body_banks=job.body_banks or RECORDS_BANKS,
                         tangents_on_chip=job.tangents_on_chip, soft_contact=job.params.soft_keep is not None,
                         delay_block_min_depth=job.delay_block_min_depth, body_bits=body_bits,
-                        shared_datapath=job.shared_datapath)
+                        shared_datapath=job.shared_datapath, adders="dsp" if job.add_dsp else "fabric")
 
 
 def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: int, lanes: int = 1,
@@ -728,10 +762,12 @@ def window_config(fmt: NumberFormat, bodies: int, manifolds: int, ring_records: 
                         impulses_resident=impulses_resident)
 
 
-def fit_or_reason(cfg: KernelConfig, platform: platforms.Platform) -> Union[FitVerdict, NoEstimate]:
-    """The verdict with the adder form the fit chooses (:func:`choose_adders`), or why there is none."""
+def fit_or_reason(cfg: KernelConfig, platform: platforms.Platform,
+                  advise_adders: bool = False) -> Union[FitVerdict, NoEstimate]:
+    """The verdict of ``cfg`` (its own adder form; with ``advise_adders`` the other form's beside it), or why there is
+    none."""
     try:
-        return choose_adders(cfg, platform)
+        return with_other_adders(cfg, platform) if advise_adders else fit(cfg, platform)
     except (KeyError, FileNotFoundError) as exc:
         return NoEstimate(str(exc).strip("'\""))
 
@@ -743,11 +779,14 @@ def short_verdict(v: Union[FitVerdict, NoEstimate]) -> str:
     return "FITS" if v.fits else f"DOES NOT FIT ({v.overflows[0]} {_share(v.shares[v.overflows[0]])})"
 
 
-def kernel_fit(job: KernelJob, dma: str, body_bits: int = DEFAULT_BODY_BITS) -> Union[FitVerdict, NoEstimate]:
-    """The fit verdict of a run's configuration (body streams of ``body_bits``) on its DMA preset's platform."""
+def kernel_fit(job: KernelJob, dma: str, body_bits: int = DEFAULT_BODY_BITS,
+               advise_adders: bool = True) -> Union[FitVerdict, NoEstimate]:
+    """The fit verdict of a run's configuration as built (body streams of ``body_bits``, its adder form) on its DMA
+    preset's platform; with ``advise_adders`` the other adder form's beside it (:func:`adders_text`; off where that
+    form cannot be built, the XLS datapath's)."""
     if dma not in platforms.PLATFORMS:
         return NoEstimate(f"no platform behind the DMA preset {dma!r} (platforms: {', '.join(platforms.PLATFORMS)})")
-    return fit_or_reason(config_for_job(job, body_bits), platforms.get_platform(dma))
+    return fit_or_reason(config_for_job(job, body_bits), platforms.get_platform(dma), advise_adders)
 
 
 def fit_rows(v: Union[FitVerdict, NoEstimate]) -> dict[str, str]:
@@ -758,6 +797,6 @@ def fit_rows(v: Union[FitVerdict, NoEstimate]) -> dict[str, str]:
             "LUT, FF, DSP, BRAM36, URAM (share of the device)": v.shares_text(),
             f"verdict (usable: {platforms.describe_usable()})": v.headline(),
             "operator figures": v.operator_sources,
-            "adders": f"{ADDER_FORMS[v.adders]} ({v.adders}), chosen by the fit: the DSP form where its DSP share stays "
-                      "within the usable share and it lowers the highest share-to-usable ratio of LUT, FF and DSP",
+            "adders (the fit picks the DSP form where its DSP share stays within the usable share and it lowers the "
+            "highest share-to-usable ratio of LUT, FF and DSP)": adders_text(v),
             "estimate": "sim/fit/resource_model.py: per-operator Yosys figures, memories computed (docs/resources.md)"}
