@@ -214,10 +214,12 @@ def timing(cfg: rm.KernelConfig, platform: platforms.Platform, data: Optional[di
         analyses[unit] = a
     if not analyses:
         return NoTiming(f"no timing figures of {fmt} in {TIMING_FILE.name}: `{rm.REGENERATE} FORMATS={fmt}`")
+    control = analyses.get(units["control"])
+    dsp_adder = _dsp_adder_analysis(cfg, data, missing)
+    if dsp_adder is not None:
+        analyses[DSP_ADDER_UNIT] = dsp_adder
     paths = [_path(u, p) for u, a in analyses.items() for p in a["worst"][:1]]
     paths += [_path(u, p) for u, a in analyses.items() for m, p in a["by_module"].items()]
-    paths += _dsp_adder_paths(cfg, data, missing)
-    control = analyses.get(units["control"])
     notes: set[str] = {n for a in analyses.values() for n in a.get("notes", [])}
     if cfg.adders == "dsp":
         notes.add(f"the pipes' paths with the fabric adders (their Yosys runs), beside them {DSP_ADDER_UNIT}'s own "
@@ -235,16 +237,15 @@ def timing(cfg: rm.KernelConfig, platform: platforms.Platform, data: Optional[di
                          stale + sorted(notes), args)
 
 
-def _dsp_adder_paths(cfg: rm.KernelConfig, data: dict[str, Any], missing: list[str]) -> list[TimedPath]:
-    """The DSP48E2 adder's deepest path, for a configuration whose fp_add instances take that form (the whole pipes
-    were analysed with the fabric form); none for the fabric form."""
+def _dsp_adder_analysis(cfg: rm.KernelConfig, data: dict[str, Any], missing: list[str]) -> Optional[dict[str, Any]]:
+    """The DSP48E2 adder's own analysis, for a configuration whose fp_add instances take that form (the whole pipes
+    were analysed with the fabric form); None for the fabric form, or when it has none (then named in ``missing``)."""
     if cfg.adders != "dsp":
-        return []
+        return None
     a = _analysis(data, cfg.fmt.name, DSP_ADDER_UNIT, 0)
     if a is None:
         missing.append(f"{DSP_ADDER_UNIT} in {cfg.fmt.name} (`{rm.REGENERATE} FORMATS={cfg.fmt.name}` adds it)")
-        return []
-    return [_path(DSP_ADDER_UNIT, p) for p in a["worst"][:1]]
+    return a
 
 
 def _distinct(paths: list[TimedPath]) -> list[TimedPath]:
